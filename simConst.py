@@ -1,0 +1,3 @@
+"""Legacy module name ``simConst``: the remote API constants (see :mod:`simx_client.constants`)."""
+
+from simx_client.constants import *  # noqa: F401,F403

@@ -1,0 +1,217 @@
+"""The simx wire schema, shared by client and server.
+
+Everything that crosses Zenoh is defined here once: key expressions, message shapes, the
+msgpack codec, command names and which of their arguments identify them, and the exception
+hierarchy both sides use. docs/PROTOCOL.md describes the same schema for other languages.
+
+Key expressions (``prefix`` defaults to ``"simx"``):
+
+* ``<prefix>/call`` -- queryable on the server. A query's payload is a *request*; the reply's
+  payload is a *response*.
+* ``<prefix>/stream/<client>`` -- the server publishes a *stream update* for one client after
+  every simulation step (and at each idle tick while the simulation is not running).
+* ``<prefix>/alive/server`` and ``<prefix>/alive/client/<client>`` -- liveliness tokens.
+
+Messages are msgpack maps with short keys:
+
+* request  ``{"v": PROTOCOL_VERSION, "c": client, "cmds": [[name, mode, args], ...]}``
+* response ``{"v": PROTOCOL_VERSION, "t": sim_time_ms, "s": server_state, "r": [[ok, value], ...]}``
+  where ``value`` is the command's result when ``ok`` is true and an error message otherwise;
+  a request that cannot be read at all gets ``{"v": PROTOCOL_VERSION, "err": message}``.
+* stream update ``{"v": PROTOCOL_VERSION, "t": sim_time_ms, "r": [[name, id_args, ok, value], ...]}``
+
+Binary data (images, depth buffers, script buffers) travels as msgpack ``bin``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Iterable
+
+import msgpack
+
+PROTOCOL_VERSION = 1
+DEFAULT_PREFIX = "simx"
+
+# Bits of ``server_state`` (same meaning as V-REP's simx_headeroffset_server_state byte).
+STATE_SIM_NOT_STOPPED = 0x01
+STATE_SIM_PAUSED = 0x02
+STATE_REALTIME = 0x04
+
+# Operation mode bases (high bits of the legacy opmode word).
+MODE_ONESHOT = 0x000000
+MODE_BLOCKING = 0x010000
+MODE_STREAMING = 0x020000
+MODE_ONESHOT_SPLIT = 0x030000
+MODE_STREAMING_SPLIT = 0x040000
+MODE_DISCONTINUE = 0x050000
+MODE_BUFFER = 0x060000
+MODE_REMOVE = 0x070000
+MODE_MASK = 0xFF0000
+MODE_ARG_MASK = 0x00FFFF
+
+#: Command name -> how many leading arguments identify the command. Two commands with the
+#: same name and identifying arguments are "the same command" for the legacy inbox, the
+#: outbox overwrite rule and server-side streams (extApi.c's _getCommandPointer_*).
+COMMANDS: dict[str, int] = {
+    "Hello": 0,
+    "Bye": 0,
+    "GetPingTime": 0,
+    "GetObjectHandle": 1,
+    "GetObjects": 1,
+    "GetJointPosition": 1,
+    "SetJointPosition": 1,
+    "SetJointTargetPosition": 1,
+    "SetJointTargetVelocity": 1,
+    "SetJointForce": 1,
+    "GetJointForce": 1,
+    "GetJointMaxForce": 1,
+    "GetObjectPosition": 2,
+    "GetObjectOrientation": 2,
+    "GetObjectQuaternion": 2,
+    "StartSimulation": 0,
+    "StopSimulation": 0,
+    "PauseSimulation": 0,
+    "Synchronous": 0,
+    "SynchronousTrigger": 0,
+    "GetVisionSensorImage": 2,
+    "GetVisionSensorDepthBuffer": 1,
+    "CallScriptFunction": 3,
+}
+
+#: Commands that are never overwritten in the outbox nor replaced on the server (legacy
+#: "do not overwrite" option bit): each call is executed.
+DO_NOT_OVERWRITE = frozenset({"CallScriptFunction"})
+
+
+class SimxError(Exception):
+    """Base of every error simx raises inside its packages."""
+
+
+class ProtocolError(SimxError):
+    """A message that does not follow this schema, or a peer of another protocol version."""
+
+
+class RemoteError(SimxError):
+    """A command that the server executed and that failed (legacy return flag 8)."""
+
+
+class UnknownObjectError(RemoteError):
+    """A name or handle that names no object of the loaded scene."""
+
+
+class ObjectTypeError(RemoteError):
+    """A handle of the wrong object type for the command (e.g. a shape given to a joint call)."""
+
+
+class ArgumentError(RemoteError):
+    """An argument of the wrong type, shape or range."""
+
+
+class ScriptError(RemoteError):
+    """A child-script function that is missing or raised."""
+
+
+class UnsupportedError(RemoteError):
+    """A command simx does not implement; answered as a remote error, never with made-up data."""
+
+
+class LocalError(SimxError):
+    """A client-side error, such as an argument that cannot be converted (legacy flag 32)."""
+
+
+def call_key(prefix: str = DEFAULT_PREFIX) -> str:
+    """Key expression of the server's command queryable."""
+    return f"{prefix}/call"
+
+
+def stream_key(prefix: str, client: str) -> str:
+    """Key expression on which one client's stream updates are published."""
+    return f"{prefix}/stream/{client}"
+
+
+def server_token_key(prefix: str = DEFAULT_PREFIX) -> str:
+    """Liveliness token the server holds while it serves."""
+    return f"{prefix}/alive/server"
+
+
+def client_token_key(prefix: str, client: str) -> str:
+    """Liveliness token a client holds while connected."""
+    return f"{prefix}/alive/client/{client}"
+
+
+def client_token_prefix(prefix: str = DEFAULT_PREFIX) -> str:
+    """Key expression matching every client's liveliness token."""
+    return f"{prefix}/alive/client/*"
+
+
+def identity(name: str, args: list) -> tuple:
+    """The legacy identity of a command: its name and identifying arguments (hashable)."""
+    n = COMMANDS.get(name, 0)
+    return (name, *(_hashable(a) for a in args[:n]))
+
+
+def _hashable(value: Any) -> Any:
+    if isinstance(value, list):
+        return tuple(_hashable(v) for v in value)
+    return value
+
+
+def pack(message: dict) -> bytes:
+    """Encode one message with msgpack (``bytes`` become ``bin``)."""
+    return msgpack.packb(message, use_bin_type=True)
+
+
+def unpack(payload: bytes) -> dict:
+    """Decode one message; raises ProtocolError for anything that is not a versioned map."""
+    try:
+        message = msgpack.unpackb(payload, raw=False, strict_map_key=False)
+    except Exception as exc:  # msgpack raises several unrelated types
+        raise ProtocolError(f"undecodable message: {exc}") from exc
+    if not isinstance(message, dict) or "v" not in message:
+        raise ProtocolError("message is not a map with a protocol version 'v'")
+    if message["v"] != PROTOCOL_VERSION:
+        raise ProtocolError(
+            f"protocol version mismatch: peer speaks {message['v']!r}, this side "
+            f"{PROTOCOL_VERSION}; install the same simx version on client and server"
+        )
+    return message
+
+
+def request(client: str, commands: Iterable[list]) -> bytes:
+    """Encode a request carrying ``[name, mode, args]`` commands from ``client``."""
+    return pack({"v": PROTOCOL_VERSION, "c": client, "cmds": list(commands)})
+
+
+def parse_request(payload: bytes) -> tuple[str, list[tuple[str, int, list]]]:
+    """Decode and validate a request; returns ``(client, [(name, mode, args), ...])``."""
+    message = unpack(payload)
+    client, cmds = message.get("c"), message.get("cmds")
+    if not isinstance(client, str) or not isinstance(cmds, list):
+        raise ProtocolError("request needs a client id 'c' (str) and commands 'cmds' (list)")
+    parsed = []
+    for cmd in cmds:
+        if (
+            not isinstance(cmd, list)
+            or len(cmd) != 3
+            or not isinstance(cmd[0], str)
+            or not isinstance(cmd[1], int)
+            or not isinstance(cmd[2], list)
+        ):
+            raise ProtocolError(f"malformed command {cmd!r}: expected [name, mode, args]")
+        parsed.append((cmd[0], cmd[1], cmd[2]))
+    return client, parsed
+
+
+def response(sim_time_ms: int, state: int, results: list) -> bytes:
+    """Encode a response: ``results`` is a list of ``[ok, value_or_message]``."""
+    return pack({"v": PROTOCOL_VERSION, "t": sim_time_ms, "s": state, "r": results})
+
+
+def error_response(message: str) -> bytes:
+    """Encode the answer to a request that could not be read."""
+    return pack({"v": PROTOCOL_VERSION, "err": message})
+
+
+def stream_update(sim_time_ms: int, entries: list) -> bytes:
+    """Encode a stream update: ``entries`` is a list of ``[name, id_args, ok, value]``."""
+    return pack({"v": PROTOCOL_VERSION, "t": sim_time_ms, "r": entries})

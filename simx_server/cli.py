@@ -1,0 +1,90 @@
+"""``simx-server [scene.xml]``: serve a MuJoCo scene over V-REP's legacy remote API."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import signal
+import sys
+from importlib import resources
+from pathlib import Path
+
+DEFAULT_SCENE = "ur5_rg2_kinect.xml"
+
+
+def default_scene() -> Path:
+    """The bundled UR5 + RG2 + Kinect scene (shipped inside the package)."""
+    return Path(str(resources.files("simx_server.scenes") / DEFAULT_SCENE))
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(
+        prog="simx-server",
+        description="MuJoCo simulation server speaking V-REP's legacy remote API over Eclipse Zenoh.",
+    )
+    p.add_argument("scene", nargs="?", help=f"MJCF scene file (default: the bundled {DEFAULT_SCENE})")
+    p.add_argument("--host", action="append", help="address to listen on (repeatable; default 127.0.0.1)")
+    p.add_argument("--port", action="append", type=int,
+                   help="TCP port to listen on (repeatable; default 19997 and 19999)")
+    p.add_argument("--zenoh-config", metavar="FILE",
+                   help="Zenoh config file (endpoints, TLS, authentication); multicast scouting stays off")
+    p.add_argument("--dt", type=float, default=0.05, help="simulation step in s (default 0.05)")
+    p.add_argument("--speed", type=float, default=1.0,
+                   help="real-time factor in asynchronous mode; 0 = as fast as possible (default 1)")
+    p.add_argument("--stopped", action="store_true", help="start with the simulation stopped")
+    p.add_argument("--prefix", default="simx", help="Zenoh key-expression prefix (default simx)")
+    p.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``simx-server`` console script; returns the exit code."""
+    args = parse_args(argv)
+    logging.basicConfig(level=args.log_level, stream=sys.stderr,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    logging.getLogger("OpenGL").setLevel(logging.WARNING)
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    # Imported here so that --help works without a GL stack.
+    import zenoh
+
+    from simx_server.server import DEFAULT_HOSTS, DEFAULT_PORTS, Server, zenoh_config
+    from simx_server.simulation import Simulation
+
+    scene = Path(args.scene) if args.scene else default_scene()
+    try:
+        sim = Simulation(scene, dt=args.dt, realtime=args.speed > 0)
+    except (ValueError, OSError) as exc:
+        print(f"simx-server: {exc}", file=sys.stderr)
+        return 2
+    endpoints = [f"tcp/{h}:{p}" for h in (args.host or DEFAULT_HOSTS) for p in (args.port or DEFAULT_PORTS)]
+    try:
+        config = zenoh_config(endpoints, args.zenoh_config)
+        endpoints = json.loads(config.get_json("listen/endpoints"))
+        server = Server(sim, config, speed=args.speed, prefix=args.prefix)
+        server.open()
+    except (zenoh.ZError, ValueError, OSError) as exc:
+        print(f"simx-server: cannot listen on {', '.join(endpoints)}: {exc}", file=sys.stderr)
+        sim.close()
+        return 1
+
+    def stop(signum, frame):
+        server.request_stop()
+
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    if not args.stopped:
+        sim.start()
+    print(f"simx-server ready: scene {scene.name}, {len(sim.world.objects)} objects, "
+          f"dt {sim.world.dt:g} s, listening on {', '.join(endpoints)}", flush=True)
+    try:
+        server.serve()
+    finally:
+        server.close()
+        logging.getLogger("simx.server").info("stopped")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,245 @@
+"""The simx server: Zenoh on the outside, one simulation thread on the inside.
+
+Zenoh callbacks never touch MuJoCo and never block: they put the query (or a client's
+departure) on a queue. The thread that calls :meth:`Server.serve` owns the simulation; it
+executes each request atomically between physics steps, replies, steps the simulation every
+``dt`` (paced to wall time when ``speed`` > 0, on triggers in synchronous mode), and after
+every step publishes each client's streamed commands.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import queue
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import zenoh
+
+from simx_client import protocol as P
+from simx_server.commands import HANDLERS
+from simx_server.simulation import RunState, Simulation
+
+log = logging.getLogger("simx.server")
+
+DEFAULT_HOSTS = ("127.0.0.1",)
+DEFAULT_PORTS = (19997, 19999)
+_DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
+
+
+def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
+    """Server Zenoh config: listen on ``endpoints`` (unless the file sets its own), multicast
+    scouting always off."""
+    config = zenoh.Config.from_file(str(config_file)) if config_file else zenoh.Config()
+    if not (config_file and json.loads(config.get_json("listen/endpoints") or "[]")):
+        config.insert_json5("listen/endpoints", json.dumps(endpoints))
+    config.insert_json5("scouting/multicast/enabled", "false")
+    return config
+
+
+class _Stream:
+    """One streamed command of one client (simx_opmode_streaming + alpha ms)."""
+
+    __slots__ = ("name", "args", "delay", "last")
+
+    def __init__(self, name: str, args: list, delay_ms: int):
+        self.name, self.args, self.delay, self.last = name, args, delay_ms / 1000.0, -1e9
+
+
+class Server:
+    """Serves one :class:`Simulation` on Zenoh.
+
+    Args:
+        sim: the simulation (owned by the thread that calls serve()).
+        config: Zenoh config (see :func:`zenoh_config`).
+        speed: real-time factor in asynchronous mode; 0 runs as fast as possible.
+        prefix: key-expression prefix (``simx``).
+    """
+
+    def __init__(self, sim: Simulation, config: zenoh.Config, speed: float = 1.0,
+                 prefix: str = P.DEFAULT_PREFIX):
+        if speed < 0:
+            raise ValueError(f"speed must be >= 0, got {speed}")
+        self.sim = sim
+        self.speed = speed
+        self.prefix = prefix
+        self._config = config
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._stopping = threading.Event()
+        self._streams: dict[str, dict[tuple, _Stream]] = {}
+        self._clients: set[str] = set()
+        self._sync_owner: str | None = None
+        self.session: zenoh.Session | None = None
+
+    # ------------------------------------------------------------ zenoh side
+    def open(self) -> None:
+        """Open the Zenoh session and declare the queryable and liveliness; raises zenoh.ZError."""
+        self.session = zenoh.open(self._config)
+        self._queryable = self.session.declare_queryable(P.call_key(self.prefix), self._queue.put)
+        self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
+        self._watch = self.session.liveliness().declare_subscriber(
+            P.client_token_prefix(self.prefix), self._on_client_token)
+
+    def _on_client_token(self, sample: zenoh.Sample) -> None:
+        client = str(sample.key_expr).rsplit("/", 1)[-1]
+        if sample.kind == zenoh.SampleKind.DELETE:
+            self._queue.put(("gone", client))
+
+    def request_stop(self) -> None:
+        """Ask serve() to return (safe from signal handlers and other threads)."""
+        self._stopping.set()
+        self._queue.put(("stop", None))
+
+    def close(self) -> None:
+        """Undeclare everything and close the session; idempotent."""
+        if self.session is not None:
+            session, self.session = self.session, None
+            try:
+                session.close()
+            except Exception as exc:  # closing must not mask the reason we stop
+                log.debug("closing Zenoh session: %s", exc)
+        self.sim.close()
+
+    # ------------------------------------------------------- simulation side
+    def serve(self) -> None:
+        """Run the simulation loop until request_stop()."""
+        sim = self.sim
+        period = sim.world.dt / self.speed if self.speed > 0 else 0.0
+        next_tick = time.monotonic()
+        while not self._stopping.is_set():
+            now = time.monotonic()
+            if now < next_tick:
+                try:
+                    self._handle(self._queue.get(timeout=next_tick - now))
+                except queue.Empty:
+                    pass
+                continue
+            self._drain()  # requests are always served between steps, even at full speed
+            if self._stepping():
+                self._step()
+                interval = period
+            else:
+                if sim.state is not RunState.RUNNING:
+                    self._publish_streams()  # idle tick: streams keep being served
+                interval = sim.world.dt
+            next_tick = max(next_tick + interval, now)
+
+    def _drain(self) -> None:
+        for _ in range(_DRAIN_LIMIT):
+            try:
+                self._handle(self._queue.get_nowait())
+            except queue.Empty:
+                return
+
+    def _stepping(self) -> bool:
+        return self.sim.state is RunState.RUNNING and not self.sim.synchronous
+
+    def _step(self) -> None:
+        self.sim.step()
+        self._publish_streams()
+
+    def _handle(self, item: Any) -> None:
+        if isinstance(item, tuple):
+            kind, client = item
+            if kind == "gone":
+                self._forget(client, "left")
+            return
+        try:
+            self._answer(item)
+        except Exception:  # the server never dies from a client
+            log.exception("answering a query on %s", item.key_expr)
+
+    def _answer(self, query: zenoh.Query) -> None:
+        payload = query.payload.to_bytes() if query.payload is not None else b""
+        try:
+            client, commands = P.parse_request(payload)
+        except P.ProtocolError as exc:
+            log.warning("malformed request refused: %s", exc)
+            query.reply(query.key_expr, P.error_response(str(exc)))
+            return
+        if client not in self._clients:
+            self._clients.add(client)
+            log.info("client %s connected", client)
+        results = [self._execute(client, name, mode, args) for name, mode, args in commands]
+        query.reply(query.key_expr, P.response(self.sim.sim_time_ms, self.sim.server_state, results))
+
+    def _execute(self, client: str, name: str, mode: int, args: list) -> list:
+        base = mode & P.MODE_MASK
+        try:
+            ident = P.identity(name, args)
+            streams = self._streams.setdefault(client, {})
+            if base == P.MODE_DISCONTINUE:
+                streams.pop(ident, None)
+                return [True, None]
+            if name == "Bye":
+                self._forget(client, "disconnected")
+                return [True, None]
+            if name == "Synchronous":
+                return [True, self._synchronous(client, args)]
+            if name == "SynchronousTrigger":
+                return [True, self._trigger()]
+            handler = HANDLERS.get(name)
+            if handler is None:
+                raise P.UnsupportedError(f"unknown command {name!r}")
+            if base in (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT):
+                if ident not in streams:
+                    streams[ident] = _Stream(name, args, mode & P.MODE_ARG_MASK
+                                             if base == P.MODE_STREAMING else 0)
+            elif name not in P.DO_NOT_OVERWRITE:
+                streams.pop(ident, None)  # a new non-streamed call replaces the stream
+            return [True, handler(self.sim, args)]
+        except P.RemoteError as exc:
+            log.warning("client %s: simx%s failed: %s", client, name, exc)
+            return [False, str(exc)]
+        except Exception as exc:
+            log.exception("client %s: simx%s raised", client, name)
+            return [False, f"internal error in simx{name}: {type(exc).__name__}: {exc}"]
+
+    def _synchronous(self, client: str, args: list) -> None:
+        if len(args) != 1 or not isinstance(args[0], bool):
+            raise P.ArgumentError("simxSynchronous takes one boolean")
+        self.sim.synchronous = args[0]
+        self._sync_owner = client if args[0] else None
+
+    def _trigger(self) -> None:
+        if not self.sim.synchronous:
+            raise P.RemoteError("simxSynchronousTrigger: synchronous mode is not enabled (call simxSynchronous(clientID, True))")
+        if self.sim.state is RunState.RUNNING:
+            self._step()
+
+    def _forget(self, client: str, how: str) -> None:
+        self._streams.pop(client, None)
+        if client in self._clients:
+            self._clients.discard(client)
+            log.info("client %s %s", client, how)
+        if self._sync_owner == client:
+            self.sim.synchronous = False
+            self._sync_owner = None
+            log.info("synchronous mode off: its client %s is gone", client)
+
+    def _publish_streams(self) -> None:
+        if self.session is None:
+            return
+        now = time.monotonic()
+        for client, streams in self._streams.items():
+            if not streams:
+                continue
+            entries = []
+            for ident, s in streams.items():
+                if s.delay and now - s.last < s.delay:
+                    continue
+                s.last = now
+                handler = HANDLERS[s.name]
+                try:
+                    entries.append([s.name, list(ident[1:]), True, handler(self.sim, s.args)])
+                except P.RemoteError as exc:
+                    entries.append([s.name, list(ident[1:]), False, str(exc)])
+                except Exception as exc:
+                    log.exception("client %s: streamed simx%s raised", client, s.name)
+                    entries.append([s.name, list(ident[1:]), False, f"internal error: {exc}"])
+            if entries:
+                self.session.put(P.stream_key(self.prefix, client),
+                                 P.stream_update(self.sim.sim_time_ms, entries))

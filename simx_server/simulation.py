@@ -1,0 +1,89 @@
+"""The simulation's run state: world, vision sensors and child scripts behind V-REP's
+start / pause / stop and synchronous (stepped) mode. No transport in here.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+from pathlib import Path
+
+from simx_client import protocol as P
+from simx_server.scripts import Scripts
+from simx_server.vision import VisionSensors
+from simx_server.world import World
+
+log = logging.getLogger("simx.simulation")
+
+
+class RunState(enum.Enum):
+    STOPPED = "stopped"
+    RUNNING = "running"
+    PAUSED = "paused"
+
+
+class Simulation:
+    """A scene and its run state.
+
+    Args:
+        scene: MJCF file.
+        dt: simulation step in s.
+        realtime: whether asynchronous mode paces steps to wall time (the server's --speed > 0).
+
+    Raises:
+        ValueError: the scene or one of its scripts cannot be loaded.
+    """
+
+    def __init__(self, scene: str | Path, dt: float = 0.05, realtime: bool = True):
+        self.world = World(scene, dt)
+        self.vision = VisionSensors(self.world)
+        self.scripts = Scripts(self.world)
+        self.state = RunState.STOPPED
+        self.realtime = realtime
+        self.synchronous = False  # stepped mode: a step runs only on a trigger
+        self.steps = 0
+
+    @property
+    def sim_time_ms(self) -> int:
+        """Simulation time in ms, 0 while stopped (as V-REP stamps its replies)."""
+        return 0 if self.state is RunState.STOPPED else int(round(self.world.time * 1000))
+
+    @property
+    def server_state(self) -> int:
+        """V-REP's server-state bits: 1 not stopped, 2 paused, 4 real time."""
+        bits = P.STATE_REALTIME if self.realtime else 0
+        if self.state is not RunState.STOPPED:
+            bits |= P.STATE_SIM_NOT_STOPPED
+        if self.state is RunState.PAUSED:
+            bits |= P.STATE_SIM_PAUSED
+        return bits
+
+    def start(self) -> None:
+        """``simxStartSimulation``: from stopped, run the scripts' init; from paused, resume."""
+        if self.state is RunState.STOPPED:
+            self.scripts.start()
+        self.state = RunState.RUNNING
+
+    def pause(self) -> None:
+        """``simxPauseSimulation``: keeps the state; ignored while stopped (as V-REP)."""
+        if self.state is RunState.RUNNING:
+            self.state = RunState.PAUSED
+
+    def stop(self) -> None:
+        """``simxStopSimulation``: scripts' cleanup, then the scene back to its initial state."""
+        if self.state is RunState.STOPPED:
+            return
+        self.scripts.stop()
+        self.world.reset()
+        self.state = RunState.STOPPED
+
+    def step(self) -> None:
+        """One simulation step of dt: actuation scripts, physics, sensing scripts."""
+        self.scripts.actuation()
+        self.world.step()
+        self.scripts.sensing()
+        self.steps += 1
+
+    def close(self) -> None:
+        """Release GL contexts; idempotent."""
+        self.vision.close()

@@ -1,0 +1,395 @@
+"""The simulated world: a MuJoCo model and data seen as V-REP scene objects.
+
+No transport in here; every method runs on the simulation thread and is testable alone.
+
+Mapping (see README and docs/ARCHITECTURE.md): named bodies are shapes, joints are joints,
+sites are dummies, cameras are vision sensors, lights are lights, -1 is the world. Objects get
+handles in tree order, starting at 1, stable while the scene is loaded.
+
+Per-object settings that MJCF has no attribute for come from ``<custom><text name="simx:NAME"
+data="key=value ..."/></custom>``: a joint's ``mode`` (``position``/``velocity``/``passive``) and
+``max_velocity`` (rad/s or m/s), a vision sensor's ``image`` (``rgb``/``depth``), ``near`` and
+``far`` (m), an object's ``child_script`` (a file next to the scene).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from simx_client import constants as C
+from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+
+log = logging.getLogger("simx.world")
+
+SHAPE = C.sim_object_shape_type
+JOINT = C.sim_object_joint_type
+DUMMY = C.sim_object_dummy_type
+VISION_SENSOR = C.sim_object_visionsensor_type
+LIGHT = C.sim_object_light_type
+WORLD = -1
+
+_TYPE_NAMES = {SHAPE: "shape", JOINT: "joint", DUMMY: "dummy", VISION_SENSOR: "vision sensor", LIGHT: "light"}
+
+POSITION_MODE = 0
+VELOCITY_MODE = 1
+
+#: Gain (1/s) of the position loop that turns a position error into a target velocity.
+POSITION_GAIN = 20.0
+DEFAULT_MAX_VELOCITY = math.pi  # rad/s, used where a joint declares none
+
+
+@dataclasses.dataclass
+class SceneObject:
+    """One V-REP scene object backed by a MuJoCo element."""
+
+    handle: int
+    name: str
+    type: int
+    mj_id: int  # id in the MuJoCo table of its type (body, joint, site, camera, light)
+    body: int  # MuJoCo body the element belongs to (the body itself for shapes)
+    parent: int  # handle of the parent object, -1 for the world
+    settings: dict[str, str]
+
+
+def parse_settings(text: str) -> dict[str, str]:
+    """Parse ``"key=value key=value"`` (the data of a ``simx:NAME`` custom text)."""
+    settings = {}
+    for item in text.split():
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"setting {item!r} is not key=value")
+        settings[key] = value
+    return settings
+
+
+class World:
+    """A loaded scene: model, data, object registry and joint motors.
+
+    Args:
+        scene: path of an MJCF file.
+        dt: simulation step in s (V-REP's default 0.05); made of MuJoCo substeps of the
+            model's own timestep.
+
+    Raises:
+        ValueError: the scene cannot be loaded (MuJoCo's message, with the file name).
+    """
+
+    def __init__(self, scene: str | Path, dt: float = 0.05):
+        self.scene_path = Path(scene).resolve()
+        try:
+            self.model = mujoco.MjModel.from_xml_path(str(self.scene_path))
+        except Exception as exc:
+            raise ValueError(f"cannot load scene {self.scene_path}: {exc}") from exc
+        self.data = mujoco.MjData(self.model)
+        if dt <= 0:
+            raise ValueError(f"dt must be positive, got {dt}")
+        self.substeps = max(1, round(dt / self.model.opt.timestep))
+        self.dt = self.substeps * self.model.opt.timestep
+        self.version = 0  # bumped whenever the state changes (cache key for renders)
+        self.settings = self._read_settings()
+        self.objects: list[SceneObject] = []
+        self.by_name: dict[str, SceneObject] = {}
+        self._register_objects()
+        self._init_motors()
+        self.reset()
+
+    # ----------------------------------------------------------------- registry
+    def _read_settings(self) -> dict[str, dict[str, str]]:
+        m = self.model
+        out = {}
+        for i in range(m.ntext):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TEXT, i) or ""
+            if name.startswith("simx:"):
+                adr, size = m.text_adr[i], m.text_size[i]
+                raw = bytes(m.text_data[adr : adr + size - 1]).decode()
+                try:
+                    out[name[5:]] = parse_settings(raw)
+                except ValueError as exc:
+                    raise ValueError(f"{self.scene_path}: custom text {name!r}: {exc}") from exc
+        return out
+
+    def _add(self, name: str | None, otype: int, mj_id: int, body: int, parent: int) -> int:
+        if not name:
+            return parent
+        if name in self.by_name:
+            log.warning("scene %s: name %r used twice; the %s keeps it", self.scene_path.name,
+                        name, _TYPE_NAMES[self.by_name[name].type])
+            return parent
+        obj = SceneObject(len(self.objects) + 1, name, otype, mj_id, body, parent,
+                          self.settings.get(name, {}))
+        self.objects.append(obj)
+        self.by_name[name] = obj
+        return obj.handle
+
+    def _register_objects(self) -> None:
+        m = self.model
+        body_handle = {0: WORLD}
+        names = lambda t, i: mujoco.mj_id2name(m, t, i)  # noqa: E731
+        for b in range(1, m.nbody):
+            parent = body_handle[int(m.body_parentid[b])]
+            for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
+                parent = self._add(names(mujoco.mjtObj.mjOBJ_JOINT, j), JOINT, j, b, parent)
+            body_handle[b] = self._add(names(mujoco.mjtObj.mjOBJ_BODY, b), SHAPE, b, b, parent)
+            me = body_handle[b]
+            for s in np.flatnonzero(m.site_bodyid == b):
+                self._add(names(mujoco.mjtObj.mjOBJ_SITE, s), DUMMY, int(s), b, me)
+            for c in np.flatnonzero(m.cam_bodyid == b):
+                self._add(names(mujoco.mjtObj.mjOBJ_CAMERA, c), VISION_SENSOR, int(c), b, me)
+            for li in np.flatnonzero(m.light_bodyid == b):
+                self._add(names(mujoco.mjtObj.mjOBJ_LIGHT, li), LIGHT, int(li), b, me)
+        for otype, table, count in (
+            (DUMMY, mujoco.mjtObj.mjOBJ_SITE, m.nsite),
+            (VISION_SENSOR, mujoco.mjtObj.mjOBJ_CAMERA, m.ncam),
+            (LIGHT, mujoco.mjtObj.mjOBJ_LIGHT, m.nlight),
+        ):
+            bodies = {DUMMY: m.site_bodyid, VISION_SENSOR: m.cam_bodyid, LIGHT: m.light_bodyid}[otype]
+            for i in np.flatnonzero(bodies[:count] == 0):
+                self._add(names(table, int(i)), otype, int(i), 0, WORLD)
+
+    def resolve(self, name: str) -> SceneObject:
+        """The object named ``name`` (``simxGetObjectHandle`` rules).
+
+        Exact names; a trailing ``#`` is ignored (``"UR5#"`` is ``"UR5"``); CoppeliaSim 4.2
+        paths (``"/UR5/UR5_joint1"``) resolve through the object tree.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
+        if not isinstance(name, str):
+            raise ArgumentError(f"object name must be a string, got {type(name).__name__}")
+        key = name[:-1] if name.endswith("#") else name
+        obj = self.by_name.get(key)
+        if obj is None and key.startswith("/"):
+            obj = self._resolve_path([p for p in key.split("/") if p])
+        if obj is None:
+            raise UnknownObjectError(f"object {name!r} does not exist in scene {self.scene_path.name}")
+        return obj
+
+    def _resolve_path(self, parts: list[str]) -> SceneObject | None:
+        leaf = self.by_name.get(parts[-1].split("[")[0]) if parts else None
+        if leaf is None:
+            return None
+        ancestors, h = [], leaf.parent
+        while h != WORLD:
+            ancestors.append(self.objects[h - 1].name)
+            h = self.objects[h - 1].parent
+        it = iter(reversed(ancestors))
+        return leaf if all(p.split("[")[0] in it for p in parts[:-1]) else None
+
+    def get(self, handle: int, otype: int | None = None) -> SceneObject:
+        """The object with ``handle``, optionally checked to be of type ``otype``.
+
+        Raises:
+            UnknownObjectError: no object has that handle.
+            ObjectTypeError: the object is not of type ``otype``.
+        """
+        if not isinstance(handle, int) or isinstance(handle, bool):
+            raise ArgumentError(f"handle must be an int, got {type(handle).__name__}")
+        if not 1 <= handle <= len(self.objects):
+            raise UnknownObjectError(f"no object with handle {handle}")
+        obj = self.objects[handle - 1]
+        if otype is not None and obj.type != otype:
+            raise ObjectTypeError(
+                f"object {obj.name!r} (handle {handle}) is a {_TYPE_NAMES[obj.type]}, "
+                f"not a {_TYPE_NAMES[otype]}"
+            )
+        return obj
+
+    def objects_of_type(self, otype: int) -> list[int]:
+        """Handles of every object of ``otype`` (``sim_handle_all`` = -2: every object)."""
+        return [o.handle for o in self.objects if otype == C.sim_handle_all or o.type == otype]
+
+    # ------------------------------------------------------------------ motors
+    def _init_motors(self) -> None:
+        m = self.model
+        motor_of_joint = {}
+        for a in range(m.nu):
+            if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
+                motor_of_joint.setdefault(int(m.actuator_trnid[a, 0]), a)
+        joints = [o for o in self.objects if o.type == JOINT and o.mj_id in motor_of_joint]
+        self.motor_index = {o.handle: i for i, o in enumerate(joints)}
+        self._motor_act = np.array([motor_of_joint[o.mj_id] for o in joints], dtype=int)
+        self._motor_qadr = np.array([m.jnt_qposadr[o.mj_id] for o in joints], dtype=int)
+        self._motor_dadr = np.array([m.jnt_dofadr[o.mj_id] for o in joints], dtype=int)
+        self._initial_mode = np.array(
+            [VELOCITY_MODE if o.settings.get("mode") == "velocity" else POSITION_MODE for o in joints],
+            dtype=int,
+        )
+        self.max_velocity = np.array(
+            [float(o.settings.get("max_velocity", DEFAULT_MAX_VELOCITY)) for o in joints])
+        self._initial_forcerange = m.actuator_forcerange[self._motor_act].copy()
+        for o in joints:
+            if m.actuator_gaintype[motor_of_joint[o.mj_id]] != mujoco.mjtGain.mjGAIN_FIXED:
+                log.warning("joint %r: its actuator is not a velocity servo", o.name)
+
+    def motor(self, handle: int) -> int:
+        """Index of the motor of joint ``handle``; raises ObjectTypeError for a passive joint."""
+        obj = self.get(handle, JOINT)
+        try:
+            return self.motor_index[handle]
+        except KeyError:
+            raise ObjectTypeError(f"joint {obj.name!r} has no motor (no actuator on it)") from None
+
+    def reset(self) -> None:
+        """Back to the initial state (``simxStopSimulation``): qpos0, targets at rest."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.model.actuator_forcerange[self._motor_act] = self._initial_forcerange
+        self.mode = self._initial_mode.copy()
+        self.target_position = self.data.qpos[self._motor_qadr].copy()
+        self.target_velocity = np.zeros(len(self._motor_act))
+        self.data.ctrl[:] = 0.0
+        mujoco.mj_forward(self.model, self.data)
+        self.version += 1
+
+    # -------------------------------------------------------------------- time
+    @property
+    def time(self) -> float:
+        """Simulation time in s."""
+        return float(self.data.time)
+
+    def step(self) -> None:
+        """Advance one simulation step of ``dt`` s: substeps with the joint motor loops."""
+        m, d = self.model, self.data
+        position = self.mode == POSITION_MODE
+        if not position.any():
+            d.ctrl[self._motor_act] = self.target_velocity
+            mujoco.mj_step(m, d, nstep=self.substeps)
+        else:
+            act, qadr, vmax = self._motor_act, self._motor_qadr, self.max_velocity
+            for _ in range(self.substeps):
+                q = d.qpos[qadr]
+                v = np.clip(POSITION_GAIN * (self.target_position - q), -vmax, vmax)
+                d.ctrl[act] = np.where(position, v, self.target_velocity)
+                mujoco.mj_step(m, d)
+        self.version += 1
+
+    # ------------------------------------------------------------------ joints
+    def joint_position(self, handle: int) -> float:
+        """Intrinsic position of a joint (rad or m). ``simxGetJointPosition``."""
+        obj = self.get(handle, JOINT)
+        return float(self.data.qpos[self.model.jnt_qposadr[obj.mj_id]])
+
+    def set_joint_position(self, handle: int, position: float) -> None:
+        """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``."""
+        obj = self.get(handle, JOINT)
+        self.data.qpos[self.model.jnt_qposadr[obj.mj_id]] = _finite(position)
+        self.data.qvel[self.model.jnt_dofadr[obj.mj_id]] = 0.0
+        if handle in self.motor_index:
+            self.target_position[self.motor_index[handle]] = position
+        mujoco.mj_forward(self.model, self.data)
+        self.version += 1
+
+    def set_joint_target_position(self, handle: int, position: float) -> None:
+        """Target of a position-mode joint (rad or m). ``simxSetJointTargetPosition``.
+
+        Raises ObjectTypeError for a joint in velocity mode (V-REP ignores it; simx says so).
+        """
+        i = self.motor(handle)
+        if self.mode[i] != POSITION_MODE:
+            raise ObjectTypeError(f"joint {self.objects[handle - 1].name!r} is in velocity mode, "
+                                  "not position control: use simxSetJointTargetVelocity")
+        self.target_position[i] = _finite(position)
+
+    def set_joint_target_velocity(self, handle: int, velocity: float) -> None:
+        """Target velocity of a velocity-mode joint (rad/s or m/s). ``simxSetJointTargetVelocity``."""
+        i = self.motor(handle)
+        if self.mode[i] != VELOCITY_MODE:
+            raise ObjectTypeError(f"joint {self.objects[handle - 1].name!r} is in position control: "
+                                  "use simxSetJointTargetPosition")
+        self.target_velocity[i] = _finite(velocity)
+
+    def set_joint_force(self, handle: int, force: float) -> None:
+        """Maximum force/torque of a joint's motor (N or N·m, sign ignored). ``simxSetJointForce``."""
+        a = self._motor_act[self.motor(handle)]
+        f = abs(_finite(force))
+        self.model.actuator_forcerange[a] = (-f, f)
+
+    def joint_max_force(self, handle: int) -> float:
+        """Maximum force/torque of a joint's motor (N or N·m)."""
+        return float(self.model.actuator_forcerange[self._motor_act[self.motor(handle)], 1])
+
+    def joint_force(self, handle: int) -> float:
+        """Force/torque the joint's motor applies now (N or N·m). ``simxGetJointForce``."""
+        obj = self.get(handle, JOINT)
+        if handle in self.motor_index:
+            return float(self.data.actuator_force[self._motor_act[self.motor_index[handle]]])
+        return float(self.data.qfrc_constraint[self.model.jnt_dofadr[obj.mj_id]])
+
+    # ------------------------------------------------------------------- poses
+    def frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
+        """World position (3,) in m and rotation matrix (3, 3) of an object; -1 is the world."""
+        if handle == WORLD:
+            return np.zeros(3), np.eye(3)
+        obj = self.get(handle)
+        d = self.data
+        if obj.type == SHAPE:
+            return d.xpos[obj.mj_id].copy(), d.xmat[obj.mj_id].reshape(3, 3).copy()
+        if obj.type == JOINT:
+            return d.xanchor[obj.mj_id].copy(), _frame_with_z(d.xaxis[obj.mj_id],
+                                                              d.xmat[obj.body].reshape(3, 3))
+        if obj.type == DUMMY:
+            return d.site_xpos[obj.mj_id].copy(), d.site_xmat[obj.mj_id].reshape(3, 3).copy()
+        if obj.type == VISION_SENSOR:
+            # MuJoCo cameras look along -z with y up; V-REP sensors look along +z with y up.
+            r = d.cam_xmat[obj.mj_id].reshape(3, 3) @ np.diag([-1.0, 1.0, -1.0])
+            return d.cam_xpos[obj.mj_id].copy(), r
+        return d.light_xpos[obj.mj_id].copy(), _frame_with_z(d.light_xdir[obj.mj_id], np.eye(3))
+
+    def relative_frame(self, handle: int, relative_to: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pose of ``handle`` in the frame of ``relative_to`` (-1 world, -11 parent)."""
+        if relative_to == C.sim_handle_parent:
+            relative_to = self.get(handle).parent
+        p, r = self.frame(handle)
+        p0, r0 = self.frame(relative_to)
+        return r0.T @ (p - p0), r0.T @ r
+
+    def position(self, handle: int, relative_to: int) -> list[float]:
+        """Position (m) of an object relative to another. ``simxGetObjectPosition``."""
+        return self.relative_frame(handle, relative_to)[0].tolist()
+
+    def orientation(self, handle: int, relative_to: int) -> list[float]:
+        """Euler angles alpha, beta, gamma (rad) with R = Rx(a) Ry(b) Rz(g). ``simxGetObjectOrientation``."""
+        r = self.relative_frame(handle, relative_to)[1]
+        beta = math.asin(max(-1.0, min(1.0, r[0, 2])))
+        if abs(r[0, 2]) < 1 - 1e-9:
+            alpha = math.atan2(-r[1, 2], r[2, 2])
+            gamma = math.atan2(-r[0, 1], r[0, 0])
+        else:  # gimbal lock: fold everything into alpha
+            alpha, gamma = math.atan2(r[2, 1], r[1, 1]), 0.0
+        return [alpha, beta, gamma]
+
+    def quaternion(self, handle: int, relative_to: int) -> list[float]:
+        """Orientation as a quaternion in V-REP's order (x, y, z, w). ``simxGetObjectQuaternion``."""
+        r = self.relative_frame(handle, relative_to)[1]
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, r.reshape(9))
+        return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]
+
+
+def _finite(value: float) -> float:
+    v = float(value)
+    if not math.isfinite(v):
+        raise ArgumentError(f"value must be finite, got {value!r}")
+    return v
+
+
+def _frame_with_z(z_axis: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """A rotation whose z column is ``z_axis``, turned from ``reference`` by the least rotation."""
+    z = np.asarray(z_axis, dtype=float)
+    z = z / np.linalg.norm(z)
+    rz = reference[:, 2]
+    axis = np.cross(rz, z)
+    s, c = np.linalg.norm(axis), float(np.dot(rz, z))
+    if s < 1e-12:
+        return reference.copy() if c > 0 else reference @ np.diag([1.0, -1.0, -1.0])
+    quat = np.empty(4)
+    mujoco.mju_axisAngle2Quat(quat, axis / s, math.atan2(s, c))
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, quat)
+    return rot.reshape(3, 3) @ reference

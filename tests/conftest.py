@@ -1,0 +1,87 @@
+"""Shared fixtures: real simx-server processes on free loopback ports."""
+
+from __future__ import annotations
+
+import os
+import select
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+LEGACY = SHARED / "legacy"
+REFERENCE = SHARED / "reference"
+SCENE = ROOT / "scenes" / "ur5_rg2_kinect.xml"
+
+
+def free_port() -> int:
+    """A TCP port nothing listens on now (loopback)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class ServerProcess:
+    """A ``simx-server`` subprocess; started with :meth:`start`, stopped by PID in :meth:`stop`."""
+
+    def __init__(self, *args: str, ports: list[int] | None = None):
+        self.ports = ports or [free_port()]
+        cmd = [sys.executable, "-m", "simx_server.cli", *args]
+        for p in self.ports:
+            cmd += ["--port", str(p)]
+        env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
+        self.ready_line = self._wait_ready(timeout=60)
+
+    @property
+    def port(self) -> int:
+        return self.ports[0]
+
+    def _wait_ready(self, timeout: float) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            r, _, _ = select.select([self.proc.stdout], [], [], 0.2)
+            if r:
+                line = self.proc.stdout.readline()
+                if "ready" in line:
+                    return line.strip()
+            if self.proc.poll() is not None:
+                break
+        err = self.stop()
+        raise RuntimeError(f"simx-server did not become ready:\n{err}")
+
+    def stop(self, timeout: float = 10.0) -> str:
+        """SIGTERM, wait, SIGKILL if needed; returns stderr."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        return self.proc.stderr.read() if self.proc.stderr else ""
+
+
+@pytest.fixture(scope="module")
+def server():
+    """One real server on the bundled scene for a test module, on two free ports."""
+    srv = ServerProcess(str(SCENE), ports=[free_port(), free_port()])
+    yield srv
+    srv.stop()
+
+
+@pytest.fixture
+def vrep_client(server):
+    """A connected legacy client id (``import vrep``), finished after the test."""
+    import vrep
+
+    cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)
+    assert cid >= 0, "could not connect to the test server"
+    yield cid
+    vrep.simxFinish(cid)
