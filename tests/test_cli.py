@@ -1,0 +1,69 @@
+"""simx-server as a process: ready line, clean exits, clear errors."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+import zipfile
+
+import pytest
+
+import vrep
+from conftest import ROOT, ServerProcess, free_port
+
+
+def test_bad_scene_exits_nonzero_with_mujoco_message(tmp_path):
+    bad = tmp_path / "broken.xml"
+    bad.write_text("<mujoco><worldbody><geom type='sphere'/></worldbody>")  # unclosed root
+    out = subprocess.run([sys.executable, "-m", "simx_server.cli", str(bad), "--port", str(free_port())],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode != 0
+    assert "broken.xml" in out.stderr
+    assert "XML" in out.stderr or "Error" in out.stderr  # MuJoCo's own parser message
+
+
+def test_missing_scene_exits_nonzero(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "simx_server.cli", str(tmp_path / "nope.xml"),
+                          "--port", str(free_port())], capture_output=True, text=True, timeout=60)
+    assert out.returncode != 0 and "nope.xml" in out.stderr
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_default_scene_serves_then_exits_within_2_s(sig):
+    srv = ServerProcess()  # no scene argument: the bundled UR5 scene
+    try:
+        assert "ur5_rg2_kinect.xml" in srv.ready_line
+        cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
+        assert cid >= 0
+        assert vrep.simxGetObjectHandle(cid, "UR5", vrep.simx_opmode_blocking)[0] == 0
+        vrep.simxFinish(cid)
+        t0 = time.monotonic()
+        srv.proc.send_signal(sig)
+        assert srv.proc.wait(timeout=10) == 0
+        assert time.monotonic() - t0 < 2.0
+    finally:
+        err = srv.stop()
+    assert "connected" in err and "disconnected" in err  # connect and leave are logged
+
+
+def test_port_in_use_is_a_clear_error():
+    srv = ServerProcess()
+    try:
+        out = subprocess.run([sys.executable, "-m", "simx_server.cli", "--port", str(srv.port)],
+                             capture_output=True, text=True, timeout=60)
+        assert out.returncode != 0 and str(srv.port) in out.stderr
+    finally:
+        srv.stop()
+
+
+def test_wheel_ships_scenes_and_legacy_modules(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q",
+                          "-w", str(tmp_path), str(ROOT)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    (wheel,) = tmp_path.glob("simx-*.whl")
+    names = set(zipfile.ZipFile(wheel).namelist())
+    for required in ("simx_server/scenes/ur5_rg2_kinect.xml", "simx_server/scenes/rg2.py", "vrep.py", "sim.py",
+                     "vrepConst.py", "simConst.py", "simx_client/protocol.py", "simx_server/cli.py"):
+        assert required in names, f"{required} missing from the wheel"
