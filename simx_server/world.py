@@ -224,6 +224,7 @@ class World:
         self.max_velocity = np.array(
             [float(o.settings.get("max_velocity", DEFAULT_MAX_VELOCITY)) for o in joints])
         self._initial_forcerange = m.actuator_forcerange[self._motor_act].copy()
+        self._kv = m.actuator_gainprm[self._motor_act, 0].copy()  # velocity-servo gain
         for o in joints:
             if m.actuator_gaintype[motor_of_joint[o.mj_id]] != mujoco.mjtGain.mjGAIN_FIXED:
                 log.warning("joint %r: its actuator is not a velocity servo", o.name)
@@ -254,19 +255,27 @@ class World:
         return float(self.data.time)
 
     def step(self) -> None:
-        """Advance one simulation step of ``dt`` s: substeps with the joint motor loops."""
+        """Advance one simulation step of ``dt`` s (all substeps inside MuJoCo).
+
+        Each motor is a velocity servo (force = kv * (v - qvel), clipped to its force range).
+        Velocity mode: v is the target velocity. Position mode, V-REP's control loop
+        v = clip(Kp * (target - q), -vmax, vmax): far from the target (more than vmax * dt
+        away) v is +-vmax for the whole step; closer, the servo becomes the linear law
+        force = kv * (Kp * (target - q) - qvel), which never exceeds vmax from there on.
+        Gains are written into the actuators once per step, so the substeps run in C.
+        """
         m, d = self.model, self.data
+        act, kv = self._motor_act, self._kv
+        err = self.target_position - d.qpos[self._motor_qadr]
         position = self.mode == POSITION_MODE
-        if not position.any():
-            d.ctrl[self._motor_act] = self.target_velocity
-            mujoco.mj_step(m, d, nstep=self.substeps)
-        else:
-            act, qadr, vmax = self._motor_act, self._motor_qadr, self.max_velocity
-            for _ in range(self.substeps):
-                q = d.qpos[qadr]
-                v = np.clip(POSITION_GAIN * (self.target_position - q), -vmax, vmax)
-                d.ctrl[act] = np.where(position, v, self.target_velocity)
-                mujoco.mj_step(m, d)
+        linear = position & (np.abs(err) <= self.max_velocity * self.dt)
+        saturated = position & ~linear
+        gain = np.where(linear, kv * POSITION_GAIN, kv)
+        m.actuator_gainprm[act, 0] = gain
+        m.actuator_biasprm[act, 1] = np.where(linear, -gain, 0.0)
+        d.ctrl[act] = np.where(linear, self.target_position,
+                               np.where(saturated, np.sign(err) * self.max_velocity, self.target_velocity))
+        mujoco.mj_step(m, d, nstep=self.substeps)
         self.version += 1
 
     # ------------------------------------------------------------------ joints
