@@ -83,7 +83,7 @@ class SimFacade:
 
     def addStatusbarMessage(self, message: str) -> None:  # noqa: N802
         """Write ``message`` to the server log."""
-        log.info("[%s] %s", self._world.objects[self._owner - 1].name, message)
+        log.info("[%s] %s", self._world.get(self._owner).name, message)
 
 
 class ChildScript:
@@ -92,7 +92,7 @@ class ChildScript:
     def __init__(self, world: World, owner: int, path: Path):
         self.owner = owner
         self.path = path
-        self.name = world.objects[owner - 1].name
+        self.name = world.get(owner).name
         try:
             source = path.read_text()
             self._code = compile(source, str(path), "exec")
@@ -154,7 +154,7 @@ class Scripts:
     def __init__(self, world: World):
         self.world = world
         self.scripts: dict[int, ChildScript] = {}
-        for obj in world.objects:
+        for obj in world.objects.values():
             file = obj.settings.get("child_script")
             if file:
                 path = (world.scene_path.parent / file).resolve()

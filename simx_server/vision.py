@@ -46,7 +46,7 @@ class VisionSensors:
         self.world = world
         self.specs: dict[int, SensorSpec] = {}
         m = world.model
-        for obj in world.objects:
+        for obj in world.objects.values():
             if obj.type != VISION_SENSOR:
                 continue
             w, h = (int(x) for x in m.cam_resolution[obj.mj_id])

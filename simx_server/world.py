@@ -32,9 +32,14 @@ JOINT = C.sim_object_joint_type
 DUMMY = C.sim_object_dummy_type
 VISION_SENSOR = C.sim_object_visionsensor_type
 LIGHT = C.sim_object_light_type
+PROXIMITY_SENSOR = C.sim_object_proximitysensor_type
+FORCE_SENSOR = C.sim_object_forcesensor_type
 WORLD = -1
 
-_TYPE_NAMES = {SHAPE: "shape", JOINT: "joint", DUMMY: "dummy", VISION_SENSOR: "vision sensor", LIGHT: "light"}
+_TYPE_NAMES = {SHAPE: "shape", JOINT: "joint", DUMMY: "dummy", VISION_SENSOR: "vision sensor", LIGHT: "light",
+               PROXIMITY_SENSOR: "proximity sensor", FORCE_SENSOR: "force sensor"}
+#: (nq, nv) of each mjtJoint: free, ball, slide, hinge.
+_JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
 
 POSITION_MODE = 0
 VELOCITY_MODE = 1
@@ -83,21 +88,63 @@ class World:
     def __init__(self, scene: str | Path, dt: float = 0.05):
         self.scene_path = Path(scene).resolve()
         try:
-            self.model = mujoco.MjModel.from_xml_path(str(self.scene_path))
+            model = mujoco.MjModel.from_xml_path(str(self.scene_path))
         except Exception as exc:
             raise ValueError(f"cannot load scene {self.scene_path}: {exc}") from exc
-        self.data = mujoco.MjData(self.model)
         if dt <= 0:
             raise ValueError(f"dt must be positive, got {dt}")
-        self.substeps = max(1, round(dt / self.model.opt.timestep))
-        self.dt = self.substeps * self.model.opt.timestep
+        self._requested_dt = dt
         self.version = 0  # bumped whenever the state changes (cache key for renders)
+        self._handle_of_name: dict[str, int] = {}  # every name ever registered; never reused
+        self._install(model)
+        self.reset()
+
+    def _install(self, model: mujoco.MjModel) -> None:
+        """Adopt ``model``: fresh data, registry (keeping known names' handles), motors."""
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self.substeps = max(1, round(self._requested_dt / model.opt.timestep))
+        self.dt = self.substeps * model.opt.timestep
         self.settings = self._read_settings()
-        self.objects: list[SceneObject] = []
+        self.objects: dict[int, SceneObject] = {}
         self.by_name: dict[str, SceneObject] = {}
         self._register_objects()
         self._init_motors()
+
+    def replace_model(self, model: mujoco.MjModel) -> None:
+        """Swap in an edited model (scene editing) while the simulation goes on.
+
+        Objects keep their handles (matched by name); joints keep their positions and
+        velocities, motors their mode, targets and maximum force; the simulation time goes on.
+        Objects that disappeared lose their handle for good; new ones get new handles.
+        """
+        old_model, old_data = self.model, self.data
+        joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
+        motors = {h: (self.mode[i], self.target_position[i], self.target_velocity[i],
+                      old_model.actuator_forcerange[self._motor_act[i]].copy())
+                  for h, i in self.motor_index.items()}
+        free = {o.name: int(old_model.body_jntadr[o.mj_id]) for o in self.objects.values()
+                if o.type == SHAPE and old_model.body_jntnum[o.mj_id] == 1
+                and old_model.jnt_type[old_model.body_jntadr[o.mj_id]] == mujoco.mjtJoint.mjJNT_FREE}
+        self._install(model)
         self.reset()
+        m, d = self.model, self.data
+        copies = [(old_model.jnt_qposadr[j], old_model.jnt_dofadr[j], self.by_name[n].mj_id)
+                  for n, j in joints.items() if n in self.by_name and self.by_name[n].type == JOINT]
+        copies += [(old_model.jnt_qposadr[j], old_model.jnt_dofadr[j], int(m.body_jntadr[self.by_name[n].mj_id]))
+                   for n, j in free.items() if n in self.by_name and m.body_jntnum[self.by_name[n].mj_id] == 1]
+        for qadr, dadr, j in copies:
+            nq, nv = _JOINT_SIZES[int(m.jnt_type[j])]
+            d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + nq] = old_data.qpos[qadr:qadr + nq]
+            d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + nv] = old_data.qvel[dadr:dadr + nv]
+        for h, (mode, target, velocity, forcerange) in motors.items():
+            i = self.motor_index.get(h)
+            if i is not None:
+                self.mode[i], self.target_position[i], self.target_velocity[i] = mode, target, velocity
+                m.actuator_forcerange[self._motor_act[i]] = forcerange
+        d.time = old_data.time
+        mujoco.mj_forward(m, d)
+        self.version += 1
 
     # ----------------------------------------------------------------- registry
     def _read_settings(self) -> dict[str, dict[str, str]]:
@@ -121,9 +168,9 @@ class World:
             log.warning("scene %s: name %r used twice; the %s keeps it", self.scene_path.name,
                         name, _TYPE_NAMES[self.by_name[name].type])
             return parent
-        obj = SceneObject(len(self.objects) + 1, name, otype, mj_id, body, parent,
-                          self.settings.get(name, {}))
-        self.objects.append(obj)
+        handle = self._handle_of_name.setdefault(name, len(self._handle_of_name) + 1)
+        obj = SceneObject(handle, name, otype, mj_id, body, parent, self.settings.get(name, {}))
+        self.objects[handle] = obj
         self.by_name[name] = obj
         return obj.handle
 
@@ -131,6 +178,13 @@ class World:
         m = self.model
         body_handle = {0: WORLD}
         names = lambda t, i: mujoco.mj_id2name(m, t, i)  # noqa: E731
+        site_type = {}  # sites carrying a rangefinder or a force sensor are sensors
+        for k in range(m.nsensor):
+            if m.sensor_objtype[k] == mujoco.mjtObj.mjOBJ_SITE:
+                kind = {mujoco.mjtSensor.mjSENS_RANGEFINDER: PROXIMITY_SENSOR,
+                        mujoco.mjtSensor.mjSENS_FORCE: FORCE_SENSOR}.get(int(m.sensor_type[k]))
+                if kind is not None:
+                    site_type[int(m.sensor_objid[k])] = kind
         for b in range(1, m.nbody):
             parent = body_handle[int(m.body_parentid[b])]
             for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
@@ -138,7 +192,7 @@ class World:
             body_handle[b] = self._add(names(mujoco.mjtObj.mjOBJ_BODY, b), SHAPE, b, b, parent)
             me = body_handle[b]
             for s in np.flatnonzero(m.site_bodyid == b):
-                self._add(names(mujoco.mjtObj.mjOBJ_SITE, s), DUMMY, int(s), b, me)
+                self._add(names(mujoco.mjtObj.mjOBJ_SITE, s), site_type.get(int(s), DUMMY), int(s), b, me)
             for c in np.flatnonzero(m.cam_bodyid == b):
                 self._add(names(mujoco.mjtObj.mjOBJ_CAMERA, c), VISION_SENSOR, int(c), b, me)
             for li in np.flatnonzero(m.light_bodyid == b):
@@ -150,7 +204,8 @@ class World:
         ):
             bodies = {DUMMY: m.site_bodyid, VISION_SENSOR: m.cam_bodyid, LIGHT: m.light_bodyid}[otype]
             for i in np.flatnonzero(bodies[:count] == 0):
-                self._add(names(table, int(i)), otype, int(i), 0, WORLD)
+                t = site_type.get(int(i), DUMMY) if otype == DUMMY else otype
+                self._add(names(table, int(i)), t, int(i), 0, WORLD)
 
     def resolve(self, name: str) -> SceneObject:
         """The object named ``name`` (``simxGetObjectHandle`` rules).
@@ -177,8 +232,8 @@ class World:
             return None
         ancestors, h = [], leaf.parent
         while h != WORLD:
-            ancestors.append(self.objects[h - 1].name)
-            h = self.objects[h - 1].parent
+            ancestors.append(self.objects[h].name)
+            h = self.objects[h].parent
         it = iter(reversed(ancestors))
         return leaf if all(p.split("[")[0] in it for p in parts[:-1]) else None
 
@@ -191,9 +246,9 @@ class World:
         """
         if not isinstance(handle, int) or isinstance(handle, bool):
             raise ArgumentError(f"handle must be an int, got {type(handle).__name__}")
-        if not 1 <= handle <= len(self.objects):
+        obj = self.objects.get(handle)
+        if obj is None:
             raise UnknownObjectError(f"no object with handle {handle}")
-        obj = self.objects[handle - 1]
         if otype is not None and obj.type != otype:
             raise ObjectTypeError(
                 f"object {obj.name!r} (handle {handle}) is a {_TYPE_NAMES[obj.type]}, "
@@ -203,7 +258,7 @@ class World:
 
     def objects_of_type(self, otype: int) -> list[int]:
         """Handles of every object of ``otype`` (``sim_handle_all`` = -2: every object)."""
-        return [o.handle for o in self.objects if otype == C.sim_handle_all or o.type == otype]
+        return [o.handle for o in self.objects.values() if otype == C.sim_handle_all or o.type == otype]
 
     # ------------------------------------------------------------------ motors
     def _init_motors(self) -> None:
@@ -212,7 +267,7 @@ class World:
         for a in range(m.nu):
             if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
                 motor_of_joint.setdefault(int(m.actuator_trnid[a, 0]), a)
-        joints = [o for o in self.objects if o.type == JOINT and o.mj_id in motor_of_joint]
+        joints = [o for o in self.objects.values() if o.type == JOINT and o.mj_id in motor_of_joint]
         self.motor_index = {o.handle: i for i, o in enumerate(joints)}
         self._motor_act = np.array([motor_of_joint[o.mj_id] for o in joints], dtype=int)
         self._motor_qadr = np.array([m.jnt_qposadr[o.mj_id] for o in joints], dtype=int)
@@ -301,7 +356,7 @@ class World:
         """
         i = self.motor(handle)
         if self.mode[i] != POSITION_MODE:
-            raise ObjectTypeError(f"joint {self.objects[handle - 1].name!r} is in velocity mode, "
+            raise ObjectTypeError(f"joint {self.objects[handle].name!r} is in velocity mode, "
                                   "not position control: use simxSetJointTargetVelocity")
         self.target_position[i] = _finite(position)
 
@@ -309,7 +364,7 @@ class World:
         """Target velocity of a velocity-mode joint (rad/s or m/s). ``simxSetJointTargetVelocity``."""
         i = self.motor(handle)
         if self.mode[i] != VELOCITY_MODE:
-            raise ObjectTypeError(f"joint {self.objects[handle - 1].name!r} is in position control: "
+            raise ObjectTypeError(f"joint {self.objects[handle].name!r} is in position control: "
                                   "use simxSetJointTargetPosition")
         self.target_velocity[i] = _finite(velocity)
 
