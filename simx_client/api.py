@@ -10,7 +10,6 @@ binding carried as ``c_float`` are rounded to float32 as it did.
 
 from __future__ import annotations
 
-import itertools
 import logging
 import struct
 import threading
@@ -26,9 +25,7 @@ log = logging.getLogger("simx.client")
 
 _MAX_CONNECTIONS = 255  # MAX_EXT_API_CONNECTIONS: client ids 0..254
 _connections: dict[int, Connection] = {}
-_connection_ids: dict[int, int] = {}
 _registry_lock = threading.Lock()
-_connection_counter = itertools.count(1)
 
 
 # ------------------------------------------------------------------ coercion
@@ -125,6 +122,7 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
     try:
         address, port = _str(connectionAddress), _int(connectionPort)
         wait, timeout_ms = _bool(waitUntilConnected), _int(timeOutInMs)
+        reconnect = not _bool(doNotReconnectOnceDisconnected)
     except P.LocalError as exc:
         log.warning("simxStart: bad argument: %s", exc)
         return -1
@@ -136,11 +134,10 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
         free = next((i for i in range(_MAX_CONNECTIONS) if i not in _connections), None)
         if free is None:
             return -1
-        conn = wait_connect(address, port, wait, connect_wait, blocking)
+        conn = wait_connect(address, port, wait, connect_wait, blocking, reconnect)
         if conn is None:
             return -1
         _connections[free] = conn
-        _connection_ids[free] = next(_connection_counter)
         return free
 
 
@@ -153,8 +150,6 @@ def simxFinish(clientID):
     with _registry_lock:
         ids = list(_connections) if cid == -1 else [cid]
         closing = [_connections.pop(i) for i in ids if i in _connections]
-        for i in ids:
-            _connection_ids.pop(i, None)
     for conn in closing:
         conn.close()
     return None
@@ -163,9 +158,7 @@ def simxFinish(clientID):
 def simxGetConnectionId(clientID):
     """A number identifying the connection, -1 when not connected (legacy ``simxGetConnectionId``)."""
     conn = _connection(clientID)
-    if conn is None or not conn.connected:
-        return -1
-    return _connection_ids.get(_int(clientID), -1)
+    return conn.connection_id if conn is not None and conn.connected else -1
 
 
 def simxGetPingTime(clientID):
@@ -239,19 +232,19 @@ def simxGetObjects(clientID, objectType, operationMode):
 def simxGetObjectPosition(clientID, objectHandle, relativeToObjectHandle, operationMode):
     """``(returnCode, [x, y, z])`` in m, relative to an object, -1 (world) or ``sim_handle_parent``."""
     return _command(clientID, "GetObjectPosition",
-                    lambda: [_int(objectHandle), _int(relativeToObjectHandle)], operationMode, _f32_list, [])
+                    lambda: [_int(objectHandle), _int(relativeToObjectHandle)], operationMode, _f32_list, [0.0] * 3)
 
 
 def simxGetObjectOrientation(clientID, objectHandle, relativeToObjectHandle, operationMode):
     """``(returnCode, [alpha, beta, gamma])`` in rad, R = Rx(alpha) Ry(beta) Rz(gamma)."""
     return _command(clientID, "GetObjectOrientation",
-                    lambda: [_int(objectHandle), _int(relativeToObjectHandle)], operationMode, _f32_list, [])
+                    lambda: [_int(objectHandle), _int(relativeToObjectHandle)], operationMode, _f32_list, [0.0] * 3)
 
 
 def simxGetObjectQuaternion(clientID, objectHandle, relativeToObjectHandle, operationMode):
     """``(returnCode, [x, y, z, w])``."""
     return _command(clientID, "GetObjectQuaternion",
-                    lambda: [_int(objectHandle), _int(relativeToObjectHandle)], operationMode, _f32_list, [])
+                    lambda: [_int(objectHandle), _int(relativeToObjectHandle)], operationMode, _f32_list, [0.0] * 4)
 
 
 # ------------------------------------------------------------------ joints
@@ -367,3 +360,599 @@ def simxPackFloats(floatList):
 def simxUnpackFloats(floatsPackedInString):
     """List of float32s (as Python floats) from a little-endian buffer."""
     return np.frombuffer(_bytes(floatsPackedInString), dtype="<f4").tolist()
+
+
+# ----------------------------------------------------------- more of joints
+def simxGetJointMatrix(clientID, jointHandle, operationMode):
+    """``(returnCode, matrix)``: the joint's intrinsic transform, 12 floats (3x4, row-major)."""
+    return _command(clientID, "GetJointMatrix", lambda: [_int(jointHandle)], operationMode, _f32_list, [0.0] * 12)
+
+
+def simxSetSphericalJointMatrix(clientID, jointHandle, matrix, operationMode):
+    """Set a spherical joint's intrinsic rotation from 12 floats (3x4, row-major): returnCode."""
+    return _command(clientID, "SetSphericalJointMatrix",
+                    lambda: [_int(jointHandle), _floats(matrix, 12)], operationMode)[0]
+
+
+# ----------------------------------------------------------------- sensors
+def simxReadForceSensor(clientID, forceSensorHandle, operationMode):
+    """``(returnCode, state, forceVector, torqueVector)``: state bits (0: data, 1: broken), N and N·m."""
+    rc, value = _command(clientID, "ReadForceSensor", lambda: [_int(forceSensorHandle)], operationMode,
+                         lambda v: (int(v[0]), _f32_list(v[1]), _f32_list(v[2])), None)
+    return (rc, 0, [0.0] * 3, [0.0] * 3) if value is None else (rc, *value)
+
+
+def simxBreakForceSensor(clientID, forceSensorHandle, operationMode):
+    """Mark a force sensor broken: returnCode."""
+    return _command(clientID, "BreakForceSensor", lambda: [_int(forceSensorHandle)], operationMode)[0]
+
+
+def simxReadVisionSensor(clientID, sensorHandle, operationMode):
+    """``(returnCode, detectionState, auxPackets)``: packet 1 holds min, max and average of
+    intensity, red, green, blue and depth (15 floats in 0..1)."""
+    rc, value = _command(clientID, "ReadVisionSensor", lambda: [_int(sensorHandle)], operationMode,
+                         lambda v: (bool(v[0]), [_f32_list(p) for p in v[1]]), None)
+    return (rc, False, []) if value is None else (rc, *value)
+
+
+def simxSetVisionSensorImage(clientID, sensorHandle, image, options, operationMode):
+    """Write an image into a passive vision sensor: returnCode. ``image``: resX*resY*3 bytes
+    (R, G, B, rows bottom-up) or resX*resY with options bit 0; values -128..127 or 0..255."""
+
+    def args() -> list:
+        data = np.asarray(image)
+        if data.dtype.kind not in "iub":
+            raise P.LocalError(f"image values must be integers, got {data.dtype}")
+        return [_int(sensorHandle), data.astype(np.int64).astype(np.uint8).tobytes(), _int(options)]
+
+    return _command(clientID, "SetVisionSensorImage", args, operationMode)[0]
+
+
+def simxReadProximitySensor(clientID, sensorHandle, operationMode):
+    """``(returnCode, detectionState, detectedPoint, detectedObjectHandle, detectedSurfaceNormalVector)``;
+    point (m) and normal in the sensor's frame."""
+    rc, value = _command(clientID, "ReadProximitySensor", lambda: [_int(sensorHandle)], operationMode,
+                         lambda v: (bool(v[0]), _f32_list(v[1]), int(v[2]), _f32_list(v[3])), None)
+    return (rc, False, [0.0] * 3, 0, [0.0] * 3) if value is None else (rc, *value)
+
+
+# ------------------------------------------------------------ tree and pose
+def simxGetObjectChild(clientID, parentObjectHandle, childIndex, operationMode):
+    """``(returnCode, childHandle)``: the child at ``childIndex`` (0-based), -1 when there is none."""
+    return _command(clientID, "GetObjectChild", lambda: [_int(parentObjectHandle), _int(childIndex)],
+                    operationMode, int, 0)
+
+
+def simxGetObjectParent(clientID, childObjectHandle, operationMode):
+    """``(returnCode, parentHandle)``: -1 when the object hangs from the world."""
+    return _command(clientID, "GetObjectParent", lambda: [_int(childObjectHandle)], operationMode, int, 0)
+
+
+def simxSetObjectPosition(clientID, objectHandle, relativeToObjectHandle, position, operationMode):
+    """Move an object to ``position`` (3 floats, m) relative to an object / -1 / sim_handle_parent: returnCode."""
+    return _command(clientID, "SetObjectPosition",
+                    lambda: [_int(objectHandle), _int(relativeToObjectHandle), _floats(position, 3)], operationMode)[0]
+
+
+def simxSetObjectOrientation(clientID, objectHandle, relativeToObjectHandle, eulerAngles, operationMode):
+    """Set an object's Euler angles (alpha, beta, gamma in rad): returnCode."""
+    return _command(clientID, "SetObjectOrientation",
+                    lambda: [_int(objectHandle), _int(relativeToObjectHandle), _floats(eulerAngles, 3)],
+                    operationMode)[0]
+
+
+def simxSetObjectQuaternion(clientID, objectHandle, relativeToObjectHandle, quaternion, operationMode):
+    """Set an object's orientation from a quaternion (x, y, z, w): returnCode."""
+    return _command(clientID, "SetObjectQuaternion",
+                    lambda: [_int(objectHandle), _int(relativeToObjectHandle), _floats(quaternion, 4)],
+                    operationMode)[0]
+
+
+def simxSetObjectParent(clientID, objectHandle, parentObject, keepInPlace, operationMode):
+    """Attach an object (its body subtree) to another parent (-1: the world): returnCode."""
+    return _command(clientID, "SetObjectParent",
+                    lambda: [_int(objectHandle), _int(parentObject), _bool(keepInPlace)], operationMode)[0]
+
+
+def simxGetObjectVelocity(clientID, objectHandle, operationMode):
+    """``(returnCode, linearVelocity, angularVelocity)`` in the world frame (m/s, rad/s)."""
+    rc, value = _command(clientID, "GetObjectVelocity", lambda: [_int(objectHandle)], operationMode,
+                         lambda v: (_f32_list(v[0]), _f32_list(v[1])), None)
+    return (rc, [0.0] * 3, [0.0] * 3) if value is None else (rc, *value)
+
+
+def simxGetObjectGroupData(clientID, objectType, dataType, operationMode):
+    """``(returnCode, handles, intData, floatData, stringData)`` for every object of a type."""
+    rc, value = _command(clientID, "GetObjectGroupData", lambda: [_int(objectType), _int(dataType)],
+                         operationMode, lambda v: (list(v[0]), list(v[1]), _f32_list(v[2]), list(v[3])), None)
+    return (rc, [], [], [], []) if value is None else (rc, *value)
+
+
+def simxGetObjectSelection(clientID, operationMode):
+    """``(returnCode, objectHandles)`` selected (shared by all clients; no GUI)."""
+    return _command(clientID, "GetObjectSelection", lambda: [], operationMode, list, [])
+
+
+def simxSetObjectSelection(clientID, objectHandles, operationMode):
+    """Replace the selection: returnCode."""
+    return _command(clientID, "SetObjectSelection", lambda: [[_int(h) for h in objectHandles]], operationMode)[0]
+
+
+def simxGetModelProperty(clientID, objectHandle, operationMode):
+    """``(returnCode, prop)``: sim_modelproperty_* bits (0xf000: not a model)."""
+    return _command(clientID, "GetModelProperty", lambda: [_int(objectHandle)], operationMode, int, 0)
+
+
+def simxSetModelProperty(clientID, objectHandle, prop, operationMode):
+    """Set model property bits: returnCode."""
+    return _command(clientID, "SetModelProperty", lambda: [_int(objectHandle), _int(prop)], operationMode)[0]
+
+
+# -------------------------------------------------------- object parameters
+def simxGetObjectFloatParameter(clientID, objectHandle, parameterID, operationMode):
+    """``(returnCode, parameterValue)`` (e.g. 1000/1001 near/far clipping in m)."""
+    return _command(clientID, "GetObjectFloatParameter", lambda: [_int(objectHandle), _int(parameterID)],
+                    operationMode, _f32, 0.0)
+
+
+def simxSetObjectFloatParameter(clientID, objectHandle, parameterID, parameterValue, operationMode):
+    """Set a float parameter of an object: returnCode."""
+    return _command(clientID, "SetObjectFloatParameter",
+                    lambda: [_int(objectHandle), _int(parameterID), _f32(_float(parameterValue))], operationMode)[0]
+
+
+def simxGetObjectIntParameter(clientID, objectHandle, parameterID, operationMode):
+    """``(returnCode, parameterValue)`` (e.g. 1002/1003 vision sensor resolution)."""
+    return _command(clientID, "GetObjectIntParameter", lambda: [_int(objectHandle), _int(parameterID)],
+                    operationMode, int, 0)
+
+
+def simxSetObjectIntParameter(clientID, objectHandle, parameterID, parameterValue, operationMode):
+    """Set an integer parameter of an object: returnCode."""
+    return _command(clientID, "SetObjectIntParameter",
+                    lambda: [_int(objectHandle), _int(parameterID), _int(parameterValue)], operationMode)[0]
+
+
+simxGetObjectFloatParam = simxGetObjectFloatParameter
+simxSetObjectFloatParam = simxSetObjectFloatParameter
+simxGetObjectInt32Param = simxGetObjectIntParameter
+simxSetObjectInt32Param = simxSetObjectIntParameter
+
+
+# ------------------------------------------------- collision and distance
+def simxGetCollisionHandle(clientID, collisionObjectName, operationMode):
+    """``(returnCode, handle)`` of a collision object declared in the scene."""
+    return _command(clientID, "GetCollisionHandle", lambda: [_str(collisionObjectName)], operationMode, int, 0)
+
+
+def simxGetDistanceHandle(clientID, distanceObjectName, operationMode):
+    """``(returnCode, handle)`` of a distance object declared in the scene."""
+    return _command(clientID, "GetDistanceHandle", lambda: [_str(distanceObjectName)], operationMode, int, 0)
+
+
+def simxGetCollectionHandle(clientID, collectionName, operationMode):
+    """``(returnCode, handle)`` of a collection (simx scenes declare none: remote error)."""
+    return _command(clientID, "GetCollectionHandle", lambda: [_str(collectionName)], operationMode, int, 0)
+
+
+def simxReadCollision(clientID, collisionObjectHandle, operationMode):
+    """``(returnCode, collisionState)`` of a collision object."""
+    return _command(clientID, "ReadCollision", lambda: [_int(collisionObjectHandle)], operationMode, bool, False)
+
+
+def simxReadDistance(clientID, distanceObjectHandle, operationMode):
+    """``(returnCode, minimumDistance)`` (m) of a distance object."""
+    return _command(clientID, "ReadDistance", lambda: [_int(distanceObjectHandle)], operationMode, _f32, 0.0)
+
+
+def simxCheckCollision(clientID, entity1, entity2, operationMode):
+    """``(returnCode, collisionState)`` between two objects (entity2 may be sim_handle_all)."""
+    return _command(clientID, "CheckCollision", lambda: [_int(entity1), _int(entity2)], operationMode, bool, False)
+
+
+def simxCheckDistance(clientID, entity1, entity2, operationMode):
+    """``(returnCode, minimumDistance)`` (m) between two objects."""
+    return _command(clientID, "CheckDistance", lambda: [_int(entity1), _int(entity2)], operationMode, _f32, 0.0)
+
+
+# ------------------------------------------------------------ scene editing
+def simxTransferFile(clientID, filePathAndName, fileName_serverSide, timeOut, operationMode):
+    """Send a local file to the server's transfer folder: returnCode (32 if it cannot be read)."""
+    conn = _connection(clientID)
+    if conn is None:
+        return C.simx_return_initialize_error_flag
+    try:
+        with open(_str(filePathAndName), "rb") as f:
+            data = f.read()
+    except (OSError, P.LocalError) as exc:
+        log.warning("simxTransferFile: %s", exc)
+        return C.simx_return_local_error_flag
+    return _command(clientID, "TransferFile", lambda: [_str(fileName_serverSide), data], operationMode)[0]
+
+
+def simxEraseFile(clientID, fileName_serverSide, operationMode):
+    """Delete a transferred file on the server: returnCode."""
+    return _command(clientID, "EraseFile", lambda: [_str(fileName_serverSide)], operationMode)[0]
+
+
+def _client_side(clientID, path: Any, options: Any) -> tuple[int, str]:
+    """For options bit 0 (file on the client): transfer it first; returns (rc, server-side name)."""
+    import os
+
+    name, opts = _str(path), _int(options)
+    if not opts & 1:
+        return C.simx_return_ok, name
+    remote = os.path.basename(name)
+    return simxTransferFile(clientID, name, remote, 5000, C.simx_opmode_blocking), remote
+
+
+def simxLoadModel(clientID, modelPathAndName, options, operationMode):
+    """Load an MJCF model into the running scene: ``(returnCode, baseHandle)``; options bit 0: the
+    file is on the client (it is transferred first)."""
+    try:
+        rc, name = _client_side(clientID, modelPathAndName, options)
+    except P.LocalError as exc:
+        log.warning("simxLoadModel: %s", exc)
+        return C.simx_return_local_error_flag, 0
+    if rc:
+        return rc, 0
+    return _command(clientID, "LoadModel", lambda: [name, _int(options)], operationMode, int, 0)
+
+
+def simxLoadScene(clientID, scenePathAndName, options, operationMode):
+    """Replace the scene with an MJCF file (simulation stopped): returnCode."""
+    try:
+        rc, name = _client_side(clientID, scenePathAndName, options)
+    except P.LocalError as exc:
+        log.warning("simxLoadScene: %s", exc)
+        return C.simx_return_local_error_flag
+    if rc:
+        return rc
+    return _command(clientID, "LoadScene", lambda: [name, _int(options)], operationMode)[0]
+
+
+def simxCloseScene(clientID, operationMode):
+    """Replace the scene with an empty one: returnCode."""
+    return _command(clientID, "CloseScene", lambda: [], operationMode)[0]
+
+
+def simxRemoveObject(clientID, objectHandle, operationMode):
+    """Remove an object: returnCode."""
+    return _command(clientID, "RemoveObject", lambda: [_int(objectHandle)], operationMode)[0]
+
+
+def simxRemoveModel(clientID, objectHandle, operationMode):
+    """Remove a model (the object and everything below it): returnCode."""
+    return _command(clientID, "RemoveModel", lambda: [_int(objectHandle)], operationMode)[0]
+
+
+def simxCopyPasteObjects(clientID, objectHandles, operationMode):
+    """Copy objects: ``(returnCode, newObjectHandles)``."""
+    return _command(clientID, "CopyPasteObjects", lambda: [[_int(h) for h in objectHandles]],
+                    operationMode, list, [])
+
+
+def simxCreateDummy(clientID, size, color, operationMode):
+    """Create a dummy (a site) at the origin: ``(returnCode, dummyHandle)``; color: 12 bytes or None."""
+    return _command(clientID, "CreateDummy",
+                    lambda: [_f32(_float(size)), None if color is None else [_int(c) for c in color]],
+                    operationMode, int, 0)
+
+
+# ------------------------------------------------------------------ signals
+def _signal_value(value: Any) -> bytes:
+    return _bytes(value)
+
+
+def simxSetIntegerSignal(clientID, signalName, signalValue, operationMode):
+    """Set an integer signal (shared by every client and script): returnCode."""
+    return _command(clientID, "SetIntegerSignal", lambda: [_str(signalName), _int(signalValue)], operationMode)[0]
+
+
+def simxGetIntegerSignal(clientID, signalName, operationMode):
+    """``(returnCode, signalValue)``; a missing signal is a remote error."""
+    return _command(clientID, "GetIntegerSignal", lambda: [_str(signalName)], operationMode, int, 0)
+
+
+def simxClearIntegerSignal(clientID, signalName, operationMode):
+    """Clear an integer signal ("" clears them all): returnCode."""
+    return _command(clientID, "ClearIntegerSignal", lambda: [_str(signalName)], operationMode)[0]
+
+
+def simxSetFloatSignal(clientID, signalName, signalValue, operationMode):
+    """Set a float signal: returnCode."""
+    return _command(clientID, "SetFloatSignal", lambda: [_str(signalName), _f32(_float(signalValue))],
+                    operationMode)[0]
+
+
+def simxGetFloatSignal(clientID, signalName, operationMode):
+    """``(returnCode, signalValue)``."""
+    return _command(clientID, "GetFloatSignal", lambda: [_str(signalName)], operationMode, _f32, 0.0)
+
+
+def simxClearFloatSignal(clientID, signalName, operationMode):
+    """Clear a float signal ("" clears them all): returnCode."""
+    return _command(clientID, "ClearFloatSignal", lambda: [_str(signalName)], operationMode)[0]
+
+
+def simxSetStringSignal(clientID, signalName, signalValue, operationMode):
+    """Set a string signal (str is UTF-8 encoded; bytes kept as they are): returnCode."""
+    return _command(clientID, "SetStringSignal", lambda: [_str(signalName), _signal_value(signalValue)],
+                    operationMode)[0]
+
+
+def simxGetStringSignal(clientID, signalName, operationMode):
+    """``(returnCode, signalValue)`` as a bytearray."""
+    return _command(clientID, "GetStringSignal", lambda: [_str(signalName)], operationMode, bytearray, bytearray())
+
+
+def simxGetAndClearStringSignal(clientID, signalName, operationMode):
+    """``(returnCode, signalValue)`` as a bytearray; the signal is cleared."""
+    return _command(clientID, "GetAndClearStringSignal", lambda: [_str(signalName)], operationMode,
+                    bytearray, bytearray())
+
+
+def simxClearStringSignal(clientID, signalName, operationMode):
+    """Clear a string signal ("" clears them all): returnCode."""
+    return _command(clientID, "ClearStringSignal", lambda: [_str(signalName)], operationMode)[0]
+
+
+def simxAppendStringSignal(clientID, signalName, signalValue, operationMode):
+    """Append to a string signal (created if missing): returnCode."""
+    return _command(clientID, "AppendStringSignal", lambda: [_str(signalName), _signal_value(signalValue)],
+                    operationMode)[0]
+
+
+def simxWriteStringStream(clientID, signalName, signalValue, operationMode):
+    """Append to a string signal used as a stream: returnCode."""
+    return _command(clientID, "WriteStringStream", lambda: [_str(signalName), _signal_value(signalValue)],
+                    operationMode)[0]
+
+
+def simxReadStringStream(clientID, signalName, operationMode):
+    """``(returnCode, signalValue)``: what was written to the stream since the last read
+    (streaming then buffer; blocking is refused with flag 4, as the legacy client did)."""
+    if _scalar(operationMode) == C.simx_opmode_blocking:
+        return C.simx_return_illegal_opmode_flag, bytearray()
+    return _command(clientID, "ReadStringStream", lambda: [_str(signalName)], operationMode,
+                    bytearray, bytearray())
+
+
+simxSetInt32Signal = simxSetIntegerSignal
+simxGetInt32Signal = simxGetIntegerSignal
+simxClearInt32Signal = simxClearIntegerSignal
+
+
+def simxQuery(clientID, signalName, signalValue, retSignalName, timeOutInMs):
+    """Set a string signal, then wait up to ``timeOutInMs`` for another to appear (and clear it):
+    ``(returnCode, retSignalValue)``."""
+    import time
+
+    rc = simxSetStringSignal(clientID, signalName, signalValue, C.simx_opmode_blocking)
+    if rc:
+        return rc, bytearray()
+    try:
+        deadline = time.monotonic() + _int(timeOutInMs) / 1000.0
+    except P.LocalError:
+        return C.simx_return_local_error_flag, bytearray()
+    while True:
+        rc, value = simxGetAndClearStringSignal(clientID, retSignalName, C.simx_opmode_blocking)
+        if rc == 0:
+            return rc, value
+        if time.monotonic() >= deadline:
+            return rc | C.simx_return_timeout_flag, bytearray()
+        time.sleep(0.005)
+
+
+# --------------------------------------------------------------- parameters
+def simxGetIntegerParameter(clientID, paramIdentifier, operationMode):
+    """``(returnCode, paramValue)`` of a sim_intparam_*."""
+    return _command(clientID, "GetIntegerParameter", lambda: [_int(paramIdentifier)], operationMode, int, 0)
+
+
+def simxSetIntegerParameter(clientID, paramIdentifier, paramValue, operationMode):
+    """Set a sim_intparam_*: returnCode."""
+    return _command(clientID, "SetIntegerParameter", lambda: [_int(paramIdentifier), _int(paramValue)],
+                    operationMode)[0]
+
+
+def simxGetFloatingParameter(clientID, paramIdentifier, operationMode):
+    """``(returnCode, paramValue)`` of a sim_floatparam_* (1: the simulation step in s)."""
+    return _command(clientID, "GetFloatingParameter", lambda: [_int(paramIdentifier)], operationMode, _f32, 0.0)
+
+
+def simxSetFloatingParameter(clientID, paramIdentifier, paramValue, operationMode):
+    """Set a sim_floatparam_*: returnCode."""
+    return _command(clientID, "SetFloatingParameter",
+                    lambda: [_int(paramIdentifier), _f32(_float(paramValue))], operationMode)[0]
+
+
+def simxGetBooleanParameter(clientID, paramIdentifier, operationMode):
+    """``(returnCode, paramValue)`` of a sim_boolparam_*."""
+    return _command(clientID, "GetBooleanParameter", lambda: [_int(paramIdentifier)], operationMode, bool, False)
+
+
+def simxSetBooleanParameter(clientID, paramIdentifier, paramValue, operationMode):
+    """Set a sim_boolparam_*: returnCode."""
+    return _command(clientID, "SetBooleanParameter", lambda: [_int(paramIdentifier), _bool(paramValue)],
+                    operationMode)[0]
+
+
+def simxGetStringParameter(clientID, paramIdentifier, operationMode):
+    """``(returnCode, paramValue)`` of a sim_stringparam_*."""
+    return _command(clientID, "GetStringParameter", lambda: [_int(paramIdentifier)], operationMode, str, "")
+
+
+def simxGetArrayParameter(clientID, paramIdentifier, operationMode):
+    """``(returnCode, paramValues)``: 3 floats (sim_arrayparam_gravity = 0: m/s²)."""
+    return _command(clientID, "GetArrayParameter", lambda: [_int(paramIdentifier)], operationMode,
+                    _f32_list, [0.0] * 3)
+
+
+def simxSetArrayParameter(clientID, paramIdentifier, paramValues, operationMode):
+    """Set 3 floats of a sim_arrayparam_*: returnCode."""
+    return _command(clientID, "SetArrayParameter", lambda: [_int(paramIdentifier), _floats(paramValues, 3)],
+                    operationMode)[0]
+
+
+simxGetInt32Param = simxGetIntegerParameter
+simxSetInt32Param = simxSetIntegerParameter
+simxGetFloatParam = simxGetFloatingParameter
+simxSetFloatParam = simxSetFloatingParameter
+simxGetBoolParam = simxGetBooleanParameter
+simxSetBoolParam = simxSetBooleanParameter
+simxGetStringParam = simxGetStringParameter
+simxGetArrayParam = simxGetArrayParameter
+simxSetArrayParam = simxSetArrayParameter
+
+
+# -------------------------------------------------------- messages and errors
+def simxAddStatusbarMessage(clientID, message, operationMode):
+    """Write a message to the server's log, prefixed by this client: returnCode."""
+    return _command(clientID, "AddStatusbarMessage", lambda: [_str(message)], operationMode)[0]
+
+
+def simxAuxiliaryConsoleOpen(clientID, title, maxLines, mode, position, size, textColor, backgroundColor,
+                             operationMode):
+    """Open an auxiliary console (its lines go to the server's log): ``(returnCode, consoleHandle)``."""
+    return _command(clientID, "AuxiliaryConsoleOpen", lambda: [_str(title), _int(maxLines), _int(mode)],
+                    operationMode, int, 0)
+
+
+def simxAuxiliaryConsoleClose(clientID, consoleHandle, operationMode):
+    """Close an auxiliary console: returnCode."""
+    return _command(clientID, "AuxiliaryConsoleClose", lambda: [_int(consoleHandle)], operationMode)[0]
+
+
+def simxAuxiliaryConsolePrint(clientID, consoleHandle, txt, operationMode):
+    """Print to an auxiliary console (None clears it): returnCode."""
+    return _command(clientID, "AuxiliaryConsolePrint",
+                    lambda: [_int(consoleHandle), None if txt is None else _str(txt)], operationMode)[0]
+
+
+def simxAuxiliaryConsoleShow(clientID, consoleHandle, showState, operationMode):
+    """Show or hide an auxiliary console (headless: only checks the handle): returnCode."""
+    return _command(clientID, "AuxiliaryConsoleShow", lambda: [_int(consoleHandle), _bool(showState)],
+                    operationMode)[0]
+
+
+def simxGetLastErrors(clientID, operationMode):
+    """``(returnCode, errors)``: this client's remote errors since the last call (then cleared)."""
+    return _command(clientID, "GetLastErrors", lambda: [], operationMode, list, [])
+
+
+# ------------------------------------------- GUI-only calls (honestly refused)
+def simxLoadUI(clientID, uiPathAndName, options, operationMode):
+    """Custom UIs need V-REP's GUI: remote error. ``(returnCode, uiHandles)``."""
+    return _command(clientID, "LoadUI", lambda: [_str(uiPathAndName), _int(options)], operationMode, list, [])
+
+
+def simxGetUIHandle(clientID, uiName, operationMode):
+    """Custom UIs need V-REP's GUI: remote error. ``(returnCode, handle)``."""
+    return _command(clientID, "GetUIHandle", lambda: [_str(uiName)], operationMode, int, 0)
+
+
+def simxGetUISlider(clientID, uiHandle, uiButtonID, operationMode):
+    """Custom UIs need V-REP's GUI: remote error. ``(returnCode, position)``."""
+    return _command(clientID, "GetUISlider", lambda: [_int(uiHandle), _int(uiButtonID)], operationMode, int, 0)
+
+
+def simxSetUISlider(clientID, uiHandle, uiButtonID, position, operationMode):
+    """Custom UIs need V-REP's GUI: remote error."""
+    return _command(clientID, "SetUISlider", lambda: [_int(uiHandle), _int(uiButtonID), _int(position)],
+                    operationMode)[0]
+
+
+def simxGetUIEventButton(clientID, uiHandle, operationMode):
+    """Custom UIs need V-REP's GUI: remote error. ``(returnCode, uiEventButtonID, auxValues)``."""
+    rc, value = _command(clientID, "GetUIEventButton", lambda: [_int(uiHandle)], operationMode, tuple, None)
+    return (rc, 0, [0, 0]) if value is None else (rc, *value)
+
+
+def simxGetUIButtonProperty(clientID, uiHandle, uiButtonID, operationMode):
+    """Custom UIs need V-REP's GUI: remote error. ``(returnCode, prop)``."""
+    return _command(clientID, "GetUIButtonProperty", lambda: [_int(uiHandle), _int(uiButtonID)],
+                    operationMode, int, 0)
+
+
+def simxSetUIButtonProperty(clientID, uiHandle, uiButtonID, prop, operationMode):
+    """Custom UIs need V-REP's GUI: remote error."""
+    return _command(clientID, "SetUIButtonProperty", lambda: [_int(uiHandle), _int(uiButtonID), _int(prop)],
+                    operationMode)[0]
+
+
+def simxSetUIButtonLabel(clientID, uiHandle, uiButtonID, upStateLabel, downStateLabel, operationMode):
+    """Custom UIs need V-REP's GUI: remote error."""
+    return _command(clientID, "SetUIButtonLabel",
+                    lambda: [_int(uiHandle), _int(uiButtonID), _str(upStateLabel), _str(downStateLabel)],
+                    operationMode)[0]
+
+
+def simxRemoveUI(clientID, uiHandle, operationMode):
+    """Custom UIs need V-REP's GUI: remote error."""
+    return _command(clientID, "RemoveUI", lambda: [_int(uiHandle)], operationMode)[0]
+
+
+def simxDisplayDialog(clientID, titleText, mainText, dialogType, initialText, titleColors, dialogColors,
+                      operationMode):
+    """Dialogs need V-REP's GUI: remote error. ``(returnCode, dialogHandle, uiHandle)``."""
+    rc, value = _command(clientID, "DisplayDialog",
+                         lambda: [_str(titleText), _str(mainText), _int(dialogType), _str(initialText)],
+                         operationMode, tuple, None)
+    return (rc, 0, 0) if value is None else (rc, *value)
+
+
+def simxEndDialog(clientID, dialogHandle, operationMode):
+    """Dialogs need V-REP's GUI: remote error."""
+    return _command(clientID, "EndDialog", lambda: [_int(dialogHandle)], operationMode)[0]
+
+
+def simxGetDialogInput(clientID, dialogHandle, operationMode):
+    """Dialogs need V-REP's GUI: remote error. ``(returnCode, inputText)``."""
+    return _command(clientID, "GetDialogInput", lambda: [_int(dialogHandle)], operationMode, str, "")
+
+
+def simxGetDialogResult(clientID, dialogHandle, operationMode):
+    """Dialogs need V-REP's GUI: remote error. ``(returnCode, result)``."""
+    return _command(clientID, "GetDialogResult", lambda: [_int(dialogHandle)], operationMode, int, 0)
+
+
+# ------------------------------------------------------ connection details
+def simxGetInMessageInfo(clientID, infoType):
+    """``(result, info)`` about the last message received: result 1, or -1 when not connected or
+    ``infoType`` is not a simx_headeroffset_* field."""
+    conn = _connection(clientID)
+    try:
+        info = None if conn is None else conn.in_message_info(_int(infoType))
+    except P.LocalError:
+        info = None
+    return (-1, 0) if info is None else (1, info)
+
+
+def simxGetOutMessageInfo(clientID, infoType):
+    """``(result, info)`` about the last message sent: result 1, or -1."""
+    conn = _connection(clientID)
+    try:
+        info = None if conn is None else conn.out_message_info(_int(infoType))
+    except P.LocalError:
+        info = None
+    return (-1, 0) if info is None else (1, info)
+
+
+def simxCreateBuffer(bufferSize):
+    """A zeroed ctypes ``c_ubyte`` buffer of ``bufferSize`` bytes (pointer), as the legacy call gave."""
+    import ctypes
+
+    return ctypes.cast((ctypes.c_ubyte * _int(bufferSize))(), ctypes.POINTER(ctypes.c_ubyte))
+
+
+def simxReleaseBuffer(buffer):
+    """Release a buffer of :func:`simxCreateBuffer` (Python's memory management frees it): None."""
+    return None
+
+
+def _floats(values: Any, n: int) -> list[float]:
+    out = [_f32(_float(v)) for v in np.asarray(values, dtype=object).reshape(-1)]
+    if len(out) != n:
+        raise P.LocalError(f"expected {n} values, got {len(out)}")
+    return out

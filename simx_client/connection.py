@@ -6,10 +6,15 @@ sends its command; ``blocking`` waits for the fresh reply and consumes it; the o
 from the inbox (the newest reply of the same command), or "no value" (flag 1). Replies of
 non-blocking commands and every streamed update land in the inbox, where they stay until
 read by a blocking call, removed, discontinued or the connection ends.
+
+The server's liveliness token tells whether it is there: when it goes, the connection id
+turns -1; when it comes back and the client may reconnect, the handshake and every stream
+are sent again and the connection gets a new id.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import logging
 import threading
@@ -26,6 +31,9 @@ log = logging.getLogger("simx.client")
 
 DEFAULT_BLOCKING_TIMEOUT = 5.0  # s, _REPLY_WAIT_TIMEOUT_IN_MS
 _NO_VALUE = (C.simx_return_novalue_flag, None)
+_connection_ids = itertools.count(1)
+_STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
+_SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
 
 
 def client_config(address: str, port: int) -> zenoh.Config:
@@ -43,39 +51,57 @@ class Connection:
     Args:
         address, port: where the server listens (``simxStart``'s first two arguments).
         blocking_timeout: s a blocking call waits for its reply.
-        hello_timeout: s to wait for the server's handshake (default: blocking_timeout).
         prefix: the server's key-expression prefix.
+        hello_timeout: s to wait for the server's handshake (default: blocking_timeout).
+        reconnect: whether to resume after the server went away (``not doNotReconnectOnceDisconnected``).
 
     Raises:
         zenoh.ZError: nothing listens at ``address:port``.
-        ConnectionError: the peer does not answer as a simx server within ``blocking_timeout``.
+        TimeoutError: the peer does not answer as a simx server in time.
         ProtocolError: the server speaks another protocol version.
     """
 
     def __init__(self, address: str, port: int, blocking_timeout: float = DEFAULT_BLOCKING_TIMEOUT,
-                 prefix: str = P.DEFAULT_PREFIX, hello_timeout: float | None = None):
+                 prefix: str = P.DEFAULT_PREFIX, hello_timeout: float | None = None, reconnect: bool = False):
         self.address, self.port, self.prefix = address, port, prefix
         self.client = uuid.uuid4().hex
         self.blocking_timeout = blocking_timeout
+        self.reconnect = reconnect
         self.last_cmd_time = 0  # ms, simxGetLastCmdTime
-        self.server_state = 0
+        self.connection_id = next(_connection_ids)
+        self._alive = True
         self._lock = threading.Lock()
         self._inbox: dict[tuple, tuple[bool, Any, int]] = {}
-        self._streams: set[tuple] = set()
+        self._streams: dict[tuple, list] = {}  # identity -> the [name, mode, args] that streams it
+        self._in_flight: dict[tuple, int] = {}  # split commands sent and not answered yet
         self._outbox: dict[Any, list] = {}
         self._paused = False
         self._key = P.call_key(prefix)
+        self._messages = itertools.count(1)
+        self._t0 = time.monotonic()
+        self._out = {C.simx_headeroffset_message_id: 0, C.simx_headeroffset_client_time: 0}
+        self._in = {C.simx_headeroffset_message_id: 0, C.simx_headeroffset_client_time: 0,
+                    C.simx_headeroffset_server_time: 0, C.simx_headeroffset_scene_id: 0,
+                    C.simx_headeroffset_server_state: 0}
         self.session = zenoh.open(client_config(address, port))
         try:
             self._subscriber = self.session.declare_subscriber(
                 P.stream_key(prefix, self.client), self._on_stream)
             self.server_info = self.request([["Hello", P.MODE_BLOCKING, []]], hello_timeout)[0][1]
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
+            self._watch = self.session.liveliness().declare_subscriber(
+                P.server_token_key(prefix), self._on_server_token)
         except BaseException:
             self.session.close()
             raise
 
     # --------------------------------------------------------------- transport
+    def _payload(self, commands: list[list]) -> tuple[bytes, dict]:
+        header = {C.simx_headeroffset_message_id: next(self._messages),
+                  C.simx_headeroffset_client_time: int((time.monotonic() - self._t0) * 1000)}
+        self._out = header
+        return P.request(self.client, commands), header
+
     def request(self, commands: list[list], timeout: float | None = None) -> list[list]:
         """Send commands and wait for their results ``[[ok, value], ...]``.
 
@@ -83,45 +109,66 @@ class Connection:
             TimeoutError: no reply within the timeout (the server is gone or too slow).
             ProtocolError: the server refused the request.
         """
-        replies = self.session.get(self._key, payload=P.request(self.client, commands),
+        payload, header = self._payload(commands)
+        replies = self.session.get(self._key, payload=payload,
                                    timeout=self.blocking_timeout if timeout is None else timeout)
         for reply in replies:
             if reply.ok is not None:
-                return self._results(reply.ok.payload.to_bytes())
+                message = self._accept(reply.ok.payload.to_bytes(), header)
+                self.last_cmd_time = message["t"]
+                return message["r"]
         raise TimeoutError(f"no reply from the simx server at {self.address}:{self.port}")
 
-    def _results(self, payload: bytes) -> list[list]:
+    def _accept(self, payload: bytes, header: dict) -> dict:
         message = P.unpack(payload)
         if "err" in message:
             raise P.ProtocolError(f"server refused the request: {message['err']}")
-        self.last_cmd_time = message["t"]
-        self.server_state = message["s"]
-        return message["r"]
+        self._in = {**header, C.simx_headeroffset_server_time: message.get("w", 0),
+                    C.simx_headeroffset_scene_id: message.get("sc", 0),
+                    C.simx_headeroffset_server_state: message["s"]}
+        return message
 
     def _send_async(self, commands: list[list]) -> None:
+        payload, header = self._payload(commands)
+        split = [P.identity(n, a) for n, m, a in commands if m & P.MODE_MASK in _SPLIT]
+
         def on_reply(reply: zenoh.Reply) -> None:
             if reply.ok is None:
                 return
             try:
-                message = P.unpack(reply.ok.payload.to_bytes())
+                message = self._accept(reply.ok.payload.to_bytes(), header)
             except P.ProtocolError as exc:
-                log.warning("unreadable reply: %s", exc)
-                return
-            if "err" in message:
-                log.warning("server refused a request: %s", message["err"])
+                log.warning("%s", exc)
                 return
             t = message["t"]
             with self._lock:
-                self.server_state = message["s"]
                 for (name, mode, args), (ok, value) in zip(commands, message["r"]):
                     if mode & P.MODE_MASK != P.MODE_DISCONTINUE:
-                        self._inbox[P.identity(name, args)] = (ok, value, t)
+                        self._store(P.identity(name, args), ok, value, t)
 
+        def on_done() -> None:
+            with self._lock:
+                for ident in split:
+                    self._in_flight[ident] -= 1
+                    if not self._in_flight[ident]:
+                        del self._in_flight[ident]
+
+        with self._lock:
+            for ident in split:
+                self._in_flight[ident] = self._in_flight.get(ident, 0) + 1
         try:
-            self.session.get(self._key, on_reply, payload=P.request(self.client, commands),
+            self.session.get(self._key, zenoh.handlers.Callback(on_reply, on_done), payload=payload,
                              timeout=self.blocking_timeout)
         except zenoh.ZError as exc:
+            on_done()
             log.warning("sending %d command(s) failed: %s", len(commands), exc)
+
+    def _store(self, ident: tuple, ok: bool, value: Any, t: int) -> None:
+        """Put a reply in the inbox (lock held): the newest replaces, string streams add up."""
+        old = self._inbox.get(ident)
+        if ident[0] in P.ACCUMULATE and ok and old is not None and old[0]:
+            value = old[1] + value
+        self._inbox[ident] = (ok, value, t)
 
     def _on_stream(self, sample: zenoh.Sample) -> None:
         try:
@@ -134,7 +181,30 @@ class Connection:
             for name, id_args, ok, value in message["r"]:
                 ident = (name, *(P._hashable(a) for a in id_args))
                 if ident in self._streams:
-                    self._inbox[ident] = (ok, value, t)
+                    self._store(ident, ok, value, t)
+
+    def _on_server_token(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.DELETE:
+            if self._alive:
+                log.warning("simx server at %s:%d went away", self.address, self.port)
+            self._alive = False
+        elif not self._alive and self.reconnect:
+            threading.Thread(target=self._resume, daemon=True).start()
+
+    def _resume(self) -> None:
+        """The server is back: handshake again and restart every stream."""
+        try:
+            self.server_info = self.request([["Hello", P.MODE_BLOCKING, []]])[0][1]
+        except (TimeoutError, P.ProtocolError, zenoh.ZError) as exc:
+            log.warning("reconnecting to %s:%d failed: %s", self.address, self.port, exc)
+            return
+        with self._lock:
+            streams = list(self._streams.values())
+            self.connection_id = next(_connection_ids)
+            self._alive = True
+        if streams:
+            self._send_async(streams)
+        log.info("reconnected to the simx server at %s:%d", self.address, self.port)
 
     # ------------------------------------------------------------ legacy modes
     def call(self, name: str, args: list, mode: int) -> tuple[int, Any]:
@@ -153,24 +223,26 @@ class Connection:
             return C.simx_return_ok, None
         if base == P.MODE_BLOCKING:
             with self._lock:
-                self._streams.discard(ident)
+                self._streams.pop(ident, None)
                 self._inbox.pop(ident, None)
             try:
                 ok, value = self.request([[name, mode, args]])[0]
-            except TimeoutError:
+            except (TimeoutError, zenoh.ZError):
                 return C.simx_return_timeout_flag | C.simx_return_novalue_flag, None
             except P.ProtocolError as exc:
                 log.warning("simx%s: %s", name, exc)
                 return C.simx_return_remote_error_flag, str(exc)
             return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
-        if base not in (P.MODE_ONESHOT, P.MODE_STREAMING, P.MODE_ONESHOT_SPLIT,
-                        P.MODE_STREAMING_SPLIT, P.MODE_DISCONTINUE):
+        if base not in (P.MODE_ONESHOT, P.MODE_DISCONTINUE, *_STREAMING, *_SPLIT):
             return C.simx_return_illegal_opmode_flag, None
         with self._lock:
-            if base in (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT):
-                self._streams.add(ident)
+            if base in _SPLIT and ident in self._in_flight:
+                rc, value = self._read_locked(ident)
+                return rc | C.simx_return_split_progress_flag, value
+            if base in _STREAMING:
+                self._streams[ident] = [name, mode, args]
             else:
-                self._streams.discard(ident)
+                self._streams.pop(ident, None)
             if base == P.MODE_DISCONTINUE:
                 self._inbox.pop(ident, None)
             if self._paused:
@@ -190,6 +262,8 @@ class Connection:
         if entry is None:
             return _NO_VALUE
         ok, value, t = entry
+        if ident[0] in P.ACCUMULATE:
+            del self._inbox[ident]  # a string stream's data is handed out once
         self.last_cmd_time = t
         return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
 
@@ -201,6 +275,22 @@ class Connection:
                 return
             batch, self._outbox = list(self._outbox.values()), {}
         self._send_async(batch)
+
+    def in_message_info(self, info_type: int) -> int | None:
+        """A field of the last message received (simx_headeroffset_*), None if unknown."""
+        return self._header(self._in, info_type)
+
+    def out_message_info(self, info_type: int) -> int | None:
+        """A field of the last message sent (simx_headeroffset_*), None if unknown."""
+        return self._header(self._out, info_type)
+
+    @staticmethod
+    def _header(fields: dict, info_type: int) -> int | None:
+        if info_type == C.simx_headeroffset_version:
+            return C.SIMX_VERSION
+        if info_type == C.simx_headeroffset_crc:
+            return 0  # no CRC: Zenoh's transport checks integrity
+        return fields.get(info_type)
 
     def close(self) -> None:
         """Send what is held, say goodbye and close the session; idempotent, never hangs."""
@@ -221,21 +311,22 @@ class Connection:
 
     @property
     def connected(self) -> bool:
-        return "session" in self.__dict__ and not self.session.is_closed()
+        """Whether the session is open and the server's liveliness token is seen."""
+        return "session" in self.__dict__ and self._alive and not self.session.is_closed()
 
 
 def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_timeout: float,
-                 prefix: str = P.DEFAULT_PREFIX) -> Connection | None:
+                 reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX) -> Connection | None:
     """Connect to a simx server, retrying until ``timeout`` s when ``wait``; None on failure."""
     deadline = time.monotonic() + timeout
     while True:
         try:
-            return Connection(address, port, blocking_timeout, prefix,
+            return Connection(address, port, blocking_timeout, prefix, reconnect=reconnect,
                               hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())))
         except P.ProtocolError as exc:
             log.error("simxStart(%s, %d): %s", address, port, exc)
             return None
-        except (zenoh.ZError, TimeoutError, ConnectionError) as exc:
+        except (zenoh.ZError, TimeoutError) as exc:
             if not wait or time.monotonic() >= deadline:
                 log.info("simxStart(%s, %d): no simx server: %s", address, port, exc)
                 return None

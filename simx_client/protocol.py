@@ -15,7 +15,8 @@ Key expressions (``prefix`` defaults to ``"simx"``):
 Messages are msgpack maps with short keys:
 
 * request  ``{"v": PROTOCOL_VERSION, "c": client, "cmds": [[name, mode, args], ...]}``
-* response ``{"v": PROTOCOL_VERSION, "t": sim_time_ms, "s": server_state, "r": [[ok, value], ...]}``
+* response ``{"v": PROTOCOL_VERSION, "t": sim_time_ms, "s": server_state, "w": server_time_ms,
+  "sc": scene_id, "r": [[ok, value], ...]}``
   where ``value`` is the command's result when ``ok`` is true and an error message otherwise;
   a request that cannot be read at all gets ``{"v": PROTOCOL_VERSION, "err": message}``.
 * stream update ``{"v": PROTOCOL_VERSION, "t": sim_time_ms, "r": [[name, id_args, ok, value], ...]}``
@@ -53,34 +54,59 @@ MODE_ARG_MASK = 0x00FFFF
 #: same name and identifying arguments are "the same command" for the legacy inbox, the
 #: outbox overwrite rule and server-side streams (extApi.c's _getCommandPointer_*).
 COMMANDS: dict[str, int] = {
-    "Hello": 0,
-    "Bye": 0,
-    "GetPingTime": 0,
-    "GetObjectHandle": 1,
-    "GetObjects": 1,
-    "GetJointPosition": 1,
-    "SetJointPosition": 1,
-    "SetJointTargetPosition": 1,
-    "SetJointTargetVelocity": 1,
-    "SetJointForce": 1,
-    "GetJointForce": 1,
-    "GetJointMaxForce": 1,
-    "GetObjectPosition": 2,
-    "GetObjectOrientation": 2,
-    "GetObjectQuaternion": 2,
-    "StartSimulation": 0,
-    "StopSimulation": 0,
-    "PauseSimulation": 0,
-    "Synchronous": 0,
-    "SynchronousTrigger": 0,
-    "GetVisionSensorImage": 2,
-    "GetVisionSensorDepthBuffer": 1,
+    # connection and simulation
+    "Hello": 0, "Bye": 0, "GetPingTime": 0, "StartSimulation": 0, "StopSimulation": 0,
+    "PauseSimulation": 0, "Synchronous": 0, "SynchronousTrigger": 0,
+    # objects
+    "GetObjectHandle": 1, "GetObjects": 1, "GetObjectChild": 2, "GetObjectParent": 1,
+    "GetObjectPosition": 2, "GetObjectOrientation": 2, "GetObjectQuaternion": 2,
+    "SetObjectPosition": 2, "SetObjectOrientation": 2, "SetObjectQuaternion": 2,
+    "SetObjectParent": 1, "GetObjectVelocity": 1, "GetObjectGroupData": 2,
+    "GetObjectSelection": 0, "SetObjectSelection": 0, "GetModelProperty": 1, "SetModelProperty": 1,
+    "GetObjectFloatParameter": 2, "SetObjectFloatParameter": 2,
+    "GetObjectIntParameter": 2, "SetObjectIntParameter": 2,
+    # joints
+    "GetJointPosition": 1, "SetJointPosition": 1, "SetJointTargetPosition": 1,
+    "SetJointTargetVelocity": 1, "SetJointForce": 1, "GetJointForce": 1, "GetJointMaxForce": 1,
+    "GetJointMatrix": 1, "SetSphericalJointMatrix": 1,
+    # sensors
+    "GetVisionSensorImage": 2, "GetVisionSensorDepthBuffer": 1, "SetVisionSensorImage": 1,
+    "ReadVisionSensor": 1, "ReadProximitySensor": 1, "ReadForceSensor": 1, "BreakForceSensor": 1,
+    # collision and distance
+    "GetCollisionHandle": 1, "GetDistanceHandle": 1, "GetCollectionHandle": 1,
+    "ReadCollision": 1, "ReadDistance": 1, "CheckCollision": 2, "CheckDistance": 2,
+    # scripts, signals, parameters
     "CallScriptFunction": 3,
+    "SetIntegerSignal": 1, "GetIntegerSignal": 1, "ClearIntegerSignal": 1,
+    "SetFloatSignal": 1, "GetFloatSignal": 1, "ClearFloatSignal": 1,
+    "SetStringSignal": 1, "GetStringSignal": 1, "ClearStringSignal": 1,
+    "AppendStringSignal": 1, "GetAndClearStringSignal": 1,
+    "WriteStringStream": 1, "ReadStringStream": 1,
+    "GetIntegerParameter": 1, "SetIntegerParameter": 1, "GetFloatingParameter": 1,
+    "SetFloatingParameter": 1, "GetBooleanParameter": 1, "SetBooleanParameter": 1,
+    "GetStringParameter": 1, "GetArrayParameter": 1, "SetArrayParameter": 1,
+    # scene editing
+    "TransferFile": 1, "EraseFile": 1, "LoadModel": 1, "LoadScene": 1, "CloseScene": 0,
+    "RemoveObject": 1, "RemoveModel": 1, "CopyPasteObjects": 0, "CreateDummy": 0,
+    # messages
+    "AddStatusbarMessage": 0, "AuxiliaryConsoleOpen": 0, "AuxiliaryConsoleClose": 1,
+    "AuxiliaryConsolePrint": 1, "AuxiliaryConsoleShow": 1, "GetLastErrors": 0,
+    # V-REP GUI only (refused by the server)
+    "LoadUI": 1, "GetUIHandle": 1, "GetUISlider": 2, "SetUISlider": 2, "GetUIEventButton": 1,
+    "GetUIButtonProperty": 2, "SetUIButtonProperty": 2, "SetUIButtonLabel": 2, "RemoveUI": 1,
+    "DisplayDialog": 0, "EndDialog": 1, "GetDialogInput": 1, "GetDialogResult": 1,
 }
 
 #: Commands that are never overwritten in the outbox nor replaced on the server (legacy
 #: "do not overwrite" option bit): each call is executed.
-DO_NOT_OVERWRITE = frozenset({"CallScriptFunction"})
+DO_NOT_OVERWRITE = frozenset({
+    "CallScriptFunction", "AddStatusbarMessage", "CreateDummy", "AuxiliaryConsolePrint",
+    "CopyPasteObjects", "AppendStringSignal", "WriteStringStream",
+})
+
+#: Streamed commands whose successive results add up in the client's inbox until read
+#: (simxReadStringStream: every step's new data is appended, a read takes it all).
+ACCUMULATE = frozenset({"ReadStringStream"})
 
 
 class SimxError(Exception):
@@ -202,9 +228,10 @@ def parse_request(payload: bytes) -> tuple[str, list[tuple[str, int, list]]]:
     return client, parsed
 
 
-def response(sim_time_ms: int, state: int, results: list) -> bytes:
+def response(sim_time_ms: int, state: int, results: list, server_time_ms: int = 0, scene_id: int = 0) -> bytes:
     """Encode a response: ``results`` is a list of ``[ok, value_or_message]``."""
-    return pack({"v": PROTOCOL_VERSION, "t": sim_time_ms, "s": state, "r": results})
+    return pack({"v": PROTOCOL_VERSION, "t": sim_time_ms, "s": state, "w": server_time_ms, "sc": scene_id,
+                 "r": results})
 
 
 def error_response(message: str) -> bytes:

@@ -7,11 +7,19 @@ facade sends (see docs/PROTOCOL.md); every value is checked here, never trusted.
 
 from __future__ import annotations
 
+import math
+import os
+import random
+import sys
+from pathlib import Path
 from typing import Any, Callable
 
+import mujoco
+import numpy as np
+
 from simx_client import constants as C
-from simx_client.protocol import PROTOCOL_VERSION, ArgumentError
-from simx_server.simulation import Simulation
+from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, UnknownObjectError, UnsupportedError
+from simx_server.simulation import RunState, Simulation
 
 Handler = Callable[[Simulation, list], Any]
 
@@ -121,6 +129,200 @@ def get_object_quaternion(sim: Simulation, args: list) -> list[float]:
     return sim.world.quaternion(*_pose_args(sim, args))
 
 
+def get_object_child(sim: Simulation, args: list) -> int:
+    h, index = _args(args, "int", "int")
+    children = sim.world.children(h)
+    return children[index] if 0 <= index < len(children) else -1
+
+
+def get_object_parent(sim: Simulation, args: list) -> int:
+    (h,) = _args(args, "int")
+    return sim.world.get(h).parent
+
+
+def _floats(value: Any, n: int, what: str) -> list[float]:
+    if not isinstance(value, list) or len(value) != n:
+        raise ArgumentError(f"{what} must be a list of {n} numbers")
+    return [_float(v, what) for v in value]
+
+
+def _pose_set_args(sim: Simulation, args: list, n: int, what: str) -> tuple[int, int, list[float]]:
+    h, rel, values = _args(args, "int", "int", "any")
+    return (*_pose_args(sim, [h, rel]), _floats(values, n, what))
+
+
+def set_object_position(sim: Simulation, args: list) -> None:
+    h, rel, position = _pose_set_args(sim, args, 3, "position")
+    sim.world.set_pose(h, rel, position=position)
+
+
+def set_object_orientation(sim: Simulation, args: list) -> None:
+    h, rel, (a, b, g) = _pose_set_args(sim, args, 3, "Euler angles")
+    ca, sa, cb, sb, cg, sg = math.cos(a), math.sin(a), math.cos(b), math.sin(b), math.cos(g), math.sin(g)
+    rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
+    ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+    rz = np.array([[cg, -sg, 0], [sg, cg, 0], [0, 0, 1]])
+    sim.world.set_pose(h, rel, rotation=rx @ ry @ rz)
+
+
+def set_object_quaternion(sim: Simulation, args: list) -> None:
+    h, rel, (x, y, z, w) = _pose_set_args(sim, args, 4, "quaternion")
+    q = np.array([w, x, y, z])
+    norm = np.linalg.norm(q)
+    if norm < 1e-9:
+        raise ArgumentError("quaternion must not be zero")
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, q / norm)
+    sim.world.set_pose(h, rel, rotation=rot.reshape(3, 3))
+
+
+def get_object_selection(sim: Simulation, args: list) -> list[int]:
+    _args(args)
+    sim.selection = [h for h in sim.selection if h in sim.world.objects]
+    return list(sim.selection)
+
+
+def set_object_selection(sim: Simulation, args: list) -> None:
+    (handles,) = _args(args, "any")
+    if not isinstance(handles, list):
+        raise ArgumentError("object handles must be a list")
+    for h in handles:
+        sim.world.get(_int(h, "object handle"))
+    sim.selection = list(dict.fromkeys(handles))
+
+
+MODELPROPERTY_NOT_MODEL = 0xF000  # sim_modelproperty_not_model
+
+
+def get_model_property(sim: Simulation, args: list) -> int:
+    """A body directly under the world with bodies below it is a model (all its parts on: 0)."""
+    (h,) = _args(args, "int")
+    obj = sim.world.get(h)
+    is_model = obj.parent == -1 and obj.type == 0 and bool(sim.world.children(h))
+    return 0 if is_model else MODELPROPERTY_NOT_MODEL
+
+
+def set_model_property(sim: Simulation, args: list) -> None:
+    h, _prop = _args(args, "int", "int")
+    sim.world.get(h)
+    raise UnsupportedError("model properties (collidable, renderable, dynamic...) cannot be switched in MuJoCo "
+                           "at run time; edit the MJCF (contype/conaffinity, group, mass) instead")
+
+
+def get_collection_handle(sim: Simulation, args: list) -> int:
+    (name,) = _args(args, "str")
+    raise UnknownObjectError(f"collection {name!r} does not exist: simx scenes declare no collections")
+
+
+# Parameters: what has a MuJoCo meaning (ids from vrepConst.py).
+INTPARAM_DYNAMIC_STEP_DIVIDER, INTPARAM_PLATFORM, INTPARAM_CORE_COUNT, INTPARAM_STOP_REQUEST_COUNTER = 7, 19, 24, 29
+FLOATPARAM_RAND, FLOATPARAM_SIMULATION_TIME_STEP = 0, 1
+BOOLPARAM_DYNAMICS_HANDLING, BOOLPARAM_DISPLAY_ENABLED, BOOLPARAM_REALTIME = 6, 16, 25
+BOOLPARAM_HEADLESS, BOOLPARAM_WAITING_FOR_TRIGGER = 34, 45
+STRINGPARAM_APPLICATION_PATH, STRINGPARAM_SCENE_PATH_AND_NAME = 0, 13
+ARRAYPARAM_GRAVITY = 0
+
+
+def _unsupported_param(kind: str, pid: int) -> UnsupportedError:
+    return UnsupportedError(f"{kind} parameter {pid} has no meaning in simx (see docs/API.md for the supported ids)")
+
+
+def get_integer_parameter(sim: Simulation, args: list) -> int:
+    (pid,) = _args(args, "int")
+    values = {
+        INTPARAM_DYNAMIC_STEP_DIVIDER: lambda: sim.world.substeps,
+        INTPARAM_PLATFORM: lambda: 0 if sys.platform.startswith("win") else 1 if sys.platform == "darwin" else 2,
+        INTPARAM_CORE_COUNT: lambda: os.cpu_count() or 1,
+        INTPARAM_STOP_REQUEST_COUNTER: lambda: sim.stop_requests,
+    }
+    if pid not in values:
+        raise _unsupported_param("integer", pid)
+    return int(values[pid]())
+
+
+def set_integer_parameter(sim: Simulation, args: list) -> None:
+    pid, _value = _args(args, "int", "int")
+    if pid in (INTPARAM_DYNAMIC_STEP_DIVIDER, INTPARAM_PLATFORM, INTPARAM_CORE_COUNT, INTPARAM_STOP_REQUEST_COUNTER):
+        raise RemoteError(f"integer parameter {pid} is read-only")
+    raise _unsupported_param("integer", pid)
+
+
+def get_floating_parameter(sim: Simulation, args: list) -> float:
+    (pid,) = _args(args, "int")
+    if pid == FLOATPARAM_SIMULATION_TIME_STEP:
+        return sim.world.dt
+    if pid == FLOATPARAM_RAND:
+        return random.random()
+    raise _unsupported_param("float", pid)
+
+
+def set_floating_parameter(sim: Simulation, args: list) -> None:
+    pid, value = _args(args, "int", "float")
+    if pid != FLOATPARAM_SIMULATION_TIME_STEP:
+        raise _unsupported_param("float", pid)
+    if sim.state is not RunState.STOPPED:
+        raise RemoteError("the simulation time step can only change while the simulation is stopped")
+    sim.world.set_dt(value)
+
+
+def get_boolean_parameter(sim: Simulation, args: list) -> bool:
+    (pid,) = _args(args, "int")
+    values = {
+        BOOLPARAM_DYNAMICS_HANDLING: True,
+        BOOLPARAM_DISPLAY_ENABLED: False,
+        BOOLPARAM_HEADLESS: True,
+        BOOLPARAM_REALTIME: sim.realtime,
+        BOOLPARAM_WAITING_FOR_TRIGGER: sim.synchronous and sim.state is RunState.RUNNING,
+    }
+    if pid not in values:
+        raise _unsupported_param("boolean", pid)
+    return values[pid]
+
+
+def set_boolean_parameter(sim: Simulation, args: list) -> None:
+    pid, value = _args(args, "int", "any")
+    if pid != BOOLPARAM_REALTIME:
+        raise _unsupported_param("boolean", pid)
+    sim.realtime = bool(value)
+
+
+def get_string_parameter(sim: Simulation, args: list) -> str:
+    (pid,) = _args(args, "int")
+    if pid == STRINGPARAM_APPLICATION_PATH:
+        return str(Path(__file__).resolve().parent)
+    if pid == STRINGPARAM_SCENE_PATH_AND_NAME:
+        return str(sim.world.scene_path)
+    raise _unsupported_param("string", pid)
+
+
+def get_array_parameter(sim: Simulation, args: list) -> list[float]:
+    (pid,) = _args(args, "int")
+    if pid != ARRAYPARAM_GRAVITY:
+        raise _unsupported_param("array", pid)
+    return sim.world.model.opt.gravity.tolist()
+
+
+def set_array_parameter(sim: Simulation, args: list) -> None:
+    pid, values = _args(args, "int", "any")
+    if pid != ARRAYPARAM_GRAVITY:
+        raise _unsupported_param("array", pid)
+    sim.world.model.opt.gravity[:] = _floats(values, 3, "gravity")
+
+
+def gui_only(name: str) -> Handler:
+    """Handler for a call that needs V-REP's GUI (custom UIs, dialogs): always a remote error."""
+
+    def handler(sim: Simulation, args: list) -> None:
+        raise UnsupportedError(f"simx{name} needs V-REP's graphical user interface; simx is headless")
+
+    return handler
+
+
+GUI_ONLY = ("LoadUI", "GetUIHandle", "GetUISlider", "SetUISlider", "GetUIEventButton", "GetUIButtonProperty",
+            "SetUIButtonProperty", "SetUIButtonLabel", "RemoveUI", "DisplayDialog", "EndDialog",
+            "GetDialogInput", "GetDialogResult")
+
+
 def start_simulation(sim: Simulation, args: list) -> None:
     _args(args)
     sim.start()
@@ -181,4 +383,24 @@ HANDLERS: dict[str, Handler] = {
     "GetVisionSensorImage": get_vision_sensor_image,
     "GetVisionSensorDepthBuffer": get_vision_sensor_depth_buffer,
     "CallScriptFunction": call_script_function,
+    "GetObjectChild": get_object_child,
+    "GetObjectParent": get_object_parent,
+    "SetObjectPosition": set_object_position,
+    "SetObjectOrientation": set_object_orientation,
+    "SetObjectQuaternion": set_object_quaternion,
+    "GetObjectSelection": get_object_selection,
+    "SetObjectSelection": set_object_selection,
+    "GetModelProperty": get_model_property,
+    "SetModelProperty": set_model_property,
+    "GetCollectionHandle": get_collection_handle,
+    "GetIntegerParameter": get_integer_parameter,
+    "SetIntegerParameter": set_integer_parameter,
+    "GetFloatingParameter": get_floating_parameter,
+    "SetFloatingParameter": set_floating_parameter,
+    "GetBooleanParameter": get_boolean_parameter,
+    "SetBooleanParameter": set_boolean_parameter,
+    "GetStringParameter": get_string_parameter,
+    "GetArrayParameter": get_array_parameter,
+    "SetArrayParameter": set_array_parameter,
+    **{name: gui_only(name) for name in GUI_ONLY},
 }

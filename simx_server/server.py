@@ -28,6 +28,7 @@ log = logging.getLogger("simx.server")
 DEFAULT_HOSTS = ("127.0.0.1",)
 DEFAULT_PORTS = (19997, 19999)
 _DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
+_MAX_ERRORS = 50  # errors kept per client for simxGetLastErrors
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
@@ -72,6 +73,9 @@ class Server:
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._clients: set[str] = set()
         self._sync_owner: str | None = None
+        self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
+        self._consoles: dict[int, str] = {}  # auxiliary console handle -> title
+        self._t0 = time.monotonic()
         self.session: zenoh.Session | None = None
 
     # ------------------------------------------------------------ zenoh side
@@ -107,7 +111,6 @@ class Server:
     def serve(self) -> None:
         """Run the simulation loop until request_stop()."""
         sim = self.sim
-        period = sim.world.dt / self.speed if self.speed > 0 else 0.0
         next_tick = time.monotonic()
         while not self._stopping.is_set():
             now = time.monotonic()
@@ -120,7 +123,7 @@ class Server:
             self._drain()  # requests are always served between steps, even at full speed
             if self._stepping():
                 self._step()
-                interval = period
+                interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
             else:
                 if sim.state is not RunState.RUNNING:
                     self._publish_streams()  # idle tick: streams keep being served
@@ -164,7 +167,8 @@ class Server:
             self._clients.add(client)
             log.info("client %s connected", client)
         results = [self._execute(client, name, mode, args) for name, mode, args in commands]
-        query.reply(query.key_expr, P.response(self.sim.sim_time_ms, self.sim.server_state, results))
+        query.reply(query.key_expr, P.response(self.sim.sim_time_ms, self.sim.server_state, results,
+                                               int((time.monotonic() - self._t0) * 1000), self.sim.scene_id))
 
     def _execute(self, client: str, name: str, mode: int, args: list) -> list:
         base = mode & P.MODE_MASK
@@ -181,6 +185,8 @@ class Server:
                 return [True, self._synchronous(client, args)]
             if name == "SynchronousTrigger":
                 return [True, self._trigger()]
+            if name in self._CLIENT_COMMANDS:
+                return [True, getattr(self, self._CLIENT_COMMANDS[name])(client, args)]
             handler = HANDLERS.get(name)
             if handler is None:
                 raise P.UnsupportedError(f"unknown command {name!r}")
@@ -193,10 +199,56 @@ class Server:
             return [True, handler(self.sim, args)]
         except P.RemoteError as exc:
             log.warning("client %s: simx%s failed: %s", client, name, exc)
-            return [False, str(exc)]
+            message = f"simx{name}: {exc}"
         except Exception as exc:
             log.exception("client %s: simx%s raised", client, name)
-            return [False, f"internal error in simx{name}: {type(exc).__name__}: {exc}"]
+            message = f"internal error in simx{name}: {type(exc).__name__}: {exc}"
+        errors = self._errors.setdefault(client, [])
+        errors.append(message)
+        del errors[:-_MAX_ERRORS]
+        return [False, message]
+
+    # Commands about the calling client rather than the world.
+    _CLIENT_COMMANDS = {
+        "AddStatusbarMessage": "_statusbar_message", "AuxiliaryConsoleOpen": "_console_open",
+        "AuxiliaryConsoleClose": "_console_close", "AuxiliaryConsolePrint": "_console_print",
+        "AuxiliaryConsoleShow": "_console_show", "GetLastErrors": "_last_errors",
+    }
+
+    def _statusbar_message(self, client: str, args: list) -> None:
+        if len(args) != 1 or not isinstance(args[0], str):
+            raise P.ArgumentError("simxAddStatusbarMessage takes one string")
+        log.info("[client %s] %s", client[:8], args[0])
+
+    def _console(self, args: list) -> int:
+        if not args or not isinstance(args[0], int) or args[0] not in self._consoles:
+            raise P.UnknownObjectError(f"no auxiliary console with handle {args[0] if args else None!r}")
+        return args[0]
+
+    def _console_open(self, client: str, args: list) -> int:
+        if len(args) != 3 or not isinstance(args[0], str):
+            raise P.ArgumentError("simxAuxiliaryConsoleOpen takes a title, maxLines and mode")
+        handle = max(self._consoles, default=0) + 1
+        self._consoles[handle] = args[0]
+        log.info("[client %s] console %d %r opened", client[:8], handle, args[0])
+        return handle
+
+    def _console_close(self, client: str, args: list) -> None:
+        log.info("[client %s] console %r closed", client[:8], self._consoles.pop(self._console(args)))
+
+    def _console_print(self, client: str, args: list) -> None:
+        title = self._consoles[self._console(args)]
+        text = args[1] if len(args) == 2 else None
+        if text is not None and not isinstance(text, str):
+            raise P.ArgumentError("console text must be a string or None")
+        for line in (text or "").splitlines() or [""]:
+            log.info("[client %s] [%s] %s", client[:8], title, line if text is not None else "(cleared)")
+
+    def _console_show(self, client: str, args: list) -> None:
+        self._console(args)
+
+    def _last_errors(self, client: str, args: list) -> list[str]:
+        return self._errors.pop(client, [])
 
     def _synchronous(self, client: str, args: list) -> None:
         if len(args) != 1 or not isinstance(args[0], bool):
@@ -212,6 +264,7 @@ class Server:
 
     def _forget(self, client: str, how: str) -> None:
         self._streams.pop(client, None)
+        self._errors.pop(client, None)
         if client in self._clients:
             self._clients.discard(client)
             log.info("client %s %s", client, how)

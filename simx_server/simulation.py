@@ -42,6 +42,15 @@ class Simulation:
         self.realtime = realtime
         self.synchronous = False  # stepped mode: a step runs only on a trigger
         self.steps = 0
+        self.stop_requests = 0  # sim_intparam_stop_request_counter
+        self.selection: list[int] = []  # simxGetObjectSelection (no GUI: only what clients set)
+
+    @property
+    def scene_id(self) -> int:
+        """Identifies the loaded scene (simx_headeroffset_scene_id): 16 bits of its path's hash."""
+        import zlib
+
+        return zlib.crc32(str(self.world.scene_path).encode()) & 0xFFFF
 
     @property
     def sim_time_ms(self) -> int:
@@ -71,6 +80,7 @@ class Simulation:
 
     def stop(self) -> None:
         """``simxStopSimulation``: scripts' cleanup, then the scene back to its initial state."""
+        self.stop_requests += 1
         if self.state is RunState.STOPPED:
             return
         self.scripts.stop()

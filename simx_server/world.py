@@ -38,6 +38,8 @@ WORLD = -1
 
 _TYPE_NAMES = {SHAPE: "shape", JOINT: "joint", DUMMY: "dummy", VISION_SENSOR: "vision sensor", LIGHT: "light",
                PROXIMITY_SENSOR: "proximity sensor", FORCE_SENSOR: "force sensor"}
+#: Model fields that set_pose edits; restored by reset().
+_FRAME_FIELDS = ("body_pos", "body_quat", "site_pos", "site_quat", "cam_pos", "cam_quat", "light_pos", "light_dir")
 #: (nq, nv) of each mjtJoint: free, ball, slide, hinge.
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
 
@@ -110,6 +112,7 @@ class World:
         self.by_name: dict[str, SceneObject] = {}
         self._register_objects()
         self._init_motors()
+        self._initial_frames = {f: getattr(model, f).copy() for f in _FRAME_FIELDS}
 
     def replace_model(self, model: mujoco.MjModel) -> None:
         """Swap in an edited model (scene editing) while the simulation goes on.
@@ -295,6 +298,8 @@ class World:
     def reset(self) -> None:
         """Back to the initial state (``simxStopSimulation``): qpos0, targets at rest."""
         mujoco.mj_resetData(self.model, self.data)
+        for field, initial in self._initial_frames.items():  # poses moved by set_pose
+            getattr(self.model, field)[:] = initial
         self.model.actuator_forcerange[self._motor_act] = self._initial_forcerange
         self.mode = self._initial_mode.copy()
         self.target_position = self.data.qpos[self._motor_qadr].copy()
@@ -304,6 +309,14 @@ class World:
         self.version += 1
 
     # -------------------------------------------------------------------- time
+    def set_dt(self, dt: float) -> None:
+        """New simulation step (s), rounded to a whole number of model timesteps."""
+        if not dt > 0:
+            raise ArgumentError(f"the time step must be positive, got {dt}")
+        self._requested_dt = dt
+        self.substeps = max(1, round(dt / self.model.opt.timestep))
+        self.dt = self.substeps * self.model.opt.timestep
+
     @property
     def time(self) -> float:
         """Simulation time in s."""
@@ -434,6 +447,70 @@ class World:
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, r.reshape(9))
         return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]
+
+    def children(self, handle: int) -> list[int]:
+        """Handles of the objects whose parent is ``handle`` (-1: the world), in tree order."""
+        if handle != WORLD:
+            self.get(handle)
+        return [o.handle for o in self.objects.values() if o.parent == handle]
+
+    def set_pose(self, handle: int, relative_to: int, position: list[float] | None = None,
+                 rotation: np.ndarray | None = None) -> None:
+        """Move an object: ``position`` (3,) in m and/or ``rotation`` (3, 3), both expressed in the
+        frame of ``relative_to`` (-1 world, -11 parent). ``simxSetObjectPosition`` & co.
+
+        Free bodies get a new free-joint state (velocity zeroed), mocap bodies a new mocap pose,
+        bodies without joints, dummies, vision sensors and lights a new placement in their
+        parent body. Bodies moved by hinge/slide/ball joints and joints themselves cannot be
+        placed (set their joints instead): ObjectTypeError.
+        """
+        obj = self.get(handle)
+        if relative_to == C.sim_handle_parent:
+            relative_to = obj.parent
+        p0, r0 = self.frame(relative_to)
+        p_now, r_now = self.frame(handle)
+        p = p_now if position is None else p0 + r0 @ np.asarray(position, dtype=float)
+        r = r_now if rotation is None else r0 @ rotation
+        m, d = self.model, self.data
+        if obj.type == VISION_SENSOR:
+            r = r @ np.diag([-1.0, 1.0, -1.0])  # back to MuJoCo's camera frame
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, np.ascontiguousarray(r).reshape(9))
+        if obj.type == SHAPE:
+            b, jnum = obj.mj_id, m.body_jntnum[obj.mj_id]
+            if m.body_mocapid[b] >= 0:
+                d.mocap_pos[m.body_mocapid[b]], d.mocap_quat[m.body_mocapid[b]] = p, quat
+            elif jnum == 1 and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE:
+                j = m.body_jntadr[b]
+                d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + 7] = np.concatenate([p, quat])
+                d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + 6] = 0.0
+            elif jnum == 0:
+                m.body_pos[b], m.body_quat[b] = self._in_parent(int(m.body_parentid[b]), p, quat)
+            else:
+                raise ObjectTypeError(f"{obj.name!r} is moved by its joints: set their positions instead")
+        elif obj.type in (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR):
+            m.site_pos[obj.mj_id], m.site_quat[obj.mj_id] = self._in_parent(obj.body, p, quat)
+        elif obj.type == VISION_SENSOR:
+            m.cam_pos[obj.mj_id], m.cam_quat[obj.mj_id] = self._in_parent(obj.body, p, quat)
+        elif obj.type == LIGHT:
+            lp, lq = self._in_parent(obj.body, p, quat)
+            rot = np.empty(9)
+            mujoco.mju_quat2Mat(rot, lq)
+            m.light_pos[obj.mj_id], m.light_dir[obj.mj_id] = lp, rot.reshape(3, 3)[:, 2]
+        else:
+            raise ObjectTypeError(f"{obj.name!r} is a {_TYPE_NAMES[obj.type]}: it cannot be placed; "
+                                  "move the body it belongs to")
+        mujoco.mj_forward(m, d)
+        self.version += 1
+
+    def _in_parent(self, body: int, p: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World pose (p, quat) expressed in body ``body``'s frame."""
+        d = self.data
+        rb = d.xmat[body].reshape(3, 3)
+        qb, qinv, q = d.xquat[body], np.empty(4), np.empty(4)
+        mujoco.mju_negQuat(qinv, qb)
+        mujoco.mju_mulQuat(q, qinv, quat)
+        return rb.T @ (p - d.xpos[body]), q
 
 
 def _finite(value: float) -> float:

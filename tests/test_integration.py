@@ -143,7 +143,7 @@ def test_object_position_and_orientation(vrep_client):
     assert rc == 0 and len(e) == 3
     rc, q = vrep.simxGetObjectQuaternion(vrep_client, ur5, -1, B)
     assert rc == 0 and np.linalg.norm(q) == pytest.approx(1.0, abs=1e-5)
-    assert vrep.simxGetObjectPosition(vrep_client, ur5, 12345, B) == (8, [])
+    assert vrep.simxGetObjectPosition(vrep_client, ur5, 12345, B) == (8, [0.0, 0.0, 0.0])
 
 
 def test_vision_sensor_rgb_grey_and_depth(vrep_client):
