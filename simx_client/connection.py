@@ -90,7 +90,7 @@ class Connection:
             self.server_info = self.request([["Hello", P.MODE_BLOCKING, []]], hello_timeout)[0][1]
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
             self._watch = self.session.liveliness().declare_subscriber(
-                P.server_token_key(prefix), self._on_server_token)
+                P.server_token_key(prefix), self._on_server_token, history=True)
         except BaseException:
             self.session.close()
             raise

@@ -1,0 +1,169 @@
+"""Object tree, poses, selection, parameters, messages and connection details, end to end."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+import vrep
+from conftest import SCENE, ServerProcess, free_port
+
+B = vrep.simx_opmode_blocking
+
+
+def h(cid: int, name: str) -> int:
+    rc, handle = vrep.simxGetObjectHandle(cid, name, B)
+    assert rc == 0, name
+    return handle
+
+
+def test_parent_and_children(vrep_client):
+    ur5, j1, link1 = h(vrep_client, "UR5"), h(vrep_client, "UR5_joint1"), h(vrep_client, "UR5_link1")
+    assert vrep.simxGetObjectParent(vrep_client, j1, B) == (0, ur5)
+    assert vrep.simxGetObjectParent(vrep_client, link1, B) == (0, j1)
+    assert vrep.simxGetObjectChild(vrep_client, j1, 0, B) == (0, link1)
+    assert vrep.simxGetObjectChild(vrep_client, j1, 99, B) == (0, -1)
+    assert vrep.simxGetObjectParent(vrep_client, 9999, B) == (8, 0)
+    rc, top = vrep.simxGetObjectChild(vrep_client, -1, 0, B)
+    assert rc == 0 and vrep.simxGetObjectParent(vrep_client, top, B) == (0, -1)
+
+
+def test_set_pose_of_a_free_body_in_every_frame(vrep_client):
+    sphere, table, ur5 = h(vrep_client, "Sphere"), h(vrep_client, "Table"), h(vrep_client, "UR5")
+    vrep.simxPauseSimulation(vrep_client, B)
+    try:
+        for rel in (-1, table, ur5):
+            target = [0.05, 0.1, 0.3]
+            assert vrep.simxSetObjectPosition(vrep_client, sphere, rel, target, B) == 0
+            rc, p = vrep.simxGetObjectPosition(vrep_client, sphere, rel, B)
+            assert p == pytest.approx(target, abs=1e-5), rel
+            euler = [0.3, -0.2, 0.5]
+            assert vrep.simxSetObjectOrientation(vrep_client, sphere, rel, euler, B) == 0
+            assert vrep.simxGetObjectOrientation(vrep_client, sphere, rel, B)[1] == pytest.approx(euler, abs=1e-5)
+            quat = [0.0, 0.0, math.sin(0.4), math.cos(0.4)]
+            assert vrep.simxSetObjectQuaternion(vrep_client, sphere, rel, quat, B) == 0
+            got = vrep.simxGetObjectQuaternion(vrep_client, sphere, rel, B)[1]
+            assert abs(np.dot(got, quat)) == pytest.approx(1.0, abs=1e-5)
+    finally:
+        vrep.simxStopSimulation(vrep_client, B)
+        vrep.simxStartSimulation(vrep_client, B)
+
+
+def test_set_pose_of_a_static_body_moves_its_subtree_and_stop_restores(vrep_client):
+    ur5, flange = h(vrep_client, "UR5"), h(vrep_client, "RG2")
+    p0 = vrep.simxGetObjectPosition(vrep_client, ur5, -1, B)[1]
+    f0 = vrep.simxGetObjectPosition(vrep_client, flange, -1, B)[1]
+    moved = [p0[0] + 0.1, p0[1], p0[2]]
+    assert vrep.simxSetObjectPosition(vrep_client, ur5, -1, moved, B) == 0
+    assert vrep.simxGetObjectPosition(vrep_client, ur5, -1, B)[1] == pytest.approx(moved, abs=1e-5)
+    assert vrep.simxGetObjectPosition(vrep_client, flange, -1, B)[1][0] == pytest.approx(f0[0] + 0.1, abs=0.01)
+    # A body moved by its joints cannot be placed; a joint neither.
+    assert vrep.simxSetObjectPosition(vrep_client, h(vrep_client, "UR5_link2"), -1, moved, B) == 8
+    assert vrep.simxSetObjectPosition(vrep_client, h(vrep_client, "UR5_joint2"), -1, moved, B) == 8
+    assert vrep.simxSetObjectPosition(vrep_client, ur5, -1, [1, 2], B) == vrep.simx_return_local_error_flag
+    vrep.simxStopSimulation(vrep_client, B)
+    assert vrep.simxGetObjectPosition(vrep_client, ur5, -1, B)[1] == pytest.approx(p0, abs=1e-5)
+    vrep.simxStartSimulation(vrep_client, B)
+
+
+def test_selection_and_model_property(vrep_client):
+    ur5, j1 = h(vrep_client, "UR5"), h(vrep_client, "UR5_joint1")
+    assert vrep.simxSetObjectSelection(vrep_client, [ur5, j1], B) == 0
+    assert vrep.simxGetObjectSelection(vrep_client, B) == (0, [ur5, j1])
+    assert vrep.simxSetObjectSelection(vrep_client, [123456], B) == 8
+    assert vrep.simxSetObjectSelection(vrep_client, [], B) == 0
+    assert vrep.simxGetObjectSelection(vrep_client, B) == (0, [])
+    assert vrep.simxGetModelProperty(vrep_client, ur5, B) == (0, 0)
+    assert vrep.simxGetModelProperty(vrep_client, j1, B) == (0, 0xF000)
+    assert vrep.simxSetModelProperty(vrep_client, ur5, 0, B) == 8
+
+
+def test_parameters(vrep_client):
+    assert vrep.simxGetFloatingParameter(vrep_client, vrep.sim_floatparam_simulation_time_step, B) == \
+        (0, pytest.approx(0.05))
+    assert vrep.simxGetFloatParam(vrep_client, vrep.sim_floatparam_simulation_time_step, B)[1] == pytest.approx(0.05)
+    # The time step only changes while stopped.
+    assert vrep.simxSetFloatingParameter(vrep_client, vrep.sim_floatparam_simulation_time_step, 0.01, B) == 8
+    assert vrep.simxGetArrayParameter(vrep_client, vrep.sim_arrayparam_gravity, B) == \
+        (0, pytest.approx([0.0, 0.0, -9.81], abs=1e-5))
+    assert vrep.simxGetBooleanParameter(vrep_client, vrep.sim_boolparam_realtime_simulation, B) == (0, True)
+    assert vrep.simxGetBooleanParameter(vrep_client, vrep.sim_boolparam_waiting_for_trigger, B) == (0, False)
+    assert vrep.simxGetIntegerParameter(vrep_client, 7, B)[1] >= 1  # dynamics step divider = substeps
+    assert vrep.simxGetIntegerParameter(vrep_client, vrep.sim_intparam_program_version, B) == (8, 0)
+    rc, path = vrep.simxGetStringParameter(vrep_client, 13, B)
+    assert rc == 0 and path.endswith(SCENE.name)
+    assert vrep.simxGetStringParameter(vrep_client, 99, B) == (8, "")
+
+
+def test_gui_calls_are_refused_and_errors_reported(vrep_client):
+    vrep.simxGetLastErrors(vrep_client, B)  # start from a clean list
+    assert vrep.simxGetUIHandle(vrep_client, "UI", B) == (8, 0)
+    assert vrep.simxDisplayDialog(vrep_client, "t", "m", 0, "", None, None, B) == (8, 0, 0)
+    assert vrep.simxGetCollectionHandle(vrep_client, "c", B) == (8, 0)
+    rc, errors = vrep.simxGetLastErrors(vrep_client, B)
+    assert rc == 0 and len(errors) == 3
+    assert "graphical user interface" in errors[0] and "collection" in errors[2]
+    assert vrep.simxGetLastErrors(vrep_client, B) == (0, [])
+
+
+def test_messages_and_consoles_go_to_the_server_log(vrep_client):
+    assert vrep.simxAddStatusbarMessage(vrep_client, "hello from a test", B) == 0
+    rc, console = vrep.simxAuxiliaryConsoleOpen(vrep_client, "aux", 10, 0, None, None, None, None, B)
+    assert rc == 0 and console > 0
+    assert vrep.simxAuxiliaryConsolePrint(vrep_client, console, "line one\n", B) == 0
+    assert vrep.simxAuxiliaryConsoleShow(vrep_client, console, False, B) == 0
+    assert vrep.simxAuxiliaryConsoleClose(vrep_client, console, B) == 0
+    assert vrep.simxAuxiliaryConsolePrint(vrep_client, console, "gone", B) == 8
+
+
+def test_message_info(vrep_client):
+    vrep.simxGetPingTime(vrep_client)
+    rc, state = vrep.simxGetInMessageInfo(vrep_client, vrep.simx_headeroffset_server_state)
+    assert rc == 1 and state & 1  # simulation running
+    rc, sent = vrep.simxGetOutMessageInfo(vrep_client, vrep.simx_headeroffset_message_id)
+    assert rc == 1 and vrep.simxGetInMessageInfo(vrep_client, vrep.simx_headeroffset_message_id) == (1, sent)
+    assert vrep.simxGetInMessageInfo(vrep_client, 99) == (-1, 0)
+
+
+def test_split_modes_are_delivered_whole(vrep_client):
+    j = h(vrep_client, "UR5_joint1")
+    split = vrep.simx_opmode_oneshot_split + 100
+    rc = vrep.simxGetJointPosition(vrep_client, j, split)[0]
+    assert rc in (0, 1)  # the reply may already be in when the call returns
+    deadline = time.monotonic() + 5
+    while vrep.simxGetJointPosition(vrep_client, j, vrep.simx_opmode_buffer)[0] != 0:
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+
+
+def test_connection_id_follows_the_server_and_reconnects():
+    port = free_port()
+    srv = ServerProcess(str(SCENE), ports=[port])
+    cid = vrep.simxStart("127.0.0.1", port, True, False, 5000, 5)  # may reconnect
+    try:
+        assert cid >= 0
+        first = vrep.simxGetConnectionId(cid)
+        assert first > 0
+        j = h(cid, "UR5_joint1")
+        vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_streaming)
+        srv.stop()
+        deadline = time.monotonic() + 10
+        while vrep.simxGetConnectionId(cid) != -1:
+            assert time.monotonic() < deadline, "connection id did not turn -1 when the server left"
+            time.sleep(0.05)
+        assert vrep.simxGetObjectHandle(cid, "UR5", B)[0] & vrep.simx_return_timeout_flag
+        srv = ServerProcess(str(SCENE), ports=[port])
+        deadline = time.monotonic() + 20
+        while vrep.simxGetConnectionId(cid) in (-1, first):
+            assert time.monotonic() < deadline, "did not reconnect"
+            time.sleep(0.05)
+        vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_remove)
+        while vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_buffer)[0] != 0:  # the stream resumed
+            assert time.monotonic() < deadline, "stream not resumed"
+            time.sleep(0.05)
+    finally:
+        vrep.simxFinish(cid)
+        srv.stop()
