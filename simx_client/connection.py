@@ -30,6 +30,7 @@ from simx_client import protocol as P
 log = logging.getLogger("simx.client")
 
 DEFAULT_BLOCKING_TIMEOUT = 5.0  # s, _REPLY_WAIT_TIMEOUT_IN_MS
+STREAM_BACKLOG = 4096  # stream updates kept unread; beyond, the oldest are dropped
 _NO_VALUE = (C.simx_return_novalue_flag, None)
 _connection_ids = itertools.count(1)
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
@@ -85,8 +86,10 @@ class Connection:
                     C.simx_headeroffset_server_state: 0}
         self.session = zenoh.open(client_config(address, port))
         try:
+            # Stream updates wait in a channel and are filed when the inbox is read: they then
+            # always include every update that arrived before the reply a caller just got.
             self._subscriber = self.session.declare_subscriber(
-                P.stream_key(prefix, self.client), self._on_stream)
+                P.stream_key(prefix, self.client), zenoh.handlers.RingChannel(STREAM_BACKLOG))
             self.server_info = self.request([["Hello", P.MODE_BLOCKING, []]], hello_timeout)[0][1]
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
             self._watch = self.session.liveliness().declare_subscriber(
@@ -170,14 +173,15 @@ class Connection:
             value = old[1] + value
         self._inbox[ident] = (ok, value, t)
 
-    def _on_stream(self, sample: zenoh.Sample) -> None:
-        try:
-            message = P.unpack(sample.payload.to_bytes())
-        except P.ProtocolError as exc:
-            log.warning("unreadable stream update: %s", exc)
-            return
-        t = message["t"]
-        with self._lock:
+    def _drain_streams(self) -> None:
+        """File every stream update received so far (lock held)."""
+        while (sample := self._subscriber.try_recv()) is not None:
+            try:
+                message = P.unpack(sample.payload.to_bytes())
+            except P.ProtocolError as exc:
+                log.warning("unreadable stream update: %s", exc)
+                continue
+            t = message["t"]
             for name, id_args, ok, value in message["r"]:
                 ident = (name, *(P._hashable(a) for a in id_args))
                 if ident in self._streams:
@@ -258,6 +262,7 @@ class Connection:
             return self._read_locked(ident)
 
     def _read_locked(self, ident: tuple) -> tuple[int, Any]:
+        self._drain_streams()
         entry = self._inbox.get(ident)
         if entry is None:
             return _NO_VALUE

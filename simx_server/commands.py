@@ -19,6 +19,7 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, UnknownObjectError, UnsupportedError
+from simx_server import sensors
 from simx_server.simulation import RunState, Simulation
 
 Handler = Callable[[Simulation, list], Any]
@@ -340,6 +341,10 @@ def pause_simulation(sim: Simulation, args: list) -> None:
 
 def get_vision_sensor_image(sim: Simulation, args: list) -> list:
     h, options = _args(args, "int", "int")
+    passive = sensors.override_image(sim, h, bool(options & 1))  # what simxSetVisionSensorImage wrote
+    if passive is not None:
+        spec = sim.vision.spec(h)
+        return [[spec.width, spec.height], np.ascontiguousarray(passive).tobytes()]
     resolution, data = sim.vision.image_bytes(h, options)
     return [resolution, data]
 
@@ -403,4 +408,5 @@ HANDLERS: dict[str, Handler] = {
     "GetArrayParameter": get_array_parameter,
     "SetArrayParameter": set_array_parameter,
     **{name: gui_only(name) for name in GUI_ONLY},
+    **sensors.SENSOR_HANDLERS,
 }

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from simx_client import protocol as P
 from simx_server.scripts import Scripts
+from simx_server.sensors import SensorState
 from simx_server.vision import VisionSensors
 from simx_server.world import World
 
@@ -38,6 +39,7 @@ class Simulation:
         self.world = World(scene, dt)
         self.vision = VisionSensors(self.world)
         self.scripts = Scripts(self.world)
+        self.sensors = SensorState()
         self.state = RunState.STOPPED
         self.realtime = realtime
         self.synchronous = False  # stepped mode: a step runs only on a trigger
@@ -85,6 +87,7 @@ class Simulation:
             return
         self.scripts.stop()
         self.world.reset()
+        self.vision.reset()  # clipping planes changed by clients
         self.state = RunState.STOPPED
 
     def step(self) -> None:

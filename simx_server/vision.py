@@ -44,7 +44,16 @@ class VisionSensors:
 
     def __init__(self, world: World):
         self.world = world
+        self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
+        self._cache: dict[tuple[int, str], tuple[int, np.ndarray]] = {}
+        self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
+        self.reset()
+
+    def reset(self) -> None:
+        """(Re)read every sensor's properties from the scene (undoing run-time changes)."""
+        world = self.world
         self.specs: dict[int, SensorSpec] = {}
+        self._cache.clear()
         m = world.model
         for obj in world.objects.values():
             if obj.type != VISION_SENSOR:
@@ -59,9 +68,6 @@ class VisionSensors:
         if self.specs:
             m.vis.global_.offwidth = max(m.vis.global_.offwidth, *(s.width for s in self.specs.values()))
             m.vis.global_.offheight = max(m.vis.global_.offheight, *(s.height for s in self.specs.values()))
-        self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
-        self._cache: dict[tuple[int, str], tuple[int, np.ndarray]] = {}
-        self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
 
     def spec(self, handle: int) -> SensorSpec:
         """The sensor's properties; raises UnknownObjectError/ObjectTypeError for other handles."""

@@ -38,8 +38,10 @@ WORLD = -1
 
 _TYPE_NAMES = {SHAPE: "shape", JOINT: "joint", DUMMY: "dummy", VISION_SENSOR: "vision sensor", LIGHT: "light",
                PROXIMITY_SENSOR: "proximity sensor", FORCE_SENSOR: "force sensor"}
-#: Model fields that set_pose edits; restored by reset().
-_FRAME_FIELDS = ("body_pos", "body_quat", "site_pos", "site_quat", "cam_pos", "cam_quat", "light_pos", "light_dir")
+#: Model fields that clients may change while the simulation runs (poses, masses, view
+#: angles); reset() restores them, as V-REP restores a scene on stop.
+_RESTORED_FIELDS = ("body_pos", "body_quat", "site_pos", "site_quat", "cam_pos", "cam_quat", "light_pos",
+                    "light_dir", "body_mass", "body_inertia", "cam_fovy")
 #: (nq, nv) of each mjtJoint: free, ball, slide, hinge.
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
 
@@ -112,7 +114,7 @@ class World:
         self.by_name: dict[str, SceneObject] = {}
         self._register_objects()
         self._init_motors()
-        self._initial_frames = {f: getattr(model, f).copy() for f in _FRAME_FIELDS}
+        self._initial_fields = {f: getattr(model, f).copy() for f in _RESTORED_FIELDS}
 
     def replace_model(self, model: mujoco.MjModel) -> None:
         """Swap in an edited model (scene editing) while the simulation goes on.
@@ -146,8 +148,7 @@ class World:
                 self.mode[i], self.target_position[i], self.target_velocity[i] = mode, target, velocity
                 m.actuator_forcerange[self._motor_act[i]] = forcerange
         d.time = old_data.time
-        mujoco.mj_forward(m, d)
-        self.version += 1
+        self.changed()
 
     # ----------------------------------------------------------------- registry
     def _read_settings(self) -> dict[str, dict[str, str]]:
@@ -297,16 +298,16 @@ class World:
 
     def reset(self) -> None:
         """Back to the initial state (``simxStopSimulation``): qpos0, targets at rest."""
-        mujoco.mj_resetData(self.model, self.data)
-        for field, initial in self._initial_frames.items():  # poses moved by set_pose
+        for field, initial in self._initial_fields.items():
             getattr(self.model, field)[:] = initial
+        mujoco.mj_setConst(self.model, self.data)  # masses may have changed back
+        mujoco.mj_resetData(self.model, self.data)
         self.model.actuator_forcerange[self._motor_act] = self._initial_forcerange
         self.mode = self._initial_mode.copy()
         self.target_position = self.data.qpos[self._motor_qadr].copy()
         self.target_velocity = np.zeros(len(self._motor_act))
         self.data.ctrl[:] = 0.0
-        mujoco.mj_forward(self.model, self.data)
-        self.version += 1
+        self.changed()
 
     # -------------------------------------------------------------------- time
     def set_dt(self, dt: float) -> None:
@@ -344,23 +345,34 @@ class World:
         d.ctrl[act] = np.where(linear, self.target_position,
                                np.where(saturated, np.sign(err) * self.max_velocity, self.target_velocity))
         mujoco.mj_step(m, d, nstep=self.substeps)
+        self.changed()  # mj_step leaves positions and sensors one substep behind the state
+
+    def changed(self) -> None:
+        """After any change of state: recompute derived quantities, invalidate cached renders."""
+        mujoco.mj_forward(self.model, self.data)
         self.version += 1
 
     # ------------------------------------------------------------------ joints
+    def _scalar_joint(self, handle: int) -> SceneObject:
+        obj = self.get(handle, JOINT)
+        if self.model.jnt_type[obj.mj_id] in (mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_FREE):
+            raise ObjectTypeError(f"joint {obj.name!r} is spherical/free: use simxGetJointMatrix / "
+                                  "simxSetSphericalJointMatrix")
+        return obj
+
     def joint_position(self, handle: int) -> float:
         """Intrinsic position of a joint (rad or m). ``simxGetJointPosition``."""
-        obj = self.get(handle, JOINT)
+        obj = self._scalar_joint(handle)
         return float(self.data.qpos[self.model.jnt_qposadr[obj.mj_id]])
 
     def set_joint_position(self, handle: int, position: float) -> None:
         """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``."""
-        obj = self.get(handle, JOINT)
+        obj = self._scalar_joint(handle)
         self.data.qpos[self.model.jnt_qposadr[obj.mj_id]] = _finite(position)
         self.data.qvel[self.model.jnt_dofadr[obj.mj_id]] = 0.0
         if handle in self.motor_index:
             self.target_position[self.motor_index[handle]] = position
-        mujoco.mj_forward(self.model, self.data)
-        self.version += 1
+        self.changed()
 
     def set_joint_target_position(self, handle: int, position: float) -> None:
         """Target of a position-mode joint (rad or m). ``simxSetJointTargetPosition``.
@@ -393,7 +405,7 @@ class World:
 
     def joint_force(self, handle: int) -> float:
         """Force/torque the joint's motor applies now (N or N·m). ``simxGetJointForce``."""
-        obj = self.get(handle, JOINT)
+        obj = self._scalar_joint(handle)
         if handle in self.motor_index:
             return float(self.data.actuator_force[self._motor_act[self.motor_index[handle]]])
         return float(self.data.qfrc_constraint[self.model.jnt_dofadr[obj.mj_id]])
@@ -410,7 +422,7 @@ class World:
         if obj.type == JOINT:
             return d.xanchor[obj.mj_id].copy(), _frame_with_z(d.xaxis[obj.mj_id],
                                                               d.xmat[obj.body].reshape(3, 3))
-        if obj.type == DUMMY:
+        if obj.type in (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR):
             return d.site_xpos[obj.mj_id].copy(), d.site_xmat[obj.mj_id].reshape(3, 3).copy()
         if obj.type == VISION_SENSOR:
             # MuJoCo cameras look along -z with y up; V-REP sensors look along +z with y up.
@@ -432,21 +444,11 @@ class World:
 
     def orientation(self, handle: int, relative_to: int) -> list[float]:
         """Euler angles alpha, beta, gamma (rad) with R = Rx(a) Ry(b) Rz(g). ``simxGetObjectOrientation``."""
-        r = self.relative_frame(handle, relative_to)[1]
-        beta = math.asin(max(-1.0, min(1.0, r[0, 2])))
-        if abs(r[0, 2]) < 1 - 1e-9:
-            alpha = math.atan2(-r[1, 2], r[2, 2])
-            gamma = math.atan2(-r[0, 1], r[0, 0])
-        else:  # gimbal lock: fold everything into alpha
-            alpha, gamma = math.atan2(r[2, 1], r[1, 1]), 0.0
-        return [alpha, beta, gamma]
+        return euler_from_matrix(self.relative_frame(handle, relative_to)[1])
 
     def quaternion(self, handle: int, relative_to: int) -> list[float]:
         """Orientation as a quaternion in V-REP's order (x, y, z, w). ``simxGetObjectQuaternion``."""
-        r = self.relative_frame(handle, relative_to)[1]
-        q = np.empty(4)
-        mujoco.mju_mat2Quat(q, r.reshape(9))
-        return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]
+        return quaternion_from_matrix(self.relative_frame(handle, relative_to)[1])
 
     def children(self, handle: int) -> list[int]:
         """Handles of the objects whose parent is ``handle`` (-1: the world), in tree order."""
@@ -500,8 +502,7 @@ class World:
         else:
             raise ObjectTypeError(f"{obj.name!r} is a {_TYPE_NAMES[obj.type]}: it cannot be placed; "
                                   "move the body it belongs to")
-        mujoco.mj_forward(m, d)
-        self.version += 1
+        self.changed()
 
     def _in_parent(self, body: int, p: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World pose (p, quat) expressed in body ``body``'s frame."""
@@ -511,6 +512,21 @@ class World:
         mujoco.mju_negQuat(qinv, qb)
         mujoco.mju_mulQuat(q, qinv, quat)
         return rb.T @ (p - d.xpos[body]), q
+
+
+def euler_from_matrix(r: np.ndarray) -> list[float]:
+    """V-REP's Euler angles [alpha, beta, gamma] (rad) of a rotation (3, 3): R = Rx(a) Ry(b) Rz(g)."""
+    beta = math.asin(max(-1.0, min(1.0, r[0, 2])))
+    if abs(r[0, 2]) < 1 - 1e-9:
+        return [math.atan2(-r[1, 2], r[2, 2]), beta, math.atan2(-r[0, 1], r[0, 0])]
+    return [math.atan2(r[2, 1], r[1, 1]), beta, 0.0]  # gimbal lock: everything in alpha
+
+
+def quaternion_from_matrix(r: np.ndarray) -> list[float]:
+    """Quaternion of a rotation (3, 3) in V-REP's order [x, y, z, w]."""
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(r).reshape(9))
+    return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]
 
 
 def _finite(value: float) -> float:
