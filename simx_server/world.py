@@ -99,7 +99,8 @@ class World:
             raise ValueError(f"dt must be positive, got {dt}")
         self._requested_dt = dt
         self.version = 0  # bumped whenever the state changes (cache key for renders)
-        self._handle_of_name: dict[str, int] = {}  # every name ever registered; never reused
+        self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
+        self._next_handle = 1  # handles are never given twice
         self._install(model)
         self.reset()
 
@@ -113,6 +114,8 @@ class World:
         self.objects: dict[int, SceneObject] = {}
         self.by_name: dict[str, SceneObject] = {}
         self._register_objects()
+        for gone in [n for n in self._handle_of_name if n not in self.by_name]:
+            del self._handle_of_name[gone]  # its handle is never given again
         self._init_motors()
         self._initial_fields = {f: getattr(model, f).copy() for f in _RESTORED_FIELDS}
 
@@ -172,7 +175,10 @@ class World:
             log.warning("scene %s: name %r used twice; the %s keeps it", self.scene_path.name,
                         name, _TYPE_NAMES[self.by_name[name].type])
             return parent
-        handle = self._handle_of_name.setdefault(name, len(self._handle_of_name) + 1)
+        handle = self._handle_of_name.get(name)
+        if handle is None:
+            handle = self._handle_of_name[name] = self._next_handle
+            self._next_handle += 1
         obj = SceneObject(handle, name, otype, mj_id, body, parent, self.settings.get(name, {}))
         self.objects[handle] = obj
         self.by_name[name] = obj
