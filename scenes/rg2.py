@@ -1,7 +1,9 @@
-"""Child script of the RG2 gripper (Python port of the tutorial's RG2.lua).
+"""Child script of the RG2 gripper in Python: the example of a Python child script.
 
-rg2Open / rg2Close drive RG2_openCloseJoint at 0.05 m/s with at most 20 N; remote programs
-call them with simxCallScriptFunction('RG2', sim_scripttype_childscript, 'rg2Open', ...).
+The shipped scene runs the same behaviour in Lua (scenes/rg2.lua); attach this file instead with
+``child_script=rg2.py`` (docs/SCRIPTS.md). rg2Open / rg2Close drive RG2_openCloseJoint at
+0.05 m/s with at most 20 N; remote programs call them with
+simxCallScriptFunction('RG2', sim_scripttype_childscript, 'rg2Open', ...).
 """
 
 motor_velocity = 0.05  # m/s

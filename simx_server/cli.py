@@ -34,6 +34,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--speed", type=float, default=1.0,
                    help="real-time factor in asynchronous mode; 0 = as fast as possible (default 1)")
     p.add_argument("--stopped", action="store_true", help="start with the simulation stopped")
+    p.add_argument("--allow-remote-code", action="store_true",
+                   help="let child scripts run code that clients send (Lua load, Python exec); off by default")
     p.add_argument("--prefix", default="simx", help="Zenoh key-expression prefix (default simx)")
     p.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
     return p.parse_args(argv)
@@ -54,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
 
     scene = Path(args.scene) if args.scene else default_scene()
     try:
-        sim = Simulation(scene, dt=args.dt, realtime=args.speed > 0)
+        sim = Simulation(scene, dt=args.dt, realtime=args.speed > 0, allow_remote_code=args.allow_remote_code)
     except (ValueError, OSError) as exc:
         print(f"simx-server: {exc}", file=sys.stderr)
         return 2

@@ -1,192 +1,546 @@
 """Child scripts attached to scene objects, and the ``sim`` facade they call.
 
 A scene attaches a script to an object with ``<custom><text name="simx:OBJECT"
-data="child_script=file.py"/></custom>``; the file lies next to the scene (scripts come
-only from the server's disk). Python child scripts see a global ``sim`` (a :class:`SimFacade`)
-and may define V-REP's life-cycle functions: ``sysCall_init`` (simulation start),
-``sysCall_actuation`` and ``sysCall_sensing`` (every step), ``sysCall_cleanup`` (stop). Any
-other global function can be called remotely with ``simxCallScriptFunction``: it receives
-``(inInts, inFloats, inStrings, inBuffer)`` and returns up to four values
-``(ints, floats, strings, buffer)``.
+data="child_script=FILE"/></custom>``; FILE (``.lua`` or ``.py``) lies in the scene's folder:
+scripts come only from the server's disk. An optional ``script_timeout=SECONDS`` in the same
+text bounds every call into that script (default :data:`DEFAULT_TIMEOUT`).
+
+Both languages see one :class:`~simx_server.script_facade.SimFacade` as ``sim`` (V-REP's names and units) and follow
+V-REP's non-threaded life cycle: the file's top level and ``sysCall_init`` when the simulation
+starts, ``sysCall_actuation`` before and ``sysCall_sensing`` after every step,
+``sysCall_cleanup`` when it stops (then the script's state is dropped: a restart begins afresh).
+Any other global function of the script can be called remotely with ``simxCallScriptFunction``:
+it receives ``(inInts, inFloats, inStrings, inBuffer)`` and returns up to four values
+``(ints, floats, strings, buffer)``. Lua scripts run in lupa (:mod:`simx_server.lua_scripts`).
+
+Faults never stop the simulation: an error (at load, at run time, or a call that overruns its
+time bound and is interrupted) is a :class:`~simx_client.protocol.ScriptError` naming the file,
+the line and the message; the remote caller gets it as a remote error, and errors of life-cycle
+functions go to the log. See docs/SCRIPTS.md.
 """
 
 from __future__ import annotations
 
+import builtins
+import ctypes
+import inspect
 import logging
+import math
+import threading
+import time
 import traceback
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
+
+import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ScriptError, UnknownObjectError
+from simx_server.script_facade import FACADE_FUNCTIONS, SCRIPT_CONSTANTS, SimFacade, Signals
 from simx_server.world import World
+
+__all__ = ["DEFAULT_TIMEOUT", "FACADE_FUNCTIONS", "LIFE_CYCLE", "REMOTE_CODE_FLAG", "SCRIPT_CONSTANTS",
+           "ChildScript", "PythonScript", "ScriptTimeoutError", "Scripts", "SimFacade", "Signals",
+           "legacy_outputs", "load_script"]
 
 log = logging.getLogger("simx.scripts")
 
 LIFE_CYCLE = ("sysCall_init", "sysCall_actuation", "sysCall_sensing", "sysCall_cleanup")
+#: Seconds a single call into a script may run before it is interrupted.
+DEFAULT_TIMEOUT = 1.0
+#: The command-line flag that lets scripts run code sent by clients (Lua ``load``/``loadstring``,
+#: Python ``exec``/``eval``/``compile``); named in error messages.
+REMOTE_CODE_FLAG = "--allow-remote-code"
+_STEP_FUNCTIONS = ("sysCall_actuation", "sysCall_sensing")
 
 
-class SimFacade:
-    """V-REP's ``sim`` API for child scripts, on top of the world (names and units as V-REP's).
+class ScriptTimeoutError(ScriptError):
+    """A call into a script did not return within its time bound and was interrupted."""
 
-    Errors raise the simx exceptions (UnknownObjectError, ObjectTypeError, ArgumentError).
+
+# ------------------------------------------------------------------ time bounds
+class _Interrupt(BaseException):
+    """Raised asynchronously inside a Python script that overran its time bound."""
+
+
+class _Watchdog:
+    """Interrupts a Python script call that overruns its deadline.
+
+    One daemon thread; :meth:`bounded` arms it around a call. Past the deadline it raises
+    :class:`_Interrupt` in the calling thread (``PyThreadState_SetAsyncExc``), again every
+    50 ms in case the script swallows it, until the call returns. A script blocked inside C
+    (``time.sleep``, I/O) is interrupted only when that returns.
     """
 
-    handle_self = C.sim_handle_self
-    handle_parent = C.sim_handle_parent
-    handle_world = -1
+    REPEAT = 0.05
 
-    def __init__(self, world: World, owner: int):
-        self._world = world
-        self._owner = owner
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._armed: tuple[float, int] | None = None
+        self._fired = False
+        self._thread: threading.Thread | None = None
 
-    def _h(self, handle: int) -> int:
-        return self._owner if handle == C.sim_handle_self else int(handle)
+    @staticmethod
+    def _raise_in(thread_id: int, exc: type[BaseException] | None) -> None:
+        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread_id),
+                                                   ctypes.py_object(exc) if exc else None)
 
-    def getObjectHandle(self, name: str) -> int:  # noqa: N802 (V-REP's names)
-        """Handle of the object called ``name``."""
-        return self._world.resolve(name).handle
+    def _run(self) -> None:
+        with self._cond:
+            while True:
+                if self._armed is None:
+                    self._cond.wait()
+                    continue
+                deadline, thread_id = self._armed
+                now = time.monotonic()
+                if now < deadline:
+                    self._cond.wait(deadline - now)
+                    continue
+                self._raise_in(thread_id, _Interrupt)
+                self._fired = True
+                self._cond.wait(self.REPEAT)
 
-    def getObjectName(self, handle: int) -> str:  # noqa: N802
-        """Name of the object ``handle``."""
-        return self._world.get(self._h(handle)).name
+    def _disarm(self) -> bool:
+        with self._cond:
+            self._armed = None
+            if self._fired:  # an interruption may still be pending: drop it
+                self._raise_in(threading.get_ident(), None)
+            return self._fired
 
-    def getJointPosition(self, handle: int) -> float:  # noqa: N802
-        """Joint position (rad or m)."""
-        return self._world.joint_position(self._h(handle))
+    def _disarm_until_done(self) -> bool:
+        while True:  # an interruption may arrive while disarming: disarm again
+            try:
+                return self._disarm()
+            except _Interrupt:
+                continue
 
-    def setJointTargetPosition(self, handle: int, position: float) -> None:  # noqa: N802
-        """Target position of a position-controlled joint (rad or m)."""
-        self._world.set_joint_target_position(self._h(handle), position)
+    def bounded(self, fn: Callable[[], Any], seconds: float) -> tuple[Any, traceback.StackSummary | None]:
+        """Run ``fn()`` for at most about ``seconds``; returns ``(result, None)``, or
+        ``(None, where)`` when it overran, ``where`` being the stack it was interrupted in
+        (empty when the script swallowed the interruption). Exceptions of ``fn`` propagate.
 
-    def setJointTargetVelocity(self, handle: int, velocity: float) -> None:  # noqa: N802
-        """Target velocity of a velocity-mode joint (rad/s or m/s)."""
-        self._world.set_joint_target_velocity(self._h(handle), velocity)
+        No exception is kept in a local of this frame: that would be a reference cycle
+        (exception -> traceback -> frame -> exception) keeping every caller's frame alive, and
+        with them the server's pending Zenoh query, whose final reply waits for it to go."""
+        with self._cond:
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._run, name="simx-script-watchdog", daemon=True)
+                self._thread.start()
+            self._armed = (time.monotonic() + seconds, threading.get_ident())
+            self._fired = False
+            self._cond.notify()
+        result, fired, where = None, False, None
+        try:
+            try:
+                result = fn()
+            finally:
+                fired = self._disarm_until_done()
+        except _Interrupt as exc:  # arrived before disarming; none can arrive after
+            fired, where = True, traceback.extract_tb(exc.__traceback__)
+        except Exception:
+            if not fired:
+                raise
+        if fired:
+            return None, where if where is not None else traceback.StackSummary()
+        return result, None
 
-    def setJointForce(self, handle: int, force: float) -> None:  # noqa: N802
-        """Maximum force/torque of the joint's motor (N or N·m)."""
-        self._world.set_joint_force(self._h(handle), force)
 
-    setJointMaxForce = setJointForce  # noqa: N815 (CoppeliaSim 4 name)
-
-    def getJointForce(self, handle: int) -> float:  # noqa: N802
-        """Force/torque the joint's motor applies (N or N·m)."""
-        return self._world.joint_force(self._h(handle))
-
-    def getSimulationTime(self) -> float:  # noqa: N802
-        """Simulation time (s)."""
-        return self._world.time
-
-    def getSimulationTimeStep(self) -> float:  # noqa: N802
-        """Simulation step dt (s)."""
-        return self._world.dt
-
-    def addStatusbarMessage(self, message: str) -> None:  # noqa: N802
-        """Write ``message`` to the server log."""
-        log.info("[%s] %s", self._world.get(self._owner).name, message)
+_WATCHDOG = _Watchdog()
 
 
+# ---------------------------------------------------------------- child scripts
 class ChildScript:
-    """One Python child script, loaded from ``path`` and attached to object ``owner``."""
+    """A child script attached to object ``owner``: life cycle, remote calls, fault handling.
 
-    def __init__(self, world: World, owner: int, path: Path):
+    Subclasses (:class:`PythonScript`, :class:`~simx_server.lua_scripts.LuaScript`) implement
+    ``_load`` (read and compile; set ``self.load_error`` on a syntax error), ``_create`` (fresh
+    state, then the top level), ``_defines``/``_callable`` (a life-cycle function exists / a
+    function may be called remotely), ``_run_function`` (bounded by ``self.timeout``; raises
+    ScriptError) and ``_drop``. A script that failed to load stays attached: every call into it
+    answers its load error.
+    """
+
+    language = "?"
+
+    def __init__(self, world: World, owner: int, path: Path, *, signals: Signals | None = None,
+                 timeout: float = DEFAULT_TIMEOUT, allow_remote_code: bool = False):
+        self.world = world
         self.owner = owner
         self.path = path
-        self.name = world.get(owner).name
-        try:
-            source = path.read_text()
-            self._code = compile(source, str(path), "exec")
-        except (OSError, SyntaxError) as exc:
-            raise ScriptError(f"child script of {self.name!r} ({path}): {exc}") from exc
-        self._world = world
-        self.namespace: dict[str, Any] = {}
+        self.object_name = world.get(owner).name
+        self.label = f"child script {path.name} of {self.object_name!r}"
+        self.signals = signals if signals is not None else Signals()
+        self.timeout = float(timeout)
+        self.allow_remote_code = allow_remote_code
+        self.running = False
+        self.load_error: str | None = None
+        self.start_error: str | None = None
+        self._skipped: set[str] = set()  # life-cycle functions skipped until the next start
+        self._last_error: dict[str, str] = {}  # last error logged per life-cycle function
+        self._load()
+        if self.load_error:
+            log.error("%s cannot be loaded: %s", self.label, self.load_error)
 
+    def facade(self) -> SimFacade:
+        """A new ``sim`` for this script."""
+        return SimFacade(self.world, self.owner, self.signals, label=self.path.name)
+
+    # ---------------------------------------------------------------- life cycle
     def start(self) -> None:
-        """Fresh globals, run the file's top level, then ``sysCall_init``."""
-        self.namespace = {"sim": SimFacade(self._world, self.owner), "__name__": f"simx_script_{self.name}"}
-        self._guard("<top level>", lambda: exec(self._code, self.namespace))
+        """Simulation starts: fresh state, the file's top level, then ``sysCall_init``.
+
+        Raises ScriptError when the script cannot run (load error, error in its top level);
+        it then stays attached, and remote calls answer that error."""
+        self.running = True
+        self.start_error = None
+        self._skipped.clear()
+        self._last_error.clear()
+        if self.load_error:
+            raise ScriptError(f"{self.label} cannot be loaded: {self.load_error}")
+        try:
+            self._create()
+        except ScriptError as exc:
+            self.start_error = str(exc)
+            raise
+        if self._defines("sysCall_threadmain"):
+            log.error("%s: threaded child scripts (sysCall_threadmain) are not supported: it does not run; "
+                      "move its work into sysCall_actuation (docs/SCRIPTS.md)", self.label)
         self.life_cycle("sysCall_init")
 
     def life_cycle(self, function: str) -> None:
-        """Run a life-cycle function if the script defines it."""
-        fn = self.namespace.get(function)
-        if callable(fn):
-            self._guard(function, fn)
+        """Run a life-cycle function if the script defines it; errors go to the log only.
+
+        Repeats of the same error are logged at debug level; a script interrupted for
+        overrunning its time bound in ``sysCall_actuation``/``sysCall_sensing`` has both
+        skipped until the simulation restarts, so that the simulation keeps its pace."""
+        if not self.running or self.load_error or function in self._skipped:
+            return
+        try:
+            if self._defines(function):
+                self._run_function(function, ())
+        except ScriptTimeoutError as exc:
+            if function in _STEP_FUNCTIONS:
+                self._skipped.update(_STEP_FUNCTIONS)
+                log.error("%s; its %s are skipped until the simulation restarts", exc, " and ".join(_STEP_FUNCTIONS))
+            else:
+                log.error("%s", exc)
+        except ScriptError as exc:
+            message = str(exc)
+            if self._last_error.get(function) == message:
+                log.debug("%s (again)", message)
+            else:
+                self._last_error[function] = message
+                log.error("%s", message)
+        except Exception:  # never let the simulation step die with a script
+            log.exception("%s, %s: internal error", self.label, function)
+
+    def stop(self) -> None:
+        """Simulation stops: ``sysCall_cleanup``, then the script's state is dropped."""
+        try:
+            self.life_cycle("sysCall_cleanup")
+        finally:
+            self.running = False
+            self._drop()
 
     def call(self, function: str, ints: list, floats: list, strings: list, buffer: bytes) -> list:
-        """Call a script function remotely; returns ``[ints, floats, strings, buffer]``."""
-        fn = self.namespace.get(function)
-        if function.startswith("_") or not callable(fn):
-            raise ScriptError(f"child script of {self.name!r} has no function {function!r}")
-        out = self._guard(function, lambda: fn(ints, floats, strings, buffer))
-        return _legacy_outputs(out, f"{self.name}.{function}")
+        """Call a script function remotely; returns ``[ints, floats, strings, buffer]``.
 
-    def _guard(self, what: str, fn: Callable[[], Any]) -> Any:
+        Raises ScriptError (file, line and message) for anything that goes wrong."""
+        if self.load_error:
+            raise ScriptError(f"{self.label} cannot be loaded: {self.load_error}")
+        if not self.running:
+            raise ScriptError(f"{self.label} is not running: the simulation is stopped "
+                              "(child scripts run only while it runs; start it first)")
+        if not self._callable(function):
+            hint = f" (its start failed: {self.start_error})" if self.start_error else ""
+            raise ScriptError(f"{self.label} has no function {function!r} that can be called remotely{hint}")
+        return self._run_function(function, (ints, floats, strings, buffer))
+
+    # ------------------------------------------------------------ to implement
+    def _load(self) -> None:
+        raise NotImplementedError
+
+    def _create(self) -> None:
+        raise NotImplementedError
+
+    def _defines(self, function: str) -> bool:
+        raise NotImplementedError
+
+    def _callable(self, function: str) -> bool:
+        raise NotImplementedError
+
+    def _run_function(self, function: str, args: tuple) -> Any:
+        raise NotImplementedError
+
+    def _drop(self) -> None:
+        raise NotImplementedError
+
+    def _fault(self, what: str, detail: str, timeout: bool = False) -> ScriptError:
+        cls = ScriptTimeoutError if timeout else ScriptError
+        return cls(f"{self.label}, {what}: {detail}")
+
+
+def _refuse(name: str) -> Callable[..., Any]:
+    def refused(*args: Any, **kwargs: Any) -> Any:
+        raise ScriptError(f"{name}() is disabled in child scripts: simx runs code sent by clients "
+                          f"only when the server is started with {REMOTE_CODE_FLAG}")
+    refused.__name__ = name
+    return refused
+
+
+def _script_builtins(allow_remote_code: bool) -> dict[str, Any]:
+    """Builtins of Python scripts: without the flag, no exec/eval/compile (a guard rail against
+    running strings that clients send; Python scripts are trusted code, not a sandbox) and no
+    input/breakpoint (they would block the simulation)."""
+    names = dict(vars(builtins))
+    blocked = ("input", "breakpoint") + (() if allow_remote_code else ("exec", "eval", "compile"))
+    for name in blocked:
+        names[name] = _refuse(name)
+    return names
+
+
+class PythonScript(ChildScript):
+    """A Python child script: globals ``sim`` (:class:`SimFacade`) and ``print`` (to the log)."""
+
+    language = "Python"
+
+    def _load(self) -> None:
+        self._code = None
+        self.namespace: dict[str, Any] = {}
         try:
-            return fn()
+            source = self.path.read_text(encoding="utf-8")
+            self._code = compile(source, str(self.path), "exec", dont_inherit=True)
+        except SyntaxError as exc:
+            self.load_error = f"{self.path.name}:{exc.lineno}: SyntaxError: {exc.msg}"
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            self.load_error = f"{self.path.name}: {exc}"
+
+    def _print(self, *values: Any, sep: str | None = " ", end: str | None = None, **_: Any) -> None:
+        log.info("[%s] %s", self.path.name, (" " if sep is None else sep).join(str(v) for v in values))
+
+    def _create(self) -> None:
+        self.namespace = {
+            "__name__": f"simx_script_{self.object_name}",
+            "__file__": str(self.path),
+            "__builtins__": _script_builtins(self.allow_remote_code),
+            "sim": self.facade(),
+            "print": self._print,
+        }
+        self._bounded("top level", lambda: exec(self._code, self.namespace))
+
+    def _defines(self, function: str) -> bool:
+        return callable(self.namespace.get(function))
+
+    def _callable(self, function: str) -> bool:
+        fn = self.namespace.get(function)
+        # Only functions the script itself defines; not imported ones, not _private ones.
+        return (not function.startswith("_") and inspect.isfunction(fn)
+                and fn.__globals__ is self.namespace)
+
+    def _run_function(self, function: str, args: tuple) -> Any:
+        fn = self.namespace[function]
+        out = self._bounded(function, lambda: fn(*args))
+        if function in LIFE_CYCLE:
+            return out
+        try:
+            return legacy_outputs(out)
+        except ScriptError as exc:
+            raise self._fault(function, str(exc)) from None
+
+    def _drop(self) -> None:
+        self.namespace = {}
+
+    def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
+        try:
+            result, interrupted_at = _WATCHDOG.bounded(fn, self.timeout)
         except Exception as exc:
-            frame = traceback.extract_tb(exc.__traceback__)[-1]
-            raise ScriptError(
-                f"child script of {self.name!r}, {what}: {type(exc).__name__}: {exc} "
-                f"({Path(frame.filename).name}:{frame.lineno})"
-            ) from exc
+            raise self._fault(what, f"{self._where(traceback.extract_tb(exc.__traceback__))}"
+                                    f"{type(exc).__name__}: {exc}") from None
+        if interrupted_at is not None:
+            raise self._fault(what, f"{self._where(interrupted_at)}interrupted: did not return "
+                                    f"within {self.timeout:g} s (script_timeout)", timeout=True)
+        return result
+
+    def _where(self, stack: traceback.StackSummary) -> str:
+        frames = [f for f in stack if Path(f.filename) == self.path]
+        return f"{self.path.name}:{frames[-1].lineno}: " if frames else f"{self.path.name}: "
 
 
-def _legacy_outputs(out: Any, where: str) -> list:
-    values = list(out) if isinstance(out, (tuple, list)) else ([] if out is None else [out])
+def legacy_outputs(out: Any) -> list:
+    """A script function's return value as the legacy ``[ints, floats, strings, buffer]``.
+
+    Accepts None, one value, or a tuple/list of up to four; missing values are empty. Numbers
+    in the ints list are truncated to integers (as V-REP's C side did), strings may be bytes
+    (decoded as UTF-8), the buffer bytes or str. Raises ScriptError for anything else."""
+    if out is None:
+        values: list = []
+    elif isinstance(out, tuple):
+        values = list(out)
+    else:
+        values = [out]
     if len(values) > 4:
-        raise ScriptError(f"{where} returned {len(values)} values; at most 4 (ints, floats, strings, buffer)")
-    values += [[], [], [], b""][len(values):]
+        raise ScriptError(f"returned {len(values)} values; at most 4 (ints, floats, strings, buffer)")
+    values += [None] * (4 - len(values))
     ints, floats, strings, buf = values
     try:
-        ints = [int(v) for v in ints]
-        floats = [float(v) for v in floats]
-        strings = [str(v) for v in strings]
-        buf = buf.encode() if isinstance(buf, str) else bytes(buf)
-    except (TypeError, ValueError) as exc:
-        raise ScriptError(f"{where} returned values of the wrong types: {exc}") from exc
+        ints = [_as_int(v) for v in _seq(ints, "ints")]
+        floats = [_as_float(v) for v in _seq(floats, "floats")]
+        strings = [_as_str(v) for v in _seq(strings, "strings")]
+        if buf is None:
+            buf = b""
+        elif isinstance(buf, str):
+            buf = buf.encode("utf-8")
+        elif isinstance(buf, (bytes, bytearray, memoryview)):
+            buf = bytes(buf)
+        else:
+            raise TypeError(f"the buffer must be a string (bytes), got {type(buf).__name__}")
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ScriptError(f"returned values of the wrong types: {exc}") from None
     return [ints, floats, strings, buf]
 
 
-class Scripts:
-    """Every child script of the scene, driven through the simulation life cycle."""
+def _seq(value: Any, what: str) -> list:
+    if value is None:
+        return []
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return list(value)
+    raise TypeError(f"{what} must be a list (a Lua table), got {type(value).__name__}")
 
-    def __init__(self, world: World):
+
+def _as_int(v: Any) -> int:
+    if isinstance(v, (str, bytes)) or v is None:
+        raise TypeError(f"ints must be numbers, got {v!r}")
+    return int(v)
+
+
+def _as_float(v: Any) -> float:
+    if isinstance(v, (str, bytes)) or v is None:
+        raise TypeError(f"floats must be numbers, got {v!r}")
+    return float(v)
+
+
+def _as_str(v: Any) -> str:
+    if isinstance(v, (bytes, bytearray)):
+        return bytes(v).decode("utf-8", errors="replace")
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return str(v)
+    raise TypeError(f"strings must be strings, got {v!r}")
+
+
+# ---------------------------------------------------------------- the manager
+def load_script(world: World, owner: int, file: str, *, untrusted: Iterable[Path] = (),
+                **options: Any) -> ChildScript:
+    """The child script ``file`` (relative to the scene's folder) of object ``owner``.
+
+    ``untrusted`` are folders that clients can write to (the ``simxTransferFile`` folder): a
+    script there is code sent by a client, refused unless ``allow_remote_code``.
+
+    Raises:
+        ValueError: the file lies outside the scene's folder or in an untrusted one, does not
+            exist, or is neither ``.lua`` nor ``.py`` (a scene error: the scene is refused).
+    """
+    folder = world.scene_path.parent
+    name = world.get(owner).name
+    path = (folder / file).resolve()
+    if folder not in path.parents:
+        raise ValueError(f"child script {file!r} of {name!r} lies outside the scene folder {folder}")
+    if not options.get("allow_remote_code"):
+        for place in untrusted:
+            place = Path(place).resolve()
+            if path == place or place in path.parents:
+                raise ValueError(f"child script {file!r} of {name!r} was sent by a client ({place}): simx "
+                                 f"runs code sent by clients only when the server is started with "
+                                 f"{REMOTE_CODE_FLAG}")
+    if not path.is_file():
+        raise ValueError(f"child script {file!r} of {name!r} not found in {folder}")
+    if path.suffix == ".py":
+        return PythonScript(world, owner, path, **options)
+    if path.suffix == ".lua":
+        from simx_server.lua_scripts import LuaScript  # lupa is needed only for Lua scripts
+
+        return LuaScript(world, owner, path, **options)
+    raise ValueError(f"child script {file!r} of {name!r}: unknown language (use .lua or .py)")
+
+
+class Scripts:
+    """Every child script of the scene, driven through the simulation life cycle.
+
+    Args:
+        world: the scene; objects with a ``child_script`` setting get their script.
+        signals: the server's signal store (a private one when None).
+        allow_remote_code: let scripts run code that clients send (Lua ``load``/``loadstring``,
+            Python ``exec``/``eval``/``compile``); the server's ``--allow-remote-code``.
+        timeout: default bound (s) of each call into a script; a ``script_timeout=S`` setting
+            of the object overrides it.
+        untrusted: folders clients can write to (the ``simxTransferFile`` folder); scripts
+            there are refused unless ``allow_remote_code`` (a scene sent by a client must not
+            bring code with it).
+
+    Raises:
+        ValueError: a script file is missing, outside the scene folder, in an untrusted folder,
+            or of unknown language; a ``script_timeout`` is not a positive number. (Syntax
+            errors are not fatal: that script answers its error to every call, the others run.)
+    """
+
+    def __init__(self, world: World, signals: Signals | None = None, *, allow_remote_code: bool = False,
+                 timeout: float = DEFAULT_TIMEOUT, untrusted: Iterable[Path] = ()):
         self.world = world
+        self.signals = signals if signals is not None else Signals()
+        self.allow_remote_code = allow_remote_code
         self.scripts: dict[int, ChildScript] = {}
         for obj in world.objects.values():
             file = obj.settings.get("child_script")
-            if file:
-                path = (world.scene_path.parent / file).resolve()
-                if world.scene_path.parent not in path.parents:
-                    raise ValueError(f"child script {file!r} of {obj.name!r} lies outside the scene folder")
-                self.scripts[obj.handle] = ChildScript(world, obj.handle, path)
-
-    def _each(self, action: Callable[[ChildScript], None]) -> None:
-        for script in self.scripts.values():
+            if not file:
+                continue
+            bound = obj.settings.get("script_timeout", timeout)
             try:
-                action(script)
-            except ScriptError as exc:
-                log.error("%s", exc)
+                bound = float(bound)
+                if not (bound > 0 and math.isfinite(bound)):
+                    raise ValueError
+            except ValueError:
+                raise ValueError(f"script_timeout of {obj.name!r} must be a positive number of seconds, "
+                                 f"got {obj.settings.get('script_timeout')!r}") from None
+            self.scripts[obj.handle] = load_script(world, obj.handle, file, untrusted=untrusted,
+                                                   signals=self.signals, timeout=bound,
+                                                   allow_remote_code=allow_remote_code)
+        if allow_remote_code and self.scripts:
+            log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
 
     def start(self) -> None:
         """Simulation starts: every script runs its top level and ``sysCall_init``."""
-        self._each(ChildScript.start)
+        for script in self.scripts.values():
+            try:
+                script.start()
+            except ScriptError as exc:
+                log.error("%s", exc)
+            except Exception:  # the other scripts start all the same
+                log.exception("%s: internal error at start", script.label)
 
     def actuation(self) -> None:
         """Before a step: ``sysCall_actuation`` of every script."""
-        self._each(lambda s: s.life_cycle("sysCall_actuation"))
+        for script in self.scripts.values():
+            script.life_cycle("sysCall_actuation")
 
     def sensing(self) -> None:
         """After a step: ``sysCall_sensing`` of every script."""
-        self._each(lambda s: s.life_cycle("sysCall_sensing"))
+        for script in self.scripts.values():
+            script.life_cycle("sysCall_sensing")
 
     def stop(self) -> None:
-        """Simulation stops: ``sysCall_cleanup`` of every script."""
-        self._each(lambda s: s.life_cycle("sysCall_cleanup"))
+        """Simulation stops: ``sysCall_cleanup`` of every script; signals set by scripts go."""
+        for script in self.scripts.values():
+            script.stop()
+        self.signals.clear_script_signals()
 
     def call(self, object_name: str, script_type: int, function: str, ints, floats, strings, buffer) -> list:
-        """``simxCallScriptFunction`` on the child script of ``object_name``."""
+        """``simxCallScriptFunction`` on the child script of ``object_name``.
+
+        Raises ScriptError (no such script or function, or the script failed) or
+        ArgumentError (arguments of the wrong types)."""
         if script_type != C.sim_scripttype_childscript:
             raise ScriptError(f"script type {script_type} is not supported; only child scripts "
                               f"(sim_scripttype_childscript = {C.sim_scripttype_childscript})")
@@ -198,6 +552,11 @@ class Scripts:
         if script is None:
             raise ScriptError(f"object {obj.name!r} has no child script")
         if not (isinstance(ints, list) and isinstance(floats, list) and isinstance(strings, list)
-                and isinstance(buffer, bytes)):
-            raise ArgumentError("script arguments must be lists of ints, floats, strings and bytes")
-        return script.call(function, ints, floats, strings, buffer)
+                and isinstance(buffer, (bytes, bytearray))
+                and all(isinstance(v, int) and not isinstance(v, bool) for v in ints)
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in floats)
+                and all(isinstance(v, str) for v in strings)):
+            raise ArgumentError("script arguments must be lists of ints, floats and strings, and bytes")
+        if not isinstance(function, str) or not function:
+            raise ArgumentError("the function name must be a non-empty string")
+        return script.call(function, list(ints), [float(v) for v in floats], list(strings), bytes(buffer))

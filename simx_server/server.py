@@ -150,10 +150,11 @@ class Server:
             if kind == "gone":
                 self._forget(client, "left")
             return
-        try:
-            self._answer(item)
-        except Exception:  # the server never dies from a client
-            log.exception("answering a query on %s", item.key_expr)
+        with item:  # dropping the query sends Zenoh's final reply at once
+            try:
+                self._answer(item)
+            except Exception:  # the server never dies from a client
+                log.exception("answering a query on %s", item.key_expr)
 
     def _answer(self, query: zenoh.Query) -> None:
         payload = query.payload.to_bytes() if query.payload is not None else b""

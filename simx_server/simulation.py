@@ -9,6 +9,8 @@ import logging
 from pathlib import Path
 
 from simx_client import protocol as P
+from simx_server.editing import Editor
+from simx_server.script_facade import Signals
 from simx_server.scripts import Scripts
 from simx_server.sensors import SensorState
 from simx_server.vision import VisionSensors
@@ -30,16 +32,20 @@ class Simulation:
         scene: MJCF file.
         dt: simulation step in s.
         realtime: whether asynchronous mode paces steps to wall time (the server's --speed > 0).
+        allow_remote_code: let child scripts run code sent by clients (--allow-remote-code).
 
     Raises:
         ValueError: the scene or one of its scripts cannot be loaded.
     """
 
-    def __init__(self, scene: str | Path, dt: float = 0.05, realtime: bool = True):
+    def __init__(self, scene: str | Path, dt: float = 0.05, realtime: bool = True,
+                 allow_remote_code: bool = False):
         self.world = World(scene, dt)
         self.vision = VisionSensors(self.world)
-        self.scripts = Scripts(self.world)
+        self.signals = Signals()  # shared by every client and child script
+        self.scripts = Scripts(self.world, self.signals, allow_remote_code=allow_remote_code)
         self.sensors = SensorState()
+        self.editor = Editor(self)  # scene editing (MjSpec) and the transfer folder
         self.state = RunState.STOPPED
         self.realtime = realtime
         self.synchronous = False  # stepped mode: a step runs only on a trigger
@@ -98,5 +104,6 @@ class Simulation:
         self.steps += 1
 
     def close(self) -> None:
-        """Release GL contexts; idempotent."""
+        """Release GL contexts and the transfer folder; idempotent."""
         self.vision.close()
+        self.editor.close()

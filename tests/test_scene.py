@@ -157,7 +157,7 @@ def test_custom_simx_settings(model):
     assert texts[f"simx:{GRIPPER_JOINT}"] == {"mode": "velocity", "max_velocity": "0.5"}
     assert texts["simx:kinect_rgb"] == {"image": "rgb", "near": "0.01", "far": "3.5"}
     assert texts["simx:kinect_depth"] == {"image": "depth", "near": "0.01", "far": "3.5"}
-    assert texts["simx:RG2"] == {"child_script": "rg2.py"}
+    assert texts["simx:RG2"] == {"child_script": "rg2.lua"}
     # every simx: entry must name an existing object
     for key in texts:
         name = key.split(":", 1)[1]

@@ -1,0 +1,537 @@
+"""The ``sim`` facade of child scripts and the signal store, on top of the world.
+
+One :class:`SimFacade` per script serves Python scripts directly and Lua scripts through
+:mod:`simx_server.lua_scripts`; V-REP's names and units. :class:`Signals` is the server's
+store of integer, float and string signals.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import struct
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from simx_client import constants as C
+from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+from simx_server.world import World
+
+log = logging.getLogger("simx.scripts")
+
+
+def script_constants() -> dict[str, int]:
+    """The ``sim.*`` constants of child scripts: every ``sim_X`` legacy constant as ``sim.X``,
+    plus ``handle_world`` (-1)."""
+    out = {name[4:]: value for name, value in vars(C).items()
+           if name.startswith("sim_") and isinstance(value, int)}
+    out["handle_world"] = -1
+    return out
+
+
+SCRIPT_CONSTANTS: dict[str, int] = script_constants()
+
+
+# --------------------------------------------------------------------------- signals
+class Signals:
+    """Integer, float and string signals: V-REP's named values shared by scripts and clients.
+
+    One store per server: scripts use it through ``sim.setIntegerSignal`` & co., the remote
+    ``simxSetIntegerSignal`` & co. can share the same instance. Kinds are ``"int"``, ``"float"``
+    and ``"string"`` (string signals hold bytes, as V-REP's did). Signals set by scripts are
+    cleared when the simulation stops (:meth:`clear_script_signals`), as in V-REP.
+    """
+
+    INT, FLOAT, STRING = "int", "float", "string"
+    KINDS = (INT, FLOAT, STRING)
+
+    def __init__(self) -> None:
+        self._values: dict[str, dict[str, Any]] = {k: {} for k in self.KINDS}
+        self._by_script: set[tuple[str, str]] = set()
+
+    @classmethod
+    def _check(cls, kind: str, name: str) -> None:
+        if kind not in cls.KINDS:
+            raise ArgumentError(f"signal kind must be one of {cls.KINDS}, got {kind!r}")
+        if not isinstance(name, str):
+            raise ArgumentError(f"signal name must be a string, got {type(name).__name__}")
+
+    @classmethod
+    def _coerce(cls, kind: str, value: Any) -> Any:
+        try:
+            if kind == cls.INT:
+                if isinstance(value, float) and not value.is_integer():
+                    raise ValueError(f"{value!r} is not an integer")
+                return int(value)
+            if kind == cls.FLOAT:
+                return float(value)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ArgumentError(f"bad {kind} signal value: {exc}") from None
+        if isinstance(value, str):
+            return value.encode("utf-8")
+        if isinstance(value, (bytes, bytearray, memoryview)):
+            return bytes(value)
+        raise ArgumentError(f"a string signal holds bytes or str, got {type(value).__name__}")
+
+    def set(self, kind: str, name: str, value: Any, *, by_script: bool = False) -> None:
+        """Set signal ``name`` of ``kind``; raises ArgumentError for a value of the wrong type."""
+        self._check(kind, name)
+        self._values[kind][name] = self._coerce(kind, value)
+        if by_script:
+            self._by_script.add((kind, name))
+        else:
+            self._by_script.discard((kind, name))
+
+    def get(self, kind: str, name: str, default: Any = None) -> Any:
+        """Value of signal ``name`` of ``kind``, ``default`` when it is not set."""
+        self._check(kind, name)
+        return self._values[kind].get(name, default)
+
+    def clear(self, kind: str | None = None, name: str | None = None) -> None:
+        """Clear one signal, every signal of ``kind`` (``name`` None) or everything (both None)."""
+        for k in self.KINDS if kind is None else (kind,):
+            self._check(k, "" if name is None else name)
+            if name is None:
+                self._values[k].clear()
+                self._by_script = {s for s in self._by_script if s[0] != k}
+            else:
+                self._values[k].pop(name, None)
+                self._by_script.discard((k, name))
+
+    def clear_script_signals(self) -> None:
+        """Clear the signals last set by scripts (V-REP clears them at simulation end)."""
+        for kind, name in self._by_script:
+            self._values[kind].pop(name, None)
+        self._by_script.clear()
+
+    def names(self, kind: str) -> list[str]:
+        """Names of the signals of ``kind`` that are set."""
+        self._check(kind, "")
+        return sorted(self._values[kind])
+
+    # typed accessors
+    def set_int(self, name: str, value: int, *, by_script: bool = False) -> None:
+        self.set(self.INT, name, value, by_script=by_script)
+
+    def get_int(self, name: str, default: int | None = None) -> int | None:
+        return self.get(self.INT, name, default)
+
+    def set_float(self, name: str, value: float, *, by_script: bool = False) -> None:
+        self.set(self.FLOAT, name, value, by_script=by_script)
+
+    def get_float(self, name: str, default: float | None = None) -> float | None:
+        return self.get(self.FLOAT, name, default)
+
+    def set_string(self, name: str, value: bytes | str, *, by_script: bool = False) -> None:
+        self.set(self.STRING, name, value, by_script=by_script)
+
+    def get_string(self, name: str, default: bytes | None = None) -> bytes | None:
+        return self.get(self.STRING, name, default)
+
+
+# ---------------------------------------------------------------------- the facade
+def _text(value: Any, what: str) -> str:
+    if isinstance(value, (bytes, bytearray)):
+        return bytes(value).decode("utf-8", errors="replace")
+    if not isinstance(value, str):
+        raise ArgumentError(f"{what} must be a string, got {type(value).__name__}")
+    return value
+
+
+def _bytes(value: Any, what: str) -> bytes:
+    if isinstance(value, str):
+        return value.encode("utf-8")
+    if isinstance(value, (bytes, bytearray, memoryview)):
+        return bytes(value)
+    raise ArgumentError(f"{what} must be a string (bytes), got {type(value).__name__}")
+
+
+def _int(value: Any, what: str) -> int:
+    if isinstance(value, (np.integer, np.floating)):
+        value = value.item()
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ArgumentError(f"{what} must be an integer, got {value!r}")
+    return value
+
+
+def _num(value: Any, what: str) -> float:
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ArgumentError(f"{what} must be a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ArgumentError(f"{what} must be finite, got {value!r}")
+    return v
+
+
+def _vector(value: Any, n: int, what: str) -> list[float]:
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != n:
+        raise ArgumentError(f"{what} must be a table of {n} numbers, got {value!r}")
+    return [_num(v, f"{what}[{i + 1}]") for i, v in enumerate(value)]
+
+
+def _euler_matrix(alpha: float, beta: float, gamma: float) -> np.ndarray:
+    """V-REP's Euler angles: R = Rx(alpha) Ry(beta) Rz(gamma)."""
+    ca, sa, cb, sb, cg, sg = (math.cos(alpha), math.sin(alpha), math.cos(beta), math.sin(beta),
+                              math.cos(gamma), math.sin(gamma))
+    rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
+    ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+    rz = np.array([[cg, -sg, 0], [sg, cg, 0], [0, 0, 1]])
+    return rx @ ry @ rz
+
+
+def _quat_matrix(xyzw: list[float]) -> np.ndarray:
+    x, y, z, w = xyzw
+    q = np.array([w, x, y, z], dtype=float)
+    norm = np.linalg.norm(q)
+    if norm < 1e-12:
+        raise ArgumentError("quaternion must not be zero")
+    r = np.empty(9)
+    mujoco.mju_quat2Mat(r, q / norm)
+    return r.reshape(3, 3)
+
+
+#: pack/unpack formats: struct code and item size of each V-REP pack*Table function.
+_PACK_FORMATS = {"Int32": "i", "UInt32": "I", "Float": "f", "Double": "d", "UInt8": "B", "UInt16": "H"}
+
+
+class SimFacade:
+    """V-REP's ``sim`` API for child scripts, on top of the world (V-REP's names and units).
+
+    The same object serves Python scripts directly and Lua scripts through
+    :mod:`simx_server.lua_scripts` (every public method becomes ``sim.NAME`` there, every
+    constant of :func:`script_constants` ``sim.CONSTANT``). Vectors are lists (Lua tables),
+    strings may be ``str`` or ``bytes``, buffers are ``bytes``. Errors raise the simx exceptions
+    (UnknownObjectError, ObjectTypeError, ArgumentError); Lua sees them as Lua errors.
+
+    Args:
+        world: the scene.
+        owner: handle of the object the script is attached to (``sim.handle_self``).
+        signals: the signal store (one per server).
+        label: how log lines name the script.
+    """
+
+    def __init__(self, world: World, owner: int, signals: Signals | None = None, label: str = ""):
+        self._world = world
+        self._owner = owner
+        self._signals = signals if signals is not None else Signals()
+        self._label = label or world.get(owner).name
+
+    def __getattr__(self, name: str) -> Any:
+        if name in SCRIPT_CONSTANTS:
+            return SCRIPT_CONSTANTS[name]
+        raise AttributeError(f"sim.{name} is not available in simx (docs/SCRIPTS.md lists what is)")
+
+    # ----------------------------------------------------------------- helpers
+    def _h(self, handle: Any, what: str = "object handle") -> int:
+        h = _int(handle, what)
+        return self._owner if h == C.sim_handle_self else h
+
+    def _rel(self, relative_to: Any) -> int:
+        rel = self._h(relative_to, "relativeToObjectHandle")
+        if rel not in (-1, C.sim_handle_parent):
+            self._world.get(rel)
+        return rel
+
+    # ----------------------------------------------------------------- objects
+    def getObjectHandle(self, name: Any) -> int:  # noqa: N802 (V-REP's names)
+        """Handle of the object called ``name`` (``sim.handle_self``: the script's object).
+
+        Raises UnknownObjectError (a Lua error) for an unknown name, as V-REP did."""
+        if not isinstance(name, (str, bytes, bytearray)):
+            if _int(name, "object name") != C.sim_handle_self:
+                raise ArgumentError(f"object name must be a string or sim.handle_self, got {name!r}")
+            return self._owner
+        return self._world.resolve(_text(name, "object name")).handle
+
+    def getObject(self, path: Any, options: dict | None = None) -> int:  # noqa: N802
+        """CoppeliaSim 4.3's lookup: a name or ``/path``; ``"."`` is the script's object.
+
+        ``options = {noError = true}`` answers -1 instead of an error for an unknown object."""
+        p = _text(path, "object path")
+        if p == ".":
+            return self._owner
+        try:
+            return self._world.resolve(p).handle
+        except UnknownObjectError:
+            if isinstance(options, dict) and options.get("noError"):
+                return -1
+            raise
+
+    def getObjectName(self, handle: Any) -> str:  # noqa: N802
+        """Name of the object ``handle``."""
+        return self._world.get(self._h(handle)).name
+
+    getObjectAlias = getObjectName  # noqa: N815 (CoppeliaSim 4.3 name)
+
+    def getObjectType(self, handle: Any) -> int:  # noqa: N802
+        """Type of the object (``sim.object_joint_type`` ...)."""
+        return self._world.get(self._h(handle)).type
+
+    def getObjectParent(self, handle: Any) -> int:  # noqa: N802
+        """Handle of the object's parent, -1 for the world."""
+        return self._world.get(self._h(handle)).parent
+
+    def getObjectAssociatedWithScript(self, script: Any) -> int:  # noqa: N802
+        """The script's object (only ``sim.handle_self`` is a script handle in simx)."""
+        if _int(script, "script handle") != C.sim_handle_self:
+            raise ArgumentError("simx knows only sim.handle_self as a script handle")
+        return self._owner
+
+    def getObjects(self, index: Any, object_type: Any) -> int:  # noqa: N802
+        """The ``index``-th object (0-based) of ``object_type`` (``sim.handle_all``: any), or -1."""
+        handles = self._world.objects_of_type(_int(object_type, "objectType"))
+        i = _int(index, "index")
+        return handles[i] if 0 <= i < len(handles) else -1
+
+    # ------------------------------------------------------------------ joints
+    def getJointPosition(self, handle: Any) -> float:  # noqa: N802
+        """Joint position (rad or m)."""
+        return self._world.joint_position(self._h(handle))
+
+    def setJointPosition(self, handle: Any, position: Any) -> None:  # noqa: N802
+        """Teleport a joint to ``position`` (rad or m)."""
+        self._world.set_joint_position(self._h(handle), _num(position, "position"))
+
+    def setJointTargetPosition(self, handle: Any, position: Any) -> None:  # noqa: N802
+        """Target position of a position-controlled joint (rad or m)."""
+        self._world.set_joint_target_position(self._h(handle), _num(position, "position"))
+
+    def getJointTargetPosition(self, handle: Any) -> float:  # noqa: N802
+        """Target position of a joint's motor (rad or m)."""
+        return float(self._world.target_position[self._world.motor(self._h(handle))])
+
+    def setJointTargetVelocity(self, handle: Any, velocity: Any) -> None:  # noqa: N802
+        """Target velocity of a velocity-mode joint (rad/s or m/s)."""
+        self._world.set_joint_target_velocity(self._h(handle), _num(velocity, "velocity"))
+
+    def getJointTargetVelocity(self, handle: Any) -> float:  # noqa: N802
+        """Target velocity of a joint's motor (rad/s or m/s)."""
+        return float(self._world.target_velocity[self._world.motor(self._h(handle))])
+
+    def setJointForce(self, handle: Any, force: Any) -> None:  # noqa: N802
+        """Maximum force/torque of the joint's motor (N or N·m)."""
+        self._world.set_joint_force(self._h(handle), _num(force, "force"))
+
+    setJointMaxForce = setJointForce  # noqa: N815 (CoppeliaSim 4 name)
+
+    def getJointForce(self, handle: Any) -> float:  # noqa: N802
+        """Force/torque the joint's motor applies (N or N·m)."""
+        return self._world.joint_force(self._h(handle))
+
+    def getJointMaxForce(self, handle: Any) -> float:  # noqa: N802
+        """Maximum force/torque of the joint's motor (N or N·m)."""
+        return self._world.joint_max_force(self._h(handle))
+
+    # ------------------------------------------------------------------- poses
+    def getObjectPosition(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
+        """Position (m) relative to ``relative_to`` (-1 world, ``sim.handle_parent``)."""
+        return self._world.position(self._h(handle), self._rel(relative_to))
+
+    def getObjectOrientation(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
+        """Euler angles alpha, beta, gamma (rad), R = Rx(alpha) Ry(beta) Rz(gamma)."""
+        return self._world.orientation(self._h(handle), self._rel(relative_to))
+
+    def getObjectQuaternion(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
+        """Orientation as a quaternion (x, y, z, w)."""
+        return self._world.quaternion(self._h(handle), self._rel(relative_to))
+
+    def setObjectPosition(self, handle: Any, relative_to: Any, position: Any) -> None:  # noqa: N802
+        """Move an object to ``position`` (m) in the frame of ``relative_to``."""
+        self._set_pose(handle, relative_to, position=_vector(position, 3, "position"))
+
+    def setObjectOrientation(self, handle: Any, relative_to: Any, euler: Any) -> None:  # noqa: N802
+        """Turn an object to Euler angles (rad) in the frame of ``relative_to``."""
+        self._set_pose(handle, relative_to, rotation=_euler_matrix(*_vector(euler, 3, "eulerAngles")))
+
+    def setObjectQuaternion(self, handle: Any, relative_to: Any, quaternion: Any) -> None:  # noqa: N802
+        """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``."""
+        self._set_pose(handle, relative_to, rotation=_quat_matrix(_vector(quaternion, 4, "quaternion")))
+
+    def _set_pose(self, handle: Any, relative_to: Any, position: list[float] | None = None,
+                  rotation: np.ndarray | None = None) -> None:
+        h, rel = self._h(handle), self._rel(relative_to)
+        set_pose = getattr(self._world, "set_pose", None)
+        if set_pose is not None:
+            set_pose(h, rel, position=position, rotation=rotation)
+        else:
+            _set_free_or_mocap_pose(self._world, h, rel, position, rotation)
+
+    # -------------------------------------------------------------------- time
+    def getSimulationTime(self) -> float:  # noqa: N802
+        """Simulation time (s)."""
+        return self._world.time
+
+    def getSimulationTimeStep(self) -> float:  # noqa: N802
+        """Simulation step dt (s)."""
+        return self._world.dt
+
+    # ----------------------------------------------------------------- signals
+    def setIntegerSignal(self, name: Any, value: Any) -> None:  # noqa: N802
+        """Set integer signal ``name``."""
+        self._signals.set(Signals.INT, _text(name, "signal name"), value, by_script=True)
+
+    def getIntegerSignal(self, name: Any) -> int | None:  # noqa: N802
+        """Integer signal ``name``; None (Lua nil) when not set."""
+        return self._signals.get(Signals.INT, _text(name, "signal name"))
+
+    def clearIntegerSignal(self, name: Any = None) -> None:  # noqa: N802
+        """Clear integer signal ``name`` (every integer signal when None)."""
+        self._signals.clear(Signals.INT, None if name is None else _text(name, "signal name"))
+
+    def setFloatSignal(self, name: Any, value: Any) -> None:  # noqa: N802
+        """Set float signal ``name``."""
+        self._signals.set(Signals.FLOAT, _text(name, "signal name"), _num(value, "value"), by_script=True)
+
+    def getFloatSignal(self, name: Any) -> float | None:  # noqa: N802
+        """Float signal ``name``; None (Lua nil) when not set."""
+        return self._signals.get(Signals.FLOAT, _text(name, "signal name"))
+
+    def clearFloatSignal(self, name: Any = None) -> None:  # noqa: N802
+        """Clear float signal ``name`` (every float signal when None)."""
+        self._signals.clear(Signals.FLOAT, None if name is None else _text(name, "signal name"))
+
+    def setStringSignal(self, name: Any, value: Any) -> None:  # noqa: N802
+        """Set string signal ``name`` (a byte string)."""
+        self._signals.set(Signals.STRING, _text(name, "signal name"), _bytes(value, "value"), by_script=True)
+
+    def getStringSignal(self, name: Any) -> bytes | None:  # noqa: N802
+        """String signal ``name`` as bytes; None (Lua nil) when not set."""
+        return self._signals.get(Signals.STRING, _text(name, "signal name"))
+
+    def clearStringSignal(self, name: Any = None) -> None:  # noqa: N802
+        """Clear string signal ``name`` (every string signal when None)."""
+        self._signals.clear(Signals.STRING, None if name is None else _text(name, "signal name"))
+
+    # ---------------------------------------------------------------- messages
+    def addStatusbarMessage(self, message: Any) -> None:  # noqa: N802
+        """Write ``message`` to the server log (there is no status bar)."""
+        log.info("[%s] %s", self._label, _text(message, "message") if message is not None else "")
+
+    # ----------------------------------------------------------------- packing
+    def _pack(self, kind: str, values: Any, start: Any, count: Any) -> bytes:
+        if isinstance(values, np.ndarray):
+            values = values.tolist()
+        if not isinstance(values, (list, tuple)):
+            raise ArgumentError(f"pack{kind}Table needs a table of numbers, got {values!r}")
+        s, n = _int(start, "startIndex"), _int(count, "count")
+        if s < 0 or n < 0:
+            raise ArgumentError("startIndex and count must not be negative")
+        items = values[s:] if n == 0 else values[s:s + n]
+        code = _PACK_FORMATS[kind]
+        conv = (lambda v: _num(v, "value")) if code in "fd" else (lambda v: _int(v, "value"))
+        try:
+            return struct.pack(f"<{len(items)}{code}", *(conv(v) for v in items))
+        except struct.error as exc:
+            raise ArgumentError(f"pack{kind}Table: {exc}") from None
+
+    def _unpack(self, kind: str, data: Any, start: Any, count: Any, offset: Any) -> list:
+        raw = _bytes(data, "data")
+        s, n, off = _int(start, "startIndex"), _int(count, "count"), _int(offset, "additionalByteOffset")
+        if s < 0 or n < 0 or off < 0:
+            raise ArgumentError("startIndex, count and additionalByteOffset must not be negative")
+        code = _PACK_FORMATS[kind]
+        size = struct.calcsize(code)
+        raw = raw[off + s * size:]
+        available = len(raw) // size
+        n = available if n == 0 else min(n, available)
+        return list(struct.unpack(f"<{n}{code}", raw[:n * size]))
+
+    def packInt32Table(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
+        """Little-endian int32s of ``values[startIndex:][:count]`` (count 0: all)."""
+        return self._pack("Int32", values, startIndex, count)
+
+    def unpackInt32Table(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
+                         additionalByteOffset: Any = 0) -> list[int]:  # noqa: N803
+        """Int32s of a little-endian buffer (from item ``startIndex``, ``count`` of them, 0: all)."""
+        return self._unpack("Int32", data, startIndex, count, additionalByteOffset)
+
+    def packUInt32Table(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
+        """Little-endian uint32s."""
+        return self._pack("UInt32", values, startIndex, count)
+
+    def unpackUInt32Table(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
+                          additionalByteOffset: Any = 0) -> list[int]:  # noqa: N803
+        """Uint32s of a little-endian buffer."""
+        return self._unpack("UInt32", data, startIndex, count, additionalByteOffset)
+
+    def packFloatTable(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
+        """Little-endian float32s."""
+        return self._pack("Float", values, startIndex, count)
+
+    def unpackFloatTable(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
+                         additionalByteOffset: Any = 0) -> list[float]:  # noqa: N803
+        """Float32s of a little-endian buffer."""
+        return self._unpack("Float", data, startIndex, count, additionalByteOffset)
+
+    def packDoubleTable(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
+        """Little-endian float64s."""
+        return self._pack("Double", values, startIndex, count)
+
+    def unpackDoubleTable(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
+                          additionalByteOffset: Any = 0) -> list[float]:  # noqa: N803
+        """Float64s of a little-endian buffer."""
+        return self._unpack("Double", data, startIndex, count, additionalByteOffset)
+
+    def packUInt8Table(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
+        """Bytes."""
+        return self._pack("UInt8", values, startIndex, count)
+
+    def unpackUInt8Table(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
+                         additionalByteOffset: Any = 0) -> list[int]:  # noqa: N803
+        """Bytes as integers 0..255."""
+        return self._unpack("UInt8", data, startIndex, count, additionalByteOffset)
+
+    def packUInt16Table(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
+        """Little-endian uint16s."""
+        return self._pack("UInt16", values, startIndex, count)
+
+    def unpackUInt16Table(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
+                          additionalByteOffset: Any = 0) -> list[int]:  # noqa: N803
+        """Uint16s of a little-endian buffer."""
+        return self._unpack("UInt16", data, startIndex, count, additionalByteOffset)
+
+
+#: Names of the facade's functions (``sim.NAME`` in both languages).
+FACADE_FUNCTIONS: tuple[str, ...] = tuple(sorted(
+    n for n, v in vars(SimFacade).items() if not n.startswith("_") and callable(v)))
+
+
+def _set_free_or_mocap_pose(world: World, handle: int, relative_to: int,
+                            position: list[float] | None, rotation: np.ndarray | None) -> None:
+    """Pose setter for worlds without ``World.set_pose``: free-joint and mocap bodies only."""
+    obj = world.get(handle)
+    m, d = world.model, world.data
+    free = mocap = None
+    if obj.type == C.sim_object_shape_type:
+        b = obj.mj_id
+        if m.body_mocapid[b] >= 0:
+            mocap = int(m.body_mocapid[b])
+        elif m.body_jntnum[b] == 1 and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE:
+            free = int(m.body_jntadr[b])
+    if free is None and mocap is None:
+        raise ObjectTypeError(f"{obj.name!r} cannot be placed: simx places only bodies with a free "
+                              "joint and mocap bodies (set the joints of the others)")
+    if relative_to == C.sim_handle_parent:
+        relative_to = obj.parent
+    p0, r0 = world.frame(relative_to)
+    p_now, r_now = world.frame(handle)
+    p = p_now if position is None else p0 + r0 @ np.asarray(position, dtype=float)
+    r = r_now if rotation is None else r0 @ rotation
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(r).reshape(9))
+    if mocap is not None:
+        d.mocap_pos[mocap], d.mocap_quat[mocap] = p, quat
+    else:
+        qadr, dadr = m.jnt_qposadr[free], m.jnt_dofadr[free]
+        d.qpos[qadr:qadr + 7] = np.concatenate([p, quat])
+        d.qvel[dadr:dadr + 6] = 0.0
+    mujoco.mj_forward(m, d)
+    world.version += 1
