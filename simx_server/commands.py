@@ -20,6 +20,7 @@ import numpy as np
 from simx_client import constants as C
 from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, UnknownObjectError, UnsupportedError
 from simx_server import sensors
+from simx_server.editing import EDITING_HANDLERS
 from simx_server.simulation import RunState, Simulation
 
 Handler = Callable[[Simulation, list], Any]
@@ -310,6 +311,65 @@ def set_array_parameter(sim: Simulation, args: list) -> None:
     sim.world.model.opt.gravity[:] = _floats(values, 3, "gravity")
 
 
+# Signals: one store per server, shared by every client and child script.
+_SIGNAL_KINDS = {"Integer": "int", "Float": "float", "String": "string"}
+
+
+def _set_signal(kind: str) -> Handler:
+    def handler(sim: Simulation, args: list) -> None:
+        name, value = _args(args, "str", "any")
+        sim.signals.set(kind, name, value)
+
+    return handler
+
+
+def _get_signal(kind: str, clear: bool = False) -> Handler:
+    def handler(sim: Simulation, args: list) -> Any:
+        (name,) = _args(args, "str")
+        value = sim.signals.get(kind, name)
+        if value is None:
+            raise UnknownObjectError(f"{kind} signal {name!r} does not exist")
+        if clear:
+            sim.signals.clear(kind, name)
+        return value
+
+    return handler
+
+
+def _clear_signal(kind: str) -> Handler:
+    def handler(sim: Simulation, args: list) -> None:
+        (name,) = _args(args, "str")
+        sim.signals.clear(kind, name or None)  # "" clears every signal of the kind
+
+    return handler
+
+
+def append_string_signal(sim: Simulation, args: list) -> None:
+    name, value = _args(args, "str", "any")
+    if not isinstance(value, bytes):
+        raise ArgumentError("string signal data must be bytes")
+    sim.signals.set("string", name, sim.signals.get("string", name, b"") + value)
+
+
+def read_string_stream(sim: Simulation, args: list) -> bytes:
+    """What was written to the stream since the last read (empty when nothing was)."""
+    (name,) = _args(args, "str")
+    value = sim.signals.get("string", name, b"")
+    sim.signals.clear("string", name)
+    return value
+
+
+SIGNAL_HANDLERS: dict[str, Handler] = {
+    **{f"Set{k}Signal": _set_signal(v) for k, v in _SIGNAL_KINDS.items()},
+    **{f"Get{k}Signal": _get_signal(v) for k, v in _SIGNAL_KINDS.items()},
+    **{f"Clear{k}Signal": _clear_signal(v) for k, v in _SIGNAL_KINDS.items()},
+    "GetAndClearStringSignal": _get_signal("string", clear=True),
+    "AppendStringSignal": append_string_signal,
+    "WriteStringStream": append_string_signal,
+    "ReadStringStream": read_string_stream,
+}
+
+
 def gui_only(name: str) -> Handler:
     """Handler for a call that needs V-REP's GUI (custom UIs, dialogs): always a remote error."""
 
@@ -408,5 +468,7 @@ HANDLERS: dict[str, Handler] = {
     "GetArrayParameter": get_array_parameter,
     "SetArrayParameter": set_array_parameter,
     **{name: gui_only(name) for name in GUI_ONLY},
+    **SIGNAL_HANDLERS,
     **sensors.SENSOR_HANDLERS,
+    **EDITING_HANDLERS,
 }

@@ -167,3 +167,78 @@ def test_connection_id_follows_the_server_and_reconnects():
     finally:
         vrep.simxFinish(cid)
         srv.stop()
+
+
+def test_signals_shared_by_clients(server, vrep_client):
+    assert vrep.simxSetIntegerSignal(vrep_client, "count", 41, B) == 0
+    assert vrep.simxGetIntegerSignal(vrep_client, "count", B) == (0, 41)
+    assert vrep.simxSetInt32Signal(vrep_client, "count", 42, B) == 0
+    assert vrep.simxSetFloatSignal(vrep_client, "gain", 0.25, B) == 0
+    assert vrep.simxSetStringSignal(vrep_client, "blob", vrep.simxPackFloats([1.5, 2.5]), B) == 0
+    assert vrep.simxAppendStringSignal(vrep_client, "blob", b"\x00\x01", B) == 0
+    other = vrep.simxStart("127.0.0.1", server.ports[1], True, True, 5000, 5)
+    try:
+        assert vrep.simxGetIntegerSignal(other, "count", B) == (0, 42)
+        assert vrep.simxGetFloatSignal(other, "gain", B) == (0, 0.25)
+        rc, blob = vrep.simxGetStringSignal(other, "blob", B)
+        assert rc == 0 and isinstance(blob, bytearray) and vrep.simxUnpackFloats(blob[:8]) == [1.5, 2.5]
+        assert blob[8:] == b"\x00\x01"
+    finally:
+        vrep.simxFinish(other)
+    assert vrep.simxGetAndClearStringSignal(vrep_client, "blob", B)[0] == 0
+    assert vrep.simxGetStringSignal(vrep_client, "blob", B) == (8, bytearray())
+    assert vrep.simxClearIntegerSignal(vrep_client, "count", B) == 0
+    assert vrep.simxGetIntegerSignal(vrep_client, "count", B) == (8, 0)
+    assert vrep.simxClearFloatSignal(vrep_client, "", B) == 0  # "" clears them all
+    assert vrep.simxGetFloatSignal(vrep_client, "gain", B) == (8, 0.0)
+
+
+def test_string_stream_accumulates_until_read(vrep_client):
+    assert vrep.simxReadStringStream(vrep_client, "log", vrep.simx_opmode_streaming)[0] == 1
+    for chunk in (b"ab", b"cd", b"ef"):
+        assert vrep.simxWriteStringStream(vrep_client, "log", chunk, B) == 0
+    data = bytearray()
+    deadline = time.monotonic() + 5
+    while len(data) < 6:
+        assert time.monotonic() < deadline, f"stream gave only {data!r}"
+        rc, part = vrep.simxReadStringStream(vrep_client, "log", vrep.simx_opmode_buffer)
+        data += part if rc == 0 else b""
+        time.sleep(0.02)
+    assert data == b"abcdef"
+    vrep.simxReadStringStream(vrep_client, "log", vrep.simx_opmode_discontinue)
+
+
+def test_query_waits_for_the_answer_signal(vrep_client):
+    assert vrep.simxSetStringSignal(vrep_client, "answer", "pong", B) == 0
+    assert vrep.simxQuery(vrep_client, "request", "ping", "answer", 2000) == (0, bytearray(b"pong"))
+    assert vrep.simxGetStringSignal(vrep_client, "request", B) == (0, bytearray(b"ping"))
+    rc, value = vrep.simxQuery(vrep_client, "request", "ping", "never_answered", 200)
+    assert rc & vrep.simx_return_timeout_flag and value == bytearray()
+
+
+def test_scene_editing_while_running_keeps_other_handles(vrep_client, tmp_path):
+    j1, sphere = h(vrep_client, "UR5_joint1"), h(vrep_client, "Sphere")
+    model = tmp_path / "crate.xml"
+    model.write_text('<mujoco><worldbody><body name="Crate" pos="0.3 0.3 1.2"><freejoint/>'
+                     '<geom type="box" size="0.05 0.05 0.05" mass="0.2" rgba="0 .6 0 1"/></body>'
+                     '</worldbody></mujoco>')
+    rc, crate = vrep.simxLoadModel(vrep_client, str(model), 1, B)  # bit 0: a file of this client
+    assert rc == 0 and crate > 0
+    assert vrep.simxGetObjectHandle(vrep_client, "Crate", B) == (0, crate)
+    assert vrep.simxGetObjectHandle(vrep_client, "UR5_joint1", B) == (0, j1)
+    assert vrep.simxGetObjectHandle(vrep_client, "Sphere", B) == (0, sphere)
+    z0 = vrep.simxGetObjectPosition(vrep_client, crate, -1, B)[1][2]
+    time.sleep(0.3)
+    assert vrep.simxGetObjectPosition(vrep_client, crate, -1, B)[1][2] < z0  # it falls
+    rc, (copy,) = vrep.simxCopyPasteObjects(vrep_client, [crate], B)
+    assert rc == 0 and copy not in (crate, j1, sphere)
+    assert vrep.simxRemoveModel(vrep_client, copy, B) == 0
+    assert vrep.simxGetObjectPosition(vrep_client, copy, -1, B)[0] == 8
+    rc, dummy = vrep.simxCreateDummy(vrep_client, 0.05, None, B)
+    assert rc == 0 and vrep.simxGetObjectHandle(vrep_client, "Dummy", B) == (0, dummy)
+    assert vrep.simxRemoveObject(vrep_client, dummy, B) == 0
+    assert vrep.simxRemoveObject(vrep_client, crate, B) == 0
+    assert vrep.simxGetJointPosition(vrep_client, j1, B)[0] == 0
+    assert vrep.simxTransferFile(vrep_client, str(model), "../escape.xml", 1000, B) == 8
+    assert vrep.simxEraseFile(vrep_client, "crate.xml", B) == 0
+    assert vrep.simxLoadScene(vrep_client, "whatever.xml", 0, B) == 8  # refused while running

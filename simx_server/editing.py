@@ -1,0 +1,923 @@
+"""Scene editing: V-REP's model and scene commands on a live ``MjSpec`` of the scene.
+
+The :class:`Editor` keeps one ``mujoco.MjSpec`` of the loaded scene (parsed from the scene
+file when the editor or the scene is created; mesh, height-field, skin and texture files are
+read into memory then, so that later compiles need no file). Each edit works on a copy of that
+spec, compiles it to a new ``MjModel`` and hands it to :meth:`World.replace_model`, which keeps
+every object that is still there (matched by name): its handle, joint positions and
+velocities, free bodies' poses, motors' mode/targets/maximum force and the simulation time.
+Objects that commands placed while the simulation runs (``World.set_pose``) stay where they
+are until it stops. A failed edit changes nothing. Vision sensors are rebuilt after each edit
+(their renderers belong to the old model).
+
+Rules, in V-REP's terms (docs/API.md lists them per command):
+
+* Names. MuJoCo names are unique per element type, V-REP names across all objects. Elements
+  that arrive (a loaded model, a copy) keep their names when none of them is taken in the
+  scene; otherwise every name they bring gets one V-REP suffix ``#n``, the smallest ``n >= 0``
+  that makes all of them new (``Box`` -> ``Box#0`` -> ``Box#1``; a copy of ``Box#0`` is
+  ``Box#0#0``). A loaded model's assets (materials, textures, meshes, ...) whose names alone
+  collide are renamed (``grey#0``) without renaming the model's objects.
+* A shape is a MuJoCo body, and a body carries its child bodies: removing, copying or
+  re-parenting a shape acts on its whole body subtree (with the joints, geoms, sites, cameras
+  and lights inside, and the actuators, sensors, constraints and ``simx:`` settings that
+  refer to them).
+* Child scripts are not copied with objects, nor run for loaded models (their object
+  lookups would address the original objects); a removed object's script is cleaned up.
+* Files sent with ``simxTransferFile`` go to a per-server temporary folder, removed by
+  :meth:`Editor.close`; names that leave that folder are refused.
+
+Runs on the simulation thread, like every handler.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import shutil
+import tempfile
+import warnings
+from pathlib import Path, PurePosixPath
+from typing import TYPE_CHECKING, Any, Callable
+
+import mujoco
+import numpy as np
+
+from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_server.scripts import Scripts
+from simx_server.vision import VisionSensors
+from simx_server.world import (DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE,
+                               VISION_SENSOR, WORLD, World)
+
+if TYPE_CHECKING:
+    from simx_server.simulation import Simulation
+
+log = logging.getLogger("simx.editing")
+
+#: Spec element lists: tree elements, assets, the rest.
+_TREE_LISTS = ("bodies", "joints", "geoms", "sites", "cameras", "lights", "frames")
+_ASSET_LISTS = ("materials", "textures", "meshes", "hfields", "skins")
+_OTHER_LISTS = ("actuators", "sensors", "equalities", "tendons", "excludes", "pairs", "texts",
+                "numerics", "tuples", "keys", "flexes")
+_ALL_LISTS = _TREE_LISTS + _ASSET_LISTS + _OTHER_LISTS
+#: Lists whose length an element move must not change (a lost reference is a lost element).
+_REFERRING_LISTS = ("actuators", "sensors", "equalities", "tendons", "excludes", "pairs", "texts")
+#: V-REP object type -> spec list / accessor of the element behind it.
+_KIND = {SHAPE: "body", JOINT: "joint", DUMMY: "site", PROXIMITY_SENSOR: "site",
+         FORCE_SENSOR: "site", VISION_SENSOR: "camera", LIGHT: "light"}
+_MJ_OBJ = {"body": mujoco.mjtObj.mjOBJ_BODY, "joint": mujoco.mjtObj.mjOBJ_JOINT,
+           "site": mujoco.mjtObj.mjOBJ_SITE, "camera": mujoco.mjtObj.mjOBJ_CAMERA,
+           "light": mujoco.mjtObj.mjOBJ_LIGHT}
+#: Element kind -> model fields of its placement in its body and of that body.
+_FRAMES = {"body": ("body_pos", "body_quat", "body_parentid"), "site": ("site_pos", "site_quat", "site_bodyid"),
+           "camera": ("cam_pos", "cam_quat", "cam_bodyid"), "light": ("light_pos", "light_dir", "light_bodyid")}
+#: Temporary name suffix while an element is moved (removed before compiling).
+_MARK = "@simx-moving"
+#: Attributes never copied when an element is cloned attribute by attribute.
+_CLONE_SKIP = {"id", "name", "signature", "info", "parent", "frame", "classname", "compiler", "alt"}
+_QUAT = mujoco.mjtOrientation.mjORIENTATION_QUAT
+_EMPTY_SCENE = '<mujoco model="empty">\n  <worldbody/>\n</mujoco>\n'
+
+
+# --------------------------------------------------------------------------- poses
+def _qmul(a, b) -> np.ndarray:
+    out = np.empty(4)
+    mujoco.mju_mulQuat(out, np.asarray(a, float), np.asarray(b, float))
+    return out
+
+
+def _qinv(q) -> np.ndarray:
+    out = np.empty(4)
+    mujoco.mju_negQuat(out, np.asarray(q, float))
+    return out
+
+
+def _rotate(q, v) -> np.ndarray:
+    out = np.empty(3)
+    mujoco.mju_rotVecQuat(out, np.asarray(v, float), np.asarray(q, float))
+    return out
+
+
+def _compose(a: tuple, b: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """Pose ``a * b`` (poses are ``(pos, quat)``)."""
+    return a[0] + _rotate(a[1], b[0]), _qmul(a[1], b[1])
+
+
+def _inverse(a: tuple) -> tuple[np.ndarray, np.ndarray]:
+    qi = _qinv(a[1])
+    return -_rotate(qi, a[0]), qi
+
+
+def _body_world(world: World, body: int) -> tuple[np.ndarray, np.ndarray]:
+    d = world.data
+    return d.xpos[body].copy(), d.xquat[body].copy()
+
+
+# --------------------------------------------------------------------------- spec helpers
+def _elements(spec: mujoco.MjSpec, lists=_ALL_LISTS):
+    for name in lists:
+        yield from getattr(spec, name)
+
+
+def _names(spec: mujoco.MjSpec, lists=_ALL_LISTS) -> set[str]:
+    return {e.name for e in _elements(spec, lists) if getattr(e, "name", "")} - {"world"}
+
+
+def _object_names(spec: mujoco.MjSpec) -> set[str]:
+    return _names(spec, ("bodies", "joints", "sites", "cameras", "lights"))
+
+
+def _subtree_names(body) -> set[str]:
+    names = {body.name} if body.name else set()
+    for t in (mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_JOINT, mujoco.mjtObj.mjOBJ_GEOM,
+              mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtObj.mjOBJ_CAMERA, mujoco.mjtObj.mjOBJ_LIGHT,
+              mujoco.mjtObj.mjOBJ_FRAME):
+        names.update(e.name for e in body.find_all(t) if e.name)
+    return names
+
+
+def _subtree_objects(body) -> list[str]:
+    """Names of the V-REP objects in a body subtree (bodies, joints, sites, cameras, lights)."""
+    out = [body.name] if body.name else []
+    for t in (mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_JOINT, mujoco.mjtObj.mjOBJ_SITE,
+              mujoco.mjtObj.mjOBJ_CAMERA, mujoco.mjtObj.mjOBJ_LIGHT):
+        out.extend(e.name for e in body.find_all(t) if e.name and e.name != body.name)
+    return out
+
+
+def vrep_suffix(incoming: set[str], taken: set[str], trigger: set[str] | None = None) -> str:
+    """V-REP's copy suffix: ``""`` when no incoming name (or no ``trigger`` name) is taken, else
+    the first ``#n`` that makes every incoming name free."""
+    if not (incoming if trigger is None else trigger) & taken:
+        return ""
+    n = 0
+    while any(f"{x}#{n}" in taken for x in incoming):
+        n += 1
+    return f"#{n}"
+
+
+def _free_name(base: str, taken: set[str]) -> str:
+    """``base`` if free, else ``base#0``, ``base#1``, ..."""
+    return base + vrep_suffix({base}, taken)
+
+
+def _strip_mark(spec: mujoco.MjSpec, mark: str = _MARK) -> None:
+    """Remove ``mark`` from every name and name reference that ends with it."""
+    cache: dict[type, list[str]] = {}
+    for e in _elements(spec):
+        attrs = cache.get(type(e))
+        if attrs is None:
+            attrs = []
+            for a in dir(e):
+                if a.startswith("_"):
+                    continue
+                try:
+                    v = getattr(e, a)
+                except Exception:  # write-only properties
+                    continue
+                if isinstance(v, str) or (isinstance(v, list) and v and all(isinstance(x, str) for x in v)):
+                    attrs.append(a)
+            cache[type(e)] = attrs
+        for a in attrs:
+            v = getattr(e, a)
+            if isinstance(v, str):
+                if v.endswith(mark):
+                    setattr(e, a, v[: -len(mark)])
+            elif any(x.endswith(mark) for x in v):
+                setattr(e, a, [x[: -len(mark)] if x.endswith(mark) else x for x in v])
+
+
+def _delete_references(spec: mujoco.MjSpec, kind: str, name: str) -> None:
+    """Delete the actuators, sensors and constraints that refer to a joint, site or camera
+    (``MjSpec.delete`` does that for bodies, not for single elements)."""
+    obj = _MJ_OBJ[kind]
+    trn = {"joint": (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT),
+           "site": (mujoco.mjtTrn.mjTRN_SITE, mujoco.mjtTrn.mjTRN_SLIDERCRANK)}.get(kind, ())
+    doomed = []
+    for a in spec.actuators:
+        if (a.trntype in trn and a.target == name) or (kind == "site" and name in (a.refsite, a.slidersite)):
+            doomed.append(a)
+    for s in spec.sensors:
+        if (s.objtype == obj and s.objname == name) or (s.reftype == obj and s.refname == name):
+            doomed.append(s)
+    for eq in spec.equalities:
+        if name in (eq.name1, eq.name2) and (
+                (kind == "joint" and eq.type == mujoco.mjtEq.mjEQ_JOINT)
+                or (kind == "site" and eq.objtype == mujoco.mjtObj.mjOBJ_SITE)):
+            doomed.append(eq)
+    for e in doomed:
+        spec.delete(e)
+
+
+def _delete_settings(spec: mujoco.MjSpec, names) -> None:
+    for n in names:
+        t = spec.text(f"simx:{n}")
+        if t is not None:
+            spec.delete(t)
+
+
+def _copy_settings(spec: mujoco.MjSpec, mapping: dict[str, str]) -> None:
+    """Give copies the ``simx:`` settings of their originals (without child scripts)."""
+    for old, new in mapping.items():
+        t = spec.text(f"simx:{old}")
+        if t is None:
+            continue
+        items = [i for i in t.data.split() if not i.startswith("child_script=")]
+        if items:
+            spec.add_text(name=f"simx:{new}", data=" ".join(items))
+
+
+def _own_pose(spec: mujoco.MjSpec, el) -> tuple[np.ndarray, np.ndarray]:
+    """An element's own pose attributes (pos, orientation) as (pos, quat)."""
+    if el.alt.type == _QUAT:
+        q = np.asarray(el.quat, float)
+    else:
+        c = el.compiler if getattr(el, "compiler", None) is not None else spec.compiler
+        q = np.asarray(spec.resolve_orientation(c.degree, c.eulerseq, el.alt), float)
+    return np.asarray(el.pos, float), q / np.linalg.norm(q)
+
+
+def _set_local_pose(spec, el, desired: tuple, current: tuple) -> None:
+    """Make the compiled pose of ``el`` relative to its body ``desired``.
+
+    ``current`` is its compiled pose now; the difference to its own attributes is the frame
+    it sits in (``<frame>`` elements), which stays.
+    """
+    if el.frame is not None:
+        frame = _compose(current, _inverse(_own_pose(spec, el)))
+        desired = _compose(_inverse(frame), desired)
+    el.pos = desired[0]
+    el.quat = desired[1] / np.linalg.norm(desired[1])
+    el.alt.type = _QUAT
+
+
+def _clone(kind: str, src, body, name: str):
+    """A copy of a site, camera or light, attribute by attribute, in ``body``."""
+    add = {"site": body.add_site, "camera": body.add_camera, "light": body.add_light}[kind]
+    dst = add(default=src.classname)
+    for a in dir(src):
+        if a.startswith("_") or a in _CLONE_SKIP:
+            continue
+        value = getattr(src, a)
+        if callable(value):
+            continue
+        with contextlib.suppress(Exception):  # read-only or derived attributes
+            setattr(dst, a, value)
+    dst.name = name
+    return dst
+
+
+@contextlib.contextmanager
+def _quiet_mujoco():
+    """Route MuJoCo's warnings to the log while editing (not to stdout and MUJOCO_LOG.TXT).
+
+    Attaching with an empty prefix (names kept as they are) always warns that the spec may
+    not save back to XML; simx never saves it, so that warning is dropped.
+    """
+    previous = mujoco.get_mju_user_warning()
+
+    def handler(message: str) -> None:
+        if "empty prefix" not in message:
+            log.warning("MuJoCo: %s", message.strip())
+
+    mujoco.set_mju_user_warning(handler)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*empty prefix.*")
+            warnings.filterwarnings("ignore", message=".*without asset dict.*")
+            yield
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _embed_assets(spec: mujoco.MjSpec, counter: list[int]) -> dict[str, bytes]:
+    """Read the files a spec's meshes, height fields, skins and textures name, and point those
+    elements at in-memory copies: later compiles need no file (a transferred model may be
+    erased right after loading). Returns the new ``spec.assets`` entries; files that cannot
+    be read are left to the compiler to report."""
+    out = {}
+    root = Path(spec.modelfiledir or ".")
+    for lst, folder in (("meshes", spec.meshdir), ("hfields", spec.meshdir), ("skins", spec.meshdir),
+                        ("textures", spec.texturedir)):
+        for el in getattr(spec, lst):
+            name = getattr(el, "file", "")
+            if not name:
+                continue
+            path = Path(name)
+            if not path.is_absolute():
+                path = root / (folder or "") / path
+            try:
+                data = path.read_bytes()
+            except OSError:
+                continue
+            counter[0] += 1
+            key = f"simx-asset-{counter[0]}-{path.name}"
+            out[key] = data
+            el.file = key
+    return out
+
+
+def _one_line(exc: Exception) -> str:
+    return "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+
+
+def refresh_vision(sim: Simulation) -> None:
+    """Close the vision sensors' renderers (bound to the old model) and build new ones."""
+    sim.vision.close()
+    sim.vision = VisionSensors(sim.world)
+
+
+# --------------------------------------------------------------------------- editor
+class Editor:
+    """Scene editing for one :class:`Simulation` (``sim.editor = Editor(sim)``).
+
+    Owns the transfer folder (a fresh ``simx-*`` temporary folder); :meth:`close` removes it.
+    """
+
+    def __init__(self, sim: Simulation):
+        self.sim = sim
+        self.files_dir = Path(tempfile.mkdtemp(prefix="simx-")).resolve()
+        self._spec: mujoco.MjSpec | None = None
+        self._spec_world: World | None = None  # the world (scene) the spec describes
+        self._baseline: dict[str, np.ndarray] | None = None  # poses as last compiled
+        self._placed: set[tuple[str, str]] = set()
+        self._asset_counter = [0]  # numbers in-memory asset names
+        self._parse_now()
+
+    def _parse_now(self) -> None:
+        """Parse the scene file at once, while it matches the loaded world."""
+        try:
+            self._live_spec()
+        except UnsupportedError as exc:
+            log.warning("%s", exc)
+
+    def close(self) -> None:
+        """Remove the transfer folder; idempotent."""
+        shutil.rmtree(self.files_dir, ignore_errors=True)
+
+    # ------------------------------------------------------------------ files
+    def transfer_path(self, name: Any) -> Path:
+        """Where a transferred file called ``name`` lives; refuses names outside the folder."""
+        if not isinstance(name, str) or not name or "\x00" in name:
+            raise ArgumentError("file name must be a non-empty string")
+        pure = PurePosixPath(name)
+        path = (self.files_dir / pure).resolve()
+        if pure.is_absolute() or ".." in pure.parts or self.files_dir not in path.parents:
+            raise ArgumentError(f"file name {name!r} refused: outside the transfer folder")
+        return path
+
+    def transfer_file(self, name: str, data: Any) -> None:
+        """``simxTransferFile``: store ``data`` as ``name`` in the transfer folder."""
+        if not isinstance(data, (bytes, bytearray, memoryview)):
+            raise ArgumentError(f"file data must be bytes, got {type(data).__name__}")
+        path = self.transfer_path(name)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(path.name + ".part")
+            tmp.write_bytes(bytes(data))
+            tmp.replace(path)
+        except OSError as exc:
+            raise RemoteError(f"cannot store {name!r}: {exc.strerror}") from exc
+        log.info("received file %s (%d bytes)", name, len(data))
+
+    def erase_file(self, name: str) -> None:
+        """``simxEraseFile``: delete a transferred file."""
+        path = self.transfer_path(name)
+        if not path.is_file():
+            raise RemoteError(f"no transferred file {name!r}")
+        path.unlink()
+
+    def resolve(self, path: Any, options: int) -> Path:
+        """A model or scene file: options bit 0 -> a transferred file, else a server path
+        (absolute, or relative to the scene's folder)."""
+        if not isinstance(path, str) or not path:
+            raise ArgumentError("file path must be a non-empty string")
+        if options & 1:
+            file = self.transfer_path(path)
+        else:
+            file = Path(path)
+            if not file.is_absolute():
+                file = self.sim.world.scene_path.parent / file
+        if not file.is_file():
+            where = "transferred" if options & 1 else "server-side"
+            raise RemoteError(f"no {where} file {path!r}")
+        return file.resolve()
+
+    # ------------------------------------------------------------------- spec
+    def _live_spec(self) -> mujoco.MjSpec:
+        world = self.sim.world
+        if self._spec is None or self._spec_world is not world:
+            try:
+                with _quiet_mujoco():
+                    spec = mujoco.MjSpec.from_file(str(world.scene_path))
+                    spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
+                    baseline = _poses(spec.compile())
+            except ValueError as exc:
+                raise UnsupportedError(f"scene {world.scene_path.name} cannot be edited: "
+                                       f"{_one_line(exc)}") from None
+            self._spec, self._spec_world, self._baseline = spec, world, baseline
+        return self._spec
+
+    def _runtime_placements(self) -> list[tuple]:
+        """Objects that commands placed in the live model (``World.set_pose`` changes
+        ``body_pos``, ``site_pos``... until the simulation stops): ``(kind, name, parent, pos, rot)``."""
+        m, base = self.sim.world.model, self._baseline
+        if base is None or any(getattr(m, f).shape != base[f].shape for f in base):
+            return []
+        out = []
+        for kind, (fpos, frot, fparent) in _FRAMES.items():
+            pos, rot = getattr(m, fpos), getattr(m, frot)
+            for i in np.flatnonzero(np.any(pos != base[fpos], axis=1) | np.any(rot != base[frot], axis=1)):
+                name = mujoco.mj_id2name(m, _MJ_OBJ[kind], int(i))
+                parent = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(getattr(m, fparent)[i]))
+                if name:
+                    out.append((kind, name, parent, pos[i].copy(), rot[i].copy()))
+        return out
+
+    def _mocap_poses(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        m, d = self.sim.world.model, self.sim.world.data
+        out = {}
+        for b in np.flatnonzero(m.body_mocapid >= 0):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b))
+            if name:
+                k = m.body_mocapid[b]
+                out[name] = (d.mocap_pos[k].copy(), d.mocap_quat[k].copy())
+        return out
+
+    def _restore_placements(self, placements: list[tuple], mocap: dict, placed: set) -> None:
+        """Put runtime placements back on the new model (same name, same parent body), except
+        for the objects the edit placed itself. The new model's initial poses stay as compiled,
+        so stopping the simulation still puts those objects back."""
+        w = self.sim.world
+        m, d = w.model, w.data
+        for kind, name, parent, pos, rot in placements:
+            if (kind, name) in placed:
+                continue
+            fpos, frot, fparent = _FRAMES[kind]
+            i = mujoco.mj_name2id(m, _MJ_OBJ[kind], name)
+            if i >= 0 and mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(getattr(m, fparent)[i])) == parent:
+                getattr(m, fpos)[i], getattr(m, frot)[i] = pos, rot
+        for name, (pos, quat) in mocap.items():
+            b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+            if b >= 0 and m.body_mocapid[b] >= 0:
+                d.mocap_pos[m.body_mocapid[b]], d.mocap_quat[m.body_mocapid[b]] = pos, quat
+        if placements or mocap:
+            mujoco.mj_forward(m, d)
+
+    def _edit(self, change: Callable[[mujoco.MjSpec], Any]) -> Any:
+        """Apply ``change`` to a copy of the spec, compile, swap the model in; all or nothing.
+
+        ``change`` returns an optional callable run after the swap (on the new world).
+        """
+        world = self.sim.world
+        with _quiet_mujoco():
+            spec = self._live_spec().copy()
+            spec.copy_during_attach = True
+            self._placed: set[tuple[str, str]] = set()  # (kind, name) the change placed itself
+            try:
+                after = change(spec)
+            except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
+                raise UnsupportedError(f"MuJoCo cannot make this edit: {_one_line(exc)}") from None
+            try:
+                model = spec.compile()
+            except ValueError as exc:
+                raise UnsupportedError(f"MuJoCo cannot compile the edited scene: {_one_line(exc)}") from None
+        placements, mocap = self._runtime_placements(), self._mocap_poses()
+        baseline = _poses(model)
+        world.replace_model(model)
+        self._spec, self._baseline = spec, baseline
+        self._restore_placements(placements, mocap, self._placed)
+        refresh_vision(self.sim)
+        self._drop_orphan_scripts()
+        if hasattr(self.sim, "selection"):  # removed objects leave the selection
+            self.sim.selection = [h for h in self.sim.selection if h in world.objects]
+        return after() if callable(after) else after
+
+    def _drop_orphan_scripts(self) -> None:
+        scripts, world = self.sim.scripts, self.sim.world
+        for handle in [h for h in scripts.scripts if h not in world.objects]:
+            script = scripts.scripts.pop(handle)
+            try:
+                script.stop()  # sysCall_cleanup if it runs, then its state goes
+            except ScriptError as exc:
+                log.error("%s", exc)
+            log.info("child script of removed object %r dropped", getattr(script, "object_name", handle))
+
+    def _spec_element(self, spec: mujoco.MjSpec, handle: int):
+        """``(kind, element, SceneObject)`` of a handle; the world is refused."""
+        if handle == WORLD:
+            raise ArgumentError("the world (-1) cannot be edited")
+        obj = self.sim.world.get(handle)
+        kind = _KIND.get(obj.type)
+        if kind is None:
+            raise UnsupportedError(f"{obj.name!r} is not a MuJoCo element that can be edited")
+        el = getattr(spec, kind)(obj.name)
+        if el is None:  # an object the spec does not name (cannot happen for a spec-built world)
+            raise UnsupportedError(f"object {obj.name!r} is not in the scene's MjSpec")
+        return kind, el, obj
+
+    # --------------------------------------------------------------- commands
+    def load_model(self, path: str, options: int) -> int:
+        """``simxLoadModel``: attach an MJCF model's world children; returns its base handle."""
+        file = self.resolve(path, options)
+        try:
+            with _quiet_mujoco():
+                child = mujoco.MjSpec.from_file(str(file))
+        except ValueError as exc:
+            raise RemoteError(f"cannot load model {path!r}: {_one_line(exc)}") from None
+        child_assets = _embed_assets(child, self._asset_counter)
+        child.assets = {**(child.assets or {}), **child_assets}
+        base = child.worldbody.first_body()
+        if base is not None and not base.name:
+            base.name = child.modelname or file.stem
+        for t in list(child.texts):  # child scripts of loaded models are not run
+            if t.name.startswith("simx:") and "child_script=" in t.data:
+                log.warning("model %s: child script of %r ignored", file.name, t.name[5:])
+                rest = " ".join(i for i in t.data.split() if not i.startswith("child_script="))
+                if rest:
+                    t.data = rest
+                else:
+                    child.delete(t)
+
+        def change(spec: mujoco.MjSpec):
+            taken = _names(spec)
+            suffix = vrep_suffix(_names(child), taken, trigger=_names(child, _TREE_LISTS + _OTHER_LISTS))
+            if not suffix:
+                _rename_assets(child, taken)
+            spec.attach(child, frame=spec.worldbody.add_frame(), prefix="", suffix=suffix)
+            spec.assets = {**(spec.assets or {}), **child_assets}
+            if base is not None:
+                return lambda: self.sim.world.resolve(base.name + suffix).handle
+            first = next((e.name + suffix for e in _elements(child, ("sites", "cameras", "lights")) if e.name), None)
+            if first is None:
+                raise ArgumentError(f"model {path!r} has no body nor named site, camera or light")
+            return lambda: self.sim.world.resolve(first).handle
+
+        handle = self._edit(change)
+        if hasattr(self.sim, "selection"):
+            self.sim.selection = [handle]  # V-REP selects the loaded model's base
+        log.info("loaded model %s: base %r (handle %d)", file.name, self.sim.world.get(handle).name, handle)
+        return handle
+
+    def remove_object(self, handle: int) -> None:
+        """``simxRemoveObject``: a shape goes with its body subtree; a joint's body stays in place."""
+        def change(spec: mujoco.MjSpec):
+            kind, el, obj = self._spec_element(spec, handle)
+            before = _object_names(spec)
+            if kind == "joint":
+                self._remove_joint(spec, el, obj)
+            else:
+                if kind != "body":
+                    _delete_references(spec, kind, obj.name)
+                spec.delete(el)
+            _delete_settings(spec, before - _object_names(spec))
+
+        self._edit(change)
+
+    def _remove_joint(self, spec: mujoco.MjSpec, joint, obj) -> None:
+        m = self.sim.world.model
+        body = spec.body(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, obj.body) or "")
+        _delete_references(spec, "joint", obj.name)
+        spec.delete(joint)
+        if body is not None and body.first_joint() is None:
+            # a body without joints is welded where it is now, as V-REP keeps it in place
+            w = self.sim.world
+            parent = int(m.body_parentid[obj.body])
+            here = _compose(_inverse(_body_world(w, parent)), _body_world(w, obj.body))
+            _set_local_pose(spec, body, here, (m.body_pos[obj.body], m.body_quat[obj.body]))
+            self._placed.add(("body", body.name))
+
+    def remove_model(self, handle: int) -> None:
+        """``simxRemoveModel``: remove the body subtree rooted at a shape."""
+        if handle == WORLD:
+            raise ArgumentError("the world (-1) cannot be removed")
+        self.sim.world.get(handle, SHAPE)
+        self.remove_object(handle)
+
+    def create_dummy(self, size: float, colors: list[int] | None) -> int:
+        """``simxCreateDummy``: a sphere site of diameter ``size`` at the world origin."""
+        if not math.isfinite(size) or size <= 0:
+            raise ArgumentError(f"dummy size must be positive, got {size!r}")
+        rgba = [1.0, 0.8, 0.2, 1.0]
+        if colors is not None:
+            if (not isinstance(colors, list) or len(colors) != 12
+                    or not all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c <= 255 for c in colors)):
+                raise ArgumentError("colors must be None or 12 ints in 0..255")
+            rgba = [c / 255.0 for c in colors[:3]] + [1.0]
+
+        def change(spec: mujoco.MjSpec):
+            name = _free_name("Dummy", _names(spec))
+            spec.worldbody.add_site(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                                    size=[size / 2, size / 2, size / 2], rgba=rgba)
+            return lambda: self.sim.world.resolve(name).handle
+
+        return self._edit(change)
+
+    def copy_paste(self, handles: list[int]) -> list[int]:
+        """``simxCopyPasteObjects``: copy shapes (body subtrees), dummies, sensors and lights."""
+        world = self.sim.world
+        objs = [world.get(h) for h in handles]
+        unique = {o.handle: o for o in objs}.values()
+        todo = [o for o in unique if not any(a.handle in handles for a in self._ancestors(o))]
+        for o in objs:
+            if o.type == JOINT and o in todo:
+                raise UnsupportedError(f"joint {o.name!r} cannot be copied alone (a MuJoCo joint "
+                                       "belongs to its body): copy its body")
+        new_name: dict[str, str] = {}
+        copied_bodies: list[tuple[str, str]] = []
+
+        def change(spec: mujoco.MjSpec):
+            for o in todo:
+                kind, el, _ = self._spec_element(spec, o.handle)
+                if kind == "body":
+                    names = _subtree_objects(el)
+                    suffix = vrep_suffix(_subtree_names(el), _names(spec))
+                    self._copy_body(spec, el, o, suffix)
+                    new_name.update({n: n + suffix for n in names})
+                    copied_bodies.append((o.name, o.name + suffix))
+                    _copy_settings(spec, {n: n + suffix for n in names})
+                else:
+                    name = _free_name(o.name, _names(spec))
+                    dst = _clone(kind, el, el.parent, name)
+                    self._place_like(spec, kind, dst, o)
+                    new_name[o.name] = name
+                    _copy_settings(spec, {o.name: name})
+
+            def after():
+                for src, dst in copied_bodies:
+                    self._copy_state(src, dst)
+                return [world.resolve(new_name[o.name]).handle for o in objs]
+            return after
+
+        return self._edit(change)
+
+    def _ancestors(self, obj):
+        world, h = self.sim.world, obj.parent
+        while h != WORLD:
+            parent = world.objects[h]
+            yield parent
+            h = parent.parent
+
+    def _copy_body(self, spec: mujoco.MjSpec, el, obj, suffix: str) -> None:
+        m, w = self.sim.world.model, self.sim.world
+        b = obj.mj_id
+        parent = el.parent
+        copy = parent.add_frame().attach_body(el, "", suffix)
+        if m.body_jntnum[b] >= 1 and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE:
+            here = _body_world(w, b)  # a free body's copy starts where the original is now
+        else:
+            here = (m.body_pos[b].copy(), m.body_quat[b].copy())
+        copy.pos, copy.quat = here[0], here[1]
+        copy.alt.type = _QUAT
+
+    def _place_like(self, spec, kind: str, dst, obj) -> None:
+        m = self.sim.world.model
+        i = obj.mj_id
+        if kind == "light":
+            dst.pos, dst.dir = m.light_pos[i].copy(), m.light_dir[i].copy()
+            return
+        pos, quat = {"site": (m.site_pos, m.site_quat), "camera": (m.cam_pos, m.cam_quat)}[kind]
+        dst.pos, dst.quat = pos[i].copy(), quat[i].copy()
+        dst.alt.type = _QUAT
+        if kind == "site":
+            dst.fromto = [math.nan, 0, 0, 0, 0, 0]
+            dst.size = m.site_size[i].copy()
+
+    def _copy_state(self, src: str, dst: str) -> None:
+        """Joint positions and motors of a copied subtree from its original (same tree shape)."""
+        w = self.sim.world
+        m, d = w.model, w.data
+        pairs = [(w.resolve(src).mj_id, w.resolve(dst).mj_id)]
+        for a, b in pairs:  # grows while walking: children in model order
+            kids_a = [c for c in range(m.nbody) if m.body_parentid[c] == a and c != 0]
+            kids_b = [c for c in range(m.nbody) if m.body_parentid[c] == b and c != 0]
+            pairs.extend(zip(kids_a, kids_b))
+            for ja, jb in zip(range(m.body_jntadr[a], m.body_jntadr[a] + m.body_jntnum[a]),
+                              range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])):
+                qa, qb = m.jnt_qposadr[ja], m.jnt_qposadr[jb]
+                nq = {0: 7, 1: 4}.get(int(m.jnt_type[ja]), 1)
+                d.qpos[qb:qb + nq] = d.qpos[qa:qa + nq]
+                ha = w.by_name.get(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, ja) or "")
+                hb = w.by_name.get(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, jb) or "")
+                if ha and hb and ha.handle in w.motor_index and hb.handle in w.motor_index:
+                    ia, ib = w.motor_index[ha.handle], w.motor_index[hb.handle]
+                    w.mode[ib] = w.mode[ia]
+                    w.target_position[ib] = w.target_position[ia]
+                    w.target_velocity[ib] = w.target_velocity[ia]
+                    w.set_joint_force(hb.handle, w.joint_max_force(ha.handle))
+        mujoco.mj_forward(m, d)
+        w.version += 1
+
+    def set_parent(self, handle: int, parent: int, keep_in_place: bool) -> None:
+        """``simxSetObjectParent``: move a body subtree (or a site, camera, light) to another
+        body or the world, keeping its world pose or its pose relative to its parent."""
+        world = self.sim.world
+        if handle == WORLD:
+            raise ArgumentError("the world (-1) cannot be re-parented")
+        obj = world.get(handle)
+        if obj.type == JOINT:
+            raise UnsupportedError(f"joint {obj.name!r} belongs to its body in MuJoCo: re-parent the body")
+        if parent != WORLD:
+            new_parent = world.get(parent)
+            if new_parent.type != SHAPE:
+                raise UnsupportedError("MuJoCo objects can only hang from shapes (bodies) or the world (-1)")
+            if parent == handle or (obj.type == SHAPE and any(a.handle == handle for a in self._ancestors(new_parent))):
+                raise ArgumentError(f"{new_parent.name!r} is {obj.name!r} or one of its descendants")
+            parent_body = new_parent.mj_id
+        else:
+            parent_body = 0
+        m = world.model
+        old_body = int(m.body_parentid[obj.mj_id]) if obj.type == SHAPE else obj.body
+        if old_body == parent_body:
+            return  # already there: both poses unchanged
+        kind = _KIND[obj.type]
+        if kind == "light":
+            local = (m.light_pos[obj.mj_id].copy(), m.light_dir[obj.mj_id].copy())
+        else:
+            pos, quat = {"body": (m.body_pos, m.body_quat), "site": (m.site_pos, m.site_quat),
+                         "camera": (m.cam_pos, m.cam_quat)}[kind]
+            local = (pos[obj.mj_id].copy(), quat[obj.mj_id].copy())
+        if keep_in_place:
+            to_new = _compose(_inverse(_body_world(world, parent_body)), _body_world(world, old_body))
+            if kind == "light":
+                local = (to_new[0] + _rotate(to_new[1], local[0]), _rotate(to_new[1], local[1]))
+            else:
+                local = _compose(to_new, local)
+
+        def change(spec: mujoco.MjSpec):
+            kind_, el, _ = self._spec_element(spec, handle)
+            target = spec.worldbody if parent_body == 0 else spec.body(world.get(parent).name)
+            counts = {name: len(getattr(spec, name)) for name in _REFERRING_LISTS}
+            if kind_ == "body":
+                moved = target.add_frame().attach_body(el, "", _MARK)
+            else:
+                moved = _clone(kind_, el, target, obj.name + _MARK)
+            spec.delete(el)
+            _strip_mark(spec)
+            lost = [n for n in _REFERRING_LISTS if len(getattr(spec, n)) < counts[n]]
+            if lost:
+                raise UnsupportedError(f"moving {obj.name!r} would lose {', '.join(lost)} that link it "
+                                       "to the rest of the scene")
+            self._placed.add((kind_, obj.name))
+            if kind_ == "light":
+                moved.pos, moved.dir = local
+            else:
+                moved.pos, moved.quat = local
+                moved.alt.type = _QUAT
+                if kind_ == "site":
+                    moved.fromto = [math.nan, 0, 0, 0, 0, 0]
+                    moved.size = m.site_size[obj.mj_id].copy()
+
+        try:
+            self._edit(change)
+        except UnsupportedError as exc:
+            if "free joint" in str(exc):
+                raise UnsupportedError(f"{obj.name!r} has a free joint, and MuJoCo allows free joints "
+                                       "only in children of the world") from None
+            raise
+
+    def load_scene(self, path: str, options: int) -> None:
+        """``simxLoadScene``: replace the scene (simulation stopped only); handles restart."""
+        from simx_server.simulation import RunState  # late: simulation may create the Editor
+
+        if self.sim.state is not RunState.STOPPED:
+            raise RemoteError("stop the simulation first")
+        self._install_scene(self.resolve(path, options))
+
+    def close_scene(self) -> None:
+        """``simxCloseScene``: stop the simulation and replace the scene with an empty one."""
+        self.sim.stop()
+        empty = self.files_dir / ".simx" / "empty.xml"
+        empty.parent.mkdir(exist_ok=True)
+        empty.write_text(_EMPTY_SCENE)
+        self._install_scene(empty)
+
+    def _install_scene(self, file: Path) -> None:
+        sim = self.sim
+        dt = getattr(sim.world, "_requested_dt", sim.world.dt)
+        old = sim.scripts
+        try:
+            world = World(file, dt)
+            scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
+                              untrusted=[self.files_dir])  # a scene sent by a client brings no code
+        except (ValueError, RemoteError) as exc:
+            raise RemoteError(f"cannot load scene {file.name}: {_one_line(exc)}") from None
+        sim.vision.close()
+        sim.world, sim.scripts = world, scripts
+        sim.vision = VisionSensors(world)
+        sim.sensors = type(sim.sensors)()  # per-scene sensor state (probes, passive images) starts afresh
+        self._spec = self._spec_world = self._baseline = None
+        self._parse_now()
+        sim.selection = []
+        log.info("scene %s loaded: %d objects", file.name, len(world.objects))
+
+
+def _poses(model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    return {f: getattr(model, f).copy() for fields in _FRAMES.values() for f in fields[:2]}
+
+
+def _rename_assets(child: mujoco.MjSpec, taken: set[str]) -> None:
+    """Rename a model's assets whose names are taken in the scene, and their references."""
+    refs = {"materials": ("material",), "textures": ("texture",), "meshes": ("meshname",),
+            "hfields": ("hfieldname",), "skins": ()}
+    for lst, attrs in refs.items():
+        for asset in getattr(child, lst):
+            old = asset.name
+            if not old or old not in taken:
+                continue
+            new = _free_name(old, taken | _names(child))
+            asset.name = new
+            for e in _elements(child, _TREE_LISTS + _ASSET_LISTS + _OTHER_LISTS):
+                for a in attrs:
+                    if getattr(e, a, None) == old:
+                        setattr(e, a, new)
+                if lst == "textures" and isinstance(e, mujoco.MjsMaterial):
+                    tex = list(e.textures)
+                    if old in tex:
+                        e.textures = [new if t == old else t for t in tex]
+
+
+# --------------------------------------------------------------------------- handlers
+def _args(args: list, *kinds: str) -> list:
+    from simx_server.commands import _args as check  # late: commands merges these handlers
+
+    return check(args, *kinds)
+
+
+def _editor(sim: Simulation) -> Editor:
+    return sim.editor
+
+
+def _bool(value: Any, what: str) -> bool:
+    if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
+        return bool(value)
+    raise ArgumentError(f"{what} must be a bool, got {value!r}")
+
+
+def transfer_file(sim: Simulation, args: list) -> None:
+    name, data = _args(args, "str", "any")
+    _editor(sim).transfer_file(name, data)
+
+
+def erase_file(sim: Simulation, args: list) -> None:
+    (name,) = _args(args, "str")
+    _editor(sim).erase_file(name)
+
+
+def load_model(sim: Simulation, args: list) -> int:
+    path, options = _args(args, "str", "int")
+    return _editor(sim).load_model(path, options)
+
+
+def remove_object(sim: Simulation, args: list) -> None:
+    (h,) = _args(args, "int")
+    _editor(sim).remove_object(h)
+
+
+def remove_model(sim: Simulation, args: list) -> None:
+    (h,) = _args(args, "int")
+    _editor(sim).remove_model(h)
+
+
+def copy_paste_objects(sim: Simulation, args: list) -> list[int]:
+    (handles,) = _args(args, "any")
+    if not isinstance(handles, list) or not handles or not all(
+            isinstance(h, int) and not isinstance(h, bool) for h in handles):
+        raise ArgumentError("object handles must be a non-empty list of ints")
+    return _editor(sim).copy_paste(handles)
+
+
+def create_dummy(sim: Simulation, args: list) -> int:
+    size, colors = _args(args, "float", "any")
+    return _editor(sim).create_dummy(size, colors)
+
+
+def set_object_parent(sim: Simulation, args: list) -> None:
+    h, parent, keep = _args(args, "int", "int", "any")
+    _editor(sim).set_parent(h, parent, _bool(keep, "keepInPlace"))
+
+
+def load_scene(sim: Simulation, args: list) -> None:
+    path, options = _args(args, "str", "int")
+    _editor(sim).load_scene(path, options)
+
+
+def close_scene(sim: Simulation, args: list) -> None:
+    _args(args)
+    _editor(sim).close_scene()
+
+
+#: Command name -> handler, merged into commands.HANDLERS.
+EDITING_HANDLERS = {
+    "TransferFile": transfer_file,
+    "EraseFile": erase_file,
+    "LoadModel": load_model,
+    "RemoveObject": remove_object,
+    "RemoveModel": remove_model,
+    "CopyPasteObjects": copy_paste_objects,
+    "CreateDummy": create_dummy,
+    "SetObjectParent": set_object_parent,
+    "LoadScene": load_scene,
+    "CloseScene": close_scene,
+}
