@@ -10,7 +10,7 @@ import pytest
 
 import sim
 import vrep
-from conftest import REFERENCE
+from conftest import REFERENCE, ROOT
 
 TSV = REFERENCE / "simx_functions.tsv"
 
@@ -106,3 +106,9 @@ def test_local_helpers():
     assert [buf[i] for i in range(16)] == [0] * 16
     assert vrep.simxReleaseBuffer(buf) is None
     assert vrep.simxReadStringStream(0, "s", B)[0] == vrep.simx_return_illegal_opmode_flag
+
+
+def test_docs_api_lists_every_function():
+    text = (ROOT / "docs" / "API.md").read_text()
+    missing = [row["name"] for row in reference_rows() if row["name"] not in text]
+    assert not missing, f"docs/API.md does not mention {missing}"
