@@ -7,14 +7,12 @@ facade sends (see docs/PROTOCOL.md); every value is checked here, never trusted.
 
 from __future__ import annotations
 
-import math
 import os
 import random
 import sys
 from pathlib import Path
 from typing import Any, Callable
 
-import mujoco
 import numpy as np
 
 from simx_client import constants as C
@@ -22,6 +20,7 @@ from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, U
 from simx_server import sensors
 from simx_server.editing import EDITING_HANDLERS
 from simx_server.simulation import RunState, Simulation
+from simx_server.world import matrix_from_euler, matrix_from_quaternion
 
 Handler = Callable[[Simulation, list], Any]
 
@@ -159,23 +158,13 @@ def set_object_position(sim: Simulation, args: list) -> None:
 
 
 def set_object_orientation(sim: Simulation, args: list) -> None:
-    h, rel, (a, b, g) = _pose_set_args(sim, args, 3, "Euler angles")
-    ca, sa, cb, sb, cg, sg = math.cos(a), math.sin(a), math.cos(b), math.sin(b), math.cos(g), math.sin(g)
-    rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
-    ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
-    rz = np.array([[cg, -sg, 0], [sg, cg, 0], [0, 0, 1]])
-    sim.world.set_pose(h, rel, rotation=rx @ ry @ rz)
+    h, rel, euler = _pose_set_args(sim, args, 3, "Euler angles")
+    sim.world.set_pose(h, rel, rotation=matrix_from_euler(*euler))
 
 
 def set_object_quaternion(sim: Simulation, args: list) -> None:
-    h, rel, (x, y, z, w) = _pose_set_args(sim, args, 4, "quaternion")
-    q = np.array([w, x, y, z])
-    norm = np.linalg.norm(q)
-    if norm < 1e-9:
-        raise ArgumentError("quaternion must not be zero")
-    rot = np.empty(9)
-    mujoco.mju_quat2Mat(rot, q / norm)
-    sim.world.set_pose(h, rel, rotation=rot.reshape(3, 3))
+    h, rel, quaternion = _pose_set_args(sim, args, 4, "quaternion")
+    sim.world.set_pose(h, rel, rotation=matrix_from_quaternion(*quaternion))
 
 
 def get_object_selection(sim: Simulation, args: list) -> list[int]:

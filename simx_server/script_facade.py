@@ -12,12 +12,11 @@ import math
 import struct
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from simx_client import constants as C
-from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
-from simx_server.world import World
+from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_server.world import World, matrix_from_euler, matrix_from_quaternion
 
 log = logging.getLogger("simx.scripts")
 
@@ -177,27 +176,6 @@ def _vector(value: Any, n: int, what: str) -> list[float]:
     return [_num(v, f"{what}[{i + 1}]") for i, v in enumerate(value)]
 
 
-def _euler_matrix(alpha: float, beta: float, gamma: float) -> np.ndarray:
-    """V-REP's Euler angles: R = Rx(alpha) Ry(beta) Rz(gamma)."""
-    ca, sa, cb, sb, cg, sg = (math.cos(alpha), math.sin(alpha), math.cos(beta), math.sin(beta),
-                              math.cos(gamma), math.sin(gamma))
-    rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
-    ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
-    rz = np.array([[cg, -sg, 0], [sg, cg, 0], [0, 0, 1]])
-    return rx @ ry @ rz
-
-
-def _quat_matrix(xyzw: list[float]) -> np.ndarray:
-    x, y, z, w = xyzw
-    q = np.array([w, x, y, z], dtype=float)
-    norm = np.linalg.norm(q)
-    if norm < 1e-12:
-        raise ArgumentError("quaternion must not be zero")
-    r = np.empty(9)
-    mujoco.mju_quat2Mat(r, q / norm)
-    return r.reshape(3, 3)
-
-
 #: pack/unpack formats: struct code and item size of each V-REP pack*Table function.
 _PACK_FORMATS = {"Int32": "i", "UInt32": "I", "Float": "f", "Double": "d", "UInt8": "B", "UInt16": "H"}
 
@@ -349,20 +327,15 @@ class SimFacade:
 
     def setObjectOrientation(self, handle: Any, relative_to: Any, euler: Any) -> None:  # noqa: N802
         """Turn an object to Euler angles (rad) in the frame of ``relative_to``."""
-        self._set_pose(handle, relative_to, rotation=_euler_matrix(*_vector(euler, 3, "eulerAngles")))
+        self._set_pose(handle, relative_to, rotation=matrix_from_euler(*_vector(euler, 3, "eulerAngles")))
 
     def setObjectQuaternion(self, handle: Any, relative_to: Any, quaternion: Any) -> None:  # noqa: N802
         """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``."""
-        self._set_pose(handle, relative_to, rotation=_quat_matrix(_vector(quaternion, 4, "quaternion")))
+        self._set_pose(handle, relative_to, rotation=matrix_from_quaternion(*_vector(quaternion, 4, "quaternion")))
 
     def _set_pose(self, handle: Any, relative_to: Any, position: list[float] | None = None,
                   rotation: np.ndarray | None = None) -> None:
-        h, rel = self._h(handle), self._rel(relative_to)
-        set_pose = getattr(self._world, "set_pose", None)
-        if set_pose is not None:
-            set_pose(h, rel, position=position, rotation=rotation)
-        else:
-            _set_free_or_mocap_pose(self._world, h, rel, position, rotation)
+        self._world.set_pose(self._h(handle), self._rel(relative_to), position=position, rotation=rotation)
 
     # -------------------------------------------------------------------- time
     def getSimulationTime(self) -> float:  # noqa: N802
@@ -502,36 +475,3 @@ class SimFacade:
 #: Names of the facade's functions (``sim.NAME`` in both languages).
 FACADE_FUNCTIONS: tuple[str, ...] = tuple(sorted(
     n for n, v in vars(SimFacade).items() if not n.startswith("_") and callable(v)))
-
-
-def _set_free_or_mocap_pose(world: World, handle: int, relative_to: int,
-                            position: list[float] | None, rotation: np.ndarray | None) -> None:
-    """Pose setter for worlds without ``World.set_pose``: free-joint and mocap bodies only."""
-    obj = world.get(handle)
-    m, d = world.model, world.data
-    free = mocap = None
-    if obj.type == C.sim_object_shape_type:
-        b = obj.mj_id
-        if m.body_mocapid[b] >= 0:
-            mocap = int(m.body_mocapid[b])
-        elif m.body_jntnum[b] == 1 and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE:
-            free = int(m.body_jntadr[b])
-    if free is None and mocap is None:
-        raise ObjectTypeError(f"{obj.name!r} cannot be placed: simx places only bodies with a free "
-                              "joint and mocap bodies (set the joints of the others)")
-    if relative_to == C.sim_handle_parent:
-        relative_to = obj.parent
-    p0, r0 = world.frame(relative_to)
-    p_now, r_now = world.frame(handle)
-    p = p_now if position is None else p0 + r0 @ np.asarray(position, dtype=float)
-    r = r_now if rotation is None else r0 @ rotation
-    quat = np.empty(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(r).reshape(9))
-    if mocap is not None:
-        d.mocap_pos[mocap], d.mocap_quat[mocap] = p, quat
-    else:
-        qadr, dadr = m.jnt_qposadr[free], m.jnt_dofadr[free]
-        d.qpos[qadr:qadr + 7] = np.concatenate([p, quat])
-        d.qvel[dadr:dadr + 6] = 0.0
-    mujoco.mj_forward(m, d)
-    world.version += 1

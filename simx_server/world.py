@@ -528,6 +528,27 @@ def euler_from_matrix(r: np.ndarray) -> list[float]:
     return [math.atan2(r[2, 1], r[1, 1]), beta, 0.0]  # gimbal lock: everything in alpha
 
 
+def matrix_from_euler(alpha: float, beta: float, gamma: float) -> np.ndarray:
+    """Rotation (3, 3) of V-REP's Euler angles (rad): R = Rx(alpha) Ry(beta) Rz(gamma)."""
+    ca, sa, cb, sb = math.cos(alpha), math.sin(alpha), math.cos(beta), math.sin(beta)
+    cg, sg = math.cos(gamma), math.sin(gamma)
+    rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
+    ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+    rz = np.array([[cg, -sg, 0], [sg, cg, 0], [0, 0, 1]])
+    return rx @ ry @ rz
+
+
+def matrix_from_quaternion(x: float, y: float, z: float, w: float) -> np.ndarray:
+    """Rotation (3, 3) of a quaternion in V-REP's order; raises ArgumentError for a zero one."""
+    q = np.array([w, x, y, z], dtype=float)
+    norm = np.linalg.norm(q)
+    if norm < 1e-12:
+        raise ArgumentError("quaternion must not be zero")
+    r = np.empty(9)
+    mujoco.mju_quat2Mat(r, q / norm)
+    return r.reshape(3, 3)
+
+
 def quaternion_from_matrix(r: np.ndarray) -> list[float]:
     """Quaternion of a rotation (3, 3) in V-REP's order [x, y, z, w]."""
     q = np.empty(4)

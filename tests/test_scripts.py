@@ -492,21 +492,16 @@ def test_script_errors_leave_no_reference_cycles(tmp_path, simulation):
         gc.enable()
 
 
-def test_pose_fallback_places_free_and_mocap_bodies_only(tmp_path):
-    """The facade's own pose setter, for worlds without World.set_pose."""
-    from simx_client.protocol import ObjectTypeError
-    from simx_server.script_facade import _set_free_or_mocap_pose
-
+def test_world_places_free_and_mocap_bodies(tmp_path):
+    """World.set_pose, which the facade's setObjectPosition/Orientation use."""
     world = World(small_scene(tmp_path, {}))
     ball, target, base = (world.resolve(n).handle for n in ("Ball", "Target", "Base"))
-    _set_free_or_mocap_pose(world, ball, -1, [0.1, 0.2, 0.3], None)
+    world.set_pose(ball, -1, position=[0.1, 0.2, 0.3])
     quarter_turn_x = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-    _set_free_or_mocap_pose(world, target, base, [0.0, 0.0, 1.0], quarter_turn_x)
+    world.set_pose(target, base, position=[0.0, 0.0, 1.0], rotation=quarter_turn_x)
     assert world.position(ball, -1) == pytest.approx([0.1, 0.2, 0.3])
     assert world.position(target, -1) == pytest.approx([0.0, 0.0, 1.1])
     assert world.orientation(target, -1) == pytest.approx([np.pi / 2, 0, 0])
-    with pytest.raises(ObjectTypeError, match="free joint and mocap"):
-        _set_free_or_mocap_pose(world, base, -1, [0, 0, 0], None)
 
 
 # ------------------------------------------------------------------ safety
