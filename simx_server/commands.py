@@ -20,6 +20,7 @@ from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, U
 from simx_server import sensors
 from simx_server.editing import EDITING_HANDLERS
 from simx_server.simulation import RunState, Simulation
+from simx_server.vision import Deferred
 from simx_server.world import matrix_from_euler, matrix_from_quaternion
 
 Handler = Callable[[Simulation, list], Any]
@@ -388,20 +389,18 @@ def pause_simulation(sim: Simulation, args: list) -> None:
     sim.pause()
 
 
-def get_vision_sensor_image(sim: Simulation, args: list) -> list:
+def get_vision_sensor_image(sim: Simulation, args: list) -> list | Deferred:
     h, options = _args(args, "int", "int")
     passive = sensors.override_image(sim, h, bool(options & 1))  # what simxSetVisionSensorImage wrote
     if passive is not None:
         spec = sim.vision.spec(h)
         return [[spec.width, spec.height], np.ascontiguousarray(passive).tobytes()]
-    resolution, data = sim.vision.image_bytes(h, options)
-    return [resolution, data]
+    return sim.vision.image_deferred(h, options)
 
 
-def get_vision_sensor_depth_buffer(sim: Simulation, args: list) -> list:
+def get_vision_sensor_depth_buffer(sim: Simulation, args: list) -> Deferred:
     (h,) = _args(args, "int")
-    resolution, data = sim.vision.depth_bytes(h)
-    return [resolution, data]
+    return sim.vision.depth_deferred(h)
 
 
 def call_script_function(sim: Simulation, args: list) -> list:

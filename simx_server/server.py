@@ -22,6 +22,7 @@ import zenoh
 from simx_client import protocol as P
 from simx_server.commands import HANDLERS
 from simx_server.simulation import RunState, Simulation
+from simx_server.vision import Deferred
 
 log = logging.getLogger("simx.server")
 
@@ -98,14 +99,14 @@ class Server:
         self._queue.put(("stop", None))
 
     def close(self) -> None:
-        """Undeclare everything and close the session; idempotent."""
+        """Finish pending renders and their replies, then close the session; idempotent."""
+        self.sim.close()
         if self.session is not None:
             session, self.session = self.session, None
             try:
                 session.close()
             except Exception as exc:  # closing must not mask the reason we stop
                 log.debug("closing Zenoh session: %s", exc)
-        self.sim.close()
 
     # ------------------------------------------------------- simulation side
     def serve(self) -> None:
@@ -150,26 +151,62 @@ class Server:
             if kind == "gone":
                 self._forget(client, "left")
             return
-        with item:  # dropping the query sends Zenoh's final reply at once
-            try:
-                self._answer(item)
-            except Exception:  # the server never dies from a client
-                log.exception("answering a query on %s", item.key_expr)
+        deferred = False
+        try:
+            deferred = self._answer(item)
+        except Exception:  # the server never dies from a client
+            log.exception("answering a query on %s", item.key_expr)
+        finally:
+            if not deferred:
+                item.drop()  # sends Zenoh's final reply at once
 
-    def _answer(self, query: zenoh.Query) -> None:
+    def _answer(self, query: zenoh.Query) -> bool:
+        """Execute a request and reply; True when the reply waits for the render thread."""
         payload = query.payload.to_bytes() if query.payload is not None else b""
         try:
             client, commands = P.parse_request(payload)
         except P.ProtocolError as exc:
             log.warning("malformed request refused: %s", exc)
             query.reply(query.key_expr, P.error_response(str(exc)))
-            return
+            return False
         if client not in self._clients:
             self._clients.add(client)
             log.info("client %s connected", client)
         results = [self._execute(client, name, mode, args) for name, mode, args in commands]
-        query.reply(query.key_expr, P.response(self.sim.sim_time_ms, self.sim.server_state, results,
-                                               int((time.monotonic() - self._t0) * 1000), self.sim.scene_id))
+        stamp = (self.sim.sim_time_ms, self.sim.server_state)
+        extra = (int((time.monotonic() - self._t0) * 1000), self.sim.scene_id)
+
+        def reply() -> None:
+            query.reply(query.key_expr, P.response(*stamp, self._resolve(results, client), *extra))
+
+        if not any(isinstance(value, Deferred) for _, value in results):
+            reply()
+            return False
+
+        def reply_and_drop() -> None:
+            try:
+                reply()
+            except Exception:
+                log.exception("replying to client %s", client)
+            finally:
+                query.drop()
+
+        self.sim.vision.after(reply_and_drop)  # once the images of this request are rendered
+        return True
+
+    @staticmethod
+    def _resolve(results: list, client: str) -> list:
+        """Results with every Deferred replaced by its value (called on the render thread)."""
+        out = []
+        for ok, value in results:
+            if isinstance(value, Deferred):
+                try:
+                    value = value.future.result()
+                except Exception as exc:
+                    log.exception("client %s: rendering failed", client)
+                    ok, value = False, f"internal error while rendering: {type(exc).__name__}: {exc}"
+            out.append([ok, value])
+        return out
 
     def _execute(self, client: str, name: str, mode: int, args: list) -> list:
         base = mode & P.MODE_MASK
@@ -295,5 +332,16 @@ class Server:
                     log.exception("client %s: streamed simx%s raised", client, s.name)
                     entries.append([s.name, list(ident[1:]), False, f"internal error: {exc}"])
             if entries:
-                self.session.put(P.stream_key(self.prefix, client),
-                                 P.stream_update(self.sim.sim_time_ms, entries))
+                self._put_stream(client, entries)
+
+    def _put_stream(self, client: str, entries: list) -> None:
+        session, key, t = self.session, P.stream_key(self.prefix, client), self.sim.sim_time_ms
+
+        def put() -> None:
+            results = self._resolve([[ok, value] for *_, ok, value in entries], client)
+            session.put(key, P.stream_update(t, [e[:2] + r for e, r in zip(entries, results)]))
+
+        if any(isinstance(e[3], Deferred) for e in entries):
+            self.sim.vision.after(put)  # images of this step: published once rendered, in order
+        else:
+            put()

@@ -8,14 +8,19 @@ in all three channels (near dark, far bright), as a V-REP depth sensor with a
 "depth to image" filter does.
 
 Frames are rendered on demand and cached until the world changes (one render per
-simulation step per sensor, however many clients ask). Images leave here as ``bytes`` in
-V-REP's layout: rows bottom-up, RGB, 8 bits; depth as float32 in 0..1 (linear between near
-and far).
+simulation step per sensor, however many clients ask). Rendering runs on a thread of its own,
+which owns the GL contexts, from a copy of ``MjData`` taken on the simulation thread: a slow
+software renderer delays the image, not the physics nor the other clients. Images leave here
+as ``bytes`` in V-REP's layout: rows bottom-up, RGB, 8 bits; depth as float32 in 0..1 (linear
+between near and far).
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, Callable
 
 import mujoco
 import numpy as np
@@ -39,13 +44,28 @@ class SensorSpec:
     depth_image: bool
 
 
+class Deferred:
+    """A command result that the render thread completes (the server replies once it is done)."""
+
+    __slots__ = ("future",)
+
+    def __init__(self, future: Future):
+        self.future = future
+
+
 class VisionSensors:
-    """Renders the scene's vision sensors. Owns GL contexts: use from one thread, then close()."""
+    """The scene's vision sensors.
+
+    Methods are called on the simulation thread; rendering happens on one render thread (a
+    single-worker executor, so jobs run in the order they were submitted). Call close() when done.
+    """
 
     def __init__(self, world: World):
         self.world = world
-        self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
-        self._cache: dict[tuple[int, str], tuple[int, np.ndarray]] = {}
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="simx-render")
+        self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}  # render thread only
+        self._cache: dict[tuple[int, str], tuple[int, Future]] = {}
+        self._snapshot: tuple[int, mujoco.MjData] | None = None
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
 
@@ -74,71 +94,113 @@ class VisionSensors:
         self.world.get(handle, VISION_SENSOR)
         return self.specs[handle]
 
-    def _renderer(self, spec: SensorSpec) -> mujoco.Renderer:
+    def after(self, job: Callable[[], Any]) -> Future:
+        """Run ``job`` on the render thread once every render submitted so far is done."""
+        return self._executor.submit(job)
+
+    # ------------------------------------------------------------ render thread
+    def _render(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
+        """Rendered frame, top-down rows: RGB (h, w, 3) uint8, or depth (h, w) float32 in m."""
         key = (spec.width, spec.height)
         if key not in self._renderers:
-            self._renderers[key] = mujoco.Renderer(self.world.model, spec.height, spec.width)
-        return self._renderers[key]
-
-    def _render(self, handle: int, kind: str) -> np.ndarray:
-        """Rendered frame, top-down rows: RGB (h, w, 3) uint8, or depth (h, w) float32 in m."""
-        cached = self._cache.get((handle, kind))
-        if cached is not None and cached[0] == self.world.version:
-            return cached[1]
-        spec = self.spec(handle)
-        r = self._renderer(spec)
+            self._renderers[key] = mujoco.Renderer(model, spec.height, spec.width)
+        r = self._renderers[key]
         if kind == "depth":
             r.enable_depth_rendering()
         try:
-            r.update_scene(self.world.data, camera=spec.camera)
+            r.update_scene(data, camera=spec.camera)
             frame = r.render()
         finally:
             if kind == "depth":
                 r.disable_depth_rendering()
         self.renders += 1
-        self._cache[(handle, kind)] = (self.world.version, frame)
         return frame
+
+    # -------------------------------------------------------- simulation thread
+    def _frame(self, handle: int, kind: str) -> Future:
+        """The frame of the world's current state (a future), rendered once per state."""
+        version = self.world.version
+        cached = self._cache.get((handle, kind))
+        if cached is not None and cached[0] == version:
+            return cached[1]
+        spec = self.spec(handle)
+        if self._snapshot is None or self._snapshot[0] != version:
+            self._snapshot = (version, copy.copy(self.world.data))  # the state this version shows
+        future = self._executor.submit(self._render, self.world.model, self._snapshot[1], spec, kind)
+        self._cache[(handle, kind)] = (version, future)
+        return future
+
+    def _depth_job(self, handle: int) -> Callable[[], np.ndarray]:
+        spec, raw = self.spec(handle), self._frame(handle, "depth")
+        near, far = spec.near, spec.far  # as they are now, even if changed before the render
+
+        def normalised() -> np.ndarray:
+            norm = (raw.result() - near) / (far - near)
+            return np.clip(norm, 0.0, 1.0, out=norm).astype(np.float32, copy=False)[::-1]
+
+        return normalised
+
+    def _image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
+        if self.spec(handle).depth_image:
+            depth = self._depth_job(handle)
+
+            def from_depth() -> np.ndarray:
+                g = np.rint(depth() * 255.0).astype(np.uint8)
+                return g if grey else np.repeat(g[:, :, None], 3, axis=2)
+
+            return from_depth
+        raw = self._frame(handle, "rgb")
+
+        def rgb() -> np.ndarray:
+            img = raw.result()[::-1]
+            return (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8) if grey else img
+
+        return rgb
 
     def depth(self, handle: int) -> np.ndarray:
         """Depth normalised to 0..1 between near and far, (h, w) float32, rows bottom-up."""
-        spec = self.spec(handle)
-        d = self._render(handle, "depth")
-        norm = (d - spec.near) / (spec.far - spec.near)
-        return np.clip(norm, 0.0, 1.0, out=norm).astype(np.float32, copy=False)[::-1]
+        return self.after(self._depth_job(handle)).result()
 
     def image(self, handle: int, grey: bool) -> np.ndarray:
         """The sensor's image, rows bottom-up: (h, w, 3) uint8 RGB, or (h, w) uint8 when ``grey``.
 
         ``grey`` is V-REP's options bit 0: one byte per pixel, (R + G + B) / 3.
         """
-        spec = self.spec(handle)
-        if spec.depth_image:
-            g = np.rint(self.depth(handle) * 255.0).astype(np.uint8)
-            return g if grey else np.repeat(g[:, :, None], 3, axis=2)
-        rgb = self._render(handle, "rgb")[::-1]
-        if grey:
-            return (rgb.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)
-        return rgb
+        return self.after(self._image_job(handle, grey)).result()
 
-    def image_bytes(self, handle: int, options: int) -> tuple[list[int], bytes]:
-        """``simxGetVisionSensorImage``: ``([resX, resY], bytes)`` for options bit 0 (grey)."""
+    def image_deferred(self, handle: int, options: int) -> Deferred:
+        """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey)."""
         if not isinstance(options, int):
             raise ArgumentError(f"options must be an int, got {type(options).__name__}")
-        spec = self.spec(handle)
-        img = self.image(handle, bool(options & 1))
-        return [spec.width, spec.height], np.ascontiguousarray(img).tobytes()
+        spec, job = self.spec(handle), self._image_job(handle, bool(options & 1))
+        return Deferred(self.after(lambda: [[spec.width, spec.height], np.ascontiguousarray(job()).tobytes()]))
+
+    def depth_deferred(self, handle: int) -> Deferred:
+        """``simxGetVisionSensorDepthBuffer``: a Deferred ``[[resX, resY], float32 bytes]``."""
+        spec, job = self.spec(handle), self._depth_job(handle)
+        return Deferred(self.after(lambda: [[spec.width, spec.height], np.ascontiguousarray(job()).tobytes()]))
+
+    def image_bytes(self, handle: int, options: int) -> tuple[list[int], bytes]:
+        """:meth:`image_deferred`, waited for: ``([resX, resY], bytes)``."""
+        return tuple(self.image_deferred(handle, options).future.result())
 
     def depth_bytes(self, handle: int) -> tuple[list[int], bytes]:
-        """``simxGetVisionSensorDepthBuffer``: ``([resX, resY], float32 bytes)``."""
-        spec = self.spec(handle)
-        return [spec.width, spec.height], np.ascontiguousarray(self.depth(handle)).tobytes()
+        """:meth:`depth_deferred`, waited for: ``([resX, resY], float32 bytes)``."""
+        return tuple(self.depth_deferred(handle).future.result())
 
     def close(self) -> None:
-        """Free every GL context; idempotent."""
+        """Finish pending jobs, free every GL context (on its thread) and stop; idempotent."""
+        if self._executor is None:
+            return
+        self._executor.submit(self._close_renderers)
+        self._executor.shutdown(wait=True)
+        self._executor = None
+        self._cache.clear()
+
+    def _close_renderers(self) -> None:
         for r in self._renderers.values():
             try:
                 r.close()
             except Exception:  # a context already torn down by the driver
                 pass
         self._renderers.clear()
-        self._cache.clear()
