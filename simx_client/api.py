@@ -74,8 +74,12 @@ def _bytes(value: Any) -> bytes:
     return np.asarray(value).astype(np.uint8).tobytes()
 
 
+_F32 = struct.Struct("<f")
+
+
 def _f32(value: float) -> float:
-    return float(np.float32(value))
+    """``value`` rounded to float32, as the legacy binding's c_float did."""
+    return _F32.unpack(_F32.pack(value))[0]
 
 
 def _f32_list(values: list) -> list[float]:
@@ -91,8 +95,13 @@ def _connection(client_id: Any) -> Connection | None:
 
 
 def _command(clientID: Any, name: str, make_args: Callable[[], list], operationMode: Any,
-             convert: Callable[[Any], Any] = lambda v: v, default: Any = None) -> tuple[int, Any]:
-    """Run one command; returns ``(return code, converted value or default)``."""
+             convert: Callable[[Any], Any] = lambda v: v, default: Any = None,
+             memo: Callable[[Any], Any] | None = None) -> tuple[int, Any]:
+    """Run one command; returns ``(return code, converted value or default)``.
+
+    With ``memo`` (a function copying a converted value), a value read again from the inbox
+    (a ``buffer`` loop on an unchanged image) is converted once and handed out as copies.
+    """
     conn = _connection(clientID)
     if conn is None:
         return C.simx_return_initialize_error_flag, default
@@ -103,11 +112,17 @@ def _command(clientID: Any, name: str, make_args: Callable[[], list], operationM
         log.warning("simx%s: bad argument: %s", name, exc)
         return C.simx_return_local_error_flag, default
     rc, value = conn.call(name, args, mode)
-    if rc != C.simx_return_ok:
+    if rc != C.simx_return_ok or mode & P.MODE_MASK == P.MODE_REMOVE:  # remove returns no value
         if rc & C.simx_return_remote_error_flag:
             log.debug("simx%s: remote error: %s", name, value)
         return rc, default
-    return rc, convert(value)
+    if memo is None:
+        return rc, convert(value)
+    key = P.identity(name, args)
+    hit = conn.converted.get(key)
+    if hit is None or hit[0] is not value:
+        hit = conn.converted[key] = (value, convert(value))
+    return rc, memo(hit[1])
 
 
 # -------------------------------------------------------------- connection
@@ -303,11 +318,15 @@ def _image(value: list) -> tuple[list[int], list[int]]:
     return list(resolution), np.frombuffer(data, dtype=np.int8).tolist()
 
 
+def _copy_image(value: tuple[list, list]) -> tuple[list, list]:
+    return value[0][:], value[1][:]
+
+
 def simxGetVisionSensorImage(clientID, sensorHandle, options, operationMode):
     """``(returnCode, [resX, resY], image)``: a flat list of signed bytes (-128..127), rows
     bottom-up, R, G, B (options bit 0 = 1: one grey byte per pixel)."""
     rc, value = _command(clientID, "GetVisionSensorImage", lambda: [_int(sensorHandle), _int(options) & 1],
-                         operationMode, _image, None)
+                         operationMode, _image, None, memo=_copy_image)
     return (rc, [], []) if value is None else (rc, *value)
 
 
@@ -319,7 +338,7 @@ def _depth(value: list) -> tuple[list[int], list[float]]:
 def simxGetVisionSensorDepthBuffer(clientID, sensorHandle, operationMode):
     """``(returnCode, [resX, resY], buffer)``: resX*resY floats in 0..1 (near..far, linear), rows bottom-up."""
     rc, value = _command(clientID, "GetVisionSensorDepthBuffer", lambda: [_int(sensorHandle)],
-                         operationMode, _depth, None)
+                         operationMode, _depth, None, memo=_copy_image)
     return (rc, [], []) if value is None else (rc, *value)
 
 

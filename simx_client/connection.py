@@ -77,13 +77,12 @@ class Connection:
         self._in_flight: dict[tuple, int] = {}  # split commands sent and not answered yet
         self._outbox: dict[Any, list] = {}
         self._paused = False
+        self.converted: dict[tuple, tuple[Any, Any]] = {}  # the facade's last conversion per command
         self._key = P.call_key(prefix)
         self._messages = itertools.count(1)
         self._t0 = time.monotonic()
-        self._out = {C.simx_headeroffset_message_id: 0, C.simx_headeroffset_client_time: 0}
-        self._in = {C.simx_headeroffset_message_id: 0, C.simx_headeroffset_client_time: 0,
-                    C.simx_headeroffset_server_time: 0, C.simx_headeroffset_scene_id: 0,
-                    C.simx_headeroffset_server_state: 0}
+        self._out = (0, 0.0)  # (message id, client time) of the last request
+        self._in: tuple[tuple[int, float], dict] = ((0, 0.0), {})  # its header and the last reply
         self.session = zenoh.open(client_config(address, port))
         try:
             # Stream updates wait in a channel and are filed when the inbox is read: they then
@@ -99,10 +98,8 @@ class Connection:
             raise
 
     # --------------------------------------------------------------- transport
-    def _payload(self, commands: list[list]) -> tuple[bytes, dict]:
-        header = {C.simx_headeroffset_message_id: next(self._messages),
-                  C.simx_headeroffset_client_time: int((time.monotonic() - self._t0) * 1000)}
-        self._out = header
+    def _payload(self, commands: list[list]) -> tuple[bytes, tuple[int, float]]:
+        header = self._out = (next(self._messages), time.monotonic())
         return P.request(self.client, commands), header
 
     def request(self, commands: list[list], timeout: float | None = None) -> list[list]:
@@ -122,13 +119,11 @@ class Connection:
                 return message["r"]
         raise TimeoutError(f"no reply from the simx server at {self.address}:{self.port}")
 
-    def _accept(self, payload: bytes, header: dict) -> dict:
+    def _accept(self, payload: bytes, header: tuple[int, float]) -> dict:
         message = P.unpack(payload)
         if "err" in message:
             raise P.ProtocolError(f"server refused the request: {message['err']}")
-        self._in = {**header, C.simx_headeroffset_server_time: message.get("w", 0),
-                    C.simx_headeroffset_scene_id: message.get("sc", 0),
-                    C.simx_headeroffset_server_state: message["s"]}
+        self._in = (header, message)
         return message
 
     def _send_async(self, commands: list[list]) -> None:
@@ -283,18 +278,22 @@ class Connection:
 
     def in_message_info(self, info_type: int) -> int | None:
         """A field of the last message received (simx_headeroffset_*), None if unknown."""
-        return self._header(self._in, info_type)
+        header, message = self._in
+        fields = {C.simx_headeroffset_server_time: message.get("w", 0),
+                  C.simx_headeroffset_scene_id: message.get("sc", 0),
+                  C.simx_headeroffset_server_state: message.get("s", 0)}
+        return self._header(header, info_type, fields)
 
     def out_message_info(self, info_type: int) -> int | None:
         """A field of the last message sent (simx_headeroffset_*), None if unknown."""
-        return self._header(self._out, info_type)
+        return self._header(self._out, info_type, {})
 
-    @staticmethod
-    def _header(fields: dict, info_type: int) -> int | None:
-        if info_type == C.simx_headeroffset_version:
-            return C.SIMX_VERSION
-        if info_type == C.simx_headeroffset_crc:
-            return 0  # no CRC: Zenoh's transport checks integrity
+    def _header(self, header: tuple[int, float], info_type: int, fields: dict) -> int | None:
+        message_id, sent = header
+        fields[C.simx_headeroffset_message_id] = message_id
+        fields[C.simx_headeroffset_client_time] = int((sent - self._t0) * 1000) if message_id else 0
+        fields[C.simx_headeroffset_version] = C.SIMX_VERSION
+        fields[C.simx_headeroffset_crc] = 0  # no CRC: Zenoh's transport checks integrity
         return fields.get(info_type)
 
     def close(self) -> None:

@@ -211,29 +211,24 @@ class Server:
     def _execute(self, client: str, name: str, mode: int, args: list) -> list:
         base = mode & P.MODE_MASK
         try:
-            ident = P.identity(name, args)
-            streams = self._streams.setdefault(client, {})
+            streams = self._streams.get(client)
             if base == P.MODE_DISCONTINUE:
-                streams.pop(ident, None)
+                if streams:
+                    streams.pop(P.identity(name, args), None)
                 return [True, None]
-            if name == "Bye":
-                self._forget(client, "disconnected")
-                return [True, None]
-            if name == "Synchronous":
-                return [True, self._synchronous(client, args)]
-            if name == "SynchronousTrigger":
-                return [True, self._trigger()]
-            if name in self._CLIENT_COMMANDS:
-                return [True, getattr(self, self._CLIENT_COMMANDS[name])(client, args)]
+            own = self._CLIENT_COMMANDS.get(name)
+            if own is not None:
+                return [True, getattr(self, own)(client, args)]
             handler = HANDLERS.get(name)
             if handler is None:
                 raise P.UnsupportedError(f"unknown command {name!r}")
             if base in (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT):
+                streams = self._streams.setdefault(client, {})
+                ident = P.identity(name, args)
                 if ident not in streams:
-                    streams[ident] = _Stream(name, args, mode & P.MODE_ARG_MASK
-                                             if base == P.MODE_STREAMING else 0)
-            elif name not in P.DO_NOT_OVERWRITE:
-                streams.pop(ident, None)  # a new non-streamed call replaces the stream
+                    streams[ident] = _Stream(name, args, mode & P.MODE_ARG_MASK if base == P.MODE_STREAMING else 0)
+            elif streams and name not in P.DO_NOT_OVERWRITE:
+                streams.pop(P.identity(name, args), None)  # a new non-streamed call replaces the stream
             return [True, handler(self.sim, args)]
         except P.RemoteError as exc:
             log.warning("client %s: simx%s failed: %s", client, name, exc)
@@ -248,6 +243,7 @@ class Server:
 
     # Commands about the calling client rather than the world.
     _CLIENT_COMMANDS = {
+        "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
         "AddStatusbarMessage": "_statusbar_message", "AuxiliaryConsoleOpen": "_console_open",
         "AuxiliaryConsoleClose": "_console_close", "AuxiliaryConsolePrint": "_console_print",
         "AuxiliaryConsoleShow": "_console_show", "GetLastErrors": "_last_errors",
@@ -288,13 +284,16 @@ class Server:
     def _last_errors(self, client: str, args: list) -> list[str]:
         return self._errors.pop(client, [])
 
+    def _bye(self, client: str, args: list) -> None:
+        self._forget(client, "disconnected")
+
     def _synchronous(self, client: str, args: list) -> None:
         if len(args) != 1 or not isinstance(args[0], bool):
             raise P.ArgumentError("simxSynchronous takes one boolean")
         self.sim.synchronous = args[0]
         self._sync_owner = client if args[0] else None
 
-    def _trigger(self) -> None:
+    def _trigger(self, client: str, args: list) -> None:
         if not self.sim.synchronous:
             raise P.RemoteError("simxSynchronousTrigger: synchronous mode is not enabled (call simxSynchronous(clientID, True))")
         if self.sim.state is RunState.RUNNING:

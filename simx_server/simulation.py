@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import enum
 import logging
+import zlib
 from pathlib import Path
 
 from simx_client import protocol as P
@@ -50,15 +51,16 @@ class Simulation:
         self.realtime = realtime
         self.synchronous = False  # stepped mode: a step runs only on a trigger
         self.steps = 0
+        self._scene_id: tuple[World | None, int] = (None, 0)
         self.stop_requests = 0  # sim_intparam_stop_request_counter
         self.selection: list[int] = []  # simxGetObjectSelection (no GUI: only what clients set)
 
     @property
     def scene_id(self) -> int:
         """Identifies the loaded scene (simx_headeroffset_scene_id): 16 bits of its path's hash."""
-        import zlib
-
-        return zlib.crc32(str(self.world.scene_path).encode()) & 0xFFFF
+        if self._scene_id[0] is not self.world:  # scene editing may have loaded another scene
+            self._scene_id = (self.world, zlib.crc32(str(self.world.scene_path).encode()) & 0xFFFF)
+        return self._scene_id[1]
 
     @property
     def sim_time_ms(self) -> int:

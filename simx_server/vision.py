@@ -168,17 +168,26 @@ class VisionSensors:
         """
         return self.after(self._image_job(handle, grey)).result()
 
+    def _payload(self, handle: int, kind: str, job: Callable[[], Callable[[], np.ndarray]]) -> Deferred:
+        """``[[resX, resY], bytes]`` of a frame, made once per state and shared."""
+        cached = self._cache.get((handle, kind))
+        if cached is None or cached[0] != self.world.version:
+            spec, frame = self.spec(handle), job()
+            cached = (self.world.version, self.after(
+                lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()]))
+            self._cache[(handle, kind)] = cached
+        return Deferred(cached[1])
+
     def image_deferred(self, handle: int, options: int) -> Deferred:
         """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey)."""
         if not isinstance(options, int):
             raise ArgumentError(f"options must be an int, got {type(options).__name__}")
-        spec, job = self.spec(handle), self._image_job(handle, bool(options & 1))
-        return Deferred(self.after(lambda: [[spec.width, spec.height], np.ascontiguousarray(job()).tobytes()]))
+        grey = bool(options & 1)
+        return self._payload(handle, f"image{int(grey)}", lambda: self._image_job(handle, grey))
 
     def depth_deferred(self, handle: int) -> Deferred:
         """``simxGetVisionSensorDepthBuffer``: a Deferred ``[[resX, resY], float32 bytes]``."""
-        spec, job = self.spec(handle), self._depth_job(handle)
-        return Deferred(self.after(lambda: [[spec.width, spec.height], np.ascontiguousarray(job()).tobytes()]))
+        return self._payload(handle, "depth buffer", lambda: self._depth_job(handle))
 
     def image_bytes(self, handle: int, options: int) -> tuple[list[int], bytes]:
         """:meth:`image_deferred`, waited for: ``([resX, resY], bytes)``."""

@@ -114,6 +114,10 @@ class World:
         self.objects: dict[int, SceneObject] = {}
         self.by_name: dict[str, SceneObject] = {}
         self._register_objects()
+        scalar = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+        self._scalar_joints = {o.handle: (int(model.jnt_qposadr[o.mj_id]), int(model.jnt_dofadr[o.mj_id]))
+                               for o in self.objects.values()
+                               if o.type == JOINT and int(model.jnt_type[o.mj_id]) in scalar}
         for gone in [n for n in self._handle_of_name if n not in self.by_name]:
             del self._handle_of_name[gone]  # its handle is never given again
         self._init_motors()
@@ -359,23 +363,24 @@ class World:
         self.version += 1
 
     # ------------------------------------------------------------------ joints
-    def _scalar_joint(self, handle: int) -> SceneObject:
-        obj = self.get(handle, JOINT)
-        if self.model.jnt_type[obj.mj_id] in (mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_FREE):
+    def _scalar_joint(self, handle: int) -> tuple[int, int]:
+        """``(qpos address, dof address)`` of a hinge or slide joint (hot path: precomputed)."""
+        addresses = self._scalar_joints.get(handle)
+        if addresses is None:
+            obj = self.get(handle, JOINT)  # raises for a handle that is not a joint
             raise ObjectTypeError(f"joint {obj.name!r} is spherical/free: use simxGetJointMatrix / "
                                   "simxSetSphericalJointMatrix")
-        return obj
+        return addresses
 
     def joint_position(self, handle: int) -> float:
         """Intrinsic position of a joint (rad or m). ``simxGetJointPosition``."""
-        obj = self._scalar_joint(handle)
-        return float(self.data.qpos[self.model.jnt_qposadr[obj.mj_id]])
+        return float(self.data.qpos[self._scalar_joint(handle)[0]])
 
     def set_joint_position(self, handle: int, position: float) -> None:
         """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``."""
-        obj = self._scalar_joint(handle)
-        self.data.qpos[self.model.jnt_qposadr[obj.mj_id]] = _finite(position)
-        self.data.qvel[self.model.jnt_dofadr[obj.mj_id]] = 0.0
+        qadr, dadr = self._scalar_joint(handle)
+        self.data.qpos[qadr] = _finite(position)
+        self.data.qvel[dadr] = 0.0
         if handle in self.motor_index:
             self.target_position[self.motor_index[handle]] = position
         self.changed()
@@ -411,10 +416,10 @@ class World:
 
     def joint_force(self, handle: int) -> float:
         """Force/torque the joint's motor applies now (N or N·m). ``simxGetJointForce``."""
-        obj = self._scalar_joint(handle)
+        _, dadr = self._scalar_joint(handle)
         if handle in self.motor_index:
             return float(self.data.actuator_force[self._motor_act[self.motor_index[handle]]])
-        return float(self.data.qfrc_constraint[self.model.jnt_dofadr[obj.mj_id]])
+        return float(self.data.qfrc_constraint[dadr])
 
     # ------------------------------------------------------------------- poses
     def frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:

@@ -366,3 +366,19 @@ def test_finish_all_and_start_timeout():
     assert vrep.simxStart("127.0.0.1", port, True, True, 500, 5) == -1
     assert time.monotonic() - t0 < 3.0
     assert vrep.simxFinish(-1) is None
+
+
+def test_buffer_reads_of_one_image_are_equal_copies(vrep_client):
+    cam = handle(vrep_client, "kinect_rgb")
+    vrep.simxPauseSimulation(vrep_client, B)  # one state, one image
+    try:
+        vrep.simxGetVisionSensorImage(vrep_client, cam, 0, vrep.simx_opmode_streaming)
+        wait_until(lambda: vrep.simxGetVisionSensorImage(vrep_client, cam, 0, vrep.simx_opmode_buffer)[0] == 0)
+        rc1, res1, img1 = vrep.simxGetVisionSensorImage(vrep_client, cam, 0, vrep.simx_opmode_buffer)
+        img1[0] = 999  # a caller may change its list ...
+        rc2, res2, img2 = vrep.simxGetVisionSensorImage(vrep_client, cam, 0, vrep.simx_opmode_buffer)
+        assert img2[0] != 999 and img2[1:] == img1[1:]  # ... without changing the next one
+        assert res1 == res2 == [640, 480] and res1 is not res2
+    finally:
+        vrep.simxGetVisionSensorImage(vrep_client, cam, 0, vrep.simx_opmode_discontinue)
+        vrep.simxStartSimulation(vrep_client, B)
