@@ -1,0 +1,136 @@
+"""Helpers shared by the benchmark suites: clients, the Zenoh floor, interleaved timing."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from pathlib import Path
+from typing import Callable
+
+import zenoh
+
+from benchmarks.zenoh_echo import KEY_DIRECT, KEY_QUEUE, make_request
+from simx_client import api
+from simx_client import protocol as P
+from simx_client.connection import Connection, client_config
+
+perf = time.perf_counter
+
+
+@dataclasses.dataclass
+class Settings:
+    """What one run of the suites may spend."""
+
+    quick: bool
+    log_dir: Path
+
+    def n(self, full: int, quick: int) -> int:
+        return quick if self.quick else full
+
+    def t(self, full: float, quick: float) -> float:
+        return quick if self.quick else full
+
+
+def connect(port: int) -> int:
+    """A legacy client id connected to the simx server on ``port`` (raises if it cannot)."""
+    cid = api.simxStart("127.0.0.1", port, True, True, 10000, 5)
+    if cid < 0:
+        raise RuntimeError(f"simxStart to 127.0.0.1:{port} failed")
+    return cid
+
+
+def connection(cid: int) -> Connection:
+    """The client's Connection object behind a legacy client id."""
+    return api._connections[cid]
+
+
+def wire_sizes(cid: int, commands: list[list]) -> tuple[int, int]:
+    """(request bytes, reply bytes) of one simx request carrying ``commands``, measured on
+    the wire by sending it once."""
+    conn = connection(cid)
+    payload = P.request(conn.client, commands)
+    for reply in conn.session.get(P.call_key(conn.prefix), payload=payload, timeout=10):
+        if reply.ok is not None:
+            return len(payload), len(reply.ok.payload.to_bytes())
+    raise RuntimeError(f"no reply to {commands!r}")
+
+
+class Floor:
+    """Client side of the bare Zenoh floor: the same ``client_config`` as simx's client, to the
+    echo process's own loopback port."""
+
+    def __init__(self, port: int):
+        self.session = zenoh.open(client_config("127.0.0.1", port))
+        self._payloads: dict[tuple[int, int], bytes] = {}
+        # The first query also sets up routing; do it before anything is timed.
+        deadline = time.monotonic() + 10
+        while True:
+            try:
+                self.call(8, 8, timeout=1.0)
+                break
+            except TimeoutError:
+                if time.monotonic() > deadline:
+                    raise
+
+    def call(self, reply_size: int, request_size: int, hop: bool = False, timeout: float = 5.0) -> int:
+        """One query/reply; returns the reply size. ``hop``: the queryable that replies from
+        the echo's main thread (same thread hop as simx-server)."""
+        key = (reply_size, request_size)
+        payload = self._payloads.get(key)
+        if payload is None:
+            payload = self._payloads[key] = make_request(reply_size, request_size)
+        for reply in self.session.get(KEY_QUEUE if hop else KEY_DIRECT, payload=payload, timeout=timeout):
+            if reply.ok is not None:
+                return len(reply.ok.payload.to_bytes())
+        raise TimeoutError("no reply from the echo")
+
+    def close(self) -> None:
+        self.session.close()
+
+
+def time_calls(fn: Callable[[], object], n: int) -> list[float]:
+    """Durations in s of ``n`` calls of ``fn``. A ``fn`` that returns a float has timed itself
+    (to leave out its untimed set-up) and that value is used."""
+    out = []
+    for _ in range(n):
+        t0 = perf()
+        got = fn()
+        dt = perf() - t0
+        out.append(got if isinstance(got, float) else dt)
+    return out
+
+
+def interleaved(rounds: int, block: int, cases: dict[str, Callable[[], object]],
+                warmup: int = 5, budget_s: float = 120.0) -> dict[str, list[float]]:
+    """Time every case side by side: ``rounds`` rounds, each running ``block`` calls of every
+    case in turn (the order rotates each round), so that the machine's load changes hit all
+    cases alike. Stops early (keeping what it has) if ``budget_s`` runs out."""
+    names = list(cases)
+    for name in names:
+        for _ in range(warmup):
+            cases[name]()
+    times: dict[str, list[float]] = {name: [] for name in names}
+    deadline = time.monotonic() + budget_s
+    for r in range(rounds):
+        order = names[r % len(names):] + names[:r % len(names)]
+        for name in order:
+            times[name].extend(time_calls(cases[name], block))
+        if time.monotonic() > deadline:
+            break
+    return times
+
+
+def loadavg() -> list[float]:
+    try:
+        return list(os.getloadavg())
+    except OSError:
+        return []
+
+
+def floor_pipelined(floor: Floor, first: tuple[int, int], second: tuple[int, int]) -> None:
+    """Two queries as a pipelined oneshot batch + blocking ping travel: the first sent without
+    waiting, then the second waited for. Sizes are (request bytes, reply bytes)."""
+    req, rep = first
+    floor.session.get(KEY_DIRECT, lambda reply: None, payload=make_request(rep, req), timeout=5.0)
+    floor.call(second[1], second[0])

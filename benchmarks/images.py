@@ -1,0 +1,262 @@
+"""3. Images: ``simxGetVisionSensorImage`` on ``kinect_rgb`` (640x480 RGB) and
+``simxGetVisionSensorDepthBuffer`` on ``kinect_depth`` (640x480 float32), then streamed images.
+
+Decomposition of one blocking image call (every part timed side by side, one of each per round):
+
+* **total**: the blocking call from the client, on a fresh world state (the server runs in
+  synchronous mode and one ``simxSynchronousTrigger``, untimed, precedes each timed call, so
+  the server's per-step frame cache misses and the frame is rendered inside the call);
+* **render**, two ways: (a) in this process on an identical ``Simulation``:
+  ``sim.world.step()`` (untimed) then ``sim.vision.image_bytes(handle, 0)`` (render, flip, copy
+  to bytes), same MUJOCO_GL; (b) on the server itself, for the very call timed: the server is
+  benchmarks/instrumented_server.py, whose probe times ``VisionSensors.image_bytes`` /
+  ``depth_bytes`` (same work as (a)) and stamps it with CLOCK_MONOTONIC;
+* **conversion**: the client's bytes -> legacy list, ``simx_client.api._image`` (numpy
+  ``frombuffer(int8).tolist()``) on the same bytes, in this process;
+* **transfer** = total - render (b, the same call's) - conversion (same round): everything
+  else (request, msgpack on both sides, Zenoh over loopback TCP, payload copies, the server's
+  thread hop). Its floor is a bare Zenoh query/reply of the same sizes to
+  benchmarks/zenoh_echo.py. (With render (a) instead, the difference of two processes'
+  renders adds their noise; the JSON keeps that variant as ``transfer_inprocess``.)
+
+Also a second call in the same step (server cache hit, no render) as a cross-check of
+transfer + conversion, and the legacy binding's own conversion: copying the 921,600-byte
+``c_byte`` buffer (307,200 ``c_float`` for depth) into a list element by element, exactly as
+``vrep.py`` did, timed in the same rounds.
+
+Streaming: ``simx_opmode_streaming`` on ``kinect_rgb`` with the server back in asynchronous real
+time (dt 50 ms); a legacy-style loop reads ``simx_opmode_buffer`` (converting every read) and
+counts new frames (``simxGetLastCmdTime`` changes): frames per second received and simulation
+steps per second meanwhile.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import time
+
+from benchmarks.common import Floor, Settings, connect, interleaved, perf, wire_sizes
+from benchmarks.procs import SCENE, Echo, Server
+from benchmarks.stats import Figure, Target, rate_summary, scaled, summary
+from simx_client import api
+from simx_client import constants as C
+
+B, STREAM, BUFFER = C.simx_opmode_blocking, C.simx_opmode_streaming, C.simx_opmode_buffer
+
+
+def legacy_image_list(c_image, n: int) -> list:
+    """vrep.py's simxGetVisionSensorImage conversion: element by element from c_byte*."""
+    image = [None] * n
+    for i in range(n):
+        image[i] = c_image[i]
+    return image
+
+
+def gl_renderer() -> str:
+    """GL_RENDERER of the context current on this thread (after a render), or why not."""
+    try:
+        from OpenGL import GL
+
+        return "; ".join(GL.glGetString(x).decode() for x in (GL.GL_RENDERER, GL.GL_VERSION))
+    except Exception as exc:  # no context, no PyOpenGL, ...
+        return f"unknown ({type(exc).__name__})"
+
+
+def _check(rc: int, what: str) -> None:
+    if rc != 0:
+        raise RuntimeError(f"{what} failed with return code {rc}")
+
+
+def run(s: Settings) -> list[Figure]:
+    from simx_server.simulation import Simulation
+
+    probe_log = s.log_dir / "images-probe.json"
+    s.log_dir.mkdir(parents=True, exist_ok=True)
+    sim = Simulation(SCENE, 0.05)
+    try:
+        with Echo(s.log_dir) as echo:
+            srv = Server(s.log_dir, probe_log=probe_log, name="images")
+            try:
+                cid = connect(srv.port)
+                floor = Floor(echo.port)
+                try:
+                    raw = _measure(s, cid, floor, sim)
+                finally:
+                    floor.close()
+                    api.simxFinish(cid)
+            finally:
+                srv.stop()
+    finally:
+        sim.close()
+    frames = json.loads(probe_log.read_text())["frames"]
+    return _figures(raw, frames)
+
+
+def _server_frame(frames: list, kind: str, a: float, b: float) -> float:
+    """Duration (s) of the server's frame of ``kind`` produced within [a, b] (the longest: the
+    one that rendered)."""
+    got = [d for k, t0, d in frames if k == kind and a <= t0 <= b]
+    return max(got) if got else float("nan")
+
+
+def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
+    rgb = api.simxGetObjectHandle(cid, "kinect_rgb", B)[1]
+    dep = api.simxGetObjectHandle(cid, "kinect_depth", B)[1]
+    _check(api.simxSynchronous(cid, True), "simxSynchronous")
+    _check(api.simxStartSimulation(cid, B), "simxStartSimulation")
+    h_rgb, h_dep = sim.world.resolve("kinect_rgb").handle, sim.world.resolve("kinect_depth").handle
+    assert (h_rgb, h_dep) == (rgb, dep)
+
+    size_rgb = wire_sizes(cid, [["GetVisionSensorImage", B, [rgb, 0]]])
+    size_dep = wire_sizes(cid, [["GetVisionSensorDepthBuffer", B, [dep]]])
+    res, img_bytes = sim.vision.image_bytes(rgb, 0)
+    _, dep_bytes = sim.vision.depth_bytes(dep)
+    renderer = gl_renderer()
+    n_img, n_dep = res[0] * res[1] * 3, res[0] * res[1]
+    c_img_buf = (ctypes.c_byte * n_img).from_buffer_copy(img_bytes)
+    c_dep_buf = (ctypes.c_float * n_dep).from_buffer_copy(dep_bytes)
+    c_img = ctypes.cast(c_img_buf, ctypes.POINTER(ctypes.c_byte))
+    c_dep = ctypes.cast(c_dep_buf, ctypes.POINTER(ctypes.c_float))
+    seen = {"rgb": 0, "dep": 0}
+    spans: dict[str, list] = {"rgb": [], "dep": []}  # (monotonic start, end) of each timed call
+
+    def rgb_call() -> float:
+        _check(api.simxSynchronousTrigger(cid), "simxSynchronousTrigger")
+        m0, t0 = time.monotonic(), perf()
+        rc, r, img = api.simxGetVisionSensorImage(cid, rgb, 0, B)
+        dt = perf() - t0
+        spans["rgb"].append((m0, time.monotonic()))
+        _check(rc, "simxGetVisionSensorImage")
+        seen["rgb"] = len(img)
+        return dt
+
+    def rgb_cached() -> None:
+        _check(api.simxGetVisionSensorImage(cid, rgb, 0, B)[0], "simxGetVisionSensorImage")
+
+    def rgb_render() -> float:
+        sim.world.step()
+        t0 = perf()
+        sim.vision.image_bytes(rgb, 0)
+        return perf() - t0
+
+    def dep_call() -> float:
+        _check(api.simxSynchronousTrigger(cid), "simxSynchronousTrigger")
+        m0, t0 = time.monotonic(), perf()
+        rc, r, buf = api.simxGetVisionSensorDepthBuffer(cid, dep, B)
+        dt = perf() - t0
+        spans["dep"].append((m0, time.monotonic()))
+        _check(rc, "simxGetVisionSensorDepthBuffer")
+        seen["dep"] = len(buf)
+        return dt
+
+    def dep_render() -> float:
+        sim.world.step()
+        t0 = perf()
+        sim.vision.depth_bytes(dep)
+        return perf() - t0
+
+    cases = {
+        "rgb_call": rgb_call,
+        "rgb_cached": rgb_cached,
+        "rgb_render": rgb_render,
+        "rgb_convert": lambda: api._image([res, img_bytes]),
+        "rgb_legacy": lambda: legacy_image_list(c_img, n_img),
+        "rgb_floor": lambda: floor.call(size_rgb[1], size_rgb[0]),
+        "dep_call": dep_call,
+        "dep_render": dep_render,
+        "dep_convert": lambda: api._depth([res, dep_bytes]),
+        "dep_legacy": lambda: legacy_image_list(c_dep, n_dep),
+        "dep_floor": lambda: floor.call(size_dep[1], size_dep[0]),
+    }
+    t = interleaved(s.n(40, 8), 1, cases, warmup=2, budget_s=s.t(60, 20))
+    assert seen["rgb"] == n_img and seen["dep"] == n_dep, seen
+    _check(api.simxSynchronous(cid, False), "simxSynchronous(False)")
+    warm = len(spans["rgb"]) - len(t["rgb_call"])  # warm-up calls come first
+    return {"t": t, "spans": {k: v[warm:] for k, v in spans.items()}, "renderer": renderer,
+            "size_rgb": size_rgb, "size_dep": size_dep, "stream": _streaming(s, cid, rgb)}
+
+
+def _figures(raw: dict, frames: list) -> list[Figure]:
+    t, spans, renderer = raw["t"], raw["spans"], raw["renderer"]
+    size_rgb, size_dep = raw["size_rgb"], raw["size_dep"]
+    ms = {k: scaled(summary(v), 1e3) for k, v in t.items()}
+    decomposition = {}
+    for kind, key, probe in (("rgb", "rgb", "image"), ("dep", "dep", "depth")):
+        calls, conv, local = t[f"{key}_call"], t[f"{key}_convert"], t[f"{key}_render"]
+        server = [_server_frame(frames, probe, a, b) for a, b in spans[kind]]
+        k = min(len(calls), len(conv), len(server))
+        decomposition[kind] = {
+            "server_render_ms": scaled(summary([x for x in server if x == x]), 1e3),
+            "transfer_ms": summary([(calls[i] - server[i] - conv[i]) * 1e3 for i in range(k) if server[i] == server[i]]),
+            "transfer_inprocess_ms": summary([(calls[i] - local[i] - conv[i]) * 1e3
+                                              for i in range(min(k, len(local)))]),
+            "unmatched_calls": sum(1 for x in server if x != x),
+        }
+    legacy = {"label": "legacy vrep.py list copy (c_byte, element by element)", **ms["rgb_legacy"]}
+    legacy_dep = {"label": "legacy vrep.py list copy (c_float, element by element)", **ms["dep_legacy"]}
+    d_rgb, d_dep = decomposition["rgb"], decomposition["dep"]
+    figs = [
+        Figure("images.rgb_call", "GetVisionSensorImage rgb 640x480 (render incl.)", "ms", ms["rgb_call"],
+               floor=legacy, target=Target("ratio", "<", 1.0, "< legacy list copy"),
+               extra={"gl_renderer": renderer, "sizes": size_rgb, "decomposition": d_rgb}, note=f"GL: {renderer}"),
+        Figure("images.rgb_render_server", "  render on the server (probe, same calls)", "ms",
+               d_rgb["server_render_ms"], note=f"{d_rgb['unmatched_calls']} calls without a probe record"),
+        Figure("images.rgb_render", "  render in-process (image_bytes, same scene)", "ms", ms["rgb_render"]),
+        Figure("images.rgb_transfer", "  transfer (total - server render - conversion)", "ms", d_rgb["transfer_ms"],
+               floor={"label": "bare Zenoh query/reply, same sizes", **ms["rgb_floor"]},
+               note=f"request {size_rgb[0]} B, reply {size_rgb[1]} B"),
+        Figure("images.rgb_convert", "  conversion to the legacy list (client)", "ms", ms["rgb_convert"],
+               floor=legacy, target=Target("ratio", "<=", 0.2, "<= 0.2x copy (5x faster)")),
+        Figure("images.rgb_cached", "GetVisionSensorImage, 2nd call same step (no render)", "ms",
+               ms["rgb_cached"], floor=legacy),
+        Figure("images.rgb_legacy_copy", "legacy binding: 921,600 c_byte -> list copy", "ms", ms["rgb_legacy"]),
+        Figure("images.depth_call", "GetVisionSensorDepthBuffer 640x480 (render incl.)", "ms", ms["dep_call"],
+               floor=legacy_dep, target=Target("ratio", "<", 1.0, "< legacy list copy"),
+               extra={"sizes": size_dep, "decomposition": d_dep}),
+        Figure("images.depth_render_server", "  render on the server (probe, same calls)", "ms",
+               d_dep["server_render_ms"]),
+        Figure("images.depth_render", "  render in-process (depth_bytes, same scene)", "ms", ms["dep_render"]),
+        Figure("images.depth_transfer", "  transfer (total - server render - conversion)", "ms", d_dep["transfer_ms"],
+               floor={"label": "bare Zenoh query/reply, same sizes", **ms["dep_floor"]},
+               note=f"request {size_dep[0]} B, reply {size_dep[1]} B"),
+        Figure("images.depth_convert", "  conversion to the legacy list (client)", "ms", ms["dep_convert"],
+               floor=legacy_dep, target=Target("ratio", "<=", 0.2, "<= 0.2x copy (5x faster)")),
+        Figure("images.depth_legacy_copy", "legacy binding: 307,200 c_float -> list copy", "ms", ms["dep_legacy"]),
+    ]
+    return figs + raw["stream"]
+
+
+def _streaming(s: Settings, cid: int, rgb: int) -> list[Figure]:
+    window = s.t(8.0, 3.0)
+    api.simxGetVisionSensorImage(cid, rgb, 0, STREAM)
+    deadline = time.monotonic() + 10
+    while api.simxGetVisionSensorImage(cid, rgb, 0, BUFFER)[0] != 0:
+        if time.monotonic() > deadline:
+            raise RuntimeError("no streamed image within 10 s")
+        time.sleep(0.002)
+    frames: list[tuple[int, float]] = []
+    last = api.simxGetLastCmdTime(cid)
+    end = time.monotonic() + window
+    while time.monotonic() < end:
+        rc, _, img = api.simxGetVisionSensorImage(cid, rgb, 0, BUFFER)
+        t = api.simxGetLastCmdTime(cid)
+        if rc == 0 and t != last:
+            frames.append((t, time.monotonic()))
+            last = t
+        else:
+            time.sleep(0.001)
+    api.simxGetVisionSensorImage(cid, rgb, 0, C.simx_opmode_discontinue)
+    intervals = [b[1] - a[1] for a, b in zip(frames, frames[1:])]
+    wall = frames[-1][1] - frames[0][1] if len(frames) > 1 else float("nan")
+    sim_s = (frames[-1][0] - frames[0][0]) / 1e3 if len(frames) > 1 else float("nan")
+    steps = sim_s / 0.05
+    step_rate = steps / wall
+    fps = (len(frames) - 1) / wall
+    return [
+        Figure("images.stream_fps", "streamed rgb 640x480: new frames/s in a buffer loop", "1/s",
+               rate_summary(intervals), floor={"label": "sim steps/s meanwhile", "median": step_rate},
+               note=f"{len(frames)} frames in {wall:.1f} s = {fps:.1f}/s; sim ran {step_rate:.1f} steps/s "
+                    f"(real time = 20); frames per step {len(frames) - 1}/{steps:.0f}",
+               extra={"frames": len(frames), "wall_s": wall, "sim_steps_per_s": step_rate, "fps_count": fps}),
+    ]

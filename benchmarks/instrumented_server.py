@@ -1,0 +1,78 @@
+"""simx-server with two probes: the wall time at the end of every simulation step, and the
+duration of every vision-sensor frame the server produces.
+
+``python -m benchmarks.instrumented_server [simx-server arguments]`` runs
+``simx_server.cli.main`` unchanged except that
+
+* ``Simulation.step`` is wrapped to record ``(sim_time_ms, time.monotonic())`` right after the
+  step (before the server publishes the streams);
+* ``VisionSensors._render`` (on the render thread) is wrapped to record
+  ``(kind, start, duration)`` of every frame actually rendered ("image" for RGB, "depth");
+  the flip and copy to bytes that follow (about 1 ms) fall into "transfer".
+
+On exit the records go, as JSON ``{"steps": [...], "frames": [...]}``, to the file named by
+``SIMX_BENCH_PROBE_LOG``. With ``SIMX_BENCH_CPROFILE=FILE`` the whole server (its main thread,
+where requests execute) also runs under cProfile and its stats go to FILE (pstats format). CLOCK_MONOTONIC is system-wide on Linux, so a client process can
+compare its own ``time.monotonic()`` with these stamps. Cost: a clock read or two and a list
+append per step or frame.
+"""
+
+from __future__ import annotations
+
+import collections
+import functools
+import json
+import os
+import sys
+import time
+
+from simx_server import cli
+from simx_server.simulation import Simulation
+from simx_server.vision import VisionSensors
+
+_MAX_RECORDS = 200_000
+_steps: collections.deque = collections.deque(maxlen=_MAX_RECORDS)
+_frames: collections.deque = collections.deque(maxlen=_MAX_RECORDS)
+
+
+def _wrap_step(original):
+    @functools.wraps(original)
+    def step(self: Simulation) -> None:
+        original(self)
+        _steps.append((self.sim_time_ms, time.monotonic()))
+    return step
+
+
+def _wrap_render(original):
+    @functools.wraps(original)
+    def render(self, model, data, spec, kind):
+        t0 = time.monotonic()
+        try:
+            return original(self, model, data, spec, kind)
+        finally:
+            _frames.append(("image" if kind == "rgb" else "depth", t0, time.monotonic() - t0))
+    return render
+
+
+def main(argv: list[str] | None = None) -> int:
+    Simulation.step = _wrap_step(Simulation.step)
+    VisionSensors._render = _wrap_render(VisionSensors._render)
+    profile_path = os.environ.get("SIMX_BENCH_CPROFILE")
+    profiler = None
+    if profile_path:
+        import cProfile
+
+        profiler = cProfile.Profile()
+    try:
+        return profiler.runcall(cli.main, argv) if profiler else cli.main(argv)
+    finally:
+        if profiler:
+            profiler.dump_stats(profile_path)
+        path = os.environ.get("SIMX_BENCH_PROBE_LOG")
+        if path:
+            with open(path, "w") as f:
+                json.dump({"steps": list(_steps), "frames": list(_frames)}, f)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,194 @@
+"""Run the simx benchmarks, print the table and write it as JSON.
+
+    python -m benchmarks.run            # everything, a few minutes on 2 cores
+    python -m benchmarks.run --quick    # smoke run, under a minute
+    python -m benchmarks.run --only calls,images --tag gpu
+
+Every figure is a median over many repetitions with its p10/p90 (and min/max in the JSON);
+every comparison is a ratio to a floor measured side by side in the same run.
+Results: benchmarks/results/latest.json (and a timestamped copy), server logs in
+benchmarks/results/logs/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import importlib
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from benchmarks.common import Settings, loadavg  # noqa: E402
+from benchmarks.procs import ROOT  # noqa: E402
+from benchmarks.stats import Figure, skipped  # noqa: E402
+
+RESULTS = Path(__file__).resolve().parent / "results"
+#: suite name -> (module, what it measures), in the order they run.
+SUITES = {
+    "calls": ("benchmarks.calls", "1. call round trip"),
+    "streaming": ("benchmarks.streaming", "2. streaming"),
+    "images": ("benchmarks.images", "3. images"),
+    "sync": ("benchmarks.sync", "4. synchronous stepping"),
+    "physics": ("benchmarks.physics", "5. physics speed"),
+    "clients": ("benchmarks.clients", "6. many clients"),
+    "tutorial": ("benchmarks.tutorial", "7. the tutorial loop"),
+}
+
+
+def _fmt(v, unit: str = "") -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    a = abs(v)
+    if a >= 1000:
+        s = f"{v:,.0f}"
+    elif a >= 100:
+        s = f"{v:.0f}"
+    elif a >= 10:
+        s = f"{v:.1f}"
+    elif a >= 1:
+        s = f"{v:.2f}"
+    else:
+        s = f"{v:.3f}"
+    return s
+
+
+def table(figures: list[Figure]) -> str:
+    head = ["figure", "unit", "median", "p10", "p90", "floor", "ratio", "target", "met?"]
+    rows = [head]
+    for f in figures:
+        st = f.stats
+        floor = f.floor["median"] if f.floor else None
+        met = {True: "yes", False: "NO", None: ""}[f.met]
+        rows.append([f.label, f.unit, _fmt(st["median"]), _fmt(st["p10"]), _fmt(st["p90"]), _fmt(floor),
+                     "" if f.ratio is None else f"{f.ratio:.2f}x", f.target.describe() if f.target else "", met])
+        if f.note.startswith("SKIPPED"):
+            rows[-1][2] = f.note
+    widths = [max(len(r[i]) for r in rows if not (r[2].startswith("SKIPPED") and i == 2)) for i in range(len(head))]
+    widths[0] = min(widths[0], 56)
+    out = []
+    for k, r in enumerate(rows):
+        if r[2].startswith("SKIPPED"):
+            out.append(f"{r[0][:widths[0]]:<{widths[0]}}  {r[2]}")
+            continue
+        cells = [f"{r[0][:widths[0]]:<{widths[0]}}", f"{r[1]:<{widths[1]}}"]
+        cells += [f"{c:>{w}}" for c, w in zip(r[2:7], widths[2:7])]
+        cells += [f"{r[7]:<{widths[7]}}", r[8]]
+        out.append("  ".join(cells).rstrip())
+        if k == 0:
+            out.append("-" * len(out[0]))
+    return "\n".join(out)
+
+
+def _git_commit() -> str:
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                                text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return commit + ("+dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.run", description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="short smoke run (fewer repetitions)")
+    p.add_argument("--only", help=f"comma-separated suites to run: {','.join(SUITES)}")
+    p.add_argument("--skip", help="comma-separated suites to leave out")
+    p.add_argument("--tag", default="", help="label stored in the JSON and its file name (e.g. gpu)")
+    p.add_argument("--out", type=Path, help="JSON output path (default benchmarks/results/latest.json)")
+    args = p.parse_args(argv)
+
+    only = [x for x in (args.only or "").split(",") if x]
+    skip = {x for x in (args.skip or "").split(",") if x}
+    unknown = [x for x in [*only, *skip] if x not in SUITES]
+    if unknown:
+        p.error(f"unknown suite(s) {unknown}; choose from {list(SUITES)}")
+    names = [n for n in (only or SUITES) if n not in skip]
+
+    stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    log_dir = RESULTS / "logs" / stamp
+    settings = Settings(quick=args.quick, log_dir=log_dir)
+    meta = {
+        "started": _dt.datetime.now().isoformat(timespec="seconds"),
+        "mode": "quick" if args.quick else "full",
+        "tag": args.tag,
+        "commit": _git_commit(),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "cpus": os.cpu_count(),
+        "mujoco_gl": os.environ.get("MUJOCO_GL"),
+        "loadavg_start": loadavg(),
+        "suites": {},
+    }
+    figures: list[Figure] = []
+    t_start = time.monotonic()
+    for name in names:
+        module, title = SUITES[name]
+        print(f"== {title} ...", file=sys.stderr, flush=True)
+        t0 = time.monotonic()
+        try:
+            got = importlib.import_module(module).run(settings)
+            status = "ok"
+        except Exception as exc:  # one broken suite must not hide the others' figures
+            traceback.print_exc()
+            got = [skipped(f"{name}.error", title, f"{type(exc).__name__}: {exc}")]
+            status = f"error: {exc}"
+        figures.extend(got)
+        meta["suites"][name] = {"seconds": round(time.monotonic() - t0, 1), "status": status,
+                                "loadavg_after": loadavg()}
+        print(f"   {name}: {time.monotonic() - t0:.1f} s", file=sys.stderr, flush=True)
+    meta["seconds"] = round(time.monotonic() - t_start, 1)
+    meta["loadavg_end"] = loadavg()
+
+    text = table(figures)
+    print(text)
+    print(f"\n{meta['mode']} run, {meta['seconds']} s, commit {meta['commit']}, "
+          f"load average {meta['loadavg_start']} -> {meta['loadavg_end']}")
+    for f in figures:
+        if f.note and not f.note.startswith("SKIPPED"):
+            print(f"  {f.key}: {f.note}")
+    doc = _clean({"meta": meta, "figures": [f.as_dict() for f in figures], "table": text})
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    out = args.out or RESULTS / "latest.json"
+    body = json.dumps(doc, indent=1, allow_nan=False)
+    out.write_text(body)
+    (RESULTS / f"run-{stamp}{'-' + args.tag if args.tag else ''}.json").write_text(body)
+    _prune(RESULTS / "logs", keep=5)
+    print(f"\nwritten: {out}")
+    return 0
+
+
+def _clean(value):
+    """JSON-safe: NaN/inf -> None, numpy scalars -> Python, tuples -> lists."""
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _prune(logs: Path, keep: int) -> None:
+    """Keep only the newest ``keep`` run log folders (client latency files add up)."""
+    import shutil
+
+    if logs.is_dir():
+        for old in sorted(p for p in logs.iterdir() if p.is_dir())[:-keep]:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

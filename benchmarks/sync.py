@@ -1,0 +1,87 @@
+"""4. Synchronous stepping: ``simxSynchronousTrigger`` + ``simxGetPingTime`` per step
+(the legacy idiom: the ping returns once the triggered step is done), UR5 scene, dt 50 ms.
+
+Floor, side by side in interleaved blocks: two bare Zenoh query/replies (the trigger's and the
+ping's request/reply sizes) to benchmarks/zenoh_echo.py, plus MuJoCo stepping the same scene
+in this process with no transport (``Simulation(scene, 0.05).step()``: the same step the server
+runs, scripts included). floor = p50(two round trips) + p50(in-process step).
+The arm is at rest in both (same state, same physics cost).
+"""
+
+from __future__ import annotations
+
+from benchmarks.common import Floor, Settings, connect, interleaved, wire_sizes
+from benchmarks.procs import SCENE, Echo, Server
+from benchmarks.stats import Figure, Target, rate_summary, scaled, summary
+from simx_client import api
+from simx_client import constants as C
+
+B = C.simx_opmode_blocking
+
+
+def run(s: Settings) -> list[Figure]:
+    from simx_server.simulation import Simulation
+
+    sim = Simulation(SCENE, 0.05)
+    sim.start()
+    try:
+        with Server(s.log_dir, "--dt", "0.05", name="sync") as srv, Echo(s.log_dir) as echo:
+            cid = connect(srv.port)
+            floor = Floor(echo.port)
+            try:
+                return _measure(s, cid, floor, sim)
+            finally:
+                api.simxSynchronous(cid, False)
+                floor.close()
+                api.simxFinish(cid)
+    finally:
+        sim.close()
+
+
+def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
+    for rc, what in ((api.simxSynchronous(cid, True), "simxSynchronous"),
+                     (api.simxStartSimulation(cid, B), "simxStartSimulation")):
+        if rc != 0:
+            raise RuntimeError(f"{what} failed with return code {rc}")
+    trig = wire_sizes(cid, [["SynchronousTrigger", B, []]])
+    ping = wire_sizes(cid, [["GetPingTime", B, []]])
+    api.simxGetPingTime(cid)  # wire_sizes ran one trigger: start counting after it
+    t0 = api.simxGetLastCmdTime(cid)
+    failures = []
+
+    def step() -> None:
+        rc = api.simxSynchronousTrigger(cid)
+        rc2, _ = api.simxGetPingTime(cid)
+        if rc or rc2:
+            failures.append((rc, rc2))
+
+    def two_rt() -> None:
+        floor.call(trig[1], trig[0])
+        floor.call(ping[1], ping[0])
+
+    n0 = sim.steps
+    t = interleaved(s.n(30, 6), 20, {"step": step, "floor_rt2": two_rt, "physics": sim.step},
+                    budget_s=s.t(60, 20))
+    if failures:
+        raise RuntimeError(f"{len(failures)} failed steps, e.g. return codes {failures[0]}")
+    api.simxGetPingTime(cid)
+    advanced_ms = api.simxGetLastCmdTime(cid) - t0
+    ms = {k: scaled(summary(v), 1e3) for k, v in t.items()}
+    floor_ms = ms["floor_rt2"]["median"] + ms["physics"]["median"]
+    composite = {"label": "2 bare Zenoh round trips + in-process step",
+                 "median": floor_ms,
+                 "p10": ms["floor_rt2"]["p10"] + ms["physics"]["p10"],
+                 "p90": ms["floor_rt2"]["p90"] + ms["physics"]["p90"]}
+    steps_expected = len(t["step"]) + 5  # + warm-up
+    return [
+        Figure("sync.step", "sync step: SynchronousTrigger + GetPingTime", "ms", ms["step"], floor=composite,
+               target=Target("ratio", "<=", 2.5, "p50 <= 2.5x floor"),
+               note=f"sim advanced {advanced_ms} ms for {steps_expected} triggers (expect {steps_expected * 50})",
+               extra={"sim_ms_advanced": advanced_ms, "triggers": steps_expected}),
+        Figure("sync.floor_rt2", "  floor part: 2 bare Zenoh round trips", "ms", ms["floor_rt2"],
+               note=f"trigger {trig[0]}/{trig[1]} B, ping {ping[0]}/{ping[1]} B"),
+        Figure("sync.physics", "  floor part: in-process Simulation.step (dt 50 ms)", "ms", ms["physics"],
+               note=f"{sim.steps - n0} in-process steps"),
+        Figure("sync.steps_per_s", "sync steps/s over simx", "1/s", rate_summary(t["step"]),
+               floor={"label": "in-process steps/s", **rate_summary(t["physics"])}),
+    ]
