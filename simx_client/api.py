@@ -10,6 +10,7 @@ binding carried as ``c_float`` are rounded to float32 as it did.
 
 from __future__ import annotations
 
+import atexit
 import logging
 import struct
 import threading
@@ -168,6 +169,12 @@ def simxFinish(clientID):
     for conn in closing:
         conn.close()
     return None
+
+
+@atexit.register
+def _finish_at_exit() -> None:
+    """Close what the program left open: an open Zenoh session would hold up interpreter exit."""
+    simxFinish(-1)
 
 
 def simxGetConnectionId(clientID):

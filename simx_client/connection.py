@@ -37,6 +37,13 @@ _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 _SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
 
 
+def _direct(callback: Any, drop: Any = None) -> zenoh.handlers.Callback:
+    """A Zenoh callback run on Zenoh's own thread. The default ("indirect") starts a non-daemon
+    Python thread per handler, which keeps the interpreter from exiting while a session is open.
+    Every callback here is short and never blocks."""
+    return zenoh.handlers.Callback(callback, drop, indirect=False)
+
+
 def client_config(address: str, port: int) -> zenoh.Config:
     """Zenoh config of a client: client mode, one TCP endpoint, multicast scouting off."""
     config = zenoh.Config()
@@ -92,7 +99,7 @@ class Connection:
             self.server_info = self.request([["Hello", P.MODE_BLOCKING, []]], hello_timeout)[0][1]
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
             self._watch = self.session.liveliness().declare_subscriber(
-                P.server_token_key(prefix), self._on_server_token, history=True)
+                P.server_token_key(prefix), _direct(self._on_server_token), history=True)
         except BaseException:
             self.session.close()
             raise
@@ -155,7 +162,7 @@ class Connection:
             for ident in split:
                 self._in_flight[ident] = self._in_flight.get(ident, 0) + 1
         try:
-            self.session.get(self._key, zenoh.handlers.Callback(on_reply, on_done), payload=payload,
+            self.session.get(self._key, _direct(on_reply, on_done), payload=payload,
                              timeout=self.blocking_timeout)
         except zenoh.ZError as exc:
             on_done()
@@ -304,7 +311,7 @@ class Connection:
         with self._lock:
             batch, self._outbox, self._paused = list(self._outbox.values()), {}, False
         try:
-            session.get(self._key, lambda reply: None,
+            session.get(self._key, _direct(lambda reply: None),
                         payload=P.request(self.client, batch + [["Bye", P.MODE_ONESHOT, []]]),
                         timeout=0.5)
         except zenoh.ZError:

@@ -67,3 +67,40 @@ def test_wheel_ships_scenes_and_legacy_modules(tmp_path):
     for required in ("simx_server/scenes/ur5_rg2_kinect.xml", "simx_server/scenes/rg2.py", "simx_server/scenes/rg2.lua", "vrep.py", "sim.py",
                      "vrepConst.py", "simConst.py", "simx_client/protocol.py", "simx_server/cli.py"):
         assert required in names, f"{required} missing from the wheel"
+
+
+def test_zenoh_config_file_sets_the_endpoints(tmp_path):
+    port = free_port()
+    config = tmp_path / "zenoh.json5"
+    config.write_text('{ listen: { endpoints: ["tcp/127.0.0.1:%d"] }, scouting: { multicast: { enabled: false } } }' % port)
+    proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", "--zenoh-config", str(config)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        assert f"tcp/127.0.0.1:{port}" in line and "19997" not in line
+        cid = vrep.simxStart("127.0.0.1", port, True, True, 5000, 5)
+        assert cid >= 0 and vrep.simxGetObjectHandle(cid, "UR5", vrep.simx_opmode_blocking)[0] == 0
+        vrep.simxFinish(cid)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+
+
+def test_client_program_exits_promptly_without_finish(tmp_path):
+    """A legacy program that never calls simxFinish still ends at once (no hang at exit)."""
+    srv = ServerProcess()
+    try:
+        script = tmp_path / "forgetful.py"
+        script.write_text(
+            "import vrep\n"
+            f"cid = vrep.simxStart('127.0.0.1', {srv.port}, True, True, 5000, 5)\n"
+            "assert cid >= 0\n"
+            "rc, h = vrep.simxGetObjectHandle(cid, 'UR5_joint1', vrep.simx_opmode_blocking)\n"
+            "vrep.simxGetJointPosition(cid, h, vrep.simx_opmode_streaming)\n"
+            "print('done', rc)\n")
+        t0 = time.monotonic()
+        out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=30)
+        assert out.returncode == 0 and "done 0" in out.stdout, out.stderr
+        assert time.monotonic() - t0 < 10
+    finally:
+        srv.stop()

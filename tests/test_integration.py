@@ -382,3 +382,19 @@ def test_buffer_reads_of_one_image_are_equal_copies(vrep_client):
     finally:
         vrep.simxGetVisionSensorImage(vrep_client, cam, 0, vrep.simx_opmode_discontinue)
         vrep.simxStartSimulation(vrep_client, B)
+
+
+def test_streams_survive_stop_and_start(vrep_client):
+    h = handle(vrep_client, "UR5_joint2")
+    vrep.simxGetJointPosition(vrep_client, h, vrep.simx_opmode_streaming)
+    wait_until(lambda: vrep.simxGetJointPosition(vrep_client, h, vrep.simx_opmode_buffer)[0] == 0)
+    try:
+        assert vrep.simxStopSimulation(vrep_client, B) == 0
+        assert vrep.simxStartSimulation(vrep_client, B) == 0
+        vrep.simxGetJointPosition(vrep_client, h, vrep.simx_opmode_remove)
+        wait_until(lambda: vrep.simxGetJointPosition(vrep_client, h, vrep.simx_opmode_buffer)[0] == 0)
+        t = vrep.simxGetLastCmdTime(vrep_client)
+        wait_until(lambda: vrep.simxGetJointPosition(vrep_client, h, vrep.simx_opmode_buffer)[0] == 0
+                   and vrep.simxGetLastCmdTime(vrep_client) > t)
+    finally:
+        vrep.simxGetJointPosition(vrep_client, h, vrep.simx_opmode_discontinue)
