@@ -417,59 +417,27 @@ class SimFacade:
         n = available if n == 0 else min(n, available)
         return list(struct.unpack(f"<{n}{code}", raw[:n * size]))
 
-    def packInt32Table(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
-        """Little-endian int32s of ``values[startIndex:][:count]`` (count 0: all)."""
-        return self._pack("Int32", values, startIndex, count)
 
-    def unpackInt32Table(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
-                         additionalByteOffset: Any = 0) -> list[int]:  # noqa: N803
-        """Int32s of a little-endian buffer (from item ``startIndex``, ``count`` of them, 0: all)."""
-        return self._unpack("Int32", data, startIndex, count, additionalByteOffset)
+def _table_functions(kind: str) -> tuple[Any, Any]:
+    """``sim.pack<kind>Table`` and ``sim.unpack<kind>Table`` (little endian, V-REP's arguments)."""
 
-    def packUInt32Table(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
-        """Little-endian uint32s."""
-        return self._pack("UInt32", values, startIndex, count)
+    def pack(self: SimFacade, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N803
+        return self._pack(kind, values, startIndex, count)
 
-    def unpackUInt32Table(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
-                          additionalByteOffset: Any = 0) -> list[int]:  # noqa: N803
-        """Uint32s of a little-endian buffer."""
-        return self._unpack("UInt32", data, startIndex, count, additionalByteOffset)
+    def unpack(self: SimFacade, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N803
+               additionalByteOffset: Any = 0) -> list:  # noqa: N803
+        return self._unpack(kind, data, startIndex, count, additionalByteOffset)
 
-    def packFloatTable(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
-        """Little-endian float32s."""
-        return self._pack("Float", values, startIndex, count)
+    pack.__doc__ = f"Pack ``values[startIndex:][:count]`` (count 0: all) as little-endian {kind} items."
+    unpack.__doc__ = (f"{kind} items of a little-endian buffer, from item ``startIndex`` "
+                      f"(after ``additionalByteOffset`` bytes), ``count`` of them (0: all).")
+    return pack, unpack
 
-    def unpackFloatTable(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
-                         additionalByteOffset: Any = 0) -> list[float]:  # noqa: N803
-        """Float32s of a little-endian buffer."""
-        return self._unpack("Float", data, startIndex, count, additionalByteOffset)
 
-    def packDoubleTable(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
-        """Little-endian float64s."""
-        return self._pack("Double", values, startIndex, count)
-
-    def unpackDoubleTable(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
-                          additionalByteOffset: Any = 0) -> list[float]:  # noqa: N803
-        """Float64s of a little-endian buffer."""
-        return self._unpack("Double", data, startIndex, count, additionalByteOffset)
-
-    def packUInt8Table(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
-        """Bytes."""
-        return self._pack("UInt8", values, startIndex, count)
-
-    def unpackUInt8Table(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
-                         additionalByteOffset: Any = 0) -> list[int]:  # noqa: N803
-        """Bytes as integers 0..255."""
-        return self._unpack("UInt8", data, startIndex, count, additionalByteOffset)
-
-    def packUInt16Table(self, values: Any, startIndex: Any = 0, count: Any = 0) -> bytes:  # noqa: N802,N803
-        """Little-endian uint16s."""
-        return self._pack("UInt16", values, startIndex, count)
-
-    def unpackUInt16Table(self, data: Any, startIndex: Any = 0, count: Any = 0,  # noqa: N802,N803
-                          additionalByteOffset: Any = 0) -> list[int]:  # noqa: N803
-        """Uint16s of a little-endian buffer."""
-        return self._unpack("UInt16", data, startIndex, count, additionalByteOffset)
+for _kind in _PACK_FORMATS:  # packInt32Table, unpackFloatTable, ... as V-REP names them
+    _pack_fn, _unpack_fn = _table_functions(_kind)
+    setattr(SimFacade, f"pack{_kind}Table", _pack_fn)
+    setattr(SimFacade, f"unpack{_kind}Table", _unpack_fn)
 
 
 #: Names of the facade's functions (``sim.NAME`` in both languages).
