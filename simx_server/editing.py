@@ -490,8 +490,7 @@ class Editor:
         self._restore_placements(placements, mocap, self._placed)
         refresh_vision(self.sim)
         self._drop_orphan_scripts()
-        if hasattr(self.sim, "selection"):  # removed objects leave the selection
-            self.sim.selection = [h for h in self.sim.selection if h in world.objects]
+        self.sim.selection = [h for h in self.sim.selection if h in world.objects]  # removed ones leave it
         return after() if callable(after) else after
 
     def _drop_orphan_scripts(self) -> None:
@@ -502,7 +501,7 @@ class Editor:
                 script.stop()  # sysCall_cleanup if it runs, then its state goes
             except ScriptError as exc:
                 log.error("%s", exc)
-            log.info("child script of removed object %r dropped", getattr(script, "object_name", handle))
+            log.info("child script of removed object %r dropped", script.object_name)
 
     def _spec_element(self, spec: mujoco.MjSpec, handle: int):
         """``(kind, element, SceneObject)`` of a handle; the world is refused."""
@@ -555,8 +554,7 @@ class Editor:
             return lambda: self.sim.world.resolve(first).handle
 
         handle = self._edit(change)
-        if hasattr(self.sim, "selection"):
-            self.sim.selection = [handle]  # V-REP selects the loaded model's base
+        self.sim.selection = [handle]  # V-REP selects the loaded model's base
         log.info("loaded model %s: base %r (handle %d)", file.name, self.sim.world.get(handle).name, handle)
         return handle
 
@@ -795,7 +793,7 @@ class Editor:
 
     def _install_scene(self, file: Path) -> None:
         sim = self.sim
-        dt = getattr(sim.world, "_requested_dt", sim.world.dt)
+        dt = sim.world.requested_dt
         old = sim.scripts
         try:
             world = World(file, dt)

@@ -97,7 +97,7 @@ class World:
             raise ValueError(f"cannot load scene {self.scene_path}: {exc}") from exc
         if dt <= 0:
             raise ValueError(f"dt must be positive, got {dt}")
-        self._requested_dt = dt
+        self.requested_dt = dt  # s; the actual dt is a whole number of model timesteps
         self.version = 0  # bumped whenever the state changes (cache key for renders)
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
         self._next_handle = 1  # handles are never given twice
@@ -108,7 +108,7 @@ class World:
         """Adopt ``model``: fresh data, registry (keeping known names' handles), motors."""
         self.model = model
         self.data = mujoco.MjData(model)
-        self.substeps = max(1, round(self._requested_dt / model.opt.timestep))
+        self.substeps = max(1, round(self.requested_dt / model.opt.timestep))
         self.dt = self.substeps * model.opt.timestep
         self.settings = self._read_settings()
         self.objects: dict[int, SceneObject] = {}
@@ -324,7 +324,7 @@ class World:
         """New simulation step (s), rounded to a whole number of model timesteps."""
         if not dt > 0:
             raise ArgumentError(f"the time step must be positive, got {dt}")
-        self._requested_dt = dt
+        self.requested_dt = dt
         self.substeps = max(1, round(dt / self.model.opt.timestep))
         self.dt = self.substeps * self.model.opt.timestep
 
