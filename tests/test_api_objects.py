@@ -242,3 +242,36 @@ def test_scene_editing_while_running_keeps_other_handles(vrep_client, tmp_path):
     assert vrep.simxTransferFile(vrep_client, str(model), "../escape.xml", 1000, B) == 8
     assert vrep.simxEraseFile(vrep_client, "crate.xml", B) == 0
     assert vrep.simxLoadScene(vrep_client, "whatever.xml", 0, B) == 8  # refused while running
+
+
+def test_negative_start_timeout_is_the_blocking_timeout():
+    """simxStart(..., timeOutInMs < 0, ...): |t| bounds every blocking call (extApi.c's rule).
+    A peer that answers only the handshake shows it: the next blocking call times out."""
+    import zenoh
+
+    from simx_client import protocol as P
+    from simx_server.server import zenoh_config
+
+    port = free_port()
+    held = []
+
+    def on_query(query):
+        _, commands = P.parse_request(query.payload.to_bytes())
+        if commands[0][0] == "Hello":
+            query.reply(query.key_expr, P.response(0, 0, [[True, {"protocol": 1}]]))
+        else:
+            held.append(query)  # never answered
+
+    session = zenoh.open(zenoh_config([f"tcp/127.0.0.1:{port}"]))
+    queryable = session.declare_queryable(P.call_key(), on_query)
+    try:
+        cid = vrep.simxStart("127.0.0.1", port, True, True, -300, 5)
+        assert cid >= 0
+        t0 = time.monotonic()
+        assert vrep.simxGetObjectHandle(cid, "UR5", B) == (vrep.simx_return_timeout_flag | 1, 0)
+        assert time.monotonic() - t0 < 3.0  # 0.3 s, not the default 5 s
+        vrep.simxFinish(cid)
+    finally:
+        held.clear()
+        queryable.undeclare()
+        session.close()
