@@ -83,10 +83,12 @@ class Server:
     def open(self) -> None:
         """Open the Zenoh session and declare the queryable and liveliness; raises zenoh.ZError."""
         self.session = zenoh.open(self._config)
-        self._queryable = self.session.declare_queryable(P.call_key(self.prefix), self._queue.put)
+        # Direct callbacks: Zenoh's thread only enqueues (no Python thread of zenoh's in between).
+        self._queryable = self.session.declare_queryable(
+            P.call_key(self.prefix), zenoh.handlers.Callback(self._queue.put, indirect=False))
         self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
         self._watch = self.session.liveliness().declare_subscriber(
-            P.client_token_prefix(self.prefix), self._on_client_token)
+            P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False))
 
     def _on_client_token(self, sample: zenoh.Sample) -> None:
         client = str(sample.key_expr).rsplit("/", 1)[-1]
