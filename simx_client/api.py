@@ -117,7 +117,7 @@ def _command(clientID: Any, name: str, make_args: Callable[[], list], operationM
         if rc & C.simx_return_remote_error_flag:
             log.debug("simx%s: remote error: %s", name, value)
         return rc, default
-    if memo is None:
+    if memo is None or mode & P.MODE_MASK == P.MODE_BLOCKING:  # a blocking reply is always fresh
         return rc, convert(value)
     key = P.identity(name, args)
     hit = conn.converted.get(key)
