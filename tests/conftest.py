@@ -8,6 +8,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -38,7 +39,9 @@ class ServerProcess:
         for p in self.ports:
             cmd += ["--port", str(p)]
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
+        # The log goes to a file: a pipe nobody reads would fill up and block the server.
+        self.log = tempfile.TemporaryFile(mode="w+")
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self.log, env=env, text=True)
         self.ready_line = self._wait_ready(timeout=60)
 
     @property
@@ -59,7 +62,7 @@ class ServerProcess:
         raise RuntimeError(f"simx-server did not become ready:\n{err}")
 
     def stop(self, timeout: float = 10.0) -> str:
-        """SIGTERM, wait, SIGKILL if needed; returns stderr."""
+        """SIGTERM, wait, SIGKILL if needed; returns the server's log (stderr)."""
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
             try:
@@ -67,7 +70,8 @@ class ServerProcess:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-        return self.proc.stderr.read() if self.proc.stderr else ""
+        self.log.seek(0)
+        return self.log.read()
 
 
 @pytest.fixture(scope="module")
