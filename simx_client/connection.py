@@ -92,6 +92,8 @@ class Connection:
         self._in: tuple[tuple[int, float], dict] = ((0, 0.0), {})  # its header and the last reply
         self.session = zenoh.open(client_config(address, port))
         try:
+            # A declared querier: the key expression is resolved once, not at every call.
+            self._querier = self.session.declare_querier(self._key, timeout=blocking_timeout)
             # Stream updates wait in a channel and are filed when the inbox is read: they then
             # always include every update that arrived before the reply a caller just got.
             self._subscriber = self.session.declare_subscriber(
@@ -117,8 +119,10 @@ class Connection:
             ProtocolError: the server refused the request.
         """
         payload, header = self._payload(commands)
-        replies = self.session.get(self._key, payload=payload,
-                                   timeout=self.blocking_timeout if timeout is None else timeout)
+        if timeout is None:
+            replies = self._querier.get(payload=payload)
+        else:
+            replies = self.session.get(self._key, payload=payload, timeout=timeout)
         for reply in replies:
             if reply.ok is not None:
                 message = self._accept(reply.ok.payload.to_bytes(), header)
@@ -162,8 +166,7 @@ class Connection:
             for ident in split:
                 self._in_flight[ident] = self._in_flight.get(ident, 0) + 1
         try:
-            self.session.get(self._key, _direct(on_reply, on_done), payload=payload,
-                             timeout=self.blocking_timeout)
+            self._querier.get(_direct(on_reply, on_done), payload=payload)
         except zenoh.ZError as exc:
             on_done()
             log.warning("sending %d command(s) failed: %s", len(commands), exc)
