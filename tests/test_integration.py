@@ -398,3 +398,33 @@ def test_streams_survive_stop_and_start(vrep_client):
                    and vrep.simxGetLastCmdTime(vrep_client) > t)
     finally:
         vrep.simxGetJointPosition(vrep_client, h, vrep.simx_opmode_discontinue)
+
+
+def test_random_payloads_never_break_the_server():
+    """Bounded fuzzing on a server of its own (random commands may edit or stop its scene):
+    random bytes and random msgpack shapes all get an answer, and the server keeps serving."""
+    import random
+
+    import msgpack
+
+    from conftest import ServerProcess
+
+    rng = random.Random(1234)
+    shapes = [lambda: rng.randbytes(rng.randint(0, 64)),
+              lambda: msgpack.packb({"v": 1, "c": "fuzz", "cmds": [[rng.choice(list(P.COMMANDS)), rng.randint(-5, 0x80000),
+                                                                       [rng.choice([1, -1, 2.5, "x", None, [1], b"\x00"])
+                                                                        for _ in range(rng.randint(0, 9))]]]}),
+              lambda: msgpack.packb(rng.choice([None, 1, "s", [], {}, {"v": 1}, {"v": 1, "c": 5, "cmds": 7}]))]
+    srv = ServerProcess()
+    session = zenoh.open(client_config("127.0.0.1", srv.port))
+    try:
+        for _ in range(300):
+            replies = list(session.get(P.call_key(), payload=rng.choice(shapes)(), timeout=5))
+            assert replies and replies[0].ok is not None, "the server did not answer"
+        ok = P.unpack(list(session.get(P.call_key(), payload=P.request("after", [["GetPingTime", B, []]]),
+                                       timeout=5))[0].ok.payload.to_bytes())["r"]
+        assert ok == [[True, None]]
+        assert srv.proc.poll() is None
+    finally:
+        session.close()
+        srv.stop()
