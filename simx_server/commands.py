@@ -18,43 +18,13 @@ import numpy as np
 from simx_client import constants as C
 from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, UnknownObjectError, UnsupportedError
 from simx_server import sensors
+from simx_server.arguments import as_floats, as_int, check_args as _args
 from simx_server.editing import EDITING_HANDLERS
 from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
 from simx_server.world import matrix_from_euler, matrix_from_quaternion
 
 Handler = Callable[[Simulation, list], Any]
-
-
-def _int(value: Any, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise ArgumentError(f"{what} must be an int, got {type(value).__name__}")
-    return value
-
-
-def _float(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ArgumentError(f"{what} must be a number, got {type(value).__name__}")
-    return float(value)
-
-
-def _args(args: list, *kinds: str) -> list:
-    """Check arity and convert each argument: kinds are "int", "float", "str", "any"."""
-    if len(args) != len(kinds):
-        raise ArgumentError(f"expected {len(kinds)} arguments, got {len(args)}")
-    out = []
-    for i, (a, k) in enumerate(zip(args, kinds)):
-        if k == "int":
-            out.append(_int(a, f"argument {i + 1}"))
-        elif k == "float":
-            out.append(_float(a, f"argument {i + 1}"))
-        elif k == "str":
-            if not isinstance(a, str):
-                raise ArgumentError(f"argument {i + 1} must be a string, got {type(a).__name__}")
-            out.append(a)
-        else:
-            out.append(a)
-    return out
 
 
 def hello(sim: Simulation, args: list) -> dict:
@@ -142,15 +112,9 @@ def get_object_parent(sim: Simulation, args: list) -> int:
     return sim.world.get(h).parent
 
 
-def _floats(value: Any, n: int, what: str) -> list[float]:
-    if not isinstance(value, list) or len(value) != n:
-        raise ArgumentError(f"{what} must be a list of {n} numbers")
-    return [_float(v, what) for v in value]
-
-
 def _pose_set_args(sim: Simulation, args: list, n: int, what: str) -> tuple[int, int, list[float]]:
     h, rel, values = _args(args, "int", "int", "any")
-    return (*_pose_args(sim, [h, rel]), _floats(values, n, what))
+    return (*_pose_args(sim, [h, rel]), as_floats(values, n, what))
 
 
 def set_object_position(sim: Simulation, args: list) -> None:
@@ -179,7 +143,7 @@ def set_object_selection(sim: Simulation, args: list) -> None:
     if not isinstance(handles, list):
         raise ArgumentError("object handles must be a list")
     for h in handles:
-        sim.world.get(_int(h, "object handle"))
+        sim.world.get(as_int(h, "object handle"))
     sim.selection = list(dict.fromkeys(handles))
 
 
@@ -298,7 +262,7 @@ def set_array_parameter(sim: Simulation, args: list) -> None:
     pid, values = _args(args, "int", "any")
     if pid != ARRAYPARAM_GRAVITY:
         raise _unsupported_param("array", pid)
-    sim.world.model.opt.gravity[:] = _floats(values, 3, "gravity")
+    sim.world.model.opt.gravity[:] = as_floats(values, 3, "gravity")
 
 
 # Signals: one store per server, shared by every client and child script.

@@ -45,6 +45,7 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_server.arguments import check_args as _args
 from simx_server.scripts import Scripts
 from simx_server.vision import VisionSensors
 from simx_server.world import (DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE,
@@ -837,16 +838,6 @@ def _rename_assets(child: mujoco.MjSpec, taken: set[str]) -> None:
 
 
 # --------------------------------------------------------------------------- handlers
-def _args(args: list, *kinds: str) -> list:
-    from simx_server.commands import _args as check  # late: commands merges these handlers
-
-    return check(args, *kinds)
-
-
-def _editor(sim: Simulation) -> Editor:
-    return sim.editor
-
-
 def _bool(value: Any, what: str) -> bool:
     if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
         return bool(value)
@@ -855,27 +846,27 @@ def _bool(value: Any, what: str) -> bool:
 
 def transfer_file(sim: Simulation, args: list) -> None:
     name, data = _args(args, "str", "any")
-    _editor(sim).transfer_file(name, data)
+    sim.editor.transfer_file(name, data)
 
 
 def erase_file(sim: Simulation, args: list) -> None:
     (name,) = _args(args, "str")
-    _editor(sim).erase_file(name)
+    sim.editor.erase_file(name)
 
 
 def load_model(sim: Simulation, args: list) -> int:
     path, options = _args(args, "str", "int")
-    return _editor(sim).load_model(path, options)
+    return sim.editor.load_model(path, options)
 
 
 def remove_object(sim: Simulation, args: list) -> None:
     (h,) = _args(args, "int")
-    _editor(sim).remove_object(h)
+    sim.editor.remove_object(h)
 
 
 def remove_model(sim: Simulation, args: list) -> None:
     (h,) = _args(args, "int")
-    _editor(sim).remove_model(h)
+    sim.editor.remove_model(h)
 
 
 def copy_paste_objects(sim: Simulation, args: list) -> list[int]:
@@ -883,27 +874,27 @@ def copy_paste_objects(sim: Simulation, args: list) -> list[int]:
     if not isinstance(handles, list) or not handles or not all(
             isinstance(h, int) and not isinstance(h, bool) for h in handles):
         raise ArgumentError("object handles must be a non-empty list of ints")
-    return _editor(sim).copy_paste(handles)
+    return sim.editor.copy_paste(handles)
 
 
 def create_dummy(sim: Simulation, args: list) -> int:
     size, colors = _args(args, "float", "any")
-    return _editor(sim).create_dummy(size, colors)
+    return sim.editor.create_dummy(size, colors)
 
 
 def set_object_parent(sim: Simulation, args: list) -> None:
     h, parent, keep = _args(args, "int", "int", "any")
-    _editor(sim).set_parent(h, parent, _bool(keep, "keepInPlace"))
+    sim.editor.set_parent(h, parent, _bool(keep, "keepInPlace"))
 
 
 def load_scene(sim: Simulation, args: list) -> None:
     path, options = _args(args, "str", "int")
-    _editor(sim).load_scene(path, options)
+    sim.editor.load_scene(path, options)
 
 
 def close_scene(sim: Simulation, args: list) -> None:
     _args(args)
-    _editor(sim).close_scene()
+    sim.editor.close_scene()
 
 
 #: Command name -> handler, merged into commands.HANDLERS.

@@ -42,6 +42,7 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
+from simx_server.arguments import as_floats, check_args as _args
 from simx_server.world import (_TYPE_NAMES, FORCE_SENSOR, JOINT, POSITION_MODE, PROXIMITY_SENSOR,
                                SHAPE, VELOCITY_MODE, VISION_SENSOR, World, euler_from_matrix, parse_settings,
                                quaternion_from_matrix)
@@ -63,26 +64,6 @@ SIM_JOINT_REVOLUTE, SIM_JOINT_PRISMATIC, SIM_JOINT_SPHERICAL = 10, 11, 12
 SIM_JOINTMODE_FORCE = 5
 FORCE_STATE_DATA = 1  # simReadForceSensor bit 0: force and torque data available
 FORCE_STATE_BROKEN = 2  # bit 1: the sensor is broken
-
-
-def _args(args: list, *kinds: str) -> list:
-    """commands._args (arity and types), imported late so either module may import the other."""
-    from simx_server.commands import _args as check
-
-    return check(args, *kinds)
-
-
-def _bad_list(value: Any, n: int, what: str) -> np.ndarray:
-    """``value`` as a finite float array of length ``n``, or ArgumentError."""
-    if not isinstance(value, (list, tuple)) or len(value) != n:
-        got = f"{len(value)} values" if isinstance(value, (list, tuple)) else type(value).__name__
-        raise ArgumentError(f"{what} must be a list of {n} numbers, got {got}")
-    if any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
-        raise ArgumentError(f"{what} must contain only numbers")
-    arr = np.array(value, dtype=float)
-    if not np.all(np.isfinite(arr)):
-        raise ArgumentError(f"{what} must be finite, got {value!r}")
-    return arr
 
 
 # --------------------------------------------------------------- per-simulation state
@@ -228,7 +209,7 @@ def set_spherical_joint_matrix(sim: Simulation, args: list) -> None:
     if int(m.jnt_type[obj.mj_id]) != _BALL:
         raise ObjectTypeError(f"joint {obj.name!r} is not a spherical (ball) joint: "
                               "use simxSetJointPosition for revolute and prismatic joints")
-    rot = _bad_list(values, 12, "matrix").reshape(3, 4)[:, :3]
+    rot = np.array(as_floats(values, 12, "matrix")).reshape(3, 4)[:, :3]
     if not np.allclose(rot.T @ rot, np.eye(3), atol=1e-3) or np.linalg.det(rot) < 0:
         raise ArgumentError("matrix: its 3x3 rotation part (elements 0-2, 4-6, 8-10) is not a "
                             "rotation matrix (orthonormal, determinant +1)")

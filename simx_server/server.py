@@ -178,16 +178,13 @@ class Server:
         stamp = (self.sim.sim_time_ms, self.sim.server_state)
         extra = (int((time.monotonic() - self._t0) * 1000), self.sim.scene_id)
 
-        def reply() -> None:
-            query.reply(query.key_expr, P.response(*stamp, self._resolve(results, client), *extra))
-
         if not any(isinstance(value, Deferred) for _, value in results):
-            reply()
+            query.reply(query.key_expr, P.response(*stamp, results, *extra))
             return False
 
         def reply_and_drop() -> None:
             try:
-                reply()
+                query.reply(query.key_expr, P.response(*stamp, self._resolve(results, client), *extra))
             except Exception:
                 log.exception("replying to client %s", client)
             finally:

@@ -275,3 +275,11 @@ def test_negative_start_timeout_is_the_blocking_timeout():
         held.clear()
         queryable.undeclare()
         session.close()
+
+
+def test_non_finite_poses_are_refused(vrep_client):
+    sphere = h(vrep_client, "Sphere")
+    p0 = vrep.simxGetObjectPosition(vrep_client, sphere, -1, B)[1]
+    assert vrep.simxSetObjectPosition(vrep_client, sphere, -1, [float("nan"), 0.0, 1.0], B) == 8
+    assert vrep.simxSetObjectOrientation(vrep_client, sphere, -1, [0.0, float("inf"), 0.0], B) == 8
+    assert vrep.simxGetObjectPosition(vrep_client, sphere, -1, B)[1] == pytest.approx(p0, abs=0.01)
