@@ -114,15 +114,6 @@ class SensorState:
         default_factory=lambda: {"collision": {}, "distance": {}})  # never reused
 
 
-def _state(sim: Simulation) -> SensorState:
-    return sim.sensors
-
-
-def passive_images(sim: Simulation) -> PassiveImages:
-    """The passive-image store of ``sim``."""
-    return _state(sim).passive
-
-
 def is_passive(sim: Simulation, handle: int) -> bool:
     """Whether vision sensor ``handle`` is passive (``image=external`` in its custom text)."""
     return sim.world.get(handle, VISION_SENSOR).settings.get("image") == "external"
@@ -137,7 +128,7 @@ def override_image(sim: Simulation, handle: int, grey: bool) -> np.ndarray | Non
     """
     if not is_passive(sim, handle):
         return None
-    rgb = _state(sim).passive.get(handle)
+    rgb = sim.sensors.passive.get(handle)
     spec = sim.vision.spec(handle)
     if rgb is None or rgb.shape[:2] != (spec.height, spec.width):  # none yet (or scene edited)
         rgb = np.zeros((spec.height, spec.width, 3), dtype=np.uint8)
@@ -248,7 +239,7 @@ def _stamp(sim: Simulation) -> tuple[int, float]:
 
 
 def _broken(sim: Simulation, handle: int) -> bool:
-    st = _state(sim)
+    st = sim.sensors
     when = st.broken.get(handle)
     if when is None:
         return False
@@ -299,7 +290,7 @@ def break_force_sensor(sim: Simulation, args: list) -> None:
     """
     (h,) = _args(args, "int")
     sim.world.get(h, FORCE_SENSOR)
-    _state(sim).broken[h] = _stamp(sim)
+    sim.sensors.broken[h] = _stamp(sim)
 
 
 # ----------------------------------------------------------------- vision sensors
@@ -372,7 +363,7 @@ def set_vision_sensor_image(sim: Simulation, args: list) -> None:
         rgb = np.repeat(img.reshape(spec.height, spec.width, 1), 3, axis=2)
     else:
         rgb = img.reshape(spec.height, spec.width, 3).copy()
-    _state(sim).passive.set(h, rgb)
+    sim.sensors.passive.set(h, rgb)
     sim.world.version += 1
 
 
@@ -536,7 +527,7 @@ _PROBE_PREFIX = {"collision": "simx.collision:", "distance": "simx.distance:"}
 
 def _probes(sim: Simulation, kind: str) -> dict[str, _Probe]:
     """The declared collision or distance objects, read from the model's custom texts."""
-    st, m = _state(sim), sim.world.model
+    st, m = sim.sensors, sim.world.model
     if st.probes_model is not m:
         st.probes = {k: {} for k in _PROBE_PREFIX}
         for i in range(m.ntext):
