@@ -41,6 +41,8 @@ def _scalar(value: Any) -> Any:
 
 
 def _int(value: Any) -> int:
+    if type(value) is int:
+        return value
     v = _scalar(value)
     if isinstance(v, bool) or not isinstance(v, int):
         raise P.LocalError(f"expected an integer, got {type(v).__name__} {v!r}")
@@ -89,6 +91,8 @@ def _f32_list(values: list) -> list[float]:
 
 # ------------------------------------------------------------------- plumbing
 def _connection(client_id: Any) -> Connection | None:
+    if type(client_id) is int:
+        return _connections.get(client_id)
     try:
         return _connections.get(_int(client_id))
     except P.LocalError:

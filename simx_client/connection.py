@@ -86,6 +86,7 @@ class Connection:
         self._paused = False
         self.converted: dict[tuple, tuple[Any, Any]] = {}  # the facade's last conversion per command
         self._key = P.call_key(prefix)
+        self._encoder = P.RequestEncoder(self.client)
         self._messages = itertools.count(1)
         self._t0 = time.monotonic()
         self._out = (0, 0.0)  # (message id, client time) of the last request
@@ -109,7 +110,7 @@ class Connection:
     # --------------------------------------------------------------- transport
     def _payload(self, commands: list[list]) -> tuple[bytes, tuple[int, float]]:
         header = self._out = (next(self._messages), time.monotonic())
-        return P.request(self.client, commands), header
+        return self._encoder.encode(commands), header
 
     def request(self, commands: list[list], timeout: float | None = None) -> list[list]:
         """Send commands and wait for their results ``[[ok, value], ...]``.
@@ -124,8 +125,9 @@ class Connection:
         else:
             replies = self.session.get(self._key, payload=payload, timeout=timeout)
         for reply in replies:
-            if reply.ok is not None:
-                message = self._accept(reply.ok.payload.to_bytes(), header)
+            ok = reply.ok
+            if ok is not None:
+                message = self._accept(ok.payload.to_bytes(), header)
                 self.last_cmd_time = message["t"]
                 return message["r"]
         raise TimeoutError(f"no reply from the simx server at {self.address}:{self.port}")
@@ -223,17 +225,12 @@ class Connection:
         it is 8, and None otherwise.
         """
         base = mode & P.MODE_MASK
-        ident = P.identity(name, args)
-        if base == P.MODE_BUFFER:
-            return self._read(ident)
-        if base == P.MODE_REMOVE:
-            with self._lock:
-                self._inbox.pop(ident, None)
-            return C.simx_return_ok, None
         if base == P.MODE_BLOCKING:
-            with self._lock:
-                self._streams.pop(ident, None)
-                self._inbox.pop(ident, None)
+            if self._streams or self._inbox:  # forget this command's stream and stored reply
+                ident = P.identity(name, args)
+                with self._lock:
+                    self._streams.pop(ident, None)
+                    self._inbox.pop(ident, None)
             try:
                 ok, value = self.request([[name, mode, args]])[0]
             except (TimeoutError, zenoh.ZError):
@@ -242,6 +239,13 @@ class Connection:
                 log.warning("simx%s: %s", name, exc)
                 return C.simx_return_remote_error_flag, str(exc)
             return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
+        ident = P.identity(name, args)
+        if base == P.MODE_BUFFER:
+            return self._read(ident)
+        if base == P.MODE_REMOVE:
+            with self._lock:
+                self._inbox.pop(ident, None)
+            return C.simx_return_ok, None
         if base not in (P.MODE_ONESHOT, P.MODE_DISCONTINUE, *_STREAMING, *_SPLIT):
             return C.simx_return_illegal_opmode_flag, None
         with self._lock:
@@ -315,7 +319,7 @@ class Connection:
             batch, self._outbox, self._paused = list(self._outbox.values()), {}, False
         try:
             session.get(self._key, _direct(lambda reply: None),
-                        payload=P.request(self.client, batch + [["Bye", P.MODE_ONESHOT, []]]),
+                        payload=self._encoder.encode(batch + [["Bye", P.MODE_ONESHOT, []]]),
                         timeout=0.5)
         except zenoh.ZError:
             pass

@@ -38,19 +38,24 @@ def as_floats(value: Any, n: int, what: str) -> list[float]:
 
 
 def check_args(args: list, *kinds: str) -> list:
-    """Check arity and convert each argument: kinds are "int", "float", "str", "any"."""
+    """Check arity and convert each argument: kinds are "int", "float", "str", "any".
+
+    Hot path (every command): exact type tests (msgpack gives plain int, float, str), and the
+    error message is built only when an argument is wrong.
+    """
     if len(args) != len(kinds):
         raise ArgumentError(f"expected {len(kinds)} arguments, got {len(args)}")
-    out = []
-    for i, (a, k) in enumerate(zip(args, kinds)):
+    out = list(args)
+    for i, k in enumerate(kinds):
+        t = type(out[i])
         if k == "int":
-            out.append(as_int(a, f"argument {i + 1}"))
+            if t is not int:
+                as_int(out[i], f"argument {i + 1}")  # raises with the message
         elif k == "float":
-            out.append(as_float(a, f"argument {i + 1}"))
-        elif k == "str":
-            if not isinstance(a, str):
-                raise ArgumentError(f"argument {i + 1} must be a string, got {type(a).__name__}")
-            out.append(a)
-        else:
-            out.append(a)
+            if t is int:
+                out[i] = float(out[i])
+            elif t is not float:
+                out[i] = as_float(out[i], f"argument {i + 1}")
+        elif k == "str" and t is not str:
+            raise ArgumentError(f"argument {i + 1} must be a string, got {t.__name__}")
     return out

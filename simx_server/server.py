@@ -164,9 +164,9 @@ class Server:
 
     def _answer(self, query: zenoh.Query) -> bool:
         """Execute a request and reply; True when the reply waits for the render thread."""
-        payload = query.payload.to_bytes() if query.payload is not None else b""
+        payload = query.payload
         try:
-            client, commands = P.parse_request(payload)
+            client, commands = P.parse_request(payload.to_bytes() if payload is not None else b"")
         except P.ProtocolError as exc:
             log.warning("malformed request refused: %s", exc)
             query.reply(query.key_expr, P.error_response(str(exc)))
@@ -174,17 +174,21 @@ class Server:
         if client not in self._clients:
             self._clients.add(client)
             log.info("client %s connected", client)
-        results = [self._execute(client, name, mode, args) for name, mode, args in commands]
-        stamp = (self.sim.sim_time_ms, self.sim.server_state)
-        extra = (int((time.monotonic() - self._t0) * 1000), self.sim.scene_id)
-
-        if not any(isinstance(value, Deferred) for _, value in results):
-            query.reply(query.key_expr, P.response(*stamp, results, *extra))
+        execute = self._execute
+        results = [execute(client, name, mode, args) for name, mode, args in commands]
+        t, state, scene = self.sim.stamp()
+        server_time = int((time.monotonic() - self._t0) * 1000)
+        for _, value in results:
+            if type(value) is Deferred:
+                break
+        else:
+            query.reply(query.key_expr, P.response(t, state, results, server_time, scene))
             return False
 
         def reply_and_drop() -> None:
             try:
-                query.reply(query.key_expr, P.response(*stamp, self._resolve(results, client), *extra))
+                query.reply(query.key_expr,
+                            P.response(t, state, self._resolve(results, client), server_time, scene))
             except Exception:
                 log.exception("replying to client %s", client)
             finally:
@@ -211,6 +215,9 @@ class Server:
         base = mode & P.MODE_MASK
         try:
             streams = self._streams.get(client)
+            handler = HANDLERS.get(name)
+            if handler is not None and not streams and base <= P.MODE_BLOCKING:
+                return [True, handler(self.sim, args)]  # oneshot or blocking, no stream to mind
             if base == P.MODE_DISCONTINUE:
                 if streams:
                     streams.pop(P.identity(name, args), None)
@@ -218,7 +225,6 @@ class Server:
             own = self._CLIENT_COMMANDS.get(name)
             if own is not None:
                 return [True, getattr(self, own)(client, args)]
-            handler = HANDLERS.get(name)
             if handler is None:
                 raise P.UnsupportedError(f"unknown command {name!r}")
             if base in (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT):

@@ -77,6 +77,10 @@ class Simulation:
             bits |= P.STATE_SIM_PAUSED
         return bits
 
+    def stamp(self) -> tuple[int, int, int]:
+        """``(sim_time_ms, server_state, scene_id)``, the stamp of every reply, in one read."""
+        return self.sim_time_ms, self.server_state, self.scene_id
+
     def start(self) -> None:
         """``simxStartSimulation``: from stopped, run the scripts' init; from paused, resume."""
         if self.state is RunState.STOPPED:

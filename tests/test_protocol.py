@@ -10,8 +10,21 @@ def test_request_round_trip():
     payload = P.request("abc", [["GetJointPosition", 0x010000, [3]], ["CallScriptFunction", 0, ["RG2", 1, "f", [1], [0.5], ["s"], b"\x00\x01"]]])
     client, cmds = P.parse_request(payload)
     assert client == "abc"
-    assert cmds[0] == ("GetJointPosition", 0x010000, [3])
+    assert cmds[0] == ["GetJointPosition", 0x010000, [3]]
     assert cmds[1][2][-1] == b"\x00\x01"  # bytes travel as msgpack bin
+
+
+def test_request_encoder_gives_the_bytes_of_request():
+    commands = [["SetJointTargetPosition", 0, [4, 0.5]], ["GetObjectHandle", 0x010000, ["ü" * 40]]]
+    encoder = P.RequestEncoder("client-1")
+    assert encoder.encode(commands) == P.request("client-1", commands)
+    assert P.parse_request(encoder.encode([])) == ("client-1", [])
+
+
+def test_a_failed_encoding_leaves_the_next_one_intact():
+    with pytest.raises(TypeError):
+        P.pack({"v": 1, "r": [object()]})
+    assert msgpack.unpackb(P.pack({"v": 1, "r": [1]})) == {"v": 1, "r": [1]}
 
 
 def test_response_and_stream_round_trip():
