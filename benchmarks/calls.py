@@ -7,6 +7,9 @@ its own free loopback port; the client process times, side by side in interleave
   reply sizes of the simx call it is compared with (measured on the wire first);
 * the same floor with the reply sent from the echo's main thread (the thread hop simx-server
   makes to reach its simulation thread), for diagnosis;
+* simx-server queried bare: the exact request bytes of ``simxGetJointPosition`` sent through a
+  plain Zenoh querier (no simx client code), for diagnosis: it splits simx's time over the
+  floor into the server's part (this row minus the floor) and the client's (the call minus this);
 * ``simxGetJointPosition``, ``simxGetObjectHandle`` and ``simxSetJointTargetPosition``, blocking;
 * a ``simxPauseCommunication`` batch of six oneshot ``simxSetJointTargetPosition`` followed by a
   blocking ``simxGetPingTime`` (the legacy way to know the batch arrived), against the same
@@ -15,11 +18,15 @@ its own free loopback port; the client process times, side by side in interleave
 
 from __future__ import annotations
 
-from benchmarks.common import Floor, Settings, connect, floor_pipelined, interleaved, perf, wire_sizes
+import zenoh
+
+from benchmarks.common import Floor, Settings, connect, connection, floor_pipelined, interleaved, perf, wire_sizes
 from benchmarks.procs import Echo, Server
 from benchmarks.stats import Figure, Target, scaled, summary
 from simx_client import api
 from simx_client import constants as C
+from simx_client import protocol as P
+from simx_client.connection import client_config
 
 B, ONESHOT = C.simx_opmode_blocking, C.simx_opmode_oneshot
 RT_TARGET = Target("ratio", "<=", 1.25, "p50 <= 1.25x floor")
@@ -35,14 +42,31 @@ def run(s: Settings) -> list[Figure]:
     with Server(s.log_dir, name="calls") as srv, Echo(s.log_dir) as echo:
         cid = connect(srv.port)
         floor = Floor(echo.port)
+        bare = zenoh.open(client_config("127.0.0.1", srv.port))
         try:
-            return _measure(s, cid, floor)
+            return _measure(s, cid, floor, bare)
         finally:
+            bare.close()
             floor.close()
             api.simxFinish(cid)
 
 
-def _measure(s: Settings, cid: int, floor: Floor) -> list[Figure]:
+def _bare_simx(session: zenoh.Session, cid: int, commands: list[list]):
+    """A function sending simx's own request bytes for ``commands`` through a plain declared
+    querier and waiting for the reply, with no simx client code on the way."""
+    querier = session.declare_querier(P.call_key(), timeout=5.0)
+    payload = P.request(connection(cid).client, commands)
+
+    def call() -> None:
+        for reply in querier.get(payload=payload):
+            if reply.ok is not None:
+                reply.ok.payload.to_bytes()
+                return
+        raise RuntimeError("simx-server did not answer the bare query")
+    return call
+
+
+def _measure(s: Settings, cid: int, floor: Floor, bare: zenoh.Session) -> list[Figure]:
     joints = []
     for i in range(1, 7):
         rc, h = api.simxGetObjectHandle(cid, f"UR5_joint{i}", B)
@@ -79,6 +103,7 @@ def _measure(s: Settings, cid: int, floor: Floor) -> list[Figure]:
         "floor_jp": lambda: floor.call(size["jp"][1], size["jp"][0]),
         "hop_jp": lambda: floor.call(size["jp"][1], size["jp"][0], hop=True),
         "jp": lambda: _ok(api.simxGetJointPosition(cid, j1, B)),
+        "bare_jp": _bare_simx(bare, cid, [["GetJointPosition", B, [j1]]]),
         "floor_gh": lambda: floor.call(size["gh"][1], size["gh"][0]),
         "gh": lambda: _ok(api.simxGetObjectHandle(cid, "UR5_joint1", B)),
         "floor_st": lambda: floor.call(size["st"][1], size["st"][0]),
@@ -101,6 +126,9 @@ def _measure(s: Settings, cid: int, floor: Floor) -> list[Figure]:
                floor=fl("floor_jp", "bare Zenoh query/reply"), note="what simx's queue hand-off costs, no simx code"),
         Figure("calls.get_joint_position", "simxGetJointPosition (blocking)", "ms", ms["jp"],
                floor=fl("floor_jp", "bare Zenoh query/reply, same sizes"), target=RT_TARGET, note=sizes_note("jp")),
+        Figure("calls.get_joint_position_bare", "  simx-server queried bare (simx request bytes, no client code)", "ms",
+               ms["bare_jp"], floor=fl("floor_jp", "bare Zenoh query/reply, same sizes"),
+               note="server part = this - floor; client part = simxGetJointPosition - this"),
         Figure("calls.get_object_handle", "simxGetObjectHandle (blocking)", "ms", ms["gh"],
                floor=fl("floor_gh", "bare Zenoh query/reply, same sizes"), target=RT_TARGET, note=sizes_note("gh")),
         Figure("calls.set_joint_target_position", "simxSetJointTargetPosition (blocking)", "ms", ms["st"],

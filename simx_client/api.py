@@ -107,17 +107,18 @@ def _command(clientID: Any, name: str, make_args: Callable[[], list], operationM
     With ``memo`` (a function copying a converted value), a value read again from the inbox
     (a ``buffer`` loop on an unchanged image) is converted once and handed out as copies.
     """
-    conn = _connection(clientID)
+    # Plain ints are the common case: tested inline, since every frame counts on this path.
+    conn = _connections.get(clientID) if type(clientID) is int else _connection(clientID)
     if conn is None:
         return C.simx_return_initialize_error_flag, default
     try:
         args = make_args()
-        mode = _int(operationMode)
+        mode = operationMode if type(operationMode) is int else _int(operationMode)
     except (P.LocalError, TypeError, ValueError, UnicodeError) as exc:
         log.warning("simx%s: bad argument: %s", name, exc)
         return C.simx_return_local_error_flag, default
     rc, value = conn.call(name, args, mode)
-    if rc != C.simx_return_ok or mode & P.MODE_MASK == P.MODE_REMOVE:  # remove returns no value
+    if rc or mode & P.MODE_MASK == P.MODE_REMOVE:  # remove returns no value
         if rc & C.simx_return_remote_error_flag:
             log.debug("simx%s: remote error: %s", name, value)
         return rc, default

@@ -252,7 +252,12 @@ def parse_request(payload: bytes) -> tuple[str, list[list]]:
     Raises:
         ProtocolError: undecodable, another protocol version, or not the request shape.
     """
-    message = unpack(payload)
+    try:
+        message = _unpackb(payload, raw=False, strict_map_key=False)
+    except Exception as exc:  # msgpack raises several unrelated types
+        raise ProtocolError(f"undecodable message: {exc}") from exc
+    if type(message) is not dict or message.get("v") != PROTOCOL_VERSION:
+        _refuse(message)
     client, cmds = message.get("c"), message.get("cmds")
     if type(client) is not str or type(cmds) is not list:
         raise ProtocolError("request needs a client id 'c' (str) and commands 'cmds' (list)")
@@ -265,8 +270,8 @@ def parse_request(payload: bytes) -> tuple[str, list[list]]:
 
 def response(sim_time_ms: int, state: int, results: list, server_time_ms: int = 0, scene_id: int = 0) -> bytes:
     """Encode a response: ``results`` is a list of ``[ok, value_or_message]``."""
-    return pack({"v": PROTOCOL_VERSION, "t": sim_time_ms, "s": state, "w": server_time_ms, "sc": scene_id,
-                 "r": results})
+    return _packb({"v": PROTOCOL_VERSION, "t": sim_time_ms, "s": state, "w": server_time_ms, "sc": scene_id,
+                   "r": results})
 
 
 def error_response(message: str) -> bytes:

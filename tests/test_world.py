@@ -87,3 +87,22 @@ def test_orientation_convention(world):
     assert np.linalg.norm([x, y, z, w]) == pytest.approx(1.0)
     # Relative to itself: identity.
     assert np.allclose(world.position(h, h), 0, atol=1e-12)
+
+
+def test_reply_stamp_follows_the_run_state():
+    """Simulation.stamp() (read once per reply) agrees with the properties it condenses."""
+    from simx_client import protocol as P
+    from simx_server.simulation import Simulation
+
+    sim = Simulation(SCENE, 0.05)
+    try:
+        seen = []
+        for action in (lambda: None, sim.start, sim.step, sim.pause, sim.stop):
+            action()
+            assert sim.stamp() == (sim.sim_time_ms, sim.server_state, sim.scene_id)
+            seen.append(sim.stamp()[:2])
+        assert seen == [(0, P.STATE_REALTIME), (0, 5), (50, 5), (50, 7), (0, P.STATE_REALTIME)]
+        sim.realtime = False
+        assert sim.stamp()[1] == 0
+    finally:
+        sim.close()
