@@ -10,7 +10,7 @@ from typing import Callable
 
 import zenoh
 
-from benchmarks.zenoh_echo import KEY_DIRECT, KEY_QUEUE, make_request
+from benchmarks.zenoh_echo import KEY_CODEC, KEY_DIRECT, KEY_QUEUE, make_request
 from simx_client import api
 from simx_client import protocol as P
 from simx_client.connection import Connection, client_config
@@ -64,7 +64,8 @@ class Floor:
         self.session = zenoh.open(client_config("127.0.0.1", port))
         self._payloads: dict[tuple[int, int], bytes] = {}
         # Declared queriers, as simx's client uses: the fastest bare way to query a key.
-        self._queriers = {k: self.session.declare_querier(k, timeout=5.0) for k in (KEY_DIRECT, KEY_QUEUE)}
+        self._queriers = {k: self.session.declare_querier(k, timeout=5.0) for k in (KEY_DIRECT, KEY_QUEUE, KEY_CODEC)}
+        self._encoder = P.RequestEncoder("bench-floor-client")
         # The first query also sets up routing; do it before anything is timed.
         deadline = time.monotonic() + 10
         while True:
@@ -88,6 +89,14 @@ class Floor:
         for reply in replies:
             if reply.ok is not None:
                 return len(reply.ok.payload.to_bytes())
+        raise TimeoutError("no reply from the echo")
+
+    def codec_call(self, commands: list[list]) -> float:
+        """One query/reply carrying a real simx request and response, encoded and decoded with
+        simx's protocol functions on both ends, and nothing else; returns the reply's value."""
+        for reply in self._queriers[KEY_CODEC].get(payload=self._encoder.encode(commands)):
+            if reply.ok is not None:
+                return P.unpack(reply.ok.payload.to_bytes())["r"][0][1]
         raise TimeoutError("no reply from the echo")
 
     def close(self) -> None:

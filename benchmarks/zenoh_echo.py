@@ -8,6 +8,9 @@ scouting off) and declares two queryables:
 * ``bench/echo/queue`` hands the query to the main thread through a ``queue.SimpleQueue``,
   which replies, exactly as simx-server hands queries to its simulation thread: the floor
   plus the thread hop the server's design needs.
+* ``bench/echo/codec`` answers like ``direct`` but decodes the request as a simx request and
+  encodes a simx response carrying one float, with simx's own protocol functions: the floor
+  plus the msgpack work any msgpack protocol over Zenoh does (no simx logic).
 
 A request's first 4 bytes (little-endian uint32) are the size of the reply wanted; the rest
 is padding, so requests and replies can have exactly the sizes simx's own messages have.
@@ -26,6 +29,7 @@ import zenoh
 
 KEY_DIRECT = "bench/echo/direct"
 KEY_QUEUE = "bench/echo/queue"
+KEY_CODEC = "bench/echo/codec"
 
 
 def make_request(reply_size: int, request_size: int) -> bytes:
@@ -47,6 +51,14 @@ class Echo:
             body = self._replies[size] = bytes(size)
         query.reply(query.key_expr, body)
 
+    @staticmethod
+    def codec_reply(query: zenoh.Query) -> None:
+        from simx_client import protocol as P
+
+        payload = query.payload.to_bytes() if query.payload is not None else b""
+        client, commands = P.parse_request(payload)
+        query.reply(query.key_expr, P.response(1234, 5, [[True, 0.5 + len(commands)]], 5678, 4321))
+
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -62,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         direct = session.declare_queryable(KEY_DIRECT, echo.reply)  # noqa: F841
         hop = session.declare_queryable(KEY_QUEUE, echo.queue.put)  # noqa: F841
+        codec = session.declare_queryable(KEY_CODEC, echo.codec_reply)  # noqa: F841
         print(f"echo ready on tcp/127.0.0.1:{args.port}", flush=True)
         while not stop.is_set():
             try:
