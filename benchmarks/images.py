@@ -24,6 +24,10 @@ transfer + conversion, and the legacy binding's own conversion: copying the 921,
 ``c_byte`` buffer (307,200 ``c_float`` for depth) into a list element by element, exactly as
 ``vrep.py`` did, timed in the same rounds.
 
+The arm is first put in the tutorial's DDPG start pose (on the server and in the in-process
+copy alike), where the Kinect looks at the table and the ball, as robotControl.py's user sees
+it; at the zero pose it would see only the sky.
+
 Streaming: ``simx_opmode_streaming`` on ``kinect_rgb`` with the server back in asynchronous real
 time (dt 50 ms); a legacy-style loop reads ``simx_opmode_buffer`` (converting every read) and
 counts new frames (``simxGetLastCmdTime`` changes): frames per second received and simulation
@@ -34,6 +38,7 @@ from __future__ import annotations
 
 import ctypes
 import json
+import math
 import time
 
 from benchmarks.common import Floor, Settings, connect, interleaved, perf, wire_sizes
@@ -43,6 +48,17 @@ from simx_client import api
 from simx_client import constants as C
 
 B, STREAM, BUFFER = C.simx_opmode_blocking, C.simx_opmode_streaming, C.simx_opmode_buffer
+TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees, the DDPG start pose (tests/test_tutorial_pose.py)
+
+
+def tutorial_pose(cid: int, sim) -> None:
+    """Teleport the UR5 to the tutorial pose on the server (and hold it) and in ``sim``."""
+    for i, degrees in enumerate(TUTORIAL_POSE, start=1):
+        q = math.radians(degrees)
+        h = api.simxGetObjectHandle(cid, f"UR5_joint{i}", B)[1]
+        _check(api.simxSetJointPosition(cid, h, q, B), "simxSetJointPosition")
+        sim.world.set_joint_position(sim.world.resolve(f"UR5_joint{i}").handle, q)
+    sim.world.changed()
 
 
 def legacy_image_list(c_image, n: int) -> list:
@@ -105,6 +121,7 @@ def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
     dep = api.simxGetObjectHandle(cid, "kinect_depth", B)[1]
     _check(api.simxSynchronous(cid, True), "simxSynchronous")
     _check(api.simxStartSimulation(cid, B), "simxStartSimulation")
+    tutorial_pose(cid, sim)
     h_rgb, h_dep = sim.world.resolve("kinect_rgb").handle, sim.world.resolve("kinect_depth").handle
     assert (h_rgb, h_dep) == (rgb, dep)
 

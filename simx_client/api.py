@@ -325,9 +325,16 @@ def simxGetJointMaxForce(clientID, jointHandle, operationMode):
 
 
 # ---------------------------------------------------------- vision sensors
+# The Python int of every signed byte, indexed by the byte read as unsigned. The legacy list
+# is made of these shared objects: 2-3x faster than ``int8 array.tolist()``, which allocates
+# an int for each byte outside CPython's small-int cache (every value below -5: most pixels).
+_SIGNED_BYTES = np.array([*range(128), *range(-128, 0)], dtype=object)
+
+
 def _image(value: list) -> tuple[list[int], list[int]]:
+    """``[resolution, bytes]`` -> ``(resolution, flat list of signed bytes)``, as vrep.py gave."""
     resolution, data = value
-    return list(resolution), np.frombuffer(data, dtype=np.int8).tolist()
+    return list(resolution), _SIGNED_BYTES.take(np.frombuffer(data, dtype=np.uint8)).tolist()
 
 
 def _copy_image(value: tuple[list, list]) -> tuple[list, list]:

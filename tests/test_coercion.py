@@ -65,3 +65,14 @@ def test_legacy_modules_export_the_same_surface():
     assert vrep.simxGetJointPosition is sim.simxGetJointPosition
     assert "simxGetVisionSensorImage" in vrep.__all__ and "simx_opmode_buffer" in vrep.__all__
     assert vrep.__all__ == sorted(vrep.__all__)
+
+
+def test_image_bytes_become_the_legacy_signed_list():
+    """Every byte value converts as vrep.py's c_byte copy did: 0..127 as is, 128..255 negative."""
+    import ctypes
+
+    data = bytes(range(256)) * 3
+    resolution, image = api._image([[16, 16], data])
+    legacy = list((ctypes.c_byte * len(data)).from_buffer_copy(data))
+    assert resolution == [16, 16] and image == legacy and type(image[200]) is int
+    assert image[:3] == [0, 1, 2] and image[128] == -128 and image[255] == -1
