@@ -96,7 +96,7 @@ class Floor:
         simx's protocol functions on both ends, and nothing else; returns the reply's value."""
         for reply in self._queriers[KEY_CODEC].get(payload=self._encoder.encode(commands)):
             if reply.ok is not None:
-                return P.unpack(reply.ok.payload.to_bytes())["r"][0][1]
+                return P.unpack_response(reply.ok.payload.to_bytes())[5][0][1]
         raise TimeoutError("no reply from the echo")
 
     def close(self) -> None:

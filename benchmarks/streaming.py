@@ -44,9 +44,9 @@ def run(s: Settings) -> list[Figure]:
 
             def on_sample(sample) -> None:
                 now = time.monotonic()
-                message = P.unpack(sample.payload.to_bytes())
-                received.append((message["t"], now))
-                entries.append(len(message["r"]))
+                t, update = P.unpack_stream_update(sample.payload.to_bytes())
+                received.append((t, now))
+                entries.append(len(update))
 
             counter = conn.session.declare_subscriber(P.stream_key(conn.prefix, conn.client), on_sample)
             for h in joints:

@@ -32,6 +32,7 @@ log = logging.getLogger("simx.client")
 DEFAULT_BLOCKING_TIMEOUT = 5.0  # s, _REPLY_WAIT_TIMEOUT_IN_MS
 STREAM_BACKLOG = 4096  # stream updates kept unread; beyond, the oldest are dropped
 _NO_VALUE = (C.simx_return_novalue_flag, None)
+_NO_RESPONSE = [P.PROTOCOL_VERSION, 0, 0, 0, 0, []]  # "the last response" before there is one
 _connection_ids = itertools.count(1)
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 _SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
@@ -90,7 +91,7 @@ class Connection:
         self._messages = itertools.count(1)
         self._t0 = time.monotonic()
         self._out = (0, 0.0)  # (message id, client time) of the last request
-        self._in: tuple[tuple[int, float], dict] = ((0, 0.0), {})  # its header and the last reply
+        self._in: tuple[tuple[int, float], list] = ((0, 0.0), _NO_RESPONSE)  # its header and the last reply
         self.session = zenoh.open(client_config(address, port))
         try:
             # A declared querier: the key expression is resolved once, not at every call.
@@ -128,14 +129,13 @@ class Connection:
             ok = reply.ok
             if ok is not None:
                 message = self._accept(ok.payload.to_bytes(), header)
-                self.last_cmd_time = message["t"]
-                return message["r"]
+                self.last_cmd_time = message[1]
+                return message[5]
         raise TimeoutError(f"no reply from the simx server at {self.address}:{self.port}")
 
-    def _accept(self, payload: bytes, header: tuple[int, float]) -> dict:
-        message = P.unpack(payload)
-        if "err" in message:
-            raise P.ProtocolError(f"server refused the request: {message['err']}")
+    def _accept(self, payload: bytes, header: tuple[int, float]) -> list:
+        """Decode a response (raises ProtocolError) and keep it for the message-info calls."""
+        message = P.unpack_response(payload)
         self._in = (header, message)
         return message
 
@@ -151,9 +151,9 @@ class Connection:
             except P.ProtocolError as exc:
                 log.warning("%s", exc)
                 return
-            t = message["t"]
+            t = message[1]
             with self._lock:
-                for (name, mode, args), (ok, value) in zip(commands, message["r"]):
+                for (name, mode, args), (ok, value) in zip(commands, message[5]):
                     if mode & P.MODE_MASK != P.MODE_DISCONTINUE:
                         self._store(P.identity(name, args), ok, value, t)
 
@@ -184,12 +184,11 @@ class Connection:
         """File every stream update received so far (lock held)."""
         while (sample := self._subscriber.try_recv()) is not None:
             try:
-                message = P.unpack(sample.payload.to_bytes())
+                t, entries = P.unpack_stream_update(sample.payload.to_bytes())
             except P.ProtocolError as exc:
                 log.warning("unreadable stream update: %s", exc)
                 continue
-            t = message["t"]
-            for name, id_args, ok, value in message["r"]:
+            for name, id_args, ok, value in entries:
                 ident = (name, *(P._hashable(a) for a in id_args))
                 if ident in self._streams:
                     self._store(ident, ok, value, t)
@@ -269,12 +268,10 @@ class Connection:
                 sample = reply.ok
                 if sample is None:
                     continue
-                message = P.unpack(sample.payload.to_bytes())
-                if "err" in message:
-                    raise P.ProtocolError(f"server refused the request: {message['err']}")
+                message = P.unpack_response(sample.payload.to_bytes())
                 self._in = (header, message)
-                self.last_cmd_time = message["t"]
-                ok, value = message["r"][0]
+                self.last_cmd_time = message[1]
+                ok, value = message[5][0]
                 return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
         except zenoh.ZError:
             pass
@@ -310,9 +307,10 @@ class Connection:
     def in_message_info(self, info_type: int) -> int | None:
         """A field of the last message received (simx_headeroffset_*), None if unknown."""
         header, message = self._in
-        fields = {C.simx_headeroffset_server_time: message.get("w", 0),
-                  C.simx_headeroffset_scene_id: message.get("sc", 0),
-                  C.simx_headeroffset_server_state: message.get("s", 0)}
+        _, _, state, server_time, scene, _ = message
+        fields = {C.simx_headeroffset_server_time: server_time,
+                  C.simx_headeroffset_scene_id: scene,
+                  C.simx_headeroffset_server_state: state}
         return self._header(header, info_type, fields)
 
     def out_message_info(self, info_type: int) -> int | None:

@@ -231,7 +231,7 @@ def test_stream_delivers_one_update_per_step(server, vrep_client):
     try:
         conn = simx_api._connections[vrep_client]
         sub = session.declare_subscriber(P.stream_key(P.DEFAULT_PREFIX, conn.client),
-                                         lambda s: updates.append(P.unpack(s.payload.to_bytes())["t"]))
+                                         lambda s: updates.append(P.unpack_stream_update(s.payload.to_bytes())[0]))
         vrep.simxGetJointPosition(vrep_client, h, vrep.simx_opmode_streaming)
         wait_until(lambda: len(updates) >= 20)
         sub.undeclare()
@@ -287,16 +287,17 @@ def test_malformed_requests_do_not_hurt_other_clients(server, vrep_client):
     session = zenoh.open(client_config("127.0.0.1", server.port))
     try:
         answers = []
-        for payload in (b"\xc1garbage", P.pack({"v": 999, "c": "x", "cmds": []}), P.pack([1, 2, 3]),
-                        P.pack({"v": P.PROTOCOL_VERSION, "c": "x", "cmds": [["GetJointPosition", 0]]})):
+        for payload in (b"\xc1garbage", P.pack([999, "x", []]), P.pack({"v": 1, "c": "x", "cmds": []}),
+                        P.pack([1, 2, 3]), P.pack([P.PROTOCOL_VERSION, "x", [["GetJointPosition", 0]]])):
             replies = list(session.get(P.call_key(), payload=payload, timeout=5))
             answers.append(P.pack and __import__("msgpack").unpackb(replies[0].ok.payload.to_bytes()))
         assert all("err" in a for a in answers)
-        assert "version" in answers[1]["err"]
+        assert "version" in answers[1]["err"] and "version" in answers[2]["err"]  # a version-1 client too
+        assert "malformed command" in answers[4]["err"]
         # Wrong argument types inside a valid request: an error result, not a crash.
         bad = P.request("x", [["GetJointPosition", B, ["UR5_joint1"]], ["NoSuchCommand", B, []],
                               ["GetObjectHandle", B, ["UR5"]]])
-        r = P.unpack(list(session.get(P.call_key(), payload=bad, timeout=5))[0].ok.payload.to_bytes())["r"]
+        r = P.unpack_response(list(session.get(P.call_key(), payload=bad, timeout=5))[0].ok.payload.to_bytes())[5]
         assert r[0][0] is False and "int" in r[0][1]
         assert r[1][0] is False and "NoSuchCommand" in r[1][1]
         assert r[2][0] is True
@@ -411,18 +412,20 @@ def test_random_payloads_never_break_the_server():
 
     rng = random.Random(1234)
     shapes = [lambda: rng.randbytes(rng.randint(0, 64)),
-              lambda: msgpack.packb({"v": 1, "c": "fuzz", "cmds": [[rng.choice(list(P.COMMANDS)), rng.randint(-5, 0x80000),
-                                                                       [rng.choice([1, -1, 2.5, "x", None, [1], b"\x00"])
-                                                                        for _ in range(rng.randint(0, 9))]]]}),
-              lambda: msgpack.packb(rng.choice([None, 1, "s", [], {}, {"v": 1}, {"v": 1, "c": 5, "cmds": 7}]))]
+              lambda: msgpack.packb([P.PROTOCOL_VERSION, "fuzz", [[rng.choice(list(P.COMMANDS)), rng.randint(-5, 0x80000),
+                                                                  [rng.choice([1, -1, 2.5, "x", None, [1], b"\x00"])
+                                                                   for _ in range(rng.randint(0, 9))]]]]),
+              lambda: msgpack.packb(rng.choice([None, 1, "s", [], {}, {"v": 1}, {"v": 1, "c": 5, "cmds": 7},
+                                                [P.PROTOCOL_VERSION], [P.PROTOCOL_VERSION, 5, 7],
+                                                [P.PROTOCOL_VERSION, "x", [[1, 2, 3]]]]))]
     srv = ServerProcess()
     session = zenoh.open(client_config("127.0.0.1", srv.port))
     try:
         for _ in range(300):
             replies = list(session.get(P.call_key(), payload=rng.choice(shapes)(), timeout=5))
             assert replies and replies[0].ok is not None, "the server did not answer"
-        ok = P.unpack(list(session.get(P.call_key(), payload=P.request("after", [["GetPingTime", B, []]]),
-                                       timeout=5))[0].ok.payload.to_bytes())["r"]
+        ok = P.unpack_response(list(session.get(P.call_key(), payload=P.request("after", [["GetPingTime", B, []]]),
+                                                timeout=5))[0].ok.payload.to_bytes())[5]
         assert ok == [[True, None]]
         assert srv.proc.poll() is None
     finally:

@@ -29,19 +29,34 @@ def test_a_failed_encoding_leaves_the_next_one_intact():
 
 def test_response_and_stream_round_trip():
     image = bytes(range(256)) * 10
-    message = P.unpack(P.response(1250, P.STATE_SIM_NOT_STOPPED, [[True, [[640, 480], image]], [False, "no"]]))
-    assert message["t"] == 1250 and message["r"][0][1][1] == image and message["r"][1] == [False, "no"]
-    update = P.unpack(P.stream_update(50, [["GetJointPosition", [3], True, 0.5]]))
-    assert update["r"] == [["GetJointPosition", [3], True, 0.5]]
+    message = P.unpack_response(P.response(1250, P.STATE_SIM_NOT_STOPPED, [[True, [[640, 480], image]], [False, "no"]], 7, 9))
+    assert message[:5] == [P.PROTOCOL_VERSION, 1250, P.STATE_SIM_NOT_STOPPED, 7, 9]
+    assert message[5][0][1][1] == image and message[5][1] == [False, "no"]
+    t, entries = P.unpack_stream_update(P.stream_update(50, [["GetJointPosition", [3], True, 0.5]]))
+    assert t == 50 and entries == [["GetJointPosition", [3], True, 0.5]]
+
+
+@pytest.mark.parametrize("payload,match", [
+    (P.error_response("bad things"), "refused the message: bad things"),
+    (msgpack.packb({"v": 1, "err": "old server says no"}), "mismatch: peer speaks 1"),
+    (msgpack.packb({"v": 1, "t": 0, "s": 0, "w": 0, "sc": 0, "r": []}), "mismatch: peer speaks 1"),
+    (msgpack.packb([P.PROTOCOL_VERSION, 1, 2]), "not a simx response"),
+    (b"\x93", "undecodable"),
+])
+def test_bad_responses_raise_protocol_error(payload, match):
+    with pytest.raises(P.ProtocolError, match=match):
+        P.unpack_response(payload)
 
 
 @pytest.mark.parametrize("payload,match", [
     (b"\xc1", "undecodable"),
     (msgpack.packb([1, 2]), "version"),
-    (msgpack.packb({"v": 99, "c": "x", "cmds": []}), "mismatch"),
-    (P.pack({"v": P.PROTOCOL_VERSION, "cmds": []}), "client id"),
-    (P.pack({"v": P.PROTOCOL_VERSION, "c": "x", "cmds": [["GetJointPosition", 0]]}), "malformed command"),
-    (P.pack({"v": P.PROTOCOL_VERSION, "c": "x", "cmds": [[1, 0, []]]}), "malformed command"),
+    (msgpack.packb({"v": 1, "c": "x", "cmds": []}), "mismatch: peer speaks 1"),
+    (msgpack.packb([99, "x", []]), "mismatch: peer speaks 99"),
+    (msgpack.packb({"x": 1}), "not a simx request"),
+    (P.pack([P.PROTOCOL_VERSION, 5, []]), "client id"),
+    (P.pack([P.PROTOCOL_VERSION, "x", [["GetJointPosition", 0]]]), "malformed command"),
+    (P.pack([P.PROTOCOL_VERSION, "x", [[1, 0, []]]]), "malformed command"),
 ])
 def test_bad_requests_raise_protocol_error(payload, match):
     with pytest.raises(P.ProtocolError, match=match):
