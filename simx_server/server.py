@@ -85,8 +85,9 @@ class Server:
         """Open the Zenoh session and declare the queryable and liveliness; raises zenoh.ZError."""
         self.session = zenoh.open(self._config)
         # Direct callbacks: Zenoh's thread only enqueues (no Python thread of zenoh's in between).
+        self._call_key = zenoh.KeyExpr(P.call_key(self.prefix))  # replies reuse it: no object per reply
         self._queryable = self.session.declare_queryable(
-            P.call_key(self.prefix), zenoh.handlers.Callback(self._queue.put, indirect=False))
+            self._call_key, zenoh.handlers.Callback(self._queue.put, indirect=False))
         self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
         self._watch = self.session.liveliness().declare_subscriber(
             P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False))
@@ -188,7 +189,7 @@ class Server:
             if type(value) is Deferred:
                 break
         else:
-            query.reply(query.key_expr, P.response(t, state, results, server_time, scene))
+            query.reply(self._call_key, P.response(t, state, results, server_time, scene))
             return False
 
         def reply_and_drop() -> None:
