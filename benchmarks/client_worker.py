@@ -9,7 +9,8 @@ CLOCK_MONOTONIC time to start at (shared by all workers). From then on it makes 
 checks each returned handle against the expected one (a reply meant for another call or
 another client would carry another handle). It stops at start + window or after N calls
 (bounded in time and count), and writes JSON to FILE: calls, lost (return code != 0),
-mismatched (wrong handle), and per call the completion time (s after start) and latency (s).
+mismatched (wrong handle), the process's CPU time (all its threads, Zenoh's included) spent in
+the window, and per call the completion time (s after start) and latency (s).
 
 With ``--echo-port`` it is a bare Zenoh client instead (benchmarks/common.Floor, same
 ``client_config``) making query/replies of the given sizes to benchmarks/zenoh_echo.py: the
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import sys
 import time
 
@@ -75,6 +77,7 @@ def main(argv: list[str] | None = None) -> int:
             time.sleep(0.0005)
         done, lat = [], []
         lost = mismatched = 0
+        cpu0 = resource.getrusage(resource.RUSAGE_SELF)
         k, offset, n = 0, args.index * 7, len(names)
         perf, mono = time.perf_counter, time.monotonic
         while k < args.max_calls:
@@ -92,9 +95,11 @@ def main(argv: list[str] | None = None) -> int:
             lat.append(t1 - t0)
             if now >= end:
                 break
+        cpu1 = resource.getrusage(resource.RUSAGE_SELF)
+        cpu = cpu1.ru_utime + cpu1.ru_stime - cpu0.ru_utime - cpu0.ru_stime
         with open(args.out, "w") as f:
             json.dump({"index": args.index, "calls": k, "lost": lost, "mismatched": mismatched,
-                       "done": done, "lat": lat}, f)
+                       "cpu_s": cpu, "done": done, "lat": lat}, f)
     finally:
         finish()
     return 0

@@ -8,7 +8,11 @@ worker) for ``window`` s (and at most ``max_calls``), checking every returned ha
 * aggregate throughput: calls completed by all workers per 0.25 s bin, in calls/s; median and
   spread over the bins; compared with the 1-client figure of the same run;
 * latency: p99 per bin (median and spread over bins), overall p50/p99 in the JSON;
-* lost (return code != 0, e.g. a timeout) and mismatched (wrong handle) replies: must be 0.
+* lost (return code != 0, e.g. a timeout) and mismatched (wrong handle) replies: must be 0;
+* CPU time per call, all threads of every process: the workers' own (getrusage over their
+  window) plus the server's (or the echo's) over the run (/proc/PID/stat, which also counts
+  its idle ticks around the window: about 2 % of a core). On a machine whose cores are all
+  busy, aggregate throughput is the cores divided by this.
 
 Floor, same run: the same numbers of bare Zenoh clients (client_worker.py --echo-port) making
 query/replies of simxGetObjectHandle's sizes to benchmarks/zenoh_echo.py, so that what the
@@ -18,6 +22,7 @@ machine's cores allow at all is measured next to what simx reaches.
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 
@@ -34,10 +39,17 @@ NAMES = ["UR5", "UR5_joint1", "UR5_joint2", "UR5_joint3", "UR5_joint4", "UR5_joi
          "RG2", "RG2_openCloseJoint", "kinect_rgb", "kinect_depth", "Table", "Sphere"]
 
 
-def _run_count(s: Settings, port: int, names: list, count: int, window: float,
+def _cpu_s(pid: int) -> float:
+    """CPU time (user + system, all threads) a process has used so far, in s."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _run_count(s: Settings, port: int, names: list, count: int, window: float, server_pid: int,
                echo_sizes: tuple[int, int] | None = None) -> dict:
     """``count`` workers against the simx server on ``port``, or (``echo_sizes``) bare Zenoh
-    workers against the echo on ``port``."""
+    workers against the echo on ``port``; ``server_pid`` is the process they query."""
     workers: list[Proc] = []
     tag = "bare" if echo_sizes else "simx"
     outs = [s.log_dir / f"clients-{tag}-{count}-{i}.json" for i in range(count)]
@@ -54,8 +66,10 @@ def _run_count(s: Settings, port: int, names: list, count: int, window: float,
         for w in workers:
             w.proc.stdin.write(f"{start!r}\n")
             w.proc.stdin.flush()
+        server_cpu = _cpu_s(server_pid)
         for w in workers:
             w.proc.wait(timeout=window + 60)
+        server_cpu = _cpu_s(server_pid) - server_cpu
     finally:
         for w in workers:
             w.stop()
@@ -67,10 +81,14 @@ def _run_count(s: Settings, port: int, names: list, count: int, window: float,
     bins = np.minimum((done[keep] / BIN).astype(int), nbins - 1)
     counts = np.bincount(bins, minlength=nbins)
     p99 = [float(np.percentile(lat[keep][bins == b], 99)) for b in range(nbins) if counts[b]]
+    calls = int(sum(r["calls"] for r in results))
+    client_cpu = sum(r["cpu_s"] for r in results)
     return {"throughput": summary(counts / BIN), "p99_ms": scaled(summary(p99), 1e3),
             "lat_ms": scaled(summary(lat), 1e3), "p99_all_ms": float(np.percentile(lat, 99)) * 1e3,
-            "calls": int(sum(r["calls"] for r in results)), "lost": sum(r["lost"] for r in results),
-            "mismatched": sum(r["mismatched"] for r in results)}
+            "calls": calls, "lost": sum(r["lost"] for r in results),
+            "mismatched": sum(r["mismatched"] for r in results),
+            "cpu_us_per_call": {"server": server_cpu / calls * 1e6, "clients": client_cpu / calls * 1e6,
+                                "total": (server_cpu + client_cpu) / calls * 1e6}}
 
 
 def run(s: Settings) -> list[Figure]:
@@ -85,8 +103,8 @@ def run(s: Settings) -> list[Figure]:
         finally:
             api.simxFinish(cid)
         for n in counts:  # simx and bare side by side, count by count
-            got[n] = _run_count(s, srv.port, names, n, window)
-            bare[n] = _run_count(s, echo.port, names, n, window, echo_sizes=sizes)
+            got[n] = _run_count(s, srv.port, names, n, window, srv.proc.pid)
+            bare[n] = _run_count(s, echo.port, names, n, window, echo.proc.pid, echo_sizes=sizes)
     figs = []
     one = got[1]["throughput"]
     for n in counts:
@@ -107,6 +125,14 @@ def run(s: Settings) -> list[Figure]:
                            g["throughput"], floor={"label": f"{n} bare Zenoh clients", **b["throughput"]}))
         figs.append(Figure(f"clients.{n}.p99", f"  {n} client{plural}: p99 latency (per 0.25 s bin)",
                            "ms", g["p99_ms"], floor={"label": f"{n} bare Zenoh clients p99", **b["p99_ms"]}))
+    for n in (1, 16):
+        g, b = got[n]["cpu_us_per_call"], bare[n]["cpu_us_per_call"]
+        figs.append(Figure(
+            f"clients.{n}.cpu", f"  {n} client{'s' if n > 1 else ''}: CPU per call, all processes", "us",
+            summary([g["total"]]), floor={"label": "bare Zenoh, same clients", **summary([b["total"]])},
+            note=f"simx server {g['server']:.0f} + clients {g['clients']:.0f} us; "
+                 f"bare echo {b['server']:.0f} + clients {b['clients']:.0f} us",
+            extra={"simx": g, "bare": b}))
     bad = got[16]["lost"] + got[16]["mismatched"]
     f = Figure("clients.16.errors", "16 clients: lost + mismatched replies", "count", summary([bad]),
                target=Target("value", "==", 0, "0"),
