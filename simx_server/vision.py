@@ -11,7 +11,7 @@ Like V-REP's default vision-sensor renderer (plain OpenGL), sensors draw neither
 reflections, whatever the scene's lights and materials say; ``shadows=true`` and
 ``reflections=true`` in the custom text turn them on for one sensor (as V-REP's OpenGL3 render
 mode did). On a software renderer shadows are most of the cost of a frame (llvmpipe, 640x480:
-about 17 ms of 20 for the UR5 scene's sun).
+about 15 ms of 20 for the UR5 scene's sun).
 
 Frames are rendered on demand and cached until the world changes (one render per
 simulation step per sensor, however many clients ask). Rendering runs on a thread of its own,
