@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import random
 import time
 from pathlib import Path
 from typing import Callable
@@ -118,16 +119,20 @@ def time_calls(fn: Callable[[], object], n: int) -> list[float]:
 def interleaved(rounds: int, block: int, cases: dict[str, Callable[[], object]],
                 warmup: int = 5, budget_s: float = 120.0) -> dict[str, list[float]]:
     """Time every case side by side: ``rounds`` rounds, each running ``block`` calls of every
-    case in turn (the order rotates each round), so that the machine's load changes hit all
-    cases alike. Stops early (keeping what it has) if ``budget_s`` runs out."""
+    case in turn, so that the machine's load changes hit all cases alike. The order is shuffled
+    every round (seeded): a rotation would keep each case behind the same neighbour, and the
+    case before leaves the processes and caches in a state of its own (seen as a 5 % bias of
+    one floor). Stops early (keeping what it has) if ``budget_s`` runs out."""
     names = list(cases)
     for name in names:
         for _ in range(warmup):
             cases[name]()
     times: dict[str, list[float]] = {name: [] for name in names}
     deadline = time.monotonic() + budget_s
+    shuffle = random.Random(20261121).shuffle
     for r in range(rounds):
-        order = names[r % len(names):] + names[:r % len(names)]
+        order = names[:]
+        shuffle(order)
         for name in order:
             times[name].extend(time_calls(cases[name], block))
         if time.monotonic() > deadline:
