@@ -107,13 +107,12 @@ def _command(clientID: Any, name: str, make_args: Callable[[], list], operationM
     With ``memo`` (a function copying a converted value), a value read again from the inbox
     (a ``buffer`` loop on an unchanged image) is converted once and handed out as copies.
     """
-    # Plain ints are the common case: tested inline, since every frame counts on this path.
-    conn = _connections.get(clientID) if type(clientID) is int else _connection(clientID)
+    conn = _connection(clientID)
     if conn is None:
         return C.simx_return_initialize_error_flag, default
     try:
         args = make_args()
-        mode = operationMode if type(operationMode) is int else _int(operationMode)
+        mode = _int(operationMode)
     except (P.LocalError, TypeError, ValueError, UnicodeError) as exc:
         log.warning("simx%s: bad argument: %s", name, exc)
         return C.simx_return_local_error_flag, default
@@ -956,25 +955,24 @@ def simxGetDialogResult(clientID, dialogHandle, operationMode):
 
 
 # ------------------------------------------------------ connection details
-def simxGetInMessageInfo(clientID, infoType):
-    """``(result, info)`` about the last message received: result 1, or -1 when not connected or
-    ``infoType`` is not a simx_headeroffset_* field."""
+def _message_info(clientID: Any, infoType: Any, incoming: bool) -> tuple[int, int]:
     conn = _connection(clientID)
     try:
-        info = None if conn is None else conn.in_message_info(_int(infoType))
+        info = None if conn is None else (conn.in_message_info if incoming else conn.out_message_info)(_int(infoType))
     except P.LocalError:
         info = None
     return (-1, 0) if info is None else (1, info)
+
+
+def simxGetInMessageInfo(clientID, infoType):
+    """``(result, info)`` about the last message received: result 1, or -1 when not connected or
+    ``infoType`` is not a simx_headeroffset_* field."""
+    return _message_info(clientID, infoType, incoming=True)
 
 
 def simxGetOutMessageInfo(clientID, infoType):
     """``(result, info)`` about the last message sent: result 1, or -1."""
-    conn = _connection(clientID)
-    try:
-        info = None if conn is None else conn.out_message_info(_int(infoType))
-    except P.LocalError:
-        info = None
-    return (-1, 0) if info is None else (1, info)
+    return _message_info(clientID, infoType, incoming=False)
 
 
 def simxCreateBuffer(bufferSize):

@@ -259,26 +259,15 @@ class Connection:
         return self._read(ident)
 
     def _blocking(self, name: str, mode: int, args: list) -> tuple[int, Any]:
-        """Send one command and wait for its reply: :meth:`request` flattened, since this is
-        the hot path of most legacy programs (each call layer costs several µs right after
-        the wait for the reply, when the CPU caches are cold)."""
-        header = self._out = (next(self._messages), time.monotonic())
+        """Send one command and wait for its reply: ``(return code, value)``."""
         try:
-            for reply in self._querier.get(payload=self._encoder.encode([[name, mode, args]])):
-                sample = reply.ok
-                if sample is None:
-                    continue
-                message = P.unpack_response(sample.payload.to_bytes())
-                self._in = (header, message)
-                self.last_cmd_time = message[1]
-                ok, value = message[5][0]
-                return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
-        except zenoh.ZError:
-            pass
-        except (P.ProtocolError, ValueError, TypeError, KeyError, IndexError) as exc:
+            ok, value = self.request([[name, mode, args]])[0]
+        except (TimeoutError, zenoh.ZError):
+            return C.simx_return_timeout_flag | C.simx_return_novalue_flag, None
+        except (P.ProtocolError, ValueError, TypeError, IndexError) as exc:  # refused or misshapen
             log.warning("simx%s: %s", name, exc)
             return C.simx_return_remote_error_flag, str(exc)
-        return C.simx_return_timeout_flag | C.simx_return_novalue_flag, None
+        return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
 
     def _read(self, ident: tuple) -> tuple[int, Any]:
         with self._lock:

@@ -188,23 +188,17 @@ def _hashable(value: Any) -> Any:
     return value
 
 
-_unpackb = msgpack.unpackb
 _packers = threading.local()  # a msgpack Packer is reusable but not thread-safe
 
 
-def _packb(obj: Any) -> bytes:
-    """msgpack bytes of ``obj`` (``bytes`` become ``bin``), with this thread's Packer: about
-    half the cost of ``msgpack.packb``, which builds a Packer per call."""
+def pack(message: Any) -> bytes:
+    """msgpack bytes of any message (``bytes`` become ``bin``), with this thread's Packer:
+    about half the cost of ``msgpack.packb``, which builds a Packer per call."""
     try:
-        return _packers.packer.pack(obj)
+        return _packers.packer.pack(message)
     except AttributeError:
         _packers.packer = msgpack.Packer(use_bin_type=True)
-        return _packers.packer.pack(obj)
-
-
-def pack(message: Any) -> bytes:
-    """msgpack bytes of any message (``bytes`` become ``bin``)."""
-    return _packb(message)
+        return _packers.packer.pack(message)
 
 
 def _decode(payload: bytes, size: int, what: str) -> list:
@@ -214,43 +208,42 @@ def _decode(payload: bytes, size: int, what: str) -> list:
         ProtocolError: undecodable, another shape, a peer of another version, or a refusal.
     """
     try:
-        message = _unpackb(payload, raw=False, strict_map_key=False)
+        message = msgpack.unpackb(payload, raw=False, strict_map_key=False)
     except Exception as exc:  # msgpack raises several unrelated types
         raise ProtocolError(f"undecodable message: {exc}") from exc
     if type(message) is list and len(message) == size and message[0] == PROTOCOL_VERSION:
         return message
+    peer = PROTOCOL_VERSION  # the version the message claims, where it claims one
     if type(message) is dict and "v" in message:
-        if message["v"] == PROTOCOL_VERSION and "err" in message:
+        peer = message["v"]
+        if peer == PROTOCOL_VERSION and "err" in message:
             raise ProtocolError(f"the peer refused the message: {message['err']}")
-        if message["v"] != PROTOCOL_VERSION:
-            raise ProtocolError(
-                f"protocol version mismatch: peer speaks {message['v']!r}, this side "
-                f"{PROTOCOL_VERSION}; install the same simx version on client and server")
-    if type(message) is list and message and message[0] != PROTOCOL_VERSION:
+    elif type(message) is list and message:
+        peer = message[0]
+    if peer != PROTOCOL_VERSION:
         raise ProtocolError(
-            f"protocol version mismatch: peer speaks {message[0]!r}, this side "
+            f"protocol version mismatch: peer speaks {peer!r}, this side "
             f"{PROTOCOL_VERSION}; install the same simx version on client and server")
     raise ProtocolError(f"not a simx {what}: expected an array of {size} items, version first")
 
 
 class RequestEncoder:
     """Encodes one client's requests. The array's fixed part (its size, the version and the
-    client id) is packed once; each request appends its command array, which gives the same
-    bytes as :func:`request`."""
+    client id) is packed once; each request appends its command array."""
 
     __slots__ = ("_head",)
 
     def __init__(self, client: str):
-        self._head = _packb([PROTOCOL_VERSION, client, []])[:-1]  # minus the empty array
+        self._head = pack([PROTOCOL_VERSION, client, []])[:-1]  # minus the empty array
 
     def encode(self, commands: list) -> bytes:
         """The request carrying ``commands`` (``[[name, mode, args], ...]``)."""
-        return self._head + _packb(commands)
+        return self._head + pack(commands)
 
 
 def request(client: str, commands: Iterable[list]) -> bytes:
     """Encode a request carrying ``[name, mode, args]`` commands from ``client``."""
-    return _packb([PROTOCOL_VERSION, client, list(commands)])
+    return RequestEncoder(client).encode(list(commands))
 
 
 def parse_request(payload: bytes) -> tuple[str, list[list]]:
@@ -259,14 +252,7 @@ def parse_request(payload: bytes) -> tuple[str, list[list]]:
     Raises:
         ProtocolError: undecodable, another protocol version, or not the request shape.
     """
-    try:
-        message = _unpackb(payload, raw=False, strict_map_key=False)
-    except Exception:
-        message = None  # _decode says why
-    if type(message) is list and len(message) == 3 and message[0] == PROTOCOL_VERSION:
-        _, client, cmds = message  # the hot path: one frame for every request
-    else:
-        _, client, cmds = _decode(payload, 3, "request")
+    _, client, cmds = _decode(payload, 3, "request")
     if type(client) is not str or type(cmds) is not list:
         raise ProtocolError("request needs a client id (str) and a command list")
     for cmd in cmds:
@@ -278,31 +264,26 @@ def parse_request(payload: bytes) -> tuple[str, list[list]]:
 
 def response(sim_time_ms: int, state: int, results: list, server_time_ms: int = 0, scene_id: int = 0) -> bytes:
     """Encode a response: ``results`` is a list of ``[ok, value_or_message]``."""
-    return _packb([PROTOCOL_VERSION, sim_time_ms, state, server_time_ms, scene_id, results])
+    return pack([PROTOCOL_VERSION, sim_time_ms, state, server_time_ms, scene_id, results])
 
 
 def unpack_response(payload: bytes) -> list:
     """Decode a response: ``[version, sim_time_ms, server_state, server_time_ms, scene_id,
     results]``; raises ProtocolError (a refusal included)."""
-    try:
-        message = _unpackb(payload, raw=False, strict_map_key=False)
-    except Exception:
-        message = None  # _decode says why
-    if type(message) is list and len(message) == 6 and message[0] == PROTOCOL_VERSION \
-            and type(message[5]) is list:
-        return message  # the hot path: one frame for every blocking call
     message = _decode(payload, 6, "response")
-    raise ProtocolError("response results are not a list")
+    if type(message[5]) is not list:
+        raise ProtocolError("response results are not a list")
+    return message
 
 
 def error_response(message: str) -> bytes:
     """Encode the refusal of a request that could not be read (a map in every version)."""
-    return _packb({"v": PROTOCOL_VERSION, "err": message})
+    return pack({"v": PROTOCOL_VERSION, "err": message})
 
 
 def stream_update(sim_time_ms: int, entries: list) -> bytes:
     """Encode a stream update: ``entries`` is a list of ``[name, id_args, ok, value]``."""
-    return _packb([PROTOCOL_VERSION, sim_time_ms, entries])
+    return pack([PROTOCOL_VERSION, sim_time_ms, entries])
 
 
 def unpack_stream_update(payload: bytes) -> tuple[int, list]:

@@ -85,9 +85,8 @@ class Server:
         """Open the Zenoh session and declare the queryable and liveliness; raises zenoh.ZError."""
         self.session = zenoh.open(self._config)
         # Direct callbacks: Zenoh's thread only enqueues (no Python thread of zenoh's in between).
-        self._call_key = zenoh.KeyExpr(P.call_key(self.prefix))  # replies reuse it: no object per reply
         self._queryable = self.session.declare_queryable(
-            self._call_key, zenoh.handlers.Callback(self._queue.put, indirect=False))
+            P.call_key(self.prefix), zenoh.handlers.Callback(self._queue.put, indirect=False))
         self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
         self._watch = self.session.liveliness().declare_subscriber(
             P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False))
@@ -189,7 +188,7 @@ class Server:
             if type(value) is Deferred:
                 break
         else:
-            query.reply(self._call_key, P.response(t, state, results, server_time, scene))
+            query.reply(query.key_expr, P.response(t, state, results, server_time, scene))
             return False
 
         def reply_and_drop() -> None:
@@ -222,18 +221,16 @@ class Server:
         base = mode & P.MODE_MASK
         try:
             streams = self._streams.get(client)
-            handler = HANDLERS.get(name)
-            if handler is not None and not streams and base <= P.MODE_BLOCKING:
-                return [True, handler(self.sim, args)]  # oneshot or blocking, no stream to mind
             if base == P.MODE_DISCONTINUE:
                 if streams:
                     streams.pop(P.identity(name, args), None)
                 return [True, None]
-            own = self._CLIENT_COMMANDS.get(name)
-            if own is not None:
+            handler = HANDLERS.get(name)
+            if handler is None:  # a command about the calling client, or none at all
+                own = self._CLIENT_COMMANDS.get(name)
+                if own is None:
+                    raise P.UnsupportedError(f"unknown command {name!r}")
                 return [True, getattr(self, own)(client, args)]
-            if handler is None:
-                raise P.UnsupportedError(f"unknown command {name!r}")
             if base in (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT):
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)

@@ -78,17 +78,8 @@ class Simulation:
         return bits
 
     def stamp(self) -> tuple[int, int, int]:
-        """``(sim_time_ms, server_state, scene_id)``, the stamp of every reply, in one read."""
-        state = self.state
-        if state is RunState.STOPPED:
-            t, bits = 0, 0
-        else:
-            t = int(round(self.world.data.time * 1000))
-            bits = P.STATE_SIM_NOT_STOPPED | (P.STATE_SIM_PAUSED if state is RunState.PAUSED else 0)
-        if self.realtime:
-            bits |= P.STATE_REALTIME
-        scene = self._scene_id
-        return t, bits, scene[1] if scene[0] is self.world else self.scene_id
+        """``(sim_time_ms, server_state, scene_id)``: the stamp of every reply."""
+        return self.sim_time_ms, self.server_state, self.scene_id
 
     def start(self) -> None:
         """``simxStartSimulation``: from stopped, run the scripts' init; from paused, resume."""

@@ -14,10 +14,10 @@ def test_request_round_trip():
     assert cmds[1][2][-1] == b"\x00\x01"  # bytes travel as msgpack bin
 
 
-def test_request_encoder_gives_the_bytes_of_request():
+def test_request_encoder_appends_the_commands_to_a_packed_head():
     commands = [["SetJointTargetPosition", 0, [4, 0.5]], ["GetObjectHandle", 0x010000, ["ü" * 40]]]
     encoder = P.RequestEncoder("client-1")
-    assert encoder.encode(commands) == P.request("client-1", commands)
+    assert msgpack.unpackb(encoder.encode(commands)) == [P.PROTOCOL_VERSION, "client-1", commands]
     assert P.parse_request(encoder.encode([])) == ("client-1", [])
 
 
@@ -74,3 +74,14 @@ def test_exception_hierarchy():
     assert issubclass(P.UnknownObjectError, P.RemoteError)
     assert issubclass(P.RemoteError, P.SimxError) and issubclass(P.LocalError, P.SimxError)
     assert not issubclass(P.LocalError, P.RemoteError)
+
+
+def test_every_command_has_exactly_one_executor():
+    """The server looks a command up in HANDLERS first and in its own client commands only
+    when it is not there: the two tables must not overlap, and together cover COMMANDS."""
+    from simx_server.commands import HANDLERS
+    from simx_server.server import Server
+
+    own = set(Server._CLIENT_COMMANDS)
+    assert not own & set(HANDLERS)
+    assert set(P.COMMANDS) <= own | set(HANDLERS)
