@@ -138,40 +138,36 @@ def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
     seen = {"rgb": 0, "dep": 0}
     spans: dict[str, list] = {"rgb": [], "dep": []}  # (monotonic start, end) of each timed call
 
-    def rgb_call() -> float:
-        _check(api.simxSynchronousTrigger(cid), "simxSynchronousTrigger")
-        m0, t0 = time.monotonic(), perf()
-        rc, r, img = api.simxGetVisionSensorImage(cid, rgb, 0, B)
-        dt = perf() - t0
-        spans["rgb"].append((m0, time.monotonic()))
-        _check(rc, "simxGetVisionSensorImage")
-        seen["rgb"] = len(img)
-        return dt
+    def server_call(kind: str, call, what: str):
+        """A timed blocking call on a fresh step (the trigger untimed); records its span."""
+        def timed() -> float:
+            _check(api.simxSynchronousTrigger(cid), "simxSynchronousTrigger")
+            m0, t0 = time.monotonic(), perf()
+            rc, _, values = call()
+            dt = perf() - t0
+            spans[kind].append((m0, time.monotonic()))
+            _check(rc, what)
+            seen[kind] = len(values)
+            return dt
+        return timed
+
+    def in_process(render):
+        """Render time of one frame on an identical in-process Simulation, after a step."""
+        def timed() -> float:
+            sim.world.step()
+            t0 = perf()
+            render()
+            return perf() - t0
+        return timed
+
+    rgb_call = server_call("rgb", lambda: api.simxGetVisionSensorImage(cid, rgb, 0, B), "simxGetVisionSensorImage")
+    dep_call = server_call("dep", lambda: api.simxGetVisionSensorDepthBuffer(cid, dep, B),
+                           "simxGetVisionSensorDepthBuffer")
+    rgb_render = in_process(lambda: sim.vision.image_bytes(rgb, 0))
+    dep_render = in_process(lambda: sim.vision.depth_bytes(dep))
 
     def rgb_cached() -> None:
         _check(api.simxGetVisionSensorImage(cid, rgb, 0, B)[0], "simxGetVisionSensorImage")
-
-    def rgb_render() -> float:
-        sim.world.step()
-        t0 = perf()
-        sim.vision.image_bytes(rgb, 0)
-        return perf() - t0
-
-    def dep_call() -> float:
-        _check(api.simxSynchronousTrigger(cid), "simxSynchronousTrigger")
-        m0, t0 = time.monotonic(), perf()
-        rc, r, buf = api.simxGetVisionSensorDepthBuffer(cid, dep, B)
-        dt = perf() - t0
-        spans["dep"].append((m0, time.monotonic()))
-        _check(rc, "simxGetVisionSensorDepthBuffer")
-        seen["dep"] = len(buf)
-        return dt
-
-    def dep_render() -> float:
-        sim.world.step()
-        t0 = perf()
-        sim.vision.depth_bytes(dep)
-        return perf() - t0
 
     cases = {
         "rgb_call": rgb_call,
