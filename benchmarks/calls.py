@@ -10,6 +10,9 @@ its own free loopback port; the client process times, side by side in interleave
 * the floor plus msgpack: the echo decodes a real simx request and encodes a simx response
   with simx's protocol functions, the client encodes and decodes them likewise: what any
   msgpack protocol over Zenoh pays, for diagnosis;
+* the design floor: msgpack as above, answered from a thread fed through a queue as
+  simx-server answers: what DESIGN.md's architecture costs before any simx logic, for
+  diagnosis (simx's own code is the call minus this);
 * simx-server queried bare: the exact request bytes of ``simxGetJointPosition`` sent through a
   plain Zenoh querier (no simx client code), for diagnosis: it splits simx's time over the
   floor into the server's part (this row minus the floor) and the client's (the call minus this);
@@ -106,6 +109,7 @@ def _measure(s: Settings, cid: int, floor: Floor, bare: zenoh.Session) -> list[F
         "floor_jp": lambda: floor.call(size["jp"][1], size["jp"][0]),
         "hop_jp": lambda: floor.call(size["jp"][1], size["jp"][0], hop=True),
         "codec_jp": lambda: _ok((0, floor.codec_call([["GetJointPosition", B, [j1]]]))),
+        "design_jp": lambda: _ok((0, floor.codec_call([["GetJointPosition", B, [j1]]], hop=True))),
         "jp": lambda: _ok(api.simxGetJointPosition(cid, j1, B)),
         "bare_jp": _bare_simx(bare, cid, [["GetJointPosition", B, [j1]]]),
         "floor_gh": lambda: floor.call(size["gh"][1], size["gh"][0]),
@@ -131,6 +135,9 @@ def _measure(s: Settings, cid: int, floor: Floor, bare: zenoh.Session) -> list[F
         Figure("calls.floor_codec", "bare Zenoh + msgpack request/response codec", "ms", ms["codec_jp"],
                floor=fl("floor_jp", "bare Zenoh query/reply"),
                note="simx's request/response encoded and decoded on both ends, no simx logic"),
+        Figure("calls.floor_design", "bare Zenoh + thread hop + msgpack codec (design floor)", "ms", ms["design_jp"],
+               floor=fl("floor_jp", "bare Zenoh query/reply"),
+               note="the codec row answered through a queue from a thread of its own, as simx-server answers"),
         Figure("calls.get_joint_position", "simxGetJointPosition (blocking)", "ms", ms["jp"],
                floor=fl("floor_jp", "bare Zenoh query/reply, same sizes"), target=RT_TARGET, note=sizes_note("jp")),
         Figure("calls.get_joint_position_bare", "  simx-server queried bare (simx request bytes, no client code)", "ms",

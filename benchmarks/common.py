@@ -11,7 +11,7 @@ from typing import Callable
 
 import zenoh
 
-from benchmarks.zenoh_echo import KEY_CODEC, KEY_DIRECT, KEY_QUEUE, make_request
+from benchmarks.zenoh_echo import KEY_CODEC, KEY_DESIGN, KEY_DIRECT, KEY_QUEUE, make_request
 from simx_client import api
 from simx_client import protocol as P
 from simx_client.connection import Connection, client_config
@@ -65,7 +65,7 @@ class Floor:
         self.session = zenoh.open(client_config("127.0.0.1", port))
         self._payloads: dict[tuple[int, int], bytes] = {}
         # Declared queriers, as simx's client uses: the fastest bare way to query a key.
-        self._queriers = {k: self.session.declare_querier(k, timeout=5.0) for k in (KEY_DIRECT, KEY_QUEUE, KEY_CODEC)}
+        self._queriers = {k: self.session.declare_querier(k, timeout=5.0) for k in (KEY_DIRECT, KEY_QUEUE, KEY_CODEC, KEY_DESIGN)}
         self._encoder = P.RequestEncoder("bench-floor-client")
         # The first query also sets up routing; do it before anything is timed.
         deadline = time.monotonic() + 10
@@ -92,10 +92,11 @@ class Floor:
                 return len(reply.ok.payload.to_bytes())
         raise TimeoutError("no reply from the echo")
 
-    def codec_call(self, commands: list[list]) -> float:
+    def codec_call(self, commands: list[list], hop: bool = False) -> float:
         """One query/reply carrying a real simx request and response, encoded and decoded with
-        simx's protocol functions on both ends, and nothing else; returns the reply's value."""
-        for reply in self._queriers[KEY_CODEC].get(payload=self._encoder.encode(commands)):
+        simx's protocol functions on both ends, and nothing else; returns the reply's value.
+        ``hop``: answered from a thread fed through a queue, as simx-server answers."""
+        for reply in self._queriers[KEY_DESIGN if hop else KEY_CODEC].get(payload=self._encoder.encode(commands)):
             if reply.ok is not None:
                 return P.unpack_response(reply.ok.payload.to_bytes())[5][0][1]
         raise TimeoutError("no reply from the echo")
