@@ -70,7 +70,8 @@ def legacy_image_list(c_image, n: int) -> list:
 
 
 def gl_renderer() -> str:
-    """GL_RENDERER of the context current on this thread (after a render), or why not."""
+    """GL_RENDERER of the context current on this thread (after a render), or why not. Run it
+    on the render thread, which owns the GL contexts (``VisionSensors.after``)."""
     try:
         from OpenGL import GL
 
@@ -129,7 +130,7 @@ def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
     size_dep = wire_sizes(cid, [["GetVisionSensorDepthBuffer", B, [dep]]])
     res, img_bytes = sim.vision.image_bytes(rgb, 0)
     _, dep_bytes = sim.vision.depth_bytes(dep)
-    renderer = gl_renderer()
+    renderer = sim.vision.after(gl_renderer).result()  # the GL context is the render thread's
     n_img, n_dep = res[0] * res[1] * 3, res[0] * res[1]
     c_img_buf = (ctypes.c_byte * n_img).from_buffer_copy(img_bytes)
     c_dep_buf = (ctypes.c_float * n_dep).from_buffer_copy(dep_bytes)
