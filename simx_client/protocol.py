@@ -193,7 +193,11 @@ _packers = threading.local()  # a msgpack Packer is reusable but not thread-safe
 
 def pack(message: Any) -> bytes:
     """msgpack bytes of any message (``bytes`` become ``bin``), with this thread's Packer:
-    about half the cost of ``msgpack.packb``, which builds a Packer per call."""
+    about half the cost of ``msgpack.packb``, which builds a Packer per call.
+
+    A Zenoh callback run with ``indirect=False`` gets a fresh Python thread state on every
+    call, so its Packer is not kept and each call pays ``packb``'s cost; simx packs nothing
+    there (those callbacks only enqueue or decode)."""
     try:
         return _packers.packer.pack(message)
     except AttributeError:
