@@ -21,9 +21,11 @@ log = logging.getLogger("simx.simulation")
 
 
 class RunState(enum.Enum):
-    STOPPED = "stopped"
-    RUNNING = "running"
-    PAUSED = "paused"
+    """Run state of the simulation. Each value is the state's V-REP server-state bits
+    (``simx_headeroffset_server_state``), so that stamping a reply reads no table."""
+    STOPPED = 0
+    RUNNING = P.STATE_SIM_NOT_STOPPED
+    PAUSED = P.STATE_SIM_NOT_STOPPED | P.STATE_SIM_PAUSED
 
 
 class Simulation:
@@ -65,21 +67,23 @@ class Simulation:
     @property
     def sim_time_ms(self) -> int:
         """Simulation time in ms, 0 while stopped (as V-REP stamps its replies)."""
-        return 0 if self.state is RunState.STOPPED else int(round(self.world.time * 1000))
+        return self.stamp()[0]
 
     @property
     def server_state(self) -> int:
         """V-REP's server-state bits: 1 not stopped, 2 paused, 4 real time."""
-        bits = P.STATE_REALTIME if self.realtime else 0
-        if self.state is not RunState.STOPPED:
-            bits |= P.STATE_SIM_NOT_STOPPED
-        if self.state is RunState.PAUSED:
-            bits |= P.STATE_SIM_PAUSED
-        return bits
+        return self.stamp()[1]
 
     def stamp(self) -> tuple[int, int, int]:
-        """``(sim_time_ms, server_state, scene_id)``: the stamp of every reply."""
-        return self.sim_time_ms, self.server_state, self.scene_id
+        """``(sim_time_ms, server_state, scene_id)``: the stamp of every reply.
+
+        Hot path (every reply): one read of the state's bits, of the clock and of the scene id.
+        """
+        bits = self.state._value_  # the not-stopped and paused bits
+        time_ms = round(self.world.time * 1000) if bits else 0
+        if self.realtime:
+            bits |= P.STATE_REALTIME
+        return time_ms, bits, self.scene_id
 
     def start(self) -> None:
         """``simxStartSimulation``: from stopped, run the scripts' init; from paused, resume."""

@@ -108,6 +108,10 @@ class World:
         """Adopt ``model``: fresh data, registry (keeping known names' handles), motors."""
         self.model = model
         self.data = mujoco.MjData(model)
+        # A view kept for the hottest read: each ``data.qpos`` builds a new ndarray, which costs
+        # microseconds in a server thread that has just woken up. MjData's buffers live as long
+        # as the MjData, and every new MjData comes through here.
+        self._qpos = self.data.qpos
         self.substeps = max(1, round(self.requested_dt / model.opt.timestep))
         self.dt = self.substeps * model.opt.timestep
         self.settings = self._read_settings()
@@ -331,7 +335,7 @@ class World:
     @property
     def time(self) -> float:
         """Simulation time in s."""
-        return float(self.data.time)
+        return self.data.time
 
     def step(self) -> None:
         """Advance one simulation step of ``dt`` s (all substeps inside MuJoCo).
@@ -374,7 +378,7 @@ class World:
 
     def joint_position(self, handle: int) -> float:
         """Intrinsic position of a joint (rad or m). ``simxGetJointPosition``."""
-        return float(self.data.qpos[self._scalar_joint(handle)[0]])
+        return self._qpos.item(self._scalar_joint(handle)[0])
 
     def set_joint_position(self, handle: int, position: float) -> None:
         """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``."""
