@@ -31,6 +31,7 @@ DEFAULT_HOSTS = ("127.0.0.1",)
 DEFAULT_PORTS = (19997, 19999)
 _DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
 _MAX_ERRORS = 50  # errors kept per client for simxGetLastErrors
+_STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
@@ -84,9 +85,11 @@ class Server:
     def open(self) -> None:
         """Open the Zenoh session and declare the queryable and liveliness; raises zenoh.ZError."""
         self.session = zenoh.open(self._config)
+        # One key expression object for the queryable and every reply (queries match it exactly).
+        self._call_key = zenoh.KeyExpr(P.call_key(self.prefix))
         # Direct callbacks: Zenoh's thread only enqueues (no Python thread of zenoh's in between).
         self._queryable = self.session.declare_queryable(
-            P.call_key(self.prefix), zenoh.handlers.Callback(self._queue.put, indirect=False))
+            self._call_key, zenoh.handlers.Callback(self._queue.put, indirect=False))
         self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
         self._watch = self.session.liveliness().declare_subscriber(
             P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False))
@@ -175,7 +178,7 @@ class Server:
             client, commands = P.parse_request(payload.to_bytes() if payload is not None else b"")
         except P.ProtocolError as exc:
             log.warning("malformed request refused: %s", exc)
-            query.reply(query.key_expr, P.error_response(str(exc)))
+            query.reply(self._call_key, P.error_response(str(exc)))
             return False
         if client not in self._clients:
             self._clients.add(client)
@@ -188,12 +191,12 @@ class Server:
             if type(value) is Deferred:
                 break
         else:
-            query.reply(query.key_expr, P.response(t, state, results, server_time, scene))
+            query.reply(self._call_key, P.response(t, state, results, server_time, scene))
             return False
 
         def reply_and_drop() -> None:
             try:
-                query.reply(query.key_expr,
+                query.reply(self._call_key,
                             P.response(t, state, self._resolve(results, client), server_time, scene))
             except Exception:
                 log.exception("replying to client %s", client)
@@ -231,7 +234,7 @@ class Server:
                 if own is None:
                     raise P.UnsupportedError(f"unknown command {name!r}")
                 return [True, getattr(self, own)(client, args)]
-            if base in (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT):
+            if base in _STREAMING:
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)
                 if ident not in streams:

@@ -99,6 +99,7 @@ class World:
             raise ValueError(f"dt must be positive, got {dt}")
         self.requested_dt = dt  # s; the actual dt is a whole number of model timesteps
         self.version = 0  # bumped whenever the state changes (cache key for renders)
+        self.time = 0.0  # s, simulation time as of the last changed()
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
         self._next_handle = 1  # handles are never given twice
         self._install(model)
@@ -332,11 +333,6 @@ class World:
         self.substeps = max(1, round(dt / self.model.opt.timestep))
         self.dt = self.substeps * self.model.opt.timestep
 
-    @property
-    def time(self) -> float:
-        """Simulation time in s."""
-        return self.data.time
-
     def step(self) -> None:
         """Advance one simulation step of ``dt`` s (all substeps inside MuJoCo).
 
@@ -362,9 +358,12 @@ class World:
         self.changed()  # mj_step leaves positions and sensors one substep behind the state
 
     def changed(self) -> None:
-        """After any change of state: recompute derived quantities, invalidate cached renders."""
+        """After any change of state: recompute derived quantities, invalidate cached renders,
+        and note the simulation time (``time``, s: every reply reads it, and a plain attribute
+        costs no call into MuJoCo's bindings)."""
         mujoco.mj_forward(self.model, self.data)
         self.version += 1
+        self.time = self.data.time
 
     # ------------------------------------------------------------------ joints
     def _scalar_joint(self, handle: int) -> tuple[int, int]:
@@ -395,7 +394,7 @@ class World:
         Raises ObjectTypeError for a joint in velocity mode (V-REP ignores it; simx says so).
         """
         i = self.motor(handle)
-        if self.mode[i] != POSITION_MODE:
+        if self.mode.item(i) != POSITION_MODE:
             raise ObjectTypeError(f"joint {self.objects[handle].name!r} is in velocity mode, "
                                   "not position control: use simxSetJointTargetVelocity")
         self.target_position[i] = _finite(position)
@@ -403,7 +402,7 @@ class World:
     def set_joint_target_velocity(self, handle: int, velocity: float) -> None:
         """Target velocity of a velocity-mode joint (rad/s or m/s). ``simxSetJointTargetVelocity``."""
         i = self.motor(handle)
-        if self.mode[i] != VELOCITY_MODE:
+        if self.mode.item(i) != VELOCITY_MODE:
             raise ObjectTypeError(f"joint {self.objects[handle].name!r} is in position control: "
                                   "use simxSetJointTargetPosition")
         self.target_velocity[i] = _finite(velocity)

@@ -67,8 +67,9 @@ def test_reset_restores_initial_state(world):
     world.set_joint_force(world.resolve("RG2_openCloseJoint").handle, 5.0)
     for _ in range(10):
         world.step()
+    assert world.time == world.data.time == pytest.approx(10 * world.dt)  # noted at each step
     world.reset()
-    assert world.joint_position(h) == 0.0 and world.time == 0.0
+    assert world.joint_position(h) == 0.0 and world.time == 0.0 == world.data.time
     assert world.joint_max_force(world.resolve("RG2_openCloseJoint").handle) == pytest.approx(40.0)
 
 
