@@ -230,7 +230,14 @@ class Connection:
                 with self._lock:
                     self._streams.pop(ident, None)
                     self._inbox.pop(ident, None)
-            return self._blocking(name, mode, args)
+            try:
+                ok, value = self.request([[name, mode, args]])[0]
+            except (TimeoutError, zenoh.ZError):
+                return C.simx_return_timeout_flag | C.simx_return_novalue_flag, None
+            except (P.ProtocolError, ValueError, TypeError, IndexError) as exc:  # refused or misshapen
+                log.warning("simx%s: %s", name, exc)
+                return C.simx_return_remote_error_flag, str(exc)
+            return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
         ident = P.identity(name, args)
         if base == P.MODE_BUFFER:
             return self._read(ident)
@@ -257,17 +264,6 @@ class Connection:
                 return self._read_locked(ident)
         self._send_async([[name, mode, args]])
         return self._read(ident)
-
-    def _blocking(self, name: str, mode: int, args: list) -> tuple[int, Any]:
-        """Send one command and wait for its reply: ``(return code, value)``."""
-        try:
-            ok, value = self.request([[name, mode, args]])[0]
-        except (TimeoutError, zenoh.ZError):
-            return C.simx_return_timeout_flag | C.simx_return_novalue_flag, None
-        except (P.ProtocolError, ValueError, TypeError, IndexError) as exc:  # refused or misshapen
-            log.warning("simx%s: %s", name, exc)
-            return C.simx_return_remote_error_flag, str(exc)
-        return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
 
     def _read(self, ident: tuple) -> tuple[int, Any]:
         with self._lock:
