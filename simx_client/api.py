@@ -30,6 +30,7 @@ _registry_lock = threading.Lock()
 
 
 # ------------------------------------------------------------------ coercion
+# Each coercion tests the exact plain type first: the facade runs them on every call.
 def _scalar(value: Any) -> Any:
     """A Python scalar from a Python/numpy scalar or a 1-element array."""
     if isinstance(value, (int, float, bool, str, bytes)):
@@ -54,6 +55,8 @@ def _bool(value: Any) -> bool:
 
 
 def _float(value: Any) -> float:
+    if type(value) is float:
+        return value
     v = _scalar(value)
     if isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float)):
         raise P.LocalError(f"expected a number, got {type(v).__name__} {v!r}")
@@ -61,6 +64,8 @@ def _float(value: Any) -> float:
 
 
 def _str(value: Any) -> str:
+    if type(value) is str:
+        return value
     v = _scalar(value)
     if isinstance(v, (bytes, bytearray)):
         return bytes(v).decode("utf-8")
