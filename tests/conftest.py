@@ -23,6 +23,18 @@ REFERENCE = SHARED / "reference"
 SCENE = ROOT / "scenes" / "ur5_rg2_kinect.xml"
 
 
+def wait_until(predicate, timeout: float = 10.0, period: float = 0.02, what="condition"):
+    """Poll ``predicate`` until it returns a truthy value and return that value; fail after
+    ``timeout`` s, naming ``what`` (a string, or a callable giving one, called on failure)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(period)
+    pytest.fail(f"{what() if callable(what) else what} not met within {timeout} s")
+
+
 def free_port() -> int:
     """A TCP port nothing listens on now (loopback)."""
     with socket.socket() as s:

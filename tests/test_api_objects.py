@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import vrep
-from conftest import SCENE, ServerProcess, free_port
+from conftest import SCENE, ServerProcess, free_port, wait_until
 
 B = vrep.simx_opmode_blocking
 
@@ -133,10 +133,8 @@ def test_split_modes_are_delivered_whole(vrep_client):
     split = vrep.simx_opmode_oneshot_split + 100
     rc = vrep.simxGetJointPosition(vrep_client, j, split)[0]
     assert rc in (0, 1)  # the reply may already be in when the call returns
-    deadline = time.monotonic() + 5
-    while vrep.simxGetJointPosition(vrep_client, j, vrep.simx_opmode_buffer)[0] != 0:
-        assert time.monotonic() < deadline
-        time.sleep(0.01)
+    wait_until(lambda: vrep.simxGetJointPosition(vrep_client, j, vrep.simx_opmode_buffer)[0] == 0, 5, 0.01,
+               "the split reply in the inbox")
 
 
 def test_connection_id_follows_the_server_and_reconnects():
@@ -150,20 +148,14 @@ def test_connection_id_follows_the_server_and_reconnects():
         j = h(cid, "UR5_joint1")
         vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_streaming)
         srv.stop()
-        deadline = time.monotonic() + 10
-        while vrep.simxGetConnectionId(cid) != -1:
-            assert time.monotonic() < deadline, "connection id did not turn -1 when the server left"
-            time.sleep(0.05)
+        wait_until(lambda: vrep.simxGetConnectionId(cid) == -1, 10, 0.05,
+                   "connection id -1 once the server left")
         assert vrep.simxGetObjectHandle(cid, "UR5", B)[0] & vrep.simx_return_timeout_flag
         srv = ServerProcess(str(SCENE), ports=[port])
-        deadline = time.monotonic() + 20
-        while vrep.simxGetConnectionId(cid) in (-1, first):
-            assert time.monotonic() < deadline, "did not reconnect"
-            time.sleep(0.05)
+        wait_until(lambda: vrep.simxGetConnectionId(cid) not in (-1, first), 20, 0.05, "reconnection")
         vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_remove)
-        while vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_buffer)[0] != 0:  # the stream resumed
-            assert time.monotonic() < deadline, "stream not resumed"
-            time.sleep(0.05)
+        wait_until(lambda: vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_buffer)[0] == 0, 20, 0.05,
+                   "the stream resumed")
     finally:
         vrep.simxFinish(cid)
         srv.stop()
@@ -198,12 +190,13 @@ def test_string_stream_accumulates_until_read(vrep_client):
     for chunk in (b"ab", b"cd", b"ef"):
         assert vrep.simxWriteStringStream(vrep_client, "log", chunk, B) == 0
     data = bytearray()
-    deadline = time.monotonic() + 5
-    while len(data) < 6:
-        assert time.monotonic() < deadline, f"stream gave only {data!r}"
+
+    def six_bytes() -> bool:
         rc, part = vrep.simxReadStringStream(vrep_client, "log", vrep.simx_opmode_buffer)
-        data += part if rc == 0 else b""
-        time.sleep(0.02)
+        data.extend(part if rc == 0 else b"")
+        return len(data) >= 6
+
+    wait_until(six_bytes, 5, 0.02, lambda: f"six bytes from the stream (got {bytes(data)!r})")
     assert data == b"abcdef"
     vrep.simxReadStringStream(vrep_client, "log", vrep.simx_opmode_discontinue)
 
@@ -228,8 +221,7 @@ def test_scene_editing_while_running_keeps_other_handles(vrep_client, tmp_path):
     assert vrep.simxGetObjectHandle(vrep_client, "UR5_joint1", B) == (0, j1)
     assert vrep.simxGetObjectHandle(vrep_client, "Sphere", B) == (0, sphere)
     z0 = vrep.simxGetObjectPosition(vrep_client, crate, -1, B)[1][2]
-    time.sleep(0.3)
-    assert vrep.simxGetObjectPosition(vrep_client, crate, -1, B)[1][2] < z0  # it falls
+    wait_until(lambda: vrep.simxGetObjectPosition(vrep_client, crate, -1, B)[1][2] < z0, what="the crate falling")
     rc, (copy,) = vrep.simxCopyPasteObjects(vrep_client, [crate], B)
     assert rc == 0 and copy not in (crate, j1, sphere)
     assert vrep.simxRemoveModel(vrep_client, copy, B) == 0

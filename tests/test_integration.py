@@ -14,6 +14,7 @@ import pytest
 import zenoh
 
 import vrep
+from conftest import wait_until
 from simx_client import api as simx_api
 from simx_client import protocol as P
 from simx_client.connection import client_config
@@ -27,17 +28,6 @@ def handle(cid: int, name: str) -> int:
     rc, h = vrep.simxGetObjectHandle(cid, name, B)
     assert rc == 0, f"{name}: rc {rc}"
     return h
-
-
-def wait_until(predicate, timeout: float = 10.0, period: float = 0.02):
-    """Poll ``predicate`` until it returns a truthy value; fail after ``timeout`` s."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(period)
-    pytest.fail(f"condition not met within {timeout} s")
 
 
 def test_ready_line_names_scene_objects_and_endpoints(server):

@@ -19,7 +19,6 @@ the same with ``import vrep`` against a real server and check that
 from __future__ import annotations
 
 import math
-import time
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -28,9 +27,9 @@ import pytest
 import vrep
 
 try:
-    from conftest import SCENE
+    from conftest import SCENE, wait_until
 except ImportError:  # tests/ imported as a package
-    from tests.conftest import SCENE
+    from tests.conftest import SCENE, wait_until
 
 B = vrep.simx_opmode_blocking
 ONESHOT = vrep.simx_opmode_oneshot
@@ -75,16 +74,11 @@ def rotate_all_angle(cid: int, handles: list[int], degrees: list[float], timeout
     for h, t in zip(handles, targets):
         vrep.simxSetJointTargetPosition(cid, h, t, ONESHOT)
     vrep.simxPauseCommunication(cid, False)
-    deadline = time.monotonic() + timeout
-    while True:
-        q = joint_positions(cid, handles)
-        err = [abs(a - t) for a, t in zip(q, targets)]
-        if max(err) <= math.radians(0.5):
-            return
-        if time.monotonic() > deadline:
-            pytest.fail(f"arm did not reach {degrees} deg within {timeout:.0f} s: "
-                        f"at {[round(math.degrees(a), 2) for a in q]} deg")
-        time.sleep(0.05)
+    def reached() -> bool:
+        return all(abs(a - t) <= math.radians(0.5) for a, t in zip(joint_positions(cid, handles), targets))
+
+    wait_until(reached, timeout, 0.05, lambda: f"arm at {degrees} deg (it is at "
+               f"{[round(math.degrees(a), 2) for a in joint_positions(cid, handles)]} deg)")
 
 
 def rgb_image(cid: int, sensor: int) -> np.ndarray:
