@@ -60,8 +60,9 @@ def run(s: Settings) -> list[Figure]:
 def _bare_simx(session: zenoh.Session, cid: int, commands: list[list]):
     """A function sending simx's own request bytes for ``commands`` through a plain declared
     querier and waiting for the reply, with no simx client code on the way."""
-    querier = session.declare_querier(P.call_key(), timeout=5.0)
-    payload = P.request(connection(cid).client, commands)
+    client = connection(cid).client
+    querier = session.declare_querier(P.call_key(P.DEFAULT_PREFIX, client), timeout=5.0)
+    payload = P.request(client, commands)
 
     def call() -> None:
         for reply in querier.get(payload=payload):

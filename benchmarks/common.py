@@ -51,7 +51,7 @@ def wire_sizes(cid: int, commands: list[list]) -> tuple[int, int]:
     the wire by sending it once."""
     conn = connection(cid)
     payload = P.request(conn.client, commands)
-    for reply in conn.session.get(P.call_key(conn.prefix), payload=payload, timeout=10):
+    for reply in conn.session.get(P.call_key(conn.prefix, conn.client), payload=payload, timeout=10):
         if reply.ok is not None:
             return len(payload), len(reply.ok.payload.to_bytes())
     raise RuntimeError(f"no reply to {commands!r}")

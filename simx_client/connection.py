@@ -86,7 +86,7 @@ class Connection:
         self._outbox: dict[Any, list] = {}
         self._paused = False
         self.converted: dict[tuple, tuple[Any, Any]] = {}  # the facade's last conversion per command
-        self._key = P.call_key(prefix)
+        self._key = P.call_key(prefix, self.client)
         self._encoder = P.RequestEncoder(self.client)
         self._messages = itertools.count(1)
         self._t0 = time.monotonic()

@@ -6,8 +6,11 @@ hierarchy both sides use. docs/PROTOCOL.md describes the same schema for other l
 
 Key expressions (``prefix`` defaults to ``"simx"``):
 
-* ``<prefix>/call`` -- queryable on the server. A query's payload is a *request*; the reply's
-  payload is a *response*.
+* ``<prefix>/call/<client>`` -- the server's queryable (declared on ``<prefix>/call/*``). A client
+  queries the key that carries its own id; the payload is a *request* naming the same id (a
+  request whose id differs from its key's is refused), the reply's payload is a *response*.
+  With the id in the key, Zenoh access control can allow each user only its own ids
+  (docs/SECURITY.md).
 * ``<prefix>/stream/<client>`` -- the server publishes a *stream update* for one client after
   every simulation step (and at each idle tick while the simulation is not running).
 * ``<prefix>/alive/server`` and ``<prefix>/alive/client/<client>`` -- liveliness tokens.
@@ -33,7 +36,7 @@ from typing import Any, Iterable
 
 import msgpack
 
-PROTOCOL_VERSION = 2  # 1: the same fields in msgpack maps
+PROTOCOL_VERSION = 3  # 2: one call key for every client; 1: the same fields in msgpack maps
 DEFAULT_PREFIX = "simx"
 
 # Bits of ``server_state`` (same meaning as V-REP's simx_headeroffset_server_state byte).
@@ -148,9 +151,30 @@ class LocalError(SimxError):
     """A client-side error, such as an argument that cannot be converted (legacy flag 32)."""
 
 
-def call_key(prefix: str = DEFAULT_PREFIX) -> str:
-    """Key expression of the server's command queryable."""
+def call_key(prefix: str, client: str) -> str:
+    """Key expression a client's requests are sent to (the server answers ``<prefix>/call/*``)."""
+    return f"{prefix}/call/{client}"
+
+
+def call_keys(prefix: str = DEFAULT_PREFIX) -> str:
+    """Key expression of the server's command queryable: every client's call key."""
+    return f"{prefix}/call/*"
+
+
+def legacy_call_key(prefix: str = DEFAULT_PREFIX) -> str:
+    """The call key of protocol versions 1 and 2; the server answers it only with a refusal
+    that names the version, so that an old client fails with a clear message."""
     return f"{prefix}/call"
+
+
+_KEY_SPECIALS = frozenset("/*$?#")
+
+
+def valid_client_id(client: object) -> bool:
+    """Whether ``client`` can be a client id: a non-empty str of at most 128 characters that
+    is one key-expression chunk (no ``/ * $ ? #``)."""
+    return (type(client) is str and 0 < len(client) <= 128
+            and not _KEY_SPECIALS.intersection(client))
 
 
 def stream_key(prefix: str, client: str) -> str:

@@ -85,14 +85,22 @@ class Server:
     def open(self) -> None:
         """Open the Zenoh session and declare the queryable and liveliness; raises zenoh.ZError."""
         self.session = zenoh.open(self._config)
-        # One key expression object for the queryable and every reply (queries match it exactly).
-        self._call_key = zenoh.KeyExpr(P.call_key(self.prefix))
+        self._call_prefix = len(P.call_key(self.prefix, ""))  # a query's key minus this is its client
         # Direct callbacks: Zenoh's thread only enqueues (no Python thread of zenoh's in between).
         self._queryable = self.session.declare_queryable(
-            self._call_key, zenoh.handlers.Callback(self._queue.put, indirect=False))
+            P.call_keys(self.prefix), zenoh.handlers.Callback(self._queue.put, indirect=False))
+        self._legacy_queryable = self.session.declare_queryable(
+            P.legacy_call_key(self.prefix), zenoh.handlers.Callback(self._refuse_old, indirect=False))
         self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
         self._watch = self.session.liveliness().declare_subscriber(
             P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False))
+
+    @staticmethod
+    def _refuse_old(query: zenoh.Query) -> None:
+        """A client of protocol version 1 or 2 (one call key for all): refuse with the reason."""
+        query.reply(query.key_expr, P.error_response(
+            f"protocol version mismatch: this server speaks {P.PROTOCOL_VERSION}, which sends "
+            "requests to <prefix>/call/<client>; install the same simx version on client and server"))
 
     def _on_client_token(self, sample: zenoh.Sample) -> None:
         client = str(sample.key_expr).rsplit("/", 1)[-1]
@@ -176,9 +184,11 @@ class Server:
         payload = query.payload
         try:
             client, commands = P.parse_request(payload.to_bytes() if payload is not None else b"")
+            if client != str(query.key_expr)[self._call_prefix:]:
+                raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
         except P.ProtocolError as exc:
             log.warning("malformed request refused: %s", exc)
-            query.reply(self._call_key, P.error_response(str(exc)))
+            query.reply(query.key_expr, P.error_response(str(exc)))
             return False
         if client not in self._clients:
             self._clients.add(client)
@@ -191,12 +201,12 @@ class Server:
             if type(value) is Deferred:
                 break
         else:
-            query.reply(self._call_key, P.response(t, state, results, server_time, scene))
+            query.reply(query.key_expr, P.response(t, state, results, server_time, scene))
             return False
 
         def reply_and_drop() -> None:
             try:
-                query.reply(self._call_key,
+                query.reply(query.key_expr,
                             P.response(t, state, self._resolve(results, client), server_time, scene))
             except Exception:
                 log.exception("replying to client %s", client)

@@ -250,12 +250,12 @@ def test_negative_start_timeout_is_the_blocking_timeout():
     def on_query(query):
         _, commands = P.parse_request(query.payload.to_bytes())
         if commands[0][0] == "Hello":
-            query.reply(query.key_expr, P.response(0, 0, [[True, {"protocol": 1}]]))
+            query.reply(query.key_expr, P.response(0, 0, [[True, {"protocol": P.PROTOCOL_VERSION}]]))
         else:
             held.append(query)  # never answered
 
     session = zenoh.open(zenoh_config([f"tcp/127.0.0.1:{port}"]))
-    queryable = session.declare_queryable(P.call_key(), on_query)
+    queryable = session.declare_queryable(P.call_keys(), on_query)
     try:
         cid = vrep.simxStart("127.0.0.1", port, True, True, -300, 5)
         assert cid >= 0

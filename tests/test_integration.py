@@ -280,15 +280,21 @@ def test_malformed_requests_do_not_hurt_other_clients(server, vrep_client):
         answers = []
         for payload in (b"\xc1garbage", P.pack([999, "x", []]), P.pack({"v": 1, "c": "x", "cmds": []}),
                         P.pack([1, 2, 3]), P.pack([P.PROTOCOL_VERSION, "x", [["GetJointPosition", 0]]])):
-            replies = list(session.get(P.call_key(), payload=payload, timeout=5))
+            replies = list(session.get(P.call_key("simx", "x"), payload=payload, timeout=5))
             answers.append(msgpack.unpackb(replies[0].ok.payload.to_bytes()))
         assert all("err" in a for a in answers)
         assert "version" in answers[1]["err"] and "version" in answers[2]["err"]  # a version-1 client too
         assert "malformed command" in answers[4]["err"]
+        # A request naming another client than its key's is refused (no acting under another id).
+        spoof = list(session.get(P.call_key("simx", "x"), payload=P.request("y", [["GetPingTime", B, []]]), timeout=5))
+        assert "client id" in msgpack.unpackb(spoof[0].ok.payload.to_bytes())["err"]
+        # A client of protocol 1 or 2 queried <prefix>/call: refused with the reason, not left waiting.
+        old = list(session.get(P.legacy_call_key(), payload=P.pack([2, "x", []]), timeout=5))
+        assert "version" in msgpack.unpackb(old[0].ok.payload.to_bytes())["err"]
         # Wrong argument types inside a valid request: an error result, not a crash.
         bad = P.request("x", [["GetJointPosition", B, ["UR5_joint1"]], ["NoSuchCommand", B, []],
                               ["GetObjectHandle", B, ["UR5"]]])
-        r = P.unpack_response(list(session.get(P.call_key(), payload=bad, timeout=5))[0].ok.payload.to_bytes())[5]
+        r = P.unpack_response(list(session.get(P.call_key("simx", "x"), payload=bad, timeout=5))[0].ok.payload.to_bytes())[5]
         assert r[0][0] is False and "int" in r[0][1]
         assert r[1][0] is False and "NoSuchCommand" in r[1][1]
         assert r[2][0] is True
@@ -411,9 +417,9 @@ def test_random_payloads_never_break_the_server():
     session = zenoh.open(client_config("127.0.0.1", srv.port))
     try:
         for _ in range(300):
-            replies = list(session.get(P.call_key(), payload=rng.choice(shapes)(), timeout=5))
+            replies = list(session.get(P.call_key("simx", "fuzz"), payload=rng.choice(shapes)(), timeout=5))
             assert replies and replies[0].ok is not None, "the server did not answer"
-        ok = P.unpack_response(list(session.get(P.call_key(), payload=P.request("after", [["GetPingTime", B, []]]),
+        ok = P.unpack_response(list(session.get(P.call_key("simx", "after"), payload=P.request("after", [["GetPingTime", B, []]]),
                                                 timeout=5))[0].ok.payload.to_bytes())[5]
         assert ok == [[True, None]]
         assert srv.proc.poll() is None
