@@ -25,3 +25,14 @@ MAX_COMMANDS_PER_REQUEST = 4096
 MAX_REQUEST_BYTES = 64 * 1024 * 1024
 #: Largest reply a request may produce in bytes (images and buffers included).
 MAX_REPLY_BYTES = 128 * 1024 * 1024
+
+# ----------------------------------------------------------------- signals
+#: Most signals in the server's store (integer, float and string signals together).
+MAX_SIGNALS = 10_000
+#: Largest string signal in bytes (``simxSetStringSignal``, ``simxAppendStringSignal``,
+#: ``simxWriteStringStream``): room for a packed 1920x1080 RGB image and more.
+MAX_SIGNAL_BYTES = 16 * 1024 * 1024
+#: Largest size of the whole store in bytes (names and values; a number counts 8 bytes).
+MAX_SIGNAL_STORE_BYTES = 64 * 1024 * 1024
+#: Longest signal name in characters.
+MAX_SIGNAL_NAME = 1024

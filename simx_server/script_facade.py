@@ -16,6 +16,8 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_server import limits as L
+from simx_server.arguments import quote
 from simx_server.world import World, matrix_from_euler, matrix_from_quaternion
 
 log = logging.getLogger("simx.scripts")
@@ -41,21 +43,34 @@ class Signals:
     ``simxSetIntegerSignal`` & co. can share the same instance. Kinds are ``"int"``, ``"float"``
     and ``"string"`` (string signals hold bytes, as V-REP's did). Signals set by scripts are
     cleared when the simulation stops (:meth:`clear_script_signals`), as in V-REP.
+
+    The store is bounded (clients are untrusted): at most ``max_signals`` signals, names of at
+    most ``max_name`` characters, string signals of at most ``max_bytes`` bytes and
+    ``max_store_bytes`` in all (names and values; a number counts 8 bytes). Defaults: the
+    ``*SIGNAL*`` bounds of :mod:`simx_server.limits`. A set beyond them raises ArgumentError
+    naming the bound and changes nothing.
     """
 
     INT, FLOAT, STRING = "int", "float", "string"
     KINDS = (INT, FLOAT, STRING)
 
-    def __init__(self) -> None:
+    def __init__(self, max_signals: int = L.MAX_SIGNALS, max_bytes: int = L.MAX_SIGNAL_BYTES,
+                 max_store_bytes: int = L.MAX_SIGNAL_STORE_BYTES, max_name: int = L.MAX_SIGNAL_NAME) -> None:
         self._values: dict[str, dict[str, Any]] = {k: {} for k in self.KINDS}
         self._by_script: set[tuple[str, str]] = set()
+        self.max_signals, self.max_bytes = max_signals, max_bytes
+        self.max_store_bytes, self.max_name = max_store_bytes, max_name
+        self.count = 0  # signals held
+        self.size = 0  # bytes held: names and values
 
-    @classmethod
-    def _check(cls, kind: str, name: str) -> None:
-        if kind not in cls.KINDS:
-            raise ArgumentError(f"signal kind must be one of {cls.KINDS}, got {kind!r}")
+    def _check(self, kind: str, name: str) -> None:
+        if kind not in self.KINDS:
+            raise ArgumentError(f"signal kind must be one of {self.KINDS}, got {quote(kind)}")
         if not isinstance(name, str):
             raise ArgumentError(f"signal name must be a string, got {type(name).__name__}")
+        if len(name) > self.max_name:
+            raise ArgumentError(f"signal name {quote(name)} is longer than {self.max_name} characters "
+                                "(simx_server.limits.MAX_SIGNAL_NAME)")
 
     @classmethod
     def _coerce(cls, kind: str, value: Any) -> Any:
@@ -67,17 +82,38 @@ class Signals:
             if kind == cls.FLOAT:
                 return float(value)
         except (TypeError, ValueError, OverflowError) as exc:
-            raise ArgumentError(f"bad {kind} signal value: {exc}") from None
+            raise ArgumentError(f"bad {kind} signal value: {quote(str(exc))}") from None
         if isinstance(value, str):
             return value.encode("utf-8")
         if isinstance(value, (bytes, bytearray, memoryview)):
             return bytes(value)
         raise ArgumentError(f"a string signal holds bytes or str, got {type(value).__name__}")
 
+    @staticmethod
+    def _size(name: str, value: Any) -> int:
+        return len(name) + (len(value) if type(value) is bytes else 8)
+
     def set(self, kind: str, name: str, value: Any, *, by_script: bool = False) -> None:
-        """Set signal ``name`` of ``kind``; raises ArgumentError for a value of the wrong type."""
+        """Set signal ``name`` of ``kind``; raises ArgumentError for a value of the wrong type or
+        beyond the store's bounds (then nothing changes)."""
         self._check(kind, name)
-        self._values[kind][name] = self._coerce(kind, value)
+        value = self._coerce(kind, value)
+        values = self._values[kind]
+        old = values.get(name)
+        if type(value) is bytes and len(value) > self.max_bytes:
+            raise ArgumentError(f"string signal {quote(name)} would hold {len(value)} bytes, more than "
+                                f"{self.max_bytes} (simx_server.limits.MAX_SIGNAL_BYTES)")
+        if old is None and self.count >= self.max_signals:
+            raise ArgumentError(f"the signal store holds {self.count} signals, the most it takes "
+                                f"(simx_server.limits.MAX_SIGNALS): clear some first")
+        grow = self._size(name, value) - (0 if old is None else self._size(name, old))
+        if self.size + grow > self.max_store_bytes:
+            raise ArgumentError(f"signal {quote(name)} would bring the signal store to {self.size + grow} bytes, "
+                                f"more than {self.max_store_bytes} (simx_server.limits.MAX_SIGNAL_STORE_BYTES): "
+                                "clear some first")
+        values[name] = value
+        self.size += grow
+        self.count += old is None
         if by_script:
             self._by_script.add((kind, name))
         else:
@@ -88,21 +124,28 @@ class Signals:
         self._check(kind, name)
         return self._values[kind].get(name, default)
 
+    def _pop(self, kind: str, name: str) -> None:
+        old = self._values[kind].pop(name, None)
+        if old is not None:
+            self.size -= self._size(name, old)
+            self.count -= 1
+
     def clear(self, kind: str | None = None, name: str | None = None) -> None:
         """Clear one signal, every signal of ``kind`` (``name`` None) or everything (both None)."""
         for k in self.KINDS if kind is None else (kind,):
             self._check(k, "" if name is None else name)
             if name is None:
-                self._values[k].clear()
+                for n in list(self._values[k]):
+                    self._pop(k, n)
                 self._by_script = {s for s in self._by_script if s[0] != k}
             else:
-                self._values[k].pop(name, None)
+                self._pop(k, name)
                 self._by_script.discard((k, name))
 
     def clear_script_signals(self) -> None:
         """Clear the signals last set by scripts (V-REP clears them at simulation end)."""
         for kind, name in self._by_script:
-            self._values[kind].pop(name, None)
+            self._pop(kind, name)
         self._by_script.clear()
 
     def names(self, kind: str) -> list[str]:
