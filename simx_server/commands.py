@@ -17,7 +17,7 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, UnknownObjectError, UnsupportedError
-from simx_server import sensors
+from simx_server import physics, sensors
 from simx_server.arguments import as_floats, as_int, check_args as _args
 from simx_server.editing import EDITING_HANDLERS
 from simx_server.simulation import RunState, Simulation
@@ -213,6 +213,8 @@ def get_floating_parameter(sim: Simulation, args: list) -> float:
 
 
 def set_floating_parameter(sim: Simulation, args: list) -> None:
+    """``simxSetFloatingParameter`` [id, value]: 1 (time step, s) only, while stopped;
+    0 < dt <= limits.MAX_DT and at most limits.MAX_SUBSTEPS substeps, else ArgumentError."""
     pid, value = _args(args, "int", "float")
     if pid != FLOATPARAM_SIMULATION_TIME_STEP:
         raise _unsupported_param("float", pid)
@@ -259,10 +261,12 @@ def get_array_parameter(sim: Simulation, args: list) -> list[float]:
 
 
 def set_array_parameter(sim: Simulation, args: list) -> None:
+    """``simxSetArrayParameter`` [id, 3 floats]: 0 (gravity, m/s²) only; a magnitude above
+    limits.MAX_GRAVITY, NaN or infinity -> ArgumentError."""
     pid, values = _args(args, "int", "any")
     if pid != ARRAYPARAM_GRAVITY:
         raise _unsupported_param("array", pid)
-    sim.world.model.opt.gravity[:] = as_floats(values, 3, "gravity")
+    sim.world.model.opt.gravity[:] = physics.check_gravity(values)
 
 
 # Signals: one store per server, shared by every client and child script.

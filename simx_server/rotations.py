@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError
+from simx_server.arguments import quote
 
 
 def euler_from_matrix(r: np.ndarray) -> list[float]:
@@ -32,6 +33,11 @@ def matrix_from_euler(alpha: float, beta: float, gamma: float) -> np.ndarray:
 def matrix_from_quaternion(x: float, y: float, z: float, w: float) -> np.ndarray:
     """Rotation (3, 3) of a quaternion in V-REP's order; raises ArgumentError for a zero one."""
     q = np.array([w, x, y, z], dtype=float)
+    if not np.isfinite(q).all():
+        raise ArgumentError(f"quaternion must be finite, got {quote([x, y, z, w])}")
+    big = np.abs(q).max()
+    if big > 1.0:
+        q /= big  # huge components: normalise without overflow
     norm = np.linalg.norm(q)
     if norm < 1e-12:
         raise ArgumentError("quaternion must not be zero")

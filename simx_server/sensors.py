@@ -42,7 +42,9 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
-from simx_server.arguments import as_floats, check_args as _args
+from simx_server import limits as L
+from simx_server import physics
+from simx_server.arguments import as_floats, check_args as _args, quote
 from simx_server.world import (_TYPE_NAMES, FORCE_SENSOR, JOINT, POSITION_MODE, PROXIMITY_SENSOR,
                                SHAPE, VELOCITY_MODE, VISION_SENSOR, World, euler_from_matrix, parse_settings,
                                quaternion_from_matrix)
@@ -913,9 +915,9 @@ def set_float_param(sim: Simulation, handle: int, pid: int, value: float) -> Non
     if pid not in _FLOAT_SET:
         world.get(handle)
         raise _unsupported(pid, "float", True)
-    if not math.isfinite(value):
-        raise ArgumentError(f"{_pname(pid)}: value must be finite, got {value!r}")
     if pid in (1000, 1001, 1004):
+        if not math.isfinite(value):
+            raise ArgumentError(f"{_pname(pid)}: value must be finite, got {quote(value)}")
         obj = _need(world, handle, VISION_SENSOR, pid)
         spec = sim.vision.spec(handle)
         if pid == 1004:
@@ -934,20 +936,19 @@ def set_float_param(sim: Simulation, handle: int, pid: int, value: float) -> Non
         world.version += 1  # renders and normalised depth change
         return
     if pid == 2017:
-        if value <= 0:
-            raise ArgumentError(f"{_pname(pid)}: the velocity limit must be positive, got {value}")
+        if not 0 < value <= L.MAX_JOINT_VELOCITY:
+            raise ArgumentError(f"{_pname(pid)}: the velocity limit must be > 0 and at most "
+                                f"{L.MAX_JOINT_VELOCITY:g} rad/s or m/s (simx_server.limits.MAX_JOINT_VELOCITY), "
+                                f"got {quote(value)}")
         world.max_velocity[_joint_motor(world, handle, pid)] = value
         return
     # 3005: mass; the inertia scales with it (same shape, new density), as V-REP keeps it
     body = _need(world, handle, SHAPE, pid).mj_id
     m, d = world.model, world.data
-    if value <= 0:
-        raise ArgumentError(f"{_pname(pid)}: mass must be positive (kg), got {value}")
-    old = float(m.body_mass[body])
-    if old > 0:
-        m.body_inertia[body] *= value / old
-    else:
-        m.body_inertia[body] = max(float(m.body_inertia[body].max()), 1e-9) * value
+    try:
+        m.body_inertia[body] = physics.scaled_inertia(value, float(m.body_mass[body]), m.body_inertia[body])
+    except ArgumentError as exc:
+        raise ArgumentError(f"{_pname(pid)}: {exc}") from None
     m.body_mass[body] = value
     saved = (d.qpos.copy(), d.qvel.copy(), d.act.copy(), d.qacc_warmstart.copy(), d.time)
     mujoco.mj_setConst(m, d)  # subtree masses and other mass-dependent constants; clobbers qpos
@@ -1019,8 +1020,10 @@ def set_object_float_parameter(sim: Simulation, args: list) -> None:
 
     Settable: 1000 near / 1001 far clipping (m, 0 < near < far; they rescale the depth buffer
     and depth images at once), 1004 perspective angle (rad, in (0, pi); changes the camera's
-    fovy), 2017 upper velocity limit of a motorised joint (> 0), 3005 mass of a shape (kg,
-    > 0; its inertia scales along). Read-only ids and unknown ids -> UnsupportedError.
+    fovy), 2017 upper velocity limit of a motorised joint (> 0 and at most
+    limits.MAX_JOINT_VELOCITY), 3005 mass of a shape (kg, within limits.MIN_MASS..MAX_MASS; its
+    inertia scales along and must stay under limits.MAX_INERTIA). Values out of range, NaN and
+    infinities -> ArgumentError naming the bound. Read-only ids and unknown ids -> UnsupportedError.
     """
     h, pid, value = _args(args, "int", "int", "float")
     set_float_param(sim, h, pid, value)

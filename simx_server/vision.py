@@ -1,7 +1,8 @@
 """Vision sensors: MuJoCo cameras rendered offscreen, in V-REP's image and depth formats.
 
 A vision sensor is a MuJoCo camera. Its resolution is the camera's ``resolution`` attribute
-(256x256 when the MJCF leaves it at 1x1), its field of view the camera's ``fovy``, and its
+(256x256 when the MJCF leaves it at 1x1; at most limits.MAX_RESOLUTION a side, or the scene is
+refused when it loads), its field of view the camera's ``fovy``, and its
 near/far clipping planes and image kind come from the ``simx:NAME`` custom text
 (``near=0.01 far=10 image=rgb|depth``). A sensor with ``image=depth`` shows its depth as grey
 in all three channels (near dark, far bright), as a V-REP depth sensor with a
@@ -32,6 +33,7 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError
+from simx_server.physics import check_resolution
 from simx_server.world import VISION_SENSOR, World
 
 DEFAULT_RESOLUTION = (256, 256)
@@ -97,6 +99,7 @@ class VisionSensors:
             w, h = (int(x) for x in m.cam_resolution[obj.mj_id])
             if (w, h) == (1, 1):
                 w, h = DEFAULT_RESOLUTION
+            check_resolution(w, h, f"vision sensor {obj.name!r}")  # World checked it at load too
             s = obj.settings
             self.specs[obj.handle] = SensorSpec(
                 obj.mj_id, w, h, float(s.get("near", DEFAULT_NEAR)), float(s.get("far", DEFAULT_FAR)),

@@ -24,6 +24,8 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+from simx_server import limits as L
+from simx_server import physics
 from simx_server.rotations import (_frame_with_z, euler_from_matrix, matrix_from_euler,  # noqa: F401
                                    matrix_from_quaternion, quaternion_from_matrix)
 
@@ -53,6 +55,8 @@ VELOCITY_MODE = 1
 #: Gain (1/s) of the position loop that turns a position error into a target velocity.
 POSITION_GAIN = 20.0
 DEFAULT_MAX_VELOCITY = math.pi  # rad/s, used where a joint declares none
+# Bounds of the hot joint setters, as globals (one comparison each; see limits.py).
+_MAX_Q, _MAX_V, _MAX_F = L.MAX_JOINT_POSITION, L.MAX_JOINT_VELOCITY, L.MAX_JOINT_FORCE
 
 
 @dataclasses.dataclass
@@ -88,34 +92,45 @@ class World:
             model's own timestep.
 
     Raises:
-        ValueError: the scene cannot be loaded (MuJoCo's message, with the file name).
+        ValueError: the scene cannot be loaded (MuJoCo's message, with the file name), or
+            ``dt`` or the scene exceeds a bound of :mod:`simx_server.limits` (MAX_DT,
+            MAX_SUBSTEPS, MAX_RESOLUTION).
     """
 
     def __init__(self, scene: str | Path, dt: float = 0.05):
         self.scene_path = Path(scene).resolve()
         try:
+            self.requested_dt = physics.check_dt(dt)  # s; the actual dt is a whole number of timesteps
+        except ArgumentError as exc:
+            raise ValueError(str(exc)) from None
+        try:
             model = mujoco.MjModel.from_xml_path(str(self.scene_path))
         except Exception as exc:
             raise ValueError(f"cannot load scene {self.scene_path}: {exc}") from exc
-        if dt <= 0:
-            raise ValueError(f"dt must be positive, got {dt}")
-        self.requested_dt = dt  # s; the actual dt is a whole number of model timesteps
         self.version = 0  # bumped whenever the state changes (cache key for renders)
         self.time = 0.0  # s, simulation time as of the last changed()
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
         self._next_handle = 1  # handles are never given twice
-        self._install(model)
+        try:
+            self._install(model)
+        except ArgumentError as exc:
+            raise ValueError(f"scene {self.scene_path.name}: {exc}") from None
         self.reset()
 
     def _install(self, model: mujoco.MjModel) -> None:
-        """Adopt ``model``: fresh data, registry (keeping known names' handles), motors."""
+        """Adopt ``model``: fresh data, registry (keeping known names' handles), motors.
+
+        Raises ArgumentError (before changing anything) when the model's per-step work exceeds
+        a bound: substeps of the current dt, camera resolutions.
+        """
+        substeps = physics.check_scene(model, self.requested_dt)
         self.model = model
         self.data = mujoco.MjData(model)
         # A view kept for the hottest read: each ``data.qpos`` builds a new ndarray, which costs
         # microseconds in a server thread that has just woken up. MjData's buffers live as long
         # as the MjData, and every new MjData comes through here.
         self._qpos = self.data.qpos
-        self.substeps = max(1, round(self.requested_dt / model.opt.timestep))
+        self.substeps = substeps
         self.dt = self.substeps * model.opt.timestep
         self.settings = self._read_settings()
         self.objects: dict[int, SceneObject] = {}
@@ -136,6 +151,7 @@ class World:
         Objects keep their handles (matched by name); joints keep their positions and
         velocities, motors their mode, targets and maximum force; the simulation time goes on.
         Objects that disappeared lose their handle for good; new ones get new handles.
+        Raises ArgumentError, changing nothing, when the model exceeds a bound (see _install).
         """
         old_model, old_data = self.model, self.data
         joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
@@ -328,11 +344,14 @@ class World:
 
     # -------------------------------------------------------------------- time
     def set_dt(self, dt: float) -> None:
-        """New simulation step (s), rounded to a whole number of model timesteps."""
-        if not dt > 0:
-            raise ArgumentError(f"the time step must be positive, got {dt}")
+        """New simulation step (s), rounded to a whole number of model timesteps.
+
+        Raises ArgumentError unless 0 < dt <= limits.MAX_DT and dt makes at most
+        limits.MAX_SUBSTEPS substeps; nothing changes then.
+        """
+        dt = physics.check_dt(dt)
+        self.substeps = physics.substeps(dt, float(self.model.opt.timestep))
         self.requested_dt = dt
-        self.substeps = max(1, round(dt / self.model.opt.timestep))
         self.dt = self.substeps * self.model.opt.timestep
 
     def step(self) -> None:
@@ -382,9 +401,14 @@ class World:
         return self._qpos.item(self._scalar_joint(handle)[0])
 
     def set_joint_position(self, handle: int, position: float) -> None:
-        """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``."""
+        """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``.
+
+        Raises ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
+        """
         qadr, dadr = self._scalar_joint(handle)
-        self.data.qpos[qadr] = _finite(position)
+        if not -_MAX_Q <= position <= _MAX_Q:
+            raise physics.out_of_range("joint position", position, -_MAX_Q, _MAX_Q, "rad or m", "MAX_JOINT_POSITION")
+        self.data.qpos[qadr] = position
         self.data.qvel[dadr] = 0.0
         if handle in self.motor_index:
             self.target_position[self.motor_index[handle]] = position
@@ -393,26 +417,40 @@ class World:
     def set_joint_target_position(self, handle: int, position: float) -> None:
         """Target of a position-mode joint (rad or m). ``simxSetJointTargetPosition``.
 
-        Raises ObjectTypeError for a joint in velocity mode (V-REP ignores it; simx says so).
+        Raises ObjectTypeError for a joint in velocity mode (V-REP ignores it; simx says so),
+        ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
         """
         i = self.motor(handle)
         if self.mode.item(i) != POSITION_MODE:
             raise ObjectTypeError(f"joint {self.objects[handle].name!r} is in velocity mode, "
                                   "not position control: use simxSetJointTargetVelocity")
-        self.target_position[i] = _finite(position)
+        if not -_MAX_Q <= position <= _MAX_Q:
+            raise physics.out_of_range("target position", position, -_MAX_Q, _MAX_Q, "rad or m", "MAX_JOINT_POSITION")
+        self.target_position[i] = position
 
     def set_joint_target_velocity(self, handle: int, velocity: float) -> None:
-        """Target velocity of a velocity-mode joint (rad/s or m/s). ``simxSetJointTargetVelocity``."""
+        """Target velocity of a velocity-mode joint (rad/s or m/s). ``simxSetJointTargetVelocity``.
+
+        Raises ArgumentError unless |velocity| <= limits.MAX_JOINT_VELOCITY.
+        """
         i = self.motor(handle)
         if self.mode.item(i) != VELOCITY_MODE:
             raise ObjectTypeError(f"joint {self.objects[handle].name!r} is in position control: "
                                   "use simxSetJointTargetPosition")
-        self.target_velocity[i] = _finite(velocity)
+        if not -_MAX_V <= velocity <= _MAX_V:
+            raise physics.out_of_range("target velocity", velocity, -_MAX_V, _MAX_V, "rad/s or m/s",
+                                       "MAX_JOINT_VELOCITY")
+        self.target_velocity[i] = velocity
 
     def set_joint_force(self, handle: int, force: float) -> None:
-        """Maximum force/torque of a joint's motor (N or N·m, sign ignored). ``simxSetJointForce``."""
+        """Maximum force/torque of a joint's motor (N or N·m, sign ignored). ``simxSetJointForce``.
+
+        Raises ArgumentError unless |force| <= limits.MAX_JOINT_FORCE.
+        """
         a = self._motor_act[self.motor(handle)]
-        f = abs(_finite(force))
+        if not -_MAX_F <= force <= _MAX_F:
+            raise physics.out_of_range("joint force", force, -_MAX_F, _MAX_F, "N or N·m", "MAX_JOINT_FORCE")
+        f = abs(float(force))
         self.model.actuator_forcerange[a] = (-f, f)
 
     def joint_max_force(self, handle: int) -> float:
@@ -480,8 +518,11 @@ class World:
         Free bodies get a new free-joint state (velocity zeroed), mocap bodies a new mocap pose,
         bodies without joints, dummies, vision sensors and lights a new placement in their
         parent body. Bodies moved by hinge/slide/ball joints and joints themselves cannot be
-        placed (set their joints instead): ObjectTypeError.
+        placed (set their joints instead): ObjectTypeError. A coordinate of ``position`` beyond
+        ±limits.MAX_POSITION: ArgumentError.
         """
+        if position is not None:
+            physics.check_position(position)
         obj = self.get(handle)
         if relative_to == C.sim_handle_parent:
             relative_to = obj.parent
@@ -528,10 +569,3 @@ class World:
         mujoco.mju_negQuat(qinv, qb)
         mujoco.mju_mulQuat(q, qinv, quat)
         return rb.T @ (p - d.xpos[body]), q
-
-
-def _finite(value: float) -> float:
-    v = float(value)
-    if not math.isfinite(v):
-        raise ArgumentError(f"value must be finite, got {value!r}")
-    return v

@@ -6,13 +6,66 @@ Reproductions of the issue (real servers on loopback) and unit checks of the bou
 
 from __future__ import annotations
 
+import math
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
-from conftest import SCENE
+from conftest import SCENE, ServerProcess, free_port, wait_until
 from simx_client.protocol import ArgumentError
-from simx_server import commands, limits
+from simx_server import commands, limits, sensors
 from simx_server.script_facade import Signals
 from simx_server.simulation import Simulation
+from simx_server.world import World
+
+import vrep
+
+B = vrep.simx_opmode_blocking
+DT = vrep.sim_floatparam_simulation_time_step
+MASS = 3005  # sim_shapefloatparam_mass
+CTRL_LOOP = 2001  # sim_jointintparam_ctrl_enabled
+
+
+# ------------------------------------------------------------------- helpers
+def _sim_time(cid: int) -> int:
+    """Simulation time (ms) stamped on a fresh reply."""
+    assert vrep.simxGetPingTime(cid)[0] == 0
+    return vrep.simxGetLastCmdTime(cid)
+
+
+def _running(cid: int) -> bool:
+    """The server-state bit 0 (simulation not stopped) of a fresh reply."""
+    assert vrep.simxGetPingTime(cid)[0] == 0
+    ok, state = vrep.simxGetInMessageInfo(cid, vrep.simx_headeroffset_server_state)
+    assert ok == 1
+    return bool(state & 1)
+
+
+def _last_error(cid: int) -> str:
+    rc, errors = vrep.simxGetLastErrors(cid, B)
+    assert rc == 0 and errors, "the server kept no error for this client"
+    return errors[-1]
+
+
+def _connect(srv: ServerProcess) -> int:
+    cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
+    assert cid >= 0
+    return cid
+
+
+def _scene(tmp_path: Path, option: str = "", camera: str = "") -> Path:
+    path = tmp_path / "scene.xml"
+    path.write_text(f"""<mujoco>
+  <option {option}/>
+  <worldbody>
+    <body name="Box" pos="0 0 1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="1"/>
+      {camera}
+    </body>
+  </worldbody>
+</mujoco>""")
+    return path
 
 
 @pytest.fixture(scope="module")
@@ -20,6 +73,153 @@ def sim():
     s = Simulation(SCENE)
     yield s
     s.close()
+
+
+# ------------------------------------------------- defect 1: work per step
+def test_huge_time_step_is_refused_and_the_server_keeps_running():
+    """Issue: stop; dt = 1e7; start -> the process exited (an exception in mj_step)."""
+    srv = ServerProcess(str(SCENE), "--speed", "0")
+    try:
+        cid = _connect(srv)
+        assert vrep.simxStopSimulation(cid, B) == 0
+        for bad in (1e7, math.inf, math.nan, 0.0, -0.05):
+            assert vrep.simxSetFloatingParameter(cid, DT, bad, B) == vrep.simx_return_remote_error_flag, bad
+            assert "MAX_DT" in _last_error(cid)
+        assert vrep.simxGetFloatingParameter(cid, DT, B) == (0, pytest.approx(0.05))
+        assert vrep.simxSetFloatingParameter(cid, DT, limits.MAX_DT, B) == 0  # the bound itself is fine
+        assert vrep.simxStartSimulation(cid, B) == 0
+        wait_until(lambda: _sim_time(cid) >= 3000, timeout=10, what="three 1 s steps")
+        assert srv.proc.poll() is None
+        vrep.simxFinish(cid)
+    finally:
+        log = srv.stop()
+    assert srv.proc.returncode == 0, log
+    assert "internal error" not in log and "Traceback" not in log, log
+
+
+def test_cli_refuses_a_time_step_out_of_bounds():
+    """``--dt`` obeys the same bound, with a one-line error and exit status 2."""
+    out = subprocess.run([sys.executable, "-m", "simx_server.cli", "--dt", "1e7", "--port", str(free_port())],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2
+    assert "MAX_DT" in out.stderr and "--dt" in out.stderr and "Traceback" not in out.stderr, out.stderr
+
+
+@pytest.mark.parametrize("dt", [1e300, math.inf, math.nan, 0.0, -1.0, 1.5])
+def test_world_refuses_a_time_step_out_of_bounds(dt):
+    with pytest.raises(ValueError, match="MAX_DT"):
+        World(SCENE, dt)
+
+
+def test_time_step_making_too_many_substeps_is_refused(tmp_path):
+    scene = _scene(tmp_path, option='timestep="1e-5"')  # 0.5 s = 50,000 substeps
+    with pytest.raises(ValueError, match="MAX_SUBSTEPS"):
+        World(scene, 0.5)
+    world = World(scene, 0.05)  # 5,000 substeps: fine
+    with pytest.raises(ArgumentError, match="MAX_SUBSTEPS"):
+        world.set_dt(0.5)
+    assert (world.substeps, world.dt) == (5000, pytest.approx(0.05))  # unchanged
+
+
+def test_time_step_in_bounds_is_set_while_stopped(sim):
+    commands.set_floating_parameter(sim, [1, 0.01])
+    assert commands.get_floating_parameter(sim, [1]) == pytest.approx(0.01)
+    with pytest.raises(ArgumentError, match="MAX_DT"):
+        commands.set_floating_parameter(sim, [1, 1e300])  # what a raw client can send
+    commands.set_floating_parameter(sim, [1, 0.05])
+
+
+def test_scene_with_a_huge_camera_resolution_is_refused(tmp_path):
+    cam = '<camera name="eye" resolution="{} 480"/>'
+    World(_scene(tmp_path, camera=cam.format(limits.MAX_RESOLUTION)))
+    with pytest.raises(ValueError, match="MAX_RESOLUTION"):
+        World(_scene(tmp_path, camera=cam.format(limits.MAX_RESOLUTION + 1)))
+
+
+# ------------------------------------------------ defect 2: physical ranges
+def test_gravity_flood_reproduction_is_refused_and_time_advances():
+    """Issue: gravity [0, 0, -3e38] -> 188 KB/s of MuJoCo warnings, simulation time stuck."""
+    srv = ServerProcess(str(SCENE), "--speed", "0")
+    try:
+        cid = _connect(srv)
+        grav = vrep.sim_arrayparam_gravity
+        for bad in ([0, 0, -3e38], [0, 0, math.inf], [0, math.nan, 0], [0, 0, -1001]):
+            assert vrep.simxSetArrayParameter(cid, grav, bad, B) == vrep.simx_return_remote_error_flag, bad
+            assert "MAX_GRAVITY" in _last_error(cid)
+        rc, ball = vrep.simxGetObjectHandle(cid, "Sphere", B)
+        assert rc == 0
+        assert vrep.simxSetObjectFloatParameter(cid, ball, MASS, 3e38, B) == vrep.simx_return_remote_error_flag
+        assert "MAX_MASS" in _last_error(cid)
+        assert vrep.simxSetArrayParameter(cid, grav, [0, 0, -20], B) == 0  # in range: accepted
+        t0 = _sim_time(cid)
+        wait_until(lambda: _sim_time(cid) > t0 + 2000, timeout=10, what="simulation time advancing")
+        vrep.simxFinish(cid)
+    finally:
+        log = srv.stop()
+    assert "unstable" not in log and "MuJoCo" not in log, log
+    assert len(log.splitlines()) < 20, log  # a few lines: ready, client, the refused calls
+
+
+def test_joint_values_out_of_range_are_argument_errors(sim):
+    """Issue 11 (server side): every float a client writes into a joint is finite and in range."""
+    sim.start()
+    w = sim.world
+    h = w.resolve("UR5_joint2").handle
+    q0 = w.joint_position(h)
+    for bad in (1e39, -1e5, math.inf, math.nan):
+        with pytest.raises(ArgumentError, match="MAX_JOINT_POSITION"):
+            commands.set_joint_position(sim, [h, bad])
+        with pytest.raises(ArgumentError, match="MAX_JOINT_POSITION"):
+            commands.set_joint_target_position(sim, [h, bad])
+    assert w.joint_position(h) == q0  # nothing was written
+    for bad in (1e9, math.inf, -math.inf, math.nan):
+        with pytest.raises(ArgumentError, match="MAX_JOINT_FORCE"):
+            commands.set_joint_force(sim, [h, bad])
+    commands.set_joint_force(sim, [h, -200.0])
+    assert w.joint_max_force(h) == 200.0
+    commands.set_joint_position(sim, [h, 0.5])
+    assert w.joint_position(h) == 0.5
+    sensors.set_object_int_parameter(sim, [h, CTRL_LOOP, 0])  # velocity control
+    for bad in (1e7, math.nan):
+        with pytest.raises(ArgumentError, match="MAX_JOINT_VELOCITY"):
+            commands.set_joint_target_velocity(sim, [h, bad])
+    commands.set_joint_target_velocity(sim, [h, -1e4])  # the torque-control idiom still works
+    for bad in (1e7, math.inf):
+        with pytest.raises(ArgumentError, match="MAX_JOINT_VELOCITY"):
+            sensors.set_object_float_parameter(sim, [h, 2017, bad])
+    sim.stop()
+
+
+def test_masses_positions_and_rotations_out_of_range_are_argument_errors(sim):
+    sim.start()
+    w = sim.world
+    ball = w.resolve("Sphere").handle
+    for bad in (1e308, 1e7, 1e-7, 0.0, -1.0, math.inf, math.nan):
+        with pytest.raises(ArgumentError, match="MASS"):
+            sensors.set_object_float_parameter(sim, [ball, MASS, bad])
+    assert sensors.get_object_float_parameter(sim, [ball, MASS]) > 0
+    sensors.set_object_float_parameter(sim, [ball, MASS, 1e6])  # the bound itself
+    for bad in ([1e5, 0, 0], [0, 0, -1e39], [math.nan, 0, 0]):
+        with pytest.raises(ArgumentError):
+            commands.set_object_position(sim, [ball, -1, bad])
+    commands.set_object_position(sim, [ball, -1, [1e4, 0, 1]])
+    commands.set_object_quaternion(sim, [ball, -1, [1e308, 1e308, 0, 0]])  # huge but finite: normalised
+    q = commands.get_object_quaternion(sim, [ball, -1])
+    assert q == pytest.approx([math.sqrt(0.5), math.sqrt(0.5), 0, 0], abs=1e-9)
+    sim.stop()
+    assert sensors.get_object_float_parameter(sim, [ball, MASS]) < 1e6  # stop restores the mass
+
+
+def test_script_setters_obey_the_same_bounds(sim):
+    from simx_server.script_facade import SimFacade
+
+    w = sim.world
+    facade = SimFacade(w, w.resolve("UR5").handle, sim.signals)
+    h = w.resolve("UR5_joint1").handle
+    with pytest.raises(ArgumentError, match="MAX_JOINT_POSITION"):
+        facade.setJointPosition(h, 1e39)
+    with pytest.raises(ArgumentError, match="MAX_POSITION"):
+        facade.setObjectPosition(w.resolve("Sphere").handle, -1, [0, 0, 1e30])
 
 
 # ------------------------------------------------------------- signal store
