@@ -1,4 +1,5 @@
-"""Physics bounds: what a client may write into MuJoCo.
+"""Physics bounds and blow-ups: what a client may write into MuJoCo, and what happens when
+MuJoCo still finds the state unstable.
 
 Bounds (values in :mod:`simx_server.limits`, listed in docs/SECURITY.md): every value that sets
 the work of a step (``dt``, the substeps it makes, vision-sensor resolutions) and every float a
@@ -6,19 +7,43 @@ client writes into ``MjModel``/``MjData`` (gravity, masses, joint positions, tar
 object positions) has a range; a value outside it, NaN and infinities included, raises an
 :class:`~simx_client.protocol.ArgumentError` that names the bound. Scenes are checked when they
 load (``<option timestep>`` against dt, camera resolutions).
+
+Blow-ups: MuJoCo resets the state by itself when it finds a NaN, infinite or huge position,
+velocity or acceleration, and warns on stdout and in ``MUJOCO_LOG.TXT`` each time; a scene
+that stays unstable warns every step and its time goes back to 0 every step. simx installs one
+process-wide warning handler (:func:`install_warning_handler`) that keeps MuJoCo's messages for
+the log instead, and :class:`~simx_server.world.World` raises :class:`PhysicsError` after a step
+that hit one; :class:`~simx_server.simulation.Simulation` then stops the simulation (back to
+the scene's initial state, as ``simxStopSimulation``) and logs one line with the reason.
 """
 
 from __future__ import annotations
 
+import logging
 import math
+import re
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError
+from simx_client.protocol import ArgumentError, RemoteError
 from simx_server import limits as L
 from simx_server.arguments import as_float, quote
+
+log = logging.getLogger("simx.physics")
+
+#: MuJoCo's warnings about a bad state, with what each one is about.
+BAD_STATE = {
+    int(mujoco.mjtWarning.mjWARN_BADQPOS): "position",
+    int(mujoco.mjtWarning.mjWARN_BADQVEL): "velocity",
+    int(mujoco.mjtWarning.mjWARN_BADQACC): "acceleration",
+}
+_BAD_FIRST, _BAD_LAST = min(BAD_STATE), max(BAD_STATE)
+
+
+class PhysicsError(RemoteError):
+    """MuJoCo found the state unstable during a step (NaN, infinite or huge values)."""
 
 
 # ------------------------------------------------------------------------ bounds
@@ -110,3 +135,76 @@ def check_position(position: list[float]) -> list[float]:
             raise out_of_range("each coordinate of a position", position, -L.MAX_POSITION, L.MAX_POSITION,
                                "m", "MAX_POSITION")
     return position
+
+
+# --------------------------------------------------------------------- blow-ups
+_TIME = re.compile(r"\s*Time = [-+0-9.eEinfa]+\.?\s*$")
+
+
+class _WarningSink:
+    """MuJoCo's warning handler: keeps the first messages of a batch for one log line.
+
+    MuJoCo calls it from inside ``mj_step`` (and model compilation); the simulation thread
+    reads the batch with :meth:`take`. Memory is bounded: a few messages and a count.
+    """
+
+    KEEP = 4
+
+    def __init__(self) -> None:
+        self.messages: list[str] = []
+        self.count = 0
+        self._reported: set[str] = set()  # texts already logged once (without their time)
+
+    def __call__(self, message: str) -> None:
+        self.count += 1
+        if len(self.messages) < self.KEEP:
+            self.messages.append(str(message).strip())
+
+    def take(self) -> tuple[list[str], int]:
+        """The messages kept and the number received since the last take; then empty."""
+        messages, count = self.messages, self.count
+        self.messages, self.count = [], 0
+        return messages, count
+
+    def report(self) -> None:
+        """Log what arrived since the last take, once per kind of message (never a flood)."""
+        messages, count = self.take()
+        fresh = [m for m in messages if _TIME.sub("", m) not in self._reported]
+        if not fresh:
+            return
+        if len(self._reported) < 64:
+            self._reported.update(_TIME.sub("", m) for m in fresh)
+        more = f" (and {count - 1} more MuJoCo warnings; each kind is logged once)" if count > 1 else ""
+        log.warning("MuJoCo: %s%s", quote(fresh[0], 200), more)
+
+
+SINK = _WarningSink()
+
+
+def install_warning_handler() -> None:
+    """Route MuJoCo's warnings to :data:`SINK` (process-wide; idempotent). Without it MuJoCo
+    prints each to stdout and appends it to ``MUJOCO_LOG.TXT`` in the working directory."""
+    mujoco.set_mju_user_warning(SINK)
+
+
+def bad_state_view(data: mujoco.MjData) -> np.ndarray:
+    """A view of ``data``'s bad-state warning counters (nonzero after a blow-up)."""
+    return data.warning.number[_BAD_FIRST:_BAD_LAST + 1]
+
+
+def blow_up(model: mujoco.MjModel, data: mujoco.MjData, time: float) -> PhysicsError:
+    """The PhysicsError for a step that started at ``time`` (s) and hit a bad state; clears
+    the counters and MuJoCo's messages (the error replaces them)."""
+    numbers, infos = data.warning.number, data.warning.lastinfo
+    kind = next(k for k in BAD_STATE if numbers[k])
+    dof = int(infos[kind])
+    where = f"DOF {dof}"
+    if 0 <= dof < model.nv:
+        joint = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, int(model.dof_jntid[dof]))
+        where += f" (joint {joint!r})" if joint else ""
+    _, count = SINK.take()
+    for k in BAD_STATE:
+        numbers[k] = 0
+    return PhysicsError(f"the physics became unstable in the step from t = {time:.3f} s: MuJoCo found a NaN, "
+                        f"infinite or huge {BAD_STATE[kind]} at {where} and reset the state "
+                        f"({count} warning{'s' if count != 1 else ''} in that step)")

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from simx_client import protocol as P
 from simx_server.editing import Editor
+from simx_server.physics import PhysicsError
 from simx_server.script_facade import Signals
 from simx_server.scripts import Scripts
 from simx_server.sensors import SensorState
@@ -56,6 +57,8 @@ class Simulation:
         self._scene_id: tuple[World | None, int] = (None, 0)
         self.stop_requests = 0  # sim_intparam_stop_request_counter
         self.selection: list[int] = []  # simxGetObjectSelection (no GUI: only what clients set)
+        #: Why the simulation last stopped by itself (a physics blow-up), None after a start.
+        self.stop_reason: str | None = None
 
     @property
     def scene_id(self) -> int:
@@ -88,6 +91,7 @@ class Simulation:
     def start(self) -> None:
         """``simxStartSimulation``: from stopped, run the scripts' init; from paused, resume."""
         if self.state is RunState.STOPPED:
+            self.stop_reason = None
             self.scripts.start()
         self.state = RunState.RUNNING
 
@@ -99,6 +103,9 @@ class Simulation:
     def stop(self) -> None:
         """``simxStopSimulation``: scripts' cleanup, then the scene back to its initial state."""
         self.stop_requests += 1
+        self._halt()
+
+    def _halt(self) -> None:
         if self.state is RunState.STOPPED:
             return
         self.scripts.stop()
@@ -107,9 +114,22 @@ class Simulation:
         self.state = RunState.STOPPED
 
     def step(self) -> None:
-        """One simulation step of dt: actuation scripts, physics, sensing scripts."""
+        """One simulation step of dt: actuation scripts, physics, sensing scripts.
+
+        When the physics blows up (MuJoCo finds NaN, infinite or huge values: physics.PhysicsError)
+        the simulation stops as on ``simxStopSimulation`` (scripts' cleanup, the scene's initial
+        state), ``stop_reason`` says why and one warning line goes to the log; every reply then
+        shows the stopped state, and ``simxStartSimulation`` starts it again.
+        """
         self.scripts.actuation()
-        self.world.step()
+        try:
+            self.world.step()
+        except PhysicsError as exc:
+            self._halt()
+            self.stop_reason = str(exc)
+            log.warning("%s; simulation stopped and reset to the scene's initial state "
+                        "(simxStartSimulation starts it again)", exc)
+            return
         self.scripts.sensing()
         self.steps += 1
 

@@ -99,6 +99,7 @@ class World:
 
     def __init__(self, scene: str | Path, dt: float = 0.05):
         self.scene_path = Path(scene).resolve()
+        physics.install_warning_handler()  # MuJoCo's warnings go to the log, not to stdout
         try:
             self.requested_dt = physics.check_dt(dt)  # s; the actual dt is a whole number of timesteps
         except ArgumentError as exc:
@@ -130,6 +131,7 @@ class World:
         # microseconds in a server thread that has just woken up. MjData's buffers live as long
         # as the MjData, and every new MjData comes through here.
         self._qpos = self.data.qpos
+        self._bad_state = physics.bad_state_view(self.data)  # nonzero after a blow-up
         self.substeps = substeps
         self.dt = self.substeps * model.opt.timestep
         self.settings = self._read_settings()
@@ -363,6 +365,10 @@ class World:
         away) v is +-vmax for the whole step; closer, the servo becomes the linear law
         force = kv * (Kp * (target - q) - qvel), which never exceeds vmax from there on.
         Gains are written into the actuators once per step, so the substeps run in C.
+
+        Raises:
+            physics.PhysicsError: MuJoCo found a NaN, infinite or huge position, velocity or
+                acceleration and reset the state (its warnings go to physics.SINK, not stdout).
         """
         m, d = self.model, self.data
         act, kv = self._motor_act, self._kv
@@ -376,6 +382,10 @@ class World:
         d.ctrl[act] = np.where(linear, self.target_position,
                                np.where(saturated, np.sign(err) * self.max_velocity, self.target_velocity))
         mujoco.mj_step(m, d, nstep=self.substeps)
+        if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)
+            raise physics.blow_up(m, d, self.time)
+        if physics.SINK.count:
+            physics.SINK.report()  # other warnings (contact buffer full...): once per kind
         self.changed()  # mj_step leaves positions and sensors one substep behind the state
 
     def changed(self) -> None:

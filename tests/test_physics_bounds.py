@@ -17,7 +17,7 @@ from conftest import SCENE, ServerProcess, free_port, wait_until
 from simx_client.protocol import ArgumentError
 from simx_server import commands, limits, sensors
 from simx_server.script_facade import Signals
-from simx_server.simulation import Simulation
+from simx_server.simulation import RunState, Simulation
 from simx_server.world import World
 
 import vrep
@@ -220,6 +220,61 @@ def test_script_setters_obey_the_same_bounds(sim):
         facade.setJointPosition(h, 1e39)
     with pytest.raises(ArgumentError, match="MAX_POSITION"):
         facade.setObjectPosition(w.resolve("Sphere").handle, -1, [0, 0, 1e30])
+
+
+# --------------------------------------------- defect 2: blow-ups, one line
+def test_blow_up_stops_the_simulation_with_one_log_line():
+    """Values inside every bound can still blow the physics up (here: 1e8 N·m and 1e6 rad/s on
+    the light wrist joint). MuJoCo then resets the state at every step and warned each time
+    (stdout flood, time stuck at 0): the simulation now stops, one line says why, and it runs
+    again after simxStartSimulation."""
+    srv = ServerProcess(str(SCENE), "--speed", "0")
+    try:
+        cid = _connect(srv)
+        rc, wrist = vrep.simxGetObjectHandle(cid, "UR5_joint6", B)
+        assert rc == 0
+        assert vrep.simxSetObjectIntParameter(cid, wrist, CTRL_LOOP, 0, B) == 0
+        assert vrep.simxSetJointForce(cid, wrist, 1e8, B) == 0
+        assert vrep.simxSetJointTargetVelocity(cid, wrist, 1e6, B) == 0
+        wait_until(lambda: not _running(cid), timeout=10, what="the simulation stopping by itself")
+        assert vrep.simxGetJointMaxForce(cid, wrist, B) == (0, pytest.approx(28.0))  # initial state back
+        assert vrep.simxStartSimulation(cid, B) == 0
+        t0 = _sim_time(cid)
+        wait_until(lambda: _sim_time(cid) > t0 + 1000, timeout=10, what="time advancing after the restart")
+        assert _running(cid)
+        vrep.simxFinish(cid)
+    finally:
+        log = srv.stop()
+    incidents = [line for line in log.splitlines() if "unstable" in line]
+    assert len(incidents) == 1, log
+    assert "joint 'UR5_joint" in incidents[0] and "stopped" in incidents[0]  # where it blew up
+    assert "WARNING: Nan" not in log and len(log.splitlines()) < 20, log
+
+
+def test_mujoco_warnings_never_reach_stdout_nor_mujoco_log(sim, tmp_path, monkeypatch, capfd, caplog):
+    monkeypatch.chdir(tmp_path)  # where MuJoCo would write MUJOCO_LOG.TXT
+    w = sim.world
+    wrist = w.resolve("UR5_joint6").handle
+    sim.start()
+    sensors.set_object_int_parameter(sim, [wrist, CTRL_LOOP, 0])
+    w.set_joint_force(wrist, 1e8)
+    w.set_joint_target_velocity(wrist, 1e6)
+    for _ in range(5):
+        sim.step()
+        if sim.state is RunState.STOPPED:
+            break
+    assert sim.state is RunState.STOPPED and "joint 'UR5_joint" in sim.stop_reason
+    out, err = capfd.readouterr()
+    assert "Nan, Inf" not in out + err
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    assert len([r for r in caplog.records if "unstable" in r.getMessage()]) == 1
+    sim.start()
+    assert sim.stop_reason is None
+    t0 = sim.world.time
+    for _ in range(3):
+        sim.step()
+    assert sim.world.time == pytest.approx(t0 + 3 * sim.world.dt)  # time is not stuck
+    sim.stop()
 
 
 # ------------------------------------------------------------- signal store
