@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from conftest import SCENE, ServerProcess, free_port, wait_until
-from simx_client.protocol import ArgumentError
+from simx_client.protocol import ArgumentError, RemoteError
 from simx_server import commands, limits, sensors
 from simx_server.script_facade import Signals
 from simx_server.simulation import RunState, Simulation
@@ -134,6 +134,24 @@ def test_scene_with_a_huge_camera_resolution_is_refused(tmp_path):
     World(_scene(tmp_path, camera=cam.format(limits.MAX_RESOLUTION)))
     with pytest.raises(ValueError, match="MAX_RESOLUTION"):
         World(_scene(tmp_path, camera=cam.format(limits.MAX_RESOLUTION + 1)))
+
+
+def test_models_and_scenes_loaded_by_clients_obey_the_scene_bounds(sim, tmp_path):
+    """simxLoadModel / simxLoadScene: a camera too large, or a timestep too small for dt, is
+    refused before anything changes."""
+    from simx_server import editing
+
+    model = tmp_path / "eye.xml"
+    model.write_text(f'<mujoco><worldbody><body name="Eye"><geom size="0.1"/>'
+                     f'<camera name="eye" resolution="{limits.MAX_RESOLUTION * 4} 16"/></body></worldbody></mujoco>')
+    before = dict(sim.world.objects)
+    with pytest.raises(ArgumentError, match="MAX_RESOLUTION"):
+        editing.load_model(sim, [str(model), 0])
+    assert sim.world.objects == before and "Eye" not in sim.world.by_name
+    scene = _scene(tmp_path, option='timestep="1e-7"')  # 0.05 s = 500,000 substeps
+    with pytest.raises(RemoteError, match="MAX_SUBSTEPS"):
+        editing.load_scene(sim, [str(scene), 0])
+    assert sim.world.objects == before
 
 
 # ------------------------------------------------ defect 2: physical ranges
