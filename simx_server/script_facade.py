@@ -78,7 +78,10 @@ class Signals:
             if kind == cls.INT:
                 if isinstance(value, float) and not value.is_integer():
                     raise ValueError(f"{value!r} is not an integer")
-                return int(value)
+                value = int(value)
+                if not -1 << 63 <= value < 1 << 63:  # what msgpack (and a reply) can carry
+                    raise ValueError("it does not fit in 64 bits")
+                return value
             if kind == cls.FLOAT:
                 return float(value)
         except (TypeError, ValueError, OverflowError) as exc:

@@ -309,6 +309,8 @@ def test_signal_store_is_bounded():
     assert s.get(Signals.STRING, "c") == b"0123456789"  # unchanged
     with pytest.raises(ArgumentError, match="MAX_SIGNAL_NAME"):
         s.set(Signals.INT, "x" * 9, 1)
+    with pytest.raises(ArgumentError, match="64 bits"):
+        s.set(Signals.INT, "a", 10 ** 30)  # a Python script's int that no reply could carry
     s.clear(Signals.INT, "a")
     s.set(Signals.STRING, "long", b"0123456789")
     assert (s.count, s.size) == (3, 9 + 11 + 14)  # a name's characters + 8 bytes a number
