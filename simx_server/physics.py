@@ -170,10 +170,9 @@ class _WarningSink:
         """Log what arrived since the last take, once per kind of message (never a flood)."""
         messages, count = self.take()
         fresh = [m for m in messages if _TIME.sub("", m) not in self._reported]
-        if not fresh:
+        if not fresh or len(self._reported) >= 64:  # past 64 kinds, nothing more is logged
             return
-        if len(self._reported) < 64:
-            self._reported.update(_TIME.sub("", m) for m in fresh)
+        self._reported.update(_TIME.sub("", m) for m in fresh)
         more = f" (and {count - 1} more MuJoCo warnings; each kind is logged once)" if count > 1 else ""
         log.warning("MuJoCo: %s%s", quote(fresh[0], 200), more)
 

@@ -335,3 +335,17 @@ def test_appending_to_a_string_signal_stops_at_the_bound(sim):
     assert len(sim.signals.get(Signals.STRING, "stream")) == limits.MAX_SIGNAL_BYTES
     sim.signals.clear(Signals.STRING, "stream")
     assert sim.signals.size == 0
+
+
+def test_other_mujoco_warnings_are_logged_once_per_kind(caplog):
+    """A warning MuJoCo repeats (a full contact buffer after each reset...) is one log line."""
+    from simx_server.physics import _WarningSink
+
+    sink = _WarningSink()  # what physics.SINK does, on a fresh one
+    for t in range(100):
+        sink(f"Pre-allocated contact buffer is full. Increase nconmax above 7. Time = {t / 10:.4f}.")
+        sink(f"Pre-allocated constraint buffer is full. Increase njmax above 9. Time = {t / 10:.4f}.")
+        sink.report()
+    lines = [r.getMessage() for r in caplog.records if r.name == "simx.physics"]
+    assert len(lines) == 1 and "contact buffer" in lines[0] and "1 more" in lines[0], lines
+    assert sink.take() == ([], 0)
