@@ -38,10 +38,11 @@ B, STREAMING, BUFFER = 0x010000, 0x020000, 0x030000  # simx_opmode_blocking, _st
 ROBOT = "UR5"
 
 
-def install(name: str, folder: Path, port: int) -> Path:
-    """A docs/security file made usable here: its /etc/simx paths and port 19997 replaced."""
+def install(name: str, folder: Path, port: int, dest: Path | None = None) -> Path:
+    """A docs/security file made usable here: its /etc/simx paths (to ``folder``) and port 19997
+    replaced; written into ``dest`` (default ``folder``)."""
     text = (DOCS / name).read_text().replace("/etc/simx", str(folder)).replace("19997", str(port))
-    path = folder / name
+    path = (dest or folder) / name
     path.write_text(text)
     return path
 
@@ -137,6 +138,31 @@ def test_zenoh_config_variable_and_refused_clients(secure, env, tmp_path, caplog
     env.setenv("SIMX_USER", "bo/b-x")
     assert start(server.port) == -1
     assert "user name 'bo/b-x' cannot start a client id" in caplog.text
+
+
+def test_mutual_tls_binds_the_certificate_name_to_the_client_ids(secure, env, tmp_path):
+    folder = secure[1]["server.json5"].parent  # its certificates: ca, server, alice, bob
+    port = free_port()
+    config = install("server-mtls.json5", folder, port, tmp_path)
+    alice = install("client-mtls-alice.json5", folder, port, tmp_path)
+    server = ServerProcess("--zenoh-config", str(config), "--stopped", ports=[port])
+    try:
+        env.setenv("SIMX_ZENOH_CONFIG", str(alice))
+        env.setenv("SIMX_USER", "alice")
+        cid = start(port)
+        assert cid >= 0
+        try:
+            assert api._connections[cid].client.startswith("alice-")
+            assert api.simxGetObjectHandle(cid, ROBOT, B)[0] == 0
+        finally:
+            api.simxFinish(cid)
+        env.setenv("SIMX_USER", "bob")  # alice's certificate, bob's ids: every call is refused
+        assert start(port, timeout_ms=1000) == -1
+        env.setenv("SIMX_ZENOH_CONFIG", str(install("client-alice.json5", folder, port, tmp_path)))
+        env.delenv("SIMX_USER")  # TLS and a password, but no client certificate
+        assert start(port, timeout_ms=1000) == -1
+    finally:
+        server.stop()
 
 
 # ------------------------------------------------------------------ defect 13
