@@ -184,7 +184,7 @@ else
     pkg.path, pkg.cpath, pkg.searchers = scene_dir .. "/?.lua", "", {searchers[1], searchers[2]}
     local r = pack(pcall(lua_require, name))
     pkg.path, pkg.searchers = scene_dir .. "/?.lua", {}
-    if not r[1] then error(r[2], 2) end
+    if not r[1] then error(r[2], 0) end  -- the message already says where
     return unpack(r, 2, r.n)
   end
 end

@@ -74,6 +74,38 @@ def start(port: int, timeout_ms: int = 5000) -> int:
 
 
 # ------------------------------------------------------------------ defect 12
+def test_client_config_keeps_the_file_and_forces_what_simxstart_asks_for(env, tmp_path):
+    from simx_client.connection import client_config, client_id
+
+    def setting(config: zenoh.Config, key: str):
+        return json.loads(config.get_json(key))
+
+    plain = client_config("127.0.0.1", 19997)  # no file: as before
+    assert setting(plain, "connect/endpoints") == ["tcp/127.0.0.1:19997"]
+    assert len(client_id(plain)) == 32 and P.valid_client_id(client_id(plain))
+
+    file = tmp_path / "peer.json5"
+    file.write_text("""{ mode: "peer", connect: { endpoints: { peer: ["tcp/10.0.0.1:1"], client: ["quic/localhost:7447"] } },
+                        scouting: { multicast: { enabled: true } }, queries_default_timeout: 1234,
+                        transport: { auth: { usrpwd: { user: "carol", password: "x" } } } }""")
+    env.setenv("ZENOH_CONFIG", str(file))
+    config = client_config("localhost", 5)
+    assert setting(config, "mode") == "client"
+    assert setting(config, "connect/endpoints") == ["quic/localhost:5"]  # its protocol, simxStart's address
+    assert setting(config, "scouting/multicast/enabled") is False
+    assert setting(config, "queries_default_timeout") == 1234  # the rest of the file stays
+    assert client_id(config).startswith("carol-")
+    env.setenv("SIMX_USER", "dave")  # wins over the file's user
+    assert client_id(config).startswith("dave-") and len(client_id(config)) == 5 + 32
+    env.setenv("SIMX_ZENOH_CONFIG", str(file).replace("peer", "nope"))  # wins over ZENOH_CONFIG
+    with pytest.raises(P.LocalError, match=r"nope\.json5 \(\$SIMX_ZENOH_CONFIG\)"):
+        client_config("localhost", 5)
+    for user in ("a-b", "a/b", "x" * 100, "*"):
+        env.setenv("SIMX_USER", user)
+        with pytest.raises(P.LocalError, match="cannot start a client id"):
+            client_id(config)
+
+
 LEGACY_PROGRAM = """
 import vrep
 cid = vrep.simxStart('127.0.0.1', {port}, True, True, 5000, 5)
