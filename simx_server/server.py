@@ -21,6 +21,7 @@ from typing import Any
 import zenoh
 
 from simx_client import protocol as P
+from simx_server.arguments import quote
 from simx_server.commands import HANDLERS
 from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
@@ -186,6 +187,9 @@ class Server:
             client, commands = P.parse_request(payload.to_bytes() if payload is not None else b"")
             if client != str(query.key_expr)[self._call_prefix:]:
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
+            if client not in self._clients and not P.valid_client_id(client):  # e.g. '*': streams to all
+                raise P.ProtocolError(f"client id {quote(client)} is not one key chunk of at most 128 "
+                                      "characters without / * $ ? #")
         except P.ProtocolError as exc:
             log.warning("malformed request refused: %s", exc)
             query.reply(query.key_expr, P.error_response(str(exc)))

@@ -290,24 +290,39 @@ def plain_config(port: int) -> zenoh.Config:
     return config
 
 
-def test_without_access_control_the_same_attack_succeeds(env):
-    """The control: on a plain server (no authentication, no access control) bob sees alice's
-    calls, forges her stream and says Bye under her id."""
+@pytest.fixture(scope="module")
+def plain_server():
+    """A server as it runs by default: plain TCP on loopback, no authentication, no access control."""
     server = ServerProcess("--stopped")
+    yield server
+    server.stop()
+
+
+def test_without_access_control_the_same_attack_succeeds(plain_server, env):
+    """The control: on a plain server bob sees alice's calls, forges her stream and says Bye
+    under her id."""
+    cid = start(plain_server.port)
+    assert cid >= 0
     try:
-        cid = start(server.port)
-        assert cid >= 0
-        try:
-            victim = api._connections[cid].client
+        victim = api._connections[cid].client
 
-            def reads() -> list:
-                return [api.simxGetObjectHandle(cid, ROBOT, B)[1] for _ in range(20)]
+        def reads() -> list:
+            return [api.simxGetObjectHandle(cid, ROBOT, B)[1] for _ in range(20)]
 
-            got = attack(victim, plain_config(server.port), plain_config(server.port), reads)
-        finally:
-            api.simxFinish(cid)
+        got = attack(victim, plain_config(plain_server.port), plain_config(plain_server.port), reads)
     finally:
-        server.stop()
+        api.simxFinish(cid)
     assert got["forged reads"] > 0 and got["queries seen by the attacker"] > 0
     assert got["forged update delivered"] and got["Bye answered"]
 
+
+def test_a_wildcard_client_id_is_refused(plain_server, env):
+    """A request under the id ``*`` (on the key ``simx/call/*``) would have the server publish
+    that client's streams on ``simx/stream/*``: to every client. Every server refuses it."""
+    with zenoh.open(plain_config(plain_server.port)) as session:
+        for client in ("*", "**", "a$*"):
+            replies = list(session.get(P.call_key(P.DEFAULT_PREFIX, client), timeout=5.0,
+                                       payload=P.request(client, [["GetObjectHandle", STREAMING, [ROBOT]]])))
+            assert len(replies) == 1 and replies[0].ok is not None
+            with pytest.raises(P.ProtocolError, match=r"client id '.*' is not one key chunk"):
+                P.unpack_response(replies[0].ok.payload.to_bytes())
