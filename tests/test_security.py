@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import shutil
 import subprocess
 import sys
 import threading
@@ -50,6 +51,8 @@ def install(name: str, folder: Path, port: int, dest: Path | None = None) -> Pat
 @pytest.fixture(scope="module")
 def secure(tmp_path_factory):
     """The secure server and its files: ``(server, {name: path})``."""
+    if shutil.which("openssl") is None:
+        pytest.skip("the certificates are made with the openssl command")
     folder = tmp_path_factory.mktemp("secure")
     subprocess.run(["sh", str(DOCS / "make-certs.sh"), str(folder / "tls"), "alice", "bob"],
                    check=True, capture_output=True, timeout=30)
