@@ -18,6 +18,7 @@ import itertools
 import json
 import logging
 import os
+import re
 import threading
 import time
 import uuid
@@ -53,6 +54,7 @@ CONFIG_ENV = ("SIMX_ZENOH_CONFIG", "ZENOH_CONFIG")
 #: ``transport/auth/usrpwd/user``); needed with mTLS, where the user is the certificate's name.
 USER_ENV = "SIMX_USER"
 _USER_SEPARATOR = "-"  # client id = <user>-<uuid4 hex>: never in a user name
+_USER_NAME = re.compile(r"[A-Za-z0-9_.]{1,95}")  # 95 + 1 + 32 = 128, the longest client id
 
 
 def client_config(address: str, port: int) -> zenoh.Config:
@@ -97,18 +99,17 @@ def client_id(config: zenoh.Config) -> str:
     only (``simx/call/<user>-$*``...; docs/SECURITY.md).
 
     Raises:
-        LocalError: the user name contains ``-`` or a character that a key expression forbids
-            (``/ * $ ? #``), or is too long for a client id.
+        LocalError: the user name is not 1 to 95 letters, digits, ``_`` or ``.`` (no ``-``:
+            ``alice-$*`` must not match the ids of a user ``alice-x``).
     """
     user = os.environ.get(USER_ENV) or json.loads(config.get_json("transport/auth/usrpwd/user") or "null")
     ident = uuid.uuid4().hex
     if not user:
         return ident
-    client = f"{user}{_USER_SEPARATOR}{ident}"
-    if _USER_SEPARATOR in str(user) or not P.valid_client_id(client):
-        raise P.LocalError(f"user name {str(user)[:60]!r} cannot start a client id: use letters, digits, '_' "
-                           f"or '.', at most {128 - 33} characters")
-    return client
+    if not (isinstance(user, str) and _USER_NAME.fullmatch(user)):
+        raise P.LocalError(f"user name {str(user)[:60]!r} cannot start a client id: use 1 to 95 letters, "
+                           "digits, '_' or '.'")
+    return f"{user}{_USER_SEPARATOR}{ident}"
 
 
 class Connection:

@@ -98,12 +98,14 @@ def test_client_config_keeps_the_file_and_forces_what_simxstart_asks_for(env, tm
     assert setting(config, "scouting/multicast/enabled") is False
     assert setting(config, "queries_default_timeout") == 1234  # the rest of the file stays
     assert client_id(config).startswith("carol-")
-    env.setenv("SIMX_USER", "dave")  # wins over the file's user
-    assert client_id(config).startswith("dave-") and len(client_id(config)) == 5 + 32
+    env.setenv("SIMX_USER", "dave.2_B")  # wins over the file's user
+    assert client_id(config).startswith("dave.2_B-") and len(client_id(config)) == 9 + 32
+    env.setenv("SIMX_USER", "x" * 95)
+    assert P.valid_client_id(client_id(config))
     env.setenv("SIMX_ZENOH_CONFIG", str(file).replace("peer", "nope"))  # wins over ZENOH_CONFIG
     with pytest.raises(P.LocalError, match=r"nope\.json5 \(\$SIMX_ZENOH_CONFIG\)"):
         client_config("localhost", 5)
-    for user in ("a-b", "a/b", "x" * 100, "*"):
+    for user in ("a-b", "a/b", "x" * 96, "*", "@a", "a b"):
         env.setenv("SIMX_USER", user)
         with pytest.raises(P.LocalError, match="cannot start a client id"):
             client_id(config)
