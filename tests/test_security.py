@@ -162,7 +162,7 @@ def test_zenoh_config_variable_and_refused_clients(secure, env, tmp_path, caplog
         env.setenv("SIMX_ZENOH_CONFIG", str(config))
         t0 = time.monotonic()
         assert start(server.port, timeout_ms=1000) == -1, config.name
-        assert time.monotonic() - t0 < 1.0 + 2.0, config.name  # within its timeout (+ margin)
+        assert time.monotonic() - t0 < 1.0 + 3.0, config.name  # within its timeout (+ margin)
 
     # A config that cannot be used, or a user name that cannot start an id: -1 at once, and why.
     env.setenv("SIMX_ZENOH_CONFIG", str(tmp_path / "missing.json5"))
