@@ -77,6 +77,33 @@ def start(port: int, timeout_ms: int = 5000) -> int:
 
 
 # ------------------------------------------------------------------ defect 12
+def test_server_config_listens_where_asked_and_warns_beyond_loopback(tmp_path, caplog):
+    from simx_server.server import zenoh_config
+
+    def listen(config: zenoh.Config):
+        return json.loads(config.get_json("listen/endpoints"))
+
+    auth_only = tmp_path / "auth.json5"  # TLS or authentication settings, no endpoints
+    auth_only.write_text('{ scouting: { multicast: { enabled: true } }, queries_default_timeout: 1234 }')
+    with caplog.at_level(logging.WARNING, logger="simx.server"):
+        config = zenoh_config(["tcp/127.0.0.1:19997"], auth_only)
+        assert listen(config) == ["tcp/127.0.0.1:19997"]  # not Zenoh's default, every interface
+        assert json.loads(config.get_json("scouting/multicast/enabled")) is False
+        assert json.loads(config.get_json("queries_default_timeout")) == 1234
+        own = tmp_path / "own.json5"
+        own.write_text('{ listen: { endpoints: ["tls/localhost:1", "tcp/[::1]:2"] } }')
+        assert listen(zenoh_config(["tcp/127.0.0.1:19997"], own)) == ["tls/localhost:1", "tcp/[::1]:2"]
+        assert caplog.text == ""
+        zenoh_config(["tcp/127.0.0.1:1", "tcp/0.0.0.0:2"])
+    assert "listening on tcp/0.0.0.0:2 without access control" in caplog.text
+    caplog.clear()
+    acl = tmp_path / "acl.json5"
+    acl.write_text('{ listen: { endpoints: ["tls/192.0.2.1:1"] }, access_control: { enabled: true } }')
+    with caplog.at_level(logging.WARNING, logger="simx.server"):
+        assert listen(zenoh_config([], acl)) == ["tls/192.0.2.1:1"]
+    assert caplog.text == ""
+
+
 def test_client_config_keeps_the_file_and_forces_what_simxstart_asks_for(env, tmp_path):
     from simx_client.connection import client_config, client_id
 
