@@ -17,6 +17,8 @@ from __future__ import annotations
 import itertools
 import json
 import logging
+import os
+import re
 import threading
 import time
 import uuid
@@ -45,13 +47,69 @@ def _direct(callback: Any, drop: Any = None) -> zenoh.handlers.Callback:
     return zenoh.handlers.Callback(callback, drop, indirect=False)
 
 
+#: Environment variables naming a client Zenoh config file, first found wins (ZENOH_CONFIG is
+#: Zenoh's own convention). docs/SECURITY.md shows TLS and user/password files.
+CONFIG_ENV = ("SIMX_ZENOH_CONFIG", "ZENOH_CONFIG")
+#: Environment variable with the user name that starts the client id (default: the config's
+#: ``transport/auth/usrpwd/user``); needed with mTLS, where the user is the certificate's name.
+USER_ENV = "SIMX_USER"
+_USER_SEPARATOR = "-"  # client id = <user>-<uuid4 hex>: never in a user name
+_USER_NAME = re.compile(r"[A-Za-z0-9_.]{1,95}")  # 95 + 1 + 32 = 128, the longest client id
+
+
 def client_config(address: str, port: int) -> zenoh.Config:
-    """Zenoh config of a client: client mode, one TCP endpoint, multicast scouting off."""
-    config = zenoh.Config()
+    """Zenoh config of a client: what ``simxStart`` asks for, over the user's config file.
+
+    Without a config file: client mode, one endpoint ``tcp/<address>:<port>``, multicast
+    scouting off. With a file named by ``$SIMX_ZENOH_CONFIG`` (or else ``$ZENOH_CONFIG``), that
+    file (TLS certificates, user/password...) with the same three settings forced: mode
+    ``client``, scouting off, and one connect endpoint ``<protocol>/<address>:<port>`` where
+    ``<protocol>`` is the one of the file's first connect endpoint (``tls``, ``quic``...), ``tcp``
+    when it has none. So an unchanged legacy program reaches a TLS server through the
+    environment alone; the file's own addresses are not used (``simxStart``'s are).
+
+    Raises:
+        LocalError: the file cannot be read or is not a valid Zenoh config (``simxStart`` -1).
+    """
+    path, var = next(((os.environ[v], v) for v in CONFIG_ENV if os.environ.get(v)), (None, None))
+    protocol = "tcp"
+    if path is None:
+        config = zenoh.Config()
+    else:
+        try:
+            config = zenoh.Config.from_file(path)
+            endpoints = json.loads(config.get_json("connect/endpoints") or "[]")
+        except (zenoh.ZError, ValueError) as exc:
+            raise P.LocalError(f"cannot use the Zenoh config {path} (${var}): {exc}") from None
+        if isinstance(endpoints, dict):  # per mode: {"client": [...], "peer": [...]}
+            endpoints = endpoints.get("client") or []
+        if endpoints:
+            protocol = str(endpoints[0]).split("/", 1)[0]
     config.insert_json5("mode", '"client"')
-    config.insert_json5("connect/endpoints", json.dumps([f"tcp/{address}:{port}"]))
+    config.insert_json5("connect/endpoints", json.dumps([f"{protocol}/{address}:{port}"]))
     config.insert_json5("scouting/multicast/enabled", "false")
     return config
+
+
+def client_id(config: zenoh.Config) -> str:
+    """A new client id: ``<user>-<uuid4 hex>`` when a user is known, else ``<uuid4 hex>``.
+
+    The user is ``$SIMX_USER``, else the config's ``transport/auth/usrpwd/user``. With the
+    user in its id, Zenoh access control can let an authenticated user act under its own ids
+    only (``simx/call/<user>-$*``...; docs/SECURITY.md).
+
+    Raises:
+        LocalError: the user name is not 1 to 95 letters, digits, ``_`` or ``.`` (no ``-``:
+            ``alice-$*`` must not match the ids of a user ``alice-x``).
+    """
+    user = os.environ.get(USER_ENV) or json.loads(config.get_json("transport/auth/usrpwd/user") or "null")
+    ident = uuid.uuid4().hex
+    if not user:
+        return ident
+    if not (isinstance(user, str) and _USER_NAME.fullmatch(user)):
+        raise P.LocalError(f"user name {str(user)[:60]!r} cannot start a client id: use 1 to 95 letters, "
+                           "digits, '_' or '.'")
+    return f"{user}{_USER_SEPARATOR}{ident}"
 
 
 class Connection:
@@ -68,12 +126,14 @@ class Connection:
         zenoh.ZError: nothing listens at ``address:port``.
         TimeoutError: the peer does not answer as a simx server in time.
         ProtocolError: the server speaks another protocol version.
+        LocalError: the client's Zenoh config file or user name is unusable (:func:`client_config`).
     """
 
     def __init__(self, address: str, port: int, blocking_timeout: float = DEFAULT_BLOCKING_TIMEOUT,
                  prefix: str = P.DEFAULT_PREFIX, hello_timeout: float | None = None, reconnect: bool = False):
         self.address, self.port, self.prefix = address, port, prefix
-        self.client = uuid.uuid4().hex
+        config = client_config(address, port)  # raises LocalError
+        self.client = client_id(config)
         self.blocking_timeout = blocking_timeout
         self.reconnect = reconnect
         self.last_cmd_time = 0  # ms, simxGetLastCmdTime
@@ -92,7 +152,7 @@ class Connection:
         self._t0 = time.monotonic()
         self._out = (0, 0.0)  # (message id, client time) of the last request
         self._in: tuple[tuple[int, float], list] = ((0, 0.0), _NO_RESPONSE)  # its header and the last reply
-        self.session = zenoh.open(client_config(address, port))
+        self.session = zenoh.open(config)
         try:
             # A declared querier: the key expression is resolved once, not at every call.
             self._querier = self.session.declare_querier(self._key, timeout=blocking_timeout)
@@ -341,7 +401,7 @@ def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_t
         try:
             return Connection(address, port, blocking_timeout, prefix, reconnect=reconnect,
                               hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())))
-        except P.ProtocolError as exc:
+        except (P.ProtocolError, P.LocalError) as exc:
             log.error("simxStart(%s, %d): %s", address, port, exc)
             return None
         except (zenoh.ZError, TimeoutError) as exc:

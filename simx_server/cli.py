@@ -36,6 +36,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--stopped", action="store_true", help="start with the simulation stopped")
     p.add_argument("--allow-remote-code", action="store_true",
                    help="let child scripts run code that clients send (Lua load, Python exec); off by default")
+    p.add_argument("--allow-unsafe-lua", action="store_true",
+                   help="give Lua child scripts files, processes and the environment (io, os.execute, "
+                        "os.remove, dofile, package.path...), as CoppeliaSim's executeUnsafe; off by default")
     p.add_argument("--prefix", default="simx", help="Zenoh key-expression prefix (default simx)")
     p.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
     return p.parse_args(argv)
@@ -56,7 +59,8 @@ def main(argv: list[str] | None = None) -> int:
 
     scene = Path(args.scene) if args.scene else default_scene()
     try:
-        sim = Simulation(scene, dt=args.dt, realtime=args.speed > 0, allow_remote_code=args.allow_remote_code)
+        sim = Simulation(scene, dt=args.dt, realtime=args.speed > 0, allow_remote_code=args.allow_remote_code,
+                         allow_unsafe_lua=args.allow_unsafe_lua)
     except (ValueError, OSError) as exc:
         print(f"simx-server: {exc}", file=sys.stderr)
         return 2

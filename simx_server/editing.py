@@ -799,6 +799,7 @@ class Editor:
         try:
             world = World(file, dt)
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
+                              allow_unsafe_lua=old.allow_unsafe_lua,
                               untrusted=[self.files_dir])  # a scene sent by a client brings no code
         except (ValueError, RemoteError) as exc:
             raise RemoteError(f"cannot load scene {file.name}: {_one_line(exc)}") from None

@@ -15,11 +15,15 @@ Each script gets its own Lua state, made afresh at every simulation start, prepa
 * A count hook bounds every call: every :data:`HOOK_COUNT` instructions it asks Python whether
   the call's deadline has passed, and then raises a Lua error and keeps raising at every
   instruction so that no ``pcall`` can swallow it. Coroutines get the hook too.
-* Safety: no ``python`` bridge (no eval, no builtins, no Python attribute access), no binary
-  chunks, no ``os.exit``/``os.execute``/``io.popen``/``package.loadlib``, no ``dofile`` or
-  ``loadfile``, ``require`` only from the scene's folder, and ``load``/``loadstring`` only
-  when the server runs with ``--allow-remote-code`` (they are how a script would run code that
-  a client sends). Memory is capped at :data:`MAX_MEMORY` bytes per script.
+* Safety (CoppeliaSim's defaults): no ``python`` bridge (no eval, no builtins, no Python
+  attribute access), no binary chunks, no ``os.exit``, no ``debug.sethook``. Unless the server
+  runs with ``--allow-unsafe-lua``: no ``dofile``/``loadfile``, no ``io`` functions (no files, no
+  ``io.popen``, no standard streams), no ``os.execute``/``remove``/``rename``/``tmpname``/
+  ``getenv``/``setlocale``, no ``package.loadlib``/``searchpath``, and ``require`` loads Lua
+  modules from the scene's folder only whatever a script does to ``package.path``,
+  ``package.cpath`` or ``package.searchers``. ``load``/``loadstring`` work only when the server
+  runs with ``--allow-remote-code`` (they are how a script would run code that a client sends).
+  Memory is capped at :data:`MAX_MEMORY` bytes per script.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ from typing import Any
 
 from simx_client.protocol import RemoteError, ScriptError
 from simx_server.script_facade import FACADE_FUNCTIONS, SCRIPT_CONSTANTS
-from simx_server.scripts import LIFE_CYCLE, REMOTE_CODE_FLAG, ChildScript, legacy_outputs
+from simx_server.scripts import LIFE_CYCLE, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
 
 try:
     import lupa.lua54 as _lupa
@@ -48,7 +52,7 @@ MAX_MEMORY = 256 << 20
 _MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
 
 PRELUDE = r"""
-local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG = ...
+local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG = ...
 local G = _G
 local sethook, gethook, getinfo, traceback = debug.sethook, debug.gethook, debug.getinfo, debug.traceback
 local error, select, type, tostring, pairs, rawget, setmetatable = error, select, type, tostring, pairs, rawget, setmetatable
@@ -145,12 +149,46 @@ else
   G.load = refuse("load", REMOTE)
   G.loadstring = refuse("loadstring", REMOTE)
 end
-G.dofile = refuse("dofile", " (use require with a module in the scene's folder)")
-G.loadfile = refuse("loadfile", " (use require with a module in the scene's folder)")
-os.exit = refuse("os.exit")
-os.execute = refuse("os.execute")
-io.popen = refuse("io.popen")
-package.loadlib = refuse("package.loadlib")
+-- Files, processes and the environment (CoppeliaSim's "unsafe" functions): only with UNSAFE_FLAG.
+local UNSAFE = ": file, process and environment functions need the server flag " .. UNSAFE_FLAG
+local lua_loadfile = loadfile
+if allow_unsafe then  -- plain Lua, but text chunks only (precompiled ones can crash the Lua VM)
+  G.loadfile = function(file, mode, env)
+    if env == nil then return lua_loadfile(file, "t") end
+    return lua_loadfile(file, "t", env)
+  end
+  G.dofile = function(file)
+    local f = assert(lua_loadfile(file, "t"))
+    return f()
+  end
+else
+  G.dofile = refuse("dofile", UNSAFE .. " (use require with a module in the scene's folder)")
+  G.loadfile = refuse("loadfile", UNSAFE .. " (use require with a module in the scene's folder)")
+  for _, name in ipairs({"open", "popen", "lines", "input", "output", "read", "write", "close", "tmpfile"}) do
+    io[name] = refuse("io." .. name, UNSAFE)
+  end
+  io.stdin, io.stdout, io.stderr = nil, nil, nil  -- io.stdin:read() would block the simulation
+  for _, name in ipairs({"execute", "remove", "rename", "tmpname", "getenv", "setlocale"}) do
+    os[name] = refuse("os." .. name, UNSAFE)
+  end
+  package.loadlib = refuse("package.loadlib", UNSAFE)
+  package.searchpath = refuse("package.searchpath", UNSAFE)
+  -- require finds Lua modules in the scene's folder only, whatever a script does to package.path,
+  -- package.cpath or package.searchers: the loader reads them from this table, reset at each call.
+  -- The searchers are kept here, out of the script's reach (called directly they would read a
+  -- package.path the script set), and lent to the loader for the time of one require.
+  local pkg, lua_require, searchers = package, require, {package.searchers[1], package.searchers[2]}
+  local pcall = pcall
+  pkg.searchers = {}
+  G.require = function(name)
+    pkg.path, pkg.cpath, pkg.searchers = scene_dir .. "/?.lua", "", {searchers[1], searchers[2]}
+    local r = pack(pcall(lua_require, name))
+    pkg.path, pkg.searchers = scene_dir .. "/?.lua", {}
+    if not r[1] then error(r[2], 0) end  -- the message already says where
+    return unpack(r, 2, r.n)
+  end
+end
+os.exit = refuse("os.exit", " (it would end the server; simxStopSimulation stops the simulation)")
 package.path = scene_dir .. "/?.lua"
 package.cpath = ""
 G.python = nil
@@ -280,7 +318,8 @@ class LuaScript(ChildScript):
             self._dispatch, self._expired, self._write_log,
             rt.table_from([n.encode() for n in FACADE_FUNCTIONS]),
             rt.table_from({k.encode(): v for k, v in SCRIPT_CONSTANTS.items()}),
-            self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode())
+            self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
+            self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode())
         chunk = rt.compile(self._source, name=f"@{self.path.name}", mode="t")
         self._bounded("top level", chunk, ())
 

@@ -39,7 +39,7 @@ from simx_client.protocol import ArgumentError, ScriptError, UnknownObjectError
 from simx_server.script_facade import FACADE_FUNCTIONS, SCRIPT_CONSTANTS, SimFacade, Signals
 from simx_server.world import World
 
-__all__ = ["DEFAULT_TIMEOUT", "FACADE_FUNCTIONS", "LIFE_CYCLE", "REMOTE_CODE_FLAG", "SCRIPT_CONSTANTS",
+__all__ = ["DEFAULT_TIMEOUT", "FACADE_FUNCTIONS", "LIFE_CYCLE", "REMOTE_CODE_FLAG", "SCRIPT_CONSTANTS", "UNSAFE_LUA_FLAG",
            "ChildScript", "PythonScript", "ScriptTimeoutError", "Scripts", "SimFacade", "Signals",
            "legacy_outputs", "load_script"]
 
@@ -51,6 +51,9 @@ DEFAULT_TIMEOUT = 1.0
 #: The command-line flag that lets scripts run code sent by clients (Lua ``load``/``loadstring``,
 #: Python ``exec``/``eval``/``compile``); named in error messages.
 REMOTE_CODE_FLAG = "--allow-remote-code"
+#: The command-line flag that gives Lua scripts back the functions CoppeliaSim calls unsafe
+#: (files, processes, environment, C modules: ``io.*``, ``os.execute``, ``dofile``...).
+UNSAFE_LUA_FLAG = "--allow-unsafe-lua"
 _STEP_FUNCTIONS = ("sysCall_actuation", "sysCall_sensing")
 
 
@@ -163,7 +166,8 @@ class ChildScript:
     language = "?"
 
     def __init__(self, world: World, owner: int, path: Path, *, signals: Signals | None = None,
-                 timeout: float = DEFAULT_TIMEOUT, allow_remote_code: bool = False):
+                 timeout: float = DEFAULT_TIMEOUT, allow_remote_code: bool = False,
+                 allow_unsafe_lua: bool = False):
         self.world = world
         self.owner = owner
         self.path = path
@@ -172,6 +176,7 @@ class ChildScript:
         self.signals = signals if signals is not None else Signals()
         self.timeout = float(timeout)
         self.allow_remote_code = allow_remote_code
+        self.allow_unsafe_lua = allow_unsafe_lua  # Lua only: Python scripts are trusted code
         self.running = False
         self.load_error: str | None = None
         self.start_error: str | None = None
@@ -479,6 +484,10 @@ class Scripts:
         untrusted: folders clients can write to (the ``simxTransferFile`` folder); scripts
             there are refused unless ``allow_remote_code`` (a scene sent by a client must not
             bring code with it).
+        allow_unsafe_lua: give Lua scripts the functions CoppeliaSim calls unsafe (``io.*``,
+            ``os.execute``/``remove``/``rename``/``getenv``..., ``dofile``/``loadfile``, any
+            ``package.path``/``cpath``); the server's ``--allow-unsafe-lua``. Off: a script
+            that calls one gets a Lua error naming the flag.
 
     Raises:
         ValueError: a script file is missing, outside the scene folder, in an untrusted folder,
@@ -487,10 +496,12 @@ class Scripts:
     """
 
     def __init__(self, world: World, signals: Signals | None = None, *, allow_remote_code: bool = False,
-                 timeout: float = DEFAULT_TIMEOUT, untrusted: Iterable[Path] = ()):
+                 timeout: float = DEFAULT_TIMEOUT, untrusted: Iterable[Path] = (),
+                 allow_unsafe_lua: bool = False):
         self.world = world
         self.signals = signals if signals is not None else Signals()
         self.allow_remote_code = allow_remote_code
+        self.allow_unsafe_lua = allow_unsafe_lua
         self.scripts: dict[int, ChildScript] = {}
         for obj in world.objects.values():
             file = obj.settings.get("child_script")
@@ -506,9 +517,12 @@ class Scripts:
                                  f"got {obj.settings.get('script_timeout')!r}") from None
             self.scripts[obj.handle] = load_script(world, obj.handle, file, untrusted=untrusted,
                                                    signals=self.signals, timeout=bound,
-                                                   allow_remote_code=allow_remote_code)
+                                                   allow_remote_code=allow_remote_code,
+                                                   allow_unsafe_lua=allow_unsafe_lua)
         if allow_remote_code and self.scripts:
             log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
+        if allow_unsafe_lua and self.scripts:
+            log.warning("Lua child scripts may use files, processes and the environment (%s)", UNSAFE_LUA_FLAG)
 
     def start(self) -> None:
         """Simulation starts: every script runs its top level and ``sysCall_init``."""

@@ -10,6 +10,7 @@ every step publishes each client's streamed commands.
 from __future__ import annotations
 
 import gc
+import ipaddress
 import json
 import logging
 import queue
@@ -21,6 +22,7 @@ from typing import Any
 import zenoh
 
 from simx_client import protocol as P
+from simx_server.arguments import quote
 from simx_server.commands import HANDLERS
 from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
@@ -35,13 +37,42 @@ _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
-    """Server Zenoh config: listen on ``endpoints`` (unless the file sets its own), multicast
-    scouting always off."""
+    """Server Zenoh config: the file's settings (TLS, authentication, access control), listening
+    on ``endpoints`` unless the file lists its own, multicast scouting always off.
+
+    A file without ``listen/endpoints`` listens on ``endpoints`` (``--host``/``--port``), not on
+    Zenoh's default (every interface). Listening beyond loopback without access control logs a
+    warning: any host that reaches the server could act as any client (docs/SECURITY.md).
+
+    Raises:
+        zenoh.ZError: the file cannot be read or is not a valid Zenoh config.
+    """
     config = zenoh.Config.from_file(str(config_file)) if config_file else zenoh.Config()
-    if not (config_file and json.loads(config.get_json("listen/endpoints") or "[]")):
+    listen = json.loads(config.get_json("listen/endpoints") or "[]")
+    if not listen or listen == json.loads(zenoh.Config().get_json("listen/endpoints")):
         config.insert_json5("listen/endpoints", json.dumps(endpoints))
+        listen = endpoints
     config.insert_json5("scouting/multicast/enabled", "false")
+    if not json.loads(config.get_json("access_control/enabled") or "false"):
+        flat = [e for v in listen.values() for e in v] if isinstance(listen, dict) else listen
+        exposed = [e for e in flat if not _loopback(e)]
+        if exposed:
+            log.warning("listening on %s without access control: any host that reaches it can act as any "
+                        "client (docs/SECURITY.md shows TLS, authentication and access control)",
+                        ", ".join(exposed))
     return config
+
+
+def _loopback(endpoint: str) -> bool:
+    """Whether a Zenoh endpoint (``tcp/127.0.0.1:7447``, ``tls/[::1]:7447#iface=lo``...) is on loopback."""
+    address = endpoint.split("/", 1)[-1].split("#", 1)[0].split("?", 1)[0]
+    host = address.rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:  # another host name, a unix socket path...
+        return endpoint.startswith(("unixsock-stream/", "unixpipe/"))
 
 
 class _Stream:
@@ -186,6 +217,9 @@ class Server:
             client, commands = P.parse_request(payload.to_bytes() if payload is not None else b"")
             if client != str(query.key_expr)[self._call_prefix:]:
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
+            if client not in self._clients and not P.valid_client_id(client):  # e.g. '*': streams to all
+                raise P.ProtocolError(f"client id {quote(client)} is not one key chunk of at most 128 "
+                                      "characters without / * $ ? #")
         except P.ProtocolError as exc:
             log.warning("malformed request refused: %s", exc)
             query.reply(query.key_expr, P.error_response(str(exc)))

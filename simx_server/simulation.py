@@ -37,17 +37,19 @@ class Simulation:
         dt: simulation step in s.
         realtime: whether asynchronous mode paces steps to wall time (the server's --speed > 0).
         allow_remote_code: let child scripts run code sent by clients (--allow-remote-code).
+        allow_unsafe_lua: give Lua child scripts files, processes and the environment (--allow-unsafe-lua).
 
     Raises:
         ValueError: the scene or one of its scripts cannot be loaded.
     """
 
     def __init__(self, scene: str | Path, dt: float = 0.05, realtime: bool = True,
-                 allow_remote_code: bool = False):
+                 allow_remote_code: bool = False, allow_unsafe_lua: bool = False):
         self.world = World(scene, dt)
         self.vision = VisionSensors(self.world)
         self.signals = Signals()  # shared by every client and child script
-        self.scripts = Scripts(self.world, self.signals, allow_remote_code=allow_remote_code)
+        self.scripts = Scripts(self.world, self.signals, allow_remote_code=allow_remote_code,
+                               allow_unsafe_lua=allow_unsafe_lua)
         self.sensors = SensorState()
         self.editor = Editor(self)  # scene editing (MjSpec) and the transfer folder
         self.state = RunState.STOPPED

@@ -1,0 +1,134 @@
+"""Lua child-script sandbox (issue 11, defect 14): CoppeliaSim's "unsafe" functions are off
+unless the server runs with ``--allow-unsafe-lua``.
+
+A child script in a test scene tries each unsafe function in ``sysCall_init`` and reports, in
+the string signal ``sandbox``, which worked (``name=ok``) and which raised (``name=no``):
+
+* in-process without the flag, every one fails with an error that names the flag, no file
+  outside the scene's folder is read, written, removed or renamed, and ``require`` finds modules
+  only in the scene's folder whatever the script does to ``package.path``/``cpath``/``searchers``;
+* a real ``simx-server --allow-unsafe-lua`` gives them back (the client reads the signal with
+  ``simxGetStringSignal``), while ``load`` still needs ``--allow-remote-code``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from conftest import ServerProcess
+from simx_client.protocol import ScriptError
+from simx_server.simulation import Simulation
+
+SCENE = """<mujoco model="sandbox test">
+  <worldbody>
+    <body name="Box" pos="0 0 0.1"><geom type="box" size="0.01 0.01 0.01"/></body>
+  </worldbody>
+  <custom><text name="simx:Box" data="child_script=sandbox.lua"/></custom>
+</mujoco>
+"""
+
+# Each attempt is a function that raises when the sandbox refuses it.
+SANDBOX = r"""
+local OUT = OUTSIDE
+local attempts = {
+  {"io.open.read", function() local f = assert(io.open(OUT .. "/secret.txt", "r")); local s = f:read("a"); f:close(); assert(s == "secret") end},
+  {"io.open.write", function() local f = assert(io.open(OUT .. "/written.txt", "w")); f:write("x"); f:close() end},
+  {"io.lines", function() for line in io.lines(OUT .. "/secret.txt") do end end},
+  {"io.popen", function() local p = assert(io.popen("echo hi")); p:close() end},
+  {"io.stdin", function() assert(io.stdin ~= nil) end},
+  {"os.execute", function() assert(os.execute("exit 0")) end},
+  {"os.remove", function() assert(os.remove(OUT .. "/doomed.txt")) end},
+  {"os.rename", function() assert(os.rename(OUT .. "/moved.txt", OUT .. "/renamed.txt")) end},
+  {"os.tmpname", function() assert(os.tmpname()) end},
+  {"os.getenv", function() assert(os.getenv("PATH")) end},
+  {"dofile", function() assert(dofile(OUT .. "/evil.lua") == "evil") end},
+  {"loadfile", function() assert(loadfile(OUT .. "/evil.lua")() == "evil") end},
+  {"package.path", function() package.path = OUT .. "/?.lua"; assert(require("evil") == "evil") end},
+  {"package.searchers", function()
+     package.path = OUT .. "/?.lua"
+     local loader, file = package.searchers[2]("evil")
+     assert(type(loader) == "function" and loader("evil", file) == "evil") end},
+  {"package.loadlib", function() assert(package.loadlib("libc.so.6", "*")) end},
+  {"package.searchpath", function() assert(package.searchpath("secret", OUT .. "/?.txt")) end},
+  {"load", function() assert(load("return 1")() == 1) end},
+}
+local report = {}
+for _, a in ipairs(attempts) do
+  local ok, err = pcall(a[2])
+  report[#report + 1] = a[1] .. "=" .. (ok and "ok" or "no")
+end
+sim.setStringSignal("sandbox", table.concat(report, " "))
+
+-- A module of the scene's own folder still loads.
+local helper = require("helper")
+function helperValue() return {helper.value} end
+function failure(inInts, inFloats, inStrings) local f = io.open(inStrings[1]) end
+"""
+
+
+def sandbox_scene(tmp_path: Path) -> tuple[Path, Path]:
+    """The scene (in ``tmp_path/scene``) and the folder outside it that the script attacks."""
+    scene_dir, outside = tmp_path / "scene", tmp_path / "outside"
+    scene_dir.mkdir()
+    outside.mkdir()
+    (outside / "secret.txt").write_text("secret")
+    (outside / "doomed.txt").write_text("x")
+    (outside / "moved.txt").write_text("x")
+    (outside / "evil.lua").write_text('return "evil"\n')
+    (scene_dir / "helper.lua").write_text("return {value = 42}\n")
+    (scene_dir / "sandbox.lua").write_text(SANDBOX.replace("OUTSIDE", json.dumps(str(outside)), 1))
+    (scene_dir / "scene.xml").write_text(SCENE)
+    return scene_dir / "scene.xml", outside
+
+
+def report(text: str | bytes | bytearray) -> dict[str, str]:
+    text = text if isinstance(text, str) else bytes(text).decode()
+    return dict(item.split("=") for item in text.split())
+
+
+UNSAFE = ["io.open.read", "io.open.write", "io.lines", "io.popen", "io.stdin", "os.execute", "os.remove",
+          "os.rename", "os.tmpname", "os.getenv", "dofile", "loadfile", "package.path", "package.loadlib",
+          "package.searchpath", "package.searchers"]
+
+
+def test_unsafe_lua_functions_are_refused_by_default(tmp_path):
+    scene, outside = sandbox_scene(tmp_path)
+    sim = Simulation(scene, realtime=False)
+    try:
+        sim.start()
+        got = report(sim.signals.get_string("sandbox"))
+        assert got == {**{name: "no" for name in UNSAFE}, "load": "no"}
+        assert sorted(p.name for p in outside.iterdir()) == ["doomed.txt", "evil.lua", "moved.txt", "secret.txt"]
+        # require still works for the scene's own modules.
+        assert sim.scripts.call("Box", 1, "helperValue", [], [], [], b"") == [[42], [], [], b""]
+        # The error names the function and the flag that would allow it.
+        with pytest.raises(ScriptError, match=r"sandbox\.lua:\d+: io\.open is not available in simx child "
+                                              r"scripts: .* --allow-unsafe-lua"):
+            sim.scripts.call("Box", 1, "failure", [], [], [str(outside / "secret.txt")], b"")
+    finally:
+        sim.close()
+
+
+def test_allow_unsafe_lua_flag_gives_them_back(tmp_path):
+    import vrep
+
+    scene, outside = sandbox_scene(tmp_path)
+    server = ServerProcess(str(scene), "--allow-unsafe-lua")
+    cid = -1
+    try:
+        cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)
+        assert cid >= 0
+        rc, text = vrep.simxGetStringSignal(cid, "sandbox", vrep.simx_opmode_blocking)
+        assert rc == 0
+        got = report(text)
+        # load needs --allow-remote-code; lupa's Lua is built without io.popen ('popen' not supported).
+        assert got == {**{name: "ok" for name in UNSAFE}, "load": "no", "io.popen": "no"}
+        assert sorted(p.name for p in outside.iterdir()) == ["evil.lua", "renamed.txt", "secret.txt", "written.txt"]
+    finally:
+        if cid >= 0:
+            vrep.simxFinish(cid)
+        log = server.stop()
+    assert "Lua child scripts may use files, processes and the environment (--allow-unsafe-lua)" in log
