@@ -24,8 +24,14 @@ Rules, in V-REP's terms (docs/API.md lists them per command):
   refer to them).
 * Child scripts are not copied with objects, nor run for loaded models (their object
   lookups would address the original objects); a removed object's script is cleaned up.
-* Files sent with ``simxTransferFile`` go to a per-server temporary folder, removed by
-  :meth:`Editor.close`; names that leave that folder are refused.
+* Files sent with ``simxTransferFile`` go to a transfer folder private to this server
+  process (``scene_guard.make_transfer_folder``: 0700, removed by :meth:`Editor.close` or at
+  exit, never named in replies); names that leave it are refused, and its size is bounded.
+* Trust: a scene or model loaded from the transfer folder (options bit 0) is a client's: its
+  files must lie in the transfer folder, its size is bounded before MuJoCo parses it, its child
+  scripts run only with ``--allow-remote-code``. Server-side paths (options 0) are loaded only
+  from the operator's scene folder and ``--scene-path`` folders, never from a transfer folder
+  of any server. Edits may not grow the scene past ``MAX_SCENE_BODIES``/``MAX_SCENE_ELEMENTS``.
 
 Runs on the simulation thread, like every handler.
 """
@@ -35,9 +41,10 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import os
 import shutil
-import tempfile
 import warnings
+import weakref
 from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -45,7 +52,10 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_server import limits
+from simx_server import scene_guard as guard
 from simx_server.arguments import check_args as _args
+from simx_server.arguments import quote
 from simx_server.scripts import Scripts
 from simx_server.vision import VisionSensors
 from simx_server.world import (DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE,
@@ -333,12 +343,17 @@ def refresh_vision(sim: Simulation) -> None:
 class Editor:
     """Scene editing for one :class:`Simulation` (``sim.editor = Editor(sim)``).
 
-    Owns the transfer folder (a fresh ``simx-*`` temporary folder); :meth:`close` removes it.
+    Owns the transfer folder (``<tmp>/simx-<pid>-<start>-*``, 0700); :meth:`close` removes it,
+    and so does the interpreter's exit. ``scene_paths`` are the ``--scene-path`` folders: with
+    the folder of the scene the server started with, the only places server-side paths
+    (options 0) are loaded from.
     """
 
-    def __init__(self, sim: Simulation):
+    def __init__(self, sim: Simulation, scene_paths=()):
         self.sim = sim
-        self.files_dir = Path(tempfile.mkdtemp(prefix="simx-")).resolve()
+        self.files_dir = guard.make_transfer_folder()
+        self._remove_folder = weakref.finalize(self, shutil.rmtree, str(self.files_dir), ignore_errors=True)
+        self.roots = [sim.world.scene_path.parent, *(Path(os.path.realpath(p)) for p in scene_paths)]
         self._spec: mujoco.MjSpec | None = None
         self._spec_world: World | None = None  # the world (scene) the spec describes
         self._baseline: dict[str, np.ndarray] | None = None  # poses as last compiled
@@ -355,55 +370,115 @@ class Editor:
 
     def close(self) -> None:
         """Remove the transfer folder; idempotent."""
-        shutil.rmtree(self.files_dir, ignore_errors=True)
+        self._remove_folder()
 
     # ------------------------------------------------------------------ files
     def transfer_path(self, name: Any) -> Path:
-        """Where a transferred file called ``name`` lives; refuses names outside the folder."""
+        """Where a transferred file called ``name`` lives; refuses names outside the folder
+        and the server's own names (``.simx*``)."""
         if not isinstance(name, str) or not name or "\x00" in name:
             raise ArgumentError("file name must be a non-empty string")
         pure = PurePosixPath(name)
         path = (self.files_dir / pure).resolve()
         if pure.is_absolute() or ".." in pure.parts or self.files_dir not in path.parents:
-            raise ArgumentError(f"file name {name!r} refused: outside the transfer folder")
+            raise ArgumentError(f"file name {quote(name)} refused: outside the transfer folder")
+        if any(part.startswith(".simx") for part in pure.parts):
+            raise ArgumentError(f"file name {quote(name)} refused: names starting with .simx are reserved")
         return path
 
+    def public(self, path: Path) -> str:
+        """``path`` as a client may see it: files in the transfer folder by their name in it."""
+        if guard.inside(path, self.files_dir):
+            return path.relative_to(self.files_dir).as_posix()
+        return str(path)
+
+    def _scrub(self, text: str) -> str:
+        """An error text without the transfer folder's path (it is never named in replies)."""
+        return text.replace(f"{self.files_dir}{os.sep}", "").replace(str(self.files_dir), "<transfer folder>")
+
     def transfer_file(self, name: str, data: Any) -> None:
-        """``simxTransferFile``: store ``data`` as ``name`` in the transfer folder."""
+        """``simxTransferFile``: store ``data`` as ``name`` in the transfer folder.
+
+        Raises:
+            ArgumentError: a name outside the folder or reserved, data not bytes or larger than
+                ``MAX_TRANSFER_FILE_BYTES``.
+            RemoteError: the folder would hold more than ``MAX_TRANSFER_FILES`` entries or
+                ``MAX_TRANSFER_FOLDER_BYTES``; the file cannot be written.
+        """
         if not isinstance(data, (bytes, bytearray, memoryview)):
             raise ArgumentError(f"file data must be bytes, got {type(data).__name__}")
         path = self.transfer_path(name)
+        size = len(data)
+        if size > limits.MAX_TRANSFER_FILE_BYTES:
+            raise ArgumentError(f"file {quote(name)} refused: {size:,} bytes, more than "
+                                f"MAX_TRANSFER_FILE_BYTES = {limits.MAX_TRANSFER_FILE_BYTES:,}")
+        entries, used = guard.folder_usage(self.files_dir)
+        old = path.stat().st_size if path.is_file() else None
+        new_entries = (old is None) + sum(1 for p in path.parents if guard.inside(p, self.files_dir)
+                                          and p != self.files_dir and not p.exists())
+        if entries + new_entries > limits.MAX_TRANSFER_FILES:
+            raise RemoteError(f"file {quote(name)} refused: the transfer folder holds {entries:,} files and "
+                              f"folders, MAX_TRANSFER_FILES = {limits.MAX_TRANSFER_FILES:,} (erase some)")
+        if used - (old or 0) + size > limits.MAX_TRANSFER_FOLDER_BYTES:
+            raise RemoteError(f"file {quote(name)} refused: the transfer folder would hold {used - (old or 0) + size:,}"
+                              f" bytes, more than MAX_TRANSFER_FOLDER_BYTES = {limits.MAX_TRANSFER_FOLDER_BYTES:,}"
+                              " (erase some)")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(path.name + ".part")
             tmp.write_bytes(bytes(data))
             tmp.replace(path)
         except OSError as exc:
-            raise RemoteError(f"cannot store {name!r}: {exc.strerror}") from exc
-        log.info("received file %s (%d bytes)", name, len(data))
+            raise RemoteError(f"cannot store {quote(name)}: {exc.strerror}") from exc
+        log.info("received file %s (%d bytes)", quote(name), size)
 
     def erase_file(self, name: str) -> None:
         """``simxEraseFile``: delete a transferred file."""
         path = self.transfer_path(name)
         if not path.is_file():
-            raise RemoteError(f"no transferred file {name!r}")
+            raise RemoteError(f"no transferred file {quote(name)}")
         path.unlink()
 
     def resolve(self, path: Any, options: int) -> Path:
-        """A model or scene file: options bit 0 -> a transferred file, else a server path
-        (absolute, or relative to the scene's folder)."""
-        if not isinstance(path, str) or not path:
+        """A model or scene file: options bit 0 -> a transferred file, else a server path,
+        absolute or relative to the scene's folder (the first scene's folder while the scene is
+        a client's), which must lie in the first scene's folder or a ``--scene-path`` folder
+        and in no transfer folder (of this server or another).
+
+        Raises:
+            ArgumentError: not a non-empty string, or a transferred name outside the folder.
+            RemoteError: refused (the same text whether or not such a file exists), or missing.
+        """
+        if not isinstance(path, str) or not path or "\x00" in path:
             raise ArgumentError("file path must be a non-empty string")
         if options & 1:
             file = self.transfer_path(path)
-        else:
-            file = Path(path)
-            if not file.is_absolute():
-                file = self.sim.world.scene_path.parent / file
+            if not file.is_file():
+                raise RemoteError(f"no transferred file {quote(path)}")
+            return file
+        file = Path(path)
+        if not file.is_absolute():
+            here = self.sim.world.scene_path.parent
+            file = (here if not guard.is_transferred(here) else self.roots[0]) / file
+        file = Path(os.path.realpath(file))
+        if not any(guard.inside(file, root) for root in self.roots) or guard.is_transferred(file):
+            raise RemoteError(f"server-side file {quote(path)} refused: server-side scenes and models are "
+                              "loaded only from the server's scene folder and its --scene-path folders "
+                              "(a client's own file: options bit 0)")
         if not file.is_file():
-            where = "transferred" if options & 1 else "server-side"
-            raise RemoteError(f"no {where} file {path!r}")
-        return file.resolve()
+            raise RemoteError(f"no server-side file {quote(path)}")
+        return file
+
+    def _client_spec(self, file: Path, what: str, dt: float | None) -> mujoco.MjSpec:
+        """Parse a client-sent MJCF file, measured before and after parsing (scene_guard)."""
+        guard.check_client_file(file, self.files_dir, what)
+        try:
+            with _quiet_mujoco():
+                spec = mujoco.MjSpec.from_file(str(file))
+        except ValueError as exc:
+            raise RemoteError(f"cannot load {what}: {self._scrub(_one_line(exc))}") from None
+        guard.check_spec(spec, what, root=self.files_dir, dt=dt)
+        return spec
 
     # ------------------------------------------------------------------- spec
     def _live_spec(self) -> mujoco.MjSpec:
@@ -473,17 +548,20 @@ class Editor:
         """
         world = self.sim.world
         with _quiet_mujoco():
-            spec = self._live_spec().copy()
+            live = self._live_spec()
+            before = guard.element_counts(live)
+            spec = live.copy()
             spec.copy_during_attach = True
             self._placed: set[tuple[str, str]] = set()  # (kind, name) the change placed itself
             try:
                 after = change(spec)
             except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
-                raise UnsupportedError(f"MuJoCo cannot make this edit: {_one_line(exc)}") from None
+                raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
+            guard.check_growth(before, spec)
             try:
                 model = spec.compile()
             except ValueError as exc:
-                raise UnsupportedError(f"MuJoCo cannot compile the edited scene: {_one_line(exc)}") from None
+                raise UnsupportedError(f"MuJoCo cannot compile the edited scene: {self._scrub(_one_line(exc))}") from None
         placements, mocap = self._runtime_placements(), self._mocap_poses()
         baseline = _poses(model)
         world.replace_model(model)
@@ -521,11 +599,14 @@ class Editor:
     def load_model(self, path: str, options: int) -> int:
         """``simxLoadModel``: attach an MJCF model's world children; returns its base handle."""
         file = self.resolve(path, options)
-        try:
-            with _quiet_mujoco():
-                child = mujoco.MjSpec.from_file(str(file))
-        except ValueError as exc:
-            raise RemoteError(f"cannot load model {path!r}: {_one_line(exc)}") from None
+        if options & 1:  # a client's model: measured, its files confined to the transfer folder
+            child = self._client_spec(file, f"model {quote(path)}", None)
+        else:
+            try:
+                with _quiet_mujoco():
+                    child = mujoco.MjSpec.from_file(str(file))
+            except ValueError as exc:
+                raise RemoteError(f"cannot load model {quote(path)}: {_one_line(exc)}") from None
         child_assets = _embed_assets(child, self._asset_counter)
         child.assets = {**(child.assets or {}), **child_assets}
         base = child.worldbody.first_body()
@@ -551,7 +632,7 @@ class Editor:
                 return lambda: self.sim.world.resolve(base.name + suffix).handle
             first = next((e.name + suffix for e in _elements(child, ("sites", "cameras", "lights")) if e.name), None)
             if first is None:
-                raise ArgumentError(f"model {path!r} has no body nor named site, camera or light")
+                raise ArgumentError(f"model {quote(path)} has no body nor named site, camera or light")
             return lambda: self.sim.world.resolve(first).handle
 
         handle = self._edit(change)
@@ -782,7 +863,10 @@ class Editor:
 
         if self.sim.state is not RunState.STOPPED:
             raise RemoteError("stop the simulation first")
-        self._install_scene(self.resolve(path, options))
+        file = self.resolve(path, options)
+        if options & 1:  # a client's scene: measured before MuJoCo parses and compiles it
+            self._client_spec(file, f"scene {quote(path)}", self.sim.world.requested_dt)
+        self._install_scene(file, quote(path))
 
     def close_scene(self) -> None:
         """``simxCloseScene``: stop the simulation and replace the scene with an empty one."""
@@ -790,18 +874,19 @@ class Editor:
         empty = self.files_dir / ".simx" / "empty.xml"
         empty.parent.mkdir(exist_ok=True)
         empty.write_text(_EMPTY_SCENE)
-        self._install_scene(empty)
+        self._install_scene(empty, "empty")
 
-    def _install_scene(self, file: Path) -> None:
+    def _install_scene(self, file: Path, label: str) -> None:
         sim = self.sim
         dt = sim.world.requested_dt
         old = sim.scripts
+        # A scene in a transfer folder (any server's) brings no code, unless --allow-remote-code.
+        untrusted = guard.transfer_folders(self.files_dir, *([file.parent] if guard.is_transferred(file) else []))
         try:
             world = World(file, dt)
-            scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
-                              untrusted=[self.files_dir])  # a scene sent by a client brings no code
+            scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code, untrusted=untrusted)
         except (ValueError, RemoteError) as exc:
-            raise RemoteError(f"cannot load scene {file.name}: {_one_line(exc)}") from None
+            raise RemoteError(f"cannot load scene {label}: {self._scrub(_one_line(exc))}") from None
         sim.vision.close()
         sim.world, sim.scripts = world, scripts
         sim.vision = VisionSensors(world)
@@ -809,7 +894,7 @@ class Editor:
         self._spec = self._spec_world = self._baseline = None
         self._parse_now()
         sim.selection = []
-        log.info("scene %s loaded: %d objects", file.name, len(world.objects))
+        log.info("scene %s loaded: %d objects", label, len(world.objects))
 
 
 def _poses(model: mujoco.MjModel) -> dict[str, np.ndarray]:

@@ -25,3 +25,47 @@ MAX_COMMANDS_PER_REQUEST = 4096
 MAX_REQUEST_BYTES = 64 * 1024 * 1024
 #: Largest reply a request may produce in bytes (images and buffers included).
 MAX_REPLY_BYTES = 128 * 1024 * 1024
+
+# ----------------------------------------------------------------- scenes and files
+# Files sent with simxTransferFile, and what a scene or model sent by a client may hold. A
+# client-sent MJCF file is measured before MuJoCo parses it (its XML, with <include>s and
+# <replicate> counts multiplied out) and its MjSpec again before it is compiled, so that a
+# refused scene costs milliseconds: MuJoCo's parse and compile run on the simulation thread
+# and cannot be interrupted. At these bounds a load takes about 0.5 s on one core (2,000
+# bodies: parse 0.25 s, compile 0.1 s; a 4096x4096 texture: 0.1 s); above them parse time
+# grows quadratically (10,000 replicated bodies took 10 s). Files of the operator (the scene
+# on the command line, --scene-path folders) are not measured; edits by clients are.
+#: Largest file one simxTransferFile may store, in bytes.
+MAX_TRANSFER_FILE_BYTES = 32 * 1024 * 1024
+#: Most bytes the transfer folder may hold in all.
+MAX_TRANSFER_FOLDER_BYTES = 256 * 1024 * 1024
+#: Most files and folders the transfer folder may hold.
+MAX_TRANSFER_FILES = 1000
+#: Largest MJCF file (a scene, a model, each <include>d file) a client may have loaded, in bytes.
+MAX_SCENE_FILE_BYTES = 4 * 1024 * 1024
+#: Largest asset file (mesh, texture, height field, skin) a client-sent scene may name, in bytes.
+MAX_ASSET_FILE_BYTES = 16 * 1024 * 1024
+#: Deepest nesting of XML elements and <include>s in a client-sent file.
+MAX_XML_DEPTH = 100
+#: Most bodies (and flexes) in a client-sent scene, and in a scene after a client's edit.
+MAX_SCENE_BODIES = 2000
+#: Most elements of every kind (geoms, joints, sites, actuators, ...) likewise.
+MAX_SCENE_ELEMENTS = 20_000
+#: Most pixels of one texture (all six faces of a cube), and of all textures of a scene.
+MAX_TEXTURE_PIXELS = 4096 * 4096
+MAX_SCENE_TEXTURE_PIXELS = 2 * MAX_TEXTURE_PIXELS
+#: Most cells of one height field (nrow x ncol).
+MAX_HFIELD_CELLS = 2048 * 2048
+#: Most vertices of one mesh (counted in the file or the vertex list) and of a flex.
+MAX_MESH_VERTICES = 200_000
+#: Most bytes of MuJoCo's arena (<size memory>) and most entries of the other <size> fields
+#: (nuserdata, nkey, nuser_*, njmax, nconmax, nstack), and values of one <numeric>.
+MAX_ARENA_BYTES = 256 * 1024 * 1024
+MAX_SIZE_ENTRIES = 100_000
+#: Most solver iterations per step (<option iterations, ls_iterations, noslip_iterations,
+#: ccd_iterations, sdf_iterations>): MuJoCo's defaults are 100, 50, 0, 35, 10.
+MAX_SOLVER_ITERATIONS = 1000
+#: Largest offscreen buffer and shadow map side (<visual><global offwidth/offheight>,
+#: <quality shadowsize>), and most samples and slices (<quality offsamples, numslices, ...>).
+MAX_VISUAL_SIZE = 4096
+MAX_VISUAL_DETAIL = 64
