@@ -864,9 +864,10 @@ class Editor:
         if self.sim.state is not RunState.STOPPED:
             raise RemoteError("stop the simulation first")
         file = self.resolve(path, options)
+        spec = None
         if options & 1:  # a client's scene: measured before MuJoCo parses and compiles it
-            self._client_spec(file, f"scene {quote(path)}", self.sim.world.requested_dt)
-        self._install_scene(file, quote(path))
+            spec = self._client_spec(file, f"scene {quote(path)}", self.sim.world.requested_dt)
+        self._install_scene(file, quote(path), spec)
 
     def close_scene(self) -> None:
         """``simxCloseScene``: stop the simulation and replace the scene with an empty one."""
@@ -876,7 +877,9 @@ class Editor:
         empty.write_text(_EMPTY_SCENE)
         self._install_scene(empty, "empty")
 
-    def _install_scene(self, file: Path, label: str) -> None:
+    def _install_scene(self, file: Path, label: str, spec: mujoco.MjSpec | None = None) -> None:
+        """Load ``file`` as the scene; ``spec`` is its parse when the caller has it already
+        (a client's scene, measured): MuJoCo's parse is most of a load's time."""
         sim = self.sim
         dt = sim.world.requested_dt
         old = sim.scripts
@@ -892,7 +895,15 @@ class Editor:
         sim.vision = VisionSensors(world)
         sim.sensors = type(sim.sensors)()  # per-scene sensor state (probes, passive images) starts afresh
         self._spec = self._spec_world = self._baseline = None
-        self._parse_now()
+        if spec is not None:
+            try:
+                with _quiet_mujoco():
+                    spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
+                    self._spec, self._spec_world, self._baseline = spec, world, _poses(spec.compile())
+            except ValueError as exc:
+                log.warning("scene %s cannot be edited: %s", label, _one_line(exc))
+        else:
+            self._parse_now()
         sim.selection = []
         log.info("scene %s loaded: %d objects", label, len(world.objects))
 

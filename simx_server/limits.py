@@ -31,10 +31,13 @@ MAX_REPLY_BYTES = 128 * 1024 * 1024
 # client-sent MJCF file is measured before MuJoCo parses it (its XML, with <include>s and
 # <replicate> counts multiplied out) and its MjSpec again before it is compiled, so that a
 # refused scene costs milliseconds: MuJoCo's parse and compile run on the simulation thread
-# and cannot be interrupted. At these bounds a load takes about 0.5 s on one core (2,000
-# bodies: parse 0.25 s, compile 0.1 s; a 4096x4096 texture: 0.1 s); above them parse time
-# grows quadratically (10,000 replicated bodies took 10 s). Files of the operator (the scene
-# on the command line, --scene-path folders) are not measured; edits by clients are.
+# and cannot be interrupted, so every other client waits while a scene loads. Measured on the
+# loaded 2-core development machine, LoadScene of a client's scene at one bound takes: 1,000
+# bodies 0.13-0.18 s, a 4096x4096 texture 0.14-0.25 s, a 200,000-vertex mesh 0.34-1.2 s; with
+# every bound reached at once, about 3 s at worst. Above the bounds time grows fast (MuJoCo's
+# parse is quadratic: 10,000 replicated bodies took 10.7 s, 90,000 froze clients 22.6 s).
+# Files of the operator (the scene on the command line, --scene-path folders) are not
+# measured; edits by clients are (bodies and elements).
 #: Largest file one simxTransferFile may store, in bytes.
 MAX_TRANSFER_FILE_BYTES = 32 * 1024 * 1024
 #: Most bytes the transfer folder may hold in all.
@@ -48,16 +51,19 @@ MAX_ASSET_FILE_BYTES = 16 * 1024 * 1024
 #: Deepest nesting of XML elements and <include>s in a client-sent file.
 MAX_XML_DEPTH = 100
 #: Most bodies (and flexes) in a client-sent scene, and in a scene after a client's edit.
-MAX_SCENE_BODIES = 2000
+MAX_SCENE_BODIES = 1000
 #: Most elements of every kind (geoms, joints, sites, actuators, ...) likewise.
-MAX_SCENE_ELEMENTS = 20_000
+MAX_SCENE_ELEMENTS = 10_000
 #: Most pixels of one texture (all six faces of a cube), and of all textures of a scene.
 MAX_TEXTURE_PIXELS = 4096 * 4096
 MAX_SCENE_TEXTURE_PIXELS = 2 * MAX_TEXTURE_PIXELS
-#: Most cells of one height field (nrow x ncol).
+#: Most cells of one height field (nrow x ncol), and of all height fields of a scene.
 MAX_HFIELD_CELLS = 2048 * 2048
-#: Most vertices of one mesh (counted in the file or the vertex list) and of a flex.
+MAX_SCENE_HFIELD_CELLS = 2 * MAX_HFIELD_CELLS
+#: Most vertices of one mesh (counted in the file or the vertex list) or flex, and of all of
+#: them in a scene (MuJoCo computes each mesh's convex hull: 200,000 vertices take 0.3-1 s).
 MAX_MESH_VERTICES = 200_000
+MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
 #: Most bytes of MuJoCo's arena (<size memory>) and most entries of the other <size> fields
 #: (nuserdata, nkey, nuser_*, njmax, nconmax, nstack), and values of one <numeric>.
 MAX_ARENA_BYTES = 256 * 1024 * 1024

@@ -165,6 +165,7 @@ def _over(what: str, count: float, bound_name: str) -> None:
 
 _UNITS = {"MAX_SCENE_BODIES": "bodies", "MAX_SCENE_ELEMENTS": "elements", "MAX_TEXTURE_PIXELS": "texture pixels",
           "MAX_SCENE_TEXTURE_PIXELS": "texture pixels in all", "MAX_HFIELD_CELLS": "height-field cells",
+          "MAX_SCENE_HFIELD_CELLS": "height-field cells in all", "MAX_SCENE_MESH_VERTICES": "mesh vertices in all",
           "MAX_MESH_VERTICES": "mesh vertices", "MAX_SCENE_FILE_BYTES": "bytes", "MAX_ASSET_FILE_BYTES": "bytes",
           "MAX_XML_DEPTH": "levels of nesting", "MAX_ARENA_BYTES": "bytes of arena",
           "MAX_SIZE_ENTRIES": "entries", "MAX_SOLVER_ITERATIONS": "iterations", "MAX_VISUAL_SIZE": "pixels",
@@ -346,7 +347,7 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
     counts = element_counts(spec)
     _over(what, counts[0], "MAX_SCENE_BODIES")
     _over(what, counts[1], "MAX_SCENE_ELEMENTS")
-    total = 0
+    total = verts_total = cells_total = 0
     files = [(t, "texturedir") for t in spec.textures] + [(e, "meshdir") for e in
                                                         (*spec.meshes, *spec.hfields, *spec.skins)]
     for el, folder_attr in files:
@@ -364,7 +365,7 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
                                     "the transfer folder")
             if path.is_file():
                 _over(label, path.stat().st_size, "MAX_ASSET_FILE_BYTES")
-                data = path.read_bytes() if isinstance(el, mujoco.MjsMesh) else path.read_bytes()[:24]
+                data = path.read_bytes()  # at most MAX_ASSET_FILE_BYTES
         if isinstance(el, mujoco.MjsTexture):
             if el.builtin != mujoco.mjtBuiltin.mjBUILTIN_NONE and not names:
                 px = el.width * el.height if el.type == mujoco.mjtTexture.mjTEXTURE_2D else 6 * el.width ** 2
@@ -373,13 +374,19 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
             _over(label, px, "MAX_TEXTURE_PIXELS")
             total += px
         elif isinstance(el, mujoco.MjsHField):
-            _over(label, max(el.nrow * el.ncol, _png_pixels(data) or 0, len(el.userdata)), "MAX_HFIELD_CELLS")
+            cells = max(el.nrow * el.ncol, _png_pixels(data) or 0, len(el.userdata), len(data) // 4)
+            _over(label, cells, "MAX_HFIELD_CELLS")
+            cells_total += cells
         elif isinstance(el, mujoco.MjsMesh):
             verts = len(el.uservert) // 3 + (_mesh_vertices(data, el.file) if data else 0)
             _over(label, verts, "MAX_MESH_VERTICES")
-    _over(what, total, "MAX_SCENE_TEXTURE_PIXELS")
+            verts_total += verts
     for flex in spec.flexes:
         _over(f"{what} (flex {quote(flex.name)})", len(flex.vert) // 3, "MAX_MESH_VERTICES")
+        verts_total += len(flex.vert) // 3
+    _over(what, total, "MAX_SCENE_TEXTURE_PIXELS")
+    _over(what, verts_total, "MAX_SCENE_MESH_VERTICES")
+    _over(what, cells_total, "MAX_SCENE_HFIELD_CELLS")
     for n in spec.numerics:
         _over(f"{what} (numeric {quote(n.name)})", max(n.size, len(n.data)), "MAX_SIZE_ENTRIES")
     _over(f"{what} (<size memory>)", spec.memory, "MAX_ARENA_BYTES")

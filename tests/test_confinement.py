@@ -188,6 +188,8 @@ def test_client_scene_may_name_only_files_sent_with_it(client_b, tmp_path):
     ok = send("ok.xml", scene(tex.format("green.png"), compiler='<compiler texturedir="tex"/>').encode())
     assert vrep.simxLoadScene(client_b, ok, 1, WAIT) == OK
     assert vrep.simxGetObjectHandle(client_b, "B", WAIT)[0] == OK
+    # The scene's path is its name in the transfer folder, not the folder's path.
+    assert vrep.simxGetStringParameter(client_b, 13, WAIT) == (OK, "ok.xml")  # sim_stringparam_scene_path_and_name
     model = send("model.xml", b'<mujoco><asset><texture name="g" type="2d" file="tex/green.png"/></asset>'
                               b'<worldbody><body name="M"><geom size=".1"/></body></worldbody></mujoco>')
     assert vrep.simxLoadModel(client_b, model, 1, WAIT)[0] == OK
