@@ -169,7 +169,7 @@ _UNITS = {"MAX_SCENE_BODIES": "bodies", "MAX_SCENE_ELEMENTS": "elements", "MAX_T
           "MAX_MESH_VERTICES": "mesh vertices", "MAX_SCENE_FILE_BYTES": "bytes", "MAX_ASSET_FILE_BYTES": "bytes",
           "MAX_XML_DEPTH": "levels of nesting", "MAX_ARENA_BYTES": "bytes of arena",
           "MAX_SIZE_ENTRIES": "entries", "MAX_SOLVER_ITERATIONS": "iterations", "MAX_VISUAL_SIZE": "pixels",
-          "MAX_VISUAL_DETAIL": ""}
+          "MAX_VISUAL_DETAIL": "", "MAX_RESOLUTION": "pixels"}
 
 
 def _png_pixels(head: bytes) -> int | None:
@@ -223,6 +223,7 @@ class _Walk:
         self.bodies = self.elements = 0
         self.files: list[str] = []  # asset file names as written
         self.dirs: set[str] = {""}
+        self.trees: dict[str, ET.Element] = {}  # each file read and parsed once
 
     def outside(self, name: str) -> RemoteError:
         # One message whether or not such a server file exists: nothing is looked up.
@@ -231,6 +232,8 @@ class _Walk:
                                   "inside the transfer folder")
 
     def read(self, rel: str) -> ET.Element:
+        if rel in self.trees:
+            return self.trees[rel]
         path = self.root / rel
         try:
             size = path.stat().st_size
@@ -241,9 +244,10 @@ class _Walk:
         if re.search(rb"<!(DOCTYPE|ENTITY)", text, re.IGNORECASE):
             raise _refuse(self.what, f"{quote(rel)} declares a DOCTYPE or entities")
         try:
-            return ET.fromstring(text)
+            tree = self.trees[rel] = ET.fromstring(text)
         except ET.ParseError as exc:
             raise _refuse(self.what, f"{quote(rel)} is not well-formed XML: {exc}") from None
+        return tree
 
     def file(self, rel: str, depth: int) -> None:
         if depth > limits.MAX_XML_DEPTH:
@@ -269,10 +273,11 @@ class _Walk:
                 raise self.outside(name)
             if tag != "include":
                 self.files.append(name)
+        self.elements += mult  # <include>s too: a file that includes itself twice ends here
+        _over(self.what, self.elements, "MAX_SCENE_ELEMENTS")
         if tag == "include":
             self.file(_relative(self.base, el.get("file", "")), depth + 1)
             return
-        self.elements += mult
         if tag == "replicate":
             mult *= _number(el, "count", self.what)[0]
         elif tag in ("composite", "flexcomp"):
@@ -281,6 +286,13 @@ class _Walk:
             self.elements += mult * n * 4  # joints, geoms, sites... per point
             if tag == "flexcomp" and el.get("file"):
                 self.flex_file(el.get("file"))
+        elif tag == "hfield":  # MuJoCo allocates the cells while parsing
+            rows, cols = _number(el, "nrow", self.what, "0")[0], _number(el, "ncol", self.what, "0")[0]
+            _over(f"{self.what} (hfield {quote(el.get('name', ''))})", rows * cols, "MAX_HFIELD_CELLS")
+        elif tag == "texture" and el.get("builtin", "none") != "none":
+            w, h = _number(el, "width", self.what, "0")[0], _number(el, "height", self.what, "0")[0]
+            px = w * h if el.get("type", "cube") == "2d" else 6 * w * w
+            _over(f"{self.what} (texture {quote(el.get('name', ''))})", px, "MAX_TEXTURE_PIXELS")
         elif tag == "mesh" and el.get("builtin"):
             for v in _number(el, "params", self.what, "0"):
                 _over(f"{self.what} (mesh {quote(el.get('name', ''))})", v, "MAX_VISUAL_DETAIL")
@@ -351,7 +363,7 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
     files = [(t, "texturedir") for t in spec.textures] + [(e, "meshdir") for e in
                                                         (*spec.meshes, *spec.hfields, *spec.skins)]
     for el, folder_attr in files:
-        kind = type(el).__name__[4:].lower()  # MjsTexture -> texture
+        kind = type(el).__name__[3:].lower()  # MjsTexture -> texture
         label = f"{what} ({kind} {quote(el.name or el.file)})"
         data = b""
         names = [n for n in ([el.file] + list(getattr(el, "cubefiles", []) or [])) if n]
@@ -374,8 +386,9 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
             _over(label, px, "MAX_TEXTURE_PIXELS")
             total += px
         elif isinstance(el, mujoco.MjsHField):
-            cells = max(el.nrow * el.ncol, _png_pixels(data) or 0, len(el.userdata), len(data) // 4)
+            cells = max(el.nrow * el.ncol, _png_pixels(data) or 0, len(data) // 4)
             _over(label, cells, "MAX_HFIELD_CELLS")
+            _over(label, len(el.userdata), "MAX_HFIELD_CELLS")  # converted only when nrow x ncol passed
             cells_total += cells
         elif isinstance(el, mujoco.MjsMesh):
             verts = len(el.uservert) // 3 + (_mesh_vertices(data, el.file) if data else 0)
@@ -392,6 +405,8 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
     _over(f"{what} (<size memory>)", spec.memory, "MAX_ARENA_BYTES")
     for f in _SIZE_FIELDS:
         _over(f"{what} (<size {f}>)", getattr(spec, f), "MAX_SIZE_ENTRIES")
+    for cam in spec.cameras:  # a vision sensor's offscreen buffer has the camera's resolution
+        _over(f"{what} (camera {quote(cam.name)} resolution)", max(cam.resolution), "MAX_RESOLUTION")
     for f in _ITERATIONS:
         _over(f"{what} (<option {f}>)", getattr(spec.option, f), "MAX_SOLVER_ITERATIONS")
     g, q = spec.visual.global_, spec.visual.quality
