@@ -274,8 +274,8 @@ class _Walk:
             if tag != "include":
                 self.files.append(name)
         self.elements += mult  # <include>s too: a file that includes itself twice ends here
-        _over(self.what, self.elements, "MAX_SCENE_ELEMENTS")
         if tag == "include":
+            _over(self.what, self.elements, "MAX_SCENE_ELEMENTS")
             self.file(_relative(self.base, el.get("file", "")), depth + 1)
             return
         if tag == "replicate":

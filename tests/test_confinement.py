@@ -303,3 +303,37 @@ def test_transfer_folder_bounds(sim, monkeypatch):
     with pytest.raises(ArgumentError, match="reserved"):
         H["TransferFile"](sim, [".simx-transfer-folder", b""])
     assert sorted(p.name for p in sim.editor.files_dir.iterdir() if not p.name.startswith(".")) == ["a", "b", "c"]
+
+
+@pytest.mark.parametrize("xml, bound", [
+    ('<mujoco><include file="a.xml"/><include file="a.xml"/></mujoco>', "MAX_XML_DEPTH"),
+    ('<mujoco><worldbody>' + '<body>' * 500 + '</body>' * 500 + '</worldbody></mujoco>', "MAX_XML_DEPTH"),
+    ('<mujoco><worldbody><camera name="c" resolution="40000 40000"/></worldbody></mujoco>', "MAX_RESOLUTION"),
+    ('<mujoco><size memory="10G"/></mujoco>', "MAX_ARENA_BYTES"),
+    ('<mujoco><size nkey="100000000"/></mujoco>', "MAX_SIZE_ENTRIES"),
+    ('<mujoco><option iterations="100000000"/></mujoco>', "MAX_SOLVER_ITERATIONS"),
+    ('<mujoco><option timestep="1e-9"/></mujoco>', "MAX_SUBSTEPS"),
+    ('<mujoco><visual><quality shadowsize="100000"/></visual></mujoco>', "MAX_VISUAL_SIZE"),
+    ('<mujoco><visual><global offwidth="100000"/></visual></mujoco>', "MAX_VISUAL_SIZE"),
+    ('<mujoco><worldbody><composite type="particle" count="100 100 100" spacing="0.01"><geom size=".001"/>'
+     '</composite></worldbody></mujoco>', "MAX_SCENE_BODIES"),
+    ('<mujoco><worldbody><flexcomp name="f" type="grid" count="200 200 200" spacing=".1 .1 .1" dim="3"/>'
+     '</worldbody></mujoco>', "MAX_SCENE_BODIES"),
+    ('<mujoco><asset><hfield name="h" nrow="40000" ncol="40000" size="1 1 1 1"/></asset></mujoco>', "MAX_HFIELD_CELLS"),
+    ('<mujoco><asset><texture name="t" type="skybox" builtin="flat" width="40000"/></asset></mujoco>',
+     "MAX_TEXTURE_PIXELS"),
+    ('<mujoco><worldbody>' + '<geom size=".1"/>' * 10_001 + '</worldbody></mujoco>', "MAX_SCENE_ELEMENTS"),
+    ('<!DOCTYPE m [<!ENTITY a "aaaaaaaa">]><mujoco/>', "DOCTYPE"),
+    ('<mujoco><extension><plugin plugin="mujoco.elasticity.cable"/></extension></mujoco>', "plugins"),
+    ('<mujoco><asset><model name="m" file="a.xml"/></asset></mujoco>', "<model>"),
+])
+def test_scene_contents_are_bounded_before_mujoco_parses_them(sim, xml, bound):
+    """Each bomb is refused in milliseconds with the name of the bound it passes."""
+    from simx_server.editing import EDITING_HANDLERS as H
+
+    H["TransferFile"](sim, ["a.xml", xml.encode()])
+    for command in ("LoadScene",) if bound == "MAX_SUBSTEPS" else ("LoadScene", "LoadModel"):  # a model
+        t = time.perf_counter()                                      # brings no <option> with it
+        with pytest.raises(RemoteError, match=re.escape(bound)):
+            H[command](sim, ["a.xml", 1])
+        assert time.perf_counter() - t < 0.5
