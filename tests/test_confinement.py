@@ -337,3 +337,20 @@ def test_scene_contents_are_bounded_before_mujoco_parses_them(sim, xml, bound):
         with pytest.raises(RemoteError, match=re.escape(bound)):
             H[command](sim, ["a.xml", 1])
         assert time.perf_counter() - t < 0.5
+
+
+def test_asset_files_are_measured_before_mujoco_reads_them(sim):
+    """A PNG whose header claims 40000x40000 pixels (decoded: 6.4 GB) and an STL claiming 10^6
+    triangles are refused from their headers; a mesh file named by a model likewise."""
+    from simx_server.editing import EDITING_HANDLERS as H
+
+    ihdr = struct.pack(">IIBBBBB", 40000, 40000, 8, 2, 0, 0, 0)
+    H["TransferFile"](sim, ["big.png", b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + b"IHDR" + ihdr
+                            + struct.pack(">I", zlib.crc32(b"IHDR" + ihdr))])
+    H["TransferFile"](sim, ["big.stl", b"\0" * 80 + struct.pack("<I", 1_000_000)])
+    for xml, bound in (('<texture name="t" type="2d" file="big.png"/>', "MAX_TEXTURE_PIXELS"),
+                       ('<mesh name="m" file="big.stl"/>', "MAX_MESH_VERTICES")):
+        H["TransferFile"](sim, ["a.xml", f"<mujoco><asset>{xml}</asset></mujoco>".encode()])
+        for command in ("LoadScene", "LoadModel"):
+            with pytest.raises(RemoteError, match=bound):
+                H[command](sim, ["a.xml", 1])
