@@ -354,3 +354,35 @@ def test_asset_files_are_measured_before_mujoco_reads_them(sim):
         for command in ("LoadScene", "LoadModel"):
             with pytest.raises(RemoteError, match=bound):
                 H[command](sim, ["a.xml", 1])
+
+
+def test_server_side_paths_after_a_client_scene_and_a_closed_scene(sim, tmp_path):
+    """Relative server-side paths fall back to the first scene's folder while the scene is a
+    client's (or the empty scene of simxCloseScene, which lives in the transfer folder)."""
+    from simx_server.editing import EDITING_HANDLERS as H
+
+    H["CloseScene"](sim, [])
+    assert sim.world.objects == {}
+    H["LoadScene"](sim, [SCENE.name, 0])
+    assert "UR5" in sim.world.by_name
+    H["TransferFile"](sim, ["own.xml", b'<mujoco><worldbody><body name="Own"><geom size=".1"/></body></worldbody></mujoco>'])
+    H["LoadScene"](sim, ["own.xml", 1])
+    with pytest.raises(RemoteError, match="refused"):
+        H["LoadScene"](sim, [str(sim.editor.files_dir / "own.xml"), 0])  # its own file, but sent by a client
+    (tmp_path / "exists.xml").write_text("<mujoco/>")
+    with pytest.raises(RemoteError, match="refused") as missing:
+        H["LoadScene"](sim, [str(tmp_path / "absent.xml"), 0])
+    with pytest.raises(RemoteError, match="refused") as elsewhere:
+        H["LoadScene"](sim, [str(tmp_path / "exists.xml"), 0])
+    assert re.sub("'[^']*'", "P", str(missing.value)) == re.sub("'[^']*'", "P", str(elsewhere.value))
+    H["LoadScene"](sim, [SCENE.name, 0])
+    assert "UR5" in sim.world.by_name
+
+
+def test_scene_path_must_be_a_folder(tmp_path):
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "simx_server.cli", "--scene-path", str(tmp_path / "no"),
+                           "--port", str(free_port())], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2 and "--scene-path" in proc.stderr and "not a folder" in proc.stderr
