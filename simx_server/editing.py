@@ -41,21 +41,18 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import os
-import shutil
 import warnings
-import weakref
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
-from simx_server import limits
 from simx_server import scene_guard as guard
 from simx_server.arguments import check_args as _args
 from simx_server.arguments import quote
+from simx_server.client_files import ClientFiles
 from simx_server.scripts import Scripts
 from simx_server.vision import VisionSensors
 from simx_server.world import (DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE,
@@ -343,17 +340,15 @@ def refresh_vision(sim: Simulation) -> None:
 class Editor:
     """Scene editing for one :class:`Simulation` (``sim.editor = Editor(sim)``).
 
-    Owns the transfer folder (``<tmp>/simx-<pid>-<start>-*``, 0700); :meth:`close` removes it,
-    and so does the interpreter's exit. ``scene_paths`` are the ``--scene-path`` folders: with
-    the folder of the scene the server started with, the only places server-side paths
-    (options 0) are loaded from.
+    Owns the transfer folder through :class:`ClientFiles` (``<tmp>/simx-<pid>-<start>-*``,
+    0700); :meth:`close` removes it, and so does the interpreter's exit. ``scene_paths`` are the
+    ``--scene-path`` folders: with the folder of the scene the server started with, the only
+    places server-side paths (options 0) are loaded from.
     """
 
     def __init__(self, sim: Simulation, scene_paths=()):
         self.sim = sim
-        self.files_dir = guard.make_transfer_folder()
-        self._remove_folder = weakref.finalize(self, shutil.rmtree, str(self.files_dir), ignore_errors=True)
-        self.roots = [sim.world.scene_path.parent, *(Path(os.path.realpath(p)) for p in scene_paths)]
+        self.files = ClientFiles(sim.world.scene_path, scene_paths)  # the transfer folder, trusted folders
         self._spec: mujoco.MjSpec | None = None
         self._spec_world: World | None = None  # the world (scene) the spec describes
         self._baseline: dict[str, np.ndarray] | None = None  # poses as last compiled
@@ -370,104 +365,32 @@ class Editor:
 
     def close(self) -> None:
         """Remove the transfer folder; idempotent."""
-        self._remove_folder()
+        self.files.close()
 
     # ------------------------------------------------------------------ files
-    def transfer_path(self, name: Any) -> Path:
-        """Where a transferred file called ``name`` lives; refuses names outside the folder
-        and the server's own names (``.simx*``)."""
-        if not isinstance(name, str) or not name or "\x00" in name:
-            raise ArgumentError("file name must be a non-empty string")
-        pure = PurePosixPath(name)
-        path = (self.files_dir / pure).resolve()
-        if pure.is_absolute() or ".." in pure.parts or self.files_dir not in path.parents:
-            raise ArgumentError(f"file name {quote(name)} refused: outside the transfer folder")
-        if any(part.startswith(".simx") for part in pure.parts):
-            raise ArgumentError(f"file name {quote(name)} refused: names starting with .simx are reserved")
-        return path
-
-    def public(self, path: Path) -> str:
-        """``path`` as a client may see it: files in the transfer folder by their name in it."""
-        if guard.inside(path, self.files_dir):
-            return path.relative_to(self.files_dir).as_posix()
-        return str(path)
-
-    def _scrub(self, text: str) -> str:
-        """An error text without the transfer folder's path (it is never named in replies)."""
-        return text.replace(f"{self.files_dir}{os.sep}", "").replace(str(self.files_dir), "<transfer folder>")
+    @property
+    def files_dir(self) -> Path:
+        """The transfer folder (private to this server process)."""
+        return self.files.files_dir
 
     def transfer_file(self, name: str, data: Any) -> None:
-        """``simxTransferFile``: store ``data`` as ``name`` in the transfer folder.
-
-        Raises:
-            ArgumentError: a name outside the folder or reserved, data not bytes or larger than
-                ``MAX_TRANSFER_FILE_BYTES``.
-            RemoteError: the folder would hold more than ``MAX_TRANSFER_FILES`` entries or
-                ``MAX_TRANSFER_FOLDER_BYTES``; the file cannot be written.
-        """
-        if not isinstance(data, (bytes, bytearray, memoryview)):
-            raise ArgumentError(f"file data must be bytes, got {type(data).__name__}")
-        path = self.transfer_path(name)
-        size = len(data)
-        if size > limits.MAX_TRANSFER_FILE_BYTES:
-            raise ArgumentError(f"file {quote(name)} refused: {size:,} bytes, more than "
-                                f"MAX_TRANSFER_FILE_BYTES = {limits.MAX_TRANSFER_FILE_BYTES:,}")
-        entries, used = guard.folder_usage(self.files_dir)
-        old = path.stat().st_size if path.is_file() else None
-        new_entries = (old is None) + sum(1 for p in path.parents if guard.inside(p, self.files_dir)
-                                          and p != self.files_dir and not p.exists())
-        if entries + new_entries > limits.MAX_TRANSFER_FILES:
-            raise RemoteError(f"file {quote(name)} refused: the transfer folder holds {entries:,} files and "
-                              f"folders, MAX_TRANSFER_FILES = {limits.MAX_TRANSFER_FILES:,} (erase some)")
-        if used - (old or 0) + size > limits.MAX_TRANSFER_FOLDER_BYTES:
-            raise RemoteError(f"file {quote(name)} refused: the transfer folder would hold {used - (old or 0) + size:,}"
-                              f" bytes, more than MAX_TRANSFER_FOLDER_BYTES = {limits.MAX_TRANSFER_FOLDER_BYTES:,}"
-                              " (erase some)")
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(path.name + ".part")
-            tmp.write_bytes(bytes(data))
-            tmp.replace(path)
-        except OSError as exc:
-            raise RemoteError(f"cannot store {quote(name)}: {exc.strerror}") from exc
-        log.info("received file %s (%d bytes)", quote(name), size)
+        """``simxTransferFile`` (see :meth:`ClientFiles.transfer_file`)."""
+        self.files.transfer_file(name, data)
 
     def erase_file(self, name: str) -> None:
         """``simxEraseFile``: delete a transferred file."""
-        path = self.transfer_path(name)
-        if not path.is_file():
-            raise RemoteError(f"no transferred file {quote(name)}")
-        path.unlink()
+        self.files.erase_file(name)
 
     def resolve(self, path: Any, options: int) -> Path:
-        """A model or scene file: options bit 0 -> a transferred file, else a server path,
-        absolute or relative to the scene's folder (the first scene's folder while the scene is
-        a client's), which must lie in the first scene's folder or a ``--scene-path`` folder
-        and in no transfer folder (of this server or another).
+        """The file a LoadScene/LoadModel names (see :meth:`ClientFiles.resolve`)."""
+        return self.files.resolve(path, options, self.sim.world.scene_path)
 
-        Raises:
-            ArgumentError: not a non-empty string, or a transferred name outside the folder.
-            RemoteError: refused (the same text whether or not such a file exists), or missing.
-        """
-        if not isinstance(path, str) or not path or "\x00" in path:
-            raise ArgumentError("file path must be a non-empty string")
-        if options & 1:
-            file = self.transfer_path(path)
-            if not file.is_file():
-                raise RemoteError(f"no transferred file {quote(path)}")
-            return file
-        file = Path(path)
-        if not file.is_absolute():
-            here = self.sim.world.scene_path.parent
-            file = (here if not guard.is_transferred(here) else self.roots[0]) / file
-        file = Path(os.path.realpath(file))
-        if not any(guard.inside(file, root) for root in self.roots) or guard.is_transferred(file):
-            raise RemoteError(f"server-side file {quote(path)} refused: server-side scenes and models are "
-                              "loaded only from the server's scene folder and its --scene-path folders "
-                              "(a client's own file: options bit 0)")
-        if not file.is_file():
-            raise RemoteError(f"no server-side file {quote(path)}")
-        return file
+    def public(self, path: Path) -> str:
+        """``path`` as a client may see it (never the transfer folder's path)."""
+        return self.files.public(path)
+
+    def _scrub(self, text: str) -> str:
+        return self.files.scrub(text)
 
     def _client_spec(self, file: Path, what: str, dt: float | None) -> mujoco.MjSpec:
         """Parse a client-sent MJCF file, measured before and after parsing (scene_guard)."""
