@@ -205,13 +205,28 @@ def _number(el: ET.Element, attr: str, what: str, default: str = "1") -> list[in
 
 
 def _relative(base: str, name: str) -> str | None:
-    """``name`` (a path in a file) relative to the transfer folder, or None if it leaves it."""
-    if not name or "\x00" in name:
+    """``name`` (a path in a file) relative to the transfer folder, or None if it leaves it
+    (as written, or with surrounding white space stripped, whichever way MuJoCo reads it)."""
+    if not name or not name.strip() or "\x00" in name:
         return None
-    joined = posixpath.normpath(posixpath.join(base, name))
-    if posixpath.isabs(name) or posixpath.isabs(joined) or joined == ".." or joined.startswith("../"):
-        return None
-    return joined
+    out = None
+    for n in (name.strip(), name):
+        joined = posixpath.normpath(posixpath.join(base, n))
+        if posixpath.isabs(n) or posixpath.isabs(joined) or joined == ".." or joined.startswith("../"):
+            return None
+        out = joined
+    return out
+
+
+def _local_names(tree: ET.Element) -> ET.Element:
+    """Drop XML namespaces from tags and attribute names: MuJoCo's parser ignores them, so
+    ``<include xmlns="x" file=...>`` is an include all the same."""
+    for el in tree.iter():
+        if isinstance(el.tag, str) and "}" in el.tag:
+            el.tag = el.tag.rsplit("}", 1)[1]
+        if any("}" in k for k in el.attrib):
+            el.attrib = {k.rsplit("}", 1)[-1]: v for k, v in el.attrib.items()}
+    return tree
 
 
 class _Walk:
@@ -244,7 +259,7 @@ class _Walk:
         if re.search(rb"<!(DOCTYPE|ENTITY)", text, re.IGNORECASE):
             raise _refuse(self.what, f"{quote(rel)} declares a DOCTYPE or entities")
         try:
-            tree = self.trees[rel] = ET.fromstring(text)
+            tree = self.trees[rel] = _local_names(ET.fromstring(text))
         except ET.ParseError as exc:
             raise _refuse(self.what, f"{quote(rel)} is not well-formed XML: {exc}") from None
         return tree

@@ -181,7 +181,9 @@ def test_client_scene_may_name_only_files_sent_with_it(client_b, tmp_path):
                 scene(tex.format("secret.png"), compiler=f'<compiler assetdir="{secret.parent}"/>'),
                 scene(tex.format(up), compiler='<compiler texturedir="x/y"/>'),
                 scene(extra=f'<include file="{SCENE}"/>'),
-                scene(extra='<include file="../../../../../../../../etc/hostname"/>')):
+                scene(extra='<include file="../../../../../../../../etc/hostname"/>'),
+                scene(extra=f'<include xmlns="urn:x" file="{SCENE}"/>'),  # MuJoCo ignores namespaces
+                scene(extra=f'<include file=" {SCENE}"/>')):
         refused(xml)
     # Files sent with the scene are fine, also in sub-folders.
     send("tex/green.png", good_png)
