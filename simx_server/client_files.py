@@ -81,7 +81,10 @@ class ClientFiles:
             raise ArgumentError(f"file {quote(name)} refused: {size:,} bytes, more than "
                                 f"MAX_TRANSFER_FILE_BYTES = {limits.MAX_TRANSFER_FILE_BYTES:,}")
         entries, used = guard.folder_usage(self.files_dir)
-        old = path.stat().st_size if path.is_file() else None
+        try:
+            old = path.stat().st_size if path.is_file() else None
+        except OSError:
+            old = None
         new_entries = (old is None) + sum(1 for p in path.parents if guard.inside(p, self.files_dir)
                                           and p != self.files_dir and not p.exists())
         if entries + new_entries > limits.MAX_TRANSFER_FILES:
@@ -105,7 +108,10 @@ class ClientFiles:
         path = self.transfer_path(name)
         if not path.is_file():
             raise RemoteError(f"no transferred file {quote(name)}")
-        path.unlink()
+        try:
+            path.unlink()
+        except OSError as exc:  # str(exc) would name the transfer folder
+            raise RemoteError(f"cannot erase {quote(name)}: {exc.strerror}") from None
 
     def resolve(self, path: Any, options: int, scene: Path) -> Path:
         """A model or scene file: options bit 0 -> a transferred file, else a server path,

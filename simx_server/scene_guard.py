@@ -260,8 +260,8 @@ class _Walk:
             raise _refuse(self.what, f"{quote(rel)} declares a DOCTYPE or entities")
         try:
             tree = self.trees[rel] = _local_names(ET.fromstring(text))
-        except ET.ParseError as exc:
-            raise _refuse(self.what, f"{quote(rel)} is not well-formed XML: {exc}") from None
+        except (ET.ParseError, LookupError, ValueError) as exc:  # LookupError: unknown encoding
+            raise _refuse(self.what, f"{quote(rel)} is not well-formed XML: {quote(str(exc))}") from None
         return tree
 
     def file(self, rel: str, depth: int) -> None:
@@ -323,9 +323,14 @@ class _Walk:
         for d in self.dirs:
             rel = _relative(self.base, posixpath.join(d, name))
             path = self.root / rel if rel else None
-            if path and path.is_file():
+            try:
+                if not (path and path.is_file()):
+                    continue
                 _over(f"{self.what} ({quote(name)})", path.stat().st_size, "MAX_ASSET_FILE_BYTES")
-                _over(f"{self.what} ({quote(name)})", _mesh_vertices(path.read_bytes(), name), "MAX_MESH_VERTICES")
+                data = path.read_bytes()
+            except OSError:
+                raise _refuse(self.what, f"cannot read {quote(name)}") from None
+            _over(f"{self.what} ({quote(name)})", _mesh_vertices(data, name), "MAX_MESH_VERTICES")
 
     def check_combinations(self) -> None:
         """Every asset file under every folder the scene sets must stay in the transfer folder."""
@@ -390,9 +395,12 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
                 raise _refuse(what, f"it names the file {quote(name)}; a scene or model sent by a client may "
                                     "only use files sent with it (simxTransferFile), by relative paths inside "
                                     "the transfer folder")
-            if path.is_file():
-                _over(label, path.stat().st_size, "MAX_ASSET_FILE_BYTES")
-                data = path.read_bytes()  # at most MAX_ASSET_FILE_BYTES
+            try:
+                if path.is_file():
+                    _over(label, path.stat().st_size, "MAX_ASSET_FILE_BYTES")
+                    data = path.read_bytes()  # at most MAX_ASSET_FILE_BYTES
+            except OSError:  # its text would name the transfer folder; MuJoCo reports it below
+                data = b""
         if isinstance(el, mujoco.MjsTexture):
             if el.builtin != mujoco.mjtBuiltin.mjBUILTIN_NONE and not names:
                 px = el.width * el.height if el.type == mujoco.mjtTexture.mjTEXTURE_2D else 6 * el.width ** 2

@@ -363,6 +363,13 @@ def test_server_side_paths_after_a_client_scene_and_a_closed_scene(sim, tmp_path
     client's (or the empty scene of simxCloseScene, which lives in the transfer folder)."""
     from simx_server.editing import EDITING_HANDLERS as H
 
+    H["TransferFile"](sim, ["f", b"x"])
+    H["TransferFile"](sim, ["m.xml", b'<mujoco><asset><texture name="t" type="2d" file="gone.png"/></asset></mujoco>'])
+    for command, args in (("TransferFile", ["f/x", b"x"]), ("LoadScene", ["f", 1]), ("LoadModel", ["f", 1]),
+                          ("LoadScene", ["m.xml", 1]), ("LoadModel", ["m.xml", 1])):
+        with pytest.raises(RemoteError) as failed:  # an OSError or MuJoCo's text would name the folder
+            H[command](sim, args)
+        assert str(sim.editor.files_dir) not in str(failed.value) and "simx-" not in str(failed.value)
     H["CloseScene"](sim, [])
     assert sim.world.objects == {}
     H["LoadScene"](sim, [SCENE.name, 0])
