@@ -812,7 +812,9 @@ class Editor:
             world = World(file, dt)
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code, untrusted=untrusted)
         except (ValueError, RemoteError) as exc:
-            raise RemoteError(f"cannot load scene {label}: {self._scrub(_one_line(exc))}") from None
+            text = self._scrub(_one_line(exc))
+            text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix
+            raise RemoteError(f"cannot load scene {label}: {text}") from None
         sim.vision.close()
         sim.world, sim.scripts = world, scripts
         sim.vision = VisionSensors(world)
