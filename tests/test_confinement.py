@@ -244,7 +244,7 @@ def test_scene_bombs_are_refused_at_once_while_others_are_served(server_b, clien
         finally:
             stop.set()
             worker.join()
-        assert max(latencies) < max(10 * p99, 0.25), (max(latencies), p99)
+        assert max(latencies) < max(10 * p99, 0.5), (max(latencies), p99)  # the bombs froze clients 22-30 s
         errors = last_errors(client_b)
         assert any("texture" in e and "pixels" in e for e in errors), errors
         assert any("bodies" in e for e in errors), errors
