@@ -484,7 +484,8 @@ class Editor:
             try:
                 model = spec.compile()
             except ValueError as exc:
-                raise UnsupportedError(f"MuJoCo cannot compile the edited scene: {self._scrub(_one_line(exc))}") from None
+                raise UnsupportedError("MuJoCo cannot compile the edited scene: "
+                                       f"{self._scrub(_one_line(exc))}") from None
         placements, mocap = self._runtime_placements(), self._mocap_poses()
         baseline = _poses(model)
         world.replace_model(model)

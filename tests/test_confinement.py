@@ -374,7 +374,8 @@ def test_server_side_paths_after_a_client_scene_and_a_closed_scene(sim, tmp_path
     assert sim.world.objects == {}
     H["LoadScene"](sim, [SCENE.name, 0])
     assert "UR5" in sim.world.by_name
-    H["TransferFile"](sim, ["own.xml", b'<mujoco><worldbody><body name="Own"><geom size=".1"/></body></worldbody></mujoco>'])
+    own = b'<mujoco><worldbody><body name="Own"><geom size=".1"/></body></worldbody></mujoco>'
+    H["TransferFile"](sim, ["own.xml", own])
     H["LoadScene"](sim, ["own.xml", 1])
     with pytest.raises(RemoteError, match="refused"):
         H["LoadScene"](sim, [str(sim.editor.files_dir / "own.xml"), 0])  # its own file, but sent by a client
