@@ -44,7 +44,7 @@ MAX_TRANSFER_FILE_BYTES = 32 * 1024 * 1024
 MAX_TRANSFER_FOLDER_BYTES = 256 * 1024 * 1024
 #: Most files and folders the transfer folder may hold.
 MAX_TRANSFER_FILES = 1000
-#: Largest MJCF file (a scene, a model, each <include>d file) a client may have loaded, in bytes.
+#: Most bytes of MJCF a client may have loaded at once (a scene or model with its <include>s).
 MAX_SCENE_FILE_BYTES = 4 * 1024 * 1024
 #: Largest asset file (mesh, texture, height field, skin) a client-sent scene may name, in bytes.
 MAX_ASSET_FILE_BYTES = 16 * 1024 * 1024

@@ -182,15 +182,15 @@ def _png_pixels(head: bytes) -> int | None:
 def _mesh_vertices(data: bytes, name: str) -> int:
     """Vertices a mesh file holds (an upper bound), by its format."""
     ext = posixpath.splitext(name.lower())[1]
-    if ext == ".stl":
-        if len(data) >= 84 and not data[:5].lower() == b"solid":
-            return 3 * struct.unpack("<I", data[80:84])[0]
-        return data.count(b"vertex")
-    if ext == ".obj":
-        return data.count(b"\nv ") + data.startswith(b"v ")
+    if ext == ".stl" and len(data) >= 84 and data[:5].lower() != b"solid":
+        return 3 * struct.unpack("<I", data[80:84])[0]  # binary STL: its triangle count
+    text = max(data.count(b"\nv ") + data.count(b"\nv\t") + data.startswith((b"v ", b"v\t")),  # OBJ
+               data.count(b"vertex"))  # ASCII STL
     if ext == ".msh" and len(data) >= 4:
-        return max(0, struct.unpack("<i", data[:4])[0])
-    return len(data) // 12  # any other format: three floats per vertex at most
+        return max(text, struct.unpack("<i", data[:4])[0])
+    if ext in (".obj", ".stl"):
+        return text
+    return max(text, len(data) // 12)  # another name (content_type): three floats per vertex at most
 
 
 def _number(el: ET.Element, attr: str, what: str, default: str = "1") -> list[int]:
@@ -239,6 +239,7 @@ class _Walk:
         self.files: list[str] = []  # asset file names as written
         self.dirs: set[str] = {""}
         self.trees: dict[str, ET.Element] = {}  # each file read and parsed once
+        self.bytes = 0  # of XML read, includes with it
 
     def outside(self, name: str) -> RemoteError:
         # One message whether or not such a server file exists: nothing is looked up.
@@ -252,7 +253,8 @@ class _Walk:
         path = self.root / rel
         try:
             size = path.stat().st_size
-            _over(f"{self.what} ({quote(rel)})", size, "MAX_SCENE_FILE_BYTES")
+            self.bytes += size
+            _over(f"{self.what} ({quote(rel)} and the files before it)", self.bytes, "MAX_SCENE_FILE_BYTES")
             text = path.read_bytes()
         except OSError:
             raise _refuse(self.what, f"no transferred file {quote(rel)}") from None

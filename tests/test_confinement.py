@@ -396,3 +396,20 @@ def test_scene_path_must_be_a_folder(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "simx_server.cli", "--scene-path", str(tmp_path / "no"),
                            "--port", str(free_port())], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2 and "--scene-path" in proc.stderr and "not a folder" in proc.stderr
+
+
+def test_includes_count_toward_one_xml_budget(sim, monkeypatch):
+    """Many distinct included files (each small enough) may not add up past the XML budget."""
+    from simx_server import limits
+    from simx_server.editing import EDITING_HANDLERS as H
+
+    monkeypatch.setattr(limits, "MAX_SCENE_FILE_BYTES", 1000)
+    part = b'<mujoco><custom><text name="t%d" data="' + b"x" * 300 + b'"/></custom></mujoco>'
+    for i in range(4):
+        H["TransferFile"](sim, [f"part{i}.xml", part.replace(b"%d", str(i).encode())])
+    includes = "".join(f'<include file="part{i}.xml"/>' for i in range(4))
+    H["TransferFile"](sim, ["a.xml", f"<mujoco>{includes}</mujoco>".encode()])
+    with pytest.raises(RemoteError, match="MAX_SCENE_FILE_BYTES"):
+        H["LoadScene"](sim, ["a.xml", 1])
+    H["TransferFile"](sim, ["a.xml", f"<mujoco>{includes[:len(includes) // 2]}</mujoco>".encode()])
+    H["LoadScene"](sim, ["a.xml", 1])  # two of them fit
