@@ -39,6 +39,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--allow-unsafe-lua", action="store_true",
                    help="give Lua child scripts files, processes and the environment (io, os.execute, "
                         "os.remove, dofile, package.path...), as CoppeliaSim's executeUnsafe; off by default")
+    p.add_argument("--scene-path", action="append", metavar="DIR", default=[],
+                   help="folder clients may load server-side scenes and models from (simxLoadScene/"
+                        "simxLoadModel with options 0), besides the scene's folder (repeatable)")
     p.add_argument("--prefix", default="simx", help="Zenoh key-expression prefix (default simx)")
     p.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
     return p.parse_args(argv)
@@ -58,9 +61,13 @@ def main(argv: list[str] | None = None) -> int:
     from simx_server.simulation import Simulation
 
     scene = Path(args.scene) if args.scene else default_scene()
+    for folder in args.scene_path:
+        if not Path(folder).is_dir():
+            print(f"simx-server: --scene-path {folder}: not a folder", file=sys.stderr)
+            return 2
     try:
         sim = Simulation(scene, dt=args.dt, realtime=args.speed > 0, allow_remote_code=args.allow_remote_code,
-                         allow_unsafe_lua=args.allow_unsafe_lua)
+                         allow_unsafe_lua=args.allow_unsafe_lua, scene_paths=args.scene_path)
     except (ValueError, OSError) as exc:
         print(f"simx-server: {exc}", file=sys.stderr)
         return 2

@@ -249,7 +249,7 @@ def get_string_parameter(sim: Simulation, args: list) -> str:
     if pid == STRINGPARAM_APPLICATION_PATH:
         return str(Path(__file__).resolve().parent)
     if pid == STRINGPARAM_SCENE_PATH_AND_NAME:
-        return str(sim.world.scene_path)
+        return sim.editor.public(sim.world.scene_path)  # never the transfer folder's path
     raise _unsupported_param("string", pid)
 
 

@@ -24,8 +24,14 @@ Rules, in V-REP's terms (docs/API.md lists them per command):
   refer to them).
 * Child scripts are not copied with objects, nor run for loaded models (their object
   lookups would address the original objects); a removed object's script is cleaned up.
-* Files sent with ``simxTransferFile`` go to a per-server temporary folder, removed by
-  :meth:`Editor.close`; names that leave that folder are refused.
+* Files sent with ``simxTransferFile`` go to a transfer folder private to this server
+  process (``scene_guard.make_transfer_folder``: 0700, removed by :meth:`Editor.close` or at
+  exit, never named in replies); names that leave it are refused, and its size is bounded.
+* Trust: a scene or model loaded from the transfer folder (options bit 0) is a client's: its
+  files must lie in the transfer folder, its size is bounded before MuJoCo parses it, its child
+  scripts run only with ``--allow-remote-code``. Server-side paths (options 0) are loaded only
+  from the operator's scene folder and ``--scene-path`` folders, never from a transfer folder
+  of any server. Edits may not grow the scene past ``MAX_SCENE_BODIES``/``MAX_SCENE_ELEMENTS``.
 
 Runs on the simulation thread, like every handler.
 """
@@ -35,17 +41,18 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import shutil
-import tempfile
 import warnings
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_server import scene_guard as guard
 from simx_server.arguments import check_args as _args
+from simx_server.arguments import quote
+from simx_server.client_files import ClientFiles
 from simx_server.scripts import Scripts
 from simx_server.vision import VisionSensors
 from simx_server.world import (DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE,
@@ -333,12 +340,15 @@ def refresh_vision(sim: Simulation) -> None:
 class Editor:
     """Scene editing for one :class:`Simulation` (``sim.editor = Editor(sim)``).
 
-    Owns the transfer folder (a fresh ``simx-*`` temporary folder); :meth:`close` removes it.
+    Owns the transfer folder through :class:`ClientFiles` (``<tmp>/simx-<pid>-<start>-*``,
+    0700); :meth:`close` removes it, and so does the interpreter's exit. ``scene_paths`` are the
+    ``--scene-path`` folders: with the folder of the scene the server started with, the only
+    places server-side paths (options 0) are loaded from.
     """
 
-    def __init__(self, sim: Simulation):
+    def __init__(self, sim: Simulation, scene_paths=()):
         self.sim = sim
-        self.files_dir = Path(tempfile.mkdtemp(prefix="simx-")).resolve()
+        self.files = ClientFiles(sim.world.scene_path, scene_paths)  # the transfer folder, trusted folders
         self._spec: mujoco.MjSpec | None = None
         self._spec_world: World | None = None  # the world (scene) the spec describes
         self._baseline: dict[str, np.ndarray] | None = None  # poses as last compiled
@@ -355,55 +365,43 @@ class Editor:
 
     def close(self) -> None:
         """Remove the transfer folder; idempotent."""
-        shutil.rmtree(self.files_dir, ignore_errors=True)
+        self.files.close()
 
     # ------------------------------------------------------------------ files
-    def transfer_path(self, name: Any) -> Path:
-        """Where a transferred file called ``name`` lives; refuses names outside the folder."""
-        if not isinstance(name, str) or not name or "\x00" in name:
-            raise ArgumentError("file name must be a non-empty string")
-        pure = PurePosixPath(name)
-        path = (self.files_dir / pure).resolve()
-        if pure.is_absolute() or ".." in pure.parts or self.files_dir not in path.parents:
-            raise ArgumentError(f"file name {name!r} refused: outside the transfer folder")
-        return path
+    @property
+    def files_dir(self) -> Path:
+        """The transfer folder (private to this server process)."""
+        return self.files.files_dir
 
     def transfer_file(self, name: str, data: Any) -> None:
-        """``simxTransferFile``: store ``data`` as ``name`` in the transfer folder."""
-        if not isinstance(data, (bytes, bytearray, memoryview)):
-            raise ArgumentError(f"file data must be bytes, got {type(data).__name__}")
-        path = self.transfer_path(name)
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(path.name + ".part")
-            tmp.write_bytes(bytes(data))
-            tmp.replace(path)
-        except OSError as exc:
-            raise RemoteError(f"cannot store {name!r}: {exc.strerror}") from exc
-        log.info("received file %s (%d bytes)", name, len(data))
+        """``simxTransferFile`` (see :meth:`ClientFiles.transfer_file`)."""
+        self.files.transfer_file(name, data)
 
     def erase_file(self, name: str) -> None:
         """``simxEraseFile``: delete a transferred file."""
-        path = self.transfer_path(name)
-        if not path.is_file():
-            raise RemoteError(f"no transferred file {name!r}")
-        path.unlink()
+        self.files.erase_file(name)
 
     def resolve(self, path: Any, options: int) -> Path:
-        """A model or scene file: options bit 0 -> a transferred file, else a server path
-        (absolute, or relative to the scene's folder)."""
-        if not isinstance(path, str) or not path:
-            raise ArgumentError("file path must be a non-empty string")
-        if options & 1:
-            file = self.transfer_path(path)
-        else:
-            file = Path(path)
-            if not file.is_absolute():
-                file = self.sim.world.scene_path.parent / file
-        if not file.is_file():
-            where = "transferred" if options & 1 else "server-side"
-            raise RemoteError(f"no {where} file {path!r}")
-        return file.resolve()
+        """The file a LoadScene/LoadModel names (see :meth:`ClientFiles.resolve`)."""
+        return self.files.resolve(path, options, self.sim.world.scene_path)
+
+    def public(self, path: Path) -> str:
+        """``path`` as a client may see it (never the transfer folder's path)."""
+        return self.files.public(path)
+
+    def _scrub(self, text: str) -> str:
+        return self.files.scrub(text)
+
+    def _client_spec(self, file: Path, what: str, dt: float | None) -> mujoco.MjSpec:
+        """Parse a client-sent MJCF file, measured before and after parsing (scene_guard)."""
+        guard.check_client_file(file, self.files_dir, what)
+        try:
+            with _quiet_mujoco():
+                spec = mujoco.MjSpec.from_file(str(file))
+        except ValueError as exc:
+            raise RemoteError(f"cannot load {what}: {self._scrub(_one_line(exc))}") from None
+        guard.check_spec(spec, what, root=self.files_dir, dt=dt)
+        return spec
 
     # ------------------------------------------------------------------- spec
     def _live_spec(self) -> mujoco.MjSpec:
@@ -473,17 +471,21 @@ class Editor:
         """
         world = self.sim.world
         with _quiet_mujoco():
-            spec = self._live_spec().copy()
+            live = self._live_spec()
+            before = guard.element_counts(live)
+            spec = live.copy()
             spec.copy_during_attach = True
             self._placed: set[tuple[str, str]] = set()  # (kind, name) the change placed itself
             try:
                 after = change(spec)
             except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
-                raise UnsupportedError(f"MuJoCo cannot make this edit: {_one_line(exc)}") from None
+                raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
+            guard.check_growth(before, spec)
             try:
                 model = spec.compile()
             except ValueError as exc:
-                raise UnsupportedError(f"MuJoCo cannot compile the edited scene: {_one_line(exc)}") from None
+                raise UnsupportedError("MuJoCo cannot compile the edited scene: "
+                                       f"{self._scrub(_one_line(exc))}") from None
         placements, mocap = self._runtime_placements(), self._mocap_poses()
         baseline = _poses(model)
         world.replace_model(model)
@@ -521,11 +523,14 @@ class Editor:
     def load_model(self, path: str, options: int) -> int:
         """``simxLoadModel``: attach an MJCF model's world children; returns its base handle."""
         file = self.resolve(path, options)
-        try:
-            with _quiet_mujoco():
-                child = mujoco.MjSpec.from_file(str(file))
-        except ValueError as exc:
-            raise RemoteError(f"cannot load model {path!r}: {_one_line(exc)}") from None
+        if options & 1:  # a client's model: measured, its files confined to the transfer folder
+            child = self._client_spec(file, f"model {quote(path)}", None)
+        else:
+            try:
+                with _quiet_mujoco():
+                    child = mujoco.MjSpec.from_file(str(file))
+            except ValueError as exc:
+                raise RemoteError(f"cannot load model {quote(path)}: {_one_line(exc)}") from None
         child_assets = _embed_assets(child, self._asset_counter)
         child.assets = {**(child.assets or {}), **child_assets}
         base = child.worldbody.first_body()
@@ -551,7 +556,7 @@ class Editor:
                 return lambda: self.sim.world.resolve(base.name + suffix).handle
             first = next((e.name + suffix for e in _elements(child, ("sites", "cameras", "lights")) if e.name), None)
             if first is None:
-                raise ArgumentError(f"model {path!r} has no body nor named site, camera or light")
+                raise ArgumentError(f"model {quote(path)} has no body nor named site, camera or light")
             return lambda: self.sim.world.resolve(first).handle
 
         handle = self._edit(change)
@@ -782,7 +787,11 @@ class Editor:
 
         if self.sim.state is not RunState.STOPPED:
             raise RemoteError("stop the simulation first")
-        self._install_scene(self.resolve(path, options))
+        file = self.resolve(path, options)
+        spec = None
+        if options & 1:  # a client's scene: measured before MuJoCo parses and compiles it
+            spec = self._client_spec(file, f"scene {quote(path)}", self.sim.world.requested_dt)
+        self._install_scene(file, quote(path), spec)
 
     def close_scene(self) -> None:
         """``simxCloseScene``: stop the simulation and replace the scene with an empty one."""
@@ -790,27 +799,40 @@ class Editor:
         empty = self.files_dir / ".simx" / "empty.xml"
         empty.parent.mkdir(exist_ok=True)
         empty.write_text(_EMPTY_SCENE)
-        self._install_scene(empty)
+        self._install_scene(empty, "empty")
 
-    def _install_scene(self, file: Path) -> None:
+    def _install_scene(self, file: Path, label: str, spec: mujoco.MjSpec | None = None) -> None:
+        """Load ``file`` as the scene; ``spec`` is its parse when the caller has it already
+        (a client's scene, measured): MuJoCo's parse is most of a load's time."""
         sim = self.sim
         dt = sim.world.requested_dt
         old = sim.scripts
+        # A scene in a transfer folder (any server's) brings no code, unless --allow-remote-code.
+        untrusted = guard.transfer_folders(self.files_dir, *([file.parent] if guard.is_transferred(file) else []))
         try:
             world = World(file, dt)
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
-                              allow_unsafe_lua=old.allow_unsafe_lua,
-                              untrusted=[self.files_dir])  # a scene sent by a client brings no code
+                              allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted)
         except (ValueError, RemoteError) as exc:
-            raise RemoteError(f"cannot load scene {file.name}: {_one_line(exc)}") from None
+            text = self._scrub(_one_line(exc))
+            text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix
+            raise RemoteError(f"cannot load scene {label}: {text}") from None
         sim.vision.close()
         sim.world, sim.scripts = world, scripts
         sim.vision = VisionSensors(world)
         sim.sensors = type(sim.sensors)()  # per-scene sensor state (probes, passive images) starts afresh
         self._spec = self._spec_world = self._baseline = None
-        self._parse_now()
+        if spec is not None:
+            try:
+                with _quiet_mujoco():
+                    spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
+                    self._spec, self._spec_world, self._baseline = spec, world, _poses(spec.compile())
+            except ValueError as exc:
+                log.warning("scene %s cannot be edited: %s", label, _one_line(exc))
+        else:
+            self._parse_now()
         sim.selection = []
-        log.info("scene %s loaded: %d objects", file.name, len(world.objects))
+        log.info("scene %s loaded: %d objects", label, len(world.objects))
 
 
 def _poses(model: mujoco.MjModel) -> dict[str, np.ndarray]:

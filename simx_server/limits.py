@@ -65,3 +65,53 @@ MAX_SIGNAL_BYTES = 16 * 1024 * 1024
 MAX_SIGNAL_STORE_BYTES = 64 * 1024 * 1024
 #: Longest signal name in characters.
 MAX_SIGNAL_NAME = 1024
+
+# ----------------------------------------------------------------- scenes and files
+# Files sent with simxTransferFile, and what a scene or model sent by a client may hold. A
+# client-sent MJCF file is measured before MuJoCo parses it (its XML, with <include>s and
+# <replicate> counts multiplied out) and its MjSpec again before it is compiled, so that a
+# refused scene costs milliseconds: MuJoCo's parse and compile run on the simulation thread
+# and cannot be interrupted, so every other client waits while a scene loads. Measured on the
+# loaded 2-core development machine, LoadScene of a client's scene at one bound takes: 1,000
+# bodies 0.13-0.18 s, a 4096x4096 texture 0.14-0.25 s, a 200,000-vertex mesh 0.34-1.2 s; with
+# every bound reached at once, about 3 s at worst. Above the bounds time grows fast (MuJoCo's
+# parse is quadratic: 10,000 replicated bodies took 10.7 s, 90,000 froze clients 22.6 s).
+# Files of the operator (the scene on the command line, --scene-path folders) are not
+# measured; edits by clients are (bodies and elements).
+#: Largest file one simxTransferFile may store, in bytes.
+MAX_TRANSFER_FILE_BYTES = 32 * 1024 * 1024
+#: Most bytes the transfer folder may hold in all.
+MAX_TRANSFER_FOLDER_BYTES = 256 * 1024 * 1024
+#: Most files and folders the transfer folder may hold.
+MAX_TRANSFER_FILES = 1000
+#: Most bytes of MJCF a client may have loaded at once (a scene or model with its <include>s).
+MAX_SCENE_FILE_BYTES = 4 * 1024 * 1024
+#: Largest asset file (mesh, texture, height field, skin) a client-sent scene may name, in bytes.
+MAX_ASSET_FILE_BYTES = 16 * 1024 * 1024
+#: Deepest nesting of XML elements and <include>s in a client-sent file.
+MAX_XML_DEPTH = 100
+#: Most bodies (and flexes) in a client-sent scene, and in a scene after a client's edit.
+MAX_SCENE_BODIES = 1000
+#: Most elements of every kind (geoms, joints, sites, actuators, ...) likewise.
+MAX_SCENE_ELEMENTS = 10_000
+#: Most pixels of one texture (all six faces of a cube), and of all textures of a scene.
+MAX_TEXTURE_PIXELS = 4096 * 4096
+MAX_SCENE_TEXTURE_PIXELS = 2 * MAX_TEXTURE_PIXELS
+#: Most cells of one height field (nrow x ncol), and of all height fields of a scene.
+MAX_HFIELD_CELLS = 2048 * 2048
+MAX_SCENE_HFIELD_CELLS = 2 * MAX_HFIELD_CELLS
+#: Most vertices of one mesh (counted in the file or the vertex list) or flex, and of all of
+#: them in a scene (MuJoCo computes each mesh's convex hull: 200,000 vertices take 0.3-1 s).
+MAX_MESH_VERTICES = 200_000
+MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
+#: Most bytes of MuJoCo's arena (<size memory>) and most entries of the other <size> fields
+#: (nuserdata, nkey, nuser_*, njmax, nconmax, nstack), and values of one <numeric>.
+MAX_ARENA_BYTES = 256 * 1024 * 1024
+MAX_SIZE_ENTRIES = 100_000
+#: Most solver iterations per step (<option iterations, ls_iterations, noslip_iterations,
+#: ccd_iterations, sdf_iterations>): MuJoCo's defaults are 100, 50, 0, 35, 10.
+MAX_SOLVER_ITERATIONS = 1000
+#: Largest offscreen buffer and shadow map side (<visual><global offwidth/offheight>,
+#: <quality shadowsize>), and most samples and slices (<quality offsamples, numslices, ...>).
+MAX_VISUAL_SIZE = 4096
+MAX_VISUAL_DETAIL = 64

@@ -12,6 +12,7 @@ from pathlib import Path
 from simx_client import protocol as P
 from simx_server.editing import Editor
 from simx_server.physics import PhysicsError
+from simx_server.scene_guard import transfer_folders
 from simx_server.script_facade import Signals
 from simx_server.scripts import Scripts
 from simx_server.sensors import SensorState
@@ -38,20 +39,23 @@ class Simulation:
         realtime: whether asynchronous mode paces steps to wall time (the server's --speed > 0).
         allow_remote_code: let child scripts run code sent by clients (--allow-remote-code).
         allow_unsafe_lua: give Lua child scripts files, processes and the environment (--allow-unsafe-lua).
+        scene_paths: folders server-side scenes and models may be loaded from, besides the
+            scene's own folder (--scene-path).
 
     Raises:
         ValueError: the scene or one of its scripts cannot be loaded.
     """
 
     def __init__(self, scene: str | Path, dt: float = 0.05, realtime: bool = True,
-                 allow_remote_code: bool = False, allow_unsafe_lua: bool = False):
+                 allow_remote_code: bool = False, allow_unsafe_lua: bool = False, scene_paths=()):
         self.world = World(scene, dt)
         self.vision = VisionSensors(self.world)
         self.signals = Signals()  # shared by every client and child script
+        # The operator's scene is trusted, but no file that came through a transfer folder is.
         self.scripts = Scripts(self.world, self.signals, allow_remote_code=allow_remote_code,
-                               allow_unsafe_lua=allow_unsafe_lua)
+                               allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders())
         self.sensors = SensorState()
-        self.editor = Editor(self)  # scene editing (MjSpec) and the transfer folder
+        self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
         self.state = RunState.STOPPED
         self.realtime = realtime
         self.synchronous = False  # stepped mode: a step runs only on a trigger

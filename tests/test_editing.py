@@ -26,7 +26,7 @@ BOX = Path(__file__).resolve().parent / "scenes" / "model_box.xml"
 
 @pytest.fixture
 def sim():
-    s = Simulation(SCENE, dt=0.05, realtime=False)
+    s = Simulation(SCENE, dt=0.05, realtime=False, scene_paths=[BOX.parent])  # server-side models
     yield s
     s.close()
 
