@@ -136,9 +136,17 @@ def test_scene_with_a_huge_camera_resolution_is_refused(tmp_path):
         World(_scene(tmp_path, camera=cam.format(limits.MAX_RESOLUTION + 1)))
 
 
-def test_models_and_scenes_loaded_by_clients_obey_the_scene_bounds(sim, tmp_path):
+def test_models_and_scenes_loaded_by_clients_obey_the_scene_bounds(tmp_path):
     """simxLoadModel / simxLoadScene: a camera too large, or a timestep too small for dt, is
-    refused before anything changes."""
+    refused before anything changes (server-side files of a --scene-path folder)."""
+    sim = Simulation(SCENE, scene_paths=[tmp_path])
+    try:
+        _check_scene_bounds(sim, tmp_path)
+    finally:
+        sim.close()
+
+
+def _check_scene_bounds(sim, tmp_path):
     from simx_server import editing
 
     model = tmp_path / "eye.xml"
