@@ -128,7 +128,8 @@ class Fuzzer:
         """A wrong type or size at one position of ``[version, client, [[name, mode, args]]]``."""
         r = self.rng
         cid, cmds = self.request()
-        junk = r.choice([None, 1, -1, 2.5, "s", b"\x00", [], {}, {"v": 3}, [[]], True, 2**64 - 1])
+        junk = r.choice([None, 1, -1, 2.5, "s", b"\x00", [], {}, {"v": 3}, {"v": 1, "c": 5, "cmds": 7}, [[]], True,
+                        2**64 - 1])
         where = r.randrange(9)
         if where == 0:
             message = junk  # not an array at all
