@@ -18,8 +18,8 @@ c. **the flood**: one client sends oneshot ``simxSetJointTargetPosition`` as fas
    client with the request pre-encoded (``flood-raw``). Meanwhile this process makes blocking
    ``simxGetJointPosition`` calls; their p99 per 1 s bin against the same calls' p99 unloaded,
    measured just before in the same run. Server RSS sampled every 0.25 s; above 3 GB the
-   flood is killed (a bound, not a figure). After the flood: how long until a blocking call
-   is again answered within 10x the unloaded p99 (at most 60 s).
+   flood is killed (a bound, not a figure). After the flood: how long from its end until a
+   blocking call is again answered within 10x the unloaded p99 (at most 60 s).
 d. **image soak**: one client streams ``kinect_rgb`` 640x480 RGB and ``kinect_depth``'s depth
    buffer for 180 s (quick 30 s), reading them in a legacy ``buffer`` loop; server RSS and
    thread count every 10 s (quick 5 s), frames read per second.
@@ -283,19 +283,21 @@ def _flood(s: Settings, kind: str = "flood") -> list[Figure]:
                 sampler.start()
                 while time.monotonic() < t_flood:
                     time.sleep(0.001)
-                loaded = _blocking_window(cid, joint, seconds + 1, stop=aborted)
+                loaded = _blocking_window(cid, joint, seconds, stop=aborted)  # calls started during the flood
                 flood.proc.wait(timeout=60)
             finally:
                 flood.stop()
-            t_after = time.monotonic()
-            # Recovery: the first blocking call answered within 10x the unloaded p99 again.
+            sent = json.loads(out.read_text()) if out.exists() else {"sent": None, "seconds": None}
+            flood_end = sent.get("ended") or time.monotonic()  # killed: about now
+            # Recovery: the first blocking call after the flood answered within 10x the unloaded
+            # p99 again (the backlog it left behind is served first), in s after the flood ended.
             limit = 10 * float(np.percentile([c[1] for c in unloaded], 99))
             recovered = None
-            while time.monotonic() - t_after < 60:
+            while time.monotonic() - flood_end < 60:
                 a = time.perf_counter()
                 rc, _ = api.simxGetJointPosition(cid, joint, B)
                 if rc == 0 and time.perf_counter() - a <= limit:
-                    recovered = time.monotonic() - t_after
+                    recovered = time.monotonic() - flood_end
                     break
                 time.sleep(0.01)
             rss_after = proc_status(srv.pid)["rss_mb"]
@@ -303,7 +305,6 @@ def _flood(s: Settings, kind: str = "flood") -> list[Figure]:
             stop_sampling.set()
             api.simxFinish(cid)
         alive = srv.proc.poll() is None
-    sent = json.loads(out.read_text()) if out.exists() else {"sent": None, "seconds": None}
     un_p99 = _binned_p99(unloaded, 1.0)
     lo_p99 = _binned_p99(loaded, 1.0)
     lost = sum(1 for c in loaded if c[2] != 0)

@@ -16,7 +16,8 @@ code 8 or worse: the previous oneshot reply was an error, or the call failed loc
 reads with and without a value, elapsed time and CPU time.
 
 ``flood`` sends oneshot ``simxSetJointTargetPosition`` as fast as one Python client can, for
-``S`` seconds or ``N`` calls (bounded in both), and writes the count sent and the time taken.
+``S`` seconds or ``N`` calls (bounded in both), and writes the count sent, the time taken and the
+CLOCK_MONOTONIC time it stopped.
 ``flood-raw`` does the same without the client library: a raw Zenoh session (``client_config``)
 sends the one pre-encoded request ``[[SetJointTargetPosition, oneshot, [H, 0.0]]]`` to its own
 call key with a declared querier and ignores the replies, as a hostile client could.
@@ -103,7 +104,8 @@ def flood(args: argparse.Namespace, cid: int) -> dict:
         sent += 1
         if not sent % 256 and time.monotonic() >= end:
             break
-    return {"sent": sent, "seconds": time.monotonic() - t0}
+    ended = time.monotonic()
+    return {"sent": sent, "seconds": ended - t0, "ended": ended}
 
 
 def flood_raw(args: argparse.Namespace) -> dict:
@@ -130,7 +132,8 @@ def flood_raw(args: argparse.Namespace) -> dict:
             sent += 1
             if not sent % 256 and time.monotonic() >= end:
                 break
-        return {"sent": sent, "seconds": time.monotonic() - t0}
+        ended = time.monotonic()
+        return {"sent": sent, "seconds": ended - t0, "ended": ended}
     finally:
         session.close()
 
