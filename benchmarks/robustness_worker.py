@@ -133,9 +133,15 @@ def flood_raw(args: argparse.Namespace) -> dict:
             if not sent % 256 and time.monotonic() >= end:
                 break
         ended = time.monotonic()
-        return {"sent": sent, "seconds": ended - t0, "ended": ended}
+        result = {"sent": sent, "seconds": ended - t0, "ended": ended}
+        with open(args.out, "w") as f:  # before closing: with thousands of queries pending,
+            json.dump(result, f)  # Zenoh's close can time out
+        return result
     finally:
-        session.close()
+        try:
+            session.close()
+        except zenoh.ZError as exc:
+            print(f"closing the session: {exc}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -152,9 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--max-calls", type=int, default=1_000_000)
     args = p.parse_args(argv)
     if args.kind == "flood-raw":
-        result = flood_raw(args)
-        with open(args.out, "w") as f:
-            json.dump(result, f)
+        flood_raw(args)
         return 0
     cid = api.simxStart("127.0.0.1", args.port, True, True, 5000, 5)
     if cid < 0:
