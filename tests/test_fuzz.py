@@ -397,7 +397,8 @@ def _summary(problems: list[str]) -> str:
     count of each group and its first three cases."""
     groups: dict[str, list[str]] = {}
     for p in problems:
-        what = re.sub(r"simx[A-Za-z]+|[0-9][0-9,.]*", "#", p.split(": ", 1)[-1])[:100]
+        what = p.split(";")[0] if p.startswith("the server") else p.split(": ", 1)[-1]
+        what = re.sub(r"simx[A-Za-z]+|[0-9][0-9,.]*", "#", what)[:100]
         groups.setdefault(what, []).append(p)
     lines = [f"{len(problems)} problems in {len(groups)} groups:"]
     for what, members in sorted(groups.items(), key=lambda g: -len(g[1])):
