@@ -134,8 +134,9 @@ def test_killed_streaming_client_is_freed_while_another_keeps_working():
         assert freed < FREED_WITHIN, f"updates for the killed client went on {freed:.1f} s after SIGKILL"
         wait_until(lambda: f"client {victim_id} left" in _log_text(srv), timeout=10,
                    what="the server's log line saying the killed client left")
-        seen = counts[other_key]
+        seen, dead = counts[other_key], counts[victim_key]
         wait_until(lambda: counts[other_key] >= seen + 5, what="the other client's stream after the kill")
+        assert counts[victim_key] == dead, "the killed client's stream came back"
         stop.set()
         caller.join(timeout=10)
         failed = [rc for rc, _ in calls if rc != 0]
