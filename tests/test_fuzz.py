@@ -330,9 +330,9 @@ def test_fuzzed_requests_are_all_answered_and_harm_nothing():
     log = ""
     try:
         # Warm up (the first render allocates its buffers) and learn the scene's handles.
-        hello = list(session.get(P.call_key("simx", "fuzz-setup"), timeout=10, payload=P.request("fuzz-setup", [
+        setup = list(session.get(P.call_key("simx", "fuzz-setup"), timeout=10, payload=P.request("fuzz-setup", [
             ["GetObjects", B, [vrep.sim_handle_all]], ["GetObjectHandle", B, ["kinect_rgb"]]])))
-        (_, handles), (_, rgb) = P.unpack_response(hello[0].ok.payload.to_bytes())[5]
+        (_, handles), (_, rgb) = P.unpack_response(setup[0].ok.payload.to_bytes())[5]
         list(session.get(P.call_key("simx", "fuzz-setup"), timeout=10,
                          payload=P.request("fuzz-setup", [["GetVisionSensorImage", B, [rgb, 0]]])))
         rss_before = _rss_mb(srv.proc.pid)
