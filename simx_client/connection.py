@@ -118,9 +118,19 @@ class Connection:
             raise
 
     # --------------------------------------------------------------- transport
-    def _payload(self, commands: list[list]) -> tuple[bytes, tuple[int, float]]:
+    def _encode(self, commands: list[list]) -> bytes:
+        """The request carrying ``commands``; LocalError for arguments msgpack cannot carry
+        (an int beyond 64 bits, a lone surrogate in a str, nesting beyond msgpack's limit)."""
+        try:
+            return self._encoder.encode(commands)
+        except (TypeError, ValueError, OverflowError) as exc:  # UnicodeEncodeError is a ValueError
+            raise P.LocalError(f"arguments that cannot be sent: {type(exc).__name__}: {exc}") from exc
+
+    def _payload(self, commands: list[list], payload: bytes | None = None) -> tuple[bytes, tuple[int, float]]:
+        if payload is None:
+            payload = self._encode(commands)
         header = self._out = (next(self._messages), time.monotonic())
-        return self._encoder.encode(commands), header
+        return payload, header
 
     def request(self, commands: list[list], timeout: float | None = None) -> list[list]:
         """Send commands and wait for their results ``[[ok, value], ...]``.
@@ -128,6 +138,7 @@ class Connection:
         Raises:
             TimeoutError: no reply within the timeout (the server is gone or too slow).
             ProtocolError: the server refused the request.
+            LocalError: arguments that cannot be encoded (nothing was sent).
         """
         payload, header = self._payload(commands)
         if timeout is None:
@@ -148,8 +159,8 @@ class Connection:
         self._in = (header, message)
         return message
 
-    def _send_async(self, commands: list[list]) -> None:
-        payload, header = self._payload(commands)
+    def _send_async(self, commands: list[list], payload: bytes | None = None) -> None:
+        payload, header = self._payload(commands, payload)
         split = [P.identity(n, a) for n, m, a in commands if m & P.MODE_MASK in _SPLIT]
         epoch = self._epoch
 
@@ -281,7 +292,7 @@ class Connection:
         """Execute one command with a legacy operation mode; returns ``(return code, value)``.
 
         ``value`` is the command's result when the code is 0, the server's error message when
-        it is 8, and None otherwise.
+        it is 8, the reason when it is 32 (arguments that cannot be encoded), and None otherwise.
         """
         base = mode & P.MODE_MASK
         if base == P.MODE_BLOCKING:
@@ -296,6 +307,8 @@ class Connection:
                 ok, value = self.request([[name, mode, args]])[0]
             except (TimeoutError, zenoh.ZError):
                 return _TIMED_OUT
+            except P.LocalError as exc:
+                return C.simx_return_local_error_flag, str(exc)
             except (P.ProtocolError, ValueError, TypeError, IndexError) as exc:  # refused or misshapen
                 log.warning("simx%s: %s", name, exc)
                 return C.simx_return_remote_error_flag, str(exc)
@@ -309,12 +322,17 @@ class Connection:
             return (C.simx_return_ok if removed is not None else C.simx_return_novalue_flag), None
         if base not in (P.MODE_ONESHOT, P.MODE_DISCONTINUE, *_STREAMING, *_SPLIT):
             return C.simx_return_illegal_opmode_flag, None
+        command = [name, mode, args]
+        try:  # encoded before it is kept as a stream or in the outbox: what is kept can be sent
+            payload = self._encode([command])
+        except P.LocalError as exc:
+            return C.simx_return_local_error_flag, str(exc)
         with self._lock:
             if base in _SPLIT and ident in self._in_flight:
                 rc, value = self._read_locked(ident)
                 return rc | C.simx_return_split_progress_flag, value
             if base in _STREAMING:
-                self._streams[ident] = [name, mode, args]
+                self._streams[ident] = command
             else:
                 self._streams.pop(ident, None)
             if base == P.MODE_DISCONTINUE:
@@ -324,9 +342,9 @@ class Connection:
             if self._paused:
                 key = object() if name in P.DO_NOT_OVERWRITE else ident
                 self._outbox.pop(key, None)  # an overwritten command moves to the end
-                self._outbox[key] = [name, mode, args]
+                self._outbox[key] = command
                 return self._read_locked(ident)
-        self._send_async([[name, mode, args]])
+        self._send_async([command], payload)
         return self._read(ident)
 
     def _read(self, ident: tuple) -> tuple[int, Any]:

@@ -21,6 +21,7 @@ from typing import Any
 import zenoh
 
 from simx_client import protocol as P
+from simx_server.arguments import quote
 from simx_server.commands import HANDLERS
 from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
@@ -278,7 +279,7 @@ class Server:
 
     def _console(self, args: list) -> int:
         if not args or not isinstance(args[0], int) or args[0] not in self._consoles:
-            raise P.UnknownObjectError(f"no auxiliary console with handle {args[0] if args else None!r}")
+            raise P.UnknownObjectError(f"no auxiliary console with handle {quote(args[0]) if args else None}")
         return args[0]
 
     def _console_open(self, client: str, args: list) -> int:

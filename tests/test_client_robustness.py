@@ -155,3 +155,194 @@ def test_server_frozen_past_its_lease(tmp_path):
         vrep.simxFinish(stays)
         vrep.simxFinish(back)
         srv.stop()
+
+
+# ------------------------------------------------------------------ defect 11
+import inspect  # noqa: E402
+
+import msgpack  # noqa: E402
+import numpy as np  # noqa: E402
+
+import simx_client  # noqa: E402
+from simx_client import protocol as P  # noqa: E402
+from simx_client.connection import Connection  # noqa: E402
+
+BAD_VALUES = [{"a": 1}, None, float("nan"), float("inf"), 1e39, -1e39, 2**70, -2**70, "abc", "\ud800",
+              [[1, [2, [3]]]], b"\xff\x00bad", np.zeros((2, 3)), np.array([]), [1e39] * 12]
+MODES = [vrep.simx_opmode_oneshot, B, S, vrep.simx_opmode_oneshot_split + 100,
+         vrep.simx_opmode_streaming_split + 100, vrep.simx_opmode_discontinue, BUF, vrep.simx_opmode_remove]
+FLAGS = 0x7F  # every simx_return_* bit
+NO_SERVER = 10**6  # a handle no object has: a call that reaches the server fails there, harmlessly
+# Pure helpers without a return code: they raise LocalError, as the legacy ones raised.
+HELPERS = {"simxPackInts", "simxUnpackInts", "simxPackFloats", "simxUnpackFloats", "simxCreateBuffer"}
+
+
+def _identity_cases():
+    deep = []
+    for _ in range(1000):
+        deep = [deep, {"k": b"\x00"}]
+    return [{"a": 1, "b": [1, {"c": None}]}, [[1, [2, [3]]]], b"\x00\xff", deep, {1: {2: 3}}, "name", 7]
+
+
+@pytest.mark.parametrize("value", _identity_cases(), ids=["dict", "nested", "bytes", "deep", "int-keys", "str", "int"])
+def test_identity_of_any_msgpack_value(value):
+    """Any msgpack value gives a hashable identity, the same one again after a trip through
+    msgpack (what a stream update carries back), without deep recursion."""
+    ident = P.identity("GetJointPosition", [value, 1.0])
+    assert ident == P.identity("GetJointPosition", [value, 1.0])
+    assert hash(ident) == hash(P.identity("GetJointPosition", [value, 1.0]))
+    wire = msgpack.unpackb(msgpack.packb(list(ident[1:])), raw=False, strict_map_key=False)
+    assert ("GetJointPosition", *(P._hashable(a) for a in wire)) == ident
+    assert len(repr(ident)) > 0  # printable: no level is deeper than IDENTITY_DEPTH + 1
+
+
+def _good(name: str, cid: int, tmp: str):
+    """A well-typed value for each legacy parameter name (objects that do not exist, so that
+    the calls that reach the server change nothing)."""
+    table = {"clientID": cid, "connectionAddress": "127.0.0.1", "connectionPort": free_port(),
+             "waitUntilConnected": False, "doNotReconnectOnceDisconnected": True, "timeOutInMs": 100,
+             "commThreadCycleInMs": 5, "enable": False, "filePathAndName": tmp, "timeOut": 100,
+             "fileName_serverSide": "robustness.txt", "modelPathAndName": "missing.xml",
+             "scenePathAndName": "missing.xml", "options": 0, "functionName": "missing",
+             "scriptDescription": "missing", "inputInts": [1], "inputFloats": [1.0], "inputStrings": ["a"],
+             "inputBuffer": b"", "image": [0, 0, 0], "color": None, "size": 0.1, "txt": "x",
+             "intList": [1], "floatList": [1.0], "intsPackedInString": b"\x00" * 4,
+             "floatsPackedInString": b"\x00" * 4, "bufferSize": 4, "buffer": None, "infoType": 0,
+             "signalValue": b"v", "retSignalName": "robustness_none", "objectHandles": [NO_SERVER],
+             "position": 0.0, "eulerAngles": [0.0] * 3, "quaternion": [0.0, 0.0, 0.0, 1.0],
+             "matrix": [0.0] * 12, "paramValues": [0.0, 0.0, -9.81], "keepInPlace": True, "showState": True,
+             "relativeToObjectHandle": -1, "parentObject": NO_SERVER, "objectType": NO_SERVER,
+             "dataType": NO_SERVER, "paramIdentifier": NO_SERVER, "parameterID": NO_SERVER,
+             "childIndex": 0, "maxLines": 1, "mode": 0, "dialogType": 0, "prop": 0}
+    if name in table:
+        return table[name]
+    if name.endswith(("Handle", "ButtonID", "entity1", "entity2")) or name in ("uiHandle", "parentObjectHandle"):
+        return NO_SERVER
+    if name.endswith(("Name", "Text", "Label", "title", "message")):
+        return "robustness_none"
+    if name in ("force", "targetPosition", "targetVelocity", "paramValue", "parameterValue"):
+        return 0.5
+    if name.endswith(("Colors", "Color")):
+        return None
+    raise AssertionError(f"no good value for parameter {name!r}: add one to the table")
+
+
+def _legacy_result(fname: str, result) -> None:
+    """The result has a legacy return code (or the helper's legacy value)."""
+    if fname == "simxStart":
+        assert result == -1 or (type(result) is int and result >= 0), result
+        if result >= 0:
+            vrep.simxFinish(result)
+        return
+    if fname in HELPERS:
+        return  # a value from input it could read (bytes are ints, a str is bytes)
+    if fname in ("simxFinish", "simxReleaseBuffer"):
+        assert result is None
+        return
+    if fname in ("simxGetConnectionId", "simxGetLastCmdTime"):
+        assert type(result) is int
+        return
+    if fname in ("simxGetInMessageInfo", "simxGetOutMessageInfo"):
+        assert result[0] in (-1, 1)
+        return
+    rc = result[0] if isinstance(result, tuple) else result
+    assert type(rc) is int and rc & ~FLAGS == 0, f"{fname} returned {result!r}"
+
+
+def test_no_argument_makes_a_simx_function_raise(tmp_path, caplog):
+    """Every simx* function, every parameter given each bad value, in every operation mode:
+    nothing raises, the code is a legacy flag, the server answers no internal error and keeps
+    serving."""
+    caplog.set_level("ERROR", logger="simx.client")  # the thousands of warnings are expected
+    tmp = tmp_path / "robustness.txt"
+    tmp.write_bytes(b"data")
+    srv = ServerProcess(str(SCENE), "--stopped")
+    cid = _start(srv.port, reconnect=False)
+    calls = 0
+    try:
+        names = [n for n in simx_client.__all__ if n.startswith("simx") and callable(getattr(simx_client, n))]
+        assert len(names) > 120
+        for fname in names:
+            fn = getattr(vrep, fname)
+            params = list(inspect.signature(fn).parameters)
+            good = {p: _good(p, cid, str(tmp)) for p in params if p != "operationMode"}
+            modes = MODES if "operationMode" in params else [None]
+            for bad_param in params:
+                for bad in BAD_VALUES:
+                    for mode in modes:
+                        args = dict(good)
+                        if mode is not None:
+                            args["operationMode"] = mode
+                        args[bad_param] = bad
+                        calls += 1
+                        try:
+                            result = fn(**args)
+                        except P.LocalError:
+                            assert fname in HELPERS, f"{fname}({bad_param}={bad!r}) raised"
+                            continue
+                        except Exception as exc:  # the defect: report which call raised
+                            pytest.fail(f"{fname}({bad_param}={bad!r}, mode {mode}) raised {exc!r}")
+                        _legacy_result(fname, result)
+                    if fname == "simxPauseCommunication":
+                        vrep.simxPauseCommunication(cid, False)
+        assert vrep.simxGetConnectionId(cid) > 0
+        assert vrep.simxSynchronous(cid, False) == 0
+        rc, j = vrep.simxGetObjectHandle(cid, "UR5_joint1", B)
+        assert rc == 0 and vrep.simxSetJointPosition(cid, j, 0.3, B) == 0
+        assert vrep.simxGetJointPosition(cid, j, B)[0] == 0
+    finally:
+        vrep.simxFinish(cid)
+        log = srv.stop()
+    assert calls > 20000
+    assert "internal error" not in log and "Traceback" not in log, log[-3000:]
+
+
+@pytest.mark.parametrize("value", [1e39, -1e39, 2**70, {"a": 1}, None, np.zeros((2, 3)), "\ud800"])
+def test_bad_numbers_are_local_errors(server, vrep_client, value):
+    """simxSetJointPosition(cid, h, 1e39, mode) raised OverflowError: now flag 32 in every
+    mode that sends, and nothing reaches the server."""
+    rc, j = vrep.simxGetObjectHandle(vrep_client, "UR5_joint1", B)
+    local = C.simx_return_local_error_flag
+    as_float = not (type(value) is int and value == 2**70)  # 2**70 is a fine float32 (1.2e21), not an int32
+    for mode in MODES[:6]:
+        assert vrep.simxGetJointPosition(vrep_client, value, mode)[0] == local
+        assert vrep.simxGetObjectHandle(vrep_client, value, mode)[0] == local
+        assert vrep.simxCallScriptFunction(vrep_client, "UR5", 6, "f", [value], [], [], b"", mode)[0] == local
+        if as_float:
+            assert vrep.simxSetJointPosition(vrep_client, j, value, mode) == local
+            assert vrep.simxSetFloatSignal(vrep_client, "x", value, mode) == local
+            assert vrep.simxSetObjectPosition(vrep_client, j, -1, [0.0, value, 0.0], mode) == local
+            assert vrep.simxCallScriptFunction(vrep_client, "UR5", 6, "f", [], [value], [], b"", mode)[0] == local
+    assert vrep.simxGetJointPosition(vrep_client, j, B)[0] == 0
+
+
+def test_raw_arguments_are_argument_errors(tmp_path):
+    """A client of the protocol (not the facade) sends dicts, nested lists, bytes, huge ints,
+    deep nesting as arguments of every command, in every mode: each is answered, as a remote
+    error and never as an internal error; the server logs no traceback."""
+    srv = ServerProcess(str(SCENE), "--stopped")
+    deep = []
+    for _ in range(1000):
+        deep = [deep]
+    values = [{"a": 1}, [[1, [2]]], b"\x00\xff", 2**63, -2**63, deep, None, float("nan")]
+    conn = Connection("127.0.0.1", srv.port, blocking_timeout=2.0)
+    answered = 0
+    try:
+        for name in P.COMMANDS:
+            if name in ("Hello", "Bye"):
+                continue
+            for value in values:
+                args = [value] * 4
+                for mode in (vrep.simx_opmode_oneshot, S, vrep.simx_opmode_discontinue):
+                    rc, _ = conn.call(name, args, mode)
+                    assert rc & ~FLAGS == 0
+                rc, message = conn.call(name, args, B)
+                if rc == C.simx_return_remote_error_flag:
+                    answered += 1
+                    assert "internal error" not in message, (name, message)
+        assert answered > 500
+        assert conn.call("GetObjectHandle", ["UR5_joint1"], B)[0] == 0
+    finally:
+        conn.close()
+        log = srv.stop()
+    assert "Traceback" not in log and "internal error" not in log, log[-3000:]
