@@ -316,6 +316,19 @@ def test_bad_numbers_are_local_errors(server, vrep_client, value):
     assert vrep.simxGetJointPosition(vrep_client, j, B)[0] == 0
 
 
+def test_non_finite_values_are_remote_errors(server, vrep_client):
+    """NaN and inf travel as the legacy client sent them; the server refuses them where they
+    would break the physics (flag 8) and keeps them as data in a float signal."""
+    rc, j = vrep.simxGetObjectHandle(vrep_client, "UR5_joint1", B)
+    before = vrep.simxGetJointPosition(vrep_client, j, B)
+    for value in (float("nan"), float("inf"), -float("inf")):
+        assert vrep.simxSetJointPosition(vrep_client, j, value, B) == C.simx_return_remote_error_flag
+        assert vrep.simxSetObjectPosition(vrep_client, j, -1, [value, 0, 0], B) == C.simx_return_remote_error_flag
+        assert vrep.simxSetFloatSignal(vrep_client, "robustness", value, B) == 0
+    rc, after = vrep.simxGetJointPosition(vrep_client, j, B)
+    assert rc == 0 and after == after  # not NaN
+
+
 def test_raw_arguments_are_argument_errors(tmp_path):
     """A client of the protocol (not the facade) sends dicts, nested lists, bytes, huge ints,
     deep nesting as arguments of every command, in every mode: each is answered, as a remote
