@@ -64,7 +64,7 @@ def _scalar(value: Any) -> Any:
 
 def _int(value: Any) -> int:
     """An int32 (the C API's simxInt), else LocalError."""
-    if type(value) is int and _INT_MIN <= value <= _INT_MAX:
+    if type(value) is int and -2147483648 <= value <= 2147483647:  # _INT_MIN, _INT_MAX as constants
         return value
     v = _scalar(value)
     if isinstance(v, bool) or not isinstance(v, int):
