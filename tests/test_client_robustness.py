@@ -75,6 +75,7 @@ def _check_outage(stays: int, back: int, j: int, what: str) -> None:
         wait_until(lambda: vrep.simxGetConnectionId(cid) == -1, 10, 0.02, f"connection id -1 ({what})")
         # The inbox was cleared: the last streamed value is not handed out as fresh.
         assert vrep.simxGetJointPosition(cid, j, BUF)[0] == NOVALUE
+        assert vrep.simxGetInMessageInfo(cid, vrep.simx_headeroffset_server_time)[0] == -1
     assert _outage_reads(stays, j) == OUTAGE
     assert vrep.simxGetJointPosition(back, j, BUF)[0] == NOVALUE
 
@@ -112,7 +113,7 @@ def test_killed_and_restarted_server(tmp_path):
         for cid in (stays, back):
             assert vrep.simxGetJointPosition(cid, j, S)[0] in (0, 1)
         _streamed(back, j, 0.5)
-        wait_until(lambda: vrep.simxGetJointPosition(stays, j, BUF) [0] == 0, 10, 0.01, "the other stream")
+        wait_until(lambda: vrep.simxGetJointPosition(stays, j, BUF)[0] == 0, 10, 0.01, "the other stream")
         srv.proc.kill()
         srv.proc.wait()
         _check_outage(stays, back, j, "after SIGKILL")
