@@ -253,7 +253,8 @@ class Connection:
                 if self._alive or self._resuming or "session" not in self.__dict__:
                     return
                 self._resuming = True
-            threading.Thread(target=self._resume, args=(self._epoch,), daemon=True).start()
+                epoch = self._epoch
+            threading.Thread(target=self._resume, args=(epoch,), daemon=True).start()
 
     def _resume(self, epoch: int) -> None:
         """The server is back: handshake again (retried until it answers, goes away again or
