@@ -360,3 +360,16 @@ def test_raw_arguments_are_argument_errors(tmp_path):
         conn.close()
         log = srv.stop()
     assert "Traceback" not in log and "internal error" not in log, log[-3000:]
+
+
+def test_pure_helpers_raise_local_errors_only():
+    """The helpers without a return code raise LocalError on input they cannot read (the legacy
+    ones raised struct.error or TypeError), and unpacking ignores a trailing partial value, as
+    the legacy helpers' ``range(len // 4)`` loops did."""
+    assert vrep.simxUnpackInts(b"\x01\x00\x00\x00\x02") == [1]
+    assert vrep.simxUnpackFloats(vrep.simxPackFloats([0.5]) + b"\x00") == [0.5]
+    for call in (lambda: vrep.simxPackInts([2**40]), lambda: vrep.simxPackInts(None),
+                 lambda: vrep.simxPackFloats([1e39]), lambda: vrep.simxPackFloats([{"a": 1}]),
+                 lambda: vrep.simxUnpackInts(1.5), lambda: vrep.simxCreateBuffer(-1)):
+        with pytest.raises(P.LocalError):
+            call()
