@@ -114,6 +114,8 @@ def test_killed_and_restarted_server(tmp_path):
             assert vrep.simxGetJointPosition(cid, j, S)[0] in (0, 1)
         _streamed(back, j, 0.5)
         wait_until(lambda: vrep.simxGetJointPosition(stays, j, BUF)[0] == 0, 10, 0.01, "the other stream")
+        assert vrep.simxPauseCommunication(back, True) == 0
+        assert vrep.simxSetJointPosition(back, j, 0.9, vrep.simx_opmode_oneshot) == NOVALUE  # held
         srv.proc.kill()
         srv.proc.wait()
         _check_outage(stays, back, j, "after SIGKILL")
@@ -123,6 +125,12 @@ def test_killed_and_restarted_server(tmp_path):
         wait_until(lambda: vrep.simxGetConnectionId(back) not in (-1, first_id), 20, 0.02, "reconnection")
         wait_until(lambda: vrep.simxGetJointPosition(back, j, BUF)[0] == 0, 10, 0.01, "fresh stream data")
         assert abs(vrep.simxGetJointPosition(back, j, BUF)[1]) < 1e-4
+        # The command held before the server went was dropped with the outbox, as the legacy
+        # client dropped it: had it been sent, this later blocking call would run after it.
+        assert vrep.simxPauseCommunication(back, False) == 0
+        rc, q = vrep.simxGetJointPosition(back, j, B)
+        assert rc == 0 and abs(q) < 1e-4
+        assert vrep.simxGetJointPosition(back, j, S)[0] in (0, 1)  # the blocking call ended the stream
         _check_recovery(stays, back, j, first_id)
     finally:
         vrep.simxFinish(stays)
