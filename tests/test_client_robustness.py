@@ -363,6 +363,14 @@ def test_raw_arguments_are_argument_errors(tmp_path):
                     answered += 1
                     assert "internal error" not in message, (name, message)
         assert answered > 500
+        # A streamed command with such arguments: the server's error comes back in the stream
+        # update under the identity the client computed (dict and 1,000-deep list included).
+        for value in ({"a": [1, {"b": 2}]}, [deep]):  # values not sent before: no reply left over
+            assert conn.call("GetJointPosition", [value], S)[0] in (C.simx_return_novalue_flag, 8)
+            for what in ("the reply", "a stream update"):  # removed between: the second is streamed
+                wait_until(lambda: conn.call("GetJointPosition", [value], BUF)[0] == 8, 10, 0.01, what)
+                assert conn.call("GetJointPosition", [value], vrep.simx_opmode_remove)[0] == 0
+            conn.call("GetJointPosition", [value], vrep.simx_opmode_discontinue)
         assert conn.call("GetObjectHandle", ["UR5_joint1"], B)[0] == 0
     finally:
         conn.close()
