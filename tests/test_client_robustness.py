@@ -12,14 +12,20 @@ the server answer with an internal error.
 
 from __future__ import annotations
 
+import inspect
 import os
 import signal
 
+import msgpack
+import numpy as np
 import pytest
 
+import simx_client
 import vrep
 from conftest import SCENE, ServerProcess, free_port, wait_until
 from simx_client import constants as C
+from simx_client import protocol as P
+from simx_client.connection import Connection
 
 B = vrep.simx_opmode_blocking
 S = vrep.simx_opmode_streaming
@@ -167,15 +173,6 @@ def test_server_frozen_past_its_lease(tmp_path):
 
 
 # ------------------------------------------------------------------ defect 11
-import inspect  # noqa: E402
-
-import msgpack  # noqa: E402
-import numpy as np  # noqa: E402
-
-import simx_client  # noqa: E402
-from simx_client import protocol as P  # noqa: E402
-from simx_client.connection import Connection  # noqa: E402
-
 BAD_VALUES = [{"a": 1}, None, float("nan"), float("inf"), 1e39, -1e39, 2**70, -2**70, "abc", "\ud800",
               [[1, [2, [3]]]], b"\xff\x00bad", np.zeros((2, 3)), np.array([]), [1e39] * 12]
 MODES = [vrep.simx_opmode_oneshot, B, S, vrep.simx_opmode_oneshot_split + 100,
