@@ -3,7 +3,8 @@ and outbox, streams and pause-communication batching.
 
 Legacy semantics (reference/opmode_semantics.md): every mode except ``buffer`` and ``remove``
 sends its command; ``blocking`` waits for the fresh reply and consumes it; the others answer
-from the inbox (the newest reply of the same command), or "no value" (flag 1). Replies of
+from the inbox (the newest reply of the same command, read before the command is sent, so
+never the reply to the call itself), or "no value" (flag 1). Replies of
 non-blocking commands and every streamed update land in the inbox, where they stay until
 read by a blocking call, removed, discontinued or the connection ends.
 
@@ -340,13 +341,17 @@ class Connection:
                 self._inbox.pop(ident, None)
             if not self._alive:  # nothing is sent; a stream is sent again on reconnection
                 return _NO_VALUE
+            # The answer is the reply already in the inbox, read before sending, as the legacy
+            # client read it before its communication thread sent the command: never the reply
+            # to this very call, however fast it comes back.
+            answer = self._read_locked(ident)
             if self._paused:
                 key = object() if name in P.DO_NOT_OVERWRITE else ident
                 self._outbox.pop(key, None)  # an overwritten command moves to the end
                 self._outbox[key] = command
-                return self._read_locked(ident)
+                return answer
         self._send_async([command], payload)
-        return self._read(ident)
+        return answer
 
     def _read(self, ident: tuple) -> tuple[int, Any]:
         with self._lock:
