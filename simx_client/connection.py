@@ -128,8 +128,11 @@ class Connection:
             raise P.LocalError(f"arguments that cannot be sent: {type(exc).__name__}: {exc}") from exc
 
     def _payload(self, commands: list[list], payload: bytes | None = None) -> tuple[bytes, tuple[int, float]]:
-        if payload is None:
-            payload = self._encode(commands)
+        if payload is None:  # the blocking path: encoded here, without _encode's extra call
+            try:
+                payload = self._encoder.encode(commands)
+            except (TypeError, ValueError, OverflowError):
+                payload = self._encode(commands)  # raises the LocalError
         header = self._out = (next(self._messages), time.monotonic())
         return payload, header
 
