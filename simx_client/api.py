@@ -6,12 +6,20 @@ client's :class:`~simx_client.connection.Connection`, and shapes the legacy retu
 Return codes are ``simx_return_*`` flags; on any code but 0 the values are the legacy
 defaults (handle 0, 0.0, ``[]``, ``bytearray()``), never made-up data. Values that the legacy
 binding carried as ``c_float`` are rounded to float32 as it did.
+
+No argument makes a ``simx*`` function raise: a value that cannot be converted (a dict, None,
+an array of the wrong shape, a number beyond float32 or int32, a string that is not UTF-8...)
+answers ``simx_return_local_error_flag`` (32) with the legacy default values, and one warning
+in the ``simx.client`` log names the call and quotes the value cut short. The pure helpers
+that have no return code (``simxPackInts``, ``simxPackFloats``, ``simxCreateBuffer``) raise
+``LocalError`` instead, as the legacy ones raised ``struct.error`` or ``TypeError``.
 """
 
 from __future__ import annotations
 
 import atexit
 import logging
+import reprlib
 import struct
 import threading
 from typing import Any, Callable
@@ -27,6 +35,19 @@ log = logging.getLogger("simx.client")
 _MAX_CONNECTIONS = 255  # MAX_EXT_API_CONNECTIONS: client ids 0..254
 _connections: dict[int, Connection] = {}
 _registry_lock = threading.Lock()
+_INT_MIN, _INT_MAX = -2**31, 2**31 - 1  # simxInt: every integer argument of the C API is an int32
+_quoter = reprlib.Repr()
+_quoter.maxstring = _quoter.maxother = 60
+_quoter.maxlevel, _quoter.maxlist, _quoter.maxtuple, _quoter.maxdict = 3, 8, 8, 8
+
+
+def _quote(value: Any) -> str:
+    """``repr(value)`` cut short for a log line (simx_server.arguments.quote, client side)."""
+    try:
+        text = _quoter.repr(value)
+    except Exception:  # a value whose repr fails is named by its type
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= 60 else text[:60] + "..."
 
 
 # ------------------------------------------------------------------ coercion
@@ -42,16 +63,25 @@ def _scalar(value: Any) -> Any:
 
 
 def _int(value: Any) -> int:
-    if type(value) is int:
+    """An int32 (the C API's simxInt), else LocalError."""
+    if type(value) is int and -2147483648 <= value <= 2147483647:  # _INT_MIN, _INT_MAX as constants
         return value
     v = _scalar(value)
     if isinstance(v, bool) or not isinstance(v, int):
-        raise P.LocalError(f"expected an integer, got {type(v).__name__} {v!r}")
+        raise P.LocalError(f"expected an integer, got {type(v).__name__} {_quote(v)}")
+    if not _INT_MIN <= v <= _INT_MAX:
+        raise P.LocalError(f"integer {_quote(v)} out of the int32 range")
     return int(v)
 
 
 def _bool(value: Any) -> bool:
-    return bool(_scalar(value))
+    """A truth value from a bool or a number (not NaN), as the legacy ``c_ubyte`` took them."""
+    if type(value) is bool:
+        return value
+    v = _scalar(value)
+    if not isinstance(v, (bool, int, float)) or v != v:
+        raise P.LocalError(f"expected a truth value, got {type(v).__name__} {_quote(v)}")
+    return bool(v)
 
 
 def _float(value: Any) -> float:
@@ -59,7 +89,7 @@ def _float(value: Any) -> float:
         return value
     v = _scalar(value)
     if isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float)):
-        raise P.LocalError(f"expected a number, got {type(v).__name__} {v!r}")
+        raise P.LocalError(f"expected a number, got {type(v).__name__} {_quote(v)}")
     return float(v)
 
 
@@ -75,19 +105,30 @@ def _str(value: Any) -> str:
 
 
 def _bytes(value: Any) -> bytes:
+    """Bytes of a str (UTF-8), a bytes-like object or integers (-128..255, as c_ubyte took them)."""
     if isinstance(value, str):
         return value.encode("utf-8")
     if isinstance(value, (bytes, bytearray, memoryview)):
         return bytes(value)
-    return np.asarray(value).astype(np.uint8).tobytes()
+    data = np.asarray(value)
+    if data.dtype.kind not in "iub":
+        raise P.LocalError(f"expected bytes, a str or integers, got {_quote(value)}")
+    return data.astype(np.int64).astype(np.uint8).tobytes()
 
 
 _F32 = struct.Struct("<f")
 
 
 def _f32(value: float) -> float:
-    """``value`` rounded to float32, as the legacy binding's c_float did."""
+    """``value`` rounded to float32, as the legacy binding's c_float did; OverflowError beyond
+    float32 (ctypes made such a value inf without a word): the facade answers a local error."""
     return _F32.unpack(_F32.pack(value))[0]
+
+
+def _f32_input(values: Any) -> list[float]:
+    """A list of numbers rounded to float32 (FloatingPointError beyond float32)."""
+    with np.errstate(over="raise"):
+        return np.asarray([_float(v) for v in values], dtype=np.float32).tolist()
 
 
 def _f32_list(values: list) -> list[float]:
@@ -100,7 +141,7 @@ def _connection(client_id: Any) -> Connection | None:
         return _connections.get(client_id)
     try:
         return _connections.get(_int(client_id))
-    except P.LocalError:
+    except Exception:
         return None
 
 
@@ -118,21 +159,27 @@ def _command(clientID: Any, name: str, make_args: Callable[[], list], operationM
     try:
         args = make_args()
         mode = _int(operationMode)
-    except (P.LocalError, TypeError, ValueError, UnicodeError) as exc:
-        log.warning("simx%s: bad argument: %s", name, exc)
+    except Exception as exc:  # any argument that cannot be converted: a local error, never a raise
+        log.warning("simx%s: bad argument: %s: %s", name, type(exc).__name__, exc)
         return C.simx_return_local_error_flag, default
     rc, value = conn.call(name, args, mode)
     if rc or mode & P.MODE_MASK == P.MODE_REMOVE:  # remove returns no value
         if rc & C.simx_return_remote_error_flag:
             log.debug("simx%s: remote error: %s", name, value)
+        elif rc & C.simx_return_local_error_flag:
+            log.warning("simx%s: %s", name, value)
         return rc, default
-    if memo is None or mode & P.MODE_MASK == P.MODE_BLOCKING:  # a blocking reply is always fresh
-        return rc, convert(value)
-    key = P.identity(name, args)
-    hit = conn.converted.get(key)
-    if hit is None or hit[0] is not value:
-        hit = conn.converted[key] = (value, convert(value))
-    return rc, memo(hit[1])
+    try:
+        if memo is None or mode & P.MODE_MASK == P.MODE_BLOCKING:  # a blocking reply is always fresh
+            return rc, convert(value)
+        key = P.identity(name, args)
+        hit = conn.converted.get(key)
+        if hit is None or hit[0] is not value:
+            hit = conn.converted[key] = (value, convert(value))
+        return rc, memo(hit[1])
+    except Exception as exc:  # a reply of the wrong shape: the server's fault, not the caller's
+        log.warning("simx%s: unreadable reply %s: %s", name, _quote(value), exc)
+        return C.simx_return_remote_error_flag, default
 
 
 # -------------------------------------------------------------- connection
@@ -148,7 +195,7 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
         address, port = _str(connectionAddress), _int(connectionPort)
         wait, timeout_ms = _bool(waitUntilConnected), _int(timeOutInMs)
         reconnect = not _bool(doNotReconnectOnceDisconnected)
-    except P.LocalError as exc:
+    except Exception as exc:
         log.warning("simxStart: bad argument: %s", exc)
         return -1
     blocking = DEFAULT_BLOCKING_TIMEOUT if timeout_ms >= 0 else -timeout_ms / 1000.0
@@ -170,7 +217,7 @@ def simxFinish(clientID):
     """Close one connection, or all with -1; returns None (legacy ``simxFinish``). Never hangs."""
     try:
         cid = _int(clientID)
-    except P.LocalError:
+    except Exception:
         return None
     with _registry_lock:
         ids = list(_connections) if cid == -1 else [cid]
@@ -219,7 +266,12 @@ def simxPauseCommunication(clientID, enable):
     conn = _connection(clientID)
     if conn is None:
         return C.simx_return_initialize_error_flag
-    conn.pause_communication(_bool(enable))
+    try:
+        enable = _bool(enable)
+    except Exception as exc:
+        log.warning("simxPauseCommunication: bad argument: %s", exc)
+        return C.simx_return_local_error_flag
+    conn.pause_communication(enable)
     return C.simx_return_ok
 
 
@@ -372,7 +424,7 @@ def simxCallScriptFunction(clientID, scriptDescription, options, functionName, i
 
     def args() -> list:
         return [_str(scriptDescription), _int(options), _str(functionName),
-                [_int(v) for v in inputInts], _f32_list([_float(v) for v in inputFloats]),
+                [_int(v) for v in inputInts], _f32_input(inputFloats),
                 [_str(v) for v in inputStrings], _bytes(inputBuffer)]
 
     def shape(value: list) -> tuple:
@@ -384,24 +436,46 @@ def simxCallScriptFunction(clientID, scriptDescription, options, functionName, i
 
 
 # ------------------------------------------------------------ pack helpers
+def _helper(name: str, make: Callable[[], Any]) -> Any:
+    """Run a pure helper; any failure on its input raises LocalError naming the helper."""
+    try:
+        return make()
+    except Exception as exc:
+        raise P.LocalError(f"{name}: {type(exc).__name__}: {exc}") from exc
+
+
 def simxPackInts(intList):
-    """Little-endian int32s as a bytearray."""
-    return bytearray(struct.pack(f"<{len(intList)}i", *(_int(v) for v in intList)))
+    """Little-endian int32s as a bytearray. Raises LocalError for a value that is not an int32
+    (the legacy helper raised struct.error)."""
+    return _helper("simxPackInts", lambda: bytearray(
+        struct.pack(f"<{len(intList)}i", *[_int(v) for v in intList])))
+
+
+def _unpack(name: str, data: Any, dtype: str) -> list:
+    def make() -> list:
+        raw = _bytes(data)
+        return np.frombuffer(raw, dtype=dtype, count=len(raw) // 4).tolist()
+
+    return _helper(name, make)
 
 
 def simxUnpackInts(intsPackedInString):
-    """List of int32s from a little-endian buffer."""
-    return np.frombuffer(_bytes(intsPackedInString), dtype="<i4").tolist()
+    """List of int32s from a little-endian buffer (a trailing partial value is ignored, as the
+    legacy helper did). Raises LocalError for a value that is not a buffer or a string."""
+    return _unpack("simxUnpackInts", intsPackedInString, "<i4")
 
 
 def simxPackFloats(floatList):
-    """Little-endian float32s as a bytearray."""
-    return bytearray(struct.pack(f"<{len(floatList)}f", *(_float(v) for v in floatList)))
+    """Little-endian float32s as a bytearray. Raises LocalError for a value that is not a
+    number or is beyond float32 (the legacy helper raised struct.error or OverflowError)."""
+    return _helper("simxPackFloats", lambda: bytearray(
+        struct.pack(f"<{len(floatList)}f", *[_float(v) for v in floatList])))
 
 
 def simxUnpackFloats(floatsPackedInString):
-    """List of float32s (as Python floats) from a little-endian buffer."""
-    return np.frombuffer(_bytes(floatsPackedInString), dtype="<f4").tolist()
+    """List of float32s (as Python floats) from a little-endian buffer (a trailing partial value
+    is ignored, as the legacy helper did). Raises LocalError for a value that is not a buffer."""
+    return _unpack("simxUnpackFloats", floatsPackedInString, "<f4")
 
 
 # ----------------------------------------------------------- more of joints
@@ -606,8 +680,8 @@ def simxTransferFile(clientID, filePathAndName, fileName_serverSide, timeOut, op
     try:
         with open(_str(filePathAndName), "rb") as f:
             data = f.read()
-    except (OSError, P.LocalError) as exc:
-        log.warning("simxTransferFile: %s", exc)
+    except Exception as exc:  # unreadable, or not a path (OSError, LocalError, UnicodeError...)
+        log.warning("simxTransferFile: %s: %s", type(exc).__name__, exc)
         return C.simx_return_local_error_flag
     return _command(clientID, "TransferFile", lambda: [_str(fileName_serverSide), data], operationMode)[0]
 
@@ -633,8 +707,8 @@ def simxLoadModel(clientID, modelPathAndName, options, operationMode):
     file is on the client (it is transferred first)."""
     try:
         rc, name = _client_side(clientID, modelPathAndName, options)
-    except P.LocalError as exc:
-        log.warning("simxLoadModel: %s", exc)
+    except Exception as exc:
+        log.warning("simxLoadModel: bad argument: %s", exc)
         return C.simx_return_local_error_flag, 0
     if rc:
         return rc, 0
@@ -645,8 +719,8 @@ def simxLoadScene(clientID, scenePathAndName, options, operationMode):
     """Replace the scene with an MJCF file (simulation stopped): returnCode."""
     try:
         rc, name = _client_side(clientID, scenePathAndName, options)
-    except P.LocalError as exc:
-        log.warning("simxLoadScene: %s", exc)
+    except Exception as exc:
+        log.warning("simxLoadScene: bad argument: %s", exc)
         return C.simx_return_local_error_flag
     if rc:
         return rc
@@ -754,8 +828,11 @@ def simxWriteStringStream(clientID, signalName, signalValue, operationMode):
 def simxReadStringStream(clientID, signalName, operationMode):
     """``(returnCode, signalValue)``: what was written to the stream since the last read
     (streaming then buffer; blocking is refused with flag 4, as the legacy client did)."""
-    if _scalar(operationMode) == C.simx_opmode_blocking:
-        return C.simx_return_illegal_opmode_flag, bytearray()
+    try:
+        if _int(operationMode) == C.simx_opmode_blocking:
+            return C.simx_return_illegal_opmode_flag, bytearray()
+    except Exception:  # _command answers the local error
+        pass
     return _command(clientID, "ReadStringStream", lambda: [_str(signalName)], operationMode,
                     bytearray, bytearray())
 
@@ -770,13 +847,14 @@ def simxQuery(clientID, signalName, signalValue, retSignalName, timeOutInMs):
     ``(returnCode, retSignalValue)``."""
     import time
 
+    try:
+        deadline = time.monotonic() + _int(timeOutInMs) / 1000.0
+    except Exception as exc:
+        log.warning("simxQuery: bad argument: %s", exc)
+        return C.simx_return_local_error_flag, bytearray()
     rc = simxSetStringSignal(clientID, signalName, signalValue, C.simx_opmode_blocking)
     if rc:
         return rc, bytearray()
-    try:
-        deadline = time.monotonic() + _int(timeOutInMs) / 1000.0
-    except P.LocalError:
-        return C.simx_return_local_error_flag, bytearray()
     while True:
         rc, value = simxGetAndClearStringSignal(clientID, retSignalName, C.simx_opmode_blocking)
         if rc == 0:
@@ -964,7 +1042,7 @@ def _message_info(clientID: Any, infoType: Any, incoming: bool) -> tuple[int, in
     conn = _connection(clientID)
     try:
         info = None if conn is None else (conn.in_message_info if incoming else conn.out_message_info)(_int(infoType))
-    except P.LocalError:
+    except Exception:
         info = None
     return (-1, 0) if info is None else (1, info)
 
@@ -981,10 +1059,12 @@ def simxGetOutMessageInfo(clientID, infoType):
 
 
 def simxCreateBuffer(bufferSize):
-    """A zeroed ctypes ``c_ubyte`` buffer of ``bufferSize`` bytes (pointer), as the legacy call gave."""
+    """A zeroed ctypes ``c_ubyte`` buffer of ``bufferSize`` bytes (pointer), as the legacy call
+    gave. Raises LocalError for a size that is not a non-negative int32."""
     import ctypes
 
-    return ctypes.cast((ctypes.c_ubyte * _int(bufferSize))(), ctypes.POINTER(ctypes.c_ubyte))
+    return _helper("simxCreateBuffer", lambda: ctypes.cast(
+        (ctypes.c_ubyte * _int(bufferSize))(), ctypes.POINTER(ctypes.c_ubyte)))
 
 
 def simxReleaseBuffer(buffer):

@@ -3,13 +3,19 @@ and outbox, streams and pause-communication batching.
 
 Legacy semantics (reference/opmode_semantics.md): every mode except ``buffer`` and ``remove``
 sends its command; ``blocking`` waits for the fresh reply and consumes it; the others answer
-from the inbox (the newest reply of the same command), or "no value" (flag 1). Replies of
+from the inbox (the newest reply of the same command, read before the command is sent, so
+never the reply to the call itself), or "no value" (flag 1). Replies of
 non-blocking commands and every streamed update land in the inbox, where they stay until
 read by a blocking call, removed, discontinued or the connection ends.
 
-The server's liveliness token tells whether it is there: when it goes, the connection id
-turns -1; when it comes back and the client may reconnect, the handshake and every stream
-are sent again and the connection gets a new id.
+The server's liveliness token tells whether it is there (a killed server's token goes at once,
+a frozen one's when its Zenoh lease expires). When it goes the connection is lost, as the
+legacy client's socket was (extApi.c ``_communicationThread``): the connection id turns -1 and
+the inbox and the outbox are cleared, so ``buffer`` reads answer "no value" (1) rather than the
+last value, and every call fails with the legacy codes (blocking: 3, at once; others: 1)
+without sending anything. When the server comes back, a client that may reconnect
+(``doNotReconnectOnceDisconnected`` false) handshakes again, sends every stream again and gets a
+new connection id; one that may not stays disconnected: its Zenoh session is closed.
 """
 
 from __future__ import annotations
@@ -34,6 +40,8 @@ log = logging.getLogger("simx.client")
 DEFAULT_BLOCKING_TIMEOUT = 5.0  # s, _REPLY_WAIT_TIMEOUT_IN_MS
 STREAM_BACKLOG = 4096  # stream updates kept unread; beyond, the oldest are dropped
 _NO_VALUE = (C.simx_return_novalue_flag, None)
+_TIMED_OUT = (C.simx_return_timeout_flag | C.simx_return_novalue_flag, None)  # blocking, no reply
+_RESUME_PAUSE = 0.2  # s between two handshakes of a client that reconnects
 _NO_RESPONSE = [P.PROTOCOL_VERSION, 0, 0, 0, 0, []]  # "the last response" before there is one
 _connection_ids = itertools.count(1)
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
@@ -138,7 +146,9 @@ class Connection:
         self.reconnect = reconnect
         self.last_cmd_time = 0  # ms, simxGetLastCmdTime
         self.connection_id = next(_connection_ids)
-        self._alive = True
+        self._alive = True  # the server's token is seen and the handshake done
+        self._epoch = 0  # times the server went away: a reconnection attempt ends when it changes
+        self._resuming = False
         self._lock = threading.Lock()
         self._inbox: dict[tuple, tuple[bool, Any, int]] = {}
         self._streams: dict[tuple, list] = {}  # identity -> the [name, mode, args] that streams it
@@ -169,9 +179,22 @@ class Connection:
             raise
 
     # --------------------------------------------------------------- transport
-    def _payload(self, commands: list[list]) -> tuple[bytes, tuple[int, float]]:
+    def _encode(self, commands: list[list]) -> bytes:
+        """The request carrying ``commands``; LocalError for arguments msgpack cannot carry
+        (an int beyond 64 bits, a lone surrogate in a str, nesting beyond msgpack's limit)."""
+        try:
+            return self._encoder.encode(commands)
+        except (TypeError, ValueError, OverflowError) as exc:  # UnicodeEncodeError is a ValueError
+            raise P.LocalError(f"arguments that cannot be sent: {type(exc).__name__}: {exc}") from exc
+
+    def _payload(self, commands: list[list], payload: bytes | None = None) -> tuple[bytes, tuple[int, float]]:
+        if payload is None:  # the blocking path: encoded here, without _encode's extra call
+            try:
+                payload = self._encoder.encode(commands)
+            except (TypeError, ValueError, OverflowError):
+                payload = self._encode(commands)  # raises the LocalError
         header = self._out = (next(self._messages), time.monotonic())
-        return self._encoder.encode(commands), header
+        return payload, header
 
     def request(self, commands: list[list], timeout: float | None = None) -> list[list]:
         """Send commands and wait for their results ``[[ok, value], ...]``.
@@ -179,6 +202,7 @@ class Connection:
         Raises:
             TimeoutError: no reply within the timeout (the server is gone or too slow).
             ProtocolError: the server refused the request.
+            LocalError: arguments that cannot be encoded (nothing was sent).
         """
         payload, header = self._payload(commands)
         if timeout is None:
@@ -199,9 +223,10 @@ class Connection:
         self._in = (header, message)
         return message
 
-    def _send_async(self, commands: list[list]) -> None:
-        payload, header = self._payload(commands)
+    def _send_async(self, commands: list[list], payload: bytes | None = None) -> None:
+        payload, header = self._payload(commands, payload)
         split = [P.identity(n, a) for n, m, a in commands if m & P.MODE_MASK in _SPLIT]
+        epoch = self._epoch
 
         def on_reply(reply: zenoh.Reply) -> None:
             if reply.ok is None:
@@ -213,6 +238,8 @@ class Connection:
                 return
             t = message[1]
             with self._lock:
+                if epoch != self._epoch or not self._alive:
+                    return  # a reply of a lost connection: its inbox was cleared
                 for (name, mode, args), (ok, value) in zip(commands, message[5]):
                     if mode & P.MODE_MASK != P.MODE_DISCONTINUE:
                         self._store(P.identity(name, args), ok, value, t)
@@ -241,7 +268,9 @@ class Connection:
         self._inbox[ident] = (ok, value, t)
 
     def _drain_streams(self) -> None:
-        """File every stream update received so far (lock held)."""
+        """File every stream update received so far (lock held); none while disconnected."""
+        if not self._alive:
+            return
         while (sample := self._subscriber.try_recv()) is not None:
             try:
                 t, entries = P.unpack_stream_update(sample.payload.to_bytes())
@@ -253,25 +282,72 @@ class Connection:
                 if ident in self._streams:
                     self._store(ident, ok, value, t)
 
-    def _on_server_token(self, sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.DELETE:
-            if self._alive:
-                log.warning("simx server at %s:%d went away", self.address, self.port)
-            self._alive = False
-        elif not self._alive and self.reconnect:
-            threading.Thread(target=self._resume, daemon=True).start()
-
-    def _resume(self) -> None:
-        """The server is back: handshake again and restart every stream."""
+    def _discard_streams(self) -> None:
+        """Empty the stream channel unread (lock held, session open)."""
         try:
-            self.server_info = self.request([["Hello", P.MODE_BLOCKING, []]])[0][1]
-        except (TimeoutError, P.ProtocolError, zenoh.ZError) as exc:
-            log.warning("reconnecting to %s:%d failed: %s", self.address, self.port, exc)
+            while self._subscriber.try_recv() is not None:
+                pass
+        except zenoh.ZError:  # the session is being closed
+            pass
+
+    def _on_server_token(self, sample: zenoh.Sample) -> None:
+        """Zenoh thread: the server's liveliness token came (PUT) or went (DELETE)."""
+        if sample.kind == zenoh.SampleKind.DELETE:
+            with self._lock:
+                if self._alive:
+                    log.warning("simx server at %s:%d went away%s", self.address, self.port,
+                                "" if self.reconnect else "; this client does not reconnect")
+                self._alive = False
+                self._epoch += 1
+                # What the legacy client did on disconnection: nothing received before is
+                # handed out as fresh, nothing queued is sent to a later server.
+                self._inbox.clear()
+                self._outbox.clear()
+                self.converted.clear()
+                self._in = ((0, 0.0), _NO_RESPONSE)
+                self._discard_streams()
+                if self.reconnect:
+                    return
+                self._streams.clear()
+                session = self.__dict__.pop("session", None)
+            if session is not None:  # closed off this Zenoh thread, which must not block
+                threading.Thread(target=session.close, daemon=True).start()
+        elif self.reconnect:
+            with self._lock:
+                if self._alive or self._resuming or "session" not in self.__dict__:
+                    return
+                self._resuming = True
+                epoch = self._epoch
+            threading.Thread(target=self._resume, args=(epoch,), daemon=True).start()
+
+    def _resume(self, epoch: int) -> None:
+        """The server is back: handshake again (retried until it answers, goes away again or
+        this connection closes) and restart every stream."""
+        try:
+            while True:
+                try:
+                    info = self.request([["Hello", P.MODE_BLOCKING, []]])[0][1]
+                    break
+                except (TimeoutError, zenoh.ZError) as exc:
+                    log.info("reconnecting to %s:%d: %s", self.address, self.port, exc)
+                except P.ProtocolError as exc:
+                    log.error("reconnecting to %s:%d failed: %s", self.address, self.port, exc)
+                    return
+                time.sleep(_RESUME_PAUSE)
+                if epoch != self._epoch or "session" not in self.__dict__:
+                    return
+            with self._lock:
+                if epoch != self._epoch or "session" not in self.__dict__:
+                    return  # it went away again meanwhile
+                self.server_info = info
+                self._discard_streams()  # sent to the lost connection (the server forgot its streams)
+                streams = list(self._streams.values())
+                self.connection_id = next(_connection_ids)
+                self._alive = True
+        except AttributeError:  # closed meanwhile (no session, querier or subscriber left)
             return
-        with self._lock:
-            streams = list(self._streams.values())
-            self.connection_id = next(_connection_ids)
-            self._alive = True
+        finally:
+            self._resuming = False
         if streams:
             self._send_async(streams)
         log.info("reconnected to the simx server at %s:%d", self.address, self.port)
@@ -281,10 +357,12 @@ class Connection:
         """Execute one command with a legacy operation mode; returns ``(return code, value)``.
 
         ``value`` is the command's result when the code is 0, the server's error message when
-        it is 8, and None otherwise.
+        it is 8, the reason when it is 32 (arguments that cannot be encoded), and None otherwise.
         """
         base = mode & P.MODE_MASK
         if base == P.MODE_BLOCKING:
+            if not self._alive:  # lost: the legacy client timed out, with an empty inbox
+                return _TIMED_OUT
             if self._streams or self._inbox:  # forget this command's stream and stored reply
                 ident = P.identity(name, args)
                 with self._lock:
@@ -293,7 +371,9 @@ class Connection:
             try:
                 ok, value = self.request([[name, mode, args]])[0]
             except (TimeoutError, zenoh.ZError):
-                return C.simx_return_timeout_flag | C.simx_return_novalue_flag, None
+                return _TIMED_OUT
+            except P.LocalError as exc:
+                return C.simx_return_local_error_flag, str(exc)
             except (P.ProtocolError, ValueError, TypeError, IndexError) as exc:  # refused or misshapen
                 log.warning("simx%s: %s", name, exc)
                 return C.simx_return_remote_error_flag, str(exc)
@@ -301,29 +381,40 @@ class Connection:
         ident = P.identity(name, args)
         if base == P.MODE_BUFFER:
             return self._read(ident)
-        if base == P.MODE_REMOVE:
+        if base == P.MODE_REMOVE:  # 0 when a reply was removed, else 1 (legacy)
             with self._lock:
-                self._inbox.pop(ident, None)
-            return C.simx_return_ok, None
+                removed = self._inbox.pop(ident, None)
+            return (C.simx_return_ok if removed is not None else C.simx_return_novalue_flag), None
         if base not in (P.MODE_ONESHOT, P.MODE_DISCONTINUE, *_STREAMING, *_SPLIT):
             return C.simx_return_illegal_opmode_flag, None
+        command = [name, mode, args]
+        try:  # encoded before it is kept as a stream or in the outbox: what is kept can be sent
+            payload = self._encode([command])
+        except P.LocalError as exc:
+            return C.simx_return_local_error_flag, str(exc)
         with self._lock:
             if base in _SPLIT and ident in self._in_flight:
                 rc, value = self._read_locked(ident)
                 return rc | C.simx_return_split_progress_flag, value
             if base in _STREAMING:
-                self._streams[ident] = [name, mode, args]
+                self._streams[ident] = command
             else:
                 self._streams.pop(ident, None)
             if base == P.MODE_DISCONTINUE:
                 self._inbox.pop(ident, None)
+            if not self._alive:  # nothing is sent; a stream is sent again on reconnection
+                return _NO_VALUE
+            # The answer is the reply already in the inbox, read before sending, as the legacy
+            # client read it before its communication thread sent the command: never the reply
+            # to this very call, however fast it comes back.
+            answer = self._read_locked(ident)
             if self._paused:
                 key = object() if name in P.DO_NOT_OVERWRITE else ident
                 self._outbox.pop(key, None)  # an overwritten command moves to the end
-                self._outbox[key] = [name, mode, args]
-                return self._read_locked(ident)
-        self._send_async([[name, mode, args]])
-        return self._read(ident)
+                self._outbox[key] = command
+                return answer
+        self._send_async([command], payload)
+        return answer
 
     def _read(self, ident: tuple) -> tuple[int, Any]:
         with self._lock:
@@ -347,10 +438,15 @@ class Connection:
             if self._paused or not self._outbox:
                 return
             batch, self._outbox = list(self._outbox.values()), {}
+            if not self._alive:
+                return
         self._send_async(batch)
 
     def in_message_info(self, info_type: int) -> int | None:
-        """A field of the last message received (simx_headeroffset_*), None if unknown."""
+        """A field of the last message received (simx_headeroffset_*), None if unknown or
+        disconnected (the legacy inbox, header included, is cleared on disconnection)."""
+        if not self._alive:
+            return None
         header, message = self._in
         _, _, state, server_time, scene, _ = message
         fields = {C.simx_headeroffset_server_time: server_time,

@@ -197,19 +197,78 @@ def client_token_prefix(prefix: str = DEFAULT_PREFIX) -> str:
     return f"{prefix}/alive/client/*"
 
 
+#: Container levels of an identifying argument kept as nested tuples; deeper levels are
+#: flattened into one tuple of tokens (built without recursion). Legacy arguments are flat.
+IDENTITY_DEPTH = 16
+
+
 def identity(name: str, args: list) -> tuple:
-    """The legacy identity of a command: its name and identifying arguments (hashable)."""
+    """The legacy identity of a command: its name and identifying arguments, hashable for any
+    msgpack value a client sends (see :func:`_hashable`)."""
     head = args[:COMMANDS.get(name, 0)]
     for a in head:
-        if type(a) is list:
+        if type(a) is list or type(a) is dict:
             return (name, *(_hashable(a) for a in head))
     return (name, *head)
 
 
-def _hashable(value: Any) -> Any:
-    if isinstance(value, list):
-        return tuple(_hashable(v) for v in value)
+def _hashable(value: Any, depth: int = IDENTITY_DEPTH) -> Any:
+    """A hashable stand-in for ``value``: lists (and tuples) become tuples, dicts the tuple
+    ``(key1, value1, key2, value2, ...)``, other unhashable values (never from msgpack) their type and repr.
+    Levels deeper than ``depth`` become one flat tuple of tokens, so that a value nested 1,000
+    deep costs no deep recursion (here, nor when hashing or comparing the result).
+
+    Sent through msgpack and read back (tuples as arrays), the result maps to itself: the
+    identity a server puts in a stream update is the one its client computed.
+    """
+    t = type(value)
+    if t is list or t is tuple:
+        if depth > 0:
+            return tuple([_hashable(v, depth - 1) for v in value])
+        if not any(type(v) in _CONTAINERS for v in value):
+            return tuple([_leaf(v) for v in value])  # as flat as _flat's tokens read back
+        return _flat(value)
+    if t is dict:
+        if depth > 0:
+            return tuple([_hashable(x, depth - 1) for item in value.items() for x in item])
+        return _flat(value)
+    if depth > 0:
+        try:
+            hash(value)
+        except TypeError:
+            return (t.__name__, repr(value))
+    return _leaf(value)
+
+
+_CONTAINERS = (list, tuple, dict)
+
+
+def _leaf(value: Any) -> Any:
+    try:
+        hash(value)
+    except TypeError:
+        return f"<{type(value).__name__}> {value!r}"
     return value
+
+
+def _flat(value: Any) -> tuple:
+    """Tokens of a nested value in depth-first order (``"["`` or ``"{"`` and the size open a
+    container), built with an explicit stack."""
+    tokens: list = []
+    stack = [value]
+    while stack:
+        v = stack.pop()
+        t = type(v)
+        if t is list or t is tuple:
+            tokens += ("[", len(v))
+            stack.extend(reversed(v))
+        elif t is dict:
+            tokens += ("{", len(v))
+            for k, item in reversed(list(v.items())):
+                stack += (item, k)
+        else:
+            tokens.append(_leaf(v))
+    return tuple(tokens)
 
 
 _packers = threading.local()  # a msgpack Packer is reusable but not thread-safe

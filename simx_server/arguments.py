@@ -34,7 +34,7 @@ def as_floats(value: Any, n: int, what: str) -> list[float]:
         raise ArgumentError(f"{what} must be a list of {n} numbers, got {got}")
     out = [as_float(v, what) for v in value]
     if not all(math.isfinite(v) for v in out):
-        raise ArgumentError(f"{what} must be finite, got {value!r}")
+        raise ArgumentError(f"{what} must be finite, got {quote(value)}")
     return out
 
 

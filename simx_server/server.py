@@ -312,7 +312,7 @@ class Server:
 
     def _console(self, args: list) -> int:
         if not args or not isinstance(args[0], int) or args[0] not in self._consoles:
-            raise P.UnknownObjectError(f"no auxiliary console with handle {args[0] if args else None!r}")
+            raise P.UnknownObjectError(f"no auxiliary console with handle {quote(args[0]) if args else None}")
         return args[0]
 
     def _console_open(self, client: str, args: list) -> int:
