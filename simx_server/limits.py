@@ -116,14 +116,7 @@ MAX_SOLVER_ITERATIONS = 1000
 MAX_VISUAL_SIZE = 4096
 MAX_VISUAL_DETAIL = 64
 
-# ----------------------------------------------------------------- command identity (issue 11, client part)
-#: Container levels of an identifying argument that ``protocol.identity`` keeps as nested tuples;
-#: deeper levels are flattened into one tuple, built without recursion, so a request whose
-#: arguments are nested 1,000 deep costs no deep recursion. Defined beside ``identity`` in
-#: ``simx_client.protocol`` (the client package imports nothing of the server), named here.
-from simx_client.protocol import IDENTITY_DEPTH  # noqa: E402,F401
-#: Range of an integer argument accepted by the drop-in client (the C API's ``simxInt``); beyond
-#: it a ``simx*`` call answers ``simx_return_local_error_flag`` (32) and sends nothing.
-from simx_client.api import _INT_MAX, _INT_MIN  # noqa: E402
-
-CLIENT_INT_RANGE = (_INT_MIN, _INT_MAX)
+# Client-side bounds live with the client (it imports nothing of the server):
+# ``simx_client.protocol.IDENTITY_DEPTH`` (container levels of an identifying argument kept as
+# nested tuples; deeper levels are flattened without recursion) and the int32 range of
+# ``simx_client.api`` (an integer beyond it is a local error, 32, and nothing is sent).
