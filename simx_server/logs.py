@@ -1,0 +1,121 @@
+"""Rate limiting of repeated log lines: the first few, then one summary line per interval.
+
+A client that repeats a failing call makes the server log one line per call (one program
+produced 9,320 warning lines in 20 s). :class:`RepeatFilter`, installed on the log handlers by
+``simx-server`` (:func:`install`), lets through the first :data:`~simx_server.limits.LOG_REPEAT_BURST`
+records of each *kind* in an interval of :data:`~simx_server.limits.LOG_REPEAT_INTERVAL` s and
+holds back the rest; when the interval ends it writes one line with their count and the last
+of them. A record's kind is its logger, level and message template (the format string before
+its arguments): repetitions that differ only by a client's input or id are one kind, so a
+client cannot get past the limit by varying what it sends.
+
+Summary lines come out at the next record of any kind or at :func:`flush`, which the server's
+loop calls at every tick, so they are written even when the repetition stops.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+import time
+
+from simx_server import limits
+
+_filters: list["RepeatFilter"] = []
+
+
+class _Window:
+    __slots__ = ("start", "count", "held", "last")
+
+    def __init__(self, start: float):
+        self.start, self.count, self.held, self.last = start, 0, 0, None
+
+
+class RepeatFilter(logging.Filter):
+    """Let through ``burst`` records of a kind per ``interval`` s; summarise the others.
+
+    Args:
+        handler: the handler this filter is installed on (summaries are written to it).
+        burst: records of one kind let through per interval.
+        interval: s; at its end one summary line counts the records held back.
+        max_keys: kinds tracked at once (the least recently seen are dropped first).
+    """
+
+    def __init__(self, handler: logging.Handler, burst: int = limits.LOG_REPEAT_BURST,
+                 interval: float = limits.LOG_REPEAT_INTERVAL, max_keys: int = limits.LOG_REPEAT_KEYS):
+        super().__init__()
+        self.handler, self.burst, self.interval, self.max_keys = handler, burst, interval, max_keys
+        self._lock = threading.Lock()
+        self._windows: collections.OrderedDict[tuple, _Window] = collections.OrderedDict()
+        self._next_flush = 0.0
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if getattr(record, "simx_summary", False):
+            return True
+        now = time.monotonic()
+        key = (record.name, record.levelno, record.msg if isinstance(record.msg, str) else type(record.msg))
+        with self._lock:
+            due = self._due(now)
+            w = self._windows.get(key)
+            if w is None:
+                w = self._windows[key] = _Window(now)
+                if len(self._windows) > self.max_keys:
+                    old_key, old = self._windows.popitem(last=False)
+                    if old.held:
+                        due.append((old_key, old))
+            else:
+                self._windows.move_to_end(key)
+            w.count += 1
+            passed = w.count <= self.burst
+            if not passed:
+                w.held += 1
+                w.last = record
+        self._emit(due)
+        return passed
+
+    def flush(self) -> None:
+        """Write the summary of every interval that has ended."""
+        with self._lock:
+            due = self._due(time.monotonic())
+        self._emit(due)
+
+    def _due(self, now: float) -> list:
+        """Windows whose interval ended (lock held): removed, those with held records returned."""
+        if now < self._next_flush:
+            return []
+        self._next_flush = now + min(1.0, self.interval / 4)
+        due = []
+        for key in [k for k, w in self._windows.items() if now - w.start >= self.interval]:
+            w = self._windows.pop(key)
+            if w.held:
+                due.append((key, w))
+        return due
+
+    def _emit(self, due: list) -> None:
+        for _, w in due:
+            last = w.last
+            try:
+                text = last.getMessage()
+            except Exception:  # a record whose arguments do not format
+                text = str(last.msg)
+            summary = logging.LogRecord(
+                last.name, last.levelno, last.pathname, last.lineno,
+                "%d similar line(s) held back in %.0f s; the last: %s", (w.held, self.interval, text), None)
+            summary.simx_summary = True
+            self.handler.handle(summary)
+
+
+def install(interval: float = limits.LOG_REPEAT_INTERVAL, burst: int = limits.LOG_REPEAT_BURST) -> None:
+    """Put a :class:`RepeatFilter` on every handler of the root logger (call after
+    ``logging.basicConfig``); every logger's records pass through them."""
+    for handler in logging.getLogger().handlers:
+        f = RepeatFilter(handler, burst=burst, interval=interval)
+        handler.addFilter(f)
+        _filters.append(f)
+
+
+def flush() -> None:
+    """Write the summaries that are due (the server's loop calls this at every tick; cheap)."""
+    for f in _filters:
+        f.flush()
