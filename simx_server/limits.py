@@ -20,8 +20,50 @@ MAX_RESOLUTION = 4096
 
 # ----------------------------------------------------------------- requests
 #: Most commands in one request (a simxPauseCommunication batch of a real program holds tens).
-MAX_COMMANDS_PER_REQUEST = 4096
+MAX_COMMANDS_PER_REQUEST = 1024
 #: Largest request payload in bytes (a simxTransferFile of a mesh or a scene included).
 MAX_REQUEST_BYTES = 64 * 1024 * 1024
-#: Largest reply a request may produce in bytes (images and buffers included).
-MAX_REPLY_BYTES = 128 * 1024 * 1024
+#: Largest reply a request (or a stream update) may produce in bytes, images and buffers
+#: included: one image of the largest resolution (MAX_RESOLUTION², depth as float32: 64 MiB)
+#: fits. Commands past the budget get an error result naming this bound.
+MAX_REPLY_BYTES = 80 * 1024 * 1024
+
+# ================================================================ requests and clients
+# (the server core: intake, fairness, reply size, client expiry, log repetition; server.py,
+# sessions.py, logs.py). docs/SECURITY.md, "Requests and clients", explains each one.
+
+# The request bounds (MAX_COMMANDS_PER_REQUEST, MAX_REQUEST_BYTES, MAX_REPLY_BYTES) are in
+# "requests" above; this section adds the bounds on queues, clients and the log.
+
+#: Requests of one client waiting for the simulation thread; a request beyond is answered at
+#: once with an error result per command (remote error 8 at the facade), never queued.
+MAX_QUEUED_REQUESTS = 256
+#: Bytes (request payloads) one client may have waiting; a single largest request still fits.
+MAX_QUEUED_BYTES = MAX_REQUEST_BYTES + 1024 * 1024
+#: Bytes (request payloads) all clients together may have waiting.
+MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
+#: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
+#: place of the longest-idle client that holds no liveliness token, or is refused.
+MAX_CLIENTS = 1024
+#: Replies (and stream updates) of one client waiting for the render thread. A client at the
+#: bound is not served until one is sent; its image streams skip steps meanwhile.
+MAX_RENDERS_PER_CLIENT = 4
+#: Streamed commands of one client (each is executed again after every step).
+MAX_STREAMS_PER_CLIENT = 256
+#: Characters of an error message kept (reply, simxGetLastErrors); longer ones are cut.
+MAX_ERROR_CHARS = 1000
+#: Error messages kept per client for simxGetLastErrors (the oldest are dropped).
+MAX_ERRORS_KEPT = 50
+
+#: s a client without a liveliness token may stay silent before its state (streams, errors,
+#: queue, synchronous ownership) is dropped (``--client-expiry``). A client holding its token
+#: is never expired.
+CLIENT_EXPIRY = 30.0
+
+#: Identical log lines (same logger, level and message template) let through per interval...
+LOG_REPEAT_BURST = 5
+#: ...and the interval in s after which one summary line gives the count of those held back
+#: (``--log-interval``).
+LOG_REPEAT_INTERVAL = 10.0
+#: Message templates whose repetitions are tracked at once (the least recent are forgotten).
+LOG_REPEAT_KEYS = 1024
