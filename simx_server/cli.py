@@ -11,7 +11,10 @@ import sys
 from importlib import resources
 from pathlib import Path
 
+from simx_server import limits, logs
+
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
+SWITCH_INTERVAL = 0.0005  # s, sys.setswitchinterval (Python's default: 0.005)
 
 
 def default_scene() -> Path:
@@ -38,6 +41,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="let child scripts run code that clients send (Lua load, Python exec); off by default")
     p.add_argument("--prefix", default="simx", help="Zenoh key-expression prefix (default simx)")
     p.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    p.add_argument("--log-interval", type=float, default=limits.LOG_REPEAT_INTERVAL, metavar="S",
+                   help=f"repeated log lines: {limits.LOG_REPEAT_BURST} of a kind per interval, then one "
+                        f"summary line at its end (default {limits.LOG_REPEAT_INTERVAL:g} s)")
+    p.add_argument("--client-expiry", type=float, default=limits.CLIENT_EXPIRY, metavar="S",
+                   help="drop the state of a client without liveliness token after this many s without "
+                        f"a request (default {limits.CLIENT_EXPIRY:g})")
     return p.parse_args(argv)
 
 
@@ -47,6 +56,13 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=args.log_level, stream=sys.stderr,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     logging.getLogger("OpenGL").setLevel(logging.WARNING)
+    if not (args.log_interval > 0 and args.client_expiry > 0):
+        print("simx-server: --log-interval and --client-expiry must be > 0", file=sys.stderr)
+        return 2
+    logs.install(interval=args.log_interval)  # repeated lines: a few, then a count
+    # Zenoh's threads (one client's flood) and the simulation thread take turns at the GIL:
+    # hand it over every 0.5 ms rather than 5, so a waiting request is not held up for long.
+    sys.setswitchinterval(SWITCH_INTERVAL)
     os.environ.setdefault("MUJOCO_GL", "egl")
     # Imported here so that --help works without a GL stack.
     import zenoh
@@ -64,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = zenoh_config(endpoints, args.zenoh_config)
         endpoints = json.loads(config.get_json("listen/endpoints"))
-        server = Server(sim, config, speed=args.speed, prefix=args.prefix)
+        server = Server(sim, config, speed=args.speed, prefix=args.prefix, client_expiry=args.client_expiry)
         server.open()
     except (zenoh.ZError, ValueError, OSError) as exc:
         print(f"simx-server: cannot listen on {', '.join(endpoints)}: {exc}", file=sys.stderr)
