@@ -286,21 +286,23 @@ def parse_request(payload: bytes, max_commands: int | None = None) -> tuple[str,
     ``max_commands``: the most commands accepted (the server's limits.MAX_COMMANDS_PER_REQUEST).
     Error messages describe what is wrong by type and position, never by echoing the input.
 
+    The client id is a str here; whether it is a valid id (:func:`valid_client_id`) is the
+    server's check, once per new client.
+
     Raises:
-        ProtocolError: undecodable, another protocol version, not the request shape, a client
-            id that is not a valid id (:func:`valid_client_id`), or too many commands.
+        ProtocolError: undecodable, another protocol version, not the request shape, or too
+            many commands.
     """
     _, client, cmds = _decode(payload, 3, "request")
     if type(client) is not str or type(cmds) is not list:
         raise ProtocolError("request needs a client id (str) and a command list")
-    if not valid_client_id(client):
-        raise ProtocolError("invalid client id: it must be 1 to 128 characters without / * $ ? #")
     if max_commands is not None and len(cmds) > max_commands:
         raise ProtocolError(f"request of {len(cmds)} commands refused: at most {max_commands} "
                             "(limits.MAX_COMMANDS_PER_REQUEST); send fewer at once")
-    for i, cmd in enumerate(cmds):
+    for cmd in cmds:
         if type(cmd) is not list or len(cmd) != 3 or type(cmd[0]) is not str \
                 or type(cmd[1]) is not int or type(cmd[2]) is not list:
+            i = next(i for i, c in enumerate(cmds) if c is cmd)
             raise ProtocolError(f"malformed command {i}: expected [name, mode, args] (str, int, list), "
                                 f"got {_shape(cmd)}")
     return client, cmds

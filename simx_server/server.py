@@ -163,6 +163,8 @@ class Server:
             client, commands = P.parse_request(data, limits.MAX_COMMANDS_PER_REQUEST)
             if client != key[self._call_prefix:]:
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
+            if self.sessions.get(client) is None and not P.valid_client_id(client):  # once per client
+                raise P.ProtocolError("invalid client id: 1 to 128 characters without / * $ ? #")
             refused = self.sessions.admit(client, (query, commands), len(data))
             if refused is None:
                 return  # the simulation thread replies
@@ -287,63 +289,68 @@ class Server:
         if type(item) is Session:
             request = self.sessions.take(item)
             if request is not None:
-                self._answer(item, *request)
+                self._answer(item, request[0], request[1])
             return
         kind, client = item
         if kind == "gone":
             self._forget(client, "left")
 
     def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
-        """Execute a request and reply (now, or on the render thread once its images are
-        rendered). Every request gets a reply, whatever happens."""
+        """Execute a request and reply, now or on the render thread once its images are
+        rendered. Every request gets a reply, whatever happens (then a short refusal)."""
         deferred = False
+        client = session.client
         try:
-            deferred = self._execute_request(session, query, commands)
+            if client not in self._clients:
+                self._clients.add(client)
+                log.info("client %s connected", client)
+            if session.fault is None:
+                results = self._run(client, commands)
+            else:  # a failed step since this client's last request: told instead of executed
+                message, session.fault = session.fault, None
+                self._keep_error(client, message)
+                results = [[False, message]] * len(commands)
+            t, state, scene = self.sim.stamp()
+            server_time = int((time.monotonic() - self._t0) * 1000)
+            for _, value in results:
+                if type(value) is Deferred:
+                    break
+            else:
+                query.reply(query.key_expr, self._response(t, state, results, server_time, scene, client))
+                return
+
+            def reply_and_drop() -> None:
+                try:
+                    query.reply(query.key_expr, self._response(
+                        t, state, self._resolve(results, client), server_time, scene, client))
+                except Exception:
+                    log.exception("replying to client %s", client)
+                finally:
+                    query.drop()
+                    self.sessions.render_done(session)
+
+            self.sessions.render_started(session)
+            self.sim.vision.after(reply_and_drop)  # once the images of this request are rendered
+            deferred = True
         except Exception as exc:  # the server never dies from a client
-            log.exception("client %s: answering a request", session.client)
+            log.exception("client %s: answering a request", client)
             try:
                 query.reply(query.key_expr, P.error_response(
                     f"internal error while answering the request: {type(exc).__name__}"))
             except Exception:
-                log.exception("client %s: replying", session.client)
+                log.exception("client %s: replying", client)
         finally:
             if not deferred:
                 query.drop()  # sends Zenoh's final reply at once
 
-    def _execute_request(self, session: Session, query: zenoh.Query, commands: list) -> bool:
-        """Execute a request's commands and reply; True when the reply waits for the render thread."""
-        client = session.client
-        if client not in self._clients:
-            self._clients.add(client)
-            log.info("client %s connected", client)
-        if session.fault is not None:  # a failed step since this client's last request
-            message, session.fault = session.fault, None
-            self._keep_error(client, message)
-            results = [[False, message]] * len(commands)
-        else:
-            results = self._run(client, commands)
-        t, state, scene = self.sim.stamp()
-        server_time = int((time.monotonic() - self._t0) * 1000)
-        for _, value in results:
-            if type(value) is Deferred:
-                break
-        else:
-            query.reply(query.key_expr, self._response(t, state, results, server_time, scene, client))
-            return False
-
-        def reply_and_drop() -> None:
-            try:
-                query.reply(query.key_expr, self._response(
-                    t, state, self._resolve(results, client), server_time, scene, client))
-            except Exception:
-                log.exception("replying to client %s", client)
-            finally:
-                query.drop()
-                self.sessions.render_done(session)
-
-        self.sessions.render_started(session)
-        self.sim.vision.after(reply_and_drop)  # once the images of this request are rendered
-        return True
+    @staticmethod
+    def _response(t: int, state: int, results: list, server_time: int, scene: int, client: str) -> bytes:
+        """The encoded response, or a short refusal when it cannot be encoded."""
+        try:
+            return P.response(t, state, results, server_time, scene)
+        except Exception as exc:
+            log.exception("client %s: encoding a reply", client)
+            return P.error_response(f"internal error while encoding the reply: {type(exc).__name__}")
 
     def _run(self, client: str, commands: list) -> list:
         """Each command's ``[ok, value]``; commands past the reply budget (limits.MAX_REPLY_BYTES)
@@ -373,15 +380,6 @@ class Server:
         log.warning("client %s: %s", client, message)
         self._keep_error(client, message)
         return [False, message]
-
-    @staticmethod
-    def _response(t: int, state: int, results: list, server_time: int, scene: int, client: str) -> bytes:
-        """The encoded response, or a short refusal when it cannot be encoded."""
-        try:
-            return P.response(t, state, results, server_time, scene)
-        except Exception as exc:
-            log.exception("client %s: encoding a reply", client)
-            return P.error_response(f"internal error while encoding the reply: {type(exc).__name__}")
 
     @staticmethod
     def _resolve(results: list, client: str) -> list:

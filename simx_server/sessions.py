@@ -64,8 +64,7 @@ class Sessions:
         self.max_clients, self.max_renders = max_clients, max_renders
         self.tokens: set[str] = set()  # clients whose liveliness token is alive (Zenoh's threads)
         self._lock = threading.Lock()
-        # Least recently active first: the first tokenless idle one makes room for a new client.
-        self._sessions: collections.OrderedDict[str, Session] = collections.OrderedDict()
+        self._sessions: dict[str, Session] = {}
         self._total_bytes = 0
         self.evicted: list[str] = []  # clients dropped to make room; the simulation thread forgets them
 
@@ -88,8 +87,6 @@ class Sessions:
                     return (f"server busy: it serves {self.max_clients} clients already "
                             "(limits.MAX_CLIENTS); try again later")
                 s = self._sessions[client] = Session(client, now)
-            else:
-                self._sessions.move_to_end(client)
             s.last_seen = now
             if len(s.queue) >= self.max_requests:
                 return (f"server busy: this client has {len(s.queue)} requests waiting "
@@ -111,12 +108,14 @@ class Sessions:
     def _evict_one(self) -> bool:
         """Drop the least recently active client that holds no token and has nothing pending
         (lock held); False when there is none."""
-        for client, s in self._sessions.items():
-            if client not in self.tokens and not s.scheduled and not s.renders:
-                del self._sessions[client]
-                self.evicted.append(client)
-                return True
-        return False
+        idle = [s for client, s in self._sessions.items()
+                if client not in self.tokens and not s.scheduled and not s.renders]
+        if not idle:
+            return False
+        victim = min(idle, key=lambda s: s.last_seen).client
+        del self._sessions[victim]
+        self.evicted.append(victim)
+        return True
 
     # ------------------------------------------------------------ simulation thread
     def take(self, s: Session) -> Any:
@@ -176,9 +175,7 @@ class Sessions:
         with self._lock:
             gone, self.evicted = self.evicted, []
             for client, s in self._sessions.items():
-                if s.last_seen > deadline:
-                    break  # ordered by activity: the others are more recent
-                if client not in self.tokens and not s.scheduled and not s.renders:
+                if s.last_seen < deadline and client not in self.tokens and not s.scheduled and not s.renders:
                     gone.append(client)
             for client in gone:
                 self._sessions.pop(client, None)
