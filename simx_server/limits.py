@@ -43,7 +43,7 @@ MAX_QUEUED_BYTES = MAX_REQUEST_BYTES + 1024 * 1024
 #: Bytes (request payloads) all clients together may have waiting.
 MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
-#: place of the longest-idle client that holds no liveliness token, or is refused.
+#: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
 #: Replies (and stream updates) of one client waiting for the render thread. A client at the
 #: bound is not served until one is sent; its image streams skip steps meanwhile.

@@ -106,16 +106,15 @@ class Sessions:
         return None
 
     def _evict_one(self) -> bool:
-        """Drop the least recently active client that holds no token and has nothing pending
-        (lock held); False when there is none."""
-        idle = [s for client, s in self._sessions.items()
-                if client not in self.tokens and not s.scheduled and not s.renders]
-        if not idle:
-            return False
-        victim = min(idle, key=lambda s: s.last_seen).client
-        del self._sessions[victim]
-        self.evicted.append(victim)
-        return True
+        """Drop the oldest client that holds no token and has nothing pending (lock held);
+        False when there is none. Sessions are kept in creation order, so under a flood of
+        fresh ids the first candidate is found at once."""
+        for client, s in self._sessions.items():
+            if not s.scheduled and not s.renders and client not in self.tokens:
+                del self._sessions[client]
+                self.evicted.append(client)
+                return True
+        return False
 
     # ------------------------------------------------------------ simulation thread
     def take(self, s: Session) -> Any:
