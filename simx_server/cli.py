@@ -8,6 +8,7 @@ import logging
 import os
 import signal
 import sys
+import threading
 from importlib import resources
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from simx_server import limits, logs
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
 SWITCH_INTERVAL = 0.0005  # s, sys.setswitchinterval (Python's default: 0.005)
+STOP_GRACE = 1.5  # s after SIGINT/SIGTERM before the process ends without waiting for a step
 
 
 def default_scene() -> Path:
@@ -92,6 +94,8 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
+    served = threading.Event()
+    _watch_signals(server, served)
     if not args.stopped:
         sim.start()
     print(f"simx-server ready: scene {scene.name}, {len(sim.world.objects)} objects, "
@@ -99,9 +103,46 @@ def main(argv: list[str] | None = None) -> int:
     try:
         server.serve()
     finally:
+        served.set()
         server.close()
         logging.getLogger("simx.server").info("stopped")
     return 0
+
+
+def _watch_signals(server, served: threading.Event) -> None:
+    """Stop within STOP_GRACE s of SIGINT/SIGTERM even while a long simulation step runs.
+
+    Python runs a signal handler on the main thread only between two bytecodes, that is after
+    the step in progress (MuJoCo releases the GIL while it steps, but holds the main thread).
+    The C-level handler also writes the signal's number to a wake-up socket at once; a thread
+    waiting on it asks the loop to stop and, if the loop has not returned after the grace
+    period, ends the process without waiting for the step.
+    """
+    import socket
+
+    ours = {signal.SIGINT, signal.SIGTERM}
+    reader, writer = socket.socketpair()
+    writer.setblocking(False)
+    signal.set_wakeup_fd(writer.fileno(), warn_on_full_buffer=False)
+
+    def watch() -> None:
+        keep = writer  # the wake-up socket lives as long as this thread  # noqa: F841
+        while True:
+            data = reader.recv(16)
+            if not data:
+                return
+            if not ours.intersection(data):
+                continue
+            server.request_stop()
+            if not served.wait(STOP_GRACE):
+                logging.getLogger("simx.server").error(
+                    "stopping: the simulation step still runs %g s after the signal; exiting without waiting for it",
+                    STOP_GRACE)
+                logging.shutdown()
+                os._exit(0)
+            return
+
+    threading.Thread(target=watch, name="simx-signals", daemon=True).start()
 
 
 if __name__ == "__main__":
