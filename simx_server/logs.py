@@ -110,6 +110,8 @@ def install(interval: float = limits.LOG_REPEAT_INTERVAL, burst: int = limits.LO
     """Put a :class:`RepeatFilter` on every handler of the root logger (call after
     ``logging.basicConfig``); every logger's records pass through them."""
     for handler in logging.getLogger().handlers:
+        if any(isinstance(f, RepeatFilter) for f in handler.filters):
+            continue  # installed already (main() called again in one process)
         f = RepeatFilter(handler, burst=burst, interval=interval)
         handler.addFilter(f)
         _filters.append(f)
