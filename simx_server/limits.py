@@ -52,6 +52,10 @@ MAX_RENDERS_PER_CLIENT = 4
 MAX_STREAMS_PER_CLIENT = 256
 #: Characters of an error message kept (reply, simxGetLastErrors); longer ones are cut.
 MAX_ERROR_CHARS = 1000
+#: Auxiliary consoles open at once (simxAuxiliaryConsoleOpen; shared by every client).
+MAX_CONSOLES = 64
+#: Lines of one simxAuxiliaryConsolePrint written to the log (the rest are counted).
+MAX_CONSOLE_LINES = 100
 #: Error messages kept per client for simxGetLastErrors (the oldest are dropped).
 MAX_ERRORS_KEPT = 50
 
@@ -60,10 +64,13 @@ MAX_ERRORS_KEPT = 50
 #: is never expired.
 CLIENT_EXPIRY = 30.0
 
-#: Identical log lines (same logger, level and message template) let through per interval...
+#: Identical log lines (same logger, level and text) let through per interval...
 LOG_REPEAT_BURST = 5
-#: ...and the interval in s after which one summary line gives the count of those held back
-#: (``--log-interval``).
+#: ...and lines of one kind (same logger, level and message template, whatever the client's
+#: values in it), so that varying the input does not get past the limit...
+LOG_TEMPLATE_BURST = 100
+#: ...per interval in s, at the end of which one summary line gives the count of those held
+#: back and the last of them (``--log-interval``).
 LOG_REPEAT_INTERVAL = 10.0
-#: Message templates whose repetitions are tracked at once (the least recent are forgotten).
+#: Windows (texts and templates) tracked at once (the least recently seen are forgotten).
 LOG_REPEAT_KEYS = 1024

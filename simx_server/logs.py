@@ -2,15 +2,18 @@
 
 A client that repeats a failing call makes the server log one line per call (one program
 produced 9,320 warning lines in 20 s). :class:`RepeatFilter`, installed on the log handlers by
-``simx-server`` (:func:`install`), lets through the first :data:`~simx_server.limits.LOG_REPEAT_BURST`
-records of each *kind* in an interval of :data:`~simx_server.limits.LOG_REPEAT_INTERVAL` s and
-holds back the rest; when the interval ends it writes one line with their count and the last
-of them. A record's kind is its logger, level and message template (the format string before
-its arguments): repetitions that differ only by a client's input or id are one kind, so a
-client cannot get past the limit by varying what it sends.
+``simx-server`` (:func:`install`), counts records in windows of
+:data:`~simx_server.limits.LOG_REPEAT_INTERVAL` s, two ways:
 
-Summary lines come out at the next record of any kind or at :func:`flush`, which the server's
-loop calls at every tick, so they are written even when the repetition stops.
+* identical lines (same logger, level and text): the first
+  :data:`~simx_server.limits.LOG_REPEAT_BURST` of a window pass;
+* lines of one kind (same logger, level and message template, whatever its arguments): the
+  first :data:`~simx_server.limits.LOG_TEMPLATE_BURST` pass, so that a client cannot get past
+  the limit by varying what it sends, while a program's distinct errors all show.
+
+The others are held back; when the window ends, one line gives their count and the last of
+them. Summary lines come out at the next record of any kind or at :func:`flush`, which the
+server's loop calls a few times a second, so they are written even when the repetition stops.
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ import time
 from simx_server import limits
 
 _filters: list["RepeatFilter"] = []
+#: The logger of what clients print (simxAddStatusbarMessage, auxiliary consoles).
+CONSOLE_LOGGER = "simx.console"
 
 
 class _Window:
@@ -33,19 +38,23 @@ class _Window:
 
 
 class RepeatFilter(logging.Filter):
-    """Let through ``burst`` records of a kind per ``interval`` s; summarise the others.
+    """Let through ``burst`` identical records and ``template_burst`` records of one template
+    per ``interval`` s; summarise the others at the end of the interval.
 
     Args:
         handler: the handler this filter is installed on (summaries are written to it).
-        burst: records of one kind let through per interval.
+        burst: identical records let through per interval.
+        template_burst: records of one message template let through per interval.
         interval: s; at its end one summary line counts the records held back.
-        max_keys: kinds tracked at once (the least recently seen are dropped first).
+        max_keys: windows tracked at once (the least recently seen are dropped first).
     """
 
     def __init__(self, handler: logging.Handler, burst: int = limits.LOG_REPEAT_BURST,
-                 interval: float = limits.LOG_REPEAT_INTERVAL, max_keys: int = limits.LOG_REPEAT_KEYS):
+                 interval: float = limits.LOG_REPEAT_INTERVAL, max_keys: int = limits.LOG_REPEAT_KEYS,
+                 template_burst: int = limits.LOG_TEMPLATE_BURST):
         super().__init__()
         self.handler, self.burst, self.interval, self.max_keys = handler, burst, interval, max_keys
+        self.template_burst = template_burst
         self._lock = threading.Lock()
         self._windows: collections.OrderedDict[tuple, _Window] = collections.OrderedDict()
         self._next_flush = 0.0
@@ -54,25 +63,40 @@ class RepeatFilter(logging.Filter):
         if getattr(record, "simx_summary", False):
             return True
         now = time.monotonic()
-        key = (record.name, record.levelno, record.msg if isinstance(record.msg, str) else type(record.msg))
+        template = record.msg if isinstance(record.msg, str) else type(record.msg).__name__
+        try:
+            text = record.getMessage()
+        except Exception:  # arguments that do not format: the handler reports it
+            return True
         with self._lock:
             due = self._due(now)
-            w = self._windows.get(key)
-            if w is None:
-                w = self._windows[key] = _Window(now)
-                if len(self._windows) > self.max_keys:
-                    old_key, old = self._windows.popitem(last=False)
-                    if old.held:
-                        due.append((old_key, old))
+            same = self._window(("=", record.name, record.levelno, text), now, due)
+            kind = self._window(("~", record.name, record.levelno, template), now, due)
+            same.count += 1
+            kind.count += 1
+            if same.count > self.burst:
+                held = same
+            elif kind.count > self.template_burst:
+                held = kind
             else:
-                self._windows.move_to_end(key)
-            w.count += 1
-            passed = w.count <= self.burst
-            if not passed:
-                w.held += 1
-                w.last = record
+                held = None
+            if held is not None:
+                held.held += 1
+                held.last = record
         self._emit(due)
-        return passed
+        return held is None
+
+    def _window(self, key: tuple, now: float, due: list) -> _Window:
+        w = self._windows.get(key)
+        if w is None:
+            w = self._windows[key] = _Window(now)
+            if len(self._windows) > self.max_keys:
+                old_key, old = self._windows.popitem(last=False)
+                if old.held:
+                    due.append((old_key, old))
+        else:
+            self._windows.move_to_end(key)
+        return w
 
     def flush(self) -> None:
         """Write the summary of every interval that has ended."""
@@ -93,15 +117,16 @@ class RepeatFilter(logging.Filter):
         return due
 
     def _emit(self, due: list) -> None:
-        for _, w in due:
+        for key, w in due:
             last = w.last
             try:
                 text = last.getMessage()
-            except Exception:  # a record whose arguments do not format
+            except Exception:
                 text = str(last.msg)
+            how = "identical" if key[0] == "=" else "similar"
             summary = logging.LogRecord(
                 last.name, last.levelno, last.pathname, last.lineno,
-                "%d similar line(s) held back in %.0f s; the last: %s", (w.held, self.interval, text), None)
+                "%d %s line(s) held back in %g s; the last: %s", (w.held, how, self.interval, text), None)
             summary.simx_summary = True
             self.handler.handle(summary)
 

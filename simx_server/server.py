@@ -33,6 +33,7 @@ from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
 
 log = logging.getLogger("simx.server")
+console_log = logging.getLogger(logs.CONSOLE_LOGGER)  # what clients print (status bar, consoles)
 
 DEFAULT_HOSTS = ("127.0.0.1",)
 DEFAULT_PORTS = (19997, 19999)
@@ -55,6 +56,11 @@ def _reply_size(value: Any, depth: int = 0) -> int:
     if t is dict and depth < 8:
         return 5 + sum(_reply_size(k, depth + 1) + _reply_size(v, depth + 1) for k, v in value.items())
     return 64
+
+
+def _cut(text: str, limit: int = limits.MAX_ERROR_CHARS) -> str:
+    """``text`` cut to ``limit`` characters (a client's text in a log line)."""
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 def _image_size(sim: Simulation, name: str, args: list) -> int:
@@ -422,14 +428,13 @@ class Server:
             return [True, handler(self.sim, args)]
         except P.RemoteError as exc:
             label = name if name in P.COMMANDS else quote(name)
-            log.warning("client %s: simx%s failed: %s", client, label, exc)
-            message = f"simx{label}: {exc}"
+            message = _cut(f"simx{label}: {exc}")
+            log.warning("client %s: simx%s failed: %s", client, label, message[len(label) + 6:])
         except Exception as exc:
             label = name if name in P.COMMANDS else quote(name)
-            log.exception("client %s: simx%s raised", client, label)
-            message = f"internal error in simx{label}: {type(exc).__name__}: {exc}"
-        if len(message) > limits.MAX_ERROR_CHARS:
-            message = message[:limits.MAX_ERROR_CHARS] + "..."
+            message = _cut(f"internal error in simx{label}: {type(exc).__name__}: {exc}")
+            log.error("client %s: simx%s raised: %s", client, label, message,
+                      exc_info=not isinstance(exc, RecursionError))
         self._keep_error(client, message)
         return [False, message]
 
@@ -449,31 +454,38 @@ class Server:
     def _statusbar_message(self, client: str, args: list) -> None:
         if len(args) != 1 or not isinstance(args[0], str):
             raise P.ArgumentError("simxAddStatusbarMessage takes one string")
-        log.info("[client %s] %s", client[:8], args[0])
+        console_log.info("[client %s] %s", client[:8], _cut(args[0]))
 
     def _console(self, args: list) -> int:
         if not args or not isinstance(args[0], int) or args[0] not in self._consoles:
-            raise P.UnknownObjectError(f"no auxiliary console with handle {args[0] if args else None!r}")
+            raise P.UnknownObjectError(f"no auxiliary console with handle {quote(args[0]) if args else None}")
         return args[0]
 
     def _console_open(self, client: str, args: list) -> int:
         if len(args) != 3 or not isinstance(args[0], str):
             raise P.ArgumentError("simxAuxiliaryConsoleOpen takes a title, maxLines and mode")
+        if len(self._consoles) >= limits.MAX_CONSOLES:
+            raise P.RemoteError(f"too many auxiliary consoles open: at most {limits.MAX_CONSOLES} "
+                                "(limits.MAX_CONSOLES); close some")
         handle = max(self._consoles, default=0) + 1
-        self._consoles[handle] = args[0]
-        log.info("[client %s] console %d %r opened", client[:8], handle, args[0])
+        self._consoles[handle] = title = _cut(args[0], 200)
+        console_log.info("[client %s] console %d %s opened", client[:8], handle, quote(title))
         return handle
 
     def _console_close(self, client: str, args: list) -> None:
-        log.info("[client %s] console %r closed", client[:8], self._consoles.pop(self._console(args)))
+        console_log.info("[client %s] console %s closed", client[:8], quote(self._consoles.pop(self._console(args))))
 
     def _console_print(self, client: str, args: list) -> None:
         title = self._consoles[self._console(args)]
         text = args[1] if len(args) == 2 else None
         if text is not None and not isinstance(text, str):
             raise P.ArgumentError("console text must be a string or None")
-        for line in (text or "").splitlines() or [""]:
-            log.info("[client %s] [%s] %s", client[:8], title, line if text is not None else "(cleared)")
+        lines = (text or "").splitlines() or [""]
+        for line in lines[:limits.MAX_CONSOLE_LINES]:
+            console_log.info("[client %s] [%s] %s", client[:8], title, _cut(line) if text is not None else "(cleared)")
+        if len(lines) > limits.MAX_CONSOLE_LINES:
+            console_log.info("[client %s] [%s] (%d more lines not shown)", client[:8], title,
+                             len(lines) - limits.MAX_CONSOLE_LINES)
 
     def _console_show(self, client: str, args: list) -> None:
         self._console(args)

@@ -140,7 +140,7 @@ def test_repeated_log_lines_are_summarised(core, raw):
     for _ in range(300):
         r = call(raw, client, [["GetObjectHandle", B, [marker]]])
         assert r[5][0][0] is False
-    counts = lambda: [int(n) for n in re.findall(r"(\d+) similar line\(s\) held back.*" + marker, log_text(core))]
+    counts = lambda: [int(n) for n in re.findall(r"(\d+) identical line\(s\) held back.*" + marker, log_text(core))]
     wait_until(lambda: sum(counts()) > 0, timeout=5, what="a summary line")
     lines = [line for line in log_text(core).splitlines() if marker in line and "held back" not in line]
     assert len(lines) <= 2 * limits.LOG_REPEAT_BURST  # a burst per 1-s interval, not 300 lines
@@ -156,18 +156,22 @@ def test_repeat_filter_unit():
             records.append(record.getMessage())
 
     handler = Keep()
-    f = RepeatFilter(handler, burst=3, interval=0.2)
+    f = RepeatFilter(handler, burst=3, template_burst=10, interval=0.2)
     handler.addFilter(f)
     logger = logging.getLogger("simx.test.repeat")
     logger.propagate, logger.level = False, logging.INFO
     logger.addHandler(handler)
     try:
         for i in range(50):
-            logger.warning("client %s: call failed", i)
-        logger.warning("another kind")
-        assert records == [f"client {i}: call failed" for i in range(3)] + ["another kind"]
-        wait_until(lambda: f.flush() or len(records) == 5, timeout=2, what="the summary after the interval")
-        assert records[4].startswith("47 similar line(s) held back") and records[4].endswith("client 49: call failed")
+            logger.warning("client %s: call failed", i)  # varying input: 10 of the kind pass
+        for _ in range(20):
+            logger.warning("the same line")  # identical: 3 pass
+        assert records == [f"client {i}: call failed" for i in range(10)] + ["the same line"] * 3
+        wait_until(lambda: f.flush() or len(records) == 15, timeout=2, what="the summaries after the interval")
+        assert sorted(records[13:]) == ["17 identical line(s) held back in 0.2 s; the last: the same line",
+                                        "40 similar line(s) held back in 0.2 s; the last: client 49: call failed"]
+        logger.warning("the same line")  # a new interval: it passes again
+        assert records[-1] == "the same line"
     finally:
         logger.removeHandler(handler)
 
