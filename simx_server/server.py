@@ -28,7 +28,8 @@ from simx_client import protocol as P
 from simx_server import limits, logs
 from simx_server.arguments import quote
 from simx_server.commands import HANDLERS
-from simx_server.sessions import Session, Sessions
+from simx_server.replies import IMAGES, SMALL, image_size, reply_size
+from simx_server.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
 
@@ -40,43 +41,11 @@ DEFAULT_PORTS = (19997, 19999)
 _DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
 _HOUSEKEEPING = 0.25  # s between two passes of client expiry and log summaries
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
-_SMALL = frozenset({type(None), bool, int, float})  # results that cost nothing in a reply
-
-
-def _reply_size(value: Any, depth: int = 0) -> int:
-    """Bytes ``value`` takes in a reply, about (msgpack: 9 per number, the length of bytes and
-    strings); cheap for the small results of most calls."""
-    t = type(value)
-    if t in _SMALL:
-        return 9
-    if t is bytes or t is str or t is bytearray:
-        return len(value) + 5
-    if (t is list or t is tuple) and depth < 8:
-        return 5 + sum(_reply_size(v, depth + 1) for v in value)
-    if t is dict and depth < 8:
-        return 5 + sum(_reply_size(k, depth + 1) + _reply_size(v, depth + 1) for k, v in value.items())
-    return 64
 
 
 def _cut(text: str, limit: int = limits.MAX_ERROR_CHARS) -> str:
     """``text`` cut to ``limit`` characters (a client's text in a log line)."""
     return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
-
-
-def _image_size(sim: Simulation, name: str, args: list) -> int:
-    """Bytes of the image a GetVisionSensorImage/DepthBuffer command will return (0 when its
-    handle is no vision sensor: the handler then answers the error)."""
-    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
-    if spec is None:
-        return 0
-    if name == "GetVisionSensorDepthBuffer":
-        return spec.width * spec.height * 4
-    grey = len(args) > 1 and type(args[1]) is int and args[1] & 1
-    return spec.width * spec.height * (1 if grey else 3)
-
-
-#: Commands whose result is an image: its size is known before it is rendered.
-_IMAGES = frozenset({"GetVisionSensorImage", "GetVisionSensorDepthBuffer"})
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
@@ -159,6 +128,8 @@ class Server:
     def _on_query(self, query: zenoh.Query) -> None:
         """Zenoh's thread: read a request and queue it in its client's queue, or answer at once
         what cannot be queued. Every query gets a reply."""
+        if not getattr(zenoh_thread, "kept", False):
+            keep_thread_state()
         key = str(query.key_expr)
         try:
             payload = query.payload
@@ -226,24 +197,27 @@ class Server:
         next_tick = time.monotonic()
         while not self._stopping.is_set():
             now = time.monotonic()
-            if now < next_tick:
-                try:
-                    self._handle(self._queue.get(timeout=next_tick - now))
-                except queue.Empty:
-                    pass
-                continue
-            self._drain()  # requests are always served between steps, even at full speed
-            if self._stopping.is_set():
-                break
-            if self._stepping():
-                self._step()
-                interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
-            else:
-                if sim.state is not RunState.RUNNING:
-                    self._publish_streams()  # idle tick: streams keep being served
+            try:
+                if now < next_tick:
+                    try:
+                        self._handle(self._queue.get(timeout=next_tick - now))
+                    except queue.Empty:
+                        pass
+                    continue
+                self._drain()  # requests are always served between steps, even at full speed
+                if self._stopping.is_set():
+                    break
                 interval = sim.world.dt
-            if now >= self._housekeeping_at:
-                self._housekeeping(now)
+                if self._stepping():
+                    self._step()
+                    interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
+                elif sim.state is not RunState.RUNNING:
+                    self._publish_streams()  # idle tick: streams keep being served
+                if now >= self._housekeeping_at:
+                    self._housekeeping(now)
+            except Exception:  # a bug must not end the simulation thread either: log, go on
+                log.exception("simulation loop")
+                interval = sim.world.dt
             next_tick = max(next_tick + interval, now)
 
     def _drain(self) -> None:
@@ -364,18 +338,18 @@ class Server:
         execute, budget = self._execute, limits.MAX_REPLY_BYTES
         results = []
         for name, mode, args in commands:
-            if name in _IMAGES and budget < _image_size(self.sim, name, args):
+            if name in IMAGES and budget < image_size(self.sim, name, args):
                 results.append(self._over_budget(client, name))
                 continue
             result = execute(client, name, mode, args)
             value = result[1]
             t = type(value)
             if t is Deferred:
-                budget -= _image_size(self.sim, name, args)
-            elif t not in _SMALL:
-                budget -= _reply_size(value)
+                budget -= image_size(self.sim, name, args)
+            elif t not in SMALL:
+                budget -= reply_size(value)
                 if budget < 0:
-                    budget += _reply_size(value)
+                    budget += reply_size(value)
                     result = self._over_budget(client, name)
             results.append(result)
         return results
@@ -540,10 +514,10 @@ class Server:
                 if s.delay and now - s.last < s.delay:
                     continue
                 name = s.name
-                if name in _IMAGES:
+                if name in IMAGES:
                     if not images:
                         continue
-                    cost = _image_size(sim, name, s.args)
+                    cost = image_size(sim, name, s.args)
                     if cost > budget:
                         entries.append([name, list(ident[1:]), False, f"not executed: the update would exceed "
                                         f"{limits.MAX_REPLY_BYTES} bytes (limits.MAX_REPLY_BYTES)"])
@@ -553,10 +527,10 @@ class Server:
                 handler = HANDLERS[name]
                 try:
                     value = handler(sim, s.args)
-                    if type(value) not in _SMALL and type(value) is not Deferred:
-                        budget -= _reply_size(value)
+                    if type(value) not in SMALL and type(value) is not Deferred:
+                        budget -= reply_size(value)
                         if budget < 0:
-                            budget += _reply_size(value)
+                            budget += reply_size(value)
                             raise P.RemoteError(f"not sent: the update would exceed {limits.MAX_REPLY_BYTES} "
                                                 "bytes (limits.MAX_REPLY_BYTES)")
                     entries.append([name, list(ident[1:]), True, value])

@@ -11,7 +11,6 @@ import logging
 import os
 import queue
 import re
-import signal
 import subprocess
 import sys
 import json
