@@ -272,6 +272,9 @@ def _flat(value: Any) -> tuple:
 
 
 _packers = threading.local()  # a msgpack Packer is reusable but not thread-safe
+#: A Packer keeps a buffer as large as the largest message it packed; after a message larger
+#: than this many bytes the thread's Packer is replaced, so that the buffer is freed.
+PACKER_KEEP_BYTES = 1024 * 1024
 
 
 def pack(message: Any) -> bytes:
@@ -279,13 +282,16 @@ def pack(message: Any) -> bytes:
     about half the cost of ``msgpack.packb``, which builds a Packer per call.
 
     A Zenoh callback run with ``indirect=False`` gets a fresh Python thread state on every
-    call, so its Packer is not kept and each call pays ``packb``'s cost; simx packs nothing
-    there (those callbacks only enqueue or decode)."""
+    call, so its Packer is not kept and each call pays ``packb``'s cost; simx packs little
+    there (refusals and "busy" answers)."""
     try:
-        return _packers.packer.pack(message)
+        data = _packers.packer.pack(message)
     except AttributeError:
         _packers.packer = msgpack.Packer(use_bin_type=True)
-        return _packers.packer.pack(message)
+        data = _packers.packer.pack(message)
+    if len(data) > PACKER_KEEP_BYTES:
+        _packers.packer = msgpack.Packer(use_bin_type=True)  # drop the grown buffer
+    return data
 
 
 def _decode(payload: bytes, size: int, what: str) -> list:
@@ -333,20 +339,39 @@ def request(client: str, commands: Iterable[list]) -> bytes:
     return RequestEncoder(client).encode(list(commands))
 
 
-def parse_request(payload: bytes) -> tuple[str, list[list]]:
+def parse_request(payload: bytes, max_commands: int | None = None) -> tuple[str, list[list]]:
     """Decode and validate a request; returns ``(client, [[name, mode, args], ...])``.
 
+    ``max_commands``: the most commands accepted (the server's limits.MAX_COMMANDS_PER_REQUEST).
+    Error messages describe what is wrong by type and position, never by echoing the input.
+
+    The client id is a str here; whether it is a valid id (:func:`valid_client_id`) is the
+    server's check, once per new client.
+
     Raises:
-        ProtocolError: undecodable, another protocol version, or not the request shape.
+        ProtocolError: undecodable, another protocol version, not the request shape, or too
+            many commands.
     """
     _, client, cmds = _decode(payload, 3, "request")
     if type(client) is not str or type(cmds) is not list:
         raise ProtocolError("request needs a client id (str) and a command list")
+    if max_commands is not None and len(cmds) > max_commands:
+        raise ProtocolError(f"request of {len(cmds)} commands refused: at most {max_commands} "
+                            "(limits.MAX_COMMANDS_PER_REQUEST); send fewer at once")
     for cmd in cmds:
         if type(cmd) is not list or len(cmd) != 3 or type(cmd[0]) is not str \
                 or type(cmd[1]) is not int or type(cmd[2]) is not list:
-            raise ProtocolError(f"malformed command {cmd!r}: expected [name, mode, args]")
+            i = next(i for i, c in enumerate(cmds) if c is cmd)
+            raise ProtocolError(f"malformed command {i}: expected [name, mode, args] (str, int, list), "
+                                f"got {_shape(cmd)}")
     return client, cmds
+
+
+def _shape(value: Any) -> str:
+    """A short description of a value's type and size (never its content)."""
+    if type(value) is list:
+        return f"a list of {len(value)}: [{', '.join(type(v).__name__ for v in value[:4])}{', ...' if len(value) > 4 else ''}]"
+    return f"a {type(value).__name__}"
 
 
 def response(sim_time_ms: int, state: int, results: list, server_time_ms: int = 0, scene_id: int = 0) -> bytes:

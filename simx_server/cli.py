@@ -8,10 +8,15 @@ import logging
 import os
 import signal
 import sys
+import threading
 from importlib import resources
 from pathlib import Path
 
+from simx_server import limits, logs
+
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
+SWITCH_INTERVAL = 0.0005  # s, sys.setswitchinterval (Python's default: 0.005)
+STOP_GRACE = 1.5  # s after SIGINT/SIGTERM before the process ends without waiting for a step
 
 
 def default_scene() -> Path:
@@ -44,6 +49,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         "simxLoadModel with options 0), besides the scene's folder (repeatable)")
     p.add_argument("--prefix", default="simx", help="Zenoh key-expression prefix (default simx)")
     p.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    p.add_argument("--log-interval", type=float, default=limits.LOG_REPEAT_INTERVAL, metavar="S",
+                   help=f"repeated log lines: {limits.LOG_REPEAT_BURST} of a kind per interval, then one "
+                        f"summary line at its end (default {limits.LOG_REPEAT_INTERVAL:g} s)")
+    p.add_argument("--client-expiry", type=float, default=limits.CLIENT_EXPIRY, metavar="S",
+                   help="drop the state of a client without liveliness token after this many s without "
+                        f"a request (default {limits.CLIENT_EXPIRY:g})")
     return p.parse_args(argv)
 
 
@@ -53,6 +64,13 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=args.log_level, stream=sys.stderr,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     logging.getLogger("OpenGL").setLevel(logging.WARNING)
+    if not (args.log_interval > 0 and args.client_expiry > 0):
+        print("simx-server: --log-interval and --client-expiry must be > 0", file=sys.stderr)
+        return 2
+    logs.install(interval=args.log_interval)  # repeated lines: a few, then a count
+    # Zenoh's threads (one client's flood) and the simulation thread take turns at the GIL:
+    # hand it over every 0.5 ms rather than 5, so a waiting request is not held up for long.
+    sys.setswitchinterval(SWITCH_INTERVAL)
     os.environ.setdefault("MUJOCO_GL", "egl")
     # Imported here so that --help works without a GL stack.
     import zenoh
@@ -75,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = zenoh_config(endpoints, args.zenoh_config)
         endpoints = json.loads(config.get_json("listen/endpoints"))
-        server = Server(sim, config, speed=args.speed, prefix=args.prefix)
+        server = Server(sim, config, speed=args.speed, prefix=args.prefix, client_expiry=args.client_expiry)
         server.open()
     except (zenoh.ZError, ValueError, OSError) as exc:
         print(f"simx-server: cannot listen on {', '.join(endpoints)}: {exc}", file=sys.stderr)
@@ -87,6 +105,8 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
+    served = threading.Event()
+    _watch_signals(server, served)
     if not args.stopped:
         sim.start()
     print(f"simx-server ready: scene {scene.name}, {len(sim.world.objects)} objects, "
@@ -94,9 +114,46 @@ def main(argv: list[str] | None = None) -> int:
     try:
         server.serve()
     finally:
+        served.set()
         server.close()
         logging.getLogger("simx.server").info("stopped")
     return 0
+
+
+def _watch_signals(server, served: threading.Event) -> None:
+    """Stop within STOP_GRACE s of SIGINT/SIGTERM even while a long simulation step runs.
+
+    Python runs a signal handler on the main thread only between two bytecodes, that is after
+    the step in progress (MuJoCo releases the GIL while it steps, but holds the main thread).
+    The C-level handler also writes the signal's number to a wake-up socket at once; a thread
+    waiting on it asks the loop to stop and, if the loop has not returned after the grace
+    period, ends the process without waiting for the step.
+    """
+    import socket
+
+    ours = {signal.SIGINT, signal.SIGTERM}
+    reader, writer = socket.socketpair()
+    writer.setblocking(False)
+    signal.set_wakeup_fd(writer.fileno(), warn_on_full_buffer=False)
+
+    def watch() -> None:
+        keep = writer  # the wake-up socket lives as long as this thread  # noqa: F841
+        while True:
+            data = reader.recv(16)
+            if not data:
+                return
+            if not ours.intersection(data):
+                continue
+            server.request_stop()
+            if not served.wait(STOP_GRACE):
+                logging.getLogger("simx.server").error(
+                    "stopping: the simulation step still runs %g s after the signal; exiting without waiting for it",
+                    STOP_GRACE)
+                logging.shutdown()
+                os._exit(0)
+            return
+
+    threading.Thread(target=watch, name="simx-signals", daemon=True).start()
 
 
 if __name__ == "__main__":

@@ -1,10 +1,14 @@
 """The simx server: Zenoh on the outside, one simulation thread on the inside.
 
-Zenoh callbacks never touch MuJoCo and never block: they put the query (or a client's
-departure) on a queue. The thread that calls :meth:`Server.serve` owns the simulation; it
-executes each request atomically between physics steps, replies, steps the simulation every
-``dt`` (paced to wall time when ``speed`` > 0, on triggers in synchronous mode), and after
-every step publishes each client's streamed commands.
+Zenoh callbacks never touch MuJoCo and never block: the query callback reads and checks the
+request, answers at once what it refuses (unreadable, over a bound, a full client queue) and
+queues the rest in the client's own bounded queue (:mod:`simx_server.sessions`); liveliness
+callbacks note clients' tokens. The thread that calls :meth:`Server.serve` owns the
+simulation; it serves the clients' queues round robin, executes each request atomically
+between physics steps, replies, steps the simulation every ``dt`` (paced to wall time when
+``speed`` > 0, on triggers in synchronous mode), and after every step publishes each client's
+streamed commands. Nothing a client sends ends that thread: an exception of a step stops the
+simulation and is reported to every client at its next request.
 """
 
 from __future__ import annotations
@@ -22,18 +26,28 @@ from typing import Any
 import zenoh
 
 from simx_client import protocol as P
+from simx_server import limits, logs
 from simx_server.arguments import quote
 from simx_server.commands import HANDLERS
+from simx_server.physics import PhysicsError
+from simx_server.replies import IMAGES, SMALL, image_size, reply_size
+from simx_server.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
 
 log = logging.getLogger("simx.server")
+console_log = logging.getLogger(logs.CONSOLE_LOGGER)  # what clients print (status bar, consoles)
 
 DEFAULT_HOSTS = ("127.0.0.1",)
 DEFAULT_PORTS = (19997, 19999)
 _DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
-_MAX_ERRORS = 50  # errors kept per client for simxGetLastErrors
+_HOUSEKEEPING = 0.25  # s between two passes of client expiry and log summaries
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
+
+
+def _cut(text: str, limit: int = limits.MAX_ERROR_CHARS) -> str:
+    """``text`` cut to ``limit`` characters (a client's text in a log line)."""
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
@@ -92,17 +106,24 @@ class Server:
         config: Zenoh config (see :func:`zenoh_config`).
         speed: real-time factor in asynchronous mode; 0 runs as fast as possible.
         prefix: key-expression prefix (``simx``).
+        client_expiry: s a client without a liveliness token may stay silent before its
+            state is dropped (limits.CLIENT_EXPIRY).
     """
 
     def __init__(self, sim: Simulation, config: zenoh.Config, speed: float = 1.0,
-                 prefix: str = P.DEFAULT_PREFIX):
+                 prefix: str = P.DEFAULT_PREFIX, client_expiry: float = limits.CLIENT_EXPIRY):
         if speed < 0:
             raise ValueError(f"speed must be >= 0, got {speed}")
+        if not client_expiry > 0:
+            raise ValueError(f"client expiry must be > 0 s, got {client_expiry}")
         self.sim = sim
         self.speed = speed
         self.prefix = prefix
+        self.client_expiry = client_expiry
         self._config = config
+        # The ready ring: clients with requests waiting (Session), and control tuples.
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self.sessions = Sessions(self._queue)
         self._stopping = threading.Event()
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._clients: set[str] = set()
@@ -110,6 +131,7 @@ class Server:
         self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
         self._consoles: dict[int, str] = {}  # auxiliary console handle -> title
         self._t0 = time.monotonic()
+        self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
 
     # ------------------------------------------------------------ zenoh side
@@ -117,14 +139,15 @@ class Server:
         """Open the Zenoh session and declare the queryable and liveliness; raises zenoh.ZError."""
         self.session = zenoh.open(self._config)
         self._call_prefix = len(P.call_key(self.prefix, ""))  # a query's key minus this is its client
-        # Direct callbacks: Zenoh's thread only enqueues (no Python thread of zenoh's in between).
+        # Direct callbacks: Zenoh's thread reads the request and queues it (or refuses it).
         self._queryable = self.session.declare_queryable(
-            P.call_keys(self.prefix), zenoh.handlers.Callback(self._queue.put, indirect=False))
+            P.call_keys(self.prefix), zenoh.handlers.Callback(self._on_query, indirect=False))
         self._legacy_queryable = self.session.declare_queryable(
             P.legacy_call_key(self.prefix), zenoh.handlers.Callback(self._refuse_old, indirect=False))
         self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
         self._watch = self.session.liveliness().declare_subscriber(
-            P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False))
+            P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False),
+            history=True)
 
     @staticmethod
     def _refuse_old(query: zenoh.Query) -> None:
@@ -133,10 +156,50 @@ class Server:
             f"protocol version mismatch: this server speaks {P.PROTOCOL_VERSION}, which sends "
             "requests to <prefix>/call/<client>; install the same simx version on client and server"))
 
+    def _on_query(self, query: zenoh.Query) -> None:
+        """Zenoh's thread: read a request and queue it in its client's queue, or answer at once
+        what cannot be queued. Every query gets a reply."""
+        if not getattr(zenoh_thread, "kept", False):
+            keep_thread_state()
+        key = str(query.key_expr)
+        try:
+            payload = query.payload
+            data = payload.to_bytes() if payload is not None else b""
+            if len(data) > limits.MAX_REQUEST_BYTES:
+                raise P.ProtocolError(f"request of {len(data)} bytes refused: at most "
+                                      f"{limits.MAX_REQUEST_BYTES} (limits.MAX_REQUEST_BYTES)")
+            client, commands = P.parse_request(data, limits.MAX_COMMANDS_PER_REQUEST)
+            if client != key[self._call_prefix:]:
+                raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
+            if self.sessions.get(client) is None and not P.valid_client_id(client):  # once per client
+                raise P.ProtocolError("invalid client id: 1 to 128 characters without / * $ ? #")
+            refused = self.sessions.admit(client, (query, commands), len(data))
+            if refused is None:
+                return  # the simulation thread replies
+            t, state, scene = self.sim.stamp()
+            reply = P.response(t, state, [[False, refused]] * len(commands),
+                               int((time.monotonic() - self._t0) * 1000), scene)
+            log.warning("client %s: request of %d command(s) not queued: %s", client, len(commands), refused)
+        except P.ProtocolError as exc:
+            log.warning("malformed request on %s refused: %s", quote(key), exc)
+            reply = P.error_response(str(exc))
+        except Exception as exc:  # the server never dies from a client, and always answers
+            log.exception("reading a request on %s", quote(key))
+            reply = P.error_response(f"internal error while reading the request: {type(exc).__name__}")
+        try:
+            query.reply(query.key_expr, reply)
+        except Exception as exc:
+            log.warning("replying on %s: %s", quote(key), exc)
+        finally:
+            query.drop()
+
     def _on_client_token(self, sample: zenoh.Sample) -> None:
         client = str(sample.key_expr).rsplit("/", 1)[-1]
         if sample.kind == zenoh.SampleKind.DELETE:
+            self.sessions.tokens.discard(client)
             self._queue.put(("gone", client))
+        else:
+            self.sessions.tokens.add(client)
 
     def request_stop(self) -> None:
         """Ask serve() to return (safe from signal handlers and other threads)."""
@@ -165,19 +228,26 @@ class Server:
         next_tick = time.monotonic()
         while not self._stopping.is_set():
             now = time.monotonic()
-            if now < next_tick:
-                try:
-                    self._handle(self._queue.get(timeout=next_tick - now))
-                except queue.Empty:
-                    pass
-                continue
-            self._drain()  # requests are always served between steps, even at full speed
-            if self._stepping():
-                self._step()
-                interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
-            else:
-                if sim.state is not RunState.RUNNING:
+            try:
+                if now < next_tick:
+                    try:
+                        self._handle(self._queue.get(timeout=next_tick - now))
+                    except queue.Empty:
+                        pass
+                    continue
+                self._drain()  # requests are always served between steps, even at full speed
+                if self._stopping.is_set():
+                    break
+                interval = sim.world.dt
+                if self._stepping():
+                    self._step()
+                    interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
+                elif sim.state is not RunState.RUNNING:
                     self._publish_streams()  # idle tick: streams keep being served
+                if now >= self._housekeeping_at:
+                    self._housekeeping(now)
+            except Exception:  # a bug must not end the simulation thread either: log, go on
+                log.exception("simulation loop")
                 interval = sim.world.dt
             next_tick = max(next_tick + interval, now)
 
@@ -187,68 +257,145 @@ class Server:
                 self._handle(self._queue.get_nowait())
             except queue.Empty:
                 return
+            if self._stopping.is_set():
+                return
+
+    def _housekeeping(self, now: float) -> None:
+        """Drop expired clients and write due log summaries (a few times a second)."""
+        self._housekeeping_at = now + _HOUSEKEEPING
+        try:
+            expired = self.sessions.expired(self.client_expiry)
+            for client in expired:
+                self._forget(client, f"expired (no liveliness token, no request for {self.client_expiry:g} s)")
+            logs.flush()
+        except Exception:  # housekeeping must never end the loop
+            log.exception("housekeeping")
 
     def _stepping(self) -> bool:
         return self.sim.state is RunState.RUNNING and not self.sim.synchronous
 
-    def _step(self) -> None:
-        self.sim.step()
+    def _step(self) -> bool:
+        """One step and the streams' updates; False when the step failed (the simulation is
+        then stopped and every client is told at its next request)."""
+        try:
+            self.sim.step()
+        except Exception as exc:  # nothing a client sends may end the simulation thread
+            self._step_failed(exc)
+            return False
         self._publish_streams()
+        return True
+
+    def _step_failed(self, exc: Exception) -> None:
+        if isinstance(exc, PhysicsError):  # a blow-up: the simulation has stopped itself
+            reason = self.sim.stop_reason or str(exc)
+            log.warning("%s", reason)
+        else:
+            reason = (f"the simulation step failed and the simulation was stopped: "
+                      f"{type(exc).__name__}: {quote(str(exc), 200)}")
+            log.error("%s", reason, exc_info=exc)
+        if self.sim.state is not RunState.STOPPED:
+            try:
+                self.sim.stop()
+            except Exception:
+                log.exception("stopping the simulation after a failed step")
+                self.sim.state = RunState.STOPPED  # whatever the cleanup did, no further steps
+        self.sessions.fault_all(reason)
 
     def _handle(self, item: Any) -> None:
-        if isinstance(item, tuple):
-            kind, client = item
-            if kind == "gone":
-                self._forget(client, "left")
+        if type(item) is Session:
+            request = self.sessions.take(item)
+            if request is not None:
+                self._answer(item, request[0], request[1])
             return
+        kind, client = item
+        if kind == "gone":
+            self._forget(client, "left")
+
+    def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
+        """Execute a request and reply, now or on the render thread once its images are
+        rendered. Every request gets a reply, whatever happens (then a short refusal)."""
         deferred = False
+        client = session.client
         try:
-            deferred = self._answer(item)
-        except Exception:  # the server never dies from a client
-            log.exception("answering a query on %s", item.key_expr)
+            if client not in self._clients:
+                self._clients.add(client)
+                log.info("client %s connected", client)
+            if session.fault is None:
+                results = self._run(client, commands)
+            else:  # a failed step since this client's last request: told instead of executed
+                message, session.fault = session.fault, None
+                self._keep_error(client, message)
+                results = [[False, message]] * len(commands)
+            t, state, scene = self.sim.stamp()
+            server_time = int((time.monotonic() - self._t0) * 1000)
+            for _, value in results:
+                if type(value) is Deferred:
+                    break
+            else:
+                query.reply(query.key_expr, self._response(t, state, results, server_time, scene, client))
+                return
+
+            def reply_and_drop() -> None:
+                try:
+                    query.reply(query.key_expr, self._response(
+                        t, state, self._resolve(results, client), server_time, scene, client))
+                except Exception:
+                    log.exception("replying to client %s", client)
+                finally:
+                    query.drop()
+                    self.sessions.render_done(session)
+
+            self.sessions.render_started(session)
+            self.sim.vision.after(reply_and_drop)  # once the images of this request are rendered
+            deferred = True
+        except Exception as exc:  # the server never dies from a client
+            log.exception("client %s: answering a request", client)
+            try:
+                query.reply(query.key_expr, P.error_response(
+                    f"internal error while answering the request: {type(exc).__name__}"))
+            except Exception:
+                log.exception("client %s: replying", client)
         finally:
             if not deferred:
-                item.drop()  # sends Zenoh's final reply at once
+                query.drop()  # sends Zenoh's final reply at once
 
-    def _answer(self, query: zenoh.Query) -> bool:
-        """Execute a request and reply; True when the reply waits for the render thread."""
-        payload = query.payload
+    @staticmethod
+    def _response(t: int, state: int, results: list, server_time: int, scene: int, client: str) -> bytes:
+        """The encoded response, or a short refusal when it cannot be encoded."""
         try:
-            client, commands = P.parse_request(payload.to_bytes() if payload is not None else b"")
-            if client != str(query.key_expr)[self._call_prefix:]:
-                raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
-            if client not in self._clients and not P.valid_client_id(client):  # e.g. '*': streams to all
-                raise P.ProtocolError(f"client id {quote(client)} is not one key chunk of at most 128 "
-                                      "characters without / * $ ? #")
-        except P.ProtocolError as exc:
-            log.warning("malformed request refused: %s", exc)
-            query.reply(query.key_expr, P.error_response(str(exc)))
-            return False
-        if client not in self._clients:
-            self._clients.add(client)
-            log.info("client %s connected", client)
-        execute = self._execute
-        results = [execute(client, name, mode, args) for name, mode, args in commands]
-        t, state, scene = self.sim.stamp()
-        server_time = int((time.monotonic() - self._t0) * 1000)
-        for _, value in results:
-            if type(value) is Deferred:
-                break
-        else:
-            query.reply(query.key_expr, P.response(t, state, results, server_time, scene))
-            return False
+            return P.response(t, state, results, server_time, scene)
+        except Exception as exc:
+            log.exception("client %s: encoding a reply", client)
+            return P.error_response(f"internal error while encoding the reply: {type(exc).__name__}")
 
-        def reply_and_drop() -> None:
-            try:
-                query.reply(query.key_expr,
-                            P.response(t, state, self._resolve(results, client), server_time, scene))
-            except Exception:
-                log.exception("replying to client %s", client)
-            finally:
-                query.drop()
+    def _run(self, client: str, commands: list) -> list:
+        """Each command's ``[ok, value]``; commands past the reply budget (limits.MAX_REPLY_BYTES)
+        get an error result instead of their value."""
+        execute, budget = self._execute, limits.MAX_REPLY_BYTES
+        results = []
+        for name, mode, args in commands:
+            if name in IMAGES and budget < image_size(self.sim, name, args):
+                results.append(self._over_budget(client, name))
+                continue
+            result = execute(client, name, mode, args)
+            value = result[1]
+            t = type(value)
+            if t is Deferred:
+                budget -= image_size(self.sim, name, args)
+            elif t not in SMALL:
+                budget -= reply_size(value)
+                if budget < 0:
+                    budget += reply_size(value)
+                    result = self._over_budget(client, name)
+            results.append(result)
+        return results
 
-        self.sim.vision.after(reply_and_drop)  # once the images of this request are rendered
-        return True
+    def _over_budget(self, client: str, name: str) -> list:
+        message = (f"simx{name}: not executed, the reply would exceed {limits.MAX_REPLY_BYTES} bytes "
+                   f"(limits.MAX_REPLY_BYTES); ask for less in one request")
+        log.warning("client %s: %s", client, message)
+        self._keep_error(client, message)
+        return [False, message]
 
     @staticmethod
     def _resolve(results: list, client: str) -> list:
@@ -276,26 +423,35 @@ class Server:
             if handler is None:  # a command about the calling client, or none at all
                 own = self._CLIENT_COMMANDS.get(name)
                 if own is None:
-                    raise P.UnsupportedError(f"unknown command {name!r}")
+                    raise P.UnsupportedError(f"unknown command {quote(name)}")
                 return [True, getattr(self, own)(client, args)]
             if base in _STREAMING:
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)
                 if ident not in streams:
+                    if len(streams) >= limits.MAX_STREAMS_PER_CLIENT:
+                        raise P.ArgumentError(f"too many streams: at most {limits.MAX_STREAMS_PER_CLIENT} "
+                                              "per client (limits.MAX_STREAMS_PER_CLIENT); discontinue some")
                     streams[ident] = _Stream(name, args, mode & P.MODE_ARG_MASK if base == P.MODE_STREAMING else 0)
             elif streams and name not in P.DO_NOT_OVERWRITE:
                 streams.pop(P.identity(name, args), None)  # a new non-streamed call replaces the stream
             return [True, handler(self.sim, args)]
         except P.RemoteError as exc:
-            log.warning("client %s: simx%s failed: %s", client, name, exc)
-            message = f"simx{name}: {exc}"
+            label = name if name in P.COMMANDS else quote(name)
+            message = _cut(f"simx{label}: {exc}")
+            log.warning("client %s: simx%s failed: %s", client, label, message[len(label) + 6:])
         except Exception as exc:
-            log.exception("client %s: simx%s raised", client, name)
-            message = f"internal error in simx{name}: {type(exc).__name__}: {exc}"
+            label = name if name in P.COMMANDS else quote(name)
+            message = _cut(f"internal error in simx{label}: {type(exc).__name__}: {exc}")
+            log.error("client %s: simx%s raised: %s", client, label, message,
+                      exc_info=not isinstance(exc, RecursionError))
+        self._keep_error(client, message)
+        return [False, message]
+
+    def _keep_error(self, client: str, message: str) -> None:
         errors = self._errors.setdefault(client, [])
         errors.append(message)
-        del errors[:-_MAX_ERRORS]
-        return [False, message]
+        del errors[:-limits.MAX_ERRORS_KEPT]
 
     # Commands about the calling client rather than the world.
     _CLIENT_COMMANDS = {
@@ -308,7 +464,7 @@ class Server:
     def _statusbar_message(self, client: str, args: list) -> None:
         if len(args) != 1 or not isinstance(args[0], str):
             raise P.ArgumentError("simxAddStatusbarMessage takes one string")
-        log.info("[client %s] %s", client[:8], args[0])
+        console_log.info("[client %s] %s", client[:8], _cut(args[0]))
 
     def _console(self, args: list) -> int:
         if not args or not isinstance(args[0], int) or args[0] not in self._consoles:
@@ -318,21 +474,28 @@ class Server:
     def _console_open(self, client: str, args: list) -> int:
         if len(args) != 3 or not isinstance(args[0], str):
             raise P.ArgumentError("simxAuxiliaryConsoleOpen takes a title, maxLines and mode")
+        if len(self._consoles) >= limits.MAX_CONSOLES:
+            raise P.RemoteError(f"too many auxiliary consoles open: at most {limits.MAX_CONSOLES} "
+                                "(limits.MAX_CONSOLES); close some")
         handle = max(self._consoles, default=0) + 1
-        self._consoles[handle] = args[0]
-        log.info("[client %s] console %d %r opened", client[:8], handle, args[0])
+        self._consoles[handle] = title = _cut(args[0], 200)
+        console_log.info("[client %s] console %d %s opened", client[:8], handle, quote(title))
         return handle
 
     def _console_close(self, client: str, args: list) -> None:
-        log.info("[client %s] console %r closed", client[:8], self._consoles.pop(self._console(args)))
+        console_log.info("[client %s] console %s closed", client[:8], quote(self._consoles.pop(self._console(args))))
 
     def _console_print(self, client: str, args: list) -> None:
         title = self._consoles[self._console(args)]
         text = args[1] if len(args) == 2 else None
         if text is not None and not isinstance(text, str):
             raise P.ArgumentError("console text must be a string or None")
-        for line in (text or "").splitlines() or [""]:
-            log.info("[client %s] [%s] %s", client[:8], title, line if text is not None else "(cleared)")
+        lines = (text or "").splitlines() or [""]
+        for line in lines[:limits.MAX_CONSOLE_LINES]:
+            console_log.info("[client %s] [%s] %s", client[:8], title, _cut(line) if text is not None else "(cleared)")
+        if len(lines) > limits.MAX_CONSOLE_LINES:
+            console_log.info("[client %s] [%s] (%d more lines not shown)", client[:8], title,
+                             len(lines) - limits.MAX_CONSOLE_LINES)
 
     def _console_show(self, client: str, args: list) -> None:
         self._console(args)
@@ -352,12 +515,17 @@ class Server:
     def _trigger(self, client: str, args: list) -> None:
         if not self.sim.synchronous:
             raise P.RemoteError("simxSynchronousTrigger: synchronous mode is not enabled (call simxSynchronous(clientID, True))")
-        if self.sim.state is RunState.RUNNING:
-            self._step()
+        if self.sim.state is RunState.RUNNING and not self._step():
+            session = self.sessions.get(client)
+            message = session.fault if session is not None else "the simulation step failed"
+            if session is not None:
+                session.fault = None  # told now, by this call's error
+            raise P.RemoteError(message)
 
     def _forget(self, client: str, how: str) -> None:
         self._streams.pop(client, None)
         self._errors.pop(client, None)
+        self.sessions.remove(client)
         if client in self._clients:
             self._clients.discard(client)
             log.info("client %s %s", client, how)
@@ -370,33 +538,66 @@ class Server:
         if self.session is None:
             return
         now = time.monotonic()
+        sim = self.sim
         for client, streams in self._streams.items():
             if not streams:
                 continue
+            session = self.sessions.get(client)
+            images = self.sessions.can_render(session)  # else its image streams skip this step
+            budget = limits.MAX_REPLY_BYTES
             entries = []
             for ident, s in streams.items():
                 if s.delay and now - s.last < s.delay:
                     continue
+                name = s.name
+                if name in IMAGES:
+                    if not images:
+                        continue
+                    cost = image_size(sim, name, s.args)
+                    if cost > budget:
+                        entries.append([name, list(ident[1:]), False, f"not executed: the update would exceed "
+                                        f"{limits.MAX_REPLY_BYTES} bytes (limits.MAX_REPLY_BYTES)"])
+                        continue
+                    budget -= cost
                 s.last = now
-                handler = HANDLERS[s.name]
+                handler = HANDLERS[name]
                 try:
-                    entries.append([s.name, list(ident[1:]), True, handler(self.sim, s.args)])
+                    value = handler(sim, s.args)
+                    if type(value) not in SMALL and type(value) is not Deferred:
+                        budget -= reply_size(value)
+                        if budget < 0:
+                            budget += reply_size(value)
+                            raise P.RemoteError(f"not sent: the update would exceed {limits.MAX_REPLY_BYTES} "
+                                                "bytes (limits.MAX_REPLY_BYTES)")
+                    entries.append([name, list(ident[1:]), True, value])
                 except P.RemoteError as exc:
-                    entries.append([s.name, list(ident[1:]), False, str(exc)])
+                    entries.append([name, list(ident[1:]), False, str(exc)[:limits.MAX_ERROR_CHARS]])
                 except Exception as exc:
-                    log.exception("client %s: streamed simx%s raised", client, s.name)
-                    entries.append([s.name, list(ident[1:]), False, f"internal error: {exc}"])
+                    log.exception("client %s: streamed simx%s raised", client, name)
+                    entries.append([name, list(ident[1:]), False, f"internal error: {type(exc).__name__}"])
             if entries:
-                self._put_stream(client, entries)
+                self._put_stream(client, session, entries)
 
-    def _put_stream(self, client: str, entries: list) -> None:
+    def _put_stream(self, client: str, sess: Session | None, entries: list) -> None:
         session, key, t = self.session, P.stream_key(self.prefix, client), self.sim.sim_time_ms
 
         def put() -> None:
-            results = self._resolve([[ok, value] for *_, ok, value in entries], client)
-            session.put(key, P.stream_update(t, [e[:2] + r for e, r in zip(entries, results)]))
+            try:
+                results = self._resolve([[ok, value] for *_, ok, value in entries], client)
+                session.put(key, P.stream_update(t, [e[:2] + r for e, r in zip(entries, results)]))
+            except Exception:
+                log.exception("client %s: publishing its streams", client)
 
-        if any(isinstance(e[3], Deferred) for e in entries):
-            self.sim.vision.after(put)  # images of this step: published once rendered, in order
+        if any(type(e[3]) is Deferred for e in entries):
+            def put_rendered() -> None:  # images of this step: published once rendered, in order
+                try:
+                    put()
+                finally:
+                    if sess is not None:
+                        self.sessions.render_done(sess)
+
+            if sess is not None:
+                self.sessions.render_started(sess)
+            self.sim.vision.after(put_rendered)
         else:
             put()

@@ -122,20 +122,20 @@ class Simulation:
     def step(self) -> None:
         """One simulation step of dt: actuation scripts, physics, sensing scripts.
 
-        When the physics blows up (MuJoCo finds NaN, infinite or huge values: physics.PhysicsError)
-        the simulation stops as on ``simxStopSimulation`` (scripts' cleanup, the scene's initial
-        state), ``stop_reason`` says why and one warning line goes to the log; every reply then
-        shows the stopped state, and ``simxStartSimulation`` starts it again.
+        Raises:
+            physics.PhysicsError: the physics blew up (MuJoCo found NaN, infinite or huge
+                values). The simulation is then already stopped as on ``simxStopSimulation``
+                (scripts' cleanup, the scene's initial state) and ``stop_reason`` says why; the
+                server logs it once and tells each client (``simxStartSimulation`` runs again).
         """
         self.scripts.actuation()
         try:
             self.world.step()
         except PhysicsError as exc:
             self._halt()
-            self.stop_reason = str(exc)
-            log.warning("%s; simulation stopped and reset to the scene's initial state "
-                        "(simxStartSimulation starts it again)", exc)
-            return
+            self.stop_reason = f"{exc}; simulation stopped and reset to the scene's initial state " \
+                               "(simxStartSimulation starts it again)"
+            raise
         self.scripts.sensing()
         self.steps += 1
 
