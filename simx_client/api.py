@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import atexit
 import logging
-import reprlib
 import struct
 import threading
 from typing import Any, Callable
@@ -36,18 +35,7 @@ _MAX_CONNECTIONS = 255  # MAX_EXT_API_CONNECTIONS: client ids 0..254
 _connections: dict[int, Connection] = {}
 _registry_lock = threading.Lock()
 _INT_MIN, _INT_MAX = -2**31, 2**31 - 1  # simxInt: every integer argument of the C API is an int32
-_quoter = reprlib.Repr()
-_quoter.maxstring = _quoter.maxother = 60
-_quoter.maxlevel, _quoter.maxlist, _quoter.maxtuple, _quoter.maxdict = 3, 8, 8, 8
 
-
-def _quote(value: Any) -> str:
-    """``repr(value)`` cut short for a log line (simx_server.arguments.quote, client side)."""
-    try:
-        text = _quoter.repr(value)
-    except Exception:  # a value whose repr fails is named by its type
-        text = f"<{type(value).__name__}>"
-    return text if len(text) <= 60 else text[:60] + "..."
 
 
 # ------------------------------------------------------------------ coercion
@@ -68,9 +56,9 @@ def _int(value: Any) -> int:
         return value
     v = _scalar(value)
     if isinstance(v, bool) or not isinstance(v, int):
-        raise P.LocalError(f"expected an integer, got {type(v).__name__} {_quote(v)}")
+        raise P.LocalError(f"expected an integer, got {type(v).__name__} {P.quote(v)}")
     if not _INT_MIN <= v <= _INT_MAX:
-        raise P.LocalError(f"integer {_quote(v)} out of the int32 range")
+        raise P.LocalError(f"integer {P.quote(v)} out of the int32 range")
     return int(v)
 
 
@@ -80,7 +68,7 @@ def _bool(value: Any) -> bool:
         return value
     v = _scalar(value)
     if not isinstance(v, (bool, int, float)) or v != v:
-        raise P.LocalError(f"expected a truth value, got {type(v).__name__} {_quote(v)}")
+        raise P.LocalError(f"expected a truth value, got {type(v).__name__} {P.quote(v)}")
     return bool(v)
 
 
@@ -89,7 +77,7 @@ def _float(value: Any) -> float:
         return value
     v = _scalar(value)
     if isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float)):
-        raise P.LocalError(f"expected a number, got {type(v).__name__} {_quote(v)}")
+        raise P.LocalError(f"expected a number, got {type(v).__name__} {P.quote(v)}")
     return float(v)
 
 
@@ -112,7 +100,7 @@ def _bytes(value: Any) -> bytes:
         return bytes(value)
     data = np.asarray(value)
     if data.dtype.kind not in "iub":
-        raise P.LocalError(f"expected bytes, a str or integers, got {_quote(value)}")
+        raise P.LocalError(f"expected bytes, a str or integers, got {P.quote(value)}")
     return data.astype(np.int64).astype(np.uint8).tobytes()
 
 
@@ -178,7 +166,7 @@ def _command(clientID: Any, name: str, make_args: Callable[[], list], operationM
             hit = conn.converted[key] = (value, convert(value))
         return rc, memo(hit[1])
     except Exception as exc:  # a reply of the wrong shape: the server's fault, not the caller's
-        log.warning("simx%s: unreadable reply %s: %s", name, _quote(value), exc)
+        log.warning("simx%s: unreadable reply %s: %s", name, P.quote(value), exc)
         return C.simx_return_remote_error_flag, default
 
 

@@ -31,6 +31,7 @@ Binary data (images, depth buffers, script buffers) travels as msgpack ``bin``.
 
 from __future__ import annotations
 
+import reprlib
 import threading
 from typing import Any, Iterable
 
@@ -271,6 +272,26 @@ def _flat(value: Any) -> tuple:
     return tuple(tokens)
 
 
+QUOTE_LIMIT = 60  # characters of a peer's value quoted in an error or a log line
+
+
+def quote(value: Any, limit: int = QUOTE_LIMIT) -> str:
+    """``repr(value)`` cut to ``limit`` characters (with ``...`` and the full length), for error
+    messages and log lines that name a peer's input, on both sides: an attacker's 10 MB name must
+    not come back as a 10 MB reply, and a value nested 1,000 deep must not overflow the stack."""
+    r = reprlib.Repr()
+    r.maxstring = r.maxother = limit
+    r.maxlevel, r.maxlist, r.maxtuple, r.maxdict = 3, 8, 8, 8
+    try:
+        text = r.repr(value)
+    except Exception:  # a value whose repr fails is named by its type
+        text = f"<{type(value).__name__}>"
+    if len(text) > limit:
+        size = len(value) if isinstance(value, (str, bytes, list, dict)) else None
+        text = text[:limit] + "..." + (f" ({size} long)" if size is not None else "")
+    return text
+
+
 _packers = threading.local()  # a msgpack Packer is reusable but not thread-safe
 #: A Packer keeps a buffer as large as the largest message it packed; after a message larger
 #: than this many bytes the thread's Packer is replaced, so that the buffer is freed.
@@ -310,12 +331,12 @@ def _decode(payload: bytes, size: int, what: str) -> list:
     if type(message) is dict and "v" in message:
         peer = message["v"]
         if peer == PROTOCOL_VERSION and "err" in message:
-            raise ProtocolError(f"the peer refused the message: {message['err']}")
+            raise ProtocolError(f"the peer refused the message: {str(message['err'])[:1000]}")
     elif type(message) is list and message:
         peer = message[0]
     if peer != PROTOCOL_VERSION:
         raise ProtocolError(
-            f"protocol version mismatch: peer speaks {peer!r}, this side "
+            f"protocol version mismatch: peer speaks {quote(peer)}, this side "
             f"{PROTOCOL_VERSION}; install the same simx version on client and server")
     raise ProtocolError(f"not a simx {what}: expected an array of {size} items, version first")
 

@@ -7,10 +7,9 @@ Python values back, or an ArgumentError (remote error 8) that says which argumen
 from __future__ import annotations
 
 import math
-import reprlib
 from typing import Any
 
-from simx_client.protocol import ArgumentError
+from simx_client.protocol import ArgumentError, quote  # noqa: F401  (quote: for every handler module)
 
 
 def as_int(value: Any, what: str) -> int:
@@ -60,23 +59,3 @@ def check_args(args: list, *kinds: str) -> list:
         elif k == "str" and t is not str:
             raise ArgumentError(f"argument {i + 1} must be a string, got {t.__name__}")
     return out
-
-
-QUOTE_LIMIT = 60  # characters of a client's value quoted in an error or a log line
-
-
-def quote(value: Any, limit: int = QUOTE_LIMIT) -> str:
-    """``repr(value)`` cut to ``limit`` characters (with ``...`` and the full length), for error
-    messages and log lines that name a client's input: an attacker's 10 MB name must not come
-    back as a 10 MB reply, and a value nested 1,000 deep must not overflow the stack."""
-    r = reprlib.Repr()
-    r.maxstring = r.maxother = limit
-    r.maxlevel, r.maxlist, r.maxtuple, r.maxdict = 3, 8, 8, 8
-    try:
-        text = r.repr(value)
-    except Exception:  # a value whose repr fails is named by its type
-        text = f"<{type(value).__name__}>"
-    if len(text) > limit:
-        size = len(value) if isinstance(value, (str, bytes, list, dict)) else None
-        text = text[:limit] + "..." + (f" ({size} long)" if size is not None else "")
-    return text

@@ -201,10 +201,12 @@ class Fuzzer:
     def case_large_batch(self):
         r = self.rng
         cid = r.choice(IDS)
-        n = r.choice([1000, 2000, 3000])
+        n = r.choice([limits.MAX_COMMANDS_PER_REQUEST // 2, limits.MAX_COMMANDS_PER_REQUEST,
+                      2 * limits.MAX_COMMANDS_PER_REQUEST])
         cmds = [self.command() if r.random() < 0.2 else [r.choice(["GetPingTime", "NoSuchCommand"]), B, []]
                 for _ in range(n)]
-        return "response", cid, P.request(cid, cmds), n
+        expected = "response" if n <= limits.MAX_COMMANDS_PER_REQUEST else "refusal"
+        return expected, cid, P.request(cid, cmds), n
 
     def draw(self):
         """One request of a class drawn with these weights."""

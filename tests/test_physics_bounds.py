@@ -263,7 +263,11 @@ def test_blow_up_stops_the_simulation_with_one_log_line():
         assert vrep.simxSetObjectIntParameter(cid, wrist, CTRL_LOOP, 0, B) == 0
         assert vrep.simxSetJointForce(cid, wrist, 1e8, B) == 0
         assert vrep.simxSetJointTargetVelocity(cid, wrist, 1e6, B) == 0
-        wait_until(lambda: not _running(cid), timeout=10, what="the simulation stopping by itself")
+        # The first call after the blow-up answers remote error with the reason (not executed).
+        wait_until(lambda: vrep.simxGetPingTime(cid)[0] == vrep.simx_return_remote_error_flag, timeout=10,
+                   what="the simulation stopping by itself and the client being told")
+        assert "unstable" in _last_error(cid)
+        assert not _running(cid)
         assert vrep.simxGetJointMaxForce(cid, wrist, B) == (0, pytest.approx(28.0))  # initial state back
         assert vrep.simxStartSimulation(cid, B) == 0
         t0 = _sim_time(cid)
