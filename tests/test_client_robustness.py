@@ -106,6 +106,19 @@ def _check_recovery(stays: int, back: int, j: int, first_id: int) -> None:
     assert abs(vrep.simxGetJointPosition(back, j, B)[1] + 0.25) < 1e-4
 
 
+def _two_streaming_clients(ports: list[int]) -> tuple[int, int, int, int]:
+    """A client that must not reconnect (on ports[0]) and one that may (ports[1]), both streaming
+    joint 1, the latter's joint set to 0.5: ``(stays, back, joint, back's connection id)``."""
+    stays, back = _start(ports[0], reconnect=False), _start(ports[1], reconnect=True)
+    j = _joint(back)
+    first_id = vrep.simxGetConnectionId(back)
+    for cid in (stays, back):
+        assert vrep.simxGetJointPosition(cid, j, S)[0] in (0, 1)
+    _streamed(back, j, 0.5)
+    wait_until(lambda: vrep.simxGetJointPosition(stays, j, BUF)[0] == 0, 10, 0.01, "the other stream")
+    return stays, back, j, first_id
+
+
 def test_killed_and_restarted_server(tmp_path):
     """SIGKILL, then a new server on the same ports: the inbox is cleared at once; the
     reconnecting client streams again (values of the new server), the other stays at -1."""
@@ -113,13 +126,7 @@ def test_killed_and_restarted_server(tmp_path):
     srv = ServerProcess(str(SCENE), "--stopped", ports=ports)
     stays = back = -1
     try:
-        stays, back = _start(ports[0], reconnect=False), _start(ports[1], reconnect=True)
-        j = _joint(back)
-        first_id = vrep.simxGetConnectionId(back)
-        for cid in (stays, back):
-            assert vrep.simxGetJointPosition(cid, j, S)[0] in (0, 1)
-        _streamed(back, j, 0.5)
-        wait_until(lambda: vrep.simxGetJointPosition(stays, j, BUF)[0] == 0, 10, 0.01, "the other stream")
+        stays, back, j, first_id = _two_streaming_clients(ports)
         assert vrep.simxPauseCommunication(back, True) == 0
         assert vrep.simxSetJointPosition(back, j, 0.9, vrep.simx_opmode_oneshot) == NOVALUE  # held
         srv.proc.kill()
@@ -151,13 +158,7 @@ def test_server_frozen_past_its_lease(tmp_path):
     srv = ServerProcess(str(SCENE), "--stopped", "--zenoh-config", _lease_config(tmp_path, ports), ports=ports)
     stays = back = -1
     try:
-        stays, back = _start(ports[0], reconnect=False), _start(ports[1], reconnect=True)
-        j = _joint(back)
-        first_id = vrep.simxGetConnectionId(back)
-        for cid in (stays, back):
-            assert vrep.simxGetJointPosition(cid, j, S)[0] in (0, 1)
-        _streamed(back, j, 0.5)
-        wait_until(lambda: vrep.simxGetJointPosition(stays, j, BUF)[0] == 0, 10, 0.01, "the other stream")
+        stays, back, j, first_id = _two_streaming_clients(ports)
         os.kill(srv.proc.pid, signal.SIGSTOP)
         try:
             _check_outage(stays, back, j, "while the server is stopped")
