@@ -17,7 +17,7 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, UnknownObjectError, UnsupportedError
-from simx_server import physics, sensors
+from simx_server import collisions, group_data, kinematics, object_params, physics, sensors
 from simx_server.arguments import as_floats, as_int, check_args as _args
 from simx_server.editing import EDITING_HANDLERS
 from simx_server.simulation import RunState, Simulation
@@ -426,5 +426,9 @@ HANDLERS: dict[str, Handler] = {
     **{name: gui_only(name) for name in GUI_ONLY},
     **SIGNAL_HANDLERS,
     **sensors.SENSOR_HANDLERS,
+    **kinematics.KINEMATICS_HANDLERS,
+    **collisions.COLLISION_HANDLERS,
+    **group_data.GROUP_DATA_HANDLERS,
+    **object_params.PARAM_HANDLERS,
     **EDITING_HANDLERS,
 }
