@@ -10,21 +10,16 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any, Callable
 
-import mujoco
-
 from simx_client import constants as C
 from simx_client.protocol import UnsupportedError
 from simx_server.arguments import check_args as _args
-from simx_server.kinematics import object_velocity
+from simx_server.kinematics import _BALL, _HINGE, _SLIDE, object_velocity
 from simx_server.sensors import force_sensor_reading, proximity_reading
 from simx_server.world import (FORCE_SENSOR, JOINT, PROXIMITY_SENSOR, World, euler_from_matrix,
                                quaternion_from_matrix)
 
 if TYPE_CHECKING:
     from simx_server.simulation import Simulation
-
-_HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
-_BALL, _FREE = int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)
 
 # V-REP values used in replies (vrepConst.py).
 SIM_JOINT_REVOLUTE, SIM_JOINT_PRISMATIC, SIM_JOINT_SPHERICAL = 10, 11, 12
