@@ -113,6 +113,8 @@ sim_handle_parent = -11
 # Frequently used parameter ids
 sim_intparam_program_version = 1
 sim_intparam_mouse_x = 22
+sim_intparam_mouse_y = 23
+sim_intparam_mouse_buttons = 31
 sim_intparam_current_page = 5
 sim_floatparam_simulation_time_step = 1
 sim_boolparam_waiting_for_trigger = 45

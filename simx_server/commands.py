@@ -17,7 +17,7 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, UnknownObjectError, UnsupportedError
-from simx_server import physics, sensors
+from simx_server import collisions, group_data, kinematics, object_params, physics, sensors
 from simx_server.arguments import as_floats, as_int, check_args as _args
 from simx_server.editing import EDITING_HANDLERS
 from simx_server.simulation import RunState, Simulation
@@ -172,6 +172,14 @@ def get_collection_handle(sim: Simulation, args: list) -> int:
 
 # Parameters: what has a MuJoCo meaning (ids from vrepConst.py).
 INTPARAM_DYNAMIC_STEP_DIVIDER, INTPARAM_PLATFORM, INTPARAM_CORE_COUNT, INTPARAM_STOP_REQUEST_COUNTER = 7, 19, 24, 29
+INTPARAM_MOUSE_X, INTPARAM_MOUSE_Y, INTPARAM_MOUSE_BUTTONS = 22, 23, 31
+#: The mouse of a headless server: it never moves from the top-left corner of a window nobody
+#: sees (x = y = 0 pixels) and no button is ever pressed (bit mask 0). V-REP without a window
+#: answered an error; CoppeliaSim's simpleTest.py streams mouse_x, so simx answers this fixed
+#: point instead, the same every time (no made-up motion).
+HEADLESS_MOUSE = {INTPARAM_MOUSE_X: 0, INTPARAM_MOUSE_Y: 0, INTPARAM_MOUSE_BUTTONS: 0}
+_READ_ONLY_INTPARAMS = (INTPARAM_DYNAMIC_STEP_DIVIDER, INTPARAM_PLATFORM, INTPARAM_CORE_COUNT,
+                        INTPARAM_STOP_REQUEST_COUNTER, *HEADLESS_MOUSE)
 FLOATPARAM_RAND, FLOATPARAM_SIMULATION_TIME_STEP = 0, 1
 BOOLPARAM_DYNAMICS_HANDLING, BOOLPARAM_DISPLAY_ENABLED, BOOLPARAM_REALTIME = 6, 16, 25
 BOOLPARAM_HEADLESS, BOOLPARAM_WAITING_FOR_TRIGGER = 34, 45
@@ -184,7 +192,13 @@ def _unsupported_param(kind: str, pid: int) -> UnsupportedError:
 
 
 def get_integer_parameter(sim: Simulation, args: list) -> int:
+    """``simxGetIntegerParameter`` [id] -> int: 7 dynamics step divider (MuJoCo substeps per
+    step), 19 platform (0 Windows, 1 macOS, 2 Linux), 24 core count, 29 stop request counter,
+    22/23 mouse x/y and 31 mouse buttons (always 0: see HEADLESS_MOUSE). Other ids ->
+    UnsupportedError."""
     (pid,) = _args(args, "int")
+    if pid in HEADLESS_MOUSE:
+        return HEADLESS_MOUSE[pid]
     values = {
         INTPARAM_DYNAMIC_STEP_DIVIDER: lambda: sim.world.substeps,
         INTPARAM_PLATFORM: lambda: 0 if sys.platform.startswith("win") else 1 if sys.platform == "darwin" else 2,
@@ -198,7 +212,10 @@ def get_integer_parameter(sim: Simulation, args: list) -> int:
 
 def set_integer_parameter(sim: Simulation, args: list) -> None:
     pid, _value = _args(args, "int", "int")
-    if pid in (INTPARAM_DYNAMIC_STEP_DIVIDER, INTPARAM_PLATFORM, INTPARAM_CORE_COUNT, INTPARAM_STOP_REQUEST_COUNTER):
+    if pid in HEADLESS_MOUSE:
+        raise RemoteError(f"integer parameter {pid} (the mouse) is read-only: a headless server's mouse "
+                          "stays at (0, 0) with no button pressed")
+    if pid in _READ_ONLY_INTPARAMS:
         raise RemoteError(f"integer parameter {pid} is read-only")
     raise _unsupported_param("integer", pid)
 
@@ -426,5 +443,9 @@ HANDLERS: dict[str, Handler] = {
     **{name: gui_only(name) for name in GUI_ONLY},
     **SIGNAL_HANDLERS,
     **sensors.SENSOR_HANDLERS,
+    **kinematics.KINEMATICS_HANDLERS,
+    **collisions.COLLISION_HANDLERS,
+    **group_data.GROUP_DATA_HANDLERS,
+    **object_params.PARAM_HANDLERS,
     **EDITING_HANDLERS,
 }

@@ -506,6 +506,11 @@ class Editor:
                 log.error("%s", exc)
             log.info("child script of removed object %r dropped", script.object_name)
 
+    def _taken(self, spec: mujoco.MjSpec) -> set[str]:
+        """Names a new element may not have: the spec's and the V-REP names, which differ for
+        elements that share a name with one of another kind (see simx_server.naming)."""
+        return _names(spec) | set(self.sim.world.by_name)
+
     def _spec_element(self, spec: mujoco.MjSpec, handle: int):
         """``(kind, element, SceneObject)`` of a handle; the world is refused."""
         if handle == WORLD:
@@ -546,7 +551,7 @@ class Editor:
                     child.delete(t)
 
         def change(spec: mujoco.MjSpec):
-            taken = _names(spec)
+            taken = self._taken(spec)
             suffix = vrep_suffix(_names(child), taken, trigger=_names(child, _TREE_LISTS + _OTHER_LISTS))
             if not suffix:
                 _rename_assets(child, taken)
@@ -611,7 +616,7 @@ class Editor:
             rgba = [c / 255.0 for c in colors[:3]] + [1.0]
 
         def change(spec: mujoco.MjSpec):
-            name = _free_name("Dummy", _names(spec))
+            name = _free_name("Dummy", self._taken(spec))
             spec.worldbody.add_site(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE,
                                     size=[size / 2, size / 2, size / 2], rgba=rgba)
             return lambda: self.sim.world.resolve(name).handle
@@ -636,13 +641,13 @@ class Editor:
                 kind, el, _ = self._spec_element(spec, o.handle)
                 if kind == "body":
                     names = _subtree_objects(el)
-                    suffix = vrep_suffix(_subtree_names(el), _names(spec))
+                    suffix = vrep_suffix(_subtree_names(el), self._taken(spec))
                     self._copy_body(spec, el, o, suffix)
                     new_name.update({n: n + suffix for n in names})
                     copied_bodies.append((o.name, o.name + suffix))
                     _copy_settings(spec, {n: n + suffix for n in names})
                 else:
-                    name = _free_name(o.name, _names(spec))
+                    name = _free_name(o.name, self._taken(spec))
                     dst = _clone(kind, el, el.parent, name)
                     self._place_like(spec, kind, dst, o)
                     new_name[o.name] = name

@@ -172,3 +172,9 @@ LOG_TEMPLATE_BURST = 100
 LOG_REPEAT_INTERVAL = 10.0
 #: Windows (texts and templates) tracked at once (the least recently seen are forgotten).
 LOG_REPEAT_KEYS = 1024
+
+
+# ------------------------------------------------- names shared across MJCF kinds (issue 12)
+#: Renamed elements (``NAME#N``, see simx_server.naming) listed by name in the one log line a
+#: scene load writes about them; the rest are counted.
+MAX_RENAMES_LOGGED = 40

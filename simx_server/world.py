@@ -4,7 +4,8 @@ No transport in here; every method runs on the simulation thread and is testable
 
 Mapping (see README and docs/ARCHITECTURE.md): named bodies are shapes, joints are joints,
 sites are dummies, cameras are vision sensors, lights are lights, -1 is the world. Objects get
-handles in tree order, starting at 1, stable while the scene is loaded.
+handles in tree order, starting at 1, stable while the scene is loaded. A name that elements of
+several kinds share is given out by :mod:`simx_server.naming` (``head``, ``head#0``, ...).
 
 Per-object settings that MJCF has no attribute for come from ``<custom><text name="simx:NAME"
 data="key=value ..."/></custom>``: a joint's ``mode`` (``position``/``velocity``/``passive``) and
@@ -25,7 +26,7 @@ import numpy as np
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server import limits as L
-from simx_server import physics
+from simx_server import naming, physics
 from simx_server.rotations import (_frame_with_z, euler_from_matrix, matrix_from_euler,  # noqa: F401
                                    matrix_from_quaternion, quaternion_from_matrix)
 
@@ -216,7 +217,12 @@ class World:
     def _register_objects(self) -> None:
         m = self.model
         body_handle = {0: WORLD}
-        names = lambda t, i: mujoco.mj_id2name(m, t, i)  # noqa: E731
+        # global names (see simx_server.naming); elements still there keep theirs across edits
+        vrep_names, renamed, self._identities = naming.vrep_names(m, getattr(self, "_identities", None))
+        names = lambda t, i: vrep_names.get((int(t), int(i)))  # noqa: E731
+        if renamed and set(renamed) != getattr(self, "_renamed", None):  # once, not at every edit
+            log.warning("%s", naming.describe(self.scene_path.name, renamed, L.MAX_RENAMES_LOGGED))
+        self._renamed = set(renamed)
         site_type = {}  # sites carrying a rangefinder or a force sensor are sensors
         for k in range(m.nsensor):
             if m.sensor_objtype[k] == mujoco.mjtObj.mjOBJ_SITE:

@@ -15,7 +15,7 @@ import pytest
 
 from conftest import SCENE, ServerProcess, free_port, wait_until
 from simx_client.protocol import ArgumentError, RemoteError
-from simx_server import commands, limits, sensors
+from simx_server import commands, limits, object_params
 from simx_server.physics import PhysicsError
 from simx_server.script_facade import Signals
 from simx_server.simulation import RunState, Simulation
@@ -206,14 +206,14 @@ def test_joint_values_out_of_range_are_argument_errors(sim):
     assert w.joint_max_force(h) == 200.0
     commands.set_joint_position(sim, [h, 0.5])
     assert w.joint_position(h) == 0.5
-    sensors.set_object_int_parameter(sim, [h, CTRL_LOOP, 0])  # velocity control
+    object_params.set_object_int_parameter(sim, [h, CTRL_LOOP, 0])  # velocity control
     for bad in (1e7, math.nan):
         with pytest.raises(ArgumentError, match="MAX_JOINT_VELOCITY"):
             commands.set_joint_target_velocity(sim, [h, bad])
     commands.set_joint_target_velocity(sim, [h, -1e4])  # the torque-control idiom still works
     for bad in (1e7, math.inf):
         with pytest.raises(ArgumentError, match="MAX_JOINT_VELOCITY"):
-            sensors.set_object_float_parameter(sim, [h, 2017, bad])
+            object_params.set_object_float_parameter(sim, [h, 2017, bad])
     sim.stop()
 
 
@@ -223,9 +223,9 @@ def test_masses_positions_and_rotations_out_of_range_are_argument_errors(sim):
     ball = w.resolve("Sphere").handle
     for bad in (1e308, 1e7, 1e-7, 0.0, -1.0, math.inf, math.nan):
         with pytest.raises(ArgumentError, match="MASS"):
-            sensors.set_object_float_parameter(sim, [ball, MASS, bad])
-    assert sensors.get_object_float_parameter(sim, [ball, MASS]) > 0
-    sensors.set_object_float_parameter(sim, [ball, MASS, 1e6])  # the bound itself
+            object_params.set_object_float_parameter(sim, [ball, MASS, bad])
+    assert object_params.get_object_float_parameter(sim, [ball, MASS]) > 0
+    object_params.set_object_float_parameter(sim, [ball, MASS, 1e6])  # the bound itself
     for bad in ([1e5, 0, 0], [0, 0, -1e39], [math.nan, 0, 0]):
         with pytest.raises(ArgumentError):
             commands.set_object_position(sim, [ball, -1, bad])
@@ -234,7 +234,7 @@ def test_masses_positions_and_rotations_out_of_range_are_argument_errors(sim):
     q = commands.get_object_quaternion(sim, [ball, -1])
     assert q == pytest.approx([math.sqrt(0.5), math.sqrt(0.5), 0, 0], abs=1e-9)
     sim.stop()
-    assert sensors.get_object_float_parameter(sim, [ball, MASS]) < 1e6  # stop restores the mass
+    assert object_params.get_object_float_parameter(sim, [ball, MASS]) < 1e6  # stop restores the mass
 
 
 def test_script_setters_obey_the_same_bounds(sim):
@@ -287,7 +287,7 @@ def test_mujoco_warnings_never_reach_stdout_nor_mujoco_log(sim, tmp_path, monkey
     w = sim.world
     wrist = w.resolve("UR5_joint6").handle
     sim.start()
-    sensors.set_object_int_parameter(sim, [wrist, CTRL_LOOP, 0])
+    object_params.set_object_int_parameter(sim, [wrist, CTRL_LOOP, 0])
     w.set_joint_force(wrist, 1e8)
     w.set_joint_target_velocity(wrist, 1e6)
     with pytest.raises(PhysicsError):  # the server logs it once and tells the clients

@@ -1,4 +1,5 @@
-"""simx_server/sensors.py in-process, on tests/scenes/sensors.xml (its comment lists the layout)."""
+"""simx_server/sensors.py, kinematics.py, collisions.py, group_data.py and object_params.py
+in-process, on tests/scenes/sensors.xml (its comment lists the layout)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,11 @@ import numpy as np
 import pytest
 
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
+from simx_server import collisions as CO
+from simx_server import commands
+from simx_server import group_data as GD
+from simx_server import kinematics as K
+from simx_server import object_params as P
 from simx_server import sensors as S
 from simx_server.simulation import Simulation
 
@@ -34,8 +40,14 @@ def site_rot(sim, name):
 
 
 def test_handlers_table_is_complete():
-    assert set(S.SENSOR_HANDLERS) == set(S.SENSOR_IDENTITY_ARITY)
-    assert len(S.SENSOR_HANDLERS) == 19
+    tables = [(S.SENSOR_HANDLERS, S.SENSOR_IDENTITY_ARITY), (K.KINEMATICS_HANDLERS, K.KINEMATICS_IDENTITY_ARITY),
+              (CO.COLLISION_HANDLERS, CO.COLLISION_IDENTITY_ARITY), (GD.GROUP_DATA_HANDLERS, GD.GROUP_DATA_IDENTITY_ARITY),
+              (P.PARAM_HANDLERS, P.PARAM_IDENTITY_ARITY)]
+    for handlers, arity in tables:
+        assert set(handlers) == set(arity)
+    names = [name for handlers, _ in tables for name in handlers]
+    assert len(names) == len(set(names)) == 19
+    assert set(names) <= set(commands.HANDLERS)
 
 
 # ----------------------------------------------------------------- proximity sensor
@@ -78,7 +90,7 @@ def test_force_sensor_reads_the_hanging_weight_and_its_moment(sim):
 
     S.break_force_sensor(sim, [ft])
     assert S.read_force_sensor(sim, [ft]) == [S.FORCE_STATE_BROKEN, [0.0] * 3, [0.0] * 3]
-    assert S.get_object_group_data(sim, [12, 14])[1] == [S.FORCE_STATE_BROKEN]
+    assert GD.get_object_group_data(sim, [12, 14])[1] == [S.FORCE_STATE_BROKEN]
     sim.stop()  # a stop restores the scene: the sensor works again
     assert S.read_force_sensor(sim, [ft])[0] == S.FORCE_STATE_DATA
     with pytest.raises(ObjectTypeError):
@@ -87,17 +99,17 @@ def test_force_sensor_reads_the_hanging_weight_and_its_moment(sim):
 
 def test_mass_parameter_changes_the_measured_weight(sim):
     payload, ft = H(sim, "payload"), H(sim, "ft")
-    assert S.get_object_float_parameter(sim, [payload, 3005]) == pytest.approx(2.0)
+    assert P.get_object_float_parameter(sim, [payload, 3005]) == pytest.approx(2.0)
     sim.world.set_joint_position(H(sim, "target_x"), 0.3)  # away from qpos0
     q0 = sim.world.data.qpos.copy()
-    S.set_object_float_parameter(sim, [payload, 3005, 4.0])
+    P.set_object_float_parameter(sim, [payload, 3005, 4.0])
     assert np.array_equal(sim.world.data.qpos, q0)  # mj_setConst must not move anything
-    assert S.get_object_float_parameter(sim, [payload, 3005]) == pytest.approx(4.0)
+    assert P.get_object_float_parameter(sim, [payload, 3005]) == pytest.approx(4.0)
     assert S.read_force_sensor(sim, [ft])[1][2] == pytest.approx(4.0 * G, abs=1e-6)
     with pytest.raises(ArgumentError):
-        S.set_object_float_parameter(sim, [payload, 3005, -1.0])
+        P.set_object_float_parameter(sim, [payload, 3005, -1.0])
     with pytest.raises(ObjectTypeError):
-        S.get_object_float_parameter(sim, [ft, 3005])
+        P.get_object_float_parameter(sim, [ft, 3005])
 
 
 # ---------------------------------------------------------------------------- joints
@@ -105,15 +117,15 @@ def test_joint_matrix_of_hinge_slide_and_ball(sim):
     w = sim.world
     w.set_joint_position(H(sim, "hinge"), 0.3)
     c, s = math.cos(0.3), math.sin(0.3)
-    assert S.get_joint_matrix(sim, [H(sim, "hinge")]) == pytest.approx(
+    assert K.get_joint_matrix(sim, [H(sim, "hinge")]) == pytest.approx(
         [c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0], abs=1e-12)
     w.set_joint_position(H(sim, "target_x"), 0.25)
-    assert S.get_joint_matrix(sim, [H(sim, "target_x")]) == pytest.approx(
+    assert K.get_joint_matrix(sim, [H(sim, "target_x")]) == pytest.approx(
         [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0.25], abs=1e-12)
-    assert S.get_joint_matrix(sim, [H(sim, "ball")]) == pytest.approx(
+    assert K.get_joint_matrix(sim, [H(sim, "ball")]) == pytest.approx(
         [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0], abs=1e-12)
     with pytest.raises(ObjectTypeError):
-        S.get_joint_matrix(sim, [H(sim, "hinge_link")])
+        K.get_joint_matrix(sim, [H(sim, "hinge_link")])
 
 
 def _rotation(axis, angle):
@@ -129,67 +141,67 @@ def test_spherical_joint_matrix_round_trip_moves_the_body(sim):
     rot = _rotation([1, 2, 3], 0.8)
     matrix = np.hstack([rot, [[9.0], [9.0], [9.0]]])  # the translation column is ignored
     version = sim.world.version
-    assert S.set_spherical_joint_matrix(sim, [ball, matrix.reshape(12).tolist()]) is None
+    assert K.set_spherical_joint_matrix(sim, [ball, matrix.reshape(12).tolist()]) is None
     assert sim.world.version > version
-    got = np.array(S.get_joint_matrix(sim, [ball])).reshape(3, 4)
+    got = np.array(K.get_joint_matrix(sim, [ball])).reshape(3, 4)
     assert np.allclose(got[:, :3], rot, atol=1e-9) and np.allclose(got[:, 3], 0)
     assert np.allclose(sim.world.frame(H(sim, "ball_link"))[1], rot, atol=1e-9)  # the body turned
-    q = [S.get_object_float_parameter(sim, [ball, i]) for i in (2013, 2014, 2015, 2016)]
+    q = [P.get_object_float_parameter(sim, [ball, i]) for i in (2013, 2014, 2015, 2016)]
     assert abs(np.dot(q, sim.world.quaternion(H(sim, "ball_link"), -1))) == pytest.approx(1.0)
     # flat form: [h, m0 .. m11]
-    S.set_spherical_joint_matrix(sim, [ball, *np.hstack([rot.T, np.zeros((3, 1))]).reshape(12).tolist()])
-    assert np.allclose(np.array(S.get_joint_matrix(sim, [ball])).reshape(3, 4)[:, :3], rot.T, atol=1e-9)
+    K.set_spherical_joint_matrix(sim, [ball, *np.hstack([rot.T, np.zeros((3, 1))]).reshape(12).tolist()])
+    assert np.allclose(np.array(K.get_joint_matrix(sim, [ball])).reshape(3, 4)[:, :3], rot.T, atol=1e-9)
     with pytest.raises(ObjectTypeError):
-        S.set_spherical_joint_matrix(sim, [H(sim, "hinge"), matrix.reshape(12).tolist()])
+        K.set_spherical_joint_matrix(sim, [H(sim, "hinge"), matrix.reshape(12).tolist()])
     with pytest.raises(ArgumentError):
-        S.set_spherical_joint_matrix(sim, [ball, [1.0] * 12])  # not a rotation
+        K.set_spherical_joint_matrix(sim, [ball, [1.0] * 12])  # not a rotation
     with pytest.raises(ArgumentError):
-        S.set_spherical_joint_matrix(sim, [ball, [1.0] * 9])
+        K.set_spherical_joint_matrix(sim, [ball, [1.0] * 9])
     with pytest.raises(ArgumentError):
-        S.set_spherical_joint_matrix(sim, [ball, [float("nan")] * 12])
+        K.set_spherical_joint_matrix(sim, [ball, [float("nan")] * 12])
 
 
 # ---------------------------------------------------------------- collision, distance
 def test_collision_touching_and_separated(sim):
     a, b, c = H(sim, "blockA"), H(sim, "blockB"), H(sim, "blockC")
-    assert S.check_collision(sim, [a, c]) is True  # overlap 0.01 m (two static bodies)
-    assert S.check_collision(sim, [a, b]) is False  # 0.05 m apart
-    assert S.check_collision(sim, [a, -2]) is True
-    assert S.check_collision(sim, [b, -2]) is False  # floor and C are out of reach too
-    touching = S.get_collision_handle(sim, ["touching"])
-    apart = S.get_collision_handle(sim, ["apart#"])
+    assert CO.check_collision(sim, [a, c]) is True  # overlap 0.01 m (two static bodies)
+    assert CO.check_collision(sim, [a, b]) is False  # 0.05 m apart
+    assert CO.check_collision(sim, [a, -2]) is True
+    assert CO.check_collision(sim, [b, -2]) is False  # floor and C are out of reach too
+    touching = CO.get_collision_handle(sim, ["touching"])
+    apart = CO.get_collision_handle(sim, ["apart#"])
     assert (touching, apart) == (1, 2)
-    assert S.read_collision(sim, [touching]) is True and S.read_collision(sim, [apart]) is False
+    assert CO.read_collision(sim, [touching]) is True and CO.read_collision(sim, [apart]) is False
     with pytest.raises(UnknownObjectError):
-        S.get_collision_handle(sim, ["gapAB"])  # a distance object, other namespace
+        CO.get_collision_handle(sim, ["gapAB"])  # a distance object, other namespace
     with pytest.raises(UnknownObjectError):
-        S.read_collision(sim, [99])
+        CO.read_collision(sim, [99])
     with pytest.raises(ArgumentError, match="malformed"):
-        S.read_collision(sim, [S.get_collision_handle(sim, ["malformed"])])
+        CO.read_collision(sim, [CO.get_collision_handle(sim, ["malformed"])])
     with pytest.raises(ObjectTypeError):
-        S.check_collision(sim, [H(sim, "marker"), a])  # a dummy is not collidable
+        CO.check_collision(sim, [H(sim, "marker"), a])  # a dummy is not collidable
     with pytest.raises(ObjectTypeError, match="no collidable geom"):
-        S.check_collision(sim, [H(sim, "target"), a])  # contype=conaffinity=0
+        CO.check_collision(sim, [H(sim, "target"), a])  # contype=conaffinity=0
     with pytest.raises(ArgumentError):
-        S.check_collision(sim, [-2, a])
+        CO.check_collision(sim, [-2, a])
 
 
 def test_distance_equals_the_known_gaps(sim):
     a, b, c, ball = H(sim, "blockA"), H(sim, "blockB"), H(sim, "blockC"), H(sim, "ball_above")
-    assert S.check_distance(sim, [a, b]) == pytest.approx(0.05, abs=1e-3)
-    assert S.check_distance(sim, [a, c]) == 0.0  # overlapping: no penetration depth
+    assert CO.check_distance(sim, [a, b]) == pytest.approx(0.05, abs=1e-3)
+    assert CO.check_distance(sim, [a, c]) == 0.0  # overlapping: no penetration depth
     to_c = math.hypot(0.3, 0.01) - 0.1  # sphere centre to C's nearest edge, minus its radius
-    assert S.check_distance(sim, [ball, -2]) == pytest.approx(to_c, abs=1e-3)
-    assert S.check_distance(sim, [ball, a]) == pytest.approx(math.hypot(0.3, 0.2) - 0.1, abs=1e-3)
-    gap = S.get_distance_handle(sim, ["gapAB"])
-    assert S.read_distance(sim, [gap]) == pytest.approx(0.05, abs=1e-3)
-    assert S.read_distance(sim, [S.get_distance_handle(sim, ["ballToAll"])]) == pytest.approx(to_c, abs=1e-3)
+    assert CO.check_distance(sim, [ball, -2]) == pytest.approx(to_c, abs=1e-3)
+    assert CO.check_distance(sim, [ball, a]) == pytest.approx(math.hypot(0.3, 0.2) - 0.1, abs=1e-3)
+    gap = CO.get_distance_handle(sim, ["gapAB"])
+    assert CO.read_distance(sim, [gap]) == pytest.approx(0.05, abs=1e-3)
+    assert CO.read_distance(sim, [CO.get_distance_handle(sim, ["ballToAll"])]) == pytest.approx(to_c, abs=1e-3)
     with pytest.raises(UnknownObjectError, match="nosuchbody"):
-        S.read_distance(sim, [S.get_distance_handle(sim, ["dangling"])])
+        CO.read_distance(sim, [CO.get_distance_handle(sim, ["dangling"])])
     with pytest.raises(UnknownObjectError):
-        S.get_distance_handle(sim, ["nope"])
+        CO.get_distance_handle(sim, ["nope"])
     with pytest.raises(ArgumentError):
-        S.check_distance(sim, [a, a])
+        CO.check_distance(sim, [a, a])
 
 
 # ------------------------------------------------------------------------ velocities
@@ -198,11 +210,11 @@ def test_velocity_of_a_falling_body_is_g_t(sim):
     for _ in range(10):  # 0.5 s
         sim.world.step()
     t = sim.world.time
-    v, w = S.get_object_velocity(sim, [faller])
+    v, w = K.get_object_velocity(sim, [faller])
     assert v == pytest.approx([0.0, 0.0, -G * t], abs=1e-9)  # not one substep behind
     assert w == pytest.approx([0.0, 0.0, 0.0], abs=1e-12)
-    assert S.get_object_float_parameter(sim, [faller, 13]) == pytest.approx(-G * t, abs=1e-9)
-    handles, _, floats, _ = S.get_object_group_data(sim, [0, 19])
+    assert P.get_object_float_parameter(sim, [faller, 13]) == pytest.approx(-G * t, abs=1e-9)
+    handles, _, floats, _ = GD.get_object_group_data(sim, [0, 19])
     i = handles.index(faller)
     assert floats[6 * i:6 * i + 6] == pytest.approx(v + w, abs=1e-12)
 
@@ -211,46 +223,46 @@ def test_velocity_of_a_turning_body_and_points_on_it(sim):
     d, m = sim.world.data, sim.world.model
     d.qvel[m.jnt_dofadr[sim.world.resolve("hinge").mj_id]] = 2.0  # about world y
     sim.world.changed()  # a state change
-    v, w = S.get_object_velocity(sim, [H(sim, "hinge_link")])
+    v, w = K.get_object_velocity(sim, [H(sim, "hinge_link")])
     assert w == pytest.approx([0.0, 2.0, 0.0], abs=1e-12) and v == pytest.approx([0, 0, 0], abs=1e-12)
-    assert S.get_object_float_parameter(sim, [H(sim, "hinge_link"), 14]) == pytest.approx(2.0)
-    assert S.get_object_float_parameter(sim, [H(sim, "hinge"), 2012]) == pytest.approx(2.0)
+    assert P.get_object_float_parameter(sim, [H(sim, "hinge_link"), 14]) == pytest.approx(2.0)
+    assert P.get_object_float_parameter(sim, [H(sim, "hinge"), 2012]) == pytest.approx(2.0)
     d.qvel[m.jnt_dofadr[sim.world.resolve("target_x").mj_id]] = 0.7
     sim.world.changed()
-    assert S.get_object_velocity(sim, [H(sim, "target")])[0] == pytest.approx([0.7, 0, 0], abs=1e-12)
+    assert K.get_object_velocity(sim, [H(sim, "target")])[0] == pytest.approx([0.7, 0, 0], abs=1e-12)
 
 
 # ------------------------------------------------------------------------ group data
 def test_group_data_shapes_and_values(sim):
     w = sim.world
     n = len(w.objects)
-    handles, ints, floats, strings = S.get_object_group_data(sim, [-2, 0])
-    assert handles == S.get_object_group_data(sim, [109, 0])[0] and len(handles) == n
+    handles, ints, floats, strings = GD.get_object_group_data(sim, [-2, 0])
+    assert handles == GD.get_object_group_data(sim, [109, 0])[0] and len(handles) == n
     assert strings == [w.objects[h].name for h in handles] and ints == [] and floats == []
-    assert S.get_object_group_data(sim, [-2, 1])[1] == [w.objects[h].type for h in handles]
-    assert S.get_object_group_data(sim, [-2, 2])[1] == [w.objects[h].parent for h in handles]
+    assert GD.get_object_group_data(sim, [-2, 1])[1] == [w.objects[h].type for h in handles]
+    assert GD.get_object_group_data(sim, [-2, 2])[1] == [w.objects[h].parent for h in handles]
     for data_type, per in ((3, 3), (5, 3), (7, 4), (9, 6), (11, 7), (19, 6)):
-        assert len(S.get_object_group_data(sim, [-2, data_type])[2]) == per * n, data_type
-    shapes, _, pos, _ = S.get_object_group_data(sim, [0, 4])
+        assert len(GD.get_object_group_data(sim, [-2, data_type])[2]) == per * n, data_type
+    shapes, _, pos, _ = GD.get_object_group_data(sim, [0, 4])
     i = shapes.index(H(sim, "payload"))
     assert pos[3 * i:3 * i + 3] == pytest.approx([0.0, 0.0, -0.2])  # relative to its parent
     # sensors are sites: their poses are the sites' (World.frame alone gets them wrong)
-    sensors, _, pose, _ = S.get_object_group_data(sim, [5, 11])
+    sensors, _, pose, _ = GD.get_object_group_data(sim, [5, 11])
     assert sensors == [H(sim, "prox")]
     assert pose[:3] == pytest.approx([-1.0, 0.0, 0.5])
-    prox_ints, prox_floats = S.get_object_group_data(sim, [5, 13])[1:3]
+    prox_ints, prox_floats = GD.get_object_group_data(sim, [5, 13])[1:3]
     detected, point, hit, normal = S.read_proximity_sensor(sim, [H(sim, "prox")])
     assert prox_ints == [1, hit] and prox_floats == pytest.approx(point + normal)
-    joints, jints, jfloats, _ = S.get_object_group_data(sim, [1, 16])
+    joints, jints, jfloats, _ = GD.get_object_group_data(sim, [1, 16])
     assert jints == [11, 5, 10, 5, 12, 5]  # target_x prismatic, hinge revolute, ball spherical
     assert jfloats[2:4] == [-math.pi, -1.0]  # unlimited hinge: V-REP's cyclic
-    assert len(S.get_object_group_data(sim, [1, 15])[2]) == 2 * len(joints)
-    assert S.get_object_group_data(sim, [-2, 21])[3][handles.index(H(sim, "ft"))] == "/mount/payload/ft"
-    assert S.get_object_group_data(sim, [3, 0]) == [[], [], [], []]  # no cameras-as-cameras
+    assert len(GD.get_object_group_data(sim, [1, 15])[2]) == 2 * len(joints)
+    assert GD.get_object_group_data(sim, [-2, 21])[3][handles.index(H(sim, "ft"))] == "/mount/payload/ft"
+    assert GD.get_object_group_data(sim, [3, 0]) == [[], [], [], []]  # no cameras-as-cameras
     with pytest.raises(UnsupportedError, match="dataType 22"):
-        S.get_object_group_data(sim, [-2, 22])
+        GD.get_object_group_data(sim, [-2, 22])
     with pytest.raises(UnsupportedError, match="objectType 115"):
-        S.get_object_group_data(sim, [115, 0])
+        GD.get_object_group_data(sim, [115, 0])
 
 
 # ------------------------------------------------------------------------- vision
@@ -295,57 +307,57 @@ def test_passive_sensor_image_set_get_and_packet(sim):
 
 def test_vision_parameters_and_their_errors(sim):
     cam = H(sim, "cam")
-    get_f = lambda pid: S.get_object_float_parameter(sim, [cam, pid])  # noqa: E731
+    get_f = lambda pid: P.get_object_float_parameter(sim, [cam, pid])  # noqa: E731
     assert (get_f(1000), get_f(1001)) == (0.5, 5.0)
-    assert [S.get_object_int_parameter(sim, [cam, p]) for p in (1002, 1003)] == [32, 24]
+    assert [P.get_object_int_parameter(sim, [cam, p]) for p in (1002, 1003)] == [32, 24]
     horizontal = 2 * math.atan(math.tan(math.radians(22.5)) * 32 / 24)  # 32 > 24: the wider angle
     assert get_f(1004) == pytest.approx(horizontal)
-    S.set_object_float_parameter(sim, [cam, 1004, 1.2])
+    P.set_object_float_parameter(sim, [cam, 1004, 1.2])
     assert get_f(1004) == pytest.approx(1.2)
     assert sim.world.model.cam_fovy[sim.vision.spec(cam).camera] == pytest.approx(
         math.degrees(2 * math.atan(math.tan(0.6) * 24 / 32)))
 
     metres = sim.vision.depth(cam) * 4.5 + 0.5  # near 0.5, far 5
-    S.set_object_float_parameter(sim, [cam, 1000, 1.0])
-    S.set_object_float_parameter(sim, [cam, 1001, 4.0])
+    P.set_object_float_parameter(sim, [cam, 1000, 1.0])
+    P.set_object_float_parameter(sim, [cam, 1001, 4.0])
     assert np.allclose(sim.vision.depth(cam), np.clip((metres - 1.0) / 3.0, 0, 1), atol=1e-5)
     with pytest.raises(ArgumentError):
-        S.set_object_float_parameter(sim, [cam, 1000, 4.5])  # near beyond far
+        P.set_object_float_parameter(sim, [cam, 1000, 4.5])  # near beyond far
     with pytest.raises(UnsupportedError, match="run time"):
-        S.set_object_int_parameter(sim, [cam, 1002, 64])
+        P.set_object_int_parameter(sim, [cam, 1002, 64])
     with pytest.raises(UnsupportedError, match="int parameter"):
-        S.get_object_float_parameter(sim, [cam, 1002])
+        P.get_object_float_parameter(sim, [cam, 1002])
     with pytest.raises(UnsupportedError, match="1017"):
-        S.get_object_int_parameter(sim, [cam, 1017])
+        P.get_object_int_parameter(sim, [cam, 1017])
     with pytest.raises(UnsupportedError, match="read-only"):
-        S.set_object_float_parameter(sim, [cam, 11, 1.0])
+        P.set_object_float_parameter(sim, [cam, 11, 1.0])
     with pytest.raises(ObjectTypeError):
-        S.get_object_float_parameter(sim, [H(sim, "blockA"), 1000])
+        P.get_object_float_parameter(sim, [H(sim, "blockA"), 1000])
     with pytest.raises(UnknownObjectError):
-        S.get_object_float_parameter(sim, [999, 1000])
+        P.get_object_float_parameter(sim, [999, 1000])
 
 
 def test_joint_and_shape_parameters(sim):
     hinge, ball = H(sim, "hinge"), H(sim, "ball")
-    assert S.get_object_float_parameter(sim, [hinge, 2017]) == 1.5
-    S.set_object_float_parameter(sim, [hinge, 2017, 0.5])
+    assert P.get_object_float_parameter(sim, [hinge, 2017]) == 1.5
+    P.set_object_float_parameter(sim, [hinge, 2017, 0.5])
     assert sim.world.max_velocity[sim.world.motor(hinge)] == 0.5
     with pytest.raises(ObjectTypeError):
-        S.get_object_float_parameter(sim, [ball, 2017])  # no motor
+        P.get_object_float_parameter(sim, [ball, 2017])  # no motor
     with pytest.raises(UnsupportedError, match="proportional"):
-        S.get_object_float_parameter(sim, [hinge, 2002])
-    assert [S.get_object_int_parameter(sim, [hinge, p]) for p in (2000, 2001)] == [1, 1]
-    assert [S.get_object_int_parameter(sim, [ball, p]) for p in (2000, 2001)] == [0, 0]
-    S.set_object_int_parameter(sim, [hinge, 2001, 0])  # control loop off: velocity control
-    assert S.get_object_int_parameter(sim, [hinge, 2001]) == 0
+        P.get_object_float_parameter(sim, [hinge, 2002])
+    assert [P.get_object_int_parameter(sim, [hinge, p]) for p in (2000, 2001)] == [1, 1]
+    assert [P.get_object_int_parameter(sim, [ball, p]) for p in (2000, 2001)] == [0, 0]
+    P.set_object_int_parameter(sim, [hinge, 2001, 0])  # control loop off: velocity control
+    assert P.get_object_int_parameter(sim, [hinge, 2001]) == 0
     sim.world.set_joint_target_velocity(hinge, 1.0)  # accepted only in velocity mode
     with pytest.raises(ArgumentError):
-        S.set_object_int_parameter(sim, [hinge, 2001, 2])
+        P.set_object_int_parameter(sim, [hinge, 2001, 2])
     a = H(sim, "blockA")
-    bbox = [S.get_object_float_parameter(sim, [a, p]) for p in range(15, 21)]
+    bbox = [P.get_object_float_parameter(sim, [a, p]) for p in range(15, 21)]
     assert bbox == pytest.approx([-0.1, -0.1, -0.1, 0.1, 0.1, 0.1])
-    assert S.get_object_int_parameter(sim, [a, 3003]) == 1  # welded to the world
-    assert S.get_object_int_parameter(sim, [H(sim, "faller"), 3003]) == 0
-    assert S.get_object_int_parameter(sim, [H(sim, "target"), 3004]) == 0  # contype 0
+    assert P.get_object_int_parameter(sim, [a, 3003]) == 1  # welded to the world
+    assert P.get_object_int_parameter(sim, [H(sim, "faller"), 3003]) == 0
+    assert P.get_object_int_parameter(sim, [H(sim, "target"), 3004]) == 0  # contype 0
     with pytest.raises(UnsupportedError, match="3006"):
-        S.get_object_float_parameter(sim, [a, 3006])
+        P.get_object_float_parameter(sim, [a, 3006])
