@@ -172,3 +172,10 @@ LOG_TEMPLATE_BURST = 100
 LOG_REPEAT_INTERVAL = 10.0
 #: Windows (texts and templates) tracked at once (the least recently seen are forgotten).
 LOG_REPEAT_KEYS = 1024
+
+# ----------------------------------------------------------------- child scripts' scene edits
+# (issue 12, part 7: the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/facade_objects.py)
+#: Longest object name a child script may give with ``sim.setObjectName``/``sim.setObjectAlias``
+#: (V-REP's names are short; each name is kept in the scene's MjSpec and in every reply that
+#: lists names). Scene growth from ``sim.createDummy`` is bounded by MAX_SCENE_ELEMENTS.
+MAX_SCRIPT_OBJECT_NAME = 128
