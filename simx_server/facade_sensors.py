@@ -19,6 +19,7 @@ import numpy as np
 
 from simx_client.protocol import ArgumentError, UnsupportedError
 from simx_server import sensors
+from simx_server.arguments import quote
 from simx_server.script_facade import Signals, _int, _num, _text
 
 if TYPE_CHECKING:
@@ -44,6 +45,14 @@ CONSTANTS: dict[str, int] = {**SIMULATION_STATES, "handleflag_greyscale": HANDLE
 
 def _signal_name(name: Any) -> str:
     return _text(name, "signal name")
+
+
+def _pair(value: Any, what: str) -> tuple[int, int]:
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ArgumentError(f"{what} must be a table of 2 integers, got {quote(value)}")
+    return _int(value[0], f"{what}[1]"), _int(value[1], f"{what}[2]")
 
 
 class SensorCalls:
@@ -116,8 +125,8 @@ class SensorCalls:
         if opts & ~1:
             raise UnsupportedError(f"getVisionSensorImg options {opts}: only bit 0 (greyscale) is supported")
         _num(rgbaCutOff, "rgbaCutOff")
-        px, py = (0, 0) if pos is None else pos
-        sx, sy = (0, 0) if size is None else size
+        px, py = (0, 0) if pos is None else _pair(pos, "pos")
+        sx, sy = (0, 0) if size is None else _pair(size, "size")
         img = self._crop(self._image("getVisionSensorImg", self._h(handle), bool(opts & 1)), px, py, sx, sy)
         return np.ascontiguousarray(img).tobytes(), [int(img.shape[1]), int(img.shape[0])]
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, SCENE, ServerProcess, wait_until
-from simx_client.protocol import ScriptError
+from simx_client.protocol import ArgumentError, ScriptError
 from simx_server import sensors
 from simx_server.facade import FACADE_FUNCTIONS, ScriptSim
 from simx_server.simulation import Simulation
@@ -247,6 +247,21 @@ def test_vision_sensor_images(sim, api):
     assert f[0] == pytest.approx(img[0] / 255) and f[0] > 0.3 > f[1]  # the red plate, as 0..1 floats
     grey = call(sim, api, "image", [cam, 1])[3]
     assert grey == sim.vision.image(cam, True).tobytes() and len(grey) == w * h
+
+
+def test_vision_sensor_image_windows(sim):
+    cam = handle(sim, "cam")
+    facade = ScriptSim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
+    full = sim.vision.image(cam, False)
+    img, res = facade.getVisionSensorImg(cam, 0, 0, [2, 3], [4, 5])  # from the bottom left corner
+    assert res == [4, 5] and img == full[3:8, 2:6].tobytes()
+    values = facade.getVisionSensorImage(cam, 2, 3, 4, 5)
+    assert values == pytest.approx((full[3:8, 2:6].reshape(-1) / 255).tolist())
+    assert facade.getVisionSensorImage(cam, 0, 0, 0, 0, 1) == full.tobytes()  # returnType 1: bytes
+    with pytest.raises(ArgumentError, match="not inside the 16x12 image"):
+        facade.getVisionSensorImg(cam, 0, 0, [10, 0], [8, 1])
+    with pytest.raises(ArgumentError, match="pos must be a table of 2 integers"):
+        facade.getVisionSensorImg(cam, 0, 0, [1, 2, 3])
 
 
 @pytest.mark.parametrize("api", APIS)
