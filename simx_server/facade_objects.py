@@ -24,7 +24,7 @@ from simx_server import sensors
 from simx_server import limits as L
 from simx_server.arguments import quote
 from simx_server.script_facade import _int, _num, _text, _vector
-from simx_server.world import JOINT, SHAPE, WORLD, World
+from simx_server.world import JOINT, SHAPE, WORLD, World, matrix_from_euler, matrix_from_quaternion
 
 if TYPE_CHECKING:
     from simx_server.simulation import Simulation
@@ -143,6 +143,10 @@ def rename(sim: Simulation, handle: int, name: str) -> None:
     placed = tuple(getattr(m, f)[obj.mj_id].copy() for f in frame[:2]) if frame else None
     states = [(d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + _joint_size(m, j)[0]].copy(),
                d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + _joint_size(m, j)[1]].copy()) for j in _joint_ids(world, obj)]
+    mocap = None  # a mocap body's pose lives in MjData, matched by name too
+    if obj.type == SHAPE and m.body_mocapid[obj.mj_id] >= 0:
+        k = m.body_mocapid[obj.mj_id]
+        mocap = (d.mocap_pos[k].copy(), d.mocap_quat[k].copy())
     names = world._handle_of_name  # replace_model keeps a handle for a known name: give it the new one
 
     def change(spec: mujoco.MjSpec) -> None:
@@ -164,6 +168,8 @@ def rename(sim: Simulation, handle: int, name: str) -> None:
             getattr(m, f)[obj.mj_id] = value
         if kind == "site":
             m.site_sameframe[obj.mj_id] = 0  # MuJoCo's shortcut for a site at its body's origin
+    if mocap is not None and m.body_mocapid[obj.mj_id] >= 0:
+        d.mocap_pos[m.body_mocapid[obj.mj_id]], d.mocap_quat[m.body_mocapid[obj.mj_id]] = mocap
     for j, (qpos, qvel) in zip(_joint_ids(world, obj), states):
         d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + len(qpos)] = qpos
         d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + len(qvel)] = qvel
@@ -255,6 +261,46 @@ class ObjectCalls:
         return [h for h in out if otype == C.sim_handle_all or world.objects[h].type == otype]
 
     # ------------------------------------------------------------------ poses
+    def getObjectPosition(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
+        """Position (m) relative to ``relative_to`` (-1 world, the default since CoppeliaSim 4.5;
+        ``sim.handle_parent``; any object)."""
+        return self._world.position(self._h(handle), self._rel(relative_to))
+
+    def getObjectOrientation(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
+        """Euler angles alpha, beta, gamma (rad), R = Rx(alpha) Ry(beta) Rz(gamma), relative to
+        ``relative_to`` (default: the world, as CoppeliaSim 4.5)."""
+        return self._world.orientation(self._h(handle), self._rel(relative_to))
+
+    def getObjectQuaternion(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
+        """Orientation as a quaternion (x, y, z, w) relative to ``relative_to`` (default: the world)."""
+        return self._world.quaternion(self._h(handle), self._rel(relative_to))
+
+    @staticmethod
+    def _order(relative_to: Any, value: Any) -> tuple[Any, Any]:
+        """``(relativeTo, value)`` of a setter called ``(h, relativeTo, value)`` (V-REP, CoppeliaSim
+        before 4.5) or ``(h, value [, relativeTo])`` (CoppeliaSim 4.5+): the table tells."""
+        if isinstance(relative_to, (list, tuple, np.ndarray)):
+            return (-1 if value is None else value), relative_to
+        return relative_to, value
+
+    def setObjectPosition(self, handle: Any, relative_to: Any, position: Any = None) -> None:  # noqa: N802
+        """Move an object to ``position`` (m) in the frame of ``relative_to``; arguments
+        ``(h, relativeTo, position)`` or, as CoppeliaSim 4.5, ``(h, position [, relativeTo])``."""
+        rel, value = self._order(relative_to, position)
+        self._set_pose(handle, rel, position=_vector(value, 3, "position"))
+
+    def setObjectOrientation(self, handle: Any, relative_to: Any, euler: Any = None) -> None:  # noqa: N802
+        """Turn an object to Euler angles (rad) in the frame of ``relative_to``; both argument
+        orders, as :meth:`setObjectPosition`."""
+        rel, value = self._order(relative_to, euler)
+        self._set_pose(handle, rel, rotation=matrix_from_euler(*_vector(value, 3, "eulerAngles")))
+
+    def setObjectQuaternion(self, handle: Any, relative_to: Any, quaternion: Any = None) -> None:  # noqa: N802
+        """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``; both
+        argument orders, as :meth:`setObjectPosition`."""
+        rel, value = self._order(relative_to, quaternion)
+        self._set_pose(handle, rel, rotation=matrix_from_quaternion(*_vector(value, 4, "quaternion")))
+
     def getObjectMatrix(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
         """The object's pose as 12 numbers, row by row: ``[Xx Yx Zx Px  Xy Yy Zy Py  Xz Yz Zz Pz]``
         (rotation columns X, Y, Z; position in m) relative to ``relative_to`` (-1 world,
@@ -267,8 +313,7 @@ class ObjectCalls:
         ``relative_to``. Both argument orders work: ``(h, relativeTo, matrix)`` (CoppeliaSim
         4.0-4.4) and ``(h, matrix [, relativeTo])`` (4.5+). The rotation part must be a rotation
         (orthonormal within 1e-3; it is re-orthonormalised); the rules of setObjectPosition hold."""
-        if matrix is None or isinstance(relative_to, (list, tuple, np.ndarray)):
-            relative_to, matrix = (-1 if matrix is None else matrix), relative_to
+        relative_to, matrix = self._order(relative_to, matrix)
         values = np.array(_vector(matrix, 12, "matrix")).reshape(3, 4)
         r = values[:, :3]
         if np.abs(r @ r.T - np.eye(3)).max() > 1e-3 or np.linalg.det(r) <= 0:
@@ -309,9 +354,10 @@ class ObjectCalls:
         self._forces.add(self._world, body, f, t)
 
     # ------------------------------------------------------------------ creation
-    def createDummy(self, size: Any, color: Any = None) -> int:  # noqa: N802
+    def createDummy(self, size: Any = 0.005, color: Any = None) -> int:  # noqa: N802
         """A new dummy (a sphere site of diameter ``size`` m) at the world origin, as
-        ``simxCreateDummy``; returns its handle (named ``Dummy``, ``Dummy0``...). ``color``: nil
+        ``simxCreateDummy``; returns its handle (named ``Dummy``, ``Dummy0``...). ``size``
+        defaults to 0.005 m (CoppeliaSim 4.x); ``color``: nil
         or 12 numbers 0..1 (ambient/diffuse, specular, emission RGB; the first three colour it)."""
         s = _num(size, "size")
         colors = None

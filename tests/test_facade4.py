@@ -140,6 +140,32 @@ def test_object_matrix_get_and_set_in_both_argument_orders(sim, api):
 
 
 @pytest.mark.parametrize("api", APIS)
+def test_poses_in_coppeliasim_4_5_argument_order(sim, api):
+    cube = handle(sim, "Cube")
+    _, got, _, _ = call(sim, api, "pose45", [cube], [1.0, 2.0, 3.0, 0.4])
+    assert got == pytest.approx([1, 2, 3, 0, 0, 0.4], abs=1e-6)
+    assert sim.world.position(cube, -1) == pytest.approx([1, 2, 3])
+
+
+def test_renamed_free_and_mocap_bodies_keep_their_state(sim):
+    facade = ScriptSim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
+    cube, mark = handle(sim, "Cube"), handle(sim, "Mark")
+    facade.setObjectPosition(mark, [1.5, -2.5, 0.5])  # a mocap pose, set at run time
+    for _ in range(3):
+        sim.step()
+    pos, vel = sim.world.position(cube, -1), sensors.object_velocity(sim, cube)[0]
+    facade.setObjectName(cube, "Box7")
+    facade.setObjectAlias(mark, "Marker")
+    assert sim.world.resolve("Box7").handle == cube and sim.world.resolve("Marker").handle == mark
+    assert sim.world.position(cube, -1) == pytest.approx(pos) and sensors.object_velocity(sim, cube)[0] == pytest.approx(vel)
+    assert sim.world.position(mark, -1) == pytest.approx([1.5, -2.5, 0.5])
+    sim.step()  # still falling, from where it was
+    assert sensors.object_velocity(sim, cube)[0][2] == pytest.approx(vel[2] - G * sim.world.dt, rel=0.01)
+    dummy = facade.createDummy()  # CoppeliaSim 4's default size
+    assert sim.world.model.site_size[sim.world.get(dummy).mj_id][0] == pytest.approx(0.0025)
+
+
+@pytest.mark.parametrize("api", APIS)
 def test_object_velocity_of_a_falling_body(sim, api):
     cube = handle(sim, "Cube")
     for _ in range(4):

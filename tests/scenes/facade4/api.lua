@@ -51,6 +51,14 @@ function setMatrix(ints, floats, strings, buf)
     return {}, sim.getObjectMatrix(ints[1], -1)
 end
 
+function pose45(ints, floats, strings, buf)
+    -- CoppeliaSim 4.5's argument order: value first, relativeTo last and optional
+    sim.setObjectPosition(ints[1], {floats[1], floats[2], floats[3]})
+    sim.setObjectOrientation(ints[1], {0, 0, floats[4]}, sim.handle_world)
+    local p, o = sim.getObjectPosition(ints[1]), sim.getObjectOrientation(ints[1])
+    return {}, {p[1], p[2], p[3], o[1], o[2], o[3]}
+end
+
 function velocity(ints, floats, strings, buf)
     local v, w = sim.getObjectVelocity(ints[1])
     return {}, {v[1], v[2], v[3], w[1], w[2], w[3]}

@@ -50,6 +50,12 @@ def setMatrix(ints, floats, strings, buf):
     return [], sim.getObjectMatrix(ints[0], -1)
 
 
+def pose45(ints, floats, strings, buf):
+    sim.setObjectPosition(ints[0], floats[0:3])
+    sim.setObjectOrientation(ints[0], [0, 0, floats[3]], sim.handle_world)
+    return [], sim.getObjectPosition(ints[0]) + sim.getObjectOrientation(ints[0])
+
+
 def velocity(ints, floats, strings, buf):
     v, w = sim.getObjectVelocity(ints[0])
     return [], v + w
