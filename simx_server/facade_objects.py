@@ -51,11 +51,17 @@ class AppliedForces:
         self._bodies: set[int] = set()
 
     def add(self, world: World, body: int, force: np.ndarray, torque: np.ndarray) -> None:
-        """Add ``force`` (N) and ``torque`` (N·m), world axes, at body ``body``'s centre of mass."""
+        """Add ``force`` (N) and ``torque`` (N·m), world axes, at body ``body``'s centre of mass.
+
+        Raises ArgumentError, adding nothing, when a component of the sum would exceed
+        ``limits.MAX_SCRIPT_FORCE``."""
         if self._data is not world.data:  # a new MjData (scene edit, new scene): nothing pending there
             self._data, self._bodies = world.data, set()
-        world.data.xfrc_applied[body, :3] += force
-        world.data.xfrc_applied[body, 3:] += torque
+        total = world.data.xfrc_applied[body] + np.concatenate([force, torque])
+        if not np.all(np.abs(total) <= L.MAX_SCRIPT_FORCE):
+            raise ArgumentError(f"the forces and torques added to one body for a step must stay within "
+                                f"+/-{L.MAX_SCRIPT_FORCE:g} N or N m (simx_server.limits.MAX_SCRIPT_FORCE)")
+        world.data.xfrc_applied[body] = total
         self._bodies.add(body)
 
     def clear(self, world: World) -> None:

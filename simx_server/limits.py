@@ -179,3 +179,7 @@ LOG_REPEAT_KEYS = 1024
 #: (V-REP's names are short; each name is kept in the scene's MjSpec and in every reply that
 #: lists names). Scene growth from ``sim.createDummy`` is bounded by MAX_SCENE_ELEMENTS.
 MAX_SCRIPT_OBJECT_NAME = 128
+#: Largest force (N) and torque (N·m) component that scripts may add to a body for one step
+#: (``sim.addForce``/``sim.addForceAndTorque``, summed over the step), as MAX_JOINT_FORCE bounds
+#: a joint's: far beyond any robot, small enough for MuJoCo's arithmetic.
+MAX_SCRIPT_FORCE = 1e8

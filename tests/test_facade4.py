@@ -240,6 +240,10 @@ def test_add_force_off_centre_turns_the_body(sim, api):
     assert w[2] == pytest.approx(20 * 0.05 * dt / izz, rel=0.05)
     with pytest.raises(ScriptError, match="'Holder' is static"):
         call(sim, api, "force", [handle(sim, "Holder"), 0], [0, 0, 1, 0, 0, 0])
+    with pytest.raises(ScriptError, match=r"within \+/-1e\+08 N .*MAX_SCRIPT_FORCE"):
+        call(sim, api, "force", [cube, 0], [0, 0, 0, 1e9, 0, 0])
+    sim.step()  # the refused torque was not applied
+    assert sensors.object_velocity(sim, cube)[1][0] == pytest.approx(0.0, abs=1e-9)
 
 
 # ----------------------------------------------------------------------- sensors
