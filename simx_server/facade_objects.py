@@ -212,17 +212,20 @@ class ObjectCalls:
     def setObjectName(self, handle: Any, name: Any) -> None:  # noqa: N802
         """Rename an object (V-REP 3.x / CoppeliaSim 4.0-4.2): a client then finds it under
         ``name`` with ``simxGetObjectHandle``; its handle stays. ``name``: letters, digits and
-        ``_``, an optional ``#n`` suffix, at most ``limits.MAX_SCRIPT_OBJECT_NAME`` (128) characters, not taken by another object
+        ``_``, an optional ``#n`` suffix, at most ``limits.MAX_SCRIPT_OBJECT_NAME`` (128) characters,
+        not taken by another object
         (names are global in V-REP); otherwise an error, nothing changes."""
         text = _text(name, "objectName")
         if len(text) > L.MAX_SCRIPT_OBJECT_NAME or not _NAME.fullmatch(text):
-            raise ArgumentError(f"object name {quote(text)} must be 1 to {L.MAX_SCRIPT_OBJECT_NAME} letters, digits or '_', "
+            raise ArgumentError(f"object name {quote(text)} must be 1 to {L.MAX_SCRIPT_OBJECT_NAME} letters, "
+                                "digits or '_', "
                                 "with an optional '#n' suffix")
         rename(self._simulation("setObjectName"), self._h(handle), text)
 
     def setObjectAlias(self, handle: Any, alias: Any, options: Any = 0) -> None:  # noqa: N802
         """Rename an object (CoppeliaSim 4.3): characters other than letters, digits and ``_``
-        become ``_``, as CoppeliaSim does; at most ``limits.MAX_SCRIPT_OBJECT_NAME`` (128) characters, not the name of another
+        become ``_``, as CoppeliaSim does; at most ``limits.MAX_SCRIPT_OBJECT_NAME`` (128) characters,
+        not the name of another
         object (an error: simx names are unique, as V-REP's were). ``options`` is ignored."""
         text = _text(alias, "alias")
         _int(options, "options")
@@ -242,7 +245,8 @@ class ObjectCalls:
         keep = keepInPlace if isinstance(keepInPlace, bool) else bool(_int(keepInPlace, "keepInPlace"))
         sim.editor.set_parent(self._h(handle), p, keep)
 
-    def getObjectsInTree(self, base: Any, objectType: Any = C.sim_handle_all, options: Any = 0) -> list[int]:  # noqa: N802, N803
+    def getObjectsInTree(self, base: Any, objectType: Any = C.sim_handle_all,  # noqa: N802, N803
+                         options: Any = 0) -> list[int]:
         """Handles of the objects in the tree below ``base`` (``sim.handle_scene``: the whole
         scene), depth first in tree order, the base first; ``objectType`` filters
         (``sim.handle_all``: any type); ``options`` bit 0 leaves out the base, bit 1 keeps only

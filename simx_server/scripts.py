@@ -41,7 +41,8 @@ from simx_server.facade_objects import AppliedForces
 from simx_server.script_facade import SCRIPT_CONSTANTS, SimFacade, Signals
 from simx_server.world import World
 
-__all__ = ["DEFAULT_TIMEOUT", "FACADE_CONSTANTS", "FACADE_FUNCTIONS", "LIFE_CYCLE", "REMOTE_CODE_FLAG", "SCRIPT_CONSTANTS", "UNSAFE_LUA_FLAG",
+__all__ = ["DEFAULT_TIMEOUT", "FACADE_CONSTANTS", "FACADE_FUNCTIONS", "LIFE_CYCLE", "REMOTE_CODE_FLAG",
+           "SCRIPT_CONSTANTS", "UNSAFE_LUA_FLAG",
            "ChildScript", "PythonScript", "ScriptSim", "ScriptTimeoutError", "Scripts", "SimFacade", "Signals",
            "legacy_outputs", "load_script"]
 

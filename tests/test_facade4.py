@@ -157,7 +157,8 @@ def test_renamed_free_and_mocap_bodies_keep_their_state(sim):
     facade.setObjectName(cube, "Box7")
     facade.setObjectAlias(mark, "Marker")
     assert sim.world.resolve("Box7").handle == cube and sim.world.resolve("Marker").handle == mark
-    assert sim.world.position(cube, -1) == pytest.approx(pos) and sensors.object_velocity(sim, cube)[0] == pytest.approx(vel)
+    assert sim.world.position(cube, -1) == pytest.approx(pos)
+    assert sensors.object_velocity(sim, cube)[0] == pytest.approx(vel)
     assert sim.world.position(mark, -1) == pytest.approx([1.5, -2.5, 0.5])
     sim.step()  # still falling, from where it was
     assert sensors.object_velocity(sim, cube)[0][2] == pytest.approx(vel[2] - G * sim.world.dt, rel=0.01)
@@ -316,7 +317,8 @@ def test_simulation_state(sim, api, init):
 
 @pytest.mark.parametrize("api,language", [("Api", "lua"), ("PyApi", "py")])
 def test_unknown_calls_fail_naming_the_function(sim, api, language):
-    with pytest.raises(ScriptError, match=rf"api\.{language}:\d+: .*sim\.auxiliaryConsoleOpen is not available in simx"):
+    pattern = rf"api\.{language}:\d+: .*sim\.auxiliaryConsoleOpen is not available in simx"
+    with pytest.raises(ScriptError, match=pattern):
         call(sim, api, "unknown")
 
 
@@ -356,7 +358,8 @@ def test_remote_4x_counter_signal_and_scene_edits_seen_by_a_client():
             assert rc == 0 and pos == pytest.approx([1, 2, 3], abs=1e-5)
             hand = vrep.simxGetObjectHandle(cid, "Hand", blocking)[1]
             holder = vrep.simxGetObjectHandle(cid, "Holder", blocking)[1]
-            assert vrep.simxGetObjectParent(cid, hand, blocking) == (0, vrep.simxGetObjectHandle(cid, "Arm", blocking)[1])
+            arm = vrep.simxGetObjectHandle(cid, "Arm", blocking)[1]
+            assert vrep.simxGetObjectParent(cid, hand, blocking) == (0, arm)
             rc, ints, _, _, _ = vrep.simxCallScriptFunction(cid, "PyApi", CHILD, "parent", [hand, holder, 1], [],
                                                             [], bytearray(), blocking)
             assert rc == 0 and ints == [holder]
