@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 
 from simx_client import constants as C
-from simx_client.protocol import ArgumentError, ObjectTypeError
+from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server import sensors
 from simx_server import limits as L
 from simx_server.arguments import quote
@@ -196,6 +196,27 @@ class ObjectCalls:
     """
 
     # ------------------------------------------------------------------ names
+    def getObject(self, path: Any, options: Any = None) -> int:  # noqa: N802
+        """CoppeliaSim 4.3's lookup: a name, an absolute ``/path``, ``"."`` (the script's object)
+        or a path relative to it, ``"./child"`` / ``"./arm/joint"`` (the object must lie below
+        the script's object, the named ones in that order between them). ``options``
+        ``{noError = true}`` answers -1 instead of an error for an unknown object."""
+        p = _text(path, "object path")
+        if not p.startswith("./"):
+            return super().getObject(p, options)  # type: ignore[misc]
+        parts = [x.split("[")[0] for x in p[2:].split("/") if x]
+        found = self._world.by_name.get(parts[-1]) if parts else None
+        between, h = [], (found.parent if found is not None else WORLD)
+        while h not in (WORLD, self._owner):
+            between.append(self._world.objects[h].name)
+            h = self._world.objects[h].parent
+        it = iter(reversed(between))
+        if found is not None and h == self._owner and all(x in it for x in parts[:-1]):
+            return found.handle
+        if isinstance(options, dict) and options.get("noError"):
+            return -1
+        raise UnknownObjectError(f"object {quote(p)} is not below {self._world.get(self._owner).name!r}")
+
     def getObjectAlias(self, handle: Any, options: Any = -1) -> str:  # noqa: N802 (CoppeliaSim's names)
         """The object's alias (CoppeliaSim 4.3; in simx alias and name are one): ``options``
         -1 or 0 the alias alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form

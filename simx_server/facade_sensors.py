@@ -201,11 +201,13 @@ class SensorCalls:
     def getSimulationState(self) -> int:  # noqa: N802
         """CoppeliaSim's simulation state: ``sim.simulation_advancing_running`` (0x11) while it
         runs, ``sim.simulation_paused`` (0x08) while paused, ``sim.simulation_stopped`` (0)
-        while stopped, and ``sim.simulation_advancing_firstafterstop`` (0x10) in the
-        ``sysCall_init`` of a start."""
+        while stopped, ``sim.simulation_advancing_firstafterstop`` (0x10) in the ``sysCall_init``
+        of a start and ``sim.simulation_advancing_lastbeforestop`` (0x16) in ``sysCall_cleanup``."""
         from simx_server.simulation import RunState  # late: simulation imports the scripts
 
         sim = self._simulation("getSimulationState")
+        if getattr(sim.scripts, "stopping", False):  # sysCall_cleanup
+            return SIMULATION_STATES["simulation_advancing_lastbeforestop"]
         if sim.state is RunState.RUNNING:
             return SIMULATION_STATES["simulation_advancing_running"]
         if sim.state is RunState.PAUSED:

@@ -510,6 +510,7 @@ class Scripts:
         self.world = world
         self.signals = signals if signals is not None else Signals()
         self.forces = AppliedForces()  # sim.addForce & co., for the next step
+        self.stopping = False  # True while the scripts' sysCall_cleanup run
         self.allow_remote_code = allow_remote_code
         self.allow_unsafe_lua = allow_unsafe_lua
         self.scripts: dict[int, ChildScript] = {}
@@ -559,8 +560,12 @@ class Scripts:
 
     def stop(self) -> None:
         """Simulation stops: ``sysCall_cleanup`` of every script; signals set by scripts go."""
-        for script in self.scripts.values():
-            script.stop()
+        self.stopping = True  # sim.getSimulationState in sysCall_cleanup: the last pass before the stop
+        try:
+            for script in self.scripts.values():
+                script.stop()
+        finally:
+            self.stopping = False
         self.signals.clear_script_signals()
         self.forces.clear(self.world)
 

@@ -9,6 +9,7 @@ step counter that a client waits for) and the scene edits a client then sees.
 
 from __future__ import annotations
 
+import logging
 import math
 import re
 
@@ -307,12 +308,25 @@ def test_object_int32_and_float_params(sim, api):
 
 
 @pytest.mark.parametrize("api,init", [("Api", "lua_init_state"), ("PyApi", "py_init_state")])
-def test_simulation_state(sim, api, init):
+def test_simulation_state(sim, api, init, caplog):
     assert sim.signals.get_int(init) == 0x10  # sysCall_init: advancing, first after stop
     ints = call(sim, api, "state")[0]
     assert ints == [0x11, 0x11, 0x08, 0]
     sim.pause()
     assert call(sim, api, "state")[0][0] == 0x08
+    with caplog.at_level(logging.INFO, logger="simx.scripts"):
+        sim.stop()
+    states = [r.getMessage().split()[-1] for r in caplog.records if "cleanup state" in r.getMessage()]
+    assert states == ["22", "22"]  # both scripts' sysCall_cleanup: advancing, last before stop (0x16)
+
+
+@pytest.mark.parametrize("api", APIS)
+def test_get_object_relative_to_the_script(sim, api):
+    link, tip = f"{api}Link", f"{api}Tip"
+    assert call(sim, api, "relative", [], [], [f"{link}/{tip}"])[0] == [handle(sim, tip)]
+    assert call(sim, api, "relative", [], [], [tip])[0] == [handle(sim, tip)]  # anywhere below
+    assert call(sim, api, "relative", [], [], [f"{tip}/{link}"])[0] == [-1]  # wrong order
+    assert call(sim, api, "relative", [], [], ["Tip"])[0] == [-1]  # exists, but not below the script
 
 
 @pytest.mark.parametrize("api,language", [("Api", "lua"), ("PyApi", "py")])

@@ -5,6 +5,14 @@ function sysCall_init()
     sim.setInt32Signal('lua_init_state', sim.getSimulationState())
 end
 
+function sysCall_cleanup()
+    print('cleanup state', sim.getSimulationState())
+end
+
+function relative(ints, floats, strings, buf)
+    return {sim.getObject('./' .. strings[1], {noError = true})}
+end
+
 function signals(ints, floats, strings, buf)
     local name = strings[1]
     sim.setInt32Signal(name, ints[1])

@@ -5,6 +5,14 @@ def sysCall_init():
     sim.setInt32Signal("py_init_state", sim.getSimulationState())
 
 
+def sysCall_cleanup():
+    print("cleanup state", sim.getSimulationState())
+
+
+def relative(ints, floats, strings, buf):
+    return [sim.getObject("./" + strings[0], {"noError": True})]
+
+
 def signals(ints, floats, strings, buf):
     name = strings[0]
     sim.setInt32Signal(name, ints[0])
