@@ -200,8 +200,14 @@ class ObjectCalls:
         """CoppeliaSim 4.3's lookup: a name, an absolute ``/path``, ``"."`` (the script's object)
         or a path relative to it, ``"./child"`` / ``"./arm/joint"`` (the object must lie below
         the script's object, the named ones in that order between them). ``options``
-        ``{noError = true}`` answers -1 instead of an error for an unknown object."""
+        ``{noError = true}`` answers -1 instead of an error for an unknown object; ``{index = n}``
+        with n > 0 finds nothing (the n-th object of that name: simx names are unique)."""
         p = _text(path, "object path")
+        index = _int(options.get("index", -1), "index") if isinstance(options, dict) else -1
+        if index > 0:  # the n-th of several objects with that alias: simx names are unique
+            if options.get("noError"):
+                return -1
+            raise UnknownObjectError(f"no object {quote(p)} with index {index}: simx names are unique")
         if not p.startswith("./"):
             return super().getObject(p, options)  # type: ignore[misc]
         parts = [x.split("[")[0] for x in p[2:].split("/") if x]

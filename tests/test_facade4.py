@@ -327,6 +327,9 @@ def test_get_object_relative_to_the_script(sim, api):
     assert call(sim, api, "relative", [], [], [tip])[0] == [handle(sim, tip)]  # anywhere below
     assert call(sim, api, "relative", [], [], [f"{tip}/{link}"])[0] == [-1]  # wrong order
     assert call(sim, api, "relative", [], [], ["Tip"])[0] == [-1]  # exists, but not below the script
+    facade = ScriptSim(sim.world, handle(sim, api), sim.signals, simulation=sim)
+    assert facade.getObject("/Holder", {"index": 0}) == handle(sim, "Holder")
+    assert facade.getObject("/Holder", {"index": 1, "noError": True}) == -1  # names are unique
 
 
 @pytest.mark.parametrize("api,language", [("Api", "lua"), ("PyApi", "py")])
