@@ -96,6 +96,19 @@ def test_set_object_alias_renames_a_joint_with_its_motor_settings_and_state(sim,
     assert sim.world.joint_position(joint) > 0.7 + 0.5 * 0.05 * 0.5
 
 
+def test_renamed_sensors_camera_and_script_object_keep_working(sim):
+    facade = ScriptSim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
+    for old, new in [("ft", "FT2"), ("prox", "Prox2"), ("cam", "Cam2"), ("payload", "Payload2"), ("Api", "Api2")]:
+        h = handle(sim, old)
+        facade.setObjectAlias(h, new)
+        assert handle(sim, new) == h
+    sim.step()
+    assert facade.readForceSensor(handle(sim, "FT2"))[1][2] == pytest.approx(PAYLOAD_KG * G, rel=0.01)
+    assert facade.readProximitySensor(handle(sim, "Prox2"))[1] == pytest.approx(WALL_DISTANCE)
+    assert facade.getVisionSensorImg(handle(sim, "Cam2"))[1] == list(CAMERA)
+    assert call(sim, "Api2", "state")[0][0] == 0x11  # the renamed object's script runs on
+
+
 @pytest.mark.parametrize("api", APIS)
 def test_set_object_parent_moves_the_subtree_in_place(sim, api):
     hand, holder, arm = handle(sim, "Hand"), handle(sim, "Holder"), handle(sim, "Arm")
