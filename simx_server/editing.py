@@ -817,7 +817,7 @@ class Editor:
         try:
             world = World(file, dt)
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
-                              allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted)
+                              allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted, simulation=sim)
         except (ValueError, RemoteError) as exc:
             text = self._scrub(_one_line(exc))
             text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix

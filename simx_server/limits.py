@@ -178,3 +178,14 @@ LOG_REPEAT_KEYS = 1024
 #: Renamed elements (``NAME#N``, see simx_server.naming) listed by name in the one log line a
 #: scene load writes about them; the rest are counted.
 MAX_RENAMES_LOGGED = 40
+
+# ----------------------------------------------------------------- child scripts' scene edits
+# (issue 12, part 7: the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/facade_objects.py)
+#: Longest object name a child script may give with ``sim.setObjectName``/``sim.setObjectAlias``
+#: (V-REP's names are short; each name is kept in the scene's MjSpec and in every reply that
+#: lists names). Scene growth from ``sim.createDummy`` is bounded by MAX_SCENE_ELEMENTS.
+MAX_SCRIPT_OBJECT_NAME = 128
+#: Largest force (N) and torque (N·m) component that scripts may add to a body for one step
+#: (``sim.addForce``/``sim.addForceAndTorque``, summed over the step), as MAX_JOINT_FORCE bounds
+#: a joint's: far beyond any robot, small enough for MuJoCo's arithmetic.
+MAX_SCRIPT_FORCE = 1e8

@@ -3,8 +3,8 @@
 Each script gets its own Lua state, made afresh at every simulation start, prepared by
 :data:`PRELUDE`:
 
-* ``sim``: one Lua function per :data:`~simx_server.script_facade.FACADE_FUNCTIONS` entry,
-  each calling the script's :class:`~simx_server.script_facade.SimFacade` through one Python
+* ``sim``: one Lua function per :data:`~simx_server.facade.FACADE_FUNCTIONS` entry,
+  each calling the script's :class:`~simx_server.facade.ScriptSim` through one Python
   dispatcher;
   Python lists come back as Lua tables, ``str`` and ``bytes`` as Lua strings. A facade error
   becomes a Lua error at the script's line (``RG2.lua:17: sim.getObjectHandle: ...``); an
@@ -35,7 +35,7 @@ import time
 from typing import Any
 
 from simx_client.protocol import RemoteError, ScriptError
-from simx_server.script_facade import FACADE_FUNCTIONS, SCRIPT_CONSTANTS
+from simx_server.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
 from simx_server.scripts import LIFE_CYCLE, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
 
 try:
@@ -317,7 +317,7 @@ class LuaScript(ChildScript):
         self._lookup = prelude(
             self._dispatch, self._expired, self._write_log,
             rt.table_from([n.encode() for n in FACADE_FUNCTIONS]),
-            rt.table_from({k.encode(): v for k, v in SCRIPT_CONSTANTS.items()}),
+            rt.table_from({k.encode(): v for k, v in FACADE_CONSTANTS.items()}),
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode())
         chunk = rt.compile(self._source, name=f"@{self.path.name}", mode="t")

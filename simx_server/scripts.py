@@ -5,7 +5,7 @@ data="child_script=FILE"/></custom>``; FILE (``.lua`` or ``.py``) lies in the sc
 scripts come only from the server's disk. An optional ``script_timeout=SECONDS`` in the same
 text bounds every call into that script (default :data:`DEFAULT_TIMEOUT`).
 
-Both languages see one :class:`~simx_server.script_facade.SimFacade` as ``sim`` (V-REP's names and units) and follow
+Both languages see one :class:`~simx_server.facade.ScriptSim` as ``sim`` (V-REP's names and units) and follow
 V-REP's non-threaded life cycle: the file's top level and ``sysCall_init`` when the simulation
 starts, ``sysCall_actuation`` before and ``sysCall_sensing`` after every step,
 ``sysCall_cleanup`` when it stops (then the script's state is dropped: a restart begins afresh).
@@ -36,11 +36,14 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ScriptError, UnknownObjectError
-from simx_server.script_facade import FACADE_FUNCTIONS, SCRIPT_CONSTANTS, SimFacade, Signals
+from simx_server.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS, ScriptSim
+from simx_server.facade_objects import AppliedForces
+from simx_server.script_facade import SCRIPT_CONSTANTS, SimFacade, Signals
 from simx_server.world import World
 
-__all__ = ["DEFAULT_TIMEOUT", "FACADE_FUNCTIONS", "LIFE_CYCLE", "REMOTE_CODE_FLAG", "SCRIPT_CONSTANTS", "UNSAFE_LUA_FLAG",
-           "ChildScript", "PythonScript", "ScriptTimeoutError", "Scripts", "SimFacade", "Signals",
+__all__ = ["DEFAULT_TIMEOUT", "FACADE_CONSTANTS", "FACADE_FUNCTIONS", "LIFE_CYCLE", "REMOTE_CODE_FLAG",
+           "SCRIPT_CONSTANTS", "UNSAFE_LUA_FLAG",
+           "ChildScript", "PythonScript", "ScriptSim", "ScriptTimeoutError", "Scripts", "SimFacade", "Signals",
            "legacy_outputs", "load_script"]
 
 log = logging.getLogger("simx.scripts")
@@ -167,8 +170,10 @@ class ChildScript:
 
     def __init__(self, world: World, owner: int, path: Path, *, signals: Signals | None = None,
                  timeout: float = DEFAULT_TIMEOUT, allow_remote_code: bool = False,
-                 allow_unsafe_lua: bool = False):
+                 allow_unsafe_lua: bool = False, simulation: Any = None, forces: AppliedForces | None = None):
         self.world = world
+        self.simulation = simulation  # the Simulation, for the facade calls that need it (sensors, edits)
+        self.forces = forces if forces is not None else AppliedForces()
         self.owner = owner
         self.path = path
         self.object_name = world.get(owner).name
@@ -186,9 +191,10 @@ class ChildScript:
         if self.load_error:
             log.error("%s cannot be loaded: %s", self.label, self.load_error)
 
-    def facade(self) -> SimFacade:
+    def facade(self) -> ScriptSim:
         """A new ``sim`` for this script."""
-        return SimFacade(self.world, self.owner, self.signals, label=self.path.name)
+        return ScriptSim(self.world, self.owner, self.signals, label=self.path.name,
+                         simulation=self.simulation, forces=self.forces)
 
     # ---------------------------------------------------------------- life cycle
     def start(self) -> None:
@@ -305,7 +311,7 @@ def _script_builtins(allow_remote_code: bool) -> dict[str, Any]:
 
 
 class PythonScript(ChildScript):
-    """A Python child script: globals ``sim`` (:class:`SimFacade`) and ``print`` (to the log)."""
+    """A Python child script: globals ``sim`` (:class:`ScriptSim`) and ``print`` (to the log)."""
 
     language = "Python"
 
@@ -488,6 +494,9 @@ class Scripts:
             ``os.execute``/``remove``/``rename``/``getenv``..., ``dofile``/``loadfile``, any
             ``package.path``/``cpath``); the server's ``--allow-unsafe-lua``. Off: a script
             that calls one gets a Lua error naming the flag.
+        simulation: the :class:`~simx_server.simulation.Simulation` that owns these scripts;
+            the facade calls that read sensors or edit the scene need it (without it they
+            raise UnsupportedError).
 
     Raises:
         ValueError: a script file is missing, outside the scene folder, in an untrusted folder,
@@ -497,9 +506,11 @@ class Scripts:
 
     def __init__(self, world: World, signals: Signals | None = None, *, allow_remote_code: bool = False,
                  timeout: float = DEFAULT_TIMEOUT, untrusted: Iterable[Path] = (),
-                 allow_unsafe_lua: bool = False):
+                 allow_unsafe_lua: bool = False, simulation: Any = None):
         self.world = world
         self.signals = signals if signals is not None else Signals()
+        self.forces = AppliedForces()  # sim.addForce & co., for the next step
+        self.stopping = False  # True while the scripts' sysCall_cleanup run
         self.allow_remote_code = allow_remote_code
         self.allow_unsafe_lua = allow_unsafe_lua
         self.scripts: dict[int, ChildScript] = {}
@@ -518,7 +529,8 @@ class Scripts:
             self.scripts[obj.handle] = load_script(world, obj.handle, file, untrusted=untrusted,
                                                    signals=self.signals, timeout=bound,
                                                    allow_remote_code=allow_remote_code,
-                                                   allow_unsafe_lua=allow_unsafe_lua)
+                                                   allow_unsafe_lua=allow_unsafe_lua,
+                                                   simulation=simulation, forces=self.forces)
         if allow_remote_code and self.scripts:
             log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
         if allow_unsafe_lua and self.scripts:
@@ -540,15 +552,22 @@ class Scripts:
             script.life_cycle("sysCall_actuation")
 
     def sensing(self) -> None:
-        """After a step: ``sysCall_sensing`` of every script."""
+        """After a step: forces scripts added are reset (the step applied them), then
+        ``sysCall_sensing`` of every script."""
+        self.forces.clear(self.world)
         for script in self.scripts.values():
             script.life_cycle("sysCall_sensing")
 
     def stop(self) -> None:
         """Simulation stops: ``sysCall_cleanup`` of every script; signals set by scripts go."""
-        for script in self.scripts.values():
-            script.stop()
+        self.stopping = True  # sim.getSimulationState in sysCall_cleanup: the last pass before the stop
+        try:
+            for script in self.scripts.values():
+                script.stop()
+        finally:
+            self.stopping = False
         self.signals.clear_script_signals()
+        self.forces.clear(self.world)
 
     def call(self, object_name: str, script_type: int, function: str, ints, floats, strings, buffer) -> list:
         """``simxCallScriptFunction`` on the child script of ``object_name``.

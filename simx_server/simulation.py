@@ -53,7 +53,7 @@ class Simulation:
         self.signals = Signals()  # shared by every client and child script
         # The operator's scene is trusted, but no file that came through a transfer folder is.
         self.scripts = Scripts(self.world, self.signals, allow_remote_code=allow_remote_code,
-                               allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders())
+                               allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders(), simulation=self)
         self.sensors = SensorState()
         self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
         self.state = RunState.STOPPED

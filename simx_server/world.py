@@ -565,6 +565,7 @@ class World:
                 raise ObjectTypeError(f"{obj.name!r} is moved by its joints: set their positions instead")
         elif obj.type in (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR):
             m.site_pos[obj.mj_id], m.site_quat[obj.mj_id] = self._in_parent(obj.body, p, quat)
+            m.site_sameframe[obj.mj_id] = 0  # else MuJoCo keeps a site compiled at its body's origin there
         elif obj.type == VISION_SENSOR:
             m.cam_pos[obj.mj_id], m.cam_quat[obj.mj_id] = self._in_parent(obj.body, p, quat)
         elif obj.type == LIGHT:

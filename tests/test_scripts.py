@@ -334,7 +334,7 @@ function errors()
   local ok2, e2 = pcall(function() return sim.noSuchThing end)
   local ok3, e3 = pcall(sim.setObjectPosition, sim.getObjectHandle('Slider'), -1, {0, 0, 0})
   local ok4, e4 = pcall(sim.setJointTargetVelocity, sim.getObjectHandle('Slider_joint'), 'fast')
-  local ok5, e5 = pcall(sim.getObjectPosition, 1)
+  local ok5, e5 = pcall(sim.getObjectPosition)  -- no handle (relativeTo is optional since CoppeliaSim 4.5)
   return {}, {}, {tostring(ok1), e1, e2, e3, e4, e5}
 end
 
