@@ -21,9 +21,10 @@ step so that the substeps run in C:
 * position law: far from the target (more than vmax / Kp away) ``v = +-vmax`` for the whole
   step; near it the linear law ``tau = ff + kv * (Kp * (target - q) - qdot)``, which never asks
   more than vmax from there on;
-* ``ff`` is the joint's static load (MuJoCo's ``qfrc_bias`` minus spring and gravity
-  compensation forces at the start of the step), so a joint holds its target under gravity as
-  V-REP's constraint-based motors do; everything is clipped to the maximum force.
+* ``ff`` is the joint's load at the start of the step (MuJoCo's ``qfrc_bias``: gravity and
+  Coriolis forces, minus ``qfrc_passive``: the joint's spring, damper and gravity compensation),
+  so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
+  constraint-based motors do; everything is clipped to the maximum force.
 
 ``kv`` is the servo gain: a ``<velocity>`` actuator keeps its own ``kv`` (the author's choice);
 any other gets ``f * M / h`` with ``M = 1 / (M^-1)_ii`` the joint's effective inertia now (it
@@ -218,7 +219,7 @@ class Motors:
         inertia = 1.0 / np.maximum(self._minv[np.arange(len(act)), self.dadr], 1e-12)
         kv = np.where(self.own_kv > 0, self.own_kv, self.kv_fraction * inertia / m.opt.timestep)
         dof = self.dadr
-        ff = d.qfrc_bias[dof] - d.qfrc_spring[dof] - d.qfrc_gravcomp[dof]
+        ff = d.qfrc_bias[dof] - d.qfrc_passive[dof]  # static load, joint springs and dampers
         kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
         err = self.target_position - q
         on, position = self.enabled, self.enabled & self.loop
@@ -263,10 +264,14 @@ def get_param(world, handle: int, pid: int) -> float | int:
     2000: 1 when the motor is enabled; 2001: 1 when its position control loop is enabled
     (V-REP reports the flag whatever the motor); 2002: P gain (V-REP's units: the loop asks
     P * error / 5 ms); 2003/2004: I and D gains, always 0 (simx's loop is proportional);
-    2017: upper velocity (rad/s or m/s). Raises ObjectTypeError for a joint without a motor.
+    2017: upper velocity (rad/s or m/s). 2000/2001 read 0 on a joint without a motor of its
+    own (spherical, tendon-driven); the float ids raise ObjectTypeError there.
     """
-    i = world.motor(handle)
     mo = world.motors
+    if pid in INT_PARAMS and handle not in mo.index:
+        world.get(handle)
+        return 0  # a spherical joint or one moved through a tendon: no motor of its own
+    i = world.motor(handle)
     if pid == 2000:
         return int(mo.enabled[i])
     if pid == 2001:
@@ -281,8 +286,8 @@ def get_param(world, handle: int, pid: int) -> float | int:
 def set_param(world, handle: int, pid: int, value: float | int, name: str) -> None:
     """Set joint parameter ``pid`` (``name`` is its legacy name, for messages).
 
-    2000 / 2001: 0 or 1 (motor on/off, control loop on/off; switching position control on
-    holds the joint where it is); 2002: P gain > 0 and at most 1 (V-REP's units; the loop's
+    2000 / 2001: 0 or 1 (motor on/off, control loop on/off; the targets are kept, as V-REP
+    keeps them); 2002: P gain > 0 and at most 1 (V-REP's units; the loop's
     gain is P / 5 ms, at most 1/dt); 2017: upper velocity > 0 and at most
     limits.MAX_JOINT_VELOCITY. Others and values out of range: ArgumentError /
     UnsupportedError naming the parameter and quoting the value.

@@ -50,6 +50,7 @@ _RESTORED_FIELDS = ("body_pos", "body_quat", "site_pos", "site_quat", "cam_pos",
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
 
 DEFAULT_MAX_VELOCITY = math.pi  # rad/s, used where a joint declares none
+POSITION_MODE, VELOCITY_MODE = 0, 1  # World.mode: a motor's control loop on / off
 # Bounds of the hot joint setters, as globals (one comparison each; see limits.py).
 _MAX_Q, _MAX_V, _MAX_F = L.MAX_JOINT_POSITION, L.MAX_JOINT_VELOCITY, L.MAX_JOINT_FORCE
 
@@ -302,6 +303,8 @@ class World:
     target_position = property(lambda self: self.motors.target_position, doc="rad or m, per motor")
     target_velocity = property(lambda self: self.motors.target_velocity, doc="rad/s or m/s, per motor")
     max_velocity = property(lambda self: self.motors.max_velocity, doc="upper velocity, per motor")
+    mode = property(lambda self: np.where(self.motors.loop, POSITION_MODE, VELOCITY_MODE),
+                    doc="control loop per motor, read-only: POSITION_MODE (loop on) or VELOCITY_MODE (off)")
 
     def motor(self, handle: int) -> int:
         """Index of the motor of joint ``handle``.
@@ -442,18 +445,13 @@ class World:
 
     def set_motor_flags(self, handle: int, enabled: bool | None = None, loop: bool | None = None) -> None:
         """Motor on/off (``sim_jointintparam_motor_enabled``, 2000) and control loop on/off
-        (``sim_jointintparam_ctrl_enabled``, 2001) of a joint. Turning position control on
-        while it was off (or the motor off) makes the joint hold where it is: the target
-        position becomes the current position, as when V-REP's loop starts from rest."""
+        (``sim_jointintparam_ctrl_enabled``, 2001) of a joint. As in V-REP the targets are
+        kept: turning the loop on drives the joint toward the stored target position."""
         i = self.motor(handle)
-        mo = self.motors
-        was = bool(mo.enabled[i] and mo.loop[i])
         if enabled is not None:
-            mo.enabled[i] = enabled
+            self.motors.enabled[i] = enabled
         if loop is not None:
-            mo.loop[i] = loop
-        if mo.enabled[i] and mo.loop[i] and not was:
-            mo.target_position[i] = self.joint_position(handle)
+            self.motors.loop[i] = loop
 
     def joint_force(self, handle: int) -> float:
         """Force/torque the joint's motor applies now (N or N·m on the joint). ``simxGetJointForce``."""
