@@ -172,3 +172,9 @@ LOG_TEMPLATE_BURST = 100
 LOG_REPEAT_INTERVAL = 10.0
 #: Windows (texts and templates) tracked at once (the least recently seen are forgotten).
 LOG_REPEAT_KEYS = 1024
+
+# ------------------------------------------------- joint motors (issue 12, part 1: motors.py)
+#: Largest proportional gain of a joint's position loop (``sim_jointfloatparam_pid_p``, 2002, in
+#: V-REP's units: the loop asks P x error per 5 ms). 1 asks the whole error in one V-REP
+#: dynamics step; simx's loop gain is P / 5 ms, capped at 1/dt in any case.
+MAX_PID_P = 1.0

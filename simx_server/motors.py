@@ -67,7 +67,7 @@ KV_FRACTION = 0.5
 #: implicitly and coupled through the mass matrix (stable at any gain): stiff tracking.
 IMPLICIT_KV_FRACTION = 0.9
 
-_JOINT_TRN = int(mujoco.mjtTrn.mjTRN_JOINT)
+_JOINT_TRNS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
 _TENDON_TRN = int(mujoco.mjtTrn.mjTRN_TENDON)
 _SCALAR = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
@@ -91,7 +91,7 @@ def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
     Raises ValueError: MuJoCo cannot compile the spec.
     """
     model = spec.compile()
-    driven = {int(model.actuator_trnid[a, 0]) for a in range(model.nu) if model.actuator_trntype[a] == _JOINT_TRN}
+    driven = {int(model.actuator_trnid[a, 0]) for a in range(model.nu) if model.actuator_trntype[a] in _JOINT_TRNS}
     tendons = _tendon_driven(model)
     missing = [name for j in range(model.njnt)
                if int(model.jnt_type[j]) in _SCALAR and j not in driven and j not in tendons
@@ -145,7 +145,7 @@ class Motors:
         m = model
         motor_of_joint: dict[int, int] = {}
         for a in range(m.nu):
-            if m.actuator_trntype[a] == _JOINT_TRN:
+            if m.actuator_trntype[a] in _JOINT_TRNS:
                 motor_of_joint.setdefault(int(m.actuator_trnid[a, 0]), a)
         self.tendon_of_joint = _tendon_driven(m)  # joint id -> tendon name (no motor of their own)
         mine = [(h, j, s) for h, j, s in joints if j in motor_of_joint and int(m.jnt_type[j]) in _SCALAR]
@@ -287,7 +287,7 @@ def set_param(world, handle: int, pid: int, value: float | int, name: str) -> No
     """Set joint parameter ``pid`` (``name`` is its legacy name, for messages).
 
     2000 / 2001: 0 or 1 (motor on/off, control loop on/off; the targets are kept, as V-REP
-    keeps them); 2002: P gain > 0 and at most 1 (V-REP's units; the loop's
+    keeps them); 2002: P gain > 0 and at most limits.MAX_PID_P (V-REP's units; the loop's
     gain is P / 5 ms, at most 1/dt); 2017: upper velocity > 0 and at most
     limits.MAX_JOINT_VELOCITY. Others and values out of range: ArgumentError /
     UnsupportedError naming the parameter and quoting the value.
@@ -300,8 +300,9 @@ def set_param(world, handle: int, pid: int, value: float | int, name: str) -> No
             raise ArgumentError(f"{name}: value must be 0 or 1, got {quote(value)}")
         world.set_motor_flags(handle, **{("enabled" if pid == 2000 else "loop"): bool(value)})
     elif pid == 2002:
-        if not 0 < value <= 1:
-            raise ArgumentError(f"{name}: the proportional gain must be > 0 and at most 1, got {quote(value)}")
+        if not 0 < value <= L.MAX_PID_P:
+            raise ArgumentError(f"{name}: the proportional gain must be > 0 and at most {L.MAX_PID_P:g} "
+                                f"(simx_server.limits.MAX_PID_P), got {quote(value)}")
         world.motors.pid_p[i] = value
     elif pid == 2017:
         if not 0 < value <= L.MAX_JOINT_VELOCITY:

@@ -7,8 +7,8 @@ sites are dummies, cameras are vision sensors, lights are lights, -1 is the worl
 handles in tree order, starting at 1, stable while the scene is loaded.
 
 Per-object settings that MJCF has no attribute for come from ``<custom><text name="simx:NAME"
-data="key=value ..."/></custom>``: a joint's ``mode`` (``position``/``velocity``/``passive``) and
-``max_velocity`` (rad/s or m/s), a vision sensor's ``image`` (``rgb``/``depth``), ``near`` and
+data="key=value ..."/></custom>``: a joint's ``mode`` (``position``/``velocity``/``passive``: the
+initial state of its motor, see :mod:`simx_server.motors`) and ``max_velocity`` (rad/s or m/s), a vision sensor's ``image`` (``rgb``/``depth``), ``near`` and
 ``far`` (m), an object's ``child_script`` (a file next to the scene).
 """
 
