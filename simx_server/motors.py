@@ -182,6 +182,12 @@ class Motors:
             if m.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER:
                 m.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
             self.kv_fraction = IMPLICIT_KV_FRACTION
+        if any(added) or self.tendon_of_joint:
+            passive = [self.names[h][len(ADDED_PREFIX):] for (h, _, _), new in zip(mine, added) if new]
+            tendons = sorted(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}" for j in self.tendon_of_joint)
+            log.info("joint motors: %d from the scene's actuators; added, disabled: %s; joints moved only through "
+                     "tendons (no motor of their own): %s", len(act) - len(passive), ", ".join(passive) or "none",
+                     ", ".join(tendons) or "none")
         n = len(act)
         self._unit = np.zeros((n, m.nv))
         self._unit[np.arange(n), self.dadr] = 1.0

@@ -212,6 +212,16 @@ def test_legacy_program_switches_modes_through_the_api():
         assert steps(30) == pytest.approx(0.2, abs=0.005)  # back to the stored target
         assert vrep.simxSetObjectIntParameter(cid, j, MOTOR, 0, B) == 0
         assert vrep.simxGetObjectIntParameter(cid, j, MOTOR, B) == (0, 0)
+        # Motor off frees the joint: the lifted upper arm falls under gravity.
+        rc, lift = vrep.simxGetObjectHandle(cid, "shoulder_lift", B)
+        assert rc == 0 and vrep.simxSetJointTargetPosition(cid, lift, 0.6, B) == 0
+        steps(30)
+        rc, held = vrep.simxGetJointPosition(cid, lift, B)
+        assert rc == 0 and held == pytest.approx(0.6, abs=0.005)
+        assert vrep.simxSetObjectIntParameter(cid, lift, MOTOR, 0, B) == 0
+        steps(10)
+        rc, fallen = vrep.simxGetJointPosition(cid, lift, B)
+        assert rc == 0 and fallen > held + 0.2
         assert vrep.simxSetObjectIntParameter(cid, j, LOOP, 3, B) == vrep.simx_return_remote_error_flag
         rc, shape = vrep.simxGetObjectHandle(cid, "base", B)  # a shape, not a joint: V-REP's error
         assert rc == 0 and vrep.simxSetJointTargetPosition(cid, shape, 0.1, B) == vrep.simx_return_remote_error_flag
@@ -219,3 +229,25 @@ def test_legacy_program_switches_modes_through_the_api():
         vrep.simxFinish(cid)
         log = srv.stop()
     assert "Traceback" not in log
+
+
+def test_simx_mode_setting_gives_the_initial_motor_state(tmp_path):
+    """``simx:JOINT mode=``: passive turns an actuator's motor off, velocity enables the motor
+    simx added to a bare joint in velocity control; stop (reset) restores them."""
+    xml = tmp_path / "modes.xml"
+    xml.write_text("""<mujoco><worldbody>
+      <body name="a" pos="0 0 1"><joint name="driven" axis="0 0 1"/><geom size="0.1" mass="1"/></body>
+      <body name="b" pos="1 0 1"><joint name="bare" axis="0 0 1"/><geom size="0.1" mass="1"/></body>
+      </worldbody><actuator><position joint="driven" kp="50"/></actuator>
+      <custom><text name="simx:driven" data="mode=passive"/><text name="simx:bare" data="mode=velocity"/></custom>
+      </mujoco>""")
+    world = World(xml)
+    driven, bare = world.resolve("driven").handle, world.resolve("bare").handle
+    assert vars_of(world, driven) == (0, 1) and vars_of(world, bare) == (1, 0)
+    world.set_joint_target_velocity(bare, 2.0)
+    world.set_motor_flags(driven, enabled=True)
+    for _ in range(10):
+        world.step()
+    assert world.data.qvel[world._scalar_joints[bare][1]] == pytest.approx(2.0, rel=0.01)
+    world.reset()
+    assert vars_of(world, driven) == (0, 1) and world.target_velocity[world.motors.index[bare]] == 0.0
