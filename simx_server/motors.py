@@ -46,11 +46,17 @@ own, and motor calls answer an error naming the tendon.
 from __future__ import annotations
 
 import logging
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
+from simx_client.protocol import ArgumentError, UnsupportedError
 from simx_server import limits as L
+from simx_server.arguments import quote
+
+if TYPE_CHECKING:
+    from simx_server.world import World
 
 log = logging.getLogger("simx.world")
 
@@ -184,7 +190,8 @@ class Motors:
             self.kv_fraction = IMPLICIT_KV_FRACTION
         if any(added) or self.tendon_of_joint:
             passive = [self.names[h][len(ADDED_PREFIX):] for (h, _, _), new in zip(mine, added) if new]
-            tendons = sorted(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}" for j in self.tendon_of_joint)
+            tendons = sorted(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}"
+                             for j in self.tendon_of_joint)
             log.info("joint motors: %d from the scene's actuators; added, disabled: %s; joints moved only through "
                      "tendons (no motor of their own): %s", len(act) - len(passive), ", ".join(passive) or "none",
                      ", ".join(tendons) or "none")
@@ -264,7 +271,7 @@ FLOAT_PARAMS = {2002, 2003, 2004, 2017}
 FLOAT_SETTABLE = {2002, 2017}
 
 
-def get_param(world, handle: int, pid: int) -> float | int:
+def get_param(world: World, handle: int, pid: int) -> float | int:
     """Value of joint parameter ``pid`` (INT_PARAMS or FLOAT_PARAMS) of joint ``handle``.
 
     2000: 1 when the motor is enabled; 2001: 1 when its position control loop is enabled
@@ -289,7 +296,7 @@ def get_param(world, handle: int, pid: int) -> float | int:
     return 0.0
 
 
-def set_param(world, handle: int, pid: int, value: float | int, name: str) -> None:
+def set_param(world: World, handle: int, pid: int, value: float | int, name: str) -> None:
     """Set joint parameter ``pid`` (``name`` is its legacy name, for messages).
 
     2000 / 2001: 0 or 1 (motor on/off, control loop on/off; the targets are kept, as V-REP
@@ -298,8 +305,6 @@ def set_param(world, handle: int, pid: int, value: float | int, name: str) -> No
     limits.MAX_JOINT_VELOCITY. Others and values out of range: ArgumentError /
     UnsupportedError naming the parameter and quoting the value.
     """
-    from simx_client.protocol import ArgumentError, UnsupportedError
-    from simx_server.arguments import quote
     i = world.motor(handle)
     if pid in INT_PARAMS:
         if value not in (0, 1):

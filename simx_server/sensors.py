@@ -42,7 +42,6 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
-from simx_server import limits as L
 from simx_server import motors, physics
 from simx_server.arguments import as_floats, check_args as _args, quote
 from simx_server.world import (_TYPE_NAMES, FORCE_SENSOR, JOINT, PROXIMITY_SENSOR,

@@ -8,8 +8,9 @@ handles in tree order, starting at 1, stable while the scene is loaded.
 
 Per-object settings that MJCF has no attribute for come from ``<custom><text name="simx:NAME"
 data="key=value ..."/></custom>``: a joint's ``mode`` (``position``/``velocity``/``passive``: the
-initial state of its motor, see :mod:`simx_server.motors`) and ``max_velocity`` (rad/s or m/s), a vision sensor's ``image`` (``rgb``/``depth``), ``near`` and
-``far`` (m), an object's ``child_script`` (a file next to the scene).
+initial state of its motor, see :mod:`simx_server.motors`) and ``max_velocity`` (rad/s or m/s),
+a vision sensor's ``image`` (``rgb``/``depth``), ``near`` and ``far`` (m), an object's
+``child_script`` (a file next to the scene).
 """
 
 from __future__ import annotations
