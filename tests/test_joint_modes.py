@@ -51,7 +51,7 @@ def _target(world: World, h: int, offset: float) -> float:
 
 
 MODELS = ["acrobot.xml", "cart_slider.xml", "planar_runner.xml", "arm6_position.xml", "arm7_general.xml",
-          "arm7_torque.xml", "tendon_pair.xml"]
+          "arm7_torque.xml", "tendon_pair.xml", "activation_arm.xml"]
 
 
 @pytest.mark.parametrize("scene", MODELS)
