@@ -795,7 +795,6 @@ _FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2
 _FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
 _INT_GET = {1002, 1003, 2000, 2001, 3003, 3004}
 _INT_SET = {2000, 2001}
-_PID: set[int] = set()  # joint motor parameters: simx_server.motors
 
 
 def _pname(pid: int) -> str:
@@ -811,12 +810,6 @@ def _need(world: World, handle: int, otype: int, pid: int):
 
 
 def _unsupported(pid: int, kind: str, setting: bool) -> UnsupportedError:
-    verb = "set" if setting else "read"
-    if pid in _PID:
-        return UnsupportedError(
-            f"{_pname(pid)}: simx's joint position control is a proportional loop with a fixed gain "
-            f"(world.POSITION_GAIN 1/s) feeding MuJoCo velocity servos, not V-REP's PID; it cannot be "
-            f"{verb} (use sim_jointfloatparam_upper_limit (2017) for the velocity limit)")
     other = "int" if kind == "float" else "float"
     other_ids = (_INT_GET | _INT_SET) if kind == "float" else (_FLOAT_GET | _FLOAT_SET)
     if pid in other_ids:
