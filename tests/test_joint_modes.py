@@ -251,3 +251,32 @@ def test_simx_mode_setting_gives_the_initial_motor_state(tmp_path):
     assert world.data.qvel[world._scalar_joints[bare][1]] == pytest.approx(2.0, rel=0.01)
     world.reset()
     assert vars_of(world, driven) == (0, 1) and world.target_velocity[world.motors.index[bare]] == 0.0
+
+
+def test_scene_edits_keep_motor_state_and_add_motors_once(tmp_path):
+    """A model loaded into the scene (scene editing through MjSpec) gets motors for its bare
+    joints; the motors of the scene keep their flags and targets, and none is added twice."""
+    from simx_server.editing import EDITING_HANDLERS
+    from simx_server.simulation import Simulation
+
+    model = tmp_path / "flap.xml"
+    model.write_text("""<mujoco><worldbody><body name="flap" pos="0 0 2">
+      <joint name="flap_hinge" axis="1 0 0"/><geom type="box" size="0.1 0.02 0.1" mass="0.2"/>
+      </body></worldbody></mujoco>""")
+    sim = Simulation(SCENES / "arm6_position.xml", dt=0.05, realtime=False, scene_paths=[tmp_path])
+    try:
+        w = sim.world
+        pan = w.resolve("shoulder_pan").handle
+        w.set_motor_flags(pan, loop=False)
+        w.set_joint_target_velocity(pan, 0.7)
+        w.set_joint_target_position(pan, -0.4)
+        for _ in range(2):
+            EDITING_HANDLERS["LoadModel"](sim, [str(model), 0])
+        names = [mujoco.mj_id2name(w.model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in range(w.model.nu)]
+        assert names.count("simx_motor:flap_hinge") == 1 and names.count("simx_motor:flap_hinge#0") == 1
+        flap = w.resolve("flap_hinge").handle
+        assert vars_of(w, flap) == (0, 1) and vars_of(w, pan) == (1, 0)
+        i = w.motor_index[pan]
+        assert (w.target_velocity[i], w.target_position[i]) == (0.7, -0.4)
+    finally:
+        sim.close()
