@@ -49,6 +49,7 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_server import motors
 from simx_server import scene_guard as guard
 from simx_server.arguments import check_args as _args
 from simx_server.arguments import quote
@@ -482,7 +483,7 @@ class Editor:
                 raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
             guard.check_growth(before, spec)
             try:
-                model = spec.compile()
+                model = motors.compile_spec(spec)  # joints without an actuator get a motor
             except ValueError as exc:
                 raise UnsupportedError("MuJoCo cannot compile the edited scene: "
                                        f"{self._scrub(_one_line(exc))}") from None
@@ -711,10 +712,8 @@ class Editor:
                 hb = w.by_name.get(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, jb) or "")
                 if ha and hb and ha.handle in w.motor_index and hb.handle in w.motor_index:
                     ia, ib = w.motor_index[ha.handle], w.motor_index[hb.handle]
-                    w.mode[ib] = w.mode[ia]
-                    w.target_position[ib] = w.target_position[ia]
-                    w.target_velocity[ib] = w.target_velocity[ia]
-                    w.set_joint_force(hb.handle, w.joint_max_force(ha.handle))
+                    w.motors.copy_state(ia, ib)
+        w.motors.write_force_limits(m)
         mujoco.mj_forward(m, d)
         w.version += 1
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
-from simx_server import sensors
+from simx_server import kinematics
 from simx_server import limits as L
 from simx_server.arguments import quote
 from simx_server.script_facade import _int, _num, _text, _vector
@@ -361,7 +361,7 @@ class ObjectCalls:
     def getObjectVelocity(self, handle: Any) -> tuple[list[float], list[float]]:  # noqa: N802
         """``linearVelocity, angularVelocity`` of the object's origin in world axes (m/s, rad/s),
         as ``simxGetObjectVelocity``."""
-        v, w = sensors.object_velocity(self._simulation("getObjectVelocity"), self._h(handle))
+        v, w = kinematics.object_velocity(self._simulation("getObjectVelocity"), self._h(handle))
         return v.tolist(), w.tolist()
 
     # ------------------------------------------------------------------ forces

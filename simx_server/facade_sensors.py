@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from simx_client.protocol import ArgumentError, UnsupportedError
-from simx_server import sensors
+from simx_server import object_params, sensors
 from simx_server.arguments import quote
 from simx_server.script_facade import Signals, _int, _num, _text
 
@@ -153,24 +153,24 @@ class SensorCalls:
         """Integer parameter ``parameter`` (``sim.jointintparam_motor_enabled``,
         ``sim.visionintparam_resolution_x`` ...) of an object, as ``simxGetObjectIntParameter``
         reads it (CoppeliaSim 4). Errors: a parameter simx does not support (named)."""
-        return sensors.get_int_param(self._simulation("getObjectInt32Param"), self._h(handle),
+        return object_params.get_int_param(self._simulation("getObjectInt32Param"), self._h(handle),
                                      _int(parameter, "parameterID"))
 
     def setObjectInt32Param(self, handle: Any, parameter: Any, value: Any) -> None:  # noqa: N802
         """Set an integer parameter (CoppeliaSim 4), as ``simxSetObjectIntParameter``:
         ``sim.jointintparam_ctrl_enabled`` 0/1 switches velocity / position control."""
-        sensors.set_int_param(self._simulation("setObjectInt32Param"), self._h(handle),
+        object_params.set_int_param(self._simulation("setObjectInt32Param"), self._h(handle),
                               _int(parameter, "parameterID"), _int(value, "parameter"))
 
     def getObjectFloatParam(self, handle: Any, parameter: Any) -> float:  # noqa: N802
         """Float parameter of an object (CoppeliaSim 4), as ``simxGetObjectFloatParameter``
         (velocities 11-14 in m/s and rad/s, bounding box 15-20 in m, clipping planes ...)."""
-        return sensors.get_float_param(self._simulation("getObjectFloatParam"), self._h(handle),
+        return object_params.get_float_param(self._simulation("getObjectFloatParam"), self._h(handle),
                                        _int(parameter, "parameterID"))
 
     def setObjectFloatParam(self, handle: Any, parameter: Any, value: Any) -> None:  # noqa: N802
         """Set a float parameter (CoppeliaSim 4), as ``simxSetObjectFloatParameter``."""
-        sensors.set_float_param(self._simulation("setObjectFloatParam"), self._h(handle),
+        object_params.set_float_param(self._simulation("setObjectFloatParam"), self._h(handle),
                                 _int(parameter, "parameterID"), _num(value, "parameter"))
 
     def getObjectInt32Parameter(self, handle: Any, parameter: Any) -> tuple[int, int]:  # noqa: N802

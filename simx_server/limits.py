@@ -189,3 +189,9 @@ MAX_SCRIPT_OBJECT_NAME = 128
 #: (``sim.addForce``/``sim.addForceAndTorque``, summed over the step), as MAX_JOINT_FORCE bounds
 #: a joint's: far beyond any robot, small enough for MuJoCo's arithmetic.
 MAX_SCRIPT_FORCE = 1e8
+
+# ------------------------------------------------- joint motors (issue 12, part 1: motors.py)
+#: Largest proportional gain of a joint's position loop (``sim_jointfloatparam_pid_p``, 2002, in
+#: V-REP's units: the loop asks P x error per 5 ms). 1 asks the whole error in one V-REP
+#: dynamics step; simx's loop gain is P / 5 ms, capped at 1/dt in any case.
+MAX_PID_P = 1.0

@@ -15,12 +15,11 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnsupportedError
-from simx_server import limits as L
-from simx_server import physics
+from simx_server import motors, physics
 from simx_server.arguments import check_args as _args, quote
 from simx_server.collisions import collidable
 from simx_server.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
-from simx_server.world import _TYPE_NAMES, JOINT, POSITION_MODE, SHAPE, VELOCITY_MODE, VISION_SENSOR, World
+from simx_server.world import _TYPE_NAMES, JOINT, SHAPE, VISION_SENSOR, World
 
 if TYPE_CHECKING:
     from simx_server.simulation import Simulation
@@ -55,11 +54,10 @@ PARAM_NAMES = {
     3003: "sim_shapeintparam_static", 3004: "sim_shapeintparam_respondable",
     3005: "sim_shapefloatparam_mass",
 }
-_FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2005, 2018), 3005}
-_FLOAT_SET = {1000, 1001, 1004, 2017, 3005}
+_FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2002, 2018), 3005}
+_FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
 _INT_GET = {1002, 1003, 2000, 2001, 3003, 3004}
-_INT_SET = {2001}
-_PID = {2002, 2003, 2004}
+_INT_SET = {2000, 2001}
 
 
 def _pname(pid: int) -> str:
@@ -75,12 +73,6 @@ def _need(world: World, handle: int, otype: int, pid: int):
 
 
 def _unsupported(pid: int, kind: str, setting: bool) -> UnsupportedError:
-    verb = "set" if setting else "read"
-    if pid in _PID:
-        return UnsupportedError(
-            f"{_pname(pid)}: simx's joint position control is a proportional loop with a fixed gain "
-            f"(world.POSITION_GAIN 1/s) feeding MuJoCo velocity servos, not V-REP's PID; it cannot be "
-            f"{verb} (use sim_jointfloatparam_upper_limit (2017) for the velocity limit)")
     other = "int" if kind == "float" else "float"
     other_ids = (_INT_GET | _INT_SET) if kind == "float" else (_FLOAT_GET | _FLOAT_SET)
     if pid in other_ids:
@@ -126,11 +118,6 @@ def _bbox(world: World, handle: int, pid: int) -> tuple[np.ndarray, np.ndarray]:
     return allp.min(axis=0), allp.max(axis=0)
 
 
-def _joint_motor(world: World, handle: int, pid: int) -> int:
-    _need(world, handle, JOINT, pid)
-    return world.motor(handle)
-
-
 def get_float_param(sim: Simulation, handle: int, pid: int) -> float:
     """Value of float parameter ``pid`` of object ``handle``; see get_object_float_parameter."""
     world = sim.world
@@ -152,8 +139,9 @@ def get_float_param(sim: Simulation, handle: int, pid: int) -> float:
         return float(spec.near if pid == 1000 else spec.far)
     if pid == 3005:
         return float(world.model.body_mass[_need(world, handle, SHAPE, pid).mj_id])
-    if pid == 2017:
-        return float(world.max_velocity[_joint_motor(world, handle, pid)])
+    if pid in motors.FLOAT_PARAMS:
+        _need(world, handle, JOINT, pid)
+        return motors.get_param(world, handle, pid)
     obj = _need(world, handle, JOINT, pid)
     m, d = world.model, world.data
     jtype = int(m.jnt_type[obj.mj_id])
@@ -198,12 +186,9 @@ def set_float_param(sim: Simulation, handle: int, pid: int, value: float) -> Non
             spec.near, spec.far = near, far
         world.version += 1  # renders and normalised depth change
         return
-    if pid == 2017:
-        if not 0 < value <= L.MAX_JOINT_VELOCITY:
-            raise ArgumentError(f"{_pname(pid)}: the velocity limit must be > 0 and at most "
-                                f"{L.MAX_JOINT_VELOCITY:g} rad/s or m/s (simx_server.limits.MAX_JOINT_VELOCITY), "
-                                f"got {quote(value)}")
-        world.max_velocity[_joint_motor(world, handle, pid)] = value
+    if pid in motors.FLOAT_PARAMS:
+        _need(world, handle, JOINT, pid)
+        motors.set_param(world, handle, pid, value, _pname(pid))
         return
     # 3005: mass; the inertia scales with it (same shape, new density), as V-REP keeps it
     body = _need(world, handle, SHAPE, pid).mj_id
@@ -229,12 +214,9 @@ def get_int_param(sim: Simulation, handle: int, pid: int) -> int:
         _need(world, handle, VISION_SENSOR, pid)
         spec = sim.vision.spec(handle)
         return spec.width if pid == 1002 else spec.height
-    if pid in (2000, 2001):
+    if pid in motors.INT_PARAMS:
         _need(world, handle, JOINT, pid)
-        i = world.motor_index.get(handle)
-        if pid == 2000:
-            return int(i is not None)
-        return int(i is not None and world.mode[i] == POSITION_MODE)
+        return motors.get_param(world, handle, pid)
     obj = _need(world, handle, SHAPE, pid)
     m = world.model
     if pid == 3003:
@@ -252,14 +234,9 @@ def set_int_param(sim: Simulation, handle: int, pid: int, value: int) -> None:
             raise UnsupportedError(f"{_pname(pid)}: the resolution of a vision sensor is fixed when the scene "
                                    "loads (the MJCF camera's resolution attribute); it cannot change at run time")
         raise _unsupported(pid, "int", True)
-    # 2001: control loop on (position control) / off (velocity control)
-    i = _joint_motor(world, handle, pid)
-    if value not in (0, 1):
-        raise ArgumentError(f"{_pname(pid)}: value must be 1 (position control) or 0 (velocity control), "
-                            f"got {value}")
-    if value and world.mode[i] != POSITION_MODE:
-        world.target_position[i] = world.joint_position(handle)  # hold where it is
-    world.mode[i] = POSITION_MODE if value else VELOCITY_MODE
+    # 2000 motor enabled, 2001 control loop enabled: simx_server.motors
+    _need(world, handle, JOINT, pid)
+    motors.set_param(world, handle, pid, value, _pname(pid))
 
 
 def get_object_float_parameter(sim: Simulation, args: list) -> float:
@@ -270,9 +247,9 @@ def get_object_float_parameter(sim: Simulation, args: list) -> float:
     frame (m); vision sensors: 1000 near and 1001 far clipping (m), 1004 perspective angle
     (rad, the larger of the horizontal and vertical view angles, from the camera's fovy);
     joints: 2005-2007 intrinsic translation, 2008-2011 intrinsic quaternion (x, y, z, w),
-    2012 velocity (rad/s or m/s), 2013-2016 spherical joint quaternion, 2017 upper velocity
-    limit of the position loop (motorised joints); shapes: 3005 mass (kg). PID gains 2002-2004
-    and any other id -> UnsupportedError naming it.
+    2012 velocity (rad/s or m/s), 2013-2016 spherical joint quaternion, 2002-2004 PID gains and
+    2017 upper velocity of the motor (simx_server.motors.get_param); shapes: 3005 mass (kg).
+    Any other id -> UnsupportedError naming it.
     """
     h, pid = _args(args, "int", "int")
     return get_float_param(sim, h, pid)
@@ -283,8 +260,7 @@ def set_object_float_parameter(sim: Simulation, args: list) -> None:
 
     Settable: 1000 near / 1001 far clipping (m, 0 < near < far; they rescale the depth buffer
     and depth images at once), 1004 perspective angle (rad, in (0, pi); changes the camera's
-    fovy), 2017 upper velocity limit of a motorised joint (> 0 and at most
-    limits.MAX_JOINT_VELOCITY), 3005 mass of a shape (kg, within limits.MIN_MASS..MAX_MASS; its
+    fovy), 2002 P gain and 2017 upper velocity of a joint motor (simx_server.motors.set_param), 3005 mass of a shape (kg, within limits.MIN_MASS..MAX_MASS; its
     inertia scales along and must stay under limits.MAX_INERTIA). Values out of range, NaN and
     infinities -> ArgumentError naming the bound. Read-only ids and unknown ids -> UnsupportedError.
     """
@@ -295,8 +271,8 @@ def set_object_float_parameter(sim: Simulation, args: list) -> None:
 def get_object_int_parameter(sim: Simulation, args: list) -> int:
     """``simxGetObjectIntParameter`` [h, id] -> int.
 
-    Supported ids: vision sensors 1002/1003 resolution x/y (pixels); joints 2000 motor enabled
-    (1 when an actuator drives it), 2001 control loop enabled (1 in position control); shapes
+    Supported ids: vision sensors 1002/1003 resolution x/y (pixels); joints 2000 motor enabled,
+    2001 control loop enabled (1: position control when the motor is on); shapes
     3003 static (1 when welded to the world), 3004 respondable (1 when a geom has contype or
     conaffinity). Others -> UnsupportedError naming the id.
     """
@@ -307,8 +283,9 @@ def get_object_int_parameter(sim: Simulation, args: list) -> int:
 def set_object_int_parameter(sim: Simulation, args: list) -> None:
     """``simxSetObjectIntParameter`` [h, id, value] -> None.
 
-    Settable: 2001 control loop of a motorised joint (1: position control, holding the current
-    position; 0: velocity control). Resolutions (1002/1003) cannot change at run time and
+    Settable: 2000 motor enabled (0: free joint) and 2001 control loop enabled (1: position
+    control, holding the current position when it starts; 0: velocity control) of a joint
+    (simx_server.motors.set_param). Resolutions (1002/1003) cannot change at run time and
     other ids -> UnsupportedError with the reason.
     """
     h, pid, value = _args(args, "int", "int", "int")

@@ -8,9 +8,10 @@ handles in tree order, starting at 1, stable while the scene is loaded. A name t
 several kinds share is given out by :mod:`simx_server.naming` (``head``, ``head#0``, ...).
 
 Per-object settings that MJCF has no attribute for come from ``<custom><text name="simx:NAME"
-data="key=value ..."/></custom>``: a joint's ``mode`` (``position``/``velocity``/``passive``) and
-``max_velocity`` (rad/s or m/s), a vision sensor's ``image`` (``rgb``/``depth``), ``near`` and
-``far`` (m), an object's ``child_script`` (a file next to the scene).
+data="key=value ..."/></custom>``: a joint's ``mode`` (``position``/``velocity``/``passive``: the
+initial state of its motor, see :mod:`simx_server.motors`) and ``max_velocity`` (rad/s or m/s),
+a vision sensor's ``image`` (``rgb``/``depth``), ``near`` and ``far`` (m), an object's
+``child_script`` (a file next to the scene).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import numpy as np
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server import limits as L
-from simx_server import naming, physics
+from simx_server import motors, naming, physics
 from simx_server.rotations import (_frame_with_z, euler_from_matrix, matrix_from_euler,  # noqa: F401
                                    matrix_from_quaternion, quaternion_from_matrix)
 
@@ -50,12 +51,8 @@ _RESTORED_FIELDS = ("body_pos", "body_quat", "site_pos", "site_quat", "cam_pos",
 #: (nq, nv) of each mjtJoint: free, ball, slide, hinge.
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
 
-POSITION_MODE = 0
-VELOCITY_MODE = 1
-
-#: Gain (1/s) of the position loop that turns a position error into a target velocity.
-POSITION_GAIN = 20.0
 DEFAULT_MAX_VELOCITY = math.pi  # rad/s, used where a joint declares none
+POSITION_MODE, VELOCITY_MODE = 0, 1  # World.mode: a motor's control loop on / off
 # Bounds of the hot joint setters, as globals (one comparison each; see limits.py).
 _MAX_Q, _MAX_V, _MAX_F = L.MAX_JOINT_POSITION, L.MAX_JOINT_VELOCITY, L.MAX_JOINT_FORCE
 
@@ -105,8 +102,8 @@ class World:
             self.requested_dt = physics.check_dt(dt)  # s; the actual dt is a whole number of timesteps
         except ArgumentError as exc:
             raise ValueError(str(exc)) from None
-        try:
-            model = mujoco.MjModel.from_xml_path(str(self.scene_path))
+        try:  # through MjSpec: joints without an actuator get a (disabled) motor
+            model = motors.compile_spec(mujoco.MjSpec.from_file(str(self.scene_path)))
         except Exception as exc:
             raise ValueError(f"cannot load scene {self.scene_path}: {exc}") from exc
         self.version = 0  # bumped whenever the state changes (cache key for renders)
@@ -158,9 +155,7 @@ class World:
         """
         old_model, old_data = self.model, self.data
         joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
-        motors = {h: (self.mode[i], self.target_position[i], self.target_velocity[i],
-                      old_model.actuator_forcerange[self._motor_act[i]].copy())
-                  for h, i in self.motor_index.items()}
+        kept = {h: self.motors.state(i) for h, i in self.motor_index.items()}
         free = {o.name: int(old_model.body_jntadr[o.mj_id]) for o in self.objects.values()
                 if o.type == SHAPE and old_model.body_jntnum[o.mj_id] == 1
                 and old_model.jnt_type[old_model.body_jntadr[o.mj_id]] == mujoco.mjtJoint.mjJNT_FREE}
@@ -175,11 +170,11 @@ class World:
             nq, nv = _JOINT_SIZES[int(m.jnt_type[j])]
             d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + nq] = old_data.qpos[qadr:qadr + nq]
             d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + nv] = old_data.qvel[dadr:dadr + nv]
-        for h, (mode, target, velocity, forcerange) in motors.items():
+        for h, state in kept.items():
             i = self.motor_index.get(h)
             if i is not None:
-                self.mode[i], self.target_position[i], self.target_velocity[i] = mode, target, velocity
-                m.actuator_forcerange[self._motor_act[i]] = forcerange
+                self.motors.restore(i, state)
+        self.motors.write_force_limits(m)
         d.time = old_data.time
         self.changed()
 
@@ -307,35 +302,33 @@ class World:
 
     # ------------------------------------------------------------------ motors
     def _init_motors(self) -> None:
-        m = self.model
-        motor_of_joint = {}
-        for a in range(m.nu):
-            if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
-                motor_of_joint.setdefault(int(m.actuator_trnid[a, 0]), a)
-        joints = [o for o in self.objects.values() if o.type == JOINT and o.mj_id in motor_of_joint]
-        self.motor_index = {o.handle: i for i, o in enumerate(joints)}
-        self._motor_act = np.array([motor_of_joint[o.mj_id] for o in joints], dtype=int)
-        self._motor_qadr = np.array([m.jnt_qposadr[o.mj_id] for o in joints], dtype=int)
-        self._motor_dadr = np.array([m.jnt_dofadr[o.mj_id] for o in joints], dtype=int)
-        self._initial_mode = np.array(
-            [VELOCITY_MODE if o.settings.get("mode") == "velocity" else POSITION_MODE for o in joints],
-            dtype=int,
-        )
-        self.max_velocity = np.array(
-            [float(o.settings.get("max_velocity", DEFAULT_MAX_VELOCITY)) for o in joints])
-        self._initial_forcerange = m.actuator_forcerange[self._motor_act].copy()
-        self._kv = m.actuator_gainprm[self._motor_act, 0].copy()  # velocity-servo gain
-        for o in joints:
-            if m.actuator_gaintype[motor_of_joint[o.mj_id]] != mujoco.mjtGain.mjGAIN_FIXED:
-                log.warning("joint %r: its actuator is not a velocity servo", o.name)
+        joints = [(o.handle, o.mj_id, o.settings) for o in self.objects.values() if o.type == JOINT]
+        self.motors = motors.Motors(self.model, joints)
+
+    # The motor state, by motor number (see simx_server.motors).
+    motor_index = property(lambda self: self.motors.index, doc="joint handle -> motor number")
+    target_position = property(lambda self: self.motors.target_position, doc="rad or m, per motor")
+    target_velocity = property(lambda self: self.motors.target_velocity, doc="rad/s or m/s, per motor")
+    max_velocity = property(lambda self: self.motors.max_velocity, doc="upper velocity, per motor")
+    mode = property(lambda self: np.where(self.motors.loop, POSITION_MODE, VELOCITY_MODE),
+                    doc="control loop per motor, read-only: POSITION_MODE (loop on) or VELOCITY_MODE (off)")
 
     def motor(self, handle: int) -> int:
-        """Index of the motor of joint ``handle``; raises ObjectTypeError for a passive joint."""
+        """Index of the motor of joint ``handle``.
+
+        Raises ObjectTypeError for a ball/free joint, and for a joint moved through a tendon
+        (it has no motor of its own: the error names the tendon).
+        """
+        i = self.motors.index.get(handle)
+        if i is not None:
+            return i
         obj = self.get(handle, JOINT)
-        try:
-            return self.motor_index[handle]
-        except KeyError:
-            raise ObjectTypeError(f"joint {obj.name!r} has no motor (no actuator on it)") from None
+        self._scalar_joint(handle)  # spherical joints: V-REP's error
+        tendon = self.motors.tendon_of_joint.get(obj.mj_id)
+        if tendon is not None:
+            raise ObjectTypeError(f"joint {obj.name!r} has no motor of its own: an actuator drives it through "
+                                  f"tendon {tendon!r}, which simx does not control")
+        raise ObjectTypeError(f"joint {obj.name!r} has no motor")
 
     def reset(self) -> None:
         """Back to the initial state (``simxStopSimulation``): qpos0, targets at rest."""
@@ -343,10 +336,7 @@ class World:
             getattr(self.model, field)[:] = initial
         mujoco.mj_setConst(self.model, self.data)  # masses may have changed back
         mujoco.mj_resetData(self.model, self.data)
-        self.model.actuator_forcerange[self._motor_act] = self._initial_forcerange
-        self.mode = self._initial_mode.copy()
-        self.target_position = self.data.qpos[self._motor_qadr].copy()
-        self.target_velocity = np.zeros(len(self._motor_act))
+        self.motors.reset(self.model, self.data.qpos)
         self.data.ctrl[:] = 0.0
         self.changed()
 
@@ -365,28 +355,17 @@ class World:
     def step(self) -> None:
         """Advance one simulation step of ``dt`` s (all substeps inside MuJoCo).
 
-        Each motor is a velocity servo (force = kv * (v - qvel), clipped to its force range).
-        Velocity mode: v is the target velocity. Position mode, V-REP's control loop
-        v = clip(Kp * (target - q), -vmax, vmax): far from the target (more than vmax * dt
-        away) v is +-vmax for the whole step; closer, the servo becomes the linear law
-        force = kv * (Kp * (target - q) - qvel), which never exceeds vmax from there on.
-        Gains are written into the actuators once per step, so the substeps run in C.
+        Before the substeps, each joint motor's actuator gets the gain and bias of V-REP's law
+        for its mode (free joint, position control toward the target no faster than the upper
+        velocity, or velocity control; force limited), see :mod:`simx_server.motors`; the
+        substeps then run in C.
 
         Raises:
             physics.PhysicsError: MuJoCo found a NaN, infinite or huge position, velocity or
                 acceleration and reset the state (its warnings go to physics.SINK, not stdout).
         """
         m, d = self.model, self.data
-        act, kv = self._motor_act, self._kv
-        err = self.target_position - d.qpos[self._motor_qadr]
-        position = self.mode == POSITION_MODE
-        linear = position & (np.abs(err) <= self.max_velocity * self.dt)
-        saturated = position & ~linear
-        gain = np.where(linear, kv * POSITION_GAIN, kv)
-        m.actuator_gainprm[act, 0] = gain
-        m.actuator_biasprm[act, 1] = np.where(linear, -gain, 0.0)
-        d.ctrl[act] = np.where(linear, self.target_position,
-                               np.where(saturated, np.sign(err) * self.max_velocity, self.target_velocity))
+        self.motors.apply(m, d, self.dt)
         mujoco.mj_step(m, d, nstep=self.substeps)
         if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)
             raise physics.blow_up(m, d, self.time)
@@ -431,53 +410,62 @@ class World:
         self.changed()
 
     def set_joint_target_position(self, handle: int, position: float) -> None:
-        """Target of a position-mode joint (rad or m). ``simxSetJointTargetPosition``.
+        """Target position of a joint's motor (rad or m), stored whatever the mode; it acts
+        while the motor and its control loop are enabled. ``simxSetJointTargetPosition``.
 
-        Raises ObjectTypeError for a joint in velocity mode (V-REP ignores it; simx says so),
-        ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
+        Raises UnknownObjectError / ObjectTypeError (not a joint, spherical, driven through a
+        tendon), ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
         """
         i = self.motor(handle)
-        if self.mode.item(i) != POSITION_MODE:
-            raise ObjectTypeError(f"joint {self.objects[handle].name!r} is in velocity mode, "
-                                  "not position control: use simxSetJointTargetVelocity")
         if not -_MAX_Q <= position <= _MAX_Q:
             raise physics.out_of_range("target position", position, -_MAX_Q, _MAX_Q, "rad or m", "MAX_JOINT_POSITION")
-        self.target_position[i] = position
+        self.motors.target_position[i] = position
 
     def set_joint_target_velocity(self, handle: int, velocity: float) -> None:
-        """Target velocity of a velocity-mode joint (rad/s or m/s). ``simxSetJointTargetVelocity``.
+        """Target velocity of a joint's motor (rad/s or m/s), stored whatever the mode; it acts
+        while the motor is enabled and its control loop is not. ``simxSetJointTargetVelocity``.
 
-        Raises ArgumentError unless |velocity| <= limits.MAX_JOINT_VELOCITY.
+        Raises as set_joint_target_position; ArgumentError unless |velocity| <=
+        limits.MAX_JOINT_VELOCITY.
         """
         i = self.motor(handle)
-        if self.mode.item(i) != VELOCITY_MODE:
-            raise ObjectTypeError(f"joint {self.objects[handle].name!r} is in position control: "
-                                  "use simxSetJointTargetPosition")
         if not -_MAX_V <= velocity <= _MAX_V:
             raise physics.out_of_range("target velocity", velocity, -_MAX_V, _MAX_V, "rad/s or m/s",
                                        "MAX_JOINT_VELOCITY")
-        self.target_velocity[i] = velocity
+        self.motors.target_velocity[i] = velocity
 
     def set_joint_force(self, handle: int, force: float) -> None:
-        """Maximum force/torque of a joint's motor (N or N·m, sign ignored). ``simxSetJointForce``.
+        """Maximum force/torque of a joint's motor (N or N·m on the joint, sign ignored).
+        ``simxSetJointForce``.
 
         Raises ArgumentError unless |force| <= limits.MAX_JOINT_FORCE.
         """
-        a = self._motor_act[self.motor(handle)]
+        i = self.motor(handle)
         if not -_MAX_F <= force <= _MAX_F:
             raise physics.out_of_range("joint force", force, -_MAX_F, _MAX_F, "N or N·m", "MAX_JOINT_FORCE")
-        f = abs(float(force))
-        self.model.actuator_forcerange[a] = (-f, f)
+        self.motors.max_force[i] = abs(float(force))
+        self.motors.write_force_limits(self.model)
 
     def joint_max_force(self, handle: int) -> float:
         """Maximum force/torque of a joint's motor (N or N·m)."""
-        return float(self.model.actuator_forcerange[self._motor_act[self.motor(handle)], 1])
+        return float(self.motors.max_force[self.motor(handle)])
+
+    def set_motor_flags(self, handle: int, enabled: bool | None = None, loop: bool | None = None) -> None:
+        """Motor on/off (``sim_jointintparam_motor_enabled``, 2000) and control loop on/off
+        (``sim_jointintparam_ctrl_enabled``, 2001) of a joint. As in V-REP the targets are
+        kept: turning the loop on drives the joint toward the stored target position."""
+        i = self.motor(handle)
+        if enabled is not None:
+            self.motors.enabled[i] = enabled
+        if loop is not None:
+            self.motors.loop[i] = loop
 
     def joint_force(self, handle: int) -> float:
-        """Force/torque the joint's motor applies now (N or N·m). ``simxGetJointForce``."""
+        """Force/torque the joint's motor applies now (N or N·m on the joint). ``simxGetJointForce``."""
         _, dadr = self._scalar_joint(handle)
-        if handle in self.motor_index:
-            return float(self.data.actuator_force[self._motor_act[self.motor_index[handle]]])
+        i = self.motors.index.get(handle)
+        if i is not None:
+            return float(self.data.actuator_force[self.motors.act[i]]) * float(self.motors.gear[i])
         return float(self.data.qfrc_constraint[dadr])
 
     # ------------------------------------------------------------------- poses

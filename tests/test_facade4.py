@@ -18,7 +18,7 @@ import pytest
 
 from conftest import ROOT, SCENE, ServerProcess, wait_until
 from simx_client.protocol import ArgumentError, ScriptError
-from simx_server import sensors
+from simx_server import kinematics
 from simx_server.facade import FACADE_FUNCTIONS, ScriptSim
 from simx_server.simulation import Simulation
 
@@ -167,15 +167,15 @@ def test_renamed_free_and_mocap_bodies_keep_their_state(sim):
     facade.setObjectPosition(mark, [1.5, -2.5, 0.5])  # a mocap pose, set at run time
     for _ in range(3):
         sim.step()
-    pos, vel = sim.world.position(cube, -1), sensors.object_velocity(sim, cube)[0]
+    pos, vel = sim.world.position(cube, -1), kinematics.object_velocity(sim, cube)[0]
     facade.setObjectName(cube, "Box7")
     facade.setObjectAlias(mark, "Marker")
     assert sim.world.resolve("Box7").handle == cube and sim.world.resolve("Marker").handle == mark
     assert sim.world.position(cube, -1) == pytest.approx(pos)
-    assert sensors.object_velocity(sim, cube)[0] == pytest.approx(vel)
+    assert kinematics.object_velocity(sim, cube)[0] == pytest.approx(vel)
     assert sim.world.position(mark, -1) == pytest.approx([1.5, -2.5, 0.5])
     sim.step()  # still falling, from where it was
-    assert sensors.object_velocity(sim, cube)[0][2] == pytest.approx(vel[2] - G * sim.world.dt, rel=0.01)
+    assert kinematics.object_velocity(sim, cube)[0][2] == pytest.approx(vel[2] - G * sim.world.dt, rel=0.01)
     dummy = facade.createDummy()  # CoppeliaSim 4's default size
     assert sim.world.model.site_size[sim.world.get(dummy).mj_id][0] == pytest.approx(0.0025)
 
@@ -188,7 +188,7 @@ def test_object_velocity_of_a_falling_body(sim, api):
     _, vw, _, _ = call(sim, api, "velocity", [cube])
     t = sim.world.time
     assert vw[2] == pytest.approx(-G * t, rel=0.01)
-    v, w = sensors.object_velocity(sim, cube)
+    v, w = kinematics.object_velocity(sim, cube)
     assert vw == pytest.approx(v.tolist() + w.tolist())
 
 
@@ -236,10 +236,10 @@ def test_add_force_and_torque_acts_for_one_step(sim, api):
     dt = sim.world.dt
     call(sim, api, "force", [cube, 0], [0, 0, 2 * G, 0, 0, 0])  # twice its weight, up
     sim.step()
-    v1 = sensors.object_velocity(sim, cube)[0][2]
+    v1 = kinematics.object_velocity(sim, cube)[0][2]
     assert v1 == pytest.approx(G * dt, rel=0.02)  # it rose
     sim.step()  # the force is gone: gravity alone
-    assert sensors.object_velocity(sim, cube)[0][2] == pytest.approx(v1 - G * dt, abs=0.01)
+    assert kinematics.object_velocity(sim, cube)[0][2] == pytest.approx(v1 - G * dt, abs=0.01)
 
 
 @pytest.mark.parametrize("api", APIS)
@@ -249,7 +249,7 @@ def test_add_force_off_centre_turns_the_body(sim, api):
     call(sim, api, "force", [cube, 1], [0.05, 0, 0, 0, 10, 0])  # 10 N along y, 5 cm along x
     call(sim, api, "force", [cube, 1], [0.05, 0, 0, 0, 10, 0])  # forces add up: 20 N
     sim.step()
-    v, w = sensors.object_velocity(sim, cube)
+    v, w = kinematics.object_velocity(sim, cube)
     izz = sim.world.model.body_inertia[sim.world.get(cube).mj_id][2]
     assert v[1] == pytest.approx(20 * dt, rel=0.02)
     assert w[2] == pytest.approx(20 * 0.05 * dt / izz, rel=0.05)
@@ -258,7 +258,7 @@ def test_add_force_off_centre_turns_the_body(sim, api):
     with pytest.raises(ScriptError, match=r"within \+/-1e\+08 N .*MAX_SCRIPT_FORCE"):
         call(sim, api, "force", [cube, 0], [0, 0, 0, 1e9, 0, 0])
     sim.step()  # the refused torque was not applied
-    assert sensors.object_velocity(sim, cube)[1][0] == pytest.approx(0.0, abs=1e-9)
+    assert kinematics.object_velocity(sim, cube)[1][0] == pytest.approx(0.0, abs=1e-9)
 
 
 # ----------------------------------------------------------------------- sensors

@@ -98,9 +98,12 @@ def test_wrong_handle_type_is_remote_error(vrep_client):
     cam = handle(vrep_client, "kinect_rgb")
     assert vrep.simxGetVisionSensorImage(vrep_client, ur5, 0, B) == (8, [], [])
     gripper = handle(vrep_client, "RG2_openCloseJoint")
-    # Velocity-mode joint: a target position is an error, not a silent no-op (and the reverse).
-    assert vrep.simxSetJointTargetPosition(vrep_client, gripper, 0.01, B) == 8
-    assert vrep.simxSetJointTargetVelocity(vrep_client, handle(vrep_client, "UR5_joint1"), 0.1, B) == 8
+    # Targets of the other mode are stored, as V-REP stores them (they act once the mode changes);
+    # a target on an object that is not a joint is the error.
+    assert vrep.simxSetJointTargetPosition(vrep_client, gripper, 0.0, B) == 0
+    assert vrep.simxSetJointTargetVelocity(vrep_client, handle(vrep_client, "UR5_joint1"), 0.0, B) == 0
+    assert vrep.simxSetJointTargetPosition(vrep_client, ur5, 0.01, B) == 8
+    assert vrep.simxSetJointTargetVelocity(vrep_client, ur5, 0.1, B) == 8
     assert vrep.simxGetVisionSensorImage(vrep_client, cam, 0, B)[0] == 0
 
 

@@ -344,13 +344,14 @@ def test_joint_and_shape_parameters(sim):
     assert sim.world.max_velocity[sim.world.motor(hinge)] == 0.5
     with pytest.raises(ObjectTypeError):
         P.get_object_float_parameter(sim, [ball, 2017])  # no motor
+    assert P.get_object_float_parameter(sim, [hinge, 2002]) == 0.1  # V-REP's default P gain
     with pytest.raises(UnsupportedError, match="proportional"):
-        P.get_object_float_parameter(sim, [hinge, 2002])
+        P.set_object_float_parameter(sim, [hinge, 2003, 0.1])
     assert [P.get_object_int_parameter(sim, [hinge, p]) for p in (2000, 2001)] == [1, 1]
     assert [P.get_object_int_parameter(sim, [ball, p]) for p in (2000, 2001)] == [0, 0]
     P.set_object_int_parameter(sim, [hinge, 2001, 0])  # control loop off: velocity control
     assert P.get_object_int_parameter(sim, [hinge, 2001]) == 0
-    sim.world.set_joint_target_velocity(hinge, 1.0)  # accepted only in velocity mode
+    sim.world.set_joint_target_velocity(hinge, 1.0)  # stored in any mode, as V-REP does
     with pytest.raises(ArgumentError):
         P.set_object_int_parameter(sim, [hinge, 2001, 2])
     a = H(sim, "blockA")

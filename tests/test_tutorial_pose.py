@@ -68,14 +68,16 @@ def joint_positions(cid: int, handles: list[int]) -> list[float]:
 
 
 def rotate_all_angle(cid: int, handles: list[int], degrees: list[float], timeout: float = 60.0) -> None:
-    """The tutorial's rotateAllAngle, then wait until every joint is within 0.5 deg of its target."""
+    """The tutorial's rotateAllAngle, then wait until every joint is within 0.1 deg of its target
+    (settled: the motors hold their targets under gravity; at 0.5 deg the arm is still creeping in
+    and an image taken then is a few pixels behind)."""
     targets = [math.radians(a) for a in degrees]
     vrep.simxPauseCommunication(cid, True)
     for h, t in zip(handles, targets):
         vrep.simxSetJointTargetPosition(cid, h, t, ONESHOT)
     vrep.simxPauseCommunication(cid, False)
     def reached() -> bool:
-        return all(abs(a - t) <= math.radians(0.5) for a, t in zip(joint_positions(cid, handles), targets))
+        return all(abs(a - t) <= math.radians(0.1) for a, t in zip(joint_positions(cid, handles), targets))
 
     wait_until(reached, timeout, 0.05, lambda: f"arm at {degrees} deg (it is at "
                f"{[round(math.degrees(a), 2) for a in joint_positions(cid, handles)]} deg)")
