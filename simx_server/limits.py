@@ -172,3 +172,10 @@ LOG_TEMPLATE_BURST = 100
 LOG_REPEAT_INTERVAL = 10.0
 #: Windows (texts and templates) tracked at once (the least recently seen are forgotten).
 LOG_REPEAT_KEYS = 1024
+
+# ----------------------------------------------------------------- vision sensors (issue 12, parts 4-5)
+#: s the simulation thread waits for the render thread to make a scene's renderers (GL
+#: contexts and one warm-up frame per sensor) when the server starts and when a scene loads or
+#: changes while the simulation is stopped; past it the simulation goes on and the first images
+#: come later. A software renderer needs about 0.2-0.5 s for the bundled scene.
+VISION_READY_TIMEOUT = 10.0
