@@ -122,15 +122,26 @@ class _RenderThread:
         self.model: mujoco.MjModel | None = None  # the model the renderers were made for
         self.newest: mujoco.MjModel | None = None  # set on the simulation thread: the latest scene
         self.option: mujoco.MjvOption | None = None
+        self.failure: str | None = None  # why no GL context can be made: not tried again
 
     def renderer(self, model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-        """The renderer of this size for ``model``, made now if needed (render thread)."""
+        """The renderer of this size for ``model``, made now if needed (render thread).
+
+        Raises RuntimeError once a renderer could not be made (no usable GL platform): a
+        second attempt after a failed one can abort the process (GLFW without a display)."""
+        if self.failure is not None:
+            raise RuntimeError(f"vision sensors cannot render here: {self.failure}")
         if model is not self.model:
             self.free()
             self.model = model
         r = self.renderers.get((width, height))
         if r is None:
-            r = self.renderers[(width, height)] = mujoco.Renderer(model, height, width)
+            try:
+                r = mujoco.Renderer(model, height, width)
+            except Exception as exc:
+                self.failure = f"{type(exc).__name__}: {exc}"
+                raise
+            self.renderers[(width, height)] = r
         if self.option is None:
             self.option = sensor_option()
         return r

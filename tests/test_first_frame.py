@@ -112,3 +112,37 @@ def test_after_load_scene_and_edit_within_two_steps(fresh):
     assert vrep.simxStartSimulation(reader, BLOCKING) == vrep.simx_return_ok
     after_edit = first_frame_steps(reader, clock, camera)
     print("after load, after edit (steps, wall s):", after_load, after_edit)
+
+
+def test_without_a_gl_platform_images_fail_cleanly(tmp_path):
+    """Renderers made at load fail where there is no GL (GLFW without a display): logged once,
+    and every image request then fails with the reason, without trying again (a second
+    attempt aborted the process)."""
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "nogl.py"
+    script.write_text(f"""
+import logging
+logging.basicConfig(level=logging.WARNING)
+from simx_server.simulation import Simulation
+sim = Simulation({str(SCENE)!r})
+assert sim.vision.wait_ready(30)
+handle = sorted(sim.vision.specs)[0]
+for _ in range(2):
+    try:
+        sim.vision.image_bytes(handle, 0)
+    except RuntimeError as exc:
+        print("refused:", exc)
+sim.close()
+""")
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["MUJOCO_GL"] = "glfw"
+    done = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=60,
+                          cwd=str(ROOT))
+    if "cannot prepare the renderers" not in done.stderr:
+        pytest.skip("GLFW renders here (a display or a GLFW that needs none)")
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.count("refused: vision sensors cannot render here") == 2, done.stdout
+    assert done.stderr.count("cannot prepare the renderers") == 1
