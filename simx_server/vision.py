@@ -34,7 +34,10 @@ and one warm-up frame per sensor are made on the render thread as soon as a scen
 model changes (an edit), not on the first request: the first streamed image is in the client's
 inbox within a step or two of the streaming call. The render thread and its contexts live
 as long as the server; a new scene or an edit hands them over (``previous=``) and they are
-rebuilt for the new model in submission order, without blocking the simulation thread.
+rebuilt for the new model in submission order. The simulation thread waits for them
+(:meth:`VisionSensors.wait_ready`) only while the simulation is stopped: before the server
+starts it, and on a scene load or an edit made while stopped. An edit while it runs does not
+wait; images asked for meanwhile come once the renderers are rebuilt (0.1-0.45 s on llvmpipe).
 """
 
 from __future__ import annotations
