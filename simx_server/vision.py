@@ -359,5 +359,6 @@ class VisionSensors:
         owner, self._owner = self._owner, False
         self._cache.clear()
         if owner:
+            self._thread.newest = None  # a preparation not started yet is skipped
             self._executor.submit(self._thread.free)
             self._executor.shutdown(wait=True)
