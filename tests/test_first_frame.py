@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from tests.conftest import ROOT, SCENE, ServerProcess, free_port
+from conftest import ROOT, SCENE, ServerProcess, free_port
 
 vrep = pytest.importorskip("vrep")
 

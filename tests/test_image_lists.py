@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from simx_client.images import ImageList
-from tests.conftest import wait_until
+from conftest import wait_until
 
 # Every byte value, a few times: -128..127 as vrep.py's c_byte list held them.
 RAW = np.arange(256, dtype=np.uint8).repeat(3)
