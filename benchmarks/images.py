@@ -41,6 +41,8 @@ import json
 import math
 import time
 
+import numpy as np
+
 from benchmarks.common import Floor, Settings, connect, interleaved, perf, wire_sizes
 from benchmarks.procs import SCENE, Echo, Server
 from benchmarks.stats import Figure, Target, rate_summary, scaled, summary
@@ -107,7 +109,7 @@ def run(s: Settings) -> list[Figure]:
     finally:
         sim.close()
     frames = json.loads(probe_log.read_text())["frames"]
-    return _figures(raw, frames)
+    return _figures(raw, frames) + _first_frames(s)
 
 
 def _server_frame(frames: list, kind: str, a: float, b: float) -> float:
@@ -170,7 +172,16 @@ def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
     def rgb_cached() -> None:
         _check(api.simxGetVisionSensorImage(cid, rgb, 0, B)[0], "simxGetVisionSensorImage")
 
+    # np.array on the returned lists (simx_client.images.ImageList) against plain lists of the
+    # same values. NumPy 2 refuses np.array(plain, dtype=np.uint8) on negative ints
+    # (OverflowError), so the plain rgb list goes through int64 first, as a NumPy 2 user must.
+    img_list, dep_list = api._image([res, img_bytes])[1], api._depth([res, dep_bytes])[1]
+    img_plain, dep_plain = list(img_list), list(dep_list)
     cases = {
+        "rgb_np": lambda: np.array(img_list, dtype=np.uint8),
+        "rgb_np_plain": lambda: np.array(img_plain).astype(np.uint8),
+        "dep_np": lambda: np.array(dep_list, dtype=np.float32),
+        "dep_np_plain": lambda: np.array(dep_plain, dtype=np.float32),
         "rgb_call": rgb_call,
         "rgb_cached": rgb_cached,
         "rgb_render": rgb_render,
@@ -237,6 +248,14 @@ def _figures(raw: dict, frames: list) -> list[Figure]:
         Figure("images.depth_convert", "  conversion to the legacy list (client)", "ms", ms["dep_convert"],
                floor=legacy_dep, target=Target("ratio", "<=", 0.2, "<= 0.2x copy (5x faster)")),
         Figure("images.depth_legacy_copy", "legacy binding: 307,200 c_float -> list copy", "ms", ms["dep_legacy"]),
+        Figure("images.rgb_np_uint8", "np.array(image, dtype=np.uint8), 640x480 rgb list", "ms", ms["rgb_np"],
+               floor={"label": "plain list of the same values: np.array(plain).astype(np.uint8)",
+                      **ms["rgb_np_plain"]},
+               target=Target("value", "<", 1.0, "< 1 ms"),
+               note="NumPy 2 raises OverflowError for np.array(plain, dtype=np.uint8)"),
+        Figure("images.depth_np_float32", "np.array(depth, dtype=np.float32), 640x480 depth list", "ms",
+               ms["dep_np"], floor={"label": "plain list of the same values", **ms["dep_np_plain"]},
+               target=Target("value", "<", 1.0, "< 1 ms")),
     ]
     return figs + raw["stream"]
 
@@ -274,3 +293,30 @@ def _streaming(s: Settings, cid: int, rgb: int) -> list[Figure]:
                     f"(real time = 20); frames per step {len(frames) - 1}/{steps:.0f}",
                extra={"frames": len(frames), "wall_s": wall, "sim_steps_per_s": step_rate, "fps_count": fps}),
     ]
+
+
+def _first_frames(s: Settings) -> list[Figure]:
+    """A fresh server each round (simulation running, dt 50 ms): ``simx_opmode_streaming`` on
+    ``kinect_rgb``, then ``buffer`` polled every ~1 ms; wall time to the first image."""
+    times = []
+    for _ in range(s.n(6, 2)):
+        srv = Server(s.log_dir, name="first-frame")
+        try:
+            cid = connect(srv.port)
+            try:
+                rgb = api.simxGetObjectHandle(cid, "kinect_rgb", B)[1]
+                t0 = perf()
+                api.simxGetVisionSensorImage(cid, rgb, 0, STREAM)
+                deadline = time.monotonic() + 10
+                while api.simxGetVisionSensorImage(cid, rgb, 0, BUFFER)[0] != 0:
+                    if time.monotonic() > deadline:
+                        raise RuntimeError("no streamed image within 10 s")
+                    time.sleep(0.001)
+                times.append(perf() - t0)
+            finally:
+                api.simxFinish(cid)
+        finally:
+            srv.stop()
+    return [Figure("images.first_frame", "fresh server: streaming call -> first rgb 640x480 in buffer", "ms",
+                   scaled(summary(times), 1e3), target=Target("value", "<=", 100.0, "<= 2 steps (100 ms)"),
+                   note=f"{len(times)} fresh servers; the renderers are made before the simulation starts")]

@@ -18,6 +18,7 @@ that have no return code (``simxPackInts``, ``simxPackFloats``, ``simxCreateBuff
 from __future__ import annotations
 
 import atexit
+import copy
 import logging
 import struct
 import threading
@@ -28,6 +29,7 @@ import numpy as np
 from simx_client import constants as C
 from simx_client import protocol as P
 from simx_client.connection import DEFAULT_BLOCKING_TIMEOUT, Connection, wait_connect
+from simx_client.images import ImageList
 
 log = logging.getLogger("simx.client")
 
@@ -375,31 +377,41 @@ def simxGetJointMaxForce(clientID, jointHandle, operationMode):
 _SIGNED_BYTES = np.array([*range(128), *range(-128, 0)], dtype=object)
 
 
-def _image(value: list) -> tuple[list[int], list[int]]:
-    """``[resolution, bytes]`` -> ``(resolution, flat list of signed bytes)``, as vrep.py gave."""
+def _image(value: list) -> tuple[list[int], ImageList]:
+    """``[resolution, bytes]`` -> ``(resolution, flat list of signed bytes)``, as vrep.py gave;
+    the list keeps the bytes as int8 for ``np.array`` (:class:`simx_client.images.ImageList`)."""
     resolution, data = value
-    return list(resolution), _SIGNED_BYTES.take(np.frombuffer(data, dtype=np.uint8)).tolist()
+    signed = np.frombuffer(data, dtype=np.int8)
+    return list(resolution), ImageList.wrap(_SIGNED_BYTES.take(signed.view(np.uint8)).tolist(), signed)
 
 
-def _copy_image(value: tuple[list, list]) -> tuple[list, list]:
-    return value[0][:], value[1][:]
+def _copy_image(value: tuple[list, ImageList]) -> tuple[list, ImageList]:
+    return value[0][:], copy.copy(value[1])
 
 
 def simxGetVisionSensorImage(clientID, sensorHandle, options, operationMode):
     """``(returnCode, [resX, resY], image)``: a flat list of signed bytes (-128..127), rows
-    bottom-up, R, G, B (options bit 0 = 1: one grey byte per pixel)."""
+    bottom-up, R, G, B (options bit 0 = 1: one grey byte per pixel), as vrep.py returned.
+
+    The list is an :class:`simx_client.images.ImageList`: an ordinary list to every reader,
+    whose ``np.array(image, dtype=np.uint8)`` gives the unsigned bytes as NumPy 1 did (NumPy 2
+    raises OverflowError on a plain list of negative ints) in well under a millisecond;
+    ``np.array(image)`` is int64 as for a plain list."""
     rc, value = _command(clientID, "GetVisionSensorImage", lambda: [_int(sensorHandle), _int(options) & 1],
                          operationMode, _image, None, memo=_copy_image)
     return (rc, [], []) if value is None else (rc, *value)
 
 
-def _depth(value: list) -> tuple[list[int], list[float]]:
+def _depth(value: list) -> tuple[list[int], ImageList]:
     resolution, data = value
-    return list(resolution), np.frombuffer(data, dtype=np.float32).tolist()
+    floats = np.frombuffer(data, dtype=np.float32)
+    return list(resolution), ImageList.wrap(floats.tolist(), floats)
 
 
 def simxGetVisionSensorDepthBuffer(clientID, sensorHandle, operationMode):
-    """``(returnCode, [resX, resY], buffer)``: resX*resY floats in 0..1 (near..far, linear), rows bottom-up."""
+    """``(returnCode, [resX, resY], buffer)``: resX*resY floats in 0..1 (near..far, linear), rows
+    bottom-up. The list is an :class:`simx_client.images.ImageList` (``np.array(buffer)`` is
+    float64 as for a plain list, in well under a millisecond)."""
     rc, value = _command(clientID, "GetVisionSensorDepthBuffer", lambda: [_int(sensorHandle)],
                          operationMode, _depth, None, memo=_copy_image)
     return (rc, [], []) if value is None else (rc, *value)

@@ -107,6 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, stop)
     served = threading.Event()
     _watch_signals(server, served)
+    sim.vision.wait_ready(limits.VISION_READY_TIMEOUT)  # the renderers exist before the first request
     if not args.stopped:
         sim.start()
     print(f"simx-server ready: scene {scene.name}, {len(sim.world.objects)} objects, "

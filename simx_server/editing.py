@@ -49,7 +49,7 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
-from simx_server import motors
+from simx_server import limits, motors
 from simx_server import scene_guard as guard
 from simx_server.arguments import check_args as _args
 from simx_server.arguments import quote
@@ -332,9 +332,14 @@ def _one_line(exc: Exception) -> str:
 
 
 def refresh_vision(sim: Simulation) -> None:
-    """Close the vision sensors' renderers (bound to the old model) and build new ones."""
-    sim.vision.close()
-    sim.vision = VisionSensors(sim.world)
+    """New vision sensors for the changed model; they take over the render thread, whose
+    renderers are rebuilt for the new model at once, on that thread. While the simulation is
+    stopped (a scene load) this waits for them: the first image after the start is at once."""
+    from simx_server.simulation import RunState  # late: simulation imports this module
+
+    sim.vision = VisionSensors(sim.world, previous=sim.vision)
+    if sim.state is RunState.STOPPED:
+        sim.vision.wait_ready(limits.VISION_READY_TIMEOUT)
 
 
 # --------------------------------------------------------------------------- editor
@@ -821,9 +826,8 @@ class Editor:
             text = self._scrub(_one_line(exc))
             text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix
             raise RemoteError(f"cannot load scene {label}: {text}") from None
-        sim.vision.close()
         sim.world, sim.scripts = world, scripts
-        sim.vision = VisionSensors(world)
+        refresh_vision(sim)
         sim.sensors = type(sim.sensors)()  # per-scene sensor state (probes, passive images) starts afresh
         self._spec = self._spec_world = self._baseline = None
         if spec is not None:

@@ -195,3 +195,10 @@ MAX_SCRIPT_FORCE = 1e8
 #: V-REP's units: the loop asks P x error per 5 ms). 1 asks the whole error in one V-REP
 #: dynamics step; simx's loop gain is P / 5 ms, capped at 1/dt in any case.
 MAX_PID_P = 1.0
+
+# ----------------------------------------------------------------- vision sensors (issue 12, parts 4-5)
+#: s the simulation thread waits for the render thread to make a scene's renderers (GL
+#: contexts and one warm-up frame per sensor) when the server starts and when a scene loads or
+#: changes while the simulation is stopped; past it the simulation goes on and the first images
+#: come later. A software renderer needs about 0.2-0.5 s for the bundled scene.
+VISION_READY_TIMEOUT = 10.0

@@ -14,18 +14,37 @@ reflections, whatever the scene's lights and materials say; ``shadows=true`` and
 mode did). On a software renderer shadows are most of the cost of a frame (llvmpipe, 640x480:
 about 15 ms of 20 for the UR5 scene's sun).
 
+A V-REP vision sensor sees the scene's shapes only: sensors render with MuJoCo's
+visualisation extras off (rangefinder rays, contact points and forces, joints, actuators,
+tendons, lights, cameras, frames, labels, centres of mass, inertia boxes, constraints,
+perturbation markers, bounding volumes) and without sites (simx's dummies, which V-REP's sensors
+do not see either). Geoms of groups 0-2 (MuJoCo's default visible groups), textures, skins,
+flexes, the skybox and haze stay as the scene's author set them.
+
 Frames are rendered on demand and cached until the world changes (one render per
 simulation step per sensor, however many clients ask). Rendering runs on a thread of its own,
 which owns the GL contexts, from a copy of ``MjData`` taken on the simulation thread: a slow
 software renderer delays the image, not the physics nor the other clients. Images leave here
 as ``bytes`` in V-REP's layout: rows bottom-up, RGB, 8 bits; depth as float32 in 0..1 (linear
 between near and far).
+
+V-REP rendered every sensor every step, so a program's first streamed image came at once. Here
+the renderers (a GL context and MuJoCo's ``MjrContext``, about 0.2 s on a software renderer)
+and one warm-up frame per sensor are made on the render thread as soon as a scene loads or its
+model changes (an edit), not on the first request: the first streamed image is in the client's
+inbox within a step or two of the streaming call. The render thread and its contexts live
+as long as the server; a new scene or an edit hands them over (``previous=``) and they are
+rebuilt for the new model in submission order. The simulation thread waits for them
+(:meth:`VisionSensors.wait_ready`) only while the simulation is stopped: before the server
+starts it, and on a scene load or an edit made while stopped. An edit while it runs does not
+wait; images asked for meanwhile come once the renderers are rebuilt (0.1-0.45 s on llvmpipe).
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import logging
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable
 
@@ -36,8 +55,32 @@ from simx_client.protocol import ArgumentError
 from simx_server.physics import check_resolution
 from simx_server.world import VISION_SENSOR, World
 
+log = logging.getLogger("simx.vision")
+
 DEFAULT_RESOLUTION = (256, 256)
 DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10.0
+
+#: MuJoCo's visualisation flags a sensor keeps on (everything else, rays, contacts, joints...,
+#: is off): the scene's own appearance. mjVIS_STATIC draws the world body's geoms.
+_SCENE_FLAGS = ("mjVIS_TEXTURE", "mjVIS_STATIC", "mjVIS_SKIN", "mjVIS_FLEXEDGE", "mjVIS_FLEXSKIN")
+
+
+def sensor_option() -> mujoco.MjvOption:
+    """The ``MjvOption`` sensors render with: what a V-REP vision sensor sees, the scene only.
+
+    MuJoCo's defaults with every visualisation extra off (``_SCENE_FLAGS`` kept), no frames
+    nor labels, and no sites; geom, skin and flex groups as MuJoCo's defaults (0-2 visible).
+    """
+    option = mujoco.MjvOption()
+    for name in dir(mujoco.mjtVisFlag):
+        if name.startswith("mjVIS_"):
+            option.flags[getattr(mujoco.mjtVisFlag, name)] = name in _SCENE_FLAGS
+    option.frame = mujoco.mjtFrame.mjFRAME_NONE
+    option.label = mujoco.mjtLabel.mjLABEL_NONE
+    option.sitegroup[:] = 0
+    for groups in (option.jointgroup, option.tendongroup, option.actuatorgroup):
+        groups[:] = 0
+    return option
 
 
 @dataclasses.dataclass
@@ -71,21 +114,76 @@ class Deferred:
         self.future = future
 
 
+class _RenderThread:
+    """The render thread and the state only it touches: the renderers (one GL context and
+    ``MjrContext`` per resolution), bound to one model. Shared by the successive VisionSensors
+    of a server (scene loads, edits); jobs run in the order they were submitted."""
+
+    def __init__(self) -> None:
+        self.executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="simx-render")
+        self.renderers: dict[tuple[int, int], mujoco.Renderer] = {}  # render thread only
+        self.model: mujoco.MjModel | None = None  # the model the renderers were made for
+        self.newest: mujoco.MjModel | None = None  # set on the simulation thread: the latest scene
+        self.option: mujoco.MjvOption | None = None
+        self.failure: str | None = None  # why no GL context can be made: not tried again
+
+    def renderer(self, model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+        """The renderer of this size for ``model``, made now if needed (render thread).
+
+        Raises RuntimeError once a renderer could not be made (no usable GL platform): a
+        second attempt after a failed one can abort the process (GLFW without a display)."""
+        if self.failure is not None:
+            raise RuntimeError(f"vision sensors cannot render here: {self.failure}")
+        if model is not self.model:
+            self.free()
+            self.model = model
+        r = self.renderers.get((width, height))
+        if r is None:
+            try:
+                r = mujoco.Renderer(model, height, width)
+            except Exception as exc:
+                self.failure = f"{type(exc).__name__}: {exc}"
+                raise
+            self.renderers[(width, height)] = r
+        if self.option is None:
+            self.option = sensor_option()
+        return r
+
+    def free(self) -> None:
+        """Free every GL context (render thread)."""
+        for r in self.renderers.values():
+            try:
+                r.close()
+            except Exception:  # a context already torn down by the driver
+                pass
+        self.renderers.clear()
+        self.model = None
+
+
 class VisionSensors:
     """The scene's vision sensors.
 
     Methods are called on the simulation thread; rendering happens on one render thread (a
-    single-worker executor, so jobs run in the order they were submitted). Call close() when done.
+    single-worker executor, so jobs run in the order they were submitted). The renderers for
+    the scene's sensors are made at once, on that thread (see :meth:`wait_ready`). ``previous``
+    is the VisionSensors of the scene this one replaces (a load, an edit): its render thread and
+    contexts are taken over, and ``previous`` must not be used afterwards. Call close() when done.
     """
 
-    def __init__(self, world: World):
+    def __init__(self, world: World, previous: VisionSensors | None = None):
         self.world = world
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="simx-render")
-        self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}  # render thread only
+        if previous is not None and previous._owner:
+            self._thread, previous._owner = previous._thread, False  # its pending jobs still run
+            previous._cache.clear()
+        else:
+            self._thread = _RenderThread()
+        self._owner = True  # closes the render thread (unless it hands it over)
+        self._executor = self._thread.executor
         self._cache: dict[tuple[int, str], tuple[int, Future]] = {}
         self._snapshot: tuple[int, mujoco.MjData] | None = None
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
+        self._ready = self._prepare()
 
     def reset(self) -> None:
         """(Re)read every sensor's properties from the scene (undoing run-time changes)."""
@@ -119,24 +217,60 @@ class VisionSensors:
         return self._executor.submit(job)
 
     # ------------------------------------------------------------ render thread
-    def _render(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
-        """Rendered frame, top-down rows: RGB (h, w, 3) uint8, or depth (h, w) float32 in m."""
-        key = (spec.width, spec.height)
-        if key not in self._renderers:
-            self._renderers[key] = mujoco.Renderer(model, spec.height, spec.width)
-        r = self._renderers[key]
+    def _draw(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
+        """One frame, top-down rows: RGB (h, w, 3) uint8, or depth (h, w) float32 in m."""
+        thread = self._thread
+        r = thread.renderer(model, spec.width, spec.height)
         if kind == "depth":
             r.enable_depth_rendering()
         try:
-            r.update_scene(data, camera=spec.camera)
+            r.update_scene(data, camera=spec.camera, scene_option=thread.option)
             r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
             r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
-            frame = r.render()
+            return r.render()
         finally:
             if kind == "depth":
                 r.disable_depth_rendering()
+
+    def _render(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
+        """Rendered frame of a request (counted in ``renders``)."""
+        frame = self._draw(model, data, spec, kind)
         self.renders += 1
         return frame
+
+    def _prepare(self) -> Future:
+        """Make the renderers of this scene's sensors and draw one frame of each (the first
+        frame of a GL context costs several later ones), on the render thread; a failure is
+        logged once and the renderers are then made on the first request."""
+        model, thread = self.world.model, self._thread
+        thread.newest = model
+        if not self.specs:
+            return self._executor.submit(thread.free)  # the old scene's contexts are not needed
+        data, specs = copy.copy(self.world.data), list(self.specs.values())
+
+        def prepare() -> None:
+            if thread.newest is not model:
+                return  # a newer scene is queued: it prepares its own
+            try:
+                for spec in specs:
+                    self._draw(model, data, spec, "depth" if spec.depth_image else "rgb")
+                for size in {(s.width, s.height): s for s in specs}.values():  # depth from any sensor
+                    self._draw(model, data, size, "depth")
+            except Exception as exc:
+                log.warning("vision sensors: cannot prepare the renderers: %s: %s", type(exc).__name__, exc)
+
+        return self._executor.submit(prepare)
+
+    def wait_ready(self, timeout: float | None = None) -> bool:
+        """Wait until the renderers made at load are ready: whether they are (False on timeout).
+
+        The server waits for them before it starts the simulation, so that a fresh server's
+        first streamed image comes within a step or two of the streaming call."""
+        try:
+            self._ready.result(timeout)
+        except TimeoutError:
+            return False
+        return True
 
     # -------------------------------------------------------- simulation thread
     def _frame(self, handle: int, kind: str) -> Future:
@@ -220,18 +354,11 @@ class VisionSensors:
         return tuple(self.depth_deferred(handle).future.result())
 
     def close(self) -> None:
-        """Finish pending jobs, free every GL context (on its thread) and stop; idempotent."""
-        if self._executor is None:
-            return
-        self._executor.submit(self._close_renderers)
-        self._executor.shutdown(wait=True)
-        self._executor = None
+        """Finish pending jobs, free every GL context (on its thread) and stop; idempotent.
+        A VisionSensors whose render thread was handed over has nothing to close."""
+        owner, self._owner = self._owner, False
         self._cache.clear()
-
-    def _close_renderers(self) -> None:
-        for r in self._renderers.values():
-            try:
-                r.close()
-            except Exception:  # a context already torn down by the driver
-                pass
-        self._renderers.clear()
+        if owner:
+            self._thread.newest = None  # a preparation not started yet is skipped
+            self._executor.submit(self._thread.free)
+            self._executor.shutdown(wait=True)

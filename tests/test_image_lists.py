@@ -1,0 +1,204 @@
+"""Issue 12 part 5: legacy image lists that NumPy 2 and fast code can take.
+
+``simxGetVisionSensorImage`` returns signed bytes as vrep.py did; on NumPy 2
+``np.array(image, dtype=np.uint8)`` on such a plain list raises OverflowError. The returned
+:class:`simx_client.images.ImageList` is an ordinary list to every reader and converts fast,
+wrapping as NumPy 1 did; any mutation makes the list the truth again.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import pickle
+import time
+
+import numpy as np
+import pytest
+
+from simx_client.images import ImageList
+from conftest import wait_until
+
+# Every byte value, a few times: -128..127 as vrep.py's c_byte list held them.
+RAW = np.arange(256, dtype=np.uint8).repeat(3)
+SIGNED = RAW.view(np.int8)
+
+
+def image() -> tuple[list, ImageList]:
+    plain = SIGNED.tolist()
+    return plain, ImageList.wrap(list(plain), SIGNED.copy())
+
+
+def depth() -> tuple[list, ImageList]:
+    floats = np.linspace(0, 1, 97, dtype=np.float32) / 3
+    return floats.tolist(), ImageList.wrap(floats.tolist(), floats)
+
+
+def test_a_plain_list_of_negative_bytes_overflows_on_numpy_2():
+    """The defect the subclass works around (NumPy 1 wrapped silently)."""
+    if np.lib.NumpyVersion(np.__version__) < "2.0.0":
+        pytest.skip("NumPy 1 wraps")
+    with pytest.raises(OverflowError):
+        np.array(SIGNED.tolist(), dtype=np.uint8)
+
+
+def test_an_ordinary_list_to_every_reader():
+    plain, img = image()
+    assert isinstance(img, list) and img == plain and plain == img and not (img != plain)
+    assert len(img) == len(plain) and img[0] == -128 + 128 and img[-1] == -1 and img[200] == plain[200]
+    assert list(img) == plain and [*img] == plain and sum(img) == sum(plain)
+    assert repr(img) == repr(plain) and str(img) == str(plain)
+    assert type(img[1:4]) is list and img[1:4] == plain[1:4] and type(img + [1]) is list
+    assert type(img.copy()) is list and type(img * 2) is list and img * 2 == plain * 2
+    assert json.dumps(img) == json.dumps(plain)
+    assert img.index(-1) == plain.index(-1) and img.count(5) == plain.count(5) and (-5 in img)
+    restored = pickle.loads(pickle.dumps(img))
+    assert type(restored) is list and restored == plain  # loads without simx installed
+    for clone in (copy.copy(img), copy.deepcopy(img)):
+        assert type(clone) is ImageList and clone == plain
+        assert np.array_equal(np.array(clone, dtype=np.uint8), RAW)
+
+
+def test_numpy_conversions_match_a_plain_list():
+    plain, img = image()
+    wrapped = np.array(img, dtype=np.uint8)
+    assert wrapped.dtype == np.uint8 and np.array_equal(wrapped, RAW)  # -1 -> 255, as NumPy 1 did
+    assert wrapped.flags.writeable
+    for dtype in (None, np.int64, np.int8, np.int16, np.float32, np.float64, bool, "i4"):
+        mine, theirs = np.array(img, dtype=dtype), np.array(plain, dtype=dtype)
+        assert mine.dtype == theirs.dtype and np.array_equal(mine, theirs), dtype
+    for dtype in (np.uint16, np.uint32):  # unsigned wider types wrap as NumPy 1 did too
+        assert np.array_equal(np.array(img, dtype=dtype), SIGNED.astype(dtype))
+    assert np.array(img).dtype == np.array(plain).dtype == np.int64
+    assert np.asarray(img).flags.writeable  # a fresh array, as from a list
+    assert np.array_equal(np.array(img, dtype=object), np.array(plain, dtype=object))
+    assert np.array_equal(np.array(img, dtype=str), np.array(plain, dtype=str))
+    assert np.array_equal(np.reshape(img, (-1, 3)), np.reshape(plain, (-1, 3)))
+    with pytest.raises(ValueError):  # NumPy 2 refuses a copy-free view of a list too
+        np.array(img, copy=False)
+    with pytest.raises(ValueError):
+        np.array(plain, copy=False)
+    dplain, dimg = depth()
+    for dtype in (None, np.float32, np.float64, np.float16):
+        mine, theirs = np.array(dimg, dtype=dtype), np.array(dplain, dtype=dtype)
+        assert mine.dtype == theirs.dtype and np.array_equal(mine, theirs), dtype
+    assert np.array(dimg).dtype == np.float64
+
+
+def test_the_converted_array_is_a_copy():
+    plain, img = image()
+    a = np.array(img, dtype=np.uint8)
+    a[:] = 0
+    b = np.asarray(img)
+    b[:] = 7
+    assert img == plain and np.array_equal(np.array(img, dtype=np.uint8), RAW)
+
+
+MUTATIONS = {
+    "setitem": lambda l: l.__setitem__(0, 5),
+    "setslice": lambda l: l.__setitem__(slice(0, 2), [9, 9]),
+    "delitem": lambda l: l.__delitem__(0),
+    "append": lambda l: l.append(-3),
+    "extend": lambda l: l.extend([1, 2]),
+    "iadd": lambda l: l.__iadd__([4]),
+    "imul": lambda l: l.__imul__(2),
+    "insert": lambda l: l.insert(3, -7),
+    "pop": lambda l: l.pop(),
+    "remove": lambda l: l.remove(-1),
+    "clear": lambda l: l.clear(),
+    "sort": lambda l: l.sort(),
+    "reverse": lambda l: l.reverse(),
+    "init": lambda l: l.__init__([1, -2, 3]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(MUTATIONS))
+def test_any_mutation_makes_the_list_the_truth(name):
+    plain, img = image()
+    np.array(img, dtype=np.uint8)  # convert once before the change
+    MUTATIONS[name](plain)
+    MUTATIONS[name](img)
+    assert img == plain and type(img) is ImageList
+    assert np.array_equal(np.array(img), np.array(plain)) and np.array(img).dtype == np.array(plain).dtype
+    expected = np.array(plain, dtype=np.int64).astype(np.uint8)  # wrapped, as NumPy 1 did
+    assert np.array_equal(np.array(img, dtype=np.uint8), expected)
+
+
+def test_augmented_assignment_keeps_the_object():
+    plain, img = image()
+    alias = img
+    img += [1]
+    img *= 1
+    assert img is alias and img == plain + [1] and np.array(img, dtype=np.uint8)[-1] == 1
+
+
+def test_a_list_built_by_hand_converts_from_its_values():
+    img = ImageList([1, -1, 3])
+    assert img == [1, -1, 3] and np.array_equal(np.array(img, dtype=np.uint8), [1, 255, 3])
+    mixed = ImageList([1, 2.5])
+    assert np.array(mixed).dtype == np.float64
+    strings = ImageList(["a", "b"])
+    assert np.array_equal(np.array(strings), np.array(["a", "b"]))
+
+
+def test_conversion_is_well_under_a_millisecond():
+    """640x480 RGB: the subclass against a plain list of the same values, same run."""
+    raw = np.random.default_rng(0).integers(0, 256, 640 * 480 * 3, dtype=np.uint8)
+    plain = raw.view(np.int8).tolist()
+    img = ImageList.wrap(plain, raw.view(np.int8))
+
+    def best(f, n):
+        times = []
+        for _ in range(n):
+            t = time.perf_counter()
+            f()
+            times.append(time.perf_counter() - t)
+        return min(times)
+
+    fast = best(lambda: np.array(img, dtype=np.uint8), 20)
+    slow = best(lambda: np.array(plain, dtype=np.int64), 3)  # what a plain list costs at best
+    assert fast * 10 < slow, (fast, slow)  # about 0.05 ms against 20 ms on 2 cores
+
+
+# ------------------------------------------------------------- through a real server
+def test_images_and_depth_from_a_real_server(vrep_client):
+    import vrep
+
+    cid = vrep_client
+    rc, rgb = vrep.simxGetObjectHandle(cid, "kinect_rgb", vrep.simx_opmode_blocking)
+    assert rc == 0
+    rc, res, img = vrep.simxGetVisionSensorImage(cid, rgb, 0, vrep.simx_opmode_blocking)
+    assert rc == 0 and res == [640, 480] and type(img) is ImageList and len(img) == 640 * 480 * 3
+    assert min(img) >= -128 and max(img) <= 127  # signed bytes, as vrep.py returned
+    unsigned = np.array(list(img), dtype=np.int64) % 256
+    assert np.array_equal(np.array(img, dtype=np.uint8), unsigned)
+    assert np.array_equal(np.array(img), np.array(list(img))) and np.array(img).dtype == np.int64
+    rc, res, dep = vrep.simxGetVisionSensorDepthBuffer(cid, rgb, vrep.simx_opmode_blocking)
+    assert rc == 0 and type(dep) is ImageList and len(dep) == res[0] * res[1]
+    assert np.array_equal(np.array(dep), np.array(list(dep))) and np.array(dep).dtype == np.float64
+    assert 0.0 <= min(dep) and max(dep) <= 1.0
+
+    # Streamed, the simulation stopped (every update shows the same state): every buffer read
+    # is its own list; changing one changes neither the next read nor its conversion.
+    assert vrep.simxStopSimulation(cid, vrep.simx_opmode_blocking) == 0
+    try:
+        assert vrep.simxGetVisionSensorImage(cid, rgb, 1, vrep.simx_opmode_streaming)[0] == 1
+
+        def read():
+            return vrep.simxGetVisionSensorImage(cid, rgb, 1, vrep.simx_opmode_buffer)
+
+        wait_until(lambda: read()[0] == 0, 10, what="a streamed grey image")
+        _, res, first = read()
+        assert type(first) is ImageList and len(first) == res[0] * res[1] == 640 * 480
+        values = list(first)
+        first[0] = 99
+        del first[-1]
+        assert np.array(first, dtype=np.uint8)[0] == 99 and len(np.array(first)) == len(values) - 1
+        for _ in range(2):  # the inbox's value converted once, handed out as copies
+            _, _, again = read()
+            assert type(again) is ImageList and again == values
+            assert np.array_equal(np.array(again, dtype=np.uint8), np.array(values, dtype=np.int64) % 256)
+            again.append(1)
+        vrep.simxGetVisionSensorImage(cid, rgb, 1, vrep.simx_opmode_discontinue)
+    finally:
+        assert vrep.simxStartSimulation(cid, vrep.simx_opmode_blocking) == 0

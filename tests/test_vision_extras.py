@@ -1,0 +1,106 @@
+"""Issue 12 part 8: a vision sensor sees the scene only, not MuJoCo's visualisation extras
+(the dm_control quadruped's camera showed its rangefinder rays): no rays, no sites (simx's
+dummies), no contact points, while the scene's geoms still show."""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from simx_server.simulation import Simulation  # noqa: E402
+
+# Seen from above: a grey floor, a blue box resting on it (contacts), a rangefinder on a site
+# beside the box casting its ray along +x over the floor, and a green marker site. The extras
+# get colours nothing in the scene has: the ray magenta, contact points cyan.
+SCENE = """
+<mujoco>
+  <visual>
+    <rgba rangefinder="1 0 1 1" contactpoint="0 1 1 1"/>
+    <scale contactwidth="0.3" contactheight="0.1"/>
+    <headlight ambient="0.4 0.4 0.4" diffuse="0.6 0.6 0.6"/>
+  </visual>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1" rgba="0.5 0.5 0.5 1"/>
+    <body name="box" pos="0 0.4 0.1">
+      <freejoint/>
+      <geom type="box" size="0.1 0.1 0.1" rgba="0 0 1 1"/>
+    </body>
+    <body name="post" pos="-0.8 -0.3 0.3">  <!-- not the world body: its geoms are the ray's to hit -->
+      <site name="ranger" zaxis="1 0 -0.2" size="0.02" rgba="0.5 0.5 0.5 1"/>
+    </body>
+    <site name="marker" pos="0.5 0.5 0.05" size="0.08" rgba="0 1 0 1"/>
+    <camera name="cam" pos="0 0 2.2" resolution="128 128" fovy="60"/>
+  </worldbody>
+  <sensor><rangefinder name="range" site="ranger"/></sensor>
+</mujoco>
+"""
+
+
+@pytest.fixture
+def sim(tmp_path):
+    path = tmp_path / "extras.xml"
+    path.write_text(SCENE)
+    s = Simulation(path, dt=0.05, realtime=False)
+    s.world.step()  # the box rests on the floor: contacts exist
+    yield s
+    s.close()
+
+
+def magenta(img: np.ndarray) -> int:
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    return int(((r > 150) & (b > 150) & (g < 80)).sum())
+
+
+def green(img: np.ndarray) -> int:
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    return int(((g > 150) & (r < 80) & (b < 80)).sum())
+
+
+def cyan(img: np.ndarray) -> int:
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    return int(((g > 150) & (b > 150) & (r < 80)).sum())
+
+
+def blue(img: np.ndarray) -> int:
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    return int(((b > 150) & (r < 60) & (g < 60)).sum())
+
+
+def default_render(sim: Simulation, option: mujoco.MjvOption) -> np.ndarray:
+    """The same camera through MuJoCo's own Renderer and the given options (render thread)."""
+    camera = sim.vision.specs[sim.world.resolve("cam").handle].camera
+
+    def job():
+        with mujoco.Renderer(sim.world.model, 128, 128) as r:
+            r.update_scene(sim.world.data, camera=camera, scene_option=option)
+            return r.render()[::-1].copy()
+
+    return sim.vision.after(job).result()
+
+
+def test_sensor_images_show_no_visualisation_extras(sim):
+    (w, h), data = sim.vision.image_bytes(sim.world.resolve("cam").handle, 0)
+    sensor = np.frombuffer(data, np.uint8).reshape(h, w, 3)
+    option = mujoco.MjvOption()  # MuJoCo's defaults: rays and sites drawn
+    option.flags[mujoco.mjtVisFlag.mjVIS_CONTACTPOINT] = True
+    extras = default_render(sim, option)
+    if os.environ.get("SIMX_SAVE_PNG"):  # look at them: SIMX_SAVE_PNG=/tmp pytest ...
+        import zlib, struct  # noqa: E401
+
+        def png(path, img):
+            raw = b"".join(b"\0" + img[::-1][y].tobytes() for y in range(img.shape[0]))
+            chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))  # noqa
+            open(path, "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+                                   + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+        png(f"{os.environ['SIMX_SAVE_PNG']}/sensor.png", sensor)
+        png(f"{os.environ['SIMX_SAVE_PNG']}/extras.png", extras)
+    # The extras are in view (so their absence below means something)...
+    assert magenta(extras) > 20 and green(extras) > 20 and cyan(extras) > 5
+    # ...and the sensor draws none of them, but the scene itself.
+    assert (magenta(sensor), green(sensor), cyan(sensor)) == (0, 0, 0)
+    assert blue(sensor) > 100 and blue(sensor) == pytest.approx(blue(extras), rel=0.3)
