@@ -31,6 +31,8 @@ from simx_client import protocol as P
 from simx_server import limits, logs
 from simx_server.arguments import quote
 from simx_server.commands import HANDLERS
+from simx_server.consoles import CONSOLE_COMMANDS, Consoles
+from simx_server.consoles import cut as _cut
 from simx_server.physics import PhysicsError
 from simx_server.replies import IMAGES, SMALL, image_size, reply_size
 from simx_server.sessions import Session, Sessions, keep_thread_state, zenoh_thread
@@ -38,7 +40,6 @@ from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
 
 log = logging.getLogger("simx.server")
-console_log = logging.getLogger(logs.CONSOLE_LOGGER)  # what clients print (status bar, consoles)
 
 DEFAULT_HOSTS = ("127.0.0.1",)
 DEFAULT_PORTS = (19997, 19999)
@@ -47,11 +48,6 @@ _HOUSEKEEPING = 0.25  # s between two passes of client expiry and log summaries
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 #: ``--pacing``: legacy (a client's blocking calls see distinct simulation steps) or immediate.
 PACINGS = ("legacy", "immediate")
-
-
-def _cut(text: str, limit: int = limits.MAX_ERROR_CHARS) -> str:
-    """``text`` cut to ``limit`` characters (a client's text in a log line)."""
-    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
@@ -149,7 +145,7 @@ class Server:
         self._paced = pacing == "legacy"
         self._held: list[Session] = []  # clients whose next blocking call waits for the next step
         self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
-        self._consoles: dict[int, str] = {}  # auxiliary console handle -> title
+        self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
         self._t0 = time.monotonic()
         self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
@@ -459,10 +455,10 @@ class Server:
                 return [True, None]
             handler = HANDLERS.get(name)
             if handler is None:  # a command about the calling client, or none at all
-                own = self._CLIENT_COMMANDS.get(name)
-                if own is None:
+                if name not in self._CLIENT_COMMANDS:
                     raise P.UnsupportedError(f"unknown command {quote(name)}")
-                return [True, getattr(self, own)(client, args)]
+                own = self._CLIENT_COMMANDS[name]
+                return [True, getattr(self, own)(client, args) if own else self.consoles.execute(name, client, args)]
             if base in _STREAMING:
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)
@@ -494,49 +490,8 @@ class Server:
     # Commands about the calling client rather than the world.
     _CLIENT_COMMANDS = {
         "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
-        "AddStatusbarMessage": "_statusbar_message", "AuxiliaryConsoleOpen": "_console_open",
-        "AuxiliaryConsoleClose": "_console_close", "AuxiliaryConsolePrint": "_console_print",
-        "AuxiliaryConsoleShow": "_console_show", "GetLastErrors": "_last_errors",
+        "GetLastErrors": "_last_errors", **{name: None for name in CONSOLE_COMMANDS},
     }
-
-    def _statusbar_message(self, client: str, args: list) -> None:
-        if len(args) != 1 or not isinstance(args[0], str):
-            raise P.ArgumentError("simxAddStatusbarMessage takes one string")
-        console_log.info("[client %s] %s", client[:8], _cut(args[0]))
-
-    def _console(self, args: list) -> int:
-        if not args or not isinstance(args[0], int) or args[0] not in self._consoles:
-            raise P.UnknownObjectError(f"no auxiliary console with handle {quote(args[0]) if args else None}")
-        return args[0]
-
-    def _console_open(self, client: str, args: list) -> int:
-        if len(args) != 3 or not isinstance(args[0], str):
-            raise P.ArgumentError("simxAuxiliaryConsoleOpen takes a title, maxLines and mode")
-        if len(self._consoles) >= limits.MAX_CONSOLES:
-            raise P.RemoteError(f"too many auxiliary consoles open: at most {limits.MAX_CONSOLES} "
-                                "(limits.MAX_CONSOLES); close some")
-        handle = max(self._consoles, default=0) + 1
-        self._consoles[handle] = title = _cut(args[0], 200)
-        console_log.info("[client %s] console %d %s opened", client[:8], handle, quote(title))
-        return handle
-
-    def _console_close(self, client: str, args: list) -> None:
-        console_log.info("[client %s] console %s closed", client[:8], quote(self._consoles.pop(self._console(args))))
-
-    def _console_print(self, client: str, args: list) -> None:
-        title = self._consoles[self._console(args)]
-        text = args[1] if len(args) == 2 else None
-        if text is not None and not isinstance(text, str):
-            raise P.ArgumentError("console text must be a string or None")
-        lines = (text or "").splitlines() or [""]
-        for line in lines[:limits.MAX_CONSOLE_LINES]:
-            console_log.info("[client %s] [%s] %s", client[:8], title, _cut(line) if text is not None else "(cleared)")
-        if len(lines) > limits.MAX_CONSOLE_LINES:
-            console_log.info("[client %s] [%s] (%d more lines not shown)", client[:8], title,
-                             len(lines) - limits.MAX_CONSOLE_LINES)
-
-    def _console_show(self, client: str, args: list) -> None:
-        self._console(args)
 
     def _last_errors(self, client: str, args: list) -> list[str]:
         return self._errors.pop(client, [])
@@ -552,11 +507,6 @@ class Server:
             log.info("client %s: synchronous mode on", client)
         elif self.sim.is_synchronous(client):
             self._leave_sync(client, "left synchronous mode")
-
-    def _barrier_step(self) -> None:
-        """A client left the barrier and every remaining one had triggered: their step runs now."""
-        if self.sim.state is RunState.RUNNING:
-            self._step()  # a failure is told to every client at its next request
 
     def _trigger(self, client: str, args: list) -> None:
         sim = self.sim
@@ -589,8 +539,8 @@ class Server:
                  "the step its other clients triggered runs now" if released else
                  f"the next step waits for {waiting} other client(s)" if waiting else
                  "no synchronous client left: the simulation runs asynchronously")
-        if released:
-            self._barrier_step()
+        if released and self.sim.state is RunState.RUNNING:
+            self._step()  # a failure is told to every client at its next request
 
     def _publish_streams(self) -> None:
         if self.session is None:
