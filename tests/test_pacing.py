@@ -4,6 +4,11 @@ with several clients (the simulation steps once every synchronous client has tri
 
 from __future__ import annotations
 
+import select
+import subprocess
+import sys
+import textwrap
+
 import pytest
 
 import vrep
@@ -170,3 +175,36 @@ def test_trigger_of_a_client_without_synchronous_mode_is_refused_and_steps_nothi
     assert vrep.simxSynchronous(a, False) == 0  # no synchronous client left: the simulation runs
     wait_until(lambda: ping_time(b) > t0 + 100, timeout=10, what="asynchronous steps")
     assert vrep.simxGetBooleanParameter(b, vrep.sim_boolparam_waiting_for_trigger, B) == (0, False)
+
+
+def test_a_killed_synchronous_client_leaves_the_barrier_and_releases_the_step(start):
+    """A synchronous client whose process dies (SIGKILL: its liveliness token goes, no Bye) is
+    taken out of the barrier: the step the other client triggered runs, then its triggers
+    alone step the simulation."""
+    srv, (a,) = start("--stopped")
+    other = textwrap.dedent(f"""
+        import sys, vrep
+        cid = vrep.simxStart('127.0.0.1', {srv.port}, True, True, 5000, 5)
+        assert cid >= 0 and vrep.simxSynchronous(cid, True) == 0
+        print('synchronous', flush=True)
+        sys.stdin.readline()
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", other], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.DEVNULL, text=True)
+    try:
+        assert select.select([proc.stdout], [], [], 60)[0] and proc.stdout.readline().strip() == "synchronous"
+        assert vrep.simxSynchronous(a, True) == 0
+        assert vrep.simxStartSimulation(a, B) == 0
+        t0 = ping_time(a)
+        assert vrep.simxSynchronousTrigger(a) == 0
+        assert ping_time(a) == t0  # the other client has not triggered
+        proc.kill()  # by its own PID
+        proc.wait(timeout=10)
+        wait_until(lambda: ping_time(a) == t0 + 50, timeout=15, what="the step released by the killed client")
+        assert vrep.simxSynchronousTrigger(a) == 0
+        assert ping_time(a) == t0 + 100
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert "left: out of synchronous mode (the step its other clients triggered runs now)" in srv.stop()
