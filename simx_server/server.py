@@ -9,8 +9,9 @@ between physics steps, replies, steps the simulation every ``dt`` (paced to wall
 ``speed`` > 0; in synchronous mode once every synchronous client has triggered), and after
 every step publishes each client's streamed commands. With legacy pacing (the default) a
 client's blocking call waits in its queue until the simulation has stepped since its previous
-one, as V-REP executed remote commands once per simulation pass. Nothing a client sends ends that thread: an exception of a step stops the
-simulation and is reported to every client at its next request.
+one, as V-REP executed remote commands once per simulation pass. Nothing a client sends ends
+that thread: an exception of a step stops the simulation and is reported to every client at
+its next request.
 """
 
 from __future__ import annotations
