@@ -116,6 +116,20 @@ def test_paused_stopped_and_stepped_simulations_serve_blocking_calls_at_once(sta
     assert all(b > a for a, b in zip(times, times[1:])), times
 
 
+def test_non_blocking_requests_are_not_held(start):
+    """Only blocking calls are paced: 300 oneshot setters sent in a burst are all executed at
+    once (held one per step, they would overflow the client's queue of 256 and the blocking
+    call behind them would wait 256 steps, past its 5 s timeout)."""
+    srv, (cid,) = start()
+    joint = vrep.simxGetObjectHandle(cid, "UR5_joint1", B)[1]
+    t0 = ping_time(cid)
+    codes = {vrep.simxSetJointTargetPosition(cid, joint, 0.001 * i, vrep.simx_opmode_oneshot) for i in range(300)}
+    assert codes <= {0, 1}, codes  # never 8: no "server busy"
+    t1 = ping_time(cid)
+    assert t1 - t0 <= 50 * 20, (t0, t1)  # a few steps, not one per request
+    assert vrep.simxGetLastErrors(cid, B) == (0, [])
+
+
 def test_pacing_is_per_client(start):
     """Two clients polling in turn: each one's blocking calls see strictly increasing steps."""
     srv, (a, b) = start(ports=2)
