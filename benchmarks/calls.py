@@ -45,7 +45,8 @@ def _ok(result) -> None:
 
 
 def run(s: Settings) -> list[Figure]:
-    with Server(s.log_dir, name="calls") as srv, Echo(s.log_dir) as echo:
+    # Raw round trips: served at once (with legacy pacing a blocking call waits for the next step).
+    with Server(s.log_dir, "--pacing", "immediate", name="calls") as srv, Echo(s.log_dir) as echo:
         cid = connect(srv.port)
         floor = Floor(echo.port)
         bare = zenoh.open(client_config("127.0.0.1", srv.port))

@@ -95,7 +95,7 @@ def run(s: Settings) -> list[Figure]:
     window = s.t(4.0, 1.5)
     counts = (1, 4, 16)
     got, bare = {}, {}
-    with Server(s.log_dir, name="clients") as srv, Echo(s.log_dir) as echo:
+    with Server(s.log_dir, "--pacing", "immediate", name="clients") as srv, Echo(s.log_dir) as echo:
         cid = connect(srv.port)
         try:
             names = [[n, api.simxGetObjectHandle(cid, n, C.simx_opmode_blocking)[1]] for n in NAMES]

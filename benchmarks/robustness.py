@@ -119,7 +119,7 @@ def _malformed(s: Settings) -> list[Figure]:
     n = s.n(10_000, 2_000)
     requests = malformed_requests(n)
     in_flight = 8
-    with Server(s.log_dir, name="robustness-malformed") as srv:
+    with Server(s.log_dir, "--pacing", "immediate", name="robustness-malformed") as srv:
         session = zenoh.open(client_config("127.0.0.1", srv.port))
         try:
             list(session.get(P.call_key("simx", "warm"), payload=P.request("warm", [["GetPingTime", B, []]]),
@@ -171,7 +171,7 @@ def _malformed(s: Settings) -> list[Figure]:
 # ------------------------------------------------------------------ b. mixed load
 def _mixed(s: Settings) -> list[Figure]:
     count, calls = 16, s.n(2000, 500)
-    with Server(s.log_dir, name="robustness-mixed") as srv:
+    with Server(s.log_dir, "--pacing", "immediate", name="robustness-mixed") as srv:
         cid = connect(srv.port)
         try:
             names = [[n, api.simxGetObjectHandle(cid, n, B)[1]] for n in NAMES]
@@ -250,7 +250,7 @@ def _flood(s: Settings, kind: str = "flood") -> list[Figure]:
     samples: list[tuple[float, float]] = []  # (s since the flood's start, server RSS MB)
     aborted = threading.Event()
     stop_sampling = threading.Event()
-    with Server(s.log_dir, name=f"robustness-{kind}") as srv:
+    with Server(s.log_dir, "--pacing", "immediate", name=f"robustness-{kind}") as srv:
         cid = connect(srv.port)
         try:
             joint = api.simxGetObjectHandle(cid, "UR5_joint3", B)[1]
@@ -337,7 +337,7 @@ def _soak(s: Settings) -> list[Figure]:
     seconds, every = s.t(180.0, 30.0), s.t(10.0, 5.0)
     samples: list[dict] = []
     frames = depth_frames = 0
-    with Server(s.log_dir, name="robustness-soak") as srv:
+    with Server(s.log_dir, "--pacing", "immediate", name="robustness-soak") as srv:
         cid = connect(srv.port)
         try:
             rgb = api.simxGetObjectHandle(cid, "kinect_rgb", B)[1]

@@ -42,6 +42,7 @@ SUITES = {
     "physics": ("benchmarks.physics", "5. physics speed"),
     "clients": ("benchmarks.clients", "6. many clients"),
     "tutorial": ("benchmarks.tutorial", "7. the tutorial loop"),
+    "pacing": ("benchmarks.pacing", "pacing of blocking calls: legacy and immediate (issue 12)"),
     "robustness": ("benchmarks.robustness", "8. robustness (issue 11)"),
 }
 #: Suites run only when named in --only: the robustness suite floods a server on purpose and

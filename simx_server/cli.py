@@ -39,6 +39,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--speed", type=float, default=1.0,
                    help="real-time factor in asynchronous mode; 0 = as fast as possible (default 1)")
     p.add_argument("--stopped", action="store_true", help="start with the simulation stopped")
+    p.add_argument("--pacing", choices=["legacy", "immediate"], default="legacy",
+                   help="blocking calls while the simulation runs asynchronously: 'legacy' (default) serves "
+                        "a client's next blocking call only after the simulation has stepped since its previous "
+                        "one, as V-REP did (once per simulation pass: a joint polled until it stops moving is "
+                        "seen moving); 'immediate' serves every call as soon as it arrives (one round trip, "
+                        "possibly the same step again) for programs that want raw speed")
     p.add_argument("--allow-remote-code", action="store_true",
                    help="let child scripts run code that clients send (Lua load, Python exec); off by default")
     p.add_argument("--allow-unsafe-lua", action="store_true",
@@ -93,7 +99,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = zenoh_config(endpoints, args.zenoh_config)
         endpoints = json.loads(config.get_json("listen/endpoints"))
-        server = Server(sim, config, speed=args.speed, prefix=args.prefix, client_expiry=args.client_expiry)
+        server = Server(sim, config, speed=args.speed, prefix=args.prefix, client_expiry=args.client_expiry,
+                        pacing=args.pacing)
         server.open()
     except (zenoh.ZError, ValueError, OSError) as exc:
         print(f"simx-server: cannot listen on {', '.join(endpoints)}: {exc}", file=sys.stderr)

@@ -6,9 +6,12 @@ queues the rest in the client's own bounded queue (:mod:`simx_server.sessions`);
 callbacks note clients' tokens. The thread that calls :meth:`Server.serve` owns the
 simulation; it serves the clients' queues round robin, executes each request atomically
 between physics steps, replies, steps the simulation every ``dt`` (paced to wall time when
-``speed`` > 0, on triggers in synchronous mode), and after every step publishes each client's
-streamed commands. Nothing a client sends ends that thread: an exception of a step stops the
-simulation and is reported to every client at its next request.
+``speed`` > 0; in synchronous mode once every synchronous client has triggered), and after
+every step publishes each client's streamed commands. With legacy pacing (the default) a
+client's blocking call waits in its queue until the simulation has stepped since its previous
+one, as V-REP executed remote commands once per simulation pass. Nothing a client sends ends
+that thread: an exception of a step stops the simulation and is reported to every client at
+its next request.
 """
 
 from __future__ import annotations
@@ -29,6 +32,8 @@ from simx_client import protocol as P
 from simx_server import limits, logs
 from simx_server.arguments import quote
 from simx_server.commands import HANDLERS
+from simx_server.consoles import CONSOLE_COMMANDS, Consoles
+from simx_server.consoles import cut as _cut
 from simx_server.physics import PhysicsError
 from simx_server.replies import IMAGES, SMALL, image_size, reply_size
 from simx_server.sessions import Session, Sessions, keep_thread_state, zenoh_thread
@@ -36,18 +41,14 @@ from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
 
 log = logging.getLogger("simx.server")
-console_log = logging.getLogger(logs.CONSOLE_LOGGER)  # what clients print (status bar, consoles)
 
 DEFAULT_HOSTS = ("127.0.0.1",)
 DEFAULT_PORTS = (19997, 19999)
 _DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
 _HOUSEKEEPING = 0.25  # s between two passes of client expiry and log summaries
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
-
-
-def _cut(text: str, limit: int = limits.MAX_ERROR_CHARS) -> str:
-    """``text`` cut to ``limit`` characters (a client's text in a log line)."""
-    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+#: ``--pacing``: legacy (a client's blocking calls see distinct simulation steps) or immediate.
+PACINGS = ("legacy", "immediate")
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
@@ -108,12 +109,26 @@ class Server:
         prefix: key-expression prefix (``simx``).
         client_expiry: s a client without a liveliness token may stay silent before its
             state is dropped (limits.CLIENT_EXPIRY).
+        pacing: ``"legacy"`` (default): while the simulation runs asynchronously, a client's
+            blocking call is executed only once the simulation has stepped since that client's
+            previous blocking call was answered, so two consecutive blocking calls never see
+            the same step (V-REP executed remote commands once per simulation pass; programs
+            poll a joint with blocking calls until it stops moving). Stopped, paused or waiting
+            for a synchronous trigger, requests are served at once, as in V-REP's instance
+            passes. ``"immediate"``: every request is served as soon as it arrives (one round
+            trip per blocking call, whatever the step).
+
+    Raises:
+        ValueError: a negative speed, a client expiry <= 0 or an unknown pacing.
     """
 
     def __init__(self, sim: Simulation, config: zenoh.Config, speed: float = 1.0,
-                 prefix: str = P.DEFAULT_PREFIX, client_expiry: float = limits.CLIENT_EXPIRY):
+                 prefix: str = P.DEFAULT_PREFIX, client_expiry: float = limits.CLIENT_EXPIRY,
+                 pacing: str = "legacy"):
         if speed < 0:
             raise ValueError(f"speed must be >= 0, got {speed}")
+        if pacing not in PACINGS:
+            raise ValueError(f"pacing must be one of {', '.join(PACINGS)}, got {pacing!r}")
         if not client_expiry > 0:
             raise ValueError(f"client expiry must be > 0 s, got {client_expiry}")
         self.sim = sim
@@ -127,9 +142,11 @@ class Server:
         self._stopping = threading.Event()
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._clients: set[str] = set()
-        self._sync_owner: str | None = None
+        self.pacing = pacing
+        self._paced = pacing == "legacy"
+        self._held: list[Session] = []  # clients whose next blocking call waits for the next step
         self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
-        self._consoles: dict[int, str] = {}  # auxiliary console handle -> title
+        self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
         self._t0 = time.monotonic()
         self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
@@ -244,6 +261,8 @@ class Server:
                     interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
                 elif sim.state is not RunState.RUNNING:
                     self._publish_streams()  # idle tick: streams keep being served
+                if self._held:  # stepped, or no longer stepping: their blocking calls are due
+                    self._release_held()
                 if now >= self._housekeeping_at:
                     self._housekeeping(now)
             except Exception:  # a bug must not end the simulation thread either: log, go on
@@ -301,8 +320,24 @@ class Server:
                 self.sim.state = RunState.STOPPED  # whatever the cleanup did, no further steps
         self.sessions.fault_all(reason)
 
+    def _release_held(self) -> None:
+        held, self._held = self._held, []
+        put = self._queue.put
+        for session in held:  # back in the ring, in the order they were held
+            put(session)
+
     def _handle(self, item: Any) -> None:
         if type(item) is Session:
+            if self._paced and self._stepping() and Sessions.head_is_blocking(item):
+                steps = self.sim.steps
+                if item.step == steps:  # its previous blocking call saw this step: wait for the next
+                    self._held.append(item)  # stays scheduled; its queue and bounds are unchanged
+                    return
+                request = self.sessions.take(item)
+                if request is not None:
+                    item.step = steps
+                    self._answer(item, request[0], request[1])
+                return
             request = self.sessions.take(item)
             if request is not None:
                 self._answer(item, request[0], request[1])
@@ -421,10 +456,10 @@ class Server:
                 return [True, None]
             handler = HANDLERS.get(name)
             if handler is None:  # a command about the calling client, or none at all
-                own = self._CLIENT_COMMANDS.get(name)
-                if own is None:
+                if name not in self._CLIENT_COMMANDS:
                     raise P.UnsupportedError(f"unknown command {quote(name)}")
-                return [True, getattr(self, own)(client, args)]
+                own = self._CLIENT_COMMANDS[name]
+                return [True, getattr(self, own)(client, args) if own else self.consoles.execute(name, client, args)]
             if base in _STREAMING:
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)
@@ -456,49 +491,8 @@ class Server:
     # Commands about the calling client rather than the world.
     _CLIENT_COMMANDS = {
         "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
-        "AddStatusbarMessage": "_statusbar_message", "AuxiliaryConsoleOpen": "_console_open",
-        "AuxiliaryConsoleClose": "_console_close", "AuxiliaryConsolePrint": "_console_print",
-        "AuxiliaryConsoleShow": "_console_show", "GetLastErrors": "_last_errors",
+        "GetLastErrors": "_last_errors", **{name: None for name in CONSOLE_COMMANDS},
     }
-
-    def _statusbar_message(self, client: str, args: list) -> None:
-        if len(args) != 1 or not isinstance(args[0], str):
-            raise P.ArgumentError("simxAddStatusbarMessage takes one string")
-        console_log.info("[client %s] %s", client[:8], _cut(args[0]))
-
-    def _console(self, args: list) -> int:
-        if not args or not isinstance(args[0], int) or args[0] not in self._consoles:
-            raise P.UnknownObjectError(f"no auxiliary console with handle {quote(args[0]) if args else None}")
-        return args[0]
-
-    def _console_open(self, client: str, args: list) -> int:
-        if len(args) != 3 or not isinstance(args[0], str):
-            raise P.ArgumentError("simxAuxiliaryConsoleOpen takes a title, maxLines and mode")
-        if len(self._consoles) >= limits.MAX_CONSOLES:
-            raise P.RemoteError(f"too many auxiliary consoles open: at most {limits.MAX_CONSOLES} "
-                                "(limits.MAX_CONSOLES); close some")
-        handle = max(self._consoles, default=0) + 1
-        self._consoles[handle] = title = _cut(args[0], 200)
-        console_log.info("[client %s] console %d %s opened", client[:8], handle, quote(title))
-        return handle
-
-    def _console_close(self, client: str, args: list) -> None:
-        console_log.info("[client %s] console %s closed", client[:8], quote(self._consoles.pop(self._console(args))))
-
-    def _console_print(self, client: str, args: list) -> None:
-        title = self._consoles[self._console(args)]
-        text = args[1] if len(args) == 2 else None
-        if text is not None and not isinstance(text, str):
-            raise P.ArgumentError("console text must be a string or None")
-        lines = (text or "").splitlines() or [""]
-        for line in lines[:limits.MAX_CONSOLE_LINES]:
-            console_log.info("[client %s] [%s] %s", client[:8], title, _cut(line) if text is not None else "(cleared)")
-        if len(lines) > limits.MAX_CONSOLE_LINES:
-            console_log.info("[client %s] [%s] (%d more lines not shown)", client[:8], title,
-                             len(lines) - limits.MAX_CONSOLE_LINES)
-
-    def _console_show(self, client: str, args: list) -> None:
-        self._console(args)
 
     def _last_errors(self, client: str, args: list) -> list[str]:
         return self._errors.pop(client, [])
@@ -509,13 +503,19 @@ class Server:
     def _synchronous(self, client: str, args: list) -> None:
         if len(args) != 1 or not isinstance(args[0], bool):
             raise P.ArgumentError("simxSynchronous takes one boolean")
-        self.sim.synchronous = args[0]
-        self._sync_owner = client if args[0] else None
+        if args[0]:
+            self.sim.enable_sync(client, True)
+            log.info("client %s: synchronous mode on", client)
+        elif self.sim.is_synchronous(client):
+            self._leave_sync(client, "left synchronous mode")
 
     def _trigger(self, client: str, args: list) -> None:
-        if not self.sim.synchronous:
-            raise P.RemoteError("simxSynchronousTrigger: synchronous mode is not enabled (call simxSynchronous(clientID, True))")
-        if self.sim.state is RunState.RUNNING and not self._step():
+        sim = self.sim
+        if not sim.is_synchronous(client):
+            raise P.RemoteError(
+                "simxSynchronousTrigger: this client has not enabled synchronous mode (call "
+                "simxSynchronous(clientID, True)); the simulation steps once every client that did has triggered")
+        if sim.state is RunState.RUNNING and sim.trigger(client) and not self._step():
             session = self.sessions.get(client)
             message = session.fault if session is not None else "the simulation step failed"
             if session is not None:
@@ -529,10 +529,19 @@ class Server:
         if client in self._clients:
             self._clients.discard(client)
             log.info("client %s %s", client, how)
-        if self._sync_owner == client:
-            self.sim.synchronous = False
-            self._sync_owner = None
-            log.info("synchronous mode off: its client %s is gone", client)
+        if self.sim.is_synchronous(client):
+            self._leave_sync(client, f"{how}: out of synchronous mode")
+
+    def _leave_sync(self, client: str, how: str) -> None:
+        """``client`` leaves the synchronous barrier; the step the others all triggered runs now."""
+        released = self.sim.leave_sync(client)
+        waiting = len(self.sim.waiting_for())
+        log.info("client %s %s (%s)", client, how,
+                 "the step its other clients triggered runs now" if released else
+                 f"the next step waits for {waiting} other client(s)" if waiting else
+                 "no synchronous client left: the simulation runs asynchronously")
+        if released and self.sim.state is RunState.RUNNING:
+            self._step()  # a failure is told to every client at its next request
 
     def _publish_streams(self) -> None:
         if self.session is None:

@@ -26,13 +26,17 @@ import threading
 import time
 from typing import Any
 
+from simx_client import protocol as P
 from simx_server import limits
+
+_MODE_MASK, _MODE_BLOCKING = P.MODE_MASK, P.MODE_BLOCKING
 
 
 class Session:
     """The intake state of one client (its queue and counters); touched under the lock."""
 
-    __slots__ = ("client", "queue", "queued_bytes", "scheduled", "parked", "renders", "last_seen", "fault")
+    __slots__ = ("client", "queue", "queued_bytes", "scheduled", "parked", "renders", "last_seen", "fault",
+                 "step")
 
     def __init__(self, client: str, now: float):
         self.client = client
@@ -43,6 +47,7 @@ class Session:
         self.renders = 0  # replies or stream updates of this client waiting for the render thread
         self.last_seen = now  # time.monotonic() of its last request
         self.fault = None  # a message for its next request (the simulation step failed)
+        self.step = -1  # Simulation.steps when its last blocking request was answered (legacy pacing)
 
 
 class Sessions:
@@ -136,6 +141,16 @@ class Sessions:
             else:
                 s.scheduled = False
         return request
+
+    @staticmethod
+    def head_is_blocking(s: Session) -> bool:
+        """Whether the oldest request of ``s`` is a blocking call (one command, blocking mode):
+        the request that legacy pacing holds until the next simulation step."""
+        queued = s.queue
+        if not queued:
+            return False
+        commands = queued[0][0][1]
+        return len(commands) == 1 and commands[0][1] & _MODE_MASK == _MODE_BLOCKING
 
     def render_started(self, s: Session) -> None:
         """A reply or stream update of ``s`` now waits for the render thread."""

@@ -58,7 +58,10 @@ class Simulation:
         self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
         self.state = RunState.STOPPED
         self.realtime = realtime
-        self.synchronous = False  # stepped mode: a step runs only on a trigger
+        #: Stepped mode: some client enabled it, so a step runs only when every such client
+        #: has triggered (:meth:`enable_sync`, :meth:`trigger`). Read it, never set it.
+        self.synchronous = False
+        self._sync: dict[str, bool] = {}  # synchronous client -> triggered since the last step
         self.steps = 0
         self._scene_id: tuple[World | None, int] = (None, 0)
         self.stop_requests = 0  # sim_intparam_stop_request_counter
@@ -118,6 +121,8 @@ class Simulation:
         self.world.reset()
         self.vision.reset()  # clipping planes changed by clients
         self.state = RunState.STOPPED
+        for client in self._sync:  # triggers given before the stop do not count for the next run
+            self._sync[client] = False
 
     def step(self) -> None:
         """One simulation step of dt: actuation scripts, physics, sensing scripts.
@@ -138,6 +143,60 @@ class Simulation:
             raise
         self.scripts.sensing()
         self.steps += 1
+
+    # ------------------------------------------------ synchronous mode (a barrier)
+    def enable_sync(self, client: str, enable: bool) -> bool:
+        """``simxSynchronous(client, enable)``: ``client`` joins (True) or leaves (False) the
+        set of synchronous clients; True when its leaving releases a step every remaining
+        synchronous client has triggered (the caller then steps, see :meth:`trigger`).
+
+        V-REP's rule (simExtRemoteApi ``CSimxConnections::thereWasARequestToCallTheMainScript``):
+        the main script runs only when no connection with synchronous mode enabled is still
+        waiting for its trigger; enabling arms the client's trigger (not yet triggered).
+        """
+        if enable:
+            self._sync[client] = False
+            self.synchronous = True
+            return False
+        return self.leave_sync(client)
+
+    def leave_sync(self, client: str) -> bool:
+        """A client leaves the barrier (``simxSynchronous(False)``, ``simxFinish``, lost token,
+        expiry); True when that releases a step the remaining clients all triggered. With no
+        synchronous client left the simulation runs asynchronously again, as on V-REP, whose
+        server stops waiting for a disconnected client's trigger."""
+        if self._sync.pop(client, None) is None:
+            return False
+        self.synchronous = bool(self._sync)
+        return self._barrier_open()
+
+    def trigger(self, client: str) -> bool:
+        """``simxSynchronousTrigger`` of ``client``: marks it triggered; True when every
+        synchronous client has now triggered, i.e. one step is due (the triggers are then
+        re-armed). Triggering again before that step changes nothing (V-REP's flag, not a count).
+
+        Raises:
+            KeyError: ``client`` did not enable synchronous mode.
+        """
+        if client not in self._sync:
+            raise KeyError(client)
+        self._sync[client] = True
+        return self._barrier_open()
+
+    def _barrier_open(self) -> bool:
+        if not self._sync or not all(self._sync.values()):
+            return False
+        for client in self._sync:
+            self._sync[client] = False
+        return True
+
+    def is_synchronous(self, client: str) -> bool:
+        """Whether ``client`` enabled synchronous mode (is part of the barrier)."""
+        return client in self._sync
+
+    def waiting_for(self) -> list[str]:
+        """The synchronous clients whose trigger the next step waits for."""
+        return [client for client, triggered in self._sync.items() if not triggered]
 
     def close(self) -> None:
         """Release GL contexts and the transfer folder; idempotent."""

@@ -62,8 +62,9 @@ def call(session: zenoh.Session, client: str, payload: bytes | list, timeout: fl
 
 @pytest.fixture(scope="module")
 def core():
-    """A server whose clients expire after 1 s without token and whose log summarises every 1 s."""
-    srv = ServerProcess(str(SCENE), "--client-expiry", "1", "--log-interval", "1")
+    """A server whose clients expire after 1 s without token and whose log summarises every 1 s;
+    blocking calls served at once (--pacing immediate): these tests time them in bursts."""
+    srv = ServerProcess(str(SCENE), "--client-expiry", "1", "--log-interval", "1", "--pacing", "immediate")
     yield srv
     srv.stop()
 
