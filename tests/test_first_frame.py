@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from conftest import ROOT, SCENE, ServerProcess, free_port
+from conftest import ROOT, SCENE, ServerProcess, free_port, wait_until
 
 vrep = pytest.importorskip("vrep")
 
@@ -67,8 +67,15 @@ def first_frame_steps(reader: int, clock: int, handle: int, depth: bool = False)
         assert t - t0 <= 2 * DT_MS, (
             f"no image yet {(t - t0) / DT_MS:.0f} steps ({time.monotonic() - w0:.3f} s) after the streaming call")
     assert len(img) == res[0] * res[1] * (1 if depth else 3)
+    steps = (sim_time(clock) - t0) / DT_MS
     read(vrep.simx_opmode_discontinue)
-    return (sim_time(clock) - t0) / DT_MS, time.monotonic() - w0, res
+    # Updates published before the server saw the discontinue may still be on their way: let
+    # two steps pass, then a buffer read drops them, so that a later streaming call of the same
+    # command starts from an empty inbox.
+    t1 = sim_time(clock)
+    wait_until(lambda: sim_time(clock) >= t1 + 2 * DT_MS, 5, what="two steps after the discontinue")
+    assert read(BUFFER)[0] == vrep.simx_return_novalue_flag
+    return steps, time.monotonic() - w0, res
 
 
 def handle_of(cid: int, name: str) -> int:
