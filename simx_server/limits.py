@@ -172,3 +172,14 @@ LOG_TEMPLATE_BURST = 100
 LOG_REPEAT_INTERVAL = 10.0
 #: Windows (texts and templates) tracked at once (the least recently seen are forgotten).
 LOG_REPEAT_KEYS = 1024
+
+# ---------------------------------------------------------------------------------------------
+# Inverse kinematics and imported shapes (issue 12, part 2: simx_server/ik.py, simx_server/shapes.py)
+# ---------------------------------------------------------------------------------------------
+
+#: Most solver iterations an IK group may declare (``simx:ik:NAME ... iterations=N``): each is
+#: one mj_kinematics + mj_jacSite on the chain, solved every simulation step.
+MAX_IK_ITERATIONS = 100
+#: Largest mesh file ``sim.importShape`` reads (bytes): a scene script imports what a client
+#: names, and MuJoCo reads the whole file.
+MAX_IMPORT_BYTES = 16 * 1024 * 1024

@@ -10,6 +10,7 @@ import zlib
 from pathlib import Path
 
 from simx_client import protocol as P
+from simx_server import ik
 from simx_server.editing import Editor
 from simx_server.physics import PhysicsError
 from simx_server.scene_guard import transfer_folders
@@ -120,7 +121,7 @@ class Simulation:
         self.state = RunState.STOPPED
 
     def step(self) -> None:
-        """One simulation step of dt: actuation scripts, physics, sensing scripts.
+        """One simulation step of dt: actuation scripts, IK groups, physics, sensing scripts.
 
         Raises:
             physics.PhysicsError: the physics blew up (MuJoCo found NaN, infinite or huge
@@ -129,6 +130,7 @@ class Simulation:
                 server logs it once and tells each client (``simxStartSimulation`` runs again).
         """
         self.scripts.actuation()
+        ik.step(self.world)  # IK groups, after the scripts' actuation, before physics (V-REP's main script)
         try:
             self.world.step()
         except PhysicsError as exc:
