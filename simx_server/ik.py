@@ -274,22 +274,8 @@ def getIkGroupHandle(self, name: Any) -> int:  # noqa: N802
     return groups(self._world).group(str(_group_arg(name))).handle
 
 
-def _simik_handle_group(self, environment: Any, group: Any, options: Any = None) -> int:
-    """``simIK.handleGroup(environmentHandle, ikGroupHandle, options)`` (CoppeliaSim 4.x): the
-    scene's group, solved as ``sim.handleIkGroup`` (the environment argument is ignored: simx
-    has one IK environment, the scene). Returns simIK.result_success (1) or result_fail (2)."""
-    return handleIkGroup(self, group)
-
-
-def _simik_get_group_handle(self, environment: Any, name: Any) -> int:
-    """``simIK.getGroupHandle(environmentHandle, name)``: as ``sim.getIkGroupHandle``."""
-    return getIkGroupHandle(self, name)
-
-
 #: Functions the ``sim`` facade gains (registered by :mod:`simx_server.script_facade`).
 FACADE_FUNCTIONS = {
     "handleIkGroup": handleIkGroup,
     "getIkGroupHandle": getIkGroupHandle,
-    "simIK_handleGroup": _simik_handle_group,
-    "simIK_getGroupHandle": _simik_get_group_handle,
 }

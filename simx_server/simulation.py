@@ -10,7 +10,7 @@ import zlib
 from pathlib import Path
 
 from simx_client import protocol as P
-from simx_server import ik
+from simx_server import ik, shapes
 from simx_server.editing import Editor
 from simx_server.physics import PhysicsError
 from simx_server.scene_guard import transfer_folders
@@ -57,6 +57,7 @@ class Simulation:
                                allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders())
         self.sensors = SensorState()
         self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
+        shapes.register(self)  # sim.importShape & co. edit this simulation's scene
         self.state = RunState.STOPPED
         self.realtime = realtime
         self.synchronous = False  # stepped mode: a step runs only on a trigger
