@@ -85,13 +85,14 @@ def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) ->
     key = f"simx-asset-{editor._asset_counter[0]}-import{file.suffix.lower()}"
 
     def change(spec: mujoco.MjSpec):
-        name = E._free_name("Shape", E._names(spec))
+        suffix = E.vrep_suffix({"Shape", "Shape_mesh", "Shape_geom"}, E._names(spec))
+        name = f"Shape{suffix}"
         spec.assets = {**(spec.assets or {}), key: data}
-        mesh = spec.add_mesh(name=f"{name}_mesh", file=key)
+        mesh = spec.add_mesh(name=f"Shape_mesh{suffix}", file=key)
         mesh.scale = [scaling] * 3
         body = spec.worldbody.add_body(name=name)
         body.add_freejoint()
-        body.add_geom(name=f"{name}_geom", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name,
+        body.add_geom(name=f"Shape_geom{suffix}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name,
                       condim=4, friction=_FRICTION, rgba=[0.8, 0.8, 0.8, 1.0])
         return lambda: sim.world.resolve(name).handle
 
