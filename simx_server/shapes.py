@@ -29,8 +29,8 @@ if TYPE_CHECKING:
 log = logging.getLogger("simx.shapes")
 
 _SIMULATIONS: "weakref.WeakSet[Simulation]" = weakref.WeakSet()
-#: V-REP's importShape file formats: 0 OBJ, 3 ASCII STL, 4 binary STL (DXF and 3DS are not read).
-_FORMATS = {0: (".obj",), 3: (".stl",), 4: (".stl",)}
+#: V-REP's importShape file formats MuJoCo reads: 0 OBJ, 4 binary STL (not 1 DXF, 2 3DS, 3 ASCII STL).
+_FORMATS = {0: (".obj",), 4: (".stl",)}
 #: Contact of imported shapes: elliptic-cone friction with torsion (condim 4), grippable.
 _FRICTION = [1.0, 0.02, 0.001]
 _KIND = {SHAPE: "body", JOINT: "joint", DUMMY: "site", PROXIMITY_SENSOR: "site",
@@ -55,7 +55,7 @@ def _helpers():
 
 
 def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) -> int:
-    """Add the mesh of file ``path`` (.obj or .stl, at most limits.MAX_IMPORT_BYTES) as a new
+    """Add the mesh of file ``path`` (.obj or binary .stl, at most limits.MAX_IMPORT_BYTES) as a new
     dynamic, respondable shape at the world origin, scaled by ``scaling``; returns its handle.
 
     Raises ArgumentError for a bad format, extension, scale or a file that cannot be read,
@@ -64,7 +64,7 @@ def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) ->
     suffixes = _FORMATS.get(fileformat)
     if suffixes is None:
         raise ArgumentError(f"importShape: file format {quote(fileformat)} is not one simx reads "
-                            "(0 OBJ, 3 ASCII STL, 4 binary STL)")
+                            "(0 OBJ, 4 binary STL; MuJoCo reads no DXF, 3DS nor ASCII STL)")
     file = Path(path)
     if file.suffix.lower() not in suffixes:
         raise ArgumentError(f"importShape: {quote(path)} is not a {'/'.join(suffixes)} file (format {fileformat})")
@@ -106,7 +106,8 @@ def importShape(self, fileformat: Any, pathAndFilename: Any, options: Any = 0,  
     """``sim.importShape(fileformat, pathAndFilename, options, identicalVerticeTolerance,
     scalingFactor)``: add a mesh file as a new shape at the world origin; returns its handle.
 
-    ``fileformat``: 0 OBJ, 3 ASCII STL, 4 binary STL (V-REP's codes; DXF and 3DS are refused).
+    ``fileformat``: 0 OBJ, 4 binary STL (V-REP's codes; 1 DXF, 2 3DS and 3 ASCII STL are
+    refused: MuJoCo reads none of them).
     The path is read by the server (the scene's script decides what it imports). ``options``
     and ``identicalVerticeTolerance`` are accepted and ignored (MuJoCo merges nothing);
     ``scalingFactor`` (0 or absent: 1) scales the mesh. Unlike V-REP, whose imported shapes are

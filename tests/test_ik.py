@@ -96,12 +96,19 @@ def test_tip_follows_target_within_2mm_at_rest(ik_server):
             return float(np.linalg.norm(p)), float(np.linalg.norm(e))
 
         worst = []
-        for position, turn in (([-0.5, 0.0, 0.3], 0.0), ([-0.65, 0.18, 0.05], 0.8),
-                               ([-0.35, -0.2, 0.12], -1.2), ([-0.7, -0.2, 0.02], 1.5)):
+        # workspace corners, the gripper turned; moves that do not sweep the arm through the
+        # table (the arm collides with it, and a blocked arm does not reach its target)
+        for position, turn in (([-0.5, 0.0, 0.3], 0.0), ([-0.65, 0.18, 0.08], 0.8),
+                               ([-0.35, -0.2, 0.12], -1.2), ([-0.7, -0.2, 0.05], -0.4)):
             assert vrep.simxSetObjectPosition(cid, target, -1, position, BLOCK) == vrep.simx_return_ok
             assert vrep.simxSetObjectOrientation(cid, target, -1, [DOWN[0], turn, DOWN[2]], BLOCK) == 0
-            wait_until(lambda: errors()[0] < 0.002 and errors()[1] < 0.01, timeout=20,
-                       what=f"tip on the target at {position}")
+            last = []
+
+            def on_target():
+                last[:] = errors()
+                return last[0] < 0.002 and last[1] < 0.01
+
+            wait_until(on_target, timeout=20, what=lambda: f"tip on the target at {position} (errors {last})")
             at_rest = [errors() for _ in range(10)]  # and it stays there
             assert max(e[0] for e in at_rest) < 0.002, at_rest
             assert max(e[1] for e in at_rest) < 0.01, at_rest
