@@ -142,3 +142,50 @@ def _stl_tetra() -> bytes:
     for face in faces:
         out += struct.pack("<3f", 0, 0, 0) + b"".join(struct.pack("<3f", *v[i]) for i in face) + b"\0\0"
     return out
+
+
+def test_shape_colour_and_name_through_the_facade(tmp_path):
+    """In process: sim.setShapeColor changes the imported geom's colour (and keeps it through a
+    later edit of the scene); sim.setObjectName renames with the handle kept; the IK group is
+    rebuilt on the edited model and the tip still follows its target."""
+    import numpy as np
+
+    from simx_server.script_facade import SimFacade
+    from simx_server.simulation import Simulation
+
+    sim = Simulation(IK_SCENE, dt=0.05, realtime=False)
+    w = sim.world
+    sim.start()
+    mesh = tmp_path / "cube.obj"
+    sys.path.insert(0, str(PROGRAM.parent))
+    try:
+        from vpg_style_program import write_cube
+    finally:
+        sys.path.remove(str(PROGRAM.parent))
+    write_cube(str(mesh), 0.04)
+    f = SimFacade(w, w.resolve("remoteApiCommandServer").handle)
+    h = f.importShape(0, str(mesh), 0, 0.0, 1.0)
+    assert f.setShapeColor(h, None, 0, [0.1, 0.2, 0.3]) == 1
+    geom = int(np.flatnonzero(w.model.geom_bodyid == w.get(h).mj_id)[0])
+    assert w.model.geom_rgba[geom][:3] == pytest.approx([0.1, 0.2, 0.3])
+    f.setObjectName(h, "red_cube")
+    assert w.resolve("red_cube").handle == h and f.getObjectName(h) == "red_cube"
+    h2 = f.importShape(0, str(mesh), 0, 0.0, 0)  # another edit (scale 0: 1, as absent)
+    assert h2 != h and w.resolve("red_cube").handle == h
+    geom = int(np.flatnonzero(w.model.geom_bodyid == w.get(h).mj_id)[0])
+    assert w.model.geom_rgba[geom][:3] == pytest.approx([0.1, 0.2, 0.3])  # the colour survived
+    with pytest.raises(Exception, match="another object is named"):
+        f.setObjectName(h2, "red_cube")
+    with pytest.raises(Exception, match="rgbData must be in"):
+        f.setShapeColor(h, None, 0, [2, 0, 0])
+    with pytest.raises(Exception, match="MAX_IMPORT_BYTES"):
+        big = tmp_path / "big.obj"
+        big.write_bytes(b"#" * (17 * 1024 * 1024))
+        f.importShape(0, str(big), 0, 0.0, 1.0)
+    target = w.resolve("UR5_target").handle
+    w.set_pose(target, -1, [-0.45, 0.12, 0.2])
+    for _ in range(40):
+        sim.step()
+    tip = np.array(w.position(w.resolve("UR5_tip").handle, -1))
+    assert np.linalg.norm(tip - [-0.45, 0.12, 0.2]) < 0.002
+    sim.close()
