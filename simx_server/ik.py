@@ -40,7 +40,7 @@ import numpy as np
 from simx_client.protocol import ArgumentError, UnknownObjectError
 from simx_server import limits as L
 from simx_server.arguments import quote
-from simx_server.world import DUMMY, JOINT, SHAPE, WORLD, World
+from simx_server.world import DUMMY, JOINT, SHAPE, World
 
 log = logging.getLogger("simx.ik")
 

@@ -109,12 +109,15 @@ class Robot:
         vrep.simxSetJointForce(self.client, self.gripper, 100, BLOCK)
         vrep.simxSetJointTargetVelocity(self.client, self.gripper, velocity, BLOCK)
         rc, previous = vrep.simxGetJointPosition(self.client, self.gripper, BLOCK)
+        stamp = vrep.simxGetLastCmdTime(self.client)
         deadline = time.monotonic() + 10
         still = 0
-        while time.monotonic() < deadline and still < 5:  # until it stops moving
+        while time.monotonic() < deadline and still < 3:  # until it stops moving
             rc, q = vrep.simxGetJointPosition(self.client, self.gripper, BLOCK)
-            still = still + 1 if abs(q - previous) < 1e-5 else 0
-            previous = q
+            now = vrep.simxGetLastCmdTime(self.client)  # simulation time of that reading (ms)
+            if now != stamp:  # compare readings of different steps only, whatever the server's pacing
+                still = still + 1 if abs(q - previous) < 1e-5 else 0
+                previous, stamp = q, now
         return previous
 
     def close_gripper(self) -> float:
