@@ -37,7 +37,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server import limits as L
 from simx_server.arguments import quote
 from simx_server.world import DUMMY, JOINT, SHAPE, World
@@ -191,9 +191,10 @@ class IkGroups:
     def solve(self, g: IkGroup) -> int:
         """Solve ``g`` from the chain's current target positions; set the new targets.
 
-        Returns IK_SUCCESS when the tip reaches the target within 0.1 mm / 1 mrad on the
+        Returns IK_SUCCESS when the tip reaches the target within 0.01 mm / 0.1 mrad on the
         kinematic model, IK_FAIL otherwise (the targets still move as far as the iterations got,
-        as V-REP's damped resolution did)."""
+        as V-REP's damped resolution did). A chain joint a client put in velocity mode keeps
+        its own target velocity (its target position is not set)."""
         w, m, d, s = self.world, self.model, self.world.data, self._scratch
         s.qpos[:] = d.qpos
         s.mocap_pos[:], s.mocap_quat[:] = d.mocap_pos, d.mocap_quat
@@ -218,7 +219,10 @@ class IkGroups:
             dq = jac.T @ np.linalg.solve(jac @ jac.T + lam2 * np.eye(len(e)), e)
             q = np.clip(q + dq, g.low, g.high)
         for h, value in zip(g.joints, q):
-            w.set_joint_target_position(h, float(value))
+            try:
+                w.set_joint_target_position(h, float(value))
+            except ObjectTypeError:  # a client put the joint in velocity mode: it is not driven
+                pass
         return IK_SUCCESS if ok else IK_FAIL
 
 
@@ -239,7 +243,10 @@ def step(world: World) -> None:
     if g is None or g.model is not world.model:
         g = groups(world)
     if g.groups:
-        g.solve_automatic()
+        try:
+            g.solve_automatic()
+        except Exception:  # never a step fault: the arm keeps its last targets
+            log.exception("IK groups of %s not solved this step", world.scene_path.name)
 
 
 # ----------------------------------------------------------------- the sim facade's calls

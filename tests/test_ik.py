@@ -263,3 +263,34 @@ def test_ik_step_cost_is_small():
         sim.step()
     assert _distance(w, "UR5_tip", "UR5_target") < 0.002
     sim.close()
+
+
+def test_a_chain_joint_in_velocity_mode_does_not_stop_the_simulation(ik_server):
+    """A client turns a chain joint's control loop off (sim_jointintparam_ctrl_enabled = 0,
+    velocity mode): the IK goes on with the other joints, the simulation keeps running; with
+    the loop back on, the tip reaches the target again."""
+    cid = vrep.simxStart("127.0.0.1", ik_server.port, True, True, 5000, 5)
+    assert cid >= 0
+    try:
+        _, target = vrep.simxGetObjectHandle(cid, "UR5_target", BLOCK)
+        _, tip = vrep.simxGetObjectHandle(cid, "UR5_tip", BLOCK)
+        _, joint1 = vrep.simxGetObjectHandle(cid, "UR5_joint1", BLOCK)
+        vrep.simxStartSimulation(cid, BLOCK)
+        assert vrep.simxSetObjectIntParameter(cid, joint1, 2001, 0, BLOCK) == vrep.simx_return_ok
+        vrep.simxSetObjectPosition(cid, target, -1, [-0.45, 0.15, 0.2], BLOCK)
+        vrep.simxGetPingTime(cid)
+        t0 = vrep.simxGetLastCmdTime(cid)
+        wait_until(lambda: vrep.simxGetPingTime(cid)[0] == 0 and vrep.simxGetLastCmdTime(cid) > t0 + 500,
+                   timeout=10, what="the simulation advancing 0.5 s")
+        rc, running = vrep.simxGetInMessageInfo(cid, vrep.simx_headeroffset_server_state)
+        assert rc != -1 and running & 1, running  # not stopped by a step fault
+        assert vrep.simxSetObjectIntParameter(cid, joint1, 2001, 1, BLOCK) == vrep.simx_return_ok
+
+        def distance():
+            _, p = vrep.simxGetObjectPosition(cid, tip, target, BLOCK)
+            return float(np.linalg.norm(p))
+
+        wait_until(lambda: distance() < 0.002, timeout=20, what="tip on the target again")
+    finally:
+        vrep.simxStopSimulation(cid, BLOCK)
+        vrep.simxFinish(cid)
