@@ -73,7 +73,8 @@ def test_vpg_style_program_grasps_lifts_and_pushes(vpg_server, tmp_path):
     handles = steps["added"]["handles"]
     assert len(set(handles)) == 3
     assert steps["grasped"]["after"][2] - steps["grasped"]["before"][2] > 0.1
-    assert 0.015 < steps["closed"]["opening"] < 0.035  # the fingers stopped on the 5 cm cube
+    # the fingers stopped on the 5 cm cube: RG2_openCloseJoint near 0.025 / 0.6627 - 0.047
+    assert -0.02 < steps["closed"]["opening"] < 0.0
     assert steps["tip_at_rest"]["error"] < 0.002
     assert steps["pushed"]["moved"] > 0.05
 

@@ -121,7 +121,8 @@ class Robot:
         return previous
 
     def close_gripper(self) -> float:
-        """Close at 0.5 m/s with 100 N; returns the opening where the fingers stopped (m)."""
+        """Close at 0.5 m/s with 100 N; returns the joint's position where it stopped (m:
+        -0.047 closed on nothing .. 0.036 open)."""
         return self._drive_gripper(-0.5)
 
     def open_gripper(self) -> float:
@@ -146,7 +147,8 @@ class Robot:
 
     def grasp(self, position, angle: float) -> bool:
         """Top-down grasp at ``position`` (m) with the fingers turned ``angle`` rad; lifts the
-        object 0.2 m. True when the fingers stopped on something."""
+        object 0.2 m. True when the fingers stopped on something (above -0.045, that
+        program's rule)."""
         x, y, z = position
         self.open_gripper()
         self.move_to([x, y, z + 0.15])
@@ -155,7 +157,7 @@ class Robot:
         opening = self.close_gripper()
         report("closed", opening=opening)
         self.move_to([x, y, z + 0.2])
-        return opening > 0.005  # not closed on nothing
+        return opening > -0.045  # not closed on nothing (the joint's closed end is -0.047)
 
     def push(self, position, direction, length: float = 0.1) -> None:
         """Push along ``direction`` (unit, horizontal) from ``length``/2 behind ``position``."""
