@@ -29,6 +29,8 @@ if TYPE_CHECKING:
 log = logging.getLogger("simx.shapes")
 
 _SIMULATIONS: "weakref.WeakSet[Simulation]" = weakref.WeakSet()
+#: Handles of the shapes imported into each world (kept in place when the simulation stops).
+_IMPORTED: "weakref.WeakKeyDictionary[World, set[int]]" = weakref.WeakKeyDictionary()
 #: V-REP's importShape file formats MuJoCo reads: 0 OBJ, 4 binary STL (not 1 DXF, 2 3DS, 3 ASCII STL).
 _FORMATS = {0: (".obj",), 4: (".stl",)}
 #: Contact of imported shapes: elliptic-cone friction with torsion (condim 4), grippable.
@@ -40,6 +42,21 @@ _KIND = {SHAPE: "body", JOINT: "joint", DUMMY: "site", PROXIMITY_SENSOR: "site",
 def register(simulation: Simulation) -> None:
     """Let the facade calls of this module edit ``simulation``'s scene (called by Simulation)."""
     _SIMULATIONS.add(simulation)
+
+
+def imported_poses(world: World) -> list[tuple[int, Any, Any]]:
+    """``(handle, position, rotation)`` of the world's imported shapes, to :func:`restore_poses`
+    after the simulation's reset: V-REP leaves objects made during a simulation where they are
+    when it stops (their initial pose in the model is the origin, where they were imported)."""
+    handles = _IMPORTED.get(world, ())
+    return [(h, *world.frame(h)) for h in sorted(handles) if h in world.objects]
+
+
+def restore_poses(world: World, poses: list[tuple[int, Any, Any]]) -> None:
+    """Put imported shapes back where :func:`imported_poses` found them (at rest)."""
+    for h, p, r in poses:
+        if h in world.objects:
+            world.set_pose(h, -1, position=p.tolist(), rotation=r)
 
 
 def _simulation(world: World) -> Simulation:
@@ -97,6 +114,7 @@ def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) ->
         return lambda: sim.world.resolve(name).handle
 
     handle = editor._edit(change)
+    _IMPORTED.setdefault(sim.world, set()).add(handle)
     log.info("imported shape %r (handle %d) from %s", sim.world.get(handle).name, handle, file.name)
     return handle
 

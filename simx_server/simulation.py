@@ -117,7 +117,9 @@ class Simulation:
         if self.state is RunState.STOPPED:
             return
         self.scripts.stop()
+        imported = shapes.imported_poses(self.world)  # shapes imported while running stay in place
         self.world.reset()
+        shapes.restore_poses(self.world, imported)
         self.vision.reset()  # clipping planes changed by clients
         self.state = RunState.STOPPED
 

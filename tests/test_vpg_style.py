@@ -190,3 +190,35 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
     tip = np.array(w.position(w.resolve("UR5_tip").handle, -1))
     assert np.linalg.norm(tip - [-0.45, 0.12, 0.2]) < 0.002
     sim.close()
+
+
+def test_imported_shapes_stay_in_place_when_the_simulation_stops(tmp_path):
+    """A stop puts the scene's own objects back, not imported shapes: they stay where they are
+    (their model pose is the origin, inside the robot's base and the table)."""
+    from simx_server.script_facade import SimFacade
+    from simx_server.simulation import Simulation
+
+    sys.path.insert(0, str(PROGRAM.parent))
+    try:
+        from vpg_style_program import write_cube
+    finally:
+        sys.path.remove(str(PROGRAM.parent))
+    mesh = tmp_path / "cube.obj"
+    write_cube(str(mesh), 0.05)
+    sim = Simulation(IK_SCENE, dt=0.05, realtime=False)
+    w = sim.world
+    sim.start()
+    f = SimFacade(w, w.resolve("remoteApiCommandServer").handle)
+    h = f.importShape(0, str(mesh), 0, 0.0, 1.0)
+    f.setObjectPosition(h, -1, [-0.5, 0.1, 0.05])
+    for _ in range(10):
+        sim.step()
+    rest = w.position(h, -1)
+    assert rest[2] == pytest.approx(0.025, abs=0.002)  # fell onto the table
+    sim.stop()
+    assert w.position(h, -1) == pytest.approx(rest, abs=1e-6)
+    sim.start()
+    for _ in range(10):
+        sim.step()
+    assert w.position(h, -1) == pytest.approx(rest, abs=1e-3)
+    sim.close()
