@@ -56,7 +56,10 @@ def restore_poses(world: World, poses: list[tuple[int, Any, Any]]) -> None:
     """Put imported shapes back where :func:`imported_poses` found them (at rest)."""
     for h, p, r in poses:
         if h in world.objects:
-            world.set_pose(h, -1, position=p.tolist(), rotation=r)
+            try:
+                world.set_pose(h, -1, position=p.tolist(), rotation=r)
+            except Exception as exc:  # a pose out of bounds (after a blow-up): the origin then
+                log.warning("imported shape %r left at its initial pose: %s", world.get(h).name, exc)
 
 
 def _simulation(world: World) -> Simulation:
