@@ -72,6 +72,8 @@ def test_vpg_style_program_grasps_lifts_and_pushes(vpg_server, tmp_path):
     assert steps["camera"]["colours"] > 50  # a picture, not a blank
     handles = steps["added"]["handles"]
     assert len(set(handles)) == 3
+    # the cubes' tops, 0.95 m from the camera, cover the area the 618.62 px focal length gives
+    assert steps["cube_tops"]["pixels"] == pytest.approx(steps["cube_tops"]["expected"], rel=0.1)
     assert steps["grasped"]["after"][2] - steps["grasped"]["before"][2] > 0.1
     # the fingers stopped on the 5 cm cube: RG2_openCloseJoint near 0.025 / 0.6627 - 0.047
     assert -0.02 < steps["closed"]["opening"] < 0.0

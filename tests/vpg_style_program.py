@@ -46,7 +46,7 @@ def write_cube(path: str, edge: float) -> None:
     """An .obj cube of ``edge`` m centred on its origin (outward faces)."""
     s = edge / 2
     vertices = [(x, y, z) for x in (-s, s) for y in (-s, s) for z in (-s, s)]
-    faces = [(1, 3, 4, 2), (5, 6, 8, 7), (1, 2, 6, 5), (3, 7, 8, 4), (1, 5, 7, 3), (2, 4, 8, 6)]
+    faces = [(1, 2, 4, 3), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 3, 7, 5), (2, 6, 8, 4)]  # counter-clockwise seen from outside
     with open(path, "w") as f:
         f.writelines(f"v {x} {y} {z}\n" for x, y, z in vertices)
         f.writelines("f " + " ".join(map(str, face)) + "\n" for face in faces)
@@ -195,6 +195,14 @@ def main() -> None:
         write_cube(mesh, CUBE)
         cubes.append(robot.add_object(mesh, f"shape_{i:02d}", place, 0.3 * i, color))
     report("added", handles=cubes)
+    # The cubes' tops, seen 0.95 m away through the 618.62 px focal length that program assumes
+    # (the arm out of the way first).
+    robot.move_to([-0.25, 0.35, 0.35])
+    _, depth = robot.camera_data()
+    tops = int(np.count_nonzero(np.abs(depth - (1.0 - CUBE)) < 0.01))
+    expected = 3 * (CUBE * 618.62 / (1.0 - CUBE)) ** 2
+    report("cube_tops", pixels=tops, expected=expected)
+    check(abs(tops - expected) < 0.1 * expected, "the cubes' tops in the depth image")
 
     settled = [robot.position(h) for h in cubes]
     grasped = robot.grasp(settled[0], 0.0)
