@@ -202,3 +202,14 @@ MAX_PID_P = 1.0
 #: changes while the simulation is stopped; past it the simulation goes on and the first images
 #: come later. A software renderer needs about 0.2-0.5 s for the bundled scene.
 VISION_READY_TIMEOUT = 10.0
+
+# ---------------------------------------------------------------------------------------------
+# Inverse kinematics and imported shapes (issue 12, part 2: simx_server/ik.py, simx_server/shapes.py)
+# ---------------------------------------------------------------------------------------------
+
+#: Most solver iterations an IK group may declare (``simx:ik:NAME ... iterations=N``): each is
+#: one mj_kinematics + mj_jacSite on the chain, solved every simulation step.
+MAX_IK_ITERATIONS = 100
+#: Largest mesh file ``sim.importShape`` reads (bytes): a scene script imports what a client
+#: names, and MuJoCo reads the whole file.
+MAX_IMPORT_BYTES = 16 * 1024 * 1024

@@ -112,6 +112,15 @@ setmetatable(sim, {__index = function(_, key)
   error(where() .. "sim." .. tostring(key) .. " is not available in simx (docs/SCRIPTS.md lists what is)", 0)
 end})
 G.sim = sim
+-- CoppeliaSim 4.x's simIK, as far as it maps onto the scene's IK groups (simx_server/ik.py).
+G.simIK = {result_success = 1, result_fail = 2,
+  createEnvironment = function() return 0 end,
+  getGroupHandle = function(env, name) return sim.getIkGroupHandle(name) end,
+  getIkGroupHandle = function(env, name) return sim.getIkGroupHandle(name) end,
+  handleGroup = function(env, group) return sim.handleIkGroup(group) end,
+  handleIkGroup = function(env, group) return sim.handleIkGroup(group) end,
+  applySceneToIkEnvironment = function() end,
+  applyIkEnvironmentToScene = function(env, group) return sim.handleIkGroup(group) end}
 -- V-REP before 3.6: simGetObjectHandle(...), sim_handle_self.
 setmetatable(G, {__index = function(_, key)
   if type(key) ~= "string" then return nil end

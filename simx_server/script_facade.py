@@ -486,6 +486,12 @@ for _kind in _PACK_FORMATS:  # packInt32Table, unpackFloatTable, ... as V-REP na
     setattr(SimFacade, f"unpack{_kind}Table", _unpack_fn)
 
 
+# IK groups and imported shapes (their own modules; a name the facade defines itself wins).
+from simx_server import ik as _ik, shapes as _shapes  # noqa: E402  (they import this module late)
+for _name, _fn in {**_ik.FACADE_FUNCTIONS, **_shapes.FACADE_FUNCTIONS}.items():
+    if not hasattr(SimFacade, _name):
+        setattr(SimFacade, _name, _fn)
+
 #: Names of the facade's functions (``sim.NAME`` in both languages).
 FACADE_FUNCTIONS: tuple[str, ...] = tuple(sorted(
     n for n, v in vars(SimFacade).items() if not n.startswith("_") and callable(v)))

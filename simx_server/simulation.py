@@ -10,6 +10,7 @@ import zlib
 from pathlib import Path
 
 from simx_client import protocol as P
+from simx_server import ik, shapes
 from simx_server.editing import Editor
 from simx_server.physics import PhysicsError
 from simx_server.scene_guard import transfer_folders
@@ -56,6 +57,7 @@ class Simulation:
                                allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders(), simulation=self)
         self.sensors = SensorState()
         self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
+        shapes.register(self)  # sim.importShape & co. edit this simulation's scene
         self.state = RunState.STOPPED
         self.realtime = realtime
         #: Stepped mode: some client enabled it, so a step runs only when every such client
@@ -118,14 +120,16 @@ class Simulation:
         if self.state is RunState.STOPPED:
             return
         self.scripts.stop()
+        imported = shapes.imported_poses(self.world)  # shapes imported while running stay in place
         self.world.reset()
+        shapes.restore_poses(self.world, imported)
         self.vision.reset()  # clipping planes changed by clients
         self.state = RunState.STOPPED
         for client in self._sync:  # triggers given before the stop do not count for the next run
             self._sync[client] = False
 
     def step(self) -> None:
-        """One simulation step of dt: actuation scripts, physics, sensing scripts.
+        """One simulation step of dt: actuation scripts, IK groups, physics, sensing scripts.
 
         Raises:
             physics.PhysicsError: the physics blew up (MuJoCo found NaN, infinite or huge
@@ -134,6 +138,7 @@ class Simulation:
                 server logs it once and tells each client (``simxStartSimulation`` runs again).
         """
         self.scripts.actuation()
+        ik.step(self.world)  # IK groups, after the scripts' actuation, before physics (V-REP's main script)
         try:
             self.world.step()
         except PhysicsError as exc:

@@ -1,0 +1,242 @@
+"""Shapes made by scripts: ``sim.importShape`` (an .obj/.stl mesh through ``MjSpec``),
+``sim.setShapeColor``, and ``sim.setObjectName`` where the facade has none of its own.
+
+The imported shape is a new body of the world (V-REP's shape) holding one mesh geom; the
+scene is edited through :class:`simx_server.editing.Editor` (all or nothing, handles kept, the
+simulation goes on). The facade functions here are registered on
+:class:`simx_server.script_facade.SimFacade`; they find the scene's editor through the
+:class:`~simx_server.simulation.Simulation` that owns the script's world (:func:`register`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import weakref
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+
+from simx_client.protocol import ArgumentError, UnsupportedError
+from simx_server import limits as L
+from simx_server.arguments import quote
+from simx_server.world import DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, World
+
+if TYPE_CHECKING:
+    from simx_server.simulation import Simulation
+
+log = logging.getLogger("simx.shapes")
+
+_SIMULATIONS: "weakref.WeakSet[Simulation]" = weakref.WeakSet()
+#: Handles of the shapes imported into each world (kept in place when the simulation stops).
+_IMPORTED: "weakref.WeakKeyDictionary[World, set[int]]" = weakref.WeakKeyDictionary()
+#: V-REP's importShape file formats MuJoCo reads: 0 OBJ, 4 binary STL (not 1 DXF, 2 3DS, 3 ASCII STL).
+_FORMATS = {0: (".obj",), 4: (".stl",)}
+#: Contact of imported shapes: elliptic-cone friction with torsion (condim 4), grippable.
+_FRICTION = [1.0, 0.02, 0.001]
+_KIND = {SHAPE: "body", JOINT: "joint", DUMMY: "site", PROXIMITY_SENSOR: "site",
+         FORCE_SENSOR: "site", VISION_SENSOR: "camera", LIGHT: "light"}
+
+
+def register(simulation: Simulation) -> None:
+    """Let the facade calls of this module edit ``simulation``'s scene (called by Simulation)."""
+    _SIMULATIONS.add(simulation)
+
+
+def imported_poses(world: World) -> list[tuple[int, Any, Any]]:
+    """``(handle, position, rotation)`` of the world's imported shapes, to :func:`restore_poses`
+    after the simulation's reset: V-REP leaves objects made during a simulation where they are
+    when it stops (their initial pose in the model is the origin, where they were imported)."""
+    handles = _IMPORTED.get(world, ())
+    return [(h, *world.frame(h)) for h in sorted(handles) if h in world.objects]
+
+
+def restore_poses(world: World, poses: list[tuple[int, Any, Any]]) -> None:
+    """Put imported shapes back where :func:`imported_poses` found them (at rest)."""
+    for h, p, r in poses:
+        if h in world.objects:
+            try:
+                world.set_pose(h, -1, position=p.tolist(), rotation=r)
+            except Exception as exc:  # a pose out of bounds (after a blow-up): the origin then
+                log.warning("imported shape %r left at its initial pose: %s", world.get(h).name, exc)
+
+
+def _simulation(world: World) -> Simulation:
+    for sim in list(_SIMULATIONS):
+        if sim.world is world:
+            return sim
+    raise UnsupportedError("this script's scene cannot be edited (no simulation owns it)")
+
+
+def _helpers():
+    from simx_server import script_facade as F  # imported late: script_facade imports this module
+    return F
+
+
+def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) -> int:
+    """Add the mesh of file ``path`` (.obj or binary .stl, at most limits.MAX_IMPORT_BYTES) as a new
+    dynamic, respondable shape at the world origin, scaled by ``scaling``; returns its handle.
+
+    Raises ArgumentError for a bad format, extension, scale or a file that cannot be read,
+    UnsupportedError when MuJoCo cannot compile the mesh (the scene is then unchanged)."""
+    from simx_server import editing as E
+    suffixes = _FORMATS.get(fileformat)
+    if suffixes is None:
+        raise ArgumentError(f"importShape: file format {quote(fileformat)} is not one simx reads "
+                            "(0 OBJ, 4 binary STL; MuJoCo reads no DXF, 3DS nor ASCII STL)")
+    file = Path(path)
+    if file.suffix.lower() not in suffixes:
+        raise ArgumentError(f"importShape: {quote(path)} is not a {'/'.join(suffixes)} file (format {fileformat})")
+    if not math.isfinite(scaling) or not 0 < scaling <= 1000:
+        raise ArgumentError(f"importShape: scaling factor must be in (0, 1000], got {quote(scaling)}")
+    try:
+        if not file.is_file():
+            raise ArgumentError(f"importShape: no file {quote(path)}")
+        size = file.stat().st_size
+        if size > L.MAX_IMPORT_BYTES:
+            raise ArgumentError(f"importShape: {quote(path)} has {size} bytes, more than "
+                                f"{L.MAX_IMPORT_BYTES} (simx_server.limits.MAX_IMPORT_BYTES)")
+        data = file.read_bytes()
+    except OSError as exc:
+        raise ArgumentError(f"importShape: cannot read {quote(path)}: {quote(exc.strerror)}") from None
+    editor = sim.editor
+    editor._asset_counter[0] += 1
+    key = f"simx-asset-{editor._asset_counter[0]}-import{file.suffix.lower()}"
+
+    def change(spec: mujoco.MjSpec):
+        suffix = E.vrep_suffix({"Shape", "Shape_mesh", "Shape_geom"}, E._names(spec))
+        name = f"Shape{suffix}"
+        spec.assets = {**(spec.assets or {}), key: data}
+        mesh = spec.add_mesh(name=f"Shape_mesh{suffix}", file=key)
+        mesh.scale = [scaling] * 3
+        body = spec.worldbody.add_body(name=name)
+        body.add_freejoint()
+        body.add_geom(name=f"Shape_geom{suffix}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name,
+                      condim=4, friction=_FRICTION, rgba=[0.8, 0.8, 0.8, 1.0])
+        return lambda: sim.world.resolve(name).handle
+
+    handle = editor._edit(change)
+    _IMPORTED.setdefault(sim.world, set()).add(handle)
+    log.info("imported shape %r (handle %d) from %s", sim.world.get(handle).name, handle, file.name)
+    return handle
+
+
+def importShape(self, fileformat: Any, pathAndFilename: Any, options: Any = 0,  # noqa: N802, N803
+                identicalVerticeTolerance: Any = 0.0, scalingFactor: Any = 1.0) -> int:  # noqa: N803
+    """``sim.importShape(fileformat, pathAndFilename, options, identicalVerticeTolerance,
+    scalingFactor)``: add a mesh file as a new shape at the world origin; returns its handle.
+
+    ``fileformat``: 0 OBJ, 4 binary STL (V-REP's codes; 1 DXF, 2 3DS and 3 ASCII STL are
+    refused: MuJoCo reads none of them).
+    The path is read by the server (the scene's script decides what it imports). ``options``
+    and ``identicalVerticeTolerance`` are accepted and ignored (MuJoCo merges nothing);
+    ``scalingFactor`` (0 or absent: 1) scales the mesh. Unlike V-REP, whose imported shapes are
+    static until made dynamic, the shape is dynamic and respondable (a free body: what programs
+    that import objects then ask for). Its name is ``Shape`` (``Shape#0``... when taken):
+    rename it with ``sim.setObjectName``. Raises ArgumentError (bad argument, unreadable or too
+    large file) or UnsupportedError (MuJoCo cannot read the mesh); the scene is then unchanged.
+    """
+    F = _helpers()
+    fmt = F._int(fileformat, "fileformat")
+    path = F._text(pathAndFilename, "pathAndFilename")
+    F._int(options, "options")
+    F._num(identicalVerticeTolerance, "identicalVerticeTolerance")
+    scale = F._num(scalingFactor, "scalingFactor") if scalingFactor is not None else 0.0
+    return import_shape(_simulation(self._world), fmt, path, scale or 1.0)
+
+
+def setShapeColor(self, shapeHandle: Any, colorName: Any, colorComponent: Any,  # noqa: N802, N803
+                  rgbData: Any) -> int:  # noqa: N803
+    """``sim.setShapeColor(shapeHandle, colorName, colorComponent, rgbData)``: colour of a
+    shape's geoms (those named ``colorName``, every one for nil or ``""``).
+
+    ``colorComponent`` 0 (``sim.colorcomponent_ambient_diffuse``) or 1 (diffuse) with
+    ``rgbData`` = {r, g, b} in [0, 1] (the geom's material, if any, is dropped so that the
+    colour shows); 4 (``sim.colorcomponent_transparency``) with {t}, the opacity lost, as
+    V-REP's transparency (alpha = 1 - t). Other components (specular, emission...) are
+    accepted and ignored, as MuJoCo renders no such per-geom colours. Returns 1. The colour
+    lasts until the scene is reloaded (stopping the simulation keeps it). Raises
+    UnknownObjectError / ObjectTypeError (not a shape), ArgumentError (bad colour)."""
+    F = _helpers()
+    world = self._world
+    obj = world.get(self._h(shapeHandle, "shapeHandle"), SHAPE)
+    name = None if colorName is None else F._text(colorName, "colorName")
+    component = F._int(colorComponent, "colorComponent")
+    values = F._vector(rgbData, 1 if component == 4 else 3, "rgbData") if component in (0, 1, 4) else None
+    if values is not None and not all(0.0 <= v <= 1.0 for v in values):
+        raise ArgumentError(f"rgbData must be in [0, 1], got {quote(rgbData)}")
+    m = world.model
+    geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == obj.mj_id
+             and (not name or mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) == name)]
+    if values is None:
+        return 1
+    try:
+        spec = _simulation(world).editor._live_spec()
+    except UnsupportedError:
+        spec = None
+    for g in geoms:
+        rgba = m.geom_rgba[g].copy()
+        if component == 4:
+            rgba[3] = 1.0 - values[0]
+        else:
+            rgba[:3] = values
+            m.geom_matid[g] = -1
+        m.geom_rgba[g] = rgba
+        # the spec too, so that the colour survives later edits of the scene
+        gname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
+        el = spec.geom(gname) if spec is not None and gname else None
+        if el is not None:
+            el.rgba = rgba
+            if component != 4:
+                el.material = ""
+    world.version += 1  # cached renders are stale
+    return 1
+
+
+def setObjectName(self, objectHandle: Any, objectName: Any) -> None:  # noqa: N802, N803
+    """``sim.setObjectName(objectHandle, objectName)``: rename an object; its handle stays.
+
+    Raises ArgumentError for an empty name, one with spaces, or one another object has;
+    UnsupportedError when other elements refer to the object by name (MuJoCo cannot
+    compile the renamed scene: nothing changes then)."""
+    F = _helpers()
+    world = self._world
+    obj = world.get(self._h(objectHandle, "objectHandle"))
+    new = F._text(objectName, "objectName")
+    if not new or len(new) > 200 or any(c.isspace() for c in new) or new == "world":
+        raise ArgumentError(f"setObjectName: {quote(new)} is not a valid object name")
+    if new == obj.name:
+        return
+    if new in world.by_name:
+        raise ArgumentError(f"setObjectName: another object is named {quote(new)}")
+    kind = _KIND.get(obj.type)
+    if kind is None:
+        raise UnsupportedError(f"{obj.name!r} cannot be renamed")
+    old = obj.name
+    sim = _simulation(world)
+
+    def change(spec: mujoco.MjSpec):
+        el = getattr(spec, kind)(old)
+        if el is None:
+            raise UnsupportedError(f"object {old!r} is not in the scene's MjSpec")
+        el.name = new
+        text = spec.text(f"simx:{old}")
+        if text is not None:
+            text.name = f"simx:{new}"
+
+    handles = world._handle_of_name
+    handles[new] = handles.pop(old)  # the handle follows the name
+    try:
+        sim.editor._edit(change)
+    except Exception:
+        handles[old] = handles.pop(new)
+        raise
+    for script in sim.scripts.scripts.values():  # a script's label names its object
+        if script.owner == obj.handle:
+            script.object_name = new
+
+
+#: Functions the ``sim`` facade gains (registered by :mod:`simx_server.script_facade` when
+#: it has no function of that name itself).
+FACADE_FUNCTIONS = {"importShape": importShape, "setShapeColor": setShapeColor, "setObjectName": setObjectName}
