@@ -1,5 +1,5 @@
 """Shapes made by scripts: ``sim.importShape`` (an .obj/.stl mesh through ``MjSpec``),
-``sim.setShapeColor``, and ``sim.setObjectName`` where the facade has none of its own.
+and ``sim.setShapeColor`` (``sim.setObjectName`` is the facade's own, simx_server.facade_objects).
 
 The imported shape is a new body of the world (V-REP's shape) holding one mesh geom; the
 scene is edited through :class:`simx_server.editing.Editor` (all or nothing, handles kept, the
@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import weakref
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -21,7 +22,7 @@ import mujoco
 from simx_client.protocol import ArgumentError, UnsupportedError
 from simx_server import limits as L
 from simx_server.arguments import quote
-from simx_server.world import DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, World
+from simx_server.world import SHAPE, World
 
 if TYPE_CHECKING:
     from simx_server.simulation import Simulation
@@ -35,8 +36,6 @@ _IMPORTED: "weakref.WeakKeyDictionary[World, set[int]]" = weakref.WeakKeyDiction
 _FORMATS = {0: (".obj",), 4: (".stl",)}
 #: Contact of imported shapes: elliptic-cone friction with torsion (condim 4), grippable.
 _FRICTION = [1.0, 0.02, 0.001]
-_KIND = {SHAPE: "body", JOINT: "joint", DUMMY: "site", PROXIMITY_SENSOR: "site",
-         FORCE_SENSOR: "site", VISION_SENSOR: "camera", LIGHT: "light"}
 
 
 def register(simulation: Simulation) -> None:
@@ -74,6 +73,30 @@ def _helpers():
     return F
 
 
+def _readable(sim: Simulation, path: str) -> Path:
+    """``path`` (relative: to the scene's folder) if it lies where the server reads clients'
+    meshes from: the operator's scene folder, a ``--scene-path`` folder, or this server's
+    transfer folder (files sent with simxTransferFile). A scene's script may pass a client's path
+    here (VPG's importShape does), so anything else is refused, with the same words whether or
+    not such a file exists (docs/SECURITY.md).
+
+    Raises:
+        ArgumentError: outside those folders.
+    """
+    from simx_server import scene_guard as guard
+
+    files = sim.editor.files
+    file = Path(path)
+    if not file.is_absolute():
+        file = sim.world.scene_path.parent / file
+    file = Path(os.path.realpath(file))
+    if not (guard.inside(file, Path(os.path.realpath(files.files_dir)))
+            or any(guard.inside(file, root) and not guard.is_transferred(file) for root in files.roots)):
+        raise ArgumentError(f"importShape: {quote(path)} refused: meshes are read only from the scene's folder, "
+                            "--scene-path folders and files sent with simxTransferFile")
+    return file
+
+
 def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) -> int:
     """Add the mesh of file ``path`` (.obj or binary .stl, at most limits.MAX_IMPORT_BYTES) as a new
     dynamic, respondable shape at the world origin, scaled by ``scaling``; returns its handle.
@@ -85,7 +108,7 @@ def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) ->
     if suffixes is None:
         raise ArgumentError(f"importShape: file format {quote(fileformat)} is not one simx reads "
                             "(0 OBJ, 4 binary STL; MuJoCo reads no DXF, 3DS nor ASCII STL)")
-    file = Path(path)
+    file = _readable(sim, path)
     if file.suffix.lower() not in suffixes:
         raise ArgumentError(f"importShape: {quote(path)} is not a {'/'.join(suffixes)} file (format {fileformat})")
     if not math.isfinite(scaling) or not 0 < scaling <= 1000:
@@ -194,49 +217,6 @@ def setShapeColor(self, shapeHandle: Any, colorName: Any, colorComponent: Any,  
     return 1
 
 
-def setObjectName(self, objectHandle: Any, objectName: Any) -> None:  # noqa: N802, N803
-    """``sim.setObjectName(objectHandle, objectName)``: rename an object; its handle stays.
-
-    Raises ArgumentError for an empty name, one with spaces, or one another object has;
-    UnsupportedError when other elements refer to the object by name (MuJoCo cannot
-    compile the renamed scene: nothing changes then)."""
-    F = _helpers()
-    world = self._world
-    obj = world.get(self._h(objectHandle, "objectHandle"))
-    new = F._text(objectName, "objectName")
-    if not new or len(new) > 200 or any(c.isspace() for c in new) or new == "world":
-        raise ArgumentError(f"setObjectName: {quote(new)} is not a valid object name")
-    if new == obj.name:
-        return
-    if new in world.by_name:
-        raise ArgumentError(f"setObjectName: another object is named {quote(new)}")
-    kind = _KIND.get(obj.type)
-    if kind is None:
-        raise UnsupportedError(f"{obj.name!r} cannot be renamed")
-    old = obj.name
-    sim = _simulation(world)
-
-    def change(spec: mujoco.MjSpec):
-        el = getattr(spec, kind)(old)
-        if el is None:
-            raise UnsupportedError(f"object {old!r} is not in the scene's MjSpec")
-        el.name = new
-        text = spec.text(f"simx:{old}")
-        if text is not None:
-            text.name = f"simx:{new}"
-
-    handles = world._handle_of_name
-    handles[new] = handles.pop(old)  # the handle follows the name
-    try:
-        sim.editor._edit(change)
-    except Exception:
-        handles[old] = handles.pop(new)
-        raise
-    for script in sim.scripts.scripts.values():  # a script's label names its object
-        if script.owner == obj.handle:
-            script.object_name = new
-
-
 #: Functions the ``sim`` facade gains (registered by :mod:`simx_server.script_facade` when
 #: it has no function of that name itself).
-FACADE_FUNCTIONS = {"importShape": importShape, "setShapeColor": setShapeColor, "setObjectName": setObjectName}
+FACADE_FUNCTIONS = {"importShape": importShape, "setShapeColor": setShapeColor}

@@ -41,25 +41,30 @@ def _port() -> int:
 
 
 @pytest.fixture(scope="module")
-def vpg_server():
+def vpg_server(tmp_path_factory):
+    """The ur5_ik scene at --speed 0; ``srv.mesh_dir`` is the --scene-path folder the tests
+    write meshes into (sim.importShape reads only from trusted folders)."""
     port = _port()
+    mesh_dir = tmp_path_factory.mktemp("meshes")
+    args = (str(IK_SCENE), "--speed", "0", "--scene-path", str(mesh_dir))
     try:
-        srv = ServerProcess(str(IK_SCENE), "--speed", "0", ports=[port])
+        srv = ServerProcess(*args, ports=[port])
     except RuntimeError as exc:  # lost a race for 19997
         if "cannot listen" not in str(exc):
             raise
-        srv = ServerProcess(str(IK_SCENE), "--speed", "0", ports=[free_port()])
+        srv = ServerProcess(*args, ports=[free_port()])
+    srv.mesh_dir = mesh_dir
     yield srv
     log = srv.stop()
     assert "Traceback" not in log, log
 
 
-def test_vpg_style_program_grasps_lifts_and_pushes(vpg_server, tmp_path):
+def test_vpg_style_program_grasps_lifts_and_pushes(vpg_server):
     """The program exits 0: tip on target after the restart, a 640x480 image and a depth of the
     table 1 m below the camera, three handles, the first cube lifted over 0.1 m, the tip within
     2 mm of the target at rest while it holds the cube, the second cube pushed over 5 cm."""
-    run = subprocess.run([sys.executable, str(PROGRAM), "--port", str(vpg_server.port), "--mesh-dir", str(tmp_path)],
-                         capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    run = subprocess.run([sys.executable, str(PROGRAM), "--port", str(vpg_server.port), "--mesh-dir", str(vpg_server.mesh_dir)],
+                         capture_output=True, text=True, timeout=120, cwd=vpg_server.mesh_dir)
     steps = {}
     for line in run.stdout.splitlines():
         record = json.loads(line)
@@ -102,7 +107,10 @@ def _import(cid, mesh, name, ints=(0, 0, 255, 0)):
 
 def test_import_shape_errors_answer_remote_error(vpg_server, tmp_path):
     """Bad imports answer the remote error flag with a log line naming the call and the file;
-    nothing is added, and a good import afterwards works (its handle is new)."""
+    nothing is added, and a good import afterwards works (its handle is new). A mesh outside
+    the trusted folders is refused with the same words whether or not it exists."""
+    outside = tmp_path
+    tmp_path = vpg_server.mesh_dir
     cid = vrep.simxStart("127.0.0.1", vpg_server.port, True, True, 5000, 5)
     assert cid >= 0
     try:
@@ -121,6 +129,14 @@ def test_import_shape_errors_answer_remote_error(vpg_server, tmp_path):
                 mesh.write_text("v 0 0 0\n")
             rc, *_ = _import(cid, mesh, "bad", ints)
             assert rc == vrep.simx_return_remote_error_flag, mesh
+        refusals = []
+        for mesh in (outside / "exists.obj", outside / "absent.obj"):
+            if mesh.name == "exists.obj":  # a good tetrahedron
+                mesh.write_text("v 0 0 0\nv 0.04 0 0\nv 0 0.04 0\nv 0 0 0.04\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+            rc, *_ = _import(cid, mesh, "outside")
+            assert rc == vrep.simx_return_remote_error_flag, mesh
+            refusals.append(vrep.simxGetLastErrors(cid, BLOCK)[1][-1].replace(mesh.name, "NAME"))
+        assert refusals[0] == refusals[1] and "refused" in refusals[0]
         _, after = vrep.simxGetObjects(cid, vrep.sim_handle_all, BLOCK)[:2]
         assert after == before
         good = tmp_path / "good.stl"
@@ -153,10 +169,10 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
     rebuilt on the edited model and the tip still follows its target."""
     import numpy as np
 
-    from simx_server.script_facade import SimFacade
+    from simx_server.facade import ScriptSim
     from simx_server.simulation import Simulation
 
-    sim = Simulation(IK_SCENE, dt=0.05, realtime=False)
+    sim = Simulation(IK_SCENE, dt=0.05, realtime=False, scene_paths=[tmp_path])
     w = sim.world
     sim.start()
     mesh = tmp_path / "cube.obj"
@@ -166,7 +182,7 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
     finally:
         sys.path.remove(str(PROGRAM.parent))
     write_cube(str(mesh), 0.04)
-    f = SimFacade(w, w.resolve("remoteApiCommandServer").handle)
+    f = ScriptSim(w, w.resolve("remoteApiCommandServer").handle, sim.signals, simulation=sim)
     h = f.importShape(0, str(mesh), 0, 0.0, 1.0)
     assert f.setShapeColor(h, None, 0, [0.1, 0.2, 0.3]) == 1
     geom = int(np.flatnonzero(w.model.geom_bodyid == w.get(h).mj_id)[0])
@@ -177,7 +193,7 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
     assert h2 != h and w.resolve("red_cube").handle == h
     geom = int(np.flatnonzero(w.model.geom_bodyid == w.get(h).mj_id)[0])
     assert w.model.geom_rgba[geom][:3] == pytest.approx([0.1, 0.2, 0.3])  # the colour survived
-    with pytest.raises(Exception, match="another object is named"):
+    with pytest.raises(Exception, match="taken by another object"):
         f.setObjectName(h2, "red_cube")
     with pytest.raises(Exception, match="rgbData must be in"):
         f.setShapeColor(h, None, 0, [2, 0, 0])
@@ -197,7 +213,7 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
 def test_imported_shapes_stay_in_place_when_the_simulation_stops(tmp_path):
     """A stop puts the scene's own objects back, not imported shapes: they stay where they are
     (their model pose is the origin, inside the robot's base and the table)."""
-    from simx_server.script_facade import SimFacade
+    from simx_server.facade import ScriptSim
     from simx_server.simulation import Simulation
 
     sys.path.insert(0, str(PROGRAM.parent))
@@ -207,10 +223,10 @@ def test_imported_shapes_stay_in_place_when_the_simulation_stops(tmp_path):
         sys.path.remove(str(PROGRAM.parent))
     mesh = tmp_path / "cube.obj"
     write_cube(str(mesh), 0.05)
-    sim = Simulation(IK_SCENE, dt=0.05, realtime=False)
+    sim = Simulation(IK_SCENE, dt=0.05, realtime=False, scene_paths=[tmp_path])
     w = sim.world
     sim.start()
-    f = SimFacade(w, w.resolve("remoteApiCommandServer").handle)
+    f = ScriptSim(w, w.resolve("remoteApiCommandServer").handle, sim.signals, simulation=sim)
     h = f.importShape(0, str(mesh), 0, 0.0, 1.0)
     f.setObjectPosition(h, -1, [-0.5, 0.1, 0.05])
     for _ in range(10):
