@@ -18,6 +18,9 @@ function importShape(inInts, inFloats, inStrings, inBuffer)
     if inStrings[2] and #inStrings[2] > 0 then
         sim.setObjectName(handle, inStrings[2])
     end
+    -- dynamic and respondable, as V-REP scenes mark an imported shape (already so in simx)
+    sim.setObjectInt32Param(handle, sim.shapeintparam_static, 0)
+    sim.setObjectInt32Param(handle, sim.shapeintparam_respondable, 1)
     sim.setObjectPosition(handle, -1, {inFloats[1], inFloats[2], inFloats[3]})
     sim.setObjectOrientation(handle, -1, {inFloats[4], inFloats[5], inFloats[6]})
     if inFloats[9] then  -- colour component 0: ambient-diffuse

@@ -227,6 +227,15 @@ def get_int_param(sim: Simulation, handle: int, pid: int) -> int:
 def set_int_param(sim: Simulation, handle: int, pid: int, value: int) -> None:
     """Set int parameter ``pid`` of ``handle``; see set_object_int_parameter."""
     world = sim.world
+    if pid in (3003, 3004):  # static / respondable: what the MJCF says, fixed at run time
+        if value not in (0, 1):
+            raise ArgumentError(f"{_pname(pid)}: value must be 0 or 1, got {quote(value)}")
+        if get_int_param(sim, handle, pid) != value:
+            raise UnsupportedError(
+                f"{_pname(pid)}: a shape's {'static' if pid == 3003 else 'respondable'} flag is fixed "
+                "when the scene loads (its joints, contype/conaffinity in the MJCF); MuJoCo cannot "
+                "switch it at run time")
+        return  # already so (sim.importShape's shapes are dynamic and respondable): nothing to do
     if pid not in _INT_SET:
         world.get(handle)
         if pid in (1002, 1003):
@@ -285,7 +294,9 @@ def set_object_int_parameter(sim: Simulation, args: list) -> None:
 
     Settable: 2000 motor enabled (0: free joint) and 2001 control loop enabled (1: position
     control, holding the current position when it starts; 0: velocity control) of a joint
-    (simx_server.motors.set_param). Resolutions (1002/1003) cannot change at run time and
+    (simx_server.motors.set_param); 3003 static and 3004 respondable of a shape only to the
+    value they have (a scene's script marking an imported shape dynamic and respondable, as
+    V-REP scripts do); another value -> UnsupportedError (fixed when the scene loads). Resolutions (1002/1003) cannot change at run time and
     other ids -> UnsupportedError with the reason.
     """
     h, pid, value = _args(args, "int", "int", "int")

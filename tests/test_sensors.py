@@ -360,5 +360,15 @@ def test_joint_and_shape_parameters(sim):
     assert P.get_object_int_parameter(sim, [a, 3003]) == 1  # welded to the world
     assert P.get_object_int_parameter(sim, [H(sim, "faller"), 3003]) == 0
     assert P.get_object_int_parameter(sim, [H(sim, "target"), 3004]) == 0  # contype 0
+    # Static / respondable can be "set" to what they are (scripts mark shapes dynamic and
+    # respondable); another value is refused, since MuJoCo fixes them when the scene loads.
+    P.set_object_int_parameter(sim, [H(sim, "faller"), 3003, 0])
+    P.set_object_int_parameter(sim, [a, 3003, 1])
+    with pytest.raises(UnsupportedError, match="fixed"):
+        P.set_object_int_parameter(sim, [H(sim, "faller"), 3003, 1])
+    with pytest.raises(UnsupportedError, match="fixed"):
+        P.set_object_int_parameter(sim, [H(sim, "target"), 3004, 1])
+    with pytest.raises(ArgumentError):
+        P.set_object_int_parameter(sim, [a, 3004, 7])
     with pytest.raises(UnsupportedError, match="3006"):
         P.get_object_float_parameter(sim, [a, 3006])
