@@ -54,9 +54,9 @@ def last_errors(cid: int) -> list[str]:
     return errors
 
 
-def folders_holding(name: str) -> list[Path]:
-    """Transfer folders (of any server) that hold a file called ``name``."""
-    return [d for d in TMP.glob("simx-*") if (d / name).is_file()]
+def folders_holding(name: str, tmp: Path = TMP) -> list[Path]:
+    """Transfer folders (of any server) in ``tmp`` that hold a file called ``name``."""
+    return [d for d in tmp.glob("simx-*") if (d / name).is_file()]
 
 
 def png(width: int, height: int, rgb=(255, 0, 0)) -> bytes:
@@ -84,9 +84,15 @@ def client_b(server_b):
 
 
 # ------------------------------------------------------------------ defect 3
-def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b, client_b, tmp_path):
+def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b, client_b, tmp_path, monkeypatch):
     token = uuid.uuid4().hex[:8]
     scene, script = f"evil-{token}.xml", f"evil-{token}.py"
+    # Server A and its restart keep their transfer folders in a temporary folder of their own
+    # (TMPDIR), inside the one server B trusts: no other server on the host sweeps there, so
+    # the sweep seen below is the restarted server's.
+    host_tmp = (tmp_path / "host-tmp").resolve()
+    host_tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(host_tmp))
     server_a = ServerProcess(str(SCENE), "--stopped", ports=[free_port()])
     try:
         a = connect(server_a.port)
@@ -96,7 +102,7 @@ def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b,
         assert vrep.simxLoadScene(a, str(tmp_path / scene), 1, WAIT) == REMOTE  # A refuses the client's code
         errors = last_errors(a)
         assert errors and not any(str(TMP) in e or "simx-" in e for e in errors), errors
-        (folder,) = wait_until(lambda: folders_holding(scene), 5, what="A's transfer folder")
+        (folder,) = wait_until(lambda: folders_holding(scene, host_tmp), 5, what="A's transfer folder")
         assert stat.S_IMODE(folder.stat().st_mode) == 0o700
         assert f"simx-{server_a.proc.pid}-" in folder.name
 
@@ -121,17 +127,17 @@ def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b,
         assert folder.is_dir()
     finally:
         server_a.stop()
-    mine = TMP / f"simx-{os.getpid()}-0-decoy{token}"  # a live process's folder stays
+    mine = host_tmp / f"simx-{os.getpid()}-0-decoy{token}"  # a live process's folder stays
     mine.mkdir()
     (mine / ".simx-transfer-folder").write_text("")
-    unmarked = TMP / f"simx-999999999-0-decoy{token}"  # not ours (no marker): stays
+    unmarked = host_tmp / f"simx-999999999-0-decoy{token}"  # not ours (no marker): stays
     unmarked.mkdir()
     try:
         restarted = ServerProcess(str(SCENE), "--stopped", ports=[free_port()])
         try:
             assert not folder.exists()
             assert mine.is_dir() and unmarked.is_dir()
-            (own,) = [d for d in TMP.glob(f"simx-{restarted.proc.pid}-*")]
+            (own,) = [d for d in host_tmp.glob(f"simx-{restarted.proc.pid}-*")]
         finally:
             log = restarted.stop()
         assert not own.exists()  # removed at exit
