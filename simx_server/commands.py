@@ -19,7 +19,7 @@ from simx_client import constants as C
 from simx_client.protocol import PROTOCOL_VERSION, ArgumentError, RemoteError, UnknownObjectError, UnsupportedError
 from simx_server import collisions, group_data, kinematics, object_params, physics, sensors
 from simx_server.arguments import as_floats, as_int, check_args as _args
-from simx_server.editing import EDITING_HANDLERS
+from simx_server.editing_commands import EDITING_HANDLERS
 from simx_server.simulation import RunState, Simulation
 from simx_server.vision import Deferred
 from simx_server.world import matrix_from_euler, matrix_from_quaternion

@@ -24,6 +24,7 @@ from simx_server import kinematics
 from simx_server import limits as L
 from simx_server.arguments import quote
 from simx_server.script_facade import _int, _num, _text, _vector
+from simx_server.spec_tools import _FRAMES, _KIND, _MJ_OBJ
 from simx_server.world import JOINT, SHAPE, WORLD, World, matrix_from_euler, matrix_from_quaternion
 
 if TYPE_CHECKING:
@@ -90,9 +91,7 @@ def _joint_ids(world: World, obj) -> list[int]:
 def _retarget(spec: mujoco.MjSpec, kind: str, old: str, new: str) -> None:
     """Point the actuators, sensors, constraints and settings that name ``old`` (an element of
     ``kind``) at ``new``: MjSpec refers by name and does not follow a rename."""
-    from simx_server import editing  # late: editing imports the scripts, which import this module
-
-    objtype = editing._MJ_OBJ[kind]
+    objtype = _MJ_OBJ[kind]
     trn = {"joint": (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT),
            "site": (mujoco.mjtTrn.mjTRN_SITE, mujoco.mjtTrn.mjTRN_SLIDERCRANK),
            "body": (mujoco.mjtTrn.mjTRN_BODY,)}.get(kind, ())
@@ -131,8 +130,6 @@ def rename(sim: Simulation, handle: int, name: str) -> None:
     Raises ArgumentError (the world, a name taken by another object), or the editor's errors
     (UnsupportedError for an object MuJoCo cannot rename, the scene's growth bounds).
     """
-    from simx_server import editing  # late: editing imports the scripts, which import this module
-
     world, editor = sim.world, sim.editor
     if handle == WORLD:
         raise ArgumentError("the world (-1) has no name to change")
@@ -144,8 +141,8 @@ def rename(sim: Simulation, handle: int, name: str) -> None:
         raise ArgumentError(f"name {quote(name)} is taken by another object "
                             f"(handle {world.by_name[name].handle})")
     m, d = world.model, world.data
-    kind = editing._KIND.get(obj.type)
-    frame = editing._FRAMES.get(kind)  # the placement in its body, which may have been set at run time
+    kind = _KIND.get(obj.type)
+    frame = _FRAMES.get(kind)  # the placement in its body, which may have been set at run time
     placed = tuple(getattr(m, f)[obj.mj_id].copy() for f in frame[:2]) if frame else None
     states = [(d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + _joint_size(m, j)[0]].copy(),
                d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + _joint_size(m, j)[1]].copy()) for j in _joint_ids(world, obj)]

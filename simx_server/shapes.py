@@ -22,6 +22,7 @@ import mujoco
 from simx_client.protocol import ArgumentError, UnsupportedError
 from simx_server import limits as L
 from simx_server.arguments import quote
+from simx_server.spec_tools import _names, vrep_suffix
 from simx_server.world import SHAPE, World
 
 if TYPE_CHECKING:
@@ -103,7 +104,6 @@ def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) ->
 
     Raises ArgumentError for a bad format, extension, scale or a file that cannot be read,
     UnsupportedError when MuJoCo cannot compile the mesh (the scene is then unchanged)."""
-    from simx_server import editing as E
     suffixes = _FORMATS.get(fileformat)
     if suffixes is None:
         raise ArgumentError(f"importShape: file format {quote(fileformat)} is not one simx reads "
@@ -128,7 +128,7 @@ def import_shape(sim: Simulation, fileformat: int, path: str, scaling: float) ->
     key = f"simx-asset-{editor._asset_counter[0]}-import{file.suffix.lower()}"
 
     def change(spec: mujoco.MjSpec):
-        suffix = E.vrep_suffix({"Shape", "Shape_mesh", "Shape_geom"}, E._names(spec))
+        suffix = vrep_suffix({"Shape", "Shape_mesh", "Shape_geom"}, _names(spec))
         name = f"Shape{suffix}"
         spec.assets = {**(spec.assets or {}), key: data}
         mesh = spec.add_mesh(name=f"Shape_mesh{suffix}", file=key)

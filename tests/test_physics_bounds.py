@@ -148,18 +148,18 @@ def test_models_and_scenes_loaded_by_clients_obey_the_scene_bounds(tmp_path):
 
 
 def _check_scene_bounds(sim, tmp_path):
-    from simx_server import editing
+    from simx_server import editing_commands
 
     model = tmp_path / "eye.xml"
     model.write_text(f'<mujoco><worldbody><body name="Eye"><geom size="0.1"/>'
                      f'<camera name="eye" resolution="{limits.MAX_RESOLUTION * 4} 16"/></body></worldbody></mujoco>')
     before = dict(sim.world.objects)
     with pytest.raises(ArgumentError, match="MAX_RESOLUTION"):
-        editing.load_model(sim, [str(model), 0])
+        editing_commands.load_model(sim, [str(model), 0])
     assert sim.world.objects == before and "Eye" not in sim.world.by_name
     scene = _scene(tmp_path, option='timestep="1e-7"')  # 0.05 s = 500,000 substeps
     with pytest.raises(RemoteError, match="MAX_SUBSTEPS"):
-        editing.load_scene(sim, [str(scene), 0])
+        editing_commands.load_scene(sim, [str(scene), 0])
     assert sim.world.objects == before
 
 
