@@ -49,13 +49,16 @@ def simxSetJointPosition(clientID, jointHandle, position, operationMode):
 
 
 def simxSetJointTargetPosition(clientID, jointHandle, targetPosition, operationMode):
-    """Target of a position-controlled joint (rad or m): returnCode."""
+    """Target position of a joint's motor (rad or m), stored whatever the mode; it acts while the
+    motor and its control loop are on (sim_jointintparam_motor_enabled 2000, ctrl_enabled 2001):
+    returnCode."""
     return _command(clientID, "SetJointTargetPosition",
                     lambda: [_int(jointHandle), _f32(_float(targetPosition))], operationMode)[0]
 
 
 def simxSetJointTargetVelocity(clientID, jointHandle, targetVelocity, operationMode):
-    """Target velocity of a velocity-mode joint (rad/s or m/s): returnCode."""
+    """Target velocity of a joint's motor (rad/s or m/s), stored whatever the mode; it acts while
+    the motor is on and its control loop off (2000 on, 2001 off): returnCode."""
     return _command(clientID, "SetJointTargetVelocity",
                     lambda: [_int(jointHandle), _f32(_float(targetVelocity))], operationMode)[0]
 

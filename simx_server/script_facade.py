@@ -325,7 +325,7 @@ class SimFacade:
         self._world.set_joint_position(self._h(handle), _num(position, "position"))
 
     def setJointTargetPosition(self, handle: Any, position: Any) -> None:  # noqa: N802
-        """Target position of a position-controlled joint (rad or m)."""
+        """Target position of the joint's motor (rad or m), stored whatever the mode (2000/2001 decide)."""
         self._world.set_joint_target_position(self._h(handle), _num(position, "position"))
 
     def getJointTargetPosition(self, handle: Any) -> float:  # noqa: N802
@@ -333,7 +333,7 @@ class SimFacade:
         return float(self._world.target_position[self._world.motor(self._h(handle))])
 
     def setJointTargetVelocity(self, handle: Any, velocity: Any) -> None:  # noqa: N802
-        """Target velocity of a velocity-mode joint (rad/s or m/s)."""
+        """Target velocity of the joint's motor (rad/s or m/s), stored whatever the mode (2000/2001 decide)."""
         self._world.set_joint_target_velocity(self._h(handle), _num(velocity, "velocity"))
 
     def getJointTargetVelocity(self, handle: Any) -> float:  # noqa: N802
