@@ -6,7 +6,8 @@ refused when it loads), its field of view the camera's ``fovy``, and its
 near/far clipping planes and image kind come from the ``simx:NAME`` custom text
 (``near=0.01 far=10 image=rgb|depth``). A sensor with ``image=depth`` shows its depth as grey
 in all three channels (near dark, far bright), as a V-REP depth sensor with a
-"depth to image" filter does.
+"depth to image" filter does. ``render_mode=handles`` (or ``sim_visionintparam_render_mode`` set
+to 2) makes the image V-REP's colour-coded handles (simx_server.handle_render).
 
 Like V-REP's default vision-sensor renderer (plain OpenGL), sensors draw neither shadows nor
 reflections, whatever the scene's lights and materials say; ``shadows=true`` and
