@@ -40,7 +40,8 @@ PARAM_NAMES = {
     26: "sim_objfloatparam_modelbbox_max_z", 1000: "sim_visionfloatparam_near_clipping",
     1001: "sim_visionfloatparam_far_clipping", 1002: "sim_visionintparam_resolution_x",
     1003: "sim_visionintparam_resolution_y", 1004: "sim_visionfloatparam_perspective_angle",
-    1005: "sim_visionfloatparam_ortho_size", 1017: "sim_visionintparam_render_mode", 2000: "sim_jointintparam_motor_enabled",
+    1005: "sim_visionfloatparam_ortho_size", 1017: "sim_visionintparam_render_mode",
+    2000: "sim_jointintparam_motor_enabled",
     2001: "sim_jointintparam_ctrl_enabled", 2002: "sim_jointfloatparam_pid_p",
     2003: "sim_jointfloatparam_pid_i", 2004: "sim_jointfloatparam_pid_d",
     2005: "sim_jointfloatparam_intrinsic_x", 2006: "sim_jointfloatparam_intrinsic_y",
@@ -306,8 +307,8 @@ def set_object_int_parameter(sim: Simulation, args: list) -> None:
     """``simxSetObjectIntParameter`` [h, id, value] -> None.
 
     Settable: 1017 render mode of a vision sensor (0 OpenGL, 2 colour-coded handles; the others
-    -> UnsupportedError naming the mode; back to the MJCF's at simulation stop), 2000 motor enabled (0: free joint) and 2001 control loop enabled (1: position
-    control, holding the current position when it starts; 0: velocity control) of a joint
+    -> UnsupportedError naming the mode; back to the MJCF's at simulation stop), 2000 motor enabled
+    (0: free joint) and 2001 control loop enabled (1: position control, holding the current position when it starts; 0: velocity control) of a joint
     (simx_server.motors.set_param); 3003 static and 3004 respondable of a shape only to the
     value they have (a scene's script marking an imported shape dynamic and respondable, as
     V-REP scripts do); another value -> UnsupportedError (fixed when the scene loads). Resolutions (1002/1003) cannot change at run time and
