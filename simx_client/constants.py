@@ -127,6 +127,16 @@ sim_shapeintparam_respondable = 3004
 sim_shapefloatparam_mass = 3005
 sim_visionintparam_resolution_x = 1002
 sim_visionintparam_resolution_y = 1003
+sim_visionintparam_render_mode = 1017
+# vision sensor render modes (sim_visionintparam_render_mode); simx renders opengl and colorcoded
+sim_rendermode_opengl = 0
+sim_rendermode_auxchannels = 1
+sim_rendermode_colorcoded = 2
+sim_rendermode_povray = 3
+sim_rendermode_extrenderer = 5
+sim_rendermode_extrendererwindowed = 6
+sim_rendermode_opengl3 = 7
+sim_rendermode_opengl3windowed = 8
 sim_objfloatparam_abs_x_velocity = 11
 sim_objfloatparam_abs_y_velocity = 12
 sim_objfloatparam_abs_z_velocity = 13

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnsupportedError
-from simx_server import motors, physics
+from simx_server import handle_render, motors, physics
 from simx_server.arguments import check_args as _args, quote
 from simx_server.collisions import collidable
 from simx_server.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
@@ -40,7 +40,8 @@ PARAM_NAMES = {
     26: "sim_objfloatparam_modelbbox_max_z", 1000: "sim_visionfloatparam_near_clipping",
     1001: "sim_visionfloatparam_far_clipping", 1002: "sim_visionintparam_resolution_x",
     1003: "sim_visionintparam_resolution_y", 1004: "sim_visionfloatparam_perspective_angle",
-    1005: "sim_visionfloatparam_ortho_size", 2000: "sim_jointintparam_motor_enabled",
+    1005: "sim_visionfloatparam_ortho_size", 1017: "sim_visionintparam_render_mode",
+    2000: "sim_jointintparam_motor_enabled",
     2001: "sim_jointintparam_ctrl_enabled", 2002: "sim_jointfloatparam_pid_p",
     2003: "sim_jointfloatparam_pid_i", 2004: "sim_jointfloatparam_pid_d",
     2005: "sim_jointfloatparam_intrinsic_x", 2006: "sim_jointfloatparam_intrinsic_y",
@@ -56,8 +57,8 @@ PARAM_NAMES = {
 }
 _FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2002, 2018), 3005}
 _FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
-_INT_GET = {1002, 1003, 2000, 2001, 3003, 3004}
-_INT_SET = {2000, 2001}
+_INT_GET = {1002, 1003, 1017, 2000, 2001, 3003, 3004}
+_INT_SET = {1017, 2000, 2001}
 
 
 def _pname(pid: int) -> str:
@@ -214,6 +215,9 @@ def get_int_param(sim: Simulation, handle: int, pid: int) -> int:
         _need(world, handle, VISION_SENSOR, pid)
         spec = sim.vision.spec(handle)
         return spec.width if pid == 1002 else spec.height
+    if pid == 1017:
+        _need(world, handle, VISION_SENSOR, pid)
+        return sim.vision.spec(handle).render_mode
     if pid in motors.INT_PARAMS:
         _need(world, handle, JOINT, pid)
         return motors.get_param(world, handle, pid)
@@ -243,6 +247,15 @@ def set_int_param(sim: Simulation, handle: int, pid: int, value: int) -> None:
             raise UnsupportedError(f"{_pname(pid)}: the resolution of a vision sensor is fixed when the scene "
                                    "loads (the MJCF camera's resolution attribute); it cannot change at run time")
         raise _unsupported(pid, "int", True)
+    if pid == 1017:  # render mode: simx_server.handle_render
+        _need(world, handle, VISION_SENSOR, pid)
+        spec = sim.vision.spec(handle)
+        try:
+            spec.render_mode = handle_render.check_mode(value)
+        except UnsupportedError as exc:
+            raise UnsupportedError(f"{_pname(pid)}: {exc}") from None
+        world.version += 1  # the sensor's image changes
+        return
     # 2000 motor enabled, 2001 control loop enabled: simx_server.motors
     _need(world, handle, JOINT, pid)
     motors.set_param(world, handle, pid, value, _pname(pid))
@@ -280,7 +293,8 @@ def set_object_float_parameter(sim: Simulation, args: list) -> None:
 def get_object_int_parameter(sim: Simulation, args: list) -> int:
     """``simxGetObjectIntParameter`` [h, id] -> int.
 
-    Supported ids: vision sensors 1002/1003 resolution x/y (pixels); joints 2000 motor enabled,
+    Supported ids: vision sensors 1002/1003 resolution x/y (pixels), 1017 render mode (0 OpenGL,
+    2 colour-coded handles; simx_server.handle_render); joints 2000 motor enabled,
     2001 control loop enabled (1: position control when the motor is on); shapes
     3003 static (1 when welded to the world), 3004 respondable (1 when a geom has contype or
     conaffinity). Others -> UnsupportedError naming the id.
@@ -292,8 +306,9 @@ def get_object_int_parameter(sim: Simulation, args: list) -> int:
 def set_object_int_parameter(sim: Simulation, args: list) -> None:
     """``simxSetObjectIntParameter`` [h, id, value] -> None.
 
-    Settable: 2000 motor enabled (0: free joint) and 2001 control loop enabled (1: position
-    control, holding the current position when it starts; 0: velocity control) of a joint
+    Settable: 1017 render mode of a vision sensor (0 OpenGL, 2 colour-coded handles; the others
+    -> UnsupportedError naming the mode; back to the MJCF's at simulation stop), 2000 motor enabled
+    (0: free joint) and 2001 control loop enabled (1: position control, holding the current position when it starts; 0: velocity control) of a joint
     (simx_server.motors.set_param); 3003 static and 3004 respondable of a shape only to the
     value they have (a scene's script marking an imported shape dynamic and respondable, as
     V-REP scripts do); another value -> UnsupportedError (fixed when the scene loads). Resolutions (1002/1003) cannot change at run time and

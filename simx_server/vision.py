@@ -6,7 +6,8 @@ refused when it loads), its field of view the camera's ``fovy``, and its
 near/far clipping planes and image kind come from the ``simx:NAME`` custom text
 (``near=0.01 far=10 image=rgb|depth``). A sensor with ``image=depth`` shows its depth as grey
 in all three channels (near dark, far bright), as a V-REP depth sensor with a
-"depth to image" filter does.
+"depth to image" filter does. ``render_mode=handles`` (or ``sim_visionintparam_render_mode`` set
+to 2) makes the image V-REP's colour-coded handles (simx_server.handle_render).
 
 Like V-REP's default vision-sensor renderer (plain OpenGL), sensors draw neither shadows nor
 reflections, whatever the scene's lights and materials say; ``shadows=true`` and
@@ -52,6 +53,7 @@ import mujoco
 import numpy as np
 
 from simx_client.protocol import ArgumentError
+from simx_server import handle_render
 from simx_server.physics import check_resolution
 from simx_server.world import VISION_SENSOR, World
 
@@ -95,6 +97,7 @@ class SensorSpec:
     depth_image: bool
     shadows: bool = False
     reflections: bool = False
+    render_mode: int = handle_render.OPENGL  # sim_visionintparam_render_mode; 2: colour-coded handles
 
 
 def _flag(settings: dict[str, str], key: str, sensor: str) -> bool:
@@ -181,6 +184,7 @@ class VisionSensors:
         self._executor = self._thread.executor
         self._cache: dict[tuple[int, str], tuple[int, Future]] = {}
         self._snapshot: tuple[int, mujoco.MjData] | None = None
+        self._colours: np.ndarray | None = None  # geom id -> packed handle colour (handle_render)
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
         self._ready = self._prepare()
@@ -190,6 +194,7 @@ class VisionSensors:
         world = self.world
         self.specs: dict[int, SensorSpec] = {}
         self._cache.clear()
+        self._colours = None
         m = world.model
         for obj in world.objects.values():
             if obj.type != VISION_SENSOR:
@@ -202,7 +207,8 @@ class VisionSensors:
             self.specs[obj.handle] = SensorSpec(
                 obj.mj_id, w, h, float(s.get("near", DEFAULT_NEAR)), float(s.get("far", DEFAULT_FAR)),
                 s.get("image", "rgb") == "depth",
-                shadows=_flag(s, "shadows", obj.name), reflections=_flag(s, "reflections", obj.name))
+                shadows=_flag(s, "shadows", obj.name), reflections=_flag(s, "reflections", obj.name),
+                render_mode=handle_render.parse_mode(s, obj.name))
         if self.specs:
             m.vis.global_.offwidth = max(m.vis.global_.offwidth, *(s.width for s in self.specs.values()))
             m.vis.global_.offheight = max(m.vis.global_.offheight, *(s.height for s in self.specs.values()))
@@ -218,11 +224,14 @@ class VisionSensors:
 
     # ------------------------------------------------------------ render thread
     def _draw(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
-        """One frame, top-down rows: RGB (h, w, 3) uint8, or depth (h, w) float32 in m."""
+        """One frame, top-down rows: RGB (h, w, 3) uint8, depth (h, w) float32 in m, or
+        ("handles") MuJoCo's segmentation (h, w, 2) int32 (object id, type)."""
         thread = self._thread
         r = thread.renderer(model, spec.width, spec.height)
         if kind == "depth":
             r.enable_depth_rendering()
+        elif kind == "handles":
+            r.enable_segmentation_rendering()
         try:
             r.update_scene(data, camera=spec.camera, scene_option=thread.option)
             r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
@@ -231,6 +240,8 @@ class VisionSensors:
         finally:
             if kind == "depth":
                 r.disable_depth_rendering()
+            elif kind == "handles":
+                r.disable_segmentation_rendering()
 
     def _render(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
         """Rendered frame of a request (counted in ``renders``)."""
@@ -253,7 +264,7 @@ class VisionSensors:
                 return  # a newer scene is queued: it prepares its own
             try:
                 for spec in specs:
-                    self._draw(model, data, spec, "depth" if spec.depth_image else "rgb")
+                    self._draw(model, data, spec, self._image_kind(spec))
                 for size in {(s.width, s.height): s for s in specs}.values():  # depth from any sensor
                     self._draw(model, data, size, "depth")
             except Exception as exc:
@@ -296,8 +307,26 @@ class VisionSensors:
 
         return normalised
 
+    @staticmethod
+    def _image_kind(spec: SensorSpec) -> str:
+        """The frame an image of this sensor is made from."""
+        if spec.render_mode == handle_render.COLOR_CODED:
+            return "handles"
+        return "depth" if spec.depth_image else "rgb"
+
     def _image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
-        if self.spec(handle).depth_image:
+        kind = self._image_kind(self.spec(handle))
+        if kind == "handles":  # V-REP's colour-coded handles (render mode 2)
+            if self._colours is None:
+                self._colours = handle_render.geom_colours(self.world)
+            seg, colours = self._frame(handle, "handles"), self._colours
+
+            def coded() -> np.ndarray:
+                img = handle_render.coded_image(seg.result(), colours)[::-1]
+                return (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8) if grey else img
+
+            return coded
+        if kind == "depth":
             depth = self._depth_job(handle)
 
             def from_depth() -> np.ndarray:

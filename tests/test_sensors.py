@@ -327,8 +327,9 @@ def test_vision_parameters_and_their_errors(sim):
         P.set_object_int_parameter(sim, [cam, 1002, 64])
     with pytest.raises(UnsupportedError, match="int parameter"):
         P.get_object_float_parameter(sim, [cam, 1002])
-    with pytest.raises(UnsupportedError, match="1017"):
-        P.get_object_int_parameter(sim, [cam, 1017])
+    with pytest.raises(UnsupportedError, match="1016"):  # POV-Ray blur samples
+        P.get_object_int_parameter(sim, [cam, 1016])
+    assert P.get_object_int_parameter(sim, [cam, 1017]) == 0  # render mode: OpenGL (tests/test_handle_render.py)
     with pytest.raises(UnsupportedError, match="read-only"):
         P.set_object_float_parameter(sim, [cam, 11, 1.0])
     with pytest.raises(ObjectTypeError):
