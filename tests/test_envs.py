@@ -145,3 +145,20 @@ def test_simx_client_imports_without_gymnasium():
             "assert 'simx_client.envs' not in sys.modules; print('ok')")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert out.stdout.strip() == "ok", out.stderr
+
+
+def test_given_connection_is_used_and_left_open(env_server):
+    from simx_client.envs import UR5BallReachEnv
+
+    cid = vrep.simxStart("127.0.0.1", env_server.port, True, True, 5000, 5)
+    assert cid >= 0
+    try:
+        env = UR5BallReachEnv(client_id=cid)
+        obs, _ = env.reset(seed=0)
+        obs2, *_ = env.step(np.array([np.nan, 0.0, 0.0], dtype=np.float32))  # NaN: no move
+        np.testing.assert_allclose(obs2["joints"], obs["joints"], atol=np.radians(0.1))
+        env.close()
+        assert vrep.simxGetConnectionId(cid) != -1
+    finally:
+        vrep.simxSynchronous(cid, False)
+        vrep.simxFinish(cid)

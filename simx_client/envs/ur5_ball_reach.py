@@ -83,6 +83,7 @@ class UR5BallReachEnv(gym.Env):
         self.max_episode_steps = int(max_episode_steps)
         self.render_mode = render_mode
 
+        # client_id: a connection the caller made and keeps (close() leaves it open).
         self._key: tuple[str, int] | None = None
         if client_id is None:
             # The legacy API allows one connection per address and port in a process: a second
@@ -209,8 +210,8 @@ class UR5BallReachEnv(gym.Env):
     def step(self, action):
         if self._closed:
             raise RuntimeError("step() on a closed environment")
-        offsets = np.clip(np.asarray(action, dtype=np.float64).reshape(self.n_joints),
-                          -self.max_offset_deg, self.max_offset_deg)
+        offsets = np.nan_to_num(np.asarray(action, dtype=np.float64).reshape(self.n_joints))  # NaN: no move
+        offsets = np.clip(offsets, -self.max_offset_deg, self.max_offset_deg)
         self._targets[: self.n_joints] += np.radians(offsets)
         cid = self.client_id
         vrep.simxPauseCommunication(cid, True)
