@@ -162,3 +162,20 @@ def test_given_connection_is_used_and_left_open(env_server):
     finally:
         vrep.simxSynchronous(cid, False)
         vrep.simxFinish(cid)
+
+
+def test_the_whole_ball_region_is_in_view(make):
+    """Each corner of the region reset draws from: the whole ball inside the 640x480 image."""
+    env = make(width=640, height=480)
+    env.reset(seed=0)
+    cid = env.unwrapped.client_id
+    rc, ball = vrep.simxGetObjectHandle(cid, "Sphere", B)
+    assert rc == 0
+    for x in BALL_X:
+        for y in BALL_Y:
+            assert vrep.simxSetObjectPosition(cid, ball, -1, [x, y, 0.78], B) == 0
+            obs, *_ = env.step(np.zeros(3, dtype=np.float32))
+            r, g, b = (obs["rgb"][:, :, i].astype(int) for i in range(3))
+            rows, cols = np.nonzero((r > 150) & (g < 80) & (b < 80))
+            assert len(rows) > 200, f"ball at ({x}, {y}) not seen"
+            assert rows.min() > 5 and cols.min() > 5 and rows.max() < 474 and cols.max() < 634, (x, y)
