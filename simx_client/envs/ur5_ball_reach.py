@@ -4,7 +4,8 @@ Pure client side: only legacy ``simx*`` calls, so it runs against simx-server or
 the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb``,
 ``kinect_depth``, the ball ``Sphere`` and the gripper's tool-centre dummy ``RG2_tcp``.
 
-* ``reset(seed=...)``: stops the simulation (the scene goes back to its initial state), turns
+* ``reset(seed=...)``: stops the simulation (the scene goes back to its initial state; it waits
+  for the server state to say stopped, as V-REP stops a few passes after the request), turns
   synchronous mode on, starts it, puts the arm at the tutorial pose [90, -45, 90, 0, -100, 0]
   deg (plus uniform noise of ``pose_noise_deg``, seeded) and the ball at a seeded random place
   on the table inside the Kinect's view at that pose (:data:`BALL_X`, :data:`BALL_Y`), then
@@ -31,6 +32,7 @@ the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 import cv2
@@ -148,6 +150,17 @@ class UR5BallReachEnv(gym.Env):
         if n:
             vrep.simxGetPingTime(self.client_id)  # returns after the last triggered step
 
+    def _wait_stopped(self, timeout: float = 5.0) -> None:
+        """V-REP stops a few passes after the request (simx at once): wait for the server state's
+        bit 0 (running) to clear, as legacy programs do, so that the start that follows counts."""
+        deadline = time.monotonic() + timeout
+        while True:
+            vrep.simxGetPingTime(self.client_id)  # a fresh reply carries the server state
+            rc, state = vrep.simxGetInMessageInfo(self.client_id, vrep.simx_headeroffset_server_state)
+            if rc == -1 or not state & 1 or time.monotonic() > deadline:
+                return
+            time.sleep(0.01)
+
     def _resize(self, img: np.ndarray) -> np.ndarray:
         if img.shape[0] == self.height and img.shape[1] == self.width:
             return img
@@ -190,6 +203,7 @@ class UR5BallReachEnv(gym.Env):
         super().reset(seed=seed)
         cid = self.client_id
         self._check(vrep.simxStopSimulation(cid, _B), "simxStopSimulation")
+        self._wait_stopped()
         self._check(vrep.simxSynchronous(cid, True), "simxSynchronous")
         self._check(vrep.simxStartSimulation(cid, _B), "simxStartSimulation")
         noise = self.np_random.uniform(-self.pose_noise_deg, self.pose_noise_deg, 6) if self.pose_noise_deg else 0.0
