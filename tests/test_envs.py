@@ -179,3 +179,13 @@ def test_the_whole_ball_region_is_in_view(make):
             rows, cols = np.nonzero((r > 150) & (g < 80) & (b < 80))
             assert len(rows) > 200, f"ball at ({x}, {y}) not seen"
             assert rows.min() > 5 and cols.min() > 5 and rows.max() < 474 and cols.max() < 634, (x, y)
+
+
+def test_pose_noise_is_seeded_and_bounded(make):
+    env = make(pose_noise_deg=2.0)
+    a = np.degrees(env.reset(seed=5)[0]["joints"].astype(float))
+    b = np.degrees(env.reset(seed=5)[0]["joints"].astype(float))
+    c = np.degrees(env.reset(seed=6)[0]["joints"].astype(float))
+    np.testing.assert_allclose(a, b, atol=1e-4)
+    assert np.abs(a - TUTORIAL_POSE_DEG).max() <= 2.1 and np.abs(a - TUTORIAL_POSE_DEG).max() > 0.05
+    assert np.abs(a - c).max() > 0.05
