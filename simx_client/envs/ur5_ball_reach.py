@@ -1,0 +1,267 @@
+"""``simx/UR5BallReach-v0``: the UR5 + RG2 + Kinect tutorial scene as a Gymnasium environment.
+
+Pure client side: only legacy ``simx*`` calls, so it runs against simx-server or a V-REP with
+the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb``,
+``kinect_depth``, the ball ``Sphere`` and the gripper's tool-centre dummy ``RG2_tcp``.
+
+* ``reset(seed=...)``: stops the simulation (the scene goes back to its initial state; it waits
+  for the server state to say stopped, as V-REP stops a few passes after the request), turns
+  synchronous mode on, starts it, puts the arm at the tutorial pose [90, -45, 90, 0, -100, 0]
+  deg (plus uniform noise of ``pose_noise_deg``, seeded) and the ball at a seeded random place
+  on the table inside the Kinect's view at that pose (:data:`BALL_X`, :data:`BALL_Y`), then
+  runs ``settle_steps`` simulation steps.
+* ``step(action)``: joint offsets in degrees, clipped to ``[-max_offset_deg, max_offset_deg]``
+  (the tutorial moves a joint by a fixed number of degrees per key) and added to the joints'
+  target positions (as the tutorial's ``rotateCertainAngle*``); joints 1-3 by default,
+  ``joints=6`` for all six. The targets go in one ``simxPauseCommunication`` batch, then
+  ``sim_steps`` simulation steps (``simxSynchronousTrigger`` + ``simxGetPingTime``).
+* observation: ``{"rgb": (H, W, 3) uint8, rows top-down, "depth": (H, W) float32 metres from
+  the sensor plane (near + buffer x (far - near), near/far read from ``kinect_depth``'s float
+  parameters 1000/1001), "joints": (6,) float32 radians}``. The sensors render at their own
+  resolution (640x480 in the scene; simx cannot change a sensor's resolution at run time), so
+  ``width``/``height`` other than the sensor's are obtained by resizing client-side with
+  OpenCV's ``INTER_AREA``.
+* reward: ``"dense"`` (default) is minus the distance (m) between ``RG2_tcp`` and the ball's
+  centre; ``"image"`` is minus the distance of the red ball's centroid from the image centre,
+  in half-diagonals (0 at the centre, about -1 at a corner), and -1 when no ball pixel is seen
+  (the tutorial's version divides by the pixel count, which fails then).
+* ``terminated`` when ``RG2_tcp`` is within ``success_distance`` (default 0.05 m) of the
+  ball's centre; ``truncated`` after ``max_episode_steps`` steps (default 200).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import cv2
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+import simx_client as vrep
+
+TUTORIAL_POSE_DEG = (90.0, -45.0, 90.0, 0.0, -100.0, 0.0)
+JOINT_NAMES = tuple(f"UR5_joint{i}" for i in range(1, 7))
+#: where reset puts the ball (world x and y, m): on the table (top at z = 0.75 m) and, with the
+#: arm at the tutorial pose, fully inside kinect_rgb's 640x480 view with a margin (measured).
+BALL_X = (-0.15, 0.30)
+BALL_Y = (0.60, 0.95)
+BALL_Z = 0.78  # table top + the ball's radius (0.03 m)
+SUCCESS_DISTANCE = 0.05  # m, RG2_tcp to the ball's centre
+
+_B = vrep.simx_opmode_blocking
+_ONESHOT = vrep.simx_opmode_oneshot
+_SHARED: dict[tuple[str, int], list[int]] = {}  # (host, port) -> [client id, environments using it]
+
+
+class UR5BallReachEnv(gym.Env):
+    """Reach the ball with the gripper; see the module docstring."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 19999, client_id: int | None = None,
+                 width: int = 84, height: int = 84, joints: int = 3, max_offset_deg: float = 5.0,
+                 sim_steps: int = 1, settle_steps: int = 2, pose_noise_deg: float = 0.0,
+                 reward: str = "dense", success_distance: float = SUCCESS_DISTANCE,
+                 max_episode_steps: int = 200, render_mode: str | None = None,
+                 timeout_ms: int = 5000) -> None:
+        if joints not in (3, 6):
+            raise ValueError(f"joints must be 3 (joints 1-3) or 6, not {joints!r}")
+        if reward not in ("dense", "image"):
+            raise ValueError(f"reward must be 'dense' or 'image', not {reward!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', not {render_mode!r}")
+        if width < 1 or height < 1 or sim_steps < 1 or settle_steps < 0 or max_episode_steps < 1:
+            raise ValueError("width, height, sim_steps and max_episode_steps must be >= 1, settle_steps >= 0")
+        self.width, self.height = int(width), int(height)
+        self.n_joints = joints
+        self.max_offset_deg = float(max_offset_deg)
+        self.sim_steps, self.settle_steps = int(sim_steps), int(settle_steps)
+        self.pose_noise_deg = float(pose_noise_deg)
+        self.reward_type = reward
+        self.success_distance = float(success_distance)
+        self.max_episode_steps = int(max_episode_steps)
+        self.render_mode = render_mode
+
+        # client_id: a connection the caller made and keeps (close() leaves it open).
+        self._key: tuple[str, int] | None = None
+        if client_id is None:
+            # The legacy API allows one connection per address and port in a process: a second
+            # environment on the same server (gymnasium's check_env makes one) shares it.
+            self._key = (host, int(port))
+            shared = _SHARED.get(self._key)
+            if shared is None:
+                client_id = vrep.simxStart(host, int(port), True, True, int(timeout_ms), 5)
+                if client_id < 0:
+                    raise ConnectionError(f"no simx/V-REP remote API server at {host}:{port}")
+                shared = _SHARED[self._key] = [client_id, 0]
+            shared[1] += 1
+            client_id = shared[0]
+        self.client_id = client_id
+        self._closed = False
+
+        self._joints = [self._handle(n) for n in JOINT_NAMES]
+        self._rgb_sensor = self._handle("kinect_rgb")
+        self._depth_sensor = self._handle("kinect_depth")
+        self._ball = self._handle("Sphere")
+        self._tcp = self._handle("RG2_tcp")
+        self._near = self._float_param(self._depth_sensor, vrep.sim_visionfloatparam_near_clipping)
+        self._far = self._float_param(self._depth_sensor, vrep.sim_visionfloatparam_far_clipping)
+
+        self.action_space = spaces.Box(-self.max_offset_deg, self.max_offset_deg, (joints,), np.float32)
+        near32, far32 = np.float32(self._near), np.float32(self._far)
+        self.observation_space = spaces.Dict({
+            "rgb": spaces.Box(0, 255, (self.height, self.width, 3), np.uint8),
+            "depth": spaces.Box(near32, far32, (self.height, self.width), np.float32),
+            "joints": spaces.Box(-np.inf, np.inf, (6,), np.float32),
+        })
+        self._targets = np.radians(np.array(TUTORIAL_POSE_DEG))
+        self._steps = 0
+        self._last_rgb: np.ndarray | None = None
+        self._ball_start = np.zeros(3)
+
+    # ------------------------------------------------------------------ simx helpers
+    def _handle(self, name: str) -> int:
+        rc, h = vrep.simxGetObjectHandle(self.client_id, name, _B)
+        if rc != vrep.simx_return_ok:
+            raise RuntimeError(f"simxGetObjectHandle({name!r}) failed (return code {rc}): not the tutorial's scene?")
+        return h
+
+    def _float_param(self, handle: int, param: int) -> float:
+        rc, value = vrep.simxGetObjectFloatParameter(self.client_id, handle, param, _B)
+        if rc != vrep.simx_return_ok:
+            raise RuntimeError(f"simxGetObjectFloatParameter({param}) failed (return code {rc})")
+        return float(value)
+
+    def _check(self, rc: int, what: str) -> None:
+        if rc != vrep.simx_return_ok:
+            raise RuntimeError(f"{what} failed (return code {rc})")
+
+    def _position(self, handle: int) -> np.ndarray:
+        rc, p = vrep.simxGetObjectPosition(self.client_id, handle, -1, _B)
+        self._check(rc, "simxGetObjectPosition")
+        return np.array(p, dtype=np.float64)
+
+    def _simulate(self, n: int) -> None:
+        for _ in range(n):
+            self._check(vrep.simxSynchronousTrigger(self.client_id), "simxSynchronousTrigger")
+        if n:
+            vrep.simxGetPingTime(self.client_id)  # returns after the last triggered step
+
+    def _wait_stopped(self, timeout: float = 5.0) -> None:
+        """V-REP stops a few passes after the request (simx at once): wait for the server state's
+        bit 0 (running) to clear, as legacy programs do, so that the start that follows counts."""
+        deadline = time.monotonic() + timeout
+        while True:
+            vrep.simxGetPingTime(self.client_id)  # a fresh reply carries the server state
+            rc, state = vrep.simxGetInMessageInfo(self.client_id, vrep.simx_headeroffset_server_state)
+            if rc == -1 or not state & 1 or time.monotonic() > deadline:
+                return
+            time.sleep(0.01)
+
+    def _resize(self, img: np.ndarray) -> np.ndarray:
+        if img.shape[0] == self.height and img.shape[1] == self.width:
+            return img
+        return cv2.resize(img, (self.width, self.height), interpolation=cv2.INTER_AREA)
+
+    def _rgb(self) -> np.ndarray:
+        rc, res, raw = vrep.simxGetVisionSensorImage(self.client_id, self._rgb_sensor, 0, _B)
+        self._check(rc, "simxGetVisionSensorImage")
+        img = np.asarray(raw, dtype=np.uint8).reshape(res[1], res[0], 3)[::-1]  # rows top-down
+        return np.ascontiguousarray(self._resize(img))
+
+    def _depth(self) -> np.ndarray:
+        rc, res, buf = vrep.simxGetVisionSensorDepthBuffer(self.client_id, self._depth_sensor, _B)
+        self._check(rc, "simxGetVisionSensorDepthBuffer")
+        d = np.asarray(buf, dtype=np.float32).reshape(res[1], res[0])[::-1]
+        d = self._resize(np.ascontiguousarray(d))
+        metres = np.float32(self._near) + d * np.float32(self._far - self._near)
+        return np.clip(metres, np.float32(self._near), np.float32(self._far)).astype(np.float32)
+
+    def _joint_positions(self) -> np.ndarray:
+        out = np.empty(6, dtype=np.float32)
+        for i, h in enumerate(self._joints):
+            rc, q = vrep.simxGetJointPosition(self.client_id, h, _B)
+            self._check(rc, "simxGetJointPosition")
+            out[i] = q
+        return out
+
+    def _observe(self) -> tuple[dict[str, np.ndarray], dict[str, Any], float, bool]:
+        rgb = self._rgb()
+        obs = {"rgb": rgb, "depth": self._depth(), "joints": self._joint_positions()}
+        self._last_rgb = rgb
+        ball, tcp = self._position(self._ball), self._position(self._tcp)
+        distance = float(np.linalg.norm(ball - tcp))
+        reward = -distance if self.reward_type == "dense" else image_reward(rgb)
+        info = {"distance": distance, "ball_position": ball, "gripper_position": tcp}
+        return obs, info, reward, distance <= self.success_distance
+
+    # ------------------------------------------------------------------ Gymnasium API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        cid = self.client_id
+        self._check(vrep.simxStopSimulation(cid, _B), "simxStopSimulation")
+        self._wait_stopped()
+        self._check(vrep.simxSynchronous(cid, True), "simxSynchronous")
+        self._check(vrep.simxStartSimulation(cid, _B), "simxStartSimulation")
+        noise = self.np_random.uniform(-self.pose_noise_deg, self.pose_noise_deg, 6) if self.pose_noise_deg else 0.0
+        self._targets = np.radians(np.array(TUTORIAL_POSE_DEG) + noise)
+        x, y = self.np_random.uniform(BALL_X[0], BALL_X[1]), self.np_random.uniform(BALL_Y[0], BALL_Y[1])
+        self._ball_start = np.array([x, y, BALL_Z])
+        vrep.simxPauseCommunication(cid, True)
+        for h, t in zip(self._joints, self._targets):
+            vrep.simxSetJointPosition(cid, h, float(t), _ONESHOT)
+            vrep.simxSetJointTargetPosition(cid, h, float(t), _ONESHOT)
+        vrep.simxSetObjectPosition(cid, self._ball, -1, [float(x), float(y), BALL_Z], _ONESHOT)
+        vrep.simxPauseCommunication(cid, False)
+        self._simulate(self.settle_steps)
+        self._steps = 0
+        obs, info, _, _ = self._observe()
+        return obs, info
+
+    def step(self, action):
+        if self._closed:
+            raise RuntimeError("step() on a closed environment")
+        offsets = np.nan_to_num(np.asarray(action, dtype=np.float64).reshape(self.n_joints))  # NaN: no move
+        offsets = np.clip(offsets, -self.max_offset_deg, self.max_offset_deg)
+        self._targets[: self.n_joints] += np.radians(offsets)
+        cid = self.client_id
+        vrep.simxPauseCommunication(cid, True)
+        for h, t in zip(self._joints[: self.n_joints], self._targets[: self.n_joints]):
+            vrep.simxSetJointTargetPosition(cid, h, float(t), _ONESHOT)
+        vrep.simxPauseCommunication(cid, False)
+        self._simulate(self.sim_steps)
+        self._steps += 1
+        obs, info, reward, terminated = self._observe()
+        truncated = self._steps >= self.max_episode_steps and not terminated
+        return obs, reward, terminated, truncated, info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        return self._rgb() if self._last_rgb is None else self._last_rgb.copy()
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        if self._key is not None:
+            shared = _SHARED[self._key]
+            shared[1] -= 1
+            if shared[1] == 0:
+                del _SHARED[self._key]
+                vrep.simxSynchronous(self.client_id, False)
+                vrep.simxFinish(self.client_id)
+
+
+def image_reward(rgb: np.ndarray) -> float:
+    """Minus the distance of the red ball's centroid from the image centre in half-diagonals;
+    -1 when no ball pixel is seen (no division by a zero pixel count)."""
+    r, g, b = (rgb[:, :, i].astype(np.int16) for i in range(3))
+    rows, cols = np.nonzero((r > 150) & (g < 80) & (b < 80))
+    if len(rows) == 0:
+        return -1.0
+    h, w = rgb.shape[:2]
+    return -min(1.0, math.hypot(cols.mean() - (w - 1) / 2, rows.mean() - (h - 1) / 2) / math.hypot(w / 2, h / 2))
