@@ -189,3 +189,31 @@ def test_pose_noise_is_seeded_and_bounded(make):
     np.testing.assert_allclose(a, b, atol=1e-4)
     assert np.abs(a - TUTORIAL_POSE_DEG).max() <= 2.1 and np.abs(a - TUTORIAL_POSE_DEG).max() > 0.05
     assert np.abs(a - c).max() > 0.05
+
+
+def test_tutorial_state_from_the_colour_coded_render(make):
+    """The tutorial's 2 numbers (pixel distance of the ball's centre from the image centre,
+    depth there) come from the colour-coded-handle render: they agree with the red ball seen in
+    the RGB observation and its depth; with the ball out of view they say so."""
+    from gymnasium.utils.env_checker import check_env
+
+    env = make(width=640, height=480, tutorial_state=True)
+    check_env(env.unwrapped, skip_render_check=True)
+    obs, info = env.reset(seed=3)
+    assert info["ball_visible"] and obs["state"].dtype == np.float32 and obs["state"].shape == (2,)
+    r, g, b = (obs["rgb"][:, :, i].astype(int) for i in range(3))
+    rows, cols = np.nonzero((r > 150) & (g < 80) & (b < 80))
+    centre = np.hypot(cols.mean() - 319.5, rows.mean() - 239.5)
+    assert obs["state"][0] == pytest.approx(centre, abs=2.0)  # pixels
+    depth_here = obs["depth"][int(round(rows.mean())), int(round(cols.mean()))]
+    assert obs["state"][1] == pytest.approx(depth_here, abs=0.01)  # metres
+    assert 0.2 < obs["state"][1] < 1.5  # the ball on the table, in front of the eye-in-hand Kinect
+    cid = env.unwrapped.client_id
+    rc, ball = vrep.simxGetObjectHandle(cid, "Sphere", B)
+    assert rc == 0 and vrep.simxSetObjectPosition(cid, ball, -1, [5.0, 5.0, 0.78], B) == 0
+    obs, _, _, _, info = env.step(np.zeros(3, dtype=np.float32))
+    assert not info["ball_visible"]
+    assert obs["state"][0] == pytest.approx(400.0) and obs["state"][1] == pytest.approx(3.5, abs=1e-3)
+    # The sensor renders the scene again afterwards (render mode 0).
+    assert red_pixels(env.unwrapped._rgb()) == 0 and vrep.simxGetObjectIntParameter(
+        cid, env.unwrapped._rgb_sensor, vrep.sim_visionintparam_render_mode, B) == (0, 0)

@@ -21,6 +21,13 @@ the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb
   resolution (640x480 in the scene; simx cannot change a sensor's resolution at run time), so
   ``width``/``height`` other than the sensor's are obtained by resizing client-side with
   OpenCV's ``INTER_AREA``.
+* ``tutorial_state=True`` adds ``"state"``: the tutorial's 2 numbers, (2,) float32: the
+  distance in pixels (of the sensor's own resolution) from the ball's centre to the image
+  centre, and the depth in metres at that pixel. The tutorial took them from a YOLO box; here
+  the ball's pixels come from the sensor's colour-coded-handle render (render mode 2,
+  ``sim_visionintparam_render_mode`` 1017: handle = r + 256 g + 65536 b), one more render per
+  step. When no ball pixel is seen: half the image diagonal and the far clipping distance, and
+  ``info["ball_visible"]`` is False.
 * reward: ``"dense"`` (default) is minus the distance (m) between ``RG2_tcp`` and the ball's
   centre; ``"image"`` is minus the distance of the red ball's centroid from the image centre,
   in half-diagonals (0 at the centre, about -1 at a corner), and -1 when no ball pixel is seen
@@ -66,7 +73,7 @@ class UR5BallReachEnv(gym.Env):
                  sim_steps: int = 1, settle_steps: int = 2, pose_noise_deg: float = 0.0,
                  reward: str = "dense", success_distance: float = SUCCESS_DISTANCE,
                  max_episode_steps: int = 200, render_mode: str | None = None,
-                 timeout_ms: int = 5000) -> None:
+                 timeout_ms: int = 5000, tutorial_state: bool = False) -> None:
         if joints not in (3, 6):
             raise ValueError(f"joints must be 3 (joints 1-3) or 6, not {joints!r}")
         if reward not in ("dense", "image"):
@@ -84,6 +91,7 @@ class UR5BallReachEnv(gym.Env):
         self.success_distance = float(success_distance)
         self.max_episode_steps = int(max_episode_steps)
         self.render_mode = render_mode
+        self.tutorial_state = bool(tutorial_state)
 
         # client_id: a connection the caller made and keeps (close() leaves it open).
         self._key: tuple[str, int] | None = None
@@ -112,11 +120,14 @@ class UR5BallReachEnv(gym.Env):
 
         self.action_space = spaces.Box(-self.max_offset_deg, self.max_offset_deg, (joints,), np.float32)
         near32, far32 = np.float32(self._near), np.float32(self._far)
-        self.observation_space = spaces.Dict({
+        observations = {
             "rgb": spaces.Box(0, 255, (self.height, self.width, 3), np.uint8),
             "depth": spaces.Box(near32, far32, (self.height, self.width), np.float32),
             "joints": spaces.Box(-np.inf, np.inf, (6,), np.float32),
-        })
+        }
+        if self.tutorial_state:
+            observations["state"] = spaces.Box(np.float32(0), np.float32(1e4), (2,), np.float32)
+        self.observation_space = spaces.Dict(observations)
         self._targets = np.radians(np.array(TUTORIAL_POSE_DEG))
         self._steps = 0
         self._last_rgb: np.ndarray | None = None
@@ -180,6 +191,37 @@ class UR5BallReachEnv(gym.Env):
         metres = np.float32(self._near) + d * np.float32(self._far - self._near)
         return np.clip(metres, np.float32(self._near), np.float32(self._far)).astype(np.float32)
 
+    def _depth_native(self) -> np.ndarray:
+        """The depth sensor's image at its own resolution, rows top-down, metres."""
+        rc, res, buf = vrep.simxGetVisionSensorDepthBuffer(self.client_id, self._depth_sensor, _B)
+        self._check(rc, "simxGetVisionSensorDepthBuffer")
+        d = np.asarray(buf, dtype=np.float32).reshape(res[1], res[0])[::-1]
+        return np.float32(self._near) + d * np.float32(self._far - self._near)
+
+    def _ball_pixels(self) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+        """Rows and columns (top-down, the sensor's resolution) where the colour-coded render of
+        ``kinect_rgb`` shows the ball, and that resolution ``(height, width)``."""
+        cid, mode = self.client_id, vrep.sim_visionintparam_render_mode
+        self._check(vrep.simxSetObjectIntParameter(cid, self._rgb_sensor, mode, vrep.sim_rendermode_colorcoded, _B),
+                    "simxSetObjectIntParameter(render mode)")
+        try:
+            rc, res, raw = vrep.simxGetVisionSensorImage(cid, self._rgb_sensor, 0, _B)
+            self._check(rc, "simxGetVisionSensorImage")
+        finally:
+            vrep.simxSetObjectIntParameter(cid, self._rgb_sensor, mode, vrep.sim_rendermode_opengl, _B)
+        rgb = np.asarray(raw, dtype=np.uint8).reshape(res[1], res[0], 3)[::-1].astype(np.int64)
+        handles = rgb[:, :, 0] | (rgb[:, :, 1] << 8) | (rgb[:, :, 2] << 16)
+        rows, cols = np.nonzero(handles == self._ball)
+        return rows, cols, (res[1], res[0])
+
+    def _tutorial_state(self) -> tuple[np.ndarray, bool]:
+        rows, cols, (h, w) = self._ball_pixels()
+        if len(rows) == 0:
+            return np.array([math.hypot(w, h) / 2, self._far], dtype=np.float32), False
+        r, c = rows.mean(), cols.mean()
+        depth = self._depth_native()[int(round(r)), int(round(c))]
+        return np.array([math.hypot(c - (w - 1) / 2, r - (h - 1) / 2), depth], dtype=np.float32), True
+
     def _joint_positions(self) -> np.ndarray:
         out = np.empty(6, dtype=np.float32)
         for i, h in enumerate(self._joints):
@@ -196,6 +238,8 @@ class UR5BallReachEnv(gym.Env):
         distance = float(np.linalg.norm(ball - tcp))
         reward = -distance if self.reward_type == "dense" else image_reward(rgb)
         info = {"distance": distance, "ball_position": ball, "gripper_position": tcp}
+        if self.tutorial_state:
+            obs["state"], info["ball_visible"] = self._tutorial_state()
         return obs, info, reward, distance <= self.success_distance
 
     # ------------------------------------------------------------------ Gymnasium API
