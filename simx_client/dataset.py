@@ -323,7 +323,8 @@ def _generate(scene: Scene, opts: Options) -> Result:
     saved_mode = scene.int_param(sensor, RENDER_MODE)
 
     n_val = int(round(opts.count * opts.val_fraction))
-    val_index = set(rng.choice(opts.count, size=n_val, replace=False).tolist()) if n_val else set()
+    split_rng = np.random.default_rng([opts.seed, 1])  # views do not depend on --count/--val-fraction
+    val_index = set(split_rng.choice(opts.count, size=n_val, replace=False).tolist()) if n_val else set()
     out = opts.out
     for split in ("train", "val"):
         (out / "images" / split).mkdir(parents=True, exist_ok=True)
@@ -431,7 +432,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--place", action="append", default=[], metavar="OBJECT",
                    help="an object placed at a random spot of --surface in each view (repeatable)")
     p.add_argument("--surface", default=None,
-                   help="where --place puts objects: x0,x1,y0,y1,z (m, world) or a shape's name (its top face)")
+                   help="where --place puts objects: x0,x1,y0,y1,z (m, world; write --surface=-0.5,... when it starts with a minus) or a shape's name (its top face)")
     p.add_argument("--count", type=int, default=100, help="images (default 100)")
     p.add_argument("--val-fraction", type=float, default=0.2, help="share of images in val (default 0.2)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
