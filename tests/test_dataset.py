@@ -162,6 +162,17 @@ def test_fifty_images_make_the_yolo_layout(srv, tmp_path):
     assert [text(again, f"{i:06d}") for i in range(5)] == [text(out, f"{i:06d}") for i in range(5)]
 
 
+def test_errors_name_the_cause_and_exit_2(srv, tmp_path, capsys):
+    base = ["--port", str(srv.port), "--out", str(tmp_path), "--no-progress", "--count", "2"]
+    assert D.main(base + ["--class", "ball=Nope"]) == 2
+    assert "no object 'Nope'" in capsys.readouterr().err
+    assert D.main(base + ["--class", "ball=Sphere", "--pose", "1e12,0,0,0,0,0"]) == 2
+    assert "refused a command: simxSetJointPosition" in capsys.readouterr().err
+    assert not list(tmp_path.glob("images/*/*"))
+    assert D.main(base + ["--class", "ball=Sphere", "--place", "Sphere"]) == 2
+    assert "--place needs --surface" in capsys.readouterr().err
+
+
 def test_boxes_thresholds_and_decoding():
     handles = np.full((20, 30), D.BACKGROUND, dtype=np.int32)
     handles[2:8, 3:12] = 5  # 6 x 9 = 54 px
