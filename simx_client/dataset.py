@@ -266,8 +266,8 @@ class Result:
 
 
 def surface_area(scene: Scene, spec: str, margin: float) -> tuple[float, float, float, float, float]:
-    """(x0, x1, y0, y1, z) from "x0,x1,y0,y1,z" or a shape's name (its world bounding box, top
-    face, shrunk by ``margin`` m each side)."""
+    """(x0, x1, y0, y1, z) from "x0,x1,y0,y1,z" (as given) or a shape's name (the top face of its
+    world bounding box, shrunk by ``margin`` m each side)."""
     if spec.count(",") == 4:
         x0, x1, y0, y1, z = parse_floats(spec, 5, "--surface")
         return x0, x1, y0, y1, z
@@ -312,9 +312,13 @@ def _generate(scene: Scene, opts: Options) -> Result:
     if opts.pose is not None and len(opts.pose) != len(joints):
         raise DatasetError(f"--pose has {len(opts.pose)} angles for {len(joints)} joints")
     placed = [scene.handle(o) for o in opts.place]
-    area = surface_area(scene, opts.surface, 0.0) if placed else None
+    extents = {h: scene.bbox(h) for h in placed}
+    # a named surface keeps the placed objects whole on its top: shrunk by their largest reach
+    margin = max((float(np.abs(np.concatenate([lo[:2], hi[:2]])).max()) for lo, hi in extents.values()),
+                 default=0.0)
+    area = surface_area(scene, opts.surface, margin) if placed else None
     # height of each placed object's origin above the surface: it rests on it
-    lift = {h: -float(scene.bbox(h)[0][2]) + 1e-3 for h in placed}
+    lift = {h: -float(lo[2]) + 1e-3 for h, (lo, hi) in extents.items()}
 
     # what to put back afterwards
     saved_joints = {h: scene.joint_position(h) for h in joints}

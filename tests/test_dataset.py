@@ -193,3 +193,14 @@ def test_simx_client_imports_without_tqdm():
             "try:\n    d._progress(1, True)\nexcept ImportError:\n    print('ok')\n")
     r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr
+
+
+def test_named_surface_is_the_top_of_its_bounding_box(srv):
+    scene = D.Scene("127.0.0.1", srv.port)
+    try:
+        area = D.surface_area(scene, "Table", 0.03)
+        assert D.surface_area(scene, "0,1,2,3,0.5", 0.03) == (0, 1, 2, 3, 0.5)
+    finally:
+        scene.close()
+    # the table top: centre (0.1, 0.35), half sizes 0.6 x 0.7, top at z 0.75 (the scene's MJCF)
+    np.testing.assert_allclose(area, (-0.47, 0.67, -0.32, 1.02, 0.75), atol=1e-3)
