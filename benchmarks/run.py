@@ -44,6 +44,7 @@ SUITES = {
     "tutorial": ("benchmarks.tutorial", "7. the tutorial loop"),
     "pacing": ("benchmarks.pacing", "pacing of blocking calls: legacy and immediate (issue 12)"),
     "robustness": ("benchmarks.robustness", "8. robustness (issue 11)"),
+    "dataset": ("benchmarks.dataset", "9. simx-dataset images per second (issue 13)"),
 }
 #: Suites run only when named in --only: the robustness suite floods a server on purpose and
 #: soaks it for 3 minutes (about 5 minutes in all), which the everyday run should not do.
