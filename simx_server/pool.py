@@ -56,6 +56,48 @@ def _die_with_parent() -> None:  # pragma: no cover - runs in the child between 
         pass
 
 
+class ServerClaims:
+    """Hands each process that asks a different server of a list; picklable, so that identical
+    environment constructors (``gymnasium.make_vec(..., vectorization_mode="async")`` makes every
+    worker's environment with the same arguments) still connect each to its own server.
+
+    ``claim()`` takes the first server no process has claimed yet, atomically across the
+    processes of this machine (one file per server in ``folder``, made with ``O_EXCL``).
+    """
+
+    def __init__(self, addresses: list[tuple[str, int]], folder: str | os.PathLike):
+        self.addresses = [(str(h), int(p)) for h, p in addresses]
+        self.folder = str(folder)
+
+    def claim(self) -> tuple[str, int]:
+        """A server's ``(host, port)`` nobody claimed before. Raises RuntimeError when all are taken."""
+        for i, address in enumerate(self.addresses):
+            try:
+                fd = os.open(os.path.join(self.folder, f"claim-{i}"), os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+            except FileExistsError:
+                continue
+            os.write(fd, str(os.getpid()).encode())
+            os.close(fd)
+            return address
+        raise RuntimeError(f"all {len(self.addresses)} servers are claimed (more environments than servers)")
+
+    def release(self, address: tuple[str, int]) -> None:
+        """Give a claimed server back (an environment's ``close()``): the next ``claim()`` may take it.
+        AsyncVectorEnv makes and closes one environment in the parent before its workers start, so
+        an environment that claims in its constructor must release in ``close()``."""
+        try:
+            i = self.addresses.index((str(address[0]), int(address[1])))
+        except ValueError:
+            return
+        try:
+            os.unlink(os.path.join(self.folder, f"claim-{i}"))
+        except FileNotFoundError:
+            pass
+
+    def __repr__(self) -> str:
+        return f"ServerClaims({self.addresses})"
+
+
 class _Instance:
     def __init__(self, index: int, port: int, log_path: Path):
         self.index = index
@@ -118,6 +160,7 @@ class ServerPool:
         self._env["PYTHONUNBUFFERED"] = "1"
         self._log_dir.mkdir(parents=True, exist_ok=True)
         self._closed = False
+        self._claims: ServerClaims | None = None
         try:
             for i in range(n):
                 port = ports[i] if ports is not None else self._new_port()
@@ -190,6 +233,26 @@ class ServerPool:
     def log_paths(self) -> list[Path]:
         return [inst.log_path for inst in self._instances]
 
+    @property
+    def claims(self) -> ServerClaims:
+        """A picklable :class:`ServerClaims` over this pool's servers (each server claimed once)."""
+        if self._claims is None:
+            self._claims = ServerClaims(self.addresses, tempfile.mkdtemp(prefix="simx-claims-"))
+        return self._claims
+
+    def close_with(self, owner):
+        """Make ``owner.close()`` (a vector environment, say) also close this pool; returns ``owner``."""
+        close = owner.close
+
+        def close_both(*args, **kwargs):
+            try:
+                return close(*args, **kwargs)
+            finally:
+                self.close()
+
+        owner.close = close_both
+        return owner
+
     def __len__(self) -> int:
         return len(self._instances)
 
@@ -225,6 +288,8 @@ class ServerPool:
                 p.wait()
         if self._own_log_dir:
             shutil.rmtree(self._log_dir, ignore_errors=True)
+        if self._claims is not None:
+            shutil.rmtree(self._claims.folder, ignore_errors=True)
 
     def __enter__(self) -> ServerPool:
         return self
