@@ -206,3 +206,23 @@ def test_instances_one_failing_stops_the_other(tmp_path):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_servers_stop_when_the_pool_owner_is_killed(tmp_path):
+    """PR_SET_PDEATHSIG: a training script killed with SIGKILL leaves no server behind."""
+    code = ("import sys; from simx_server.pool import ServerPool\n"
+            "p = ServerPool(2, None, '--pacing', 'immediate', log_dir=sys.argv[1])\n"
+            "print(*p.pids, flush=True)\n"
+            "sys.stdin.read()\n")
+    owner = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                             text=True, env=ENV, cwd=ROOT)
+    try:
+        pids = [int(p) for p in owner.stdout.readline().split()]
+        assert len(pids) == 2 and all(_alive(pid) for pid in pids)
+        owner.kill()
+        owner.wait()
+        wait_until(lambda: not any(_alive(pid) for pid in pids), timeout=10, what="servers gone after SIGKILL")
+    finally:
+        if owner.poll() is None:
+            owner.kill()
+            owner.wait()
