@@ -15,6 +15,10 @@ server by PID (SIGTERM, wait, SIGKILL) and is also called by ``with`` and, as a 
 by garbage collection. On Linux the servers also get SIGTERM when the thread that started the
 pool ends (``PR_SET_PDEATHSIG``), so a pool's owner killed with SIGKILL leaves no server
 behind; create the pool on a thread that lives as long as it (the main thread, usually).
+
+``pool.claims`` (a picklable :class:`ServerClaims`) gives each process that calls ``claim()`` a
+server of its own, for identical environment constructors (``gymnasium.make_vec``), and
+``pool.close_with(envs)`` closes the pool when ``envs`` is closed (README, "Many servers").
 """
 
 from __future__ import annotations
