@@ -164,11 +164,24 @@ def test_instances_end_to_end(sig):
             proc.wait()
 
 
+def _free_run(n: int) -> int:
+    """The first of ``n`` consecutive ports nothing listens on now (loopback)."""
+    for _ in range(50):
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            first = min(s.getsockname()[1], 65000)
+        try:
+            for port in range(first, first + n):
+                with socket.socket() as s:
+                    s.bind(("127.0.0.1", port))
+            return first
+        except OSError:
+            continue
+    pytest.fail(f"no run of {n} free ports found")
+
+
 def test_instances_with_port_uses_consecutive_ports():
-    with socket.socket() as s:  # a free run of 3 ports is likely here; retry a few times if not
-        s.bind(("127.0.0.1", 0))
-        first = s.getsockname()[1]
-    first = min(first, 65000)
+    first = _free_run(3)
     proc, line = _start_instances("--instances", "3", "--port", str(first), "--pacing", "immediate")
     try:
         assert re.findall(r"tcp/127\.0\.0\.1:(\d+)", line) == [str(first + i) for i in range(3)]
