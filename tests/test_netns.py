@@ -145,3 +145,40 @@ def test_instances_in_one_namespace_clients_in_another(namespaces):
         assert all(f"ok {p}" in out.stdout for p in ports)
     finally:
         assert _stop(proc) == 0
+
+
+VECTOR = """
+import sys
+import numpy as np
+import gymnasium as gym
+sys.path.insert(0, sys.argv[1])
+from test_pool_gym import ENV_ID, JointEnv
+from simx_server.pool import ServerClaims
+host, folder, ports = sys.argv[2], sys.argv[3], [int(p) for p in sys.argv[4:]]
+gym.register(ENV_ID, entry_point=JointEnv)
+envs = gym.make_vec(ENV_ID, num_envs=len(ports), vectorization_mode="async", vector_kwargs={"context": "spawn"},
+                    servers=ServerClaims([(host, p) for p in ports], folder))
+try:
+    obs, info = envs.reset(seed=0)
+    assert sorted(info["port"]) == sorted(ports), info
+    obs, _, _, _, info = envs.step(np.array([[0.25], [-0.5]], np.float32))
+    assert np.allclose(obs[:, 0], [0.25, -0.5], atol=1e-6), obs
+    print("vector ok", flush=True)
+finally:
+    envs.close()
+"""
+
+
+def test_vector_env_in_one_namespace_servers_in_another(namespaces, tmp_path):
+    pytest.importorskip("gymnasium", reason="gymnasium is not installed (pip install gymnasium)")
+    a, b = namespaces
+    proc, line = _start_in(a, str(SCENE), "--instances", "2", "--host", ADDR_A, "--stopped", "--pacing", "immediate")
+    try:
+        ports = [int(p) for p in re.findall(rf"tcp/{re.escape(ADDR_A)}:(\d+)", line)]
+        assert len(ports) == 2, line
+        out = subprocess.run(["ip", "netns", "exec", b, sys.executable, "-c", VECTOR, str(ROOT / "tests"), ADDR_A,
+                              str(tmp_path), *map(str, ports)], capture_output=True, text=True, timeout=120,
+                             env=ENV, cwd=ROOT)
+        assert out.returncode == 0 and "vector ok" in out.stdout, out.stdout + out.stderr[-3000:]
+    finally:
+        assert _stop(proc) == 0
