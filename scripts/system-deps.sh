@@ -5,8 +5,9 @@
 #
 #   (no option)  GL libraries for MuJoCo's offscreen renderer on the CPU:
 #                MUJOCO_GL=egl with Mesa's llvmpipe (libegl1, libegl-mesa0,
-#                libgl1, libglx-mesa0, libgl1-mesa-dri), plus python3-venv
-#                when `python3 -m venv --help` fails.
+#                libgl1, libglx-mesa0, libgl1-mesa-dri), iproute2 (`ip`, for
+#                the network-namespace test tests/test_netns.py), plus
+#                python3-venv when `python3 -m venv --help` fails.
 #   --with-x     also Xvfb and xdotool, needed only by the tests that drive a
 #                real X window (tests/xdisplay.py).
 #
@@ -21,7 +22,7 @@ for arg in "$@"; do
     case "$arg" in
         --with-x) with_x=1 ;;
         -h|--help)
-            sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'
+            sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'
             exit 0
             ;;
         *)
@@ -37,7 +38,7 @@ if ! command -v dpkg-query >/dev/null 2>&1 || ! command -v apt-get >/dev/null 2>
 fi
 
 # Headless OpenGL through EGL (Mesa llvmpipe software rasterizer).
-wanted=(libegl1 libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri)
+wanted=(libegl1 libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri iproute2)
 if [ "$with_x" -eq 1 ]; then
     wanted+=(xvfb xdotool)
 fi
@@ -73,9 +74,9 @@ fi
 
 if [ "${#missing[@]}" -eq 0 ]; then
     if [ "$with_x" -eq 1 ]; then
-        echo "system-deps.sh: all system packages present (GL/EGL, python3-venv, Xvfb, xdotool)."
+        echo "system-deps.sh: all system packages present (GL/EGL, iproute2, python3-venv, Xvfb, xdotool)."
     else
-        echo "system-deps.sh: all system packages present (GL/EGL, python3-venv)."
+        echo "system-deps.sh: all system packages present (GL/EGL, iproute2, python3-venv)."
     fi
     exit 0
 fi

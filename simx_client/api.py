@@ -25,6 +25,7 @@ command path of :mod:`simx_client.calls`.
 from __future__ import annotations
 
 import atexit
+import os
 import struct
 from typing import Any, Callable
 
@@ -32,7 +33,7 @@ import numpy as np
 
 from simx_client import constants as C
 from simx_client import protocol as P
-from simx_client.connection import DEFAULT_BLOCKING_TIMEOUT, wait_connect
+from simx_client.connection import DEFAULT_BLOCKING_TIMEOUT, PREFIX_ENV, wait_connect
 
 # The simx* functions by concern; each module calls calls._command itself (no wrapper here).
 from simx_client.api_objects import *  # noqa: F401,F403
@@ -56,6 +57,9 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
     A positive ``timeOutInMs`` bounds the connection wait; a negative one sets the blocking-call
     timeout to its absolute value and waits 5000 ms to connect. Connecting twice to the same
     address and port from one process fails (-1), as it did.
+
+    The server's key-expression prefix (its ``--prefix``) is ``$SIMX_PREFIX``, ``simx`` when
+    unset: several servers reached through one Zenoh router differ by prefix only.
     """
     try:
         address, port = _str(connectionAddress), _int(connectionPort)
@@ -64,15 +68,16 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
     except Exception as exc:
         log.warning("simxStart: bad argument: %s", exc)
         return -1
+    prefix = os.environ.get(PREFIX_ENV) or P.DEFAULT_PREFIX
     blocking = DEFAULT_BLOCKING_TIMEOUT if timeout_ms >= 0 else -timeout_ms / 1000.0
     connect_wait = timeout_ms / 1000.0 if timeout_ms > 0 else DEFAULT_BLOCKING_TIMEOUT
     with _registry_lock:
-        if any(c.address == address and c.port == port for c in _connections.values()):
+        if any(c.address == address and c.port == port and c.prefix == prefix for c in _connections.values()):
             return -1
         free = next((i for i in range(_MAX_CONNECTIONS) if i not in _connections), None)
         if free is None:
             return -1
-        conn = wait_connect(address, port, wait, connect_wait, blocking, reconnect)
+        conn = wait_connect(address, port, wait, connect_wait, blocking, reconnect, prefix)
         if conn is None:
             return -1
         _connections[free] = conn

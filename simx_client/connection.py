@@ -61,6 +61,8 @@ CONFIG_ENV = ("SIMX_ZENOH_CONFIG", "ZENOH_CONFIG")
 #: Environment variable with the user name that starts the client id (default: the config's
 #: ``transport/auth/usrpwd/user``); needed with mTLS, where the user is the certificate's name.
 USER_ENV = "SIMX_USER"
+#: Environment variable with the server's key-expression prefix for ``simxStart`` (default ``simx``).
+PREFIX_ENV = "SIMX_PREFIX"
 _USER_SEPARATOR = "-"  # client id = <user>-<uuid4 hex>: never in a user name
 _USER_NAME = re.compile(r"[A-Za-z0-9_.]{1,95}")  # 95 + 1 + 32 = 128, the longest client id
 

@@ -61,12 +61,21 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--client-expiry", type=float, default=limits.CLIENT_EXPIRY, metavar="S",
                    help="drop the state of a client without liveliness token after this many s without "
                         f"a request (default {limits.CLIENT_EXPIRY:g})")
+    p.add_argument("--instances", type=int, default=1, metavar="N",
+                   help="run N servers, each its own process and simulation on a port of its own: on free "
+                        "ports, or with --port P on P, P+1, ..., P+N-1 (one --host, one --port at most); "
+                        "one ready line lists them all, SIGINT/SIGTERM stops them all (default 1)")
+    p.add_argument("--log-dir", metavar="DIR",
+                   help="with --instances: folder for the servers' logs server-<i>.log (default: a temporary "
+                        "folder removed when they stop)")
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``simx-server`` console script; returns the exit code."""
     args = parse_args(argv)
+    if args.instances != 1 or args.log_dir is not None:
+        return run_instances(args)
     logging.basicConfig(level=args.log_level, stream=sys.stderr,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     logging.getLogger("OpenGL").setLevel(logging.WARNING)
@@ -126,6 +135,79 @@ def main(argv: list[str] | None = None) -> int:
         server.close()
         logging.getLogger("simx.server").info("stopped")
     return 0
+
+
+def _child_args(args: argparse.Namespace) -> list[str]:
+    """The arguments each server of ``--instances`` gets (all but host, port and instances)."""
+    out = [args.scene] if args.scene else []
+    if args.zenoh_config:
+        out += ["--zenoh-config", args.zenoh_config]
+    out += ["--dt", repr(args.dt), "--speed", repr(args.speed), "--pacing", args.pacing,
+            "--prefix", args.prefix, "--log-level", args.log_level, "--log-interval", repr(args.log_interval),
+            "--client-expiry", repr(args.client_expiry)]
+    for folder in args.scene_path:
+        out += ["--scene-path", folder]
+    for flag in ("stopped", "allow_remote_code", "allow_unsafe_lua"):
+        if getattr(args, flag):
+            out.append("--" + flag.replace("_", "-"))
+    return out
+
+
+def run_instances(args: argparse.Namespace) -> int:
+    """``simx-server --instances N``: N servers (a :class:`~simx_server.pool.ServerPool`) under this
+    process, which prints one ready line with every endpoint and stops them all on SIGINT/SIGTERM
+    (or when one of them exits: then it stops the others and exits with status 1)."""
+    from simx_server.pool import PoolError, ServerPool
+
+    n = args.instances
+    if n < 1:
+        print(f"simx-server: --instances must be >= 1, got {n}", file=sys.stderr)
+        return 2
+    if len(args.host or []) > 1 or len(args.port or []) > 1:
+        print("simx-server: with --instances give at most one --host and one --port (the first of N "
+              "consecutive ports)", file=sys.stderr)
+        return 2
+    host = (args.host or ["127.0.0.1"])[0]
+    ports = None
+    if args.port:
+        first = args.port[0]
+        if not (0 < first and first + n - 1 <= 65535):
+            print(f"simx-server: --port {first} with --instances {n}: ports {first}..{first + n - 1} are not "
+                  f"all valid", file=sys.stderr)
+            return 2
+        ports = list(range(first, first + n))
+    if args.log_dir is not None:
+        Path(args.log_dir).mkdir(parents=True, exist_ok=True)
+    stop = threading.Event()
+
+    def on_signal(signum, frame):
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    try:
+        pool = ServerPool(n, None, *_child_args(args), host=host, ports=ports, log_dir=args.log_dir)
+    except PoolError as exc:
+        print(f"simx-server: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 0
+    signal.signal(signal.SIGINT, on_signal)
+    try:
+        endpoints = ", ".join(f"tcp/{h}:{p}" for h, p in pool.addresses)
+        scene = Path(args.scene).name if args.scene else DEFAULT_SCENE
+        print(f"simx-server ready: {n} instances of scene {scene}, listening on {endpoints}", flush=True)
+        if args.log_dir is not None:
+            print(f"simx-server: logs in {', '.join(map(str, pool.log_paths))}", file=sys.stderr, flush=True)
+        while not stop.wait(0.2):
+            failed = [(i, rc) for i, rc in enumerate(pool.poll()) if rc is not None]
+            if failed:
+                i, rc = failed[0]
+                print(f"simx-server: instance {i} (port {pool.ports[i]}) exited with status {rc}; stopping "
+                      f"the others. Its log:\n{pool.logs()[i][-4000:]}", file=sys.stderr, flush=True)
+                return 1
+        return 0
+    finally:
+        pool.close()
 
 
 def _watch_signals(server, served: threading.Event) -> None:
