@@ -71,3 +71,27 @@ def test_make_vec_async_each_env_its_own_server_and_close_stops_them():
     finally:
         envs.close()
     assert not any(_alive(pid) for pid in pids)
+
+
+def test_make_vec_of_ur5_ball_reach_on_a_pool():
+    """The issue's form: ``gymnasium.make_vec("simx/UR5BallReach-v0", num_envs=2,
+    vectorization_mode="async", ...)`` on a ServerPool; each environment has its own
+    simulation (its own ball), steps move them, closing the vector stops the servers."""
+    import simx_client.envs  # noqa: F401  (registers simx/UR5BallReach-v0)
+
+    pool = ServerPool(2, SCENE, "--stopped")
+    pids = pool.pids
+    envs = pool.close_with(gym.make_vec("simx/UR5BallReach-v0", num_envs=2, vectorization_mode="async",
+                                         vector_kwargs={"context": "spawn"}, servers=pool.claims))
+    try:
+        obs, info = envs.reset(seed=[1, 2])
+        assert obs["rgb"].shape == (2, 84, 84, 3) and obs["joints"].shape == (2, 6)
+        balls = np.asarray(info["ball_position"])
+        assert np.linalg.norm(balls[0][:2] - balls[1][:2]) > 1e-3  # two simulations, two seeds
+        before = obs["joints"].copy()
+        obs, reward, terminated, truncated, info = envs.step(np.array([[5, 0, 0], [-5, 0, 0]], np.float32))
+        moved = np.degrees(obs["joints"][:, 0] - before[:, 0])
+        assert moved[0] > 2 and moved[1] < -2, moved  # each server moved its own arm
+    finally:
+        envs.close()
+    assert not any(_alive(pid) for pid in pids)

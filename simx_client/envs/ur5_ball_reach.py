@@ -32,6 +32,9 @@ the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb
   centre; ``"image"`` is minus the distance of the red ball's centroid from the image centre,
   in half-diagonals (0 at the centre, about -1 at a corner), and -1 when no ball pixel is seen
   (the tutorial's version divides by the pixel count, which fails then).
+* ``servers=pool.claims`` (:class:`simx_server.pool.ServerPool`): the environment claims a server
+  of its own instead of ``host``/``port`` (``gymnasium.make_vec`` makes every environment with
+  the same arguments) and gives it back on ``close()``.
 * ``terminated`` when ``RG2_tcp`` is within ``success_distance`` (default 0.05 m) of the
   ball's centre; ``truncated`` after ``max_episode_steps`` steps (default 200).
 """
@@ -73,7 +76,7 @@ class UR5BallReachEnv(gym.Env):
                  sim_steps: int = 1, settle_steps: int = 2, pose_noise_deg: float = 0.0,
                  reward: str = "dense", success_distance: float = SUCCESS_DISTANCE,
                  max_episode_steps: int = 200, render_mode: str | None = None,
-                 timeout_ms: int = 5000, tutorial_state: bool = False) -> None:
+                 timeout_ms: int = 5000, tutorial_state: bool = False, servers: Any = None) -> None:
         if joints not in (3, 6):
             raise ValueError(f"joints must be 3 (joints 1-3) or 6, not {joints!r}")
         if reward not in ("dense", "image"):
@@ -93,6 +96,12 @@ class UR5BallReachEnv(gym.Env):
         self.render_mode = render_mode
         self.tutorial_state = bool(tutorial_state)
 
+        # servers: a claims object (simx_server.pool.ServerPool.claims, or anything with
+        # claim() -> (host, port) and release(address)): each environment of a vector env, all
+        # made with the same arguments, takes a server of its own and gives it back in close().
+        self._servers, self._claimed = servers, None
+        if servers is not None and client_id is None:
+            self._claimed = host, port = servers.claim()
         # client_id: a connection the caller made and keeps (close() leaves it open).
         self._key: tuple[str, int] | None = None
         if client_id is None:
@@ -298,6 +307,8 @@ class UR5BallReachEnv(gym.Env):
                 del _SHARED[self._key]
                 vrep.simxSynchronous(self.client_id, False)
                 vrep.simxFinish(self.client_id)
+        if self._claimed is not None:
+            self._servers.release(self._claimed)
 
 
 def image_reward(rgb: np.ndarray) -> float:
