@@ -22,7 +22,6 @@ throughput = env steps / wall time of the timed loop. Ratios: in-process / remot
 
 from __future__ import annotations
 
-import math
 import time
 
 import cv2
