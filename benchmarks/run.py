@@ -45,10 +45,12 @@ SUITES = {
     "pacing": ("benchmarks.pacing", "pacing of blocking calls: legacy and immediate (issue 12)"),
     "robustness": ("benchmarks.robustness", "8. robustness (issue 11)"),
     "dataset": ("benchmarks.dataset", "9. simx-dataset images per second (issue 13)"),
+    "envs": ("benchmarks.envs", "Gymnasium env steps/s, remote vs in-process (issue 13)"),
 }
 #: Suites run only when named in --only: the robustness suite floods a server on purpose and
-#: soaks it for 3 minutes (about 5 minutes in all), which the everyday run should not do.
-OPT_IN = {"robustness"}
+#: soaks it for 3 minutes (about 5 minutes in all), which the everyday run should not do; the
+#: envs suite starts up to 4 servers at once and takes a few minutes of 640x480 renders.
+OPT_IN = {"robustness", "envs"}
 
 
 def _fmt(v, unit: str = "") -> str:
