@@ -42,6 +42,21 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def ready_line(proc: subprocess.Popen, timeout: float) -> str | None:
+    """The first line of ``proc``'s stdout that says "ready" (stripped), or None when the process
+    exits or ``timeout`` s pass first."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        r, _, _ = select.select([proc.stdout], [], [], 0.2)
+        if r:
+            line = proc.stdout.readline()
+            if "ready" in line:
+                return line.strip()
+        if proc.poll() is not None:
+            return None
+    return None
+
+
 class ServerProcess:
     """A ``simx-server`` subprocess; started with :meth:`start`, stopped by PID in :meth:`stop`."""
 
@@ -61,15 +76,9 @@ class ServerProcess:
         return self.ports[0]
 
     def _wait_ready(self, timeout: float) -> str:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            r, _, _ = select.select([self.proc.stdout], [], [], 0.2)
-            if r:
-                line = self.proc.stdout.readline()
-                if "ready" in line:
-                    return line.strip()
-            if self.proc.poll() is not None:
-                break
+        line = ready_line(self.proc, timeout)
+        if line is not None:
+            return line
         err = self.stop()
         raise RuntimeError(f"simx-server did not become ready:\n{err}")
 

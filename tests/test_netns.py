@@ -12,16 +12,14 @@ from __future__ import annotations
 import os
 import re
 import secrets
-import select
 import shutil
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
-from conftest import ROOT, SCENE
+from conftest import ROOT, SCENE, ready_line
 
 ADDR_A, ADDR_B = "192.0.2.1", "192.0.2.2"
 ENV = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
@@ -81,15 +79,9 @@ def namespaces():
 def _start_in(ns: str, *args: str) -> tuple[subprocess.Popen, str]:
     proc = subprocess.Popen(["ip", "netns", "exec", ns, sys.executable, "-m", "simx_server.cli", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV, cwd=ROOT)
-    deadline = time.monotonic() + 90
-    while time.monotonic() < deadline:
-        r, _, _ = select.select([proc.stdout], [], [], 0.2)
-        if r:
-            line = proc.stdout.readline()
-            if "ready" in line:
-                return proc, line.strip()
-        if proc.poll() is not None:
-            break
+    line = ready_line(proc, 90)
+    if line is not None:
+        return proc, line
     _stop(proc)
     raise AssertionError(f"server in {ns} not ready: {proc.communicate()[1][-3000:]}")
 

@@ -4,17 +4,15 @@ from __future__ import annotations
 
 import os
 import re
-import select
 import signal
 import socket
 import subprocess
 import sys
-import time
 
 import pytest
 
 import vrep
-from conftest import ROOT, SCENE, wait_until
+from conftest import ROOT, SCENE, ready_line, wait_until
 from simx_server.pool import PoolError, ServerPool
 
 ENV = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
@@ -129,15 +127,9 @@ def _children(pid: int) -> list[int]:
 def _start_instances(*args: str) -> tuple[subprocess.Popen, str]:
     proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=ENV, cwd=ROOT)
-    deadline = time.monotonic() + 90
-    while time.monotonic() < deadline:
-        r, _, _ = select.select([proc.stdout], [], [], 0.2)
-        if r:
-            line = proc.stdout.readline()
-            if "ready" in line:
-                return proc, line.strip()
-        if proc.poll() is not None:
-            break
+    line = ready_line(proc, 90)
+    if line is not None:
+        return proc, line
     proc.kill()
     raise AssertionError(f"simx-server --instances not ready: {proc.communicate()[1]}")
 
