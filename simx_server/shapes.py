@@ -4,8 +4,8 @@ and ``sim.setShapeColor`` (``sim.setObjectName`` is the facade's own, simx_serve
 The imported shape is a new body of the world (V-REP's shape) holding one mesh geom; the
 scene is edited through :class:`simx_server.editing.Editor` (all or nothing, handles kept, the
 simulation goes on). The facade functions here are registered on
-:class:`simx_server.script_facade.SimFacade`; they find the scene's editor through the
-:class:`~simx_server.simulation.Simulation` that owns the script's world (:func:`register`).
+:class:`simx_server.script_facade.SimFacade` and reach the scene's editor through the script's
+``sim`` (:meth:`simx_server.facade.ScriptSim._simulation`), as the other scene-editing calls do.
 """
 
 from __future__ import annotations
@@ -30,7 +30,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("simx.shapes")
 
-_SIMULATIONS: "weakref.WeakSet[Simulation]" = weakref.WeakSet()
 #: Handles of the shapes imported into each world (kept in place when the simulation stops).
 _IMPORTED: "weakref.WeakKeyDictionary[World, set[int]]" = weakref.WeakKeyDictionary()
 #: V-REP's importShape file formats MuJoCo reads: 0 OBJ, 4 binary STL (not 1 DXF, 2 3DS, 3 ASCII STL).
@@ -38,10 +37,6 @@ _FORMATS = {0: (".obj",), 4: (".stl",)}
 #: Contact of imported shapes: elliptic-cone friction with torsion (condim 4), grippable.
 _FRICTION = [1.0, 0.02, 0.001]
 
-
-def register(simulation: Simulation) -> None:
-    """Let the facade calls of this module edit ``simulation``'s scene (called by Simulation)."""
-    _SIMULATIONS.add(simulation)
 
 
 def imported_poses(world: World) -> list[tuple[int, Any, Any]]:
@@ -61,12 +56,6 @@ def restore_poses(world: World, poses: list[tuple[int, Any, Any]]) -> None:
             except Exception as exc:  # a pose out of bounds (after a blow-up): the origin then
                 log.warning("imported shape %r left at its initial pose: %s", world.get(h).name, exc)
 
-
-def _simulation(world: World) -> Simulation:
-    for sim in list(_SIMULATIONS):
-        if sim.world is world:
-            return sim
-    raise UnsupportedError("this script's scene cannot be edited (no simulation owns it)")
 
 
 def _helpers():
@@ -166,7 +155,7 @@ def importShape(self, fileformat: Any, pathAndFilename: Any, options: Any = 0,  
     F._int(options, "options")
     F._num(identicalVerticeTolerance, "identicalVerticeTolerance")
     scale = F._num(scalingFactor, "scalingFactor") if scalingFactor is not None else 0.0
-    return import_shape(_simulation(self._world), fmt, path, scale or 1.0)
+    return import_shape(self._simulation("importShape"), fmt, path, scale or 1.0)
 
 
 def setShapeColor(self, shapeHandle: Any, colorName: Any, colorComponent: Any,  # noqa: N802, N803
@@ -195,7 +184,7 @@ def setShapeColor(self, shapeHandle: Any, colorName: Any, colorComponent: Any,  
     if values is None:
         return 1
     try:
-        spec = _simulation(world).editor._live_spec()
+        spec = self._simulation("setShapeColor").editor._live_spec()
     except UnsupportedError:
         spec = None
     for g in geoms:

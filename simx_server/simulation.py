@@ -57,7 +57,6 @@ class Simulation:
                                allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders(), simulation=self)
         self.sensors = SensorState()
         self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
-        shapes.register(self)  # sim.importShape & co. edit this simulation's scene
         self.state = RunState.STOPPED
         self.realtime = realtime
         #: Stepped mode: some client enabled it, so a step runs only when every such client
