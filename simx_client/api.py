@@ -43,6 +43,7 @@ from simx_client.api_sensors import *  # noqa: F401,F403
 # Private names kept importable from here (tests and benchmarks use them).
 from simx_client.api_scene import _client_side  # noqa: F401
 from simx_client.api_scripts import _signal_value  # noqa: F401
+from simx_client.images import _LAZY_CLIENTS
 from simx_client.api_sensors import _SIGNED_BYTES, _copy_image, _depth, _image  # noqa: F401
 from simx_client.calls import _MAX_CONNECTIONS, _command, _connection, _connections, _registry_lock, log  # noqa: F401
 from simx_client.coercion import (_F32, _INT_MAX, _INT_MIN, _bool, _bytes, _f32, _f32_input,  # noqa: F401
@@ -93,6 +94,7 @@ def simxFinish(clientID):
     with _registry_lock:
         ids = list(_connections) if cid == -1 else [cid]
         closing = [_connections.pop(i) for i in ids if i in _connections]
+        _LAZY_CLIENTS.difference_update(ids)  # a later connection may get the same id
     for conn in closing:
         conn.close()
     return None

@@ -10,7 +10,7 @@ import numpy as np
 from simx_client import protocol as P
 from simx_client.calls import _command
 from simx_client.coercion import _f32_list, _int
-from simx_client.images import ImageList
+from simx_client.images import _LAZY_CLIENTS, ImageList, LazyImageList
 
 
 # ---------------------------------------------------------- vision sensors
@@ -28,6 +28,23 @@ def _image(value: list) -> tuple[list[int], ImageList]:
     return list(resolution), ImageList.wrap(_SIGNED_BYTES.take(signed.view(np.uint8)).tolist(), signed)
 
 
+def _lazy(client_id: object) -> bool:
+    try:
+        return client_id in _LAZY_CLIENTS
+    except TypeError:  # an unhashable id: the call itself answers the error
+        return False
+
+
+def _signed_list(signed: np.ndarray) -> list[int]:
+    return _SIGNED_BYTES.take(signed.view(np.uint8)).tolist()
+
+
+def _image_lazy(value: list) -> tuple[list[int], LazyImageList]:
+    """As :func:`_image`, the list made on first use (:func:`simx_client.images.set_lazy_image_lists`)."""
+    resolution, data = value
+    return list(resolution), LazyImageList.lazy(np.frombuffer(data, dtype=np.int8), _signed_list)
+
+
 def _copy_image(value: tuple[list, ImageList]) -> tuple[list, ImageList]:
     return value[0][:], copy.copy(value[1])
 
@@ -40,8 +57,9 @@ def simxGetVisionSensorImage(clientID, sensorHandle, options, operationMode):
     whose ``np.array(image, dtype=np.uint8)`` gives the unsigned bytes as NumPy 1 did (NumPy 2
     raises OverflowError on a plain list of negative ints) in well under a millisecond;
     ``np.array(image)`` is int64 as for a plain list."""
+    convert = _image_lazy if _lazy(clientID) else _image
     rc, value = _command(clientID, "GetVisionSensorImage", lambda: [_int(sensorHandle), _int(options) & 1],
-                         operationMode, _image, None, memo=_copy_image)
+                         operationMode, convert, None, memo=_copy_image)
     return (rc, [], []) if value is None else (rc, *value)
 
 
@@ -51,12 +69,18 @@ def _depth(value: list) -> tuple[list[int], ImageList]:
     return list(resolution), ImageList.wrap(floats.tolist(), floats)
 
 
+def _depth_lazy(value: list) -> tuple[list[int], LazyImageList]:
+    resolution, data = value
+    return list(resolution), LazyImageList.lazy(np.frombuffer(data, dtype=np.float32), np.ndarray.tolist)
+
+
 def simxGetVisionSensorDepthBuffer(clientID, sensorHandle, operationMode):
     """``(returnCode, [resX, resY], buffer)``: resX*resY floats in 0..1 (near..far, linear), rows
     bottom-up. The list is an :class:`simx_client.images.ImageList` (``np.array(buffer)`` is
     float64 as for a plain list, in well under a millisecond)."""
+    convert = _depth_lazy if _lazy(clientID) else _depth
     rc, value = _command(clientID, "GetVisionSensorDepthBuffer", lambda: [_int(sensorHandle)],
-                         operationMode, _depth, None, memo=_copy_image)
+                         operationMode, convert, None, memo=_copy_image)
     return (rc, [], []) if value is None else (rc, *value)
 
 

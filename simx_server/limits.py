@@ -23,6 +23,9 @@ MAX_SUBSTEPS = 10_000
 #: camera's ``resolution``, checked when a scene loads). A 4096x4096 RGB image is 48 MiB and its
 #: depth buffer 64 MiB, both under MAX_REPLY_BYTES.
 MAX_RESOLUTION = 4096
+#: Most renderers (a GL context and MjrContext each, one per image size) the render thread keeps;
+#: resolutions set at run time beyond that close the least recently used.
+MAX_RENDERERS = 8
 
 # ----------------------------------------------------------------- requests
 #: Most commands in one request (a simxPauseCommunication batch of a real program holds tens).

@@ -58,7 +58,7 @@ PARAM_NAMES = {
 _FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2002, 2018), 3005}
 _FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
 _INT_GET = {1002, 1003, 1017, 2000, 2001, 3003, 3004}
-_INT_SET = {1017, 2000, 2001}
+_INT_SET = {1002, 1003, 1017, 2000, 2001}
 
 
 def _pname(pid: int) -> str:
@@ -242,11 +242,14 @@ def set_int_param(sim: Simulation, handle: int, pid: int, value: int) -> None:
         return  # already so (sim.importShape's shapes are dynamic and respondable): nothing to do
     if pid not in _INT_SET:
         world.get(handle)
-        if pid in (1002, 1003):
-            _need(world, handle, VISION_SENSOR, pid)
-            raise UnsupportedError(f"{_pname(pid)}: the resolution of a vision sensor is fixed when the scene "
-                                   "loads (the MJCF camera's resolution attribute); it cannot change at run time")
         raise _unsupported(pid, "int", True)
+    if pid in (1002, 1003):  # resolution x / y: simx_server.vision
+        _need(world, handle, VISION_SENSOR, pid)
+        try:
+            sim.vision.set_resolution(handle, **{"width" if pid == 1002 else "height": value})
+        except ArgumentError as exc:
+            raise ArgumentError(f"{_pname(pid)}: {exc}") from None
+        return
     if pid == 1017:  # render mode: simx_server.handle_render
         _need(world, handle, VISION_SENSOR, pid)
         spec = sim.vision.spec(handle)
@@ -306,13 +309,15 @@ def get_object_int_parameter(sim: Simulation, args: list) -> int:
 def set_object_int_parameter(sim: Simulation, args: list) -> None:
     """``simxSetObjectIntParameter`` [h, id, value] -> None.
 
-    Settable: 1017 render mode of a vision sensor (0 OpenGL, 2 colour-coded handles; the others
+    Settable: 1002/1003 resolution x/y of a vision sensor (1..limits.MAX_RESOLUTION pixels;
+    the next image has the new size; back to the MJCF's at simulation stop;
+    VisionSensors.set_resolution), 1017 render mode of a vision sensor (0 OpenGL, 2 colour-coded handles; the others
     -> UnsupportedError naming the mode; back to the MJCF's at simulation stop), 2000 motor enabled
     (0: free joint) and 2001 control loop enabled (1: position control, holding the current position when it starts; 0: velocity control) of a joint
     (simx_server.motors.set_param); 3003 static and 3004 respondable of a shape only to the
     value they have (a scene's script marking an imported shape dynamic and respondable, as
-    V-REP scripts do); another value -> UnsupportedError (fixed when the scene loads). Resolutions (1002/1003) cannot change at run time and
-    other ids -> UnsupportedError with the reason.
+    V-REP scripts do); another value -> UnsupportedError (fixed when the scene loads). Other
+    ids -> UnsupportedError with the reason.
     """
     h, pid, value = _args(args, "int", "int", "int")
     set_int_param(sim, h, pid, value)

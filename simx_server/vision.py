@@ -46,6 +46,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import logging
+from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable
 
@@ -54,6 +55,7 @@ import numpy as np
 
 from simx_client.protocol import ArgumentError
 from simx_server import handle_render
+from simx_server import limits as L
 from simx_server.physics import check_resolution
 from simx_server.world import VISION_SENSOR, World
 
@@ -117,6 +119,13 @@ class Deferred:
         self.future = future
 
 
+def _close(renderer: mujoco.Renderer) -> None:
+    try:
+        renderer.close()
+    except Exception:  # a context already torn down by the driver
+        pass
+
+
 class _RenderThread:
     """The render thread and the state only it touches: the renderers (one GL context and
     ``MjrContext`` per resolution), bound to one model. Shared by the successive VisionSensors
@@ -124,7 +133,8 @@ class _RenderThread:
 
     def __init__(self) -> None:
         self.executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="simx-render")
-        self.renderers: dict[tuple[int, int], mujoco.Renderer] = {}  # render thread only
+        # render thread only; most recently used last, at most limits.MAX_RENDERERS
+        self.renderers: OrderedDict[tuple[int, int], mujoco.Renderer] = OrderedDict()
         self.model: mujoco.MjModel | None = None  # the model the renderers were made for
         self.newest: mujoco.MjModel | None = None  # set on the simulation thread: the latest scene
         self.option: mujoco.MjvOption | None = None
@@ -142,12 +152,16 @@ class _RenderThread:
             self.model = model
         r = self.renderers.get((width, height))
         if r is None:
+            while len(self.renderers) >= L.MAX_RENDERERS:  # sizes set at run time: bounded
+                _close(self.renderers.popitem(last=False)[1])
             try:
                 r = mujoco.Renderer(model, height, width)
             except Exception as exc:
                 self.failure = f"{type(exc).__name__}: {exc}"
                 raise
             self.renderers[(width, height)] = r
+        else:
+            self.renderers.move_to_end((width, height))
         if self.option is None:
             self.option = sensor_option()
         return r
@@ -155,10 +169,7 @@ class _RenderThread:
     def free(self) -> None:
         """Free every GL context (render thread)."""
         for r in self.renderers.values():
-            try:
-                r.close()
-            except Exception:  # a context already torn down by the driver
-                pass
+            _close(r)
         self.renderers.clear()
         self.model = None
 
@@ -212,6 +223,24 @@ class VisionSensors:
         if self.specs:
             m.vis.global_.offwidth = max(m.vis.global_.offwidth, *(s.width for s in self.specs.values()))
             m.vis.global_.offheight = max(m.vis.global_.offheight, *(s.height for s in self.specs.values()))
+
+    def set_resolution(self, handle: int, width: int | None = None, height: int | None = None) -> None:
+        """``sim_visionintparam_resolution_x``/``_y`` (1002/1003) set at run time, as V-REP
+        allowed: the sensor renders at the new size from the next image on (a GL context per
+        size, at most limits.MAX_RENDERERS kept). The field of view keeps V-REP's rule (the
+        perspective angle spans the larger side). Undone when the simulation stops, like the
+        other run-time sensor changes. Raises ArgumentError outside 1..MAX_RESOLUTION."""
+        spec = self.spec(handle)
+        w = spec.width if width is None else int(width)
+        h = spec.height if height is None else int(height)
+        check_resolution(w, h, f"vision sensor {self.world.get(handle).name!r}")
+        if (w, h) == (spec.width, spec.height):
+            return
+        # A new spec object: jobs already queued keep the size they were asked for.
+        self.specs[handle] = dataclasses.replace(spec, width=w, height=h)
+        g = self.world.model.vis.global_
+        g.offwidth, g.offheight = max(g.offwidth, w), max(g.offheight, h)
+        self.world.version += 1  # cached frames are of the old size
 
     def spec(self, handle: int) -> SensorSpec:
         """The sensor's properties; raises UnknownObjectError/ObjectTypeError for other handles."""

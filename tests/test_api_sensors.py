@@ -3,6 +3,8 @@ shapes and types, success and failure paths (the in-process details are in test_
 
 from __future__ import annotations
 
+import cv2
+import numpy as np
 import pytest
 
 import vrep
@@ -90,12 +92,45 @@ def test_vision_sensor_read_set_and_parameters(cid):
     assert vrep.simxGetObjectInt32Param(cid, cam, vrep.sim_visionintparam_resolution_y, B) == (0, 24)
     rc, near = vrep.simxGetObjectFloatParameter(cid, cam, vrep.sim_visionfloatparam_near_clipping, B)
     assert rc == 0 and near > 0
-    assert vrep.simxSetObjectIntParameter(cid, cam, vrep.sim_visionintparam_resolution_x, 64, B) == 8
     image = [10, 20, 30] * (8 * 6)
     assert vrep.simxSetVisionSensorImage(cid, passive, image, 0, B) == 0
     assert vrep.simxGetVisionSensorImage(cid, passive, 0, B) == (0, [8, 6], image)
     assert vrep.simxSetVisionSensorImage(cid, passive, image[:-1], 0, B) == 8
     assert vrep.simxSetVisionSensorImage(cid, cam, [0] * (32 * 24 * 3), 0, B) == 8  # not passive
+
+
+def test_vision_sensor_resolution_set_at_run_time(cid):
+    """V-REP let a program set a sensor's resolution (1002/1003): the next image has the new
+    size and shows the same view (the angle spans the larger side); bad sizes are refused;
+    many sizes in turn keep working (GL contexts bounded); a stop restores the MJCF's."""
+    cam = h(cid, "cam")
+    rx, ry = vrep.sim_visionintparam_resolution_x, vrep.sim_visionintparam_resolution_y
+    rc, res, full = vrep.simxGetVisionSensorImage(cid, cam, 0, B)
+    assert rc == 0 and res == [32, 24]
+    assert vrep.simxSetObjectIntParameter(cid, cam, rx, 64, B) == 0
+    assert vrep.simxSetObjectIntParameter(cid, cam, ry, 48, B) == 0
+    assert vrep.simxGetObjectIntParameter(cid, cam, rx, B) == (0, 64)
+    assert vrep.simxGetObjectIntParameter(cid, cam, ry, B) == (0, 48)
+    rc, res, big = vrep.simxGetVisionSensorImage(cid, cam, 0, B)
+    assert rc == 0 and res == [64, 48] and len(big) == 64 * 48 * 3
+    small = np.array(full, dtype=np.uint8).reshape(24, 32, 3).astype(float)
+    halved = cv2.resize(np.array(big, dtype=np.uint8).reshape(48, 64, 3), (32, 24), interpolation=cv2.INTER_AREA)
+    assert small.std() > 5 and np.abs(halved - small).mean() < 0.05 * small.std()  # the same view (mirrored: 0.08 std)
+    rc, dres, depth = vrep.simxGetVisionSensorDepthBuffer(cid, cam, B)
+    assert rc == 0 and dres == [64, 48] and len(depth) == 64 * 48
+    for bad in (0, -3, 5000):
+        assert vrep.simxSetObjectIntParameter(cid, cam, rx, bad, B) == 8
+    assert vrep.simxGetObjectIntParameter(cid, cam, rx, B) == (0, 64)
+    for side in range(8, 8 + 2 * 12, 2):  # more sizes than limits.MAX_RENDERERS
+        assert vrep.simxSetObjectIntParameter(cid, cam, rx, side, B) == 0
+        rc, res, img = vrep.simxGetVisionSensorImage(cid, cam, 1, B)
+        assert rc == 0 and res == [side, 48] and len(img) == side * 48
+    assert vrep.simxSetObjectIntParameter(cid, h(cid, "hinge"), rx, 64, B) == 8  # not a sensor
+    assert vrep.simxStartSimulation(cid, B) == 0  # (a stop of a stopped simulation changes nothing)
+    assert vrep.simxStopSimulation(cid, B) == 0
+    assert vrep.simxGetObjectIntParameter(cid, cam, rx, B) == (0, 32)
+    rc, res, again = vrep.simxGetVisionSensorImage(cid, cam, 0, B)
+    assert rc == 0 and res == [32, 24] and len(again) == len(full)
 
 
 def test_group_data_and_velocity(cid):

@@ -114,6 +114,11 @@ class UR5BallReachEnv(gym.Env):
                 if client_id < 0:
                     raise ConnectionError(f"no simx/V-REP remote API server at {host}:{port}")
                 shared = _SHARED[self._key] = [client_id, 0]
+                # The environment only turns images into arrays: skip making the legacy lists
+                # (simx only; a real vrep.py has no such switch).
+                lazy = getattr(getattr(vrep, "images", None), "set_lazy_image_lists", None)
+                if lazy is not None:
+                    lazy(client_id)
             shared[1] += 1
             client_id = shared[0]
         self.client_id = client_id
@@ -231,13 +236,18 @@ class UR5BallReachEnv(gym.Env):
         depth = self._depth_native()[int(round(r)), int(round(c))]
         return np.array([math.hypot(c - (w - 1) / 2, r - (h - 1) / 2), depth], dtype=np.float32), True
 
+    def _group(self, object_type: int, data_type: int, per_object: int) -> dict[int, np.ndarray]:
+        """One ``simxGetObjectGroupData`` call: ``{handle: its floats}`` (one round trip for
+        what would be one call per object)."""
+        rc, handles, _, floats, _ = vrep.simxGetObjectGroupData(self.client_id, object_type, data_type, _B)
+        self._check(rc, "simxGetObjectGroupData")
+        values = np.asarray(floats, dtype=np.float64).reshape(len(handles), per_object)
+        return dict(zip(handles, values))
+
     def _joint_positions(self) -> np.ndarray:
-        out = np.empty(6, dtype=np.float32)
-        for i, h in enumerate(self._joints):
-            rc, q = vrep.simxGetJointPosition(self.client_id, h, _B)
-            self._check(rc, "simxGetJointPosition")
-            out[i] = q
-        return out
+        """The six joint angles (rad): joint states (data type 15: position, force per joint)."""
+        states = self._group(vrep.sim_object_joint_type, 15, 2)
+        return np.array([states[h][0] for h in self._joints], dtype=np.float32)
 
     def _observe(self) -> tuple[dict[str, np.ndarray], dict[str, Any], float, bool]:
         rgb = self._rgb()
