@@ -5,10 +5,12 @@
   synchronous mode on and starts it), one server per env on its own free loopback port:
   1 env stepped directly, 2 and 4 envs through ``gymnasium.vector.AsyncVectorEnv`` (one worker
   process per env), and 1 env through a 1-env AsyncVectorEnv (the vector wrapper's own cost).
-  Observations 84x84 (resized client-side, INTER_AREA) and 640x480 (the sensors' own size).
+  Observations 84x84 (the sensors set to 112x84 after each start, resized client-side with
+  INTER_AREA) and 640x480 (the sensors' own size). Images arrive as lazy lists
+  (``simx_client.images.set_lazy_image_lists``: the env only makes arrays of them).
 * **floor, same run**: :class:`InProcessReach`, the same env logic on MuJoCo directly in this
   process: ``simx_server.simulation.Simulation(scene)`` and its ``VisionSensors`` (same scene,
-  same renderer on its render thread, 640x480, dt 50 ms), the same targets through
+  same renderer on its render thread, the same render size (112x84 or 640x480), dt 50 ms), the same targets through
   ``sim.world.set_joint_target_position``, the same ``sim_steps`` steps per env step, the same
   renders per step (RGB + depth), the same flip/resize/metres conversion, the same joint and
   position reads; minus the transport (and minus the legacy list the remote API returns).
@@ -53,6 +55,8 @@ class InProcessReach:
         self.ball, self.tcp = w.resolve("Sphere").handle, w.resolve("RG2_tcp").handle
         spec = self.sim.vision.spec(self.dep_h)
         self.near, self.far = spec.near, spec.far
+        from simx_client.envs.ur5_ball_reach import render_size
+        self.render_size = render_size((spec.width, spec.height), (width, height), None)
         self.rng = np.random.default_rng(seed)
         self.ball_box = (BALL_X, BALL_Y, BALL_Z)
         self.targets = np.radians(np.array(TUTORIAL_POSE_DEG))
@@ -67,9 +71,10 @@ class InProcessReach:
         (rw, rh), raw = v.image_bytes(self.rgb_h, 0)
         rgb = np.ascontiguousarray(self._resize(np.frombuffer(raw, np.uint8).reshape(rh, rw, 3)[::-1]))
         (dw, dh), buf = v.depth_bytes(self.dep_h)
-        d = self._resize(np.ascontiguousarray(np.frombuffer(buf, np.float32).reshape(dh, dw)[::-1]))
-        depth = np.clip(np.float32(self.near) + d * np.float32(self.far - self.near),
-                        np.float32(self.near), np.float32(self.far)).astype(np.float32)
+        d = np.frombuffer(buf, np.float32).reshape(dh, dw)[::-1]
+        metres = np.clip(np.float32(self.near) + d * np.float32(self.far - self.near),
+                         np.float32(self.near), np.float32(self.far))
+        depth = self._resize(np.ascontiguousarray(metres))
         q = np.array([w.joint_position(h) for h in self.joints], dtype=np.float32)
         ball, tcp = np.array(w.position(self.ball, -1)), np.array(w.position(self.tcp, -1))
         return {"rgb": rgb, "depth": depth, "joints": q}, -float(np.linalg.norm(ball - tcp))
@@ -79,6 +84,8 @@ class InProcessReach:
         sim.stop()
         sim.vision.wait_ready(60)
         sim.start()
+        for sensor in (self.rgb_h, self.dep_h):  # as the env: the render size after each start
+            sim.vision.set_resolution(sensor, *self.render_size)
         self.targets = np.radians(np.array(TUTORIAL_POSE_DEG))
         (x0, x1), (y0, y1), z = self.ball_box
         for h, t in zip(self.joints, self.targets):

@@ -367,8 +367,12 @@ class Server:
                 if type(value) is Deferred:
                     break
             else:
-                query.reply(query.key_expr, self._response(t, state, results, server_time, scene, client))
-                return
+                if not session.renders:
+                    query.reply(query.key_expr, self._response(t, state, results, server_time, scene, client))
+                    return
+                # A stream update of this client (a step's images) is still on the render thread:
+                # this reply goes after it, so that after simxSynchronousTrigger + simxGetPingTime
+                # the streamed values in the inbox are the step's, as in V-REP.
 
             def reply_and_drop() -> None:
                 try:

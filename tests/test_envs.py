@@ -217,3 +217,29 @@ def test_tutorial_state_from_the_colour_coded_render(make):
     # The sensor renders the scene again afterwards (render mode 0).
     assert red_pixels(env.unwrapped._rgb()) == 0 and vrep.simxGetObjectIntParameter(
         cid, env.unwrapped._rgb_sensor, vrep.sim_visionintparam_render_mode, B) == (0, 0)
+
+
+def test_small_observations_render_small_and_show_the_same_view(make):
+    """84x84: the sensors render at 112x84 (the scene's 4:3 at the smallest size covering the
+    observation, set through the resolution parameters), the observation is the same view as
+    the 640x480 render resized, and the tutorial state stays in 640x480 pixels."""
+    native = make(width=84, height=84, sensor_resolution="native", tutorial_state=True)
+    obs_native, info_native = native.reset(seed=5)
+    cid = native.unwrapped.client_id
+    rgb_sensor = native.unwrapped._rgb_sensor
+    assert vrep.simxGetObjectIntParameter(cid, rgb_sensor, vrep.sim_visionintparam_resolution_x, B) == (0, 640)
+    small = make(width=84, height=84, tutorial_state=True)  # the same server and connection
+    obs, info = small.reset(seed=5)
+    for sensor in (rgb_sensor, small.unwrapped._depth_sensor):
+        assert vrep.simxGetObjectIntParameter(cid, sensor, vrep.sim_visionintparam_resolution_x, B) == (0, 112)
+        assert vrep.simxGetObjectIntParameter(cid, sensor, vrep.sim_visionintparam_resolution_y, B) == (0, 84)
+    np.testing.assert_allclose(info["ball_position"], info_native["ball_position"], atol=1e-6)
+    assert obs["rgb"].shape == obs_native["rgb"].shape == (84, 84, 3)
+    diff = np.abs(obs["rgb"].astype(float) - obs_native["rgb"].astype(float)).mean()
+    mirrored = np.abs(obs["rgb"][:, ::-1].astype(float) - obs_native["rgb"].astype(float)).mean()
+    assert diff < 6 and mirrored > 2 * diff, (diff, mirrored)  # the same view, not just similar colours
+    assert np.abs(obs["depth"] - obs_native["depth"]).mean() < 0.02  # metres
+    assert info["ball_visible"] and info_native["ball_visible"]
+    assert obs["state"][0] == pytest.approx(obs_native["state"][0], abs=6.0)  # 640x480 pixels
+    assert obs["state"][1] == pytest.approx(obs_native["state"][1], abs=0.02)  # metres
+    assert small.unwrapped._render_size == (112, 84)

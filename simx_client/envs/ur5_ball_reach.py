@@ -17,14 +17,19 @@ the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb
   ``sim_steps`` simulation steps (``simxSynchronousTrigger`` + ``simxGetPingTime``).
 * observation: ``{"rgb": (H, W, 3) uint8, rows top-down, "depth": (H, W) float32 metres from
   the sensor plane (near + buffer x (far - near), near/far read from ``kinect_depth``'s float
-  parameters 1000/1001), "joints": (6,) float32 radians}``. The sensors render at their own
-  resolution (640x480 in the scene; simx cannot change a sensor's resolution at run time), so
-  ``width``/``height`` other than the sensor's are obtained by resizing client-side with
-  OpenCV's ``INTER_AREA``.
+  parameters 1000/1001), "joints": (6,) float32 radians}``. The sensors render at
+  ``sensor_resolution``: by default (None) the smallest size of the scene sensor's own aspect
+  ratio (640x480: 4:3) that covers ``width`` x ``height`` (84x84 -> 112x84), set after each
+  start through the resolution parameters 1002/1003 as V-REP allowed; ``"native"`` keeps the
+  scene's (640x480); or an explicit ``(w, h)``. The frame is then resized client-side to
+  ``width`` x ``height`` with OpenCV's ``INTER_AREA`` (the same view, squeezed to the
+  observation's shape). A server that refuses the resolution change gives its own size, resized
+  the same way.
 * ``tutorial_state=True`` adds ``"state"``: the tutorial's 2 numbers, (2,) float32: the
-  distance in pixels (of the sensor's own resolution) from the ball's centre to the image
-  centre, and the depth in metres at that pixel. The tutorial took them from a YOLO box; here
-  the ball's pixels come from the sensor's colour-coded-handle render (render mode 2,
+  distance in pixels from the ball's centre to the image centre, in the scene sensor's own
+  pixels (640x480, as the tutorial's YOLO boxes were; the centroid found at the render size is
+  scaled to them), and the depth in metres at that pixel. The tutorial took them from a YOLO
+  box; here the ball's pixels come from the sensor's colour-coded-handle render (render mode 2,
   ``sim_visionintparam_render_mode`` 1017: handle = r + 256 g + 65536 b), one more render per
   step. When no ball pixel is seen: half the image diagonal and the far clipping distance, and
   ``info["ball_visible"]`` is False.
@@ -63,6 +68,8 @@ SUCCESS_DISTANCE = 0.05  # m, RG2_tcp to the ball's centre
 
 _B = vrep.simx_opmode_blocking
 _ONESHOT = vrep.simx_opmode_oneshot
+_STREAMING = vrep.simx_opmode_streaming
+_BUFFER = vrep.simx_opmode_buffer
 _SHARED: dict[tuple[str, int], list[int]] = {}  # (host, port) -> [client id, environments using it]
 
 
@@ -76,7 +83,8 @@ class UR5BallReachEnv(gym.Env):
                  sim_steps: int = 1, settle_steps: int = 2, pose_noise_deg: float = 0.0,
                  reward: str = "dense", success_distance: float = SUCCESS_DISTANCE,
                  max_episode_steps: int = 200, render_mode: str | None = None,
-                 timeout_ms: int = 5000, tutorial_state: bool = False, servers: Any = None) -> None:
+                 timeout_ms: int = 5000, tutorial_state: bool = False, servers: Any = None,
+                 sensor_resolution: str | tuple[int, int] | None = None) -> None:
         if joints not in (3, 6):
             raise ValueError(f"joints must be 3 (joints 1-3) or 6, not {joints!r}")
         if reward not in ("dense", "image"):
@@ -123,12 +131,17 @@ class UR5BallReachEnv(gym.Env):
             client_id = shared[0]
         self.client_id = client_id
         self._closed = False
+        self._streaming = False  # reads come from the inbox (streams started in reset())
+        self._timeout = timeout_ms / 1000.0
 
         self._joints = [self._handle(n) for n in JOINT_NAMES]
         self._rgb_sensor = self._handle("kinect_rgb")
         self._depth_sensor = self._handle("kinect_depth")
         self._ball = self._handle("Sphere")
         self._tcp = self._handle("RG2_tcp")
+        self._sensor_resolution = sensor_resolution
+        render_size((640, 480), (self.width, self.height), sensor_resolution)  # ValueError now, not in reset
+        self._native = self._render_size = (0, 0)  # read in reset(), once a stop restored the scene's
         self._near = self._float_param(self._depth_sensor, vrep.sim_visionfloatparam_near_clipping)
         self._far = self._float_param(self._depth_sensor, vrep.sim_visionfloatparam_far_clipping)
 
@@ -160,13 +173,48 @@ class UR5BallReachEnv(gym.Env):
             raise RuntimeError(f"simxGetObjectFloatParameter({param}) failed (return code {rc})")
         return float(value)
 
+    def _int_param(self, handle: int, param: int) -> int:
+        rc, value = vrep.simxGetObjectIntParameter(self.client_id, handle, param, _B)
+        if rc != vrep.simx_return_ok:
+            raise RuntimeError(f"simxGetObjectIntParameter({param}) failed (return code {rc})")
+        return int(value)
+
     def _check(self, rc: int, what: str) -> None:
         if rc != vrep.simx_return_ok:
             raise RuntimeError(f"{what} failed (return code {rc})")
 
+    def _read(self, function: Any, *args: Any) -> tuple:
+        """``function(client, *args, mode)``'s results after the return code: from the inbox
+        (``simx_opmode_buffer``) once reset() started the streams, else blocking. A streamed
+        value not there yet (just after the streaming call) is waited for, as legacy programs
+        do (a ping, then the inbox again), for at most ``timeout_ms``."""
+        if not self._streaming:
+            rc, *values = function(self.client_id, *args, _B)
+            self._check(rc, f"{function.__name__} (blocking)")
+            return tuple(values)
+        deadline = time.monotonic() + self._timeout
+        while True:
+            rc, *values = function(self.client_id, *args, _BUFFER)
+            if rc == vrep.simx_return_ok:
+                return tuple(values)
+            if rc != vrep.simx_return_novalue_flag or time.monotonic() > deadline:
+                self._check(rc, f"{function.__name__} (buffer)")
+            vrep.simxGetPingTime(self.client_id)
+
+    def _start_streams(self) -> None:
+        """Stream everything an observation reads (queued: call inside a simxPauseCommunication
+        batch). With synchronous mode, the values in the inbox after simxSynchronousTrigger +
+        simxGetPingTime are the step's, as V-REP guaranteed: no round trip per read."""
+        cid = self.client_id
+        vrep.simxGetVisionSensorImage(cid, self._rgb_sensor, 0, _STREAMING)
+        vrep.simxGetVisionSensorDepthBuffer(cid, self._depth_sensor, _STREAMING)
+        vrep.simxGetObjectGroupData(cid, vrep.sim_object_joint_type, 15, _STREAMING)
+        for handle in (self._ball, self._tcp):
+            vrep.simxGetObjectPosition(cid, handle, -1, _STREAMING)
+        self._streaming = True
+
     def _position(self, handle: int) -> np.ndarray:
-        rc, p = vrep.simxGetObjectPosition(self.client_id, handle, -1, _B)
-        self._check(rc, "simxGetObjectPosition")
+        (p,) = self._read(vrep.simxGetObjectPosition, handle, -1)
         return np.array(p, dtype=np.float64)
 
     def _simulate(self, n: int) -> None:
@@ -191,26 +239,29 @@ class UR5BallReachEnv(gym.Env):
             return img
         return cv2.resize(img, (self.width, self.height), interpolation=cv2.INTER_AREA)
 
+    def _rgb_frame(self) -> np.ndarray:
+        """``kinect_rgb``'s image as rendered, (h, w, 3) uint8, rows top-down."""
+        res, raw = self._read(vrep.simxGetVisionSensorImage, self._rgb_sensor, 0)
+        return np.asarray(raw, dtype=np.uint8).reshape(res[1], res[0], 3)[::-1]
+
     def _rgb(self) -> np.ndarray:
-        rc, res, raw = vrep.simxGetVisionSensorImage(self.client_id, self._rgb_sensor, 0, _B)
-        self._check(rc, "simxGetVisionSensorImage")
-        img = np.asarray(raw, dtype=np.uint8).reshape(res[1], res[0], 3)[::-1]  # rows top-down
-        return np.ascontiguousarray(self._resize(img))
+        return np.ascontiguousarray(self._resize(self._rgb_frame()))
 
-    def _depth(self) -> np.ndarray:
-        rc, res, buf = vrep.simxGetVisionSensorDepthBuffer(self.client_id, self._depth_sensor, _B)
-        self._check(rc, "simxGetVisionSensorDepthBuffer")
+    def _depth_frame(self) -> np.ndarray:
+        """``kinect_depth``'s depth as rendered, (h, w) float32 metres, rows top-down."""
+        res, buf = self._read(vrep.simxGetVisionSensorDepthBuffer, self._depth_sensor)
         d = np.asarray(buf, dtype=np.float32).reshape(res[1], res[0])[::-1]
-        d = self._resize(np.ascontiguousarray(d))
         metres = np.float32(self._near) + d * np.float32(self._far - self._near)
-        return np.clip(metres, np.float32(self._near), np.float32(self._far)).astype(np.float32)
+        return np.clip(metres, np.float32(self._near), np.float32(self._far))
 
-    def _depth_native(self) -> np.ndarray:
-        """The depth sensor's image at its own resolution, rows top-down, metres."""
-        rc, res, buf = vrep.simxGetVisionSensorDepthBuffer(self.client_id, self._depth_sensor, _B)
-        self._check(rc, "simxGetVisionSensorDepthBuffer")
-        d = np.asarray(buf, dtype=np.float32).reshape(res[1], res[0])[::-1]
-        return np.float32(self._near) + d * np.float32(self._far - self._near)
+    def _set_render_size(self) -> None:
+        """Both sensors to the render size (queued: call inside a simxPauseCommunication batch)."""
+        if self._render_size == self._native:
+            return
+        w, h = self._render_size
+        for sensor in (self._rgb_sensor, self._depth_sensor):
+            vrep.simxSetObjectIntParameter(self.client_id, sensor, vrep.sim_visionintparam_resolution_x, w, _ONESHOT)
+            vrep.simxSetObjectIntParameter(self.client_id, sensor, vrep.sim_visionintparam_resolution_y, h, _ONESHOT)
 
     def _ball_pixels(self) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
         """Rows and columns (top-down, the sensor's resolution) where the colour-coded render of
@@ -223,24 +274,30 @@ class UR5BallReachEnv(gym.Env):
             self._check(rc, "simxGetVisionSensorImage")
         finally:
             vrep.simxSetObjectIntParameter(cid, self._rgb_sensor, mode, vrep.sim_rendermode_opengl, _B)
+            if self._streaming:  # the blocking read above replaced the image's stream: again
+                vrep.simxGetVisionSensorImage(cid, self._rgb_sensor, 0, _STREAMING)
         rgb = np.asarray(raw, dtype=np.uint8).reshape(res[1], res[0], 3)[::-1].astype(np.int64)
         handles = rgb[:, :, 0] | (rgb[:, :, 1] << 8) | (rgb[:, :, 2] << 16)
         rows, cols = np.nonzero(handles == self._ball)
         return rows, cols, (res[1], res[0])
 
-    def _tutorial_state(self) -> tuple[np.ndarray, bool]:
+    def _tutorial_state(self, depth: np.ndarray) -> tuple[np.ndarray, bool]:
+        """The tutorial's state from the colour-coded render and ``depth`` (the depth frame,
+        metres): the ball's centroid scaled to the scene sensor's own pixels."""
         rows, cols, (h, w) = self._ball_pixels()
+        nw, nh = self._native
         if len(rows) == 0:
-            return np.array([math.hypot(w, h) / 2, self._far], dtype=np.float32), False
+            return np.array([math.hypot(nw, nh) / 2, self._far], dtype=np.float32), False
         r, c = rows.mean(), cols.mean()
-        depth = self._depth_native()[int(round(r)), int(round(c))]
-        return np.array([math.hypot(c - (w - 1) / 2, r - (h - 1) / 2), depth], dtype=np.float32), True
+        dh, dw = depth.shape
+        at = depth[min(dh - 1, int((r + 0.5) * dh / h)), min(dw - 1, int((c + 0.5) * dw / w))]
+        cn, rn = (c + 0.5) * nw / w - 0.5, (r + 0.5) * nh / h - 0.5  # pixel centres, native size
+        return np.array([math.hypot(cn - (nw - 1) / 2, rn - (nh - 1) / 2), at], dtype=np.float32), True
 
     def _group(self, object_type: int, data_type: int, per_object: int) -> dict[int, np.ndarray]:
         """One ``simxGetObjectGroupData`` call: ``{handle: its floats}`` (one round trip for
         what would be one call per object)."""
-        rc, handles, _, floats, _ = vrep.simxGetObjectGroupData(self.client_id, object_type, data_type, _B)
-        self._check(rc, "simxGetObjectGroupData")
+        handles, _, floats, _ = self._read(vrep.simxGetObjectGroupData, object_type, data_type)
         values = np.asarray(floats, dtype=np.float64).reshape(len(handles), per_object)
         return dict(zip(handles, values))
 
@@ -250,23 +307,27 @@ class UR5BallReachEnv(gym.Env):
         return np.array([states[h][0] for h in self._joints], dtype=np.float32)
 
     def _observe(self) -> tuple[dict[str, np.ndarray], dict[str, Any], float, bool]:
-        rgb = self._rgb()
-        obs = {"rgb": rgb, "depth": self._depth(), "joints": self._joint_positions()}
+        rgb, depth = self._rgb(), self._depth_frame()
+        obs = {"rgb": rgb, "depth": self._resize(np.ascontiguousarray(depth)), "joints": self._joint_positions()}
         self._last_rgb = rgb
         ball, tcp = self._position(self._ball), self._position(self._tcp)
         distance = float(np.linalg.norm(ball - tcp))
         reward = -distance if self.reward_type == "dense" else image_reward(rgb)
         info = {"distance": distance, "ball_position": ball, "gripper_position": tcp}
         if self.tutorial_state:
-            obs["state"], info["ball_visible"] = self._tutorial_state()
+            obs["state"], info["ball_visible"] = self._tutorial_state(depth)
         return obs, info, reward, distance <= self.success_distance
 
     # ------------------------------------------------------------------ Gymnasium API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         cid = self.client_id
+        self._streaming = False  # blocking reads until the streams are started again below
         self._check(vrep.simxStopSimulation(cid, _B), "simxStopSimulation")
         self._wait_stopped()
+        self._native = (self._int_param(self._rgb_sensor, vrep.sim_visionintparam_resolution_x),
+                        self._int_param(self._rgb_sensor, vrep.sim_visionintparam_resolution_y))
+        self._render_size = render_size(self._native, (self.width, self.height), self._sensor_resolution)
         self._check(vrep.simxSynchronous(cid, True), "simxSynchronous")
         self._check(vrep.simxStartSimulation(cid, _B), "simxStartSimulation")
         noise = self.np_random.uniform(-self.pose_noise_deg, self.pose_noise_deg, 6) if self.pose_noise_deg else 0.0
@@ -278,6 +339,8 @@ class UR5BallReachEnv(gym.Env):
             vrep.simxSetJointPosition(cid, h, float(t), _ONESHOT)
             vrep.simxSetJointTargetPosition(cid, h, float(t), _ONESHOT)
         vrep.simxSetObjectPosition(cid, self._ball, -1, [float(x), float(y), BALL_Z], _ONESHOT)
+        self._set_render_size()  # a stop gave the sensors back the scene's resolution
+        self._start_streams()
         vrep.simxPauseCommunication(cid, False)
         self._simulate(self.settle_steps)
         self._steps = 0
@@ -319,6 +382,27 @@ class UR5BallReachEnv(gym.Env):
                 vrep.simxFinish(self.client_id)
         if self._claimed is not None:
             self._servers.release(self._claimed)
+
+
+def render_size(native: tuple[int, int], observation: tuple[int, int],
+                sensor_resolution: str | tuple[int, int] | None) -> tuple[int, int]:
+    """The ``(w, h)`` the sensors render at: see ``sensor_resolution`` in the module docstring.
+
+    >>> render_size((640, 480), (84, 84), None)
+    (112, 84)
+    """
+    if sensor_resolution == "native":
+        return native
+    if sensor_resolution is not None:
+        w, h = (int(v) for v in sensor_resolution)
+        if w < 1 or h < 1:
+            raise ValueError(f"sensor_resolution must be positive, not {sensor_resolution!r}")
+        return w, h
+    (nw, nh), (ow, oh) = native, observation
+    scale = max(ow / nw, oh / nh)
+    if scale >= 1:
+        return native
+    return max(1, math.ceil(nw * scale - 1e-9)), max(1, math.ceil(nh * scale - 1e-9))
 
 
 def image_reward(rgb: np.ndarray) -> float:
