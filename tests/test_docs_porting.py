@@ -6,7 +6,8 @@ Cheap checks, in-process (no server, no network):
   ``MjSpec`` plus the ``simx:`` texts), each ``simx:NAME`` text names an object of it, and
   each named MJCF element is the V-REP object type the guide's mapping table says;
 * the guide's complete example scene has exactly the objects its "Its objects:" sentence lists,
-  and its IK group brings the tip onto the target within the 0.1 mm the guide says;
+  its IK group brings the tip onto the target within the 0.1 mm the guide says, and its
+  proximity and force sensors read what the guide says they read;
 * every V-REP name of the worked example's table exists in the bundled scene with the V-REP
   type the table gives, and the table covers every name the tutorial's robotControl.py asks for;
 * the Kinect's ``fovy`` is the guide's conversion of the Kinect's 57 degrees;
@@ -30,6 +31,7 @@ import pytest
 
 import simx_client
 from simx_client import constants as C
+from simx_server import sensors
 from simx_server.simulation import Simulation
 from simx_server.world import World
 
@@ -131,6 +133,15 @@ def test_example_scene_objects_and_ik_as_the_guide_says(tmp_path):
         tip = np.array(world.position(world.resolve("Arm_tip").handle, -1))
         target = np.array(world.position(world.resolve("Arm_target").handle, -1))
         assert np.linalg.norm(tip - target) < 1e-4
+        # the sensors' sentence: prox sees Arm_link1 0.66 m away, Wrist_force reads Wrist's weight
+        assert "`prox` detects `Arm_link1` 0.66 m away" in TEXT and "reads 2.12 N" in TEXT
+        detected, point, seen, _ = sensors.proximity_reading(sim, world.resolve("prox").handle)
+        assert detected and seen == world.resolve("Arm_link1").handle
+        assert point[2] == pytest.approx(0.66, abs=0.005)
+        state, force, _ = sensors.force_sensor_reading(sim, world.resolve("Wrist_force").handle)
+        wrist = world.model.body_mass[world.resolve("Wrist").mj_id]
+        assert wrist == pytest.approx(0.216, abs=0.001)
+        assert np.linalg.norm(force) == pytest.approx(2.12, abs=0.01)
     finally:
         sim.close()
 
