@@ -68,12 +68,20 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--log-dir", metavar="DIR",
                    help="with --instances: folder for the servers' logs server-<i>.log (default: a temporary "
                         "folder removed when they stop)")
+    p.add_argument("--list-objects", action="store_true",
+                   help="print the scene's V-REP objects as V-REP's scene hierarchy shows them (handle, type, "
+                        "name, joint modes, sensor settings, child scripts) and exit, without serving it")
+    p.add_argument("--json", action="store_true", help="with --list-objects: print JSON instead of text")
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``simx-server`` console script; returns the exit code."""
     args = parse_args(argv)
+    if args.list_objects:  # inspect the scene and exit: no Zenoh, no rendering
+        from simx_server.inspect_scene import main as list_objects
+
+        return list_objects(args.scene or default_scene(), as_json=args.json, dt=args.dt)
     if args.instances != 1 or args.log_dir is not None:
         return run_instances(args)
     logging.basicConfig(level=args.log_level, stream=sys.stderr,
