@@ -13,7 +13,8 @@ V-REP would:
   force/torque mode with its control loop on (``simx:`` ``mode=position``, as V-REP's URDF
   importer enables position control) whose maximum force is the joint's ``<limit effort>``
   (MuJoCo's ``actuatorfrcrange``) and whose upper velocity is its ``<limit velocity>``
-  (``max_velocity``; MuJoCo itself ignores it);
+  (``max_velocity``; MuJoCo itself ignores it); a ``<mimic>`` joint, which MuJoCo couples to
+  its leader with a joint equality, has its motor off (``mode=passive``);
 * mesh files are found as MuJoCo finds them (relative to the URDF's folder, or to the
   ``meshdir`` of its ``<mujoco><compiler>``), and ``package://PKG/PATH`` (ROS) names ``PATH``
   in the nearest folder called ``PKG`` among the URDF's folder and its parents (the ROS
@@ -99,7 +100,9 @@ def _adapt(spec: mujoco.MjSpec, path: Path, root: Path | None) -> None:
         name = joint.get("name")
         if not name or joint.get("type") not in _MOVING:
             continue
-        data = "mode=position"
+        # a <mimic> joint follows another through MuJoCo's joint equality: V-REP's dependent
+        # joint, no motor of its own acting
+        data = "mode=passive" if joint.find("mimic") is not None else "mode=position"
         limit = joint.find("limit")
         try:
             velocity = float(limit.get("velocity", "0")) if limit is not None else 0.0

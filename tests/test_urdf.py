@@ -73,6 +73,11 @@ def test_urdf_maps_links_and_joints_like_mjcf(package):
     assert (j1["max_force"], j1["max_velocity"], j1["range"]) == (20.0, 2.0, [-2.5, 2.5])
     assert (j2["max_force"], j2["max_velocity"]) == (10.0, 1.5)
     assert objects["link1"]["type_name"] == "shape"
+    # a <mimic> joint is coupled by MuJoCo's joint equality: its motor stays off
+    urdf.write_text(urdf.read_text().replace('velocity="1.5"/>', 'velocity="1.5"/><mimic joint="joint1"/>'))
+    mimic = {o["name"]: o for o in describe(urdf)["objects"]}
+    assert mimic["joint1"]["motor_enabled"] and not mimic["joint2"]["motor_enabled"]
+    assert mimic["joint2"]["max_velocity"] == 1.5
 
 
 def test_legacy_client_moves_a_urdf_joint(package):
