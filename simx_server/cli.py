@@ -81,6 +81,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``simx-server`` console script; returns the exit code."""
     args = parse_args(argv)
+    if args.json and not args.list_objects:
+        print("simx-server: --json goes with --list-objects", file=sys.stderr)
+        return 2
     if args.list_objects:  # inspect the scene and exit: no Zenoh, no rendering
         from simx_server.inspect_scene import main as list_objects
 

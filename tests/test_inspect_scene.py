@@ -116,3 +116,9 @@ def test_missing_or_invalid_scene_exits_2_with_one_line(tmp_path, content, expec
     assert out.returncode == 2 and out.stdout == ""
     line = out.stderr.strip().splitlines()[-1]
     assert line.startswith("simx-server: --list-objects: ") and expected in line and "scene.xml" in line
+
+
+def test_json_without_list_objects_is_refused():
+    out = subprocess.run([sys.executable, "-m", "simx_server.cli", "--json"], capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 2 and "--json goes with --list-objects" in out.stderr
