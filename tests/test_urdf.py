@@ -169,3 +169,17 @@ def test_urdf_to_mjcf_writes_the_same_scene(package, tmp_path):
     as_urdf = describe(package / "urdf" / "two_link.urdf")["objects"]
     as_mjcf = describe(out_file)["objects"]
     assert as_mjcf == as_urdf
+
+
+def test_mujoco_extension_element_is_honoured(package):
+    """<mujoco><compiler meshdir=.../></mujoco> is where meshes are looked up; an explicit
+    fusestatic="true" is the URDF author's choice (the root link merges into the world)."""
+    urdf = package / "urdf" / "two_link.urdf"
+    text = urdf.read_text().replace("../meshes/link.stl", "link.stl")
+    urdf.write_text(text.replace('<robot name="two_link">',
+                                 '<robot name="two_link"><mujoco><compiler meshdir="../meshes"/></mujoco>'))
+    assert [o["name"] for o in describe(urdf)["objects"]][:3] == ["base", "joint1", "link1"]
+    urdf.write_text(text.replace('<robot name="two_link">', '<robot name="two_link"><mujoco><compiler '
+                                 'meshdir="../meshes" fusestatic="true"/></mujoco>'))
+    objects = {o["name"]: o for o in describe(urdf)["objects"]}
+    assert "base" not in objects and objects["joint1"]["parent"] == -1
