@@ -29,7 +29,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         prog="simx-server",
         description="MuJoCo simulation server speaking V-REP's legacy remote API over Eclipse Zenoh.",
     )
-    p.add_argument("scene", nargs="?", help=f"MJCF scene file (default: the bundled {DEFAULT_SCENE})")
+    p.add_argument("scene", nargs="?", help=f"MJCF or URDF scene file (default: the bundled {DEFAULT_SCENE})")
     p.add_argument("--host", action="append", help="address to listen on (repeatable; default 127.0.0.1)")
     p.add_argument("--port", action="append", type=int,
                    help="TCP port to listen on (repeatable; default 19997 and 19999)")
@@ -68,12 +68,30 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--log-dir", metavar="DIR",
                    help="with --instances: folder for the servers' logs server-<i>.log (default: a temporary "
                         "folder removed when they stop)")
+    p.add_argument("--list-objects", action="store_true",
+                   help="print the scene's V-REP objects as V-REP's scene hierarchy shows them (handle, type, "
+                        "name, joint modes, sensor settings, child scripts) and exit, without serving it")
+    p.add_argument("--json", action="store_true", help="with --list-objects: print JSON instead of text")
+    p.add_argument("--urdf-to-mjcf", metavar="OUT",
+                   help="convert the URDF scene to the MJCF file OUT as simx loads it (links as shapes, joint "
+                        "motors as simx: texts) and exit; add cameras, actuators and simx: texts to OUT")
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``simx-server`` console script; returns the exit code."""
     args = parse_args(argv)
+    if args.json and not args.list_objects:
+        print("simx-server: --json goes with --list-objects", file=sys.stderr)
+        return 2
+    if args.list_objects:  # inspect the scene and exit: no Zenoh, no rendering
+        from simx_server.inspect_scene import main as list_objects
+
+        return list_objects(args.scene or default_scene(), as_json=args.json, dt=args.dt)
+    if args.urdf_to_mjcf:
+        from simx_server.urdf import main_to_mjcf
+
+        return main_to_mjcf(args.scene, args.urdf_to_mjcf)
     if args.instances != 1 or args.log_dir is not None:
         return run_instances(args)
     logging.basicConfig(level=args.log_level, stream=sys.stderr,

@@ -62,6 +62,7 @@ from simx_server.spec_tools import (_FRAMES, _KIND, _MARK, _MJ_OBJ, _OTHER_LISTS
                                     _free_name, _inverse, _names, _object_names, _one_line, _poses,
                                     _quiet_mujoco, _rename_assets, _rotate, _set_local_pose, _strip_mark,
                                     _subtree_names, _subtree_objects, vrep_suffix)
+from simx_server.urdf import load_spec
 from simx_server.vision import VisionSensors
 from simx_server.world import JOINT, SHAPE, WORLD, World
 
@@ -145,7 +146,7 @@ class Editor:
         guard.check_client_file(file, self.files_dir, what)
         try:
             with _quiet_mujoco():
-                spec = mujoco.MjSpec.from_file(str(file))
+                spec = load_spec(file, root=self.files_dir)  # a URDF's meshes: confined before looked up
         except ValueError as exc:
             raise RemoteError(f"cannot load {what}: {self._scrub(_one_line(exc))}") from None
         guard.check_spec(spec, what, root=self.files_dir, dt=dt)
@@ -157,7 +158,7 @@ class Editor:
         if self._spec is None or self._spec_world is not world:
             try:
                 with _quiet_mujoco():
-                    spec = mujoco.MjSpec.from_file(str(world.scene_path))
+                    spec = load_spec(world.scene_path)
                     spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
                     baseline = _poses(spec.compile())
             except ValueError as exc:
@@ -281,7 +282,7 @@ class Editor:
         else:
             try:
                 with _quiet_mujoco():
-                    child = mujoco.MjSpec.from_file(str(file))
+                    child = load_spec(file)
             except ValueError as exc:
                 raise RemoteError(f"cannot load model {quote(path)}: {_one_line(exc)}") from None
         child_assets = _embed_assets(child, self._asset_counter)

@@ -189,11 +189,15 @@ class Motors:
                 m.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
             self.kv_fraction = IMPLICIT_KV_FRACTION
         if any(added) or self.tendon_of_joint:
-            passive = [self.names[h][len(ADDED_PREFIX):] for (h, _, _), new in zip(mine, added) if new]
+            new = [(self.names[h][len(ADDED_PREFIX):], on)
+                   for (h, _, _), is_new, on in zip(mine, added, self.initial_enabled) if is_new]
+            passive = [name for name, on in new if not on]
+            enabled = [name for name, on in new if on]  # by a simx: mode (a URDF's joints: position)
             tendons = sorted(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}"
                              for j in self.tendon_of_joint)
-            log.info("joint motors: %d from the scene's actuators; added, disabled: %s; joints moved only through "
-                     "tendons (no motor of their own): %s", len(act) - len(passive), ", ".join(passive) or "none",
+            log.info("joint motors: %d from the scene's actuators; added, disabled: %s;%s joints moved only through "
+                     "tendons (no motor of their own): %s", len(act) - len(new), ", ".join(passive) or "none",
+                     f" added, enabled by simx: texts: {', '.join(enabled)};" if enabled else "",
                      ", ".join(tendons) or "none")
         n = len(act)
         self._unit = np.zeros((n, m.nv))

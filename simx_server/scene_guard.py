@@ -9,7 +9,8 @@ Trust (docs/SECURITY.md, "Files and scenes sent by clients"):
   folders whose server is gone (``kill -9``) are removed by the next server's
   :func:`sweep_stale`.
 
-A scene or model sent by a client is checked twice before MuJoCo compiles it:
+A scene or model sent by a client (MJCF, or URDF: its ``<link>``\\ s are bodies, its ``<mesh
+filename>``\\ s files) is checked twice before MuJoCo compiles it:
 :func:`check_client_file` reads its XML (and ``<include>``\\ d files) before MuJoCo parses it:
 every file it names must lie inside its transfer folder, and its bodies and elements, with
 ``<replicate>``, ``<composite>`` and ``<flexcomp>`` counts multiplied out, must stay within
@@ -46,7 +47,8 @@ MARKER = ".simx-transfer-folder"
 PREFIX = "simx-"
 _OURS = re.compile(r"simx-(\d+)-(\d+)-[A-Za-z0-9_]+")
 #: XML attributes that name files, and folders that files are looked up in.
-_FILE_ATTRS = ("file", "fileback", "filedown", "filefront", "fileleft", "fileright", "fileup")
+_FILE_ATTRS = ("file", "fileback", "filedown", "filefront", "fileleft", "fileright", "fileup",
+               "filename")  # filename: URDF's <mesh>
 _DIR_ATTRS = ("meshdir", "texturedir", "assetdir")
 #: Elements a client-sent file may not hold (they load other files or native code).
 _REFUSED = {"model": "<model> assets", "extension": "plugins", "plugin": "plugins",
@@ -313,7 +315,7 @@ class _Walk:
         elif tag == "mesh" and el.get("builtin"):
             for v in _number(el, "params", self.what, "0"):
                 _over(f"{self.what} (mesh {quote(el.get('name', ''))})", v, "MAX_VISUAL_DETAIL")
-        if tag == "body":
+        if tag in ("body", "link"):  # link: a URDF's (simx_server.urdf keeps every link a body)
             self.bodies += mult
         _over(self.what, self.bodies, "MAX_SCENE_BODIES")
         _over(self.what, self.elements, "MAX_SCENE_ELEMENTS")

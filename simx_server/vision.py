@@ -110,6 +110,21 @@ def _flag(settings: dict[str, str], key: str, sensor: str) -> bool:
     return value == "true"
 
 
+def sensor_spec(model: mujoco.MjModel, obj) -> SensorSpec:
+    """The static properties of vision sensor ``obj`` (a world.SceneObject of the camera): the
+    camera's resolution (DEFAULT_RESOLUTION when the MJCF leaves it at 1x1), near/far clipping
+    (m) and image kind from its ``simx:`` text. Raises ValueError for a bad setting."""
+    w, h = (int(x) for x in model.cam_resolution[obj.mj_id])
+    if (w, h) == (1, 1):
+        w, h = DEFAULT_RESOLUTION
+    check_resolution(w, h, f"vision sensor {obj.name!r}")  # World checked it at load too
+    s = obj.settings
+    return SensorSpec(obj.mj_id, w, h, float(s.get("near", DEFAULT_NEAR)), float(s.get("far", DEFAULT_FAR)),
+                      s.get("image", "rgb") == "depth",
+                      shadows=_flag(s, "shadows", obj.name), reflections=_flag(s, "reflections", obj.name),
+                      render_mode=handle_render.parse_mode(s, obj.name))
+
+
 class Deferred:
     """A command result that the render thread completes (the server replies once it is done)."""
 
@@ -208,18 +223,8 @@ class VisionSensors:
         self._colours = None
         m = world.model
         for obj in world.objects.values():
-            if obj.type != VISION_SENSOR:
-                continue
-            w, h = (int(x) for x in m.cam_resolution[obj.mj_id])
-            if (w, h) == (1, 1):
-                w, h = DEFAULT_RESOLUTION
-            check_resolution(w, h, f"vision sensor {obj.name!r}")  # World checked it at load too
-            s = obj.settings
-            self.specs[obj.handle] = SensorSpec(
-                obj.mj_id, w, h, float(s.get("near", DEFAULT_NEAR)), float(s.get("far", DEFAULT_FAR)),
-                s.get("image", "rgb") == "depth",
-                shadows=_flag(s, "shadows", obj.name), reflections=_flag(s, "reflections", obj.name),
-                render_mode=handle_render.parse_mode(s, obj.name))
+            if obj.type == VISION_SENSOR:
+                self.specs[obj.handle] = sensor_spec(m, obj)
         if self.specs:
             m.vis.global_.offwidth = max(m.vis.global_.offwidth, *(s.width for s in self.specs.values()))
             m.vis.global_.offheight = max(m.vis.global_.offheight, *(s.height for s in self.specs.values()))

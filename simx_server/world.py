@@ -27,7 +27,7 @@ import numpy as np
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server import limits as L
-from simx_server import motors, naming, physics
+from simx_server import motors, naming, physics, urdf
 from simx_server.rotations import (_frame_with_z, euler_from_matrix, matrix_from_euler,  # noqa: F401
                                    matrix_from_quaternion, quaternion_from_matrix)
 
@@ -85,7 +85,7 @@ class World:
     """A loaded scene: model, data, object registry and joint motors.
 
     Args:
-        scene: path of an MJCF file.
+        scene: path of an MJCF file, or of a URDF file (:mod:`simx_server.urdf`).
         dt: simulation step in s (V-REP's default 0.05); made of MuJoCo substeps of the
             model's own timestep.
 
@@ -103,7 +103,7 @@ class World:
         except ArgumentError as exc:
             raise ValueError(str(exc)) from None
         try:  # through MjSpec: joints without an actuator get a (disabled) motor
-            model = motors.compile_spec(mujoco.MjSpec.from_file(str(self.scene_path)))
+            model = motors.compile_spec(urdf.load_spec(self.scene_path))  # MJCF, or URDF (simx_server.urdf)
         except Exception as exc:
             raise ValueError(f"cannot load scene {self.scene_path}: {exc}") from exc
         self.version = 0  # bumped whenever the state changes (cache key for renders)
