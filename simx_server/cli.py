@@ -60,9 +60,10 @@ _SOURCE_LOCATION = re.compile(r"\s+at /\S+?\.rs:\d+\.?")
 
 
 def listen_failure(endpoints: list[str], exc: BaseException) -> str:
-    """The one line ``simx-server`` prints when Zenoh cannot listen (status 2): for an address
-    already in use it names the endpoint and the way out (``--port``), otherwise Zenoh's reason
-    without the library's source paths. Always starts ``simx-server: cannot listen on ``."""
+    """The one line ``simx-server`` prints when Zenoh cannot listen (status 2): for a port already
+    in use or an address not of this machine it names the endpoint and the way out (``--port``,
+    ``--host``), otherwise Zenoh's reason without the library's source paths. Always starts
+    ``simx-server: cannot listen on `` (ServerPool retries another port on that)."""
     text = str(exc)
     found = _ENDPOINT_IN_ERROR.search(text)
     where = found.group(1) if found else ", ".join(endpoints)
@@ -70,6 +71,9 @@ def listen_failure(endpoints: list[str], exc: BaseException) -> str:
         return (f"simx-server: cannot listen on {where}: the port is already in use (another simx-server, "
                 "or another program, listens there); stop it, or choose a free port with --port N "
                 "(the client's simxStart must use the same port)")
+    if "Cannot assign requested address" in text or "os error 99" in text:
+        return (f"simx-server: cannot listen on {where}: that address is not one of this machine's; give "
+                "--host one of its own addresses (default 127.0.0.1)")
     reason = _SOURCE_LOCATION.sub("", text).strip()
     return f"simx-server: cannot listen on {where}: {reason}"
 

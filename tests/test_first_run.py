@@ -134,3 +134,13 @@ def test_port_in_use_is_one_clean_line_naming_the_port_and_the_way_out():
                         "(another simx-server, or another program, listens there); stop it, or choose a free "
                         "port with --port N (the client's simxStart must use the same port)")
     assert ".rs" not in out.stderr and str(free) not in out.stderr
+
+
+def test_an_address_not_of_this_machine_is_one_clean_line_naming_host():
+    out = subprocess.run([sys.executable, "-m", "simx_server", str(DUPLICATES), "--host", "192.0.2.1",
+                          "--port", str(free_port()), "--log-level", "ERROR"],  # 192.0.2.1: TEST-NET-1
+                         capture_output=True, text=True, timeout=60, env=dict(os.environ, MUJOCO_GL="egl"))
+    assert out.returncode == 2, out.stderr
+    lines = [x for x in out.stderr.splitlines() if x.strip()]
+    assert len(lines) == 1 and lines[0].startswith("simx-server: cannot listen on tcp/192.0.2.1:"), out.stderr
+    assert "not one of this machine's; give --host one of its own addresses" in lines[0] and ".rs" not in lines[0]
