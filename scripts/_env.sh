@@ -3,10 +3,11 @@
 # Usage: ensure_venv [pip install arguments...]
 #
 # It says what it does: creating the environment, installing the Python packages (the first run
-# downloads MuJoCo, Zenoh, OpenCV, ... : a minute or two), or that nothing needs installing. A stamp
-# per set of arguments in the environment ($VENV/.simx-installed-*) holds a hash of pyproject.toml,
-# this file, the arguments and the Python version: later runs install again only when one of those
-# changed (the code itself is installed editable, so its changes need no reinstall).
+# downloads MuJoCo, Zenoh, OpenCV, ...: 15-20 s here, minutes on a slow connection), or that nothing
+# needs installing. A stamp per set of arguments in the environment ($VENV/.simx-installed-*)
+# holds a hash of pyproject.toml, this file, the arguments and the Python version: later runs
+# install again only when one of those changed (the code itself is installed editable, so its
+# changes need no reinstall).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VENV="${SIMX_VENV:-$ROOT/.venv}"
@@ -32,8 +33,8 @@ ensure_venv() {
         "$python" -m venv "$VENV"
     fi
     echo "simx: installing the Python packages ($*) into $VENV: the first time this downloads" \
-         "MuJoCo, Zenoh, OpenCV and the rest (about 300 MB) and takes a minute or two; later runs skip" \
-         "this step until pyproject.toml changes ..."
+         "MuJoCo, Zenoh, OpenCV and the rest (400-460 MB installed; 15-20 s on a fast connection," \
+         "minutes on a slow one); later runs skip this step until pyproject.toml changes ..."
     "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "$@"
     echo "$want" > "$stamp"
     echo "simx: Python packages installed in $((SECONDS - start)) s."
