@@ -7,4 +7,5 @@ bash "$ROOT/scripts/system-deps.sh" --with-x
 ensure_venv -e "$ROOT[test]"
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$ROOT"
+echo "simx: running the tests: pytest -ra${*:+ $*} (the whole suite takes about 3 minutes on 2 cores) ..."
 exec "$VENV/bin/python" -m pytest -ra "$@"

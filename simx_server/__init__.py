@@ -1,0 +1,5 @@
+"""simx server: a MuJoCo simulation served over V-REP's legacy remote API (``simx-server``)."""
+
+#: The version of the ``simx`` distribution: pyproject.toml reads it from here (setuptools'
+#: dynamic version), ``simx-server --version`` prints it.
+__version__ = "0.1.0"

@@ -6,13 +6,14 @@ import argparse
 import json
 import logging
 import os
+import re
 import signal
 import sys
 import threading
 from importlib import resources
 from pathlib import Path
 
-from simx_server import limits, logs
+from simx_server import __version__, limits, logs
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
 SWITCH_INTERVAL = 0.0005  # s, sys.setswitchinterval (Python's default: 0.005)
@@ -24,11 +25,65 @@ def default_scene() -> Path:
     return Path(str(resources.files("simx_server.scenes") / DEFAULT_SCENE))
 
 
+def version_text() -> str:
+    """``simx-server <version> (MuJoCo <v>, Zenoh <v>, Python <v>)``: what ``--version`` prints.
+    The libraries' versions come from their installed metadata (nothing is imported, no GL)."""
+    import platform
+    from importlib import metadata
+
+    def installed(dist: str) -> str:
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            return "not installed"
+
+    return (f"simx-server {__version__} (MuJoCo {installed('mujoco')}, Zenoh {installed('eclipse-zenoh')}, "
+            f"Python {platform.python_version()})")
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: print :func:`version_text` and exit with status 0 (computed only when asked)."""
+
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS,
+                         help="print the versions of simx-server, MuJoCo, Zenoh and Python, and exit")
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_text())
+        parser.exit(0)
+
+
+#: Where a Zenoh error names an endpoint it could not listen on, and the Rust source locations
+#: (`` at /root/.cargo/.../tcp.rs:61.``) it appends, which tell a user nothing.
+_ENDPOINT_IN_ERROR = re.compile(r"bound to (\S+):\s")
+_SOURCE_LOCATION = re.compile(r"\s+at /\S+?\.rs:\d+\.?")
+
+
+def listen_failure(endpoints: list[str], exc: BaseException) -> str:
+    """The one line ``simx-server`` prints when Zenoh cannot listen (status 2): for a port already
+    in use or an address not of this machine it names the endpoint and the way out (``--port``,
+    ``--host``), otherwise Zenoh's reason without the library's source paths. Always starts
+    ``simx-server: cannot listen on `` (ServerPool retries another port on that)."""
+    text = str(exc)
+    found = _ENDPOINT_IN_ERROR.search(text)
+    where = found.group(1) if found else ", ".join(endpoints)
+    if "Address already in use" in text or "os error 98" in text:
+        return (f"simx-server: cannot listen on {where}: the port is already in use (another simx-server, "
+                "or another program, listens there); stop it, or choose a free port with --port N "
+                "(the client's simxStart must use the same port)")
+    if "Cannot assign requested address" in text or "os error 99" in text:
+        return (f"simx-server: cannot listen on {where}: that address is not one of this machine's; give "
+                "--host one of its own addresses (default 127.0.0.1)")
+    reason = _SOURCE_LOCATION.sub("", text).strip()
+    return f"simx-server: cannot listen on {where}: {reason}"
+
+
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         prog="simx-server",
         description="MuJoCo simulation server speaking V-REP's legacy remote API over Eclipse Zenoh.",
     )
+    p.add_argument("--version", action=_VersionAction)
     p.add_argument("scene", nargs="?", help=f"MJCF or URDF scene file (default: the bundled {DEFAULT_SCENE})")
     p.add_argument("--host", action="append", help="address to listen on (repeatable; default 127.0.0.1)")
     p.add_argument("--port", action="append", type=int,
@@ -130,9 +185,9 @@ def main(argv: list[str] | None = None) -> int:
                         pacing=args.pacing)
         server.open()
     except (zenoh.ZError, ValueError, OSError) as exc:
-        print(f"simx-server: cannot listen on {', '.join(endpoints)}: {exc}", file=sys.stderr)
+        print(listen_failure(endpoints, exc), file=sys.stderr)
         sim.close()
-        return 1
+        return 2
 
     def stop(signum, frame):
         server.request_stop()

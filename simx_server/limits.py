@@ -180,9 +180,10 @@ LOG_REPEAT_KEYS = 1024
 
 
 # ------------------------------------------------- names shared across MJCF kinds (issue 12)
-#: Renamed elements (``NAME#N``, see simx_server.naming) listed by name in the one log line a
-#: scene load writes about them; the rest are counted.
-MAX_RENAMES_LOGGED = 40
+#: Renamed elements (``NAME#N``, see simx_server.naming) listed by name in the one WARNING line a
+#: scene load writes about them; the rest are counted (each is named at DEBUG level). A few are
+#: enough to show the rule: dm_control's quadruped renames 13.
+MAX_RENAMES_LOGGED = 3
 
 # ----------------------------------------------------------------- child scripts' scene edits
 # (issue 12, part 7: the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/facade_objects.py)

@@ -94,10 +94,18 @@ def vrep_names(model: mujoco.MjModel, previous: dict[Identity, str] | None = Non
 
 
 def describe(scene: str, renamed: list[Renamed], limit: int) -> str:
-    """The log line naming every renamed element (at most ``limit`` of them, then a count)."""
+    """The one WARNING line a scene load writes about its renamed elements: their count and the
+    first ``limit`` of them (``'knee' body -> 'knee#0'``), then how many more; :func:`details`
+    gives the DEBUG lines that name each one."""
     items = [f"{r.mj_name!r} {r.kind} -> {r.name!r}" for r in renamed[:limit]]
-    if len(renamed) > limit:
-        items.append(f"and {len(renamed) - limit} more")
+    more = len(renamed) - limit
+    if more > 0:
+        items.append(f"and {more} more (--log-level DEBUG lists each)")
     return (f"scene {scene}: {len(renamed)} MJCF element(s) share a name with an element of another kind; "
             "V-REP names are global, so the name stays with the first of joint, body, site, camera, light "
             f"and the others are NAME#N: {', '.join(items)}")
+
+
+def details(scene: str, renamed: list[Renamed]) -> list[str]:
+    """One line per renamed element (logged at DEBUG level, after :func:`describe`'s summary)."""
+    return [f"scene {scene}: MJCF {r.kind} {r.mj_name!r} is the V-REP object {r.name!r}" for r in renamed]

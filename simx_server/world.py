@@ -217,6 +217,8 @@ class World:
         names = lambda t, i: vrep_names.get((int(t), int(i)))  # noqa: E731
         if renamed and set(renamed) != getattr(self, "_renamed", None):  # once, not at every edit
             log.warning("%s", naming.describe(self.scene_path.name, renamed, L.MAX_RENAMES_LOGGED))
+            for line in naming.details(self.scene_path.name, renamed) if log.isEnabledFor(logging.DEBUG) else ():
+                log.debug("%s", line)
         self._renamed = set(renamed)
         site_type = {}  # sites carrying a rangefinder or a force sensor are sensors
         for k in range(m.nsensor):

@@ -23,6 +23,24 @@ REFERENCE = SHARED / "reference"
 SCENE = ROOT / "scenes" / "ur5_rg2_kinect.xml"
 
 
+def require_shared(path: Path) -> Path:
+    """``path`` (a file of the tutorial kept in ``../shared/`` beside the checkout: the legacy
+    program, the original RG2.lua, the reference tables) when it exists.
+
+    A plain clone has no ``../shared``: then the calling test SKIPS, with a reason that names the
+    missing file and the absolute path where it is expected. When the environment variable ``CI``
+    is set (non-empty) it FAILS instead, so CI, which keeps ``../shared`` beside its checkout,
+    never silently loses these tests. Call it at the start of the test or fixture that needs it.
+    """
+    if path.exists():
+        return path
+    why = (f"{path.relative_to(SHARED.parent) if path.is_relative_to(SHARED.parent) else path.name} "
+           f"(from the tutorial) is missing: expected at {path}; a plain clone has no ../shared beside it")
+    if os.environ.get("CI"):
+        pytest.fail(f"{why} (CI is set: failing instead of skipping)", pytrace=False)
+    pytest.skip(why)
+
+
 def wait_until(predicate, timeout: float = 10.0, period: float = 0.02, what="condition"):
     """Poll ``predicate`` until it returns a truthy value and return that value; fail after
     ``timeout`` s, naming ``what`` (a string, or a callable giving one, called on failure)."""

@@ -10,15 +10,13 @@ import pytest
 
 import sim
 import vrep
-from conftest import REFERENCE, ROOT
+from conftest import REFERENCE, ROOT, require_shared
 
 TSV = REFERENCE / "simx_functions.tsv"
 
 
 def reference_rows() -> list[dict]:
-    if not TSV.exists():
-        pytest.skip(f"reference not found at {TSV}")
-    with TSV.open() as f:
+    with require_shared(TSV).open() as f:
         return list(csv.DictReader(f, delimiter="\t"))
 
 

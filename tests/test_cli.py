@@ -48,18 +48,9 @@ def test_default_scene_serves_then_exits_within_2_s(sig):
     assert "connected" in err and "disconnected" in err  # connect and leave are logged
 
 
-def test_port_in_use_is_a_clear_error():
-    srv = ServerProcess()
-    try:
-        out = subprocess.run([sys.executable, "-m", "simx_server.cli", "--port", str(srv.port)],
-                             capture_output=True, text=True, timeout=60)
-        assert out.returncode != 0 and str(srv.port) in out.stderr
-    finally:
-        srv.stop()
-
-
 def test_wheel_ships_scenes_and_legacy_modules(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q",
+    # --no-build-isolation: the test extra's setuptools builds it, nothing is downloaded
+    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
                           "-w", str(tmp_path), str(ROOT)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     (wheel,) = tmp_path.glob("simx-*.whl")

@@ -6,7 +6,7 @@ import pytest
 
 import simConst
 import vrepConst
-from conftest import REFERENCE
+from conftest import REFERENCE, require_shared
 from simx_client import constants as C
 
 PINNED = {
@@ -35,9 +35,7 @@ def test_pinned_values(name, value):
 
 
 def test_every_constant_of_the_reference():
-    path = REFERENCE / "constants.txt"
-    if not path.exists():
-        pytest.skip(f"reference not found at {path}")
+    path = require_shared(REFERENCE / "constants.txt")
     pattern = re.compile(r"^\s*((?:simx_|sim_|SIMX_)\w+)\s*=\s*(-?(?:0x[0-9a-fA-F]+|\d+))", re.M)
     found = pattern.findall(path.read_text())
     assert len(found) > 100

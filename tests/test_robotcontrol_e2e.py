@@ -30,10 +30,10 @@ from pathlib import Path
 import pytest
 
 try:
-    from conftest import LEGACY, SCENE, ServerProcess
+    from conftest import LEGACY, SCENE, ServerProcess, require_shared
     from xdisplay import VirtualDisplay, find_window, have_x_tools, send_keys
 except ImportError:  # tests/ imported as a package
-    from tests.conftest import LEGACY, SCENE, ServerProcess
+    from tests.conftest import LEGACY, SCENE, ServerProcess, require_shared
     from tests.xdisplay import VirtualDisplay, find_window, have_x_tools, send_keys
 
 PROGRAM = LEGACY / "robotControl.py"
@@ -66,7 +66,9 @@ def _port_in_use(port: int) -> bool:
 
 @pytest.fixture(scope="module")
 def server19999():
-    """A server of our own on the program's hard-coded port 19999."""
+    """A server of our own on the program's hard-coded port 19999 (the program itself first: a plain
+    clone has no ../shared, see conftest.require_shared)."""
+    require_shared(PROGRAM)
     if _port_in_use(PORT):
         pytest.skip(f"port {PORT} (hard-coded in robotControl.py) is already in use on 127.0.0.1")
     try:
@@ -159,7 +161,6 @@ def test_robotcontrol_keyboard_session(server19999, tmp_path):
     import vrep
 
     B = vrep.simx_opmode_blocking
-    assert PROGRAM.is_file(), f"legacy program missing: {PROGRAM}"
 
     with VirtualDisplay() as xd:
         prog = Program(xd, tmp_path)

@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from conftest import LEGACY, ROOT, SCENE, ServerProcess
+from conftest import LEGACY, ROOT, SCENE, ServerProcess, require_shared
 from simx_client.protocol import ScriptError
 from simx_server.scripts import Scripts, Signals
 from simx_server.simulation import Simulation
@@ -124,6 +124,8 @@ def call(sim: Simulation, obj: str, function: str, ints=(), floats=(), strings=(
 @pytest.mark.parametrize("script", [LEGACY_RG2, ROOT / "scenes" / "rg2.lua", ROOT / "scenes" / "rg2.py"],
                          ids=["legacy RG2.lua", "scenes/rg2.lua", "scenes/rg2.py"])
 def test_rg2_script_closes_on_the_ball_and_opens(script, tmp_path, simulation):
+    if script == LEGACY_RG2:
+        require_shared(script)
     sim = simulation(ur5_copy(tmp_path, script))
     world = sim.world
     g = world.resolve(GRIPPER).handle
@@ -590,7 +592,7 @@ def test_remote_legacy_rg2_lua_closes_on_the_ball_and_opens(tmp_path):
     import vrep
 
     B = vrep.simx_opmode_blocking
-    scene = ur5_copy(tmp_path, LEGACY_RG2, "RG2.lua")
+    scene = ur5_copy(tmp_path, require_shared(LEGACY_RG2), "RG2.lua")
     assert (tmp_path / "RG2.lua").read_bytes() == LEGACY_RG2.read_bytes()
     server = ServerProcess(str(scene))
     cid = -1

@@ -74,7 +74,7 @@ def test_mouse_is_a_fixed_point_as_simple_test_reads_it(vrep_client):
 
 # -------------------------------------------------------------------- shared names
 def test_every_named_element_gets_an_object_by_the_documented_rule(caplog):
-    with caplog.at_level(logging.INFO, logger="simx.world"):
+    with caplog.at_level(logging.DEBUG, logger="simx.world"):
         world = World(SHARED)
     m = world.model
     names = {o.name: o for o in world.objects.values()}
@@ -90,13 +90,15 @@ def test_every_named_element_gets_an_object_by_the_documented_rule(caplog):
     # the renamed camera sits where the MJCF camera is: on torso, not on the body "head"
     assert world.objects[world.resolve("head#1").parent].name == "torso"
     assert world.objects[world.resolve("hand#0").parent].name == "hand"
-    # one log line lists every renamed element, and none says "used twice"
-    lines = [r.getMessage() for r in caplog.records if "share" in r.getMessage()]
-    assert len(lines) == 1, lines
-    for text in ("'head' site -> 'head#0'", "'head' camera -> 'head#1'", "'ball' camera -> 'ball#1'",
-                 "'hand' camera -> 'hand#0'", "'slider' body -> 'slider#0'"):
-        assert text in lines[0], (text, lines[0])
-    assert "'eye'" not in lines[0] and "used twice" not in caplog.text
+    # one warning line counts the renamed elements, one DEBUG line names each; none says "used twice"
+    lines = [r.getMessage() for r in caplog.records if "share a name" in r.getMessage()]
+    assert len(lines) == 1 and "5 MJCF element(s)" in lines[0], lines
+    details = [r.getMessage() for r in caplog.records if r.levelno == logging.DEBUG and "V-REP object" in r.getMessage()]
+    assert len(details) == 5, details
+    for kind, mj_name, vname in (("site", "head", "head#0"), ("camera", "head", "head#1"), ("camera", "ball", "ball#1"),
+                                 ("camera", "hand", "hand#0"), ("body", "slider", "slider#0")):
+        assert any(f"MJCF {kind} {mj_name!r} is the V-REP object {vname!r}" in d for d in details), (vname, details)
+    assert "'eye'" not in lines[0] + "".join(details) and "used twice" not in caplog.text
 
 
 def test_names_are_stable_across_a_rebuild():
@@ -120,15 +122,16 @@ def test_edits_keep_the_names_of_the_objects_still_there(caplog):
         world = sim.world
         before = {o.name: o.handle for o in world.objects.values()}
         caplog.clear()
-        with caplog.at_level(logging.INFO, logger="simx.world"):
+        with caplog.at_level(logging.DEBUG, logger="simx.world"):
             (copy,) = HANDLERS["CopyPasteObjects"](sim, [[before["hand"]]])
         obj = world.get(copy)
         assert obj.type == SHAPE and obj.name == "hand#1" and copy not in before.values()
         assert world.resolve("hand#0").handle == before["hand#0"]  # the camera keeps its name
         # the copy of the camera shares the copied body's name in the MJCF too: renamed, told once
         assert world.resolve("hand#1#0").type == VISION_SENSOR
-        (line,) = [r.getMessage() for r in caplog.records if "share" in r.getMessage()]
-        assert "'hand#1' camera -> 'hand#1#0'" in line
+        (line,) = [r.getMessage() for r in caplog.records if "share a name" in r.getMessage()]
+        assert "6 MJCF element(s)" in line
+        assert "MJCF camera 'hand#1' is the V-REP object 'hand#1#0'" in caplog.text
         (head_copy,) = HANDLERS["CopyPasteObjects"](sim, [[before["head"]]])
         assert world.get(head_copy).name == "head#2" and world.get(head_copy).type == SHAPE
         caplog.clear()
@@ -203,5 +206,5 @@ def test_the_log_line_is_bounded():
     many = [naming.Renamed(f"n{i}", "camera", f"n{i}#0") for i in range(3 * limits.MAX_RENAMES_LOGGED)]
     line = naming.describe("big.xml", many, limits.MAX_RENAMES_LOGGED)
     assert line.count("camera ->") == limits.MAX_RENAMES_LOGGED
-    assert line.endswith(f"and {2 * limits.MAX_RENAMES_LOGGED} more")
+    assert line.endswith(f"and {2 * limits.MAX_RENAMES_LOGGED} more (--log-level DEBUG lists each)")
     assert f"{3 * limits.MAX_RENAMES_LOGGED} MJCF element(s)" in line
