@@ -323,8 +323,10 @@ def test_vision_parameters_and_their_errors(sim):
     assert np.allclose(sim.vision.depth(cam), np.clip((metres - 1.0) / 3.0, 0, 1), atol=1e-5)
     with pytest.raises(ArgumentError):
         P.set_object_float_parameter(sim, [cam, 1000, 4.5])  # near beyond far
-    with pytest.raises(UnsupportedError, match="run time"):
-        P.set_object_int_parameter(sim, [cam, 1002, 64])
+    P.set_object_int_parameter(sim, [cam, 1002, 64])  # settable at run time, as in V-REP
+    assert P.get_object_int_parameter(sim, [cam, 1002]) == 64
+    with pytest.raises(ArgumentError, match="1002"):
+        P.set_object_int_parameter(sim, [cam, 1002, 0])
     with pytest.raises(UnsupportedError, match="int parameter"):
         P.get_object_float_parameter(sim, [cam, 1002])
     with pytest.raises(UnsupportedError, match="1016"):  # POV-Ray blur samples
