@@ -43,6 +43,7 @@ import cv2
 import numpy as np
 
 import simx_client as vrep
+from simx_client.images import set_lazy_image_lists
 
 B = vrep.simx_opmode_blocking
 ONESHOT = vrep.simx_opmode_oneshot
@@ -144,6 +145,7 @@ class Scene:
         self.cid = vrep.simxStart(host, port, True, True, timeout_ms, 5)
         if self.cid < 0:
             raise DatasetError(f"no simx server answers at {host}:{port}")
+        set_lazy_image_lists(self.cid)  # images only become arrays here: no legacy list needed
 
     def close(self) -> None:
         vrep.simxFinish(self.cid)
