@@ -7,8 +7,8 @@ is sent back: the viewer never changes the server's simulation. MuJoCo's own UI 
 and selects; **space** pauses (and resumes) the view: states are then not applied. When the
 server's scene is edited or another one is loaded (a new generation), the window is closed and
 opened again on the new model. Vision sensors (MJCF cameras with a ``resolution``) are drawn
-with their frusta; ``--images`` overlays their images (fetched with the legacy streaming calls,
-as any program would) in the window's bottom-left corner.
+with their frusta; ``--images`` shows their images (fetched with the legacy streaming calls, as
+any program would) in OpenCV windows (:mod:`simx_viewer.images`).
 
 Exit status: 0 when the window is closed, 1 when no server answers (one line on stderr that
 says where it looked), 2 for bad arguments.
@@ -121,13 +121,17 @@ def run(args: argparse.Namespace) -> int:
             log.info("showing generation %d of %s (%d bodies)", vm.generation, link.address, vm.model.nbody)
             if args.images and images is None:
                 from simx_viewer.images import SensorImages
-                images = SensorImages(args.host, args.port, vm.model)
+                try:
+                    images = SensorImages(args.host, args.port, vm.model)
+                except RuntimeError as exc:
+                    log.warning("%s", exc)
+                    args.images = False
             reload = False
             try:
                 while window.running():
                     state = link.next_state(0.05)
                     if images is not None:
-                        images.show(window.handle)
+                        images.show()
                     if state is None or paused.is_set():
                         continue
                     if state.generation != vm.generation:
@@ -162,7 +166,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT,
                    help="s to wait for the server's model (default %(default)s)")
     p.add_argument("--images", action="store_true",
-                   help="also show the vision sensors' images in the window")
+                   help="also show the vision sensors' images (OpenCV windows; needs OpenCV with a GUI)")
     p.add_argument("--hide-ui", action="store_true", help="hide MuJoCo's side panels (Tab shows them)")
     p.add_argument("--lookat", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="the point the view orbits, m (default: MuJoCo's, the scene's centre)")
@@ -175,7 +179,7 @@ def parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Console script ``simx-viewer``; returns the exit status (see the module's docstring)."""
     args = parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=logging.DEBUG if os.environ.get("SIMX_VIEWER_DEBUG") else logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args.zenoh_config:
         if not os.path.isfile(args.zenoh_config):
             print(f"simx-viewer: no Zenoh config file {args.zenoh_config}", file=sys.stderr)
