@@ -64,7 +64,8 @@ def show_vision_sensors(model: mujoco.MjModel, length: float = FRUSTUM_LENGTH) -
 class Window:
     """One ``launch_passive`` window on one model; ``close()`` waits for its thread to end."""
 
-    def __init__(self, vm: ViewerModel, args: argparse.Namespace, key_callback):
+    def __init__(self, vm: ViewerModel, args: argparse.Namespace, key_callback,
+                 view: tuple | None = None):
         self.model = vm.model
         self.data = mujoco.MjData(self.model)
         vm.state.apply(self.model, self.data)
@@ -79,18 +80,26 @@ class Window:
         with self.handle.lock():
             self.handle.opt.flags[mujoco.mjtVisFlag.mjVIS_CAMERA] = 1
             cam = self.handle.cam
-            if args.lookat is not None:
+            if view is not None:  # the previous window's (a reload): the user's view goes on
+                cam.lookat[:], cam.distance, cam.azimuth, cam.elevation = view
+            elif args.lookat is not None:
                 cam.lookat[:] = args.lookat
-            if args.distance is not None:
+            if view is None and args.distance is not None:
                 cam.distance = args.distance
-            if args.azimuth is not None:
+            if view is None and args.azimuth is not None:
                 cam.azimuth = args.azimuth
-            if args.elevation is not None:
+            if view is None and args.elevation is not None:
                 cam.elevation = args.elevation
         self.handle.sync()
 
     def running(self) -> bool:
         return self.handle.is_running()
+
+    def view(self) -> tuple:
+        """The free camera's lookat, distance, azimuth and elevation now."""
+        with self.handle.lock():
+            cam = self.handle.cam
+            return cam.lookat.copy(), cam.distance, cam.azimuth, cam.elevation
 
     def close(self) -> None:
         self.handle.close()
@@ -116,8 +125,9 @@ def run(args: argparse.Namespace) -> int:
     images = None
     try:
         vm = link.fetch_model(args.timeout)
+        view = None
         while True:
-            window = Window(vm, args, on_key)
+            window = Window(vm, args, on_key, view)
             log.info("showing generation %d of %s (%d bodies)", vm.generation, link.address, vm.model.nbody)
             if args.images and images is None:
                 from simx_viewer.images import SensorImages
@@ -136,6 +146,7 @@ def run(args: argparse.Namespace) -> int:
                         continue
                     if state.generation != vm.generation:
                         reload = True
+                        view = window.view()
                         break
                     with window.handle.lock():
                         state.apply(window.model, window.data)

@@ -23,10 +23,10 @@ import zenoh
 
 try:
     from conftest import ROOT, SCENE, ServerProcess, free_port, wait_until
-    from xdisplay import FIX_HINT, VirtualDisplay, find_window, have_x_tools
+    from xdisplay import FIX_HINT, VirtualDisplay, find_window, have_x_tools, send_keys
 except ImportError:  # run as a package
     from tests.conftest import ROOT, SCENE, ServerProcess, free_port, wait_until
-    from tests.xdisplay import FIX_HINT, VirtualDisplay, find_window, have_x_tools
+    from tests.xdisplay import FIX_HINT, VirtualDisplay, find_window, have_x_tools, send_keys
 
 from simx_client import protocol as P
 from simx_client.connection import client_config
@@ -190,8 +190,31 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
             cv2.imwrite(str(tmp_path / "viewer-after.png"), second)
             moved = _changed(first, second)
             assert moved > 2000, f"only {moved} pixels changed after the arm turned 45 degrees"
-            rows, cols = np.nonzero((np.abs(first.astype(np.int16) - second.astype(np.int16)).max(axis=2) > 40))
+            rows, _ = np.nonzero(np.abs(first.astype(np.int16) - second.astype(np.int16)).max(axis=2) > 40)
             assert rows.min() < second.shape[0] // 2, "the change is where the arm's upper part is"
+
+            # Space pauses the view: the arm turning back is not shown until space again.
+            window = find_window(xd.display, "MuJoCo")
+            viewer_log = tmp_path / "viewer.log"
+            send_keys(xd.display, window, "space")
+            wait_until(lambda: "view paused" in viewer_log.read_text(), what="the viewer's pause")
+            assert vrep.simxSetJointTargetPosition(cid, joint, 0.0, WAIT) == 0
+            wait_until(lambda: abs(vrep.simxGetJointPosition(cid, joint, WAIT)[1]) < 0.01,
+                       timeout=20, what="UR5_joint1 back at 0")
+            paused, = wait_until(steady_shot, timeout=60, what="a steady paused view")
+            assert _changed(second, paused) < 50, "the paused view followed the arm"
+            send_keys(xd.display, window, "space")
+            resumed, = wait_until(lambda: (s := steady_shot()) and _changed(second, s[0]) > 2000 and s,
+                                  timeout=60, what="the resumed view showing the arm turned back")
+
+            # An edit (the table removed): a new generation, the window reopens on the new model.
+            rc, table = vrep.simxGetObjectHandle(cid, "Table", WAIT)
+            assert rc == 0 and vrep.simxRemoveObject(cid, table, WAIT) == 0
+            wait_until(lambda: "showing generation 2" in viewer_log.read_text(), timeout=60,
+                       what="the viewer reloading the edited scene")
+            edited, = wait_until(steady_shot, timeout=60, what="a steady view of the edited scene")
+            cv2.imwrite(str(tmp_path / "viewer-edited.png"), edited)
+            assert _changed(resumed, edited) > 5000, "the table is still shown"
         finally:
             if cid >= 0:
                 vrep.simxFinish(cid)
