@@ -23,6 +23,7 @@ writes to MuJoCo's model or data.
 from __future__ import annotations
 
 import logging
+import threading
 from typing import Any, Callable
 
 import mujoco
@@ -56,6 +57,7 @@ class ViewerFeed:
         self.published = 0
         self._enqueue = enqueue
         self._waiting = 0  # model queries queued for the simulation thread
+        self._count = threading.Lock()  # Zenoh's threads add to _waiting, the simulation thread takes
         self._publisher: zenoh.Publisher | None = None
         self._world: Any = None  # the world and model the generation was given for
         self._model: mujoco.MjModel | None = None
@@ -84,7 +86,11 @@ class ViewerFeed:
                      "a viewer is watching" if watched else "no viewer is watching", self.published)
 
     def _on_query(self, query: zenoh.Query) -> None:
-        if self._waiting >= limits.MAX_VIEWER_QUERIES:
+        with self._count:
+            busy = self._waiting >= limits.MAX_VIEWER_QUERIES
+            if not busy:
+                self._waiting += 1
+        if busy:
             log.warning("viewer model query on %s not queued: %d already wait (limits.MAX_VIEWER_QUERIES)",
                         quote(str(query.key_expr)), self._waiting)
             try:
@@ -94,13 +100,13 @@ class ViewerFeed:
             finally:
                 query.drop()
             return
-        self._waiting += 1  # Zenoh's threads only increment (GIL); the simulation thread decrements
         self._enqueue(("viewer-model", query))
 
     # ------------------------------------------------------ the simulation thread
     def answer(self, query: zenoh.Query, world: Any) -> None:
         """Reply to a queued model query with the current model, generation and state."""
-        self._waiting -= 1
+        with self._count:
+            self._waiting -= 1
         try:
             generation = self._current(world)
             if self._mjb is None:

@@ -223,3 +223,40 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
                 viewer.wait(10)
             log = server.stop()
     assert "viewer feed: a viewer is watching" in log, log[-2000:]
+
+
+def test_model_queries_waiting_are_bounded():
+    """Zenoh's thread queues at most limits.MAX_VIEWER_QUERIES model queries for the simulation
+    thread; the next one is answered "server busy" at once, and answering frees a place."""
+    from simx_server import limits
+    from simx_server.viewer_feed import ViewerFeed
+    from simx_server.world import World
+
+    class Query:
+        key_expr = P.viewer_model_key()
+
+        def __init__(self):
+            self.replies: list[bytes] = []
+
+        def reply(self, key, payload: bytes) -> None:
+            self.replies.append(payload)
+
+        def drop(self) -> None:
+            pass
+
+    queued: list = []
+    feed = ViewerFeed(P.DEFAULT_PREFIX, queued.append)
+    queries = [Query() for _ in range(limits.MAX_VIEWER_QUERIES + 1)]
+    for q in queries:
+        feed._on_query(q)
+    assert len(queued) == limits.MAX_VIEWER_QUERIES and not queries[0].replies
+    with pytest.raises(P.ProtocolError, match="server busy"):
+        P.unpack_viewer_model(queries[-1].replies[0])
+    world = World(ROOT / "tests" / "scenes" / "sensors.xml", 0.05)
+    feed.answer(queued[0][1], world)  # the simulation thread's answer: the model, generation 1
+    _, generation, version, mjb, state = P.unpack_viewer_model(queries[0].replies[0])
+    assert generation == 1 and version == mujoco.mj_versionString()
+    assert mujoco.MjModel.from_binary_path("m.mjb", {"m.mjb": mjb}).nbody == world.model.nbody
+    again = Query()
+    feed._on_query(again)
+    assert len(queued) == limits.MAX_VIEWER_QUERIES + 1 and not again.replies
