@@ -22,10 +22,8 @@ import math
 import os
 import sys
 import threading
-import time
 
 import mujoco
-import numpy as np
 
 from simx_client import protocol as P
 from simx_viewer.link import DEFAULT_TIMEOUT, NoServerError, ViewerLink, ViewerModel

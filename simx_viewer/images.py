@@ -30,15 +30,19 @@ _STREAMING, _BUFFER, _BLOCKING = 0x020000, 0x060000, 0x010000
 class SensorImages:
     """Streams every vision sensor's image of ``model`` from the server at ``host:port``.
 
+    ``gui=False`` skips the check that OpenCV can open windows (reading images needs none).
+
     Raises:
         RuntimeError: OpenCV has no GUI, or ``simxStart`` failed.
     """
 
-    def __init__(self, host: str, port: int, model: mujoco.MjModel):
+    def __init__(self, host: str, port: int, model: mujoco.MjModel, gui: bool = True):
         self.cid = -1
+        self._gui = gui
         try:
-            cv2.namedWindow("simx-viewer: probe")
-            cv2.destroyWindow("simx-viewer: probe")
+            if gui:
+                cv2.namedWindow("simx-viewer: probe")
+                cv2.destroyWindow("simx-viewer: probe")
         except cv2.error:
             raise RuntimeError("--images needs OpenCV with a GUI: `pip install opencv-python` in place of "
                                "opencv-python-headless; without it, pick a vision sensor's camera in the "
@@ -64,8 +68,9 @@ class SensorImages:
             self.sensors.append((name, handle, depth))
         log.info("--images: %s", ", ".join(n for n, *_ in self.sensors) or "no vision sensor")
 
-    def _read(self, handle: int, depth: bool) -> np.ndarray | None:
-        """The sensor's newest image, top row first, as RGB uint8; None before the first."""
+    def read(self, handle: int, depth: bool) -> np.ndarray | None:
+        """The sensor's newest image, top row first, as RGB uint8 of shape (height, width, 3)
+        (a depth buffer as grey, near = black); None before the first."""
         if depth:
             rc, res, values = api.simxGetVisionSensorDepthBuffer(self.cid, handle, _BUFFER)
             if rc != 0 or not res:
@@ -82,7 +87,7 @@ class SensorImages:
     def show(self) -> None:
         """Show each sensor's newest image in its window (and let OpenCV draw them)."""
         for name, sensor, depth in self.sensors:
-            image = self._read(sensor, depth)
+            image = self.read(sensor, depth)
             if image is None:
                 continue
             width = max(1, round(image.shape[1] * IMAGE_HEIGHT / image.shape[0]))
@@ -95,4 +100,5 @@ class SensorImages:
         if self.cid >= 0:
             api.simxFinish(self.cid)
             self.cid = -1
-            cv2.destroyAllWindows()
+            if self._gui:
+                cv2.destroyAllWindows()

@@ -14,7 +14,6 @@ import os
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -260,3 +259,29 @@ def test_model_queries_waiting_are_bounded():
     again = Query()
     feed._on_query(again)
     assert len(queued) == limits.MAX_VIEWER_QUERIES + 1 and not again.replies
+
+
+def test_images_come_through_the_legacy_streaming_calls():
+    """--images: every vision sensor of the model is streamed and read back as an RGB image,
+    top row first; without an OpenCV GUI the viewer is told how to get one."""
+    import cv2
+    from simx_viewer.images import SensorImages
+
+    server = ServerProcess(str(SCENE))
+    images = None
+    try:
+        with ViewerLink("127.0.0.1", server.port) as link:
+            model = link.fetch_model().model
+        if "NONE" in next(l for l in cv2.getBuildInformation().splitlines() if "GUI:" in l):
+            with pytest.raises(RuntimeError, match="needs OpenCV with a GUI: `pip install opencv-python`"):
+                SensorImages("127.0.0.1", server.port, model)
+        images = SensorImages("127.0.0.1", server.port, model, gui=False)
+        assert [name for name, *_ in images.sensors] == ["kinect_rgb", "kinect_depth"]
+        for _, handle, depth in images.sensors:
+            image, = wait_until(lambda: (i := images.read(handle, depth)) is not None and (i,),
+                                what="a streamed image")
+            assert image.shape == (480, 640, 3) and image.dtype == np.uint8 and image.std() > 0
+    finally:
+        if images is not None:
+            images.close()
+        server.stop()
