@@ -8,7 +8,7 @@ its sensor, ``IMAGE_HEIGHT`` pixels high. OpenCV must have a GUI (``opencv-pytho
 raises at once and the viewer goes on without the images. (MuJoCo's ``Handle.set_images``,
 which would draw them inside the viewer's window, drew nothing with MuJoCo 3.17 on GLFW/Mesa.)
 Without ``--images``, MuJoCo's own viewer shows what a sensor sees too: pick its camera in the
-right panel's *Rendering* section (or with ``[`` and ``]``).
+left panel's *Rendering* section (or cycle with ``[`` and ``]``).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ class SensorImages:
         except cv2.error:
             raise RuntimeError("--images needs OpenCV with a GUI: `pip install opencv-python` in place of "
                                "opencv-python-headless; without it, pick a vision sensor's camera in the "
-                               "viewer's Rendering panel to see what it sees") from None
+                               "viewer's left panel (Rendering, Camera) to see what it sees") from None
         self.cid = api.simxStart(host, port, True, True, 5000, 5)
         if self.cid < 0:
             raise RuntimeError(f"--images: simxStart({host}, {port}) failed")

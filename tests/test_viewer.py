@@ -259,6 +259,12 @@ def test_model_queries_waiting_are_bounded():
     again = Query()
     feed._on_query(again)
     assert len(queued) == limits.MAX_VIEWER_QUERIES + 1 and not again.replies
+    # A colour set in place (sim.setShapeColor writes geom_rgba): a new generation and model.
+    world.model.geom_rgba[0] = (0.1, 0.9, 0.1, 1)
+    feed.answer(queued[1][1], world)
+    _, generation, _, mjb, _ = P.unpack_viewer_model(queries[1].replies[0])
+    assert generation == 2
+    assert tuple(mujoco.MjModel.from_binary_path("m.mjb", {"m.mjb": mjb}).geom_rgba[0]) == pytest.approx((0.1, 0.9, 0.1, 1))
 
 
 def test_images_come_through_the_legacy_streaming_calls():
