@@ -188,7 +188,7 @@ def parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Console script ``simx-viewer``; returns the exit status (see the module's docstring)."""
     args = parser().parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if os.environ.get("SIMX_VIEWER_DEBUG") else logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args.zenoh_config:
         if not os.path.isfile(args.zenoh_config):
             print(f"simx-viewer: no Zenoh config file {args.zenoh_config}", file=sys.stderr)
