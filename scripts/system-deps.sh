@@ -9,7 +9,9 @@
 #                the network-namespace test tests/test_netns.py), plus
 #                python3-venv when `python3 -m venv --help` fails.
 #   --with-x     also Xvfb and xdotool, needed only by the tests that drive a
-#                real X window (tests/xdisplay.py).
+#                real X window (tests/xdisplay.py), and the X libraries GLFW
+#                opens for simx-viewer's window (libx11-6, libxrandr2,
+#                libxinerama1, libxcursor1, libxi6).
 #
 # Presence is checked with dpkg-query; if anything is missing it runs
 # `apt-get update` once and `apt-get install -y --no-install-recommends ...`,
@@ -22,7 +24,7 @@ for arg in "$@"; do
     case "$arg" in
         --with-x) with_x=1 ;;
         -h|--help)
-            sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'
+            sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
             exit 0
             ;;
         *)
@@ -41,6 +43,9 @@ fi
 wanted=(libegl1 libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri iproute2)
 if [ "$with_x" -eq 1 ]; then
     wanted+=(xvfb xdotool)
+    # simx-viewer's window (tests/test_viewer.py): GLFW, bundled with the glfw wheel, opens
+    # these X libraries at run time.
+    wanted+=(libx11-6 libxrandr2 libxinerama1 libxcursor1 libxi6)
 fi
 
 is_installed() {

@@ -425,3 +425,49 @@ def unpack_stream_update(payload: bytes) -> tuple[int, list]:
     if type(entries) is not list:
         raise ProtocolError("stream update entries are not a list")
     return t, entries
+
+
+# ------------------------------------------------------------------ the viewer feed
+# (simx-viewer; docs/PROTOCOL.md "The viewer feed"). An addition to version 3: no message
+# above changed, and a server without the feed simply does not answer its query.
+
+def viewer_model_key(prefix: str = DEFAULT_PREFIX) -> str:
+    """Key expression of the server's queryable that answers the compiled model (a *viewer model*)."""
+    return f"{prefix}/viewer/model"
+
+
+def viewer_state_key(prefix: str = DEFAULT_PREFIX) -> str:
+    """Key expression the server puts a *viewer state* on after every step while a subscriber exists."""
+    return f"{prefix}/viewer/state"
+
+
+def viewer_state(generation: int, time: float, qpos: bytes, qvel: bytes, mocap_pos: bytes,
+                 mocap_quat: bytes) -> bytes:
+    """Encode a viewer state: ``time`` in s; the arrays as little-endian float64 bytes
+    (``ndarray.astype('<f8').tobytes()``) of nq, nv, 3·nmocap and 4·nmocap values."""
+    return pack([PROTOCOL_VERSION, generation, time, qpos, qvel, mocap_pos, mocap_quat])
+
+
+def unpack_viewer_state(payload: bytes) -> list:
+    """Decode a viewer state: ``[version, generation, time_s, qpos, qvel, mocap_pos, mocap_quat]``
+    (the arrays as bytes); raises ProtocolError."""
+    message = _decode(payload, 7, "viewer state")
+    if type(message[1]) is not int or not all(type(b) is bytes for b in message[3:]):
+        raise ProtocolError("viewer state: expected [version, generation, time, 4 x bin]")
+    return message
+
+
+def viewer_model(generation: int, mujoco_version: str, mjb: bytes, state: bytes) -> bytes:
+    """Encode a viewer model: MuJoCo's binary model (``mj_saveModel``), the MuJoCo version that
+    wrote it (an ``mjb`` loads only in the same version), and the current viewer state."""
+    return pack([PROTOCOL_VERSION, generation, mujoco_version, mjb, state])
+
+
+def unpack_viewer_model(payload: bytes) -> list:
+    """Decode a viewer model: ``[version, generation, mujoco_version, mjb, state]``; raises
+    ProtocolError (a refusal included)."""
+    message = _decode(payload, 5, "viewer model")
+    if type(message[1]) is not int or type(message[2]) is not str or type(message[3]) is not bytes \
+            or type(message[4]) is not bytes:
+        raise ProtocolError("viewer model: expected [version, generation, str, bin, bin]")
+    return message

@@ -219,3 +219,7 @@ MAX_IK_ITERATIONS = 100
 #: Largest mesh file ``sim.importShape`` reads (bytes): a scene script imports what a client
 #: names, and MuJoCo reads the whole file.
 MAX_IMPORT_BYTES = 16 * 1024 * 1024
+#: Viewer model queries (``<prefix>/viewer/model``, simx-viewer) waiting for the simulation
+#: thread, all viewers together; more are answered "server busy" at once. Each answer is the
+#: whole compiled model (cached until the model changes), so a flood must not pile them up.
+MAX_VIEWER_QUERIES = 16

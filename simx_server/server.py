@@ -38,6 +38,7 @@ from simx_server.physics import PhysicsError
 from simx_server.replies import IMAGES, SMALL, image_size, reply_size
 from simx_server.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.simulation import RunState, Simulation
+from simx_server.viewer_feed import ViewerFeed
 from simx_server.vision import Deferred
 
 log = logging.getLogger("simx.server")
@@ -150,6 +151,7 @@ class Server:
         self._t0 = time.monotonic()
         self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
+        self.viewers = ViewerFeed(prefix, self._queue.put)  # simx-viewer's model and state
 
     # ------------------------------------------------------------ zenoh side
     def open(self) -> None:
@@ -165,6 +167,7 @@ class Server:
         self._watch = self.session.liveliness().declare_subscriber(
             P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False),
             history=True)
+        self.viewers.open(self.session)
 
     @staticmethod
     def _refuse_old(query: zenoh.Query) -> None:
@@ -345,6 +348,8 @@ class Server:
         kind, client = item
         if kind == "gone":
             self._forget(client, "left")
+        elif kind == "viewer-model":  # client is the query here
+            self.viewers.answer(client, self.sim.world)
 
     def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
         """Execute a request and reply, now or on the render thread once its images are
@@ -550,6 +555,8 @@ class Server:
     def _publish_streams(self) -> None:
         if self.session is None:
             return
+        if self.viewers.watched:  # the whole cost of the viewer feed without a viewer
+            self.viewers.publish(self.sim.world)
         now = time.monotonic()
         sim = self.sim
         for client, streams in self._streams.items():

@@ -359,3 +359,36 @@ def test_a_wildcard_client_id_is_refused(plain_server, env):
             # (``**`` also reaches the old-version refusal on ``simx/call``: a refusal too.)
             with pytest.raises(P.ProtocolError, match=r"invalid client id|version mismatch"):
                 P.unpack_response(replies[0].ok.payload.to_bytes())
+
+
+def test_viewers_watch_and_only_the_server_feeds_them(secure, env):
+    """simx-viewer through the access control (issue 14): alice gets the model and the states;
+    bob can neither answer the model query nor put a forged state on the viewers' key."""
+    from simx_viewer import ViewerLink
+
+    server, files = secure
+    env.setenv("SIMX_ZENOH_CONFIG", str(files["client-alice.json5"]))
+    forged_model = P.viewer_model(999, "0", b"forged", P.viewer_state(999, 0.0, b"", b"", b"", b""))
+    forged_state = P.viewer_state(999, 0.0, b"", b"", b"", b"")
+    cid = start(server.port)
+    assert cid >= 0
+    bob = zenoh.open(zenoh.Config.from_file(str(files["client-bob.json5"])))
+    try:
+        with ViewerLink("127.0.0.1", server.port) as link:
+            first = link.fetch_model()
+            assert first.model.nbody > 1
+            seen: list[bytes] = []  # a second subscriber of alice's: states put from now on
+            sub = link.session.declare_subscriber(P.viewer_state_key(), lambda s: seen.append(s.payload.to_bytes()))
+            queryable = bob.declare_queryable(P.viewer_model_key(), lambda q: q.reply(q.key_expr, forged_model))
+            for _ in range(5):
+                bob.put(P.viewer_state_key(), forged_state)
+            joint = api.simxGetObjectHandle(cid, "UR5_joint1", B)[1]
+            assert api.simxSetJointPosition(cid, joint, 0.5, B) == 0  # stopped: the next idle tick shows it
+            wait_until(lambda: seen, what="the server's state after the joint moved")
+            assert forged_state not in seen and P.unpack_viewer_state(seen[-1])[1] == first.generation
+            assert all(link.fetch_model().generation == first.generation for _ in range(3))
+            queryable.undeclare()
+            sub.undeclare()
+    finally:
+        bob.close()
+        api.simxFinish(cid)

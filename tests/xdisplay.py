@@ -74,7 +74,7 @@ class VirtualDisplay:
     """
 
     def __init__(self, width: int = 1024, height: int = 768, depth: int = 24,
-                 startup_timeout: float = 15.0) -> None:
+                 startup_timeout: float = 15.0, fbdir: Optional[str] = None) -> None:
         self._proc: Optional[subprocess.Popen] = None
         self._stderr = None
         self.display: str = ""
@@ -90,6 +90,9 @@ class VirtualDisplay:
         cmd = [xvfb, "-displayfd", str(write_fd),
                "-screen", "0", f"{width}x{height}x{depth}",
                "-nolisten", "tcp", "-noreset"]
+        self.fbdir = fbdir
+        if fbdir is not None:  # the screen, memory-mapped in XWD format: screenshot() reads it
+            cmd += ["-fbdir", fbdir]
         try:
             try:
                 self._proc = subprocess.Popen(
@@ -170,6 +173,32 @@ class VirtualDisplay:
             return ""
 
     # -- public API -------------------------------------------------------
+
+    def screenshot(self):
+        """The whole screen as a BGR ``uint8`` array of shape (height, width, 3) (OpenCV's
+        layout), read from the XWD file Xvfb keeps of its screen (start with ``fbdir=``).
+
+        Xvfb's ``-fbdir`` maps its frame buffer to ``<fbdir>/Xvfb_screen0``: a 100-byte
+        big-endian XWD header, the window name, ``ncolors`` 12-byte colour entries, then the
+        pixels, 32 bits each (blue, green, red, pad in LSB-first byte order) at depth 24.
+        Raises RuntimeError without ``fbdir`` or for another pixel layout.
+        """
+        import struct
+
+        import numpy as np
+
+        if self.fbdir is None:
+            raise RuntimeError("screenshot() needs VirtualDisplay(fbdir=...)")
+        with open(os.path.join(self.fbdir, "Xvfb_screen0"), "rb") as f:
+            raw = f.read()
+        head = struct.unpack(">25I", raw[:100])
+        size, width, height, byte_order, bpp, line, ncolors = (head[0], head[4], head[5], head[7],
+                                                               head[11], head[12], head[19])
+        if bpp != 32:
+            raise RuntimeError(f"Xvfb screen of {bpp} bits per pixel: screenshot() reads 32 (depth 24)")
+        pixels = np.frombuffer(raw, np.uint8, count=height * line, offset=size + 12 * ncolors)
+        pixels = pixels.reshape(height, line)[:, :width * 4].reshape(height, width, 4)
+        return np.ascontiguousarray(pixels[..., :3] if byte_order == 0 else pixels[..., 3:0:-1])
 
     def env(self, base: Optional[Mapping[str, str]] = None) -> dict:
         """Return a copy of ``base`` (default ``os.environ``) for a client of this display.
