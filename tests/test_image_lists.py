@@ -281,25 +281,19 @@ def test_a_lazy_list_converts_without_being_made():
     assert made(img) and clone == plain
 
 
-def test_a_lazy_list_is_cheap_until_read():
-    """640x480 RGB: making the lazy list and converting it against making the legacy list."""
-    from simx_client.api_sensors import _image, _image_lazy
+def test_a_lazy_reply_is_the_legacy_reply_unmade():
+    """The client's converters: the lazy image of a reply holds the received bytes and no
+    list until read; then it equals the legacy list (speed: benchmarks/README.md, envs)."""
+    from simx_client.api_sensors import _depth, _depth_lazy, _image, _image_lazy
 
-    raw = np.random.default_rng(0).integers(0, 256, 640 * 480 * 3, dtype=np.uint8).tobytes()
-
-    def best(f, n):
-        times = []
-        for _ in range(n):
-            t = time.perf_counter()
-            f()
-            times.append(time.perf_counter() - t)
-        return min(times)
-
-    lazy = best(lambda: np.array(_image_lazy([[640, 480], raw])[1], dtype=np.uint8), 10)
-    eager = best(lambda: np.array(_image([[640, 480], raw])[1], dtype=np.uint8), 3)
-    assert lazy * 5 < eager, (lazy, eager)  # about 0.3 ms against 8 ms on 2 cores
-    _, img = _image_lazy([[640, 480], raw])
-    assert img == _image([[640, 480], raw])[1]
+    raw = np.random.default_rng(0).integers(0, 256, 64 * 48 * 3, dtype=np.uint8).tobytes()
+    res, img = _image_lazy([[64, 48], raw])
+    assert res == [64, 48] and type(img) is LazyImageList and list.__len__(img) == 0
+    assert np.array_equal(np.array(img, dtype=np.uint8), np.frombuffer(raw, np.uint8))
+    assert list.__len__(img) == 0 and img == _image([[64, 48], raw])[1]
+    floats = np.linspace(0, 1, 64 * 48, dtype=np.float32).tobytes()
+    res, dep = _depth_lazy([[64, 48], floats])
+    assert type(dep) is LazyImageList and list.__len__(dep) == 0 and dep == _depth([[64, 48], floats])[1]
 
 
 def test_lazy_lists_from_a_real_server_are_per_client(vrep_client):
