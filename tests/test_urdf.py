@@ -149,6 +149,7 @@ def test_client_sent_urdf_loads_and_its_meshes_stay_in_the_transfer_folder(packa
     assert "looked for" not in log and "not found" not in log
 
 
+@pytest.mark.filterwarnings("ignore:Attaching a spec with an empty prefix")  # as urdf.py does for the server
 def test_scene_around_a_urdf_adds_what_urdf_cannot_say(package):
     """tests/scenes/urdf/two_link_scene.xml: a camera with simx: settings, an actuator and modes."""
     objects = {o["name"]: o for o in describe(package / "urdf" / "two_link_scene.xml")["objects"]}
