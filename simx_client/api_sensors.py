@@ -25,7 +25,7 @@ def _image(value: list) -> tuple[list[int], ImageList]:
     the list keeps the bytes as int8 for ``np.array`` (:class:`simx_client.images.ImageList`)."""
     resolution, data = value
     signed = np.frombuffer(data, dtype=np.int8)
-    return list(resolution), ImageList.wrap(_SIGNED_BYTES.take(signed.view(np.uint8)).tolist(), signed)
+    return list(resolution), ImageList.wrap(_signed_list(signed), signed)
 
 
 def _lazy(client_id: object) -> bool:

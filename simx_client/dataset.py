@@ -43,7 +43,7 @@ import cv2
 import numpy as np
 
 import simx_client as vrep
-from simx_client.images import set_lazy_image_lists
+from simx_client.images import decode_handles, set_lazy_image_lists  # noqa: F401 (decode_handles: API)
 
 B = vrep.simx_opmode_blocking
 ONESHOT = vrep.simx_opmode_oneshot
@@ -61,13 +61,6 @@ class DatasetError(RuntimeError):
 
 
 # ---------------------------------------------------------------------------- pure helpers
-def decode_handles(coded: np.ndarray) -> np.ndarray:
-    """Handles (int32, ``r + 256 g + 65536 b``) of a colour-coded (h, w, 3) uint8 image;
-    ``BACKGROUND`` where no object is."""
-    c = coded.astype(np.int32)
-    return c[..., 0] | (c[..., 1] << 8) | (c[..., 2] << 16)
-
-
 @dataclass
 class Box:
     cls: int

@@ -27,7 +27,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["ImageList", "LazyImageList", "set_lazy_image_lists", "lazy_image_lists"]
+__all__ = ["ImageList", "LazyImageList", "set_lazy_image_lists", "lazy_image_lists", "decode_handles"]
 
 _NUMERIC = frozenset("biufc")  # dtype kinds an array cast gives exactly as NumPy gives from the list
 _DEFAULT = {"i": np.dtype(int), "u": np.dtype(int), "b": np.dtype(bool), "f": np.dtype(float)}
@@ -69,9 +69,8 @@ class ImageList(list):
         if copy is False:
             raise ValueError("an image list cannot be viewed as an array without a copy")
         kept = self._array
-        if self._pending is not None:
-            pass  # lazy and not made yet: the kept array is the list's truth
-        elif kept is None or len(kept) != list.__len__(self):
+        # A LazyImageList not made yet (_pending set): the kept array is the list's truth.
+        if self._pending is None and (kept is None or len(kept) != list.__len__(self)):
             kept = np.array(list.__getitem__(self, slice(None)))  # the list is the truth
             if kept.dtype.kind not in _NUMERIC:
                 return kept if dtype is None else np.array(kept.tolist(), dtype=dtype)
@@ -228,3 +227,11 @@ def lazy_image_lists(client_id: int) -> bool:
     """Whether connection ``client_id`` returns :class:`LazyImageList` images (see
     :func:`set_lazy_image_lists`)."""
     return int(client_id) in _LAZY_CLIENTS
+
+
+def decode_handles(coded: np.ndarray) -> np.ndarray:
+    """Handles (int32, ``r + 256 g + 65536 b``, as CoppeliaSim encodes them) of a colour-coded
+    (h, w, 3) uint8 image (render mode 2, ``sim_rendermode_colorcoded``); the background is
+    white (0xFFFFFF) where no object is."""
+    c = coded.astype(np.int32)
+    return c[..., 0] | (c[..., 1] << 8) | (c[..., 2] << 16)

@@ -31,6 +31,7 @@ Binary data (images, depth buffers, script buffers) travels as msgpack ``bin``.
 
 from __future__ import annotations
 
+import re
 import reprlib
 import threading
 from typing import Any, Iterable
@@ -273,6 +274,15 @@ def _flat(value: Any) -> tuple:
 
 
 QUOTE_LIMIT = 60  # characters of a peer's value quoted in an error or a log line
+
+
+#: The Rust source location Zenoh appends to its errors (`` at /root/.cargo/.../tcp.rs:61.``).
+_SOURCE_LOCATION = re.compile(r"\s+at /\S+?\.rs:\d+\.?")
+
+
+def zenoh_reason(error: BaseException | str) -> str:
+    """A Zenoh error's text without the library's source locations, which tell a user nothing."""
+    return _SOURCE_LOCATION.sub("", str(error)).strip()
 
 
 def quote(value: Any, limit: int = QUOTE_LIMIT) -> str:

@@ -13,6 +13,7 @@ import threading
 from importlib import resources
 from pathlib import Path
 
+from simx_client.protocol import zenoh_reason
 from simx_server import __version__, limits, logs
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
@@ -53,10 +54,8 @@ class _VersionAction(argparse.Action):
         parser.exit(0)
 
 
-#: Where a Zenoh error names an endpoint it could not listen on, and the Rust source locations
-#: (`` at /root/.cargo/.../tcp.rs:61.``) it appends, which tell a user nothing.
+#: Where a Zenoh error names an endpoint it could not listen on.
 _ENDPOINT_IN_ERROR = re.compile(r"bound to (\S+):\s")
-_SOURCE_LOCATION = re.compile(r"\s+at /\S+?\.rs:\d+\.?")
 
 
 def listen_failure(endpoints: list[str], exc: BaseException) -> str:
@@ -74,8 +73,7 @@ def listen_failure(endpoints: list[str], exc: BaseException) -> str:
     if "Cannot assign requested address" in text or "os error 99" in text:
         return (f"simx-server: cannot listen on {where}: that address is not one of this machine's; give "
                 "--host one of its own addresses (default 127.0.0.1)")
-    reason = _SOURCE_LOCATION.sub("", text).strip()
-    return f"simx-server: cannot listen on {where}: {reason}"
+    return f"simx-server: cannot listen on {where}: {zenoh_reason(text)}"
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

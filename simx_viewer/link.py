@@ -7,7 +7,6 @@ states; :mod:`simx_viewer.app` shows them.
 
 from __future__ import annotations
 
-import re
 import threading
 import time
 from dataclasses import dataclass
@@ -105,8 +104,8 @@ class ViewerLink:
         self.received = 0
         try:
             self.session = zenoh.open(client_config(host, port))
-        except zenoh.ZError as exc:  # Zenoh's text ends with its source path: cut it
-            reason = re.sub(r"\s*at /\S*", "", str(exc)).rstrip(" .!")
+        except zenoh.ZError as exc:
+            reason = P.zenoh_reason(exc).rstrip(" .!")
             raise NoServerError(f"cannot reach a simx-server at {self.address} ({reason})") from None
         self._subscriber = self.session.declare_subscriber(
             P.viewer_state_key(prefix), zenoh.handlers.Callback(self._on_state))

@@ -56,6 +56,7 @@ import numpy as np
 from gymnasium import spaces
 
 import simx_client as vrep
+from simx_client.images import decode_handles
 
 TUTORIAL_POSE_DEG = (90.0, -45.0, 90.0, 0.0, -100.0, 0.0)
 JOINT_NAMES = tuple(f"UR5_joint{i}" for i in range(1, 7))
@@ -139,8 +140,7 @@ class UR5BallReachEnv(gym.Env):
         self._depth_sensor = self._handle("kinect_depth")
         self._ball = self._handle("Sphere")
         self._tcp = self._handle("RG2_tcp")
-        self._sensor_resolution = sensor_resolution
-        render_size((640, 480), (self.width, self.height), sensor_resolution)  # ValueError now, not in reset
+        self._sensor_resolution = _sensor_resolution(sensor_resolution)
         self._native = self._render_size = (0, 0)  # read in reset(), once a stop restored the scene's
         self._near = self._float_param(self._depth_sensor, vrep.sim_visionfloatparam_near_clipping)
         self._far = self._float_param(self._depth_sensor, vrep.sim_visionfloatparam_far_clipping)
@@ -167,17 +167,18 @@ class UR5BallReachEnv(gym.Env):
             raise RuntimeError(f"simxGetObjectHandle({name!r}) failed (return code {rc}): not the tutorial's scene?")
         return h
 
+    def _blocking(self, function: Any, *args: Any) -> tuple:
+        """``function(client, *args, simx_opmode_blocking)``'s results after the return code;
+        RuntimeError naming the function when it fails."""
+        rc, *values = function(self.client_id, *args, _B)
+        self._check(rc, function.__name__)
+        return tuple(values)
+
     def _float_param(self, handle: int, param: int) -> float:
-        rc, value = vrep.simxGetObjectFloatParameter(self.client_id, handle, param, _B)
-        if rc != vrep.simx_return_ok:
-            raise RuntimeError(f"simxGetObjectFloatParameter({param}) failed (return code {rc})")
-        return float(value)
+        return float(self._blocking(vrep.simxGetObjectFloatParameter, handle, param)[0])
 
     def _int_param(self, handle: int, param: int) -> int:
-        rc, value = vrep.simxGetObjectIntParameter(self.client_id, handle, param, _B)
-        if rc != vrep.simx_return_ok:
-            raise RuntimeError(f"simxGetObjectIntParameter({param}) failed (return code {rc})")
-        return int(value)
+        return int(self._blocking(vrep.simxGetObjectIntParameter, handle, param)[0])
 
     def _check(self, rc: int, what: str) -> None:
         if rc != vrep.simx_return_ok:
@@ -189,9 +190,7 @@ class UR5BallReachEnv(gym.Env):
         value not there yet (just after the streaming call) is waited for, as legacy programs
         do (a ping, then the inbox again), for at most ``timeout_ms``."""
         if not self._streaming:
-            rc, *values = function(self.client_id, *args, _B)
-            self._check(rc, f"{function.__name__} (blocking)")
-            return tuple(values)
+            return self._blocking(function, *args)
         deadline = time.monotonic() + self._timeout
         while True:
             rc, *values = function(self.client_id, *args, _BUFFER)
@@ -270,14 +269,12 @@ class UR5BallReachEnv(gym.Env):
         self._check(vrep.simxSetObjectIntParameter(cid, self._rgb_sensor, mode, vrep.sim_rendermode_colorcoded, _B),
                     "simxSetObjectIntParameter(render mode)")
         try:
-            rc, res, raw = vrep.simxGetVisionSensorImage(cid, self._rgb_sensor, 0, _B)
-            self._check(rc, "simxGetVisionSensorImage")
+            res, raw = self._blocking(vrep.simxGetVisionSensorImage, self._rgb_sensor, 0)
         finally:
             vrep.simxSetObjectIntParameter(cid, self._rgb_sensor, mode, vrep.sim_rendermode_opengl, _B)
             if self._streaming:  # the blocking read above replaced the image's stream: again
                 vrep.simxGetVisionSensorImage(cid, self._rgb_sensor, 0, _STREAMING)
-        rgb = np.asarray(raw, dtype=np.uint8).reshape(res[1], res[0], 3)[::-1].astype(np.int64)
-        handles = rgb[:, :, 0] | (rgb[:, :, 1] << 8) | (rgb[:, :, 2] << 16)
+        handles = decode_handles(np.asarray(raw, dtype=np.uint8).reshape(res[1], res[0], 3)[::-1])
         rows, cols = np.nonzero(handles == self._ball)
         return rows, cols, (res[1], res[0])
 
@@ -384,6 +381,19 @@ class UR5BallReachEnv(gym.Env):
             self._servers.release(self._claimed)
 
 
+def _sensor_resolution(value: Any) -> str | tuple[int, int] | None:
+    """``sensor_resolution`` as given, checked: None, ``"native"`` or a ``(w, h)`` of ints >= 1."""
+    if value is None or (isinstance(value, str) and value == "native"):
+        return value
+    try:
+        w, h = (int(v) for v in value)
+    except (TypeError, ValueError):
+        w = h = 0
+    if w < 1 or h < 1:
+        raise ValueError(f"sensor_resolution must be None, 'native' or (width, height) >= 1, not {value!r}")
+    return w, h
+
+
 def render_size(native: tuple[int, int], observation: tuple[int, int],
                 sensor_resolution: str | tuple[int, int] | None) -> tuple[int, int]:
     """The ``(w, h)`` the sensors render at: see ``sensor_resolution`` in the module docstring.
@@ -394,10 +404,7 @@ def render_size(native: tuple[int, int], observation: tuple[int, int],
     if sensor_resolution == "native":
         return native
     if sensor_resolution is not None:
-        w, h = (int(v) for v in sensor_resolution)
-        if w < 1 or h < 1:
-            raise ValueError(f"sensor_resolution must be positive, not {sensor_resolution!r}")
-        return w, h
+        return sensor_resolution  # type: ignore[return-value]  # (w, h), checked by _sensor_resolution
     (nw, nh), (ow, oh) = native, observation
     scale = max(ow / nw, oh / nh)
     if scale >= 1:
