@@ -260,14 +260,20 @@ def _figures(raw: dict, frames: list) -> list[Figure]:
     return figs + raw["stream"]
 
 
-def _streaming(s: Settings, cid: int, rgb: int) -> list[Figure]:
-    window = s.t(8.0, 3.0)
+def _first_streamed_image(cid: int, rgb: int, poll: float) -> None:
+    """Start streaming ``rgb`` and poll the inbox every ``poll`` s until its first image is
+    there; RuntimeError after 10 s."""
     api.simxGetVisionSensorImage(cid, rgb, 0, STREAM)
     deadline = time.monotonic() + 10
     while api.simxGetVisionSensorImage(cid, rgb, 0, BUFFER)[0] != 0:
         if time.monotonic() > deadline:
             raise RuntimeError("no streamed image within 10 s")
-        time.sleep(0.002)
+        time.sleep(poll)
+
+
+def _streaming(s: Settings, cid: int, rgb: int) -> list[Figure]:
+    window = s.t(8.0, 3.0)
+    _first_streamed_image(cid, rgb, poll=0.002)
     frames: list[tuple[int, float]] = []
     last = api.simxGetLastCmdTime(cid)
     end = time.monotonic() + window
@@ -306,12 +312,7 @@ def _first_frames(s: Settings) -> list[Figure]:
             try:
                 rgb = api.simxGetObjectHandle(cid, "kinect_rgb", B)[1]
                 t0 = perf()
-                api.simxGetVisionSensorImage(cid, rgb, 0, STREAM)
-                deadline = time.monotonic() + 10
-                while api.simxGetVisionSensorImage(cid, rgb, 0, BUFFER)[0] != 0:
-                    if time.monotonic() > deadline:
-                        raise RuntimeError("no streamed image within 10 s")
-                    time.sleep(0.001)
+                _first_streamed_image(cid, rgb, poll=0.001)
                 times.append(perf() - t0)
             finally:
                 api.simxFinish(cid)

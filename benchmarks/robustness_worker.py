@@ -93,19 +93,25 @@ def mixed(args: argparse.Namespace, cid: int) -> dict:
             "elapsed": elapsed, "cpu_s": cpu1.ru_utime + cpu1.ru_stime - cpu0.ru_utime - cpu0.ru_stime}
 
 
-def flood(args: argparse.Namespace, cid: int) -> dict:
-    if _wait_for_start() is None:
-        return {}
+def _send_for(args: argparse.Namespace, send) -> dict:
+    """``send(k)`` for k = 0, 1, ... until ``args.seconds`` have passed or ``args.max_calls``
+    were sent (the clock read every 256 calls); the count, seconds and end time."""
     t0 = time.monotonic()
     end = t0 + args.seconds
     sent = 0
     while sent < args.max_calls:
-        api.simxSetJointTargetPosition(cid, args.joint, 0.001 * (sent % 100), ONESHOT)
+        send(sent)
         sent += 1
         if not sent % 256 and time.monotonic() >= end:
             break
     ended = time.monotonic()
     return {"sent": sent, "seconds": ended - t0, "ended": ended}
+
+
+def flood(args: argparse.Namespace, cid: int) -> dict:
+    if _wait_for_start() is None:
+        return {}
+    return _send_for(args, lambda k: api.simxSetJointTargetPosition(cid, args.joint, 0.001 * (k % 100), ONESHOT))
 
 
 def flood_raw(args: argparse.Namespace) -> dict:
@@ -124,16 +130,7 @@ def flood_raw(args: argparse.Namespace) -> dict:
         ignore = zenoh.handlers.Callback(lambda reply: None, indirect=False)
         if _wait_for_start() is None:
             return {}
-        t0 = time.monotonic()
-        end = t0 + args.seconds
-        sent = 0
-        while sent < args.max_calls:
-            querier.get(ignore, payload=payload)
-            sent += 1
-            if not sent % 256 and time.monotonic() >= end:
-                break
-        ended = time.monotonic()
-        result = {"sent": sent, "seconds": ended - t0, "ended": ended}
+        result = _send_for(args, lambda k: querier.get(ignore, payload=payload))
         with open(args.out, "w") as f:  # before closing: with thousands of queries pending,
             json.dump(result, f)  # Zenoh's close can time out
         return result
