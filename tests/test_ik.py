@@ -233,30 +233,15 @@ def test_bad_declarations_are_logged_and_ignored(tmp_path, caplog, data, reason)
     sim.close()
 
 
-def test_ik_step_cost_is_small():
-    """The per-step cost of the UR5's pose group (10 iterations), measured against the step."""
-    import time
+def test_ur5_pose_group_settings_and_reach():
+    """The UR5's pose group as the scene sets it (10 iterations) brings the tip onto a turned
+    target. (Its cost per step is not a test's business: benchmarks/.)"""
     sim = Simulation(IK_SCENE, dt=0.05, realtime=False)
     w = sim.world
     sim.start()
     for _ in range(20):
         sim.step()
-    g = ik.groups(w)
-    target = w.resolve("UR5_target").handle
-    solve = 0.0
-    for k in range(100):  # a target that moves 5 cm before every solve: the solver iterates
-        w.set_pose(target, -1, [-0.5, -0.05 + 0.1 * (k % 2), 0.3])
-        t0 = time.perf_counter()
-        ik.step(w)
-        solve += (time.perf_counter() - t0) / 100
-    w.set_pose(target, -1, [-0.5, 0.0, 0.3])
-    t0 = time.perf_counter()
-    for _ in range(50):
-        sim.step()
-    step = (time.perf_counter() - t0) / 50
-    print(f"IK solve {solve * 1e3:.3f} ms per step, whole step {step * 1e3:.3f} ms")
-    assert g.groups["UR5"].iterations == 10
-    assert solve < step  # the solve is part of the step: a bound measured in the same run
+    assert ik.groups(w).groups["UR5"].iterations == 10
     w.set_pose(w.resolve("UR5_target").handle, -1, [-0.6, 0.1, 0.1],
                matrix_from_euler(DOWN[0], 0.5, DOWN[2]))
     for _ in range(40):

@@ -11,7 +11,6 @@ from __future__ import annotations
 import copy
 import json
 import pickle
-import time
 
 import numpy as np
 import pytest
@@ -144,23 +143,16 @@ def test_a_list_built_by_hand_converts_from_its_values():
     assert np.array_equal(np.array(strings), np.array(["a", "b"]))
 
 
-def test_conversion_is_well_under_a_millisecond():
-    """640x480 RGB: the subclass against a plain list of the same values, same run."""
+def test_conversion_reads_the_kept_array_not_the_list():
+    """np.array of an ImageList casts the received bytes it keeps, without walking the list
+    (what makes it fast: benchmarks/README.md, images suite). White-box: a change made behind
+    the list's back (list.__setitem__, which does not drop the kept array) is not seen."""
     raw = np.random.default_rng(0).integers(0, 256, 640 * 480 * 3, dtype=np.uint8)
-    plain = raw.view(np.int8).tolist()
-    img = ImageList.wrap(plain, raw.view(np.int8))
-
-    def best(f, n):
-        times = []
-        for _ in range(n):
-            t = time.perf_counter()
-            f()
-            times.append(time.perf_counter() - t)
-        return min(times)
-
-    fast = best(lambda: np.array(img, dtype=np.uint8), 20)
-    slow = best(lambda: np.array(plain, dtype=np.int64), 3)  # what a plain list costs at best
-    assert fast * 10 < slow, (fast, slow)  # about 0.05 ms against 20 ms on 2 cores
+    img = ImageList.wrap(raw.view(np.int8).tolist(), raw.view(np.int8))
+    list.__setitem__(img, 0, (int(raw[0]) + 1) % 128)
+    assert np.array_equal(np.array(img, dtype=np.uint8), raw)  # the kept bytes, element 0 too
+    img[0] = 7  # through the list's own method: the list is the truth again
+    assert np.array(img, dtype=np.uint8)[0] == 7
 
 
 # ------------------------------------------------------------- through a real server

@@ -51,24 +51,26 @@ def sim(tmp_path):
     s.close()
 
 
-def magenta(img: np.ndarray) -> int:
+def _pixels(img: np.ndarray, test) -> int:
+    """How many pixels of an RGB image pass ``test(r, g, b)`` (int arrays)."""
     r, g, b = (img[..., i].astype(int) for i in range(3))
-    return int(((r > 150) & (b > 150) & (g < 80)).sum())
+    return int(test(r, g, b).sum())
+
+
+def magenta(img: np.ndarray) -> int:
+    return _pixels(img, lambda r, g, b: (r > 150) & (b > 150) & (g < 80))
 
 
 def green(img: np.ndarray) -> int:
-    r, g, b = (img[..., i].astype(int) for i in range(3))
-    return int(((g > 150) & (r < 80) & (b < 80)).sum())
+    return _pixels(img, lambda r, g, b: (g > 150) & (r < 80) & (b < 80))
 
 
 def cyan(img: np.ndarray) -> int:
-    r, g, b = (img[..., i].astype(int) for i in range(3))
-    return int(((g > 150) & (b > 150) & (r < 80)).sum())
+    return _pixels(img, lambda r, g, b: (g > 150) & (b > 150) & (r < 80))
 
 
 def blue(img: np.ndarray) -> int:
-    r, g, b = (img[..., i].astype(int) for i in range(3))
-    return int(((b > 150) & (r < 60) & (g < 60)).sum())
+    return _pixels(img, lambda r, g, b: (b > 150) & (r < 60) & (g < 60))
 
 
 def default_render(sim: Simulation, option: mujoco.MjvOption) -> np.ndarray:
