@@ -9,7 +9,7 @@
   INTER_AREA) and 640x480 (the sensors' own size). Images arrive as lazy lists
   (``simx_client.images.set_lazy_image_lists``: the env only makes arrays of them).
 * **floor, same run**: :class:`InProcessReach`, the same env logic on MuJoCo directly in this
-  process: ``simx_server.simulation.Simulation(scene)`` and its ``VisionSensors`` (same scene,
+  process: ``simx_server.scene.simulation.Simulation(scene)`` and its ``VisionSensors`` (same scene,
   same renderer on its render thread, the same render size (112x84 or 640x480), dt 50 ms), the same targets through
   ``sim.world.set_joint_target_position``, the same ``sim_steps`` steps per env step, the same
   renders per step (RGB + depth), the same flip/resize/metres conversion, the same joint and
@@ -43,7 +43,7 @@ class InProcessReach:
     def __init__(self, width: int, height: int, joints: int = 3, max_offset_deg: float = 5.0,
                  sim_steps: int = 1, settle_steps: int = 2, seed: int = 0):
         from simx_client.envs.ur5_ball_reach import BALL_X, BALL_Y, BALL_Z, JOINT_NAMES
-        from simx_server.simulation import Simulation
+        from simx_server.scene.simulation import Simulation
 
         self.sim = Simulation(str(SCENE), realtime=False)
         self.sim.vision.wait_ready(60)

@@ -88,7 +88,7 @@ def _check(rc: int, what: str) -> None:
 
 
 def run(s: Settings) -> list[Figure]:
-    from simx_server.simulation import Simulation
+    from simx_server.scene.simulation import Simulation
 
     probe_log = s.log_dir / "images-probe.json"
     s.log_dir.mkdir(parents=True, exist_ok=True)

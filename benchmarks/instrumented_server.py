@@ -27,8 +27,8 @@ import sys
 import time
 
 from simx_server import cli
-from simx_server.simulation import Simulation
-from simx_server.vision import VisionSensors
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.vision import VisionSensors
 
 _MAX_RECORDS = 200_000
 _steps: collections.deque = collections.deque(maxlen=_MAX_RECORDS)

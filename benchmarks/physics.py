@@ -28,7 +28,7 @@ def _sim_now(cid: int) -> tuple[float, float]:
 
 
 def run(s: Settings) -> list[Figure]:
-    from simx_server.simulation import Simulation
+    from simx_server.scene.simulation import Simulation
 
     sim = Simulation(SCENE, 0.05)
     sim.start()

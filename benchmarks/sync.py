@@ -20,7 +20,7 @@ B = C.simx_opmode_blocking
 
 
 def run(s: Settings) -> list[Figure]:
-    from simx_server.simulation import Simulation
+    from simx_server.scene.simulation import Simulation
 
     sim = Simulation(SCENE, 0.05)
     sim.start()

@@ -25,7 +25,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from simx_server.simulation import Simulation
+from simx_server.scene.simulation import Simulation
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "ur5_rg2_kinect.xml"
 TUTORIAL_POSE_DEG = [90, -45, 90, 0, -100, 0]

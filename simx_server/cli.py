@@ -14,7 +14,9 @@ from importlib import resources
 from pathlib import Path
 
 from simx_client.protocol import zenoh_reason
-from simx_server import __version__, limits, logs
+from simx_server import __version__
+from simx_server.base import limits
+from simx_server.transport import logs
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
 SWITCH_INTERVAL = 0.0005  # s, sys.setswitchinterval (Python's default: 0.005)
@@ -138,11 +140,11 @@ def main(argv: list[str] | None = None) -> int:
         print("simx-server: --json goes with --list-objects", file=sys.stderr)
         return 2
     if args.list_objects:  # inspect the scene and exit: no Zenoh, no rendering
-        from simx_server.inspect_scene import main as list_objects
+        from simx_server.scene.listing import main as list_objects
 
         return list_objects(args.scene or default_scene(), as_json=args.json, dt=args.dt)
     if args.urdf_to_mjcf:
-        from simx_server.urdf import main_to_mjcf
+        from simx_server.sim.urdf import main_to_mjcf
 
         return main_to_mjcf(args.scene, args.urdf_to_mjcf)
     if args.instances != 1 or args.log_dir is not None:
@@ -161,8 +163,9 @@ def main(argv: list[str] | None = None) -> int:
     # Imported here so that --help works without a GL stack.
     import zenoh
 
-    from simx_server.server import DEFAULT_HOSTS, DEFAULT_PORTS, Server, zenoh_config
-    from simx_server.simulation import Simulation
+    from simx_server.scene.simulation import Simulation
+    from simx_server.transport.server import DEFAULT_HOSTS, DEFAULT_PORTS, Server
+    from simx_server.transport.zenoh_config import zenoh_config
 
     scene = Path(args.scene) if args.scene else default_scene()
     for folder in args.scene_path:

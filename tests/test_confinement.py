@@ -260,7 +260,7 @@ def test_scene_bombs_are_refused_at_once_while_others_are_served(server_b, clien
 # ------------------------------------------------------------------ in-process bounds
 @pytest.fixture
 def sim():
-    from simx_server.simulation import Simulation
+    from simx_server.scene.simulation import Simulation
 
     s = Simulation(SCENE, dt=0.05, realtime=False)
     yield s
@@ -268,8 +268,8 @@ def sim():
 
 
 def test_edits_by_clients_respect_the_body_bound(sim, monkeypatch):
-    from simx_server import limits
-    from simx_server.editing import EDITING_HANDLERS as H
+    from simx_server.base import limits
+    from simx_server.commands.editing import EDITING_HANDLERS as H
 
     w = sim.world
     monkeypatch.setattr(limits, "MAX_SCENE_BODIES", w.model.nbody - 1 + 2)  # the world body not counted
@@ -290,8 +290,8 @@ def test_edits_by_clients_respect_the_body_bound(sim, monkeypatch):
 
 
 def test_transfer_folder_bounds(sim, monkeypatch):
-    from simx_server import limits
-    from simx_server.editing import EDITING_HANDLERS as H
+    from simx_server.base import limits
+    from simx_server.commands.editing import EDITING_HANDLERS as H
 
     monkeypatch.setattr(limits, "MAX_TRANSFER_FILE_BYTES", 100)
     monkeypatch.setattr(limits, "MAX_TRANSFER_FILES", 3)
@@ -338,7 +338,7 @@ def test_scene_contents_are_bounded_before_mujoco_parses_them(sim, xml, bound, m
     (allocates what it asks for)."""
     import mujoco
 
-    from simx_server.editing import EDITING_HANDLERS as H
+    from simx_server.commands.editing import EDITING_HANDLERS as H
 
     H["TransferFile"](sim, ["a.xml", xml.encode()])
 
@@ -354,7 +354,7 @@ def test_scene_contents_are_bounded_before_mujoco_parses_them(sim, xml, bound, m
 def test_asset_files_are_measured_before_mujoco_reads_them(sim):
     """A PNG whose header claims 40000x40000 pixels (decoded: 6.4 GB) and an STL claiming 10^6
     triangles are refused from their headers; a mesh file named by a model likewise."""
-    from simx_server.editing import EDITING_HANDLERS as H
+    from simx_server.commands.editing import EDITING_HANDLERS as H
 
     ihdr = struct.pack(">IIBBBBB", 40000, 40000, 8, 2, 0, 0, 0)
     H["TransferFile"](sim, ["big.png", b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + b"IHDR" + ihdr
@@ -371,7 +371,7 @@ def test_asset_files_are_measured_before_mujoco_reads_them(sim):
 def test_server_side_paths_after_a_client_scene_and_a_closed_scene(sim, tmp_path):
     """Relative server-side paths fall back to the first scene's folder while the scene is a
     client's (or the empty scene of simxCloseScene, which lives in the transfer folder)."""
-    from simx_server.editing import EDITING_HANDLERS as H
+    from simx_server.commands.editing import EDITING_HANDLERS as H
 
     H["TransferFile"](sim, ["f", b"x"])
     H["TransferFile"](sim, ["m.xml", b'<mujoco><asset><texture name="t" type="2d" file="gone.png"/></asset></mujoco>'])
@@ -410,8 +410,8 @@ def test_scene_path_must_be_a_folder(tmp_path):
 
 def test_includes_count_toward_one_xml_budget(sim, monkeypatch):
     """Many distinct included files (each small enough) may not add up past the XML budget."""
-    from simx_server import limits
-    from simx_server.editing import EDITING_HANDLERS as H
+    from simx_server.base import limits
+    from simx_server.commands.editing import EDITING_HANDLERS as H
 
     monkeypatch.setattr(limits, "MAX_SCENE_FILE_BYTES", 1000)
     part = b'<mujoco><custom><text name="t%d" data="' + b"x" * 300 + b'"/></custom></mujoco>'

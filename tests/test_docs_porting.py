@@ -31,9 +31,9 @@ import pytest
 
 import simx_client
 from simx_client import constants as C
-from simx_server import sensors
-from simx_server.simulation import Simulation
-from simx_server.world import World
+from simx_server.sim import sensors
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.world import World
 
 try:
     from conftest import ROOT, SCENE

@@ -16,10 +16,11 @@ import pytest
 from conftest import SCENE
 from simx_client.protocol import (ArgumentError, ObjectTypeError, RemoteError, UnknownObjectError,
                                   UnsupportedError)
-from simx_server.editing import EDITING_HANDLERS as H
-from simx_server.editing import vrep_suffix
-from simx_server.simulation import RunState, Simulation
-from simx_server.world import DUMMY, SHAPE
+from simx_server.commands.editing import EDITING_HANDLERS as H
+from simx_server.sim.spec_tools import vrep_suffix
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.state import RunState
+from simx_server.sim.world import DUMMY, SHAPE
 
 BOX = Path(__file__).resolve().parent / "scenes" / "model_box.xml"
 

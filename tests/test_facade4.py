@@ -18,9 +18,9 @@ import pytest
 
 from conftest import ROOT, SCENE, ServerProcess, wait_until
 from simx_client.protocol import ArgumentError, ScriptError
-from simx_server import kinematics
-from simx_server.facade import FACADE_FUNCTIONS, ScriptSim
-from simx_server.simulation import Simulation
+from simx_server.sim import kinematics
+from simx_server.scripts.facade import FACADE_FUNCTIONS, ScriptSim
+from simx_server.scene.simulation import Simulation
 
 SCENE4 = ROOT / "tests" / "scenes" / "facade4" / "facade4.xml"
 CHILD = 1  # sim_scripttype_childscript

@@ -133,7 +133,7 @@ def test_without_a_gl_platform_images_fail_cleanly(tmp_path):
     script.write_text(f"""
 import logging
 logging.basicConfig(level=logging.WARNING)
-from simx_server.simulation import Simulation
+from simx_server.scene.simulation import Simulation
 sim = Simulation({str(SCENE)!r})
 assert sim.vision.wait_ready(30)
 handle = sorted(sim.vision.specs)[0]

@@ -32,7 +32,7 @@ import vrep
 from conftest import ServerProcess, wait_until
 from simx_client import protocol as P
 from simx_client.connection import client_config
-from simx_server import limits
+from simx_server.base import limits
 
 SEED = 20261122
 N_RANDOM = 3000  # requests drawn at random from the classes below (plus a few fixed large ones)

@@ -1,7 +1,7 @@
 """V-REP's colour-coded handles render mode (``sim_visionintparam_render_mode``, 1017, mode 2).
 
 In that mode a vision sensor's image shows, at each pixel, the handle of the shape seen there
-(``h = r + 256 g + 65536 b``) and white (0xFFFFFF) where no shape is (simx_server.handle_render).
+(``h = r + 256 g + 65536 b``) and white (0xFFFFFF) where no shape is (simx_server.sim.handle_render).
 In process with the bundled scene at the tutorial pose (``kinect_rgb`` sees the ball ``Sphere``
 on the table) and with a small scene of its own (unnamed bodies, a world geom, the MJCF
 setting), then through a real server with ``import vrep``.
@@ -17,10 +17,10 @@ import pytest
 
 import vrep
 from simx_client.protocol import ObjectTypeError, UnsupportedError
-from simx_server import handle_render as HR
-from simx_server import object_params as P
-from simx_server.simulation import Simulation
-from simx_server.world import SHAPE
+from simx_server.commands import parameters as cmd_parameters
+from simx_server.sim import handle_render as HR
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.world import SHAPE
 
 try:
     from conftest import SCENE
@@ -76,12 +76,12 @@ def test_ball_pixels_decode_to_the_ball_and_the_rest_to_shapes_or_white(tutorial
     sim, w = tutorial, tutorial.world
     cam, ball = w.resolve("kinect_rgb").handle, w.resolve("Sphere").handle
     rgb = sim.vision.image(cam, False)
-    P.set_object_int_parameter(sim, [cam, 1017, 2])
+    cmd_parameters.set_object_int_parameter(sim, [cam, 1017, 2])
     try:
-        assert P.get_object_int_parameter(sim, [cam, 1017]) == 2
+        assert cmd_parameters.get_object_int_parameter(sim, [cam, 1017]) == 2
         coded = sim.vision.image(cam, False)
     finally:
-        P.set_object_int_parameter(sim, [cam, 1017, 0])
+        cmd_parameters.set_object_int_parameter(sim, [cam, 1017, 0])
     assert coded.shape == (RES_Y, RES_X, 3) and coded.dtype == np.uint8
     handles = HR.decode(coded)
     shapes = set(w.objects_of_type(SHAPE))
@@ -105,13 +105,13 @@ def test_depth_buffer_and_grey_option_in_coded_mode(tutorial):
     sim, w = tutorial, tutorial.world
     cam, ball = w.resolve("kinect_rgb").handle, w.resolve("Sphere").handle
     depth = sim.vision.depth(cam)
-    P.set_object_int_parameter(sim, [cam, 1017, 2])
+    cmd_parameters.set_object_int_parameter(sim, [cam, 1017, 2])
     try:
         coded = sim.vision.image(cam, False)
         grey = sim.vision.image(cam, True)
         assert np.array_equal(sim.vision.depth(cam), depth)  # the depth buffer is the scene's
     finally:
-        P.set_object_int_parameter(sim, [cam, 1017, 0])
+        cmd_parameters.set_object_int_parameter(sim, [cam, 1017, 0])
     assert np.array_equal(grey, (coded.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8))
     assert ball < 256 and set(np.unique(grey[HR.decode(coded) == ball]).tolist()) == {ball // 3}
 
@@ -121,16 +121,16 @@ def test_parameter_errors_and_stop_restores_the_scene_mode(tutorial):
     cam = w.resolve("kinect_rgb").handle
     for mode, name in ((1, "auxchannels"), (3, "povray"), (7, "opengl3"), (42, "render mode 42")):
         with pytest.raises(UnsupportedError, match=f"1017.*{name}"):
-            P.set_object_int_parameter(sim, [cam, 1017, mode])
-    assert P.get_object_int_parameter(sim, [cam, 1017]) == 0
+            cmd_parameters.set_object_int_parameter(sim, [cam, 1017, mode])
+    assert cmd_parameters.get_object_int_parameter(sim, [cam, 1017]) == 0
     with pytest.raises(ObjectTypeError):
-        P.set_object_int_parameter(sim, [w.resolve("UR5_joint1").handle, 1017, 2])
+        cmd_parameters.set_object_int_parameter(sim, [w.resolve("UR5_joint1").handle, 1017, 2])
     with pytest.raises(ObjectTypeError):
-        P.get_object_int_parameter(sim, [w.resolve("Sphere").handle, 1017])
+        cmd_parameters.get_object_int_parameter(sim, [w.resolve("Sphere").handle, 1017])
     sim.start()
-    P.set_object_int_parameter(sim, [cam, 1017, 2])
+    cmd_parameters.set_object_int_parameter(sim, [cam, 1017, 2])
     sim.stop()  # run-time changes to sensors are undone, as the clipping planes
-    assert P.get_object_int_parameter(sim, [cam, 1017]) == 0
+    assert cmd_parameters.get_object_int_parameter(sim, [cam, 1017]) == 0
 
 
 def test_mjcf_setting_unnamed_bodies_and_world_geoms(tmp_path):
@@ -140,7 +140,7 @@ def test_mjcf_setting_unnamed_bodies_and_world_geoms(tmp_path):
     try:
         w = sim.world
         cam, box = w.resolve("top").handle, w.resolve("box").handle
-        assert P.get_object_int_parameter(sim, [cam, 1017]) == 2  # from render_mode=handles
+        assert cmd_parameters.get_object_int_parameter(sim, [cam, 1017]) == 2  # from render_mode=handles
         colours = HR.geom_colours(w)
         m = w.model
         g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "unnamed_body_geom")

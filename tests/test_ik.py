@@ -1,4 +1,4 @@
-"""IK groups (``simx:ik:NAME``, simx_server/ik.py): the tip follows its target dummy through the
+"""IK groups (``simx:ik:NAME``, simx_server/sim/ik.py): the tip follows its target dummy through the
 chain's joint motors, limits and maximum velocities hold, scripts solve explicit groups
 (``sim.handleIkGroup``, CoppeliaSim 4.x's ``simIK``), bad declarations are refused by name.
 """
@@ -18,9 +18,9 @@ try:
 except ImportError:  # tests/ imported as a package
     from tests.conftest import ROOT, ServerProcess, free_port, wait_until
 
-from simx_server import ik
-from simx_server.simulation import Simulation
-from simx_server.world import matrix_from_euler
+from simx_server.sim import ik
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.world import matrix_from_euler
 
 IK_SCENE = ROOT / "scenes" / "ur5_ik.xml"
 BLOCK = vrep.simx_opmode_blocking

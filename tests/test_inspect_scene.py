@@ -11,7 +11,7 @@ import pytest
 
 import vrep
 from conftest import ROOT, SCENE
-from simx_server.inspect_scene import describe
+from simx_server.scene.listing import describe
 
 SHARED_NAMES = ROOT / "tests" / "scenes" / "shared_names.xml"
 

@@ -15,7 +15,7 @@ import pytest
 import vrep
 from conftest import ServerProcess
 from simx_client.protocol import ObjectTypeError
-from simx_server.world import World
+from simx_server.sim.world import World
 
 SCENES = Path(__file__).parent / "scenes" / "joints"
 B = vrep.simx_opmode_blocking
@@ -256,8 +256,8 @@ def test_simx_mode_setting_gives_the_initial_motor_state(tmp_path):
 def test_scene_edits_keep_motor_state_and_add_motors_once(tmp_path):
     """A model loaded into the scene (scene editing through MjSpec) gets motors for its bare
     joints; the motors of the scene keep their flags and targets, and none is added twice."""
-    from simx_server.editing import EDITING_HANDLERS
-    from simx_server.simulation import Simulation
+    from simx_server.commands.editing import EDITING_HANDLERS
+    from simx_server.scene.simulation import Simulation
 
     model = tmp_path / "flap.xml"
     model.write_text("""<mujoco><worldbody><body name="flap" pos="0 0 2">

@@ -1,7 +1,7 @@
 """Issue 11, physics side: bounded work per step, physical ranges, blow-ups without a flood.
 
 Reproductions of the issue (real servers on loopback) and unit checks of the bounds
-(in-process ``Simulation``/``World``). Bounds live in ``simx_server.limits``.
+(in-process ``Simulation``/``World``). Bounds live in ``simx_server.base.limits``.
 """
 
 from __future__ import annotations
@@ -15,11 +15,14 @@ import pytest
 
 from conftest import SCENE, ServerProcess, free_port, wait_until
 from simx_client.protocol import ArgumentError, RemoteError
-from simx_server import commands, limits, object_params
-from simx_server.physics import PhysicsError
-from simx_server.script_facade import Signals
-from simx_server.simulation import RunState, Simulation
-from simx_server.world import World
+from simx_server.commands import joints, objects, parameters, signals
+from simx_server.base import limits
+from simx_server.commands import parameters as cmd_parameters
+from simx_server.sim.physics import PhysicsError
+from simx_server.scripts.facade_core import Signals
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.state import RunState
+from simx_server.sim.world import World
 
 import vrep
 
@@ -123,11 +126,11 @@ def test_time_step_making_too_many_substeps_is_refused(tmp_path):
 
 
 def test_time_step_in_bounds_is_set_while_stopped(sim):
-    commands.set_floating_parameter(sim, [1, 0.01])
-    assert commands.get_floating_parameter(sim, [1]) == pytest.approx(0.01)
+    parameters.set_floating_parameter(sim, [1, 0.01])
+    assert parameters.get_floating_parameter(sim, [1]) == pytest.approx(0.01)
     with pytest.raises(ArgumentError, match="MAX_DT"):
-        commands.set_floating_parameter(sim, [1, 1e300])  # what a raw client can send
-    commands.set_floating_parameter(sim, [1, 0.05])
+        parameters.set_floating_parameter(sim, [1, 1e300])  # what a raw client can send
+    parameters.set_floating_parameter(sim, [1, 0.05])
 
 
 def test_scene_with_a_huge_camera_resolution_is_refused(tmp_path):
@@ -148,7 +151,7 @@ def test_models_and_scenes_loaded_by_clients_obey_the_scene_bounds(tmp_path):
 
 
 def _check_scene_bounds(sim, tmp_path):
-    from simx_server import editing_commands
+    from simx_server.commands import editing as editing_commands
 
     model = tmp_path / "eye.xml"
     model.write_text(f'<mujoco><worldbody><body name="Eye"><geom size="0.1"/>'
@@ -195,25 +198,25 @@ def test_joint_values_out_of_range_are_argument_errors(sim):
     q0 = w.joint_position(h)
     for bad in (1e39, -1e5, math.inf, math.nan):
         with pytest.raises(ArgumentError, match="MAX_JOINT_POSITION"):
-            commands.set_joint_position(sim, [h, bad])
+            joints.set_joint_position(sim, [h, bad])
         with pytest.raises(ArgumentError, match="MAX_JOINT_POSITION"):
-            commands.set_joint_target_position(sim, [h, bad])
+            joints.set_joint_target_position(sim, [h, bad])
     assert w.joint_position(h) == q0  # nothing was written
     for bad in (1e9, math.inf, -math.inf, math.nan):
         with pytest.raises(ArgumentError, match="MAX_JOINT_FORCE"):
-            commands.set_joint_force(sim, [h, bad])
-    commands.set_joint_force(sim, [h, -200.0])
+            joints.set_joint_force(sim, [h, bad])
+    joints.set_joint_force(sim, [h, -200.0])
     assert w.joint_max_force(h) == 200.0
-    commands.set_joint_position(sim, [h, 0.5])
+    joints.set_joint_position(sim, [h, 0.5])
     assert w.joint_position(h) == 0.5
-    object_params.set_object_int_parameter(sim, [h, CTRL_LOOP, 0])  # velocity control
+    cmd_parameters.set_object_int_parameter(sim, [h, CTRL_LOOP, 0])  # velocity control
     for bad in (1e7, math.nan):
         with pytest.raises(ArgumentError, match="MAX_JOINT_VELOCITY"):
-            commands.set_joint_target_velocity(sim, [h, bad])
-    commands.set_joint_target_velocity(sim, [h, -1e4])  # the torque-control idiom still works
+            joints.set_joint_target_velocity(sim, [h, bad])
+    joints.set_joint_target_velocity(sim, [h, -1e4])  # the torque-control idiom still works
     for bad in (1e7, math.inf):
         with pytest.raises(ArgumentError, match="MAX_JOINT_VELOCITY"):
-            object_params.set_object_float_parameter(sim, [h, 2017, bad])
+            cmd_parameters.set_object_float_parameter(sim, [h, 2017, bad])
     sim.stop()
 
 
@@ -223,22 +226,22 @@ def test_masses_positions_and_rotations_out_of_range_are_argument_errors(sim):
     ball = w.resolve("Sphere").handle
     for bad in (1e308, 1e7, 1e-7, 0.0, -1.0, math.inf, math.nan):
         with pytest.raises(ArgumentError, match="MASS"):
-            object_params.set_object_float_parameter(sim, [ball, MASS, bad])
-    assert object_params.get_object_float_parameter(sim, [ball, MASS]) > 0
-    object_params.set_object_float_parameter(sim, [ball, MASS, 1e6])  # the bound itself
+            cmd_parameters.set_object_float_parameter(sim, [ball, MASS, bad])
+    assert cmd_parameters.get_object_float_parameter(sim, [ball, MASS]) > 0
+    cmd_parameters.set_object_float_parameter(sim, [ball, MASS, 1e6])  # the bound itself
     for bad in ([1e5, 0, 0], [0, 0, -1e39], [math.nan, 0, 0]):
         with pytest.raises(ArgumentError):
-            commands.set_object_position(sim, [ball, -1, bad])
-    commands.set_object_position(sim, [ball, -1, [1e4, 0, 1]])
-    commands.set_object_quaternion(sim, [ball, -1, [1e308, 1e308, 0, 0]])  # huge but finite: normalised
-    q = commands.get_object_quaternion(sim, [ball, -1])
+            objects.set_object_position(sim, [ball, -1, bad])
+    objects.set_object_position(sim, [ball, -1, [1e4, 0, 1]])
+    objects.set_object_quaternion(sim, [ball, -1, [1e308, 1e308, 0, 0]])  # huge but finite: normalised
+    q = objects.get_object_quaternion(sim, [ball, -1])
     assert q == pytest.approx([math.sqrt(0.5), math.sqrt(0.5), 0, 0], abs=1e-9)
     sim.stop()
-    assert object_params.get_object_float_parameter(sim, [ball, MASS]) < 1e6  # stop restores the mass
+    assert cmd_parameters.get_object_float_parameter(sim, [ball, MASS]) < 1e6  # stop restores the mass
 
 
 def test_script_setters_obey_the_same_bounds(sim):
-    from simx_server.script_facade import SimFacade
+    from simx_server.scripts.facade_core import SimFacade
 
     w = sim.world
     facade = SimFacade(w, w.resolve("UR5").handle, sim.signals)
@@ -287,7 +290,7 @@ def test_mujoco_warnings_never_reach_stdout_nor_mujoco_log(sim, tmp_path, monkey
     w = sim.world
     wrist = w.resolve("UR5_joint6").handle
     sim.start()
-    object_params.set_object_int_parameter(sim, [wrist, CTRL_LOOP, 0])
+    cmd_parameters.set_object_int_parameter(sim, [wrist, CTRL_LOOP, 0])
     w.set_joint_force(wrist, 1e8)
     w.set_joint_target_velocity(wrist, 1e6)
     with pytest.raises(PhysicsError):  # the server logs it once and tells the clients
@@ -341,9 +344,9 @@ def test_appending_to_a_string_signal_stops_at_the_bound(sim):
     """simxAppendStringSignal grew one signal without end (each append copying it whole)."""
     chunk = b"x" * (1 << 20)
     for _ in range(limits.MAX_SIGNAL_BYTES >> 20):
-        commands.append_string_signal(sim, ["stream", chunk])
+        signals.append_string_signal(sim, ["stream", chunk])
     with pytest.raises(ArgumentError, match="MAX_SIGNAL_BYTES"):
-        commands.append_string_signal(sim, ["stream", b"y"])
+        signals.append_string_signal(sim, ["stream", b"y"])
     assert len(sim.signals.get(Signals.STRING, "stream")) == limits.MAX_SIGNAL_BYTES
     sim.signals.clear(Signals.STRING, "stream")
     assert sim.signals.size == 0
@@ -351,7 +354,7 @@ def test_appending_to_a_string_signal_stops_at_the_bound(sim):
 
 def test_other_mujoco_warnings_are_logged_once_per_kind(caplog):
     """A warning MuJoCo repeats (a full contact buffer after each reset...) is one log line."""
-    from simx_server.physics import _WarningSink
+    from simx_server.sim.physics import _WarningSink
 
     sink = _WarningSink()  # what physics.SINK does, on a fresh one
     for t in range(100):

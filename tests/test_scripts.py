@@ -29,9 +29,10 @@ import pytest
 
 from conftest import LEGACY, ROOT, SCENE, ServerProcess, require_shared
 from simx_client.protocol import ScriptError
-from simx_server.scripts import Scripts, Signals
-from simx_server.simulation import Simulation
-from simx_server.world import World
+from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.scene_scripts import Scripts
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.world import World
 
 LEGACY_RG2 = LEGACY / "RG2.lua"
 SCRIPT_SCENE = ROOT / "tests" / "scenes" / "scripts" / "scripts_scene.xml"

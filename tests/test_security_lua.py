@@ -20,7 +20,7 @@ import pytest
 
 from conftest import ServerProcess
 from simx_client.protocol import ScriptError
-from simx_server.simulation import Simulation
+from simx_server.scene.simulation import Simulation
 
 SCENE = """<mujoco model="sandbox test">
   <worldbody>

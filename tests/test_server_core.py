@@ -28,9 +28,9 @@ import vrep
 from simx_client import api as simx_api
 from simx_client import protocol as P
 from simx_client.connection import client_config
-from simx_server import limits
-from simx_server.logs import RepeatFilter
-from simx_server.sessions import Sessions
+from simx_server.base import limits
+from simx_server.transport.logs import RepeatFilter
+from simx_server.transport.sessions import Sessions
 from conftest import ROOT, SCENE, ServerProcess, wait_until
 
 B = vrep.simx_opmode_blocking

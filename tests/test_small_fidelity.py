@@ -15,7 +15,7 @@ import pytest
 
 import vrep
 from conftest import ServerProcess, free_port, wait_until
-from simx_server.world import DUMMY, JOINT, LIGHT, SHAPE, VISION_SENSOR, World
+from simx_server.sim.world import DUMMY, JOINT, LIGHT, SHAPE, VISION_SENSOR, World
 
 SHARED = Path(__file__).resolve().parent / "scenes" / "shared_names.xml"
 B, STREAM, BUFFER = vrep.simx_opmode_blocking, vrep.simx_opmode_streaming, vrep.simx_opmode_buffer
@@ -115,7 +115,7 @@ def test_edits_keep_the_names_of_the_objects_still_there(caplog):
     and ``head#1`` (and their handles); a copy of a body gets a name free among the V-REP names,
     so the handle it answers is the copy's."""
     from simx_server.commands import HANDLERS
-    from simx_server.simulation import Simulation
+    from simx_server.scene.simulation import Simulation
 
     sim = Simulation(SHARED, dt=0.05, realtime=False)
     try:
@@ -201,7 +201,8 @@ def test_suffixes_beyond_the_rule_are_unknown(name):
 
 
 def test_the_log_line_is_bounded():
-    from simx_server import limits, naming
+    from simx_server.base import limits
+    from simx_server.sim import naming
 
     many = [naming.Renamed(f"n{i}", "camera", f"n{i}#0") for i in range(3 * limits.MAX_RENAMES_LOGGED)]
     line = naming.describe("big.xml", many, limits.MAX_RENAMES_LOGGED)

@@ -16,7 +16,7 @@ import pytest
 
 import vrep
 from conftest import ROOT, ServerProcess, free_port, wait_until
-from simx_server.inspect_scene import describe
+from simx_server.scene.listing import describe
 
 SOURCE = ROOT / "tests" / "scenes" / "urdf"
 WAIT = vrep.simx_opmode_blocking

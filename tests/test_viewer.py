@@ -227,9 +227,9 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
 def test_model_queries_waiting_are_bounded():
     """Zenoh's thread queues at most limits.MAX_VIEWER_QUERIES model queries for the simulation
     thread; the next one is answered "server busy" at once, and answering frees a place."""
-    from simx_server import limits
-    from simx_server.viewer_feed import ViewerFeed
-    from simx_server.world import World
+    from simx_server.base import limits
+    from simx_server.transport.viewer_feed import ViewerFeed
+    from simx_server.sim.world import World
 
     class Query:
         key_expr = P.viewer_model_key()

@@ -12,7 +12,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from simx_server.simulation import Simulation  # noqa: E402
+from simx_server.scene.simulation import Simulation  # noqa: E402
 
 # Seen from above: a grey floor, a blue box resting on it (contacts), a rangefinder on a site
 # beside the box casting its ray along +x over the floor, and a green marker site. The extras

@@ -10,7 +10,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from simx_server.simulation import Simulation  # noqa: E402
+from simx_server.scene.simulation import Simulation  # noqa: E402
 
 # A white box on a mirror floor under a low sun from +x: its shadow falls on the floor at -x.
 # A red ball floats above a corner: seen from above, its reflection shows nearer the centre.

@@ -169,8 +169,8 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
     rebuilt on the edited model and the tip still follows its target."""
     import numpy as np
 
-    from simx_server.facade import ScriptSim
-    from simx_server.simulation import Simulation
+    from simx_server.scripts.facade import ScriptSim
+    from simx_server.scene.simulation import Simulation
 
     sim = Simulation(IK_SCENE, dt=0.05, realtime=False, scene_paths=[tmp_path])
     w = sim.world
@@ -213,8 +213,8 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
 def test_imported_shapes_stay_in_place_when_the_simulation_stops(tmp_path):
     """A stop puts the scene's own objects back, not imported shapes: they stay where they are
     (their model pose is the origin, inside the robot's base and the table)."""
-    from simx_server.facade import ScriptSim
-    from simx_server.simulation import Simulation
+    from simx_server.scripts.facade import ScriptSim
+    from simx_server.scene.simulation import Simulation
 
     sys.path.insert(0, str(PROGRAM.parent))
     try:

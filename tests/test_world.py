@@ -9,7 +9,7 @@ import pytest
 
 from conftest import SCENE
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
-from simx_server.world import JOINT, SHAPE, VISION_SENSOR, World
+from simx_server.sim.world import JOINT, SHAPE, VISION_SENSOR, World
 
 
 @pytest.fixture
@@ -95,7 +95,7 @@ def test_orientation_convention(world):
 def test_reply_stamp_follows_the_run_state():
     """Simulation.stamp(), read once per reply: sim time in ms, state bits, scene id."""
     from simx_client import protocol as P
-    from simx_server.simulation import Simulation
+    from simx_server.scene.simulation import Simulation
 
     sim = Simulation(SCENE, 0.05)
     try:

@@ -1,0 +1,225 @@
+"""Every bound the server puts on what a client can make it do, in one place.
+
+Clients are untrusted (docs/SECURITY.md): each value that sets work per request, per step or
+per scene has a bound here, named in the ``ArgumentError`` (or refusal) a client gets when it
+asks for more. The values are chosen so that real legacy programs never meet them; where a
+bound has a command-line flag, the flag is named beside it. docs/SECURITY.md lists them all.
+"""
+
+from __future__ import annotations
+
+# ----------------------------------------------------------------- simulation step
+#: Largest simulation step ``dt`` in s (``--dt``, ``sim_floatparam_simulation_time_step``); dt
+#: must also be > 0 and finite. V-REP's default is 0.05 s; 1 s of the UR5 scene is 1,000
+#: MuJoCo substeps, about 10 ms of CPU.
+MAX_DT = 1.0
+#: Most MuJoCo substeps in one simulation step (``dt`` / the model's timestep): the work of one
+#: step. Checked when dt changes and when a scene loads (a scene whose ``<option timestep>`` is
+#: too small for the dt is refused).
+MAX_SUBSTEPS = 10_000
+
+# ----------------------------------------------------------------- vision sensors
+#: Largest side of a vision sensor's image in pixels (resolution parameters 1002/1003; the MJCF
+#: camera's ``resolution``, checked when a scene loads). A 4096x4096 RGB image is 48 MiB and its
+#: depth buffer 64 MiB, both under MAX_REPLY_BYTES.
+MAX_RESOLUTION = 4096
+#: Most renderers (a GL context and MjrContext each, one per image size) the render thread keeps;
+#: resolutions set at run time beyond that close the least recently used.
+MAX_RENDERERS = 8
+
+# ----------------------------------------------------------------- requests
+#: Most commands in one request (a simxPauseCommunication batch of a real program holds tens).
+MAX_COMMANDS_PER_REQUEST = 1024
+#: Largest request payload in bytes (a simxTransferFile of a mesh or a scene included).
+MAX_REQUEST_BYTES = 64 * 1024 * 1024
+#: Largest reply a request may produce in bytes (images and buffers included).
+MAX_REPLY_BYTES = 128 * 1024 * 1024
+
+# ----------------------------------------------------------------- physics
+# Ranges of the values clients (and child scripts) write into MuJoCo's model and data. Each is
+# far beyond what a real robot program sets, and small enough that MuJoCo's arithmetic stays
+# finite (products of two bounded values stay far below 1e308). Values outside (NaN and
+# infinities included) are refused with an ArgumentError naming the bound (docs/SECURITY.md).
+
+#: Largest magnitude of gravity in m/s² (``sim_arrayparam_gravity``): 100 g.
+MAX_GRAVITY = 1000.0
+#: Smallest and largest mass of a shape in kg (``sim_shapefloatparam_mass``, 3005): 1 mg, 1000 t.
+MIN_MASS = 1e-6
+MAX_MASS = 1e6
+#: Largest principal inertia in kg·m² (inertias scale with a new mass, as in V-REP).
+MAX_INERTIA = 1e8
+#: Largest coordinate of an object's position in m (``simxSetObjectPosition``: |x|, |y|, |z|).
+MAX_POSITION = 1e4
+#: Largest joint position or target position (rad or m) a client sets.
+MAX_JOINT_POSITION = 1e4
+#: Largest target velocity and velocity limit of a joint (rad/s or m/s); torque control through
+#: a large target velocity (the usual 1e4 or 9999) stays within it.
+MAX_JOINT_VELOCITY = 1e6
+#: Largest maximum force/torque of a joint motor (N or N·m, ``simxSetJointForce``).
+MAX_JOINT_FORCE = 1e8
+
+# ----------------------------------------------------------------- signals
+#: Most signals in the server's store (integer, float and string signals together).
+MAX_SIGNALS = 10_000
+#: Largest string signal in bytes (``simxSetStringSignal``, ``simxAppendStringSignal``,
+#: ``simxWriteStringStream``): room for a packed 1920x1080 RGB image and more.
+MAX_SIGNAL_BYTES = 16 * 1024 * 1024
+#: Largest size of the whole store in bytes (names and values; a number counts 8 bytes).
+MAX_SIGNAL_STORE_BYTES = 64 * 1024 * 1024
+#: Longest signal name in characters.
+MAX_SIGNAL_NAME = 1024
+
+# ----------------------------------------------------------------- scenes and files
+# Files sent with simxTransferFile, and what a scene or model sent by a client may hold. A
+# client-sent MJCF file is measured before MuJoCo parses it (its XML, with <include>s and
+# <replicate> counts multiplied out) and its MjSpec again before it is compiled, so that a
+# refused scene costs milliseconds: MuJoCo's parse and compile run on the simulation thread
+# and cannot be interrupted, so every other client waits while a scene loads. Measured on the
+# loaded 2-core development machine, LoadScene of a client's scene at one bound takes: 1,000
+# bodies 0.13-0.18 s, a 4096x4096 texture 0.14-0.25 s, a 200,000-vertex mesh 0.34-1.2 s; with
+# every bound reached at once, about 3 s at worst. Above the bounds time grows fast (MuJoCo's
+# parse is quadratic: 10,000 replicated bodies took 10.7 s, 90,000 froze clients 22.6 s).
+# Files of the operator (the scene on the command line, --scene-path folders) are not
+# measured; edits by clients are (bodies and elements).
+#: Largest file one simxTransferFile may store, in bytes.
+MAX_TRANSFER_FILE_BYTES = 32 * 1024 * 1024
+#: Most bytes the transfer folder may hold in all.
+MAX_TRANSFER_FOLDER_BYTES = 256 * 1024 * 1024
+#: Most files and folders the transfer folder may hold.
+MAX_TRANSFER_FILES = 1000
+#: Most bytes of MJCF a client may have loaded at once (a scene or model with its <include>s).
+MAX_SCENE_FILE_BYTES = 4 * 1024 * 1024
+#: Largest asset file (mesh, texture, height field, skin) a client-sent scene may name, in bytes.
+MAX_ASSET_FILE_BYTES = 16 * 1024 * 1024
+#: Deepest nesting of XML elements and <include>s in a client-sent file.
+MAX_XML_DEPTH = 100
+#: Most bodies (and flexes) in a client-sent scene, and in a scene after a client's edit.
+MAX_SCENE_BODIES = 1000
+#: Most elements of every kind (geoms, joints, sites, actuators, ...) likewise.
+MAX_SCENE_ELEMENTS = 10_000
+#: Most pixels of one texture (all six faces of a cube), and of all textures of a scene.
+MAX_TEXTURE_PIXELS = 4096 * 4096
+MAX_SCENE_TEXTURE_PIXELS = 2 * MAX_TEXTURE_PIXELS
+#: Most cells of one height field (nrow x ncol), and of all height fields of a scene.
+MAX_HFIELD_CELLS = 2048 * 2048
+MAX_SCENE_HFIELD_CELLS = 2 * MAX_HFIELD_CELLS
+#: Most vertices of one mesh (counted in the file or the vertex list) or flex, and of all of
+#: them in a scene (MuJoCo computes each mesh's convex hull: 200,000 vertices take 0.3-1 s).
+MAX_MESH_VERTICES = 200_000
+MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
+#: Most bytes of MuJoCo's arena (<size memory>) and most entries of the other <size> fields
+#: (nuserdata, nkey, nuser_*, njmax, nconmax, nstack), and values of one <numeric>.
+MAX_ARENA_BYTES = 256 * 1024 * 1024
+MAX_SIZE_ENTRIES = 100_000
+#: Most solver iterations per step (<option iterations, ls_iterations, noslip_iterations,
+#: ccd_iterations, sdf_iterations>): MuJoCo's defaults are 100, 50, 0, 35, 10.
+MAX_SOLVER_ITERATIONS = 1000
+#: Largest offscreen buffer and shadow map side (<visual><global offwidth/offheight>,
+#: <quality shadowsize>), and most samples and slices (<quality offsamples, numslices, ...>).
+MAX_VISUAL_SIZE = 4096
+MAX_VISUAL_DETAIL = 64
+
+# Client-side bounds live with the client (it imports nothing of the server):
+# ``simx_client.protocol.IDENTITY_DEPTH`` (container levels of an identifying argument kept as
+# nested tuples; deeper levels are flattened without recursion) and the int32 range of
+# ``simx_client.api`` (an integer beyond it is a local error, 32, and nothing is sent).
+
+#: Largest reply a request (or a stream update) may produce in bytes, images and buffers
+#: included: one image of the largest resolution (MAX_RESOLUTION², depth as float32: 64 MiB)
+#: fits. Commands past the budget get an error result naming this bound.
+MAX_REPLY_BYTES = 80 * 1024 * 1024
+
+# ================================================================ requests and clients
+# (the server core: intake, fairness, reply size, client expiry, log repetition; server.py,
+# sessions.py, logs.py). docs/SECURITY.md, "Requests and clients", explains each one.
+
+# The request bounds (MAX_COMMANDS_PER_REQUEST, MAX_REQUEST_BYTES, MAX_REPLY_BYTES) are in
+# "requests" above; this section adds the bounds on queues, clients and the log.
+
+#: Requests of one client waiting for the simulation thread; a request beyond is answered at
+#: once with an error result per command (remote error 8 at the facade), never queued. Room for
+#: a real program's burst of oneshot calls on a loaded machine (256 was met by a burst of 300
+#: setters); the per-client and total byte bounds below still bound the memory.
+MAX_QUEUED_REQUESTS = 1024
+#: Bytes (request payloads) one client may have waiting; a single largest request still fits.
+MAX_QUEUED_BYTES = MAX_REQUEST_BYTES + 1024 * 1024
+#: Bytes (request payloads) all clients together may have waiting.
+MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
+#: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
+#: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
+MAX_CLIENTS = 1024
+#: Replies (and stream updates) of one client waiting for the render thread. A client at the
+#: bound is not served until one is sent; its image streams skip steps meanwhile.
+MAX_RENDERS_PER_CLIENT = 4
+#: Streamed commands of one client (each is executed again after every step).
+MAX_STREAMS_PER_CLIENT = 256
+#: Characters of an error message kept (reply, simxGetLastErrors); longer ones are cut.
+MAX_ERROR_CHARS = 1000
+#: Auxiliary consoles open at once (simxAuxiliaryConsoleOpen; shared by every client).
+MAX_CONSOLES = 64
+#: Lines of one simxAuxiliaryConsolePrint written to the log (the rest are counted).
+MAX_CONSOLE_LINES = 100
+#: Error messages kept per client for simxGetLastErrors (the oldest are dropped).
+MAX_ERRORS_KEPT = 50
+
+#: s a client without a liveliness token may stay silent before its state (streams, errors,
+#: queue, synchronous ownership) is dropped (``--client-expiry``). A client holding its token
+#: is never expired.
+CLIENT_EXPIRY = 30.0
+
+#: Identical log lines (same logger, level and text) let through per interval...
+LOG_REPEAT_BURST = 5
+#: ...and lines of one kind (same logger, level and message template, whatever the client's
+#: values in it), so that varying the input does not get past the limit...
+LOG_TEMPLATE_BURST = 100
+#: ...per interval in s, at the end of which one summary line gives the count of those held
+#: back and the last of them (``--log-interval``).
+LOG_REPEAT_INTERVAL = 10.0
+#: Windows (texts and templates) tracked at once (the least recently seen are forgotten).
+LOG_REPEAT_KEYS = 1024
+
+
+# ------------------------------------------------- names shared across MJCF kinds (issue 12)
+#: Renamed elements (``NAME#N``, see simx_server.sim.naming) listed by name in the one WARNING line a
+#: scene load writes about them; the rest are counted (each is named at DEBUG level). A few are
+#: enough to show the rule: dm_control's quadruped renames 13.
+MAX_RENAMES_LOGGED = 3
+
+# ----------------------------------------------------------------- child scripts' scene edits
+# (issue 12, part 7: the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/scripts/facade_objects.py)
+#: Longest object name a child script may give with ``sim.setObjectName``/``sim.setObjectAlias``
+#: (V-REP's names are short; each name is kept in the scene's MjSpec and in every reply that
+#: lists names). Scene growth from ``sim.createDummy`` is bounded by MAX_SCENE_ELEMENTS.
+MAX_SCRIPT_OBJECT_NAME = 128
+#: Largest force (N) and torque (N·m) component that scripts may add to a body for one step
+#: (``sim.addForce``/``sim.addForceAndTorque``, summed over the step), as MAX_JOINT_FORCE bounds
+#: a joint's: far beyond any robot, small enough for MuJoCo's arithmetic.
+MAX_SCRIPT_FORCE = 1e8
+
+# ------------------------------------------------- joint motors (issue 12, part 1: motors.py)
+#: Largest proportional gain of a joint's position loop (``sim_jointfloatparam_pid_p``, 2002, in
+#: V-REP's units: the loop asks P x error per 5 ms). 1 asks the whole error in one V-REP
+#: dynamics step; simx's loop gain is P / 5 ms, capped at 1/dt in any case.
+MAX_PID_P = 1.0
+
+# ----------------------------------------------------------------- vision sensors (issue 12, parts 4-5)
+#: s the simulation thread waits for the render thread to make a scene's renderers (GL
+#: contexts and one warm-up frame per sensor) when the server starts and when a scene loads or
+#: changes while the simulation is stopped; past it the simulation goes on and the first images
+#: come later. A software renderer needs about 0.2-0.5 s for the bundled scene.
+VISION_READY_TIMEOUT = 10.0
+
+# ---------------------------------------------------------------------------------------------
+# Inverse kinematics and imported shapes (issue 12, part 2: simx_server/sim/ik.py, simx_server/scripts/shapes.py)
+# ---------------------------------------------------------------------------------------------
+
+#: Most solver iterations an IK group may declare (``simx:ik:NAME ... iterations=N``): each is
+#: one mj_kinematics + mj_jacSite on the chain, solved every simulation step.
+MAX_IK_ITERATIONS = 100
+#: Largest mesh file ``sim.importShape`` reads (bytes): a scene script imports what a client
+#: names, and MuJoCo reads the whole file.
+MAX_IMPORT_BYTES = 16 * 1024 * 1024
+#: Viewer model queries (``<prefix>/viewer/model``, simx-viewer) waiting for the simulation
+#: thread, all viewers together; more are answered "server busy" at once. Each answer is the
+#: whole compiled model (cached until the model changes), so a flood must not pile them up.
+MAX_VIEWER_QUERIES = 16

@@ -1,0 +1,118 @@
+"""Collision and distance commands: ``simxCheckCollision``, ``simxCheckDistance``, and the
+collision / distance objects a scene declares (``simxGetCollisionHandle``, ``simxReadCollision``,
+...). Every handler is ``(simulation, args) -> result``; the geometry is :mod:`simx_server.sim.collisions`."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from simx_client import constants as C
+from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_server.base.arguments import check_args as _args
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.collisions import PROBE_PREFIX, collision, distance, probes
+
+
+def _entity_args(sim: Simulation, args: list) -> tuple[int, int]:
+    e1, e2 = _args(args, "int", "int")
+    if e1 == C.sim_handle_all:
+        raise ArgumentError("entity1 must be a shape handle; only entity2 may be sim_handle_all (-2)")
+    return e1, e2
+
+
+def check_collision(sim: Simulation, args: list) -> bool:
+    """``simxCheckCollision`` [entity1, entity2] -> bool.
+
+    Entities are shapes (bodies: all their collidable geoms, i.e. contype or conaffinity not 0);
+    entity2 = sim_handle_all (-2) means every other collidable geom except those of the parent
+    and child bodies (MuJoCo's parent-child filter). True when two geoms are at most
+    COLLISION_TOLERANCE apart (touching or penetrating), by ``mj_geomDistance`` on the current
+    poses: unlike ``data.contact`` this sees pairs that MuJoCo's contype/conaffinity, weld and
+    exclude filters skip, such as two static bodies.
+    """
+    return collision(sim, *_entity_args(sim, args))
+
+
+def check_distance(sim: Simulation, args: list) -> float:
+    """``simxCheckDistance`` [entity1, entity2] -> float: the smallest distance (m) between the
+    collidable geoms of two shapes (entity2 may be -2, as in simxCheckCollision), by
+    ``mj_geomDistance``; 0 when they touch or overlap (V-REP reports no penetration depth), at
+    most DISTANCE_MAX."""
+    return distance(sim, *_entity_args(sim, args))
+
+
+def _probe_handle(sim: Simulation, args: list, kind: str) -> int:
+    (name,) = _args(args, "str")
+    probe = probes(sim, kind).get(name[:-1] if name.endswith("#") else name)
+    if probe is None:
+        raise UnknownObjectError(f"no {kind} object {name!r} in scene {sim.world.scene_path.name}; declare "
+                                 f"it as <text name=\"{PROBE_PREFIX[kind]}{name}\" "
+                                 f"data=\"entity1=BODY entity2=BODY|all\"/> in <custom>")
+    return probe.handle
+
+
+def _probe_entities(sim: Simulation, args: list, kind: str) -> tuple[int, int]:
+    (h,) = _args(args, "int")
+    probe = next((p for p in probes(sim, kind).values() if p.handle == h), None)
+    if probe is None:
+        raise UnknownObjectError(f"no {kind} object with handle {h}")
+    if probe.error:
+        raise ArgumentError(probe.error)
+    world = sim.world
+    try:
+        e1 = world.resolve(probe.entity1).handle
+        e2 = C.sim_handle_all if probe.entity2 is None else world.resolve(probe.entity2).handle
+    except UnknownObjectError as exc:
+        raise UnknownObjectError(f"{kind} object {probe.name!r}: {exc}") from None
+    return e1, e2
+
+
+def get_collision_handle(sim: Simulation, args: list) -> int:
+    """``simxGetCollisionHandle`` [name] -> handle of a collision object declared with
+    ``<text name="simx.collision:NAME" data="entity1=BODY entity2=BODY|all"/>`` (own handle
+    namespace from 1; a trailing ``#`` is ignored). Unknown name -> UnknownObjectError."""
+    return _probe_handle(sim, args, "collision")
+
+
+def read_collision(sim: Simulation, args: list) -> bool:
+    """``simxReadCollision`` [h] -> bool: the collision object's state now (see
+    simxCheckCollision; computed on demand from the current poses)."""
+    return collision(sim, *_probe_entities(sim, args, "collision"))
+
+
+def get_distance_handle(sim: Simulation, args: list) -> int:
+    """``simxGetDistanceHandle`` [name] -> handle of a distance object declared with
+    ``<text name="simx.distance:NAME" data="entity1=BODY entity2=BODY|all"/>``."""
+    return _probe_handle(sim, args, "distance")
+
+
+def read_distance(sim: Simulation, args: list) -> float:
+    """``simxReadDistance`` [h] -> float: the distance object's smallest distance now (m; see
+    simxCheckDistance)."""
+    return distance(sim, *_probe_entities(sim, args, "distance"))
+
+
+#: Command name -> handler, merged into simx_server.commands.objects.HANDLERS.
+COLLISION_HANDLERS: dict[str, Callable[[Simulation, list], Any]] = {
+    "GetCollisionHandle": get_collision_handle,
+    "ReadCollision": read_collision,
+    "GetDistanceHandle": get_distance_handle,
+    "ReadDistance": read_distance,
+    "CheckCollision": check_collision,
+    "CheckDistance": check_distance,
+}
+
+
+#: Command name -> number of leading arguments that identify it (for protocol.COMMANDS).
+COLLISION_IDENTITY_ARITY: dict[str, int] = {
+    "GetCollisionHandle": 1,
+    "ReadCollision": 1,
+    "GetDistanceHandle": 1,
+    "ReadDistance": 1,
+    "CheckCollision": 2,
+    "CheckDistance": 2,
+}
+
+
+
+

@@ -1,0 +1,18 @@
+"""Script commands: ``simxCallScriptFunction`` into the scene's child scripts
+(:mod:`simx_server.scripts`). Every handler is ``(simulation, args) -> result``."""
+
+from __future__ import annotations
+
+from simx_server.base.arguments import check_args as _args
+from simx_server.commands.simulation import Handler
+from simx_server.scene.simulation import Simulation
+
+
+def call_script_function(sim: Simulation, args: list) -> list:
+    obj, stype, fn, ints, floats, strings, buf = _args(args, "str", "int", "str", "any", "any", "any", "any")
+    return sim.scripts.call(obj, stype, fn, ints, floats, strings, buf)
+
+
+
+#: Command name -> handler: calls into child scripts.
+SCRIPT_HANDLERS: dict[str, Handler] = {"CallScriptFunction": call_script_function}

@@ -1,0 +1,155 @@
+"""Sensor commands: vision sensor images and depth buffers, force, proximity and vision sensor
+reads (``simxGetVisionSensorImage``, ``simxReadForceSensor``, ...). Every handler is
+``(simulation, args) -> result``; readings come from :mod:`simx_server.sim.sensors`, images from
+:mod:`simx_server.sim.vision` (deferred to the render thread)."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+from simx_client.protocol import ArgumentError, ObjectTypeError
+from simx_server.base.arguments import check_args as _args
+from simx_server.commands.simulation import Handler
+from simx_server.scene.simulation import Simulation
+from simx_server.sim import sensors
+from simx_server.sim.sensors import force_sensor_reading, proximity_reading, stamp, vision_packet
+from simx_server.sim.vision import Deferred
+from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR
+
+
+def read_force_sensor(sim: Simulation, args: list) -> list:
+    """``simxReadForceSensor`` [h] -> [state, [fx, fy, fz], [tx, ty, tz]].
+
+    Force (N) and torque (N·m) that the site's body exchanges with its parent body, in the
+    site frame, as MuJoCo's ``force``/``torque`` sensors report them (a torque sensor on the
+    same site is used when there is one; otherwise the torque is computed the same way from
+    ``cfrc_int``). ``state`` bit 0: data available (always, MuJoCo computes them at every
+    step); bit 1: broken by simxBreakForceSensor, then both vectors are zero.
+    """
+    (h,) = _args(args, "int")
+    state, force, torque = force_sensor_reading(sim, h)
+    return [state, force, torque]
+
+
+def break_force_sensor(sim: Simulation, args: list) -> None:
+    """``simxBreakForceSensor`` [h] -> None.
+
+    Marks the sensor broken: from now on simxReadForceSensor reports state bit 1 and zero
+    vectors. Nothing else changes: in V-REP the two parts it joins come apart, but a MuJoCo
+    kinematic tree cannot be cut at run time, so the bodies stay attached. A simulation stop
+    (scene reset) repairs it.
+    """
+    (h,) = _args(args, "int")
+    sim.world.get(h, FORCE_SENSOR)
+    sim.sensors.broken[h] = stamp(sim)
+
+
+def read_vision_sensor(sim: Simulation, args: list) -> list:
+    """``simxReadVisionSensor`` [h] -> [detectionState, [[15 floats]]].
+
+    One auxiliary packet, V-REP's default one (see :func:`vision_packet`), computed from the
+    sensor's current image. simx has no vision filters nor trigger conditions, so
+    detectionState is always False and there are no further packets.
+    """
+    (h,) = _args(args, "int")
+    sim.world.get(h, VISION_SENSOR)
+    return [False, [vision_packet(sim, h)]]
+
+
+def _image_bytes(value: Any, what: str) -> bytes:
+    if isinstance(value, (bytes, bytearray, memoryview)):
+        return bytes(value)
+    if isinstance(value, (list, tuple)):
+        arr = np.asarray(value) if value else np.zeros(0, dtype=np.int64)
+        if arr.ndim != 1 or arr.dtype.kind not in "iu" or (arr.size and (arr.min() < -128 or arr.max() > 255)):
+            raise ArgumentError(f"{what} as a list must hold ints in -128..255 (signed or unsigned bytes)")
+        return (arr.astype(np.int64) & 0xFF).astype(np.uint8).tobytes()
+    raise ArgumentError(f"{what} must be bytes or a list of byte values, got {type(value).__name__}")
+
+
+def set_vision_sensor_image(sim: Simulation, args: list) -> None:
+    """``simxSetVisionSensorImage`` [h, image, options] -> None.
+
+    Writes the image of a passive sensor (``image=external`` in its ``simx:NAME`` custom text;
+    other sensors -> ObjectTypeError). ``image``: bytes (or a list of byte values), rows
+    bottom-up, resX*resY*3 RGB bytes, or resX*resY grey bytes when ``options`` bit 0 is set;
+    any other length -> ArgumentError. simxGetVisionSensorImage returns it from then on.
+    """
+    h, image, options = _args(args, "int", "any", "int")
+    obj = sim.world.get(h, VISION_SENSOR)
+    if obj.settings.get("image") != "external":
+        raise ObjectTypeError(f"vision sensor {obj.name!r} is not passive: only sensors declared with "
+                              f"<text name=\"simx:{obj.name}\" data=\"image=external\"/> accept images")
+    spec = sim.vision.spec(h)
+    grey = bool(options & 1)
+    data = _image_bytes(image, "image")
+    need = spec.width * spec.height * (1 if grey else 3)
+    if len(data) != need:
+        raise ArgumentError(f"image has {len(data)} bytes; vision sensor {obj.name!r} is "
+                            f"{spec.width}x{spec.height}, so it needs {need} "
+                            f"({'grey, options bit 0 set' if grey else 'RGB, options bit 0 clear'})")
+    img = np.frombuffer(data, dtype=np.uint8)
+    if grey:
+        rgb = np.repeat(img.reshape(spec.height, spec.width, 1), 3, axis=2)
+    else:
+        rgb = img.reshape(spec.height, spec.width, 3).copy()
+    sim.sensors.passive.set(h, rgb)
+    sim.world.version += 1
+
+
+def read_proximity_sensor(sim: Simulation, args: list) -> list:
+    """``simxReadProximitySensor`` [h] -> [detected, [x, y, z], objectHandle, [nx, ny, nz]].
+
+    One ray (``mj_ray``) from the site along its +z axis (MuJoCo's rangefinder), ignoring the
+    site's own body, up to the rangefinder's ``cutoff`` (unlimited when 0). Point (m) and
+    surface normal (unit, pointing out of the surface hit) are in the sensor (site) frame; the
+    point is therefore (0, 0, distance). objectHandle: the shape (named body) hit, -1 for an
+    unnamed body or the world. Nothing hit: [False, [0,0,0], -1, [0,0,0]].
+    """
+    (h,) = _args(args, "int")
+    detected, point, hit, normal = proximity_reading(sim, h)
+    return [detected, point, hit, normal]
+
+
+#: Command name -> handler, merged into simx_server.commands.objects.HANDLERS.
+SENSOR_HANDLERS: dict[str, Callable[[Simulation, list], Any]] = {
+    "ReadForceSensor": read_force_sensor,
+    "BreakForceSensor": break_force_sensor,
+    "ReadVisionSensor": read_vision_sensor,
+    "SetVisionSensorImage": set_vision_sensor_image,
+    "ReadProximitySensor": read_proximity_sensor,
+}
+
+
+#: Command name -> number of leading arguments that identify it (for protocol.COMMANDS).
+SENSOR_IDENTITY_ARITY: dict[str, int] = {
+    "ReadForceSensor": 1,
+    "BreakForceSensor": 1,
+    "ReadVisionSensor": 1,
+    "SetVisionSensorImage": 1,
+    "ReadProximitySensor": 1,
+}
+
+
+def get_vision_sensor_image(sim: Simulation, args: list) -> list | Deferred:
+    h, options = _args(args, "int", "int")
+    passive = sensors.override_image(sim, h, bool(options & 1))  # what simxSetVisionSensorImage wrote
+    if passive is not None:
+        spec = sim.vision.spec(h)
+        return [[spec.width, spec.height], np.ascontiguousarray(passive).tobytes()]
+    return sim.vision.image_deferred(h, options)
+
+
+def get_vision_sensor_depth_buffer(sim: Simulation, args: list) -> Deferred:
+    (h,) = _args(args, "int")
+    return sim.vision.depth_deferred(h)
+
+
+
+#: Command name -> handler: vision sensor images and depth buffers (rendered on the render thread).
+IMAGE_HANDLERS: dict[str, Handler] = {
+    "GetVisionSensorImage": get_vision_sensor_image,
+    "GetVisionSensorDepthBuffer": get_vision_sensor_depth_buffer,
+}

@@ -1,0 +1,326 @@
+"""Scene editing: V-REP's model and scene commands on a live ``MjSpec`` of the scene.
+
+The :class:`Editor` keeps one ``mujoco.MjSpec`` of the loaded scene (parsed from the scene
+file when the editor or the scene is created; mesh, height-field, skin and texture files are
+read into memory then, so that later compiles need no file). Each edit works on a copy of that
+spec, compiles it to a new ``MjModel`` and hands it to :meth:`World.replace_model`, which keeps
+every object that is still there (matched by name): its handle, joint positions and
+velocities, free bodies' poses, motors' mode/targets/maximum force and the simulation time.
+Objects that commands placed while the simulation runs (``World.set_pose``) stay where they
+are until it stops. A failed edit changes nothing. Vision sensors are rebuilt after each edit
+(their renderers belong to the old model).
+
+Rules, in V-REP's terms (docs/API.md lists them per command):
+
+* Names. MuJoCo names are unique per element type, V-REP names across all objects. Elements
+  that arrive (a loaded model, a copy) keep their names when none of them is taken in the
+  scene; otherwise every name they bring gets one V-REP suffix ``#n``, the smallest ``n >= 0``
+  that makes all of them new (``Box`` -> ``Box#0`` -> ``Box#1``; a copy of ``Box#0`` is
+  ``Box#0#0``). A loaded model's assets (materials, textures, meshes, ...) whose names alone
+  collide are renamed (``grey#0``) without renaming the model's objects.
+* A shape is a MuJoCo body, and a body carries its child bodies: removing, copying or
+  re-parenting a shape acts on its whole body subtree (with the joints, geoms, sites, cameras
+  and lights inside, and the actuators, sensors, constraints and ``simx:`` settings that
+  refer to them).
+* Child scripts are not copied with objects, nor run for loaded models (their object
+  lookups would address the original objects); a removed object's script is cleaned up.
+* Files sent with ``simxTransferFile`` go to a transfer folder private to this server
+  process (``scene_guard.make_transfer_folder``: 0700, removed by :meth:`Editor.close` or at
+  exit, never named in replies); names that leave it are refused, and its size is bounded.
+* Trust: a scene or model loaded from the transfer folder (options bit 0) is a client's: its
+  files must lie in the transfer folder, its size is bounded before MuJoCo parses it, its child
+  scripts run only with ``--allow-remote-code``. Server-side paths (options 0) are loaded only
+  from the operator's scene folder and ``--scene-path`` folders, never from a transfer folder
+  of any server. Edits may not grow the scene past ``MAX_SCENE_BODIES``/``MAX_SCENE_ELEMENTS``.
+
+The MjSpec tools (pose maths, names, references, cloning) are in :mod:`simx_server.sim.spec_tools`,
+the command handlers (``EDITING_HANDLERS``) in :mod:`simx_server.commands.editing`.
+
+Runs on the simulation thread, like every handler.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any, Callable
+
+import mujoco
+import numpy as np
+
+from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_server.base import limits
+from simx_server.base import scene_guard as guard
+from simx_server.base.arguments import quote
+from simx_server.scene.client_files import ClientFiles
+from simx_server.scene.edits import ObjectEdits
+from simx_server.scripts.scene_scripts import Scripts
+from simx_server.sim import motors
+from simx_server.sim.spec_tools import (
+    _FRAMES,
+    _KIND,
+    _MJ_OBJ,
+    _embed_assets,
+    _names,
+    _one_line,
+    _poses,
+    _quiet_mujoco,
+)
+from simx_server.sim.state import RunState, SimulationView
+from simx_server.sim.urdf import load_spec
+from simx_server.sim.vision import VisionSensors
+from simx_server.sim.world import WORLD, World
+
+log = logging.getLogger("simx.editing")
+
+_EMPTY_SCENE = '<mujoco model="empty">\n  <worldbody/>\n</mujoco>\n'
+
+
+def refresh_vision(sim: SimulationView) -> None:
+    """New vision sensors for the changed model; they take over the render thread, whose
+    renderers are rebuilt for the new model at once, on that thread. While the simulation is
+    stopped (a scene load) this waits for them: the first image after the start is at once."""
+
+    sim.vision = VisionSensors(sim.world, previous=sim.vision)
+    if sim.state is RunState.STOPPED:
+        sim.vision.wait_ready(limits.VISION_READY_TIMEOUT)
+
+
+# --------------------------------------------------------------------------- editor
+class Editor(ObjectEdits):
+    """Scene editing for one :class:`SimulationView` (``sim.editor = Editor(sim)``).
+
+    Owns the transfer folder through :class:`ClientFiles` (``<tmp>/simx-<pid>-<start>-*``,
+    0700); :meth:`close` removes it, and so does the interpreter's exit. ``scene_paths`` are the
+    ``--scene-path`` folders: with the folder of the scene the server started with, the only
+    places server-side paths (options 0) are loaded from.
+    """
+
+    def __init__(self, sim: SimulationView, scene_paths=()):
+        self.sim = sim
+        self.files = ClientFiles(sim.world.scene_path, scene_paths)  # the transfer folder, trusted folders
+        self._spec: mujoco.MjSpec | None = None
+        self._spec_world: World | None = None  # the world (scene) the spec describes
+        self._baseline: dict[str, np.ndarray] | None = None  # poses as last compiled
+        self._placed: set[tuple[str, str]] = set()
+        self._asset_counter = [0]  # numbers in-memory asset names
+        self._parse_now()
+
+    def _parse_now(self) -> None:
+        """Parse the scene file at once, while it matches the loaded world."""
+        try:
+            self._live_spec()
+        except UnsupportedError as exc:
+            log.warning("%s", exc)
+
+    def close(self) -> None:
+        """Remove the transfer folder; idempotent."""
+        self.files.close()
+
+    # ------------------------------------------------------------------ files
+    @property
+    def files_dir(self) -> Path:
+        """The transfer folder (private to this server process)."""
+        return self.files.files_dir
+
+    def transfer_file(self, name: str, data: Any) -> None:
+        """``simxTransferFile`` (see :meth:`ClientFiles.transfer_file`)."""
+        self.files.transfer_file(name, data)
+
+    def erase_file(self, name: str) -> None:
+        """``simxEraseFile``: delete a transferred file."""
+        self.files.erase_file(name)
+
+    def resolve(self, path: Any, options: int) -> Path:
+        """The file a LoadScene/LoadModel names (see :meth:`ClientFiles.resolve`)."""
+        return self.files.resolve(path, options, self.sim.world.scene_path)
+
+    def public(self, path: Path) -> str:
+        """``path`` as a client may see it (never the transfer folder's path)."""
+        return self.files.public(path)
+
+    def _scrub(self, text: str) -> str:
+        return self.files.scrub(text)
+
+    def _client_spec(self, file: Path, what: str, dt: float | None) -> mujoco.MjSpec:
+        """Parse a client-sent MJCF file, measured before and after parsing (scene_guard)."""
+        guard.check_client_file(file, self.files_dir, what)
+        try:
+            with _quiet_mujoco():
+                spec = load_spec(file, root=self.files_dir)  # a URDF's meshes: confined before looked up
+        except ValueError as exc:
+            raise RemoteError(f"cannot load {what}: {self._scrub(_one_line(exc))}") from None
+        guard.check_spec(spec, what, root=self.files_dir, dt=dt)
+        return spec
+
+    # ------------------------------------------------------------------- spec
+    def _live_spec(self) -> mujoco.MjSpec:
+        world = self.sim.world
+        if self._spec is None or self._spec_world is not world:
+            try:
+                with _quiet_mujoco():
+                    spec = load_spec(world.scene_path)
+                    spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
+                    baseline = _poses(spec.compile())
+            except ValueError as exc:
+                raise UnsupportedError(f"scene {world.scene_path.name} cannot be edited: "
+                                       f"{_one_line(exc)}") from None
+            self._spec, self._spec_world, self._baseline = spec, world, baseline
+        return self._spec
+
+    def _runtime_placements(self) -> list[tuple]:
+        """Objects that commands placed in the live model (``World.set_pose`` changes
+        ``body_pos``, ``site_pos``... until the simulation stops): ``(kind, name, parent, pos, rot)``."""
+        m, base = self.sim.world.model, self._baseline
+        if base is None or any(getattr(m, f).shape != base[f].shape for f in base):
+            return []
+        out = []
+        for kind, (fpos, frot, fparent) in _FRAMES.items():
+            pos, rot = getattr(m, fpos), getattr(m, frot)
+            for i in np.flatnonzero(np.any(pos != base[fpos], axis=1) | np.any(rot != base[frot], axis=1)):
+                name = mujoco.mj_id2name(m, _MJ_OBJ[kind], int(i))
+                parent = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(getattr(m, fparent)[i]))
+                if name:
+                    out.append((kind, name, parent, pos[i].copy(), rot[i].copy()))
+        return out
+
+    def _mocap_poses(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        m, d = self.sim.world.model, self.sim.world.data
+        out = {}
+        for b in np.flatnonzero(m.body_mocapid >= 0):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b))
+            if name:
+                k = m.body_mocapid[b]
+                out[name] = (d.mocap_pos[k].copy(), d.mocap_quat[k].copy())
+        return out
+
+    def _restore_placements(self, placements: list[tuple], mocap: dict, placed: set) -> None:
+        """Put runtime placements back on the new model (same name, same parent body), except
+        for the objects the edit placed itself. The new model's initial poses stay as compiled,
+        so stopping the simulation still puts those objects back."""
+        w = self.sim.world
+        m, d = w.model, w.data
+        for kind, name, parent, pos, rot in placements:
+            if (kind, name) in placed:
+                continue
+            fpos, frot, fparent = _FRAMES[kind]
+            i = mujoco.mj_name2id(m, _MJ_OBJ[kind], name)
+            if i >= 0 and mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(getattr(m, fparent)[i])) == parent:
+                getattr(m, fpos)[i], getattr(m, frot)[i] = pos, rot
+        for name, (pos, quat) in mocap.items():
+            b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+            if b >= 0 and m.body_mocapid[b] >= 0:
+                d.mocap_pos[m.body_mocapid[b]], d.mocap_quat[m.body_mocapid[b]] = pos, quat
+        if placements or mocap:
+            mujoco.mj_forward(m, d)
+
+    def _edit(self, change: Callable[[mujoco.MjSpec], Any]) -> Any:
+        """Apply ``change`` to a copy of the spec, compile, swap the model in; all or nothing.
+
+        ``change`` returns an optional callable run after the swap (on the new world).
+        """
+        world = self.sim.world
+        with _quiet_mujoco():
+            live = self._live_spec()
+            before = guard.element_counts(live)
+            spec = live.copy()
+            spec.copy_during_attach = True
+            self._placed: set[tuple[str, str]] = set()  # (kind, name) the change placed itself
+            try:
+                after = change(spec)
+            except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
+                raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
+            guard.check_growth(before, spec)
+            try:
+                model = motors.compile_spec(spec)  # joints without an actuator get a motor
+            except ValueError as exc:
+                raise UnsupportedError("MuJoCo cannot compile the edited scene: "
+                                       f"{self._scrub(_one_line(exc))}") from None
+        placements, mocap = self._runtime_placements(), self._mocap_poses()
+        baseline = _poses(model)
+        world.replace_model(model)
+        self._spec, self._baseline = spec, baseline
+        self._restore_placements(placements, mocap, self._placed)
+        refresh_vision(self.sim)
+        self._drop_orphan_scripts()
+        self.sim.selection = [h for h in self.sim.selection if h in world.objects]  # removed ones leave it
+        return after() if callable(after) else after
+
+    def _drop_orphan_scripts(self) -> None:
+        scripts, world = self.sim.scripts, self.sim.world
+        for handle in [h for h in scripts.scripts if h not in world.objects]:
+            script = scripts.scripts.pop(handle)
+            try:
+                script.stop()  # sysCall_cleanup if it runs, then its state goes
+            except ScriptError as exc:
+                log.error("%s", exc)
+            log.info("child script of removed object %r dropped", script.object_name)
+
+    def _taken(self, spec: mujoco.MjSpec) -> set[str]:
+        """Names a new element may not have: the spec's and the V-REP names, which differ for
+        elements that share a name with one of another kind (see simx_server.sim.naming)."""
+        return _names(spec) | set(self.sim.world.by_name)
+
+    def _spec_element(self, spec: mujoco.MjSpec, handle: int):
+        """``(kind, element, SceneObject)`` of a handle; the world is refused."""
+        if handle == WORLD:
+            raise ArgumentError("the world (-1) cannot be edited")
+        obj = self.sim.world.get(handle)
+        kind = _KIND.get(obj.type)
+        if kind is None:
+            raise UnsupportedError(f"{obj.name!r} is not a MuJoCo element that can be edited")
+        el = getattr(spec, kind)(obj.name)
+        if el is None:  # an object the spec does not name (cannot happen for a spec-built world)
+            raise UnsupportedError(f"object {obj.name!r} is not in the scene's MjSpec")
+        return kind, el, obj
+
+    def load_scene(self, path: str, options: int) -> None:
+        """``simxLoadScene``: replace the scene (simulation stopped only); handles restart."""
+
+        if self.sim.state is not RunState.STOPPED:
+            raise RemoteError("stop the simulation first")
+        file = self.resolve(path, options)
+        spec = None
+        if options & 1:  # a client's scene: measured before MuJoCo parses and compiles it
+            spec = self._client_spec(file, f"scene {quote(path)}", self.sim.world.requested_dt)
+        self._install_scene(file, quote(path), spec)
+
+    def close_scene(self) -> None:
+        """``simxCloseScene``: stop the simulation and replace the scene with an empty one."""
+        self.sim.stop()
+        empty = self.files_dir / ".simx" / "empty.xml"
+        empty.parent.mkdir(exist_ok=True)
+        empty.write_text(_EMPTY_SCENE)
+        self._install_scene(empty, "empty")
+
+    def _install_scene(self, file: Path, label: str, spec: mujoco.MjSpec | None = None) -> None:
+        """Load ``file`` as the scene; ``spec`` is its parse when the caller has it already
+        (a client's scene, measured): MuJoCo's parse is most of a load's time."""
+        sim = self.sim
+        dt = sim.world.requested_dt
+        old = sim.scripts
+        # A scene in a transfer folder (any server's) brings no code, unless --allow-remote-code.
+        untrusted = guard.transfer_folders(self.files_dir, *([file.parent] if guard.is_transferred(file) else []))
+        try:
+            world = World(file, dt)
+            scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
+                              allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted, simulation=sim)
+        except (ValueError, RemoteError) as exc:
+            text = self._scrub(_one_line(exc))
+            text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix
+            raise RemoteError(f"cannot load scene {label}: {text}") from None
+        sim.world, sim.scripts = world, scripts
+        refresh_vision(sim)
+        sim.sensors = type(sim.sensors)()  # per-scene sensor state (probes, passive images) starts afresh
+        self._spec = self._spec_world = self._baseline = None
+        if spec is not None:
+            try:
+                with _quiet_mujoco():
+                    spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
+                    self._spec, self._spec_world, self._baseline = spec, world, _poses(spec.compile())
+            except ValueError as exc:
+                log.warning("scene %s cannot be edited: %s", label, _one_line(exc))
+        else:
+            self._parse_now()
+        sim.selection = []
+        log.info("scene %s loaded: %d objects", label, len(world.objects))

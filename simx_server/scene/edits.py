@@ -1,0 +1,313 @@
+"""Object edits of the scene editor, in V-REP's terms: load a model (``simxLoadModel``), remove
+objects and models, create dummies, copy and paste, change parents (``simxSetObjectParent``).
+A mixin of :class:`simx_server.scene.editor.Editor`, whose ``_edit`` compiles each change on a
+copy of the scene's ``MjSpec`` (a failed edit changes nothing); the naming, tree and trust rules
+are in that module's docstring.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import mujoco
+
+from simx_client.protocol import ArgumentError, RemoteError, UnsupportedError
+from simx_server.base.arguments import quote
+from simx_server.sim.spec_tools import (
+    _KIND,
+    _MARK,
+    _OTHER_LISTS,
+    _QUAT,
+    _REFERRING_LISTS,
+    _TREE_LISTS,
+    _body_world,
+    _clone,
+    _compose,
+    _copy_settings,
+    _delete_references,
+    _delete_settings,
+    _elements,
+    _embed_assets,
+    _free_name,
+    _inverse,
+    _names,
+    _object_names,
+    _one_line,
+    _quiet_mujoco,
+    _rename_assets,
+    _rotate,
+    _set_local_pose,
+    _strip_mark,
+    _subtree_names,
+    _subtree_objects,
+    vrep_suffix,
+)
+from simx_server.sim.urdf import load_spec
+from simx_server.sim.world import JOINT, SHAPE, WORLD
+
+log = logging.getLogger("simx.editing")
+
+
+class ObjectEdits:
+    """The object commands of the :class:`~simx_server.scene.editor.Editor` (which provides ``sim``, ``_edit``, ``_taken``, ``_spec_element``, ``resolve``, ``_client_spec``)."""
+
+    # --------------------------------------------------------------- commands
+    def load_model(self, path: str, options: int) -> int:
+        """``simxLoadModel``: attach an MJCF model's world children; returns its base handle."""
+        file = self.resolve(path, options)
+        if options & 1:  # a client's model: measured, its files confined to the transfer folder
+            child = self._client_spec(file, f"model {quote(path)}", None)
+        else:
+            try:
+                with _quiet_mujoco():
+                    child = load_spec(file)
+            except ValueError as exc:
+                raise RemoteError(f"cannot load model {quote(path)}: {_one_line(exc)}") from None
+        child_assets = _embed_assets(child, self._asset_counter)
+        child.assets = {**(child.assets or {}), **child_assets}
+        base = child.worldbody.first_body()
+        if base is not None and not base.name:
+            base.name = child.modelname or file.stem
+        for t in list(child.texts):  # child scripts of loaded models are not run
+            if t.name.startswith("simx:") and "child_script=" in t.data:
+                log.warning("model %s: child script of %r ignored", file.name, t.name[5:])
+                rest = " ".join(i for i in t.data.split() if not i.startswith("child_script="))
+                if rest:
+                    t.data = rest
+                else:
+                    child.delete(t)
+
+        def change(spec: mujoco.MjSpec):
+            taken = self._taken(spec)
+            suffix = vrep_suffix(_names(child), taken, trigger=_names(child, _TREE_LISTS + _OTHER_LISTS))
+            if not suffix:
+                _rename_assets(child, taken)
+            spec.attach(child, frame=spec.worldbody.add_frame(), prefix="", suffix=suffix)
+            spec.assets = {**(spec.assets or {}), **child_assets}
+            if base is not None:
+                return lambda: self.sim.world.resolve(base.name + suffix).handle
+            first = next((e.name + suffix for e in _elements(child, ("sites", "cameras", "lights")) if e.name), None)
+            if first is None:
+                raise ArgumentError(f"model {quote(path)} has no body nor named site, camera or light")
+            return lambda: self.sim.world.resolve(first).handle
+
+        handle = self._edit(change)
+        self.sim.selection = [handle]  # V-REP selects the loaded model's base
+        log.info("loaded model %s: base %r (handle %d)", file.name, self.sim.world.get(handle).name, handle)
+        return handle
+
+    def remove_object(self, handle: int) -> None:
+        """``simxRemoveObject``: a shape goes with its body subtree; a joint's body stays in place."""
+        def change(spec: mujoco.MjSpec):
+            kind, el, obj = self._spec_element(spec, handle)
+            before = _object_names(spec)
+            if kind == "joint":
+                self._remove_joint(spec, el, obj)
+            else:
+                if kind != "body":
+                    _delete_references(spec, kind, obj.name)
+                spec.delete(el)
+            _delete_settings(spec, before - _object_names(spec))
+
+        self._edit(change)
+
+    def _remove_joint(self, spec: mujoco.MjSpec, joint, obj) -> None:
+        m = self.sim.world.model
+        body = spec.body(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, obj.body) or "")
+        _delete_references(spec, "joint", obj.name)
+        spec.delete(joint)
+        if body is not None and body.first_joint() is None:
+            # a body without joints is welded where it is now, as V-REP keeps it in place
+            w = self.sim.world
+            parent = int(m.body_parentid[obj.body])
+            here = _compose(_inverse(_body_world(w, parent)), _body_world(w, obj.body))
+            _set_local_pose(spec, body, here, (m.body_pos[obj.body], m.body_quat[obj.body]))
+            self._placed.add(("body", body.name))
+
+    def remove_model(self, handle: int) -> None:
+        """``simxRemoveModel``: remove the body subtree rooted at a shape."""
+        if handle == WORLD:
+            raise ArgumentError("the world (-1) cannot be removed")
+        self.sim.world.get(handle, SHAPE)
+        self.remove_object(handle)
+
+    def create_dummy(self, size: float, colors: list[int] | None) -> int:
+        """``simxCreateDummy``: a sphere site of diameter ``size`` at the world origin."""
+        if not math.isfinite(size) or size <= 0:
+            raise ArgumentError(f"dummy size must be positive, got {size!r}")
+        rgba = [1.0, 0.8, 0.2, 1.0]
+        if colors is not None:
+            if (not isinstance(colors, list) or len(colors) != 12
+                    or not all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c <= 255 for c in colors)):
+                raise ArgumentError("colors must be None or 12 ints in 0..255")
+            rgba = [c / 255.0 for c in colors[:3]] + [1.0]
+
+        def change(spec: mujoco.MjSpec):
+            name = _free_name("Dummy", self._taken(spec))
+            spec.worldbody.add_site(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                                    size=[size / 2, size / 2, size / 2], rgba=rgba)
+            return lambda: self.sim.world.resolve(name).handle
+
+        return self._edit(change)
+
+    def copy_paste(self, handles: list[int]) -> list[int]:
+        """``simxCopyPasteObjects``: copy shapes (body subtrees), dummies, sensors and lights."""
+        world = self.sim.world
+        objs = [world.get(h) for h in handles]
+        unique = {o.handle: o for o in objs}.values()
+        todo = [o for o in unique if not any(a.handle in handles for a in self._ancestors(o))]
+        for o in objs:
+            if o.type == JOINT and o in todo:
+                raise UnsupportedError(f"joint {o.name!r} cannot be copied alone (a MuJoCo joint "
+                                       "belongs to its body): copy its body")
+        new_name: dict[str, str] = {}
+        copied_bodies: list[tuple[str, str]] = []
+
+        def change(spec: mujoco.MjSpec):
+            for o in todo:
+                kind, el, _ = self._spec_element(spec, o.handle)
+                if kind == "body":
+                    names = _subtree_objects(el)
+                    suffix = vrep_suffix(_subtree_names(el), self._taken(spec))
+                    self._copy_body(spec, el, o, suffix)
+                    new_name.update({n: n + suffix for n in names})
+                    copied_bodies.append((o.name, o.name + suffix))
+                    _copy_settings(spec, {n: n + suffix for n in names})
+                else:
+                    name = _free_name(o.name, self._taken(spec))
+                    dst = _clone(kind, el, el.parent, name)
+                    self._place_like(spec, kind, dst, o)
+                    new_name[o.name] = name
+                    _copy_settings(spec, {o.name: name})
+
+            def after():
+                for src, dst in copied_bodies:
+                    self._copy_state(src, dst)
+                return [world.resolve(new_name[o.name]).handle for o in objs]
+            return after
+
+        return self._edit(change)
+
+    def _ancestors(self, obj):
+        world, h = self.sim.world, obj.parent
+        while h != WORLD:
+            parent = world.objects[h]
+            yield parent
+            h = parent.parent
+
+    def _copy_body(self, spec: mujoco.MjSpec, el, obj, suffix: str) -> None:
+        m, w = self.sim.world.model, self.sim.world
+        b = obj.mj_id
+        parent = el.parent
+        copy = parent.add_frame().attach_body(el, "", suffix)
+        if m.body_jntnum[b] >= 1 and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE:
+            here = _body_world(w, b)  # a free body's copy starts where the original is now
+        else:
+            here = (m.body_pos[b].copy(), m.body_quat[b].copy())
+        copy.pos, copy.quat = here[0], here[1]
+        copy.alt.type = _QUAT
+
+    def _place_like(self, spec, kind: str, dst, obj) -> None:
+        m = self.sim.world.model
+        i = obj.mj_id
+        if kind == "light":
+            dst.pos, dst.dir = m.light_pos[i].copy(), m.light_dir[i].copy()
+            return
+        pos, quat = {"site": (m.site_pos, m.site_quat), "camera": (m.cam_pos, m.cam_quat)}[kind]
+        dst.pos, dst.quat = pos[i].copy(), quat[i].copy()
+        dst.alt.type = _QUAT
+        if kind == "site":
+            dst.fromto = [math.nan, 0, 0, 0, 0, 0]
+            dst.size = m.site_size[i].copy()
+
+    def _copy_state(self, src: str, dst: str) -> None:
+        """Joint positions and motors of a copied subtree from its original (same tree shape)."""
+        w = self.sim.world
+        m, d = w.model, w.data
+        pairs = [(w.resolve(src).mj_id, w.resolve(dst).mj_id)]
+        for a, b in pairs:  # grows while walking: children in model order
+            kids_a = [c for c in range(m.nbody) if m.body_parentid[c] == a and c != 0]
+            kids_b = [c for c in range(m.nbody) if m.body_parentid[c] == b and c != 0]
+            pairs.extend(zip(kids_a, kids_b))
+            for ja, jb in zip(range(m.body_jntadr[a], m.body_jntadr[a] + m.body_jntnum[a]),
+                              range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])):
+                qa, qb = m.jnt_qposadr[ja], m.jnt_qposadr[jb]
+                nq = {0: 7, 1: 4}.get(int(m.jnt_type[ja]), 1)
+                d.qpos[qb:qb + nq] = d.qpos[qa:qa + nq]
+                ha = w.by_name.get(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, ja) or "")
+                hb = w.by_name.get(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, jb) or "")
+                if ha and hb and ha.handle in w.motor_index and hb.handle in w.motor_index:
+                    ia, ib = w.motor_index[ha.handle], w.motor_index[hb.handle]
+                    w.motors.copy_state(ia, ib)
+        w.motors.write_force_limits(m)
+        mujoco.mj_forward(m, d)
+        w.version += 1
+
+    def set_parent(self, handle: int, parent: int, keep_in_place: bool) -> None:
+        """``simxSetObjectParent``: move a body subtree (or a site, camera, light) to another
+        body or the world, keeping its world pose or its pose relative to its parent."""
+        world = self.sim.world
+        if handle == WORLD:
+            raise ArgumentError("the world (-1) cannot be re-parented")
+        obj = world.get(handle)
+        if obj.type == JOINT:
+            raise UnsupportedError(f"joint {obj.name!r} belongs to its body in MuJoCo: re-parent the body")
+        if parent != WORLD:
+            new_parent = world.get(parent)
+            if new_parent.type != SHAPE:
+                raise UnsupportedError("MuJoCo objects can only hang from shapes (bodies) or the world (-1)")
+            if parent == handle or (obj.type == SHAPE and any(a.handle == handle for a in self._ancestors(new_parent))):
+                raise ArgumentError(f"{new_parent.name!r} is {obj.name!r} or one of its descendants")
+            parent_body = new_parent.mj_id
+        else:
+            parent_body = 0
+        m = world.model
+        old_body = int(m.body_parentid[obj.mj_id]) if obj.type == SHAPE else obj.body
+        if old_body == parent_body:
+            return  # already there: both poses unchanged
+        kind = _KIND[obj.type]
+        if kind == "light":
+            local = (m.light_pos[obj.mj_id].copy(), m.light_dir[obj.mj_id].copy())
+        else:
+            pos, quat = {"body": (m.body_pos, m.body_quat), "site": (m.site_pos, m.site_quat),
+                         "camera": (m.cam_pos, m.cam_quat)}[kind]
+            local = (pos[obj.mj_id].copy(), quat[obj.mj_id].copy())
+        if keep_in_place:
+            to_new = _compose(_inverse(_body_world(world, parent_body)), _body_world(world, old_body))
+            if kind == "light":
+                local = (to_new[0] + _rotate(to_new[1], local[0]), _rotate(to_new[1], local[1]))
+            else:
+                local = _compose(to_new, local)
+
+        def change(spec: mujoco.MjSpec):
+            kind_, el, _ = self._spec_element(spec, handle)
+            target = spec.worldbody if parent_body == 0 else spec.body(world.get(parent).name)
+            counts = {name: len(getattr(spec, name)) for name in _REFERRING_LISTS}
+            if kind_ == "body":
+                moved = target.add_frame().attach_body(el, "", _MARK)
+            else:
+                moved = _clone(kind_, el, target, obj.name + _MARK)
+            spec.delete(el)
+            _strip_mark(spec)
+            lost = [n for n in _REFERRING_LISTS if len(getattr(spec, n)) < counts[n]]
+            if lost:
+                raise UnsupportedError(f"moving {obj.name!r} would lose {', '.join(lost)} that link it "
+                                       "to the rest of the scene")
+            self._placed.add((kind_, obj.name))
+            if kind_ == "light":
+                moved.pos, moved.dir = local
+            else:
+                moved.pos, moved.quat = local
+                moved.alt.type = _QUAT
+                if kind_ == "site":
+                    moved.fromto = [math.nan, 0, 0, 0, 0, 0]
+                    moved.size = m.site_size[obj.mj_id].copy()
+
+        try:
+            self._edit(change)
+        except UnsupportedError as exc:
+            if "free joint" in str(exc):
+                raise UnsupportedError(f"{obj.name!r} has a free joint, and MuJoCo allows free joints "
+                                       "only in children of the world") from None
+            raise

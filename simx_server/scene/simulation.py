@@ -1,0 +1,201 @@
+"""The simulation's run state: world, vision sensors and child scripts behind V-REP's
+start / pause / stop and synchronous (stepped) mode. No transport in here.
+"""
+
+from __future__ import annotations
+
+import logging
+import zlib
+from pathlib import Path
+
+from simx_client import protocol as P
+from simx_server.base.scene_guard import transfer_folders
+from simx_server.scene.editor import Editor
+from simx_server.scripts import shapes
+from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.scene_scripts import Scripts
+from simx_server.sim import ik
+from simx_server.sim.physics import PhysicsError
+from simx_server.sim.sensors import SensorState
+from simx_server.sim.state import RunState
+from simx_server.sim.vision import VisionSensors
+from simx_server.sim.world import World
+
+log = logging.getLogger("simx.simulation")
+
+
+class Simulation:
+    """A scene and its run state.
+
+    Args:
+        scene: MJCF file.
+        dt: simulation step in s.
+        realtime: whether asynchronous mode paces steps to wall time (the server's --speed > 0).
+        allow_remote_code: let child scripts run code sent by clients (--allow-remote-code).
+        allow_unsafe_lua: give Lua child scripts files, processes and the environment (--allow-unsafe-lua).
+        scene_paths: folders server-side scenes and models may be loaded from, besides the
+            scene's own folder (--scene-path).
+
+    Raises:
+        ValueError: the scene or one of its scripts cannot be loaded.
+    """
+
+    def __init__(self, scene: str | Path, dt: float = 0.05, realtime: bool = True,
+                 allow_remote_code: bool = False, allow_unsafe_lua: bool = False, scene_paths=()):
+        self.world = World(scene, dt)
+        self.vision = VisionSensors(self.world)
+        self.signals = Signals()  # shared by every client and child script
+        # The operator's scene is trusted, but no file that came through a transfer folder is.
+        self.scripts = Scripts(self.world, self.signals, allow_remote_code=allow_remote_code,
+                               allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders(), simulation=self)
+        self.sensors = SensorState()
+        self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
+        self.state = RunState.STOPPED
+        self.realtime = realtime
+        #: Stepped mode: some client enabled it, so a step runs only when every such client
+        #: has triggered (:meth:`enable_sync`, :meth:`trigger`). Read it, never set it.
+        self.synchronous = False
+        self._sync: dict[str, bool] = {}  # synchronous client -> triggered since the last step
+        self.steps = 0
+        self._scene_id: tuple[World | None, int] = (None, 0)
+        self.stop_requests = 0  # sim_intparam_stop_request_counter
+        self.selection: list[int] = []  # simxGetObjectSelection (no GUI: only what clients set)
+        #: Why the simulation last stopped by itself (a physics blow-up), None after a start.
+        self.stop_reason: str | None = None
+
+    @property
+    def scene_id(self) -> int:
+        """Identifies the loaded scene (simx_headeroffset_scene_id): 16 bits of its path's hash."""
+        if self._scene_id[0] is not self.world:  # scene editing may have loaded another scene
+            self._scene_id = (self.world, zlib.crc32(str(self.world.scene_path).encode()) & 0xFFFF)
+        return self._scene_id[1]
+
+    @property
+    def sim_time_ms(self) -> int:
+        """Simulation time in ms, 0 while stopped (as V-REP stamps its replies)."""
+        return self.stamp()[0]
+
+    @property
+    def server_state(self) -> int:
+        """V-REP's server-state bits: 1 not stopped, 2 paused, 4 real time."""
+        return self.stamp()[1]
+
+    def stamp(self) -> tuple[int, int, int]:
+        """``(sim_time_ms, server_state, scene_id)``: the stamp of every reply.
+
+        Hot path (every reply): one read of the state's bits, of the clock and of the scene id.
+        """
+        bits = self.state._value_  # the not-stopped and paused bits
+        time_ms = round(self.world.time * 1000) if bits else 0
+        if self.realtime:
+            bits |= P.STATE_REALTIME
+        return time_ms, bits, self.scene_id
+
+    def start(self) -> None:
+        """``simxStartSimulation``: from stopped, run the scripts' init; from paused, resume."""
+        if self.state is RunState.STOPPED:
+            self.stop_reason = None
+            self.scripts.start()
+        self.state = RunState.RUNNING
+
+    def pause(self) -> None:
+        """``simxPauseSimulation``: keeps the state; ignored while stopped (as V-REP)."""
+        if self.state is RunState.RUNNING:
+            self.state = RunState.PAUSED
+
+    def stop(self) -> None:
+        """``simxStopSimulation``: scripts' cleanup, then the scene back to its initial state."""
+        self.stop_requests += 1
+        self._halt()
+
+    def _halt(self) -> None:
+        if self.state is RunState.STOPPED:
+            return
+        self.scripts.stop()
+        imported = shapes.imported_poses(self.world)  # shapes imported while running stay in place
+        self.world.reset()
+        shapes.restore_poses(self.world, imported)
+        self.vision.reset()  # clipping planes changed by clients
+        self.state = RunState.STOPPED
+        for client in self._sync:  # triggers given before the stop do not count for the next run
+            self._sync[client] = False
+
+    def step(self) -> None:
+        """One simulation step of dt: actuation scripts, IK groups, physics, sensing scripts.
+
+        Raises:
+            physics.PhysicsError: the physics blew up (MuJoCo found NaN, infinite or huge
+                values). The simulation is then already stopped as on ``simxStopSimulation``
+                (scripts' cleanup, the scene's initial state) and ``stop_reason`` says why; the
+                server logs it once and tells each client (``simxStartSimulation`` runs again).
+        """
+        self.scripts.actuation()
+        ik.step(self.world)  # IK groups, after the scripts' actuation, before physics (V-REP's main script)
+        try:
+            self.world.step()
+        except PhysicsError as exc:
+            self._halt()
+            self.stop_reason = f"{exc}; simulation stopped and reset to the scene's initial state " \
+                               "(simxStartSimulation starts it again)"
+            raise
+        self.scripts.sensing()
+        self.steps += 1
+
+    # ------------------------------------------------ synchronous mode (a barrier)
+    def enable_sync(self, client: str, enable: bool) -> bool:
+        """``simxSynchronous(client, enable)``: ``client`` joins (True) or leaves (False) the
+        set of synchronous clients; True when its leaving releases a step every remaining
+        synchronous client has triggered (the caller then steps, see :meth:`trigger`).
+
+        V-REP's rule (simExtRemoteApi ``CSimxConnections::thereWasARequestToCallTheMainScript``):
+        the main script runs only when no connection with synchronous mode enabled is still
+        waiting for its trigger; enabling arms the client's trigger (not yet triggered).
+        """
+        if enable:
+            self._sync[client] = False
+            self.synchronous = True
+            return False
+        return self.leave_sync(client)
+
+    def leave_sync(self, client: str) -> bool:
+        """A client leaves the barrier (``simxSynchronous(False)``, ``simxFinish``, lost token,
+        expiry); True when that releases a step the remaining clients all triggered. With no
+        synchronous client left the simulation runs asynchronously again, as on V-REP, whose
+        server stops waiting for a disconnected client's trigger."""
+        if self._sync.pop(client, None) is None:
+            return False
+        self.synchronous = bool(self._sync)
+        return self._barrier_open()
+
+    def trigger(self, client: str) -> bool:
+        """``simxSynchronousTrigger`` of ``client``: marks it triggered; True when every
+        synchronous client has now triggered, i.e. one step is due (the triggers are then
+        re-armed). Triggering again before that step changes nothing (V-REP's flag, not a count).
+
+        Raises:
+            KeyError: ``client`` did not enable synchronous mode.
+        """
+        if client not in self._sync:
+            raise KeyError(client)
+        self._sync[client] = True
+        return self._barrier_open()
+
+    def _barrier_open(self) -> bool:
+        if not self._sync or not all(self._sync.values()):
+            return False
+        for client in self._sync:
+            self._sync[client] = False
+        return True
+
+    def is_synchronous(self, client: str) -> bool:
+        """Whether ``client`` enabled synchronous mode (is part of the barrier)."""
+        return client in self._sync
+
+    def waiting_for(self) -> list[str]:
+        """The synchronous clients whose trigger the next step waits for."""
+        return [client for client, triggered in self._sync.items() if not triggered]
+
+    def close(self) -> None:
+        """Release GL contexts and the transfer folder; idempotent."""
+        self.vision.close()
+        self.editor.close()

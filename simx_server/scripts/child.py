@@ -1,0 +1,438 @@
+"""Child scripts attached to scene objects, and the ``sim`` facade they call.
+
+A scene attaches a script to an object with ``<custom><text name="simx:OBJECT"
+data="child_script=FILE"/></custom>``; FILE (``.lua`` or ``.py``) lies in the scene's folder:
+scripts come only from the server's disk. An optional ``script_timeout=SECONDS`` in the same
+text bounds every call into that script (default :data:`DEFAULT_TIMEOUT`).
+
+Both languages see one :class:`~simx_server.scripts.facade.ScriptSim` as ``sim`` (V-REP's names and units) and follow
+V-REP's non-threaded life cycle: the file's top level and ``sysCall_init`` when the simulation
+starts, ``sysCall_actuation`` before and ``sysCall_sensing`` after every step,
+``sysCall_cleanup`` when it stops (then the script's state is dropped: a restart begins afresh).
+Any other global function of the script can be called remotely with ``simxCallScriptFunction``:
+it receives ``(inInts, inFloats, inStrings, inBuffer)`` and returns up to four values
+``(ints, floats, strings, buffer)``. Lua scripts run in lupa (:mod:`simx_server.scripts.lua`).
+
+Faults never stop the simulation: an error (at load, at run time, or a call that overruns its
+time bound and is interrupted) is a :class:`~simx_client.protocol.ScriptError` naming the file,
+the line and the message; the remote caller gets it as a remote error, and errors of life-cycle
+functions go to the log. See docs/SCRIPTS.md.
+"""
+
+from __future__ import annotations
+
+import builtins
+import ctypes
+import inspect
+import logging
+import threading
+import time
+import traceback
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from simx_client.protocol import ScriptError
+from simx_server.scripts.facade import ScriptSim
+from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.facade_objects import AppliedForces
+from simx_server.sim.world import World
+
+__all__ = ["DEFAULT_TIMEOUT", "LIFE_CYCLE", "REMOTE_CODE_FLAG", "UNSAFE_LUA_FLAG", "ChildScript", "PythonScript",
+           "ScriptTimeoutError", "legacy_outputs"]
+
+log = logging.getLogger("simx.scripts")
+
+LIFE_CYCLE = ("sysCall_init", "sysCall_actuation", "sysCall_sensing", "sysCall_cleanup")
+#: Seconds a single call into a script may run before it is interrupted.
+DEFAULT_TIMEOUT = 1.0
+#: The command-line flag that lets scripts run code sent by clients (Lua ``load``/``loadstring``,
+#: Python ``exec``/``eval``/``compile``); named in error messages.
+REMOTE_CODE_FLAG = "--allow-remote-code"
+#: The command-line flag that gives Lua scripts back the functions CoppeliaSim calls unsafe
+#: (files, processes, environment, C modules: ``io.*``, ``os.execute``, ``dofile``...).
+UNSAFE_LUA_FLAG = "--allow-unsafe-lua"
+_STEP_FUNCTIONS = ("sysCall_actuation", "sysCall_sensing")
+
+
+class ScriptTimeoutError(ScriptError):
+    """A call into a script did not return within its time bound and was interrupted."""
+
+
+# ------------------------------------------------------------------ time bounds
+class _Interrupt(BaseException):
+    """Raised asynchronously inside a Python script that overran its time bound."""
+
+
+class _Watchdog:
+    """Interrupts a Python script call that overruns its deadline.
+
+    One daemon thread; :meth:`bounded` arms it around a call. Past the deadline it raises
+    :class:`_Interrupt` in the calling thread (``PyThreadState_SetAsyncExc``), again every
+    50 ms in case the script swallows it, until the call returns. A script blocked inside C
+    (``time.sleep``, I/O) is interrupted only when that returns.
+    """
+
+    REPEAT = 0.05
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._armed: tuple[float, int] | None = None
+        self._fired = False
+        self._thread: threading.Thread | None = None
+
+    @staticmethod
+    def _raise_in(thread_id: int, exc: type[BaseException] | None) -> None:
+        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread_id),
+                                                   ctypes.py_object(exc) if exc else None)
+
+    def _run(self) -> None:
+        with self._cond:
+            while True:
+                if self._armed is None:
+                    self._cond.wait()
+                    continue
+                deadline, thread_id = self._armed
+                now = time.monotonic()
+                if now < deadline:
+                    self._cond.wait(deadline - now)
+                    continue
+                self._raise_in(thread_id, _Interrupt)
+                self._fired = True
+                self._cond.wait(self.REPEAT)
+
+    def _disarm(self) -> bool:
+        with self._cond:
+            self._armed = None
+            if self._fired:  # an interruption may still be pending: drop it
+                self._raise_in(threading.get_ident(), None)
+            return self._fired
+
+    def _disarm_until_done(self) -> bool:
+        while True:  # an interruption may arrive while disarming: disarm again
+            try:
+                return self._disarm()
+            except _Interrupt:
+                continue
+
+    def bounded(self, fn: Callable[[], Any], seconds: float) -> tuple[Any, traceback.StackSummary | None]:
+        """Run ``fn()`` for at most about ``seconds``; returns ``(result, None)``, or
+        ``(None, where)`` when it overran, ``where`` being the stack it was interrupted in
+        (empty when the script swallowed the interruption). Exceptions of ``fn`` propagate.
+
+        No exception is kept in a local of this frame: that would be a reference cycle
+        (exception -> traceback -> frame -> exception) keeping every caller's frame alive, and
+        with them the server's pending Zenoh query, whose final reply waits for it to go."""
+        with self._cond:
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._run, name="simx-script-watchdog", daemon=True)
+                self._thread.start()
+            self._armed = (time.monotonic() + seconds, threading.get_ident())
+            self._fired = False
+            self._cond.notify()
+        result, fired, where = None, False, None
+        try:
+            try:
+                result = fn()
+            finally:
+                fired = self._disarm_until_done()
+        except _Interrupt as exc:  # arrived before disarming; none can arrive after
+            fired, where = True, traceback.extract_tb(exc.__traceback__)
+        except Exception:
+            if not fired:
+                raise
+        if fired:
+            return None, where if where is not None else traceback.StackSummary()
+        return result, None
+
+
+_WATCHDOG = _Watchdog()
+
+
+# ---------------------------------------------------------------- child scripts
+class ChildScript:
+    """A child script attached to object ``owner``: life cycle, remote calls, fault handling.
+
+    Subclasses (:class:`PythonScript`, :class:`~simx_server.scripts.lua.LuaScript`) implement
+    ``_load`` (read and compile; set ``self.load_error`` on a syntax error), ``_create`` (fresh
+    state, then the top level), ``_defines``/``_callable`` (a life-cycle function exists / a
+    function may be called remotely), ``_run_function`` (bounded by ``self.timeout``; raises
+    ScriptError) and ``_drop``. A script that failed to load stays attached: every call into it
+    answers its load error.
+    """
+
+    language = "?"
+
+    def __init__(self, world: World, owner: int, path: Path, *, signals: Signals | None = None,
+                 timeout: float = DEFAULT_TIMEOUT, allow_remote_code: bool = False,
+                 allow_unsafe_lua: bool = False, simulation: Any = None, forces: AppliedForces | None = None):
+        self.world = world
+        self.simulation = simulation  # the Simulation, for the facade calls that need it (sensors, edits)
+        self.forces = forces if forces is not None else AppliedForces()
+        self.owner = owner
+        self.path = path
+        self.object_name = world.get(owner).name
+        self.label = f"child script {path.name} of {self.object_name!r}"
+        self.signals = signals if signals is not None else Signals()
+        self.timeout = float(timeout)
+        self.allow_remote_code = allow_remote_code
+        self.allow_unsafe_lua = allow_unsafe_lua  # Lua only: Python scripts are trusted code
+        self.running = False
+        self.load_error: str | None = None
+        self.start_error: str | None = None
+        self._skipped: set[str] = set()  # life-cycle functions skipped until the next start
+        self._last_error: dict[str, str] = {}  # last error logged per life-cycle function
+        self._load()
+        if self.load_error:
+            log.error("%s cannot be loaded: %s", self.label, self.load_error)
+
+    def facade(self) -> ScriptSim:
+        """A new ``sim`` for this script."""
+        return ScriptSim(self.world, self.owner, self.signals, label=self.path.name,
+                         simulation=self.simulation, forces=self.forces)
+
+    # ---------------------------------------------------------------- life cycle
+    def start(self) -> None:
+        """Simulation starts: fresh state, the file's top level, then ``sysCall_init``.
+
+        Raises ScriptError when the script cannot run (load error, error in its top level);
+        it then stays attached, and remote calls answer that error."""
+        self.running = True
+        self.start_error = None
+        self._skipped.clear()
+        self._last_error.clear()
+        if self.load_error:
+            raise ScriptError(f"{self.label} cannot be loaded: {self.load_error}")
+        try:
+            self._create()
+        except ScriptError as exc:
+            self.start_error = str(exc)
+            raise
+        if self._defines("sysCall_threadmain"):
+            log.error("%s: threaded child scripts (sysCall_threadmain) are not supported: it does not run; "
+                      "move its work into sysCall_actuation (docs/SCRIPTS.md)", self.label)
+        self.life_cycle("sysCall_init")
+
+    def life_cycle(self, function: str) -> None:
+        """Run a life-cycle function if the script defines it; errors go to the log only.
+
+        Repeats of the same error are logged at debug level; a script interrupted for
+        overrunning its time bound in ``sysCall_actuation``/``sysCall_sensing`` has both
+        skipped until the simulation restarts, so that the simulation keeps its pace."""
+        if not self.running or self.load_error or function in self._skipped:
+            return
+        try:
+            if self._defines(function):
+                self._run_function(function, ())
+        except ScriptTimeoutError as exc:
+            if function in _STEP_FUNCTIONS:
+                self._skipped.update(_STEP_FUNCTIONS)
+                log.error("%s; its %s are skipped until the simulation restarts", exc, " and ".join(_STEP_FUNCTIONS))
+            else:
+                log.error("%s", exc)
+        except ScriptError as exc:
+            message = str(exc)
+            if self._last_error.get(function) == message:
+                log.debug("%s (again)", message)
+            else:
+                self._last_error[function] = message
+                log.error("%s", message)
+        except Exception:  # never let the simulation step die with a script
+            log.exception("%s, %s: internal error", self.label, function)
+
+    def stop(self) -> None:
+        """Simulation stops: ``sysCall_cleanup``, then the script's state is dropped."""
+        try:
+            self.life_cycle("sysCall_cleanup")
+        finally:
+            self.running = False
+            self._drop()
+
+    def call(self, function: str, ints: list, floats: list, strings: list, buffer: bytes) -> list:
+        """Call a script function remotely; returns ``[ints, floats, strings, buffer]``.
+
+        Raises ScriptError (file, line and message) for anything that goes wrong."""
+        if self.load_error:
+            raise ScriptError(f"{self.label} cannot be loaded: {self.load_error}")
+        if not self.running:
+            raise ScriptError(f"{self.label} is not running: the simulation is stopped "
+                              "(child scripts run only while it runs; start it first)")
+        if not self._callable(function):
+            hint = f" (its start failed: {self.start_error})" if self.start_error else ""
+            raise ScriptError(f"{self.label} has no function {function!r} that can be called remotely{hint}")
+        return self._run_function(function, (ints, floats, strings, buffer))
+
+    # ------------------------------------------------------------ to implement
+    def _load(self) -> None:
+        raise NotImplementedError
+
+    def _create(self) -> None:
+        raise NotImplementedError
+
+    def _defines(self, function: str) -> bool:
+        raise NotImplementedError
+
+    def _callable(self, function: str) -> bool:
+        raise NotImplementedError
+
+    def _run_function(self, function: str, args: tuple) -> Any:
+        raise NotImplementedError
+
+    def _drop(self) -> None:
+        raise NotImplementedError
+
+    def _fault(self, what: str, detail: str, timeout: bool = False) -> ScriptError:
+        cls = ScriptTimeoutError if timeout else ScriptError
+        return cls(f"{self.label}, {what}: {detail}")
+
+
+def _refuse(name: str) -> Callable[..., Any]:
+    def refused(*args: Any, **kwargs: Any) -> Any:
+        raise ScriptError(f"{name}() is disabled in child scripts: simx runs code sent by clients "
+                          f"only when the server is started with {REMOTE_CODE_FLAG}")
+    refused.__name__ = name
+    return refused
+
+
+def _script_builtins(allow_remote_code: bool) -> dict[str, Any]:
+    """Builtins of Python scripts: without the flag, no exec/eval/compile (a guard rail against
+    running strings that clients send; Python scripts are trusted code, not a sandbox) and no
+    input/breakpoint (they would block the simulation)."""
+    names = dict(vars(builtins))
+    blocked = ("input", "breakpoint") + (() if allow_remote_code else ("exec", "eval", "compile"))
+    for name in blocked:
+        names[name] = _refuse(name)
+    return names
+
+
+class PythonScript(ChildScript):
+    """A Python child script: globals ``sim`` (:class:`ScriptSim`) and ``print`` (to the log)."""
+
+    language = "Python"
+
+    def _load(self) -> None:
+        self._code = None
+        self.namespace: dict[str, Any] = {}
+        try:
+            source = self.path.read_text(encoding="utf-8")
+            self._code = compile(source, str(self.path), "exec", dont_inherit=True)
+        except SyntaxError as exc:
+            self.load_error = f"{self.path.name}:{exc.lineno}: SyntaxError: {exc.msg}"
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            self.load_error = f"{self.path.name}: {exc}"
+
+    def _print(self, *values: Any, sep: str | None = " ", end: str | None = None, **_: Any) -> None:
+        log.info("[%s] %s", self.path.name, (" " if sep is None else sep).join(str(v) for v in values))
+
+    def _create(self) -> None:
+        self.namespace = {
+            "__name__": f"simx_script_{self.object_name}",
+            "__file__": str(self.path),
+            "__builtins__": _script_builtins(self.allow_remote_code),
+            "sim": self.facade(),
+            "print": self._print,
+        }
+        self._bounded("top level", lambda: exec(self._code, self.namespace))
+
+    def _defines(self, function: str) -> bool:
+        return callable(self.namespace.get(function))
+
+    def _callable(self, function: str) -> bool:
+        fn = self.namespace.get(function)
+        # Only functions the script itself defines; not imported ones, not _private ones.
+        return (not function.startswith("_") and inspect.isfunction(fn)
+                and fn.__globals__ is self.namespace)
+
+    def _run_function(self, function: str, args: tuple) -> Any:
+        fn = self.namespace[function]
+        out = self._bounded(function, lambda: fn(*args))
+        if function in LIFE_CYCLE:
+            return out
+        try:
+            return legacy_outputs(out)
+        except ScriptError as exc:
+            raise self._fault(function, str(exc)) from None
+
+    def _drop(self) -> None:
+        self.namespace = {}
+
+    def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
+        try:
+            result, interrupted_at = _WATCHDOG.bounded(fn, self.timeout)
+        except Exception as exc:
+            raise self._fault(what, f"{self._where(traceback.extract_tb(exc.__traceback__))}"
+                                    f"{type(exc).__name__}: {exc}") from None
+        if interrupted_at is not None:
+            raise self._fault(what, f"{self._where(interrupted_at)}interrupted: did not return "
+                                    f"within {self.timeout:g} s (script_timeout)", timeout=True)
+        return result
+
+    def _where(self, stack: traceback.StackSummary) -> str:
+        frames = [f for f in stack if Path(f.filename) == self.path]
+        return f"{self.path.name}:{frames[-1].lineno}: " if frames else f"{self.path.name}: "
+
+
+def legacy_outputs(out: Any) -> list:
+    """A script function's return value as the legacy ``[ints, floats, strings, buffer]``.
+
+    Accepts None, one value, or a tuple/list of up to four; missing values are empty. Numbers
+    in the ints list are truncated to integers (as V-REP's C side did), strings may be bytes
+    (decoded as UTF-8), the buffer bytes or str. Raises ScriptError for anything else."""
+    if out is None:
+        values: list = []
+    elif isinstance(out, tuple):
+        values = list(out)
+    else:
+        values = [out]
+    if len(values) > 4:
+        raise ScriptError(f"returned {len(values)} values; at most 4 (ints, floats, strings, buffer)")
+    values += [None] * (4 - len(values))
+    ints, floats, strings, buf = values
+    try:
+        ints = [_as_int(v) for v in _seq(ints, "ints")]
+        floats = [_as_float(v) for v in _seq(floats, "floats")]
+        strings = [_as_str(v) for v in _seq(strings, "strings")]
+        if buf is None:
+            buf = b""
+        elif isinstance(buf, str):
+            buf = buf.encode("utf-8")
+        elif isinstance(buf, (bytes, bytearray, memoryview)):
+            buf = bytes(buf)
+        else:
+            raise TypeError(f"the buffer must be a string (bytes), got {type(buf).__name__}")
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ScriptError(f"returned values of the wrong types: {exc}") from None
+    return [ints, floats, strings, buf]
+
+
+def _seq(value: Any, what: str) -> list:
+    if value is None:
+        return []
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return list(value)
+    raise TypeError(f"{what} must be a list (a Lua table), got {type(value).__name__}")
+
+
+def _as_int(v: Any) -> int:
+    if isinstance(v, (str, bytes)) or v is None:
+        raise TypeError(f"ints must be numbers, got {v!r}")
+    return int(v)
+
+
+def _as_float(v: Any) -> float:
+    if isinstance(v, (str, bytes)) or v is None:
+        raise TypeError(f"floats must be numbers, got {v!r}")
+    return float(v)
+
+
+def _as_str(v: Any) -> str:
+    if isinstance(v, (bytes, bytearray)):
+        return bytes(v).decode("utf-8", errors="replace")
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return str(v)
+    raise TypeError(f"strings must be strings, got {v!r}")

@@ -1,0 +1,68 @@
+"""The whole ``sim`` facade of child scripts: V-REP 3.x's core and CoppeliaSim 4.x's calls.
+
+:class:`ScriptSim` composes :class:`~simx_server.scripts.facade_core.SimFacade` (objects, joints,
+poses, time, signals, messages, packing: the V-REP 3.x calls), :class:`ObjectCalls`
+(:mod:`simx_server.scripts.facade_objects`: tree, matrices, velocities, forces, scene edits) and
+:class:`SensorCalls` (:mod:`simx_server.scripts.facade_sensors`: 4.x signal names, sensors, object
+parameters, simulation state). Python scripts get one as ``sim``; Lua scripts get one Lua
+function per :data:`FACADE_FUNCTIONS` entry and every :data:`FACADE_CONSTANTS` entry as
+``sim.NAME`` (:mod:`simx_server.scripts.lua`). docs/SCRIPTS.md lists them all.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from simx_client.protocol import UnsupportedError
+from simx_server.scripts import facade_objects, facade_sensors
+from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
+from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls
+from simx_server.scripts.facade_sensors import SensorCalls
+from simx_server.sim.state import SimulationView
+from simx_server.sim.world import World
+
+#: Every ``sim.NAME`` constant of child scripts: the legacy ``sim_*`` constants, ``handle_world``,
+#: and CoppeliaSim's that simx adds (``handle_scene``, ``handleflag_greyscale``, ``simulation_*``).
+FACADE_CONSTANTS: dict[str, int] = {**SCRIPT_CONSTANTS, **facade_objects.CONSTANTS, **facade_sensors.CONSTANTS}
+
+
+class ScriptSim(ObjectCalls, SensorCalls, SimFacade):
+    """``sim`` of one child script: every call of docs/SCRIPTS.md.
+
+    Args:
+        world: the scene.
+        owner: handle of the script's object (``sim.handle_self``).
+        signals: the server's signal store.
+        label: how log lines name the script.
+        simulation: the :class:`~simx_server.scene.simulation.Simulation` (sensors, the scene editor,
+            the run state); without one (a bare :class:`~simx_server.scripts.scene_scripts.Scripts` in a
+            test) the calls that need it raise UnsupportedError naming themselves.
+        forces: the forces scripts added for the next step (one per Scripts).
+    """
+
+    def __init__(self, world: World, owner: int, signals: Signals | None = None, label: str = "",
+                 simulation: SimulationView | None = None, forces: AppliedForces | None = None):
+        super().__init__(world, owner, signals, label)
+        self._sim = simulation
+        self._forces = forces if forces is not None else AppliedForces()
+
+    def __getattr__(self, name: str) -> Any:
+        if name in FACADE_CONSTANTS:
+            return FACADE_CONSTANTS[name]
+        return super().__getattr__(name)
+
+    def _simulation(self, what: str) -> SimulationView:
+        if self._sim is None:
+            raise UnsupportedError(f"sim.{what} needs the simulation: this script runs without one")
+        return self._sim
+
+
+def _functions(cls: type) -> tuple[str, ...]:
+    names = set()
+    for klass in cls.__mro__[:-1]:  # not object's
+        names.update(n for n, v in vars(klass).items() if not n.startswith("_") and callable(v))
+    return tuple(sorted(names))
+
+
+#: Names of the facade's functions (``sim.NAME`` in both languages).
+FACADE_FUNCTIONS: tuple[str, ...] = _functions(ScriptSim)

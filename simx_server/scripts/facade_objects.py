@@ -1,0 +1,415 @@
+"""CoppeliaSim 4.x script calls of the ``sim`` facade on scene objects: the tree, matrices,
+velocities, forces and scene edits (issue 12, part 7).
+
+:class:`ObjectCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`, the ``sim`` of child
+scripts. Scene edits (``createDummy``, ``setObjectParent``, ``setObjectName``/``setObjectAlias``)
+go through the scene editor (:class:`simx_server.scene.editor.Editor`), as ``simxCreateDummy`` and
+``simxSetObjectParent`` do: the edited MjSpec is compiled and swapped in, handles stay valid.
+Forces (``addForce``, ``addForceAndTorque``) accumulate in MuJoCo's ``xfrc_applied`` and are
+reset after the next simulation step, as CoppeliaSim resets them after ``sim.handleDynamics``
+(:class:`AppliedForces`, cleared by :meth:`simx_server.scripts.scene_scripts.Scripts.sensing`).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from simx_client import constants as C
+from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+from simx_server.base import limits as L
+from simx_server.base.arguments import quote
+from simx_server.scripts.facade_core import _int, _num, _text, _vector
+from simx_server.sim import kinematics
+from simx_server.sim.spec_tools import _FRAMES, _KIND, _MJ_OBJ
+from simx_server.sim.state import SimulationView
+from simx_server.sim.world import JOINT, SHAPE, WORLD, World, matrix_from_euler, matrix_from_quaternion
+
+#: ``sim.handle_scene``: the base of ``getObjectsInTree`` that means the whole scene.
+HANDLE_SCENE = -12
+#: Constants this module adds to ``sim.*`` (besides the legacy ``sim_*`` ones).
+CONSTANTS: dict[str, int] = {"handle_scene": HANDLE_SCENE}
+_NAME = re.compile(r"[A-Za-z0-9_]+(#[0-9]+)?")  # V-REP's name characters, optional #n suffix
+_NOT_ALIAS = re.compile(r"[^A-Za-z0-9_]")  # CoppeliaSim replaces these with '_' in aliases
+
+
+# ------------------------------------------------------------------------- forces
+class AppliedForces:
+    """Forces and torques added by scripts for the next simulation step.
+
+    ``add`` accumulates a wrench (world frame, at the body's centre of mass) in MuJoCo's
+    ``xfrc_applied``; ``clear`` zeroes the rows it wrote, once the step that applied them is
+    over. One per :class:`~simx_server.scripts.scene_scripts.Scripts`, shared by its scripts' facades.
+    """
+
+    def __init__(self) -> None:
+        self._data: mujoco.MjData | None = None
+        self._bodies: set[int] = set()
+
+    def add(self, world: World, body: int, force: np.ndarray, torque: np.ndarray) -> None:
+        """Add ``force`` (N) and ``torque`` (N·m), world axes, at body ``body``'s centre of mass.
+
+        Raises ArgumentError, adding nothing, when a component of the sum would exceed
+        ``limits.MAX_SCRIPT_FORCE``."""
+        if self._data is not world.data:  # a new MjData (scene edit, new scene): nothing pending there
+            self._data, self._bodies = world.data, set()
+        total = world.data.xfrc_applied[body] + np.concatenate([force, torque])
+        if not np.all(np.abs(total) <= L.MAX_SCRIPT_FORCE):
+            raise ArgumentError(f"the forces and torques added to one body for a step must stay within "
+                                f"+/-{L.MAX_SCRIPT_FORCE:g} N or N m (simx_server.base.limits.MAX_SCRIPT_FORCE)")
+        world.data.xfrc_applied[body] = total
+        self._bodies.add(body)
+
+    def clear(self, world: World) -> None:
+        """Zero what :meth:`add` wrote (after the step that applied it)."""
+        if self._bodies and self._data is world.data:
+            world.data.xfrc_applied[sorted(self._bodies)] = 0.0
+        self._data, self._bodies = None, set()
+
+    def __bool__(self) -> bool:
+        return bool(self._bodies)
+
+
+# ------------------------------------------------------------------------ renaming
+def _joint_ids(world: World, obj) -> list[int]:
+    """MuJoCo joints whose state replace_model matches by the object's name (itself, or a
+    free body's free joint)."""
+    m = world.model
+    if obj.type == JOINT:
+        return [obj.mj_id]
+    if obj.type == SHAPE and m.body_jntnum[obj.mj_id] == 1 \
+            and m.jnt_type[m.body_jntadr[obj.mj_id]] == mujoco.mjtJoint.mjJNT_FREE:
+        return [int(m.body_jntadr[obj.mj_id])]
+    return []
+
+
+def _retarget(spec: mujoco.MjSpec, kind: str, old: str, new: str) -> None:
+    """Point the actuators, sensors, constraints and settings that name ``old`` (an element of
+    ``kind``) at ``new``: MjSpec refers by name and does not follow a rename."""
+    objtype = _MJ_OBJ[kind]
+    trn = {"joint": (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT),
+           "site": (mujoco.mjtTrn.mjTRN_SITE, mujoco.mjtTrn.mjTRN_SLIDERCRANK),
+           "body": (mujoco.mjtTrn.mjTRN_BODY,)}.get(kind, ())
+    for a in spec.actuators:
+        if a.trntype in trn and a.target == old:
+            a.target = new
+        if kind == "site":
+            a.refsite = new if a.refsite == old else a.refsite
+            a.slidersite = new if a.slidersite == old else a.slidersite
+    for s in spec.sensors:
+        if s.objtype == objtype and s.objname == old:
+            s.objname = new
+        if s.reftype == objtype and s.refname == old:
+            s.refname = new
+    for eq in spec.equalities:
+        same = (eq.type == mujoco.mjtEq.mjEQ_JOINT) if kind == "joint" else (eq.objtype == objtype)
+        if same:
+            eq.name1 = new if eq.name1 == old else eq.name1
+            eq.name2 = new if eq.name2 == old else eq.name2
+    if kind == "body":
+        for ex in spec.excludes:
+            ex.bodyname1 = new if ex.bodyname1 == old else ex.bodyname1
+            ex.bodyname2 = new if ex.bodyname2 == old else ex.bodyname2
+        for el in list(spec.cameras) + list(spec.lights):
+            if el.targetbody == old:
+                el.targetbody = new
+    text = spec.text(f"simx:{old}")
+    if text is not None:
+        text.name = f"simx:{new}"
+
+
+def rename(sim: SimulationView, handle: int, name: str) -> None:
+    """Give object ``handle`` the name ``name`` through the scene editor; it keeps its handle,
+    its pose (also one set at run time), its joint state and its child script.
+
+    Raises ArgumentError (the world, a name taken by another object), or the editor's errors
+    (UnsupportedError for an object MuJoCo cannot rename, the scene's growth bounds).
+    """
+    world, editor = sim.world, sim.editor
+    if handle == WORLD:
+        raise ArgumentError("the world (-1) has no name to change")
+    obj = world.get(handle)
+    old = obj.name
+    if name == old:
+        return
+    if name in world.by_name:
+        raise ArgumentError(f"name {quote(name)} is taken by another object "
+                            f"(handle {world.by_name[name].handle})")
+    m, d = world.model, world.data
+    kind = _KIND.get(obj.type)
+    frame = _FRAMES.get(kind)  # the placement in its body, which may have been set at run time
+    placed = tuple(getattr(m, f)[obj.mj_id].copy() for f in frame[:2]) if frame else None
+    states = [(d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + _joint_size(m, j)[0]].copy(),
+               d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + _joint_size(m, j)[1]].copy()) for j in _joint_ids(world, obj)]
+    mocap = None  # a mocap body's pose lives in MjData, matched by name too
+    if obj.type == SHAPE and m.body_mocapid[obj.mj_id] >= 0:
+        k = m.body_mocapid[obj.mj_id]
+        mocap = (d.mocap_pos[k].copy(), d.mocap_quat[k].copy())
+    names = world._handle_of_name  # replace_model keeps a handle for a known name: give it the new one
+
+    def change(spec: mujoco.MjSpec) -> None:
+        kind_, el, _ = editor._spec_element(spec, handle)
+        el.name = name
+        _retarget(spec, kind_, old, name)
+        names[name] = handle
+
+    try:
+        editor._edit(change)
+    except BaseException:
+        if names.get(name) == handle and name not in world.by_name:
+            del names[name]
+        raise
+    obj = world.get(handle)
+    m, d = world.model, world.data
+    if placed is not None:
+        for f, value in zip(frame[:2], placed):
+            getattr(m, f)[obj.mj_id] = value
+        if kind == "site":
+            m.site_sameframe[obj.mj_id] = 0  # MuJoCo's shortcut for a site at its body's origin
+    if mocap is not None and m.body_mocapid[obj.mj_id] >= 0:
+        d.mocap_pos[m.body_mocapid[obj.mj_id]], d.mocap_quat[m.body_mocapid[obj.mj_id]] = mocap
+    for j, (qpos, qvel) in zip(_joint_ids(world, obj), states):
+        d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + len(qpos)] = qpos
+        d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + len(qvel)] = qvel
+    world.changed()
+
+
+def _joint_size(m: mujoco.MjModel, j: int) -> tuple[int, int]:
+    """(nq, nv) of joint ``j``."""
+    return {0: (7, 6), 1: (4, 3)}.get(int(m.jnt_type[j]), (1, 1))
+
+
+# --------------------------------------------------------------------------- mixin
+class ObjectCalls:
+    """The object tree, matrices, velocities, forces and scene edits (mixin of the facade).
+
+    Needs the facade's ``_world``, ``_owner``, ``_h``, ``_rel``, ``_set_pose``,
+    ``_simulation(what)`` and ``_forces`` (an :class:`AppliedForces`).
+    """
+
+    # ------------------------------------------------------------------ names
+    def getObject(self, path: Any, options: Any = None) -> int:  # noqa: N802
+        """CoppeliaSim 4.3's lookup: a name, an absolute ``/path``, ``"."`` (the script's object)
+        or a path relative to it, ``"./child"`` / ``"./arm/joint"`` (the object must lie below
+        the script's object, the named ones in that order between them). ``options``
+        ``{noError = true}`` answers -1 instead of an error for an unknown object; ``{index = n}``
+        with n > 0 finds nothing (the n-th object of that name: simx names are unique)."""
+        p = _text(path, "object path")
+        index = _int(options.get("index", -1), "index") if isinstance(options, dict) else -1
+        if index > 0:  # the n-th of several objects with that alias: simx names are unique
+            if options.get("noError"):
+                return -1
+            raise UnknownObjectError(f"no object {quote(p)} with index {index}: simx names are unique")
+        if not p.startswith("./"):
+            return super().getObject(p, options)  # type: ignore[misc]
+        parts = [x.split("[")[0] for x in p[2:].split("/") if x]
+        found = self._world.by_name.get(parts[-1]) if parts else None
+        between, h = [], (found.parent if found is not None else WORLD)
+        while h not in (WORLD, self._owner):
+            between.append(self._world.objects[h].name)
+            h = self._world.objects[h].parent
+        it = iter(reversed(between))
+        if found is not None and h == self._owner and all(x in it for x in parts[:-1]):
+            return found.handle
+        if isinstance(options, dict) and options.get("noError"):
+            return -1
+        raise UnknownObjectError(f"object {quote(p)} is not below {self._world.get(self._owner).name!r}")
+
+    def getObjectAlias(self, handle: Any, options: Any = -1) -> str:  # noqa: N802 (CoppeliaSim's names)
+        """The object's alias (CoppeliaSim 4.3; in simx alias and name are one): ``options``
+        -1 or 0 the alias alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form
+        ``sim.getObject`` and ``simxGetObjectHandle`` resolve)."""
+        obj = self._world.get(self._h(handle))
+        if _int(options, "options") <= 0:
+            return obj.name
+        parts, h = [], obj.handle
+        while h != WORLD:
+            parts.append(self._world.objects[h].name)
+            h = self._world.objects[h].parent
+        return "/" + "/".join(reversed(parts))
+
+    def setObjectName(self, handle: Any, name: Any) -> None:  # noqa: N802
+        """Rename an object (V-REP 3.x / CoppeliaSim 4.0-4.2): a client then finds it under
+        ``name`` with ``simxGetObjectHandle``; its handle stays. ``name``: letters, digits and
+        ``_``, an optional ``#n`` suffix, at most ``limits.MAX_SCRIPT_OBJECT_NAME`` (128) characters,
+        not taken by another object
+        (names are global in V-REP); otherwise an error, nothing changes."""
+        text = _text(name, "objectName")
+        if len(text) > L.MAX_SCRIPT_OBJECT_NAME or not _NAME.fullmatch(text):
+            raise ArgumentError(f"object name {quote(text)} must be 1 to {L.MAX_SCRIPT_OBJECT_NAME} letters, "
+                                "digits or '_', "
+                                "with an optional '#n' suffix")
+        rename(self._simulation("setObjectName"), self._h(handle), text)
+
+    def setObjectAlias(self, handle: Any, alias: Any, options: Any = 0) -> None:  # noqa: N802
+        """Rename an object (CoppeliaSim 4.3): characters other than letters, digits and ``_``
+        become ``_``, as CoppeliaSim does; at most ``limits.MAX_SCRIPT_OBJECT_NAME`` (128) characters,
+        not the name of another
+        object (an error: simx names are unique, as V-REP's were). ``options`` is ignored."""
+        text = _text(alias, "alias")
+        _int(options, "options")
+        if not text or len(text) > L.MAX_SCRIPT_OBJECT_NAME:
+            raise ArgumentError(f"alias {quote(text)} must have 1 to {L.MAX_SCRIPT_OBJECT_NAME} characters")
+        rename(self._simulation("setObjectAlias"), self._h(handle), _NOT_ALIAS.sub("_", text))
+
+    # ------------------------------------------------------------------ tree
+    def setObjectParent(self, handle: Any, parent: Any, keepInPlace: Any = True) -> None:  # noqa: N802, N803
+        """Hang an object from ``parent`` (-1: the world), keeping its world pose when
+        ``keepInPlace`` (else its pose relative to the parent), as ``simxSetObjectParent``:
+        a shape moves with its body subtree; in MuJoCo objects hang from shapes or the world
+        only, and a joint belongs to its body (both: an error)."""
+        sim = self._simulation("setObjectParent")
+        p = _int(parent, "parentObjectHandle")
+        p = self._owner if p == C.sim_handle_self else p
+        keep = keepInPlace if isinstance(keepInPlace, bool) else bool(_int(keepInPlace, "keepInPlace"))
+        sim.editor.set_parent(self._h(handle), p, keep)
+
+    def getObjectsInTree(self, base: Any, objectType: Any = C.sim_handle_all,  # noqa: N802, N803
+                         options: Any = 0) -> list[int]:
+        """Handles of the objects in the tree below ``base`` (``sim.handle_scene``: the whole
+        scene), depth first in tree order, the base first; ``objectType`` filters
+        (``sim.handle_all``: any type); ``options`` bit 0 leaves out the base, bit 1 keeps only
+        its direct children."""
+        b = _int(base, "treeBaseHandle")
+        otype, opts = _int(objectType, "objectType"), _int(options, "options")
+        world = self._world
+        children: dict[int, list[int]] = {}
+        for o in world.objects.values():
+            children.setdefault(o.parent, []).append(o.handle)
+        if b == HANDLE_SCENE:
+            top, out = WORLD, []
+        else:
+            top = world.get(self._h(b, "treeBaseHandle")).handle
+            out = [] if opts & 1 else [top]
+        stack = list(reversed(children.get(top, [])))  # depth first, in tree order
+        while stack:
+            h = stack.pop()
+            out.append(h)
+            if not opts & 2:
+                stack.extend(reversed(children.get(h, [])))
+        return [h for h in out if otype == C.sim_handle_all or world.objects[h].type == otype]
+
+    # ------------------------------------------------------------------ poses
+    def getObjectPosition(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
+        """Position (m) relative to ``relative_to`` (-1 world, the default since CoppeliaSim 4.5;
+        ``sim.handle_parent``; any object)."""
+        return self._world.position(self._h(handle), self._rel(relative_to))
+
+    def getObjectOrientation(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
+        """Euler angles alpha, beta, gamma (rad), R = Rx(alpha) Ry(beta) Rz(gamma), relative to
+        ``relative_to`` (default: the world, as CoppeliaSim 4.5)."""
+        return self._world.orientation(self._h(handle), self._rel(relative_to))
+
+    def getObjectQuaternion(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
+        """Orientation as a quaternion (x, y, z, w) relative to ``relative_to`` (default: the world)."""
+        return self._world.quaternion(self._h(handle), self._rel(relative_to))
+
+    @staticmethod
+    def _order(relative_to: Any, value: Any) -> tuple[Any, Any]:
+        """``(relativeTo, value)`` of a setter called ``(h, relativeTo, value)`` (V-REP, CoppeliaSim
+        before 4.5) or ``(h, value [, relativeTo])`` (CoppeliaSim 4.5+): the table tells."""
+        if isinstance(relative_to, (list, tuple, np.ndarray)):
+            return (-1 if value is None else value), relative_to
+        return relative_to, value
+
+    def setObjectPosition(self, handle: Any, relative_to: Any, position: Any = None) -> None:  # noqa: N802
+        """Move an object to ``position`` (m) in the frame of ``relative_to``; arguments
+        ``(h, relativeTo, position)`` or, as CoppeliaSim 4.5, ``(h, position [, relativeTo])``."""
+        rel, value = self._order(relative_to, position)
+        self._set_pose(handle, rel, position=_vector(value, 3, "position"))
+
+    def setObjectOrientation(self, handle: Any, relative_to: Any, euler: Any = None) -> None:  # noqa: N802
+        """Turn an object to Euler angles (rad) in the frame of ``relative_to``; both argument
+        orders, as :meth:`setObjectPosition`."""
+        rel, value = self._order(relative_to, euler)
+        self._set_pose(handle, rel, rotation=matrix_from_euler(*_vector(value, 3, "eulerAngles")))
+
+    def setObjectQuaternion(self, handle: Any, relative_to: Any, quaternion: Any = None) -> None:  # noqa: N802
+        """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``; both
+        argument orders, as :meth:`setObjectPosition`."""
+        rel, value = self._order(relative_to, quaternion)
+        self._set_pose(handle, rel, rotation=matrix_from_quaternion(*_vector(value, 4, "quaternion")))
+
+    def getObjectMatrix(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
+        """The object's pose as 12 numbers, row by row: ``[Xx Yx Zx Px  Xy Yy Zy Py  Xz Yz Zz Pz]``
+        (rotation columns X, Y, Z; position in m) relative to ``relative_to`` (-1 world,
+        ``sim.handle_parent``)."""
+        p, r = self._world.relative_frame(self._h(handle), self._rel(relative_to))
+        return np.hstack([r, p.reshape(3, 1)]).reshape(12).tolist()
+
+    def setObjectMatrix(self, handle: Any, relative_to: Any, matrix: Any = None) -> None:  # noqa: N802
+        """Place an object by a 12-number matrix (see :meth:`getObjectMatrix`) relative to
+        ``relative_to``. Both argument orders work: ``(h, relativeTo, matrix)`` (CoppeliaSim
+        4.0-4.4) and ``(h, matrix [, relativeTo])`` (4.5+). The rotation part must be a rotation
+        (orthonormal within 1e-3; it is re-orthonormalised); the rules of setObjectPosition hold."""
+        relative_to, matrix = self._order(relative_to, matrix)
+        values = np.array(_vector(matrix, 12, "matrix")).reshape(3, 4)
+        r = values[:, :3]
+        if np.abs(r @ r.T - np.eye(3)).max() > 1e-3 or np.linalg.det(r) <= 0:
+            raise ArgumentError("the matrix's first three columns are not a rotation (orthonormal, determinant 1)")
+        u, _, vt = np.linalg.svd(r)
+        self._set_pose(handle, relative_to, position=values[:, 3].tolist(), rotation=u @ vt)
+
+    def getObjectVelocity(self, handle: Any) -> tuple[list[float], list[float]]:  # noqa: N802
+        """``linearVelocity, angularVelocity`` of the object's origin in world axes (m/s, rad/s),
+        as ``simxGetObjectVelocity``."""
+        v, w = kinematics.object_velocity(self._simulation("getObjectVelocity"), self._h(handle))
+        return v.tolist(), w.tolist()
+
+    # ------------------------------------------------------------------ forces
+    def _dynamic_body(self, handle: Any) -> int:
+        obj = self._world.get(self._h(handle, "shapeHandle"), SHAPE)
+        if self._world.model.body_weldid[obj.mj_id] == 0:
+            raise ObjectTypeError(f"shape {obj.name!r} is static (welded to the world): forces do not move it")
+        return obj.mj_id
+
+    def addForce(self, handle: Any, position: Any, force: Any) -> None:  # noqa: N802
+        """Add ``force`` (N, world axes) at ``position`` (m, in the shape's frame) for the next
+        simulation step; forces add up and are reset after that step (CoppeliaSim: after
+        ``sim.handleDynamics``). Errors: not a shape, a static shape."""
+        body = self._dynamic_body(handle)
+        p = np.array(_vector(position, 3, "position"))
+        f = np.array(_vector(force, 3, "force"))
+        d = self._world.data
+        at = d.xpos[body] + d.xmat[body].reshape(3, 3) @ p
+        self._forces.add(self._world, body, f, np.cross(at - d.xipos[body], f))
+
+    def addForceAndTorque(self, handle: Any, force: Any = None, torque: Any = None) -> None:  # noqa: N802
+        """Add ``force`` (N) and ``torque`` (N·m), world axes, at the shape's centre of mass for
+        the next simulation step (nil: none); reset after it, as :meth:`addForce`."""
+        body = self._dynamic_body(handle)
+        f = np.zeros(3) if force is None else np.array(_vector(force, 3, "force"))
+        t = np.zeros(3) if torque is None else np.array(_vector(torque, 3, "torque"))
+        self._forces.add(self._world, body, f, t)
+
+    # ------------------------------------------------------------------ creation
+    def createDummy(self, size: Any = 0.005, color: Any = None) -> int:  # noqa: N802
+        """A new dummy (a sphere site of diameter ``size`` m) at the world origin, as
+        ``simxCreateDummy``; returns its handle (named ``Dummy``, ``Dummy0``...). ``size``
+        defaults to 0.005 m (CoppeliaSim 4.x); ``color``: nil
+        or 12 numbers 0..1 (ambient/diffuse, specular, emission RGB; the first three colour it)."""
+        s = _num(size, "size")
+        colors = None
+        if color is not None:
+            values = _vector(color, 12, "color")
+            if any(not 0.0 <= v <= 1.0 for v in values):
+                raise ArgumentError("color components must lie in 0..1")
+            colors = [round(v * 255) for v in values]
+        return self._simulation("createDummy").editor.create_dummy(s, colors)
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: World
+        _owner: int
+        _forces: AppliedForces
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _rel(self, relative_to: Any) -> int: ...
+
+        def _set_pose(self, handle: Any, relative_to: Any, position: list[float] | None = None,
+                      rotation: np.ndarray | None = None) -> None: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...

@@ -1,0 +1,224 @@
+"""CoppeliaSim 4.x script calls of the ``sim`` facade: signals, sensors, object parameters and
+the simulation state (issue 12, part 7).
+
+:class:`SensorCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`, the ``sim`` of child
+scripts; it reads the simulation through the facade's ``_sim`` (a
+:class:`~simx_server.scene.simulation.Simulation`) and the sensor functions of
+:mod:`simx_server.sim.sensors` (``force_sensor_reading``, ``proximity_reading``, ``get_int_param``,
+``set_int_param``, ``get_float_param``, ``set_float_param``, ``override_image``) and
+:mod:`simx_server.sim.vision` (``VisionSensors.image``), so that scripts and remote clients read
+the same values. Names, arguments and returns follow CoppeliaSim 4.x's documentation; the V-REP
+3.x names that differ (``getObjectInt32Parameter`` ...) keep their 3.x returns.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from simx_client.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import quote
+from simx_server.scripts.facade_core import Signals, _int, _num, _text
+from simx_server.sim import object_params, sensors
+from simx_server.sim.state import RunState, SimulationView
+
+#: CoppeliaSim's simulation states (``sim.getSimulationState``), as ``sim.NAME`` constants.
+SIMULATION_STATES = {
+    "simulation_stopped": 0x00,
+    "simulation_paused": 0x08,
+    "simulation_advancing": 0x10,
+    "simulation_advancing_firstafterstop": 0x10,
+    "simulation_advancing_running": 0x11,
+    "simulation_advancing_lastbeforepause": 0x13,
+    "simulation_advancing_firstafterpause": 0x14,
+    "simulation_advancing_abouttostop": 0x15,
+    "simulation_advancing_lastbeforestop": 0x16,
+}
+#: ``sim.handleflag_greyscale``: added to a vision sensor's handle, a greyscale image.
+HANDLEFLAG_GREYSCALE = 0x00400000
+#: Constants this module adds to ``sim.*`` (besides the legacy ``sim_*`` ones).
+CONSTANTS: dict[str, int] = {**SIMULATION_STATES, "handleflag_greyscale": HANDLEFLAG_GREYSCALE}
+
+
+def _signal_name(name: Any) -> str:
+    return _text(name, "signal name")
+
+
+def _pair(value: Any, what: str) -> tuple[int, int]:
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ArgumentError(f"{what} must be a table of 2 integers, got {quote(value)}")
+    return _int(value[0], f"{what}[1]"), _int(value[1], f"{what}[2]")
+
+
+class SensorCalls:
+    """Signals, sensors, object parameters and the simulation state (mixin of the facade).
+
+    Needs the facade's ``_world``, ``_owner``, ``_signals``, ``_h(handle)`` and ``_simulation(what)``.
+    """
+
+    _signals: Signals
+
+    # ------------------------------------------------------------ signals (4.x names)
+    def setInt32Signal(self, name: Any, value: Any) -> None:  # noqa: N802 (CoppeliaSim's names)
+        """Set integer signal ``name`` (CoppeliaSim 4's name of ``setIntegerSignal``); a client's
+        ``simxGetIntegerSignal`` reads it. The value must be an integer (a float with no
+        fractional part is taken) that fits in 64 bits; signals set by scripts are cleared
+        when the simulation stops."""
+        self._signals.set(Signals.INT, _signal_name(name), value, by_script=True)
+
+    def getInt32Signal(self, name: Any) -> int | None:  # noqa: N802
+        """Integer signal ``name``; nil (None) when it is not set."""
+        return self._signals.get(Signals.INT, _signal_name(name))
+
+    def clearInt32Signal(self, name: Any = None) -> None:  # noqa: N802
+        """Clear integer signal ``name`` (every integer signal when nil)."""
+        self._signals.clear(Signals.INT, None if name is None else _signal_name(name))
+
+    # ------------------------------------------------------------------- sensors
+    def readForceSensor(self, handle: Any) -> tuple[int, list[float], list[float]]:  # noqa: N802
+        """``result, forceVector, torqueVector`` of a force sensor (a site with MuJoCo force and
+        torque sensors): result bit 0 = data available, bit 1 = broken; force (N) and torque
+        (N·m) in the sensor's frame, as ``simxReadForceSensor`` reads them. A hanging 2 kg
+        payload reads about 19.6 N along gravity. Errors: not a force sensor."""
+        state, force, torque = sensors.force_sensor_reading(self._simulation("readForceSensor"), self._h(handle))
+        return state, force, torque
+
+    def readProximitySensor(self, handle: Any) -> tuple[int, float, list[float], int, list[float]]:  # noqa: N802
+        """``result, distance, detectedPoint, detectedObjectHandle, detectedSurfaceNormalVector``
+        (CoppeliaSim 4): result 1 when something is detected, else 0 (then distance 0, the
+        point and normal zero and the handle -1); distance in m, point and normal in the
+        sensor's frame (the ray runs along its z axis), the handle that of the shape hit (-1
+        for geometry of the world body)."""
+        detected, point, hit, normal = sensors.proximity_reading(self._simulation("readProximitySensor"),
+                                                                 self._h(handle))
+        return int(detected), float(np.linalg.norm(point)), point, hit, normal
+
+    def _image(self, what: str, handle: int, grey: bool) -> np.ndarray:
+        sim = self._simulation(what)
+        img = sensors.override_image(sim, handle, grey)  # a passive sensor shows what was written
+        return sim.vision.image(handle, grey) if img is None else img
+
+    @staticmethod
+    def _crop(img: np.ndarray, x: Any, y: Any, w: Any, h: Any) -> np.ndarray:
+        x, y, w, h = (_int(v, n) for v, n in ((x, "posX"), (y, "posY"), (w, "sizeX"), (h, "sizeY")))
+        rows, cols = img.shape[:2]
+        if w == 0 and h == 0:
+            w, h = cols - x, rows - y
+        if x < 0 or y < 0 or w <= 0 or h <= 0 or x + w > cols or y + h > rows:
+            raise ArgumentError(f"the window at ({x}, {y}) of size {w}x{h} is not inside the "
+                                f"{cols}x{rows} image")
+        return img[y:y + h, x:x + w]
+
+    def getVisionSensorImg(self, handle: Any, options: Any = 0, rgbaCutOff: Any = 0,  # noqa: N802, N803
+                           pos: Any = None, size: Any = None) -> tuple[bytes, list[int]]:
+        """``image, resolution`` (CoppeliaSim 4.4+): the image as a buffer of uint8 RGB pixels
+        (``options`` bit 0: one grey byte per pixel), rows bottom-up as V-REP's, and
+        ``{width, height}`` of it. ``pos``/``size`` ``{x, y}`` cut a window (from the bottom
+        left corner; size {0, 0}: the whole image). ``rgbaCutOff`` is accepted and ignored
+        (no alpha channel). Errors: not a vision sensor, other option bits, a window outside."""
+        opts = _int(options, "options")
+        if opts & ~1:
+            raise UnsupportedError(f"getVisionSensorImg options {opts}: only bit 0 (greyscale) is supported")
+        _num(rgbaCutOff, "rgbaCutOff")
+        px, py = (0, 0) if pos is None else _pair(pos, "pos")
+        sx, sy = (0, 0) if size is None else _pair(size, "size")
+        img = self._crop(self._image("getVisionSensorImg", self._h(handle), bool(opts & 1)), px, py, sx, sy)
+        return np.ascontiguousarray(img).tobytes(), [int(img.shape[1]), int(img.shape[0])]
+
+    def getVisionSensorImage(self, handle: Any, posX: Any = 0, posY: Any = 0, sizeX: Any = 0,  # noqa: N802, N803
+                             sizeY: Any = 0, returnType: Any = 0) -> list[float] | bytes:  # noqa: N803
+        """The image (V-REP 3.x / CoppeliaSim 4 before 4.4): a table of floats 0..1, three per
+        pixel (RGB), rows bottom-up; ``returnType`` 1: a buffer of uint8 instead. Adding
+        ``sim.handleflag_greyscale`` to the handle gives one value per pixel. ``posX/posY,
+        sizeX/sizeY``: a window (0, 0, 0, 0: the whole image)."""
+        h = _int(handle, "sensorHandle")
+        grey = h >= 0 and bool(h & HANDLEFLAG_GREYSCALE)
+        if grey:
+            h &= ~HANDLEFLAG_GREYSCALE
+        img = self._crop(self._image("getVisionSensorImage", self._h(h), grey), posX, posY, sizeX, sizeY)
+        kind = _int(returnType, "returnType")
+        if kind == 1:
+            return np.ascontiguousarray(img).tobytes()
+        if kind != 0:
+            raise ArgumentError(f"returnType must be 0 (floats) or 1 (bytes), got {kind}")
+        return (img.reshape(-1).astype(np.float64) / 255.0).tolist()
+
+    # ---------------------------------------------------------- object parameters
+    def getObjectInt32Param(self, handle: Any, parameter: Any) -> int:  # noqa: N802
+        """Integer parameter ``parameter`` (``sim.jointintparam_motor_enabled``,
+        ``sim.visionintparam_resolution_x`` ...) of an object, as ``simxGetObjectIntParameter``
+        reads it (CoppeliaSim 4). Errors: a parameter simx does not support (named)."""
+        return object_params.get_int_param(self._simulation("getObjectInt32Param"), self._h(handle),
+                                     _int(parameter, "parameterID"))
+
+    def setObjectInt32Param(self, handle: Any, parameter: Any, value: Any) -> None:  # noqa: N802
+        """Set an integer parameter (CoppeliaSim 4), as ``simxSetObjectIntParameter``:
+        ``sim.jointintparam_ctrl_enabled`` 0/1 switches velocity / position control."""
+        object_params.set_int_param(self._simulation("setObjectInt32Param"), self._h(handle),
+                              _int(parameter, "parameterID"), _int(value, "parameter"))
+
+    def getObjectFloatParam(self, handle: Any, parameter: Any) -> float:  # noqa: N802
+        """Float parameter of an object (CoppeliaSim 4), as ``simxGetObjectFloatParameter``
+        (velocities 11-14 in m/s and rad/s, bounding box 15-20 in m, clipping planes ...)."""
+        return object_params.get_float_param(self._simulation("getObjectFloatParam"), self._h(handle),
+                                       _int(parameter, "parameterID"))
+
+    def setObjectFloatParam(self, handle: Any, parameter: Any, value: Any) -> None:  # noqa: N802
+        """Set a float parameter (CoppeliaSim 4), as ``simxSetObjectFloatParameter``."""
+        object_params.set_float_param(self._simulation("setObjectFloatParam"), self._h(handle),
+                                _int(parameter, "parameterID"), _num(value, "parameter"))
+
+    def getObjectInt32Parameter(self, handle: Any, parameter: Any) -> tuple[int, int]:  # noqa: N802
+        """V-REP 3.x: ``result, value``; result 0 (value 0) for a parameter simx does not support."""
+        try:
+            return 1, self.getObjectInt32Param(handle, parameter)
+        except UnsupportedError:
+            return 0, 0
+
+    def setObjectInt32Parameter(self, handle: Any, parameter: Any, value: Any) -> int:  # noqa: N802
+        """V-REP 3.x: returns 1."""
+        self.setObjectInt32Param(handle, parameter, value)
+        return 1
+
+    def getObjectFloatParameter(self, handle: Any, parameter: Any) -> tuple[int, float]:  # noqa: N802
+        """V-REP 3.x: ``result, value``; result 0 (value 0) for a parameter simx does not support."""
+        try:
+            return 1, self.getObjectFloatParam(handle, parameter)
+        except UnsupportedError:
+            return 0, 0.0
+
+    def setObjectFloatParameter(self, handle: Any, parameter: Any, value: Any) -> int:  # noqa: N802
+        """V-REP 3.x: returns 1."""
+        self.setObjectFloatParam(handle, parameter, value)
+        return 1
+
+    # ---------------------------------------------------------------- simulation
+    def getSimulationState(self) -> int:  # noqa: N802
+        """CoppeliaSim's simulation state: ``sim.simulation_advancing_running`` (0x11) while it
+        runs, ``sim.simulation_paused`` (0x08) while paused, ``sim.simulation_stopped`` (0)
+        while stopped, ``sim.simulation_advancing_firstafterstop`` (0x10) in the ``sysCall_init``
+        of a start and ``sim.simulation_advancing_lastbeforestop`` (0x16) in ``sysCall_cleanup``."""
+
+        sim = self._simulation("getSimulationState")
+        if getattr(sim.scripts, "stopping", False):  # sysCall_cleanup
+            return SIMULATION_STATES["simulation_advancing_lastbeforestop"]
+        if sim.state is RunState.RUNNING:
+            return SIMULATION_STATES["simulation_advancing_running"]
+        if sim.state is RunState.PAUSED:
+            return SIMULATION_STATES["simulation_paused"]
+        script = sim.scripts.scripts.get(self._owner)
+        if script is not None and script.running:  # start: the scripts' init runs before RUNNING
+            return SIMULATION_STATES["simulation_advancing_firstafterstop"]
+        return SIMULATION_STATES["simulation_stopped"]
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+        _owner: int
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
+

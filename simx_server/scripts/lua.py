@@ -1,0 +1,383 @@
+"""Lua child scripts, run by lupa (Lua 5.4) against the shared ``sim`` facade.
+
+Each script gets its own Lua state, made afresh at every simulation start, prepared by
+:data:`PRELUDE`:
+
+* ``sim``: one Lua function per :data:`~simx_server.scripts.facade.FACADE_FUNCTIONS` entry,
+  each calling the script's :class:`~simx_server.scripts.facade.ScriptSim` through one Python
+  dispatcher;
+  Python lists come back as Lua tables, ``str`` and ``bytes`` as Lua strings. A facade error
+  becomes a Lua error at the script's line (``RG2.lua:17: sim.getObjectHandle: ...``); an
+  unknown ``sim.NAME`` is a Lua error that names it. Every V-REP constant is ``sim.NAME`` too,
+  and the pre-3.6 spellings ``simGetObjectHandle`` / ``sim_handle_self`` resolve to them.
+* ``print`` writes to the server log; Lua 5.1 names V-REP scripts used (``unpack``,
+  ``table.getn``, ``math.pow``) exist.
+* A count hook bounds every call: every :data:`HOOK_COUNT` instructions it asks Python whether
+  the call's deadline has passed, and then raises a Lua error and keeps raising at every
+  instruction so that no ``pcall`` can swallow it. Coroutines get the hook too.
+* Safety (CoppeliaSim's defaults): no ``python`` bridge (no eval, no builtins, no Python
+  attribute access), no binary chunks, no ``os.exit``, no ``debug.sethook``. Unless the server
+  runs with ``--allow-unsafe-lua``: no ``dofile``/``loadfile``, no ``io`` functions (no files, no
+  ``io.popen``, no standard streams), no ``os.execute``/``remove``/``rename``/``tmpname``/
+  ``getenv``/``setlocale``, no ``package.loadlib``/``searchpath``, and ``require`` loads Lua
+  modules from the scene's folder only whatever a script does to ``package.path``,
+  ``package.cpath`` or ``package.searchers``. ``load``/``loadstring`` work only when the server
+  runs with ``--allow-remote-code`` (they are how a script would run code that a client sends).
+  Memory is capped at :data:`MAX_MEMORY` bytes per script.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import re
+import time
+from typing import Any
+
+from simx_client.protocol import RemoteError, ScriptError
+from simx_server.scripts.child import LIFE_CYCLE, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
+from simx_server.scripts.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
+
+try:
+    import lupa.lua54 as _lupa
+except ImportError:  # pragma: no cover - lupa is a dependency; kept for a clear message
+    _lupa = None
+
+log = logging.getLogger("simx.scripts")
+
+#: Instructions between two checks of the deadline.
+HOOK_COUNT = 10_000
+#: Memory cap of one script's Lua state (bytes).
+MAX_MEMORY = 256 << 20
+_MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
+
+PRELUDE = r"""
+local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG = ...
+local G = _G
+local sethook, gethook, getinfo, traceback = debug.sethook, debug.gethook, debug.getinfo, debug.traceback
+local error, select, type, tostring, pairs, rawget, setmetatable = error, select, type, tostring, pairs, rawget, setmetatable
+local pack, unpack, concat = table.pack, table.unpack, table.concat
+local lua_load, cocreate, coresume = load, coroutine.create, coroutine.resume
+
+-- Time bound: the hook runs every COUNT instructions; past the deadline it raises, and from then
+-- on it runs (and raises) at every instruction, so that a pcall cannot swallow the interruption.
+local TIMEOUT = "interrupted: the script did not return within its time bound (script_timeout)"
+local hook
+hook = function()
+  if expired() then
+    sethook(hook, "", 1)
+    error(TIMEOUT, 2)
+  end
+  local _, _, count = gethook()
+  if count ~= COUNT then sethook(hook, "", COUNT) end
+end
+sethook(hook, "", COUNT)
+coroutine.create = function(f)
+  local co = cocreate(f)
+  sethook(co, hook, "", COUNT)
+  return co
+end
+coroutine.wrap = function(f)
+  local co = coroutine.create(f)
+  return function(...)
+    local r = pack(coresume(co, ...))
+    if r[1] then return unpack(r, 2, r.n) end
+    error(r[2], 0)
+  end
+end
+
+-- The sim facade. Its errors name the script's line: the first caller with a line number
+-- (sim functions may be called through pcall or as tail calls).
+local function where()
+  for level = 3, 20 do
+    local info = getinfo(level, "Sl")
+    if not info then break end
+    if info.currentline and info.currentline > 0 then
+      return info.short_src .. ":" .. info.currentline .. ": "
+    end
+  end
+  return ""
+end
+local sim = {}
+local function bind(name)
+  return function(...)
+    local r = pack(dispatch(name, ...))
+    if r[1] then return unpack(r, 2, r.n) end
+    error(where() .. "sim." .. name .. ": " .. tostring(r[2]), 0)
+  end
+end
+for i = 1, #names do sim[names[i]] = bind(names[i]) end
+for k, v in pairs(constants) do sim[k] = v end
+setmetatable(sim, {__index = function(_, key)
+  error(where() .. "sim." .. tostring(key) .. " is not available in simx (docs/SCRIPTS.md lists what is)", 0)
+end})
+G.sim = sim
+-- CoppeliaSim 4.x's simIK, as far as it maps onto the scene's IK groups (simx_server/sim/ik.py).
+G.simIK = {result_success = 1, result_fail = 2,
+  createEnvironment = function() return 0 end,
+  getGroupHandle = function(env, name) return sim.getIkGroupHandle(name) end,
+  getIkGroupHandle = function(env, name) return sim.getIkGroupHandle(name) end,
+  handleGroup = function(env, group) return sim.handleIkGroup(group) end,
+  handleIkGroup = function(env, group) return sim.handleIkGroup(group) end,
+  applySceneToIkEnvironment = function() end,
+  applyIkEnvironmentToScene = function(env, group) return sim.handleIkGroup(group) end}
+-- V-REP before 3.6: simGetObjectHandle(...), sim_handle_self.
+setmetatable(G, {__index = function(_, key)
+  if type(key) ~= "string" then return nil end
+  local c = key:match("^sim_(.+)$")
+  if c then return rawget(sim, c) end
+  local f = key:match("^sim(%u.*)$")
+  if f then return rawget(sim, f:sub(1, 1):lower() .. f:sub(2)) end
+  return nil
+end})
+
+-- print goes to the server log.
+G.print = function(...)
+  local parts = {}
+  for i = 1, select("#", ...) do parts[i] = tostring((select(i, ...))) end
+  write_log(concat(parts, "\t"))
+end
+
+-- Lua 5.1 names that V-REP scripts use.
+G.unpack = unpack
+table.getn = function(t) return #t end
+math.pow = function(x, y) return x ^ y end
+
+-- Safety.
+local function refuse(name, why)
+  return function() error(name .. " is not available in simx child scripts" .. (why or ""), 2) end
+end
+local REMOTE = ": simx runs code sent by clients only when the server is started with " .. FLAG
+if allow_code then
+  G.load = function(chunk, chunkname, mode, env)
+    if env == nil then return lua_load(chunk, chunkname, "t") end
+    return lua_load(chunk, chunkname, "t", env)
+  end
+  G.loadstring = function(s, chunkname) return lua_load(s, chunkname, "t") end
+else
+  G.load = refuse("load", REMOTE)
+  G.loadstring = refuse("loadstring", REMOTE)
+end
+-- Files, processes and the environment (CoppeliaSim's "unsafe" functions): only with UNSAFE_FLAG.
+local UNSAFE = ": file, process and environment functions need the server flag " .. UNSAFE_FLAG
+local lua_loadfile = loadfile
+if allow_unsafe then  -- plain Lua, but text chunks only (precompiled ones can crash the Lua VM)
+  G.loadfile = function(file, mode, env)
+    if env == nil then return lua_loadfile(file, "t") end
+    return lua_loadfile(file, "t", env)
+  end
+  G.dofile = function(file)
+    local f = assert(lua_loadfile(file, "t"))
+    return f()
+  end
+else
+  G.dofile = refuse("dofile", UNSAFE .. " (use require with a module in the scene's folder)")
+  G.loadfile = refuse("loadfile", UNSAFE .. " (use require with a module in the scene's folder)")
+  for _, name in ipairs({"open", "popen", "lines", "input", "output", "read", "write", "close", "tmpfile"}) do
+    io[name] = refuse("io." .. name, UNSAFE)
+  end
+  io.stdin, io.stdout, io.stderr = nil, nil, nil  -- io.stdin:read() would block the simulation
+  for _, name in ipairs({"execute", "remove", "rename", "tmpname", "getenv", "setlocale"}) do
+    os[name] = refuse("os." .. name, UNSAFE)
+  end
+  package.loadlib = refuse("package.loadlib", UNSAFE)
+  package.searchpath = refuse("package.searchpath", UNSAFE)
+  -- require finds Lua modules in the scene's folder only, whatever a script does to package.path,
+  -- package.cpath or package.searchers: the loader reads them from this table, reset at each call.
+  -- The searchers are kept here, out of the script's reach (called directly they would read a
+  -- package.path the script set), and lent to the loader for the time of one require.
+  local pkg, lua_require, searchers = package, require, {package.searchers[1], package.searchers[2]}
+  local pcall = pcall
+  pkg.searchers = {}
+  G.require = function(name)
+    pkg.path, pkg.cpath, pkg.searchers = scene_dir .. "/?.lua", "", {searchers[1], searchers[2]}
+    local r = pack(pcall(lua_require, name))
+    pkg.path, pkg.searchers = scene_dir .. "/?.lua", {}
+    if not r[1] then error(r[2], 0) end  -- the message already says where
+    return unpack(r, 2, r.n)
+  end
+end
+os.exit = refuse("os.exit", " (it would end the server; simxStopSimulation stops the simulation)")
+package.path = scene_dir .. "/?.lua"
+package.cpath = ""
+G.python = nil
+package.loaded.python = nil
+G.debug = {traceback = traceback, getinfo = getinfo}
+package.loaded.debug = G.debug
+
+-- Functions that can be called remotely: Lua functions the script defines as globals.
+local base = {}
+for k, v in pairs(G) do base[k] = v end
+return function(name)
+  local f = rawget(G, name)
+  if type(f) == "function" and f ~= base[name] and getinfo(f, "S").what ~= "C" then return f end
+  return nil
+end
+"""
+
+
+def _deny_attributes(obj: Any, name: Any, is_setting: bool) -> Any:
+    raise AttributeError("Python objects cannot be inspected from child scripts")
+
+
+def _first_line(exc: BaseException) -> str:
+    """A Lua error's message without lupa's traceback."""
+    msg = exc.args[0] if exc.args else str(exc)
+    if isinstance(msg, bytes):
+        msg = msg.decode("utf-8", errors="replace")
+    msg = str(msg)
+    return msg.split("\nstack traceback:", 1)[0].strip()
+
+
+class LuaScript(ChildScript):
+    """A Lua child script (the V-REP kind), in a lupa Lua 5.4 state of its own."""
+
+    language = "Lua"
+
+    def _load(self) -> None:
+        self._runtime = None
+        self._lookup = None
+        self._deadline = math.inf
+        self._timed_out = False
+        if _lupa is None:
+            self.load_error = "Lua scripts need lupa with Lua 5.4: pip install 'lupa>=2.2'"
+            return
+        try:
+            self._source = self.path.read_bytes()
+        except OSError as exc:
+            self.load_error = f"{self.path.name}: {exc}"
+            return
+        try:  # syntax check now, so that the error shows up when the scene loads
+            self._new_runtime().compile(self._source, name=f"@{self.path.name}", mode="t")
+        except _lupa.LuaError as exc:
+            self.load_error = _first_line(exc)
+
+    def _new_runtime(self) -> Any:
+        return _lupa.LuaRuntime(encoding=None, unpack_returned_tuples=True, register_eval=False,
+                                register_builtins=False, attribute_filter=_deny_attributes,
+                                max_memory=MAX_MEMORY)
+
+    # ------------------------------------------------------------ the bridge
+    def _expired(self) -> bool:
+        if time.monotonic() > self._deadline:
+            self._timed_out = True
+            return True
+        return False
+
+    def _write_log(self, text: bytes) -> None:
+        log.info("[%s] %s", self.path.name, text.decode("utf-8", errors="replace"))
+
+    def _dispatch(self, name: bytes, *args: Any) -> tuple:
+        """``sim.NAME(...)`` from Lua: (True, results...) or (False, message); never raises."""
+        fname = name.decode()
+        try:
+            result = getattr(self._facade, fname)(*[self._from_lua(a) for a in args])
+            if isinstance(result, tuple):
+                return (True, *[self._to_lua(v) for v in result])
+            return True, self._to_lua(result)
+        except RemoteError as exc:
+            return False, str(exc).encode()
+        except (TypeError, ValueError, OverflowError) as exc:
+            return False, f"bad arguments: {exc}".encode()
+        except Exception as exc:  # a bug in simx, not in the script: say so
+            log.exception("sim.%s called by %s", fname, self.label)
+            return False, f"internal error: {type(exc).__name__}: {exc}".encode()
+
+    def _from_lua(self, value: Any, depth: int = 0) -> Any:
+        """A Lua value as Python: tables with keys 1..n as lists, other tables as dicts,
+        strings as bytes."""
+        kind = _lupa.lua_type(value)
+        if kind is None:
+            return value
+        if kind != "table":
+            raise TypeError(f"a Lua {kind} cannot be passed to sim functions")
+        if depth > _MAX_DEPTH:
+            raise ValueError("tables nested too deeply")
+        items = [(self._from_lua(k, depth + 1), self._from_lua(v, depth + 1)) for k, v in value.items()]
+        keys = [k for k, _ in items]
+        if all(isinstance(k, int) for k in keys) and sorted(keys) == list(range(1, len(keys) + 1)):
+            return [v for _, v in sorted(items, key=lambda kv: kv[0])]
+        return {(k.decode("utf-8", errors="replace") if isinstance(k, bytes) else k): v for k, v in items}
+
+    def _to_lua(self, value: Any, depth: int = 0) -> Any:
+        """A Python value as Lua: lists and tuples as tables, str as (UTF-8) strings."""
+        if value is None or isinstance(value, (bool, int, float, bytes)):
+            return value
+        if isinstance(value, str):
+            return value.encode("utf-8")
+        if isinstance(value, (bytearray, memoryview)):
+            return bytes(value)
+        if hasattr(value, "tolist"):  # numpy scalars and arrays
+            return self._to_lua(value.tolist(), depth)
+        if depth > _MAX_DEPTH:
+            raise ValueError("values nested too deeply")
+        if isinstance(value, (list, tuple)):
+            return self._runtime.table_from([self._to_lua(v, depth + 1) for v in value])
+        if isinstance(value, dict):
+            return self._runtime.table_from({self._to_lua(k, depth + 1): self._to_lua(v, depth + 1)
+                                             for k, v in value.items()})
+        raise TypeError(f"{type(value).__name__} cannot be passed to Lua")
+
+    # ---------------------------------------------------------- life cycle
+    def _create(self) -> None:
+        self._facade = self.facade()
+        rt = self._runtime = self._new_runtime()
+        prelude = rt.compile(PRELUDE, name="=simx")
+        self._lookup = prelude(
+            self._dispatch, self._expired, self._write_log,
+            rt.table_from([n.encode() for n in FACADE_FUNCTIONS]),
+            rt.table_from({k.encode(): v for k, v in FACADE_CONSTANTS.items()}),
+            self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
+            self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode())
+        chunk = rt.compile(self._source, name=f"@{self.path.name}", mode="t")
+        self._bounded("top level", chunk, ())
+
+    def _defines(self, function: str) -> bool:
+        return self._lookup is not None and self._lookup(function.encode()) is not None
+
+    def _callable(self, function: str) -> bool:
+        return self._defines(function)
+
+    def _run_function(self, function: str, args: tuple) -> Any:
+        fn = self._lookup(function.encode())
+        if fn is None:
+            raise self._fault(function, "no such function")
+        if function in LIFE_CYCLE:
+            return self._bounded(function, fn, ())
+        ints, floats, strings, buffer = args
+        rt = self._runtime
+        lua_args = (rt.table_from(ints), rt.table_from(floats),
+                    rt.table_from([s.encode("utf-8") for s in strings]), bytes(buffer))
+        out = self._bounded(function, fn, lua_args)
+        try:
+            values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
+            return legacy_outputs(tuple(self._from_lua(v) for v in values))
+        except (TypeError, ValueError) as exc:
+            raise self._fault(function, f"returned values of the wrong types: {exc}") from None
+        except ScriptError as exc:
+            raise self._fault(function, str(exc)) from None
+
+    def _drop(self) -> None:
+        self._lookup = None
+        self._runtime = None
+        self._facade = None
+
+    def _bounded(self, what: str, fn: Any, args: tuple) -> Any:
+        self._timed_out = False
+        self._deadline = time.monotonic() + self.timeout
+        try:
+            return fn(*args)
+        except _lupa.LuaMemoryError as exc:
+            raise self._fault(what, f"out of memory ({MAX_MEMORY >> 20} MiB per script): "
+                                    f"{_first_line(exc)}") from None
+        except _lupa.LuaError as exc:
+            if self._timed_out:
+                where = re.match(rf"{re.escape(self.path.name)}:\d+: ", _first_line(exc))
+                prefix = where.group(0) if where else ""
+                raise self._fault(what, f"{prefix}interrupted: did not return within {self.timeout:g} s "
+                                        "(script_timeout)", timeout=True) from None
+            raise self._fault(what, _first_line(exc)) from None
+        except Exception as exc:  # a Python error crossing Lua (a bug in simx): still the script's fault line
+            raise self._fault(what, f"internal error: {type(exc).__name__}: {exc}") from None
+        finally:
+            self._deadline = math.inf

@@ -1,0 +1,174 @@
+"""The scene's child scripts as one collection: :func:`load_script` reads an object's script
+(Python or Lua, confined to the scene's folder, never from a client's transfer folder unless
+``--allow-remote-code``), :class:`Scripts` drives every script through V-REP's life cycle
+(``sysCall_init`` at start, actuation and sensing each step, cleanup at stop) and serves
+``simxCallScriptFunction``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+from typing import Any, Iterable
+
+from simx_client import constants as C
+from simx_client.protocol import ArgumentError, ScriptError, UnknownObjectError
+from simx_server.scripts.child import DEFAULT_TIMEOUT, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, PythonScript
+from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.facade_objects import AppliedForces
+from simx_server.scripts.lua import LuaScript
+from simx_server.sim.world import World
+
+log = logging.getLogger("simx.scripts")
+
+
+# ---------------------------------------------------------------- the manager
+def load_script(world: World, owner: int, file: str, *, untrusted: Iterable[Path] = (),
+                **options: Any) -> ChildScript:
+    """The child script ``file`` (relative to the scene's folder) of object ``owner``.
+
+    ``untrusted`` are folders that clients can write to (the ``simxTransferFile`` folder): a
+    script there is code sent by a client, refused unless ``allow_remote_code``.
+
+    Raises:
+        ValueError: the file lies outside the scene's folder or in an untrusted one, does not
+            exist, or is neither ``.lua`` nor ``.py`` (a scene error: the scene is refused).
+    """
+    folder = world.scene_path.parent
+    name = world.get(owner).name
+    path = (folder / file).resolve()
+    if folder not in path.parents:
+        raise ValueError(f"child script {file!r} of {name!r} lies outside the scene folder {folder}")
+    if not options.get("allow_remote_code"):
+        for place in untrusted:
+            place = Path(place).resolve()
+            if path == place or place in path.parents:
+                raise ValueError(f"child script {file!r} of {name!r} was sent by a client ({place}): simx "
+                                 f"runs code sent by clients only when the server is started with "
+                                 f"{REMOTE_CODE_FLAG}")
+    if not path.is_file():
+        raise ValueError(f"child script {file!r} of {name!r} not found in {folder}")
+    if path.suffix == ".py":
+        return PythonScript(world, owner, path, **options)
+    if path.suffix == ".lua":
+        return LuaScript(world, owner, path, **options)
+    raise ValueError(f"child script {file!r} of {name!r}: unknown language (use .lua or .py)")
+
+
+class Scripts:
+    """Every child script of the scene, driven through the simulation life cycle.
+
+    Args:
+        world: the scene; objects with a ``child_script`` setting get their script.
+        signals: the server's signal store (a private one when None).
+        allow_remote_code: let scripts run code that clients send (Lua ``load``/``loadstring``,
+            Python ``exec``/``eval``/``compile``); the server's ``--allow-remote-code``.
+        timeout: default bound (s) of each call into a script; a ``script_timeout=S`` setting
+            of the object overrides it.
+        untrusted: folders clients can write to (the ``simxTransferFile`` folder); scripts
+            there are refused unless ``allow_remote_code`` (a scene sent by a client must not
+            bring code with it).
+        allow_unsafe_lua: give Lua scripts the functions CoppeliaSim calls unsafe (``io.*``,
+            ``os.execute``/``remove``/``rename``/``getenv``..., ``dofile``/``loadfile``, any
+            ``package.path``/``cpath``); the server's ``--allow-unsafe-lua``. Off: a script
+            that calls one gets a Lua error naming the flag.
+        simulation: the :class:`~simx_server.scene.simulation.Simulation` that owns these scripts;
+            the facade calls that read sensors or edit the scene need it (without it they
+            raise UnsupportedError).
+
+    Raises:
+        ValueError: a script file is missing, outside the scene folder, in an untrusted folder,
+            or of unknown language; a ``script_timeout`` is not a positive number. (Syntax
+            errors are not fatal: that script answers its error to every call, the others run.)
+    """
+
+    def __init__(self, world: World, signals: Signals | None = None, *, allow_remote_code: bool = False,
+                 timeout: float = DEFAULT_TIMEOUT, untrusted: Iterable[Path] = (),
+                 allow_unsafe_lua: bool = False, simulation: Any = None):
+        self.world = world
+        self.signals = signals if signals is not None else Signals()
+        self.forces = AppliedForces()  # sim.addForce & co., for the next step
+        self.stopping = False  # True while the scripts' sysCall_cleanup run
+        self.allow_remote_code = allow_remote_code
+        self.allow_unsafe_lua = allow_unsafe_lua
+        self.scripts: dict[int, ChildScript] = {}
+        for obj in world.objects.values():
+            file = obj.settings.get("child_script")
+            if not file:
+                continue
+            bound = obj.settings.get("script_timeout", timeout)
+            try:
+                bound = float(bound)
+                if not (bound > 0 and math.isfinite(bound)):
+                    raise ValueError
+            except ValueError:
+                raise ValueError(f"script_timeout of {obj.name!r} must be a positive number of seconds, "
+                                 f"got {obj.settings.get('script_timeout')!r}") from None
+            self.scripts[obj.handle] = load_script(world, obj.handle, file, untrusted=untrusted,
+                                                   signals=self.signals, timeout=bound,
+                                                   allow_remote_code=allow_remote_code,
+                                                   allow_unsafe_lua=allow_unsafe_lua,
+                                                   simulation=simulation, forces=self.forces)
+        if allow_remote_code and self.scripts:
+            log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
+        if allow_unsafe_lua and self.scripts:
+            log.warning("Lua child scripts may use files, processes and the environment (%s)", UNSAFE_LUA_FLAG)
+
+    def start(self) -> None:
+        """Simulation starts: every script runs its top level and ``sysCall_init``."""
+        for script in self.scripts.values():
+            try:
+                script.start()
+            except ScriptError as exc:
+                log.error("%s", exc)
+            except Exception:  # the other scripts start all the same
+                log.exception("%s: internal error at start", script.label)
+
+    def actuation(self) -> None:
+        """Before a step: ``sysCall_actuation`` of every script."""
+        for script in self.scripts.values():
+            script.life_cycle("sysCall_actuation")
+
+    def sensing(self) -> None:
+        """After a step: forces scripts added are reset (the step applied them), then
+        ``sysCall_sensing`` of every script."""
+        self.forces.clear(self.world)
+        for script in self.scripts.values():
+            script.life_cycle("sysCall_sensing")
+
+    def stop(self) -> None:
+        """Simulation stops: ``sysCall_cleanup`` of every script; signals set by scripts go."""
+        self.stopping = True  # sim.getSimulationState in sysCall_cleanup: the last pass before the stop
+        try:
+            for script in self.scripts.values():
+                script.stop()
+        finally:
+            self.stopping = False
+        self.signals.clear_script_signals()
+        self.forces.clear(self.world)
+
+    def call(self, object_name: str, script_type: int, function: str, ints, floats, strings, buffer) -> list:
+        """``simxCallScriptFunction`` on the child script of ``object_name``.
+
+        Raises ScriptError (no such script or function, or the script failed) or
+        ArgumentError (arguments of the wrong types)."""
+        if script_type != C.sim_scripttype_childscript:
+            raise ScriptError(f"script type {script_type} is not supported; only child scripts "
+                              f"(sim_scripttype_childscript = {C.sim_scripttype_childscript})")
+        try:
+            obj = self.world.resolve(object_name)
+        except UnknownObjectError as exc:
+            raise ScriptError(f"no child script: {exc}") from None
+        script = self.scripts.get(obj.handle)
+        if script is None:
+            raise ScriptError(f"object {obj.name!r} has no child script")
+        if not (isinstance(ints, list) and isinstance(floats, list) and isinstance(strings, list)
+                and isinstance(buffer, (bytes, bytearray))
+                and all(isinstance(v, int) and not isinstance(v, bool) for v in ints)
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in floats)
+                and all(isinstance(v, str) for v in strings)):
+            raise ArgumentError("script arguments must be lists of ints, floats and strings, and bytes")
+        if not isinstance(function, str) or not function:
+            raise ArgumentError("the function name must be a non-empty string")
+        return script.call(function, list(ints), [float(v) for v in floats], list(strings), bytes(buffer))

@@ -1,0 +1,288 @@
+"""Inverse kinematics groups: V-REP's IK through target dummies, on MuJoCo's Jacobians.
+
+A scene declares an IK group with a custom text (one per group)::
+
+    <text name="simx:ik:UR5" data="tip=UR5_tip target=UR5_target base=UR5
+                                   constraints=pose damping=0.05 iterations=10"/>
+
+* ``tip``, ``target``: dummies (sites). The group moves the chain so that the tip reaches the
+  target (V-REP's tip-target pair of an IK element).
+* ``base``: the body where the chain starts (optional: default the world). The chain is every
+  hinge or slide joint with a motor between ``base`` and the tip's body.
+* ``constraints``: ``position`` (x, y, z) or ``pose`` (position and orientation; default).
+* ``damping``: λ of the damped least squares (m or rad; default 0.05).
+* ``iterations``: most solver iterations per resolution (default 10, at most
+  :data:`simx_server.base.limits.MAX_IK_ITERATIONS`).
+* ``explicit``: ``true`` leaves the group to scripts (``sim.handleIkGroup``), as V-REP's
+  "explicit handling" flag; otherwise it is solved every simulation step.
+
+Every simulation step, after the child scripts' actuation and before physics (where V-REP's
+main script called ``sim.handleIkGroup(sim.handle_all_except_explicit)``), each group is solved
+by damped least squares: ``e`` = target pose - tip pose (position, and for ``pose`` the
+rotation vector), ``J`` = ``mj_jacSite`` of the tip restricted to the chain's dofs,
+``dq = Jᵀ (J Jᵀ + λ² I)⁻¹ e``, iterated on a scratch ``MjData`` (``mj_kinematics`` +
+``mj_comPos`` only) from the chain's current target positions. The result becomes the
+chain's joints' target positions, clamped to their ranges: the joints' own position control
+then moves them, so limits, maximum velocities and forces still hold (V-REP's IK in a dynamic
+scene set its joints' target positions the same way).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import weakref
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+from simx_server.base import limits as L
+from simx_server.base.arguments import quote
+from simx_server.sim.world import DUMMY, JOINT, SHAPE, World
+
+log = logging.getLogger("simx.ik")
+
+PREFIX = "ik:"  # simx:ik:NAME
+#: Errors below which an iteration stops early (m, rad).
+_POSITION_TOLERANCE = 1e-5
+_ORIENTATION_TOLERANCE = 1e-4
+#: V-REP's return of sim.handleIkGroup: sim_ikresult_success / fail.
+IK_SUCCESS, IK_FAIL = 1, 2
+
+
+@dataclasses.dataclass
+class IkGroup:
+    """One IK group, bound to the current model (ids change when the scene is edited)."""
+
+    name: str
+    handle: int  # V-REP handle of the group (its own number space, from 1)
+    tip: int  # site ids
+    target: int
+    pose: bool  # constraints=pose (else position only)
+    damping: float
+    iterations: int
+    explicit: bool
+    joints: list[int]  # world handles of the chain's joints (base to tip)
+    qadr: np.ndarray  # their qpos addresses
+    dadr: np.ndarray  # their dof addresses
+    low: np.ndarray  # their ranges (-inf/+inf where unlimited)
+    high: np.ndarray
+
+
+def _setting(settings: dict[str, str], key: str, default: str) -> str:
+    return settings.get(key, default)
+
+
+def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> IkGroup:
+    """Build a group from its ``simx:ik:NAME`` settings; raises ValueError naming the problem."""
+    m = world.model
+    unknown = set(settings) - {"tip", "target", "base", "constraints", "damping", "iterations", "explicit"}
+    if unknown:
+        raise ValueError(f"unknown key(s) {sorted(unknown)}")
+    sites = {}
+    for key in ("tip", "target"):
+        if key not in settings:
+            raise ValueError(f"{key}= is missing")
+        obj = world.by_name.get(settings[key])
+        if obj is None or obj.type != DUMMY:
+            raise ValueError(f"{key}={settings[key]!r} is not a dummy (site) of the scene")
+        sites[key] = obj
+    base_name = settings.get("base")
+    base_body = 0
+    if base_name is not None:
+        obj = world.by_name.get(base_name)
+        if obj is None or obj.type != SHAPE:
+            raise ValueError(f"base={base_name!r} is not a body of the scene")
+        base_body = obj.mj_id
+    constraints = _setting(settings, "constraints", "pose")
+    if constraints not in ("pose", "position"):
+        raise ValueError(f"constraints must be pose or position, got {constraints!r}")
+    try:
+        damping = float(_setting(settings, "damping", "0.05"))
+        iterations = int(_setting(settings, "iterations", "10"))
+    except ValueError as exc:
+        raise ValueError(f"bad number: {exc}") from None
+    if not 0 <= damping <= 10:
+        raise ValueError(f"damping must be in [0, 10], got {damping}")
+    if not 1 <= iterations <= L.MAX_IK_ITERATIONS:
+        raise ValueError(f"iterations must be in [1, {L.MAX_IK_ITERATIONS}] "
+                         f"(simx_server.base.limits.MAX_IK_ITERATIONS), got {iterations}")
+    # the chain: joints with a motor on the way from the tip's body up to the base
+    chain = []
+    b = sites["tip"].body
+    while b not in (0, base_body):
+        for j in range(m.body_jntadr[b] + m.body_jntnum[b] - 1, m.body_jntadr[b] - 1, -1):
+            jname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+            obj = world.by_name.get(jname or "")
+            if obj is not None and obj.type == JOINT and obj.handle in world.motor_index \
+                    and int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+                chain.append((obj.handle, j))
+        b = int(m.body_parentid[b])
+    if b != base_body:
+        raise ValueError(f"the tip {settings['tip']!r} is not below the base {base_name!r}")
+    if not chain:
+        raise ValueError("no motorised hinge or slide joint between the base and the tip")
+    chain.reverse()
+    ids = np.array([j for _, j in chain])
+    limited = m.jnt_limited[ids].astype(bool)
+    return IkGroup(
+        name=name, handle=handle, tip=sites["tip"].mj_id, target=sites["target"].mj_id,
+        pose=constraints == "pose", damping=damping, iterations=iterations,
+        explicit=_setting(settings, "explicit", "false").lower() in ("true", "1", "yes"),
+        joints=[h for h, _ in chain], qadr=m.jnt_qposadr[ids].copy(), dadr=m.jnt_dofadr[ids].copy(),
+        low=np.where(limited, m.jnt_range[ids, 0], -np.inf), high=np.where(limited, m.jnt_range[ids, 1], np.inf))
+
+
+class IkGroups:
+    """The IK groups of one world's current model (rebuilt by :func:`groups` when it changes)."""
+
+    def __init__(self, world: World):
+        self.world = world
+        self.model = world.model
+        self.groups: dict[str, IkGroup] = {}
+        handle = 0
+        for key, settings in sorted(world.settings.items()):
+            if not key.startswith(PREFIX):
+                continue
+            handle += 1
+            name = key[len(PREFIX):]
+            try:
+                self.groups[name] = _parse(world, name, settings, handle)
+            except ValueError as exc:
+                log.error("IK group %r (custom text simx:%s) ignored: %s", name, key, exc)
+        self._scratch = mujoco.MjData(self.model) if self.groups else None
+        self._by_handle = {g.handle: g for g in self.groups.values()}
+        nv = self.model.nv
+        self._jacp, self._jacr = np.zeros((3, nv)), np.zeros((3, nv))
+
+    def group(self, which: Any) -> IkGroup:
+        """The group named ``which`` (str) or of handle ``which`` (int)."""
+        if isinstance(which, str):
+            g = self.groups.get(which)
+        else:
+            g = self._by_handle.get(which)
+        if g is None:
+            raise UnknownObjectError(f"no IK group {quote(which)} in the scene "
+                                     "(declare one with a simx:ik:NAME custom text)")
+        return g
+
+    def solve_automatic(self) -> None:
+        """Solve every group that is not explicit (once per simulation step)."""
+        for g in self.groups.values():
+            if not g.explicit:
+                self.solve(g)
+
+    def tip_error(self, g: IkGroup, data: mujoco.MjData) -> np.ndarray:
+        """Target pose minus tip pose in ``data``: (3,) m, then for ``pose`` (3,) rad (world frame)."""
+        e = data.site_xpos[g.target] - data.site_xpos[g.tip]
+        if not g.pose:
+            return e
+        rt = data.site_xmat[g.target].reshape(3, 3)
+        rc = data.site_xmat[g.tip].reshape(3, 3)
+        # rotation vector of rt rc^T (exact for any angle below pi)
+        qt, qc, dq = np.empty(4), np.empty(4), np.empty(3)
+        mujoco.mju_mat2Quat(qt, rt.reshape(9).copy())
+        mujoco.mju_mat2Quat(qc, rc.reshape(9).copy())
+        mujoco.mju_subQuat(dq, qt, qc)  # in the tip's frame
+        return np.concatenate([e, rc @ dq])
+
+    def solve(self, g: IkGroup) -> int:
+        """Solve ``g`` from the chain's current target positions; set the new targets.
+
+        Returns IK_SUCCESS when the tip reaches the target within 0.01 mm / 0.1 mrad on the
+        kinematic model, IK_FAIL otherwise (the targets still move as far as the iterations got,
+        as V-REP's damped resolution did). A chain joint a client put in velocity mode keeps
+        its own target velocity (its target position is not set)."""
+        w, m, d, s = self.world, self.model, self.world.data, self._scratch
+        s.qpos[:] = d.qpos
+        s.mocap_pos[:], s.mocap_quat[:] = d.mocap_pos, d.mocap_quat
+        motors = [w.motor_index[h] for h in g.joints]
+        q = w.target_position[motors].astype(float)
+        q = np.clip(q, g.low, g.high)
+        lam2 = g.damping * g.damping
+        jacp, jacr = self._jacp, self._jacr
+        ok = False
+        for _ in range(g.iterations + 1):
+            s.qpos[g.qadr] = q
+            mujoco.mj_kinematics(m, s)
+            mujoco.mj_comPos(m, s)
+            e = self.tip_error(g, s)
+            if np.linalg.norm(e[:3]) < _POSITION_TOLERANCE and (not g.pose or np.linalg.norm(e[3:]) < _ORIENTATION_TOLERANCE):
+                ok = True
+                break
+            if _ == g.iterations:
+                break
+            mujoco.mj_jacSite(m, s, jacp, jacr, g.tip)
+            jac = np.vstack([jacp[:, g.dadr], jacr[:, g.dadr]]) if g.pose else jacp[:, g.dadr]
+            dq = jac.T @ np.linalg.solve(jac @ jac.T + lam2 * np.eye(len(e)), e)
+            q = np.clip(q + dq, g.low, g.high)
+        for h, value in zip(g.joints, q):
+            try:
+                w.set_joint_target_position(h, float(value))
+            except ObjectTypeError:  # a client put the joint in velocity mode: it is not driven
+                pass
+        return IK_SUCCESS if ok else IK_FAIL
+
+
+_GROUPS: "weakref.WeakKeyDictionary[World, IkGroups]" = weakref.WeakKeyDictionary()
+
+
+def groups(world: World) -> IkGroups:
+    """The IK groups of ``world``'s current model (parsed once per model: an edit re-parses)."""
+    g = _GROUPS.get(world)
+    if g is None or g.model is not world.model:
+        g = _GROUPS[world] = IkGroups(world)
+    return g
+
+
+def step(world: World) -> None:
+    """Solve the world's automatic IK groups (the simulation step's hook); cheap without any."""
+    g = _GROUPS.get(world)
+    if g is None or g.model is not world.model:
+        g = groups(world)
+    if g.groups:
+        try:
+            g.solve_automatic()
+        except Exception:  # never a step fault: the arm keeps its last targets
+            log.exception("IK groups of %s not solved this step", world.scene_path.name)
+
+
+# ----------------------------------------------------------------- the sim facade's calls
+def _group_arg(value: Any) -> Any:
+    if isinstance(value, (bytes, bytearray)):
+        value = bytes(value).decode("utf-8", "replace")
+    if isinstance(value, str):
+        return value
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise ArgumentError(f"IK group must be a handle or a name, got {quote(value)}")
+    return value
+
+
+def handleIkGroup(self, group: Any) -> int:  # noqa: N802 (V-REP's name)
+    """``sim.handleIkGroup(ikGroupHandle)``: solve one group now (its joints' target positions
+    move; physics follows at the next step), or every non-explicit group for
+    ``sim.handle_all`` (-2) and ``sim.handle_all_except_explicit`` (-3). Returns
+    ``sim.ikresult_success`` (1) or ``sim.ikresult_fail`` (2); for several groups the number of
+    groups solved. Raises UnknownObjectError for an unknown group."""
+    gs = groups(self._world)
+    group = _group_arg(group)
+    if group in (-2, -3):  # sim_handle_all, sim_handle_all_except_explicit
+        chosen = [g for g in gs.groups.values() if group == -2 or not g.explicit]
+        return sum(gs.solve(g) == IK_SUCCESS for g in chosen)
+    return gs.solve(gs.group(group))
+
+
+def getIkGroupHandle(self, name: Any) -> int:  # noqa: N802
+    """``sim.getIkGroupHandle(name)``: handle of the group declared as ``simx:ik:NAME``."""
+    return groups(self._world).group(str(_group_arg(name))).handle
+
+
+#: Functions the ``sim`` facade gains (registered by :mod:`simx_server.scripts.facade_core`).
+FACADE_FUNCTIONS = {
+    "handleIkGroup": handleIkGroup,
+    "getIkGroupHandle": getIkGroupHandle,
+}

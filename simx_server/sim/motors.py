@@ -1,0 +1,261 @@
+"""Joint motors as V-REP's, realised on whatever actuator an MJCF gives a joint.
+
+V-REP (3.x) joints in force/torque mode have one motor with two stored targets, a target
+position and a target velocity, whatever the mode; two flags decide which acts:
+
+* ``sim_jointintparam_motor_enabled`` (2000) off: a free joint (no motor force);
+* motor on, ``sim_jointintparam_ctrl_enabled`` (2001) on: position control toward the target
+  position, no faster than the upper velocity (2017, ``simx:`` ``max_velocity``) and with at most
+  the maximum force/torque (``simxSetJointForce``); the loop's proportional gain is V-REP's
+  ``sim_jointfloatparam_pid_p`` (2002, default 0.1: a velocity of P/5 ms per unit of error);
+* motor on, loop off: velocity control at the target velocity with at most the maximum force
+  (so ``simxSetJointForce`` + a large target velocity is torque control).
+
+A joint's motor is the first actuator whose transmission is that joint, whatever its type
+(``<velocity>``, ``<position>``, ``<motor>`` with ``gear``, ``<general>``). At load
+:func:`prepare` makes it an affine actuator without activation dynamics, control limits or
+``ctrlrange`` clamping, and :meth:`Motors.apply` rewrites its gain and bias once per simulation
+step so that the substeps run in C:
+
+* velocity law: joint force ``tau = ff + kv * (v - qdot)``;
+* position law: far from the target (more than vmax / Kp away) ``v = +-vmax`` for the whole
+  step; near it the linear law ``tau = ff + kv * (Kp * (target - q) - qdot)``, which never asks
+  more than vmax from there on;
+* ``ff`` is the joint's load at the start of the step (MuJoCo's ``qfrc_bias``: gravity and
+  Coriolis forces, minus ``qfrc_passive``: the joint's spring, damper and gravity compensation),
+  so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
+  constraint-based motors do; everything is clipped to the maximum force.
+
+``kv`` is the servo gain: a ``<velocity>`` actuator keeps its own ``kv`` (the author's choice);
+any other gets ``f * M / h`` with ``M = 1 / (M^-1)_ii`` the joint's effective inertia now (it
+changes with the configuration, so it is recomputed each step), ``h`` the model's timestep and
+``f`` IMPLICIT_KV_FRACTION, the velocity term being integrated implicitly: a model using the
+Euler integrator is switched to ``implicitfast`` (which differs from Euler only in treating
+actuators' and fluid forces' velocity terms implicitly too); under RK4 ``f`` is KV_FRACTION,
+which keeps the explicit servo stable. The force limit (joint
+units) comes from the actuator's ``forcerange`` (if ``forcelimited``) x |gear|, else from its
+``ctrlrange`` x gain x |gear| when the control is a force (``<motor>``-like), else from the
+joint's ``actuatorfrcrange``, else it is unlimited (limits.MAX_JOINT_FORCE).
+
+A hinge or slide joint without an actuator gets one (named ``simx_motor:<joint>``) through
+``MjSpec`` at load, with its motor disabled: physics are unchanged until a program enables it.
+A joint moved only through a tendon that an actuator drives gets none: it has no motor of its
+own, and motor calls answer an error naming the tendon.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import mujoco
+import numpy as np
+
+from simx_server.base import limits as L
+
+log = logging.getLogger("simx.world")
+
+#: Prefix of the actuators simx adds to joints that have none (their motor starts disabled).
+ADDED_PREFIX = "simx_motor:"
+#: V-REP's default proportional gain of the joint position loop (sim_jointfloatparam_pid_p).
+DEFAULT_PID_P = 0.1
+#: V-REP's default dynamics step (s): its position loop asks a velocity of P * error / step.
+VREP_DYN_STEP = 0.005
+#: Servo gain as a fraction of M/h (effective inertia over timestep) under the RK4 integrator,
+#: where the servo is explicit: below 2 for stability, 0.5 leaves margin for coupled joints.
+KV_FRACTION = 0.5
+#: The same under the implicit integrators, which integrate the servo's velocity term
+#: implicitly and coupled through the mass matrix (stable at any gain): stiff tracking.
+IMPLICIT_KV_FRACTION = 0.9
+
+_JOINT_TRNS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+_TENDON_TRN = int(mujoco.mjtTrn.mjTRN_TENDON)
+_SCALAR = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def _tendon_driven(m: mujoco.MjModel) -> dict[int, str]:
+    """Joint id -> name of a tendon that an actuator drives and that wraps the joint."""
+    out = {}
+    for a in range(m.nu):
+        if m.actuator_trntype[a] == _TENDON_TRN:
+            t = int(m.actuator_trnid[a, 0])
+            for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+                if m.wrap_type[w] == mujoco.mjtWrap.mjWRAP_JOINT:
+                    out.setdefault(int(m.wrap_objid[w]), mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TENDON, t) or f"#{t}")
+    return out
+
+
+def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """Compile ``spec`` after giving each named hinge/slide joint without an actuator (and not
+    driven through a tendon) a motor of its own, ``simx_motor:<joint>`` (added to ``spec``).
+
+    Raises ValueError: MuJoCo cannot compile the spec.
+    """
+    model = spec.compile()
+    driven = {int(model.actuator_trnid[a, 0]) for a in range(model.nu) if model.actuator_trntype[a] in _JOINT_TRNS}
+    tendons = _tendon_driven(model)
+    missing = [name for j in range(model.njnt)
+               if int(model.jnt_type[j]) in _SCALAR and j not in driven and j not in tendons
+               and (name := mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j))]
+    if not missing:
+        return model
+    taken = {a.name for a in spec.actuators}
+    for name in missing:
+        if ADDED_PREFIX + name not in taken:
+            spec.add_actuator(name=ADDED_PREFIX + name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                              gear=[1, 0, 0, 0, 0, 0], ctrllimited=0, forcelimited=0)
+    return spec.compile()
+
+
+def _max_force(m: mujoco.MjModel, a: int, j: int) -> float:
+    """Maximum force/torque on the joint (N or N·m) from the actuator's or joint's limits."""
+    g = abs(float(m.actuator_gear[a, 0])) or 1.0
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or ""
+    if not name.startswith(ADDED_PREFIX):
+        if m.actuator_forcelimited[a]:
+            return float(np.max(np.abs(m.actuator_forcerange[a]))) * g
+        force_control = (m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
+                         and m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE)
+        if force_control and m.actuator_ctrllimited[a]:
+            return float(np.max(np.abs(m.actuator_ctrlrange[a]))) * abs(float(m.actuator_gainprm[a, 0])) * g
+    if m.jnt_actfrclimited[j]:
+        return float(np.max(np.abs(m.jnt_actfrcrange[j])))
+    return float(L.MAX_JOINT_FORCE)
+
+
+def _own_kv(m: mujoco.MjModel, a: int) -> float:
+    """The ``kv`` of a ``<velocity>`` actuator (joint units), or 0 for any other type."""
+    gain, bias = m.actuator_gainprm[a], m.actuator_biasprm[a]
+    if (m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
+            and bias[0] == 0 and bias[1] == 0 and gain[0] > 0 and bias[2] == -gain[0]
+            and m.actuator_dyntype[a] == mujoco.mjtDyn.mjDYN_NONE):
+        return float(gain[0]) * float(m.actuator_gear[a, 0]) ** 2
+    return 0.0
+
+
+class Motors:
+    """The motors of a model's joints: per-motor arrays, indexed by motor number.
+
+    Args:
+        model: the compiled model (its motor actuators are rewritten in place: affine gain and
+            bias, no activation dynamics, no control clamping, force limited).
+        joints: ``(handle, joint id, settings)`` of each registered joint, in handle order.
+    """
+
+    def __init__(self, model: mujoco.MjModel, joints: list[tuple[int, int, dict[str, str]]]):
+        m = model
+        motor_of_joint: dict[int, int] = {}
+        for a in range(m.nu):
+            if m.actuator_trntype[a] in _JOINT_TRNS:
+                motor_of_joint.setdefault(int(m.actuator_trnid[a, 0]), a)
+        self.tendon_of_joint = _tendon_driven(m)  # joint id -> tendon name (no motor of their own)
+        mine = [(h, j, s) for h, j, s in joints if j in motor_of_joint and int(m.jnt_type[j]) in _SCALAR]
+        self.index = {h: i for i, (h, _, _) in enumerate(mine)}
+        act = np.array([motor_of_joint[j] for _, j, _ in mine], dtype=int)
+        self.act = act
+        self.qadr = np.array([m.jnt_qposadr[j] for _, j, _ in mine], dtype=int)
+        self.dadr = np.array([m.jnt_dofadr[j] for _, j, _ in mine], dtype=int)
+        self.gear = np.array([float(m.actuator_gear[a, 0]) or 1.0 for a in act])
+        self.own_kv = np.array([_own_kv(m, a) for a in act])
+        self.initial_max_force = np.array([_max_force(m, a, j) for a, (_, j, _) in zip(act, mine)])
+        added = [(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or "").startswith(ADDED_PREFIX) for a in act]
+        modes = [s.get("mode", "passive" if new else "position") for (_, _, s), new in zip(mine, added)]
+        self.initial_enabled = np.array([mode != "passive" for mode in modes], dtype=bool)
+        self.initial_loop = np.array([mode != "velocity" for mode in modes], dtype=bool)
+        self.initial_max_velocity = np.array([float(s.get("max_velocity", np.pi)) for _, _, s in mine])
+        self.names = {h: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for (h, _, _), a in zip(mine, act)}
+        for a in act:  # one actuator realises both laws; ctrl is a velocity or a position
+            m.actuator_gaintype[a] = mujoco.mjtGain.mjGAIN_FIXED
+            m.actuator_biastype[a] = mujoco.mjtBias.mjBIAS_AFFINE
+            if m.actuator_dyntype[a] != mujoco.mjtDyn.mjDYN_NONE:  # activation follows ctrl at once
+                m.actuator_dyntype[a] = mujoco.mjtDyn.mjDYN_FILTEREXACT
+                m.actuator_dynprm[a, :] = 0.0
+                m.actuator_dynprm[a, 0] = m.opt.timestep
+                m.actuator_actlimited[a] = 0
+            m.actuator_ctrllimited[a] = 0
+            m.actuator_forcelimited[a] = 1
+            m.actuator_gainprm[a, :] = 0.0
+            m.actuator_biasprm[a, :] = 0.0
+        self.kv_fraction = KV_FRACTION
+        if len(act) and m.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4:
+            # Euler treats joint damping implicitly, implicitfast also actuators' velocity terms:
+            # the same physics for passive joints, and a servo stable at any gain.
+            if m.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER:
+                m.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+            self.kv_fraction = IMPLICIT_KV_FRACTION
+        if any(added) or self.tendon_of_joint:
+            new = [(self.names[h][len(ADDED_PREFIX):], on)
+                   for (h, _, _), is_new, on in zip(mine, added, self.initial_enabled) if is_new]
+            passive = [name for name, on in new if not on]
+            enabled = [name for name, on in new if on]  # by a simx: mode (a URDF's joints: position)
+            tendons = sorted(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}"
+                             for j in self.tendon_of_joint)
+            log.info("joint motors: %d from the scene's actuators; added, disabled: %s;%s joints moved only through "
+                     "tendons (no motor of their own): %s", len(act) - len(new), ", ".join(passive) or "none",
+                     f" added, enabled by simx: texts: {', '.join(enabled)};" if enabled else "",
+                     ", ".join(tendons) or "none")
+        n = len(act)
+        self._unit = np.zeros((n, m.nv))
+        self._unit[np.arange(n), self.dadr] = 1.0
+        self._minv = np.zeros((n, m.nv))
+        self.reset(m, None)
+
+    def __len__(self) -> int:
+        return len(self.act)
+
+    def reset(self, m: mujoco.MjModel, qpos: np.ndarray | None) -> None:
+        """Initial state (``simxStopSimulation``): flags and limits of the scene, targets at rest."""
+        self.enabled = self.initial_enabled.copy()
+        self.loop = self.initial_loop.copy()  # control loop on = position control
+        self.max_velocity = self.initial_max_velocity.copy()
+        self.max_force = self.initial_max_force.copy()
+        self.pid_p = np.full(len(self.act), DEFAULT_PID_P)
+        self.target_position = np.zeros(len(self.act)) if qpos is None else qpos[self.qadr].copy()
+        self.target_velocity = np.zeros(len(self.act))
+        self.write_force_limits(m)
+
+    def write_force_limits(self, m: mujoco.MjModel) -> None:
+        """Maximum forces (joint units) into the actuators' forcerange (actuator units)."""
+        if len(self.act):
+            f = self.max_force / np.abs(self.gear)
+            m.actuator_forcerange[self.act, 0] = -f
+            m.actuator_forcerange[self.act, 1] = f
+
+    def apply(self, m: mujoco.MjModel, d: mujoco.MjData, dt: float) -> None:
+        """Write gains, biases and controls of every motor for the next step of ``dt`` s."""
+        if not len(self.act):
+            return
+        act, g = self.act, self.gear
+        q = d.qpos[self.qadr]
+        mujoco.mj_solveM(m, d, self._minv, self._unit)
+        inertia = 1.0 / np.maximum(self._minv[np.arange(len(act)), self.dadr], 1e-12)
+        kv = np.where(self.own_kv > 0, self.own_kv, self.kv_fraction * inertia / m.opt.timestep)
+        dof = self.dadr
+        ff = d.qfrc_bias[dof] - d.qfrc_passive[dof]  # static load, joint springs and dampers
+        kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
+        err = self.target_position - q
+        on, position = self.enabled, self.enabled & self.loop
+        linear = position & (np.abs(err) * kp <= self.max_velocity)
+        v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
+        # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
+        gain = np.where(linear, kv * kp, kv) / g
+        m.actuator_gainprm[act, 0] = np.where(on, gain, 0.0)
+        m.actuator_biasprm[act, 0] = np.where(on, ff / g, 0.0)
+        m.actuator_biasprm[act, 1] = np.where(linear, -kv * kp / g ** 2, 0.0)
+        m.actuator_biasprm[act, 2] = np.where(on, -kv / g ** 2, 0.0)
+        d.ctrl[act] = np.where(linear, self.target_position, np.where(on, v, 0.0))
+
+    def copy_state(self, src: int, dst: int) -> None:
+        """Motor ``dst`` takes the flags, targets and limits of motor ``src`` (model copies)."""
+        for name in ("enabled", "loop", "max_velocity", "max_force", "pid_p", "target_position", "target_velocity"):
+            arr = getattr(self, name)
+            arr[dst] = arr[src]
+
+    def state(self, i: int) -> tuple:
+        """Everything a program set on motor ``i`` (kept across scene edits)."""
+        return tuple(getattr(self, n)[i] for n in self._STATE)
+
+    def restore(self, i: int, state: tuple) -> None:
+        for n, value in zip(self._STATE, state):
+            getattr(self, n)[i] = value
+
+    _STATE = ("enabled", "loop", "max_velocity", "max_force", "pid_p", "target_position", "target_velocity")

@@ -1,0 +1,266 @@
+"""Object parameters: simxGet/SetObjectFloatParameter and simxGet/SetObjectIntParameter, as
+V-REP's legacy remote API has them (velocities, bounding boxes, vision-sensor optics, joint
+intrinsics and control, shape mass and flags).
+
+Handlers are listed in :data:`PARAM_HANDLERS`; ``get_float_param`` and the other plain-value
+functions serve in-process callers. Unsupported ids answer UnsupportedError naming the id and why.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from simx_client.protocol import ArgumentError, ObjectTypeError, UnsupportedError
+from simx_server.base.arguments import quote
+from simx_server.sim import handle_render, joint_params, physics
+from simx_server.sim.collisions import collidable
+from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
+from simx_server.sim.state import SimulationView
+from simx_server.sim.world import _TYPE_NAMES, JOINT, SHAPE, VISION_SENSOR, World
+
+_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
+
+# ---------------------------------------------------------------- object params
+#: Known legacy object parameter ids (vrepConst.py), for messages.
+PARAM_NAMES = {
+    10: "sim_objintparam_visibility_layer", 11: "sim_objfloatparam_abs_x_velocity",
+    12: "sim_objfloatparam_abs_y_velocity", 13: "sim_objfloatparam_abs_z_velocity",
+    14: "sim_objfloatparam_abs_rot_velocity", 15: "sim_objfloatparam_objbbox_min_x",
+    16: "sim_objfloatparam_objbbox_min_y", 17: "sim_objfloatparam_objbbox_min_z",
+    18: "sim_objfloatparam_objbbox_max_x", 19: "sim_objfloatparam_objbbox_max_y",
+    20: "sim_objfloatparam_objbbox_max_z", 21: "sim_objfloatparam_modelbbox_min_x",
+    22: "sim_objfloatparam_modelbbox_min_y", 23: "sim_objfloatparam_modelbbox_min_z",
+    24: "sim_objfloatparam_modelbbox_max_x", 25: "sim_objfloatparam_modelbbox_max_y",
+    26: "sim_objfloatparam_modelbbox_max_z", 1000: "sim_visionfloatparam_near_clipping",
+    1001: "sim_visionfloatparam_far_clipping", 1002: "sim_visionintparam_resolution_x",
+    1003: "sim_visionintparam_resolution_y", 1004: "sim_visionfloatparam_perspective_angle",
+    1005: "sim_visionfloatparam_ortho_size", 1017: "sim_visionintparam_render_mode",
+    2000: "sim_jointintparam_motor_enabled",
+    2001: "sim_jointintparam_ctrl_enabled", 2002: "sim_jointfloatparam_pid_p",
+    2003: "sim_jointfloatparam_pid_i", 2004: "sim_jointfloatparam_pid_d",
+    2005: "sim_jointfloatparam_intrinsic_x", 2006: "sim_jointfloatparam_intrinsic_y",
+    2007: "sim_jointfloatparam_intrinsic_z", 2008: "sim_jointfloatparam_intrinsic_qx",
+    2009: "sim_jointfloatparam_intrinsic_qy", 2010: "sim_jointfloatparam_intrinsic_qz",
+    2011: "sim_jointfloatparam_intrinsic_qw", 2012: "sim_jointfloatparam_velocity",
+    2013: "sim_jointfloatparam_spherical_qx", 2014: "sim_jointfloatparam_spherical_qy",
+    2015: "sim_jointfloatparam_spherical_qz", 2016: "sim_jointfloatparam_spherical_qw",
+    2017: "sim_jointfloatparam_upper_limit", 3000: "sim_shapefloatparam_init_velocity_x",
+    3001: "sim_shapefloatparam_init_velocity_y", 3002: "sim_shapefloatparam_init_velocity_z",
+    3003: "sim_shapeintparam_static", 3004: "sim_shapeintparam_respondable",
+    3005: "sim_shapefloatparam_mass",
+}
+_FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2002, 2018), 3005}
+_FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
+_INT_GET = {1002, 1003, 1017, 2000, 2001, 3003, 3004}
+_INT_SET = {1002, 1003, 1017, 2000, 2001}
+
+
+def _pname(pid: int) -> str:
+    return f"{PARAM_NAMES[pid]} ({pid})" if pid in PARAM_NAMES else f"parameter {pid}"
+
+
+def _need(world: World, handle: int, otype: int, pid: int):
+    obj = world.get(handle)
+    if obj.type != otype:
+        raise ObjectTypeError(f"{_pname(pid)} applies to {_TYPE_NAMES[otype]}s; object {obj.name!r} "
+                              f"(handle {handle}) is a {_TYPE_NAMES.get(obj.type, 'object')}")
+    return obj
+
+
+def _unsupported(pid: int, kind: str, setting: bool) -> UnsupportedError:
+    other = "int" if kind == "float" else "float"
+    other_ids = (_INT_GET | _INT_SET) if kind == "float" else (_FLOAT_GET | _FLOAT_SET)
+    if pid in other_ids:
+        fn = f"simx{'Set' if setting else 'Get'}Object{other.capitalize()}Parameter"
+        return UnsupportedError(f"{_pname(pid)} is an {other} parameter: use {fn}")
+    if (pid in _FLOAT_GET and kind == "float") or (pid in _INT_GET and kind == "int"):
+        return UnsupportedError(f"{_pname(pid)} is read-only in simx (it follows from the MJCF scene or the "
+                                "simulation state)")
+    return UnsupportedError(f"object {kind} {_pname(pid)} has no MuJoCo counterpart in simx")
+
+
+def _perspective(m: mujoco.MjModel, spec) -> float:
+    """V-REP's perspective angle: the larger of the horizontal and vertical view angles (rad)."""
+    half = math.radians(float(m.cam_fovy[spec.camera])) / 2
+    if spec.width > spec.height:
+        return 2 * math.atan(math.tan(half) * spec.width / spec.height)
+    return 2 * half
+
+
+def _camera_check(world: World, obj, pid: int) -> None:
+    m = world.model
+    if m.cam_projection[obj.mj_id] != mujoco.mjtProjection.mjPROJ_PERSPECTIVE:
+        raise ObjectTypeError(f"{_pname(pid)}: vision sensor {obj.name!r} is orthographic")
+    if np.any(m.cam_sensorsize[obj.mj_id] > 0):
+        raise UnsupportedError(f"{_pname(pid)}: camera {obj.name!r} defines its optics with sensorsize/"
+                               "focal, not fovy; simx reads and sets the angle only for fovy cameras")
+
+
+def _bbox(world: World, handle: int, pid: int) -> tuple[np.ndarray, np.ndarray]:
+    obj = _need(world, handle, SHAPE, pid)
+    m = world.model
+    geoms = [g for g in np.flatnonzero(m.geom_bodyid == obj.mj_id) if m.geom_type[g] != _PLANE]
+    if not geoms:
+        raise ObjectTypeError(f"{_pname(pid)}: shape {obj.name!r} has no bounded geometry")
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    pts = []
+    for g in geoms:
+        c, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, m.geom_quat[g])
+        pts.append((c + corners * half) @ rot.reshape(3, 3).T + m.geom_pos[g])
+    allp = np.vstack(pts)
+    return allp.min(axis=0), allp.max(axis=0)
+
+
+def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
+    """Value of float parameter ``pid`` of object ``handle``; see get_object_float_parameter."""
+    world = sim.world
+    if pid not in _FLOAT_GET:
+        world.get(handle)
+        raise _unsupported(pid, "float", False)
+    if pid in (11, 12, 13, 14):
+        v, w = object_velocity(sim, handle)
+        return float(np.linalg.norm(w)) if pid == 14 else float(v[pid - 11])
+    if 15 <= pid <= 20:
+        lo, hi = _bbox(world, handle, pid)
+        return float((lo if pid < 18 else hi)[(pid - 15) % 3])
+    if pid in (1000, 1001, 1004):
+        obj = _need(world, handle, VISION_SENSOR, pid)
+        spec = sim.vision.spec(handle)
+        if pid == 1004:
+            _camera_check(world, obj, pid)
+            return _perspective(world.model, spec)
+        return float(spec.near if pid == 1000 else spec.far)
+    if pid == 3005:
+        return float(world.model.body_mass[_need(world, handle, SHAPE, pid).mj_id])
+    if pid in joint_params.FLOAT_PARAMS:
+        _need(world, handle, JOINT, pid)
+        return joint_params.get_param(world, handle, pid)
+    obj = _need(world, handle, JOINT, pid)
+    m, d = world.model, world.data
+    jtype = int(m.jnt_type[obj.mj_id])
+    if pid == 2012:
+        if jtype not in (_HINGE, _SLIDE):
+            raise ObjectTypeError(f"{_pname(pid)}: joint {obj.name!r} is not revolute nor prismatic")
+        return float(d.qvel[m.jnt_dofadr[obj.mj_id]])
+    if 2013 <= pid <= 2016 and jtype != _BALL:
+        raise ObjectTypeError(f"{_pname(pid)}: joint {obj.name!r} is not a spherical (ball) joint")
+    mat = joint_matrix(world, handle)
+    if 2005 <= pid <= 2007:
+        return float(mat[pid - 2005, 3])
+    quat = np.empty(4)  # w, x, y, z
+    mujoco.mju_mat2Quat(quat, mat[:, :3].reshape(9).copy())
+    i = (pid - 2008) if pid <= 2011 else (pid - 2013)
+    return float(quat[(i + 1) % 4])  # x, y, z, w
+
+
+def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) -> None:
+    """Set float parameter ``pid`` of ``handle``; see set_object_float_parameter."""
+    world = sim.world
+    if pid not in _FLOAT_SET:
+        world.get(handle)
+        raise _unsupported(pid, "float", True)
+    if pid in (1000, 1001, 1004):
+        if not math.isfinite(value):
+            raise ArgumentError(f"{_pname(pid)}: value must be finite, got {quote(value)}")
+        obj = _need(world, handle, VISION_SENSOR, pid)
+        spec = sim.vision.spec(handle)
+        if pid == 1004:
+            _camera_check(world, obj, pid)
+            if not 0 < value < math.pi:
+                raise ArgumentError(f"{_pname(pid)}: angle must be in (0, pi) rad, got {value}")
+            half = value / 2
+            if spec.width > spec.height:
+                half = math.atan(math.tan(half) * spec.height / spec.width)
+            world.model.cam_fovy[spec.camera] = math.degrees(2 * half)
+        else:
+            near, far = (value, spec.far) if pid == 1000 else (spec.near, value)
+            if not 0 < near < far:
+                raise ArgumentError(f"{_pname(pid)}: need 0 < near < far (m), got near={near} far={far}")
+            spec.near, spec.far = near, far
+        world.version += 1  # renders and normalised depth change
+        return
+    if pid in joint_params.FLOAT_PARAMS:
+        _need(world, handle, JOINT, pid)
+        joint_params.set_param(world, handle, pid, value, _pname(pid))
+        return
+    # 3005: mass; the inertia scales with it (same shape, new density), as V-REP keeps it
+    body = _need(world, handle, SHAPE, pid).mj_id
+    m, d = world.model, world.data
+    try:
+        m.body_inertia[body] = physics.scaled_inertia(value, float(m.body_mass[body]), m.body_inertia[body])
+    except ArgumentError as exc:
+        raise ArgumentError(f"{_pname(pid)}: {exc}") from None
+    m.body_mass[body] = value
+    saved = (d.qpos.copy(), d.qvel.copy(), d.act.copy(), d.qacc_warmstart.copy(), d.time)
+    mujoco.mj_setConst(m, d)  # subtree masses and other mass-dependent constants; clobbers qpos
+    d.qpos[:], d.qvel[:], d.act[:], d.qacc_warmstart[:], d.time = saved
+    sim.world.changed()
+
+
+def get_int_param(sim: SimulationView, handle: int, pid: int) -> int:
+    """Value of int parameter ``pid`` of ``handle``; see get_object_int_parameter."""
+    world = sim.world
+    if pid not in _INT_GET:
+        world.get(handle)
+        raise _unsupported(pid, "int", False)
+    if pid in (1002, 1003):
+        _need(world, handle, VISION_SENSOR, pid)
+        spec = sim.vision.spec(handle)
+        return spec.width if pid == 1002 else spec.height
+    if pid == 1017:
+        _need(world, handle, VISION_SENSOR, pid)
+        return sim.vision.spec(handle).render_mode
+    if pid in joint_params.INT_PARAMS:
+        _need(world, handle, JOINT, pid)
+        return joint_params.get_param(world, handle, pid)
+    obj = _need(world, handle, SHAPE, pid)
+    m = world.model
+    if pid == 3003:
+        return int(m.body_weldid[obj.mj_id] == 0)
+    return int(bool(np.any(collidable(m)[m.geom_bodyid == obj.mj_id])))
+
+
+def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> None:
+    """Set int parameter ``pid`` of ``handle``; see set_object_int_parameter."""
+    world = sim.world
+    if pid in (3003, 3004):  # static / respondable: what the MJCF says, fixed at run time
+        if value not in (0, 1):
+            raise ArgumentError(f"{_pname(pid)}: value must be 0 or 1, got {quote(value)}")
+        if get_int_param(sim, handle, pid) != value:
+            raise UnsupportedError(
+                f"{_pname(pid)}: a shape's {'static' if pid == 3003 else 'respondable'} flag is fixed "
+                "when the scene loads (its joints, contype/conaffinity in the MJCF); MuJoCo cannot "
+                "switch it at run time")
+        return  # already so (sim.importShape's shapes are dynamic and respondable): nothing to do
+    if pid not in _INT_SET:
+        world.get(handle)
+        raise _unsupported(pid, "int", True)
+    if pid in (1002, 1003):  # resolution x / y: simx_server.sim.vision
+        _need(world, handle, VISION_SENSOR, pid)
+        try:
+            sim.vision.set_resolution(handle, **{"width" if pid == 1002 else "height": value})
+        except ArgumentError as exc:
+            raise ArgumentError(f"{_pname(pid)}: {exc}") from None
+        return
+    if pid == 1017:  # render mode: simx_server.sim.handle_render
+        _need(world, handle, VISION_SENSOR, pid)
+        spec = sim.vision.spec(handle)
+        try:
+            spec.render_mode = handle_render.check_mode(value)
+        except UnsupportedError as exc:
+            raise UnsupportedError(f"{_pname(pid)}: {exc}") from None
+        world.version += 1  # the sensor's image changes
+        return
+    # 2000 motor enabled, 2001 control loop enabled: simx_server.sim.motors
+    _need(world, handle, JOINT, pid)
+    joint_params.set_param(world, handle, pid, value, _pname(pid))
+
+
+#: Command name -> handler, to merge into simx_server.commands.objects.HANDLERS.
+
+

@@ -1,0 +1,47 @@
+"""V-REP's object types as simx maps them onto MuJoCo (shape = body, joint, dummy = site, vision
+sensor = camera, light, proximity sensor and force sensor on sites; the world is -1), the
+registry entry of one object (:class:`SceneObject`) and the ``simx:`` settings text of MJCF
+elements (:func:`parse_settings`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from simx_client import constants as C
+
+SHAPE = C.sim_object_shape_type
+JOINT = C.sim_object_joint_type
+DUMMY = C.sim_object_dummy_type
+VISION_SENSOR = C.sim_object_visionsensor_type
+LIGHT = C.sim_object_light_type
+PROXIMITY_SENSOR = C.sim_object_proximitysensor_type
+FORCE_SENSOR = C.sim_object_forcesensor_type
+WORLD = -1
+
+_TYPE_NAMES = {SHAPE: "shape", JOINT: "joint", DUMMY: "dummy", VISION_SENSOR: "vision sensor", LIGHT: "light",
+               PROXIMITY_SENSOR: "proximity sensor", FORCE_SENSOR: "force sensor"}
+
+
+@dataclasses.dataclass
+class SceneObject:
+    """One V-REP scene object backed by a MuJoCo element."""
+
+    handle: int
+    name: str
+    type: int
+    mj_id: int  # id in the MuJoCo table of its type (body, joint, site, camera, light)
+    body: int  # MuJoCo body the element belongs to (the body itself for shapes)
+    parent: int  # handle of the parent object, -1 for the world
+    settings: dict[str, str]
+
+
+def parse_settings(text: str) -> dict[str, str]:
+    """Parse ``"key=value key=value"`` (the data of a ``simx:NAME`` custom text)."""
+    settings = {}
+    for item in text.split():
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"setting {item!r} is not key=value")
+        settings[key] = value
+    return settings

@@ -1,0 +1,131 @@
+"""Object poses in V-REP's terms, as a mixin of :class:`simx_server.sim.world.World`: frames
+(position and rotation matrix in the world frame), poses relative to another object (Euler
+angles, quaternions), children, and placing an object (``simxSetObjectPosition`` ...).
+Positions in m, angles in rad, quaternions (x, y, z, w) as V-REP writes them.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from simx_client import constants as C
+from simx_client.protocol import ObjectTypeError
+from simx_server.sim import physics
+from simx_server.sim.objects import _TYPE_NAMES, DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
+from simx_server.sim.rotations import (
+    _frame_with_z,
+    euler_from_matrix,
+    quaternion_from_matrix,
+)
+
+
+class Poses:
+    """Poses of the objects of a :class:`~simx_server.sim.world.World` (needs its model, data and registry)."""
+
+    # ------------------------------------------------------------------- poses
+    def frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
+        """World position (3,) in m and rotation matrix (3, 3) of an object; -1 is the world."""
+        if handle == WORLD:
+            return np.zeros(3), np.eye(3)
+        obj = self.get(handle)
+        d = self.data
+        if obj.type == SHAPE:
+            return d.xpos[obj.mj_id].copy(), d.xmat[obj.mj_id].reshape(3, 3).copy()
+        if obj.type == JOINT:
+            return d.xanchor[obj.mj_id].copy(), _frame_with_z(d.xaxis[obj.mj_id],
+                                                              d.xmat[obj.body].reshape(3, 3))
+        if obj.type in (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR):
+            return d.site_xpos[obj.mj_id].copy(), d.site_xmat[obj.mj_id].reshape(3, 3).copy()
+        if obj.type == VISION_SENSOR:
+            # MuJoCo cameras look along -z with y up; V-REP sensors look along +z with y up.
+            r = d.cam_xmat[obj.mj_id].reshape(3, 3) @ np.diag([-1.0, 1.0, -1.0])
+            return d.cam_xpos[obj.mj_id].copy(), r
+        return d.light_xpos[obj.mj_id].copy(), _frame_with_z(d.light_xdir[obj.mj_id], np.eye(3))
+
+    def relative_frame(self, handle: int, relative_to: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pose of ``handle`` in the frame of ``relative_to`` (-1 world, -11 parent)."""
+        if relative_to == C.sim_handle_parent:
+            relative_to = self.get(handle).parent
+        p, r = self.frame(handle)
+        p0, r0 = self.frame(relative_to)
+        return r0.T @ (p - p0), r0.T @ r
+
+    def position(self, handle: int, relative_to: int) -> list[float]:
+        """Position (m) of an object relative to another. ``simxGetObjectPosition``."""
+        return self.relative_frame(handle, relative_to)[0].tolist()
+
+    def orientation(self, handle: int, relative_to: int) -> list[float]:
+        """Euler angles alpha, beta, gamma (rad) with R = Rx(a) Ry(b) Rz(g). ``simxGetObjectOrientation``."""
+        return euler_from_matrix(self.relative_frame(handle, relative_to)[1])
+
+    def quaternion(self, handle: int, relative_to: int) -> list[float]:
+        """Orientation as a quaternion in V-REP's order (x, y, z, w). ``simxGetObjectQuaternion``."""
+        return quaternion_from_matrix(self.relative_frame(handle, relative_to)[1])
+
+    def children(self, handle: int) -> list[int]:
+        """Handles of the objects whose parent is ``handle`` (-1: the world), in tree order."""
+        if handle != WORLD:
+            self.get(handle)
+        return [o.handle for o in self.objects.values() if o.parent == handle]
+
+    def set_pose(self, handle: int, relative_to: int, position: list[float] | None = None,
+                 rotation: np.ndarray | None = None) -> None:
+        """Move an object: ``position`` (3,) in m and/or ``rotation`` (3, 3), both expressed in the
+        frame of ``relative_to`` (-1 world, -11 parent). ``simxSetObjectPosition`` & co.
+
+        Free bodies get a new free-joint state (velocity zeroed), mocap bodies a new mocap pose,
+        bodies without joints, dummies, vision sensors and lights a new placement in their
+        parent body. Bodies moved by hinge/slide/ball joints and joints themselves cannot be
+        placed (set their joints instead): ObjectTypeError. A coordinate of ``position`` beyond
+        ±limits.MAX_POSITION: ArgumentError.
+        """
+        if position is not None:
+            physics.check_position(position)
+        obj = self.get(handle)
+        if relative_to == C.sim_handle_parent:
+            relative_to = obj.parent
+        p0, r0 = self.frame(relative_to)
+        p_now, r_now = self.frame(handle)
+        p = p_now if position is None else p0 + r0 @ np.asarray(position, dtype=float)
+        r = r_now if rotation is None else r0 @ rotation
+        m, d = self.model, self.data
+        if obj.type == VISION_SENSOR:
+            r = r @ np.diag([-1.0, 1.0, -1.0])  # back to MuJoCo's camera frame
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, np.ascontiguousarray(r).reshape(9))
+        if obj.type == SHAPE:
+            b, jnum = obj.mj_id, m.body_jntnum[obj.mj_id]
+            if m.body_mocapid[b] >= 0:
+                d.mocap_pos[m.body_mocapid[b]], d.mocap_quat[m.body_mocapid[b]] = p, quat
+            elif jnum == 1 and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE:
+                j = m.body_jntadr[b]
+                d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + 7] = np.concatenate([p, quat])
+                d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + 6] = 0.0
+            elif jnum == 0:
+                m.body_pos[b], m.body_quat[b] = self._in_parent(int(m.body_parentid[b]), p, quat)
+            else:
+                raise ObjectTypeError(f"{obj.name!r} is moved by its joints: set their positions instead")
+        elif obj.type in (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR):
+            m.site_pos[obj.mj_id], m.site_quat[obj.mj_id] = self._in_parent(obj.body, p, quat)
+            m.site_sameframe[obj.mj_id] = 0  # else MuJoCo keeps a site compiled at its body's origin there
+        elif obj.type == VISION_SENSOR:
+            m.cam_pos[obj.mj_id], m.cam_quat[obj.mj_id] = self._in_parent(obj.body, p, quat)
+        elif obj.type == LIGHT:
+            lp, lq = self._in_parent(obj.body, p, quat)
+            rot = np.empty(9)
+            mujoco.mju_quat2Mat(rot, lq)
+            m.light_pos[obj.mj_id], m.light_dir[obj.mj_id] = lp, rot.reshape(3, 3)[:, 2]
+        else:
+            raise ObjectTypeError(f"{obj.name!r} is a {_TYPE_NAMES[obj.type]}: it cannot be placed; "
+                                  "move the body it belongs to")
+        self.changed()
+
+    def _in_parent(self, body: int, p: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World pose (p, quat) expressed in body ``body``'s frame."""
+        d = self.data
+        rb = d.xmat[body].reshape(3, 3)
+        qb, qinv, q = d.xquat[body], np.empty(4), np.empty(4)
+        mujoco.mju_negQuat(qinv, qb)
+        mujoco.mju_mulQuat(q, qinv, quat)
+        return rb.T @ (p - d.xpos[body]), q

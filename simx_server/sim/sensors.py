@@ -1,0 +1,203 @@
+"""Sensors: proximity, force and vision-sensor reads, as V-REP's legacy remote API has them,
+and the per-simulation sensor state.
+
+The command handlers ``(sim, args) -> value`` are listed in :data:`SENSOR_HANDLERS`; each checks
+its arguments and raises the exceptions of :mod:`simx_client.protocol`, and returns plain ints,
+floats, bools, str, bytes and lists. The functions they call (``proximity_reading``,
+``force_sensor_reading``, ``vision_packet`` ...) take plain values and serve in-process callers
+too. Neighbouring concerns have modules of their own: :mod:`simx_server.sim.collisions` (collision
+and distance), :mod:`simx_server.sim.kinematics` (joint matrices, velocities),
+:mod:`simx_server.sim.group_data` and :mod:`simx_server.sim.object_params`.
+
+MuJoCo mapping (see the per-function docstrings for the details):
+
+* proximity sensor = a site carrying a ``rangefinder``: one ``mj_ray`` along the site's +z,
+  excluding the site's own body, limited by the rangefinder's ``cutoff``; the surface normal is
+  the one ``mj_ray`` computes for the geom it hits.
+* force sensor = a site carrying a ``force`` sensor (and optionally a ``torque`` sensor): the
+  interaction force/torque between the site's body and its parent, in the site frame.
+
+Derived quantities (positions of bodies, sensor data) are those of the world's last
+``mj_forward``, which ``World.step`` and every state change run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from simx_server.sim.state import SimulationView
+from simx_server.sim.world import FORCE_SENSOR, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, World
+
+if TYPE_CHECKING:
+    from simx_server.sim.collisions import Probe
+    pass
+
+FORCE_STATE_DATA = 1  # simReadForceSensor bit 0: force and torque data available
+FORCE_STATE_BROKEN = 2  # bit 1: the sensor is broken
+
+
+# --------------------------------------------------------------- per-simulation state
+class PassiveImages:
+    """Images written with ``simxSetVisionSensorImage`` into passive vision sensors.
+
+    A passive sensor ("external input" in V-REP) is a camera whose ``simx:NAME`` custom text
+    says ``image=external``. Images are stored per handle as (h, w, 3) uint8 RGB, rows
+    bottom-up (V-REP's order, as they arrive); grey images are stored with R = G = B.
+    """
+
+    def __init__(self) -> None:
+        self._images: dict[int, np.ndarray] = {}
+
+    def set(self, handle: int, rgb: np.ndarray) -> None:
+        """Store ``rgb`` ((h, w, 3) uint8, rows bottom-up) as the sensor's image."""
+        self._images[handle] = rgb
+
+    def get(self, handle: int) -> np.ndarray | None:
+        """The stored image, or None if none was ever set."""
+        return self._images.get(handle)
+
+    def clear(self) -> None:
+        """Forget every stored image."""
+        self._images.clear()
+
+@dataclasses.dataclass
+class SensorState:
+    """What sensors keep between calls; one per SimulationView (``sim.sensors``)."""
+
+    passive: PassiveImages = dataclasses.field(default_factory=PassiveImages)
+    broken: dict[int, tuple[int, float]] = dataclasses.field(default_factory=dict)  # handle -> (stops, t)
+    probes_model: Any = None  # the model the probes below were read from
+    probes: dict[str, dict[str, Probe]] = dataclasses.field(default_factory=dict)  # kind -> name -> probe
+    probe_handles: dict[str, dict[str, int]] = dataclasses.field(
+        default_factory=lambda: {"collision": {}, "distance": {}})  # never reused
+
+
+def is_passive(sim: SimulationView, handle: int) -> bool:
+    """Whether vision sensor ``handle`` is passive (``image=external`` in its custom text)."""
+    return sim.world.get(handle, VISION_SENSOR).settings.get("image") == "external"
+
+
+def override_image(sim: SimulationView, handle: int, grey: bool) -> np.ndarray | None:
+    """The image a passive sensor shows instead of a rendering, or None for other sensors.
+
+    Same contract as ``VisionSensors.image``: rows bottom-up, (h, w, 3) uint8 RGB, or (h, w)
+    uint8 ``(R + G + B) // 3`` when ``grey``. A passive sensor nobody wrote to yet is black.
+    Raises UnknownObjectError / ObjectTypeError for a handle that is not a vision sensor.
+    """
+    if not is_passive(sim, handle):
+        return None
+    rgb = sim.sensors.passive.get(handle)
+    spec = sim.vision.spec(handle)
+    if rgb is None or rgb.shape[:2] != (spec.height, spec.width):  # none yet (or scene edited)
+        rgb = np.zeros((spec.height, spec.width, 3), dtype=np.uint8)
+    if grey:
+        return (rgb.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)
+    return rgb
+
+
+def _shape_of_body(world: World) -> dict[int, int]:
+    return {o.mj_id: o.handle for o in world.objects.values() if o.type == SHAPE}
+
+
+# ------------------------------------------------------------------ force sensors
+def _site_sensor(m: mujoco.MjModel, site: int, kind: mujoco.mjtSensor) -> int | None:
+    for k in range(m.nsensor):
+        if (m.sensor_type[k] == kind and m.sensor_objtype[k] == mujoco.mjtObj.mjOBJ_SITE
+                and m.sensor_objid[k] == site):
+            return k
+    return None
+
+
+def _site_wrench(world: World, site: int) -> tuple[np.ndarray, np.ndarray]:
+    """Force and torque between the site's body and its parent, in the site frame (as
+    MuJoCo's force/torque sensors compute them, from ``cfrc_int``)."""
+    m, d = world.model, world.data
+    body = int(m.site_bodyid[site])
+    conv = np.empty(6)
+    mujoco.mju_transformSpatial(conv, d.cfrc_int[body], 1, d.site_xpos[site],
+                                d.subtree_com[m.body_rootid[body]], np.eye(3).reshape(9))
+    rot = d.site_xmat[site].reshape(3, 3)
+    return rot.T @ conv[3:], rot.T @ conv[:3]
+
+
+def stamp(sim: SimulationView) -> tuple[int, float]:
+    return getattr(sim, "stop_requests", 0), sim.world.time
+
+
+def _broken(sim: SimulationView, handle: int) -> bool:
+    st = sim.sensors
+    when = st.broken.get(handle)
+    if when is None:
+        return False
+    stops, t = stamp(sim)
+    if stops != when[0] or t < when[1]:  # stopped (scene reset) since it broke
+        del st.broken[handle]
+        return False
+    return True
+
+
+def force_sensor_reading(sim: SimulationView, handle: int) -> tuple[int, list[float], list[float]]:
+    """(state, force (3,) N, torque (3,) N·m) of force sensor ``handle``; see read_force_sensor."""
+    obj = sim.world.get(handle, FORCE_SENSOR)
+    if _broken(sim, handle):
+        return FORCE_STATE_BROKEN, [0.0] * 3, [0.0] * 3
+    m, d = sim.world.model, sim.world.data
+    kf = _site_sensor(m, obj.mj_id, mujoco.mjtSensor.mjSENS_FORCE)
+    kt = _site_sensor(m, obj.mj_id, mujoco.mjtSensor.mjSENS_TORQUE)
+    force, torque = _site_wrench(sim.world, obj.mj_id)
+    if kf is not None:  # the sensor's own output (with the model's noise/cutoff settings)
+        force = d.sensordata[m.sensor_adr[kf]:m.sensor_adr[kf] + 3]
+    if kt is not None:
+        torque = d.sensordata[m.sensor_adr[kt]:m.sensor_adr[kt] + 3]
+    return FORCE_STATE_DATA, [float(x) for x in force], [float(x) for x in torque]
+
+
+# ----------------------------------------------------------------- vision sensors
+def vision_packet(sim: SimulationView, handle: int) -> list[float]:
+    """V-REP's default vision packet: 15 floats in 0..1.
+
+    min, max and average of (intensity, red, green, blue, depth) over the sensor's current
+    image (intensity = (R + G + B) / 3) and depth buffer (normalised between near and far).
+    Passive sensors use their stored image; the depth is always the rendered one (what
+    simxGetVisionSensorDepthBuffer returns).
+    """
+    rgb = override_image(sim, handle, False)
+    if rgb is None:
+        rgb = sim.vision.image(handle, False)
+    px = rgb.reshape(-1, 3)
+    intensity = px.sum(axis=1, dtype=np.uint32)
+    depth = sim.vision.depth(handle)
+    mins = [intensity.min() / 765.0, *(px.min(axis=0) / 255.0), float(depth.min())]
+    maxs = [intensity.max() / 765.0, *(px.max(axis=0) / 255.0), float(depth.max())]
+    avgs = [intensity.mean() / 765.0, *(px.mean(axis=0) / 255.0), float(depth.mean(dtype=np.float64))]
+    return [float(x) for x in (*mins, *maxs, *avgs)]
+
+
+# -------------------------------------------------------------- proximity sensors
+def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[float], int, list[float]]:
+    """(detected, point (3,) m, object handle, normal (3,)) in the sensor frame; see below."""
+    world = sim.world
+    obj = world.get(handle, PROXIMITY_SENSOR)
+    m, d = world.model, world.data
+    site = obj.mj_id
+    k = _site_sensor(m, site, mujoco.mjtSensor.mjSENS_RANGEFINDER)
+    cutoff = float(m.sensor_cutoff[k]) if k is not None and m.sensor_cutoff[k] > 0 else math.inf
+    rot = d.site_xmat[site].reshape(3, 3)
+    geom = np.array([-1], dtype=np.int32)
+    normal = np.zeros(3)
+    dist = mujoco.mj_ray(m, d, d.site_xpos[site].copy(), rot[:, 2].copy(), None, 1,
+                         int(m.site_bodyid[site]), geom, normal)
+    if dist < 0 or dist > cutoff or geom[0] < 0:
+        return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
+    hit = _shape_of_body(world).get(int(m.geom_bodyid[geom[0]]), -1)
+    n = rot.T @ normal
+    norm = np.linalg.norm(n)
+    n = n / norm if norm > 0 else n
+    return True, [0.0, 0.0, float(dist)], hit, [float(x) for x in n]
+
+

@@ -1,0 +1,427 @@
+"""Vision sensors: MuJoCo cameras rendered offscreen, in V-REP's image and depth formats.
+
+A vision sensor is a MuJoCo camera. Its resolution is the camera's ``resolution`` attribute
+(256x256 when the MJCF leaves it at 1x1; at most limits.MAX_RESOLUTION a side, or the scene is
+refused when it loads), its field of view the camera's ``fovy``, and its
+near/far clipping planes and image kind come from the ``simx:NAME`` custom text
+(``near=0.01 far=10 image=rgb|depth``). A sensor with ``image=depth`` shows its depth as grey
+in all three channels (near dark, far bright), as a V-REP depth sensor with a
+"depth to image" filter does. ``render_mode=handles`` (or ``sim_visionintparam_render_mode`` set
+to 2) makes the image V-REP's colour-coded handles (simx_server.sim.handle_render).
+
+Like V-REP's default vision-sensor renderer (plain OpenGL), sensors draw neither shadows nor
+reflections, whatever the scene's lights and materials say; ``shadows=true`` and
+``reflections=true`` in the custom text turn them on for one sensor (as V-REP's OpenGL3 render
+mode did). On a software renderer shadows are most of the cost of a frame (llvmpipe, 640x480:
+about 15 ms of 20 for the UR5 scene's sun).
+
+A V-REP vision sensor sees the scene's shapes only: sensors render with MuJoCo's
+visualisation extras off (rangefinder rays, contact points and forces, joints, actuators,
+tendons, lights, cameras, frames, labels, centres of mass, inertia boxes, constraints,
+perturbation markers, bounding volumes) and without sites (simx's dummies, which V-REP's sensors
+do not see either). Geoms of groups 0-2 (MuJoCo's default visible groups), textures, skins,
+flexes, the skybox and haze stay as the scene's author set them.
+
+Frames are rendered on demand and cached until the world changes (one render per
+simulation step per sensor, however many clients ask). Rendering runs on a thread of its own,
+which owns the GL contexts, from a copy of ``MjData`` taken on the simulation thread: a slow
+software renderer delays the image, not the physics nor the other clients. Images leave here
+as ``bytes`` in V-REP's layout: rows bottom-up, RGB, 8 bits; depth as float32 in 0..1 (linear
+between near and far).
+
+V-REP rendered every sensor every step, so a program's first streamed image came at once. Here
+the renderers (a GL context and MuJoCo's ``MjrContext``, about 0.2 s on a software renderer)
+and one warm-up frame per sensor are made on the render thread as soon as a scene loads or its
+model changes (an edit), not on the first request: the first streamed image is in the client's
+inbox within a step or two of the streaming call. The render thread and its contexts live
+as long as the server; a new scene or an edit hands them over (``previous=``) and they are
+rebuilt for the new model in submission order. The simulation thread waits for them
+(:meth:`VisionSensors.wait_ready`) only while the simulation is stopped: before the server
+starts it, and on a scene load or an edit made while stopped. An edit while it runs does not
+wait; images asked for meanwhile come once the renderers are rebuilt (0.1-0.45 s on llvmpipe).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import logging
+from collections import OrderedDict
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, Callable
+
+import mujoco
+import numpy as np
+
+from simx_client.protocol import ArgumentError
+from simx_server.base import limits as L
+from simx_server.sim import handle_render
+from simx_server.sim.physics import check_resolution
+from simx_server.sim.world import VISION_SENSOR, World
+
+log = logging.getLogger("simx.vision")
+
+DEFAULT_RESOLUTION = (256, 256)
+DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10.0
+
+#: MuJoCo's visualisation flags a sensor keeps on (everything else, rays, contacts, joints...,
+#: is off): the scene's own appearance. mjVIS_STATIC draws the world body's geoms.
+_SCENE_FLAGS = ("mjVIS_TEXTURE", "mjVIS_STATIC", "mjVIS_SKIN", "mjVIS_FLEXEDGE", "mjVIS_FLEXSKIN")
+
+
+def sensor_option() -> mujoco.MjvOption:
+    """The ``MjvOption`` sensors render with: what a V-REP vision sensor sees, the scene only.
+
+    MuJoCo's defaults with every visualisation extra off (``_SCENE_FLAGS`` kept), no frames
+    nor labels, and no sites; geom, skin and flex groups as MuJoCo's defaults (0-2 visible).
+    """
+    option = mujoco.MjvOption()
+    for name in dir(mujoco.mjtVisFlag):
+        if name.startswith("mjVIS_"):
+            option.flags[getattr(mujoco.mjtVisFlag, name)] = name in _SCENE_FLAGS
+    option.frame = mujoco.mjtFrame.mjFRAME_NONE
+    option.label = mujoco.mjtLabel.mjLABEL_NONE
+    option.sitegroup[:] = 0
+    for groups in (option.jointgroup, option.tendongroup, option.actuatorgroup):
+        groups[:] = 0
+    return option
+
+
+@dataclasses.dataclass
+class SensorSpec:
+    """Static properties of one vision sensor."""
+
+    camera: int
+    width: int
+    height: int
+    near: float  # m
+    far: float  # m
+    depth_image: bool
+    shadows: bool = False
+    reflections: bool = False
+    render_mode: int = handle_render.OPENGL  # sim_visionintparam_render_mode; 2: colour-coded handles
+
+
+def _flag(settings: dict[str, str], key: str, sensor: str) -> bool:
+    """A ``true``/``false`` custom-text setting (default false); ValueError names the sensor."""
+    value = settings.get(key, "false").lower()
+    if value not in ("true", "false"):
+        raise ValueError(f"vision sensor {sensor!r}: {key}={value!r} must be true or false")
+    return value == "true"
+
+
+def sensor_spec(model: mujoco.MjModel, obj) -> SensorSpec:
+    """The static properties of vision sensor ``obj`` (a world.SceneObject of the camera): the
+    camera's resolution (DEFAULT_RESOLUTION when the MJCF leaves it at 1x1), near/far clipping
+    (m) and image kind from its ``simx:`` text. Raises ValueError for a bad setting."""
+    w, h = (int(x) for x in model.cam_resolution[obj.mj_id])
+    if (w, h) == (1, 1):
+        w, h = DEFAULT_RESOLUTION
+    check_resolution(w, h, f"vision sensor {obj.name!r}")  # World checked it at load too
+    s = obj.settings
+    return SensorSpec(obj.mj_id, w, h, float(s.get("near", DEFAULT_NEAR)), float(s.get("far", DEFAULT_FAR)),
+                      s.get("image", "rgb") == "depth",
+                      shadows=_flag(s, "shadows", obj.name), reflections=_flag(s, "reflections", obj.name),
+                      render_mode=handle_render.parse_mode(s, obj.name))
+
+
+class Deferred:
+    """A command result that the render thread completes (the server replies once it is done)."""
+
+    __slots__ = ("future",)
+
+    def __init__(self, future: Future):
+        self.future = future
+
+
+def _close(renderer: mujoco.Renderer) -> None:
+    try:
+        renderer.close()
+    except Exception:  # a context already torn down by the driver
+        pass
+
+
+class _RenderThread:
+    """The render thread and the state only it touches: the renderers (one GL context and
+    ``MjrContext`` per resolution), bound to one model. Shared by the successive VisionSensors
+    of a server (scene loads, edits); jobs run in the order they were submitted."""
+
+    def __init__(self) -> None:
+        self.executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="simx-render")
+        # render thread only; most recently used last, at most limits.MAX_RENDERERS
+        self.renderers: OrderedDict[tuple[int, int], mujoco.Renderer] = OrderedDict()
+        self.model: mujoco.MjModel | None = None  # the model the renderers were made for
+        self.newest: mujoco.MjModel | None = None  # set on the simulation thread: the latest scene
+        self.option: mujoco.MjvOption | None = None
+        self.failure: str | None = None  # why no GL context can be made: not tried again
+
+    def renderer(self, model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+        """The renderer of this size for ``model``, made now if needed (render thread).
+
+        Raises RuntimeError once a renderer could not be made (no usable GL platform): a
+        second attempt after a failed one can abort the process (GLFW without a display)."""
+        if self.failure is not None:
+            raise RuntimeError(f"vision sensors cannot render here: {self.failure}")
+        if model is not self.model:
+            self.free()
+            self.model = model
+        r = self.renderers.get((width, height))
+        if r is None:
+            while len(self.renderers) >= L.MAX_RENDERERS:  # sizes set at run time: bounded
+                _close(self.renderers.popitem(last=False)[1])
+            try:
+                r = mujoco.Renderer(model, height, width)
+            except Exception as exc:
+                self.failure = f"{type(exc).__name__}: {exc}"
+                raise
+            self.renderers[(width, height)] = r
+        else:
+            self.renderers.move_to_end((width, height))
+        if self.option is None:
+            self.option = sensor_option()
+        return r
+
+    def free(self) -> None:
+        """Free every GL context (render thread)."""
+        for r in self.renderers.values():
+            _close(r)
+        self.renderers.clear()
+        self.model = None
+
+
+class VisionSensors:
+    """The scene's vision sensors.
+
+    Methods are called on the simulation thread; rendering happens on one render thread (a
+    single-worker executor, so jobs run in the order they were submitted). The renderers for
+    the scene's sensors are made at once, on that thread (see :meth:`wait_ready`). ``previous``
+    is the VisionSensors of the scene this one replaces (a load, an edit): its render thread and
+    contexts are taken over, and ``previous`` must not be used afterwards. Call close() when done.
+    """
+
+    def __init__(self, world: World, previous: VisionSensors | None = None):
+        self.world = world
+        if previous is not None and previous._owner:
+            self._thread, previous._owner = previous._thread, False  # its pending jobs still run
+            previous._cache.clear()
+        else:
+            self._thread = _RenderThread()
+        self._owner = True  # closes the render thread (unless it hands it over)
+        self._executor = self._thread.executor
+        self._cache: dict[tuple[int, str], tuple[int, Future]] = {}
+        self._snapshot: tuple[int, mujoco.MjData] | None = None
+        self._colours: np.ndarray | None = None  # geom id -> packed handle colour (handle_render)
+        self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
+        self.reset()
+        self._ready = self._prepare()
+
+    def reset(self) -> None:
+        """(Re)read every sensor's properties from the scene (undoing run-time changes)."""
+        world = self.world
+        self.specs: dict[int, SensorSpec] = {}
+        self._cache.clear()
+        self._colours = None
+        m = world.model
+        for obj in world.objects.values():
+            if obj.type == VISION_SENSOR:
+                self.specs[obj.handle] = sensor_spec(m, obj)
+        if self.specs:
+            m.vis.global_.offwidth = max(m.vis.global_.offwidth, *(s.width for s in self.specs.values()))
+            m.vis.global_.offheight = max(m.vis.global_.offheight, *(s.height for s in self.specs.values()))
+
+    def set_resolution(self, handle: int, width: int | None = None, height: int | None = None) -> None:
+        """``sim_visionintparam_resolution_x``/``_y`` (1002/1003) set at run time, as V-REP
+        allowed: the sensor renders at the new size from the next image on (a GL context per
+        size, at most limits.MAX_RENDERERS kept). The field of view keeps V-REP's rule (the
+        perspective angle spans the larger side). Undone when the simulation stops, like the
+        other run-time sensor changes. Raises ArgumentError outside 1..MAX_RESOLUTION."""
+        spec = self.spec(handle)
+        w = spec.width if width is None else int(width)
+        h = spec.height if height is None else int(height)
+        check_resolution(w, h, f"vision sensor {self.world.get(handle).name!r}")
+        if (w, h) == (spec.width, spec.height):
+            return
+        # A new spec object: jobs already queued keep the size they were asked for.
+        self.specs[handle] = dataclasses.replace(spec, width=w, height=h)
+        g = self.world.model.vis.global_
+        g.offwidth, g.offheight = max(g.offwidth, w), max(g.offheight, h)
+        self.world.version += 1  # cached frames are of the old size
+
+    def spec(self, handle: int) -> SensorSpec:
+        """The sensor's properties; raises UnknownObjectError/ObjectTypeError for other handles."""
+        self.world.get(handle, VISION_SENSOR)
+        return self.specs[handle]
+
+    def after(self, job: Callable[[], Any]) -> Future:
+        """Run ``job`` on the render thread once every render submitted so far is done."""
+        return self._executor.submit(job)
+
+    # ------------------------------------------------------------ render thread
+    def _draw(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
+        """One frame, top-down rows: RGB (h, w, 3) uint8, depth (h, w) float32 in m, or
+        ("handles") MuJoCo's segmentation (h, w, 2) int32 (object id, type)."""
+        thread = self._thread
+        r = thread.renderer(model, spec.width, spec.height)
+        if kind == "depth":
+            r.enable_depth_rendering()
+        elif kind == "handles":
+            r.enable_segmentation_rendering()
+        try:
+            r.update_scene(data, camera=spec.camera, scene_option=thread.option)
+            r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
+            r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
+            return r.render()
+        finally:
+            if kind == "depth":
+                r.disable_depth_rendering()
+            elif kind == "handles":
+                r.disable_segmentation_rendering()
+
+    def _render(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
+        """Rendered frame of a request (counted in ``renders``)."""
+        frame = self._draw(model, data, spec, kind)
+        self.renders += 1
+        return frame
+
+    def _prepare(self) -> Future:
+        """Make the renderers of this scene's sensors and draw one frame of each (the first
+        frame of a GL context costs several later ones), on the render thread; a failure is
+        logged once and the renderers are then made on the first request."""
+        model, thread = self.world.model, self._thread
+        thread.newest = model
+        if not self.specs:
+            return self._executor.submit(thread.free)  # the old scene's contexts are not needed
+        data, specs = copy.copy(self.world.data), list(self.specs.values())
+
+        def prepare() -> None:
+            if thread.newest is not model:
+                return  # a newer scene is queued: it prepares its own
+            try:
+                for spec in specs:
+                    self._draw(model, data, spec, self._image_kind(spec))
+                for size in {(s.width, s.height): s for s in specs}.values():  # depth from any sensor
+                    self._draw(model, data, size, "depth")
+            except Exception as exc:
+                log.warning("vision sensors: cannot prepare the renderers: %s: %s", type(exc).__name__, exc)
+
+        return self._executor.submit(prepare)
+
+    def wait_ready(self, timeout: float | None = None) -> bool:
+        """Wait until the renderers made at load are ready: whether they are (False on timeout).
+
+        The server waits for them before it starts the simulation, so that a fresh server's
+        first streamed image comes within a step or two of the streaming call."""
+        try:
+            self._ready.result(timeout)
+        except TimeoutError:
+            return False
+        return True
+
+    # -------------------------------------------------------- simulation thread
+    def _frame(self, handle: int, kind: str) -> Future:
+        """The frame of the world's current state (a future), rendered once per state."""
+        version = self.world.version
+        cached = self._cache.get((handle, kind))
+        if cached is not None and cached[0] == version:
+            return cached[1]
+        spec = self.spec(handle)
+        if self._snapshot is None or self._snapshot[0] != version:
+            self._snapshot = (version, copy.copy(self.world.data))  # the state this version shows
+        future = self._executor.submit(self._render, self.world.model, self._snapshot[1], spec, kind)
+        self._cache[(handle, kind)] = (version, future)
+        return future
+
+    def _depth_job(self, handle: int) -> Callable[[], np.ndarray]:
+        spec, raw = self.spec(handle), self._frame(handle, "depth")
+        near, far = spec.near, spec.far  # as they are now, even if changed before the render
+
+        def normalised() -> np.ndarray:
+            norm = (raw.result() - near) / (far - near)
+            return np.clip(norm, 0.0, 1.0, out=norm).astype(np.float32, copy=False)[::-1]
+
+        return normalised
+
+    @staticmethod
+    def _image_kind(spec: SensorSpec) -> str:
+        """The frame an image of this sensor is made from."""
+        if spec.render_mode == handle_render.COLOR_CODED:
+            return "handles"
+        return "depth" if spec.depth_image else "rgb"
+
+    def _image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
+        kind = self._image_kind(self.spec(handle))
+        if kind == "handles":  # V-REP's colour-coded handles (render mode 2)
+            if self._colours is None:
+                self._colours = handle_render.geom_colours(self.world)
+            seg, colours = self._frame(handle, "handles"), self._colours
+
+            def coded() -> np.ndarray:
+                img = handle_render.coded_image(seg.result(), colours)[::-1]
+                return (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8) if grey else img
+
+            return coded
+        if kind == "depth":
+            depth = self._depth_job(handle)
+
+            def from_depth() -> np.ndarray:
+                g = np.rint(depth() * 255.0).astype(np.uint8)
+                return g if grey else np.repeat(g[:, :, None], 3, axis=2)
+
+            return from_depth
+        raw = self._frame(handle, "rgb")
+
+        def rgb() -> np.ndarray:
+            img = raw.result()[::-1]
+            return (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8) if grey else img
+
+        return rgb
+
+    def depth(self, handle: int) -> np.ndarray:
+        """Depth normalised to 0..1 between near and far, (h, w) float32, rows bottom-up."""
+        return self.after(self._depth_job(handle)).result()
+
+    def image(self, handle: int, grey: bool) -> np.ndarray:
+        """The sensor's image, rows bottom-up: (h, w, 3) uint8 RGB, or (h, w) uint8 when ``grey``.
+
+        ``grey`` is V-REP's options bit 0: one byte per pixel, (R + G + B) / 3.
+        """
+        return self.after(self._image_job(handle, grey)).result()
+
+    def _payload(self, handle: int, kind: str, job: Callable[[], Callable[[], np.ndarray]]) -> Deferred:
+        """``[[resX, resY], bytes]`` of a frame, made once per state and shared."""
+        cached = self._cache.get((handle, kind))
+        if cached is None or cached[0] != self.world.version:
+            spec, frame = self.spec(handle), job()
+            cached = (self.world.version, self.after(
+                lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()]))
+            self._cache[(handle, kind)] = cached
+        return Deferred(cached[1])
+
+    def image_deferred(self, handle: int, options: int) -> Deferred:
+        """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey)."""
+        if not isinstance(options, int):
+            raise ArgumentError(f"options must be an int, got {type(options).__name__}")
+        grey = bool(options & 1)
+        return self._payload(handle, f"image{int(grey)}", lambda: self._image_job(handle, grey))
+
+    def depth_deferred(self, handle: int) -> Deferred:
+        """``simxGetVisionSensorDepthBuffer``: a Deferred ``[[resX, resY], float32 bytes]``."""
+        return self._payload(handle, "depth buffer", lambda: self._depth_job(handle))
+
+    def image_bytes(self, handle: int, options: int) -> tuple[list[int], bytes]:
+        """:meth:`image_deferred`, waited for: ``([resX, resY], bytes)``."""
+        return tuple(self.image_deferred(handle, options).future.result())
+
+    def depth_bytes(self, handle: int) -> tuple[list[int], bytes]:
+        """:meth:`depth_deferred`, waited for: ``([resX, resY], float32 bytes)``."""
+        return tuple(self.depth_deferred(handle).future.result())
+
+    def close(self) -> None:
+        """Finish pending jobs, free every GL context (on its thread) and stop; idempotent.
+        A VisionSensors whose render thread was handed over has nothing to close."""
+        owner, self._owner = self._owner, False
+        self._cache.clear()
+        if owner:
+            self._thread.newest = None  # a preparation not started yet is skipped
+            self._executor.submit(self._thread.free)
+            self._executor.shutdown(wait=True)

@@ -1,0 +1,462 @@
+"""The simulated world: a MuJoCo model and data seen as V-REP scene objects.
+
+No transport in here; every method runs on the simulation thread and is testable alone.
+
+Mapping (see README and docs/ARCHITECTURE.md): named bodies are shapes, joints are joints,
+sites are dummies, cameras are vision sensors, lights are lights, -1 is the world. Objects get
+handles in tree order, starting at 1, stable while the scene is loaded. A name that elements of
+several kinds share is given out by :mod:`simx_server.sim.naming` (``head``, ``head#0``, ...).
+
+Per-object settings that MJCF has no attribute for come from ``<custom><text name="simx:NAME"
+data="key=value ..."/></custom>``: a joint's ``mode`` (``position``/``velocity``/``passive``: the
+initial state of its motor, see :mod:`simx_server.sim.motors`) and ``max_velocity`` (rad/s or m/s),
+a vision sensor's ``image`` (``rgb``/``depth``), ``near`` and ``far`` (m), an object's
+``child_script`` (a file next to the scene).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from simx_client import constants as C
+from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+from simx_server.base import limits as L
+from simx_server.sim import motors, naming, physics, urdf
+from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
+    _TYPE_NAMES,
+    DUMMY,
+    FORCE_SENSOR,
+    JOINT,
+    LIGHT,
+    PROXIMITY_SENSOR,
+    SHAPE,
+    VISION_SENSOR,
+    WORLD,
+    SceneObject,
+    parse_settings,
+)
+from simx_server.sim.poses import Poses
+from simx_server.sim.rotations import (  # noqa: F401
+    _frame_with_z,
+    euler_from_matrix,
+    matrix_from_euler,
+    matrix_from_quaternion,
+    quaternion_from_matrix,
+)
+
+log = logging.getLogger("simx.world")
+
+#: Model fields that clients may change while the simulation runs (poses, masses, view
+#: angles); reset() restores them, as V-REP restores a scene on stop.
+_RESTORED_FIELDS = ("body_pos", "body_quat", "site_pos", "site_quat", "cam_pos", "cam_quat", "light_pos",
+                    "light_dir", "body_mass", "body_inertia", "cam_fovy")
+#: (nq, nv) of each mjtJoint: free, ball, slide, hinge.
+_JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
+
+DEFAULT_MAX_VELOCITY = math.pi  # rad/s, used where a joint declares none
+POSITION_MODE, VELOCITY_MODE = 0, 1  # World.mode: a motor's control loop on / off
+# Bounds of the hot joint setters, as globals (one comparison each; see limits.py).
+_MAX_Q, _MAX_V, _MAX_F = L.MAX_JOINT_POSITION, L.MAX_JOINT_VELOCITY, L.MAX_JOINT_FORCE
+
+
+class World(Poses):
+    """A loaded scene: model, data, object registry and joint motors.
+
+    Args:
+        scene: path of an MJCF file, or of a URDF file (:mod:`simx_server.sim.urdf`).
+        dt: simulation step in s (V-REP's default 0.05); made of MuJoCo substeps of the
+            model's own timestep.
+
+    Raises:
+        ValueError: the scene cannot be loaded (MuJoCo's message, with the file name), or
+            ``dt`` or the scene exceeds a bound of :mod:`simx_server.base.limits` (MAX_DT,
+            MAX_SUBSTEPS, MAX_RESOLUTION).
+    """
+
+    def __init__(self, scene: str | Path, dt: float = 0.05):
+        self.scene_path = Path(scene).resolve()
+        physics.install_warning_handler()  # MuJoCo's warnings go to the log, not to stdout
+        try:
+            self.requested_dt = physics.check_dt(dt)  # s; the actual dt is a whole number of timesteps
+        except ArgumentError as exc:
+            raise ValueError(str(exc)) from None
+        try:  # through MjSpec: joints without an actuator get a (disabled) motor
+            model = motors.compile_spec(urdf.load_spec(self.scene_path))  # MJCF, or URDF (simx_server.sim.urdf)
+        except Exception as exc:
+            raise ValueError(f"cannot load scene {self.scene_path}: {exc}") from exc
+        self.version = 0  # bumped whenever the state changes (cache key for renders)
+        self.time = 0.0  # s, simulation time as of the last changed()
+        self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
+        self._next_handle = 1  # handles are never given twice
+        try:
+            self._install(model)
+        except ArgumentError as exc:
+            raise ValueError(f"scene {self.scene_path.name}: {exc}") from None
+        self.reset()
+
+    def _install(self, model: mujoco.MjModel) -> None:
+        """Adopt ``model``: fresh data, registry (keeping known names' handles), motors.
+
+        Raises ArgumentError (before changing anything) when the model's per-step work exceeds
+        a bound: substeps of the current dt, camera resolutions.
+        """
+        substeps = physics.check_scene(model, self.requested_dt)
+        self.model = model
+        self.data = mujoco.MjData(model)
+        # A view kept for the hottest read: each ``data.qpos`` builds a new ndarray, which costs
+        # microseconds in a server thread that has just woken up. MjData's buffers live as long
+        # as the MjData, and every new MjData comes through here.
+        self._qpos = self.data.qpos
+        self._bad_state = physics.bad_state_view(self.data)  # nonzero after a blow-up
+        self.substeps = substeps
+        self.dt = self.substeps * model.opt.timestep
+        self.settings = self._read_settings()
+        self.objects: dict[int, SceneObject] = {}
+        self.by_name: dict[str, SceneObject] = {}
+        self._register_objects()
+        scalar = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+        self._scalar_joints = {o.handle: (int(model.jnt_qposadr[o.mj_id]), int(model.jnt_dofadr[o.mj_id]))
+                               for o in self.objects.values()
+                               if o.type == JOINT and int(model.jnt_type[o.mj_id]) in scalar}
+        for gone in [n for n in self._handle_of_name if n not in self.by_name]:
+            del self._handle_of_name[gone]  # its handle is never given again
+        self._init_motors()
+        self._initial_fields = {f: getattr(model, f).copy() for f in _RESTORED_FIELDS}
+
+    def replace_model(self, model: mujoco.MjModel) -> None:
+        """Swap in an edited model (scene editing) while the simulation goes on.
+
+        Objects keep their handles (matched by name); joints keep their positions and
+        velocities, motors their mode, targets and maximum force; the simulation time goes on.
+        Objects that disappeared lose their handle for good; new ones get new handles.
+        Raises ArgumentError, changing nothing, when the model exceeds a bound (see _install).
+        """
+        old_model, old_data = self.model, self.data
+        joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
+        kept = {h: self.motors.state(i) for h, i in self.motor_index.items()}
+        free = {o.name: int(old_model.body_jntadr[o.mj_id]) for o in self.objects.values()
+                if o.type == SHAPE and old_model.body_jntnum[o.mj_id] == 1
+                and old_model.jnt_type[old_model.body_jntadr[o.mj_id]] == mujoco.mjtJoint.mjJNT_FREE}
+        self._install(model)
+        self.reset()
+        m, d = self.model, self.data
+        copies = [(old_model.jnt_qposadr[j], old_model.jnt_dofadr[j], self.by_name[n].mj_id)
+                  for n, j in joints.items() if n in self.by_name and self.by_name[n].type == JOINT]
+        copies += [(old_model.jnt_qposadr[j], old_model.jnt_dofadr[j], int(m.body_jntadr[self.by_name[n].mj_id]))
+                   for n, j in free.items() if n in self.by_name and m.body_jntnum[self.by_name[n].mj_id] == 1]
+        for qadr, dadr, j in copies:
+            nq, nv = _JOINT_SIZES[int(m.jnt_type[j])]
+            d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + nq] = old_data.qpos[qadr:qadr + nq]
+            d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + nv] = old_data.qvel[dadr:dadr + nv]
+        for h, state in kept.items():
+            i = self.motor_index.get(h)
+            if i is not None:
+                self.motors.restore(i, state)
+        self.motors.write_force_limits(m)
+        d.time = old_data.time
+        self.changed()
+
+    # ----------------------------------------------------------------- registry
+    def _read_settings(self) -> dict[str, dict[str, str]]:
+        m = self.model
+        out = {}
+        for i in range(m.ntext):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TEXT, i) or ""
+            if name.startswith("simx:"):
+                adr, size = m.text_adr[i], m.text_size[i]
+                raw = bytes(m.text_data[adr : adr + size - 1]).decode()
+                try:
+                    out[name[5:]] = parse_settings(raw)
+                except ValueError as exc:
+                    raise ValueError(f"{self.scene_path}: custom text {name!r}: {exc}") from exc
+        return out
+
+    def _add(self, name: str | None, otype: int, mj_id: int, body: int, parent: int) -> int:
+        if not name:
+            return parent
+        if name in self.by_name:
+            log.warning("scene %s: name %r used twice; the %s keeps it", self.scene_path.name,
+                        name, _TYPE_NAMES[self.by_name[name].type])
+            return parent
+        handle = self._handle_of_name.get(name)
+        if handle is None:
+            handle = self._handle_of_name[name] = self._next_handle
+            self._next_handle += 1
+        obj = SceneObject(handle, name, otype, mj_id, body, parent, self.settings.get(name, {}))
+        self.objects[handle] = obj
+        self.by_name[name] = obj
+        return obj.handle
+
+    def _register_objects(self) -> None:
+        m = self.model
+        body_handle = {0: WORLD}
+        # global names (see simx_server.sim.naming); elements still there keep theirs across edits
+        vrep_names, renamed, self._identities = naming.vrep_names(m, getattr(self, "_identities", None))
+        names = lambda t, i: vrep_names.get((int(t), int(i)))  # noqa: E731
+        if renamed and set(renamed) != getattr(self, "_renamed", None):  # once, not at every edit
+            log.warning("%s", naming.describe(self.scene_path.name, renamed, L.MAX_RENAMES_LOGGED))
+            for line in naming.details(self.scene_path.name, renamed) if log.isEnabledFor(logging.DEBUG) else ():
+                log.debug("%s", line)
+        self._renamed = set(renamed)
+        site_type = {}  # sites carrying a rangefinder or a force sensor are sensors
+        for k in range(m.nsensor):
+            if m.sensor_objtype[k] == mujoco.mjtObj.mjOBJ_SITE:
+                kind = {mujoco.mjtSensor.mjSENS_RANGEFINDER: PROXIMITY_SENSOR,
+                        mujoco.mjtSensor.mjSENS_FORCE: FORCE_SENSOR}.get(int(m.sensor_type[k]))
+                if kind is not None:
+                    site_type[int(m.sensor_objid[k])] = kind
+        for b in range(1, m.nbody):
+            parent = body_handle[int(m.body_parentid[b])]
+            for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b]):
+                parent = self._add(names(mujoco.mjtObj.mjOBJ_JOINT, j), JOINT, j, b, parent)
+            body_handle[b] = self._add(names(mujoco.mjtObj.mjOBJ_BODY, b), SHAPE, b, b, parent)
+            me = body_handle[b]
+            for s in np.flatnonzero(m.site_bodyid == b):
+                self._add(names(mujoco.mjtObj.mjOBJ_SITE, s), site_type.get(int(s), DUMMY), int(s), b, me)
+            for c in np.flatnonzero(m.cam_bodyid == b):
+                self._add(names(mujoco.mjtObj.mjOBJ_CAMERA, c), VISION_SENSOR, int(c), b, me)
+            for li in np.flatnonzero(m.light_bodyid == b):
+                self._add(names(mujoco.mjtObj.mjOBJ_LIGHT, li), LIGHT, int(li), b, me)
+        for otype, table, count in (
+            (DUMMY, mujoco.mjtObj.mjOBJ_SITE, m.nsite),
+            (VISION_SENSOR, mujoco.mjtObj.mjOBJ_CAMERA, m.ncam),
+            (LIGHT, mujoco.mjtObj.mjOBJ_LIGHT, m.nlight),
+        ):
+            bodies = {DUMMY: m.site_bodyid, VISION_SENSOR: m.cam_bodyid, LIGHT: m.light_bodyid}[otype]
+            for i in np.flatnonzero(bodies[:count] == 0):
+                t = site_type.get(int(i), DUMMY) if otype == DUMMY else otype
+                self._add(names(table, int(i)), t, int(i), 0, WORLD)
+
+    def resolve(self, name: str) -> SceneObject:
+        """The object named ``name`` (``simxGetObjectHandle`` rules).
+
+        Exact names; a trailing ``#`` is ignored (``"UR5#"`` is ``"UR5"``); CoppeliaSim 4.2
+        paths (``"/UR5/UR5_joint1"``) resolve through the object tree.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
+        if not isinstance(name, str):
+            raise ArgumentError(f"object name must be a string, got {type(name).__name__}")
+        key = name[:-1] if name.endswith("#") else name
+        obj = self.by_name.get(key)
+        if obj is None and key.startswith("/"):
+            obj = self._resolve_path([p for p in key.split("/") if p])
+        if obj is None:
+            raise UnknownObjectError(f"object {name!r} does not exist in scene {self.scene_path.name}")
+        return obj
+
+    def _resolve_path(self, parts: list[str]) -> SceneObject | None:
+        leaf = self.by_name.get(parts[-1].split("[")[0]) if parts else None
+        if leaf is None:
+            return None
+        ancestors, h = [], leaf.parent
+        while h != WORLD:
+            ancestors.append(self.objects[h].name)
+            h = self.objects[h].parent
+        it = iter(reversed(ancestors))
+        return leaf if all(p.split("[")[0] in it for p in parts[:-1]) else None
+
+    def get(self, handle: int, otype: int | None = None) -> SceneObject:
+        """The object with ``handle``, optionally checked to be of type ``otype``.
+
+        Raises:
+            UnknownObjectError: no object has that handle.
+            ObjectTypeError: the object is not of type ``otype``.
+        """
+        if not isinstance(handle, int) or isinstance(handle, bool):
+            raise ArgumentError(f"handle must be an int, got {type(handle).__name__}")
+        obj = self.objects.get(handle)
+        if obj is None:
+            raise UnknownObjectError(f"no object with handle {handle}")
+        if otype is not None and obj.type != otype:
+            raise ObjectTypeError(
+                f"object {obj.name!r} (handle {handle}) is a {_TYPE_NAMES[obj.type]}, "
+                f"not a {_TYPE_NAMES[otype]}"
+            )
+        return obj
+
+    def objects_of_type(self, otype: int) -> list[int]:
+        """Handles of every object of ``otype`` (``sim_handle_all`` = -2: every object)."""
+        return [o.handle for o in self.objects.values() if otype == C.sim_handle_all or o.type == otype]
+
+    # ------------------------------------------------------------------ motors
+    def _init_motors(self) -> None:
+        joints = [(o.handle, o.mj_id, o.settings) for o in self.objects.values() if o.type == JOINT]
+        self.motors = motors.Motors(self.model, joints)
+
+    # The motor state, by motor number (see simx_server.sim.motors).
+    motor_index = property(lambda self: self.motors.index, doc="joint handle -> motor number")
+    target_position = property(lambda self: self.motors.target_position, doc="rad or m, per motor")
+    target_velocity = property(lambda self: self.motors.target_velocity, doc="rad/s or m/s, per motor")
+    max_velocity = property(lambda self: self.motors.max_velocity, doc="upper velocity, per motor")
+    mode = property(lambda self: np.where(self.motors.loop, POSITION_MODE, VELOCITY_MODE),
+                    doc="control loop per motor, read-only: POSITION_MODE (loop on) or VELOCITY_MODE (off)")
+
+    def motor(self, handle: int) -> int:
+        """Index of the motor of joint ``handle``.
+
+        Raises ObjectTypeError for a ball/free joint, and for a joint moved through a tendon
+        (it has no motor of its own: the error names the tendon).
+        """
+        i = self.motors.index.get(handle)
+        if i is not None:
+            return i
+        obj = self.get(handle, JOINT)
+        self._scalar_joint(handle)  # spherical joints: V-REP's error
+        tendon = self.motors.tendon_of_joint.get(obj.mj_id)
+        if tendon is not None:
+            raise ObjectTypeError(f"joint {obj.name!r} has no motor of its own: an actuator drives it through "
+                                  f"tendon {tendon!r}, which simx does not control")
+        raise ObjectTypeError(f"joint {obj.name!r} has no motor")
+
+    def reset(self) -> None:
+        """Back to the initial state (``simxStopSimulation``): qpos0, targets at rest."""
+        for field, initial in self._initial_fields.items():
+            getattr(self.model, field)[:] = initial
+        mujoco.mj_setConst(self.model, self.data)  # masses may have changed back
+        mujoco.mj_resetData(self.model, self.data)
+        self.motors.reset(self.model, self.data.qpos)
+        self.data.ctrl[:] = 0.0
+        self.changed()
+
+    # -------------------------------------------------------------------- time
+    def set_dt(self, dt: float) -> None:
+        """New simulation step (s), rounded to a whole number of model timesteps.
+
+        Raises ArgumentError unless 0 < dt <= limits.MAX_DT and dt makes at most
+        limits.MAX_SUBSTEPS substeps; nothing changes then.
+        """
+        dt = physics.check_dt(dt)
+        self.substeps = physics.substeps(dt, float(self.model.opt.timestep))
+        self.requested_dt = dt
+        self.dt = self.substeps * self.model.opt.timestep
+
+    def step(self) -> None:
+        """Advance one simulation step of ``dt`` s (all substeps inside MuJoCo).
+
+        Before the substeps, each joint motor's actuator gets the gain and bias of V-REP's law
+        for its mode (free joint, position control toward the target no faster than the upper
+        velocity, or velocity control; force limited), see :mod:`simx_server.sim.motors`; the
+        substeps then run in C.
+
+        Raises:
+            physics.PhysicsError: MuJoCo found a NaN, infinite or huge position, velocity or
+                acceleration and reset the state (its warnings go to physics.SINK, not stdout).
+        """
+        m, d = self.model, self.data
+        self.motors.apply(m, d, self.dt)
+        mujoco.mj_step(m, d, nstep=self.substeps)
+        if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)
+            raise physics.blow_up(m, d, self.time)
+        if physics.SINK.count:
+            physics.SINK.report()  # other warnings (contact buffer full...): once per kind
+        self.changed()  # mj_step leaves positions and sensors one substep behind the state
+
+    def changed(self) -> None:
+        """After any change of state: recompute derived quantities, invalidate cached renders,
+        and note the simulation time (``time``, s: every reply reads it, and a plain attribute
+        costs no call into MuJoCo's bindings)."""
+        mujoco.mj_forward(self.model, self.data)
+        self.version += 1
+        self.time = self.data.time
+
+    # ------------------------------------------------------------------ joints
+    def _scalar_joint(self, handle: int) -> tuple[int, int]:
+        """``(qpos address, dof address)`` of a hinge or slide joint (hot path: precomputed)."""
+        addresses = self._scalar_joints.get(handle)
+        if addresses is None:
+            obj = self.get(handle, JOINT)  # raises for a handle that is not a joint
+            raise ObjectTypeError(f"joint {obj.name!r} is spherical/free: use simxGetJointMatrix / "
+                                  "simxSetSphericalJointMatrix")
+        return addresses
+
+    def joint_position(self, handle: int) -> float:
+        """Intrinsic position of a joint (rad or m). ``simxGetJointPosition``."""
+        return self._qpos.item(self._scalar_joint(handle)[0])
+
+    def set_joint_position(self, handle: int, position: float) -> None:
+        """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``.
+
+        Raises ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
+        """
+        qadr, dadr = self._scalar_joint(handle)
+        if not -_MAX_Q <= position <= _MAX_Q:
+            raise physics.out_of_range("joint position", position, -_MAX_Q, _MAX_Q, "rad or m", "MAX_JOINT_POSITION")
+        self.data.qpos[qadr] = position
+        self.data.qvel[dadr] = 0.0
+        if handle in self.motor_index:
+            self.target_position[self.motor_index[handle]] = position
+        self.changed()
+
+    def set_joint_target_position(self, handle: int, position: float) -> None:
+        """Target position of a joint's motor (rad or m), stored whatever the mode; it acts
+        while the motor and its control loop are enabled. ``simxSetJointTargetPosition``.
+
+        Raises UnknownObjectError / ObjectTypeError (not a joint, spherical, driven through a
+        tendon), ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
+        """
+        i = self.motor(handle)
+        if not -_MAX_Q <= position <= _MAX_Q:
+            raise physics.out_of_range("target position", position, -_MAX_Q, _MAX_Q, "rad or m", "MAX_JOINT_POSITION")
+        self.motors.target_position[i] = position
+
+    def set_joint_target_velocity(self, handle: int, velocity: float) -> None:
+        """Target velocity of a joint's motor (rad/s or m/s), stored whatever the mode; it acts
+        while the motor is enabled and its control loop is not. ``simxSetJointTargetVelocity``.
+
+        Raises as set_joint_target_position; ArgumentError unless |velocity| <=
+        limits.MAX_JOINT_VELOCITY.
+        """
+        i = self.motor(handle)
+        if not -_MAX_V <= velocity <= _MAX_V:
+            raise physics.out_of_range("target velocity", velocity, -_MAX_V, _MAX_V, "rad/s or m/s",
+                                       "MAX_JOINT_VELOCITY")
+        self.motors.target_velocity[i] = velocity
+
+    def set_joint_force(self, handle: int, force: float) -> None:
+        """Maximum force/torque of a joint's motor (N or N·m on the joint, sign ignored).
+        ``simxSetJointForce``.
+
+        Raises ArgumentError unless |force| <= limits.MAX_JOINT_FORCE.
+        """
+        i = self.motor(handle)
+        if not -_MAX_F <= force <= _MAX_F:
+            raise physics.out_of_range("joint force", force, -_MAX_F, _MAX_F, "N or N·m", "MAX_JOINT_FORCE")
+        self.motors.max_force[i] = abs(float(force))
+        self.motors.write_force_limits(self.model)
+
+    def joint_max_force(self, handle: int) -> float:
+        """Maximum force/torque of a joint's motor (N or N·m)."""
+        return float(self.motors.max_force[self.motor(handle)])
+
+    def set_motor_flags(self, handle: int, enabled: bool | None = None, loop: bool | None = None) -> None:
+        """Motor on/off (``sim_jointintparam_motor_enabled``, 2000) and control loop on/off
+        (``sim_jointintparam_ctrl_enabled``, 2001) of a joint. As in V-REP the targets are
+        kept: turning the loop on drives the joint toward the stored target position."""
+        i = self.motor(handle)
+        if enabled is not None:
+            self.motors.enabled[i] = enabled
+        if loop is not None:
+            self.motors.loop[i] = loop
+
+    def joint_force(self, handle: int) -> float:
+        """Force/torque the joint's motor applies now (N or N·m on the joint). ``simxGetJointForce``."""
+        _, dadr = self._scalar_joint(handle)
+        i = self.motors.index.get(handle)
+        if i is not None:
+            return float(self.data.actuator_force[self.motors.act[i]]) * float(self.motors.gear[i])
+        return float(self.data.qfrc_constraint[dadr])
+
+
+
+
+
+
+
+

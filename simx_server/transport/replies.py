@@ -1,0 +1,45 @@
+"""The reply budget: what a command's result will cost in a reply, before and after it runs.
+
+A request's reply (and a stream update) carries at most ``limits.MAX_REPLY_BYTES``: the server
+counts each result against that budget and answers an error instead of the results past it.
+An image's size is known before it is rendered (resolution x channels), so an image that
+would not fit is not rendered at all; other results are sized as they come, cheaply for the
+small results of most calls.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from simx_server.scene.simulation import Simulation
+
+#: Commands whose result is an image: its size is known before it is rendered.
+IMAGES = frozenset({"GetVisionSensorImage", "GetVisionSensorDepthBuffer"})
+SMALL = frozenset({type(None), bool, int, float})  # results that cost nothing in a reply
+
+
+def reply_size(value: Any, depth: int = 0) -> int:
+    """Bytes ``value`` takes in a reply, about (msgpack: 9 per number, the length of bytes and
+    strings); cheap for the small results of most calls."""
+    t = type(value)
+    if t in SMALL:
+        return 9
+    if t is bytes or t is str or t is bytearray:
+        return len(value) + 5
+    if (t is list or t is tuple) and depth < 8:
+        return 5 + sum(reply_size(v, depth + 1) for v in value)
+    if t is dict and depth < 8:
+        return 5 + sum(reply_size(k, depth + 1) + reply_size(v, depth + 1) for k, v in value.items())
+    return 64
+
+
+def image_size(sim: Simulation, name: str, args: list) -> int:
+    """Bytes of the image a GetVisionSensorImage/DepthBuffer command will return (0 when its
+    handle is no vision sensor: the handler then answers the error)."""
+    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
+    if spec is None:
+        return 0
+    if name == "GetVisionSensorDepthBuffer":
+        return spec.width * spec.height * 4
+    grey = len(args) > 1 and type(args[1]) is int and args[1] & 1
+    return spec.width * spec.height * (1 if grey else 3)

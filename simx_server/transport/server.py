@@ -1,0 +1,507 @@
+"""The simx server: Zenoh on the outside, one simulation thread on the inside.
+
+Zenoh callbacks never touch MuJoCo and never block: the query callback reads and checks the
+request, answers at once what it refuses (unreadable, over a bound, a full client queue) and
+queues the rest in the client's own bounded queue (:mod:`simx_server.transport.sessions`); liveliness
+callbacks note clients' tokens. The thread that calls :meth:`Server.serve` owns the
+simulation; it serves the clients' queues round robin, executes each request atomically
+between physics steps, replies, steps the simulation every ``dt`` (paced to wall time when
+``speed`` > 0; in synchronous mode once every synchronous client has triggered), and after
+every step publishes each client's streamed commands. With legacy pacing (the default) a
+client's blocking call waits in its queue until the simulation has stepped since its previous
+one, as V-REP executed remote commands once per simulation pass. Nothing a client sends ends
+that thread: an exception of a step stops the simulation and is reported to every client at
+its next request.
+"""
+
+from __future__ import annotations
+
+import gc
+import logging
+import queue
+import threading
+import time
+from typing import Any
+
+import zenoh
+
+from simx_client import protocol as P
+from simx_server.base import limits
+from simx_server.base.arguments import quote
+from simx_server.commands import HANDLERS
+from simx_server.scene.simulation import Simulation
+from simx_server.sim.physics import PhysicsError
+from simx_server.sim.state import RunState
+from simx_server.sim.vision import Deferred
+from simx_server.transport import logs
+from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
+from simx_server.transport.consoles import cut as _cut
+from simx_server.transport.replies import IMAGES, SMALL, image_size, reply_size
+from simx_server.transport.sessions import Session, Sessions, keep_thread_state, zenoh_thread
+from simx_server.transport.streams import StreamPublisher, _Stream
+from simx_server.transport.viewer_feed import ViewerFeed
+
+log = logging.getLogger("simx.server")
+
+DEFAULT_HOSTS = ("127.0.0.1",)
+DEFAULT_PORTS = (19997, 19999)
+_DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
+_HOUSEKEEPING = 0.25  # s between two passes of client expiry and log summaries
+_STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
+#: ``--pacing``: legacy (a client's blocking calls see distinct simulation steps) or immediate.
+PACINGS = ("legacy", "immediate")
+
+
+class Server(StreamPublisher):
+    """Serves one :class:`Simulation` on Zenoh.
+
+    Args:
+        sim: the simulation (owned by the thread that calls serve()).
+        config: Zenoh config (see :func:`zenoh_config`).
+        speed: real-time factor in asynchronous mode; 0 runs as fast as possible.
+        prefix: key-expression prefix (``simx``).
+        client_expiry: s a client without a liveliness token may stay silent before its
+            state is dropped (limits.CLIENT_EXPIRY).
+        pacing: ``"legacy"`` (default): while the simulation runs asynchronously, a client's
+            blocking call is executed only once the simulation has stepped since that client's
+            previous blocking call was answered, so two consecutive blocking calls never see
+            the same step (V-REP executed remote commands once per simulation pass; programs
+            poll a joint with blocking calls until it stops moving). Stopped, paused or waiting
+            for a synchronous trigger, requests are served at once, as in V-REP's instance
+            passes. ``"immediate"``: every request is served as soon as it arrives (one round
+            trip per blocking call, whatever the step).
+
+    Raises:
+        ValueError: a negative speed, a client expiry <= 0 or an unknown pacing.
+    """
+
+    def __init__(self, sim: Simulation, config: zenoh.Config, speed: float = 1.0,
+                 prefix: str = P.DEFAULT_PREFIX, client_expiry: float = limits.CLIENT_EXPIRY,
+                 pacing: str = "legacy"):
+        if speed < 0:
+            raise ValueError(f"speed must be >= 0, got {speed}")
+        if pacing not in PACINGS:
+            raise ValueError(f"pacing must be one of {', '.join(PACINGS)}, got {pacing!r}")
+        if not client_expiry > 0:
+            raise ValueError(f"client expiry must be > 0 s, got {client_expiry}")
+        self.sim = sim
+        self.speed = speed
+        self.prefix = prefix
+        self.client_expiry = client_expiry
+        self._config = config
+        # The ready ring: clients with requests waiting (Session), and control tuples.
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self.sessions = Sessions(self._queue)
+        self._stopping = threading.Event()
+        self._streams: dict[str, dict[tuple, _Stream]] = {}
+        self._clients: set[str] = set()
+        self.pacing = pacing
+        self._paced = pacing == "legacy"
+        self._held: list[Session] = []  # clients whose next blocking call waits for the next step
+        self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
+        self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
+        self._t0 = time.monotonic()
+        self._housekeeping_at = 0.0
+        self.session: zenoh.Session | None = None
+        self.viewers = ViewerFeed(prefix, self._queue.put)  # simx-viewer's model and state
+
+    # ------------------------------------------------------------ zenoh side
+    def open(self) -> None:
+        """Open the Zenoh session and declare the queryable and liveliness; raises zenoh.ZError."""
+        self.session = zenoh.open(self._config)
+        self._call_prefix = len(P.call_key(self.prefix, ""))  # a query's key minus this is its client
+        # Direct callbacks: Zenoh's thread reads the request and queues it (or refuses it).
+        self._queryable = self.session.declare_queryable(
+            P.call_keys(self.prefix), zenoh.handlers.Callback(self._on_query, indirect=False))
+        self._legacy_queryable = self.session.declare_queryable(
+            P.legacy_call_key(self.prefix), zenoh.handlers.Callback(self._refuse_old, indirect=False))
+        self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
+        self._watch = self.session.liveliness().declare_subscriber(
+            P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False),
+            history=True)
+        self.viewers.open(self.session)
+
+    @staticmethod
+    def _refuse_old(query: zenoh.Query) -> None:
+        """A client of protocol version 1 or 2 (one call key for all): refuse with the reason."""
+        query.reply(query.key_expr, P.error_response(
+            f"protocol version mismatch: this server speaks {P.PROTOCOL_VERSION}, which sends "
+            "requests to <prefix>/call/<client>; install the same simx version on client and server"))
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        """Zenoh's thread: read a request and queue it in its client's queue, or answer at once
+        what cannot be queued. Every query gets a reply."""
+        if not getattr(zenoh_thread, "kept", False):
+            keep_thread_state()
+        key = str(query.key_expr)
+        try:
+            payload = query.payload
+            data = payload.to_bytes() if payload is not None else b""
+            if len(data) > limits.MAX_REQUEST_BYTES:
+                raise P.ProtocolError(f"request of {len(data)} bytes refused: at most "
+                                      f"{limits.MAX_REQUEST_BYTES} (limits.MAX_REQUEST_BYTES)")
+            client, commands = P.parse_request(data, limits.MAX_COMMANDS_PER_REQUEST)
+            if client != key[self._call_prefix:]:
+                raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
+            if self.sessions.get(client) is None and not P.valid_client_id(client):  # once per client
+                raise P.ProtocolError("invalid client id: 1 to 128 characters without / * $ ? #")
+            refused = self.sessions.admit(client, (query, commands), len(data))
+            if refused is None:
+                return  # the simulation thread replies
+            t, state, scene = self.sim.stamp()
+            reply = P.response(t, state, [[False, refused]] * len(commands),
+                               int((time.monotonic() - self._t0) * 1000), scene)
+            log.warning("client %s: request of %d command(s) not queued: %s", client, len(commands), refused)
+        except P.ProtocolError as exc:
+            log.warning("malformed request on %s refused: %s", quote(key), exc)
+            reply = P.error_response(str(exc))
+        except Exception as exc:  # the server never dies from a client, and always answers
+            log.exception("reading a request on %s", quote(key))
+            reply = P.error_response(f"internal error while reading the request: {type(exc).__name__}")
+        try:
+            query.reply(query.key_expr, reply)
+        except Exception as exc:
+            log.warning("replying on %s: %s", quote(key), exc)
+        finally:
+            query.drop()
+
+    def _on_client_token(self, sample: zenoh.Sample) -> None:
+        client = str(sample.key_expr).rsplit("/", 1)[-1]
+        if sample.kind == zenoh.SampleKind.DELETE:
+            self.sessions.tokens.discard(client)
+            self._queue.put(("gone", client))
+        else:
+            self.sessions.tokens.add(client)
+
+    def request_stop(self) -> None:
+        """Ask serve() to return (safe from signal handlers and other threads)."""
+        self._stopping.set()
+        self._queue.put(("stop", None))
+
+    def close(self) -> None:
+        """Finish pending renders and their replies, then close the session; idempotent."""
+        self.sim.close()
+        if self.session is not None:
+            session, self.session = self.session, None
+            try:
+                session.close()
+            except Exception as exc:  # closing must not mask the reason we stop
+                log.debug("closing Zenoh session: %s", exc)
+
+    # ------------------------------------------------------- simulation side
+    def serve(self) -> None:
+        """Run the simulation loop until request_stop()."""
+        sim = self.sim
+        # The loaded scene, handlers and libraries live as long as the server: keep them out of
+        # the cyclic collector's passes, which otherwise walk them all (measured: a blocking
+        # call's server part falls by about 0.03x the Zenoh floor).
+        gc.collect()
+        gc.freeze()
+        next_tick = time.monotonic()
+        while not self._stopping.is_set():
+            now = time.monotonic()
+            try:
+                if now < next_tick:
+                    try:
+                        self._handle(self._queue.get(timeout=next_tick - now))
+                    except queue.Empty:
+                        pass
+                    continue
+                self._drain()  # requests are always served between steps, even at full speed
+                if self._stopping.is_set():
+                    break
+                interval = sim.world.dt
+                if self._stepping():
+                    self._step()
+                    interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
+                elif sim.state is not RunState.RUNNING:
+                    self._publish_streams()  # idle tick: streams keep being served
+                if self._held:  # stepped, or no longer stepping: their blocking calls are due
+                    self._release_held()
+                if now >= self._housekeeping_at:
+                    self._housekeeping(now)
+            except Exception:  # a bug must not end the simulation thread either: log, go on
+                log.exception("simulation loop")
+                interval = sim.world.dt
+            next_tick = max(next_tick + interval, now)
+
+    def _drain(self) -> None:
+        for _ in range(_DRAIN_LIMIT):
+            try:
+                self._handle(self._queue.get_nowait())
+            except queue.Empty:
+                return
+            if self._stopping.is_set():
+                return
+
+    def _housekeeping(self, now: float) -> None:
+        """Drop expired clients and write due log summaries (a few times a second)."""
+        self._housekeeping_at = now + _HOUSEKEEPING
+        try:
+            expired = self.sessions.expired(self.client_expiry)
+            for client in expired:
+                self._forget(client, f"expired (no liveliness token, no request for {self.client_expiry:g} s)")
+            logs.flush()
+        except Exception:  # housekeeping must never end the loop
+            log.exception("housekeeping")
+
+    def _stepping(self) -> bool:
+        return self.sim.state is RunState.RUNNING and not self.sim.synchronous
+
+    def _step(self) -> bool:
+        """One step and the streams' updates; False when the step failed (the simulation is
+        then stopped and every client is told at its next request)."""
+        try:
+            self.sim.step()
+        except Exception as exc:  # nothing a client sends may end the simulation thread
+            self._step_failed(exc)
+            return False
+        self._publish_streams()
+        return True
+
+    def _step_failed(self, exc: Exception) -> None:
+        if isinstance(exc, PhysicsError):  # a blow-up: the simulation has stopped itself
+            reason = self.sim.stop_reason or str(exc)
+            log.warning("%s", reason)
+        else:
+            reason = (f"the simulation step failed and the simulation was stopped: "
+                      f"{type(exc).__name__}: {quote(str(exc), 200)}")
+            log.error("%s", reason, exc_info=exc)
+        if self.sim.state is not RunState.STOPPED:
+            try:
+                self.sim.stop()
+            except Exception:
+                log.exception("stopping the simulation after a failed step")
+                self.sim.state = RunState.STOPPED  # whatever the cleanup did, no further steps
+        self.sessions.fault_all(reason)
+
+    def _release_held(self) -> None:
+        held, self._held = self._held, []
+        put = self._queue.put
+        for session in held:  # back in the ring, in the order they were held
+            put(session)
+
+    def _handle(self, item: Any) -> None:
+        if type(item) is Session:
+            if self._paced and self._stepping() and Sessions.head_is_blocking(item):
+                steps = self.sim.steps
+                if item.step == steps:  # its previous blocking call saw this step: wait for the next
+                    self._held.append(item)  # stays scheduled; its queue and bounds are unchanged
+                    return
+                request = self.sessions.take(item)
+                if request is not None:
+                    item.step = steps
+                    self._answer(item, request[0], request[1])
+                return
+            request = self.sessions.take(item)
+            if request is not None:
+                self._answer(item, request[0], request[1])
+            return
+        kind, client = item
+        if kind == "gone":
+            self._forget(client, "left")
+        elif kind == "viewer-model":  # client is the query here
+            self.viewers.answer(client, self.sim.world)
+
+    def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
+        """Execute a request and reply, now or on the render thread once its images are
+        rendered. Every request gets a reply, whatever happens (then a short refusal)."""
+        deferred = False
+        client = session.client
+        try:
+            if client not in self._clients:
+                self._clients.add(client)
+                log.info("client %s connected", client)
+            if session.fault is None:
+                results = self._run(client, commands)
+            else:  # a failed step since this client's last request: told instead of executed
+                message, session.fault = session.fault, None
+                self._keep_error(client, message)
+                results = [[False, message]] * len(commands)
+            t, state, scene = self.sim.stamp()
+            server_time = int((time.monotonic() - self._t0) * 1000)
+            for _, value in results:
+                if type(value) is Deferred:
+                    break
+            else:
+                if not session.renders:
+                    query.reply(query.key_expr, self._response(t, state, results, server_time, scene, client))
+                    return
+                # A stream update of this client (a step's images) is still on the render thread:
+                # this reply goes after it, so that after simxSynchronousTrigger + simxGetPingTime
+                # the streamed values in the inbox are the step's, as in V-REP.
+
+            def reply_and_drop() -> None:
+                try:
+                    query.reply(query.key_expr, self._response(
+                        t, state, self._resolve(results, client), server_time, scene, client))
+                except Exception:
+                    log.exception("replying to client %s", client)
+                finally:
+                    query.drop()
+                    self.sessions.render_done(session)
+
+            self.sessions.render_started(session)
+            self.sim.vision.after(reply_and_drop)  # once the images of this request are rendered
+            deferred = True
+        except Exception as exc:  # the server never dies from a client
+            log.exception("client %s: answering a request", client)
+            try:
+                query.reply(query.key_expr, P.error_response(
+                    f"internal error while answering the request: {type(exc).__name__}"))
+            except Exception:
+                log.exception("client %s: replying", client)
+        finally:
+            if not deferred:
+                query.drop()  # sends Zenoh's final reply at once
+
+    @staticmethod
+    def _response(t: int, state: int, results: list, server_time: int, scene: int, client: str) -> bytes:
+        """The encoded response, or a short refusal when it cannot be encoded."""
+        try:
+            return P.response(t, state, results, server_time, scene)
+        except Exception as exc:
+            log.exception("client %s: encoding a reply", client)
+            return P.error_response(f"internal error while encoding the reply: {type(exc).__name__}")
+
+    def _run(self, client: str, commands: list) -> list:
+        """Each command's ``[ok, value]``; commands past the reply budget (limits.MAX_REPLY_BYTES)
+        get an error result instead of their value."""
+        execute, budget = self._execute, limits.MAX_REPLY_BYTES
+        results = []
+        for name, mode, args in commands:
+            if name in IMAGES and budget < image_size(self.sim, name, args):
+                results.append(self._over_budget(client, name))
+                continue
+            result = execute(client, name, mode, args)
+            value = result[1]
+            t = type(value)
+            if t is Deferred:
+                budget -= image_size(self.sim, name, args)
+            elif t not in SMALL:
+                budget -= reply_size(value)
+                if budget < 0:
+                    budget += reply_size(value)
+                    result = self._over_budget(client, name)
+            results.append(result)
+        return results
+
+    def _over_budget(self, client: str, name: str) -> list:
+        message = (f"simx{name}: not executed, the reply would exceed {limits.MAX_REPLY_BYTES} bytes "
+                   f"(limits.MAX_REPLY_BYTES); ask for less in one request")
+        log.warning("client %s: %s", client, message)
+        self._keep_error(client, message)
+        return [False, message]
+
+    @staticmethod
+    def _resolve(results: list, client: str) -> list:
+        """Results with every Deferred replaced by its value (called on the render thread)."""
+        out = []
+        for ok, value in results:
+            if isinstance(value, Deferred):
+                try:
+                    value = value.future.result()
+                except Exception as exc:
+                    log.exception("client %s: rendering failed", client)
+                    ok, value = False, f"internal error while rendering: {type(exc).__name__}: {exc}"
+            out.append([ok, value])
+        return out
+
+    def _execute(self, client: str, name: str, mode: int, args: list) -> list:
+        base = mode & P.MODE_MASK
+        try:
+            streams = self._streams.get(client)
+            if base == P.MODE_DISCONTINUE:
+                if streams:
+                    streams.pop(P.identity(name, args), None)
+                return [True, None]
+            handler = HANDLERS.get(name)
+            if handler is None:  # a command about the calling client, or none at all
+                if name not in self._CLIENT_COMMANDS:
+                    raise P.UnsupportedError(f"unknown command {quote(name)}")
+                own = self._CLIENT_COMMANDS[name]
+                return [True, getattr(self, own)(client, args) if own else self.consoles.execute(name, client, args)]
+            if base in _STREAMING:
+                streams = self._streams.setdefault(client, {})
+                ident = P.identity(name, args)
+                if ident not in streams:
+                    if len(streams) >= limits.MAX_STREAMS_PER_CLIENT:
+                        raise P.ArgumentError(f"too many streams: at most {limits.MAX_STREAMS_PER_CLIENT} "
+                                              "per client (limits.MAX_STREAMS_PER_CLIENT); discontinue some")
+                    streams[ident] = _Stream(name, args, mode & P.MODE_ARG_MASK if base == P.MODE_STREAMING else 0)
+            elif streams and name not in P.DO_NOT_OVERWRITE:
+                streams.pop(P.identity(name, args), None)  # a new non-streamed call replaces the stream
+            return [True, handler(self.sim, args)]
+        except P.RemoteError as exc:
+            label = name if name in P.COMMANDS else quote(name)
+            message = _cut(f"simx{label}: {exc}")
+            log.warning("client %s: simx%s failed: %s", client, label, message[len(label) + 6:])
+        except Exception as exc:
+            label = name if name in P.COMMANDS else quote(name)
+            message = _cut(f"internal error in simx{label}: {type(exc).__name__}: {exc}")
+            log.error("client %s: simx%s raised: %s", client, label, message,
+                      exc_info=not isinstance(exc, RecursionError))
+        self._keep_error(client, message)
+        return [False, message]
+
+    def _keep_error(self, client: str, message: str) -> None:
+        errors = self._errors.setdefault(client, [])
+        errors.append(message)
+        del errors[:-limits.MAX_ERRORS_KEPT]
+
+    # Commands about the calling client rather than the world.
+    _CLIENT_COMMANDS = {
+        "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
+        "GetLastErrors": "_last_errors", **{name: None for name in CONSOLE_COMMANDS},
+    }
+
+    def _last_errors(self, client: str, args: list) -> list[str]:
+        return self._errors.pop(client, [])
+
+    def _bye(self, client: str, args: list) -> None:
+        self._forget(client, "disconnected")
+
+    def _synchronous(self, client: str, args: list) -> None:
+        if len(args) != 1 or not isinstance(args[0], bool):
+            raise P.ArgumentError("simxSynchronous takes one boolean")
+        if args[0]:
+            self.sim.enable_sync(client, True)
+            log.info("client %s: synchronous mode on", client)
+        elif self.sim.is_synchronous(client):
+            self._leave_sync(client, "left synchronous mode")
+
+    def _trigger(self, client: str, args: list) -> None:
+        sim = self.sim
+        if not sim.is_synchronous(client):
+            raise P.RemoteError(
+                "simxSynchronousTrigger: this client has not enabled synchronous mode (call "
+                "simxSynchronous(clientID, True)); the simulation steps once every client that did has triggered")
+        if sim.state is RunState.RUNNING and sim.trigger(client) and not self._step():
+            session = self.sessions.get(client)
+            message = session.fault if session is not None else "the simulation step failed"
+            if session is not None:
+                session.fault = None  # told now, by this call's error
+            raise P.RemoteError(message)
+
+    def _forget(self, client: str, how: str) -> None:
+        self._streams.pop(client, None)
+        self._errors.pop(client, None)
+        self.sessions.remove(client)
+        if client in self._clients:
+            self._clients.discard(client)
+            log.info("client %s %s", client, how)
+        if self.sim.is_synchronous(client):
+            self._leave_sync(client, f"{how}: out of synchronous mode")
+
+    def _leave_sync(self, client: str, how: str) -> None:
+        """``client`` leaves the synchronous barrier; the step the others all triggered runs now."""
+        released = self.sim.leave_sync(client)
+        waiting = len(self.sim.waiting_for())
+        log.info("client %s %s (%s)", client, how,
+                 "the step its other clients triggered runs now" if released else
+                 f"the next step waits for {waiting} other client(s)" if waiting else
+                 "no synchronous client left: the simulation runs asynchronously")
+        if released and self.sim.state is RunState.RUNNING:
+            self._step()  # a failure is told to every client at its next request
+
+

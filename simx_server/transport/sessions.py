@@ -1,0 +1,220 @@
+"""Per-client intake: bounded request queues served round robin, render bounds, expiry.
+
+Zenoh's threads call :meth:`Sessions.admit` with a parsed request; the simulation thread takes
+requests back with :meth:`Sessions.take`. Between them is one ``queue.SimpleQueue``, the
+*ready ring*: it holds each client that has requests waiting exactly once (plus the server's
+control messages). The simulation thread takes a client from the ring, executes that client's
+oldest request and, if the client has more, puts it back at the end of the ring: clients are
+served one request each in turn, so one client's flood delays another's request by at most
+one request per flooding client, never by the flood's length.
+
+Every queue is bounded (limits.py): requests and bytes per client, bytes over all clients,
+clients with state. A request over a bound is not queued; :meth:`Sessions.admit` returns the
+reason and the caller answers it at once. A client whose replies wait for the render thread
+(:data:`~simx_server.base.limits.MAX_RENDERS_PER_CLIENT`) is *parked*: not served until one of them
+is sent, so that a flood of image requests queues up in its own bounded queue, not in the
+render thread's.
+
+No MuJoCo in here: this module is the queueing discipline alone, testable without a server.
+"""
+
+from __future__ import annotations
+
+import collections
+import queue
+import threading
+import time
+from typing import Any
+
+from simx_client import protocol as P
+from simx_server.base import limits
+
+_MODE_MASK, _MODE_BLOCKING = P.MODE_MASK, P.MODE_BLOCKING
+
+
+class Session:
+    """The intake state of one client (its queue and counters); touched under the lock."""
+
+    __slots__ = ("client", "queue", "queued_bytes", "scheduled", "parked", "renders", "last_seen", "fault",
+                 "step")
+
+    def __init__(self, client: str, now: float):
+        self.client = client
+        self.queue: collections.deque = collections.deque()  # (request, payload size)
+        self.queued_bytes = 0
+        self.scheduled = False  # in the ready ring, or parked (it has requests waiting)
+        self.parked = False  # waiting for one of its renders before it is served again
+        self.renders = 0  # replies or stream updates of this client waiting for the render thread
+        self.last_seen = now  # time.monotonic() of its last request
+        self.fault = None  # a message for its next request (the simulation step failed)
+        self.step = -1  # Simulation.steps when its last blocking request was answered (legacy pacing)
+
+
+class Sessions:
+    """Every client's intake state, the ready ring and their bounds.
+
+    Args:
+        ready: the ring the simulation thread waits on; gets :class:`Session` objects.
+        max_requests, max_bytes: a client's queue bounds (requests, payload bytes).
+        max_total_bytes: payload bytes queued over all clients.
+        max_clients: clients with state.
+        max_renders: a client's replies waiting for the render thread before it is parked.
+    """
+
+    def __init__(self, ready: queue.SimpleQueue, max_requests: int = limits.MAX_QUEUED_REQUESTS,
+                 max_bytes: int = limits.MAX_QUEUED_BYTES, max_total_bytes: int = limits.MAX_QUEUED_BYTES_TOTAL,
+                 max_clients: int = limits.MAX_CLIENTS, max_renders: int = limits.MAX_RENDERS_PER_CLIENT):
+        self.ready = ready
+        self.max_requests, self.max_bytes, self.max_total_bytes = max_requests, max_bytes, max_total_bytes
+        self.max_clients, self.max_renders = max_clients, max_renders
+        self.tokens: set[str] = set()  # clients whose liveliness token is alive (Zenoh's threads)
+        self._lock = threading.Lock()
+        self._sessions: dict[str, Session] = {}
+        self._total_bytes = 0
+        self.evicted: list[str] = []  # clients dropped to make room; the simulation thread forgets them
+
+    def __len__(self) -> int:
+        return len(self._sessions)
+
+    def get(self, client: str) -> Session | None:
+        """The client's session, or None."""
+        return self._sessions.get(client)
+
+    # ------------------------------------------------------------ Zenoh's threads
+    def admit(self, client: str, request: Any, size: int) -> str | None:
+        """Queue ``request`` (``size`` payload bytes) of ``client``; None when queued, else the
+        reason it was not (the caller answers the request with it at once)."""
+        now = time.monotonic()
+        with self._lock:
+            s = self._sessions.get(client)
+            if s is None:
+                if len(self._sessions) >= self.max_clients and not self._evict_one():
+                    return (f"server busy: it serves {self.max_clients} clients already "
+                            "(limits.MAX_CLIENTS); try again later")
+                s = self._sessions[client] = Session(client, now)
+            s.last_seen = now
+            if len(s.queue) >= self.max_requests:
+                return (f"server busy: this client has {len(s.queue)} requests waiting "
+                        f"(limits.MAX_QUEUED_REQUESTS); request dropped")
+            if s.queued_bytes + size > self.max_bytes:
+                return (f"server busy: this client has {s.queued_bytes} bytes of requests waiting "
+                        f"(limits.MAX_QUEUED_BYTES = {self.max_bytes}); request dropped")
+            if self._total_bytes + size > self.max_total_bytes:
+                return (f"server busy: {self._total_bytes} bytes of requests waiting from all clients "
+                        f"(limits.MAX_QUEUED_BYTES_TOTAL = {self.max_total_bytes}); request dropped")
+            s.queue.append((request, size))
+            s.queued_bytes += size
+            self._total_bytes += size
+            if not s.scheduled:
+                s.scheduled = True
+                self.ready.put(s)
+        return None
+
+    def _evict_one(self) -> bool:
+        """Drop the oldest client that holds no token and has nothing pending (lock held);
+        False when there is none. Sessions are kept in creation order, so under a flood of
+        fresh ids the first candidate is found at once."""
+        for client, s in self._sessions.items():
+            if not s.scheduled and not s.renders and client not in self.tokens:
+                del self._sessions[client]
+                self.evicted.append(client)
+                return True
+        return False
+
+    # ------------------------------------------------------------ simulation thread
+    def take(self, s: Session) -> Any:
+        """The oldest request of a client taken from the ring, or None when the client is
+        parked (too many renders outstanding) or has nothing left. The client goes back to
+        the end of the ring when more requests wait."""
+        with self._lock:
+            if s.renders >= self.max_renders:
+                s.parked = True  # render_done() puts it back in the ring
+                return None
+            if not s.queue:
+                s.scheduled = False
+                return None
+            request, size = s.queue.popleft()
+            s.queued_bytes -= size
+            self._total_bytes -= size
+            if s.queue:
+                self.ready.put(s)
+            else:
+                s.scheduled = False
+        return request
+
+    @staticmethod
+    def head_is_blocking(s: Session) -> bool:
+        """Whether the oldest request of ``s`` is a blocking call (one command, blocking mode):
+        the request that legacy pacing holds until the next simulation step."""
+        queued = s.queue
+        if not queued:
+            return False
+        commands = queued[0][0][1]
+        return len(commands) == 1 and commands[0][1] & _MODE_MASK == _MODE_BLOCKING
+
+    def render_started(self, s: Session) -> None:
+        """A reply or stream update of ``s`` now waits for the render thread."""
+        with self._lock:
+            s.renders += 1
+
+    def render_done(self, s: Session) -> None:
+        """Called on the render thread once such a reply or update is sent."""
+        with self._lock:
+            s.renders -= 1
+            if s.parked and s.renders < self.max_renders:
+                s.parked = False
+                self.ready.put(s)
+
+    def can_render(self, s: Session | None) -> bool:
+        """Whether a stream update of ``s`` may wait for the render thread now."""
+        return s is None or s.renders < self.max_renders
+
+    def fault_all(self, message: str) -> None:
+        """Tell every client, at its next request, that ``message`` happened."""
+        with self._lock:
+            for s in self._sessions.values():
+                s.fault = message
+
+    def remove(self, client: str) -> None:
+        """Forget a client's intake state unless requests or renders of it are pending."""
+        with self._lock:
+            s = self._sessions.get(client)
+            if s is not None and not s.scheduled and not s.renders:
+                del self._sessions[client]
+
+    def expired(self, expiry: float) -> list[str]:
+        """Remove and return the clients with no liveliness token, nothing pending and no
+        request for ``expiry`` s, plus those evicted to make room since the last call."""
+        deadline = time.monotonic() - expiry
+        with self._lock:
+            gone, self.evicted = self.evicted, []
+            for client, s in self._sessions.items():
+                if s.last_seen < deadline and client not in self.tokens and not s.scheduled and not s.renders:
+                    gone.append(client)
+            for client in gone:
+                self._sessions.pop(client, None)
+        return gone
+
+
+#: Per Zenoh thread: whether keep_thread_state() ran on it.
+zenoh_thread = threading.local()
+
+
+def keep_thread_state() -> None:
+    """Keep the Python thread state of the Zenoh thread this runs on.
+
+    A callback declared with ``indirect=False`` runs on Zenoh's own thread, which PyO3 enters
+    with ``PyGILState_Ensure`` and leaves with ``PyGILState_Release``: each call creates and
+    destroys a thread state, and its first Python frame allocates a fresh frame stack.
+    Measured on a blocking call, that costs about 0.25x the bare Zenoh round trip. One more
+    ``PyGILState_Ensure``, never released, keeps the thread's state (and its frame stack and
+    thread-locals) for the next calls; PyO3's own Ensure/Release still take and release the
+    GIL around each call. CPython only; elsewhere nothing is kept.
+    """
+    zenoh_thread.kept = True
+    try:
+        import ctypes
+
+        ctypes.pythonapi.PyGILState_Ensure()
+    except (ImportError, AttributeError, OSError):
+        pass

@@ -1,0 +1,156 @@
+"""The viewer feed: what ``simx-viewer`` needs to show the running scene (issue 14).
+
+Two Zenoh declarations on the server's session (keys and messages in ``simx_client.protocol``,
+docs/PROTOCOL.md "The viewer feed"):
+
+* ``<prefix>/viewer/model``, a queryable: the compiled model as MuJoCo's binary ``mjb``
+  (``mj_saveModel``; exact, assets included), the *generation* that identifies it, and the
+  current state. Zenoh's thread only queues the query (bounded by
+  ``limits.MAX_VIEWER_QUERIES``); the simulation thread, which owns the model, answers it.
+* ``<prefix>/viewer/state``, a publisher: after every simulation step, and at idle ticks when
+  the state changed (a stop's reset, a joint set while stopped, a scene load), ``[generation,
+  time, qpos, qvel, mocap_pos, mocap_quat]`` as float64 bytes, **only while a subscriber
+  exists**. Zenoh's matching listener keeps :attr:`ViewerFeed.watched` up to date, so with no
+  viewer a step costs one attribute test.
+
+The generation changes whenever the model the viewer should show changes: another scene
+(``simxLoadScene``, ``simxCloseScene``), an edit that recompiles the model (``simxLoadModel``,
+``simxRemoveObject``, ``sim.importShape``...: ``World.replace_model``) or a colour set in place
+(``sim.setShapeColor`` writes ``geom_rgba``). A viewer reads the state only: nothing here
+writes to MuJoCo's model or data.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from typing import Any, Callable
+
+import mujoco
+import numpy as np
+import zenoh
+
+from simx_client import protocol as P
+from simx_server.base import limits
+from simx_server.base.arguments import quote
+
+log = logging.getLogger("simx.viewer")
+
+
+class ViewerFeed:
+    """The server's side of simx-viewer: one per :class:`simx_server.transport.server.Server`.
+
+    Args:
+        prefix: the server's key-expression prefix.
+        enqueue: puts an item in the simulation thread's ready ring (``("viewer-model", query)``
+            items come back to :meth:`answer` on that thread).
+
+    Attributes:
+        watched: True while at least one subscriber matches the state publisher (set by
+            Zenoh's thread; read once per step by the simulation thread).
+        published: number of states put since the server started.
+    """
+
+    def __init__(self, prefix: str, enqueue: Callable[[Any], None]):
+        self.prefix = prefix
+        self.watched = False
+        self.published = 0
+        self._enqueue = enqueue
+        self._waiting = 0  # model queries queued for the simulation thread
+        self._count = threading.Lock()  # Zenoh's threads add to _waiting, the simulation thread takes
+        self._publisher: zenoh.Publisher | None = None
+        self._world: Any = None  # the world and model the generation was given for
+        self._model: mujoco.MjModel | None = None
+        self._rgba: np.ndarray | None = None
+        self._generation = 0
+        self._mjb: bytes | None = None
+        self._last: bytes | None = None
+
+    def open(self, session: zenoh.Session) -> None:
+        """Declare the queryable, the publisher and its matching listener on ``session``."""
+        self._queryable = session.declare_queryable(
+            P.viewer_model_key(self.prefix), zenoh.handlers.Callback(self._on_query, indirect=False))
+        # Drop (Zenoh's default for puts): a slow viewer loses states, it never holds up a step.
+        self._publisher = session.declare_publisher(
+            P.viewer_state_key(self.prefix), congestion_control=zenoh.CongestionControl.DROP)
+        self._listener = self._publisher.declare_matching_listener(
+            zenoh.handlers.Callback(self._on_matching, indirect=False))
+
+    # ------------------------------------------------------------- Zenoh's threads
+    def _on_matching(self, status: zenoh.MatchingStatus) -> None:
+        watched = bool(status.matching)
+        if watched != self.watched:
+            self._last = None  # the first state after a change of watchers is always put
+            self.watched = watched
+            log.info("viewer feed: %s (%d states published so far)",
+                     "a viewer is watching" if watched else "no viewer is watching", self.published)
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        with self._count:
+            busy = self._waiting >= limits.MAX_VIEWER_QUERIES
+            if not busy:
+                self._waiting += 1
+        if busy:
+            log.warning("viewer model query on %s not queued: %d already wait (limits.MAX_VIEWER_QUERIES)",
+                        quote(str(query.key_expr)), self._waiting)
+            try:
+                query.reply(query.key_expr, P.error_response(
+                    f"server busy: {limits.MAX_VIEWER_QUERIES} viewer model queries already wait "
+                    "(limits.MAX_VIEWER_QUERIES); ask again later"))
+            finally:
+                query.drop()
+            return
+        self._enqueue(("viewer-model", query))
+
+    # ------------------------------------------------------ the simulation thread
+    def answer(self, query: zenoh.Query, world: Any) -> None:
+        """Reply to a queued model query with the current model, generation and state."""
+        with self._count:
+            self._waiting -= 1
+        try:
+            generation = self._current(world)
+            if self._mjb is None:
+                model = world.model
+                buffer = np.empty(mujoco.mj_sizeModel(model), np.uint8)
+                mujoco.mj_saveModel(model, None, buffer)
+                self._mjb = buffer.tobytes()
+            query.reply(query.key_expr, P.viewer_model(generation, mujoco.mj_versionString(),
+                                                       self._mjb, self._state(world, generation)))
+        except Exception as exc:  # the server never dies from a viewer
+            log.exception("answering a viewer model query")
+            try:
+                query.reply(query.key_expr, P.error_response(f"internal error: {type(exc).__name__}"))
+            except Exception:
+                pass
+        finally:
+            query.drop()
+
+    def publish(self, world: Any) -> None:
+        """Put the current state when it differs from the last one put (call only when
+        :attr:`watched`)."""
+        try:
+            payload = self._state(world, self._current(world))
+            if payload != self._last:
+                self._publisher.put(payload)
+                self._last = payload
+                self.published += 1
+        except Exception:  # a viewer must never stop the simulation
+            log.exception("publishing the viewer state")
+
+    def _current(self, world: Any) -> int:
+        """The generation of ``world``'s model: a new one when the world, its model or the
+        geoms' colours changed since the last call."""
+        model = world.model
+        if world is not self._world or model is not self._model \
+                or not np.array_equal(model.geom_rgba, self._rgba):
+            self._world, self._model, self._rgba = world, model, model.geom_rgba.copy()
+            self._generation += 1
+            self._mjb = None
+        return self._generation
+
+    @staticmethod
+    def _state(world: Any, generation: int) -> bytes:
+        d = world.data
+        return P.viewer_state(generation, float(d.time), d.qpos.astype("<f8").tobytes(),
+                              d.qvel.astype("<f8").tobytes(), d.mocap_pos.astype("<f8").tobytes(),
+                              d.mocap_quat.astype("<f8").tobytes())

@@ -1,0 +1,54 @@
+"""The server's Zenoh configuration: the operator's file (TLS, authentication, access control),
+the ``--host``/``--port`` endpoints, multicast scouting always off, and a warning when the
+server listens beyond loopback without access control.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+import logging
+from pathlib import Path
+
+import zenoh
+
+log = logging.getLogger("simx.server")
+
+
+def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
+    """Server Zenoh config: the file's settings (TLS, authentication, access control), listening
+    on ``endpoints`` unless the file lists its own, multicast scouting always off.
+
+    A file without ``listen/endpoints`` listens on ``endpoints`` (``--host``/``--port``), not on
+    Zenoh's default (every interface). Listening beyond loopback without access control logs a
+    warning: any host that reaches the server could act as any client (docs/SECURITY.md).
+
+    Raises:
+        zenoh.ZError: the file cannot be read or is not a valid Zenoh config.
+    """
+    config = zenoh.Config.from_file(str(config_file)) if config_file else zenoh.Config()
+    listen = json.loads(config.get_json("listen/endpoints") or "[]")
+    if not listen or listen == json.loads(zenoh.Config().get_json("listen/endpoints")):
+        config.insert_json5("listen/endpoints", json.dumps(endpoints))
+        listen = endpoints
+    config.insert_json5("scouting/multicast/enabled", "false")
+    if not json.loads(config.get_json("access_control/enabled") or "false"):
+        flat = [e for v in listen.values() for e in v] if isinstance(listen, dict) else listen
+        exposed = [e for e in flat if not _loopback(e)]
+        if exposed:
+            log.warning("listening on %s without access control: any host that reaches it can act as any "
+                        "client (docs/SECURITY.md shows TLS, authentication and access control)",
+                        ", ".join(exposed))
+    return config
+
+
+def _loopback(endpoint: str) -> bool:
+    """Whether a Zenoh endpoint (``tcp/127.0.0.1:7447``, ``tls/[::1]:7447#iface=lo``...) is on loopback."""
+    address = endpoint.split("/", 1)[-1].split("#", 1)[0].split("?", 1)[0]
+    host = address.rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:  # another host name, a unix socket path...
+        return endpoint.startswith(("unixsock-stream/", "unixpipe/"))
