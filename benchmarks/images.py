@@ -50,7 +50,7 @@ from simx_client import api
 from simx_client import constants as C
 
 B, STREAM, BUFFER = C.simx_opmode_blocking, C.simx_opmode_streaming, C.simx_opmode_buffer
-TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees, the DDPG start pose (tests/test_tutorial_pose.py)
+TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees, the DDPG start pose (tests/sim/test_tutorial_pose.py)
 
 
 def tutorial_pose(cid: int, sim) -> None:

@@ -1,7 +1,7 @@
 """7. The tutorial loop: frames per second of robotControl.py's own main loop, for reference.
 
 ``../shared/legacy/robotControl.py`` runs unchanged (from where it lies) on a private Xvfb
-display (tests/xdisplay.py's VirtualDisplay), against a simx server of our own on the port it
+display (tests/e2e/xdisplay.py's VirtualDisplay), against a simx server of our own on the port it
 hard-codes, 19999 (the figure is skipped, with a note, if that port is busy). Each pass of its
 loop deletes ``imgTemp\\frame.jpg`` in its working directory, fetches the Kinect image
 (blocking ``simxGetVisionSensorImage``), converts it with its own per-channel list
@@ -38,7 +38,7 @@ def run(s: Settings) -> list[Figure]:
     try:
         from tests.xdisplay import VirtualDisplay, have_x_tools
     except ImportError as exc:
-        return [skipped(KEY, LABEL, f"tests/xdisplay.py not importable: {exc}")]
+        return [skipped(KEY, LABEL, f"tests/e2e/xdisplay.py not importable: {exc}")]
     if not have_x_tools():
         return [skipped(KEY, LABEL, "Xvfb/xdotool not installed (scripts/system-deps.sh --with-x)")]
     deadline = time.monotonic() + s.t(45.0, 5.0)  # e.g. a test run holding it for a while

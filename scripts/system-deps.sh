@@ -6,10 +6,10 @@
 #   (no option)  GL libraries for MuJoCo's offscreen renderer on the CPU:
 #                MUJOCO_GL=egl with Mesa's llvmpipe (libegl1, libegl-mesa0,
 #                libgl1, libglx-mesa0, libgl1-mesa-dri), iproute2 (`ip`, for
-#                the network-namespace test tests/test_netns.py), plus
+#                the network-namespace test tests/transport/test_netns.py), plus
 #                python3-venv when `python3 -m venv --help` fails.
 #   --with-x     also Xvfb and xdotool, needed only by the tests that drive a
-#                real X window (tests/xdisplay.py), and the X libraries GLFW
+#                real X window (tests/e2e/xdisplay.py), and the X libraries GLFW
 #                opens for simx-viewer's window (libx11-6, libxrandr2,
 #                libxinerama1, libxcursor1, libxi6).
 #
@@ -43,7 +43,7 @@ fi
 wanted=(libegl1 libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri iproute2)
 if [ "$with_x" -eq 1 ]; then
     wanted+=(xvfb xdotool)
-    # simx-viewer's window (tests/test_viewer.py): GLFW, bundled with the glfw wheel, opens
+    # simx-viewer's window (tests/e2e/test_viewer.py): GLFW, bundled with the glfw wheel, opens
     # these X libraries at run time.
     wanted+=(libx11-6 libxrandr2 libxinerama1 libxcursor1 libxi6)
 fi

@@ -118,7 +118,7 @@ def server():
     """One real server on the bundled scene for a test module, on two free ports. It answers
     blocking calls at once (``--pacing immediate``): the modules that use it test the API's
     semantics, and legacy pacing (the default, one step per blocking call) would make each of
-    their calls wait up to 50 ms; tests/test_pacing.py, the legacy programs' end-to-end tests
+    their calls wait up to 50 ms; tests/transport/test_pacing.py, the legacy programs' end-to-end tests
     and the VPG-style program run servers with the default."""
     srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port(), free_port()])
     yield srv

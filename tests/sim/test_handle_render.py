@@ -27,7 +27,7 @@ try:
 except ImportError:  # tests/ imported as a package
     from tests.conftest import SCENE
 
-TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees (tests/test_tutorial_pose.py)
+TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees (tests/sim/test_tutorial_pose.py)
 B = vrep.simx_opmode_blocking
 RES_X, RES_Y = 640, 480
 

@@ -22,7 +22,7 @@ from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
 from simx_server.sim.world import DUMMY, SHAPE
 
-BOX = Path(__file__).resolve().parent / "scenes" / "model_box.xml"
+BOX = Path(__file__).resolve().parents[1] / "scenes" / "model_box.xml"
 
 
 @pytest.fixture

@@ -153,7 +153,7 @@ def test_client_scene_may_name_only_files_sent_with_it(client_b, tmp_path):
     secret = tmp_path / "secret.png"  # a server file a client must not see through a camera
     secret.write_bytes(png(8, 8))
     missing = tmp_path / "absent.png"  # as long a name as secret.png
-    mesh = (Path(__file__).parent / "scenes" / "tetra.obj").resolve()
+    mesh = (Path(__file__).resolve().parents[1] / "scenes" / "tetra.obj").resolve()
     good_png = png(4, 4, (0, 255, 0))
 
     def send(name: str, data: bytes) -> str:
@@ -279,7 +279,7 @@ def test_edits_by_clients_respect_the_body_bound(sim, monkeypatch):
     model = w.model
     with pytest.raises(RemoteError, match="MAX_SCENE_BODIES"):
         H["CopyPasteObjects"](sim, [[sphere]])
-    H["TransferFile"](sim, ["box.xml", (Path(__file__).parent / "scenes" / "model_box.xml").read_bytes()])
+    H["TransferFile"](sim, ["box.xml", (Path(__file__).resolve().parents[1] / "scenes" / "model_box.xml").read_bytes()])
     with pytest.raises(RemoteError, match="MAX_SCENE_BODIES"):
         H["LoadModel"](sim, ["box.xml", 1])
     assert sim.world.model is model  # refused edits change nothing

@@ -17,7 +17,7 @@ import vrep
 from conftest import ServerProcess, free_port, wait_until
 from simx_server.sim.world import DUMMY, JOINT, LIGHT, SHAPE, VISION_SENSOR, World
 
-SHARED = Path(__file__).resolve().parent / "scenes" / "shared_names.xml"
+SHARED = Path(__file__).resolve().parents[1] / "scenes" / "shared_names.xml"
 B, STREAM, BUFFER = vrep.simx_opmode_blocking, vrep.simx_opmode_streaming, vrep.simx_opmode_buffer
 MOUSE_X, MOUSE_Y, MOUSE_BUTTONS = 22, 23, 31  # vrepConst.py
 

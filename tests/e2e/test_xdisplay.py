@@ -1,4 +1,4 @@
-"""Proves the Xvfb + xdotool harness in tests/xdisplay.py delivers real key events.
+"""Proves the Xvfb + xdotool harness in tests/e2e/xdisplay.py delivers real key events.
 
 A tiny pygame program runs on a private Xvfb display; the test finds its
 window, types "q q space p" with xdotool, and checks that the program saw

@@ -17,7 +17,7 @@ from conftest import ServerProcess
 from simx_client.protocol import ObjectTypeError
 from simx_server.sim.world import World
 
-SCENES = Path(__file__).parent / "scenes" / "joints"
+SCENES = Path(__file__).resolve().parents[1] / "scenes" / "joints"
 B = vrep.simx_opmode_blocking
 MOTOR, LOOP, PID_P, VMAX = 2000, 2001, 2002, 2017  # sim_jointintparam_motor_enabled, _ctrl_enabled, ...
 #: Transient overshoot of the maximum velocity allowed while the other joints of a chain

@@ -143,7 +143,7 @@ VECTOR = """
 import sys
 import numpy as np
 import gymnasium as gym
-sys.path.insert(0, sys.argv[1])
+sys.path[:0] = [sys.argv[1], sys.argv[1] + "/client"]  # conftest, test_pool_gym
 from test_pool_gym import ENV_ID, JointEnv
 from simx_server.pool import ServerClaims
 host, folder, ports = sys.argv[2], sys.argv[3], [int(p) for p in sys.argv[4:]]

@@ -34,8 +34,8 @@ from simx_server.transport.sessions import Sessions
 from conftest import ROOT, SCENE, ServerProcess, wait_until
 
 B = vrep.simx_opmode_blocking
-ARENA = Path(__file__).parent / "scenes" / "arena_overflow.xml"
-HEAVY = Path(__file__).parent / "scenes" / "heavy_step.xml"
+ARENA = Path(__file__).resolve().parents[1] / "scenes" / "arena_overflow.xml"
+HEAVY = Path(__file__).resolve().parents[1] / "scenes" / "heavy_step.xml"
 
 
 # ------------------------------------------------------------------ helpers

@@ -1,4 +1,4 @@
-"""The VPG-style program (tests/vpg_style_program.py) against a real server on scenes/ur5_ik.xml:
+"""The VPG-style program (tests/scripts/vpg_style_program.py) against a real server on scenes/ur5_ik.xml:
 restart, camera, three imported cubes, grasp-and-lift, push; and the scene's
 ``remoteApiCommandServer`` script's errors.
 
@@ -25,7 +25,7 @@ except ImportError:  # tests/ imported as a package
     from tests.conftest import ROOT, ServerProcess, free_port
 
 IK_SCENE = ROOT / "scenes" / "ur5_ik.xml"
-PROGRAM = ROOT / "tests" / "vpg_style_program.py"
+PROGRAM = ROOT / "tests" / "scripts" / "vpg_style_program.py"
 BLOCK = vrep.simx_opmode_blocking
 LEGACY_PORT = 19997  # visual-pushing-grasping's port
 

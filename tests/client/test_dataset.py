@@ -26,7 +26,7 @@ except ImportError:  # tests/ imported as a package
     from tests.conftest import ROOT, SCENE, ServerProcess, free_port
 
 B = vrep.simx_opmode_blocking
-TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees (tests/test_tutorial_pose.py)
+TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees (tests/sim/test_tutorial_pose.py)
 BALL_RADIUS = 0.03  # m, the Sphere's geom in scenes/ur5_rg2_kinect.xml
 W, H = 640, 480
 

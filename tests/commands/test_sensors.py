@@ -20,7 +20,7 @@ from simx_server import commands
 from simx_server.sim import sensors as S
 from simx_server.scene.simulation import Simulation
 
-SCENE = Path(__file__).resolve().parent / "scenes" / "sensors.xml"
+SCENE = Path(__file__).resolve().parents[1] / "scenes" / "sensors.xml"
 G = 9.81
 COS30, SIN30 = math.cos(math.radians(30)), math.sin(math.radians(30))
 
@@ -332,7 +332,7 @@ def test_vision_parameters_and_their_errors(sim):
         cmd_parameters.get_object_float_parameter(sim, [cam, 1002])
     with pytest.raises(UnsupportedError, match="1016"):  # POV-Ray blur samples
         cmd_parameters.get_object_int_parameter(sim, [cam, 1016])
-    assert cmd_parameters.get_object_int_parameter(sim, [cam, 1017]) == 0  # render mode: OpenGL (tests/test_handle_render.py)
+    assert cmd_parameters.get_object_int_parameter(sim, [cam, 1017]) == 0  # render mode: OpenGL (tests/sim/test_handle_render.py)
     with pytest.raises(UnsupportedError, match="read-only"):
         cmd_parameters.set_object_float_parameter(sim, [cam, 11, 1.0])
     with pytest.raises(ObjectTypeError):

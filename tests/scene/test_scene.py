@@ -18,7 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco  # noqa: E402  (MUJOCO_GL must be set before the import)
 
-SCENE = Path(__file__).resolve().parents[1] / "scenes" / "ur5_rg2_kinect.xml"
+SCENE = Path(__file__).resolve().parents[2] / "scenes" / "ur5_rg2_kinect.xml"
 
 # UR5 published DH parameters (metres)
 D1, A2, A3, D4, D5, D6 = 0.089159, 0.425, 0.39225, 0.10915, 0.09465, 0.0823
