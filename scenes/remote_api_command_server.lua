@@ -23,8 +23,8 @@ function importShape(inInts, inFloats, inStrings, inBuffer)
     sim.setObjectInt32Param(handle, sim.shapeintparam_respondable, 1)
     sim.setObjectPosition(handle, -1, {inFloats[1], inFloats[2], inFloats[3]})
     sim.setObjectOrientation(handle, -1, {inFloats[4], inFloats[5], inFloats[6]})
-    if inFloats[9] then  -- colour component 0: ambient-diffuse
-        sim.setShapeColor(handle, nil, 0, {inFloats[7], inFloats[8], inFloats[9]})
+    if inFloats[9] then
+        sim.setShapeColor(handle, nil, sim.colorcomponent_ambient_diffuse, {inFloats[7], inFloats[8], inFloats[9]})
     end
     return {handle}, {}, {}, ''
 end

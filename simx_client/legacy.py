@@ -1,11 +1,22 @@
-"""What importing the legacy module names (``vrep``, ``sim``) does besides re-exporting."""
+"""What the legacy module names (``vrep``, ``sim``) share: their ``__all__`` and numpy's old aliases."""
 
 from __future__ import annotations
+
+from collections.abc import Iterable
 
 import numpy as np
 
 #: numpy aliases removed in numpy 1.24 that legacy programs still use (``np.int`` ...).
 NUMPY_ALIASES = {"int": int, "float": float, "bool": bool, "object": object, "str": str}
+
+
+def legacy_names(constants: Iterable[str]) -> list[str]:
+    """``__all__`` of a legacy module: every ``simx*`` function of :mod:`simx_client.api` and
+    the names ``constants`` (those of vrepConst.py or simConst.py), sorted."""
+    from simx_client import api
+
+    functions = [n for n in vars(api) if n.startswith("simx") and callable(getattr(api, n))]
+    return sorted({*functions, *constants})
 
 
 def restore_numpy_aliases() -> None:

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
+from simx_client import constants as C
 from simx_client.protocol import RemoteError, UnsupportedError
 from simx_server.base.arguments import check_args as _args
 from simx_server.commands.simulation import Handler
@@ -52,8 +53,13 @@ STRINGPARAM_APPLICATION_PATH, STRINGPARAM_SCENE_PATH_AND_NAME = 0, 13
 ARRAYPARAM_GRAVITY = 0
 
 
+def _param(kind: str, pid: int) -> str:
+    """How messages name a global parameter: ``boolean parameter sim_boolparam_fog_enabled (19)``."""
+    return f"{kind} parameter {C.describe(pid, C.GLOBAL_PARAM_PREFIXES[kind])}"
+
+
 def _unsupported_param(kind: str, pid: int) -> UnsupportedError:
-    return UnsupportedError(f"{kind} parameter {pid} has no meaning in simx (see docs/API.md for the supported ids)")
+    return UnsupportedError(f"{_param(kind, pid)} has no meaning in simx (see docs/API.md for the supported ids)")
 
 
 def get_integer_parameter(sim: Simulation, args: list) -> int:
@@ -78,10 +84,10 @@ def get_integer_parameter(sim: Simulation, args: list) -> int:
 def set_integer_parameter(sim: Simulation, args: list) -> None:
     pid, _value = _args(args, "int", "int")
     if pid in HEADLESS_MOUSE:
-        raise RemoteError(f"integer parameter {pid} (the mouse) is read-only: a headless server's mouse "
+        raise RemoteError(f"{_param('integer', pid)} (the mouse) is read-only: a headless server's mouse "
                           "stays at (0, 0) with no button pressed")
     if pid in _READ_ONLY_INTPARAMS:
-        raise RemoteError(f"integer parameter {pid} is read-only")
+        raise RemoteError(f"{_param('integer', pid)} is read-only")
     raise _unsupported_param("integer", pid)
 
 

@@ -26,10 +26,11 @@ log = logging.getLogger("simx.scripts")
 
 
 def script_constants() -> dict[str, int]:
-    """The ``sim.*`` constants of child scripts: every ``sim_X`` legacy constant as ``sim.X``,
-    plus ``handle_world`` (-1)."""
-    out = {name[4:]: value for name, value in vars(C).items()
-           if name.startswith("sim_") and isinstance(value, int)}
+    """The ``sim.*`` constants of child scripts: every ``sim_X`` constant of vrepConst.py,
+    simConst.py and the Lua API's extras (:data:`simx_client.constants.SCRIPT_ONLY`) as
+    ``sim.X`` (Lua also reads it as ``sim_X``), plus ``handle_world`` (-1)."""
+    table = {**C.SIM_CONSTANTS, **C.VREP_CONSTANTS, **C.SCRIPT_ONLY}
+    out = {name[4:]: value for name, value in table.items() if name.startswith("sim_")}
     out["handle_world"] = -1
     return out
 

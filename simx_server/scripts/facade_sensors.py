@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from simx_client import constants as C
 from simx_client.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.scripts.facade_core import Signals, _int, _num, _text
@@ -24,19 +25,9 @@ from simx_server.sim import object_params, sensors
 from simx_server.sim.state import RunState, SimulationView
 
 #: CoppeliaSim's simulation states (``sim.getSimulationState``), as ``sim.NAME`` constants.
-SIMULATION_STATES = {
-    "simulation_stopped": 0x00,
-    "simulation_paused": 0x08,
-    "simulation_advancing": 0x10,
-    "simulation_advancing_firstafterstop": 0x10,
-    "simulation_advancing_running": 0x11,
-    "simulation_advancing_lastbeforepause": 0x13,
-    "simulation_advancing_firstafterpause": 0x14,
-    "simulation_advancing_abouttostop": 0x15,
-    "simulation_advancing_lastbeforestop": 0x16,
-}
+SIMULATION_STATES = {n[4:]: v for n, v in C.VREP_CONSTANTS.items() if n.startswith("sim_simulation_")}
 #: ``sim.handleflag_greyscale``: added to a vision sensor's handle, a greyscale image.
-HANDLEFLAG_GREYSCALE = 0x00400000
+HANDLEFLAG_GREYSCALE = C.SCRIPT_ONLY["sim_handleflag_greyscale"]
 #: Constants this module adds to ``sim.*`` (besides the legacy ``sim_*`` ones).
 CONSTANTS: dict[str, int] = {**SIMULATION_STATES, "handleflag_greyscale": HANDLEFLAG_GREYSCALE}
 

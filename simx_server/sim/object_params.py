@@ -13,6 +13,7 @@ import math
 import mujoco
 import numpy as np
 
+from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.sim import handle_render, joint_params, physics
@@ -24,34 +25,8 @@ from simx_server.sim.world import _TYPE_NAMES, JOINT, SHAPE, VISION_SENSOR, Worl
 _PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
 
 # ---------------------------------------------------------------- object params
-#: Known legacy object parameter ids (vrepConst.py), for messages.
-PARAM_NAMES = {
-    10: "sim_objintparam_visibility_layer", 11: "sim_objfloatparam_abs_x_velocity",
-    12: "sim_objfloatparam_abs_y_velocity", 13: "sim_objfloatparam_abs_z_velocity",
-    14: "sim_objfloatparam_abs_rot_velocity", 15: "sim_objfloatparam_objbbox_min_x",
-    16: "sim_objfloatparam_objbbox_min_y", 17: "sim_objfloatparam_objbbox_min_z",
-    18: "sim_objfloatparam_objbbox_max_x", 19: "sim_objfloatparam_objbbox_max_y",
-    20: "sim_objfloatparam_objbbox_max_z", 21: "sim_objfloatparam_modelbbox_min_x",
-    22: "sim_objfloatparam_modelbbox_min_y", 23: "sim_objfloatparam_modelbbox_min_z",
-    24: "sim_objfloatparam_modelbbox_max_x", 25: "sim_objfloatparam_modelbbox_max_y",
-    26: "sim_objfloatparam_modelbbox_max_z", 1000: "sim_visionfloatparam_near_clipping",
-    1001: "sim_visionfloatparam_far_clipping", 1002: "sim_visionintparam_resolution_x",
-    1003: "sim_visionintparam_resolution_y", 1004: "sim_visionfloatparam_perspective_angle",
-    1005: "sim_visionfloatparam_ortho_size", 1017: "sim_visionintparam_render_mode",
-    2000: "sim_jointintparam_motor_enabled",
-    2001: "sim_jointintparam_ctrl_enabled", 2002: "sim_jointfloatparam_pid_p",
-    2003: "sim_jointfloatparam_pid_i", 2004: "sim_jointfloatparam_pid_d",
-    2005: "sim_jointfloatparam_intrinsic_x", 2006: "sim_jointfloatparam_intrinsic_y",
-    2007: "sim_jointfloatparam_intrinsic_z", 2008: "sim_jointfloatparam_intrinsic_qx",
-    2009: "sim_jointfloatparam_intrinsic_qy", 2010: "sim_jointfloatparam_intrinsic_qz",
-    2011: "sim_jointfloatparam_intrinsic_qw", 2012: "sim_jointfloatparam_velocity",
-    2013: "sim_jointfloatparam_spherical_qx", 2014: "sim_jointfloatparam_spherical_qy",
-    2015: "sim_jointfloatparam_spherical_qz", 2016: "sim_jointfloatparam_spherical_qw",
-    2017: "sim_jointfloatparam_upper_limit", 3000: "sim_shapefloatparam_init_velocity_x",
-    3001: "sim_shapefloatparam_init_velocity_y", 3002: "sim_shapefloatparam_init_velocity_z",
-    3003: "sim_shapeintparam_static", 3004: "sim_shapeintparam_respondable",
-    3005: "sim_shapefloatparam_mass",
-}
+#: Legacy names of the object parameter ids (vrepConst.py's first name of each id), for messages.
+PARAM_NAMES = {v: n for n, v in reversed(C.VREP_CONSTANTS.items()) if n.startswith(C.OBJECT_PARAM_PREFIXES)}
 _FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2002, 2018), 3005}
 _FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
 _INT_GET = {1002, 1003, 1017, 2000, 2001, 3003, 3004}
