@@ -211,7 +211,7 @@ class Server(StreamPublisher):
                 if self._stopping.is_set():
                     break
                 interval = sim.world.dt
-                if self._stepping():
+                if self._stepping() and not self._idle():
                     self._step()
                     interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
                 elif sim.state is not RunState.RUNNING:
@@ -247,6 +247,12 @@ class Server(StreamPublisher):
 
     def _stepping(self) -> bool:
         return self.sim.state is RunState.RUNNING and not self.sim.synchronous
+
+    def _idle(self) -> bool:
+        """As fast as possible (``--speed 0``) with no client and no viewer: nobody would see the
+        steps, so none are taken (the loop sleeps until a request comes) and an idle server of a
+        pool leaves the cores to the servers in use. Paced servers keep V-REP's clock."""
+        return not self.sim.realtime and not len(self.sessions) and not self.viewers.watched
 
     def _step(self) -> bool:
         """One step and the streams' updates; False when the step failed (the simulation is
