@@ -7,5 +7,15 @@ bash "$ROOT/scripts/system-deps.sh" --with-x
 ensure_venv -e "$ROOT[test]"
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$ROOT"
-echo "simx: running the tests: pytest -ra${*:+ $*} (the whole suite takes about 3 minutes on 2 cores) ..."
-exec "$VENV/bin/python" -m pytest -ra "$@"
+# The tests mostly wait on real servers (subprocesses), so 4 pytest-xdist workers keep 2 cores busy;
+# --dist loadfile keeps a module's tests, and the server its fixture starts, on one worker.
+# SIMX_TEST_WORKERS=0 runs them in this process, one after the other.
+workers="${SIMX_TEST_WORKERS:-4}"
+dist=()
+[ "$workers" != 0 ] && dist=(-n "$workers" --dist loadfile)
+echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 2 minutes on 2 cores) ..."
+start=$SECONDS
+status=0
+"$VENV/bin/python" -m pytest -ra ${dist[@]+"${dist[@]}"} "$@" || status=$?
+echo "simx: the tests took $((SECONDS - start)) s (exit status $status)."
+exit "$status"
