@@ -10,6 +10,7 @@ import re
 import signal
 import sys
 import threading
+import warnings
 from importlib import resources
 from pathlib import Path
 
@@ -133,16 +134,48 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
+def argument_error(args: argparse.Namespace) -> str | None:
+    """The line that refuses ``args`` before anything loads (a port out of range, a folder given
+    as the scene), or None when they are usable."""
+    for port in args.port or ():
+        if not 0 < port <= 65535:
+            return f"simx-server: --port {port}: a TCP port is a number from 1 to 65535"
+    if args.scene and Path(args.scene).is_dir():
+        return (f"simx-server: {args.scene} is a folder, not a scene file: give an MJCF (.xml) or URDF (.urdf) "
+                "file")
+    return None
+
+
+def _warnings_to_log() -> None:
+    """Python warnings (MuJoCo's, such as a deprecated compiler attribute, raised at each compile)
+    as one log line each, once per text, in the log's format rather than with a source line."""
+    warnings.filterwarnings("once", category=UserWarning)
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        logging.getLogger("simx.mujoco").warning("%s", message)
+
+    warnings.showwarning = show
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``simx-server`` console script; returns the exit code."""
     args = parse_args(argv)
     if args.json and not args.list_objects:
         print("simx-server: --json goes with --list-objects", file=sys.stderr)
         return 2
+    refused = argument_error(args)
+    if refused:
+        print(refused, file=sys.stderr)
+        return 2
+    _warnings_to_log()
     if args.list_objects:  # inspect the scene and exit: no Zenoh, no rendering
         from simx_server.scene.listing import main as list_objects
 
-        return list_objects(args.scene or default_scene(), as_json=args.json, dt=args.dt)
+        try:
+            return list_objects(args.scene or default_scene(), as_json=args.json, dt=args.dt)
+        except BrokenPipeError:  # `simx-server --list-objects | head`: the reader has enough
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit's flush
+            return 0
     if args.urdf_to_mjcf:
         from simx_server.sim.urdf import main_to_mjcf
 
