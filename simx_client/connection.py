@@ -34,6 +34,7 @@ import zenoh
 
 from simx_client import constants as C
 from simx_client import protocol as P
+from simx_client.refusal import open_session
 
 log = logging.getLogger("simx.client")
 
@@ -65,6 +66,12 @@ USER_ENV = "SIMX_USER"
 PREFIX_ENV = "SIMX_PREFIX"
 _USER_SEPARATOR = "-"  # client id = <user>-<uuid4 hex>: never in a user name
 _USER_NAME = re.compile(r"[A-Za-z0-9_.]{1,95}")  # 95 + 1 + 32 = 128, the longest client id
+
+
+def config_in_play() -> str:
+    """The client's Zenoh config file as messages name it: ``FILE ($SIMX_ZENOH_CONFIG)``, or none."""
+    found = next(((os.environ[v], v) for v in CONFIG_ENV if os.environ.get(v)), None)
+    return f"{found[0]} (${found[1]})" if found else f"none (neither ${' nor $'.join(CONFIG_ENV)} is set)"
 
 
 def client_config(address: str, port: int) -> zenoh.Config:
@@ -134,6 +141,7 @@ class Connection:
 
     Raises:
         zenoh.ZError: nothing listens at ``address:port``.
+        RefusedError: a server listens there and refused the session (TLS, authentication).
         TimeoutError: the peer does not answer as a simx server in time.
         ProtocolError: the server speaks another protocol version.
         LocalError: the client's Zenoh config file or user name is unusable (:func:`client_config`).
@@ -164,7 +172,7 @@ class Connection:
         self._t0 = time.monotonic()
         self._out = (0, 0.0)  # (message id, client time) of the last request
         self._in: tuple[tuple[int, float], list] = ((0, 0.0), _NO_RESPONSE)  # its header and the last reply
-        self.session = zenoh.open(config)
+        self.session = open_session(config, config_in_play())  # RefusedError: a server refused it
         try:
             # A declared querier: the key expression is resolved once, not at every call.
             self._querier = self.session.declare_querier(self._key, timeout=blocking_timeout)
@@ -176,9 +184,26 @@ class Connection:
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
             self._watch = self.session.liveliness().declare_subscriber(
                 P.server_token_key(prefix), _direct(self._on_server_token), history=True)
+        except TimeoutError:
+            seen = self._server_token_seen()
+            self.session.close()
+            if seen:  # the server is there and does not answer this client: access control
+                user = self.client.rpartition(_USER_SEPARATOR)[0] or "(none)"
+                raise P.RefusedError(
+                    f"the server at {address}:{port} is there (its liveliness token is seen) but did not answer "
+                    f"this client's handshake: its access control does not let user {user} call under its ids, or "
+                    f"it is overloaded (docs/SECURITY.md); Zenoh config: {config_in_play()}") from None
+            raise
         except BaseException:
             self.session.close()
             raise
+
+    def _server_token_seen(self) -> bool:
+        """Whether the server's liveliness token answers a liveliness query (the server is there)."""
+        try:
+            return any(True for _ in self.session.liveliness().get(P.server_token_key(self.prefix), timeout=0.5))
+        except zenoh.ZError:
+            return False
 
     # --------------------------------------------------------------- transport
     def _encode(self, commands: list[list]) -> bytes:
@@ -501,6 +526,9 @@ def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_t
                               hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())))
         except (P.ProtocolError, P.LocalError) as exc:
             log.error("simxStart(%s, %d): %s", address, port, exc)
+            return None
+        except P.RefusedError as exc:  # waiting would not change the server's answer
+            log.warning("simxStart(%s, %d): %s", address, port, exc)
             return None
         except (zenoh.ZError, TimeoutError) as exc:
             if not wait or time.monotonic() >= deadline:

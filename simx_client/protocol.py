@@ -153,6 +153,11 @@ class LocalError(SimxError):
     """A client-side error, such as an argument that cannot be converted (legacy flag 32)."""
 
 
+class RefusedError(SimxError):
+    """A server listens where the client connects and refused its session (TLS handshake,
+    authentication): ``simxStart`` answers -1 at once and logs why."""
+
+
 def call_key(prefix: str, client: str) -> str:
     """Key expression a client's requests are sent to (the server answers ``<prefix>/call/*``)."""
     return f"{prefix}/call/{client}"

@@ -200,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"simx-viewer: {exc}. Is simx-server running there? Start one with `simx-server` "
               "or give its address with --host/--port.", file=sys.stderr)
         return 1
-    except (P.ProtocolError, P.LocalError, RuntimeError) as exc:
+    except (P.ProtocolError, P.LocalError, P.RefusedError, RuntimeError) as exc:
         print(f"simx-viewer: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

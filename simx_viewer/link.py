@@ -16,7 +16,8 @@ import numpy as np
 import zenoh
 
 from simx_client import protocol as P
-from simx_client.connection import client_config
+from simx_client.connection import client_config, config_in_play
+from simx_client.refusal import open_session
 
 #: s to wait for the server's answer to a model query.
 DEFAULT_TIMEOUT = 10.0
@@ -103,7 +104,7 @@ class ViewerLink:
         self._latest: bytes | None = None
         self.received = 0
         try:
-            self.session = zenoh.open(client_config(host, port))
+            self.session = open_session(client_config(host, port), config_in_play())
         except zenoh.ZError as exc:
             reason = P.zenoh_reason(exc).rstrip(" .!")
             raise NoServerError(f"cannot reach a simx-server at {self.address} ({reason})") from None

@@ -78,7 +78,7 @@ def ready_line(proc: subprocess.Popen, timeout: float) -> str | None:
 class ServerProcess:
     """A ``simx-server`` subprocess; started with :meth:`start`, stopped by PID in :meth:`stop`."""
 
-    def __init__(self, *args: str, ports: list[int] | None = None):
+    def __init__(self, *args: str, ports: list[int] | None = None, cwd: str | Path | None = None):
         self.ports = ports or [free_port()]
         cmd = [sys.executable, "-m", "simx_server.cli", *args]
         for p in self.ports:
@@ -86,7 +86,7 @@ class ServerProcess:
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
         # The log goes to a file: a pipe nobody reads would fill up and block the server.
         self.log = tempfile.TemporaryFile(mode="w+")
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self.log, env=env, text=True)
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self.log, env=env, text=True, cwd=cwd)
         self.ready_line = self._wait_ready(timeout=60)
 
     @property

@@ -3,12 +3,13 @@
 # certificate per name given (for mutual TLS: the name is the certificate's common name, the
 # user of docs/security/server-mtls.json5). EC P-256 keys, valid DAYS days (default 365).
 #
-#   sh docs/security/make-certs.sh /etc/simx/tls alice bob
+#   sh docs/security/make-certs.sh                       # docs/security/tls: the configs' paths
+#   sh docs/security/make-certs.sh docs/security/tls alice bob   # with client certificates (mTLS)
 #
 # Keep ca.key offline: whoever has it can make certificates the server accepts.
 set -eu
-dir=${1:?usage: make-certs.sh DIR [CLIENT_NAME...]}
-shift
+dir=${1:-docs/security/tls}  # the folder the shipped configs name, from the checkout's root
+if [ $# -gt 0 ]; then shift; fi
 days=${DAYS:-365}
 mkdir -p "$dir"
 cd "$dir"

@@ -1,10 +1,12 @@
 """TLS, authentication and access control (issue 11, defects 12 and 13).
 
 One ``simx-server`` for the module runs with ``docs/security/server.json5`` (TLS + user/password
-+ access control for users alice and bob), made usable at test time: certificates from
-``docs/security/make-certs.sh``, ``/etc/simx`` and the port replaced. The client configs are
-``docs/security/client-alice.json5`` and ``client-bob.json5``, treated the same way; so these
-tests also check that the documented files work.
++ access control for users alice and bob) as shipped: the folder docs/security is copied into a
+temporary checkout root, ``sh docs/security/make-certs.sh docs/security/tls alice bob`` makes the
+certificates where the configs name them, only the port is replaced, and the server and the
+clients run from that root, as a user runs them from the checkout. The client configs are
+``docs/security/client-alice.json5`` and ``client-bob.json5``; so these tests also check that
+the documented files work as they are.
 
 * Defect 12: an unchanged legacy program, configured only by ``SIMX_ZENOH_CONFIG``, connects
   over TLS and works; ``ZENOH_CONFIG`` works too; a client without credentials, with a wrong
@@ -39,11 +41,12 @@ B, STREAMING, BUFFER = 0x010000, 0x020000, 0x030000  # simx_opmode_blocking, _st
 ROBOT = "UR5"
 
 
-def install(name: str, folder: Path, port: int, dest: Path | None = None) -> Path:
-    """A docs/security file made usable here: its /etc/simx paths (to ``folder``) and port 19997
-    replaced; written into ``dest`` (default ``folder``)."""
-    text = (DOCS / name).read_text().replace("/etc/simx", str(folder)).replace("19997", str(port))
-    path = (dest or folder) / name
+def install(name: str, root: Path, port: int, dest: Path | None = None) -> Path:
+    """A docs/security file as shipped, its port 19997 replaced, written into ``dest`` (default
+    ``root``/docs/security): its relative paths (docs/security/tls/..., docs/security/users.txt)
+    resolve from ``root``, the folder the server and the clients run in."""
+    text = (DOCS / name).read_text().replace("19997", str(port))
+    path = (dest or root / "docs" / "security") / name
     path.write_text(text)
     return path
 
@@ -53,14 +56,17 @@ def secure(tmp_path_factory):
     """The secure server and its files: ``(server, {name: path})``."""
     if shutil.which("openssl") is None:
         pytest.skip("the certificates are made with the openssl command")
-    folder = tmp_path_factory.mktemp("secure")
-    subprocess.run(["sh", str(DOCS / "make-certs.sh"), str(folder / "tls"), "alice", "bob"],
+    root = tmp_path_factory.mktemp("secure")  # a checkout's root, as far as docs/security goes
+    shutil.copytree(DOCS, root / "docs" / "security")
+    subprocess.run(["sh", "docs/security/make-certs.sh", "docs/security/tls", "alice", "bob"], cwd=root,
                    check=True, capture_output=True, timeout=30)
     port = free_port()
-    files = {name: install(name, folder, port)
+    files = {name: install(name, root, port)
              for name in ("server.json5", "users.txt", "client-alice.json5", "client-bob.json5")}
-    server = ServerProcess("--zenoh-config", str(files["server.json5"]), "--stopped", ports=[port])
-    yield server, files
+    server = ServerProcess("--zenoh-config", str(files["server.json5"]), "--stopped", ports=[port], cwd=root)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.chdir(root)  # the clients of this module read the configs' relative paths from there
+        yield server, files
     server.stop()
 
 
@@ -155,8 +161,10 @@ def test_legacy_program_uses_tls_and_a_user_from_the_environment_alone(secure):
     assert f"listening on tls/127.0.0.1:{server.port}" in server.ready_line
     env = {k: v for k, v in os.environ.items() if k not in ("ZENOH_CONFIG", "SIMX_USER")}
     env["SIMX_ZENOH_CONFIG"] = str(files["client-alice.json5"])
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))  # import vrep
+    root = files["client-alice.json5"].parents[2]  # the program runs from the root, as documented
     out = subprocess.run([sys.executable, "-c", LEGACY_PROGRAM.format(port=server.port, robot=ROBOT)],
-                         env=env, cwd=ROOT, capture_output=True, text=True, timeout=60)
+                         env=env, cwd=root, capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     cid, rc, handle, rc2, count, client = out.stdout.split()
     assert (int(cid), int(rc), int(rc2)) == (0, 0, 0)
@@ -185,11 +193,30 @@ def test_zenoh_config_variable_and_refused_clients(secure, env, tmp_path, caplog
     wrong.write_text(bob.replace("change-this-bob-password", "guess"))
     plain = tmp_path / "plain.json5"  # no TLS: a TCP client
     plain.write_text("{ mode: 'client', scouting: { multicast: { enabled: false } } }")
-    for config in (anonymous, wrong, plain):
+    where = f"127.0.0.1:{server.port}"
+    causes = {  # one WARNING line naming the cause and the config file in play
+        anonymous: f"the server at {where} refused the session: it requires authentication and this client "
+                   "gives no user and password (transport/auth/usrpwd)",
+        wrong: f"the server at {where} refused the session of user 'bob': a wrong password, or a user it does "
+               "not know (transport/auth/usrpwd)",
+        plain: f"the server at {where} speaks TLS and this client connects over plain TCP",
+    }
+    for config, cause in causes.items():
         env.setenv("SIMX_ZENOH_CONFIG", str(config))
-        t0 = time.monotonic()
-        assert start(server.port, timeout_ms=1000) == -1, config.name
-        assert time.monotonic() - t0 < 1.0 + 3.0, config.name  # within its timeout (+ margin)
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="simx.client"):
+            t0 = time.monotonic()
+            assert start(server.port, timeout_ms=1000) == -1, config.name
+            assert time.monotonic() - t0 < 1.0 + 3.0, config.name  # within its timeout (+ margin)
+        refusals = [r for r in caplog.records if r.levelno == logging.WARNING]
+        assert len(refusals) == 1, caplog.text
+        assert cause in refusals[0].getMessage() and f"{config} ($SIMX_ZENOH_CONFIG)" in refusals[0].getMessage()
+    # nobody listening stays what it is: no refusal is claimed
+    env.setenv("SIMX_ZENOH_CONFIG", str(files["client-bob.json5"]))
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="simx.client"):
+        assert start(free_port(), timeout_ms=300) == -1
+    assert "no simx server" in caplog.text and "refused" not in caplog.text
 
     # A config that cannot be used, or a user name that cannot start an id: -1 at once, and why.
     env.setenv("SIMX_ZENOH_CONFIG", str(tmp_path / "missing.json5"))
@@ -204,12 +231,12 @@ def test_zenoh_config_variable_and_refused_clients(secure, env, tmp_path, caplog
     assert "user name 'bo/b-x' cannot start a client id" in caplog.text
 
 
-def test_mutual_tls_binds_the_certificate_name_to_the_client_ids(secure, env, tmp_path):
-    folder = secure[1]["server.json5"].parent  # its certificates: ca, server, alice, bob
+def test_mutual_tls_binds_the_certificate_name_to_the_client_ids(secure, env, tmp_path, caplog):
+    root = secure[1]["server.json5"].parents[2]  # its certificates: ca, server, alice, bob
     port = free_port()
-    config = install("server-mtls.json5", folder, port, tmp_path)
-    alice = install("client-mtls-alice.json5", folder, port, tmp_path)
-    server = ServerProcess("--zenoh-config", str(config), "--stopped", ports=[port])
+    config = install("server-mtls.json5", root, port, tmp_path)
+    alice = install("client-mtls-alice.json5", root, port, tmp_path)
+    server = ServerProcess("--zenoh-config", str(config), "--stopped", ports=[port], cwd=root)
     try:
         env.setenv("SIMX_ZENOH_CONFIG", str(alice))
         env.setenv("SIMX_USER", "alice")
@@ -221,8 +248,10 @@ def test_mutual_tls_binds_the_certificate_name_to_the_client_ids(secure, env, tm
         finally:
             api.simxFinish(cid)
         env.setenv("SIMX_USER", "bob")  # alice's certificate, bob's ids: every call is refused
-        assert start(port, timeout_ms=1000) == -1
-        env.setenv("SIMX_ZENOH_CONFIG", str(install("client-alice.json5", folder, port, tmp_path)))
+        with caplog.at_level(logging.WARNING, logger="simx.client"):
+            assert start(port, timeout_ms=1000) == -1
+        assert "its access control does not let user bob call under its ids" in caplog.text
+        env.setenv("SIMX_ZENOH_CONFIG", str(install("client-alice.json5", root, port, tmp_path)))
         env.delenv("SIMX_USER")  # TLS and a password, but no client certificate
         assert start(port, timeout_ms=1000) == -1
     finally:
