@@ -46,11 +46,12 @@ SUITES = {
     "robustness": ("benchmarks.robustness", "8. robustness (issue 11)"),
     "dataset": ("benchmarks.dataset", "9. simx-dataset images per second (issue 13)"),
     "envs": ("benchmarks.envs", "Gymnasium env steps/s, remote vs in-process (issue 13)"),
+    "idle": ("benchmarks.idle", "idle servers cost nothing: an env beside 3 idle servers (issue 20)"),
 }
 #: Suites run only when named in --only: the robustness suite floods a server on purpose and
 #: soaks it for 3 minutes (about 5 minutes in all), which the everyday run should not do; the
 #: envs suite starts up to 4 servers at once and takes a few minutes of 640x480 renders.
-OPT_IN = {"robustness", "envs"}
+OPT_IN = {"robustness", "envs", "idle"}
 
 
 def _fmt(v, unit: str = "") -> str:
