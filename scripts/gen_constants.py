@@ -188,7 +188,11 @@ def render(tables: dict[str, dict[str, int]], blobs: dict[str, str]) -> str:
         "from __future__ import annotations",
         "",
         *_table("VREPCONST", "V-REP 3.6's vrepConst.py, in file order.", vrep),
-        *_table("SIMCONST", "CoppeliaSim's legacy simConst.py, in file order.", sim),
+        *(["#: CoppeliaSim's legacy simConst.py: the same names, values and order as vrepConst.py",
+           "#: (compared when this file was generated), kept once.",
+           "SIMCONST: dict[str, int] = dict(VREPCONST)", ""]
+          if list(sim.items()) == list(vrep.items()) else
+          _table("SIMCONST", "CoppeliaSim's legacy simConst.py, in file order.", sim)),
         *_table("V_REPCONST_H", "V-REP 3.6.2's v_repConst.h: the families above.", header),
     ]
     return "\n".join(lines[:-1]) + "\n"
