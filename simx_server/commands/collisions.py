@@ -92,7 +92,7 @@ def read_distance(sim: Simulation, args: list) -> float:
     return distance(sim, *_probe_entities(sim, args, "distance"))
 
 
-#: Command name -> handler, merged into simx_server.commands.objects.HANDLERS.
+#: Command name -> handler, merged into simx_server.commands.HANDLERS.
 COLLISION_HANDLERS: dict[str, Callable[[Simulation, list], Any]] = {
     "GetCollisionHandle": get_collision_handle,
     "ReadCollision": read_collision,

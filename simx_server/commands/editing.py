@@ -73,7 +73,7 @@ def close_scene(sim: Simulation, args: list) -> None:
     sim.editor.close_scene()
 
 
-#: Command name -> handler, merged into commands.HANDLERS.
+#: Command name -> handler, merged into simx_server.commands.HANDLERS.
 EDITING_HANDLERS = {
     "TransferFile": transfer_file,
     "EraseFile": erase_file,

@@ -33,7 +33,7 @@ def get_object_group_data(sim: Simulation, args: list) -> list:
     return group_data(sim, object_type, data_type)
 
 
-#: Command name -> handler, merged into simx_server.commands.objects.HANDLERS.
+#: Command name -> handler, merged into simx_server.commands.HANDLERS.
 GROUP_DATA_HANDLERS: dict[str, Callable[[Simulation, list], Any]] = {
     "GetObjectGroupData": get_object_group_data,
 }

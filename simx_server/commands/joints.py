@@ -99,7 +99,7 @@ def get_object_velocity(sim: Simulation, args: list) -> list[list[float]]:
     return [v.tolist(), w.tolist()]
 
 
-#: Command name -> handler, merged into simx_server.commands.objects.HANDLERS.
+#: Command name -> handler, merged into simx_server.commands.HANDLERS.
 KINEMATICS_HANDLERS: dict[str, Callable[[Simulation, list], Any]] = {
     "GetJointMatrix": get_joint_matrix,
     "SetSphericalJointMatrix": set_spherical_joint_matrix,

@@ -217,7 +217,7 @@ def set_object_int_parameter(sim: Simulation, args: list) -> None:
     set_int_param(sim, h, pid, value)
 
 
-#: Command name -> handler, merged into simx_server.commands.objects.HANDLERS.
+#: Command name -> handler, merged into simx_server.commands.HANDLERS.
 PARAM_HANDLERS: dict[str, Callable[[Simulation, list], Any]] = {
     "GetObjectFloatParameter": get_object_float_parameter,
     "SetObjectFloatParameter": set_object_float_parameter,

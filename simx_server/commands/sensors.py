@@ -113,7 +113,7 @@ def read_proximity_sensor(sim: Simulation, args: list) -> list:
     return [detected, point, hit, normal]
 
 
-#: Command name -> handler, merged into simx_server.commands.objects.HANDLERS.
+#: Command name -> handler, merged into simx_server.commands.HANDLERS.
 SENSOR_HANDLERS: dict[str, Callable[[Simulation, list], Any]] = {
     "ReadForceSensor": read_force_sensor,
     "BreakForceSensor": break_force_sensor,

@@ -15,7 +15,7 @@ simxReadDistance), as V-REP's legacy remote API has them.
   ``entity2`` may be ``all`` (or left out): every other collidable geom. Handles of collision
   objects and of distance objects are two namespaces of their own, each from 1 in text order.
 
-Handlers are listed in :data:`COLLISION_HANDLERS`; poses are those of the last ``mj_forward``.
+The command handlers are in :mod:`simx_server.commands.collisions`; poses are those of the last ``mj_forward``.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """simxGetObjectGroupData: names, types, parents, poses, sensor readings, joint states and
 properties and velocities of every object of a type, in V-REP's tables.
 
-The handler is listed in :data:`GROUP_DATA_HANDLERS`; :func:`group_data` serves in-process
-callers with plain values.
+The handler is in :mod:`simx_server.commands.group_data`; :func:`group_data` serves it and
+in-process callers (``--list-objects``) with plain values.
 """
 
 from __future__ import annotations

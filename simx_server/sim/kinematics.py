@@ -1,7 +1,7 @@
 """Joint matrices and object velocities, as V-REP's legacy remote API has them.
 
-Handlers ``(sim, args) -> value`` are listed in :data:`KINEMATICS_HANDLERS`; ``joint_matrix`` and
-``object_velocity`` take plain values and serve the other modules (group data, object
+The command handlers are in :mod:`simx_server.commands.joints`; ``joint_matrix`` and
+``object_velocity`` take plain values and serve them, the other modules (group data, object
 parameters) and in-process callers. Values are those of the world's last ``mj_forward``.
 """
 

@@ -2,8 +2,8 @@
 V-REP's legacy remote API has them (velocities, bounding boxes, vision-sensor optics, joint
 intrinsics and control, shape mass and flags).
 
-Handlers are listed in :data:`PARAM_HANDLERS`; ``get_float_param`` and the other plain-value
-functions serve in-process callers. Unsupported ids answer UnsupportedError naming the id and why.
+The command handlers are in :mod:`simx_server.commands.parameters`; ``get_float_param`` and the
+other plain-value functions here serve them, the script facade and in-process callers. Unsupported ids answer UnsupportedError naming the id and why.
 """
 
 from __future__ import annotations
@@ -234,8 +234,3 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
     # 2000 motor enabled, 2001 control loop enabled: simx_server.sim.motors
     _need(world, handle, JOINT, pid)
     joint_params.set_param(world, handle, pid, value, _pname(pid))
-
-
-#: Command name -> handler, to merge into simx_server.commands.objects.HANDLERS.
-
-

@@ -1,9 +1,9 @@
 """Sensors: proximity, force and vision-sensor reads, as V-REP's legacy remote API has them,
 and the per-simulation sensor state.
 
-The command handlers ``(sim, args) -> value`` are listed in :data:`SENSOR_HANDLERS`; each checks
-its arguments and raises the exceptions of :mod:`simx_client.protocol`, and returns plain ints,
-floats, bools, str, bytes and lists. The functions they call (``proximity_reading``,
+The command handlers ``(sim, args) -> value`` are in :mod:`simx_server.commands.sensors`; each
+checks its arguments and raises the exceptions of :mod:`simx_client.protocol`, and returns plain
+ints, floats, bools, str, bytes and lists. The functions they call (``proximity_reading``,
 ``force_sensor_reading``, ``vision_packet`` ...) take plain values and serve in-process callers
 too. Neighbouring concerns have modules of their own: :mod:`simx_server.sim.collisions` (collision
 and distance), :mod:`simx_server.sim.kinematics` (joint matrices, velocities),
