@@ -430,11 +430,15 @@ class Server(StreamPublisher):
             if base in _STREAMING:
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)
-                if ident not in streams:
+                delay = mode & P.MODE_ARG_MASK if base == P.MODE_STREAMING else 0
+                stream = streams.get(ident)
+                if stream is not None:  # V-REP: the newest request of a command replaces its stream
+                    stream.renew(args, delay)
+                else:
                     if len(streams) >= limits.MAX_STREAMS_PER_CLIENT:
                         raise P.ArgumentError(f"too many streams: at most {limits.MAX_STREAMS_PER_CLIENT} "
                                               "per client (limits.MAX_STREAMS_PER_CLIENT); discontinue some")
-                    streams[ident] = _Stream(name, args, mode & P.MODE_ARG_MASK if base == P.MODE_STREAMING else 0)
+                    streams[ident] = _Stream(name, args, delay)
             elif streams and name not in P.DO_NOT_OVERWRITE:
                 streams.pop(P.identity(name, args), None)  # a new non-streamed call replaces the stream
             return [True, handler(self.sim, args)]

@@ -27,6 +27,11 @@ class _Stream:
     def __init__(self, name: str, args: list, delay_ms: int):
         self.name, self.args, self.delay, self.last = name, args, delay_ms / 1000.0, -1e9
 
+    def renew(self, args: list, delay_ms: int) -> None:
+        """A newer streaming request of the same command: its arguments and period run from the
+        next step on (a setter streams its newest value, as V-REP's server replaced the command)."""
+        self.args, self.delay = args, delay_ms / 1000.0
+
 
 class StreamPublisher:
     """Publishing of the clients\x27 streams (needs the server\x27s ``session``, ``prefix``, ``sim``, ``sessions``, ``viewers``, ``_streams`` and ``_resolve``)."""
