@@ -112,6 +112,13 @@ DO_NOT_OVERWRITE = frozenset({
     "CopyPasteObjects", "AppendStringSignal", "WriteStringStream",
 })
 
+#: Most commands in one request: the server refuses more (simx_server.base.limits), and the
+#: client's outbox sends larger batches in several requests.
+MAX_COMMANDS_PER_REQUEST = 1024
+#: How a server answers every command of a request it cannot queue now (a full client queue):
+#: the client's outbox keeps such commands and sends them again.
+BUSY = "server busy"
+
 #: Streamed commands whose successive results add up in the client's inbox until read
 #: (simxReadStringStream: every step's new data is appended, a read takes it all).
 ACCUMULATE = frozenset({"ReadStringStream"})

@@ -8,6 +8,8 @@ bound has a command-line flag, the flag is named beside it. docs/SECURITY.md lis
 
 from __future__ import annotations
 
+from simx_client import protocol as P
+
 # ----------------------------------------------------------------- simulation step
 #: Largest simulation step ``dt`` in s (``--dt``, ``sim_floatparam_simulation_time_step``); dt
 #: must also be > 0 and finite. V-REP's default is 0.05 s; 1 s of the UR5 scene is 1,000
@@ -28,8 +30,9 @@ MAX_RESOLUTION = 4096
 MAX_RENDERERS = 8
 
 # ----------------------------------------------------------------- requests
-#: Most commands in one request (a simxPauseCommunication batch of a real program holds tens).
-MAX_COMMANDS_PER_REQUEST = 1024
+#: Most commands in one request (a simxPauseCommunication batch of a real program holds tens);
+#: the protocol's value, which the client's outbox splits its batches by.
+MAX_COMMANDS_PER_REQUEST = P.MAX_COMMANDS_PER_REQUEST
 #: Largest request payload in bytes (a simxTransferFile of a mesh or a scene included).
 MAX_REQUEST_BYTES = 64 * 1024 * 1024
 #: Largest reply a request may produce in bytes (images and buffers included).
