@@ -1,0 +1,208 @@
+"""Train the tutorial's DDPG (stable-baselines3) on simx/UR5BallReach-v0, CPU only.
+
+    pip install -e '.[train]'      # gymnasium, stable-baselines3, PyTorch, matplotlib
+    nice -n 19 python examples/train_ddpg.py --servers 2 --steps 30000 --out runs/ddpg
+
+The script starts its own simx-servers (``ServerPool``, one per environment), trains DDPG on a
+``SubprocVecEnv`` of ``--servers`` environments and writes to ``--out``:
+
+* ``model.zip``: the trained policy (``stable_baselines3.DDPG.load``);
+* ``episodes.csv``: one row per training episode: ``episode, env_steps, return, length,
+  success, wall_s``;
+* ``learning_curve.png``: episode returns and the success rate (rolling mean) against env steps;
+* ``evaluation.json``: the trained (deterministic) policy and a random policy, each over
+  ``--eval-episodes`` seeded episodes (seeds ``EVAL_SEED``, ``EVAL_SEED + 1``, ...): success
+  rate, mean return and final distance; with the training's wall time, env steps and the machine.
+
+What the agent sees and does (as the tutorial's DDPG): the tutorial's state, the ball centre's
+pixel distance from the image centre and the depth there (``tutorial_state=True``: from the
+eye-in-hand Kinect's colour-coded render instead of YOLO), with the signed pixel offset that
+gives its direction and the three driven joints' angles; it acts with offsets of joints 1-3
+(degrees, at most ``max_offset_deg`` a step). The reward is minus the gripper's distance to the
+ball (m) each step; an episode ends on success (within 5 cm) or after ``--episode-steps``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import platform
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import simx_client.envs  # noqa: F401  (registers simx/UR5BallReach-v0)
+
+EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED, EVAL_SEED + 1, ... (never seen in training)
+HALF_DIAGONAL = math.hypot(640, 480) / 2  # the scene sensor's 640x480: pixels -> about [0, 1]
+
+
+class TutorialObservation(gym.ObservationWrapper):
+    """The policy's input, (7,) float32, each about in [-1, 1]: the tutorial's state (pixel
+    distance / half diagonal, depth in m), the signed offset (x, y) / half diagonal, joints 1-3
+    (rad). Needs ``tutorial_state=True``."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (7,), np.float32)
+
+    def observation(self, obs):
+        state, offset = obs["state"], obs["ball_offset"]
+        return np.concatenate([[state[0] / HALF_DIAGONAL, state[1]], offset / HALF_DIAGONAL,
+                               obs["joints"][:3]]).astype(np.float32)
+
+
+def make_env(host: str, port: int, episode_steps: int) -> gym.Env:
+    """UR5BallReach-v0 on the server at ``host:port``, 84x84 renders (the policy uses no image),
+    the tutorial's state, actions rescaled to [-1, 1] (x ``max_offset_deg``)."""
+    env = gym.make("simx/UR5BallReach-v0", host=host, port=port, width=84, height=84, joints=3,
+                   tutorial_state=True, max_episode_steps=episode_steps)
+    return gym.wrappers.RescaleAction(TutorialObservation(env), -1.0, 1.0)
+
+
+def run_episodes(env: gym.Env, act, episodes: int, seed: int) -> dict:
+    """``episodes`` episodes with seeds ``seed``, ``seed + 1``, ...; ``act(obs)`` -> action."""
+    successes, returns, distances = [], [], []
+    for i in range(episodes):
+        obs, info = env.reset(seed=seed + i)
+        total, done = 0.0, False
+        while not done:
+            obs, reward, terminated, truncated, info = env.step(act(obs))
+            total += float(reward)
+            done = terminated or truncated
+        successes.append(bool(terminated))
+        returns.append(total)
+        distances.append(float(info["distance"]))
+    return {"episodes": episodes, "success_rate": float(np.mean(successes)), "successes": int(np.sum(successes)),
+            "mean_return": float(np.mean(returns)), "mean_final_distance_m": float(np.mean(distances))}
+
+
+def plot(rows: list[dict], path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    steps = np.array([r["env_steps"] for r in rows], dtype=float)
+    returns = np.array([r["return"] for r in rows], dtype=float)
+    success = np.array([r["success"] for r in rows], dtype=float)
+    window = max(1, min(50, len(rows) // 5))
+    kernel = np.ones(window) / window
+    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=100)
+    ax.plot(steps, returns, ".", ms=3, alpha=0.35, color="tab:blue", label="episode return")
+    if len(rows) >= window:
+        ax.plot(steps[window - 1:], np.convolve(returns, kernel, "valid"), color="tab:blue",
+                label=f"return, mean of {window}")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("return (sum of -distance, m)")
+    ax2 = ax.twinx()
+    if len(rows) >= window:
+        ax2.plot(steps[window - 1:], np.convolve(success, kernel, "valid"), color="tab:green",
+                 label=f"success rate, mean of {window}")
+    ax2.set_ylim(0, 1.05)
+    ax2.set_ylabel("success rate")
+    lines = ax.get_legend_handles_labels()
+    lines2 = ax2.get_legend_handles_labels()
+    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], loc="lower right", fontsize=8)
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--servers", type=int, default=2, help="simx-servers = environments (default 2)")
+    parser.add_argument("--steps", type=int, default=30_000, help="environment steps to train (all envs)")
+    parser.add_argument("--episode-steps", type=int, default=100, help="steps before an episode is truncated")
+    parser.add_argument("--learning-starts", type=int, default=1_000, help="random steps before learning")
+    parser.add_argument("--eval-episodes", type=int, default=50, help="seeded episodes per policy")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", default="runs/ddpg", help="folder for the model, CSV, PNG and JSON")
+    args = parser.parse_args(argv)
+
+    import torch
+    from stable_baselines3 import DDPG
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.noise import NormalActionNoise
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor
+
+    from simx_server.pool import ServerPool
+
+    torch.set_num_threads(1)  # small networks: one thread is fastest and leaves the cores to the servers
+    set_random_seed(args.seed)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows: list[dict] = []
+
+    log = open(out / "episodes.csv", "w", newline="")
+    writer = csv.DictWriter(log, ["episode", "env_steps", "return", "length", "success", "wall_s"])
+    writer.writeheader()
+
+    class EpisodeLog(BaseCallback):
+        """One row per finished training episode (VecMonitor's ``info["episode"]``), written as
+        it ends (the CSV can be watched during the training)."""
+
+        def _on_step(self) -> bool:
+            for info in self.locals["infos"]:
+                if "episode" in info:
+                    rows.append({"episode": len(rows) + 1, "env_steps": self.num_timesteps,
+                                 "return": round(float(info["episode"]["r"]), 4), "length": int(info["episode"]["l"]),
+                                 "success": int(bool(info.get("is_success", False))),
+                                 "wall_s": round(time.monotonic() - start, 1)})
+                    writer.writerow(rows[-1])
+                    log.flush()
+            return True
+
+    with ServerPool(args.servers, None, "--speed", "0") as pool:
+        fns = [lambda a=a: make_env(*a, args.episode_steps) for a in pool.addresses]
+        venv = VecMonitor(SubprocVecEnv(fns, start_method="spawn"))  # spawn: no forked Zenoh session
+        venv.seed(args.seed)
+        n_actions = venv.action_space.shape[0]
+        model = DDPG("MlpPolicy", venv, learning_rate=1e-3, buffer_size=200_000,
+                     learning_starts=args.learning_starts, batch_size=256, tau=0.005, gamma=0.98,
+                     train_freq=1, gradient_steps=-1,
+                     action_noise=NormalActionNoise(np.zeros(n_actions), 0.2 * np.ones(n_actions)),
+                     policy_kwargs={"net_arch": [256, 256]}, seed=args.seed, device="cpu", verbose=0)
+        start = time.monotonic()
+        model.learn(total_timesteps=args.steps, callback=EpisodeLog())
+        train_s = time.monotonic() - start
+        env_steps = model.num_timesteps
+        venv.close()
+        model.save(out / "model")
+
+        log.close()
+
+        env = make_env(*pool.addresses[0], args.episode_steps)
+        env.action_space.seed(args.seed)
+        trained = run_episodes(env, lambda o: model.predict(o, deterministic=True)[0], args.eval_episodes, EVAL_SEED)
+        random_policy = run_episodes(env, lambda o: env.action_space.sample(), args.eval_episodes, EVAL_SEED)
+        env.close()
+
+    result = {
+        "algorithm": "DDPG (stable-baselines3)", "env": "simx/UR5BallReach-v0", "servers": args.servers,
+        "seed": args.seed, "episode_steps": args.episode_steps, "train_env_steps": int(env_steps),
+        "train_wall_s": round(train_s, 1), "train_episodes": len(rows),
+        "env_steps_per_s": round(env_steps / train_s, 1), "eval_seeds": [EVAL_SEED, EVAL_SEED + args.eval_episodes - 1],
+        "trained": trained, "random": random_policy,
+        "machine": f"{platform.node()}: {platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}, "
+                   f"torch {torch.__version__}",
+    }
+    (out / "evaluation.json").write_text(json.dumps(result, indent=2) + "\n")
+    plot(rows, out / "learning_curve.png",
+         f"DDPG on simx/UR5BallReach-v0 (tutorial state, {args.servers} servers): evaluation "
+         f"{trained['successes']}/{trained['episodes']} reached vs random {random_policy['successes']}/"
+         f"{random_policy['episodes']}")
+    print(json.dumps(result, indent=2))
+    return result
+
+
+if __name__ == "__main__":
+    main()
