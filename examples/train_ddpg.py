@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import os
 import platform
 import time
@@ -38,23 +37,9 @@ import numpy as np
 
 import simx_client.envs  # noqa: F401  (registers simx/UR5BallReach-v0)
 
+from simx_client.envs.wrappers import TutorialStateObservation
+
 EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED, EVAL_SEED + 1, ... (never seen in training)
-HALF_DIAGONAL = math.hypot(640, 480) / 2  # the scene sensor's 640x480: pixels -> about [0, 1]
-
-
-class TutorialObservation(gym.ObservationWrapper):
-    """The policy's input, (7,) float32, each about in [-1, 1]: the tutorial's state (pixel
-    distance / half diagonal, depth in m), the signed offset (x, y) / half diagonal, joints 1-3
-    (rad). Needs ``tutorial_state=True``."""
-
-    def __init__(self, env: gym.Env) -> None:
-        super().__init__(env)
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (7,), np.float32)
-
-    def observation(self, obs):
-        state, offset = obs["state"], obs["ball_offset"]
-        return np.concatenate([[state[0] / HALF_DIAGONAL, state[1]], offset / HALF_DIAGONAL,
-                               obs["joints"][:3]]).astype(np.float32)
 
 
 def make_env(host: str, port: int, episode_steps: int) -> gym.Env:
@@ -62,7 +47,7 @@ def make_env(host: str, port: int, episode_steps: int) -> gym.Env:
     the tutorial's state, actions rescaled to [-1, 1] (x ``max_offset_deg``)."""
     env = gym.make("simx/UR5BallReach-v0", host=host, port=port, width=84, height=84, joints=3,
                    tutorial_state=True, max_episode_steps=episode_steps)
-    return gym.wrappers.RescaleAction(TutorialObservation(env), -1.0, 1.0)
+    return gym.wrappers.RescaleAction(TutorialStateObservation(env), -1.0, 1.0)
 
 
 def run_episodes(env: gym.Env, act, episodes: int, seed: int) -> dict:
@@ -132,7 +117,7 @@ def main(argv: list[str] | None = None) -> dict:
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.noise import NormalActionNoise
     from stable_baselines3.common.utils import set_random_seed
-    from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
     from simx_server.pool import ServerPool
 
@@ -163,7 +148,8 @@ def main(argv: list[str] | None = None) -> dict:
 
     with ServerPool(args.servers, None, "--speed", "0") as pool:
         fns = [lambda a=a: make_env(*a, args.episode_steps) for a in pool.addresses]
-        venv = VecMonitor(SubprocVecEnv(fns, start_method="spawn"))  # spawn: no forked Zenoh session
+        # One process per environment (spawn: no forked Zenoh session); one environment: this process.
+        venv = VecMonitor(SubprocVecEnv(fns, start_method="spawn") if len(fns) > 1 else DummyVecEnv(fns))
         venv.seed(args.seed)
         n_actions = venv.action_space.shape[0]
         model = DDPG("MlpPolicy", venv, learning_rate=1e-3, buffer_size=200_000,

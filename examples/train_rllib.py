@@ -73,7 +73,8 @@ def main(argv: list[str] | None = None) -> dict:
             runners = result["env_runners"]
             row = {"iteration": i + 1, "env_steps": int(runners.get("num_env_steps_sampled_lifetime", 0)),
                    "episode_return_mean": runners.get("episode_return_mean"),
-                   "wall_s": round(time.monotonic() - start, 2)}
+                   "wall_s": round(time.monotonic() - start, 2),
+                   "sample_s": result.get("timers", {}).get("env_runner_sampling_timer")}
             iterations.append(row)
             print(json.dumps(row), flush=True)
         servers = algo.env_runner_group.foreach_env_runner(rllib.servers_of, local_env_runner=False)

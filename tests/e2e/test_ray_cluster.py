@@ -36,6 +36,8 @@ for _module in ("ray", "torch", "pandas"):  # pandas: one of what ray[rllib] add
     if importlib.util.find_spec(_module) is None:
         pytest.skip(f"needs the ray extra (no {_module}): pip install -e '.[ray]'", allow_module_level=True)
 
+pytestmark = pytest.mark.ray
+
 ADDR_A, ADDR_B = "198.51.100.1", "198.51.100.2"
 GCS_PORT = 6379  # inside namespace A only
 RAY = str(Path(sys.executable).with_name("ray"))
