@@ -108,6 +108,8 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--episode-steps", type=int, default=100, help="steps before an episode is truncated")
     parser.add_argument("--learning-starts", type=int, default=1_000, help="random steps before learning")
     parser.add_argument("--eval-episodes", type=int, default=50, help="seeded episodes per policy")
+    parser.add_argument("--max-minutes", type=float, default=None,
+                        help="stop training after this many minutes of wall time (then save and evaluate)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default="runs/ddpg", help="folder for the model, CSV, PNG and JSON")
     args = parser.parse_args(argv)
@@ -144,7 +146,7 @@ def main(argv: list[str] | None = None) -> dict:
                                  "wall_s": round(time.monotonic() - start, 1)})
                     writer.writerow(rows[-1])
                     log.flush()
-            return True
+            return args.max_minutes is None or time.monotonic() - start < 60 * args.max_minutes
 
     with ServerPool(args.servers, None, "--speed", "0") as pool:
         fns = [lambda a=a: make_env(*a, args.episode_steps) for a in pool.addresses]
