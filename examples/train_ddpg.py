@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> dict:
         venv = VecMonitor(SubprocVecEnv(fns, start_method="spawn") if len(fns) > 1 else DummyVecEnv(fns))
         venv.seed(args.seed)
         n_actions = venv.action_space.shape[0]
-        model = DDPG("MlpPolicy", venv, learning_rate=5e-4, buffer_size=200_000,
+        model = DDPG("MlpPolicy", venv, learning_rate=1e-3, buffer_size=200_000,
                      learning_starts=args.learning_starts, batch_size=256, tau=0.005, gamma=0.98,
                      train_freq=1, gradient_steps=-1,
                      action_noise=NormalActionNoise(np.zeros(n_actions), 0.2 * np.ones(n_actions)),

@@ -1,6 +1,6 @@
 """examples/train_ddpg.py runs end to end (a smoke test, so the example never rots): 200 training
-steps on one simx-server, two one-episode selection evaluations, one final episode per policy; the model, CSV, PNG and JSON are
-written. The learning itself is shown in docs/TRAINING.md (a full run, not a test)."""
+steps on one simx-server, two one-episode selection evaluations, one final episode per policy;
+the models, CSV, PNG and JSON are written. The learning itself is shown in docs/TRAINING.md (a full run, not a test)."""
 
 from __future__ import annotations
 
