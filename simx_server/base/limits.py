@@ -188,6 +188,20 @@ LOG_REPEAT_KEYS = 1024
 #: enough to show the rule: dm_control's quadruped renames 13.
 MAX_RENAMES_LOGGED = 3
 
+# ----------------------------------------------------------------- script calls (issue 23, part 1)
+#: Most values (ints + floats + strings) one simxCallScriptFunction may pass to a child script:
+#: checked before anything is converted, so that a Lua script's state (MAX_SCRIPT_MEMORY) can
+#: always hold them (a real program passes a few thousand at most).
+MAX_SCRIPT_CALL_VALUES = 1 << 20
+#: Most bytes of strings and buffer one simxCallScriptFunction may pass to a child script.
+MAX_SCRIPT_CALL_BYTES = 16 << 20
+#: Memory cap of one Lua child script's state (bytes).
+MAX_SCRIPT_MEMORY = 256 << 20
+#: Most work of one Lua pattern match (string.find/match/gmatch/gsub without plain): a pattern
+#: with q repetitions (* + -) runs on a subject of n bytes only while n ** q stays under this.
+#: The matcher is C code, which the scripts' instruction-count time bound does not reach.
+MAX_PATTERN_WORK = 10 ** 8
+
 # ----------------------------------------------------------------- child scripts' scene edits
 # (issue 12, part 7: the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/scripts/facade_objects.py)
 #: Longest object name a child script may give with ``sim.setObjectName``/``sim.setObjectAlias``

@@ -260,7 +260,13 @@ class _Walk:
             text = path.read_bytes()
         except OSError:
             raise _refuse(self.what, f"no transferred file {quote(rel)}") from None
-        if re.search(rb"<!(DOCTYPE|ENTITY)", text, re.IGNORECASE):
+        try:  # checked as text: the bytes of UTF-16 or UTF-32 XML hide a DOCTYPE from a byte search
+            decoded = text.decode("utf-8")
+        except UnicodeDecodeError:
+            decoded = None
+        if decoded is None or "\x00" in decoded:
+            raise _refuse(self.what, f"{quote(rel)} is not UTF-8 text (UTF-16 or UTF-32?): MuJoCo reads UTF-8 XML only")
+        if re.search(r"<!(DOCTYPE|ENTITY)", decoded, re.IGNORECASE):
             raise _refuse(self.what, f"{quote(rel)} declares a DOCTYPE or entities")
         try:
             tree = self.trees[rel] = _local_names(ET.fromstring(text))

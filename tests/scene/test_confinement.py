@@ -423,3 +423,17 @@ def test_includes_count_toward_one_xml_budget(sim, monkeypatch):
         H["LoadScene"](sim, ["a.xml", 1])
     H["TransferFile"](sim, ["a.xml", f"<mujoco>{includes[:len(includes) // 2]}</mujoco>".encode()])
     H["LoadScene"](sim, ["a.xml", 1])  # two of them fit
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-le", "utf-32"])
+def test_a_doctype_in_utf16_or_utf32_xml_is_refused_before_mujoco_parses_it(sim, encoding):
+    """Issue 23 part 6: the byte search for a DOCTYPE missed UTF-16 text (with or without BOM)."""
+    from simx_server.commands.editing import EDITING_HANDLERS as H
+
+    text = ('<?xml version="1.0"?>\n<!DOCTYPE m [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;">]>\n'
+            '<mujoco><worldbody><body name="B"><geom size="0.1"/></body></worldbody></mujoco>')
+    H["TransferFile"](sim, ["wide.xml", text.encode(encoding)])
+    model = sim.world.model
+    with pytest.raises(RemoteError, match=r"not UTF-8 text .*MuJoCo reads UTF-8 XML only"):
+        H["LoadModel"](sim, ["wide.xml", 1])
+    assert sim.world.model is model
