@@ -28,7 +28,7 @@ import zenoh
 from simx_client import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
-from simx_server.commands import HANDLERS
+from simx_server.commands import HANDLERS, NOT_STREAMABLE
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.physics import PhysicsError
 from simx_server.sim.state import RunState
@@ -428,6 +428,10 @@ class Server(StreamPublisher):
                 own = self._CLIENT_COMMANDS[name]
                 return [True, getattr(self, own)(client, args) if own else self.consoles.execute(name, client, args)]
             if base in _STREAMING:
+                if name in NOT_STREAMABLE:
+                    raise P.ArgumentError(f"simx{name} cannot be streamed: only reads and settings stream "
+                                          "(scene loads, edits and file transfers run once: use simx_opmode_oneshot "
+                                          "or simx_opmode_blocking)")
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)
                 delay = mode & P.MODE_ARG_MASK if base == P.MODE_STREAMING else 0
