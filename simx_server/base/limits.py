@@ -151,6 +151,11 @@ MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
+#: Most clients (client ids) of one authenticated user at a time: ids are <user>-<uuid>, which
+#: access control enforces (docs/SECURITY.md), so one user cannot take every client slot.
+#: Anonymous ids (no user) share MAX_CLIENTS: without authentication Zenoh does not tell the
+#: server which peer sent a query (its source info is opt-in and chosen by the sender).
+MAX_CLIENTS_PER_USER = 64
 #: Replies (and stream updates) of one client waiting for the render thread. A client at the
 #: bound is not served until one is sent; its image streams skip steps meanwhile.
 MAX_RENDERS_PER_CLIENT = 4

@@ -101,3 +101,44 @@ def test_a_request_of_millions_of_empty_arrays_is_refused_and_harms_nobody(serve
     finally:
         session.close()
     assert vrep.simxGetObjectHandle(cid, "UR5", B)[0] == 0 and server.proc.poll() is None
+
+
+def test_one_user_cannot_take_every_client_slot(server):
+    """Part 4: one session declaring tokens and sending a request under many ids of one user
+    fills that user's share (limits.MAX_CLIENTS_PER_USER), not the server's."""
+    session = zenoh.open(client_config("127.0.0.1", server.port))
+    tokens = []
+    try:
+        ids = [f"mallory-{uuid.uuid4().hex}" for _ in range(L.MAX_CLIENTS_PER_USER + 6)]
+        answers = []
+        for client in ids:
+            tokens.append(session.liveliness().declare_token(P.client_token_key("simx", client)))
+            answers.append(raw_call(session, client, P.request(client, [["GetPingTime", B, []]]))[5][0])
+        assert answers[:L.MAX_CLIENTS_PER_USER] == [[True, None]] * L.MAX_CLIENTS_PER_USER
+        refused = answers[L.MAX_CLIENTS_PER_USER:]
+        assert all(not ok and "user mallory has" in why and "MAX_CLIENTS_PER_USER" in why for ok, why in refused)
+        for newcomer in (uuid.uuid4().hex, f"alice-{uuid.uuid4().hex}"):  # room for the others
+            assert raw_call(session, newcomer, P.request(newcomer, [["GetPingTime", B, []]]))[5] == [[True, None]]
+    finally:
+        for token in tokens:
+            token.undeclare()
+        session.close()
+
+
+def test_the_per_user_count_follows_departures():
+    import queue
+
+    from simx_server.transport.sessions import Sessions
+
+    sessions = Sessions(queue.SimpleQueue(), max_clients=10, max_per_user=2)
+    assert sessions.admit("bob-1", "r", 1) is None and sessions.admit("bob-2", "r", 1) is None
+    sessions.tokens.update({"bob-1", "bob-2"})
+    assert "MAX_CLIENTS_PER_USER" in sessions.admit("bob-3", "r", 1)
+    for client in ("bob-1", "bob-2"):  # their requests served, their tokens gone: they may leave
+        s = sessions.get(client)
+        sessions.take(s)
+        sessions.tokens.discard(client)
+    sessions.remove("bob-1")
+    assert sessions.admit("bob-3", "r", 1) is None  # room again
+    assert "MAX_CLIENTS_PER_USER" not in (sessions.admit("bob-4", "r", 1) or "")  # bob-2 (idle) evicted
+    assert sessions.get("bob-2") is None and "bob-2" in sessions.evicted
