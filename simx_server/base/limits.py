@@ -113,6 +113,11 @@ MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
 #: Most bytes of MuJoCo's arena (<size memory>) and most entries of the other <size> fields
 #: (nuserdata, nkey, nuser_*, njmax, nconmax, nstack), and values of one <numeric>.
 MAX_ARENA_BYTES = 256 * 1024 * 1024
+#: Most work of one simulation step of a client's scene or edit, estimated as MuJoCo substeps x
+#: solver iterations x geoms (the bundled UR5 scene: about 1.5e5): checked after compiling,
+#: before the scene replaces the current one (300 piled spheres, 1,000 iterations and a 5e-4 s
+#: timestep, 3e7, froze every client for over 90 s).
+MAX_STEP_WORK = 5_000_000
 MAX_SIZE_ENTRIES = 100_000
 #: Most solver iterations per step (<option iterations, ls_iterations, noslip_iterations,
 #: ccd_iterations, sdf_iterations>): MuJoCo's defaults are 100, 50, 0, 35, 10.

@@ -181,13 +181,16 @@ def _png_pixels(head: bytes) -> int | None:
     return None
 
 
+_OBJ_VERTEX = re.compile(rb"(?:^|[\r\n])[ \t]*v[ \t]")
+
+
 def _mesh_vertices(data: bytes, name: str) -> int:
     """Vertices a mesh file holds (an upper bound), by its format."""
     ext = posixpath.splitext(name.lower())[1]
     if ext == ".stl" and len(data) >= 84 and data[:5].lower() != b"solid":
         return 3 * struct.unpack("<I", data[80:84])[0]  # binary STL: its triangle count
-    text = max(data.count(b"\nv ") + data.count(b"\nv\t") + data.startswith((b"v ", b"v\t")),  # OBJ
-               data.count(b"vertex"))  # ASCII STL
+    # OBJ vertices as MuJoCo's reader finds them: a line (\n, \r or both) of optional blanks, v, a blank
+    text = max(len(_OBJ_VERTEX.findall(data)), data.count(b"vertex"))  # ASCII STL: "vertex" lines
     if ext == ".msh" and len(data) >= 4:
         return max(text, struct.unpack("<i", data[:4])[0])
     if ext in (".obj", ".stl"):
