@@ -156,6 +156,14 @@ MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
+#: Simulation-thread time one request may take (s): commands after that point answer an error
+#: naming this bound, not executed (a request of 100 LoadScene held every client 71 s).
+MAX_REQUEST_SECONDS = 0.5
+#: Share of the simulation thread a client's scene loads and edits (commands.NOT_STREAMABLE)
+#: may take on average: each costs its own duration, the debt falls by this many s per s, and
+#: while a client's debt exceeds EDIT_DEBT_SECONDS its loads and edits answer "busy".
+EDIT_SHARE = 0.25
+EDIT_DEBT_SECONDS = 1.0
 #: Most clients (client ids) of one authenticated user at a time: ids are <user>-<uuid>, which
 #: access control enforces (docs/SECURITY.md), so one user cannot take every client slot.
 #: Anonymous ids (no user) share MAX_CLIENTS: without authentication Zenoh does not tell the

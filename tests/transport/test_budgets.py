@@ -142,3 +142,30 @@ def test_the_per_user_count_follows_departures():
     assert sessions.admit("bob-3", "r", 1) is None  # room again
     assert "MAX_CLIENTS_PER_USER" not in (sessions.admit("bob-4", "r", 1) or "")  # bob-2 (idle) evicted
     assert sessions.get("bob-2") is None and "bob-2" in sessions.evicted
+
+
+def test_a_request_of_many_scene_loads_is_cut_at_its_time_budget_and_the_client_at_its_share():
+    """100 LoadScene in one request held every client 71.5 s: the request stops executing after
+    limits.MAX_REQUEST_SECONDS, and the client's loads and edits past limits.EDIT_SHARE of the
+    simulation thread answer busy, while another client is served in between."""
+    srv = ServerProcess(str(SCENE), "--stopped", "--pacing", "immediate", ports=[free_port()])
+    session = zenoh.open(client_config("127.0.0.1", srv.port))
+    try:
+        loader = uuid.uuid4().hex
+        loads = [["LoadScene", B, ["ur5_rg2_kinect.xml", 0]]] * 20
+        results = raw_call(session, loader, P.request(loader, loads), timeout=60)[5]
+        done = [ok for ok, _ in results if ok]
+        cut = [why for ok, why in results if not ok]
+        assert 1 <= len(done) < 20 and cut, results
+        assert all("MAX_REQUEST_SECONDS" in why for why in cut), cut
+        # loads one after the other take more than the client's share: refused, at once, soon
+        answers = [raw_call(session, loader, P.request(loader, loads[:1]))[5][0] for _ in range(6)]
+        refused = [why for ok, why in answers if not ok]
+        assert refused and all("EDIT_SHARE" in why for why in refused), answers
+        assert not answers[-1][0]  # and still refused: the debt falls slower than loads add to it
+        # ...and another client is served as usual
+        other = uuid.uuid4().hex
+        assert raw_call(session, other, P.request(other, [["GetObjectHandle", B, ["UR5"]]]))[5][0][0] is True
+    finally:
+        session.close()
+        srv.stop()
