@@ -163,7 +163,7 @@ MAX_REQUEST_SECONDS = 0.5
 #: may take on average: each costs its own duration, the debt falls by this many s per s, and
 #: while a client's debt exceeds EDIT_DEBT_SECONDS its loads and edits answer "busy".
 EDIT_SHARE = 0.25
-EDIT_DEBT_SECONDS = 1.0
+EDIT_DEBT_SECONDS = 5.0
 #: Most clients (client ids) of one authenticated user at a time: ids are <user>-<uuid>, which
 #: access control enforces (docs/SECURITY.md), so one user cannot take every client slot.
 #: Anonymous ids (no user) share MAX_CLIENTS: without authentication Zenoh does not tell the
