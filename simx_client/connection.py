@@ -8,6 +8,12 @@ never the reply to the call itself), or "no value" (flag 1). Replies of
 non-blocking commands and every streamed update land in the inbox, where they stay until
 read by a blocking call, removed, discontinued or the connection ends.
 
+Non-blocking commands wait in the outbox (:mod:`simx_client.outbox`), as in the legacy client:
+a thread of the connection sends what waits as one request once per communication cycle
+(``simxStart``'s ``commThreadCycleInMs``), one such request in flight at a time, never while
+communication is paused; a blocking call sends what waits right ahead of itself. A request the
+server answers "busy" goes back to the outbox and is sent again.
+
 The server's liveliness token tells whether it is there (a killed server's token goes at once,
 a frozen one's when its Zenoh lease expires). When it goes the connection is lost, as the
 legacy client's socket was (extApi.c ``_communicationThread``): the connection id turns -1 and
@@ -34,7 +40,9 @@ import zenoh
 
 from simx_client import constants as C
 from simx_client import protocol as P
+from simx_client.outbox import MAX_BATCH_COMMANDS
 from simx_client.refusal import open_session
+from simx_client.sender import DEFAULT_CYCLE, OutboxSender, direct
 
 log = logging.getLogger("simx.client")
 
@@ -49,11 +57,7 @@ _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 _SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
 
 
-def _direct(callback: Any, drop: Any = None) -> zenoh.handlers.Callback:
-    """A Zenoh callback run on Zenoh's own thread. The default ("indirect") starts a non-daemon
-    Python thread per handler, which keeps the interpreter from exiting while a session is open.
-    Every callback here is short and never blocks."""
-    return zenoh.handlers.Callback(callback, drop, indirect=False)
+_direct = direct
 
 
 #: Environment variables naming a client Zenoh config file, first found wins (ZENOH_CONFIG is
@@ -129,7 +133,7 @@ def client_id(config: zenoh.Config) -> str:
     return f"{user}{_USER_SEPARATOR}{ident}"
 
 
-class Connection:
+class Connection(OutboxSender):
     """A connected legacy client.
 
     Args:
@@ -138,6 +142,8 @@ class Connection:
         prefix: the server's key-expression prefix.
         hello_timeout: s to wait for the server's handshake (default: blocking_timeout).
         reconnect: whether to resume after the server went away (``not doNotReconnectOnceDisconnected``).
+        cycle: s between two requests of the outbox (``commThreadCycleInMs`` / 1000); 0 sends
+            each as soon as the previous one is answered.
 
     Raises:
         zenoh.ZError: nothing listens at ``address:port``.
@@ -148,7 +154,8 @@ class Connection:
     """
 
     def __init__(self, address: str, port: int, blocking_timeout: float = DEFAULT_BLOCKING_TIMEOUT,
-                 prefix: str = P.DEFAULT_PREFIX, hello_timeout: float | None = None, reconnect: bool = False):
+                 prefix: str = P.DEFAULT_PREFIX, hello_timeout: float | None = None, reconnect: bool = False,
+                 cycle: float = DEFAULT_CYCLE):
         self.address, self.port, self.prefix = address, port, prefix
         config = client_config(address, port)  # raises LocalError
         self.client = client_id(config)
@@ -163,8 +170,7 @@ class Connection:
         self._inbox: dict[tuple, tuple[bool, Any, int]] = {}
         self._streams: dict[tuple, list] = {}  # identity -> the [name, mode, args] that streams it
         self._in_flight: dict[tuple, int] = {}  # split commands sent and not answered yet
-        self._outbox: dict[Any, list] = {}
-        self._paused = False
+        self._init_sender(cycle)  # the outbox, its lock and its thread's state
         self.converted: dict[tuple, tuple[Any, Any]] = {}  # the facade's last conversion per command
         self._key = P.call_key(prefix, self.client)
         self._encoder = P.RequestEncoder(self.client)
@@ -184,6 +190,7 @@ class Connection:
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
             self._watch = self.session.liveliness().declare_subscriber(
                 P.server_token_key(prefix), _direct(self._on_server_token), history=True)
+            self._start_sender()
         except TimeoutError:
             seen = self._server_token_seen()
             self.session.close()
@@ -223,19 +230,23 @@ class Connection:
         header = self._out = (next(self._messages), time.monotonic())
         return payload, header
 
-    def request(self, commands: list[list], timeout: float | None = None) -> list[list]:
-        """Send commands and wait for their results ``[[ok, value], ...]``.
+    def request(self, commands: list[list], timeout: float | None = None, flush: bool = False) -> list[list]:
+        """Send commands and wait for their results ``[[ok, value], ...]``; with ``flush``, what
+        waits in the outbox leaves first, right ahead of them (unless communication is paused).
 
         Raises:
             TimeoutError: no reply within the timeout (the server is gone or too slow).
             ProtocolError: the server refused the request.
             LocalError: arguments that cannot be encoded (nothing was sent).
         """
-        payload, header = self._payload(commands)
-        if timeout is None:
-            replies = self._querier.get(payload=payload)
-        else:
-            replies = self.session.get(self._key, payload=payload, timeout=timeout)
+        with self._send_lock:
+            if flush and self._outbox and not self._paused:
+                self._send_outbox(background=False)
+            payload, header = self._payload(commands)
+            if timeout is None:
+                replies = self._querier.get(payload=payload)
+            else:
+                replies = self.session.get(self._key, payload=payload, timeout=timeout)
         for reply in replies:
             ok = reply.ok
             if ok is not None:
@@ -249,43 +260,6 @@ class Connection:
         message = P.unpack_response(payload)
         self._in = (header, message)
         return message
-
-    def _send_async(self, commands: list[list], payload: bytes | None = None) -> None:
-        payload, header = self._payload(commands, payload)
-        split = [P.identity(n, a) for n, m, a in commands if m & P.MODE_MASK in _SPLIT]
-        epoch = self._epoch
-
-        def on_reply(reply: zenoh.Reply) -> None:
-            if reply.ok is None:
-                return
-            try:
-                message = self._accept(reply.ok.payload.to_bytes(), header)
-            except P.ProtocolError as exc:
-                log.warning("%s", exc)
-                return
-            t = message[1]
-            with self._lock:
-                if epoch != self._epoch or not self._alive:
-                    return  # a reply of a lost connection: its inbox was cleared
-                for (name, mode, args), (ok, value) in zip(commands, message[5]):
-                    if mode & P.MODE_MASK != P.MODE_DISCONTINUE:
-                        self._store(P.identity(name, args), ok, value, t)
-
-        def on_done() -> None:
-            with self._lock:
-                for ident in split:
-                    self._in_flight[ident] -= 1
-                    if not self._in_flight[ident]:
-                        del self._in_flight[ident]
-
-        with self._lock:
-            for ident in split:
-                self._in_flight[ident] = self._in_flight.get(ident, 0) + 1
-        try:
-            self._querier.get(_direct(on_reply, on_done), payload=payload)
-        except zenoh.ZError as exc:
-            on_done()
-            log.warning("sending %d command(s) failed: %s", len(commands), exc)
 
     def _store(self, ident: tuple, ok: bool, value: Any, t: int) -> None:
         """Put a reply in the inbox (lock held): the newest replaces, string streams add up."""
@@ -396,7 +370,7 @@ class Connection:
                     self._streams.pop(ident, None)
                     self._inbox.pop(ident, None)
             try:
-                ok, value = self.request([[name, mode, args]])[0]
+                ok, value = self.request([[name, mode, args]], flush=True)[0]
             except (TimeoutError, zenoh.ZError):
                 return _TIMED_OUT
             except P.LocalError as exc:
@@ -415,12 +389,12 @@ class Connection:
         if base not in (P.MODE_ONESHOT, P.MODE_DISCONTINUE, *_STREAMING, *_SPLIT):
             return C.simx_return_illegal_opmode_flag, None
         command = [name, mode, args]
-        try:  # encoded before it is kept as a stream or in the outbox: what is kept can be sent
-            payload = self._encode([command])
-        except P.LocalError as exc:
-            return C.simx_return_local_error_flag, str(exc)
+        try:  # packed before it is kept as a stream or in the outbox: what is kept can be sent
+            packed = P.pack(command)
+        except (TypeError, ValueError, OverflowError) as exc:  # UnicodeEncodeError is a ValueError
+            return C.simx_return_local_error_flag, f"arguments that cannot be sent: {type(exc).__name__}: {exc}"
         with self._lock:
-            if base in _SPLIT and ident in self._in_flight:
+            if base in _SPLIT and (ident in self._in_flight or ident in self._outbox):
                 rc, value = self._read_locked(ident)
                 return rc | C.simx_return_split_progress_flag, value
             if base in _STREAMING:
@@ -435,12 +409,9 @@ class Connection:
             # client read it before its communication thread sent the command: never the reply
             # to this very call, however fast it comes back.
             answer = self._read_locked(ident)
-            if self._paused:
-                key = object() if name in P.DO_NOT_OVERWRITE else ident
-                self._outbox.pop(key, None)  # an overwritten command moves to the end
-                self._outbox[key] = command
-                return answer
-        self._send_async([command], payload)
+            self._outbox.put(ident, command, packed)  # an overwritten command moves to the end
+            if len(self._outbox) == 1:
+                self._wake.notify()
         return answer
 
     def _read(self, ident: tuple) -> tuple[int, Any]:
@@ -459,15 +430,12 @@ class Connection:
         return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
 
     def pause_communication(self, enable: bool) -> None:
-        """``simxPauseCommunication``: hold non-blocking commands, then send them as one batch."""
+        """``simxPauseCommunication``: hold the outbox (True), then let it leave (False): what
+        waits leaves together, at the next cycle or with the next blocking call."""
         with self._lock:
             self._paused = bool(enable)
-            if self._paused or not self._outbox:
-                return
-            batch, self._outbox = list(self._outbox.values()), {}
-            if not self._alive:
-                return
-        self._send_async(batch)
+            if not self._paused and self._outbox:
+                self._wake.notify()
 
     def in_message_info(self, info_type: int) -> int | None:
         """A field of the last message received (simx_headeroffset_*), None if unknown or
@@ -498,12 +466,17 @@ class Connection:
         session = self.__dict__.pop("session", None)
         if session is None:
             return
-        with self._lock:
-            batch, self._outbox, self._paused = list(self._outbox.values()), {}, False
+        with self._send_lock, self._lock:  # after whatever the sender thread is sending
+            self._closed, self._paused = True, False
+            self._wake.notify_all()
+            parts = [batch.packed for batch in self._outbox.take()] or [[]]
+        if len(parts[-1]) >= MAX_BATCH_COMMANDS:
+            parts.append([])
+        parts[-1] = parts[-1] + [P.pack(["Bye", P.MODE_ONESHOT, []])]
         try:
-            session.get(self._key, _direct(lambda reply: None),
-                        payload=self._encoder.encode(batch + [["Bye", P.MODE_ONESHOT, []]]),
-                        timeout=0.5)
+            for packed in parts:
+                session.get(self._key, _direct(lambda reply: None), payload=self._encoder.encode_packed(packed),
+                            timeout=0.5)
         except zenoh.ZError:
             pass
         closer = threading.Thread(target=session.close, daemon=True)
@@ -517,12 +490,14 @@ class Connection:
 
 
 def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_timeout: float,
-                 reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX) -> Connection | None:
-    """Connect to a simx server, retrying until ``timeout`` s when ``wait``; None on failure."""
+                 reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX, cycle: float = DEFAULT_CYCLE
+                 ) -> Connection | None:
+    """Connect to a simx server, retrying until ``timeout`` s when ``wait``; None on failure.
+    ``cycle``: s between two requests of the outbox (:class:`Connection`)."""
     deadline = time.monotonic() + timeout
     while True:
         try:
-            return Connection(address, port, blocking_timeout, prefix, reconnect=reconnect,
+            return Connection(address, port, blocking_timeout, prefix, reconnect=reconnect, cycle=cycle,
                               hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())))
         except (P.ProtocolError, P.LocalError) as exc:
             log.error("simxStart(%s, %d): %s", address, port, exc)

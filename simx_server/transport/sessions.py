@@ -89,18 +89,18 @@ class Sessions:
             s = self._sessions.get(client)
             if s is None:
                 if len(self._sessions) >= self.max_clients and not self._evict_one():
-                    return (f"server busy: it serves {self.max_clients} clients already "
+                    return (f"{P.BUSY}: it serves {self.max_clients} clients already "
                             "(limits.MAX_CLIENTS); try again later")
                 s = self._sessions[client] = Session(client, now)
             s.last_seen = now
             if len(s.queue) >= self.max_requests:
-                return (f"server busy: this client has {len(s.queue)} requests waiting "
+                return (f"{P.BUSY}: this client has {len(s.queue)} requests waiting "
                         f"(limits.MAX_QUEUED_REQUESTS); request dropped")
             if s.queued_bytes + size > self.max_bytes:
-                return (f"server busy: this client has {s.queued_bytes} bytes of requests waiting "
+                return (f"{P.BUSY}: this client has {s.queued_bytes} bytes of requests waiting "
                         f"(limits.MAX_QUEUED_BYTES = {self.max_bytes}); request dropped")
             if self._total_bytes + size > self.max_total_bytes:
-                return (f"server busy: {self._total_bytes} bytes of requests waiting from all clients "
+                return (f"{P.BUSY}: {self._total_bytes} bytes of requests waiting from all clients "
                         f"(limits.MAX_QUEUED_BYTES_TOTAL = {self.max_total_bytes}); request dropped")
             s.queue.append((request, size))
             s.queued_bytes += size
