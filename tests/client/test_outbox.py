@@ -10,6 +10,9 @@ ids (``simxGetOutMessageInfo``: one per request on the wire) and the server's er
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import textwrap
 import threading
 import time
 import uuid
@@ -23,7 +26,7 @@ from conftest import SCENE, ServerProcess, free_port, wait_until
 from simx_client import api as simx_api
 from simx_client import protocol as P
 from simx_client.connection import client_config
-from simx_client.outbox import Outbox
+from simx_client.outbox import MAX_BATCH_COMMANDS, Outbox
 
 B, ONESHOT = vrep.simx_opmode_blocking, vrep.simx_opmode_oneshot
 CYCLE_MS = 5
@@ -272,7 +275,32 @@ def test_outbox_does_not_requeue_a_command_sent_again_since():
 
 
 def test_outbox_splits_batches_at_the_servers_command_bound():
+    from simx_server.base import limits
+
+    assert MAX_BATCH_COMMANDS == limits.MAX_COMMANDS_PER_REQUEST
     box = Outbox()
     for i in range(2500):
         box.put(*_cmd("AppendStringSignal", "s", b"x"))
     assert [len(b.commands) for b in box.take()] == [1024, 1024, 452]
+
+
+def test_a_program_that_ends_without_simxfinish_still_sends_its_outbox(server, tmp_path):
+    """The sender thread is a daemon and dies with the program: what waits is sent at exit
+    (simx_client.api closes every connection then, as simxFinish(-1); a 10 s cycle keeps the
+    second call waiting until then)."""
+    program = tmp_path / "no_finish.py"
+    program.write_text(textwrap.dedent(f"""
+        import vrep
+        cid = vrep.simxStart('127.0.0.1', {server.ports[1]}, True, True, 5000, 10000)
+        assert cid >= 0
+        vrep.simxSetIntegerSignal(cid, 'at_exit', 1, vrep.simx_opmode_oneshot)
+        vrep.simxGetPingTime(cid)
+        vrep.simxSetIntegerSignal(cid, 'at_exit', 2, vrep.simx_opmode_oneshot)
+    """))
+    done = subprocess.run([sys.executable, str(program)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, CYCLE_MS)
+    try:
+        wait_until(lambda: vrep.simxGetIntegerSignal(cid, "at_exit", B) == (0, 2), what="the last call's value")
+    finally:
+        vrep.simxFinish(cid)
