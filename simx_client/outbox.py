@@ -24,8 +24,8 @@ from typing import Any
 
 from simx_client import protocol as P
 
-#: Most commands in one request: the server's limits.MAX_COMMANDS_PER_REQUEST.
-MAX_BATCH_COMMANDS = 1024
+#: Most commands in one request (the server's limits.MAX_COMMANDS_PER_REQUEST is the same value).
+MAX_BATCH_COMMANDS = P.MAX_COMMANDS_PER_REQUEST
 #: A batch is closed once it holds this many bytes of packed commands (a larger command goes
 #: alone); far below the server's limits.MAX_REQUEST_BYTES (64 MiB).
 MAX_BATCH_BYTES = 4 * 1024 * 1024
@@ -72,6 +72,10 @@ class Outbox:
     def __contains__(self, ident: tuple) -> bool:
         """Whether a call of the command ``ident`` waits."""
         return ident in self._waiting
+
+    def commands(self) -> list[list]:
+        """The waiting commands ``[name, mode, args]``, in the order they will be sent."""
+        return [command for command, _ in self._waiting.values()]
 
     def put(self, ident: tuple, command: list, packed: bytes) -> None:
         """Add a call (``packed`` is ``protocol.pack(command)``): it replaces a waiting call of

@@ -139,6 +139,35 @@ def test_order_is_kept_across_different_commands(vrep_client):
     assert vrep.simxGetIntegerSignal(cid, "count", B) == (0, 2999)
 
 
+def test_the_same_command_waiting_keeps_only_the_newest_and_order_is_kept(server):
+    """White-box: what waits in the outbox (a 10 s cycle: after one batch left, everything waits)."""
+    cid = vrep.simxStart("127.0.0.1", server.ports[1], True, True, 5000, 10_000)
+    assert cid >= 0
+    try:
+        vrep.simxSetIntegerSignal(cid, "newest", -1, ONESHOT)
+        assert vrep.simxGetPingTime(cid)[0] == 0  # that batch has left: the next waits a cycle
+        for i in range(1000):
+            vrep.simxSetIntegerSignal(cid, "newest", i, ONESHOT)
+        vrep.simxSetIntegerSignal(cid, "order", 1, ONESHOT)
+        vrep.simxClearIntegerSignal(cid, "order", ONESHOT)
+        vrep.simxSetIntegerSignal(cid, "order", 5, ONESHOT)  # replaces the first set, after the clear
+        waiting = simx_api._connections[cid]._outbox.commands()
+        assert [c[0] for c in waiting] == ["SetIntegerSignal", "ClearIntegerSignal", "SetIntegerSignal"], waiting
+        assert [c[2] for c in waiting] == [["newest", 999], ["order"], ["order", 5]]
+        assert vrep.simxGetIntegerSignal(cid, "newest", B) == (0, 999)
+        assert vrep.simxGetIntegerSignal(cid, "order", B) == (0, 5)
+    finally:
+        vrep.simxFinish(cid)
+
+
+def test_pause_communication_still_holds_the_commands_from_blocking_calls(vrep_client):
+    vrep.simxPauseCommunication(vrep_client, True)
+    vrep.simxSetIntegerSignal(vrep_client, "paused", 3, ONESHOT)
+    assert vrep.simxGetIntegerSignal(vrep_client, "paused", B)[0] != 0  # held: not sent with the blocking call
+    vrep.simxPauseCommunication(vrep_client, False)
+    assert vrep.simxGetIntegerSignal(vrep_client, "paused", B) == (0, 3)
+
+
 def test_pause_communication_holds_the_outbox_and_sends_it_together(vrep_client):
     cid = vrep_client
     table = handle(cid, "Table")
@@ -260,6 +289,12 @@ def test_outbox_collapses_keeps_order_and_requeues_refused_batches():
     box.refused(batch)
     (again,) = box.take()
     assert [c[2] for c in again.commands] == [["s", b"1"], ["s", b"2"], ["a", 3], ["b", 20], ["c", 30]]
+
+
+def test_busy_answers_are_recognised():
+    busy = [[False, f"{P.BUSY}: this client has 1024 requests waiting"]] * 2
+    assert P.busy(busy)
+    assert not P.busy([[False, "no such object"]]) and not P.busy([]) and not P.busy(busy + [[True, 1]])
 
 
 def test_outbox_does_not_requeue_a_command_sent_again_since():
