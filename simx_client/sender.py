@@ -153,7 +153,7 @@ class OutboxSender:
                 self._in_flight[ident] = self._in_flight.get(ident, 0) + 1
         try:
             self._querier.get(direct(on_reply, on_done), payload=payload)
-        except zenoh.ZError as exc:
+        except Exception as exc:  # zenoh.ZError (a closed session), or anything: the batch is over
             answered.append(False)  # said here
             on_done()
             log.warning("sending %d command(s) failed: %s", len(commands), exc)
