@@ -129,11 +129,13 @@ def make_transfer_folder() -> Path:
 
 def is_transferred(path: Path) -> bool:
     """Whether ``path`` lies in a transfer folder of any simx-server (or is one): a folder named
-    ``simx-*`` directly in the temporary folder, or any folder holding :data:`MARKER`."""
+    as a server names its own (``simx-<pid>-<start>-*``) directly in the temporary folder, or any
+    folder holding :data:`MARKER`. Other ``simx-*`` folders (a checkout cloned to
+    ``/tmp/simx-demo``, a ``--scene-path`` folder) are not."""
     path = Path(os.path.realpath(path))
     tmp = temp_root()
     for folder in (path, *path.parents):
-        if folder.parent == tmp and folder.name.startswith(PREFIX):
+        if folder.parent == tmp and _OURS.fullmatch(folder.name):
             return True
         if (folder / MARKER).is_file():
             return True
@@ -144,7 +146,7 @@ def transfer_folders(*extra: Path) -> list[Path]:
     """Every transfer folder there is now (for ``Scripts(untrusted=...)``), plus ``extra``."""
     tmp = temp_root()
     try:
-        found = [tmp / e.name for e in os.scandir(tmp) if e.name.startswith(PREFIX)]
+        found = [tmp / e.name for e in os.scandir(tmp) if _OURS.fullmatch(e.name)]
     except OSError:
         found = []
     return [*found, *(Path(p) for p in extra)]

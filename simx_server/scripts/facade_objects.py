@@ -359,6 +359,31 @@ class ObjectCalls:
         v, w = kinematics.object_velocity(self._simulation("getObjectVelocity"), self._h(handle))
         return v.tolist(), w.tolist()
 
+    def resetDynamicObject(self, handle: Any) -> None:  # noqa: N802
+        """CoppeliaSim's ``sim.resetDynamicObject`` (V-REP 3.x ``simResetDynamicObject``), called
+        before a script teleports a robot: the object's tree (its body and every body below it;
+        ``sim.handle_all``: the whole scene) stops, every degree of freedom of those bodies'
+        joints, free joints included, at zero velocity, and the contacts are rebuilt for the
+        current poses (``mj_forward``). Errors: an unknown handle."""
+        world = self._world
+        m, d = world.model, world.data
+        h = _int(handle, "objectHandle")
+        if h == C.sim_handle_all:
+            d.qvel[:] = 0
+            d.qacc_warmstart[:] = 0
+        else:
+            root = world.get(self._h(h)).body
+            bodies = np.arange(m.nbody)
+            tree = np.zeros(m.nbody, bool)
+            tree[root] = True
+            for b in bodies[root + 1:]:  # MuJoCo orders bodies so that a parent comes first
+                tree[b] = tree[m.body_parentid[b]]
+            dofs = tree[m.dof_bodyid]
+            d.qvel[dofs] = 0
+            d.qacc_warmstart[dofs] = 0
+        mujoco.mj_forward(m, d)
+        world.changed()
+
     # ------------------------------------------------------------------ forces
     def _dynamic_body(self, handle: Any) -> int:
         obj = self._world.get(self._h(handle, "shapeHandle"), SHAPE)
