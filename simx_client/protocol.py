@@ -115,9 +115,22 @@ DO_NOT_OVERWRITE = frozenset({
 #: Most commands in one request: the server refuses more (simx_server.base.limits), and the
 #: client's outbox sends larger batches in several requests.
 MAX_COMMANDS_PER_REQUEST = 1024
-#: How a server answers every command of a request it cannot queue now (a full client queue):
-#: the client's outbox keeps such commands and sends them again.
+#: The start of the error message of every result of a request the server could not queue
+#: (a client's queue or the server's is full): ``[[False, "server busy: <why>"], ...]``, one per
+#: command, none executed. A client may send such commands again later (its outbox does).
 BUSY = "server busy"
+
+
+def busy(results: list) -> bool:
+    """Whether a response's results say that the server did not queue the request (:data:`BUSY`)."""
+    if not results:
+        return False
+    for result in results:
+        if type(result) is not list or len(result) != 2 or result[0] is not False \
+                or type(result[1]) is not str or not result[1].startswith(BUSY):
+            return False
+    return True
+
 
 #: Streamed commands whose successive results add up in the client's inbox until read
 #: (simxReadStringStream: every step's new data is appended, a read takes it all).
@@ -408,6 +421,18 @@ class RequestEncoder:
     def encode(self, commands: list) -> bytes:
         """The request carrying ``commands`` (``[[name, mode, args], ...]``)."""
         return self._head + pack(commands)
+
+    def encode_packed(self, packed: list[bytes]) -> bytes:
+        """The request carrying commands already packed one by one (``pack([name, mode, args])``):
+        the same bytes as :meth:`encode` of the unpacked commands, without packing them again."""
+        n = len(packed)
+        if n < 16:
+            size = bytes((0x90 | n,))
+        elif n < 0x10000:
+            size = b"\xdc" + n.to_bytes(2, "big")
+        else:
+            size = b"\xdd" + n.to_bytes(4, "big")
+        return b"".join((self._head, size, *packed))
 
 
 def request(client: str, commands: Iterable[list]) -> bytes:
