@@ -157,8 +157,9 @@ class ServerPool:
         self._log_dir = Path(tempfile.mkdtemp(prefix="simx-pool-")) if log_dir is None else Path(log_dir)
         self.host = host
         self._fixed_ports = ports is not None
+        zmq = [] if any(a.split("=")[0] in ("--zmq-port", "--no-zmq") for a in args) else ["--no-zmq"]
         self._cmd = [sys.executable, "-m", "simx_server.cli", *([str(scene)] if scene is not None else []),
-                     *args, "--host", host]
+                     *args, *zmq, "--host", host]
         self._env = dict(os.environ if env is None else env)
         self._env.setdefault("MUJOCO_GL", "egl")
         self._env["PYTHONUNBUFFERED"] = "1"

@@ -172,3 +172,10 @@ class Scripts:
         if not isinstance(function, str) or not function:
             raise ArgumentError("the function name must be a non-empty string")
         return script.call(function, list(ints), [float(v) for v in floats], list(strings), bytes(buffer))
+
+    def script_of(self, handle: int) -> ChildScript:
+        """The child script of object ``handle``; ScriptError when it has none."""
+        script = self.scripts.get(handle)
+        if script is None:
+            raise ScriptError(f"object {self.world.get(handle).name!r} has no child script")
+        return script
