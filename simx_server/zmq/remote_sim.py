@@ -149,14 +149,15 @@ class RemoteSim(PoseMath, ScriptSim):
 
     def getStringParam(self, parameter: Any) -> str:  # noqa: N802
         """String parameters: ``sim.stringparam_scenedefaultdir`` is the server's scene folder
-        (where ``sim.loadScene`` finds scenes), ``sim.stringparam_scene_path`` /
+        (the first ``--scene-path``, else the folder of the scene it started with), ``sim.stringparam_scene_path`` /
         ``sim.stringparam_scene_name`` the loaded scene's folder and file name; the legacy ones
         as ``simxGetStringParameter``."""
         pid = _int(parameter, "parameter")
         editor = self._simulation_.editor
         scene = self._world.scene_path
-        if pid == STRINGPARAM_SCENEDEFAULTDIR:
-            return str(editor.files.roots[0])
+        if pid == STRINGPARAM_SCENEDEFAULTDIR:  # the first --scene-path, else the first scene's folder
+            roots = editor.files.roots
+            return str(roots[1] if len(roots) > 1 else roots[0])
         if pid == STRINGPARAM_SCENE_PATH:
             return editor.public(scene.parent)
         if pid == STRINGPARAM_SCENE_NAME:
