@@ -189,8 +189,8 @@ class ZmqService:
         except TypeError as exc:
             raise ArgumentError(f"{exc} (sim.{name}{_shown(signature)})") from None
         result = fn(remote, *args)
-        if result is None:
-            return []
+        if result is None:  # nothing from a function that returns nothing, nil from one that returns a value
+            return [] if signature.return_annotation in ("None", None) else [None]
         return list(result) if isinstance(result, tuple) else [result]
 
     def _api(self, name: str, args: list) -> list:
