@@ -33,6 +33,7 @@ from simx_server.sim import object_params, paths
 from simx_server.sim.objects import JOINT, WORLD
 from simx_server.sim.rotations import matrix_from_quaternion
 from simx_server.sim.state import RunState
+from simx_server.zmq.motion import MotionCalls
 from simx_server.zmq.pose_math import PoseMath
 
 log = logging.getLogger("simx.zmq")
@@ -59,7 +60,7 @@ def _strings(value: Any) -> Any:
     return value
 
 
-class RemoteSim(PoseMath, ScriptSim):
+class RemoteSim(MotionCalls, PoseMath, ScriptSim):
     """``sim`` as the ZMQ remote API offers it, over one :class:`Simulation`.
 
     Args:

@@ -38,6 +38,7 @@ from simx_server.base.arguments import quote
 from simx_server.sim.state import RunState
 from simx_server.zmq import codec, names
 from simx_server.zmq.frontend import Frontend, Incoming
+from simx_server.zmq.motion import Stepped
 from simx_server.zmq.remote_sim import RemoteSim, facade_functions
 
 log = logging.getLogger("simx.zmq")
@@ -51,7 +52,7 @@ class ZmqClient:
     """One ZMQ remote API client (a ``RemoteAPIClient``, by its uuid)."""
 
     __slots__ = ("uuid", "sync_id", "lock_id", "fd", "stepping", "locks", "timeout", "last_seen",
-                 "step_at", "waiting", "held", "label")
+                 "step_at", "waiting", "held", "label", "long", "long_func")
 
     def __init__(self, uuid: str, fd: int, timeout: float | None, now: float):
         self.uuid = uuid
@@ -65,6 +66,8 @@ class ZmqClient:
         self.step_at = -1  # Simulation.steps when its sim.step() came
         self.waiting = False  # its sim.step() was answered _*wait*_: _*executed*_ is due
         self.held: list | None = None  # envelope of its _*executed*_, answered after the next step
+        self.long = None  # the generator of a call that lasts several steps (sim.moveToConfig ...)
+        self.long_func = ""
 
 
 class ZmqService:
@@ -84,6 +87,7 @@ class ZmqService:
         self._functions = facade_functions()
         self._signatures: dict[str, inspect.Signature] = {}
         self._held = 0  # clients with a held _*executed*_
+        self._in_after_step = self._again = False
         self._own: dict[str, Callable[[ZmqClient, list, list], None]] = {
             "setStepping": self._set_stepping, "step": self._step, "yield": self._step,
             "switchThread": self._step, "acquireLock": self._acquire_lock, "releaseLock": self._release_lock,
@@ -131,6 +135,8 @@ class ZmqService:
             self._executed(client, envelope)
             return
         client.waiting = False  # any other request ends a sim.step's wait
+        if client.long is not None:
+            self._end_long(client)  # and abandons a call that lasted several steps
         if req.func == codec.END:
             self.forget(client, "left")
             self.frontend.send(envelope, _EMPTY)
@@ -150,25 +156,31 @@ class ZmqService:
                 values = reply
             elif namespace == "sim" and name in self._functions:
                 values = self._facade(name, args)
+                if isinstance(values, Stepped):
+                    return self._start_long(client, func, values)
             elif name in names.coppeliasim_functions(namespace):
                 raise RemoteError(f"not implemented by simx (CoppeliaSim 4.x has {namespace}.{name}; "
                                   "docs/ZMQ.md lists what simx has)")
             else:
                 raise RemoteError("no such function")
             payload = codec.encode_reply(values)
-        except RemoteError as exc:
-            return self._error(client, func, str(exc))
-        except (TypeError, ValueError, OverflowError) as exc:  # bad arguments caught in the conversions
-            return self._error(client, func, f"bad arguments: {exc}")
-        except RecursionError:
-            return self._error(client, func, "arguments nested too deeply")
         except Exception as exc:
-            log.exception("ZMQ client %s: %s raised", client.label, quote(func, 100))
-            return self._error(client, func, f"internal error: {type(exc).__name__}: {exc}", logged=True)
+            return self._call_error(client, func, exc)
         if len(payload) > limits.MAX_REPLY_BYTES:
             return self._error(client, func, f"the reply would be {len(payload)} bytes, more than "
                                              f"{limits.MAX_REPLY_BYTES} (limits.MAX_REPLY_BYTES)")
         return payload
+
+    def _call_error(self, client: ZmqClient, func: str, exc: Exception) -> bytes:
+        """The ``{err}`` reply of a call that raised ``exc``."""
+        if isinstance(exc, RemoteError):
+            return self._error(client, func, str(exc))
+        if isinstance(exc, (TypeError, ValueError, OverflowError)):  # bad arguments caught in the conversions
+            return self._error(client, func, f"bad arguments: {exc}")
+        if isinstance(exc, RecursionError):
+            return self._error(client, func, "arguments nested too deeply")
+        log.error("ZMQ client %s: %s raised", client.label, quote(func, 100), exc_info=exc)
+        return self._error(client, func, f"internal error: {type(exc).__name__}: {exc}", logged=True)
 
     def _error(self, client: ZmqClient, func: str, message: str, logged: bool = False) -> bytes:
         text = f"{quote(func, 100)[1:-1]}: {message}"
@@ -189,6 +201,8 @@ class ZmqService:
         except TypeError as exc:
             raise ArgumentError(f"{exc} (sim.{name}{_shown(signature)})") from None
         result = fn(remote, *args)
+        if isinstance(result, Stepped):
+            return result
         if result is None:  # nothing from a function that returns nothing, nil from one that returns a value
             return [] if signature.return_annotation in ("None", None) else [None]
         return list(result) if isinstance(result, tuple) else [result]
@@ -241,23 +255,68 @@ class ZmqService:
             return
         if self.sim.state is not RunState.RUNNING or self.sim.steps > client.step_at:
             client.waiting = False
-            self.frontend.send(envelope, codec.encode_reply([]))
+            self.frontend.send(envelope, self._resume(client))
             return
         if client.held is None:
             self._held += 1
         client.held = envelope
 
+    def _resume(self, client: ZmqClient) -> bytes:
+        """The reply due once a client's step has run: its sim.step's (empty) return, or the next
+        increment of its call that lasts several steps (``_*wait*_`` again, or its return)."""
+        return self._advance(client) if client.long is not None else codec.encode_reply([])
+
     def after_step(self) -> None:
-        """After a step (or a loop pass without one): answer the ``_*executed*_`` whose step has run."""
+        """After a step (or a loop pass without one): answer the ``_*executed*_`` whose step has
+        run. Answering may trigger the next step (a call that lasts several steps): then this
+        looks again, once that step's own pass (nested) has returned."""
         if not self._held:
             return
-        sim = self.sim
-        running = sim.state is RunState.RUNNING
-        for client in self.clients.values():
-            if client.held is not None and (not running or sim.steps > client.step_at):
-                envelope, client.held, client.waiting = client.held, None, False
-                self._held -= 1
-                self.frontend.send(envelope, codec.encode_reply([]))
+        if self._in_after_step:
+            self._again = True
+            return
+        self._in_after_step = True
+        try:
+            self._again = True
+            while self._again:
+                self._again = False
+                sim = self.sim
+                for client in list(self.clients.values()):
+                    if client.held is not None and (sim.state is not RunState.RUNNING or sim.steps > client.step_at):
+                        envelope, client.held, client.waiting = client.held, None, False
+                        self._held -= 1
+                        self.frontend.send(envelope, self._resume(client))
+        finally:
+            self._in_after_step = False
+
+    # ------------------------------------------------- calls that last several steps
+    def _start_long(self, client: ZmqClient, func: str, stepped: Stepped) -> bytes:
+        """Begin a call that lasts several steps: the client is stepped meanwhile (CoppeliaSim's
+        ``sim.setStepping(true)`` inside ``sim.moveToConfig``), each increment waits for a step."""
+        self._set_stepping(client, [True])
+        client.long, client.long_func = stepped.generator, func
+        return self._advance(client)
+
+    def _advance(self, client: ZmqClient) -> bytes:
+        """Run the next increment: ``_*wait*_`` while it wants a step, else its reply."""
+        try:
+            next(client.long)
+        except StopIteration as done:
+            self._end_long(client)
+            return codec.encode_reply(done.value or [])
+        except Exception as exc:
+            func = client.long_func
+            self._end_long(client)
+            return self._call_error(client, func, exc)
+        return self._step(client, [])
+
+    def _end_long(self, client: ZmqClient) -> None:
+        generator, client.long = client.long, None
+        client.waiting = False
+        if generator is not None:
+            generator.close()
+            if client.stepping:
+                self._set_stepping(client, [False])
 
     def _acquire_lock(self, client: ZmqClient, args: list) -> list:
         if client.locks == 0:
@@ -294,6 +353,10 @@ class ZmqService:
             return
         if client.held is not None:
             self._held -= 1
+            client.held = None
+        if client.long is not None:
+            client.long.close()
+            client.long = None
         log.info("ZMQ client %s %s", client.label, how)
         self._unstep(client)
 

@@ -5,7 +5,8 @@ The programs (tests/e2e/zmq_programs/) are written in the style of CoppeliaSim's
 (clients/python/ of CoppeliaRobotics/zmqRemoteApi): ``ur5_pick.py`` a typical manipulation
 program on the bundled UR5 scene (stepping, joint targets, the Kinect's image as NumPy, the RG2's
 child script), ``p_controller.py`` (pController.py), ``image_relay.py``
-(synchronousImageTransmission.py) and ``dummies.py`` (simpleTest.py). The scenes they load by
+(synchronousImageTransmission.py), ``dummies.py`` (simpleTest.py) and ``movement.py``
+(simpleMovement.py: three clients in stepping mode from threads, sim.moveToConfig, sim.moveToPose). The scenes they load by
 CoppeliaSim's names (``messaging/*.ttt``) are simx's MJCF stand-ins in tests/scenes/zmq/.
 """
 
@@ -31,6 +32,7 @@ SCENES = Path(__file__).resolve().parents[1] / "scenes" / "zmq"
     ("p_controller", ["45.0 deg reached", "90.0 deg reached", "-89.0 deg reached", "0.0 deg reached"]),
     ("image_relay", ["20 images of 256x256 relayed"]),
     ("dummies", ["stepped: 10 steps to t = 0.500 s"]),
+    ("movement", ["blueRobot: its configuration reached", "redRobot: its configuration reached", "raised by 0.200 m"]),
 ])
 def test_program_runs_unchanged(program, expected, tmp_path):
     port = free_port()

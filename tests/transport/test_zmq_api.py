@@ -174,3 +174,22 @@ def test_scene_by_coppeliasim_name_and_confinement(sim, zmq_server):
     sim.startSimulation()
     with pytest.raises(Exception, match="stop the simulation first"):
         sim.loadScene("scripted.xml")
+
+
+def test_wait_and_motions_last_several_steps(sim):
+    dt = sim.getSimulationTimeStep()
+    sim.startSimulation()
+    t0 = sim.getSimulationTime()
+    assert sim.wait(0.25) == pytest.approx(0.0, abs=1e-6)  # 5 steps
+    assert sim.getSimulationTime() == pytest.approx(t0 + 0.25)
+    joint = sim.getObject("/ArmJoint")
+    out = sim.moveToConfig({"joints": [joint], "targetPos": [0.5], "maxVel": [1], "maxAccel": [2], "maxJerk": [20]})
+    assert out["pos"] == pytest.approx([0.5]) and out["targetPos"] == [0.5]
+    assert sim.getJointTargetPosition(joint) == pytest.approx(0.5)
+    took = sim.getSimulationTime() - t0 - 0.25
+    assert 0.9 < took < 2.0 and round(took / dt) == pytest.approx(took / dt)  # whole steps, about 1.3 s of motion
+    with pytest.raises(Exception, match="'callback' is not supported"):
+        sim.moveToConfig({"joints": [joint], "targetPos": [0], "callback": "f@func"})
+    with pytest.raises(Exception, match="targetPos"):
+        sim.moveToConfig({"joints": [joint], "targetPos": [0, 1]})
+    assert sim.setStepping(False) == 0  # the motion's own stepping is over

@@ -150,6 +150,12 @@ def test_wait_and_executed_exchange(req):
     assert call(req, "sim.step") == {"func": "_*wait*_", "args": []}
     assert call(req, "_*executed*_") == {"ret": []}
     assert call(req, "sim.getSimulationTime")["ret"][0] > t0
+    waits = 0
+    reply = call(req, "sim.wait", 0.2)  # a call that lasts 4 steps: _*wait*_ at each
+    while reply == {"func": "_*wait*_", "args": []}:
+        waits += 1
+        reply = call(req, "_*executed*_")
+    assert waits == 4 and reply["ret"][0] == pytest.approx(0.0, abs=1e-6)
     assert call(req, "sim.stopSimulation") == {"ret": []}
     assert call(req, "_*end*_") == {}
 
