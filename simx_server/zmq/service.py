@@ -40,6 +40,7 @@ from simx_server.zmq import codec, names
 from simx_server.zmq.frontend import Frontend, Incoming
 from simx_server.zmq.motion import Stepped
 from simx_server.zmq.remote_sim import RemoteSim, facade_functions
+from simx_server.zmq.sim_ik import RemoteSimIK
 
 log = logging.getLogger("simx.zmq")
 
@@ -93,7 +94,9 @@ class ZmqService:
             "switchThread": self._step, "acquireLock": self._acquire_lock, "releaseLock": self._release_lock,
             "stopSimulation": self._stop_simulation,
         }
-        self._implemented = {"sim": frozenset(self._functions) | frozenset(STEPPING), "simIK": frozenset()}
+        self._ik_functions = {n: f for n, f in vars(RemoteSimIK).items() if not n.startswith("_") and callable(f)}
+        self._implemented = {"sim": frozenset(self._functions) | frozenset(STEPPING),
+                             "simIK": frozenset(self._ik_functions)}
 
     @property
     def sim(self):
@@ -158,6 +161,8 @@ class ZmqService:
                 values = self._facade(name, args)
                 if isinstance(values, Stepped):
                     return self._start_long(client, func, values)
+            elif namespace == "simIK" and name in self._ik_functions:
+                values = self._facade(name, args, ik=True)
             elif name in names.coppeliasim_functions(namespace):
                 raise RemoteError(f"not implemented by simx (CoppeliaSim 4.x has {namespace}.{name}; "
                                   "docs/ZMQ.md lists what simx has)")
@@ -190,16 +195,17 @@ class ZmqService:
             log.warning("ZMQ client %s: %s", client.label, text)
         return codec.encode_error(text)
 
-    def _facade(self, name: str, args: list) -> list:
-        fn = self._functions[name]
-        signature = self._signatures.get(name)
+    def _facade(self, name: str, args: list, ik: bool = False) -> list:
+        fn = (self._ik_functions if ik else self._functions)[name]
+        key = f"simIK.{name}" if ik else name
+        signature = self._signatures.get(key)
         if signature is None:
-            signature = self._signatures[name] = inspect.signature(fn)
-        remote = self.remote
+            signature = self._signatures[key] = inspect.signature(fn)
+        remote = RemoteSimIK(self.remote) if ik else self.remote
         try:
             signature.bind(remote, *args)
         except TypeError as exc:
-            raise ArgumentError(f"{exc} (sim.{name}{_shown(signature)})") from None
+            raise ArgumentError(f"{exc} ({'simIK' if ik else 'sim'}.{name}{_shown(signature)})") from None
         result = fn(remote, *args)
         if isinstance(result, Stepped):
             return result

@@ -193,3 +193,23 @@ def test_wait_and_motions_last_several_steps(sim):
     with pytest.raises(Exception, match="targetPos"):
         sim.moveToConfig({"joints": [joint], "targetPos": [0, 1]})
     assert sim.setStepping(False) == 0  # the motion's own stepping is over
+
+
+def test_simik_maps_onto_the_scenes_ik_groups():
+    port = free_port()
+    ik_scene = Path(__file__).resolve().parents[2] / "scenes" / "ur5_ik.xml"
+    srv = ServerProcess(str(ik_scene), "--stopped", "--zmq-port", str(port))
+    try:
+        client = RemoteAPIClient("127.0.0.1", port)
+        sim, simIK = client.require("sim"), client.require("simIK")  # noqa: N806 (CoppeliaSim's name)
+        env = simIK.createEnvironment()
+        group = simIK.getGroupHandle(env, "UR5")
+        assert group == sim.getIkGroupHandle("UR5") and simIK.doesGroupExist(env, "UR5")
+        assert not simIK.doesGroupExist(env, "nothing")
+        assert simIK.handleGroup(env, group) == simIK.result_success
+        with pytest.raises(Exception, match=r"simIK\.addElementFromScene: not implemented by simx"):
+            simIK.addElementFromScene(env, group, -1, -1, -1, simIK.constraint_pose)
+        with pytest.raises(Exception, match="one IK environment"):
+            simIK.handleGroup(5, group)
+    finally:
+        srv.stop()
