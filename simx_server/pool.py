@@ -124,7 +124,8 @@ class ServerPool:
         n: number of servers (>= 1).
         scene: MJCF file for every server (default: the bundled scene).
         *args: further ``simx-server`` arguments for every server (``"--speed", "0"``, ...);
-            not ``--host`` or ``--port``, which the pool chooses.
+            not ``--host`` or ``--port``, which the pool chooses. The servers get ``--no-zmq``
+            (one ZMQ port cannot serve several servers) unless ``args`` say otherwise.
         host: address every server listens on (``--host``).
         ports: the servers' ports, one per server; default: free ports found by the pool.
             Given ports are not replaced if they are taken: the pool fails instead.

@@ -203,10 +203,13 @@ class ZmqService:
             signature = self._signatures[key] = inspect.signature(fn)
         remote = RemoteSimIK(self.remote) if ik else self.remote
         try:
-            signature.bind(remote, *args)
-        except TypeError as exc:
-            raise ArgumentError(f"{exc} ({'simIK' if ik else 'sim'}.{name}{_shown(signature)})") from None
-        result = fn(remote, *args)
+            result = fn(remote, *args)
+        except TypeError as exc:  # the wrong number of arguments, or a bad one met deeper in
+            try:
+                signature.bind(remote, *args)
+            except TypeError as arity:
+                raise ArgumentError(f"{arity} ({'simIK' if ik else 'sim'}.{name}{_shown(signature)})") from None
+            raise exc
         if isinstance(result, Stepped):
             return result
         if result is None:  # nothing from a function that returns nothing, nil from one that returns a value
