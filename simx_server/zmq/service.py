@@ -131,6 +131,11 @@ class ZmqService:
             if req.func == codec.END:
                 self.frontend.send(envelope, _EMPTY)
                 return
+            if len(self.clients) >= limits.MAX_CLIENTS and not self._evict_one():
+                self.frontend.send(envelope, codec.encode_error(
+                    f"server busy: it serves {len(self.clients)} ZMQ clients already (limits.MAX_CLIENTS), all "
+                    "stepped, locked or waiting; try again later"))
+                return
             client = self.clients[req.uuid] = ZmqClient(req.uuid, incoming.fd, req.timeout, now)
             log.info("ZMQ client %s connected%s", client.label, f" ({quote(req.lang, 40)})" if req.lang else "")
         client.fd, client.last_seen = incoming.fd, now
@@ -368,6 +373,15 @@ class ZmqService:
             client.long = None
         log.info("ZMQ client %s %s", client.label, how)
         self._unstep(client)
+
+    def _evict_one(self) -> bool:
+        """Forget the longest silent client that holds nothing (no stepping, lock or wait), to make
+        room for a new one; False when there is none."""
+        idle = [c for c in self.clients.values() if not (c.stepping or c.locks or c.held or c.long)]
+        if not idle:
+            return False
+        self.forget(min(idle, key=lambda c: c.last_seen), "dropped to make room for a new client")
+        return True
 
     def housekeeping(self, now: float) -> None:
         """Forget the clients silent for longer than their timeout (none waits for a step)."""

@@ -170,3 +170,30 @@ def test_codec_bounds_in_process():
         codec.scan(b"\xf8\x20")
     r = codec.read_request(codec.encode_request("sim.getObject", ["/A", codec.NIL, None], "u", first=True))
     assert (r.func, r.args, r.uuid, r.lang, r.timeout) == ("sim.getObject", ["/A", None, None], "u", "python", 600.0)
+
+
+def test_fresh_client_ids_do_not_grow_the_server(monkeypatch):
+    """Requests under ever new uuids: past limits.MAX_CLIENTS the longest silent client that holds
+    nothing makes room, so the count of clients stays bounded (in-process check of the rule)."""
+    from simx_server.base import limits
+    from simx_server.zmq.frontend import Incoming
+    from simx_server.zmq.service import ZmqService
+
+    class Server:  # what the service needs of the server for these calls
+        sim = None
+
+    class Frontend:
+        def __init__(self):
+            self.sent = []
+
+        def send(self, envelope, payload):
+            self.sent.append(cbor2.loads(payload))
+
+    monkeypatch.setattr(limits, "MAX_CLIENTS", 5)
+    frontend = Frontend()
+    service = ZmqService(Server(), frontend)
+    for i in range(20):
+        service.handle("zmq", Incoming([b"id"], codec.read_request(codec.encode_request(
+            "zmqRemoteApi.require", ["sim"], f"client-{i}")), 1, 10))
+    assert len(service.clients) == 5 and all(r == {"ret": []} for r in frontend.sent)
+    assert "client-19" in service.clients and "client-0" not in service.clients
