@@ -66,6 +66,7 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
         address, port = _str(connectionAddress), _int(connectionPort)
         wait, timeout_ms = _bool(waitUntilConnected), _int(timeOutInMs)
         reconnect = not _bool(doNotReconnectOnceDisconnected)
+        cycle = _int(commThreadCycleInMs) / 1000.0
     except Exception as exc:
         log.warning("simxStart: bad argument: %s", exc)
         return -1
@@ -78,7 +79,7 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
         free = next((i for i in range(_MAX_CONNECTIONS) if i not in _connections), None)
         if free is None:
             return -1
-        conn = wait_connect(address, port, wait, connect_wait, blocking, reconnect, prefix)
+        conn = wait_connect(address, port, wait, connect_wait, blocking, reconnect, prefix, cycle)
         if conn is None:
             return -1
         _connections[free] = conn

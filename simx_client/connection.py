@@ -43,6 +43,9 @@ STREAM_BACKLOG = 4096  # stream updates kept unread; beyond, the oldest are drop
 _NO_VALUE = (C.simx_return_novalue_flag, None)
 _TIMED_OUT = (C.simx_return_timeout_flag | C.simx_return_novalue_flag, None)  # blocking, no reply
 _RESUME_PAUSE = 0.2  # s between two handshakes of a client that reconnects
+#: s the outbox waits before it sends (simxStart's commThreadCycleInMs; V-REP programs pass 5).
+DEFAULT_COMM_CYCLE = 0.005
+MAX_COMM_CYCLE = 0.1  # s: a longer cycle given to simxStart is shortened to this
 _NO_RESPONSE = [P.PROTOCOL_VERSION, 0, 0, 0, 0, []]  # "the last response" before there is one
 _connection_ids = itertools.count(1)
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
@@ -138,6 +141,8 @@ class Connection:
         prefix: the server's key-expression prefix.
         hello_timeout: s to wait for the server's handshake (default: blocking_timeout).
         reconnect: whether to resume after the server went away (``not doNotReconnectOnceDisconnected``).
+        comm_cycle: s the outbox gathers non-blocking commands before sending them as one
+            request (``simxStart``'s commThreadCycleInMs / 1000, at most ``MAX_COMM_CYCLE``).
 
     Raises:
         zenoh.ZError: nothing listens at ``address:port``.
@@ -148,8 +153,10 @@ class Connection:
     """
 
     def __init__(self, address: str, port: int, blocking_timeout: float = DEFAULT_BLOCKING_TIMEOUT,
-                 prefix: str = P.DEFAULT_PREFIX, hello_timeout: float | None = None, reconnect: bool = False):
+                 prefix: str = P.DEFAULT_PREFIX, hello_timeout: float | None = None, reconnect: bool = False,
+                 comm_cycle: float = DEFAULT_COMM_CYCLE):
         self.address, self.port, self.prefix = address, port, prefix
+        self.comm_cycle = min(max(0.0, comm_cycle), MAX_COMM_CYCLE)
         config = client_config(address, port)  # raises LocalError
         self.client = client_id(config)
         self.blocking_timeout = blocking_timeout
@@ -163,8 +170,10 @@ class Connection:
         self._inbox: dict[tuple, tuple[bool, Any, int]] = {}
         self._streams: dict[tuple, list] = {}  # identity -> the [name, mode, args] that streams it
         self._in_flight: dict[tuple, int] = {}  # split commands sent and not answered yet
-        self._outbox: dict[Any, list] = {}
+        self._outbox: dict[Any, list] = {}  # identity (or a unique key) -> command, in sending order
         self._paused = False
+        self._wake = threading.Condition(self._lock)  # the outbox's sender: commands wait
+        self._sender: threading.Thread | None = None
         self.converted: dict[tuple, tuple[Any, Any]] = {}  # the facade's last conversion per command
         self._key = P.call_key(prefix, self.client)
         self._encoder = P.RequestEncoder(self.client)
@@ -250,7 +259,7 @@ class Connection:
         self._in = (header, message)
         return message
 
-    def _send_async(self, commands: list[list], payload: bytes | None = None) -> None:
+    def _send_async(self, commands: list[list], payload: bytes | None = None, requeue: bool = False) -> None:
         payload, header = self._payload(commands, payload)
         split = [P.identity(n, a) for n, m, a in commands if m & P.MODE_MASK in _SPLIT]
         epoch = self._epoch
@@ -267,6 +276,9 @@ class Connection:
             with self._lock:
                 if epoch != self._epoch or not self._alive:
                     return  # a reply of a lost connection: its inbox was cleared
+                if requeue and _busy(message[5]):  # not queued: nothing was executed, send again
+                    self._requeue(commands)
+                    return
                 for (name, mode, args), (ok, value) in zip(commands, message[5]):
                     if mode & P.MODE_MASK != P.MODE_DISCONTINUE:
                         self._store(P.identity(name, args), ok, value, t)
@@ -286,6 +298,66 @@ class Connection:
         except zenoh.ZError as exc:
             on_done()
             log.warning("sending %d command(s) failed: %s", len(commands), exc)
+
+    # ------------------------------------------------------------------ outbox
+    # V-REP's client collected non-blocking commands and its communication thread sent them
+    # together every commThreadCycleInMs; a newer command of the same identity replaced the one
+    # still waiting (extApi.c). So does this outbox: a program's tight loop of oneshot calls
+    # costs one request per cycle, not one each, and cannot overflow its server queue.
+    def _hold(self, command: list, ident: tuple) -> None:
+        """Put ``command`` in the outbox (lock held): the same command still waiting is replaced
+        and moves to the end; commands that are never merged (P.DO_NOT_OVERWRITE) all stay."""
+        key = object() if command[0] in P.DO_NOT_OVERWRITE else ident
+        self._outbox.pop(key, None)
+        self._outbox[key] = command
+
+    def _take_outbox(self) -> list[list]:
+        """Everything waiting, in order, and an empty outbox (lock held)."""
+        batch, self._outbox = list(self._outbox.values()), {}
+        return batch
+
+    def _wake_sender(self) -> None:
+        """Start the sender on the first command, else tell it that commands wait (lock held)."""
+        if self._sender is None:
+            self._sender = threading.Thread(target=self._send_loop, name="simx-outbox", daemon=True)
+            self._sender.start()
+        else:
+            self._wake.notify()
+
+    def _send_loop(self) -> None:
+        """The communication thread: sleeps while nothing waits; else lets one cycle pass (what
+        comes meanwhile joins) and sends the outbox as one request."""
+        while True:
+            with self._lock:
+                while "session" in self.__dict__ and not (self._outbox and self._alive and not self._paused):
+                    self._wake.wait()
+                if "session" not in self.__dict__:
+                    return
+            time.sleep(self.comm_cycle)
+            with self._lock:
+                if self._paused or not self._alive:
+                    continue
+                batch = self._take_outbox()
+            self._send_batch(batch)
+
+    def _send_batch(self, batch: list[list]) -> None:
+        """Send ``batch`` in requests of at most P.MAX_COMMANDS_PER_REQUEST commands; what the
+        server answers "busy" comes back to the outbox (:meth:`_send_async`)."""
+        for i in range(0, len(batch), P.MAX_COMMANDS_PER_REQUEST):
+            self._send_async(batch[i:i + P.MAX_COMMANDS_PER_REQUEST], requeue=True)
+
+    def _requeue(self, commands: list[list]) -> None:
+        """Commands the server could not queue go back to the front of the outbox, unless a newer
+        command of the same identity waits already (lock held); the sender tries again."""
+        kept = {}
+        for command in commands:
+            name, _, args = command
+            key = object() if name in P.DO_NOT_OVERWRITE else P.identity(name, args)
+            if key not in self._outbox:
+                kept[key] = command
+        self._outbox = {**kept, **self._outbox}
+        if self._sender is not None:
+            self._wake.notify()
 
     def _store(self, ident: tuple, ok: bool, value: Any, t: int) -> None:
         """Put a reply in the inbox (lock held): the newest replaces, string streams add up."""
@@ -395,6 +467,10 @@ class Connection:
                 with self._lock:
                     self._streams.pop(ident, None)
                     self._inbox.pop(ident, None)
+            if self._outbox and not self._paused:  # what waits leaves first, at once, in order
+                with self._lock:
+                    batch = self._take_outbox()
+                self._send_batch(batch)
             try:
                 ok, value = self.request([[name, mode, args]])[0]
             except (TimeoutError, zenoh.ZError):
@@ -416,7 +492,7 @@ class Connection:
             return C.simx_return_illegal_opmode_flag, None
         command = [name, mode, args]
         try:  # encoded before it is kept as a stream or in the outbox: what is kept can be sent
-            payload = self._encode([command])
+            self._encode([command])
         except P.LocalError as exc:
             return C.simx_return_local_error_flag, str(exc)
         with self._lock:
@@ -435,12 +511,9 @@ class Connection:
             # client read it before its communication thread sent the command: never the reply
             # to this very call, however fast it comes back.
             answer = self._read_locked(ident)
-            if self._paused:
-                key = object() if name in P.DO_NOT_OVERWRITE else ident
-                self._outbox.pop(key, None)  # an overwritten command moves to the end
-                self._outbox[key] = command
-                return answer
-        self._send_async([command], payload)
+            self._hold(command, ident)
+            if not self._paused:
+                self._wake_sender()
         return answer
 
     def _read(self, ident: tuple) -> tuple[int, Any]:
@@ -464,10 +537,10 @@ class Connection:
             self._paused = bool(enable)
             if self._paused or not self._outbox:
                 return
-            batch, self._outbox = list(self._outbox.values()), {}
+            batch = self._take_outbox()
             if not self._alive:
                 return
-        self._send_async(batch)
+        self._send_batch(batch)
 
     def in_message_info(self, info_type: int) -> int | None:
         """A field of the last message received (simx_headeroffset_*), None if unknown or
@@ -499,7 +572,8 @@ class Connection:
         if session is None:
             return
         with self._lock:
-            batch, self._outbox, self._paused = list(self._outbox.values()), {}, False
+            batch, self._paused = self._take_outbox(), False
+            self._wake.notify_all()  # the sender sees the session gone and ends
         try:
             session.get(self._key, _direct(lambda reply: None),
                         payload=self._encoder.encode(batch + [["Bye", P.MODE_ONESHOT, []]]),
@@ -516,14 +590,23 @@ class Connection:
         return "session" in self.__dict__ and self._alive and not self.session.is_closed()
 
 
+def _busy(results: list) -> bool:
+    """Whether a response is the server's refusal to queue the request (every command answered
+    ``server busy: ...``, nothing executed)."""
+    return bool(results) and all(
+        r[0] is False and type(r[1]) is str and r[1].startswith(P.BUSY) for r in results)
+
+
 def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_timeout: float,
-                 reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX) -> Connection | None:
+                 reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX,
+                 comm_cycle: float = DEFAULT_COMM_CYCLE) -> Connection | None:
     """Connect to a simx server, retrying until ``timeout`` s when ``wait``; None on failure."""
     deadline = time.monotonic() + timeout
     while True:
         try:
             return Connection(address, port, blocking_timeout, prefix, reconnect=reconnect,
-                              hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())))
+                              hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())),
+                              comm_cycle=comm_cycle)
         except (P.ProtocolError, P.LocalError) as exc:
             log.error("simxStart(%s, %d): %s", address, port, exc)
             return None

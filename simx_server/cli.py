@@ -387,6 +387,10 @@ def _watch_signals(server, served: threading.Event) -> None:
                 logging.getLogger("simx.server").error(
                     "stopping: the simulation step still runs %g s after the signal; exiting without waiting for it",
                     STOP_GRACE)
+                try:  # the transfer folder goes as on a normal stop (only kill -9 leaves one behind)
+                    server.sim.editor.close()
+                except Exception:
+                    pass
                 logging.shutdown()
                 os._exit(0)
             return

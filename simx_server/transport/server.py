@@ -28,12 +28,13 @@ import zenoh
 from simx_client import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
-from simx_server.commands import HANDLERS
+from simx_server.commands import HANDLERS, NOT_STREAMABLE
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.physics import PhysicsError
 from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
 from simx_server.transport import logs
+from simx_server.transport.client_commands import ClientCommands
 from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
 from simx_server.transport.consoles import cut as _cut
 from simx_server.transport.others import OtherTransports
@@ -53,7 +54,7 @@ _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 PACINGS = ("legacy", "immediate")
 
 
-class Server(OtherTransports, StreamPublisher):
+class Server(OtherTransports, ClientCommands, StreamPublisher):
     """Serves one :class:`Simulation` on Zenoh.
 
     Args:
@@ -100,6 +101,7 @@ class Server(OtherTransports, StreamPublisher):
         self._paced = pacing == "legacy"
         self._held: list[Session] = []  # clients whose next blocking call waits for the next step
         self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
+        self._edit_debt: dict[str, tuple[float, float]] = {}  # per client: (s of edits owed, as of when)
         self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
         self._t0 = time.monotonic()
         self._housekeeping_at = 0.0
@@ -382,12 +384,23 @@ class Server(OtherTransports, StreamPublisher):
 
     def _run(self, client: str, commands: list) -> list:
         """Each command's ``[ok, value]``; commands past the reply budget (limits.MAX_REPLY_BYTES)
-        get an error result instead of their value."""
+        or the request's time budget (limits.MAX_REQUEST_SECONDS), and scene loads and edits past
+        the client's share (limits.EDIT_SHARE), get an error result instead of their value."""
         execute, budget = self._execute, limits.MAX_REPLY_BYTES
         results = []
+        start = time.monotonic()
         for name, mode, args in commands:
             if name in IMAGES and budget < image_size(self.sim, name, args):
                 results.append(self._over_budget(client, name))
+                continue
+            if time.monotonic() - start > limits.MAX_REQUEST_SECONDS:
+                results.append(self._refused(client, name, f"not executed: the request took its {limits.MAX_REQUEST_SECONDS:g} "
+                                             "s of the simulation thread (limits.MAX_REQUEST_SECONDS); send the rest "
+                                             "in another request"))
+                continue
+            if name in NOT_STREAMABLE:
+                result = self._edit(client, name, mode, args)
+                results.append(result)
                 continue
             result = execute(client, name, mode, args)
             value = result[1]
@@ -403,11 +416,30 @@ class Server(OtherTransports, StreamPublisher):
         return results
 
     def _over_budget(self, client: str, name: str) -> list:
-        message = (f"simx{name}: not executed, the reply would exceed {limits.MAX_REPLY_BYTES} bytes "
-                   f"(limits.MAX_REPLY_BYTES); ask for less in one request")
+        return self._refused(client, name, f"not executed, the reply would exceed {limits.MAX_REPLY_BYTES} bytes "
+                                           "(limits.MAX_REPLY_BYTES); ask for less in one request")
+
+    def _refused(self, client: str, name: str, why: str) -> list:
+        message = f"simx{name}: {why}"
         log.warning("client %s: %s", client, message)
         self._keep_error(client, message)
         return [False, message]
+
+    def _edit(self, client: str, name: str, mode: int, args: list) -> list:
+        """A scene load or edit, within the client's share of the simulation thread: each costs
+        its duration, the debt falls by limits.EDIT_SHARE s per s."""
+        now = time.monotonic()
+        debt, since = self._edit_debt.get(client, (0.0, now))
+        debt = max(0.0, debt - (now - since) * limits.EDIT_SHARE)
+        if debt > limits.EDIT_DEBT_SECONDS:
+            self._edit_debt[client] = (debt, now)
+            return self._refused(client, name, f"{P.BUSY}: this client's scene loads and edits took more than "
+                                               f"{limits.EDIT_SHARE:.0%} of the simulation thread "
+                                               "(limits.EDIT_SHARE); try again later")
+        result = self._execute(client, name, mode, args)
+        done = time.monotonic()
+        self._edit_debt[client] = (debt + (done - now), done)
+        return result
 
     _resolve = staticmethod(resolve)  # results with their Deferred images rendered (render thread)
 
@@ -426,6 +458,10 @@ class Server(OtherTransports, StreamPublisher):
                 own = self._CLIENT_COMMANDS[name]
                 return [True, getattr(self, own)(client, args) if own else self.consoles.execute(name, client, args)]
             if base in _STREAMING:
+                if name in NOT_STREAMABLE:
+                    raise P.ArgumentError(f"simx{name} cannot be streamed: only reads and settings stream "
+                                          "(scene loads, edits and file transfers run once: use simx_opmode_oneshot "
+                                          "or simx_opmode_blocking)")
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)
                 delay = mode & P.MODE_ARG_MASK if base == P.MODE_STREAMING else 0
@@ -462,54 +498,3 @@ class Server(OtherTransports, StreamPublisher):
         "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
         "GetLastErrors": "_last_errors", **{name: None for name in CONSOLE_COMMANDS},
     }
-
-    def _last_errors(self, client: str, args: list) -> list[str]:
-        return self._errors.pop(client, [])
-
-    def _bye(self, client: str, args: list) -> None:
-        self._forget(client, "disconnected")
-
-    def _synchronous(self, client: str, args: list) -> None:
-        if len(args) != 1 or not isinstance(args[0], bool):
-            raise P.ArgumentError("simxSynchronous takes one boolean")
-        if args[0]:
-            self.sim.enable_sync(client, True)
-            log.info("client %s: synchronous mode on", client)
-        elif self.sim.is_synchronous(client):
-            self._leave_sync(client, "left synchronous mode")
-
-    def _trigger(self, client: str, args: list) -> None:
-        sim = self.sim
-        if not sim.is_synchronous(client):
-            raise P.RemoteError(
-                "simxSynchronousTrigger: this client has not enabled synchronous mode (call "
-                "simxSynchronous(clientID, True)); the simulation steps once every client that did has triggered")
-        if sim.state is RunState.RUNNING and sim.trigger(client) and not self._step():
-            session = self.sessions.get(client)
-            message = session.fault if session is not None else "the simulation step failed"
-            if session is not None:
-                session.fault = None  # told now, by this call's error
-            raise P.RemoteError(message)
-
-    def _forget(self, client: str, how: str) -> None:
-        self._streams.pop(client, None)
-        self._errors.pop(client, None)
-        self.sessions.remove(client)
-        if client in self._clients:
-            self._clients.discard(client)
-            log.info("client %s %s", client, how)
-        if self.sim.is_synchronous(client):
-            self._leave_sync(client, f"{how}: out of synchronous mode")
-
-    def _leave_sync(self, client: str, how: str) -> None:
-        """``client`` leaves the synchronous barrier; the step the others all triggered runs now."""
-        released = self.sim.leave_sync(client)
-        waiting = len(self.sim.waiting_for())
-        log.info("client %s %s (%s)", client, how,
-                 "the step its other clients triggered runs now" if released else
-                 f"the next step waits for {waiting} other client(s)" if waiting else
-                 "no synchronous client left: the simulation runs asynchronously")
-        if released and self.sim.state is RunState.RUNNING:
-            self._step()  # a failure is told to every client at its next request
-
-
