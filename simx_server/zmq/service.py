@@ -46,6 +46,11 @@ log = logging.getLogger("simx.zmq")
 
 #: ``sim.NAME`` answered by the service itself (a client's state, not the scene's).
 STEPPING = ("setStepping", "step", "yield", "switchThread", "acquireLock", "releaseLock")
+#: Calls that load or edit the scene (each recompiles it): within the client's share of the
+#: simulation thread, limits.EDIT_SHARE, as the legacy API's scene commands. Past its share a
+#: client's edit waits (its program is slowed, not failed: the official client does not retry).
+EDITS = frozenset({"loadScene", "loadModel", "removeObject", "removeObjects", "removeModel", "createDummy",
+                   "setObjectParent", "setObjectAlias", "setObjectName", "importShape"})
 _EMPTY = cbor2.dumps({})
 
 
@@ -53,7 +58,7 @@ class ZmqClient:
     """One ZMQ remote API client (a ``RemoteAPIClient``, by its uuid)."""
 
     __slots__ = ("uuid", "sync_id", "lock_id", "fd", "stepping", "locks", "timeout", "last_seen",
-                 "step_at", "waiting", "held", "label", "long", "long_func")
+                 "step_at", "waiting", "held", "label", "long", "long_func", "edit_debt")
 
     def __init__(self, uuid: str, fd: int, timeout: float | None, now: float):
         self.uuid = uuid
@@ -69,6 +74,7 @@ class ZmqClient:
         self.held: list | None = None  # envelope of its _*executed*_, answered after the next step
         self.long = None  # the generator of a call that lasts several steps (sim.moveToConfig ...)
         self.long_func = ""
+        self.edit_debt = (0.0, now)  # s of the simulation thread its scene edits owe, as of when
 
 
 class ZmqService:
@@ -89,6 +95,7 @@ class ZmqService:
         self._signatures: dict[str, inspect.Signature] = {}
         self._held = 0  # clients with a held _*executed*_
         self._in_after_step = self._again = False
+        self._deferred: list[tuple] = []  # (when, client, envelope, func, args): scene edits past the share
         self._own: dict[str, Callable[[ZmqClient, list, list], None]] = {
             "setStepping": self._set_stepping, "step": self._step, "yield": self._step,
             "switchThread": self._step, "acquireLock": self._acquire_lock, "releaseLock": self._release_lock,
@@ -149,6 +156,13 @@ class ZmqService:
             self.forget(client, "left")
             self.frontend.send(envelope, _EMPTY)
             return
+        if req.func.startswith("sim.") and req.func[4:] in EDITS:
+            wait = self._edit_wait(client, now)
+            if wait > 0:  # past its share: the edit waits its turn, other clients go on meanwhile
+                log.info("ZMQ client %s: %s waits %.1f s (its scene edits took more than %.0f%% of the simulation "
+                         "thread, limits.EDIT_SHARE)", client.label, req.func, wait, 100 * limits.EDIT_SHARE)
+                self._deferred.append((now + wait, client, envelope, req.func, req.args))
+                return
         self.frontend.send(envelope, self._call(client, req.func, req.args))
 
     def _call(self, client: ZmqClient, func: str, args: list) -> bytes:
@@ -162,6 +176,8 @@ class ZmqService:
                 if isinstance(reply, bytes):
                     return reply
                 values = reply
+            elif namespace == "sim" and name in EDITS:
+                values = self._edit(client, name, args)
             elif namespace == "sim" and name in self._functions:
                 values = self._facade(name, args)
                 if isinstance(values, Stepped):
@@ -220,6 +236,36 @@ class ZmqService:
         if result is None:  # nothing from a function that returns nothing, nil from one that returns a value
             return [] if signature.return_annotation in ("None", None) else [None]
         return list(result) if isinstance(result, tuple) else [result]
+
+    @staticmethod
+    def _edit_wait(client: ZmqClient, now: float) -> float:
+        """s before the client's next scene load or edit is within its share (0: now). Each edit
+        costs its duration; the debt falls by limits.EDIT_SHARE s per s (the legacy API's rule)."""
+        debt, since = client.edit_debt
+        debt = max(0.0, debt - (now - since) * limits.EDIT_SHARE)
+        client.edit_debt = (debt, now)
+        return max(0.0, (debt - limits.EDIT_DEBT_SECONDS) / limits.EDIT_SHARE)
+
+    def _edit(self, client: ZmqClient, name: str, args: list) -> list:
+        """A scene load or edit, its duration added to the client's debt."""
+        start = time.monotonic()
+        try:
+            return self._facade(name, args)
+        finally:
+            debt, _ = client.edit_debt
+            done = time.monotonic()
+            client.edit_debt = (debt + (done - start), done)
+
+    def _run_deferred(self) -> None:
+        """Serve the scene edits whose wait is over (their clients still there)."""
+        now = time.monotonic()
+        due = [d for d in self._deferred if d[0] <= now]
+        if not due:
+            return
+        self._deferred = [d for d in self._deferred if d[0] > now]
+        for _, client, envelope, func, args in due:
+            if self.clients.get(client.uuid) is client:
+                self.frontend.send(envelope, self._call(client, func, args))
 
     def _api(self, name: str, args: list) -> list:
         if name == "require":
@@ -284,6 +330,8 @@ class ZmqService:
         """After a step (or a loop pass without one): answer the ``_*executed*_`` whose step has
         run. Answering may trigger the next step (a call that lasts several steps): then this
         looks again, once that step's own pass (nested) has returned."""
+        if self._deferred:
+            self._run_deferred()
         if not self._held:
             return
         if self._in_after_step:
@@ -384,7 +432,10 @@ class ZmqService:
         return True
 
     def housekeeping(self, now: float) -> None:
-        """Forget the clients silent for longer than their timeout (none waits for a step)."""
+        """Forget the clients silent for longer than their timeout (none waits for a step); serve
+        the scene edits whose wait is over (also when no step comes)."""
+        if self._deferred:
+            self._run_deferred()
         for client in [c for c in self.clients.values() if c.held is None and now - c.last_seen > c.timeout]:
             self.forget(client, f"expired (no request for {client.timeout:g} s)")
 

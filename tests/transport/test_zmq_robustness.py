@@ -197,3 +197,39 @@ def test_fresh_client_ids_do_not_grow_the_server(monkeypatch):
             "zmqRemoteApi.require", ["sim"], f"client-{i}")), 1, 10))
     assert len(service.clients) == 5 and all(r == {"ret": []} for r in frontend.sent)
     assert "client-19" in service.clients and "client-0" not in service.clients
+
+
+def test_scene_edits_past_the_share_wait_their_turn(monkeypatch):
+    """A client's scene edits beyond limits.EDIT_SHARE of the simulation thread are not refused
+    (the official client would fail the program) but wait; in-process, with a real simulation."""
+    import time
+
+    from conftest import wait_until
+    from simx_server.base import limits
+    from simx_server.scene.simulation import Simulation
+    from simx_server.zmq.frontend import Incoming
+    from simx_server.zmq.service import ZmqService
+
+    monkeypatch.setattr(limits, "EDIT_DEBT_SECONDS", 0.0)  # no burst: the second edit waits at once
+    monkeypatch.setattr(limits, "EDIT_SHARE", 0.5)
+    sim = Simulation(SCENES / "scripted.xml")
+    try:
+        server = type("Server", (), {"sim": sim})()
+        sent = []
+        frontend = type("Frontend", (), {"send": lambda self, env, payload: sent.append(cbor2.loads(payload))})()
+        service = ZmqService(server, frontend)
+
+        def edit():
+            service.handle("zmq", Incoming([b"id"], codec.read_request(codec.encode_request(
+                "sim.createDummy", [0.01], "editor")), 1, 10))
+
+        edit()
+        assert len(sent) == 1 and isinstance(sent[0]["ret"][0], int)
+        assert service.clients["editor"].edit_debt[0] > 0  # the first edit's duration, owed
+        edit()
+        assert len(sent) == 1 and len(service._deferred) == 1  # waiting, not refused
+        wait_until(lambda: service.housekeeping(time.monotonic()) or len(sent) == 2, timeout=30,
+                   what="the waiting edit served")
+        assert isinstance(sent[1]["ret"][0], int) and not service._deferred
+    finally:
+        sim.close()
