@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Generate simx_server/zmq/coppeliasim_api.json (JSON, package data): the names of CoppeliaSim 4.x's ``sim`` and
-``simIK`` functions and the values of their constants, as the ZMQ remote API lists them.
+"""Generate simx_server/zmq/coppeliasim_api.json (package data): the names of CoppeliaSim 4.x's
+``sim`` and ``simIK`` functions and the values of their constants, as the ZMQ remote API lists them.
 
 The table is made from the C++ client of CoppeliaRobotics/zmqRemoteApi, whose headers are
 generated from CoppeliaSim's own API description: ``RemoteAPIObjects.h`` declares one class per
