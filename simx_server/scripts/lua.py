@@ -409,6 +409,21 @@ class LuaScript(ChildScript):
         except ScriptError as exc:
             raise self._fault(function, str(exc)) from None
 
+    def _run_values(self, function: str, args: tuple) -> list:
+        fn = self._lookup(function.encode())
+        if fn is None:
+            raise self._fault(function, "no such function")
+        try:
+            lua_args = tuple(self._to_lua(a) for a in args)
+        except (TypeError, ValueError) as exc:
+            raise ArgumentError(f"{self.label}, {function}: arguments that Lua cannot take: {exc}") from None
+        out = self._bounded(function, fn, lua_args)
+        values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
+        try:
+            return [self._from_lua(v) for v in values]
+        except (TypeError, ValueError) as exc:
+            raise self._fault(function, f"returned values that cannot be sent: {exc}") from None
+
     def _drop(self) -> None:
         self._lookup = None
         self._runtime = None

@@ -169,6 +169,13 @@ class Scripts:
             raise ArgumentError("the function name must be a non-empty string")
         return script.call(function, list(ints), [float(v) for v in floats], list(strings), bytes(buffer))
 
+    def script_of(self, handle: int) -> ChildScript:
+        """The child script of object ``handle``; ScriptError when it has none."""
+        script = self.scripts.get(handle)
+        if script is None:
+            raise ScriptError(f"object {self.world.get(handle).name!r} has no child script")
+        return script
+
 
 _WRONG_TYPES = "script arguments must be lists of ints, floats and strings, and bytes"
 

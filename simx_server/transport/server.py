@@ -37,7 +37,8 @@ from simx_server.transport import logs
 from simx_server.transport.client_commands import ClientCommands
 from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
 from simx_server.transport.consoles import cut as _cut
-from simx_server.transport.replies import IMAGES, SMALL, image_size, reply_size
+from simx_server.transport.others import OtherTransports
+from simx_server.transport.replies import IMAGES, SMALL, image_size, reply_size, resolve
 from simx_server.transport.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.transport.streams import StreamPublisher, _Stream
 from simx_server.transport.viewer_feed import ViewerFeed
@@ -53,7 +54,7 @@ _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 PACINGS = ("legacy", "immediate")
 
 
-class Server(ClientCommands, StreamPublisher):
+class Server(OtherTransports, ClientCommands, StreamPublisher):
     """Serves one :class:`Simulation` on Zenoh.
 
     Args:
@@ -106,6 +107,7 @@ class Server(ClientCommands, StreamPublisher):
         self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
         self.viewers = ViewerFeed(prefix, self._queue.put)  # simx-viewer's model and state
+        self._init_transports(self._queue.put)  # other transports beside Zenoh (OtherTransports)
 
     # ------------------------------------------------------------ zenoh side
     def open(self) -> None:
@@ -182,6 +184,7 @@ class Server(ClientCommands, StreamPublisher):
 
     def close(self) -> None:
         """Finish pending renders and their replies, then close the session; idempotent."""
+        self._close_transports()
         self.sim.close()
         if self.session is not None:
             session, self.session = self.session, None
@@ -218,6 +221,7 @@ class Server(ClientCommands, StreamPublisher):
                     interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
                 elif sim.state is not RunState.RUNNING:
                     self._publish_streams()  # idle tick: streams keep being served
+                    self._after_step()
                 if self._held:  # stepped, or no longer stepping: their blocking calls are due
                     self._release_held()
                 if now >= self._housekeeping_at:
@@ -243,6 +247,7 @@ class Server(ClientCommands, StreamPublisher):
             expired = self.sessions.expired(self.client_expiry)
             for client in expired:
                 self._forget(client, f"expired (no liveliness token, no request for {self.client_expiry:g} s)")
+            self._transports_housekeeping(now)
             logs.flush()
         except Exception:  # housekeeping must never end the loop
             log.exception("housekeeping")
@@ -254,7 +259,8 @@ class Server(ClientCommands, StreamPublisher):
         """As fast as possible (``--speed 0``) with no client and no viewer: nobody would see the
         steps, so none are taken (the loop sleeps until a request comes) and an idle server of a
         pool leaves the cores to the servers in use. Paced servers keep V-REP's clock."""
-        return not self.sim.realtime and not len(self.sessions) and not self.viewers.watched
+        return (not self.sim.realtime and not len(self.sessions) and not self.viewers.watched
+                and not self._transport_clients())
 
     def _step(self) -> bool:
         """One step and the streams' updates; False when the step failed (the simulation is
@@ -263,8 +269,10 @@ class Server(ClientCommands, StreamPublisher):
             self.sim.step()
         except Exception as exc:  # nothing a client sends may end the simulation thread
             self._step_failed(exc)
+            self._after_step()
             return False
         self._publish_streams()
+        self._after_step()
         return True
 
     def _step_failed(self, exc: Exception) -> None:
@@ -310,6 +318,8 @@ class Server(ClientCommands, StreamPublisher):
             self._forget(client, "left")
         elif kind == "viewer-model":  # client is the query here
             self.viewers.answer(client, self.sim.world)
+        elif kind in self._kinds:  # another transport's request or event (client is its item)
+            self._kinds[kind].handle(kind, client)
 
     def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
         """Execute a request and reply, now or on the render thread once its images are
@@ -431,19 +441,7 @@ class Server(ClientCommands, StreamPublisher):
         self._edit_debt[client] = (debt + (done - now), done)
         return result
 
-    @staticmethod
-    def _resolve(results: list, client: str) -> list:
-        """Results with every Deferred replaced by its value (called on the render thread)."""
-        out = []
-        for ok, value in results:
-            if isinstance(value, Deferred):
-                try:
-                    value = value.future.result()
-                except Exception as exc:
-                    log.exception("client %s: rendering failed", client)
-                    ok, value = False, f"internal error while rendering: {type(exc).__name__}: {exc}"
-            out.append([ok, value])
-        return out
+    _resolve = staticmethod(resolve)  # results with their Deferred images rendered (render thread)
 
     def _execute(self, client: str, name: str, mode: int, args: list) -> list:
         base = mode & P.MODE_MASK
@@ -500,11 +498,3 @@ class Server(ClientCommands, StreamPublisher):
         "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
         "GetLastErrors": "_last_errors", **{name: None for name in CONSOLE_COMMANDS},
     }
-
-
-
-
-
-
-
-
