@@ -1,5 +1,6 @@
-"""simx-server with two probes: the wall time at the end of every simulation step, and the
-duration of every vision-sensor frame the server produces.
+"""simx-server with three probes: the wall time at the end of every simulation step, the
+duration of every vision-sensor frame the server produces, and every request that reaches a
+client's queue.
 
 ``python -m benchmarks.instrumented_server [simx-server arguments]`` runs
 ``simx_server.cli.main`` unchanged except that
@@ -8,9 +9,12 @@ duration of every vision-sensor frame the server produces.
   step (before the server publishes the streams);
 * ``VisionSensors._render`` (on the render thread) is wrapped to record
   ``(kind, start, duration)`` of every frame actually rendered ("image" for RGB, "depth");
-  the flip and copy to bytes that follow (about 1 ms) fall into "transfer".
+  the flip and copy to bytes that follow (about 1 ms) fall into "transfer";
+* ``Sessions.admit`` (on Zenoh's threads) is wrapped to record ``(time.monotonic(), commands,
+  queued)`` of every readable request: how many requests a client puts on the wire, and which
+  the server answered "server busy" instead of queueing (``queued`` false).
 
-On exit the records go, as JSON ``{"steps": [...], "frames": [...]}``, to the file named by
+On exit the records go, as JSON ``{"steps": [...], "frames": [...], "requests": [...]}``, to the file named by
 ``SIMX_BENCH_PROBE_LOG``. With ``SIMX_BENCH_CPROFILE=FILE`` the whole server (its main thread,
 where requests execute) also runs under cProfile and its stats go to FILE (pstats format). CLOCK_MONOTONIC is system-wide on Linux, so a client process can
 compare its own ``time.monotonic()`` with these stamps. Cost: a clock read or two and a list
@@ -29,10 +33,12 @@ import time
 from simx_server import cli
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.vision import VisionSensors
+from simx_server.transport.sessions import Sessions
 
 _MAX_RECORDS = 200_000
 _steps: collections.deque = collections.deque(maxlen=_MAX_RECORDS)
 _frames: collections.deque = collections.deque(maxlen=_MAX_RECORDS)
+_requests: collections.deque = collections.deque(maxlen=_MAX_RECORDS)
 
 
 def _wrap_step(original):
@@ -54,9 +60,19 @@ def _wrap_render(original):
     return render
 
 
+def _wrap_admit(original):
+    @functools.wraps(original)
+    def admit(self: Sessions, client: str, request, size: int):
+        refused = original(self, client, request, size)
+        _requests.append((time.monotonic(), len(request[1]), refused is None))  # deque.append: thread-safe
+        return refused
+    return admit
+
+
 def main(argv: list[str] | None = None) -> int:
     Simulation.step = _wrap_step(Simulation.step)
     VisionSensors._render = _wrap_render(VisionSensors._render)
+    Sessions.admit = _wrap_admit(Sessions.admit)
     profile_path = os.environ.get("SIMX_BENCH_CPROFILE")
     profiler = None
     if profile_path:
@@ -71,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
         path = os.environ.get("SIMX_BENCH_PROBE_LOG")
         if path:
             with open(path, "w") as f:
-                json.dump({"steps": list(_steps), "frames": list(_frames)}, f)
+                json.dump({"steps": list(_steps), "frames": list(_frames), "requests": list(_requests)}, f)
 
 
 if __name__ == "__main__":

@@ -121,8 +121,9 @@ class Server(Proc):
                  name: str = "server"):
         self.port = port or free_port()
         module = "benchmarks.instrumented_server" if probe_log else "simx_server.cli"
+        zmq = [] if "--zmq-port" in args else ["--no-zmq"]  # the ZMQ remote API only where a suite asks
         cmd = [sys.executable, "-m", module, str(SCENE), "--port", str(self.port),
-               "--log-level", "WARNING", *args]
+               "--log-level", "WARNING", *zmq, *args]
         env = child_env(**({"SIMX_BENCH_PROBE_LOG": str(probe_log)} if probe_log else {}))
         super().__init__(f"{name}-{self.port}", cmd, log_dir, env=env, cwd=ROOT)
 

@@ -47,7 +47,8 @@ SUITES = {
     "dataset": ("benchmarks.dataset", "9. simx-dataset images per second (issue 13)"),
     "envs": ("benchmarks.envs", "Gymnasium env steps/s, remote vs in-process (issue 13)"),
     "idle": ("benchmarks.idle", "idle servers cost nothing: an env beside 3 idle servers (issue 20)"),
-    "outbox": ("benchmarks.outbox", "the client's outbox: a tight oneshot loop on the wire (issue 19)"),
+    "outbox": ("benchmarks.outbox", "command batching: a loop of oneshot calls on the wire (issue 19)"),
+    "zmq": ("benchmarks.zmq_api", "CoppeliaSim's ZMQ remote API: against bare REQ/REP and the legacy API (issue 22)"),
 }
 #: Suites run only when named in --only: the robustness suite floods a server on purpose and
 #: soaks it for 3 minutes (about 5 minutes in all), which the everyday run should not do; the

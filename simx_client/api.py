@@ -59,6 +59,10 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
     timeout to its absolute value and waits 5000 ms to connect. Connecting twice to the same
     address and port from one process fails (-1), as it did.
 
+    ``commThreadCycleInMs`` (ms, usually 5) is the communication cycle: non-blocking commands
+    wait in the client's outbox and leave together at most once per cycle (a blocking call takes
+    them with it at once); 0 or less sends each batch as soon as the previous one is answered.
+
     The server's key-expression prefix (its ``--prefix``) is ``$SIMX_PREFIX``, ``simx`` when
     unset: several servers reached through one Zenoh router differ by prefix only.
     """
@@ -66,7 +70,7 @@ def simxStart(connectionAddress, connectionPort, waitUntilConnected, doNotReconn
         address, port = _str(connectionAddress), _int(connectionPort)
         wait, timeout_ms = _bool(waitUntilConnected), _int(timeOutInMs)
         reconnect = not _bool(doNotReconnectOnceDisconnected)
-        cycle = _int(commThreadCycleInMs) / 1000.0
+        cycle = max(0, _int(commThreadCycleInMs)) / 1000.0
     except Exception as exc:
         log.warning("simxStart: bad argument: %s", exc)
         return -1

@@ -8,6 +8,12 @@ never the reply to the call itself), or "no value" (flag 1). Replies of
 non-blocking commands and every streamed update land in the inbox, where they stay until
 read by a blocking call, removed, discontinued or the connection ends.
 
+Non-blocking commands wait in the outbox (:mod:`simx_client.outbox`), as in the legacy client:
+a thread of the connection sends what waits as one request once per communication cycle
+(``simxStart``'s ``commThreadCycleInMs``), one such request in flight at a time, never while
+communication is paused; a blocking call sends what waits right ahead of itself. A request the
+server answers "busy" goes back to the outbox and is sent again.
+
 The server's liveliness token tells whether it is there (a killed server's token goes at once,
 a frozen one's when its Zenoh lease expires). When it goes the connection is lost, as the
 legacy client's socket was (extApi.c ``_communicationThread``): the connection id turns -1 and
@@ -34,7 +40,9 @@ import zenoh
 
 from simx_client import constants as C
 from simx_client import protocol as P
+from simx_client.outbox import MAX_BATCH_COMMANDS
 from simx_client.refusal import open_session
+from simx_client.sender import DEFAULT_CYCLE, OutboxSender, direct
 
 log = logging.getLogger("simx.client")
 
@@ -43,20 +51,13 @@ STREAM_BACKLOG = 4096  # stream updates kept unread; beyond, the oldest are drop
 _NO_VALUE = (C.simx_return_novalue_flag, None)
 _TIMED_OUT = (C.simx_return_timeout_flag | C.simx_return_novalue_flag, None)  # blocking, no reply
 _RESUME_PAUSE = 0.2  # s between two handshakes of a client that reconnects
-#: s the outbox waits before it sends (simxStart's commThreadCycleInMs; V-REP programs pass 5).
-DEFAULT_COMM_CYCLE = 0.005
-MAX_COMM_CYCLE = 0.1  # s: a longer cycle given to simxStart is shortened to this
 _NO_RESPONSE = [P.PROTOCOL_VERSION, 0, 0, 0, 0, []]  # "the last response" before there is one
 _connection_ids = itertools.count(1)
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 _SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
 
 
-def _direct(callback: Any, drop: Any = None) -> zenoh.handlers.Callback:
-    """A Zenoh callback run on Zenoh's own thread. The default ("indirect") starts a non-daemon
-    Python thread per handler, which keeps the interpreter from exiting while a session is open.
-    Every callback here is short and never blocks."""
-    return zenoh.handlers.Callback(callback, drop, indirect=False)
+_direct = direct
 
 
 #: Environment variables naming a client Zenoh config file, first found wins (ZENOH_CONFIG is
@@ -132,7 +133,7 @@ def client_id(config: zenoh.Config) -> str:
     return f"{user}{_USER_SEPARATOR}{ident}"
 
 
-class Connection:
+class Connection(OutboxSender):
     """A connected legacy client.
 
     Args:
@@ -141,8 +142,8 @@ class Connection:
         prefix: the server's key-expression prefix.
         hello_timeout: s to wait for the server's handshake (default: blocking_timeout).
         reconnect: whether to resume after the server went away (``not doNotReconnectOnceDisconnected``).
-        comm_cycle: s the outbox gathers non-blocking commands before sending them as one
-            request (``simxStart``'s commThreadCycleInMs / 1000, at most ``MAX_COMM_CYCLE``).
+        cycle: s between two requests of the outbox (``commThreadCycleInMs`` / 1000); 0 sends
+            each as soon as the previous one is answered.
 
     Raises:
         zenoh.ZError: nothing listens at ``address:port``.
@@ -154,9 +155,8 @@ class Connection:
 
     def __init__(self, address: str, port: int, blocking_timeout: float = DEFAULT_BLOCKING_TIMEOUT,
                  prefix: str = P.DEFAULT_PREFIX, hello_timeout: float | None = None, reconnect: bool = False,
-                 comm_cycle: float = DEFAULT_COMM_CYCLE):
+                 cycle: float = DEFAULT_CYCLE):
         self.address, self.port, self.prefix = address, port, prefix
-        self.comm_cycle = min(max(0.0, comm_cycle), MAX_COMM_CYCLE)
         config = client_config(address, port)  # raises LocalError
         self.client = client_id(config)
         self.blocking_timeout = blocking_timeout
@@ -170,10 +170,7 @@ class Connection:
         self._inbox: dict[tuple, tuple[bool, Any, int]] = {}
         self._streams: dict[tuple, list] = {}  # identity -> the [name, mode, args] that streams it
         self._in_flight: dict[tuple, int] = {}  # split commands sent and not answered yet
-        self._outbox: dict[Any, list] = {}  # identity (or a unique key) -> command, in sending order
-        self._paused = False
-        self._wake = threading.Condition(self._lock)  # the outbox's sender: commands wait
-        self._sender: threading.Thread | None = None
+        self._init_sender(cycle)  # the outbox, its lock and its thread's state
         self.converted: dict[tuple, tuple[Any, Any]] = {}  # the facade's last conversion per command
         self._key = P.call_key(prefix, self.client)
         self._encoder = P.RequestEncoder(self.client)
@@ -193,6 +190,7 @@ class Connection:
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
             self._watch = self.session.liveliness().declare_subscriber(
                 P.server_token_key(prefix), _direct(self._on_server_token), history=True)
+            self._start_sender()
         except TimeoutError:
             seen = self._server_token_seen()
             self.session.close()
@@ -232,19 +230,23 @@ class Connection:
         header = self._out = (next(self._messages), time.monotonic())
         return payload, header
 
-    def request(self, commands: list[list], timeout: float | None = None) -> list[list]:
-        """Send commands and wait for their results ``[[ok, value], ...]``.
+    def request(self, commands: list[list], timeout: float | None = None, flush: bool = False) -> list[list]:
+        """Send commands and wait for their results ``[[ok, value], ...]``; with ``flush``, what
+        waits in the outbox leaves first, right ahead of them (unless communication is paused).
 
         Raises:
             TimeoutError: no reply within the timeout (the server is gone or too slow).
             ProtocolError: the server refused the request.
             LocalError: arguments that cannot be encoded (nothing was sent).
         """
-        payload, header = self._payload(commands)
-        if timeout is None:
-            replies = self._querier.get(payload=payload)
-        else:
-            replies = self.session.get(self._key, payload=payload, timeout=timeout)
+        with self._send_lock:
+            if flush and self._outbox and not self._paused:
+                self._send_outbox(background=False)
+            payload, header = self._payload(commands)
+            if timeout is None:
+                replies = self._querier.get(payload=payload)
+            else:
+                replies = self.session.get(self._key, payload=payload, timeout=timeout)
         for reply in replies:
             ok = reply.ok
             if ok is not None:
@@ -258,106 +260,6 @@ class Connection:
         message = P.unpack_response(payload)
         self._in = (header, message)
         return message
-
-    def _send_async(self, commands: list[list], payload: bytes | None = None, requeue: bool = False) -> None:
-        payload, header = self._payload(commands, payload)
-        split = [P.identity(n, a) for n, m, a in commands if m & P.MODE_MASK in _SPLIT]
-        epoch = self._epoch
-
-        def on_reply(reply: zenoh.Reply) -> None:
-            if reply.ok is None:
-                return
-            try:
-                message = self._accept(reply.ok.payload.to_bytes(), header)
-            except P.ProtocolError as exc:
-                log.warning("%s", exc)
-                return
-            t = message[1]
-            with self._lock:
-                if epoch != self._epoch or not self._alive:
-                    return  # a reply of a lost connection: its inbox was cleared
-                if requeue and _busy(message[5]):  # not queued: nothing was executed, send again
-                    self._requeue(commands)
-                    return
-                for (name, mode, args), (ok, value) in zip(commands, message[5]):
-                    if mode & P.MODE_MASK != P.MODE_DISCONTINUE:
-                        self._store(P.identity(name, args), ok, value, t)
-
-        def on_done() -> None:
-            with self._lock:
-                for ident in split:
-                    self._in_flight[ident] -= 1
-                    if not self._in_flight[ident]:
-                        del self._in_flight[ident]
-
-        with self._lock:
-            for ident in split:
-                self._in_flight[ident] = self._in_flight.get(ident, 0) + 1
-        try:
-            self._querier.get(_direct(on_reply, on_done), payload=payload)
-        except zenoh.ZError as exc:
-            on_done()
-            log.warning("sending %d command(s) failed: %s", len(commands), exc)
-
-    # ------------------------------------------------------------------ outbox
-    # V-REP's client collected non-blocking commands and its communication thread sent them
-    # together every commThreadCycleInMs; a newer command of the same identity replaced the one
-    # still waiting (extApi.c). So does this outbox: a program's tight loop of oneshot calls
-    # costs one request per cycle, not one each, and cannot overflow its server queue.
-    def _hold(self, command: list, ident: tuple) -> None:
-        """Put ``command`` in the outbox (lock held): the same command still waiting is replaced
-        and moves to the end; commands that are never merged (P.DO_NOT_OVERWRITE) all stay."""
-        key = object() if command[0] in P.DO_NOT_OVERWRITE else ident
-        self._outbox.pop(key, None)
-        self._outbox[key] = command
-
-    def _take_outbox(self) -> list[list]:
-        """Everything waiting, in order, and an empty outbox (lock held)."""
-        batch, self._outbox = list(self._outbox.values()), {}
-        return batch
-
-    def _wake_sender(self) -> None:
-        """Start the sender on the first command, else tell it that commands wait (lock held)."""
-        if self._sender is None:
-            self._sender = threading.Thread(target=self._send_loop, name="simx-outbox", daemon=True)
-            self._sender.start()
-        else:
-            self._wake.notify()
-
-    def _send_loop(self) -> None:
-        """The communication thread: sleeps while nothing waits; else lets one cycle pass (what
-        comes meanwhile joins) and sends the outbox as one request."""
-        while True:
-            with self._lock:
-                while "session" in self.__dict__ and not (self._outbox and self._alive and not self._paused):
-                    self._wake.wait()
-                if "session" not in self.__dict__:
-                    return
-            time.sleep(self.comm_cycle)
-            with self._lock:
-                if self._paused or not self._alive:
-                    continue
-                batch = self._take_outbox()
-            self._send_batch(batch)
-
-    def _send_batch(self, batch: list[list]) -> None:
-        """Send ``batch`` in requests of at most P.MAX_COMMANDS_PER_REQUEST commands; what the
-        server answers "busy" comes back to the outbox (:meth:`_send_async`)."""
-        for i in range(0, len(batch), P.MAX_COMMANDS_PER_REQUEST):
-            self._send_async(batch[i:i + P.MAX_COMMANDS_PER_REQUEST], requeue=True)
-
-    def _requeue(self, commands: list[list]) -> None:
-        """Commands the server could not queue go back to the front of the outbox, unless a newer
-        command of the same identity waits already (lock held); the sender tries again."""
-        kept = {}
-        for command in commands:
-            name, _, args = command
-            key = object() if name in P.DO_NOT_OVERWRITE else P.identity(name, args)
-            if key not in self._outbox:
-                kept[key] = command
-        self._outbox = {**kept, **self._outbox}
-        if self._sender is not None:
-            self._wake.notify()
 
     def _store(self, ident: tuple, ok: bool, value: Any, t: int) -> None:
         """Put a reply in the inbox (lock held): the newest replaces, string streams add up."""
@@ -467,12 +369,8 @@ class Connection:
                 with self._lock:
                     self._streams.pop(ident, None)
                     self._inbox.pop(ident, None)
-            if self._outbox and not self._paused:  # what waits leaves first, at once, in order
-                with self._lock:
-                    batch = self._take_outbox()
-                self._send_batch(batch)
             try:
-                ok, value = self.request([[name, mode, args]])[0]
+                ok, value = self.request([[name, mode, args]], flush=True)[0]
             except (TimeoutError, zenoh.ZError):
                 return _TIMED_OUT
             except P.LocalError as exc:
@@ -491,12 +389,12 @@ class Connection:
         if base not in (P.MODE_ONESHOT, P.MODE_DISCONTINUE, *_STREAMING, *_SPLIT):
             return C.simx_return_illegal_opmode_flag, None
         command = [name, mode, args]
-        try:  # encoded before it is kept as a stream or in the outbox: what is kept can be sent
-            self._encode([command])
-        except P.LocalError as exc:
-            return C.simx_return_local_error_flag, str(exc)
+        try:  # packed before it is kept as a stream or in the outbox: what is kept can be sent
+            packed = P.pack(command)
+        except (TypeError, ValueError, OverflowError) as exc:  # UnicodeEncodeError is a ValueError
+            return C.simx_return_local_error_flag, f"arguments that cannot be sent: {type(exc).__name__}: {exc}"
         with self._lock:
-            if base in _SPLIT and ident in self._in_flight:
+            if base in _SPLIT and (ident in self._in_flight or ident in self._outbox):
                 rc, value = self._read_locked(ident)
                 return rc | C.simx_return_split_progress_flag, value
             if base in _STREAMING:
@@ -511,9 +409,9 @@ class Connection:
             # client read it before its communication thread sent the command: never the reply
             # to this very call, however fast it comes back.
             answer = self._read_locked(ident)
-            self._hold(command, ident)
-            if not self._paused:
-                self._wake_sender()
+            self._outbox.put(ident, command, packed)  # an overwritten command moves to the end
+            if len(self._outbox) == 1:
+                self._wake.notify()
         return answer
 
     def _read(self, ident: tuple) -> tuple[int, Any]:
@@ -532,15 +430,12 @@ class Connection:
         return (C.simx_return_ok, value) if ok else (C.simx_return_remote_error_flag, value)
 
     def pause_communication(self, enable: bool) -> None:
-        """``simxPauseCommunication``: hold non-blocking commands, then send them as one batch."""
+        """``simxPauseCommunication``: hold the outbox (True), then let it leave (False): what
+        waits leaves together, at the next cycle or with the next blocking call."""
         with self._lock:
             self._paused = bool(enable)
-            if self._paused or not self._outbox:
-                return
-            batch = self._take_outbox()
-            if not self._alive:
-                return
-        self._send_batch(batch)
+            if not self._paused and self._outbox:
+                self._wake.notify()
 
     def in_message_info(self, info_type: int) -> int | None:
         """A field of the last message received (simx_headeroffset_*), None if unknown or
@@ -571,13 +466,17 @@ class Connection:
         session = self.__dict__.pop("session", None)
         if session is None:
             return
-        with self._lock:
-            batch, self._paused = self._take_outbox(), False
-            self._wake.notify_all()  # the sender sees the session gone and ends
+        with self._send_lock, self._lock:  # after whatever the sender thread is sending
+            self._closed, self._paused = True, False
+            self._wake.notify_all()
+            parts = [batch.packed for batch in self._outbox.take()] or [[]]
+        if len(parts[-1]) >= MAX_BATCH_COMMANDS:
+            parts.append([])
+        parts[-1] = parts[-1] + [P.pack(["Bye", P.MODE_ONESHOT, []])]
         try:
-            session.get(self._key, _direct(lambda reply: None),
-                        payload=self._encoder.encode(batch + [["Bye", P.MODE_ONESHOT, []]]),
-                        timeout=0.5)
+            for packed in parts:
+                session.get(self._key, _direct(lambda reply: None), payload=self._encoder.encode_packed(packed),
+                            timeout=0.5)
         except zenoh.ZError:
             pass
         closer = threading.Thread(target=session.close, daemon=True)
@@ -590,23 +489,16 @@ class Connection:
         return "session" in self.__dict__ and self._alive and not self.session.is_closed()
 
 
-def _busy(results: list) -> bool:
-    """Whether a response is the server's refusal to queue the request (every command answered
-    ``server busy: ...``, nothing executed)."""
-    return bool(results) and all(
-        r[0] is False and type(r[1]) is str and r[1].startswith(P.BUSY) for r in results)
-
-
 def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_timeout: float,
-                 reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX,
-                 comm_cycle: float = DEFAULT_COMM_CYCLE) -> Connection | None:
-    """Connect to a simx server, retrying until ``timeout`` s when ``wait``; None on failure."""
+                 reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX, cycle: float = DEFAULT_CYCLE
+                 ) -> Connection | None:
+    """Connect to a simx server, retrying until ``timeout`` s when ``wait``; None on failure.
+    ``cycle``: s between two requests of the outbox (:class:`Connection`)."""
     deadline = time.monotonic() + timeout
     while True:
         try:
-            return Connection(address, port, blocking_timeout, prefix, reconnect=reconnect,
-                              hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())),
-                              comm_cycle=comm_cycle)
+            return Connection(address, port, blocking_timeout, prefix, reconnect=reconnect, cycle=cycle,
+                              hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())))
         except (P.ProtocolError, P.LocalError) as exc:
             log.error("simxStart(%s, %d): %s", address, port, exc)
             return None

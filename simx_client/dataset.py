@@ -48,6 +48,8 @@ from simx_client.images import decode_handles, set_lazy_image_lists  # noqa: F40
 B = vrep.simx_opmode_blocking
 ONESHOT = vrep.simx_opmode_oneshot
 RENDER_MODE = 1017  # sim_visionintparam_render_mode
+RESOLUTION_X, RESOLUTION_Y = 1002, 1003  # sim_visionintparam_resolution_x / _y
+PERSPECTIVE_ANGLE = 1004  # sim_visionfloatparam_perspective_angle (rad)
 COLOR_CODED = 2  # sim_rendermode_colorcoded
 BACKGROUND = 0xFFFFFF  # what a colour-coded pixel with no object decodes to
 DEFAULT_JOINTS = [f"UR5_joint{i}" for i in range(1, 7)]
@@ -78,21 +80,71 @@ class Box:
 
 def boxes(handles: np.ndarray, classes: list[list[int]], min_pixels: int = MIN_BOX_PIXELS,
           min_side: int = MIN_BOX_SIDE) -> list[Box]:
-    """One box per class whose objects (handles) are visible in ``handles`` (rows top-down):
-    the bounding box of their visible pixels, dropped below ``min_pixels`` or ``min_side``."""
+    """One box per visible object of each class (``handles``: rows top-down), as YOLO labels
+    mean instances: the bounding box of the object's visible pixels, dropped below
+    ``min_pixels`` or ``min_side``. A class of several objects gives a box for each of them."""
     out = []
     for cls, members in enumerate(classes):
-        mask = np.isin(handles, members) if len(members) > 1 else handles == members[0]
-        n = int(np.count_nonzero(mask))
-        if n == 0 or n < min_pixels:
-            continue
-        rows = np.flatnonzero(mask.any(axis=1))
-        cols = np.flatnonzero(mask.any(axis=0))
-        box = Box(cls, int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1, n)
-        if box.x1 - box.x0 < min_side or box.y1 - box.y0 < min_side:
-            continue
-        out.append(box)
+        for member in members:
+            mask = handles == member
+            n = int(np.count_nonzero(mask))
+            if n == 0 or n < min_pixels:
+                continue
+            rows = np.flatnonzero(mask.any(axis=1))
+            cols = np.flatnonzero(mask.any(axis=0))
+            box = Box(cls, int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1, n)
+            if box.x1 - box.x0 < min_side or box.y1 - box.y0 < min_side:
+                continue
+            out.append(box)
     return out
+
+
+#: Share of the vision sensor's view angles within which objects are placed: their whole body,
+#: not only their origin, should be in the image.
+VIEW_SHARE = 0.8
+
+
+def view_footprint(position, quaternion, angle: float, width: int, height: int, z: float,
+                   share: float = VIEW_SHARE) -> np.ndarray | None:
+    """The polygon (4, 2) where a vision sensor at ``position`` (m) with ``quaternion`` (x, y, z,
+    w; V-REP's sensor frame: it looks along +z, +x across the image's width) and perspective
+    angle ``angle`` (rad, over the larger side) sees the plane at height ``z``, its angles shrunk
+    to ``share``; None when a corner ray does not meet the plane ahead of the sensor."""
+    half_x = math.atan(math.tan(angle / 2) * (1 if width >= height else width / height)) * share
+    half_y = math.atan(math.tan(angle / 2) * (1 if height >= width else height / width)) * share
+    p = np.asarray(position, float)
+    corners = []
+    for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+        ray = quat_rotate(quaternion, np.array([sx * math.tan(half_x), sy * math.tan(half_y), 1.0]))
+        if ray[2] >= -1e-9:
+            return None
+        t = (z - p[2]) / ray[2]
+        if t <= 0:
+            return None
+        corners.append((p + t * ray)[:2])
+    return np.array(corners)
+
+
+def _inside(polygon: np.ndarray, point: np.ndarray) -> bool:
+    """Whether ``point`` (2,) lies in the convex ``polygon`` (n, 2), either winding."""
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    cross = edges[:, 0] * (point[1] - polygon[:, 1]) - edges[:, 1] * (point[0] - polygon[:, 0])
+    return bool(np.all(cross >= 0) or np.all(cross <= 0))
+
+
+def place_in_view(rng: np.random.Generator, area, footprint: np.ndarray | None,
+                  tries: int = 200) -> tuple[float, float, bool]:
+    """A random spot ``(x, y, seen)`` of the surface ``area`` (x0, x1, y0, y1, z) that the sensor
+    sees (inside ``footprint``), or of the whole surface (``seen`` False) when they do not meet."""
+    x0, x1, y0, y1, _ = area
+    if footprint is not None:
+        lo, hi = np.maximum(footprint.min(axis=0), (x0, y0)), np.minimum(footprint.max(axis=0), (x1, y1))
+        if np.all(lo < hi):
+            for _ in range(tries):
+                point = rng.uniform(lo, hi)
+                if _inside(footprint, point):
+                    return float(point[0]), float(point[1]), True
+    return float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)), False
 
 
 def draw(image_bgr: np.ndarray, found: list[Box], names: list[str]) -> np.ndarray:
@@ -182,6 +234,11 @@ class Scene:
             vals.append(v)
         return np.array(vals[:3]), np.array(vals[3:])
 
+    def float_param(self, h: int, pid: int) -> float:
+        rc, v = vrep.simxGetObjectFloatParameter(self.cid, h, pid, B)
+        self._ok(rc, f"simxGetObjectFloatParameter({pid})")
+        return float(v)
+
     def int_param(self, h: int, pid: int) -> int:
         rc, v = vrep.simxGetObjectIntParameter(self.cid, h, pid, B)
         self._ok(rc, f"simxGetObjectIntParameter({pid})")
@@ -258,6 +315,7 @@ class Result:
     labels: int  # boxes written
     empty: int  # images without a box
     seconds: float
+    outside: int = 0  # objects placed where the sensor does not see the surface (no overlap)
 
 
 def surface_area(scene: Scene, spec: str, margin: float) -> tuple[float, float, float, float, float]:
@@ -335,7 +393,9 @@ def _generate(scene: Scene, opts: Options) -> Result:
         (out / "saveImg" / "depthImg").mkdir(parents=True, exist_ok=True)
 
     bar = _progress(opts.count, opts.progress)
-    labels = empty = 0
+    labels = empty = unseen = 0
+    angle = scene.float_param(sensor, PERSPECTIVE_ANGLE)
+    width0, height0 = scene.int_param(sensor, RESOLUTION_X), scene.int_param(sensor, RESOLUTION_Y)
     t0 = time.perf_counter()
     vrep.simxSynchronous(scene.cid, True)  # no step between the two renders of a view
     try:
@@ -347,9 +407,14 @@ def _generate(scene: Scene, opts: Options) -> Result:
                 noise = rng.uniform(-opts.pose_noise, opts.pose_noise, len(joints)) if opts.pose_noise else 0
                 target = dict(zip(joints, np.radians(np.asarray(opts.pose) + noise).tolist()))
             places = {}
+            if placed:  # where the sensor sees the surface at this pose: the pose first
+                scene.set_state(target, {})
+                footprint = view_footprint(scene.position(sensor), scene.quaternion(sensor), angle,
+                                           width0, height0, area[4])
             for h in placed:
-                x0, x1, y0, y1, z = area
-                places[h] = [float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)), z + lift[h]]
+                x, y, seen = place_in_view(rng, area, footprint)
+                unseen += not seen
+                places[h] = [x, y, area[4] + lift[h]]
             scene.set_state(target, places)
             rgb = scene.image(sensor)
             handles = scene.coded(sensor)
@@ -382,7 +447,7 @@ def _generate(scene: Scene, opts: Options) -> Result:
             vrep.simxSynchronous(scene.cid, False)
     seconds = time.perf_counter() - t0
     _write_yaml(out, names)
-    return Result(out, opts.count, labels, empty, seconds)
+    return Result(out, opts.count, labels, empty, seconds, unseen)
 
 
 def _write(path: Path, image: np.ndarray) -> None:
@@ -466,6 +531,10 @@ def main(argv: list[str] | None = None) -> int:
     rate = result.images / result.seconds if result.seconds > 0 else float("inf")
     print(f"simx-dataset: {result.images} images ({result.labels} boxes, {result.empty} without any) "
           f"in {result.seconds:.1f} s ({rate:.1f} images/s)")
+    if result.empty:
+        why = (f"{result.outside} placements fell where the sensor does not see the surface" if result.outside
+               else "every object was placed in the sensor's view: hidden behind others or too small (--min-box-*)")
+        print(f"simx-dataset: {result.empty} images without a box: {why}")
     print(f"data set: {result.out.resolve()}  (YOLO: {(result.out / 'data.yaml').resolve()})")
     return 0
 

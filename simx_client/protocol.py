@@ -115,9 +115,22 @@ DO_NOT_OVERWRITE = frozenset({
 #: Most commands in one request: the server refuses more (simx_server.base.limits), and the
 #: client's outbox sends larger batches in several requests.
 MAX_COMMANDS_PER_REQUEST = 1024
-#: How a server answers every command of a request it cannot queue now (a full client queue):
-#: the client's outbox keeps such commands and sends them again.
+#: The start of the error message of every result of a request the server could not queue
+#: (a client's queue or the server's is full): ``[[False, "server busy: <why>"], ...]``, one per
+#: command, none executed. A client may send such commands again later (its outbox does).
 BUSY = "server busy"
+
+
+def busy(results: list) -> bool:
+    """Whether a response's results say that the server did not queue the request (:data:`BUSY`)."""
+    if not results:
+        return False
+    for result in results:
+        if type(result) is not list or len(result) != 2 or result[0] is not False \
+                or type(result[1]) is not str or not result[1].startswith(BUSY):
+            return False
+    return True
+
 
 #: Streamed commands whose successive results add up in the client's inbox until read
 #: (simxReadStringStream: every step's new data is appended, a read takes it all).
@@ -337,14 +350,47 @@ def pack(message: Any) -> bytes:
     return data
 
 
-def _decode(payload: bytes, size: int, what: str) -> list:
-    """One message of this version: a msgpack array of ``size`` items, the first the version.
+#: Most arrays and maps in one request: each costs a Python object of about 60 bytes from one
+#: byte of msgpack, so 60 MiB of empty arrays took a server from 216 MB to 4.7 GB before this
+#: bound (numbers and strings cost at most about 20 times their bytes).
+MAX_REQUEST_CONTAINERS = 1 << 20
+
+
+class _TooManyContainers(Exception):
+    pass
+
+
+def _container_counter(limit: int):
+    """msgpack list/object hooks that stop decoding after ``limit`` arrays and maps."""
+    left = [limit]
+
+    def hook(value):
+        left[0] -= 1
+        if left[0] < 0:
+            raise _TooManyContainers
+        return value
+
+    return hook
+
+
+def _decode(payload: bytes, size: int, what: str, max_containers: int | None = None) -> list:
+    """One message of this version: a msgpack array of ``size`` items, the first the version;
+    with ``max_containers``, at most that many arrays and maps decoded (then a ProtocolError,
+    before more memory is taken).
 
     Raises:
-        ProtocolError: undecodable, another shape, a peer of another version, or a refusal.
+        ProtocolError: undecodable, too many containers, another shape, a peer of another
+            version, or a refusal.
     """
     try:
-        message = msgpack.unpackb(payload, raw=False, strict_map_key=False)
+        if max_containers is None or len(payload) <= max_containers:  # a container takes a byte at least
+            message = msgpack.unpackb(payload, raw=False, strict_map_key=False)
+        else:
+            hook = _container_counter(max_containers)
+            message = msgpack.unpackb(payload, raw=False, strict_map_key=False, list_hook=hook, object_hook=hook)
+    except _TooManyContainers:
+        raise ProtocolError(f"{what} of more than {max_containers} arrays and maps refused "
+                            "(protocol.MAX_REQUEST_CONTAINERS)") from None
     except Exception as exc:  # msgpack raises several unrelated types
         raise ProtocolError(f"undecodable message: {exc}") from exc
     if type(message) is list and len(message) == size and message[0] == PROTOCOL_VERSION:
@@ -376,6 +422,18 @@ class RequestEncoder:
         """The request carrying ``commands`` (``[[name, mode, args], ...]``)."""
         return self._head + pack(commands)
 
+    def encode_packed(self, packed: list[bytes]) -> bytes:
+        """The request carrying commands already packed one by one (``pack([name, mode, args])``):
+        the same bytes as :meth:`encode` of the unpacked commands, without packing them again."""
+        n = len(packed)
+        if n < 16:
+            size = bytes((0x90 | n,))
+        elif n < 0x10000:
+            size = b"\xdc" + n.to_bytes(2, "big")
+        else:
+            size = b"\xdd" + n.to_bytes(4, "big")
+        return b"".join((self._head, size, *packed))
+
 
 def request(client: str, commands: Iterable[list]) -> bytes:
     """Encode a request carrying ``[name, mode, args]`` commands from ``client``."""
@@ -395,7 +453,7 @@ def parse_request(payload: bytes, max_commands: int | None = None) -> tuple[str,
         ProtocolError: undecodable, another protocol version, not the request shape, or too
             many commands.
     """
-    _, client, cmds = _decode(payload, 3, "request")
+    _, client, cmds = _decode(payload, 3, "request", MAX_REQUEST_CONTAINERS)
     if type(client) is not str or type(cmds) is not list:
         raise ProtocolError("request needs a client id (str) and a command list")
     if max_commands is not None and len(cmds) > max_commands:

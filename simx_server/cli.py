@@ -89,6 +89,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--host", action="append", help="address to listen on (repeatable; default 127.0.0.1)")
     p.add_argument("--port", action="append", type=int,
                    help="TCP port to listen on (repeatable; default 19997 and 19999)")
+    p.add_argument("--zmq-port", type=int, metavar="N",
+                   help="TCP port of CoppeliaSim's ZMQ remote API (coppeliasim-zmqremoteapi-client programs), on "
+                        "the --host addresses (default 23000; when that default is taken the server goes on without "
+                        "it and says so)")
+    p.add_argument("--no-zmq", action="store_true", help="do not serve the ZMQ remote API")
     p.add_argument("--zenoh-config", metavar="FILE",
                    help="Zenoh config file (endpoints, TLS, authentication); multicast scouting stays off")
     p.add_argument("--dt", type=float, default=0.05, help="simulation step in s (default 0.05)")
@@ -140,6 +145,8 @@ def argument_error(args: argparse.Namespace) -> str | None:
     for port in args.port or ():
         if not 0 < port <= 65535:
             return f"simx-server: --port {port}: a TCP port is a number from 1 to 65535"
+    if args.zmq_port is not None and not 0 < args.zmq_port <= 65535:
+        return f"simx-server: --zmq-port {args.zmq_port}: a TCP port is a number from 1 to 65535"
     if args.scene and Path(args.scene).is_dir():
         return (f"simx-server: {args.scene} is a folder, not a scene file: give an MJCF (.xml) or URDF (.urdf) "
                 "file")
@@ -226,6 +233,10 @@ def main(argv: list[str] | None = None) -> int:
     def stop(signum, frame):
         server.request_stop()
 
+    zmq_line = _attach_zmq(server, args)
+    if zmq_line is None:
+        server.close()
+        return 2
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
     served = threading.Event()
@@ -234,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.stopped:
         sim.start()
     print(f"simx-server ready: scene {scene.name}, {len(sim.world.objects)} objects, "
-          f"dt {sim.world.dt:g} s, listening on {', '.join(endpoints)}", flush=True)
+          f"dt {sim.world.dt:g} s, listening on {', '.join(endpoints)}{zmq_line}", flush=True)
     try:
         server.serve()
     finally:
@@ -242,6 +253,35 @@ def main(argv: list[str] | None = None) -> int:
         server.close()
         logging.getLogger("simx.server").info("stopped")
     return 0
+
+
+def _attach_zmq(server, args: argparse.Namespace) -> str | None:
+    """Serve the ZMQ remote API from ``server`` unless ``--no-zmq``: the ready line's part about
+    it, or None after printing why it cannot listen (an explicit ``--zmq-port`` in use). The
+    default port taken (another simx-server has it) is logged, and the server goes on without."""
+    if args.no_zmq:
+        return ""
+    import zmq
+
+    from simx_server.transport.server import DEFAULT_HOSTS
+    from simx_server.zmq.remote_api import DEFAULT_PORT, ZmqRemoteApi, endpoints
+
+    port = args.zmq_port if args.zmq_port is not None else DEFAULT_PORT
+    api = ZmqRemoteApi(server, endpoints(args.host or list(DEFAULT_HOSTS), port))
+    try:
+        api.open()
+    except zmq.ZMQError as exc:
+        where = ", ".join(api.frontend.endpoints)
+        if args.zmq_port is None and exc.errno == zmq.EADDRINUSE:
+            logging.getLogger("simx.zmq").warning(
+                "ZMQ remote API not served: port %d is in use (another simx-server?); choose one with "
+                "--zmq-port N, or --no-zmq", port)
+            return ", no ZMQ remote API (port in use)"
+        print(f"simx-server: cannot listen on {where} (ZMQ remote API): {exc.strerror}; choose a free port with "
+              "--zmq-port N, or --no-zmq", file=sys.stderr)
+        return None
+    server.attach(api)
+    return f"; ZMQ remote API on {', '.join(api.bound)}"
 
 
 def _child_args(args: argparse.Namespace) -> list[str]:
@@ -254,6 +294,7 @@ def _child_args(args: argparse.Namespace) -> list[str]:
             "--client-expiry", repr(args.client_expiry)]
     for folder in args.scene_path:
         out += ["--scene-path", folder]
+    out.append("--no-zmq")  # one ZMQ port cannot serve N servers
     for flag in ("stopped", "allow_remote_code", "allow_unsafe_lua"):
         if getattr(args, flag):
             out.append("--" + flag.replace("_", "-"))
@@ -346,6 +387,10 @@ def _watch_signals(server, served: threading.Event) -> None:
                 logging.getLogger("simx.server").error(
                     "stopping: the simulation step still runs %g s after the signal; exiting without waiting for it",
                     STOP_GRACE)
+                try:  # the transfer folder goes as on a normal stop (only kill -9 leaves one behind)
+                    server.sim.editor.close()
+                except Exception:
+                    pass
                 logging.shutdown()
                 os._exit(0)
             return

@@ -127,7 +127,8 @@ class ServerPool:
         n: number of servers (>= 1).
         scene: MJCF file for every server (default: the bundled scene).
         *args: further ``simx-server`` arguments for every server (``"--speed", "0"``, ...);
-            not ``--host`` or ``--port``, which the pool chooses.
+            not ``--host`` or ``--port``, which the pool chooses. The servers get ``--no-zmq``
+            (one ZMQ port cannot serve several servers) unless ``args`` say otherwise.
         host: address every server listens on (``--host``).
         ports: the servers' ports, one per server; default: free ports found by the pool.
             Given ports are not replaced if they are taken: the pool fails instead.
@@ -160,8 +161,9 @@ class ServerPool:
         self._log_dir = Path(tempfile.mkdtemp(prefix="simx-pool-")) if log_dir is None else Path(log_dir)
         self.host = host
         self._fixed_ports = ports is not None
+        zmq = [] if any(a.split("=")[0] in ("--zmq-port", "--no-zmq") for a in args) else ["--no-zmq"]
         self._cmd = [sys.executable, "-m", "simx_server.cli", *([str(scene)] if scene is not None else []),
-                     *args, "--host", host]
+                     *args, *zmq, "--host", host]
         self._env = dict(os.environ if env is None else env)
         self._env.setdefault("MUJOCO_GL", "egl")
         self._env["PYTHONUNBUFFERED"] = "1"

@@ -20,12 +20,15 @@ import argparse
 import logging
 import math
 import os
+import signal
 import sys
 import threading
 
 import mujoco
+import numpy as np
 
 from simx_client import protocol as P
+from simx_viewer.framing import default_view, far_enough, scene_box
 from simx_viewer.link import DEFAULT_TIMEOUT, NoServerError, ViewerLink, ViewerModel
 
 log = logging.getLogger("simx.viewer")
@@ -68,16 +71,22 @@ class Window:
         self.data = mujoco.MjData(self.model)
         vm.state.apply(self.model, self.data)
         show_vision_sensors(self.model)
+        mujoco.mj_forward(self.model, self.data)
+        framing = default_view(self.model, self.data)  # the scene's objects, unless options say otherwise
+        low, high = scene_box(self.model, self.data)
+        far_enough(self.model, framing[1], float(np.linalg.norm(high - low)) / 2)  # before the window reads it
         before = set(threading.enumerate())
         self.handle = mujoco.viewer.launch_passive(
             self.model, self.data, key_callback=key_callback,
-            show_left_ui=not args.hide_ui, show_right_ui=not args.hide_ui)
+            show_left_ui=args.ui and not args.hide_ui, show_right_ui=args.ui and not args.hide_ui)
         # launch_passive runs the window in a thread it does not return: joined in close(), or a
         # relaunch or the interpreter's exit would race it (an X error, or a hang, on exit).
         self._threads = [t for t in threading.enumerate() if t not in before]
         with self.handle.lock():
             self.handle.opt.flags[mujoco.mjtVisFlag.mjVIS_CAMERA] = 1
             cam = self.handle.cam
+            if view is None:
+                cam.lookat[:], cam.distance, cam.azimuth, cam.elevation = framing
             if view is not None:  # the previous window's (a reload): the user's view goes on
                 cam.lookat[:], cam.distance, cam.azimuth, cam.elevation = view
             elif args.lookat is not None:
@@ -176,7 +185,9 @@ def parser() -> argparse.ArgumentParser:
                    help="s to wait for the server's model (default %(default)s)")
     p.add_argument("--images", action="store_true",
                    help="also show the vision sensors' images (OpenCV windows; needs OpenCV with a GUI)")
-    p.add_argument("--hide-ui", action="store_true", help="hide MuJoCo's side panels (Tab shows them)")
+    p.add_argument("--ui", action="store_true",
+                   help="open with MuJoCo's side panels shown (by default hidden: Tab and Shift+Tab show them)")
+    p.add_argument("--hide-ui", action="store_true", help="hide MuJoCo's side panels (the default)")
     p.add_argument("--lookat", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="the point the view orbits, m (default: MuJoCo's, the scene's centre)")
     p.add_argument("--distance", type=float, help="view distance from --lookat, m")
@@ -185,10 +196,16 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _stop(signum, frame) -> None:
+    """SIGTERM: end the viewer's loop as Ctrl-C does (windows closed, the link closed)."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console script ``simx-viewer``; returns the exit status (see the module's docstring)."""
     args = parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    signal.signal(signal.SIGTERM, _stop)  # a clean stop, status 0, as simx-server's
     if args.zenoh_config:
         if not os.path.isfile(args.zenoh_config):
             print(f"simx-viewer: no Zenoh config file {args.zenoh_config}", file=sys.stderr)

@@ -140,7 +140,10 @@ class ServerProcess:
 
     def __init__(self, *args: str, ports: list[int] | None = None, cwd: str | Path | None = None):
         self.ports = ports or [free_port()]
-        cmd = [sys.executable, "-m", "simx_server.cli", *args]
+        # The ZMQ remote API only where a test asks for it (--zmq-port): servers of parallel tests
+        # must not compete for its default port.
+        zmq = [] if any(a.split("=")[0] in ("--zmq-port", "--no-zmq") for a in args) else ["--no-zmq"]
+        cmd = [sys.executable, "-m", "simx_server.cli", *args, *zmq]
         for p in self.ports:
             cmd += ["--port", str(p)]
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")

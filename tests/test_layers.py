@@ -12,7 +12,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1] / "simx_server"
 
 #: Layer of each package, lowest first: a module may import its own layer and the ones below.
-LAYERS = ["base", "sim", "scripts", "scene", "commands", "transport", "(top)"]
+LAYERS = ["base", "sim", "scripts", "scene", "commands", "transport", "zmq", "(top)"]
 
 
 def module_name(path: Path) -> str:

@@ -113,6 +113,11 @@ MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
 #: Most bytes of MuJoCo's arena (<size memory>) and most entries of the other <size> fields
 #: (nuserdata, nkey, nuser_*, njmax, nconmax, nstack), and values of one <numeric>.
 MAX_ARENA_BYTES = 256 * 1024 * 1024
+#: Most work of one simulation step of a client's scene or edit, estimated as MuJoCo substeps x
+#: solver iterations x geoms (the bundled UR5 scene: about 1.5e5): checked after compiling,
+#: before the scene replaces the current one (300 piled spheres, 1,000 iterations and a 5e-4 s
+#: timestep, 3e7, froze every client for over 90 s).
+MAX_STEP_WORK = 5_000_000
 MAX_SIZE_ENTRIES = 100_000
 #: Most solver iterations per step (<option iterations, ls_iterations, noslip_iterations,
 #: ccd_iterations, sdf_iterations>): MuJoCo's defaults are 100, 50, 0, 35, 10.
@@ -151,6 +156,19 @@ MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
+#: Simulation-thread time one request may take (s): commands after that point answer an error
+#: naming this bound, not executed (a request of 100 LoadScene held every client 71 s).
+MAX_REQUEST_SECONDS = 0.5
+#: Share of the simulation thread a client's scene loads and edits (commands.NOT_STREAMABLE)
+#: may take on average: each costs its own duration, the debt falls by this many s per s, and
+#: while a client's debt exceeds EDIT_DEBT_SECONDS its loads and edits answer "busy".
+EDIT_SHARE = 0.25
+EDIT_DEBT_SECONDS = 5.0
+#: Most clients (client ids) of one authenticated user at a time: ids are <user>-<uuid>, which
+#: access control enforces (docs/SECURITY.md), so one user cannot take every client slot.
+#: Anonymous ids (no user) share MAX_CLIENTS: without authentication Zenoh does not tell the
+#: server which peer sent a query (its source info is opt-in and chosen by the sender).
+MAX_CLIENTS_PER_USER = 64
 #: Replies (and stream updates) of one client waiting for the render thread. A client at the
 #: bound is not served until one is sent; its image streams skip steps meanwhile.
 MAX_RENDERS_PER_CLIENT = 4
@@ -187,6 +205,20 @@ LOG_REPEAT_KEYS = 1024
 #: scene load writes about them; the rest are counted (each is named at DEBUG level). A few are
 #: enough to show the rule: dm_control's quadruped renames 13.
 MAX_RENAMES_LOGGED = 3
+
+# ----------------------------------------------------------------- script calls (issue 23, part 1)
+#: Most values (ints + floats + strings) one simxCallScriptFunction may pass to a child script:
+#: checked before anything is converted, so that a Lua script's state (MAX_SCRIPT_MEMORY) can
+#: always hold them (a real program passes a few thousand at most).
+MAX_SCRIPT_CALL_VALUES = 1 << 20
+#: Most bytes of strings and buffer one simxCallScriptFunction may pass to a child script.
+MAX_SCRIPT_CALL_BYTES = 16 << 20
+#: Memory cap of one Lua child script's state (bytes).
+MAX_SCRIPT_MEMORY = 256 << 20
+#: Most work of one Lua pattern match (string.find/match/gmatch/gsub without plain): a pattern
+#: with q repetitions (* + -) runs on a subject of n bytes only while n ** q stays under this.
+#: The matcher is C code, which the scripts' instruction-count time bound does not reach.
+MAX_PATTERN_WORK = 10 ** 8
 
 # ----------------------------------------------------------------- child scripts' scene edits
 # (issue 12, part 7: the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/scripts/facade_objects.py)

@@ -129,11 +129,13 @@ def make_transfer_folder() -> Path:
 
 def is_transferred(path: Path) -> bool:
     """Whether ``path`` lies in a transfer folder of any simx-server (or is one): a folder named
-    ``simx-*`` directly in the temporary folder, or any folder holding :data:`MARKER`."""
+    as a server names its own (``simx-<pid>-<start>-*``) directly in the temporary folder, or any
+    folder holding :data:`MARKER`. Other ``simx-*`` folders (a checkout cloned to
+    ``/tmp/simx-demo``, a ``--scene-path`` folder) are not."""
     path = Path(os.path.realpath(path))
     tmp = temp_root()
     for folder in (path, *path.parents):
-        if folder.parent == tmp and folder.name.startswith(PREFIX):
+        if folder.parent == tmp and _OURS.fullmatch(folder.name):
             return True
         if (folder / MARKER).is_file():
             return True
@@ -144,7 +146,7 @@ def transfer_folders(*extra: Path) -> list[Path]:
     """Every transfer folder there is now (for ``Scripts(untrusted=...)``), plus ``extra``."""
     tmp = temp_root()
     try:
-        found = [tmp / e.name for e in os.scandir(tmp) if e.name.startswith(PREFIX)]
+        found = [tmp / e.name for e in os.scandir(tmp) if _OURS.fullmatch(e.name)]
     except OSError:
         found = []
     return [*found, *(Path(p) for p in extra)]
@@ -181,13 +183,16 @@ def _png_pixels(head: bytes) -> int | None:
     return None
 
 
+_OBJ_VERTEX = re.compile(rb"(?:^|[\r\n])[ \t]*v[ \t]")
+
+
 def _mesh_vertices(data: bytes, name: str) -> int:
     """Vertices a mesh file holds (an upper bound), by its format."""
     ext = posixpath.splitext(name.lower())[1]
     if ext == ".stl" and len(data) >= 84 and data[:5].lower() != b"solid":
         return 3 * struct.unpack("<I", data[80:84])[0]  # binary STL: its triangle count
-    text = max(data.count(b"\nv ") + data.count(b"\nv\t") + data.startswith((b"v ", b"v\t")),  # OBJ
-               data.count(b"vertex"))  # ASCII STL
+    # OBJ vertices as MuJoCo's reader finds them: a line (\n, \r or both) of optional blanks, v, a blank
+    text = max(len(_OBJ_VERTEX.findall(data)), data.count(b"vertex"))  # ASCII STL: "vertex" lines
     if ext == ".msh" and len(data) >= 4:
         return max(text, struct.unpack("<i", data[:4])[0])
     if ext in (".obj", ".stl"):
@@ -260,7 +265,13 @@ class _Walk:
             text = path.read_bytes()
         except OSError:
             raise _refuse(self.what, f"no transferred file {quote(rel)}") from None
-        if re.search(rb"<!(DOCTYPE|ENTITY)", text, re.IGNORECASE):
+        try:  # checked as text: the bytes of UTF-16 or UTF-32 XML hide a DOCTYPE from a byte search
+            decoded = text.decode("utf-8")
+        except UnicodeDecodeError:
+            decoded = None
+        if decoded is None or "\x00" in decoded:
+            raise _refuse(self.what, f"{quote(rel)} is not UTF-8 text (UTF-16 or UTF-32?): MuJoCo reads UTF-8 XML only")
+        if re.search(r"<!(DOCTYPE|ENTITY)", decoded, re.IGNORECASE):
             raise _refuse(self.what, f"{quote(rel)} declares a DOCTYPE or entities")
         try:
             tree = self.trees[rel] = _local_names(ET.fromstring(text))

@@ -41,4 +41,9 @@ HANDLERS: dict[str, Handler] = {
     **EDITING_HANDLERS,
 }
 
-__all__ = ["HANDLERS", "Handler"]
+#: Commands that may not stream (``simx_opmode_streaming``): scene loads, edits and file
+#: transfers, which V-REP executed once; re-run after every step they would hold every client
+#: for as long as the stream lasts. Only reads and settings stream (docs/API.md).
+NOT_STREAMABLE = frozenset(EDITING_HANDLERS)
+
+__all__ = ["HANDLERS", "NOT_STREAMABLE", "Handler"]

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from simx_client.protocol import ArgumentError, UnknownObjectError
-from simx_server.base.arguments import check_args as _args
+from simx_server.base.arguments import check_args as _args, quote
 from simx_server.commands.simulation import Handler
 from simx_server.scene.simulation import Simulation
 
@@ -48,7 +48,11 @@ def append_string_signal(sim: Simulation, args: list) -> None:
     name, value = _args(args, "str", "any")
     if not isinstance(value, bytes):
         raise ArgumentError("string signal data must be bytes")
-    sim.signals.set("string", name, sim.signals.get("string", name, b"") + value)
+    old = sim.signals.get("string", name, b"")
+    if len(old) + len(value) > sim.signals.max_bytes:  # before building old + value: no copy for a refusal
+        raise ArgumentError(f"string signal {quote(name)} would hold {len(old) + len(value)} bytes, more than "
+                            f"{sim.signals.max_bytes} (simx_server.base.limits.MAX_SIGNAL_BYTES)")
+    sim.signals.set("string", name, old + value)
 
 
 def read_string_stream(sim: Simulation, args: list) -> bytes:

@@ -302,7 +302,7 @@ class Editor(ObjectEdits):
         # A scene in a transfer folder (any server's) brings no code, unless --allow-remote-code.
         untrusted = guard.transfer_folders(self.files_dir, *([file.parent] if guard.is_transferred(file) else []))
         try:
-            world = World(file, dt)
+            world = World(file, dt, bounded=spec is not None)  # a client's scene: arena and step work bounded
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
                               allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted, simulation=sim)
         except (ValueError, RemoteError) as exc:

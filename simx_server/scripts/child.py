@@ -253,6 +253,19 @@ class ChildScript:
         """Call a script function remotely; returns ``[ints, floats, strings, buffer]``.
 
         Raises ScriptError (file, line and message) for anything that goes wrong."""
+        self._check_call(function)
+        return self._run_function(function, (ints, floats, strings, buffer))
+
+    def call_values(self, function: str, args: list) -> list:
+        """CoppeliaSim 4.x's ``sim.callScriptFunction``: ``function(*args)`` with any values
+        (numbers, strings, bytes, lists, dicts, None), its return values as a list (none: []).
+        Lua strings come back as bytes, Lua tables as lists (keys 1..n) or dicts.
+
+        Raises ScriptError (file, line and message) for anything that goes wrong."""
+        self._check_call(function)
+        return self._run_values(function, tuple(args))
+
+    def _check_call(self, function: str) -> None:
         if self.load_error:
             raise ScriptError(f"{self.label} cannot be loaded: {self.load_error}")
         if not self.running:
@@ -261,7 +274,6 @@ class ChildScript:
         if not self._callable(function):
             hint = f" (its start failed: {self.start_error})" if self.start_error else ""
             raise ScriptError(f"{self.label} has no function {function!r} that can be called remotely{hint}")
-        return self._run_function(function, (ints, floats, strings, buffer))
 
     # ------------------------------------------------------------ to implement
     def _load(self) -> None:
@@ -277,6 +289,9 @@ class ChildScript:
         raise NotImplementedError
 
     def _run_function(self, function: str, args: tuple) -> Any:
+        raise NotImplementedError
+
+    def _run_values(self, function: str, args: tuple) -> list:
         raise NotImplementedError
 
     def _drop(self) -> None:
@@ -353,6 +368,11 @@ class PythonScript(ChildScript):
             return legacy_outputs(out)
         except ScriptError as exc:
             raise self._fault(function, str(exc)) from None
+
+    def _run_values(self, function: str, args: tuple) -> list:
+        fn = self.namespace[function]
+        out = self._bounded(function, lambda: fn(*args))
+        return [] if out is None else list(out) if isinstance(out, tuple) else [out]
 
     def _drop(self) -> None:
         self.namespace = {}

@@ -23,7 +23,7 @@ from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectEr
 from simx_server.base import limits as L
 from simx_server.base.arguments import quote
 from simx_server.scripts.facade_core import _int, _num, _text, _vector
-from simx_server.sim import kinematics
+from simx_server.sim import kinematics, paths
 from simx_server.sim.spec_tools import _FRAMES, _KIND, _MJ_OBJ
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import JOINT, SHAPE, WORLD, World, matrix_from_euler, matrix_from_quaternion
@@ -192,31 +192,26 @@ class ObjectCalls:
 
     # ------------------------------------------------------------------ names
     def getObject(self, path: Any, options: Any = None) -> int:  # noqa: N802
-        """CoppeliaSim 4.3's lookup: a name, an absolute ``/path``, ``"."`` (the script's object)
-        or a path relative to it, ``"./child"`` / ``"./arm/joint"`` (the object must lie below
-        the script's object, the named ones in that order between them). ``options``
-        ``{noError = true}`` answers -1 instead of an error for an unknown object; ``{index = n}``
-        with n > 0 finds nothing (the n-th object of that name: simx names are unique)."""
+        """CoppeliaSim 4.3's lookup by object path (:mod:`simx_server.sim.paths`): a V-REP name,
+        an absolute ``/A/B`` path of aliases (each anywhere below the previous one; ``A[n]``,
+        ``A{n}``, wildcards), ``"."`` (the script's object) or a path below it (``"./arm/joint"``),
+        ``":"`` / ``":/B"`` from the script's model base. ``options`` ``{noError = true}`` answers -1
+        instead of an error for an unknown object; ``{index = n}`` takes the n-th (0-based) of
+        the objects the path matches, in tree order."""
         p = _text(path, "object path")
-        index = _int(options.get("index", -1), "index") if isinstance(options, dict) else -1
-        if index > 0:  # the n-th of several objects with that alias: simx names are unique
-            if options.get("noError"):
-                return -1
-            raise UnknownObjectError(f"no object {quote(p)} with index {index}: simx names are unique")
-        if not p.startswith("./"):
-            return super().getObject(p, options)  # type: ignore[misc]
-        parts = [x.split("[")[0] for x in p[2:].split("/") if x]
-        found = self._world.by_name.get(parts[-1]) if parts else None
-        between, h = [], (found.parent if found is not None else WORLD)
-        while h not in (WORLD, self._owner):
-            between.append(self._world.objects[h].name)
-            h = self._world.objects[h].parent
-        it = iter(reversed(between))
-        if found is not None and h == self._owner and all(x in it for x in parts[:-1]):
-            return found.handle
-        if isinstance(options, dict) and options.get("noError"):
+        opts = options if isinstance(options, dict) else {}
+        index = _int(opts.get("index", -1), "index")
+        found = paths.find(self._world, p, index, self._path_base())
+        if found:
+            return found[0]
+        if opts.get("noError"):
             return -1
-        raise UnknownObjectError(f"object {quote(p)} is not below {self._world.get(self._owner).name!r}")
+        which = f" with index {index}" if index >= 0 else ""
+        raise UnknownObjectError(f"object {quote(p)}{which} does not exist in scene {self._world.scene_path.name}")
+
+    def _path_base(self) -> int | None:
+        """The object relative paths start from (``.``): the script's."""
+        return self._owner
 
     def getObjectAlias(self, handle: Any, options: Any = -1) -> str:  # noqa: N802 (CoppeliaSim's names)
         """The object's alias (CoppeliaSim 4.3; in simx alias and name are one): ``options``
@@ -358,6 +353,31 @@ class ObjectCalls:
         as ``simxGetObjectVelocity``."""
         v, w = kinematics.object_velocity(self._simulation("getObjectVelocity"), self._h(handle))
         return v.tolist(), w.tolist()
+
+    def resetDynamicObject(self, handle: Any) -> None:  # noqa: N802
+        """CoppeliaSim's ``sim.resetDynamicObject`` (V-REP 3.x ``simResetDynamicObject``), called
+        before a script teleports a robot: the object's tree (its body and every body below it;
+        ``sim.handle_all``: the whole scene) stops, every degree of freedom of those bodies'
+        joints, free joints included, at zero velocity, and the contacts are rebuilt for the
+        current poses (``mj_forward``). Errors: an unknown handle."""
+        world = self._world
+        m, d = world.model, world.data
+        h = _int(handle, "objectHandle")
+        if h == C.sim_handle_all:
+            d.qvel[:] = 0
+            d.qacc_warmstart[:] = 0
+        else:
+            root = world.get(self._h(h)).body
+            bodies = np.arange(m.nbody)
+            tree = np.zeros(m.nbody, bool)
+            tree[root] = True
+            for b in bodies[root + 1:]:  # MuJoCo orders bodies so that a parent comes first
+                tree[b] = tree[m.body_parentid[b]]
+            dofs = tree[m.dof_bodyid]
+            d.qvel[dofs] = 0
+            d.qacc_warmstart[dofs] = 0
+        mujoco.mj_forward(m, d)
+        world.changed()
 
     # ------------------------------------------------------------------ forces
     def _dynamic_body(self, handle: Any) -> int:

@@ -34,7 +34,8 @@ import re
 import time
 from typing import Any
 
-from simx_client.protocol import RemoteError, ScriptError
+from simx_client.protocol import ArgumentError, RemoteError, ScriptError
+from simx_server.base import limits as L
 from simx_server.scripts.child import LIFE_CYCLE, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
 from simx_server.scripts.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
 
@@ -48,11 +49,14 @@ log = logging.getLogger("simx.scripts")
 #: Instructions between two checks of the deadline.
 HOOK_COUNT = 10_000
 #: Memory cap of one script's Lua state (bytes).
-MAX_MEMORY = 256 << 20
+MAX_MEMORY = L.MAX_SCRIPT_MEMORY
+#: Bytes a converted value may take in a Lua state at most (a table slot as the table grows,
+#: a string's header): a call's arguments are converted only when this estimate fits.
+_LUA_BYTES_PER_VALUE = 64
 _MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
 
 PRELUDE = r"""
-local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG = ...
+local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, PATTERN_WORK = ...
 local G = _G
 local sethook, gethook, getinfo, traceback = debug.sethook, debug.gethook, debug.getinfo, debug.traceback
 local error, select, type, tostring, pairs, rawget, setmetatable = error, select, type, tostring, pairs, rawget, setmetatable
@@ -143,6 +147,33 @@ G.unpack = unpack
 table.getn = function(t) return #t end
 math.pow = function(x, y) return x ^ y end
 
+-- Pattern matching is C code, out of the count hook's reach: a pattern with q repetitions
+-- (* + -) runs on a subject of n bytes only while n ^ q stays within PATTERN_WORK.
+local str_find, str_match, str_gmatch, str_gsub = string.find, string.match, string.gmatch, string.gsub
+local function check_pattern(fname, s, p, plain)
+  if plain or type(s) ~= "string" or type(p) ~= "string" then return end
+  local q = select(2, str_gsub(str_gsub(p, "%%.", ""), "[%*%+%-]", ""))
+  if q > 0 and (#s) ^ q > PATTERN_WORK then
+    error(("string.%s: a pattern with %d repetitions on %d bytes is refused: at most %g steps of "
+      .. "matching (limits.MAX_PATTERN_WORK), which the script's time bound cannot interrupt"):format(
+      fname, q, #s, PATTERN_WORK), 3)
+  end
+end
+string.find = function(s, p, init, plain) check_pattern("find", s, p, plain) return str_find(s, p, init, plain) end
+string.match = function(s, p, init) check_pattern("match", s, p) return str_match(s, p, init) end
+string.gmatch = function(s, p, init) check_pattern("gmatch", s, p) return str_gmatch(s, p, init) end
+string.gsub = function(s, p, r, n) check_pattern("gsub", s, p) return str_gsub(s, p, r, n) end
+
+-- Finalizers would run when the state is closed or collected, outside every time bound.
+local lua_setmetatable = setmetatable
+G.setmetatable = function(t, mt)
+  if type(mt) == "table" and rawget(mt, "__gc") ~= nil then
+    error("setmetatable: __gc finalizers are not available in simx child scripts (they would run "
+      .. "outside the script's time bound, when its state is closed)", 2)
+  end
+  return lua_setmetatable(t, mt)
+end
+
 -- Safety.
 local function refuse(name, why)
   return function() error(name .. " is not available in simx child scripts" .. (why or ""), 2) end
@@ -160,7 +191,19 @@ else
 end
 -- Files, processes and the environment (CoppeliaSim's "unsafe" functions): only with UNSAFE_FLAG.
 local UNSAFE = ": file, process and environment functions need the server flag " .. UNSAFE_FLAG
-local lua_loadfile = loadfile
+local lua_loadfile, lua_searchpath = loadfile, package.searchpath
+-- require reads Lua text only: a precompiled chunk can crash the Lua VM.
+local function text_searcher(name)
+  local file, err = lua_searchpath(name, package.path)
+  if not file then return "\n\t" .. err end
+  local chunk, lerr = lua_loadfile(file, "t")
+  if not chunk then
+    error(("error loading module '%s' from file '%s':\n\t%s"):format(name, file, lerr), 0)
+  end
+  return chunk, file
+end
+package.searchers[2] = text_searcher
+package.searchers[3], package.searchers[4] = nil, nil  -- C libraries: never
 if allow_unsafe then  -- plain Lua, but text chunks only (precompiled ones can crash the Lua VM)
   G.loadfile = function(file, mode, env)
     if env == nil then return lua_loadfile(file, "t") end
@@ -328,7 +371,7 @@ class LuaScript(ChildScript):
             rt.table_from([n.encode() for n in FACADE_FUNCTIONS]),
             rt.table_from({k.encode(): v for k, v in FACADE_CONSTANTS.items()}),
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
-            self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode())
+            self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(), L.MAX_PATTERN_WORK)
         chunk = rt.compile(self._source, name=f"@{self.path.name}", mode="t")
         self._bounded("top level", chunk, ())
 
@@ -346,8 +389,17 @@ class LuaScript(ChildScript):
             return self._bounded(function, fn, ())
         ints, floats, strings, buffer = args
         rt = self._runtime
-        lua_args = (rt.table_from(ints), rt.table_from(floats),
-                    rt.table_from([s.encode("utf-8") for s in strings]), bytes(buffer))
+        encoded = [s.encode("utf-8") for s in strings]
+        # Converting into Lua happens outside any protected call: a state that runs out of
+        # memory there aborts the process. So the arguments go in only when they surely fit.
+        need = (_LUA_BYTES_PER_VALUE * (len(ints) + len(floats) + len(encoded))
+                + sum(map(len, encoded)) + 2 * len(buffer))
+        free = MAX_MEMORY - rt.get_memory_used()
+        if need > free // 2:
+            raise ArgumentError(f"{self.label}: the arguments of {function!r} need about {need >> 20} MiB in the "
+                                f"script's Lua state, which has {free >> 20} MiB free of {MAX_MEMORY >> 20} "
+                                "(limits.MAX_SCRIPT_MEMORY); send less")
+        lua_args = (rt.table_from(ints), rt.table_from(floats), rt.table_from(encoded), bytes(buffer))
         out = self._bounded(function, fn, lua_args)
         try:
             values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
@@ -356,6 +408,21 @@ class LuaScript(ChildScript):
             raise self._fault(function, f"returned values of the wrong types: {exc}") from None
         except ScriptError as exc:
             raise self._fault(function, str(exc)) from None
+
+    def _run_values(self, function: str, args: tuple) -> list:
+        fn = self._lookup(function.encode())
+        if fn is None:
+            raise self._fault(function, "no such function")
+        try:
+            lua_args = tuple(self._to_lua(a) for a in args)
+        except (TypeError, ValueError) as exc:
+            raise ArgumentError(f"{self.label}, {function}: arguments that Lua cannot take: {exc}") from None
+        out = self._bounded(function, fn, lua_args)
+        values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
+        try:
+            return [self._from_lua(v) for v in values]
+        except (TypeError, ValueError) as exc:
+            raise self._fault(function, f"returned values that cannot be sent: {exc}") from None
 
     def _drop(self) -> None:
         self._lookup = None

@@ -14,6 +14,7 @@ from typing import Any, Iterable
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ScriptError, UnknownObjectError
+from simx_server.base import limits as L
 from simx_server.scripts.child import DEFAULT_TIMEOUT, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, PythonScript
 from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.facade_objects import AppliedForces
@@ -163,12 +164,42 @@ class Scripts:
         script = self.scripts.get(obj.handle)
         if script is None:
             raise ScriptError(f"object {obj.name!r} has no child script")
-        if not (isinstance(ints, list) and isinstance(floats, list) and isinstance(strings, list)
-                and isinstance(buffer, (bytes, bytearray))
-                and all(isinstance(v, int) and not isinstance(v, bool) for v in ints)
-                and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in floats)
-                and all(isinstance(v, str) for v in strings)):
-            raise ArgumentError("script arguments must be lists of ints, floats and strings, and bytes")
+        _check_call_arguments(ints, floats, strings, buffer)
         if not isinstance(function, str) or not function:
             raise ArgumentError("the function name must be a non-empty string")
         return script.call(function, list(ints), [float(v) for v in floats], list(strings), bytes(buffer))
+
+    def script_of(self, handle: int) -> ChildScript:
+        """The child script of object ``handle``; ScriptError when it has none."""
+        script = self.scripts.get(handle)
+        if script is None:
+            raise ScriptError(f"object {self.world.get(handle).name!r} has no child script")
+        return script
+
+
+_WRONG_TYPES = "script arguments must be lists of ints, floats and strings, and bytes"
+
+
+def _check_call_arguments(ints: Any, floats: Any, strings: Any, buffer: Any) -> None:
+    """Types and bounds of simxCallScriptFunction's arguments, the bounds first (before any
+    per-value work): at most limits.MAX_SCRIPT_CALL_VALUES values and MAX_SCRIPT_CALL_BYTES
+    bytes of strings and buffer.
+
+    Raises:
+        ArgumentError: naming the bound that was passed, or the types expected.
+    """
+    if not (type(ints) is list and type(floats) is list and type(strings) is list
+            and isinstance(buffer, (bytes, bytearray))):
+        raise ArgumentError(_WRONG_TYPES)
+    count = len(ints) + len(floats) + len(strings)
+    if count > L.MAX_SCRIPT_CALL_VALUES:
+        raise ArgumentError(f"{count} values passed to a script function: at most {L.MAX_SCRIPT_CALL_VALUES} "
+                            "(limits.MAX_SCRIPT_CALL_VALUES)")
+    if not all(type(v) is str for v in strings):
+        raise ArgumentError(_WRONG_TYPES)
+    size = len(buffer) + sum(map(len, strings))
+    if size > L.MAX_SCRIPT_CALL_BYTES:
+        raise ArgumentError(f"{size} bytes of strings and buffer passed to a script function: at most "
+                            f"{L.MAX_SCRIPT_CALL_BYTES} (limits.MAX_SCRIPT_CALL_BYTES)")
+    if not (all(type(v) is int for v in ints) and all(type(v) in (int, float) for v in floats)):
+        raise ArgumentError(_WRONG_TYPES)

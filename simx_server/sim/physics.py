@@ -98,6 +98,32 @@ def check_scene(model: mujoco.MjModel, dt: float) -> int:
     return n
 
 
+def step_work(model: mujoco.MjModel, substeps: int) -> int:
+    """The estimated work of one step: ``substeps x solver iterations x geoms``."""
+    return substeps * max(1, int(model.opt.iterations)) * max(1, int(model.ngeom))
+
+
+def check_cost(model: mujoco.MjModel, substeps: int, previous: mujoco.MjModel | None = None,
+               previous_substeps: int = 1) -> None:
+    """A client's scene or edit, compiled, before its MjData exists: its data arena (MuJoCo
+    sizes it itself when the MJCF does not) and the work of one step, against MAX_ARENA_BYTES and
+    MAX_STEP_WORK. With ``previous`` (an edit), a model over a bound passes when it is no worse
+    than the one it replaces (an operator's big scene may still be edited).
+
+    Raises:
+        ArgumentError: naming the bound.
+    """
+    checks = (("arena", int(model.narena), L.MAX_ARENA_BYTES, "MAX_ARENA_BYTES", "bytes of MjData arena",
+               None if previous is None else int(previous.narena)),
+              ("step", step_work(model, substeps), L.MAX_STEP_WORK, "MAX_STEP_WORK",
+               "substeps x solver iterations x geoms per step",
+               None if previous is None else step_work(previous, previous_substeps)))
+    for _, value, bound, name, unit, before in checks:
+        if value > bound and (before is None or value > before):
+            raise ArgumentError(f"the model needs {value:,} {unit}, more than {bound:,} "
+                                f"(simx_server.base.limits.{name})")
+
+
 def check_gravity(values: Any) -> list[float]:
     """Gravity (3 floats, m/s²) whose magnitude is at most MAX_GRAVITY, else ArgumentError."""
     if not isinstance(values, (list, tuple)) or len(values) != 3:

@@ -35,6 +35,7 @@ mapped first), and a ``package://`` URI whose package is not a folder there is r
 
 from __future__ import annotations
 
+import logging
 import os
 import posixpath
 import sys
@@ -47,6 +48,8 @@ import mujoco
 from simx_client.protocol import RemoteError
 from simx_server.base.arguments import quote
 from simx_server.base.scene_guard import inside
+
+log = logging.getLogger("simx.world")
 
 # A scene that attaches a URDF keeps its names (prefix=""), as V-REP programs need; MuJoCo warns
 # at every compile that such a spec may not save back to XML, which simx never does with it.
@@ -114,6 +117,16 @@ def _adapt(spec: mujoco.MjSpec, path: Path, root: Path | None) -> None:
         settings[name] = data
     for name, data in settings.items():
         spec.add_text(name=f"simx:{name}", data=data)
+    # V-REP's URDF import kept adjacent links from colliding; MuJoCo does not filter a body and its
+    # parent when the parent is welded to the world (a shoulder next to the base stalled at full
+    # torque): every joint's two links are excluded from contact.
+    # (Not with the author's fusestatic: an exclude would keep a static link from being fused.)
+    bodies = {b.name for b in spec.bodies} if not spec.compiler.fusestatic else set()
+    for joint in robot.findall("joint"):
+        parent, child = joint.find("parent"), joint.find("child")
+        pair = (parent.get("link") if parent is not None else None, child.get("link") if child is not None else None)
+        if all(name in bodies for name in pair):
+            spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1])
     links = {}  # mesh file name -> a link that uses it (for messages)
     for link in robot.findall("link"):
         for mesh in link.iter("mesh"):
@@ -125,6 +138,26 @@ def _adapt(spec: mujoco.MjSpec, path: Path, root: Path | None) -> None:
         found = _mesh_file(spec, path, mesh.file, links.get(mesh.file, "?"), root)
         mesh.file = os.path.relpath(found, look_in)
     spec.strippath = False
+    _log_self_collisions(spec, path)
+
+
+def _log_self_collisions(spec: mujoco.MjSpec, path: Path) -> None:
+    """One log line naming the links (not adjacent) whose collision shapes touch at the initial
+    pose: MuJoCo keeps their contacts, which a URDF's author may not expect."""
+    try:
+        model = spec.copy().compile()
+    except Exception:  # the caller's compile reports it
+        return
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    pairs = set()
+    for c in data.contact[:data.ncon]:
+        b1, b2 = model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2]
+        if b1 and b2 and b1 != b2:
+            pairs.add(tuple(sorted((model.body(b1).name, model.body(b2).name))))
+    if pairs:
+        log.warning("URDF %s: links in contact at the initial pose, their collisions stay on: %s", path.name,
+                    ", ".join(f"{a}-{b}" for a, b in sorted(pairs)[:10]) + (" ..." if len(pairs) > 10 else ""))
 
 
 def _mesh_folder(spec: mujoco.MjSpec, urdf: Path) -> Path:

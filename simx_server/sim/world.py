@@ -71,6 +71,9 @@ class World(Poses):
         scene: path of an MJCF file, or of a URDF file (:mod:`simx_server.sim.urdf`).
         dt: simulation step in s (V-REP's default 0.05); made of MuJoCo substeps of the
             model's own timestep.
+        bounded: a client's scene: the compiled model's data arena and step work must stay
+            within MAX_ARENA_BYTES and MAX_STEP_WORK (:func:`physics.check_cost`), checked
+            before its MjData is made. Edits (:meth:`replace_model`) are always checked.
 
     Raises:
         ValueError: the scene cannot be loaded (MuJoCo's message, with the file name), or
@@ -78,8 +81,10 @@ class World(Poses):
             MAX_SUBSTEPS, MAX_RESOLUTION).
     """
 
-    def __init__(self, scene: str | Path, dt: float = 0.05):
+    def __init__(self, scene: str | Path, dt: float = 0.05, bounded: bool = False):
         self.scene_path = Path(scene).resolve()
+        #: A client's scene: its compiled model's arena and step work are bounded (check_cost).
+        self.bounded = bounded
         physics.install_warning_handler()  # MuJoCo's warnings go to the log, not to stdout
         try:
             self.requested_dt = physics.check_dt(dt)  # s; the actual dt is a whole number of timesteps
@@ -106,6 +111,9 @@ class World(Poses):
         a bound: substeps of the current dt, camera resolutions.
         """
         substeps = physics.check_scene(model, self.requested_dt)
+        previous = getattr(self, "model", None)  # an edit: bounded, unless no worse than before
+        if self.bounded or previous is not None:
+            physics.check_cost(model, substeps, previous, getattr(self, "substeps", 1))
         self.model = model
         self.data = mujoco.MjData(model)
         # A view kept for the hottest read: each ``data.qpos`` builds a new ndarray, which costs

@@ -9,9 +9,13 @@ small results of most calls.
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from simx_server.scene.simulation import Simulation
+from simx_server.sim.vision import Deferred
+
+log = logging.getLogger("simx.server")
 
 #: Commands whose result is an image: its size is known before it is rendered.
 IMAGES = frozenset({"GetVisionSensorImage", "GetVisionSensorDepthBuffer"})
@@ -43,3 +47,18 @@ def image_size(sim: Simulation, name: str, args: list) -> int:
         return spec.width * spec.height * 4
     grey = len(args) > 1 and type(args[1]) is int and args[1] & 1
     return spec.width * spec.height * (1 if grey else 3)
+
+
+def resolve(results: list, client: str) -> list:
+    """``[ok, value]`` results with every Deferred replaced by its value (called on the render
+    thread); a failed render becomes an error result."""
+    out = []
+    for ok, value in results:
+        if isinstance(value, Deferred):
+            try:
+                value = value.future.result()
+            except Exception as exc:
+                log.exception("client %s: rendering failed", client)
+                ok, value = False, f"internal error while rendering: {type(exc).__name__}: {exc}"
+        out.append([ok, value])
+    return out

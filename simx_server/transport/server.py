@@ -28,15 +28,17 @@ import zenoh
 from simx_client import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
-from simx_server.commands import HANDLERS
+from simx_server.commands import HANDLERS, NOT_STREAMABLE
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.physics import PhysicsError
 from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
 from simx_server.transport import logs
+from simx_server.transport.client_commands import ClientCommands
 from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
 from simx_server.transport.consoles import cut as _cut
-from simx_server.transport.replies import IMAGES, SMALL, image_size, reply_size
+from simx_server.transport.others import OtherTransports
+from simx_server.transport.replies import IMAGES, SMALL, image_size, reply_size, resolve
 from simx_server.transport.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.transport.streams import StreamPublisher, _Stream
 from simx_server.transport.viewer_feed import ViewerFeed
@@ -52,7 +54,7 @@ _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 PACINGS = ("legacy", "immediate")
 
 
-class Server(StreamPublisher):
+class Server(OtherTransports, ClientCommands, StreamPublisher):
     """Serves one :class:`Simulation` on Zenoh.
 
     Args:
@@ -99,11 +101,13 @@ class Server(StreamPublisher):
         self._paced = pacing == "legacy"
         self._held: list[Session] = []  # clients whose next blocking call waits for the next step
         self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
+        self._edit_debt: dict[str, tuple[float, float]] = {}  # per client: (s of edits owed, as of when)
         self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
         self._t0 = time.monotonic()
         self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
         self.viewers = ViewerFeed(prefix, self._queue.put)  # simx-viewer's model and state
+        self._init_transports(self._queue.put)  # other transports beside Zenoh (OtherTransports)
 
     # ------------------------------------------------------------ zenoh side
     def open(self) -> None:
@@ -180,6 +184,7 @@ class Server(StreamPublisher):
 
     def close(self) -> None:
         """Finish pending renders and their replies, then close the session; idempotent."""
+        self._close_transports()
         self.sim.close()
         if self.session is not None:
             session, self.session = self.session, None
@@ -216,6 +221,7 @@ class Server(StreamPublisher):
                     interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
                 elif sim.state is not RunState.RUNNING:
                     self._publish_streams()  # idle tick: streams keep being served
+                    self._after_step()
                 if self._held:  # stepped, or no longer stepping: their blocking calls are due
                     self._release_held()
                 if now >= self._housekeeping_at:
@@ -241,6 +247,7 @@ class Server(StreamPublisher):
             expired = self.sessions.expired(self.client_expiry)
             for client in expired:
                 self._forget(client, f"expired (no liveliness token, no request for {self.client_expiry:g} s)")
+            self._transports_housekeeping(now)
             logs.flush()
         except Exception:  # housekeeping must never end the loop
             log.exception("housekeeping")
@@ -252,7 +259,8 @@ class Server(StreamPublisher):
         """As fast as possible (``--speed 0``) with no client and no viewer: nobody would see the
         steps, so none are taken (the loop sleeps until a request comes) and an idle server of a
         pool leaves the cores to the servers in use. Paced servers keep V-REP's clock."""
-        return not self.sim.realtime and not len(self.sessions) and not self.viewers.watched
+        return (not self.sim.realtime and not len(self.sessions) and not self.viewers.watched
+                and not self._transport_clients())
 
     def _step(self) -> bool:
         """One step and the streams' updates; False when the step failed (the simulation is
@@ -261,8 +269,10 @@ class Server(StreamPublisher):
             self.sim.step()
         except Exception as exc:  # nothing a client sends may end the simulation thread
             self._step_failed(exc)
+            self._after_step()
             return False
         self._publish_streams()
+        self._after_step()
         return True
 
     def _step_failed(self, exc: Exception) -> None:
@@ -308,6 +318,8 @@ class Server(StreamPublisher):
             self._forget(client, "left")
         elif kind == "viewer-model":  # client is the query here
             self.viewers.answer(client, self.sim.world)
+        elif kind in self._kinds:  # another transport's request or event (client is its item)
+            self._kinds[kind].handle(kind, client)
 
     def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
         """Execute a request and reply, now or on the render thread once its images are
@@ -372,12 +384,23 @@ class Server(StreamPublisher):
 
     def _run(self, client: str, commands: list) -> list:
         """Each command's ``[ok, value]``; commands past the reply budget (limits.MAX_REPLY_BYTES)
-        get an error result instead of their value."""
+        or the request's time budget (limits.MAX_REQUEST_SECONDS), and scene loads and edits past
+        the client's share (limits.EDIT_SHARE), get an error result instead of their value."""
         execute, budget = self._execute, limits.MAX_REPLY_BYTES
         results = []
+        start = time.monotonic()
         for name, mode, args in commands:
             if name in IMAGES and budget < image_size(self.sim, name, args):
                 results.append(self._over_budget(client, name))
+                continue
+            if time.monotonic() - start > limits.MAX_REQUEST_SECONDS:
+                results.append(self._refused(client, name, f"not executed: the request took its {limits.MAX_REQUEST_SECONDS:g} "
+                                             "s of the simulation thread (limits.MAX_REQUEST_SECONDS); send the rest "
+                                             "in another request"))
+                continue
+            if name in NOT_STREAMABLE:
+                result = self._edit(client, name, mode, args)
+                results.append(result)
                 continue
             result = execute(client, name, mode, args)
             value = result[1]
@@ -393,25 +416,32 @@ class Server(StreamPublisher):
         return results
 
     def _over_budget(self, client: str, name: str) -> list:
-        message = (f"simx{name}: not executed, the reply would exceed {limits.MAX_REPLY_BYTES} bytes "
-                   f"(limits.MAX_REPLY_BYTES); ask for less in one request")
+        return self._refused(client, name, f"not executed, the reply would exceed {limits.MAX_REPLY_BYTES} bytes "
+                                           "(limits.MAX_REPLY_BYTES); ask for less in one request")
+
+    def _refused(self, client: str, name: str, why: str) -> list:
+        message = f"simx{name}: {why}"
         log.warning("client %s: %s", client, message)
         self._keep_error(client, message)
         return [False, message]
 
-    @staticmethod
-    def _resolve(results: list, client: str) -> list:
-        """Results with every Deferred replaced by its value (called on the render thread)."""
-        out = []
-        for ok, value in results:
-            if isinstance(value, Deferred):
-                try:
-                    value = value.future.result()
-                except Exception as exc:
-                    log.exception("client %s: rendering failed", client)
-                    ok, value = False, f"internal error while rendering: {type(exc).__name__}: {exc}"
-            out.append([ok, value])
-        return out
+    def _edit(self, client: str, name: str, mode: int, args: list) -> list:
+        """A scene load or edit, within the client's share of the simulation thread: each costs
+        its duration, the debt falls by limits.EDIT_SHARE s per s."""
+        now = time.monotonic()
+        debt, since = self._edit_debt.get(client, (0.0, now))
+        debt = max(0.0, debt - (now - since) * limits.EDIT_SHARE)
+        if debt > limits.EDIT_DEBT_SECONDS:
+            self._edit_debt[client] = (debt, now)
+            return self._refused(client, name, f"{P.BUSY}: this client's scene loads and edits took more than "
+                                               f"{limits.EDIT_SHARE:.0%} of the simulation thread "
+                                               "(limits.EDIT_SHARE); try again later")
+        result = self._execute(client, name, mode, args)
+        done = time.monotonic()
+        self._edit_debt[client] = (debt + (done - now), done)
+        return result
+
+    _resolve = staticmethod(resolve)  # results with their Deferred images rendered (render thread)
 
     def _execute(self, client: str, name: str, mode: int, args: list) -> list:
         base = mode & P.MODE_MASK
@@ -428,6 +458,10 @@ class Server(StreamPublisher):
                 own = self._CLIENT_COMMANDS[name]
                 return [True, getattr(self, own)(client, args) if own else self.consoles.execute(name, client, args)]
             if base in _STREAMING:
+                if name in NOT_STREAMABLE:
+                    raise P.ArgumentError(f"simx{name} cannot be streamed: only reads and settings stream "
+                                          "(scene loads, edits and file transfers run once: use simx_opmode_oneshot "
+                                          "or simx_opmode_blocking)")
                 streams = self._streams.setdefault(client, {})
                 ident = P.identity(name, args)
                 delay = mode & P.MODE_ARG_MASK if base == P.MODE_STREAMING else 0
@@ -464,54 +498,3 @@ class Server(StreamPublisher):
         "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
         "GetLastErrors": "_last_errors", **{name: None for name in CONSOLE_COMMANDS},
     }
-
-    def _last_errors(self, client: str, args: list) -> list[str]:
-        return self._errors.pop(client, [])
-
-    def _bye(self, client: str, args: list) -> None:
-        self._forget(client, "disconnected")
-
-    def _synchronous(self, client: str, args: list) -> None:
-        if len(args) != 1 or not isinstance(args[0], bool):
-            raise P.ArgumentError("simxSynchronous takes one boolean")
-        if args[0]:
-            self.sim.enable_sync(client, True)
-            log.info("client %s: synchronous mode on", client)
-        elif self.sim.is_synchronous(client):
-            self._leave_sync(client, "left synchronous mode")
-
-    def _trigger(self, client: str, args: list) -> None:
-        sim = self.sim
-        if not sim.is_synchronous(client):
-            raise P.RemoteError(
-                "simxSynchronousTrigger: this client has not enabled synchronous mode (call "
-                "simxSynchronous(clientID, True)); the simulation steps once every client that did has triggered")
-        if sim.state is RunState.RUNNING and sim.trigger(client) and not self._step():
-            session = self.sessions.get(client)
-            message = session.fault if session is not None else "the simulation step failed"
-            if session is not None:
-                session.fault = None  # told now, by this call's error
-            raise P.RemoteError(message)
-
-    def _forget(self, client: str, how: str) -> None:
-        self._streams.pop(client, None)
-        self._errors.pop(client, None)
-        self.sessions.remove(client)
-        if client in self._clients:
-            self._clients.discard(client)
-            log.info("client %s %s", client, how)
-        if self.sim.is_synchronous(client):
-            self._leave_sync(client, f"{how}: out of synchronous mode")
-
-    def _leave_sync(self, client: str, how: str) -> None:
-        """``client`` leaves the synchronous barrier; the step the others all triggered runs now."""
-        released = self.sim.leave_sync(client)
-        waiting = len(self.sim.waiting_for())
-        log.info("client %s %s (%s)", client, how,
-                 "the step its other clients triggered runs now" if released else
-                 f"the next step waits for {waiting} other client(s)" if waiting else
-                 "no synchronous client left: the simulation runs asynchronously")
-        if released and self.sim.state is RunState.RUNNING:
-            self._step()  # a failure is told to every client at its next request
-
-

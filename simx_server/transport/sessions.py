@@ -58,15 +58,18 @@ class Sessions:
         max_requests, max_bytes: a client's queue bounds (requests, payload bytes).
         max_total_bytes: payload bytes queued over all clients.
         max_clients: clients with state.
+        max_per_user: clients with state of one user (client ids ``<user>-<uuid>``).
         max_renders: a client's replies waiting for the render thread before it is parked.
     """
 
     def __init__(self, ready: queue.SimpleQueue, max_requests: int = limits.MAX_QUEUED_REQUESTS,
                  max_bytes: int = limits.MAX_QUEUED_BYTES, max_total_bytes: int = limits.MAX_QUEUED_BYTES_TOTAL,
-                 max_clients: int = limits.MAX_CLIENTS, max_renders: int = limits.MAX_RENDERS_PER_CLIENT):
+                 max_clients: int = limits.MAX_CLIENTS, max_renders: int = limits.MAX_RENDERS_PER_CLIENT,
+                 max_per_user: int = limits.MAX_CLIENTS_PER_USER):
         self.ready = ready
         self.max_requests, self.max_bytes, self.max_total_bytes = max_requests, max_bytes, max_total_bytes
-        self.max_clients, self.max_renders = max_clients, max_renders
+        self.max_clients, self.max_renders, self.max_per_user = max_clients, max_renders, max_per_user
+        self._per_user: dict[str, int] = {}  # authenticated user -> its clients with state
         self.tokens: set[str] = set()  # clients whose liveliness token is alive (Zenoh's threads)
         self._lock = threading.Lock()
         self._sessions: dict[str, Session] = {}
@@ -88,10 +91,16 @@ class Sessions:
         with self._lock:
             s = self._sessions.get(client)
             if s is None:
+                user = _user(client)
+                if user and self._per_user.get(user, 0) >= self.max_per_user and not self._evict_one(user):
+                    return (f"{P.BUSY}: user {user} has {self.max_per_user} clients already "
+                            "(limits.MAX_CLIENTS_PER_USER); finish some first")
                 if len(self._sessions) >= self.max_clients and not self._evict_one():
                     return (f"{P.BUSY}: it serves {self.max_clients} clients already "
                             "(limits.MAX_CLIENTS); try again later")
                 s = self._sessions[client] = Session(client, now)
+                if user:
+                    self._per_user[user] = self._per_user.get(user, 0) + 1
             s.last_seen = now
             if len(s.queue) >= self.max_requests:
                 return (f"{P.BUSY}: this client has {len(s.queue)} requests waiting "
@@ -110,16 +119,28 @@ class Sessions:
                 self.ready.put(s)
         return None
 
-    def _evict_one(self) -> bool:
-        """Drop the oldest client that holds no token and has nothing pending (lock held);
-        False when there is none. Sessions are kept in creation order, so under a flood of
-        fresh ids the first candidate is found at once."""
+    def _evict_one(self, user: str | None = None) -> bool:
+        """Drop the oldest client (of ``user``, if given) that holds no token and has nothing
+        pending (lock held); False when there is none. Sessions are kept in creation order, so
+        under a flood of fresh ids the first candidate is found at once."""
         for client, s in self._sessions.items():
-            if not s.scheduled and not s.renders and client not in self.tokens:
-                del self._sessions[client]
+            if (not s.scheduled and not s.renders and client not in self.tokens
+                    and (user is None or _user(client) == user)):
+                self._drop(client)
                 self.evicted.append(client)
                 return True
         return False
+
+    def _drop(self, client: str) -> None:
+        """Forget a client's session (lock held)."""
+        if self._sessions.pop(client, None) is not None:
+            user = _user(client)
+            if user:
+                left = self._per_user[user] - 1
+                if left:
+                    self._per_user[user] = left
+                else:
+                    del self._per_user[user]
 
     # ------------------------------------------------------------ simulation thread
     def take(self, s: Session) -> Any:
@@ -180,7 +201,7 @@ class Sessions:
         with self._lock:
             s = self._sessions.get(client)
             if s is not None and not s.scheduled and not s.renders:
-                del self._sessions[client]
+                self._drop(client)
 
     def expired(self, expiry: float) -> list[str]:
         """Remove and return the clients with no liveliness token, nothing pending and no
@@ -192,8 +213,13 @@ class Sessions:
                 if s.last_seen < deadline and client not in self.tokens and not s.scheduled and not s.renders:
                     gone.append(client)
             for client in gone:
-                self._sessions.pop(client, None)
+                self._drop(client)
         return gone
+
+
+def _user(client: str) -> str:
+    """The user a client id names (``<user>-<uuid>``), "" for an anonymous id."""
+    return client.rpartition("-")[0]
 
 
 #: Per Zenoh thread: whether keep_thread_state() ran on it.

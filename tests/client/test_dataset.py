@@ -182,7 +182,7 @@ def test_boxes_thresholds_and_decoding():
     assert [(b.cls, b.x0, b.y0, b.x1, b.y1, b.pixels) for b in found] == [(0, 3, 2, 12, 8, 54)]
     assert found[0].yolo(30, 20) == "0 0.250000 0.250000 0.300000 0.300000"
     assert [b.cls for b in D.boxes(handles, [[5], [7]], min_pixels=1, min_side=1)] == [0, 1]
-    assert [b.cls for b in D.boxes(handles, [[7, 9]], min_pixels=1, min_side=1)] == [0]
+    assert [b.cls for b in D.boxes(handles, [[7, 9]], min_pixels=1, min_side=1)] == [0, 0]  # a box per object
     rgb = np.array([[[255, 255, 255], [5, 1, 0], [0, 0, 1]]], dtype=np.uint8)
     assert D.decode_handles(rgb).tolist() == [[D.BACKGROUND, 261, 65536]]
 
@@ -204,3 +204,29 @@ def test_named_surface_is_the_top_of_its_bounding_box(srv):
         scene.close()
     # the table top: centre (0.1, 0.35), half sizes 0.6 x 0.7, top at z 0.75 (the scene's MJCF)
     np.testing.assert_allclose(area, (-0.47, 0.67, -0.32, 1.02, 0.75), atol=1e-3)
+
+
+def test_the_readmes_command_puts_the_ball_where_the_kinect_sees_it(srv, tmp_path, capsys):
+    """Issue 20 part 4: --surface Table covers more than the Kinect sees; objects are now placed
+    where the sensor sees the surface at each drawn pose (21 of 30 images were empty before)."""
+    out = tmp_path / "readme"
+    run(srv, out, "--class", "ball=Sphere", "--pose", "90,-45,90,0,-100,0", "--pose-noise", "4",
+        "--place", "Sphere", "--surface", "Table", "--count", "30", "--seed", "1")
+    files = list((out / "labels").glob("*/*.txt"))
+    full = [p for p in files if p.read_text().strip()]
+    assert len(files) == 30 and len(full) >= 27, f"{30 - len(full)} of 30 images without the ball"
+    printed = capsys.readouterr().out
+    assert "30 images" in printed
+    assert ("without a box" not in printed) == (len(full) == 30)
+
+
+def test_a_class_of_several_objects_gives_a_box_per_object(srv, tmp_path):
+    """--class gripper=RG2,RG2_finger1,RG2_finger2 gave one box joining both fingertips, as wide
+    as the image (the Kinect sits between them): each object is an instance, as YOLO means."""
+    out = tmp_path / "gripper"
+    run(srv, out, "--class", "gripper=RG2,RG2_finger1,RG2_finger2", "--pose", "90,-45,90,0,-100,0",
+        "--count", "3", "--seed", "2")
+    rows = [r for p in (out / "labels").glob("*/*.txt") for r in labels(p)]
+    assert rows and all(r[3] < 0.9 for r in rows), rows  # no box spans the image
+    per_image = [len(labels(p)) for p in (out / "labels").glob("*/*.txt")]
+    assert max(per_image) >= 2  # the two fingers, each its own box

@@ -131,8 +131,7 @@ def test_no_server_is_a_clean_message_and_exit_status_1():
 needs_x = pytest.mark.skipif(not have_x_tools() and not os.environ.get("CI"),
                              reason=f"needs Xvfb and xdotool: {FIX_HINT}")
 _SCREEN = (1200, 900)  # the viewer's window takes 2/3 of it: 800 x 600 at (0, 0)
-_VIEW = ["--hide-ui", "--lookat", "0", "0.15", "1.2", "--distance", "2.2",
-         "--azimuth", "20", "--elevation", "-15"]
+_VIEW: list[str] = []  # issue 20: the window's defaults frame the scene's objects (the arm whole)
 
 
 def _window(shot: np.ndarray) -> np.ndarray:
@@ -214,6 +213,8 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
             edited, = wait_until(steady_shot, timeout=60, what="a steady view of the edited scene")
             cv2.imwrite(str(tmp_path / "viewer-edited.png"), edited)
             assert _changed(resumed, edited) > 5000, "the table is still shown"
+            viewer.terminate()  # SIGTERM: a clean stop with status 0, as the server's (it was 143)
+            assert viewer.wait(10) == 0
         finally:
             if cid >= 0:
                 vrep.simxFinish(cid)
@@ -291,3 +292,22 @@ def test_images_come_through_the_legacy_streaming_calls():
         if images is not None:
             images.close()
         server.stop()
+
+
+def test_the_default_view_frames_the_scenes_objects():
+    """The box around the bodies' geoms (the floor plane left out) and a view that holds it: the
+    UR5's top (the Kinect) and the table's corners are inside it, the floor does not widen it."""
+    import mujoco
+
+    from simx_viewer.framing import default_view, scene_box
+
+    m = mujoco.MjModel.from_xml_path(str(SCENE))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    low, high = scene_box(m, d)
+    kinect = d.body("kinect").xpos
+    assert np.all(low <= kinect) and np.all(kinect <= high)
+    assert high[2] < 2.5 and np.all(np.abs(low[:2]) < 2)  # not the 10 m floor
+    lookat, distance, azimuth, elevation = default_view(m, d)
+    assert np.allclose(lookat, (low + high) / 2) and (azimuth, elevation) == (135.0, -25.0)
+    assert 1.0 < distance < 6.0

@@ -423,3 +423,50 @@ def test_includes_count_toward_one_xml_budget(sim, monkeypatch):
         H["LoadScene"](sim, ["a.xml", 1])
     H["TransferFile"](sim, ["a.xml", f"<mujoco>{includes[:len(includes) // 2]}</mujoco>".encode()])
     H["LoadScene"](sim, ["a.xml", 1])  # two of them fit
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-le", "utf-32"])
+def test_a_doctype_in_utf16_or_utf32_xml_is_refused_before_mujoco_parses_it(sim, encoding):
+    """Issue 23 part 6: the byte search for a DOCTYPE missed UTF-16 text (with or without BOM)."""
+    from simx_server.commands.editing import EDITING_HANDLERS as H
+
+    text = ('<?xml version="1.0"?>\n<!DOCTYPE m [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;">]>\n'
+            '<mujoco><worldbody><body name="B"><geom size="0.1"/></body></worldbody></mujoco>')
+    H["TransferFile"](sim, ["wide.xml", text.encode(encoding)])
+    model = sim.world.model
+    with pytest.raises(RemoteError, match=r"not UTF-8 text .*MuJoCo reads UTF-8 XML only"):
+        H["LoadModel"](sim, ["wide.xml", 1])
+    assert sim.world.model is model
+
+
+def _spheres(n: int, iterations: int = 100, timestep: float = 0.002) -> bytes:
+    bodies = "".join(f'<body name="s{i}" pos="0 0 {0.1 + i * 0.001:.3f}"><freejoint/><geom size="0.05"/></body>'
+                     for i in range(n))
+    return (f'<mujoco><option iterations="{iterations}" timestep="{timestep}"/><worldbody>{bodies}'
+            '</worldbody></mujoco>').encode()
+
+
+def test_a_client_scene_whose_arena_or_step_work_is_too_big_is_refused_before_it_replaces_the_scene(sim):
+    """Issue 23 part 3: MuJoCo sizes the arena of overlapping spheres itself (1,000 of them:
+    1.65 GiB), and 300 piled spheres at 1,000 iterations and a 5e-4 s timestep froze every client."""
+    from simx_server.commands.editing import EDITING_HANDLERS as H
+
+    world = sim.world
+    H["TransferFile"](sim, ["pile.xml", _spheres(400)])  # about 300 MiB of arena
+    with pytest.raises(RemoteError, match="MAX_ARENA_BYTES"):
+        H["LoadScene"](sim, ["pile.xml", 1])
+    H["TransferFile"](sim, ["slow.xml", _spheres(300, iterations=1000, timestep=5e-4)])
+    with pytest.raises(RemoteError, match="MAX_STEP_WORK"):
+        H["LoadScene"](sim, ["slow.xml", 1])
+    assert sim.world is world  # nothing replaced
+    H["TransferFile"](sim, ["fine.xml", _spheres(20)])
+    H["LoadScene"](sim, ["fine.xml", 1])
+    assert sim.world is not world and len(sim.world.objects) == 20
+
+
+def test_obj_vertices_are_counted_as_mujocos_reader_reads_them():
+    from simx_server.base.scene_guard import _mesh_vertices
+
+    lf, cr, crlf, indented = (b"v 0 0 0\nv 1 0 0\nvn 0 0 1\n# v 9 9 9\n", b"v 0 0 0\rv 1 0 0\rv 0 1 0\r",
+                              b"v 0 0 0\r\nv 1 0 0\r\n", b"  v 0 0 0\n\tv 1 0 0\n")
+    assert [_mesh_vertices(d, "m.obj") for d in (lf, cr, crlf, indented)] == [2, 3, 2, 2]

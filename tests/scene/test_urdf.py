@@ -185,3 +185,55 @@ def test_mujoco_extension_element_is_honoured(package):
                                  'meshdir="../meshes" fusestatic="true"/></mujoco>'))
     objects = {o["name"]: o for o in describe(urdf)["objects"]}
     assert "base" not in objects and objects["joint1"]["parent"] == -1
+
+
+SHOULDER_URDF = """<?xml version="1.0"?>
+<robot name="shoulder">
+  <link name="base">
+    <inertial><mass value="5"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision>
+  </link>
+  <link name="upper">
+    <inertial><origin xyz="0 0 0.2"/><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.1"/><geometry><box size="0.08 0.08 0.4"/></geometry></collision>
+  </link>
+  <link name="fore">
+    <inertial><origin xyz="0 0 0.1"/><mass value="0.5"/>
+      <inertia ixx="0.004" iyy="0.004" izz="0.0005" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.1"/><geometry><box size="0.06 0.06 0.3"/></geometry></collision>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/><origin xyz="0 0 0.05"/><axis xyz="0 1 0"/>
+    <limit lower="-2.5" upper="2.5" effort="50" velocity="2"/>
+  </joint>
+  <joint name="elbow" type="revolute">
+    <parent link="upper"/><child link="fore"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="20" velocity="2"/>
+  </joint>
+</robot>
+"""
+
+
+def test_adjacent_links_do_not_collide_so_a_shoulder_inside_its_base_follows_its_targets(tmp_path, caplog):
+    """Issue 19 part 5: the upper arm's collision box starts inside the base's (welded to the
+    world, so MuJoCo does not filter the pair): it stalled at 0.06 rad at its 50 N·m limit."""
+    import logging
+
+    from simx_server.scene.simulation import Simulation
+
+    urdf = tmp_path / "shoulder.urdf"
+    urdf.write_text(SHOULDER_URDF)
+    with caplog.at_level(logging.WARNING, logger="simx.world"):
+        sim = Simulation(urdf, dt=0.05, realtime=False)
+    try:
+        assert "links in contact" not in caplog.text  # the only overlap is an adjacent pair
+        w = sim.world
+        shoulder = w.resolve("shoulder").handle
+        sim.start()
+        w.set_joint_target_position(shoulder, 1.0)
+        for _ in range(40):  # 2 s: at 2 rad/s it is there after 0.5 s
+            sim.step()
+        assert w.joint_position(shoulder) == pytest.approx(1.0, abs=0.02)
+    finally:
+        sim.close()

@@ -15,6 +15,7 @@ import subprocess
 import sys
 import json
 import textwrap
+import tempfile
 import time
 import uuid
 from pathlib import Path
@@ -127,10 +128,13 @@ def test_sigterm_stops_the_server_within_2_s_during_a_long_step():
                    timeout=10, what="the server busy in a step")
     finally:
         session.close()
+    folders = lambda: list(Path(tempfile.gettempdir()).glob(f"simx-{srv.proc.pid}-*"))  # noqa: E731
+    assert folders(), "the server's transfer folder"
     t0 = time.monotonic()
     log = srv.stop(timeout=10)
     assert time.monotonic() - t0 < 2.0 and srv.proc.returncode == 0
     assert "exiting without waiting" in log
+    assert not folders(), "the forced exit left the transfer folder behind"
 
 
 # ------------------------------------------------------------------ defect 2: log floods

@@ -120,3 +120,39 @@ def test_a_streamed_script_call_runs_with_its_newest_arguments():
     finally:
         vrep.simxFinish(cid)
         srv.stop()
+
+
+def test_joint_target_position_follows_the_newest_streamed_value(stepped):
+    """Position control (motor and control loop on) steers to the newest streamed target."""
+    cid = stepped
+    h = handle(cid, "UR5_joint3")
+    assert vrep.simxSetObjectIntParameter(cid, h, vrep.sim_jointintparam_ctrl_enabled, 1, BLOCKING) == 0
+    for target in (0.3, -0.2):
+        vrep.simxSetJointTargetPosition(cid, h, target, STREAMING)
+        for _ in range(100):  # 5 s of simulation at most
+            steps(cid, 1)
+            if abs(joint(cid, h) - target) < 1e-3:
+                break
+        assert joint(cid, h) == pytest.approx(target, abs=1e-3), "the stream still runs an older target"
+    vrep.simxSetJointTargetPosition(cid, h, 0.0, vrep.simx_opmode_discontinue)
+
+
+def test_joint_force_follows_the_newest_streamed_value(stepped):
+    cid = stepped
+    h = handle(cid, "UR5_joint4")
+    for force in (5.0, 7.5):
+        vrep.simxSetJointForce(cid, h, force, STREAMING)
+        steps(cid, 2)  # an older stream would run its first value again at each step
+        assert vrep.simxGetJointMaxForce(cid, h, BLOCKING) == (0, pytest.approx(force))
+    vrep.simxSetJointForce(cid, h, 0.0, vrep.simx_opmode_discontinue)
+
+
+def test_object_orientation_follows_the_newest_value(stepped):
+    cid = stepped
+    ball = handle(cid, "Sphere")
+    for euler in ([0.3, -0.2, 0.5], [-0.4, 0.1, -0.6]):
+        vrep.simxSetObjectOrientation(cid, ball, -1, euler, STREAMING)
+        steps(cid, 1)
+        rc, got = vrep.simxGetObjectOrientation(cid, ball, -1, BLOCKING)
+        assert rc == 0 and got == pytest.approx(euler, abs=0.02), (euler, got)
+    vrep.simxSetObjectOrientation(cid, ball, -1, [0, 0, 0], vrep.simx_opmode_discontinue)

@@ -1,0 +1,152 @@
+"""CoppeliaSim 4.3+ object paths (``sim.getObject``) over simx's object tree.
+
+CoppeliaSim 4.3 replaced unique object names with *aliases* that several objects may share, and
+``sim.getObject(path [, {index=n}])`` finds objects by a path of aliases. simx keeps V-REP's
+unique names (the MJCF's, ``name#N`` where kinds share a name: :mod:`simx_server.sim.naming`);
+an object's **alias** is its name without V-REP's copy suffix ``#N`` (``joint#2`` -> ``joint``),
+so that a scene may give seven joints the alias ``joint`` as ``joint``, ``joint#0`` ...
+``joint#5``. A path segment matches an object whose alias or whole name it names.
+
+Paths (CoppeliaSim's manual, "Accessing scene objects programmatically"):
+
+* ``/A/B/C``: an object ``C`` below an object ``B`` below an object ``A``, each anywhere below
+  the previous one (intermediate levels may be left out: ``/UR5/UR5_joint3``); ``/A`` alone is
+  any object ``A`` of the scene;
+* ``.`` the calling script's object, ``./B`` below it; ``:`` the script's model base (in simx:
+  the script object's topmost ancestor below the world), ``:/B`` below it;
+* ``A[n]``: the n-th (0-based) of the matching objects that lie on the shallowest level where
+  any matches, in tree order (``/Cuboid[0]`` is the first top-level ``Cuboid``);
+  ``A{n}``: the n-th of all matching objects, in tree order;
+* ``*`` and ``?`` in a segment are wildcards (``/Mobile*``);
+* ``index`` (the ``{index=n}`` option): the n-th object that matches the whole path, in depth-first
+  tree order (a chain's joints in chain order); without it, the first.
+
+A string that starts with none of ``/ . :`` is a V-REP name, found as ``simxGetObjectHandle``
+finds it (:meth:`World.resolve`). No MuJoCo here: only the registry's names and parents.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import re
+
+from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_server.base.arguments import quote
+from simx_server.sim.world import WORLD, World
+
+_SUFFIX = re.compile(r"#\d+$")
+_SEGMENT = re.compile(r"^(?P<alias>[^\[\]{}]+)(?:\[(?P<level>\d+)\]|\{(?P<scene>\d+)\})?$")
+#: Longest path accepted (characters) and most segments.
+MAX_PATH = 1000
+MAX_SEGMENTS = 64
+
+
+def alias(name: str) -> str:
+    """The CoppeliaSim alias of a V-REP name: the name without a copy suffix ``#N``."""
+    return _SUFFIX.sub("", name)
+
+
+def tree_order(world: World) -> tuple[list[int], dict[int, int], dict[int, int], dict[int, int]]:
+    """``(handles in depth-first preorder, position of each in it, end of its subtree there
+    (exclusive), its depth: 1 for the world's children)``."""
+    children: dict[int, list[int]] = {WORLD: []}
+    for h, obj in world.objects.items():  # handles count up in tree order, edits append
+        children.setdefault(h, [])
+        children.setdefault(obj.parent, []).append(h)
+    order: list[int] = []
+    depth: dict[int, int] = {}
+    end: dict[int, int] = {}
+    stack: list[tuple[int, int, bool]] = [(h, 1, False) for h in reversed(children[WORLD])]
+    while stack:
+        h, d, closing = stack.pop()
+        if closing:
+            end[h] = len(order)
+            continue
+        order.append(h)
+        depth[h] = d
+        stack.append((h, d, True))
+        stack.extend((c, d + 1, False) for c in reversed(children.get(h, [])))
+    position = {h: i for i, h in enumerate(order)}
+    return order, position, end, depth
+
+
+def _matches(pattern: str, name: str) -> bool:
+    if "*" in pattern or "?" in pattern:
+        return fnmatch.fnmatchcase(alias(name), pattern) or fnmatch.fnmatchcase(name, pattern)
+    return pattern == name or pattern == alias(name)
+
+
+def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> list[int]:
+    """Handles of the objects ``path`` names, in depth-first tree order (``index`` >= 0: only the
+    index-th of them, or none). ``proxy``: the calling script's object (``.`` and ``:``); None
+    for unassociated code (a remote client), where relative paths are an error.
+
+    Raises ArgumentError for a path that is not one (empty segments, bad brackets, too long),
+    or a relative path without a script object."""
+    if not isinstance(path, str):
+        raise ArgumentError(f"object path must be a string, got {type(path).__name__}")
+    if len(path) > MAX_PATH:
+        raise ArgumentError(f"object path of {len(path)} characters refused: at most {MAX_PATH}")
+    if path[:1] not in ("/", ".", ":"):
+        try:
+            found = [world.resolve(path).handle]
+        except UnknownObjectError:
+            found = []
+        return found if index <= 0 else []
+    order, position, end, depth = tree_order(world)
+    if path[0] == "/":
+        base, rest = WORLD, path[1:]
+    else:
+        if proxy is None:
+            raise ArgumentError(f"object path {quote(path)} is relative (. or :): only a script's code has an object "
+                                "to start from; a remote client gives absolute paths (/A/B)")
+        base = proxy
+        if path[0] == ":":
+            while world.objects[base].parent != WORLD:
+                base = world.objects[base].parent
+        rest = path[1:]
+        if rest == "":
+            return [base] if index <= 0 else []
+        if not rest.startswith("/"):
+            raise ArgumentError(f"object path {quote(path)}: after . or : comes / (./child)")
+        rest = rest[1:]
+    segments = rest.split("/")
+    if len(segments) > MAX_SEGMENTS or any(s == "" for s in segments):
+        raise ArgumentError(f"object path {quote(path)} is not a path: /A/B/C, no empty part, at most "
+                            f"{MAX_SEGMENTS} parts")
+    current = [base]
+    for seg in segments:
+        m = _SEGMENT.match(seg)
+        if m is None:
+            raise ArgumentError(f"object path {quote(path)}: {quote(seg)} is not ALIAS, ALIAS[n] or ALIAS{{n}}")
+        pattern = m.group("alias")
+        nxt: list[int] = []
+        reach = -1  # bases inside an earlier base's subtree add nothing: each object is visited once
+        for b in current:  # in tree order
+            lo, hi = (0, len(order)) if b == WORLD else (position[b] + 1, end[b])
+            if lo < reach:
+                continue
+            reach = hi
+            hits = [h for h in order[lo:hi] if _matches(pattern, world.objects[h].name)]
+            if m.group("level") is not None and hits:
+                top = min(depth[h] for h in hits)
+                n = int(m.group("level"))
+                hits = [h for h in hits if depth[h] == top][n:n + 1]
+            nxt.extend(hits)
+        if m.group("scene") is not None:
+            n = int(m.group("scene"))
+            nxt = nxt[n:n + 1]
+        current = nxt
+        if not current:
+            return []
+    return current[index:index + 1] if index >= 0 else current
+
+
+def find_one(world: World, path: str, index: int = -1, proxy: int | None = None) -> int:
+    """The handle of the object ``path`` names (the first, or the ``index``-th); raises
+    UnknownObjectError naming the path when there is none (ArgumentError as :func:`find`)."""
+    found = find(world, path, index, proxy)
+    if not found:
+        which = f" with index {index}" if index >= 0 else ""
+        raise UnknownObjectError(f"object {quote(path)}{which} does not exist in scene {world.scene_path.name}")
+    return found[0]

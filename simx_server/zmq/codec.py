@@ -1,0 +1,212 @@
+"""The messages of CoppeliaSim's ZMQ remote API, protocol version 2: CBOR maps read under bounds.
+
+A request is a CBOR map ``{func, args, uuid [, ver, lang, timeout, argsL]}``; the reply a map
+``{ret: [values]}``, ``{err: text}`` or ``{func: "_*wait*_", args: []}`` (docs/PROTOCOL.md,
+part 2). Clients are untrusted: before cbor2 builds any object, :func:`scan` walks the
+message's item heads without recursion and refuses what the protocol never sends and what
+would cost more than its size suggests (tags, indefinite lengths, simple values other than
+false/true/null, a length beyond the message, more than :data:`MAX_ITEMS` items, containers
+nested deeper than :data:`MAX_DEPTH`, map keys that are not strings). Every refusal is a
+:class:`~simx_client.protocol.ProtocolError` whose text the reply carries.
+
+No MuJoCo and no sockets in here.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import cbor2
+
+from simx_client.protocol import ProtocolError
+
+#: The protocol version simx speaks (CoppeliaSim 4.6 and later; ``ver`` of a client's first request).
+PROTOCOL_VERSION = 2
+#: Largest request in bytes (an image sent with sim.setVisionSensorImg fits: 4096² RGB is 48 MiB).
+MAX_REQUEST_BYTES = 64 * 1024 * 1024
+#: Deepest nesting of containers in a request (the request map is level 1, its args level 2).
+MAX_DEPTH = 32
+#: Most CBOR items in one request (each number, string, array or map counts one).
+MAX_ITEMS = 1 << 20
+#: Longest function name and client id (uuid) in characters.
+MAX_NAME = 200
+#: Bounds of the client's ``timeout`` (s): how long its state is kept without a request.
+MIN_TIMEOUT, MAX_TIMEOUT, DEFAULT_TIMEOUT = 1.0, 24 * 3600.0, 600.0
+
+WAIT = "_*wait*_"  # the server asks the client to send _*executed*_ back (sim.step)
+EXECUTED = "_*executed*_"  # the client's answer to _*wait*_
+END = "_*end*_"  # a client leaving
+NIL = "_*NIL*_"  # an argument that stands for nil (Lua drops nils from argument lists)
+
+_FLOAT_SIZES = {25: 2, 26: 4, 27: 8}
+
+
+def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS) -> None:
+    """Check the item heads of a CBOR message without building it; raises ProtocolError.
+
+    Accepts what protocol version 2 uses: unsigned and negative integers up to 64 bits, byte
+    and text strings, arrays, maps with string keys, false, true, null and floats; all of
+    definite length, one top-level item, no byte after it."""
+    n = len(data)
+    pos = 0
+    stack = [1]  # items still to read at each open level
+    keys = [False]  # whether the next item of that level is a map key
+    items = 0
+    while stack:
+        if stack[-1] == 0:
+            stack.pop()
+            keys.pop()
+            continue
+        stack[-1] -= 1
+        is_key = keys[-1] and stack[-1] % 2 == 1  # a map's count is doubled: keys are the odd ones left
+        if pos >= n:
+            raise ProtocolError("not CBOR: the message ends inside an item")
+        head = data[pos]
+        pos += 1
+        major, info = head >> 5, head & 31
+        items += 1
+        if items > max_items:
+            raise ProtocolError(f"request refused: more than {max_items} CBOR items (codec.MAX_ITEMS)")
+        if major == 7:
+            if is_key:
+                raise ProtocolError("request refused: map keys must be strings")
+            if 20 <= info <= 22:  # false, true, null
+                continue
+            size = _FLOAT_SIZES.get(info)
+            if size is None:
+                raise ProtocolError("request refused: CBOR simple values other than false, true and null, "
+                                    "and indefinite lengths, are not used by the protocol")
+            pos += size
+            if pos > n:
+                raise ProtocolError("not CBOR: the message ends inside a float")
+            continue
+        if info < 24:
+            arg = info
+        elif info <= 27:
+            size = 1 << (info - 24)
+            if pos + size > n:
+                raise ProtocolError("not CBOR: the message ends inside an item's head")
+            arg = int.from_bytes(data[pos:pos + size], "big")
+            pos += size
+        else:
+            raise ProtocolError("request refused: indefinite lengths are not used by the protocol")
+        if major <= 1:
+            if is_key:
+                raise ProtocolError("request refused: map keys must be strings")
+            continue
+        if major <= 3:  # byte and text strings
+            if arg > n - pos:
+                raise ProtocolError("not CBOR: a string is longer than the message")
+            pos += arg
+            continue
+        if major == 6:
+            raise ProtocolError("request refused: CBOR tags are not used by the protocol")
+        if is_key:
+            raise ProtocolError("request refused: map keys must be strings")
+        count = arg * 2 if major == 5 else arg
+        if count > n - pos:  # every item takes at least one byte
+            raise ProtocolError("not CBOR: a container holds more items than the message has bytes")
+        if len(stack) > max_depth:
+            raise ProtocolError(f"request refused: containers nested deeper than {max_depth} (codec.MAX_DEPTH)")
+        stack.append(count)
+        keys.append(major == 5)
+    if pos != n:
+        raise ProtocolError(f"not CBOR: {n - pos} bytes after the message's item")
+
+
+class Request:
+    """One request: ``func`` (str), ``args`` (list), ``uuid`` (str), and the first contact's
+    ``lang`` and ``timeout`` (s, None when not given)."""
+
+    __slots__ = ("func", "args", "uuid", "lang", "timeout")
+
+    def __init__(self, func: str, args: list, uuid: str, lang: str | None = None, timeout: float | None = None):
+        self.func, self.args, self.uuid, self.lang, self.timeout = func, args, uuid, lang, timeout
+
+    def __repr__(self) -> str:
+        return f"Request({self.func!r}, {len(self.args)} args, uuid={self.uuid!r})"
+
+
+def read_request(data: bytes) -> Request:
+    """The request in ``data``; raises ProtocolError naming what is wrong.
+
+    ``args`` may be absent (no arguments); the string ``"_*NIL*_"`` among them stands for nil
+    (None). A ``ver`` other than 2 is refused; a map without ``uuid`` is protocol version 1's."""
+    if len(data) > MAX_REQUEST_BYTES:
+        raise ProtocolError(f"request of {len(data)} bytes refused: at most {MAX_REQUEST_BYTES} (codec.MAX_REQUEST_BYTES)")
+    scan(data)
+    try:
+        msg = cbor2.loads(data, max_depth=MAX_DEPTH + 1, allow_indefinite=False, strict_hashable_types=True)
+    except (cbor2.CBORDecodeError, ValueError, RecursionError, MemoryError) as exc:
+        raise ProtocolError(f"not CBOR: {str(exc)[:200]}") from None
+    if not isinstance(msg, dict):
+        raise ProtocolError(f"a request is a CBOR map {{func, args, uuid}}, got {type(msg).__name__}")
+    uuid = msg.get("uuid")
+    if uuid is None:
+        raise ProtocolError("the client's ZMQ remote API version does not match: this server speaks protocol "
+                            f"version {PROTOCOL_VERSION} (requests carry a uuid; coppeliasim-zmqremoteapi-client 2.x)")
+    ver = msg.get("ver")
+    if ver is not None and ver != PROTOCOL_VERSION:
+        raise ProtocolError(f"protocol version {_short(ver)} refused: this server speaks version {PROTOCOL_VERSION} "
+                            "(coppeliasim-zmqremoteapi-client 2.x)")
+    if not isinstance(uuid, str) or not 0 < len(uuid) <= MAX_NAME:
+        raise ProtocolError(f"uuid must be a string of 1 to {MAX_NAME} characters")
+    func = msg.get("func")
+    if not isinstance(func, str) or not 0 < len(func) <= MAX_NAME:
+        raise ProtocolError(f"func must be a function name, a string of 1 to {MAX_NAME} characters")
+    args = msg.get("args", [])
+    if args is None:
+        args = []
+    if not isinstance(args, list):
+        raise ProtocolError(f"args must be an array, got {type(args).__name__}")
+    args = [None if a == NIL else a for a in args]
+    lang = msg.get("lang")
+    timeout = msg.get("timeout")
+    if timeout is not None:
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not math.isfinite(timeout):
+            raise ProtocolError("timeout must be a number of seconds")
+        timeout = min(max(float(timeout), MIN_TIMEOUT), MAX_TIMEOUT)
+    return Request(func, args, uuid, lang if isinstance(lang, str) else None, timeout)
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _plain(value: Any) -> Any:
+    """cbor2's fallback for values it does not know: numpy scalars and arrays, tuples."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, (set, frozenset)):
+        return list(value)
+    raise TypeError(f"{type(value).__name__} cannot be sent")
+
+
+def _default(encoder: cbor2.CBOREncoder, value: Any) -> None:
+    encoder.encode(_plain(value))
+
+
+def encode_reply(values: list | tuple) -> bytes:
+    """``{ret: values}``: a function's return values (one per returned value; none: empty)."""
+    return cbor2.dumps({"ret": list(values)}, default=_default)
+
+
+def encode_error(message: str) -> bytes:
+    """``{err: message}``: the client raises an exception with this text."""
+    return cbor2.dumps({"err": message})
+
+
+def encode_wait() -> bytes:
+    """``{func: "_*wait*_", args: []}``: the client answers with ``_*executed*_``."""
+    return cbor2.dumps({"func": WAIT, "args": []})
+
+
+def encode_request(func: str, args: list, uuid: str, first: bool = False) -> bytes:
+    """A request as a client sends it (tests and benchmarks; the official client builds its own)."""
+    msg: dict[str, Any] = {"func": func, "args": list(args), "uuid": uuid}
+    if first:
+        msg.update(ver=PROTOCOL_VERSION, lang="python", timeout=int(DEFAULT_TIMEOUT))
+    msg["argsL"] = len(args)
+    return cbor2.dumps(msg, default=_default)

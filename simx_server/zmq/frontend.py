@@ -1,0 +1,228 @@
+"""The ZMQ socket thread: CoppeliaSim's ZMQ remote API on a ROUTER socket, nothing of MuJoCo.
+
+A client's ``REQ`` socket sends one request and waits for its reply. simx binds a ``ROUTER``
+socket (the REQ's peer that may answer out of order), so that a request waiting for a simulation
+step holds only its own client. One thread, ``simx-zmq``, owns the socket (ZMQ sockets belong to
+one thread); it reads each request, checks it (:func:`~simx_server.zmq.codec.read_request`: size,
+nesting, shape), answers at once what it refuses, and hands the rest to the simulation thread
+through the server's ready ring, as Zenoh's threads do (docs/ARCHITECTURE.md). Replies come back
+from the simulation thread through :meth:`Frontend.send`: a queue and a wake-up pipe, so that any
+thread may reply without touching the socket.
+
+Bounds (clients are untrusted): messages over :data:`MAX_MESSAGE_BYTES` are dropped by libzmq
+with their connection; requests over ``codec.MAX_REQUEST_BYTES`` are answered with an error;
+one request at a time per connection (a REQ socket never sends two); at most
+``limits.MAX_CLIENTS`` requests and ``limits.MAX_QUEUED_BYTES_TOTAL`` bytes waiting for the
+simulation thread, beyond which a request is answered "server busy". A socket monitor tells
+which connection closed (its file descriptor), so the simulation thread can forget its client.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import queue
+import threading
+from typing import Any, Callable
+
+import zmq
+import zmq.utils.monitor
+
+from simx_client.protocol import ProtocolError
+from simx_server.base import limits
+from simx_server.zmq import codec
+
+log = logging.getLogger("simx.zmq")
+
+#: Messages libzmq reads at all; a larger one closes its connection unanswered.
+MAX_MESSAGE_BYTES = 2 * codec.MAX_REQUEST_BYTES
+#: Where clients connect unless told otherwise (CoppeliaSim's default port).
+DEFAULT_PORT = 23000
+_POLL_MS = 200  # the thread checks for close() at least this often
+
+
+class Incoming:
+    """A request handed to the simulation thread: reply to ``envelope``; ``fd`` is its
+    connection's file descriptor, ``size`` its bytes."""
+
+    __slots__ = ("envelope", "request", "fd", "size")
+
+    def __init__(self, envelope: list, request: codec.Request, fd: int, size: int):
+        self.envelope, self.request, self.fd, self.size = envelope, request, fd, size
+
+
+class Frontend:
+    """The ROUTER socket and its thread.
+
+    Args:
+        endpoints: ZMQ endpoints to bind (``tcp://127.0.0.1:23000``).
+        deliver: called on the socket thread with ``("zmq", Incoming)`` or ``("zmq-gone", fd)``
+            (the server's ready ring's ``put``); must not block.
+
+    Raises (from :meth:`open`): zmq.ZMQError when an endpoint cannot be bound.
+    """
+
+    def __init__(self, endpoints: list[str], deliver: Callable[[Any], None]):
+        self.endpoints = list(endpoints)
+        self._deliver = deliver
+        self._ctx: zmq.Context | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._replies: queue.SimpleQueue = queue.SimpleQueue()
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_r, False)
+        os.set_blocking(self._wake_w, False)
+        self._pending: dict[bytes, tuple[int, int]] = {}  # identity -> (fd, bytes) of its request in work
+        self._pending_bytes = 0
+        self.bound: list[str] = []
+
+    # ----------------------------------------------------------------- any thread
+    def open(self) -> None:
+        """Bind the socket and start the thread."""
+        ctx = self._ctx = zmq.Context()
+        router = ctx.socket(zmq.ROUTER)
+        router.setsockopt(zmq.LINGER, 0)
+        router.setsockopt(zmq.MAXMSGSIZE, MAX_MESSAGE_BYTES)
+        monitor = router.get_monitor_socket(zmq.EVENT_DISCONNECTED)
+        try:
+            for endpoint in self.endpoints:
+                router.bind(endpoint)
+                self.bound.append(router.getsockopt(zmq.LAST_ENDPOINT).decode())
+        except zmq.ZMQError:
+            monitor.close(0)
+            router.close(0)
+            ctx.term()
+            self._ctx = None
+            raise
+        self._thread = threading.Thread(target=self._run, args=(router, monitor), name="simx-zmq", daemon=True)
+        self._thread.start()
+
+    def send(self, envelope: list, payload: bytes) -> None:
+        """Reply ``payload`` to the request of ``envelope`` (thread-safe; never blocks)."""
+        self._replies.put((envelope, payload))
+        try:
+            os.write(self._wake_w, b"\0")
+        except BlockingIOError:  # the pipe is full of wake-ups already: the thread is awake
+            pass
+        except OSError:  # closed: the server stops, replies are dropped
+            pass
+
+    def close(self) -> None:
+        """Stop the thread and close the socket (replies not yet sent are dropped); idempotent."""
+        self._stop.set()
+        self.send([], b"")  # wake the thread
+        if self._thread is not None:
+            self._thread.join(5)
+            self._thread = None
+        if self._ctx is not None:
+            self._ctx.term()
+            self._ctx = None
+        for fd in (self._wake_r, self._wake_w):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self._wake_r = self._wake_w = -1
+
+    # --------------------------------------------------------------- socket thread
+    def _run(self, router: zmq.Socket, monitor: zmq.Socket) -> None:
+        poller = zmq.Poller()
+        poller.register(monitor, zmq.POLLIN)  # first: a closed connection is seen before a new one's request
+        poller.register(router, zmq.POLLIN)
+        poller.register(self._wake_r, zmq.POLLIN)
+        try:
+            while not self._stop.is_set():
+                events = dict(poller.poll(_POLL_MS))
+                if monitor in events:
+                    self._on_monitor(monitor)
+                if self._wake_r in events:
+                    self._flush_replies(router)
+                if router in events:
+                    for _ in range(64):  # then look at the replies again
+                        try:
+                            frames = router.recv_multipart(zmq.NOBLOCK, copy=False)
+                        except zmq.Again:
+                            break
+                        self._on_message(router, frames)
+        except Exception:  # never reached by a client's input; log it, the server goes on without ZMQ
+            log.exception("the ZMQ remote API thread failed; ZMQ clients are no longer served")
+        finally:
+            monitor.close(0)
+            router.close(0)
+
+    def _on_monitor(self, monitor: zmq.Socket) -> None:
+        while True:
+            try:
+                event = zmq.utils.monitor.recv_monitor_message(monitor, zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            if event["event"] == zmq.EVENT_DISCONNECTED:
+                fd = int(event["value"])
+                for identity in [i for i, (f, _) in self._pending.items() if f == fd]:
+                    self._done(identity)
+                self._deliver(("zmq-gone", fd))
+
+    def _flush_replies(self, router: zmq.Socket) -> None:
+        try:
+            os.read(self._wake_r, 65536)
+        except BlockingIOError:
+            pass
+        while True:
+            try:
+                envelope, payload = self._replies.get_nowait()
+            except queue.Empty:
+                return
+            if not envelope:
+                continue
+            self._done(envelope[0])
+            try:
+                router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False)
+            except zmq.ZMQError as exc:  # the peer went, or its queue is full: its reply is lost
+                log.debug("ZMQ reply not sent: %s", exc)
+
+    def _done(self, identity: bytes) -> None:
+        entry = self._pending.pop(identity, None)
+        if entry is not None:
+            self._pending_bytes -= entry[1]
+
+    def _answer(self, router: zmq.Socket, envelope: list, payload: bytes) -> None:
+        try:
+            router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False)
+        except zmq.ZMQError as exc:
+            log.debug("ZMQ reply not sent: %s", exc)
+
+    def _on_message(self, router: zmq.Socket, frames: list) -> None:
+        """Read one request: refuse it at once, or hand it to the simulation thread."""
+        if len(frames) < 2:
+            return  # not a request (no identity frame): nothing to answer to
+        envelope = [f.bytes for f in frames[:-1]]
+        data = frames[-1].buffer
+        identity = envelope[0]
+        try:
+            fd = int(frames[-1].get(zmq.SRCFD))
+        except (zmq.ZMQError, ValueError, TypeError):
+            fd = -1
+        size = len(data)
+        try:
+            if identity in self._pending:
+                raise ProtocolError("one request at a time: a request of this connection is still waiting for "
+                                    "its reply (a REQ socket sends the next after the reply)")
+            if len(self._pending) >= limits.MAX_CLIENTS:
+                raise ProtocolError(f"server busy: {len(self._pending)} requests are waiting (limits.MAX_CLIENTS); "
+                                    "try again later")
+            if self._pending_bytes + size > limits.MAX_QUEUED_BYTES_TOTAL:
+                raise ProtocolError(f"server busy: {self._pending_bytes} bytes of requests are waiting "
+                                    "(limits.MAX_QUEUED_BYTES_TOTAL); try again later")
+            request = codec.read_request(bytes(data) if size <= 4096 else data)
+        except ProtocolError as exc:
+            log.warning("ZMQ request refused: %s", exc)
+            self._answer(router, envelope, codec.encode_error(str(exc)))
+            return
+        except Exception as exc:  # the server never dies from a client
+            log.exception("reading a ZMQ request")
+            self._answer(router, envelope, codec.encode_error(f"internal error while reading the request: "
+                                                               f"{type(exc).__name__}"))
+            return
+        self._pending[identity] = (fd, size)
+        self._pending_bytes += size
+        self._deliver(("zmq", Incoming(envelope, request, fd, size)))

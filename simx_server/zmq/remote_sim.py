@@ -1,0 +1,372 @@
+"""``sim`` of a ZMQ remote API client: the child scripts' facade, plus what remote programs need.
+
+:class:`RemoteSim` *is* the facade of child scripts (:class:`~simx_server.scripts.facade.ScriptSim`,
+docs/SCRIPTS.md): one implementation of every ``sim.NAME`` both share, with the world it works on
+read from the simulation at each call (a scene load replaces it). On top it adds the calls that a
+program outside the scene makes and a script did not need (CoppeliaSim 4.x's names, arguments and
+returns): running the simulation, its parameters, scene files, removing objects, poses as 7
+numbers, passive vision sensors and depth buffers, calls into the scene's child scripts, the
+log, and pose arithmetic (:class:`~simx_server.zmq.pose_math.PoseMath`). The stepping calls
+(``sim.setStepping``, ``sim.step``, ``sim.acquireLock``, ``sim.releaseLock``) belong to a client,
+not to the scene: :mod:`simx_server.zmq.service` answers them.
+
+Runs on the simulation thread, like every command handler.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from simx_client import constants as C
+from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_server.base.arguments import quote
+from simx_server.commands import HANDLERS
+from simx_server.scene.simulation import Simulation
+from simx_server.scripts.facade import ScriptSim
+from simx_server.scripts.values import _bytes, _int, _num, _text, _vector
+from simx_server.sim import object_params, paths
+from simx_server.sim.objects import JOINT, WORLD
+from simx_server.sim.rotations import matrix_from_quaternion
+from simx_server.sim.state import RunState
+from simx_server.zmq.motion import MotionCalls
+from simx_server.zmq.pose_math import PoseMath
+
+log = logging.getLogger("simx.zmq")
+
+#: CoppeliaSim 4.x string parameters simx answers besides the legacy ones (simConst.h's numbering).
+STRINGPARAM_SCENE_PATH, STRINGPARAM_SCENE_NAME, STRINGPARAM_SCENEDEFAULTDIR = 14, 15, 132
+#: Scene and model files of CoppeliaSim that stand for MJCF files of the same stem.
+COPPELIASIM_SCENES, COPPELIASIM_MODELS = (".ttt",), (".ttm",)
+_VERBOSITY_MASK = 0xFFF  # sim.addLog's level, without its flags (undecorated, only terminal, once)
+_JOINT_TYPES = {0: None, 1: None, 2: 10, 3: 11}  # MuJoCo free, ball -> (none), hinge, slide
+
+
+def _strings(value: Any) -> Any:
+    """Lua strings (bytes) as text where they are UTF-8, in nested lists and dicts."""
+    if isinstance(value, bytes):
+        try:
+            return value.decode("utf-8")
+        except UnicodeDecodeError:
+            return value
+    if isinstance(value, list):
+        return [_strings(v) for v in value]
+    if isinstance(value, dict):
+        return {_strings(k): _strings(v) for k, v in value.items()}
+    return value
+
+
+class RemoteSim(MotionCalls, PoseMath, ScriptSim):
+    """``sim`` as the ZMQ remote API offers it, over one :class:`Simulation`.
+
+    Args:
+        simulation: the server's simulation (its world, vision sensors, scripts and editor are
+            read at each call).
+    """
+
+    def __init__(self, simulation: Simulation):
+        super().__init__(simulation.world, WORLD, simulation.signals, label="zmq", simulation=simulation)
+        self._simulation_ = simulation
+
+    # The world and the scripts' forces are the simulation's current ones (a scene load replaces them).
+    @property
+    def _world(self):  # type: ignore[override]
+        return self._simulation_.world
+
+    @_world.setter
+    def _world(self, value) -> None:
+        pass
+
+    @property
+    def _forces(self):  # type: ignore[override]
+        return self._simulation_.scripts.forces
+
+    @_forces.setter
+    def _forces(self, value) -> None:
+        pass
+
+    def _path_base(self) -> int | None:
+        return None  # a remote program is unassociated code: no object for "." and ":"
+
+    def _handler(self, command: str, *args: Any) -> Any:
+        """A legacy command's handler, for a call that means the same."""
+        return HANDLERS[command](self._simulation_, list(args))
+
+    # ---------------------------------------------------------------- simulation
+    def startSimulation(self) -> int:  # noqa: N802 (CoppeliaSim's names)
+        """Start (or resume) the simulation; 1, or 0 when it already runs (CoppeliaSim's result)."""
+        if self._simulation_.state is RunState.RUNNING:
+            return 0
+        self._simulation_.start()
+        return 1
+
+    def pauseSimulation(self) -> int:  # noqa: N802
+        """Pause a running simulation; 1, or 0 when it does not run."""
+        if self._simulation_.state is not RunState.RUNNING:
+            return 0
+        self._simulation_.pause()
+        return 1
+
+    def stopSimulation(self, wait: Any = False) -> None:  # noqa: N802
+        """Stop the simulation: the scripts' cleanup, then the scene's initial state. simx stops
+        at once, so ``wait`` changes nothing (the state is stopped when the call returns)."""
+        self._simulation_.stop()
+
+    def getSystemTime(self) -> float:  # noqa: N802
+        """Wall-clock time in s (for differences)."""
+        return time.time()
+
+    # ---------------------------------------------------------------- parameters
+    def getInt32Param(self, parameter: Any) -> int:  # noqa: N802
+        """Integer parameters simx knows (``simxGetIntegerParameter``'s)."""
+        return self._handler("GetIntegerParameter", _int(parameter, "parameter"))
+
+    def setInt32Param(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        self._handler("SetIntegerParameter", _int(parameter, "parameter"), _int(value, "intState"))
+
+    def getFloatParam(self, parameter: Any) -> float:  # noqa: N802
+        """Float parameters simx knows (``sim.floatparam_simulation_time_step`` ...)."""
+        return self._handler("GetFloatingParameter", _int(parameter, "parameter"))
+
+    def setFloatParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        self._handler("SetFloatingParameter", _int(parameter, "parameter"), _num(value, "floatState"))
+
+    def getBoolParam(self, parameter: Any) -> bool:  # noqa: N802
+        """Boolean parameters simx knows (``sim.boolparam_realtime_simulation`` ...)."""
+        return self._handler("GetBooleanParameter", _int(parameter, "parameter"))
+
+    def setBoolParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        self._handler("SetBooleanParameter", _int(parameter, "parameter"), bool(value))
+
+    def getArrayParam(self, parameter: Any) -> list[float]:  # noqa: N802
+        return self._handler("GetArrayParameter", _int(parameter, "parameter"))
+
+    def setArrayParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        self._handler("SetArrayParameter", _int(parameter, "parameter"), _vector(value, 3, "arrayOfValues"))
+
+    def getStringParam(self, parameter: Any) -> str:  # noqa: N802
+        """String parameters: ``sim.stringparam_scenedefaultdir`` is the server's scene folder
+        (the first ``--scene-path``, else the folder of the scene it started with), ``sim.stringparam_scene_path`` /
+        ``sim.stringparam_scene_name`` the loaded scene's folder and file name; the legacy ones
+        as ``simxGetStringParameter``."""
+        pid = _int(parameter, "parameter")
+        editor = self._simulation_.editor
+        scene = self._world.scene_path
+        if pid == STRINGPARAM_SCENEDEFAULTDIR:  # the first --scene-path, else the first scene's folder
+            roots = editor.files.roots
+            return str(roots[1] if len(roots) > 1 else roots[0])
+        if pid == STRINGPARAM_SCENE_PATH:
+            return editor.public(scene.parent)
+        if pid == STRINGPARAM_SCENE_NAME:
+            return scene.name
+        return self._handler("GetStringParameter", pid)
+
+    # ------------------------------------------------------------------- the log
+    def addLog(self, verbosityLevel: Any, logMessage: Any) -> None:  # noqa: N802, N803
+        """Write ``logMessage`` to the server's log at the level of ``verbosityLevel``
+        (``sim.verbosity_errors``/``scripterrors``: error, ``warnings``/``scriptwarnings``: warning,
+        others: info)."""
+        level = _int(verbosityLevel, "verbosityLevel") & _VERBOSITY_MASK
+        text = _text(logMessage, "logMessage")
+        text = (text[:1000] + f"... ({len(text)} characters)" if len(text) > 1000 else text).encode(
+            "unicode_escape").decode("ascii")  # one log line, whatever the client sends
+        if level in (200, 420):
+            log.error("[client] %s", text)
+        elif level in (300, 430):
+            log.warning("[client] %s", text)
+        elif level != 100:  # sim.verbosity_none
+            log.info("[client] %s", text)
+
+    # ---------------------------------------------------------------- scene files
+    def _stand_in(self, filename: str, kinds: tuple[str, ...]) -> str:
+        """The MJCF file that stands for a CoppeliaSim scene (.ttt) or model (.ttm): the same
+        path with .xml, else ``<stem>.xml`` in the server's scene folders; other names as given."""
+        path = Path(filename)
+        if path.suffix.lower() not in kinds:
+            return filename
+        editor = self._simulation_.editor
+        candidates = [str(path.with_suffix(".xml"))] + [str(root / f"{path.stem}.xml") for root in editor.files.roots]
+        for candidate in candidates:
+            try:
+                file = editor.resolve(candidate, 0)
+            except RemoteError:
+                continue
+            log.info("%s %s: %s stands in for it", "scene" if kinds == COPPELIASIM_SCENES else "model",
+                     quote(filename), editor.public(file))
+            return str(file)
+        raise RemoteError(f"no MJCF file stands in for {quote(filename)}: looked for {path.stem}.xml beside it and "
+                          "in the server's scene folders (the scene's folder and --scene-path)")
+
+    def loadScene(self, filename: Any) -> None:  # noqa: N802
+        """Replace the scene with a server-side scene file, under ``simxLoadScene``'s rules (the
+        simulation stopped; only the scene's folder and ``--scene-path`` folders). A CoppeliaSim
+        ``.ttt`` path loads the MJCF scene of the same stem (see :meth:`_stand_in`)."""
+        if isinstance(filename, (bytes, bytearray)):
+            raise UnsupportedError("sim.loadScene of a serialized scene (a buffer) is not supported; give a file name")
+        name = self._stand_in(_text(filename, "filename"), COPPELIASIM_SCENES)
+        self._simulation_.editor.load_scene(name, 0)
+
+    def loadModel(self, filename: Any) -> int:  # noqa: N802
+        """Add a server-side model file (``simxLoadModel`` with options 0; a ``.ttm`` path loads
+        the MJCF model of the same stem); returns its base's handle."""
+        if isinstance(filename, (bytes, bytearray)):
+            raise UnsupportedError("sim.loadModel of a serialized model (a buffer) is not supported; give a file name")
+        return self._simulation_.editor.load_model(self._stand_in(_text(filename, "filename"), COPPELIASIM_MODELS), 0)
+
+    def removeObject(self, objectHandle: Any) -> None:  # noqa: N802, N803
+        """Remove an object (a shape with its body subtree), as ``simxRemoveObject``."""
+        self._simulation_.editor.remove_object(self._h(objectHandle))
+
+    def removeObjects(self, objectHandles: Any, delayedRemoval: Any = False) -> None:  # noqa: N802, N803
+        """Remove several objects (each as :meth:`removeObject`; ``delayedRemoval`` ignored)."""
+        if not isinstance(objectHandles, list):
+            raise ArgumentError("objectHandles must be a list of handles")
+        for h in objectHandles:
+            if _int(h, "objectHandle") in self._world.objects:  # already gone with a removed parent: skip
+                self.removeObject(h)
+
+    def removeModel(self, objectHandle: Any, delayedRemoval: Any = False) -> int:  # noqa: N802, N803
+        """Remove a model (the body subtree of a shape); returns how many objects went."""
+        before = len(self._world.objects)
+        self._simulation_.editor.remove_model(self._h(objectHandle))
+        return before - len(self._world.objects)
+
+    # ------------------------------------------------------------------ objects
+    def isHandle(self, objectHandle: Any) -> bool:  # noqa: N802, N803
+        """Whether an object has this handle."""
+        return _int(objectHandle, "objectHandle") in self._world.objects
+
+    def getObjectChild(self, objectHandle: Any, index: Any) -> int:  # noqa: N802, N803
+        """The ``index``-th (0-based) child of an object (-1: of the world), or -1."""
+        h, i = self._h(objectHandle), _int(index, "index")
+        if h != WORLD:
+            self._world.get(h)
+        children = [o.handle for o in self._world.objects.values() if o.parent == h]
+        return children[i] if 0 <= i < len(children) else -1
+
+    def getObjectSel(self) -> list[int]:  # noqa: N802
+        """The object selection (no GUI: what clients set)."""
+        return list(self._simulation_.selection)
+
+    def setObjectSel(self, objectHandles: Any) -> None:  # noqa: N802, N803
+        if not isinstance(objectHandles, list):
+            raise ArgumentError("objectHandles must be a list of handles")
+        self._simulation_.selection = [self._world.get(_int(h, "objectHandle")).handle for h in objectHandles]
+
+    def getObjectPose(self, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
+        """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world)."""
+        h, rel = self._h(objectHandle), self._rel(relativeToObjectHandle)
+        return self._world.position(h, rel) + self._world.quaternion(h, rel)
+
+    def setObjectPose(self, objectHandle: Any, relativeTo: Any, pose: Any = None) -> None:  # noqa: N802, N803
+        """Place an object by a 7-number pose; ``(h, pose [, relativeTo])`` (4.5+) or
+        ``(h, relativeTo, pose)``; the rules of ``setObjectPosition`` hold."""
+        rel, value = self._order(relativeTo, pose)
+        v = _vector(value, 7, "pose")
+        self._set_pose(objectHandle, rel, position=v[:3], rotation=matrix_from_quaternion(*v[3:]))
+
+    def getJointType(self, objectHandle: Any) -> int:  # noqa: N802, N803
+        """``sim.joint_revolute_subtype`` (10) or ``sim.joint_prismatic_subtype`` (11)."""
+        obj = self._world.get(self._h(objectHandle), JOINT)
+        kind = _JOINT_TYPES.get(int(self._world.model.jnt_type[obj.mj_id]))
+        if kind is None:
+            raise UnsupportedError(f"joint {obj.name!r} is a MuJoCo free or ball joint, which V-REP's joint "
+                                   "types do not describe")
+        return kind
+
+    def getJointVelocity(self, jointHandle: Any) -> float:  # noqa: N802, N803
+        """Joint velocity (rad/s or m/s)."""
+        return object_params.get_float_param(self._simulation_, self._h(jointHandle), C.sim_jointfloatparam_velocity)
+
+    def setJointTargetForce(self, objectHandle: Any, forceOrTorque: Any, signedValue: Any = True) -> None:  # noqa: N802, N803
+        """The most force/torque the joint's motor applies (N or N·m), as ``simxSetJointForce``
+        (its magnitude; simx's motors have no separate force mode, see docs/API.md)."""
+        self._world.set_joint_force(self._h(objectHandle), abs(_num(forceOrTorque, "forceOrTorque")))
+
+    def getJointTargetForce(self, jointHandle: Any) -> float:  # noqa: N802, N803
+        """The motor's force/torque limit (N or N·m)."""
+        return self._world.joint_max_force(self._h(jointHandle))
+
+    # ------------------------------------------------------------ vision sensors
+    def getVisionSensorRes(self, sensorHandle: Any) -> list[int]:  # noqa: N802, N803
+        """``[width, height]`` of a vision sensor's image in pixels."""
+        spec = self._simulation_.vision.spec(self._h(sensorHandle))
+        return [spec.width, spec.height]
+
+    def getVisionSensorDepth(self, sensorHandle: Any, options: Any = 0, pos: Any = None,  # noqa: N802, N803
+                             size: Any = None) -> tuple[bytes, list[int]]:
+        """``depth, resolution``: the depth buffer as float32 bytes, rows bottom-up; values 0..1
+        from near to far clipping plane, or (``options`` bit 0) distances in m. ``pos``/``size``
+        cut a window as in ``getVisionSensorImg``."""
+        opts = _int(options, "options")
+        if opts & ~1:
+            raise UnsupportedError(f"getVisionSensorDepth options {opts}: only bit 0 (metres) is supported")
+        h = self._h(sensorHandle)
+        sim = self._simulation_
+        spec = sim.vision.spec(h)
+        depth = sim.vision.depth(h)
+        if opts & 1:
+            depth = spec.near + depth * (spec.far - spec.near)
+        px, py = (0, 0) if pos is None else _vector(pos, 2, "pos")
+        sx, sy = (0, 0) if size is None else _vector(size, 2, "size")
+        depth = self._crop(depth, int(px), int(py), int(sx), int(sy))
+        return np.ascontiguousarray(depth, dtype=np.float32).tobytes(), [int(depth.shape[1]), int(depth.shape[0])]
+
+    def setVisionSensorImg(self, sensorHandle: Any, image: Any, options: Any = 0, pos: Any = None,  # noqa: N802, N803
+                           size: Any = None) -> None:
+        """Write an image into a passive vision sensor (``image=external``): uint8 RGB (``options``
+        bit 0: grey), rows bottom-up, the sensor's whole resolution; as ``simxSetVisionSensorImage``."""
+        if any(v is not None and _vector(v, 2, "pos/size") != [0.0, 0.0] for v in (pos, size)):
+            raise UnsupportedError("setVisionSensorImg of a window (pos/size) is not supported: send the whole image")
+        self._handler("SetVisionSensorImage", self._h(sensorHandle), _bytes(image, "image"), _int(options, "options") & 1)
+
+    # ------------------------------------------------------------------- scripts
+    def getScript(self, scriptType: Any, objectHandle: Any = -1, scriptName: Any = "") -> int:  # noqa: N802, N803
+        """The script handle of an object's child script (``sim.scripttype_childscript``): in simx
+        the handle of the object it is attached to (``objectHandle``, or a path or name); -1
+        when it has none."""
+        if _int(scriptType, "scriptType") != C.sim_scripttype_childscript:
+            raise UnsupportedError("sim.getScript: simx has child scripts only (sim.scripttype_childscript)")
+        target = objectHandle if isinstance(objectHandle, (str, bytes)) else scriptName if scriptName else objectHandle
+        if isinstance(target, (str, bytes)):
+            h = paths.find_one(self._world, _text(target, "scriptName"))
+        else:
+            h = self._h(target)
+        return h if h in self._simulation_.scripts.scripts else -1
+
+    def callScriptFunction(self, functionName: Any, scriptHandleOrType: Any, *args: Any) -> tuple:  # noqa: N802, N803
+        """Call a function of a child script with any arguments; returns its return values.
+
+        ``("func@/path", sim.scripttype_childscript, ...)`` (CoppeliaSim 4.0-4.5: the script of
+        the object the path or name names) or ``("func", scriptHandle, ...)`` (4.6+: a handle of
+        :meth:`getScript`, which is the object's). Lua strings come back as text where they are
+        UTF-8, as bytes otherwise. Errors: no such object, script or function; the script's own."""
+        name = _text(functionName, "functionName")
+        target = _int(scriptHandleOrType, "scriptHandleOrType")
+        if "@" in name:
+            name, _, where = name.partition("@")
+            if target != C.sim_scripttype_childscript:
+                raise UnsupportedError("sim.callScriptFunction: simx has child scripts only (sim.scripttype_childscript)")
+            handle = paths.find_one(self._world, where)
+        else:
+            handle = self._h(target)
+        try:
+            script = self._simulation_.scripts.script_of(self._world.get(handle).handle)
+        except ScriptError:
+            raise ScriptError(f"object {self._world.get(handle).name!r} has no child script") from None
+        return tuple(_strings(v) for v in script.call_values(name, list(args)))
+
+
+def facade_functions() -> dict[str, Any]:
+    """``name -> unbound function`` of every public call of :class:`RemoteSim` (the ZMQ ``sim``)."""
+    out = {}
+    for klass in reversed(RemoteSim.__mro__[:-1]):
+        for name, value in vars(klass).items():
+            if not name.startswith("_") and callable(value):
+                out[name] = value
+    return out
+

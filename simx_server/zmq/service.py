@@ -1,0 +1,446 @@
+"""The simulation thread's side of the ZMQ remote API: clients, stepping, and the calls themselves.
+
+The server's loop (:class:`simx_server.transport.server.Server`) takes ``("zmq", Incoming)``
+items from its ready ring and gives them to :meth:`ZmqService.handle`, between simulation steps,
+as it serves legacy requests. Each client (its ``uuid``) has:
+
+* a **stepping level** (``sim.setStepping(True)`` adds one, ``False`` takes one off): while it is
+  above 0 the client is part of the simulation's synchronous barrier (the one of
+  ``simxSynchronous``, :class:`~simx_server.scene.simulation.Simulation`, under the id
+  ``zmq:<uuid>``), so the simulation steps only when it, and every other stepped client, asks
+  for the next step with ``sim.step()``;
+* a **lock count** (``sim.acquireLock`` / ``sim.releaseLock``): while above 0 the barrier also
+  waits for ``zmq-lock:<uuid>``, which never triggers: the simulation does not step;
+* ``sim.step()``: answered ``{func: "_*wait*_"}`` at once (the client answers ``_*executed*_``);
+  the ``_*executed*_`` is answered ``{ret: []}`` once a simulation step has run since the
+  ``sim.step()``, or at once while the simulation is not running (CoppeliaSim's server does the
+  same, its add-on's ``sim.step``). A stepped client's ``sim.step()`` is its trigger: when it
+  completes the barrier the step runs then and there.
+
+``sim.stopSimulation`` resets every ZMQ client's stepping level and locks, as CoppeliaSim's ZMQ
+server does. A client is forgotten (it leaves the barrier) when its connection closes, when it
+sends ``_*end*_``, or after its ``timeout`` (s, its first request's; 600 by default) without a
+request. Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s.
+"""
+
+from __future__ import annotations
+
+import inspect
+import logging
+import time
+from typing import Any, Callable
+
+import cbor2
+
+from simx_client.protocol import ArgumentError, RemoteError
+from simx_server.base import limits
+from simx_server.base.arguments import quote
+from simx_server.sim.state import RunState
+from simx_server.zmq import codec, names
+from simx_server.zmq.frontend import Frontend, Incoming
+from simx_server.zmq.motion import Stepped
+from simx_server.zmq.remote_sim import RemoteSim, facade_functions
+from simx_server.zmq.sim_ik import RemoteSimIK
+
+log = logging.getLogger("simx.zmq")
+
+#: ``sim.NAME`` answered by the service itself (a client's state, not the scene's).
+STEPPING = ("setStepping", "step", "yield", "switchThread", "acquireLock", "releaseLock")
+#: Calls that load or edit the scene (each recompiles it): within the client's share of the
+#: simulation thread, limits.EDIT_SHARE, as the legacy API's scene commands. Past its share a
+#: client's edit waits (its program is slowed, not failed: the official client does not retry).
+EDITS = frozenset({"loadScene", "loadModel", "removeObject", "removeObjects", "removeModel", "createDummy",
+                   "setObjectParent", "setObjectAlias", "setObjectName", "importShape"})
+_EMPTY = cbor2.dumps({})
+
+
+class ZmqClient:
+    """One ZMQ remote API client (a ``RemoteAPIClient``, by its uuid)."""
+
+    __slots__ = ("uuid", "sync_id", "lock_id", "fd", "stepping", "locks", "timeout", "last_seen",
+                 "step_at", "waiting", "held", "label", "long", "long_func", "edit_debt")
+
+    def __init__(self, uuid: str, fd: int, timeout: float | None, now: float):
+        self.uuid = uuid
+        self.label = f"zmq:{uuid[:8]}"
+        self.sync_id, self.lock_id = f"zmq:{uuid}", f"zmq-lock:{uuid}"
+        self.fd = fd
+        self.stepping = 0  # sim.setStepping level
+        self.locks = 0  # sim.acquireLock count
+        self.timeout = timeout if timeout is not None else codec.DEFAULT_TIMEOUT
+        self.last_seen = now
+        self.step_at = -1  # Simulation.steps when its sim.step() came
+        self.waiting = False  # its sim.step() was answered _*wait*_: _*executed*_ is due
+        self.held: list | None = None  # envelope of its _*executed*_, answered after the next step
+        self.long = None  # the generator of a call that lasts several steps (sim.moveToConfig ...)
+        self.long_func = ""
+        self.edit_debt = (0.0, now)  # s of the simulation thread its scene edits owe, as of when
+
+
+class ZmqService:
+    """ZMQ clients and their calls, on the simulation thread.
+
+    Args:
+        server: the :class:`~simx_server.transport.server.Server` (its ``sim``, ``step_now`` and
+            ``leave_sync``).
+        frontend: the socket thread that replies go through.
+    """
+
+    def __init__(self, server: Any, frontend: Frontend):
+        self.server = server
+        self.frontend = frontend
+        self.clients: dict[str, ZmqClient] = {}
+        self._remote: RemoteSim | None = None
+        self._functions = facade_functions()
+        self._signatures: dict[str, inspect.Signature] = {}
+        self._held = 0  # clients with a held _*executed*_
+        self._in_after_step = self._again = False
+        self._deferred: list[tuple] = []  # (when, client, envelope, func, args): scene edits past the share
+        self._own: dict[str, Callable[[ZmqClient, list, list], None]] = {
+            "setStepping": self._set_stepping, "step": self._step, "yield": self._step,
+            "switchThread": self._step, "acquireLock": self._acquire_lock, "releaseLock": self._release_lock,
+            "stopSimulation": self._stop_simulation,
+        }
+        self._ik_functions = {n: f for n, f in vars(RemoteSimIK).items() if not n.startswith("_") and callable(f)}
+        self._implemented = {"sim": frozenset(self._functions) | frozenset(STEPPING),
+                             "simIK": frozenset(self._ik_functions)}
+
+    @property
+    def sim(self):
+        return self.server.sim
+
+    @property
+    def remote(self) -> RemoteSim:
+        if self._remote is None or self._remote._simulation_ is not self.server.sim:
+            self._remote = RemoteSim(self.server.sim)
+        return self._remote
+
+    # ------------------------------------------------------------ the ready ring
+    def handle(self, kind: str, item: Any) -> None:
+        """A ready-ring item of the ZMQ frontend (simulation thread)."""
+        if kind == "zmq-gone":
+            for client in [c for c in self.clients.values() if c.fd == item]:
+                self.forget(client, "disconnected")
+            return
+        incoming: Incoming = item
+        try:
+            self._serve(incoming)
+        except Exception as exc:  # every request gets a reply, whatever happens
+            log.exception("answering a ZMQ request %r", incoming.request)
+            self.frontend.send(incoming.envelope, codec.encode_error(
+                f"internal error while answering {quote(incoming.request.func, 100)}: {type(exc).__name__}"))
+
+    def _serve(self, incoming: Incoming) -> None:
+        req, envelope = incoming.request, incoming.envelope
+        now = time.monotonic()
+        client = self.clients.get(req.uuid)
+        if client is None:
+            if req.func == codec.END:
+                self.frontend.send(envelope, _EMPTY)
+                return
+            if len(self.clients) >= limits.MAX_CLIENTS and not self._evict_one():
+                self.frontend.send(envelope, codec.encode_error(
+                    f"server busy: it serves {len(self.clients)} ZMQ clients already (limits.MAX_CLIENTS), all "
+                    "stepped, locked or waiting; try again later"))
+                return
+            client = self.clients[req.uuid] = ZmqClient(req.uuid, incoming.fd, req.timeout, now)
+            log.info("ZMQ client %s connected%s", client.label, f" ({quote(req.lang, 40)})" if req.lang else "")
+        client.fd, client.last_seen = incoming.fd, now
+        if req.func == codec.EXECUTED:
+            self._executed(client, envelope)
+            return
+        client.waiting = False  # any other request ends a sim.step's wait
+        if client.long is not None:
+            self._end_long(client)  # and abandons a call that lasted several steps
+        if req.func == codec.END:
+            self.forget(client, "left")
+            self.frontend.send(envelope, _EMPTY)
+            return
+        if req.func.startswith("sim.") and req.func[4:] in EDITS:
+            wait = self._edit_wait(client, now)
+            if wait > 0:  # past its share: the edit waits its turn, other clients go on meanwhile
+                log.info("ZMQ client %s: %s waits %.1f s (its scene edits took more than %.0f%% of the simulation "
+                         "thread, limits.EDIT_SHARE)", client.label, req.func, wait, 100 * limits.EDIT_SHARE)
+                self._deferred.append((now + wait, client, envelope, req.func, req.args))
+                return
+        self.frontend.send(envelope, self._call(client, req.func, req.args))
+
+    def _call(self, client: ZmqClient, func: str, args: list) -> bytes:
+        """The encoded reply to ``func(*args)``: ``{ret}``, ``{err}`` or ``{func: _*wait*_}``."""
+        namespace, _, name = func.partition(".")
+        try:
+            if namespace == "zmqRemoteApi":
+                values = self._api(name, args)
+            elif namespace == "sim" and name in self._own:
+                reply = self._own[name](client, args)
+                if isinstance(reply, bytes):
+                    return reply
+                values = reply
+            elif namespace == "sim" and name in EDITS:
+                values = self._edit(client, name, args)
+            elif namespace == "sim" and name in self._functions:
+                values = self._facade(name, args)
+                if isinstance(values, Stepped):
+                    return self._start_long(client, func, values)
+            elif namespace == "simIK" and name in self._ik_functions:
+                values = self._facade(name, args, ik=True)
+            elif name in names.coppeliasim_functions(namespace):
+                raise RemoteError(f"not implemented by simx (CoppeliaSim 4.x has {namespace}.{name}; "
+                                  "docs/ZMQ.md lists what simx has)")
+            else:
+                raise RemoteError("no such function")
+            payload = codec.encode_reply(values)
+        except Exception as exc:
+            return self._call_error(client, func, exc)
+        if len(payload) > limits.MAX_REPLY_BYTES:
+            return self._error(client, func, f"the reply would be {len(payload)} bytes, more than "
+                                             f"{limits.MAX_REPLY_BYTES} (limits.MAX_REPLY_BYTES)")
+        return payload
+
+    def _call_error(self, client: ZmqClient, func: str, exc: Exception) -> bytes:
+        """The ``{err}`` reply of a call that raised ``exc``."""
+        if isinstance(exc, RemoteError):
+            return self._error(client, func, str(exc))
+        if isinstance(exc, (TypeError, ValueError, OverflowError)):  # bad arguments caught in the conversions
+            return self._error(client, func, f"bad arguments: {exc}")
+        if isinstance(exc, RecursionError):
+            return self._error(client, func, "arguments nested too deeply")
+        log.error("ZMQ client %s: %s raised", client.label, quote(func, 100), exc_info=exc)
+        return self._error(client, func, f"internal error: {type(exc).__name__}: {exc}", logged=True)
+
+    def _error(self, client: ZmqClient, func: str, message: str, logged: bool = False) -> bytes:
+        text = f"{quote(func, 100)[1:-1]}: {message}"
+        if len(text) > limits.MAX_ERROR_CHARS:
+            text = text[:limits.MAX_ERROR_CHARS - 3] + "..."
+        if not logged:
+            log.warning("ZMQ client %s: %s", client.label, text)
+        return codec.encode_error(text)
+
+    def _facade(self, name: str, args: list, ik: bool = False) -> list:
+        fn = (self._ik_functions if ik else self._functions)[name]
+        key = f"simIK.{name}" if ik else name
+        signature = self._signatures.get(key)
+        if signature is None:
+            signature = self._signatures[key] = inspect.signature(fn)
+        remote = RemoteSimIK(self.remote) if ik else self.remote
+        try:
+            result = fn(remote, *args)
+        except TypeError as exc:  # the wrong number of arguments, or a bad one met deeper in
+            try:
+                signature.bind(remote, *args)
+            except TypeError as arity:
+                raise ArgumentError(f"{arity} ({'simIK' if ik else 'sim'}.{name}{_shown(signature)})") from None
+            raise exc
+        if isinstance(result, Stepped):
+            return result
+        if result is None:  # nothing from a function that returns nothing, nil from one that returns a value
+            return [] if signature.return_annotation in ("None", None) else [None]
+        return list(result) if isinstance(result, tuple) else [result]
+
+    @staticmethod
+    def _edit_wait(client: ZmqClient, now: float) -> float:
+        """s before the client's next scene load or edit is within its share (0: now). Each edit
+        costs its duration; the debt falls by limits.EDIT_SHARE s per s (the legacy API's rule)."""
+        debt, since = client.edit_debt
+        debt = max(0.0, debt - (now - since) * limits.EDIT_SHARE)
+        client.edit_debt = (debt, now)
+        return max(0.0, (debt - limits.EDIT_DEBT_SECONDS) / limits.EDIT_SHARE)
+
+    def _edit(self, client: ZmqClient, name: str, args: list) -> list:
+        """A scene load or edit, its duration added to the client's debt."""
+        start = time.monotonic()
+        try:
+            return self._facade(name, args)
+        finally:
+            debt, _ = client.edit_debt
+            done = time.monotonic()
+            client.edit_debt = (debt + (done - start), done)
+
+    def _run_deferred(self) -> None:
+        """Serve the scene edits whose wait is over (their clients still there)."""
+        now = time.monotonic()
+        due = [d for d in self._deferred if d[0] <= now]
+        if not due:
+            return
+        self._deferred = [d for d in self._deferred if d[0] > now]
+        for _, client, envelope, func, args in due:
+            if self.clients.get(client.uuid) is client:
+                self.frontend.send(envelope, self._call(client, func, args))
+
+    def _api(self, name: str, args: list) -> list:
+        if name == "require":
+            module = args[0] if len(args) == 1 else None
+            if not isinstance(module, str):
+                raise ArgumentError("zmqRemoteApi.require takes one module name")
+            if module.split("-")[0] not in names.NAMESPACES:
+                raise RemoteError(f"module {quote(module, 60)} is not available in simx (it has "
+                                  f"{', '.join(names.NAMESPACES)})")
+            return []
+        if name == "info":
+            module = args[0] if len(args) == 1 else None
+            if not isinstance(module, str) or module.split("-")[0] not in names.NAMESPACES:
+                raise RemoteError(f"no module {quote(module, 60)} (simx has {', '.join(names.NAMESPACES)})")
+            ns = module.split("-")[0]
+            return [names.info(ns, self._implemented[ns])]
+        raise RemoteError("no such function")
+
+    # ------------------------------------------------------------------ stepping
+    def _set_stepping(self, client: ZmqClient, args: list) -> list:
+        if len(args) != 1:
+            raise ArgumentError("sim.setStepping takes one boolean")
+        previous = client.stepping
+        if args[0]:
+            client.stepping += 1
+            if previous == 0:
+                self.sim.enable_sync(client.sync_id, True)
+                log.info("ZMQ client %s: stepping on", client.label)
+        elif client.stepping > 0:
+            client.stepping -= 1
+            if client.stepping == 0:
+                self.server.leave_sync(client.sync_id, "left stepping mode")
+        return [previous]
+
+    def _step(self, client: ZmqClient, args: list) -> bytes:
+        sim = self.sim
+        client.step_at = sim.steps
+        if sim.state is RunState.RUNNING and client.stepping > 0 and sim.trigger(client.sync_id):
+            self.server.step_now()  # its trigger completed the barrier; a failure is told to every client
+        client.waiting = True
+        return codec.encode_wait()
+
+    def _executed(self, client: ZmqClient, envelope: list) -> None:
+        if not client.waiting:
+            self.frontend.send(envelope, self._error(client, codec.EXECUTED, "nothing waits for it (it answers "
+                                                                             "a _*wait*_ of sim.step)"))
+            return
+        if self.sim.state is not RunState.RUNNING or self.sim.steps > client.step_at:
+            client.waiting = False
+            self.frontend.send(envelope, self._resume(client))
+            return
+        if client.held is None:
+            self._held += 1
+        client.held = envelope
+
+    def _resume(self, client: ZmqClient) -> bytes:
+        """The reply due once a client's step has run: its sim.step's (empty) return, or the next
+        increment of its call that lasts several steps (``_*wait*_`` again, or its return)."""
+        return self._advance(client) if client.long is not None else codec.encode_reply([])
+
+    def after_step(self) -> None:
+        """After a step (or a loop pass without one): answer the ``_*executed*_`` whose step has
+        run. Answering may trigger the next step (a call that lasts several steps): then this
+        looks again, once that step's own pass (nested) has returned."""
+        if self._deferred:
+            self._run_deferred()
+        if not self._held:
+            return
+        if self._in_after_step:
+            self._again = True
+            return
+        self._in_after_step = True
+        try:
+            self._again = True
+            while self._again:
+                self._again = False
+                sim = self.sim
+                for client in list(self.clients.values()):
+                    if client.held is not None and (sim.state is not RunState.RUNNING or sim.steps > client.step_at):
+                        envelope, client.held, client.waiting = client.held, None, False
+                        self._held -= 1
+                        self.frontend.send(envelope, self._resume(client))
+        finally:
+            self._in_after_step = False
+
+    # ------------------------------------------------- calls that last several steps
+    def _start_long(self, client: ZmqClient, func: str, stepped: Stepped) -> bytes:
+        """Begin a call that lasts several steps: the client is stepped meanwhile (CoppeliaSim's
+        ``sim.setStepping(true)`` inside ``sim.moveToConfig``), each increment waits for a step."""
+        self._set_stepping(client, [True])
+        client.long, client.long_func = stepped.generator, func
+        return self._advance(client)
+
+    def _advance(self, client: ZmqClient) -> bytes:
+        """Run the next increment: ``_*wait*_`` while it wants a step, else its reply."""
+        try:
+            next(client.long)
+        except StopIteration as done:
+            self._end_long(client)
+            return codec.encode_reply(done.value or [])
+        except Exception as exc:
+            func = client.long_func
+            self._end_long(client)
+            return self._call_error(client, func, exc)
+        return self._step(client, [])
+
+    def _end_long(self, client: ZmqClient) -> None:
+        generator, client.long = client.long, None
+        client.waiting = False
+        if generator is not None:
+            generator.close()
+            if client.stepping:
+                self._set_stepping(client, [False])
+
+    def _acquire_lock(self, client: ZmqClient, args: list) -> list:
+        if client.locks == 0:
+            self.sim.enable_sync(client.lock_id, True)
+        client.locks += 1
+        return []
+
+    def _release_lock(self, client: ZmqClient, args: list) -> list:
+        if client.locks > 0:
+            client.locks -= 1
+            if client.locks == 0:
+                self.server.leave_sync(client.lock_id, "released its lock")
+        return []
+
+    def _stop_simulation(self, client: ZmqClient, args: list) -> list:
+        self._facade("stopSimulation", args)
+        for other in self.clients.values():  # CoppeliaSim's ZMQ server: a stop ends every client's stepping
+            self._unstep(other)
+        self.after_step()
+        return []
+
+    def _unstep(self, client: ZmqClient) -> None:
+        if client.stepping:
+            client.stepping = 0
+            self.server.leave_sync(client.sync_id, "out of stepping mode")
+        if client.locks:
+            client.locks = 0
+            self.server.leave_sync(client.lock_id, "lock released")
+
+    # ------------------------------------------------------------------- clients
+    def forget(self, client: ZmqClient, how: str) -> None:
+        """Drop a client: it leaves the barrier (the step the others triggered may run now)."""
+        if self.clients.pop(client.uuid, None) is None:
+            return
+        if client.held is not None:
+            self._held -= 1
+            client.held = None
+        if client.long is not None:
+            client.long.close()
+            client.long = None
+        log.info("ZMQ client %s %s", client.label, how)
+        self._unstep(client)
+
+    def _evict_one(self) -> bool:
+        """Forget the longest silent client that holds nothing (no stepping, lock or wait), to make
+        room for a new one; False when there is none."""
+        idle = [c for c in self.clients.values() if not (c.stepping or c.locks or c.held or c.long)]
+        if not idle:
+            return False
+        self.forget(min(idle, key=lambda c: c.last_seen), "dropped to make room for a new client")
+        return True
+
+    def housekeeping(self, now: float) -> None:
+        """Forget the clients silent for longer than their timeout (none waits for a step); serve
+        the scene edits whose wait is over (also when no step comes)."""
+        if self._deferred:
+            self._run_deferred()
+        for client in [c for c in self.clients.values() if c.held is None and now - c.last_seen > c.timeout]:
+            self.forget(client, f"expired (no request for {client.timeout:g} s)")
+
+
+def _shown(signature: inspect.Signature) -> str:
+    params = list(signature.parameters.values())[1:]
+    return "(" + ", ".join(p.name if p.default is inspect.Parameter.empty else f"{p.name}=..."
+                           for p in params) + ")"

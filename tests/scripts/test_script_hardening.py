@@ -1,0 +1,128 @@
+"""Issue 23 parts 1 and 5: a script call's arguments cannot abort the server, and no call into a
+Lua script escapes its bounds (pattern matching in C, finalizers at teardown, precompiled chunks).
+
+In-process tests drive a :class:`Simulation` on a small scene written into tmp_path; the attack
+shapes of the issue run against a real server."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+import vrep
+from conftest import SCENE, ServerProcess
+from simx_client.protocol import ArgumentError, ScriptError
+from simx_server.base import limits as L
+from simx_server.scene.simulation import Simulation
+
+CHILD = vrep.sim_scripttype_childscript
+B = vrep.simx_opmode_blocking
+
+SCENE_XML = """<mujoco model="hardening">
+  <worldbody><body name="Box"><geom type="box" size="0.1 0.1 0.1"/></body></worldbody>
+  <custom><text name="simx:Box" data="child_script=box.lua"/></custom>
+</mujoco>
+"""
+
+BOX_LUA = r"""
+function echo(inInts, inFloats, inStrings, inBuffer) return {#inInts}, {}, {}, "" end
+function hog(inInts, inFloats, inStrings, inBuffer)
+  hoard = {}
+  for i = 1, 9 do hoard[i] = string.rep(tostring(i), 20 * 1024 * 1024) end  -- 180 MiB kept
+  return {}, {}, {}, ""
+end
+function find(inInts, inFloats, inStrings, inBuffer)
+  local a, b = string.find(inStrings[1], inStrings[2])
+  return {a or -1}, {}, {}, ""
+end
+function method(inInts, inFloats, inStrings, inBuffer)
+  local a = (inStrings[1]):match(inStrings[2])
+  return {a and 1 or 0}, {}, {}, ""
+end
+function finalizer(inInts, inFloats, inStrings, inBuffer)
+  keep = setmetatable({}, {__gc = function() while true do end end})
+  return {}, {}, {}, ""
+end
+function needs(inInts, inFloats, inStrings, inBuffer)
+  local m = require("dumped")
+  return {m.answer}, {}, {}, ""
+end
+"""
+
+
+@pytest.fixture
+def sim(tmp_path):
+    (tmp_path / "box.lua").write_text(BOX_LUA)
+    (tmp_path / "scene.xml").write_text(SCENE_XML)
+    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False)
+    s.start()
+    yield s
+    s.close()
+
+
+def call(sim, function, ints=(), strings=()):
+    return sim.scripts.call("Box", CHILD, function, list(ints), [], list(strings), b"")
+
+
+def test_the_values_of_a_call_are_bounded_before_any_conversion(sim):
+    with pytest.raises(ArgumentError, match=r"MAX_SCRIPT_CALL_VALUES"):
+        call(sim, "echo", [1] * (L.MAX_SCRIPT_CALL_VALUES + 1))
+    with pytest.raises(ArgumentError, match=r"MAX_SCRIPT_CALL_BYTES"):
+        call(sim, "echo", strings=["x" * (L.MAX_SCRIPT_CALL_BYTES + 1)])
+    assert call(sim, "echo", [1] * 1000)[0] == [1000]  # the script is still usable
+
+
+def test_arguments_that_would_not_fit_in_the_lua_state_are_refused_not_a_crash(sim):
+    call(sim, "hog")  # the state keeps about 180 of its 256 MiB
+    with pytest.raises(ArgumentError, match=r"MAX_SCRIPT_MEMORY"):
+        call(sim, "echo", [7] * L.MAX_SCRIPT_CALL_VALUES)
+    assert call(sim, "echo", [7] * 10)[0] == [10]
+
+
+def test_a_pathological_pattern_is_refused_and_a_normal_one_works(sim):
+    subject = "a" * 100_000
+    t0 = time.monotonic()
+    with pytest.raises(ScriptError, match=r"MAX_PATTERN_WORK"):
+        call(sim, "find", strings=[subject, ".-.-.-.-.-b"])
+    with pytest.raises(ScriptError, match=r"MAX_PATTERN_WORK"):
+        call(sim, "method", strings=[subject, "(.-)(.-)(.-)b"])  # the string metatable's methods too
+    assert time.monotonic() - t0 < 5  # refused, not run (its run would take hours)
+    assert call(sim, "find", strings=["abc123", "%d+"])[0] == [4]
+    assert call(sim, "find", strings=[subject, "b"])[0] == [-1]  # one repetition-free scan: fine
+
+
+def test_finalizers_are_refused_so_a_stop_cannot_hang(sim):
+    with pytest.raises(ScriptError, match=r"__gc finalizers are not available"):
+        call(sim, "finalizer")
+    sim.stop()  # the state is closed at once
+
+
+def test_require_loads_text_chunks_only(sim, tmp_path):
+    import lupa.lua54
+
+    source = "return {answer = 42}"
+    dumped = lupa.lua54.LuaRuntime(encoding=None).eval(f'string.dump(load("{source}"))')
+    assert dumped.startswith(b"\x1bLua")
+    (tmp_path / "dumped.lua").write_bytes(dumped)
+    with pytest.raises(ScriptError, match=r"binary chunk"):
+        call(sim, "needs")
+    (tmp_path / "dumped.lua").write_text(source)
+    assert call(sim, "needs")[0] == [42]
+
+
+def test_the_issues_attack_on_a_real_server_is_a_remote_error():
+    """9 M ints to RG2's rg2Open aborted the server (Lua panic, exit 134)."""
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate")
+    cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
+    try:
+        assert cid >= 0
+        rc, *_ = vrep.simxCallScriptFunction(cid, "RG2", CHILD, "rg2Open", [1] * 9_000_000, [], [], bytearray(), B)
+        assert rc == vrep.simx_return_remote_error_flag
+        rc, errors = vrep.simxGetLastErrors(cid, B)
+        assert rc == 0 and any("MAX_SCRIPT_CALL_VALUES" in e for e in errors), errors
+        rc, *_ = vrep.simxCallScriptFunction(cid, "RG2", CHILD, "rg2Open", [], [], [], bytearray(), B)
+        assert rc == 0 and srv.proc.poll() is None
+    finally:
+        vrep.simxFinish(cid)
+        srv.stop()

@@ -1,0 +1,215 @@
+"""CoppeliaSim's ZMQ remote API with the official client (coppeliasim-zmqremoteapi-client) against a
+real simx-server: what zmqRemoteApi.info lists, errors that name the function, stepping mode
+with one and several clients, sim.acquireLock, clients leaving, calls into child scripts."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import ServerProcess, free_port, wait_until
+
+RemoteAPIClient = pytest.importorskip("coppeliasim_zmqremoteapi_client").RemoteAPIClient
+
+SCENES = Path(__file__).resolve().parents[1] / "scenes" / "zmq"
+
+
+@pytest.fixture(scope="module")
+def zmq_server():
+    port = free_port()
+    srv = ServerProcess(str(SCENES / "scripted.xml"), "--stopped", "--zmq-port", str(port))
+    srv.zmq_port = port
+    yield srv
+    srv.stop()
+
+
+@pytest.fixture
+def sim(zmq_server):
+    """The ``sim`` of a fresh client; the simulation stopped and no client stepped afterwards."""
+    client = RemoteAPIClient("127.0.0.1", zmq_server.zmq_port)
+    sim = client.require("sim")
+    yield sim
+    sim.stopSimulation()  # also ends every ZMQ client's stepping mode, as CoppeliaSim's server does
+    sim.setStepping(False)
+
+
+def new_sim(port: int):
+    return RemoteAPIClient("127.0.0.1", port).require("sim")
+
+
+def test_info_lists_facade_calls_constants_and_coppeliasim_names(sim):
+    assert callable(sim.getObject) and callable(sim.step) and callable(sim.getVisionSensorImg)
+    assert sim.handle_world == -1 and sim.simulation_stopped == 0 and sim.scripttype_childscript == 1
+    assert sim.verbosity_scriptinfos == 450 and sim.stringparam_scenedefaultdir == 132  # CoppeliaSim 4.x's
+    assert sim.jointintparam_motor_enabled == 2000  # the facade's (legacy) constants, simx's values
+    with pytest.raises(Exception, match=r"sim\.addDrawingObject: not implemented by simx"):
+        sim.addDrawingObject(0, 0.01, 0, -1, 10)  # CoppeliaSim has it: listed, answered with an error
+
+
+def test_errors_name_the_function_and_the_problem(sim):
+    with pytest.raises(Exception, match=r"sim\.getObject: object '/Nowhere' does not exist"):
+        sim.getObject("/Nowhere")
+    assert sim.getObject("/Nowhere", {"noError": True}) == -1
+    with pytest.raises(Exception, match=r"sim\.getJointPosition: .*argument"):
+        sim.getJointPosition()
+    with pytest.raises(Exception, match=r"sim\.getJointPosition: .*objectHandle|handle"):
+        sim.getJointPosition("ArmJoint")
+    assert sim.getJointPosition(sim.getObject("/ArmJoint")) == 0.0  # the server goes on
+
+
+def test_object_paths_of_coppeliasim_4(sim):
+    arm, joint = sim.getObject("/Arm"), sim.getObject("/ArmJoint")
+    assert sim.getObject("/ArmJoint/Arm") == arm  # the joint carries the body: it is the body's parent
+    assert sim.getObject("/Arm*") == joint  # wildcards: the first match in tree order
+    assert sim.getObject("/Arm*", {"index": 1}) == arm
+    assert sim.getObject("/Arm*", {"index": 2, "noError": True}) == -1
+    assert sim.getObject("ArmJoint") == joint  # a V-REP name
+    with pytest.raises(Exception, match="relative"):
+        sim.getObject("./Arm")  # a remote client has no object of its own
+
+
+def test_stepping_one_client(sim):
+    dt = sim.getSimulationTimeStep()
+    assert sim.setStepping(True) == 0  # the previous level
+    sim.startSimulation()
+    t0 = sim.getSimulationTime()
+    for _ in range(5):
+        sim.step()
+    assert sim.getSimulationTime() == pytest.approx(t0 + 5 * dt)
+    assert sim.getBoolParam(sim.boolparam_waiting_for_trigger) is True
+
+
+def test_stepping_waits_for_every_stepped_client(sim, zmq_server):
+    other = new_sim(zmq_server.zmq_port)
+    watcher = new_sim(zmq_server.zmq_port)  # not stepped: it only looks
+    sim.setStepping(True)
+    other.setStepping(True)
+    sim.startSimulation()
+    t0 = watcher.getSimulationTime()
+    done = threading.Event()
+    stepper = threading.Thread(target=lambda: (sim.step(), done.set()))
+    stepper.start()
+    # This client's sim.step() waits: the other stepped client has not asked for the step yet.
+    deadline = time.monotonic() + 0.3
+    while time.monotonic() < deadline:
+        assert watcher.getSimulationTime() == t0 and not done.is_set()
+    other.step()  # completes the barrier: one step, and both calls return
+    stepper.join(10)
+    assert done.is_set()
+    assert watcher.getSimulationTime() == pytest.approx(t0 + sim.getSimulationTimeStep())
+    other.setStepping(False)
+
+
+def test_a_lock_holds_the_simulation(sim, zmq_server):
+    sim.startSimulation()  # asynchronous: it runs on its own
+    watcher = new_sim(zmq_server.zmq_port)
+    t = watcher.getSimulationTime()
+    wait_until(lambda: watcher.getSimulationTime() > t, what="the simulation running")
+    sim.acquireLock()
+    held = watcher.getSimulationTime()
+    deadline = time.monotonic() + 0.3
+    while time.monotonic() < deadline:
+        assert watcher.getSimulationTime() == held
+    sim.releaseLock()
+    wait_until(lambda: watcher.getSimulationTime() > held, what="the simulation running again")
+
+
+def test_a_stepped_client_that_goes_releases_the_simulation(sim, zmq_server):
+    client = RemoteAPIClient("127.0.0.1", zmq_server.zmq_port)
+    gone = client.require("sim")
+    gone.setStepping(True)
+    sim.startSimulation()
+    t = sim.getSimulationTime()
+    gone.step()
+    assert sim.getSimulationTime() > t  # its step ran (it alone was stepped)
+    t = sim.getSimulationTime()
+    del gone
+    client.__del__()  # the program ends: its socket closes
+    wait_until(lambda: sim.getSimulationTime() > t + 0.2, what="the simulation running on its own again")
+
+
+def test_stop_ends_stepping_as_coppeliasim_does(sim):
+    sim.setStepping(True)
+    sim.setStepping(True)
+    assert sim.setStepping(True) == 2
+    sim.startSimulation()
+    sim.stopSimulation()
+    assert sim.getSimulationState() == sim.simulation_stopped
+    assert sim.setStepping(True) == 0  # the stop reset it
+
+
+def test_step_while_stopped_returns_at_once(sim):
+    sim.setStepping(True)
+    sim.step()
+    assert sim.getSimulationTime() == 0.0
+
+
+@pytest.mark.parametrize("box", ["LuaBox", "PyBox"])
+def test_call_script_function_with_any_values(sim, box):
+    sim.startSimulation()  # child scripts run while the simulation runs
+    values = (1, 2.5, "text", [1, 2, 3], {"a": 1}, b"\x00\xff")
+    assert sim.callScriptFunction(f"echo@/{box}", sim.scripttype_childscript, *values) == values
+    script = sim.getScript(sim.scripttype_childscript, sim.getObject(f"/{box}"))
+    count, keys, alias = sim.callScriptFunction("describe", script, {"x": 1, "y": 2})
+    assert (count, keys, alias) == (2, ["x", "y"], box)
+    funcs = sim.getScriptFunctions(script)  # the client's wrapper of callScriptFunction(func, script, ...)
+    assert funcs.echo(7) == 7
+    with pytest.raises(Exception, match="failing on purpose"):
+        funcs.fail()
+    with pytest.raises(Exception, match="no function 'nope'"):
+        funcs.nope()
+    assert sim.getScript(sim.scripttype_childscript, sim.getObject("/Arm")) == -1
+
+
+def test_scene_by_coppeliasim_name_and_confinement(sim, zmq_server):
+    with pytest.raises(Exception, match=r"no MJCF file stands in for '.*nowhere\.ttt': looked for nowhere\.xml"):
+        sim.loadScene(sim.getStringParam(sim.stringparam_scenedefaultdir) + "/nowhere.ttt")
+    with pytest.raises(Exception, match="refused"):
+        sim.loadScene("/etc/passwd")
+    sim.loadScene(sim.getStringParam(sim.stringparam_scenedefaultdir) + "/scripted.ttt")
+    assert sim.getStringParam(sim.stringparam_scene_name) == "scripted.xml"
+    sim.startSimulation()
+    with pytest.raises(Exception, match="stop the simulation first"):
+        sim.loadScene("scripted.xml")
+
+
+def test_wait_and_motions_last_several_steps(sim):
+    dt = sim.getSimulationTimeStep()
+    sim.startSimulation()
+    t0 = sim.getSimulationTime()
+    assert sim.wait(0.25) == pytest.approx(0.0, abs=1e-6)  # 5 steps
+    assert sim.getSimulationTime() == pytest.approx(t0 + 0.25)
+    joint = sim.getObject("/ArmJoint")
+    out = sim.moveToConfig({"joints": [joint], "targetPos": [0.5], "maxVel": [1], "maxAccel": [2], "maxJerk": [20]})
+    assert out["pos"] == pytest.approx([0.5]) and out["targetPos"] == [0.5]
+    assert sim.getJointTargetPosition(joint) == pytest.approx(0.5)
+    took = sim.getSimulationTime() - t0 - 0.25
+    assert 0.9 < took < 2.0 and round(took / dt) == pytest.approx(took / dt)  # whole steps, about 1.3 s of motion
+    with pytest.raises(Exception, match="'callback' is not supported"):
+        sim.moveToConfig({"joints": [joint], "targetPos": [0], "callback": "f@func"})
+    with pytest.raises(Exception, match="targetPos"):
+        sim.moveToConfig({"joints": [joint], "targetPos": [0, 1]})
+    assert sim.setStepping(False) == 0  # the motion's own stepping is over
+
+
+def test_simik_maps_onto_the_scenes_ik_groups():
+    port = free_port()
+    ik_scene = Path(__file__).resolve().parents[2] / "scenes" / "ur5_ik.xml"
+    srv = ServerProcess(str(ik_scene), "--stopped", "--zmq-port", str(port))
+    try:
+        client = RemoteAPIClient("127.0.0.1", port)
+        sim, simIK = client.require("sim"), client.require("simIK")  # noqa: N806 (CoppeliaSim's name)
+        env = simIK.createEnvironment()
+        group = simIK.getGroupHandle(env, "UR5")
+        assert group == sim.getIkGroupHandle("UR5") and simIK.doesGroupExist(env, "UR5")
+        assert not simIK.doesGroupExist(env, "nothing")
+        assert simIK.handleGroup(env, group) == simIK.result_success
+        with pytest.raises(Exception, match=r"simIK\.addElementFromScene: not implemented by simx"):
+            simIK.addElementFromScene(env, group, -1, -1, -1, simIK.constraint_pose)
+        with pytest.raises(Exception, match="one IK environment"):
+            simIK.handleGroup(5, group)
+    finally:
+        srv.stop()
