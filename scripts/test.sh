@@ -4,7 +4,10 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_env.sh"
 bash "$ROOT/scripts/system-deps.sh" --with-x
-ensure_venv -e "$ROOT[test]"
+# SIMX_TEST_EXTRAS: the extras installed (default "test"; .ci/run adds train and ray, whose tests
+# skip without them); SIMX_PIP_ARGS: more for the same pip install (.ci/run: PyTorch's CPU build).
+# shellcheck disable=SC2086  # SIMX_PIP_ARGS: words on purpose
+ensure_venv -e "$ROOT[${SIMX_TEST_EXTRAS:-test}]" ${SIMX_PIP_ARGS:-}
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$ROOT"
 # The tests mostly wait on real servers (subprocesses), so 4 pytest-xdist workers keep 2 cores busy;

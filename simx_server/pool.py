@@ -23,6 +23,7 @@ server of its own, for identical environment constructors (``gymnasium.make_vec`
 
 from __future__ import annotations
 
+import functools
 import os
 import shutil
 import signal
@@ -51,13 +52,15 @@ def free_port(host: str = "127.0.0.1") -> int:
         return s.getsockname()[1]
 
 
-def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
+def _die_with_parent(parent: int) -> None:  # pragma: no cover - runs in the child between fork and exec
     try:
         import ctypes
 
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
     except Exception:
-        pass
+        return
+    if os.getppid() != parent:  # the parent died before prctl: no signal would ever come
+        os._exit(1)
 
 
 class ServerClaims:
@@ -193,7 +196,8 @@ class ServerPool:
             inst.proc = subprocess.Popen(
                 [*self._cmd, "--port", str(inst.port)], stdin=subprocess.DEVNULL, stdout=log,
                 stderr=subprocess.STDOUT, env=self._env,
-                preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None)
+                preexec_fn=(functools.partial(_die_with_parent, os.getpid()) if sys.platform.startswith("linux")
+                            else None))
 
     def _wait_ready(self, timeout: float) -> None:
         deadline = time.monotonic() + timeout

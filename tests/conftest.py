@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import os
+import secrets
 import select
+import shutil
 import signal
 import socket
 import subprocess
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -51,6 +54,63 @@ def wait_until(predicate, timeout: float = 10.0, period: float = 0.02, what="con
             return value
         time.sleep(period)
     pytest.fail(f"{what() if callable(what) else what} not met within {timeout} s")
+
+
+def _ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
+    out = subprocess.run(["ip", *args], capture_output=True, text=True, timeout=30)
+    if check and out.returncode != 0:
+        raise RuntimeError(f"ip {' '.join(args)}: {out.stderr.strip()}")
+    return out
+
+
+@contextmanager
+def network_namespaces(*addresses: str, default_route: bool = False):
+    """Two network namespaces made for a test, joined by a veth pair with the two IPv4
+    ``addresses`` (``/24``) on its ends, ``lo`` up in each. Yields the namespaces' names and
+    removes them afterwards. ``default_route``: a default route through the link in each (for
+    programs that find their own address by routing toward the internet, as Ray does).
+
+    Skips the calling test, saying why, where namespaces cannot be made (not Linux, no
+    iproute2, no root or CAP_NET_ADMIN). Processes left inside are the caller's to stop
+    (``namespace_pids``) before the namespaces go.
+    """
+    if len(addresses) != 2:
+        raise ValueError("network_namespaces makes exactly two namespaces (a veth pair)")
+    if not sys.platform.startswith("linux"):
+        pytest.skip("network namespaces are Linux only")
+    if shutil.which("ip") is None:
+        pytest.skip("iproute2's `ip` is not installed (scripts/system-deps.sh installs iproute2)")
+    tag = secrets.token_hex(3)
+    names = [f"simx-{c}-{tag}" for c in "ab"]
+    made = []
+    try:
+        out = _ip("netns", "add", names[0], check=False)
+        if out.returncode != 0:
+            pytest.skip(f"cannot create a network namespace (needs root or CAP_NET_ADMIN): "
+                        f"`ip netns add` said: {out.stderr.strip()}")
+        made.append(names[0])
+        _ip("netns", "add", names[1])
+        made.append(names[1])
+        va, vb = f"sxa{tag}", f"sxb{tag}"
+        # Made inside A and moved to B: nothing is ever added to the namespace the test runs in.
+        _ip("-n", names[0], "link", "add", va, "type", "veth", "peer", "name", vb)
+        _ip("-n", names[0], "link", "set", vb, "netns", names[1])
+        for ns, dev, addr in zip(names, (va, vb), addresses):
+            _ip("-n", ns, "addr", "add", f"{addr}/24", "dev", dev)
+            _ip("-n", ns, "link", "set", "lo", "up")
+            _ip("-n", ns, "link", "set", dev, "up")
+            if default_route:
+                _ip("-n", ns, "route", "add", "default", "dev", dev)
+        yield tuple(names)
+    finally:
+        for ns in made:
+            _ip("netns", "del", ns, check=False)
+
+
+def namespace_pids(ns: str) -> list[int]:
+    """The processes running in network namespace ``ns`` (``ip netns pids``)."""
+    out = _ip("netns", "pids", ns, check=False)
+    return [int(p) for p in out.stdout.split()] if out.returncode == 0 else []
 
 
 def free_port() -> int:

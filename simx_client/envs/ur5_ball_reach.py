@@ -32,7 +32,11 @@ the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb
   box; here the ball's pixels come from the sensor's colour-coded-handle render (render mode 2,
   ``sim_visionintparam_render_mode`` 1017: handle = r + 256 g + 65536 b), one more render per
   step. When no ball pixel is seen: half the image diagonal and the far clipping distance, and
-  ``info["ball_visible"]`` is False.
+  ``info["ball_visible"]`` is False. With it comes ``"ball_offset"``, (2,) float32: the same
+  centre's signed offset from the image centre (x to the right, y down, the same pixels; 0, 0
+  when the ball is not seen), the direction the 2 numbers leave out (the tutorial's YOLO box had
+  it): a policy that sees only the distance cannot tell on which side the ball is
+  (examples/train_ddpg.py gives DDPG both).
 * reward: ``"dense"`` (default) is minus the distance (m) between ``RG2_tcp`` and the ball's
   centre; ``"image"`` is minus the distance of the red ball's centroid from the image centre,
   in half-diagonals (0 at the centre, about -1 at a corner), and -1 when no ball pixel is seen
@@ -40,6 +44,15 @@ the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb
 * ``servers=pool.claims`` (:class:`simx_server.pool.ServerPool`): the environment claims a server
   of its own instead of ``host``/``port`` (``gymnasium.make_vec`` makes every environment with
   the same arguments) and gives it back on ``close()``.
+* ``servers="local"``: the environment starts a simx-server of its own on this machine
+  (``ServerPool(1, None, "--speed", "0")`` on 127.0.0.1, a free port) and stops it on
+  ``close()``; the server also stops when the thread that made the environment ends, the
+  process killed included (the pool's ``PR_SET_PDEATHSIG``). A pool spec, ``{"scene": path,
+  "args": [...]}`` (both optional; ``args`` replaces ``["--speed", "0"]``), does the same with
+  that scene and those ``simx-server`` arguments. Made for frameworks whose workers build their
+  environments on whatever machine they run on (Ray RLlib's env runners): the server is always
+  on the environment's own machine and is never reached from another. It needs the server side
+  (MuJoCo) installed there. ``env.local_servers`` is that pool (None otherwise).
 * ``terminated`` when ``RG2_tcp`` is within ``success_distance`` (default 0.05 m) of the
   ball's centre; ``truncated`` after ``max_episode_steps`` steps (default 200).
 """
@@ -47,6 +60,7 @@ the tutorial's scene. Objects used: ``UR5_joint1``..``UR5_joint6``, ``kinect_rgb
 from __future__ import annotations
 
 import math
+import os
 import time
 from typing import Any
 
@@ -108,8 +122,13 @@ class UR5BallReachEnv(gym.Env):
         # servers: a claims object (simx_server.pool.ServerPool.claims, or anything with
         # claim() -> (host, port) and release(address)): each environment of a vector env, all
         # made with the same arguments, takes a server of its own and gives it back in close().
-        self._servers, self._claimed = servers, None
-        if servers is not None and client_id is None:
+        self._servers, self._claimed, self.local_servers = servers, None, None
+        if isinstance(servers, (str, dict)):
+            if client_id is not None:
+                raise ValueError("servers='local' (or a pool spec) starts a server: give no client_id")
+            self.local_servers = _local_server(servers)
+            host, port = self.local_servers.addresses[0]
+        elif servers is not None and client_id is None:
             self._claimed = host, port = servers.claim()
         # client_id: a connection the caller made and keeps (close() leaves it open).
         self._key: tuple[str, int] | None = None
@@ -154,9 +173,11 @@ class UR5BallReachEnv(gym.Env):
         }
         if self.tutorial_state:
             observations["state"] = spaces.Box(np.float32(0), np.float32(1e4), (2,), np.float32)
+            observations["ball_offset"] = spaces.Box(np.float32(-1e4), np.float32(1e4), (2,), np.float32)
         self.observation_space = spaces.Dict(observations)
         self._targets = np.radians(np.array(TUTORIAL_POSE_DEG))
         self._steps = 0
+        self.steps_total = 0  # step() calls over the environment's life (all episodes)
         self._last_rgb: np.ndarray | None = None
         self._ball_start = np.zeros(3)
 
@@ -278,18 +299,21 @@ class UR5BallReachEnv(gym.Env):
         rows, cols = np.nonzero(handles == self._ball)
         return rows, cols, (res[1], res[0])
 
-    def _tutorial_state(self, depth: np.ndarray) -> tuple[np.ndarray, bool]:
+    def _tutorial_state(self, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
         """The tutorial's state from the colour-coded render and ``depth`` (the depth frame,
-        metres): the ball's centroid scaled to the scene sensor's own pixels."""
+        metres): the ball's centroid scaled to the scene sensor's own pixels; its signed offset
+        (x right, y down) from the image centre; whether the ball was seen."""
         rows, cols, (h, w) = self._ball_pixels()
         nw, nh = self._native
         if len(rows) == 0:
-            return np.array([math.hypot(nw, nh) / 2, self._far], dtype=np.float32), False
+            return (np.array([math.hypot(nw, nh) / 2, self._far], dtype=np.float32),
+                    np.zeros(2, dtype=np.float32), False)
         r, c = rows.mean(), cols.mean()
         dh, dw = depth.shape
         at = depth[min(dh - 1, int((r + 0.5) * dh / h)), min(dw - 1, int((c + 0.5) * dw / w))]
         cn, rn = (c + 0.5) * nw / w - 0.5, (r + 0.5) * nh / h - 0.5  # pixel centres, native size
-        return np.array([math.hypot(cn - (nw - 1) / 2, rn - (nh - 1) / 2), at], dtype=np.float32), True
+        dx, dy = cn - (nw - 1) / 2, rn - (nh - 1) / 2
+        return (np.array([math.hypot(dx, dy), at], dtype=np.float32), np.array([dx, dy], dtype=np.float32), True)
 
     def _group(self, object_type: int, data_type: int, per_object: int) -> dict[int, np.ndarray]:
         """One ``simxGetObjectGroupData`` call: ``{handle: its floats}`` (one round trip for
@@ -312,7 +336,7 @@ class UR5BallReachEnv(gym.Env):
         reward = -distance if self.reward_type == "dense" else image_reward(rgb)
         info = {"distance": distance, "ball_position": ball, "gripper_position": tcp}
         if self.tutorial_state:
-            obs["state"], info["ball_visible"] = self._tutorial_state(depth)
+            obs["state"], obs["ball_offset"], info["ball_visible"] = self._tutorial_state(depth)
         return obs, info, reward, distance <= self.success_distance
 
     # ------------------------------------------------------------------ Gymnasium API
@@ -357,9 +381,20 @@ class UR5BallReachEnv(gym.Env):
         vrep.simxPauseCommunication(cid, False)
         self._simulate(self.sim_steps)
         self._steps += 1
+        self.steps_total += 1
         obs, info, reward, terminated = self._observe()
         truncated = self._steps >= self.max_episode_steps and not terminated
+        info["is_success"] = terminated  # the key Stable-Baselines3's logger counts
         return obs, reward, terminated, truncated, info
+
+    def server_info(self) -> dict[str, Any]:
+        """Where this environment's steps go: ``{"host", "port", "server_pid" (None unless
+        ``servers`` started a local server), "env_pid" (this process), "steps" (step() calls so
+        far)}``; plain values, so a vector environment's ``call("server_info")`` can return it."""
+        pool = self.local_servers
+        host, port = (pool.addresses[0] if pool is not None else self._claimed or self._key or (None, None))
+        return {"host": host, "port": port, "server_pid": pool.pids[0] if pool is not None else None,
+                "env_pid": os.getpid(), "steps": self.steps_total}
 
     def render(self):
         if self.render_mode != "rgb_array":
@@ -379,6 +414,23 @@ class UR5BallReachEnv(gym.Env):
                 vrep.simxFinish(self.client_id)
         if self._claimed is not None:
             self._servers.release(self._claimed)
+        if self.local_servers is not None:
+            self.local_servers.close()
+
+
+def _local_server(spec: str | dict) -> Any:
+    """A started :class:`simx_server.pool.ServerPool` of one server for ``servers="local"`` or a
+    pool spec ``{"scene": ..., "args": [...]}``; ValueError for anything else."""
+    if isinstance(spec, str):
+        if spec != "local":
+            raise ValueError(f"servers must be 'local', a pool spec dict or a claims object, not {spec!r}")
+        spec = {}
+    unknown = set(spec) - {"scene", "args"}
+    if unknown:
+        raise ValueError(f"a pool spec takes 'scene' and 'args', not {sorted(unknown)}")
+    from simx_server.pool import ServerPool  # the server side: needs MuJoCo on this machine
+
+    return ServerPool(1, spec.get("scene"), *[str(a) for a in spec.get("args", ("--speed", "0"))])
 
 
 def _sensor_resolution(value: Any) -> str | tuple[int, int] | None:

@@ -11,15 +11,13 @@ from __future__ import annotations
 
 import os
 import re
-import secrets
-import shutil
 import signal
 import subprocess
 import sys
 
 import pytest
 
-from conftest import ROOT, SCENE, ready_line
+from conftest import ROOT, SCENE, network_namespaces, ready_line
 
 ADDR_A, ADDR_B = "192.0.2.1", "192.0.2.2"
 ENV = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
@@ -37,43 +35,11 @@ for port in ports:
 """
 
 
-def _ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
-    out = subprocess.run(["ip", *args], capture_output=True, text=True, timeout=30)
-    if check and out.returncode != 0:
-        raise RuntimeError(f"ip {' '.join(args)}: {out.stderr.strip()}")
-    return out
-
-
 @pytest.fixture
 def namespaces():
     """Two namespaces joined by a veth pair: yields (A, B); removes both afterwards."""
-    if not sys.platform.startswith("linux"):
-        pytest.skip("network namespaces are Linux only")
-    if shutil.which("ip") is None:
-        pytest.skip("iproute2's `ip` is not installed (scripts/system-deps.sh installs iproute2)")
-    tag = secrets.token_hex(3)
-    a, b = f"simx-a-{tag}", f"simx-b-{tag}"
-    made = []
-    try:
-        out = _ip("netns", "add", a, check=False)
-        if out.returncode != 0:
-            pytest.skip(f"cannot create a network namespace (needs root or CAP_NET_ADMIN): "
-                        f"`ip netns add` said: {out.stderr.strip()}")
-        made.append(a)
-        _ip("netns", "add", b)
-        made.append(b)
-        va, vb = f"sxa{tag}", f"sxb{tag}"
-        # Made inside A and moved to B: nothing is ever added to the namespace the test runs in.
-        _ip("-n", a, "link", "add", va, "type", "veth", "peer", "name", vb)
-        _ip("-n", a, "link", "set", vb, "netns", b)
-        for ns, dev, addr in ((a, va, ADDR_A), (b, vb, ADDR_B)):
-            _ip("-n", ns, "addr", "add", f"{addr}/24", "dev", dev)
-            _ip("-n", ns, "link", "set", "lo", "up")
-            _ip("-n", ns, "link", "set", dev, "up")
-        yield a, b
-    finally:
-        for ns in made:
-            _ip("netns", "del", ns, check=False)
+    with network_namespaces(ADDR_A, ADDR_B) as names:
+        yield names
 
 
 def _start_in(ns: str, *args: str) -> tuple[subprocess.Popen, str]:

@@ -1,0 +1,46 @@
+"""examples/train_ddpg.py runs end to end (a smoke test, so the example never rots): 200 training
+steps on one simx-server, two one-episode selection evaluations, one final episode per policy;
+the models, CSV, PNG and JSON are written. The learning itself is shown in docs/TRAINING.md (a full run, not a test)."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT
+
+for _module in ("stable_baselines3", "torch", "matplotlib", "gymnasium"):
+    if importlib.util.find_spec(_module) is None:
+        pytest.skip(f"needs the train extra (no {_module}): pip install -e '.[train]'", allow_module_level=True)
+
+
+@pytest.mark.train
+def test_train_ddpg_smoke(tmp_path):
+    out = tmp_path / "ddpg"
+    run = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "train_ddpg.py"), "--servers", "1", "--steps", "200",
+         "--episode-steps", "25", "--learning-starts", "100", "--eval-episodes", "1", "--select-every", "100", "--select-episodes", "1",
+         "--out", str(out)],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path,
+        env=dict(os.environ, MUJOCO_GL="egl", MPLBACKEND="Agg"))
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
+    for model in ("model.zip", "model_final.zip", "best_model.zip"):  # kept, last, best of the selections
+        assert (out / model).stat().st_size > 10_000
+    with open(out / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) >= 8  # 200 steps, episodes of at most 25
+    assert all(0 < int(r["length"]) <= 25 and float(r["return"]) < 0 for r in rows)
+    assert int(rows[-1]["env_steps"]) <= 200
+    assert (out / "learning_curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    result = json.loads((out / "evaluation.json").read_text())
+    assert result["train_env_steps"] == 200 and result["servers"] == 1
+    assert [e["env_steps"] for e in result["selection_evaluations"]] == [100, 200]
+    assert result["kept_model"] == "best of the selection evaluations"
+    for policy in ("trained", "random"):
+        assert result[policy]["episodes"] == 1 and 0 <= result[policy]["success_rate"] <= 1
