@@ -144,12 +144,12 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
             if len(data) > limits.MAX_REQUEST_BYTES:
                 raise P.ProtocolError(f"request of {len(data)} bytes refused: at most "
                                       f"{limits.MAX_REQUEST_BYTES} (limits.MAX_REQUEST_BYTES)")
-            client, commands = P.parse_request(data, limits.MAX_COMMANDS_PER_REQUEST)
+            client, commands, size = P.read_request(data, limits.MAX_COMMANDS_PER_REQUEST)  # size: decoded
             if client != key[self._call_prefix:]:
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
             if self.sessions.get(client) is None and not P.valid_client_id(client):  # once per client
                 raise P.ProtocolError("invalid client id: 1 to 128 characters without / * $ ? #")
-            refused = self.sessions.admit(client, (query, commands), len(data))
+            refused = self.sessions.admit(client, (query, commands), size)
             if refused is None:
                 return  # the simulation thread replies
             t, state, scene = self.sim.stamp()
