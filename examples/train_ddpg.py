@@ -111,7 +111,7 @@ def plot(rows: list[dict], selections: list[dict], path: Path, title: str) -> No
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--servers", type=int, default=2, help="simx-servers = environments (default 2)")
-    parser.add_argument("--steps", type=int, default=30_000, help="environment steps to train (all envs)")
+    parser.add_argument("--steps", type=int, default=20_000, help="environment steps to train (all envs)")
     parser.add_argument("--episode-steps", type=int, default=100, help="steps before an episode is truncated")
     parser.add_argument("--learning-starts", type=int, default=1_000, help="random steps before learning")
     parser.add_argument("--eval-episodes", type=int, default=50, help="seeded episodes per policy")
