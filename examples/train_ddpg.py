@@ -1,7 +1,7 @@
 """Train the tutorial's DDPG (stable-baselines3) on simx/UR5BallReach-v0, CPU only.
 
     pip install -e '.[train]'      # gymnasium, stable-baselines3, PyTorch, matplotlib
-    nice -n 19 python examples/train_ddpg.py --servers 2 --steps 30000 --out runs/ddpg
+    nice -n 19 python examples/train_ddpg.py --servers 2 --steps 20000 --max-minutes 25 --out runs/ddpg
 
 The script starts its own simx-servers (``ServerPool``, one per environment), trains DDPG on a
 ``SubprocVecEnv`` of ``--servers`` environments and writes to ``--out``:
