@@ -184,10 +184,11 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
             assert vrep.simxSetJointTargetPosition(cid, joint, target, WAIT) == 0
             wait_until(lambda: abs(vrep.simxGetJointPosition(cid, joint, WAIT)[1] - target) < 0.01,
                        timeout=20, what="UR5_joint1 at 45 degrees")
-            second, = wait_until(steady_shot, timeout=60, what="a steady view of the turned arm")
+            # The viewer may lag the server on a loaded machine (software GL): a steady view that
+            # shows the turn, within 60 s (a viewer that stopped following never shows it).
+            second, = wait_until(lambda: (s := steady_shot()) and _changed(first, s[0]) > 2000 and s,
+                                 timeout=60, what="a steady view of the turned arm (> 2,000 pixels changed)")
             cv2.imwrite(str(tmp_path / "viewer-after.png"), second)
-            moved = _changed(first, second)
-            assert moved > 2000, f"only {moved} pixels changed after the arm turned 45 degrees"
             rows, _ = np.nonzero(np.abs(first.astype(np.int16) - second.astype(np.int16)).max(axis=2) > 40)
             assert rows.min() < second.shape[0] // 2, "the change is where the arm's upper part is"
 
