@@ -226,12 +226,18 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
     assert "viewer feed: a viewer is watching" in log, log[-2000:]
 
 
-def test_model_queries_waiting_are_bounded():
+def test_model_queries_waiting_are_bounded(monkeypatch):
     """Zenoh's thread queues at most limits.MAX_VIEWER_QUERIES model queries for the simulation
-    thread; the next one is answered "server busy" at once, and answering frees a place."""
+    thread; the next one is answered "server busy" at once, and answering frees a place. Answers
+    are also limited to limits.MAX_VIEWER_MODELS_PER_SECOND (a token bucket of
+    MAX_VIEWER_QUERIES): the queries of a loop beyond it are refused, naming the bound."""
     from simx_server.base import limits
+    from simx_server.transport import viewer_feed
     from simx_server.transport.viewer_feed import ViewerFeed
     from simx_server.sim.world import World
+
+    clock = [1000.0]
+    monkeypatch.setattr(viewer_feed.time, "monotonic", lambda: clock[0])
 
     class Query:
         key_expr = P.viewer_model_key()
@@ -259,8 +265,16 @@ def test_model_queries_waiting_are_bounded():
     assert generation == 1 and version == mujoco.mj_versionString()
     assert mujoco.MjModel.from_binary_path("m.mjb", {"m.mjb": mjb}).nbody == world.model.nbody
     again = Query()
+    feed._on_query(again)  # a place is free, but the bucket is empty: refused for the rate
+    with pytest.raises(P.ProtocolError, match="MAX_VIEWER_MODELS_PER_SECOND"):
+        P.unpack_viewer_model(again.replies[0])
+    clock[0] += 1 / limits.MAX_VIEWER_MODELS_PER_SECOND  # one answer's worth of time later
+    again = Query()
     feed._on_query(again)
     assert len(queued) == limits.MAX_VIEWER_QUERIES + 1 and not again.replies
+    refused = Query()
+    feed._on_query(refused)  # at once again: the bucket is empty
+    assert refused.replies and len(queued) == limits.MAX_VIEWER_QUERIES + 1
     # A colour set in place (sim.setShapeColor writes geom_rgba): a new generation and model.
     world.model.geom_rgba[0] = (0.1, 0.9, 0.1, 1)
     feed.answer(queued[1][1], world)
