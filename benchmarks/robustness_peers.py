@@ -1,4 +1,4 @@
-"""Robustness parts e and f (issue 23): what a viewer-model query loop and a client that stops
+"""Robustness parts e, f and g (issue 23): what a viewer-model query loop and a client that stops
 reading cost another client's blocking calls. Run with the rest of ``--only robustness``.
 
 * e. viewer flood: 16 threads query ``simx/viewer/model`` back to back for 20 s (5 s quick)
@@ -7,6 +7,8 @@ reading cost another client's blocking calls. Run with the rest of ``--only robu
 * f. stuck consumer: a process asks for 16 viewer models and 60 640x480 RGB images without
   reading the answers, then is stopped (SIGSTOP) for 8 s (4 s): the other client's longest
   blocking call and its p99, and the calls that timed out.
+* g. big image streams: 10 connections stream a 4096x4096 sensor's image and depth buffer while
+  another client makes blocking 640x480 depth calls: their latency against unloaded, server RSS.
 """
 
 from __future__ import annotations
@@ -113,3 +115,54 @@ def stuck_consumer(s: Settings) -> list[Figure]:
                    summary([worst * 1e3]), note=(f"p99 {_p99_ms(loaded):.1f} ms over {len(loaded)} calls "
                                                  f"(unloaded {_p99_ms(unloaded):.1f} ms); {timeouts} not answered ok"),
                    extra={"timeouts": timeouts, "calls": len(loaded)})]
+
+
+def big_image_streams(s: Settings) -> list[Figure]:
+    """g. one process's 10 connections stream kinect_rgb's RGB image and depth buffer at
+    4096x4096 (sim_visionintparam_resolution_x/_y set at run time) for 20 s (8 s quick) while
+    another client asks, blocking, for kinect_depth's 640x480 depth buffer."""
+    seconds = s.t(20.0, 8.0)
+    with Server(s.log_dir, "--pacing", "immediate", name="robustness-big-streams") as srv:
+        other = connect(srv.port)
+        depth = api.simxGetObjectHandle(other, "kinect_depth", B)[1]
+
+        def depth_calls(duration: float) -> list[tuple[float, int]]:
+            out, end = [], time.monotonic() + duration
+            while time.monotonic() < end:
+                t = time.perf_counter()
+                rc, _, _ = api.simxGetVisionSensorDepthBuffer(other, depth, B)
+                out.append((time.perf_counter() - t, rc))
+            return out
+
+        depth_calls(1.0)
+        unloaded = depth_calls(s.t(5.0, 3.0))
+        rss_before = _rss_mb(srv.pid)
+        rgb = api.simxGetObjectHandle(other, "kinect_rgb", B)[1]
+        assert api.simxSetObjectIntParameter(other, rgb, 1002, 4096, B) == 0
+        assert api.simxSetObjectIntParameter(other, rgb, 1003, 4096, B) == 0
+        # ten streaming clients (raw ids of one session: one process cannot simxStart twice)
+        session = zenoh.open(client_config("127.0.0.1", srv.port))
+        streams = [["GetVisionSensorImage", P.MODE_STREAMING, [rgb, 0]],
+                   ["GetVisionSensorDepthBuffer", P.MODE_STREAMING, [rgb]]]
+        started = time.monotonic()
+        for i in range(10):  # each streaming call's first answer carries a frame
+            client = f"bigstream{i}{os.getpid()}"
+            list(session.get(P.call_key(P.DEFAULT_PREFIX, client), timeout=30, payload=P.request(client, streams)))
+        setup_s = time.monotonic() - started
+        loaded = depth_calls(seconds)
+        session.close()
+        rss_after = _rss_mb(srv.pid)
+        api.simxFinish(other)
+    lat = [x * 1e3 for x, _ in loaded]
+    failed = sum(rc != 0 for _, rc in loaded)
+    return [Figure("robustness.big_streams.depth", "g. 10 streams of a 4096x4096 sensor: another client's "
+                   "640x480 depth call", "ms", summary(lat),
+                   floor={"label": "the same calls unloaded", **summary(x * 1e3 for x, _ in unloaded)},
+                   note=(f"p99 {np.percentile(lat, 99):.0f} ms, max {max(lat):.0f} ms over {len(lat)} calls "
+                         f"({failed} not ok); server RSS {rss_before:.0f} -> {rss_after:.0f} MB; the 10 streaming "
+                         f"calls took {setup_s:.1f} s"))]
+
+
+def _rss_mb(pid: int) -> float:
+    with open(f"/proc/{pid}/status") as f:
+        return next(int(line.split()[1]) / 1024 for line in f if line.startswith("VmRSS:"))

@@ -180,6 +180,12 @@ MAX_RENDERS_PER_CLIENT = 4
 #: client that reads takes to drain one batch, even over a slow network. An operator's Zenoh
 #: config file that sets the key keeps its own value.
 MAX_BLOCKED_REPLY_SECONDS = 0.5
+#: Steps whose streamed images the render thread may still be making, all clients together:
+#: beyond, every client's image streams skip steps until it catches up (a stream gives the
+#: newest frame, as V-REP's did). Two keep the render thread busy when a frame takes about a
+#: step; more let streams of huge images queue seconds of frames ahead of another client's
+#: image request (issue 23: 50 streams of a 4096x4096 sensor, 4.2 s).
+MAX_STREAM_STEPS_RENDERING = 2
 #: Streamed commands of one client (each is executed again after every step).
 MAX_STREAMS_PER_CLIENT = 256
 #: Characters of an error message kept (reply, simxGetLastErrors); longer ones are cut.
