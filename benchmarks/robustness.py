@@ -395,7 +395,7 @@ def run(s: Settings) -> list[Figure]:
     parts = [("malformed", _malformed), ("mixed", _mixed), ("flood", _flood),
              ("flood-raw", lambda s: _flood(s, "flood-raw")), ("soak", _soak),
              ("viewer-flood", peers.viewer_flood), ("stuck", peers.stuck_consumer),
-             ("big-streams", peers.big_image_streams)]
+             ("big-streams", peers.big_image_streams), ("reconnect", peers.reconnect_soak)]
     for name, part in parts:  # one failing part must not hide the others
         print(f"   robustness: {name} ...", file=sys.stderr, flush=True)
         try:

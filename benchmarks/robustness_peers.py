@@ -1,4 +1,4 @@
-"""Robustness parts e, f and g (issue 23): what a viewer-model query loop and a client that stops
+"""Robustness parts e to h (issue 23): what a viewer-model query loop and a client that stops
 reading cost another client's blocking calls. Run with the rest of ``--only robustness``.
 
 * e. viewer flood: 16 threads query ``simx/viewer/model`` back to back for 20 s (5 s quick)
@@ -7,8 +7,10 @@ reading cost another client's blocking calls. Run with the rest of ``--only robu
 * f. stuck consumer: a process asks for 16 viewer models and 60 640x480 RGB images without
   reading the answers, then is stopped (SIGSTOP) for 8 s (4 s): the other client's longest
   blocking call and its p99, and the calls that timed out.
-* g. big image streams: 10 connections stream a 4096x4096 sensor's image and depth buffer while
+* g. big image streams: 10 client ids stream a 4096x4096 sensor's image and depth buffer while
   another client makes blocking 640x480 depth calls: their latency against unloaded, server RSS.
+* h. reconnect soak: 4 processes connect, make ~30 mixed calls and disconnect, over and over for
+  3 minutes: the server's RSS and its slope.
 """
 
 from __future__ import annotations
@@ -166,3 +168,49 @@ def big_image_streams(s: Settings) -> list[Figure]:
 def _rss_mb(pid: int) -> float:
     with open(f"/proc/{pid}/status") as f:
         return next(int(line.split()[1]) / 1024 for line in f if line.startswith("VmRSS:"))
+
+
+_RECONNECT = """
+import sys, time
+import vrep
+port, until = int(sys.argv[1]), float(sys.argv[2])
+B, S, O = vrep.simx_opmode_blocking, vrep.simx_opmode_streaming, vrep.simx_opmode_oneshot
+n = 0
+while time.time() < until:
+    cid = vrep.simxStart('127.0.0.1', port, True, True, 5000, 5)
+    if cid < 0:
+        continue
+    j = vrep.simxGetObjectHandle(cid, 'UR5_joint1', B)[1]
+    cam = vrep.simxGetObjectHandle(cid, 'kinect_rgb', B)[1]
+    vrep.simxGetJointPosition(cid, j, S)
+    vrep.simxGetVisionSensorImage(cid, cam, 0, B)
+    for i in range(25):
+        vrep.simxSetJointTargetPosition(cid, j, 0.01 * (i % 5), O)
+        vrep.simxSetStringSignal(cid, 'soak%d' % (i % 3), b'x' * 1000, O)
+        vrep.simxGetPingTime(cid)
+    vrep.simxClearStringSignal(cid, 'soak0', O)
+    vrep.simxFinish(cid)
+    n += 1
+print(n)
+"""
+
+
+def reconnect_soak(s: Settings) -> list[Figure]:
+    """h. 4 processes connect, make ~30 mixed calls (streams, an image, signals, oneshot
+    targets) and disconnect, over and over for 180 s (30 s quick): server RSS every 5 s."""
+    seconds = s.t(180.0, 30.0)
+    with Server(s.log_dir, name="robustness-reconnect") as srv:
+        until = time.time() + seconds
+        workers = [subprocess.Popen([sys.executable, "-c", _RECONNECT, str(srv.port), repr(until)],
+                                    stdout=subprocess.PIPE, text=True, env=child_env()) for _ in range(4)]
+        t0, samples = time.monotonic(), []
+        while any(w.poll() is None for w in workers):
+            samples.append((time.monotonic() - t0, _rss_mb(srv.pid)))
+            time.sleep(5)
+        connections = sum(int(w.stdout.read().strip() or 0) for w in workers)
+    t, rss = zip(*samples)
+    slope = float(np.polyfit(t, rss, 1)[0]) * 60 if len(t) > 2 else float("nan")
+    return [Figure("robustness.reconnect.rss", f"h. {seconds:.0f} s of 4 reconnecting clients: server RSS",
+                   "MB", summary(rss), floor={"label": "RSS at the start", **summary([rss[0]])},
+                   note=f"{connections} connections; slope {slope:+.1f} MB/min; last {rss[-1]:.0f} MB",
+                   extra={"connections": connections, "slope_mb_per_min": slope})]
