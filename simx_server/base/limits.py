@@ -110,14 +110,29 @@ MAX_SCENE_HFIELD_CELLS = 2 * MAX_HFIELD_CELLS
 #: them in a scene (MuJoCo computes each mesh's convex hull: 200,000 vertices take 0.3-1 s).
 MAX_MESH_VERTICES = 200_000
 MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
-#: Most bytes of MuJoCo's arena (<size memory>) and most entries of the other <size> fields
-#: (nuserdata, nkey, nuser_*, njmax, nconmax, nstack), and values of one <numeric>.
-MAX_ARENA_BYTES = 256 * 1024 * 1024
+#: Most bytes of MuJoCo's data arena (contacts, constraints and the solver's scratch memory)
+#: of a client's scene or of a scene after a client's edit: its <size memory>, and the compiled
+#: model's ``narena``, which MuJoCo sizes itself when the MJCF does not (100 free spheres: 57
+#: MiB, 300: 227 MiB, 1,000: 1.65 GiB), checked before the scene's MjData exists. It also bounds
+#: the constraints one substep can solve: with 64 MiB, 160 overlapping spheres (44,000
+#: constraint rows) take 7.9 s in one substep of MuJoCo's Newton solver, the most seen.
+MAX_ARENA_BYTES = 64 * 1024 * 1024
+#: Most contacts of a client's scene as loaded (collision detection alone on scratch data, no
+#: solver: about 10 ms for 300 overlapping spheres), so that overlapping bodies are refused
+#: before their first step: 300 overlapping spheres make 24,911 contacts, whose first substep
+#: takes 30 s; a pile of 300 settled spheres 950.
+MAX_SCENE_CONTACTS = 2000
+#: s of the simulation thread one step of a client's scene may take: its substeps run one at a
+#: time, and past this the simulation stops (as after a blow-up, every client is told, naming
+#: this bound). 300 spheres falling into a pile reach 1.5 s per step with MuJoCo's defaults.
+MAX_STEP_SECONDS = 1.0
 #: Most work of one simulation step of a client's scene or edit, estimated as MuJoCo substeps x
-#: solver iterations x geoms (the bundled UR5 scene: about 1.5e5): checked after compiling,
+#: solver iterations x geoms (the bundled UR5 scene: about 1.9e5): checked after compiling,
 #: before the scene replaces the current one (300 piled spheres, 1,000 iterations and a 5e-4 s
 #: timestep, 3e7, froze every client for over 90 s).
 MAX_STEP_WORK = 5_000_000
+#: Most entries of the other <size> fields (nuserdata, nkey, nuser_*, njmax, nconmax, nstack),
+#: and values of one <numeric>.
 MAX_SIZE_ENTRIES = 100_000
 #: Most solver iterations per step (<option iterations, ls_iterations, noslip_iterations,
 #: ccd_iterations, sdf_iterations>): MuJoCo's defaults are 100, 50, 0, 35, 10.

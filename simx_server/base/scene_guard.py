@@ -183,21 +183,28 @@ def _png_pixels(head: bytes) -> int | None:
     return None
 
 
+#: An OBJ vertex line as MuJoCo's reader (tinyobjloader) takes one: after \n, \r or \r\n (or at
+#: the start), optional blanks (space, tab), ``v``, a blank.
 _OBJ_VERTEX = re.compile(rb"(?:^|[\r\n])[ \t]*v[ \t]")
 
 
-def _mesh_vertices(data: bytes, name: str) -> int:
-    """Vertices a mesh file holds (an upper bound), by its format."""
+def mesh_vertices(data: bytes, name: str) -> int:
+    """Vertices a mesh file holds (an upper bound), counted as MuJoCo's readers take them.
+
+    By the extension MuJoCo picks its reader by: ``.stl`` is read as binary STL whatever its
+    first bytes (an 80-byte header that starts with ``solid`` included), three vertices per
+    triangle of its count; ``.obj`` by its vertex lines (CR, LF or CRLF, leading blanks);
+    ``.msh`` by its header's count; any other name (a ``content_type``) by the most of these
+    and three floats per vertex."""
     ext = posixpath.splitext(name.lower())[1]
-    if ext == ".stl" and len(data) >= 84 and data[:5].lower() != b"solid":
-        return 3 * struct.unpack("<I", data[80:84])[0]  # binary STL: its triangle count
-    # OBJ vertices as MuJoCo's reader finds them: a line (\n, \r or both) of optional blanks, v, a blank
-    text = max(len(_OBJ_VERTEX.findall(data)), data.count(b"vertex"))  # ASCII STL: "vertex" lines
-    if ext == ".msh" and len(data) >= 4:
-        return max(text, struct.unpack("<i", data[:4])[0])
-    if ext in (".obj", ".stl"):
+    if ext == ".stl":
+        return 3 * struct.unpack("<I", data[80:84])[0] if len(data) >= 84 else 0
+    text = len(_OBJ_VERTEX.findall(data))
+    if ext == ".obj":
         return text
-    return max(text, len(data) // 12)  # another name (content_type): three floats per vertex at most
+    if ext == ".msh":
+        return max(text, struct.unpack("<i", data[:4])[0] if len(data) >= 4 else 0)
+    return max(text, len(data) // 12)
 
 
 def _number(el: ET.Element, attr: str, what: str, default: str = "1") -> list[int]:
@@ -345,7 +352,7 @@ class _Walk:
                 data = path.read_bytes()
             except OSError:
                 raise _refuse(self.what, f"cannot read {quote(name)}") from None
-            _over(f"{self.what} ({quote(name)})", _mesh_vertices(data, name), "MAX_MESH_VERTICES")
+            _over(f"{self.what} ({quote(name)})", mesh_vertices(data, name), "MAX_MESH_VERTICES")
 
     def check_combinations(self) -> None:
         """Every asset file under every folder the scene sets must stay in the transfer folder."""
@@ -429,7 +436,11 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
             _over(label, len(el.userdata), "MAX_HFIELD_CELLS")  # converted only when nrow x ncol passed
             cells_total += cells
         elif isinstance(el, mujoco.MjsMesh):
-            verts = len(el.uservert) // 3 + (_mesh_vertices(data, el.file) if data else 0)
+            verts = len(el.uservert) // 3 + (mesh_vertices(data, el.file) if data else 0)
+            _over(label, verts, "MAX_MESH_VERTICES")
+            verts_total += verts
+        elif isinstance(el, mujoco.MjsSkin):  # a .skn file starts with its vertex count
+            verts = len(el.vert) // 3 + (max(struct.unpack("<i", data[:4])[0], 0) if len(data) >= 4 else 0)
             _over(label, verts, "MAX_MESH_VERTICES")
             verts_total += verts
     for flex in spec.flexes:

@@ -105,6 +105,10 @@ def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float
         data = file.read_bytes()
     except OSError as exc:
         raise ArgumentError(f"importShape: cannot read {quote(path)}: {quote(exc.strerror)}") from None
+    vertices = guard.mesh_vertices(data, file.name)  # as MuJoCo's reader counts them, before it parses
+    if vertices > L.MAX_MESH_VERTICES:
+        raise ArgumentError(f"importShape: {quote(path)} has {vertices:,} vertices, more than "
+                            f"{L.MAX_MESH_VERTICES:,} (simx_server.base.limits.MAX_MESH_VERTICES)")
     editor = sim.editor
     editor._asset_counter[0] += 1
     key = f"simx-asset-{editor._asset_counter[0]}-import{file.suffix.lower()}"

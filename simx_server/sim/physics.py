@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 import math
 import re
+import time
 from typing import Any
 
 import mujoco
@@ -103,25 +104,68 @@ def step_work(model: mujoco.MjModel, substeps: int) -> int:
     return substeps * max(1, int(model.opt.iterations)) * max(1, int(model.ngeom))
 
 
+def initial_contacts(model: mujoco.MjModel) -> int:
+    """Contacts of the scene as compiled (its initial pose), by MuJoCo's collision detection
+    alone on scratch data: no constraint is built and no solver runs, so 300 overlapping spheres
+    (24,911 contacts, whose first step takes 30 s) cost about 10 ms. Contacts that overflow the
+    arena count as one more than ``limits.MAX_SCENE_CONTACTS``."""
+    data = mujoco.MjData(model)  # the arena is allocated, not touched: RSS grows by what is used
+    mujoco.mj_kinematics(model, data)
+    try:
+        mujoco.mj_collision(model, data)
+    except mujoco.FatalError:  # the broad phase's pairs overflow the arena
+        return L.MAX_SCENE_CONTACTS + 1
+    full = data.warning[int(mujoco.mjtWarning.mjWARN_CONTACTFULL)].number
+    return int(data.ncon) + (L.MAX_SCENE_CONTACTS + 1 if full else 0)
+
+
 def check_cost(model: mujoco.MjModel, substeps: int, previous: mujoco.MjModel | None = None,
                previous_substeps: int = 1) -> None:
-    """A client's scene or edit, compiled, before its MjData exists: its data arena (MuJoCo
-    sizes it itself when the MJCF does not) and the work of one step, against MAX_ARENA_BYTES and
-    MAX_STEP_WORK. With ``previous`` (an edit), a model over a bound passes when it is no worse
-    than the one it replaces (an operator's big scene may still be edited).
+    """A client's scene or edit, compiled, before its MjData exists and before it replaces the
+    current scene: its data arena (MuJoCo sizes it itself when the MJCF does not), the work of
+    one step and its contacts as loaded, against MAX_ARENA_BYTES, MAX_STEP_WORK and
+    MAX_SCENE_CONTACTS. With ``previous`` (an edit), a model over a bound passes when it is no
+    worse than the one it replaces (an operator's big scene may still be edited).
 
     Raises:
         ArgumentError: naming the bound.
     """
-    checks = (("arena", int(model.narena), L.MAX_ARENA_BYTES, "MAX_ARENA_BYTES", "bytes of MjData arena",
-               None if previous is None else int(previous.narena)),
-              ("step", step_work(model, substeps), L.MAX_STEP_WORK, "MAX_STEP_WORK",
-               "substeps x solver iterations x geoms per step",
-               None if previous is None else step_work(previous, previous_substeps)))
-    for _, value, bound, name, unit, before in checks:
-        if value > bound and (before is None or value > before):
+    checks = ((lambda m, n: int(m.narena), L.MAX_ARENA_BYTES, "MAX_ARENA_BYTES", "bytes of MjData arena",
+               f" (MuJoCo sizes it from the bodies when the MJCF does not: declare <size memory=\"{L.MAX_ARENA_BYTES >> 20}M\"/> "
+               "or less)"),
+              (step_work, L.MAX_STEP_WORK, "MAX_STEP_WORK", "substeps x solver iterations x geoms per step", ""),
+              (lambda m, n: initial_contacts(m), L.MAX_SCENE_CONTACTS, "MAX_SCENE_CONTACTS", "contacts as loaded",
+               " (bodies that overlap or touch where they start)"))
+    for measure, bound, name, unit, hint in checks:
+        value = measure(model, substeps)
+        if value > bound and (previous is None or value > measure(previous, previous_substeps)):
             raise ArgumentError(f"the model needs {value:,} {unit}, more than {bound:,} "
-                                f"(simx_server.base.limits.{name})")
+                                f"(simx_server.base.limits.{name}){hint}")
+
+
+class StepTimeError(PhysicsError):
+    """A step of a client's scene took more than limits.MAX_STEP_SECONDS of the simulation thread."""
+
+
+def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, seconds: float) -> None:
+    """``substeps`` MuJoCo steps, one at a time, stopping after the first that ends more than
+    ``seconds`` after the start (a substep itself cannot be interrupted).
+
+    Raises:
+        StepTimeError: the step took too long (cut short, or its last substep ended late); its message gives the scene's contacts,
+            constraint rows, solver iterations and substeps at that point.
+    """
+    start = time.perf_counter()
+    deadline = start + seconds
+    for done in range(1, substeps + 1):
+        mujoco.mj_step(model, data)
+        if time.perf_counter() > deadline:
+            raise StepTimeError(
+                f"a step of the client's scene took more than MAX_STEP_SECONDS = {seconds:g} s of the "
+                f"simulation thread ({time.perf_counter() - start:.2f} s for {done} of its {substeps} substeps, "
+                f"at t = {data.time:.3f} s: {data.ncon:,} contacts, {data.nefc:,} constraint rows, solver "
+                f"iterations up to {int(model.opt.iterations)}); make the scene lighter (fewer touching bodies, "
+                "a larger timestep, fewer iterations)")
 
 
 def check_gravity(values: Any) -> list[float]:

@@ -71,9 +71,11 @@ class World(Poses):
         scene: path of an MJCF file, or of a URDF file (:mod:`simx_server.sim.urdf`).
         dt: simulation step in s (V-REP's default 0.05); made of MuJoCo substeps of the
             model's own timestep.
-        bounded: a client's scene: the compiled model's data arena and step work must stay
-            within MAX_ARENA_BYTES and MAX_STEP_WORK (:func:`physics.check_cost`), checked
-            before its MjData is made. Edits (:meth:`replace_model`) are always checked.
+        bounded: a client's scene: the compiled model's data arena, step work and contacts as
+            loaded must stay within MAX_ARENA_BYTES, MAX_STEP_WORK and MAX_SCENE_CONTACTS
+            (:func:`physics.check_cost`), checked before its MjData is made, and each step
+            within MAX_STEP_SECONDS (:func:`physics.timed_step`). Edits
+            (:meth:`replace_model`) are always checked.
 
     Raises:
         ValueError: the scene cannot be loaded (MuJoCo's message, with the file name), or
@@ -355,11 +357,16 @@ class World(Poses):
 
         Raises:
             physics.PhysicsError: MuJoCo found a NaN, infinite or huge position, velocity or
-                acceleration and reset the state (its warnings go to physics.SINK, not stdout).
+                acceleration and reset the state (its warnings go to physics.SINK, not stdout);
+                or, a client's scene (``bounded``), the step took more than
+                limits.MAX_STEP_SECONDS (physics.StepTimeError, the rest of its substeps not run).
         """
         m, d = self.model, self.data
         self.motors.apply(m, d, self.dt)
-        mujoco.mj_step(m, d, nstep=self.substeps)
+        if self.bounded:  # a client's scene: at most MAX_STEP_SECONDS of the simulation thread
+            physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS)
+        else:
+            mujoco.mj_step(m, d, nstep=self.substeps)
         if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)
             raise physics.blow_up(m, d, self.time)
         if physics.SINK.count:

@@ -439,10 +439,12 @@ def test_a_doctype_in_utf16_or_utf32_xml_is_refused_before_mujoco_parses_it(sim,
     assert sim.world.model is model
 
 
-def _spheres(n: int, iterations: int = 100, timestep: float = 0.002) -> bytes:
-    bodies = "".join(f'<body name="s{i}" pos="0 0 {0.1 + i * 0.001:.3f}"><freejoint/><geom size="0.05"/></body>'
+def _spheres(n: int, iterations: int = 100, timestep: float = 0.002, memory: str = "", gap: float = 0.001) -> bytes:
+    """``n`` free spheres of radius 5 cm in a column, ``gap`` m apart (1 mm: all overlapping)."""
+    bodies = "".join(f'<body name="s{i}" pos="0 0 {0.1 + i * gap:.3f}"><freejoint/><geom size="0.05"/></body>'
                      for i in range(n))
-    return (f'<mujoco><option iterations="{iterations}" timestep="{timestep}"/><worldbody>{bodies}'
+    size = f'<size memory="{memory}"/>' if memory else ""
+    return (f'<mujoco><option iterations="{iterations}" timestep="{timestep}"/>{size}<worldbody>{bodies}'
             '</worldbody></mujoco>').encode()
 
 
@@ -452,10 +454,10 @@ def test_a_client_scene_whose_arena_or_step_work_is_too_big_is_refused_before_it
     from simx_server.commands.editing import EDITING_HANDLERS as H
 
     world = sim.world
-    H["TransferFile"](sim, ["pile.xml", _spheres(400)])  # about 300 MiB of arena
+    H["TransferFile"](sim, ["pile.xml", _spheres(400)])  # about 400 MiB of arena, sized by MuJoCo
     with pytest.raises(RemoteError, match="MAX_ARENA_BYTES"):
         H["LoadScene"](sim, ["pile.xml", 1])
-    H["TransferFile"](sim, ["slow.xml", _spheres(300, iterations=1000, timestep=5e-4)])
+    H["TransferFile"](sim, ["slow.xml", _spheres(300, iterations=1000, timestep=5e-4, memory="32M")])
     with pytest.raises(RemoteError, match="MAX_STEP_WORK"):
         H["LoadScene"](sim, ["slow.xml", 1])
     assert sim.world is world  # nothing replaced
@@ -465,8 +467,8 @@ def test_a_client_scene_whose_arena_or_step_work_is_too_big_is_refused_before_it
 
 
 def test_obj_vertices_are_counted_as_mujocos_reader_reads_them():
-    from simx_server.base.scene_guard import _mesh_vertices
+    from simx_server.base.scene_guard import mesh_vertices
 
     lf, cr, crlf, indented = (b"v 0 0 0\nv 1 0 0\nvn 0 0 1\n# v 9 9 9\n", b"v 0 0 0\rv 1 0 0\rv 0 1 0\r",
                               b"v 0 0 0\r\nv 1 0 0\r\n", b"  v 0 0 0\n\tv 1 0 0\n")
-    assert [_mesh_vertices(d, "m.obj") for d in (lf, cr, crlf, indented)] == [2, 3, 2, 2]
+    assert [mesh_vertices(d, "m.obj") for d in (lf, cr, crlf, indented)] == [2, 3, 2, 2]
