@@ -53,14 +53,16 @@ def test_state_is_published_only_while_a_viewer_subscribes():
     try:
         with zenoh.open(client_config("127.0.0.1", server.port)) as session:
             t0 = _model_state(session)[1]
-            wait_until(lambda: _model_state(session)[1] > t0 + 0.3, what="the simulation running unwatched")
+            # (model queries as the clock, at most limits.MAX_VIEWER_MODELS_PER_SECOND: every 0.3 s)
+            wait_until(lambda: _model_state(session)[1] > t0 + 0.3, period=0.3, what="the simulation running unwatched")
             received = []
             sub = session.declare_subscriber(P.viewer_state_key(),
                                              lambda s: received.append(P.unpack_viewer_state(s.payload.to_bytes())))
             wait_until(lambda: len(received) >= 5, what="5 states for the subscriber")
             sub.undeclare()
             t1 = _model_state(session)[1]
-            wait_until(lambda: _model_state(session)[1] > t1 + 0.3, what="the simulation running unwatched again")
+            wait_until(lambda: _model_state(session)[1] > t1 + 0.3, period=0.3,
+                       what="the simulation running unwatched again")
             again = []
             sub = session.declare_subscriber(P.viewer_state_key(), lambda s: again.append(s))
             wait_until(lambda: again, what="a state for the second subscription")
