@@ -15,9 +15,10 @@ cd "$ROOT"
 # machines set it) each would compile ~80 modules again (0.1-0.15 s of CPU each time) and each
 # pytest worker would rewrite every test module's asserts again (2.5 s): 126 s instead of 150 s.
 unset PYTHONDONTWRITEBYTECODE
-# One BLAS thread per test process (4 workers and their client programs already share 2 cores):
-# OpenBLAS would start one per core in each, 0.08 s of CPU at every numpy import.
-export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
+# One BLAS and one OpenMP thread per test process (4 workers and their client programs already
+# share 2 cores): OpenBLAS would start one per core in each, 0.08 s of CPU at every numpy import,
+# and PyTorch's spinning OpenMP threads cost the DDPG smoke test 4 s of CPU.
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}"
 # The tests mostly wait on real servers (subprocesses), so 4 pytest-xdist workers keep 2 cores busy;
 # --dist loadfile keeps a module's tests, and the server its fixture starts, on one worker.
 # SIMX_TEST_WORKERS=0 runs them in this process, one after the other.
