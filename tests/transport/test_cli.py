@@ -11,7 +11,7 @@ import zipfile
 import pytest
 
 import vrep
-from conftest import ROOT, ServerProcess, free_port
+from conftest import ROOT, ServerProcess, free_port, wait_until
 
 
 def test_bad_scene_exits_nonzero_with_mujoco_message(tmp_path):
@@ -39,6 +39,13 @@ def test_default_scene_serves_then_exits_within_2_s(sig):
         assert cid >= 0
         assert vrep.simxGetObjectHandle(cid, "UR5", vrep.simx_opmode_blocking)[0] == 0
         vrep.simxFinish(cid)
+
+        def log() -> str:  # read through a descriptor of its own: the server shares the log's offset
+            with open(f"/proc/self/fd/{srv.log.fileno()}") as f:
+                return f.read()
+
+        # the Bye is served on the simulation thread: the signal must not overtake it
+        wait_until(lambda: "disconnected" in log(), what="the client's Bye served")
         t0 = time.monotonic()
         srv.proc.send_signal(sig)
         assert srv.proc.wait(timeout=10) == 0
