@@ -197,25 +197,3 @@ def vrep_client(server):
     assert cid >= 0, "could not connect to the test server"
     yield cid
     vrep.simxFinish(cid)
-
-
-#: The longest modules (seconds of a loaded 2-core machine), handed to pytest-xdist's workers
-#: first (``--dist loadfile`` gives files out in collection order): started last, they ran alone
-#: at the end of the suite while the other workers idled. The keyboard test (robotControl.py)
-#: is not among them: it is sensitive to the machine's load.
-LONG_MODULES = ("e2e/test_ray_cluster.py", "e2e/test_train_ddpg.py", "e2e/test_zmq_programs.py",
-                "e2e/test_viewer.py", "transport/test_pool.py", "e2e/test_pioneer.py",
-                "client/test_outbox.py", "scene/test_confinement.py", "scene/test_editing.py")
-
-
-def pytest_collection_modifyitems(session, config, items):
-    rank = {name: i for i, name in enumerate(LONG_MODULES)}
-    here = Path(__file__).resolve().parent
-
-    def key(item) -> int:
-        try:
-            return rank.get(Path(str(item.path)).resolve().relative_to(here).as_posix(), len(rank))
-        except ValueError:
-            return len(rank)
-
-    items.sort(key=key)  # stable: the rest keep their order
