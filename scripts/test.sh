@@ -25,7 +25,7 @@ export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_NUM_THREADS="${OMP_
 workers="${SIMX_TEST_WORKERS:-4}"
 dist=()
 [ "$workers" != 0 ] && dist=(-n "$workers" --dist loadfile)
-echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 2 minutes on 2 cores) ..."
+echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 2-3 minutes on 2 cores) ..."
 start=$SECONDS
 status=0
 "$VENV/bin/python" -m pytest -ra ${dist[@]+"${dist[@]}"} "$@" || status=$?
