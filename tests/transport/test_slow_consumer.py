@@ -13,8 +13,9 @@ import sys
 import time
 from pathlib import Path
 
-import vrep
 from conftest import SCENE, ServerProcess
+
+import vrep
 from simx_server.base import limits
 from simx_server.transport.zenoh_config import zenoh_config
 
