@@ -42,6 +42,7 @@ import msgpack
 import numpy as np
 import zenoh
 
+from benchmarks import robustness_peers as peers
 from benchmarks.common import Settings, connect
 from benchmarks.procs import Proc, Server, child_env
 from benchmarks.stats import Figure, scaled, skipped, summary
@@ -392,7 +393,9 @@ def _soak(s: Settings) -> list[Figure]:
 def run(s: Settings) -> list[Figure]:
     figures: list[Figure] = []
     parts = [("malformed", _malformed), ("mixed", _mixed), ("flood", _flood),
-             ("flood-raw", lambda s: _flood(s, "flood-raw")), ("soak", _soak)]
+             ("flood-raw", lambda s: _flood(s, "flood-raw")), ("soak", _soak),
+             ("viewer-flood", peers.viewer_flood), ("stuck", peers.stuck_consumer),
+             ("big-streams", peers.big_image_streams), ("reconnect", peers.reconnect_soak)]
     for name, part in parts:  # one failing part must not hide the others
         print(f"   robustness: {name} ...", file=sys.stderr, flush=True)
         try:

@@ -1,7 +1,7 @@
 """Train the tutorial's DDPG (stable-baselines3) on simx/UR5BallReach-v0, CPU only.
 
     pip install -e '.[train]'      # gymnasium, stable-baselines3, PyTorch, matplotlib
-    nice -n 19 python examples/train_ddpg.py --servers 2 --steps 30000 --out runs/ddpg
+    nice -n 19 python examples/train_ddpg.py --servers 2 --steps 20000 --max-minutes 25 --out runs/ddpg
 
 The script starts its own simx-servers (``ServerPool``, one per environment), trains DDPG on a
 ``SubprocVecEnv`` of ``--servers`` environments and writes to ``--out``:
@@ -111,7 +111,7 @@ def plot(rows: list[dict], selections: list[dict], path: Path, title: str) -> No
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--servers", type=int, default=2, help="simx-servers = environments (default 2)")
-    parser.add_argument("--steps", type=int, default=30_000, help="environment steps to train (all envs)")
+    parser.add_argument("--steps", type=int, default=20_000, help="environment steps to train (all envs)")
     parser.add_argument("--episode-steps", type=int, default=100, help="steps before an episode is truncated")
     parser.add_argument("--learning-starts", type=int, default=1_000, help="random steps before learning")
     parser.add_argument("--eval-episodes", type=int, default=50, help="seeded episodes per policy")

@@ -10,13 +10,22 @@ bash "$ROOT/scripts/system-deps.sh" --with-x
 ensure_venv -e "$ROOT[${SIMX_TEST_EXTRAS:-test}]" ${SIMX_PIP_ARGS:-}
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$ROOT"
+# The suite writes bytecode caches (gitignored __pycache__): it starts about 140 simx-server
+# processes and as many client programs, and with PYTHONDONTWRITEBYTECODE set (this project's
+# machines set it) each would compile ~80 modules again (0.1-0.15 s of CPU each time) and each
+# pytest worker would rewrite every test module's asserts again (2.5 s): 126 s instead of 150 s.
+unset PYTHONDONTWRITEBYTECODE
+# One BLAS and one OpenMP thread per test process (4 workers and their client programs already
+# share 2 cores): OpenBLAS would start one per core in each, 0.08 s of CPU at every numpy import,
+# and PyTorch's spinning OpenMP threads cost the DDPG smoke test 4 s of CPU.
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}"
 # The tests mostly wait on real servers (subprocesses), so 4 pytest-xdist workers keep 2 cores busy;
 # --dist loadfile keeps a module's tests, and the server its fixture starts, on one worker.
 # SIMX_TEST_WORKERS=0 runs them in this process, one after the other.
 workers="${SIMX_TEST_WORKERS:-4}"
 dist=()
 [ "$workers" != 0 ] && dist=(-n "$workers" --dist loadfile)
-echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 2 minutes on 2 cores) ..."
+echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 2-3 minutes on 2 cores) ..."
 start=$SECONDS
 status=0
 "$VENV/bin/python" -m pytest -ra ${dist[@]+"${dist[@]}"} "$@" || status=$?

@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+import os
+
+# One BLAS thread for the server's numpy, unless the user set it (before numpy is imported): a
+# server is one simulation thread doing small-vector maths (MuJoCo does the heavy part), many
+# servers share a machine, and OpenBLAS would start a thread per core in each of them (0.08 s of
+# CPU at every start, idle threads spinning after each call).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import json
 import logging
-import os
 import re
 import signal
 import sys

@@ -128,11 +128,17 @@ class ViewerLink:
         """
         # Right after the session opens, Zenoh may not know the server's queryable yet, and a
         # query then ends at once without a reply: ask again until the deadline.
+        # A "server busy" refusal (too many viewers asking at once: limits.MAX_VIEWER_QUERIES,
+        # MAX_VIEWER_MODELS_PER_SECOND) is asked again too; at the deadline it is raised.
         deadline = time.monotonic() + timeout
         while True:
             left = deadline - time.monotonic()
             for reply in self.session.get(P.viewer_model_key(self.prefix), timeout=max(left, 0.01)):
-                return self._read_model(reply)
+                try:
+                    return self._read_model(reply)
+                except P.ProtocolError as exc:
+                    if "server busy" not in str(exc) or time.monotonic() >= deadline:
+                        raise
             if time.monotonic() >= deadline:
                 break
             time.sleep(_RETRY)

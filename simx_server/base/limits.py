@@ -193,6 +193,20 @@ MAX_CLIENTS_PER_USER = 64
 #: Replies (and stream updates) of one client waiting for the render thread. A client at the
 #: bound is not served until one is sent; its image streams skip steps meanwhile.
 MAX_RENDERS_PER_CLIENT = 4
+#: s a reply may wait for room on its client's link before Zenoh closes that link (Zenoh's
+#: ``transport/link/tx/queue/congestion_control/block/wait_before_close``, default 5 s). Replies
+#: are sent from the simulation thread with blocking congestion control, so a client that stops
+#: reading (its socket full of the images it asked for) held every other client for 5 s; now for
+#: at most this, once: then its link is closed and its replies are dropped. Far above what a
+#: client that reads takes to drain one batch, even over a slow network. An operator's Zenoh
+#: config file that sets the key keeps its own value.
+MAX_BLOCKED_REPLY_SECONDS = 0.5
+#: Steps whose streamed images the render thread may still be making, all clients together:
+#: beyond, every client's image streams skip steps until it catches up (a stream gives the
+#: newest frame, as V-REP's did). Two keep the render thread busy when a frame takes about a
+#: step; more let streams of huge images queue seconds of frames ahead of another client's
+#: image request (issue 23: 50 streams of a 4096x4096 sensor, 4.2 s).
+MAX_STREAM_STEPS_RENDERING = 2
 #: Streamed commands of one client (each is executed again after every step).
 MAX_STREAMS_PER_CLIENT = 256
 #: Characters of an error message kept (reply, simxGetLastErrors); longer ones are cut.
@@ -279,3 +293,9 @@ MAX_IMPORT_BYTES = 16 * 1024 * 1024
 #: thread, all viewers together; more are answered "server busy" at once. Each answer is the
 #: whole compiled model (cached until the model changes), so a flood must not pile them up.
 MAX_VIEWER_QUERIES = 16
+#: Viewer model answers per second, all viewers together (a token bucket holding at most
+#: MAX_VIEWER_QUERIES): each answer copies the whole compiled model (about 1 MB for the bundled
+#: scene) on the simulation thread, and 16 query loops pulled 5.7 GB in 20 s, taking another
+#: client's p99 from 17 ms to 1 s. A viewer asks once when it opens and once per new model
+#: generation; the excess is answered "server busy" at once, naming this bound.
+MAX_VIEWER_MODELS_PER_SECOND = 4.0

@@ -13,7 +13,9 @@ MuJoCo mapping (see the per-function docstrings for the details):
 
 * proximity sensor = a site carrying a ``rangefinder``: one ``mj_ray`` along the site's +z,
   excluding the site's own body, limited by the rangefinder's ``cutoff``; the surface normal is
-  the one ``mj_ray`` computes for the geom it hits.
+  the one ``mj_ray`` computes for the geom it hits. With ``angle=DEG`` in its ``simx:`` settings
+  it is V-REP's cone-type sensor (a sonar): ``mj_multiRay`` casts a fan of rays filling the cone
+  of that opening angle around +z, and the nearest hit is the detection.
 * force sensor = a site carrying a ``force`` sensor (and optionally a ``torque`` sensor): the
   interaction force/torque between the site's body and its parent, in the site frame.
 
@@ -24,12 +26,14 @@ Derived quantities (positions of bodies, sensor data) are those of the world's l
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
 
+from simx_client.protocol import ArgumentError
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import FORCE_SENSOR, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, World
 
@@ -179,8 +183,79 @@ def vision_packet(sim: SimulationView, handle: int) -> list[float]:
 
 
 # -------------------------------------------------------------- proximity sensors
+#: Rays of a cone-type proximity sensor: its axis, then rings of rays every CONE_RING_STEP
+#: degrees of half-angle out to the cone's edge, rays CONE_RAY_SPACING degrees apart around
+#: each ring (a 30-degree sonar: 4 rings, 61 rays; one mj_multiRay call).
+CONE_RING_STEP = 3.75
+CONE_RAY_SPACING = 4.0
+
+
+@functools.lru_cache(maxsize=32)
+def cone_directions(angle: float) -> np.ndarray:
+    """Unit directions (n, 3) in the sensor frame filling a cone of opening ``angle`` (rad)
+    around +z: the axis first, the edge of the cone last."""
+    half = math.degrees(angle) / 2
+    rings = max(1, math.ceil(half / CONE_RING_STEP))
+    dirs = [np.array([[0.0, 0.0, 1.0]])]
+    for k in range(1, rings + 1):
+        theta = math.radians(half * k / rings)
+        count = max(6, math.ceil(360 * math.sin(theta) / CONE_RAY_SPACING))
+        phi = np.arange(count) * (2 * math.pi / count)
+        dirs.append(np.column_stack([math.sin(theta) * np.cos(phi), math.sin(theta) * np.sin(phi),
+                                     np.full(count, math.cos(theta))]))
+    return np.concatenate(dirs)
+
+
+def cone_angle(obj: Any) -> float:
+    """The opening angle (rad) of a cone-type proximity sensor (its ``simx:`` setting ``angle=``
+    in degrees, V-REP's cone "angle"), 0 for a ray-type one. Raises ArgumentError for a value
+    that is not a number in (0, 180)."""
+    raw = obj.settings.get("angle")
+    if raw is None:
+        return 0.0
+    try:
+        deg = float(raw)
+    except ValueError:
+        deg = math.nan
+    if not 0 < deg < 180:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: angle={raw!r} in its simx: settings is "
+                            "not an opening angle in degrees between 0 and 180")
+    return math.radians(deg)
+
+
+def max_angle(obj: Any) -> float:
+    """V-REP's "limited angle detection" of a proximity sensor (its ``simx:`` setting
+    ``max_angle=`` in degrees): a surface is detected only where the angle between the ray and
+    the surface's normal is at most this (an ultrasonic sensor does not hear a surface it meets
+    at a grazing angle, such as the floor); pi/2 (every surface) when not set. Raises
+    ArgumentError for a value that is not a number in (0, 90]."""
+    raw = obj.settings.get("max_angle")
+    if raw is None:
+        return math.pi / 2
+    try:
+        deg = float(raw)
+    except ValueError:
+        deg = math.nan
+    if not 0 < deg <= 90:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: max_angle={raw!r} in its simx: settings "
+                            "is not an angle in degrees in (0, 90]")
+    return math.radians(deg)
+
+
 def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[float], int, list[float]]:
-    """(detected, point (3,) m, object handle, normal (3,)) in the sensor frame; see below."""
+    """``simxReadProximitySensor``'s values: (detected, detected point (3,) m, detected object
+    handle, detected surface normal (3,)), point and normal in the sensor frame.
+
+    A ray-type sensor casts one ray along +z; a cone-type one (``angle=``) a fan of rays filling
+    the cone (:func:`cone_directions`) and reports the nearest hit, as V-REP's cone sensor
+    reports the nearest point of what lies in its volume (within the ray spacing), leaving out
+    surfaces met beyond ``max_angle=`` (:func:`max_angle`; cone sensors only). Geoms of the
+    sensor's own body are not seen; the range is the rangefinder's ``cutoff`` (0: unlimited).
+    Nothing detected: (False, [0, 0, 0], -1, [0, 0, 0]).
+
+    Raises UnknownObjectError/ObjectTypeError for another handle, ArgumentError for a bad
+    ``angle=`` setting.
+    """
     world = sim.world
     obj = world.get(handle, PROXIMITY_SENSOR)
     m, d = world.model, world.data
@@ -188,16 +263,36 @@ def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[floa
     k = _site_sensor(m, site, mujoco.mjtSensor.mjSENS_RANGEFINDER)
     cutoff = float(m.sensor_cutoff[k]) if k is not None and m.sensor_cutoff[k] > 0 else math.inf
     rot = d.site_xmat[site].reshape(3, 3)
-    geom = np.array([-1], dtype=np.int32)
-    normal = np.zeros(3)
-    dist = mujoco.mj_ray(m, d, d.site_xpos[site].copy(), rot[:, 2].copy(), None, 1,
-                         int(m.site_bodyid[site]), geom, normal)
-    if dist < 0 or dist > cutoff or geom[0] < 0:
-        return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
-    hit = _shape_of_body(world).get(int(m.geom_bodyid[geom[0]]), -1)
+    origin = d.site_xpos[site].copy()
+    exclude = int(m.site_bodyid[site])
+    angle = cone_angle(obj)
+    if angle > 0:
+        local = cone_directions(angle)
+        n = len(local)
+        geoms, dists, normals = np.full(n, -1, np.int32), np.full(n, -1.0), np.zeros(n * 3)
+        mujoco.mj_multiRay(m, d, origin, (local @ rot.T).ravel(), None, 1, exclude, geoms, dists,
+                           normals, n, min(cutoff, mujoco.mjMAXVAL))
+        found = (dists >= 0) & (geoms >= 0) & (dists <= cutoff)
+        limit = max_angle(obj)
+        if limit < math.pi / 2:  # the ray against the surface's normal (both unit vectors)
+            facing = -np.einsum("ij,ij->i", local @ rot.T, normals.reshape(-1, 3))
+            found &= facing >= math.cos(limit) - 1e-9
+        hits = np.flatnonzero(found)
+        if hits.size == 0:
+            return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
+        i = int(hits[np.argmin(dists[hits])])
+        dist, geom, point = float(dists[i]), int(geoms[i]), local[i] * dists[i]
+        normal = normals[3 * i:3 * i + 3]
+    else:
+        ids = np.array([-1], dtype=np.int32)
+        normal = np.zeros(3)
+        dist = mujoco.mj_ray(m, d, origin, rot[:, 2].copy(), None, 1, exclude, ids, normal)
+        geom = int(ids[0])
+        if dist < 0 or dist > cutoff or geom < 0:
+            return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
+        point = np.array([0.0, 0.0, dist])
+    hit = _shape_of_body(world).get(int(m.geom_bodyid[geom]), -1)
     n = rot.T @ normal
     norm = np.linalg.norm(n)
     n = n / norm if norm > 0 else n
-    return True, [0.0, 0.0, float(dist)], hit, [float(x) for x in n]
-
-
+    return True, [float(x) for x in point], hit, [float(x) for x in n]

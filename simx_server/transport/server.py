@@ -96,6 +96,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         self.sessions = Sessions(self._queue)
         self._stopping = threading.Event()
         self._streams: dict[str, dict[tuple, _Stream]] = {}
+        self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
         self._clients: set[str] = set()
         self.pacing = pacing
         self._paced = pacing == "legacy"

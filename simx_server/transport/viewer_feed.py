@@ -6,7 +6,8 @@ docs/PROTOCOL.md "The viewer feed"):
 * ``<prefix>/viewer/model``, a queryable: the compiled model as MuJoCo's binary ``mjb``
   (``mj_saveModel``; exact, assets included), the *generation* that identifies it, and the
   current state. Zenoh's thread only queues the query (bounded by
-  ``limits.MAX_VIEWER_QUERIES``); the simulation thread, which owns the model, answers it.
+  ``limits.MAX_VIEWER_QUERIES`` waiting and ``limits.MAX_VIEWER_MODELS_PER_SECOND`` answered);
+  the simulation thread, which owns the model, answers it.
 * ``<prefix>/viewer/state``, a publisher: after every simulation step, and at idle ticks when
   the state changed (a stop's reset, a joint set while stopped, a scene load), ``[generation,
   time, qpos, qvel, mocap_pos, mocap_quat]`` as float64 bytes, **only while a subscriber
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from typing import Any, Callable
 
 import mujoco
@@ -58,6 +60,8 @@ class ViewerFeed:
         self._enqueue = enqueue
         self._waiting = 0  # model queries queued for the simulation thread
         self._count = threading.Lock()  # Zenoh's threads add to _waiting, the simulation thread takes
+        self._tokens = float(limits.MAX_VIEWER_QUERIES)  # answers allowed now (token bucket)
+        self._refilled = time.monotonic()
         self._publisher: zenoh.Publisher | None = None
         self._world: Any = None  # the world and model the generation was given for
         self._model: mujoco.MjModel | None = None
@@ -87,16 +91,23 @@ class ViewerFeed:
 
     def _on_query(self, query: zenoh.Query) -> None:
         with self._count:
-            busy = self._waiting >= limits.MAX_VIEWER_QUERIES
-            if not busy:
+            now = time.monotonic()
+            self._tokens = min(float(limits.MAX_VIEWER_QUERIES),
+                               self._tokens + (now - self._refilled) * limits.MAX_VIEWER_MODELS_PER_SECOND)
+            self._refilled = now
+            if self._waiting >= limits.MAX_VIEWER_QUERIES:
+                busy = f"{limits.MAX_VIEWER_QUERIES} viewer model queries already wait (limits.MAX_VIEWER_QUERIES)"
+            elif self._tokens < 1:
+                busy = (f"more than {limits.MAX_VIEWER_MODELS_PER_SECOND:g} viewer model queries a second "
+                        "(limits.MAX_VIEWER_MODELS_PER_SECOND)")
+            else:
+                busy = None
                 self._waiting += 1
+                self._tokens -= 1
         if busy:
-            log.warning("viewer model query on %s not queued: %d already wait (limits.MAX_VIEWER_QUERIES)",
-                        quote(str(query.key_expr)), self._waiting)
+            log.warning("viewer model query on %s not queued: %s", quote(str(query.key_expr)), busy)
             try:
-                query.reply(query.key_expr, P.error_response(
-                    f"server busy: {limits.MAX_VIEWER_QUERIES} viewer model queries already wait "
-                    "(limits.MAX_VIEWER_QUERIES); ask again later"))
+                query.reply(query.key_expr, P.error_response(f"server busy: {busy}; ask again later"))
             finally:
                 query.drop()
             return

@@ -12,12 +12,18 @@ from pathlib import Path
 
 import zenoh
 
+from simx_server.base import limits
+
 log = logging.getLogger("simx.server")
+
+_BLOCK_WAIT = "transport/link/tx/queue/congestion_control/block/wait_before_close"
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
     """Server Zenoh config: the file's settings (TLS, authentication, access control), listening
-    on ``endpoints`` unless the file lists its own, multicast scouting always off.
+    on ``endpoints`` unless the file lists its own, multicast scouting always off, and a reply
+    blocked on a client's full link given up after limits.MAX_BLOCKED_REPLY_SECONDS (unless the
+    file sets ``transport/link/tx/queue/congestion_control/block/wait_before_close``).
 
     A file without ``listen/endpoints`` listens on ``endpoints`` (``--host``/``--port``), not on
     Zenoh's default (every interface). Listening beyond loopback without access control logs a
@@ -32,6 +38,10 @@ def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) ->
         config.insert_json5("listen/endpoints", json.dumps(endpoints))
         listen = endpoints
     config.insert_json5("scouting/multicast/enabled", "false")
+    # A client that stops reading must not hold the simulation thread's replies for Zenoh's
+    # default 5 s (limits.MAX_BLOCKED_REPLY_SECONDS), unless the operator's file sets its own.
+    if config.get_json(_BLOCK_WAIT) == zenoh.Config().get_json(_BLOCK_WAIT):
+        config.insert_json5(_BLOCK_WAIT, str(int(limits.MAX_BLOCKED_REPLY_SECONDS * 1e6)))
     if not json.loads(config.get_json("access_control/enabled") or "false"):
         flat = [e for v in listen.values() for e in v] if isinstance(listen, dict) else listen
         exposed = [e for e in flat if not _loopback(e)]

@@ -227,7 +227,7 @@ def test_requests_answered_busy_are_sent_again():
     queue is filled to its bound (limits.MAX_QUEUED_REQUESTS) under its own id: its oneshots are
     answered "server busy", wait in the outbox and run, all of them and in order, once the
     server has room again."""
-    srv = ServerProcess(str(HEAVY), "--stopped", "--dt", "0.2", "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(HEAVY), "--stopped", "--dt", "0.05", "--pacing", "immediate", ports=[free_port()])
     raw = zenoh.open(client_config("127.0.0.1", srv.port))
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, CYCLE_MS)
     nowhere = zenoh.handlers.Callback(lambda reply: None, indirect=False)

@@ -53,14 +53,16 @@ def test_state_is_published_only_while_a_viewer_subscribes():
     try:
         with zenoh.open(client_config("127.0.0.1", server.port)) as session:
             t0 = _model_state(session)[1]
-            wait_until(lambda: _model_state(session)[1] > t0 + 0.3, what="the simulation running unwatched")
+            # (model queries as the clock, at most limits.MAX_VIEWER_MODELS_PER_SECOND: every 0.3 s)
+            wait_until(lambda: _model_state(session)[1] > t0 + 0.3, period=0.3, what="the simulation running unwatched")
             received = []
             sub = session.declare_subscriber(P.viewer_state_key(),
                                              lambda s: received.append(P.unpack_viewer_state(s.payload.to_bytes())))
             wait_until(lambda: len(received) >= 5, what="5 states for the subscriber")
             sub.undeclare()
             t1 = _model_state(session)[1]
-            wait_until(lambda: _model_state(session)[1] > t1 + 0.3, what="the simulation running unwatched again")
+            wait_until(lambda: _model_state(session)[1] > t1 + 0.3, period=0.3,
+                       what="the simulation running unwatched again")
             again = []
             sub = session.declare_subscriber(P.viewer_state_key(), lambda s: again.append(s))
             wait_until(lambda: again, what="a state for the second subscription")
@@ -184,10 +186,11 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
             assert vrep.simxSetJointTargetPosition(cid, joint, target, WAIT) == 0
             wait_until(lambda: abs(vrep.simxGetJointPosition(cid, joint, WAIT)[1] - target) < 0.01,
                        timeout=20, what="UR5_joint1 at 45 degrees")
-            second, = wait_until(steady_shot, timeout=60, what="a steady view of the turned arm")
+            # The viewer may lag the server on a loaded machine (software GL): a steady view that
+            # shows the turn, within 60 s (a viewer that stopped following never shows it).
+            second, = wait_until(lambda: (s := steady_shot()) and _changed(first, s[0]) > 2000 and s,
+                                 timeout=60, what="a steady view of the turned arm (> 2,000 pixels changed)")
             cv2.imwrite(str(tmp_path / "viewer-after.png"), second)
-            moved = _changed(first, second)
-            assert moved > 2000, f"only {moved} pixels changed after the arm turned 45 degrees"
             rows, _ = np.nonzero(np.abs(first.astype(np.int16) - second.astype(np.int16)).max(axis=2) > 40)
             assert rows.min() < second.shape[0] // 2, "the change is where the arm's upper part is"
 
@@ -225,12 +228,18 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
     assert "viewer feed: a viewer is watching" in log, log[-2000:]
 
 
-def test_model_queries_waiting_are_bounded():
+def test_model_queries_waiting_are_bounded(monkeypatch):
     """Zenoh's thread queues at most limits.MAX_VIEWER_QUERIES model queries for the simulation
-    thread; the next one is answered "server busy" at once, and answering frees a place."""
+    thread; the next one is answered "server busy" at once, and answering frees a place. Answers
+    are also limited to limits.MAX_VIEWER_MODELS_PER_SECOND (a token bucket of
+    MAX_VIEWER_QUERIES): the queries of a loop beyond it are refused, naming the bound."""
     from simx_server.base import limits
+    from simx_server.transport import viewer_feed
     from simx_server.transport.viewer_feed import ViewerFeed
     from simx_server.sim.world import World
+
+    clock = [1000.0]
+    monkeypatch.setattr(viewer_feed.time, "monotonic", lambda: clock[0])
 
     class Query:
         key_expr = P.viewer_model_key()
@@ -258,8 +267,16 @@ def test_model_queries_waiting_are_bounded():
     assert generation == 1 and version == mujoco.mj_versionString()
     assert mujoco.MjModel.from_binary_path("m.mjb", {"m.mjb": mjb}).nbody == world.model.nbody
     again = Query()
+    feed._on_query(again)  # a place is free, but the bucket is empty: refused for the rate
+    with pytest.raises(P.ProtocolError, match="MAX_VIEWER_MODELS_PER_SECOND"):
+        P.unpack_viewer_model(again.replies[0])
+    clock[0] += 1 / limits.MAX_VIEWER_MODELS_PER_SECOND  # one answer's worth of time later
+    again = Query()
     feed._on_query(again)
     assert len(queued) == limits.MAX_VIEWER_QUERIES + 1 and not again.replies
+    refused = Query()
+    feed._on_query(refused)  # at once again: the bucket is empty
+    assert refused.replies and len(queued) == limits.MAX_VIEWER_QUERIES + 1
     # A colour set in place (sim.setShapeColor writes geom_rgba): a new generation and model.
     world.model.geom_rgba[0] = (0.1, 0.9, 0.1, 1)
     feed.answer(queued[1][1], world)

@@ -106,3 +106,12 @@ def test_sensor_images_show_no_visualisation_extras(sim):
     # ...and the sensor draws none of them, but the scene itself.
     assert (magenta(sensor), green(sensor), cyan(sensor)) == (0, 0, 0)
     assert blue(sensor) > 100 and blue(sensor) == pytest.approx(blue(extras), rel=0.3)
+
+
+def test_grey_images_are_v_reps_integer_mean():
+    """V-REP's grey image (options bit 0): (R + G + B) // 3 per pixel, by a table (exact)."""
+    from simx_server.sim.vision import _grey
+
+    img = np.random.default_rng(3).integers(0, 256, (64, 48, 3), dtype=np.uint8)
+    expected = (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)
+    assert _grey(img).dtype == np.uint8 and np.array_equal(_grey(img), expected)

@@ -11,7 +11,7 @@ import zipfile
 import pytest
 
 import vrep
-from conftest import ROOT, ServerProcess, free_port
+from conftest import ROOT, ServerProcess, free_port, wait_until
 
 
 def test_bad_scene_exits_nonzero_with_mujoco_message(tmp_path):
@@ -39,6 +39,13 @@ def test_default_scene_serves_then_exits_within_2_s(sig):
         assert cid >= 0
         assert vrep.simxGetObjectHandle(cid, "UR5", vrep.simx_opmode_blocking)[0] == 0
         vrep.simxFinish(cid)
+
+        def log() -> str:  # read through a descriptor of its own: the server shares the log's offset
+            with open(f"/proc/self/fd/{srv.log.fileno()}") as f:
+                return f.read()
+
+        # the Bye is served on the simulation thread: the signal must not overtake it
+        wait_until(lambda: "disconnected" in log(), what="the client's Bye served")
         t0 = time.monotonic()
         srv.proc.send_signal(sig)
         assert srv.proc.wait(timeout=10) == 0
@@ -55,7 +62,7 @@ def test_wheel_ships_scenes_and_legacy_modules(tmp_path):
     assert out.returncode == 0, out.stderr
     (wheel,) = tmp_path.glob("simx-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
-    for required in ("simx_server/scenes/ur5_rg2_kinect.xml", "simx_server/scenes/rg2.py", "simx_server/scenes/rg2.lua", "vrep.py", "sim.py",
+    for required in ("simx_server/scenes/ur5_rg2_kinect.xml", "simx_server/scenes/pioneer_p3dx.xml", "simx_server/scenes/rg2.py", "simx_server/scenes/rg2.lua", "vrep.py", "sim.py",
                      "vrepConst.py", "simConst.py", "simx_client/protocol.py", "simx_server/cli.py"):
         assert required in names, f"{required} missing from the wheel"
 

@@ -1,0 +1,57 @@
+"""A client that asks for much and then stops reading (SIGSTOP) must not hold up the others
+(issue 23, part 2): replies queued for it fill its link, and Zenoh's blocking congestion control
+made the simulation thread wait 5 s (its default ``wait_before_close``) before giving up on the
+peer. The server bounds that wait (limits.MAX_BLOCKED_REPLY_SECONDS)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from conftest import SCENE, ServerProcess
+
+import vrep
+from simx_server.base import limits
+from simx_server.transport.zenoh_config import zenoh_config
+
+STUCK = Path(__file__).resolve().parent / "stuck_consumer.py"
+B = vrep.simx_opmode_blocking
+
+
+def test_the_servers_zenoh_config_bounds_a_blocked_reply():
+    config = zenoh_config(["tcp/127.0.0.1:7447"])
+    wait = json.loads(config.get_json("transport/link/tx/queue/congestion_control/block/wait_before_close"))
+    assert wait == int(limits.MAX_BLOCKED_REPLY_SECONDS * 1e6)  # microseconds
+
+
+def test_a_stopped_consumer_holds_up_another_client_at_most_once_briefly():
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate")
+    stuck = None
+    cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
+    try:
+        assert cid >= 0
+        stuck = subprocess.Popen([sys.executable, str(STUCK), str(srv.port)], stdout=subprocess.PIPE, text=True)
+        assert stuck.stdout.readline().strip() == "sent"
+        os.kill(stuck.pid, signal.SIGSTOP)  # it reads nothing more: its replies pile up
+        worst, calls, end = 0.0, 0, time.monotonic() + 8
+        while time.monotonic() < end:
+            t = time.monotonic()
+            rc, _ = vrep.simxGetObjectHandle(cid, "UR5_joint1", B)
+            worst = max(worst, time.monotonic() - t)
+            assert rc == 0
+            calls += 1
+        # before: one stall of 5.2-5.6 s (Zenoh's 5 s wait_before_close) while the server blocked
+        # on the stopped peer's link; now at most the bound once, plus a loaded machine's slack
+        assert worst < limits.MAX_BLOCKED_REPLY_SECONDS + 2.0, f"a call waited {worst:.2f} s ({calls} calls)"
+    finally:
+        if stuck is not None:
+            os.kill(stuck.pid, signal.SIGKILL)
+            stuck.wait()
+        vrep.simxFinish(cid)
+        log = srv.stop()
+    assert "Traceback" not in log
