@@ -10,7 +10,8 @@ Costs are CPython's (64-bit, measured with tracemalloc) rounded up: ``None``, bo
 integers CPython caches (-5..256) cost only their reference (8 bytes); another integer 48, a
 float 32, a string 88 plus its bytes, a bin 48 plus its bytes, an array 64 plus 8 per item, a map
 240 plus 48 per pair, an ext 104 plus its bytes. A run of same-width scalars in one array (a
-list of floats, of small integers) is measured with a few byte counts, not one step per item.
+list of floats, of small integers, of empty arrays) is measured with a few byte counts, not one
+step per item.
 
 Pure Python, no dependency beyond the standard library: the client imports it through
 :mod:`simx_client.protocol`.
@@ -44,6 +45,8 @@ def _table():
         t[b] = (_DICT, 1, b & 0x0F, 0)
     for b in range(0x90, 0xA0):
         t[b] = (_ARR, 1, b & 0x0F, 0)
+    # An empty array or map is a value of one byte, like a scalar: runs of them are measured at once.
+    t[0x80], t[0x90] = (_SCALAR, 1, 1, _MAP), (_SCALAR, 1, 1, _ARRAY)
     for b in range(0xA0, 0xC0):
         t[b] = (_STRING, 1, b & 0x1F, 0)
     for b in range(0xE0, 0x100):
@@ -70,8 +73,12 @@ for _b, (_k, _h, _w, _c) in enumerate(_TYPES):
     if _k == _SCALAR:
         _WIDTHS.setdefault(_w, []).append((_b, _c))
 _OF_WIDTH = {w: bytes(b for b, _ in codes) for w, codes in _WIDTHS.items()}
-_COSTLY = {w: [(b, c) for b, c in codes if c] for w, codes in _WIDTHS.items()}
-_CHEAP_ONE = bytes(b for b, c in _WIDTHS[1] if not c)  # nil, booleans, cached fixints
+#: Per width, each cost but 0 with the type bytes that are *not* of that cost (deleted to count
+#: those that are).
+_COSTLY: dict[int, list[tuple[bytes, int]]] = {}
+for _w, _codes in _WIDTHS.items():
+    for _c in sorted({c for _, c in _codes if c}):
+        _COSTLY.setdefault(_w, []).append((bytes(b for b in range(256) if (b, _c) not in _codes), _c))
 _RUN = 8  # arrays of at least this many items try the run measure first
 
 
@@ -120,6 +127,9 @@ def measure(data: bytes, max_items: int, max_bytes: int) -> tuple[int, int]:
                 cost += REF + _STR + n
             elif kind == _ARR:
                 cost += REF + _ARRAY
+                if items + n > max_items:  # its items alone are too many: refused unread
+                    items += n
+                    break
                 if n >= _RUN and pos < end:
                     run = _run(data, pos, n)
                     if run is not None:
@@ -133,6 +143,9 @@ def measure(data: bytes, max_items: int, max_bytes: int) -> tuple[int, int]:
                 cost += REF + _BIN + n
             elif kind == _DICT:
                 cost += REF + _MAP + _PAIR * n
+                if items + 2 * n > max_items:
+                    items += 2 * n
+                    break
                 need += 2 * n
             elif kind == _EXTENSION:
                 pos += n + (head > 1)  # fixext's n counts its type byte; ext 8/16/32 add one
@@ -159,8 +172,5 @@ def _run(data: bytes, pos: int, n: int) -> tuple[int, int] | None:
     types = data[pos:pos + width * n:width]  # every item's type byte, if they are all this wide
     if len(types) != n or types.translate(None, _OF_WIDTH[width]):
         return None
-    if width == 1:
-        cost = len(types.translate(None, _CHEAP_ONE)) * _INT  # the uncached negative fixints
-    else:
-        cost = sum(types.count(b) * c for b, c in _COSTLY[width])
+    cost = sum(len(types.translate(None, others)) * c for others, c in _COSTLY.get(width, ()))
     return pos + width * n, n * REF + cost

