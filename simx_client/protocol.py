@@ -221,6 +221,13 @@ def client_token_key(prefix: str, client: str) -> str:
     return f"{prefix}/alive/client/{client}"
 
 
+def peer_key(prefix: str, client: str) -> str:
+    """Key of a queryable each client declares before its token: the server queries it once per
+    token, and the reply's ``replier_id`` names the Zenoh session that holds the id (the server
+    bounds ids per session: limits.MAX_CLIENTS_PER_PEER)."""
+    return f"{prefix}/peer/{client}"
+
+
 def client_token_prefix(prefix: str = DEFAULT_PREFIX) -> str:
     """Key expression matching every client's liveliness token."""
     return f"{prefix}/alive/client/*"

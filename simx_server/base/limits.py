@@ -187,9 +187,21 @@ EDIT_SHARE = 0.25
 EDIT_DEBT_SECONDS = 5.0
 #: Most clients (client ids) of one authenticated user at a time: ids are <user>-<uuid>, which
 #: access control enforces (docs/SECURITY.md), so one user cannot take every client slot.
-#: Anonymous ids (no user) share MAX_CLIENTS: without authentication Zenoh does not tell the
-#: server which peer sent a query (its source info is opt-in and chosen by the sender).
+#: Anonymous ids (no user) share MAX_CLIENTS, at most MAX_CLIENTS_PER_PEER protected per session.
 MAX_CLIENTS_PER_USER = 64
+#: Client ids whose liveliness tokens one Zenoh session may hold with effect (transport/peers.py):
+#: the server queries each new token's ``protocol.peer_key`` and the reply names the session
+#: that answers for the id. A token beyond this bound, or one nobody answers for, does not keep
+#: its client: such clients expire when silent and are evicted first when the server is full.
+#: A simx connection holds one id (its own session); one session declaring 1,100 tokens and
+#: sending a request under each filled MAX_CLIENTS ("server busy" for everyone else).
+MAX_CLIENTS_PER_PEER = 8
+#: s the server waits for a session to answer its peer check; unanswered, the token does not protect.
+PEER_CHECK_SECONDS = 2.0
+#: Peer checks in flight at once; a token seen beyond does not protect its client.
+MAX_PEER_CHECKS = 256
+#: Liveliness tokens the server records (protecting or not); beyond, new tokens are ignored.
+MAX_CLIENT_TOKENS = 2 * MAX_CLIENTS
 #: Replies (and stream updates) of one client waiting for the render thread. A client at the
 #: bound is not served until one is sent; its image streams skip steps meanwhile.
 MAX_RENDERS_PER_CLIENT = 4

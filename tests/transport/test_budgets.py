@@ -115,8 +115,10 @@ def test_one_user_cannot_take_every_client_slot(server):
             tokens.append(session.liveliness().declare_token(P.client_token_key("simx", client)))
             answers.append(raw_call(session, client, P.request(client, [["GetPingTime", B, []]]))[5][0])
         assert answers[:L.MAX_CLIENTS_PER_USER] == [[True, None]] * L.MAX_CLIENTS_PER_USER
-        refused = answers[L.MAX_CLIENTS_PER_USER:]
-        assert all(not ok and "user mallory has" in why and "MAX_CLIENTS_PER_USER" in why for ok, why in refused)
+        # Beyond her share a new id is refused, or takes the place of one of her own idle ids
+        # whose token does not protect it (this session answers no peer check: MAX_CLIENTS_PER_PEER).
+        for ok, why in answers[L.MAX_CLIENTS_PER_USER:]:
+            assert ok or ("user mallory has" in why and "MAX_CLIENTS_PER_USER" in why), why
         for newcomer in (uuid.uuid4().hex, f"alice-{uuid.uuid4().hex}"):  # room for the others
             assert raw_call(session, newcomer, P.request(newcomer, [["GetPingTime", B, []]]))[5] == [[True, None]]
     finally:
