@@ -118,6 +118,10 @@ def test_the_issues_attack_on_a_real_server_is_a_remote_error():
     try:
         assert cid >= 0
         rc, *_ = vrep.simxCallScriptFunction(cid, "RG2", CHILD, "rg2Open", [1] * 9_000_000, [], [], bytearray(), B)
+        # 9 M values: refused before it is decoded (protocol.MAX_REQUEST_ITEMS, 2 M values)
+        assert rc == vrep.simx_return_remote_error_flag and srv.proc.poll() is None
+        # 1.5 M values: decoded, refused before the script sees them (limits.MAX_SCRIPT_CALL_VALUES)
+        rc, *_ = vrep.simxCallScriptFunction(cid, "RG2", CHILD, "rg2Open", [1] * 1_500_000, [], [], bytearray(), B)
         assert rc == vrep.simx_return_remote_error_flag
         rc, errors = vrep.simxGetLastErrors(cid, B)
         assert rc == 0 and any("MAX_SCRIPT_CALL_VALUES" in e for e in errors), errors
