@@ -60,6 +60,15 @@ _SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
 _direct = direct
 
 
+def _answer_peer_check(query: zenoh.Query) -> None:
+    """The server's peer check (protocol.peer_key): an empty reply, which Zenoh stamps with
+    this session's id."""
+    try:
+        query.reply(query.key_expr, b"")
+    finally:
+        query.drop()
+
+
 #: Environment variables naming a client Zenoh config file, first found wins (ZENOH_CONFIG is
 #: Zenoh's own convention). docs/SECURITY.md shows TLS and user/password files.
 CONFIG_ENV = ("SIMX_ZENOH_CONFIG", "ZENOH_CONFIG")
@@ -187,6 +196,10 @@ class Connection(OutboxSender):
             self._subscriber = self.session.declare_subscriber(
                 P.stream_key(prefix, self.client), zenoh.handlers.RingChannel(STREAM_BACKLOG))
             self.server_info = self.request([["Hello", P.MODE_BLOCKING, []]], hello_timeout)[0][1]
+            # Answers the server's question "which session holds this id?" (one empty reply):
+            # Zenoh stamps the reply with this session's id, so the server can bound ids per session.
+            self._peer = self.session.declare_queryable(
+                P.peer_key(prefix, self.client), _direct(_answer_peer_check))
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
             self._watch = self.session.liveliness().declare_subscriber(
                 P.server_token_key(prefix), _direct(self._on_server_token), history=True)

@@ -38,6 +38,8 @@ from typing import Any, Iterable
 
 import msgpack
 
+from simx_client import decoded_size
+
 PROTOCOL_VERSION = 3  # 2: one call key for every client; 1: the same fields in msgpack maps
 DEFAULT_PREFIX = "simx"
 
@@ -219,6 +221,13 @@ def client_token_key(prefix: str, client: str) -> str:
     return f"{prefix}/alive/client/{client}"
 
 
+def peer_key(prefix: str, client: str) -> str:
+    """Key of a queryable each client declares before its token: the server queries it once per
+    token, and the reply's ``replier_id`` names the Zenoh session that holds the id (the server
+    bounds ids per session: limits.MAX_CLIENTS_PER_PEER)."""
+    return f"{prefix}/peer/{client}"
+
+
 def client_token_prefix(prefix: str = DEFAULT_PREFIX) -> str:
     """Key expression matching every client's liveliness token."""
     return f"{prefix}/alive/client/*"
@@ -350,49 +359,34 @@ def pack(message: Any) -> bytes:
     return data
 
 
-#: Most arrays and maps in one request: each costs a Python object of about 60 bytes from one
-#: byte of msgpack, so 60 MiB of empty arrays took a server from 216 MB to 4.7 GB before this
-#: bound (numbers and strings cost at most about 20 times their bytes).
-MAX_REQUEST_CONTAINERS = 1 << 20
+#: Most values in one request, at any depth (containers, numbers, strings, map keys): twice a
+#: script call's values (limits.MAX_SCRIPT_CALL_VALUES). Measured before decoding
+#: (:mod:`simx_client.decoded_size`): one 60 MiB request of 62.9 M empty arrays took a server from
+#: 216 MB to 4.7 GB; refused now after walking 2 M of them (about 0.4 s, no memory).
+MAX_REQUEST_ITEMS = 1 << 21
+#: Most memory one request may take once decoded, in bytes, estimated from its msgpack before
+#: decoding (an upper bound; a byte of msgpack can cost up to decoded_size.RATIO = 96 bytes):
+#: twice the largest request in bytes, so a simxTransferFile of 64 MiB still fits.
+MAX_REQUEST_DECODED_BYTES = 128 * 1024 * 1024
+#: Requests up to this many bytes are not measured: their decoded size is at most
+#: decoded_size.RATIO times their bytes (96 KiB), which the server counts instead.
+MEASURE_ABOVE = 1024
 
 
-class _TooManyContainers(Exception):
-    pass
-
-
-def _container_counter(limit: int):
-    """msgpack list/object hooks that stop decoding after ``limit`` arrays and maps."""
-    left = [limit]
-
-    def hook(value):
-        left[0] -= 1
-        if left[0] < 0:
-            raise _TooManyContainers
-        return value
-
-    return hook
-
-
-def _decode(payload: bytes, size: int, what: str, max_containers: int | None = None) -> list:
-    """One message of this version: a msgpack array of ``size`` items, the first the version;
-    with ``max_containers``, at most that many arrays and maps decoded (then a ProtocolError,
-    before more memory is taken).
-
-    Raises:
-        ProtocolError: undecodable, too many containers, another shape, a peer of another
-            version, or a refusal.
-    """
+def _unpack(payload: bytes) -> Any:
     try:
-        if max_containers is None or len(payload) <= max_containers:  # a container takes a byte at least
-            message = msgpack.unpackb(payload, raw=False, strict_map_key=False)
-        else:
-            hook = _container_counter(max_containers)
-            message = msgpack.unpackb(payload, raw=False, strict_map_key=False, list_hook=hook, object_hook=hook)
-    except _TooManyContainers:
-        raise ProtocolError(f"{what} of more than {max_containers} arrays and maps refused "
-                            "(protocol.MAX_REQUEST_CONTAINERS)") from None
+        return msgpack.unpackb(payload, raw=False, strict_map_key=False)
     except Exception as exc:  # msgpack raises several unrelated types
         raise ProtocolError(f"undecodable message: {exc}") from exc
+
+
+def _decode(payload: bytes, size: int, what: str) -> list:
+    """One message of this version: a msgpack array of ``size`` items, the first the version.
+
+    Raises:
+        ProtocolError: undecodable, another shape, a peer of another version, or a refusal.
+    """
+    message = _unpack(payload)
     if type(message) is list and len(message) == size and message[0] == PROTOCOL_VERSION:
         return message
     peer = PROTOCOL_VERSION  # the version the message claims, where it claims one
@@ -441,7 +435,16 @@ def request(client: str, commands: Iterable[list]) -> bytes:
 
 
 def parse_request(payload: bytes, max_commands: int | None = None) -> tuple[str, list[list]]:
-    """Decode and validate a request; returns ``(client, [[name, mode, args], ...])``.
+    """Decode and validate a request; returns ``(client, [[name, mode, args], ...])``
+    (:func:`read_request` without the decoded size)."""
+    client, cmds, _ = read_request(payload, max_commands)
+    return client, cmds
+
+
+def read_request(payload: bytes, max_commands: int | None = None) -> tuple[str, list[list], int]:
+    """Measure, decode and validate a request: ``(client, [[name, mode, args], ...],
+    decoded_bytes)``, where ``decoded_bytes`` bounds the memory the decoded request takes
+    (at most MAX_REQUEST_DECODED_BYTES; the server counts it against its queue bounds).
 
     ``max_commands``: the most commands accepted (the server's limits.MAX_COMMANDS_PER_REQUEST).
     Error messages describe what is wrong by type and position, never by echoing the input.
@@ -450,10 +453,24 @@ def parse_request(payload: bytes, max_commands: int | None = None) -> tuple[str,
     server's check, once per new client.
 
     Raises:
-        ProtocolError: undecodable, another protocol version, not the request shape, or too
-            many commands.
+        ProtocolError: more than MAX_REQUEST_ITEMS values or MAX_REQUEST_DECODED_BYTES once
+            decoded (measured before anything is decoded), undecodable, another protocol
+            version, not the request shape, or too many commands.
     """
-    _, client, cmds = _decode(payload, 3, "request", MAX_REQUEST_CONTAINERS)
+    if len(payload) <= MEASURE_ABOVE:
+        decoded = decoded_size.RATIO * len(payload)
+    else:
+        try:
+            _, decoded = decoded_size.measure(payload, MAX_REQUEST_ITEMS, MAX_REQUEST_DECODED_BYTES)
+        except decoded_size.DecodedSizeError as exc:
+            if exc.bound == "items":
+                raise ProtocolError(f"request of more than {MAX_REQUEST_ITEMS:,} values refused "
+                                    "(protocol.MAX_REQUEST_ITEMS)") from None
+            if exc.bound == "bytes":
+                raise ProtocolError(f"request refused: it would take more than {MAX_REQUEST_DECODED_BYTES:,} "
+                                    "bytes once decoded (protocol.MAX_REQUEST_DECODED_BYTES)") from None
+            raise ProtocolError(f"undecodable message: {exc}") from None
+    _, client, cmds = _decode(payload, 3, "request")
     if type(client) is not str or type(cmds) is not list:
         raise ProtocolError("request needs a client id (str) and a command list")
     if max_commands is not None and len(cmds) > max_commands:
@@ -465,7 +482,7 @@ def parse_request(payload: bytes, max_commands: int | None = None) -> tuple[str,
             i = next(i for i, c in enumerate(cmds) if c is cmd)
             raise ProtocolError(f"malformed command {i}: expected [name, mode, args] (str, int, list), "
                                 f"got {_shape(cmd)}")
-    return client, cmds
+    return client, cmds, decoded
 
 
 def _shape(value: Any) -> str:

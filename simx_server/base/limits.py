@@ -35,6 +35,11 @@ MAX_RENDERERS = 8
 MAX_COMMANDS_PER_REQUEST = P.MAX_COMMANDS_PER_REQUEST
 #: Largest request payload in bytes (a simxTransferFile of a mesh or a scene included).
 MAX_REQUEST_BYTES = 64 * 1024 * 1024
+#: Most values (at any depth) and most memory once decoded of one request, measured on its bytes
+#: before it is decoded (simx_client.decoded_size): a byte of msgpack can become 60-90 bytes of
+#: Python objects (62.9 M empty arrays in 60 MiB took a server to 4.7 GB).
+MAX_REQUEST_ITEMS = P.MAX_REQUEST_ITEMS
+MAX_REQUEST_DECODED_BYTES = P.MAX_REQUEST_DECODED_BYTES
 #: Largest reply a request may produce in bytes (images and buffers included).
 MAX_REPLY_BYTES = 128 * 1024 * 1024
 
@@ -164,9 +169,10 @@ MAX_REPLY_BYTES = 80 * 1024 * 1024
 #: a real program's burst of oneshot calls on a loaded machine (256 was met by a burst of 300
 #: setters); the per-client and total byte bounds below still bound the memory.
 MAX_QUEUED_REQUESTS = 1024
-#: Bytes (request payloads) one client may have waiting; a single largest request still fits.
-MAX_QUEUED_BYTES = MAX_REQUEST_BYTES + 1024 * 1024
-#: Bytes (request payloads) all clients together may have waiting.
+#: Bytes one client may have waiting, counted as decoded requests take them (read_request's
+#: estimate, an upper bound); a single largest request still fits.
+MAX_QUEUED_BYTES = MAX_REQUEST_DECODED_BYTES + 1024 * 1024
+#: Bytes (decoded requests, likewise) all clients together may have waiting.
 MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
@@ -181,9 +187,21 @@ EDIT_SHARE = 0.25
 EDIT_DEBT_SECONDS = 5.0
 #: Most clients (client ids) of one authenticated user at a time: ids are <user>-<uuid>, which
 #: access control enforces (docs/SECURITY.md), so one user cannot take every client slot.
-#: Anonymous ids (no user) share MAX_CLIENTS: without authentication Zenoh does not tell the
-#: server which peer sent a query (its source info is opt-in and chosen by the sender).
+#: Anonymous ids (no user) share MAX_CLIENTS, at most MAX_CLIENTS_PER_PEER protected per session.
 MAX_CLIENTS_PER_USER = 64
+#: Client ids whose liveliness tokens one Zenoh session may hold with effect (transport/peers.py):
+#: the server queries each new token's ``protocol.peer_key`` and the reply names the session
+#: that answers for the id. A token beyond this bound, or one nobody answers for, does not keep
+#: its client: such clients expire when silent and are evicted first when the server is full.
+#: A simx connection holds one id (its own session); one session declaring 1,100 tokens and
+#: sending a request under each filled MAX_CLIENTS ("server busy" for everyone else).
+MAX_CLIENTS_PER_PEER = 8
+#: s the server waits for a session to answer its peer check; unanswered, the token does not protect.
+PEER_CHECK_SECONDS = 2.0
+#: Peer checks in flight at once; a token seen beyond does not protect its client.
+MAX_PEER_CHECKS = 256
+#: Liveliness tokens the server records (protecting or not); beyond, new tokens are ignored.
+MAX_CLIENT_TOKENS = 2 * MAX_CLIENTS
 #: Replies (and stream updates) of one client waiting for the render thread. A client at the
 #: bound is not served until one is sent; its image streams skip steps meanwhile.
 MAX_RENDERS_PER_CLIENT = 4

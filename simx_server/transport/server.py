@@ -38,6 +38,7 @@ from simx_server.transport.client_commands import ClientCommands
 from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
 from simx_server.transport.consoles import cut as _cut
 from simx_server.transport.others import OtherTransports
+from simx_server.transport.peers import PeerCheck
 from simx_server.transport.replies import IMAGES, SMALL, image_size, reply_size, resolve
 from simx_server.transport.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.transport.streams import StreamPublisher, _Stream
@@ -94,6 +95,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         # The ready ring: clients with requests waiting (Session), and control tuples.
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self.sessions = Sessions(self._queue)
+        self.peers = PeerCheck(self.sessions, prefix)  # which Zenoh session holds each token
         self._stopping = threading.Event()
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
@@ -120,6 +122,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
             P.call_keys(self.prefix), zenoh.handlers.Callback(self._on_query, indirect=False))
         self._legacy_queryable = self.session.declare_queryable(
             P.legacy_call_key(self.prefix), zenoh.handlers.Callback(self._refuse_old, indirect=False))
+        self.peers.open(self.session)
         self._token = self.session.liveliness().declare_token(P.server_token_key(self.prefix))
         self._watch = self.session.liveliness().declare_subscriber(
             P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False),
@@ -145,12 +148,12 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
             if len(data) > limits.MAX_REQUEST_BYTES:
                 raise P.ProtocolError(f"request of {len(data)} bytes refused: at most "
                                       f"{limits.MAX_REQUEST_BYTES} (limits.MAX_REQUEST_BYTES)")
-            client, commands = P.parse_request(data, limits.MAX_COMMANDS_PER_REQUEST)
+            client, commands, size = P.read_request(data, limits.MAX_COMMANDS_PER_REQUEST)  # size: decoded
             if client != key[self._call_prefix:]:
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
             if self.sessions.get(client) is None and not P.valid_client_id(client):  # once per client
                 raise P.ProtocolError("invalid client id: 1 to 128 characters without / * $ ? #")
-            refused = self.sessions.admit(client, (query, commands), len(data))
+            refused = self.sessions.admit(client, (query, commands), size)
             if refused is None:
                 return  # the simulation thread replies
             t, state, scene = self.sim.stamp()
@@ -172,11 +175,10 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
 
     def _on_client_token(self, sample: zenoh.Sample) -> None:
         client = str(sample.key_expr).rsplit("/", 1)[-1]
-        if sample.kind == zenoh.SampleKind.DELETE:
-            self.sessions.tokens.discard(client)
+        gone = sample.kind == zenoh.SampleKind.DELETE
+        self.peers.token(client, not gone)  # a token protects its client once its session is known
+        if gone:
             self._queue.put(("gone", client))
-        else:
-            self.sessions.tokens.add(client)
 
     def request_stop(self) -> None:
         """Ask serve() to return (safe from signal handlers and other threads)."""

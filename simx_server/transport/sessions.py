@@ -59,18 +59,25 @@ class Sessions:
         max_total_bytes: payload bytes queued over all clients.
         max_clients: clients with state.
         max_per_user: clients with state of one user (client ids ``<user>-<uuid>``).
+        max_per_peer: client ids one Zenoh session's tokens protect (:mod:`.peers`).
+        max_tokens: liveliness tokens recorded (protected and unverified together).
         max_renders: a client's replies waiting for the render thread before it is parked.
     """
 
     def __init__(self, ready: queue.SimpleQueue, max_requests: int = limits.MAX_QUEUED_REQUESTS,
                  max_bytes: int = limits.MAX_QUEUED_BYTES, max_total_bytes: int = limits.MAX_QUEUED_BYTES_TOTAL,
                  max_clients: int = limits.MAX_CLIENTS, max_renders: int = limits.MAX_RENDERS_PER_CLIENT,
-                 max_per_user: int = limits.MAX_CLIENTS_PER_USER):
+                 max_per_user: int = limits.MAX_CLIENTS_PER_USER, max_per_peer: int = limits.MAX_CLIENTS_PER_PEER,
+                 max_tokens: int = limits.MAX_CLIENT_TOKENS):
         self.ready = ready
         self.max_requests, self.max_bytes, self.max_total_bytes = max_requests, max_bytes, max_total_bytes
         self.max_clients, self.max_renders, self.max_per_user = max_clients, max_renders, max_per_user
         self._per_user: dict[str, int] = {}  # authenticated user -> its clients with state
-        self.tokens: set[str] = set()  # clients whose liveliness token is alive (Zenoh's threads)
+        self.max_per_peer, self.max_tokens = max_per_peer, max_tokens
+        self.tokens: set[str] = set()  # clients whose liveliness token protects them (peers.PeerCheck)
+        self.unverified: set[str] = set()  # tokens seen whose session is not known (or over its bound)
+        self._peers: dict[str, set[str]] = {}  # Zenoh session id -> the client ids its tokens protect
+        self._peer_of: dict[str, list[str]] = {}  # client -> the sessions whose share holds it
         self._lock = threading.Lock()
         self._sessions: dict[str, Session] = {}
         self._total_bytes = 0
@@ -141,6 +148,48 @@ class Sessions:
                     self._per_user[user] = left
                 else:
                     del self._per_user[user]
+
+    def token_seen(self, client: str) -> bool:
+        """A client's liveliness token appeared: recorded as unverified (it protects nothing
+        until :meth:`token_verified`); False when it is not recorded (limits.MAX_CLIENT_TOKENS,
+        or known already)."""
+        with self._lock:
+            if client in self.tokens or client in self.unverified:
+                return False
+            if len(self.tokens) + len(self.unverified) >= self.max_tokens:
+                return False
+            self.unverified.add(client)
+            return True
+
+    def token_verified(self, client: str, peers: set[str]) -> bool:
+        """The Zenoh sessions in ``peers`` answered for ``client``: its token protects it if
+        one of them holds fewer than ``max_per_peer`` protected ids. Returns whether it does."""
+        with self._lock:
+            if client not in self.unverified:
+                return client in self.tokens  # gone meanwhile, or protected already
+            shares = []
+            for peer in peers:
+                ids = self._peers.setdefault(peer, set())
+                if len(ids) < self.max_per_peer:
+                    ids.add(client)
+                    shares.append(peer)
+            if not shares:
+                return False
+            self.unverified.discard(client)
+            self.tokens.add(client)
+            self._peer_of[client] = shares
+            return True
+
+    def token_gone(self, client: str) -> None:
+        """A client's liveliness token went (its session closed or undeclared it)."""
+        with self._lock:
+            self.tokens.discard(client)
+            self.unverified.discard(client)
+            for peer in self._peer_of.pop(client, ()):
+                ids = self._peers[peer]
+                ids.discard(client)
+                if not ids:
+                    del self._peers[peer]
 
     # ------------------------------------------------------------ simulation thread
     def take(self, s: Session) -> Any:

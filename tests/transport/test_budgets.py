@@ -3,8 +3,8 @@
 * Only reads and settings stream: scene loads, edits and file transfers answer a remote error
   in a streaming mode (a streamed LoadScene re-ran after every step and held every client).
 * An append to a string signal is checked against its bound before ``old + value`` is built.
-* A request's decoded size is bounded: at most ``protocol.MAX_REQUEST_CONTAINERS`` arrays and
-  maps (60 MiB of empty arrays took a server to 4.7 GB).
+* A request's decoded size is bounded: at most ``protocol.MAX_REQUEST_ITEMS`` values
+  (60 MiB of empty arrays took a server to 4.7 GB); tests/transport/test_memory_budgets.py has the rest.
 """
 
 from __future__ import annotations
@@ -87,14 +87,14 @@ def test_an_append_beyond_the_signal_bound_is_refused_before_it_is_built(cid, mo
 
 
 def test_a_request_of_millions_of_empty_arrays_is_refused_and_harms_nobody(server, cid):
-    n = P.MAX_REQUEST_CONTAINERS + 10
+    n = P.MAX_REQUEST_ITEMS + 10
     payload = msgpack.packb([P.PROTOCOL_VERSION, "bomber", [["GetPingTime", B, [[]] * n]]])
-    with pytest.raises(P.ProtocolError, match="MAX_REQUEST_CONTAINERS"):
+    with pytest.raises(P.ProtocolError, match="MAX_REQUEST_ITEMS"):
         P.parse_request(payload, L.MAX_COMMANDS_PER_REQUEST)
     session = zenoh.open(client_config("127.0.0.1", server.port))
     try:
         reply = raw_call(session, "bomber", payload)
-        assert isinstance(reply, dict) and "MAX_REQUEST_CONTAINERS" in reply["err"], reply
+        assert isinstance(reply, dict) and "MAX_REQUEST_ITEMS" in reply["err"], reply
         client = uuid.uuid4().hex  # one under the bound is read as usual
         ok = raw_call(session, client, P.request(client, [["GetPingTime", B, []]]))
         assert ok[5] == [[True, None]]
@@ -115,8 +115,10 @@ def test_one_user_cannot_take_every_client_slot(server):
             tokens.append(session.liveliness().declare_token(P.client_token_key("simx", client)))
             answers.append(raw_call(session, client, P.request(client, [["GetPingTime", B, []]]))[5][0])
         assert answers[:L.MAX_CLIENTS_PER_USER] == [[True, None]] * L.MAX_CLIENTS_PER_USER
-        refused = answers[L.MAX_CLIENTS_PER_USER:]
-        assert all(not ok and "user mallory has" in why and "MAX_CLIENTS_PER_USER" in why for ok, why in refused)
+        # Beyond her share a new id is refused, or takes the place of one of her own idle ids
+        # whose token does not protect it (this session answers no peer check: MAX_CLIENTS_PER_PEER).
+        for ok, why in answers[L.MAX_CLIENTS_PER_USER:]:
+            assert ok or ("user mallory has" in why and "MAX_CLIENTS_PER_USER" in why), why
         for newcomer in (uuid.uuid4().hex, f"alice-{uuid.uuid4().hex}"):  # room for the others
             assert raw_call(session, newcomer, P.request(newcomer, [["GetPingTime", B, []]]))[5] == [[True, None]]
     finally:
