@@ -165,9 +165,11 @@ def big_image_streams(s: Settings) -> list[Figure]:
                          f"calls took {setup_s:.1f} s"))]
 
 
+
 def _rss_mb(pid: int) -> float:
-    with open(f"/proc/{pid}/status") as f:
-        return next(int(line.split()[1]) / 1024 for line in f if line.startswith("VmRSS:"))
+    from benchmarks.robustness import proc_status  # robustness imports this module: at call time
+
+    return proc_status(pid)["rss_mb"]
 
 
 _RECONNECT = """

