@@ -51,10 +51,10 @@ def _wrap_step(original):
 
 def _wrap_render(original):
     @functools.wraps(original)
-    def render(self, model, data, spec, kind):
+    def render(self, thread, model, data, spec, kind):
         t0 = time.monotonic()
         try:
-            return original(self, model, data, spec, kind)
+            return original(self, thread, model, data, spec, kind)
         finally:
             _frames.append(("image" if kind == "rgb" else "depth", t0, time.monotonic() - t0))
     return render

@@ -25,7 +25,7 @@ MAX_SUBSTEPS = 10_000
 #: camera's ``resolution``, checked when a scene loads). A 4096x4096 RGB image is 48 MiB and its
 #: depth buffer 64 MiB, both under MAX_REPLY_BYTES.
 MAX_RESOLUTION = 4096
-#: Most renderers (a GL context and MjrContext each, one per image size) the render thread keeps;
+#: Most renderers (a GL context and MjrContext each, one per image size) a render thread keeps;
 #: resolutions set at run time beyond that close the least recently used.
 MAX_RENDERERS = 8
 
@@ -202,22 +202,23 @@ PEER_CHECK_SECONDS = 2.0
 MAX_PEER_CHECKS = 256
 #: Liveliness tokens the server records (protecting or not); beyond, new tokens are ignored.
 MAX_CLIENT_TOKENS = 2 * MAX_CLIENTS
-#: Replies (and stream updates) of one client waiting for the render thread. A client at the
-#: bound is not served until one is sent; its image streams skip steps meanwhile.
-MAX_RENDERS_PER_CLIENT = 4
+#: Replies and stream updates of one client handed to the sending thread and not sent yet
+#: (waiting for their images, or for room on the client's link). A client at the bound is not
+#: served until one is sent; its streams skip steps meanwhile.
+MAX_UNSENT_PER_CLIENT = 4
 #: s a reply may wait for room on its client's link before Zenoh closes that link (Zenoh's
-#: ``transport/link/tx/queue/congestion_control/block/wait_before_close``, default 5 s). Replies
-#: are sent from the simulation thread with blocking congestion control, so a client that stops
-#: reading (its socket full of the images it asked for) held every other client for 5 s; now for
-#: at most this, once: then its link is closed and its replies are dropped. 0.5 s closed the link
-#: of a client reading large image replies on a loaded 2-core machine (the fuzz test, once): 2 s. An operator's Zenoh
-#: config file that sets the key keeps its own value.
+#: ``transport/link/tx/queue/congestion_control/block/wait_before_close``, default 5 s). A
+#: client that stops reading (its socket full of the images it asked for) holds the sending
+#: thread (transport.courier; not the simulation thread) that long, once: then its link is
+#: closed and its replies are dropped. 0.5 s
+#: closed the link of a client reading large image replies on a loaded 2-core machine (the fuzz
+#: test, once): 2 s. An operator's Zenoh config file that sets the key keeps its own value.
 MAX_BLOCKED_REPLY_SECONDS = 2.0
-#: Steps whose streamed images the render thread may still be making, all clients together:
-#: beyond, every client's image streams skip steps until it catches up (a stream gives the
-#: newest frame, as V-REP's did). Two keep the render thread busy when a frame takes about a
-#: step; more let streams of huge images queue seconds of frames ahead of another client's
-#: image request (issue 23: 50 streams of a 4096x4096 sensor, 4.2 s).
+#: Steps whose streamed images the stream render thread may still be making, all clients
+#: together: beyond, every client's image streams skip steps until it catches up (a stream gives
+#: the newest frame, as V-REP's did). Two keep that thread busy when a frame takes about a step;
+#: more let streams of huge images queue seconds of frames and memory (issue 23: 50 streams of
+#: a 4096x4096 sensor; requests render on their own thread).
 MAX_STREAM_STEPS_RENDERING = 2
 #: Streamed commands of one client (each is executed again after every step).
 MAX_STREAMS_PER_CLIENT = 256

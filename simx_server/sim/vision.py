@@ -23,19 +23,25 @@ do not see either). Geoms of groups 0-2 (MuJoCo's default visible groups), textu
 flexes, the skybox and haze stay as the scene's author set them.
 
 Frames are rendered on demand and cached until the world changes (one render per
-simulation step per sensor, however many clients ask). Rendering runs on a thread of its own,
-which owns the GL contexts, from a copy of ``MjData`` taken on the simulation thread: a slow
-software renderer delays the image, not the physics nor the other clients. Images leave here
+simulation step per sensor, however many clients ask). Rendering runs on threads of their own,
+which own the GL contexts, from a copy of ``MjData`` taken on the simulation thread: a slow
+software renderer delays the image, not the physics nor the other clients. Requests render on
+the *request* render thread; streamed images (set by the stream publisher through
+:attr:`VisionSensors.for_streams`) on a *stream* render thread made on the first streamed image,
+once its renderers are warm: a client's streams of huge images (a 4096x4096 frame takes 1.5 s on
+llvmpipe) never queue ahead of another client's image request, which waits for its own frame
+only (issue 23). Images leave here
 as ``bytes`` in V-REP's layout: rows bottom-up, RGB, 8 bits; depth as float32 in 0..1 (linear
 between near and far).
 
 V-REP rendered every sensor every step, so a program's first streamed image came at once. Here
 the renderers (a GL context and MuJoCo's ``MjrContext``, about 0.2 s on a software renderer)
-and one warm-up frame per sensor are made on the render thread as soon as a scene loads or its
-model changes (an edit), not on the first request: the first streamed image is in the client's
-inbox within a step or two of the streaming call. The render thread and its contexts live
-as long as the server; a new scene or an edit hands them over (``previous=``) and they are
-rebuilt for the new model in submission order. The simulation thread waits for them
+and one warm-up frame per sensor are made on the request render thread as soon as a scene loads
+or its model changes (an edit), not on the first request: the first streamed image is in the
+client's inbox within a step or two of the streaming call (streams use that thread until the
+stream thread's own renderers are warm). The render threads and their contexts live as long as
+the server; a new scene or an edit hands them over (``previous=``) and they are rebuilt for the
+new model in submission order. The simulation thread waits for them
 (:meth:`VisionSensors.wait_ready`) only while the simulation is stopped: before the server
 starts it, and on a scene load or an edit made while stopped. An edit while it runs does not
 wait; images asked for meanwhile come once the renderers are rebuilt (0.1-0.45 s on llvmpipe).
@@ -46,8 +52,8 @@ from __future__ import annotations
 import copy
 import dataclasses
 import logging
-from collections import OrderedDict
-from concurrent.futures import Future, ThreadPoolExecutor
+import threading
+from concurrent.futures import Future
 from typing import Any, Callable
 
 import mujoco
@@ -57,35 +63,13 @@ from simx_client.protocol import ArgumentError
 from simx_server.base import limits as L
 from simx_server.sim import handle_render
 from simx_server.sim.physics import check_resolution
+from simx_server.sim.render_thread import RenderThread
 from simx_server.sim.world import VISION_SENSOR, World
 
 log = logging.getLogger("simx.vision")
 
 DEFAULT_RESOLUTION = (256, 256)
 DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10.0
-
-#: MuJoCo's visualisation flags a sensor keeps on (everything else, rays, contacts, joints...,
-#: is off): the scene's own appearance. mjVIS_STATIC draws the world body's geoms.
-_SCENE_FLAGS = ("mjVIS_TEXTURE", "mjVIS_STATIC", "mjVIS_SKIN", "mjVIS_FLEXEDGE", "mjVIS_FLEXSKIN")
-
-
-def sensor_option() -> mujoco.MjvOption:
-    """The ``MjvOption`` sensors render with: what a V-REP vision sensor sees, the scene only.
-
-    MuJoCo's defaults with every visualisation extra off (``_SCENE_FLAGS`` kept), no frames
-    nor labels, and no sites; geom, skin and flex groups as MuJoCo's defaults (0-2 visible).
-    """
-    option = mujoco.MjvOption()
-    for name in dir(mujoco.mjtVisFlag):
-        if name.startswith("mjVIS_"):
-            option.flags[getattr(mujoco.mjtVisFlag, name)] = name in _SCENE_FLAGS
-    option.frame = mujoco.mjtFrame.mjFRAME_NONE
-    option.label = mujoco.mjtLabel.mjLABEL_NONE
-    option.sitegroup[:] = 0
-    for groups in (option.jointgroup, option.tendongroup, option.actuatorgroup):
-        groups[:] = 0
-    return option
-
 
 @dataclasses.dataclass
 class SensorSpec:
@@ -146,86 +130,42 @@ class Deferred:
         self.future = future
 
 
-def _close(renderer: mujoco.Renderer) -> None:
-    try:
-        renderer.close()
-    except Exception:  # a context already torn down by the driver
-        pass
-
-
-class _RenderThread:
-    """The render thread and the state only it touches: the renderers (one GL context and
-    ``MjrContext`` per resolution), bound to one model. Shared by the successive VisionSensors
-    of a server (scene loads, edits); jobs run in the order they were submitted."""
-
-    def __init__(self) -> None:
-        self.executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="simx-render")
-        # render thread only; most recently used last, at most limits.MAX_RENDERERS
-        self.renderers: OrderedDict[tuple[int, int], mujoco.Renderer] = OrderedDict()
-        self.model: mujoco.MjModel | None = None  # the model the renderers were made for
-        self.newest: mujoco.MjModel | None = None  # set on the simulation thread: the latest scene
-        self.option: mujoco.MjvOption | None = None
-        self.failure: str | None = None  # why no GL context can be made: not tried again
-
-    def renderer(self, model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-        """The renderer of this size for ``model``, made now if needed (render thread).
-
-        Raises RuntimeError once a renderer could not be made (no usable GL platform): a
-        second attempt after a failed one can abort the process (GLFW without a display)."""
-        if self.failure is not None:
-            raise RuntimeError(f"vision sensors cannot render here: {self.failure}")
-        if model is not self.model:
-            self.free()
-            self.model = model
-        r = self.renderers.get((width, height))
-        if r is None:
-            while len(self.renderers) >= L.MAX_RENDERERS:  # sizes set at run time: bounded
-                _close(self.renderers.popitem(last=False)[1])
-            try:
-                r = mujoco.Renderer(model, height, width)
-            except Exception as exc:
-                self.failure = f"{type(exc).__name__}: {exc}"
-                raise
-            self.renderers[(width, height)] = r
-        else:
-            self.renderers.move_to_end((width, height))
-        if self.option is None:
-            self.option = sensor_option()
-        return r
-
-    def free(self) -> None:
-        """Free every GL context (render thread)."""
-        for r in self.renderers.values():
-            _close(r)
-        self.renderers.clear()
-        self.model = None
-
-
 class VisionSensors:
     """The scene's vision sensors.
 
-    Methods are called on the simulation thread; rendering happens on one render thread (a
-    single-worker executor, so jobs run in the order they were submitted). The renderers for
-    the scene's sensors are made at once, on that thread (see :meth:`wait_ready`). ``previous``
-    is the VisionSensors of the scene this one replaces (a load, an edit): its render thread and
-    contexts are taken over, and ``previous`` must not be used afterwards. Call close() when done.
+    Methods are called on the simulation thread; rendering happens on render threads (each a
+    single-worker executor, so its jobs run in the order they were submitted): the request
+    render thread, and the stream render thread while :attr:`for_streams` is set. The renderers
+    for the scene's sensors are made at once on the request thread (see :meth:`wait_ready`), on
+    the stream thread when it is first needed. ``previous`` is the VisionSensors of the scene
+    this one replaces (a load, an edit): its render threads and contexts are taken over, and
+    ``previous`` must not be used afterwards. Call close() when done.
+
+    Attributes:
+        for_streams: set by the stream publisher while it executes streamed commands: their
+            frames render on the stream render thread (once it is warm; before, on the request
+            thread, so that the first streamed image is not late).
     """
 
     def __init__(self, world: World, previous: VisionSensors | None = None):
         self.world = world
+        self._streaming: RenderThread | None = None  # the stream render thread, made on demand
+        self._streaming_ready: Future | None = None  # its renderers are warm
         if previous is not None and previous._owner:
             self._thread, previous._owner = previous._thread, False  # its pending jobs still run
+            self._streaming = previous._streaming
             previous._cache.clear()
         else:
-            self._thread = _RenderThread()
-        self._owner = True  # closes the render thread (unless it hands it over)
-        self._executor = self._thread.executor
-        self._cache: dict[tuple[int, str], tuple[int, Future]] = {}
-        self._snapshot: tuple[int, mujoco.MjData] | None = None
+            self._thread = RenderThread()
+        self._owner = True  # closes the render threads (unless it hands them over)
+        self.for_streams = False
+        self._cache: dict[tuple[int, str], tuple[int, Future, RenderThread]] = {}
         self._colours: np.ndarray | None = None  # geom id -> packed handle colour (handle_render)
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
-        self._ready = self._prepare()
+        self._ready = self._prepare(self._thread)
+        if self._streaming is not None:
+            self._streaming_ready = self._prepare(self._streaming)
 
     def reset(self) -> None:
         """(Re)read every sensor's properties from the scene (undoing run-time changes)."""
@@ -265,14 +205,66 @@ class VisionSensors:
         return self.specs[handle]
 
     def after(self, job: Callable[[], Any]) -> Future:
-        """Run ``job`` on the render thread once every render submitted so far is done."""
-        return self._executor.submit(job)
+        """Run ``job`` on the render thread in use (the stream thread while :attr:`for_streams`)
+        once every render submitted to it so far is done."""
+        return self._target().executor.submit(job)
 
-    # ------------------------------------------------------------ render thread
-    def _draw(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
-        """One frame, top-down rows: RGB (h, w, 3) uint8, depth (h, w) float32 in m, or
-        ("handles") MuJoCo's segmentation (h, w, 2) int32 (object id, type)."""
-        thread = self._thread
+    def after_all(self, futures: list[Future], job: Callable[[], Any]) -> Future:
+        """A future of ``job()``, run on the render thread in use (as :meth:`after`) once every
+        future of ``futures`` is done, whichever render thread makes them; the wait holds no
+        thread (a reply's frame may be a stream's, rendered on the stream thread)."""
+        executor, result = self._target().executor, Future()
+        left, lock = [len(futures)], threading.Lock()
+
+        def run() -> None:
+            nonlocal job
+            try:
+                result.set_result(job())
+            except BaseException as exc:  # handed to whoever waits for the result
+                result.set_exception(exc)
+            finally:
+                # A future keeps its callbacks: one_done -> submit -> run -> job -> (the job's
+                # frames) -> one_done was a cycle that kept every frame, 50-117 MB each at
+                # 4096x4096, until the cyclic collector ran (3 GB in 15 s).
+                job = None
+
+        def submit() -> None:
+            try:
+                executor.submit(run)
+            except RuntimeError:  # shut down meanwhile: run here
+                run()
+
+        def one_done(_f: Future) -> None:
+            with lock:
+                left[0] -= 1
+                last = left[0] == 0
+            if last:
+                submit()
+
+        if not futures:
+            submit()
+        for f in futures:
+            f.add_done_callback(one_done)
+        return result
+
+    def _target(self) -> RenderThread:
+        """The render thread of the command being executed (simulation thread)."""
+        if not self.for_streams:
+            return self._thread
+        if self._streaming is None:  # the first streamed image: warm a thread for streams
+            self._streaming = RenderThread("simx-render-streams")
+            self._streaming_ready = self._prepare(self._streaming)
+        elif self._streaming_ready is None:
+            self._streaming_ready = self._prepare(self._streaming)
+        return self._streaming if self._streaming_ready.done() else self._thread
+
+    # ------------------------------------------------------------ render threads
+    @staticmethod
+    def _draw(thread: RenderThread, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec,
+              kind: str) -> np.ndarray:
+        """One frame on ``thread`` (the calling render thread), top-down rows: RGB (h, w, 3)
+        uint8, depth (h, w) float32 in m, or ("handles") MuJoCo's segmentation (h, w, 2) int32
+        (object id, type)."""
         r = thread.renderer(model, spec.width, spec.height)
         if kind == "depth":
             r.enable_depth_rendering()
@@ -289,20 +281,21 @@ class VisionSensors:
             elif kind == "handles":
                 r.disable_segmentation_rendering()
 
-    def _render(self, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec, kind: str) -> np.ndarray:
-        """Rendered frame of a request (counted in ``renders``)."""
-        frame = self._draw(model, data, spec, kind)
+    def _render(self, thread: RenderThread, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec,
+                kind: str) -> np.ndarray:
+        """Rendered frame of a request or stream (counted in ``renders``)."""
+        frame = self._draw(thread, model, data, spec, kind)
         self.renders += 1
         return frame
 
-    def _prepare(self) -> Future:
-        """Make the renderers of this scene's sensors and draw one frame of each (the first
-        frame of a GL context costs several later ones), on the render thread; a failure is
-        logged once and the renderers are then made on the first request."""
-        model, thread = self.world.model, self._thread
+    def _prepare(self, thread: RenderThread) -> Future:
+        """Make the renderers of this scene's sensors on ``thread`` and draw one frame of each
+        (the first frame of a GL context costs several later ones); a failure is logged once and
+        the renderers are then made on the first request."""
+        model = self.world.model
         thread.newest = model
         if not self.specs:
-            return self._executor.submit(thread.free)  # the old scene's contexts are not needed
+            return thread.executor.submit(thread.free)  # the old scene's contexts are not needed
         data, specs = copy.copy(self.world.data), list(self.specs.values())
 
         def prepare() -> None:
@@ -310,13 +303,13 @@ class VisionSensors:
                 return  # a newer scene is queued: it prepares its own
             try:
                 for spec in specs:
-                    self._draw(model, data, spec, self._image_kind(spec))
+                    self._draw(thread, model, data, spec, self._image_kind(spec))
                 for size in {(s.width, s.height): s for s in specs}.values():  # depth from any sensor
-                    self._draw(model, data, size, "depth")
+                    self._draw(thread, model, data, size, "depth")
             except Exception as exc:
                 log.warning("vision sensors: cannot prepare the renderers: %s: %s", type(exc).__name__, exc)
 
-        return self._executor.submit(prepare)
+        return thread.executor.submit(prepare)
 
     def wait_ready(self, timeout: float | None = None) -> bool:
         """Wait until the renderers made at load are ready: whether they are (False on timeout).
@@ -330,17 +323,29 @@ class VisionSensors:
         return True
 
     # -------------------------------------------------------- simulation thread
+    def _cached(self, key: tuple[int, str]) -> Future | None:
+        """The cached future of ``key`` for the world's current state, if this command may use
+        it: a request never waits for a frame still queued on the stream render thread (it
+        renders its own: streams of huge images must not hold it up); a stream may share one."""
+        cached = self._cache.get(key)
+        if cached is None or cached[0] != self.world.version:
+            return None
+        version, future, thread = cached
+        if not self.for_streams and thread is not self._thread and not future.done():
+            return None
+        return future
+
     def _frame(self, handle: int, kind: str) -> Future:
         """The frame of the world's current state (a future), rendered once per state."""
         version = self.world.version
-        cached = self._cache.get((handle, kind))
-        if cached is not None and cached[0] == version:
-            return cached[1]
-        spec = self.spec(handle)
-        if self._snapshot is None or self._snapshot[0] != version:
-            self._snapshot = (version, copy.copy(self.world.data))  # the state this version shows
-        future = self._executor.submit(self._render, self.world.model, self._snapshot[1], spec, kind)
-        self._cache[(handle, kind)] = (version, future)
+        cached = self._cached((handle, kind))
+        if cached is not None:
+            return cached
+        spec, thread = self.spec(handle), self._target()
+        if thread.snapshot is None or thread.snapshot[0] != version:  # one copy per thread: each reads its own
+            thread.snapshot = (version, copy.copy(self.world.data))  # the state this version shows
+        future = thread.executor.submit(self._render, thread, self.world.model, thread.snapshot[1], spec, kind)
+        self._cache[(handle, kind)] = (version, future, thread)
         return future
 
     def _depth_job(self, handle: int) -> Callable[[], np.ndarray]:
@@ -400,14 +405,14 @@ class VisionSensors:
         return self.after(self._image_job(handle, grey)).result()
 
     def _payload(self, handle: int, kind: str, job: Callable[[], Callable[[], np.ndarray]]) -> Deferred:
-        """``[[resX, resY], bytes]`` of a frame, made once per state and shared."""
-        cached = self._cache.get((handle, kind))
-        if cached is None or cached[0] != self.world.version:
-            spec, frame = self.spec(handle), job()
-            cached = (self.world.version, self.after(
-                lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()]))
-            self._cache[(handle, kind)] = cached
-        return Deferred(cached[1])
+        """``[[resX, resY], bytes]`` of a frame, made once per state and shared (see :meth:`_cached`)."""
+        cached = self._cached((handle, kind))
+        if cached is None:
+            spec, frame, thread = self.spec(handle), job(), self._target()
+            cached = thread.executor.submit(
+                lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()])
+            self._cache[(handle, kind)] = (self.world.version, cached, thread)
+        return Deferred(cached)
 
     def image_deferred(self, handle: int, options: int) -> Deferred:
         """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey)."""
@@ -434,6 +439,9 @@ class VisionSensors:
         owner, self._owner = self._owner, False
         self._cache.clear()
         if owner:
-            self._thread.newest = None  # a preparation not started yet is skipped
-            self._executor.submit(self._thread.free)
-            self._executor.shutdown(wait=True)
+            threads = [t for t in (self._thread, self._streaming) if t is not None]
+            for thread in threads:
+                thread.newest = None  # a preparation not started yet is skipped
+                thread.executor.submit(thread.free)
+            for thread in threads:
+                thread.executor.shutdown(wait=True)

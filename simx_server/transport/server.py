@@ -36,6 +36,7 @@ from simx_server.sim.vision import Deferred
 from simx_server.transport import logs
 from simx_server.transport.client_commands import ClientCommands
 from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
+from simx_server.transport.courier import Courier
 from simx_server.transport.consoles import cut as _cut
 from simx_server.transport.others import OtherTransports
 from simx_server.transport.peers import PeerCheck
@@ -109,7 +110,8 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         self._t0 = time.monotonic()
         self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
-        self.viewers = ViewerFeed(prefix, self._queue.put)  # simx-viewer's model and state
+        self.courier = Courier()  # sends replies and updates off this thread (transport.courier)
+        self.viewers = ViewerFeed(prefix, self._queue.put, self.courier.send)  # simx-viewer's model and state
         self._init_transports(self._queue.put)  # other transports beside Zenoh (OtherTransports)
 
     # ------------------------------------------------------------ zenoh side
@@ -129,12 +131,13 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
             history=True)
         self.viewers.open(self.session)
 
-    @staticmethod
-    def _refuse_old(query: zenoh.Query) -> None:
+    def _refuse_old(self, query: zenoh.Query) -> None:
         """A client of protocol version 1 or 2 (one call key for all): refuse with the reason."""
-        query.reply(query.key_expr, P.error_response(
+        key = str(query.key_expr)
+        reply = P.error_response(
             f"protocol version mismatch: this server speaks {P.PROTOCOL_VERSION}, which sends "
-            "requests to <prefix>/call/<client>; install the same simx version on client and server"))
+            "requests to <prefix>/call/<client>; install the same simx version on client and server")
+        self.courier.send(key, lambda: self._refusal(query, key, reply))
 
     def _on_query(self, query: zenoh.Query) -> None:
         """Zenoh's thread: read a request and queue it in its client's queue, or answer at once
@@ -166,6 +169,11 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         except Exception as exc:  # the server never dies from a client, and always answers
             log.exception("reading a request on %s", quote(key))
             reply = P.error_response(f"internal error while reading the request: {type(exc).__name__}")
+        self.courier.send(key, lambda: self._refusal(query, key, reply))  # Zenoh's thread never waits on a link
+
+    @staticmethod
+    def _refusal(query: zenoh.Query, key: str, reply: bytes) -> None:
+        """Send a refusal (a sending thread)."""
         try:
             query.reply(query.key_expr, reply)
         except Exception as exc:
@@ -189,6 +197,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         """Finish pending renders and their replies, then close the session; idempotent."""
         self._close_transports()
         self.sim.close()
+        self.courier.close()
         if self.session is not None:
             session, self.session = self.session, None
             try:
@@ -325,9 +334,9 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
             self._kinds[kind].handle(kind, client)
 
     def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
-        """Execute a request and reply, now or on the render thread once its images are
-        rendered. Every request gets a reply, whatever happens (then a short refusal)."""
-        deferred = False
+        """Execute a request and hand its reply to the sending thread (sent once its images
+        are rendered, after the client's earlier replies and stream updates). Every request
+        gets a reply, whatever happens (then a short refusal)."""
         client = session.client
         try:
             if client not in self._clients:
@@ -341,40 +350,38 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
                 results = [[False, message]] * len(commands)
             t, state, scene = self.sim.stamp()
             server_time = int((time.monotonic() - self._t0) * 1000)
-            for _, value in results:
-                if type(value) is Deferred:
-                    break
-            else:
-                if not session.renders:
-                    query.reply(query.key_expr, self._response(t, state, results, server_time, scene, client))
-                    return
-                # A stream update of this client (a step's images) is still on the render thread:
-                # this reply goes after it, so that after simxSynchronousTrigger + simxGetPingTime
-                # the streamed values in the inbox are the step's, as in V-REP.
+            renders = [value.future for _, value in results if type(value) is Deferred]
+            if renders:  # encoded by the sending thread once rendered: one such reply in memory at a time
+                def payload() -> bytes:
+                    return self._response(t, state, self._resolve(results, client), server_time, scene, client)
+            else:  # encoded now: the values are this step's
+                encoded = self._response(t, state, results, server_time, scene, client)
 
-            def reply_and_drop() -> None:
-                try:
-                    query.reply(query.key_expr, self._response(
-                        t, state, self._resolve(results, client), server_time, scene, client))
-                except Exception:
-                    log.exception("replying to client %s", client)
-                finally:
-                    query.drop()
-                    self.sessions.render_done(session)
-
-            self.sessions.render_started(session)
-            self.sim.vision.after(reply_and_drop)  # once the images of this request are rendered
-            deferred = True
+                def payload() -> bytes:
+                    return encoded
         except Exception as exc:  # the server never dies from a client
             log.exception("client %s: answering a request", client)
+            refusal = P.error_response(f"internal error while answering the request: {type(exc).__name__}")
+            renders = []
+
+            def payload() -> bytes:
+                return refusal
+        self._reply(session, query, payload, renders)
+
+    def _reply(self, session: Session, query: zenoh.Query, payload, renders: list) -> None:
+        """Hand ``query``'s reply (``payload()``, called on the sending thread) to the courier
+        on its client's lane: sent once ``renders`` are done, in order with its stream updates."""
+        client = session.client
+
+        def send() -> None:
             try:
-                query.reply(query.key_expr, P.error_response(
-                    f"internal error while answering the request: {type(exc).__name__}"))
-            except Exception:
-                log.exception("client %s: replying", client)
-        finally:
-            if not deferred:
-                query.drop()  # sends Zenoh's final reply at once
+                query.reply(query.key_expr, payload())
+            finally:
+                query.drop()  # Zenoh's final reply
+                self.sessions.sent(session)
+
+        self.sessions.handed_over(session)
+        self.courier.send(client, send, renders)
 
     @staticmethod
     def _response(t: int, state: int, results: list, server_time: int, scene: int, client: str) -> bytes:
@@ -444,7 +451,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         self._edit_debt[client] = (debt + (done - now), done)
         return result
 
-    _resolve = staticmethod(resolve)  # results with their Deferred images rendered (render thread)
+    _resolve = staticmethod(resolve)  # results with their Deferred images rendered (sending or render thread)
 
     def _execute(self, client: str, name: str, mode: int, args: list) -> list:
         base = mode & P.MODE_MASK

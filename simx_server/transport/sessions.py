@@ -10,10 +10,11 @@ one request per flooding client, never by the flood's length.
 
 Every queue is bounded (limits.py): requests and bytes per client, bytes over all clients,
 clients with state. A request over a bound is not queued; :meth:`Sessions.admit` returns the
-reason and the caller answers it at once. A client whose replies wait for the render thread
-(:data:`~simx_server.base.limits.MAX_RENDERS_PER_CLIENT`) is *parked*: not served until one of them
-is sent, so that a flood of image requests queues up in its own bounded queue, not in the
-render thread's.
+reason and the caller answers it at once. A client with
+:data:`~simx_server.base.limits.MAX_UNSENT_PER_CLIENT` replies or stream updates not sent yet
+(waiting for their images, or for room on its link) is *parked*: not served until one of them
+is sent, so that a flood of image requests, or requests of a client that stopped reading, queue
+up in its own bounded queue, not in the render thread's nor the sending thread's.
 
 No MuJoCo in here: this module is the queueing discipline alone, testable without a server.
 """
@@ -35,7 +36,7 @@ _MODE_MASK, _MODE_BLOCKING = P.MODE_MASK, P.MODE_BLOCKING
 class Session:
     """The intake state of one client (its queue and counters); touched under the lock."""
 
-    __slots__ = ("client", "queue", "queued_bytes", "scheduled", "parked", "renders", "last_seen", "fault",
+    __slots__ = ("client", "queue", "queued_bytes", "scheduled", "parked", "unsent", "last_seen", "fault",
                  "step")
 
     def __init__(self, client: str, now: float):
@@ -43,8 +44,8 @@ class Session:
         self.queue: collections.deque = collections.deque()  # (request, payload size)
         self.queued_bytes = 0
         self.scheduled = False  # in the ready ring, or parked (it has requests waiting)
-        self.parked = False  # waiting for one of its renders before it is served again
-        self.renders = 0  # replies or stream updates of this client waiting for the render thread
+        self.parked = False  # waiting for one of its sends before it is served again
+        self.unsent = 0  # replies and stream updates of this client handed over and not sent yet
         self.last_seen = now  # time.monotonic() of its last request
         self.fault = None  # a message for its next request (the simulation step failed)
         self.step = -1  # Simulation.steps when its last blocking request was answered (legacy pacing)
@@ -61,17 +62,17 @@ class Sessions:
         max_per_user: clients with state of one user (client ids ``<user>-<uuid>``).
         max_per_peer: client ids one Zenoh session's tokens protect (:mod:`.peers`).
         max_tokens: liveliness tokens recorded (protected and unverified together).
-        max_renders: a client's replies waiting for the render thread before it is parked.
+        max_unsent: a client's replies and updates not sent yet before it is parked.
     """
 
     def __init__(self, ready: queue.SimpleQueue, max_requests: int = limits.MAX_QUEUED_REQUESTS,
                  max_bytes: int = limits.MAX_QUEUED_BYTES, max_total_bytes: int = limits.MAX_QUEUED_BYTES_TOTAL,
-                 max_clients: int = limits.MAX_CLIENTS, max_renders: int = limits.MAX_RENDERS_PER_CLIENT,
+                 max_clients: int = limits.MAX_CLIENTS, max_unsent: int = limits.MAX_UNSENT_PER_CLIENT,
                  max_per_user: int = limits.MAX_CLIENTS_PER_USER, max_per_peer: int = limits.MAX_CLIENTS_PER_PEER,
                  max_tokens: int = limits.MAX_CLIENT_TOKENS):
         self.ready = ready
         self.max_requests, self.max_bytes, self.max_total_bytes = max_requests, max_bytes, max_total_bytes
-        self.max_clients, self.max_renders, self.max_per_user = max_clients, max_renders, max_per_user
+        self.max_clients, self.max_unsent, self.max_per_user = max_clients, max_unsent, max_per_user
         self._per_user: dict[str, int] = {}  # authenticated user -> its clients with state
         self.max_per_peer, self.max_tokens = max_per_peer, max_tokens
         self.tokens: set[str] = set()  # clients whose liveliness token protects them (peers.PeerCheck)
@@ -131,7 +132,7 @@ class Sessions:
         pending (lock held); False when there is none. Sessions are kept in creation order, so
         under a flood of fresh ids the first candidate is found at once."""
         for client, s in self._sessions.items():
-            if (not s.scheduled and not s.renders and client not in self.tokens
+            if (not s.scheduled and client not in self.tokens
                     and (user is None or _user(client) == user)):
                 self._drop(client)
                 self.evicted.append(client)
@@ -194,11 +195,11 @@ class Sessions:
     # ------------------------------------------------------------ simulation thread
     def take(self, s: Session) -> Any:
         """The oldest request of a client taken from the ring, or None when the client is
-        parked (too many renders outstanding) or has nothing left. The client goes back to
+        parked (too many sends outstanding) or has nothing left. The client goes back to
         the end of the ring when more requests wait."""
         with self._lock:
-            if s.renders >= self.max_renders:
-                s.parked = True  # render_done() puts it back in the ring
+            if s.unsent >= self.max_unsent:
+                s.parked = True  # sent() puts it back in the ring
                 return None
             if not s.queue:
                 s.scheduled = False
@@ -222,22 +223,22 @@ class Sessions:
         commands = queued[0][0][1]
         return len(commands) == 1 and commands[0][1] & _MODE_MASK == _MODE_BLOCKING
 
-    def render_started(self, s: Session) -> None:
-        """A reply or stream update of ``s`` now waits for the render thread."""
+    def handed_over(self, s: Session) -> None:
+        """A reply or stream update of ``s`` was handed to the sending thread."""
         with self._lock:
-            s.renders += 1
+            s.unsent += 1
 
-    def render_done(self, s: Session) -> None:
-        """Called on the render thread once such a reply or update is sent."""
+    def sent(self, s: Session) -> None:
+        """Called on the sending thread once such a reply or update is sent (or dropped)."""
         with self._lock:
-            s.renders -= 1
-            if s.parked and s.renders < self.max_renders:
+            s.unsent -= 1
+            if s.parked and s.unsent < self.max_unsent:
                 s.parked = False
                 self.ready.put(s)
 
-    def can_render(self, s: Session | None) -> bool:
-        """Whether a stream update of ``s`` may wait for the render thread now."""
-        return s is None or s.renders < self.max_renders
+    def can_send(self, s: Session | None) -> bool:
+        """Whether a stream update of ``s`` may be handed over now."""
+        return s is None or s.unsent < self.max_unsent
 
     def fault_all(self, message: str) -> None:
         """Tell every client, at its next request, that ``message`` happened."""
@@ -246,10 +247,10 @@ class Sessions:
                 s.fault = message
 
     def remove(self, client: str) -> None:
-        """Forget a client's intake state unless requests or renders of it are pending."""
+        """Forget a client's intake state unless requests of it wait (its replies not sent yet are still sent)."""
         with self._lock:
             s = self._sessions.get(client)
-            if s is not None and not s.scheduled and not s.renders:
+            if s is not None and not s.scheduled:
                 self._drop(client)
 
     def expired(self, expiry: float) -> list[str]:
@@ -259,7 +260,7 @@ class Sessions:
         with self._lock:
             gone, self.evicted = self.evicted, []
             for client, s in self._sessions.items():
-                if s.last_seen < deadline and client not in self.tokens and not s.scheduled and not s.renders:
+                if s.last_seen < deadline and client not in self.tokens and not s.scheduled:
                     gone.append(client)
             for client in gone:
                 self._drop(client)

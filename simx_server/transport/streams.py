@@ -1,6 +1,7 @@
 """Streamed commands (``simx_opmode_streaming``): each client's streams are executed again after
-every simulation step and published on ``simx/<name>/stream/<client>`` (images once the render
-thread has drawn them, in order), each update within the reply budget
+every simulation step and published on ``simx/<name>/stream/<client>`` by the sending thread
+(images once the render thread has drawn them; in order with the client's replies), each update
+within the reply budget
 (``limits.MAX_REPLY_BYTES``). A mixin of :class:`simx_server.transport.server.Server`.
 """
 
@@ -9,6 +10,8 @@ from __future__ import annotations
 import logging
 import time
 from concurrent.futures import Future
+
+import zenoh
 
 from simx_client import protocol as P
 from simx_server.base import limits
@@ -35,7 +38,7 @@ class _Stream:
 
 
 class StreamPublisher:
-    """Publishing of the clients\x27 streams (needs the server\x27s ``session``, ``prefix``, ``sim``, ``sessions``, ``viewers``, ``_streams``, ``_stream_renders`` and ``_resolve``)."""
+    """Publishing of the clients\x27 streams (needs the server\x27s ``session``, ``prefix``, ``sim``, ``sessions``, ``courier``, ``viewers``, ``_streams``, ``_stream_renders`` and ``_resolve``)."""
 
     def _publish_streams(self) -> None:
         if self.session is None:
@@ -44,20 +47,35 @@ class StreamPublisher:
             self.viewers.publish(self.sim.world)
         now = time.monotonic()
         sim = self.sim
-        # Image streams wait while the render thread still has limits.MAX_STREAM_STEPS_RENDERING
-        # steps of streamed frames to make: every client's image streams skip steps meanwhile (they
-        # get the newest frame once it is free), so another client's image request never waits
-        # behind more than that (50 streams of a 4096x4096 sensor made it wait 4.2 s).
-        self._stream_renders = [f for f in self._stream_renders if not f.done()]
+        # Streamed frames render on their own thread (VisionSensors.for_streams), so an image
+        # request never waits behind them (50 streams of a 4096x4096 sensor made one wait 4.2 s).
+        # Image streams wait while that thread still has limits.MAX_STREAM_STEPS_RENDERING steps
+        # of frames to make: every client's image streams skip steps meanwhile (they get the
+        # newest frame once it is free) instead of queueing seconds of frames and memory.
+        self._stream_renders = [fs for fs in self._stream_renders if not all(f.done() for f in fs)]
         rendering = len(self._stream_renders) >= limits.MAX_STREAM_STEPS_RENDERING
-        last = None
+        step_renders: list[Future] = []
+        sim.vision.for_streams = True  # their frames render on the stream render thread
+        try:
+            self._publish_each(sim, now, rendering, step_renders)
+        finally:
+            sim.vision.for_streams = False
+        if step_renders:
+            self._stream_renders.append(step_renders)
+
+    def _publish_each(self, sim, now: float, rendering: bool, step_renders: list[Future]) -> None:
+        """Execute and hand over every client's due streams (images only when not ``rendering``)."""
+        encodings: dict = {}  # this step's updates with images, by content: encoded once
         for client, streams in self._streams.items():
             if not streams:
                 continue
             session = self.sessions.get(client)
-            images = not rendering and self.sessions.can_render(session)  # else its image streams skip this step
+            if not self.sessions.can_send(session):
+                continue  # its updates and replies wait to be sent: its streams skip this step
+            images = not rendering  # else its image streams skip this step
             budget = limits.MAX_REPLY_BYTES
             entries = []
+            renders = []
             for ident, s in streams.items():
                 if s.delay and now - s.last < s.delay:
                     continue
@@ -75,7 +93,9 @@ class StreamPublisher:
                 handler = HANDLERS[name]
                 try:
                     value = handler(sim, s.args)
-                    if type(value) not in SMALL and type(value) is not Deferred:
+                    if type(value) is Deferred:
+                        renders.append(value.future)
+                    elif type(value) not in SMALL:
                         budget -= reply_size(value)
                         if budget < 0:
                             budget += reply_size(value)
@@ -88,32 +108,55 @@ class StreamPublisher:
                     log.exception("client %s: streamed simx%s raised", client, name)
                     entries.append([name, list(ident[1:]), False, f"internal error: {type(exc).__name__}"])
             if entries:
-                last = self._put_stream(client, session, entries) or last
-        if last is not None:  # the render thread's jobs run in order: the step's last is its end
-            self._stream_renders.append(last)
+                encoded = self._put_stream(client, session, entries, renders, encodings)
+                if encoded is not None:
+                    step_renders.append(encoded)  # after its frames
 
-    def _put_stream(self, client: str, sess: Session | None, entries: list) -> Future | None:
-        """Publish one client's stream update: at once, or (images) once the render thread has
-        made its frames; then returns the render-thread job that publishes it."""
+    def _put_stream(self, client: str, sess: Session | None, entries: list, renders: list[Future],
+                    encodings: dict) -> Future | None:
+        """Hand one client's stream update to the sending thread (its lane): published once
+        ``renders`` (its images) are done and encoded, in order with the client's replies.
+
+        An update with images is encoded on the render thread, after its frames, into Zenoh's
+        bytes (a 4096x4096 image is 50 MB to copy twice: 80 ms; putting the result costs
+        microseconds), once per step for clients whose updates are the same (``encodings``):
+        the sending thread only pushes, and no reply waits behind the copies. Returns the
+        future of that encoding (None without images)."""
         session, key, t = self.session, P.stream_key(self.prefix, client), self.sim.sim_time_ms
+        if renders:
+            same = (t, tuple((e[0], repr(e[1]), e[2], id(e[3].future) if type(e[3]) is Deferred else repr(e[3]))
+                             for e in entries))
+            encoded = encodings.get(same)
+            if encoded is None:
+                def encode() -> zenoh.ZBytes:
+                    results = self._resolve([[ok, value] for *_, ok, value in entries], client)
+                    return zenoh.ZBytes(P.stream_update(t, [e[:2] + r for e, r in zip(entries, results)]))
 
-        def put() -> None:
+                encoded = encodings[same] = self.sim.vision.after_all(renders, encode)
+            renders = [encoded]
+
+            def update() -> zenoh.ZBytes:
+                return encoded.result()
+        else:
             try:
-                results = self._resolve([[ok, value] for *_, ok, value in entries], client)
-                session.put(key, P.stream_update(t, [e[:2] + r for e, r in zip(entries, results)]))
+                payload = P.stream_update(t, entries)  # now: the values are this step's
+            except Exception:
+                log.exception("client %s: encoding its stream update", client)
+                return None
+
+            def update() -> bytes:
+                return payload
+
+        def send() -> None:
+            try:
+                session.put(key, update())
             except Exception:
                 log.exception("client %s: publishing its streams", client)
+            finally:
+                if sess is not None:
+                    self.sessions.sent(sess)
 
-        if any(type(e[3]) is Deferred for e in entries):
-            def put_rendered() -> None:  # images of this step: published once rendered, in order
-                try:
-                    put()
-                finally:
-                    if sess is not None:
-                        self.sessions.render_done(sess)
-
-            if sess is not None:
-                self.sessions.render_started(sess)
-            return self.sim.vision.after(put_rendered)
-        put()
-        return None
+        if sess is not None:
+            self.sessions.handed_over(sess)
+        self.courier.send(client, send, renders)
+        return renders[0] if renders else None

@@ -7,7 +7,9 @@ docs/PROTOCOL.md "The viewer feed"):
   (``mj_saveModel``; exact, assets included), the *generation* that identifies it, and the
   current state. Zenoh's thread only queues the query (bounded by
   ``limits.MAX_VIEWER_QUERIES`` waiting and ``limits.MAX_VIEWER_MODELS_PER_SECOND`` answered);
-  the simulation thread, which owns the model, answers it.
+  the simulation thread, which owns the model, encodes the answer and a sending thread
+  (:mod:`simx_server.transport.courier`) sends it, so a viewer that stops reading holds no
+  simulation step.
 * ``<prefix>/viewer/state``, a publisher: after every simulation step, and at idle ticks when
   the state changed (a stop's reset, a joint set while stopped, a scene load), ``[generation,
   time, qpos, qvel, mocap_pos, mocap_quat]`` as float64 bytes, **only while a subscriber
@@ -46,6 +48,7 @@ class ViewerFeed:
         prefix: the server's key-expression prefix.
         enqueue: puts an item in the simulation thread's ready ring (``("viewer-model", query)``
             items come back to :meth:`answer` on that thread).
+        send: hands a send to the sending thread (``Courier.send(lane, job)``).
 
     Attributes:
         watched: True while at least one subscriber matches the state publisher (set by
@@ -53,8 +56,9 @@ class ViewerFeed:
         published: number of states put since the server started.
     """
 
-    def __init__(self, prefix: str, enqueue: Callable[[Any], None]):
+    def __init__(self, prefix: str, enqueue: Callable[[Any], None], send: Callable[..., None]):
         self.prefix = prefix
+        self._send = send
         self.watched = False
         self.published = 0
         self._enqueue = enqueue
@@ -106,16 +110,14 @@ class ViewerFeed:
                 self._tokens -= 1
         if busy:
             log.warning("viewer model query on %s not queued: %s", quote(str(query.key_expr)), busy)
-            try:
-                query.reply(query.key_expr, P.error_response(f"server busy: {busy}; ask again later"))
-            finally:
-                query.drop()
+            self._reply(query, P.error_response(f"server busy: {busy}; ask again later"))
             return
         self._enqueue(("viewer-model", query))
 
     # ------------------------------------------------------ the simulation thread
     def answer(self, query: zenoh.Query, world: Any) -> None:
-        """Reply to a queued model query with the current model, generation and state."""
+        """Encode the reply to a queued model query (the current model, generation and state)
+        and hand it to the sending thread."""
         with self._count:
             self._waiting -= 1
         try:
@@ -125,16 +127,22 @@ class ViewerFeed:
                 buffer = np.empty(mujoco.mj_sizeModel(model), np.uint8)
                 mujoco.mj_saveModel(model, None, buffer)
                 self._mjb = buffer.tobytes()
-            query.reply(query.key_expr, P.viewer_model(generation, mujoco.mj_versionString(),
-                                                       self._mjb, self._state(world, generation)))
+            reply = P.viewer_model(generation, mujoco.mj_versionString(), self._mjb, self._state(world, generation))
         except Exception as exc:  # the server never dies from a viewer
             log.exception("answering a viewer model query")
+            reply = P.error_response(f"internal error: {type(exc).__name__}")
+        self._reply(query, reply)
+
+    def _reply(self, query: zenoh.Query, reply: bytes) -> None:
+        """Send ``reply`` and Zenoh's final reply on a sending thread (a lane of its own)."""
+
+        def send() -> None:
             try:
-                query.reply(query.key_expr, P.error_response(f"internal error: {type(exc).__name__}"))
-            except Exception:
-                pass
-        finally:
-            query.drop()
+                query.reply(query.key_expr, reply)
+            finally:
+                query.drop()
+
+        self._send(("viewer", id(query)), send)
 
     def publish(self, world: Any) -> None:
         """Put the current state when it differs from the last one put (call only when

@@ -254,7 +254,7 @@ def test_model_queries_waiting_are_bounded(monkeypatch):
             pass
 
     queued: list = []
-    feed = ViewerFeed(P.DEFAULT_PREFIX, queued.append)
+    feed = ViewerFeed(P.DEFAULT_PREFIX, queued.append, lambda lane, job: job())  # sends at once
     queries = [Query() for _ in range(limits.MAX_VIEWER_QUERIES + 1)]
     for q in queries:
         feed._on_query(q)

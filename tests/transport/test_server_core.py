@@ -259,7 +259,7 @@ def test_a_flooding_client_does_not_starve_another(core):
 
 def test_an_image_flood_does_not_hold_up_another_clients_images(core):
     """Image requests wait for the one render thread: a client flooding them is parked at
-    MAX_RENDERS_PER_CLIENT replies in flight, so another client's image still comes soon."""
+    MAX_UNSENT_PER_CLIENT replies in flight, so another client's image still comes soon."""
     cid = vrep.simxStart("127.0.0.1", core.port, True, True, 5000, 5)
     try:
         cam = vrep.simxGetObjectHandle(cid, "kinect_rgb", B)[1]
@@ -287,7 +287,7 @@ def test_an_image_flood_does_not_hold_up_another_clients_images(core):
 
 def test_sessions_bound_queues_and_serve_round_robin():
     ring = queue.SimpleQueue()
-    sessions = Sessions(ring, max_requests=3, max_bytes=100, max_total_bytes=150, max_clients=2, max_renders=1)
+    sessions = Sessions(ring, max_requests=3, max_bytes=100, max_total_bytes=150, max_clients=2, max_unsent=1)
     for i in range(5):
         assert (sessions.admit("a", f"a{i}", 10) is None) == (i < 3)
     assert "MAX_QUEUED_REQUESTS" in sessions.admit("a", "a5", 10)
@@ -303,14 +303,14 @@ def test_sessions_bound_queues_and_serve_round_robin():
         if request is not None:
             served.append(request)
     assert served == ["a0", "b0", "a1", "b1", "a2"]  # one request per client in turn
-    # A client with a render outstanding is parked until it is done.
+    # A client with a reply not sent yet is parked until it is sent.
     assert sessions.admit("a", "a6", 10) is None and sessions.admit("a", "a7", 10) is None
     s = ring.get()
     assert sessions.take(s) == "a6"
-    sessions.render_started(s)
+    sessions.handed_over(s)
     assert sessions.take(ring.get()) is None  # parked
     assert ring.empty()
-    sessions.render_done(s)
+    sessions.sent(s)
     assert sessions.take(ring.get()) == "a7"
     sessions.tokens.discard("b")
     assert sessions.admit("c", "c0", 1) is None  # b, idle and tokenless, made room

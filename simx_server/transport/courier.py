@@ -1,0 +1,119 @@
+"""Sending to clients off the simulation and render threads.
+
+Every reply to a request, every stream update and every viewer model leaves the server through
+the :class:`Courier`: the simulation thread hands a send over, with the render jobs it waits
+for, and goes on. Each client has a *lane*: its sends leave in the order they were handed over
+(a reply after the stream update of the same step, as the legacy inbox had them), each once its
+images are rendered. One sending thread serves the lanes, a lane whose next send waits for a
+render holding it up not at all.
+
+Why: a reply is sent with Zenoh's blocking congestion control, and a client that stops reading
+(its socket full of the images it asked for) makes the send wait for room on its link, up to
+``limits.MAX_BLOCKED_REPLY_SECONDS`` before Zenoh closes that link. Sent from the simulation
+thread, that wait held every client (issue 23: 5.2-5.6 s) and the simulation itself; here the
+simulation steps on, requests are executed, and the other clients' sends wait that long once.
+
+Why one thread, not one per client: several threads pushing to the same blocked link (a client
+with several ids, its viewer queries, clients behind one Zenoh router) never came back, and
+when Zenoh's lease then closed the stuck peer, every other client's queries stopped too
+(measured with 17 sends to a stopped peer on 64 threads; Zenoh's own issue #1876 "Blocking push
+can block the router indefinitely"). A single sender never pushes concurrently, and Zenoh's
+``wait_before_close`` then ends the wait as configured (2.01 s measured).
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Callable, Hashable, Iterable
+
+from simx_server.base import limits
+
+log = logging.getLogger("simx.server")
+
+
+class Courier:
+    """Per-lane ordered sends on the sending thread."""
+
+    def __init__(self) -> None:
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="simx-send")
+        self._lock = threading.Lock()
+        # lanes with sends waiting or running: lane -> deque of (job, futures it waits for)
+        self._lanes: dict[Hashable, collections.deque] = {}
+        self._idle = threading.Condition(self._lock)
+        self._closed = False
+
+    def send(self, lane: Hashable, job: Callable[[], None], waits: Iterable[Future] = ()) -> None:
+        """Run ``job()`` on the sending thread once every future of ``waits`` is done and every
+        job handed over earlier on ``lane`` has run. Never blocks; an exception of ``job`` is
+        logged. After :meth:`close`, ``job`` runs at once on the calling thread."""
+        item = (job, tuple(waits))
+        with self._lock:
+            if not self._closed:
+                lane_jobs = self._lanes.get(lane)
+                if lane_jobs is not None:  # a pump is on this lane (running or waiting): it takes it
+                    lane_jobs.append(item)
+                    return
+                self._lanes[lane] = collections.deque([item])
+                self._executor.submit(self._pump, lane)
+                return
+        try:  # closed: the render thread has finished, so these are done
+            for f in item[1]:
+                f.exception(timeout=limits.MAX_BLOCKED_REPLY_SECONDS)
+        except Exception:  # not rendered (a render thread that did not finish): not sent
+            log.warning("closing: a send to %s was dropped, its images were not rendered", lane)
+            return
+        self._run(lane, job)
+
+    def pending(self) -> int:
+        """Lanes with sends waiting or running (for tests and benchmarks)."""
+        with self._lock:
+            return len(self._lanes)
+
+    def _pump(self, lane: Hashable) -> None:
+        """Run a lane's jobs in order until it is empty or its next job waits for a render."""
+        while True:
+            with self._lock:
+                lane_jobs = self._lanes[lane]
+                if not lane_jobs:
+                    del self._lanes[lane]
+                    if not self._lanes:
+                        self._idle.notify_all()
+                    return
+                job, waits = lane_jobs[0]
+                waiting = next((f for f in waits if not f.done()), None)
+                if waiting is None:
+                    lane_jobs.popleft()
+            if waiting is not None:  # the lane stays (its head waits): no other pump starts on it
+                waiting.add_done_callback(lambda _f: self._resume(lane))
+                return
+            self._run(lane, job)
+
+    def _resume(self, lane: Hashable) -> None:
+        """A render a lane waited for is done (on the render thread): pump the lane again."""
+        try:
+            self._executor.submit(self._pump, lane)
+        except RuntimeError:  # shut down meanwhile: finish the lane here
+            self._pump(lane)
+
+    @staticmethod
+    def _run(lane: Hashable, job: Callable[[], None]) -> None:
+        try:
+            job()
+        except Exception:
+            log.exception("sending to %s", lane)
+
+    def close(self, timeout: float = limits.MAX_BLOCKED_REPLY_SECONDS + 1.0) -> None:
+        """Wait (at most ``timeout`` s) for the sends handed over so far, then stop the threads;
+        later sends run on the caller's thread. Idempotent."""
+        with self._lock:
+            if self._closed:
+                return
+            self._idle.wait_for(lambda: not self._lanes, timeout)
+            self._closed = True
+            left = len(self._lanes)
+        if left:
+            log.warning("closing with sends to %d client(s) not done", left)
+        self._executor.shutdown(wait=False, cancel_futures=False)

@@ -1,0 +1,78 @@
+"""Streamed frames render on a render thread of their own (issue 23): a client's streams of huge
+images (1.5 s a frame at 4096x4096 on llvmpipe) made another client's image request wait
+behind them for seconds. Requests render on the request thread; streams, once their thread's
+renderers are warm, on the stream thread."""
+
+from __future__ import annotations
+
+import gc
+import os
+import threading
+import weakref
+from concurrent.futures import Future
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import pytest  # noqa: E402
+
+from simx_server.scene.simulation import Simulation  # noqa: E402
+
+SCENE = Path(__file__).resolve().parents[1] / "scenes" / "sensors.xml"
+
+
+@pytest.fixture
+def sim():
+    s = Simulation(SCENE, dt=0.05, realtime=False)
+    assert s.vision.wait_ready(30)
+    yield s
+    s.close()
+
+
+def test_a_request_does_not_wait_behind_the_stream_thread(sim):
+    vision = sim.vision
+    cam = sim.world.resolve("cam").handle
+    vision.for_streams = True
+    try:  # the first streamed image renders on the request thread while the stream thread warms up
+        first = vision.image_deferred(cam, 0)
+        assert first.future.result(30)[0] == [32, 24]
+        assert vision._streaming_ready.result(30) is None
+        busy, release = threading.Event(), threading.Event()
+        vision.after(lambda: (busy.set(), release.wait(30)))  # the stream thread is held
+        assert busy.wait(10)
+        sim.world.version += 1  # a new state (as a step makes): frames not cached
+        streamed = vision.image_deferred(cam, 0)
+    finally:
+        vision.for_streams = False
+    try:
+        (w, h), data = vision.image_bytes(cam, 0)  # a request: the stream thread is still held
+        assert (w, h) == (32, 24) and len(data) == 32 * 24 * 3
+        assert not streamed.future.done()
+    finally:
+        release.set()
+    assert streamed.future.result(30)[1] == data  # the same state, drawn on each thread
+
+
+def test_after_all_waits_for_frames_of_either_thread_and_keeps_no_cycle(sim):
+    vision = sim.vision
+    frame: Future = Future()
+
+    class Payload:  # stands for a frame's bytes: must not outlive its use
+        pass
+
+    payload = Payload()
+    alive = weakref.ref(payload)
+
+    def job(p=payload) -> str:
+        return type(p).__name__
+
+    result = vision.after_all([frame], job)
+    del payload, job
+    assert not result.done()
+    frame.set_result(None)
+    assert result.result(10) == "Payload"
+    gc.disable()  # only reference counting: a cycle through the frame's callbacks would keep it
+    try:
+        assert alive() is None
+    finally:
+        gc.enable()
