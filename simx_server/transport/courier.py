@@ -25,8 +25,9 @@ from __future__ import annotations
 
 import collections
 import logging
+import queue
 import threading
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from typing import Callable, Hashable, Iterable
 
 from simx_server.base import limits
@@ -38,7 +39,11 @@ class Courier:
     """Per-lane ordered sends on the sending thread."""
 
     def __init__(self) -> None:
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="simx-send")
+        # Lanes due to be pumped, in order. A plain queue and thread, not an executor: the hop
+        # is on every blocking call's path (an executor's future and work item cost more).
+        self._ready: queue.SimpleQueue = queue.SimpleQueue()
+        self._thread = threading.Thread(target=self._serve, name="simx-send", daemon=True)
+        self._thread.start()
         self._lock = threading.Lock()
         # lanes with sends waiting or running: lane -> deque of (job, futures it waits for)
         self._lanes: dict[Hashable, collections.deque] = {}
@@ -57,7 +62,7 @@ class Courier:
                     lane_jobs.append(item)
                     return
                 self._lanes[lane] = collections.deque([item])
-                self._executor.submit(self._pump, lane)
+                self._ready.put(lane)
                 return
         try:  # closed: the render thread has finished, so these are done
             for f in item[1]:
@@ -91,12 +96,19 @@ class Courier:
                 return
             self._run(lane, job)
 
+    def _serve(self) -> None:
+        """The sending thread: pump each lane put in the ready queue, until None."""
+        while (lane := self._ready.get()) is not None:
+            self._pump(lane)
+
     def _resume(self, lane: Hashable) -> None:
         """A render a lane waited for is done (on the render thread): pump the lane again."""
-        try:
-            self._executor.submit(self._pump, lane)
-        except RuntimeError:  # shut down meanwhile: finish the lane here
+        with self._lock:
+            closed = self._closed
+        if closed:  # the sending thread has stopped: finish the lane here
             self._pump(lane)
+        else:
+            self._ready.put(lane)
 
     @staticmethod
     def _run(lane: Hashable, job: Callable[[], None]) -> None:
@@ -116,4 +128,4 @@ class Courier:
             left = len(self._lanes)
         if left:
             log.warning("closing with sends to %d client(s) not done", left)
-        self._executor.shutdown(wait=False, cancel_futures=False)
+        self._ready.put(None)  # the thread ends after what is queued (a stuck send: it is a daemon)
