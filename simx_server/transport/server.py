@@ -5,7 +5,8 @@ request, answers at once what it refuses (unreadable, over a bound, a full clien
 queues the rest in the client's own bounded queue (:mod:`simx_server.transport.sessions`); liveliness
 callbacks note clients' tokens. The thread that calls :meth:`Server.serve` owns the
 simulation; it serves the clients' queues round robin, executes each request atomically
-between physics steps, replies, steps the simulation every ``dt`` (paced to wall time when
+between physics steps, hands its reply to the sending thread (:mod:`simx_server.transport.courier`:
+a client that stops reading never holds this thread), steps the simulation every ``dt`` (paced to wall time when
 ``speed`` > 0; in synchronous mode once every synchronous client has triggered), and after
 every step publishes each client's streamed commands. With legacy pacing (the default) a
 client's blocking call waits in its queue until the simulation has stepped since its previous

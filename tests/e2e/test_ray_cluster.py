@@ -76,6 +76,16 @@ def _stop_namespace(ns: str, procs: list[subprocess.Popen]) -> None:
             time.sleep(0.1)
 
 
+def _worker_errors(tmp: str) -> str:
+    """The tracebacks in the Ray workers' stderr files of both nodes (a runner that died says why)."""
+    out = []
+    for err in sorted(Path(tmp).glob("*/session_*/logs/worker-*.err")):
+        text = err.read_text(errors="replace")
+        if "Traceback" in text or "Error" in text:
+            out.append(f"--- {err.relative_to(tmp)}:\n{text[-3000:]}")
+    return "\n".join(out)
+
+
 @pytest.fixture
 def ray_cluster():
     """A Ray head in namespace A and a worker node in B, with token authentication (a token of
@@ -117,12 +127,12 @@ def test_ppo_env_runners_step_servers_on_their_own_nodes(ray_cluster):
          "--episode-steps", "25", "--json", str(out)],
         capture_output=True, text=True, timeout=300, env=env, cwd=ROOT)
     print(run.stdout)  # per iteration: env steps, wall time; per runner: node and server
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:]
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-6000:] + _worker_errors(tmp)
     result = json.loads(out.read_text())
 
     assert [it["iteration"] for it in result["iterations"]] == [1, 2]
     assert result["iterations"][-1]["env_steps"] >= 200  # two iterations of 100 env steps
-    assert result["nodes"] == [ADDR_A, ADDR_B]  # one runner per node
+    assert result["nodes"] == [ADDR_A, ADDR_B], _worker_errors(tmp)  # one runner per node
     netns = {ns: f"net:[{os.stat(f'/run/netns/{ns}').st_ino}]" for ns in (a, b)}
     steps_by_namespace = {}
     for runner in result["env_runners"]:
