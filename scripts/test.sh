@@ -24,7 +24,8 @@ export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_NUM_THREADS="${OMP_
 # SIMX_TEST_WORKERS=0 runs them in this process, one after the other.
 workers="${SIMX_TEST_WORKERS:-4}"
 dist=()
-[ "$workers" != 0 ] && dist=(-n "$workers" --dist loadfile)
+# --no-loadscope-reorder: files are queued longest first (tests/conftest.py, SLOW_FILES), not by test count.
+[ "$workers" != 0 ] && dist=(-n "$workers" --dist loadfile --no-loadscope-reorder)
 echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 2-3 minutes on 2 cores) ..."
 start=$SECONDS
 status=0
