@@ -202,8 +202,23 @@ class UR5BallReachEnv(gym.Env):
         return int(self._blocking(vrep.simxGetObjectIntParameter, handle, param)[0])
 
     def _check(self, rc: int, what: str) -> None:
+        """Raise RuntimeError naming the call and its return code; with servers of its own
+        (``servers="local"``), whether each still runs (else its exit status) and its log tail."""
         if rc != vrep.simx_return_ok:
-            raise RuntimeError(f"{what} failed (return code {rc})")
+            raise RuntimeError(f"{what} failed (return code {rc}){self._servers_state()}")
+
+    def _servers_state(self) -> str:
+        """What the environment's own servers say ("" without servers of its own)."""
+        pool = self.local_servers
+        if pool is None:
+            return ""
+        try:
+            out = [f"\n--- its simx-server pid {pid} "
+                   f"{'still runs' if status is None else f'(exit status {status})'}, log tail:\n{log[-2000:]}"
+                   for pid, status, log in zip(pool.pids, pool.poll(), pool.logs())]
+        except Exception as exc:  # the message must not hide the error it explains
+            return f" (its servers' state unreadable: {exc})"
+        return "".join(out)
 
     def _read(self, function: Any, *args: Any) -> tuple:
         """``function(client, *args, mode)``'s results after the return code: from the inbox

@@ -7,8 +7,11 @@ model, at most ``limits.MAX_RENDERERS``.
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
+from typing import Iterator
 
 import mujoco
 
@@ -38,9 +41,54 @@ def sensor_option() -> mujoco.MjvOption:
     return option
 
 
+class GLLock:
+    """Frames are drawn on both render threads at once (:meth:`shared`), but a GL context is
+    made or freed alone (:meth:`exclusive`): MuJoCo's ``mjr_makeContext`` loads the process's
+    GL function pointers again (glad's globals) while the other thread may be calling them (a
+    suspect, not a proven cause, when an environment's server went away under load after the
+    stream thread came in). Writers go first: a waiting one holds back new frames."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._drawing = 0
+        self._making = False
+        self._waiting = 0  # threads waiting to make or free a context
+
+    @contextmanager
+    def shared(self) -> Iterator[None]:
+        with self._cond:
+            self._cond.wait_for(lambda: not self._making and not self._waiting)
+            self._drawing += 1
+        try:
+            yield
+        finally:
+            with self._cond:
+                self._drawing -= 1
+                self._cond.notify_all()
+
+    @contextmanager
+    def exclusive(self) -> Iterator[None]:
+        with self._cond:
+            self._waiting += 1
+            self._cond.wait_for(lambda: not self._making and not self._drawing)
+            self._waiting -= 1
+            self._making = True
+        try:
+            yield
+        finally:
+            with self._cond:
+                self._making = False
+                self._cond.notify_all()
+
+
+#: The one lock of the process's render threads.
+GL_LOCK = GLLock()
+
+
 def _close(renderer: mujoco.Renderer) -> None:
     try:
-        renderer.close()
+        with GL_LOCK.exclusive():
+            renderer.close()
     except Exception:  # a context already torn down by the driver
         pass
 
@@ -75,7 +123,8 @@ class RenderThread:
             while len(self.renderers) >= L.MAX_RENDERERS:  # sizes set at run time: bounded
                 _close(self.renderers.popitem(last=False)[1])
             try:
-                r = mujoco.Renderer(model, height, width)
+                with GL_LOCK.exclusive():
+                    r = mujoco.Renderer(model, height, width)
             except Exception as exc:
                 self.failure = f"{type(exc).__name__}: {exc}"
                 raise

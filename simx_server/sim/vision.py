@@ -63,7 +63,7 @@ from simx_client.protocol import ArgumentError
 from simx_server.base import limits as L
 from simx_server.sim import handle_render
 from simx_server.sim.physics import check_resolution
-from simx_server.sim.render_thread import RenderThread
+from simx_server.sim.render_thread import GL_LOCK, RenderThread
 from simx_server.sim.world import VISION_SENSOR, World
 
 log = logging.getLogger("simx.vision")
@@ -274,7 +274,8 @@ class VisionSensors:
             r.update_scene(data, camera=spec.camera, scene_option=thread.option)
             r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
             r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
-            return r.render()
+            with GL_LOCK.shared():  # not while the other render thread makes a context
+                return r.render()
         finally:
             if kind == "depth":
                 r.disable_depth_rendering()

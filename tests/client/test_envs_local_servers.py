@@ -48,6 +48,21 @@ def test_local_server_started_used_and_stopped_by_close():
     wait_until(lambda: not _alive(pid), timeout=15, what="the local server to stop on close()")
 
 
+def test_a_dead_local_server_is_named_with_its_exit_status_and_log():
+    """A Ray env runner died of "simxSynchronousTrigger failed (return code 3)" and nothing said
+    why its server went: the error now carries the server's exit status and log tail."""
+    env = UR5BallReachEnv(servers="local", max_episode_steps=5, timeout_ms=1000)
+    try:
+        env.reset(seed=1)
+        pid = env.local_servers.pids[0]
+        os.kill(pid, signal.SIGKILL)
+        wait_until(lambda: env.local_servers.poll() != [None], timeout=10, what="the server to be reaped")
+        with pytest.raises(RuntimeError, match=r"(?s)return code \d+.*its simx-server pid \d+ \(exit status -9\).*simx-server ready"):
+            env.step(np.zeros(3, np.float32))
+    finally:
+        env.close()
+
+
 CHILD = """
 import sys, time
 from simx_client.envs.ur5_ball_reach import UR5BallReachEnv

@@ -76,3 +76,35 @@ def test_after_all_waits_for_frames_of_either_thread_and_keeps_no_cycle(sim):
         assert alive() is None
     finally:
         gc.enable()
+
+
+def test_the_gl_lock_lets_frames_share_and_context_making_wait_for_them():
+    from simx_server.sim.render_thread import GLLock
+
+    lock, events = GLLock(), []
+    drawing, release = threading.Event(), threading.Event()
+
+    def draw() -> None:
+        with lock.shared():
+            events.append("draw")
+            drawing.set()
+            release.wait(10)
+            events.append("drawn")
+
+    def make() -> None:
+        with lock.exclusive():
+            events.append("make")
+
+    first = threading.Thread(target=draw)
+    first.start()
+    assert drawing.wait(10)
+    with lock.shared():  # frames share the lock
+        events.append("second draw")
+    maker = threading.Thread(target=make)
+    maker.start()
+    maker.join(0.2)
+    assert maker.is_alive() and "make" not in events  # waits for the frame in progress
+    release.set()
+    first.join(10)
+    maker.join(10)
+    assert events == ["draw", "second draw", "drawn", "make"]
