@@ -220,6 +220,11 @@ MAX_BLOCKED_REPLY_SECONDS = 2.0
 #: more let streams of huge images queue seconds of frames and memory (issue 23: 50 streams of
 #: a 4096x4096 sensor; requests render on their own thread).
 MAX_STREAM_STEPS_RENDERING = 2
+#: Streamed frames of at least this many pixels render on the stream render thread (made on the
+#: first such frame), so that they never delay another client's image request (1.5 s a frame at
+#: 4096x4096 on llvmpipe); smaller ones (a Kinect's 640x480: about 20 ms) stay on the request
+#: thread, and a server whose clients stream only those makes no second set of GL contexts.
+STREAM_THREAD_PIXELS = 1024 * 1024
 #: Streamed commands of one client (each is executed again after every step).
 MAX_STREAMS_PER_CLIENT = 256
 #: Characters of an error message kept (reply, simxGetLastErrors); longer ones are cut.

@@ -26,11 +26,11 @@ Frames are rendered on demand and cached until the world changes (one render per
 simulation step per sensor, however many clients ask). Rendering runs on threads of their own,
 which own the GL contexts, from a copy of ``MjData`` taken on the simulation thread: a slow
 software renderer delays the image, not the physics nor the other clients. Requests render on
-the *request* render thread; streamed images (set by the stream publisher through
-:attr:`VisionSensors.for_streams`) on a *stream* render thread made on the first streamed image,
-once its renderers are warm: a client's streams of huge images (a 4096x4096 frame takes 1.5 s on
-llvmpipe) never queue ahead of another client's image request, which waits for its own frame
-only (issue 23). Images leave here
+the *request* render thread; large streamed images (``limits.STREAM_THREAD_PIXELS``, set by the
+stream publisher through :attr:`VisionSensors.for_streams`) on a *stream* render thread made on
+the first of them, once its renderers are warm: a client's streams of huge images (a 4096x4096
+frame takes 1.5 s on llvmpipe) never queue ahead of another client's image request, which waits
+for its own frame only (issue 23). Images leave here
 as ``bytes`` in V-REP's layout: rows bottom-up, RGB, 8 bits; depth as float32 in 0..1 (linear
 between near and far).
 
@@ -122,12 +122,13 @@ def _grey(img: np.ndarray) -> np.ndarray:
 
 
 class Deferred:
-    """A command result that the render thread completes (the server replies once it is done)."""
+    """A command result that a render thread completes (the server replies once it is done);
+    ``thread`` is that render thread (None: unknown)."""
 
-    __slots__ = ("future",)
+    __slots__ = ("future", "thread")
 
-    def __init__(self, future: Future):
-        self.future = future
+    def __init__(self, future: Future, thread: RenderThread | None = None):
+        self.future, self.thread = future, thread
 
 
 class VisionSensors:
@@ -143,8 +144,9 @@ class VisionSensors:
 
     Attributes:
         for_streams: set by the stream publisher while it executes streamed commands: their
-            frames render on the stream render thread (once it is warm; before, on the request
-            thread, so that the first streamed image is not late).
+            frames of ``limits.STREAM_THREAD_PIXELS`` or more render on the stream render thread
+            (once it is warm; before, on the request thread, so that the first streamed image
+            is not late).
     """
 
     def __init__(self, world: World, previous: VisionSensors | None = None):
@@ -205,15 +207,17 @@ class VisionSensors:
         return self.specs[handle]
 
     def after(self, job: Callable[[], Any]) -> Future:
-        """Run ``job`` on the render thread in use (the stream thread while :attr:`for_streams`)
-        once every render submitted to it so far is done."""
-        return self._target().executor.submit(job)
+        """Run ``job`` on the request render thread once every render submitted to it so far
+        is done."""
+        return self._thread.executor.submit(job)
 
-    def after_all(self, futures: list[Future], job: Callable[[], Any]) -> Future:
-        """A future of ``job()``, run on the render thread in use (as :meth:`after`) once every
-        future of ``futures`` is done, whichever render thread makes them; the wait holds no
-        thread (a reply's frame may be a stream's, rendered on the stream thread)."""
-        executor, result = self._target().executor, Future()
+    def after_all(self, renders: list[Deferred], job: Callable[[], Any]) -> Future:
+        """A future of ``job()``, run once every render of ``renders`` is done, on the stream
+        render thread if one of them is drawn there, else on the request thread; the wait holds
+        no thread (frames may come from either thread: the cache shares them)."""
+        streaming = self._streaming is not None and any(d.thread is self._streaming for d in renders)
+        executor, result = (self._streaming if streaming else self._thread).executor, Future()
+        futures = [d.future for d in renders]
         left, lock = [len(futures)], threading.Lock()
 
         def run() -> None:
@@ -247,9 +251,11 @@ class VisionSensors:
             f.add_done_callback(one_done)
         return result
 
-    def _target(self) -> RenderThread:
-        """The render thread of the command being executed (simulation thread)."""
-        if not self.for_streams:
+    def _target(self, spec: SensorSpec | None = None) -> RenderThread:
+        """The render thread of a frame of ``spec`` for the command being executed (simulation
+        thread): the stream thread for streamed frames of at least ``limits.STREAM_THREAD_PIXELS``
+        (once its renderers are warm), else the request thread."""
+        if not self.for_streams or spec is None or spec.width * spec.height < L.STREAM_THREAD_PIXELS:
             return self._thread
         if self._streaming is None:  # the first streamed image: warm a thread for streams
             self._streaming = RenderThread("simx-render-streams")
@@ -342,7 +348,8 @@ class VisionSensors:
         cached = self._cached((handle, kind))
         if cached is not None:
             return cached
-        spec, thread = self.spec(handle), self._target()
+        spec = self.spec(handle)
+        thread = self._target(spec)
         if thread.snapshot is None or thread.snapshot[0] != version:  # one copy per thread: each reads its own
             thread.snapshot = (version, copy.copy(self.world.data))  # the state this version shows
         future = thread.executor.submit(self._render, thread, self.world.model, thread.snapshot[1], spec, kind)
@@ -409,11 +416,14 @@ class VisionSensors:
         """``[[resX, resY], bytes]`` of a frame, made once per state and shared (see :meth:`_cached`)."""
         cached = self._cached((handle, kind))
         if cached is None:
-            spec, frame, thread = self.spec(handle), job(), self._target()
+            spec, frame = self.spec(handle), job()
+            thread = self._target(spec)
             cached = thread.executor.submit(
                 lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()])
             self._cache[(handle, kind)] = (self.world.version, cached, thread)
-        return Deferred(cached)
+        else:
+            thread = self._cache[(handle, kind)][2]
+        return Deferred(cached, thread)
 
     def image_deferred(self, handle: int, options: int) -> Deferred:
         """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey)."""

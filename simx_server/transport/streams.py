@@ -94,7 +94,7 @@ class StreamPublisher:
                 try:
                     value = handler(sim, s.args)
                     if type(value) is Deferred:
-                        renders.append(value.future)
+                        renders.append(value)
                     elif type(value) not in SMALL:
                         budget -= reply_size(value)
                         if budget < 0:
@@ -112,7 +112,7 @@ class StreamPublisher:
                 if encoded is not None:
                     step_renders.append(encoded)  # after its frames
 
-    def _put_stream(self, client: str, sess: Session | None, entries: list, renders: list[Future],
+    def _put_stream(self, client: str, sess: Session | None, entries: list, renders: list[Deferred],
                     encodings: dict) -> Future | None:
         """Hand one client's stream update to the sending thread (its lane): published once
         ``renders`` (its images) are done and encoded, in order with the client's replies.
@@ -133,7 +133,7 @@ class StreamPublisher:
                     return zenoh.ZBytes(P.stream_update(t, [e[:2] + r for e, r in zip(entries, results)]))
 
                 encoded = encodings[same] = self.sim.vision.after_all(renders, encode)
-            renders = [encoded]
+            waits = [encoded]
 
             def update() -> zenoh.ZBytes:
                 return encoded.result()
@@ -143,6 +143,7 @@ class StreamPublisher:
             except Exception:
                 log.exception("client %s: encoding its stream update", client)
                 return None
+            waits = []
 
             def update() -> bytes:
                 return payload
@@ -158,5 +159,5 @@ class StreamPublisher:
 
         if sess is not None:
             self.sessions.handed_over(sess)
-        self.courier.send(client, send, renders)
-        return renders[0] if renders else None
+        self.courier.send(client, send, waits)
+        return waits[0] if waits else None

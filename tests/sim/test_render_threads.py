@@ -29,7 +29,22 @@ def sim():
     s.close()
 
 
-def test_a_request_does_not_wait_behind_the_stream_thread(sim):
+def test_small_streamed_frames_stay_on_the_request_thread(sim):
+    vision = sim.vision
+    cam = sim.world.resolve("cam").handle  # 32x24: far below limits.STREAM_THREAD_PIXELS
+    vision.for_streams = True
+    try:
+        streamed = vision.image_deferred(cam, 0)
+    finally:
+        vision.for_streams = False
+    assert streamed.thread is vision._thread and vision._streaming is None
+    assert streamed.future.result(30)[0] == [32, 24]
+
+
+def test_a_request_does_not_wait_behind_the_stream_thread(sim, monkeypatch):
+    from simx_server.base import limits
+
+    monkeypatch.setattr(limits, "STREAM_THREAD_PIXELS", 1)  # every streamed frame: the stream thread
     vision = sim.vision
     cam = sim.world.resolve("cam").handle
     vision.for_streams = True
@@ -38,7 +53,7 @@ def test_a_request_does_not_wait_behind_the_stream_thread(sim):
         assert first.future.result(30)[0] == [32, 24]
         assert vision._streaming_ready.result(30) is None
         busy, release = threading.Event(), threading.Event()
-        vision.after(lambda: (busy.set(), release.wait(30)))  # the stream thread is held
+        vision._streaming.executor.submit(lambda: (busy.set(), release.wait(30)))  # the stream thread is held
         assert busy.wait(10)
         sim.world.version += 1  # a new state (as a step makes): frames not cached
         streamed = vision.image_deferred(cam, 0)
@@ -54,6 +69,8 @@ def test_a_request_does_not_wait_behind_the_stream_thread(sim):
 
 
 def test_after_all_waits_for_frames_of_either_thread_and_keeps_no_cycle(sim):
+    from simx_server.sim.vision import Deferred
+
     vision = sim.vision
     frame: Future = Future()
 
@@ -66,7 +83,7 @@ def test_after_all_waits_for_frames_of_either_thread_and_keeps_no_cycle(sim):
     def job(p=payload) -> str:
         return type(p).__name__
 
-    result = vision.after_all([frame], job)
+    result = vision.after_all([Deferred(frame)], job)
     del payload, job
     assert not result.done()
     frame.set_result(None)
