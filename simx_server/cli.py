@@ -11,6 +11,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
+import faulthandler
 import json
 import logging
 import re
@@ -246,6 +247,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
+    # `kill -USR1 <pid>` writes every thread's stack to the log (stderr): what a server that
+    # stopped answering is doing (simx_client.envs names it when a call times out).
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     served = threading.Event()
     _watch_signals(server, served)
     sim.vision.wait_ready(limits.VISION_READY_TIMEOUT)  # the renderers exist before the first request

@@ -29,7 +29,10 @@ ROOT = Path(__file__).resolve().parents[1]
 #: scripts/test.sh passes --no-loadscope-reorder and the hook below queues files longest first
 #: (these; the others, mostly unit tests, by their test count at 0.05 s each).
 SLOW_FILES = {
-    "e2e/test_ray_cluster.py": 32, "e2e/test_train_ddpg.py": 21, "scene/test_editing.py": 19,
+    # The Ray cluster test (32 s) is queued mid-run, not first: started with the suite, when every
+    # process of a fresh clone compiles its modules, its env servers timed out a trigger (5 s)
+    # in three clean-clone runs of three.
+    "e2e/test_ray_cluster.py": 9, "e2e/test_train_ddpg.py": 21, "scene/test_editing.py": 19,
     "e2e/test_viewer.py": 19, "transport/test_server_core.py": 18, "scene/test_confinement.py": 18,
     "client/test_envs.py": 18, "transport/test_pool.py": 17,
     "client/test_client_robustness.py": 16, "transport/test_pacing.py": 15,
@@ -186,18 +189,26 @@ class ServerProcess:
     """A ``simx-server`` subprocess; started with :meth:`start`, stopped by PID in :meth:`stop`."""
 
     def __init__(self, *args: str, ports: list[int] | None = None, cwd: str | Path | None = None):
-        self.ports = ports or [free_port()]
         # The ZMQ remote API only where a test asks for it (--zmq-port): servers of parallel tests
         # must not compete for its default port.
         zmq = [] if any(a.split("=")[0] in ("--zmq-port", "--no-zmq") for a in args) else ["--no-zmq"]
-        cmd = [sys.executable, "-m", "simx_server.cli", *args, *zmq]
-        for p in self.ports:
-            cmd += ["--port", str(p)]
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
-        # The log goes to a file: a pipe nobody reads would fill up and block the server.
-        self.log = tempfile.TemporaryFile(mode="w+")
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self.log, env=env, text=True, cwd=cwd)
-        self.ready_line = self._wait_ready(timeout=60)
+        for attempt in range(3):
+            # A port found free may be taken before the server binds it (another worker's client
+            # or server): with ports of its own choosing, the server is started again on others.
+            self.ports = ports or [free_port()]
+            cmd = [sys.executable, "-m", "simx_server.cli", *args, *zmq]
+            for p in self.ports:
+                cmd += ["--port", str(p)]
+            # The log goes to a file: a pipe nobody reads would fill up and block the server.
+            self.log = tempfile.TemporaryFile(mode="w+")
+            self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self.log, env=env, text=True, cwd=cwd)
+            try:
+                self.ready_line = self._wait_ready(timeout=60)
+                return
+            except RuntimeError as exc:
+                if ports or attempt == 2 or "the port is already in use" not in str(exc):
+                    raise
 
     @property
     def port(self) -> int:

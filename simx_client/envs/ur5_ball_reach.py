@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import time
 from typing import Any
 
@@ -205,16 +206,30 @@ class UR5BallReachEnv(gym.Env):
         """Raise RuntimeError naming the call and its return code; with servers of its own
         (``servers="local"``), whether each still runs (else its exit status) and its log tail."""
         if rc != vrep.simx_return_ok:
-            raise RuntimeError(f"{what} failed (return code {rc}){self._servers_state()}")
+            raise RuntimeError(f"{what} failed (return code {rc})"
+                               f"{self._servers_state(stacks=bool(rc & vrep.simx_return_timeout_flag))}")
 
-    def _servers_state(self) -> str:
-        """What the environment's own servers say ("" without servers of its own)."""
+    def _servers_state(self, stacks: bool = False) -> str:
+        """What the environment's own servers say ("" without servers of its own); ``stacks``
+        (a call timed out): a server still running first writes its threads' stacks to its log
+        (SIGUSR1, simx-server's faulthandler)."""
         pool = self.local_servers
         if pool is None:
             return ""
         try:
+            if stacks:  # ask the running ones, and wait (at most 2 s) for their dumps
+                before = [len(log) for log in pool.logs()]
+                asked = [k for k, (pid, status) in enumerate(zip(pool.pids, pool.poll())) if status is None]
+                for k in asked:
+                    os.kill(pool.pids[k], signal.SIGUSR1)
+                deadline = time.monotonic() + 2.0
+                while time.monotonic() < deadline:
+                    logs = pool.logs()
+                    if all("Thread 0x" in logs[k][before[k]:] for k in asked):
+                        break
+                    time.sleep(0.05)
             out = [f"\n--- its simx-server pid {pid} "
-                   f"{'still runs' if status is None else f'(exit status {status})'}, log tail:\n{log[-2000:]}"
+                   f"{'still runs' if status is None else f'(exit status {status})'}, log tail:\n{log[-(8000 if stacks else 2000):]}"
                    for pid, status, log in zip(pool.pids, pool.poll(), pool.logs())]
         except Exception as exc:  # the message must not hide the error it explains
             return f" (its servers' state unreadable: {exc})"

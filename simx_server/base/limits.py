@@ -177,9 +177,12 @@ MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
-#: Simulation-thread time one request may take (s): commands after that point answer an error
-#: naming this bound, not executed (a request of 100 LoadScene held every client 71 s).
+#: Simulation-thread time one request may take (s; the thread's CPU time): commands after that
+#: point answer an error naming this bound, not executed (a request of 100 LoadScene held every
+#: client 71 s). CPU time, because on a loaded machine the thread is descheduled, not busy.
 MAX_REQUEST_SECONDS = 0.5
+#: Wall time one request may take (s), waits included (renders a script waits for): the same.
+MAX_REQUEST_WALL_SECONDS = 2.0
 #: Share of the simulation thread a client's scene loads and edits (commands.NOT_STREAMABLE)
 #: may take on average: each costs its own duration, the debt falls by this many s per s, and
 #: while a client's debt exceeds EDIT_DEBT_SECONDS its loads and edits answer "busy".

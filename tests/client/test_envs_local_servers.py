@@ -138,3 +138,19 @@ def test_rllib_env_creator_defaults_and_refusals():
         assert terminated or truncated  # max_episode_steps from the env_config
     finally:
         env.close()
+
+
+def test_a_timed_out_call_shows_the_local_servers_thread_stacks():
+    """A call that timed out (return code with simx_return_timeout_flag) asks each local server
+    that still runs for its threads' stacks (SIGUSR1, simx-server's faulthandler): the error
+    shows what the server was doing."""
+    env = UR5BallReachEnv(servers="local", max_episode_steps=5)
+    try:
+        env.reset(seed=1)
+        assert "Thread 0x" not in env._servers_state()
+        state = env._servers_state(stacks=True)
+        assert "still runs" in state and "Thread 0x" in state and "File " in state, state[-3000:]
+        assert env.local_servers.poll() == [None]  # the dump did not stop it
+        env.step(np.zeros(3, np.float32))
+    finally:
+        env.close()

@@ -171,3 +171,43 @@ def test_a_request_of_many_scene_loads_is_cut_at_its_time_budget_and_the_client_
     finally:
         session.close()
         srv.stop()
+
+
+def test_the_time_budget_counts_the_threads_work_not_a_loaded_machines_wait(monkeypatch):
+    """MAX_REQUEST_SECONDS is simulation-thread time: on a loaded 2-core CI machine a Ray env
+    runner's batch of five streaming reads was cut after 0.5 s of *wall* time (the thread was
+    descheduled, not busy) and the runner died. Waiting counts only past the wall bound
+    (MAX_REQUEST_WALL_SECONDS); work counts at once."""
+    import time
+
+    import zenoh as _zenoh
+
+    from simx_server.scene.simulation import Simulation
+    from simx_server.transport.server import Server
+
+    sim = Simulation(SCENE, dt=0.05, realtime=False)
+    try:
+        server = Server(sim, _zenoh.Config())
+
+        def waits(client, name, mode, args):  # descheduled: wall time, no CPU
+            time.sleep(0.3)
+            return [True, name]
+
+        def works(client, name, mode, args):  # busy: CPU time
+            end = time.thread_time() + 0.3
+            while time.thread_time() < end:
+                pass
+            return [True, name]
+
+        commands = [["GetPingTime", B, []]] * 3
+        monkeypatch.setattr(server, "_execute", waits)
+        assert [ok for ok, _ in server._run("c", commands)] == [True, True, True]  # 0.9 s waited
+        monkeypatch.setattr(L, "MAX_REQUEST_WALL_SECONDS", 0.5)
+        assert [ok for ok, _ in server._run("c", commands)] == [True, True, False]  # past the wall bound
+        monkeypatch.setattr(server, "_execute", works)
+        results = server._run("c", commands)
+        assert [ok for ok, _ in results] == [True, True, False]  # 0.6 s of work > 0.5 s
+        assert "MAX_REQUEST_SECONDS" in results[2][1]
+    finally:
+        server.courier.close()
+        sim.close()
