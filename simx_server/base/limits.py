@@ -217,6 +217,9 @@ MAX_UNSENT_PER_CLIENT = 4
 #: closed the link of a client reading large image replies on a loaded 2-core machine (the fuzz
 #: test, once): 2 s. An operator's Zenoh config file that sets the key keeps its own value.
 MAX_BLOCKED_REPLY_SECONDS = 2.0
+#: s the server waits for Zenoh's session to close when it stops: with a client that stopped
+#: reading it took 11.6 s (Zenoh waits for every link); SIGTERM ends the server within 2 s.
+ZENOH_CLOSE_SECONDS = 0.5
 #: Steps whose streamed images the stream render thread may still be making, all clients
 #: together: beyond, every client's image streams skip steps until it catches up (a stream gives
 #: the newest frame, as V-REP's did). Two keep that thread busy when a frame takes about a step;

@@ -117,9 +117,11 @@ class Courier:
         except Exception:
             log.exception("sending to %s", lane)
 
-    def close(self, timeout: float = limits.MAX_BLOCKED_REPLY_SECONDS + 1.0) -> None:
-        """Wait (at most ``timeout`` s) for the sends handed over so far, then stop the threads;
-        later sends run on the caller's thread. Idempotent."""
+    def close(self, timeout: float = 0.5) -> None:
+        """Wait (at most ``timeout`` s) for the sends handed over so far, then stop the thread;
+        later sends run on the caller's thread. Idempotent. A send blocked on a client that
+        stopped reading is not waited for beyond ``timeout`` (SIGTERM ends the server within
+        2 s): the sending thread is a daemon."""
         with self._lock:
             if self._closed:
                 return
@@ -127,5 +129,5 @@ class Courier:
             self._closed = True
             left = len(self._lanes)
         if left:
-            log.warning("closing with sends to %d client(s) not done", left)
+            log.warning("closing: sends to %d client(s) or viewer(s) not done (stopped reading?)", left)
         self._ready.put(None)  # the thread ends after what is queued (a stuck send: it is a daemon)
