@@ -12,6 +12,10 @@ from __future__ import annotations
 import logging
 from typing import Any
 
+import zenoh
+
+from simx_client import protocol as P
+from simx_server.base.arguments import quote
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.vision import Deferred
 
@@ -62,3 +66,22 @@ def resolve(results: list, client: str) -> list:
                 ok, value = False, f"internal error while rendering: {type(exc).__name__}: {exc}"
         out.append([ok, value])
     return out
+
+
+def encode_response(t: int, state: int, results: list, server_time: int, scene: int, client: str) -> bytes:
+    """The encoded response, or a short refusal when it cannot be encoded."""
+    try:
+        return P.response(t, state, results, server_time, scene)
+    except Exception as exc:
+        log.exception("client %s: encoding a reply", client)
+        return P.error_response(f"internal error while encoding the reply: {type(exc).__name__}")
+
+
+def send_refusal(query: zenoh.Query, key: str, reply: bytes) -> None:
+    """Send a refusal and Zenoh's final reply (on the sending thread)."""
+    try:
+        query.reply(query.key_expr, reply)
+    except Exception as exc:
+        log.warning("replying on %s: %s", quote(key), exc)
+    finally:
+        query.drop()

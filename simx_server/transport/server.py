@@ -41,7 +41,8 @@ from simx_server.transport.courier import Courier
 from simx_server.transport.consoles import cut as _cut
 from simx_server.transport.others import OtherTransports
 from simx_server.transport.peers import PeerCheck
-from simx_server.transport.replies import IMAGES, SMALL, image_size, reply_size, resolve
+from simx_server.transport.replies import (IMAGES, SMALL, encode_response, image_size, reply_size, resolve,
+                                           send_refusal)
 from simx_server.transport.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.transport.streams import StreamPublisher, _Stream
 from simx_server.transport.viewer_feed import ViewerFeed
@@ -138,7 +139,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         reply = P.error_response(
             f"protocol version mismatch: this server speaks {P.PROTOCOL_VERSION}, which sends "
             "requests to <prefix>/call/<client>; install the same simx version on client and server")
-        self.courier.send(key, lambda: self._refusal(query, key, reply))
+        self.courier.send(key, lambda: send_refusal(query, key, reply))
 
     def _on_query(self, query: zenoh.Query) -> None:
         """Zenoh's thread: read a request and queue it in its client's queue, or answer at once
@@ -170,17 +171,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         except Exception as exc:  # the server never dies from a client, and always answers
             log.exception("reading a request on %s", quote(key))
             reply = P.error_response(f"internal error while reading the request: {type(exc).__name__}")
-        self.courier.send(key, lambda: self._refusal(query, key, reply))  # Zenoh's thread never waits on a link
-
-    @staticmethod
-    def _refusal(query: zenoh.Query, key: str, reply: bytes) -> None:
-        """Send a refusal (a sending thread)."""
-        try:
-            query.reply(query.key_expr, reply)
-        except Exception as exc:
-            log.warning("replying on %s: %s", quote(key), exc)
-        finally:
-            query.drop()
+        self.courier.send(key, lambda: send_refusal(query, key, reply))  # Zenoh's thread never waits on a link
 
     def _on_client_token(self, sample: zenoh.Sample) -> None:
         client = str(sample.key_expr).rsplit("/", 1)[-1]
@@ -397,14 +388,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         self.sessions.handed_over(session)
         self.courier.send(client, send, renders)
 
-    @staticmethod
-    def _response(t: int, state: int, results: list, server_time: int, scene: int, client: str) -> bytes:
-        """The encoded response, or a short refusal when it cannot be encoded."""
-        try:
-            return P.response(t, state, results, server_time, scene)
-        except Exception as exc:
-            log.exception("client %s: encoding a reply", client)
-            return P.error_response(f"internal error while encoding the reply: {type(exc).__name__}")
+    _response = staticmethod(encode_response)
 
     def _run(self, client: str, commands: list) -> list:
         """Each command's ``[ok, value]``; commands past the reply budget (limits.MAX_REPLY_BYTES)
