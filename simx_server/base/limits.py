@@ -213,9 +213,9 @@ MAX_UNSENT_PER_CLIENT = 4
 #: ``transport/link/tx/queue/congestion_control/block/wait_before_close``, default 5 s). A
 #: client that stops reading (its socket full of the images it asked for) holds the sending
 #: thread (transport.courier; not the simulation thread) that long, once: then its link is
-#: closed and its replies are dropped. 0.5 s
-#: closed the link of a client reading large image replies on a loaded 2-core machine (the fuzz
-#: test, once): 2 s. An operator's Zenoh config file that sets the key keeps its own value.
+#: closed and its replies are dropped. 0.5 s closed the link of a client reading large image
+#: replies on a loaded 2-core machine (the fuzz test, once): 2 s. An operator's Zenoh config
+#: file that sets the key keeps its own value.
 MAX_BLOCKED_REPLY_SECONDS = 2.0
 #: s the server waits for Zenoh's session to close when it stops: with a client that stopped
 #: reading it took 11.6 s (Zenoh waits for every link); SIGTERM ends the server within 2 s.

@@ -257,10 +257,8 @@ class VisionSensors:
         (once its renderers are warm), else the request thread."""
         if not self.for_streams or spec is None or spec.width * spec.height < L.STREAM_THREAD_PIXELS:
             return self._thread
-        if self._streaming is None:  # the first streamed image: warm a thread for streams
+        if self._streaming is None:  # the first large streamed image: warm a thread for streams
             self._streaming = RenderThread("simx-render-streams")
-            self._streaming_ready = self._prepare(self._streaming)
-        elif self._streaming_ready is None:
             self._streaming_ready = self._prepare(self._streaming)
         return self._streaming if self._streaming_ready.done() else self._thread
 
@@ -330,24 +328,25 @@ class VisionSensors:
         return True
 
     # -------------------------------------------------------- simulation thread
-    def _cached(self, key: tuple[int, str]) -> Future | None:
-        """The cached future of ``key`` for the world's current state, if this command may use
-        it: a request never waits for a frame still queued on the stream render thread (it
-        renders its own: streams of huge images must not hold it up); a stream may share one."""
+    def _cached(self, key: tuple[int, str]) -> tuple[Future, RenderThread] | None:
+        """The cached future of ``key`` for the world's current state and its render thread, if
+        this command may use it: a request never waits for a frame still queued on the stream
+        render thread (it renders its own: streams of huge images must not hold it up); a
+        stream may share one."""
         cached = self._cache.get(key)
         if cached is None or cached[0] != self.world.version:
             return None
-        version, future, thread = cached
+        _, future, thread = cached
         if not self.for_streams and thread is not self._thread and not future.done():
             return None
-        return future
+        return future, thread
 
     def _frame(self, handle: int, kind: str) -> Future:
         """The frame of the world's current state (a future), rendered once per state."""
         version = self.world.version
         cached = self._cached((handle, kind))
         if cached is not None:
-            return cached
+            return cached[0]
         spec = self.spec(handle)
         thread = self._target(spec)
         if thread.snapshot is None or thread.snapshot[0] != version:  # one copy per thread: each reads its own
@@ -419,11 +418,9 @@ class VisionSensors:
             spec, frame = self.spec(handle), job()
             thread = self._target(spec)
             cached = thread.executor.submit(
-                lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()])
-            self._cache[(handle, kind)] = (self.world.version, cached, thread)
-        else:
-            thread = self._cache[(handle, kind)][2]
-        return Deferred(cached, thread)
+                lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()]), thread
+            self._cache[(handle, kind)] = (self.world.version, *cached)
+        return Deferred(*cached)
 
     def image_deferred(self, handle: int, options: int) -> Deferred:
         """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey)."""

@@ -77,11 +77,18 @@ def encode_response(t: int, state: int, results: list, server_time: int, scene: 
         return P.error_response(f"internal error while encoding the reply: {type(exc).__name__}")
 
 
-def send_refusal(query: zenoh.Query, key: str, reply: bytes) -> None:
-    """Send a refusal and Zenoh's final reply (on the sending thread)."""
+def answer(query: zenoh.Query, payload: bytes | zenoh.ZBytes) -> None:
+    """Reply to ``query`` and send Zenoh's final reply (on the sending thread); raises what the
+    reply raises, the final reply sent all the same."""
     try:
-        query.reply(query.key_expr, reply)
-    except Exception as exc:
-        log.warning("replying on %s: %s", quote(key), exc)
+        query.reply(query.key_expr, payload)
     finally:
         query.drop()
+
+
+def send_refusal(query: zenoh.Query, key: str, reply: bytes) -> None:
+    """:func:`answer` with a refusal; a failure is one warning naming the key."""
+    try:
+        answer(query, reply)
+    except Exception as exc:
+        log.warning("replying on %s: %s", quote(key), exc)

@@ -41,8 +41,8 @@ from simx_server.transport.courier import Courier
 from simx_server.transport.consoles import cut as _cut
 from simx_server.transport.others import OtherTransports
 from simx_server.transport.peers import PeerCheck
-from simx_server.transport.replies import (IMAGES, SMALL, encode_response, image_size, reply_size, resolve,
-                                           send_refusal)
+from simx_server.transport.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
+                                           resolve, send_refusal)
 from simx_server.transport.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.transport.streams import StreamPublisher, _Stream
 from simx_server.transport.viewer_feed import ViewerFeed
@@ -380,9 +380,8 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
 
         def send() -> None:
             try:
-                query.reply(query.key_expr, payload())
+                answer(query, payload())
             finally:
-                query.drop()  # Zenoh's final reply
                 self.sessions.sent(session)
 
         self.sessions.handed_over(session)

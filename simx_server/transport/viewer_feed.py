@@ -37,6 +37,7 @@ import zenoh
 from simx_client import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
+from simx_server.transport.replies import answer
 
 log = logging.getLogger("simx.viewer")
 
@@ -134,15 +135,8 @@ class ViewerFeed:
         self._reply(query, reply)
 
     def _reply(self, query: zenoh.Query, reply: bytes) -> None:
-        """Send ``reply`` and Zenoh's final reply on a sending thread (a lane of its own)."""
-
-        def send() -> None:
-            try:
-                query.reply(query.key_expr, reply)
-            finally:
-                query.drop()
-
-        self._send(("viewer", id(query)), send)
+        """Send ``reply`` and Zenoh's final reply on the sending thread (a lane of its own)."""
+        self._send(("viewer", id(query)), lambda: answer(query, reply))
 
     def publish(self, world: Any) -> None:
         """Put the current state when it differs from the last one put (call only when

@@ -5,9 +5,9 @@ render holds up no other lane (issue 23: sends to a stopped client held the simu
 from __future__ import annotations
 
 import threading
-import time
 from concurrent.futures import Future
 
+from conftest import wait_until
 from simx_server.transport.courier import Courier
 
 
@@ -24,9 +24,7 @@ def test_a_lane_keeps_its_order_and_waits_for_its_renders_without_holding_other_
         assert done.wait(5), "lane b waited for lane a's render"
         assert sent == ["b1", "b2"] and courier.pending() == 1
         frame.set_result(None)  # the render thread finishes: lane a goes on, in order
-        deadline = time.monotonic() + 5
-        while courier.pending() and time.monotonic() < deadline:
-            time.sleep(0.005)
+        wait_until(lambda: not courier.pending(), timeout=5, what="lane a sent")
         assert sent == ["b1", "b2", "a1", "a2"]
     finally:
         courier.close()
