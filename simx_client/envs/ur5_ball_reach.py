@@ -217,17 +217,20 @@ class UR5BallReachEnv(gym.Env):
         if pool is None:
             return ""
         try:
-            if stacks:  # ask the running ones, and wait (at most 2 s) for their dumps
+            if stacks:  # ask the running ones, and wait (at most 2 s) for their whole dumps
                 before = [len(log) for log in pool.logs()]
                 asked = [k for k, (pid, status) in enumerate(zip(pool.pids, pool.poll())) if status is None]
                 for k in asked:
                     os.kill(pool.pids[k], signal.SIGUSR1)
-                deadline = time.monotonic() + 2.0
+                deadline, sizes = time.monotonic() + 2.0, None
                 while time.monotonic() < deadline:
                     logs = pool.logs()
+                    # begun everywhere, and no longer growing (a dump is written thread by thread)
                     if all("Thread 0x" in logs[k][before[k]:] for k in asked):
-                        break
-                    time.sleep(0.05)
+                        if sizes == [len(log) for log in logs]:
+                            break
+                        sizes = [len(log) for log in logs]
+                    time.sleep(0.1)
             out = [f"\n--- its simx-server pid {pid} "
                    f"{'still runs' if status is None else f'(exit status {status})'}, log tail:\n{log[-(8000 if stacks else 2000):]}"
                    for pid, status, log in zip(pool.pids, pool.poll(), pool.logs())]

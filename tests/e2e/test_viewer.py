@@ -14,6 +14,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 
 import mujoco
 import numpy as np
@@ -162,10 +163,11 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
 
             def steady_shot():
                 """A screenshot of a drawn scene (not a uniform window), equal to the next one taken
-                after the server stepped 5 more times; as a 1-tuple (wait_until tests truth)."""
+                after the server stepped 5 more times and at least 1 s later (a viewer starved of
+                the CPU can leave one frame up for a while); as a 1-tuple (wait_until tests truth)."""
                 before = _window(xd.screenshot())
-                t = sim_time()
-                wait_until(lambda: sim_time() >= t + 0.25, what="5 more steps")
+                t, wall = sim_time(), time.monotonic() + 1.0
+                wait_until(lambda: sim_time() >= t + 0.25 and time.monotonic() >= wall, what="5 more steps")
                 after = _window(xd.screenshot())
                 return (after,) if after.std() > 20 and _changed(before, after) < 50 else None
 
@@ -199,13 +201,16 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
             viewer_log = tmp_path / "viewer.log"
             send_keys(xd.display, window, "space")
             wait_until(lambda: "view paused" in viewer_log.read_text(), what="the viewer's pause")
+            # The view the pause froze (a lagging viewer may have drawn a state or two more after
+            # the steady shot above), then the arm turns back: the view stays as it was.
+            paused, = wait_until(steady_shot, timeout=60, what="a steady paused view")
             assert vrep.simxSetJointTargetPosition(cid, joint, 0.0, WAIT) == 0
             wait_until(lambda: abs(vrep.simxGetJointPosition(cid, joint, WAIT)[1]) < 0.01,
                        timeout=20, what="UR5_joint1 back at 0")
-            paused, = wait_until(steady_shot, timeout=60, what="a steady paused view")
-            assert _changed(second, paused) < 50, "the paused view followed the arm"
+            still, = wait_until(steady_shot, timeout=60, what="a steady paused view after the turn back")
+            assert _changed(paused, still) < 50, "the paused view followed the arm"
             send_keys(xd.display, window, "space")
-            resumed, = wait_until(lambda: (s := steady_shot()) and _changed(second, s[0]) > 2000 and s,
+            resumed, = wait_until(lambda: (s := steady_shot()) and _changed(paused, s[0]) > 2000 and s,
                                   timeout=60, what="the resumed view showing the arm turned back")
 
             # An edit (the table removed): a new generation, the window reopens on the new model.
