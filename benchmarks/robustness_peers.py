@@ -120,7 +120,7 @@ def stuck_consumer(s: Settings) -> list[Figure]:
 
 
 def big_image_streams(s: Settings) -> list[Figure]:
-    """g. one process's 10 connections stream kinect_rgb's RGB image and depth buffer at
+    """g. 10 connections of another process stream kinect_rgb's RGB image and depth buffer at
     4096x4096 (sim_visionintparam_resolution_x/_y set at run time) for 20 s (8 s quick) while
     another client asks, blocking, for kinect_depth's 640x480 depth buffer."""
     seconds = s.t(20.0, 8.0)
@@ -142,17 +142,18 @@ def big_image_streams(s: Settings) -> list[Figure]:
         rgb = api.simxGetObjectHandle(other, "kinect_rgb", B)[1]
         assert api.simxSetObjectIntParameter(other, rgb, 1002, 4096, B) == 0
         assert api.simxSetObjectIntParameter(other, rgb, 1003, 4096, B) == 0
-        # ten streaming clients (raw ids of one session: one process cannot simxStart twice)
-        session = zenoh.open(client_config("127.0.0.1", srv.port))
-        streams = [["GetVisionSensorImage", P.MODE_STREAMING, [rgb, 0]],
-                   ["GetVisionSensorDepthBuffer", P.MODE_STREAMING, [rgb]]]
-        started = time.monotonic()
-        for i in range(10):  # each streaming call's first answer carries a frame
-            client = f"bigstream{i}{os.getpid()}"
-            list(session.get(P.call_key(P.DEFAULT_PREFIX, client), timeout=30, payload=P.request(client, streams)))
-        setup_s = time.monotonic() - started
-        loaded = depth_calls(seconds)
-        session.close()
+        # ten streaming clients in a process of their own, each reading its updates (raw ids of
+        # one session: one process cannot simxStart twice)
+        streamer = subprocess.Popen([sys.executable, "-c", _STREAMER, str(srv.port), str(rgb)], stdin=subprocess.PIPE,
+                                    stdout=subprocess.PIPE, text=True, env=child_env())
+        try:
+            setup_s = float(streamer.stdout.readline())
+            loaded = depth_calls(seconds)
+            streamer.stdin.close()  # the streamer counts until then
+            count, size = map(int, streamer.stdout.readline().split())
+        finally:
+            streamer.kill()
+            streamer.wait()
         rss_after = _rss_mb(srv.pid)
         api.simxFinish(other)
     lat = [x * 1e3 for x, _ in loaded]
@@ -162,8 +163,40 @@ def big_image_streams(s: Settings) -> list[Figure]:
                    floor={"label": "the same calls unloaded", **summary(x * 1e3 for x, _ in unloaded)},
                    note=(f"p99 {np.percentile(lat, 99):.0f} ms, max {max(lat):.0f} ms over {len(lat)} calls "
                          f"({failed} not ok); server RSS {rss_before:.0f} -> {rss_after:.0f} MB; the 10 streaming "
-                         f"calls took {setup_s:.1f} s"))]
+                         f"calls took {setup_s:.1f} s; the 10 streaming clients got {count / seconds:.2f} "
+                         f"updates/s ({size / seconds / 1e6:.0f} MB/s) in all"))]
 
+
+
+#: g's streaming clients: ``python -c _STREAMER PORT HANDLE``: 10 raw ids stream the sensor's
+#: image and depth buffer; prints the seconds that took, then (at EOF on stdin) the number of
+#: stream updates received and their bytes.
+_STREAMER = """
+import os, sys, threading, time
+import zenoh
+from simx_client import protocol as P
+from simx_client.connection import client_config
+port, rgb = int(sys.argv[1]), int(sys.argv[2])
+session = zenoh.open(client_config("127.0.0.1", port))
+received, lock = [0, 0], threading.Lock()
+def count(sample):
+    with lock:
+        received[0] += 1
+        received[1] += len(sample.payload)
+streams = [["GetVisionSensorImage", P.MODE_STREAMING, [rgb, 0]], ["GetVisionSensorDepthBuffer", P.MODE_STREAMING, [rgb]]]
+subscribers, started = [], time.monotonic()
+for i in range(10):  # each streaming call's first answer carries a frame
+    client = f"bigstream{i}{os.getpid()}"
+    subscribers.append(session.declare_subscriber(P.stream_key(P.DEFAULT_PREFIX, client), count))
+    list(session.get(P.call_key(P.DEFAULT_PREFIX, client), timeout=30, payload=P.request(client, streams)))
+print(time.monotonic() - started, flush=True)
+with lock:
+    received[:] = [0, 0]
+sys.stdin.read()
+with lock:
+    print(*received, flush=True)
+session.close()
+"""
 
 
 def _rss_mb(pid: int) -> float:

@@ -34,7 +34,7 @@ from __future__ import annotations
 import re
 import reprlib
 import threading
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 import msgpack
 
@@ -492,9 +492,11 @@ def _shape(value: Any) -> str:
     return f"a {type(value).__name__}"
 
 
-def response(sim_time_ms: int, state: int, results: list, server_time_ms: int = 0, scene_id: int = 0) -> bytes:
-    """Encode a response: ``results`` is a list of ``[ok, value_or_message]``."""
-    return pack([PROTOCOL_VERSION, sim_time_ms, state, server_time_ms, scene_id, results])
+def response(sim_time_ms: int, state: int, results: list, server_time_ms: int = 0, scene_id: int = 0,
+             encode: Callable[[Any], bytes] = pack) -> bytes:
+    """Encode a response: ``results`` is a list of ``[ok, value_or_message]``; ``encode``: a
+    msgpack encoder (the server's for large images)."""
+    return encode([PROTOCOL_VERSION, sim_time_ms, state, server_time_ms, scene_id, results])
 
 
 def unpack_response(payload: bytes) -> list:
@@ -511,9 +513,10 @@ def error_response(message: str) -> bytes:
     return pack({"v": PROTOCOL_VERSION, "err": message})
 
 
-def stream_update(sim_time_ms: int, entries: list) -> bytes:
-    """Encode a stream update: ``entries`` is a list of ``[name, id_args, ok, value]``."""
-    return pack([PROTOCOL_VERSION, sim_time_ms, entries])
+def stream_update(sim_time_ms: int, entries: list, encode: Callable[[Any], bytes] = pack) -> bytes:
+    """Encode a stream update: ``entries`` is a list of ``[name, id_args, ok, value]``;
+    ``encode``: a msgpack encoder (the server's for large images)."""
+    return encode([PROTOCOL_VERSION, sim_time_ms, entries])
 
 
 def unpack_stream_update(payload: bytes) -> tuple[int, list]:

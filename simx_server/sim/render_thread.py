@@ -14,6 +14,7 @@ from contextlib import contextmanager
 from typing import Iterator
 
 import mujoco
+import numpy as np
 
 from simx_server.base import limits as L
 
@@ -98,8 +99,9 @@ class RenderThread:
     ``MjrContext`` per resolution), bound to one model. Shared by the successive VisionSensors
     of a server (scene loads, edits); jobs run in the order they were submitted."""
 
-    def __init__(self, name: str = "simx-render") -> None:
+    def __init__(self, name: str = "simx-render", band_pixels: int | None = None) -> None:
         self.executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix=name)
+        self.band_pixels = band_pixels  # frames drawn in bands of at most this many pixels (None: whole)
         # render thread only; most recently used last, at most limits.MAX_RENDERERS
         self.renderers: OrderedDict[tuple[int, int], mujoco.Renderer] = OrderedDict()
         self.model: mujoco.MjModel | None = None  # the model the renderers were made for
@@ -135,9 +137,45 @@ class RenderThread:
             self.option = sensor_option()
         return r
 
+    def band_rows(self, width: int, height: int) -> int:
+        """Rows of the renderer a ``width`` x ``height`` frame is drawn with: ``height``, or with
+        ``band_pixels`` the rows of one band (see :func:`render_bands`)."""
+        return height if not self.band_pixels else max(1, min(height, self.band_pixels // width))
+
     def free(self) -> None:
         """Free every GL context (render thread)."""
         for r in self.renderers.values():
             _close(r)
         self.renderers.clear()
         self.model = None
+
+
+def render_bands(r: mujoco.Renderer, height: int) -> np.ndarray:
+    """``r.render()`` of the scene ``r`` holds (``update_scene`` done), top-down rows, under the
+    GL lock; ``height``: the frame's rows, ``r.height`` or more.
+
+    A frame taller than the renderer is drawn in horizontal bands of ``r.height`` rows, each with
+    the camera's frustum cut to its rows (MuJoCo computes the frustum's width from the viewport,
+    so each band has the whole frame's projection): the bands equal the whole frame to within 2
+    of 255 (RGB) and 1e-4 m (depth) but for a pixel or two on a silhouette, which the cut frustum's
+    rounding puts on the other side. Rows past the top of the last band are drawn and dropped.
+    Each band is its own render, so on Mesa's llvmpipe, whose one rasteriser queue serves every
+    GL context of the process, another thread's frame waits for one band, not the whole frame."""
+    rows = r.height
+    if rows >= height:
+        with GL_LOCK.shared():  # not while the other render thread makes a context
+            return r.render()
+    cameras = r.scene.camera  # mjvGLCamera: left and right eye (the same for a mono view)
+    bottom, top = cameras[0].frustum_bottom, cameras[0].frustum_top
+    out = None
+    for first in range(0, height, rows):  # the band's first row, counted from the bottom
+        for c in cameras:
+            c.frustum_bottom = bottom + (top - bottom) * first / height
+            c.frustum_top = bottom + (top - bottom) * (first + rows) / height
+        with GL_LOCK.shared():
+            band = r.render()
+        if out is None:
+            out = np.empty((height,) + band.shape[1:], band.dtype)
+        n = min(rows, height - first)
+        out[height - first - n: height - first] = band[rows - n:]
+    return out

@@ -63,7 +63,7 @@ from simx_client.protocol import ArgumentError
 from simx_server.base import limits as L
 from simx_server.sim import handle_render
 from simx_server.sim.physics import check_resolution
-from simx_server.sim.render_thread import GL_LOCK, RenderThread
+from simx_server.sim.render_thread import RenderThread, render_bands
 from simx_server.sim.world import VISION_SENSOR, World
 
 log = logging.getLogger("simx.vision")
@@ -258,7 +258,7 @@ class VisionSensors:
         if not self.for_streams or spec is None or spec.width * spec.height < L.STREAM_THREAD_PIXELS:
             return self._thread
         if self._streaming is None:  # the first large streamed image: warm a thread for streams
-            self._streaming = RenderThread("simx-render-streams")
+            self._streaming = RenderThread("simx-render-streams", L.STREAM_BAND_PIXELS)
             self._streaming_ready = self._prepare(self._streaming)
         return self._streaming if self._streaming_ready.done() else self._thread
 
@@ -269,7 +269,7 @@ class VisionSensors:
         """One frame on ``thread`` (the calling render thread), top-down rows: RGB (h, w, 3)
         uint8, depth (h, w) float32 in m, or ("handles") MuJoCo's segmentation (h, w, 2) int32
         (object id, type)."""
-        r = thread.renderer(model, spec.width, spec.height)
+        r = thread.renderer(model, spec.width, thread.band_rows(spec.width, spec.height))
         if kind == "depth":
             r.enable_depth_rendering()
         elif kind == "handles":
@@ -278,8 +278,7 @@ class VisionSensors:
             r.update_scene(data, camera=spec.camera, scene_option=thread.option)
             r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
             r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
-            with GL_LOCK.shared():  # not while the other render thread makes a context
-                return r.render()
+            return render_bands(r, spec.height)
         finally:
             if kind == "depth":
                 r.disable_depth_rendering()

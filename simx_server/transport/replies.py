@@ -10,8 +10,10 @@ small results of most calls.
 from __future__ import annotations
 
 import logging
+import struct
 from typing import Any
 
+import msgpack
 import zenoh
 
 from simx_client import protocol as P
@@ -53,6 +55,47 @@ def image_size(sim: Simulation, name: str, args: list) -> int:
     return spec.width * spec.height * (1 if grey else 3)
 
 
+#: Binaries of at least this many bytes are copied by ``bytes.join`` (see :func:`pack_large`),
+#: which CPython does without the GIL from 1 MiB on.
+LARGE_BINARY = 1 << 20
+
+
+def pack_large(message: Any) -> bytes:
+    """``P.pack(message)``, the same bytes, for messages with large images (stream updates and
+    replies of 1024x1024 frames and more): each ``bytes`` value of ``LARGE_BINARY`` bytes or
+    more is copied once, by ``bytes.join``, which lets the other threads run meanwhile.
+
+    Why: msgpack's Packer copies a whole message holding the GIL. A 4096x4096 sensor's image and
+    depth buffer (117 MB) held it 170 ms in one piece, on a render thread, and another client's
+    request (its command, its small frame's reply) waited that long."""
+    packer = msgpack.Packer(use_bin_type=True)
+    pieces: list[bytes] = []
+    small = bytearray()  # the msgpack bytes since the last large binary
+
+    def walk(value: Any) -> None:
+        t = type(value)
+        if t is bytes and len(value) >= LARGE_BINARY:
+            small.extend(struct.pack(">BI", 0xC6, len(value)))  # msgpack bin 32
+            pieces.append(bytes(small))
+            small.clear()
+            pieces.append(value)
+        elif t is list or t is tuple:
+            small.extend(packer.pack_array_header(len(value)))
+            for item in value:
+                walk(item)
+        elif t is dict:
+            small.extend(packer.pack_map_header(len(value)))
+            for key, item in value.items():
+                walk(key)
+                walk(item)
+        else:
+            small.extend(packer.pack(value))
+
+    walk(message)
+    pieces.append(bytes(small))
+    return b"".join(pieces)
+
+
 def resolve(results: list, client: str) -> list:
     """``[ok, value]`` results with every Deferred replaced by its value (called on the render
     thread); a failed render becomes an error result."""
@@ -68,10 +111,12 @@ def resolve(results: list, client: str) -> list:
     return out
 
 
-def encode_response(t: int, state: int, results: list, server_time: int, scene: int, client: str) -> bytes:
-    """The encoded response, or a short refusal when it cannot be encoded."""
+def encode_response(t: int, state: int, results: list, server_time: int, scene: int, client: str,
+                    large: bool = False) -> bytes:
+    """The encoded response (``large``: with :func:`pack_large`, for replies with images), or a
+    short refusal when it cannot be encoded."""
     try:
-        return P.response(t, state, results, server_time, scene)
+        return P.response(t, state, results, server_time, scene, pack_large if large else P.pack)
     except Exception as exc:
         log.exception("client %s: encoding a reply", client)
         return P.error_response(f"internal error while encoding the reply: {type(exc).__name__}")

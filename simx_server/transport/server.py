@@ -358,7 +358,8 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
             renders = [value.future for _, value in results if type(value) is Deferred]
             if renders:  # encoded by the sending thread once rendered: one such reply in memory at a time
                 def payload() -> bytes:
-                    return self._response(t, state, self._resolve(results, client), server_time, scene, client)
+                    return self._response(t, state, self._resolve(results, client), server_time, scene, client,
+                                          large=True)
             else:  # encoded now: the values are this step's
                 encoded = self._response(t, state, results, server_time, scene, client)
 

@@ -17,7 +17,7 @@ from simx_client import protocol as P
 from simx_server.base import limits
 from simx_server.commands import HANDLERS
 from simx_server.sim.vision import Deferred
-from simx_server.transport.replies import IMAGES, SMALL, image_size, reply_size
+from simx_server.transport.replies import IMAGES, SMALL, image_size, pack_large, reply_size
 from simx_server.transport.sessions import Session
 
 log = logging.getLogger("simx.server")
@@ -130,7 +130,8 @@ class StreamPublisher:
             if encoded is None:
                 def encode() -> zenoh.ZBytes:
                     results = self._resolve([[ok, value] for *_, ok, value in entries], client)
-                    return zenoh.ZBytes(P.stream_update(t, [e[:2] + r for e, r in zip(entries, results)]))
+                    return zenoh.ZBytes(P.stream_update(t, [e[:2] + r for e, r in zip(entries, results)],
+                                                        pack_large))
 
                 encoded = encodings[same] = self.sim.vision.after_all(renders, encode)
             waits = [encoded]

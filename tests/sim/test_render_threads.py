@@ -125,3 +125,44 @@ def test_the_gl_lock_lets_frames_share_and_context_making_wait_for_them():
     first.join(10)
     maker.join(10)
     assert events == ["draw", "second draw", "drawn", "make"]
+
+
+@pytest.mark.parametrize("kind", ["rgb", "depth", "handles"])
+def test_a_frame_drawn_in_bands_equals_the_whole_frame(kind):
+    """The stream render thread draws frames in bands of limits.STREAM_BAND_PIXELS (so that on
+    llvmpipe, one rasteriser queue for every GL context, another thread's frame waits for one
+    band, not a whole 4096x4096 scene): here 480 rows in bands of 100, the last one cut."""
+    import mujoco
+    import numpy as np
+
+    from simx_server.sim.render_thread import RenderThread, render_bands
+
+    model = mujoco.MjModel.from_xml_path(str(Path(__file__).resolve().parents[2] / "scenes" / "ur5_rg2_kinect.xml"))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    camera = mujoco.MjvCamera()  # the table, the arm and the ball, with shadows
+    camera.lookat[:], camera.distance, camera.elevation, camera.azimuth = [0, 0, 0.8], 2.0, -30, 120
+    whole, banded = RenderThread("test-whole"), RenderThread("test-bands", band_pixels=640 * 100)
+
+    def draw(thread: RenderThread) -> np.ndarray:
+        def job():
+            r = thread.renderer(model, 640, thread.band_rows(640, 480))
+            {"depth": r.enable_depth_rendering, "handles": r.enable_segmentation_rendering}.get(kind, lambda: None)()
+            r.update_scene(data, camera=camera)
+            return render_bands(r, 480), r.height
+        return thread.executor.submit(job).result(60)
+
+    try:
+        (a, rows_a), (b, rows_b) = draw(whole), draw(banded)
+    finally:
+        for thread in (whole, banded):
+            thread.executor.submit(thread.free).result(30)
+            thread.executor.shutdown()
+    assert (rows_a, rows_b) == (480, 100) and a.shape == b.shape and a.dtype == b.dtype
+    if kind == "rgb":
+        assert a.std() > 20 and np.abs(a.astype(int) - b.astype(int)).max() <= 2
+    elif kind == "depth":
+        # the same to 1e-4 m but for a pixel or two on a silhouette (rounding of the cut frustum)
+        assert np.ptp(a) > 1.0 and (np.abs(a - b) > 1e-4).sum() <= 5
+    else:  # segmentation: the same object at (almost) every pixel
+        assert len(np.unique(a[..., 0])) > 5 and (a != b).any(axis=2).mean() < 1e-3
