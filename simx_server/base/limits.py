@@ -232,10 +232,11 @@ MAX_STREAM_STEPS_RENDERING = 2
 #: thread, and a server whose clients stream only those makes no second set of GL contexts.
 STREAM_THREAD_PIXELS = 1024 * 1024
 #: The stream render thread draws a frame in horizontal bands of at most this many pixels (a
-#: 4096x4096 frame: 8 bands of 512 rows), each its own render: on software GL (Mesa's llvmpipe)
+#: 4096x4096 frame: 16 bands of 256 rows), each its own render: on software GL (Mesa's llvmpipe)
 #: every GL context of the process shares one rasteriser queue, so another client's frame waits
 #: behind one band instead of a whole 4096x4096 scene (400-800 ms). Bands cost more in all (the
-#: shadow map and the scene are drawn once per band: 534 -> 874 ms for a 4096x4096 RGB image).
+#: shadow map and the scene are drawn once per band: 534 -> 1,129 ms for a 4096x4096 RGB image;
+#: another client's p99 beside ten such streams 166-247 -> 59-60 ms, benchmarks/README.md part g).
 STREAM_BAND_PIXELS = 1024 * 1024
 #: Streamed commands of one client (each is executed again after every step).
 MAX_STREAMS_PER_CLIENT = 256
