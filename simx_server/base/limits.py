@@ -238,6 +238,16 @@ STREAM_THREAD_PIXELS = 1024 * 1024
 #: shadow map and the scene are drawn once per band: 534 -> 1,129 ms for a 4096x4096 RGB image;
 #: another client's p99 beside ten such streams 166-247 -> 59-60 ms, benchmarks/README.md part g).
 STREAM_BAND_PIXELS = 1024 * 1024
+#: A stream update or reply whose images take at least this many bytes is a *bulk* send: it is
+#: put with Zenoh's blocking congestion control (with "drop", the fragments of a 50 MB update of a
+#: 4096x4096 image were dropped every time: a streaming client received none in 10 s), and on the
+#: sending thread it gives way to other clients' sends, for at most MAX_BULK_DEFER_SECONDS.
+BULK_SEND_BYTES = 4 * 1024 * 1024
+MAX_BULK_DEFER_SECONDS = 0.5
+#: Bulk stream updates take at most this share of the sending thread's time, with a debt of
+#: BULK_DEBT_SECONDS allowed; past it an update is not pushed (its stream skips that step).
+BULK_SHARE = 0.25
+BULK_DEBT_SECONDS = 0.25
 #: Streamed commands of one client (each is executed again after every step).
 MAX_STREAMS_PER_CLIENT = 256
 #: Characters of an error message kept (reply, simxGetLastErrors); longer ones are cut.

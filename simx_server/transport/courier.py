@@ -19,6 +19,13 @@ when Zenoh's lease then closed the stuck peer, every other client's queries stop
 (measured with 17 sends to a stopped peer on 64 threads; Zenoh's own issue #1876 "Blocking push
 can block the router indefinitely"). A single sender never pushes concurrently, and Zenoh's
 ``wait_before_close`` then ends the wait as configured (2.01 s measured).
+
+Large sends go last: a *bulk* send (a stream update or reply with images of
+``limits.BULK_SEND_BYTES`` or more) takes the thread for as long as Zenoh needs to push it (a
+50 MB update: tens of milliseconds, more to a slow reader), so a lane whose next send is bulk
+gives way while other lanes are ready, for at most ``limits.MAX_BULK_DEFER_SECONDS``. Another
+client's small reply then waits for at most the one push under way, not for every client's.
+And bulk stream updates take at most ``limits.BULK_SHARE`` of the thread's time (:meth:`bulk_allowed`).
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ import collections
 import logging
 import queue
 import threading
+import time
 from concurrent.futures import Future
 from typing import Callable, Hashable, Iterable
 
@@ -42,19 +50,25 @@ class Courier:
         # Lanes due to be pumped, in order. A plain queue and thread, not an executor: the hop
         # is on every blocking call's path (an executor's future and work item cost more).
         self._ready: queue.SimpleQueue = queue.SimpleQueue()
-        self._thread = threading.Thread(target=self._serve, name="simx-send", daemon=True)
-        self._thread.start()
         self._lock = threading.Lock()
-        # lanes with sends waiting or running: lane -> deque of (job, futures it waits for)
+        # lanes with sends waiting or running: lane -> deque of (job, futures it waits for, bulk)
         self._lanes: dict[Hashable, collections.deque] = {}
         self._idle = threading.Condition(self._lock)
         self._closed = False
+        # sending thread only: lanes whose next send is bulk and gave way, with when they first did
+        self._deferred: collections.deque[tuple[Hashable, float]] = collections.deque()
+        self._bulk_debt, self._bulk_since = 0.0, time.monotonic()  # sending thread only: see bulk_allowed
+        self._thread = threading.Thread(target=self._serve, name="simx-send", daemon=True)
+        self._thread.start()
 
-    def send(self, lane: Hashable, job: Callable[[], None], waits: Iterable[Future] = ()) -> None:
+    def send(self, lane: Hashable, job: Callable[[], None], waits: Iterable[Future] = (),
+             bulk: bool = False) -> None:
         """Run ``job()`` on the sending thread once every future of ``waits`` is done and every
-        job handed over earlier on ``lane`` has run. Never blocks; an exception of ``job`` is
-        logged. After :meth:`close`, ``job`` runs at once on the calling thread."""
-        item = (job, tuple(waits))
+        job handed over earlier on ``lane`` has run; ``bulk`` (a send of
+        ``limits.BULK_SEND_BYTES`` or more) gives way to the sends of other lanes (see the
+        module's text). Never blocks; an exception of ``job`` is logged. After :meth:`close`,
+        ``job`` runs at once on the calling thread."""
+        item = (job, tuple(waits), bulk)
         with self._lock:
             if not self._closed:
                 lane_jobs = self._lanes.get(lane)
@@ -77,8 +91,10 @@ class Courier:
         with self._lock:
             return len(self._lanes)
 
-    def _pump(self, lane: Hashable) -> None:
-        """Run a lane's jobs in order until it is empty or its next job waits for a render."""
+    def _pump(self, lane: Hashable, since: float | None = None) -> None:
+        """Run a lane's jobs in order until it is empty, its next job waits for a render, or its
+        next job is bulk while other lanes are ready (the lane is then deferred; ``since``: when
+        it first gave way, None if it did not)."""
         while True:
             with self._lock:
                 lane_jobs = self._lanes[lane]
@@ -87,18 +103,49 @@ class Courier:
                     if not self._lanes:
                         self._idle.notify_all()
                     return
-                job, waits = lane_jobs[0]
+                job, waits, bulk = lane_jobs[0]
                 waiting = next((f for f in waits if not f.done()), None)
                 if waiting is None:
+                    if bulk and not self._ready.empty() and not self._closed:
+                        now = time.monotonic()
+                        since = now if since is None else since
+                        if now - since < limits.MAX_BULK_DEFER_SECONDS:  # others first
+                            self._deferred.append((lane, since))
+                            return
                     lane_jobs.popleft()
             if waiting is not None:  # the lane stays (its head waits): no other pump starts on it
                 waiting.add_done_callback(lambda _f: self._resume(lane))
                 return
-            self._run(lane, job)
+            if bulk:
+                started = time.monotonic()
+                self._run(lane, job)
+                self._bulk_debt = self._bulk_left(started) + time.monotonic() - started
+                self._bulk_since = time.monotonic()
+            else:
+                self._run(lane, job)
+            since = None  # a bulk send after this one gives way again
+
+    def _bulk_left(self, now: float) -> float:
+        return max(0.0, self._bulk_debt - (now - self._bulk_since) * limits.BULK_SHARE)
+
+    def bulk_allowed(self) -> bool:
+        """Whether a bulk stream update may be pushed now (called by the update's job, on the
+        sending thread): the time bulk sends took, less ``limits.BULK_SHARE`` s per s since, is
+        within ``limits.BULK_DEBT_SECONDS``. An update not pushed is a step its stream skips, as
+        V-REP's streams do when the client is slower than the simulation; replies are always sent."""
+        return self._bulk_left(time.monotonic()) <= limits.BULK_DEBT_SECONDS
 
     def _serve(self) -> None:
-        """The sending thread: pump each lane put in the ready queue, until None."""
-        while (lane := self._ready.get()) is not None:
+        """The sending thread: pump each lane put in the ready queue, until None; deferred
+        lanes (bulk sends) when no lane is ready."""
+        while True:
+            if self._deferred and (self._ready.empty() or time.monotonic() - self._deferred[0][1]
+                                   >= limits.MAX_BULK_DEFER_SECONDS):
+                self._pump(*self._deferred.popleft())
+                continue
+            lane = self._ready.get()
+            if lane is None:
+                return
             self._pump(lane)
 
     def _resume(self, lane: Hashable) -> None:

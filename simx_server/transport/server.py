@@ -356,6 +356,8 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
             t, state, scene = self.sim.stamp()
             server_time = int((time.monotonic() - self._t0) * 1000)
             renders = [value.future for _, value in results if type(value) is Deferred]
+            bulk = renders and sum(image_size(self.sim, name, args) for (name, _, args), (_, value)
+                                   in zip(commands, results) if type(value) is Deferred) >= limits.BULK_SEND_BYTES
             if renders:  # encoded by the sending thread once rendered: one such reply in memory at a time
                 def payload() -> bytes:
                     return self._response(t, state, self._resolve(results, client), server_time, scene, client,
@@ -368,15 +370,16 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         except Exception as exc:  # the server never dies from a client
             log.exception("client %s: answering a request", client)
             refusal = P.error_response(f"internal error while answering the request: {type(exc).__name__}")
-            renders = []
+            renders, bulk = [], False
 
             def payload() -> bytes:
                 return refusal
-        self._reply(session, query, payload, renders)
+        self._reply(session, query, payload, renders, bulk)
 
-    def _reply(self, session: Session, query: zenoh.Query, payload, renders: list) -> None:
+    def _reply(self, session: Session, query: zenoh.Query, payload, renders: list, bulk: bool = False) -> None:
         """Hand ``query``'s reply (``payload()``, called on the sending thread) to the courier
-        on its client's lane: sent once ``renders`` are done, in order with its stream updates."""
+        on its client's lane: sent once ``renders`` are done, in order with its stream updates
+        (``bulk``: images of limits.BULK_SEND_BYTES or more, see transport.courier)."""
         client = session.client
 
         def send() -> None:
@@ -386,7 +389,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
                 self.sessions.sent(session)
 
         self.sessions.handed_over(session)
-        self.courier.send(client, send, renders)
+        self.courier.send(client, send, renders, bulk)
 
     _response = staticmethod(encode_response)
 

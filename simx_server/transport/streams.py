@@ -108,14 +108,17 @@ class StreamPublisher:
                     log.exception("client %s: streamed simx%s raised", client, name)
                     entries.append([name, list(ident[1:]), False, f"internal error: {type(exc).__name__}"])
             if entries:
-                encoded = self._put_stream(client, session, entries, renders, encodings)
+                bulk = limits.MAX_REPLY_BYTES - budget >= limits.BULK_SEND_BYTES  # the update's bytes, about
+                encoded = self._put_stream(client, session, entries, renders, encodings, bulk)
                 if encoded is not None:
                     step_renders.append(encoded)  # after its frames
 
     def _put_stream(self, client: str, sess: Session | None, entries: list, renders: list[Deferred],
-                    encodings: dict) -> Future | None:
+                    encodings: dict, bulk: bool = False) -> Future | None:
         """Hand one client's stream update to the sending thread (its lane): published once
         ``renders`` (its images) are done and encoded, in order with the client's replies.
+        ``bulk`` (images of limits.BULK_SEND_BYTES or more): put with blocking congestion control
+        (Zenoh's "drop" dropped 50 MB updates every time) and giving way to other clients' sends.
 
         An update with images is encoded on the render thread, after its frames, into Zenoh's
         bytes (a 4096x4096 image is 50 MB to copy twice: 80 ms; putting the result costs
@@ -149,9 +152,12 @@ class StreamPublisher:
             def update() -> bytes:
                 return payload
 
+        congestion = zenoh.CongestionControl.BLOCK if bulk else zenoh.CongestionControl.DROP
+
         def send() -> None:
             try:
-                session.put(key, update())
+                if not bulk or self.courier.bulk_allowed():
+                    session.put(key, update(), congestion_control=congestion)
             except Exception:
                 log.exception("client %s: publishing its streams", client)
             finally:
@@ -160,5 +166,5 @@ class StreamPublisher:
 
         if sess is not None:
             self.sessions.handed_over(sess)
-        self.courier.send(client, send, waits)
+        self.courier.send(client, send, waits, bulk)
         return waits[0] if waits else None
