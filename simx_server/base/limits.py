@@ -238,6 +238,10 @@ STREAM_THREAD_PIXELS = 1024 * 1024
 #: shadow map and the scene are drawn once per band: 534 -> 1,129 ms for a 4096x4096 RGB image;
 #: another client's p99 beside ten such streams 166-247 -> 59-60 ms, benchmarks/README.md part g).
 STREAM_BAND_PIXELS = 1024 * 1024
+#: The stream render thread draws at most this share of the time (STREAM_RENDER_DEBT_SECONDS
+#: ahead): past it, image streams of large frames skip steps, leaving the CPU to requests.
+STREAM_RENDER_SHARE = 0.5
+STREAM_RENDER_DEBT_SECONDS = 0.5
 #: A stream update or reply whose images take at least this many bytes is a *bulk* send: it is
 #: put with Zenoh's blocking congestion control (with "drop", the fragments of a 50 MB update of a
 #: 4096x4096 image were dropped every time: a streaming client received none in 10 s), and on the

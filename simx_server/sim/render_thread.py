@@ -8,6 +8,7 @@ model, at most ``limits.MAX_RENDERERS``.
 from __future__ import annotations
 
 import threading
+import time
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -102,6 +103,7 @@ class RenderThread:
     def __init__(self, name: str = "simx-render", band_pixels: int | None = None) -> None:
         self.executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix=name)
         self.band_pixels = band_pixels  # frames drawn in bands of at most this many pixels (None: whole)
+        self._busy, self._busy_at = 0.0, time.monotonic()  # drawing time owed (charge, debt)
         # render thread only; most recently used last, at most limits.MAX_RENDERERS
         self.renderers: OrderedDict[tuple[int, int], mujoco.Renderer] = OrderedDict()
         self.model: mujoco.MjModel | None = None  # the model the renderers were made for
@@ -136,6 +138,16 @@ class RenderThread:
         if self.option is None:
             self.option = sensor_option()
         return r
+
+    def charge(self, seconds: float, share: float) -> None:
+        """Count ``seconds`` of drawing (render thread); what is owed falls by ``share`` s per s."""
+        now = time.monotonic()
+        self._busy, self._busy_at = self.debt(share, now) + seconds, now
+
+    def debt(self, share: float, now: float | None = None) -> float:
+        """Drawing time owed: the time charged less ``share`` s per s since (any thread)."""
+        now = time.monotonic() if now is None else now
+        return max(0.0, self._busy - (now - self._busy_at) * share)
 
     def band_rows(self, width: int, height: int) -> int:
         """Rows of the renderer a ``width`` x ``height`` frame is drawn with: ``height``, or with

@@ -53,6 +53,7 @@ import copy
 import dataclasses
 import logging
 import threading
+import time
 from concurrent.futures import Future
 from typing import Any, Callable
 
@@ -287,10 +288,20 @@ class VisionSensors:
 
     def _render(self, thread: RenderThread, model: mujoco.MjModel, data: mujoco.MjData, spec: SensorSpec,
                 kind: str) -> np.ndarray:
-        """Rendered frame of a request or stream (counted in ``renders``)."""
+        """Rendered frame of a request or stream (counted in ``renders``; on the stream thread,
+        its time in the thread's share, see :meth:`streams_over_share`)."""
+        started = time.monotonic()
         frame = self._draw(thread, model, data, spec, kind)
         self.renders += 1
+        if thread.band_pixels:
+            thread.charge(time.monotonic() - started, L.STREAM_RENDER_SHARE)
         return frame
+
+    def streams_over_share(self) -> bool:
+        """Whether the stream render thread drew more than ``limits.STREAM_RENDER_SHARE`` of the
+        time lately (``limits.STREAM_RENDER_DEBT_SECONDS`` ahead): image streams then skip steps."""
+        s = self._streaming
+        return s is not None and s.debt(L.STREAM_RENDER_SHARE) > L.STREAM_RENDER_DEBT_SECONDS
 
     def _prepare(self, thread: RenderThread) -> Future:
         """Make the renderers of this scene's sensors on ``thread`` and draw one frame of each

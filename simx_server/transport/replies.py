@@ -43,6 +43,12 @@ def reply_size(value: Any, depth: int = 0) -> int:
     return 64
 
 
+def image_pixels(sim: Simulation, args: list) -> int:
+    """Pixels of the frame an image command of these arguments makes (0: no vision sensor)."""
+    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
+    return 0 if spec is None else spec.width * spec.height
+
+
 def image_size(sim: Simulation, name: str, args: list) -> int:
     """Bytes of the image a GetVisionSensorImage/DepthBuffer command will return (0 when its
     handle is no vision sensor: the handler then answers the error)."""

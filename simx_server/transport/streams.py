@@ -17,7 +17,7 @@ from simx_client import protocol as P
 from simx_server.base import limits
 from simx_server.commands import HANDLERS
 from simx_server.sim.vision import Deferred
-from simx_server.transport.replies import IMAGES, SMALL, image_size, pack_large, reply_size
+from simx_server.transport.replies import IMAGES, SMALL, image_pixels, image_size, pack_large, reply_size
 from simx_server.transport.sessions import Session
 
 log = logging.getLogger("simx.server")
@@ -54,17 +54,22 @@ class StreamPublisher:
         # newest frame once it is free) instead of queueing seconds of frames and memory.
         self._stream_renders = [fs for fs in self._stream_renders if not all(f.done() for f in fs)]
         rendering = len(self._stream_renders) >= limits.MAX_STREAM_STEPS_RENDERING
+        # and streams of large frames skip steps while the stream thread drew more than its share
+        # of the time (limits.STREAM_RENDER_SHARE), leaving the CPU to requests
+        large = limits.STREAM_THREAD_PIXELS if sim.vision.streams_over_share() else None
         step_renders: list[Future] = []
         sim.vision.for_streams = True  # their frames render on the stream render thread
         try:
-            self._publish_each(sim, now, rendering, step_renders)
+            self._publish_each(sim, now, rendering, step_renders, large)
         finally:
             sim.vision.for_streams = False
         if step_renders:
             self._stream_renders.append(step_renders)
 
-    def _publish_each(self, sim, now: float, rendering: bool, step_renders: list[Future]) -> None:
-        """Execute and hand over every client's due streams (images only when not ``rendering``)."""
+    def _publish_each(self, sim, now: float, rendering: bool, step_renders: list[Future],
+                      large: int | None = None) -> None:
+        """Execute and hand over every client's due streams (images only when not ``rendering``,
+        and not of ``large`` pixels or more)."""
         encodings: dict = {}  # this step's updates with images, by content: encoded once
         for client, streams in self._streams.items():
             if not streams:
@@ -81,7 +86,7 @@ class StreamPublisher:
                     continue
                 name = s.name
                 if name in IMAGES:
-                    if not images:
+                    if not images or (large and image_pixels(sim, s.args) >= large):
                         continue
                     cost = image_size(sim, name, s.args)
                     if cost > budget:

@@ -166,3 +166,48 @@ def test_a_frame_drawn_in_bands_equals_the_whole_frame(kind):
         assert np.ptp(a) > 1.0 and (np.abs(a - b) > 1e-4).sum() <= 5
     else:  # segmentation: the same object at (almost) every pixel
         assert len(np.unique(a[..., 0])) > 5 and (a != b).any(axis=2).mean() < 1e-3
+
+
+def test_the_stream_thread_owes_its_drawing_time_less_its_share():
+    """limits.STREAM_RENDER_SHARE: the stream render thread's drawing time, less the share per
+    second since, is what it owes; past limits.STREAM_RENDER_DEBT_SECONDS image streams of large
+    frames skip steps (the publisher asks VisionSensors.streams_over_share)."""
+    from simx_server.sim.render_thread import RenderThread
+
+    thread = RenderThread("test-share", band_pixels=1024 * 1024)
+    try:
+        assert thread.debt(0.5) == 0.0
+        thread.charge(1.2, 0.5)  # a 1.2 s frame
+        at = thread._busy_at
+        assert thread.debt(0.5, at) == 1.2
+        assert abs(thread.debt(0.5, at + 1.0) - 0.7) < 1e-9  # 1 s later: half a second less
+        assert thread.debt(0.5, at + 10.0) == 0.0  # never below nothing
+    finally:
+        thread.executor.shutdown()
+
+
+def test_streamed_frames_of_the_stream_thread_count_against_its_share(sim, monkeypatch):
+    from simx_server.base import limits
+
+    vision = sim.vision
+    cam = sim.world.resolve("cam").handle
+    vision.for_streams = True
+    try:
+        vision.image_deferred(cam, 0).future.result(30)  # 32x24: the request thread, nothing owed
+        assert vision._streaming is None and not vision.streams_over_share()
+        monkeypatch.setattr(limits, "STREAM_THREAD_PIXELS", 1)  # every streamed frame: the stream thread
+        sim.world.version += 1  # a new state (as a step makes): frames not cached
+        vision.image_deferred(cam, 0).future.result(30)  # drawn on the request thread while it warms up
+        assert vision._streaming_ready.result(30) is None
+        sim.world.version += 1  # a new state: not cached
+        streamed = vision.image_deferred(cam, 0)
+        assert streamed.thread is vision._streaming
+        streamed.future.result(30)
+    finally:
+        vision.for_streams = False
+    owed = vision._streaming.debt(limits.STREAM_RENDER_SHARE)
+    assert owed > 0  # the frame's drawing time
+    monkeypatch.setattr(limits, "STREAM_RENDER_DEBT_SECONDS", owed / 2)
+    assert vision.streams_over_share()
+    monkeypatch.setattr(limits, "STREAM_RENDER_DEBT_SECONDS", 10.0)
+    assert not vision.streams_over_share()
