@@ -52,13 +52,11 @@ def image_pixels(sim: Simulation, args: list) -> int:
 def image_size(sim: Simulation, name: str, args: list) -> int:
     """Bytes of the image a GetVisionSensorImage/DepthBuffer command will return (0 when its
     handle is no vision sensor: the handler then answers the error)."""
-    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
-    if spec is None:
-        return 0
+    pixels = image_pixels(sim, args)
     if name == "GetVisionSensorDepthBuffer":
-        return spec.width * spec.height * 4
+        return pixels * 4
     grey = len(args) > 1 and type(args[1]) is int and args[1] & 1
-    return spec.width * spec.height * (1 if grey else 3)
+    return pixels * (1 if grey else 3)
 
 
 #: Binaries of at least this many bytes are copied by ``bytes.join`` (see :func:`pack_large`),
