@@ -293,13 +293,14 @@ class VisionSensors:
         started = time.monotonic()
         frame = self._draw(thread, model, data, spec, kind)
         self.renders += 1
-        if thread.band_pixels:
+        if thread is self._streaming:
             thread.charge(time.monotonic() - started, L.STREAM_RENDER_SHARE)
         return frame
 
     def streams_over_share(self) -> bool:
         """Whether the stream render thread drew more than ``limits.STREAM_RENDER_SHARE`` of the
-        time lately (``limits.STREAM_RENDER_DEBT_SECONDS`` ahead): image streams then skip steps."""
+        time lately (``limits.STREAM_RENDER_DEBT_SECONDS`` ahead): streams of its large frames then
+        skip steps."""
         s = self._streaming
         return s is not None and s.debt(L.STREAM_RENDER_SHARE) > L.STREAM_RENDER_DEBT_SECONDS
 
