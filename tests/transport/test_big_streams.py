@@ -44,7 +44,7 @@ def test_a_streamed_4096x4096_image_keeps_arriving():
         first = list(session.get(P.call_key(P.DEFAULT_PREFIX, client), timeout=30, payload=request))
         assert len(first) == 1 and first[0].ok is not None
         assert 4096 * 4096 * 3 >= limits.BULK_SEND_BYTES
-        wait_until(lambda: len(updates) >= 3, timeout=60, what="three stream updates of the 4096x4096 image")
+        wait_until(lambda: len(updates) >= 2, timeout=60, what="two stream updates of the 4096x4096 image")
         with lock:
             times = [t for t, _, _ in updates]
             assert all(ok and size == 4096 * 4096 * 3 for _, ok, size in updates), updates
