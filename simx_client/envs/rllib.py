@@ -29,9 +29,11 @@ from simx_client.envs.wrappers import TutorialStateObservation
 ENV_NAME = "simx-ur5-ball-reach"
 
 #: env_config defaults: small renders (the policy sees the tutorial state, not the images),
-#: a local server, episodes of 100 steps.
+#: a local server, episodes of 100 steps, calls that wait up to 20 s (an env runner shares its
+#: node's CPUs with the learner and the other runners: a first step that made a GL context took
+#: over 5 s on a loaded 2-core CI machine).
 DEFAULTS: dict[str, Any] = {"servers": "local", "width": 84, "height": 84, "tutorial_state": True,
-                            "max_episode_steps": 100, "observation": "tutorial"}
+                            "max_episode_steps": 100, "observation": "tutorial", "timeout_ms": 20_000}
 
 
 def env_creator(config: dict | None = None) -> gym.Env:

@@ -201,6 +201,23 @@ class VisionSensors:
         g = self.world.model.vis.global_
         g.offwidth, g.offheight = max(g.offwidth, w), max(g.offheight, h)
         self.world.version += 1  # cached frames are of the old size
+        self._warm(w, h)
+
+    def _warm(self, width: int, height: int) -> None:
+        """Make the request thread's renderer of a new size now (its GL context and
+        ``MjrContext``: 0.15 s on llvmpipe, seconds on a loaded machine), while the client goes
+        on with its set-up, rather than in its first image call (a Ray env runner's first
+        synchronous step timed out on it under CI load)."""
+        thread, model = self._thread, self.world.model
+
+        def warm() -> None:
+            if thread.newest is model:  # else a newer scene is queued: it prepares its own
+                try:
+                    thread.renderer(model, width, height)
+                except Exception as exc:  # the first image of that size says it again
+                    log.warning("vision sensors: cannot make a %dx%d renderer: %s", width, height, exc)
+
+        thread.executor.submit(warm)
 
     def spec(self, handle: int) -> SensorSpec:
         """The sensor's properties; raises UnknownObjectError/ObjectTypeError for other handles."""

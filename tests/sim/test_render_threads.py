@@ -211,3 +211,16 @@ def test_streamed_frames_of_the_stream_thread_count_against_its_share(sim, monke
     assert vision.streams_over_share()
     monkeypatch.setattr(limits, "STREAM_RENDER_DEBT_SECONDS", 10.0)
     assert not vision.streams_over_share()
+
+
+def test_a_resolution_set_at_run_time_makes_its_renderer_at_once(sim):
+    """simxSetObjectIntParameter 1002/1003: the GL context of the new size is made on the request
+    thread when the size is set, not in the client's first image call of that size."""
+    vision = sim.vision
+    cam = sim.world.resolve("cam").handle
+    vision.set_resolution(cam, 64, 48)
+    vision.after(lambda: None).result(30)  # the request thread has done what was queued
+    assert (64, 48) in vision._thread.renderers
+    renders = vision.renders
+    (w, h), data = vision.image_bytes(cam, 0)
+    assert (w, h) == (64, 48) and len(data) == 64 * 48 * 3 and vision.renders == renders + 1
