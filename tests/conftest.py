@@ -44,7 +44,7 @@ SLOW_FILES = {
     "e2e/test_integration.py": 8, "transport/test_cli.py": 7, "scripts/test_scripts.py": 7,
     "commands/test_small_fidelity.py": 7, "transport/test_security.py": 7,
     "transport/test_fuzz.py": 7, "commands/test_sensors.py": 7, "transport/test_first_run.py": 6,
-    "transport/test_big_streams.py": 5,
+    "transport/test_big_streams.py": 6,
     "client/test_envs_local_servers.py": 6, "scene/test_inspect_scene.py": 6,
     "client/test_api_objects.py": 6, "scripts/test_script_hardening.py": 6,
     "transport/test_slow_consumer.py": 5, "scene/test_scene_budgets.py": 5,
