@@ -29,6 +29,18 @@ dist=()
 echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 2-3 minutes on 2 cores) ..."
 start=$SECONDS
 status=0
-"$VENV/bin/python" -m pytest -ra ${dist[@]+"${dist[@]}"} "$@" || status=$?
+if [ $# -eq 0 ] && [ "$workers" != 0 ]; then
+  # The whole suite: the two-node Ray cluster test (marker "ray") runs alone after the others.
+  # Beside three busy workers on 2 cores its env runners' Zenoh sessions to their servers lost
+  # their lease or a step took over 20 s (3 of the last 8 clean runs); alone it takes about 30 s,
+  # about what it added to the parallel run.
+  "$VENV/bin/python" -m pytest -ra "${dist[@]}" -m "not ray" || status=$?
+  ray_status=0
+  "$VENV/bin/python" -m pytest -ra -m ray || ray_status=$?
+  [ "$ray_status" = 5 ] && ray_status=0  # no test has the marker: nothing to run
+  [ "$status" = 0 ] && status=$ray_status
+else
+  "$VENV/bin/python" -m pytest -ra ${dist[@]+"${dist[@]}"} "$@" || status=$?
+fi
 echo "simx: the tests took $((SECONDS - start)) s (exit status $status)."
 exit "$status"

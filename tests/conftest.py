@@ -29,9 +29,9 @@ ROOT = Path(__file__).resolve().parents[1]
 #: scripts/test.sh passes --no-loadscope-reorder and the hook below queues files longest first
 #: (these; the others, mostly unit tests, by their test count at 0.05 s each).
 SLOW_FILES = {
-    # The Ray cluster test (32 s) is queued mid-run, not first: started with the suite, when every
-    # process of a fresh clone compiles its modules, its env servers timed out a trigger (5 s)
-    # in three clean-clone runs of three.
+    # The Ray cluster test runs alone after the others in scripts/test.sh's whole-suite run; its
+    # weight orders it when pytest is given paths (queued mid-run: started first, with every
+    # process of a fresh clone compiling its modules, its env servers timed out a trigger).
     "e2e/test_ray_cluster.py": 9, "e2e/test_train_ddpg.py": 21, "scene/test_editing.py": 19,
     "e2e/test_viewer.py": 19, "transport/test_server_core.py": 18, "scene/test_confinement.py": 18,
     "client/test_envs.py": 18, "transport/test_pool.py": 17,
