@@ -344,3 +344,13 @@ MAX_VIEWER_QUERIES = 16
 #: client's p99 from 17 ms to 1 s. A viewer asks once when it opens and once per new model
 #: generation; the excess is answered "server busy" at once, naming this bound.
 MAX_VIEWER_MODELS_PER_SECOND = 4.0
+
+# ----------------------------------------------------------------- the ZMQ remote API (issue 29)
+# (simx_server/zmq: frontend.py, the socket thread; service.py, the simulation thread). The ZMQ
+# door has the legacy door's bounds (MAX_REQUEST_*, MAX_REPLY_BYTES, EDIT_SHARE, MAX_CLIENTS, the
+# script-call bounds above); these are its own. docs/SECURITY.md explains each one.
+
+#: Tables (Lua) or containers (Python) passed to one script function, at any depth (both
+#: doors; a ZMQ sim.callScriptFunction may nest them): a million empty tables in a 1 MiB
+#: request took the simulation thread 13 s to convert.
+MAX_SCRIPT_CALL_TABLES = 1 << 16

@@ -55,6 +55,45 @@ MAX_MEMORY = L.MAX_SCRIPT_MEMORY
 _LUA_BYTES_PER_VALUE = 64
 _MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
 
+_LUA_BYTES_PER_TABLE = 128  # a table's header and its slot in its parent, about
+
+
+def script_argument_bytes(args: tuple) -> int:
+    """Bytes ``args`` take in a Lua state, about, walked without recursion before any conversion.
+
+    Raises ArgumentError past limits.MAX_SCRIPT_CALL_VALUES values (numbers, booleans, strings),
+    MAX_SCRIPT_CALL_TABLES tables (lists and dicts: a million empty tables in a 1 MiB request
+    took 13 s to convert) or MAX_SCRIPT_CALL_BYTES bytes of strings and buffers, or nested deeper than the conversion goes."""
+    values = tables = size = 0
+    stack = [(args, 0)]
+    while stack:
+        items, depth = stack.pop()
+        for v in (items.items() if isinstance(items, dict) else items):
+            for w in (v if isinstance(items, dict) else (v,)):
+                if isinstance(w, str):
+                    values += 1
+                    size += len(w)
+                elif isinstance(w, (bytes, bytearray, memoryview)):  # buffers: counted by their bytes
+                    size += len(w) + _LUA_BYTES_PER_VALUE
+                elif not isinstance(w, (list, tuple, dict)):
+                    values += 1
+                else:
+                    tables += 1
+                    if tables > L.MAX_SCRIPT_CALL_TABLES:
+                        raise ArgumentError(f"more than {L.MAX_SCRIPT_CALL_TABLES} tables passed to a script "
+                                            "function (limits.MAX_SCRIPT_CALL_TABLES)")
+                    if depth >= _MAX_DEPTH:
+                        raise ArgumentError(f"tables nested deeper than {_MAX_DEPTH} passed to a script function")
+                    stack.append((w, depth + 1))
+            if values > L.MAX_SCRIPT_CALL_VALUES:
+                raise ArgumentError(f"more than {L.MAX_SCRIPT_CALL_VALUES} values passed to a script function "
+                                    "(limits.MAX_SCRIPT_CALL_VALUES)")
+    if size > L.MAX_SCRIPT_CALL_BYTES:
+        raise ArgumentError(f"{size} bytes of strings passed to a script function: at most "
+                            f"{L.MAX_SCRIPT_CALL_BYTES} (limits.MAX_SCRIPT_CALL_BYTES)")
+    return _LUA_BYTES_PER_VALUE * values + _LUA_BYTES_PER_TABLE * tables + size
+
+
 PRELUDE = r"""
 local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, PATTERN_WORK = ...
 local G = _G
@@ -388,19 +427,8 @@ class LuaScript(ChildScript):
         if function in LIFE_CYCLE:
             return self._bounded(function, fn, ())
         ints, floats, strings, buffer = args
-        rt = self._runtime
-        encoded = [s.encode("utf-8") for s in strings]
-        # Converting into Lua happens outside any protected call: a state that runs out of
-        # memory there aborts the process. So the arguments go in only when they surely fit.
-        need = (_LUA_BYTES_PER_VALUE * (len(ints) + len(floats) + len(encoded))
-                + sum(map(len, encoded)) + 2 * len(buffer))
-        free = MAX_MEMORY - rt.get_memory_used()
-        if need > free // 2:
-            raise ArgumentError(f"{self.label}: the arguments of {function!r} need about {need >> 20} MiB in the "
-                                f"script's Lua state, which has {free >> 20} MiB free of {MAX_MEMORY >> 20} "
-                                "(limits.MAX_SCRIPT_MEMORY); send less")
-        lua_args = (rt.table_from(ints), rt.table_from(floats), rt.table_from(encoded), bytes(buffer))
-        out = self._bounded(function, fn, lua_args)
+        lua_args = (ints, floats, [s.encode("utf-8") for s in strings], bytes(buffer))
+        out = self._call_with(function, fn, lua_args)
         try:
             values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
             return legacy_outputs(tuple(self._from_lua(v) for v in values))
@@ -413,16 +441,41 @@ class LuaScript(ChildScript):
         fn = self._lookup(function.encode())
         if fn is None:
             raise self._fault(function, "no such function")
-        try:
-            lua_args = tuple(self._to_lua(a) for a in args)
-        except (TypeError, ValueError) as exc:
-            raise ArgumentError(f"{self.label}, {function}: arguments that Lua cannot take: {exc}") from None
-        out = self._bounded(function, fn, lua_args)
+        out = self._call_with(function, fn, args)
         values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
         try:
             return [self._from_lua(v) for v in values]
         except (TypeError, ValueError) as exc:
             raise self._fault(function, f"returned values that cannot be sent: {exc}") from None
+
+    def _call_with(self, function: str, fn: Any, args: tuple) -> Any:
+        """``fn(*args)`` in the script's protected, time-bounded call (both doors: the legacy
+        simxCallScriptFunction's four lists and buffer, the ZMQ sim.callScriptFunction's values).
+
+        Bounds first, before any conversion (:func:`script_argument_bytes`: limits.MAX_SCRIPT_CALL_VALUES,
+        MAX_SCRIPT_CALL_TABLES, MAX_SCRIPT_CALL_BYTES), then the state's free memory (half of it at
+        most). A failed allocation outside a protected call aborts the whole process (Lua's panic),
+        so the arguments are converted, into one table, with the state's cap lifted (by at most the
+        bounded size), and the cap is back before the call: a script that keeps what it gets runs
+        out of memory inside the call, a Lua error. Raises ArgumentError or ScriptError."""
+        rt = self._runtime
+        need = script_argument_bytes(args)
+        free = MAX_MEMORY - rt.get_memory_used()
+        if need > free // 2:
+            raise ArgumentError(f"{self.label}: the arguments of {function!r} need about {need >> 20} MiB in the "
+                                f"script's Lua state, which has {free >> 20} MiB free of {MAX_MEMORY >> 20} "
+                                "(limits.MAX_SCRIPT_MEMORY); send less")
+        rt.set_max_memory(0)
+        try:
+            packed = rt.table_from([self._to_lua(a) for a in args])
+            apply = getattr(self, "_apply", None)
+            if apply is None or apply[0] is not rt:
+                apply = self._apply = (rt, rt.eval("function(f, t, n) return f(table.unpack(t, 1, n)) end"))
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ArgumentError(f"{self.label}, {function}: arguments that Lua cannot take: {exc}") from None
+        finally:
+            rt.set_max_memory(MAX_MEMORY)
+        return self._bounded(function, apply[1], (fn, packed, len(args)))
 
     def _drop(self) -> None:
         self._lookup = None

@@ -1,0 +1,129 @@
+"""The ZMQ door held to the legacy door's bounds (issue 29), each case on a real server with raw
+pyzmq sockets: script arguments that would not fit a Lua state, replies sized before they are
+built, queued replies and connections per connection, the fair share per connection."""
+
+from __future__ import annotations
+
+import time
+
+import cbor2
+import pytest
+import zmq
+
+from conftest import ServerProcess, free_port
+from simx_server.base import limits
+from simx_server.zmq import codec
+
+SCENE = """<mujoco model="hardening">
+  <option timestep="0.005"/>
+  <worldbody>
+    <light name="light" pos="0 0 3"/>
+    <body name="Keeper" pos="0 0 0.1"><geom type="box" size="0.05 0.05 0.05"/></body>
+    <body name="Camera" pos="0 0 1"><camera name="cam" fovy="45" resolution="32 24"/></body>
+  </worldbody>
+  <custom><text name="simx:Keeper" data="child_script=keeper.lua"/></custom>
+</mujoco>
+"""
+KEEPER = """-- keeps what it gets, as an operator's five-line store(x)
+kept = {}
+function store(...) kept[#kept + 1] = {...} return #kept end
+function fill(mib) for i = 1, mib do kept[#kept + 1] = string.rep("x", 1048576) end return #kept end
+function forget() kept = {} collectgarbage() return 0 end
+"""
+
+
+@pytest.fixture(scope="module")
+def zmq_server(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("hardening")
+    (folder / "keeper.lua").write_text(KEEPER)
+    (folder / "scene.xml").write_text(SCENE)
+    port = free_port()
+    srv = ServerProcess(str(folder / "scene.xml"), "--zmq-port", str(port))
+    srv.zmq_port = port
+    yield srv
+    log = srv.stop()
+    assert "Traceback" not in log and "PANIC" not in log, log[-3000:]
+
+
+class Client:
+    """A raw REQ socket speaking the protocol (the official client's requests, by codec)."""
+
+    def __init__(self, port: int, uuid: str = "hardening", timeout_ms: int = 20000):
+        self.ctx = zmq.Context()
+        self.sock = self.ctx.socket(zmq.REQ)
+        self.sock.setsockopt(zmq.RCVTIMEO, timeout_ms)
+        self.sock.setsockopt(zmq.LINGER, 0)
+        self.sock.connect(f"tcp://127.0.0.1:{port}")
+        self.uuid = uuid
+
+    def call(self, func: str, *args) -> dict:
+        self.sock.send(codec.encode_request(func, list(args), self.uuid))
+        return cbor2.loads(self.sock.recv())
+
+    def close(self) -> None:
+        self.sock.close(0)
+        self.ctx.term()
+
+
+@pytest.fixture
+def client(zmq_server):
+    c = Client(zmq_server.zmq_port)
+    yield c
+    c.close()
+
+
+def script(client: Client, function: str, *args) -> dict:
+    """``function(*args)`` of the Keeper's child script (sim.scripttype_childscript, 1)."""
+    return client.call("sim.callScriptFunction", f"{function}@/Keeper", 1, *args)
+
+
+def _alive(client: Client) -> None:
+    assert client.call("sim.getSimulationTime")["ret"][0] >= 0
+
+
+# ------------------------------------------------------------ 1: script arguments into Lua
+def test_arguments_that_do_not_fit_the_scripts_lua_state_are_refused_not_fatal(zmq_server, client):
+    """A script that keeps what it gets, filled near its limits.MAX_SCRIPT_MEMORY: the next large
+    argument is refused (it used to be converted outside a protected call: the process aborted,
+    "PANIC: unprotected error in call to Lua API (not enough memory)"), and the server goes on."""
+    big = b"\0" * (12 << 20)
+    assert script(client, "forget")["ret"] == [0]
+    try:
+        filled = script(client, "fill", (limits.MAX_SCRIPT_MEMORY >> 20) - 8)
+        assert "ret" in filled, filled
+        reply = script(client, "store", big)
+        assert "MiB free" in reply.get("err", ""), reply
+        reply = script(client, "fill", 16)  # out of memory inside the call
+        assert "out of memory" in reply.get("err", ""), reply
+        _alive(client)
+    finally:
+        assert script(client, "forget")["ret"] == [0]
+    assert script(client, "store", big)["ret"] == [1]
+
+
+def _empty_tables_request(count: int) -> bytes:
+    """sim.callScriptFunction("store@/Keeper", 1, {{}, {}, ...}) with ``count`` empty tables,
+    written directly (cbor2 takes seconds to encode a million)."""
+    head = cbor2.dumps({"func": "sim.callScriptFunction", "uuid": "hardening"})[1:]
+    return (b"\xa3" + head + cbor2.dumps("args") + b"\x83" + cbor2.dumps("store@/Keeper") + b"\x01"
+            + b"\x9a" + count.to_bytes(4, "big") + b"\x80" * count)
+
+
+def test_many_empty_tables_are_refused_by_their_count(client):
+    """rg2Open with a million empty tables (1 MiB) held the simulation thread 13 s; past
+    limits.MAX_SCRIPT_CALL_TABLES the call is refused before any conversion."""
+    client.sock.send(_empty_tables_request(limits.MAX_SCRIPT_CALL_TABLES + 1))
+    reply = cbor2.loads(client.sock.recv())
+    assert "limits.MAX_SCRIPT_CALL_TABLES" in reply.get("err", ""), reply
+    reply = script(client, "store", [[1, 2]] * 100, {"a": [[]]})
+    assert reply["ret"][0] >= 1
+
+
+def test_requests_are_refused_by_their_decoded_size(client):
+    """A 1 MiB request of a million empty maps would take 240 MB once decoded: refused unread."""
+    head = cbor2.dumps({"func": "sim.getObject", "uuid": "hardening"})[1:]
+    payload = b"\xa3" + head + cbor2.dumps("args") + b"\x9a" + (10 ** 6).to_bytes(4, "big") + b"\xa0" * 10 ** 6
+    client.sock.send(payload)
+    reply = cbor2.loads(client.sock.recv())
+    assert "MAX_REQUEST_DECODED_BYTES" in reply.get("err", ""), reply
+    _alive(client)
