@@ -5,6 +5,7 @@ built, queued replies and connections per connection, the fair share per connect
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import cbor2
 import pytest
@@ -127,3 +128,87 @@ def test_requests_are_refused_by_their_decoded_size(client):
     reply = cbor2.loads(client.sock.recv())
     assert "MAX_REQUEST_DECODED_BYTES" in reply.get("err", ""), reply
     _alive(client)
+
+
+# ------------------------------------------------------------ 3: replies a peer does not read
+def test_replies_a_connection_does_not_read_are_bounded(zmq_server, client):
+    """A DEALER asking for a 16 MiB signal again and again without reading: once
+    limits.MAX_ZMQ_UNSENT_BYTES of its replies wait for it, its requests answer "server busy"
+    (before: 3.3 GB in 13 s)."""
+    assert client.call("sim.setStringSignal", "big", b"\1" * (16 << 20)) == {"ret": []}
+    ctx = zmq.Context()
+    dealer = ctx.socket(zmq.DEALER)
+    dealer.setsockopt(zmq.LINGER, 0)
+    dealer.setsockopt(zmq.RCVTIMEO, 20000)
+    dealer.setsockopt(zmq.RCVBUF, 64 * 1024)  # the kernel takes little of what the peer does not read,
+    dealer.setsockopt(zmq.RCVHWM, 1)  # and libzmq stops reading after one message (a peer that does not read)
+    dealer.connect(f"tcp://127.0.0.1:{zmq_server.zmq_port}")
+    sent = limits.MAX_ZMQ_UNSENT_BYTES // (16 << 20) + 4
+    try:
+        request = codec.encode_request("sim.getStringSignal", ["big"], "never-reads")
+        for _ in range(sent):
+            dealer.send_multipart([b"", request])
+            time.sleep(0.3)  # served meanwhile (a second request in work would be refused for that)
+        replies = [cbor2.loads(dealer.recv_multipart()[-1]) for _ in range(sent)]
+    finally:
+        dealer.close(0)
+        ctx.term()
+    big = [r for r in replies if "ret" in r]
+    busy = [r for r in replies if "not read yet" in r.get("err", "")]
+    assert busy and len(big) <= limits.MAX_ZMQ_UNSENT_BYTES // (16 << 20) + 2, [r.get("err") for r in replies]
+    client.call("sim.clearStringSignal", "big")
+    _alive(client)
+
+
+# ------------------------------------------------------------ 6: connections and descriptors
+def test_connections_beyond_the_cap_are_refused_and_descriptors_stay(tmp_path):
+    """A server whose open-files limit cannot be raised (256, soft and hard) serves at most half
+    of it in ZMQ connections; the rest are refused at their handshake (descriptor closed, one log
+    line), and a new client is served once the others have gone."""
+    import resource
+    import subprocess
+    import sys
+
+    from conftest import ready_line
+
+    (tmp_path / "scene.xml").write_text(SCENE.replace('<custom><text name="simx:Keeper" data="child_script=keeper.lua"/></custom>', ""))
+    port = free_port()
+
+    def low_limit():
+        resource.setrlimit(resource.RLIMIT_NOFILE, (256, 256))
+
+    proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(tmp_path / "scene.xml"), "--stopped",
+                             "--port", str(free_port()), "--zmq-port", str(port)], preexec_fn=low_limit,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ctx = zmq.Context()
+    try:
+        assert ready_line(proc, 60) is not None
+        socks = []
+        for _ in range(200):
+            s = ctx.socket(zmq.REQ)
+            s.setsockopt(zmq.LINGER, 0)
+            s.setsockopt(zmq.RCVTIMEO, 3000)
+            s.connect(f"tcp://127.0.0.1:{port}")
+            socks.append(s)
+        time.sleep(1.0)
+        open_fds = len(list(Path(f"/proc/{proc.pid}/fd").iterdir()))
+        assert open_fds < 256 - 32, open_fds  # room left for Zenoh's clients, the scene, the log
+        for s in socks:
+            s.close(0)
+        late = Client(port, "late")
+        assert late.call("sim.getSimulationState") == {"ret": [0]}
+        late.close()
+    finally:
+        ctx.destroy(0)
+        proc.terminate()
+        _, err = proc.communicate(timeout=20)
+    assert "connections already (limits.MAX_ZMQ_CONNECTIONS, at most 128 here" in err, err[-3000:]
+    assert "Traceback" not in err
+
+
+def test_the_open_files_limit_is_raised_at_start(zmq_server):
+    soft = int(next(line for line in Path(f"/proc/{zmq_server.proc.pid}/limits").read_text().splitlines()
+                    if line.startswith("Max open files")).split()[3])
+    import resource
+    hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
+    assert soft == min(hard, 65536) or hard == resource.RLIM_INFINITY
