@@ -212,3 +212,47 @@ def test_the_open_files_limit_is_raised_at_start(zmq_server):
     import resource
     hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
     assert soft == min(hard, 65536) or hard == resource.RLIM_INFINITY
+
+
+# ------------------------------------------------------------ 4: replies sized before they are built
+def test_replies_are_sized_before_they_are_built(client):
+    """sim.getVisionSensorImage as floats after a 4096x4096 resolution (50 M values: 13.8 s and
+    3.5 GB before), and sim.unpackUInt8Table of a large buffer (21.6 s for 60 MiB): refused
+    before anything is rendered or unpacked; the same calls within the bounds answer. (2048x2048
+    here: 113 MB of floats, over the bound too, and a quarter of the renderer to make.)"""
+    cam = client.call("sim.getObject", "/cam")["ret"][0]
+    try:
+        assert client.call("sim.setObjectInt32Param", cam, 1002, 2048) == {"ret": []}
+        assert client.call("sim.setObjectInt32Param", cam, 1003, 2048) == {"ret": []}
+        reply = client.call("sim.getVisionSensorImage", cam)
+        assert "limits.MAX_REPLY_BYTES" in reply.get("err", ""), reply
+    finally:
+        client.call("sim.setObjectInt32Param", cam, 1002, 32)
+        client.call("sim.setObjectInt32Param", cam, 1003, 24)
+    assert len(client.call("sim.getVisionSensorImage", cam)["ret"][0]) == 32 * 24 * 3
+    reply = client.call("sim.unpackUInt8Table", b"\1" * (3 << 20))
+    assert "protocol.MAX_REQUEST_ITEMS" in reply.get("err", ""), reply
+    assert client.call("sim.unpackUInt8Table", b"\1\2\3", 1)["ret"] == [[2, 3]]
+
+
+# ------------------------------------------------------------ 5: fair share per connection
+def test_uuids_per_connection_are_capped(zmq_server):
+    """One connection cycling through fresh uuids (1,100 stepping uuids took every ZMQ slot in
+    0.4 s): past limits.MAX_ZMQ_CLIENTS_PER_CONNECTION it is refused; other connections are not."""
+    flood = Client(zmq_server.zmq_port)
+    other = Client(zmq_server.zmq_port, "other-connection")
+    try:
+        replies = []
+        for i in range(limits.MAX_ZMQ_CLIENTS_PER_CONNECTION + 3):
+            flood.uuid = f"fresh-{i}"
+            replies.append(flood.call("sim.setStepping", True))
+        assert all(r == {"ret": [0]} for r in replies[:limits.MAX_ZMQ_CLIENTS_PER_CONNECTION]), replies
+        assert all("limits.MAX_ZMQ_CLIENTS_PER_CONNECTION" in r.get("err", "")
+                   for r in replies[limits.MAX_ZMQ_CLIENTS_PER_CONNECTION:]), replies
+        assert other.call("sim.getSimulationState")["ret"][0] in (0, 8, 17)
+    finally:
+        for i in range(limits.MAX_ZMQ_CLIENTS_PER_CONNECTION):
+            flood.uuid = f"fresh-{i}"
+            flood.call("_*end*_")
+        flood.close()
+        other.close()
