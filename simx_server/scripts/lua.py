@@ -270,12 +270,25 @@ else
   -- package.path the script set), and lent to the loader for the time of one require.
   local pkg, lua_require, searchers = package, require, {package.searchers[1], package.searchers[2]}
   local pcall = pcall
+  -- A client's scene runs from the server's transfer folder: its errors say "<scene folder>".
+  local function hide_folder(message)
+    message = tostring(message)
+    local out, i = {}, 1
+    while true do
+      local a, b = message:find(scene_dir, i, true)
+      if not a then break end
+      out[#out + 1] = message:sub(i, a - 1) .. "<scene folder>"
+      i = b + 1
+    end
+    out[#out + 1] = message:sub(i)
+    return concat(out)
+  end
   pkg.searchers = {}
   G.require = function(name)
     pkg.path, pkg.cpath, pkg.searchers = scene_dir .. "/?.lua", "", {searchers[1], searchers[2]}
     local r = pack(pcall(lua_require, name))
     pkg.path, pkg.searchers = scene_dir .. "/?.lua", {}
-    if not r[1] then error(r[2], 0) end  -- the message already says where
+    if not r[1] then error(hide_folder(r[2]), 0) end  -- the message says where, not the server's folder
     return unpack(r, 2, r.n)
   end
 end

@@ -241,6 +241,8 @@ class ZmqService:
             return self._error(client, func, f"bad arguments: {exc}")
         if isinstance(exc, RecursionError):
             return self._error(client, func, "arguments nested too deeply")
+        if isinstance(exc, OSError) and exc.errno is not None:  # a path the system refuses (too long, ...)
+            return self._error(client, func, f"refused: {exc.strerror} (errno {exc.errno})")
         log.error("ZMQ client %s: %s raised", client.label, quote(func, 100), exc_info=exc)
         return self._error(client, func, f"internal error: {type(exc).__name__}: {exc}", logged=True)
 

@@ -30,6 +30,7 @@ kept = {}
 function store(...) kept[#kept + 1] = {...} return #kept end
 function fill(mib) for i = 1, mib do kept[#kept + 1] = string.rep("x", 1048576) end return #kept end
 function forget() kept = {} collectgarbage() return 0 end
+function needs() return require("no_such_module") end
 """
 
 
@@ -40,7 +41,7 @@ def zmq_server(tmp_path_factory):
     (folder / "scene.xml").write_text(SCENE)
     port = free_port()
     srv = ServerProcess(str(folder / "scene.xml"), "--zmq-port", str(port))
-    srv.zmq_port = port
+    srv.zmq_port, srv.folder = port, folder
     yield srv
     log = srv.stop()
     assert "Traceback" not in log and "PANIC" not in log, log[-3000:]
@@ -256,3 +257,18 @@ def test_uuids_per_connection_are_capped(zmq_server):
             flood.call("_*end*_")
         flood.close()
         other.close()
+
+
+# ------------------------------------------------------------ 9: minor
+def test_a_path_too_long_answers_a_clear_error(zmq_server, client):
+    """sim.loadScene of a 5,000-character path: "internal error" and a traceback before."""
+    reply = client.call("sim.loadScene", "a" * 5000 + ".ttt")
+    assert "err" in reply and "internal error" not in reply["err"] and "too long" in reply["err"], reply
+    _alive(client)
+
+
+def test_a_require_error_does_not_name_the_servers_folder(zmq_server, client):
+    """The scene's folder (for a client's scene: the server's transfer folder) is not told."""
+    reply = script(client, "needs")
+    assert "no_such_module" in reply.get("err", ""), reply
+    assert "<scene folder>" in reply["err"] and str(zmq_server.folder) not in reply["err"], reply
