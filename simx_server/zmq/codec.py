@@ -30,6 +30,10 @@ MAX_REQUEST_BYTES = 64 * 1024 * 1024
 MAX_DEPTH = 32
 #: Most CBOR items in one request (each number, string, array or map counts one).
 MAX_ITEMS = 1 << 20
+#: Most arrays and maps in one request: each becomes a Python list or dict (and, passed to a
+#: script, a Lua table: limits.MAX_SCRIPT_CALL_TABLES), so a 1 MiB request of a million empty
+#: arrays is refused on its item heads instead of being built (13 s of the simulation thread).
+MAX_CONTAINERS = (1 << 16) + 64
 #: Longest function name and client id (uuid) in characters.
 MAX_NAME = 200
 #: Bounds of the client's ``timeout`` (s): how long its state is kept without a request.
@@ -44,7 +48,7 @@ _FLOAT_SIZES = {25: 2, 26: 4, 27: 8}
 
 
 def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS,
-         max_decoded: int = MAX_REQUEST_DECODED_BYTES) -> int:
+         max_decoded: int = MAX_REQUEST_DECODED_BYTES, max_containers: int = MAX_CONTAINERS) -> int:
     """Check the item heads of a CBOR message without building it; raises ProtocolError.
     Returns the memory its decoded value takes (bytes, about: CPython's costs of
     :mod:`simx_client.decoded_size`), refused past ``max_decoded`` (the legacy door's
@@ -57,7 +61,7 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS,
     pos = 0
     stack = [1]  # items still to read at each open level
     keys = [False]  # whether the next item of that level is a map key
-    items = decoded = 0
+    items = decoded = containers = 0
     while stack:
         if stack[-1] == 0:
             stack.pop()
@@ -114,6 +118,9 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS,
         if is_key:
             raise ProtocolError("request refused: map keys must be strings")
         count = arg * 2 if major == 5 else arg
+        containers += 1
+        if containers > max_containers:
+            raise ProtocolError(f"request refused: more than {max_containers} arrays and maps (codec.MAX_CONTAINERS)")
         decoded += D.REF + (D._MAP + D._PAIR * arg if major == 5 else D._ARRAY)
         if decoded > max_decoded:
             raise ProtocolError(f"request refused: it would take more than {max_decoded} bytes once decoded "

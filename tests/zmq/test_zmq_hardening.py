@@ -113,12 +113,16 @@ def _empty_tables_request(count: int) -> bytes:
 
 def test_many_empty_tables_are_refused_by_their_count(client):
     """rg2Open with a million empty tables (1 MiB) held the simulation thread 13 s; past
-    limits.MAX_SCRIPT_CALL_TABLES the call is refused before any conversion."""
+    limits.MAX_SCRIPT_CALL_TABLES the call is refused before any conversion, and far past it
+    (codec.MAX_CONTAINERS) the request is refused before it is decoded."""
     client.sock.send(_empty_tables_request(limits.MAX_SCRIPT_CALL_TABLES + 1))
     reply = cbor2.loads(client.sock.recv())
     assert "limits.MAX_SCRIPT_CALL_TABLES" in reply.get("err", ""), reply
     reply = script(client, "store", [[1, 2]] * 100, {"a": [[]]})
     assert reply["ret"][0] >= 1
+    client.sock.send(_empty_tables_request(1_000_000))  # the issue's million: refused on its item heads
+    reply = cbor2.loads(client.sock.recv())
+    assert "codec.MAX_CONTAINERS" in reply.get("err", ""), reply
 
 
 def test_requests_are_refused_by_their_decoded_size(client):
