@@ -276,3 +276,32 @@ def test_a_require_error_does_not_name_the_servers_folder(zmq_server, client):
     reply = script(client, "needs")
     assert "no_such_module" in reply.get("err", ""), reply
     assert "<scene folder>" in reply["err"] and str(zmq_server.folder) not in reply["err"], reply
+
+
+def test_the_edit_share_is_counted_per_connection_not_per_uuid(monkeypatch, tmp_path):
+    """Scene edits under a fresh uuid each time (loads and edits with fresh uuids held a legacy
+    call 21.4 s): the connection's share is spent all the same, so its next edit waits, while
+    another connection's edit is served at once. In-process, with a real simulation."""
+    from simx_server.scene.simulation import Simulation
+    from simx_server.zmq.frontend import Incoming
+    from simx_server.zmq.service import ZmqService
+
+    monkeypatch.setattr(limits, "EDIT_DEBT_SECONDS", 0.0)
+    (tmp_path / "scene.xml").write_text(SCENE.replace('<custom><text name="simx:Keeper" data="child_script=keeper.lua"/></custom>', ""))
+    sim = Simulation(tmp_path / "scene.xml")
+    try:
+        sent = []
+        frontend = type("Frontend", (), {"send": lambda self, env, payload: sent.append((env, cbor2.loads(payload)))})()
+        service = ZmqService(type("Server", (), {"sim": sim})(), frontend)
+
+        def edit(connection: bytes, uuid: str) -> None:
+            service.handle("zmq", Incoming([connection], codec.read_request(codec.encode_request(
+                "sim.createDummy", [0.01], uuid)), len(connection), 10))
+
+        edit(b"greedy", "fresh-1")
+        edit(b"greedy", "fresh-2")  # a new uuid, the same connection: waits
+        edit(b"polite", "other")
+        assert [env for env, _ in sent] == [[b"greedy"], [b"polite"]], sent
+        assert len(service._deferred) == 1 and service._deferred[0][1].uuid == "fresh-2"
+    finally:
+        sim.close()
