@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -44,11 +45,16 @@ class Target:
     """A simx-server process of ``code`` with the ZMQ API, and its RSS sampled meanwhile."""
 
     def __init__(self, code: Path, folder: Path):
-        self.zmq_port = free_port()
+        self.zmq_port, self.port = free_port(), free_port()
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONPATH=str(code))
+
+        def common_limit():  # the open-files limit of many systems, soft and hard (Zenoh raises the soft one)
+            resource.setrlimit(resource.RLIMIT_NOFILE, (1024, 1024))
+
         self.proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(folder / "scene.xml"),
-                                      "--port", str(free_port()), "--zmq-port", str(self.zmq_port)], env=env,
-                                     cwd=str(code), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+                                      "--port", str(self.port), "--zmq-port", str(self.zmq_port)], env=env,
+                                     cwd=str(code), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                                     preexec_fn=common_limit)
         if ready_line(self.proc, 90) is None:
             raise RuntimeError("the server did not start")
         self.before = self.peak = self.rss()
@@ -192,10 +198,33 @@ def sigterm(t: Target, ctx: zmq.Context) -> str:
     return f"exited {time.monotonic() - start:.2f} s after SIGTERM (exit {t.proc.returncode})"
 
 
+def idle_connections(t: Target, ctx: zmq.Context) -> str:
+    """1,000 idle ZMQ connections (the server started with an open-files limit of 1,024, soft
+    and hard), then a legacy client's simxStart (5 s timeout)."""
+    from simx_client import api
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, 8192), hard))  # this process's own sockets
+    socks = [t.socket(ctx) for _ in range(1000)]
+    time.sleep(3)
+    try:
+        start = time.monotonic()
+        cid = api.simxStart("127.0.0.1", t.port, True, True, 5000, 5)
+        took = time.monotonic() - start
+        if cid >= 0:
+            api.simxFinish(cid)
+        fds = len(os.listdir(f"/proc/{t.proc.pid}/fd"))
+        return f"server descriptors {fds}; legacy simxStart {cid} after {took:.1f} s"
+    finally:
+        for sock in socks:
+            sock.close(0)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+
+
 ATTACKS = {"crash: 5 x store(60 MiB)": crash, "1 M empty tables into a script": empty_tables,
            "unpackUInt8Table(20 MiB)": unpack, "16 MiB signal every 20 ms, unread, 5 s": unread,
            "1,100 stepping uuids, one connection": uuids, "loadScene of a 5,000-char path": long_path,
-           "SIGTERM during a 4096x4096 image": sigterm}
+           "SIGTERM during a 4096x4096 image": sigterm, "1,000 idle ZMQ connections, then simxStart": idle_connections}
 
 
 def main(argv: list[str] | None = None) -> None:
