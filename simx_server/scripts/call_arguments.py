@@ -18,7 +18,8 @@ def script_argument_bytes(args: tuple) -> int:
 
     Raises ArgumentError past limits.MAX_SCRIPT_CALL_VALUES values (numbers, booleans, strings),
     MAX_SCRIPT_CALL_TABLES tables (lists and dicts: a million empty tables in a 1 MiB request
-    took 13 s to convert) or MAX_SCRIPT_CALL_BYTES bytes of strings and buffers, or nested deeper than the conversion goes."""
+    took 13 s to convert) or MAX_SCRIPT_CALL_BYTES bytes of strings and buffers, or nested deeper
+    than the conversion goes."""
     values = tables = size = 0
     stack = [(args, 0)]
     while stack:

@@ -56,7 +56,8 @@ _ESTIMATES = {
     "getVisionSensorImg": lambda sim, args: _image(sim, args, floats=False),
     "getVisionSensorDepth": lambda sim, args: (4 * image_pixels(sim, args[:1]), 1),
     "getVisionSensorDepthBuffer": lambda sim, args: (4 * image_pixels(sim, args[:1]), 1),
-    **{f"unpack{kind}Table": (lambda sim, args, code=code: _unpack(code, args)) for kind, code in _PACK_FORMATS.items()},
+    **{f"unpack{kind}Table": (lambda sim, args, code=code: _unpack(code, args))
+       for kind, code in _PACK_FORMATS.items()},
 }
 
 

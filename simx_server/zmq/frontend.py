@@ -277,7 +277,8 @@ class Frontend:
             if unsent and self._trackers:
                 self._count_sent()
                 unsent = self._unsent.get(identity, 0)
-            if unsent > limits.MAX_ZMQ_UNSENT_BYTES or (unsent and self._unsent_total > limits.MAX_ZMQ_UNSENT_BYTES_TOTAL):
+            over_total = unsent and self._unsent_total > limits.MAX_ZMQ_UNSENT_BYTES_TOTAL
+            if unsent > limits.MAX_ZMQ_UNSENT_BYTES or over_total:
                 raise ProtocolError(f"server busy: {unsent} bytes of this connection's earlier replies are not read "
                                     f"yet ({self._unsent_total} of all connections; limits.MAX_ZMQ_UNSENT_BYTES "
                                     f"{limits.MAX_ZMQ_UNSENT_BYTES}, MAX_ZMQ_UNSENT_BYTES_TOTAL "
