@@ -34,7 +34,8 @@ def secure_root(tmp_path_factory):
 
 def _config(root: Path, port: int) -> Path:
     path = root / "docs" / "security" / f"server-{port}.json5"
-    path.write_text((DOCS / "server.json5").read_text().replace("19997", str(port)))
+    # as shipped, its ports replaced: 19997 by ``port``, 19999 (where a version lists it) by a free one
+    path.write_text((DOCS / "server.json5").read_text().replace("19997", str(port)).replace("19999", str(free_port())))
     return path
 
 
