@@ -102,6 +102,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         "the --host addresses (default 23000; when that default is taken the server goes on without "
                         "it and says so)")
     p.add_argument("--no-zmq", action="store_true", help="do not serve the ZMQ remote API")
+    p.add_argument("--zmq-curve", metavar="DIR",
+                   help="ZMQ remote API with CURVE encryption and client keys: DIR/server.key_secret and "
+                        "DIR/clients/*.key (zmq.auth certificates; raw pyzmq clients, docs/SECURITY.md)")
+    p.add_argument("--zmq-insecure", action="store_true",
+                   help="serve the ZMQ remote API without authentication beside --zenoh-config (off otherwise)")
     p.add_argument("--zenoh-config", metavar="FILE",
                    help="Zenoh config file (endpoints, TLS, authentication); multicast scouting stays off")
     p.add_argument("--dt", type=float, default=0.05, help="simulation step in s (default 0.05)")
@@ -155,6 +160,11 @@ def argument_error(args: argparse.Namespace) -> str | None:
             return f"simx-server: --port {port}: a TCP port is a number from 1 to 65535"
     if args.zmq_port is not None and not 0 < args.zmq_port <= 65535:
         return f"simx-server: --zmq-port {args.zmq_port}: a TCP port is a number from 1 to 65535"
+    if args.zmq_curve and args.zmq_insecure:
+        return "simx-server: --zmq-curve and --zmq-insecure exclude each other"
+    if args.zenoh_config and args.zmq_port is not None and not (args.zmq_curve or args.zmq_insecure or args.no_zmq):
+        return ("simx-server: --zmq-port with --zenoh-config: the ZMQ remote API has no authentication of its own; "
+                "add --zmq-curve DIR (CURVE keys) or --zmq-insecure (docs/SECURITY.md)")
     if args.scene and Path(args.scene).is_dir():
         return (f"simx-server: {args.scene} is a folder, not a scene file: give an MJCF (.xml) or URDF (.urdf) "
                 "file")
@@ -272,19 +282,34 @@ def _attach_zmq(server, args: argparse.Namespace) -> str | None:
     default port taken (another simx-server has it) is logged, and the server goes on without."""
     if args.no_zmq:
         return ""
+    log = logging.getLogger("simx.zmq")
+    if args.zenoh_config and not (args.zmq_curve or args.zmq_insecure):
+        log.warning("ZMQ remote API off: --zenoh-config secures the Zenoh side and ZMQ has no authentication of "
+                    "its own; serve it with --zmq-curve DIR (CURVE keys) or --zmq-insecure (docs/SECURITY.md)")
+        return ", no ZMQ remote API (--zenoh-config: add --zmq-curve DIR or --zmq-insecure)"
     import zmq
 
     from simx_server.transport.server import DEFAULT_HOSTS
-    from simx_server.zmq.remote_api import DEFAULT_PORT, ZmqRemoteApi, endpoints
+    from simx_server.zmq.remote_api import DEFAULT_PORT, ZmqRemoteApi, curve_keys, endpoints
 
+    curve = None
+    if args.zmq_curve:
+        try:
+            curve = curve_keys(args.zmq_curve)
+        except ValueError as exc:
+            print(f"simx-server: --zmq-curve: {exc}", file=sys.stderr)
+            return None
+    elif args.zmq_insecure and args.zenoh_config:
+        log.warning("ZMQ remote API without authentication (--zmq-insecure): whoever reaches its port runs the "
+                    "simulation, around --zenoh-config's TLS, passwords and access control (docs/SECURITY.md)")
     port = args.zmq_port if args.zmq_port is not None else DEFAULT_PORT
-    api = ZmqRemoteApi(server, endpoints(args.host or list(DEFAULT_HOSTS), port))
+    api = ZmqRemoteApi(server, endpoints(args.host or list(DEFAULT_HOSTS), port), curve)
     try:
         api.open()
     except zmq.ZMQError as exc:
         where = ", ".join(api.frontend.endpoints)
         if args.zmq_port is None and exc.errno == zmq.EADDRINUSE:
-            logging.getLogger("simx.zmq").warning(
+            log.warning(
                 "ZMQ remote API not served: port %d is in use (another simx-server?); choose one with "
                 "--zmq-port N, or --no-zmq", port)
             return ", no ZMQ remote API (port in use)"

@@ -344,3 +344,27 @@ MAX_VIEWER_QUERIES = 16
 #: client's p99 from 17 ms to 1 s. A viewer asks once when it opens and once per new model
 #: generation; the excess is answered "server busy" at once, naming this bound.
 MAX_VIEWER_MODELS_PER_SECOND = 4.0
+
+# ----------------------------------------------------------------- the ZMQ remote API (issue 29)
+# (simx_server/zmq: frontend.py, the socket thread; service.py, the simulation thread). The ZMQ
+# door has the legacy door's bounds (MAX_REQUEST_*, MAX_REPLY_BYTES, EDIT_SHARE, MAX_CLIENTS, the
+# script-call bounds above); these are its own. docs/SECURITY.md explains each one.
+
+#: Tables (Lua) or containers (Python) passed to one script function, at any depth (both
+#: doors; a ZMQ sim.callScriptFunction may nest them): a million empty tables in a 1 MiB
+#: request took the simulation thread 13 s to convert.
+MAX_SCRIPT_CALL_TABLES = 1 << 16
+#: Bytes of one ZMQ connection's replies that the kernel has not taken yet (a peer that asks
+#: and does not read): past it, its next request answers "server busy". One largest reply
+#: (MAX_REPLY_BYTES) fits. One connection asking for a 16 MiB signal every 20 ms, never
+#: reading, grew the server by 3.3 GB in 13 s.
+MAX_ZMQ_UNSENT_BYTES = 96 * 1024 * 1024
+#: The same, all ZMQ connections together: past it, every connection with unsent replies is busy.
+MAX_ZMQ_UNSENT_BYTES_TOTAL = 256 * 1024 * 1024
+#: ZMQ connections at once (as Redis's maxclients); the server also keeps it under half its
+#: open-files limit (raised to the hard limit at start), so that Zenoh's clients always find
+#: descriptors: 986 idle ZMQ connections made a new legacy client fail (limit 1,024).
+MAX_ZMQ_CONNECTIONS = 1000
+#: ZMQ clients (uuids) one connection may hold: the official client uses one per connection;
+#: one connection took all MAX_CLIENTS slots with 1,100 stepping uuids in 0.4 s.
+MAX_ZMQ_CLIENTS_PER_CONNECTION = 8

@@ -36,6 +36,7 @@ from typing import Any
 
 from simx_client.protocol import ArgumentError, RemoteError, ScriptError
 from simx_server.base import limits as L
+from simx_server.scripts.call_arguments import script_argument_bytes
 from simx_server.scripts.child import LIFE_CYCLE, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
 from simx_server.scripts.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
 
@@ -50,9 +51,6 @@ log = logging.getLogger("simx.scripts")
 HOOK_COUNT = 10_000
 #: Memory cap of one script's Lua state (bytes).
 MAX_MEMORY = L.MAX_SCRIPT_MEMORY
-#: Bytes a converted value may take in a Lua state at most (a table slot as the table grows,
-#: a string's header): a call's arguments are converted only when this estimate fits.
-_LUA_BYTES_PER_VALUE = 64
 _MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
 
 PRELUDE = r"""
@@ -231,12 +229,25 @@ else
   -- package.path the script set), and lent to the loader for the time of one require.
   local pkg, lua_require, searchers = package, require, {package.searchers[1], package.searchers[2]}
   local pcall = pcall
+  -- A client's scene runs from the server's transfer folder: its errors say "<scene folder>".
+  local function hide_folder(message)
+    message = tostring(message)
+    local out, i = {}, 1
+    while true do
+      local a, b = message:find(scene_dir, i, true)
+      if not a then break end
+      out[#out + 1] = message:sub(i, a - 1) .. "<scene folder>"
+      i = b + 1
+    end
+    out[#out + 1] = message:sub(i)
+    return concat(out)
+  end
   pkg.searchers = {}
   G.require = function(name)
     pkg.path, pkg.cpath, pkg.searchers = scene_dir .. "/?.lua", "", {searchers[1], searchers[2]}
     local r = pack(pcall(lua_require, name))
     pkg.path, pkg.searchers = scene_dir .. "/?.lua", {}
-    if not r[1] then error(r[2], 0) end  -- the message already says where
+    if not r[1] then error(hide_folder(r[2]), 0) end  -- the message says where, not the server's folder
     return unpack(r, 2, r.n)
   end
 end
@@ -388,19 +399,8 @@ class LuaScript(ChildScript):
         if function in LIFE_CYCLE:
             return self._bounded(function, fn, ())
         ints, floats, strings, buffer = args
-        rt = self._runtime
-        encoded = [s.encode("utf-8") for s in strings]
-        # Converting into Lua happens outside any protected call: a state that runs out of
-        # memory there aborts the process. So the arguments go in only when they surely fit.
-        need = (_LUA_BYTES_PER_VALUE * (len(ints) + len(floats) + len(encoded))
-                + sum(map(len, encoded)) + 2 * len(buffer))
-        free = MAX_MEMORY - rt.get_memory_used()
-        if need > free // 2:
-            raise ArgumentError(f"{self.label}: the arguments of {function!r} need about {need >> 20} MiB in the "
-                                f"script's Lua state, which has {free >> 20} MiB free of {MAX_MEMORY >> 20} "
-                                "(limits.MAX_SCRIPT_MEMORY); send less")
-        lua_args = (rt.table_from(ints), rt.table_from(floats), rt.table_from(encoded), bytes(buffer))
-        out = self._bounded(function, fn, lua_args)
+        lua_args = (ints, floats, [s.encode("utf-8") for s in strings], bytes(buffer))
+        out = self._call_with(function, fn, lua_args)
         try:
             values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
             return legacy_outputs(tuple(self._from_lua(v) for v in values))
@@ -413,16 +413,41 @@ class LuaScript(ChildScript):
         fn = self._lookup(function.encode())
         if fn is None:
             raise self._fault(function, "no such function")
-        try:
-            lua_args = tuple(self._to_lua(a) for a in args)
-        except (TypeError, ValueError) as exc:
-            raise ArgumentError(f"{self.label}, {function}: arguments that Lua cannot take: {exc}") from None
-        out = self._bounded(function, fn, lua_args)
+        out = self._call_with(function, fn, args)
         values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
         try:
             return [self._from_lua(v) for v in values]
         except (TypeError, ValueError) as exc:
             raise self._fault(function, f"returned values that cannot be sent: {exc}") from None
+
+    def _call_with(self, function: str, fn: Any, args: tuple) -> Any:
+        """``fn(*args)`` in the script's protected, time-bounded call (both doors: the legacy
+        simxCallScriptFunction's four lists and buffer, the ZMQ sim.callScriptFunction's values).
+
+        Bounds first, before any conversion (:func:`script_argument_bytes`: limits.MAX_SCRIPT_CALL_VALUES,
+        MAX_SCRIPT_CALL_TABLES, MAX_SCRIPT_CALL_BYTES), then the state's free memory (half of it at
+        most). A failed allocation outside a protected call aborts the whole process (Lua's panic),
+        so the arguments are converted, into one table, with the state's cap lifted (by at most the
+        bounded size), and the cap is back before the call: a script that keeps what it gets runs
+        out of memory inside the call, a Lua error. Raises ArgumentError or ScriptError."""
+        rt = self._runtime
+        need = script_argument_bytes(args)
+        free = MAX_MEMORY - rt.get_memory_used()
+        if need > free // 2:
+            raise ArgumentError(f"{self.label}: the arguments of {function!r} need about {need >> 20} MiB in the "
+                                f"script's Lua state, which has {free >> 20} MiB free of {MAX_MEMORY >> 20} "
+                                "(limits.MAX_SCRIPT_MEMORY); send less")
+        rt.set_max_memory(0)
+        try:
+            packed = rt.table_from([self._to_lua(a) for a in args])
+            apply = getattr(self, "_apply", None)
+            if apply is None or apply[0] is not rt:
+                apply = self._apply = (rt, rt.eval("function(f, t, n) return f(table.unpack(t, 1, n)) end"))
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ArgumentError(f"{self.label}, {function}: arguments that Lua cannot take: {exc}") from None
+        finally:
+            rt.set_max_memory(MAX_MEMORY)
+        return self._bounded(function, apply[1], (fn, packed, len(args)))
 
     def _drop(self) -> None:
         self._lookup = None

@@ -19,7 +19,8 @@ from typing import Any
 
 import cbor2
 
-from simx_client.protocol import ProtocolError
+from simx_client import decoded_size as D
+from simx_client.protocol import MAX_REQUEST_DECODED_BYTES, ProtocolError
 
 #: The protocol version simx speaks (CoppeliaSim 4.6 and later; ``ver`` of a client's first request).
 PROTOCOL_VERSION = 2
@@ -29,6 +30,10 @@ MAX_REQUEST_BYTES = 64 * 1024 * 1024
 MAX_DEPTH = 32
 #: Most CBOR items in one request (each number, string, array or map counts one).
 MAX_ITEMS = 1 << 20
+#: Most arrays and maps in one request: each becomes a Python list or dict (and, passed to a
+#: script, a Lua table: limits.MAX_SCRIPT_CALL_TABLES), so a 1 MiB request of a million empty
+#: arrays is refused on its item heads instead of being built (13 s of the simulation thread).
+MAX_CONTAINERS = (1 << 16) + 64
 #: Longest function name and client id (uuid) in characters.
 MAX_NAME = 200
 #: Bounds of the client's ``timeout`` (s): how long its state is kept without a request.
@@ -42,8 +47,12 @@ NIL = "_*NIL*_"  # an argument that stands for nil (Lua drops nils from argument
 _FLOAT_SIZES = {25: 2, 26: 4, 27: 8}
 
 
-def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS) -> None:
+def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS,
+         max_decoded: int = MAX_REQUEST_DECODED_BYTES, max_containers: int = MAX_CONTAINERS) -> int:
     """Check the item heads of a CBOR message without building it; raises ProtocolError.
+    Returns the memory its decoded value takes (bytes, about: CPython's costs of
+    :mod:`simx_client.decoded_size`), refused past ``max_decoded`` (the legacy door's
+    ``MAX_REQUEST_DECODED_BYTES``: a 1-byte empty map decodes to 240 bytes).
 
     Accepts what protocol version 2 uses: unsigned and negative integers up to 64 bits, byte
     and text strings, arrays, maps with string keys, false, true, null and floats; all of
@@ -52,7 +61,7 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS) ->
     pos = 0
     stack = [1]  # items still to read at each open level
     keys = [False]  # whether the next item of that level is a map key
-    items = 0
+    items = decoded = containers = 0
     while stack:
         if stack[-1] == 0:
             stack.pop()
@@ -72,6 +81,7 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS) ->
             if is_key:
                 raise ProtocolError("request refused: map keys must be strings")
             if 20 <= info <= 22:  # false, true, null
+                decoded += D.REF
                 continue
             size = _FLOAT_SIZES.get(info)
             if size is None:
@@ -80,6 +90,7 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS) ->
             pos += size
             if pos > n:
                 raise ProtocolError("not CBOR: the message ends inside a float")
+            decoded += D.REF + D._FLOAT
             continue
         if info < 24:
             arg = info
@@ -94,17 +105,26 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS) ->
         if major <= 1:
             if is_key:
                 raise ProtocolError("request refused: map keys must be strings")
+            decoded += D.REF + (D._INT if arg > 256 else 0)
             continue
         if major <= 3:  # byte and text strings
             if arg > n - pos:
                 raise ProtocolError("not CBOR: a string is longer than the message")
             pos += arg
+            decoded += D.REF + (D._BIN if major == 2 else D._STR) + arg
             continue
         if major == 6:
             raise ProtocolError("request refused: CBOR tags are not used by the protocol")
         if is_key:
             raise ProtocolError("request refused: map keys must be strings")
         count = arg * 2 if major == 5 else arg
+        containers += 1
+        if containers > max_containers:
+            raise ProtocolError(f"request refused: more than {max_containers} arrays and maps (codec.MAX_CONTAINERS)")
+        decoded += D.REF + (D._MAP + D._PAIR * arg if major == 5 else D._ARRAY)
+        if decoded > max_decoded:
+            raise ProtocolError(f"request refused: it would take more than {max_decoded} bytes once decoded "
+                                "(protocol.MAX_REQUEST_DECODED_BYTES)")
         if count > n - pos:  # every item takes at least one byte
             raise ProtocolError("not CBOR: a container holds more items than the message has bytes")
         if len(stack) > max_depth:
@@ -113,6 +133,10 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS) ->
         keys.append(major == 5)
     if pos != n:
         raise ProtocolError(f"not CBOR: {n - pos} bytes after the message's item")
+    if decoded > max_decoded:
+        raise ProtocolError(f"request refused: it would take more than {max_decoded} bytes once decoded "
+                            "(protocol.MAX_REQUEST_DECODED_BYTES)")
+    return decoded
 
 
 class Request:

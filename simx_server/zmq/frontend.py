@@ -15,6 +15,14 @@ one request at a time per connection (a REQ socket never sends two); at most
 ``limits.MAX_CLIENTS`` requests and ``limits.MAX_QUEUED_BYTES_TOTAL`` bytes waiting for the
 simulation thread, beyond which a request is answered "server busy". A socket monitor tells
 which connection closed (its file descriptor), so the simulation thread can forget its client.
+
+Per connection (issue 29): replies not yet taken by the kernel are counted by their bytes
+(libzmq's message trackers), and a connection past ``limits.MAX_ZMQ_UNSENT_BYTES`` (or any
+connection with unsent replies while all together pass ``MAX_ZMQ_UNSENT_BYTES_TOTAL``) gets
+"server busy" for its next request instead of another large reply; libzmq queues at most
+``ZMQ_QUEUED_MESSAGES`` messages each way per connection. Every new connection passes the ZAP
+handler (:class:`Gate`) on this thread: beyond ``max_connections`` it is refused (its
+descriptor closed at once), and with CURVE keys only the authorised clients' public keys pass.
 """
 
 from __future__ import annotations
@@ -27,6 +35,7 @@ from typing import Any, Callable
 
 import zmq
 import zmq.utils.monitor
+import zmq.utils.z85
 
 from simx_client.protocol import ProtocolError
 from simx_server.base import limits
@@ -34,8 +43,16 @@ from simx_server.zmq import codec
 
 log = logging.getLogger("simx.zmq")
 
-#: Messages libzmq reads at all; a larger one closes its connection unanswered.
-MAX_MESSAGE_BYTES = 2 * codec.MAX_REQUEST_BYTES
+#: Messages libzmq reads at all; a larger one closes its connection unanswered before any of
+#: it is buffered (room for a request just over codec.MAX_REQUEST_BYTES, answered with an error).
+MAX_MESSAGE_BYTES = codec.MAX_REQUEST_BYTES + (2 << 20)
+#: Messages libzmq queues per connection each way (ZMQ_SNDHWM, ZMQ_RCVHWM): a REQ client has one
+#: request and one reply in flight; beyond, replies to a peer that does not read are dropped.
+ZMQ_QUEUED_MESSAGES = 16
+#: Replies of at least this many bytes are sent with a tracker, so their bytes count until the
+#: kernel has them; smaller ones are bounded by ZMQ_QUEUED_MESSAGES.
+TRACKED_BYTES = 64 * 1024
+_ZAP_ENDPOINT = "inproc://zeromq.zap.01"
 #: Where clients connect unless told otherwise (CoppeliaSim's default port).
 DEFAULT_PORT = 23000
 _POLL_MS = 200  # the thread checks for close() at least this often
@@ -62,9 +79,13 @@ class Frontend:
     Raises (from :meth:`open`): zmq.ZMQError when an endpoint cannot be bound.
     """
 
-    def __init__(self, endpoints: list[str], deliver: Callable[[Any], None]):
+    def __init__(self, endpoints: list[str], deliver: Callable[[Any], None], gate: Gate | None = None):
         self.endpoints = list(endpoints)
         self._deliver = deliver
+        self.gate = gate if gate is not None else Gate()
+        self._unsent: dict[bytes, int] = {}  # identity -> bytes of its tracked replies not sent yet
+        self._unsent_total = 0
+        self._trackers: list[tuple[zmq.MessageTracker, bytes, int]] = []
         self._ctx: zmq.Context | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -80,10 +101,17 @@ class Frontend:
     def open(self) -> None:
         """Bind the socket and start the thread."""
         ctx = self._ctx = zmq.Context()
+        zap = ctx.socket(zmq.REP)  # the ZAP handler of this context: bound before any listener
+        zap.setsockopt(zmq.LINGER, 0)
+        zap.bind(_ZAP_ENDPOINT)
         router = ctx.socket(zmq.ROUTER)
         router.setsockopt(zmq.LINGER, 0)
         router.setsockopt(zmq.MAXMSGSIZE, MAX_MESSAGE_BYTES)
-        monitor = router.get_monitor_socket(zmq.EVENT_DISCONNECTED)
+        router.setsockopt(zmq.SNDHWM, ZMQ_QUEUED_MESSAGES)
+        router.setsockopt(zmq.RCVHWM, ZMQ_QUEUED_MESSAGES)
+        router.setsockopt(zmq.ZAP_DOMAIN, b"simx")
+        self.gate.configure(router)
+        monitor = router.get_monitor_socket(zmq.EVENT_ACCEPTED | zmq.EVENT_DISCONNECTED)
         try:
             for endpoint in self.endpoints:
                 router.bind(endpoint)
@@ -91,10 +119,11 @@ class Frontend:
         except zmq.ZMQError:
             monitor.close(0)
             router.close(0)
+            zap.close(0)
             ctx.term()
             self._ctx = None
             raise
-        self._thread = threading.Thread(target=self._run, args=(router, monitor), name="simx-zmq", daemon=True)
+        self._thread = threading.Thread(target=self._run, args=(router, monitor, zap), name="simx-zmq", daemon=True)
         self._thread.start()
 
     def send(self, envelope: list, payload: bytes) -> None:
@@ -125,9 +154,10 @@ class Frontend:
         self._wake_r = self._wake_w = -1
 
     # --------------------------------------------------------------- socket thread
-    def _run(self, router: zmq.Socket, monitor: zmq.Socket) -> None:
+    def _run(self, router: zmq.Socket, monitor: zmq.Socket, zap: zmq.Socket) -> None:
         poller = zmq.Poller()
         poller.register(monitor, zmq.POLLIN)  # first: a closed connection is seen before a new one's request
+        poller.register(zap, zmq.POLLIN)
         poller.register(router, zmq.POLLIN)
         poller.register(self._wake_r, zmq.POLLIN)
         try:
@@ -135,6 +165,10 @@ class Frontend:
                 events = dict(poller.poll(_POLL_MS))
                 if monitor in events:
                     self._on_monitor(monitor)
+                if zap in events:
+                    self.gate.answer(zap)
+                if self._trackers:
+                    self._count_sent()
                 if self._wake_r in events:
                     self._flush_replies(router)
                 if router in events:
@@ -149,6 +183,7 @@ class Frontend:
         finally:
             monitor.close(0)
             router.close(0)
+            zap.close(0)
 
     def _on_monitor(self, monitor: zmq.Socket) -> None:
         while True:
@@ -156,8 +191,11 @@ class Frontend:
                 event = zmq.utils.monitor.recv_monitor_message(monitor, zmq.NOBLOCK)
             except zmq.Again:
                 return
-            if event["event"] == zmq.EVENT_DISCONNECTED:
+            if event["event"] == zmq.EVENT_ACCEPTED:
+                self.gate.connections.add(int(event["value"]))
+            elif event["event"] == zmq.EVENT_DISCONNECTED:
                 fd = int(event["value"])
+                self.gate.connections.discard(fd)
                 for identity in [i for i, (f, _) in self._pending.items() if f == fd]:
                     self._done(identity)
                 self._deliver(("zmq-gone", fd))
@@ -176,9 +214,34 @@ class Frontend:
                 continue
             self._done(envelope[0])
             try:
-                router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False)
+                if len(payload) < TRACKED_BYTES:
+                    router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False)
+                    continue
+                tracker = router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False, track=True)
             except zmq.ZMQError as exc:  # the peer went, or its queue is full: its reply is lost
                 log.debug("ZMQ reply not sent: %s", exc)
+                continue
+            if tracker is not None and not tracker.done:
+                identity, size = envelope[0], len(payload)
+                self._trackers.append((tracker, identity, size))
+                self._unsent[identity] = self._unsent.get(identity, 0) + size
+                self._unsent_total += size
+
+    def _count_sent(self) -> None:
+        """Forget the tracked replies the kernel has taken (libzmq released their buffers)."""
+        kept = []
+        for entry in self._trackers:
+            tracker, identity, size = entry
+            if not tracker.done:
+                kept.append(entry)
+                continue
+            self._unsent_total -= size
+            left = self._unsent.get(identity, 0) - size
+            if left > 0:
+                self._unsent[identity] = left
+            else:
+                self._unsent.pop(identity, None)
+        self._trackers = kept
 
     def _done(self, identity: bytes) -> None:
         entry = self._pending.pop(identity, None)
@@ -210,6 +273,16 @@ class Frontend:
             if len(self._pending) >= limits.MAX_CLIENTS:
                 raise ProtocolError(f"server busy: {len(self._pending)} requests are waiting (limits.MAX_CLIENTS); "
                                     "try again later")
+            unsent = self._unsent.get(identity, 0) if self._unsent else 0
+            if unsent and self._trackers:
+                self._count_sent()
+                unsent = self._unsent.get(identity, 0)
+            over_total = unsent and self._unsent_total > limits.MAX_ZMQ_UNSENT_BYTES_TOTAL
+            if unsent > limits.MAX_ZMQ_UNSENT_BYTES or over_total:
+                raise ProtocolError(f"server busy: {unsent} bytes of this connection's earlier replies are not read "
+                                    f"yet ({self._unsent_total} of all connections; limits.MAX_ZMQ_UNSENT_BYTES "
+                                    f"{limits.MAX_ZMQ_UNSENT_BYTES}, MAX_ZMQ_UNSENT_BYTES_TOTAL "
+                                    f"{limits.MAX_ZMQ_UNSENT_BYTES_TOTAL}); read them first")
             if self._pending_bytes + size > limits.MAX_QUEUED_BYTES_TOTAL:
                 raise ProtocolError(f"server busy: {self._pending_bytes} bytes of requests are waiting "
                                     "(limits.MAX_QUEUED_BYTES_TOTAL); try again later")
@@ -226,3 +299,62 @@ class Frontend:
         self._pending[identity] = (fd, size)
         self._pending_bytes += size
         self._deliver(("zmq", Incoming(envelope, request, fd, size)))
+
+
+class Gate:
+    """The ZAP handler (ZeroMQ's authentication protocol, RFC 27) of the ZMQ remote API: every
+    new connection is asked about once, on the socket thread.
+
+    Args:
+        curve: ``(server_secret_key, server_public_key, client_public_keys)`` (Z85 bytes) to
+            require CURVE (encryption and client authentication: a connection passes only with
+            one of ``client_public_keys``), or None (no authentication: ZMQ's NULL mechanism).
+        max_connections: connections served at once; a new one beyond is refused (ZAP status
+            400; its descriptor is closed at once and the refusal logged).
+    """
+
+    def __init__(self, curve: tuple[bytes, bytes, frozenset] | None = None,
+                 max_connections: int = limits.MAX_ZMQ_CONNECTIONS):
+        self.curve = curve
+        self.max_connections = max_connections
+        self.connections: set[int] = set()  # descriptors of the accepted connections
+        self.refused = 0
+
+    def configure(self, router: zmq.Socket) -> None:
+        if self.curve is not None:
+            secret, public, _ = self.curve
+            router.setsockopt(zmq.CURVE_SERVER, 1)
+            router.setsockopt(zmq.CURVE_SECRETKEY, secret)
+            router.setsockopt(zmq.CURVE_PUBLICKEY, public)
+
+    def answer(self, zap: zmq.Socket) -> None:
+        """Answer the ZAP requests waiting on ``zap``."""
+        while True:
+            try:
+                frames = zap.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            version, request_id = (frames + [b"", b""])[:2]
+            status, text = self._decide(frames)
+            zap.send_multipart([version, request_id, status, text, b"", b""])
+
+    def _decide(self, frames: list[bytes]) -> tuple[bytes, bytes]:
+        if len(frames) < 6 or frames[0] != b"1.0":
+            return b"500", b"bad ZAP request"
+        address, mechanism = frames[3].decode(errors="replace"), frames[5]
+        if len(self.connections) > self.max_connections:
+            self.refused += 1
+            log.warning("ZMQ connection from %s refused: %d connections already (limits.MAX_ZMQ_CONNECTIONS, "
+                        "at most %d here; the open-files limit)", address, len(self.connections) - 1,
+                        self.max_connections)
+            return b"400", b"server busy: too many ZMQ connections"
+        if self.curve is None:
+            return (b"200", b"OK") if mechanism == b"NULL" else (b"400", b"unexpected mechanism")
+        if mechanism != b"CURVE" or len(frames) < 7:
+            return b"400", b"CURVE required"
+        key = zmq.utils.z85.encode(frames[6]) if len(frames[6]) == 32 else b""
+        if key not in self.curve[2]:
+            log.warning("ZMQ connection from %s refused: its CURVE key is not an authorised client's "
+                        "(--zmq-curve)", address)
+            return b"400", b"unknown client key"
+        return b"200", b"OK"

@@ -5,17 +5,48 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from simx_server.zmq.frontend import DEFAULT_PORT, Frontend
+from pathlib import Path
+
+from simx_server.base import limits
+from simx_server.base.resources import raise_open_files_limit
+from simx_server.zmq.frontend import DEFAULT_PORT, Frontend, Gate
 from simx_server.zmq.service import ZmqService
 
 log = logging.getLogger("simx.zmq")
 
-__all__ = ["DEFAULT_PORT", "ZmqRemoteApi", "endpoints"]
+__all__ = ["DEFAULT_PORT", "ZmqRemoteApi", "curve_keys", "endpoints"]
 
 
 def endpoints(hosts: list[str] | tuple[str, ...], port: int) -> list[str]:
     """ZMQ endpoints for ``hosts`` (``--host``) on ``port``: ``tcp://HOST:PORT`` (IPv6 in brackets)."""
     return [f"tcp://[{h}]:{port}" if ":" in h else f"tcp://{h}:{port}" for h in hosts]
+
+
+def curve_keys(folder: str | Path) -> tuple[bytes, bytes, frozenset]:
+    """The CURVE keys of ``--zmq-curve FOLDER``: ``server.key_secret`` (the server's key pair) and
+    the authorised clients' public keys, ``clients/*.key``, in the certificate format of
+    ``zmq.auth.create_certificates`` (docs/SECURITY.md).
+
+    Raises:
+        ValueError: a file is missing or holds no key, or no client key is authorised.
+    """
+    import zmq.auth
+
+    folder = Path(folder)
+    try:
+        public, secret = zmq.auth.load_certificate(folder / "server.key_secret")
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{folder / 'server.key_secret'}: {exc}") from None
+    if not secret:
+        raise ValueError(f"{folder / 'server.key_secret'} holds no secret key")
+    clients = folder / "clients"
+    try:
+        keys = frozenset(zmq.auth.load_certificates(clients))
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{clients}: {exc}") from None
+    if not keys:
+        raise ValueError(f"{clients} holds no client public key (*.key): no client could connect")
+    return secret, public, keys
 
 
 class ZmqRemoteApi:
@@ -28,8 +59,10 @@ class ZmqRemoteApi:
 
     kinds = ("zmq", "zmq-gone")
 
-    def __init__(self, server: Any, endpoints: list[str]):
-        self.frontend = Frontend(endpoints, server.deliver)
+    def __init__(self, server: Any, endpoints: list[str], curve: tuple[bytes, bytes, frozenset] | None = None):
+        files = raise_open_files_limit()
+        gate = Gate(curve, max(16, min(limits.MAX_ZMQ_CONNECTIONS, files // 2)))
+        self.frontend = Frontend(endpoints, server.deliver, gate)
         self.service = ZmqService(server, self.frontend)
 
     @property
@@ -39,7 +72,9 @@ class ZmqRemoteApi:
 
     def open(self) -> None:
         self.frontend.open()
-        if any(not (e.startswith("tcp://127.") or e.startswith("tcp://[::1]") or e.startswith("tcp://localhost"))
+        if self.frontend.gate.curve is not None:
+            log.info("ZMQ remote API with CURVE: %d authorised client keys", len(self.frontend.gate.curve[2]))
+        elif any(not (e.startswith("tcp://127.") or e.startswith("tcp://[::1]") or e.startswith("tcp://localhost"))
                for e in self.frontend.bound):
             log.warning("ZMQ remote API on %s: it has no authentication, any host that reaches it can run the "
                         "simulation (docs/SECURITY.md); keep it on loopback or behind a firewall",

@@ -37,6 +37,7 @@ from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.sim.state import RunState
 from simx_server.zmq import codec, names
+from simx_server.zmq.budgets import Connection, reply_estimate
 from simx_server.zmq.frontend import Frontend, Incoming
 from simx_server.zmq.motion import Stepped
 from simx_server.zmq.remote_sim import RemoteSim, facade_functions
@@ -46,9 +47,10 @@ log = logging.getLogger("simx.zmq")
 
 #: ``sim.NAME`` answered by the service itself (a client's state, not the scene's).
 STEPPING = ("setStepping", "step", "yield", "switchThread", "acquireLock", "releaseLock")
-#: Calls that load or edit the scene (each recompiles it): within the client's share of the
-#: simulation thread, limits.EDIT_SHARE, as the legacy API's scene commands. Past its share a
-#: client's edit waits (its program is slowed, not failed: the official client does not retry).
+#: Calls that load or edit the scene (each recompiles it): they cost their whole duration against
+#: their connection's share of the simulation thread (zmq.budgets.Connection), other calls their
+#: time past limits.MAX_REQUEST_SECONDS. Past its share a connection's calls wait (its program
+#: is slowed, not failed: the official client does not retry).
 EDITS = frozenset({"loadScene", "loadModel", "removeObject", "removeObjects", "removeModel", "createDummy",
                    "setObjectParent", "setObjectAlias", "setObjectName", "importShape"})
 _EMPTY = cbor2.dumps({})
@@ -58,9 +60,9 @@ class ZmqClient:
     """One ZMQ remote API client (a ``RemoteAPIClient``, by its uuid)."""
 
     __slots__ = ("uuid", "sync_id", "lock_id", "fd", "stepping", "locks", "timeout", "last_seen",
-                 "step_at", "waiting", "held", "label", "long", "long_func", "edit_debt")
+                 "step_at", "waiting", "held", "label", "long", "long_func", "connection")
 
-    def __init__(self, uuid: str, fd: int, timeout: float | None, now: float):
+    def __init__(self, uuid: str, fd: int, timeout: float | None, now: float, connection: bytes = b""):
         self.uuid = uuid
         self.label = f"zmq:{uuid[:8]}"
         self.sync_id, self.lock_id = f"zmq:{uuid}", f"zmq-lock:{uuid}"
@@ -74,7 +76,7 @@ class ZmqClient:
         self.held: list | None = None  # envelope of its _*executed*_, answered after the next step
         self.long = None  # the generator of a call that lasts several steps (sim.moveToConfig ...)
         self.long_func = ""
-        self.edit_debt = (0.0, now)  # s of the simulation thread its scene edits owe, as of when
+        self.connection = connection  # its connection's routing id (ZmqService.connections)
 
 
 class ZmqService:
@@ -90,12 +92,13 @@ class ZmqService:
         self.server = server
         self.frontend = frontend
         self.clients: dict[str, ZmqClient] = {}
+        self.connections: dict[bytes, Connection] = {}  # routing id -> its uuids and share
         self._remote: RemoteSim | None = None
         self._functions = facade_functions()
         self._signatures: dict[str, inspect.Signature] = {}
         self._held = 0  # clients with a held _*executed*_
         self._in_after_step = self._again = False
-        self._deferred: list[tuple] = []  # (when, client, envelope, func, args): scene edits past the share
+        self._deferred: list[tuple] = []  # (when, client, envelope, func, args): calls past their connection's share
         self._own: dict[str, Callable[[ZmqClient, list, list], None]] = {
             "setStepping": self._set_stepping, "step": self._step, "yield": self._step,
             "switchThread": self._step, "acquireLock": self._acquire_lock, "releaseLock": self._release_lock,
@@ -121,6 +124,8 @@ class ZmqService:
         if kind == "zmq-gone":
             for client in [c for c in self.clients.values() if c.fd == item]:
                 self.forget(client, "disconnected")
+            for identity in [i for i, c in self.connections.items() if c.fd == item and not c.uuids]:
+                del self.connections[identity]
             return
         incoming: Incoming = item
         try:
@@ -133,17 +138,37 @@ class ZmqService:
     def _serve(self, incoming: Incoming) -> None:
         req, envelope = incoming.request, incoming.envelope
         now = time.monotonic()
+        identity = envelope[0] if envelope else b""
+        connection = self.connections.get(identity)
+        if connection is None:
+            connection = self.connections[identity] = Connection(incoming.fd, now)
+        connection.fd = incoming.fd
         client = self.clients.get(req.uuid)
-        if client is None:
+        if client is None or client.connection != identity:
             if req.func == codec.END:
+                if client is not None:
+                    self.forget(client, "left")
                 self.frontend.send(envelope, _EMPTY)
                 return
+            if len(connection.uuids) >= limits.MAX_ZMQ_CLIENTS_PER_CONNECTION:
+                self.frontend.send(envelope, codec.encode_error(
+                    f"{quote(req.func, 100)[1:-1]}: this connection holds {len(connection.uuids)} ZMQ clients (uuids) "
+                    f"already (limits.MAX_ZMQ_CLIENTS_PER_CONNECTION); use one connection per client"))
+                return
+        if client is not None and client.connection != identity:  # the same uuid on a new connection
+            old = self.connections.get(client.connection)
+            if old is not None:
+                old.uuids.discard(client.uuid)
+            client.connection = identity
+            connection.uuids.add(client.uuid)
+        if client is None:
             if len(self.clients) >= limits.MAX_CLIENTS and not self._evict_one():
                 self.frontend.send(envelope, codec.encode_error(
                     f"server busy: it serves {len(self.clients)} ZMQ clients already (limits.MAX_CLIENTS), all "
                     "stepped, locked or waiting; try again later"))
                 return
-            client = self.clients[req.uuid] = ZmqClient(req.uuid, incoming.fd, req.timeout, now)
+            client = self.clients[req.uuid] = ZmqClient(req.uuid, incoming.fd, req.timeout, now, identity)
+            connection.uuids.add(req.uuid)
             log.info("ZMQ client %s connected%s", client.label, f" ({quote(req.lang, 40)})" if req.lang else "")
         client.fd, client.last_seen = incoming.fd, now
         if req.func == codec.EXECUTED:
@@ -156,14 +181,24 @@ class ZmqService:
             self.forget(client, "left")
             self.frontend.send(envelope, _EMPTY)
             return
-        if req.func.startswith("sim.") and req.func[4:] in EDITS:
-            wait = self._edit_wait(client, now)
-            if wait > 0:  # past its share: the edit waits its turn, other clients go on meanwhile
-                log.info("ZMQ client %s: %s waits %.1f s (its scene edits took more than %.0f%% of the simulation "
-                         "thread, limits.EDIT_SHARE)", client.label, req.func, wait, 100 * limits.EDIT_SHARE)
-                self._deferred.append((now + wait, client, envelope, req.func, req.args))
-                return
-        self.frontend.send(envelope, self._call(client, req.func, req.args))
+        wait = connection.wait(now)
+        if wait > 0:  # past its share: the call waits its turn, other connections go on meanwhile
+            log.info("ZMQ client %s: %s waits %.1f s (its connection's scene edits and long calls took more than "
+                     "%.0f%% of the simulation thread, limits.EDIT_SHARE)", client.label, quote(req.func, 100), wait,
+                     100 * limits.EDIT_SHARE)
+            self._deferred.append((now + wait, client, envelope, req.func, req.args))
+            return
+        self._answer(client, envelope, req.func, req.args)
+
+    def _answer(self, client: ZmqClient, envelope: list, func: str, args: list) -> None:
+        """Reply to ``func(*args)``; its time is charged to the client's connection."""
+        start = time.monotonic()
+        payload = self._call(client, func, args)
+        done = time.monotonic()
+        connection = self.connections.get(client.connection)
+        if connection is not None:
+            connection.charge(done - start, done, func.startswith("sim.") and func[4:] in EDITS)
+        self.frontend.send(envelope, payload)
 
     def _call(self, client: ZmqClient, func: str, args: list) -> bytes:
         """The encoded reply to ``func(*args)``: ``{ret}``, ``{err}`` or ``{func: _*wait*_}``."""
@@ -176,9 +211,10 @@ class ZmqService:
                 if isinstance(reply, bytes):
                     return reply
                 values = reply
-            elif namespace == "sim" and name in EDITS:
-                values = self._edit(client, name, args)
             elif namespace == "sim" and name in self._functions:
+                refused = reply_estimate(self.sim, name, args)
+                if refused is not None:
+                    return self._error(client, func, refused)
                 values = self._facade(name, args)
                 if isinstance(values, Stepped):
                     return self._start_long(client, func, values)
@@ -205,6 +241,8 @@ class ZmqService:
             return self._error(client, func, f"bad arguments: {exc}")
         if isinstance(exc, RecursionError):
             return self._error(client, func, "arguments nested too deeply")
+        if isinstance(exc, OSError) and exc.errno is not None:  # a path the system refuses (too long, ...)
+            return self._error(client, func, f"refused: {exc.strerror} (errno {exc.errno})")
         log.error("ZMQ client %s: %s raised", client.label, quote(func, 100), exc_info=exc)
         return self._error(client, func, f"internal error: {type(exc).__name__}: {exc}", logged=True)
 
@@ -237,25 +275,6 @@ class ZmqService:
             return [] if signature.return_annotation in ("None", None) else [None]
         return list(result) if isinstance(result, tuple) else [result]
 
-    @staticmethod
-    def _edit_wait(client: ZmqClient, now: float) -> float:
-        """s before the client's next scene load or edit is within its share (0: now). Each edit
-        costs its duration; the debt falls by limits.EDIT_SHARE s per s (the legacy API's rule)."""
-        debt, since = client.edit_debt
-        debt = max(0.0, debt - (now - since) * limits.EDIT_SHARE)
-        client.edit_debt = (debt, now)
-        return max(0.0, (debt - limits.EDIT_DEBT_SECONDS) / limits.EDIT_SHARE)
-
-    def _edit(self, client: ZmqClient, name: str, args: list) -> list:
-        """A scene load or edit, its duration added to the client's debt."""
-        start = time.monotonic()
-        try:
-            return self._facade(name, args)
-        finally:
-            debt, _ = client.edit_debt
-            done = time.monotonic()
-            client.edit_debt = (debt + (done - start), done)
-
     def _run_deferred(self) -> None:
         """Serve the scene edits whose wait is over (their clients still there)."""
         now = time.monotonic()
@@ -265,7 +284,7 @@ class ZmqService:
         self._deferred = [d for d in self._deferred if d[0] > now]
         for _, client, envelope, func, args in due:
             if self.clients.get(client.uuid) is client:
-                self.frontend.send(envelope, self._call(client, func, args))
+                self._answer(client, envelope, func, args)
 
     def _api(self, name: str, args: list) -> list:
         if name == "require":
@@ -413,6 +432,9 @@ class ZmqService:
         """Drop a client: it leaves the barrier (the step the others triggered may run now)."""
         if self.clients.pop(client.uuid, None) is None:
             return
+        connection = self.connections.get(client.connection)
+        if connection is not None:
+            connection.uuids.discard(client.uuid)
         if client.held is not None:
             self._held -= 1
             client.held = None

@@ -193,8 +193,8 @@ def test_fresh_client_ids_do_not_grow_the_server(monkeypatch):
     frontend = Frontend()
     service = ZmqService(Server(), frontend)
     for i in range(20):
-        service.handle("zmq", Incoming([b"id"], codec.read_request(codec.encode_request(
-            "zmqRemoteApi.require", ["sim"], f"client-{i}")), 1, 10))
+        service.handle("zmq", Incoming([f"id-{i}".encode()], codec.read_request(codec.encode_request(
+            "zmqRemoteApi.require", ["sim"], f"client-{i}")), i, 10))
     assert len(service.clients) == 5 and all(r == {"ret": []} for r in frontend.sent)
     assert "client-19" in service.clients and "client-0" not in service.clients
 
@@ -225,7 +225,7 @@ def test_scene_edits_past_the_share_wait_their_turn(monkeypatch):
 
         edit()
         assert len(sent) == 1 and isinstance(sent[0]["ret"][0], int)
-        assert service.clients["editor"].edit_debt[0] > 0  # the first edit's duration, owed
+        assert service.connections[b"id"].debt > 0  # the first edit's duration, owed by its connection
         edit()
         assert len(sent) == 1 and len(service._deferred) == 1  # waiting, not refused
         wait_until(lambda: service.housekeeping(time.monotonic()) or len(sent) == 2, timeout=30,

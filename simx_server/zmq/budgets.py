@@ -1,0 +1,100 @@
+"""The ZMQ door's reply and time budgets: the legacy door's rules, per ZMQ connection.
+
+* **Replies sized before they are built** (:func:`reply_estimate`): a call whose reply is known
+  from its arguments (an image from its sensor's resolution, an unpacked table from its buffer's
+  length) is refused before it runs when it would pass ``limits.MAX_REPLY_BYTES`` or carry more
+  than ``protocol.MAX_REQUEST_ITEMS`` values (the legacy door's image rule,
+  :func:`simx_server.transport.replies.image_pixels`). A 100-byte ``sim.getVisionSensorImage``
+  after setting a 4096x4096 resolution (50 M floats) stalled the simulation 13.8 s and peaked
+  at 3.5 GB; ``sim.unpackUInt8Table`` of 60 MiB, 21.6 s.
+* **The simulation thread's share per connection** (:class:`Connection`): a connection's scene
+  loads and edits cost their duration, and any other call its time past
+  ``limits.MAX_REQUEST_SECONDS`` (a request's budget on the legacy door); the debt falls by
+  ``limits.EDIT_SHARE`` s per s, and while it exceeds ``limits.EDIT_DEBT_SECONDS`` the
+  connection's calls wait (deferred: other connections are served meanwhile). Counted per
+  connection (its ROUTER routing id), not per uuid: a client may use a new uuid for every call.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import Any
+
+from simx_client.protocol import MAX_REQUEST_ITEMS
+from simx_server.base import limits
+from simx_server.scripts.facade_core import _PACK_FORMATS
+from simx_server.scripts.facade_sensors import HANDLEFLAG_GREYSCALE as _GREYSCALE
+from simx_server.transport.replies import image_pixels
+
+_CBOR_FLOAT, _CBOR_INT = 9, 5  # bytes of a float64 and of a 32-bit integer in a CBOR reply
+
+
+def _image(sim: Any, args: list, floats: bool) -> tuple[int, int]:
+    handle = args[0] if args and type(args[0]) is int else -1
+    grey = handle >= 0 and bool(handle & _GREYSCALE)
+    pixels = image_pixels(sim, [handle & ~_GREYSCALE if grey else handle])
+    values = pixels * (1 if grey else 3)
+    if floats and not (len(args) > 5 and args[5] == 1):  # returnType 1: a buffer of bytes
+        return values * _CBOR_FLOAT, values
+    return values, 1
+
+
+def _unpack(code: str, args: list) -> tuple[int, int]:
+    data = args[0] if args else b""
+    if not isinstance(data, (bytes, bytearray, str)):
+        return 0, 0
+    ints = [a if type(a) is int and a > 0 else 0 for a in (args + [0, 0, 0])[1:4]]
+    start, count, offset = ints
+    items = max(0, (len(data) - offset) // struct.calcsize(code) - start)
+    if count:
+        items = min(items, count)
+    return items * (_CBOR_FLOAT if code in "fd" else _CBOR_INT), items
+
+
+_ESTIMATES = {
+    "getVisionSensorImage": lambda sim, args: _image(sim, args, floats=True),
+    "getVisionSensorImg": lambda sim, args: _image(sim, args, floats=False),
+    "getVisionSensorDepth": lambda sim, args: (4 * image_pixels(sim, args[:1]), 1),
+    "getVisionSensorDepthBuffer": lambda sim, args: (4 * image_pixels(sim, args[:1]), 1),
+    **{f"unpack{kind}Table": (lambda sim, args, code=code: _unpack(code, args))
+       for kind, code in _PACK_FORMATS.items()},
+}
+
+
+def reply_estimate(sim: Any, name: str, args: list) -> str | None:
+    """Why ``sim.NAME(*args)`` is refused before it runs (its reply would pass a bound), or None."""
+    estimate = _ESTIMATES.get(name)
+    if estimate is None:
+        return None
+    size, values = estimate(sim, args)
+    if size > limits.MAX_REPLY_BYTES:
+        return (f"not executed: the reply would be about {size} bytes, more than {limits.MAX_REPLY_BYTES} "
+                "(limits.MAX_REPLY_BYTES); ask for less (a smaller resolution or window, a part of the buffer)")
+    if values > MAX_REQUEST_ITEMS:
+        return (f"not executed: the reply would hold {values} values, more than {MAX_REQUEST_ITEMS} "
+                "(protocol.MAX_REQUEST_ITEMS); ask for less")
+    return None
+
+
+class Connection:
+    """A ZMQ connection (a ROUTER routing id): its clients (uuids) and its share of the
+    simulation thread."""
+
+    __slots__ = ("fd", "uuids", "debt", "since")
+
+    def __init__(self, fd: int, now: float):
+        self.fd = fd
+        self.uuids: set[str] = set()
+        self.debt, self.since = 0.0, now  # s of the simulation thread it owes, as of when
+
+    def wait(self, now: float) -> float:
+        """s before its next call is within its share (0: now)."""
+        self.debt = max(0.0, self.debt - (now - self.since) * limits.EDIT_SHARE)
+        self.since = now
+        return max(0.0, (self.debt - limits.EDIT_DEBT_SECONDS) / limits.EDIT_SHARE)
+
+    def charge(self, seconds: float, now: float, edit: bool) -> None:
+        """A call of ``seconds`` done at ``now``: an edit costs all of it, another call its time
+        past limits.MAX_REQUEST_SECONDS."""
+        self.wait(now)
+        self.debt += seconds if edit else max(0.0, seconds - limits.MAX_REQUEST_SECONDS)
