@@ -9,7 +9,8 @@
   cycle in ``replies.pack_large`` held every image of a reply until the cyclic collector ran;
   glibc's dynamic mmap threshold and per-thread arenas kept the rest); now a few MB.
 * The pieces: ``pack_large`` makes no cyclic garbage, the allocator settings are made at start
-  unless the environment sets them.
+  unless the environment sets them, and a renderer's offscreen buffer is of its own size, not
+  the largest sensor's (item 8: ten 4096x4096 streams left 1.1-1.5 GB of 4096x4096 buffers).
 """
 
 from __future__ import annotations
@@ -138,3 +139,26 @@ def test_malloc_is_tuned_unless_the_environment_sets_it():
     out = subprocess.run([sys.executable, "-c", code], env=dict(env, MALLOC_ARENA_MAX="8"), capture_output=True,
                          text=True, check=True).stdout
     assert out.strip() == "['mmap_threshold']"
+
+
+def test_a_renderer_s_offscreen_buffer_is_of_its_own_size():
+    """After one sensor was set to 4096x4096 (the model's offwidth/offheight follow the largest
+    sensor), a 640x480 renderer took a 4096x4096 offscreen buffer too (about 300 MB on
+    llvmpipe; ten 4096x4096 streams left 1.1-1.5 GB of them)."""
+    import mujoco
+
+    from simx_server.cli import default_scene
+    from simx_server.sim.render_thread import RenderThread
+
+    model = mujoco.MjModel.from_xml_path(str(default_scene()))
+    model.vis.global_.offwidth = model.vis.global_.offheight = 4096
+    thread = RenderThread("simx-test-render")
+    try:
+        r = thread.executor.submit(thread.renderer, model, 640, 480).result(timeout=60)
+        assert (r._mjr_context.offWidth, r._mjr_context.offHeight) == (640, 480)
+        assert (model.vis.global_.offwidth, model.vis.global_.offheight) == (4096, 4096)  # left as it was
+        big = thread.executor.submit(thread.renderer, model, 4096, 4096).result(timeout=60)
+        assert (big._mjr_context.offWidth, big._mjr_context.offHeight) == (4096, 4096)
+    finally:
+        thread.executor.submit(thread.free).result(timeout=60)
+        thread.executor.shutdown()
