@@ -14,8 +14,8 @@ transport-optimisation threshold (``message_size_threshold``, 3,072 bytes) each 
 sends them through its own 16 MiB pool (``pool_size``); the queryable maps that pool on the
 first such message and keeps it mapped after the session closed: +16 MB of RssShmem per
 connection, never returned (80 sessions: 0 -> 513 MB of RssShmem, with a pause between the
-17th and the 27th; the same pattern against simx-server: +16.0 MB for each of 50 sessions). With payloads under the threshold, or
-shared memory off on either side, RSS stays flat. Expected: a peer's segments are unmapped
+17th and the 27th; the same pattern against simx-server: +16.0 MB for each of 50 sessions).
+With payloads under the threshold, or shared memory off on either side, RSS stays flat. Expected: a peer's segments are unmapped
 when its last session closes.
 
 Loopback only, multicast scouting off, bounded by ``N`` (at most 500).

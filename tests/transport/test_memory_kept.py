@@ -102,7 +102,8 @@ def test_large_requests_give_their_memory_back():
         time.sleep(0.5)
         after = _rss_mb(srv.proc.pid)
         print(f"large requests: server RSS {before:.0f} -> {after:.0f} MB")
-        assert after - before < LARGE_REQUESTS_MB, f"the server kept {after - before:.0f} MB ({before:.0f} -> {after:.0f})"
+        assert after - before < LARGE_REQUESTS_MB, (f"the server kept {after - before:.0f} MB "
+                                                    f"({before:.0f} -> {after:.0f})")
     finally:
         session.close()
         srv.stop()
