@@ -217,6 +217,9 @@ def main(argv: list[str] | None = None) -> int:
     # Zenoh's threads (one client's flood) and the simulation thread take turns at the GIL:
     # hand it over every 0.5 ms rather than 5, so a waiting request is not held up for long.
     sys.setswitchinterval(SWITCH_INTERVAL)
+    from simx_server.transport.allocator import tune_malloc
+
+    tune_malloc()  # freed memory goes back to the system (before Zenoh's and the render threads start)
     os.environ.setdefault("MUJOCO_GL", "egl")
     # Imported here so that --help works without a GL stack.
     import zenoh

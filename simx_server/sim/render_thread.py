@@ -95,6 +95,24 @@ def _close(renderer: mujoco.Renderer) -> None:
         pass
 
 
+def _make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """A renderer of ``width`` x ``height`` whose offscreen buffer is of that size.
+
+    ``MjrContext`` sizes its offscreen buffers by the model's ``offwidth`` x ``offheight``,
+    which is the largest sensor's size: once a sensor was set to 4096x4096, every renderer made
+    after it (a 640x480 one, a 4096x256 band) took a 4096x4096 buffer, about 300 MB on llvmpipe,
+    and the renderers kept per thread held 1.1-1.5 GB. The model's size is set to the
+    renderer's for the time it is made (GL_LOCK held: the other render thread makes none
+    meanwhile); ``mujoco.Renderer`` only checks it then."""
+    g = model.vis.global_
+    saved = g.offwidth, g.offheight
+    g.offwidth, g.offheight = width, height
+    try:
+        return mujoco.Renderer(model, height, width)
+    finally:
+        g.offwidth, g.offheight = saved
+
+
 class RenderThread:
     """A render thread and the state only it touches: the renderers (one GL context and
     ``MjrContext`` per resolution), bound to one model. Shared by the successive VisionSensors
@@ -128,7 +146,7 @@ class RenderThread:
                 _close(self.renderers.popitem(last=False)[1])
             try:
                 with GL_LOCK.exclusive():
-                    r = mujoco.Renderer(model, height, width)
+                    r = _make_renderer(model, width, height)
             except Exception as exc:
                 self.failure = f"{type(exc).__name__}: {exc}"
                 raise

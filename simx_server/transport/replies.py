@@ -75,29 +75,33 @@ def pack_large(message: Any) -> bytes:
     packer = msgpack.Packer(use_bin_type=True)
     pieces: list[bytes] = []
     small = bytearray()  # the msgpack bytes since the last large binary
-
-    def walk(value: Any) -> None:
-        t = type(value)
-        if t is bytes and len(value) >= LARGE_BINARY:
-            small.extend(struct.pack(">BI", 0xC6, len(value)))  # msgpack bin 32
-            pieces.append(bytes(small))
-            small.clear()
-            pieces.append(value)
-        elif t is list or t is tuple:
-            small.extend(packer.pack_array_header(len(value)))
-            for item in value:
-                walk(item)
-        elif t is dict:
-            small.extend(packer.pack_map_header(len(value)))
-            for key, item in value.items():
-                walk(key)
-                walk(item)
-        else:
-            small.extend(packer.pack(value))
-
-    walk(message)
+    _walk(message, packer, pieces, small)
     pieces.append(bytes(small))
     return b"".join(pieces)
+
+
+def _walk(value: Any, packer: msgpack.Packer, pieces: list[bytes], small: bytearray) -> None:
+    """:func:`pack_large`'s walk: msgpack bytes of ``value`` into ``small``, each large binary
+    as a piece of its own. A function of the module, not a closure: a nested function that
+    calls itself is a reference cycle (function -> cell -> function), which kept ``pieces``
+    (every image of the message) until the cyclic collector ran."""
+    t = type(value)
+    if t is bytes and len(value) >= LARGE_BINARY:
+        small.extend(struct.pack(">BI", 0xC6, len(value)))  # msgpack bin 32
+        pieces.append(bytes(small))
+        small.clear()
+        pieces.append(value)
+    elif t is list or t is tuple:
+        small.extend(packer.pack_array_header(len(value)))
+        for item in value:
+            _walk(item, packer, pieces, small)
+    elif t is dict:
+        small.extend(packer.pack_map_header(len(value)))
+        for key, item in value.items():
+            _walk(key, packer, pieces, small)
+            _walk(item, packer, pieces, small)
+    else:
+        small.extend(packer.pack(value))
 
 
 def resolve(results: list, client: str) -> list:

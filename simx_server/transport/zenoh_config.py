@@ -17,13 +17,16 @@ from simx_server.base import limits
 log = logging.getLogger("simx.server")
 
 _BLOCK_WAIT = "transport/link/tx/queue/congestion_control/block/wait_before_close"
+_SHM_KEY = "shared_memory"  # the operator's file names Zenoh's transport/shared_memory section
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
     """Server Zenoh config: the file's settings (TLS, authentication, access control), listening
     on ``endpoints`` unless the file lists its own, multicast scouting always off, and a reply
     blocked on a client's full link given up after limits.MAX_BLOCKED_REPLY_SECONDS (unless the
-    file sets ``transport/link/tx/queue/congestion_control/block/wait_before_close``).
+    file sets ``transport/link/tx/queue/congestion_control/block/wait_before_close``), and
+    Zenoh's shared-memory transport off (unless the file has a ``shared_memory`` section): it
+    kept every client process's 16 MiB pool mapped after the client left.
 
     A file without ``listen/endpoints`` listens on ``endpoints`` (``--host``/``--port``), not on
     Zenoh's default (every interface). Listening beyond loopback without access control logs a
@@ -38,6 +41,11 @@ def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) ->
         config.insert_json5("listen/endpoints", json.dumps(endpoints))
         listen = endpoints
     config.insert_json5("scouting/multicast/enabled", "false")
+    # Zenoh's shared-memory transport maps each client process's 16 MiB pool into the server the
+    # first time it sends a message over 3 KiB and never unmaps it: 17 MB more per client process,
+    # for good (docs/SECURITY.md, "Memory per connection"). Off unless the operator's file sets it.
+    if not (config_file and _SHM_KEY in Path(config_file).read_text(errors="replace")):
+        config.insert_json5("transport/shared_memory/enabled", "false")
     # A client that stops reading must not hold the simulation thread's replies for Zenoh's
     # default 5 s (limits.MAX_BLOCKED_REPLY_SECONDS), unless the operator's file sets its own.
     if config.get_json(_BLOCK_WAIT) == zenoh.Config().get_json(_BLOCK_WAIT):

@@ -40,7 +40,7 @@ IN_FLIGHT = 8  # queries outstanding at once
 REPLY_TIMEOUT = 30.0  # s a query waits for its reply
 MAX_REFUSAL = 64 * 1024  # bytes: a refusal of any input
 MAX_ERROR_TEXT = 4 * 1024  # characters: one command's error message
-RSS_GROWTH_MB = 200
+RSS_GROWTH_MB = 40  # MB; issue 29: +134-300 MB before the fix (pack_large's cycle, malloc), +6 MB since
 B, ONESHOT, STREAMING, DISCONTINUE = P.MODE_BLOCKING, P.MODE_ONESHOT, P.MODE_STREAMING, P.MODE_DISCONTINUE
 MODES = [ONESHOT, B, STREAMING, STREAMING + 100, P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT, DISCONTINUE,
          P.MODE_BUFFER, P.MODE_REMOVE, -1, 0x7FFFFFFF, 2**63 - 1, -(2**63), 2**64 - 1]
