@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from simx_client.protocol import ArgumentError, quote  # noqa: F401  (quote: for every handler module)
+from simx_wire.protocol import ArgumentError, quote  # noqa: F401  (quote: for every handler module)
 
 
 def as_int(value: Any, what: str) -> int:

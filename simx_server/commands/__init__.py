@@ -3,7 +3,7 @@
 One module per area (objects and poses, joints, parameters, signals, sensors and images,
 collisions, group data, scripts, scene editing, the simulation's run state), each exporting its
 handler table; :data:`HANDLERS` merges them. Handlers check every argument (clients are
-untrusted) and raise the exceptions of :mod:`simx_client.protocol`; the transport turns them into
+untrusted) and raise the exceptions of :mod:`simx_wire.protocol`; the transport turns them into
 error results and one log line.
 
 Layer: below :mod:`simx_server.transport`; imports :mod:`simx_server.scene`,

@@ -11,8 +11,8 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from simx_client import constants as C
-from simx_client.protocol import RemoteError, UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import RemoteError, UnsupportedError
 from simx_server.base.arguments import check_args as _args
 from simx_server.commands.simulation import Handler
 from simx_server.scene.simulation import Simulation

@@ -9,7 +9,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from simx_client.protocol import ArgumentError, ObjectTypeError
+from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.base.arguments import check_args as _args
 from simx_server.commands.simulation import Handler
 from simx_server.scene.simulation import Simulation

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from simx_client.protocol import PROTOCOL_VERSION, UnsupportedError
+from simx_wire.protocol import PROTOCOL_VERSION, UnsupportedError
 from simx_server.base.arguments import check_args as _args
 from simx_server.scene.simulation import Simulation
 

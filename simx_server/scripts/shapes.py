@@ -19,7 +19,7 @@ from typing import Any
 
 import mujoco
 
-from simx_client.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote

@@ -1,6 +1,6 @@
 """Values a script passes to the ``sim`` facade, checked and converted: strings, buffers,
 integers, finite numbers and fixed-length vectors. Each raises
-:class:`simx_client.protocol.ArgumentError` naming the argument (``what``) when the value does not fit.
+:class:`simx_wire.protocol.ArgumentError` naming the argument (``what``) when the value does not fit.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from simx_client.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError
 
 
 def _text(value: Any, what: str) -> str:

@@ -60,7 +60,7 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError
 from simx_server.base import limits as L
 from simx_server.sim import handle_render
 from simx_server.sim.physics import check_resolution

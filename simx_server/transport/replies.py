@@ -16,7 +16,7 @@ from typing import Any
 import msgpack
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base.arguments import quote
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.vision import Deferred

@@ -26,7 +26,7 @@ from typing import Any
 
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.commands import HANDLERS, NOT_STREAMABLE

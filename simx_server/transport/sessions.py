@@ -27,7 +27,7 @@ import threading
 import time
 from typing import Any
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base import limits
 
 _MODE_MASK, _MODE_BLOCKING = P.MODE_MASK, P.MODE_BLOCKING

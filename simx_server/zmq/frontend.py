@@ -28,7 +28,7 @@ from typing import Any, Callable
 import zmq
 import zmq.utils.monitor
 
-from simx_client.protocol import ProtocolError
+from simx_wire.protocol import ProtocolError
 from simx_server.base import limits
 from simx_server.zmq import codec
 

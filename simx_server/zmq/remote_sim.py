@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.commands import HANDLERS
 from simx_server.scene.simulation import Simulation

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from simx_client.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError
 from simx_server.scripts.values import _int, _text
 
 #: The one IK environment: the scene.

@@ -1,7 +1,7 @@
 """Every legacy remote API constant with its V-REP / CoppeliaSim value.
 
 The values are those of the original files, read by ``scripts/gen_constants.py`` into the
-generated table :mod:`simx_client.legacy_constants` (nothing here is typed by hand):
+generated table :mod:`simx_wire.legacy_constants` (nothing here is typed by hand):
 
 * :data:`VREP_CONSTANTS`: what ``vrep`` / ``vrepConst`` export: every constant of V-REP 3.6's
   ``vrepConst.py`` (626 names: 623 ``sim_*`` / ``simx_*`` and 3 ``SIMX_*``) and
@@ -24,7 +24,7 @@ follows its own file; this module's attributes are the union, with vrepConst.py'
 
 from __future__ import annotations
 
-from simx_client.legacy_constants import SIMCONST, V_REPCONST_H, VREPCONST
+from simx_wire.legacy_constants import SIMCONST, V_REPCONST_H, VREPCONST
 
 #: Constants simx's client adds to those of the Python files (from v_repConst.h).
 ADDED_BY_SIMX: dict[str, int] = {name: value for name, value in V_REPCONST_H.items()

@@ -38,7 +38,7 @@ from typing import Any, Callable, Iterable
 
 import msgpack
 
-from simx_client import decoded_size
+from simx_wire import decoded_size
 
 PROTOCOL_VERSION = 3  # 2: one call key for every client; 1: the same fields in msgpack maps
 DEFAULT_PREFIX = "simx"
@@ -361,7 +361,7 @@ def pack(message: Any) -> bytes:
 
 #: Most values in one request, at any depth (containers, numbers, strings, map keys): twice a
 #: script call's values (limits.MAX_SCRIPT_CALL_VALUES). Measured before decoding
-#: (:mod:`simx_client.decoded_size`): one 60 MiB request of 62.9 M empty arrays took a server from
+#: (:mod:`simx_wire.decoded_size`): one 60 MiB request of 62.9 M empty arrays took a server from
 #: 216 MB to 4.7 GB; refused now after walking 2 M of them (about 0.4 s, no memory).
 MAX_REQUEST_ITEMS = 1 << 21
 #: Most memory one request may take once decoded, in bytes, estimated from its msgpack before

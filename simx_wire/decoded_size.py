@@ -14,7 +14,7 @@ list of floats, of small integers, of empty arrays) is measured with a few byte 
 step per item.
 
 Pure Python, no dependency beyond the standard library: the client imports it through
-:mod:`simx_client.protocol`.
+:mod:`simx_wire.protocol`.
 """
 
 from __future__ import annotations
