@@ -85,7 +85,7 @@ def set_vision_sensor_image(sim: Simulation, args: list) -> None:
     spec = sim.vision.spec(h)
     grey = bool(options & 1)
     data = _image_bytes(image, "image")
-    need = spec.width * spec.height * (1 if grey else 3)
+    need = spec.image_size(grey)
     if len(data) != need:
         raise ArgumentError(f"image has {len(data)} bytes; vision sensor {obj.name!r} is "
                             f"{spec.width}x{spec.height}, so it needs {need} "
@@ -153,3 +153,24 @@ IMAGE_HANDLERS: dict[str, Handler] = {
     "GetVisionSensorImage": get_vision_sensor_image,
     "GetVisionSensorDepthBuffer": get_vision_sensor_depth_buffer,
 }
+
+#: Commands whose result is an image: its size is known before it is rendered.
+IMAGES = frozenset(IMAGE_HANDLERS)
+
+
+def image_pixels(sim: Simulation, args: list) -> int:
+    """Pixels of the frame an image command of these arguments makes (0: no vision sensor)."""
+    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
+    return 0 if spec is None else spec.pixels
+
+
+def image_size(sim: Simulation, name: str, args: list) -> int:
+    """Bytes of the image a ``GetVisionSensorImage`` / ``GetVisionSensorDepthBuffer`` command of
+    these arguments will return, before it is rendered (0 when its handle is no vision sensor:
+    the handler then answers the error)."""
+    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
+    if spec is None:
+        return 0
+    if name == "GetVisionSensorDepthBuffer":
+        return spec.depth_size()
+    return spec.image_size(len(args) > 1 and type(args[1]) is int and bool(args[1] & 1))

@@ -86,6 +86,20 @@ class SensorSpec:
     reflections: bool = False
     render_mode: int = handle_render.OPENGL  # sim_visionintparam_render_mode; 2: colour-coded handles
 
+    @property
+    def pixels(self) -> int:
+        """Pixels of one frame: resX * resY."""
+        return self.width * self.height
+
+    def image_size(self, grey: bool) -> int:
+        """Bytes of one image (``simxGetVisionSensorImage`` / ``simxSetVisionSensorImage``): one
+        byte per pixel when ``grey``, three (RGB) otherwise."""
+        return self.pixels * (1 if grey else 3)
+
+    def depth_size(self) -> int:
+        """Bytes of one depth buffer (``simxGetVisionSensorDepthBuffer``): a float32 per pixel."""
+        return self.pixels * 4
+
 
 def _flag(settings: dict[str, str], key: str, sensor: str) -> bool:
     """A ``true``/``false`` custom-text setting (default false); ValueError names the sensor."""
