@@ -10,7 +10,7 @@ from typing import Any, Callable
 import numpy as np
 
 from simx_wire.protocol import ArgumentError, ObjectTypeError
-from simx_server.base.arguments import check_args as _args
+from simx_server.base.arguments import as_bytes, check_args as _args
 from simx_server.commands.simulation import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import sensors
@@ -58,17 +58,6 @@ def read_vision_sensor(sim: Simulation, args: list) -> list:
     return [False, [vision_packet(sim, h)]]
 
 
-def _image_bytes(value: Any, what: str) -> bytes:
-    if isinstance(value, (bytes, bytearray, memoryview)):
-        return bytes(value)
-    if isinstance(value, (list, tuple)):
-        arr = np.asarray(value) if value else np.zeros(0, dtype=np.int64)
-        if arr.ndim != 1 or arr.dtype.kind not in "iu" or (arr.size and (arr.min() < -128 or arr.max() > 255)):
-            raise ArgumentError(f"{what} as a list must hold ints in -128..255 (signed or unsigned bytes)")
-        return (arr.astype(np.int64) & 0xFF).astype(np.uint8).tobytes()
-    raise ArgumentError(f"{what} must be bytes or a list of byte values, got {type(value).__name__}")
-
-
 def set_vision_sensor_image(sim: Simulation, args: list) -> None:
     """``simxSetVisionSensorImage`` [h, image, options] -> None.
 
@@ -84,7 +73,7 @@ def set_vision_sensor_image(sim: Simulation, args: list) -> None:
                               f"<text name=\"simx:{obj.name}\" data=\"image=external\"/> accept images")
     spec = sim.vision.spec(h)
     grey = bool(options & 1)
-    data = _image_bytes(image, "image")
+    data = as_bytes(image, "image", byte_values=True)
     need = spec.image_size(grey)
     if len(data) != need:
         raise ArgumentError(f"image has {len(data)} bytes; vision sensor {obj.name!r} is "

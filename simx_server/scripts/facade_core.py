@@ -18,7 +18,8 @@ from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.base.arguments import quote
 from simx_server.scripts import shapes
-from simx_server.scripts.values import _bytes, _int, _num, _text, _vector  # noqa: F401 (the facade modules use them)
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num  # noqa: F401
+from simx_server.base.arguments import as_text as _text, as_vector as _vector  # noqa: F401 (the facade modules use them)
 from simx_server.sim import ik
 from simx_server.sim.world import World, matrix_from_euler, matrix_from_quaternion
 
