@@ -21,7 +21,8 @@ from simx_server.commands.parameters import PARAM_HANDLERS, SIMULATION_PARAM_HAN
 from simx_server.commands.scripts import SCRIPT_HANDLERS
 from simx_server.commands.sensors import IMAGE_HANDLERS, SENSOR_HANDLERS
 from simx_server.commands.signals import SIGNAL_HANDLERS
-from simx_server.commands.simulation import SIMULATION_HANDLERS, Handler
+from simx_server.commands.handler import Handler
+from simx_server.commands.run_control import SIMULATION_HANDLERS
 
 #: Command name -> handler. Synchronous, SynchronousTrigger and Bye are handled by the
 #: transport itself, since they concern the client connection and the stepping loop.

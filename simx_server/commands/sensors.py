@@ -11,7 +11,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.base.arguments import as_bytes, check_args as _args
-from simx_server.commands.simulation import Handler
+from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import sensors
 from simx_server.sim.sensors import force_sensor_reading, proximity_reading, stamp, vision_packet
