@@ -35,8 +35,9 @@ WIRE = ("protocol", "constants", "decoded_size", "legacy_constants")
 
 _NAME = rf"(?:{'|'.join(WIRE)})(?:\s+as\s+\w+)?"
 #: ``from simx_client import <wire modules only>`` on one line (an ``import``'s list or one name).
-FROM_PACKAGE = re.compile(rf"^(\s*)from\s+simx_client\s+import\s+(\(?\s*{_NAME}(?:\s*,\s*{_NAME})*\s*,?\s*\)?)",
-                          re.MULTILINE)
+FROM_PACKAGE = re.compile(
+    rf"^(\s*)from\s+simx_client\s+import\s+(\(?\s*{_NAME}(?:\s*,\s*{_NAME})*\s*,?\s*\)?)", re.MULTILINE
+)
 #: ``simx_client.<wire module>`` as a dotted name (imports, docstrings, comments).
 DOTTED = re.compile(rf"\bsimx_client\.({'|'.join(WIRE)})\b")
 

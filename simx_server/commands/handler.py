@@ -7,8 +7,9 @@ carries (or a :class:`~simx_server.sim.vision.Deferred` rendered later). A handl
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from simx_server.scene.simulation import Simulation
 
-Handler = Callable[[Simulation, list], Any]
+Handler = Callable[[Simulation, list[Any]], Any]
