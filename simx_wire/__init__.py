@@ -9,6 +9,6 @@
 
 Layer: below both sides. It imports only the standard library and msgpack, never
 ``simx_server`` nor ``simx_client`` (``tests/test_layers.py`` checks it). ``simx_client`` keeps
-these modules importable under their old names (``simx_client.protocol`` ...). docs/PROTOCOL.md
-describes the same schema for other languages.
+these modules importable under their old names (``from simx_client import protocol`` and
+the like). docs/PROTOCOL.md describes the same schema for other languages.
 """
