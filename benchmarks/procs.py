@@ -47,6 +47,18 @@ def child_env(**extra: str) -> dict[str, str]:
     return env
 
 
+def proc_status(pid: int) -> dict[str, float]:
+    """A process's resident memory in MB (``rss_mb``) and its thread count (``threads``)."""
+    out = {}
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                out["rss_mb"] = int(line.split()[1]) / 1024
+            elif line.startswith("Threads:"):
+                out["threads"] = int(line.split()[1])
+    return out
+
+
 class Proc:
     """A child process with its stderr in a file and a ready line awaited on stdout."""
 

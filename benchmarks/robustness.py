@@ -44,7 +44,7 @@ import zenoh
 
 from benchmarks import robustness_peers as peers
 from benchmarks.common import Settings, connect
-from benchmarks.procs import Proc, Server, child_env
+from benchmarks.procs import Proc, Server, child_env, proc_status
 from benchmarks.stats import Figure, scaled, skipped, summary
 from simx_client import api
 from simx_client import constants as C
@@ -56,18 +56,6 @@ B, ONESHOT, STREAM, BUFFER = (C.simx_opmode_blocking, C.simx_opmode_oneshot, C.s
 RSS_ABORT_MB = 3 * 1024
 NAMES = ["UR5", "UR5_joint1", "UR5_joint2", "UR5_joint3", "UR5_joint4", "UR5_joint5", "UR5_joint6",
          "RG2", "RG2_openCloseJoint", "kinect_rgb", "kinect_depth", "Table", "Sphere"]
-
-
-def proc_status(pid: int) -> dict[str, float]:
-    """A process's resident memory in MB (``rss_mb``) and its thread count (``threads``)."""
-    out = {}
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                out["rss_mb"] = int(line.split()[1]) / 1024
-            elif line.startswith("Threads:"):
-                out["threads"] = int(line.split()[1])
-    return out
 
 
 def _one(value: float) -> dict[str, float]:

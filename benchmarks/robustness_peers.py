@@ -27,7 +27,7 @@ import numpy as np
 import zenoh
 
 from benchmarks.common import Settings, connect
-from benchmarks.procs import Server, child_env
+from benchmarks.procs import Server, child_env, proc_status
 from benchmarks.stats import Figure, summary
 from simx_client import api
 from simx_client import constants as C
@@ -138,7 +138,7 @@ def big_image_streams(s: Settings) -> list[Figure]:
 
         depth_calls(1.0)
         unloaded = depth_calls(s.t(5.0, 3.0))
-        rss_before = _rss_mb(srv.pid)
+        rss_before = proc_status(srv.pid)["rss_mb"]
         rgb = api.simxGetObjectHandle(other, "kinect_rgb", B)[1]
         assert api.simxSetObjectIntParameter(other, rgb, 1002, 4096, B) == 0
         assert api.simxSetObjectIntParameter(other, rgb, 1003, 4096, B) == 0
@@ -154,7 +154,7 @@ def big_image_streams(s: Settings) -> list[Figure]:
         finally:
             streamer.kill()
             streamer.wait()
-        rss_after = _rss_mb(srv.pid)
+        rss_after = proc_status(srv.pid)["rss_mb"]
         api.simxFinish(other)
     lat = [x * 1e3 for x, _ in loaded]
     failed = sum(rc != 0 for _, rc in loaded)
@@ -199,12 +199,6 @@ session.close()
 """
 
 
-def _rss_mb(pid: int) -> float:
-    from benchmarks.robustness import proc_status  # robustness imports this module: at call time
-
-    return proc_status(pid)["rss_mb"]
-
-
 _RECONNECT = """
 import sys, time
 import vrep
@@ -240,7 +234,7 @@ def reconnect_soak(s: Settings) -> list[Figure]:
                                     stdout=subprocess.PIPE, text=True, env=child_env()) for _ in range(4)]
         t0, samples = time.monotonic(), []
         while any(w.poll() is None for w in workers):
-            samples.append((time.monotonic() - t0, _rss_mb(srv.pid)))
+            samples.append((time.monotonic() - t0, proc_status(srv.pid)["rss_mb"]))
             time.sleep(5)
         connections = sum(int(w.stdout.read().strip() or 0) for w in workers)
     t, rss = zip(*samples)

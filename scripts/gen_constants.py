@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generate simx_client/legacy_constants.py: every constant of the legacy remote API files, by name.
+"""Generate simx_wire/legacy_constants.py: every constant of the legacy remote API files, by name.
 
 The table is made from the original files, never typed by hand:
 
@@ -19,7 +19,7 @@ Get the files (their text is not kept in the repository: only the generated name
     git -C <remoteApiBindings clone> show bacfa11:python/python/simConst.py > /tmp/simConst.py
     git -C <include clone> show ea75e262:v_repConst.h > /tmp/v_repConst.h
     python scripts/gen_constants.py /tmp/vrepConst.py /tmp/simConst.py /tmp/v_repConst.h \\
-        -o simx_client/legacy_constants.py
+        -o simx_wire/legacy_constants.py
 
 Each file's git blob id is checked against :data:`SOURCES` (a different file is refused, so the
 provenance written into the table stays true; ``--any-version`` accepts it and writes its blob
@@ -165,7 +165,7 @@ def _table(name: str, doc: str, values: dict[str, int]) -> list[str]:
 
 
 def render(tables: dict[str, dict[str, int]], blobs: dict[str, str]) -> str:
-    """The text of simx_client/legacy_constants.py."""
+    """The text of simx_wire/legacy_constants.py."""
     provenance = []
     for file, src in SOURCES.items():
         provenance.append(f"* ``{file}``: {src['repo']} ``{src['path']}``")
@@ -182,7 +182,7 @@ def render(tables: dict[str, dict[str, int]], blobs: dict[str, str]) -> str:
         f"{len(vrep)} names in vrepConst.py, {len(sim)} in simConst.py, {len(header)} taken from v_repConst.h",
         f"(families {', '.join(HEADER_FAMILIES)}).",
         "Values are evaluated (some are expressions of earlier names in the files).",
-        ":mod:`simx_client.constants` builds the legacy modules from these tables.",
+        ":mod:`simx_wire.constants` builds the legacy modules from these tables.",
         '"""',
         "",
         "from __future__ import annotations",

@@ -31,8 +31,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from simx_client import constants as C
-from simx_client import protocol as P
+from simx_wire import constants as C
+from simx_wire import protocol as P
 from simx_client.connection import DEFAULT_BLOCKING_TIMEOUT, PREFIX_ENV, wait_connect
 
 # The simx* functions by concern; each module calls calls._command itself (no wrapper here).

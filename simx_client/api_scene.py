@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from simx_client import constants as C
+from simx_wire import constants as C
 from simx_client.calls import _command, _connection, log
 from simx_client.coercion import _f32, _float, _int, _str
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from simx_client import constants as C
+from simx_wire import constants as C
 from simx_client.calls import _command, log
 from simx_client.coercion import _bool, _bytes, _f32, _f32_input, _f32_list, _float, _floats, _int, _str
 

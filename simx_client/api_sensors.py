@@ -7,7 +7,7 @@ import copy
 
 import numpy as np
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_client.calls import _command
 from simx_client.coercion import _f32_list, _int
 from simx_client.images import _LAZY_CLIENTS, ImageList, LazyImageList

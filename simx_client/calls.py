@@ -11,8 +11,8 @@ import logging
 import threading
 from typing import Any, Callable
 
-from simx_client import constants as C
-from simx_client import protocol as P
+from simx_wire import constants as C
+from simx_wire import protocol as P
 from simx_client.coercion import _int
 from simx_client.connection import Connection
 

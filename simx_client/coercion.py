@@ -1,7 +1,7 @@
 """Argument coercion of the legacy ``simx*`` functions (see :mod:`simx_client.api`).
 
 Each coercion turns what a legacy program passes (Python values, numpy scalars, 1-element
-arrays) into a plain Python value, or raises (:class:`~simx_client.protocol.LocalError`,
+arrays) into a plain Python value, or raises (:class:`~simx_wire.protocol.LocalError`,
 ``OverflowError``...): the functions then answer ``simx_return_local_error_flag``. Values that
 the legacy binding carried as ``c_float`` are rounded to float32 as it did.
 """
@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 
 _INT_MIN, _INT_MAX = -2**31, 2**31 - 1  # simxInt: every integer argument of the C API is an int32
 

@@ -38,8 +38,8 @@ from typing import Any
 
 import zenoh
 
-from simx_client import constants as C
-from simx_client import protocol as P
+from simx_wire import constants as C
+from simx_wire import protocol as P
 from simx_client.outbox import MAX_BATCH_COMMANDS
 from simx_client.refusal import open_session
 from simx_client.sender import DEFAULT_CYCLE, OutboxSender, direct

@@ -3,14 +3,14 @@
 
 Rules (docs/PROTOCOL.md "The client's outbox"):
 
-* a command waiting a second time (same identity, :func:`simx_client.protocol.identity`) replaces
+* a command waiting a second time (same identity, :func:`simx_wire.protocol.identity`) replaces
   the older one, which leaves the outbox: only the newest call runs, at the place of the newest
   call (so a set, an append and a newer set of the same signal run as append then set);
-  commands in :data:`~simx_client.protocol.DO_NOT_OVERWRITE` all stay;
+  commands in :data:`~simx_wire.protocol.DO_NOT_OVERWRITE` all stay;
 * otherwise the order of the calls is kept;
 * :meth:`Outbox.take` empties the outbox into batches of at most :data:`MAX_BATCH_COMMANDS`
   commands and about :data:`MAX_BATCH_BYTES` bytes, one request each;
-* a batch the server answered "busy" (:func:`simx_client.protocol.busy`) goes back to the head
+* a batch the server answered "busy" (:func:`simx_wire.protocol.busy`) goes back to the head
   of the outbox (:meth:`Outbox.refused`), minus the commands that were called again since: the
   newer call waits already, or was sent already in a later request.
 
@@ -22,7 +22,7 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 
 #: Most commands in one request (the server's limits.MAX_COMMANDS_PER_REQUEST is the same value).
 MAX_BATCH_COMMANDS = P.MAX_COMMANDS_PER_REQUEST
@@ -37,7 +37,7 @@ class Batch:
     Attributes:
         commands: ``[[name, mode, args], ...]`` in the order they run.
         packed: each command's msgpack bytes (``protocol.pack``), for
-            :meth:`~simx_client.protocol.RequestEncoder.encode_packed`.
+            :meth:`~simx_wire.protocol.RequestEncoder.encode_packed`.
         keys: each command's outbox key: its identity, or a unique key for a do-not-overwrite one.
         seq: the batch's number, increasing in the order batches are taken.
     """

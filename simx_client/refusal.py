@@ -5,7 +5,7 @@ Zenoh answers both cases with the same error ("Unable to connect to any of [...]
 connection that is refused means nobody listens (Zenoh's error stands); one that is accepted
 means a server is there, and a TLS handshake tells which layer refused: TLS against plain TCP
 (or the reverse), the certificate, or Zenoh's authentication after the handshake. The result is
-:class:`simx_client.protocol.RefusedError` naming the cause and the Zenoh config file in play,
+:class:`simx_wire.protocol.RefusedError` naming the cause and the Zenoh config file in play,
 so that ``simxStart`` (and ``simx-viewer``) say it at once instead of waiting out the timeout.
 """
 
@@ -17,7 +17,7 @@ import ssl
 
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 
 PROBE_TIMEOUT = 1.0  # s for the probe's TCP connection and TLS handshake
 
@@ -108,11 +108,11 @@ def why_refused(config: zenoh.Config) -> str | None:
 
 
 def open_session(config: zenoh.Config, config_file: str) -> zenoh.Session:
-    """``zenoh.open(config)``; a refusal raises :class:`~simx_client.protocol.RefusedError` naming
+    """``zenoh.open(config)``; a refusal raises :class:`~simx_wire.protocol.RefusedError` naming
     its cause and ``config_file`` (the Zenoh config in play, as the user knows it).
 
     Raises:
-        simx_client.protocol.RefusedError: a server listens there and refused the session.
+        simx_wire.protocol.RefusedError: a server listens there and refused the session.
         zenoh.ZError: nobody listens there (or another failure of Zenoh's).
     """
     try:

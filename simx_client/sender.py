@@ -19,7 +19,7 @@ from typing import Any
 
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_client.outbox import Batch, Outbox
 
 log = logging.getLogger("simx.client")

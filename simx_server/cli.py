@@ -22,7 +22,7 @@ import warnings
 from importlib import resources
 from pathlib import Path
 
-from simx_client.protocol import zenoh_reason
+from simx_wire.protocol import zenoh_reason
 from simx_server import __version__
 from simx_server.base import limits
 from simx_server.transport import logs

@@ -27,7 +27,7 @@ import threading
 import mujoco
 import numpy as np
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_viewer.framing import default_view, far_enough, scene_box
 from simx_viewer.link import DEFAULT_TIMEOUT, NoServerError, ViewerLink, ViewerModel
 

@@ -1,6 +1,6 @@
 """The viewer's connection to a simx-server: the model query and the state subscription.
 
-Keys and messages are the viewer feed's in :mod:`simx_client.protocol` (docs/PROTOCOL.md,
+Keys and messages are the viewer feed's in :mod:`simx_wire.protocol` (docs/PROTOCOL.md,
 "The viewer feed"). No window and no drawing here: :class:`ViewerLink` gives MuJoCo models and
 states; :mod:`simx_viewer.app` shows them.
 """
@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_client.connection import client_config, config_in_play
 from simx_client.refusal import open_session
 

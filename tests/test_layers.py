@@ -1,15 +1,19 @@
 """The server's packages are layers: every import of ``simx_server`` points down, never up, and no
-import circle exists (docs/ARCHITECTURE.md draws them). Imports inside functions and under
-``TYPE_CHECKING`` count like the others."""
+import circle exists (docs/ARCHITECTURE.md draws them). Server and client share only the wire
+package ``simx_wire``, which imports neither; the client reaches the server side in one module
+(``simx_client/servers.py``); the benchmarks have no import circle. Imports inside functions and
+under ``TYPE_CHECKING`` count like the others."""
 
 from __future__ import annotations
 
 import ast
+import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1] / "simx_server"
+REPO = Path(__file__).resolve().parents[1]
+ROOT = REPO / "simx_server"
 
 #: Layer of each package, lowest first: a module may import its own layer and the ones below.
 LAYERS = ["base", "sim", "scripts", "scene", "commands", "transport", "zmq", "(top)"]
@@ -40,10 +44,34 @@ def imports(path: Path, modules: set[str]) -> set[str]:
     return found - {module_name(path)}
 
 
-def graph() -> dict[str, set[str]]:
-    files = sorted(ROOT.rglob("*.py"))
-    modules = {module_name(f) for f in files} - {"simx_server"}
+def graph(root: Path | None = None) -> dict[str, set[str]]:
+    """Module -> the modules of its own package it imports, for ``simx_server`` (or ``root``)."""
+    files = sorted((root or ROOT).rglob("*.py"))
+    modules = {module_name(f) for f in files} - {(root or ROOT).name}
     return {module_name(f): imports(f, modules) for f in files}
+
+
+def imported_packages(path: Path) -> dict[str, int]:
+    """Top-level package -> first line, of every absolute import in ``path``."""
+    found: dict[str, int] = {}
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module]
+        else:
+            continue
+        for n in names:
+            found.setdefault(n.split(".")[0], node.lineno)
+    return found
+
+
+def imports_of(package: str, forbidden: set[str], allowed: frozenset[str] = frozenset()) -> list[str]:
+    """``file:line -> package`` for each import of a ``forbidden`` package in ``package``'s files
+    (files in ``allowed``, relative to the repository, excepted)."""
+    return [f"{f.relative_to(REPO)}:{line} -> {name}" for f in sorted((REPO / package).rglob("*.py"))
+            if str(f.relative_to(REPO)) not in allowed
+            for name, line in imported_packages(f).items() if name in forbidden]
 
 
 def test_every_package_is_a_known_layer():
@@ -56,8 +84,8 @@ def test_imports_point_down():
     assert not upward, "imports pointing up a layer:\n" + "\n".join(upward)
 
 
-def test_no_import_circle():
-    g = graph()
+def test_no_import_circle(root: Path | None = None):
+    g = graph(root)
     state: dict[str, int] = {}  # 1 on the path, 2 done
     path: list[str] = []
 
@@ -97,6 +125,38 @@ def test_the_check_sees_a_violation(tmp_path):
             test_no_import_circle()
     finally:
         ROOT = saved
+
+
+def test_the_server_does_not_import_the_client():
+    found = imports_of("simx_server", {"simx_client"})
+    assert not found, ("simx_server imports the client package (the wire schema is simx_wire; "
+                       "scripts/wire_imports.py rewrites such imports):\n" + "\n".join(found))
+
+
+def test_the_wire_package_imports_neither_side():
+    found = imports_of("simx_wire", {"simx_server", "simx_client", "simx_viewer"})
+    assert not found, "simx_wire imports a side:\n" + "\n".join(found)
+
+
+def test_the_client_starts_servers_in_one_place():
+    found = imports_of("simx_client", {"simx_server"}, allowed=frozenset({"simx_client/servers.py"}))
+    assert not found, "simx_client imports simx_server outside simx_client/servers.py:\n" + "\n".join(found)
+
+
+def test_no_import_circle_in_the_benchmarks():
+    test_no_import_circle(REPO / "benchmarks")
+
+
+def test_the_package_checks_see_a_violation(tmp_path, monkeypatch):
+    """The checker itself: a server module importing the client, and a lazy import in a function."""
+    monkeypatch.setattr(sys.modules[__name__], "REPO", tmp_path)
+    (tmp_path / "simx_server").mkdir()
+    (tmp_path / "simx_server" / "a.py").write_text("def f():\n    from simx_client.protocol import X\n")
+    (tmp_path / "simx_wire").mkdir()
+    (tmp_path / "simx_wire" / "b.py").write_text("import os\nimport simx_server.pool\n")
+    assert imports_of("simx_server", {"simx_client"}) == ["simx_server/a.py:2 -> simx_client"]
+    assert imports_of("simx_wire", {"simx_server"}) == ["simx_wire/b.py:2 -> simx_server"]
+    assert imports_of("simx_wire", {"simx_server"}, allowed=frozenset({"simx_wire/b.py"})) == []
 
 
 def test_no_module_is_long():

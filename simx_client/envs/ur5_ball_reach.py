@@ -72,6 +72,7 @@ from gymnasium import spaces
 
 import simx_client as vrep
 from simx_client.images import decode_handles
+from simx_client.servers import local_pool
 
 TUTORIAL_POSE_DEG = (90.0, -45.0, 90.0, 0.0, -100.0, 0.0)
 JOINT_NAMES = tuple(f"UR5_joint{i}" for i in range(1, 7))
@@ -461,9 +462,7 @@ def _local_server(spec: str | dict) -> Any:
     unknown = set(spec) - {"scene", "args"}
     if unknown:
         raise ValueError(f"a pool spec takes 'scene' and 'args', not {sorted(unknown)}")
-    from simx_server.pool import ServerPool  # the server side: needs MuJoCo on this machine
-
-    return ServerPool(1, spec.get("scene"), *[str(a) for a in spec.get("args", ("--speed", "0"))])
+    return local_pool(1, spec.get("scene"), *[str(a) for a in spec.get("args", ("--speed", "0"))])
 
 
 def _sensor_resolution(value: Any) -> str | tuple[int, int] | None:

@@ -8,7 +8,7 @@ bound has a command-line flag, the flag is named beside it. docs/SECURITY.md lis
 
 from __future__ import annotations
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 
 # ----------------------------------------------------------------- simulation step
 #: Largest simulation step ``dt`` in s (``--dt``, ``sim_floatparam_simulation_time_step``); dt
@@ -36,7 +36,7 @@ MAX_COMMANDS_PER_REQUEST = P.MAX_COMMANDS_PER_REQUEST
 #: Largest request payload in bytes (a simxTransferFile of a mesh or a scene included).
 MAX_REQUEST_BYTES = 64 * 1024 * 1024
 #: Most values (at any depth) and most memory once decoded of one request, measured on its bytes
-#: before it is decoded (simx_client.decoded_size): a byte of msgpack can become 60-90 bytes of
+#: before it is decoded (simx_wire.decoded_size): a byte of msgpack can become 60-90 bytes of
 #: Python objects (62.9 M empty arrays in 60 MiB took a server to 4.7 GB).
 MAX_REQUEST_ITEMS = P.MAX_REQUEST_ITEMS
 MAX_REQUEST_DECODED_BYTES = P.MAX_REQUEST_DECODED_BYTES
@@ -148,7 +148,7 @@ MAX_VISUAL_SIZE = 4096
 MAX_VISUAL_DETAIL = 64
 
 # Client-side bounds live with the client (it imports nothing of the server):
-# ``simx_client.protocol.IDENTITY_DEPTH`` (container levels of an identifying argument kept as
+# ``simx_wire.protocol.IDENTITY_DEPTH`` (container levels of an identifying argument kept as
 # nested tuples; deeper levels are flattened without recursion) and the int32 range of
 # ``simx_client.api`` (an integer beyond it is a local error, 32, and nothing is sent).
 

@@ -36,7 +36,7 @@ from typing import Iterable
 
 import mujoco
 
-from simx_client.protocol import RemoteError
+from simx_wire.protocol import RemoteError
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 

@@ -3,7 +3,7 @@
 One module per area (objects and poses, joints, parameters, signals, sensors and images,
 collisions, group data, scripts, scene editing, the simulation's run state), each exporting its
 handler table; :data:`HANDLERS` merges them. Handlers check every argument (clients are
-untrusted) and raise the exceptions of :mod:`simx_client.protocol`; the transport turns them into
+untrusted) and raise the exceptions of :mod:`simx_wire.protocol`; the transport turns them into
 error results and one log line.
 
 Layer: below :mod:`simx_server.transport`; imports :mod:`simx_server.scene`,
@@ -21,7 +21,8 @@ from simx_server.commands.parameters import PARAM_HANDLERS, SIMULATION_PARAM_HAN
 from simx_server.commands.scripts import SCRIPT_HANDLERS
 from simx_server.commands.sensors import IMAGE_HANDLERS, SENSOR_HANDLERS
 from simx_server.commands.signals import SIGNAL_HANDLERS
-from simx_server.commands.simulation import SIMULATION_HANDLERS, Handler
+from simx_server.commands.handler import Handler
+from simx_server.commands.run_control import SIMULATION_HANDLERS
 
 #: Command name -> handler. Synchronous, SynchronousTrigger and Bye are handled by the
 #: transport itself, since they concern the client connection and the stepping loop.

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import check_args as _args
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.collisions import PROBE_PREFIX, collision, distance, probes

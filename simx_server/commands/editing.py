@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from simx_client.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError
 from simx_server.base.arguments import check_args as _args
 from simx_server.scene.simulation import Simulation
 

@@ -9,10 +9,10 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError, ObjectTypeError
+from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.base.arguments import as_floats
 from simx_server.base.arguments import check_args as _args
-from simx_server.commands.simulation import Handler
+from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.kinematics import _BALL, joint_matrix, object_velocity
 from simx_server.sim.world import JOINT

@@ -5,11 +5,11 @@ checked here, never trusted."""
 
 from __future__ import annotations
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, UnknownObjectError, UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, UnknownObjectError, UnsupportedError
 from simx_server.base.arguments import as_floats, as_int
 from simx_server.base.arguments import check_args as _args
-from simx_server.commands.simulation import Handler
+from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.world import matrix_from_euler, matrix_from_quaternion
 

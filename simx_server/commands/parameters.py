@@ -11,10 +11,10 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from simx_client import constants as C
-from simx_client.protocol import RemoteError, UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import RemoteError, UnsupportedError
 from simx_server.base.arguments import check_args as _args
-from simx_server.commands.simulation import Handler
+from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import physics
 from simx_server.sim.object_params import get_float_param, get_int_param, set_float_param, set_int_param

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from simx_server.base.arguments import check_args as _args
-from simx_server.commands.simulation import Handler
+from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 
 

@@ -9,9 +9,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from simx_client.protocol import ArgumentError, ObjectTypeError
-from simx_server.base.arguments import check_args as _args
-from simx_server.commands.simulation import Handler
+from simx_wire.protocol import ArgumentError, ObjectTypeError
+from simx_server.base.arguments import as_bytes, check_args as _args
+from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import sensors
 from simx_server.sim.sensors import force_sensor_reading, proximity_reading, stamp, vision_packet
@@ -58,17 +58,6 @@ def read_vision_sensor(sim: Simulation, args: list) -> list:
     return [False, [vision_packet(sim, h)]]
 
 
-def _image_bytes(value: Any, what: str) -> bytes:
-    if isinstance(value, (bytes, bytearray, memoryview)):
-        return bytes(value)
-    if isinstance(value, (list, tuple)):
-        arr = np.asarray(value) if value else np.zeros(0, dtype=np.int64)
-        if arr.ndim != 1 or arr.dtype.kind not in "iu" or (arr.size and (arr.min() < -128 or arr.max() > 255)):
-            raise ArgumentError(f"{what} as a list must hold ints in -128..255 (signed or unsigned bytes)")
-        return (arr.astype(np.int64) & 0xFF).astype(np.uint8).tobytes()
-    raise ArgumentError(f"{what} must be bytes or a list of byte values, got {type(value).__name__}")
-
-
 def set_vision_sensor_image(sim: Simulation, args: list) -> None:
     """``simxSetVisionSensorImage`` [h, image, options] -> None.
 
@@ -84,8 +73,8 @@ def set_vision_sensor_image(sim: Simulation, args: list) -> None:
                               f"<text name=\"simx:{obj.name}\" data=\"image=external\"/> accept images")
     spec = sim.vision.spec(h)
     grey = bool(options & 1)
-    data = _image_bytes(image, "image")
-    need = spec.width * spec.height * (1 if grey else 3)
+    data = as_bytes(image, "image", byte_values=True)
+    need = spec.image_size(grey)
     if len(data) != need:
         raise ArgumentError(f"image has {len(data)} bytes; vision sensor {obj.name!r} is "
                             f"{spec.width}x{spec.height}, so it needs {need} "
@@ -153,3 +142,24 @@ IMAGE_HANDLERS: dict[str, Handler] = {
     "GetVisionSensorImage": get_vision_sensor_image,
     "GetVisionSensorDepthBuffer": get_vision_sensor_depth_buffer,
 }
+
+#: Commands whose result is an image: its size is known before it is rendered.
+IMAGES = frozenset(IMAGE_HANDLERS)
+
+
+def image_pixels(sim: Simulation, args: list) -> int:
+    """Pixels of the frame an image command of these arguments makes (0: no vision sensor)."""
+    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
+    return 0 if spec is None else spec.pixels
+
+
+def image_size(sim: Simulation, name: str, args: list) -> int:
+    """Bytes of the image a ``GetVisionSensorImage`` / ``GetVisionSensorDepthBuffer`` command of
+    these arguments will return, before it is rendered (0 when its handle is no vision sensor:
+    the handler then answers the error)."""
+    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
+    if spec is None:
+        return 0
+    if name == "GetVisionSensorDepthBuffer":
+        return spec.depth_size()
+    return spec.image_size(len(args) > 1 and type(args[1]) is int and bool(args[1] & 1))

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import check_args as _args, quote
-from simx_server.commands.simulation import Handler
+from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 
 # Signals: one store per server, shared by every client and child script.

@@ -15,7 +15,7 @@ import weakref
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
 
-from simx_client.protocol import ArgumentError, RemoteError
+from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote

@@ -48,7 +48,7 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote

@@ -12,7 +12,7 @@ import math
 
 import mujoco
 
-from simx_client.protocol import ArgumentError, RemoteError, UnsupportedError
+from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.sim.spec_tools import (
     _KIND,

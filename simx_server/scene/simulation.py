@@ -8,7 +8,7 @@ import logging
 import zlib
 from pathlib import Path
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base.scene_guard import transfer_folders
 from simx_server.scene.editor import Editor
 from simx_server.scripts import shapes

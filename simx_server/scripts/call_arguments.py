@@ -3,7 +3,7 @@ doors: the legacy simxCallScriptFunction and the ZMQ sim.callScriptFunction)."""
 
 from __future__ import annotations
 
-from simx_client.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError
 from simx_server.base import limits as L
 
 #: Bytes a converted value may take in a Lua state at most (a table slot as the table grows,

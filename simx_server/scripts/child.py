@@ -14,7 +14,7 @@ it receives ``(inInts, inFloats, inStrings, inBuffer)`` and returns up to four v
 ``(ints, floats, strings, buffer)``. Lua scripts run in lupa (:mod:`simx_server.scripts.lua`).
 
 Faults never stop the simulation: an error (at load, at run time, or a call that overruns its
-time bound and is interrupted) is a :class:`~simx_client.protocol.ScriptError` naming the file,
+time bound and is interrupted) is a :class:`~simx_wire.protocol.ScriptError` naming the file,
 the line and the message; the remote caller gets it as a remote error, and errors of life-cycle
 functions go to the log. See docs/SCRIPTS.md.
 """
@@ -33,7 +33,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from simx_client.protocol import ScriptError
+from simx_wire.protocol import ScriptError
 from simx_server.scripts.facade import ScriptSim
 from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.facade_objects import AppliedForces

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from simx_client.protocol import UnsupportedError
+from simx_wire.protocol import UnsupportedError
 from simx_server.scripts import facade_objects, facade_sensors
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
 from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls

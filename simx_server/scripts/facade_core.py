@@ -13,12 +13,13 @@ from typing import Any
 
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.base.arguments import quote
 from simx_server.scripts import shapes
-from simx_server.scripts.values import _bytes, _int, _num, _text, _vector  # noqa: F401 (the facade modules use them)
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num  # noqa: F401
+from simx_server.base.arguments import as_text as _text, as_vector as _vector  # noqa: F401 (the facade modules use them)
 from simx_server.sim import ik
 from simx_server.sim.world import World, matrix_from_euler, matrix_from_quaternion
 
@@ -27,7 +28,7 @@ log = logging.getLogger("simx.scripts")
 
 def script_constants() -> dict[str, int]:
     """The ``sim.*`` constants of child scripts: every ``sim_X`` constant of vrepConst.py,
-    simConst.py and the Lua API's extras (:data:`simx_client.constants.SCRIPT_ONLY`) as
+    simConst.py and the Lua API's extras (:data:`simx_wire.constants.SCRIPT_ONLY`) as
     ``sim.X`` (Lua also reads it as ``sim_X``), plus ``handle_world`` (-1)."""
     table = {**C.SIM_CONSTANTS, **C.VREP_CONSTANTS, **C.SCRIPT_ONLY}
     out = {name[4:]: value for name, value in table.items() if name.startswith("sim_")}

@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.base.arguments import quote
 from simx_server.scripts.facade_core import _int, _num, _text, _vector

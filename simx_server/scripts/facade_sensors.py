@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.scripts.facade_core import Signals, _int, _num, _text
 from simx_server.sim import object_params, sensors

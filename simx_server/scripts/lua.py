@@ -34,7 +34,7 @@ import re
 import time
 from typing import Any
 
-from simx_client.protocol import ArgumentError, RemoteError, ScriptError
+from simx_wire.protocol import ArgumentError, RemoteError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scripts.call_arguments import script_argument_bytes
 from simx_server.scripts.child import LIFE_CYCLE, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs

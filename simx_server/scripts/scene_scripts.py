@@ -12,8 +12,8 @@ import math
 from pathlib import Path
 from typing import Any, Iterable
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, ScriptError, UnknownObjectError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, ScriptError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.scripts.child import DEFAULT_TIMEOUT, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, PythonScript
 from simx_server.scripts.facade_core import Signals

@@ -19,11 +19,11 @@ from typing import Any
 
 import mujoco
 
-from simx_client.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
-from simx_server.scripts.values import _int, _num, _text, _vector
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
 from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import SHAPE, World

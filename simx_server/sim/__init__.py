@@ -3,7 +3,7 @@ registry (:mod:`~simx_server.sim.world`, loading MJCF and URDF), joint motors, p
 poses and rotations, IK groups, kinematics, sensor readings, collisions, object parameters,
 vision sensors' rendering, the MjSpec tools, and the run state.
 
-Layer: above :mod:`simx_server.base`; imports only ``base`` (and ``simx_client``'s constants
-and protocol errors). Code here takes the simulation it reads as an argument, typed
+Layer: above :mod:`simx_server.base`; imports only ``base`` (and the wire schema's constants
+and protocol errors, :mod:`simx_wire`). Code here takes the simulation it reads as an argument, typed
 :class:`~simx_server.sim.state.SimulationView`.
 """

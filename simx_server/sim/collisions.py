@@ -25,8 +25,8 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, ObjectTypeError, UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, SHAPE, World, parse_settings
 

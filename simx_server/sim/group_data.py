@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 
-from simx_client import constants as C
-from simx_client.protocol import UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import UnsupportedError
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, object_velocity
 from simx_server.sim.sensors import force_sensor_reading, proximity_reading
 from simx_server.sim.state import SimulationView

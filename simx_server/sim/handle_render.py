@@ -22,7 +22,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from simx_client.protocol import UnsupportedError
+from simx_wire.protocol import UnsupportedError
 from simx_server.sim.world import SHAPE, World
 
 RENDER_MODE_PARAM = 1017  # sim_visionintparam_render_mode

@@ -37,7 +37,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.base.arguments import quote
 from simx_server.sim.world import DUMMY, JOINT, SHAPE, World

@@ -5,7 +5,7 @@ velocity, read from and written to the world's :class:`~simx_server.sim.motors.M
 
 from __future__ import annotations
 
-from simx_client.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.base.arguments import quote
 from simx_server.sim.world import World

@@ -13,8 +13,8 @@ import math
 import mujoco
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, ObjectTypeError, UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.sim import handle_render, joint_params, physics
 from simx_server.sim.collisions import collidable

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from simx_client import constants as C
+from simx_wire import constants as C
 
 SHAPE = C.sim_object_shape_type
 JOINT = C.sim_object_joint_type

@@ -30,7 +30,7 @@ from __future__ import annotations
 import fnmatch
 import re
 
-from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import quote
 from simx_server.sim.world import WORLD, World
 

@@ -5,7 +5,7 @@ Bounds (values in :mod:`simx_server.base.limits`, listed in docs/SECURITY.md): e
 the work of a step (``dt``, the substeps it makes, vision-sensor resolutions) and every float a
 client writes into ``MjModel``/``MjData`` (gravity, masses, joint positions, targets and forces,
 object positions) has a range; a value outside it, NaN and infinities included, raises an
-:class:`~simx_client.protocol.ArgumentError` that names the bound. Scenes are checked when they
+:class:`~simx_wire.protocol.ArgumentError` that names the bound. Scenes are checked when they
 load (``<option timestep>`` against dt, camera resolutions).
 
 Blow-ups: MuJoCo resets the state by itself when it finds a NaN, infinite or huge position,
@@ -28,7 +28,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError, RemoteError
+from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base import limits as L
 from simx_server.base.arguments import as_float, quote
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ObjectTypeError
+from simx_wire import constants as C
+from simx_wire.protocol import ObjectTypeError
 from simx_server.sim import physics
 from simx_server.sim.objects import _TYPE_NAMES, DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
 from simx_server.sim.rotations import (

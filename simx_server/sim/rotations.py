@@ -8,7 +8,7 @@ import math
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError
 from simx_server.base.arguments import quote
 
 

@@ -2,7 +2,7 @@
 and the per-simulation sensor state.
 
 The command handlers ``(sim, args) -> value`` are in :mod:`simx_server.commands.sensors`; each
-checks its arguments and raises the exceptions of :mod:`simx_client.protocol`, and returns plain
+checks its arguments and raises the exceptions of :mod:`simx_wire.protocol`, and returns plain
 ints, floats, bools, str, bytes and lists. The functions they call (``proximity_reading``,
 ``force_sensor_reading``, ``vision_packet`` ...) take plain values and serve in-process callers
 too. Neighbouring concerns have modules of their own: :mod:`simx_server.sim.collisions` (collision
@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import FORCE_SENSOR, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, World
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import enum
 from typing import Any, Protocol
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.sim.vision import VisionSensors
 from simx_server.sim.world import World
 

@@ -45,7 +45,7 @@ from pathlib import Path
 
 import mujoco
 
-from simx_client.protocol import RemoteError
+from simx_wire.protocol import RemoteError
 from simx_server.base.arguments import quote
 from simx_server.base.scene_guard import inside
 

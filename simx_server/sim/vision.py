@@ -60,7 +60,7 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 
-from simx_client.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError
 from simx_server.base import limits as L
 from simx_server.sim import handle_render
 from simx_server.sim.physics import check_resolution
@@ -85,6 +85,20 @@ class SensorSpec:
     shadows: bool = False
     reflections: bool = False
     render_mode: int = handle_render.OPENGL  # sim_visionintparam_render_mode; 2: colour-coded handles
+
+    @property
+    def pixels(self) -> int:
+        """Pixels of one frame: resX * resY."""
+        return self.width * self.height
+
+    def image_size(self, grey: bool) -> int:
+        """Bytes of one image (``simxGetVisionSensorImage`` / ``simxSetVisionSensorImage``): one
+        byte per pixel when ``grey``, three (RGB) otherwise."""
+        return self.pixels * (1 if grey else 3)
+
+    def depth_size(self) -> int:
+        """Bytes of one depth buffer (``simxGetVisionSensorDepthBuffer``): a float32 per pixel."""
+        return self.pixels * 4
 
 
 def _flag(settings: dict[str, str], key: str, sensor: str) -> bool:

@@ -23,8 +23,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.sim import motors, naming, physics, urdf
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import logging
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.sim.state import RunState
 
 log = logging.getLogger("simx.server")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.transport import logs

@@ -23,7 +23,7 @@ import threading
 
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.transport.sessions import Sessions
 

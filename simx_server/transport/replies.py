@@ -16,15 +16,13 @@ from typing import Any
 import msgpack
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base.arguments import quote
-from simx_server.scene.simulation import Simulation
+from simx_server.commands.sensors import IMAGES, image_pixels, image_size  # noqa: F401  (re-exported)
 from simx_server.sim.vision import Deferred
 
 log = logging.getLogger("simx.server")
 
-#: Commands whose result is an image: its size is known before it is rendered.
-IMAGES = frozenset({"GetVisionSensorImage", "GetVisionSensorDepthBuffer"})
 SMALL = frozenset({type(None), bool, int, float})  # results that cost nothing in a reply
 
 
@@ -41,22 +39,6 @@ def reply_size(value: Any, depth: int = 0) -> int:
     if t is dict and depth < 8:
         return 5 + sum(reply_size(k, depth + 1) + reply_size(v, depth + 1) for k, v in value.items())
     return 64
-
-
-def image_pixels(sim: Simulation, args: list) -> int:
-    """Pixels of the frame an image command of these arguments makes (0: no vision sensor)."""
-    spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
-    return 0 if spec is None else spec.width * spec.height
-
-
-def image_size(sim: Simulation, name: str, args: list) -> int:
-    """Bytes of the image a GetVisionSensorImage/DepthBuffer command will return (0 when its
-    handle is no vision sensor: the handler then answers the error)."""
-    pixels = image_pixels(sim, args)
-    if name == "GetVisionSensorDepthBuffer":
-        return pixels * 4
-    grey = len(args) > 1 and type(args[1]) is int and args[1] & 1
-    return pixels * (1 if grey else 3)
 
 
 #: Binaries of at least this many bytes are copied by ``bytes.join`` (see :func:`pack_large`),

@@ -26,7 +26,7 @@ from typing import Any
 
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.commands import HANDLERS, NOT_STREAMABLE
@@ -39,7 +39,7 @@ from simx_server.transport.client_commands import ClientCommands
 from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
 from simx_server.transport.courier import Courier
 from simx_server.transport.consoles import cut as _cut
-from simx_server.transport.others import OtherTransports
+from simx_server.transport.attached_transports import OtherTransports
 from simx_server.transport.peers import PeerCheck
 from simx_server.transport.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
                                            resolve, send_refusal)

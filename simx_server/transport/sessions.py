@@ -27,7 +27,7 @@ import threading
 import time
 from typing import Any
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base import limits
 
 _MODE_MASK, _MODE_BLOCKING = P.MODE_MASK, P.MODE_BLOCKING
@@ -122,9 +122,11 @@ class Sessions:
             s.queue.append((request, size))
             s.queued_bytes += size
             self._total_bytes += size
-            if not s.scheduled:
-                s.scheduled = True
-                self.ready.put(s)
+            if s.scheduled:
+                return None
+            s.scheduled = True
+        # Put after the lock: the simulation thread it wakes takes the same lock at once.
+        self.ready.put(s)
         return None
 
     def _evict_one(self, user: str | None = None) -> bool:

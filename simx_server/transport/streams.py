@@ -13,7 +13,7 @@ from concurrent.futures import Future
 
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.commands import HANDLERS
 from simx_server.sim.vision import Deferred

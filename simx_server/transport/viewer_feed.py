@@ -1,6 +1,6 @@
 """The viewer feed: what ``simx-viewer`` needs to show the running scene (issue 14).
 
-Two Zenoh declarations on the server's session (keys and messages in ``simx_client.protocol``,
+Two Zenoh declarations on the server's session (keys and messages in ``simx_wire.protocol``,
 docs/PROTOCOL.md "The viewer feed"):
 
 * ``<prefix>/viewer/model``, a queryable: the compiled model as MuJoCo's binary ``mjb``
@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 import zenoh
 
-from simx_client import protocol as P
+from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.transport.replies import answer

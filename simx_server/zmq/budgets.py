@@ -20,7 +20,7 @@ from __future__ import annotations
 import struct
 from typing import Any
 
-from simx_client.protocol import MAX_REQUEST_ITEMS
+from simx_wire.protocol import MAX_REQUEST_ITEMS
 from simx_server.base import limits
 from simx_server.scripts.facade_core import _PACK_FORMATS
 from simx_server.scripts.facade_sensors import HANDLEFLAG_GREYSCALE as _GREYSCALE

@@ -7,7 +7,7 @@ message's item heads without recursion and refuses what the protocol never sends
 would cost more than its size suggests (tags, indefinite lengths, simple values other than
 false/true/null, a length beyond the message, more than :data:`MAX_ITEMS` items, containers
 nested deeper than :data:`MAX_DEPTH`, map keys that are not strings). Every refusal is a
-:class:`~simx_client.protocol.ProtocolError` whose text the reply carries.
+:class:`~simx_wire.protocol.ProtocolError` whose text the reply carries.
 
 No MuJoCo and no sockets in here.
 """
@@ -19,8 +19,8 @@ from typing import Any
 
 import cbor2
 
-from simx_client import decoded_size as D
-from simx_client.protocol import MAX_REQUEST_DECODED_BYTES, ProtocolError
+from simx_wire import decoded_size as D
+from simx_wire.protocol import MAX_REQUEST_DECODED_BYTES, ProtocolError
 
 #: The protocol version simx speaks (CoppeliaSim 4.6 and later; ``ver`` of a client's first request).
 PROTOCOL_VERSION = 2

@@ -23,8 +23,8 @@ from typing import Any, Generator
 
 import numpy as np
 
-from simx_client.protocol import ArgumentError, RemoteError, UnsupportedError
-from simx_server.scripts.values import _int, _num, _vector
+from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
 from simx_server.sim.objects import JOINT
 from simx_server.sim.rotations import matrix_from_quaternion, quaternion_from_matrix
 

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from simx_client.protocol import ArgumentError, UnsupportedError
-from simx_server.scripts.values import _num, _vector
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import as_number as _num, as_vector as _vector
 from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matrix_from_quaternion, quaternion_from_matrix
 
 

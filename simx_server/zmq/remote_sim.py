@@ -22,13 +22,14 @@ from typing import Any
 
 import numpy as np
 
-from simx_client import constants as C
-from simx_client.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.commands import HANDLERS
 from simx_server.scene.simulation import Simulation
 from simx_server.scripts.facade import ScriptSim
-from simx_server.scripts.values import _bytes, _int, _num, _text, _vector
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num
+from simx_server.base.arguments import as_text as _text, as_vector as _vector
 from simx_server.sim import object_params, paths
 from simx_server.sim.objects import JOINT, WORLD
 from simx_server.sim.rotations import matrix_from_quaternion

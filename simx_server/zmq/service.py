@@ -32,7 +32,7 @@ from typing import Any, Callable
 
 import cbor2
 
-from simx_client.protocol import ArgumentError, RemoteError
+from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.sim.state import RunState

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from simx_client.protocol import ArgumentError
-from simx_server.scripts.values import _int, _text
+from simx_wire.protocol import ArgumentError
+from simx_server.base.arguments import as_integer as _int, as_text as _text
 
 #: The one IK environment: the scene.
 SCENE_ENVIRONMENT = 0

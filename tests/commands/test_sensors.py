@@ -282,6 +282,19 @@ def test_vision_packet_matches_the_image_and_depth(sim):
         cmd_sensors.read_vision_sensor(sim, [H(sim, "prox")])
 
 
+def test_image_size_is_the_size_of_what_the_handlers_return(sim):
+    """commands.sensors.image_size, known before rendering, equals the bytes of the reply."""
+    cam = H(sim, "cam")
+    for name, args in [("GetVisionSensorImage", [cam, 0]), ("GetVisionSensorImage", [cam, 1]),
+                       ("GetVisionSensorDepthBuffer", [cam])]:
+        (w, h), data = cmd_sensors.IMAGE_HANDLERS[name](sim, args).future.result()
+        assert cmd_sensors.image_size(sim, name, args) == len(data) > 0
+        assert cmd_sensors.image_pixels(sim, args) == w * h
+    assert cmd_sensors.IMAGES == {"GetVisionSensorImage", "GetVisionSensorDepthBuffer"}
+    assert cmd_sensors.image_size(sim, "GetVisionSensorImage", [H(sim, "prox"), 0]) == 0  # no vision sensor
+    assert cmd_sensors.image_size(sim, "GetVisionSensorImage", ["cam", 0]) == 0  # the handler answers the error
+
+
 def test_passive_sensor_image_set_get_and_packet(sim):
     passive, cam = H(sim, "passive"), H(sim, "cam")
     assert S.is_passive(sim, passive) and not S.is_passive(sim, cam)

@@ -63,7 +63,7 @@ def test_wheel_ships_scenes_and_legacy_modules(tmp_path):
     (wheel,) = tmp_path.glob("simx-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
     for required in ("simx_server/scenes/ur5_rg2_kinect.xml", "simx_server/scenes/pioneer_p3dx.xml", "simx_server/scenes/rg2.py", "simx_server/scenes/rg2.lua", "vrep.py", "sim.py",
-                     "vrepConst.py", "simConst.py", "simx_client/protocol.py", "simx_server/cli.py"):
+                     "vrepConst.py", "simConst.py", "simx_wire/protocol.py", "simx_client/api.py", "simx_server/cli.py"):
         assert required in names, f"{required} missing from the wheel"
 
 

@@ -1,7 +1,7 @@
 """Every legacy remote API constant with its V-REP / CoppeliaSim value.
 
 The values are those of the original files, read by ``scripts/gen_constants.py`` into the
-generated table :mod:`simx_client.legacy_constants` (nothing here is typed by hand):
+generated table :mod:`simx_wire.legacy_constants` (nothing here is typed by hand):
 
 * :data:`VREP_CONSTANTS`: what ``vrep`` / ``vrepConst`` export: every constant of V-REP 3.6's
   ``vrepConst.py`` (626 names: 623 ``sim_*`` / ``simx_*`` and 3 ``SIMX_*``) and
@@ -24,14 +24,16 @@ follows its own file; this module's attributes are the union, with vrepConst.py'
 
 from __future__ import annotations
 
-from simx_client.legacy_constants import SIMCONST, V_REPCONST_H, VREPCONST
+from simx_wire.legacy_constants import SIMCONST, V_REPCONST_H, VREPCONST
 
 #: Constants simx's client adds to those of the Python files (from v_repConst.h).
-ADDED_BY_SIMX: dict[str, int] = {name: value for name, value in V_REPCONST_H.items()
-                              if name.startswith("sim_rendermode_") or name == "simx_cmdmask"}
+ADDED_BY_SIMX: dict[str, int] = {
+    name: value for name, value in V_REPCONST_H.items() if name.startswith("sim_rendermode_") or name == "simx_cmdmask"
+}
 #: Constants of the Lua API that only child scripts get (from v_repConst.h).
-SCRIPT_ONLY: dict[str, int] = {name: value for name, value in V_REPCONST_H.items()
-                                if name.startswith(("sim_colorcomponent_", "sim_handleflag_"))}
+SCRIPT_ONLY: dict[str, int] = {
+    name: value for name, value in V_REPCONST_H.items() if name.startswith(("sim_colorcomponent_", "sim_handleflag_"))
+}
 #: Every constant of ``vrep`` / ``vrepConst``: name -> value.
 VREP_CONSTANTS: dict[str, int] = {**VREPCONST, **ADDED_BY_SIMX}
 #: Every constant of ``sim`` / ``simConst``: name -> value.
@@ -39,16 +41,33 @@ SIM_CONSTANTS: dict[str, int] = {**SIMCONST, **ADDED_BY_SIMX}
 
 #: Name prefixes of the global parameter ids of simxGet/Set*Parameter, by kind.
 GLOBAL_PARAM_PREFIXES: dict[str, str] = {
-    "integer": "sim_intparam_", "float": "sim_floatparam_", "boolean": "sim_boolparam_",
-    "string": "sim_stringparam_", "array": "sim_arrayparam_",
+    "integer": "sim_intparam_",
+    "float": "sim_floatparam_",
+    "boolean": "sim_boolparam_",
+    "string": "sim_stringparam_",
+    "array": "sim_arrayparam_",
 }
 #: Name prefixes of the object parameter ids of simxGet/SetObject*Parameter (one id range each).
 OBJECT_PARAM_PREFIXES: tuple[str, ...] = (
-    "sim_objintparam_", "sim_objfloatparam_", "sim_visionintparam_", "sim_visionfloatparam_",
-    "sim_jointintparam_", "sim_jointfloatparam_", "sim_shapeintparam_", "sim_shapefloatparam_",
-    "sim_shapestringparam_", "sim_proxintparam_", "sim_forcefloatparam_", "sim_lightintparam_",
-    "sim_cameraintparam_", "sim_camerafloatparam_", "sim_dummyintparam_", "sim_mirrorintparam_",
-    "sim_mirrorfloatparam_", "sim_pplanfloatparam_", "sim_mplanintparam_",
+    "sim_objintparam_",
+    "sim_objfloatparam_",
+    "sim_visionintparam_",
+    "sim_visionfloatparam_",
+    "sim_jointintparam_",
+    "sim_jointfloatparam_",
+    "sim_shapeintparam_",
+    "sim_shapefloatparam_",
+    "sim_shapestringparam_",
+    "sim_proxintparam_",
+    "sim_forcefloatparam_",
+    "sim_lightintparam_",
+    "sim_cameraintparam_",
+    "sim_camerafloatparam_",
+    "sim_dummyintparam_",
+    "sim_mirrorintparam_",
+    "sim_mirrorfloatparam_",
+    "sim_pplanfloatparam_",
+    "sim_mplanintparam_",
 )
 
 
@@ -58,8 +77,9 @@ def names_of(value: int, prefixes: str | tuple[str, ...]) -> list[str]:
 
     ``names_of(16, "sim_boolparam_")`` is ``["sim_boolparam_display_enabled"]``."""
     names = [n for n, v in VREP_CONSTANTS.items() if v == value and n.startswith(prefixes)]
-    return names + [n for n, v in SIM_CONSTANTS.items()
-                    if v == value and n.startswith(prefixes) and n not in VREP_CONSTANTS]
+    return names + [
+        n for n, v in SIM_CONSTANTS.items() if v == value and n.startswith(prefixes) and n not in VREP_CONSTANTS
+    ]
 
 
 def describe(value: int, prefixes: str | tuple[str, ...]) -> str:

@@ -34,11 +34,12 @@ from __future__ import annotations
 import re
 import reprlib
 import threading
-from typing import Any, Callable, Iterable
+from collections.abc import Callable, Iterable
+from typing import Any
 
 import msgpack
 
-from simx_client import decoded_size
+from simx_wire import decoded_size
 
 PROTOCOL_VERSION = 3  # 2: one call key for every client; 1: the same fields in msgpack maps
 DEFAULT_PREFIX = "simx"
@@ -123,7 +124,7 @@ MAX_COMMANDS_PER_REQUEST = 1024
 BUSY = "server busy"
 
 
-def busy(results: list) -> bool:
+def busy(results: list[Any]) -> bool:
     """Whether a response's results say that the server did not queue the request (:data:`BUSY`)."""
     if not results:
         return False
@@ -238,7 +239,7 @@ def client_token_prefix(prefix: str = DEFAULT_PREFIX) -> str:
 IDENTITY_DEPTH = 16
 
 
-def identity(name: str, args: list) -> tuple:
+def identity(name: str, args: list[Any]) -> tuple[Any, ...]:
     """The legacy identity of a command: its name and identifying arguments, hashable for any
     msgpack value a client sends (see :func:`_hashable`)."""
     head = args[:COMMANDS.get(name, 0)]
@@ -287,10 +288,10 @@ def _leaf(value: Any) -> Any:
     return value
 
 
-def _flat(value: Any) -> tuple:
+def _flat(value: Any) -> tuple[Any, ...]:
     """Tokens of a nested value in depth-first order (``"["`` or ``"{"`` and the size open a
     container), built with an explicit stack."""
-    tokens: list = []
+    tokens: list[Any] = []
     stack = [value]
     while stack:
         v = stack.pop()
@@ -349,6 +350,7 @@ def pack(message: Any) -> bytes:
     A Zenoh callback run with ``indirect=False`` gets a fresh Python thread state on every
     call, so its Packer is not kept and each call pays ``packb``'s cost; simx packs little
     there (refusals and "busy" answers)."""
+    data: bytes
     try:
         data = _packers.packer.pack(message)
     except AttributeError:
@@ -361,7 +363,7 @@ def pack(message: Any) -> bytes:
 
 #: Most values in one request, at any depth (containers, numbers, strings, map keys): twice a
 #: script call's values (limits.MAX_SCRIPT_CALL_VALUES). Measured before decoding
-#: (:mod:`simx_client.decoded_size`): one 60 MiB request of 62.9 M empty arrays took a server from
+#: (:mod:`simx_wire.decoded_size`): one 60 MiB request of 62.9 M empty arrays took a server from
 #: 216 MB to 4.7 GB; refused now after walking 2 M of them (about 0.4 s, no memory).
 MAX_REQUEST_ITEMS = 1 << 21
 #: Most memory one request may take once decoded, in bytes, estimated from its msgpack before
@@ -380,7 +382,7 @@ def _unpack(payload: bytes) -> Any:
         raise ProtocolError(f"undecodable message: {exc}") from exc
 
 
-def _decode(payload: bytes, size: int, what: str) -> list:
+def _decode(payload: bytes, size: int, what: str) -> list[Any]:
     """One message of this version: a msgpack array of ``size`` items, the first the version.
 
     Raises:
@@ -412,7 +414,7 @@ class RequestEncoder:
     def __init__(self, client: str):
         self._head = pack([PROTOCOL_VERSION, client, []])[:-1]  # minus the empty array
 
-    def encode(self, commands: list) -> bytes:
+    def encode(self, commands: list[Any]) -> bytes:
         """The request carrying ``commands`` (``[[name, mode, args], ...]``)."""
         return self._head + pack(commands)
 
@@ -429,19 +431,19 @@ class RequestEncoder:
         return b"".join((self._head, size, *packed))
 
 
-def request(client: str, commands: Iterable[list]) -> bytes:
+def request(client: str, commands: Iterable[list[Any]]) -> bytes:
     """Encode a request carrying ``[name, mode, args]`` commands from ``client``."""
     return RequestEncoder(client).encode(list(commands))
 
 
-def parse_request(payload: bytes, max_commands: int | None = None) -> tuple[str, list[list]]:
+def parse_request(payload: bytes, max_commands: int | None = None) -> tuple[str, list[list[Any]]]:
     """Decode and validate a request; returns ``(client, [[name, mode, args], ...])``
     (:func:`read_request` without the decoded size)."""
     client, cmds, _ = read_request(payload, max_commands)
     return client, cmds
 
 
-def read_request(payload: bytes, max_commands: int | None = None) -> tuple[str, list[list], int]:
+def read_request(payload: bytes, max_commands: int | None = None) -> tuple[str, list[list[Any]], int]:
     """Measure, decode and validate a request: ``(client, [[name, mode, args], ...],
     decoded_bytes)``, where ``decoded_bytes`` bounds the memory the decoded request takes
     (at most MAX_REQUEST_DECODED_BYTES; the server counts it against its queue bounds).
@@ -492,14 +494,14 @@ def _shape(value: Any) -> str:
     return f"a {type(value).__name__}"
 
 
-def response(sim_time_ms: int, state: int, results: list, server_time_ms: int = 0, scene_id: int = 0,
+def response(sim_time_ms: int, state: int, results: list[Any], server_time_ms: int = 0, scene_id: int = 0,
              encode: Callable[[Any], bytes] = pack) -> bytes:
     """Encode a response: ``results`` is a list of ``[ok, value_or_message]``; ``encode``: a
     msgpack encoder (the server's for large images)."""
     return encode([PROTOCOL_VERSION, sim_time_ms, state, server_time_ms, scene_id, results])
 
 
-def unpack_response(payload: bytes) -> list:
+def unpack_response(payload: bytes) -> list[Any]:
     """Decode a response: ``[version, sim_time_ms, server_state, server_time_ms, scene_id,
     results]``; raises ProtocolError (a refusal included)."""
     message = _decode(payload, 6, "response")
@@ -513,13 +515,13 @@ def error_response(message: str) -> bytes:
     return pack({"v": PROTOCOL_VERSION, "err": message})
 
 
-def stream_update(sim_time_ms: int, entries: list, encode: Callable[[Any], bytes] = pack) -> bytes:
+def stream_update(sim_time_ms: int, entries: list[Any], encode: Callable[[Any], bytes] = pack) -> bytes:
     """Encode a stream update: ``entries`` is a list of ``[name, id_args, ok, value]``;
     ``encode``: a msgpack encoder (the server's for large images)."""
     return encode([PROTOCOL_VERSION, sim_time_ms, entries])
 
 
-def unpack_stream_update(payload: bytes) -> tuple[int, list]:
+def unpack_stream_update(payload: bytes) -> tuple[int, list[Any]]:
     """Decode a stream update: ``(sim_time_ms, entries)``; raises ProtocolError."""
     _, t, entries = _decode(payload, 3, "stream update")
     if type(entries) is not list:
@@ -548,7 +550,7 @@ def viewer_state(generation: int, time: float, qpos: bytes, qvel: bytes, mocap_p
     return pack([PROTOCOL_VERSION, generation, time, qpos, qvel, mocap_pos, mocap_quat])
 
 
-def unpack_viewer_state(payload: bytes) -> list:
+def unpack_viewer_state(payload: bytes) -> list[Any]:
     """Decode a viewer state: ``[version, generation, time_s, qpos, qvel, mocap_pos, mocap_quat]``
     (the arrays as bytes); raises ProtocolError."""
     message = _decode(payload, 7, "viewer state")
@@ -563,7 +565,7 @@ def viewer_model(generation: int, mujoco_version: str, mjb: bytes, state: bytes)
     return pack([PROTOCOL_VERSION, generation, mujoco_version, mjb, state])
 
 
-def unpack_viewer_model(payload: bytes) -> list:
+def unpack_viewer_model(payload: bytes) -> list[Any]:
     """Decode a viewer model: ``[version, generation, mujoco_version, mjb, state]``; raises
     ProtocolError (a refusal included)."""
     message = _decode(payload, 5, "viewer model")

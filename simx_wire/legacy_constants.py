@@ -17,7 +17,7 @@ Made by ``scripts/gen_constants.py`` from the original files (their values, not 
 626 names in vrepConst.py, 626 in simConst.py, 18 taken from v_repConst.h
 (families sim_rendermode_, sim_colorcomponent_, sim_handleflag_greyscale, simx_cmdmask).
 Values are evaluated (some are expressions of earlier names in the files).
-:mod:`simx_client.constants` builds the legacy modules from these tables.
+:mod:`simx_wire.constants` builds the legacy modules from these tables.
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ list of floats, of small integers, of empty arrays) is measured with a few byte 
 step per item.
 
 Pure Python, no dependency beyond the standard library: the client imports it through
-:mod:`simx_client.protocol`.
+:mod:`simx_wire.protocol`.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ RATIO = 96
 _SCALAR, _STRING, _BYTES, _EXTENSION, _ARR, _DICT, _BAD = range(7)
 
 
-def _table():
+def _table() -> list[tuple[int, int, int, int]]:
     """For each of the 256 type bytes: ``(kind, header bytes, payload or count, cost)``.
     For _SCALAR the third item is the whole width; for the others, with a header of 1 byte it
     is the fixed length or count (fixstr, fixarray, fixmap, fixext), else -1: read from the
@@ -58,7 +58,7 @@ def _table():
     t[0xCC] = (_SCALAR, 1, 2, 0)  # uint8: 0..255, cached
     t[0xCD], t[0xCE], t[0xCF] = (_SCALAR, 1, 3, _INT), (_SCALAR, 1, 5, _INT), (_SCALAR, 1, 9, _INT)
     t[0xD0], t[0xD1], t[0xD2], t[0xD3] = ((_SCALAR, 1, w, _INT) for w in (2, 3, 5, 9))
-    for b, n in zip(range(0xD4, 0xD9), (1, 2, 4, 8, 16)):
+    for b, n in zip(range(0xD4, 0xD9), (1, 2, 4, 8, 16), strict=True):
         t[b] = (_EXTENSION, 1, n + 1, 0)  # fixext: a type byte and n bytes
     t[0xD9], t[0xDA], t[0xDB] = (_STRING, 2, -1, 0), (_STRING, 3, -1, 0), (_STRING, 5, -1, 0)
     t[0xDC], t[0xDD] = (_ARR, 3, -1, 0), (_ARR, 5, -1, 0)
@@ -118,7 +118,7 @@ def measure(data: bytes, max_items: int, max_bytes: int) -> tuple[int, int]:
                 cost += REF + c
                 continue
             if n < 0:
-                n = int.from_bytes(data[pos + 1:pos + head], "big")
+                n = int.from_bytes(data[pos + 1 : pos + head], "big")
             pos += head
             if n > end - pos:  # longer than the rest, or more items than bytes left
                 raise DecodedSizeError("truncated msgpack")
@@ -169,7 +169,7 @@ def _run(data: bytes, pos: int, n: int) -> tuple[int, int] | None:
     kind, _, width, _ = _TYPES[data[pos]]
     if kind != _SCALAR:
         return None
-    types = data[pos:pos + width * n:width]  # every item's type byte, if they are all this wide
+    types = data[pos : pos + width * n : width]  # every item's type byte, if they are all this wide
     if len(types) != n or types.translate(None, _OF_WIDTH[width]):
         return None
     cost = sum(len(types.translate(None, others)) * c for others, c in _COSTLY.get(width, ()))

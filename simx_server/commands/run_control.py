@@ -1,15 +1,13 @@
-"""The simulation commands: handshake, ping, start / pause / stop, and the GUI-only calls
-(custom UIs, dialogs) that a headless server refuses. Every handler is ``(simulation, args) -> result``."""
+"""The run-control commands: handshake, ping, start / pause / stop, and the GUI-only calls
+(custom UIs, dialogs) that a headless server refuses. Every handler is a
+:data:`~simx_server.commands.handler.Handler`, ``(simulation, args) -> result``."""
 
 from __future__ import annotations
 
-from typing import Any, Callable
-
-from simx_client.protocol import PROTOCOL_VERSION, UnsupportedError
+from simx_wire.protocol import PROTOCOL_VERSION, UnsupportedError
 from simx_server.base.arguments import check_args as _args
+from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
-
-Handler = Callable[[Simulation, list], Any]
 
 
 def hello(sim: Simulation, args: list) -> dict:
