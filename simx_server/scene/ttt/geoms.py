@@ -1,0 +1,133 @@
+"""Shapes to MJCF geoms: primitives as MuJoCo primitives, other meshes as mesh assets (binary
+STL files in ``meshes/``), colours, collision filtering and friction."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from simx_server.scene.ttt.model import Mesh, ShapeData
+
+# V-REP primitive type -> how it becomes a geom (the others are meshes)
+PLANE, DISC, CUBOID, SPHEROID, CYLINDER, CONE, HEIGHTFIELD, CAPSULE = 1, 2, 3, 4, 5, 6, 7, 8
+_THIN = 0.0005  # half-thickness of a plane or disc, m
+
+
+def write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
+    """A binary STL of the triangles (vertices (N, 3) m, faces (M, 3))."""
+    tri = vertices[faces].astype("<f4")  # (M, 3, 3)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    normal = np.cross(e1, e2)
+    rec = np.zeros(len(faces), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["n"] = normal
+    rec["v"] = tri
+    with open(path, "wb") as fh:
+        fh.write(b"simx ttt mesh".ljust(80, b"\0"))
+        fh.write(np.uint32(len(faces)).tobytes())
+        fh.write(rec.tobytes())
+
+
+def usable_mesh(mesh: Mesh) -> bool:
+    """A mesh MuJoCo can compile: at least 4 vertices not all in one plane."""
+    v = mesh.vertices
+    if len(v) < 4 or len(mesh.faces) < 2 or not np.all(np.isfinite(v)):
+        return False
+    centred = v - v.mean(axis=0)
+    return bool(np.linalg.svd(centred, compute_uv=False)[-1] > 1e-7 * max(1e-9, float(np.abs(centred).max())))
+
+
+class GeomMaker:
+    """Adds a shape's geoms to bodies; writes mesh files under ``out/meshes``.
+
+    Args:
+        spec: the MjSpec being built; out: the output folder (None: meshes inline).
+        friction_scale: how a V-REP friction coefficient becomes MuJoCo's sliding friction.
+    """
+
+    def __init__(self, spec: mujoco.MjSpec, out: Path | None, report):
+        self.spec, self.out, self.report = spec, out, report
+        self.count = 0
+        if out is not None:
+            (out / "meshes").mkdir(parents=True, exist_ok=True)
+
+    def add(self, body, frame_pos, frame_quat, name: str, shape: ShapeData, contype: int, conaffinity: int):
+        """Geoms of ``shape`` in ``body``; the shape's frame is (frame_pos, frame_quat) in it."""
+        from simx_server.scene.ttt.geometry import compose
+        from simx_server.scene.ttt.model import Pose
+
+        base = Pose(np.asarray(frame_pos, float), np.asarray(frame_quat, float))
+        for i, mesh in enumerate(shape.meshes):
+            pose = compose(base, mesh.frame)
+            g = self._geom(body, mesh, name, i)
+            if g is None:
+                continue
+            g.pos, g.quat = pose.pos, pose.quat
+            g.rgba = [*mesh.color, 1.0]
+            g.contype, g.conaffinity = contype, conaffinity
+            g.density = 0.0  # bodies get the file's mass and inertia, not the geoms'
+            if shape.friction is not None:
+                # Bullet multiplies the two shapes' coefficients, MuJoCo takes the larger:
+                # mu^2 gives Bullet's value for two equal materials
+                g.friction = [shape.friction ** 2, 0.005, 0.0001]
+            if mesh.texture >= 0:
+                self.report.add("textures (shown as the shape's colour)")
+
+    def _geom(self, body, mesh: Mesh, name: str, index: int):
+        s = np.abs(mesh.sizes)
+        p = mesh.primitive
+        G = mujoco.mjtGeom
+        if p == CUBOID and np.all(s > 0):
+            return self._new(body, G.mjGEOM_BOX, np.maximum(s / 2, 1e-5))
+        if p == SPHEROID and np.all(s > 0):
+            if np.ptp(s) < 1e-6 * s.max():
+                return self._new(body, G.mjGEOM_SPHERE, [s[0] / 2, 0, 0])
+            return self._new(body, G.mjGEOM_ELLIPSOID, s / 2)
+        if p == CYLINDER and s[0] > 0 and s[2] > 0:
+            return self._new(body, G.mjGEOM_CYLINDER, [s[0] / 2, s[2] / 2, 0])
+        if p == DISC and s[0] > 0:
+            return self._new(body, G.mjGEOM_CYLINDER, [s[0] / 2, _THIN, 0])
+        if p == PLANE and s[0] > 0 and s[1] > 0:
+            return self._new(body, G.mjGEOM_BOX, [s[0] / 2, s[1] / 2, _THIN])
+        if p == CAPSULE and s[0] > 0:
+            r = s[0] / 2
+            return self._new(body, G.mjGEOM_CAPSULE, [r, max(s[2] / 2 - r, 1e-4), 0])
+        if not usable_mesh(mesh):
+            if len(mesh.vertices):
+                self.report.add("flat or degenerate meshes (left out)")
+            return None
+        self.count += 1
+        mname = f"ttt_mesh{self.count}"
+        m = self.spec.add_mesh()
+        m.name = mname
+        m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+        if self.out is not None:
+            write_stl(self.out / "meshes" / f"{mname}.stl", mesh.vertices, mesh.faces)
+            m.file = f"{mname}.stl"
+        else:
+            m.uservert = mesh.vertices.astype(np.float32).ravel()
+            m.userface = mesh.faces.astype(np.int32).ravel()
+        if not mesh.convex:
+            self.report.add("non-convex meshes (collide as their convex hull)")
+        g = body.add_geom()
+        g.type = G.mjGEOM_MESH
+        g.meshname = mname
+        return g
+
+    @staticmethod
+    def _new(body, kind, size):
+        g = body.add_geom()
+        g.type = kind
+        g.size = np.asarray(size, dtype=float)
+        return g
+
+
+def collision_bits(shape: ShapeData) -> tuple[int, int]:
+    """contype/conaffinity of a shape's geoms: V-REP's global respondable mask (high byte of
+    ``Dc2``) for a respondable shape, 0/0 (visual only) otherwise. The local mask (low byte,
+    shapes of one model) becomes ``<exclude>`` pairs (see :mod:`.convert`)."""
+    if not shape.respondable:
+        return 0, 0
+    bits = (shape.respondable_mask >> 8) & 0xFF or 1
+    return bits, bits
