@@ -53,6 +53,7 @@ class Converter:
         self.spec.compiler.degree = False
         self.spec.compiler.autolimits = True
         self.spec.compiler.fusestatic = False
+        self.spec.compiler.balanceinertia = True  # V-REP accepts moments that break A + B >= C
         if out is not None:
             self.spec.compiler.meshdir = str(out / "meshes")  # written relative (convert)
         self.geoms = G.GeomMaker(self.spec, out, self.report)

@@ -29,13 +29,21 @@ def write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
         fh.write(rec.tobytes())
 
 
-def usable_mesh(mesh: Mesh) -> bool:
-    """A mesh MuJoCo can compile: at least 4 vertices not all in one plane."""
-    v = mesh.vertices
-    if len(v) < 4 or len(mesh.faces) < 2 or not np.all(np.isfinite(v)):
-        return False
+def usable_mesh(mesh: Mesh) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices and faces MuJoCo can compile, or None: a flat mesh (a wall, a floor tile) gets a
+    back face 0.1 mm behind it so that it has a volume; fewer than 3 points are left out."""
+    v, f = mesh.vertices, mesh.faces
+    if len(v) < 3 or len(f) < 1 or not np.all(np.isfinite(v)):
+        return None
     centred = v - v.mean(axis=0)
-    return bool(np.linalg.svd(centred, compute_uv=False)[-1] > 1e-7 * max(1e-9, float(np.abs(centred).max())))
+    scale = max(1e-9, float(np.abs(centred).max()))
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    if sv[1] <= 1e-7 * scale:  # all on a line
+        return None
+    if sv[-1] > 1e-7 * scale:
+        return v, f
+    normal = vt[-1]
+    return np.vstack([v, v - 1e-4 * normal]), np.vstack([f, f[:, ::-1] + len(v)])
 
 
 class GeomMaker:
@@ -93,21 +101,23 @@ class GeomMaker:
         if p == CAPSULE and s[0] > 0:
             r = s[0] / 2
             return self._new(body, G.mjGEOM_CAPSULE, [r, max(s[2] / 2 - r, 1e-4), 0])
-        if not usable_mesh(mesh):
+        usable = usable_mesh(mesh)
+        if usable is None:
             if len(mesh.vertices):
-                self.report.add("flat or degenerate meshes (left out)")
+                self.report.add("degenerate meshes (left out)")
             return None
+        vertices, faces = usable
         self.count += 1
         mname = f"ttt_mesh{self.count}"
         m = self.spec.add_mesh()
         m.name = mname
         m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         if self.out is not None:
-            write_stl(self.out / "meshes" / f"{mname}.stl", mesh.vertices, mesh.faces)
+            write_stl(self.out / "meshes" / f"{mname}.stl", vertices, faces)
             m.file = f"{mname}.stl"
         else:
-            m.uservert = mesh.vertices.astype(np.float32).ravel()
-            m.userface = mesh.faces.astype(np.int32).ravel()
+            m.uservert = vertices.astype(np.float32).ravel()
+            m.userface = faces.astype(np.int32).ravel()
         if not mesh.convex:
             self.report.add("non-convex meshes (collide as their convex hull)")
         g = body.add_geom()

@@ -66,7 +66,7 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     act.target = obj.name
     act.trntype = mujoco.mjtTrn.mjTRN_JOINT
     act.set_to_velocity(kv=100.0)
-    force = abs(j.max_force) if math.isfinite(j.max_force) else 0.0
+    force = max(abs(j.max_force) if math.isfinite(j.max_force) else 0.0, 1e-9)  # MuJoCo: a range lo < hi
     act.forcerange = [-force, force]
     act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
     items = [f"mode={mode}"]
