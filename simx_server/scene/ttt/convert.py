@@ -87,6 +87,14 @@ class Converter:
             self.report.add("collections (not modelled)", len(s.collections))
         if s.engine not in (0,):
             self.report.add(f"engine {['Bullet', 'ODE', 'Vortex', 'Newton', 'MuJoCo'][s.engine] if 0 <= s.engine < 5 else s.engine} parameters (MuJoCo's used)")
+        # fixed statistic so that the clipping planes are the vision sensors' (MuJoCo's
+        # znear/zfar are fractions of the extent), as in simx's own scenes
+        sensors = [o.data for o in s.objects.values() if o.kind == "vision_sensor"]
+        self.spec.stat.extent = 2.0
+        near = min([v.near for v in sensors if v.near > 0] + [0.01])
+        far = max([v.far for v in sensors] + [50.0])
+        self.spec.visual.map.znear = max(near, 1e-4) / 2.0
+        self.spec.visual.map.zfar = far / 2.0
         for name, items in self.settings.items():
             t = self.spec.add_text()
             t.name = f"simx:{name}"
@@ -149,7 +157,8 @@ class Converter:
         elif not d.static and body is self.spec.worldbody:
             b.add_freejoint()
         contype, conaffinity = G.collision_bits(d)
-        self.geoms.add(b, np.zeros(3), [1, 0, 0, 0], obj.name, d, contype, conaffinity)
+        self.geoms.add(b, np.zeros(3), [1, 0, 0, 0], obj.name, d, contype, conaffinity,
+                       visible=bool(obj.layers & 0xFF))
         for child in obj.children:
             self._emit(child, b, Pose(), model)
 
@@ -210,7 +219,8 @@ class Converter:
                     b.ipos, b.iquat = d.inertia_frame.pos, d.inertia_frame.quat
                     b.explicitinertial = True
                 contype, conaffinity = G.collision_bits(d)
-                self.geoms.add(b, np.zeros(3), [1, 0, 0, 0], child.name, d, contype, conaffinity)
+                self.geoms.add(b, np.zeros(3), [1, 0, 0, 0], child.name, d, contype, conaffinity,
+                               visible=bool(child.layers & 0xFF))
                 for grandchild in child.children:
                     self._emit(grandchild, b, Pose(), model)
                 host, site_pose = b, inverse(child.pose)

@@ -60,8 +60,11 @@ class GeomMaker:
         if out is not None:
             (out / "meshes").mkdir(parents=True, exist_ok=True)
 
-    def add(self, body, frame_pos, frame_quat, name: str, shape: ShapeData, contype: int, conaffinity: int):
-        """Geoms of ``shape`` in ``body``; the shape's frame is (frame_pos, frame_quat) in it."""
+    def add(self, body, frame_pos, frame_quat, name: str, shape: ShapeData, contype: int, conaffinity: int,
+            visible: bool = True):
+        """Geoms of ``shape`` in ``body``; the shape's frame is (frame_pos, frame_quat) in it.
+        A shape in no shown layer (V-REP's hidden collision shapes) goes to geom group 3, which
+        neither the viewer nor the vision sensors draw by default."""
         from simx_server.scene.ttt.geometry import compose
         from simx_server.scene.ttt.model import Pose
 
@@ -74,6 +77,8 @@ class GeomMaker:
             g.pos, g.quat = pose.pos, pose.quat
             g.rgba = [*mesh.color, 1.0]
             g.contype, g.conaffinity = contype, conaffinity
+            if not visible:
+                g.group = 3
             g.density = 0.0  # bodies get the file's mass and inertia, not the geoms'
             if shape.friction is not None:
                 # Bullet multiplies the two shapes' coefficients, MuJoCo takes the larger:

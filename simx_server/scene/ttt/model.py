@@ -127,6 +127,7 @@ class TttObject:
     alias: str
     pose: Pose
     model_base: bool = False
+    layers: int = 1  # V-REP's visibility layers (bits; layers 1-8 are shown by default)
     data: object | None = None
     children: list["TttObject"] = field(default_factory=list)
 

@@ -141,7 +141,9 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
     pose = pose7(common.floats("_fq", "Cfq", 7), quat_first=True)
     model_base = bool(common.byte("Va2") & 1) if common.get("Va2") is not None else False
     kind = OBJECT_KINDS.get(tag, "other")
-    obj = TttObject(tag, kind, int(ids[0]), int(ids[1]), name, alias, pose, model_base)
+    lar = common.ints("Lar", 1, "<u2")
+    obj = TttObject(tag, kind, int(ids[0]), int(ids[1]), name, alias, pose, model_base,
+                    layers=int(lar[0]) if lar is not None else 1)
     if kind == "shape":
         obj.data = shapes.read_shape(typed, pool)
     elif kind == "joint":
