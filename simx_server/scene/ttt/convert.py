@@ -22,11 +22,12 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt import geoms as G
-from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_mul, quat_to_mat
+from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.scene.ttt.parts import add_ik_groups, add_joint, add_loop_closures, add_sensor
 
 _MAX_EXCLUDES = 20_000
+ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
 
 
 class Report:
@@ -85,8 +86,9 @@ class Converter:
         self._excludes()
         if s.collections:
             self.report.add("collections (not modelled)", len(s.collections))
-        if s.engine not in (0,):
-            self.report.add(f"engine {['Bullet', 'ODE', 'Vortex', 'Newton', 'MuJoCo'][s.engine] if 0 <= s.engine < 5 else s.engine} parameters (MuJoCo's used)")
+        if s.engine != 0:
+            engine = ENGINES[s.engine] if 0 <= s.engine < len(ENGINES) else str(s.engine)
+            self.report.add(f"{engine} engine settings (MuJoCo's used; friction taken from Bullet's)")
         # fixed statistic so that the clipping planes are the vision sensors' (MuJoCo's
         # znear/zfar are fractions of the extent), as in simx's own scenes
         sensors = [o.data for o in s.objects.values() if o.kind == "vision_sensor"]
@@ -260,12 +262,6 @@ def _tiny_inertial(b) -> None:
     b.mass, b.inertia = 1e-3, [1e-7, 1e-7, 1e-7]
     b.ipos, b.iquat = np.zeros(3), [1.0, 0, 0, 0]
     b.explicitinertial = True
-
-
-def camera_quat(vrep_quat: np.ndarray) -> np.ndarray:
-    """A V-REP vision sensor looks along its +z with +y up; a MuJoCo camera along its -z:
-    turn by 180 degrees about y."""
-    return quat_mul(vrep_quat, np.array([0.0, 0.0, 1.0, 0.0]))
 
 
 def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, Report]:

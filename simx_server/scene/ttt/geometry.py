@@ -66,3 +66,24 @@ def joint_displacement(joint_type: int, position: float, spherical_quat=None) ->
 def _unit(q: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(q)
     return q / n if n > 0 else np.array([1.0, 0, 0, 0])
+
+
+def pose7(values: np.ndarray | None, quat_first: bool) -> Pose:
+    """A 7-value frame: ``qw qx qy qz x y z`` (``Cfq``) or ``x y z qw qx qy qz`` (the others);
+    identity for a missing one, a unit quaternion always."""
+    if values is None:
+        return Pose()
+    if quat_first:
+        q, p = values[:4], values[4:7]
+    else:
+        p, q = values[:3], values[3:7]
+    norm = float(np.linalg.norm(q))
+    q = q / norm if norm > 1e-9 and np.all(np.isfinite(q)) else np.array([1.0, 0, 0, 0])
+    p = p if np.all(np.isfinite(p)) else np.zeros(3)
+    return Pose(np.array(p, dtype=np.float64), np.array(q, dtype=np.float64))
+
+
+def camera_quat(vrep_quat: np.ndarray) -> np.ndarray:
+    """A V-REP vision sensor looks along its +z with +y up; a MuJoCo camera along its -z:
+    turn by 180 degrees about y."""
+    return quat_mul(vrep_quat, np.array([0.0, 0.0, 1.0, 0.0]))

@@ -8,7 +8,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from simx_server.scene.ttt.model import Mesh, ShapeData
+from simx_server.scene.ttt.geometry import compose
+from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
 
 # V-REP primitive type -> how it becomes a geom (the others are meshes)
 PLANE, DISC, CUBOID, SPHEROID, CYLINDER, CONE, HEIGHTFIELD, CAPSULE = 1, 2, 3, 4, 5, 6, 7, 8
@@ -65,9 +66,6 @@ class GeomMaker:
         """Geoms of ``shape`` in ``body``; the shape's frame is (frame_pos, frame_quat) in it.
         A shape in no shown layer (V-REP's hidden collision shapes) goes to geom group 3, which
         neither the viewer nor the vision sensors draw by default."""
-        from simx_server.scene.ttt.geometry import compose
-        from simx_server.scene.ttt.model import Pose
-
         base = Pose(np.asarray(frame_pos, float), np.asarray(frame_quat, float))
         for i, mesh in enumerate(shape.meshes):
             pose = compose(base, mesh.frame)

@@ -8,7 +8,7 @@ import math
 import mujoco
 import numpy as np
 
-from simx_server.scene.ttt.geometry import quat_to_mat
+from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject
 
 REVOLUTE, PRISMATIC, SPHERICAL = 10, 11, 12
@@ -91,8 +91,6 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
     """Dummies, proximity and vision sensors, lights, and the objects kept only as sites."""
     kind = obj.kind
     if kind == "vision_sensor":
-        from simx_server.scene.ttt.convert import camera_quat
-
         v = obj.data
         cam = body.add_camera()
         cam.name = obj.name

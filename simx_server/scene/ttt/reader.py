@@ -15,7 +15,8 @@ import numpy as np
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt import shapes
 from simx_server.scene.ttt.errors import SceneFileError
-from simx_server.scene.ttt.model import (Collection, DummyData, ForceSensorData, IkGroup, JointData, Pose,
+from simx_server.scene.ttt.geometry import pose7
+from simx_server.scene.ttt.model import (Collection, DummyData, ForceSensorData, IkGroup, JointData,
                                          ProximityData, Script, Texture, TttObject, TttScene, VisionData)
 from simx_server.scene.ttt.records import Records, light_decode, read_body, read_string
 
@@ -114,20 +115,6 @@ def _check_cycles(scene: TttScene) -> None:
             for other in scene.objects.values():
                 if obj in other.children:
                     other.children.remove(obj)
-
-
-def pose7(values: np.ndarray | None, quat_first: bool) -> Pose:
-    """A 7-value frame: ``qw qx qy qz x y z`` (``Cfq``) or ``x y z qw qx qy qz`` (the others)."""
-    if values is None:
-        return Pose()
-    if quat_first:
-        q, p = values[:4], values[4:7]
-    else:
-        p, q = values[:3], values[3:7]
-    norm = float(np.linalg.norm(q))
-    q = q / norm if norm > 1e-9 and np.all(np.isfinite(q)) else np.array([1.0, 0, 0, 0])
-    p = p if np.all(np.isfinite(p)) else np.zeros(3)
-    return Pose(np.array(p, dtype=np.float64), np.array(q, dtype=np.float64))
 
 
 def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject:

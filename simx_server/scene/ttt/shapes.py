@@ -8,6 +8,7 @@ import struct
 import numpy as np
 
 from simx_server.scene.ttt import errors as E
+from simx_server.scene.ttt.geometry import compose, mat_to_quat, pose7
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
 from simx_server.scene.ttt.records import Records, unpack_indices
 
@@ -69,8 +70,6 @@ def _values(r: Records, tag: str, count: int) -> np.ndarray | None:
 
 def read_shape(typed: Records, pool: MeshPool) -> ShapeData:
     """A shape's type part (``SHP`` after ``NXT``)."""
-    from simx_server.scene.ttt.reader import pose7
-
     ge2 = typed.sub("Ge2")
     top_tag = "Gst" if ge2.get("Gst") is not None else "Gsg"
     top = ge2.sub(top_tag)  # a mesh's (Gst) or compound's (Gsg) wrapper list: name, mass, inertia
@@ -97,7 +96,6 @@ def read_shape(typed: Records, pool: MeshPool) -> ShapeData:
         moments, axes = np.linalg.eigh(m)
         if np.linalg.det(axes) < 0:
             axes[:, 0] = -axes[:, 0]
-        from simx_server.scene.ttt.geometry import compose, mat_to_quat
         local = Pose(com if com is not None else np.zeros(3), mat_to_quat(axes))
         shape.inertia_frame = compose(base, local)
         shape.inertia = np.abs(moments) * shape.mass
@@ -141,8 +139,6 @@ def _collect(wrapper: Records, pool: MeshPool, out: list[Mesh]) -> None:
 
 
 def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
-    from simx_server.scene.ttt.reader import pose7
-
     info = parent.sub("Geo", payload)
     r = parent.sub("Geo", payload, start=info.end)
     name = info.string("Nme")

@@ -5,8 +5,6 @@ reason where the folder is absent; fails when ``CI`` is set (conftest.require_sh
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import mujoco
 import numpy as np
 import pytest
