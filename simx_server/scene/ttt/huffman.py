@@ -17,7 +17,7 @@ import numpy as np
 from simx_server.scene.ttt.errors import SceneFileError
 
 _CHUNK_BITS = 4096      # bits per walker
-_OVERLAP_BITS = 3072    # how far a walker goes into the next chunk to be met there
+_OVERLAP_BITS = 1024    # how far a walker goes into the next chunk to be met there
 _GROUP_CHUNKS = 4096    # walkers decoded together
 _TABLE_BITS_MAX = 20    # lookup-table window; codes longer than this walk the tree
 
@@ -119,20 +119,32 @@ class _Table:
             p = min(p + (code >> 8), self.end)
         return np.array(positions, np.int64), np.array(symbols, np.uint8)
 
-    def walk(self, p: np.ndarray, limits: np.ndarray, max_steps: int):
+    def walk(self, p: np.ndarray, limits: np.ndarray, max_steps: int, bits_per_code: float = 1.0):
         """Advance each walker until it reaches its limit (it may go a few codes further).
-        Returns positions (walker x step, int64) and symbols (uint8)."""
+        Returns positions (int32) and symbols (uint8), step-major ``(steps, walkers)``: rows are
+        written in place (``bits_per_code``, the stream's average, sizes the arrays)."""
         end = self.end
-        pos_steps, code_steps = [], []
-        while len(pos_steps) < max_steps and not (p >= limits).all():
+        n = len(p)
+        cap = 64 + int(1.25 * int((limits - p).max(initial=0)) / max(bits_per_code, 1.0))
+        pos = np.empty((cap, n), np.int32)
+        sym = np.empty((cap, n), np.uint8)
+        k = 0
+        while True:
+            if k + 33 > cap:
+                cap = cap * 3 // 2 + 64
+                pos = np.resize(pos, (cap, n))
+                sym = np.resize(sym, (cap, n))
+            if k >= max_steps or (p >= limits).all():
+                break
             for _ in range(32):
                 code = self.lookup(p)
-                pos_steps.append(p)
-                code_steps.append(code)
+                pos[k] = p
+                sym[k] = code
                 p = np.minimum(p + (code >> 8), end)
-        pos_steps.append(p)  # where each walker stopped (at or past its limit)
-        code_steps.append(self.lookup(p))
-        return np.stack(pos_steps, axis=1), (np.stack(code_steps, axis=1) & 0xFF).astype(np.uint8)
+                k += 1
+        pos[k] = p  # where each walker stopped (at or past its limit)
+        sym[k] = self.lookup(p)
+        return pos[:k + 1], sym[:k + 1]
 
 
 def decode(data: bytes | memoryview, size: int, file: str = "<bytes>") -> bytes:
@@ -154,9 +166,10 @@ def decode(data: bytes | memoryview, size: int, file: str = "<bytes>") -> bytes:
         return bytes([table.symbol[0]]) * size
     parts, produced, entry, end = [], 0, table.start, table.end
     group_bits = _GROUP_CHUNKS * _CHUNK_BITS
+    bits_per_code = (end - entry) / size  # the stream's average code length
     while produced < size and entry < end:
         group_end = min(entry + group_bits, end)
-        out, entry = _decode_group(table, entry, group_end, size - produced)
+        out, entry = _decode_group(table, entry, group_end, size - produced, bits_per_code)
         parts.append(out)
         produced += out.size
     if produced < size:
@@ -164,7 +177,7 @@ def decode(data: bytes | memoryview, size: int, file: str = "<bytes>") -> bytes:
     return np.concatenate(parts)[:size].tobytes()
 
 
-def _decode_group(table: _Table, entry: int, group_end: int, wanted: int):
+def _decode_group(table: _Table, entry: int, group_end: int, wanted: int, bits_per_code: float):
     """Symbols of the true path from ``entry`` (a true code start) up to the first code start
     at or past ``group_end``; returns them and that code start."""
     end = table.end
@@ -173,39 +186,88 @@ def _decode_group(table: _Table, entry: int, group_end: int, wanted: int):
     bounds[n] = group_end
     limits = np.minimum(bounds[1:] + _OVERLAP_BITS, end)
     limits[-1] = group_end
-    pos, sym = table.walk(bounds[:-1].copy(), limits, wanted + 64)
+    pos, sym = table.walk(bounds[:-1].copy(), limits, wanted + 64, bits_per_code)  # (steps, walkers)
+    cols = np.arange(n)
     sync = np.empty(n + 1, dtype=np.int64)
     sync[0] = entry
     sync[n] = group_end
     redone: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     if n > 1:
-        span = int(limits.max()) - entry + 1  # marks are indexed from the group's entry
-        marks = [np.zeros(span + 1, dtype=bool), np.zeros(span + 1, dtype=bool)]
-        valid = pos < limits[:, None]
-        for parity in (0, 1):  # the code starts each walker visited before its limit
-            marks[parity][pos[parity::2][valid[parity::2]] - entry] = True
-        for j in range(1, n):
-            prev = redone[j - 1][0] if j - 1 in redone else pos[j - 1]
-            cand = prev[(prev >= bounds[j]) & (prev < limits[j - 1])]
-            hit = cand[marks[j % 2][cand - entry]]
-            if hit.size:
-                sync[j] = hit[0]
+        span = int(limits.max()) - entry + 2  # marks are indexed from the group's entry
+        marks = np.zeros((2, span), dtype=bool)  # by walker parity: code starts in the overlaps
+        # walker j's head, up to the end of the previous walker's overlap
+        head = int((pos[:, 1:] < limits[None, :-1]).sum(axis=0).max())
+        h = pos[:head, 1:]
+        ok = h < limits[None, :-1]
+        for parity in (0, 1):  # walker j = column j - 1 of h
+            sel = slice(1 - parity, None, 2)
+            marks[parity][h[:, sel][ok[:, sel]] - entry] = True
+        # walker j-1's tail from bounds[j] to its limit: its first code start that walker j
+        # visited too is where the true path (right on walker j-1) enters chunk j
+        start = (pos[:, :-1] < bounds[None, 1:n]).sum(axis=0)
+        stop = (pos[:, :-1] < limits[None, :-1]).sum(axis=0)
+        width = int((stop - start).max(initial=0)) + 1
+        rows = np.minimum(start[None, :] + np.arange(width)[:, None], len(pos) - 1)
+        tail = pos[rows, cols[None, :-1]].astype(np.int64)
+        inside = np.arange(width)[:, None] < (stop - start)[None, :]
+        parity = cols[1:] % 2
+        idx = np.clip(tail - entry, 0, span - 1)
+        hit = inside & np.where(parity[None, :] == 1, marks[1][idx], marks[0][idx])
+        first = hit.argmax(axis=0)
+        found = hit[first, cols[:-1]]
+        sync[1:n] = tail[first, cols[:-1]]
+        todo = set((np.flatnonzero(~found) + 1).tolist())
+
+        def row(j: int) -> np.ndarray:
+            return redone[j][0] if j in redone else pos[:, j].astype(np.int64)
+
+        # walkers never met within the overlap (periodic data keeps them out of phase): walk
+        # those chunks again from their true entries, all whose predecessor is settled at once
+        while todo:
+            again, starts = [], []
+            for j in sorted(todo):
+                if j - 1 in todo:
+                    continue
+                todo.discard(j)
+                prev_row = row(j - 1)
+                cand = prev_row[(prev_row >= bounds[j]) & (prev_row < limits[j - 1])]
+                here = cand[marks[j % 2][cand - entry]]
+                if here.size:
+                    sync[j] = here[0]
+                    continue
+                sync[j] = int(cand[0]) if cand.size else int(bounds[j])
+                again.append(j)
+                starts.append(sync[j])
+            if not again:
                 continue
-            # not met within the overlap (periodic data keeps a walker out of phase):
-            # walk chunk j again from its true entry, one code at a time
-            sync[j] = start = int(cand[0]) if cand.size else int(bounds[j])
-            row = pos[j]
-            marks[j % 2][row[row < limits[j]] - entry] = False
-            redone[j] = table.walk_one(start, int(limits[j]))
-            marks[j % 2][redone[j][0][redone[j][0] < limits[j]] - entry] = True
-            pos[j] = end  # the re-walked row is assembled from ``redone``
-    last = redone[n - 1][0] if n - 1 in redone else pos[n - 1]
+            lims = limits[again]
+            if len(again) >= 16:  # many: in lock step; a few (a chain, one per round): one by one
+                p2, s2 = table.walk(np.array(starts, np.int64), lims, wanted + 64, bits_per_code)
+            for c, j in enumerate(again):
+                old = row(j)
+                marks[j % 2][old[(old < limits[j - 1]) & (old >= entry)] - entry] = False
+                if len(again) >= 16:
+                    col = p2[:, c].astype(np.int64)
+                    k = int(np.searchsorted(col, lims[c])) + 1  # up to its first start at/past the limit
+                    redone[j] = (col[:k], s2[:k, c])
+                else:
+                    redone[j] = table.walk_one(int(starts[c]), int(lims[c]))
+                new = redone[j][0]
+                marks[j % 2][new[(new < limits[j - 1]) & (new >= entry)] - entry] = True
+                if j + 1 < n:  # its entry was found on the old row j
+                    todo.add(j + 1)
+    last = redone[n - 1][0] if n - 1 in redone else pos[:, n - 1]
     after = last[last >= group_end]
     nxt = int(after[0]) if after.size else end
-    keep = (pos >= sync[:-1, None]) & (pos < sync[1:, None])
-    flat = sym[keep]
+    # each walker's kept codes are one run of steps: [first >= sync_j, first >= sync_j+1)
+    lo = (pos < sync[None, :-1]).sum(axis=0)
+    hi = (pos < sync[None, 1:]).sum(axis=0)
+    counts = np.where(np.isin(cols, list(redone)), 0, hi - lo)
+    total = int(counts.sum())
+    offsets = np.repeat(np.cumsum(counts) - counts, counts)
+    flat = sym[np.arange(total) - offsets + np.repeat(lo, counts), np.repeat(cols, counts)]
     if redone:
-        pieces = np.split(flat, np.cumsum(keep.sum(axis=1))[:-1])
+        pieces = np.split(flat, np.cumsum(counts)[:-1])
         for j, (p_j, s_j) in redone.items():
             pieces[j] = s_j[(p_j >= sync[j]) & (p_j < sync[j + 1])]
         flat = np.concatenate(pieces)
