@@ -73,8 +73,15 @@ class Converter:
         self.spec.option.gravity = s.gravity
         self.spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         self.spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-        self.spec.visual.headlight.ambient = [0.3, 0.3, 0.3]
+        self.spec.visual.headlight.ambient = s.ambient if s.ambient is not None else [0.2, 0.2, 0.2]
         self.spec.visual.headlight.diffuse = [0.5, 0.5, 0.5]
+        if s.background is not None:  # V-REP's background gradient as a sky box
+            sky = self.spec.add_texture()
+            sky.name = "ttt_background"
+            sky.type = mujoco.mjtTexture.mjTEXTURE_SKYBOX
+            sky.builtin = mujoco.mjtBuiltin.mjBUILTIN_GRADIENT
+            sky.rgb1, sky.rgb2 = s.background
+            sky.width = sky.height = 256
         for obj in s.objects.values():
             self.names[obj.handle] = obj.name
         for root in s.roots:

@@ -68,6 +68,9 @@ class GeomMaker:
         neither the viewer nor the vision sensors draw by default."""
         base = Pose(np.asarray(frame_pos, float), np.asarray(frame_quat, float))
         for i, mesh in enumerate(shape.meshes):
+            if mesh.wireframe and contype == 0:  # V-REP draws it as lines: MuJoCo cannot
+                self.report.add("wireframe meshes (left out)")
+                continue
             pose = compose(base, mesh.frame)
             g = self._geom(body, mesh, name, i)
             if g is None:

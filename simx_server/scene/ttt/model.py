@@ -40,6 +40,7 @@ class Mesh:
     texture: int = -1
     uv: np.ndarray | None = None
     convex: bool = False
+    wireframe: bool = False  # drawn as edges only in V-REP
 
 
 @dataclass
@@ -187,4 +188,6 @@ class TttScene:
     engine: int = 0          # 0 Bullet, 1 ODE, 2 Vortex, 3 Newton, 4 MuJoCo
     gravity: np.ndarray = field(default_factory=lambda: np.array([0, 0, -9.81]))
     time_step: float = 0.05  # s
+    background: tuple[np.ndarray, np.ndarray] | None = None  # environment colours: up, down (RGB 0-1)
+    ambient: np.ndarray | None = None  # ambient light (RGB 0-1)
     skipped: dict[str, int] = field(default_factory=dict)  # what was read but is not modelled: count

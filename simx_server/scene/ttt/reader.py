@@ -77,6 +77,8 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                 _read_dynamics(top.sub(tag, payload), scene)
             elif tag == "SIM":
                 _read_simulation(top.sub(tag, payload), scene)
+            elif tag == "ENV":
+                _read_environment(top.sub(tag, payload), scene)
             elif tag == "TEX":
                 tex = _read_texture(top.sub(tag, payload))
                 if tex is not None:
@@ -269,6 +271,15 @@ def _read_simulation(r: Records, scene: TttScene) -> None:
         scene.time_step = float(st2[0]) * 1e-6
     elif dt is not None and 0 < dt[0] < 10:
         scene.time_step = float(dt[0])
+
+
+def _read_environment(r: Records, scene: TttScene) -> None:
+    """The background gradient (``Clc`` up, ``Cld`` down) and the ambient light (``Alc``)."""
+    up, down, amb = r.floats(None, "Clc", 3), r.floats(None, "Cld", 3), r.floats(None, "Alc", 3)
+    if up is not None and down is not None and np.all(np.isfinite(up)) and np.all(np.isfinite(down)):
+        scene.background = (np.clip(up, 0, 1), np.clip(down, 0, 1))
+    if amb is not None and np.all(np.isfinite(amb)):
+        scene.ambient = np.clip(amb, 0, 1)
 
 
 def _read_texture(r: Records) -> Texture | None:

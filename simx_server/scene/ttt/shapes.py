@@ -185,4 +185,5 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
         if ftc is not None and len(ftc) >= 8:
             uv = np.frombuffer(ftc[: len(ftc) // 8 * 8], "<f4").reshape(-1, 2).astype(np.float64)
     convex = bool(r.byte("Va2") & 1) or bool(info.byte("Var") & 4)
-    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex)
+    wireframe = bool(r.byte("Var") & 4)
+    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe)
