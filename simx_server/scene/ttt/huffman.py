@@ -20,6 +20,9 @@ _CHUNK_BITS = 4096      # bits per walker
 _OVERLAP_BITS = 1024    # how far a walker goes into the next chunk to be met there
 _GROUP_CHUNKS = 4096    # walkers decoded together
 _TABLE_BITS_MAX = 20    # lookup-table window; codes longer than this walk the tree
+_SMALL_TABLE_BITS = 12  # the first-level table (16 KB) for the per-position pass
+_MAX_LONG_CODES = 1_000_000  # bit positions per group where a longer code starts
+_MARGIN_BYTES = 32 * 32 // 8 + 16  # room for walkers past their limit within one batch
 
 
 class _Table:
@@ -75,9 +78,13 @@ class _Table:
             if 0 < length <= k:
                 lo = code << (k - length)
                 self.table[lo:lo + (1 << (k - length))] = (length << 8) | symbol
+        self.table32 = self.table.astype(np.int32)
+        self.k_small = ks = min(k, _SMALL_TABLE_BITS)
+        full = self.table32[(np.arange(1 << ks, dtype=np.int64) << (k - ks))]
+        self.table_small = np.where((full >> 8) <= ks, full, 0).astype(np.int16)  # length <= 12
         self.shift = np.int64(32 - k)
         self.mask = np.uint32((1 << k) - 1)
-        padded = np.concatenate([raw, np.zeros(8, dtype=np.uint8)]).astype(np.uint32)
+        padded = np.concatenate([raw, np.zeros(8 + _MARGIN_BYTES, dtype=np.uint8)]).astype(np.uint32)
         # every byte index -> the big-endian 32-bit word starting there
         self.words = (padded[:-3] << 24) | (padded[1:-2] << 16) | (padded[2:-1] << 8) | padded[3:]
         self.end = len(raw) * 8
@@ -119,12 +126,43 @@ class _Table:
             p = min(p + (code >> 8), self.end)
         return np.array(positions, np.int64), np.array(symbols, np.uint8)
 
+    def codes_at(self, first: int, last: int) -> tuple[np.ndarray, int]:
+        """``length << 8 | symbol`` of the code starting at every bit position from ``first`` to
+        ``last`` (and a margin for walkers that overshoot), as int32; and the position of its
+        element 0. One table gather per bit position, done once, so that a walker's step is
+        a single gather."""
+        i0 = first >> 3
+        i1 = min((last >> 3) + _MARGIN_BYTES, len(self.words))
+        w = self.words[i0:i1]
+        # first a small table (fits the CPU cache); the few positions that start a longer code
+        # look again in the full one
+        ks = self.k_small
+        shifts = (32 - ks - np.arange(8)).astype(np.uint32)
+        window = ((w[:, None] >> shifts[None, :]) & np.uint32((1 << ks) - 1)).ravel()  # bit order
+        codes = self.table_small[window].astype(np.int32)
+        if ks < self.k:
+            more = np.flatnonzero(codes < 256)
+            at = more + i0 * 8
+            wk = (w[(at >> 3) - i0] >> (32 - self.k - (at & 7)).astype(np.uint32)) & self.mask
+            codes[more] = self.table32[wk]
+        if self.has_long:
+            slow = np.flatnonzero(codes < 256)
+            if slow.size > _MAX_LONG_CODES:
+                raise SceneFileError(self.file, "body", f"Huffman codes longer than {self.k} bits at "
+                                     f"{slow.size:,} positions, more than {_MAX_LONG_CODES:,}")
+            if slow.size:
+                codes[slow] = self.lookup(slow.astype(np.int64) + i0 * 8)
+        return codes, i0 * 8
+
     def walk(self, p: np.ndarray, limits: np.ndarray, max_steps: int, bits_per_code: float = 1.0):
         """Advance each walker until it reaches its limit (it may go a few codes further).
         Returns positions (int32) and symbols (uint8), step-major ``(steps, walkers)``: rows are
         written in place (``bits_per_code``, the stream's average, sizes the arrays)."""
-        end = self.end
         n = len(p)
+        codes, origin = self.codes_at(int(p.min(initial=0)), int(limits.max(initial=0)))
+        top = len(codes) - 1 - 32 * 32  # a batch of 32 steps moves at most 32 x 32 bits
+        q = (p - origin).astype(np.intp)
+        lim = (limits - origin).astype(np.intp)
         cap = 64 + int(1.25 * int((limits - p).max(initial=0)) / max(bits_per_code, 1.0))
         pos = np.empty((cap, n), np.int32)
         sym = np.empty((cap, n), np.uint8)
@@ -134,17 +172,22 @@ class _Table:
                 cap = cap * 3 // 2 + 64
                 pos = np.resize(pos, (cap, n))
                 sym = np.resize(sym, (cap, n))
-            if k >= max_steps or (p >= limits).all():
+            if k >= max_steps or (q >= lim).all():
                 break
+            np.minimum(q, top, out=q)
             for _ in range(32):
-                code = self.lookup(p)
-                pos[k] = p
+                code = codes[q]
+                pos[k] = q
                 sym[k] = code
-                p = np.minimum(p + (code >> 8), end)
+                q += code >> 8
                 k += 1
-        pos[k] = p  # where each walker stopped (at or past its limit)
-        sym[k] = self.lookup(p)
-        return pos[:k + 1], sym[:k + 1]
+        np.minimum(q, top, out=q)
+        pos[k] = q  # where each walker stopped (at or past its limit)
+        sym[k] = codes[q]
+        pos = pos[:k + 1]
+        pos += origin  # back to bit positions in the stream
+        np.minimum(pos, self.end, out=pos)
+        return pos, sym[:k + 1]
 
 
 def decode(data: bytes | memoryview, size: int, file: str = "<bytes>") -> bytes:
