@@ -20,7 +20,18 @@ from simx_server.scene.ttt.errors import SceneFileError
 log = logging.getLogger("simx.ttt")
 
 SUFFIXES = (".ttt", ".ttm")
-CONVERTER_VERSION = "1"  # part of the cache key: a new converter converts again
+
+
+def _converter_version() -> str:
+    """A digest of this package's source: part of the cache key, so that a changed reader or
+    converter converts again."""
+    h = hashlib.sha256()
+    for f in sorted(Path(__file__).parent.glob("*.py")):
+        h.update(f.name.encode() + f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+CONVERTER_VERSION = _converter_version()
 _origins: dict[Path, Path] = {}  # converted MJCF -> the .ttt/.ttm it came from
 
 
