@@ -57,7 +57,8 @@ class Converter:
         self.spec.compiler.balanceinertia = True  # V-REP accepts moments that break A + B >= C
         if out is not None:
             self.spec.compiler.meshdir = str(out / "meshes")  # written relative (convert)
-        self.geoms = G.GeomMaker(self.spec, out, self.report)
+            self.spec.compiler.texturedir = str(out / "textures")
+        self.geoms = G.GeomMaker(self.spec, out, self.report, scene.textures)
         self.settings: dict[str, list[str]] = {}  # simx:NAME -> key=value items
         self.names: dict[int, str] = {}           # handle -> element name
         self.bodies: dict[int, object] = {}       # shape handle -> mjsBody
@@ -286,6 +287,7 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
     spec = conv.build()
     xml = out / f"{stem or conv.spec.modelname}.xml"
     text = spec.to_xml().replace(f'meshdir="{out / "meshes"}"', 'meshdir="meshes"', 1)
+    text = text.replace(f'texturedir="{out / "textures"}"', 'texturedir="textures"', 1)
     xml.write_text(text)
     (out / "report.json").write_text(json.dumps(dict(conv.report.counts), indent=1))
     return xml, conv.report

@@ -30,6 +30,19 @@ def write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
         fh.write(rec.tobytes())
 
 
+def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, n_front: int) -> None:
+    """An OBJ with texture coordinates per triangle corner (``uv`` (3 x n_front, 2)); faces past
+    ``n_front`` are the back faces :func:`usable_mesh` added, reusing their front's corners."""
+    lines = ["# simx ttt mesh"]
+    lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in vertices]
+    lines += [f"vt {u:.7g} {v:.7g}" for u, v in uv]
+    for i, (a, b, c) in enumerate(faces + 1):
+        k = 3 * (i % n_front) + 1
+        ta, tb, tc = (k, k + 1, k + 2) if i < n_front else (k + 2, k + 1, k)
+        lines.append(f"f {a}/{ta} {b}/{tb} {c}/{tc}")
+    path.write_text("\n".join(lines) + "\n")
+
+
 def usable_mesh(mesh: Mesh) -> tuple[np.ndarray, np.ndarray] | None:
     """Vertices and faces MuJoCo can compile, or None: a flat mesh (a wall, a floor tile) gets a
     back face 0.1 mm behind it so that it has a volume; fewer than 3 points are left out."""
@@ -55,8 +68,10 @@ class GeomMaker:
         friction_scale: how a V-REP friction coefficient becomes MuJoCo's sliding friction.
     """
 
-    def __init__(self, spec: mujoco.MjSpec, out: Path | None, report):
+    def __init__(self, spec: mujoco.MjSpec, out: Path | None, report, textures: dict | None = None):
         self.spec, self.out, self.report = spec, out, report
+        self.textures = textures or {}
+        self.materials: dict[int, str] = {}  # texture id -> material name
         self.count = 0
         if out is not None:
             (out / "meshes").mkdir(parents=True, exist_ok=True)
@@ -85,8 +100,10 @@ class GeomMaker:
                 # Bullet multiplies the two shapes' coefficients, MuJoCo takes the larger:
                 # mu^2 gives Bullet's value for two equal materials
                 g.friction = [shape.friction ** 2, 0.005, 0.0001]
-            if mesh.texture >= 0:
-                self.report.add("textures (shown as the shape's colour)")
+            if g.material:
+                g.rgba = [1.0, 1.0, 1.0, 1.0]  # the texture as it is
+            elif mesh.texture >= 0:
+                self.report.add("textures without their coordinates (shown as the shape's colour)")
 
     def _geom(self, body, mesh: Mesh, name: str, index: int):
         s = np.abs(mesh.sizes)
@@ -118,7 +135,11 @@ class GeomMaker:
         m = self.spec.add_mesh()
         m.name = mname
         m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
-        if self.out is not None:
+        material = self._material(mesh) if self.out is not None else None
+        if material is not None:
+            write_obj(self.out / "meshes" / f"{mname}.obj", vertices, faces, mesh.uv, len(mesh.faces))
+            m.file = f"{mname}.obj"
+        elif self.out is not None:
             write_stl(self.out / "meshes" / f"{mname}.stl", vertices, faces)
             m.file = f"{mname}.stl"
         else:
@@ -129,7 +150,33 @@ class GeomMaker:
         g = body.add_geom()
         g.type = G.mjGEOM_MESH
         g.meshname = mname
+        if material is not None:
+            g.material = material
         return g
+
+    def _material(self, mesh: Mesh) -> str | None:
+        """The material showing the mesh's texture (a PNG in ``textures/``), when the file gives
+        texture coordinates per triangle corner; None otherwise."""
+        tex = self.textures.get(mesh.texture)
+        if tex is None or mesh.uv is None or len(mesh.uv) != 3 * len(mesh.faces) or not len(mesh.faces):
+            return None
+        if mesh.texture not in self.materials:
+            import cv2
+
+            folder = self.out / "textures"
+            folder.mkdir(exist_ok=True)
+            rgb = tex.rgb[::-1]  # V-REP's rows go bottom-up (OpenGL's order)
+            bgr = cv2.cvtColor(rgb, cv2.COLOR_RGBA2BGRA if rgb.shape[2] == 4 else cv2.COLOR_RGB2BGR)
+            cv2.imwrite(str(folder / f"tex{mesh.texture}.png"), bgr)
+            t = self.spec.add_texture()
+            t.name = f"ttt_tex{mesh.texture}"
+            t.type = mujoco.mjtTexture.mjTEXTURE_2D
+            t.file = f"tex{mesh.texture}.png"
+            mat = self.spec.add_material()
+            mat.name = f"ttt_mat{mesh.texture}"
+            mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = t.name
+            self.materials[mesh.texture] = mat.name
+        return self.materials[mesh.texture]
 
     @staticmethod
     def _new(body, kind, size):
