@@ -18,9 +18,10 @@ from simx_server.scene.ttt.errors import SceneFileError
 
 _CHUNK_BITS = 4096      # bits per walker
 _OVERLAP_BITS = 1024    # how far a walker goes into the next chunk to be met there
-_GROUP_CHUNKS = 4096    # walkers decoded together
+_GROUP_CHUNKS = 2048    # walkers decoded together
 _TABLE_BITS_MAX = 20    # lookup-table window; codes longer than this walk the tree
-_SMALL_TABLE_BITS = 12  # the first-level table (16 KB) for the per-position pass
+_SLICE_WORDS = 1 << 17  # words turned into per-position codes at a time
+_SMALL_TABLE_BITS = 15  # the first-level table (64 KB, in cache) for the per-position pass
 _MAX_LONG_CODES = 1_000_000  # bit positions per group where a longer code starts
 _MARGIN_BYTES = 32 * 32 // 8 + 16  # room for walkers past their limit within one batch
 
@@ -81,7 +82,7 @@ class _Table:
         self.table32 = self.table.astype(np.int32)
         self.k_small = ks = min(k, _SMALL_TABLE_BITS)
         full = self.table32[(np.arange(1 << ks, dtype=np.int64) << (k - ks))]
-        self.table_small = np.where((full >> 8) <= ks, full, 0).astype(np.int16)  # length <= 12
+        self.table_small = np.where((full >> 8) <= ks, full, 0).astype(np.int16)
         self.shift = np.int64(32 - k)
         self.mask = np.uint32((1 << k) - 1)
         padded = np.concatenate([raw, np.zeros(8 + _MARGIN_BYTES, dtype=np.uint8)]).astype(np.uint32)
@@ -108,10 +109,10 @@ class _Table:
         """One walker from ``p`` (a true code start) to its first code start at or past
         ``limit``, in plain Python (cheaper than numpy for a single walker)."""
         if self._table_list is None:
-            self._table_list = self.table.tolist()
+            self._table_list = self.table_small.tolist()
         first = p >> 3
         words = self.words[first:min((limit >> 3) + 64, len(self.words))].tolist()
-        table, shift, mask = self._table_list, 32 - self.k, (1 << self.k) - 1
+        table, shift, mask = self._table_list, 32 - self.k_small, (1 << self.k_small) - 1
         positions, symbols = [], []
         while True:
             positions.append(p)
@@ -135,11 +136,13 @@ class _Table:
         i1 = min((last >> 3) + _MARGIN_BYTES, len(self.words))
         w = self.words[i0:i1]
         # first a small table (fits the CPU cache); the few positions that start a longer code
-        # look again in the full one
+        # look again in the full one. Slices of words bound the temporaries.
         ks = self.k_small
         shifts = (32 - ks - np.arange(8)).astype(np.uint32)
-        window = ((w[:, None] >> shifts[None, :]) & np.uint32((1 << ks) - 1)).ravel()  # bit order
-        codes = self.table_small[window].astype(np.int32)
+        codes = np.empty((i1 - i0) * 8, np.int16)  # length << 8 | symbol (at most 20 << 8 | 255)
+        for a in range(0, i1 - i0, _SLICE_WORDS):
+            window = (w[a:a + _SLICE_WORDS, None] >> shifts[None, :]) & np.uint32((1 << ks) - 1)
+            codes[8 * a:8 * (a + len(window))] = self.table_small[window.ravel()]
         if ks < self.k:
             more = np.flatnonzero(codes < 256)
             at = more + i0 * 8
@@ -305,13 +308,12 @@ def _decode_group(table: _Table, entry: int, group_end: int, wanted: int, bits_p
     # each walker's kept codes are one run of steps: [first >= sync_j, first >= sync_j+1)
     lo = (pos < sync[None, :-1]).sum(axis=0)
     hi = (pos < sync[None, 1:]).sum(axis=0)
-    counts = np.where(np.isin(cols, list(redone)), 0, hi - lo)
-    total = int(counts.sum())
-    offsets = np.repeat(np.cumsum(counts) - counts, counts)
-    flat = sym[np.arange(total) - offsets + np.repeat(lo, counts), np.repeat(cols, counts)]
-    if redone:
-        pieces = np.split(flat, np.cumsum(counts)[:-1])
-        for j, (p_j, s_j) in redone.items():
-            pieces[j] = s_j[(p_j >= sync[j]) & (p_j < sync[j + 1])]
-        flat = np.concatenate(pieces)
+    pieces = []
+    for j in range(n):
+        if j in redone:
+            p_j, s_j = redone[j]
+            pieces.append(s_j[(p_j >= sync[j]) & (p_j < sync[j + 1])])
+        else:
+            pieces.append(sym[lo[j]:hi[j], j])
+    flat = np.concatenate(pieces) if pieces else np.empty(0, np.uint8)
     return flat[:wanted], nxt
