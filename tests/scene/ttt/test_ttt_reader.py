@@ -73,9 +73,11 @@ def test_read_synthetic_scene(tmp_path):
     assert link.data.meshes[0].primitive == 3 and link.data.meshes[0].faces.shape == (12, 3)
     assert s.objects[1].data.static
     assert s.time_step == pytest.approx(0.05) and s.gravity[2] == pytest.approx(-9.81)
-    child, threaded = s.scripts
+    child, threaded, custom = s.scripts
     assert child.object == 4 and child.type == 1 and not child.threaded and "sysCall_init" in child.text
     assert threaded.object == 2 and threaded.threaded and threaded.text == "simRemoteApi.start(19999)\n"
+    assert threaded.parameters == [{"name": "port", "value": "19999", "unit": "int"}]
+    assert custom.object == 6 and custom.type == 6
 
 
 def test_unknown_records_and_object_types_are_skipped(tmp_path):

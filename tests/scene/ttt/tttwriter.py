@@ -90,9 +90,12 @@ def light_encode(text: bytes) -> bytes:
     return bytes(buf)
 
 
-def script(handle: int, obj: int, text: str, kind: int = 1, threaded: bool = False) -> bytes:
+def script(handle: int, obj: int, text: str, kind: int = 1, threaded: bool = False,
+           parameters: tuple[tuple[str, str, str], ...] = ()) -> bytes:
+    """A script record (``LST``); ``parameters``: (name, unit, value) simulation parameters."""
+    par = i32(len(parameters)) + b"".join(string(n) + string(u) + string(v) + i32(0) for n, u, v in parameters)
     return rec("LST", lst(rec("Si2", i32(handle, obj, kind)), rec("Va2", bytes([1 if threaded else 0])),
-                          rec("Ste", light_encode(text.encode()))))
+                          rec("Ste", light_encode(text.encode())), rec("Prm", lst(rec("Par", par)))))
 
 
 def huffman_encode(data: bytes) -> bytes:
@@ -153,4 +156,5 @@ def simple_scene(**kw) -> bytes:
         dummy(5, 4, "Tip", (0, 0, 0.2)) +
         cuboid_shape(6, -1, "Cube", (0.1, 0.1, 0.1), (0.6, 0, 0.3), mass=0.2) +
         script(100, 4, "function sysCall_init()\n  print('hi')\nend\n") +
-        script(101, 2, "simRemoteApi.start(19999)\n", threaded=True), **kw)
+        script(101, 2, "simRemoteApi.start(19999)\n", threaded=True, parameters=(("port", "int", "19999"),)) +
+        script(102, 6, "function sysCall_init() end\n", kind=6), **kw)
