@@ -125,7 +125,7 @@ class ClientFiles:
             ArgumentError: not a non-empty string, or a transferred name outside the folder.
             RemoteError: refused (the same text whether or not such a file exists), or missing.
         """
-        file = self._resolve(path, options, ttt_cache.origin(scene))
+        file = self.locate(path, options, ttt_cache.origin(scene))
         if not ttt_cache.is_vrep_file(file):
             return file
         # a V-REP scene or model: its MJCF conversion (a client's: into its transfer folder)
@@ -134,7 +134,9 @@ class ClientFiles:
         except (ValueError, OSError) as exc:
             raise RemoteError(self.scrub(f"cannot load {quote(path)}: {exc}")) from None
 
-    def _resolve(self, path: Any, options: int, scene: Path) -> Path:
+    def locate(self, path: Any, options: int, scene: Path) -> Path:
+        """The file :meth:`resolve` loads, under the same rules, before any conversion (a
+        ``.ttt`` as itself). Raises as :meth:`resolve`."""
         if not isinstance(path, str) or not path or "\x00" in path:
             raise ArgumentError("file path must be a non-empty string")
         if options & 1:

@@ -192,7 +192,7 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
             return filename
         editor = self._simulation_.editor
         try:  # the real file, where one exists (converted to MJCF as it is loaded)
-            editor.files._resolve(filename, 0, ttt_cache.origin(editor.sim.world.scene_path))
+            editor.files.locate(filename, 0, ttt_cache.origin(editor.sim.world.scene_path))
             return filename
         except RemoteError:
             pass

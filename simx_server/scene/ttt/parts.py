@@ -97,6 +97,8 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         cam.pos, cam.quat = local.pos, camera_quat(local.quat)
         w, h = (max(1, min(int(n), 4096)) for n in v.resolution)
         cam.resolution = [w, h]
+        if (w, h) == (1, 1):  # MuJoCo's default: simx cannot tell it from an unset one (256x256)
+            conv.report.add("1x1 vision sensors (256x256 in simx)")
         if v.perspective:
             angle = min(max(v.view_angle, 1e-3), math.pi - 1e-3)
             fovy = angle if h >= w else 2 * math.atan(math.tan(angle / 2) * h / w)
