@@ -18,7 +18,7 @@ from simx_server.scene.ttt.errors import SceneFileError
 
 _CHUNK_BITS = 4096      # bits per walker
 _OVERLAP_BITS = 1024    # how far a walker goes into the next chunk to be met there
-_GROUP_CHUNKS = 2048    # walkers decoded together
+_GROUP_CHUNKS = 512    # walkers decoded together
 _TABLE_BITS_MAX = 20    # lookup-table window; codes longer than this walk the tree
 _SLICE_WORDS = 1 << 17  # words turned into per-position codes at a time
 _SMALL_TABLE_BITS = 15  # the first-level table (64 KB, in cache) for the per-position pass
@@ -157,12 +157,14 @@ class _Table:
                 codes[slow] = self.lookup(slow.astype(np.int64) + i0 * 8)
         return codes, i0 * 8
 
-    def walk(self, p: np.ndarray, limits: np.ndarray, max_steps: int, bits_per_code: float = 1.0):
+    def walk(self, p: np.ndarray, limits: np.ndarray, max_steps: int, bits_per_code: float = 1.0,
+             codes_origin: tuple[np.ndarray, int] | None = None):
         """Advance each walker until it reaches its limit (it may go a few codes further).
         Returns positions (int32) and symbols (uint8), step-major ``(steps, walkers)``: rows are
-        written in place (``bits_per_code``, the stream's average, sizes the arrays)."""
+        written in place (``bits_per_code``, the stream's average, sizes the arrays).
+        ``codes_origin``: :meth:`codes_at` of a span that covers the walk, when the caller has it."""
         n = len(p)
-        codes, origin = self.codes_at(int(p.min(initial=0)), int(limits.max(initial=0)))
+        codes, origin = codes_origin or self.codes_at(int(p.min(initial=0)), int(limits.max(initial=0)))
         top = len(codes) - 1 - 32 * 32  # a batch of 32 steps moves at most 32 x 32 bits
         q = (p - origin).astype(np.intp)
         lim = (limits - origin).astype(np.intp)
@@ -232,7 +234,8 @@ def _decode_group(table: _Table, entry: int, group_end: int, wanted: int, bits_p
     bounds[n] = group_end
     limits = np.minimum(bounds[1:] + _OVERLAP_BITS, end)
     limits[-1] = group_end
-    pos, sym = table.walk(bounds[:-1].copy(), limits, wanted + 64, bits_per_code)  # (steps, walkers)
+    span_codes = table.codes_at(entry, int(limits.max()))  # shared with the re-walks below
+    pos, sym = table.walk(bounds[:-1].copy(), limits, wanted + 64, bits_per_code, span_codes)  # (steps, walkers)
     cols = np.arange(n)
     sync = np.empty(n + 1, dtype=np.int64)
     sync[0] = entry
@@ -288,7 +291,7 @@ def _decode_group(table: _Table, entry: int, group_end: int, wanted: int, bits_p
                 continue
             lims = limits[again]
             if len(again) >= 16:  # many: in lock step; a few (a chain, one per round): one by one
-                p2, s2 = table.walk(np.array(starts, np.int64), lims, wanted + 64, bits_per_code)
+                p2, s2 = table.walk(np.array(starts, np.int64), lims, wanted + 64, bits_per_code, span_codes)
             for c, j in enumerate(again):
                 old = row(j)
                 marks[j % 2][old[(old < limits[j - 1]) & (old >= entry)] - entry] = False
