@@ -56,7 +56,9 @@ class ClientFiles:
         return path
 
     def public(self, path: Path) -> str:
-        """``path`` as a client may see it: files in the transfer folder by their name in it."""
+        """``path`` as a client may see it: files in the transfer folder by their name in it; a
+        V-REP file's conversion as that file."""
+        path = ttt_cache.origin(path)
         if guard.inside(path, self.files_dir):
             return path.relative_to(self.files_dir).as_posix()
         return str(path)

@@ -40,8 +40,10 @@ def is_vrep_file(path: str | Path) -> bool:
 
 
 def origin(path: str | Path) -> Path:
-    """The ``.ttt``/``.ttm`` a converted MJCF came from (``path`` itself for other files)."""
-    return _origins.get(Path(path), Path(path))
+    """The ``.ttt``/``.ttm`` a converted MJCF came from, or for a conversion's folder the
+    folder of that file (``path`` itself for anything else)."""
+    path = Path(path)
+    return _origins.get(Path(os.path.realpath(path)), path)
 
 
 def cache_root() -> Path:
@@ -104,5 +106,6 @@ def mjcf_for(path: str | Path, root: Path | None = None) -> Path:
         counts = {}
     for kind, n in sorted(counts.items()):
         log.info("%s: not carried over: %d x %s", path.name, n, kind)
-    _origins[xml] = path
+    _origins[Path(os.path.realpath(xml))] = Path(os.path.realpath(path))
+    _origins[Path(os.path.realpath(folder))] = Path(os.path.realpath(path.parent))
     return xml

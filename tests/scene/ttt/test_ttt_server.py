@@ -58,6 +58,9 @@ def test_serve_load_model_and_refuse_a_broken_file(cell, tmp_path):
         assert _position(cid, "Tip") == pytest.approx([0, 0, 0.65], abs=1e-6)
         rc, j = vrep.simxGetObjectHandle(cid, "Base_joint1", B)
         assert vrep.simxGetJointPosition(cid, j, B) == (0, pytest.approx(0.3, abs=1e-6))
+        # the scene is the .ttt (not its conversion in the cache)
+        assert vrep.simxGetStringParameter(cid, vrep.sim_stringparam_scene_path_and_name, B) == \
+            (0, str(cell / "cell.ttt"))
         rc, link = vrep.simxGetObjectHandle(cid, "Link#0", B)
         assert vrep.simxGetObjectParent(cid, link, B) == (0, j)
         # a .ttm beside the scene: loaded as the real file, its base's handle back
