@@ -147,6 +147,7 @@ class Converter:
         if not d.static and joint is None and body is not self.spec.worldbody and not self._carried(obj):
             # V-REP simulates a dynamic shape that hangs from no joint or force sensor freely
             self.moved.add(obj.handle)
+            self.report.add("dynamic shapes free of their parent (a top-level free body, as V-REP simulates them)")
             body, local = self.spec.worldbody, self.world_pose[obj.handle]
         b = body.add_body()
         b.name = obj.name
