@@ -19,6 +19,7 @@ from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
+from simx_server.scene.ttt import cache as ttt_cache
 
 log = logging.getLogger("simx.editing")
 
@@ -38,7 +39,7 @@ class ClientFiles:
     def __init__(self, scene: Path, scene_paths: Iterable[str | Path] = ()):
         self.files_dir = guard.make_transfer_folder()
         self.close = weakref.finalize(self, shutil.rmtree, str(self.files_dir), ignore_errors=True)
-        self.roots = [Path(os.path.realpath(Path(scene).parent)),
+        self.roots = [Path(os.path.realpath(ttt_cache.origin(scene).parent)),
                       *(Path(os.path.realpath(p)) for p in scene_paths)]
 
     def transfer_path(self, name: Any) -> Path:
@@ -55,7 +56,9 @@ class ClientFiles:
         return path
 
     def public(self, path: Path) -> str:
-        """``path`` as a client may see it: files in the transfer folder by their name in it."""
+        """``path`` as a client may see it: files in the transfer folder by their name in it; a
+        V-REP file's conversion as that file."""
+        path = ttt_cache.origin(path)
         if guard.inside(path, self.files_dir):
             return path.relative_to(self.files_dir).as_posix()
         return str(path)
@@ -117,12 +120,25 @@ class ClientFiles:
         """A model or scene file: options bit 0 -> a transferred file, else a server path,
         absolute or relative to the folder of ``scene`` (the loaded one; the first scene's folder
         while the loaded scene is a client's), which must lie in the first scene's folder or a ``--scene-path`` folder
-        and in no transfer folder (of this server or another).
+        and in no transfer folder (of this server or another). A ``.ttt``/``.ttm`` file gives
+        its MJCF conversion (:mod:`simx_server.scene.ttt.cache`).
 
         Raises:
             ArgumentError: not a non-empty string, or a transferred name outside the folder.
             RemoteError: refused (the same text whether or not such a file exists), or missing.
         """
+        file = self.locate(path, options, ttt_cache.origin(scene))
+        if not ttt_cache.is_vrep_file(file):
+            return file
+        # a V-REP scene or model: its MJCF conversion (a client's: into its transfer folder)
+        try:
+            return ttt_cache.mjcf_for(file, self.files_dir / ".simx" / "ttt" if options & 1 else None)
+        except (ValueError, OSError) as exc:
+            raise RemoteError(self.scrub(f"cannot load {quote(path)}: {exc}")) from None
+
+    def locate(self, path: Any, options: int, scene: Path) -> Path:
+        """The file :meth:`resolve` loads, under the same rules, before any conversion (a
+        ``.ttt`` as itself). Raises as :meth:`resolve`."""
         if not isinstance(path, str) or not path or "\x00" in path:
             raise ArgumentError("file path must be a non-empty string")
         if options & 1:

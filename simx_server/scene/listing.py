@@ -30,6 +30,7 @@ import mujoco
 
 from simx_server.base.limits import MAX_JOINT_FORCE
 from simx_server.base.scene_guard import transfer_folders
+from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.sim import naming
 from simx_server.sim import world as W
 from simx_server.sim.group_data import _joint_properties
@@ -186,6 +187,8 @@ def main(scene: str | Path, as_json: bool = False, dt: float = 0.05) -> int:
         print(f"simx-server: --list-objects: no scene file {str(path)!r}", file=sys.stderr)
         return 2
     try:
+        if ttt_cache.is_vrep_file(path):  # a V-REP .ttt/.ttm: its (cached) MJCF conversion
+            path = ttt_cache.mjcf_for(path)
         described = describe(path, dt)
     except (ValueError, OSError) as exc:
         text = " ".join(str(exc).split())  # MuJoCo's messages span lines

@@ -11,6 +11,7 @@ from pathlib import Path
 from simx_wire import protocol as P
 from simx_server.base.scene_guard import transfer_folders
 from simx_server.scene.editor import Editor
+from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts import shapes
 from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.scene_scripts import Scripts
@@ -42,6 +43,8 @@ class Simulation:
 
     def __init__(self, scene: str | Path, dt: float = 0.05, realtime: bool = True,
                  allow_remote_code: bool = False, allow_unsafe_lua: bool = False, scene_paths=()):
+        if ttt_cache.is_vrep_file(scene):  # a V-REP .ttt/.ttm: its (cached) MJCF conversion
+            scene = ttt_cache.mjcf_for(scene)
         self.world = World(scene, dt)
         self.vision = VisionSensors(self.world)
         self.signals = Signals()  # shared by every client and child script

@@ -27,6 +27,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, Unsuppor
 from simx_server.base.arguments import quote
 from simx_server.commands import HANDLERS
 from simx_server.scene.simulation import Simulation
+from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts.facade import ScriptSim
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num
 from simx_server.base.arguments import as_text as _text, as_vector as _vector
@@ -184,12 +185,18 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
 
     # ---------------------------------------------------------------- scene files
     def _stand_in(self, filename: str, kinds: tuple[str, ...]) -> str:
-        """The MJCF file that stands for a CoppeliaSim scene (.ttt) or model (.ttm): the same
-        path with .xml, else ``<stem>.xml`` in the server's scene folders; other names as given."""
+        """The file to load for a CoppeliaSim scene (.ttt) or model (.ttm): the file itself where
+        it exists (loaded through its MJCF conversion), else the MJCF that stands in for it: the
+        same path with .xml, else ``<stem>.xml`` in the server's scene folders; other names as given."""
         path = Path(filename)
         if path.suffix.lower() not in kinds:
             return filename
         editor = self._simulation_.editor
+        try:  # the real file, where one exists (converted to MJCF as it is loaded)
+            editor.files.locate(filename, 0, ttt_cache.origin(editor.sim.world.scene_path))
+            return filename
+        except RemoteError:
+            pass
         candidates = [str(path.with_suffix(".xml"))] + [str(root / f"{path.stem}.xml") for root in editor.files.roots]
         for candidate in candidates:
             try:

@@ -30,13 +30,15 @@ from pathlib import Path
 import pytest
 
 try:
-    from conftest import LEGACY, SCENE, ServerProcess, require_shared
+    from conftest import LEGACY, SCENE, SHARED, ServerProcess, require_shared
     from xdisplay import VirtualDisplay, find_window, have_x_tools, send_keys
 except ImportError:  # tests/ imported as a package
-    from tests.conftest import LEGACY, SCENE, ServerProcess, require_shared
+    from tests.conftest import LEGACY, SCENE, SHARED, ServerProcess, require_shared
     from tests.xdisplay import VirtualDisplay, find_window, have_x_tools, send_keys
 
 PROGRAM = LEGACY / "robotControl.py"
+# the tutorial's own V-REP scene file, served through its MJCF conversion (simx_server.scene.ttt)
+TUTORIAL_TTT = SHARED / "ttt-corpus" / "Ianlande+Vrep_yolov3_ddpg_pytorch__scenes_scene.ttt"
 PORT = 19999  # hard-coded in robotControl.py
 TITLE = "Vrep yolov3 ddpg pytorch"
 FRAME = "imgTemp\\frame.jpg"  # one file name with a backslash (the program's Windows path)
@@ -64,15 +66,17 @@ def _port_in_use(port: int) -> bool:
     return False
 
 
-@pytest.fixture(scope="module")
-def server19999():
+@pytest.fixture(scope="module", params=["mjcf", "ttt"])
+def server19999(request):
     """A server of our own on the program's hard-coded port 19999 (the program itself first: a plain
-    clone has no ../shared, see conftest.require_shared)."""
+    clone has no ../shared, see conftest.require_shared), on the bundled MJCF scene and on the
+    tutorial's original ``scene.ttt``."""
     require_shared(PROGRAM)
+    scene = SCENE if request.param == "mjcf" else require_shared(TUTORIAL_TTT)
     if _port_in_use(PORT):
         pytest.skip(f"port {PORT} (hard-coded in robotControl.py) is already in use on 127.0.0.1")
     try:
-        srv = ServerProcess(str(SCENE), ports=[PORT])
+        srv = ServerProcess(str(scene), ports=[PORT])
     except RuntimeError as exc:
         if "cannot listen" in str(exc):  # lost a race for the port
             pytest.skip(f"port {PORT} (hard-coded in robotControl.py) was taken: {exc}")

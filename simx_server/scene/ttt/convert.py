@@ -1,0 +1,294 @@
+"""A read ``.ttt``/``.ttm`` (:class:`TttScene`) as an MJCF scene simx loads, built with
+``mujoco.MjSpec`` in the shape of simx's own scenes (``scenes/ur5_rg2_kinect.xml``).
+
+Object by object (docs/PORTING.md, "Bring your .ttt"): a shape is a named body (static: welded
+to its parent; dynamic under a joint: that joint's body; dynamic elsewhere: a free body at the
+top level, as V-REP simulates it), a joint a named ``<joint>`` (children posed relative to its
+displaced frame, ``ref`` = its position in the file), a dummy a site, a proximity sensor a site
+with a ``<rangefinder>``, a force sensor a site with ``<force>``/``<torque>``, a vision sensor a
+``<camera>``, a light a ``<light>``; V-REP's view cameras, graphs, paths and others become sites
+so that their names still resolve. V-REP semantics MJCF has no attribute for go into
+``<custom><text name="simx:NAME" .../>`` settings.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections import Counter
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from simx_server.scene.ttt import geoms as G
+from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
+from simx_server.scene.ttt.model import Pose, TttObject, TttScene
+from simx_server.scene.ttt.parts import add_ik_groups, add_joint, add_loop_closures, add_sensor
+
+_MAX_EXCLUDES = 20_000
+ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
+
+
+class Report:
+    """What did not carry over, by kind: ``{kind: count}``; :meth:`lines` one line per kind."""
+
+    def __init__(self):
+        self.counts: Counter[str] = Counter()
+
+    def add(self, kind: str, n: int = 1) -> None:
+        self.counts[kind] += n
+
+    def lines(self) -> list[str]:
+        return [f"{n} x {kind}" for kind, n in sorted(self.counts.items())]
+
+
+class Converter:
+    """Builds the MjSpec of one scene. ``out``: the folder that receives meshes and scripts."""
+
+    def __init__(self, scene: TttScene, out: Path | None):
+        self.scene, self.out = scene, out
+        self.report = Report()
+        self.spec = mujoco.MjSpec()
+        self.spec.modelname = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(scene.file).stem) or "scene"
+        self.spec.compiler.degree = False
+        self.spec.compiler.autolimits = True
+        self.spec.compiler.fusestatic = False
+        self.spec.compiler.balanceinertia = True  # V-REP accepts moments that break A + B >= C
+        if out is not None:
+            self.spec.compiler.meshdir = str(out / "meshes")  # written relative (convert)
+            self.spec.compiler.texturedir = str(out / "textures")
+        self.geoms = G.GeomMaker(self.spec, out, self.report, scene.textures)
+        self.settings: dict[str, list[str]] = {}  # simx:NAME -> key=value items
+        self.names: dict[int, str] = {}           # handle -> element name
+        self.bodies: dict[int, object] = {}       # shape handle -> mjsBody
+        self.model_of: dict[int, int] = {}        # shape handle -> its model base's handle (-1 none)
+        self.world_pose: dict[int, Pose] = {}     # handle -> world pose in the file
+        self.moved: set[int] = set()              # dynamic shapes hung from the world (free)
+        self.deferred_equalities: list[tuple[str, str, float, float]] = []  # dependent joints
+
+    # ---------------------------------------------------------------- entry
+    def build(self) -> mujoco.MjSpec:
+        s = self.scene
+        self.spec.option.timestep = min(0.002, s.time_step)
+        self.spec.option.gravity = s.gravity
+        self.spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        self.spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        self.spec.visual.headlight.ambient = s.ambient if s.ambient is not None else [0.2, 0.2, 0.2]
+        self.spec.visual.headlight.diffuse = [0.5, 0.5, 0.5]
+        if s.background is not None:  # V-REP's background gradient as a sky box
+            sky = self.spec.add_texture()
+            sky.name = "ttt_background"
+            sky.type = mujoco.mjtTexture.mjTEXTURE_SKYBOX
+            sky.builtin = mujoco.mjtBuiltin.mjBUILTIN_GRADIENT
+            sky.rgb1, sky.rgb2 = s.background
+            sky.width = sky.height = 256
+        for obj in s.objects.values():
+            self.names[obj.handle] = obj.name
+        for root in s.roots:
+            self._world_poses(root, Pose())
+        for root in s.roots:
+            self._emit(root, self.spec.worldbody, Pose(), -1)
+        add_loop_closures(self)
+        add_ik_groups(self)
+        self._excludes()
+        if s.collections:
+            self.report.add("collections (not modelled)", len(s.collections))
+        if s.engine != 0:
+            engine = ENGINES[s.engine] if 0 <= s.engine < len(ENGINES) else str(s.engine)
+            self.report.add(f"{engine} engine settings (MuJoCo's used; friction taken from Bullet's)")
+        # fixed statistic so that the clipping planes are the vision sensors' (MuJoCo's
+        # znear/zfar are fractions of the extent), as in simx's own scenes
+        sensors = [o.data for o in s.objects.values() if o.kind == "vision_sensor"]
+        self.spec.stat.extent = 2.0
+        near = min([v.near for v in sensors if v.near > 0] + [0.01])
+        far = max([v.far for v in sensors] + [50.0])
+        self.spec.visual.map.znear = max(near, 1e-4) / 2.0
+        self.spec.visual.map.zfar = far / 2.0
+        for name, items in self.settings.items():
+            t = self.spec.add_text()
+            t.name = f"simx:{name}"
+            t.data = " ".join(items)
+        return self.spec
+
+    def setting(self, name: str, *items: str) -> None:
+        self.settings.setdefault(name, []).extend(items)
+
+    # ---------------------------------------------------------------- tree
+    def _world_poses(self, obj: TttObject, parent: Pose) -> None:
+        """World poses as V-REP computes them (children of joints from the displaced frame)."""
+        pose = compose(parent, obj.pose)
+        self.world_pose[obj.handle] = pose
+        frame = pose
+        if obj.kind == "joint":
+            frame = compose(pose, joint_displacement(obj.data.type, obj.data.position))
+        for child in obj.children:
+            self._world_poses(child, frame)
+
+    def _emit(self, obj: TttObject, body, t: Pose, model: int) -> None:
+        """Add ``obj`` (and its subtree) to ``body``; ``t`` is the frame of obj's V-REP parent
+        (displaced, for a joint's child) in ``body``'s frame; ``model`` its model base."""
+        local = compose(t, obj.pose)
+        if obj.model_base:
+            model = obj.handle
+        if obj.kind == "shape":
+            self._shape(obj, body, local, model)
+        elif obj.kind == "joint":
+            self._joint(obj, body, local, model)
+        elif obj.kind == "force_sensor":
+            self._force_sensor(obj, body, local, model)
+        else:
+            add_sensor(self, obj, body, local)
+            for child in obj.children:
+                self._emit(child, body, local, model)
+
+    def _shape(self, obj: TttObject, body, local: Pose, model: int, joint=None) -> None:
+        d = obj.data
+        if not d.static and joint is None and body is not self.spec.worldbody and not self._carried(obj):
+            # V-REP simulates a dynamic shape that hangs from no joint or force sensor freely
+            self.moved.add(obj.handle)
+            self.report.add("dynamic shapes free of their parent (a top-level free body, as V-REP simulates them)")
+            body, local = self.spec.worldbody, self.world_pose[obj.handle]
+        b = body.add_body()
+        b.name = obj.name
+        b.pos, b.quat = local.pos, local.quat
+        self.bodies[obj.handle] = b
+        self.model_of[obj.handle] = model
+        moving = joint is not None or (not d.static and body is self.spec.worldbody)
+        if moving:
+            if d.static or d.mass <= 0:
+                _tiny_inertial(b)  # a kinematic part: no mass of its own in V-REP
+            else:
+                b.mass = d.mass
+                b.inertia = np.maximum(d.inertia, 1e-9)
+                b.ipos, b.iquat = d.inertia_frame.pos, d.inertia_frame.quat
+            b.explicitinertial = True
+        if joint is not None:
+            joint(b)
+        elif not d.static and body is self.spec.worldbody:
+            b.add_freejoint()
+        contype, conaffinity = G.collision_bits(d)
+        self.geoms.add(b, np.zeros(3), [1, 0, 0, 0], obj.name, d, contype, conaffinity,
+                       visible=bool(obj.layers & 0xFF))
+        for child in obj.children:
+            self._emit(child, b, Pose(), model)
+
+    def _carried(self, obj: TttObject) -> bool:
+        """Whether a dynamic shape moves with its parent in V-REP: its parent is a joint or
+        a force sensor (those are handled before getting here), or a static shape."""
+        parent = self.scene.objects.get(obj.parent)
+        return parent is not None and parent.kind == "shape" and parent.data.static and \
+            parent.handle not in self.moved and self._static_chain(parent)
+
+    def _static_chain(self, obj: TttObject) -> bool:
+        """A static shape not moved by anything above it (welded to the world)."""
+        while obj is not None:
+            if obj.kind == "joint" or obj.kind == "force_sensor" or (obj.kind == "shape" and not obj.data.static):
+                return False
+            obj = self.scene.objects.get(obj.parent)
+        return True
+
+    def _joint(self, obj: TttObject, body, frame: Pose, model: int) -> None:
+        j = obj.data
+        displaced = compose(frame, joint_displacement(j.type, j.position))
+        shapes = [c for c in obj.children if c.kind == "shape"]
+        if len(obj.children) == 1 and shapes:
+            child = shapes[0]
+            rel = inverse(child.pose)  # the joint frame seen from the child's body
+            axis = quat_to_mat(rel.quat) @ np.array([0.0, 0, 1])
+            self._shape(child, body, compose(displaced, child.pose), model,
+                        joint=lambda b: add_joint(self, obj, b, rel.pos, axis))
+            return
+        # several children, or none that is a shape: an unnamed body at the displaced frame
+        # carries the joint, its children inside
+        b = body.add_body()
+        b.pos, b.quat = displaced.pos, displaced.quat
+        _tiny_inertial(b)
+        add_joint(self, obj, b, np.zeros(3), np.array([0.0, 0, 1]))
+        for child in obj.children:
+            if child.kind == "shape":
+                self._shape(child, b, child.pose, model, joint=lambda _b: None)
+            else:
+                self._emit(child, b, Pose(), model)
+
+    def _force_sensor(self, obj: TttObject, body, frame: Pose, model: int) -> None:
+        """A force sensor welds its child shape to its parent and measures between them: the
+        site goes in the child's body (docs/PORTING.md)."""
+        shapes = [c for c in obj.children if c.kind == "shape"]
+        host, site_pose = body, frame
+        for child in obj.children:
+            if child is shapes[0] if shapes else False:
+                d = child.data
+                b = body.add_body()
+                b.name = child.name
+                local = compose(frame, child.pose)
+                b.pos, b.quat = local.pos, local.quat
+                self.bodies[child.handle] = b
+                self.model_of[child.handle] = model
+                if not d.static:
+                    b.mass, b.inertia = d.mass, np.maximum(d.inertia, 1e-9)
+                    b.ipos, b.iquat = d.inertia_frame.pos, d.inertia_frame.quat
+                    b.explicitinertial = True
+                contype, conaffinity = G.collision_bits(d)
+                self.geoms.add(b, np.zeros(3), [1, 0, 0, 0], child.name, d, contype, conaffinity,
+                               visible=bool(child.layers & 0xFF))
+                for grandchild in child.children:
+                    self._emit(grandchild, b, Pose(), model)
+                host, site_pose = b, inverse(child.pose)
+            else:
+                self._emit(child, body, frame, model)
+        site = host.add_site()
+        site.name = obj.name
+        site.pos, site.quat = site_pose.pos, site_pose.quat
+        site.size = [max(obj.data.size / 2, 1e-3), 0, 0]
+        site.group = 4
+        for kind in (mujoco.mjtSensor.mjSENS_FORCE, mujoco.mjtSensor.mjSENS_TORQUE):
+            sensor = self.spec.add_sensor()
+            sensor.type = kind
+            sensor.objtype = mujoco.mjtObj.mjOBJ_SITE
+            sensor.objname = obj.name
+
+    def _excludes(self) -> None:
+        """V-REP's local respondable masks: two respondable shapes of one model whose local
+        masks share no bit do not collide."""
+        shapes = [self.scene.objects[h] for h in self.bodies if self.scene.objects[h].data.respondable]
+        n = 0
+        for i, a in enumerate(shapes):
+            for b in shapes[i + 1:]:
+                if self.model_of.get(a.handle, -1) < 0 or self.model_of.get(a.handle) != self.model_of.get(b.handle):
+                    continue
+                if (a.data.respondable_mask & b.data.respondable_mask & 0xFF) == 0:
+                    if n >= _MAX_EXCLUDES:
+                        self.report.add("local respondable masks beyond the exclude bound")
+                        return
+                    e = self.spec.add_exclude()
+                    e.bodyname1, e.bodyname2 = a.name, b.name
+                    n += 1
+
+
+def _tiny_inertial(b) -> None:
+    """1 g and a small inertia for a moving body that has no mass in V-REP (MuJoCo needs one)."""
+    b.mass, b.inertia = 1e-3, [1e-7, 1e-7, 1e-7]
+    b.ipos, b.iquat = np.zeros(3), [1.0, 0, 0, 0]
+    b.explicitinertial = True
+
+
+def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, Report]:
+    """Write ``out/<stem>.xml`` with ``meshes/`` and the scripts; returns its path and the
+    report of what did not carry over.
+
+    Raises:
+        ValueError: MuJoCo cannot compile the result (its message).
+    """
+    from simx_server.scene.ttt.scripts import write_scripts
+
+    out.mkdir(parents=True, exist_ok=True)
+    conv = Converter(scene, out)
+    write_scripts(conv)
+    spec = conv.build()
+    xml = out / f"{stem or conv.spec.modelname}.xml"
+    text = spec.to_xml().replace(f'meshdir="{out / "meshes"}"', 'meshdir="meshes"', 1)
+    text = text.replace(f'texturedir="{out / "textures"}"', 'texturedir="textures"', 1)
+    xml.write_text(text)
+    (out / "report.json").write_text(json.dumps(dict(conv.report.counts), indent=1))
+    return xml, conv.report

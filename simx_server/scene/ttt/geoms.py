@@ -1,0 +1,196 @@
+"""Shapes to MJCF geoms: primitives as MuJoCo primitives, other meshes as mesh assets (binary
+STL files in ``meshes/``), colours, collision filtering and friction."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from simx_server.scene.ttt.geometry import compose
+from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
+
+# V-REP primitive type -> how it becomes a geom (the others are meshes)
+PLANE, DISC, CUBOID, SPHEROID, CYLINDER, CONE, HEIGHTFIELD, CAPSULE = 1, 2, 3, 4, 5, 6, 7, 8
+_THIN = 0.0005  # half-thickness of a plane or disc, m
+
+
+def write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
+    """A binary STL of the triangles (vertices (N, 3) m, faces (M, 3))."""
+    tri = vertices[faces].astype("<f4")  # (M, 3, 3)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    normal = np.cross(e1, e2)
+    rec = np.zeros(len(faces), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["n"] = normal
+    rec["v"] = tri
+    with open(path, "wb") as fh:
+        fh.write(b"simx ttt mesh".ljust(80, b"\0"))
+        fh.write(np.uint32(len(faces)).tobytes())
+        fh.write(rec.tobytes())
+
+
+def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, n_front: int) -> None:
+    """An OBJ with texture coordinates per triangle corner (``uv`` (3 x n_front, 2)); faces past
+    ``n_front`` are the back faces :func:`usable_mesh` added, reusing their front's corners."""
+    lines = ["# simx ttt mesh"]
+    lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in vertices]
+    lines += [f"vt {u:.7g} {v:.7g}" for u, v in uv]
+    for i, (a, b, c) in enumerate(faces + 1):
+        k = 3 * (i % n_front) + 1
+        ta, tb, tc = (k, k + 1, k + 2) if i < n_front else (k + 2, k + 1, k)
+        lines.append(f"f {a}/{ta} {b}/{tb} {c}/{tc}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def usable_mesh(mesh: Mesh) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices and faces MuJoCo can compile, or None: a flat mesh (a wall, a floor tile) gets a
+    back face 0.1 mm behind it so that it has a volume; fewer than 3 points are left out."""
+    v, f = mesh.vertices, mesh.faces
+    if len(v) < 3 or len(f) < 1 or not np.all(np.isfinite(v)):
+        return None
+    centred = v - v.mean(axis=0)
+    scale = max(1e-9, float(np.abs(centred).max()))
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    if sv[1] <= 1e-7 * scale:  # all on a line
+        return None
+    if sv[-1] > 1e-7 * scale:
+        return v, f
+    normal = vt[-1]
+    return np.vstack([v, v - 1e-4 * normal]), np.vstack([f, f[:, ::-1] + len(v)])
+
+
+class GeomMaker:
+    """Adds a shape's geoms to bodies; writes mesh files under ``out/meshes``.
+
+    Args:
+        spec: the MjSpec being built; out: the output folder (None: meshes inline).
+        friction_scale: how a V-REP friction coefficient becomes MuJoCo's sliding friction.
+    """
+
+    def __init__(self, spec: mujoco.MjSpec, out: Path | None, report, textures: dict | None = None):
+        self.spec, self.out, self.report = spec, out, report
+        self.textures = textures or {}
+        self.materials: dict[int, str] = {}  # texture id -> material name
+        self.count = 0
+        if out is not None:
+            (out / "meshes").mkdir(parents=True, exist_ok=True)
+
+    def add(self, body, frame_pos, frame_quat, name: str, shape: ShapeData, contype: int, conaffinity: int,
+            visible: bool = True):
+        """Geoms of ``shape`` in ``body``; the shape's frame is (frame_pos, frame_quat) in it.
+        A shape in no shown layer (V-REP's hidden collision shapes) goes to geom group 3, which
+        neither the viewer nor the vision sensors draw by default."""
+        base = Pose(np.asarray(frame_pos, float), np.asarray(frame_quat, float))
+        for i, mesh in enumerate(shape.meshes):
+            if mesh.wireframe and contype == 0:  # V-REP draws it as lines: MuJoCo cannot
+                self.report.add("wireframe meshes (left out)")
+                continue
+            pose = compose(base, mesh.frame)
+            g = self._geom(body, mesh, name, i)
+            if g is None:
+                continue
+            g.pos, g.quat = pose.pos, pose.quat
+            g.rgba = [*mesh.color, 1.0]
+            g.contype, g.conaffinity = contype, conaffinity
+            if not visible:
+                g.group = 3
+            g.density = 0.0  # bodies get the file's mass and inertia, not the geoms'
+            if shape.friction is not None:
+                # Bullet multiplies the two shapes' coefficients, MuJoCo takes the larger:
+                # mu^2 gives Bullet's value for two equal materials
+                g.friction = [shape.friction ** 2, 0.005, 0.0001]
+            if g.material:
+                g.rgba = [1.0, 1.0, 1.0, 1.0]  # the texture as it is
+            elif mesh.texture >= 0:
+                self.report.add("textures without their coordinates (shown as the shape's colour)")
+
+    def _geom(self, body, mesh: Mesh, name: str, index: int):
+        s = np.abs(mesh.sizes)
+        p = mesh.primitive
+        G = mujoco.mjtGeom
+        if p == CUBOID and np.all(s > 0):
+            return self._new(body, G.mjGEOM_BOX, np.maximum(s / 2, 1e-5))
+        if p == SPHEROID and np.all(s > 0):
+            if np.ptp(s) < 1e-6 * s.max():
+                return self._new(body, G.mjGEOM_SPHERE, [s[0] / 2, 0, 0])
+            return self._new(body, G.mjGEOM_ELLIPSOID, s / 2)
+        if p == CYLINDER and s[0] > 0 and s[2] > 0:
+            return self._new(body, G.mjGEOM_CYLINDER, [s[0] / 2, s[2] / 2, 0])
+        if p == DISC and s[0] > 0:
+            return self._new(body, G.mjGEOM_CYLINDER, [s[0] / 2, _THIN, 0])
+        if p == PLANE and s[0] > 0 and s[1] > 0:
+            return self._new(body, G.mjGEOM_BOX, [s[0] / 2, s[1] / 2, _THIN])
+        if p == CAPSULE and s[0] > 0:
+            r = s[0] / 2
+            return self._new(body, G.mjGEOM_CAPSULE, [r, max(s[2] / 2 - r, 1e-4), 0])
+        usable = usable_mesh(mesh)
+        if usable is None:
+            if len(mesh.vertices):
+                self.report.add("degenerate meshes (left out)")
+            return None
+        vertices, faces = usable
+        self.count += 1
+        mname = f"ttt_mesh{self.count}"
+        m = self.spec.add_mesh()
+        m.name = mname
+        m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+        material = self._material(mesh) if self.out is not None else None
+        if material is not None:
+            write_obj(self.out / "meshes" / f"{mname}.obj", vertices, faces, mesh.uv, len(mesh.faces))
+            m.file = f"{mname}.obj"
+        elif self.out is not None:
+            write_stl(self.out / "meshes" / f"{mname}.stl", vertices, faces)
+            m.file = f"{mname}.stl"
+        else:
+            m.uservert = vertices.astype(np.float32).ravel()
+            m.userface = faces.astype(np.int32).ravel()
+        if not mesh.convex:
+            self.report.add("non-convex meshes (collide as their convex hull)")
+        g = body.add_geom()
+        g.type = G.mjGEOM_MESH
+        g.meshname = mname
+        if material is not None:
+            g.material = material
+        return g
+
+    def _material(self, mesh: Mesh) -> str | None:
+        """The material showing the mesh's texture (a PNG in ``textures/``), when the file gives
+        texture coordinates per triangle corner; None otherwise."""
+        tex = self.textures.get(mesh.texture)
+        if tex is None or mesh.uv is None or len(mesh.uv) != 3 * len(mesh.faces) or not len(mesh.faces):
+            return None
+        if mesh.texture not in self.materials:
+            import cv2
+
+            folder = self.out / "textures"
+            folder.mkdir(exist_ok=True)
+            rgb = tex.rgb[::-1]  # V-REP's rows go bottom-up (OpenGL's order)
+            bgr = cv2.cvtColor(rgb, cv2.COLOR_RGBA2BGRA if rgb.shape[2] == 4 else cv2.COLOR_RGB2BGR)
+            cv2.imwrite(str(folder / f"tex{mesh.texture}.png"), bgr)
+            t = self.spec.add_texture()
+            t.name = f"ttt_tex{mesh.texture}"
+            t.type = mujoco.mjtTexture.mjTEXTURE_2D
+            t.file = f"tex{mesh.texture}.png"
+            mat = self.spec.add_material()
+            mat.name = f"ttt_mat{mesh.texture}"
+            mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = t.name
+            self.materials[mesh.texture] = mat.name
+        return self.materials[mesh.texture]
+
+    @staticmethod
+    def _new(body, kind, size):
+        g = body.add_geom()
+        g.type = kind
+        g.size = np.asarray(size, dtype=float)
+        return g
+
+
+def collision_bits(shape: ShapeData) -> tuple[int, int]:
+    """contype/conaffinity of a shape's geoms: V-REP's global respondable mask (high byte of
+    ``Dc2``) for a respondable shape, 0/0 (visual only) otherwise. The local mask (low byte,
+    shapes of one model) becomes ``<exclude>`` pairs (see :mod:`.convert`)."""
+    if not shape.respondable:
+        return 0, 0
+    bits = (shape.respondable_mask >> 8) & 0xFF or 1
+    return bits, bits

@@ -1,0 +1,193 @@
+"""The typed content of a ``.ttt``/``.ttm`` file: what the converter needs, in V-REP's terms.
+
+Poses are ``(pos, quat)``: position in m, unit quaternion ``w x y z``; every local pose is
+relative to the parent object's frame (for children of joints: the joint's *displaced* frame).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Pose:
+    pos: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    quat: np.ndarray = field(default_factory=lambda: np.array([1.0, 0, 0, 0]))
+
+
+@dataclass
+class Mesh:
+    """One mesh of a shape (a compound shape has several).
+
+    Attributes:
+        name: the mesh's name in the file.
+        vertices: (N, 3) float64 in the mesh frame ``frame`` (m); faces (M, 3) int64.
+        frame: the vertices' frame relative to the shape (``Ppf``/``_pf``).
+        primitive: 0 mesh, 1 plane, 2 disc, 3 cuboid, 4 spheroid, 5 cylinder, 6 cone,
+            7 heightfield, 8 capsule; ``sizes`` its x/diameter, y, z/height (m).
+        color: ambient-diffuse RGB (0-1); texture: texture id or -1, uv: (K, 2) coordinates.
+    """
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    frame: Pose
+    primitive: int = 0
+    sizes: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    color: np.ndarray = field(default_factory=lambda: np.array([0.7, 0.7, 0.7]))
+    texture: int = -1
+    uv: np.ndarray | None = None
+    convex: bool = False
+    wireframe: bool = False  # drawn as edges only in V-REP
+
+
+@dataclass
+class ShapeData:
+    """A shape: meshes, mass (kg), inertia (principal moments, kg·m², already times the mass)
+    at ``inertia_frame``; V-REP's dynamic flags; material friction."""
+
+    meshes: list[Mesh]
+    compound: bool
+    mass: float = 1.0
+    inertia: np.ndarray = field(default_factory=lambda: np.full(3, 1e-3))
+    inertia_frame: Pose = field(default_factory=Pose)
+    static: bool = True
+    respondable: bool = False
+    respondable_mask: int = 0xFFFF
+    friction: float | None = None
+
+
+@dataclass
+class JointData:
+    """A joint: type 10 revolute, 11 prismatic, 12 spherical; mode 0 passive, 1 motion (old),
+    2 IK (old), 3 IK-dependent (old), 4 dependent, 5 force/torque. Angles rad, lengths m."""
+
+    type: int
+    mode: int
+    minimum: float
+    range: float
+    position: float
+    cyclic: bool
+    motor: bool
+    control_loop: bool
+    target_velocity: float = 0.0
+    max_force: float = 0.0
+    target_position: float = 0.0
+    pid: tuple[float, float, float] | None = None
+    spring: tuple[float, float] | None = None
+    dependency: tuple[int, float, float] | None = None  # master handle, multiplier, offset
+    max_velocity: float | None = None
+    spherical_quat: np.ndarray | None = None
+    control_mode: int | None = None  # 4.4+: 0 free, 1 force, 4 velocity, 8 position, 12 spring
+
+
+@dataclass
+class DummyData:
+    size: float
+    linked: int       # handle of the linked dummy, -1 none
+    link_type: int    # 0 dynamics loop closure, 5 IK tip-target (sim_dummy_linktype_*)
+
+
+@dataclass
+class ProximityData:
+    type: int          # 30 pyramid, 31 cylinder, 32 disc, 33 cone, 34 ray
+    offset: float
+    range: float
+    angle: float       # cone/disc opening angle, rad (0 when not applicable)
+    max_angle: float | None  # limited angle detection, rad
+
+
+@dataclass
+class VisionData:
+    resolution: tuple[int, int]
+    view_angle: float   # rad, of the longer image side
+    ortho_size: float   # m
+    near: float
+    far: float
+    perspective: bool
+    explicit: bool
+
+
+@dataclass
+class ForceSensorData:
+    size: float
+
+
+@dataclass
+class TttObject:
+    """A scene object. ``kind``: shape, joint, dummy, proximity_sensor, vision_sensor,
+    force_sensor, camera, light, graph, path, point_cloud, octree, mill, mirror, other."""
+
+    tag: str
+    kind: str
+    handle: int
+    parent: int
+    name: str
+    alias: str
+    pose: Pose
+    model_base: bool = False
+    layers: int = 1  # V-REP's visibility layers (bits; layers 1-8 are shown by default)
+    data: object | None = None
+    children: list["TttObject"] = field(default_factory=list)
+
+
+@dataclass
+class Script:
+    """A script: type 0 main, 1 child, 6 customization (4/5/7 retired callbacks)."""
+
+    handle: int
+    object: int
+    type: int
+    threaded: bool
+    disabled: bool
+    text: str
+    language: str = "lua"
+    parameters: list[dict] = field(default_factory=list)
+
+
+@dataclass
+class Collection:
+    name: str
+    objects: list[int]
+
+
+@dataclass
+class IkGroup:
+    """An old (V-REP 3.x) IK group: each element a tip dummy, its base, and constraints bits."""
+
+    name: str
+    elements: list[tuple[int, int, int]]  # (tip handle, base handle, constraints)
+    explicit: bool = False
+
+
+@dataclass
+class Texture:
+    id: int
+    name: str
+    width: int
+    height: int
+    rgb: np.ndarray  # (height, width, 3 or 4) uint8
+
+
+@dataclass
+class TttScene:
+    """Everything read from one file (:func:`simx_server.scene.ttt.reader.read`)."""
+
+    file: str
+    serialization: int
+    program_version: int
+    is_model: bool
+    objects: dict[int, TttObject]
+    roots: list[TttObject]
+    scripts: list[Script]
+    collections: list[Collection]
+    ik_groups: list[IkGroup]
+    textures: dict[int, Texture]
+    engine: int = 0          # 0 Bullet, 1 ODE, 2 Vortex, 3 Newton, 4 MuJoCo
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0, 0, -9.81]))
+    time_step: float = 0.05  # s
+    background: tuple[np.ndarray, np.ndarray] | None = None  # environment colours: up, down (RGB 0-1)
+    ambient: np.ndarray | None = None  # ambient light (RGB 0-1)
+    skipped: dict[str, int] = field(default_factory=dict)  # what was read but is not modelled: count

@@ -1,0 +1,199 @@
+"""Joints, dummies, sensors, lights, loop closures and IK groups of a converted scene
+(:mod:`simx_server.scene.ttt.convert`), with their ``simx:`` settings (docs/PORTING.md)."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
+from simx_server.scene.ttt.model import Pose, TttObject
+
+REVOLUTE, PRISMATIC, SPHERICAL = 10, 11, 12
+PASSIVE, MOTION_OLD, IK_OLD, IK_DEPENDENT_OLD, DEPENDENT, FORCE = 0, 1, 2, 3, 4, 5
+LOOP_CLOSURE, IK_TIP_TARGET = 0, 5  # sim_dummy_linktype_dynamics_loop_closure, ..._ik_tip_target
+_PROXIMITY_CONE = 33
+
+
+def settings_text(items: dict[str, str]) -> str:
+    return " ".join(f"{k}={v}" for k, v in items.items())
+
+
+def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> None:
+    """The joint ``obj`` in ``body`` at ``pos`` along ``axis`` (body frame), its motor as simx
+    models it: an actuator with V-REP's maximum force, ``mode`` and ``max_velocity`` in its
+    ``simx:`` setting; a dependent joint an MJCF joint equality."""
+    j = obj.data
+    jt = body.add_joint()
+    jt.name = obj.name
+    jt.pos = pos
+    jt.axis = axis / max(np.linalg.norm(axis), 1e-12)
+    jt.armature = 0.01
+    if j.type == SPHERICAL:
+        jt.type = mujoco.mjtJoint.mjJNT_BALL
+        conv.report.add("spherical joint positions (start at the file's pose, zero there)")
+        return
+    jt.type = mujoco.mjtJoint.mjJNT_HINGE if j.type == REVOLUTE else mujoco.mjtJoint.mjJNT_SLIDE
+    jt.ref = j.position
+    if not (j.type == REVOLUTE and j.cyclic) and math.isfinite(j.range) and j.range > 0:
+        jt.range = [j.minimum, j.minimum + j.range]
+        jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+    else:
+        jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+    mode = None
+    if j.mode == DEPENDENT or (j.dependency is not None and j.mode in (DEPENDENT, IK_DEPENDENT_OLD)):
+        _dependent(conv, obj)
+        conv.setting(obj.name, "mode=passive")
+        return
+    if j.mode == FORCE:
+        if j.spring is not None and j.control_mode == 12:
+            conv.report.add("spring joint modes (a position motor instead)")
+        if not j.motor:
+            mode = "passive"
+        else:
+            mode = "position" if j.control_loop else "velocity"
+    elif j.mode in (IK_OLD, MOTION_OLD):
+        mode = "position"
+        if j.mode == MOTION_OLD:
+            conv.report.add("motion-mode joints (position control instead)")
+    else:  # passive: moved only by what pushes it (no motor)
+        conv.setting(obj.name, "mode=passive")
+        return
+    act = conv.spec.add_actuator()
+    act.name = f"{obj.name}_motor"
+    act.target = obj.name
+    act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+    act.set_to_velocity(kv=100.0)
+    force = max(abs(j.max_force) if math.isfinite(j.max_force) else 0.0, 1e-9)  # MuJoCo: a range lo < hi
+    act.forcerange = [-force, force]
+    act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    items = [f"mode={mode}"]
+    if j.max_velocity is not None and math.isfinite(j.max_velocity) and j.max_velocity > 0:
+        items.append(f"max_velocity={j.max_velocity:.9g}")
+    conv.setting(obj.name, *items)
+
+
+def _dependent(conv, obj: TttObject) -> None:
+    """V-REP's dependent joint (q = offset + multiplier x q_master) as MuJoCo's joint equality
+    ``q1 - ref1 = a + b (q2 - ref2)``."""
+    j = obj.data
+    master = conv.scene.objects.get(j.dependency[0]) if j.dependency else None
+    if master is None or master.kind != "joint":
+        conv.report.add("dependent joints without their master (left free)")
+        return
+    mult, off = j.dependency[1], j.dependency[2]
+    conv.deferred_equalities.append((obj.name, master.name, off + mult * master.data.position - j.position, mult))
+
+
+def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
+    """Dummies, proximity and vision sensors, lights, and the objects kept only as sites."""
+    kind = obj.kind
+    if kind == "vision_sensor":
+        v = obj.data
+        cam = body.add_camera()
+        cam.name = obj.name
+        cam.pos, cam.quat = local.pos, camera_quat(local.quat)
+        w, h = (max(1, min(int(n), 4096)) for n in v.resolution)
+        cam.resolution = [w, h]
+        if (w, h) == (1, 1):  # MuJoCo's default: simx cannot tell it from an unset one (256x256)
+            conv.report.add("1x1 vision sensors (256x256 in simx)")
+        if v.perspective:
+            angle = min(max(v.view_angle, 1e-3), math.pi - 1e-3)
+            fovy = angle if h >= w else 2 * math.atan(math.tan(angle / 2) * h / w)
+            cam.fovy = math.degrees(fovy)
+        else:
+            cam.proj = mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC
+            cam.fovy = max(v.ortho_size, 1e-4) * (h / w if w > h else 1.0)
+        conv.setting(obj.name, "image=rgb", f"near={max(v.near, 1e-4):.6g}", f"far={max(v.far, v.near + 1e-3):.6g}")
+        return
+    if kind == "light":
+        light = body.add_light()
+        light.name = obj.name
+        light.pos = local.pos
+        light.dir = quat_to_mat(local.quat) @ np.array([0.0, 0, 1])
+        light.diffuse = [0.3, 0.3, 0.3]
+        light.castshadow = False
+        return
+    site = body.add_site()
+    site.name = obj.name
+    site.pos, site.quat = local.pos, local.quat
+    if kind == "dummy":
+        site.size = [max(obj.data.size / 2, 1e-3), 0, 0]
+        site.group = 4
+        return
+    if kind == "proximity_sensor":
+        p = obj.data
+        site.size = [0.005, 0, 0]
+        site.group = 4
+        sensor = conv.spec.add_sensor()
+        sensor.type = mujoco.mjtSensor.mjSENS_RANGEFINDER
+        sensor.objtype = mujoco.mjtObj.mjOBJ_SITE
+        sensor.objname = obj.name
+        sensor.cutoff = max(p.offset + p.range, 1e-3)
+        sensor.intprm[0] = 1  # the distance (what MJCF's parser sets by default)
+        if p.type == _PROXIMITY_CONE and p.angle > 1e-3:
+            conv.setting(obj.name, f"angle={math.degrees(p.angle):.6g}")
+        elif p.type not in (34, _PROXIMITY_CONE):
+            conv.report.add("proximity sensor volumes other than ray and cone (a ray along +z)")
+        return
+    site.size = [1e-3, 0, 0]
+    site.group = 5
+    conv.report.add(f"{kind.replace('_', ' ')} objects (kept as dummies)")
+
+
+def add_loop_closures(conv) -> None:
+    """Dummy pairs linked as dynamic loop closures: an equality keeping the two sites together
+    (V-REP: a ball-joint-like constraint), and dependent joints' equalities."""
+    done = set()
+    for obj in conv.scene.objects.values():
+        if obj.kind != "dummy" or obj.data.linked < 0 or obj.data.link_type != LOOP_CLOSURE:
+            continue
+        other = conv.scene.objects.get(obj.data.linked)
+        pair = frozenset((obj.handle, obj.data.linked))
+        if other is None or other.kind != "dummy" or pair in done:
+            continue
+        done.add(pair)
+        eq = conv.spec.add_equality()
+        eq.type = mujoco.mjtEq.mjEQ_CONNECT
+        eq.objtype = mujoco.mjtObj.mjOBJ_SITE
+        eq.name1, eq.name2 = obj.name, other.name
+        eq.solref = [0.005, 1.0]
+    for dep, master, a, b in conv.deferred_equalities:
+        eq = conv.spec.add_equality()
+        eq.type = mujoco.mjtEq.mjEQ_JOINT
+        eq.name1, eq.name2 = dep, master
+        eq.data[:5] = [a, b, 0, 0, 0]
+        eq.solref = [0.005, 1.0]
+
+
+def add_ik_groups(conv) -> None:
+    """Old IK groups (``IKO``): each element's tip dummy, its linked target and its base as a
+    ``simx:ik:NAME`` setting (position constraints unless orientation is constrained too)."""
+    taken = set()
+    for group in conv.scene.ik_groups:
+        if not group.elements:
+            continue
+        tip_h, base_h, ctr = group.elements[0]
+        tip = conv.scene.objects.get(tip_h)
+        if tip is None or tip.kind != "dummy" or tip.data.linked < 0:
+            conv.report.add("IK groups without a linked tip dummy")
+            continue
+        target = conv.scene.objects.get(tip.data.linked)
+        if target is None:
+            continue
+        if len(group.elements) > 1:
+            conv.report.add("IK group elements beyond the first")
+        name = group.name
+        while name in taken:
+            name += "_"
+        taken.add(name)
+        items = [f"tip={tip.name}", f"target={target.name}",
+                 f"constraints={'pose' if ctr & 24 else 'position'}"]
+        base = conv.scene.objects.get(base_h)
+        if base is not None and base.handle in conv.bodies:
+            items.append(f"base={base.name}")
+        if group.explicit:
+            items.append("explicit=true")
+        conv.setting(f"ik:{name}", *items)

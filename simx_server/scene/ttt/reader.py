@@ -1,0 +1,295 @@
+"""Read a ``.ttt``/``.ttm`` file into a :class:`~simx_server.scene.ttt.model.TttScene`.
+
+Serialization 18 (V-REP 3.1.3) to 25 (CoppeliaSim 4.6): records are found by tag, the newer
+double-precision twin (``_xx``) preferred over the older float one, unknown records skipped by
+their count. Every problem is one :class:`SceneFileError` naming the file and the record.
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from simx_server.scene.ttt import errors as E
+from simx_server.scene.ttt import shapes
+from simx_server.scene.ttt.errors import SceneFileError
+from simx_server.scene.ttt.geometry import pose7
+from simx_server.scene.ttt.model import (Collection, DummyData, ForceSensorData, IkGroup, JointData,
+                                         ProximityData, Script, Texture, TttObject, TttScene, VisionData)
+from simx_server.scene.ttt.records import Records, light_decode, read_body, read_string
+
+OBJECT_KINDS = {
+    "SHP": "shape", "JNT": "joint", "DMY": "dummy", "SNR": "proximity_sensor", "RSN": "vision_sensor",
+    "FSE": "force_sensor", "CMA": "camera", "LGT": "light", "GRH": "graph", "PAT": "path", "MIL": "mill",
+    "MIR": "mirror", "OCT": "octree", "PTC": "point_cloud", "MKR": "marker", "CSO": "other", "SCT": "script",
+}
+
+
+def read(path: str | Path, data: bytes | None = None) -> TttScene:
+    """Read a scene or model file.
+
+    Args:
+        path: the file (its name is used in errors).
+        data: the file's bytes when the caller has them already.
+
+    Raises:
+        SceneFileError: unreadable, truncated, corrupted or beyond a bound (docs/SECURITY.md).
+        OSError: the file cannot be read.
+    """
+    file = Path(path).name
+    if data is None:
+        size = Path(path).stat().st_size
+        if size > E.MAX_FILE_BYTES:
+            raise SceneFileError(file, "header", f"{size:,} bytes, more than MAX_FILE_BYTES = {E.MAX_FILE_BYTES:,}")
+        data = Path(path).read_bytes()
+    header, body = read_body(data, file)
+    top = Records(body, file)
+    scene = TttScene(file=file, serialization=header.serialization, program_version=header.program_version,
+                     is_model=header.file_type == 2 or Path(path).suffix.lower() == ".ttm",
+                     objects={}, roots=[], scripts=[], collections=[], ik_groups=[], textures={})
+    pool = shapes.MeshPool()
+    for tag, payload in top:
+        if tag == "VIN":
+            pool.read(top.sub(tag, payload))
+    for tag, payload in top:
+        try:
+            if tag == "VIN":
+                continue
+            if tag in OBJECT_KINDS or _is_object(payload):
+                obj = _read_object(top, tag, payload, pool)
+                if obj.kind == "script":
+                    scene.skipped["script objects (4.6+)"] = scene.skipped.get("script objects (4.6+)", 0) + 1
+                    continue
+                if obj.handle in scene.objects:
+                    raise top.error(tag, f"object handle {obj.handle} used twice")
+                scene.objects[obj.handle] = obj
+                if len(scene.objects) > E.MAX_OBJECTS:
+                    raise top.error(tag, f"more than MAX_OBJECTS = {E.MAX_OBJECTS:,} objects")
+            elif tag == "LST":
+                scene.scripts.append(_read_script(top.sub(tag, payload)))
+            elif tag == "GRP":
+                scene.collections.append(_read_collection(top.sub(tag, payload)))
+            elif tag == "IKO":
+                scene.ik_groups.append(_read_ik_group(top.sub(tag, payload)))
+            elif tag == "DYN":
+                _read_dynamics(top.sub(tag, payload), scene)
+            elif tag == "SIM":
+                _read_simulation(top.sub(tag, payload), scene)
+            elif tag == "ENV":
+                _read_environment(top.sub(tag, payload), scene)
+            elif tag == "TEX":
+                tex = _read_texture(top.sub(tag, payload))
+                if tex is not None:
+                    scene.textures[tex.id] = tex
+        except SceneFileError:
+            raise
+        except (struct.error, ValueError, IndexError) as exc:
+            raise SceneFileError(file, tag, f"malformed: {exc}") from None
+    for obj in scene.objects.values():
+        parent = scene.objects.get(obj.parent)
+        if parent is None or parent is obj:
+            obj.parent = -1
+            scene.roots.append(obj)
+        else:
+            parent.children.append(obj)
+    _check_cycles(scene)
+    return scene
+
+
+def _is_object(payload: memoryview) -> bool:
+    """An object type this reader does not know: its first common record is ``3do`` 57 58 59."""
+    return bytes(payload[:10]) == b"3do\x03\x00\x00\x00\x39\x3a\x3b"
+
+
+def _check_cycles(scene: TttScene) -> None:
+    seen: set[int] = set()
+    todo = list(scene.roots)
+    while todo:
+        obj = todo.pop()
+        seen.add(obj.handle)
+        todo.extend(obj.children)
+    for obj in scene.objects.values():
+        if obj.handle not in seen:  # part of a parent cycle: hang it from the world
+            obj.parent = -1
+            scene.roots.append(obj)
+            for other in scene.objects.values():
+                if obj in other.children:
+                    other.children.remove(obj)
+
+
+def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject:
+    common = Records(payload, top.file, tag, depth=1, counter=top.counter, stop_at_nxt=True)
+    typed = Records(payload, top.file, tag, start=common.end, depth=1, counter=top.counter)
+    ids = common.ints("Ids", 2)
+    if ids is None:
+        raise top.error(tag, "scene object without its handle record Ids")
+    name = common.string("Nme") or common.string("Anm") or f"{tag}_{int(ids[0])}"
+    alias = common.string("Ali") or name.split("#")[0]
+    pose = pose7(common.floats("_fq", "Cfq", 7), quat_first=True)
+    model_base = bool(common.byte("Va2") & 1) if common.get("Va2") is not None else False
+    kind = OBJECT_KINDS.get(tag, "other")
+    lar = common.ints("Lar", 1, "<u2")
+    obj = TttObject(tag, kind, int(ids[0]), int(ids[1]), name, alias, pose, model_base,
+                    layers=int(lar[0]) if lar is not None else 1)
+    if kind == "shape":
+        obj.data = shapes.read_shape(typed, pool)
+    elif kind == "joint":
+        obj.data = _read_joint(typed)
+    elif kind == "dummy":
+        size = typed.floats("_y2", "Dy2", 1)
+        obj.data = DummyData(float(size[0]) if size is not None else 0.01, typed.int("Lli", -1), typed.int("Dl2", 0))
+    elif kind == "proximity_sensor":
+        obj.data = _read_proximity(typed)
+    elif kind == "vision_sensor":
+        obj.data = _read_vision(typed)
+    elif kind == "force_sensor":
+        size = typed.floats("_iz", "Siz", 1)
+        obj.data = ForceSensorData(float(size[0]) if size is not None else 0.01)
+    return obj
+
+
+def _read_joint(r: Records) -> JointData:
+    mr = r.floats("_mr", "Pmr", 2)
+    minimum, rng = (float(mr[0]), float(mr[1])) if mr is not None else (-np.pi, 2 * np.pi)
+    pos = r.floats("_rt", "Prt", 1)
+    va9 = r.byte("Va9")
+    j = JointData(type=r.int("Jtt", 10), mode=r.int("Jmd", 0), minimum=minimum, range=rng,
+                  position=float(pos[0]) if pos is not None else 0.0, cyclic=bool(va9 & 1),
+                  motor=bool(va9 & 16), control_loop=bool(va9 & 32))
+    mp = r.floats("_mp", "Dmp", 2)
+    if mp is not None:
+        j.target_velocity, j.max_force = float(mp[0]), float(mp[1])
+    tp = r.floats("_tp", "Dtp", 1)
+    if tp is not None:
+        j.target_position = float(tp[0])
+    pid = r.floats(None, "Dpc", 3)
+    if pid is not None:
+        j.pid = (float(pid[0]), float(pid[1]), float(pid[2]))
+    spring = r.floats("_pp", "Spp", 2)
+    if spring is not None:
+        j.spring = (float(spring[0]), float(spring[1]))
+    for tag, fmt in (("_dt", "<idd"), ("Jdt", "<iff")):
+        payload = r.get(tag)
+        if payload is not None and len(payload) >= struct.calcsize(fmt):
+            master, mult, off = struct.unpack_from(fmt, payload, 0)
+            if master >= 0:
+                j.dependency = (master, mult, off)
+            break
+    ulv = r.floats(None, "Ulv", 1)
+    if ulv is not None:
+        j.max_velocity = float(ulv[0])
+    if r.get("Dcm") is not None:
+        j.control_mode = r.int("Dcm")
+        j.motor = j.control_mode != 0
+        j.control_loop = j.control_mode in (8, 12, 16)
+    return j
+
+
+def _read_proximity(r: Records) -> ProximityData:
+    vol = r.sub("Vod")
+    ss3 = vol.floats("_s3", "Ss3", 9) if len(vol.get("_s3") or vol.get("Ss3") or b"") >= 36 else None
+    offset, rng, angle = (float(ss3[0]), float(ss3[1]), float(ss3[8])) if ss3 is not None else (0.0, 0.1, 0.0)
+    return ProximityData(type=r.int("Snt", 34), offset=offset, range=rng,
+                         angle=angle if np.isfinite(angle) and 0 < angle < 2 * np.pi else 0.0, max_angle=None)
+
+
+def _read_vision(r: Records) -> VisionData:
+    ccp = r.floats("_cp", "Ccp", 4)
+    res = r.ints("Res", 2)
+    va3 = r.byte("Va3", 1)
+    ortho, angle, near, far = (float(v) for v in ccp) if ccp is not None else (1.0, np.radians(60), 0.01, 10.0)
+    w, h = (int(res[0]), int(res[1])) if res is not None else (256, 256)
+    return VisionData((w, h), angle, ortho, near, far, perspective=bool(va3 & 1), explicit=bool(va3 & 2))
+
+
+def _read_script(r: Records) -> Script:
+    si2 = r.ints("Si2", 3)
+    handle, obj, typ = (int(v) for v in si2) if si2 is not None else (-1, -1, 1)
+    if obj < 0:
+        obj = r.int("Coc", -1)
+    va2 = r.byte("Va2")
+    raw = r.get("Ste")
+    text = light_decode(bytes(raw)).decode("utf-8", "replace").rstrip("\x00") if raw is not None else ""
+    lang = r.string("Lne", "lua") if r.get("Lne") is not None else "lua"
+    params = []
+    prm = r.sub("Prm")
+    par = prm.get("Par")
+    if par is not None and len(par) >= 4:
+        count, = struct.unpack_from("<i", par, 0)
+        p = 4
+        for _ in range(max(0, min(count, 10_000))):
+            name, p = read_string(par, p, prm, "Par")
+            unit, p = read_string(par, p, prm, "Par")
+            value, p = read_string(par, p, prm, "Par")
+            p += 4  # properties
+            params.append({"name": name, "value": value, "unit": unit})
+    return Script(handle, obj, typ, threaded=bool(va2 & 1), disabled=bool(va2 & 2), text=text,
+                  language=lang or "lua", parameters=params)
+
+
+def _read_collection(r: Records) -> Collection:
+    objects = []
+    for tag, payload in r:
+        if tag == "Asg":
+            sub = r.sub(tag, payload)
+            for t, p in sub:
+                if t == "Obj" and len(p) >= 4:
+                    objects.append(struct.unpack_from("<i", p, 0)[0])
+    return Collection(r.string("Grn") or r.string("Nme"), objects)
+
+
+def _read_ik_group(r: Records) -> IkGroup:
+    elements = []
+    for tag, payload in r:
+        if tag == "Ike":
+            sub = r.sub(tag, payload)
+            ik2 = sub.ints("Ik2", 2)
+            ctr = sub.int("Ctr", 7)
+            if ik2 is not None:
+                elements.append((int(ik2[0]), int(ik2[1]), ctr))
+    va = r.byte("Va2")
+    return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=bool(va & 2))
+
+
+def _read_dynamics(r: Records, scene: TttScene) -> None:
+    for tag, dtype in (("_n3", "<f8"), ("En3", "<f4"), ("En2", "<f4"), ("Eng", "<f4")):
+        payload = r.get(tag)
+        if payload is not None and len(payload) >= 4 + 3 * np.dtype(dtype).itemsize:
+            scene.engine = struct.unpack_from("<i", payload, 0)[0]
+            g = np.frombuffer(payload[4:4 + 3 * np.dtype(dtype).itemsize], dtype=dtype).astype(np.float64)
+            if np.all(np.isfinite(g)):
+                scene.gravity = g
+            return
+
+
+def _read_simulation(r: Records, scene: TttScene) -> None:
+    st2 = r.ints("St2", 1, "<u8")
+    dt = r.floats("_t3", "Sts", 1)
+    if st2 is not None and 0 < st2[0] < 10_000_000:
+        scene.time_step = float(st2[0]) * 1e-6
+    elif dt is not None and 0 < dt[0] < 10:
+        scene.time_step = float(dt[0])
+
+
+def _read_environment(r: Records, scene: TttScene) -> None:
+    """The background gradient (``Clc`` up, ``Cld`` down) and the ambient light (``Alc``)."""
+    up, down, amb = r.floats(None, "Clc", 3), r.floats(None, "Cld", 3), r.floats(None, "Alc", 3)
+    if up is not None and down is not None and np.all(np.isfinite(up)) and np.all(np.isfinite(down)):
+        scene.background = (np.clip(up, 0, 1), np.clip(down, 0, 1))
+    if amb is not None and np.all(np.isfinite(amb)):
+        scene.ambient = np.clip(amb, 0, 1)
+
+
+def _read_texture(r: Records) -> Texture | None:
+    ipa = r.ints("Ipa", 3)
+    img = r.get("Img")
+    if ipa is None or img is None:
+        return None
+    tid, w, h = (int(v) for v in ipa)
+    if w <= 0 or h <= 0 or w * h > E.MAX_TEXTURE_PIXELS or len(img) < w * h * 3:
+        return None
+    channels = 4 if len(img) >= w * h * 4 else 3
+    rgb = np.frombuffer(img[:w * h * channels], np.uint8).reshape(h, w, channels)
+    return Texture(tid, r.string("Gon"), w, h, rgb)

@@ -1,0 +1,61 @@
+"""Scripts of a ``.ttt``/``.ttm`` file as files next to the converted MJCF, attached to their
+objects with ``simx:OBJECT`` settings (docs/PORTING.md, "Bring your .ttt"):
+
+``child_script=FILE.lua`` (a child script), ``threaded=1`` (an old-style threaded one),
+``customization_script=FILE.lua``, ``vrep_version=NNNNN`` (the file's program version, for the
+API of its time) and ``script_parameters=FILE.json`` (a JSON list of ``{name, value, unit}``:
+V-REP's script simulation parameters, when the script has any).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+
+CHILD, CUSTOMIZATION, MAIN = 1, 6, 0
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "object"
+
+
+def write_scripts(conv) -> None:
+    """Write each child/customization script of ``conv.scene`` into ``conv.out`` and record its
+    settings; a main script that is not V-REP's default and disabled scripts are reported."""
+    scene = conv.scene
+    used: set[str] = set()
+    for script in scene.scripts:
+        if script.type == MAIN:
+            if script.text and "-- This is the main script" not in script.text[:200]:
+                conv.report.add("customized main scripts (simx runs its own main loop)")
+            continue
+        if script.type not in (CHILD, CUSTOMIZATION):
+            conv.report.add("retired callback scripts")
+            continue
+        obj = scene.objects.get(script.object)
+        if obj is None:
+            conv.report.add("scripts attached to no object")
+            continue
+        if script.disabled:
+            conv.report.add("disabled scripts")
+            continue
+        kind = "child" if script.type == CHILD else "customization"
+        ext = "py" if script.language.lower().startswith("py") else "lua"
+        stem = f"{_safe(obj.name)}_{kind}"
+        while stem in used:
+            stem += "_"
+        used.add(stem)
+        file = f"{stem}.{ext}"
+        if conv.out is not None:
+            (conv.out / file).write_text(script.text.replace("\r\n", "\n"), encoding="utf-8")
+        items = [f"{kind}_script={file}"]
+        if script.threaded and script.type == CHILD:
+            items.append("threaded=1")
+        if script.parameters:
+            pfile = f"{stem}_parameters.json"
+            if conv.out is not None:
+                (conv.out / pfile).write_text(json.dumps(script.parameters, indent=1))
+            items.append(f"script_parameters={pfile}")
+        if not any(i.startswith("vrep_version=") for i in conv.settings.get(obj.name, [])):
+            items.append(f"vrep_version={scene.program_version}")
+        conv.setting(obj.name, *items)

@@ -1,0 +1,189 @@
+"""Shapes of a ``.ttt``/``.ttm`` file: the shared mesh pool (``VIN``), mesh and compound
+records (``Ge2`` -> ``Gst``/``Gsg`` -> ``Geo``/``Wrp``), mass, inertia and dynamic flags."""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+
+from simx_server.scene.ttt import errors as E
+from simx_server.scene.ttt.geometry import compose, mat_to_quat, pose7
+from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
+from simx_server.scene.ttt.records import Records, unpack_indices
+
+
+class MeshPool:
+    """The deduplicated arrays shapes point into: vertices, indices (normals are recomputed
+    by MuJoCo, so they are not kept)."""
+
+    def __init__(self):
+        self.vertices: list[tuple[Records, memoryview]] = []
+        self.indices: list[tuple[Records, str, memoryview]] = []
+
+    def read(self, r: Records) -> None:
+        for tag, payload in r:
+            if tag == "Ver":
+                self.vertices.append((r, payload))
+            elif tag in ("Ind", "In2"):
+                self.indices.append((r, tag, payload))
+
+    def vertex_array(self, index: int, where: Records) -> np.ndarray:
+        if not 0 <= index < len(self.vertices):
+            raise where.error("Vev", f"vertex array {index} not in the mesh pool ({len(self.vertices)})")
+        return vertex_array(*self.vertices[index])
+
+    def index_array(self, index: int, where: Records) -> np.ndarray:
+        if not 0 <= index < len(self.indices):
+            raise where.error("Inv", f"index array {index} not in the mesh pool ({len(self.indices)})")
+        r, tag, payload = self.indices[index]
+        return index_array(r, tag, payload)
+
+
+def vertex_array(r: Records, payload: memoryview) -> np.ndarray:
+    n = len(payload) // 12
+    if n > E.MAX_MESH_VERTICES:
+        raise r.error("Ver", f"{n:,} vertices, more than MAX_MESH_VERTICES = {E.MAX_MESH_VERTICES:,}")
+    return np.frombuffer(payload[:n * 12], dtype="<f4").reshape(n, 3).astype(np.float64)
+
+
+def index_array(r: Records, tag: str, payload: memoryview) -> np.ndarray:
+    if tag == "In2":
+        return unpack_indices(payload, r, tag)
+    n = len(payload) // 4
+    if n > 3 * E.MAX_MESH_TRIANGLES:
+        raise r.error(tag, f"{n // 3:,} triangles, more than MAX_MESH_TRIANGLES = {E.MAX_MESH_TRIANGLES:,}")
+    return np.frombuffer(payload[:n * 4], dtype="<i4").astype(np.int64)
+
+
+def _values(r: Records, tag: str, count: int) -> np.ndarray | None:
+    """``count`` floats or doubles (told apart by the record's size)."""
+    payload = r.get(tag)
+    if payload is None:
+        return None
+    if len(payload) >= 8 * count:
+        return np.frombuffer(payload[:8 * count], "<f8").astype(np.float64)
+    if len(payload) >= 4 * count:
+        return np.frombuffer(payload[:4 * count], "<f4").astype(np.float64)
+    raise r.error(tag, f"{len(payload)} bytes, expected {count} numbers")
+
+
+def read_shape(typed: Records, pool: MeshPool) -> ShapeData:
+    """A shape's type part (``SHP`` after ``NXT``)."""
+    ge2 = typed.sub("Ge2")
+    top_tag = "Gst" if ge2.get("Gst") is not None else "Gsg"
+    top = ge2.sub(top_tag)  # a mesh's (Gst) or compound's (Gsg) wrapper list: name, mass, inertia
+    meshes: list[Mesh] = []
+    if top_tag == "Gst":
+        meshes.append(_mesh(ge2, ge2.get("Gst"), pool))
+    else:
+        _collect(top, pool, meshes)
+    shape = ShapeData(meshes=meshes, compound=top_tag == "Gsg")
+    mass = top.floats("_as", "Mas", 1)
+    if mass is not None and np.isfinite(mass[0]) and mass[0] > 0:
+        shape.mass = float(mass[0])
+    ine = top.floats("_ne", "Ine", 10)
+    imx = _values(top, "Imx", 9)
+    if ine is not None:
+        shape.inertia_frame = pose7(ine[:7], quat_first=False)
+        shape.inertia = np.abs(ine[7:10]) * shape.mass
+    elif imx is not None:
+        com = _values(top, "Com", 3)
+        frame = _values(top, "Ifr", 7)
+        base = pose7(frame, quat_first=False) if frame is not None else Pose()
+        m = imx.reshape(3, 3)
+        m = 0.5 * (m + m.T)
+        moments, axes = np.linalg.eigh(m)
+        if np.linalg.det(axes) < 0:
+            axes[:, 0] = -axes[:, 0]
+        local = Pose(com if com is not None else np.zeros(3), mat_to_quat(axes))
+        shape.inertia_frame = compose(base, local)
+        shape.inertia = np.abs(moments) * shape.mass
+    if not np.all(np.isfinite(shape.inertia)):
+        shape.inertia = np.full(3, 1e-3 * shape.mass)
+    sss = typed.byte("Sss")
+    shape.static = not (sss & 0x80) if typed.get("Sss") is not None else True
+    shape.respondable = bool(typed.byte("Ss3") & 1)
+    mask = typed.ints("Dc2", 1, "<u2")
+    if mask is not None:
+        shape.respondable_mask = int(mask[0])
+    shape.friction = _friction(typed)
+    return shape
+
+
+def _friction(typed: Records) -> float | None:
+    """Bullet's friction coefficient of the shape's material (``Mat`` -> ``BuN``/``_uN``, the
+    third float), the engine V-REP scenes default to."""
+    mat = typed.sub("Mat")
+    for tag, dtype in (("_uN", "<f8"), ("BuN", "<f4")):
+        payload = mat.get(tag)
+        if payload is None or len(payload) < 8:
+            continue
+        nf, ni = struct.unpack_from("<ii", payload, 0)
+        size = np.dtype(dtype).itemsize
+        if nf >= 3 and len(payload) >= 8 + 3 * size:
+            value = float(np.frombuffer(payload[8:8 + 3 * size], dtype)[2])
+            if np.isfinite(value) and 0 <= value <= 100:
+                return value
+    return None
+
+
+def _collect(wrapper: Records, pool: MeshPool, out: list[Mesh]) -> None:
+    """The meshes under a compound's wrapper list (``Gsg``/``Wrp``: ``Geo`` meshes and nested
+    ``Wrp`` wrappers; nesting is bounded by the record reader)."""
+    for t, payload in wrapper:
+        if t == "Geo":
+            out.append(_mesh(wrapper, payload, pool))
+        elif t == "Wrp":
+            _collect(wrapper.sub(t, payload), pool, out)
+
+
+def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
+    info = parent.sub("Geo", payload)
+    r = parent.sub("Geo", payload, start=info.end)
+    name = info.string("Nme")
+    if r.get("Vev") is not None:
+        vertices = pool.vertex_array(r.int("Vev"), r)
+    elif r.get("Ver") is not None:
+        vertices = vertex_array(r, r.get("Ver"))
+    else:
+        vertices = np.zeros((0, 3))
+    if r.get("Inv") is not None:
+        indices = pool.index_array(r.int("Inv"), r)
+    elif r.get("Ind") is not None or r.get("In2") is not None:
+        tag = "Ind" if r.get("Ind") is not None else "In2"
+        indices = index_array(r, tag, r.get(tag))
+    else:
+        indices = np.zeros(0, np.int64)
+    faces = indices[: len(indices) // 3 * 3].reshape(-1, 3)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
+        raise r.error("Inv", f"mesh {name!r}: an index outside its {len(vertices):,} vertices")
+    primitive, sizes = 0, np.zeros(3)
+    for tag, fmt in (("_pr", "<iddd"), ("Ppr", "<ifff")):
+        p = r.get(tag)
+        if p is not None and len(p) >= struct.calcsize(fmt):
+            vals = struct.unpack_from(fmt, p, 0)
+            primitive, sizes = int(vals[0]), np.array(vals[1:4], dtype=np.float64)
+            break
+    frame = pose7(r.floats("_pf", "Ppf", 7), quat_first=False)
+    color = np.array([0.7, 0.7, 0.7])
+    cl0 = r.sub("Cl0")
+    for tag in ("Cl2", "Cl1"):
+        c = cl0.get(tag)
+        if c is not None and len(c) >= 12:
+            rgb = np.frombuffer(c[:12], "<f4").astype(np.float64)
+            if np.all(np.isfinite(rgb)):
+                color = np.clip(rgb, 0, 1)
+            break
+    texture, uv = -1, None
+    if r.get("Toj") is not None:
+        toj = r.sub("Toj")
+        tob = toj.ints("Tob", 1)
+        if tob is not None:
+            texture = int(tob[0])
+        ftc = toj.get("Ftc")
+        if ftc is not None and len(ftc) >= 8:
+            uv = np.frombuffer(ftc[: len(ftc) // 8 * 8], "<f4").reshape(-1, 2).astype(np.float64)
+    convex = bool(r.byte("Va2") & 1) or bool(info.byte("Var") & 4)
+    wireframe = bool(r.byte("Var") & 4)
+    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe)

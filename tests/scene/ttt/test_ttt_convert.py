@@ -1,0 +1,75 @@
+"""The converter on a synthetic scene: the MJCF simx loads, its ``simx:`` settings (joint modes,
+the scripts contract: child/customization script files, threaded, vrep_version, parameters),
+poses from the file, and simx-convert's report."""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+import tttwriter as W
+from simx_server.scene.ttt import convert, reader
+from simx_server.scene.ttt.cli import main as simx_convert
+
+
+@pytest.fixture()
+def converted(tmp_path):
+    f = tmp_path / "cell.ttt"
+    f.write_bytes(W.simple_scene())
+    xml, report = convert.convert(reader.read(f), tmp_path / "out", "cell")
+    return tmp_path / "out", xml, report
+
+
+def _settings(xml):
+    spec = mujoco.MjSpec.from_file(str(xml))
+    return {t.name: t.data for t in spec.texts}
+
+
+def test_settings_and_scripts(converted):
+    out, xml, _ = converted
+    texts = _settings(xml)
+    assert texts["simx:Base_joint1"] == "mode=position max_velocity=2"
+    assert texts["simx:Link#0"] == "child_script=Link_0_child.lua vrep_version=40100"
+    base = dict(item.split("=") for item in texts["simx:Base"].split())
+    assert base == {"child_script": "Base_child.lua", "threaded": "1",
+                    "script_parameters": "Base_child_parameters.json", "vrep_version": "40100"}
+    assert (out / "Base_child.lua").read_text() == "simRemoteApi.start(19999)\n"
+    assert json.loads((out / "Base_child_parameters.json").read_text()) == [
+        {"name": "port", "value": "19999", "unit": "int"}]
+    assert texts["simx:Cube"] == "customization_script=Cube_customization.lua vrep_version=40100"
+    assert "sysCall_init" in (out / "Link_0_child.lua").read_text()
+
+
+def test_model_poses_and_dynamics(converted):
+    _, xml, _ = converted
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    j = m.joint("Base_joint1")
+    assert m.qpos0[j.qposadr[0]] == pytest.approx(0.3)  # the file's position, as ref
+    assert d.body("Link#0").xpos == pytest.approx([0, 0, 0.45])
+    c, s = np.cos(0.3), np.sin(0.3)
+    np.testing.assert_allclose(d.body("Link#0").xmat.reshape(3, 3)[:2, :2], [[c, -s], [s, c]], atol=1e-6)  # Prt is f32
+    assert d.site("Tip").xpos == pytest.approx([0, 0, 0.65])
+    assert m.body("Link#0").mass[0] == pytest.approx(0.5)
+    assert m.body("Cube").jntnum[0] == 1 and m.jnt_type[m.body("Cube").jntadr[0]] == mujoco.mjtJoint.mjJNT_FREE
+    assert m.body("Floor").jntnum[0] == 0 and m.body("Base").jntnum[0] == 0  # static: welded
+    assert m.actuator("Base_joint1_motor").forcerange == pytest.approx([-10, 10])
+    for _ in range(500):
+        mujoco.mj_step(m, d)
+    assert d.body("Cube").xpos[2] == pytest.approx(0.05, abs=0.01)  # resting on the floor
+
+
+def test_simx_convert_prints_the_report(tmp_path, capsys):
+    f = tmp_path / "cell.ttt"
+    f.write_bytes(W.simple_scene())
+    assert simx_convert([str(f), "-o", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert f"wrote {tmp_path / 'o' / 'cell.xml'}" in out
+    bad = tmp_path / "bad.ttt"
+    bad.write_bytes(b"VREP" + bytes(10))
+    assert simx_convert([str(bad), "-o", str(tmp_path / "b")]) == 2
+    assert "bad.ttt: record header" in capsys.readouterr().err

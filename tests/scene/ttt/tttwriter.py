@@ -1,0 +1,160 @@
+"""A small writer of synthetic V-REP ``.ttt`` files for the reader's tests: records, the
+container header, and a Huffman encoder in the Basic Compression Library's format (code tree in
+pre-order, MSB first), written independently of the reader."""
+
+from __future__ import annotations
+
+import heapq
+import struct
+
+import numpy as np
+
+
+def rec(tag: str, payload: bytes) -> bytes:
+    return tag.encode() + struct.pack("<i", len(payload)) + payload
+
+
+def lst(*records: bytes) -> bytes:
+    """A record list (ends with EOO)."""
+    return b"".join(records) + b"EOO"
+
+
+def string(text: str) -> bytes:
+    raw = text.encode()
+    return struct.pack("<i", len(raw)) + raw
+
+
+def f32(*values) -> bytes:
+    return struct.pack(f"<{len(values)}f", *values)
+
+
+def i32(*values) -> bytes:
+    return struct.pack(f"<{len(values)}i", *values)
+
+
+def common(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0)) -> bytes:
+    """A scene object's common part, up to NXT (Cfq: qw qx qy qz x y z)."""
+    return (rec("3do", bytes([57, 58, 59])) + rec("Cfq", f32(*quat, *pos)) + rec("Ids", i32(handle, parent))
+            + rec("Nme", string(name)) + b"NXT")
+
+
+def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
+                 dynamic=True, respondable=True) -> bytes:
+    """A pure-cuboid shape (8 vertices inline, 12 triangles)."""
+    hx, hy, hz = (s / 2 for s in size)
+    v = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], "<f4")
+    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], "<i4")
+    info = lst(rec("Nme", string(name)), rec("Mas", f32(mass)),
+               rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, 0.01, 0.01, 0.01)))
+    mesh = lst(rec("Cl0", lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))),
+               rec("Ver", v.tobytes()), rec("Ind", faces.tobytes()),
+               rec("Ppr", struct.pack("<ifff", 3, *size)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)))
+    typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
+                rec("Sss", bytes([0x80 if dynamic else 0])), rec("Ss3", bytes([1 if respondable else 0])),
+                rec("Dc2", struct.pack("<H", 0xFFFF)))
+    return rec("SHP", common(handle, parent, name, pos) + typed)
+
+
+def joint(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0), kind=10, position=0.0,
+          motor=True, loop=True, max_force=10.0) -> bytes:
+    va9 = (16 if motor else 0) | (32 if loop else 0)
+    typed = lst(rec("Jtt", i32(kind)), rec("Jmd", i32(5)), rec("Pmr", f32(-1.5, 3.0)), rec("Prt", f32(position)),
+                rec("Va9", bytes([va9])), rec("Dmp", f32(0.0, max_force)), rec("Ulv", f32(2.0)))
+    return rec("JNT", common(handle, parent, name, pos, quat) + typed)
+
+
+def dummy(handle: int, parent: int, name: str, pos=(0, 0, 0), linked=-1, link_type=0) -> bytes:
+    return rec("DMY", common(handle, parent, name, pos) + lst(rec("Dy2", f32(0.02)), rec("Lli", i32(linked)),
+                                                            rec("Dl2", i32(link_type))))
+
+
+def light_encode(text: bytes) -> bytes:
+    """V-REP's light script obfuscation (the inverse of the reader's decoding)."""
+    buf = bytearray(text)
+    n = len(buf)
+    if n < 3:
+        return bytes(buf)
+    first = buf[0] - 256 if buf[0] > 127 else buf[0]
+    last = buf[-1] - 256 if buf[-1] > 127 else buf[-1]
+    start, end = int(first / 2), last * 3
+    for i in range(1, n - 1):
+        v = buf[i]
+        if i & 1:
+            v -= i + start + end
+        if i & 2:
+            v += 3 * i + start
+        if i & 4:
+            v -= i // 2 + end
+        buf[i] = v % 256
+    return bytes(buf)
+
+
+def script(handle: int, obj: int, text: str, kind: int = 1, threaded: bool = False,
+           parameters: tuple[tuple[str, str, str], ...] = ()) -> bytes:
+    """A script record (``LST``); ``parameters``: (name, unit, value) simulation parameters."""
+    par = i32(len(parameters)) + b"".join(string(n) + string(u) + string(v) + i32(0) for n, u, v in parameters)
+    return rec("LST", lst(rec("Si2", i32(handle, obj, kind)), rec("Va2", bytes([1 if threaded else 0])),
+                          rec("Ste", light_encode(text.encode())), rec("Prm", lst(rec("Par", par)))))
+
+
+def huffman_encode(data: bytes) -> bytes:
+    """The Basic Compression Library's Huffman format: tree (1 + 8-bit symbol = leaf, 0 = node
+    then its "0" and "1" subtrees), then the codes, MSB first, padded to a byte."""
+    counts = np.bincount(np.frombuffer(data, np.uint8), minlength=256)
+    heap = [(int(c), s, s) for s, c in enumerate(counts) if c]
+    heapq.heapify(heap)
+    uid = 256
+    children = {}
+    if len(heap) == 1:
+        root = heap[0][2]
+    else:
+        while len(heap) > 1:
+            c1, _, a = heapq.heappop(heap)
+            c2, _, b = heapq.heappop(heap)
+            children[uid] = (a, b)
+            heapq.heappush(heap, (c1 + c2, uid, uid))
+            uid += 1
+        root = heap[0][2]
+    bits: list[str] = []
+    codes: dict[int, str] = {}
+
+    def walk(node, prefix):
+        if node in children:
+            bits.append("0")
+            walk(children[node][0], prefix + "0")
+            walk(children[node][1], prefix + "1")
+        else:
+            bits.append("1" + format(node, "08b"))
+            codes[node] = prefix
+
+    walk(root, "")
+    table = [codes.get(s, "") for s in range(256)]
+    stream = "".join(bits) + "".join(table[b] for b in data)
+    stream += "0" * (-len(stream) % 8)
+    return np.packbits(np.frombuffer(stream.encode(), np.uint8) - 48).tobytes()
+
+
+def ttt_file(body_records: bytes, serialization: int = 22, program: int = 40100, compress: bool = True) -> bytes:
+    """A whole file: 1021-byte header + (Huffman-coded) body ending with EOF."""
+    body = body_records + b"EOF"
+    payload = huffman_encode(body) if compress else body
+    header = b"VREP" + struct.pack("<iiBi", serialization, 18, 1 if compress else 0, len(body))
+    header += struct.pack("<i", 0) + struct.pack("<H", program) + struct.pack("<I", 0x1001) + bytes([0, 1])
+    return header.ljust(1021, b"\0") + payload
+
+
+def simple_scene(**kw) -> bytes:
+    """A static floor, a base, a revolute joint carrying a dynamic link with a tip dummy, a free
+    cube, and a child script on the link."""
+    return ttt_file(
+        rec("SIM", lst(rec("Sts", f32(0.05)))) + rec("DYN", lst(rec("En2", i32(0) + f32(0, 0, -9.81)))) +
+        cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False) +
+        cuboid_shape(2, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False) +
+        joint(3, 2, "Base_joint1", (0, 0, 0.15), position=0.3) +
+        cuboid_shape(4, 3, "Link#0", (0.05, 0.05, 0.4), (0, 0, 0.2), mass=0.5) +
+        dummy(5, 4, "Tip", (0, 0, 0.2)) +
+        cuboid_shape(6, -1, "Cube", (0.1, 0.1, 0.1), (0.6, 0, 0.3), mass=0.2) +
+        script(100, 4, "function sysCall_init()\n  print('hi')\nend\n") +
+        script(101, 2, "simRemoteApi.start(19999)\n", threaded=True, parameters=(("port", "int", "19999"),)) +
+        script(102, 6, "function sysCall_init() end\n", kind=6), **kw)
