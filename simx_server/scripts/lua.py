@@ -38,6 +38,7 @@ from simx_client.protocol import ArgumentError, RemoteError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scripts.child import LIFE_CYCLE, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
 from simx_server.scripts.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
+from simx_server.scripts.rewrites import lua_file_text
 
 try:
     import lupa.lua54 as _lupa
@@ -286,7 +287,7 @@ class LuaScript(ChildScript):
             self.load_error = "Lua scripts need lupa with Lua 5.4: pip install 'lupa>=2.2'"
             return
         try:
-            self._source = self.path.read_bytes()
+            self._source = lua_file_text(self.path.read_bytes())
         except OSError as exc:
             self.load_error = f"{self.path.name}: {exc}"
             return
