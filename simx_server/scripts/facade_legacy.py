@@ -1,0 +1,259 @@
+"""V-REP 3.x script calls with no CoppeliaSim 4.x twin in the facade: script parameters, script
+attributes and execution counts, custom data blocks, 16/32-bit boolean helpers, system time and
+``simExtRemoteApiStart`` (issue 34).
+
+:class:`LegacyCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`; the 3.x global
+names reach these methods through :mod:`simx_server.scripts.legacy_names`. A script is named by
+its object's handle in simx (``sim.getScriptHandle()`` is the script's object), so the script
+handle arguments are object handles (``sim.handle_self``: this script).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from typing import Any
+
+from simx_client import constants as C
+from simx_client.protocol import ArgumentError
+from simx_server.scripts.legacy_names import CONSTANTS as LEGACY_CONSTANTS
+from simx_server.scripts.values import _bytes, _int, _text
+
+log = logging.getLogger("simx.scripts")
+
+#: Constants this module adds to ``sim.*`` (Lua: also ``sim_*``).
+CONSTANTS: dict[str, int] = dict(LEGACY_CONSTANTS)
+
+_ATTR = {name: LEGACY_CONSTANTS[name] for name in LEGACY_CONSTANTS if "attribute" in name}
+_MAX_CUSTOM_DATA = 1 << 20  # bytes of one custom data block (limits of the scene's own store)
+
+
+class RemoteApiPorts:
+    """Ports scripts asked the legacy remote API to serve (``simExtRemoteApiStart(port)``).
+
+    The script facade records requests (:meth:`request`); the transport takes them
+    (:meth:`take`) on its own thread and says which ports it serves (:attr:`served`)."""
+
+    def __init__(self) -> None:
+        self.pending: list[int] = []
+        self.served: set[int] = set()
+
+    def request(self, port: int) -> None:
+        if port not in self.served and port not in self.pending:
+            self.pending.append(port)
+
+    def take(self) -> list[int]:
+        """The ports requested since the last call (in order), emptied."""
+        out, self.pending = self.pending, []
+        return out
+
+
+class LegacyCalls:
+    """V-REP 3.x calls of child and customization scripts (a mixin of ScriptSim)."""
+
+    # ---------------------------------------------------------------- the script itself
+    def _own(self, script: Any, what: str) -> Any:
+        h = _int(script, what)
+        owner = self._owner if h == C.sim_handle_self else h
+        me = getattr(self, "_script", None)
+        if me is not None and owner == me.owner:
+            return me
+        manager = me.shared.get("manager") if me is not None else None
+        other = manager.scripts.get(owner) if manager is not None else None
+        if other is None:
+            raise ArgumentError(f"{what}: object {owner} has no script")
+        return other
+
+    def getScriptSimulationParameter(self, scriptHandle: Any, parameterName: Any,  # noqa: N802, N803
+                                     forceStringReturn: Any = False) -> Any:
+        """3.x script simulation parameters (the scene's ``script_parameters=FILE.json``): the
+        value of ``parameterName`` as a number when it reads as one (else a string; a string
+        always with ``forceStringReturn``), nil when the script has no such parameter.
+        ``sim.handle_all`` as the script: a table of the values of every script that has it."""
+        name = _text(parameterName, "parameterName")
+        h = _int(scriptHandle, "scriptHandle")
+        if h == C.sim_handle_all:
+            me = getattr(self, "_script", None)
+            manager = me.shared.get("manager") if me is not None else None
+            scripts = list(manager.scripts.values()) if manager is not None else [me]
+            return [v for s in scripts if (v := _parameter(s, name, bool(forceStringReturn))) is not None]
+        return _parameter(self._own(h, "scriptHandle"), name, bool(forceStringReturn))
+
+    def setScriptSimulationParameter(self, scriptHandle: Any, parameterName: Any, parameterValue: Any) -> int:  # noqa: N802, N803
+        """Set (or add) a script simulation parameter of the script; returns 1."""
+        script = self._own(scriptHandle, "scriptHandle")
+        name = _text(parameterName, "parameterName")
+        value = parameterValue.decode("utf-8", "replace") if isinstance(parameterValue, bytes) else parameterValue
+        for p in script.parameters:
+            if p.get("name") == name:
+                p["value"] = value
+                return 1
+        script.parameters.append({"name": name, "value": value, "unit": ""})
+        return 1
+
+    def getScriptExecutionCount(self) -> int:  # noqa: N802
+        """How many times the script's life-cycle functions (or old-style passes) have run since
+        the simulation started."""
+        me = getattr(self, "_script", None)
+        return me.executions if me is not None else 0
+
+    def getScriptHandle(self, name: Any = None) -> int:  # noqa: N802
+        """The script's handle: in simx the handle of its object (``name`` another script's
+        object, or none / ``sim.handle_self`` for this one)."""
+        if name is None or name == C.sim_handle_self:
+            return self._owner
+        return self.getObjectHandle(name)
+
+    def getScriptAssociatedWithObject(self, objectHandle: Any) -> int:  # noqa: N802, N803
+        """The object's child script (its object's handle), -1 when it has none."""
+        h = self._h(objectHandle)
+        me = getattr(self, "_script", None)
+        manager = me.shared.get("manager") if me is not None else None
+        script = manager.scripts.get(h) if manager is not None else None
+        return h if script is not None and script.kind == "child" else -1
+
+    def getCustomizationScriptAssociatedWithObject(self, objectHandle: Any) -> int:  # noqa: N802, N803
+        """The object's customization script (its object's handle), -1 when it has none."""
+        h = self._h(objectHandle)
+        me = getattr(self, "_script", None)
+        manager = me.shared.get("manager") if me is not None else None
+        script = manager.customization.get(h) if manager is not None else None
+        return h if script is not None else -1
+
+    def setScriptAttribute(self, scriptHandle: Any, attributeID: Any, value: Any) -> int:  # noqa: N802, N803
+        """3.x script attributes: accepted and logged (simx runs every script every step, in
+        object-tree order); returns 1."""
+        self._own(scriptHandle, "scriptHandle")
+        log.debug("[%s] setScriptAttribute(%s, %r): no effect in simx", self._label, attributeID, value)
+        return 1
+
+    def getScriptAttribute(self, scriptHandle: Any, attributeID: Any) -> Any:  # noqa: N802, N803
+        """``sim.scriptattribute_executioncount``, ``_scripttype``, ``_enabled`` (true),
+        ``_executionorder`` (normal), ``_debuglevel`` (0)."""
+        script = self._own(scriptHandle, "scriptHandle")
+        a = _int(attributeID, "attributeID")
+        if a == _ATTR["scriptattribute_executioncount"]:
+            return script.executions
+        if a == _ATTR["scriptattribute_scripttype"]:
+            return C.sim_scripttype_childscript if script.kind == "child" else 6
+        if a == _ATTR["scriptattribute_enabled"]:
+            return True
+        if a == _ATTR["scriptattribute_executionorder"]:
+            return LEGACY_CONSTANTS["scriptexecorder_normal"]
+        if a in (_ATTR["scriptattribute_debuglevel"], _ATTR["customizationscriptattribute_activeduringsimulation"]):
+            return 0 if a == _ATTR["scriptattribute_debuglevel"] else True
+        raise ArgumentError(f"script attribute {a} is not supported")
+
+    def handleChildScripts(self, callType: Any, *args: Any) -> int:  # noqa: N802, N803
+        """V-REP's cascade of child scripts: simx runs every child script itself at every pass,
+        so nothing is left to run here; returns 0 (child scripts run by this call)."""
+        _int(callType, "callType")
+        return 0
+
+    handleSimulationScripts = handleChildScripts
+
+    # ---------------------------------------------------------------- custom data blocks
+    def _blocks(self, handle: Any) -> dict:
+        h = self._h(handle)
+        if h != C.sim_handle_scene and h != -1:
+            self._world.get(h)
+        me = getattr(self, "_script", None)
+        store = me.shared.setdefault("custom_data", {}) if me is not None else {}
+        return store.setdefault(h, {})
+
+    def writeCustomDataBlock(self, objectHandle: Any, tagName: Any, data: Any) -> int:  # noqa: N802, N803
+        """Store ``data`` (bytes) under ``tagName`` on an object (``sim.handle_scene``: the scene);
+        empty data or nil removes the tag. Blocks live as long as the loaded scene."""
+        blocks, tag = self._blocks(objectHandle), _text(tagName, "tagName")
+        if data is None or data == b"" or data == "":
+            blocks.pop(tag, None)
+            return 1
+        raw = _bytes(data, "data")
+        if len(raw) > _MAX_CUSTOM_DATA:
+            raise ArgumentError(f"custom data block {tag!r} of {len(raw)} bytes: at most {_MAX_CUSTOM_DATA}")
+        blocks[tag] = raw
+        return 1
+
+    def readCustomDataBlock(self, objectHandle: Any, tagName: Any) -> bytes | None:  # noqa: N802, N803
+        """The block stored under ``tagName``, nil when there is none."""
+        return self._blocks(objectHandle).get(_text(tagName, "tagName"))
+
+    def readCustomDataBlockTags(self, objectHandle: Any) -> list[str]:  # noqa: N802, N803
+        """The tags of the object's custom data blocks."""
+        return sorted(self._blocks(objectHandle))
+
+    # ---------------------------------------------------------------- helpers
+    def boolOr32(self, a: Any, b: Any) -> int:  # noqa: N802
+        """``a | b`` on 32-bit unsigned values (3.x ``simBoolOr16`` too)."""
+        return (_int(a, "value1") | _int(b, "value2")) & 0xFFFFFFFF
+
+    def boolAnd32(self, a: Any, b: Any) -> int:  # noqa: N802
+        """``a & b`` on 32-bit unsigned values (3.x ``simBoolAnd16`` too)."""
+        return (_int(a, "value1") & _int(b, "value2")) & 0xFFFFFFFF
+
+    def boolXor32(self, a: Any, b: Any) -> int:  # noqa: N802
+        """``a ^ b`` on 32-bit unsigned values (3.x ``simBoolXor16`` too)."""
+        return (_int(a, "value1") ^ _int(b, "value2")) & 0xFFFFFFFF
+
+    def getSystemTimeInMs(self, previousTime: Any = -1) -> int:  # noqa: N802, N803
+        """Milliseconds of a monotonic clock (``previousTime`` -1), or elapsed since ``previousTime``."""
+        now = int(time.monotonic() * 1000) & 0x7FFFFFFF
+        prev = _int(previousTime, "previousTime")
+        return now if prev == -1 else (now - prev) & 0x7FFFFFFF
+
+    def getRealTimeSimulation(self) -> int:  # noqa: N802
+        """1 when the server paces the simulation to wall time (``--speed`` > 0), else 0."""
+        return int(bool(getattr(self._sim, "realtime", False)))
+
+    # ---------------------------------------------------------------- remote API plugin
+    def _ports(self) -> RemoteApiPorts:
+        sim = self._simulation("remoteApiStart")
+        ports = getattr(sim, "remote_api", None)
+        if ports is None:
+            raise ArgumentError("remoteApiStart needs a server (this simulation serves no remote API)")
+        return ports
+
+    def remoteApiStart(self, port: Any, maxPacketSize: Any = 1300, debug: Any = False,  # noqa: N802, N803
+                       preEnableTrigger: Any = False) -> int:  # noqa: N803
+        """``simExtRemoteApiStart(port)`` / ``simRemoteApi.start(port)``: serve the legacy remote
+        API on ``port`` too (a no-op when it is served already: 19997/19999 by default); the
+        server opens it on its own thread, under the same host and security configuration.
+        Returns 1 (the port is served or will be)."""
+        p = _int(port, "port")
+        if not 1 <= p <= 65535:
+            raise ArgumentError(f"port must be 1..65535, got {p}")
+        self._ports().request(p)
+        return 1
+
+    def remoteApiStatus(self, port: Any) -> int:  # noqa: N802
+        """1 when the legacy remote API is served on ``port`` (or about to be), else -1."""
+        ports = self._ports()
+        p = _int(port, "port")
+        return 1 if p in ports.served or p in ports.pending else -1
+
+    def remoteApiStop(self, port: Any) -> int:  # noqa: N802
+        """Ports opened for the scene stay open while the server runs: logged, returns 0."""
+        log.info("[%s] simRemoteApi.stop(%s): simx keeps serving the port", self._label, port)
+        return 0
+
+    def remoteApiReset(self) -> int:  # noqa: N802
+        """Nothing to reset: returns 0."""
+        return 0
+
+
+def _parameter(script: Any, name: str, as_string: bool) -> Any:
+    for p in getattr(script, "parameters", ()):
+        if p.get("name") == name:
+            value = p.get("value")
+            if as_string:
+                return "" if value is None else str(value)
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                return value
+            text = str(value).strip()
+            for cast in (int, float):
+                try:
+                    return cast(text)
+                except ValueError:
+                    pass
+            return text
+    return None
