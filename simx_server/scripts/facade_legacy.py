@@ -16,6 +16,7 @@ from typing import Any
 
 from simx_client import constants as C
 from simx_client.protocol import ArgumentError
+from simx_server.scripts.facade_objects import HANDLE_SCENE
 from simx_server.scripts.legacy_names import CONSTANTS as LEGACY_CONSTANTS
 from simx_server.scripts.values import _bytes, _int, _text
 
@@ -155,7 +156,7 @@ class LegacyCalls:
     # ---------------------------------------------------------------- custom data blocks
     def _blocks(self, handle: Any) -> dict:
         h = self._h(handle)
-        if h != C.sim_handle_scene and h != -1:
+        if h not in (HANDLE_SCENE, -1):
             self._world.get(h)
         me = getattr(self, "_script", None)
         store = me.shared.setdefault("custom_data", {}) if me is not None else {}

@@ -187,16 +187,20 @@ class Scripts:
 
         Raises ScriptError (no such script or function, or the script failed) or
         ArgumentError (arguments of the wrong types)."""
-        if script_type != C.sim_scripttype_childscript:
+        table = {C.sim_scripttype_childscript: self.scripts,
+                 C.sim_scripttype_customizationscript: self.customization}.get(script_type)
+        if table is None:
             raise ScriptError(f"script type {script_type} is not supported; only child scripts "
-                              f"(sim_scripttype_childscript = {C.sim_scripttype_childscript})")
+                              f"(sim_scripttype_childscript = {C.sim_scripttype_childscript}) and "
+                              f"customization scripts ({C.sim_scripttype_customizationscript})")
         try:
             obj = self.world.resolve(object_name)
         except UnknownObjectError as exc:
             raise ScriptError(f"no child script: {exc}") from None
-        script = self.scripts.get(obj.handle)
+        script = table.get(obj.handle)
         if script is None:
-            raise ScriptError(f"object {obj.name!r} has no child script")
+            kind = "child" if table is self.scripts else "customization"
+            raise ScriptError(f"object {obj.name!r} has no {kind} script")
         _check_call_arguments(ints, floats, strings, buffer)
         if not isinstance(function, str) or not function:
             raise ArgumentError("the function name must be a non-empty string")
