@@ -35,7 +35,20 @@ from typing import Any
 
 from simx_server.scripts.legacy_names import CALL_TYPES, CONSTANTS, LEGACY_LUA, FUNCTION_ALIASES, UI_FUNCTIONS
 
-__all__ = ["THREADS_LUA", "LuaStyles"]
+__all__ = ["LUA_FUNCTIONS", "THREADS_LUA", "LuaStyles", "script_functions"]
+
+#: ``sim`` functions that Lua scripts get from :data:`THREADS_LUA` (not facade methods).
+LUA_FUNCTIONS = ("switchThread", "yield", "step", "wait", "waitForSignal", "setThreadAutomaticSwitch",
+                 "getThreadAutomaticSwitch", "setThreadSwitchTiming", "getThreadSwitchTiming",
+                 "setThreadResumeLocation", "resumeThreads", "setThreadIsFree", "isScriptRunningInThread",
+                 "isScriptExecutionThreaded")
+
+
+def script_functions() -> frozenset[str]:
+    """Every ``sim.NAME`` function of Lua scripts: the facade's and :data:`LUA_FUNCTIONS`."""
+    from simx_server.scripts.facade import FACADE_FUNCTIONS
+
+    return frozenset(FACADE_FUNCTIONS) | frozenset(LUA_FUNCTIONS)
 
 #: Lua run in each script's state after the prelude: the thread functions of ``sim``; returns
 #: ``launch(f)``, ``resume()`` (true while the thread lives; raises the thread's error),

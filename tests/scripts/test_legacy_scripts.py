@@ -261,3 +261,31 @@ def test_custom_data_blocks(run):
     sim = run({"Box": ("cd.lua", source)})
     sim.start()
     assert call(sim, "Box", "f") == [[], [], ["abc", "tag"], b""]
+
+
+# ---------------------------------------------------------------- docs
+def test_docs_list_every_3x_function_with_its_status_as_the_code_says():
+    from conftest import ROOT
+    from simx_server.scripts.legacy_names import DOC_BEGIN, DOC_END, doc_table
+    from simx_server.scripts.threads import script_functions
+
+    text = (ROOT / "docs" / "SCRIPTS.md").read_text()
+    begin, end = text.index(DOC_BEGIN), text.index(DOC_END) + len(DOC_END)
+    assert text[begin:end] == doc_table(script_functions()), \
+        "docs/SCRIPTS.md's 3.x list is stale: paste `python -m simx_server.scripts.legacy_names` in its place"
+
+
+ISSUE_NAMES = ("simGetObjectHandle", "simSetJointTargetVelocity", "simReadProximitySensor", "simGetObjectPosition",
+               "simAddStatusbarMessage", "simGetScriptSimulationParameter", "simPackFloats", "simUnpackFloats",
+               "simGetStringSignal", "simBoolOr16", "simGetObjectAssociatedWithScript", "simGetScriptExecutionCount",
+               "simHandleChildScripts", "simSetScriptAttribute", "simWriteCustomDataBlock", "simReadCustomDataBlock",
+               "simSwitchThread", "simSetThreadAutomaticSwitch", "simWait", "simWaitForSignal",
+               "simSetThreadSwitchTiming", "simExtRemoteApiStart", "simResetDynamicObject", "simAddForceAndTorque")
+
+
+def test_the_3x_functions_the_issue_names_run():
+    from simx_server.scripts.legacy_names import status
+    from simx_server.scripts.threads import script_functions
+
+    functions = script_functions()
+    assert {n: status(n, functions) for n in ISSUE_NAMES if status(n, functions) == "missing"} == {}
