@@ -121,3 +121,36 @@ def test_old_style_threaded_and_customization_scripts_on_a_server(client, tmp_pa
     # first at the start; the server may have stepped before synchronous mode was enabled.
     assert abs(_int_signal(cid, "thread_passes") - (steps // 3 + 1)) <= 1
     assert _int_signal(cid, "custom_steps") >= 10 and _int_signal(cid, "ui_button") == -1
+
+
+REMOTE_API_START = """function sysCall_threadmain()
+    simRemoteApi.start({extra})  -- as the tutorial's UR5 script opens 19999 for its program
+    simExtRemoteApiStart({same})  -- a port the server listens on already: a no-op
+    while true do simSwitchThread() end
+end
+"""
+
+
+def test_simExtRemoteApiStart_in_a_script_serves_the_legacy_api_on_that_port(tmp_path):
+    import vrep
+
+    from conftest import free_port
+
+    own, extra = free_port(), free_port()
+    scene = small_scene(tmp_path, {"UR5": ("ur5.lua", REMOTE_API_START.format(extra=extra, same=own))})
+    server = ServerProcess(str(scene), ports=[own])
+    cid = -1
+    try:
+        # The request is acted on in the server's housekeeping (a few times a second).
+        cid = vrep.simxStart("127.0.0.1", extra, True, True, 10000, 5)
+        assert cid >= 0, f"no server on the script's port {extra}"
+        rc, h = vrep.simxGetObjectHandle(cid, "UR5", vrep.simx_opmode_blocking)
+        assert rc == 0 and h > 0
+        assert vrep.simxCallScriptFunction(cid, "UR5", vrep.sim_scripttype_childscript, "nothing", [], [], [],
+                                           bytearray(), vrep.simx_opmode_blocking)[0] == 8  # same server
+    finally:
+        if cid >= 0:
+            vrep.simxFinish(cid)
+        log = server.stop()
+    assert f"simExtRemoteApiStart({own}): served already" in log
+    assert f"simExtRemoteApiStart({extra}): the legacy remote API is served on tcp/127.0.0.1:{extra}" in log
