@@ -33,7 +33,8 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from simx_server.scripts.legacy_names import CALL_TYPES, CONSTANTS, LEGACY_LUA, FUNCTION_ALIASES, UI_FUNCTIONS
+from simx_server.scripts.facade import FACADE_FUNCTIONS
+from simx_server.scripts.legacy_names import CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS, doc_table
 
 __all__ = ["LUA_FUNCTIONS", "THREADS_LUA", "LuaStyles", "script_functions"]
 
@@ -46,8 +47,6 @@ LUA_FUNCTIONS = ("switchThread", "yield", "step", "wait", "waitForSignal", "setT
 
 def script_functions() -> frozenset[str]:
     """Every ``sim.NAME`` function of Lua scripts: the facade's and :data:`LUA_FUNCTIONS`."""
-    from simx_server.scripts.facade import FACADE_FUNCTIONS
-
     return frozenset(FACADE_FUNCTIONS) | frozenset(LUA_FUNCTIONS)
 
 #: Lua run in each script's state after the prelude: the thread functions of ``sim``; returns
@@ -196,3 +195,7 @@ class LuaStyles:
 
     def _resume_thread(self) -> None:
         self._bounded("thread", self._resume, ())
+
+
+if __name__ == "__main__":  # pragma: no cover - prints docs/SCRIPTS.md's list of 3.x functions
+    print(doc_table(script_functions()))
