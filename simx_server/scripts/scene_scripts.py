@@ -17,6 +17,7 @@ from simx_client import constants as C
 from simx_client.protocol import ArgumentError, ScriptError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.scripts.child import DEFAULT_TIMEOUT, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, PythonScript
+from simx_server.scripts.dynamics import DynamicsCallbacks
 from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.scripts.lua import LuaScript
@@ -98,6 +99,7 @@ class Scripts:
         self.customization: dict[int, ChildScript] = {}  # customization scripts, by object
         self.shared: dict = {"manager": self}  # custom data blocks, the scripts' view of each other
         self.opened = False
+        self.dynamics = DynamicsCallbacks(world)  # sysCall_jointCallback / sysCall_dynCallback at each substep
         for obj in world.objects.values():
             for key, table in (("child_script", self.scripts), ("customization_script", self.customization)):
                 file = obj.settings.get(key)
@@ -153,6 +155,7 @@ class Scripts:
                 log.error("%s", exc)
             except Exception:  # the other scripts start all the same
                 log.exception("%s: internal error at start", script.label)
+        self.dynamics.install([*self.scripts.values(), *self.customization.values()])
 
     def actuation(self) -> None:
         """Before a step: each child script's thread resumes, then its ``sysCall_actuation``;
@@ -173,6 +176,7 @@ class Scripts:
     def stop(self) -> None:
         """Simulation stops: ``sysCall_cleanup`` of every script; signals set by scripts go."""
         self.stopping = True  # sim.getSimulationState in sysCall_cleanup: the last pass before the stop
+        self.dynamics.remove()
         try:
             for script in self.scripts.values():
                 script.stop()

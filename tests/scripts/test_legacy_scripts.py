@@ -289,3 +289,43 @@ def test_the_3x_functions_the_issue_names_run():
 
     functions = script_functions()
     assert {n: status(n, functions) for n in ISSUE_NAMES if status(n, functions) == "missing"} == {}
+
+
+# ---------------------------------------------------------------- dynamics-step callbacks
+JOINT_PID = """-- the RG2 centre joints' kind of controller: a PID in sysCall_jointCallback
+function sysCall_init()
+    sim.setJointTargetPosition(sim.getObjectHandle('Slider_joint'), 0.2)
+    passes=0
+end
+function sysCall_jointCallback(inData)
+    passes=passes+1
+    sim.setIntegerSignal('passes', passes)
+    sim.setIntegerSignal('total', inData.totalPasses)
+    local v=inData.errorValue*20
+    if v>0.5 then v=0.5 elseif v<-0.5 then v=-0.5 end
+    return {force=5, velocity=v}
+end
+function sysCall_dynCallback(inData)
+    if inData.afterStep then dyn=(dyn or 0)+1 sim.setIntegerSignal('dyn_after', dyn) end
+end
+"""
+
+
+def test_joint_callback_controls_its_joint_at_every_substep(tmp_path):
+    scene = small_scene(tmp_path, {})
+    (tmp_path / "pid.lua").write_text(JOINT_PID)
+    scene.write_text(scene.read_text().replace('data="mode=velocity max_velocity=1"',
+                                               'data="mode=passive child_script=pid.lua"'))
+    sim = Simulation(scene, realtime=False)
+    try:
+        sim.start()
+        steps(sim, 40)  # 2 s
+        q = sim.world.data.joint("Slider_joint").qpos[0]
+        assert q == pytest.approx(0.2, abs=0.01)  # the script's controller brought it to its target
+        substeps = sim.world.substeps
+        assert substeps > 1 and signal(sim, "total") == substeps
+        assert signal(sim, "passes") == 40 * substeps and signal(sim, "dyn_after") == 40 * substeps
+    finally:
+        sim.stop()
+        sim.close()
+    assert sim.world.substep_hook is None  # removed at stop
