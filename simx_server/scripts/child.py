@@ -36,6 +36,7 @@ import numpy as np
 from simx_client.protocol import ScriptError
 from simx_server.scripts.facade import ScriptSim
 from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.facade_legacy import PythonThread
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.sim.world import World
 
@@ -331,10 +332,7 @@ class ChildScript:
                           self.language, name)
 
     def _thread_alive(self) -> bool:
-        return False
-
-    def _resume_thread(self) -> None:
-        raise NotImplementedError
+        return False  # _resume_thread() runs the thread until it yields, in languages that have threads
 
     def _fault(self, what: str, detail: str, timeout: bool = False) -> ScriptError:
         cls = ScriptTimeoutError if timeout else ScriptError
@@ -414,7 +412,30 @@ class PythonScript(ChildScript):
         return [] if out is None else list(out) if isinstance(out, tuple) else [out]
 
     def _drop(self) -> None:
+        if self.py_thread is not None:
+            self.py_thread.end()
+            self.py_thread = None
         self.namespace = {}
+
+    py_thread: PythonThread | None = None
+
+    def _launch_thread(self) -> None:
+        fn = self.namespace.get("sysCall_thread") or self.namespace.get("sysCall_threadmain")
+        if callable(fn):
+            self.py_thread = PythonThread(fn, f"{self.path.name} of {self.object_name}")
+
+    def _thread_alive(self) -> bool:
+        return self.py_thread is not None and self.py_thread.alive
+
+    def _resume_thread(self) -> None:
+        thread = self.py_thread
+        if not thread.resume(self.timeout):
+            raise self._fault("thread", f"{self.path.name}: interrupted: did not yield within {self.timeout:g} s "
+                                        "(script_timeout)", timeout=True)
+        if thread.error is not None:
+            exc, thread.error = thread.error, None
+            raise self._fault("thread", f"{self._where(traceback.extract_tb(exc.__traceback__))}"
+                                        f"{type(exc).__name__}: {exc}")
 
     def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
         try:

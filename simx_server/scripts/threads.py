@@ -199,3 +199,4 @@ class LuaStyles:
 
 if __name__ == "__main__":  # pragma: no cover - prints docs/SCRIPTS.md's list of 3.x functions
     print(doc_table(script_functions()))
+

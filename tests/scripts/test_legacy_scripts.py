@@ -329,3 +329,50 @@ def test_joint_callback_controls_its_joint_at_every_substep(tmp_path):
         sim.stop()
         sim.close()
     assert sim.world.substep_hook is None  # removed at stop
+
+
+PY_THREAD = '''def sysCall_thread():
+    n = 0
+    while True:
+        n += 1
+        sim.setIntegerSignal("py_passes", n)
+        sim.wait(0.1)
+        if n == 3:
+            sim.waitForSignal("py_go")
+            sim.setIntegerSignal("py_got", 1)
+
+
+def sysCall_cleanup():
+    pass
+'''
+
+
+def test_python_script_thread_runs_as_a_coroutine(run):
+    sim = run({"Box": ("thread.py", PY_THREAD)})
+    sim.start()
+    assert signal(sim, "py_passes") == 1
+    steps(sim, 3)  # resumed before each step: at t = 0 and 0.05 still waiting, at 0.1 the second pass
+    assert signal(sim, "py_passes") == 2
+    steps(sim, 10)
+    assert signal(sim, "py_passes") == 3 and signal(sim, "py_got") is None
+    sim.signals.set_int("py_go", 1)
+    steps(sim, 1)
+    assert signal(sim, "py_got") == 1
+    thread = next(iter(sim.scripts.scripts.values())).py_thread
+    sim.stop()
+    assert not thread.alive and not thread._thread.is_alive()  # ended with the simulation
+
+
+def test_a_python_thread_that_never_yields_is_interrupted(tmp_path, caplog):
+    source = "def sysCall_thread():\n    while True:\n        pass\n\n" \
+             "def sysCall_actuation():\n    global n\n    n = globals().get('n', 0) + 1\n" \
+             "    sim.setIntegerSignal('n', n)\n"
+    sim = Simulation(small_scene(tmp_path, {"Box": ("spin.py", source)}, settings="script_timeout=0.2"),
+                     realtime=False)
+    try:
+        sim.start()
+        steps(sim, 2)
+        assert sim.signals.get_int("n") == 2 and "did not yield within 0.2 s" in caplog.text
+    finally:
+        sim.stop()
+        sim.close()
