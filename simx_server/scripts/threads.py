@@ -109,7 +109,17 @@ sim.setThreadIsFree = function() return 0 end
 sim.isScriptRunningInThread = function() return in_thread() and 1 or 0 end
 sim.isScriptExecutionThreaded = function() return T.co ~= nil and 1 or 0 end
 
-local function launch(f) T.co = co_create(f) end  -- coroutine.create of the prelude: hooked
+local function launch(f, whole)  -- coroutine.create of the prelude: hooked
+  if whole then  -- a threaded script's text; a V-REP 3.6 one then runs its sysCall_threadmain
+    local chunk = f
+    f = function()
+      chunk()
+      local main = rawget(_G, "sysCall_threadmain")
+      if type(main) == "function" then return main() end
+    end
+  end
+  T.co = co_create(f)
+end
 local function resume()
   local co = T.co
   if co == nil then return false end
@@ -154,8 +164,6 @@ class LuaStyles:
         uis = rt.table_from({k.encode(): (rt.table_from(v) if isinstance(v, list) else
                                           v.encode() if isinstance(v, str) else v) for k, v in UI_FUNCTIONS.items()})
         rt.compile(LEGACY_LUA, name="=simx")(g.sim, aliases, uis, self._write_log)
-        for name, value in CONSTANTS.items():
-            g.sim[name.encode()] = value
         self._launch, self._resume, self._wrap, self._alive = rt.compile(THREADS_LUA, name="=simx")(g.sim, time.monotonic)
         self.old_style = False
 
@@ -188,7 +196,7 @@ class LuaStyles:
                 body = self._lookup(name.encode())
         if body is not None:
             self._wrap()
-            self._launch(body)
+            self._launch(body, self.threaded)
 
     def _thread_alive(self) -> bool:
         return self._runtime is not None and bool(self._alive())

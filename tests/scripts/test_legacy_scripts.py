@@ -207,6 +207,21 @@ def test_threaded_3x_script_runs_its_whole_text_as_a_thread(tmp_path):
         sim.close()
 
 
+def test_threaded_36_script_runs_its_text_then_its_threadmain_in_the_thread(tmp_path):
+    # The V-REP 3.6 threaded kind (threaded=1); no automatic switch before the first pass is done.
+    source = "simSetThreadAutomaticSwitch(false)\nsimSetIntegerSignal('top', 1)\n" + THREAD_36
+    sim = Simulation(small_scene(tmp_path, {"Box": ("t36.lua", source)}, settings="threaded=1 vrep_version=30600"),
+                     realtime=False)
+    try:
+        sim.start()
+        assert sim.signals.get_int("top") == 1 and sim.signals.get_int("loops") == 1
+        steps(sim, 2)
+        assert sim.signals.get_int("loops") == 3
+    finally:
+        sim.stop()
+        sim.close()
+
+
 def test_a_thread_that_never_yields_is_interrupted_and_the_simulation_goes_on(tmp_path, caplog):
     source = "function sysCall_thread()\n  sim.setThreadAutomaticSwitch(false)\n  while true do local x=1 end\nend\n" \
              "function sysCall_actuation() n=(n or 0)+1 sim.setIntegerSignal('n', n) end\n"
