@@ -264,7 +264,7 @@ class LegacyCalls(PythonThreadCalls):
         if a == _ATTR["scriptattribute_executioncount"]:
             return script.executions
         if a == _ATTR["scriptattribute_scripttype"]:
-            return C.sim_scripttype_childscript if script.kind == "child" else 6
+            return C.sim_scripttype_childscript if script.kind == "child" else C.sim_scripttype_customizationscript
         if a == _ATTR["scriptattribute_enabled"]:
             return True
         if a == _ATTR["scriptattribute_executionorder"]:
