@@ -139,6 +139,11 @@ class Scripts:
         for script in self.customization.values():
             script.stop()
 
+    def idle(self, paused: bool = False) -> None:
+        """A pass of the server's loop without a step: customization scripts'
+        ``sysCall_nonSimulation`` while stopped, ``sysCall_suspended`` while paused."""
+        self._customization("sysCall_suspended" if paused else "sysCall_nonSimulation")
+
     def _customization(self, function: str) -> None:
         for script in self.customization.values():
             script.life_cycle(function)

@@ -154,3 +154,31 @@ def test_simExtRemoteApiStart_in_a_script_serves_the_legacy_api_on_that_port(tmp
         log = server.stop()
     assert f"simExtRemoteApiStart({own}): served already" in log
     assert f"simExtRemoteApiStart({extra}): the legacy remote API is served on tcp/127.0.0.1:{extra}" in log
+
+
+NON_SIMULATION = """function sysCall_init() passes=0 end
+function sysCall_nonSimulation()
+    passes=passes+1
+    sim.setIntegerSignal('idle_passes', passes)
+end
+"""
+
+
+def test_customization_script_runs_its_non_simulation_passes_while_stopped(tmp_path):
+    import vrep
+
+    from conftest import wait_until
+
+    scene = small_scene(tmp_path, {"Custom": ("idle.lua", NON_SIMULATION)})
+    scene.write_text(scene.read_text().replace('data="child_script=idle.lua', 'data="customization_script=idle.lua'))
+    server = ServerProcess(str(scene), "--stopped")
+    cid = -1
+    try:
+        cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)
+        assert cid >= 0
+        first = wait_until(lambda: _int_signal(cid, "idle_passes"), what="a first sysCall_nonSimulation")
+        wait_until(lambda: (_int_signal(cid, "idle_passes") or 0) > first, what="more sysCall_nonSimulation passes")
+    finally:
+        if cid >= 0:
+            vrep.simxFinish(cid)
+        server.stop()

@@ -1,9 +1,11 @@
-"""Legacy remote API ports that a scene's scripts open: ``simExtRemoteApiStart(port)`` /
-``simRemoteApi.start(port)`` (issue 34), how V-REP scenes open the server on 19999 for their
-programs.
+"""What the server's loop does for the scene's scripts (issue 34), as a transport attached to the
+:class:`~simx_server.transport.server.Server`: customization scripts' ``sysCall_nonSimulation``
+at every idle pass while the simulation is stopped (``sysCall_suspended`` while paused), and the
+legacy remote API ports that scripts open with ``simExtRemoteApiStart(port)`` /
+``simRemoteApi.start(port)``, how V-REP scenes open the server on 19999 for their programs.
 
 The script facade records the request (:class:`~simx_server.scripts.facade_legacy.RemoteApiPorts`,
-``Simulation.remote_api``); :class:`ScriptPorts` acts on it from the server's loop. A port the
+``Simulation.remote_api``); :class:`ScriptHooks` acts on it from the server's loop. A port the
 server listens on already (19997 and 19999 by default) is a no-op. Another port gets a Zenoh
 session of its own, made from the server's configuration (the same file's TLS, authentication
 and access control, multicast scouting off) listening on the same hosts at that port and
@@ -20,15 +22,17 @@ from typing import Any
 
 import zenoh
 
+from simx_server.sim.state import RunState
+
 log = logging.getLogger("simx.server")
 
 _ENDPOINT = re.compile(r"^(?P<proto>[a-z]+)/(?P<host>\[[^\]]+\]|[^:/]+):(?P<port>\d+)(?P<rest>.*)$")
 
 
-class ScriptPorts:
-    """Opens the ports scripts ask for: a transport attached to the
-    :class:`~simx_server.transport.server.Server` (``server.attach``), which polls
-    ``sim.remote_api`` in its housekeeping (a few times a second) and closes the sessions at the end."""
+class ScriptHooks:
+    """A transport attached to the server (``server.attach``): idle passes of customization
+    scripts in :meth:`after_step`; the ports scripts ask for, polled from ``sim.remote_api`` in
+    :meth:`housekeeping` (a few times a second), their sessions closed at the end."""
 
     kinds: tuple[str, ...] = ()  # it puts nothing in the ready ring
 
@@ -48,7 +52,10 @@ class ScriptPorts:
         pass
 
     def after_step(self) -> None:
-        pass
+        """After each step and each loop pass without one: idle calls of customization scripts."""
+        state = self.sim.state
+        if state is not RunState.RUNNING:
+            self.sim.scripts.idle(paused=state is RunState.PAUSED)
 
     def client_count(self) -> int:
         return 0
