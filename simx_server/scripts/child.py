@@ -40,7 +40,8 @@ from simx_server.scripts.facade_legacy import PythonThread
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.sim.world import World
 
-__all__ = ["DEFAULT_TIMEOUT", "LIFE_CYCLE", "LIFE_CYCLE_CALLS", "REMOTE_CODE_FLAG", "UNSAFE_LUA_FLAG", "ChildScript", "PythonScript",
+__all__ = ["DEFAULT_TIMEOUT", "LIFE_CYCLE", "LIFE_CYCLE_CALLS", "REMOTE_CODE_FLAG", "UNSAFE_LUA_FLAG", "ChildScript",
+           "PythonScript",
            "ScriptTimeoutError", "legacy_outputs"]
 
 log = logging.getLogger("simx.scripts")

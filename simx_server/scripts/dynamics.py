@@ -31,7 +31,8 @@ from simx_server.sim.objects import JOINT
 
 log = logging.getLogger("simx.scripts")
 
-JOINT_CALLBACK, DYN_CALLBACK, CONTACT_CALLBACK = "sysCall_jointCallback", "sysCall_dynCallback", "sysCall_contactCallback"
+JOINT_CALLBACK, DYN_CALLBACK = "sysCall_jointCallback", "sysCall_dynCallback"
+CONTACT_CALLBACK = "sysCall_contactCallback"
 
 
 class DynamicsCallbacks:

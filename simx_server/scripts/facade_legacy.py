@@ -208,7 +208,8 @@ class LegacyCalls(PythonThreadCalls):
             return [v for s in scripts if (v := _parameter(s, name, bool(forceStringReturn))) is not None]
         return _parameter(self._own(h, "scriptHandle"), name, bool(forceStringReturn))
 
-    def setScriptSimulationParameter(self, scriptHandle: Any, parameterName: Any, parameterValue: Any) -> int:  # noqa: N802, N803
+    def setScriptSimulationParameter(self, scriptHandle: Any, parameterName: Any,  # noqa: N802, N803
+                                     parameterValue: Any) -> int:  # noqa: N803
         """Set (or add) a script simulation parameter of the script; returns 1."""
         script = self._own(scriptHandle, "scriptHandle")
         name = _text(parameterName, "parameterName")

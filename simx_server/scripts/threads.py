@@ -34,7 +34,8 @@ import time
 from typing import Any
 
 from simx_server.scripts.facade import FACADE_FUNCTIONS
-from simx_server.scripts.legacy_names import CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS, doc_table
+from simx_server.scripts.legacy_names import (CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS,
+                                              doc_table)
 
 __all__ = ["LUA_FUNCTIONS", "THREADS_LUA", "LuaStyles", "script_functions"]
 
@@ -54,13 +55,15 @@ def script_functions() -> frozenset[str]:
 #: ``wrap()`` (automatic switching at every ``sim`` call, for threaded scripts only) and ``alive()``.
 THREADS_LUA = r"""
 local sim, now = ...
-local co_create, co_resume, co_running, co_yield = coroutine.create, coroutine.resume, coroutine.running, coroutine.yield
+local co_create, co_resume = coroutine.create, coroutine.resume
+local co_running, co_yield = coroutine.running, coroutine.yield
 local co_status, yieldable = coroutine.status, coroutine.isyieldable
 local error, type, pairs, pack, unpack = error, type, pairs, table.pack, table.unpack
 local T = {co = nil, level = 0, slice = 0.002, resumed = 0}
 local function in_thread() return T.co ~= nil and co_running() == T.co end
 local function switch() if in_thread() and yieldable() then co_yield() end end
-local get_time, get_int, get_float, get_string = sim.getSimulationTime, sim.getInt32Signal, sim.getFloatSignal, sim.getStringSignal
+local get_time, get_int = sim.getSimulationTime, sim.getInt32Signal
+local get_float, get_string = sim.getFloatSignal, sim.getStringSignal
 local step = rawget(sim, "step")
 
 local function threaded_only(name)
@@ -164,7 +167,8 @@ class LuaStyles:
         uis = rt.table_from({k.encode(): (rt.table_from(v) if isinstance(v, list) else
                                           v.encode() if isinstance(v, str) else v) for k, v in UI_FUNCTIONS.items()})
         rt.compile(LEGACY_LUA, name="=simx")(g.sim, aliases, uis, self._write_log)
-        self._launch, self._resume, self._wrap, self._alive = rt.compile(THREADS_LUA, name="=simx")(g.sim, time.monotonic)
+        threads = rt.compile(THREADS_LUA, name="=simx")
+        self._launch, self._resume, self._wrap, self._alive = threads(g.sim, time.monotonic)
         self.old_style = False
 
     def _run_top_level(self, chunk: Any) -> None:

@@ -109,7 +109,8 @@ end
 def test_old_style_threaded_and_customization_scripts_on_a_server(client, tmp_path):
     scene = small_scene(tmp_path, {"Old": ("old.lua", OLD_STYLE), "Thread": ("thread.lua", THREADMAIN),
                                    "Custom": ("custom.lua", CUSTOMIZATION)})
-    scene.write_text(scene.read_text().replace('data="child_script=custom.lua', 'data="customization_script=custom.lua'))
+    text = scene.read_text()
+    scene.write_text(text.replace('data="child_script=custom.lua', 'data="customization_script=custom.lua'))
     cid = client(scene)
     for _ in range(10):  # 0.5 s
         import vrep
