@@ -177,8 +177,45 @@ class PythonThreadCalls:
         return 0
 
 
+def name_suffix(name: str) -> tuple[int, str]:
+    """V-REP's name suffix: ``("robot#2")`` -> ``(2, "robot")``, ``("robot")`` -> ``(-1, "robot")``."""
+    base, sep, tail = name.rpartition("#")
+    return (int(tail), base) if sep and tail.isdigit() else (-1, name)
+
+
 class LegacyCalls(PythonThreadCalls):
     """V-REP 3.x calls of child and customization scripts (a mixin of ScriptSim)."""
+
+    # ---------------------------------------------------------------- names of copies
+    def _suffix(self) -> int:
+        if "_name_suffix" not in self.__dict__:  # a script's object; none for the world (ZMQ clients)
+            self._name_suffix = name_suffix(self._world.get(self._owner).name)[0] if self._owner > 0 else -1
+        return self._name_suffix
+
+    def getObjectHandle(self, name: Any) -> int:  # noqa: N802
+        """V-REP 3.x / CoppeliaSim 4.0-4.2's lookup with its automatic name suffix: in a script
+        whose object is a copy (``robot#0``), ``getObjectHandle("motor")`` finds ``motor#0``, the
+        motor of the same copy; ``"motor#"`` means the name without a suffix, and a name with a
+        suffix or a path is taken as it is. ``sim.setNameSuffix(n)`` changes the suffix (-1:
+        none). Raises UnknownObjectError for an unknown name, as V-REP did."""
+        if isinstance(name, (str, bytes, bytearray)):
+            text = _text(name, "object name")
+            suffix = self._suffix()
+            if text.endswith("#"):
+                return self._world.resolve(text[:-1]).handle
+            if suffix >= 0 and "#" not in text and not text.startswith(("/", ".", ":")):
+                return self._world.resolve(f"{text}#{suffix}").handle
+        return super().getObjectHandle(name)
+
+    def getNameSuffix(self, name: Any = None) -> tuple[int, str]:  # noqa: N802
+        """The suffix number of ``name`` (nil: the script's object) and the name without it."""
+        text = self._world.get(self._owner).name if name is None else _text(name, "name")
+        return name_suffix(text)
+
+    def setNameSuffix(self, suffix: Any) -> int:  # noqa: N802
+        """The suffix later ``getObjectHandle`` calls of this script append (-1: none)."""
+        self._name_suffix = max(-1, _int(suffix, "nameSuffixNumber"))
+        return 1
 
     # ---------------------------------------------------------------- the script itself
     def _own(self, script: Any, what: str) -> Any:

@@ -391,3 +391,19 @@ def test_a_python_thread_that_never_yields_is_interrupted(tmp_path, caplog):
     finally:
         sim.stop()
         sim.close()
+
+
+def test_getObjectHandle_of_a_copy_finds_the_objects_of_the_same_copy(tmp_path):
+    source = "function f(a, b, c, d)\n  local s, n = simGetNameSuffix(nil)\n" \
+             "  local mine = simGetObjectHandle('Part')\n  local plain = simGetObjectHandle('Part#')\n" \
+             "  simSetNameSuffix(-1)\n  local again = simGetObjectHandle('Part')\n" \
+             "  return {s, mine, plain, again}, {}, {n}\nend\n"
+    scene = small_scene(tmp_path, {"Robot#0": ("r.lua", source), "Part": ("p.lua", ""), "Part#0": ("p0.lua", "")})
+    sim = Simulation(scene, realtime=False)
+    try:
+        sim.start()
+        part, part0 = sim.world.resolve("Part").handle, sim.world.resolve("Part#0").handle
+        assert call(sim, "Robot#0", "f") == [[0, part0, part, part], [], ["Robot"], b""]
+    finally:
+        sim.stop()
+        sim.close()
