@@ -407,3 +407,19 @@ def test_getObjectHandle_of_a_copy_finds_the_objects_of_the_same_copy(tmp_path):
     finally:
         sim.stop()
         sim.close()
+
+
+def test_an_error_in_a_thread_is_logged_with_its_line_and_ends_the_thread(tmp_path, caplog):
+    source = "function sysCall_thread()\n  sim.switchThread()\n  local x = nil\n  return x.field\nend\n" \
+             "function sysCall_actuation() n=(n or 0)+1 sim.setIntegerSignal('n', n) end\n"
+    sim = Simulation(small_scene(tmp_path, {"Box": ("bad.lua", source)}), realtime=False)
+    try:
+        sim.start()
+        steps(sim, 3)
+        script = next(iter(sim.scripts.scripts.values()))
+        assert sim.signals.get_int("n") == 3 and not script._thread_alive()
+        errors = [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR]
+        assert len(errors) == 1 and "bad.lua:4: attempt to index a nil value" in errors[0], errors
+    finally:
+        sim.stop()
+        sim.close()
