@@ -225,6 +225,7 @@ def main(argv: list[str] | None = None) -> int:
     import zenoh
 
     from simx_server.scene.simulation import Simulation
+    from simx_server.transport.script_hooks import ScriptHooks
     from simx_server.transport.server import DEFAULT_HOSTS, DEFAULT_PORTS, Server
     from simx_server.transport.zenoh_config import zenoh_config
 
@@ -246,6 +247,7 @@ def main(argv: list[str] | None = None) -> int:
         server = Server(sim, config, speed=args.speed, prefix=args.prefix, client_expiry=args.client_expiry,
                         pacing=args.pacing)
         server.open()
+        server.attach(ScriptHooks(sim, config))  # simExtRemoteApiStart(port) in the scene's scripts
     except (zenoh.ZError, ValueError, OSError) as exc:
         print(listen_failure(endpoints, exc), file=sys.stderr)
         sim.close()

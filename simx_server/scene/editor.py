@@ -314,7 +314,9 @@ class Editor(ObjectEdits):
             text = self._scrub(_one_line(exc))
             text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix
             raise RemoteError(f"cannot load scene {label}: {text}") from None
+        old.close()  # the old scene's customization scripts end, the new one's begin
         sim.world, sim.scripts = world, scripts
+        scripts.open()
         refresh_vision(sim)
         sim.sensors = type(sim.sensors)()  # per-scene sensor state (probes, passive images) starts afresh
         self._spec = self._spec_world = self._baseline = None

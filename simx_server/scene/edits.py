@@ -43,6 +43,7 @@ from simx_server.sim.spec_tools import (
     _subtree_objects,
     vrep_suffix,
 )
+from simx_server.sim.objects import without_scripts
 from simx_server.sim.urdf import load_spec
 from simx_server.sim.world import JOINT, SHAPE, WORLD
 
@@ -70,9 +71,9 @@ class ObjectEdits:
         if base is not None and not base.name:
             base.name = child.modelname or file.stem
         for t in list(child.texts):  # child scripts of loaded models are not run
-            if t.name.startswith("simx:") and "child_script=" in t.data:
-                log.warning("model %s: child script of %r ignored", file.name, t.name[5:])
-                rest = " ".join(i for i in t.data.split() if not i.startswith("child_script="))
+            if t.name.startswith("simx:") and ("child_script=" in t.data or "customization_script=" in t.data):
+                log.warning("model %s: scripts of %r ignored", file.name, t.name[5:])
+                rest = without_scripts(t.data)
                 if rest:
                     t.data = rest
                 else:

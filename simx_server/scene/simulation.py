@@ -14,6 +14,7 @@ from simx_server.scene.editor import Editor
 from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts import shapes
 from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.facade_legacy import RemoteApiPorts
 from simx_server.scripts.scene_scripts import Scripts
 from simx_server.sim import ik
 from simx_server.sim.physics import PhysicsError
@@ -65,6 +66,8 @@ class Simulation:
         self.selection: list[int] = []  # simxGetObjectSelection (no GUI: only what clients set)
         #: Why the simulation last stopped by itself (a physics blow-up), None after a start.
         self.stop_reason: str | None = None
+        self.remote_api = RemoteApiPorts()  # ports scripts ask the legacy remote API to serve
+        self.scripts.open()  # customization scripts run from the scene's load
 
     @property
     def scene_id(self) -> int:
@@ -199,6 +202,7 @@ class Simulation:
         return [client for client, triggered in self._sync.items() if not triggered]
 
     def close(self) -> None:
-        """Release GL contexts and the transfer folder; idempotent."""
+        """Customization scripts' cleanup, release GL contexts and the transfer folder; idempotent."""
+        self.scripts.close()
         self.vision.close()
         self.editor.close()

@@ -36,15 +36,21 @@ import numpy as np
 from simx_wire.protocol import ScriptError
 from simx_server.scripts.facade import ScriptSim
 from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.facade_legacy import PythonThread
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.sim.world import World
 
-__all__ = ["DEFAULT_TIMEOUT", "LIFE_CYCLE", "REMOTE_CODE_FLAG", "UNSAFE_LUA_FLAG", "ChildScript", "PythonScript",
+__all__ = ["DEFAULT_TIMEOUT", "LIFE_CYCLE", "LIFE_CYCLE_CALLS", "REMOTE_CODE_FLAG", "UNSAFE_LUA_FLAG", "ChildScript",
+           "PythonScript",
            "ScriptTimeoutError", "legacy_outputs"]
 
 log = logging.getLogger("simx.scripts")
 
 LIFE_CYCLE = ("sysCall_init", "sysCall_actuation", "sysCall_sensing", "sysCall_cleanup")
+#: Every life-cycle function of child and customization scripts (called without arguments).
+LIFE_CYCLE_CALLS = frozenset(LIFE_CYCLE + ("sysCall_nonSimulation", "sysCall_beforeSimulation",
+                                           "sysCall_afterSimulation", "sysCall_suspend", "sysCall_suspended",
+                                           "sysCall_resume"))
 #: Seconds a single call into a script may run before it is interrupted.
 DEFAULT_TIMEOUT = 1.0
 #: The command-line flag that lets scripts run code sent by clients (Lua ``load``/``loadstring``,
@@ -166,14 +172,22 @@ class ChildScript:
 
     def __init__(self, world: World, owner: int, path: Path, *, signals: Signals | None = None,
                  timeout: float = DEFAULT_TIMEOUT, allow_remote_code: bool = False,
-                 allow_unsafe_lua: bool = False, simulation: Any = None, forces: AppliedForces | None = None):
+                 allow_unsafe_lua: bool = False, simulation: Any = None, forces: AppliedForces | None = None,
+                 kind: str = "child", threaded: bool = False, version: int | None = None,
+                 parameters: list | None = None, shared: dict | None = None):
         self.world = world
         self.simulation = simulation  # the Simulation, for the facade calls that need it (sensors, edits)
         self.forces = forces if forces is not None else AppliedForces()
         self.owner = owner
         self.path = path
         self.object_name = world.get(owner).name
-        self.label = f"child script {path.name} of {self.object_name!r}"
+        self.kind = kind  # "child" or "customization"
+        self.threaded = threaded  # a V-REP 3.x threaded script: its whole text runs as a coroutine
+        self.version = version  # the V-REP version that wrote it (30600 = 3.6.0), None: current
+        self.parameters = list(parameters or [])  # script simulation parameters: {"name", "value", "unit"}
+        self.shared = shared if shared is not None else {}  # one dict per Scripts (custom data, requests)
+        self.executions = 0  # sim.getScriptExecutionCount
+        self.label = f"{kind} script {path.name} of {self.object_name!r}"
         self.signals = signals if signals is not None else Signals()
         self.timeout = float(timeout)
         self.allow_remote_code = allow_remote_code
@@ -189,12 +203,15 @@ class ChildScript:
 
     def facade(self) -> ScriptSim:
         """A new ``sim`` for this script."""
-        return ScriptSim(self.world, self.owner, self.signals, label=self.path.name,
-                         simulation=self.simulation, forces=self.forces)
+        facade = ScriptSim(self.world, self.owner, self.signals, label=self.path.name,
+                           simulation=self.simulation, forces=self.forces)
+        facade._script = self  # the calls about the script itself (execution count, parameters, threads)
+        return facade
 
     # ---------------------------------------------------------------- life cycle
     def start(self) -> None:
-        """Simulation starts: fresh state, the file's top level, then ``sysCall_init``.
+        """Simulation starts: fresh state, the file's top level, ``sysCall_init``, then the
+        script's thread (if it has one) runs to its first yield.
 
         Raises ScriptError when the script cannot run (load error, error in its top level);
         it then stays attached, and remote calls answer that error."""
@@ -209,10 +226,16 @@ class ChildScript:
         except ScriptError as exc:
             self.start_error = str(exc)
             raise
-        if self._defines("sysCall_threadmain"):
-            log.error("%s: threaded child scripts (sysCall_threadmain) are not supported: it does not run; "
-                      "move its work into sysCall_actuation (docs/SCRIPTS.md)", self.label)
         self.life_cycle("sysCall_init")
+        if self.kind == "child":
+            self._guarded("thread", self._launch_thread)
+            self.resume_thread()
+
+    def resume_thread(self) -> None:
+        """Resume the script's thread (a coroutine) until it yields, once per step before
+        ``sysCall_actuation``; errors and overruns go to the log and end the thread."""
+        if self.running and not self.load_error and self._thread_alive():
+            self._guarded("thread", self._resume_thread)
 
     def life_cycle(self, function: str) -> None:
         """Run a life-cycle function if the script defines it; errors go to the log only.
@@ -222,9 +245,13 @@ class ChildScript:
         skipped until the simulation restarts, so that the simulation keeps its pace."""
         if not self.running or self.load_error or function in self._skipped:
             return
+        if self._defines(function):
+            self.executions += 1
+            self._guarded(function, lambda: self._run_function(function, ()))
+
+    def _guarded(self, function: str, run: Callable[[], Any]) -> None:
         try:
-            if self._defines(function):
-                self._run_function(function, ())
+            run()
         except ScriptTimeoutError as exc:
             if function in _STEP_FUNCTIONS:
                 self._skipped.update(_STEP_FUNCTIONS)
@@ -297,6 +324,17 @@ class ChildScript:
     def _drop(self) -> None:
         raise NotImplementedError
 
+    def _launch_thread(self) -> None:
+        """Start the script's thread if it has one (``sysCall_thread``, ``sysCall_threadmain``,
+        a 3.x threaded script); languages without threads log why not."""
+        for name in ("sysCall_thread", "sysCall_threadmain"):
+            if self._defines(name):
+                log.error("%s: threaded %s scripts (%s) are not supported: it does not run", self.label,
+                          self.language, name)
+
+    def _thread_alive(self) -> bool:
+        return False  # _resume_thread() runs the thread until it yields, in languages that have threads
+
     def _fault(self, what: str, detail: str, timeout: bool = False) -> ScriptError:
         cls = ScriptTimeoutError if timeout else ScriptError
         return cls(f"{self.label}, {what}: {detail}")
@@ -362,7 +400,7 @@ class PythonScript(ChildScript):
     def _run_function(self, function: str, args: tuple) -> Any:
         fn = self.namespace[function]
         out = self._bounded(function, lambda: fn(*args))
-        if function in LIFE_CYCLE:
+        if function in LIFE_CYCLE_CALLS:
             return out
         try:
             return legacy_outputs(out)
@@ -375,7 +413,30 @@ class PythonScript(ChildScript):
         return [] if out is None else list(out) if isinstance(out, tuple) else [out]
 
     def _drop(self) -> None:
+        if self.py_thread is not None:
+            self.py_thread.end()
+            self.py_thread = None
         self.namespace = {}
+
+    py_thread: PythonThread | None = None
+
+    def _launch_thread(self) -> None:
+        fn = self.namespace.get("sysCall_thread") or self.namespace.get("sysCall_threadmain")
+        if callable(fn):
+            self.py_thread = PythonThread(fn, f"{self.path.name} of {self.object_name}")
+
+    def _thread_alive(self) -> bool:
+        return self.py_thread is not None and self.py_thread.alive
+
+    def _resume_thread(self) -> None:
+        thread = self.py_thread
+        if not thread.resume(self.timeout):
+            raise self._fault("thread", f"{self.path.name}: interrupted: did not yield within {self.timeout:g} s "
+                                        "(script_timeout)", timeout=True)
+        if thread.error is not None:
+            exc, thread.error = thread.error, None
+            raise self._fault("thread", f"{self._where(traceback.extract_tb(exc.__traceback__))}"
+                                        f"{type(exc).__name__}: {exc}")
 
     def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
         try:

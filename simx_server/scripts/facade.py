@@ -14,7 +14,8 @@ from __future__ import annotations
 from typing import Any
 
 from simx_wire.protocol import UnsupportedError
-from simx_server.scripts import facade_objects, facade_sensors
+from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
+from simx_server.scripts.facade_legacy import LegacyCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
 from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls
 from simx_server.scripts.facade_sensors import SensorCalls
@@ -23,10 +24,11 @@ from simx_server.sim.world import World
 
 #: Every ``sim.NAME`` constant of child scripts: the legacy ``sim_*`` constants, ``handle_world``,
 #: and CoppeliaSim's that simx adds (``handle_scene``, ``handleflag_greyscale``, ``simulation_*``).
-FACADE_CONSTANTS: dict[str, int] = {**SCRIPT_CONSTANTS, **facade_objects.CONSTANTS, **facade_sensors.CONSTANTS}
+FACADE_CONSTANTS: dict[str, int] = {**SCRIPT_CONSTANTS, **facade_objects.CONSTANTS, **facade_sensors.CONSTANTS,
+                                     **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(ObjectCalls, SensorCalls, SimFacade):
+class ScriptSim(ObjectCalls, SensorCalls, LegacyCalls, SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
     Args:

@@ -37,8 +37,10 @@ from typing import Any
 from simx_wire.protocol import ArgumentError, RemoteError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scripts.call_arguments import script_argument_bytes
-from simx_server.scripts.child import LIFE_CYCLE, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
+from simx_server.scripts.child import LIFE_CYCLE_CALLS, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
 from simx_server.scripts.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
+from simx_server.scripts.rewrites import lua_file_text, rewrite
+from simx_server.scripts.threads import LuaStyles
 
 try:
     import lupa.lua54 as _lupa
@@ -283,7 +285,7 @@ def _first_line(exc: BaseException) -> str:
     return msg.split("\nstack traceback:", 1)[0].strip()
 
 
-class LuaScript(ChildScript):
+class LuaScript(LuaStyles, ChildScript):
     """A Lua child script (the V-REP kind), in a lupa Lua 5.4 state of its own."""
 
     language = "Lua"
@@ -297,7 +299,10 @@ class LuaScript(ChildScript):
             self.load_error = "Lua scripts need lupa with Lua 5.4: pip install 'lupa>=2.2'"
             return
         try:
-            self._source = self.path.read_bytes()
+            self._source, steps = rewrite(lua_file_text(self.path.read_bytes()), self.version)
+            if steps:
+                log.info("%s written by V-REP %s: rewritten as CoppeliaSim does (%s)", self.label, self.version,
+                         ", ".join(steps))
         except OSError as exc:
             self.load_error = f"{self.path.name}: {exc}"
             return
@@ -383,20 +388,24 @@ class LuaScript(ChildScript):
             rt.table_from({k.encode(): v for k, v in FACADE_CONSTANTS.items()}),
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(), L.MAX_PATTERN_WORK)
-        chunk = rt.compile(self._source, name=f"@{self.path.name}", mode="t")
-        self._bounded("top level", chunk, ())
+        self._prepare_styles(rt)
+        self._run_top_level(rt.compile(self._source, name=f"@{self.path.name}", mode="t"))
 
     def _defines(self, function: str) -> bool:
+        if self.old_style and function in LIFE_CYCLE_CALLS:
+            return self._old_style_defines(function)
         return self._lookup is not None and self._lookup(function.encode()) is not None
 
     def _callable(self, function: str) -> bool:
         return self._defines(function)
 
     def _run_function(self, function: str, args: tuple) -> Any:
+        if self.old_style and function in LIFE_CYCLE_CALLS:
+            return self._old_style_run(function)
         fn = self._lookup(function.encode())
         if fn is None:
             raise self._fault(function, "no such function")
-        if function in LIFE_CYCLE:
+        if function in LIFE_CYCLE_CALLS:
             return self._bounded(function, fn, ())
         ints, floats, strings, buffer = args
         lua_args = (ints, floats, [s.encode("utf-8") for s in strings], bytes(buffer))

@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 from pathlib import Path
@@ -16,6 +17,7 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ScriptError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.scripts.child import DEFAULT_TIMEOUT, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, PythonScript
+from simx_server.scripts.dynamics import DynamicsCallbacks
 from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.scripts.lua import LuaScript
@@ -94,30 +96,63 @@ class Scripts:
         self.allow_remote_code = allow_remote_code
         self.allow_unsafe_lua = allow_unsafe_lua
         self.scripts: dict[int, ChildScript] = {}
+        self.customization: dict[int, ChildScript] = {}  # customization scripts, by object
+        self.shared: dict = {"manager": self}  # custom data blocks, the scripts' view of each other
+        self.opened = False
+        self.dynamics = DynamicsCallbacks(world)  # sysCall_jointCallback / sysCall_dynCallback at each substep
         for obj in world.objects.values():
-            file = obj.settings.get("child_script")
-            if not file:
-                continue
-            bound = obj.settings.get("script_timeout", timeout)
-            try:
-                bound = float(bound)
-                if not (bound > 0 and math.isfinite(bound)):
-                    raise ValueError
-            except ValueError:
-                raise ValueError(f"script_timeout of {obj.name!r} must be a positive number of seconds, "
-                                 f"got {obj.settings.get('script_timeout')!r}") from None
-            self.scripts[obj.handle] = load_script(world, obj.handle, file, untrusted=untrusted,
-                                                   signals=self.signals, timeout=bound,
-                                                   allow_remote_code=allow_remote_code,
-                                                   allow_unsafe_lua=allow_unsafe_lua,
-                                                   simulation=simulation, forces=self.forces)
+            for key, table in (("child_script", self.scripts), ("customization_script", self.customization)):
+                file = obj.settings.get(key)
+                if not file:
+                    continue
+                options = script_options(world, obj, timeout)
+                table[obj.handle] = load_script(world, obj.handle, file, untrusted=untrusted, signals=self.signals,
+                                                allow_remote_code=allow_remote_code,
+                                                allow_unsafe_lua=allow_unsafe_lua, simulation=simulation,
+                                                forces=self.forces, shared=self.shared,
+                                                kind="child" if key == "child_script" else "customization",
+                                                **options)
         if allow_remote_code and self.scripts:
             log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
         if allow_unsafe_lua and self.scripts:
             log.warning("Lua child scripts may use files, processes and the environment (%s)", UNSAFE_LUA_FLAG)
 
+    def open(self) -> None:
+        """The scene is loaded: customization scripts run their top level and ``sysCall_init``
+        (they live until :meth:`close`, across simulations). Idempotent."""
+        if self.opened:
+            return
+        self.opened = True
+        for script in self.customization.values():
+            try:
+                script.start()
+            except ScriptError as exc:
+                log.error("%s", exc)
+            except Exception:
+                log.exception("%s: internal error at load", script.label)
+
+    def close(self) -> None:
+        """The scene is unloaded: customization scripts' ``sysCall_cleanup``, then their state goes."""
+        if not self.opened:
+            return
+        self.opened = False
+        for script in self.customization.values():
+            script.stop()
+
+    def idle(self, paused: bool = False) -> None:
+        """A pass of the server's loop without a step: customization scripts'
+        ``sysCall_nonSimulation`` while stopped, ``sysCall_suspended`` while paused."""
+        self._customization("sysCall_suspended" if paused else "sysCall_nonSimulation")
+
+    def _customization(self, function: str) -> None:
+        for script in self.customization.values():
+            script.life_cycle(function)
+
     def start(self) -> None:
-        """Simulation starts: every script runs its top level and ``sysCall_init``."""
+        """Simulation starts: customization scripts' ``sysCall_beforeSimulation``, then every
+        child script runs its top level, ``sysCall_init`` and its thread's first part."""
+        self.open()
+        self._customization("sysCall_beforeSimulation")
         for script in self.scripts.values():
             try:
                 script.start()
@@ -125,11 +160,15 @@ class Scripts:
                 log.error("%s", exc)
             except Exception:  # the other scripts start all the same
                 log.exception("%s: internal error at start", script.label)
+        self.dynamics.install([*self.scripts.values(), *self.customization.values()])
 
     def actuation(self) -> None:
-        """Before a step: ``sysCall_actuation`` of every script."""
+        """Before a step: each child script's thread resumes, then its ``sysCall_actuation``;
+        then the customization scripts' ``sysCall_actuation``."""
         for script in self.scripts.values():
+            script.resume_thread()
             script.life_cycle("sysCall_actuation")
+        self._customization("sysCall_actuation")
 
     def sensing(self) -> None:
         """After a step: forces scripts added are reset (the step applied them), then
@@ -137,13 +176,16 @@ class Scripts:
         self.forces.clear(self.world)
         for script in self.scripts.values():
             script.life_cycle("sysCall_sensing")
+        self._customization("sysCall_sensing")
 
     def stop(self) -> None:
         """Simulation stops: ``sysCall_cleanup`` of every script; signals set by scripts go."""
         self.stopping = True  # sim.getSimulationState in sysCall_cleanup: the last pass before the stop
+        self.dynamics.remove()
         try:
             for script in self.scripts.values():
                 script.stop()
+            self._customization("sysCall_afterSimulation")
         finally:
             self.stopping = False
         self.signals.clear_script_signals()
@@ -154,16 +196,20 @@ class Scripts:
 
         Raises ScriptError (no such script or function, or the script failed) or
         ArgumentError (arguments of the wrong types)."""
-        if script_type != C.sim_scripttype_childscript:
+        table = {C.sim_scripttype_childscript: self.scripts,
+                 C.sim_scripttype_customizationscript: self.customization}.get(script_type)
+        if table is None:
             raise ScriptError(f"script type {script_type} is not supported; only child scripts "
-                              f"(sim_scripttype_childscript = {C.sim_scripttype_childscript})")
+                              f"(sim_scripttype_childscript = {C.sim_scripttype_childscript}) and "
+                              f"customization scripts ({C.sim_scripttype_customizationscript})")
         try:
             obj = self.world.resolve(object_name)
         except UnknownObjectError as exc:
             raise ScriptError(f"no child script: {exc}") from None
-        script = self.scripts.get(obj.handle)
+        script = table.get(obj.handle)
         if script is None:
-            raise ScriptError(f"object {obj.name!r} has no child script")
+            kind = "child" if table is self.scripts else "customization"
+            raise ScriptError(f"object {obj.name!r} has no {kind} script")
         _check_call_arguments(ints, floats, strings, buffer)
         if not isinstance(function, str) or not function:
             raise ArgumentError("the function name must be a non-empty string")
@@ -175,6 +221,54 @@ class Scripts:
         if script is None:
             raise ScriptError(f"object {self.world.get(handle).name!r} has no child script")
         return script
+
+
+def script_options(world: World, obj: Any, timeout: float) -> dict:
+    """The script settings of ``obj`` (``script_timeout=S``, ``threaded=1``, ``vrep_version=N``,
+    ``script_parameters=FILE.json``) as ``load_script`` options; ValueError for a bad value."""
+    settings = obj.settings
+    bound = settings.get("script_timeout", timeout)
+    try:
+        bound = float(bound)
+        if not (bound > 0 and math.isfinite(bound)):
+            raise ValueError
+    except ValueError:
+        raise ValueError(f"script_timeout of {obj.name!r} must be a positive number of seconds, "
+                         f"got {settings.get('script_timeout')!r}") from None
+    threaded = settings.get("threaded", "0")
+    if threaded not in ("0", "1"):
+        raise ValueError(f"threaded of {obj.name!r} must be 0 or 1, got {threaded!r}")
+    version = settings.get("vrep_version")
+    if version is not None:
+        if not version.isdigit():
+            raise ValueError(f"vrep_version of {obj.name!r} must be V-REP's version number (30600 for 3.6.0), "
+                             f"got {version!r}")
+        version = int(version)
+    return {"timeout": bound, "threaded": threaded == "1", "version": version,
+            "parameters": read_parameters(world, obj.name, settings.get("script_parameters"))}
+
+
+def read_parameters(world: World, name: str, file: str | None) -> list[dict]:
+    """The script simulation parameters of ``file`` (JSON: a list of ``{"name", "value", "unit"}``
+    next to the scene); [] without a file. ValueError for a file outside the scene's folder,
+    missing, too large or not such a list."""
+    if not file:
+        return []
+    folder = world.scene_path.parent
+    path = (folder / file).resolve()
+    if folder.resolve() not in path.parents or not path.is_file():
+        raise ValueError(f"script_parameters {file!r} of {name!r} not found in {folder}")
+    if path.stat().st_size > L.MAX_SCRIPT_CALL_BYTES:
+        raise ValueError(f"script_parameters {file!r} of {name!r} is larger than {L.MAX_SCRIPT_CALL_BYTES} bytes")
+    try:
+        items = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"script_parameters {file!r} of {name!r}: {exc}") from None
+    if not isinstance(items, list) or not all(isinstance(i, dict) and isinstance(i.get("name"), str)
+                                               for i in items):
+        raise ValueError(f"script_parameters {file!r} of {name!r} must be a JSON list of "
+                         '{"name", "value", "unit"} objects')
+    return [{"name": i["name"], "value": i.get("value", ""), "unit": i.get("unit", "")} for i in items]
 
 
 _WRONG_TYPES = "script arguments must be lists of ints, floats and strings, and bytes"

@@ -36,6 +36,17 @@ class SceneObject:
     settings: dict[str, str]
 
 
+#: ``simx:`` settings that belong to an object's scripts (docs/SCRIPTS.md): copies of the object
+#: and models loaded into a scene drop them all together.
+SCRIPT_SETTINGS = ("child_script", "customization_script", "threaded", "vrep_version", "script_parameters",
+                   "script_timeout")
+
+
+def without_scripts(text: str) -> str:
+    """The data of a ``simx:`` text without its script settings (:data:`SCRIPT_SETTINGS`)."""
+    return " ".join(i for i in text.split() if i.partition("=")[0] not in SCRIPT_SETTINGS)
+
+
 def parse_settings(text: str) -> dict[str, str]:
     """Parse ``"key=value key=value"`` (the data of a ``simx:NAME`` custom text)."""
     settings = {}

@@ -15,6 +15,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from simx_server.sim.objects import without_scripts
 from simx_server.sim.world import DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, World
 
 log = logging.getLogger("simx.editing")  # the editor's log: MuJoCo's warnings while editing
@@ -187,9 +188,9 @@ def _copy_settings(spec: mujoco.MjSpec, mapping: dict[str, str]) -> None:
         t = spec.text(f"simx:{old}")
         if t is None:
             continue
-        items = [i for i in t.data.split() if not i.startswith("child_script=")]
-        if items:
-            spec.add_text(name=f"simx:{new}", data=" ".join(items))
+        rest = without_scripts(t.data)
+        if rest:
+            spec.add_text(name=f"simx:{new}", data=rest)
 
 
 def _own_pose(spec: mujoco.MjSpec, el) -> tuple[np.ndarray, np.ndarray]:

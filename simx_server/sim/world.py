@@ -87,6 +87,9 @@ class World(Poses):
         self.scene_path = Path(scene).resolve()
         #: A client's scene: its compiled model's arena and step work are bounded (check_cost).
         self.bounded = bounded
+        #: ``hook(model, data)`` run before each MuJoCo substep (scripts' sysCall_jointCallback
+        #: and sysCall_dynCallback, set by simx_server.scripts.dynamics), or None.
+        self.substep_hook = None
         physics.install_warning_handler()  # MuJoCo's warnings go to the log, not to stdout
         try:
             self.requested_dt = physics.check_dt(dt)  # s; the actual dt is a whole number of timesteps
@@ -363,7 +366,11 @@ class World(Poses):
         """
         m, d = self.model, self.data
         self.motors.apply(m, d, self.dt)
-        if self.bounded:  # a client's scene: at most MAX_STEP_SECONDS of the simulation thread
+        if self.substep_hook is not None:  # scripts' joint and dynamics callbacks: at each substep
+            for _ in range(self.substeps):
+                self.substep_hook(m, d)
+                mujoco.mj_step(m, d)
+        elif self.bounded:  # a client's scene: at most MAX_STEP_SECONDS of the simulation thread
             physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS)
         else:
             mujoco.mj_step(m, d, nstep=self.substeps)

@@ -51,7 +51,7 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS,
          max_decoded: int = MAX_REQUEST_DECODED_BYTES, max_containers: int = MAX_CONTAINERS) -> int:
     """Check the item heads of a CBOR message without building it; raises ProtocolError.
     Returns the memory its decoded value takes (bytes, about: CPython's costs of
-    :mod:`simx_client.decoded_size`), refused past ``max_decoded`` (the legacy door's
+    :mod:`simx_wire.decoded_size`), refused past ``max_decoded`` (the legacy door's
     ``MAX_REQUEST_DECODED_BYTES``: a 1-byte empty map decodes to 240 bytes).
 
     Accepts what protocol version 2 uses: unsigned and negative integers up to 64 bits, byte

@@ -1,0 +1,129 @@
+"""Scripts' callbacks at the dynamics step (issue 34): ``sysCall_jointCallback`` (a script's own
+controller for its joint) and ``sysCall_dynCallback``, run at every MuJoCo substep as V-REP ran
+them at every step of its physics engine.
+
+* ``sysCall_jointCallback(inData)`` of a script attached to a joint with a motor is called before
+  each substep with the joint's state: ``handle``, ``revolute``, ``cyclic``, ``lowLimit``,
+  ``highLimit``, ``passCnt`` (1-based substep of this simulation step), ``totalPasses``,
+  ``currentPos``, ``currentVel``, ``targetPos``, ``targetVel``, ``errorValue`` (target minus
+  current position), ``effort`` (the force the motor applied last), ``dynStepSize`` (s),
+  ``maxVel``, ``maxForce``, ``velUpperLimit``, ``first`` / ``last`` (first / last substep). It
+  returns ``{force=f, velocity=v}`` (the motor drives the joint toward velocity ``v`` with at most
+  ``|f|``, as CoppeliaSim applies it), or nil to leave the motor as it is. The values it sets
+  stay the motor's (a client reads them back) until something sets others.
+* ``sysCall_dynCallback(inData)`` of any script is called before and after each substep with
+  ``passCnt``, ``totalPasses``, ``dynStepSize`` and ``afterStep`` (false, then true).
+* ``sysCall_contactCallback`` (replacing a contact's parameters) has no MuJoCo counterpart here:
+  a script that defines it gets one log line, and the contacts are MuJoCo's.
+
+An error in a callback is logged once (then at debug level) and the simulation goes on.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from simx_server.sim.objects import JOINT
+
+log = logging.getLogger("simx.scripts")
+
+JOINT_CALLBACK, DYN_CALLBACK = "sysCall_jointCallback", "sysCall_dynCallback"
+CONTACT_CALLBACK = "sysCall_contactCallback"
+
+
+class DynamicsCallbacks:
+    """The scene's scripts that have dynamics-step callbacks; installs the world's substep hook
+    while any such script runs (:meth:`install` at start, :meth:`remove` at stop)."""
+
+    def __init__(self, world: Any):
+        self.world = world
+        self.joints: list[tuple[Any, int]] = []  # (script, joint handle)
+        self.dyn: list[Any] = []
+        self._pass = 0
+
+    def install(self, scripts: list) -> None:
+        self.joints, self.dyn = [], []
+        w = self.world
+        for script in scripts:
+            if not script.running or script.load_error:
+                continue
+            if script._defines(JOINT_CALLBACK):
+                obj = w.get(script.owner)
+                if obj.type == JOINT and script.owner in w.motor_index:
+                    self.joints.append((script, script.owner))
+                else:
+                    log.error("%s: %s runs only in a script attached to a joint with a motor; %r is not",
+                              script.label, JOINT_CALLBACK, obj.name)
+            if script._defines(DYN_CALLBACK):
+                self.dyn.append(script)
+            if script._defines(CONTACT_CALLBACK):
+                log.warning("%s: %s is not supported (MuJoCo computes the contacts): it does not run",
+                            script.label, CONTACT_CALLBACK)
+        w.substep_hook = self._substep if (self.joints or self.dyn) else None
+
+    def remove(self) -> None:
+        self.world.substep_hook = None
+        self.joints, self.dyn = [], []
+
+    def _substep(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """Before one MuJoCo substep (the world's hook); the dyn callbacks' after-step call for
+        the previous substep comes first."""
+        w = self.world
+        total = w.substeps
+        self._pass = self._pass % total + 1
+        step = float(m.opt.timestep)
+        if self._pass > 1:
+            self._dyn(self._pass - 1, total, step, True)
+        self._dyn(self._pass, total, step, False)
+        changed = False
+        for script, handle in self.joints:
+            out = self._call(script, JOINT_CALLBACK, self._joint_data(m, d, handle, self._pass, total, step))
+            if isinstance(out, dict) and ("force" in out or "velocity" in out):
+                i = w.motor_index[handle]
+                motors = w.motors
+                if "velocity" in out:
+                    motors.target_velocity[i] = float(out["velocity"])
+                if "force" in out:
+                    motors.max_force[i] = abs(float(out["force"]))
+                motors.enabled[i], motors.loop[i] = True, False
+                changed = True
+        if changed:
+            w.motors.write_force_limits(m)
+            w.motors.apply(m, d, w.dt)
+        if self._pass == total:
+            self._dyn(total, total, step, True)
+
+    def _dyn(self, n: int, total: int, step: float, after: bool) -> None:
+        for script in self.dyn:
+            self._call(script, DYN_CALLBACK, {"passCnt": n, "totalPasses": total, "dynStepSize": step,
+                                               "afterStep": after})
+
+    def _joint_data(self, m: mujoco.MjModel, d: mujoco.MjData, handle: int, n: int, total: int,
+                    step: float) -> dict:
+        w = self.world
+        obj = w.get(handle)
+        j = obj.mj_id
+        i = w.motor_index[handle]
+        motors = w.motors
+        q, v = float(d.qpos[m.jnt_qposadr[j]]), float(d.qvel[m.jnt_dofadr[j]])
+        revolute = int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE
+        limited = bool(m.jnt_limited[j])
+        lo, hi = (float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])) if limited else (-np.inf, np.inf)
+        target = float(motors.target_position[i])
+        return {"handle": handle, "revolute": revolute, "cyclic": revolute and not limited,
+                "lowLimit": lo if limited else -1e30, "highLimit": hi if limited else 1e30,
+                "passCnt": n, "totalPasses": total, "currentPos": q, "currentVel": v,
+                "targetPos": target, "targetVel": float(motors.target_velocity[i]), "errorValue": target - q,
+                "effort": float(d.actuator_force[motors.act[i]] * motors.gear[i]), "dynStepSize": step,
+                "maxVel": float(motors.max_velocity[i]), "velUpperLimit": float(motors.max_velocity[i]),
+                "maxForce": float(motors.max_force[i]), "first": n == 1, "last": n == total}
+
+    @staticmethod
+    def _call(script: Any, function: str, data: dict) -> Any:
+        result: list = []
+        script._guarded(function, lambda: result.extend(script._run_values(function, (data,))))
+        return result[0] if result else None

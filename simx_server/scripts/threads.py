@@ -1,0 +1,214 @@
+"""Threaded child scripts as coroutines on the simulation thread, as CoppeliaSim 4.x runs them,
+and the pre-3.6 ``sim_call_type`` scripts (Lua).
+
+A script's thread is a Lua coroutine: ``sysCall_thread`` (4.x), ``sysCall_threadmain`` (3.6) or,
+for a V-REP 3.x threaded script (the ``threaded=1`` setting of its object), the script's whole
+text. It starts when the simulation starts (after ``sysCall_init``) and runs until it yields;
+the simulation then resumes it once per step, before the script's ``sysCall_actuation``, until
+it ends or the simulation stops (then it is dropped, as CoppeliaSim drops its coroutines; the
+script's ``sysCall_cleanup`` still runs). It yields in:
+
+* ``sim.switchThread()`` / ``simSwitchThread()``, ``sim.yield()``, ``sim.step()`` (4.6);
+* ``sim.wait(dt [, simulationTime=true])`` / ``simWait``: until ``dt`` s of simulation time (or
+  of wall time) have passed; ``sim.waitForSignal(name)`` / ``simWaitForSignal``: until an
+  integer, float or string signal ``name`` exists (returns its value);
+* any ``sim`` call, once the thread has run longer than its time slice since it was resumed
+  (``sim.setThreadSwitchTiming(ms)``, default 2 ms) while automatic switching is on
+  (``sim.setThreadAutomaticSwitch(false)`` forbids it, ``true`` allows it again; levels nest as
+  in CoppeliaSim 4.x).
+
+Each resume is one call into the script, under its time bound (``script_timeout``) and the Lua
+count hook: a loop that never yields is interrupted, the error logged and the thread ended,
+while the simulation goes on.
+
+Old style: a script whose text tests ``sim_call_type`` and that defines no ``sysCall_*``
+function runs its whole text at every call, with ``sim_call_type`` set to the call's type
+(``sim_childscriptcall_initialization`` at start, ``..._actuation``, ``..._sensing``,
+``..._cleanup``; the customization types likewise), as V-REP before 3.6 did and CoppeliaSim
+still does for such scripts.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from simx_server.scripts.facade import FACADE_FUNCTIONS
+from simx_server.scripts.legacy_names import (CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS,
+                                              doc_table)
+
+__all__ = ["LUA_FUNCTIONS", "THREADS_LUA", "LuaStyles", "script_functions"]
+
+#: ``sim`` functions that Lua scripts get from :data:`THREADS_LUA` (not facade methods).
+LUA_FUNCTIONS = ("switchThread", "yield", "step", "wait", "waitForSignal", "setThreadAutomaticSwitch",
+                 "getThreadAutomaticSwitch", "setThreadSwitchTiming", "getThreadSwitchTiming",
+                 "setThreadResumeLocation", "resumeThreads", "setThreadIsFree", "isScriptRunningInThread",
+                 "isScriptExecutionThreaded")
+
+
+def script_functions() -> frozenset[str]:
+    """Every ``sim.NAME`` function of Lua scripts: the facade's and :data:`LUA_FUNCTIONS`."""
+    return frozenset(FACADE_FUNCTIONS) | frozenset(LUA_FUNCTIONS)
+
+#: Lua run in each script's state after the prelude: the thread functions of ``sim``; returns
+#: ``launch(f)``, ``resume()`` (true while the thread lives; raises the thread's error),
+#: ``wrap()`` (automatic switching at every ``sim`` call, for threaded scripts only) and ``alive()``.
+THREADS_LUA = r"""
+local sim, now = ...
+local co_create, co_resume = coroutine.create, coroutine.resume
+local co_running, co_yield = coroutine.running, coroutine.yield
+local co_status, yieldable = coroutine.status, coroutine.isyieldable
+local error, type, pairs, pack, unpack = error, type, pairs, table.pack, table.unpack
+local T = {co = nil, level = 0, slice = 0.002, resumed = 0}
+local function in_thread() return T.co ~= nil and co_running() == T.co end
+local function switch() if in_thread() and yieldable() then co_yield() end end
+local get_time, get_int = sim.getSimulationTime, sim.getInt32Signal
+local get_float, get_string = sim.getFloatSignal, sim.getStringSignal
+local step = rawget(sim, "step")
+
+local function threaded_only(name)
+  if not in_thread() then
+    error(name .. " can only be called in a threaded script (sysCall_thread, sysCall_threadmain, threaded=1)", 3)
+  end
+end
+sim.switchThread = function() switch() return 1 end
+sim.yield = function() switch() end
+sim.step = function(...) if in_thread() then switch() elseif step then return step(...) else
+  error("sim.step can only be called in a threaded script here", 2) end end
+sim.wait = function(dt, simulationTime)
+  threaded_only("sim.wait")
+  if type(dt) ~= "number" then error("sim.wait: dt must be a number of seconds", 2) end
+  if simulationTime == false then
+    local t_end = now() + dt
+    while now() < t_end do co_yield() end
+  else
+    local t_end = get_time() + dt
+    while get_time() < t_end - 1e-9 do co_yield() end
+  end
+  return 0
+end
+sim.waitForSignal = function(name)
+  threaded_only("sim.waitForSignal")
+  while true do
+    local v = get_int(name)
+    if v == nil then v = get_float(name) end
+    if v == nil then v = get_string(name) end
+    if v ~= nil then return v end
+    co_yield()
+  end
+end
+sim.setThreadAutomaticSwitch = function(allow)
+  if type(allow) == "number" then T.level = math.max(0, math.floor(allow))
+  elseif allow then T.level = math.max(0, T.level - 1)
+  else T.level = T.level + 1 end
+  return T.level
+end
+sim.getThreadAutomaticSwitch = function() return T.level == 0 end
+sim.setThreadSwitchTiming = function(ms) T.slice = math.max(0, ms) / 1000 return 1 end
+sim.getThreadSwitchTiming = function() return math.floor(T.slice * 1000 + 0.5) end
+sim.setThreadResumeLocation = function() return 1 end
+sim.resumeThreads = function() return 0 end
+sim.setThreadIsFree = function() return 0 end
+sim.isScriptRunningInThread = function() return in_thread() and 1 or 0 end
+sim.isScriptExecutionThreaded = function() return T.co ~= nil and 1 or 0 end
+
+local function launch(f, whole)  -- coroutine.create of the prelude: hooked
+  if whole then  -- a threaded script's text; a V-REP 3.6 one then runs its sysCall_threadmain
+    local chunk = f
+    f = function()
+      chunk()
+      local main = rawget(_G, "sysCall_threadmain")
+      if type(main) == "function" then return main() end
+    end
+  end
+  T.co = co_create(f)
+end
+local function resume()
+  local co = T.co
+  if co == nil then return false end
+  T.resumed = now()
+  local ok, err = co_resume(co)
+  if not ok then T.co = nil error(err, 0) end
+  if co_status(co) == "dead" then T.co = nil return false end
+  return true
+end
+local function wrap()
+  for name, f in pairs(sim) do
+    if type(f) == "function" and name ~= "wait" and name ~= "waitForSignal" and name ~= "switchThread" then
+      sim[name] = function(...)
+        local r = pack(f(...))
+        if T.level == 0 and in_thread() and now() - T.resumed > T.slice and yieldable() then co_yield() end
+        return unpack(r, 1, r.n)
+      end
+    end
+  end
+end
+local function alive() return T.co ~= nil end
+return launch, resume, wrap, alive
+"""
+
+_LIFE = frozenset(CALL_TYPES) - {"sysCall_init"}
+_SYSCALLS = ("sysCall_init", "sysCall_cleanup", "sysCall_actuation", "sysCall_sensing", "sysCall_nonSimulation",
+             "sysCall_beforeSimulation", "sysCall_afterSimulation", "sysCall_suspend", "sysCall_suspended",
+             "sysCall_resume", "sysCall_thread", "sysCall_threadmain", "sysCall_jointCallback",
+             "sysCall_dynCallback", "sysCall_contactCallback")
+
+
+class LuaStyles:
+    """Mixin of :class:`~simx_server.scripts.lua.LuaScript`: the 3.x names (:data:`LEGACY_LUA`),
+    threads (:data:`THREADS_LUA`) and old-style ``sim_call_type`` dispatch."""
+
+    old_style = False
+
+    def _prepare_styles(self, rt: Any) -> None:
+        """After the prelude: 3.x globals and thread functions in the new state."""
+        g = rt.globals()
+        aliases = rt.table_from({k.encode(): v.encode() for k, v in FUNCTION_ALIASES.items()})
+        uis = rt.table_from({k.encode(): (rt.table_from(v) if isinstance(v, list) else
+                                          v.encode() if isinstance(v, str) else v) for k, v in UI_FUNCTIONS.items()})
+        rt.compile(LEGACY_LUA, name="=simx")(g.sim, aliases, uis, self._write_log)
+        threads = rt.compile(THREADS_LUA, name="=simx")
+        self._launch, self._resume, self._wrap, self._alive = threads(g.sim, time.monotonic)
+        self.old_style = False
+
+    def _run_top_level(self, chunk: Any) -> None:
+        """The file's top level with ``sim_call_type`` = initialization; a 3.x threaded script's
+        text is kept for its thread instead."""
+        g = self._runtime.globals()
+        self._chunk = chunk
+        if self.threaded:
+            g.sim_call_type = CONSTANTS["childscriptcall_threaded"]
+            return
+        g.sim_call_type = CALL_TYPES["sysCall_init"]
+        self._bounded("top level", chunk, ())
+        self.old_style = b"sim_call_type" in self._source and not any(
+            self._lookup(n.encode()) is not None for n in _SYSCALLS)
+        if not self.old_style:
+            g.sim_call_type = None
+
+    def _old_style_defines(self, function: str) -> bool:
+        return function in _LIFE
+
+    def _old_style_run(self, function: str) -> Any:
+        self._runtime.globals().sim_call_type = CALL_TYPES[function]
+        return self._bounded(function, self._chunk, ())
+
+    def _launch_thread(self) -> None:
+        body = self._chunk if self.threaded else None
+        for name in ("sysCall_thread", "sysCall_threadmain"):
+            if body is None and self._lookup is not None:
+                body = self._lookup(name.encode())
+        if body is not None:
+            self._wrap()
+            self._launch(body, self.threaded)
+
+    def _thread_alive(self) -> bool:
+        return self._runtime is not None and bool(self._alive())
+
+    def _resume_thread(self) -> None:
+        self._bounded("thread", self._resume, ())
+
+
+if __name__ == "__main__":  # pragma: no cover - prints docs/SCRIPTS.md's list of 3.x functions
+    print(doc_table(script_functions()))
+
