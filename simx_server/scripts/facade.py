@@ -15,6 +15,8 @@ from typing import Any
 
 from simx_client.protocol import UnsupportedError
 from simx_server.scripts import facade_objects, facade_sensors
+from simx_server.scripts.facade_gui import GuiCalls
+from simx_server.scripts.facade_params import ParamCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
 from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls
 from simx_server.scripts.facade_sensors import SensorCalls
@@ -26,7 +28,7 @@ from simx_server.sim.world import World
 FACADE_CONSTANTS: dict[str, int] = {**SCRIPT_CONSTANTS, **facade_objects.CONSTANTS, **facade_sensors.CONSTANTS}
 
 
-class ScriptSim(ObjectCalls, SensorCalls, SimFacade):
+class ScriptSim(ParamCalls, GuiCalls, ObjectCalls, SensorCalls, SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
     Args:

@@ -121,32 +121,13 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
         return time.time()
 
     # ---------------------------------------------------------------- parameters
-    def getInt32Param(self, parameter: Any) -> int:  # noqa: N802
-        """Integer parameters simx knows (``simxGetIntegerParameter``'s)."""
-        return self._handler("GetIntegerParameter", _int(parameter, "parameter"))
+    _LEGACY_PARAMS = {"integer": "IntegerParameter", "float": "FloatingParameter", "boolean": "BooleanParameter",
+                      "string": "StringParameter", "array": "ArrayParameter"}
 
-    def setInt32Param(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        self._handler("SetIntegerParameter", _int(parameter, "parameter"), _int(value, "intState"))
-
-    def getFloatParam(self, parameter: Any) -> float:  # noqa: N802
-        """Float parameters simx knows (``sim.floatparam_simulation_time_step`` ...)."""
-        return self._handler("GetFloatingParameter", _int(parameter, "parameter"))
-
-    def setFloatParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        self._handler("SetFloatingParameter", _int(parameter, "parameter"), _num(value, "floatState"))
-
-    def getBoolParam(self, parameter: Any) -> bool:  # noqa: N802
-        """Boolean parameters simx knows (``sim.boolparam_realtime_simulation`` ...)."""
-        return self._handler("GetBooleanParameter", _int(parameter, "parameter"))
-
-    def setBoolParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        self._handler("SetBooleanParameter", _int(parameter, "parameter"), bool(value))
-
-    def getArrayParam(self, parameter: Any) -> list[float]:  # noqa: N802
-        return self._handler("GetArrayParameter", _int(parameter, "parameter"))
-
-    def setArrayParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        self._handler("SetArrayParameter", _int(parameter, "parameter"), _vector(value, 3, "arrayOfValues"))
+    def _legacy_param(self, kind: str, pid: int, *value: Any) -> Any:
+        """Parameter ids the facade does not answer: the legacy API's (``simxGetIntegerParameter``
+        ...: the headless mouse, the stop counter)."""
+        return self._handler(("Set" if value else "Get") + self._LEGACY_PARAMS[kind], pid, *value)
 
     def getStringParam(self, parameter: Any) -> str:  # noqa: N802
         """String parameters: ``sim.stringparam_scenedefaultdir`` is the server's scene folder
@@ -163,7 +144,7 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
             return editor.public(scene.parent)
         if pid == STRINGPARAM_SCENE_NAME:
             return scene.name
-        return self._handler("GetStringParameter", pid)
+        return super().getStringParam(pid)
 
     # ------------------------------------------------------------------- the log
     def addLog(self, verbosityLevel: Any, logMessage: Any) -> None:  # noqa: N802, N803

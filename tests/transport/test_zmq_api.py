@@ -67,8 +67,20 @@ def test_object_paths_of_coppeliasim_4(sim):
     assert sim.getObject("/Arm*", {"index": 1}) == arm
     assert sim.getObject("/Arm*", {"index": 2, "noError": True}) == -1
     assert sim.getObject("ArmJoint") == joint  # a V-REP name
-    with pytest.raises(Exception, match="relative"):
-        sim.getObject("./Arm")  # a remote client has no object of its own
+    # a remote client has no object of its own: ./X, ./X[i] and :/X start from the scene root
+    assert sim.getObject("./Arm") == sim.getObject(":/Arm") == sim.getObject("./ArmJoint[0]/Arm") == arm
+
+
+def test_a_4x_program_first_calls(sim):
+    assert sim.getInt32Param(sim.intparam_program_version) == 40800  # CoppeliaSim 4.8.0
+    assert sim.getInt32Param(sim.intparam_dynamic_engine) == sim.physics_mujoco
+    # deprecated 4.x names are listed (no AttributeError from the client) and answer or name themselves
+    for name in ("getScriptHandle", "getVisionSensorResolution", "getObjectName", "rmlMoveToPosition"):
+        assert callable(getattr(sim, name))
+    with pytest.raises(Exception, match=r"sim\.rmlMoveToPosition: not implemented by simx"):
+        sim.rmlMoveToPosition(-1, -1, -1, [0] * 4, [0] * 4, [0] * 4, [0] * 4, [0] * 3, [0] * 4, [0] * 4, [0] * 4)
+    with pytest.raises(Exception, match=r"sim\.quitSimulator: .*refused"):
+        sim.quitSimulator()
 
 
 def test_stepping_one_client(sim):
