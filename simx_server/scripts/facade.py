@@ -11,24 +11,34 @@ function per :data:`FACADE_FUNCTIONS` entry and every :data:`FACADE_CONSTANTS` e
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 from simx_client.protocol import UnsupportedError
 from simx_server.scripts import facade_objects, facade_sensors
 from simx_server.scripts.facade_gui import GuiCalls
 from simx_server.scripts.facade_params import ParamCalls
+from simx_server.scripts.facade_sensing import SensingCalls
+from simx_server.scripts.facade_shapes import ShapeCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
 from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls
 from simx_server.scripts.facade_sensors import SensorCalls
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import World
 
+#: CoppeliaSim 4.x's ``sim`` constants (``sim.primitiveshape_cuboid``, ``sim.intparam_program_version``...),
+#: from the table the ZMQ remote API ships (``simx_server/zmq/coppeliasim_api.json``, data read here).
+_COPPELIASIM_4 = json.loads((Path(__file__).resolve().parents[1] / "zmq" / "coppeliasim_api.json").read_text(
+    encoding="utf-8"))["constants"]["sim"]
 #: Every ``sim.NAME`` constant of child scripts: the legacy ``sim_*`` constants, ``handle_world``,
-#: and CoppeliaSim's that simx adds (``handle_scene``, ``handleflag_greyscale``, ``simulation_*``).
-FACADE_CONSTANTS: dict[str, int] = {**SCRIPT_CONSTANTS, **facade_objects.CONSTANTS, **facade_sensors.CONSTANTS}
+#: CoppeliaSim's that simx adds (``handle_scene``, ``handleflag_greyscale``, ``simulation_*``), then
+#: CoppeliaSim 4.x's others (where both name one, the legacy value wins: simx's calls read it).
+FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **facade_objects.CONSTANTS,
+                                    **facade_sensors.CONSTANTS}
 
 
-class ScriptSim(ParamCalls, GuiCalls, ObjectCalls, SensorCalls, SimFacade):
+class ScriptSim(ParamCalls, GuiCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
     Args:

@@ -30,10 +30,15 @@ from __future__ import annotations
 
 import fnmatch
 import re
+from typing import Any
 
 from simx_client.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import quote
-from simx_server.sim.world import WORLD, World
+from simx_server.sim.objects import WORLD
+
+#: The scene (a :class:`simx_server.sim.world.World`, which resolves 4.x paths through this module:
+#: typed loosely here so that the two modules do not import each other).
+World = Any
 
 _SUFFIX = re.compile(r"#\d+$")
 _SEGMENT = re.compile(r"^(?P<alias>[^\[\]{}]+)(?:\[(?P<level>\d+)\]|\{(?P<scene>\d+)\})?$")

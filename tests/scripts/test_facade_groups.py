@@ -1,0 +1,152 @@
+"""CoppeliaSim 4.x's regular API groups of the one ``sim`` facade (issue 32), in-process on a
+Simulation: parameters, shapes, collision and distance, sensors, joints, GUI-only calls.
+The same object serves Lua and Python scripts and (RemoteSim) ZMQ clients."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from simx_client.protocol import ArgumentError, RemoteError, UnsupportedError
+from simx_server.scene.simulation import Simulation
+from simx_server.scripts.facade import ScriptSim
+
+SENSORS = ROOT / "tests" / "scenes" / "sensors.xml"
+
+
+@pytest.fixture
+def sim():
+    s = Simulation(SENSORS, realtime=False)
+    s.start()
+    s.step()
+    yield s
+    s.stop()
+    s.close()
+
+
+@pytest.fixture
+def api(sim):
+    return ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
+
+
+def h(api, name):
+    return api.getObject("/" + name)
+
+
+def test_parameters_answer_a_4x_version(api, sim):
+    assert api.getInt32Param(api.intparam_program_version) == 40800
+    assert api.getInt32Param(api.intparam_program_full_version) == 4080000
+    assert api.getInt32Param(api.intparam_dynamic_engine) == 4  # sim.physics_mujoco
+    assert api.getFloatParam(api.floatparam_simulation_time_step) == pytest.approx(sim.world.dt)
+    assert api.getBoolParam(api.boolparam_headless) is True
+    assert api.getArrayParam(api.arrayparam_gravity) == pytest.approx([0, 0, -9.81])
+    with pytest.raises(UnsupportedError, match="parameter 999"):
+        api.getInt32Param(999)
+    with pytest.raises(RemoteError, match="refused"):
+        api.quitSimulator()
+    api.setNamedStringParam("k", "v")
+    assert api.getNamedStringParam("k") == "v" and api.getNamedInt32Param("none") is None
+    assert 0 <= api.getRandom(7) < 1 and api.getRandom(7) == api.getRandom(7)
+
+
+def test_shape_mass_inertia_colour_and_bounding_box(api, sim):
+    a = h(api, "blockA")
+    mass = api.getShapeMass(a)
+    inertia, frame = api.getShapeInertia(a)
+    api.setShapeMass(a, 2 * mass)
+    assert api.getShapeMass(a) == pytest.approx(2 * mass)
+    assert api.getShapeInertia(a)[0] == pytest.approx([2 * v for v in inertia])  # scales with the mass
+    assert len(frame) == 12
+    size = api.getShapeBB(a)
+    assert len(size) == 3 and all(s > 0 for s in size)
+    api.setShapeColor(a, None, 0, [0.1, 0.2, 0.3])
+    assert api.getShapeColor(a, None, 0) == (1, pytest.approx([0.1, 0.2, 0.3]))
+    assert api.getObjectColor(a, 0, 0) == pytest.approx([0.1, 0.2, 0.3])
+    verts, idx, normals = api.getShapeMesh(a)  # blockA is a box
+    assert len(verts) == 24 and len(idx) == 36 and len(normals) == 108
+    extent = np.array(verts).reshape(-1, 3)
+    assert (extent.max(0) - extent.min(0)) == pytest.approx(size)
+
+
+def test_primitive_shape_is_a_dynamic_body(api, sim):
+    s = api.createPrimitiveShape(api.primitiveshape_cuboid, [0.1, 0.2, 0.3])
+    assert api.getObjectType(s) == api.object_shape_type
+    assert api.getShapeBB(s) == pytest.approx([0.1, 0.2, 0.3])
+    assert api.getShapeMass(s) == pytest.approx(1000 * 0.006)
+    with pytest.raises(UnsupportedError, match="cone"):
+        api.createPrimitiveShape(6, [0.1, 0.1, 0.1])
+
+
+def test_collision_and_distance(api):
+    a, b, c = h(api, "blockA"), h(api, "blockB"), h(api, "blockC")
+    assert api.checkCollision(a, c) == (1, [a, c])  # C overlaps A by 0.01 m
+    assert api.checkCollision(a, b) == (0, [-1, -1])  # 0.05 m apart
+    result, data, pair = api.checkDistance(a, b)
+    assert result == 1 and data[6] == pytest.approx(0.05, abs=1e-6) and pair == [a, b]
+    assert np.linalg.norm(np.array(data[:3]) - data[3:6]) == pytest.approx(0.05, abs=1e-6)
+    assert api.checkDistance(a, b, 0.01)[0] == 0  # beyond the threshold
+    assert api.checkDistance(h(api, "ball_above"), api.handle_all)[1][6] == pytest.approx(0.2002, abs=1e-4)
+    with pytest.raises(Exception, match="shape"):
+        api.checkCollision(h(api, "prox"), a)
+
+
+def test_sensors_handled_explicitly(api, sim):
+    cam = h(api, "cam")
+    count, packet = api.handleVisionSensor(cam)
+    assert count == 0 and len(packet) == 15 and all(0 <= v <= 1 for v in packet)
+    assert api.readVisionSensor(cam) == (0, pytest.approx(packet))
+    assert api.getVisionSensorResolution(cam) == [32, 24]
+    img, w, hh = api.getVisionSensorCharImage(cam)
+    assert (w, hh) == (32, 24) and len(img) == 32 * 24 * 3
+    prox = h(api, "prox")
+    detected, dist, point, hit, normal = api.handleProximitySensor(prox)
+    assert api.readProximitySensor(prox)[:2] == (detected, pytest.approx(dist))
+    assert api.checkProximitySensor(prox, api.handle_all)[0] == detected
+    api.resetProximitySensor(prox)
+    api.setExplicitHandling(cam, 1)
+    assert api.getExplicitHandling(cam) == 1
+
+
+def test_joints_interval_mode_and_dependency(api):
+    j = h(api, "hinge")
+    cyclic, interval = api.getJointInterval(j)
+    api.setJointInterval(j, False, [-0.5, 1.0])
+    assert api.getJointInterval(j) == (False, pytest.approx([-0.5, 1.0]))
+    api.setJointInterval(j, cyclic, interval)
+    mode, _ = api.getJointMode(j)
+    assert mode in (0, 5)
+    assert api.getJointDependency(j) == (-1, 0.0, 1.0)
+    with pytest.raises(UnsupportedError, match="kinematic"):
+        api.setJointMode(j, 4)
+
+
+def test_objects_uid_velocity_and_script_handles(api):
+    f = h(api, "faller")
+    assert api.getObjectUid(f) == f and api.getObjectFromUid(f) == f
+    assert api.getObjectFromUid(10 ** 6, {"noError": True}) == -1
+    lin, ang = api.getVelocity(f)
+    assert lin[2] < 0  # it falls
+    assert api.getScriptHandle(f) == -1  # no script on it
+
+
+def test_gui_functions_answer_as_headless(api, caplog):
+    console = api.auxiliaryConsoleOpen("out", 10, 0)
+    with caplog.at_level("INFO", logger="simx.scripts"):
+        assert api.auxiliaryConsolePrint(console, "hello console") == 1
+    assert "hello console" in caplog.text
+    assert api.auxiliaryConsoleClose(console) == 1 and api.auxiliaryConsolePrint(console, "x") == 0
+    assert api.textEditorGetInfo(api.textEditorOpen("x")) == ("", [0, 0], [0, 0], False)
+    assert api.getPage() == 0 and api.getNavigationMode() == 0
+    api.setObjectSelection([h(api, "faller")])
+    assert api.getObjectSelection() == [h(api, "faller")]
+
+
+def test_bad_arguments_are_named(api):
+    with pytest.raises(ArgumentError, match="sizes"):
+        api.createPrimitiveShape(3, [0.1, 0.2])
+    with pytest.raises(ArgumentError, match="mass"):
+        api.setShapeMass(h(api, "blockA"), -1)
+    assert not math.isnan(api.getShapeMass(h(api, "blockA")))
