@@ -150,3 +150,40 @@ def test_bad_arguments_are_named(api):
     with pytest.raises(ArgumentError, match="mass"):
         api.setShapeMass(h(api, "blockA"), -1)
     assert not math.isnan(api.getShapeMass(h(api, "blockA")))
+
+
+def test_pack_table_custom_data_and_properties(api, sim):
+    table = {"a": [1, 2.5, "x"], "b": {"c": True}}
+    assert api.unpackTable(api.packTable(table)) == table
+    with pytest.raises(ArgumentError, match="CBOR"):
+        api.unpackTable(b"\x00\x01")
+    a = h(api, "blockA")
+    api.writeCustomDataBlockEx(a, "tag", b"\x00raw")
+    api.writeCustomTableData(api.handle_scene, "cfg", {"speed": 2})
+    assert api.readCustomDataBlockEx(a, "tag") == b"\x00raw" and api.readCustomDataTags(a) == ["tag"]
+    assert api.readCustomTableData(api.handle_scene, "cfg") == {"speed": 2}
+    assert api.getProperty(api.handle_scene, "customData.cfg") == {"speed": 2}
+    api.setProperty(a, "customData.n", [1, 2])
+    assert api.getProperty(a, "customData.n") == [1, 2]
+    api.setProperty(api.handle_scene, "signal.go", 3)
+    assert api.getInt32Signal("go") == 3 and api.getProperty(api.handle_scene, "signal.go") == 3
+    assert api.getProperty(a, "mass") == pytest.approx(api.getShapeMass(a))
+    assert api.getProperty(a, "nothing", {"noError": True}) is None
+    api.writeCustomDataBlockEx(a, "tag", b"")
+    assert api.readCustomDataBlockEx(a, "tag") is None
+    api.setBufferSignal("buf", b"\x01\x02")
+    assert api.getBufferSignal("buf") == b"\x01\x02" and "buf" in [api.getSignalName(0, 2)]
+
+
+def test_rotation_arithmetic(api):
+    ident = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0]
+    turned = [0, -1, 0, 1, 1, 0, 0, 2, 0, 0, 1, 3]  # 90 degrees about z, moved
+    axis, angle = api.getRotationAxis(ident, turned)
+    assert axis == pytest.approx([0, 0, 1]) and angle == pytest.approx(math.pi / 2)
+    mid = np.array(api.interpolateMatrices(ident, turned, 0.5)).reshape(3, 4)
+    assert mid[:, 3] == pytest.approx([0.5, 1, 1.5])
+    assert math.atan2(mid[1, 0], mid[0, 0]) == pytest.approx(math.pi / 4)
+    abg = api.yawPitchRollToAlphaBetaGamma(0.3, -0.2, 0.5)
+    assert api.alphaBetaGammaToYawPitchRoll(*abg) == pytest.approx((0.3, -0.2, 0.5))
+    assert api.getConfigDistance([0, 0], [3, 4]) == pytest.approx(5)
+    assert api.getConfigDistance([3.0], [-3.0], None, [1]) == pytest.approx(2 * math.pi - 6)
