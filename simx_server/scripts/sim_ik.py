@@ -19,6 +19,8 @@ too, under their names and handles: ``handleGroup`` on one solves it as ``sim.ha
 from __future__ import annotations
 
 import dataclasses
+import json
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -31,6 +33,9 @@ from simx_server.scripts.values import _int, _num, _text, _vector
 from simx_server.sim import ik as scene_ik
 from simx_server.sim.objects import DUMMY, JOINT, WORLD
 
+#: ``simIK.NAME`` constants (CoppeliaSim 4.x's: ``simIK.constraint_pose``, ``method_damped_least_squares``...).
+CONSTANTS: dict[str, int] = json.loads((Path(__file__).resolve().parents[1] / "zmq" / "coppeliasim_api.json")
+                                       .read_text(encoding="utf-8"))["constants"]["simIK"]
 RESULT_NOT_PERFORMED, RESULT_SUCCESS, RESULT_FAIL = 0, 1, 2
 JOINTMODE_PASSIVE, JOINTMODE_IK = 0, 2
 _FIRST_GROUP = 1000  # created groups' handles (the scene's groups keep theirs, from 1)
@@ -66,6 +71,11 @@ class SimIK:
 
     def __init__(self, sim: Any):
         self._s = sim
+
+    def __getattr__(self, name: str) -> Any:
+        if name in CONSTANTS:
+            return CONSTANTS[name]
+        raise AttributeError(f"simIK.{name} is not available in simx (docs/COVERAGE.md lists what is)")
 
     # ------------------------------------------------------------------ helpers
     @property
