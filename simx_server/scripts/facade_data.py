@@ -181,6 +181,8 @@ class DataCalls:
                 raw = self.readCustomDataBlockEx(h, name[11:])
                 if raw is None:
                     raise UnknownObjectError(f"no property {quote(name)}")
+                if (h, name) in getattr(getattr(self, "_sim", None) or self, "custom_types", {}):
+                    return cbor2.loads(raw)  # written by a typed setter (facade_props)
                 return self.unpackTable(raw) if raw[:1] and raw[0] in _CBOR_FIRST else raw
             if name.startswith("signal.") and h == HANDLE_SCENE:
                 for kind in Signals.KINDS:

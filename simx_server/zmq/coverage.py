@@ -62,18 +62,9 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                             "generateTextShape", "importMesh", "exportMesh", "copyPasteObjects")},
     **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")
        for n in ("createJoint", "createForceSensor", "createProximitySensor", "createVisionSensor")},
-    **{n: ("missing", "the 4.8+ typed property getters and setters: only getProperty/setProperty so far")
-       for n in ("getBoolProperty", "getBufferProperty", "getColorProperty", "getFloatArrayProperty",
-                 "getFloatProperty", "getIntArray2Property", "getIntArrayProperty", "getIntProperty",
-                 "getLongProperty", "getPoseProperty", "getQuaternionProperty", "getStringProperty",
-                 "getTableProperty", "getVector2Property", "getVector3Property", "setBoolProperty",
-                 "setBufferProperty", "setColorProperty", "setFloatArrayProperty", "setFloatProperty",
-                 "setIntArray2Property", "setIntArrayProperty", "setIntProperty", "setLongProperty",
-                 "setPoseProperty", "setQuaternionProperty", "setStringProperty", "setTableProperty",
-                 "setVector2Property", "setVector3Property", "getProperties", "setProperties", "getPropertiesInfos",
-                 "getPropertyInfo", "getPropertyName", "getPropertyTypeString", "convertPropertyValue",
-                 "getObjectProperty", "setObjectProperty", "getModelProperty", "setModelProperty",
-                 "getObjectSpecialProperty", "setObjectSpecialProperty")},
+    **{n: ("missing", "object and model property flags (selectable, not collidable...): not mapped yet")
+       for n in ("convertPropertyValue", "getObjectProperty", "setObjectProperty", "getModelProperty",
+                 "setModelProperty", "getObjectSpecialProperty", "setObjectSpecialProperty")},
     **{n: ("missing", "drawing objects and collections kept as data: not written yet")
        for n in ("addDrawingObject", "addDrawingObjectItem", "removeDrawingObject", "createCollection",
                  "addItemToCollection", "destroyCollection", "getCollectionObjects")},

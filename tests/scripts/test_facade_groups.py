@@ -187,3 +187,21 @@ def test_rotation_arithmetic(api):
     assert api.alphaBetaGammaToYawPitchRoll(*abg) == pytest.approx((0.3, -0.2, 0.5))
     assert api.getConfigDistance([0, 0], [3, 4]) == pytest.approx(5)
     assert api.getConfigDistance([3.0], [-3.0], None, [1]) == pytest.approx(2 * math.pi - 6)
+
+
+def test_typed_properties(api):
+    a = h(api, "blockA")
+    api.setIntProperty(a, "customData.count", 3)
+    api.setVector3Property(api.handle_scene, "customData.goal", [1, 2, 3])
+    api.setStringProperty(a, "customData.label", "box")
+    assert api.getIntProperty(a, "customData.count") == 3
+    assert api.getVector3Property(api.handle_scene, "customData.goal") == [1, 2, 3]
+    assert api.getStringProperty(a, "customData.label") == "box"
+    assert api.getFloatProperty(a, "mass") == pytest.approx(api.getShapeMass(a))
+    with pytest.raises(ArgumentError, match="not a vector3"):
+        api.getVector3Property(a, "customData.label")
+    assert api.getPropertyInfo(a, "customData.count")[0] == api.propertytype_int
+    assert api.getPropertyTypeString(api.propertytype_pose) == "pose"
+    props = api.getProperties(a)
+    assert props["customData.count"] == 3 and props["alias"] == "blockA"
+    assert api.getPropertyName(a, 0)[0].startswith("customData.")
