@@ -107,9 +107,12 @@ def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
 
 def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, elements: list[Element],
           method: int, damping: float, iterations: int, max_step: np.ndarray,
-          targets: dict[int, tuple] | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
+          targets: dict[int, tuple] | None = None, weights: np.ndarray | None = None,
+          margins: np.ndarray | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
-    ``scratch`` must hold the scene's other positions already."""
+    ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
+    make a joint move more (a larger weight) or less in the weighted least-norm step
+    ``W Jᵀ (J W Jᵀ + λ²I)⁻¹ e``; ``margins`` keep each joint that far inside its range."""
     m = world.model
     qadr = np.array([world.model.jnt_qposadr[world.get(h).mj_id] for h in joints], int)
     dadr = np.array([world.model.jnt_dofadr[world.get(h).mj_id] for h in joints], int)
@@ -117,6 +120,9 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     limited = np.array([bool(m.jnt_limited[j]) for j in jid])
     low = np.where(limited, [m.jnt_range[j][0] for j in jid], -np.inf)
     high = np.where(limited, [m.jnt_range[j][1] for j in jid], np.inf)
+    if margins is not None:
+        low, high = np.minimum(low + margins, (low + high) / 2), np.maximum(high - margins, (low + high) / 2)
+    w = np.ones(len(joints)) if weights is None else np.asarray(weights, float)
     targets = targets or {}
     q = np.clip(np.asarray(q, float), low, high)
     e = np.zeros(0)
@@ -129,10 +135,10 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
             return ok, q, e
         jac = jacobian(world, scratch, rows, dadr)
         if method == METHOD_TRANSPOSE:
-            dq = jac.T @ e
+            dq = w * (jac.T @ e)
         else:
             lam2 = damping * damping if method == METHOD_DLS else 1e-10
-            dq = jac.T @ np.linalg.solve(jac @ jac.T + lam2 * np.eye(len(e)), e)
+            dq = w * (jac.T @ np.linalg.solve((jac * w) @ jac.T + lam2 * np.eye(len(e)), e))
         scale = np.max(np.abs(dq) / max_step) if len(dq) else 0.0
         if scale > 1:
             dq = dq / scale

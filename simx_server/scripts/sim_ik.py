@@ -59,7 +59,8 @@ class Environment:
     groups: dict = dataclasses.field(default_factory=dict)
     q: dict = dataclasses.field(default_factory=dict)  # joint handle -> position in the environment
     mode: dict = dataclasses.field(default_factory=dict)  # joint handle -> simIK.jointmode_*
-    weight: dict = dataclasses.field(default_factory=dict)
+    weight: dict = dataclasses.field(default_factory=dict)  # joint handle -> weight in the step
+    margin: dict = dataclasses.field(default_factory=dict)  # joint handle -> limit margin (rad or m)
     max_step: dict = dataclasses.field(default_factory=dict)
     next_group: int = _FIRST_GROUP
     next_element: int = 1
@@ -156,8 +157,10 @@ class SimIK:
         q = np.array([self._q(env, j) for j in joints]) if q0 is None else q0
         steps = np.array([env.max_step.get(j, np.radians(10) if int(self._world.model.jnt_type[
             self._world.get(j).mj_id]) == mujoco.mjtJoint.mjJNT_HINGE else 0.1) for j in joints])
+        weights = np.array([env.weight.get(j, 1.0) for j in joints])
+        margins = np.array([env.margin.get(j, 0.0) for j in joints])
         ok, q, _ = S.solve(self._world, d, joints, q, g.elements, g.method, g.damping,
-                           g.iterations if iterations is None else iterations, steps, targets)
+                           g.iterations if iterations is None else iterations, steps, targets, weights, margins)
         return ok, joints, q
 
     def _write_scene(self, joints: list[int], q: np.ndarray) -> None:
@@ -366,6 +369,8 @@ class SimIK:
         applyIkEnvironmentToScene, applySceneToIkEnvironment, computeGroupJacobian, createDebugOverlay,
         doesObjectExist, eraseDebugOverlay, findConfig, findConfigs, generatePath, getAlternateConfigs,
         getConfigForTipPose, getJointInterval, getJointMaxStepSize, getJointMode, getJointPosition, getJointType,
+        getJointDependency, getJointLimitMargin, getJointScrewLead, getJointWeight, getObjectTransformation,
+        setJointLimitMargin, setJointWeight, setObjectTransformation,
         getObjectHandle, getObjectMatrix, getObjectParent, getObjectPose, getObjects, getObjectType, handleGroup,
         handleGroups, setJointInterval, setJointMaxStepSize, setJointMode, setJointPosition, setObjectMatrix,
         setObjectPose, syncFromSim, syncToSim)

@@ -16,7 +16,7 @@ from simx_server.scripts import ik_solver as S
 from simx_server.scripts.values import _int, _num, _text, _vector
 from simx_server.sim import ik as scene_ik
 from simx_server.sim.objects import DUMMY, JOINT, WORLD
-from simx_server.sim.rotations import matrix_from_quaternion
+from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matrix_from_quaternion
 
 RESULT_NOT_PERFORMED, RESULT_SUCCESS, RESULT_FAIL = 0, 1, 2
 CALC_NOTPERFORMED, CALC_NOTWITHINTOLERANCE = 1, 16
@@ -321,6 +321,62 @@ def setJointMaxStepSize(self, environmentHandle: Any, jointHandle: Any, stepSize
     if v <= 0:
         raise ArgumentError("stepSize must be positive")
     self._env(environmentHandle).max_step[self._joint(jointHandle).handle] = v
+
+
+def getJointWeight(self, environmentHandle: Any, jointHandle: Any) -> float:  # noqa: N802, N803
+    """The joint's weight in the solver's weighted least-norm step (default 1)."""
+    return float(self._env(environmentHandle).weight.get(self._joint(jointHandle).handle, 1.0))
+
+
+def setJointWeight(self, environmentHandle: Any, jointHandle: Any, weight: Any) -> None:  # noqa: N802, N803
+    """> 0: larger moves the joint more, smaller less (CoppeliaSim's joint weight)."""
+    v = _num(weight, "weight")
+    if v <= 0:
+        raise ArgumentError("weight must be positive (set the joint passive to hold it)")
+    self._env(environmentHandle).weight[self._joint(jointHandle).handle] = v
+
+
+def getJointLimitMargin(self, environmentHandle: Any, jointHandle: Any) -> float:  # noqa: N802, N803
+    """How far inside its range the solver keeps the joint (rad or m, default 0)."""
+    return float(self._env(environmentHandle).margin.get(self._joint(jointHandle).handle, 0.0))
+
+
+def setJointLimitMargin(self, environmentHandle: Any, jointHandle: Any, margin: Any) -> None:  # noqa: N802, N803
+    v = _num(margin, "margin")
+    if v < 0:
+        raise ArgumentError("margin must not be negative")
+    self._env(environmentHandle).margin[self._joint(jointHandle).handle] = v
+
+
+def getJointScrewLead(self, environmentHandle: Any, jointHandle: Any) -> float:  # noqa: N802, N803
+    """0: MuJoCo's hinges and slides are not screws."""
+    self._env(environmentHandle)
+    self._joint(jointHandle)
+    return 0.0
+
+
+def getJointDependency(self, environmentHandle: Any, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
+    """``masterJoint, offset, multCoeff`` of the scene's joint equality (as ``sim.getJointDependency``)."""
+    self._env(environmentHandle)
+    return self._s.getJointDependency(self._joint(jointHandle).handle)
+
+
+def getObjectTransformation(self, environmentHandle: Any, objectHandle: Any,  # noqa: N802, N803
+                            relativeToObjectHandle: Any = -1) -> tuple[list[float], list[float], list[float]]:  # noqa: N803
+    """CoppeliaSim 4.0-4.2: ``position, quaternion, euler`` (as :func:`getObjectPose`)."""
+    p = getObjectPose(self, environmentHandle, objectHandle, relativeToObjectHandle)
+    return p[:3], p[3:], list(euler_from_matrix(np.asarray(matrix_from_quaternion(*p[3:]))))
+
+
+def setObjectTransformation(self, environmentHandle: Any, objectHandle: Any, relativeToObjectHandle: Any,  # noqa: N802, N803
+                            position: Any, eulerOrQuaternion: Any) -> None:  # noqa: N803
+    """CoppeliaSim 4.0-4.2: place a dummy by position and quaternion (4) or Euler angles (3)."""
+    rot = (np.asarray(matrix_from_quaternion(*_vector(eulerOrQuaternion, 4, "quaternion")))
+           if isinstance(eulerOrQuaternion, (list, tuple)) and len(eulerOrQuaternion) == 4
+           else np.asarray(matrix_from_euler(*_vector(eulerOrQuaternion, 3, "eulerAngles"))))
+    self._env(environmentHandle)
+    self._s._set_pose(_int(objectHandle, "objectHandle"), _int(relativeToObjectHandle, "relativeToObjectHandle"),
+                      position=_vector(position, 3, "position"), rotation=rot)
 
 
 # ---------------------------------------------------------------------- objects

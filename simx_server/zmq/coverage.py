@@ -105,12 +105,8 @@ IK_NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                       "supported") for n in ("createDummy", "createJoint", "eraseObject", "setObjectParent")},
     **{n: ("missing", "CoppeliaSim's IK file format (load/save) has no MuJoCo counterpart") for n in ("load", "save")},
     **{n: ("missing", "spherical joints and joint dependencies: MuJoCo ball joints and equalities not mapped")
-       for n in ("setSphericalJointMatrix", "setSphericalJointRotation", "getJointDependency", "setJointDependency",
-                 "getJointMatrix", "getJointTransformation", "getJointScrewLead", "setJointScrewLead")},
-    **{n: ("missing", "joint weights and limit margins: the solver does not use them yet")
-       for n in ("getJointWeight", "setJointWeight", "getJointLimitMargin", "setJointLimitMargin")},
-    **{n: ("missing", "old 4.0-4.2 transformation calls: use getObjectPose/setObjectPose")
-       for n in ("getObjectTransformation", "setObjectTransformation")},
+       for n in ("setSphericalJointMatrix", "setSphericalJointRotation", "setJointDependency",
+                 "getJointMatrix", "getJointTransformation", "setJointScrewLead")},
     "computeJacobian": ("missing", "use computeGroupJacobian"),
 }
 

@@ -91,3 +91,22 @@ def test_every_simik_function_has_coppeliasim_s_name():
     from simx_server.zmq import names
     listed = names.coppeliasim_functions("simIK")
     assert set(functions()) <= listed, set(functions()) - listed
+
+
+def test_joint_weights_and_margins_shape_the_solution(rig):
+    _, sim, ik = rig
+    env, g, _ = _group(sim, ik, 7)
+    joints = ik.getGroupJoints(env, g)
+    target = sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0] + 0.05, pos[1], pos[2]])
+    start = [ik.getJointPosition(env, j) for j in joints]
+    ik.setJointWeight(env, joints[0], 1e-4)  # the base joint hardly moves
+    assert ik.getJointWeight(env, joints[0]) == 1e-4
+    assert ik.handleGroup(env, g)[0] == 1
+    moved = [abs(ik.getJointPosition(env, j) - s) for j, s in zip(joints, start)]
+    assert moved[0] < 0.1 * max(moved[1:])
+    ik.setJointLimitMargin(env, joints[1], 0.1)
+    assert ik.getJointLimitMargin(env, joints[1]) == 0.1 and ik.getJointScrewLead(env, joints[1]) == 0.0
+    position, quat, euler = ik.getObjectTransformation(env, sim.getObject("/UR5_tip"))
+    assert position == pytest.approx(ik.getObjectPose(env, sim.getObject("/UR5_tip"))[:3])
