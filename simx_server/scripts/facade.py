@@ -20,6 +20,7 @@ from simx_server.scripts import facade_objects, facade_sensors
 from simx_server.scripts.facade_data import DataCalls
 from simx_server.scripts.facade_gui import GuiCalls
 from simx_server.scripts.facade_params import ParamCalls
+from simx_server.scripts.facade_paths import PathCalls
 from simx_server.scripts.facade_props import PropertyCalls
 from simx_server.scripts.facade_sensing import SensingCalls
 from simx_server.scripts.facade_shapes import ShapeCalls
@@ -40,7 +41,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS}
 
 
-class ScriptSim(ParamCalls, GuiCalls, PropertyCalls, DataCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
+class ScriptSim(ParamCalls, GuiCalls, PathCalls, PropertyCalls, DataCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
     Args:

@@ -65,11 +65,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "object and model property flags (selectable, not collidable...): not mapped yet")
        for n in ("convertPropertyValue", "getObjectProperty", "setObjectProperty", "getModelProperty",
                  "setModelProperty", "getObjectSpecialProperty", "setObjectSpecialProperty")},
-    **{n: ("missing", "drawing objects and collections kept as data: not written yet")
-       for n in ("addDrawingObject", "addDrawingObjectItem", "removeDrawingObject", "createCollection",
-                 "addItemToCollection", "destroyCollection", "getCollectionObjects")},
-    **{n: ("missing", "path helpers (CoppeliaSim's Lua): not written yet")
-       for n in ("createPath", "getPathLengths", "getPathInterpolatedConfig", "resamplePath", "getClosestPosOnPath")},
     **{n: ("missing", "motion in steps and Ruckig objects: sim.moveToConfig/moveToPose run whole motions only")
        for n in ("moveToConfig_init", "moveToConfig_step", "moveToConfig_cleanup", "moveToPose_init",
                  "moveToPose_step", "moveToPose_cleanup", "ruckigPos", "ruckigVel", "ruckigStep", "ruckigRemove",

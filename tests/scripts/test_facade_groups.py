@@ -205,3 +205,26 @@ def test_typed_properties(api):
     props = api.getProperties(a)
     assert props["customData.count"] == 3 and props["alias"] == "blockA"
     assert api.getPropertyName(a, 0)[0].startswith("customData.")
+
+
+def test_paths_collections_and_drawing_objects(api):
+    path = [0, 0, 0, 3, 0, 0, 3, 4, 0]  # 3 points in 3D
+    lengths, total = api.getPathLengths(path, 3)
+    assert lengths == [0, 3, 7] and total == 7
+    assert api.getPathInterpolatedConfig(path, lengths, 5) == pytest.approx([3, 2, 0])
+    assert api.resamplePath(path, lengths, 3) == pytest.approx([0, 0, 0, 3, 0.5, 0, 3, 4, 0])
+    assert api.getClosestPosOnPath(path, lengths, [4, 1, 0]) == pytest.approx(4)
+    p = api.createPath([0, 0, 0, 0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 1], 0, 4)
+    assert len(api.unpackDoubleTable(api.readCustomDataBlockEx(p, "PATH"))) == 5 * 7
+    c = api.createCollection()
+    api.addItemToCollection(c, api.handle_tree, h(api, "hinge"), 0)  # the joint and its link
+    assert sorted(api.getCollectionObjects(c)) == sorted([h(api, "hinge"), h(api, "hinge_link")])
+    api.addItemToCollection(c, api.handle_single, h(api, "hinge"), 1)  # removed again
+    assert api.getCollectionObjects(c) == [h(api, "hinge_link")]
+    api.destroyCollection(c)
+    d = api.addDrawingObject(0, 2, 0, -1, 2)
+    for i in range(3):
+        assert api.addDrawingObjectItem(d, [i, 0, 0]) == 1
+    api.removeDrawingObject(d)
+    with pytest.raises(Exception, match="drawing object"):
+        api.addDrawingObjectItem(d, [0, 0, 0])
