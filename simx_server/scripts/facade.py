@@ -18,6 +18,7 @@ from typing import Any
 from simx_client.protocol import UnsupportedError
 from simx_server.scripts import facade_objects, facade_sensors
 from simx_server.scripts.facade_data import DataCalls
+from simx_server.scripts.facade_engine import EngineCalls
 from simx_server.scripts.facade_gui import GuiCalls
 from simx_server.scripts.facade_params import ParamCalls
 from simx_server.scripts.facade_paths import PathCalls
@@ -41,7 +42,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS}
 
 
-class ScriptSim(ParamCalls, GuiCalls, PathCalls, PropertyCalls, DataCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
+class ScriptSim(ParamCalls, GuiCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
     Args:

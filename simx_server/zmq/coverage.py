@@ -69,9 +69,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
        for n in ("moveToConfig_init", "moveToConfig_step", "moveToConfig_cleanup", "moveToPose_init",
                  "moveToPose_step", "moveToPose_cleanup", "ruckigPos", "ruckigVel", "ruckigStep", "ruckigRemove",
                  "generateTimeOptimalTrajectory", "getAlternateConfigs")},
-    **{n: ("missing", "MuJoCo counterparts of engine parameters (mujoco_global_*): not mapped yet")
-       for n in ("getEngineBoolParam", "getEngineFloatParam", "getEngineInt32Param", "setEngineBoolParam",
-                 "setEngineFloatParam", "setEngineInt32Param", "isDynamicallyEnabled")},
     **{n: ("missing", "scene and model files are written as MJCF: saving not written yet")
        for n in ("saveScene", "saveModel", "closeScene", "saveImage", "loadImage", "getScaledImage",
                  "transformImage", "combineRgbImages", "transformBuffer")},
@@ -90,8 +87,10 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "application services: not written yet")
        for n in ("getSettingBool", "getSettingFloat", "getSettingInt32", "getSettingString", "getSimulatorMessage",
                  "getLastInfo", "getStackTraceback", "getApiFunc", "getApiInfo", "isDeprecated", "getUserVariables",
-                 "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg", "getGenesisEvents",
-                 "pushUserEvent", "setEventFilters", "getScriptFunctions", "waitForSignal")},
+                 "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg", "waitForSignal")},
+    **{n: ("n/a", "the event stream of CoppeliaSim's user interfaces: no UI") for n in (
+        "getGenesisEvents", "pushUserEvent", "setEventFilters")},
+    "getScriptFunctions": ("n/a", "the official client answers it itself (a proxy object; docs/ZMQ.md)"),
 }
 
 #: simIK functions simx does not implement: (status, why).

@@ -228,3 +228,23 @@ def test_paths_collections_and_drawing_objects(api):
     api.removeDrawingObject(d)
     with pytest.raises(Exception, match="drawing object"):
         api.addDrawingObjectItem(d, [0, 0, 0])
+
+
+def test_engine_parameters_and_application_queries(api, sim):
+    assert api.getEngineInt32Param(api.mujoco_global_iterations, -1) == sim.world.model.opt.iterations
+    api.setEngineFloatParam(api.mujoco_global_wind1, -1, 2.5)
+    assert sim.world.model.opt.wind[0] == 2.5 and api.getEngineFloatParam(api.mujoco_global_wind1, -1) == 2.5
+    api.setEngineBoolParam(api.mujoco_global_multiccd, -1, False)
+    assert api.getEngineBoolParam(api.mujoco_global_multiccd, -1) is False
+    with pytest.raises(UnsupportedError, match="no MuJoCo counterpart"):
+        api.getEngineFloatParam(api.bullet_global_stepsize, -1)
+    with pytest.raises(ArgumentError):
+        api.setEngineInt32Param(api.mujoco_global_iterations, -1, 0)
+    assert api.isDynamicallyEnabled(h(api, "faller")) and not api.isDynamicallyEnabled(h(api, "blockA"))
+    api.writeCustomDataBlockEx(h(api, "blockB"), "graspable", b"1")
+    assert api.getObjectsWithTag("graspable") == [h(api, "blockB")]
+    order, total = api.getObjectHierarchyOrder(h(api, "blockA"))
+    assert 0 <= order < total
+    assert "sim.getObjectPosition" in api.getApiFunc(-1, "getObjectPos")
+    assert "Position" in api.getApiInfo(-1, "sim.getObjectPosition")
+    assert api.getSettingString("x") is None and api.getSimulatorMessage()[0] == -1
