@@ -68,13 +68,11 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "motion in steps and Ruckig objects: sim.moveToConfig/moveToPose run whole motions only")
        for n in ("moveToConfig_init", "moveToConfig_step", "moveToConfig_cleanup", "moveToPose_init",
                  "moveToPose_step", "moveToPose_cleanup", "ruckigPos", "ruckigVel", "ruckigStep", "ruckigRemove",
-                 "generateTimeOptimalTrajectory", "getAlternateConfigs")},
-    **{n: ("missing", "scene and model files are written as MJCF: saving not written yet")
-       for n in ("saveScene", "saveModel", "closeScene", "saveImage", "loadImage", "getScaledImage",
-                 "transformImage", "combineRgbImages", "transformBuffer")},
+                 "generateTimeOptimalTrajectory")},
+    **{n: ("missing", "closing the scene and image files on the server: not written yet")
+       for n in ("closeScene", "saveImage", "loadImage")},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
-       for n in ("addReferencedHandle", "getReferencedHandle", "getReferencedHandles", "getReferencedHandlesTags",
-                 "removeReferencedObjects", "setReferencedHandles", "getObjectHierarchyOrder",
+       for n in ("removeReferencedObjects", "getObjectHierarchyOrder",
                  "setObjectHierarchyOrder", "getObjectAliasRelative", "getObjectsWithTag", "getObjectSizeFactor",
                  "getModelBB", "getLinkDummy", "setLinkDummy", "getObjectChildPose", "setObjectChildPose",
                  "setJointDependency", "getObjectFloatArrayParam", "setObjectFloatArrayParam",
@@ -82,7 +80,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "appearance beyond colours (materials, lights' parameters): not written yet")
        for n in ("getShapeAppearance", "setShapeAppearance", "setShapeMaterial", "changeEntityColor",
                  "restoreEntityColor", "getLightParameters", "setLightParameters", "setVisionSensorCharImage",
-                 "getVisionSensorDepthBuffer", "checkVisionSensorEx", "checkProximitySensorEx",
+                 "checkVisionSensorEx", "checkProximitySensorEx",
                  "checkProximitySensorEx2")},
     **{n: ("missing", "application services: not written yet")
        for n in ("getSettingBool", "getSettingFloat", "getSettingInt32", "getSettingString", "getSimulatorMessage",

@@ -248,3 +248,38 @@ def test_engine_parameters_and_application_queries(api, sim):
     assert "sim.getObjectPosition" in api.getApiFunc(-1, "getObjectPos")
     assert "Position" in api.getApiInfo(-1, "sim.getObjectPosition")
     assert api.getSettingString("x") is None and api.getSimulatorMessage()[0] == -1
+
+
+def test_images_references_alternates_and_saving(api, sim, tmp_path):
+    img = bytes(range(12)) * 2  # 4x2 RGB
+    out, res = api.getScaledImage(img, [4, 2], [2, 1])
+    assert res == [2, 1] and len(out) == 6
+    flipped = api.transformImage(img, [4, 2], 2)
+    assert flipped[:12] == img[12:] and api.transformImage(flipped, [4, 2], 2) == img
+    assert len(api.combineRgbImages(img, [4, 2], img, [4, 2], 1)) == 48
+    assert np.frombuffer(api.transformBuffer(b"\x01\x02", 0, 2.0, 1.0, 6), np.float32).tolist() == [3, 5]
+    depth = api.getVisionSensorDepthBuffer(h(api, "cam"))
+    assert len(depth) == 32 * 24 and all(0 <= d <= 1 for d in depth)
+    a, b = h(api, "blockA"), h(api, "blockB")
+    api.setReferencedHandles(a, [b], "neighbour")
+    api.addReferencedHandle(a, h(api, "blockC"), "neighbour")
+    assert api.getReferencedHandles(a, "neighbour") == [b, h(api, "blockC")]
+    assert api.getReferencedHandle(a, "neighbour") == b and api.getReferencedHandlesTags(a) == ["neighbour"]
+    hinge = h(api, "hinge")
+    sim.world.model.jnt_range[sim.world.get(hinge).mj_id] = [-7, 7]
+    sim.world.model.jnt_limited[sim.world.get(hinge).mj_id] = 1
+    alternates = api.getAlternateConfigs([hinge], [0.5])
+    assert alternates == pytest.approx([0.5 - 2 * math.pi, 0.5, 0.5 + 2 * math.pi])
+    api.saveScene("saved_api32.xml")
+    saved = SENSORS.parent / "saved_api32.xml"
+    try:
+        assert "<mujoco" in saved.read_text()
+        again = Simulation(saved, realtime=False)  # it loads back, with the scene's objects
+        assert again.world.resolve("blockA").handle > 0
+        again.close()
+    finally:
+        saved.unlink(missing_ok=True)
+    with pytest.raises(RemoteError, match="refused"):
+        api.saveScene(str(tmp_path / "elsewhere.xml"))
+    with pytest.raises(ArgumentError, match=".xml"):
+        api.saveScene("scene.ttt")
