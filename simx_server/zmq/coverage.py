@@ -72,9 +72,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "closing the scene and image files on the server: not written yet")
        for n in ("closeScene", "saveImage", "loadImage")},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
-       for n in ("removeReferencedObjects", "getObjectHierarchyOrder",
-                 "setObjectHierarchyOrder", "getObjectAliasRelative", "getObjectsWithTag", "getObjectSizeFactor",
-                 "getModelBB", "getLinkDummy", "setLinkDummy", "getObjectChildPose", "setObjectChildPose",
+       for n in ("removeReferencedObjects", "setObjectHierarchyOrder", "getObjectAliasRelative", "getModelBB", "getLinkDummy", "setLinkDummy", "getObjectChildPose", "setObjectChildPose",
                  "setJointDependency", "getObjectFloatArrayParam", "setObjectFloatArrayParam",
                  "getObjectStringParam", "setObjectStringParam")},
     **{n: ("missing", "appearance beyond colours (materials, lights' parameters): not written yet")
@@ -83,8 +81,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                  "checkVisionSensorEx", "checkProximitySensorEx",
                  "checkProximitySensorEx2")},
     **{n: ("missing", "application services: not written yet")
-       for n in ("getSettingBool", "getSettingFloat", "getSettingInt32", "getSettingString", "getSimulatorMessage",
-                 "getLastInfo", "getStackTraceback", "getApiFunc", "getApiInfo", "isDeprecated", "getUserVariables",
+       for n in ("getStackTraceback", "isDeprecated", "getUserVariables",
                  "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg", "waitForSignal")},
     **{n: ("n/a", "the event stream of CoppeliaSim's user interfaces: no UI") for n in (
         "getGenesisEvents", "pushUserEvent", "setEventFilters")},
