@@ -17,7 +17,7 @@ import numpy as np
 from simx_client.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.scripts.values import _int, _num, _text, _vector
-from simx_server.sim.objects import DUMMY, SHAPE
+from simx_server.sim.objects import DUMMY, LIGHT, SHAPE
 from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_server.sim.state import SimulationView
 
@@ -245,6 +245,74 @@ class ShapeCalls:
         v, i, n = self.getShapeMesh(shapeHandle)
         _, rgb = self.getShapeColor(shapeHandle, None, 0)
         return {"vertices": v, "indices": i, "normals": n, "colors": rgb + rgb + rgb}
+
+    def changeEntityColor(self, entityHandle: Any, newColor: Any, colorComponent: Any = 0) -> list[dict]:  # noqa: N802, N803
+        """Colour every geom of a shape and the shapes below it (RGB 0..1; component 0/1 the
+        colour, 4 transparency); returns the original colours for :meth:`restoreEntityColor`."""
+        root = self._shape(entityHandle)
+        m, world = self._world.model, self._world
+        rgb = _vector(newColor, 3, "newColor")
+        if not all(0 <= v <= 1 for v in rgb):
+            raise ArgumentError("newColor components must lie in 0..1")
+        shapes = [o for o in world.objects.values() if o.type == SHAPE and self._in_tree(o.mj_id, root.mj_id)]
+        saved = []
+        for o in shapes:
+            for g in _geoms(world, o.mj_id):
+                saved.append({"geom": int(g), "rgba": m.geom_rgba[g].tolist(), "matid": int(m.geom_matid[g])})
+                if _int(colorComponent, "colorComponent") == 4:
+                    m.geom_rgba[g][3] = 1.0 - rgb[0]
+                else:
+                    m.geom_rgba[g][:3], m.geom_matid[g] = rgb, -1
+        world.version += 1
+        return saved
+
+    def restoreEntityColor(self, originalColorData: Any) -> None:  # noqa: N802, N803
+        """Put back the colours :meth:`changeEntityColor` returned (until the scene is edited)."""
+        m = self._world.model
+        for item in originalColorData or []:
+            g = _int(item["geom"], "geom")
+            if not 0 <= g < m.ngeom:
+                raise ArgumentError("originalColorData does not fit the scene (edited since?)")
+            m.geom_rgba[g], m.geom_matid[g] = _vector(item["rgba"], 4, "rgba"), _int(item["matid"], "matid")
+        self._world.version += 1
+
+    def _in_tree(self, body: int, root: int) -> bool:
+        parents = self._world.model.body_parentid
+        while body > 0:
+            if body == root:
+                return True
+            body = int(parents[body])
+        return False
+
+    def getLightParameters(self, lightHandle: Any) -> tuple[int, list[float], list[float], list[float]]:  # noqa: N802, N803
+        """``state, zero, diffusePart, specularPart`` of a light (MuJoCo's ``light_active``,
+        ``light_diffuse``, ``light_specular``; the second, CoppeliaSim's ambient, is 0s)."""
+        obj = self._world.get(self._h(lightHandle, "lightHandle"), LIGHT)
+        m = self._world.model
+        return (int(m.light_active[obj.mj_id]), [0.0, 0.0, 0.0], m.light_diffuse[obj.mj_id].tolist(),
+                m.light_specular[obj.mj_id].tolist())
+
+    def setLightParameters(self, lightHandle: Any, state: Any, zero: Any = None, diffusePart: Any = None,  # noqa: N802, N803
+                           specularPart: Any = None) -> None:  # noqa: N803
+        """Switch a light on (1) or off (0) and set its diffuse and specular colours (0..1; nil keeps)."""
+        obj = self._world.get(self._h(lightHandle, "lightHandle"), LIGHT)
+        m = self._world.model
+        m.light_active[obj.mj_id] = bool(_int(state, "state") & 1)
+        for part, field in ((diffusePart, m.light_diffuse), (specularPart, m.light_specular)):
+            if part is not None:
+                values = _vector(part, 3, "colour")
+                if not all(0 <= v <= 1 for v in values):
+                    raise ArgumentError("colour components must lie in 0..1")
+                field[obj.mj_id] = values
+        self._world.version += 1
+
+    def copyPasteObjects(self, objectHandles: Any, options: Any = 0) -> list[int]:  # noqa: N802, N803
+        """Copies of shapes (with their body subtrees), dummies, sensors and lights, as
+        ``simxCopyPasteObjects``; the copies' handles."""
+        if not isinstance(objectHandles, (list, tuple)):
+            raise ArgumentError("objectHandles must be a table of handles")
+        _int(options, "options")
+        return self._simulation("copyPasteObjects").editor.copy_paste([_int(h, "objectHandles[i]") for h in objectHandles])
 
     # ------------------------------------------------------------- primitive shapes
     def createPrimitiveShape(self, primitiveType: Any, sizes: Any, options: Any = 0) -> int:  # noqa: N802, N803

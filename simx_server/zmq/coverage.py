@@ -59,7 +59,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "relocateShapeFrame", "alignShapeBB",
                                             "setShapeBB", "scaleObject", "scaleObjects", "createHeightfieldShape",
                                             "createShape", "createPureShape", "generateShapeFromPath",
-                                            "generateTextShape", "importMesh", "exportMesh", "copyPasteObjects")},
+                                            "generateTextShape", "importMesh", "exportMesh")},
     **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")
        for n in ("createJoint", "createForceSensor", "createProximitySensor", "createVisionSensor")},
     **{n: ("missing", "object and model property flags (selectable, not collidable...): not mapped yet")
@@ -70,15 +70,13 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                  "moveToPose_step", "moveToPose_cleanup", "ruckigPos", "ruckigVel", "ruckigStep", "ruckigRemove",
                  "generateTimeOptimalTrajectory")},
     **{n: ("missing", "closing the scene and image files on the server: not written yet")
-       for n in ("closeScene", "saveImage", "loadImage")},
+       for n in ("saveImage", "loadImage")},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
        for n in ("removeReferencedObjects", "setObjectHierarchyOrder", "getObjectAliasRelative", "getModelBB", "getLinkDummy", "setLinkDummy", "getObjectChildPose", "setObjectChildPose",
                  "setJointDependency", "getObjectFloatArrayParam", "setObjectFloatArrayParam",
                  "getObjectStringParam", "setObjectStringParam")},
     **{n: ("missing", "appearance beyond colours (materials, lights' parameters): not written yet")
-       for n in ("getShapeAppearance", "setShapeAppearance", "setShapeMaterial", "changeEntityColor",
-                 "restoreEntityColor", "getLightParameters", "setLightParameters", "setVisionSensorCharImage",
-                 "checkVisionSensorEx", "checkProximitySensorEx",
+       for n in ("getShapeAppearance", "setShapeAppearance", "setShapeMaterial", "checkVisionSensorEx", "checkProximitySensorEx",
                  "checkProximitySensorEx2")},
     **{n: ("missing", "application services: not written yet")
        for n in ("getStackTraceback", "isDeprecated", "getUserVariables",

@@ -305,6 +305,15 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
             raise UnsupportedError("setVisionSensorImg of a window (pos/size) is not supported: send the whole image")
         self._handler("SetVisionSensorImage", self._h(sensorHandle), _bytes(image, "image"), _int(options, "options") & 1)
 
+    def setVisionSensorCharImage(self, sensorHandle: Any, image: Any) -> None:  # noqa: N802, N803
+        """CoppeliaSim's older name: :meth:`setVisionSensorImg` of a whole RGB image."""
+        self.setVisionSensorImg(sensorHandle, image)
+
+    def closeScene(self) -> int:  # noqa: N802
+        """Stop the simulation and replace the scene with an empty one (``simxCloseScene``); 1."""
+        self._simulation_.editor.close_scene()
+        return 1
+
     # ------------------------------------------------------------------- scripts
     def getScript(self, scriptType: Any, objectHandle: Any = -1, scriptName: Any = "") -> int:  # noqa: N802, N803
         """The script handle of an object's child script (``sim.scripttype_childscript``): in simx

@@ -283,3 +283,19 @@ def test_images_references_alternates_and_saving(api, sim, tmp_path):
         api.saveScene(str(tmp_path / "elsewhere.xml"))
     with pytest.raises(ArgumentError, match=".xml"):
         api.saveScene("scene.ttt")
+
+
+def test_entity_colours_lights_and_copies(api, sim):
+    a = h(api, "blockA")
+    before = api.getShapeColor(a, None, 0)[1]
+    saved = api.changeEntityColor(a, [1, 0, 0])
+    assert api.getShapeColor(a, None, 0)[1] == pytest.approx([1, 0, 0])
+    api.restoreEntityColor(saved)
+    assert api.getShapeColor(a, None, 0)[1] == pytest.approx(before)
+    lamp = h(api, "lamp")
+    api.setLightParameters(lamp, 0, None, [0.2, 0.3, 0.4])
+    state, _, diffuse, _ = api.getLightParameters(lamp)
+    assert state == 0 and diffuse == pytest.approx([0.2, 0.3, 0.4])
+    count = len(sim.world.objects)
+    copies = api.copyPasteObjects([h(api, "ball_above")])
+    assert len(copies) == 1 and len(sim.world.objects) > count and copies[0] != h(api, "ball_above")
