@@ -24,6 +24,7 @@ from simx_server.scripts.facade_misc import MiscCalls
 from simx_server.scripts.facade_params import ParamCalls
 from simx_server.scripts.facade_paths import PathCalls
 from simx_server.scripts.facade_props import PropertyCalls
+from simx_server.scripts.facade_ruckig import RuckigCalls
 from simx_server.scripts.facade_sensing import SensingCalls
 from simx_server.scripts.facade_shapes import ShapeCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
@@ -43,7 +44,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS}
 
 
-class ScriptSim(ParamCalls, GuiCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
+class ScriptSim(ParamCalls, GuiCalls, RuckigCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
     Args:

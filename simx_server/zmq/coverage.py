@@ -65,10 +65,9 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "object and model property flags (selectable, not collidable...): not mapped yet")
        for n in ("convertPropertyValue", "getObjectProperty", "setObjectProperty", "getModelProperty",
                  "setModelProperty", "getObjectSpecialProperty", "setObjectSpecialProperty")},
-    **{n: ("missing", "motion in steps and Ruckig objects: sim.moveToConfig/moveToPose run whole motions only")
+    **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
        for n in ("moveToConfig_init", "moveToConfig_step", "moveToConfig_cleanup", "moveToPose_init",
-                 "moveToPose_step", "moveToPose_cleanup", "ruckigPos", "ruckigVel", "ruckigStep", "ruckigRemove",
-                 "generateTimeOptimalTrajectory")},
+                 "moveToPose_step", "moveToPose_cleanup", "generateTimeOptimalTrajectory")},
     **{n: ("missing", "closing the scene and image files on the server: not written yet")
        for n in ("saveImage", "loadImage")},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")

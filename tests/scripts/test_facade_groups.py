@@ -299,3 +299,18 @@ def test_entity_colours_lights_and_copies(api, sim):
     count = len(sim.world.objects)
     copies = api.copyPasteObjects([h(api, "ball_above")])
     assert len(copies) == 1 and len(sim.world.objects) > count and copies[0] != h(api, "ball_above")
+
+
+def test_ruckig_objects_step_to_their_target(api):
+    r = api.ruckigPos(1, 0.01, 0, [0, 0, 0], [1, 2, 10], [1], [0.5, 0])
+    for _ in range(1000):
+        result, state, duration = api.ruckigStep(r, 0.05)
+        if result == 1:
+            break
+    assert result == 1 and state[0] == pytest.approx(0.5) and duration > 0
+    api.ruckigRemove(r)
+    v = api.ruckigVel(1, 0.01, 0, [0, 0, 0], [2, 10], [1], [0.3])
+    result, state, _ = api.ruckigStep(v, 2.0)
+    assert result == 1 and state[1] == pytest.approx(0.3)
+    with pytest.raises(Exception, match="Ruckig"):
+        api.ruckigStep(r, 0.01)
