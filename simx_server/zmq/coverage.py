@@ -79,7 +79,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                  "checkProximitySensorEx2")},
     **{n: ("missing", "application services: not written yet")
        for n in ("getStackTraceback", "isDeprecated", "getUserVariables",
-                 "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg", "waitForSignal")},
+                 "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},
     **{n: ("n/a", "the event stream of CoppeliaSim's user interfaces: no UI") for n in (
         "getGenesisEvents", "pushUserEvent", "setEventFilters")},
     "getScriptFunctions": ("n/a", "the official client answers it itself (a proxy object; docs/ZMQ.md)"),

@@ -28,12 +28,13 @@ from simx_server.base.arguments import quote
 from simx_server.commands import HANDLERS
 from simx_server.scene.simulation import Simulation
 from simx_server.scripts.facade import ScriptSim
+from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.values import _bytes, _int, _num, _text, _vector
 from simx_server.sim import object_params, paths
 from simx_server.sim.objects import JOINT, WORLD
 from simx_server.sim.rotations import matrix_from_quaternion
 from simx_server.sim.state import RunState
-from simx_server.zmq.motion import MotionCalls
+from simx_server.zmq.motion import MAX_MOTION_STEPS, MotionCalls, Stepped
 from simx_server.zmq.pose_math import PoseMath
 
 log = logging.getLogger("simx.zmq")
@@ -304,6 +305,23 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
         if any(v is not None and _vector(v, 2, "pos/size") != [0.0, 0.0] for v in (pos, size)):
             raise UnsupportedError("setVisionSensorImg of a window (pos/size) is not supported: send the whole image")
         self._handler("SetVisionSensorImage", self._h(sensorHandle), _bytes(image, "image"), _int(options, "options") & 1)
+
+    def waitForSignal(self, sigName: Any) -> Stepped:  # noqa: N802, N803
+        """Wait, step after step, until signal ``sigName`` (of any kind) is set; its value. A
+        call that lasts several steps (docs/ZMQ.md), at most MAX_MOTION_STEPS; the coroutine
+        form inside scripts is the scripts' own."""
+        name, signals = _text(sigName, "sigName"), self._signals
+
+        def waiting():
+            for _ in range(MAX_MOTION_STEPS):
+                for kind in Signals.KINDS:
+                    value = signals.get(kind, name)
+                    if value is not None:
+                        return [_strings(value)]
+                yield
+            raise ArgumentError(f"signal {name!r} not set within {MAX_MOTION_STEPS} steps")
+
+        return Stepped(waiting())
 
     def setVisionSensorCharImage(self, sensorHandle: Any, image: Any) -> None:  # noqa: N802, N803
         """CoppeliaSim's older name: :meth:`setVisionSensorImg` of a whole RGB image."""

@@ -83,6 +83,17 @@ def test_a_4x_program_first_calls(sim):
         sim.quitSimulator()
 
 
+def test_wait_for_signal_set_by_another_client(sim, zmq_server):
+    sim.startSimulation()
+    setter = threading.Timer(0.3, lambda: new_sim(zmq_server.zmq_port).setInt32Signal("go", 7))
+    setter.start()
+    try:
+        assert sim.waitForSignal("go") == 7  # the call lasts steps until the other client sets it
+    finally:
+        setter.join()
+        sim.clearInt32Signal("go")
+
+
 def test_stepping_one_client(sim):
     dt = sim.getSimulationTimeStep()
     assert sim.setStepping(True) == 0  # the previous level
