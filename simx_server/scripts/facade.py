@@ -20,6 +20,7 @@ from simx_server.scripts import facade_objects, facade_sensors
 from simx_server.scripts.facade_data import DataCalls
 from simx_server.scripts.facade_engine import EngineCalls
 from simx_server.scripts.facade_gui import GuiCalls
+from simx_server.scripts.facade_mesh import MeshCalls
 from simx_server.scripts.facade_misc import MiscCalls
 from simx_server.scripts.facade_params import ParamCalls
 from simx_server.scripts.facade_paths import PathCalls
@@ -44,7 +45,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS}
 
 
-class ScriptSim(ParamCalls, GuiCalls, RuckigCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
+class ScriptSim(ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls, ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
     Args:

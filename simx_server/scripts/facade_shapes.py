@@ -183,6 +183,10 @@ class ShapeCalls:
             if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE:
                 continue
             pos, rot = _geom_pose(m, int(g))
+            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:  # its vertices: a rotated box would overstate it
+                mid = int(m.geom_dataid[g])
+                out.append(m.mesh_vert[m.mesh_vertadr[mid]:m.mesh_vertadr[mid] + m.mesh_vertnum[mid]] @ rot.T + pos)
+                continue
             center, half = m.geom_aabb[g][:3], m.geom_aabb[g][3:]
             out.append((center + signs * half) @ rot.T + pos)
         if not out:

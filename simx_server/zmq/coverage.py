@@ -58,8 +58,8 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
     **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "relocateShapeFrame", "alignShapeBB",
                                             "setShapeBB", "scaleObject", "scaleObjects", "createHeightfieldShape",
-                                            "createShape", "createPureShape", "generateShapeFromPath",
-                                            "generateTextShape", "importMesh", "exportMesh")},
+                                            "createPureShape", "generateShapeFromPath",
+                                            "generateTextShape")},
     **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")
        for n in ("createJoint", "createForceSensor", "createProximitySensor", "createVisionSensor")},
     **{n: ("missing", "object and model property flags (selectable, not collidable...): not mapped yet")
@@ -72,7 +72,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
        for n in ("saveImage", "loadImage")},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
        for n in ("removeReferencedObjects", "setObjectHierarchyOrder", "getObjectAliasRelative", "getModelBB", "getLinkDummy", "setLinkDummy", "getObjectChildPose", "setObjectChildPose",
-                 "setJointDependency", "getObjectFloatArrayParam", "setObjectFloatArrayParam",
+                 "getObjectFloatArrayParam", "setObjectFloatArrayParam",
                  "getObjectStringParam", "setObjectStringParam")},
     **{n: ("missing", "appearance beyond colours (materials, lights' parameters): not written yet")
        for n in ("getShapeAppearance", "setShapeAppearance", "setShapeMaterial", "checkVisionSensorEx", "checkProximitySensorEx",

@@ -314,3 +314,23 @@ def test_ruckig_objects_step_to_their_target(api):
     assert result == 1 and state[1] == pytest.approx(0.3)
     with pytest.raises(Exception, match="Ruckig"):
         api.ruckigStep(r, 0.01)
+
+
+def test_meshes_and_joint_dependency(api, sim):
+    verts = [0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1]
+    faces = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]
+    s = api.createShape(0, 0, verts, faces)
+    assert api.getObjectType(s) == api.object_shape_type
+    assert api.getShapeBB(s) == pytest.approx([0.1, 0.1, 0.1], abs=1e-6)
+    api.exportMesh(0, "api32_tetra.obj", 0, 1.0, [verts], [faces])
+    out = SENSORS.parent / "api32_tetra.obj"
+    try:
+        (v,), (f,) = api.importMesh(0, str(out))
+        assert sorted(np.round(v, 6).tolist()) == sorted(np.round(verts, 6).tolist()) and len(f) == 12
+    finally:
+        out.unlink(missing_ok=True)
+    hinge, slide = h(api, "hinge"), h(api, "target_x")
+    api.setJointDependency(slide, hinge, 0.1, 0.5)
+    assert api.getJointDependency(slide) == (hinge, pytest.approx(0.1), pytest.approx(0.5))
+    api.setJointDependency(slide, -1, 0, 1)
+    assert api.getJointDependency(slide) == (-1, 0.0, 1.0)
