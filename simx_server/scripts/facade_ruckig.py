@@ -99,3 +99,47 @@ class RuckigCalls:
     def ruckigRemove(self, handle: Any) -> None:  # noqa: N802
         if self._ruckig_objects().pop(_int(handle, "handle"), None) is None:
             raise UnknownObjectError(f"no Ruckig object {handle}")
+
+    # ----------------------------------------------- moveToConfig in steps (4.6+)
+    def moveToConfig_init(self, params: Any) -> dict:  # noqa: N802
+        """The state of a joint motion stepped by the caller: ``params`` as ``sim.moveToConfig``'s
+        (``joints`` or ``pos``, ``targetPos``, ``maxVel``, ``maxAccel``, ``maxJerk``, optional
+        ``vel``, ``accel``, ``targetVel``, ``flags``, ``timeStep``); each
+        :meth:`moveToConfig_step` advances it one time step and sets the joints' target positions."""
+        if not isinstance(params, dict):
+            raise ArgumentError("moveToConfig_init takes a table of parameters")
+        joints = [self._world.get(_int(j, "joints[i]")).handle for j in params.get("joints", [])]
+        pos = params.get("pos") or [self._world.joint_position(j) for j in joints]
+        n = len(pos)
+        if not n or (joints and len(joints) != n):
+            raise ArgumentError("give joints (handles) or pos, one per degree of freedom")
+
+        def field(key: str, default: float) -> list[float]:
+            v = params.get(key, default)
+            return _floats([v] * n if isinstance(v, (int, float)) else v, n, key)
+        dt = _num(params.get("timeStep", self._world.dt), "timeStep")
+        current = _floats(pos, n, "pos") + field("vel", 0.0) + field("accel", 0.0)
+        limits = field("maxVel", 9999.0) + field("maxAccel", 99999.0) + field("maxJerk", 9999999.0)
+        target = _floats(params.get("targetPos", []), n, "targetPos") + field("targetVel", 0.0)
+        h = self.ruckigPos(n, dt, max(0, _int(params.get("flags", 0), "flags")), current, limits, [1] * n, target)
+        return {"ruckigObject": h, "joints": joints, "timeStep": dt, "pos": list(pos),
+                "vel": current[n:2 * n], "accel": current[2 * n:]}
+
+    def moveToConfig_step(self, data: Any) -> tuple[int, dict]:  # noqa: N802
+        """One time step: ``result, data`` (result 0 moving, 1 arrived); the joints' target positions
+        (and ``data.pos``, ``vel``, ``accel``) follow the trajectory."""
+        if not isinstance(data, dict) or "ruckigObject" not in data:
+            raise ArgumentError("moveToConfig_step takes the table moveToConfig_init returned")
+        result, state, _ = self.ruckigStep(data["ruckigObject"], data["timeStep"])
+        if result < 0:
+            raise ArgumentError(f"no trajectory for these limits and targets (Ruckig result {result})")
+        n = len(state) // 3
+        data["pos"], data["vel"], data["accel"] = state[:n], state[n:2 * n], state[2 * n:]
+        for j, q in zip(data["joints"], data["pos"]):
+            self._world.set_joint_target_position(j, q)
+        return result, data
+
+    def moveToConfig_cleanup(self, data: Any) -> None:  # noqa: N802
+        """Release the motion's trajectory object."""
+        if isinstance(data, dict) and "ruckigObject" in data:
+            self._ruckig_objects().pop(_int(data["ruckigObject"], "ruckigObject"), None)

@@ -66,7 +66,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
        for n in ("convertPropertyValue", "getObjectProperty", "setObjectProperty", "getModelProperty",
                  "setModelProperty", "getObjectSpecialProperty", "setObjectSpecialProperty")},
     **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
-       for n in ("moveToConfig_init", "moveToConfig_step", "moveToConfig_cleanup", "moveToPose_init",
+       for n in ("moveToPose_init",
                  "moveToPose_step", "moveToPose_cleanup", "generateTimeOptimalTrajectory")},
     **{n: ("missing", "closing the scene and image files on the server: not written yet")
        for n in ("saveImage", "loadImage")},

@@ -334,3 +334,16 @@ def test_meshes_and_joint_dependency(api, sim):
     assert api.getJointDependency(slide) == (hinge, pytest.approx(0.1), pytest.approx(0.5))
     api.setJointDependency(slide, -1, 0, 1)
     assert api.getJointDependency(slide) == (-1, 0.0, 1.0)
+
+
+def test_move_to_config_in_steps(api, sim):
+    j = h(api, "target_x")
+    data = api.moveToConfig_init({"joints": [j], "targetPos": [0.2], "maxVel": [0.5], "maxAccel": [2],
+                                  "maxJerk": [20]})
+    for n in range(200):
+        result, data = api.moveToConfig_step(data)
+        if result == 1:
+            break
+    assert result == 1 and data["pos"] == pytest.approx([0.2]) and n > 5
+    assert api.getJointTargetPosition(j) == pytest.approx(0.2)
+    api.moveToConfig_cleanup(data)
