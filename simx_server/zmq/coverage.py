@@ -78,7 +78,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
        for n in ("getShapeAppearance", "setShapeAppearance", "setShapeMaterial", "checkVisionSensorEx", "checkProximitySensorEx",
                  "checkProximitySensorEx2")},
     **{n: ("missing", "application services: not written yet")
-       for n in ("getStackTraceback", "isDeprecated", "getUserVariables",
+       for n in ("getStackTraceback", "getUserVariables",
                  "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},
     **{n: ("n/a", "the event stream of CoppeliaSim's user interfaces: no UI") for n in (
         "getGenesisEvents", "pushUserEvent", "setEventFilters")},

@@ -34,6 +34,7 @@ from simx_server.sim import object_params, paths
 from simx_server.sim.objects import JOINT, WORLD
 from simx_server.sim.rotations import matrix_from_quaternion
 from simx_server.sim.state import RunState
+from simx_server.zmq import names
 from simx_server.zmq.motion import MAX_MOTION_STEPS, MotionCalls, Stepped
 from simx_server.zmq.pose_math import PoseMath
 
@@ -322,6 +323,14 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
             raise ArgumentError(f"signal {name!r} not set within {MAX_MOTION_STEPS} steps")
 
         return Stepped(waiting())
+
+    def isDeprecated(self, funcOrConst: Any) -> int:  # noqa: N802, N803
+        """1 for a function CoppeliaSim 4.x keeps under a deprecated name (``sim.getScriptHandle``...),
+        0 for a current function or constant, -1 for an unknown name."""
+        name = _text(funcOrConst, "funcOrConst").removeprefix("sim.")
+        if name in names.DEPRECATED["sim"]:
+            return 1
+        return 0 if name in names.current_functions("sim") or name in names.constants("sim") else -1
 
     def setVisionSensorCharImage(self, sensorHandle: Any, image: Any) -> None:  # noqa: N802, N803
         """CoppeliaSim's older name: :meth:`setVisionSensorImg` of a whole RGB image."""

@@ -79,6 +79,7 @@ def test_a_4x_program_first_calls(sim):
         assert callable(getattr(sim, name))
     with pytest.raises(Exception, match=r"sim\.rmlMoveToPosition: not implemented by simx"):
         sim.rmlMoveToPosition(-1, -1, -1, [0] * 4, [0] * 4, [0] * 4, [0] * 4, [0] * 3, [0] * 4, [0] * 4, [0] * 4)
+    assert sim.isDeprecated("sim.getScriptHandle") == 1 and sim.isDeprecated("getObject") == 0
     with pytest.raises(Exception, match=r"sim\.quitSimulator: .*refused"):
         sim.quitSimulator()
 
