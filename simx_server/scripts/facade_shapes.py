@@ -274,6 +274,8 @@ class ShapeCalls:
         """Put back the colours :meth:`changeEntityColor` returned (until the scene is edited)."""
         m = self._world.model
         for item in originalColorData or []:
+            if not isinstance(item, dict) or not {"geom", "rgba", "matid"} <= set(item):
+                raise ArgumentError("originalColorData must be what changeEntityColor returned")
             g = _int(item["geom"], "geom")
             if not 0 <= g < m.ngeom:
                 raise ArgumentError("originalColorData does not fit the scene (edited since?)")
