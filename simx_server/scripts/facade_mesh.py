@@ -125,6 +125,41 @@ class MeshCalls:
 
         sim.editor._edit(change)
 
+    def scaleObject(self, objectHandle: Any, xScale: Any, yScale: Any, zScale: Any, options: Any = 0) -> None:  # noqa: N802, N803
+        """Scale a shape's geoms (sizes and positions in its frame) by x, y, z (0.001..1000):
+        boxes and ellipsoids along each axis, meshes by their scale; spheres, cylinders and
+        capsules need equal x and y (and z for spheres). Its mass scales with the volume."""
+        obj = self._world.get(self._h(objectHandle))
+        if obj.type != 0:  # sim.object_shape_type
+            raise UnsupportedError("scaleObject: simx scales shapes (bodies) only")
+        f = np.array([_num(v, n) for v, n in ((xScale, "xScale"), (yScale, "yScale"), (zScale, "zScale"))])
+        if not np.all((f >= 1e-3) & (f <= 1e3)):
+            raise ArgumentError("scale factors must lie in [0.001, 1000]")
+        _int(options, "options")
+        sim = self._simulation("scaleObject")
+        G = mujoco.mjtGeom
+
+        def change(spec: mujoco.MjSpec):
+            body = spec.body(obj.name)
+            for geom in body.geoms:
+                kind = geom.type
+                if kind in (G.mjGEOM_BOX, G.mjGEOM_ELLIPSOID):
+                    geom.size = np.asarray(geom.size) * f
+                elif kind == G.mjGEOM_MESH:
+                    mesh = spec.mesh(geom.meshname)
+                    mesh.scale = np.asarray(mesh.scale) * f
+                elif kind in (G.mjGEOM_SPHERE, G.mjGEOM_CYLINDER, G.mjGEOM_CAPSULE) and f[0] == f[1] and (
+                        kind != G.mjGEOM_SPHERE or f[0] == f[2]):
+                    size = np.asarray(geom.size, float)
+                    geom.size = [size[0] * f[0], size[1] * (f[2] if kind != G.mjGEOM_SPHERE else 1), size[2]]
+                else:
+                    raise ValueError(f"a {G(kind).name} geom cannot be scaled by {f.tolist()}")
+                geom.pos = np.asarray(geom.pos) * f
+            if body.explicitinertial:
+                body.mass = body.mass * float(np.prod(f))
+
+        sim.editor._edit(change)
+
     if TYPE_CHECKING:  # provided by the facade
         _world: Any
 

@@ -57,7 +57,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                          "removePointsFromPointCloud", "subtractObjectFromPointCloud")},
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
     **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "relocateShapeFrame", "alignShapeBB",
-                                            "setShapeBB", "scaleObject", "scaleObjects", "createHeightfieldShape",
+                                            "setShapeBB", "scaleObjects", "createHeightfieldShape",
                                             "createPureShape", "generateShapeFromPath",
                                             "generateTextShape")},
     **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")

@@ -347,3 +347,13 @@ def test_move_to_config_in_steps(api, sim):
     assert result == 1 and data["pos"] == pytest.approx([0.2]) and n > 5
     assert api.getJointTargetPosition(j) == pytest.approx(0.2)
     api.moveToConfig_cleanup(data)
+
+
+def test_scale_object(api):
+    a = h(api, "blockA")
+    mass = api.getShapeMass(a)
+    api.scaleObject(a, 2, 1, 0.5)
+    assert api.getShapeBB(a) == pytest.approx([0.4, 0.2, 0.1])
+    assert api.getShapeMass(a) == pytest.approx(mass)  # 2 x 1 x 0.5: the same volume
+    with pytest.raises(UnsupportedError, match="cannot be scaled"):
+        api.scaleObject(h(api, "ball_above"), 2, 1, 1)  # a sphere scales evenly only
