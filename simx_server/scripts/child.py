@@ -34,6 +34,7 @@ from typing import Any, Callable
 import numpy as np
 
 from simx_wire.protocol import ScriptError
+from simx_server.scripts import sim_ik
 from simx_server.scripts.facade import ScriptSim
 from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.facade_legacy import PythonThread
@@ -386,6 +387,7 @@ class PythonScript(ChildScript):
             "sim": self.facade(),
             "print": self._print,
         }
+        self.namespace["simIK"] = sim_ik.SimIK(self.namespace["sim"])  # CoppeliaSim 4.x's simIK
         self._bounded("top level", lambda: exec(self._code, self.namespace))
 
     def _defines(self, function: str) -> bool:

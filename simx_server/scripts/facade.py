@@ -2,19 +2,36 @@
 
 :class:`ScriptSim` composes :class:`~simx_server.scripts.facade_core.SimFacade` (objects, joints,
 poses, time, signals, messages, packing: the V-REP 3.x calls), :class:`ObjectCalls`
-(:mod:`simx_server.scripts.facade_objects`: tree, matrices, velocities, forces, scene edits) and
+(:mod:`simx_server.scripts.facade_objects`: tree, matrices, velocities, forces, scene edits),
 :class:`SensorCalls` (:mod:`simx_server.scripts.facade_sensors`: 4.x signal names, sensors, object
-parameters, simulation state). Python scripts get one as ``sim``; Lua scripts get one Lua
+parameters, simulation state) and CoppeliaSim 4.x's regular API by concern (issue 32; one module
+each: parameters, window functions answered headless, shapes, collision and sensing, data and
+properties, paths and collections, engine parameters, images and saving, meshes, Ruckig). The
+same object serves ZMQ clients (:class:`simx_server.zmq.remote_sim.RemoteSim`); docs/COVERAGE.md
+lists every function. Python scripts get one as ``sim``; Lua scripts get one Lua
 function per :data:`FACADE_FUNCTIONS` entry and every :data:`FACADE_CONSTANTS` entry as
 ``sim.NAME`` (:mod:`simx_server.scripts.lua`). docs/SCRIPTS.md lists them all.
 """
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 from simx_wire.protocol import UnsupportedError
 from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
+from simx_server.scripts.facade_data import DataCalls
+from simx_server.scripts.facade_engine import EngineCalls
+from simx_server.scripts.facade_gui import GuiCalls
+from simx_server.scripts.facade_mesh import MeshCalls
+from simx_server.scripts.facade_misc import MiscCalls
+from simx_server.scripts.facade_params import ParamCalls
+from simx_server.scripts.facade_paths import PathCalls
+from simx_server.scripts.facade_props import PropertyCalls
+from simx_server.scripts.facade_ruckig import RuckigCalls
+from simx_server.scripts.facade_sensing import SensingCalls
+from simx_server.scripts.facade_shapes import ShapeCalls
 from simx_server.scripts.facade_legacy import LegacyCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
 from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls
@@ -22,13 +39,20 @@ from simx_server.scripts.facade_sensors import SensorCalls
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import World
 
+#: CoppeliaSim 4.x's ``sim`` constants (``sim.primitiveshape_cuboid``, ``sim.intparam_program_version``...),
+#: from the table the ZMQ remote API ships (``simx_server/zmq/coppeliasim_api.json``, data read here).
+_COPPELIASIM_4 = json.loads((Path(__file__).resolve().parents[1] / "zmq" / "coppeliasim_api.json").read_text(
+    encoding="utf-8"))["constants"]["sim"]
 #: Every ``sim.NAME`` constant of child scripts: the legacy ``sim_*`` constants, ``handle_world``,
-#: and CoppeliaSim's that simx adds (``handle_scene``, ``handleflag_greyscale``, ``simulation_*``).
-FACADE_CONSTANTS: dict[str, int] = {**SCRIPT_CONSTANTS, **facade_objects.CONSTANTS, **facade_sensors.CONSTANTS,
-                                     **facade_legacy.CONSTANTS}
+#: CoppeliaSim's that simx adds (``handle_scene``, ``handleflag_greyscale``, ``simulation_*``), then
+#: CoppeliaSim 4.x's others (where both name one, the legacy value wins: simx's calls read it).
+FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **facade_objects.CONSTANTS,
+                                    **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(ObjectCalls, SensorCalls, LegacyCalls, SimFacade):
+class ScriptSim(ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
+                ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
+                SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
     Args:

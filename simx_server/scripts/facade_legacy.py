@@ -264,13 +264,6 @@ class LegacyCalls(PythonThreadCalls):
         me = getattr(self, "_script", None)
         return me.executions if me is not None else 0
 
-    def getScriptHandle(self, name: Any = None) -> int:  # noqa: N802
-        """The script's handle: in simx the handle of its object (``name`` another script's
-        object, or none / ``sim.handle_self`` for this one)."""
-        if name is None or name == C.sim_handle_self:
-            return self._owner
-        return self.getObjectHandle(name)
-
     def getScriptAssociatedWithObject(self, objectHandle: Any) -> int:  # noqa: N802, N803
         """The object's child script (its object's handle), -1 when it has none."""
         h = self._h(objectHandle)
@@ -367,10 +360,6 @@ class LegacyCalls(PythonThreadCalls):
         now = int(time.monotonic() * 1000) & 0x7FFFFFFF
         prev = _int(previousTime, "previousTime")
         return now if prev == -1 else (now - prev) & 0x7FFFFFFF
-
-    def getRealTimeSimulation(self) -> int:  # noqa: N802
-        """1 when the server paces the simulation to wall time (``--speed`` > 0), else 0."""
-        return int(bool(getattr(self._sim, "realtime", False)))
 
     # ---------------------------------------------------------------- remote API plugin
     def _ports(self) -> RemoteApiPorts:

@@ -38,6 +38,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scripts.call_arguments import script_argument_bytes
 from simx_server.scripts.child import LIFE_CYCLE_CALLS, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
+from simx_server.scripts import sim_ik
 from simx_server.scripts.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
 from simx_server.scripts.rewrites import lua_file_text, rewrite
 from simx_server.scripts.threads import LuaStyles
@@ -110,21 +111,22 @@ local function bind(name)
     error(where() .. "sim." .. name .. ": " .. tostring(r[2]), 0)
   end
 end
-for i = 1, #names do sim[names[i]] = bind(names[i]) end
-for k, v in pairs(constants) do sim[k] = v end
+-- simIK.NAME functions and constants come in the same lists, under "simIK." names.
+local simIK = {}
+for i = 1, #names do
+  local ik = names[i]:match("^simIK%.(.+)$")
+  if ik then simIK[ik] = bind(names[i]) else sim[names[i]] = bind(names[i]) end
+end
+for k, v in pairs(constants) do
+  local ik = k:match("^simIK%.(.+)$")
+  if ik then simIK[ik] = v else sim[k] = v end
+end
 setmetatable(sim, {__index = function(_, key)
   error(where() .. "sim." .. tostring(key) .. " is not available in simx (docs/SCRIPTS.md lists what is)", 0)
 end})
 G.sim = sim
--- CoppeliaSim 4.x's simIK, as far as it maps onto the scene's IK groups (simx_server/sim/ik.py).
-G.simIK = {result_success = 1, result_fail = 2,
-  createEnvironment = function() return 0 end,
-  getGroupHandle = function(env, name) return sim.getIkGroupHandle(name) end,
-  getIkGroupHandle = function(env, name) return sim.getIkGroupHandle(name) end,
-  handleGroup = function(env, group) return sim.handleIkGroup(group) end,
-  handleIkGroup = function(env, group) return sim.handleIkGroup(group) end,
-  applySceneToIkEnvironment = function() end,
-  applyIkEnvironmentToScene = function(env, group) return sim.handleIkGroup(group) end}
+-- CoppeliaSim 4.x's simIK (simx_server/scripts/sim_ik.py), as for ZMQ clients.
+G.simIK = simIK
 -- V-REP before 3.6: simGetObjectHandle(...), sim_handle_self.
 setmetatable(G, {__index = function(_, key)
   if type(key) ~= "string" then return nil end
@@ -330,7 +332,10 @@ class LuaScript(LuaStyles, ChildScript):
         """``sim.NAME(...)`` from Lua: (True, results...) or (False, message); never raises."""
         fname = name.decode()
         try:
-            result = getattr(self._facade, fname)(*[self._from_lua(a) for a in args])
+            target = self._facade
+            if fname.startswith("simIK."):  # simIK's functions over this script's sim
+                target, fname = sim_ik.SimIK(self._facade), fname[6:]
+            result = getattr(target, fname)(*[self._from_lua(a) for a in args])
             if isinstance(result, tuple):
                 return (True, *[self._to_lua(v) for v in result])
             return True, self._to_lua(result)
@@ -384,8 +389,9 @@ class LuaScript(LuaStyles, ChildScript):
         prelude = rt.compile(PRELUDE, name="=simx")
         self._lookup = prelude(
             self._dispatch, self._expired, self._write_log,
-            rt.table_from([n.encode() for n in FACADE_FUNCTIONS]),
-            rt.table_from({k.encode(): v for k, v in FACADE_CONSTANTS.items()}),
+            rt.table_from([n.encode() for n in FACADE_FUNCTIONS] + [f"simIK.{n}".encode() for n in sim_ik.functions()]),
+            rt.table_from({**{k.encode(): v for k, v in FACADE_CONSTANTS.items()},
+                           **{f"simIK.{k}".encode(): v for k, v in sim_ik.CONSTANTS.items()}}),
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(), L.MAX_PATTERN_WORK)
         self._prepare_styles(rt)

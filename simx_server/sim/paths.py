@@ -13,7 +13,8 @@ Paths (CoppeliaSim's manual, "Accessing scene objects programmatically"):
   the previous one (intermediate levels may be left out: ``/UR5/UR5_joint3``); ``/A`` alone is
   any object ``A`` of the scene;
 * ``.`` the calling script's object, ``./B`` below it; ``:`` the script's model base (in simx:
-  the script object's topmost ancestor below the world), ``:/B`` below it;
+  the script object's topmost ancestor below the world), ``:/B`` below it; for code with no
+  object (a remote client) ``./B`` and ``:/B`` start from the scene root;
 * ``A[n]``: the n-th (0-based) of the matching objects that lie on the shallowest level where
   any matches, in tree order (``/Cuboid[0]`` is the first top-level ``Cuboid``);
   ``A{n}``: the n-th of all matching objects, in tree order;
@@ -29,10 +30,15 @@ from __future__ import annotations
 
 import fnmatch
 import re
+from typing import Any
 
 from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import quote
-from simx_server.sim.world import WORLD, World
+from simx_server.sim.objects import WORLD
+
+#: The scene (a :class:`simx_server.sim.world.World`, which resolves 4.x paths through this module:
+#: typed loosely here so that the two modules do not import each other).
+World = Any
 
 _SUFFIX = re.compile(r"#\d+$")
 _SEGMENT = re.compile(r"^(?P<alias>[^\[\]{}]+)(?:\[(?P<level>\d+)\]|\{(?P<scene>\d+)\})?$")
@@ -79,10 +85,10 @@ def _matches(pattern: str, name: str) -> bool:
 def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> list[int]:
     """Handles of the objects ``path`` names, in depth-first tree order (``index`` >= 0: only the
     index-th of them, or none). ``proxy``: the calling script's object (``.`` and ``:``); None
-    for unassociated code (a remote client), where relative paths are an error.
+    for unassociated code (a remote client), where ``./X``, ``./X[i]`` and ``:/X`` start from the
+    scene root, as CoppeliaSim resolves them for code with no object (``.`` alone names nothing).
 
-    Raises ArgumentError for a path that is not one (empty segments, bad brackets, too long),
-    or a relative path without a script object."""
+    Raises ArgumentError for a path that is not one (empty segments, bad brackets, too long)."""
     if not isinstance(path, str):
         raise ArgumentError(f"object path must be a string, got {type(path).__name__}")
     if len(path) > MAX_PATH:
@@ -97,16 +103,13 @@ def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> 
     if path[0] == "/":
         base, rest = WORLD, path[1:]
     else:
-        if proxy is None:
-            raise ArgumentError(f"object path {quote(path)} is relative (. or :): only a script's code has an object "
-                                "to start from; a remote client gives absolute paths (/A/B)")
-        base = proxy
-        if path[0] == ":":
+        base = WORLD if proxy is None else proxy  # unassociated code (a remote client): the scene root
+        if path[0] == ":" and base != WORLD:
             while world.objects[base].parent != WORLD:
                 base = world.objects[base].parent
         rest = path[1:]
         if rest == "":
-            return [base] if index <= 0 else []
+            return [base] if index <= 0 and base != WORLD else []
         if not rest.startswith("/"):
             raise ArgumentError(f"object path {quote(path)}: after . or : comes / (./child)")
         rest = rest[1:]

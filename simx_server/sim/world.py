@@ -249,7 +249,8 @@ class World(Poses):
         """The object named ``name`` (``simxGetObjectHandle`` rules).
 
         Exact names; a trailing ``#`` is ignored (``"UR5#"`` is ``"UR5"``); CoppeliaSim 4.2
-        paths (``"/UR5/UR5_joint1"``) resolve through the object tree.
+        paths (``"/UR5/UR5_joint1"``) and 4.3+ alias paths (``"/Franka/link2_resp/joint"``,
+        ``"/Cuboid[1]"``: :mod:`simx_server.sim.paths`) resolve through the object tree.
 
         Raises:
             UnknownObjectError: no such object.
@@ -259,21 +260,15 @@ class World(Poses):
         key = name[:-1] if name.endswith("#") else name
         obj = self.by_name.get(key)
         if obj is None and key.startswith("/"):
-            obj = self._resolve_path([p for p in key.split("/") if p])
+            from simx_server.sim import paths  # paths reads this module's World: imported when first needed
+            try:
+                found = paths.find(self, key)
+            except ArgumentError:
+                found = []
+            obj = self.objects[found[0]] if found else None
         if obj is None:
             raise UnknownObjectError(f"object {name!r} does not exist in scene {self.scene_path.name}")
         return obj
-
-    def _resolve_path(self, parts: list[str]) -> SceneObject | None:
-        leaf = self.by_name.get(parts[-1].split("[")[0]) if parts else None
-        if leaf is None:
-            return None
-        ancestors, h = [], leaf.parent
-        while h != WORLD:
-            ancestors.append(self.objects[h].name)
-            h = self.objects[h].parent
-        it = iter(reversed(ancestors))
-        return leaf if all(p.split("[")[0] in it for p in parts[:-1]) else None
 
     def get(self, handle: int, otype: int | None = None) -> SceneObject:
         """The object with ``handle``, optionally checked to be of type ``otype``.

@@ -31,11 +31,13 @@ from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts.facade import ScriptSim
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num
 from simx_server.base.arguments import as_text as _text, as_vector as _vector
+from simx_server.scripts.facade_core import Signals
 from simx_server.sim import object_params, paths
 from simx_server.sim.objects import JOINT, WORLD
 from simx_server.sim.rotations import matrix_from_quaternion
 from simx_server.sim.state import RunState
-from simx_server.zmq.motion import MotionCalls
+from simx_server.zmq import names
+from simx_server.zmq.motion import MAX_MOTION_STEPS, MotionCalls, Stepped
 from simx_server.zmq.pose_math import PoseMath
 
 log = logging.getLogger("simx.zmq")
@@ -123,32 +125,13 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
         return time.time()
 
     # ---------------------------------------------------------------- parameters
-    def getInt32Param(self, parameter: Any) -> int:  # noqa: N802
-        """Integer parameters simx knows (``simxGetIntegerParameter``'s)."""
-        return self._handler("GetIntegerParameter", _int(parameter, "parameter"))
+    _LEGACY_PARAMS = {"integer": "IntegerParameter", "float": "FloatingParameter", "boolean": "BooleanParameter",
+                      "string": "StringParameter", "array": "ArrayParameter"}
 
-    def setInt32Param(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        self._handler("SetIntegerParameter", _int(parameter, "parameter"), _int(value, "intState"))
-
-    def getFloatParam(self, parameter: Any) -> float:  # noqa: N802
-        """Float parameters simx knows (``sim.floatparam_simulation_time_step`` ...)."""
-        return self._handler("GetFloatingParameter", _int(parameter, "parameter"))
-
-    def setFloatParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        self._handler("SetFloatingParameter", _int(parameter, "parameter"), _num(value, "floatState"))
-
-    def getBoolParam(self, parameter: Any) -> bool:  # noqa: N802
-        """Boolean parameters simx knows (``sim.boolparam_realtime_simulation`` ...)."""
-        return self._handler("GetBooleanParameter", _int(parameter, "parameter"))
-
-    def setBoolParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        self._handler("SetBooleanParameter", _int(parameter, "parameter"), bool(value))
-
-    def getArrayParam(self, parameter: Any) -> list[float]:  # noqa: N802
-        return self._handler("GetArrayParameter", _int(parameter, "parameter"))
-
-    def setArrayParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        self._handler("SetArrayParameter", _int(parameter, "parameter"), _vector(value, 3, "arrayOfValues"))
+    def _legacy_param(self, kind: str, pid: int, *value: Any) -> Any:
+        """Parameter ids the facade does not answer: the legacy API's (``simxGetIntegerParameter``
+        ...: the headless mouse, the stop counter)."""
+        return self._handler(("Set" if value else "Get") + self._LEGACY_PARAMS[kind], pid, *value)
 
     def getStringParam(self, parameter: Any) -> str:  # noqa: N802
         """String parameters: ``sim.stringparam_scenedefaultdir`` is the server's scene folder
@@ -165,7 +148,7 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
             return editor.public(scene.parent)
         if pid == STRINGPARAM_SCENE_NAME:
             return scene.name
-        return self._handler("GetStringParameter", pid)
+        return super().getStringParam(pid)
 
     # ------------------------------------------------------------------- the log
     def addLog(self, verbosityLevel: Any, logMessage: Any) -> None:  # noqa: N802, N803
@@ -331,6 +314,40 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
         if any(v is not None and _vector(v, 2, "pos/size") != [0.0, 0.0] for v in (pos, size)):
             raise UnsupportedError("setVisionSensorImg of a window (pos/size) is not supported: send the whole image")
         self._handler("SetVisionSensorImage", self._h(sensorHandle), _bytes(image, "image"), _int(options, "options") & 1)
+
+    def waitForSignal(self, sigName: Any) -> Stepped:  # noqa: N802, N803
+        """Wait, step after step, until signal ``sigName`` (of any kind) is set; its value. A
+        call that lasts several steps (docs/ZMQ.md), at most MAX_MOTION_STEPS; the coroutine
+        form inside scripts is the scripts' own."""
+        name, signals = _text(sigName, "sigName"), self._signals
+
+        def waiting():
+            for _ in range(MAX_MOTION_STEPS):
+                for kind in Signals.KINDS:
+                    value = signals.get(kind, name)
+                    if value is not None:
+                        return [_strings(value)]
+                yield
+            raise ArgumentError(f"signal {name!r} not set within {MAX_MOTION_STEPS} steps")
+
+        return Stepped(waiting())
+
+    def isDeprecated(self, funcOrConst: Any) -> int:  # noqa: N802, N803
+        """1 for a function CoppeliaSim 4.x keeps under a deprecated name (``sim.getScriptHandle``...),
+        0 for a current function or constant, -1 for an unknown name."""
+        name = _text(funcOrConst, "funcOrConst").removeprefix("sim.")
+        if name in names.DEPRECATED["sim"]:
+            return 1
+        return 0 if name in names.current_functions("sim") or name in names.constants("sim") else -1
+
+    def setVisionSensorCharImage(self, sensorHandle: Any, image: Any) -> None:  # noqa: N802, N803
+        """CoppeliaSim's older name: :meth:`setVisionSensorImg` of a whole RGB image."""
+        self.setVisionSensorImg(sensorHandle, image)
+
+    def closeScene(self) -> int:  # noqa: N802
+        """Stop the simulation and replace the scene with an empty one (``simxCloseScene``); 1."""
+        self._simulation_.editor.close_scene()
+        return 1
 
     # ------------------------------------------------------------------- scripts
     def getScript(self, scriptType: Any, objectHandle: Any = -1, scriptName: Any = "") -> int:  # noqa: N802, N803

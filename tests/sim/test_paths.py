@@ -53,13 +53,28 @@ def test_level_scene_and_wildcards(world, pcontroller):
     assert names(world, paths.find(world, "/blueRobot/blueRobot_link?")) == [f"blueRobot_link{i}" for i in range(1, 8)]
 
 
-def test_relative_paths_need_a_script_object(world):
+def test_relative_paths_from_a_script_object_or_the_scene_root(world):
     link3 = paths.find_one(world, "/blueRobot_link3")
     assert names(world, paths.find(world, "./joint", proxy=link3)) == ["joint#2", "joint#3", "joint#4", "joint#5"]
     assert names(world, paths.find(world, ":/joint", index=0, proxy=link3)) == ["joint"]  # from the model base
     assert paths.find(world, ".", proxy=link3) == [link3]
-    with pytest.raises(ArgumentError, match="relative"):
-        paths.find(world, "./joint")
+    # code with no object (a remote client): ./X, ./X[i] and :/X start from the scene root
+    assert paths.find(world, "./blueRobot") == paths.find(world, "/blueRobot") != []
+    assert paths.find(world, ":/blueRobot/joint") == paths.find(world, "/blueRobot/joint")
+    assert paths.find(world, "./blueRobot[0]") == paths.find(world, "/blueRobot[0]")
+    assert paths.find(world, ".") == [] and paths.find(world, ":") == []
+
+
+def test_legacy_lookup_takes_4x_alias_paths(world):
+    # several joints share the alias "joint": only the path tells them apart (simxGetObjectHandle)
+    second = world.resolve("/redRobot/joint{1}")
+    assert second.handle == paths.find(world, "/redRobot/joint", index=1)[0]
+    assert world.resolve("/redRobot/redRobot_link3/joint").handle == paths.find(world, "/redRobot/redRobot_link3/joint")[0]
+    assert world.resolve("/redRobot/redRobot_link3/joint").name != world.resolve("/blueRobot/blueRobot_link3/joint").name
+    with pytest.raises(UnknownObjectError):
+        world.resolve("/redRobot/nothing/joint")
+    with pytest.raises(UnknownObjectError):
+        world.resolve("/a//b")  # not a path: unknown, as before
 
 
 def test_legacy_names_and_errors(world):

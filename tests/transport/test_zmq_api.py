@@ -45,8 +45,8 @@ def test_info_lists_facade_calls_constants_and_coppeliasim_names(sim):
     assert sim.handle_world == -1 and sim.simulation_stopped == 0 and sim.scripttype_childscript == 1
     assert sim.verbosity_scriptinfos == 450 and sim.stringparam_scenedefaultdir == 132  # CoppeliaSim 4.x's
     assert sim.jointintparam_motor_enabled == 2000  # the facade's (legacy) constants, simx's values
-    with pytest.raises(Exception, match=r"sim\.addDrawingObject: not implemented by simx"):
-        sim.addDrawingObject(0, 0.01, 0, -1, 10)  # CoppeliaSim has it: listed, answered with an error
+    with pytest.raises(Exception, match=r"sim\.addGraphStream: not implemented by simx"):
+        sim.addGraphStream(-1, "s", "m")  # CoppeliaSim has it: listed, answered with an error
 
 
 def test_errors_name_the_function_and_the_problem(sim):
@@ -67,8 +67,32 @@ def test_object_paths_of_coppeliasim_4(sim):
     assert sim.getObject("/Arm*", {"index": 1}) == arm
     assert sim.getObject("/Arm*", {"index": 2, "noError": True}) == -1
     assert sim.getObject("ArmJoint") == joint  # a V-REP name
-    with pytest.raises(Exception, match="relative"):
-        sim.getObject("./Arm")  # a remote client has no object of its own
+    # a remote client has no object of its own: ./X, ./X[i] and :/X start from the scene root
+    assert sim.getObject("./Arm") == sim.getObject(":/Arm") == sim.getObject("./ArmJoint[0]/Arm") == arm
+
+
+def test_a_4x_program_first_calls(sim):
+    assert sim.getInt32Param(sim.intparam_program_version) == 40800  # CoppeliaSim 4.8.0
+    assert sim.getInt32Param(sim.intparam_dynamic_engine) == sim.physics_mujoco
+    # deprecated 4.x names are listed (no AttributeError from the client) and answer or name themselves
+    for name in ("getScriptHandle", "getVisionSensorResolution", "getObjectName", "rmlMoveToPosition"):
+        assert callable(getattr(sim, name))
+    with pytest.raises(Exception, match=r"sim\.rmlMoveToPosition: not implemented by simx"):
+        sim.rmlMoveToPosition(-1, -1, -1, [0] * 4, [0] * 4, [0] * 4, [0] * 4, [0] * 3, [0] * 4, [0] * 4, [0] * 4)
+    assert sim.isDeprecated("sim.getScriptHandle") == 1 and sim.isDeprecated("getObject") == 0
+    with pytest.raises(Exception, match=r"sim\.quitSimulator: .*refused"):
+        sim.quitSimulator()
+
+
+def test_wait_for_signal_set_by_another_client(sim, zmq_server):
+    sim.startSimulation()
+    setter = threading.Timer(0.3, lambda: new_sim(zmq_server.zmq_port).setInt32Signal("go", 7))
+    setter.start()
+    try:
+        assert sim.waitForSignal("go") == 7  # the call lasts steps until the other client sets it
+    finally:
+        setter.join()
+        sim.clearInt32Signal("go")
 
 
 def test_stepping_one_client(sim):
@@ -206,10 +230,10 @@ def test_simik_maps_onto_the_scenes_ik_groups():
         group = simIK.getGroupHandle(env, "UR5")
         assert group == sim.getIkGroupHandle("UR5") and simIK.doesGroupExist(env, "UR5")
         assert not simIK.doesGroupExist(env, "nothing")
-        assert simIK.handleGroup(env, group) == simIK.result_success
-        with pytest.raises(Exception, match=r"simIK\.addElementFromScene: not implemented by simx"):
+        assert simIK.handleGroup(env, group)[0] == simIK.result_success
+        with pytest.raises(Exception, match=r"simIK\.addElementFromScene: .*declared in the MJCF"):
             simIK.addElementFromScene(env, group, -1, -1, -1, simIK.constraint_pose)
-        with pytest.raises(Exception, match="one IK environment"):
+        with pytest.raises(Exception, match="no IK environment 5"):
             simIK.handleGroup(5, group)
     finally:
         srv.stop()

@@ -115,5 +115,5 @@ function state(ints, floats, strings, buf)
 end
 
 function unknown(ints, floats, strings, buf)
-    sim.auxiliaryConsoleOpen('console', 10, 0)
+    sim.launchExecutable('console')
 end

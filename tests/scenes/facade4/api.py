@@ -115,4 +115,4 @@ def state(ints, floats, strings, buf):
 
 
 def unknown(ints, floats, strings, buf):
-    sim.auxiliaryConsoleOpen("console", 10, 0)
+    sim.launchExecutable("console")

@@ -1,0 +1,152 @@
+"""CoppeliaSim 4.x's engine parameters where MuJoCo has them, and application queries answered
+from simx's own state (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
+
+Engine parameters: CoppeliaSim's ``sim.mujoco_global_*`` ids map onto the model's ``mjOption``
+(``impratio``, ``wind``, ``density``, ``viscosity``, ``iterations``, ``integrator``, ``solver``,
+``cone``, the multi-CCD flag); the Bullet, ODE, Vortex and Newton ids answer an error naming
+them. Set values are written to the model and to the scene's MjSpec (kept by later edits).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
+from simx_server.sim.objects import JOINT, SHAPE
+from simx_server.sim.state import SimulationView
+
+#: ``sim.mujoco_global_*`` id -> (mjOption field, index or None, kind).
+ENGINE_PARAMS: dict[int, tuple[str, int | None, str]] = {
+    37002: ("impratio", None, "float"), 37003: ("wind", 0, "float"), 37004: ("wind", 1, "float"),
+    37005: ("wind", 2, "float"), 37006: ("density", None, "float"), 37007: ("viscosity", None, "float"),
+    38002: ("iterations", None, "int"), 38003: ("integrator", None, "int"), 38004: ("solver", None, "int"),
+    38007: ("cone", None, "int"), 39003: ("multiccd", None, "bool"),
+}
+_LIMITS = {"impratio": (1e-6, 1e3), "wind": (-1e3, 1e3), "density": (0.0, 1e4), "viscosity": (0.0, 1e3),
+           "iterations": (1, 1000), "integrator": (0, 3), "solver": (0, 2), "cone": (0, 1)}
+
+
+class EngineCalls:
+    """``sim.get/setEngine*Param``, ``isDynamicallyEnabled``, object tags and order, API info."""
+
+    def _engine(self, what: str, paramId: Any, objectHandle: Any, kind: str) -> tuple[str, int | None]:  # noqa: N803
+        pid, h = _int(paramId, "paramId"), _int(objectHandle, "objectHandle")
+        entry = ENGINE_PARAMS.get(pid)
+        if entry is None or entry[2] != kind:
+            raise UnsupportedError(f"sim.{what}: engine parameter {pid} has no MuJoCo counterpart in simx "
+                                   "(sim.mujoco_global_* ids of mjOption do)")
+        if h != -1:
+            raise UnsupportedError(f"sim.{what}: per-object engine parameters: MuJoCo's are in the MJCF")
+        return entry[0], entry[1]
+
+    def _opt(self, field: str, index: int | None) -> Any:
+        opt = self._world.model.opt
+        if field == "multiccd":  # MuJoCo 3.x: on unless disabled
+            return not opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+        value = getattr(opt, field)
+        return value[index] if index is not None else value
+
+    def _set_opt(self, field: str, index: int | None, value: Any) -> None:
+        lo, hi = _LIMITS.get(field, (None, None))
+        if lo is not None and not lo <= value <= hi:
+            raise ArgumentError(f"{field} must lie in [{lo}, {hi}]")
+        targets = [self._world.model.opt]
+        sim = getattr(self, "_sim", None)
+        try:
+            targets.append(sim.editor._live_spec().option if sim is not None else None)
+        except UnsupportedError:
+            pass
+        for opt in (t for t in targets if t is not None):
+            if field == "multiccd":
+                bit = int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+                opt.disableflags = (opt.disableflags & ~bit) if value else (opt.disableflags | bit)
+            elif index is not None:
+                getattr(opt, field)[index] = value
+            else:
+                setattr(opt, field, value)
+
+    def getEngineFloatParam(self, paramId: Any, objectHandle: Any) -> float:  # noqa: N802, N803
+        """``sim.mujoco_global_impratio``, ``wind1..3`` (m/s), ``density`` (kg/m³), ``viscosity``."""
+        return float(self._opt(*self._engine("getEngineFloatParam", paramId, objectHandle, "float")))
+
+    def setEngineFloatParam(self, paramId: Any, objectHandle: Any, floatParam: Any) -> None:  # noqa: N802, N803
+        self._set_opt(*self._engine("setEngineFloatParam", paramId, objectHandle, "float"), _num(floatParam, "floatParam"))
+
+    def getEngineInt32Param(self, paramId: Any, objectHandle: Any) -> int:  # noqa: N802, N803
+        """``sim.mujoco_global_iterations``, ``integrator``, ``solver``, ``cone`` (MuJoCo's enums)."""
+        return int(self._opt(*self._engine("getEngineInt32Param", paramId, objectHandle, "int")))
+
+    def setEngineInt32Param(self, paramId: Any, objectHandle: Any, int32Param: Any) -> None:  # noqa: N802, N803
+        self._set_opt(*self._engine("setEngineInt32Param", paramId, objectHandle, "int"), _int(int32Param, "int32Param"))
+
+    def getEngineBoolParam(self, paramId: Any, objectHandle: Any) -> bool:  # noqa: N802, N803
+        """``sim.mujoco_global_multiccd``."""
+        return bool(self._opt(*self._engine("getEngineBoolParam", paramId, objectHandle, "bool")))
+
+    def setEngineBoolParam(self, paramId: Any, objectHandle: Any, boolParam: Any) -> None:  # noqa: N802, N803
+        self._set_opt(*self._engine("setEngineBoolParam", paramId, objectHandle, "bool"), bool(boolParam))
+
+    def isDynamicallyEnabled(self, objectHandle: Any) -> bool:  # noqa: N802, N803
+        """Whether MuJoCo simulates the object's dynamics: a shape not welded to the world, a
+        joint; other objects follow their body."""
+        obj = self._world.get(self._h(objectHandle))
+        if obj.type == JOINT:
+            return True
+        return obj.type == SHAPE and int(self._world.model.body_weldid[obj.mj_id]) != 0
+
+    # ------------------------------------------------------------------ objects
+    def getObjectsWithTag(self, tagName: Any, justModels: Any = False) -> list[int]:  # noqa: N802, N803
+        """The objects that carry custom data ``tagName`` (``writeCustomDataBlockEx``)."""
+        tag = _text(tagName, "tagName")
+        holder = getattr(self, "_sim", None) or self
+        store = getattr(holder, "custom_data", {})
+        return sorted(h for h, block in store.items() if tag in block and h in self._world.objects)
+
+    def getObjectHierarchyOrder(self, objectHandle: Any) -> tuple[int, int]:  # noqa: N802, N803
+        """``order, totalSiblings``: the object's place among its parent's children (tree order)."""
+        obj = self._world.get(self._h(objectHandle))
+        siblings = [o.handle for o in self._world.objects.values() if o.parent == obj.parent]
+        return siblings.index(obj.handle), len(siblings)
+
+    def getObjectSizeFactor(self, objectHandle: Any) -> float:  # noqa: N802, N803
+        """1: simx never scales objects (``scaleObject`` is not implemented)."""
+        self._world.get(self._h(objectHandle))
+        return 1.0
+
+    # ------------------------------------------------------------ API and settings
+    def getApiFunc(self, scriptHandle: Any, apiWord: Any) -> list[str]:  # noqa: N802, N803
+        """Names of the ``sim`` functions that start with ``apiWord`` (``sim.`` prefix optional)."""
+        word = _text(apiWord, "apiWord").removeprefix("sim.")
+        names = sorted(n for klass in type(self).__mro__ for n, v in vars(klass).items()
+                       if not n.startswith("_") and callable(v) and n.startswith(word))
+        return [f"sim.{n}" for n in dict.fromkeys(names)]
+
+    def getApiInfo(self, scriptHandle: Any, apiWord: Any) -> str:  # noqa: N802, N803
+        """The documentation of ``sim.apiWord`` (its docstring), ``""`` when it has none."""
+        fn = getattr(type(self), _text(apiWord, "apiWord").removeprefix("sim."), None)
+        return (fn.__doc__ or "").strip() if callable(fn) else ""
+
+    def getSettingString(self, key: Any) -> str | None:  # noqa: N802
+        """simx has no user settings file: nil for every key."""
+        _text(key, "key")
+        return None
+
+    getSettingBool = getSettingInt32 = getSettingFloat = getSettingString  # noqa: N815
+
+    def getSimulatorMessage(self) -> tuple[int, list[int], list[int]]:  # noqa: N802
+        """``-1``: no message queue (no window events), as CoppeliaSim with an empty queue."""
+        return -1, [0, 0, 0, 0], [0, 0, 0, 0]
+
+    def getLastInfo(self) -> str:  # noqa: N802
+        """``""``: simx reports information in its log, not through this call."""
+        return ""
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...

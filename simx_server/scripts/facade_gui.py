@@ -1,0 +1,118 @@
+"""CoppeliaSim 4.x's window functions, answered as a headless CoppeliaSim answers them (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`).
+
+simx has no window: text meant for a console or an editor goes to the server's log (one INFO
+line naming the caller), the rest answer neutral values (a handle for what was opened, page 0,
+navigation mode 0, an empty editor) instead of errors, so that a 4.x program that opens an
+auxiliary console or a floating view runs on. Nothing is drawn. docs/COVERAGE.md lists them as
+"headless".
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from simx_server.base.arguments import as_integer as _int, as_text as _text
+
+log = logging.getLogger("simx.scripts")
+
+_MAX_LOGGED = 1000  # characters of one console line in the log
+
+
+def _line(text: str) -> str:
+    text = text if len(text) <= _MAX_LOGGED else text[:_MAX_LOGGED] + f"... ({len(text)} characters)"
+    return text.encode("unicode_escape").decode("ascii")  # one log line whatever the text holds
+
+
+class GuiCalls:
+    """Auxiliary consoles, text editors, floating views, pages, navigation, dialogs, selection."""
+
+    def _gui_handle(self) -> int:
+        n = getattr(self, "_gui_handles", 0) + 1
+        self._gui_handles = n
+        return n
+
+    # auxiliary consoles: their text goes to the log
+    def auxiliaryConsoleOpen(self, title: Any, maxLines: Any, mode: Any, position: Any = None,  # noqa: N802, N803
+                             size: Any = None, textColor: Any = None, backgroundColor: Any = None) -> int:  # noqa: N803
+        """A console handle (from 1); its text goes to the server log, prefixed by ``title``."""
+        h = self._gui_handle()
+        consoles = getattr(self, "_consoles", None) or {}
+        consoles[h] = _text(title, "title")[:100]
+        self._consoles = consoles
+        return h
+
+    def auxiliaryConsolePrint(self, consoleHandle: Any, text: Any) -> int:  # noqa: N802, N803
+        """Write ``text`` to the server log (INFO, ``[label: title]``); 1 (0 for an unknown console)."""
+        title = (getattr(self, "_consoles", None) or {}).get(_int(consoleHandle, "consoleHandle"))
+        if title is None:
+            return 0
+        if text is not None:  # nil clears the console: nothing to log
+            log.info("[%s: %s] %s", getattr(self, "_label", "sim"), title, _line(_text(text, "text")))
+        return 1
+
+    def auxiliaryConsoleClose(self, consoleHandle: Any) -> int:  # noqa: N802, N803
+        return int((getattr(self, "_consoles", None) or {}).pop(_int(consoleHandle, "consoleHandle"), None) is not None)
+
+    def auxiliaryConsoleShow(self, consoleHandle: Any, showState: Any) -> int:  # noqa: N802, N803
+        return int(_int(consoleHandle, "consoleHandle") in (getattr(self, "_consoles", None) or {}))
+
+    # text editors: nothing opens
+    def textEditorOpen(self, initText: Any, properties: Any = "") -> int:  # noqa: N802, N803
+        """A handle; no editor opens (headless)."""
+        return self._gui_handle()
+
+    def textEditorClose(self, handle: Any) -> tuple[str, list[int], list[int]]:  # noqa: N802
+        return "", [0, 0], [0, 0]
+
+    def textEditorShow(self, handle: Any, showState: Any) -> None:  # noqa: N802, N803
+        _int(handle, "handle")
+
+    def textEditorGetInfo(self, handle: Any) -> tuple[str, list[int], list[int], bool]:  # noqa: N802
+        """``text, pos, size, visible`` of an editor nobody sees: empty, at 0, hidden."""
+        return "", [0, 0], [0, 0], False
+
+    # views and pages
+    def floatingViewAdd(self, posX: Any, posY: Any, sizeX: Any, sizeY: Any, options: Any) -> int:  # noqa: N802, N803
+        """A view handle; no view opens (headless)."""
+        return self._gui_handle()
+
+    def floatingViewRemove(self, floatingViewHandle: Any) -> int:  # noqa: N802, N803
+        return 1
+
+    def adjustView(self, viewHandleOrIndex: Any, objectHandle: Any, options: Any, viewLabel: Any = None) -> int:  # noqa: N802, N803
+        return 0
+
+    def cameraFitToView(self, viewHandleOrIndex: Any, objectHandles: Any = None, options: Any = 0,  # noqa: N802, N803
+                        scaling: Any = 1.0) -> int:
+        return 0
+
+    def getPage(self) -> int:  # noqa: N802
+        return 0
+
+    def setPage(self, pageIndex: Any) -> None:  # noqa: N802, N803
+        _int(pageIndex, "pageIndex")
+
+    def getNavigationMode(self) -> int:  # noqa: N802
+        return 0
+
+    def setNavigationMode(self, navigationMode: Any) -> None:  # noqa: N802, N803
+        _int(navigationMode, "navigationMode")
+
+    def refreshDialogs(self, refreshDegree: Any) -> int:  # noqa: N802, N803
+        return 0
+
+    def announceSceneContentChange(self) -> int:  # noqa: N802
+        """0: no undo buffer without a window."""
+        return 0
+
+    # the selection: what scripts and clients set (no mouse)
+    def getObjectSelection(self) -> list[int]:  # noqa: N802
+        """The selected objects' handles (no GUI: what scripts and clients set)."""
+        sim = getattr(self, "_sim", None)
+        return list(getattr(sim, "selection", []) or [])
+
+    def setObjectSelection(self, objectHandles: Any) -> None:  # noqa: N802, N803
+        sim = self._simulation("setObjectSelection")
+        sim.selection = [self._world.get(_int(h, "objectHandle")).handle for h in objectHandles]

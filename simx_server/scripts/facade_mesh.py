@@ -1,0 +1,170 @@
+"""CoppeliaSim 4.x's mesh files and mesh shapes, and joint dependencies, through MjSpec (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`).
+
+``importMesh`` reads an OBJ or binary STL file (the confinement of ``sim.importShape``:
+:func:`simx_server.scripts.shapes._readable`) through MuJoCo's mesh reader; ``exportMesh`` writes
+OBJ text under ``saveScene``'s confinement; ``createShape`` adds a mesh body from vertices and
+indices; ``setJointDependency`` adds an MJCF joint equality (``polycoef``).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base import limits as L
+from simx_server.scripts import shapes
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
+from simx_server.sim.objects import JOINT
+from simx_server.sim.spec_tools import _names, vrep_suffix
+from simx_server.sim.state import SimulationView
+
+_SUFFIX = {0: ".obj", 4: ".stl"}
+
+
+def _mesh(vertices: Any, indices: Any) -> tuple[np.ndarray, np.ndarray]:
+    v = np.array([_num(x, "vertices[i]") for x in vertices]).reshape(-1, 3) if len(vertices) % 3 == 0 else None
+    f = np.array([_int(x, "indices[i]") for x in indices]).reshape(-1, 3) if len(indices) % 3 == 0 else None
+    if v is None or f is None or len(v) < 4 or len(f) < 1:
+        raise ArgumentError("vertices (3 numbers each, at least 4) and indices (3 per triangle) must fit")
+    if len(v) > L.MAX_MESH_VERTICES:
+        raise ArgumentError(f"more than {L.MAX_MESH_VERTICES} vertices (limits.MAX_MESH_VERTICES)")
+    if f.min() < 0 or f.max() >= len(v):
+        raise ArgumentError("indices must name vertices")
+    return v, f
+
+
+class MeshCalls:
+    """``importMesh``, ``exportMesh``, ``createShape``, ``setJointDependency`` (facade mixin)."""
+
+    def importMesh(self, fileformat: Any, pathAndFilename: Any, options: Any = 0,  # noqa: N802, N803
+                   identicalVerticeTolerance: Any = 0.0, scalingFactor: Any = 1.0) -> tuple[list, list]:  # noqa: N803
+        """``vertices, indices`` of an OBJ (0) or binary STL (4) file: one table of each (one
+        mesh), as MuJoCo reads it (vertices in m, scaled by ``scalingFactor``)."""
+        fmt = _int(fileformat, "fileformat")
+        if fmt not in _SUFFIX:
+            raise UnsupportedError("importMesh formats: 0 OBJ, 4 binary STL (what MuJoCo reads)")
+        sim = self._simulation("importMesh")
+        file = shapes._readable(sim, _text(pathAndFilename, "pathAndFilename"))
+        if file.suffix.lower() != _SUFFIX[fmt] or not file.is_file():
+            raise ArgumentError(f"importMesh: no {_SUFFIX[fmt]} file {file.name!r}")
+        if file.stat().st_size > L.MAX_IMPORT_BYTES:
+            raise ArgumentError(f"importMesh: more than {L.MAX_IMPORT_BYTES} bytes")
+        scale = _num(scalingFactor, "scalingFactor") or 1.0
+        spec = mujoco.MjSpec()
+        spec.assets = {"m" + file.suffix.lower(): file.read_bytes()}
+        spec.add_mesh(name="m", file="m" + file.suffix.lower()).scale = [scale] * 3
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="m", contype=0, conaffinity=0)
+        try:
+            m = spec.compile()
+        except ValueError as exc:
+            raise UnsupportedError(f"MuJoCo cannot read this mesh: {exc}") from None
+        pos, rot = m.geom_pos[0], np.empty(9)
+        mujoco.mju_quat2Mat(rot, m.geom_quat[0])  # MuJoCo centres meshes: back to the file's frame
+        v = m.mesh_vert[:m.mesh_vertnum[0]] @ rot.reshape(3, 3).T + pos
+        return [v.reshape(-1).tolist()], [m.mesh_face[:m.mesh_facenum[0]].reshape(-1).astype(int).tolist()]
+
+    def exportMesh(self, fileformat: Any, pathAndFilename: Any, options: Any, scalingFactor: Any,  # noqa: N802, N803
+                   vertices: Any, indices: Any) -> None:
+        """Write meshes (tables of vertex tables and index tables) as one OBJ file (format 0),
+        in the server's scene folders only (``saveScene``'s rule)."""
+        if _int(fileformat, "fileformat") != 0:
+            raise UnsupportedError("exportMesh writes OBJ (format 0) only")
+        name = _text(pathAndFilename, "pathAndFilename")
+        file = self._target_file(name[:-4] + ".xml" if name.lower().endswith(".obj") else name + ".xml")
+        file = file.with_suffix(".obj")
+        scale = _num(scalingFactor, "scalingFactor") or 1.0
+        lines, base = [], 0
+        for vs, fs in zip(vertices, indices):
+            v, f = _mesh(vs, fs)
+            lines += [f"v {x * scale:.9g} {y * scale:.9g} {z * scale:.9g}" for x, y, z in v]
+            lines += [f"f {a + base + 1} {b + base + 1} {c + base + 1}" for a, b, c in f]
+            base += len(v)
+        file.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+    def createShape(self, options: Any, shadingAngle: Any, vertices: Any, indices: Any, normals: Any = None,  # noqa: N802, N803
+                    textureCoordinates: Any = None, texture: Any = None, textureResolution: Any = None) -> int:  # noqa: N803
+        """A dynamic, respondable mesh shape at the world origin from ``vertices`` (m) and
+        ``indices`` (MuJoCo uses the convex hull for contacts); its handle. Textures: refused."""
+        if texture:
+            raise UnsupportedError("createShape with a texture: no run-time textures in simx")
+        v, f = _mesh(vertices, indices)
+        sim = self._simulation("createShape")
+
+        def change(spec: mujoco.MjSpec):
+            suffix = vrep_suffix({"Shape", "Shape_mesh"}, _names(spec) | set(sim.world.by_name))
+            mesh = spec.add_mesh(name=f"Shape_mesh{suffix}")
+            mesh.uservert, mesh.userface = v.reshape(-1).tolist(), f.reshape(-1).tolist()
+            body = spec.worldbody.add_body(name=f"Shape{suffix}")
+            body.add_freejoint()
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1])
+            return lambda: sim.world.resolve(f"Shape{suffix}").handle
+
+        return sim.editor._edit(change)
+
+    def setJointDependency(self, jointHandle: Any, masterJointHandle: Any, offset: Any, multCoeff: Any) -> None:  # noqa: N802, N803
+        """Make the joint follow ``masterJointHandle``: q = offset + multCoeff · q_master (an MJCF
+        joint equality; -1 as master removes the joint's equalities)."""
+        w = self._world
+        joint = w.get(self._h(jointHandle, "jointHandle"), JOINT)
+        master = _int(masterJointHandle, "masterJointHandle")
+        mname = None if master == -1 else w.get(master, JOINT).name
+        off, k = _num(offset, "offset"), _num(multCoeff, "multCoeff")
+        sim = self._simulation("setJointDependency")
+
+        def change(spec: mujoco.MjSpec):
+            for eq in list(spec.equalities):
+                if eq.type == mujoco.mjtEq.mjEQ_JOINT and eq.name1 == joint.name:
+                    spec.delete(eq)
+            if mname is not None:
+                spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=joint.name, name2=mname,
+                                  data=[off, k] + [0.0] * (mujoco.mjNEQDATA - 2))
+
+        sim.editor._edit(change)
+
+    def scaleObject(self, objectHandle: Any, xScale: Any, yScale: Any, zScale: Any, options: Any = 0) -> None:  # noqa: N802, N803
+        """Scale a shape's geoms (sizes and positions in its frame) by x, y, z (0.001..1000):
+        boxes and ellipsoids along each axis, meshes by their scale; spheres, cylinders and
+        capsules need equal x and y (and z for spheres). Its mass scales with the volume."""
+        obj = self._world.get(self._h(objectHandle))
+        if obj.type != 0:  # sim.object_shape_type
+            raise UnsupportedError("scaleObject: simx scales shapes (bodies) only")
+        f = np.array([_num(v, n) for v, n in ((xScale, "xScale"), (yScale, "yScale"), (zScale, "zScale"))])
+        if not np.all((f >= 1e-3) & (f <= 1e3)):
+            raise ArgumentError("scale factors must lie in [0.001, 1000]")
+        _int(options, "options")
+        sim = self._simulation("scaleObject")
+        G = mujoco.mjtGeom
+
+        def change(spec: mujoco.MjSpec):
+            body = spec.body(obj.name)
+            for geom in body.geoms:
+                kind = geom.type
+                if kind in (G.mjGEOM_BOX, G.mjGEOM_ELLIPSOID):
+                    geom.size = np.asarray(geom.size) * f
+                elif kind == G.mjGEOM_MESH:
+                    mesh = spec.mesh(geom.meshname)
+                    mesh.scale = np.asarray(mesh.scale) * f
+                elif kind in (G.mjGEOM_SPHERE, G.mjGEOM_CYLINDER, G.mjGEOM_CAPSULE) and f[0] == f[1] and (
+                        kind != G.mjGEOM_SPHERE or f[0] == f[2]):
+                    size = np.asarray(geom.size, float)
+                    geom.size = [size[0] * f[0], size[1] * (f[2] if kind != G.mjGEOM_SPHERE else 1), size[2]]
+                else:
+                    raise ValueError(f"a {G(kind).name} geom cannot be scaled by {f.tolist()}")
+                geom.pos = np.asarray(geom.pos) * f
+            if body.explicitinertial:
+                body.mass = body.mass * float(np.prod(f))
+
+        sim.editor._edit(change)
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
+
+        def _target_file(self, filename: Any) -> Any: ...

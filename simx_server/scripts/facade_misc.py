@@ -1,0 +1,219 @@
+"""CoppeliaSim 4.x's image and buffer utilities, referenced handles, alternate configurations and
+saving the scene as MJCF (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
+
+Images are uint8 RGB buffers, rows bottom-up, as ``getVisionSensorImg`` returns them; scaling is
+OpenCV's. ``saveScene`` / ``saveModel`` write MJCF (``MjSpec.to_xml``) under the confinement of
+``loadScene``: a ``.xml`` file in the server's scene folder or a ``--scene-path`` folder, never
+in a transfer folder; meshes held in memory cannot be written as MJCF (an error says so).
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
+from simx_server.base import scene_guard as guard
+from simx_server.base.arguments import quote
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
+from simx_server.sim.objects import JOINT
+from simx_server.sim.state import SimulationView
+
+_BUFFER = {0: np.uint8, 1: np.int8, 2: np.uint16, 3: np.int16, 4: np.uint32, 5: np.int32, 6: np.float32, 7: np.float64}
+MAX_IMAGE_SIDE = 8192
+
+
+def _image(image: Any, resolution: Any, channels: int = 3) -> np.ndarray:
+    w, h = (_int(v, "resolution[i]") for v in resolution)
+    raw = _bytes(image, "image")
+    if not (0 < w <= MAX_IMAGE_SIDE and 0 < h <= MAX_IMAGE_SIDE) or len(raw) != w * h * channels:
+        raise ArgumentError(f"image must hold {w}x{h}x{channels} bytes (resolution at most {MAX_IMAGE_SIDE})")
+    return np.frombuffer(raw, np.uint8).reshape(h, w, channels)
+
+
+class MiscCalls:
+    """Image utilities, referenced handles, alternate configurations, saving (facade mixin)."""
+
+    # ------------------------------------------------------------------ images
+    def getScaledImage(self, imageIn: Any, resolutionIn: Any, desiredResolutionOut: Any,  # noqa: N802, N803
+                       options: Any = 0) -> tuple[bytes, list[int]]:
+        """``imageOut, effectiveResolutionOut``: an RGB image resized (OpenCV, area averaging
+        down, linear up); ``options`` bit 0: keep the aspect ratio inside the desired size."""
+        img = _image(imageIn, resolutionIn)
+        w, h = (_int(v, "desiredResolutionOut[i]") for v in desiredResolutionOut)
+        if not (0 < w <= MAX_IMAGE_SIDE and 0 < h <= MAX_IMAGE_SIDE):
+            raise ArgumentError(f"desiredResolutionOut must lie in 1..{MAX_IMAGE_SIDE}")
+        if _int(options, "options") & 1:
+            f = min(w / img.shape[1], h / img.shape[0])
+            w, h = max(1, round(img.shape[1] * f)), max(1, round(img.shape[0] * f))
+        shrink = w < img.shape[1] or h < img.shape[0]
+        out = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA if shrink else cv2.INTER_LINEAR)
+        return np.ascontiguousarray(out).tobytes(), [w, h]
+
+    def transformImage(self, image: Any, resolution: Any, options: Any) -> bytes:  # noqa: N802
+        """The RGB image transformed: ``options`` bit 0 swaps red and blue, bit 1 flips it
+        vertically, bit 2 horizontally."""
+        img = _image(image, resolution).copy()
+        opts = _int(options, "options")
+        if opts & 1:
+            img = img[:, :, ::-1]
+        if opts & 2:
+            img = img[::-1]
+        if opts & 4:
+            img = img[:, ::-1]
+        return np.ascontiguousarray(img).tobytes()
+
+    def combineRgbImages(self, img1: Any, img1Res: Any, img2: Any, img2Res: Any, operation: Any) -> bytes:  # noqa: N802, N803
+        """``sim.imgcomb_vertical`` (0: img2 above img1, rows bottom-up) or ``imgcomb_horizontal``
+        (1: side by side) of two RGB images of matching size."""
+        a, b = _image(img1, img1Res), _image(img2, img2Res)
+        op = _int(operation, "operation")
+        if op not in (0, 1) or a.shape[1 - op] != b.shape[1 - op]:
+            raise ArgumentError("operation 0 (vertical: same widths) or 1 (horizontal: same heights)")
+        return np.ascontiguousarray(np.concatenate([a, b], axis=op)).tobytes()
+
+    def transformBuffer(self, inBuffer: Any, inFormat: Any, multiplier: Any, offset: Any, outFormat: Any) -> bytes:  # noqa: N802, N803
+        """A buffer of ``sim.buffer_*`` items (uint8 ... double), each ``value * multiplier +
+        offset``, as another type (``outFormat`` + ``sim.buffer_clamp``: clamped to its range)."""
+        src, dst = _int(inFormat, "inFormat"), _int(outFormat, "outFormat")
+        clamp, dst = bool(dst & 256), dst & ~256
+        if src not in _BUFFER or dst not in _BUFFER:
+            raise UnsupportedError("transformBuffer formats: sim.buffer_uint8 ... buffer_double (0-7)")
+        raw = _bytes(inBuffer, "inBuffer")
+        size = np.dtype(_BUFFER[src]).itemsize
+        values = np.frombuffer(raw[:len(raw) // size * size], _BUFFER[src]).astype(np.float64)
+        values = values * _num(multiplier, "multiplier") + _num(offset, "offset")
+        kind = _BUFFER[dst]
+        if clamp and np.issubdtype(kind, np.integer):
+            info = np.iinfo(kind)
+            values = np.clip(values, info.min, info.max)
+        return values.astype(kind).tobytes()
+
+    def getVisionSensorDepthBuffer(self, sensorHandle: Any, pos: Any = None, size: Any = None) -> list[float]:  # noqa: N802, N803
+        """The depth buffer as a table of floats 0..1 (near to far clipping plane), rows
+        bottom-up; ``sensorHandle + sim.handleflag_depthbuffermeters``: distances in m."""
+        h = _int(sensorHandle, "sensorHandle")
+        metres = h >= 0 and bool(h & 0x800000)  # sim.handleflag_depthbuffermeters
+        if metres:
+            h &= ~0x800000
+        if pos is not None or size is not None:
+            raise UnsupportedError("getVisionSensorDepthBuffer of a window: use getVisionSensorDepth(h, options, pos, size)")
+        sim = self._simulation("getVisionSensorDepthBuffer")
+        spec = sim.vision.spec(self._h(h))
+        depth = sim.vision.depth(self._h(h))
+        if metres:
+            depth = spec.near + depth * (spec.far - spec.near)
+        return depth.astype(np.float64).reshape(-1).tolist()
+
+    # ------------------------------------------------------------ referenced handles
+    def _refs(self, handle: Any) -> dict[str, list[int]]:
+        holder = getattr(self, "_sim", None) or self
+        store = getattr(holder, "referenced_handles", None)
+        if store is None:
+            store = holder.referenced_handles = {}
+        return store.setdefault(self._world.get(self._h(handle)).handle, {})
+
+    def setReferencedHandles(self, objectHandle: Any, referencedHandles: Any, tag: Any = "") -> None:  # noqa: N802, N803
+        """Store handles that ``objectHandle`` refers to under ``tag`` (any scene objects)."""
+        refs = [self._world.get(_int(h, "referencedHandles[i]")).handle for h in referencedHandles]
+        self._refs(objectHandle)[_text(tag, "tag")] = refs[:10_000]
+
+    def addReferencedHandle(self, objectHandle: Any, referencedHandle: Any, tag: Any = "", opts: Any = None) -> None:  # noqa: N802, N803
+        refs = self._refs(objectHandle).setdefault(_text(tag, "tag"), [])
+        h = self._world.get(_int(referencedHandle, "referencedHandle")).handle
+        if h not in refs and len(refs) < 10_000:
+            refs.append(h)
+
+    def getReferencedHandles(self, objectHandle: Any, tag: Any = "") -> list[int]:  # noqa: N802, N803
+        """The handles stored under ``tag``, those still in the scene (-1 for a removed one)."""
+        return [h if h in self._world.objects else -1 for h in self._refs(objectHandle).get(_text(tag, "tag"), [])]
+
+    def getReferencedHandle(self, objectHandle: Any, tag: Any = "") -> int:  # noqa: N802, N803
+        refs = self.getReferencedHandles(objectHandle, tag)
+        return refs[0] if refs else -1
+
+    def getReferencedHandlesTags(self, objectHandle: Any) -> list[str]:  # noqa: N802, N803
+        return sorted(self._refs(objectHandle))
+
+    # ---------------------------------------------------------- configurations
+    def getAlternateConfigs(self, jointHandles: Any, inputConfig: Any, tipHandle: Any = -1,  # noqa: N802, N803
+                            lowLimits: Any = None, ranges: Any = None) -> list[float]:
+        """``inputConfig`` and the configurations equal to it up to whole turns of revolute
+        joints within their ranges (or ``lowLimits`` / ``ranges``), flat; the tip's pose is the
+        same in each (``tipHandle`` only checked)."""
+        m = self._world.model
+        joints = [self._world.get(_int(j, "jointHandles[i]"), JOINT) for j in jointHandles]
+        config = [_num(v, "inputConfig[i]") for v in inputConfig]
+        if len(config) != len(joints):
+            raise ArgumentError("inputConfig must have one value per joint")
+        choices = []
+        for i, (obj, q) in enumerate(zip(joints, config)):
+            lo, hi = (m.jnt_range[obj.mj_id] if m.jnt_limited[obj.mj_id] else (-np.inf, np.inf))
+            if lowLimits is not None and ranges is not None:
+                lo, hi = _num(lowLimits[i], "lowLimits[i]"), _num(lowLimits[i], "lowLimits[i]") + _num(ranges[i], "ranges[i]")
+            if int(m.jnt_type[obj.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE and np.isfinite(lo) and np.isfinite(hi):
+                ks = range(int(np.ceil((lo - q) / (2 * np.pi))), int(np.floor((hi - q) / (2 * np.pi))) + 1)
+                choices.append([q + 2 * np.pi * k for k in ks] or [q])
+            else:
+                choices.append([q])
+        combos = list(itertools.islice(itertools.product(*choices), 10_000))
+        return [float(v) for combo in combos for v in combo]
+
+    # --------------------------------------------------------------- saving
+    def _target_file(self, filename: Any) -> Path:
+        sim = self._simulation("saveScene")
+        name = _text(filename, "filename")
+        if not name or "\x00" in name or not name.lower().endswith(".xml"):
+            raise ArgumentError("simx saves MJCF: give a .xml file name")
+        file = Path(name)
+        if not file.is_absolute():
+            file = sim.editor.files.roots[0] / file
+        file = Path(os.path.realpath(file))
+        if not any(guard.inside(file, root) for root in sim.editor.files.roots) or guard.is_transferred(file):
+            raise RemoteError(f"file {quote(name)} refused: scenes are saved only in the server's scene folder and "
+                              "its --scene-path folders")
+        if not file.parent.is_dir():
+            raise RemoteError(f"no folder for {quote(name)}")
+        return file
+
+    def saveScene(self, filename: Any) -> None:  # noqa: N802
+        """Write the scene as it is now (its MjSpec with the edits) as MJCF; the file name is
+        checked as ``loadScene``'s (see the module's text)."""
+        file = self._target_file(filename)
+        spec = self._simulation("saveScene").editor._live_spec()
+        try:
+            text = spec.to_xml()
+        except ValueError as exc:
+            raise UnsupportedError(f"MuJoCo cannot write this scene as MJCF: {exc}") from None
+        file.write_text(text, encoding="utf-8")
+
+    def saveModel(self, modelBaseHandle: Any, filename: Any) -> None:  # noqa: N802, N803
+        """Write the body subtree of a shape (a model) as an MJCF file of its own."""
+        file = self._target_file(filename)
+        obj = self._world.get(self._h(modelBaseHandle))
+        spec = self._simulation("saveModel").editor._live_spec()
+        body = spec.body(obj.name) if obj.type == 0 else None
+        if body is None:
+            raise ArgumentError(f"{obj.name!r} is not a shape (a body) to save as a model")
+        model = mujoco.MjSpec()
+        model.assets = dict(spec.assets or {})
+        frame = model.worldbody.add_frame()
+        try:
+            frame.attach_body(body, "", "")
+            text = model.to_xml()
+        except ValueError as exc:
+            raise UnsupportedError(f"MuJoCo cannot write this model as MJCF: {exc}") from None
+        file.write_text(text, encoding="utf-8")
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...

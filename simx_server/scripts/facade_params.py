@@ -1,0 +1,222 @@
+"""CoppeliaSim 4.x's simulator parameters, the random generator and the run flags, for scripts and
+ZMQ clients alike (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
+
+Parameter ids are CoppeliaSim's (``sim.intparam_program_version`` ...). Each id with a meaning
+on a headless MuJoCo server answers it; the rest raise UnsupportedError naming the id (a ZMQ
+client's :class:`~simx_server.zmq.remote_sim.RemoteSim` first tries the legacy API's handlers,
+which know the mouse and the stop counter, through :meth:`ParamCalls._legacy_param`).
+
+``sim.intparam_program_version`` answers **40800**, CoppeliaSim 4.8.0 (major·10000 + minor·100
++ patch): the release whose API simx's ZMQ table and facade follow (docs/ZMQ.md), so a program
+that checks ``>= 40300`` before using 4.3's paths takes the 4.x branch.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import random
+import sys
+from typing import TYPE_CHECKING, Any
+
+from simx_wire.protocol import RemoteError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
+from simx_server.sim import physics
+from simx_server.sim.state import RunState, SimulationView
+
+log = logging.getLogger("simx.scripts")
+
+#: CoppeliaSim release simx answers for (``sim.intparam_program_version``): 4.8.0.
+PROGRAM_VERSION, PROGRAM_REVISION = 40800, 0
+#: CoppeliaSim's ``sim.physics_mujoco`` (``sim.intparam_dynamic_engine``).
+PHYSICS_MUJOCO = 4
+_INT, _FLOAT, _BOOL, _STRING, _ARRAY = "integer", "float", "boolean", "string", "array"
+
+
+class ParamCalls:
+    """``sim.get/setInt32Param``, ``Float``, ``Bool``, ``String``, ``Array`` and named parameters,
+    ``getRandom``, ``getIsRealTimeSimulation``, ``quitSimulator`` (mixin of the facade)."""
+
+    def _legacy_param(self, kind: str, pid: int, *value: Any) -> Any:
+        """An id this module does not know: UnsupportedError (RemoteSim asks the legacy API)."""
+        raise UnsupportedError(f"{kind} parameter {pid} has no meaning in simx (docs/COVERAGE.md)")
+
+    def _int_params(self) -> dict[int, Any]:
+        sim = self._simulation("getInt32Param")
+        return {1: lambda: PROGRAM_VERSION, 30: lambda: PROGRAM_REVISION,  # program_version, revision
+                39: lambda: PROGRAM_VERSION * 100 + PROGRAM_REVISION,  # program_full_version
+                4: lambda: 0,  # compilation_version: 0, no Edu/Pro/Player flavour
+                7: lambda: sim.world.substeps,  # dynamic_step_divider: MuJoCo substeps per step
+                8: lambda: PHYSICS_MUJOCO,  # dynamic_engine
+                19: lambda: 0 if sys.platform.startswith("win") else 1 if sys.platform == "darwin" else 2,
+                24: lambda: os.cpu_count() or 1,  # core_count
+                52: os.getpid,  # processid
+                }
+
+    def getInt32Param(self, parameter: Any) -> int:  # noqa: N802 (CoppeliaSim's names)
+        """An integer parameter: ``sim.intparam_program_version`` 40800 (CoppeliaSim 4.8.0),
+        ``program_revision`` 0, ``program_full_version`` 4080000, ``dynamic_step_divider`` (MuJoCo
+        substeps per step), ``dynamic_engine`` (``sim.physics_mujoco``), ``platform`` (0 Windows,
+        1 macOS, 2 Linux), ``core_count``, ``processid``. Others: UnsupportedError naming it."""
+        pid = _int(parameter, "parameter")
+        known = self._int_params().get(pid)
+        return int(known()) if known is not None else self._legacy_param(_INT, pid)
+
+    def setInt32Param(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        """Integer parameters are read-only in simx (the engine's step divider follows dt)."""
+        pid, v = _int(parameter, "parameter"), _int(value, "intState")
+        if pid in self._int_params():
+            raise RemoteError(f"integer parameter {pid} is read-only in simx")
+        self._legacy_param(_INT, pid, v)
+
+    def getFloatParam(self, parameter: Any) -> float:  # noqa: N802
+        """``sim.floatparam_simulation_time_step`` (s), ``floatparam_physicstimestep`` (MuJoCo's
+        timestep, s), ``floatparam_rand`` (uniform in [0, 1))."""
+        pid = _int(parameter, "parameter")
+        world = self._simulation("getFloatParam").world
+        if pid == 1:
+            return world.dt
+        if pid == 5:
+            return float(world.model.opt.timestep)
+        if pid == 0:
+            return random.random()
+        return self._legacy_param(_FLOAT, pid)
+
+    def setFloatParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        """``sim.floatparam_simulation_time_step`` (s, simulation stopped, as CoppeliaSim)."""
+        pid, v = _int(parameter, "parameter"), _num(value, "floatState")
+        sim = self._simulation("setFloatParam")
+        if pid != 1:
+            self._legacy_param(_FLOAT, pid, v)
+            return
+        if sim.state is not RunState.STOPPED:
+            raise RemoteError("sim.floatparam_simulation_time_step can change only while the simulation is stopped")
+        sim.world.set_dt(v)
+
+    def getBoolParam(self, parameter: Any) -> bool:  # noqa: N802
+        """``headless`` true, ``display_enabled`` false, ``realtime_simulation`` (paced to wall
+        time), ``dynamics_handling_enabled`` true, ``ik_handling_enabled`` true (the scene's IK
+        groups are solved each step), ``scene_closing`` false."""
+        pid = _int(parameter, "parameter")
+        sim = self._simulation("getBoolParam")
+        known = {34: True, 16: False, 6: True, 4: True, 52: False, 25: bool(getattr(sim, "realtime", False))}
+        return known[pid] if pid in known else self._legacy_param(_BOOL, pid)
+
+    def setBoolParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        """``sim.boolparam_realtime_simulation``: pace the free-running simulation to wall time;
+        ``display_enabled`` false is accepted (there is no display)."""
+        pid = _int(parameter, "parameter")
+        sim = self._simulation("setBoolParam")
+        if pid == 25:
+            sim.realtime = bool(value)
+        elif pid == 16 and not value:
+            return
+        else:
+            self._legacy_param(_BOOL, pid, bool(value))
+
+    def getStringParam(self, parameter: Any) -> str:  # noqa: N802
+        """``sim.stringparam_scene_path_and_name``, ``scene_name``, ``application_path`` (the
+        simx_server package's folder), ``stringparam_uniqueid`` (the process id as text)."""
+        pid = _int(parameter, "parameter")
+        sim = self._simulation("getStringParam")
+        if pid == 15:
+            return sim.world.scene_path.name
+        if pid == 0:
+            return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        return self._legacy_param(_STRING, pid)
+
+    def setStringParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        """CoppeliaSim's settable string parameters (video file name, verbosities) belong to its
+        window and log settings: an UnsupportedError names the id."""
+        pid = _int(parameter, "parameter")
+        self._legacy_param(_STRING, pid, _text(value, "stringState"))
+
+    def getArrayParam(self, parameter: Any) -> list[float]:  # noqa: N802
+        """``sim.arrayparam_gravity`` (m/s², the MuJoCo model's)."""
+        pid = _int(parameter, "parameter")
+        if pid == 0:
+            return self._simulation("getArrayParam").world.model.opt.gravity.tolist()
+        return self._legacy_param(_ARRAY, pid)
+
+    def setArrayParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
+        """``sim.arrayparam_gravity`` (3 numbers, m/s², bounded as ``simxSetArrayParameter``)."""
+        pid = _int(parameter, "parameter")
+        v = _vector(value, 3, "arrayOfValues")
+        if pid != 0:
+            self._legacy_param(_ARRAY, pid, v)
+            return
+        self._simulation("setArrayParam").world.model.opt.gravity[:] = physics.check_gravity(v)
+
+    # named parameters: CoppeliaSim's key/value store of the application (strings)
+    def _named(self) -> dict[str, str]:
+        sim = self._simulation("getNamedStringParam")
+        store = getattr(sim, "named_params", None)
+        if store is None:
+            store = sim.named_params = {}
+        return store
+
+    def setNamedStringParam(self, paramName: Any, stringParam: Any) -> None:  # noqa: N802, N803
+        """Store a named parameter (text) for the server's lifetime (at most 1,000 names)."""
+        store, key = self._named(), _text(paramName, "paramName")
+        if key not in store and len(store) >= 1000:
+            raise RemoteError("the named parameters hold 1,000 names already")
+        store[key] = _text(stringParam, "stringParam")[:100_000]
+
+    def getNamedStringParam(self, paramName: Any) -> str | None:  # noqa: N802, N803
+        """A named parameter, nil (None) when not set."""
+        return self._named().get(_text(paramName, "paramName"))
+
+    def setNamedInt32Param(self, paramName: Any, value: Any) -> None:  # noqa: N802, N803
+        self.setNamedStringParam(paramName, str(_int(value, "value")))
+
+    def getNamedInt32Param(self, paramName: Any) -> int | None:  # noqa: N802, N803
+        v = self.getNamedStringParam(paramName)
+        try:
+            return None if v is None else int(v)
+        except ValueError:
+            return None
+
+    def setNamedFloatParam(self, paramName: Any, value: Any) -> None:  # noqa: N802, N803
+        self.setNamedStringParam(paramName, repr(_num(value, "value")))
+
+    def getNamedFloatParam(self, paramName: Any) -> float | None:  # noqa: N802, N803
+        v = self.getNamedStringParam(paramName)
+        try:
+            return None if v is None else float(v)
+        except ValueError:
+            return None
+
+    def setNamedBoolParam(self, paramName: Any, value: Any) -> None:  # noqa: N802, N803
+        self.setNamedStringParam(paramName, "true" if value else "false")
+
+    def getNamedBoolParam(self, paramName: Any) -> bool | None:  # noqa: N802, N803
+        v = self.getNamedStringParam(paramName)
+        return None if v is None else v.lower() in ("true", "1", "on")
+
+    # ----------------------------------------------------------------- misc
+    def getRandom(self, seed: Any = None) -> float:  # noqa: N802
+        """A uniform number in [0, 1); ``seed`` (an integer) reseeds the generator first."""
+        rng = getattr(self, "_rng", None)
+        if rng is None or seed is not None:
+            rng = self._rng = random.Random(None if seed is None else _int(seed, "seed"))
+        return rng.random()
+
+    def getIsRealTimeSimulation(self) -> int:  # noqa: N802
+        """1 when the free-running simulation is paced to wall time (``--speed``), else 0."""
+        return int(bool(getattr(self._simulation("getIsRealTimeSimulation"), "realtime", False)))
+
+    def getRealTimeSimulation(self) -> bool:  # noqa: N802
+        return bool(self.getIsRealTimeSimulation())
+
+    def getSimulationStopping(self) -> bool:  # noqa: N802
+        """Whether the simulation is stopping (the scripts' ``sysCall_cleanup`` runs)."""
+        return bool(getattr(self._simulation("getSimulationStopping").scripts, "stopping", False))
+
+    def quitSimulator(self, doNotDisplayMessages: Any = False) -> None:  # noqa: N802, N803
+        """Refused: a script or client cannot end the server other clients share (stop it with
+        SIGTERM / Ctrl-C, docs/SECURITY.md)."""
+        raise RemoteError("sim.quitSimulator is refused: the server is shared by its clients and scripts; "
+                          "stop simx-server itself (SIGTERM or Ctrl-C)")
+
+    if TYPE_CHECKING:  # provided by the facade
+        def _simulation(self, what: str) -> SimulationView: ...

@@ -1,0 +1,243 @@
+"""CoppeliaSim 4.x's path helpers, collections and drawing objects kept as data (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`).
+
+* Paths are flat lists of configurations (``dof`` numbers each), as CoppeliaSim's Lua helpers
+  take them: lengths along the path (Euclidean between consecutive configurations),
+  interpolation and resampling (linear), the closest position to a point. ``createPath`` makes
+  a dummy that carries its control points and the path through them (linear, ``subdiv``
+  points per segment) as custom data ``PATHCTRLPT`` and ``PATH`` (packed doubles, as 4.3+ path
+  objects do).
+* Collections are lists of scene objects (``addItemToCollection`` with ``sim.handle_single``,
+  ``handle_tree``, ``handle_chain``, ``handle_all``); drawing objects keep their items (nothing
+  is drawn headless). Both have handles of their own from 2,000,000 and 3,000,000.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, UnknownObjectError
+from simx_server.base.arguments import as_integer as _int, as_number as _num
+from simx_server.sim.objects import WORLD
+from simx_server.sim.state import SimulationView
+
+_COLLECTIONS, _DRAWINGS = 2_000_000, 3_000_000
+MAX_COLLECTIONS, MAX_DRAWINGS, MAX_ITEMS = 1000, 1000, 100_000
+HANDLE_ALL, HANDLE_TREE, HANDLE_CHAIN, HANDLE_SINGLE = -2, -6, -7, -8
+
+
+def _path(path: Any, dof: int) -> np.ndarray:
+    if isinstance(path, np.ndarray):
+        path = path.tolist()
+    if not isinstance(path, (list, tuple)) or dof < 1 or len(path) < dof or len(path) % dof:
+        raise ArgumentError(f"path must be a flat table of configurations of {dof} numbers")
+    return np.array([_num(v, "path[i]") for v in path]).reshape(-1, dof)
+
+
+def _lengths(pts: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+
+
+def _dof(path: Any, lengths: Any) -> int:
+    n = len(lengths) if isinstance(lengths, (list, tuple, np.ndarray)) else 0
+    if n < 1 or len(path) % n:
+        raise ArgumentError("pathLengths must have one length per configuration of path")
+    return len(path) // n
+
+
+def _at(pts: np.ndarray, lengths: np.ndarray, t: float) -> np.ndarray:
+    t = min(max(t, 0.0), float(lengths[-1]))
+    i = int(np.searchsorted(lengths, t, side="right")) - 1
+    if i >= len(pts) - 1:
+        return pts[-1]
+    span = lengths[i + 1] - lengths[i]
+    f = 0.0 if span <= 0 else (t - lengths[i]) / span
+    return pts[i] + f * (pts[i + 1] - pts[i])
+
+
+def _linear(method: Any) -> None:
+    kind = method.get("type", "linear") if isinstance(method, dict) else "linear"
+    if kind != "linear":
+        raise ArgumentError(f"interpolation {kind!r}: simx interpolates paths linearly ({{type = 'linear'}})")
+
+
+class PathCalls:
+    """Path helpers, collections, drawing objects (facade mixin)."""
+
+    def getPathLengths(self, path: Any, dof: Any, distCallback: Any = None) -> tuple[list[float], float]:  # noqa: N802, N803
+        """``pathLengths, totalLength``: the length along the path at each configuration (the
+        first 0), Euclidean between consecutive configurations."""
+        if distCallback is not None:
+            raise ArgumentError("getPathLengths with a distance callback: simx measures Euclidean lengths")
+        lengths = _lengths(_path(path, _int(dof, "dof")))
+        return lengths.tolist(), float(lengths[-1])
+
+    def getPathInterpolatedConfig(self, path: Any, pathLengths: Any, t: Any, method: Any = None,  # noqa: N802, N803
+                                  types: Any = None) -> list[float]:
+        """The configuration at length ``t`` along the path (clamped to its ends), linearly
+        between its two neighbours."""
+        _linear(method)
+        pts = _path(path, _dof(path, pathLengths))
+        return _at(pts, np.array([_num(v, "pathLengths[i]") for v in pathLengths]), _num(t, "t")).tolist()
+
+    def resamplePath(self, path: Any, pathLengths: Any, finalConfigCnt: Any, method: Any = None,  # noqa: N802, N803
+                     types: Any = None) -> list[float]:
+        """``finalConfigCnt`` configurations evenly spaced along the path, flat."""
+        _linear(method)
+        n = _int(finalConfigCnt, "finalConfigCnt")
+        if not 2 <= n <= MAX_ITEMS:
+            raise ArgumentError(f"finalConfigCnt must lie in 2..{MAX_ITEMS}")
+        pts = _path(path, _dof(path, pathLengths))
+        lengths = np.array([_num(v, "pathLengths[i]") for v in pathLengths])
+        return np.vstack([_at(pts, lengths, t) for t in np.linspace(0, lengths[-1], n)]).reshape(-1).tolist()
+
+    def getClosestPosOnPath(self, path: Any, pathLengths: Any, absPt: Any) -> float:  # noqa: N802, N803
+        """The length along the path (its first 3 numbers a position, m) closest to point ``absPt``."""
+        pts = _path(path, _dof(path, pathLengths))[:, :3]
+        lengths = np.array([_num(v, "pathLengths[i]") for v in pathLengths])
+        p = np.array([_num(v, "absPt[i]") for v in absPt][:3])
+        best, where = np.inf, 0.0
+        for i in range(len(pts) - 1):
+            a, b = pts[i], pts[i + 1]
+            ab = b - a
+            f = 0.0 if not ab.any() else float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0, 1))
+            d = float(np.linalg.norm(a + f * ab - p))
+            if d < best:
+                best, where = d, float(lengths[i] + f * (lengths[i + 1] - lengths[i]))
+        return where
+
+    def createPath(self, ctrlPts: Any, options: Any = 0, subdiv: Any = 100, smoothness: Any = 1.0,  # noqa: N802, N803
+                   orientationMode: Any = 0, upVector: Any = None) -> int:  # noqa: N803
+        """A path object: a dummy carrying ``ctrlPts`` (7 numbers per pose: x y z qx qy qz qw)
+        and the path through them, linear with ``subdiv`` points per segment, as custom data
+        ``PATHCTRLPT`` and ``PATH`` (packed doubles). Its handle."""
+        pts = _path(ctrlPts, 7)
+        k = _int(subdiv, "subdiv")
+        if not 1 <= k <= 1000 or len(pts) * k > MAX_ITEMS:
+            raise ArgumentError("subdiv must lie in 1..1000 (and the path hold at most 100,000 poses)")
+        dense = [pts[0]] + [pts[i] + (j / k) * (pts[i + 1] - pts[i]) for i in range(len(pts) - 1)
+                            for j in range(1, k + 1)]
+        h = self.createDummy(0.01)
+        pack = lambda a: struct.pack(f"<{a.size}d", *a.reshape(-1))  # noqa: E731
+        self.writeCustomDataBlockEx(h, "PATHCTRLPT", pack(pts))
+        self.writeCustomDataBlockEx(h, "PATH", pack(np.array(dense)))
+        return h
+
+    # --------------------------------------------------------------- collections
+    def _store(self, kind: str) -> dict:
+        holder = getattr(self, "_sim", None) or self
+        store = getattr(holder, kind, None)
+        if store is None:
+            store = {}
+            setattr(holder, kind, store)
+        return store
+
+    def createCollection(self, options: Any = 0) -> int:  # noqa: N802
+        """An empty collection; its handle (from 2,000,000)."""
+        store = self._store("collections")
+        if len(store) >= MAX_COLLECTIONS:
+            raise ArgumentError(f"at most {MAX_COLLECTIONS} collections")
+        h = max(store, default=_COLLECTIONS - 1) + 1
+        store[h] = []
+        return h
+
+    def _collection(self, handle: Any) -> list:
+        c = self._store("collections").get(_int(handle, "collectionHandle"))
+        if c is None:
+            raise UnknownObjectError(f"no collection {handle}")
+        return c
+
+    def addItemToCollection(self, collectionHandle: Any, what: Any, objectHandle: Any, options: Any = 0) -> None:  # noqa: N802, N803
+        """Add (``options`` bit 0: remove) ``sim.handle_single`` one object, ``handle_tree`` it and
+        everything below it (bit 1: without it), ``handle_chain`` it and its ancestors,
+        ``handle_all`` every object."""
+        items, kind, opts = self._collection(collectionHandle), _int(what, "what"), _int(options, "options")
+        w = self._world
+        if kind == HANDLE_ALL:
+            chosen = list(w.objects)
+        else:
+            h = w.get(self._h(objectHandle)).handle
+            if kind == HANDLE_SINGLE:
+                chosen = [h]
+            elif kind == HANDLE_TREE:
+                chosen = [o for o in w.objects if self._below(o, h)] + ([] if opts & 2 else [h])
+            elif kind == HANDLE_CHAIN:
+                chosen = []
+                while h != WORLD:
+                    chosen.append(h)
+                    h = w.objects[h].parent
+            else:
+                raise ArgumentError("what: sim.handle_single, handle_tree, handle_chain or handle_all")
+        if opts & 1:
+            items[:] = [h for h in items if h not in set(chosen)]
+        else:
+            items.extend(h for h in chosen if h not in items)
+
+    def _below(self, h: int, base: int) -> bool:
+        p = self._world.objects[h].parent
+        while p != WORLD:
+            if p == base:
+                return True
+            p = self._world.objects[p].parent
+        return False
+
+    def getCollectionObjects(self, collectionHandle: Any) -> list[int]:  # noqa: N802, N803
+        """The collection's objects (those still in the scene)."""
+        return [h for h in self._collection(collectionHandle) if h in self._world.objects]
+
+    def destroyCollection(self, collectionHandle: Any) -> None:  # noqa: N802, N803
+        self._collection(collectionHandle)
+        del self._store("collections")[_int(collectionHandle, "collectionHandle")]
+
+    # ------------------------------------------------------------ drawing objects
+    def addDrawingObject(self, objectType: Any, size: Any, duplicateTolerance: Any, parentObjectHandle: Any,  # noqa: N802, N803
+                         maxItemCount: Any, color: Any = None) -> int:  # noqa: N803
+        """A drawing object kept as data (headless: nothing drawn); its handle (from 3,000,000)."""
+        store = self._store("drawings")
+        if len(store) >= MAX_DRAWINGS:
+            raise ArgumentError(f"at most {MAX_DRAWINGS} drawing objects")
+        n = _int(maxItemCount, "maxItemCount")
+        if not 0 < n <= MAX_ITEMS:
+            raise ArgumentError(f"maxItemCount must lie in 1..{MAX_ITEMS}")
+        parent = _int(parentObjectHandle, "parentObjectHandle")
+        if parent != WORLD:
+            self._world.get(parent)
+        h = max(store, default=_DRAWINGS - 1) + 1
+        store[h] = {"type": _int(objectType, "objectType"), "size": _num(size, "size"), "max": n, "items": [],
+                    "parent": parent}
+        return h
+
+    def addDrawingObjectItem(self, drawingObjectHandle: Any, itemData: Any) -> int:  # noqa: N802, N803
+        """Append an item (its numbers); nil clears the object. Past ``maxItemCount`` the oldest
+        goes (CoppeliaSim's cyclic buffer). Returns 1."""
+        d = self._store("drawings").get(_int(drawingObjectHandle, "drawingObjectHandle") & 0x3FFFFF)  # without sim.handleflag_* bits
+        if d is None:
+            raise UnknownObjectError(f"no drawing object {drawingObjectHandle}")
+        if itemData is None:
+            d["items"].clear()
+            return 1
+        d["items"].append([_num(v, "itemData[i]") for v in itemData][:64])
+        del d["items"][:-d["max"]]
+        return 1
+
+    def removeDrawingObject(self, drawingObjectHandle: Any) -> None:  # noqa: N802, N803
+        """Remove one (``sim.handle_all``: every one)."""
+        h, store = _int(drawingObjectHandle, "drawingObjectHandle"), self._store("drawings")
+        if h == HANDLE_ALL:
+            store.clear()
+        elif store.pop(h, None) is None:
+            raise UnknownObjectError(f"no drawing object {h}")
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
+
+        def createDummy(self, size: Any = 0.005, color: Any = None) -> int: ...
+
+        def writeCustomDataBlockEx(self, objectHandle: Any, tagName: Any, data: Any, options: Any = None) -> None: ...

@@ -1,0 +1,145 @@
+"""CoppeliaSim 4.x's Ruckig objects (``sim.ruckigPos``, ``ruckigVel``, ``ruckigStep``,
+``ruckigRemove``) on the ``ruckig`` library CoppeliaSim uses too (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`): jerk-limited online trajectories a script or a
+client steps itself. Handles from 4,000,000; at most 256 objects per facade."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from simx_wire.protocol import ArgumentError, UnknownObjectError
+from simx_server.base.arguments import as_integer as _int, as_number as _num
+
+_FIRST, MAX_OBJECTS, MAX_DOFS, MAX_UPDATES = 4_000_000, 256, 64, 100_000
+_SYNC = {0: "Phase", 1: "Time", 3: "No"}  # sim.ruckig_phasesync, timesync, nosync
+
+
+def _floats(values: Any, n: int, what: str) -> list[float]:
+    if not isinstance(values, (list, tuple)) or len(values) < n:
+        raise ArgumentError(f"{what} must hold {n} numbers")
+    return [_num(v, what) for v in values[:n]]
+
+
+class RuckigCalls:
+    """Ruckig position and velocity interfaces, stepped by the caller (facade mixin)."""
+
+    def _ruckig_objects(self) -> dict:
+        objs = getattr(self, "_ruckig", None)
+        if objs is None:
+            objs = self._ruckig = {}
+        return objs
+
+    def _ruckig_new(self, position: bool, dofs: Any, baseCycleTime: Any, flags: Any, current: Any, limits: Any,  # noqa: N803
+                    selection: Any, target: Any) -> int:
+        from ruckig import ControlInterface, InputParameter, OutputParameter, Ruckig, Synchronization
+        n, dt = _int(dofs, "dofs"), _num(baseCycleTime, "baseCycleTime")
+        if not 0 < n <= MAX_DOFS or not 0 < dt <= 10:
+            raise ArgumentError(f"dofs must lie in 1..{MAX_DOFS} and baseCycleTime in (0, 10] s")
+        objs = self._ruckig_objects()
+        if len(objs) >= MAX_OBJECTS:
+            raise ArgumentError(f"at most {MAX_OBJECTS} Ruckig objects: remove some (sim.ruckigRemove)")
+        cur = _floats(current, 3 * n, "currentPosVelAccel")
+        inp = InputParameter(n)
+        inp.current_position, inp.current_velocity, inp.current_acceleration = cur[:n], cur[n:2 * n], cur[2 * n:]
+        lim = _floats(limits, (3 if position else 2) * n, "maxVelAccelJerk" if position else "maxAccelJerk")
+        if any(v <= 0 for v in lim):
+            raise ArgumentError("the limits must be positive")
+        if position:
+            inp.max_velocity, inp.max_acceleration, inp.max_jerk = lim[:n], lim[n:2 * n], lim[2 * n:]
+            tgt = _floats(target, 2 * n, "targetPosVel")
+            inp.target_position, inp.target_velocity = tgt[:n], tgt[n:]
+        else:
+            inp.control_interface = ControlInterface.Velocity
+            inp.max_acceleration, inp.max_jerk = lim[:n], lim[n:]
+            inp.target_velocity = _floats(target, n, "targetVel")
+        sel = [bool(_int(v, "selection")) for v in (selection or [1] * n)][:n]
+        if len(sel) != n:
+            raise ArgumentError("selection must hold one value per dof")
+        inp.enabled = sel
+        inp.synchronization = getattr(Synchronization, _SYNC.get(_int(flags, "flags") & 3, "Phase"))
+        h = self._ruckig_next = getattr(self, "_ruckig_next", _FIRST - 1) + 1  # never given twice
+        objs[h] = (Ruckig(n, dt), inp, OutputParameter(n), dt, n)
+        return h
+
+    def ruckigPos(self, dofs: Any, baseCycleTime: Any, flags: Any, currentPosVelAccel: Any,  # noqa: N802, N803
+                  maxVelAccelJerk: Any, selection: Any, targetPosVel: Any) -> int:  # noqa: N803
+        """A position-interface Ruckig object (current position, velocity, acceleration; limits
+        of velocity, acceleration, jerk; target position and velocity, ``dofs`` each); its handle."""
+        return self._ruckig_new(True, dofs, baseCycleTime, flags, currentPosVelAccel, maxVelAccelJerk, selection,
+                                targetPosVel)
+
+    def ruckigVel(self, dofs: Any, baseCycleTime: Any, flags: Any, currentPosVelAccel: Any,  # noqa: N802, N803
+                  maxAccelJerk: Any, selection: Any, targetVel: Any) -> int:  # noqa: N803
+        """A velocity-interface Ruckig object (limits of acceleration and jerk; a target velocity)."""
+        return self._ruckig_new(False, dofs, baseCycleTime, flags, currentPosVelAccel, maxAccelJerk, selection,
+                                targetVel)
+
+    def ruckigStep(self, handle: Any, cycleTime: Any) -> tuple[int, list[float], float]:  # noqa: N802, N803
+        """Advance by ``cycleTime`` (s, a whole number of base cycles): ``result, newPosVelAccel,
+        synchronizationTime``; result 0 working, 1 finished, negative a Ruckig error."""
+        from ruckig import Result
+        obj = self._ruckig_objects().get(_int(handle, "handle"))
+        if obj is None:
+            raise UnknownObjectError(f"no Ruckig object {handle}")
+        otg, inp, out, dt, n = obj
+        steps = max(1, round(_num(cycleTime, "cycleTime") / dt))
+        if steps > MAX_UPDATES:
+            raise ArgumentError(f"cycleTime covers more than {MAX_UPDATES} base cycles")
+        result = Result.Working
+        for _ in range(steps):
+            result = otg.update(inp, out)
+            if result not in (Result.Working, Result.Finished):
+                return int(result.value) if hasattr(result, "value") else -1, [], 0.0
+            out.pass_to_input(inp)
+            if result == Result.Finished:
+                break
+        state = list(out.new_position) + list(out.new_velocity) + list(out.new_acceleration)
+        return (1 if result == Result.Finished else 0), state, float(out.trajectory.duration)
+
+    def ruckigRemove(self, handle: Any) -> None:  # noqa: N802
+        if self._ruckig_objects().pop(_int(handle, "handle"), None) is None:
+            raise UnknownObjectError(f"no Ruckig object {handle}")
+
+    # ----------------------------------------------- moveToConfig in steps (4.6+)
+    def moveToConfig_init(self, params: Any) -> dict:  # noqa: N802
+        """The state of a joint motion stepped by the caller: ``params`` as ``sim.moveToConfig``'s
+        (``joints`` or ``pos``, ``targetPos``, ``maxVel``, ``maxAccel``, ``maxJerk``, optional
+        ``vel``, ``accel``, ``targetVel``, ``flags``, ``timeStep``); each
+        :meth:`moveToConfig_step` advances it one time step and sets the joints' target positions."""
+        if not isinstance(params, dict):
+            raise ArgumentError("moveToConfig_init takes a table of parameters")
+        joints = [self._world.get(_int(j, "joints[i]")).handle for j in params.get("joints", [])]
+        pos = params.get("pos") or [self._world.joint_position(j) for j in joints]
+        n = len(pos)
+        if not n or (joints and len(joints) != n):
+            raise ArgumentError("give joints (handles) or pos, one per degree of freedom")
+
+        def field(key: str, default: float) -> list[float]:
+            v = params.get(key, default)
+            return _floats([v] * n if isinstance(v, (int, float)) else v, n, key)
+        dt = _num(params.get("timeStep", self._world.dt), "timeStep")
+        current = _floats(pos, n, "pos") + field("vel", 0.0) + field("accel", 0.0)
+        limits = field("maxVel", 9999.0) + field("maxAccel", 99999.0) + field("maxJerk", 9999999.0)
+        target = _floats(params.get("targetPos", []), n, "targetPos") + field("targetVel", 0.0)
+        h = self.ruckigPos(n, dt, max(0, _int(params.get("flags", 0), "flags")), current, limits, [1] * n, target)
+        return {"ruckigObject": h, "joints": joints, "timeStep": dt, "pos": list(pos),
+                "vel": current[n:2 * n], "accel": current[2 * n:]}
+
+    def moveToConfig_step(self, data: Any) -> tuple[int, dict]:  # noqa: N802
+        """One time step: ``result, data`` (result 0 moving, 1 arrived); the joints' target positions
+        (and ``data.pos``, ``vel``, ``accel``) follow the trajectory."""
+        if not isinstance(data, dict) or "ruckigObject" not in data:
+            raise ArgumentError("moveToConfig_step takes the table moveToConfig_init returned")
+        result, state, _ = self.ruckigStep(data["ruckigObject"], data["timeStep"])
+        if result < 0:
+            raise ArgumentError(f"no trajectory for these limits and targets (Ruckig result {result})")
+        n = len(state) // 3
+        data["pos"], data["vel"], data["accel"] = state[:n], state[n:2 * n], state[2 * n:]
+        for j, q in zip(data["joints"], data["pos"]):
+            self._world.set_joint_target_position(j, q)
+        return result, data
+
+    def moveToConfig_cleanup(self, data: Any) -> None:  # noqa: N802
+        """Release the motion's trajectory object."""
+        if isinstance(data, dict) and "ruckigObject" in data:
+            self._ruckig_objects().pop(_int(data["ruckigObject"], "ruckigObject"), None)

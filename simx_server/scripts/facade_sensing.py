@@ -1,0 +1,324 @@
+"""CoppeliaSim 4.x's collision, distance, sensor-handling and joint calls on MuJoCo (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`).
+
+* ``checkCollision`` / ``checkDistance`` / ``getContactInfo``: MuJoCo's narrow phase
+  (``mj_geomDistance``, :mod:`simx_server.sim.collisions`) between the shapes' collidable geoms,
+  and the contacts of the last step (``data.contact``).
+* Vision and proximity sensors are rendered / cast when read, so "explicit handling" changes
+  nothing: ``handleVisionSensor`` and ``readVisionSensor`` give V-REP's 15-value packet of the
+  current image, ``handleProximitySensor`` and ``readProximitySensor`` cast the ray now.
+* Joints: intervals are MuJoCo's ``jnt_range``; modes map onto simx's motors.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
+from simx_server.sim import collisions, sensors
+from simx_server.sim.objects import JOINT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
+from simx_server.sim.state import SimulationView
+
+#: CoppeliaSim's ``sim.jointmode_kinematic`` (0), ``dependent`` (4), ``dynamic`` (5).
+JOINTMODE_KINEMATIC, JOINTMODE_DEPENDENT, JOINTMODE_DYNAMIC = 0, 4, 5
+
+
+class SensingCalls:
+    """Collision and distance checks, sensor handling, joint intervals and modes (facade mixin)."""
+
+    # -------------------------------------------------------------- collision, distance
+    def _entity(self, handle: Any, what: str) -> int:
+        h = self._h(handle, what)
+        return h if h == C.sim_handle_all else self._world.get(h, SHAPE).handle
+
+    def checkCollision(self, entity1Handle: Any, entity2Handle: Any) -> tuple[int, list[int]]:  # noqa: N802, N803
+        """``result, collidingObjects``: 1 and the two shapes' handles when shape ``entity1``
+        touches or overlaps ``entity2`` (``sim.handle_all``: any other collidable geom, the
+        shape's parent and children excepted as MuJoCo filters them), else 0 and ``[-1, -1]``."""
+        sim = self._simulation("checkCollision")
+        e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
+        if not collisions.collision(sim, e1, e2):
+            return 0, [-1, -1]
+        if e2 != C.sim_handle_all:
+            return 1, [e1, e2]
+        _, dist, pair = self._closest(e1, e2)
+        return 1, pair
+
+    def checkCollisionEx(self, entity1Handle: Any, entity2Handle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
+        """``segmentCount, segmentData``: 1 and the two witness points (6 numbers, m, world) of the
+        deepest touch when the shapes collide, else 0 and ``[]`` (MuJoCo gives one contact
+        segment per geom pair, not the intersection curve CoppeliaSim's meshes give)."""
+        e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
+        if not collisions.collision(self._simulation("checkCollisionEx"), e1, e2):
+            return 0, []
+        points, _, _ = self._closest(e1, e2)
+        return 1, points
+
+    def _closest(self, e1: int, e2: int) -> tuple[list[float], float, list[int]]:
+        """Witness points (6, m, world), distance (m) and the shapes' handles of the closest pair."""
+        world = self._world
+        a, b = collisions._pairs(world, e1, e2)
+        if a.size == 0:
+            raise ArgumentError("there is no collidable geom to measure the distance to")
+        lb = collisions._lower_bounds(world, a, b)
+        best, pair, fromto = collisions.DISTANCE_MAX, (int(a[0]), int(b[0])), np.zeros(6)
+        scratch = np.zeros(6)
+        for i in np.argsort(lb, kind="stable"):
+            if lb[i] >= best:
+                break
+            d = float(mujoco.mj_geomDistance(world.model, world.data, int(a[i]), int(b[i]), best, scratch))
+            if d < best:
+                best, pair, fromto = d, (int(a[i]), int(b[i])), scratch.copy()
+        shape_of = {o.mj_id: o.handle for o in world.objects.values() if o.type == SHAPE}
+        bodies = world.model.geom_bodyid
+        return fromto.tolist(), best, [shape_of.get(int(bodies[g]), WORLD) for g in pair]
+
+    def checkDistance(self, entity1Handle: Any, entity2Handle: Any, threshold: Any = 0.0) -> tuple[int, list[float], list[int]]:  # noqa: N802, N803
+        """``result, distanceData, objectHandlePair``: ``distanceData`` = the closest points on
+        each shape (m, world) and their distance, ``[x1 y1 z1 x2 y2 z2 d]``; result 1 when ``d``
+        is below ``threshold`` (0: no threshold), else 0. Penetrating shapes measure 0."""
+        e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
+        limit = _num(threshold, "threshold")
+        self._simulation("checkDistance")
+        points, d, pair = self._closest(e1, e2)
+        d = max(0.0, d)
+        if limit > 0 and d >= limit:
+            return 0, [*points, d], pair
+        return 1, [*points, d], pair
+
+    def getContactInfo(self, dynamicPass: Any, objectHandle: Any, index: Any) -> tuple[list[int], list[float], list[float], list[float]] | None:  # noqa: N802, N803
+        """``collidingObjects, contactPoint, reactionForce, normalVector`` of the ``index``-th
+        contact of the last step that involves shape ``objectHandle`` (``sim.handle_all``: any):
+        the two shapes' handles, the point (m, world), the force on the first (N, world) and
+        the contact normal; nil past the last contact."""
+        h = _int(objectHandle, "objectHandle")
+        i = _int(index, "index")
+        world = self._world
+        m, d = world.model, world.data
+        shape_of = {o.mj_id: o.handle for o in world.objects.values() if o.type == SHAPE}
+        body = None if h == C.sim_handle_all else world.get(self._h(h), SHAPE).mj_id
+        found = -1
+        wrench = np.zeros(6)
+        for k in range(d.ncon):
+            c = d.contact[k]
+            b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
+            if body is not None and body not in (b1, b2):
+                continue
+            found += 1
+            if found != i:
+                continue
+            mujoco.mj_contactForce(m, d, k, wrench)
+            frame = c.frame.reshape(3, 3)
+            force = frame.T @ wrench[:3]
+            return ([shape_of.get(b1, WORLD), shape_of.get(b2, WORLD)], c.pos.tolist(), (-force).tolist(),
+                    frame[0].tolist())
+        return None
+
+    # ----------------------------------------------------------------- vision sensors
+    def _vision(self, handle: Any) -> int:
+        return self._world.get(self._h(handle, "sensorHandle"), VISION_SENSOR).handle
+
+    def handleVisionSensor(self, sensorHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
+        """Render the sensor now: ``detectionCount, auxPacket1`` (0, V-REP's 15 values: min, max,
+        average of intensity, red, green, blue, depth, 0..1). ``sim.handle_all``: each sensor;
+        returns the last's."""
+        h = _int(sensorHandle, "sensorHandle")
+        sim = self._simulation("handleVisionSensor")
+        handles = (self._world.objects_of_type(VISION_SENSOR)
+                   if h in (C.sim_handle_all, C.sim_handle_all_except_explicit) else [self._vision(h)])
+        packet: list[float] = []
+        for one in handles:
+            packet = sensors.vision_packet(sim, one)
+        return 0, packet
+
+    def readVisionSensor(self, sensorHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
+        """``result, auxPacket1``: result 0 (no detection trigger in simx's filters), the 15-value
+        packet of the sensor's current image (as ``simxReadVisionSensor``)."""
+        return 0, sensors.vision_packet(self._simulation("readVisionSensor"), self._vision(sensorHandle))
+
+    def checkVisionSensor(self, sensorHandle: Any, entityHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
+        """As :meth:`readVisionSensor` (simx renders the whole scene: ``entityHandle`` is checked
+        and must be ``sim.handle_all`` or an object)."""
+        e = _int(entityHandle, "entityHandle")
+        if e != C.sim_handle_all:
+            self._world.get(e)
+            raise UnsupportedError("checkVisionSensor of one entity: simx's sensors render the whole scene "
+                                   "(pass sim.handle_all)")
+        return self.readVisionSensor(sensorHandle)
+
+    def getVisionSensorResolution(self, sensorHandle: Any) -> list[int]:  # noqa: N802, N803
+        """``[width, height]`` (pixels; CoppeliaSim 4.0-4.2's name of ``getVisionSensorRes``)."""
+        spec = self._simulation("getVisionSensorResolution").vision.spec(self._vision(sensorHandle))
+        return [spec.width, spec.height]
+
+    getVisionSensorRes = getVisionSensorResolution  # noqa: N815
+
+    def getVisionSensorCharImage(self, sensorHandle: Any, posX: Any = 0, posY: Any = 0, sizeX: Any = 0,  # noqa: N802, N803
+                                 sizeY: Any = 0, rgbaCutOff: Any = 0) -> tuple[bytes, int, int]:  # noqa: N803
+        """``image, resolutionX, resolutionY``: uint8 RGB bytes, rows bottom-up (a window with
+        ``posX..sizeY``; 0s: the whole image)."""
+        h = self._vision(sensorHandle)
+        img = self._crop(self._image("getVisionSensorCharImage", h, False), posX, posY, sizeX, sizeY)
+        return np.ascontiguousarray(img).tobytes(), int(img.shape[1]), int(img.shape[0])
+
+    def resetVisionSensor(self, sensorHandle: Any) -> None:  # noqa: N802, N803
+        """Nothing kept between renders: checked and done."""
+        self._vision(sensorHandle)
+
+    # -------------------------------------------------------------- proximity sensors
+    def _proximity(self, handle: Any) -> int:
+        return self._world.get(self._h(handle, "sensorHandle"), PROXIMITY_SENSOR).handle
+
+    def handleProximitySensor(self, sensorHandle: Any) -> tuple[int, float, list[float], int, list[float]]:  # noqa: N802, N803
+        """Cast the sensor's ray(s) now: as :meth:`readProximitySensor` (``sim.handle_all``: each
+        proximity sensor, the last one's reading)."""
+        h = _int(sensorHandle, "sensorHandle")
+        if h in (C.sim_handle_all, C.sim_handle_all_except_explicit):
+            handles = self._world.objects_of_type(PROXIMITY_SENSOR)
+            if not handles:
+                return 0, 0.0, [0.0] * 3, -1, [0.0] * 3
+            result = None
+            for one in handles:
+                result = self.readProximitySensor(one)
+            return result
+        return self.readProximitySensor(self._proximity(h))
+
+    def checkProximitySensor(self, sensorHandle: Any, entityHandle: Any) -> tuple[int, float, list[float]]:  # noqa: N802, N803
+        """``result, distance, detectedPoint`` against ``entityHandle`` (``sim.handle_all``: any
+        shape; a shape: only that one counts)."""
+        detected, dist, point, hit, _ = self.readProximitySensor(self._proximity(sensorHandle))
+        e = _int(entityHandle, "entityHandle")
+        if e != C.sim_handle_all and (detected and hit != self._world.get(e).handle):
+            return 0, 0.0, [0.0, 0.0, 0.0]
+        return detected, dist, point
+
+    def resetProximitySensor(self, sensorHandle: Any) -> None:  # noqa: N802, N803
+        """Nothing kept between casts: checked and done."""
+        h = _int(sensorHandle, "sensorHandle")
+        if h not in (C.sim_handle_all, C.sim_handle_all_except_explicit):
+            self._proximity(h)
+
+    def getExplicitHandling(self, objectHandle: Any) -> int:  # noqa: N802, N803
+        """Sensors are read when asked in simx: 0, or what :meth:`setExplicitHandling` stored."""
+        return int(getattr(self, "_explicit", {}).get(self._world.get(self._h(objectHandle)).handle, 0))
+
+    def setExplicitHandling(self, objectHandle: Any, explicitHandlingFlags: Any) -> None:  # noqa: N802, N803
+        """Stored (``getExplicitHandling`` reads it); simx renders and casts on demand either way."""
+        explicit = getattr(self, "_explicit", None)
+        if explicit is None:
+            explicit = self._explicit = {}
+        explicit[self._world.get(self._h(objectHandle)).handle] = _int(explicitHandlingFlags, "flags")
+
+    # -------------------------------------------------------------------- joints
+    def _joint(self, handle: Any) -> Any:
+        return self._world.get(self._h(handle, "jointHandle"), JOINT)
+
+    def getJointInterval(self, objectHandle: Any) -> tuple[bool, list[float]]:  # noqa: N802, N803
+        """``cyclic, interval``: interval = ``[min, range]`` (rad or m, MuJoCo's ``jnt_range``);
+        a hinge without limits is cyclic (``[-pi, 2 pi]``)."""
+        obj = self._joint(objectHandle)
+        m = self._world.model
+        lo, hi = (float(v) for v in m.jnt_range[obj.mj_id])
+        if not m.jnt_limited[obj.mj_id]:
+            if int(m.jnt_type[obj.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE:
+                return True, [-np.pi, 2 * np.pi]
+            return False, [-1e6, 2e6]
+        return False, [lo, hi - lo]
+
+    def setJointInterval(self, objectHandle: Any, cyclic: Any, interval: Any) -> None:  # noqa: N802, N803
+        """Set the joint's limits ``[min, range]`` (rad or m); ``cyclic`` true removes them (a
+        hinge). Written to the model and the scene's MjSpec (kept by later edits)."""
+        obj = self._joint(objectHandle)
+        lo, span = _vector(interval, 2, "interval")
+        if span < 0:
+            raise ArgumentError("interval's range must not be negative")
+        m = self._world.model
+        m.jnt_range[obj.mj_id] = [lo, lo + span]
+        m.jnt_limited[obj.mj_id] = not cyclic
+        sim = getattr(self, "_sim", None)
+        try:
+            el = sim.editor._live_spec().joint(obj.name) if sim is not None else None
+        except UnsupportedError:
+            el = None
+        if el is not None:
+            el.range = [lo, lo + span]
+            el.limited = mujoco.mjtLimited.mjLIMITED_FALSE if cyclic else mujoco.mjtLimited.mjLIMITED_TRUE
+        self._world.changed()
+
+    def getJointMode(self, jointHandle: Any) -> tuple[int, int]:  # noqa: N802, N803
+        """``jointMode, options``: ``sim.jointmode_dynamic`` (5) for a joint with a motor, else
+        ``sim.jointmode_kinematic`` (0); options 0."""
+        obj = self._joint(jointHandle)
+        return (JOINTMODE_DYNAMIC if obj.handle in self._world.motor_index else JOINTMODE_KINEMATIC), 0
+
+    def setJointMode(self, jointHandle: Any, jointMode: Any, options: Any = 0) -> None:  # noqa: N802, N803
+        """Only ``sim.jointmode_dynamic`` (5, or its ``jointmode_force`` alias) for a joint with a
+        motor: simx's joints are all simulated by MuJoCo (kinematic and dependent modes are not)."""
+        obj = self._joint(jointHandle)
+        mode = _int(jointMode, "jointMode")
+        if mode != JOINTMODE_DYNAMIC or obj.handle not in self._world.motor_index:
+            raise UnsupportedError(f"setJointMode {mode}: simx's joints are dynamic (MuJoCo); kinematic, IK and "
+                                   "dependent modes do not exist (use setJointPosition to place a joint)")
+
+    def getJointDependency(self, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
+        """``masterJointHandle, offset, multCoeff`` of an MJCF joint equality (``<joint joint1
+        joint2 polycoef>``, q1 = offset + coeff·q2), or ``-1, 0, 1`` without one."""
+        obj = self._joint(jointHandle)
+        m = self._world.model
+        by_id = {o.mj_id: o.handle for o in self._world.objects.values() if o.type == JOINT}
+        for e in range(m.neq):
+            if m.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and m.eq_obj1id[e] == obj.mj_id and m.eq_obj2id[e] >= 0:
+                return by_id.get(int(m.eq_obj2id[e]), -1), float(m.eq_data[e][0]), float(m.eq_data[e][1])
+        return -1, 0.0, 1.0
+
+    # ------------------------------------------------------------------ objects
+    def getVelocity(self, shapeHandle: Any) -> tuple[list[float], list[float]]:  # noqa: N802, N803
+        """``linearVelocity, angularVelocity`` of a shape's body (m/s, rad/s, world frame)."""
+        return self.getObjectVelocity(self._world.get(self._h(shapeHandle, "shapeHandle"), SHAPE).handle)
+
+    def getObjectUid(self, objectHandle: Any) -> int:  # noqa: N802, N803
+        """The object's unique id: simx's handles are never given twice, so the handle."""
+        return self._world.get(self._h(objectHandle)).handle
+
+    def getObjectFromUid(self, uid: Any, options: Any = None) -> int:  # noqa: N802
+        """The object of a unique id (its handle); -1 with ``{noError = true}``, else an error."""
+        h = _int(uid, "uid")
+        if h in self._world.objects:
+            return h
+        if isinstance(options, dict) and options.get("noError"):
+            return -1
+        return self._world.get(h).handle
+
+    def getScriptHandle(self, objectHandleOrName: Any = None) -> int:  # noqa: N802, N803
+        """CoppeliaSim 4.0-4.2: the handle of an object's child script (in simx: the object's
+        handle; ``sim.handle_self`` / nil: this script's); -1 without a script."""
+        if objectHandleOrName is None:
+            h = self._h(C.sim_handle_self)
+        elif isinstance(objectHandleOrName, (str, bytes)):
+            h = self._world.resolve(_text(objectHandleOrName, "objectName")).handle
+        else:
+            h = self._h(objectHandleOrName)
+        sim = getattr(self, "_sim", None)
+        scripts = getattr(getattr(sim, "scripts", None), "scripts", {})
+        return h if h in scripts else -1
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
+
+        def _image(self, what: str, handle: int, grey: bool) -> np.ndarray: ...
+
+        def _crop(self, img: np.ndarray, x: Any, y: Any, w: Any, h: Any) -> np.ndarray: ...
+
+        def readProximitySensor(self, handle: Any) -> tuple[int, float, list[float], int, list[float]]: ...
+
+        def getObjectVelocity(self, handle: Any) -> tuple[list[float], list[float]]: ...
+

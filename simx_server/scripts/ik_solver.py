@@ -1,0 +1,146 @@
+"""The solver of ``simIK`` groups (:mod:`simx_server.scripts.sim_ik`) on MuJoCo's Jacobians.
+
+An IK environment keeps its own joint positions; a group's elements each pull a tip (a dummy or a
+shape) onto a target (a dummy, or an explicit pose) under constraints (CoppeliaSim's
+``simIK.constraint_x`` ... ``constraint_gamma`` bits). :func:`solve` iterates on a scratch
+``MjData`` (``mj_kinematics`` + ``mj_comPos``, as :mod:`simx_server.sim.ik` does for the scene's
+groups): the stacked, weighted error of the elements' constrained rows, the Jacobian of the
+group's joints (``mj_jacSite`` / ``mj_jacBody``), and a step by the group's method (damped least
+squares ``Jᵀ(JJᵀ + λ²I)⁻¹e``, pseudo-inverse, Jacobian transpose), each joint's step bounded
+by its maximum step size and its position clamped to its range.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+
+from simx_server.sim.objects import DUMMY, FORCE_SENSOR, JOINT, PROXIMITY_SENSOR
+
+_SITES = (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR)  # objects that are MuJoCo sites
+
+METHOD_PSEUDO_INVERSE, METHOD_DLS, METHOD_TRANSPOSE, METHOD_UNDAMPED = 0, 1, 2, 3
+CONSTRAINT_POSITION, CONSTRAINT_ALPHA_BETA, CONSTRAINT_GAMMA = 7, 8, 16
+
+
+@dataclasses.dataclass
+class Element:
+    """One tip-target pair of a group (handles are the scene's)."""
+
+    handle: int
+    tip: int
+    target: int  # -1: none (an explicit target pose is then given to solve)
+    base: int = -1
+    constraints: int = 31  # simIK.constraint_pose
+    weights: tuple[float, float] = (1.0, 1.0)  # linear, angular
+    precision: tuple[float, float] = (0.001, 0.5 * np.pi / 180)  # m, rad
+    flags: int = 1  # bit 0: enabled
+
+
+def frame(world, data: mujoco.MjData, handle: int) -> tuple[np.ndarray, np.ndarray, str, int]:
+    """``position, rotation, kind, id`` of a dummy (a site) or another object (its body's frame)
+    in ``data``."""
+    obj = world.get(handle)
+    if obj.type in _SITES:
+        return data.site_xpos[obj.mj_id].copy(), data.site_xmat[obj.mj_id].reshape(3, 3).copy(), "site", obj.mj_id
+    return data.xpos[obj.body].copy(), data.xmat[obj.body].reshape(3, 3).copy(), "body", obj.body
+
+
+def _rotvec(r_target: np.ndarray, r_tip: np.ndarray) -> np.ndarray:
+    """Rotation vector (world axes, rad) turning ``r_tip`` onto ``r_target``."""
+    qt, qc, dq = np.empty(4), np.empty(4), np.empty(3)
+    mujoco.mju_mat2Quat(qt, r_target.reshape(9).copy())
+    mujoco.mju_mat2Quat(qc, r_tip.reshape(9).copy())
+    mujoco.mju_subQuat(dq, qt, qc)  # in the tip's frame
+    return r_tip @ dq
+
+
+def chain(world, tip: int, base: int) -> list[int]:
+    """Handles of the hinge and slide joints between ``base`` (-1: the world) and ``tip``, base first."""
+    m = world.model
+    stop = -1 if base == -1 else world.get(base).body
+    joint_of = {o.mj_id: o.handle for o in world.objects.values() if o.type == JOINT}
+    out, b = [], world.get(tip).body
+    while b > 0 and b != stop:
+        for j in range(m.body_jntadr[b] + m.body_jntnum[b] - 1, m.body_jntadr[b] - 1, -1):
+            if int(m.jnt_type[j]) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE) and j in joint_of:
+                out.append(joint_of[j])
+        b = int(m.body_parentid[b])
+    return out[::-1]
+
+
+def errors(world, data, elements: list[Element], targets: dict[int, tuple]) -> tuple[np.ndarray, list, bool]:
+    """Stacked weighted error, the rows' (element, kind, rows) and whether each element is within
+    its precision."""
+    parts, rows, ok = [], [], True
+    for el in elements:
+        if not el.flags & 1:
+            continue
+        p, r, kind, mid = frame(world, data, el.tip)
+        tp, tr = targets[el.handle] if el.handle in targets else frame(world, data, el.target)[:2]
+        lin = tp - p
+        ang = _rotvec(tr, r)
+        pick_lin = [i for i, bit in enumerate((1, 2, 4)) if el.constraints & bit]
+        ang_local = tr.T @ ang  # in the target's frame: alpha-beta = x, y; gamma = z
+        pick_ang = ([0, 1] if el.constraints & CONSTRAINT_ALPHA_BETA else []) + \
+                   ([2] if el.constraints & CONSTRAINT_GAMMA else [])
+        if np.linalg.norm(lin[pick_lin]) > el.precision[0] or np.linalg.norm(ang_local[pick_ang]) > el.precision[1]:
+            ok = False
+        parts.append(el.weights[0] * lin[pick_lin])
+        parts.append(el.weights[1] * ang_local[pick_ang])
+        rows.append((el, kind, mid, pick_lin, pick_ang, tr))
+    return (np.concatenate(parts) if parts else np.zeros(0)), rows, ok
+
+
+def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
+    m = world.model
+    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    blocks = []
+    for el, kind, mid, pick_lin, pick_ang, tr in rows:
+        (mujoco.mj_jacSite if kind == "site" else mujoco.mj_jacBody)(m, data, jacp, jacr, mid)
+        blocks.append(el.weights[0] * jacp[pick_lin][:, dadr])
+        blocks.append(el.weights[1] * (tr.T @ jacr)[pick_ang][:, dadr])
+    return np.vstack(blocks) if blocks else np.zeros((0, len(dadr)))
+
+
+def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, elements: list[Element],
+          method: int, damping: float, iterations: int, max_step: np.ndarray,
+          targets: dict[int, tuple] | None = None, weights: np.ndarray | None = None,
+          margins: np.ndarray | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
+    """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
+    ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
+    make a joint move more (a larger weight) or less in the weighted least-norm step
+    ``W Jᵀ (J W Jᵀ + λ²I)⁻¹ e``; ``margins`` keep each joint that far inside its range."""
+    m = world.model
+    qadr = np.array([world.model.jnt_qposadr[world.get(h).mj_id] for h in joints], int)
+    dadr = np.array([world.model.jnt_dofadr[world.get(h).mj_id] for h in joints], int)
+    jid = [world.get(h).mj_id for h in joints]
+    limited = np.array([bool(m.jnt_limited[j]) for j in jid])
+    low = np.where(limited, [m.jnt_range[j][0] for j in jid], -np.inf)
+    high = np.where(limited, [m.jnt_range[j][1] for j in jid], np.inf)
+    if margins is not None:
+        low, high = np.minimum(low + margins, (low + high) / 2), np.maximum(high - margins, (low + high) / 2)
+    w = np.ones(len(joints)) if weights is None else np.asarray(weights, float)
+    targets = targets or {}
+    q = np.clip(np.asarray(q, float), low, high)
+    e = np.zeros(0)
+    for it in range(iterations + 1):
+        scratch.qpos[qadr] = q
+        mujoco.mj_kinematics(m, scratch)
+        mujoco.mj_comPos(m, scratch)
+        e, rows, ok = errors(world, scratch, elements, targets)
+        if ok or it == iterations or not len(joints):
+            return ok, q, e
+        jac = jacobian(world, scratch, rows, dadr)
+        if method == METHOD_TRANSPOSE:
+            dq = w * (jac.T @ e)
+        else:
+            lam2 = damping * damping if method == METHOD_DLS else 1e-10
+            dq = w * (jac.T @ np.linalg.solve((jac * w) @ jac.T + lam2 * np.eye(len(e)), e))
+        scale = np.max(np.abs(dq) / max_step) if len(dq) else 0.0
+        if scale > 1:
+            dq = dq / scale
+        q = np.clip(q + dq, low, high)
+    return False, q, e

@@ -1,0 +1,147 @@
+"""What simx implements of CoppeliaSim 4.x's ``sim`` (442 functions) and ``simIK`` (76), from
+the code: a function is **implemented** when the facade (:class:`~simx_server.zmq.remote_sim.RemoteSim`,
+the same object child scripts use), the ZMQ service's stepping calls or
+:class:`~simx_server.scripts.sim_ik.SimIK` defines it; **headless** when it is one of the window
+functions answered as a headless CoppeliaSim does (:class:`~simx_server.scripts.facade_gui.GuiCalls`).
+Every other function has an entry in :data:`NOT_IMPLEMENTED`: ``("n/a", why)`` where it has no
+meaning for a headless MuJoCo server (the main script's own steps, plugins, callbacks into a
+client), ``("refused", why)`` where the server refuses it by design (docs/SECURITY.md), or
+``("missing", why)`` where it has a meaning simx does not give it yet.
+
+``scripts/gen_coverage.py`` writes docs/COVERAGE.md from :func:`table`; tests/scripts/test_coverage.py
+checks the file is current and every function has its status.
+"""
+
+from __future__ import annotations
+
+from simx_server.scripts.facade_gui import GuiCalls
+from simx_server.scripts.sim_ik import functions as ik_functions
+from simx_server.zmq import names
+from simx_server.zmq.remote_sim import facade_functions
+from simx_server.zmq.service import STEPPING
+
+_MAIN = "the main script's own step: simx's loop runs it (sensing, dynamics, scripts) every step"
+_PLUGIN = "CoppeliaSim's plugins do not exist in simx (MuJoCo is built in)"
+_CALLBACK = "takes a Lua/Python callback into the caller: a ZMQ client's function cannot be called back"
+_SECURITY = "refused by design: a script or client may not reach the host (docs/SECURITY.md)"
+_TEXTURE = "textures: MuJoCo's are compiled into the model; no run-time texture objects"
+_GRAPH = "graph objects: MJCF has no counterpart (record data in the client)"
+_OCTREE = "octrees and point clouds: no MuJoCo counterpart yet"
+_PARTICLES = "particles: no MuJoCo counterpart"
+_MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
+
+#: Functions of CoppeliaSim's 4.x table that simx does not implement: (status, why).
+NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
+    **{n: ("n/a", _MAIN) for n in ("handleAddOnScripts", "handleDynamics", "handleEmbeddedScripts", "handleExtCalls",
+                                   "handleJointMotion", "handleSandboxScript", "handleSensingStart",
+                                   "handleSimulationScripts", "handleSimulationStart", "initScript", "moduleEntry",
+                                   "fastIdleLoop", "handleGraph", "resetGraph")},
+    **{n: ("n/a", _PLUGIN) for n in ("getLoadedPlugins", "getPluginInfo", "getPluginName", "isPluginLoaded",
+                                     "loadPlugin", "setPluginInfo", "getExtensionString", "registerScriptFuncHook")},
+    **{n: ("n/a", _CALLBACK) for n in ("visitTree", "scheduleExecution", "cancelScheduledExecution", "testCB",
+                                       "Object")},
+    **{n: ("refused", _SECURITY) for n in ("launchExecutable", "serialOpen", "serialClose", "serialCheck", "serialRead",
+                                           "serialSend", "executeLuaCode", "executeScriptString", "systemSemaphore",
+                                           "createScript", "persistentDataRead", "persistentDataWrite",
+                                           "getPersistentDataTags", "getMatchingPersistentDataTags")},
+    **{n: ("missing", _TEXTURE) for n in ("createTexture", "readTexture", "writeTexture", "getTextureId",
+                                          "getShapeTextureId", "setShapeTexture")},
+    **{n: ("missing", _GRAPH) for n in ("addGraphCurve", "addGraphStream", "destroyGraphCurve",
+                                        "duplicateGraphCurveToStatic", "getGraphCurve", "getGraphInfo",
+                                        "setGraphStreamTransformation", "setGraphStreamValue")},
+    **{n: ("missing", _OCTREE) for n in ("createOctree", "checkOctreePointOccupancy", "getOctreeVoxels",
+                                         "insertObjectIntoOctree", "insertVoxelsIntoOctree", "removeVoxelsFromOctree",
+                                         "subtractObjectFromOctree", "createPointCloud", "getPointCloudOptions",
+                                         "setPointCloudOptions", "getPointCloudPoints", "insertObjectIntoPointCloud",
+                                         "insertPointsIntoPointCloud", "intersectPointsWithPointCloud",
+                                         "removePointsFromPointCloud", "subtractObjectFromPointCloud")},
+    **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
+    **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "relocateShapeFrame", "alignShapeBB",
+                                            "setShapeBB", "scaleObjects", "createHeightfieldShape",
+                                            "createPureShape", "generateShapeFromPath",
+                                            "generateTextShape")},
+    **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")
+       for n in ("createJoint", "createForceSensor", "createProximitySensor", "createVisionSensor")},
+    **{n: ("missing", "object and model property flags (selectable, not collidable...): not mapped yet")
+       for n in ("convertPropertyValue", "getObjectProperty", "setObjectProperty", "getModelProperty",
+                 "setModelProperty", "getObjectSpecialProperty", "setObjectSpecialProperty")},
+    **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
+       for n in ("moveToPose_init",
+                 "moveToPose_step", "moveToPose_cleanup", "generateTimeOptimalTrajectory")},
+    **{n: ("missing", "closing the scene and image files on the server: not written yet")
+       for n in ("saveImage", "loadImage")},
+    **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
+       for n in ("removeReferencedObjects", "setObjectHierarchyOrder", "getObjectAliasRelative", "getModelBB", "getLinkDummy", "setLinkDummy", "getObjectChildPose", "setObjectChildPose",
+                 "getObjectFloatArrayParam", "setObjectFloatArrayParam",
+                 "getObjectStringParam", "setObjectStringParam")},
+    **{n: ("missing", "appearance beyond colours (materials, lights' parameters): not written yet")
+       for n in ("getShapeAppearance", "setShapeAppearance", "setShapeMaterial", "checkVisionSensorEx", "checkProximitySensorEx",
+                 "checkProximitySensorEx2")},
+    **{n: ("missing", "application services: not written yet")
+       for n in ("getStackTraceback", "getUserVariables",
+                 "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},
+    **{n: ("n/a", "the event stream of CoppeliaSim's user interfaces: no UI") for n in (
+        "getGenesisEvents", "pushUserEvent", "setEventFilters")},
+    "getScriptFunctions": ("n/a", "the official client answers it itself (a proxy object; docs/ZMQ.md)"),
+}
+
+#: simIK functions simx does not implement: (status, why).
+IK_NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
+    **{n: ("missing", "an environment's objects are the scene's: building or reparenting IK-only objects is not "
+                      "supported") for n in ("createDummy", "createJoint", "eraseObject", "setObjectParent")},
+    **{n: ("missing", "CoppeliaSim's IK file format (load/save) has no MuJoCo counterpart") for n in ("load", "save")},
+    **{n: ("missing", "spherical joints and joint dependencies: MuJoCo ball joints and equalities not mapped")
+       for n in ("setSphericalJointMatrix", "setSphericalJointRotation", "setJointDependency",
+                 "getJointMatrix", "getJointTransformation", "setJointScrewLead")},
+    "computeJacobian": ("missing", "use computeGroupJacobian"),
+}
+
+
+def _status(name: str, implemented: set[str], missing: dict[str, tuple[str, str]], gui: set[str]) -> tuple[str, str]:
+    if name in implemented:
+        return ("headless", "answered as a headless CoppeliaSim (no window)") if name in gui else ("implemented", "")
+    return missing.get(name, ("missing", "no entry in simx_server/zmq/coverage.py"))
+
+
+def table() -> dict[str, list[tuple[str, str, str]]]:
+    """``{namespace: [(name, status, why)]}`` for every function of CoppeliaSim's 4.x tables."""
+    gui = {n for n, v in vars(GuiCalls).items() if not n.startswith("_") and callable(v)}
+    sim_impl = set(facade_functions()) | set(STEPPING)
+    out = {"sim": [(n, *_status(n, sim_impl, NOT_IMPLEMENTED, gui)) for n in sorted(names.current_functions("sim"))],
+           "simIK": [(n, *_status(n, set(ik_functions()), IK_NOT_IMPLEMENTED, set()))
+                     for n in sorted(names.current_functions("simIK"))]}
+    return out
+
+
+def summary(rows: list[tuple[str, str, str]]) -> dict[str, float]:
+    """Counts per status and the share implemented of the functions with a headless meaning
+    (implemented + headless, over all but n/a and refused)."""
+    counts: dict[str, float] = {}
+    for _, status, _ in rows:
+        counts[status] = counts.get(status, 0) + 1
+    meaningful = len(rows) - counts.get("n/a", 0) - counts.get("refused", 0)
+    done = counts.get("implemented", 0) + counts.get("headless", 0)
+    counts["share"] = done / meaningful if meaningful else 1.0
+    return counts
+
+
+def markdown() -> str:
+    """docs/COVERAGE.md."""
+    lines = ["# CoppeliaSim 4.x API coverage", "",
+             "Generated from the code by `scripts/gen_coverage.py` (`simx_server/zmq/coverage.py`); "
+             "tests/scripts/test_coverage.py keeps it current. One implementation serves ZMQ clients, Lua "
+             "and Python child scripts ([ZMQ.md](ZMQ.md), [SCRIPTS.md](SCRIPTS.md)). Statuses: "
+             "**implemented** (does the real thing on MuJoCo), **headless** (a window function, answered as a "
+             "headless CoppeliaSim: console text to the log, neutral values), **n/a** (no meaning for a headless "
+             "MuJoCo server), **refused** (by design, docs/SECURITY.md), **missing** (has a meaning, not done; "
+             "calling it answers an error naming it). The share counts implemented and headless functions over "
+             "all but n/a and refused.", ""]
+    for ns, rows in table().items():
+        s = summary(rows)
+        parts = ", ".join(f"{k} {int(v)}" for k, v in sorted(s.items()) if k != "share")
+        lines += [f"## `{ns}`: {len(rows)} functions", "",
+                  f"{parts}; implemented share **{100 * s['share']:.1f} %**.", "",
+                  "| function | status | why not |", "|---|---|---|"]
+        lines += [f"| `{ns}.{n}` | {st} | {why} |" for n, st, why in rows]
+        lines.append("")
+    return "\n".join(lines)

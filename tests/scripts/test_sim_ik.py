@@ -1,0 +1,111 @@
+"""simIK on MuJoCo (issue 32): environments, groups and elements from the scene, solving with
+damped least squares, configurations, paths; in-process on the bundled UR5 IK scene through the
+one facade that serves scripts and ZMQ clients."""
+
+from __future__ import annotations
+
+import pytest
+
+from conftest import ROOT
+from simx_client.protocol import ArgumentError, UnknownObjectError
+from simx_server.scene.simulation import Simulation
+from simx_server.scripts.facade import ScriptSim
+from simx_server.scripts.sim_ik import SimIK, functions
+
+UR5 = ROOT / "scenes" / "ur5_ik.xml"
+
+
+@pytest.fixture
+def rig():
+    s = Simulation(UR5, realtime=False)
+    sim = ScriptSim(s.world, s.world.resolve("UR5").handle, s.signals, simulation=s)
+    yield s, sim, SimIK(sim)
+    s.close()
+
+
+def _group(sim, ik, constraints=31):
+    env = ik.createEnvironment()
+    g = ik.createGroup(env, "arm")
+    ik.setGroupCalculation(env, g, 1, 0.05, 100)  # simIK.method_damped_least_squares
+    el, sim_to_ik, ik_to_sim = ik.addElementFromScene(env, g, sim.getObject("/UR5"), sim.getObject("/UR5_tip"),
+                                                      sim.getObject("/UR5_target"), constraints)
+    assert sim_to_ik[sim.getObject("/UR5_tip")] == sim.getObject("/UR5_tip")
+    return env, g, el
+
+
+def test_handle_group_reaches_a_moved_target_and_syncs_the_scene(rig):
+    s, sim, ik = rig
+    env, g, el = _group(sim, ik)
+    target, tip = sim.getObject("/UR5_target"), sim.getObject("/UR5_tip")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0] + 0.05, pos[1] - 0.04, pos[2] - 0.03])
+    joints = ik.getGroupJoints(env, g)
+    assert len(joints) == 6 and all(sim.getObjectType(j) == sim.object_joint_type for j in joints)
+    result, flags, precision = ik.handleGroup(env, g, {"syncWorlds": True})
+    assert result == 1 and flags == 0 and precision[0] < 1e-3
+    assert ik.getObjectPose(env, tip)[:3] == pytest.approx(sim.getObjectPosition(target, -1), abs=1e-3)
+    # the scene's motors got the solution as their target positions
+    assert [sim.getJointTargetPosition(j) for j in joints] == pytest.approx([ik.getJointPosition(env, j) for j in joints])
+
+
+def test_element_settings_round_trip_and_errors(rig):
+    _, sim, ik = rig
+    env, g, el = _group(sim, ik, 7)
+    assert ik.getElementConstraints(env, g, el) == 7
+    ik.setElementWeights(env, g, el, [1, 0.5])
+    ik.setElementPrecision(env, g, el, [0.002, 0.01])
+    assert ik.getElementWeights(env, g, el) == [1, 0.5] and ik.getElementPrecision(env, g, el) == [0.002, 0.01]
+    assert ik.getGroupCalculation(env, g) == (1, 0.05, 100)
+    assert ik.getGroupHandle(env, "arm") == g and ik.doesGroupExist(env, "UR5")  # the scene's group too
+    ik.setElementFlags(env, g, el, 0)  # disabled: nothing to solve
+    assert ik.handleGroup(env, g)[0] == 0
+    with pytest.raises(UnknownObjectError):
+        ik.handleGroup(env + 7, g)
+    with pytest.raises(ArgumentError):
+        ik.setGroupCalculation(env, g, 9, 0.1, 10)
+
+
+def test_find_configs_and_generate_path(rig):
+    _, sim, ik = rig
+    env, g, _ = _group(sim, ik)
+    joints = ik.getGroupJoints(env, g)
+    tip, target = sim.getObject("/UR5_tip"), sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.06, pos[2]])
+    configs = ik.findConfigs(env, g, joints, {"maxTime": 2, "findMultiple": False})
+    assert len(configs) == 1 and len(configs[0]) == 6
+    for j, q in zip(joints, configs[0]):
+        ik.setJointPosition(env, j, q)
+    assert ik.getObjectPose(env, tip)[:3] == pytest.approx(sim.getObjectPosition(target, -1), abs=1e-3)
+    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.12, pos[2]])
+    path = ik.generatePath(env, g, joints, tip, 5)
+    assert len(path) == 5 * 6
+    assert path[:6] == pytest.approx(configs[0], abs=1e-3)  # it starts where the arm is
+    assert ik.getJointPosition(env, joints[0]) == pytest.approx(configs[0][0])  # the environment is unchanged
+    jac, err = ik.computeGroupJacobian(env, g)
+    assert len(jac) == 6 * len(err) and len(err) == 6
+
+
+def test_every_simik_function_has_coppeliasim_s_name():
+    from simx_server.zmq import names
+    listed = names.coppeliasim_functions("simIK")
+    assert set(functions()) <= listed, set(functions()) - listed
+
+
+def test_joint_weights_and_margins_shape_the_solution(rig):
+    _, sim, ik = rig
+    env, g, _ = _group(sim, ik, 7)
+    joints = ik.getGroupJoints(env, g)
+    target = sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0] + 0.05, pos[1], pos[2]])
+    start = [ik.getJointPosition(env, j) for j in joints]
+    ik.setJointWeight(env, joints[0], 1e-4)  # the base joint hardly moves
+    assert ik.getJointWeight(env, joints[0]) == 1e-4
+    assert ik.handleGroup(env, g)[0] == 1
+    moved = [abs(ik.getJointPosition(env, j) - s) for j, s in zip(joints, start)]
+    assert moved[0] < 0.1 * max(moved[1:])
+    ik.setJointLimitMargin(env, joints[1], 0.1)
+    assert ik.getJointLimitMargin(env, joints[1]) == 0.1 and ik.getJointScrewLead(env, joints[1]) == 0.0
+    position, quat, euler = ik.getObjectTransformation(env, sim.getObject("/UR5_tip"))
+    assert position == pytest.approx(ik.getObjectPose(env, sim.getObject("/UR5_tip"))[:3])
