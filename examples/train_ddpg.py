@@ -59,8 +59,9 @@ EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED, EVAL_SEED + 1, ..
 SELECT_SEED = 5_000  # the model-selection evaluations' environment starts from this seed
 #: the policy trained by this script and shipped with the docs (docs/TRAINING.md says how)
 SHIPPED_POLICY = Path(__file__).resolve().parent.parent / "docs" / "training" / "ddpg_policy.zip"
-#: --quick: a short run whose success rate rises within about 10 minutes on 2 cores
-QUICK = {"steps": 4_000, "learning_starts": 500, "select_every": 1_000, "select_episodes": 5,
+#: --quick: a short run whose success rate rises within about 10 minutes on 2 cores (the full
+#: run's first 4,000 steps, with more frequent, shorter selection evaluations)
+QUICK = {"steps": 4_000, "select_every": 1_000, "select_episodes": 5,
          "eval_episodes": 10, "max_minutes": 10.0, "log_every": 250, "out": "runs/ddpg-quick"}
 
 
@@ -144,11 +145,13 @@ def evaluate(addresses: list[tuple[str, int]], episode_steps: int, policy_path: 
     start = time.monotonic()
     log(f"[evaluate] {episodes} seeded episodes per policy (seeds {seeds[0]}-{seeds[-1]}) on "
         f"{len(addresses)} servers ...")
-    ctx = multiprocessing.get_context("spawn")  # no forked Zenoh session
-    with ProcessPoolExecutor(len(addresses), mp_context=ctx) as pool:
-        futures = [pool.submit(_evaluate_worker, a, episode_steps, policy_path, p, deadline)
-                   for a, p in zip(addresses, parts) if p]
-        results = [r for f in futures for r in f.result()]
+    jobs = [(a, episode_steps, policy_path, p, deadline) for a, p in zip(addresses, parts) if p]
+    if len(jobs) == 1:  # one server's work: in this process (a new one would import PyTorch again)
+        results = _evaluate_worker(*jobs[0])
+    else:
+        ctx = multiprocessing.get_context("spawn")  # no forked Zenoh session
+        with ProcessPoolExecutor(len(jobs), mp_context=ctx) as pool:
+            results = [r for f in [pool.submit(_evaluate_worker, *job) for job in jobs] for r in f.result()]
     by = {name: sorted((e for n, e in results if n == name), key=lambda e: e["seed"]) for name in ("trained", "random")}
     out = {"random": summarize(by["random"], episodes), "eval_wall_s": round(time.monotonic() - start, 1)}
     if policy_path:
@@ -234,7 +237,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
-    t0 = time.monotonic()
+    t0, load_start = time.monotonic(), os.getloadavg()[0]
     deadline = None if args.max_minutes is None else time.time() + 60 * args.max_minutes
 
     from simx_server.pool import ServerPool
@@ -246,7 +249,7 @@ def main(argv: list[str] | None = None) -> dict:
             result = {"policy": str(args.evaluate), "env": "simx/UR5BallReach-v0", "episode_steps": args.episode_steps,
                       "eval_seeds": [EVAL_SEED, EVAL_SEED + args.eval_episodes - 1], "servers": args.servers,
                       **evaluate(pool.addresses, args.episode_steps, args.evaluate, args.eval_episodes, deadline),
-                      "wall_s": round(time.monotonic() - t0, 1), "machine": machine()}
+                      "wall_s": round(time.monotonic() - t0, 1), "machine": machine(load_start)}
         print(json.dumps(result, indent=2))
         return result
 
@@ -276,9 +279,12 @@ def main(argv: list[str] | None = None) -> dict:
         def _on_training_start(self) -> None:
             self.next_line = args.log_every
             self.stop_reason = None
+            self.random_phase: tuple[int, float] | None = None  # (steps, s) before learning began
 
         def _on_step(self) -> bool:
             now = time.monotonic()
+            if self.random_phase is None and self.num_timesteps >= args.learning_starts:
+                self.random_phase = (self.num_timesteps, now - start)
             for info in self.locals["infos"]:
                 if "episode" in info:
                     rows.append({"episode": len(rows) + 1, "env_steps": self.num_timesteps,
@@ -372,10 +378,13 @@ def main(argv: list[str] | None = None) -> dict:
         "train_wall_s": round(train_s, 1), "train_episodes": len(rows),
         "env_steps_per_s": round(env_steps / train_s, 1),
         "train_stopped": episodes.stop_reason or "after --steps",
+        # the same run's floor: env steps/s while the actions were random and nothing was learnt
+        # (the environments alone), and what learning left of it (machine and load independent)
+        **_phases(episodes.random_phase, env_steps, train_s),
         "eval_seeds": [EVAL_SEED, EVAL_SEED + args.eval_episodes - 1],
         "trained": trained, "random": random_policy, "eval_wall_s": evaluation["eval_wall_s"],
         "kept_model": "best of the selection evaluations" if kept is not model else "the final model",
-        "selection_evaluations": selections, "wall_s": round(time.monotonic() - t0, 1), "machine": machine(),
+        "selection_evaluations": selections, "wall_s": round(time.monotonic() - t0, 1), "machine": machine(load_start),
     }
     (out / "evaluation.json").write_text(json.dumps(result, indent=2) + "\n")
     plot(rows, selections, out / "learning_curve.png",
@@ -386,8 +395,17 @@ def main(argv: list[str] | None = None) -> dict:
     return result
 
 
-def machine() -> str:
-    """The machine and its load: figures of one run mean little without them."""
+def _phases(random_phase: tuple[int, float] | None, env_steps: int, train_s: float) -> dict:
+    if random_phase is None or random_phase[0] >= env_steps or random_phase[1] <= 0:
+        return {}
+    (n, s), learning = random_phase, (env_steps - random_phase[0]) / (train_s - random_phase[1])
+    return {"env_steps_per_s_random_phase": round(n / s, 1), "env_steps_per_s_learning": round(learning, 1),
+            "learning_vs_random_phase": round(learning / (n / s), 2)}
+
+
+def machine(load_start: float) -> str:
+    """The machine and its load (1-minute load average at the start and the end): figures of
+    one run mean little without them."""
     import importlib.metadata
 
     try:
@@ -395,7 +413,7 @@ def machine() -> str:
     except importlib.metadata.PackageNotFoundError:
         torch = "none"
     return (f"{platform.node()}: {platform.machine()}, {os.cpu_count()} CPUs, load average "
-            f"{os.getloadavg()[0]:.1f} at the end, Python {platform.python_version()}, torch {torch}")
+            f"{load_start:.1f} at the start, {os.getloadavg()[0]:.1f} at the end, Python {platform.python_version()}, torch {torch}")
 
 
 if __name__ == "__main__":
