@@ -59,6 +59,7 @@ EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED, EVAL_SEED + 1, ..
 SELECT_SEED = 5_000  # the model-selection evaluations' environment starts from this seed
 #: the policy trained by this script and shipped with the docs (docs/TRAINING.md says how)
 SHIPPED_POLICY = Path(__file__).resolve().parent.parent / "docs" / "training" / "ddpg_policy.zip"
+EVALUATE_MINUTES = 2.0  # --evaluate's bound when --max-minutes is not given
 #: --quick: a short run whose success rate rises within about 10 minutes on 2 cores (the full
 #: run's first 4,000 steps, with more frequent, shorter selection evaluations)
 QUICK = {"steps": 4_000, "select_every": 1_000, "select_episodes": 5,
@@ -99,25 +100,37 @@ def _run_episode(env: gym.Env, act, seed: int) -> dict:
             "final_distance_m": float(info["distance"])}
 
 
-def _evaluate_worker(address: tuple[str, int], episode_steps: int, policy_path: str | None,
+def _evaluate_worker(index: int, address: tuple[str, int], episode_steps: int, policy_path: str | None,
                      seeds: list[int], deadline: float | None) -> list[tuple[str, dict]]:
-    """Runs in a process of its own (one per server): for each seed the trained policy's episode
-    then the random policy's, until ``deadline`` (``time.time()``); a random policy's actions come
-    from a generator seeded with the episode's seed, so the results do not depend on the split."""
+    """Runs on server ``index`` (in a process of its own when there are several): for each seed
+    the trained policy's episode then the random policy's, a progress line after each pair; no
+    pair is begun that the longest pair so far would end past ``deadline`` (``time.time()``).
+    A random policy's actions come from a generator seeded with the episode's seed, so the
+    results do not depend on how the seeds were dealt."""
     env = make_env(*address, episode_steps)
     act = load_policy(policy_path) if policy_path else None
-    out = []
+    shape = env.action_space.shape
+    out: list[tuple[str, dict]] = []
+    start, longest = time.monotonic(), 0.0
     try:
-        for seed in seeds:
-            for name in (("trained", "random") if act else ("random",)):
-                if deadline is not None and time.time() > deadline:
-                    return out
-                if name == "trained":
-                    out.append((name, _run_episode(env, act, seed)))
-                else:
-                    rng = np.random.default_rng(seed)
-                    out.append((name, _run_episode(
-                        env, lambda o: rng.uniform(-1.0, 1.0, env.action_space.shape).astype(np.float32), seed)))
+        for i, seed in enumerate(seeds):
+            if deadline is not None and time.time() + longest > deadline:
+                print(f"[evaluate] server {index + 1}: stopped by --max-minutes after {i} of its {len(seeds)} seeds",
+                      flush=True)
+                break
+            begun = time.monotonic()
+            pair = []
+            if act is not None:
+                pair.append(("trained", _run_episode(env, act, seed)))
+            rng = np.random.default_rng(seed)
+            pair.append(("random", _run_episode(
+                env, lambda o, rng=rng: rng.uniform(-1.0, 1.0, shape).astype(np.float32), seed)))
+            out += pair
+            longest = max(longest, time.monotonic() - begun)
+            said = ", ".join(f"{name} {'reached' if e['success'] else 'missed'} ({e['steps']} steps, "
+                             f"{e['final_distance_m']:.2f} m)" for name, e in pair)
+            print(f"[evaluate] server {index + 1}: seed {seed}: {said}; {i + 1}/{len(seeds)} of its seeds, "
+                  f"{_clock(time.monotonic() - start)}", flush=True)
     finally:
         env.close()
     return out
@@ -139,13 +152,14 @@ def evaluate(addresses: list[tuple[str, int]], episode_steps: int, policy_path: 
              deadline: float | None, log=print) -> dict:
     """The policy at ``policy_path`` (deterministic) and a random policy over seeds ``EVAL_SEED``
     .. ``EVAL_SEED + episodes - 1``, on every server of ``addresses`` in parallel (one process
-    each, seeds dealt round-robin), each episode begun before ``deadline`` (``time.time()``)."""
+    each, seeds dealt round-robin), none begun that would end past ``deadline`` (``time.time()``)
+    as far as the longest so far tells."""
     seeds = [EVAL_SEED + i for i in range(episodes)]
     parts = [seeds[k::len(addresses)] for k in range(len(addresses))]
     start = time.monotonic()
     log(f"[evaluate] {episodes} seeded episodes per policy (seeds {seeds[0]}-{seeds[-1]}) on "
         f"{len(addresses)} servers ...")
-    jobs = [(a, episode_steps, policy_path, p, deadline) for a, p in zip(addresses, parts) if p]
+    jobs = [(k, a, episode_steps, policy_path, p, deadline) for k, (a, p) in enumerate(zip(addresses, parts)) if p]
     if len(jobs) == 1:  # one server's work: in this process (a new one would import PyTorch again)
         results = _evaluate_worker(*jobs[0])
     else:
@@ -218,7 +232,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help="env steps between evaluations that pick the model kept (best mean return)")
     parser.add_argument("--select-episodes", type=int, default=10, help="episodes of each such evaluation")
     parser.add_argument("--max-minutes", type=float, default=None,
-                        help="bound on the whole run's wall time (servers' start, training, evaluations); none if not given")
+                        help="bound on the whole run's wall time (servers' start, training, evaluations); none if not "
+                             f"given, {EVALUATE_MINUTES:g} with --evaluate")
     parser.add_argument("--log-every", type=int, default=1_000, help="env steps between progress lines")
     parser.add_argument("--seed", type=int, default=0, help="seed of the training (networks, noise, environments)")
     parser.add_argument("--out", default="runs/ddpg", help="folder for the models, CSV, PNG and JSON")
@@ -229,6 +244,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help="train nothing: evaluate POLICY (a policy.zip or model.zip; without POLICY the "
                              f"shipped {SHIPPED_POLICY.name}) and a random policy over --eval-episodes seeded episodes")
     args = parser.parse_args(argv)
+    if args.evaluate and args.max_minutes is None:
+        args.max_minutes = EVALUATE_MINUTES
     if args.quick:  # the preset's values where the command line gave none
         parser.set_defaults(**QUICK)
         args = parser.parse_args(argv)
@@ -318,11 +335,11 @@ def main(argv: list[str] | None = None) -> dict:
         """Seconds the final evaluation is expected to take (``rate``: training env steps/s on
         ``--servers`` environments; the evaluation runs on ``--servers`` + 1 servers): a random
         policy's episodes run to ``--episode-steps``, the trained one's as long as the recent
-        training episodes; plus 15 s to start the evaluation's processes."""
+        training episodes; plus 25 s: 15 to start the evaluation's processes, 10 to end the run."""
         recent = rows[-20:]
         trained_len = np.mean([r["length"] for r in recent]) if recent else args.episode_steps
         steps = args.eval_episodes * (args.episode_steps + trained_len)
-        return 15.0 + steps / (rate / args.servers * (args.servers + 1))
+        return 25.0 + steps / (rate / args.servers * (args.servers + 1))
 
     # One server more than environments: the model-selection evaluations run on it, beside training.
     print(f"[train] starting {args.servers + 1} simx-servers ...", flush=True)
@@ -368,8 +385,9 @@ def main(argv: list[str] | None = None) -> dict:
                                           select.evaluations_successes or [[]] * len(select.evaluations_results))]
         print(f"[train] {env_steps:,} steps in {_clock(train_s)} ({env_steps / train_s:.1f} steps/s); kept: "
               f"{'the best selection evaluation' if kept is not model else 'the final model'}", flush=True)
+        # 10 s of the bound left for stopping the servers and writing the plot and JSON
         evaluation = evaluate(pool.addresses, args.episode_steps, str(out / "policy.zip"), args.eval_episodes,
-                              deadline)
+                              None if deadline is None else deadline - 10)
 
     trained, random_policy = evaluation["trained"], evaluation["random"]
     result = {
