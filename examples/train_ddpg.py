@@ -1,7 +1,7 @@
 """Train the tutorial's DDPG (stable-baselines3) on simx/UR5BallReach-v0, CPU only.
 
     scripts/install-train.sh                 # gymnasium, stable-baselines3, PyTorch's CPU build, matplotlib
-    python examples/train_ddpg.py --evaluate # the shipped policy against a random one (about 2 minutes)
+    python examples/train_ddpg.py --evaluate # the shipped policy against a random one (at most 2 minutes)
     python examples/train_ddpg.py --quick    # a short training whose success rate rises (about 10 minutes)
     nice -n 19 python examples/train_ddpg.py --servers 2 --steps 20000 --max-minutes 25 --out runs/ddpg
 
@@ -23,8 +23,10 @@ then says how many episodes each policy had). It writes to ``--out``:
   rate, mean return and final distance; with the training's wall time, env steps and the machine.
 
 ``--evaluate [POLICY]`` trains nothing: it runs the policy (default: the one shipped in
-docs/training/, trained by this script) and a random policy over the same seeded episodes, on
-``--servers`` servers in parallel, and prints the same JSON.
+docs/training/, trained by this script), then a random policy, over the same seeded episodes,
+on ``--servers`` servers in parallel, for at most 2 minutes unless ``--max-minutes`` says
+otherwise (the random policy's episodes, 100 steps each, then cover the seeds the time leaves),
+and prints a JSON of the same figures.
 
 What the agent sees and does (as the tutorial's DDPG): the tutorial's state, the ball centre's
 pixel distance from the image centre and the depth there (``tutorial_state=True``: from the
@@ -102,35 +104,39 @@ def _run_episode(env: gym.Env, act, seed: int) -> dict:
 
 def _evaluate_worker(index: int, address: tuple[str, int], episode_steps: int, policy_path: str | None,
                      seeds: list[int], deadline: float | None) -> list[tuple[str, dict]]:
-    """Runs on server ``index`` (in a process of its own when there are several): for each seed
-    the trained policy's episode then the random policy's, a progress line after each pair; no
-    pair is begun that the longest pair so far would end past ``deadline`` (``time.time()``).
+    """Runs on server ``index`` (in a process of its own when there are several): the trained
+    policy's episodes on ``seeds`` first (short once it has learnt), then the random policy's on
+    the same seeds (each runs all ``episode_steps``), a progress line after each; no episode is
+    begun that would end past ``deadline`` (``time.time()``) at the slowest steps/s so far.
     A random policy's actions come from a generator seeded with the episode's seed, so the
     results do not depend on how the seeds were dealt."""
     env = make_env(*address, episode_steps)
     act = load_policy(policy_path) if policy_path else None
     shape = env.action_space.shape
     out: list[tuple[str, dict]] = []
-    start, longest = time.monotonic(), 0.0
+    start, step_s, trained_steps = time.monotonic(), 0.0, 0
     try:
-        for i, seed in enumerate(seeds):
-            if deadline is not None and time.time() + longest > deadline:
-                print(f"[evaluate] server {index + 1}: stopped by --max-minutes after {i} of its {len(seeds)} seeds",
-                      flush=True)
-                break
-            begun = time.monotonic()
-            pair = []
-            if act is not None:
-                pair.append(("trained", _run_episode(env, act, seed)))
-            rng = np.random.default_rng(seed)
-            pair.append(("random", _run_episode(
-                env, lambda o, rng=rng: rng.uniform(-1.0, 1.0, shape).astype(np.float32), seed)))
-            out += pair
-            longest = max(longest, time.monotonic() - begun)
-            said = ", ".join(f"{name} {'reached' if e['success'] else 'missed'} ({e['steps']} steps, "
-                             f"{e['final_distance_m']:.2f} m)" for name, e in pair)
-            print(f"[evaluate] server {index + 1}: seed {seed}: {said}; {i + 1}/{len(seeds)} of its seeds, "
-                  f"{_clock(time.monotonic() - start)}", flush=True)
+        for name in (("trained", "random") if act is not None else ("random",)):
+            for i, seed in enumerate(seeds):
+                # the next episode's length: a random one runs them all, a trained one as its longest so far
+                steps = trained_steps if name == "trained" and trained_steps else episode_steps
+                if deadline is not None and time.time() + step_s * steps > deadline:
+                    print(f"[evaluate] server {index + 1}: {name} policy stopped by --max-minutes after {i} of "
+                          f"its {len(seeds)} seeds", flush=True)
+                    break
+                begun = time.monotonic()
+                if name == "trained":
+                    e = _run_episode(env, act, seed)
+                else:
+                    rng = np.random.default_rng(seed)
+                    e = _run_episode(env, lambda o, rng=rng: rng.uniform(-1.0, 1.0, shape).astype(np.float32), seed)
+                out.append((name, e))
+                step_s = max(step_s, (time.monotonic() - begun) / e["steps"])  # the slowest steps so far
+                if name == "trained":
+                    trained_steps = max(trained_steps, e["steps"])
+                print(f"[evaluate] server {index + 1}: {name} policy, seed {seed}: "
+                      f"{'reached' if e['success'] else 'missed'} ({e['steps']} steps, {e['final_distance_m']:.2f} m); "
+                      f"{i + 1}/{len(seeds)} of its seeds, {_clock(time.monotonic() - start)}", flush=True)
     finally:
         env.close()
     return out
@@ -150,16 +156,18 @@ def summarize(episodes: list[dict], wanted: int) -> dict:
 
 def evaluate(addresses: list[tuple[str, int]], episode_steps: int, policy_path: str | None, episodes: int,
              deadline: float | None, log=print) -> dict:
-    """The policy at ``policy_path`` (deterministic) and a random policy over seeds ``EVAL_SEED``
-    .. ``EVAL_SEED + episodes - 1``, on every server of ``addresses`` in parallel (one process
-    each, seeds dealt round-robin), none begun that would end past ``deadline`` (``time.time()``)
-    as far as the longest so far tells."""
+    """The policy at ``policy_path`` (deterministic), then a random policy, over seeds
+    ``EVAL_SEED`` .. ``EVAL_SEED + episodes - 1``, on every server of ``addresses`` in parallel
+    (one process each, seeds dealt round-robin), none begun that would end past ``deadline``
+    (``time.time()``) at the slowest steps/s so far, 10 s of it left for ending the run."""
     seeds = [EVAL_SEED + i for i in range(episodes)]
     parts = [seeds[k::len(addresses)] for k in range(len(addresses))]
     start = time.monotonic()
     log(f"[evaluate] {episodes} seeded episodes per policy (seeds {seeds[0]}-{seeds[-1]}) on "
         f"{len(addresses)} servers ...")
-    jobs = [(k, a, episode_steps, policy_path, p, deadline) for k, (a, p) in enumerate(zip(addresses, parts)) if p]
+    # 10 s of the bound left for stopping the workers and the servers and writing the results
+    end = None if deadline is None else deadline - 10
+    jobs = [(k, a, episode_steps, policy_path, p, end) for k, (a, p) in enumerate(zip(addresses, parts)) if p]
     if len(jobs) == 1:  # one server's work: in this process (a new one would import PyTorch again)
         results = _evaluate_worker(*jobs[0])
     else:
@@ -385,9 +393,8 @@ def main(argv: list[str] | None = None) -> dict:
                                           select.evaluations_successes or [[]] * len(select.evaluations_results))]
         print(f"[train] {env_steps:,} steps in {_clock(train_s)} ({env_steps / train_s:.1f} steps/s); kept: "
               f"{'the best selection evaluation' if kept is not model else 'the final model'}", flush=True)
-        # 10 s of the bound left for stopping the servers and writing the plot and JSON
         evaluation = evaluate(pool.addresses, args.episode_steps, str(out / "policy.zip"), args.eval_episodes,
-                              None if deadline is None else deadline - 10)
+                              deadline)
 
     trained, random_policy = evaluation["trained"], evaluation["random"]
     result = {

@@ -1,4 +1,4 @@
-"""``simx/UR5BallReach-v0`` on Ray RLlib (needs the ``ray`` extra: ``pip install 'simx[ray]'``).
+"""``simx/UR5BallReach-v0`` on Ray RLlib (needs the ``ray`` extra: ``scripts/install-train.sh ray``).
 
     from simx_client.envs import rllib
     rllib.register()                      # the env name rllib.ENV_NAME, on the driver

@@ -34,7 +34,7 @@ from conftest import ROOT, namespace_pids, network_namespaces, wait_until
 # find_spec, not an import: importing Ray takes seconds, and the test runs it in subprocesses only.
 for _module in ("ray", "torch", "pandas"):  # pandas: one of what ray[rllib] adds to ray
     if importlib.util.find_spec(_module) is None:
-        pytest.skip(f"needs the ray extra (no {_module}): pip install -e '.[ray]'", allow_module_level=True)
+        pytest.skip(f"needs the ray extra (no {_module}): scripts/install-train.sh ray", allow_module_level=True)
 
 pytestmark = pytest.mark.ray
 
