@@ -305,6 +305,7 @@ def main(argv: list[str] | None = None) -> dict:
             self.next_line = args.log_every
             self.stop_reason = None
             self.random_phase: tuple[int, float] | None = None  # (steps, s) before learning began
+            self.first: tuple[int, float] | None = None  # (steps, time) at the first step, after the resets
 
         def _on_step(self) -> bool:
             now = time.monotonic()
@@ -332,7 +333,13 @@ def main(argv: list[str] | None = None) -> dict:
                       f"episodes {len(rows)}  last 20: return {ret}, success {won}  "
                       f"best selection {'-' if best is None else f'{best:.0%}'}  elapsed {_clock(now - t0)}  "
                       f"training left ~{_clock(left)}", flush=True)
-            if deadline is not None and time.time() + eval_reserve(rate) > deadline:
+            if self.first is None:
+                self.first = (self.num_timesteps, now)
+            # the reserve from the steps/s measured over 30 s at least (the first resets are slow)
+            measured = now - self.first[1] >= 30 and self.num_timesteps > self.first[0]
+            if measured:
+                rate = (self.num_timesteps - self.first[0]) / (now - self.first[1])
+            if deadline is not None and measured and time.time() + eval_reserve(rate) > deadline:
                 self.stop_reason = (f"stopped at {self.num_timesteps:,} steps to leave the evaluations "
                                     f"~{_clock(eval_reserve(rate))} of --max-minutes {args.max_minutes:g}")
                 print(f"[train] {self.stop_reason}", flush=True)
