@@ -107,20 +107,22 @@ def _evaluate_worker(index: int, address: tuple[str, int], episode_steps: int, p
     """Runs on server ``index`` (in a process of its own when there are several): the trained
     policy's episodes on ``seeds`` first (short once it has learnt), then the random policy's on
     the same seeds (each runs all ``episode_steps``), a progress line after each; no episode is
-    begun that would end past ``deadline`` (``time.time()``) at the slowest steps/s so far.
+    begun that would end past ``deadline`` (``time.time()``) at 1.25 times the mean time per
+    step so far.
     A random policy's actions come from a generator seeded with the episode's seed, so the
     results do not depend on how the seeds were dealt."""
     env = make_env(*address, episode_steps)
     act = load_policy(policy_path) if policy_path else None
     shape = env.action_space.shape
     out: list[tuple[str, dict]] = []
-    start, step_s, trained_steps = time.monotonic(), 0.0, 0
+    start, spent, stepped, trained_steps = time.monotonic(), 0.0, 0, 0
     try:
         for name in (("trained", "random") if act is not None else ("random",)):
             for i, seed in enumerate(seeds):
                 # the next episode's length: a random one runs them all, a trained one as its longest so far
                 steps = trained_steps if name == "trained" and trained_steps else episode_steps
-                if deadline is not None and time.time() + step_s * steps > deadline:
+                # its time at the mean s per step so far (resets included), with a quarter more
+                if deadline is not None and time.time() + 1.25 * steps * spent / max(stepped, 1) > deadline:
                     print(f"[evaluate] server {index + 1}: {name} policy stopped by --max-minutes after {i} of "
                           f"its {len(seeds)} seeds", flush=True)
                     break
@@ -131,7 +133,7 @@ def _evaluate_worker(index: int, address: tuple[str, int], episode_steps: int, p
                     rng = np.random.default_rng(seed)
                     e = _run_episode(env, lambda o, rng=rng: rng.uniform(-1.0, 1.0, shape).astype(np.float32), seed)
                 out.append((name, e))
-                step_s = max(step_s, (time.monotonic() - begun) / e["steps"])  # the slowest steps so far
+                spent, stepped = spent + time.monotonic() - begun, stepped + e["steps"]
                 if name == "trained":
                     trained_steps = max(trained_steps, e["steps"])
                 print(f"[evaluate] server {index + 1}: {name} policy, seed {seed}: "
@@ -159,7 +161,8 @@ def evaluate(addresses: list[tuple[str, int]], episode_steps: int, policy_path: 
     """The policy at ``policy_path`` (deterministic), then a random policy, over seeds
     ``EVAL_SEED`` .. ``EVAL_SEED + episodes - 1``, on every server of ``addresses`` in parallel
     (one process each, seeds dealt round-robin), none begun that would end past ``deadline``
-    (``time.time()``) at the slowest steps/s so far, 10 s of it left for ending the run."""
+    (``time.time()``) at 1.25 times the mean time per step so far, 10 s of it left for ending
+    the run."""
     seeds = [EVAL_SEED + i for i in range(episodes)]
     parts = [seeds[k::len(addresses)] for k in range(len(addresses))]
     start = time.monotonic()
