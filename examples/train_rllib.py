@@ -1,6 +1,6 @@
 """Train PPO (Ray RLlib, new API stack) on simx/UR5BallReach-v0, on one machine or a Ray cluster.
 
-    pip install -e '.[ray]'                                    # Ray with RLlib, PyTorch
+    scripts/install-train.sh ray                                # Ray with RLlib, PyTorch's CPU build
     python examples/train_rllib.py --env-runners 2 --iterations 10          # a local Ray
     python examples/train_rllib.py --address auto --env-runners 4           # a cluster (ray start)
 

@@ -1,6 +1,6 @@
 """Train SAC (stable-baselines3) on simx/UR5BallReach-v0. Not run in CI.
 
-    pip install -e '.[train]'           # gymnasium + stable-baselines3 (brings PyTorch)
+    scripts/install-train.sh            # gymnasium, stable-baselines3, PyTorch's CPU build (docs/TRAINING.md)
     simx-server &                       # or scripts/serve.sh; port 19999
     python examples/train_sac.py --steps 20000
 

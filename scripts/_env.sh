@@ -8,9 +8,18 @@
 # holds a hash of pyproject.toml, this file, the arguments and the Python version: later runs
 # install again only when one of those changed (the code itself is installed editable, so its
 # changes need no reinstall).
+#
+# An argument `torch==VERSION+cpu` (scripts/install-train.sh's TORCH_CPU) asks for PyTorch's CPU
+# build, which PyPI does not have (its Linux torch is the CUDA build: 15 NVIDIA wheels, about 5 GB
+# more): it is installed first from pip's configured indexes (a mirror or wheel folder that has it,
+# as this project's CI machines do), else from PyTorch's CPU index ($SIMX_TORCH_INDEX); the
+# install that follows then finds it satisfied.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VENV="${SIMX_VENV:-$ROOT/.venv}"
+# The PyTorch release the training examples and the shipped policy (docs/training/) were made with.
+TORCH_CPU="${SIMX_TORCH:-torch==2.13.0+cpu}"
+TORCH_INDEX="${SIMX_TORCH_INDEX:-https://download.pytorch.org/whl/cpu}"
 
 ensure_venv() {
     local python="${PYTHON:-python3}"
@@ -35,6 +44,16 @@ ensure_venv() {
     echo "simx: installing the Python packages ($*) into $VENV: the first time this downloads" \
          "MuJoCo, Zenoh, OpenCV and the rest (400-460 MB installed; 15-20 s on a fast connection," \
          "minutes on a slow one); later runs skip this step until pyproject.toml changes ..."
+    local arg
+    for arg in "$@"; do
+        case "$arg" in
+        torch==*+cpu)
+            "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "$arg" 2>/dev/null || {
+                echo "simx: $arg from PyTorch's CPU index $TORCH_INDEX ..."
+                "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --index-url "$TORCH_INDEX" "$arg"
+            } ;;
+        esac
+    done
     "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "$@"
     echo "$want" > "$stamp"
     echo "simx: Python packages installed in $((SECONDS - start)) s."

@@ -5,9 +5,13 @@ set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_env.sh"
 bash "$ROOT/scripts/system-deps.sh" --with-x
 # SIMX_TEST_EXTRAS: the extras installed (default "test"; .ci/run adds train and ray, whose tests
-# skip without them); SIMX_PIP_ARGS: more for the same pip install (.ci/run: PyTorch's CPU build).
+# skip without them; with either, PyTorch's CPU build, as scripts/install-train.sh installs it);
+# SIMX_PIP_ARGS: more for the same pip install.
+extras="${SIMX_TEST_EXTRAS:-test}"
+torch=()
+case ",$extras," in *,train,* | *,ray,*) torch=("$TORCH_CPU") ;; esac
 # shellcheck disable=SC2086  # SIMX_PIP_ARGS: words on purpose
-ensure_venv -e "$ROOT[${SIMX_TEST_EXTRAS:-test}]" ${SIMX_PIP_ARGS:-}
+ensure_venv -e "$ROOT[$extras]" ${torch[@]+"${torch[@]}"} ${SIMX_PIP_ARGS:-}
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$ROOT"
 # The suite writes bytecode caches (gitignored __pycache__): it starts about 140 simx-server

@@ -1,4 +1,4 @@
-"""``simx/UR5BallReach-v0`` on Ray RLlib (needs the ``ray`` extra: ``pip install 'simx[ray]'``).
+"""``simx/UR5BallReach-v0`` on Ray RLlib (needs the ``ray`` extra: ``scripts/install-train.sh ray``).
 
     from simx_client.envs import rllib
     rllib.register()                      # the env name rllib.ENV_NAME, on the driver
@@ -14,6 +14,14 @@ nodes but Ray's own traffic: a cluster needs Ray and simx installed on every nod
 
 :func:`servers_of` tells, for an env runner, which servers its environments stepped (for
 ``algo.env_runner_group.foreach_env_runner(servers_of, local_env_runner=False)``).
+
+Ray runs its workers, env runners included, at nice 15 (its ``worker_niceness``, so that its
+own daemons stay responsive), and a server an environment starts inherits it. On a node whose
+CPUs other work keeps busy, a nice-15 process gets about 1/30 of the share of a nice-0 one:
+a step, or the GL context of a server's first render, then takes tens of seconds, and a
+Zenoh session can lose its lease. Start such nodes with ``RAY_worker_niceness=0`` in
+``ray start``'s environment (tests/e2e/test_ray_cluster.py does); :func:`servers_of` reports
+the nice values (``env_nice``, ``server_nice``).
 """
 
 from __future__ import annotations
@@ -61,8 +69,10 @@ def register(name: str = ENV_NAME) -> str:
 def servers_of(env_runner: Any) -> list[dict[str, Any]]:
     """For each environment of ``env_runner`` (an RLlib ``SingleAgentEnvRunner``): its
     :meth:`UR5BallReachEnv.server_info`, with the node's IP address as Ray sees it
-    (``node_ip``) and, on Linux, the network namespace the server runs in (``server_netns``,
-    e.g. ``"net:[4026532289]"``). An env runner without environments (the driver's) gives []."""
+    (``node_ip``), the nice values of the env runner's process (``env_nice``) and of the server
+    (``server_nice``, None without a server of its own) and, on Linux, the network namespace
+    the server runs in (``server_netns``, e.g. ``"net:[4026532289]"``). An env runner without
+    environments (the driver's) gives []."""
     import ray
 
     vector = getattr(env_runner, "env", None)
@@ -71,9 +81,13 @@ def servers_of(env_runner: Any) -> list[dict[str, Any]]:
     node_ip = ray.util.get_node_ip_address()
     infos = []
     for info in vector.unwrapped.call("server_info"):
-        info = dict(info, node_ip=node_ip)
+        info = dict(info, node_ip=node_ip, env_nice=os.getpriority(os.PRIO_PROCESS, 0), server_nice=None)
         pid = info.get("server_pid")
         if pid is not None:
+            try:
+                info["server_nice"] = os.getpriority(os.PRIO_PROCESS, pid)
+            except OSError:
+                pass
             try:
                 info["server_netns"] = os.readlink(f"/proc/{pid}/ns/net")
             except OSError:

@@ -34,14 +34,18 @@ from conftest import ROOT, namespace_pids, network_namespaces, wait_until
 # find_spec, not an import: importing Ray takes seconds, and the test runs it in subprocesses only.
 for _module in ("ray", "torch", "pandas"):  # pandas: one of what ray[rllib] adds to ray
     if importlib.util.find_spec(_module) is None:
-        pytest.skip(f"needs the ray extra (no {_module}): pip install -e '.[ray]'", allow_module_level=True)
+        pytest.skip(f"needs the ray extra (no {_module}): scripts/install-train.sh ray", allow_module_level=True)
 
 pytestmark = pytest.mark.ray
 
 ADDR_A, ADDR_B = "198.51.100.1", "198.51.100.2"
 GCS_PORT = 6379  # inside namespace A only
 RAY = str(Path(sys.executable).with_name("ray"))
-ENV = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1", RAY_USAGE_STATS_ENABLED="0")
+# RAY_worker_niceness=0: Ray runs its workers at nice 15 by default, and the simx-server an env
+# runner starts inherits it; beside the suite's other workers (nice 0, load about 10 on 2 cores)
+# such a server got about 1/30 of their CPU share: its first render's GL context or a step took
+# over 20 s, or its Zenoh session lost its lease, and the runner failed.
+ENV = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1", RAY_USAGE_STATS_ENABLED="0", RAY_worker_niceness="0")
 STARTED = "Ray runtime started"
 NODE = ["--num-cpus", "1", "--num-gpus", "0", "--object-store-memory", str(100 * 2**20),
         "--disable-usage-stats", "--block"]
@@ -139,6 +143,8 @@ def test_ppo_env_runners_step_servers_on_their_own_nodes(ray_cluster):
         assert len(runner) == 1  # one environment per runner
         (env,) = runner
         assert env["host"] == "127.0.0.1" and env["server_pid"] is not None
+        # the runner and its server compete for the CPUs as the other processes do (ENV)
+        assert env["env_nice"] <= os.getpriority(os.PRIO_PROCESS, 0) and env["server_nice"] == env["env_nice"], env
         # the server is a process of the runner's own node (namespace), reached on its loopback
         expected = netns[a] if env["node_ip"] == ADDR_A else netns[b]
         assert env["server_netns"] == expected, env
