@@ -537,4 +537,4 @@ def _log_nobody(address: str, port: int, exc: BaseException) -> None:
     log.log(logging.WARNING if first else logging.INFO,
             "simxStart(%s, %d): no simx server at %s:%d (start one there: scripts/serve.sh, or simx-server; "
             "it listens on 19997 and 19999 by default, a --zenoh-config file on its listen endpoints): %s",
-            address, port, address, port, exc)
+            address, port, address, port, P.zenoh_reason(str(exc)))
