@@ -520,6 +520,21 @@ def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_t
             return None
         except (zenoh.ZError, TimeoutError) as exc:
             if not wait or time.monotonic() >= deadline:
-                log.info("simxStart(%s, %d): no simx server: %s", address, port, exc)
+                _log_nobody(address, port, exc)
                 return None
         time.sleep(0.05)
+
+
+_told_nobody: set[tuple[str, int]] = set()  # (address, port) whose "no simx server" was a WARNING
+
+
+def _log_nobody(address: str, port: int, exc: BaseException) -> None:
+    """``simxStart`` found no simx server: a WARNING the first time for this address and port in
+    this process (visible at Python's default log level, where a legacy program that retries
+    forever would otherwise show nothing), INFO at every later try."""
+    first = (address, port) not in _told_nobody
+    _told_nobody.add((address, port))
+    log.log(logging.WARNING if first else logging.INFO,
+            "simxStart(%s, %d): no simx server at %s:%d (start one there: scripts/serve.sh, or simx-server; "
+            "it listens on 19997 and 19999 by default, a --zenoh-config file on its listen endpoints): %s",
+            address, port, address, port, P.zenoh_reason(str(exc)))

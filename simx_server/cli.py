@@ -11,6 +11,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
+import errno
 import faulthandler
 import json
 import logging
@@ -78,13 +79,56 @@ def listen_failure(endpoints: list[str], exc: BaseException) -> str:
     found = _ENDPOINT_IN_ERROR.search(text)
     where = found.group(1) if found else ", ".join(endpoints)
     if "Address already in use" in text or "os error 98" in text:
-        return (f"simx-server: cannot listen on {where}: the port is already in use (another simx-server, "
-                "or another program, listens there); stop it, or choose a free port with --port N "
-                "(the client's simxStart must use the same port)")
+        return _in_use(where)
     if "Cannot assign requested address" in text or "os error 99" in text:
         return (f"simx-server: cannot listen on {where}: that address is not one of this machine's; give "
                 "--host one of its own addresses (default 127.0.0.1)")
     return f"simx-server: cannot listen on {where}: {zenoh_reason(text)}"
+
+
+def _in_use(where: str) -> str:
+    return (f"simx-server: cannot listen on {where}: the port is already in use (another simx-server, "
+            "or another program, listens there); stop it, or choose a free port with --port N "
+            "(the client's simxStart must use the same port)")
+
+
+def port_in_use(endpoints: list[str]) -> str | None:
+    """The refusal line of :func:`listen_failure` for the first TCP-based endpoint (``tcp``,
+    ``tls``, ``ws``) whose port something already listens on, or None. Checked before the scene
+    loads (2-10 s), so that a taken port is said at once: a probe socket binds the address with
+    ``SO_REUSEADDR`` (a port a stopped server left in TIME_WAIT counts as free, as it does for
+    Zenoh's listener, which sets the option too) and closes at once."""
+    import socket
+
+    for endpoint in endpoints:
+        protocol, _, address = endpoint.partition("/")
+        if protocol not in ("tcp", "tls", "ws"):
+            continue
+        host, _, port = address.split("#", 1)[0].split("?", 1)[0].rpartition(":")
+        try:
+            infos = socket.getaddrinfo(host.strip("[]"), int(port), type=socket.SOCK_STREAM)
+        except (OSError, ValueError):
+            continue  # Zenoh names what it cannot parse or resolve when it tries
+        for family, kind, proto, _, sockaddr in infos:
+            with socket.socket(family, kind, proto) as probe:
+                probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                try:
+                    probe.bind(sockaddr)
+                except OSError as exc:
+                    if exc.errno == errno.EADDRINUSE:
+                        return _in_use(endpoint)
+    return None
+
+
+def missing_scene(args: argparse.Namespace) -> str | None:
+    """The one line for a scene path that names nothing, or None: the same for serving and for
+    ``--list-objects`` (checked here, before MuJoCo, whose "ParseXML: Error opening file" named
+    it otherwise)."""
+    if args.scene is None or Path(args.scene).exists():
+        return None
+    where = "--list-objects: " if args.list_objects else ""
+    return (f"simx-server: {where}no scene file {args.scene!r} (relative paths start in {Path.cwd()}): give the "
+            "path of an MJCF (.xml) or URDF (.urdf) file, or none for the bundled scene")
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -168,7 +212,7 @@ def argument_error(args: argparse.Namespace) -> str | None:
     if args.scene and Path(args.scene).is_dir():
         return (f"simx-server: {args.scene} is a folder, not a scene file: give an MJCF (.xml) or URDF (.urdf) "
                 "file")
-    return None
+    return missing_scene(args)
 
 
 def _warnings_to_log() -> None:
@@ -234,16 +278,24 @@ def main(argv: list[str] | None = None) -> int:
         if not Path(folder).is_dir():
             print(f"simx-server: --scene-path {folder}: not a folder", file=sys.stderr)
             return 2
+    endpoints = [f"tcp/{h}:{p}" for h in (args.host or DEFAULT_HOSTS) for p in (args.port or DEFAULT_PORTS)]
+    try:
+        config = zenoh_config(endpoints, args.zenoh_config)
+        endpoints = json.loads(config.get_json("listen/endpoints"))
+    except (zenoh.ZError, ValueError, OSError) as exc:
+        print(listen_failure(endpoints, exc), file=sys.stderr)
+        return 2
+    taken = port_in_use(endpoints)  # said now, not after the scene has loaded
+    if taken:
+        print(taken, file=sys.stderr)
+        return 2
     try:
         sim = Simulation(scene, dt=args.dt, realtime=args.speed > 0, allow_remote_code=args.allow_remote_code,
                          allow_unsafe_lua=args.allow_unsafe_lua, scene_paths=args.scene_path)
     except (ValueError, OSError) as exc:
         print(f"simx-server: {exc}", file=sys.stderr)
         return 2
-    endpoints = [f"tcp/{h}:{p}" for h in (args.host or DEFAULT_HOSTS) for p in (args.port or DEFAULT_PORTS)]
     try:
-        config = zenoh_config(endpoints, args.zenoh_config)
-        endpoints = json.loads(config.get_json("listen/endpoints"))
         server = Server(sim, config, speed=args.speed, prefix=args.prefix, client_expiry=args.client_expiry,
                         pacing=args.pacing)
         server.open()

@@ -283,7 +283,8 @@ class Editor(ObjectEdits):
         """``simxLoadScene``: replace the scene (simulation stopped only); handles restart."""
 
         if self.sim.state is not RunState.STOPPED:
-            raise RemoteError("stop the simulation first")
+            raise RemoteError("stop the simulation first: call sim.stopSimulation() (simxStopSimulation) before, "
+                              "or start simx-server with --stopped (CoppeliaSim starts stopped; docs/ZMQ.md)")
         file = self.resolve(path, options)
         spec = None
         if options & 1:  # a client's scene: measured before MuJoCo parses and compiles it

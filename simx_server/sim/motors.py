@@ -189,7 +189,7 @@ class Motors:
             enabled = [name for name, on in new if on]  # by a simx: mode (a URDF's joints: position)
             tendons = sorted(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}"
                              for j in self.tendon_of_joint)
-            log.info("joint motors: %d from the scene's actuators; added, disabled: %s;%s joints moved only through "
+            log.debug("joint motors: %d from the scene's actuators; added, disabled: %s;%s joints moved only through "
                      "tendons (no motor of their own): %s", len(act) - len(new), ", ".join(passive) or "none",
                      f" added, enabled by simx: texts: {', '.join(enabled)};" if enabled else "",
                      ", ".join(tendons) or "none")

@@ -41,11 +41,13 @@ B, STREAMING, BUFFER = 0x010000, 0x020000, 0x030000  # simx_opmode_blocking, _st
 ROBOT = "UR5"
 
 
-def install(name: str, root: Path, port: int, dest: Path | None = None) -> Path:
-    """A docs/security file as shipped, its port 19997 replaced, written into ``dest`` (default
+def install(name: str, root: Path, port: int, dest: Path | None = None, tutorial_port: int | None = None) -> Path:
+    """A docs/security file as shipped, its port 19997 replaced by ``port`` and 19999 (the
+    tutorial's) by ``tutorial_port`` (default: a free port), written into ``dest`` (default
     ``root``/docs/security): its relative paths (docs/security/tls/..., docs/security/users.txt)
     resolve from ``root``, the folder the server and the clients run in."""
     text = (DOCS / name).read_text().replace("19997", str(port))
+    text = text.replace("19999", str(tutorial_port or free_port()))
     path = (dest or root / "docs" / "security") / name
     path.write_text(text)
     return path
@@ -60,10 +62,11 @@ def secure(tmp_path_factory):
     shutil.copytree(DOCS, root / "docs" / "security")
     subprocess.run(["sh", "docs/security/make-certs.sh", "docs/security/tls", "alice", "bob"], cwd=root,
                    check=True, capture_output=True, timeout=30)
-    port = free_port()
-    files = {name: install(name, root, port)
+    port, tutorial_port = free_port(), free_port()  # for 19997 and 19999
+    files = {name: install(name, root, port, tutorial_port=tutorial_port)
              for name in ("server.json5", "users.txt", "client-alice.json5", "client-bob.json5")}
-    server = ServerProcess("--zenoh-config", str(files["server.json5"]), "--stopped", ports=[port], cwd=root)
+    server = ServerProcess("--zenoh-config", str(files["server.json5"]), "--stopped", ports=[port, tutorial_port],
+                           cwd=root)
     with pytest.MonkeyPatch.context() as mp:
         mp.chdir(root)  # the clients of this module read the configs' relative paths from there
         yield server, files
@@ -170,6 +173,26 @@ def test_legacy_program_uses_tls_and_a_user_from_the_environment_alone(secure):
     assert (int(cid), int(rc), int(rc2)) == (0, 0, 0)
     assert int(handle) >= 0 and int(count) > 10
     assert client.startswith("alice-") and P.valid_client_id(client)
+
+
+def test_secure_config_serves_both_legacy_ports(secure, env):
+    """Issue 33 item 3: server.json5 listens on 19997 and on 19999, the port of the tutorial's
+    robotControl.py; the same client config reaches either (simxStart's port is used)."""
+    server, files = secure
+    port, tutorial_port = server.ports
+    for shipped in ("server.json5", "server-mtls.json5"):
+        text = (DOCS / shipped).read_text()
+        assert '"tls/127.0.0.1:19997", "tls/127.0.0.1:19999"' in text, shipped
+    assert f"tls/127.0.0.1:{port}" in server.ready_line and f"tls/127.0.0.1:{tutorial_port}" in server.ready_line
+    env.setenv("SIMX_ZENOH_CONFIG", str(files["client-alice.json5"]))
+    cid = start(tutorial_port)
+    assert cid >= 0
+    try:
+        assert api._connections[cid].client.startswith("alice-")
+        rc, handle = api.simxGetObjectHandle(cid, ROBOT, B)
+        assert rc == 0 and handle >= 0
+    finally:
+        api.simxFinish(cid)
 
 
 def test_zenoh_config_variable_and_refused_clients(secure, env, tmp_path, caplog):
