@@ -71,6 +71,8 @@ def pytest_collection_modifyitems(session, config, items):
     weight = {n: SLOW_FILES.get(n, 0.05 * c) for n, c in counts.items()}
     order = sorted(range(len(items)), key=lambda k: -weight[names[k]])  # stable
     items[:] = [items[k] for k in order]
+
+
 SHARED = ROOT.parent / "shared"
 LEGACY = SHARED / "legacy"
 REFERENCE = SHARED / "reference"
