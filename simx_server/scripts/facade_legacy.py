@@ -328,6 +328,15 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
         cascade, so they already run as delegated: returns 1."""
         return 1
 
+    def getInt32Parameter(self, parameter: Any) -> int | None:  # noqa: N802
+        """V-REP 3.x's ``simGetIntegerParameter`` / ``simGetInt32Parameter``: as
+        ``sim.getInt32Param``, except ``sim.intparam_flymode_camera_handle``, which answers nil:
+        a headless server has no fly-mode camera, and V-REP's Lua answered nil where the call
+        found none (scripts test ``if (flyModeCameraHandle) then``)."""
+        if _int(parameter, "parameter") == C.sim_intparam_flymode_camera_handle:
+            return None
+        return self.getInt32Param(parameter)
+
     # ---------------------------------------------------------------- custom data blocks
     def _blocks(self, handle: Any) -> dict:
         h = self._h(handle)
