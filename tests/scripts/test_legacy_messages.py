@@ -200,3 +200,38 @@ def test_the_313_header_sets_the_execution_count_the_old_text_tests(run, caplog)
     assert sim.signals.get_int("delegated") == 1
     assert sim.signals.get_int("flymode") == 0  # no fly-mode camera: nil
     assert not _errors(caplog)
+
+
+NESTED = """<mujoco>
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <body name="Robot"><geom type="box" size="0.01 0.01 0.01" contype="0" conaffinity="0"/>
+      <body name="Sensor" pos="0.05 0 0"><geom type="box" size="0.01 0.01 0.01" contype="0" conaffinity="0"/></body>
+    </body>
+    <body name="Other" pos="0 0.1 0"><geom type="box" size="0.01 0.01 0.01" contype="0" conaffinity="0"/></body>
+  </worldbody>
+  <custom>
+    <text name="simx:Robot" data="child_script=rx.lua"/>
+    <text name="simx:Sensor" data="child_script=tx.lua"/>
+    <text name="simx:Other" data="child_script=ox.lua"/>
+  </custom>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("target, robot, other", [("sim_handle_chain", True, False), ("sim_handle_all", True, True),
+                                                  ("sim_handle_tree", False, False)])
+def test_wireless_targets_chain_tree_and_all(tmp_path, target, robot, other):
+    receive = "function sysCall_actuation() if simReceiveData(0, 'x') then sim.setInt32Signal('{0}', 1) end end\n"
+    (tmp_path / "rx.lua").write_text(receive.replace("{0}", "robot"))
+    (tmp_path / "ox.lua").write_text(receive.replace("{0}", "other"))
+    (tmp_path / "tx.lua").write_text(f"function sysCall_sensing() simSendData({target}, 0, 'x', 'data') end\n")
+    (tmp_path / "scene.xml").write_text(NESTED)
+    sim = Simulation(tmp_path / "scene.xml", realtime=False)
+    try:
+        sim.start()
+        sim.step()
+        sim.step()
+        assert (sim.signals.get_int("robot") == 1, sim.signals.get_int("other") == 1) == (robot, other)
+    finally:
+        sim.close()
