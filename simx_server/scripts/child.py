@@ -22,11 +22,8 @@ functions go to the log. See docs/SCRIPTS.md.
 from __future__ import annotations
 
 import builtins
-import ctypes
 import inspect
 import logging
-import threading
-import time
 import traceback
 from pathlib import Path
 from typing import Any, Callable
@@ -39,6 +36,7 @@ from simx_server.scripts.facade import ScriptSim
 from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.facade_legacy import PythonThread
 from simx_server.scripts.facade_objects import AppliedForces
+from simx_server.scripts.watchdog import WATCHDOG
 from simx_server.sim.world import World
 
 __all__ = ["DEFAULT_TIMEOUT", "LIFE_CYCLE", "LIFE_CYCLE_CALLS", "REMOTE_CODE_FLAG", "UNSAFE_LUA_FLAG", "ChildScript",
@@ -65,96 +63,6 @@ _STEP_FUNCTIONS = ("sysCall_actuation", "sysCall_sensing")
 
 class ScriptTimeoutError(ScriptError):
     """A call into a script did not return within its time bound and was interrupted."""
-
-
-# ------------------------------------------------------------------ time bounds
-class _Interrupt(BaseException):
-    """Raised asynchronously inside a Python script that overran its time bound."""
-
-
-class _Watchdog:
-    """Interrupts a Python script call that overruns its deadline.
-
-    One daemon thread; :meth:`bounded` arms it around a call. Past the deadline it raises
-    :class:`_Interrupt` in the calling thread (``PyThreadState_SetAsyncExc``), again every
-    50 ms in case the script swallows it, until the call returns. A script blocked inside C
-    (``time.sleep``, I/O) is interrupted only when that returns.
-    """
-
-    REPEAT = 0.05
-
-    def __init__(self) -> None:
-        self._cond = threading.Condition()
-        self._armed: tuple[float, int] | None = None
-        self._fired = False
-        self._thread: threading.Thread | None = None
-
-    @staticmethod
-    def _raise_in(thread_id: int, exc: type[BaseException] | None) -> None:
-        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread_id),
-                                                   ctypes.py_object(exc) if exc else None)
-
-    def _run(self) -> None:
-        with self._cond:
-            while True:
-                if self._armed is None:
-                    self._cond.wait()
-                    continue
-                deadline, thread_id = self._armed
-                now = time.monotonic()
-                if now < deadline:
-                    self._cond.wait(deadline - now)
-                    continue
-                self._raise_in(thread_id, _Interrupt)
-                self._fired = True
-                self._cond.wait(self.REPEAT)
-
-    def _disarm(self) -> bool:
-        with self._cond:
-            self._armed = None
-            if self._fired:  # an interruption may still be pending: drop it
-                self._raise_in(threading.get_ident(), None)
-            return self._fired
-
-    def _disarm_until_done(self) -> bool:
-        while True:  # an interruption may arrive while disarming: disarm again
-            try:
-                return self._disarm()
-            except _Interrupt:
-                continue
-
-    def bounded(self, fn: Callable[[], Any], seconds: float) -> tuple[Any, traceback.StackSummary | None]:
-        """Run ``fn()`` for at most about ``seconds``; returns ``(result, None)``, or
-        ``(None, where)`` when it overran, ``where`` being the stack it was interrupted in
-        (empty when the script swallowed the interruption). Exceptions of ``fn`` propagate.
-
-        No exception is kept in a local of this frame: that would be a reference cycle
-        (exception -> traceback -> frame -> exception) keeping every caller's frame alive, and
-        with them the server's pending Zenoh query, whose final reply waits for it to go."""
-        with self._cond:
-            if self._thread is None:
-                self._thread = threading.Thread(target=self._run, name="simx-script-watchdog", daemon=True)
-                self._thread.start()
-            self._armed = (time.monotonic() + seconds, threading.get_ident())
-            self._fired = False
-            self._cond.notify()
-        result, fired, where = None, False, None
-        try:
-            try:
-                result = fn()
-            finally:
-                fired = self._disarm_until_done()
-        except _Interrupt as exc:  # arrived before disarming; none can arrive after
-            fired, where = True, traceback.extract_tb(exc.__traceback__)
-        except Exception:
-            if not fired:
-                raise
-        if fired:
-            return None, where if where is not None else traceback.StackSummary()
-        return result, None
-
-
-_WATCHDOG = _Watchdog()
 
 
 # ---------------------------------------------------------------- child scripts
@@ -442,7 +350,7 @@ class PythonScript(ChildScript):
 
     def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
         try:
-            result, interrupted_at = _WATCHDOG.bounded(fn, self.timeout)
+            result, interrupted_at = WATCHDOG.bounded(fn, self.timeout)
         except Exception as exc:
             raise self._fault(what, f"{self._where(traceback.extract_tb(exc.__traceback__))}"
                                     f"{type(exc).__name__}: {exc}") from None

@@ -18,6 +18,9 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError
 from simx_server.scripts.facade_objects import HANDLE_SCENE
 from simx_server.scripts.legacy_names import CONSTANTS as LEGACY_CONSTANTS
+from simx_server.scripts.legacy_objects import LegacyObjectCalls
+from simx_server.scripts.legacy_tubes import TubeCalls
+from simx_server.scripts.legacy_wireless import WirelessCalls
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
 
 log = logging.getLogger("simx.scripts")
@@ -183,7 +186,7 @@ def name_suffix(name: str) -> tuple[int, str]:
     return (int(tail), base) if sep and tail.isdigit() else (-1, name)
 
 
-class LegacyCalls(PythonThreadCalls):
+class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls):
     """V-REP 3.x calls of child and customization scripts (a mixin of ScriptSim)."""
 
     # ---------------------------------------------------------------- names of copies
@@ -281,9 +284,15 @@ class LegacyCalls(PythonThreadCalls):
         return h if script is not None else -1
 
     def setScriptAttribute(self, scriptHandle: Any, attributeID: Any, value: Any) -> int:  # noqa: N802, N803
-        """3.x script attributes: accepted and logged (simx runs every script every step, in
-        object-tree order); returns 1."""
-        self._own(scriptHandle, "scriptHandle")
+        """3.x script attributes: ``sim.scriptattribute_executioncount`` sets the script's
+        execution count (V-REP 3.1.3's compatibility header of old scripts sets it to 0 at the
+        first actuation pass, so that ``simGetScriptExecutionCount()==0`` marks it); the others
+        are accepted and logged (simx runs every script every step, in object-tree order).
+        Returns 1."""
+        script = self._own(scriptHandle, "scriptHandle")
+        if _int(attributeID, "attributeID") == _ATTR["scriptattribute_executioncount"]:
+            script.executions = _int(value, "value")
+            return 1
         log.debug("[%s] setScriptAttribute(%s, %r): no effect in simx", self._label, attributeID, value)
         return 1
 
@@ -311,6 +320,22 @@ class LegacyCalls(PythonThreadCalls):
         return 0
 
     handleSimulationScripts = handleChildScripts
+
+    def delegateChildScriptExecution(self) -> int:  # noqa: N802
+        """V-REP 3.0-3.2's ``simDelegateChildScriptExecution()``: a threaded child script hands
+        the cascade of its descendants' non-threaded child scripts to the main script (it cannot
+        run them from its own loop). simx runs every child script itself at every pass, with no
+        cascade, so they already run as delegated: returns 1."""
+        return 1
+
+    def getInt32Parameter(self, parameter: Any) -> int | None:  # noqa: N802
+        """V-REP 3.x's ``simGetIntegerParameter`` / ``simGetInt32Parameter``: as
+        ``sim.getInt32Param``, except ``sim.intparam_flymode_camera_handle``, which answers nil:
+        a headless server has no fly-mode camera, and V-REP's Lua answered nil where the call
+        found none (scripts test ``if (flyModeCameraHandle) then``)."""
+        if _int(parameter, "parameter") == C.sim_intparam_flymode_camera_handle:
+            return None
+        return self.getInt32Param(parameter)
 
     # ---------------------------------------------------------------- custom data blocks
     def _blocks(self, handle: Any) -> dict:

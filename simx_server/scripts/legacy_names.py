@@ -91,9 +91,14 @@ FUNCTION_ALIASES: dict[str, str] = {
     "simUnpackFloats": "unpackFloatTable", "simUnpackDoubles": "unpackDoubleTable",
     "simUnpackBytes": "unpackUInt8Table", "simUnpackWords": "unpackUInt16Table",
     # _adjustScriptText5_old (V-REP < 3.3.0 parameter names)
-    "simGetBooleanParameter": "getBoolParameter", "simSetBooleanParameter": "setBoolParameter",
-    "simGetIntegerParameter": "getInt32Parameter", "simSetIntegerParameter": "setInt32Parameter",
-    "simGetFloatingParameter": "getFloatParameter", "simSetFloatingParameter": "setFloatParameter",
+    "simGetBooleanParameter": "getBoolParam", "simSetBooleanParameter": "setBoolParam",
+    "simGetIntegerParameter": "getInt32Parameter", "simSetIntegerParameter": "setInt32Param",
+    "simGetFloatingParameter": "getFloatParam", "simSetFloatingParameter": "setFloatParam",
+    # V-REP 3.x's names of the parameter calls -> CoppeliaSim 4.2's (sim.getBoolParam...)
+    **{f"sim{v}{k}Parameter": f"{v.lower()}{k}Param" for k in ("Bool", "Int32", "Float", "String", "Array",
+                                                                 "EngineFloat", "EngineInt32", "EngineBool")
+       for v in ("Get", "Set")},
+    "simGetInt32Parameter": "getInt32Parameter",  # 3.x's answers where 4.x raises (facade_legacy)
     "simGetObjectIntParameter": "getObjectInt32Parameter", "simSetObjectIntParameter": "setObjectInt32Parameter",
     # _performNewApiAdjustments_old's renames
     "simBoolOr16": "boolOr32", "simBoolAnd16": "boolAnd32", "simBoolXor16": "boolXor32",
@@ -205,7 +210,7 @@ simBoolOr16 simBoolAnd16 simBoolXor16 simPackInts simPackUInts simPackFloats sim
 simPackBytes simPackWords simUnpackInts simUnpackUInts simUnpackFloats simUnpackDoubles
 simUnpackBytes simUnpackWords simSetBooleanParameter simGetBooleanParameter simSetIntegerParameter
 simGetIntegerParameter simSetFloatingParameter simGetFloatingParameter simGetObjectIntParameter
-simSetObjectIntParameter
+simSetObjectIntParameter simDelegateChildScriptExecution
 """
 
 #: Every V-REP 3.x global function of child and customization scripts.

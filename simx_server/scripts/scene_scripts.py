@@ -165,6 +165,7 @@ class Scripts:
     def actuation(self) -> None:
         """Before a step: each child script's thread resumes, then its ``sysCall_actuation``;
         then the customization scripts' ``sysCall_actuation``."""
+        self.shared["pass"] = self.shared.get("pass", 0) + 1  # simulation passes (wireless data: next pass)
         for script in self.scripts.values():
             script.resume_thread()
             script.life_cycle("sysCall_actuation")
@@ -190,6 +191,8 @@ class Scripts:
             self.stopping = False
         self.signals.clear_script_signals()
         self.forces.clear(self.world)
+        for kind in ("tubes", "wireless"):  # tubes and wireless data of the simulation end with it (V-REP)
+            self.shared.pop(kind, None)
 
     def call(self, object_name: str, script_type: int, function: str, ints, floats, strings, buffer) -> list:
         """``simxCallScriptFunction`` on the child script of ``object_name``.

@@ -97,6 +97,14 @@ sim.waitForSignal = function(name)
     co_yield()
   end
 end
+local tube_read = rawget(sim, "tubeRead")
+if tube_read then
+  sim.tubeRead = function(handle, blocking)  -- blocking: yields until a packet arrives (threads only)
+    local data = tube_read(handle)
+    while data == nil and blocking and in_thread() and yieldable() do co_yield() data = tube_read(handle) end
+    return data
+  end
+end
 sim.setThreadAutomaticSwitch = function(allow)
   if type(allow) == "number" then T.level = math.max(0, math.floor(allow))
   elseif allow then T.level = math.max(0, T.level - 1)
@@ -134,7 +142,8 @@ local function resume()
 end
 local function wrap()
   for name, f in pairs(sim) do
-    if type(f) == "function" and name ~= "wait" and name ~= "waitForSignal" and name ~= "switchThread" then
+    if type(f) == "function" and name ~= "wait" and name ~= "waitForSignal" and name ~= "switchThread"
+       and name ~= "tubeRead" then
       sim[name] = function(...)
         local r = pack(f(...))
         if T.level == 0 and in_thread() and now() - T.resumed > T.slice and yieldable() then co_yield() end
