@@ -16,7 +16,7 @@ REPO = Path(__file__).resolve().parents[1]
 ROOT = REPO / "simx_server"
 
 #: Layer of each package, lowest first: a module may import its own layer and the ones below.
-LAYERS = ["base", "sim", "scripts", "scene", "commands", "transport", "zmq", "(top)"]
+LAYERS = ["base", "sim", "scripts", "scene", "commands", "legacy", "zmq", "(top)"]
 
 
 def module_name(path: Path) -> str:

@@ -9,7 +9,7 @@ simulation thread), ``service`` (the simulation thread's side: clients, stepping
 ``coppeliasim_api.json``) and ``remote_api`` (the piece the command line attaches to the server).
 docs/PROTOCOL.md, part 2, is the wire protocol; docs/ZMQ.md what simx implements.
 
-Layer: above ``transport`` (it attaches to its server and imports nothing else of it), below the
+Layer: above ``legacy`` (it attaches to its server and imports nothing else of it), below the
 command line; imports ``commands``, ``scene``, ``scripts``, ``sim`` and ``base``. Its socket
 thread never touches MuJoCo.
 """

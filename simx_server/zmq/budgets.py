@@ -4,7 +4,7 @@
   from its arguments (an image from its sensor's resolution, an unpacked table from its buffer's
   length) is refused before it runs when it would pass ``limits.MAX_REPLY_BYTES`` or carry more
   than ``protocol.MAX_REQUEST_ITEMS`` values (the legacy door's image rule,
-  :func:`simx_server.transport.replies.image_pixels`). A 100-byte ``sim.getVisionSensorImage``
+  :func:`simx_server.legacy.replies.image_pixels`). A 100-byte ``sim.getVisionSensorImage``
   after setting a 4096x4096 resolution (50 M floats) stalled the simulation 13.8 s and peaked
   at 3.5 GB; ``sim.unpackUInt8Table`` of 60 MiB, 21.6 s.
 * **The simulation thread's share per connection** (:class:`Connection`): a connection's scene
@@ -24,7 +24,7 @@ from simx_wire.protocol import MAX_REQUEST_ITEMS
 from simx_server.base import limits
 from simx_server.scripts.facade_core import _PACK_FORMATS
 from simx_server.scripts.facade_sensors import HANDLEFLAG_GREYSCALE as _GREYSCALE
-from simx_server.transport.replies import image_pixels
+from simx_server.legacy.replies import image_pixels
 
 _CBOR_FLOAT, _CBOR_INT = 9, 5  # bytes of a float64 and of a 32-bit integer in a CBOR reply
 

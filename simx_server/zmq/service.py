@@ -1,6 +1,6 @@
 """The simulation thread's side of the ZMQ remote API: clients, stepping, and the calls themselves.
 
-The server's loop (:class:`simx_server.transport.server.Server`) takes ``("zmq", Incoming)``
+The server's loop (:class:`simx_server.legacy.server.Server`) takes ``("zmq", Incoming)``
 items from its ready ring and gives them to :meth:`ZmqService.handle`, between simulation steps,
 as it serves legacy requests. Each client (its ``uuid``) has:
 
@@ -83,7 +83,7 @@ class ZmqService:
     """ZMQ clients and their calls, on the simulation thread.
 
     Args:
-        server: the :class:`~simx_server.transport.server.Server` (its ``sim``, ``step_now`` and
+        server: the :class:`~simx_server.legacy.server.Server` (its ``sim``, ``step_now`` and
             ``leave_sync``).
         frontend: the socket thread that replies go through.
     """

@@ -2,10 +2,10 @@
 
 Zenoh callbacks never touch MuJoCo and never block: the query callback reads and checks the
 request, answers at once what it refuses (unreadable, over a bound, a full client queue) and
-queues the rest in the client's own bounded queue (:mod:`simx_server.transport.sessions`); liveliness
+queues the rest in the client's own bounded queue (:mod:`simx_server.legacy.sessions`); liveliness
 callbacks note clients' tokens. The thread that calls :meth:`Server.serve` owns the
 simulation; it serves the clients' queues round robin, executes each request atomically
-between physics steps, hands its reply to the sending thread (:mod:`simx_server.transport.courier`:
+between physics steps, hands its reply to the sending thread (:mod:`simx_server.legacy.courier`:
 a client that stops reading never holds this thread), steps the simulation every ``dt`` (paced to wall time when
 ``speed`` > 0; in synchronous mode once every synchronous client has triggered), and after
 every step publishes each client's streamed commands. With legacy pacing (the default) a
@@ -34,18 +34,18 @@ from simx_server.scene.simulation import Simulation
 from simx_server.sim.physics import PhysicsError
 from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
-from simx_server.transport import logs
-from simx_server.transport.client_commands import ClientCommands
-from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
-from simx_server.transport.courier import Courier
-from simx_server.transport.consoles import cut as _cut
-from simx_server.transport.attached_transports import OtherTransports
-from simx_server.transport.peers import PeerCheck
-from simx_server.transport.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
+from simx_server.legacy import logs
+from simx_server.legacy.client_commands import ClientCommands
+from simx_server.legacy.consoles import CONSOLE_COMMANDS, Consoles
+from simx_server.legacy.courier import Courier
+from simx_server.legacy.consoles import cut as _cut
+from simx_server.legacy.attached_transports import OtherTransports
+from simx_server.legacy.peers import PeerCheck
+from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
                                            resolve, send_refusal)
-from simx_server.transport.sessions import Session, Sessions, keep_thread_state, zenoh_thread
-from simx_server.transport.streams import StreamPublisher, _Stream
-from simx_server.transport.viewer_feed import ViewerFeed
+from simx_server.legacy.sessions import Session, Sessions, keep_thread_state, zenoh_thread
+from simx_server.legacy.streams import StreamPublisher, _Stream
+from simx_server.legacy.viewer_feed import ViewerFeed
 
 log = logging.getLogger("simx.server")
 
@@ -112,7 +112,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         self._t0 = time.monotonic()
         self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
-        self.courier = Courier()  # sends replies and updates off this thread (transport.courier)
+        self.courier = Courier()  # sends replies and updates off this thread (legacy.courier)
         self.viewers = ViewerFeed(prefix, self._queue.put, self.courier.send)  # simx-viewer's model and state
         self._init_transports(self._queue.put)  # other transports beside Zenoh (OtherTransports)
 
@@ -379,7 +379,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
     def _reply(self, session: Session, query: zenoh.Query, payload, renders: list, bulk: bool = False) -> None:
         """Hand ``query``'s reply (``payload()``, called on the sending thread) to the courier
         on its client's lane: sent once ``renders`` are done, in order with its stream updates
-        (``bulk``: images of limits.BULK_SEND_BYTES or more, see transport.courier)."""
+        (``bulk``: images of limits.BULK_SEND_BYTES or more, see legacy.courier)."""
         client = session.client
 
         def send() -> None:

@@ -1,6 +1,6 @@
 """Commands about the calling client rather than the world: goodbye, synchronous mode and its
 trigger, the errors kept for ``simxGetLastErrors``, and forgetting a client. A mixin of
-:class:`simx_server.transport.server.Server` (which provides ``sim``, ``sessions``, ``_step``,
+:class:`simx_server.legacy.server.Server` (which provides ``sim``, ``sessions``, ``_step``,
 ``_streams``, ``_errors``, ``_edit_debt`` and ``_clients``).
 """
 

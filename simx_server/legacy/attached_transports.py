@@ -1,4 +1,4 @@
-"""Transports beside Zenoh served by the same loop: a mixin of :class:`~simx_server.transport.server.Server`.
+"""Transports beside Zenoh served by the same loop: a mixin of :class:`~simx_server.legacy.server.Server`.
 
 Another transport (the ZMQ remote API, :mod:`simx_server.zmq`) has a thread of its own that reads
 its requests and puts ``(kind, item)`` tuples into the server's ready ring (:attr:`deliver`); the
