@@ -26,7 +26,7 @@ from pathlib import Path
 from simx_wire.protocol import zenoh_reason
 from simx_server import __version__
 from simx_server.base import limits
-from simx_server.legacy import logs
+from simx_server.loop import logs
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
 SWITCH_INTERVAL = 0.0005  # s, sys.setswitchinterval (Python's default: 0.005)

@@ -212,7 +212,7 @@ MAX_UNSENT_PER_CLIENT = 4
 #: s a reply may wait for room on its client's link before Zenoh closes that link (Zenoh's
 #: ``transport/link/tx/queue/congestion_control/block/wait_before_close``, default 5 s). A
 #: client that stops reading (its socket full of the images it asked for) holds the sending
-#: thread (legacy.courier; not the simulation thread) that long, once: then its link is
+#: thread (loop.courier; not the simulation thread) that long, once: then its link is
 #: closed and its replies are dropped. 0.5 s closed the link of a client reading large image
 #: replies on a loaded 2-core machine (the fuzz test, once): 2 s. An operator's Zenoh config
 #: file that sets the key keeps its own value.
