@@ -14,17 +14,13 @@ from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.loop import logs
+from simx_server.loop.budgets import cut
 
 console_log = logging.getLogger(logs.CONSOLE_LOGGER)  # what clients print (status bar, consoles)
 
 #: Remote commands served by :meth:`Consoles.execute`.
 CONSOLE_COMMANDS = ("AddStatusbarMessage", "AuxiliaryConsoleOpen", "AuxiliaryConsoleClose",
                     "AuxiliaryConsolePrint", "AuxiliaryConsoleShow")
-
-
-def cut(text: str, limit: int = limits.MAX_ERROR_CHARS) -> str:
-    """``text`` cut to ``limit`` characters (a client's text in a log line)."""
-    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 class Consoles:

@@ -31,8 +31,8 @@ from simx_server.sim.vision import Deferred
 from simx_server.legacy.client_commands import ClientCommands
 from simx_server.legacy.consoles import CONSOLE_COMMANDS, Consoles
 from simx_server.loop.budgets import Share
+from simx_server.loop.budgets import cut as _cut
 from simx_server.loop.core import PACINGS, Loop
-from simx_server.legacy.consoles import cut as _cut
 from simx_server.legacy.peers import PeerCheck
 from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
                                            resolve, send_refusal)

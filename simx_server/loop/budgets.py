@@ -1,4 +1,5 @@
-"""The loop's budgets that every front door applies: a client's share of the simulation thread.
+"""The loop's budgets that every front door applies: a client's share of the simulation thread,
+and the length of an error message.
 
 Scene loads and edits recompile the scene; one client's stream of them would take the
 simulation thread from every other client. Each client (a legacy client id, a ZMQ connection)
@@ -7,12 +8,21 @@ per s, and while it exceeds ``limits.EDIT_DEBT_SECONDS`` the client is past its 
 door does then is the door's API's: the legacy door refuses the call (``BUSY``, V-REP programs
 check return codes), the ZMQ door defers it (its official client does not retry).
 
+Error messages (a reply's, ``simxGetLastErrors``', a log line's client text) are cut to
+``limits.MAX_ERROR_CHARS`` by :func:`cut`, which says how long they were.
+
 The limits are read at each call, so that tests may change them.
 """
 
 from __future__ import annotations
 
 from simx_server.base import limits
+
+
+def cut(text: str, limit: int | None = None) -> str:
+    """``text`` cut to ``limit`` characters (default ``limits.MAX_ERROR_CHARS``), with its length."""
+    limit = limits.MAX_ERROR_CHARS if limit is None else limit
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 class Share:

@@ -35,6 +35,7 @@ import cbor2
 from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base.arguments import quote
+from simx_server.loop.budgets import cut
 from simx_server.loop.front_door import LoopAccess
 from simx_server.sim.state import RunState
 from simx_server.zmq import codec, names
@@ -248,9 +249,7 @@ class ZmqService:
         return self._error(client, func, f"internal error: {type(exc).__name__}: {exc}", logged=True)
 
     def _error(self, client: ZmqClient, func: str, message: str, logged: bool = False) -> bytes:
-        text = f"{quote(func, 100)[1:-1]}: {message}"
-        if len(text) > limits.MAX_ERROR_CHARS:
-            text = text[:limits.MAX_ERROR_CHARS - 3] + "..."
+        text = cut(f"{quote(func, 100)[1:-1]}: {message}")  # the loop's rule, as the legacy door's
         if not logged:
             log.warning("ZMQ client %s: %s", client.label, text)
         return codec.encode_error(text)
