@@ -9,7 +9,7 @@ door does then is the door's API's: the legacy door refuses the call (``BUSY``, 
 check return codes), the ZMQ door defers it (its official client does not retry).
 
 Error messages (a reply's, ``simxGetLastErrors``', a log line's client text) are cut to
-``limits.MAX_ERROR_CHARS`` by :func:`cut`, which says how long they were.
+``limits.MAX_ERROR_CHARS`` (at most) by :func:`cut`, which says how long they were.
 
 The limits are read at each call, so that tests may change them.
 """
@@ -20,9 +20,13 @@ from simx_server.base import limits
 
 
 def cut(text: str, limit: int | None = None) -> str:
-    """``text`` cut to ``limit`` characters (default ``limits.MAX_ERROR_CHARS``), with its length."""
+    """``text`` cut to at most ``limit`` characters (default ``limits.MAX_ERROR_CHARS``), its end
+    saying how long it was: ``"<start>... (N characters)"``."""
     limit = limits.MAX_ERROR_CHARS if limit is None else limit
-    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+    if len(text) <= limit:
+        return text
+    tail = f"... ({len(text)} characters)"
+    return (text[: max(0, limit - len(tail))] + tail)[:limit]
 
 
 class Share:
