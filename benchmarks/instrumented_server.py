@@ -33,7 +33,7 @@ import time
 from simx_server import cli
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.vision import VisionSensors
-from simx_server.transport.sessions import Sessions
+from simx_server.legacy.sessions import Sessions
 
 _MAX_RECORDS = 200_000
 _steps: collections.deque = collections.deque(maxlen=_MAX_RECORDS)

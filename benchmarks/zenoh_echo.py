@@ -1,7 +1,7 @@
 """The bare Zenoh floor: a queryable that answers a payload of a requested size, nothing else.
 
 ``python -m benchmarks.zenoh_echo --port N`` listens on ``tcp/127.0.0.1:N`` with the same
-Zenoh config as simx-server (``simx_server.transport.zenoh_config.zenoh_config``: peer mode, multicast
+Zenoh config as simx-server (``simx_server.legacy.zenoh_config.zenoh_config``: peer mode, multicast
 scouting off) and declares four queryables:
 
 * ``bench/echo/direct`` answers with a plain Python callback, Zenoh's default: Zenoh runs it in
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--port", type=int, required=True)
     args = p.parse_args(argv)
-    from simx_server.transport.zenoh_config import zenoh_config  # here: clients import this module too
+    from simx_server.legacy.zenoh_config import zenoh_config  # here: clients import this module too
 
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())

@@ -10,7 +10,8 @@ ensure_venv -e "$ROOT[${SIMX_TEST_EXTRAS:-test}]" ${SIMX_PIP_ARGS:-}
 cd "$ROOT"
 # The strict part of the tree: the format check and mypy's strict mode cover these (keep the
 # per-file-ignores glob and the mypy override in pyproject.toml in step with this list).
-STRICT=(simx_wire simx_client/servers.py simx_server/commands/handler.py scripts/wire_imports.py tests/base)
+STRICT=(simx_wire simx_client/servers.py simx_server/commands/handler.py simx_server/loop scripts/wire_imports.py
+        tests/base tests/loop)
 if [ "${1:-}" = --fix ]; then
     "$VENV/bin/ruff" check --fix .
     "$VENV/bin/ruff" format "${STRICT[@]}"

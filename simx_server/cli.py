@@ -26,7 +26,7 @@ from pathlib import Path
 from simx_wire.protocol import zenoh_reason
 from simx_server import __version__
 from simx_server.base import limits
-from simx_server.transport import logs
+from simx_server.loop import logs
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
 SWITCH_INTERVAL = 0.0005  # s, sys.setswitchinterval (Python's default: 0.005)
@@ -261,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     # Zenoh's threads (one client's flood) and the simulation thread take turns at the GIL:
     # hand it over every 0.5 ms rather than 5, so a waiting request is not held up for long.
     sys.setswitchinterval(SWITCH_INTERVAL)
-    from simx_server.transport.allocator import tune_malloc
+    from simx_server.legacy.allocator import tune_malloc
 
     tune_malloc()  # freed memory goes back to the system (before Zenoh's and the render threads start)
     os.environ.setdefault("MUJOCO_GL", "egl")
@@ -269,9 +269,9 @@ def main(argv: list[str] | None = None) -> int:
     import zenoh
 
     from simx_server.scene.simulation import Simulation
-    from simx_server.transport.script_hooks import ScriptHooks
-    from simx_server.transport.server import DEFAULT_HOSTS, DEFAULT_PORTS, Server
-    from simx_server.transport.zenoh_config import zenoh_config
+    from simx_server.legacy.script_hooks import ScriptHooks
+    from simx_server.legacy.server import DEFAULT_HOSTS, DEFAULT_PORTS, Server
+    from simx_server.legacy.zenoh_config import zenoh_config
 
     scene = Path(args.scene) if args.scene else default_scene()
     for folder in args.scene_path:
@@ -346,7 +346,7 @@ def _attach_zmq(server, args: argparse.Namespace) -> str | None:
         return ", no ZMQ remote API (--zenoh-config: add --zmq-curve DIR or --zmq-insecure)"
     import zmq
 
-    from simx_server.transport.server import DEFAULT_HOSTS
+    from simx_server.legacy.server import DEFAULT_HOSTS
     from simx_server.zmq.remote_api import DEFAULT_PORT, ZmqRemoteApi, curve_keys, endpoints
 
     curve = None

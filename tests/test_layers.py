@@ -16,7 +16,7 @@ REPO = Path(__file__).resolve().parents[1]
 ROOT = REPO / "simx_server"
 
 #: Layer of each package, lowest first: a module may import its own layer and the ones below.
-LAYERS = ["base", "sim", "scripts", "scene", "commands", "transport", "zmq", "(top)"]
+LAYERS = ["base", "sim", "scripts", "scene", "commands", "loop", "legacy", "zmq", "(top)"]
 
 
 def module_name(path: Path) -> str:
@@ -162,3 +162,21 @@ def test_the_package_checks_see_a_violation(tmp_path, monkeypatch):
 def test_no_module_is_long():
     long = {module_name(f): n for f in ROOT.rglob("*.py") if (n := len(f.read_text().splitlines())) > 520}
     assert not long, f"modules over about 500 lines: {long}"
+
+
+def test_the_loop_imports_no_front_door():
+    """The simulation loop (``simx_server.loop``) serves its front doors through
+    ``loop.front_door``'s interface: it imports neither the legacy door nor the ZMQ one."""
+    doors = ("simx_server.legacy", "simx_server.zmq")
+    found = [f"{a} -> {b}" for a, targets in graph().items() if a.startswith("simx_server.loop")
+             for b in sorted(targets) if b.startswith(doors)]
+    assert not found, "the loop imports a front door:\n" + "\n".join(found)
+    assert layer("simx_server.loop.core") < min(layer("simx_server.legacy.server"), layer("simx_server.zmq.service"))
+
+
+def test_the_front_doors_do_not_import_each_other():
+    """What both front doors need lives below them (``loop``, ``commands``), not in one of them."""
+    found = [f"{a} -> {b}" for a, targets in graph().items() for b in sorted(targets)
+             if (a.startswith("simx_server.zmq") and b.startswith("simx_server.legacy"))
+             or (a.startswith("simx_server.legacy") and b.startswith("simx_server.zmq"))]
+    assert not found, "a front door imports the other:\n" + "\n".join(found)

@@ -192,7 +192,7 @@ EDIT_DEBT_SECONDS = 5.0
 #: access control enforces (docs/SECURITY.md), so one user cannot take every client slot.
 #: Anonymous ids (no user) share MAX_CLIENTS, at most MAX_CLIENTS_PER_PEER protected per session.
 MAX_CLIENTS_PER_USER = 64
-#: Client ids whose liveliness tokens one Zenoh session may hold with effect (transport/peers.py):
+#: Client ids whose liveliness tokens one Zenoh session may hold with effect (legacy/peers.py):
 #: the server queries each new token's ``protocol.peer_key`` and the reply names the session
 #: that answers for the id. A token beyond this bound, or one nobody answers for, does not keep
 #: its client: such clients expire when silent and are evicted first when the server is full.
@@ -212,7 +212,7 @@ MAX_UNSENT_PER_CLIENT = 4
 #: s a reply may wait for room on its client's link before Zenoh closes that link (Zenoh's
 #: ``transport/link/tx/queue/congestion_control/block/wait_before_close``, default 5 s). A
 #: client that stops reading (its socket full of the images it asked for) holds the sending
-#: thread (transport.courier; not the simulation thread) that long, once: then its link is
+#: thread (loop.courier; not the simulation thread) that long, once: then its link is
 #: closed and its replies are dropped. 0.5 s closed the link of a client reading large image
 #: replies on a loaded 2-core machine (the fuzz test, once): 2 s. An operator's Zenoh config
 #: file that sets the key keeps its own value.

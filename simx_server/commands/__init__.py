@@ -6,7 +6,7 @@ handler table; :data:`HANDLERS` merges them. Handlers check every argument (clie
 untrusted) and raise the exceptions of :mod:`simx_wire.protocol`; the transport turns them into
 error results and one log line.
 
-Layer: below :mod:`simx_server.transport`; imports :mod:`simx_server.scene`,
+Layer: below :mod:`simx_server.legacy`; imports :mod:`simx_server.scene`,
 :mod:`simx_server.scripts`, :mod:`simx_server.sim` and :mod:`simx_server.base` only.
 """
 

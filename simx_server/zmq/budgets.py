@@ -4,14 +4,14 @@
   from its arguments (an image from its sensor's resolution, an unpacked table from its buffer's
   length) is refused before it runs when it would pass ``limits.MAX_REPLY_BYTES`` or carry more
   than ``protocol.MAX_REQUEST_ITEMS`` values (the legacy door's image rule,
-  :func:`simx_server.transport.replies.image_pixels`). A 100-byte ``sim.getVisionSensorImage``
+  :func:`simx_server.commands.sensors.image_pixels`). A 100-byte ``sim.getVisionSensorImage``
   after setting a 4096x4096 resolution (50 M floats) stalled the simulation 13.8 s and peaked
   at 3.5 GB; ``sim.unpackUInt8Table`` of 60 MiB, 21.6 s.
-* **The simulation thread's share per connection** (:class:`Connection`): a connection's scene
-  loads and edits cost their duration, and any other call its time past
-  ``limits.MAX_REQUEST_SECONDS`` (a request's budget on the legacy door); the debt falls by
-  ``limits.EDIT_SHARE`` s per s, and while it exceeds ``limits.EDIT_DEBT_SECONDS`` the
-  connection's calls wait (deferred: other connections are served meanwhile). Counted per
+* **The simulation thread's share per connection** (:class:`Connection`, the loop's
+  :class:`~simx_server.loop.budgets.Share`): a connection's scene loads and edits cost their
+  duration, and any other call its time past ``limits.MAX_REQUEST_SECONDS`` (a request's budget
+  on the legacy door); the debt falls by ``limits.EDIT_SHARE`` s per s, and while it exceeds
+  ``limits.EDIT_DEBT_SECONDS`` the connection's calls wait (deferred: other connections are served meanwhile). Counted per
   connection (its ROUTER routing id), not per uuid: a client may use a new uuid for every call.
 """
 
@@ -22,9 +22,10 @@ from typing import Any
 
 from simx_wire.protocol import MAX_REQUEST_ITEMS
 from simx_server.base import limits
+from simx_server.loop.budgets import Share
 from simx_server.scripts.facade_core import _PACK_FORMATS
 from simx_server.scripts.facade_sensors import HANDLEFLAG_GREYSCALE as _GREYSCALE
-from simx_server.transport.replies import image_pixels
+from simx_server.commands.sensors import image_pixels
 
 _CBOR_FLOAT, _CBOR_INT = 9, 5  # bytes of a float64 and of a 32-bit integer in a CBOR reply
 
@@ -76,25 +77,19 @@ def reply_estimate(sim: Any, name: str, args: list) -> str | None:
     return None
 
 
-class Connection:
+class Connection(Share):
     """A ZMQ connection (a ROUTER routing id): its clients (uuids) and its share of the
-    simulation thread."""
+    simulation thread (:class:`~simx_server.loop.budgets.Share`: ``wait(now)`` is how long its
+    next call waits)."""
 
-    __slots__ = ("fd", "uuids", "debt", "since")
+    __slots__ = ("fd", "uuids")
 
     def __init__(self, fd: int, now: float):
+        super().__init__(now)
         self.fd = fd
         self.uuids: set[str] = set()
-        self.debt, self.since = 0.0, now  # s of the simulation thread it owes, as of when
 
-    def wait(self, now: float) -> float:
-        """s before its next call is within its share (0: now)."""
-        self.debt = max(0.0, self.debt - (now - self.since) * limits.EDIT_SHARE)
-        self.since = now
-        return max(0.0, (self.debt - limits.EDIT_DEBT_SECONDS) / limits.EDIT_SHARE)
-
-    def charge(self, seconds: float, now: float, edit: bool) -> None:
+    def charge_call(self, seconds: float, now: float, edit: bool) -> None:
         """A call of ``seconds`` done at ``now``: an edit costs all of it, another call its time
         past limits.MAX_REQUEST_SECONDS."""
-        self.wait(now)
-        self.debt += seconds if edit else max(0.0, seconds - limits.MAX_REQUEST_SECONDS)
+        self.charge(seconds if edit else max(0.0, seconds - limits.MAX_REQUEST_SECONDS), now)

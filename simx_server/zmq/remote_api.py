@@ -1,4 +1,5 @@
-"""The ZMQ remote API as one piece the command line attaches to a server (:meth:`Server.attach`)."""
+"""The ZMQ remote API as one front door the command line attaches to the simulation loop
+(:meth:`simx_server.loop.core.Loop.attach`; the interface is :class:`simx_server.loop.front_door.FrontDoor`)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from pathlib import Path
 
 from simx_server.base import limits
 from simx_server.base.resources import raise_open_files_limit
+from simx_server.loop.front_door import LoopAccess
 from simx_server.zmq.frontend import DEFAULT_PORT, Frontend, Gate
 from simx_server.zmq.service import ZmqService
 
@@ -50,16 +52,17 @@ def curve_keys(folder: str | Path) -> tuple[bytes, bytes, frozenset]:
 
 
 class ZmqRemoteApi:
-    """CoppeliaSim's ZMQ remote API served by ``server``'s loop on ``endpoints``.
+    """CoppeliaSim's ZMQ remote API served by the loop ``server`` on ``endpoints``: a front door
+    (:class:`~simx_server.loop.front_door.FrontDoor`).
 
     :meth:`open` binds the socket (zmq.ZMQError when it cannot) and starts its thread; the
     server calls the rest (``handle``, ``after_step``, ``housekeeping``, ``client_count``,
     ``close``) from its simulation thread.
     """
 
-    kinds = ("zmq", "zmq-gone")
+    kinds: tuple[str, ...] = ("zmq", "zmq-gone")
 
-    def __init__(self, server: Any, endpoints: list[str], curve: tuple[bytes, bytes, frozenset] | None = None):
+    def __init__(self, server: LoopAccess, endpoints: list[str], curve: tuple[bytes, bytes, frozenset] | None = None):
         files = raise_open_files_limit()
         gate = Gate(curve, max(16, min(limits.MAX_ZMQ_CONNECTIONS, files // 2)))
         self.frontend = Frontend(endpoints, server.deliver, gate)

@@ -1,8 +1,8 @@
 """The simulation thread's side of the ZMQ remote API: clients, stepping, and the calls themselves.
 
-The server's loop (:class:`simx_server.transport.server.Server`) takes ``("zmq", Incoming)``
-items from its ready ring and gives them to :meth:`ZmqService.handle`, between simulation steps,
-as it serves legacy requests. Each client (its ``uuid``) has:
+The simulation loop (:class:`simx_server.loop.core.Loop`) takes ``("zmq", Incoming)``
+deliveries from its ready ring and gives them to :meth:`ZmqService.handle`, between simulation
+steps, as it serves every front door's requests (:mod:`simx_server.loop.front_door`). Each client (its ``uuid``) has:
 
 * a **stepping level** (``sim.setStepping(True)`` adds one, ``False`` takes one off): while it is
   above 0 the client is part of the simulation's synchronous barrier (the one of
@@ -35,6 +35,8 @@ import cbor2
 from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base.arguments import quote
+from simx_server.loop.budgets import cut
+from simx_server.loop.front_door import LoopAccess
 from simx_server.sim.state import RunState
 from simx_server.zmq import codec, names
 from simx_server.zmq.budgets import Connection, reply_estimate
@@ -83,12 +85,12 @@ class ZmqService:
     """ZMQ clients and their calls, on the simulation thread.
 
     Args:
-        server: the :class:`~simx_server.transport.server.Server` (its ``sim``, ``step_now`` and
-            ``leave_sync``).
+        server: the loop (:class:`~simx_server.loop.front_door.LoopAccess`: its ``sim``,
+            ``step_now`` and ``leave_sync``).
         frontend: the socket thread that replies go through.
     """
 
-    def __init__(self, server: Any, frontend: Frontend):
+    def __init__(self, server: LoopAccess, frontend: Frontend):
         self.server = server
         self.frontend = frontend
         self.clients: dict[str, ZmqClient] = {}
@@ -197,7 +199,7 @@ class ZmqService:
         done = time.monotonic()
         connection = self.connections.get(client.connection)
         if connection is not None:
-            connection.charge(done - start, done, func.startswith("sim.") and func[4:] in EDITS)
+            connection.charge_call(done - start, done, func.startswith("sim.") and func[4:] in EDITS)
         self.frontend.send(envelope, payload)
 
     def _call(self, client: ZmqClient, func: str, args: list) -> bytes:
@@ -247,9 +249,7 @@ class ZmqService:
         return self._error(client, func, f"internal error: {type(exc).__name__}: {exc}", logged=True)
 
     def _error(self, client: ZmqClient, func: str, message: str, logged: bool = False) -> bytes:
-        text = f"{quote(func, 100)[1:-1]}: {message}"
-        if len(text) > limits.MAX_ERROR_CHARS:
-            text = text[:limits.MAX_ERROR_CHARS - 3] + "..."
+        text = cut(f"{quote(func, 100)[1:-1]}: {message}")  # the loop's rule, as the legacy door's
         if not logged:
             log.warning("ZMQ client %s: %s", client.label, text)
         return codec.encode_error(text)

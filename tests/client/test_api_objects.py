@@ -242,7 +242,7 @@ def test_negative_start_timeout_is_the_blocking_timeout():
     import zenoh
 
     from simx_client import protocol as P
-    from simx_server.transport.zenoh_config import zenoh_config
+    from simx_server.legacy.zenoh_config import zenoh_config
 
     port = free_port()
     held = []

@@ -239,8 +239,8 @@ def test_model_queries_waiting_are_bounded(monkeypatch):
     are also limited to limits.MAX_VIEWER_MODELS_PER_SECOND (a token bucket of
     MAX_VIEWER_QUERIES): the queries of a loop beyond it are refused, naming the bound."""
     from simx_server.base import limits
-    from simx_server.transport import viewer_feed
-    from simx_server.transport.viewer_feed import ViewerFeed
+    from simx_server.legacy import viewer_feed
+    from simx_server.legacy.viewer_feed import ViewerFeed
     from simx_server.sim.world import World
 
     clock = [1000.0]

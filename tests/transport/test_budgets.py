@@ -130,7 +130,7 @@ def test_one_user_cannot_take_every_client_slot(server):
 def test_the_per_user_count_follows_departures():
     import queue
 
-    from simx_server.transport.sessions import Sessions
+    from simx_server.legacy.sessions import Sessions
 
     sessions = Sessions(queue.SimpleQueue(), max_clients=10, max_per_user=2)
     assert sessions.admit("bob-1", "r", 1) is None and sessions.admit("bob-2", "r", 1) is None
@@ -183,7 +183,7 @@ def test_the_time_budget_counts_the_threads_work_not_a_loaded_machines_wait(monk
     import zenoh as _zenoh
 
     from simx_server.scene.simulation import Simulation
-    from simx_server.transport.server import Server
+    from simx_server.legacy.server import Server
 
     sim = Simulation(SCENE, dt=0.05, realtime=False)
     try:

@@ -4,7 +4,7 @@ One session that declared 1,100 liveliness tokens and sent one request under eac
 ``MAX_CLIENTS``: every new client got "server busy" until it left. A token now protects its
 client only if the Zenoh session that answers the server's peer check for that id
 (``protocol.peer_key``; the reply's ``replier_id``) holds fewer than
-``limits.MAX_CLIENTS_PER_PEER`` protected ids (simx_server/transport/peers.py).
+``limits.MAX_CLIENTS_PER_PEER`` protected ids (simx_server/legacy/peers.py).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from conftest import SCENE, ServerProcess, free_port
 from simx_client import protocol as P
 from simx_client.connection import Connection, client_config
 from simx_server.base import limits as L
-from simx_server.transport.sessions import Sessions
+from simx_server.legacy.sessions import Sessions
 
 B = vrep.simx_opmode_blocking
 

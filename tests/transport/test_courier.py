@@ -1,4 +1,4 @@
-"""The courier (simx_server/transport/courier.py): replies and stream updates leave on one
+"""The courier (simx_server/loop/courier.py): replies and stream updates leave on one
 sending thread, in order per client lane, each once its renders are done; a lane waiting for a
 render holds up no other lane (issue 23: sends to a stopped client held the simulation thread)."""
 
@@ -8,7 +8,7 @@ import threading
 from concurrent.futures import Future
 
 from conftest import wait_until
-from simx_server.transport.courier import Courier
+from simx_server.loop.courier import Courier
 
 
 def test_a_lane_keeps_its_order_and_waits_for_its_renders_without_holding_other_lanes():

@@ -28,8 +28,8 @@ import vrep
 from conftest import ServerProcess
 from simx_client import protocol as P
 from simx_client.connection import client_config
-from simx_server.transport.replies import pack_large
-from simx_server.transport.zenoh_config import zenoh_config
+from simx_server.legacy.replies import pack_large
+from simx_server.legacy.zenoh_config import zenoh_config
 
 B = P.MODE_BLOCKING
 WARM_UP = 10  # connections before the first measure (the first ones allocate what is reused)
@@ -132,7 +132,7 @@ def test_shared_memory_is_off_unless_the_operators_file_sets_it(tmp_path):
 
 
 def test_malloc_is_tuned_unless_the_environment_sets_it():
-    code = "from simx_server.transport.allocator import tune_malloc; print(sorted(tune_malloc()))"
+    code = "from simx_server.legacy.allocator import tune_malloc; print(sorted(tune_malloc()))"
     env = {k: v for k, v in os.environ.items() if k not in ("MALLOC_ARENA_MAX", "MALLOC_MMAP_THRESHOLD_",
                                                              "GLIBC_TUNABLES")}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from simx_client import protocol as P
-from simx_server.transport.replies import LARGE_BINARY, encode_response, pack_large
+from simx_server.legacy.replies import LARGE_BINARY, encode_response, pack_large
 
 
 def _update(*images: bytes) -> list:

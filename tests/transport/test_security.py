@@ -87,7 +87,7 @@ def start(port: int, timeout_ms: int = 5000) -> int:
 
 # ------------------------------------------------------------------ defect 12
 def test_server_config_listens_where_asked_and_warns_beyond_loopback(tmp_path, caplog):
-    from simx_server.transport.zenoh_config import zenoh_config
+    from simx_server.legacy.zenoh_config import zenoh_config
 
     def listen(config: zenoh.Config):
         return json.loads(config.get_json("listen/endpoints"))

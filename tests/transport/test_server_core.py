@@ -30,8 +30,8 @@ from simx_client import api as simx_api
 from simx_client import protocol as P
 from simx_client.connection import client_config
 from simx_server.base import limits
-from simx_server.transport.logs import RepeatFilter
-from simx_server.transport.sessions import Sessions
+from simx_server.loop.logs import RepeatFilter
+from simx_server.legacy.sessions import Sessions
 from conftest import ROOT, SCENE, ServerProcess, wait_until
 
 B = vrep.simx_opmode_blocking

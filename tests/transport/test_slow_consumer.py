@@ -17,7 +17,7 @@ from conftest import SCENE, ServerProcess
 
 import vrep
 from simx_server.base import limits
-from simx_server.transport.zenoh_config import zenoh_config
+from simx_server.legacy.zenoh_config import zenoh_config
 
 STUCK = Path(__file__).resolve().parent / "stuck_consumer.py"
 B = vrep.simx_opmode_blocking

@@ -22,19 +22,25 @@ import collections
 import logging
 import threading
 import time
+from typing import Any
 
 from simx_server.base import limits
 
-_filters: list["RepeatFilter"] = []
+_filters: list[RepeatFilter] = []
 #: The logger of what clients print (simxAddStatusbarMessage, auxiliary consoles).
 CONSOLE_LOGGER = "simx.console"
 
 
 class _Window:
-    __slots__ = ("start", "count", "held", "last")
+    __slots__ = ("count", "held", "last", "start")
 
     def __init__(self, start: float):
-        self.start, self.count, self.held, self.last = start, 0, 0, None
+        self.start, self.count, self.held = start, 0, 0
+        self.last: logging.LogRecord | None = None
+
+
+#: A window whose interval ended with records held: (its key, the window).
+_Due = tuple[tuple[Any, ...], _Window]
 
 
 class RepeatFilter(logging.Filter):
@@ -49,14 +55,19 @@ class RepeatFilter(logging.Filter):
         max_keys: windows tracked at once (the least recently seen are dropped first).
     """
 
-    def __init__(self, handler: logging.Handler, burst: int = limits.LOG_REPEAT_BURST,
-                 interval: float = limits.LOG_REPEAT_INTERVAL, max_keys: int = limits.LOG_REPEAT_KEYS,
-                 template_burst: int = limits.LOG_TEMPLATE_BURST):
+    def __init__(
+        self,
+        handler: logging.Handler,
+        burst: int = limits.LOG_REPEAT_BURST,
+        interval: float = limits.LOG_REPEAT_INTERVAL,
+        max_keys: int = limits.LOG_REPEAT_KEYS,
+        template_burst: int = limits.LOG_TEMPLATE_BURST,
+    ):
         super().__init__()
         self.handler, self.burst, self.interval, self.max_keys = handler, burst, interval, max_keys
         self.template_burst = template_burst
         self._lock = threading.Lock()
-        self._windows: collections.OrderedDict[tuple, _Window] = collections.OrderedDict()
+        self._windows: collections.OrderedDict[tuple[Any, ...], _Window] = collections.OrderedDict()
         self._next_flush = 0.0
 
     def filter(self, record: logging.LogRecord) -> bool:
@@ -86,7 +97,7 @@ class RepeatFilter(logging.Filter):
         self._emit(due)
         return held is None
 
-    def _window(self, key: tuple, now: float, due: list) -> _Window:
+    def _window(self, key: tuple[Any, ...], now: float, due: list[_Due]) -> _Window:
         w = self._windows.get(key)
         if w is None:
             w = self._windows[key] = _Window(now)
@@ -104,29 +115,37 @@ class RepeatFilter(logging.Filter):
             due = self._due(time.monotonic())
         self._emit(due)
 
-    def _due(self, now: float) -> list:
+    def _due(self, now: float) -> list[_Due]:
         """Windows whose interval ended (lock held): removed, those with held records returned."""
         if now < self._next_flush:
             return []
         self._next_flush = now + min(1.0, self.interval / 4)
-        due = []
+        due: list[_Due] = []
         for key in [k for k, w in self._windows.items() if now - w.start >= self.interval]:
             w = self._windows.pop(key)
             if w.held:
                 due.append((key, w))
         return due
 
-    def _emit(self, due: list) -> None:
+    def _emit(self, due: list[_Due]) -> None:
         for key, w in due:
             last = w.last
+            if last is None:  # held > 0: a record was kept
+                continue
             try:
                 text = last.getMessage()
             except Exception:
                 text = str(last.msg)
             how = "identical" if key[0] == "=" else "similar"
             summary = logging.LogRecord(
-                last.name, last.levelno, last.pathname, last.lineno,
-                "%d %s line(s) held back in %g s; the last: %s", (w.held, how, self.interval, text), None)
+                last.name,
+                last.levelno,
+                last.pathname,
+                last.lineno,
+                "%d %s line(s) held back in %g s; the last: %s",
+                (w.held, how, self.interval, text),
+                None,
+            )
             summary.simx_summary = True
             self.handler.handle(summary)
 

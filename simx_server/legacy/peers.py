@@ -25,7 +25,7 @@ import zenoh
 
 from simx_wire import protocol as P
 from simx_server.base import limits
-from simx_server.transport.sessions import Sessions
+from simx_server.legacy.sessions import Sessions
 
 log = logging.getLogger("simx.server")
 

@@ -1,7 +1,7 @@
 """What clients print: ``simxAddStatusbarMessage`` and the ``simxAuxiliaryConsole*`` calls.
 
 A headless server has no status bar and no console windows: their text goes to the server's
-log (the ``simx.console`` logger, :data:`simx_server.transport.logs.CONSOLE_LOGGER`), each line prefixed
+log (the ``simx.console`` logger, :data:`simx_server.loop.logs.CONSOLE_LOGGER`), each line prefixed
 with the client and the console's title, and cut short (limits.MAX_ERROR_CHARS per line,
 limits.MAX_CONSOLE_LINES per print, limits.MAX_CONSOLES open at once). No MuJoCo in here.
 """
@@ -13,18 +13,14 @@ import logging
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
-from simx_server.transport import logs
+from simx_server.loop import logs
+from simx_server.loop.budgets import cut
 
 console_log = logging.getLogger(logs.CONSOLE_LOGGER)  # what clients print (status bar, consoles)
 
 #: Remote commands served by :meth:`Consoles.execute`.
 CONSOLE_COMMANDS = ("AddStatusbarMessage", "AuxiliaryConsoleOpen", "AuxiliaryConsoleClose",
                     "AuxiliaryConsolePrint", "AuxiliaryConsoleShow")
-
-
-def cut(text: str, limit: int = limits.MAX_ERROR_CHARS) -> str:
-    """``text`` cut to ``limit`` characters (a client's text in a log line)."""
-    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 class Consoles:

@@ -2,7 +2,7 @@
 every simulation step and published on ``simx/<name>/stream/<client>`` by the sending thread
 (images once the render thread has drawn them; in order with the client's replies), each update
 within the reply budget
-(``limits.MAX_REPLY_BYTES``). A mixin of :class:`simx_server.transport.server.Server`.
+(``limits.MAX_REPLY_BYTES``). A mixin of :class:`simx_server.legacy.server.Server`.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.commands import HANDLERS
 from simx_server.sim.vision import Deferred
-from simx_server.transport.replies import IMAGES, SMALL, image_pixels, image_size, pack_large, reply_size
-from simx_server.transport.sessions import Session
+from simx_server.legacy.replies import IMAGES, SMALL, image_pixels, image_size, pack_large, reply_size
+from simx_server.legacy.sessions import Session
 
 log = logging.getLogger("simx.server")
 

@@ -1,25 +1,21 @@
-"""The simx server: Zenoh on the outside, one simulation thread on the inside.
+"""The legacy remote API's front door: V-REP's ``simx*`` calls over Zenoh, on the simulation loop.
 
 Zenoh callbacks never touch MuJoCo and never block: the query callback reads and checks the
 request, answers at once what it refuses (unreadable, over a bound, a full client queue) and
-queues the rest in the client's own bounded queue (:mod:`simx_server.transport.sessions`); liveliness
-callbacks note clients' tokens. The thread that calls :meth:`Server.serve` owns the
-simulation; it serves the clients' queues round robin, executes each request atomically
-between physics steps, hands its reply to the sending thread (:mod:`simx_server.transport.courier`:
-a client that stops reading never holds this thread), steps the simulation every ``dt`` (paced to wall time when
-``speed`` > 0; in synchronous mode once every synchronous client has triggered), and after
-every step publishes each client's streamed commands. With legacy pacing (the default) a
-client's blocking call waits in its queue until the simulation has stepped since its previous
-one, as V-REP executed remote commands once per simulation pass. Nothing a client sends ends
-that thread: an exception of a step stops the simulation and is reported to every client at
-its next request.
+queues the rest in the client's own bounded queue (:mod:`simx_server.legacy.sessions`), whose
+session then sits in the loop's ready ring; liveliness callbacks note clients' tokens. The
+simulation loop (:class:`simx_server.loop.core.Loop`, which :class:`Server` extends) serves the
+ready sessions round robin, between physics steps, under its pacing; here each request is
+executed atomically within the budgets (reply size, request time, the client's share of scene
+edits), its reply handed to the sending thread (:mod:`simx_server.loop.courier`: a client that
+stops reading never holds the simulation thread), and after every step each client's streamed
+commands are published. Nothing a client sends ends the simulation thread: an exception of a
+step stops the simulation and is reported to every client at its next request.
 """
 
 from __future__ import annotations
 
-import gc
 import logging
-import queue
 import threading
 import time
 from typing import Any
@@ -31,35 +27,29 @@ from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.commands import HANDLERS, NOT_STREAMABLE
 from simx_server.scene.simulation import Simulation
-from simx_server.sim.physics import PhysicsError
-from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
-from simx_server.transport import logs
-from simx_server.transport.client_commands import ClientCommands
-from simx_server.transport.consoles import CONSOLE_COMMANDS, Consoles
-from simx_server.transport.courier import Courier
-from simx_server.transport.consoles import cut as _cut
-from simx_server.transport.attached_transports import OtherTransports
-from simx_server.transport.peers import PeerCheck
-from simx_server.transport.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
+from simx_server.legacy.client_commands import ClientCommands
+from simx_server.legacy.consoles import CONSOLE_COMMANDS, Consoles
+from simx_server.loop.budgets import Share
+from simx_server.loop.budgets import cut as _cut
+from simx_server.loop.core import PACINGS, Loop
+from simx_server.legacy.peers import PeerCheck
+from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
                                            resolve, send_refusal)
-from simx_server.transport.sessions import Session, Sessions, keep_thread_state, zenoh_thread
-from simx_server.transport.streams import StreamPublisher, _Stream
-from simx_server.transport.viewer_feed import ViewerFeed
+from simx_server.legacy.sessions import Session, Sessions, keep_thread_state, zenoh_thread
+from simx_server.legacy.streams import StreamPublisher, _Stream
+from simx_server.legacy.viewer_feed import ViewerFeed
 
 log = logging.getLogger("simx.server")
 
 DEFAULT_HOSTS = ("127.0.0.1",)
 DEFAULT_PORTS = (19997, 19999)
-_DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
-_HOUSEKEEPING = 0.25  # s between two passes of client expiry and log summaries
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
-#: ``--pacing``: legacy (a client's blocking calls see distinct simulation steps) or immediate.
-PACINGS = ("legacy", "immediate")
+__all__ = ["DEFAULT_HOSTS", "DEFAULT_PORTS", "PACINGS", "Server"]
 
 
-class Server(OtherTransports, ClientCommands, StreamPublisher):
-    """Serves one :class:`Simulation` on Zenoh.
+class Server(ClientCommands, StreamPublisher, Loop):
+    """Serves one :class:`Simulation` on Zenoh: the simulation loop with the legacy remote API's door.
 
     Args:
         sim: the simulation (owned by the thread that calls serve()).
@@ -84,37 +74,19 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
     def __init__(self, sim: Simulation, config: zenoh.Config, speed: float = 1.0,
                  prefix: str = P.DEFAULT_PREFIX, client_expiry: float = limits.CLIENT_EXPIRY,
                  pacing: str = "legacy"):
-        if speed < 0:
-            raise ValueError(f"speed must be >= 0, got {speed}")
-        if pacing not in PACINGS:
-            raise ValueError(f"pacing must be one of {', '.join(PACINGS)}, got {pacing!r}")
-        if not client_expiry > 0:
-            raise ValueError(f"client expiry must be > 0 s, got {client_expiry}")
-        self.sim = sim
-        self.speed = speed
+        super().__init__(sim, speed=speed, client_expiry=client_expiry, pacing=pacing)
         self.prefix = prefix
-        self.client_expiry = client_expiry
         self._config = config
-        # The ready ring: clients with requests waiting (Session), and control tuples.
-        self._queue: queue.SimpleQueue = queue.SimpleQueue()
-        self.sessions = Sessions(self._queue)
+        self.sessions = Sessions(self._queue)  # their sessions are the ready ring's ready clients
         self.peers = PeerCheck(self.sessions, prefix)  # which Zenoh session holds each token
-        self._stopping = threading.Event()
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
         self._clients: set[str] = set()
-        self.pacing = pacing
-        self._paced = pacing == "legacy"
-        self._held: list[Session] = []  # clients whose next blocking call waits for the next step
         self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
-        self._edit_debt: dict[str, tuple[float, float]] = {}  # per client: (s of edits owed, as of when)
+        self._edit_shares: dict[str, Share] = {}  # per client: its share of the simulation thread (edits)
         self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
-        self._t0 = time.monotonic()
-        self._housekeeping_at = 0.0
         self.session: zenoh.Session | None = None
-        self.courier = Courier()  # sends replies and updates off this thread (transport.courier)
         self.viewers = ViewerFeed(prefix, self._queue.put, self.courier.send)  # simx-viewer's model and state
-        self._init_transports(self._queue.put)  # other transports beside Zenoh (OtherTransports)
 
     # ------------------------------------------------------------ zenoh side
     def open(self) -> None:
@@ -180,16 +152,10 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         if gone:
             self._queue.put(("gone", client))
 
-    def request_stop(self) -> None:
-        """Ask serve() to return (safe from signal handlers and other threads)."""
-        self._stopping.set()
-        self._queue.put(("stop", None))
-
     def close(self) -> None:
-        """Finish pending renders and their replies, then close the session; idempotent."""
-        self._close_transports()
-        self.sim.close()
-        self.courier.close()
+        """Close the other doors, finish pending renders and their replies, then close the
+        session; idempotent."""
+        Loop.close(self)
         if self.session is not None:
             session, self.session = self.session, None
             # Zenoh's close waits for every link: one to a client that stopped reading held it
@@ -210,134 +176,37 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
         except Exception as exc:  # closing must not mask the reason we stop
             log.debug("closing Zenoh session: %s", exc)
 
-    # ------------------------------------------------------- simulation side
-    def serve(self) -> None:
-        """Run the simulation loop until request_stop()."""
-        sim = self.sim
-        # The loaded scene, handlers and libraries live as long as the server: keep them out of
-        # the cyclic collector's passes, which otherwise walk them all (measured: a blocking
-        # call's server part falls by about 0.03x the Zenoh floor).
-        gc.collect()
-        gc.freeze()
-        next_tick = time.monotonic()
-        while not self._stopping.is_set():
-            now = time.monotonic()
-            try:
-                if now < next_tick:
-                    try:
-                        self._handle(self._queue.get(timeout=next_tick - now))
-                    except queue.Empty:
-                        pass
-                    continue
-                self._drain()  # requests are always served between steps, even at full speed
-                if self._stopping.is_set():
-                    break
-                interval = sim.world.dt
-                if self._stepping() and not self._idle():
-                    self._step()
-                    interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
-                elif sim.state is not RunState.RUNNING:
-                    self._publish_streams()  # idle tick: streams keep being served
-                    self._after_step()
-                if self._held:  # stepped, or no longer stepping: their blocking calls are due
-                    self._release_held()
-                if now >= self._housekeeping_at:
-                    self._housekeeping(now)
-            except Exception:  # a bug must not end the simulation thread either: log, go on
-                log.exception("simulation loop")
-                interval = sim.world.dt
-            next_tick = max(next_tick + interval, now)
+    # ------------------------------------------------- the loop's hooks (Loop)
+    def _ready_blocking(self, ready: Session) -> bool:
+        return Sessions.head_is_blocking(ready)
 
-    def _drain(self) -> None:
-        for _ in range(_DRAIN_LIMIT):
-            try:
-                self._handle(self._queue.get_nowait())
-            except queue.Empty:
-                return
-            if self._stopping.is_set():
-                return
+    def _serve_ready(self, ready: Session, step: int | None) -> None:
+        request = self.sessions.take(ready)
+        if request is not None:
+            if step is not None:
+                ready.step = step  # legacy pacing: the step its blocking call saw
+            self._answer(ready, request[0], request[1])
 
-    def _housekeeping(self, now: float) -> None:
-        """Drop expired clients and write due log summaries (a few times a second)."""
-        self._housekeeping_at = now + _HOUSEKEEPING
-        try:
-            expired = self.sessions.expired(self.client_expiry)
-            for client in expired:
-                self._forget(client, f"expired (no liveliness token, no request for {self.client_expiry:g} s)")
-            self._transports_housekeeping(now)
-            logs.flush()
-        except Exception:  # housekeeping must never end the loop
-            log.exception("housekeeping")
+    def _control(self, kind: str, value: Any) -> None:
+        if kind == "gone":
+            self._forget(value, "left")
+        elif kind == "viewer-model":  # value is the query here
+            self.viewers.answer(value, self.sim.world)
 
-    def _stepping(self) -> bool:
-        return self.sim.state is RunState.RUNNING and not self.sim.synchronous
-
-    def _idle(self) -> bool:
-        """As fast as possible (``--speed 0``) with no client and no viewer: nobody would see the
-        steps, so none are taken (the loop sleeps until a request comes) and an idle server of a
-        pool leaves the cores to the servers in use. Paced servers keep V-REP's clock."""
-        return (not self.sim.realtime and not len(self.sessions) and not self.viewers.watched
-                and not self._transport_clients())
-
-    def _step(self) -> bool:
-        """One step and the streams' updates; False when the step failed (the simulation is
-        then stopped and every client is told at its next request)."""
-        try:
-            self.sim.step()
-        except Exception as exc:  # nothing a client sends may end the simulation thread
-            self._step_failed(exc)
-            self._after_step()
-            return False
+    def _publish(self) -> None:
         self._publish_streams()
-        self._after_step()
-        return True
 
-    def _step_failed(self, exc: Exception) -> None:
-        if isinstance(exc, PhysicsError):  # a blow-up: the simulation has stopped itself
-            reason = self.sim.stop_reason or str(exc)
-            log.warning("%s", reason)
-        else:
-            reason = (f"the simulation step failed and the simulation was stopped: "
-                      f"{type(exc).__name__}: {quote(str(exc), 200)}")
-            log.error("%s", reason, exc_info=exc)
-        if self.sim.state is not RunState.STOPPED:
-            try:
-                self.sim.stop()
-            except Exception:
-                log.exception("stopping the simulation after a failed step")
-                self.sim.state = RunState.STOPPED  # whatever the cleanup did, no further steps
+    def _fault_all(self, reason: str) -> None:
         self.sessions.fault_all(reason)
 
-    def _release_held(self) -> None:
-        held, self._held = self._held, []
-        put = self._queue.put
-        for session in held:  # back in the ring, in the order they were held
-            put(session)
+    def _expire(self, now: float) -> None:
+        for client in self.sessions.expired(self.client_expiry):
+            self._forget(client, f"expired (no liveliness token, no request for {self.client_expiry:g} s)")
 
-    def _handle(self, item: Any) -> None:
-        if type(item) is Session:
-            if self._paced and self._stepping() and Sessions.head_is_blocking(item):
-                steps = self.sim.steps
-                if item.step == steps:  # its previous blocking call saw this step: wait for the next
-                    self._held.append(item)  # stays scheduled; its queue and bounds are unchanged
-                    return
-                request = self.sessions.take(item)
-                if request is not None:
-                    item.step = steps
-                    self._answer(item, request[0], request[1])
-                return
-            request = self.sessions.take(item)
-            if request is not None:
-                self._answer(item, request[0], request[1])
-            return
-        kind, client = item
-        if kind == "gone":
-            self._forget(client, "left")
-        elif kind == "viewer-model":  # client is the query here
-            self.viewers.answer(client, self.sim.world)
-        elif kind in self._kinds:  # another transport's request or event (client is its item)
-            self._kinds[kind].handle(kind, client)
+    def _watched(self) -> bool:
+        return bool(len(self.sessions) or self.viewers.watched)
 
+    # ------------------------------------------------------------ requests
     def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
         """Execute a request and hand its reply to the sending thread (sent once its images
         are rendered, after the client's earlier replies and stream updates). Every request
@@ -379,7 +248,7 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
     def _reply(self, session: Session, query: zenoh.Query, payload, renders: list, bulk: bool = False) -> None:
         """Hand ``query``'s reply (``payload()``, called on the sending thread) to the courier
         on its client's lane: sent once ``renders`` are done, in order with its stream updates
-        (``bulk``: images of limits.BULK_SEND_BYTES or more, see transport.courier)."""
+        (``bulk``: images of limits.BULK_SEND_BYTES or more, see loop.courier)."""
         client = session.client
 
         def send() -> None:
@@ -443,18 +312,19 @@ class Server(OtherTransports, ClientCommands, StreamPublisher):
 
     def _edit(self, client: str, name: str, mode: int, args: list) -> list:
         """A scene load or edit, within the client's share of the simulation thread: each costs
-        its duration, the debt falls by limits.EDIT_SHARE s per s."""
+        its duration, the debt falls by limits.EDIT_SHARE s per s (loop.budgets.Share); past the
+        share the call is refused (``BUSY``)."""
         now = time.monotonic()
-        debt, since = self._edit_debt.get(client, (0.0, now))
-        debt = max(0.0, debt - (now - since) * limits.EDIT_SHARE)
-        if debt > limits.EDIT_DEBT_SECONDS:
-            self._edit_debt[client] = (debt, now)
+        share = self._edit_shares.get(client)
+        if share is None:
+            share = self._edit_shares[client] = Share(now)
+        if share.over(now):
             return self._refused(client, name, f"{P.BUSY}: this client's scene loads and edits took more than "
                                                f"{limits.EDIT_SHARE:.0%} of the simulation thread "
                                                "(limits.EDIT_SHARE); try again later")
         result = self._execute(client, name, mode, args)
         done = time.monotonic()
-        self._edit_debt[client] = (debt + (done - now), done)
+        share.add(done - now, done)
         return result
 
     _resolve = staticmethod(resolve)  # results with their Deferred images rendered (sending or render thread)

@@ -1,5 +1,5 @@
 """What the server's loop does for the scene's scripts (issue 34), as a transport attached to the
-:class:`~simx_server.transport.server.Server`: customization scripts' ``sysCall_nonSimulation``
+:class:`~simx_server.legacy.server.Server`: customization scripts' ``sysCall_nonSimulation``
 at every idle pass while the simulation is stopped (``sysCall_suspended`` while paused), and the
 legacy remote API ports that scripts open with ``simExtRemoteApiStart(port)`` /
 ``simRemoteApi.start(port)``, how V-REP scenes open the server on 19999 for their programs.

@@ -8,7 +8,7 @@ docs/PROTOCOL.md "The viewer feed"):
   current state. Zenoh's thread only queues the query (bounded by
   ``limits.MAX_VIEWER_QUERIES`` waiting and ``limits.MAX_VIEWER_MODELS_PER_SECOND`` answered);
   the simulation thread, which owns the model, encodes the answer and a sending thread
-  (:mod:`simx_server.transport.courier`) sends it, so a viewer that stops reading holds no
+  (:mod:`simx_server.loop.courier`) sends it, so a viewer that stops reading holds no
   simulation step.
 * ``<prefix>/viewer/state``, a publisher: after every simulation step, and at idle ticks when
   the state changed (a stop's reset, a joint set while stopped, a scene load), ``[generation,
@@ -37,13 +37,13 @@ import zenoh
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
-from simx_server.transport.replies import answer
+from simx_server.legacy.replies import answer
 
 log = logging.getLogger("simx.viewer")
 
 
 class ViewerFeed:
-    """The server's side of simx-viewer: one per :class:`simx_server.transport.server.Server`.
+    """The server's side of simx-viewer: one per :class:`simx_server.legacy.server.Server`.
 
     Args:
         prefix: the server's key-expression prefix.

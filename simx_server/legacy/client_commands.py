@@ -1,7 +1,8 @@
 """Commands about the calling client rather than the world: goodbye, synchronous mode and its
 trigger, the errors kept for ``simxGetLastErrors``, and forgetting a client. A mixin of
-:class:`simx_server.transport.server.Server` (which provides ``sim``, ``sessions``, ``_step``,
-``_streams``, ``_errors``, ``_edit_debt`` and ``_clients``).
+:class:`simx_server.legacy.server.Server` (which provides ``sim``, ``sessions``, ``_streams``,
+``_errors``, ``_edit_shares`` and ``_clients``; the loop, :class:`simx_server.loop.core.Loop`,
+``_step`` and ``_leave_sync``).
 """
 
 from __future__ import annotations
@@ -48,21 +49,10 @@ class ClientCommands:
     def _forget(self, client: str, how: str) -> None:
         self._streams.pop(client, None)
         self._errors.pop(client, None)
-        self._edit_debt.pop(client, None)
+        self._edit_shares.pop(client, None)
         self.sessions.remove(client)
         if client in self._clients:
             self._clients.discard(client)
             log.info("client %s %s", client, how)
         if self.sim.is_synchronous(client):
             self._leave_sync(client, f"{how}: out of synchronous mode")
-
-    def _leave_sync(self, client: str, how: str) -> None:
-        """``client`` leaves the synchronous barrier; the step the others all triggered runs now."""
-        released = self.sim.leave_sync(client)
-        waiting = len(self.sim.waiting_for())
-        log.info("client %s %s (%s)", client, how,
-                 "the step its other clients triggered runs now" if released else
-                 f"the next step waits for {waiting} other client(s)" if waiting else
-                 "no synchronous client left: the simulation runs asynchronously")
-        if released and self.sim.state is RunState.RUNNING:
-            self._step()  # a failure is told to every client at its next request

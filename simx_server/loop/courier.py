@@ -35,8 +35,9 @@ import logging
 import queue
 import threading
 import time
+from collections.abc import Callable, Hashable, Iterable
 from concurrent.futures import Future
-from typing import Callable, Hashable, Iterable
+from typing import Any
 
 from simx_server.base import limits
 
@@ -49,10 +50,10 @@ class Courier:
     def __init__(self) -> None:
         # Lanes due to be pumped, in order. A plain queue and thread, not an executor: the hop
         # is on every blocking call's path (an executor's future and work item cost more).
-        self._ready: queue.SimpleQueue = queue.SimpleQueue()
+        self._ready: queue.SimpleQueue[Hashable] = queue.SimpleQueue()
         self._lock = threading.Lock()
         # lanes with sends waiting or running: lane -> deque of (job, futures it waits for, bulk)
-        self._lanes: dict[Hashable, collections.deque] = {}
+        self._lanes: dict[Hashable, collections.deque[tuple[Callable[[], None], tuple[Future[Any], ...], bool]]] = {}
         self._idle = threading.Condition(self._lock)
         self._closed = False
         # sending thread only: lanes whose next send is bulk and gave way, with when they first did
@@ -61,8 +62,9 @@ class Courier:
         self._thread = threading.Thread(target=self._serve, name="simx-send", daemon=True)
         self._thread.start()
 
-    def send(self, lane: Hashable, job: Callable[[], None], waits: Iterable[Future] = (),
-             bulk: bool = False) -> None:
+    def send(
+        self, lane: Hashable, job: Callable[[], None], waits: Iterable[Future[Any]] = (), bulk: bool = False
+    ) -> None:
         """Run ``job()`` on the sending thread once every future of ``waits`` is done and every
         job handed over earlier on ``lane`` has run; ``bulk`` (a send of
         ``limits.BULK_SEND_BYTES`` or more) gives way to the sends of other lanes (see the
@@ -139,8 +141,9 @@ class Courier:
         """The sending thread: pump each lane put in the ready queue, until None; deferred
         lanes (bulk sends) when no lane is ready."""
         while True:
-            if self._deferred and (self._ready.empty() or time.monotonic() - self._deferred[0][1]
-                                   >= limits.MAX_BULK_DEFER_SECONDS):
+            if self._deferred and (
+                self._ready.empty() or time.monotonic() - self._deferred[0][1] >= limits.MAX_BULK_DEFER_SECONDS
+            ):
                 self._pump(*self._deferred.popleft())
                 continue
             lane = self._ready.get()

@@ -1,0 +1,307 @@
+"""The simulation loop: one thread owns the simulation and serves every front door's requests.
+
+The thread that calls :meth:`Loop.serve` owns the simulation. It takes items from the *ready
+ring* (one ``queue.SimpleQueue``), serves each between two physics steps, and steps the
+simulation every ``dt`` (paced to wall time when ``speed`` > 0; in synchronous mode once every
+synchronous client has triggered, the barrier of
+:class:`~simx_server.scene.simulation.Simulation`). A ring item is
+
+* a front door's ``(kind, item)`` delivery (:mod:`simx_server.loop.front_door`): handed to the
+  door that declared ``kind`` (:meth:`Loop.attach`);
+* a *ready client* of the door whose clients sit in the ring themselves (the legacy remote
+  API's sessions, :mod:`simx_server.legacy.sessions`): served with :meth:`Loop._serve_ready`,
+  under the loop's pacing;
+* a control tuple of the loop (``("stop", None)``) or of that door (:meth:`Loop._control`).
+
+**Pacing** (``pacing="legacy"``, the default): while the simulation runs asynchronously, a
+ready client whose next request is blocking and whose previous blocking request saw the
+current step is *held* until the simulation has stepped, so two consecutive blocking calls
+never see the same step (V-REP executed remote commands once per simulation pass).
+``"immediate"`` serves every request as soon as it is taken.
+
+After every step, and every pass without one while the simulation is not running, each door's
+``after_step`` runs (what waited for the step is answered). A few times a second the loop does
+its housekeeping: each door expires its silent clients, and the rate-limited log summaries
+that are due are written. Nothing a client sends ends the loop: an exception of a step stops
+the simulation and is reported to every client at its next request (:meth:`Loop._fault_all`).
+
+Replies leave on the sending thread (:attr:`Loop.courier`, :mod:`simx_server.loop.courier`), so
+a client that stops reading never holds the simulation thread.
+
+:class:`Loop` runs alone (no door but those attached: the tests' in-process door); the legacy
+remote API's Zenoh front door (:class:`simx_server.legacy.server.Server`) extends it with the
+hooks below (its ready clients, its control messages, its stream updates, its expiry).
+"""
+
+from __future__ import annotations
+
+import gc
+import logging
+import queue
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from simx_server.base import limits
+from simx_server.loop import logs
+from simx_server.loop.courier import Courier
+from simx_server.loop.front_door import FrontDoor
+from simx_server.sim.physics import PhysicsError
+from simx_server.sim.state import RunState
+from simx_wire.protocol import quote
+
+log = logging.getLogger("simx.server")
+
+_DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
+_HOUSEKEEPING = 0.25  # s between two passes of client expiry and log summaries
+#: ``--pacing``: legacy (a client's blocking calls see distinct simulation steps) or immediate.
+PACINGS = ("legacy", "immediate")
+
+
+class Loop:
+    """One simulation served to the front doors attached to it.
+
+    Args:
+        sim: the :class:`~simx_server.scene.simulation.Simulation` (owned by the thread that
+            calls :meth:`serve`).
+        speed: real-time factor in asynchronous mode; 0 runs as fast as possible.
+        client_expiry: s a client may stay silent before its state is dropped
+            (limits.CLIENT_EXPIRY; the doors that keep per-client state apply it).
+        pacing: ``"legacy"`` or ``"immediate"`` (see the module docstring).
+
+    Raises:
+        ValueError: a negative speed, a client expiry <= 0 or an unknown pacing.
+    """
+
+    def __init__(
+        self, sim: Any, speed: float = 1.0, client_expiry: float = limits.CLIENT_EXPIRY, pacing: str = "legacy"
+    ) -> None:
+        if speed < 0:
+            raise ValueError(f"speed must be >= 0, got {speed}")
+        if pacing not in PACINGS:
+            raise ValueError(f"pacing must be one of {', '.join(PACINGS)}, got {pacing!r}")
+        if not client_expiry > 0:
+            raise ValueError(f"client expiry must be > 0 s, got {client_expiry}")
+        self.sim = sim
+        self.speed = speed
+        self.client_expiry = client_expiry
+        self.pacing = pacing
+        self._paced = pacing == "legacy"
+        #: The ready ring: deliveries, ready clients and control tuples.
+        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        #: Thread-safe: how a front door's thread hands ``(kind, item)`` to the simulation thread.
+        self.deliver: Callable[[Any], None] = self._queue.put
+        self._stopping = threading.Event()
+        self._held: list[Any] = []  # ready clients whose next blocking call waits for the next step
+        self._t0 = time.monotonic()
+        self._housekeeping_at = 0.0
+        #: Sends replies and updates off the simulation thread.
+        self.courier = Courier()
+        #: The front doors attached (:meth:`attach`).
+        self.doors: list[FrontDoor] = []
+        self._kinds: dict[str, FrontDoor] = {}  # delivery kind -> the door that handles it
+
+    # ------------------------------------------------------------- front doors
+    def attach(self, door: FrontDoor) -> None:
+        """Serve ``door`` from this loop (before :meth:`serve`): its ``(kind, item)``
+        deliveries go to its ``handle``; it hears of every step and housekeeping pass."""
+        self.doors.append(door)
+        for kind in door.kinds:
+            self._kinds[kind] = door
+
+    def step_now(self) -> bool:
+        """One step now (a stepped client completed the synchronous barrier); False when it
+        failed (every client is told, as for any failed step)."""
+        return self._step()
+
+    def leave_sync(self, client: str, how: str) -> None:
+        """``client`` (of any door) leaves the synchronous barrier; the step the others all
+        triggered runs now."""
+        self._leave_sync(client, how)
+
+    def request_stop(self) -> None:
+        """Ask :meth:`serve` to return (safe from signal handlers and other threads)."""
+        self._stopping.set()
+        self._queue.put(("stop", None))
+
+    def close(self) -> None:
+        """Close the doors, the simulation (its pending renders) and the sending thread."""
+        for door in self.doors:
+            try:
+                door.close()
+            except Exception:  # closing must not mask the reason we stop
+                log.exception("closing %s", type(door).__name__)
+        self.sim.close()
+        self.courier.close()
+
+    # ------------------------------------------------------------ the loop
+    def serve(self) -> None:
+        """Run the simulation loop until :meth:`request_stop`."""
+        sim = self.sim
+        # The loaded scene, handlers and libraries live as long as the server: keep them out of
+        # the cyclic collector's passes, which otherwise walk them all (measured: a blocking
+        # call's server part falls by about 0.03x the Zenoh floor).
+        gc.collect()
+        gc.freeze()
+        next_tick = time.monotonic()
+        while not self._stopping.is_set():
+            now = time.monotonic()
+            try:
+                if now < next_tick:
+                    try:  # noqa: SIM105  (not contextlib.suppress: an object per pass of the hot loop)
+                        self._handle(self._queue.get(timeout=next_tick - now))
+                    except queue.Empty:
+                        pass
+                    continue
+                self._drain()  # requests are always served between steps, even at full speed
+                if self._stopping.is_set():
+                    break
+                interval = sim.world.dt
+                if self._stepping() and not self._idle():
+                    self._step()
+                    interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
+                elif sim.state is not RunState.RUNNING:
+                    self._publish()  # idle tick: streams keep being served
+                    self._after_step()
+                if self._held:  # stepped, or no longer stepping: their blocking calls are due
+                    self._release_held()
+                if now >= self._housekeeping_at:
+                    self._housekeeping(now)
+            except Exception:  # a bug must not end the simulation thread either: log, go on
+                log.exception("simulation loop")
+                interval = sim.world.dt
+            next_tick = max(next_tick + interval, now)
+
+    def _drain(self) -> None:
+        for _ in range(_DRAIN_LIMIT):
+            try:
+                self._handle(self._queue.get_nowait())
+            except queue.Empty:
+                return
+            if self._stopping.is_set():
+                return
+
+    def _handle(self, item: Any) -> None:
+        if type(item) is not tuple:  # a ready client
+            if self._paced and self._stepping() and self._ready_blocking(item):
+                steps = self.sim.steps
+                if item.step == steps:  # its previous blocking call saw this step: wait for the next
+                    self._held.append(item)  # stays scheduled; its queue and bounds are unchanged
+                    return
+                self._serve_ready(item, steps)
+                return
+            self._serve_ready(item, None)
+            return
+        kind, value = item
+        door = self._kinds.get(kind)
+        if door is not None:
+            door.handle(kind, value)
+        else:
+            self._control(kind, value)
+
+    def _release_held(self) -> None:
+        held, self._held = self._held, []
+        put = self._queue.put
+        for ready in held:  # back in the ring, in the order they were held
+            put(ready)
+
+    def _housekeeping(self, now: float) -> None:
+        """Expire silent clients and write due log summaries (a few times a second)."""
+        self._housekeeping_at = now + _HOUSEKEEPING
+        try:
+            self._expire(now)
+            for door in self.doors:
+                door.housekeeping(now)
+            logs.flush()
+        except Exception:  # housekeeping must never end the loop
+            log.exception("housekeeping")
+
+    def _stepping(self) -> bool:
+        return bool(self.sim.state is RunState.RUNNING and not self.sim.synchronous)
+
+    def _idle(self) -> bool:
+        """As fast as possible (``--speed 0``) with no client and no viewer: nobody would see the
+        steps, so none are taken (the loop sleeps until a request comes) and an idle server of a
+        pool leaves the cores to the servers in use. Paced servers keep V-REP's clock."""
+        return not self.sim.realtime and not self._watched() and not sum(door.client_count() for door in self.doors)
+
+    def _step(self) -> bool:
+        """One step and its updates; False when the step failed (the simulation is then
+        stopped and every client is told at its next request)."""
+        try:
+            self.sim.step()
+        except Exception as exc:  # nothing a client sends may end the simulation thread
+            self._step_failed(exc)
+            self._after_step()
+            return False
+        self._publish()
+        self._after_step()
+        return True
+
+    def _step_failed(self, exc: Exception) -> None:
+        if isinstance(exc, PhysicsError):  # a blow-up: the simulation has stopped itself
+            reason = self.sim.stop_reason or str(exc)
+            log.warning("%s", reason)
+        else:
+            reason = (
+                f"the simulation step failed and the simulation was stopped: "
+                f"{type(exc).__name__}: {quote(str(exc), 200)}"
+            )
+            log.error("%s", reason, exc_info=exc)
+        if self.sim.state is not RunState.STOPPED:
+            try:
+                self.sim.stop()
+            except Exception:
+                log.exception("stopping the simulation after a failed step")
+                self.sim.state = RunState.STOPPED  # whatever the cleanup did, no further steps
+        self._fault_all(reason)
+
+    def _after_step(self) -> None:
+        for door in self.doors:
+            try:
+                door.after_step()
+            except Exception:  # a bug must not end the simulation thread
+                log.exception("%s after a step", type(door).__name__)
+
+    def _leave_sync(self, client: str, how: str) -> None:
+        released = self.sim.leave_sync(client)
+        waiting = len(self.sim.waiting_for())
+        log.info(
+            "client %s %s (%s)",
+            client,
+            how,
+            "the step its other clients triggered runs now"
+            if released
+            else f"the next step waits for {waiting} other client(s)"
+            if waiting
+            else "no synchronous client left: the simulation runs asynchronously",
+        )
+        if released and self.sim.state is RunState.RUNNING:
+            self._step()  # a failure is told to every client at its next request
+
+    # ------------------------------------------------ hooks of the ready-ring door
+    def _serve_ready(self, ready: Any, step: int | None) -> None:
+        """Serve a ready client's next request (``step``: the step its blocking request sees,
+        under legacy pacing; None otherwise). The loop alone has no ready clients."""
+        raise TypeError(f"not a ready-ring item: {type(ready).__name__}")
+
+    def _ready_blocking(self, ready: Any) -> bool:
+        """Whether a ready client's next request is blocking (paced)."""
+        return False
+
+    def _control(self, kind: str, value: Any) -> None:
+        """A control tuple no attached door declared (``("stop", None)`` only wakes the loop)."""
+
+    def _publish(self) -> None:
+        """After each step and each idle tick: send streamed updates (none here)."""
+
+    def _fault_all(self, reason: str) -> None:
+        """A step failed: every client is told ``reason`` at its next request."""
+
+    def _expire(self, now: float) -> None:
+        """Housekeeping: drop the ready-ring door's silent clients."""
+
+    def _watched(self) -> bool:
+        """Whether someone besides the doors' clients watches the steps (a viewer)."""
+        return False
