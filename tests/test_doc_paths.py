@@ -40,7 +40,7 @@ def named_paths(doc: Path) -> set[str]:
 
 def exists(path: str) -> bool:
     """Whether ``path`` is in the checkout: from its root, or, for a module named the way
-    docs/ARCHITECTURE.md names the server's (``scripts/values.py``), inside ``simx_server``."""
+    docs/ARCHITECTURE.md names the server's (``scripts/lua.py``), inside ``simx_server``."""
     if path.startswith(MADE):
         return True
     return (ROOT / path).exists() or (ROOT / "simx_server" / path).exists()
@@ -53,7 +53,7 @@ def test_the_path_finder_sees_paths_and_links(tmp_path):
     assert PATH.findall(doc.read_text()) == ["scripts/serve.sh", "tests/client/test_constants.py",
                                             "docs/API.md"]
     assert named_paths(doc) == {"scripts/serve.sh", "tests/client/test_constants.py", "docs/API.md"}
-    assert exists("tests/client/test_constants.py") and exists("scripts/values.py")
+    assert exists("tests/client/test_constants.py") and exists("scripts/lua.py")
     assert not exists("tests/test_constants.py")  # the path docs/API.md named (issue 33 item 10)
 
 
