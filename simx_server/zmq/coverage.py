@@ -34,7 +34,7 @@ _MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
 NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("n/a", _MAIN) for n in ("handleAddOnScripts", "handleDynamics", "handleEmbeddedScripts", "handleExtCalls",
                                    "handleJointMotion", "handleSandboxScript", "handleSensingStart",
-                                   "handleSimulationScripts", "handleSimulationStart", "initScript", "moduleEntry",
+                                   "handleSimulationStart", "initScript", "moduleEntry",
                                    "fastIdleLoop", "handleGraph", "resetGraph")},
     **{n: ("n/a", _PLUGIN) for n in ("getLoadedPlugins", "getPluginInfo", "getPluginName", "isPluginLoaded",
                                      "loadPlugin", "setPluginInfo", "getExtensionString", "registerScriptFuncHook")},
