@@ -26,7 +26,6 @@ _CALLBACK = "takes a Lua/Python callback into the caller: a ZMQ client's functio
 _SECURITY = "refused by design: a script or client may not reach the host (docs/SECURITY.md)"
 _TEXTURE = "textures: MuJoCo's are compiled into the model; no run-time texture objects"
 _GRAPH = "graph objects: MJCF has no counterpart (record data in the client)"
-_OCTREE = "octrees and point clouds: no MuJoCo counterpart yet"
 _PARTICLES = "particles: no MuJoCo counterpart"
 _MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
 
@@ -49,12 +48,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", _GRAPH) for n in ("addGraphCurve", "addGraphStream", "destroyGraphCurve",
                                         "duplicateGraphCurveToStatic", "getGraphCurve", "getGraphInfo",
                                         "setGraphStreamTransformation", "setGraphStreamValue")},
-    **{n: ("missing", _OCTREE) for n in ("createOctree", "checkOctreePointOccupancy", "getOctreeVoxels",
-                                         "insertObjectIntoOctree", "insertVoxelsIntoOctree", "removeVoxelsFromOctree",
-                                         "subtractObjectFromOctree", "createPointCloud", "getPointCloudOptions",
-                                         "setPointCloudOptions", "getPointCloudPoints", "insertObjectIntoPointCloud",
-                                         "insertPointsIntoPointCloud", "intersectPointsWithPointCloud",
-                                         "removePointsFromPointCloud", "subtractObjectFromPointCloud")},
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
     **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "relocateShapeFrame", "alignShapeBB",
                                             "setShapeBB", "scaleObjects", "createHeightfieldShape",
