@@ -32,6 +32,7 @@ from simx_server.scripts.facade_paths import PathCalls
 from simx_server.scripts.facade_props import PropertyCalls
 from simx_server.scripts.facade_ruckig import RuckigCalls
 from simx_server.scripts.facade_sensing import SensingCalls
+from simx_server.scripts.facade_services import ServiceCalls
 from simx_server.scripts.facade_shapes import ShapeCalls
 from simx_server.scripts.facade_legacy import LegacyCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
@@ -51,7 +52,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(CloudCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
+class ScriptSim(CloudCalls, ServiceCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.

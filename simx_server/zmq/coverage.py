@@ -51,7 +51,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
     **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "relocateShapeFrame", "alignShapeBB",
                                             "setShapeBB", "scaleObjects", "createHeightfieldShape",
-                                            "createPureShape", "generateShapeFromPath",
+                                            "generateShapeFromPath",
                                             "generateTextShape")},
     **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")
        for n in ("createJoint", "createForceSensor", "createProximitySensor", "createVisionSensor")},
@@ -61,10 +61,8 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
        for n in ("moveToPose_init",
                  "moveToPose_step", "moveToPose_cleanup", "generateTimeOptimalTrajectory")},
-    **{n: ("missing", "closing the scene and image files on the server: not written yet")
-       for n in ("saveImage", "loadImage")},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
-       for n in ("removeReferencedObjects", "setObjectHierarchyOrder", "getObjectAliasRelative", "getModelBB", "getLinkDummy", "setLinkDummy", "getObjectChildPose", "setObjectChildPose",
+       for n in ("setObjectHierarchyOrder", "getLinkDummy", "setLinkDummy",
                  "getObjectFloatArrayParam", "setObjectFloatArrayParam",
                  "getObjectStringParam", "setObjectStringParam")},
     **{n: ("missing", "appearance beyond colours (materials, lights' parameters): not written yet")
@@ -72,7 +70,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                  "checkProximitySensorEx2")},
     **{n: ("missing", "application services: not written yet")
        for n in ("getStackTraceback", "getUserVariables",
-                 "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},
+                 "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},
     **{n: ("n/a", "the event stream of CoppeliaSim's user interfaces: no UI") for n in (
         "getGenesisEvents", "pushUserEvent", "setEventFilters")},
     "getScriptFunctions": ("n/a", "the official client answers it itself (a proxy object; docs/ZMQ.md)"),

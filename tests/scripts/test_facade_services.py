@@ -1,0 +1,93 @@
+"""CoppeliaSim 4.x's image files, object queries and services of the one ``sim`` facade (issue 32):
+saveImage / loadImage, getObjectAliasRelative, getModelBB, joints' child poses,
+removeReferencedObjects, createPureShape, getThreadId."""
+
+from __future__ import annotations
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from simx_client.protocol import ArgumentError, RemoteError
+from simx_server.scene.simulation import Simulation
+from simx_server.scripts.facade import ScriptSim
+
+SENSORS = ROOT / "tests" / "scenes" / "sensors.xml"
+
+
+@pytest.fixture
+def sim(tmp_path):
+    scene = tmp_path / "sensors.xml"
+    shutil.copy(SENSORS, scene)
+    s = Simulation(scene, realtime=False)
+    s.start()
+    s.step()
+    yield s
+    s.stop()
+    s.close()
+
+
+@pytest.fixture
+def api(sim):
+    return ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
+
+
+def test_images_round_trip_through_files_and_buffers(api, tmp_path):
+    w, h = 4, 3
+    img = np.zeros((h, w, 3), np.uint8)
+    img[0] = [255, 0, 0]  # the bottom row (buffers are bottom-up) red
+    png = api.saveImage(img.tobytes(), [w, h], 0, ".png", -1)
+    assert png[:4] == b"\x89PNG"
+    back, res = api.loadImage(0, png)
+    assert res == [w, h] and back == img.tobytes()
+    api.saveImage(img.tobytes(), [w, h], 0, "shot.png", -1)
+    import cv2  # noqa: PLC0415
+    on_disk = cv2.imread(str(tmp_path / "shot.png"))
+    assert on_disk[-1, 0].tolist() == [0, 0, 255]  # the file is top-down, BGR: red at the bottom
+    rgba, res = api.loadImage(1, "shot.png")
+    assert len(rgba) == w * h * 4 and rgba[:4] == b"\xff\x00\x00\xff"
+    with pytest.raises(ArgumentError, match="4x3x3"):
+        api.saveImage(b"\x00" * 5, [w, h], 0, ".png", -1)
+    with pytest.raises(RemoteError, match="refused"):
+        api.saveImage(img.tobytes(), [w, h], 0, "/tmp/../etc/x.png", -1)
+    with pytest.raises(ArgumentError, match="image file name"):
+        api.loadImage(0, "scene.xml")
+
+
+def test_alias_relative_model_bb_and_pure_shapes(api):
+    payload, mount = api.getObject("/mount/payload"), api.getObject("/mount")
+    assert api.getObjectAliasRelative(payload, mount) == "./payload"
+    assert api.getObjectAliasRelative(payload, api.getObject("/blockA")) == "/mount/payload"
+    assert api.getObjectAliasRelative(mount, mount) == "."
+    # mount: a 0.1 m cube at its origin, payload a 0.1 m cube 0.2 below and 0.1 along x
+    assert api.getModelBB(mount) == pytest.approx([0.2, 0.1, 0.3])
+    s = api.createPureShape(0, 16, [0.1, 0.2, 0.3], 2.5)
+    assert api.getShapeBB(s) == pytest.approx([0.1, 0.2, 0.3]) and api.getShapeMass(s) == pytest.approx(2.5)
+    with pytest.raises(ArgumentError, match="primitiveType"):
+        api.createPureShape(9, 0, [0.1, 0.1, 0.1], 1)
+
+
+def test_joint_child_pose_is_its_motion(api, sim):
+    hinge, ball = api.getObject("/hinge"), api.getObject("/ball")
+    api.setJointPosition(hinge, 0.5)
+    pose = api.getObjectChildPose(hinge)
+    assert pose == pytest.approx([0, 0, 0, 0, 0, math.sin(0.25), math.cos(0.25)])
+    api.setObjectChildPose(hinge, [0, 0, 0, 0, 0, math.sin(-0.3), math.cos(-0.3)])
+    assert api.getJointPosition(hinge) == pytest.approx(-0.6)
+    q = [0, 0, 0, math.sin(0.2), 0, 0, math.cos(0.2)]  # 0.4 rad about x
+    api.setObjectChildPose(ball, q)
+    assert api.getObjectChildPose(ball) == pytest.approx(q)
+    with pytest.raises(ArgumentError, match="not a joint"):
+        api.getObjectChildPose(api.getObject("/blockA"))
+
+
+def test_referenced_objects_are_removed(api, sim):
+    a, b = api.getObject("/blockA"), api.getObject("/blockB")
+    d = api.createDummy(0.01)
+    api.setReferencedHandles(a, [b, d], "parts")
+    api.removeReferencedObjects(a, "parts")
+    assert b not in sim.world.objects and api.getReferencedHandles(a, "parts") == []
+    assert isinstance(api.getThreadId(), int)
