@@ -23,8 +23,9 @@ import numpy as np
 from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
-from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_text as _text
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_text as _text, as_vector as _vector
 from simx_server.sim.objects import JOINT, SHAPE, WORLD
+from simx_server.sim.rotations import matrix_from_quaternion
 from simx_server.sim.state import SimulationView
 
 _IMAGE_FORMATS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
@@ -138,6 +139,18 @@ class ServiceCalls:
         m = np.array(self.getObjectMatrix(handle, -1), dtype=float).reshape(3, 4)
         return m[:, :3], m[:, 3]
 
+    def getObjectPose(self, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
+        """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world)."""
+        h, rel = self._h(objectHandle), self._rel(relativeToObjectHandle)
+        return self._world.position(h, rel) + self._world.quaternion(h, rel)
+
+    def setObjectPose(self, objectHandle: Any, relativeTo: Any, pose: Any = None) -> None:  # noqa: N802, N803
+        """Place an object by a 7-number pose; ``(h, pose [, relativeTo])`` (4.5+) or
+        ``(h, relativeTo, pose)``; the rules of ``setObjectPosition`` hold."""
+        rel, value = self._order(relativeTo, pose)
+        v = _vector(value, 7, "pose")
+        self._set_pose(objectHandle, rel, position=v[:3], rotation=matrix_from_quaternion(*v[3:]))
+
     def getObjectChildPose(self, objectHandle: Any) -> list[float]:  # noqa: N802, N803
         """The pose (x, y, z, qx, qy, qz, qw; m) of a joint's child frame in the joint's frame: its
         intrinsic motion (a hinge's rotation about z, a slide's translation along z, a ball's
@@ -221,6 +234,14 @@ class ServiceCalls:
         def _corners(self, body: int) -> np.ndarray: ...
 
         def getObjectMatrix(self, handle: Any, relative_to: Any = -1) -> list[float]: ...
+
+        def _rel(self, relative_to: Any) -> int: ...
+
+        @staticmethod
+        def _order(relative_to: Any, value: Any) -> tuple[Any, Any]: ...
+
+        def _set_pose(self, handle: Any, relative_to: Any, position: list[float] | None = None,
+                      rotation: np.ndarray | None = None) -> None: ...
 
         def getObjectAlias(self, handle: Any, options: Any = -1) -> str: ...
 

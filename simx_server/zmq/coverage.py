@@ -59,8 +59,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
        for n in ("convertPropertyValue", "getObjectProperty", "setObjectProperty", "getModelProperty",
                  "setModelProperty", "getObjectSpecialProperty", "setObjectSpecialProperty")},
     **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
-       for n in ("moveToPose_init",
-                 "moveToPose_step", "moveToPose_cleanup", "generateTimeOptimalTrajectory")},
+       for n in ("generateTimeOptimalTrajectory",)},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
        for n in ("setObjectHierarchyOrder", "getLinkDummy", "setLinkDummy",
                  "getObjectFloatArrayParam", "setObjectFloatArrayParam",

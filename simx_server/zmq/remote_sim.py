@@ -34,7 +34,6 @@ from simx_server.base.arguments import as_text as _text, as_vector as _vector
 from simx_server.scripts.facade_core import Signals
 from simx_server.sim import object_params, paths
 from simx_server.sim.objects import JOINT, WORLD
-from simx_server.sim.rotations import matrix_from_quaternion
 from simx_server.sim.state import RunState
 from simx_server.zmq import names
 from simx_server.zmq.motion import MAX_MOTION_STEPS, MotionCalls, Stepped
@@ -248,17 +247,6 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
             raise ArgumentError("objectHandles must be a list of handles")
         self._simulation_.selection = [self._world.get(_int(h, "objectHandle")).handle for h in objectHandles]
 
-    def getObjectPose(self, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
-        """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world)."""
-        h, rel = self._h(objectHandle), self._rel(relativeToObjectHandle)
-        return self._world.position(h, rel) + self._world.quaternion(h, rel)
-
-    def setObjectPose(self, objectHandle: Any, relativeTo: Any, pose: Any = None) -> None:  # noqa: N802, N803
-        """Place an object by a 7-number pose; ``(h, pose [, relativeTo])`` (4.5+) or
-        ``(h, relativeTo, pose)``; the rules of ``setObjectPosition`` hold."""
-        rel, value = self._order(relativeTo, pose)
-        v = _vector(value, 7, "pose")
-        self._set_pose(objectHandle, rel, position=v[:3], rotation=matrix_from_quaternion(*v[3:]))
 
     def getJointType(self, objectHandle: Any) -> int:  # noqa: N802, N803
         """``sim.joint_revolute_subtype`` (10) or ``sim.joint_prismatic_subtype`` (11)."""

@@ -91,3 +91,23 @@ def test_referenced_objects_are_removed(api, sim):
     api.removeReferencedObjects(a, "parts")
     assert b not in sim.world.objects and api.getReferencedHandles(a, "parts") == []
     assert isinstance(api.getThreadId(), int)
+
+
+def test_move_to_pose_in_steps_places_the_object(api):
+    d = api.createDummy(0.01)
+    api.setObjectPose(d, [0, 0, 0, 0, 0, 0, 1])
+    goal = [0.3, -0.2, 0.1, 0, 0, math.sin(0.5), math.cos(0.5)]  # 1 rad about z
+    data = api.moveToPose_init({"object": d, "targetPose": goal, "maxVel": [1, 1, 1, 2], "maxAccel": [2] * 4,
+                                "maxJerk": [20] * 4, "timeStep": 0.01})
+    res, steps, path = 0, 0, []
+    while res == 0 and steps < 2000:
+        res, data = api.moveToPose_step(data)
+        path.append(api.getObjectPose(d)[:3])
+        steps += 1
+    api.moveToPose_cleanup(data)
+    assert res == 1 and 10 < steps < 2000
+    assert api.getObjectPose(d) == pytest.approx(goal, abs=1e-6)
+    mid = np.array(path[len(path) // 2])
+    assert 0 < mid[0] < 0.3  # on the way, not jumped
+    with pytest.raises(ArgumentError, match="targetPose"):
+        api.moveToPose_init({"object": d})
