@@ -24,6 +24,7 @@ from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
 from simx_server.scripts.facade_clouds import CloudCalls
 from simx_server.scripts.facade_data import DataCalls
 from simx_server.scripts.facade_engine import EngineCalls
+from simx_server.scripts.facade_flags import FlagCalls
 from simx_server.scripts.facade_gui import GuiCalls
 from simx_server.scripts.facade_mesh import MeshCalls
 from simx_server.scripts.facade_misc import MiscCalls
@@ -52,7 +53,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(CloudCalls, ServiceCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
+class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.

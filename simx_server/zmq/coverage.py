@@ -55,9 +55,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                             "generateTextShape")},
     **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")
        for n in ("createJoint", "createForceSensor", "createProximitySensor", "createVisionSensor")},
-    **{n: ("missing", "object and model property flags (selectable, not collidable...): not mapped yet")
-       for n in ("convertPropertyValue", "getObjectProperty", "setObjectProperty", "getModelProperty",
-                 "setModelProperty", "getObjectSpecialProperty", "setObjectSpecialProperty")},
     **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
        for n in ("generateTimeOptimalTrajectory",)},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")

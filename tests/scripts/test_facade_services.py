@@ -111,3 +111,32 @@ def test_move_to_pose_in_steps_places_the_object(api):
     assert 0 < mid[0] < 0.3  # on the way, not jumped
     with pytest.raises(ArgumentError, match="targetPose"):
         api.moveToPose_init({"object": d})
+
+
+def test_property_flags_and_value_conversion(api):
+    a, d = api.getObject("/blockA"), api.createDummy(0.01)
+    assert api.getObjectSpecialProperty(a) == 1 | 2 | 496 | 512  # blockA's geom collides
+    assert api.getObjectSpecialProperty(api.getObject("/target")) == 512  # contype 0: renderable only
+    assert api.getObjectSpecialProperty(d) == 0
+    api.setObjectSpecialProperty(a, api.objectspecialproperty_renderable)
+    assert api.getObjectSpecialProperty(a) == 512
+    assert api.getObjectProperty(a) == api.objectproperty_selectable
+    api.setObjectProperty(a, api.objectproperty_collapsed)
+    assert api.getObjectProperty(a) == api.objectproperty_collapsed
+    assert api.getModelProperty(a) == api.modelproperty_not_model
+    api.setModelProperty(a, api.modelproperty_not_visible)
+    assert api.getModelProperty(a) == api.modelproperty_not_visible
+    conv = api.convertPropertyValue
+    assert conv(3.7, api.propertytype_float, api.propertytype_int) == 3
+    assert conv("hé", api.propertytype_string, api.propertytype_buffer) == "hé".encode()
+    q = [0, 0, math.sin(0.5), math.cos(0.5)]
+    m = conv(q, api.propertytype_quaternion, api.propertytype_matrix3x3)
+    assert m[:2] == pytest.approx([math.cos(1), -math.sin(1)])
+    assert conv(m, api.propertytype_matrix3x3, api.propertytype_quaternion) == pytest.approx(q)
+    m4 = conv([1, 2, 3, *q], api.propertytype_pose, api.propertytype_matrix4x4)
+    assert m4[3] == 1 and m4[7] == 2 and m4[12:] == [0, 0, 0, 1]
+    assert conv([1, 2, 3], api.propertytype_vector3, api.propertytype_floatarray) == [1, 2, 3]
+    with pytest.raises(ArgumentError, match="holds 3 numbers"):
+        conv([1, 2], api.propertytype_floatarray, api.propertytype_vector3)
+    with pytest.raises(ArgumentError, match="no conversion"):
+        conv("x", api.propertytype_string, api.propertytype_pose)
