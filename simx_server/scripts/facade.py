@@ -22,6 +22,7 @@ from typing import Any
 from simx_wire.protocol import UnsupportedError
 from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
 from simx_server.scripts.facade_clouds import CloudCalls
+from simx_server.scripts.facade_create import CreateCalls
 from simx_server.scripts.facade_data import DataCalls
 from simx_server.scripts.facade_engine import EngineCalls
 from simx_server.scripts.facade_flags import FlagCalls
@@ -53,7 +54,8 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
+class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls,
+                ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.

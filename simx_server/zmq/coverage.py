@@ -53,8 +53,9 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                             "setShapeBB", "scaleObjects", "createHeightfieldShape",
                                             "generateShapeFromPath",
                                             "generateTextShape")},
-    **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")
-       for n in ("createJoint", "createForceSensor", "createProximitySensor", "createVisionSensor")},
+    **{n: ("missing", "a joint or force sensor alone at the world origin: a MuJoCo joint or force sensor "
+                      "needs the body it moves or measures (make the body, then the joint, in MJCF)")
+       for n in ("createJoint", "createForceSensor")},
     **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
        for n in ("generateTimeOptimalTrajectory",)},
     **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")

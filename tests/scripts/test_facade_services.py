@@ -140,3 +140,27 @@ def test_property_flags_and_value_conversion(api):
         conv([1, 2], api.propertytype_floatarray, api.propertytype_vector3)
     with pytest.raises(ArgumentError, match="no conversion"):
         conv("x", api.propertytype_string, api.propertytype_pose)
+
+
+def test_sensors_created_at_run_time_see_and_detect(api, sim):
+    a = api.getObject("/blockA")  # a 0.2 m cube at (0, 2, 0.5)
+    cam = api.createVisionSensor(1, [32, 24, 0, 0], [0.01, 5, math.radians(60), 0.1, 0.1, 0.1, 0, 0, 0, 0, 0])
+    assert api.getObjectType(cam) == api.object_visionsensor_type
+    assert api.getVisionSensorRes(cam) == [32, 24]
+    assert api.getObjectMatrix(cam, -1) == pytest.approx([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0], abs=1e-9)
+    api.setObjectPosition(cam, -1, [0, 2, 0.0])  # under the cube, looking up (+z) at it
+    img, res = api.getVisionSensorImg(cam)
+    px = np.frombuffer(img, np.uint8).reshape(24, 32, 3)[12, 16]
+    assert res == [32, 24] and px[1] > 150 and px[0] < 100  # blockA is green
+    prox = api.createProximitySensor(api.proximitysensor_ray, 0, 0, [0] * 8, [0, 2] + [0] * 13)
+    assert api.getObjectType(prox) == api.object_proximitysensor_type
+    api.setObjectPosition(prox, -1, [0, 2, 0.0])
+    res, dist, _, hit, _ = api.readProximitySensor(prox)
+    assert (res, hit) == (1, a) and dist == pytest.approx(0.4, abs=1e-6)
+    cone = api.createProximitySensor(api.proximitysensor_cone, 0, 0, [0] * 8, [0, 2] + [0] * 7 + [0.5] + [0] * 5)
+    api.setObjectPosition(cone, -1, [0.15, 2, 0.0])  # beside the cube: only the cone's slanted rays reach it
+    assert api.readProximitySensor(cone)[0] == 1
+    with pytest.raises(Exception, match="ray .34. and cone"):
+        api.createProximitySensor(api.proximitysensor_pyramid, 0, 0, [0] * 8, [0, 2] + [0] * 13)
+    with pytest.raises(ArgumentError, match="near clipping"):
+        api.createVisionSensor(1, [32, 24, 0, 0], [5, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0])
