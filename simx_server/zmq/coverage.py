@@ -49,8 +49,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                         "duplicateGraphCurveToStatic", "getGraphCurve", "getGraphInfo",
                                         "setGraphStreamTransformation", "setGraphStreamValue")},
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
-    **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "relocateShapeFrame", "alignShapeBB",
-                                            "setShapeBB", "scaleObjects", "createHeightfieldShape",
+    **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "alignShapeBB", "createHeightfieldShape",
                                             "generateShapeFromPath",
                                             "generateTextShape")},
     **{n: ("missing", "a joint or force sensor alone at the world origin: a MuJoCo joint or force sensor "

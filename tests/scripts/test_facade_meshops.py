@@ -1,0 +1,65 @@
+"""Shape frame and size edits of the one ``sim`` facade (issue 32): relocateShapeFrame keeps the
+geometry in place, setShapeBB and scaleObjects resize through the MjSpec."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from simx_client.protocol import ArgumentError, UnsupportedError
+from simx_server.scene.simulation import Simulation
+from simx_server.scripts.facade import ScriptSim
+
+SENSORS = ROOT / "tests" / "scenes" / "sensors.xml"
+
+
+@pytest.fixture
+def sim():
+    s = Simulation(SENSORS, realtime=False)
+    s.start()
+    s.step()
+    yield s
+    s.stop()
+    s.close()
+
+
+@pytest.fixture
+def api(sim):
+    return ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
+
+
+def world_mesh(api, h):
+    v = np.array(api.getShapeMesh(h)[0]).reshape(-1, 3)
+    m = np.array(api.getObjectMatrix(h, -1)).reshape(3, 4)
+    return v @ m[:, :3].T + m[:, 3]
+
+
+def test_relocated_frame_leaves_the_geometry_in_place(api):
+    a = api.getObject("/blockA")
+    before = world_mesh(api, a)
+    pose = [0.3, 2.1, 0.7, 0, 0, np.sin(0.4), np.cos(0.4)]
+    assert api.relocateShapeFrame(a, pose) == 1
+    assert api.getObjectPose(a) == pytest.approx(pose, abs=1e-9)
+    assert world_mesh(api, a) == pytest.approx(before, abs=1e-9)
+    api.relocateShapeFrame(a, [0] * 7)  # back to the box's centre, axes kept
+    assert api.getObjectPosition(a) == pytest.approx([0, 2, 0.5], abs=1e-9)
+    assert world_mesh(api, a) == pytest.approx(before, abs=1e-9)
+    falling = api.getObject("/faller")  # a free body: its state follows the new frame
+    p = api.getObjectPosition(falling)
+    api.relocateShapeFrame(falling, [p[0] + 0.1, p[1], p[2], 0, 0, 0, 1])
+    assert api.getObjectPosition(falling) == pytest.approx([p[0] + 0.1, p[1], p[2]], abs=1e-9)
+    with pytest.raises(UnsupportedError, match="joints"):
+        api.relocateShapeFrame(api.getObject("/hinge_link"), [0] * 7)
+
+
+def test_bounding_box_size_and_scaling(api):
+    a, b = api.getObject("/blockA"), api.getObject("/blockB")
+    api.setShapeBB(a, [0.1, 0.4, 0.2])
+    assert api.getShapeBB(a) == pytest.approx([0.1, 0.4, 0.2])
+    pb = api.getObjectPosition(b)
+    api.scaleObjects([b], 2.0, True)
+    assert api.getShapeBB(b) == pytest.approx([0.4, 0.4, 0.4])
+    assert api.getObjectPosition(b) == pytest.approx([2 * c for c in pb])
+    with pytest.raises(ArgumentError, match="scalingFactor"):
+        api.scaleObjects([b], 0, False)
