@@ -27,6 +27,7 @@ from simx_server.scripts.facade_data import DataCalls
 from simx_server.scripts.facade_engine import EngineCalls
 from simx_server.scripts.facade_flags import FlagCalls
 from simx_server.scripts.facade_gui import GuiCalls
+from simx_server.scripts.facade_looks import LookCalls
 from simx_server.scripts.facade_mesh import MeshCalls
 from simx_server.scripts.facade_meshops import MeshOpCalls
 from simx_server.scripts.facade_misc import MiscCalls
@@ -55,7 +56,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls,
+class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls,
                 ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):

@@ -24,7 +24,8 @@ _MAIN = "the main script's own step: simx's loop runs it (sensing, dynamics, scr
 _PLUGIN = "CoppeliaSim's plugins do not exist in simx (MuJoCo is built in)"
 _CALLBACK = "takes a Lua/Python callback into the caller: a ZMQ client's function cannot be called back"
 _SECURITY = "refused by design: a script or client may not reach the host (docs/SECURITY.md)"
-_TEXTURE = "textures: MuJoCo's are compiled into the model; no run-time texture objects"
+_TEXTURE = ("textures made or changed at run time: MuJoCo's are compiled into the model and uploaded to the "
+            "renderer once (reading them works)")
 _GRAPH = "graph objects: MJCF has no counterpart (record data in the client)"
 _PARTICLES = "particles: no MuJoCo counterpart"
 _MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
@@ -43,8 +44,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                            "serialSend", "executeLuaCode", "executeScriptString", "systemSemaphore",
                                            "createScript", "persistentDataRead", "persistentDataWrite",
                                            "getPersistentDataTags", "getMatchingPersistentDataTags")},
-    **{n: ("missing", _TEXTURE) for n in ("createTexture", "readTexture", "writeTexture", "getTextureId",
-                                          "getShapeTextureId", "setShapeTexture")},
+    **{n: ("missing", _TEXTURE) for n in ("createTexture", "writeTexture", "setShapeTexture")},
     **{n: ("missing", _GRAPH) for n in ("addGraphCurve", "addGraphStream", "destroyGraphCurve",
                                         "duplicateGraphCurveToStatic", "getGraphCurve", "getGraphInfo",
                                         "setGraphStreamTransformation", "setGraphStreamValue")},
@@ -57,13 +57,12 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
        for n in ("createJoint", "createForceSensor")},
     **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
        for n in ("generateTimeOptimalTrajectory",)},
-    **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
-       for n in ("setObjectHierarchyOrder", "getLinkDummy", "setLinkDummy",
-                 "getObjectFloatArrayParam", "setObjectFloatArrayParam",
-                 "getObjectStringParam", "setObjectStringParam")},
-    **{n: ("missing", "appearance beyond colours (materials, lights' parameters): not written yet")
-       for n in ("getShapeAppearance", "setShapeAppearance", "setShapeMaterial", "checkVisionSensorEx", "checkProximitySensorEx",
-                 "checkProximitySensorEx2")},
+    **{n: ("missing", "hierarchy order and dummy links (MuJoCo welds) not mapped yet")
+       for n in ("setObjectHierarchyOrder", "getLinkDummy", "setLinkDummy")},
+    **{n: ("missing", "no writable string or float-array parameter is mapped (the readable ones are)")
+       for n in ("setObjectFloatArrayParam", "setObjectStringParam")},
+    **{n: ("missing", "sensor checks against given entities or geometry (the plain checks are implemented)")
+       for n in ("checkVisionSensorEx", "checkProximitySensorEx", "checkProximitySensorEx2")},
     **{n: ("missing", "application services: not written yet")
        for n in ("getStackTraceback", "getUserVariables",
                  "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},

@@ -63,3 +63,44 @@ def test_bounding_box_size_and_scaling(api):
     assert api.getObjectPosition(b) == pytest.approx([2 * c for c in pb])
     with pytest.raises(ArgumentError, match="scalingFactor"):
         api.scaleObjects([b], 0, False)
+
+
+LOOKS = """<mujoco><asset>
+  <texture name="checks" type="2d" builtin="checker" rgb1="1 0 0" rgb2="0 0 1" width="8" height="8"/>
+  <material name="tiles" texture="checks" specular="0.3" shininess="0.7"/>
+</asset><worldbody>
+  <body name="tiled"><geom name="face" type="box" size="0.1 0.1 0.1" material="tiles"/></body>
+  <body name="plain"><geom name="paint" type="box" size="0.1 0.1 0.1" rgba="0 1 0 1"/></body>
+  <camera name="eye" pos="0 0 1" resolution="40 20" fovy="90"/>
+</worldbody><custom><text name="simx:eye" data="near=0.1 far=2"/></custom></mujoco>"""
+
+
+def test_appearance_textures_and_parameters(tmp_path):
+    scene = tmp_path / "looks.xml"
+    scene.write_text(LOOKS)
+    sim = Simulation(scene, realtime=False)
+    sim.start()
+    try:
+        api = ScriptSim(sim.world, sim.world.resolve("tiled").handle, sim.signals, simulation=sim)
+        tiled, plain = api.getObject("/tiled"), api.getObject("/plain")
+        tex, res = api.getTextureId("checks")
+        assert api.getShapeTextureId(tiled) == tex and api.getShapeTextureId(plain) == -1
+        img = np.frombuffer(api.readTexture(tex), np.uint8).reshape(res[1], res[0], 3)
+        assert {tuple(p) for p in img.reshape(-1, 3)} == {(255, 0, 0), (0, 0, 255)}
+        assert len(api.readTexture(tex, 0, 1, 1, 2, 3)) == 2 * 3 * 3
+        with pytest.raises(ArgumentError, match="outside"):
+            api.readTexture(tex, 0, 0, 0, res[0] + 1, 1)
+        saved = api.getShapeAppearance(plain)
+        assert saved["geoms"][0]["color"] == [0, 1, 0, 1]
+        api.setShapeColor(plain, None, 0, [1, 1, 0])
+        api.setShapeAppearance(plain, saved)
+        assert api.getShapeColor(plain, None, 0)[1] == pytest.approx([0, 1, 0])
+        api.setShapeMaterial(plain, tiled)
+        assert api.getShapeAppearance(plain)["geoms"][0]["color"] == api.getShapeAppearance(tiled)["geoms"][0]["color"]
+        assert api.getObjectStringParam(plain, api.shapestringparam_colorname) == "paint"
+        f = np.array(api.getObjectFloatArrayParam(api.getObject("/eye"), api.visionfarrayparam_viewfrustum))
+        corners = f.reshape(8, 3)  # fovy 90 deg, aspect 2: the far plane 2 m away spans 8 x 4 m
+        assert corners[6] == pytest.approx([4, 2, 2]) and corners[0] == pytest.approx([-0.2, -0.1, 0.1])
+    finally:
+        sim.stop()
+        sim.close()

@@ -1,0 +1,167 @@
+"""CoppeliaSim 4.x's shape appearance, textures and the object string and float-array
+parameters (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
+
+* ``getShapeAppearance`` returns, per geom of the shape, its colour (RGBA 0..1) and, where it has
+  a MuJoCo material, the material's specular, emission and shininess; ``setShapeAppearance``
+  writes such a map back (the save / change / restore use of CoppeliaSim's), and
+  ``setShapeMaterial`` copies another shape's appearance. A material shared by several geoms
+  changes for all of them, as in MuJoCo.
+* Textures are MuJoCo's compiled textures: ``getTextureId`` by name, ``getShapeTextureId`` (the
+  RGB texture of the shape's first geom's material), ``readTexture`` (RGB bytes, rows bottom-up
+  as simx's images).
+* ``getObjectStringParam``: ``sim.objstringparam_unique_id`` (the uid as text),
+  ``sim.shapestringparam_colorname`` (the first geom's name, the name ``setShapeColor`` matches);
+  ``getObjectFloatArrayParam``: ``sim.visionfarrayparam_viewfrustum`` (a vision sensor's 8
+  frustum corners in its frame: near plane then far plane, each -x-y, +x-y, +x+y, -x+y).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, UnknownObjectError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_text as _text
+from simx_server.sim.objects import SHAPE
+from simx_server.sim.state import SimulationView
+
+UNIQUE_ID, COLORNAME, COLOR_NAME, VIEWFRUSTUM, CAMERA_VIEWFRUSTUM = 35, 3032, 3023, 1019, 9013
+
+
+def _rgb_role() -> int:
+    return int(mujoco.mjtTextureRole.mjTEXROLE_RGB)
+
+
+class LookCalls:
+    """Appearance, textures, string and float-array parameters (facade mixin)."""
+
+    def _shape_geoms(self, handle: Any) -> np.ndarray:
+        obj = self._world.get(self._h(handle, "shapeHandle"), SHAPE)
+        return np.flatnonzero(self._world.model.geom_bodyid == obj.mj_id)
+
+    def getShapeAppearance(self, handle: Any, opts: Any = None) -> dict:  # noqa: N802
+        """``{"geoms": [{"name", "color" (RGBA 0..1), ["specular", "emission", "shininess"]}]}``."""
+        m = self._world.model
+        out = []
+        for g in self._shape_geoms(handle):
+            item = {"name": mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or "",
+                    "color": m.geom_rgba[g].tolist()}
+            mat = int(m.geom_matid[g])
+            if mat >= 0:
+                item.update(color=m.mat_rgba[mat].tolist(), specular=float(m.mat_specular[mat]),
+                            emission=float(m.mat_emission[mat]), shininess=float(m.mat_shininess[mat]))
+            out.append(item)
+        return {"geoms": out}
+
+    def setShapeAppearance(self, handle: Any, savedData: Any, opts: Any = None) -> int:  # noqa: N802, N803
+        """Apply a map :meth:`getShapeAppearance` returned (one entry per geom, in order);
+        returns the shape's handle."""
+        geoms = self._shape_geoms(handle)
+        items = savedData.get("geoms") if isinstance(savedData, dict) else None
+        if not isinstance(items, list) or len(items) != len(geoms):
+            raise ArgumentError(f"savedData must hold 'geoms' with {len(geoms)} entries (getShapeAppearance's map)")
+        m = self._world.model
+        for g, item in zip(geoms, items):
+            rgba = item.get("color") if isinstance(item, dict) else None
+            if not isinstance(rgba, (list, tuple)) or len(rgba) != 4 or not all(0 <= float(c) <= 1 for c in rgba):
+                raise ArgumentError("each geom's color must be 4 numbers in 0..1")
+            m.geom_rgba[g] = rgba
+            mat = int(m.geom_matid[g])
+            if mat >= 0:
+                m.mat_rgba[mat] = rgba
+                for key, field in (("specular", m.mat_specular), ("emission", m.mat_emission),
+                                   ("shininess", m.mat_shininess)):
+                    if key in item:
+                        field[mat] = float(item[key])
+        self._world.version += 1
+        return self._h(handle, "shapeHandle")
+
+    def setShapeMaterial(self, shapeHandle: Any, materialIdOrShapeHandle: Any) -> None:  # noqa: N802, N803
+        """Give a shape the appearance of another shape (``materialIdOrShapeHandle``), geom by geom
+        (the first geom's for any beyond the other's count)."""
+        src = self.getShapeAppearance(materialIdOrShapeHandle)["geoms"]
+        n = len(self._shape_geoms(shapeHandle))
+        if not src:
+            raise ArgumentError("the source shape has no geom")
+        self.setShapeAppearance(shapeHandle, {"geoms": [src[i] if i < len(src) else src[0] for i in range(n)]})
+
+    # ------------------------------------------------------------------ textures
+    def getTextureId(self, textureName: Any) -> tuple[int, list[int]]:  # noqa: N802, N803
+        """``textureId, resolution`` of the MuJoCo texture named ``textureName``."""
+        name = _text(textureName, "textureName")
+        m = self._world.model
+        t = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TEXTURE, name)
+        if t < 0:
+            raise UnknownObjectError(f"no texture named {name!r}")
+        return t, [int(m.tex_width[t]), int(m.tex_height[t])]
+
+    def getShapeTextureId(self, shapeHandle: Any) -> int:  # noqa: N802, N803
+        """The RGB texture of the shape's first geom's material; -1 when it has none."""
+        m = self._world.model
+        for g in self._shape_geoms(shapeHandle):
+            mat = int(m.geom_matid[g])
+            return int(m.mat_texid[mat][_rgb_role()]) if mat >= 0 else -1
+        return -1
+
+    def readTexture(self, textureId: Any, options: Any = 0, posX: Any = 0, posY: Any = 0,  # noqa: N802, N803
+                    sizeX: Any = 0, sizeY: Any = 0) -> bytes:  # noqa: N803
+        """RGB bytes (rows bottom-up) of a texture or of a window ``posX..posX+sizeX`` x
+        ``posY..posY+sizeY`` of it (0 sizes: the whole)."""
+        m = self._world.model
+        t = _int(textureId, "textureId")
+        if not 0 <= t < m.ntex:
+            raise UnknownObjectError(f"no texture {t}")
+        _int(options, "options")
+        w, h, n = int(m.tex_width[t]), int(m.tex_height[t]), int(m.tex_nchannel[t])
+        adr = int(m.tex_adr[t])
+        img = np.asarray(m.tex_data[adr:adr + w * h * n], np.uint8).reshape(h, w, n)[::-1]
+        img = np.repeat(img, 3, axis=2) if n == 1 else img[:, :, :3]
+        x, y, sx, sy = (_int(v, k) for v, k in ((posX, "posX"), (posY, "posY"), (sizeX, "sizeX"), (sizeY, "sizeY")))
+        sx, sy = sx or w - x, sy or h - y
+        if x < 0 or y < 0 or sx <= 0 or sy <= 0 or x + sx > w or y + sy > h:
+            raise ArgumentError(f"the window lies outside the {w}x{h} texture")
+        return np.ascontiguousarray(img[y:y + sy, x:x + sx]).tobytes()
+
+    # ------------------------------------------------------------------ parameters
+    def getObjectStringParam(self, objectHandle: Any, parameterID: Any) -> str:  # noqa: N802, N803
+        """A string parameter (see the module's text); others: UnsupportedError naming it."""
+        h, pid = self._h(objectHandle), _int(parameterID, "parameterID")
+        obj = self._world.get(h)
+        if pid == UNIQUE_ID:
+            return str(obj.handle)
+        if pid in (COLORNAME, COLOR_NAME):
+            g = self._shape_geoms(h)
+            return (mujoco.mj_id2name(self._world.model, mujoco.mjtObj.mjOBJ_GEOM, int(g[0])) or "") if len(g) else ""
+        raise UnsupportedError(f"string parameter {pid} of {obj.name!r}: not supported by simx")
+
+    def getObjectFloatArrayParam(self, objectHandle: Any, parameterID: Any) -> list[float]:  # noqa: N802, N803
+        """``sim.visionfarrayparam_viewfrustum``: 24 numbers (m, see the module's text)."""
+        pid = _int(parameterID, "parameterID")
+        if pid not in (VIEWFRUSTUM, CAMERA_VIEWFRUSTUM):
+            raise UnsupportedError(f"float array parameter {pid}: not supported by simx")
+        h = self._vision(objectHandle)
+        spec = self._simulation("getObjectFloatArrayParam").vision.spec(h)
+        m = self._world.model
+        cam = self._world.objects[h].mj_id
+        aspect = spec.width / spec.height
+        out = []
+        for z in (spec.near, spec.far):
+            if int(m.cam_projection[cam]) == int(mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC):
+                hy = float(m.cam_fovy[cam]) / 2
+            else:
+                hy = math.tan(math.radians(float(m.cam_fovy[cam])) / 2) * z
+            hx = hy * aspect
+            out += [-hx, -hy, z, hx, -hy, z, hx, hy, z, -hx, hy, z]
+        return out
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
+
+        def _vision(self, handle: Any) -> int: ...
