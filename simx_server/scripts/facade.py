@@ -38,6 +38,7 @@ from simx_server.scripts.facade_ruckig import RuckigCalls
 from simx_server.scripts.facade_sensing import SensingCalls
 from simx_server.scripts.facade_services import ServiceCalls
 from simx_server.scripts.facade_shapes import ShapeCalls
+from simx_server.scripts.facade_trajectory import TrajectoryCalls
 from simx_server.scripts.facade_legacy import LegacyCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
 from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls
@@ -56,7 +57,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls,
+class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls,
                 ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):

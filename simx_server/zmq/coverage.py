@@ -55,8 +55,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "a joint or force sensor alone at the world origin: a MuJoCo joint or force sensor "
                       "needs the body it moves or measures (make the body, then the joint, in MJCF)")
        for n in ("createJoint", "createForceSensor")},
-    **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
-       for n in ("generateTimeOptimalTrajectory",)},
     **{n: ("missing", "hierarchy order and dummy links (MuJoCo welds) not mapped yet")
        for n in ("setObjectHierarchyOrder", "getLinkDummy", "setLinkDummy")},
     **{n: ("missing", "no writable string or float-array parameter is mapped (the readable ones are)")

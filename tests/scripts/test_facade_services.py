@@ -164,3 +164,20 @@ def test_sensors_created_at_run_time_see_and_detect(api, sim):
         api.createProximitySensor(api.proximitysensor_pyramid, 0, 0, [0] * 8, [0, 2] + [0] * 13)
     with pytest.raises(ArgumentError, match="near clipping"):
         api.createVisionSensor(1, [32, 24, 0, 0], [5, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0])
+
+
+def test_time_optimal_trajectory_is_bang_bang_on_a_line(api):
+    path, lengths = [0.0, 0.25, 0.5, 0.75, 1.0], [0.0, 0.25, 0.5, 0.75, 1.0]
+    pts, times = api.generateTimeOptimalTrajectory(path, lengths, [-0.5, 0.5], [-1, 1], 2000)
+    assert len(pts) == len(times) == 2000 and pts[0] == 0 and pts[-1] == pytest.approx(1)
+    # accelerate 0.5 s to 0.5 m/s, cruise 0.75 m, brake 0.5 s: 2.5 s
+    assert times[-1] == pytest.approx(2.5, rel=0.01)
+    speed = np.diff(pts) / np.diff(times)
+    assert speed.max() <= 0.5 * 1.01
+    # two joints: the slower one sets the pace
+    pts2, t2 = api.generateTimeOptimalTrajectory([0, 0, 1, 2], [0, 1], [-1, 1, -1, 1], [-10, 10, -10, 10], 500)
+    assert t2[-1] > 2.0 and np.array(pts2).reshape(-1, 2)[-1] == pytest.approx([1, 2])
+    with pytest.raises(ArgumentError, match="negative"):
+        api.generateTimeOptimalTrajectory(path, lengths, [0.5, 0.5], [-1, 1])
+    with pytest.raises(ArgumentError, match="increase"):
+        api.generateTimeOptimalTrajectory([0, 0], [0, 0], [-1, 1], [-1, 1])
