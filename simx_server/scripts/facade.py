@@ -21,6 +21,7 @@ from typing import Any
 
 from simx_wire.protocol import UnsupportedError
 from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
+from simx_server.scripts.facade_build import BuildCalls
 from simx_server.scripts.facade_clouds import CloudCalls
 from simx_server.scripts.facade_create import CreateCalls
 from simx_server.scripts.facade_data import DataCalls
@@ -57,7 +58,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls,
+class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
                 ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):

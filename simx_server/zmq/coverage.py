@@ -49,7 +49,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                         "duplicateGraphCurveToStatic", "getGraphCurve", "getGraphInfo",
                                         "setGraphStreamTransformation", "setGraphStreamValue")},
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
-    **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "alignShapeBB", "createHeightfieldShape",
+    **{n: ("missing", _MESH_EDIT) for n in ("alignShapeBB",
                                             "generateShapeFromPath",
                                             "generateTextShape")},
     **{n: ("missing", "a joint or force sensor alone at the world origin: a MuJoCo joint or force sensor "

@@ -104,3 +104,41 @@ def test_appearance_textures_and_parameters(tmp_path):
     finally:
         sim.stop()
         sim.close()
+
+
+def test_heightfield_shape_has_the_given_heights(api, sim):
+    xs = np.linspace(-0.5, 0.5, 5)
+    ys = np.linspace(-0.25, 0.25, 3)
+    heights = [0.1 + 0.2 * (x + 0.5) for y in ys for x in xs]  # a slope along x, from 0.1 to 0.3 m
+    hf = api.createHeightfieldShape(0, 0.5, 5, 3, 1.0, heights)
+    assert api.getObjectType(hf) == api.object_shape_type
+    assert api.getShapeBB(hf)[:2] == pytest.approx([1.0, 0.5])
+    # a ray straight down meets the surface at the given height
+    m, d = sim.world.model, sim.world.data
+    import mujoco  # noqa: PLC0415
+    geomid = np.array([-1], np.int32)
+    for x, expect in ((-0.25, 0.15), (0.25, 0.25)):
+        dist = mujoco.mj_ray(m, d, np.array([x, 0.0, 2.0]), np.array([0.0, 0.0, -1.0]), None, 1, -1, geomid)
+        assert 2.0 - dist == pytest.approx(expect, abs=1e-6)
+    with pytest.raises(ArgumentError, match="15 numbers"):
+        api.createHeightfieldShape(0, 0.5, 5, 3, 1.0, [0.0] * 14)
+
+
+def test_group_then_ungroup_keeps_the_geometry(api, sim):
+    a, b = api.getObject("/blockA"), api.getObject("/blockB")
+    before = np.vstack([world_mesh(api, a), world_mesh(api, b)])
+    mass = api.getShapeMass(a) + api.getShapeMass(b)
+    c = api.groupShapes([a, b])
+    assert c == a and b not in sim.world.objects
+    assert api.getShapeGeomInfo(c)[0] & 1  # compound
+    assert world_mesh(api, c) == pytest.approx(before, abs=1e-9)
+    assert api.getShapeBB(c) == pytest.approx([0.45, 0.2, 0.2])
+    assert api.getShapeMass(c) == pytest.approx(mass)  # MuJoCo's inertia from both geoms
+    parts = api.ungroupShape(c)
+    assert len(parts) == 2 and parts[0] == c
+    assert np.vstack([world_mesh(api, p) for p in parts]) == pytest.approx(before, abs=1e-9)
+    assert api.ungroupShape(parts[1]) == [parts[1]]
+    with pytest.raises(UnsupportedError, match="joints"):
+        api.groupShapes([a, api.getObject("/hinge_link")])
+    with pytest.raises(ArgumentError, match="at least 2"):
+        api.groupShapes([a])
