@@ -27,6 +27,7 @@ from simx_server.scripts.facade_create import CreateCalls
 from simx_server.scripts.facade_data import DataCalls
 from simx_server.scripts.facade_engine import EngineCalls
 from simx_server.scripts.facade_flags import FlagCalls
+from simx_server.scripts.facade_graphs import GraphCalls
 from simx_server.scripts.facade_gui import GuiCalls
 from simx_server.scripts.facade_looks import LookCalls
 from simx_server.scripts.facade_mesh import MeshCalls
@@ -59,7 +60,8 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
 
 
 class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
-                ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
+                GraphCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
+                DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.

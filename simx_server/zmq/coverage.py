@@ -26,7 +26,7 @@ _CALLBACK = "takes a Lua/Python callback into the caller: a ZMQ client's functio
 _SECURITY = "refused by design: a script or client may not reach the host (docs/SECURITY.md)"
 _TEXTURE = ("textures made or changed at run time: MuJoCo's are compiled into the model and uploaded to the "
             "renderer once (reading them works)")
-_GRAPH = "graph objects: MJCF has no counterpart (record data in the client)"
+_GRAPH = "a graph's display settings (colours, flags): simx keeps its streams and curves, not a view of them"
 _PARTICLES = "particles: no MuJoCo counterpart"
 _MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
 
@@ -45,9 +45,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                            "createScript", "persistentDataRead", "persistentDataWrite",
                                            "getPersistentDataTags", "getMatchingPersistentDataTags")},
     **{n: ("missing", _TEXTURE) for n in ("createTexture", "writeTexture", "setShapeTexture")},
-    **{n: ("missing", _GRAPH) for n in ("addGraphCurve", "addGraphStream", "destroyGraphCurve",
-                                        "duplicateGraphCurveToStatic", "getGraphCurve", "getGraphInfo",
-                                        "setGraphStreamTransformation", "setGraphStreamValue")},
+    "getGraphInfo": ("missing", _GRAPH),
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
     **{n: ("missing", _MESH_EDIT) for n in ("alignShapeBB",
                                             "generateShapeFromPath",
