@@ -11,6 +11,7 @@ are written and read top-down (the picture the right way up).
 
 from __future__ import annotations
 
+import math
 import os
 import threading
 from pathlib import Path
@@ -23,7 +24,8 @@ import numpy as np
 from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
-from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_text as _text, as_vector as _vector
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
+from simx_server.base.arguments import as_vector as _vector
 from simx_server.sim.objects import JOINT, SHAPE, WORLD
 from simx_server.sim.rotations import matrix_from_quaternion
 from simx_server.sim.state import SimulationView
@@ -197,6 +199,26 @@ class ServiceCalls:
         else:
             raise UnsupportedError(f"{obj.name!r} is a free joint: set its body's pose")
 
+    def checkProximitySensorEx(self, sensorHandle: Any, entityHandle: Any, mode: Any, threshold: Any,  # noqa: N802, N803
+                               maxAngle: Any) -> tuple[int, float, list[float], int, list[float]]:  # noqa: N803
+        """``result, distance, detectedPoint, detectedObjectHandle, normalVector`` (sensor frame) of
+        the sensor's ray(s) against ``entityHandle`` (``sim.handle_all``: any shape), counting a
+        detection only within ``threshold`` m and, with ``mode`` bit 3, where the surface faces the
+        sensor within ``maxAngle`` (rad). ``mode`` bit 0 asks for front faces (what MuJoCo's rays
+        see); back faces alone (bit 1 without bit 0): UnsupportedError. Bit 2 (fast) changes
+        nothing: the rays are exact."""
+        opts, limit, angle = _int(mode, "mode"), _num(threshold, "threshold"), _num(maxAngle, "maxAngle")
+        if not opts & 1:
+            raise UnsupportedError("checkProximitySensorEx: MuJoCo's rays detect front faces only (set mode bit 0)")
+        res, dist, point, hit, normal = self.readProximitySensor(self._h(sensorHandle, "sensorHandle"))
+        entity = _int(entityHandle, "entityHandle")
+        none = (0, 0.0, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0])
+        if not res or dist > limit or (entity != -2 and hit != self._world.get(entity).handle):
+            return none
+        if opts & 8 and math.acos(max(-1.0, min(1.0, -float(normal[2])))) > angle:
+            return none
+        return res, dist, point, hit, normal
+
     def removeReferencedObjects(self, objectHandle: Any, tag: Any = "") -> None:  # noqa: N802, N803
         """Remove from the scene the objects ``objectHandle`` references under ``tag``
         (``sim.setReferencedHandles``), then forget the references."""
@@ -252,6 +274,8 @@ class ServiceCalls:
         def setReferencedHandles(self, objectHandle: Any, referencedHandles: Any, tag: Any = "") -> None: ...
 
         def setJointPosition(self, handle: Any, position: Any) -> None: ...
+
+        def readProximitySensor(self, handle: Any) -> tuple[int, float, list[float], int, list[float]]: ...
 
         def createPrimitiveShape(self, primitiveType: Any, sizes: Any, options: Any = 0) -> int: ...
 

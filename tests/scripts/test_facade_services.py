@@ -181,3 +181,18 @@ def test_time_optimal_trajectory_is_bang_bang_on_a_line(api):
         api.generateTimeOptimalTrajectory(path, lengths, [0.5, 0.5], [-1, 1])
     with pytest.raises(ArgumentError, match="increase"):
         api.generateTimeOptimalTrajectory([0, 0], [0, 0], [-1, 1], [-1, 1])
+
+
+def test_proximity_check_with_threshold_and_angle(api):
+    a = api.getObject("/blockA")  # a 0.2 m cube at (0, 2, 0.5)
+    prox = api.createProximitySensor(api.proximitysensor_ray, 0, 0, [0] * 8, [0, 2] + [0] * 13)
+    api.setObjectPosition(prox, -1, [0, 2, 0.0])  # 0.4 m under the cube, looking up at its face
+    res, dist, _, hit, normal = api.checkProximitySensorEx(prox, api.handle_all, 1, 1.0, 0)
+    assert (res, hit) == (1, a) and dist == pytest.approx(0.4, abs=1e-6)
+    assert api.checkProximitySensorEx(prox, a, 1, 0.3, 0)[0] == 0  # beyond the threshold
+    api.setObjectOrientation(prox, -1, [0.2, 0, 0])  # tilted 0.2 rad: the face is seen at 0.2 rad
+    assert api.checkProximitySensorEx(prox, a, 1 | 8, 1.0, 0.3)[0] == 1
+    assert api.checkProximitySensorEx(prox, a, 1 | 8, 1.0, 0.1)[0] == 0
+    assert api.checkProximitySensorEx(prox, a, 1, 1.0, 0.1)[0] == 1  # bit 3 off: no angle limit
+    with pytest.raises(Exception, match="front faces"):
+        api.checkProximitySensorEx(prox, a, 2, 1.0, 0)
