@@ -29,6 +29,7 @@ from simx_server.scripts.facade_engine import EngineCalls
 from simx_server.scripts.facade_flags import FlagCalls
 from simx_server.scripts.facade_graphs import GraphCalls
 from simx_server.scripts.facade_gui import GuiCalls
+from simx_server.scripts.facade_links import LinkCalls
 from simx_server.scripts.facade_looks import LookCalls
 from simx_server.scripts.facade_mesh import MeshCalls
 from simx_server.scripts.facade_meshops import MeshOpCalls
@@ -60,7 +61,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
 
 
 class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
-                GraphCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
+                GraphCalls, LinkCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
                 DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):

@@ -53,12 +53,11 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "a joint or force sensor alone at the world origin: a MuJoCo joint or force sensor "
                       "needs the body it moves or measures (make the body, then the joint, in MJCF)")
        for n in ("createJoint", "createForceSensor")},
-    **{n: ("missing", "hierarchy order and dummy links (MuJoCo welds) not mapped yet")
-       for n in ("setObjectHierarchyOrder", "getLinkDummy", "setLinkDummy")},
+    "setObjectHierarchyOrder": ("missing", "MjSpec cannot reorder a body's children in place"),
     **{n: ("missing", "no writable string or float-array parameter is mapped (the readable ones are)")
        for n in ("setObjectFloatArrayParam", "setObjectStringParam")},
     **{n: ("missing", "sensor checks against given entities or geometry (the plain checks are implemented)")
-       for n in ("checkVisionSensorEx", "checkProximitySensorEx2")},
+       for n in ("checkProximitySensorEx2",)},
     **{n: ("missing", "application services: not written yet")
        for n in ("getStackTraceback", "getUserVariables",
                  "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},

@@ -142,3 +142,38 @@ def test_group_then_ungroup_keeps_the_geometry(api, sim):
         api.groupShapes([a, api.getObject("/hinge_link")])
     with pytest.raises(ArgumentError, match="at least 2"):
         api.groupShapes([a])
+
+
+WELDED = """<mujoco><worldbody>
+  <body name="arm" pos="0 0 1"><freejoint/><geom size="0.05"/><site name="tipA"/></body>
+  <site name="anchor" pos="0 0 1"/><site name="free1"/><site name="free2"/>
+</worldbody><equality><weld site1="tipA" site2="anchor"/></equality></mujoco>"""
+
+
+def test_dummy_links_and_vision_check_image(tmp_path):
+    scene = tmp_path / "welded.xml"
+    scene.write_text(WELDED)
+    sim = Simulation(scene, realtime=False)
+    sim.start()
+    try:
+        api = ScriptSim(sim.world, sim.world.resolve("arm").handle, sim.signals, simulation=sim)
+        tip, anchor, f1, f2 = (api.getObject("/" + n) for n in ("arm/tipA", "anchor", "free1", "free2"))
+        assert api.getLinkDummy(tip) == anchor and api.getLinkDummy(anchor) == tip  # the MJCF weld
+        assert api.getLinkDummy(f1) == -1
+        api.setLinkDummy(f1, f2)
+        assert api.getLinkDummy(f2) == f1
+        api.setLinkDummy(f2, -1)
+        assert api.getLinkDummy(f1) == -1
+        with pytest.raises(Exception, match="dummy"):
+            api.setLinkDummy(f1, api.getObject("/arm"))
+        cam = api.createVisionSensor(1, [8, 6, 0, 0], [0.01, 5, 1.0, 0, 0, 0, 0, 0, 0, 0, 0])
+        rgb = api.checkVisionSensorEx(cam, api.handle_all, True)
+        depth = api.checkVisionSensorEx(cam, api.handle_all, False)
+        img, _ = api.getVisionSensorImg(cam)
+        assert rgb == pytest.approx((np.frombuffer(img, np.uint8) / 255.0).tolist())
+        assert len(depth) == 48 and all(0 <= v <= 1 for v in depth)
+        with pytest.raises(UnsupportedError, match="whole scene"):
+            api.checkVisionSensorEx(cam, api.getObject("/arm"), True)
+    finally:
+        sim.stop()
+        sim.close()
