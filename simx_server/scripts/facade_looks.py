@@ -8,7 +8,7 @@ parameters (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
   changes for all of them, as in MuJoCo.
 * Textures are MuJoCo's compiled textures: ``getTextureId`` by name, ``getShapeTextureId`` (the
   RGB texture of the shape's first geom's material), ``readTexture`` (RGB bytes, rows bottom-up
-  as simx's images).
+  as simx's images), ``setShapeTexture`` (a material of the shape's own with the texture).
 * ``getObjectStringParam``: ``sim.objstringparam_unique_id`` (the uid as text),
   ``sim.shapestringparam_colorname`` (the first geom's name, the name ``setShapeColor`` matches);
   ``getObjectFloatArrayParam``: ``sim.visionfarrayparam_viewfrustum`` (a vision sensor's 8
@@ -124,6 +124,47 @@ class LookCalls:
         if x < 0 or y < 0 or sx <= 0 or sy <= 0 or x + sx > w or y + sy > h:
             raise ArgumentError(f"the window lies outside the {w}x{h} texture")
         return np.ascontiguousarray(img[y:y + sy, x:x + sx]).tobytes()
+
+    def setShapeTexture(self, shapeHandle: Any, textureId: Any, mappingMode: Any, options: Any,  # noqa: N802, N803
+                        uvScaling: Any, position: Any = None, orientation: Any = None) -> None:
+        """Put MuJoCo texture ``textureId`` on the shape's geoms (a material of its own with that
+        RGB texture, repeated ``uvScaling`` u, v times) or, with -1, take their materials off
+        (their colour kept). MuJoCo maps a texture by the geom's type: ``mappingMode``,
+        ``position`` and ``orientation`` are checked and have no further effect."""
+        geoms = self._shape_geoms(shapeHandle)
+        obj = self._world.objects[self._h(shapeHandle, "shapeHandle")]
+        m = self._world.model
+        t = _int(textureId, "textureId")
+        _int(mappingMode, "mappingMode")
+        _int(options, "options")
+        if t != -1 and not 0 <= t < m.ntex:
+            raise UnknownObjectError(f"no texture {t}")
+        if not isinstance(uvScaling, (list, tuple)) or len(uvScaling) < 2 or not all(float(v) > 0 for v in uvScaling[:2]):
+            raise ArgumentError("uvScaling must hold 2 positive numbers")
+        colours = [(m.mat_rgba[m.geom_matid[g]] if m.geom_matid[g] >= 0 else m.geom_rgba[g]).tolist() for g in geoms]
+        texture = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TEXTURE, t) if t != -1 else None
+        if t != -1 and not texture:
+            raise UnsupportedError("setShapeTexture: the texture has no name to refer to")
+        sim = self._simulation("setShapeTexture")
+
+        def change(spec: mujoco.MjSpec) -> None:
+            body = spec.body(obj.name)
+            sources = list(body.geoms)
+            if len(sources) != len(geoms):
+                raise ValueError(f"{obj.name!r}'s geoms do not match its compiled model")
+            material = ""
+            if texture:
+                material = f"{obj.name}_{texture}_texture"
+                mat = spec.material(material) or spec.add_material(name=material)
+                textures = list(mat.textures)
+                textures[_rgb_role()] = texture
+                mat.textures = textures
+                mat.texrepeat = [float(uvScaling[0]), float(uvScaling[1])]
+            for geom, rgba in zip(sources, colours):
+                geom.material = material
+                geom.rgba = rgba
+
+        sim.editor._edit(change)
 
     # ------------------------------------------------------------------ parameters
     def getObjectStringParam(self, objectHandle: Any, parameterID: Any) -> str:  # noqa: N802, N803

@@ -44,7 +44,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                            "serialSend", "executeLuaCode", "executeScriptString", "systemSemaphore",
                                            "createScript", "persistentDataRead", "persistentDataWrite",
                                            "getPersistentDataTags", "getMatchingPersistentDataTags")},
-    **{n: ("missing", _TEXTURE) for n in ("createTexture", "writeTexture", "setShapeTexture")},
+    **{n: ("missing", _TEXTURE) for n in ("createTexture", "writeTexture")},
     "getGraphInfo": ("missing", _GRAPH),
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
     **{n: ("missing", _MESH_EDIT) for n in ("alignShapeBB",

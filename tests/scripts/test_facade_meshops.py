@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from simx_client.protocol import ArgumentError, UnsupportedError
+from simx_client.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.scene.simulation import Simulation
 from simx_server.scripts.facade import ScriptSim
 
@@ -98,6 +98,15 @@ def test_appearance_textures_and_parameters(tmp_path):
         api.setShapeMaterial(plain, tiled)
         assert api.getShapeAppearance(plain)["geoms"][0]["color"] == api.getShapeAppearance(tiled)["geoms"][0]["color"]
         assert api.getObjectStringParam(plain, api.shapestringparam_colorname) == "paint"
+        api.setShapeTexture(plain, tex, 0, 0, [2, 3])
+        assert api.getShapeTextureId(plain) == tex
+        m = sim.world.model
+        mat = m.geom_matid[sim.world.model.geom_bodyid == sim.world.resolve("plain").mj_id][0]
+        assert m.mat_texrepeat[mat] == pytest.approx([2, 3])
+        api.setShapeTexture(plain, -1, 0, 0, [1, 1])
+        assert api.getShapeTextureId(plain) == -1
+        with pytest.raises(RemoteError, match="no texture"):
+            api.setShapeTexture(plain, 99, 0, 0, [1, 1])
         f = np.array(api.getObjectFloatArrayParam(api.getObject("/eye"), api.visionfarrayparam_viewfrustum))
         corners = f.reshape(8, 3)  # fovy 90 deg, aspect 2: the far plane 2 m away spans 8 x 4 m
         assert corners[6] == pytest.approx([4, 2, 2]) and corners[0] == pytest.approx([-0.2, -0.1, 0.1])
