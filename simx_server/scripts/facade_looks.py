@@ -20,12 +20,14 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
+import cv2
 import mujoco
 import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnknownObjectError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_text as _text
 from simx_server.sim.objects import SHAPE
+from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_server.sim.state import SimulationView
 
 UNIQUE_ID, COLORNAME, COLOR_NAME, VIEWFRUSTUM, CAMERA_VIEWFRUSTUM = 35, 3032, 3023, 1019, 9013
@@ -125,6 +127,44 @@ class LookCalls:
             raise ArgumentError(f"the window lies outside the {w}x{h} texture")
         return np.ascontiguousarray(img[y:y + sy, x:x + sx]).tobytes()
 
+    def createTexture(self, fileName: Any, options: Any, planeSizes: Any = None, scalingUV: Any = None,  # noqa: N802, N803
+                      xy_g: Any = None, fixedResolution: Any = 0, resolution: Any = None) -> tuple[int, int, list[int]]:  # noqa: N803
+        """``shapeHandle, textureId, resolution``: an image file (read under ``loadImage``'s
+        confinement) made a MuJoCo texture, shown on a new static plane shape at the world origin
+        of ``planeSizes`` x, y (m; nil: 1 m wide, the image's aspect) with the texture repeated
+        ``scalingUV`` u, v times. ``options``, ``xy_g``, ``fixedResolution`` and ``resolution``
+        (OpenGL texture settings) are checked and have no further effect."""
+        _int(options, "options")
+        _int(fixedResolution, "fixedResolution")
+        data = self._image_file(_text(fileName, "fileName"), False).read_bytes()
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+        if img is None:
+            raise ArgumentError("not an image OpenCV can read")
+        h, w = img.shape[:2]
+        rgb = np.ascontiguousarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB))
+        sx, sy = (float(v) for v in (planeSizes or [1.0, h / w])[:2])
+        u, v = (float(x) for x in (scalingUV or [1.0, 1.0])[:2])
+        if not (sx > 0 and sy > 0 and u > 0 and v > 0):
+            raise ArgumentError("planeSizes and scalingUV must be positive")
+        sim = self._simulation("createTexture")
+
+        def change(spec: mujoco.MjSpec):
+            suffix = vrep_suffix({"Texture_plane", "Texture"}, _names(spec) | set(sim.world.by_name))
+            tex = spec.add_texture(name=f"Texture{suffix}", type=mujoco.mjtTexture.mjTEXTURE_2D, width=w, height=h,
+                                   nchannel=3)
+            tex.data = rgb.tobytes()
+            mat = spec.add_material(name=f"Texture{suffix}_material", texrepeat=[u, v])
+            textures = list(mat.textures)
+            textures[_rgb_role()] = tex.name
+            mat.textures = textures
+            body = spec.worldbody.add_body(name=f"Texture_plane{suffix}")
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx / 2, sy / 2, 0.0005], material=mat.name)
+            return lambda: (sim.world.resolve(f"Texture_plane{suffix}").handle,
+                            mujoco.mj_name2id(sim.world.model, mujoco.mjtObj.mjOBJ_TEXTURE, f"Texture{suffix}"))
+
+        shape, texture = sim.editor._edit(change)
+        return shape, texture, [w, h]
+
     def setShapeTexture(self, shapeHandle: Any, textureId: Any, mappingMode: Any, options: Any,  # noqa: N802, N803
                         uvScaling: Any, position: Any = None, orientation: Any = None) -> None:
         """Put MuJoCo texture ``textureId`` on the shape's geoms (a material of its own with that
@@ -206,3 +246,5 @@ class LookCalls:
         def _simulation(self, what: str) -> SimulationView: ...
 
         def _vision(self, handle: Any) -> int: ...
+
+        def _image_file(self, filename: str, writing: bool) -> Any: ...

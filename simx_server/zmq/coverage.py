@@ -24,8 +24,8 @@ _MAIN = "the main script's own step: simx's loop runs it (sensing, dynamics, scr
 _PLUGIN = "CoppeliaSim's plugins do not exist in simx (MuJoCo is built in)"
 _CALLBACK = "takes a Lua/Python callback into the caller: a ZMQ client's function cannot be called back"
 _SECURITY = "refused by design: a script or client may not reach the host (docs/SECURITY.md)"
-_TEXTURE = ("textures made or changed at run time: MuJoCo's are compiled into the model and uploaded to the "
-            "renderer once (reading them works)")
+_TEXTURE = ("textures changed in place at run time: MuJoCo uploads a texture to the renderer once "
+            "(new textures come with a recompile: createTexture)")
 _GRAPH = "a graph's display settings (colours, flags): simx keeps its streams and curves, not a view of them"
 _PARTICLES = "particles: no MuJoCo counterpart"
 _MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
@@ -44,7 +44,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                            "serialSend", "executeLuaCode", "executeScriptString", "systemSemaphore",
                                            "createScript", "persistentDataRead", "persistentDataWrite",
                                            "getPersistentDataTags", "getMatchingPersistentDataTags")},
-    **{n: ("missing", _TEXTURE) for n in ("createTexture", "writeTexture")},
+    "writeTexture": ("missing", _TEXTURE),
     "getGraphInfo": ("missing", _GRAPH),
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
     **{n: ("missing", _MESH_EDIT) for n in ("alignShapeBB",

@@ -107,6 +107,15 @@ def test_appearance_textures_and_parameters(tmp_path):
         assert api.getShapeTextureId(plain) == -1
         with pytest.raises(RemoteError, match="no texture"):
             api.setShapeTexture(plain, 99, 0, 0, [1, 1])
+        picture = np.zeros((2, 4, 3), np.uint8)
+        picture[0] = [0, 0, 255]  # OpenCV's BGR: the top row red
+        import cv2  # noqa: PLC0415
+        cv2.imwrite(str(tmp_path / "pic.png"), picture)
+        shape, tid, size = api.createTexture("pic.png", 0, [0.4, 0.2])
+        assert size == [4, 2] and api.getShapeTextureId(shape) == tid
+        assert api.getShapeBB(shape)[:2] == pytest.approx([0.4, 0.2])
+        top = np.frombuffer(api.readTexture(tid), np.uint8).reshape(2, 4, 3)[1]  # rows bottom-up
+        assert top.tolist() == [[255, 0, 0]] * 4
         f = np.array(api.getObjectFloatArrayParam(api.getObject("/eye"), api.visionfarrayparam_viewfrustum))
         corners = f.reshape(8, 3)  # fovy 90 deg, aspect 2: the far plane 2 m away spans 8 x 4 m
         assert corners[6] == pytest.approx([4, 2, 2]) and corners[0] == pytest.approx([-0.2, -0.1, 0.1])
