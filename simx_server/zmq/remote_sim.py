@@ -6,7 +6,7 @@ read from the simulation at each call (a scene load replaces it). On top it adds
 program outside the scene makes and a script did not need (CoppeliaSim 4.x's names, arguments and
 returns): running the simulation, its parameters, scene files, removing objects, poses as 7
 numbers, passive vision sensors and depth buffers, calls into the scene's child scripts, the
-log, and pose arithmetic (:class:`~simx_server.zmq.pose_math.PoseMath`). The stepping calls
+log; pose arithmetic comes with ScriptSim (:class:`~simx_server.scripts.facade_posemath.PoseMath`). The stepping calls
 (``sim.setStepping``, ``sim.step``, ``sim.acquireLock``, ``sim.releaseLock``) belong to a client,
 not to the scene: :mod:`simx_server.zmq.service` answers them.
 
@@ -37,7 +37,6 @@ from simx_server.sim.objects import JOINT, WORLD
 from simx_server.sim.state import RunState
 from simx_server.zmq import names
 from simx_server.zmq.motion import MAX_MOTION_STEPS, MotionCalls, Stepped
-from simx_server.zmq.pose_math import PoseMath
 
 log = logging.getLogger("simx.zmq")
 
@@ -63,7 +62,7 @@ def _strings(value: Any) -> Any:
     return value
 
 
-class RemoteSim(MotionCalls, PoseMath, ScriptSim):
+class RemoteSim(MotionCalls, ScriptSim):
     """``sim`` as the ZMQ remote API offers it, over one :class:`Simulation`.
 
     Args:

@@ -93,6 +93,11 @@ function cloud(ints, floats, strings, buf)
     local n = sim.insertObjectIntoPointCloud(pc, oc, 0, 0.1)
     return {n}, sim.getPointCloudPoints(pc)
 end
+function poses(ints, floats, strings, buf)
+    local p = sim.multiplyPoses({1, 0, 0, 0, 0, 0, 1}, {0, 2, 0, 0, 0, 0, 1})
+    local m = sim.poseToMatrix(p)
+    return {}, {p[1], p[2], m[4], m[8]}
+end
 """
 
 
@@ -107,6 +112,8 @@ def test_lua_script_builds_a_cloud_from_an_octree(tmp_path):
         ints, floats, _, _ = sim.scripts.call("Cloud", 1, "cloud", [], [], [], b"")
         assert ints == [2]
         assert floats == pytest.approx([0.05, 0.05, 0.05, 0.35, 0.05, 0.05])
+        _, floats, _, _ = sim.scripts.call("Cloud", 1, "poses", [], [], [], b"")
+        assert floats == pytest.approx([1, 2, 1, 2])  # pose arithmetic in scripts too
     finally:
         sim.stop()
         sim.close()
