@@ -23,6 +23,7 @@ from simx_wire.protocol import UnsupportedError
 from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
 from simx_server.scripts.facade_build import BuildCalls
 from simx_server.scripts.facade_clouds import CloudCalls
+from simx_server.scripts.facade_common import CommonCalls
 from simx_server.scripts.facade_create import CreateCalls
 from simx_server.scripts.facade_data import DataCalls
 from simx_server.scripts.facade_engine import EngineCalls
@@ -62,7 +63,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
 
 
 class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
-                GraphCalls, LinkCalls, PoseMath, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
+                GraphCalls, LinkCalls, PoseMath, CommonCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
                 DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):

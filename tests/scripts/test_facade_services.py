@@ -196,3 +196,19 @@ def test_proximity_check_with_threshold_and_angle(api):
     assert api.checkProximitySensorEx(prox, a, 1, 1.0, 0.1)[0] == 1  # bit 3 off: no angle limit
     with pytest.raises(Exception, match="front faces"):
         api.checkProximitySensorEx(prox, a, 2, 1.0, 0)
+
+
+def test_scripts_share_the_remote_programs_object_calls(api, sim):
+    hinge, mount = api.getObject("/hinge"), api.getObject("/mount")
+    assert api.getJointType(hinge) == api.joint_revolute_subtype
+    assert api.getJointType(api.getObject("/target_x")) == api.joint_prismatic_subtype
+    assert api.getObjectChild(mount, 0) == api.getObject("/mount/payload") and api.getObjectChild(mount, 5) == -1
+    assert api.isHandle(mount) and not api.isHandle(987654)
+    api.setJointTargetVelocity(hinge, 0.0)
+    assert api.getJointVelocity(hinge) == pytest.approx(0.0, abs=1e-9)
+    cam = api.createVisionSensor(1, [8, 6, 0, 0], [0.01, 5, 1.0, 0, 0, 0, 0, 0, 0, 0, 0])
+    depth, res = api.getVisionSensorDepth(cam)
+    assert res == [8, 6] and len(depth) == 8 * 6 * 4
+    b = api.getObject("/blockB")
+    api.removeObjects([b])
+    assert not api.isHandle(b)
