@@ -56,8 +56,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     "setObjectHierarchyOrder": ("missing", "MjSpec cannot reorder a body's children in place"),
     **{n: ("missing", "no writable string or float-array parameter is mapped (the readable ones are)")
        for n in ("setObjectFloatArrayParam", "setObjectStringParam")},
-    **{n: ("missing", "sensor checks against given entities or geometry (the plain checks are implemented)")
-       for n in ("checkProximitySensorEx2",)},
     **{n: ("missing", "application services: not written yet")
        for n in ("getStackTraceback", "getUserVariables",
                  "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},

@@ -195,3 +195,21 @@ def test_dummy_links_and_vision_check_image(tmp_path):
     finally:
         sim.stop()
         sim.close()
+
+
+def test_proximity_check_against_given_triangles(api):
+    prox = api.createProximitySensor(api.proximitysensor_ray, 0, 0, [0] * 8, [0, 2] + [0] * 13)
+    api.setObjectPosition(prox, -1, [5, 5, 0])  # looking up (+z) from (5, 5, 0), 2 m range
+    up = [4, 4, 1, 6, 4, 1, 5, 6, 1]  # counter-clockwise seen from above: its back faces the sensor
+    down = [4, 4, 1, 5, 6, 1, 6, 4, 1]  # the same triangle turned: its front faces the sensor
+    res, dist, point, normal = api.checkProximitySensorEx2(prox, down, 2, 1, 1, 5.0, 0)
+    assert res == 1 and dist == pytest.approx(1) and point == pytest.approx([0, 0, 1])
+    assert normal == pytest.approx([0, 0, -1])
+    assert api.checkProximitySensorEx2(prox, up, 2, 1, 1, 5.0, 0)[0] == 0  # a back face, front asked
+    assert api.checkProximitySensorEx2(prox, up, 2, 1, 2, 5.0, 0)[0] == 1  # back faces asked
+    assert api.checkProximitySensorEx2(prox, down, 2, 1, 1, 0.5, 0)[0] == 0  # beyond the threshold
+    far = [4, 4, 3, 5, 6, 3, 6, 4, 3]
+    assert api.checkProximitySensorEx2(prox, far, 2, 1, 1, 5.0, 0)[0] == 0  # beyond the 2 m range
+    assert api.checkProximitySensorEx2(prox, [5, 5, 1], 0, 1, 3, 5.0, 0)[0] == 0  # a point: no area
+    with pytest.raises(ArgumentError, match="itemCount"):
+        api.checkProximitySensorEx2(prox, down, 2, 2, 1, 5.0, 0)
