@@ -21,17 +21,29 @@ from typing import Any
 
 from simx_wire.protocol import UnsupportedError
 from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
+from simx_server.scripts.facade_build import BuildCalls
+from simx_server.scripts.facade_clouds import CloudCalls
+from simx_server.scripts.facade_common import CommonCalls
+from simx_server.scripts.facade_create import CreateCalls
 from simx_server.scripts.facade_data import DataCalls
 from simx_server.scripts.facade_engine import EngineCalls
+from simx_server.scripts.facade_flags import FlagCalls
+from simx_server.scripts.facade_graphs import GraphCalls
 from simx_server.scripts.facade_gui import GuiCalls
+from simx_server.scripts.facade_links import LinkCalls
+from simx_server.scripts.facade_looks import LookCalls
 from simx_server.scripts.facade_mesh import MeshCalls
+from simx_server.scripts.facade_meshops import MeshOpCalls
 from simx_server.scripts.facade_misc import MiscCalls
 from simx_server.scripts.facade_params import ParamCalls
 from simx_server.scripts.facade_paths import PathCalls
+from simx_server.scripts.facade_posemath import PoseMath
 from simx_server.scripts.facade_props import PropertyCalls
 from simx_server.scripts.facade_ruckig import RuckigCalls
 from simx_server.scripts.facade_sensing import SensingCalls
+from simx_server.scripts.facade_services import ServiceCalls
 from simx_server.scripts.facade_shapes import ShapeCalls
+from simx_server.scripts.facade_trajectory import TrajectoryCalls
 from simx_server.scripts.facade_legacy import LegacyCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
 from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls
@@ -50,7 +62,9 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls, DataCalls,
+class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
+                GraphCalls, LinkCalls, PoseMath, CommonCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
+                DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.

@@ -1,11 +1,16 @@
 """CoppeliaSim 4.x's Ruckig objects (``sim.ruckigPos``, ``ruckigVel``, ``ruckigStep``,
 ``ruckigRemove``) on the ``ruckig`` library CoppeliaSim uses too (mixin of
 :class:`simx_server.scripts.facade.ScriptSim`): jerk-limited online trajectories a script or a
-client steps itself. Handles from 4,000,000; at most 256 objects per facade."""
+client steps itself, and ``moveToConfig`` / ``moveToPose`` in steps on them
+(``_init``, ``_step``, ``_cleanup``). Handles from 4,000,000; at most 256 objects per facade."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
+
+import mujoco
+import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import as_integer as _int, as_number as _num
@@ -140,6 +145,82 @@ class RuckigCalls:
         return result, data
 
     def moveToConfig_cleanup(self, data: Any) -> None:  # noqa: N802
+        """Release the motion's trajectory object."""
+        if isinstance(data, dict) and "ruckigObject" in data:
+            self._ruckig_objects().pop(_int(data["ruckigObject"], "ruckigObject"), None)
+
+    # ----------------------------------------------- moveToPose in steps (4.6+)
+    def moveToPose_init(self, params: Any) -> dict:  # noqa: N802
+        """The state of a pose motion stepped by the caller: ``params`` as ``sim.moveToPose``'s
+        (``object`` or ``pose``, ``targetPose``, optional ``relObject``, ``maxVel``, ``maxAccel``,
+        ``maxJerk`` of 4 degrees of freedom x, y, z and the rotation angle, or with ``metric``
+        (4 weights) of 1 along a straight line; ``flags``, ``timeStep``). Each
+        :meth:`moveToPose_step` advances it one time step and places the object."""
+        if not isinstance(params, dict) or params.get("targetPose") is None:
+            raise ArgumentError("moveToPose_init takes a table of parameters with targetPose")
+        rel = _int(params.get("relObject", -1), "relObject")
+        obj = params.get("object")
+        if params.get("pose") is not None:
+            start, obj = _floats(params["pose"], 7, "pose"), None
+        elif obj is not None:
+            obj = self._world.get(_int(obj, "object")).handle
+            start = list(self.getObjectPose(obj, rel))
+        else:
+            raise ArgumentError("give object (a handle) or pose")
+        goal = _floats(params["targetPose"], 7, "targetPose")
+        q0 = np.array([start[6], *start[3:6]]) / np.linalg.norm(start[3:7])
+        q1 = np.array([goal[6], *goal[3:6]]) / np.linalg.norm(goal[3:7])
+        turn = np.empty(4)  # q1 * conj(q0): the rotation from start to goal, about one axis
+        mujoco.mju_mulQuat(turn, q1, np.array([q0[0], -q0[1], -q0[2], -q0[3]]))
+        if turn[0] < 0:
+            turn = -turn
+        angle = 2 * math.atan2(float(np.linalg.norm(turn[1:])), float(turn[0]))
+        axis = turn[1:] / np.linalg.norm(turn[1:]) if angle > 1e-12 else np.array([0.0, 0.0, 1.0])
+        delta = np.array(goal[:3]) - np.array(start[:3])
+        metric = params.get("metric")
+        dt = _num(params.get("timeStep", self._world.dt), "timeStep")
+
+        def field(key: str, default: float, n: int) -> list[float]:
+            v = params.get(key, default)
+            return _floats([v] * n if isinstance(v, (int, float)) else v, n, key)
+        if metric is not None:
+            w = _floats(metric, 4, "metric")
+            dist = float(np.linalg.norm(np.append(delta * w[:3], angle * w[3])))
+            n, target = 1, [dist]
+        else:
+            n, target = 4, [*delta.tolist(), angle]
+        limits = field("maxVel", 9999.0, n) + field("maxAccel", 99999.0, n) + field("maxJerk", 9999999.0, n)
+        h = self.ruckigPos(n, dt, max(0, _int(params.get("flags", 0), "flags")), [0.0] * 3 * n, limits, [1] * n,
+                           target + [0.0] * n)
+        return {"ruckigObject": h, "object": obj, "relObject": rel, "timeStep": dt, "startPose": start,
+                "targetPose": goal, "axis": axis.tolist(), "angle": angle, "metric": metric is not None,
+                "dist": target[0] if metric is not None else 0.0, "pose": list(start)}
+
+    def moveToPose_step(self, data: Any) -> tuple[int, dict]:  # noqa: N802
+        """One time step: ``result, data`` (result 0 moving, 1 arrived); ``data.pose`` (x, y, z,
+        qx, qy, qz, qw) and the object follow the trajectory."""
+        if not isinstance(data, dict) or "ruckigObject" not in data:
+            raise ArgumentError("moveToPose_step takes the table moveToPose_init returned")
+        result, state, _ = self.ruckigStep(data["ruckigObject"], data["timeStep"])
+        if result < 0:
+            raise ArgumentError(f"no trajectory for these limits and targets (Ruckig result {result})")
+        start, goal = data["startPose"], data["targetPose"]
+        if data["metric"]:
+            f = state[0] / data["dist"] if data["dist"] > 1e-12 else 1.0
+            pos = [s + f * (g - s) for s, g in zip(start[:3], goal[:3])]
+            angle = f * data["angle"]
+        else:
+            pos = [s + d for s, d in zip(start[:3], state[:3])]
+            angle = state[3]
+        turn, q = np.empty(4), np.empty(4)
+        mujoco.mju_axisAngle2Quat(turn, np.array(data["axis"], dtype=float), angle)
+        mujoco.mju_mulQuat(q, turn, np.array([start[6], *start[3:6]]) / np.linalg.norm(start[3:7]))
+        data["pose"] = [*pos, float(q[1]), float(q[2]), float(q[3]), float(q[0])]
+        if data.get("object") is not None:
+            self.setObjectPose(data["object"], data["pose"], data["relObject"])
+        return result, data
+
+    def moveToPose_cleanup(self, data: Any) -> None:  # noqa: N802
         """Release the motion's trajectory object."""
         if isinstance(data, dict) and "ruckigObject" in data:
             self._ruckig_objects().pop(_int(data["ruckigObject"], "ruckigObject"), None)

@@ -24,9 +24,9 @@ _MAIN = "the main script's own step: simx's loop runs it (sensing, dynamics, scr
 _PLUGIN = "CoppeliaSim's plugins do not exist in simx (MuJoCo is built in)"
 _CALLBACK = "takes a Lua/Python callback into the caller: a ZMQ client's function cannot be called back"
 _SECURITY = "refused by design: a script or client may not reach the host (docs/SECURITY.md)"
-_TEXTURE = "textures: MuJoCo's are compiled into the model; no run-time texture objects"
-_GRAPH = "graph objects: MJCF has no counterpart (record data in the client)"
-_OCTREE = "octrees and point clouds: no MuJoCo counterpart yet"
+_TEXTURE = ("textures changed in place at run time: MuJoCo uploads a texture to the renderer once "
+            "(new textures come with a recompile: createTexture)")
+_GRAPH = "a graph's display settings (colours, flags): simx keeps its streams and curves, not a view of them"
 _PARTICLES = "particles: no MuJoCo counterpart"
 _MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
 
@@ -34,7 +34,7 @@ _MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
 NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("n/a", _MAIN) for n in ("handleAddOnScripts", "handleDynamics", "handleEmbeddedScripts", "handleExtCalls",
                                    "handleJointMotion", "handleSandboxScript", "handleSensingStart",
-                                   "handleSimulationScripts", "handleSimulationStart", "initScript", "moduleEntry",
+                                   "handleSimulationStart", "initScript", "moduleEntry",
                                    "fastIdleLoop", "handleGraph", "resetGraph")},
     **{n: ("n/a", _PLUGIN) for n in ("getLoadedPlugins", "getPluginInfo", "getPluginName", "isPluginLoaded",
                                      "loadPlugin", "setPluginInfo", "getExtensionString", "registerScriptFuncHook")},
@@ -44,42 +44,21 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                            "serialSend", "executeLuaCode", "executeScriptString", "systemSemaphore",
                                            "createScript", "persistentDataRead", "persistentDataWrite",
                                            "getPersistentDataTags", "getMatchingPersistentDataTags")},
-    **{n: ("missing", _TEXTURE) for n in ("createTexture", "readTexture", "writeTexture", "getTextureId",
-                                          "getShapeTextureId", "setShapeTexture")},
-    **{n: ("missing", _GRAPH) for n in ("addGraphCurve", "addGraphStream", "destroyGraphCurve",
-                                        "duplicateGraphCurveToStatic", "getGraphCurve", "getGraphInfo",
-                                        "setGraphStreamTransformation", "setGraphStreamValue")},
-    **{n: ("missing", _OCTREE) for n in ("createOctree", "checkOctreePointOccupancy", "getOctreeVoxels",
-                                         "insertObjectIntoOctree", "insertVoxelsIntoOctree", "removeVoxelsFromOctree",
-                                         "subtractObjectFromOctree", "createPointCloud", "getPointCloudOptions",
-                                         "setPointCloudOptions", "getPointCloudPoints", "insertObjectIntoPointCloud",
-                                         "insertPointsIntoPointCloud", "intersectPointsWithPointCloud",
-                                         "removePointsFromPointCloud", "subtractObjectFromPointCloud")},
+    "writeTexture": ("missing", _TEXTURE),
+    "getGraphInfo": ("missing", _GRAPH),
     **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
-    **{n: ("missing", _MESH_EDIT) for n in ("groupShapes", "ungroupShape", "relocateShapeFrame", "alignShapeBB",
-                                            "setShapeBB", "scaleObjects", "createHeightfieldShape",
-                                            "createPureShape", "generateShapeFromPath",
+    **{n: ("missing", _MESH_EDIT) for n in ("alignShapeBB",
+                                            "generateShapeFromPath",
                                             "generateTextShape")},
-    **{n: ("missing", "creating joints and sensors at run time: MjSpec edits not written yet")
-       for n in ("createJoint", "createForceSensor", "createProximitySensor", "createVisionSensor")},
-    **{n: ("missing", "object and model property flags (selectable, not collidable...): not mapped yet")
-       for n in ("convertPropertyValue", "getObjectProperty", "setObjectProperty", "getModelProperty",
-                 "setModelProperty", "getObjectSpecialProperty", "setObjectSpecialProperty")},
-    **{n: ("missing", "motion in steps: sim.moveToConfig/moveToPose run whole motions only")
-       for n in ("moveToPose_init",
-                 "moveToPose_step", "moveToPose_cleanup", "generateTimeOptimalTrajectory")},
-    **{n: ("missing", "closing the scene and image files on the server: not written yet")
-       for n in ("saveImage", "loadImage")},
-    **{n: ("missing", "object references, hierarchy order, aliases relative to others, tags: not written yet")
-       for n in ("removeReferencedObjects", "setObjectHierarchyOrder", "getObjectAliasRelative", "getModelBB", "getLinkDummy", "setLinkDummy", "getObjectChildPose", "setObjectChildPose",
-                 "getObjectFloatArrayParam", "setObjectFloatArrayParam",
-                 "getObjectStringParam", "setObjectStringParam")},
-    **{n: ("missing", "appearance beyond colours (materials, lights' parameters): not written yet")
-       for n in ("getShapeAppearance", "setShapeAppearance", "setShapeMaterial", "checkVisionSensorEx", "checkProximitySensorEx",
-                 "checkProximitySensorEx2")},
+    **{n: ("missing", "a joint or force sensor alone at the world origin: a MuJoCo joint or force sensor "
+                      "needs the body it moves or measures (make the body, then the joint, in MJCF)")
+       for n in ("createJoint", "createForceSensor")},
+    "setObjectHierarchyOrder": ("missing", "MjSpec cannot reorder a body's children in place"),
+    **{n: ("missing", "no writable string or float-array parameter is mapped (the readable ones are)")
+       for n in ("setObjectFloatArrayParam", "setObjectStringParam")},
     **{n: ("missing", "application services: not written yet")
        for n in ("getStackTraceback", "getUserVariables",
-                 "getThreadId", "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},
+                 "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},
     **{n: ("n/a", "the event stream of CoppeliaSim's user interfaces: no UI") for n in (
         "getGenesisEvents", "pushUserEvent", "setEventFilters")},
     "getScriptFunctions": ("n/a", "the official client answers it itself (a proxy object; docs/ZMQ.md)"),

@@ -6,7 +6,7 @@ read from the simulation at each call (a scene load replaces it). On top it adds
 program outside the scene makes and a script did not need (CoppeliaSim 4.x's names, arguments and
 returns): running the simulation, its parameters, scene files, removing objects, poses as 7
 numbers, passive vision sensors and depth buffers, calls into the scene's child scripts, the
-log, and pose arithmetic (:class:`~simx_server.zmq.pose_math.PoseMath`). The stepping calls
+log; pose arithmetic comes with ScriptSim (:class:`~simx_server.scripts.facade_posemath.PoseMath`). The stepping calls
 (``sim.setStepping``, ``sim.step``, ``sim.acquireLock``, ``sim.releaseLock``) belong to a client,
 not to the scene: :mod:`simx_server.zmq.service` answers them.
 
@@ -20,7 +20,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
@@ -29,16 +28,14 @@ from simx_server.commands import HANDLERS
 from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts.facade import ScriptSim
-from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int
 from simx_server.base.arguments import as_text as _text, as_vector as _vector
 from simx_server.scripts.facade_core import Signals
-from simx_server.sim import object_params, paths
-from simx_server.sim.objects import JOINT, WORLD
-from simx_server.sim.rotations import matrix_from_quaternion
+from simx_server.sim import paths
+from simx_server.sim.objects import WORLD
 from simx_server.sim.state import RunState
 from simx_server.zmq import names
 from simx_server.zmq.motion import MAX_MOTION_STEPS, MotionCalls, Stepped
-from simx_server.zmq.pose_math import PoseMath
 
 log = logging.getLogger("simx.zmq")
 
@@ -47,7 +44,6 @@ STRINGPARAM_SCENE_PATH, STRINGPARAM_SCENE_NAME, STRINGPARAM_SCENEDEFAULTDIR = 14
 #: Scene and model files of CoppeliaSim that stand for MJCF files of the same stem.
 COPPELIASIM_SCENES, COPPELIASIM_MODELS = (".ttt",), (".ttm",)
 _VERBOSITY_MASK = 0xFFF  # sim.addLog's level, without its flags (undecorated, only terminal, once)
-_JOINT_TYPES = {0: None, 1: None, 2: 10, 3: 11}  # MuJoCo free, ball -> (none), hinge, slide
 
 
 def _strings(value: Any) -> Any:
@@ -64,7 +60,7 @@ def _strings(value: Any) -> Any:
     return value
 
 
-class RemoteSim(MotionCalls, PoseMath, ScriptSim):
+class RemoteSim(MotionCalls, ScriptSim):
     """``sim`` as the ZMQ remote API offers it, over one :class:`Simulation`.
 
     Args:
@@ -208,37 +204,7 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
             raise UnsupportedError("sim.loadModel of a serialized model (a buffer) is not supported; give a file name")
         return self._simulation_.editor.load_model(self._stand_in(_text(filename, "filename"), COPPELIASIM_MODELS), 0)
 
-    def removeObject(self, objectHandle: Any) -> None:  # noqa: N802, N803
-        """Remove an object (a shape with its body subtree), as ``simxRemoveObject``."""
-        self._simulation_.editor.remove_object(self._h(objectHandle))
-
-    def removeObjects(self, objectHandles: Any, delayedRemoval: Any = False) -> None:  # noqa: N802, N803
-        """Remove several objects (each as :meth:`removeObject`; ``delayedRemoval`` ignored)."""
-        if not isinstance(objectHandles, list):
-            raise ArgumentError("objectHandles must be a list of handles")
-        for h in objectHandles:
-            if _int(h, "objectHandle") in self._world.objects:  # already gone with a removed parent: skip
-                self.removeObject(h)
-
-    def removeModel(self, objectHandle: Any, delayedRemoval: Any = False) -> int:  # noqa: N802, N803
-        """Remove a model (the body subtree of a shape); returns how many objects went."""
-        before = len(self._world.objects)
-        self._simulation_.editor.remove_model(self._h(objectHandle))
-        return before - len(self._world.objects)
-
     # ------------------------------------------------------------------ objects
-    def isHandle(self, objectHandle: Any) -> bool:  # noqa: N802, N803
-        """Whether an object has this handle."""
-        return _int(objectHandle, "objectHandle") in self._world.objects
-
-    def getObjectChild(self, objectHandle: Any, index: Any) -> int:  # noqa: N802, N803
-        """The ``index``-th (0-based) child of an object (-1: of the world), or -1."""
-        h, i = self._h(objectHandle), _int(index, "index")
-        if h != WORLD:
-            self._world.get(h)
-        children = [o.handle for o in self._world.objects.values() if o.parent == h]
-        return children[i] if 0 <= i < len(children) else -1
-
     def getObjectSel(self) -> list[int]:  # noqa: N802
         """The object selection (no GUI: what clients set)."""
         return list(self._simulation_.selection)
@@ -248,64 +214,12 @@ class RemoteSim(MotionCalls, PoseMath, ScriptSim):
             raise ArgumentError("objectHandles must be a list of handles")
         self._simulation_.selection = [self._world.get(_int(h, "objectHandle")).handle for h in objectHandles]
 
-    def getObjectPose(self, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
-        """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world)."""
-        h, rel = self._h(objectHandle), self._rel(relativeToObjectHandle)
-        return self._world.position(h, rel) + self._world.quaternion(h, rel)
-
-    def setObjectPose(self, objectHandle: Any, relativeTo: Any, pose: Any = None) -> None:  # noqa: N802, N803
-        """Place an object by a 7-number pose; ``(h, pose [, relativeTo])`` (4.5+) or
-        ``(h, relativeTo, pose)``; the rules of ``setObjectPosition`` hold."""
-        rel, value = self._order(relativeTo, pose)
-        v = _vector(value, 7, "pose")
-        self._set_pose(objectHandle, rel, position=v[:3], rotation=matrix_from_quaternion(*v[3:]))
-
-    def getJointType(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """``sim.joint_revolute_subtype`` (10) or ``sim.joint_prismatic_subtype`` (11)."""
-        obj = self._world.get(self._h(objectHandle), JOINT)
-        kind = _JOINT_TYPES.get(int(self._world.model.jnt_type[obj.mj_id]))
-        if kind is None:
-            raise UnsupportedError(f"joint {obj.name!r} is a MuJoCo free or ball joint, which V-REP's joint "
-                                   "types do not describe")
-        return kind
-
-    def getJointVelocity(self, jointHandle: Any) -> float:  # noqa: N802, N803
-        """Joint velocity (rad/s or m/s)."""
-        return object_params.get_float_param(self._simulation_, self._h(jointHandle), C.sim_jointfloatparam_velocity)
-
-    def setJointTargetForce(self, objectHandle: Any, forceOrTorque: Any, signedValue: Any = True) -> None:  # noqa: N802, N803
-        """The most force/torque the joint's motor applies (N or N·m), as ``simxSetJointForce``
-        (its magnitude; simx's motors have no separate force mode, see docs/API.md)."""
-        self._world.set_joint_force(self._h(objectHandle), abs(_num(forceOrTorque, "forceOrTorque")))
-
-    def getJointTargetForce(self, jointHandle: Any) -> float:  # noqa: N802, N803
-        """The motor's force/torque limit (N or N·m)."""
-        return self._world.joint_max_force(self._h(jointHandle))
 
     # ------------------------------------------------------------ vision sensors
     def getVisionSensorRes(self, sensorHandle: Any) -> list[int]:  # noqa: N802, N803
         """``[width, height]`` of a vision sensor's image in pixels."""
         spec = self._simulation_.vision.spec(self._h(sensorHandle))
         return [spec.width, spec.height]
-
-    def getVisionSensorDepth(self, sensorHandle: Any, options: Any = 0, pos: Any = None,  # noqa: N802, N803
-                             size: Any = None) -> tuple[bytes, list[int]]:
-        """``depth, resolution``: the depth buffer as float32 bytes, rows bottom-up; values 0..1
-        from near to far clipping plane, or (``options`` bit 0) distances in m. ``pos``/``size``
-        cut a window as in ``getVisionSensorImg``."""
-        opts = _int(options, "options")
-        if opts & ~1:
-            raise UnsupportedError(f"getVisionSensorDepth options {opts}: only bit 0 (metres) is supported")
-        h = self._h(sensorHandle)
-        sim = self._simulation_
-        spec = sim.vision.spec(h)
-        depth = sim.vision.depth(h)
-        if opts & 1:
-            depth = spec.near + depth * (spec.far - spec.near)
-        px, py = (0, 0) if pos is None else _vector(pos, 2, "pos")
-        sx, sy = (0, 0) if size is None else _vector(size, 2, "size")
-        depth = self._crop(depth, int(px), int(py), int(sx), int(sy))
-        return np.ascontiguousarray(depth, dtype=np.float32).tobytes(), [int(depth.shape[1]), int(depth.shape[0])]
 
     def setVisionSensorImg(self, sensorHandle: Any, image: Any, options: Any = 0, pos: Any = None,  # noqa: N802, N803
                            size: Any = None) -> None:

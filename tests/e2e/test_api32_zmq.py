@@ -31,3 +31,22 @@ def test_ik_pick_and_place_reach_and_line_follower_over_zmq(tmp_path):
     for text in ("pick reached", "place reached", "reach stopped", "line centred", "OK arm32"):
         assert text in run.stdout, run.stdout
     assert "Traceback" not in log, log[-3000:]
+
+
+BREADTH = Path(__file__).resolve().parent / "zmq_programs" / "breadth32.py"
+
+
+def test_second_round_functions_over_zmq(tmp_path):
+    port = free_port()
+    server = ServerProcess(str(ROOT / "tests" / "scenes" / "api32" / "arm.xml"), "--stopped", "--zmq-port", str(port))
+    try:
+        env = dict(os.environ, SIMX_ZMQ_PORT=str(port))
+        run = subprocess.run([sys.executable, str(BREADTH)], env=env, capture_output=True, text=True, timeout=300,
+                             cwd=tmp_path)
+    finally:
+        log = server.stop()
+    assert run.returncode == 0, f"{run.stdout}\n{run.stderr}\n--- server log ---\n{log[-3000:]}"
+    for text in ("cloud", "octree occupied", "graph recorded", "sensors created", "trajectory", "pose reached",
+                 "OK breadth32"):
+        assert text in run.stdout, run.stdout
+    assert "Traceback" not in log, log[-3000:]

@@ -45,8 +45,8 @@ def test_info_lists_facade_calls_constants_and_coppeliasim_names(sim):
     assert sim.handle_world == -1 and sim.simulation_stopped == 0 and sim.scripttype_childscript == 1
     assert sim.verbosity_scriptinfos == 450 and sim.stringparam_scenedefaultdir == 132  # CoppeliaSim 4.x's
     assert sim.jointintparam_motor_enabled == 2000  # the facade's (legacy) constants, simx's values
-    with pytest.raises(Exception, match=r"sim\.addGraphStream: not implemented by simx"):
-        sim.addGraphStream(-1, "s", "m")  # CoppeliaSim has it: listed, answered with an error
+    with pytest.raises(Exception, match=r"sim\.addParticleObject: not implemented by simx"):
+        sim.addParticleObject(0, 0.01, 1000, [], 1, 10)  # CoppeliaSim has it: listed, answered with an error
 
 
 def test_errors_name_the_function_and_the_problem(sim):

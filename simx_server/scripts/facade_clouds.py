@@ -1,0 +1,324 @@
+"""CoppeliaSim 4.x's point clouds and octrees kept as data (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`).
+
+Each is a scene object with a frame: a MuJoCo site (so ``sim.getObjectType`` answers
+``sim.object_dummy_type``; poses, parents and removal work as for any dummy) whose points or
+voxels simx keeps, relative to that frame, in the simulation's store. Nothing is drawn
+headless and MuJoCo does not collide with them. A point cloud is a list of points with an
+insertion tolerance; an octree is a set of cubic voxels of one size on a grid aligned with its
+frame (centres at ``(i + 0.5) * voxelSize``), each with a colour and a tag. Objects go in or out
+as their geometry: shapes as the solid MuJoCo collides with (primitives and mesh hulls,
+:mod:`simx_server.scripts.cloud_geometry`), point clouds and octrees as their points and voxel
+centres, dummies as their position.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, UnknownObjectError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_number as _num
+from simx_server.scripts import cloud_geometry as geo
+from simx_server.sim.objects import DUMMY, SHAPE
+from simx_server.sim.spec_tools import _names, vrep_suffix
+from simx_server.sim.state import SimulationView
+
+#: At most this many points in a point cloud, voxels in an octree.
+MAX_POINTS = 1_000_000
+
+
+def _points(values: Any, what: str = "points") -> np.ndarray:
+    if isinstance(values, (bytes, bytearray)):
+        values = np.frombuffer(values, dtype=np.float32)
+    if not isinstance(values, (list, tuple, np.ndarray)) or len(values) % 3:
+        raise ArgumentError(f"{what} must be a flat table of x, y, z coordinates (m)")
+    arr = np.array([_num(v, what) for v in values] if not isinstance(values, np.ndarray) else values, dtype=float)
+    if not np.isfinite(arr).all():
+        raise ArgumentError(f"{what} must be finite numbers")
+    if len(arr) // 3 > MAX_POINTS:
+        raise ArgumentError(f"at most {MAX_POINTS} points per call")
+    return arr.reshape(-1, 3)
+
+
+def _colours(color: Any, n: int, per_point: bool) -> np.ndarray:
+    """(n, 3) colours: one RGB for all, or (``per_point``) one per point; nil: grey."""
+    if color is None:
+        return np.full((n, 3), 0.5)
+    c = np.array([_num(v, "color") for v in color], dtype=float)
+    need = 3 * n if per_point else 3
+    if len(c) < need:
+        raise ArgumentError(f"color must hold {need} numbers ({'one RGB per point' if per_point else 'one RGB'})")
+    return c[:need].reshape(-1, 3) if per_point else np.tile(c[:3], (n, 1))
+
+
+class CloudCalls:
+    """``sim.createPointCloud``, ``createOctree`` and the calls on them (facade mixin)."""
+
+    # ------------------------------------------------------------------ helpers
+    def _cloud(self, handle: Any, kind: str) -> dict:
+        h = _int(handle, f"{kind}Handle")
+        rec = self._store("clouds").get(h)
+        if rec is None or rec["kind"] != kind:
+            raise UnknownObjectError(f"object {h} is not a {'point cloud' if kind == 'pointCloud' else 'octree'}")
+        self._world.get(h)  # still in the scene
+        return rec
+
+    def _frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
+        m = np.array(self.getObjectMatrix(handle, -1), dtype=float).reshape(3, 4)
+        return m[:, :3], m[:, 3]
+
+    def _to_local(self, handle: int, pts: np.ndarray, relative: bool) -> np.ndarray:
+        if relative:
+            return pts
+        rot, pos = self._frame(handle)
+        return (pts - pos) @ rot
+
+    def _to_world(self, handle: int, pts: np.ndarray) -> np.ndarray:
+        rot, pos = self._frame(handle)
+        return pts @ rot.T + pos
+
+    def _new_frame(self, base: str) -> int:
+        sim = self._simulation(f"create{base}")
+
+        def change(spec: mujoco.MjSpec):
+            name = base + vrep_suffix({base}, _names(spec) | set(sim.world.by_name))
+            spec.worldbody.add_site(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.005, 0.005, 0.005],
+                                    rgba=[0.5, 0.5, 0.5, 0.0])
+            return lambda: sim.world.resolve(name).handle
+
+        return sim.editor._edit(change)
+
+    def _object_points(self, handle: Any, spacing: float) -> np.ndarray:
+        """World points of an object: a shape's surface (``spacing`` m apart), a point cloud's
+        points, an octree's voxel centres, a dummy's position."""
+        h = _int(handle, "objectHandle")
+        rec = self._store("clouds").get(h)
+        if rec is not None:
+            self._world.get(h)
+            local = rec["pts"] if rec["kind"] == "pointCloud" else (rec["keys"] + 0.5) * rec["size"]
+            return self._to_world(h, local)
+        obj = self._world.get(h)
+        if obj.type == SHAPE:
+            geoms = np.flatnonzero(self._world.model.geom_bodyid == obj.mj_id)
+            return geo.surface_points(self._world.model, self._world.data, geoms, spacing)
+        if obj.type == DUMMY:
+            return self._frame(h)[1][None, :]
+        raise UnsupportedError(f"object {h} is not a shape, dummy, point cloud or octree")
+
+    def _inside(self, handle: Any, pts: np.ndarray, tol: float) -> np.ndarray:
+        """Which world points collide with an object (within ``tol`` m of it)."""
+        h = _int(handle, "objectHandle")
+        rec = self._store("clouds").get(h)
+        if rec is not None and rec["kind"] == "octree":
+            self._world.get(h)
+            local = self._to_local(h, pts, False)
+            idx = np.floor(local / rec["size"]).astype(np.int64).astype(float)
+            inside = geo.near_mask(idx, rec["keys"].astype(float), 0.5)  # same grid index
+            return inside | geo.near_mask(pts, self._object_points(h, 0), tol) if tol > 0 else inside
+        obj = self._world.get(h) if rec is None else None
+        if obj is not None and obj.type == SHAPE:
+            geoms = np.flatnonzero(self._world.model.geom_bodyid == obj.mj_id)
+            return geo.shape_sdf(self._world.model, self._world.data, geoms, pts) <= tol
+        return geo.near_mask(pts, self._object_points(h, 0), tol)
+
+    # ------------------------------------------------------------------ point clouds
+    def createPointCloud(self, maxVoxelSize: Any, maxPtCntPerVoxel: Any, options: Any,  # noqa: N802, N803
+                         pointSize: Any) -> int:  # noqa: N803
+        """A new, empty point cloud at the world origin; its handle. ``maxVoxelSize`` (m) and
+        ``maxPtCntPerVoxel`` describe CoppeliaSim's calculation structure and are kept
+        (:meth:`getPointCloudOptions`); ``options`` and ``pointSize`` (pixels) likewise."""
+        size, per, opts, psize = (_num(maxVoxelSize, "maxVoxelSize"), _int(maxPtCntPerVoxel, "maxPtCntPerVoxel"),
+                                  _int(options, "options"), _num(pointSize, "pointSize"))
+        if not size > 0 or per < 1:
+            raise ArgumentError("maxVoxelSize must be positive and maxPtCntPerVoxel at least 1")
+        h = self._new_frame("Point_cloud")
+        self._store("clouds")[h] = {"kind": "pointCloud", "size": size, "per": per, "options": opts,
+                                    "pointSize": psize, "pts": np.empty((0, 3)), "rgb": np.empty((0, 3))}
+        return h
+
+    def getPointCloudOptions(self, pointCloudHandle: Any) -> tuple[float, int, int, float]:  # noqa: N802, N803
+        """``maxVoxelSize, maxPtCntPerVoxel, options, pointSize``."""
+        c = self._cloud(pointCloudHandle, "pointCloud")
+        return c["size"], c["per"], c["options"], c["pointSize"]
+
+    def setPointCloudOptions(self, pointCloudHandle: Any, maxVoxelSize: Any, maxPtCntPerVoxel: Any,  # noqa: N802, N803
+                             options: Any, pointSize: Any) -> None:  # noqa: N803
+        c = self._cloud(pointCloudHandle, "pointCloud")
+        size, per = _num(maxVoxelSize, "maxVoxelSize"), _int(maxPtCntPerVoxel, "maxPtCntPerVoxel")
+        if not size > 0 or per < 1:
+            raise ArgumentError("maxVoxelSize must be positive and maxPtCntPerVoxel at least 1")
+        c.update(size=size, per=per, options=_int(options, "options"), pointSize=_num(pointSize, "pointSize"))
+
+    def getPointCloudPoints(self, pointCloudHandle: Any) -> list[float]:  # noqa: N802, N803
+        """The points, relative to the point cloud's frame (m, x, y, z each)."""
+        return self._cloud(pointCloudHandle, "pointCloud")["pts"].reshape(-1).tolist()
+
+    def _add_points(self, h: int, c: dict, local: np.ndarray, rgb: np.ndarray, tol: Any) -> int:
+        if tol is not None and _num(tol, "duplicateTolerance") > 0:
+            keep = geo.dedupe(local, _num(tol, "duplicateTolerance"), c["pts"])
+            local, rgb = local[keep], rgb[keep]
+        if len(c["pts"]) + len(local) > MAX_POINTS:
+            raise ArgumentError(f"a point cloud holds at most {MAX_POINTS} points")
+        c["pts"], c["rgb"] = np.vstack([c["pts"], local]), np.vstack([c["rgb"], rgb])
+        return len(c["pts"])
+
+    def insertPointsIntoPointCloud(self, pointCloudHandle: Any, options: Any, points: Any,  # noqa: N802, N803
+                                   color: Any = None, duplicateTolerance: Any = None) -> int:  # noqa: N803
+        """Add points (world coordinates; ``options`` bit 0: relative to the cloud's frame; bit 1:
+        ``color`` holds one RGB per point). With ``duplicateTolerance`` (m), a point within it of
+        one already in the cloud (or inserted before it) is left out. The cloud's point count."""
+        c, opts = self._cloud(pointCloudHandle, "pointCloud"), _int(options, "options")
+        h = _int(pointCloudHandle, "pointCloudHandle")
+        local = self._to_local(h, _points(points), bool(opts & 1))
+        return self._add_points(h, c, local, _colours(color, len(local), bool(opts & 2)), duplicateTolerance)
+
+    def _keep(self, c: dict, mask: np.ndarray) -> int:
+        c["pts"], c["rgb"] = c["pts"][mask], c["rgb"][mask]
+        return len(c["pts"])
+
+    def removePointsFromPointCloud(self, pointCloudHandle: Any, options: Any, points: Any,  # noqa: N802, N803
+                                   tolerance: Any) -> int:  # noqa: N803
+        """Remove the cloud's points within ``tolerance`` (m) of any of ``points`` (world; bit 0 of
+        ``options``: relative to the cloud); nil points: all of them. The cloud's point count."""
+        c, opts = self._cloud(pointCloudHandle, "pointCloud"), _int(options, "options")
+        if points is None:
+            return self._keep(c, np.zeros(len(c["pts"]), dtype=bool))
+        local = self._to_local(_int(pointCloudHandle, "h"), _points(points), bool(opts & 1))
+        return self._keep(c, ~geo.near_mask(c["pts"], local, _num(tolerance, "tolerance")))
+
+    def intersectPointsWithPointCloud(self, pointCloudHandle: Any, options: Any, points: Any,  # noqa: N802, N803
+                                      tolerance: Any) -> int:  # noqa: N803
+        """Keep only the cloud's points within ``tolerance`` (m) of one of ``points``. The count."""
+        c, opts = self._cloud(pointCloudHandle, "pointCloud"), _int(options, "options")
+        local = self._to_local(_int(pointCloudHandle, "h"), _points(points), bool(opts & 1))
+        return self._keep(c, geo.near_mask(c["pts"], local, _num(tolerance, "tolerance")))
+
+    def insertObjectIntoPointCloud(self, pointCloudHandle: Any, objectHandle: Any, options: Any,  # noqa: N802, N803
+                                   gridSize: Any, color: Any = None, duplicateTolerance: Any = None) -> int:  # noqa: N803
+        """Add an object's points: a shape's surface sampled ``gridSize`` m apart, a point cloud's
+        points, an octree's voxel centres, a dummy's position. The cloud's point count."""
+        c, h = self._cloud(pointCloudHandle, "pointCloud"), _int(pointCloudHandle, "pointCloudHandle")
+        _int(options, "options")
+        world = self._object_points(objectHandle, _num(gridSize, "gridSize"))
+        local = self._to_local(h, world, False)
+        return self._add_points(h, c, local, _colours(color, len(local), False), duplicateTolerance)
+
+    def subtractObjectFromPointCloud(self, pointCloudHandle: Any, objectHandle: Any, options: Any,  # noqa: N802, N803
+                                     tolerance: Any) -> int:  # noqa: N803
+        """Remove the cloud's points that collide with an object (inside a shape's solid, an
+        octree's voxels, or within ``tolerance`` m of it). The cloud's point count."""
+        c, h = self._cloud(pointCloudHandle, "pointCloud"), _int(pointCloudHandle, "pointCloudHandle")
+        _int(options, "options")
+        if not len(c["pts"]):
+            return 0
+        return self._keep(c, ~self._inside(objectHandle, self._to_world(h, c["pts"]), _num(tolerance, "tolerance")))
+
+    # ------------------------------------------------------------------ octrees
+    def createOctree(self, voxelSize: Any, options: Any, pointSize: Any) -> int:  # noqa: N802, N803
+        """A new, empty octree of ``voxelSize`` (m) voxels at the world origin; its handle."""
+        size = _num(voxelSize, "voxelSize")
+        if not size > 0:
+            raise ArgumentError("voxelSize must be positive")
+        h = self._new_frame("Octree")
+        self._store("clouds")[h] = {"kind": "octree", "size": size, "options": _int(options, "options"),
+                                    "pointSize": _num(pointSize, "pointSize"), "keys": np.empty((0, 3), np.int64),
+                                    "rgb": np.empty((0, 3)), "tags": np.empty(0, np.int64)}
+        return h
+
+    def _add_voxels(self, c: dict, local: np.ndarray, rgb: np.ndarray, tags: np.ndarray) -> int:
+        keys = np.vstack([c["keys"], np.floor(local / c["size"]).astype(np.int64)])
+        _, first = np.unique(keys, axis=0, return_index=True)  # a voxel already there keeps its colour and tag
+        first.sort()
+        if len(first) > MAX_POINTS:
+            raise ArgumentError(f"an octree holds at most {MAX_POINTS} voxels")
+        c["keys"], c["rgb"] = keys[first], np.vstack([c["rgb"], rgb])[first]
+        c["tags"] = np.concatenate([c["tags"], tags])[first]
+        return len(c["keys"])
+
+    def insertVoxelsIntoOctree(self, octreeHandle: Any, options: Any, points: Any, color: Any = None,  # noqa: N802, N803
+                               tag: Any = None) -> int:
+        """Occupy the voxels containing ``points`` (world; ``options`` bit 0: relative to the
+        octree; bit 1: one colour and tag per point). The octree's voxel count."""
+        c, opts, h = self._cloud(octreeHandle, "octree"), _int(options, "options"), _int(octreeHandle, "octreeHandle")
+        local = self._to_local(h, _points(points), bool(opts & 1))
+        n = len(local)
+        if tag is None:
+            tags = np.zeros(n, np.int64)
+        else:
+            t = [_int(v, "tag") for v in (tag if isinstance(tag, (list, tuple)) else [tag])]
+            if len(t) < (n if opts & 2 else 1):
+                raise ArgumentError("tag must hold one number per point (options bit 1) or one")
+            tags = np.array(t[:n] if opts & 2 else t[:1] * n, np.int64)
+        return self._add_voxels(c, local, _colours(color, n, bool(opts & 2)), tags)
+
+    def removeVoxelsFromOctree(self, octreeHandle: Any, options: Any, points: Any) -> int:  # noqa: N802, N803
+        """Free the voxels containing ``points`` (nil: every voxel). The octree's voxel count."""
+        c, opts, h = self._cloud(octreeHandle, "octree"), _int(options, "options"), _int(octreeHandle, "octreeHandle")
+        if points is None:
+            keep = np.zeros(len(c["keys"]), dtype=bool)
+        else:
+            gone = np.floor(self._to_local(h, _points(points), bool(opts & 1)) / c["size"]).astype(np.int64)
+            keep = ~geo.near_mask(c["keys"].astype(float), gone.astype(float), 0.5)
+        c["keys"], c["rgb"], c["tags"] = c["keys"][keep], c["rgb"][keep], c["tags"][keep]
+        return len(c["keys"])
+
+    def getOctreeVoxels(self, octreeHandle: Any) -> list[float]:  # noqa: N802, N803
+        """The voxels' centres relative to the octree's frame (m, x, y, z each)."""
+        c = self._cloud(octreeHandle, "octree")
+        return ((c["keys"] + 0.5) * c["size"]).reshape(-1).tolist()
+
+    def checkOctreePointOccupancy(self, octreeHandle: Any, options: Any, points: Any) -> tuple[int, int, int, int]:  # noqa: N802, N803
+        """``result, tag, locationLow, locationHigh``: result 1 when every point (``options`` bit 1:
+        any point) lies in an occupied voxel; the tag of the first such voxel and its grid index
+        (simx's location code: x, y, z as 21-bit fields offset by 2^20, low and high 32 bits)."""
+        c, opts, h = self._cloud(octreeHandle, "octree"), _int(options, "options"), _int(octreeHandle, "octreeHandle")
+        idx = np.floor(self._to_local(h, _points(points), bool(opts & 1)) / c["size"]).astype(np.int64)
+        if not len(idx) or not len(c["keys"]):
+            return 0, 0, 0, 0
+        hit = geo.near_mask(idx.astype(float), c["keys"].astype(float), 0.5)
+        ok = hit.any() if opts & 2 else hit.all()
+        if not ok:
+            return 0, 0, 0, 0
+        first = idx[int(np.flatnonzero(hit)[0])]
+        v = int(np.flatnonzero((c["keys"] == first).all(axis=1))[0])
+        code = sum(((int(first[i]) + (1 << 20)) & 0x1FFFFF) << (21 * i) for i in range(3))
+        return 1, int(c["tags"][v]), code & 0xFFFFFFFF, code >> 32
+
+    def insertObjectIntoOctree(self, octreeHandle: Any, objectHandle: Any, options: Any, color: Any = None,  # noqa: N802, N803
+                               tag: Any = 0) -> int:
+        """Occupy the voxels an object passes through: a shape's surface, a point cloud's points,
+        another octree's voxel centres, a dummy's position. The octree's voxel count."""
+        c, h = self._cloud(octreeHandle, "octree"), _int(octreeHandle, "octreeHandle")
+        _int(options, "options")
+        local = self._to_local(h, self._object_points(objectHandle, c["size"] / 2), False)
+        n = len(local)
+        return self._add_voxels(c, local, _colours(color, n, False), np.full(n, _int(tag or 0, "tag"), np.int64))
+
+    def subtractObjectFromOctree(self, octreeHandle: Any, objectHandle: Any, options: Any) -> int:  # noqa: N802, N803
+        """Free the voxels an object occupies: those it passes through (as
+        :meth:`insertObjectIntoOctree` marks them) and, for a shape, those whose centre lies in
+        its solid. The octree's voxel count."""
+        c, h = self._cloud(octreeHandle, "octree"), _int(octreeHandle, "octreeHandle")
+        _int(options, "options")
+        if not len(c["keys"]):
+            return 0
+        crossed = np.floor(self._to_local(h, self._object_points(objectHandle, c["size"] / 2), False)
+                           / c["size"]).astype(float)
+        gone = geo.near_mask(c["keys"].astype(float), crossed, 0.5)
+        obj = self._world.get(_int(objectHandle, "objectHandle"))
+        if obj.type == SHAPE and _int(objectHandle, "objectHandle") not in self._store("clouds"):
+            gone |= self._inside(objectHandle, self._to_world(h, (c["keys"] + 0.5) * c["size"]), 0.0)
+        c["keys"], c["rgb"], c["tags"] = c["keys"][~gone], c["rgb"][~gone], c["tags"][~gone]
+        return len(c["keys"])
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _store(self, kind: str) -> dict: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
+
+        def getObjectMatrix(self, handle: Any, relative_to: Any = -1) -> list[float]: ...

@@ -1,0 +1,104 @@
+"""Calls of CoppeliaSim 4.x that child scripts and remote programs make alike (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`): removing objects and models, handles and
+children, joint types, velocities and force limits, vision sensors' depth as a buffer.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
+from simx_server.sim import object_params
+from simx_server.sim.objects import JOINT, WORLD
+from simx_server.sim.state import SimulationView
+
+_JOINT_TYPES = {0: None, 1: None, 2: 11, 3: 10}  # mjtJoint free, ball -> (none); slide -> prismatic, hinge -> revolute
+
+
+class CommonCalls:
+    """Objects, joints and depth buffers for scripts and clients (facade mixin)."""
+
+    def removeObject(self, objectHandle: Any) -> None:  # noqa: N802, N803
+        """Remove an object (a shape with its body subtree), as ``simxRemoveObject``."""
+        self._simulation("removeObject").editor.remove_object(self._h(objectHandle))
+
+    def removeObjects(self, objectHandles: Any, delayedRemoval: Any = False) -> None:  # noqa: N802, N803
+        """Remove several objects (each as :meth:`removeObject`; ``delayedRemoval`` ignored)."""
+        if not isinstance(objectHandles, list):
+            raise ArgumentError("objectHandles must be a list of handles")
+        for h in objectHandles:
+            if _int(h, "objectHandle") in self._world.objects:  # already gone with a removed parent: skip
+                self.removeObject(h)
+
+    def removeModel(self, objectHandle: Any, delayedRemoval: Any = False) -> int:  # noqa: N802, N803
+        """Remove a model (the body subtree of a shape); returns how many objects went."""
+        before = len(self._world.objects)
+        self._simulation("removeModel").editor.remove_model(self._h(objectHandle))
+        return before - len(self._world.objects)
+
+    def isHandle(self, objectHandle: Any) -> bool:  # noqa: N802, N803
+        """Whether an object has this handle."""
+        return _int(objectHandle, "objectHandle") in self._world.objects
+
+    def getObjectChild(self, objectHandle: Any, index: Any) -> int:  # noqa: N802, N803
+        """The ``index``-th (0-based) child of an object (-1: of the world), or -1."""
+        h, i = self._h(objectHandle), _int(index, "index")
+        if h != WORLD:
+            self._world.get(h)
+        children = [o.handle for o in self._world.objects.values() if o.parent == h]
+        return children[i] if 0 <= i < len(children) else -1
+
+    def getJointType(self, objectHandle: Any) -> int:  # noqa: N802, N803
+        """``sim.joint_revolute_subtype`` (10) or ``sim.joint_prismatic_subtype`` (11)."""
+        obj = self._world.get(self._h(objectHandle), JOINT)
+        kind = _JOINT_TYPES.get(int(self._world.model.jnt_type[obj.mj_id]))
+        if kind is None:
+            raise UnsupportedError(f"joint {obj.name!r} is a MuJoCo free or ball joint, which V-REP's joint "
+                                   "types do not describe")
+        return kind
+
+    def getJointVelocity(self, jointHandle: Any) -> float:  # noqa: N802, N803
+        """Joint velocity (rad/s or m/s)."""
+        return object_params.get_float_param(self._simulation("getJointVelocity"), self._h(jointHandle), C.sim_jointfloatparam_velocity)
+
+    def setJointTargetForce(self, objectHandle: Any, forceOrTorque: Any, signedValue: Any = True) -> None:  # noqa: N802, N803
+        """The most force/torque the joint's motor applies (N or N·m), as ``simxSetJointForce``
+        (its magnitude; simx's motors have no separate force mode, see docs/API.md)."""
+        self._world.set_joint_force(self._h(objectHandle), abs(_num(forceOrTorque, "forceOrTorque")))
+
+    def getJointTargetForce(self, jointHandle: Any) -> float:  # noqa: N802, N803
+        """The motor's force/torque limit (N or N·m)."""
+        return self._world.joint_max_force(self._h(jointHandle))
+
+    def getVisionSensorDepth(self, sensorHandle: Any, options: Any = 0, pos: Any = None,  # noqa: N802, N803
+                             size: Any = None) -> tuple[bytes, list[int]]:
+        """``depth, resolution``: the depth buffer as float32 bytes, rows bottom-up; values 0..1
+        from near to far clipping plane, or (``options`` bit 0) distances in m. ``pos``/``size``
+        cut a window as in ``getVisionSensorImg``."""
+        opts = _int(options, "options")
+        if opts & ~1:
+            raise UnsupportedError(f"getVisionSensorDepth options {opts}: only bit 0 (metres) is supported")
+        h = self._h(sensorHandle)
+        sim = self._simulation("getVisionSensorDepth")
+        spec = sim.vision.spec(h)
+        depth = sim.vision.depth(h)
+        if opts & 1:
+            depth = spec.near + depth * (spec.far - spec.near)
+        px, py = (0, 0) if pos is None else _vector(pos, 2, "pos")
+        sx, sy = (0, 0) if size is None else _vector(size, 2, "size")
+        depth = self._crop(depth, int(px), int(py), int(sx), int(sy))
+        return np.ascontiguousarray(depth, dtype=np.float32).tobytes(), [int(depth.shape[1]), int(depth.shape[0])]
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
+
+        @staticmethod
+        def _crop(img: np.ndarray, x: Any, y: Any, w: Any, h: Any) -> np.ndarray: ...

@@ -1,0 +1,116 @@
+"""CoppeliaSim 4.x's object and model property flags and ``convertPropertyValue`` (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`).
+
+The flags are kept per object in the simulation's store (they do not change MuJoCo's model:
+collisions, rendering and dynamics follow the MJCF). Until set, an object answers what its MJCF
+means: ``getObjectProperty`` ``sim.objectproperty_selectable`` (CoppeliaSim's default);
+``getModelProperty`` ``sim.modelproperty_not_model`` unless the object was made a model base by
+``setModelProperty``. The special property flags, which do change the model (collidable and
+measurable are the geoms' ``contype``/``conaffinity``), are in
+:mod:`simx_server.scripts.legacy_objects`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import ArgumentError
+from simx_server.base.arguments import as_integer as _int
+from simx_server.scripts.facade_props import TYPES
+from simx_server.sim.state import SimulationView
+
+OBJECTPROPERTY_SELECTABLE, MODELPROPERTY_NOT_MODEL = 32, 0xF000
+_SCALARS = {0, 1, 2, 16}                                  # bool, int, float, long
+_LENGTHS = {5: 3, 6: 4, 7: 7, 8: 9, 9: 16, 10: 3, 14: 2, 15: 2}  # fixed-size numeric types
+_ARRAYS = {11, 13}                                         # floatarray, intarray
+
+
+def _quat_to_mat(q: list[float]) -> list[float]:
+    out = np.empty(9)
+    mujoco.mju_quat2Mat(out, np.array([q[3], q[0], q[1], q[2]]) / np.linalg.norm(q))
+    return out.tolist()
+
+
+def _mat_to_quat(m: list[float]) -> list[float]:
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.array(m, dtype=float))
+    return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]
+
+
+class FlagCalls:
+    """Property flags of objects and models; property value conversion (facade mixin)."""
+
+    def _flags(self, kind: str) -> dict:
+        return self._store(f"flags_{kind}")
+
+    def _flag_target(self, handle: Any) -> int:
+        return self._world.get(self._h(handle, "objectHandle")).handle
+
+    def getObjectProperty(self, objectHandle: Any) -> int:  # noqa: N802, N803
+        """The object's ``sim.objectproperty_*`` bits (window behaviour: selectable, collapsed...)."""
+        h = self._flag_target(objectHandle)
+        return int(self._flags("object").get(h, OBJECTPROPERTY_SELECTABLE))
+
+    def setObjectProperty(self, objectHandle: Any, property: Any) -> None:  # noqa: N802, N803, A002
+        """Keep the object's ``sim.objectproperty_*`` bits (no window: nothing else changes)."""
+        self._flags("object")[self._flag_target(objectHandle)] = _int(property, "property")
+
+    def getModelProperty(self, objectHandle: Any) -> int:  # noqa: N802, N803
+        """The ``sim.modelproperty_*`` bits of a model base; ``sim.modelproperty_not_model`` for
+        an object that is none."""
+        return int(self._flags("model").get(self._flag_target(objectHandle), MODELPROPERTY_NOT_MODEL))
+
+    def setModelProperty(self, objectHandle: Any, property: Any) -> None:  # noqa: N802, N803, A002
+        """Keep the ``sim.modelproperty_*`` bits; bits without ``sim.modelproperty_not_model``
+        make the object a model base (CoppeliaSim's rule)."""
+        self._flags("model")[self._flag_target(objectHandle)] = _int(property, "property")
+
+    def convertPropertyValue(self, value: Any, fromType: Any, toType: Any) -> Any:  # noqa: N802, N803
+        """``value`` of ``sim.propertytype_*`` ``fromType`` as ``toType``: between numbers (bool,
+        int, long, float), string and buffer (UTF-8), numeric vectors of one length (vector2/3,
+        color, quaternion, pose, matrices, float and int arrays), quaternion and matrix3x3,
+        pose and matrix4x4 (16 numbers, row-major). ArgumentError for any other pair."""
+        src, dst = _int(fromType, "fromType"), _int(toType, "toType")
+        if src not in TYPES or dst not in TYPES:
+            raise ArgumentError(f"unknown property type {src if src not in TYPES else dst}")
+        v = TYPES[src][1](list(value) if isinstance(value, tuple) else value)
+        if src == dst:
+            return v
+        if src in _SCALARS and dst in _SCALARS:
+            return bool(v) if dst == 0 else float(v) if dst == 2 else int(v)
+        if (src, dst) == (3, 4):
+            return v.encode("utf-8")
+        if (src, dst) == (4, 3):
+            try:
+                return v.decode("utf-8")
+            except UnicodeDecodeError:
+                raise ArgumentError("the buffer is not UTF-8 text") from None
+        if (src, dst) == (6, 8):
+            return _quat_to_mat(v)
+        if (src, dst) == (8, 6):
+            return _mat_to_quat(v)
+        if (src, dst) == (7, 9):
+            rot = np.array(_quat_to_mat(v[3:])).reshape(3, 3)
+            return np.vstack([np.hstack([rot, np.array(v[:3])[:, None]]), [0, 0, 0, 1]]).reshape(-1).tolist()
+        if (src, dst) == (9, 7):
+            m = np.array(v).reshape(4, 4)
+            return [*m[:3, 3].tolist(), *_mat_to_quat(m[:3, :3].reshape(-1).tolist())]
+        numeric = _LENGTHS.keys() | _ARRAYS
+        if src in numeric and dst in numeric:
+            n = _LENGTHS.get(dst, len(v))
+            if len(v) != n:
+                raise ArgumentError(f"a {TYPES[dst][0]} holds {n} numbers, the value {len(v)}")
+            return TYPES[dst][1]([int(x) for x in v] if dst in (13, 15) else v)
+        raise ArgumentError(f"no conversion from a {TYPES[src][0]} to a {TYPES[dst][0]}")
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _store(self, kind: str) -> dict: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...

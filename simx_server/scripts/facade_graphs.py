@@ -1,0 +1,179 @@
+"""CoppeliaSim 4.x's graph streams and curves kept as data (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`).
+
+A graph in simx is a dummy (the ``.ttt`` loader turns CoppeliaSim's graph objects into sites;
+any dummy may serve). ``sim.setGraphStreamValue`` records the stream's value at the current
+simulation time (a second value at the same time replaces the first), which CoppeliaSim's main
+script does at ``sim.handleGraph`` each step. ``sim.getGraphCurve`` reads a time stream
+(``graphType`` 0: x the times, y the values after the stream's transformation:
+``sim.stream_transf_raw``, ``derivative``, ``integral``, ``cumulative``, then ``mult``,
+``off`` and a moving average of ``movAvgPeriod`` values) or an x/y curve (``graphType`` 1: two
+streams' transformed values at their common times); ``duplicateGraphCurveToStatic`` freezes a
+copy. Nothing is drawn headless.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, UnknownObjectError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
+from simx_server.sim.objects import DUMMY
+from simx_server.sim.state import SimulationView
+
+MAX_STREAMS, MAX_VALUES = 256, 1_000_000
+
+
+def _transformed(s: dict) -> tuple[np.ndarray, np.ndarray]:
+    t, y = np.array(s["t"], float), np.array(s["y"], float)
+    kind = s["transf"]
+    if kind == 1 and len(t) > 1:  # derivative: backward differences, the first value 0
+        y = np.concatenate([[0.0], np.diff(y) / np.maximum(np.diff(t), 1e-12)])
+    elif kind == 1:
+        y = np.zeros_like(y)
+    elif kind == 2 and len(t):  # integral: trapezoids from the first time
+        y = np.concatenate([[0.0], np.cumsum((y[1:] + y[:-1]) / 2 * np.diff(t))])
+    elif kind == 3:
+        y = np.cumsum(y)
+    y = y * s["mult"] + s["off"]
+    n = s["avg"]
+    if n > 1 and len(y):
+        c = np.cumsum(np.concatenate([[0.0], y]))
+        idx = np.arange(1, len(y) + 1)
+        lo = np.maximum(idx - n, 0)
+        y = (c[idx] - c[lo]) / (idx - lo)
+    return t, y
+
+
+class GraphCalls:
+    """Graph streams and curves (facade mixin)."""
+
+    def _graph(self, handle: Any) -> dict:
+        h = self._world.get(self._h(handle, "graphHandle"), DUMMY).handle
+        return self._store("graphs").setdefault(h, {"streams": {}, "curves": {}, "next": 0})
+
+    def _stream(self, graph: dict, stream_id: Any) -> dict:
+        s = graph["streams"].get(_int(stream_id, "streamId"))
+        if s is None:
+            raise UnknownObjectError(f"no graph stream {stream_id}")
+        return s
+
+    def addGraphStream(self, graphHandle: Any, streamName: Any, unit: Any, options: Any = 0,  # noqa: N802, N803
+                       color: Any = None, cyclicRange: Any = np.pi) -> int:  # noqa: N803
+        """A new, empty time stream on the graph; its id."""
+        g = self._graph(graphHandle)
+        if len(g["streams"]) >= MAX_STREAMS:
+            raise ArgumentError(f"at most {MAX_STREAMS} streams per graph")
+        sid = g["next"]
+        g["next"] += 1
+        g["streams"][sid] = {"name": _text(streamName, "streamName"), "unit": _text(unit, "unit"),
+                             "options": _int(options, "options"), "color": list(color or [1.0, 0.0, 0.0]),
+                             "cyclic": _num(cyclicRange, "cyclicRange"), "t": [], "y": [], "transf": 0,
+                             "mult": 1.0, "off": 0.0, "avg": 1}
+        return sid
+
+    def setGraphStreamValue(self, graphHandle: Any, streamId: Any, value: Any) -> None:  # noqa: N802, N803
+        """Record ``value`` for the current simulation time."""
+        s = self._stream(self._graph(graphHandle), streamId)
+        t, v = float(self._world.time), _num(value, "value")
+        if s["t"] and s["t"][-1] == t:
+            s["y"][-1] = v
+            return
+        if len(s["t"]) >= MAX_VALUES:
+            raise ArgumentError(f"a graph stream holds at most {MAX_VALUES} values")
+        s["t"].append(t)
+        s["y"].append(v)
+
+    def setGraphStreamTransformation(self, graphHandle: Any, streamId: Any, trType: Any, mult: Any = 1.0,  # noqa: N802, N803
+                                     off: Any = 0.0, movAvgPeriod: Any = 1) -> None:  # noqa: N803
+        """How the stream's values are read (see the module's text)."""
+        s = self._stream(self._graph(graphHandle), streamId)
+        kind, n = _int(trType, "trType"), _int(movAvgPeriod, "movAvgPeriod")
+        if kind not in (0, 1, 2, 3) or n < 1:
+            raise ArgumentError("trType must be a sim.stream_transf_* (0..3) and movAvgPeriod at least 1")
+        s.update(transf=kind, mult=_num(mult, "mult"), off=_num(off, "off"), avg=n)
+
+    def addGraphCurve(self, graphHandle: Any, curveName: Any, dim: Any, streamIds: Any, defaultValues: Any,  # noqa: N802, N803
+                      unitStr: Any, options: Any = 0, color: Any = None, curveWidth: Any = 2) -> int:  # noqa: N803
+        """An x/y curve (``dim`` 2) of two streams; its id. 3D curves: UnsupportedError (their
+        points cannot be read back through ``getGraphCurve``'s x/y data)."""
+        g = self._graph(graphHandle)
+        if _int(dim, "dim") != 2:
+            raise UnsupportedError("addGraphCurve: simx keeps 2D curves (dim 2)")
+        ids = [_int(v, "streamIds[i]") for v in (streamIds or [])][:2]
+        if len(ids) != 2:
+            raise ArgumentError("streamIds must hold 2 stream ids")
+        for i in ids:
+            self._stream(g, i)
+        cid = g["next"]
+        g["next"] += 1
+        g["curves"][cid] = {"name": _text(curveName, "curveName"), "streams": ids, "unit": _text(unitStr, "unitStr"),
+                            "options": _int(options, "options"), "color": list(color or [1.0, 1.0, 0.0]),
+                            "width": _int(curveWidth, "curveWidth"), "static": None}
+        return cid
+
+    def _curve_data(self, g: dict, c: dict) -> tuple[np.ndarray, np.ndarray]:
+        if c["static"] is not None:
+            return c["static"]
+        (tx, x), (ty, y) = (_transformed(self._stream(g, i)) for i in c["streams"])
+        _, ix, iy = np.intersect1d(tx, ty, return_indices=True)
+        return x[ix], y[iy]
+
+    def getGraphCurve(self, graphHandle: Any, graphType: Any, curveIndex: Any) -> tuple:  # noqa: N802, N803
+        """``label, attributes, curveColor, xData, yData, minMax, curveId, curveWidth`` of the
+        ``curveIndex``-th time stream (``graphType`` 0) or x/y curve (1); minMax: min and max of
+        x then y."""
+        g, kind, i = self._graph(graphHandle), _int(graphType, "graphType"), _int(curveIndex, "curveIndex")
+        if kind == 0:
+            items = list(g["streams"].items())
+        elif kind == 1:
+            items = list(g["curves"].items())
+        else:
+            raise UnsupportedError("getGraphCurve: simx keeps time streams (0) and x/y curves (1)")
+        if not 0 <= i < len(items):
+            raise ArgumentError(f"curveIndex {i}: the graph has {len(items)} of that type")
+        cid, c = items[i]
+        x, y = _transformed(c) if kind == 0 else self._curve_data(g, c)
+        mm = [float(x.min()), float(x.max()), float(y.min()), float(y.max())] if len(x) else [0.0] * 4
+        return (c["name"], c["options"], c["color"], x.tolist(), y.tolist(), mm + [0.0, 0.0], cid,
+                c.get("width", 2))
+
+    def duplicateGraphCurveToStatic(self, graphHandle: Any, curveId: Any, curveName: Any = "") -> int:  # noqa: N802, N803
+        """A static copy (no longer updated) of a stream's time curve or of an x/y curve; its id."""
+        g, cid = self._graph(graphHandle), _int(curveId, "curveId")
+        if cid in g["curves"]:
+            src = g["curves"][cid]
+            data = self._curve_data(g, src)
+        elif cid in g["streams"]:
+            src = g["streams"][cid]
+            data = _transformed(src)
+        else:
+            raise UnknownObjectError(f"no graph curve or stream {cid}")
+        new = g["next"]
+        g["next"] += 1
+        g["curves"][new] = {"name": _text(curveName, "curveName") or f"{src['name']} (static)", "streams": [],
+                            "unit": src["unit"], "options": src["options"], "color": src["color"],
+                            "width": src.get("width", 2), "static": (data[0].copy(), data[1].copy())}
+        return new
+
+    def destroyGraphCurve(self, graphHandle: Any, curveId: Any) -> None:  # noqa: N802, N803
+        """Remove a curve or a stream (and the curves built on it); -1: every one."""
+        g, cid = self._graph(graphHandle), _int(curveId, "curveId")
+        if cid == -1:
+            g["streams"].clear()
+            g["curves"].clear()
+        elif g["curves"].pop(cid, None) is None:
+            if g["streams"].pop(cid, None) is None:
+                raise UnknownObjectError(f"no graph curve or stream {cid}")
+            g["curves"] = {k: c for k, c in g["curves"].items() if cid not in c["streams"]}
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _store(self, kind: str) -> dict: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...

@@ -1,0 +1,153 @@
+"""CoppeliaSim 4.x's pose and matrix arithmetic for remote programs (``sim.rotateAroundAxis``,
+``sim.poseToMatrix``, ``sim.multiplyPoses`` ...): a mixin of :class:`simx_server.scripts.facade.ScriptSim`,
+so child scripts and ZMQ clients (:class:`simx_server.zmq.remote_sim.RemoteSim`) share it.
+
+Pure arithmetic, no scene. CoppeliaSim's layouts: a *matrix* is 12 numbers row by row
+``[Xx Yx Zx Px  Xy Yy Zy Py  Xz Yz Zz Pz]`` (rotation columns, then the position, m); a *pose*
+is 7 numbers ``[x y z qx qy qz qw]`` (position in m, unit quaternion). Angles in rad. Bad
+shapes raise ArgumentError naming the argument.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import as_number as _num, as_vector as _vector
+from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matrix_from_quaternion, quaternion_from_matrix
+
+
+def _frame(value: Any, what: str) -> tuple[np.ndarray, np.ndarray, bool]:
+    """``(position, rotation matrix, is_pose)`` of a 7-number pose or a 12-number matrix."""
+    n = len(value) if isinstance(value, (list, tuple)) else 0
+    if n == 7:
+        v = _vector(value, 7, what)
+        q = np.array(v[3:])
+        norm = np.linalg.norm(q)
+        if not norm > 0:
+            raise ArgumentError(f"{what}: the quaternion part is zero")
+        return np.array(v[:3]), matrix_from_quaternion(*(q / norm)), True
+    if n == 12:
+        m = np.array(_vector(value, 12, what)).reshape(3, 4)
+        return m[:, 3].copy(), m[:, :3].copy(), False
+    raise ArgumentError(f"{what} must be a pose (7 numbers: x y z qx qy qz qw) or a matrix (12 numbers)")
+
+
+def _pose(p: np.ndarray, r: np.ndarray) -> list[float]:
+    return [float(x) for x in p] + [float(x) for x in quaternion_from_matrix(r)]
+
+
+def _matrix(p: np.ndarray, r: np.ndarray) -> list[float]:
+    return np.hstack([r, np.reshape(p, (3, 1))]).reshape(12).tolist()
+
+
+def _out(p: np.ndarray, r: np.ndarray, as_pose: bool) -> list[float]:
+    return _pose(p, r) if as_pose else _matrix(p, r)
+
+
+def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix of ``angle`` about the unit vector ``axis`` (Rodrigues)."""
+    x, y, z = axis
+    k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
+
+
+class PoseMath:
+    """``sim.*`` pose and matrix arithmetic (CoppeliaSim 4.x names and layouts)."""
+
+    def buildIdentityMatrix(self) -> list[float]:  # noqa: N802 (CoppeliaSim's names)
+        """The identity as a 12-number matrix."""
+        return _matrix(np.zeros(3), np.eye(3))
+
+    def buildMatrix(self, position: Any, eulerAngles: Any) -> list[float]:  # noqa: N802, N803
+        """A 12-number matrix from a position (m) and Euler angles alpha, beta, gamma (rad)."""
+        return _matrix(np.array(_vector(position, 3, "position")),
+                       matrix_from_euler(*_vector(eulerAngles, 3, "eulerAngles")))
+
+    def buildPose(self, position: Any, eulerAnglesOrAxis: Any, mode: Any = 0,  # noqa: N802, N803
+                  axis2: Any = None) -> list[float]:
+        """A 7-number pose from a position (m) and Euler angles (``mode`` 0; the other modes,
+        which build the frame from axes, are not implemented and say so)."""
+        if int(_num(mode, "mode")) != 0:
+            raise UnsupportedError("sim.buildPose: only mode 0 (Euler angles) is implemented in simx")
+        return _pose(np.array(_vector(position, 3, "position")),
+                     matrix_from_euler(*_vector(eulerAnglesOrAxis, 3, "eulerAngles")))
+
+    def poseToMatrix(self, pose: Any) -> list[float]:  # noqa: N802
+        """The 12-number matrix of a 7-number pose."""
+        p, r, _ = _frame(_vector(pose, 7, "pose"), "pose")
+        return _matrix(p, r)
+
+    def matrixToPose(self, matrix: Any) -> list[float]:  # noqa: N802
+        """The 7-number pose of a 12-number matrix."""
+        p, r, _ = _frame(_vector(matrix, 12, "matrix"), "matrix")
+        return _pose(p, r)
+
+    def getEulerAnglesFromMatrix(self, matrix: Any) -> list[float]:  # noqa: N802
+        """Euler angles alpha, beta, gamma (rad) of a 12-number matrix's rotation."""
+        _, r, _ = _frame(_vector(matrix, 12, "matrix"), "matrix")
+        return list(euler_from_matrix(r))
+
+    def multiplyMatrices(self, matrixIn1: Any, matrixIn2: Any) -> list[float]:  # noqa: N802, N803
+        """``matrixIn1 * matrixIn2`` (12 numbers each)."""
+        p1, r1, _ = _frame(_vector(matrixIn1, 12, "matrixIn1"), "matrixIn1")
+        p2, r2, _ = _frame(_vector(matrixIn2, 12, "matrixIn2"), "matrixIn2")
+        return _matrix(p1 + r1 @ p2, r1 @ r2)
+
+    def multiplyPoses(self, poseIn1: Any, poseIn2: Any) -> list[float]:  # noqa: N802, N803
+        """``poseIn1 * poseIn2`` (7 numbers each)."""
+        p1, r1, _ = _frame(_vector(poseIn1, 7, "poseIn1"), "poseIn1")
+        p2, r2, _ = _frame(_vector(poseIn2, 7, "poseIn2"), "poseIn2")
+        return _pose(p1 + r1 @ p2, r1 @ r2)
+
+    def getMatrixInverse(self, matrix: Any) -> list[float]:  # noqa: N802
+        """The inverse of a 12-number matrix."""
+        p, r, _ = _frame(_vector(matrix, 12, "matrix"), "matrix")
+        return _matrix(-r.T @ p, r.T)
+
+    def getPoseInverse(self, pose: Any) -> list[float]:  # noqa: N802
+        """The inverse of a 7-number pose."""
+        p, r, _ = _frame(_vector(pose, 7, "pose"), "pose")
+        return _pose(-r.T @ p, r.T)
+
+    def interpolatePoses(self, poseIn1: Any, poseIn2: Any, interpolFactor: Any) -> list[float]:  # noqa: N802, N803
+        """The pose at ``interpolFactor`` (0..1) between two poses: positions linearly, rotations
+        by spherical linear interpolation."""
+        t = _num(interpolFactor, "interpolFactor")
+        a, b = _vector(poseIn1, 7, "poseIn1"), _vector(poseIn2, 7, "poseIn2")
+        q1, q2 = np.array(a[3:]), np.array(b[3:])
+        q1, q2 = q1 / np.linalg.norm(q1), q2 / np.linalg.norm(q2)
+        if q1 @ q2 < 0:
+            q2 = -q2
+        dot = min(1.0, float(q1 @ q2))
+        theta = math.acos(dot)
+        if theta < 1e-9:
+            q = q1
+        else:
+            q = (math.sin((1 - t) * theta) * q1 + math.sin(t * theta) * q2) / math.sin(theta)
+        p = (1 - t) * np.array(a[:3]) + t * np.array(b[:3])
+        return [float(x) for x in p] + (q / np.linalg.norm(q)).tolist()
+
+    def multiplyVector(self, matrixOrPose: Any, inVectors: Any) -> list[float]:  # noqa: N802, N803
+        """Points (3 numbers each, one after the other) transformed by a matrix or a pose."""
+        p, r, _ = _frame(matrixOrPose, "matrix")
+        n = len(inVectors) if isinstance(inVectors, (list, tuple)) else 0
+        if n == 0 or n % 3:
+            raise ArgumentError("inVectors must be 3 numbers per point")
+        pts = np.array(_vector(inVectors, n, "inVectors")).reshape(-1, 3)
+        return (pts @ r.T + p).reshape(-1).tolist()
+
+    def rotateAroundAxis(self, matrixOrPose: Any, axis: Any, axisPos: Any, angle: Any) -> list[float]:  # noqa: N802, N803
+        """A matrix or pose turned by ``angle`` (rad) about the line through ``axisPos`` (m)
+        along ``axis`` (world frame); returns the same layout it was given."""
+        p, r, as_pose = _frame(matrixOrPose, "matrixIn")
+        a = np.array(_vector(axis, 3, "axis"))
+        norm = np.linalg.norm(a)
+        if not norm > 0:
+            raise ArgumentError("axis must not be zero")
+        rot = _axis_angle(a / norm, _num(angle, "angle"))
+        c = np.array(_vector(axisPos, 3, "axisPos"))
+        return _out(rot @ (p - c) + c, rot @ r, as_pose)

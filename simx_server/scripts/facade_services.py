@@ -1,0 +1,282 @@
+"""CoppeliaSim 4.x's image files, object queries and application services (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`): ``saveImage`` / ``loadImage`` (OpenCV, under the
+confinement of ``saveScene``), ``getObjectAliasRelative``, ``getModelBB``,
+``getObjectChildPose`` / ``setObjectChildPose`` (a joint's intrinsic motion),
+``removeReferencedObjects``, ``createPureShape`` (V-REP's older ``createPrimitiveShape``),
+``getThreadId``.
+
+Images are uint8 buffers with rows bottom-up, as ``getVisionSensorImg`` returns them; files
+are written and read top-down (the picture the right way up).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
+from simx_server.base import scene_guard as guard
+from simx_server.base.arguments import quote
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
+from simx_server.base.arguments import as_vector as _vector
+from simx_server.sim.objects import JOINT, SHAPE, WORLD
+from simx_server.sim.rotations import matrix_from_quaternion
+from simx_server.sim.state import SimulationView
+
+_IMAGE_FORMATS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+MAX_IMAGE_SIDE = 8192
+#: ``sim.createPureShape``'s primitive types (0 cuboid, 1 sphere, 2 cylinder, 3 cone) -> ``sim.primitiveshape_*``.
+_PURE = {0: 3, 1: 4, 2: 5, 3: 6}
+
+
+def _channels(options: int) -> int:
+    return 1 if options & 2 else 4 if options & 1 else 3
+
+
+class ServiceCalls:
+    """Image files, object queries and application services (facade mixin)."""
+
+    # ------------------------------------------------------------------ image files
+    def _image_file(self, filename: str, writing: bool) -> Path:
+        sim = self._simulation("saveImage" if writing else "loadImage")
+        if not filename or "\x00" in filename or Path(filename).suffix.lower() not in _IMAGE_FORMATS:
+            raise ArgumentError(f"give an image file name ending in one of {', '.join(_IMAGE_FORMATS)}")
+        file = Path(filename)
+        if not file.is_absolute():
+            file = sim.editor.files.roots[0] / file
+        file = Path(os.path.realpath(file))
+        if not any(guard.inside(file, root) for root in sim.editor.files.roots) or (
+                writing and guard.is_transferred(file)):
+            raise RemoteError(f"file {quote(filename)} refused: images are read and written only in the server's "
+                              "scene folder and its --scene-path folders")
+        if writing and not file.parent.is_dir():
+            raise RemoteError(f"no folder for {quote(filename)}")
+        return file
+
+    def saveImage(self, image: Any, resolution: Any, options: Any, filename: Any, quality: Any = -1) -> bytes:  # noqa: N802
+        """Write an image (``resolution`` x, y; ``options`` bit 0: RGBA, bit 1: greyscale, else
+        RGB) as an image file, or, when ``filename`` is just a format (``".png"``, ``".jpg"``),
+        return the encoded file as a buffer. ``quality`` 0..100 (JPEG; -1: OpenCV's default)."""
+        opts, name, q = _int(options, "options"), _text(filename, "filename"), _int(quality, "quality")
+        w, h = (_int(v, "resolution[i]") for v in (resolution or [])[:2]) if resolution and len(resolution) >= 2 \
+            else (0, 0)
+        n = _channels(opts)
+        raw = _bytes(image, "image")
+        if not (0 < w <= MAX_IMAGE_SIDE and 0 < h <= MAX_IMAGE_SIDE) or len(raw) != w * h * n:
+            raise ArgumentError(f"image must hold {w}x{h}x{n} bytes (resolution at most {MAX_IMAGE_SIDE})")
+        img = np.frombuffer(raw, np.uint8).reshape(h, w, n)[::-1]
+        img = {1: img[:, :, 0], 3: cv2.cvtColor(img, cv2.COLOR_RGB2BGR), 4: cv2.cvtColor(img, cv2.COLOR_RGBA2BGRA)}[n]
+        ext = name.lower() if name.startswith(".") else Path(name).suffix.lower()
+        if ext not in _IMAGE_FORMATS:
+            raise ArgumentError(f"give an image file name ending in one of {', '.join(_IMAGE_FORMATS)}")
+        params = [cv2.IMWRITE_JPEG_QUALITY, max(0, min(100, q))] if ext in (".jpg", ".jpeg") and q >= 0 else []
+        ok, data = cv2.imencode(ext, img, params)
+        if not ok:
+            raise UnsupportedError(f"OpenCV cannot encode {ext} images")
+        if name.startswith("."):
+            return data.tobytes()
+        self._image_file(name, True).write_bytes(data.tobytes())
+        return b""
+
+    def loadImage(self, options: Any, filename: Any) -> tuple[bytes, list[int]]:  # noqa: N802
+        """``image, resolution`` of an image file, or of an encoded image given as a buffer
+        (bytes, or ``options`` bit 1 with a string): RGB, or RGBA with ``options`` bit 0; rows
+        bottom-up."""
+        opts = _int(options, "options")
+        if isinstance(filename, (bytes, bytearray)) or opts & 2:
+            data = _bytes(filename, "serializedImage")
+        else:
+            data = self._image_file(_text(filename, "filename"), False).read_bytes()
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        if img is None:
+            raise ArgumentError("not an image OpenCV can read")
+        if img.ndim == 2:
+            img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGRA)
+        elif img.shape[2] == 3:
+            img = cv2.cvtColor(img, cv2.COLOR_BGR2BGRA)
+        img = cv2.cvtColor(img.astype(np.uint8), cv2.COLOR_BGRA2RGBA if opts & 1 else cv2.COLOR_BGRA2RGB)
+        return np.ascontiguousarray(img[::-1]).tobytes(), [int(img.shape[1]), int(img.shape[0])]
+
+    # ------------------------------------------------------------------ objects
+    def getObjectAliasRelative(self, handle: Any, baseHandle: Any, options: Any = -1) -> str:  # noqa: N802, N803
+        """The object's path relative to ``baseHandle`` (``./link/joint``, the form
+        ``sim.getObject`` resolves with ``proxy``); an object outside the base's tree, or a base of
+        ``sim.handle_world``: its full path as ``getObjectAlias(handle, 1)``."""
+        obj = self._world.get(self._h(handle))
+        base = _int(baseHandle, "baseHandle")
+        _int(options, "options")
+        if obj.handle == base:
+            return "."
+        parts, h = [], obj.handle
+        while h not in (WORLD, base):
+            parts.append(self._world.objects[h].name)
+            h = self._world.objects[h].parent
+        if h == WORLD:
+            return self.getObjectAlias(obj.handle, 1)
+        return "./" + "/".join(reversed(parts))
+
+    def getModelBB(self, handle: Any) -> list[float]:  # noqa: N802
+        """Size ``[x, y, z]`` (m) of the box, in the object's frame, around every shape of its
+        tree (the model's), as CoppeliaSim 4.7's ``sim.getModelBB``."""
+        h = self._h(handle)
+        self._world.get(h)
+        rot, pos = self._frame_of(h)
+        pts = []
+        for shape in self.getObjectsInTree(h, SHAPE, 0):
+            r, p = self._frame_of(shape)
+            pts.append(((self._corners(self._world.objects[shape].mj_id) @ r.T + p) - pos) @ rot)
+        if not pts:
+            raise ArgumentError(f"object {h} has no shape in its tree")
+        allp = np.vstack(pts)
+        return (allp.max(axis=0) - allp.min(axis=0)).tolist()
+
+    def _frame_of(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
+        m = np.array(self.getObjectMatrix(handle, -1), dtype=float).reshape(3, 4)
+        return m[:, :3], m[:, 3]
+
+    def getObjectPose(self, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
+        """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world)."""
+        h, rel = self._h(objectHandle), self._rel(relativeToObjectHandle)
+        return self._world.position(h, rel) + self._world.quaternion(h, rel)
+
+    def setObjectPose(self, objectHandle: Any, relativeTo: Any, pose: Any = None) -> None:  # noqa: N802, N803
+        """Place an object by a 7-number pose; ``(h, pose [, relativeTo])`` (4.5+) or
+        ``(h, relativeTo, pose)``; the rules of ``setObjectPosition`` hold."""
+        rel, value = self._order(relativeTo, pose)
+        v = _vector(value, 7, "pose")
+        self._set_pose(objectHandle, rel, position=v[:3], rotation=matrix_from_quaternion(*v[3:]))
+
+    def getObjectChildPose(self, objectHandle: Any) -> list[float]:  # noqa: N802, N803
+        """The pose (x, y, z, qx, qy, qz, qw; m) of a joint's child frame in the joint's frame: its
+        intrinsic motion (a hinge's rotation about z, a slide's translation along z, a ball's
+        rotation). Other objects: ArgumentError."""
+        obj = self._world.get(self._h(objectHandle, "objectHandle"))
+        if obj.type != JOINT:
+            raise ArgumentError(f"{obj.name!r} is not a joint: only a joint has a child pose in simx")
+        m, d = self._world.model, self._world.data
+        kind, adr = int(m.jnt_type[obj.mj_id]), int(m.jnt_qposadr[obj.mj_id])
+        J = mujoco.mjtJoint
+        if kind == J.mjJNT_HINGE:
+            a = float(d.qpos[adr])
+            return [0.0, 0.0, 0.0, 0.0, 0.0, float(np.sin(a / 2)), float(np.cos(a / 2))]
+        if kind == J.mjJNT_SLIDE:
+            return [0.0, 0.0, float(d.qpos[adr]), 0.0, 0.0, 0.0, 1.0]
+        if kind == J.mjJNT_BALL:
+            w, x, y, z = (float(v) for v in d.qpos[adr:adr + 4])
+            return [0.0, 0.0, 0.0, x, y, z, w]
+        raise UnsupportedError(f"{obj.name!r} is a free joint: its motion is its body's pose")
+
+    def setObjectChildPose(self, objectHandle: Any, pose: Any) -> None:  # noqa: N802, N803
+        """Set a joint's intrinsic motion from a child pose (see :meth:`getObjectChildPose`): a
+        hinge takes the rotation's angle about z, a slide the z translation, a ball the rotation."""
+        obj = self._world.get(self._h(objectHandle, "objectHandle"))
+        if obj.type != JOINT:
+            raise ArgumentError(f"{obj.name!r} is not a joint: only a joint has a child pose in simx")
+        if not isinstance(pose, (list, tuple)) or len(pose) < 7:
+            raise ArgumentError("pose must hold 7 numbers (x, y, z, qx, qy, qz, qw)")
+        p = np.array([float(v) for v in pose[:7]])
+        m, d = self._world.model, self._world.data
+        kind, adr = int(m.jnt_type[obj.mj_id]), int(m.jnt_qposadr[obj.mj_id])
+        J = mujoco.mjtJoint
+        if kind == J.mjJNT_HINGE:
+            self.setJointPosition(obj.handle, float(2 * np.arctan2(p[5], p[6])))
+        elif kind == J.mjJNT_SLIDE:
+            self.setJointPosition(obj.handle, float(p[2]))
+        elif kind == J.mjJNT_BALL:
+            q = np.array([p[6], p[3], p[4], p[5]])
+            if not np.linalg.norm(q) > 0:
+                raise ArgumentError("the pose's quaternion must not be zero")
+            d.qpos[adr:adr + 4] = q / np.linalg.norm(q)
+            mujoco.mj_kinematics(m, d)
+            self._world.version += 1
+        else:
+            raise UnsupportedError(f"{obj.name!r} is a free joint: set its body's pose")
+
+    def checkProximitySensorEx(self, sensorHandle: Any, entityHandle: Any, mode: Any, threshold: Any,  # noqa: N802, N803
+                               maxAngle: Any) -> tuple[int, float, list[float], int, list[float]]:  # noqa: N803
+        """``result, distance, detectedPoint, detectedObjectHandle, normalVector`` (sensor frame) of
+        the sensor's ray(s) against ``entityHandle`` (``sim.handle_all``: any shape), counting a
+        detection only within ``threshold`` m and, with ``mode`` bit 3, where the surface faces the
+        sensor within ``maxAngle`` (rad). ``mode`` bit 0 asks for front faces (what MuJoCo's rays
+        see); back faces alone (bit 1 without bit 0): UnsupportedError. Bit 2 (fast) changes
+        nothing: the rays are exact."""
+        opts, limit, angle = _int(mode, "mode"), _num(threshold, "threshold"), _num(maxAngle, "maxAngle")
+        if not opts & 1:
+            raise UnsupportedError("checkProximitySensorEx: MuJoCo's rays detect front faces only (set mode bit 0)")
+        res, dist, point, hit, normal = self.readProximitySensor(self._h(sensorHandle, "sensorHandle"))
+        entity = _int(entityHandle, "entityHandle")
+        none = (0, 0.0, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0])
+        if not res or dist > limit or (entity != -2 and hit != self._world.get(entity).handle):
+            return none
+        if opts & 8 and math.acos(max(-1.0, min(1.0, -float(normal[2])))) > angle:
+            return none
+        return res, dist, point, hit, normal
+
+    def removeReferencedObjects(self, objectHandle: Any, tag: Any = "") -> None:  # noqa: N802, N803
+        """Remove from the scene the objects ``objectHandle`` references under ``tag``
+        (``sim.setReferencedHandles``), then forget the references."""
+        sim = self._simulation("removeReferencedObjects")
+        refs = self.getReferencedHandles(objectHandle, tag)
+        for h in refs:
+            if h in self._world.objects:  # gone already with a removed parent: skip
+                sim.editor.remove_object(h)
+        self.setReferencedHandles(objectHandle, [], tag)
+
+    def createPureShape(self, primitiveType: Any, options: Any, sizes: Any, mass: Any,  # noqa: N802, N803
+                        precision: Any = None) -> int:
+        """V-REP's ``simCreatePureShape``: ``primitiveType`` 0 cuboid, 1 sphere, 2 cylinder, 3 cone
+        (refused: MuJoCo has no cone); ``options`` bit 4 (16): static; ``sizes`` x, y, z (m);
+        ``mass`` (kg); ``precision`` (tessellation) has no meaning for MuJoCo's exact primitives."""
+        kind, opts = _int(primitiveType, "primitiveType"), _int(options, "options")
+        if kind not in _PURE:
+            raise ArgumentError("primitiveType must be 0 (cuboid), 1 (sphere), 2 (cylinder) or 3 (cone)")
+        h = self.createPrimitiveShape(_PURE[kind], sizes, 2 if opts & 16 else 0)
+        self.setShapeMass(h, mass)
+        return h
+
+    # ------------------------------------------------------------------ application services
+    def getThreadId(self) -> int:  # noqa: N802
+        """The id of the server thread running the call (Python's ``threading.get_ident``)."""
+        return threading.get_ident()
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
+
+        def _corners(self, body: int) -> np.ndarray: ...
+
+        def getObjectMatrix(self, handle: Any, relative_to: Any = -1) -> list[float]: ...
+
+        def _rel(self, relative_to: Any) -> int: ...
+
+        @staticmethod
+        def _order(relative_to: Any, value: Any) -> tuple[Any, Any]: ...
+
+        def _set_pose(self, handle: Any, relative_to: Any, position: list[float] | None = None,
+                      rotation: np.ndarray | None = None) -> None: ...
+
+        def getObjectAlias(self, handle: Any, options: Any = -1) -> str: ...
+
+        def getObjectsInTree(self, base: Any, objectType: Any = -2, options: Any = 0) -> list[int]: ...
+
+        def getReferencedHandles(self, objectHandle: Any, tag: Any = "") -> list[int]: ...
+
+        def setReferencedHandles(self, objectHandle: Any, referencedHandles: Any, tag: Any = "") -> None: ...
+
+        def setJointPosition(self, handle: Any, position: Any) -> None: ...
+
+        def readProximitySensor(self, handle: Any) -> tuple[int, float, list[float], int, list[float]]: ...
+
+        def createPrimitiveShape(self, primitiveType: Any, sizes: Any, options: Any = 0) -> int: ...
+
+        def setShapeMass(self, shapeHandle: Any, mass: Any) -> None: ...
