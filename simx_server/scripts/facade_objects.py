@@ -214,12 +214,13 @@ class ObjectCalls:
         return self._owner
 
     def getObjectAlias(self, handle: Any, options: Any = -1) -> str:  # noqa: N802 (CoppeliaSim's names)
-        """The object's alias (CoppeliaSim 4.3; in simx alias and name are one): ``options``
-        -1 or 0 the alias alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form
-        ``sim.getObject`` and ``simxGetObjectHandle`` resolve)."""
+        """The object's alias (CoppeliaSim 4.3; in simx the name, or a converted 4.3+ ``.ttt``'s
+        own alias: :func:`simx_server.sim.paths.object_alias`): ``options`` -1 or 0 the alias
+        alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form ``sim.getObject`` and
+        ``simxGetObjectHandle`` resolve)."""
         obj = self._world.get(self._h(handle))
         if _int(options, "options") <= 0:
-            return obj.name
+            return obj.settings.get("alias") or obj.name
         parts, h = [], obj.handle
         while h != WORLD:
             parts.append(self._world.objects[h].name)
