@@ -160,8 +160,9 @@ class Converter:
             self._force_sensor(obj, body, local, model)
         else:
             add_sensor(self, obj, body, local)
-            for child in obj.children:
+            for child in obj.children:  # a site has no children in MJCF: they go in its body
                 self._emit(child, body, local, model)
+                self.vrep_parent(child)
 
     def _shape(self, obj: TttObject, body, local: Pose, model: int, joint=None) -> None:
         d = obj.data
