@@ -144,9 +144,10 @@ def ttt_file(body_records: bytes, serialization: int = 22, program: int = 40100,
     return header.ljust(1021, b"\0") + payload
 
 
-def simple_scene(**kw) -> bytes:
+def simple_scene(port: int = 19999, **kw) -> bytes:
     """A static floor, a base, a revolute joint carrying a dynamic link with a tip dummy, a free
-    cube, and a child script on the link."""
+    cube, a child script on the link, and on the base a threaded script that opens the legacy
+    remote API on ``port`` (a test that runs the scene gives a free port)."""
     return ttt_file(
         rec("SIM", lst(rec("Sts", f32(0.05)))) + rec("DYN", lst(rec("En2", i32(0) + f32(0, 0, -9.81)))) +
         cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False) +
@@ -156,5 +157,5 @@ def simple_scene(**kw) -> bytes:
         dummy(5, 4, "Tip", (0, 0, 0.2)) +
         cuboid_shape(6, -1, "Cube", (0.1, 0.1, 0.1), (0.6, 0, 0.3), mass=0.2) +
         script(100, 4, "function sysCall_init()\n  print('hi')\nend\n") +
-        script(101, 2, "simRemoteApi.start(19999)\n", threaded=True, parameters=(("port", "int", "19999"),)) +
+        script(101, 2, f"simRemoteApi.start({port})\n", threaded=True, parameters=(("port", "int", str(port)),)) +
         script(102, 6, "function sysCall_init() end\n", kind=6), **kw)
