@@ -119,6 +119,11 @@ def _retarget(spec: mujoco.MjSpec, kind: str, old: str, new: str) -> None:
     text = spec.text(f"simx:{old}")
     if text is not None:
         text.name = f"simx:{new}"
+        # a converted .ttt's own alias (simx_server.sim.paths) follows the new name
+        text.data = " ".join(f"alias={paths.alias(new)}" if i.startswith("alias=") else i for i in text.data.split())
+    for t in spec.texts:  # and so do the V-REP parents that name it
+        if t.name.startswith("simx:") and f"vrep_parent={old}" in t.data.split():
+            t.data = " ".join(f"vrep_parent={new}" if i == f"vrep_parent={old}" else i for i in t.data.split())
 
 
 def rename(sim: SimulationView, handle: int, name: str) -> None:

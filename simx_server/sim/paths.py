@@ -108,10 +108,10 @@ def tree_order(world: World) -> tuple[list[int], dict[int, int], dict[int, int],
     return order, position, end, depth
 
 
-def _model_base(world: World, handle: int, strict: bool) -> int:
+def _model_base(world: World, handle: int) -> int:
     """The model ``handle`` is in: the nearest object at or above it with the ``model_base=1``
     setting (a converted ``.ttt``'s model bases), else its topmost ancestor below the world."""
-    h = _path_parent(world, world.objects[handle]) if strict else handle
+    h = handle
     while h != WORLD:
         if world.objects[h].settings.get("model_base") == "1":
             return h
@@ -153,11 +153,11 @@ def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> 
         base = WORLD if proxy is None else proxy  # unassociated code (a remote client): the scene root
         rest = path[1:]
         if path[0] == ":" and base != WORLD:
-            base = _model_base(world, base, strict=False)
+            base = _model_base(world, base)
             if rest.startswith(":"):  # '::': the model above the script's model
                 rest = rest[1:]
                 up = _path_parent(world, world.objects[base])
-                base = _model_base(world, up, strict=False) if up != WORLD else base
+                base = _model_base(world, up) if up != WORLD else base
         if rest == "":
             return [base] if index <= 0 and base != WORLD else []
         if not rest.startswith("/"):

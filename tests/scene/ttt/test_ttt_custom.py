@@ -117,3 +117,26 @@ def test_the_scenes_script_reads_its_custom_data_parameters_and_paths(tmp_path, 
         sim.stop()
     finally:
         sim.close()
+
+
+def test_renaming_keeps_aliases_and_the_vrep_tree_true(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    from simx_server.scene.simulation import Simulation
+    from simx_server.scripts.facade import ScriptSim
+
+    f = tmp_path / "pad.ttt"
+    f.write_bytes(_scene())
+    sim = Simulation(f, realtime=False)
+    try:
+        api = ScriptSim(sim.world, sim.world.resolve("MTB_Robot").handle, sim.signals, simulation=sim)
+        sensor = api.getObject("/MTB/suctionPad/Sensor")
+        assert api.getObjectAlias(sensor) == "Sensor"
+        api.setObjectAlias(sensor, "Probe")  # the file's alias gives way to the new one
+        assert api.getObjectAlias(sensor) == "Probe"
+        assert api.getObject("/MTB/suctionPad/Probe") == sensor
+        assert api.getObject("/MTB/suctionPad/Sensor", {"noError": True}) == -1
+        pad = api.getObject("/MTB/suctionPad")
+        api.setObjectAlias(pad, "gripper")  # the shape below still hangs from it in V-REP's tree
+        assert api.getObject("/MTB/gripper/BodyRespondable") == sim.world.resolve("suctionPadBodyRespondable").handle
+    finally:
+        sim.close()
