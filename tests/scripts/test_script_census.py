@@ -47,11 +47,6 @@ SCENE_OWN = {
 #: missing). The file's test is an expected failure while every such error occurs, and fails
 #: once one no longer does (remove it here then).
 SIMX_GAPS = {
-    "BTIRAI+youbot__youbot_simple_example.ttt": [
-        ("is a joint: it cannot be placed",
-         "the omni-wheel scripts place each slipping joint at its rolling joint every step: simx cannot "
-         "move a MuJoCo joint's frame in its body (simxSetObjectPosition refuses it alike)"),
-    ],
     "pranavraj575+swarm_coppeliasim__ros_ctrl_models_quad_copter.ttm": [
         ("sim.addParticleObject is not available in simx", "particle objects (the propellers' air jets)"),
     ],
