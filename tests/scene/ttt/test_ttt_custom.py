@@ -140,3 +140,51 @@ def test_renaming_keeps_aliases_and_the_vrep_tree_true(tmp_path, monkeypatch):
         assert api.getObject("/MTB/gripper/BodyRespondable") == sim.world.resolve("suctionPadBodyRespondable").handle
     finally:
         sim.close()
+
+
+COROUTINE = """
+function sysCall_init()
+  corout = coroutine.create(coroutineMain)
+end
+
+function sysCall_actuation()
+  if coroutine.status(corout) ~= 'dead' then
+    local ok, errorMsg = coroutine.resume(corout)
+    if errorMsg then error(debug.traceback(corout, errorMsg), 2) end
+  end
+end
+
+function coroutineMain()
+  local n = 0
+  while true do
+    n = n + 1
+    sim.setInt32Signal('passes', n)
+    sim.switchThread()  -- 4.2+'s non-threaded template: yields this coroutine, one pass a step
+  end
+end
+"""
+
+
+def test_a_4x_coroutine_script_switches_once_a_step(tmp_path, monkeypatch, caplog):
+    """CoppeliaSim 4.2+ writes 'threaded' child scripts as non-threaded ones that resume their
+    own coroutine each step, which yields with sim.switchThread() (the scara corpus scene)."""
+    import logging
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    from simx_server.scene.simulation import Simulation
+
+    f = tmp_path / "co.ttt"
+    f.write_bytes(W.ttt_file(W.dummy(1, -1, "Robot") + W.script(100, 1, COROUTINE), serialization=24,
+                             program=40501))
+    with caplog.at_level(logging.ERROR, logger="simx.scripts"):
+        sim = Simulation(f, realtime=False)
+        try:
+            sim.start()
+            for _ in range(5):
+                sim.step()
+            passes = sim.signals.get("int", "passes")
+            sim.stop()
+        finally:
+            sim.close()
+    assert not [r for r in caplog.records if r.name == "simx.scripts"], caplog.text
+    assert passes == 5
