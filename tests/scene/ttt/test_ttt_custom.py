@@ -188,3 +188,20 @@ def test_a_4x_coroutine_script_switches_once_a_step(tmp_path, monkeypatch, caplo
             sim.close()
     assert not [r for r in caplog.records if r.name == "simx.scripts"], caplog.text
     assert passes == 5
+
+
+def test_a_scene_loaded_later_brings_its_custom_data(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    from simx_server.scene.simulation import Simulation
+
+    (tmp_path / "empty.ttt").write_bytes(W.ttt_file(W.dummy(1, -1, "Nothing")))
+    (tmp_path / "pad.ttt").write_bytes(_scene())
+    sim = Simulation(tmp_path / "empty.ttt", realtime=False)
+    try:
+        assert sim.custom_data == {}
+        sim.editor.load_scene("pad.ttt", 0)  # simxLoadScene
+        robot = sim.world.resolve("MTB_Robot").handle
+        assert sim.custom_data[robot] == {"tableParams": TABLE}
+        assert sim.scripts.shared["custom_data"] is sim.custom_data  # the 3.x calls' store is the same
+    finally:
+        sim.close()
