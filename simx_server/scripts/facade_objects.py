@@ -227,9 +227,9 @@ class ObjectCalls:
         if _int(options, "options") <= 0:
             return obj.settings.get("alias") or obj.name
         parts, h = [], obj.handle
-        while h != WORLD:
+        while h != WORLD and len(parts) <= len(self._world.objects):  # V-REP's tree, as paths walk it
             parts.append(self._world.objects[h].name)
-            h = self._world.objects[h].parent
+            h = paths.path_parent(self._world, self._world.objects[h])
         return "/" + "/".join(reversed(parts))
 
     def setObjectName(self, handle: Any, name: Any) -> None:  # noqa: N802

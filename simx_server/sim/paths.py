@@ -64,7 +64,7 @@ def object_alias(obj: Any) -> str:
     return obj.settings.get("alias") or alias(obj.name)
 
 
-def _path_parent(world: World, obj: Any) -> int:
+def path_parent(world: World, obj: Any) -> int:
     """The object's parent in paths: its ``vrep_parent=`` setting when that names an object
     (``-1``: the world), else its parent."""
     name = obj.settings.get("vrep_parent")
@@ -82,7 +82,7 @@ def tree_order(world: World) -> tuple[list[int], dict[int, int], dict[int, int],
     children: dict[int, list[int]] = {WORLD: []}
     for h, obj in world.objects.items():  # handles count up in tree order, edits append
         children.setdefault(h, [])
-        children.setdefault(_path_parent(world, obj), []).append(h)
+        children.setdefault(path_parent(world, obj), []).append(h)
     order: list[int] = []
     depth: dict[int, int] = {}
     end: dict[int, int] = {}
@@ -115,10 +115,10 @@ def _model_base(world: World, handle: int) -> int:
     while h != WORLD:
         if world.objects[h].settings.get("model_base") == "1":
             return h
-        h = _path_parent(world, world.objects[h])
+        h = path_parent(world, world.objects[h])
     top = handle
-    while _path_parent(world, world.objects[top]) != WORLD:
-        top = _path_parent(world, world.objects[top])
+    while path_parent(world, world.objects[top]) != WORLD:
+        top = path_parent(world, world.objects[top])
     return top
 
 
@@ -156,7 +156,7 @@ def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> 
             base = _model_base(world, base)
             if rest.startswith(":"):  # '::': the model above the script's model
                 rest = rest[1:]
-                up = _path_parent(world, world.objects[base])
+                up = path_parent(world, world.objects[base])
                 base = _model_base(world, up) if up != WORLD else base
         if rest == "":
             return [base] if index <= 0 and base != WORLD else []

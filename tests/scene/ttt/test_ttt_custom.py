@@ -205,3 +205,21 @@ def test_a_scene_loaded_later_brings_its_custom_data(tmp_path, monkeypatch):
         assert sim.scripts.shared["custom_data"] is sim.custom_data  # the 3.x calls' store is the same
     finally:
         sim.close()
+
+
+def test_full_paths_walk_vreps_tree(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    from simx_server.scene.simulation import Simulation
+    from simx_server.scripts.facade import ScriptSim
+
+    f = tmp_path / "pad.ttt"
+    f.write_bytes(_scene())
+    sim = Simulation(f, realtime=False)
+    try:
+        api = ScriptSim(sim.world, sim.world.resolve("MTB_Robot").handle, sim.signals, simulation=sim)
+        body = sim.world.resolve("suctionPadBodyRespondable").handle
+        path = api.getObjectAlias(body, 1)
+        assert path == "/MTB_Robot/suctionPad/suctionPadBodyRespondable"
+        assert api.getObject(path) == body
+    finally:
+        sim.close()
