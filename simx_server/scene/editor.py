@@ -52,6 +52,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, Unsuppor
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
+from simx_server.scene import custom_data
 from simx_server.scene.client_files import ClientFiles
 from simx_server.scene.edits import ObjectEdits
 from simx_server.scripts.scene_scripts import Scripts
@@ -311,12 +312,14 @@ class Editor(ObjectEdits):
             world = World(file, dt, bounded=spec is not None)  # a client's scene: arena and step work bounded
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
                               allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted, simulation=sim)
+            blocks = custom_data.load(world)
         except (ValueError, RemoteError) as exc:
             text = self._scrub(_one_line(exc))
             text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix
             raise RemoteError(f"cannot load scene {label}: {text}") from None
         old.close()  # the old scene's customization scripts end, the new one's begin
         sim.world, sim.scripts = world, scripts
+        custom_data.install(sim, blocks)
         scripts.open()
         refresh_vision(sim)
         sim.sensors = type(sim.sensors)()  # per-scene sensor state (probes, passive images) starts afresh

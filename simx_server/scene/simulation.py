@@ -10,6 +10,7 @@ from pathlib import Path
 
 from simx_wire import protocol as P
 from simx_server.base.scene_guard import transfer_folders
+from simx_server.scene import custom_data
 from simx_server.scene.editor import Editor
 from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts import shapes
@@ -67,6 +68,10 @@ class Simulation:
         #: Why the simulation last stopped by itself (a physics blow-up), None after a start.
         self.stop_reason: str | None = None
         self.remote_api = RemoteApiPorts()  # ports scripts ask the legacy remote API to serve
+        #: Custom data blocks, ``{handle: {tag: bytes}}``: the scene's own, then what scripts and
+        #: clients write (sim.writeCustomDataBlock and co.)
+        self.custom_data: dict[int, dict[str, bytes]] = {}
+        custom_data.install(self, custom_data.load(self.world))
         self.scripts.open()  # customization scripts run from the scene's load
 
     @property

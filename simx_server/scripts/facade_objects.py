@@ -119,6 +119,11 @@ def _retarget(spec: mujoco.MjSpec, kind: str, old: str, new: str) -> None:
     text = spec.text(f"simx:{old}")
     if text is not None:
         text.name = f"simx:{new}"
+        # a converted .ttt's own alias (simx_server.sim.paths) follows the new name
+        text.data = " ".join(f"alias={paths.alias(new)}" if i.startswith("alias=") else i for i in text.data.split())
+    for t in spec.texts:  # and so do the V-REP parents that name it
+        if t.name.startswith("simx:") and f"vrep_parent={old}" in t.data.split():
+            t.data = " ".join(f"vrep_parent={new}" if i == f"vrep_parent={old}" else i for i in t.data.split())
 
 
 def rename(sim: SimulationView, handle: int, name: str) -> None:
@@ -214,16 +219,17 @@ class ObjectCalls:
         return self._owner
 
     def getObjectAlias(self, handle: Any, options: Any = -1) -> str:  # noqa: N802 (CoppeliaSim's names)
-        """The object's alias (CoppeliaSim 4.3; in simx alias and name are one): ``options``
-        -1 or 0 the alias alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form
-        ``sim.getObject`` and ``simxGetObjectHandle`` resolve)."""
+        """The object's alias (CoppeliaSim 4.3; in simx the name, or a converted 4.3+ ``.ttt``'s
+        own alias: :func:`simx_server.sim.paths.object_alias`): ``options`` -1 or 0 the alias
+        alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form ``sim.getObject`` and
+        ``simxGetObjectHandle`` resolve)."""
         obj = self._world.get(self._h(handle))
         if _int(options, "options") <= 0:
-            return obj.name
+            return obj.settings.get("alias") or obj.name
         parts, h = [], obj.handle
-        while h != WORLD:
+        while h != WORLD and len(parts) <= len(self._world.objects):  # V-REP's tree, as paths walk it
             parts.append(self._world.objects[h].name)
-            h = self._world.objects[h].parent
+            h = paths.path_parent(self._world, self._world.objects[h])
         return "/" + "/".join(reversed(parts))
 
     def setObjectName(self, handle: Any, name: Any) -> None:  # noqa: N802

@@ -61,7 +61,9 @@ local co_status, yieldable = coroutine.status, coroutine.isyieldable
 local error, type, pairs, pack, unpack = error, type, pairs, table.pack, table.unpack
 local T = {co = nil, level = 0, slice = 0.002, resumed = 0}
 local function in_thread() return T.co ~= nil and co_running() == T.co end
-local function switch() if in_thread() and yieldable() then co_yield() end end
+-- sim.switchThread / sim.yield: the thread's switch, or (CoppeliaSim 4.2+'s coroutineMain pattern of
+-- non-threaded scripts) a yield of the script's own coroutine; in a main-line callback: nothing
+local function switch() local _, main = co_running() if not main and yieldable() then co_yield() end end
 local get_time, get_int = sim.getSimulationTime, sim.getInt32Signal
 local get_float, get_string = sim.getFloatSignal, sim.getStringSignal
 local step = rawget(sim, "step")

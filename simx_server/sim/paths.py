@@ -5,15 +5,21 @@ CoppeliaSim 4.3 replaced unique object names with *aliases* that several objects
 unique names (the MJCF's, ``name#N`` where kinds share a name: :mod:`simx_server.sim.naming`);
 an object's **alias** is its name without V-REP's copy suffix ``#N`` (``joint#2`` -> ``joint``),
 so that a scene may give seven joints the alias ``joint`` as ``joint``, ``joint#0`` ...
-``joint#5``. A path segment matches an object whose alias or whole name it names.
+``joint#5``. A path segment matches an object whose alias or whole name it names. A converted
+``.ttt`` keeps CoppeliaSim's own aliases and tree: an object's ``simx:`` settings ``alias=A`` (its
+alias where it is not its name, ``suctionPadSensor`` -> ``Sensor``) and ``vrep_parent=NAME``
+(its parent in CoppeliaSim's tree where the MJCF's differs: a force sensor's child shape, the
+objects on a force sensor, a free dynamic shape; ``-1`` the world) are what paths walk.
 
 Paths (CoppeliaSim's manual, "Accessing scene objects programmatically"):
 
 * ``/A/B/C``: an object ``C`` below an object ``B`` below an object ``A``, each anywhere below
   the previous one (intermediate levels may be left out: ``/UR5/UR5_joint3``); ``/A`` alone is
   any object ``A`` of the scene;
-* ``.`` the calling script's object, ``./B`` below it; ``:`` the script's model base (in simx:
-  the script object's topmost ancestor below the world), ``:/B`` below it; for code with no
+* ``.`` the calling script's object, ``./B`` below it; ``:`` the script's model base (the
+  nearest object at or above the script's with the ``model_base=1`` setting, which a converted
+  ``.ttt`` gives its model bases; else the script object's topmost ancestor below the world),
+  ``:/B`` below it, ``::`` the model base above that one; for code with no
   object (a remote client) ``./B`` and ``:/B`` start from the scene root;
 * ``A[n]``: the n-th (0-based) of the matching objects that lie on the shallowest level where
   any matches, in tree order (``/Cuboid[0]`` is the first top-level ``Cuboid``);
@@ -52,34 +58,75 @@ def alias(name: str) -> str:
     return _SUFFIX.sub("", name)
 
 
+def object_alias(obj: Any) -> str:
+    """The alias of a scene object: its ``alias=`` setting (a converted 4.3+ ``.ttt``), else
+    :func:`alias` of its name."""
+    return obj.settings.get("alias") or alias(obj.name)
+
+
+def path_parent(world: World, obj: Any) -> int:
+    """The object's parent in paths: its ``vrep_parent=`` setting when that names an object
+    (``-1``: the world), else its parent."""
+    name = obj.settings.get("vrep_parent")
+    if name is None:
+        return obj.parent
+    if name == "-1":
+        return WORLD
+    other = world.by_name.get(name)
+    return other.handle if other is not None and other.handle != obj.handle else obj.parent
+
+
 def tree_order(world: World) -> tuple[list[int], dict[int, int], dict[int, int], dict[int, int]]:
     """``(handles in depth-first preorder, position of each in it, end of its subtree there
     (exclusive), its depth: 1 for the world's children)``."""
     children: dict[int, list[int]] = {WORLD: []}
     for h, obj in world.objects.items():  # handles count up in tree order, edits append
         children.setdefault(h, [])
-        children.setdefault(obj.parent, []).append(h)
+        children.setdefault(path_parent(world, obj), []).append(h)
     order: list[int] = []
     depth: dict[int, int] = {}
     end: dict[int, int] = {}
-    stack: list[tuple[int, int, bool]] = [(h, 1, False) for h in reversed(children[WORLD])]
-    while stack:
-        h, d, closing = stack.pop()
-        if closing:
-            end[h] = len(order)
-            continue
-        order.append(h)
-        depth[h] = d
-        stack.append((h, d, True))
-        stack.extend((c, d + 1, False) for c in reversed(children.get(h, [])))
+    roots = list(children[WORLD])
+    while True:
+        stack: list[tuple[int, int, bool]] = [(h, 1, False) for h in reversed(roots)]
+        while stack:
+            h, d, closing = stack.pop()
+            if closing:
+                end[h] = len(order)
+                continue
+            if h in depth:  # a cycle of vrep_parent settings comes back round
+                continue
+            order.append(h)
+            depth[h] = d
+            stack.append((h, d, True))
+            stack.extend((c, d + 1, False) for c in reversed(children.get(h, [])))
+        if len(order) == len(world.objects):
+            break
+        # ``vrep_parent`` settings that form a cycle: what they cut off hangs from the world
+        roots = [next(h for h in world.objects if h not in depth)]
     position = {h: i for i, h in enumerate(order)}
     return order, position, end, depth
 
 
-def _matches(pattern: str, name: str) -> bool:
+def _model_base(world: World, handle: int) -> int:
+    """The model ``handle`` is in: the nearest object at or above it with the ``model_base=1``
+    setting (a converted ``.ttt``'s model bases), else its topmost ancestor below the world."""
+    h = handle
+    while h != WORLD:
+        if world.objects[h].settings.get("model_base") == "1":
+            return h
+        h = path_parent(world, world.objects[h])
+    top = handle
+    while path_parent(world, world.objects[top]) != WORLD:
+        top = path_parent(world, world.objects[top])
+    return top
+
+
+def _matches(pattern: str, obj: Any) -> bool:
+    name, short = obj.name, object_alias(obj)
     if "*" in pattern or "?" in pattern:
-        return fnmatch.fnmatchcase(alias(name), pattern) or fnmatch.fnmatchcase(name, pattern)
-    return pattern == name or pattern == alias(name)
+        return fnmatch.fnmatchcase(short, pattern) or fnmatch.fnmatchcase(name, pattern)
+    return pattern == name or pattern == short
 
 
 def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> list[int]:
@@ -104,10 +151,13 @@ def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> 
         base, rest = WORLD, path[1:]
     else:
         base = WORLD if proxy is None else proxy  # unassociated code (a remote client): the scene root
-        if path[0] == ":" and base != WORLD:
-            while world.objects[base].parent != WORLD:
-                base = world.objects[base].parent
         rest = path[1:]
+        if path[0] == ":" and base != WORLD:
+            base = _model_base(world, base)
+            if rest.startswith(":"):  # '::': the model above the script's model
+                rest = rest[1:]
+                up = path_parent(world, world.objects[base])
+                base = _model_base(world, up) if up != WORLD else base
         if rest == "":
             return [base] if index <= 0 and base != WORLD else []
         if not rest.startswith("/"):
@@ -130,7 +180,7 @@ def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> 
             if lo < reach:
                 continue
             reach = hi
-            hits = [h for h in order[lo:hi] if _matches(pattern, world.objects[h].name)]
+            hits = [h for h in order[lo:hi] if _matches(pattern, world.objects[h])]
             if m.group("level") is not None and hits:
                 top = min(depth[h] for h in hits)
                 n = int(m.group("level"))

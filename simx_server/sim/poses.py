@@ -76,8 +76,11 @@ class Poses:
 
         Free bodies get a new free-joint state (velocity zeroed), mocap bodies a new mocap pose,
         bodies without joints, dummies, vision sensors and lights a new placement in their
-        parent body. Bodies moved by hinge/slide/ball joints and joints themselves cannot be
-        placed (set their joints instead): ObjectTypeError. A coordinate of ``position`` beyond
+        parent body. A hinge or slide joint alone in its body moves with its body (what hangs
+        from it in V-REP), its state kept; a body moved by one such joint gets a new placement
+        relative to the joint, which stays (V-REP's omni-wheels reset joints so, every step).
+        Other bodies with joints (several, a ball) and ball joints cannot be placed (set their
+        joints instead): ObjectTypeError. A coordinate of ``position`` beyond
         ±limits.MAX_POSITION: ArgumentError.
         """
         if position is not None:
@@ -104,8 +107,12 @@ class Poses:
                 d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + 6] = 0.0
             elif jnum == 0:
                 m.body_pos[b], m.body_quat[b] = self._in_parent(int(m.body_parentid[b]), p, quat)
+            elif jnum == 1 and int(m.jnt_type[m.body_jntadr[b]]) in _PLACEABLE:
+                self._place_on_joint(b, int(m.body_jntadr[b]), p, r)
             else:
                 raise ObjectTypeError(f"{obj.name!r} is moved by its joints: set their positions instead")
+        elif obj.type == JOINT and m.body_jntnum[obj.body] == 1 and int(m.jnt_type[obj.mj_id]) in _PLACEABLE:
+            self._place_joint(obj.body, p, r, p_now, r_now)
         elif obj.type in (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR):
             m.site_pos[obj.mj_id], m.site_quat[obj.mj_id] = self._in_parent(obj.body, p, quat)
             m.site_sameframe[obj.mj_id] = 0  # else MuJoCo keeps a site compiled at its body's origin there
@@ -121,6 +128,42 @@ class Poses:
                                   "move the body it belongs to")
         self.changed()
 
+    def _place_joint(self, b: int, p: np.ndarray, r: np.ndarray, p_now: np.ndarray, r_now: np.ndarray) -> None:
+        """V-REP places a joint with what hangs from it: the joint's body moves rigidly by the
+        transform that takes the joint's frame (``p_now``, ``r_now``) to (``p``, ``r``), its
+        joint state kept. In MuJoCo: the body's placement in its parent, composed with that
+        transform seen from the parent."""
+        m, d = self.model, self.data
+        parent = int(m.body_parentid[b])
+        rp, pp = d.xmat[parent].reshape(3, 3), d.xpos[parent]
+        rt = r @ r_now.T  # the move, in the world frame: x -> rt (x - p_now) + p
+        rot = _mat(m.body_quat[b])
+        m.body_pos[b] = rp.T @ (rt @ (rp @ m.body_pos[b] + pp - p_now) + p - pp)
+        mujoco.mju_mat2Quat(m.body_quat[b], np.ascontiguousarray(rp.T @ rt @ rp @ rot).reshape(9))
+
+    def _place_on_joint(self, b: int, j: int, p: np.ndarray, r: np.ndarray) -> None:
+        """V-REP places a shape that hangs from a joint relative to the joint's frame, the joint
+        staying where it is: the body gets the pose (``p``, ``r``) at the current joint state,
+        and the joint's anchor and axis are re-expressed in the body's new frame."""
+        m, d = self.model, self.data
+        anchor, axis = d.xanchor[j].copy(), d.xaxis[j].copy()
+        q = float(d.qpos[m.jnt_qposadr[j]] - m.qpos0[m.jnt_qposadr[j]])
+        undo_r, undo_p = np.eye(3), np.zeros(3)  # the joint's displacement, undone: world -> world
+        if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE):
+            quat = np.empty(4)
+            mujoco.mju_axisAngle2Quat(quat, axis, -q)
+            undo_r = _mat(quat)
+            undo_p = anchor - undo_r @ anchor
+        else:
+            undo_p = -q * axis
+        r0, p0 = undo_r @ r, undo_r @ p + undo_p  # the body's pose with the joint at rest
+        parent = int(m.body_parentid[b])
+        rp, pp = d.xmat[parent].reshape(3, 3), d.xpos[parent]
+        m.body_pos[b] = rp.T @ (p0 - pp)
+        mujoco.mju_mat2Quat(m.body_quat[b], np.ascontiguousarray(rp.T @ r0).reshape(9))
+        m.jnt_pos[j] = r0.T @ (anchor - p0)  # where the joint is, seen from the body at rest (MuJoCo's
+        m.jnt_axis[j] = r0.T @ axis         # anchor is the rest frame's: a slide moves the body past it)
+
     def _in_parent(self, body: int, p: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World pose (p, quat) expressed in body ``body``'s frame."""
         d = self.data
@@ -129,3 +172,13 @@ class Poses:
         mujoco.mju_negQuat(qinv, qb)
         mujoco.mju_mulQuat(q, qinv, quat)
         return rb.T @ (p - d.xpos[body]), q
+
+
+#: Joints that V-REP lets a script place, and under which a shape can be placed: hinge, slide.
+_PLACEABLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def _mat(quat: np.ndarray) -> np.ndarray:
+    out = np.empty(9)
+    mujoco.mju_quat2Mat(out, np.asarray(quat, dtype=float))
+    return out.reshape(3, 3)

@@ -54,7 +54,7 @@ log = logging.getLogger("simx.world")
 #: Model fields that clients may change while the simulation runs (poses, masses, view
 #: angles); reset() restores them, as V-REP restores a scene on stop.
 _RESTORED_FIELDS = ("body_pos", "body_quat", "site_pos", "site_quat", "cam_pos", "cam_quat", "light_pos",
-                    "light_dir", "body_mass", "body_inertia", "cam_fovy")
+                    "light_dir", "body_mass", "body_inertia", "cam_fovy", "jnt_pos", "jnt_axis")
 #: (nq, nv) of each mjtJoint: free, ball, slide, hinge.
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
 

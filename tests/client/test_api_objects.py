@@ -55,17 +55,25 @@ def test_set_pose_of_a_free_body_in_every_frame(vrep_client):
 def test_set_pose_of_a_static_body_moves_its_subtree_and_stop_restores(vrep_client):
     ur5, flange = h(vrep_client, "UR5"), h(vrep_client, "RG2")
     p0 = vrep.simxGetObjectPosition(vrep_client, ur5, -1, B)[1]
+    start = vrep.simxGetObjectPosition(vrep_client, h(vrep_client, "UR5_joint2"), -1, B)[1]
     f0 = vrep.simxGetObjectPosition(vrep_client, flange, -1, B)[1]
     moved = [p0[0] + 0.1, p0[1], p0[2]]
     assert vrep.simxSetObjectPosition(vrep_client, ur5, -1, moved, B) == 0
     assert vrep.simxGetObjectPosition(vrep_client, ur5, -1, B)[1] == pytest.approx(moved, abs=1e-5)
     assert vrep.simxGetObjectPosition(vrep_client, flange, -1, B)[1][0] == pytest.approx(f0[0] + 0.1, abs=0.01)
-    # A body moved by its joints cannot be placed; a joint neither.
-    assert vrep.simxSetObjectPosition(vrep_client, h(vrep_client, "UR5_link2"), -1, moved, B) == 8
-    assert vrep.simxSetObjectPosition(vrep_client, h(vrep_client, "UR5_joint2"), -1, moved, B) == 8
+    # As in V-REP, a joint is placed with what hangs from it, and a body on a joint relative
+    # to the joint, which stays (tests/sim/test_joint_placement.py)
+    joint2, link2 = h(vrep_client, "UR5_joint2"), h(vrep_client, "UR5_link2")
+    j0 = vrep.simxGetObjectPosition(vrep_client, joint2, -1, B)[1]
+    l0 = vrep.simxGetObjectPosition(vrep_client, link2, joint2, B)[1]
+    up = [j0[0], j0[1], j0[2] + 0.05]
+    assert vrep.simxSetObjectPosition(vrep_client, joint2, -1, up, B) == 0
+    assert vrep.simxGetObjectPosition(vrep_client, joint2, -1, B)[1] == pytest.approx(up, abs=1e-4)
+    assert vrep.simxGetObjectPosition(vrep_client, link2, joint2, B)[1] == pytest.approx(l0, abs=1e-4)
     assert vrep.simxSetObjectPosition(vrep_client, ur5, -1, [1, 2], B) == vrep.simx_return_local_error_flag
     vrep.simxStopSimulation(vrep_client, B)
     assert vrep.simxGetObjectPosition(vrep_client, ur5, -1, B)[1] == pytest.approx(p0, abs=1e-5)
+    assert vrep.simxGetObjectPosition(vrep_client, joint2, -1, B)[1] == pytest.approx(start, abs=1e-5)
     vrep.simxStartSimulation(vrep_client, B)
 
 

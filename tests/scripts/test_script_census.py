@@ -25,6 +25,33 @@ CORPUS = SHARED / "ttt-corpus"
 SECONDS = 2.0
 _MISSING = re.compile(r"(\b[\w.]+) is not available in simx")
 
+#: Script errors that are the scene's own, per file: (exact text in the error, why it fails in
+#: V-REP / CoppeliaSim too, or needs a file the corpus lacks). Anything else is simx's and fails.
+SCENE_OWN = {
+    "BTIRAI+youbot__youbot_simple_example.ttt": [
+        ("sim.getObjectHandle: object 'place1' does not exist in scene",
+         "youBot's thread asks for 'place1', which the file does not have: V-REP 3.2 fails the same way"),
+        ("vehicleControl_child.lua:79: sim.setObjectParent: parentObjectHandle must be an integer, got None",
+         "vehicleControl's cleanup passes handles its init never set (nil): V-REP refuses nil as well"),
+    ],
+    "pranavraj575+swarm_coppeliasim__ros_ctrl_models_quad_copter.ttm": [
+        ("module 'quadCopter' not found",
+         "require 'quadCopter': a Lua module of the authors' repository, not in the corpus"),
+    ],
+    "pranavraj575+swarm_coppeliasim__scenes_testSceneForModelDevelopmentv2.ttt": [
+        ("module 'blimp' not found", "require 'blimp': a Lua module of the authors' repository, not in the corpus"),
+    ],
+}
+
+#: What simx cannot do yet that these scenes' scripts need, per file: (exact text, what is
+#: missing). The file's test is an expected failure while every such error occurs, and fails
+#: once one no longer does (remove it here then).
+SIMX_GAPS = {
+    "pranavraj575+swarm_coppeliasim__ros_ctrl_models_quad_copter.ttm": [
+        ("sim.addParticleObject is not available in simx", "particle objects (the propellers' air jets)"),
+    ],
+}
+
 
 def _corpus() -> list:
     return sorted(p for p in CORPUS.glob("*.tt[tm]")) if CORPUS.is_dir() else []
@@ -52,4 +79,14 @@ def test_every_script_of_the_corpus_runs_2_s_without_a_script_error(path, caplog
     missing = Counter(m for e in errors for m in _MISSING.findall(e))
     print(f"{path.name}: {scripts} scripts, {len(errors)} script errors; missing: "
           + (", ".join(f"{n} ({c})" for n, c in missing.most_common()) or "none"))
-    assert not errors, "\n".join(errors[:20])
+    own = SCENE_OWN.get(path.name, [])
+    for text, why in own:
+        assert any(text in e for e in errors), f"the scene's own error {text!r} ({why}) no longer occurs"
+    errors = [e for e in errors if not any(text in e for text, _ in own)]
+    gaps = SIMX_GAPS.get(path.name, [])
+    for text, what in gaps:
+        assert any(text in e for e in errors), f"simx gap {text!r} ({what}) closed: remove it from SIMX_GAPS"
+    rest = [e for e in errors if not any(text in e for text, _ in gaps)]
+    assert not rest, "\n".join(rest[:20])
+    if gaps:
+        pytest.xfail("simx lacks: " + "; ".join(what for _, what in gaps))

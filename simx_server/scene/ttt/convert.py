@@ -89,9 +89,12 @@ class Converter:
             self._world_poses(root, Pose())
         for root in s.roots:
             self._emit(root, self.spec.worldbody, Pose(), -1)
+        self._aliases()
         add_loop_closures(self)
         add_ik_groups(self)
         self._excludes()
+        for kind, n in s.skipped.items():
+            self.report.add(kind, n)
         if s.collections:
             self.report.add("collections (not modelled)", len(s.collections))
         if s.engine != 0:
@@ -113,6 +116,24 @@ class Converter:
 
     def setting(self, name: str, *items: str) -> None:
         self.settings.setdefault(name, []).extend(items)
+
+    def vrep_parent(self, obj: TttObject) -> None:
+        """Record ``obj``'s parent in V-REP's tree (``vrep_parent=NAME``, ``-1`` the world),
+        for an object the MJCF hangs elsewhere: paths (``sim.getObject``) walk V-REP's tree."""
+        parent = self.scene.objects.get(obj.parent)
+        name = parent.name if parent is not None else "-1"
+        if _setting_safe(name):
+            self.setting(obj.name, f"vrep_parent={name}")
+
+    def _aliases(self) -> None:
+        """CoppeliaSim 4.3+ aliases that are not the name less its ``#N`` (``alias=A``) and
+        model bases (``model_base=1``)."""
+        for obj in self.scene.objects.values():
+            alias = re.sub(r"[^A-Za-z0-9_]", "_", obj.alias)
+            if alias and alias != re.sub(r"#\d+$", "", obj.name):
+                self.setting(obj.name, f"alias={alias}")
+            if obj.model_base:  # paths' ':' and '::' (simx_server.sim.paths)
+                self.setting(obj.name, "model_base=1")
 
     # ---------------------------------------------------------------- tree
     def _world_poses(self, obj: TttObject, parent: Pose) -> None:
@@ -139,8 +160,9 @@ class Converter:
             self._force_sensor(obj, body, local, model)
         else:
             add_sensor(self, obj, body, local)
-            for child in obj.children:
+            for child in obj.children:  # a site has no children in MJCF: they go in its body
                 self._emit(child, body, local, model)
+                self.vrep_parent(child)
 
     def _shape(self, obj: TttObject, body, local: Pose, model: int, joint=None) -> None:
         d = obj.data
@@ -149,6 +171,7 @@ class Converter:
             self.moved.add(obj.handle)
             self.report.add("dynamic shapes free of their parent (a top-level free body, as V-REP simulates them)")
             body, local = self.spec.worldbody, self.world_pose[obj.handle]
+            self.vrep_parent(obj)
         b = body.add_body()
         b.name = obj.name
         b.pos, b.quat = local.pos, local.quat
@@ -235,8 +258,11 @@ class Converter:
                 for grandchild in child.children:
                     self._emit(grandchild, b, Pose(), model)
                 host, site_pose = b, inverse(child.pose)
+                self.vrep_parent(child)  # the shape's body carries the sensor's site: V-REP's tree
+                self.vrep_parent(obj)    # has the sensor above the shape
             else:
                 self._emit(child, body, frame, model)
+                self.vrep_parent(child)
         site = host.add_site()
         site.name = obj.name
         site.pos, site.quat = site_pose.pos, site_pose.quat
@@ -266,6 +292,10 @@ class Converter:
                     n += 1
 
 
+def _setting_safe(value: str) -> bool:
+    return bool(value) and not any(c.isspace() or c == "=" for c in value)
+
+
 def _tiny_inertial(b) -> None:
     """1 g and a small inertia for a moving body that has no mass in V-REP (MuJoCo needs one)."""
     b.mass, b.inertia = 1e-3, [1e-7, 1e-7, 1e-7]
@@ -280,11 +310,12 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
     Raises:
         ValueError: MuJoCo cannot compile the result (its message).
     """
-    from simx_server.scene.ttt.scripts import write_scripts
+    from simx_server.scene.ttt.scripts import write_custom_data, write_scripts
 
     out.mkdir(parents=True, exist_ok=True)
     conv = Converter(scene, out)
     write_scripts(conv)
+    write_custom_data(conv)
     spec = conv.build()
     xml = out / f"{stem or conv.spec.modelname}.xml"
     text = spec.to_xml().replace(f'meshdir="{out / "meshes"}"', 'meshdir="meshes"', 1)

@@ -131,6 +131,9 @@ class TttObject:
     layers: int = 1  # V-REP's visibility layers (bits; layers 1-8 are shown by default)
     data: object | None = None
     children: list["TttObject"] = field(default_factory=list)
+    custom_data: dict[str, bytes] = field(default_factory=dict)  # sim.readCustomDataBlock's blocks: tag -> data
+    developer_data: int = 0  # custom data blocks of other headers (V-REP's simAddObjectCustomData), not kept
+    script_parameters: list[dict] = field(default_factory=list)  # 4.3+: kept with the object (``Lsp``)
 
 
 @dataclass

@@ -12,13 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
+from simx_server.scene.ttt import custom, shapes
 from simx_server.scene.ttt import errors as E
-from simx_server.scene.ttt import shapes
 from simx_server.scene.ttt.errors import SceneFileError
 from simx_server.scene.ttt.geometry import pose7
 from simx_server.scene.ttt.model import (Collection, DummyData, ForceSensorData, IkGroup, JointData,
                                          ProximityData, Script, Texture, TttObject, TttScene, VisionData)
-from simx_server.scene.ttt.records import Records, light_decode, read_body, read_string
+from simx_server.scene.ttt.records import Records, light_decode, read_body
 
 OBJECT_KINDS = {
     "SHP": "shape", "JNT": "joint", "DMY": "dummy", "SNR": "proximity_sensor", "RSN": "vision_sensor",
@@ -65,6 +65,9 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                 if obj.handle in scene.objects:
                     raise top.error(tag, f"object handle {obj.handle} used twice")
                 scene.objects[obj.handle] = obj
+                if obj.developer_data:
+                    key = "object custom data of other headers (V-REP's simAddObjectCustomData)"
+                    scene.skipped[key] = scene.skipped.get(key, 0) + obj.developer_data
                 if len(scene.objects) > E.MAX_OBJECTS:
                     raise top.error(tag, f"more than MAX_OBJECTS = {E.MAX_OBJECTS:,} objects")
             elif tag == "LST":
@@ -133,6 +136,8 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
     lar = common.ints("Lar", 1, "<u2")
     obj = TttObject(tag, kind, int(ids[0]), int(ids[1]), name, alias, pose, model_base,
                     layers=int(lar[0]) if lar is not None else 1)
+    obj.custom_data, obj.developer_data = custom.read_custom_data(common)
+    obj.script_parameters = custom.read_parameters(common, "Lsp")
     if kind == "shape":
         obj.data = shapes.read_shape(typed, pool)
     elif kind == "joint":
@@ -213,18 +218,7 @@ def _read_script(r: Records) -> Script:
     raw = r.get("Ste")
     text = light_decode(bytes(raw)).decode("utf-8", "replace").rstrip("\x00") if raw is not None else ""
     lang = r.string("Lne", "lua") if r.get("Lne") is not None else "lua"
-    params = []
-    prm = r.sub("Prm")
-    par = prm.get("Par")
-    if par is not None and len(par) >= 4:
-        count, = struct.unpack_from("<i", par, 0)
-        p = 4
-        for _ in range(max(0, min(count, 10_000))):
-            name, p = read_string(par, p, prm, "Par")
-            unit, p = read_string(par, p, prm, "Par")
-            value, p = read_string(par, p, prm, "Par")
-            p += 4  # properties
-            params.append({"name": name, "value": value, "unit": unit})
+    params = custom.read_parameters(r, "Prm")
     return Script(handle, obj, typ, threaded=bool(va2 & 1), disabled=bool(va2 & 2), text=text,
                   language=lang or "lua", parameters=params)
 

@@ -4,11 +4,15 @@ objects with ``simx:OBJECT`` settings (docs/PORTING.md, "Bring your .ttt"):
 ``child_script=FILE.lua`` (a child script), ``threaded=1`` (an old-style threaded one),
 ``customization_script=FILE.lua``, ``vrep_version=NNNNN`` (the file's program version, for the
 API of its time) and ``script_parameters=FILE.json`` (a JSON list of ``{name, value, unit}``:
-V-REP's script simulation parameters, when the script has any).
+V-REP's script simulation parameters, when the script or, from CoppeliaSim 4.3, its object has
+any). An object's custom data blocks (``sim.readCustomDataBlock``) go into ``custom_data=FILE.json``
+(a JSON object: tag -> the block's bytes in base64), which the scene loader gives to the scripts
+(:mod:`simx_server.scene.custom_data`).
 """
 
 from __future__ import annotations
 
+import base64
 import json
 import re
 
@@ -51,11 +55,30 @@ def write_scripts(conv) -> None:
         items = [f"{kind}_script={file}"]
         if script.threaded and script.type == CHILD:
             items.append("threaded=1")
-        if script.parameters:
+        parameters = script.parameters or obj.script_parameters  # 4.3+ keeps them with the object
+        if parameters:
             pfile = f"{stem}_parameters.json"
             if conv.out is not None:
-                (conv.out / pfile).write_text(json.dumps(script.parameters, indent=1))
+                (conv.out / pfile).write_text(json.dumps(parameters, indent=1))
             items.append(f"script_parameters={pfile}")
         if not any(i.startswith("vrep_version=") for i in conv.settings.get(obj.name, [])):
             items.append(f"vrep_version={scene.program_version}")
         conv.setting(obj.name, *items)
+
+
+def write_custom_data(conv) -> None:
+    """Write each object's custom data blocks into ``conv.out`` (``NAME_custom_data.json``) and
+    record its ``custom_data=FILE`` setting."""
+    used: set[str] = set()
+    for obj in conv.scene.objects.values():
+        if not obj.custom_data:
+            continue
+        stem = f"{_safe(obj.name)}_custom_data"
+        while stem in used:
+            stem += "_"
+        used.add(stem)
+        file = f"{stem}.json"
+        if conv.out is not None:
+            blocks = {tag: base64.b64encode(data).decode("ascii") for tag, data in obj.custom_data.items()}
+            (conv.out / file).write_text(json.dumps(blocks, indent=1))
+        conv.setting(obj.name, f"custom_data={file}")

@@ -32,14 +32,53 @@ def i32(*values) -> bytes:
     return struct.pack(f"<{len(values)}i", *values)
 
 
-def common(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0)) -> bytes:
-    """A scene object's common part, up to NXT (Cfq: qw qx qy qz x y z)."""
+def common(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0), extra: bytes = b"") -> bytes:
+    """A scene object's common part, up to NXT (Cfq: qw qx qy qz x y z); ``extra``: more common
+    records (:func:`alias`, :func:`model_base`, :func:`custom_data_3x`, ...)."""
     return (rec("3do", bytes([57, 58, 59])) + rec("Cfq", f32(*quat, *pos)) + rec("Ids", i32(handle, parent))
-            + rec("Nme", string(name)) + b"NXT")
+            + rec("Nme", string(name)) + extra + b"NXT")
+
+
+def alias(text: str) -> bytes:
+    """CoppeliaSim 4.3's alias record."""
+    return rec("Ali", string(text))
+
+
+def model_base() -> bytes:
+    return rec("Va2", bytes([1]))
+
+
+def custom_data_3x(blocks: dict[str, bytes], other_headers: int = 0) -> bytes:
+    """V-REP 3.x custom data (``Cod`` -> ``Dat``): simWriteCustomDataBlock's block (header
+    356248756) of (entry size, tag size, tag + NUL, data) entries, and ``other_headers`` blocks
+    of other developer headers."""
+    entries = b""
+    for tag, data in blocks.items():
+        t = tag.encode() + b"\0"
+        entries += i32(8 + len(t) + len(data), len(t)) + t + data
+    dat = i32(356248756, len(entries)) + entries
+    for k in range(other_headers):
+        dat += i32(12345 + k, 8) + i32(1, 2)
+    return rec("Cod", lst(rec("Dat", dat)))
+
+
+def custom_data_4x(blocks: dict[str, bytes]) -> bytes:
+    """CoppeliaSim 4.3+ custom data (``Cda``: one ``Cdt`` per tag: tag, data, each i32-sized)."""
+    return rec("Cda", lst(*(rec("Cdt", string(tag) + i32(len(data)) + data) for tag, data in blocks.items())))
+
+
+def object_parameters(parameters: tuple[tuple[str, str, str], ...]) -> bytes:
+    """CoppeliaSim 4.3's script simulation parameters kept with the object (``Lsp``)."""
+    par = i32(len(parameters)) + b"".join(string(n) + string(u) + string(v) + i32(0) for n, u, v in parameters)
+    return rec("Lsp", lst(rec("Par", par)))
+
+
+def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: bytes = b"") -> bytes:
+    return rec("FSE", common(handle, parent, name, pos, extra=extra) + lst(rec("Siz", f32(0.02))))
 
 
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
-                 dynamic=True, respondable=True) -> bytes:
+                 dynamic=True, respondable=True, extra: bytes = b"") -> bytes:
     """A pure-cuboid shape (8 vertices inline, 12 triangles)."""
     hx, hy, hz = (s / 2 for s in size)
     v = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], "<f4")
@@ -53,7 +92,7 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
     typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
                 rec("Sss", bytes([0x80 if dynamic else 0])), rec("Ss3", bytes([1 if respondable else 0])),
                 rec("Dc2", struct.pack("<H", 0xFFFF)))
-    return rec("SHP", common(handle, parent, name, pos) + typed)
+    return rec("SHP", common(handle, parent, name, pos, extra=extra) + typed)
 
 
 def joint(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0), kind=10, position=0.0,
@@ -64,8 +103,8 @@ def joint(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0),
     return rec("JNT", common(handle, parent, name, pos, quat) + typed)
 
 
-def dummy(handle: int, parent: int, name: str, pos=(0, 0, 0), linked=-1, link_type=0) -> bytes:
-    return rec("DMY", common(handle, parent, name, pos) + lst(rec("Dy2", f32(0.02)), rec("Lli", i32(linked)),
+def dummy(handle: int, parent: int, name: str, pos=(0, 0, 0), linked=-1, link_type=0, extra: bytes = b"") -> bytes:
+    return rec("DMY", common(handle, parent, name, pos, extra=extra) + lst(rec("Dy2", f32(0.02)), rec("Lli", i32(linked)),
                                                             rec("Dl2", i32(link_type))))
 
 
@@ -144,9 +183,10 @@ def ttt_file(body_records: bytes, serialization: int = 22, program: int = 40100,
     return header.ljust(1021, b"\0") + payload
 
 
-def simple_scene(**kw) -> bytes:
+def simple_scene(port: int = 19999, **kw) -> bytes:
     """A static floor, a base, a revolute joint carrying a dynamic link with a tip dummy, a free
-    cube, and a child script on the link."""
+    cube, a child script on the link, and on the base a threaded script that opens the legacy
+    remote API on ``port`` (a test that runs the scene gives a free port)."""
     return ttt_file(
         rec("SIM", lst(rec("Sts", f32(0.05)))) + rec("DYN", lst(rec("En2", i32(0) + f32(0, 0, -9.81)))) +
         cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False) +
@@ -156,5 +196,5 @@ def simple_scene(**kw) -> bytes:
         dummy(5, 4, "Tip", (0, 0, 0.2)) +
         cuboid_shape(6, -1, "Cube", (0.1, 0.1, 0.1), (0.6, 0, 0.3), mass=0.2) +
         script(100, 4, "function sysCall_init()\n  print('hi')\nend\n") +
-        script(101, 2, "simRemoteApi.start(19999)\n", threaded=True, parameters=(("port", "int", "19999"),)) +
+        script(101, 2, f"simRemoteApi.start({port})\n", threaded=True, parameters=(("port", "int", str(port)),)) +
         script(102, 6, "function sysCall_init() end\n", kind=6), **kw)
