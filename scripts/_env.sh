@@ -58,3 +58,14 @@ ensure_venv() {
     echo "$want" > "$stamp"
     echo "simx: Python packages installed in $((SECONDS - start)) s."
 }
+
+# The test environment, as scripts/test.sh and scripts/check.sh both make it (one install, one
+# stamp): the extras in SIMX_TEST_EXTRAS (default "test"), PyTorch's CPU build when they include
+# train or ray (as scripts/install-train.sh installs it for a user), and SIMX_PIP_ARGS.
+ensure_test_venv() {
+    local extras="${SIMX_TEST_EXTRAS:-test}"
+    local torch=()
+    case ",$extras," in *,train,* | *,ray,*) torch=("$TORCH_CPU") ;; esac
+    # shellcheck disable=SC2086  # SIMX_PIP_ARGS: words on purpose
+    ensure_venv -e "$ROOT[$extras]" ${torch[@]+"${torch[@]}"} ${SIMX_PIP_ARGS:-}
+}

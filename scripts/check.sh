@@ -5,8 +5,7 @@
 # the test extra). Usage: scripts/check.sh [--fix]  (--fix: let ruff fix and format what it can)
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_env.sh"
-# shellcheck disable=SC2086  # SIMX_PIP_ARGS: words on purpose (the same install as scripts/test.sh)
-ensure_venv -e "$ROOT[${SIMX_TEST_EXTRAS:-test}]" ${SIMX_PIP_ARGS:-}
+ensure_test_venv  # the same install as scripts/test.sh: nothing more after it
 cd "$ROOT"
 # The strict part of the tree: the format check and mypy's strict mode cover these (keep the
 # per-file-ignores glob and the mypy override in pyproject.toml in step with this list).

@@ -7,11 +7,7 @@ bash "$ROOT/scripts/system-deps.sh" --with-x
 # SIMX_TEST_EXTRAS: the extras installed (default "test"; .ci/run adds train and ray, whose tests
 # skip without them; with either, PyTorch's CPU build, as scripts/install-train.sh installs it);
 # SIMX_PIP_ARGS: more for the same pip install.
-extras="${SIMX_TEST_EXTRAS:-test}"
-torch=()
-case ",$extras," in *,train,* | *,ray,*) torch=("$TORCH_CPU") ;; esac
-# shellcheck disable=SC2086  # SIMX_PIP_ARGS: words on purpose
-ensure_venv -e "$ROOT[$extras]" ${torch[@]+"${torch[@]}"} ${SIMX_PIP_ARGS:-}
+ensure_test_venv
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$ROOT"
 # The suite writes bytecode caches (gitignored __pycache__): it starts about 140 simx-server

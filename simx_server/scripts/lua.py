@@ -13,7 +13,7 @@ Each script gets its own Lua state, made afresh at every simulation start, prepa
 * ``print`` writes to the server log; Lua 5.1 names V-REP scripts used (``unpack``,
   ``table.getn``, ``math.pow``) exist.
 * A count hook bounds every call: every :data:`HOOK_COUNT` instructions it asks Python whether
-  the call's deadline has passed, and then raises a Lua error and keeps raising at every
+  the call's deadline (in the thread's CPU time) has passed, and then raises a Lua error and keeps raising at every
   instruction so that no ``pcall`` can swallow it. Coroutines get the hook too.
 * Safety (CoppeliaSim's defaults): no ``python`` bridge (no eval, no builtins, no Python
   attribute access), no binary chunks, no ``os.exit``, no ``debug.sethook``. Unless the server
@@ -320,7 +320,9 @@ class LuaScript(LuaStyles, ChildScript):
 
     # ------------------------------------------------------------ the bridge
     def _expired(self) -> bool:
-        if time.monotonic() > self._deadline:
+        # The deadline is in the calling thread's CPU time: a bound on the script's own work, which
+        # a loaded machine (other processes, other threads holding the GIL) does not shorten.
+        if time.thread_time() > self._deadline:
             self._timed_out = True
             return True
         return False
@@ -471,7 +473,7 @@ class LuaScript(LuaStyles, ChildScript):
 
     def _bounded(self, what: str, fn: Any, args: tuple) -> Any:
         self._timed_out = False
-        self._deadline = time.monotonic() + self.timeout
+        self._deadline = time.thread_time() + self.timeout
         try:
             return fn(*args)
         except _lupa.LuaMemoryError as exc:
