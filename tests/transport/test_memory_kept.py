@@ -134,12 +134,12 @@ def test_shared_memory_is_off_unless_the_operators_file_sets_it(tmp_path):
 def test_malloc_is_tuned_unless_the_environment_sets_it():
     code = "from simx_server.legacy.allocator import tune_malloc; print(sorted(tune_malloc()))"
     env = {k: v for k, v in os.environ.items() if k not in ("MALLOC_ARENA_MAX", "MALLOC_MMAP_THRESHOLD_",
-                                                             "GLIBC_TUNABLES")}
+                                                             "MALLOC_TRIM_THRESHOLD_", "GLIBC_TUNABLES")}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "['arena_max', 'mmap_threshold']"
+    assert out.strip() == "['arena_max', 'mmap_threshold', 'trim_threshold']"
     out = subprocess.run([sys.executable, "-c", code], env=dict(env, MALLOC_ARENA_MAX="8"), capture_output=True,
                          text=True, check=True).stdout
-    assert out.strip() == "['mmap_threshold']"
+    assert out.strip() == "['mmap_threshold', 'trim_threshold']"
 
 
 def test_a_renderer_s_offscreen_buffer_is_of_its_own_size():
