@@ -172,6 +172,45 @@ def test_replies_a_connection_does_not_read_are_bounded(zmq_server, client):
     _alive(client)
 
 
+def test_replies_no_connection_reads_are_bounded_in_total(zmq_server, client):
+    """Five DEALERs that never read, each asking for 16 MiB signals while under its own bound
+    (limits.MAX_ZMQ_UNSENT_BYTES): once all their unread replies pass
+    limits.MAX_ZMQ_UNSENT_BYTES_TOTAL, a connection with replies waiting is answered busy, one
+    with none still served, and the server grows by about the total bound, not by all it was asked."""
+    per = limits.MAX_ZMQ_UNSENT_BYTES // (16 << 20) - 1  # each connection stays under its own bound
+    dealers = -(-limits.MAX_ZMQ_UNSENT_BYTES_TOTAL // (per * (16 << 20))) + 1  # together past the total
+    assert client.call("sim.setStringSignal", "big", b"\1" * (16 << 20)) == {"ret": []}
+    before, peak = _rss_mb(zmq_server.proc.pid), 0.0
+    ctx = zmq.Context()
+    socks = []
+    try:
+        request = codec.encode_request("sim.getStringSignal", ["big"], "never-reads")
+        for _ in range(dealers):
+            d = ctx.socket(zmq.DEALER)
+            d.setsockopt(zmq.LINGER, 0)
+            d.setsockopt(zmq.RCVTIMEO, 20000)
+            d.setsockopt(zmq.RCVBUF, 64 * 1024)
+            d.setsockopt(zmq.RCVHWM, 1)
+            d.connect(f"tcp://127.0.0.1:{zmq_server.zmq_port}")
+            socks.append(d)
+            for _ in range(per):
+                d.send_multipart([b"", request])
+                time.sleep(0.3)
+                peak = max(peak, _rss_mb(zmq_server.proc.pid))
+        replies = [cbor2.loads(d.recv_multipart()[-1]) for d in socks for _ in range(per)]
+    finally:
+        for d in socks:
+            d.close(0)
+        ctx.term()
+    busy = [r for r in replies if "of all connections" in r.get("err", "") and "not read yet" in r["err"]]
+    assert busy, [r.get("err") for r in replies]
+    asked = dealers * per * 16  # MiB of replies asked for and never read
+    bound = (limits.MAX_ZMQ_UNSENT_BYTES_TOTAL >> 20) + dealers * 16  # the total, plus one reply in work each
+    assert asked > bound and peak - before <= bound, (before, peak, asked, bound)
+    client.call("sim.clearStringSignal", "big")
+    _alive(client)
+
+
 def _rss_mb(pid: int) -> float:
     line = next(x for x in Path(f"/proc/{pid}/status").read_text().splitlines() if x.startswith("VmRSS:"))
     return int(line.split()[1]) / 1024
