@@ -221,10 +221,64 @@ def idle_connections(t: Target, ctx: zmq.Context) -> str:
         resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
 
 
+def _legacy_calls(port: int, seconds: float) -> list[float]:
+    """A legacy client's blocking simxGetObjectHandle calls for ``seconds``: their times in ms."""
+    from simx_client import api
+
+    cid = api.simxStart("127.0.0.1", port, True, True, 30000, 5)
+    out, end = [], time.monotonic() + seconds
+    try:
+        while time.monotonic() < end:
+            start = time.perf_counter()
+            api.simxGetObjectHandle(cid, "Keeper", api.simx_opmode_blocking)
+            out.append((time.perf_counter() - start) * 1e3)
+    finally:
+        api.simxFinish(cid)
+    return out
+
+
+def big_images_beside_legacy(t: Target, ctx: zmq.Context) -> str:
+    """Four ZMQ connections loop ``sim.getVisionSensorImg`` of a 4096x4096 sensor for 20 s while a
+    legacy client makes blocking calls: its p99 against its own unloaded p99 (issue 29 item 5,
+    before: 14 s)."""
+    import numpy as np
+
+    unloaded = _legacy_calls(t.port, 3.0)
+    setup = t.socket(ctx)
+    cam = call(setup, "sim.getObject", "/Camera")["ret"][0]
+    call(setup, "sim.setObjectInt32Param", cam, 1002, 4096)
+    call(setup, "sim.setObjectInt32Param", cam, 1003, 4096)
+    setup.close(0)
+    stop, images = threading.Event(), [0]
+
+    def loop(k: int) -> None:
+        sock = t.socket(ctx)
+        while not stop.is_set():
+            try:
+                if "ret" in call(sock, "sim.getVisionSensorImg", cam, uuid=f"images{k}"):
+                    images[0] += 1
+            except zmq.Again:
+                break
+        sock.close(0)
+
+    threads = [threading.Thread(target=loop, args=(k,), daemon=True) for k in range(4)]
+    for th in threads:
+        th.start()
+    time.sleep(1.0)
+    loaded = _legacy_calls(t.port, 20.0)
+    stop.set()
+    for th in threads:
+        th.join(60)
+    p99, p99u = np.percentile(loaded, 99), np.percentile(unloaded, 99)
+    return (f"legacy p99 {p99:.1f} ms against {p99u:.1f} ms unloaded ({p99 / p99u:.1f}x; median "
+            f"{np.median(loaded):.2f} / {np.median(unloaded):.2f} ms), {len(loaded)} calls; {images[0]} images")
+
+
 ATTACKS = {"crash: 5 x store(60 MiB)": crash, "1 M empty tables into a script": empty_tables,
            "unpackUInt8Table(20 MiB)": unpack, "16 MiB signal every 20 ms, unread, 5 s": unread,
            "1,100 stepping uuids, one connection": uuids, "loadScene of a 5,000-char path": long_path,
-           "SIGTERM during a 4096x4096 image": sigterm, "1,000 idle ZMQ connections, then simxStart": idle_connections}
+           "SIGTERM during a 4096x4096 image": sigterm, "1,000 idle ZMQ connections, then simxStart": idle_connections,
+           "4 connections looping 4096x4096 images beside a legacy client": big_images_beside_legacy}
 
 
 def main(argv: list[str] | None = None) -> None:

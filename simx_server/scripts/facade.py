@@ -36,6 +36,7 @@ from simx_server.scripts.facade_mesh import MeshCalls
 from simx_server.scripts.facade_meshops import MeshOpCalls
 from simx_server.scripts.facade_misc import MiscCalls
 from simx_server.scripts.facade_params import ParamCalls
+from simx_server.scripts.facade_particles import ParticleCalls
 from simx_server.scripts.facade_paths import PathCalls
 from simx_server.scripts.facade_posemath import PoseMath
 from simx_server.scripts.facade_props import PropertyCalls
@@ -63,7 +64,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
 
 
 class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
-                GraphCalls, LinkCalls, PoseMath, CommonCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
+                GraphCalls, LinkCalls, ParticleCalls, PoseMath, CommonCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
                 DataCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):

@@ -170,6 +170,9 @@ class Scripts:
             script.resume_thread()
             script.life_cycle("sysCall_actuation")
         self._customization("sysCall_actuation")
+        particles = self.shared.get("particles")
+        if particles:  # particle objects: moved once a step, their pushes applied by this step
+            particles.advance(self.world, self.forces, self.world.dt)
 
     def sensing(self) -> None:
         """After a step: forces scripts added are reset (the step applied them), then
@@ -191,7 +194,7 @@ class Scripts:
             self.stopping = False
         self.signals.clear_script_signals()
         self.forces.clear(self.world)
-        for kind in ("tubes", "wireless"):  # tubes and wireless data of the simulation end with it (V-REP)
+        for kind in ("tubes", "wireless", "particles"):  # these end with the simulation (V-REP)
             self.shared.pop(kind, None)
 
     def call(self, object_name: str, script_type: int, function: str, ints, floats, strings, buffer) -> list:

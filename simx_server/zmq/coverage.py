@@ -27,7 +27,6 @@ _SECURITY = "refused by design: a script or client may not reach the host (docs/
 _TEXTURE = ("textures changed in place at run time: MuJoCo uploads a texture to the renderer once "
             "(new textures come with a recompile: createTexture)")
 _GRAPH = "a graph's display settings (colours, flags): simx keeps its streams and curves, not a view of them"
-_PARTICLES = "particles: no MuJoCo counterpart"
 _MESH_EDIT = "mesh surgery at run time (MjSpec could do it; not done yet)"
 
 #: Functions of CoppeliaSim's 4.x table that simx does not implement: (status, why).
@@ -46,7 +45,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                            "getPersistentDataTags", "getMatchingPersistentDataTags")},
     "writeTexture": ("missing", _TEXTURE),
     "getGraphInfo": ("missing", _GRAPH),
-    **{n: ("missing", _PARTICLES) for n in ("addParticleObject", "addParticleObjectItem", "removeParticleObject")},
     **{n: ("missing", _MESH_EDIT) for n in ("alignShapeBB",
                                             "generateShapeFromPath",
                                             "generateTextShape")},

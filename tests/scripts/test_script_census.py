@@ -46,11 +46,7 @@ SCENE_OWN = {
 #: What simx cannot do yet that these scenes' scripts need, per file: (exact text, what is
 #: missing). The file's test is an expected failure while every such error occurs, and fails
 #: once one no longer does (remove it here then).
-SIMX_GAPS = {
-    "pranavraj575+swarm_coppeliasim__ros_ctrl_models_quad_copter.ttm": [
-        ("sim.addParticleObject is not available in simx", "particle objects (the propellers' air jets)"),
-    ],
-}
+SIMX_GAPS: dict[str, list[tuple[str, str]]] = {}
 
 
 def _corpus() -> list:

@@ -45,8 +45,8 @@ def test_info_lists_facade_calls_constants_and_coppeliasim_names(sim):
     assert sim.handle_world == -1 and sim.simulation_stopped == 0 and sim.scripttype_childscript == 1
     assert sim.verbosity_scriptinfos == 450 and sim.stringparam_scenedefaultdir == 132  # CoppeliaSim 4.x's
     assert sim.jointintparam_motor_enabled == 2000  # the facade's (legacy) constants, simx's values
-    with pytest.raises(Exception, match=r"sim\.addParticleObject: not implemented by simx"):
-        sim.addParticleObject(0, 0.01, 1000, [], 1, 10)  # CoppeliaSim has it: listed, answered with an error
+    with pytest.raises(Exception, match=r"sim\.generateTextShape: not implemented by simx"):
+        sim.generateTextShape("simx")  # CoppeliaSim has it: listed, answered with an error
 
 
 def test_errors_name_the_function_and_the_problem(sim):
@@ -205,7 +205,9 @@ def test_wait_and_motions_last_several_steps(sim):
     sim.startSimulation()
     t0 = sim.getSimulationTime()
     assert sim.wait(0.25) == pytest.approx(0.0, abs=1e-6)  # 5 steps
-    assert sim.getSimulationTime() == pytest.approx(t0 + 0.25)
+    # at least the 5 steps waited; the free-running simulation may take a step or two more before
+    # the next call is served on a loaded machine
+    assert t0 + 0.25 - 1e-9 <= sim.getSimulationTime() <= t0 + 0.25 + 3 * dt + 1e-9
     joint = sim.getObject("/ArmJoint")
     out = sim.moveToConfig({"joints": [joint], "targetPos": [0.5], "maxVel": [1], "maxAccel": [2], "maxJerk": [20]})
     assert out["pos"] == pytest.approx([0.5]) and out["targetPos"] == [0.5]

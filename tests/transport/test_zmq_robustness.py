@@ -93,7 +93,7 @@ def test_bad_requests_are_answered_with_err_and_change_nothing(req, name):
 @pytest.mark.parametrize("func,args,expected", [
     ("sim.noSuchFunction", [], "sim.noSuchFunction: no such function"),
     ("os.execute", ["rm -rf /"], "os.execute: no such function"),
-    ("sim.addParticleObject", [0, 0.01, 1000, [], 1, 10], "not implemented by simx"),
+    ("sim.generateTextShape", ["simx"], "not implemented by simx"),
     ("sim.getJointPosition", [], "missing a required argument"),
     ("sim.getJointPosition", [1, 2, 3], "too many positional arguments"),
     ("sim.getJointPosition", ["x" * 100000], "must be an integer"),
