@@ -230,7 +230,7 @@ def _legacy_calls(port: int, seconds: float) -> list[float]:
     try:
         while time.monotonic() < end:
             start = time.perf_counter()
-            api.simxGetObjectHandle(cid, "Keeper", api.simx_opmode_blocking)
+            api.simxGetObjectHandle(cid, "Keeper", 0x010000)  # simx_opmode_blocking
             out.append((time.perf_counter() - start) * 1e3)
     finally:
         api.simxFinish(cid)
@@ -245,18 +245,21 @@ def big_images_beside_legacy(t: Target, ctx: zmq.Context) -> str:
 
     unloaded = _legacy_calls(t.port, 3.0)
     setup = t.socket(ctx)
-    cam = call(setup, "sim.getObject", "/Camera")["ret"][0]
+    cam = call(setup, "sim.getObject", "/cam")["ret"][0]
     call(setup, "sim.setObjectInt32Param", cam, 1002, 4096)
     call(setup, "sim.setObjectInt32Param", cam, 1003, 4096)
     setup.close(0)
-    stop, images = threading.Event(), [0]
+    stop, images, errors = threading.Event(), [0], []
 
     def loop(k: int) -> None:
         sock = t.socket(ctx)
         while not stop.is_set():
             try:
-                if "ret" in call(sock, "sim.getVisionSensorImg", cam, uuid=f"images{k}"):
+                reply = call(sock, "sim.getVisionSensorImg", cam, uuid=f"images{k}")
+                if "ret" in reply:
                     images[0] += 1
+                elif not images[0]:
+                    errors.append(_short(reply))
             except zmq.Again:
                 break
         sock.close(0)
@@ -271,7 +274,8 @@ def big_images_beside_legacy(t: Target, ctx: zmq.Context) -> str:
         th.join(60)
     p99, p99u = np.percentile(loaded, 99), np.percentile(unloaded, 99)
     return (f"legacy p99 {p99:.1f} ms against {p99u:.1f} ms unloaded ({p99 / p99u:.1f}x; median "
-            f"{np.median(loaded):.2f} / {np.median(unloaded):.2f} ms), {len(loaded)} calls; {images[0]} images")
+            f"{np.median(loaded):.2f} / {np.median(unloaded):.2f} ms), {len(loaded)} calls; {images[0]} images"
+            + (f" ({errors[0]})" if errors else ""))
 
 
 ATTACKS = {"crash: 5 x store(60 MiB)": crash, "1 M empty tables into a script": empty_tables,

@@ -11,6 +11,8 @@ simulation (synchronous mode) and reads what the scene's own Lua scripts do.
 
 from __future__ import annotations
 
+import time
+
 import pytest
 
 from conftest import ROOT, ServerProcess
@@ -142,8 +144,14 @@ def test_simExtRemoteApiStart_in_a_script_serves_the_legacy_api_on_that_port(tmp
     server = ServerProcess(str(scene), ports=[own])
     cid = -1
     try:
-        # The request is acted on in the server's housekeeping (a few times a second).
-        cid = vrep.simxStart("127.0.0.1", extra, True, True, 10000, 5)
+        # The request is acted on in the server's housekeeping (a few times a second), after the
+        # script's first pass: until then nobody listens there and simxStart answers -1 at once,
+        # so the program retries, as the tutorial's robotControl.py does.
+        deadline = time.monotonic() + 30
+        while cid < 0 and time.monotonic() < deadline:
+            cid = vrep.simxStart("127.0.0.1", extra, True, True, 5000, 5)
+            if cid < 0:
+                time.sleep(0.2)
         assert cid >= 0, f"no server on the script's port {extra}"
         rc, h = vrep.simxGetObjectHandle(cid, "UR5", vrep.simx_opmode_blocking)
         assert rc == 0 and h > 0
