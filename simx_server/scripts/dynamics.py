@@ -13,8 +13,17 @@ them at every step of its physics engine.
   stay the motor's (a client reads them back) until something sets others.
 * ``sysCall_dynCallback(inData)`` of any script is called before and after each substep with
   ``passCnt``, ``totalPasses``, ``dynStepSize`` and ``afterStep`` (false, then true).
-* ``sysCall_contactCallback`` (replacing a contact's parameters) has no MuJoCo counterpart here:
-  a script that defines it gets one log line, and the contacts are MuJoCo's.
+* ``sysCall_contactCallback(inData)`` of any script decides, before each substep, how each pair
+  of shapes that may touch is handled, as V-REP asked it in its physics engine's broad phase:
+  ``inData`` is ``{handle1, handle2, engine}`` (the shapes' handles, -1 for the scene's static
+  geometry; ``engine`` is ``sim.physics_mujoco``). The script returns nil or
+  ``{ignoreContact=true}`` to leave the pair to the engine, or ``{ignoreContact=false,
+  collisionResponse=b}``: the pair collides (``b`` true) or passes through (false) during that
+  substep. The first script that does not ignore the pair decides. The pairs are MuJoCo's: geoms
+  whose bounding boxes overlap and whose ``contype`` / ``conaffinity`` let them collide
+  (:mod:`simx_server.sim.contact_filter`). Engine-specific tables (``bullet``, ``ode``,
+  ``vortex``, ``newton``: friction, restitution...) have no MuJoCo counterpart: one log line per
+  script, and MuJoCo's contact parameters stay.
 
 An error in a callback is logged once (then at debug level) and the simulation goes on.
 """
@@ -27,12 +36,16 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from simx_server.sim.objects import JOINT
+from simx_server.sim.contact_filter import ContactFilter
+from simx_server.sim.objects import JOINT, SHAPE, WORLD
 
 log = logging.getLogger("simx.scripts")
 
 JOINT_CALLBACK, DYN_CALLBACK = "sysCall_jointCallback", "sysCall_dynCallback"
 CONTACT_CALLBACK = "sysCall_contactCallback"
+#: CoppeliaSim's ``sim.physics_mujoco``: the engine a contact callback is told about.
+PHYSICS_MUJOCO = 4
+_ENGINE_TABLES = ("bullet", "ode", "vortex", "newton", "mujoco")
 
 
 class DynamicsCallbacks:
@@ -43,10 +56,14 @@ class DynamicsCallbacks:
         self.world = world
         self.joints: list[tuple[Any, int]] = []  # (script, joint handle)
         self.dyn: list[Any] = []
+        self.contact: list[Any] = []
+        self._filter: ContactFilter | None = None
+        self._shape_of: tuple[Any, np.ndarray] | None = None  # (model, geom -> shape handle)
+        self._told: set[str] = set()  # scripts told that engine tables are not applied
         self._pass = 0
 
     def install(self, scripts: list) -> None:
-        self.joints, self.dyn = [], []
+        self.remove()
         w = self.world
         for script in scripts:
             if not script.running or script.load_error:
@@ -61,13 +78,16 @@ class DynamicsCallbacks:
             if script._defines(DYN_CALLBACK):
                 self.dyn.append(script)
             if script._defines(CONTACT_CALLBACK):
-                log.warning("%s: %s is not supported (MuJoCo computes the contacts): it does not run",
-                            script.label, CONTACT_CALLBACK)
-        w.substep_hook = self._substep if (self.joints or self.dyn) else None
+                self.contact.append(script)
+        w.substep_hook = self._substep if (self.joints or self.dyn or self.contact) else None
 
     def remove(self) -> None:
         self.world.substep_hook = None
-        self.joints, self.dyn = [], []
+        self.joints, self.dyn, self.contact = [], [], []
+        if self._filter is not None:
+            self._filter.close()
+            self._filter = None
+        self._shape_of = None
 
     def _substep(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
         """Before one MuJoCo substep (the world's hook); the dyn callbacks' after-step call for
@@ -94,8 +114,40 @@ class DynamicsCallbacks:
         if changed:
             w.motors.write_force_limits(m)
             w.motors.apply(m, d, w.dt)
+        if self.contact:
+            self._contacts(m, d)
         if self._pass == total:
             self._dyn(total, total, step, True)
+
+    def _contacts(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """Ask the contact callbacks about each pair MuJoCo's broad phase lets through now, and
+        drop the pairs they refuse in the coming substep (and the ``mj_forward`` after it)."""
+        if self._filter is None or self._filter.data is not d:  # first substep, or new MjData
+            if self._filter is not None:
+                self._filter.close()
+            self._filter = ContactFilter(d)
+        if self._shape_of is None or self._shape_of[0] is not m:
+            handles = np.full(m.nbody, WORLD, dtype=np.int64)
+            for obj in self.world.objects.values():
+                if obj.type == SHAPE:
+                    handles[obj.mj_id] = obj.handle
+            self._shape_of = (m, handles[m.geom_bodyid])
+        shape_of = self._shape_of[1]
+        discarded = set()
+        for g1, g2 in sorted(self._filter.candidates(m)):
+            data = {"handle1": int(shape_of[g1]), "handle2": int(shape_of[g2]), "engine": PHYSICS_MUJOCO}
+            for script in self.contact:
+                out = self._call(script, CONTACT_CALLBACK, data)
+                if not isinstance(out, dict) or out.get("ignoreContact", False):
+                    continue
+                if script.label not in self._told and any(k in out for k in _ENGINE_TABLES):
+                    self._told.add(script.label)
+                    log.warning("%s: %s returned engine parameters (%s): MuJoCo's contact parameters stay",
+                                script.label, CONTACT_CALLBACK, ", ".join(k for k in _ENGINE_TABLES if k in out))
+                if not out.get("collisionResponse", True):
+                    discarded.add((g1, g2))
+                break
+        self._filter.set_discarded(discarded)
 
     def _dyn(self, n: int, total: int, step: float, after: bool) -> None:
         for script in self.dyn:

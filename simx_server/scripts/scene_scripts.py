@@ -132,7 +132,9 @@ class Scripts:
                 log.exception("%s: internal error at load", script.label)
 
     def close(self) -> None:
-        """The scene is unloaded: customization scripts' ``sysCall_cleanup``, then their state goes."""
+        """The scene is unloaded: customization scripts' ``sysCall_cleanup``, then their state goes;
+        the dynamics-step callbacks' hooks (the process-wide contact filter) go with it."""
+        self.dynamics.remove()
         if not self.opened:
             return
         self.opened = False
