@@ -132,18 +132,18 @@ def test_zmq_image_calls_return_the_legacy_doors_images(zmq_server, clients, sto
     assert c.ret("sim.getVisionSensorImg", h, 0, 0, [3, 5], [10, 7]) == [rgb[5:12, 3:13].tobytes(), [10, 7]]
     assert c.ret("sim.getVisionSensorCharImage", h) == [rgb.tobytes(), 64, 48]
     assert c.ret("sim.getVisionSensorImage", h, 0, 0, 0, 0, 1) == [rgb.tobytes()]
-    floats, = c.ret("sim.getVisionSensorImage", h)
+    (floats,) = c.ret("sim.getVisionSensorImage", h)
     assert np.array_equal(np.array(floats), rgb.reshape(-1) / 255.0)
     img, res = c.ret("sim.getVisionSensorDepth", h)
     assert res == [64, 48] and np.array_equal(np.frombuffer(img, np.float32).reshape(48, 64), depth)
-    buffer, = c.ret("sim.getVisionSensorDepthBuffer", h)
+    (buffer,) = c.ret("sim.getVisionSensorDepthBuffer", h)
     assert np.array_equal(np.array(buffer, np.float32).reshape(48, 64), depth)
     result, packet = c.ret("sim.readVisionSensor", h)
     assert result == 0 and np.allclose(packet, packets[0], atol=1e-6)
     assert np.allclose(c.ret("sim.handleVisionSensor", h)[1], packets[0], atol=1e-6)
-    ex, = c.ret("sim.checkVisionSensorEx", h, HANDLE_ALL, True)
+    (ex,) = c.ret("sim.checkVisionSensorEx", h, HANDLE_ALL, True)
     assert np.array_equal(np.array(ex), rgb.reshape(-1) / 255.0)
-    ex, = c.ret("sim.checkVisionSensorEx", h, HANDLE_ALL, False)
+    (ex,) = c.ret("sim.checkVisionSensorEx", h, HANDLE_ALL, False)
     assert np.array_equal(np.array(ex, np.float32).reshape(48, 64), depth)
     # errors are still the call's, named: a window outside the image, an object that is no sensor
     reply = c.call("sim.getVisionSensorImg", h, 0, 0, [60, 0], [10, 10])
