@@ -88,7 +88,7 @@ class CommonCalls:
 
         def finish() -> tuple[bytes, list[int]]:
             depth = self._crop(job(), int(px), int(py), int(sx), int(sy))
-            return np.ascontiguousarray(depth, dtype=np.float32).tobytes(), [int(depth.shape[1]), int(depth.shape[0])]
+            return depth.astype(np.float32, copy=False).tobytes(), [int(depth.shape[1]), int(depth.shape[0])]
 
         return self._rendered("getVisionSensorDepth", finish)
 

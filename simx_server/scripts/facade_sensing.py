@@ -165,7 +165,7 @@ class SensingCalls:
 
         def finish() -> tuple[bytes, int, int]:
             img = self._crop(image(), posX, posY, sizeX, sizeY)
-            return np.ascontiguousarray(img).tobytes(), int(img.shape[1]), int(img.shape[0])
+            return img.tobytes(), int(img.shape[1]), int(img.shape[0])
 
         return self._rendered("getVisionSensorCharImage", finish)
 

@@ -145,7 +145,7 @@ class SensorCalls:
 
         def finish() -> tuple[bytes, list[int]]:
             img = self._crop(image(), px, py, sx, sy)
-            return np.ascontiguousarray(img).tobytes(), [int(img.shape[1]), int(img.shape[0])]
+            return img.tobytes(), [int(img.shape[1]), int(img.shape[0])]
 
         return self._rendered("getVisionSensorImg", finish)
 
@@ -167,7 +167,7 @@ class SensorCalls:
         def finish() -> list[float] | bytes:
             img = self._crop(image(), posX, posY, sizeX, sizeY)
             if kind == 1:
-                return np.ascontiguousarray(img).tobytes()
+                return img.tobytes()
             return (img.reshape(-1).astype(np.float64) / 255.0).tolist()
 
         return self._rendered("getVisionSensorImage", finish)
