@@ -95,6 +95,9 @@ class RenderedReplies:
         """``{ret: items}``, or the error of a reply past limits.MAX_REPLY_BYTES (any thread)."""
         payload = codec.encode_reply(items)
         if len(payload) > limits.MAX_REPLY_BYTES:
-            return self._error(client, func, f"the reply would be {len(payload)} bytes, more than "
-                                             f"{limits.MAX_REPLY_BYTES} (limits.MAX_REPLY_BYTES)")
+            return self._error(
+                client,
+                func,
+                f"the reply would be {len(payload)} bytes, more than {limits.MAX_REPLY_BYTES} (limits.MAX_REPLY_BYTES)",
+            )
         return payload
