@@ -74,9 +74,10 @@ class Client:
         """Whether the reply to the request sent has not arrived yet."""
         return not self.sock.poll(0, zmq.POLLIN)
 
-    def close(self) -> None:
+    def close(self, linger_ms: int = 0) -> None:
+        """Close the socket; with ``linger_ms``, once what it sent has left (at most that long)."""
         if not self.sock.closed:
-            self.sock.close(0)
+            self.sock.close(linger_ms)
             self.ctx.term()
 
 
@@ -181,6 +182,8 @@ def _images(clients, count: int, uuid: str) -> list[Client]:
     """``count`` connections, each sending a request for the whole 4096x4096 RGB image."""
     socks = [clients(f"{uuid}{i}") for i in range(count)]
     big = socks[0].ret("sim.getObject", "/big")[0]
+    socks[0].ret("sim.startSimulation")
+    socks[0].ret("sim.stopSimulation")  # a new state: no frame of it drawn yet, the first call renders
     for s in socks[1:]:
         s.ret("sim.getSimulationTime")  # connected
     for s in socks:
@@ -207,10 +210,8 @@ def test_a_client_that_leaves_while_its_image_renders_leaves_nothing_behind(zmq_
     and the server goes on."""
     per = BIG * BIG * 3
     c = clients("after")
-    c.ret("sim.startSimulation")
-    c.ret("sim.stopSimulation")  # a new state: the big frame is rendered again, while they leave
     for s in _images(clients, limits.MAX_ZMQ_UNSENT_BYTES_TOTAL // per, "leaving"):
-        s.close()
+        s.close(linger_ms=5000)  # its request sent, it goes without waiting for the reply
     small = c.ret("sim.getObject", "/small")[0]
     # rendered after theirs (one render thread, in order): their replies are done with by now
     assert c.ret("sim.getVisionSensorImg", small)[1] == [64, 48]
