@@ -178,12 +178,17 @@ def test_the_simulation_steps_while_a_large_image_renders(clients):
         loader.ret("sim.stopSimulation")
 
 
+def _new_state(client: Client) -> None:
+    """A simulation stopped in a new state: no frame of it drawn yet, the next image call renders."""
+    client.ret("sim.startSimulation")
+    client.ret("sim.stopSimulation")
+
+
 def _images(clients, count: int, uuid: str) -> list[Client]:
     """``count`` connections, each sending a request for the whole 4096x4096 RGB image."""
     socks = [clients(f"{uuid}{i}") for i in range(count)]
     big = socks[0].ret("sim.getObject", "/big")[0]
-    socks[0].ret("sim.startSimulation")
-    socks[0].ret("sim.stopSimulation")  # a new state: no frame of it drawn yet, the first call renders
+    _new_state(socks[0])
     for s in socks[1:]:
         s.ret("sim.getSimulationTime")  # connected
     for s in socks:
@@ -218,3 +223,26 @@ def test_a_client_that_leaves_while_its_image_renders_leaves_nothing_behind(zmq_
     replies = [s.recv() for s in _images(clients, limits.MAX_ZMQ_UNSENT_BYTES_TOTAL // per, "staying")]
     assert all(len(r.get("ret", [b""])[0]) == per for r in replies), [r.get("err") for r in replies]
     assert c.ret("sim.getSimulationTime") == [0.0]
+
+
+def test_a_connection_sends_nothing_more_while_its_image_renders(zmq_server, clients, stopped):
+    """A DEALER (which, unlike a REQ socket, may send again before its reply) asks for another
+    call while its image renders: that request is refused at once ("one request at a time"),
+    and the image still comes."""
+    setup = clients("setup")
+    big = setup.ret("sim.getObject", "/big")[0]
+    _new_state(setup)
+    ctx = zmq.Context()
+    dealer = ctx.socket(zmq.DEALER)
+    dealer.setsockopt(zmq.LINGER, 0)
+    dealer.setsockopt(zmq.RCVTIMEO, 60000)
+    dealer.connect(f"tcp://127.0.0.1:{zmq_server.zmq_port}")
+    try:
+        dealer.send_multipart([b"", codec.encode_request("sim.getVisionSensorImg", [big], "dealer")])
+        dealer.send_multipart([b"", codec.encode_request("sim.getSimulationTime", [], "dealer")])
+        first, second = (cbor2.loads(dealer.recv_multipart()[-1]) for _ in range(2))
+    finally:
+        dealer.close(0)
+        ctx.term()
+    assert "one request at a time" in first.get("err", ""), first
+    assert len(second["ret"][0]) == BIG * BIG * 3 and second["ret"][1] == [BIG, BIG]
