@@ -19,7 +19,8 @@ which connection closed (its file descriptor), so the simulation thread can forg
 Per connection (issue 29): replies not yet taken by the kernel are counted by their bytes
 (libzmq's message trackers), and a connection past ``limits.MAX_ZMQ_UNSENT_BYTES`` (or any
 connection with unsent replies while all together pass ``MAX_ZMQ_UNSENT_BYTES_TOTAL``) gets
-"server busy" for its next request instead of another large reply; libzmq queues at most
+"server busy" for its next request instead of another large reply (a reply still rendering
+counts from its call on: :meth:`Frontend.reserve`); libzmq queues at most
 ``ZMQ_QUEUED_MESSAGES`` messages each way per connection. Every new connection passes the ZAP
 handler (:class:`Gate`) on this thread: beyond ``max_connections`` it is refused (its
 descriptor closed at once), and with CURVE keys only the authorised clients' public keys pass.
@@ -152,6 +153,8 @@ class Frontend:
         unread-reply bounds of its connection (``limits.MAX_ZMQ_UNSENT_BYTES``) and of all
         (``limits.MAX_ZMQ_UNSENT_BYTES_TOTAL``) until it is sent (:meth:`send` with ``held``) or given
         back (:meth:`release`). Why it is refused ("server busy: ..."), or None when held."""
+        if not size:
+            return None
         with self._rendering_lock:
             own = self._unsent.get(identity, 0) + self._rendering.get(identity, 0)
             total = self._unsent_total + self._rendering_total

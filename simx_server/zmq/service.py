@@ -20,7 +20,9 @@ steps, as it serves every front door's requests (:mod:`simx_server.loop.front_do
 ``sim.stopSimulation`` resets every ZMQ client's stepping level and locks, as CoppeliaSim's ZMQ
 server does. A client is forgotten (it leaves the barrier) when its connection closes, when it
 sends ``_*end*_``, or after its ``timeout`` (s, its first request's; 600 by default) without a
-request. Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s.
+request. Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s; those that
+render (images, depth buffers, vision packets) are answered from the render thread once their
+frames are drawn (:mod:`simx_server.zmq.renders`), the simulation going on meanwhile.
 """
 
 from __future__ import annotations
