@@ -168,12 +168,12 @@ def test_the_simulation_steps_while_a_large_image_renders(clients):
             times = set()
             while loader.pending() and len(times) < 3:
                 times.add(other.ret("sim.getSimulationTime")[0])
-            answered = loader.pending()
+            still_rendering = loader.pending()
             image, res = loader.recv()["ret"]
             assert res == [1, 1] and len(image) == 1
-            if answered:
+            if still_rendering:
                 break
-        assert answered and len(times) >= 3, times
+        assert still_rendering and len(times) >= 3, times
     finally:
         loader.ret("sim.stopSimulation")
 
