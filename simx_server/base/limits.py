@@ -357,9 +357,11 @@ MAX_SCRIPT_CALL_TABLES = 1 << 16
 #: Bytes of one ZMQ connection's replies that the kernel has not taken yet (a peer that asks
 #: and does not read): past it, its next request answers "server busy". One largest reply
 #: (MAX_REPLY_BYTES) fits. One connection asking for a 16 MiB signal every 20 ms, never
-#: reading, grew the server by 3.3 GB in 13 s.
+#: reading, grew the server by 3.3 GB in 13 s. A reply still rendering (an image call,
+#: zmq/renders.py) counts from the call on: past the bound the call is refused before it renders.
 MAX_ZMQ_UNSENT_BYTES = 96 * 1024 * 1024
-#: The same, all ZMQ connections together: past it, every connection with unsent replies is busy.
+#: The same, all ZMQ connections together: past it, every connection with unsent replies is
+#: busy, and so is an image call of any connection.
 MAX_ZMQ_UNSENT_BYTES_TOTAL = 256 * 1024 * 1024
 #: ZMQ connections at once (as Redis's maxclients); the server also keeps it under half its
 #: open-files limit (raised to the hard limit at start), so that Zenoh's clients always find

@@ -5,7 +5,7 @@ children, joint types, velocities and force limits, vision sensors' depth as a b
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -82,16 +82,15 @@ class CommonCalls:
         opts = _int(options, "options")
         if opts & ~1:
             raise UnsupportedError(f"getVisionSensorDepth options {opts}: only bit 0 (metres) is supported")
-        h = self._h(sensorHandle)
-        sim = self._simulation("getVisionSensorDepth")
-        spec = sim.vision.spec(h)
-        depth = sim.vision.depth(h)
-        if opts & 1:
-            depth = spec.near + depth * (spec.far - spec.near)
         px, py = (0, 0) if pos is None else _vector(pos, 2, "pos")
         sx, sy = (0, 0) if size is None else _vector(size, 2, "size")
-        depth = self._crop(depth, int(px), int(py), int(sx), int(sy))
-        return np.ascontiguousarray(depth, dtype=np.float32).tobytes(), [int(depth.shape[1]), int(depth.shape[0])]
+        job = self._depth_job("getVisionSensorDepth", self._h(sensorHandle), bool(opts & 1))
+
+        def finish() -> tuple[bytes, list[int]]:
+            depth = self._crop(job(), int(px), int(py), int(sx), int(sy))
+            return depth.astype(np.float32, copy=False).tobytes(), [int(depth.shape[1]), int(depth.shape[0])]
+
+        return self._rendered("getVisionSensorDepth", finish)
 
     if TYPE_CHECKING:  # provided by the facade
         _world: Any
@@ -102,3 +101,7 @@ class CommonCalls:
 
         @staticmethod
         def _crop(img: np.ndarray, x: Any, y: Any, w: Any, h: Any) -> np.ndarray: ...
+
+        def _depth_job(self, what: str, handle: int, metres: bool) -> Callable[[], np.ndarray]: ...
+
+        def _rendered(self, what: str, job: Callable[[], Any]) -> Any: ...

@@ -6,7 +6,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import mujoco
 import numpy as np
@@ -34,9 +34,10 @@ class LinkCalls:
                                    "(pass sim.handle_all)")
         h = self._vision(sensorHandle)
         if returnImage:
-            img, _ = self.getVisionSensorImg(h)
-            return (np.frombuffer(img, np.uint8) / 255.0).tolist()
-        return list(self.getVisionSensorDepthBuffer(h))
+            image = self._image_job("checkVisionSensorEx", h, False)
+            return self._rendered("checkVisionSensorEx", lambda: (image().reshape(-1) / 255.0).tolist())
+        depth = self._depth_job("checkVisionSensorEx", h, False)
+        return self._rendered("checkVisionSensorEx", lambda: depth().astype(np.float64).reshape(-1).tolist())
 
     def checkProximitySensorEx2(self, sensorHandle: Any, vertices: Any, itemType: Any, itemCount: Any,  # noqa: N802, N803
                                 mode: Any, threshold: Any, maxAngle: Any) -> tuple[int, float, list[float], list[float]]:  # noqa: N803
@@ -105,7 +106,8 @@ class LinkCalls:
 
         def _simulation(self, what: str) -> SimulationView: ...
 
-        def getVisionSensorImg(self, handle: Any, options: Any = 0, rgbaCutOff: Any = 0, pos: Any = None,
-                               size: Any = None) -> tuple[bytes, list[int]]: ...
+        def _image_job(self, what: str, handle: int, grey: bool) -> Callable[[], np.ndarray]: ...
 
-        def getVisionSensorDepthBuffer(self, sensorHandle: Any, pos: Any = None, size: Any = None) -> list[float]: ...
+        def _depth_job(self, what: str, handle: int, metres: bool) -> Callable[[], np.ndarray]: ...
+
+        def _rendered(self, what: str, job: Callable[[], Any]) -> Any: ...

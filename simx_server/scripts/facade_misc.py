@@ -12,7 +12,7 @@ from __future__ import annotations
 import itertools
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import cv2
 import mujoco
@@ -104,12 +104,8 @@ class MiscCalls:
             h &= ~0x800000
         if pos is not None or size is not None:
             raise UnsupportedError("getVisionSensorDepthBuffer of a window: use getVisionSensorDepth(h, options, pos, size)")
-        sim = self._simulation("getVisionSensorDepthBuffer")
-        spec = sim.vision.spec(self._h(h))
-        depth = sim.vision.depth(self._h(h))
-        if metres:
-            depth = spec.near + depth * (spec.far - spec.near)
-        return depth.astype(np.float64).reshape(-1).tolist()
+        job = self._depth_job("getVisionSensorDepthBuffer", self._h(h), metres)
+        return self._rendered("getVisionSensorDepthBuffer", lambda: job().astype(np.float64).reshape(-1).tolist())
 
     # ------------------------------------------------------------ referenced handles
     def _refs(self, handle: Any) -> dict[str, list[int]]:
@@ -217,3 +213,7 @@ class MiscCalls:
         def _h(self, handle: Any, what: str = "object handle") -> int: ...
 
         def _simulation(self, what: str) -> SimulationView: ...
+
+        def _depth_job(self, what: str, handle: int, metres: bool) -> Callable[[], np.ndarray]: ...
+
+        def _rendered(self, what: str, job: Callable[[], Any]) -> Any: ...

@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import mujoco
 import numpy as np
@@ -131,15 +131,14 @@ class SensingCalls:
         sim = self._simulation("handleVisionSensor")
         handles = (self._world.objects_of_type(VISION_SENSOR)
                    if h in (C.sim_handle_all, C.sim_handle_all_except_explicit) else [self._vision(h)])
-        packet: list[float] = []
-        for one in handles:
-            packet = sensors.vision_packet(sim, one)
-        return 0, packet
+        jobs = [sensors.vision_packet_job(sim, one) for one in handles]  # each rendered now
+        return self._rendered("handleVisionSensor", lambda: (0, jobs[-1]() if jobs else []))
 
     def readVisionSensor(self, sensorHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
         """``result, auxPacket1``: result 0 (no detection trigger in simx's filters), the 15-value
         packet of the sensor's current image (as ``simxReadVisionSensor``)."""
-        return 0, sensors.vision_packet(self._simulation("readVisionSensor"), self._vision(sensorHandle))
+        job = sensors.vision_packet_job(self._simulation("readVisionSensor"), self._vision(sensorHandle))
+        return self._rendered("readVisionSensor", lambda: (0, job()))
 
     def checkVisionSensor(self, sensorHandle: Any, entityHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
         """As :meth:`readVisionSensor` (simx renders the whole scene: ``entityHandle`` is checked
@@ -162,9 +161,13 @@ class SensingCalls:
                                  sizeY: Any = 0, rgbaCutOff: Any = 0) -> tuple[bytes, int, int]:  # noqa: N803
         """``image, resolutionX, resolutionY``: uint8 RGB bytes, rows bottom-up (a window with
         ``posX..sizeY``; 0s: the whole image)."""
-        h = self._vision(sensorHandle)
-        img = self._crop(self._image("getVisionSensorCharImage", h, False), posX, posY, sizeX, sizeY)
-        return np.ascontiguousarray(img).tobytes(), int(img.shape[1]), int(img.shape[0])
+        image = self._image_job("getVisionSensorCharImage", self._vision(sensorHandle), False)
+
+        def finish() -> tuple[bytes, int, int]:
+            img = self._crop(image(), posX, posY, sizeX, sizeY)
+            return img.tobytes(), int(img.shape[1]), int(img.shape[0])
+
+        return self._rendered("getVisionSensorCharImage", finish)
 
     def resetVisionSensor(self, sensorHandle: Any) -> None:  # noqa: N802, N803
         """Nothing kept between renders: checked and done."""
@@ -314,7 +317,9 @@ class SensingCalls:
 
         def _simulation(self, what: str) -> SimulationView: ...
 
-        def _image(self, what: str, handle: int, grey: bool) -> np.ndarray: ...
+        def _image_job(self, what: str, handle: int, grey: bool) -> Callable[[], np.ndarray]: ...
+
+        def _rendered(self, what: str, job: Callable[[], Any]) -> Any: ...
 
         def _crop(self, img: np.ndarray, x: Any, y: Any, w: Any, h: Any) -> np.ndarray: ...
 

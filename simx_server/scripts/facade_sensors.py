@@ -13,7 +13,7 @@ the same values. Names, arguments and returns follow CoppeliaSim 4.x's documenta
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -87,10 +87,35 @@ class SensorCalls:
                                                                  self._h(handle))
         return int(detected), float(np.linalg.norm(point)), point, hit, normal
 
-    def _image(self, what: str, handle: int, grey: bool) -> np.ndarray:
+    #: Calls that wait for a render return a Deferred of their value instead (the ZMQ door's
+    #: facade: its reply is sent when the render thread is done, the simulation goes on);
+    #: scripts, which run on the simulation thread and need the value, wait for it.
+    defer_renders = False
+
+    def _image_job(self, what: str, handle: int, grey: bool) -> Callable[[], np.ndarray]:
+        """The job giving the sensor's image (:meth:`VisionSensors.image_job`), or the image a
+        passive sensor was given."""
         sim = self._simulation(what)
         img = sensors.override_image(sim, handle, grey)  # a passive sensor shows what was written
-        return sim.vision.image(handle, grey) if img is None else img
+        return sim.vision.image_job(handle, grey) if img is None else (lambda: img)
+
+    def _depth_job(self, what: str, handle: int, metres: bool) -> Callable[[], np.ndarray]:
+        """The job giving the sensor's depth (:meth:`VisionSensors.depth_job`): 0..1 between the
+        clipping planes, or (``metres``) distances in m, (h, w), rows bottom-up."""
+        vision = self._simulation(what).vision
+        spec, depth = vision.spec(handle), vision.depth_job(handle)
+        if not metres:
+            return depth
+        near, far = spec.near, spec.far
+        return lambda: near + depth() * (far - near)
+
+    def _rendered(self, what: str, job: Callable[[], Any]) -> Any:
+        """``job()``'s value, computed on the request render thread after the frames it uses:
+        waited for, or (:attr:`defer_renders`) a :class:`~simx_server.sim.vision.Deferred` of it."""
+        vision = self._simulation(what).vision
+        if self.defer_renders:
+            return vision.rendered(job)
+        return vision.after(job).result()
 
     @staticmethod
     def _crop(img: np.ndarray, x: Any, y: Any, w: Any, h: Any) -> np.ndarray:
@@ -116,8 +141,13 @@ class SensorCalls:
         _num(rgbaCutOff, "rgbaCutOff")
         px, py = (0, 0) if pos is None else _pair(pos, "pos")
         sx, sy = (0, 0) if size is None else _pair(size, "size")
-        img = self._crop(self._image("getVisionSensorImg", self._h(handle), bool(opts & 1)), px, py, sx, sy)
-        return np.ascontiguousarray(img).tobytes(), [int(img.shape[1]), int(img.shape[0])]
+        image = self._image_job("getVisionSensorImg", self._h(handle), bool(opts & 1))
+
+        def finish() -> tuple[bytes, list[int]]:
+            img = self._crop(image(), px, py, sx, sy)
+            return img.tobytes(), [int(img.shape[1]), int(img.shape[0])]
+
+        return self._rendered("getVisionSensorImg", finish)
 
     def getVisionSensorImage(self, handle: Any, posX: Any = 0, posY: Any = 0, sizeX: Any = 0,  # noqa: N802, N803
                              sizeY: Any = 0, returnType: Any = 0) -> list[float] | bytes:  # noqa: N803
@@ -129,13 +159,18 @@ class SensorCalls:
         grey = h >= 0 and bool(h & HANDLEFLAG_GREYSCALE)
         if grey:
             h &= ~HANDLEFLAG_GREYSCALE
-        img = self._crop(self._image("getVisionSensorImage", self._h(h), grey), posX, posY, sizeX, sizeY)
         kind = _int(returnType, "returnType")
-        if kind == 1:
-            return np.ascontiguousarray(img).tobytes()
-        if kind != 0:
+        if kind not in (0, 1):
             raise ArgumentError(f"returnType must be 0 (floats) or 1 (bytes), got {kind}")
-        return (img.reshape(-1).astype(np.float64) / 255.0).tolist()
+        image = self._image_job("getVisionSensorImage", self._h(h), grey)
+
+        def finish() -> list[float] | bytes:
+            img = self._crop(image(), posX, posY, sizeX, sizeY)
+            if kind == 1:
+                return img.tobytes()
+            return (img.reshape(-1).astype(np.float64) / 255.0).tolist()
+
+        return self._rendered("getVisionSensorImage", finish)
 
     # ---------------------------------------------------------- object parameters
     def getObjectInt32Param(self, handle: Any, parameter: Any) -> int:  # noqa: N802

@@ -28,7 +28,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import mujoco
 import numpy as np
@@ -168,18 +168,28 @@ def vision_packet(sim: SimulationView, handle: int) -> list[float]:
     min, max and average of (intensity, red, green, blue, depth) over the sensor's current
     image (intensity = (R + G + B) / 3) and depth buffer (normalised between near and far).
     Passive sensors use their stored image; the depth is always the rendered one (what
-    simxGetVisionSensorDepthBuffer returns).
+    simxGetVisionSensorDepthBuffer returns). Waits for the render (see :func:`vision_packet_job`).
     """
+    return sim.vision.after(vision_packet_job(sim, handle)).result()
+
+
+def vision_packet_job(sim: SimulationView, handle: int) -> Callable[[], list[float]]:
+    """:func:`vision_packet`'s frames submitted (simulation thread); the job returned computes
+    the packet from them, on the request render thread after them (``VisionSensors.after``)."""
     rgb = override_image(sim, handle, False)
-    if rgb is None:
-        rgb = sim.vision.image(handle, False)
-    px = rgb.reshape(-1, 3)
-    intensity = px.sum(axis=1, dtype=np.uint32)
-    depth = sim.vision.depth(handle)
-    mins = [intensity.min() / 765.0, *(px.min(axis=0) / 255.0), float(depth.min())]
-    maxs = [intensity.max() / 765.0, *(px.max(axis=0) / 255.0), float(depth.max())]
-    avgs = [intensity.mean() / 765.0, *(px.mean(axis=0) / 255.0), float(depth.mean(dtype=np.float64))]
-    return [float(x) for x in (*mins, *maxs, *avgs)]
+    image = (lambda: rgb) if rgb is not None else sim.vision.image_job(handle, False)
+    depth_job = sim.vision.depth_job(handle)
+
+    def packet() -> list[float]:
+        px = image().reshape(-1, 3)
+        intensity = px.sum(axis=1, dtype=np.uint32)
+        depth = depth_job()
+        mins = [intensity.min() / 765.0, *(px.min(axis=0) / 255.0), float(depth.min())]
+        maxs = [intensity.max() / 765.0, *(px.max(axis=0) / 255.0), float(depth.max())]
+        avgs = [intensity.mean() / 765.0, *(px.mean(axis=0) / 255.0), float(depth.mean(dtype=np.float64))]
+        return [float(x) for x in (*mins, *maxs, *avgs)]
+
+    return packet
 
 
 # -------------------------------------------------------------- proximity sensors

@@ -397,7 +397,11 @@ class VisionSensors:
         self._cache[(handle, kind)] = (version, future, thread)
         return future
 
-    def _depth_job(self, handle: int) -> Callable[[], np.ndarray]:
+    def depth_job(self, handle: int) -> Callable[[], np.ndarray]:
+        """The sensor's depth frame of the world's current state submitted (simulation thread);
+        the job returned gives it, run on the request render thread after it (:meth:`after`),
+        normalised to 0..1 between near and far, (h, w) float32, rows bottom-up. Raises
+        UnknownObjectError/ObjectTypeError for other handles."""
         spec, raw = self.spec(handle), self._frame(handle, "depth")
         near, far = spec.near, spec.far  # as they are now, even if changed before the render
 
@@ -414,7 +418,9 @@ class VisionSensors:
             return "handles"
         return "depth" if spec.depth_image else "rgb"
 
-    def _image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
+    def image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
+        """As :meth:`depth_job`, for the sensor's image: (h, w, 3) uint8 RGB, or (h, w) uint8 when
+        ``grey``, rows bottom-up."""
         kind = self._image_kind(self.spec(handle))
         if kind == "handles":  # V-REP's colour-coded handles (render mode 2)
             if self._colours is None:
@@ -427,7 +433,7 @@ class VisionSensors:
 
             return coded
         if kind == "depth":
-            depth = self._depth_job(handle)
+            depth = self.depth_job(handle)
 
             def from_depth() -> np.ndarray:
                 g = np.rint(depth() * 255.0).astype(np.uint8)
@@ -442,16 +448,22 @@ class VisionSensors:
 
         return rgb
 
+    def rendered(self, job: Callable[[], Any]) -> Deferred:
+        """``job()`` on the request render thread once every render submitted to it so far is
+        done (the frames of :meth:`image_job` and :meth:`depth_job`), as a Deferred: the
+        simulation thread goes on, the caller replies when its future is done."""
+        return Deferred(self.after(job), self._thread)
+
     def depth(self, handle: int) -> np.ndarray:
         """Depth normalised to 0..1 between near and far, (h, w) float32, rows bottom-up."""
-        return self.after(self._depth_job(handle)).result()
+        return self.after(self.depth_job(handle)).result()
 
     def image(self, handle: int, grey: bool) -> np.ndarray:
         """The sensor's image, rows bottom-up: (h, w, 3) uint8 RGB, or (h, w) uint8 when ``grey``.
 
         ``grey`` is V-REP's options bit 0: one byte per pixel, (R + G + B) / 3.
         """
-        return self.after(self._image_job(handle, grey)).result()
+        return self.after(self.image_job(handle, grey)).result()
 
     def _payload(self, handle: int, kind: str, job: Callable[[], Callable[[], np.ndarray]]) -> Deferred:
         """``[[resX, resY], bytes]`` of a frame, made once per state and shared (see :meth:`_cached`)."""
@@ -469,11 +481,11 @@ class VisionSensors:
         if not isinstance(options, int):
             raise ArgumentError(f"options must be an int, got {type(options).__name__}")
         grey = bool(options & 1)
-        return self._payload(handle, f"image{int(grey)}", lambda: self._image_job(handle, grey))
+        return self._payload(handle, f"image{int(grey)}", lambda: self.image_job(handle, grey))
 
     def depth_deferred(self, handle: int) -> Deferred:
         """``simxGetVisionSensorDepthBuffer``: a Deferred ``[[resX, resY], float32 bytes]``."""
-        return self._payload(handle, "depth buffer", lambda: self._depth_job(handle))
+        return self._payload(handle, "depth buffer", lambda: self.depth_job(handle))
 
     def image_bytes(self, handle: int, options: int) -> tuple[list[int], bytes]:
         """:meth:`image_deferred`, waited for: ``([resX, resY], bytes)``."""

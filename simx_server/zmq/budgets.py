@@ -27,6 +27,7 @@ from simx_server.scripts.facade_core import _PACK_FORMATS
 from simx_server.scripts.facade_sensors import HANDLEFLAG_GREYSCALE as _GREYSCALE
 from simx_server.commands.sensors import image_pixels
 
+_DEPTH_METRES = 0x800000  # sim.handleflag_depthbuffermeters
 _CBOR_FLOAT, _CBOR_INT = 9, 5  # bytes of a float64 and of a 32-bit integer in a CBOR reply
 
 
@@ -52,11 +53,25 @@ def _unpack(code: str, args: list) -> tuple[int, int]:
     return items * (_CBOR_FLOAT if code in "fd" else _CBOR_INT), items
 
 
+def _handle(args: list) -> list:
+    """The sensor handle argument without the flags added to it (greyscale, depth in metres)."""
+    if not args or type(args[0]) is not int:
+        return []
+    return [args[0] & ~(_GREYSCALE | _DEPTH_METRES) if args[0] >= 0 else args[0]]
+
+
+def _floats(sim: Any, args: list, per_pixel: int) -> tuple[int, int]:
+    values = per_pixel * image_pixels(sim, _handle(args))
+    return values * _CBOR_FLOAT, values
+
+
 _ESTIMATES = {
     "getVisionSensorImage": lambda sim, args: _image(sim, args, floats=True),
     "getVisionSensorImg": lambda sim, args: _image(sim, args, floats=False),
+    "getVisionSensorCharImage": lambda sim, args: (3 * image_pixels(sim, args[:1]), 1),
     "getVisionSensorDepth": lambda sim, args: (4 * image_pixels(sim, args[:1]), 1),
-    "getVisionSensorDepthBuffer": lambda sim, args: (4 * image_pixels(sim, args[:1]), 1),
+    "getVisionSensorDepthBuffer": lambda sim, args: _floats(sim, args, 1),
+    "checkVisionSensorEx": lambda sim, args: _floats(sim, args, 3 if len(args) > 2 and args[2] else 1),
     **{f"unpack{kind}Table": (lambda sim, args, code=code: _unpack(code, args))
        for kind, code in _PACK_FORMATS.items()},
 }
@@ -75,6 +90,28 @@ def reply_estimate(sim: Any, name: str, args: list) -> str | None:
         return (f"not executed: the reply would hold {values} values, more than {MAX_REQUEST_ITEMS} "
                 "(protocol.MAX_REQUEST_ITEMS); ask for less")
     return None
+
+
+#: Calls that wait for a render: the ZMQ service replies once the render thread is done
+#: (:attr:`~simx_server.scripts.facade_sensors.SensorCalls.defer_renders`).
+RENDERS = frozenset({"getVisionSensorImg", "getVisionSensorImage", "getVisionSensorCharImage",
+                     "getVisionSensorDepth", "getVisionSensorDepthBuffer", "checkVisionSensorEx",
+                     "readVisionSensor", "checkVisionSensor", "handleVisionSensor"})
+_PACKET_BYTES = 3 + 4  # a vision packet's frames per pixel: RGB bytes and a float32 depth
+
+
+def held_estimate(sim: Any, name: str, args: list) -> int:
+    """Bytes that ``sim.NAME(*args)``, one of :data:`RENDERS`, holds until its reply is read:
+    its reply's (:func:`reply_estimate`'s), or for a vision packet its frames (the sum over every
+    sensor for ``sim.handle_all``). 0 when the handle is no vision sensor (the call then answers
+    its error)."""
+    estimate = _ESTIMATES.get(name)
+    if estimate is not None:
+        return estimate(sim, args)[0]
+    handle = args[0] if args and type(args[0]) is int else None
+    if name == "handleVisionSensor" and handle is not None and handle < 0:
+        return _PACKET_BYTES * sum(spec.pixels for spec in sim.vision.specs.values())
+    return _PACKET_BYTES * image_pixels(sim, args[:1])
 
 
 class Connection(Share):

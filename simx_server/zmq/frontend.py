@@ -19,7 +19,8 @@ which connection closed (its file descriptor), so the simulation thread can forg
 Per connection (issue 29): replies not yet taken by the kernel are counted by their bytes
 (libzmq's message trackers), and a connection past ``limits.MAX_ZMQ_UNSENT_BYTES`` (or any
 connection with unsent replies while all together pass ``MAX_ZMQ_UNSENT_BYTES_TOTAL``) gets
-"server busy" for its next request instead of another large reply; libzmq queues at most
+"server busy" for its next request instead of another large reply (a reply still rendering
+counts from its call on: :meth:`Frontend.reserve`); libzmq queues at most
 ``ZMQ_QUEUED_MESSAGES`` messages each way per connection. Every new connection passes the ZAP
 handler (:class:`Gate`) on this thread: beyond ``max_connections`` it is refused (its
 descriptor closed at once), and with CURVE keys only the authorised clients' public keys pass.
@@ -86,6 +87,10 @@ class Frontend:
         self.gate = gate if gate is not None else Gate()
         self._unsent: dict[bytes, int] = {}  # identity -> bytes of its tracked replies not sent yet
         self._unsent_total = 0
+        # identity -> bytes held for replies still rendering (reserve, sent or release); any thread
+        self._rendering: dict[bytes, int] = {}
+        self._rendering_total = 0
+        self._rendering_lock = threading.Lock()
         self._trackers: list[tuple[zmq.MessageTracker, bytes, int]] = []
         self._ctx: zmq.Context | None = None
         self._thread: threading.Thread | None = None
@@ -130,9 +135,10 @@ class Frontend:
         self._thread = threading.Thread(target=self._run, args=(router, monitor, zap), name="simx-zmq", daemon=True)
         self._thread.start()
 
-    def send(self, envelope: list, payload: bytes) -> None:
-        """Reply ``payload`` to the request of ``envelope`` (thread-safe; never blocks)."""
-        self._replies.put((envelope, payload))
+    def send(self, envelope: list, payload: bytes, held: int = 0) -> None:
+        """Reply ``payload`` to the request of ``envelope`` (thread-safe; never blocks); ``held``:
+        the bytes :meth:`reserve` held for it, given back once the reply is counted as unsent."""
+        self._replies.put((envelope, payload, held))
         if self._awaiting:  # the socket thread waits on the queue itself: the put woke it
             return
         try:
@@ -141,6 +147,42 @@ class Frontend:
             pass
         except OSError:  # closed: the server stops, replies are dropped
             pass
+
+    def reserve(self, identity: bytes, size: int) -> str | None:
+        """Hold ``size`` bytes for a reply that renders (thread-safe): it counts toward the
+        unread-reply bounds of its connection (``limits.MAX_ZMQ_UNSENT_BYTES``) and of all
+        (``limits.MAX_ZMQ_UNSENT_BYTES_TOTAL``) until it is sent (:meth:`send` with ``held``) or given
+        back (:meth:`release`). Why it is refused ("server busy: ..."), or None when held."""
+        if not size:
+            return None
+        with self._rendering_lock:
+            own = self._unsent.get(identity, 0) + self._rendering.get(identity, 0)
+            total = self._unsent_total + self._rendering_total
+            if own + size > limits.MAX_ZMQ_UNSENT_BYTES or total + size > limits.MAX_ZMQ_UNSENT_BYTES_TOTAL:
+                return (f"server busy: not executed: its reply of about {size} bytes would pass the bytes of replies "
+                        f"not read yet ({own} of this connection's, {total} of all connections' rendering or "
+                        f"unsent; limits.MAX_ZMQ_UNSENT_BYTES {limits.MAX_ZMQ_UNSENT_BYTES}, "
+                        f"MAX_ZMQ_UNSENT_BYTES_TOTAL {limits.MAX_ZMQ_UNSENT_BYTES_TOTAL}); try again later")
+            self._rendering[identity] = self._rendering.get(identity, 0) + size
+            self._rendering_total += size
+        return None
+
+    def release(self, identity: bytes, size: int) -> None:
+        """Give back bytes :meth:`reserve` held (thread-safe)."""
+        if not size:
+            return
+        with self._rendering_lock:
+            left = self._rendering.get(identity, 0) - size
+            if left > 0:
+                self._rendering[identity] = left
+            else:
+                self._rendering.pop(identity, None)
+            self._rendering_total -= size
+
+    def expects(self, identity: bytes) -> bool:
+        """Whether the connection of ``identity`` still waits for the reply to its request (it
+        has not closed meanwhile); any thread."""
+        return identity in self._pending
 
     def close(self) -> None:
         """Stop the thread and close the socket (replies not yet sent are dropped); idempotent."""
@@ -232,12 +274,13 @@ class Frontend:
             pass
         while True:
             try:
-                envelope, payload = self._replies.get_nowait()
+                envelope, payload, held = self._replies.get_nowait()
             except queue.Empty:
                 return
             if not envelope:
                 continue
             self._done(envelope[0])
+            self.release(envelope[0], held)  # counted as unsent below, if the kernel does not take it at once
             try:
                 if len(payload) < TRACKED_BYTES:
                     router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False)
@@ -302,7 +345,7 @@ class Frontend:
             if unsent and self._trackers:
                 self._count_sent()
                 unsent = self._unsent.get(identity, 0)
-            over_total = unsent and self._unsent_total > limits.MAX_ZMQ_UNSENT_BYTES_TOTAL
+            over_total = unsent and self._unsent_total + self._rendering_total > limits.MAX_ZMQ_UNSENT_BYTES_TOTAL
             if unsent > limits.MAX_ZMQ_UNSENT_BYTES or over_total:
                 raise ProtocolError(f"server busy: {unsent} bytes of this connection's earlier replies are not read "
                                     f"yet ({self._unsent_total} of all connections; limits.MAX_ZMQ_UNSENT_BYTES "

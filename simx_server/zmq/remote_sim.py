@@ -68,6 +68,9 @@ class RemoteSim(MotionCalls, ScriptSim):
             read at each call).
     """
 
+    #: Image calls answer a Deferred: the ZMQ service replies once the render thread is done.
+    defer_renders = True
+
     def __init__(self, simulation: Simulation):
         super().__init__(simulation.world, WORLD, simulation.signals, label="zmq", simulation=simulation)
         self._simulation_ = simulation

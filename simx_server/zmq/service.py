@@ -20,7 +20,9 @@ steps, as it serves every front door's requests (:mod:`simx_server.loop.front_do
 ``sim.stopSimulation`` resets every ZMQ client's stepping level and locks, as CoppeliaSim's ZMQ
 server does. A client is forgotten (it leaves the barrier) when its connection closes, when it
 sends ``_*end*_``, or after its ``timeout`` (s, its first request's; 600 by default) without a
-request. Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s.
+request. Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s; those that
+render (images, depth buffers, vision packets) are answered from the render thread once their
+frames are drawn (:mod:`simx_server.zmq.renders`), the simulation going on meanwhile.
 """
 
 from __future__ import annotations
@@ -38,11 +40,13 @@ from simx_server.base.arguments import quote
 from simx_server.loop.budgets import cut
 from simx_server.loop.front_door import LoopAccess
 from simx_server.sim.state import RunState
+from simx_server.sim.vision import Deferred
 from simx_server.zmq import codec, names
-from simx_server.zmq.budgets import Connection, reply_estimate
+from simx_server.zmq.budgets import RENDERS, Connection, reply_estimate
 from simx_server.zmq.frontend import Frontend, Incoming
 from simx_server.zmq.motion import Stepped
 from simx_server.zmq.remote_sim import RemoteSim, facade_functions
+from simx_server.zmq.renders import RenderedReplies, Rendering, values as _values
 from simx_server.zmq.sim_ik import RemoteSimIK
 
 log = logging.getLogger("simx.zmq")
@@ -81,7 +85,7 @@ class ZmqClient:
         self.connection = connection  # its connection's routing id (ZmqService.connections)
 
 
-class ZmqService:
+class ZmqService(RenderedReplies):
     """ZMQ clients and their calls, on the simulation thread.
 
     Args:
@@ -193,17 +197,21 @@ class ZmqService:
         self._answer(client, envelope, req.func, req.args)
 
     def _answer(self, client: ZmqClient, envelope: list, func: str, args: list) -> None:
-        """Reply to ``func(*args)``; its time is charged to the client's connection."""
+        """Reply to ``func(*args)``; its time (on this thread) is charged to the client's connection."""
         start = time.monotonic()
         payload = self._call(client, func, args)
         done = time.monotonic()
         connection = self.connections.get(client.connection)
         if connection is not None:
             connection.charge_call(done - start, done, func.startswith("sim.") and func[4:] in EDITS)
-        self.frontend.send(envelope, payload)
+        if type(payload) is Rendering:
+            self._reply_rendered(client, envelope, func, payload)
+        else:
+            self.frontend.send(envelope, payload)
 
-    def _call(self, client: ZmqClient, func: str, args: list) -> bytes:
-        """The encoded reply to ``func(*args)``: ``{ret}``, ``{err}`` or ``{func: _*wait*_}``."""
+    def _call(self, client: ZmqClient, func: str, args: list) -> bytes | Rendering:
+        """The encoded reply to ``func(*args)``: ``{ret}``, ``{err}`` or ``{func: _*wait*_}``; for
+        a call that renders, the reply to send once the render thread is done (:class:`Rendering`)."""
         namespace, _, name = func.partition(".")
         try:
             if namespace == "zmqRemoteApi":
@@ -217,6 +225,8 @@ class ZmqService:
                 refused = reply_estimate(self.sim, name, args)
                 if refused is not None:
                     return self._error(client, func, refused)
+                if name in RENDERS:
+                    return self._render(client, func, name, args)
                 values = self._facade(name, args)
                 if isinstance(values, Stepped):
                     return self._start_long(client, func, values)
@@ -227,13 +237,9 @@ class ZmqService:
                                   "docs/ZMQ.md lists what simx has)")
             else:
                 raise RemoteError("no such function")
-            payload = codec.encode_reply(values)
+            return self._encoded(client, func, values)
         except Exception as exc:
             return self._call_error(client, func, exc)
-        if len(payload) > limits.MAX_REPLY_BYTES:
-            return self._error(client, func, f"the reply would be {len(payload)} bytes, more than "
-                                             f"{limits.MAX_REPLY_BYTES} (limits.MAX_REPLY_BYTES)")
-        return payload
 
     def _call_error(self, client: ZmqClient, func: str, exc: Exception) -> bytes:
         """The ``{err}`` reply of a call that raised ``exc``."""
@@ -254,12 +260,16 @@ class ZmqService:
             log.warning("ZMQ client %s: %s", client.label, text)
         return codec.encode_error(text)
 
-    def _facade(self, name: str, args: list, ik: bool = False) -> list:
-        fn = (self._ik_functions if ik else self._functions)[name]
+    def _signature(self, name: str, ik: bool = False) -> inspect.Signature:
         key = f"simIK.{name}" if ik else name
         signature = self._signatures.get(key)
         if signature is None:
-            signature = self._signatures[key] = inspect.signature(fn)
+            signature = self._signatures[key] = inspect.signature((self._ik_functions if ik else self._functions)[name])
+        return signature
+
+    def _facade(self, name: str, args: list, ik: bool = False) -> list | Stepped | Deferred:
+        fn = (self._ik_functions if ik else self._functions)[name]
+        signature = self._signature(name, ik)
         remote = RemoteSimIK(self.remote) if ik else self.remote
         try:
             result = fn(remote, *args)
@@ -269,11 +279,9 @@ class ZmqService:
             except TypeError as arity:
                 raise ArgumentError(f"{arity} ({'simIK' if ik else 'sim'}.{name}{_shown(signature)})") from None
             raise exc
-        if isinstance(result, Stepped):
+        if isinstance(result, (Stepped, Deferred)):
             return result
-        if result is None:  # nothing from a function that returns nothing, nil from one that returns a value
-            return [] if signature.return_annotation in ("None", None) else [None]
-        return list(result) if isinstance(result, tuple) else [result]
+        return _values(result, signature.return_annotation in ("None", None))
 
     def _run_deferred(self) -> None:
         """Serve the scene edits whose wait is over (their clients still there)."""
