@@ -12,8 +12,11 @@ The motions are CoppeliaSim's: jerk-limited, time-optimal trajectories from the 
 of freedom unless ``flags`` say otherwise; ``moveToConfig`` moves joints through their target
 positions (their position control follows) or, for joints without an active motor, their
 positions; ``moveToPose`` moves an ``object`` (4 degrees of freedom x, y, z and the rotation
-angle, or one along a straight line with a ``metric``). Callbacks and ``ik`` are not supported
-(an error says so). The ``_init``/``_step``/``_cleanup`` variants are not implemented.
+angle, or one along a straight line with a ``metric``). Both also take CoppeliaSim 4.3-4.5's
+positional form, whose ``callback`` gets each step's state instead (the generator yields a
+:class:`CallbackCall`, which the driver runs and answers with the callback's return values
+before the step). The 4.6 map's ``callback`` and ``ik`` fields are not supported (an error says
+so).
 """
 
 from __future__ import annotations
@@ -33,6 +36,48 @@ RUCKIG_PHASESYNC, RUCKIG_TIMESYNC, RUCKIG_NOSYNC = 0, 1, 3
 #: Longest motion in simulation steps (a bound on one call's work: 100,000 steps = 83 min at 50 ms).
 MAX_MOTION_STEPS = 100_000
 MAX_DOFS = 64
+
+
+class CallbackCall:
+    """A motion's request to run its caller's ``callback`` with ``args`` (a list) before it
+    waits for the next step; the driver sends the generator the callback's return values."""
+
+    __slots__ = ("callback", "args")
+
+    def __init__(self, callback: Any, args: list):
+        self.callback, self.args = callback, args
+
+
+def positional_config(args: tuple) -> tuple[dict, Any, Any]:
+    """CoppeliaSim 4.3-4.5's ``sim.moveToConfig(flags, currentPos, currentVel, currentAccel,
+    maxVel, maxAccel, maxJerk, targetPos, targetVel, callback, auxData, cyclicJoints, timeStep)``
+    as the map form's fields (nil ones left out), its ``callback`` and ``auxData``."""
+    if not 8 <= len(args) <= 13:
+        raise ArgumentError("sim.moveToConfig takes one map of parameters (4.6) or 8 to 13 arguments (4.3-4.5: flags, "
+                            "currentPos, currentVel, currentAccel, maxVel, maxAccel, maxJerk, targetPos, targetVel, "
+                            "callback, auxData, cyclicJoints, timeStep)")
+    keys = ("flags", "pos", "vel", "accel", "maxVel", "maxAccel", "maxJerk", "targetPos", "targetVel")
+    params = {k: v for k, v in zip(keys, args) if v is not None}
+    rest = list(args[9:]) + [None] * (13 - len(args))
+    callback, aux, cyclic, time_step = rest
+    if not isinstance(params.get("pos"), list):
+        raise ArgumentError("invalid 'currentPos' argument: a list of numbers")
+    params.update({k: v for k, v in (("cyclicJoints", cyclic), ("timeStep", time_step)) if v is not None})
+    return params, callback, aux
+
+
+def positional_pose(args: tuple) -> tuple[dict, Any, Any]:
+    """CoppeliaSim 4.3-4.5's ``sim.moveToPose(flags, currentPose, maxVel, maxAccel, maxJerk,
+    targetPose, callback, auxData, metric, timeStep)`` as the map form's fields, its ``callback``
+    and ``auxData``. Poses are 7 numbers (x, y, z, qx, qy, qz, qw) or 12 (a matrix)."""
+    if not 6 <= len(args) <= 10:
+        raise ArgumentError("sim.moveToPose takes one map of parameters (4.6) or 6 to 10 arguments (4.3-4.5: flags, "
+                            "currentPose, maxVel, maxAccel, maxJerk, targetPose, callback, auxData, metric, timeStep)")
+    keys = ("flags", "pose", "maxVel", "maxAccel", "maxJerk", "targetPose")
+    params = {k: v for k, v in zip(keys, args) if v is not None}
+    callback, aux, metric, time_step = list(args[6:]) + [None] * (10 - len(args))
+    params.update({k: v for k, v in (("metric", metric), ("timeStep", time_step)) if v is not None})
+    return params, callback, aux
 
 
 class Stepped:
@@ -110,13 +155,31 @@ def _no_callbacks(params: Any, name: str) -> dict:
 class MotionCalls:
     """``sim.moveToConfig``, ``sim.moveToPose`` and ``sim.wait`` (mixin of RemoteSim)."""
 
-    def moveToConfig(self, params: Any) -> Stepped:  # noqa: N802 (CoppeliaSim's names)
+    def _callback(self, callback: Any, name: str) -> str:
+        """A 4.3-4.5 callback as the ZMQ client passes its Python function: ``"NAME@func"``;
+        returns ``NAME``, which the client's reply ``{func: NAME, args}`` runs."""
+        if not isinstance(callback, str) or not callback.endswith("@func") or len(callback) <= 5:
+            raise ArgumentError(f"the 4.3-4.5 form's callback must be a function (the client sends \"NAME@func\"), "
+                                f"got {type(callback).__name__}")
+        return callback[:-5]
+
+    def moveToConfig(self, params: Any, *legacy: Any) -> Stepped:  # noqa: N802 (CoppeliaSim's names)
         """Move joints along a jerk-limited trajectory, one increment per simulation step
         (CoppeliaSim 4.6's map form: ``joints``, ``targetPos``, ``maxVel``, ``maxAccel``,
         ``maxJerk``, optional ``pos``, ``vel``, ``accel``, ``minVel``, ``minAccel``,
         ``targetVel``, ``flags``, ``cyclicJoints``, ``timeStep``). Returns the parameters with
-        the final ``pos``, ``vel``, ``accel`` and ``timeLeft``."""
-        p = _no_callbacks(params, "moveToConfig")
+        the final ``pos``, ``vel``, ``accel`` and ``timeLeft``.
+
+        4.3-4.5's form ``(flags, currentPos, currentVel, currentAccel, maxVel, maxAccel, maxJerk,
+        targetPos, targetVel, callback, auxData [, cyclicJoints, timeStep])`` runs the same
+        motion from ``currentPos`` and calls ``callback(pos, vel, accel, auxData)`` each step
+        instead of moving joints; returns ``pos, vel, accel, timeLeft`` (rad, rad/s, rad/s², s)."""
+        callback = aux = None
+        if legacy or not isinstance(params, dict):
+            p, callback, aux = positional_config((params, *legacy))
+            callback = self._callback(callback, "moveToConfig")
+        else:
+            p = _no_callbacks(params, "moveToConfig")
         joints = p.get("joints")
         if joints is not None:
             if not isinstance(joints, list) or not joints:
@@ -141,9 +204,11 @@ class MotionCalls:
 
         motored = [self._has_motor(h) for h in joints] if joints is not None else []
 
-        def motion() -> Generator[None, None, list]:
+        def motion() -> Generator[CallbackCall | None, Any, list]:
             steps = 0
             for q, v, a, last in _run(otg, inp, out):
+                if callback is not None:
+                    yield CallbackCall(callback, [q, v, a, aux])
                 for h, value, by_motor in zip(joints or (), q, motored):
                     if by_motor:  # its position control follows (CoppeliaSim: a dynamically enabled joint)
                         self._world.set_joint_target_position(h, value)
@@ -154,6 +219,8 @@ class MotionCalls:
                 if last:
                     break
             time_left = max(0.0, steps * dt - out.trajectory.duration)
+            if callback is not None:
+                return [q, v, a, time_left]
             return [{**_plain(p), "pos": q, "vel": v, "accel": a, "targetPos": target, "timeLeft": time_left}]
 
         return Stepped(motion())
@@ -165,13 +232,28 @@ class MotionCalls:
         except RemoteError:  # a joint moved only through a tendon: placed instead
             return False
 
-    def moveToPose(self, params: Any) -> Stepped:  # noqa: N802
+    def moveToPose(self, params: Any, *legacy: Any) -> Stepped:  # noqa: N802
         """Move an ``object`` (or just a ``pose``) to ``targetPose`` along a jerk-limited
         trajectory, one increment per simulation step (CoppeliaSim 4.6's map form: ``object``
         or ``pose``, ``targetPose``, ``relObject``, ``maxVel``, ``maxAccel``, ``maxJerk`` of 4
         degrees of freedom x, y, z, angle; with ``metric`` (4 weights) 1 degree along a straight
-        line). Returns the parameters with the final ``pose``, ``matrix`` and ``timeLeft``."""
-        p = _no_callbacks(params, "moveToPose")
+        line). Returns the parameters with the final ``pose``, ``matrix`` and ``timeLeft``.
+
+        4.3-4.5's form ``(flags, currentPose, maxVel, maxAccel, maxJerk, targetPose, callback,
+        auxData [, metric, timeStep])`` runs the same motion from ``currentPose`` and calls
+        ``callback(pose, vel, accel, auxData)`` each step (the pose as given: 7 numbers or a
+        12-number matrix; vel and accel the Ruckig degrees of freedom, a number along the line
+        with a metric); returns ``pose, timeLeft``."""
+        callback = aux = None
+        matrices = False
+        if legacy or not isinstance(params, dict):
+            p, callback, aux = positional_pose((params, *legacy))
+            callback = self._callback(callback, "moveToPose")
+            for key in ("pose", "targetPose"):
+                if isinstance(p.get(key), list) and len(p[key]) == 12:
+                    p[key], matrices = self.matrixToPose(p[key]), True
+        else:
+            p = _no_callbacks(params, "moveToPose")
         rel = _int(p.get("relObject", -1), "relObject")
         obj = p.get("object")
         if "pose" in p and p["pose"] is not None:
@@ -205,19 +287,29 @@ class MotionCalls:
             t = progress[3] / angle if abs(angle) > math.pi * 1e-5 else 0.0
             return p0 + np.array(progress[:3]), _turn(axis, t * angle) @ r0
 
-        def motion() -> Generator[None, None, list]:
+        def motion() -> Generator[CallbackCall | None, Any, list]:
             pos, r = p0, r0
             if otg is not None:
-                for q, _, _, last in _run(otg, inp, out):
+                for q, v, a, last in _run(otg, inp, out):
                     pos, r = pose_at(q)
+                    if callback is not None:
+                        pose = [*map(float, pos), *quaternion_from_matrix(r)]
+                        yield CallbackCall(callback, [self.poseToMatrix(pose) if matrices else pose,
+                                                      *((v[0], a[0]) if metric is not None else (v, a)), aux])
                     if obj is not None:
                         self.setObjectPose(obj, [*pos, *quaternion_from_matrix(r)], rel)
                     yield
                     if last:
                         break
-            else:
+            else:  # already there: one step, one callback with the pose
+                if callback is not None:
+                    pose = [*map(float, pos), *quaternion_from_matrix(r)]
+                    yield CallbackCall(callback, [self.poseToMatrix(pose) if matrices else pose,
+                                                  *((0.0, 0.0) if metric is not None else ([0.0] * 4, [0.0] * 4)), aux])
                 yield
             pose = [*map(float, pos), *quaternion_from_matrix(r)]
+            if callback is not None:
+                return [self.poseToMatrix(pose) if matrices else pose, 0.0]
             return [{**_plain(p), "pose": pose, "matrix": self.poseToMatrix(pose), "timeLeft": 0.0}]
 
         return Stepped(motion())
