@@ -51,9 +51,11 @@ def positional_config(args: tuple) -> tuple[dict, Any, Any]:
     maxVel, maxAccel, maxJerk, targetPos, targetVel, callback, auxData, cyclicJoints, timeStep)``
     as the map form's fields (nil ones left out), its ``callback`` and ``auxData``."""
     if not 8 <= len(args) <= 13:
-        raise ArgumentError("sim.moveToConfig takes one map of parameters (4.6) or 8 to 13 arguments (4.3-4.5: flags, "
-                            "currentPos, currentVel, currentAccel, maxVel, maxAccel, maxJerk, targetPos, targetVel, "
-                            "callback, auxData, cyclicJoints, timeStep)")
+        raise ArgumentError(
+            "sim.moveToConfig takes one map of parameters (4.6) or 8 to 13 arguments (4.3-4.5: flags, "
+            "currentPos, currentVel, currentAccel, maxVel, maxAccel, maxJerk, targetPos, targetVel, "
+            "callback, auxData, cyclicJoints, timeStep)"
+        )
     keys = ("flags", "pos", "vel", "accel", "maxVel", "maxAccel", "maxJerk", "targetPos", "targetVel")
     params = {k: v for k, v in zip(keys, args) if v is not None}
     rest = list(args[9:]) + [None] * (13 - len(args))
@@ -69,8 +71,10 @@ def positional_pose(args: tuple) -> tuple[dict, Any, Any]:
     targetPose, callback, auxData, metric, timeStep)`` as the map form's fields, its ``callback``
     and ``auxData``. Poses are 7 numbers (x, y, z, qx, qy, qz, qw) or 12 (a matrix)."""
     if not 6 <= len(args) <= 10:
-        raise ArgumentError("sim.moveToPose takes one map of parameters (4.6) or 6 to 10 arguments (4.3-4.5: flags, "
-                            "currentPose, maxVel, maxAccel, maxJerk, targetPose, callback, auxData, metric, timeStep)")
+        raise ArgumentError(
+            "sim.moveToPose takes one map of parameters (4.6) or 6 to 10 arguments (4.3-4.5: flags, "
+            "currentPose, maxVel, maxAccel, maxJerk, targetPose, callback, auxData, metric, timeStep)"
+        )
     keys = ("flags", "pose", "maxVel", "maxAccel", "maxJerk", "targetPose")
     params = {k: v for k, v in zip(keys, args) if v is not None}
     callback, aux, metric, time_step = list(args[6:]) + [None] * (10 - len(args))
@@ -105,12 +109,16 @@ def _trajectory(dim: int, dt: float, params: dict, current: list[float], target:
     inp.max_acceleration = _limits(params, "maxAccel", dim, 99999.0)
     inp.max_jerk = _limits(params, "maxJerk", dim, 9999999.0)
     inp.min_velocity = _limits(params, "minVel", dim, 0.0) if "minVel" in params else [-v for v in inp.max_velocity]
-    inp.min_acceleration = (_limits(params, "minAccel", dim, 0.0) if "minAccel" in params
-                            else [-a for a in inp.max_acceleration])
+    inp.min_acceleration = (
+        _limits(params, "minAccel", dim, 0.0) if "minAccel" in params else [-a for a in inp.max_acceleration]
+    )
     flags = _int(params.get("flags", -1), "flags")
     sync = flags & 3 if flags >= 0 else RUCKIG_PHASESYNC
-    inp.synchronization = {RUCKIG_PHASESYNC: Synchronization.Phase, RUCKIG_TIMESYNC: Synchronization.Time,
-                           RUCKIG_NOSYNC: Synchronization.No}.get(sync, Synchronization.Phase)
+    inp.synchronization = {
+        RUCKIG_PHASESYNC: Synchronization.Phase,
+        RUCKIG_TIMESYNC: Synchronization.Time,
+        RUCKIG_NOSYNC: Synchronization.No,
+    }.get(sync, Synchronization.Phase)
     if any(v <= 0 for v in inp.max_velocity + inp.max_acceleration + inp.max_jerk):
         raise ArgumentError("maxVel, maxAccel and maxJerk must be positive")
     return Ruckig(dim, dt), inp, OutputParameter(dim)
@@ -279,8 +287,14 @@ class MotionCore:
                     pos, r = pose_at(q)
                     if callback is not None:
                         pose = [*map(float, pos), *quaternion_from_matrix(r)]
-                        yield CallbackCall(callback, [self.poseToMatrix(pose) if matrices else pose,
-                                                      *((v[0], a[0]) if metric is not None else (v, a)), aux])
+                        yield CallbackCall(
+                            callback,
+                            [
+                                self.poseToMatrix(pose) if matrices else pose,
+                                *((v[0], a[0]) if metric is not None else (v, a)),
+                                aux,
+                            ],
+                        )
                     if obj is not None:
                         self.setObjectPose(obj, [*pos, *quaternion_from_matrix(r)], rel)
                     yield
@@ -289,8 +303,14 @@ class MotionCore:
             else:  # already there: one step, one callback with the pose
                 if callback is not None:
                     pose = [*map(float, pos), *quaternion_from_matrix(r)]
-                    yield CallbackCall(callback, [self.poseToMatrix(pose) if matrices else pose,
-                                                  *((0.0, 0.0) if metric is not None else ([0.0] * 4, [0.0] * 4)), aux])
+                    yield CallbackCall(
+                        callback,
+                        [
+                            self.poseToMatrix(pose) if matrices else pose,
+                            *((0.0, 0.0) if metric is not None else ([0.0] * 4, [0.0] * 4)),
+                            aux,
+                        ],
+                    )
                 yield
             pose = [*map(float, pos), *quaternion_from_matrix(r)]
             if callback is not None:
@@ -298,6 +318,7 @@ class MotionCore:
             return [{**_plain(p), "pose": pose, "matrix": self.poseToMatrix(pose), "timeLeft": 0.0}]
 
         return motion()
+
 
 class ScriptMotionCalls(MotionCore):
     """``sim.moveToConfig`` and ``sim.moveToPose`` in script threads (mixin of the facade): a

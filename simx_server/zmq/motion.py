@@ -37,8 +37,10 @@ def _zmq_callback(callback: Any) -> str:
     """A 4.3-4.5 callback as the ZMQ client passes its Python function: ``"NAME@func"``; returns
     ``NAME``, which the client's reply ``{func: NAME, args}`` runs."""
     if not isinstance(callback, str) or not callback.endswith("@func") or len(callback) <= 5:
-        raise ArgumentError(f'the 4.3-4.5 form\'s callback must be a function (the client sends "NAME@func"), '
-                            f"got {type(callback).__name__}")
+        raise ArgumentError(
+            f'the 4.3-4.5 form\'s callback must be a function (the client sends "NAME@func"), '
+            f"got {type(callback).__name__}"
+        )
     return callback[:-5]
 
 
