@@ -33,6 +33,7 @@ from simx_server.scripts.facade_gui import GuiCalls
 from simx_server.scripts.facade_links import LinkCalls
 from simx_server.scripts.facade_looks import LookCalls
 from simx_server.scripts.facade_mesh import MeshCalls
+from simx_server.scripts.facade_motion import ScriptMotionCalls
 from simx_server.scripts.facade_meshops import MeshOpCalls
 from simx_server.scripts.facade_misc import MiscCalls
 from simx_server.scripts.facade_params import ParamCalls
@@ -65,7 +66,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
 
 class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
                 GraphCalls, LinkCalls, ParticleCalls, PoseMath, CommonCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
-                DataCalls,
+                DataCalls, ScriptMotionCalls,
                 ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.

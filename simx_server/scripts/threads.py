@@ -10,7 +10,8 @@ script's ``sysCall_cleanup`` still runs). It yields in:
 
 * ``sim.switchThread()`` / ``simSwitchThread()``, ``sim.yield()``, ``sim.step()`` (4.6);
 * ``sim.wait(dt [, simulationTime=true])`` / ``simWait``: until ``dt`` s of simulation time (or
-  of wall time) have passed; ``sim.waitForSignal(name)`` / ``simWaitForSignal``: until an
+  of wall time) have passed; ``sim.moveToConfig`` / ``sim.moveToPose``: once per increment of
+  the motion (:mod:`simx_server.scripts.facade_motion`), whose 4.3-4.5 callback runs in Lua; ``sim.waitForSignal(name)`` / ``simWaitForSignal``: until an
   integer, float or string signal ``name`` exists (returns its value);
 * any ``sim`` call, once the thread has run longer than its time slice since it was resumed
   (``sim.setThreadSwitchTiming(ms)``, default 2 ms) while automatic switching is on
@@ -30,14 +31,19 @@ still does for such scripts.
 
 from __future__ import annotations
 
+import logging
 import time
 from typing import Any
 
+from simx_wire.protocol import RemoteError
 from simx_server.scripts.facade import FACADE_FUNCTIONS
+from simx_server.scripts.facade_motion import CallbackCall
 from simx_server.scripts.legacy_names import (CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS,
                                               doc_table)
 
 __all__ = ["LUA_FUNCTIONS", "THREADS_LUA", "LuaStyles", "script_functions"]
+
+log = logging.getLogger("simx.scripts")
 
 #: ``sim`` functions that Lua scripts get from :data:`THREADS_LUA` (not facade methods).
 LUA_FUNCTIONS = ("switchThread", "yield", "step", "wait", "waitForSignal", "setThreadAutomaticSwitch",
@@ -54,7 +60,7 @@ def script_functions() -> frozenset[str]:
 #: ``launch(f)``, ``resume()`` (true while the thread lives; raises the thread's error),
 #: ``wrap()`` (automatic switching at every ``sim`` call, for threaded scripts only) and ``alive()``.
 THREADS_LUA = r"""
-local sim, now = ...
+local sim, now, motion = ...
 local co_create, co_resume = coroutine.create, coroutine.resume
 local co_running, co_yield = coroutine.running, coroutine.yield
 local co_status, yieldable = coroutine.status, coroutine.isyieldable
@@ -122,6 +128,45 @@ sim.setThreadIsFree = function() return 0 end
 sim.isScriptRunningInThread = function() return in_thread() and 1 or 0 end
 sim.isScriptExecutionThreaded = function() return T.co ~= nil and 1 or 0 end
 
+-- sim.moveToConfig / sim.moveToPose (threads only): the motion is the facade's (motion("begin")),
+-- run one increment at a time (motion("next")): "call" runs the 4.3-4.5 callback here, in Lua,
+-- with the auxData kept here; "step" yields the thread; "done" returns the call's values.
+local function mover(name, at)
+  local function run(m, callback, aux)
+    while true do
+      local r = pack(motion("next", m))
+      if not r[1] then error("sim." .. name .. ": " .. tostring(r[2]), 0) end
+      if r[2] == "call" then
+        callback(r[3][1], r[3][2], r[3][3], aux)
+      elseif r[2] == "step" then
+        co_yield()
+      else
+        return r[3]
+      end
+    end
+  end
+  return function(...)
+    threaded_only("sim." .. name)
+    local args = pack(...)
+    local callback, aux
+    if type(args[1]) ~= "table" and type(args[at]) == "function" then
+      callback, aux = args[at], args[at + 1]
+      args[at], args[at + 1] = true, nil
+    end
+    local r = pack(motion("begin", name, unpack(args, 1, args.n)))
+    if not r[1] then error("sim." .. name .. ": " .. tostring(r[2]), 2) end
+    T.level = T.level + 1  -- no automatic switch inside (CoppeliaSim's sim.setThreadAutomaticSwitch(false))
+    local ok, out = pcall(run, r[2], callback, aux)
+    T.level = math.max(0, T.level - 1)
+    if not ok then error(out, 0) end
+    return unpack(out, 1, #out)
+  end
+end
+if motion then
+  sim.moveToConfig = mover("moveToConfig", 10)
+  sim.moveToPose = mover("moveToPose", 7)
+end
+
 local function launch(f, whole)  -- coroutine.create of the prelude: hooked
   if whole then  -- a threaded script's text; a V-REP 3.6 one then runs its sysCall_threadmain
     local chunk = f
@@ -145,7 +190,7 @@ end
 local function wrap()
   for name, f in pairs(sim) do
     if type(f) == "function" and name ~= "wait" and name ~= "waitForSignal" and name ~= "switchThread"
-       and name ~= "tubeRead" then
+       and name ~= "tubeRead" and name ~= "moveToConfig" and name ~= "moveToPose" then
       sim[name] = function(...)
         local r = pack(f(...))
         if T.level == 0 and in_thread() and now() - T.resumed > T.slice and yieldable() then co_yield() end
@@ -179,8 +224,31 @@ class LuaStyles:
                                           v.encode() if isinstance(v, str) else v) for k, v in UI_FUNCTIONS.items()})
         rt.compile(LEGACY_LUA, name="=simx")(g.sim, aliases, uis, self._write_log)
         threads = rt.compile(THREADS_LUA, name="=simx")
-        self._launch, self._resume, self._wrap, self._alive = threads(g.sim, time.monotonic)
+        self._launch, self._resume, self._wrap, self._alive = threads(g.sim, time.monotonic, self._motion_call)
         self.old_style = False
+
+    def _motion_call(self, op: bytes, *args: Any) -> tuple:
+        """``sim.moveToConfig`` / ``sim.moveToPose`` of a Lua thread (:data:`THREADS_LUA`):
+        ``("begin", name, args...)`` makes the facade's motion, ``("next", motion)`` runs its next
+        increment: ``(True, "call", {pos, vel, accel})``, ``(True, "step")`` or ``(True, "done",
+        {return values})``; ``(False, message)`` on an error. Never raises."""
+        try:
+            if op == b"begin":
+                name = args[0].decode() if isinstance(args[0], bytes) else str(args[0])
+                return True, self._facade._lua_motion(name, [self._from_lua(a) for a in args[1:]])
+            wanted = args[0].send(None)
+            if isinstance(wanted, CallbackCall):
+                return True, b"call", self._to_lua(wanted.args[:3])
+            return True, b"step"
+        except StopIteration as done:
+            return True, b"done", self._to_lua(done.value or [])
+        except RemoteError as exc:
+            return False, str(exc).encode()
+        except (TypeError, ValueError, OverflowError, AttributeError) as exc:
+            return False, f"bad arguments: {exc}".encode()
+        except Exception as exc:  # a bug in simx, not in the script: say so
+            log.exception("a motion of %s", getattr(self, "label", "a Lua script"))
+            return False, f"internal error: {type(exc).__name__}: {exc}".encode()
 
     def _run_top_level(self, chunk: Any) -> None:
         """The file's top level with ``sim_call_type`` = initialization; a 3.x threaded script's

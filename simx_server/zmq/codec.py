@@ -227,6 +227,12 @@ def encode_wait() -> bytes:
     return cbor2.dumps({"func": WAIT, "args": []})
 
 
+def encode_callback(name: str, args: list) -> bytes:
+    """``{func: name, args}``: the client runs its function ``name`` (the one it passed as
+    ``"name@func"``) with ``args`` and answers ``_*executed*_`` with its return values."""
+    return cbor2.dumps({"func": name, "args": list(args)}, default=_default)
+
+
 def encode_request(func: str, args: list, uuid: str, first: bool = False) -> bytes:
     """A request as a client sends it (tests and benchmarks; the official client builds its own)."""
     msg: dict[str, Any] = {"func": func, "args": list(args), "uuid": uuid}

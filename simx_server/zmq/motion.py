@@ -1,226 +1,62 @@
-"""Calls that last several simulation steps: ``sim.moveToConfig``, ``sim.moveToPose``, ``sim.wait``.
+"""Calls that last several simulation steps, for ZMQ clients: ``sim.moveToConfig``,
+``sim.moveToPose``, ``sim.wait``.
 
 In CoppeliaSim these are Lua functions of the ``sim`` namespace that call ``sim.step()`` in a
 loop: over the ZMQ remote API the client's call is answered ``_*wait*_`` at each of those steps
 and returns when the motion ends. simx runs them the same way: each call returns a
 :class:`Stepped` (a generator that yields once per step it wants), which
 :mod:`simx_server.zmq.service` drives, one increment per simulation step, the client stepped
-meanwhile (as CoppeliaSim's ``sim.setStepping(true)`` inside them).
-
-The motions are CoppeliaSim's: jerk-limited, time-optimal trajectories from the Ruckig library
-(the ``ruckig`` package; CoppeliaSim uses the same library), phase-synchronised across degrees
-of freedom unless ``flags`` say otherwise; ``moveToConfig`` moves joints through their target
-positions (their position control follows) or, for joints without an active motor, their
-positions; ``moveToPose`` moves an ``object`` (4 degrees of freedom x, y, z and the rotation
-angle, or one along a straight line with a ``metric``). Callbacks and ``ik`` are not supported
-(an error says so). The ``_init``/``_step``/``_cleanup`` variants are not implemented.
+meanwhile (as CoppeliaSim's ``sim.setStepping(true)`` inside them). The motions are the script
+facade's (:mod:`simx_server.scripts.facade_motion`, one implementation); a 4.3-4.5 callback is
+the client's Python function, passed as ``"NAME@func"``: the generator yields a
+:class:`CallbackCall` for it, which the service sends the client as ``{func: NAME, args}``.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any, Generator
 
-import numpy as np
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import as_number as _num
+from simx_server.scripts.facade_motion import MAX_MOTION_STEPS, CallbackCall, MotionCore
 
-from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
-from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
-from simx_server.sim.objects import JOINT
-from simx_server.sim.rotations import matrix_from_quaternion, quaternion_from_matrix
-
-#: CoppeliaSim's sim.ruckig_* flags used here.
-RUCKIG_PHASESYNC, RUCKIG_TIMESYNC, RUCKIG_NOSYNC = 0, 1, 3
-#: Longest motion in simulation steps (a bound on one call's work: 100,000 steps = 83 min at 50 ms).
-MAX_MOTION_STEPS = 100_000
-MAX_DOFS = 64
+__all__ = ["MAX_MOTION_STEPS", "CallbackCall", "MotionCalls", "Stepped"]
 
 
 class Stepped:
-    """A call that lasts several steps: ``generator`` yields once per step it wants and returns
-    the call's return value (a list of values)."""
+    """A call that lasts several steps: ``generator`` yields once per step it wants (``None``) or
+    a :class:`CallbackCall`, and returns the call's return value (a list of values)."""
 
     __slots__ = ("generator",)
 
-    def __init__(self, generator: Generator[None, None, list]):
+    def __init__(self, generator: Generator[Any, Any, list]):
         self.generator = generator
 
 
-def _limits(params: dict, key: str, dim: int, default: float) -> list[float]:
-    value = params.get(key, default)
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        value = [value] * dim
-    if not isinstance(value, list) or len(value) < dim:
-        raise ArgumentError(f"invalid '{key}' field: {dim} numbers")
-    return [_num(v, key) for v in value[:dim]]
+def _zmq_callback(callback: Any) -> str:
+    """A 4.3-4.5 callback as the ZMQ client passes its Python function: ``"NAME@func"``; returns
+    ``NAME``, which the client's reply ``{func: NAME, args}`` runs."""
+    if not isinstance(callback, str) or not callback.endswith("@func") or len(callback) <= 5:
+        raise ArgumentError(
+            f'the 4.3-4.5 form\'s callback must be a function (the client sends "NAME@func"), '
+            f"got {type(callback).__name__}"
+        )
+    return callback[:-5]
 
 
-def _trajectory(dim: int, dt: float, params: dict, current: list[float], target: list[float]):
-    """A Ruckig generator and its input for ``dim`` degrees of freedom, from CoppeliaSim's fields."""
-    try:
-        from ruckig import InputParameter, OutputParameter, Ruckig, Synchronization
-    except ImportError:  # pragma: no cover - a dependency of simx
-        raise UnsupportedError("sim.moveToConfig/moveToPose need the ruckig package (pip install ruckig)") from None
-    if not 0 < dim <= MAX_DOFS:
-        raise ArgumentError(f"a motion has 1 to {MAX_DOFS} degrees of freedom, got {dim}")
-    inp = InputParameter(dim)
-    inp.current_position = current
-    inp.current_velocity = _limits(params, "vel", dim, 0.0)
-    inp.current_acceleration = _limits(params, "accel", dim, 0.0)
-    inp.target_position = target
-    inp.target_velocity = _limits(params, "targetVel", dim, 0.0)
-    inp.max_velocity = _limits(params, "maxVel", dim, 9999.0)
-    inp.max_acceleration = _limits(params, "maxAccel", dim, 99999.0)
-    inp.max_jerk = _limits(params, "maxJerk", dim, 9999999.0)
-    inp.min_velocity = _limits(params, "minVel", dim, 0.0) if "minVel" in params else [-v for v in inp.max_velocity]
-    inp.min_acceleration = (_limits(params, "minAccel", dim, 0.0) if "minAccel" in params
-                            else [-a for a in inp.max_acceleration])
-    flags = _int(params.get("flags", -1), "flags")
-    sync = flags & 3 if flags >= 0 else RUCKIG_PHASESYNC
-    inp.synchronization = {RUCKIG_PHASESYNC: Synchronization.Phase, RUCKIG_TIMESYNC: Synchronization.Time,
-                           RUCKIG_NOSYNC: Synchronization.No}.get(sync, Synchronization.Phase)
-    if any(v <= 0 for v in inp.max_velocity + inp.max_acceleration + inp.max_jerk):
-        raise ArgumentError("maxVel, maxAccel and maxJerk must be positive")
-    return Ruckig(dim, dt), inp, OutputParameter(dim)
-
-
-def _run(otg, inp, out) -> Generator[tuple[list, list, list, bool], None, None]:
-    """Ruckig's increments: (position, velocity, acceleration, last) per step."""
-    from ruckig import Result
-
-    for _ in range(MAX_MOTION_STEPS):
-        result = otg.update(inp, out)
-        if result not in (Result.Working, Result.Finished):
-            raise ArgumentError(f"no trajectory for these limits and targets (Ruckig: {result.name})")
-        out.pass_to_input(inp)
-        yield list(out.new_position), list(out.new_velocity), list(out.new_acceleration), result == Result.Finished
-        if result == Result.Finished:
-            return
-    raise ArgumentError(f"the motion would last more than {MAX_MOTION_STEPS} steps")
-
-
-def _no_callbacks(params: Any, name: str) -> dict:
-    if not isinstance(params, dict):
-        raise ArgumentError(f"sim.{name} takes one map of parameters")
-    for key in ("callback", "ik"):
-        if params.get(key) is not None:
-            raise UnsupportedError(f"sim.{name}: '{key}' is not supported by simx")
-    return params
-
-
-class MotionCalls:
+class MotionCalls(MotionCore):
     """``sim.moveToConfig``, ``sim.moveToPose`` and ``sim.wait`` (mixin of RemoteSim)."""
 
-    def moveToConfig(self, params: Any) -> Stepped:  # noqa: N802 (CoppeliaSim's names)
-        """Move joints along a jerk-limited trajectory, one increment per simulation step
-        (CoppeliaSim 4.6's map form: ``joints``, ``targetPos``, ``maxVel``, ``maxAccel``,
-        ``maxJerk``, optional ``pos``, ``vel``, ``accel``, ``minVel``, ``minAccel``,
-        ``targetVel``, ``flags``, ``cyclicJoints``, ``timeStep``). Returns the parameters with
-        the final ``pos``, ``vel``, ``accel`` and ``timeLeft``."""
-        p = _no_callbacks(params, "moveToConfig")
-        joints = p.get("joints")
-        if joints is not None:
-            if not isinstance(joints, list) or not joints:
-                raise ArgumentError("invalid 'joints' field: a list of joint handles")
-            joints = [self._world.get(_int(h, "joint handle"), JOINT).handle for h in joints]
-        if "pos" in p:
-            pos = _vector(p["pos"], len(p["pos"]) if isinstance(p["pos"], list) else 0, "pos")
-        elif joints is not None:
-            pos = [self._world.joint_position(h) for h in joints]
-        else:
-            raise ArgumentError("missing field: either 'pos' or 'joints' is required")
-        dim = len(pos)
-        if joints is not None and len(joints) != dim:
-            raise ArgumentError("'joints' and 'pos' differ in length")
-        target = _vector(p.get("targetPos"), dim, "targetPos")
-        cyclic = p.get("cyclicJoints") or []
-        for i, flag in enumerate(cyclic[:dim] if isinstance(cyclic, list) else []):
-            if flag:  # the shorter way round
-                target[i] = pos[i] + math.remainder(target[i] - pos[i], 2 * math.pi)
-        dt = _num(p.get("timeStep", 0), "timeStep") or self._world.dt
-        otg, inp, out = _trajectory(dim, dt, p, pos, target)
+    def moveToConfig(self, params: Any, *legacy: Any) -> Stepped:  # noqa: N802 (CoppeliaSim's names)
+        """Move joints along a jerk-limited trajectory, one increment per simulation step: the
+        script facade's ``sim.moveToConfig`` (its map form and 4.3-4.5's positional form, whose
+        callback is the client's ``"NAME@func"``), lasting several steps."""
+        return Stepped(self._config_motion(params, legacy, _zmq_callback))
 
-        motored = [self._has_motor(h) for h in joints] if joints is not None else []
-
-        def motion() -> Generator[None, None, list]:
-            steps = 0
-            for q, v, a, last in _run(otg, inp, out):
-                for h, value, by_motor in zip(joints or (), q, motored):
-                    if by_motor:  # its position control follows (CoppeliaSim: a dynamically enabled joint)
-                        self._world.set_joint_target_position(h, value)
-                    else:
-                        self._world.set_joint_position(h, value)
-                steps += 1
-                yield
-                if last:
-                    break
-            time_left = max(0.0, steps * dt - out.trajectory.duration)
-            return [{**_plain(p), "pos": q, "vel": v, "accel": a, "targetPos": target, "timeLeft": time_left}]
-
-        return Stepped(motion())
-
-    def _has_motor(self, handle: int) -> bool:
-        try:
-            self._world.motor(handle)
-            return True
-        except RemoteError:  # a joint moved only through a tendon: placed instead
-            return False
-
-    def moveToPose(self, params: Any) -> Stepped:  # noqa: N802
-        """Move an ``object`` (or just a ``pose``) to ``targetPose`` along a jerk-limited
-        trajectory, one increment per simulation step (CoppeliaSim 4.6's map form: ``object``
-        or ``pose``, ``targetPose``, ``relObject``, ``maxVel``, ``maxAccel``, ``maxJerk`` of 4
-        degrees of freedom x, y, z, angle; with ``metric`` (4 weights) 1 degree along a straight
-        line). Returns the parameters with the final ``pose``, ``matrix`` and ``timeLeft``."""
-        p = _no_callbacks(params, "moveToPose")
-        rel = _int(p.get("relObject", -1), "relObject")
-        obj = p.get("object")
-        if "pose" in p and p["pose"] is not None:
-            start = _vector(p["pose"], 7, "pose")
-            obj, rel = None, -1
-        elif obj is not None:
-            obj = self._h(obj)
-            start = self.getObjectPose(obj, rel)
-        else:
-            raise ArgumentError("missing field: either 'pose' or 'object' is required")
-        goal = _vector(p.get("targetPose"), 7, "targetPose")
-        p0, r0 = np.array(start[:3]), matrix_from_quaternion(*start[3:])
-        p1, r1 = np.array(goal[:3]), matrix_from_quaternion(*goal[3:])
-        rot = r1 @ r0.T  # the turn from start to goal, about one axis
-        angle = math.acos(max(-1.0, min(1.0, (np.trace(rot) - 1) / 2)))
-        axis = _rotation_axis(rot, angle)
-        metric = p.get("metric")
-        dt = _num(p.get("timeStep", 0), "timeStep") or self._world.dt
-        if metric is not None:
-            w = _vector(metric, 4, "metric")
-            dist = float(np.linalg.norm(np.append((p1 - p0) * w[:3], angle * w[3])))
-            otg, inp, out = _trajectory(1, dt, p, [0.0], [dist]) if dist > 1e-6 else (None, None, None)
-        else:
-            dist = 0.0
-            otg, inp, out = _trajectory(4, dt, p, [0.0] * 4, [*(p1 - p0), angle])
-
-        def pose_at(progress: list[float]) -> tuple[np.ndarray, np.ndarray]:
-            if metric is not None:
-                t = progress[0] / dist
-                return p0 + t * (p1 - p0), _turn(axis, t * angle) @ r0
-            t = progress[3] / angle if abs(angle) > math.pi * 1e-5 else 0.0
-            return p0 + np.array(progress[:3]), _turn(axis, t * angle) @ r0
-
-        def motion() -> Generator[None, None, list]:
-            pos, r = p0, r0
-            if otg is not None:
-                for q, _, _, last in _run(otg, inp, out):
-                    pos, r = pose_at(q)
-                    if obj is not None:
-                        self.setObjectPose(obj, [*pos, *quaternion_from_matrix(r)], rel)
-                    yield
-                    if last:
-                        break
-            else:
-                yield
-            pose = [*map(float, pos), *quaternion_from_matrix(r)]
-            return [{**_plain(p), "pose": pose, "matrix": self.poseToMatrix(pose), "timeLeft": 0.0}]
-
-        return Stepped(motion())
+    def moveToPose(self, params: Any, *legacy: Any) -> Stepped:  # noqa: N802
+        """Move an object or a pose along a jerk-limited trajectory, one increment per simulation
+        step: the script facade's ``sim.moveToPose`` (map and 4.3-4.5 forms), lasting several steps."""
+        return Stepped(self._pose_motion(params, legacy, _zmq_callback))
 
     def wait(self, dt: Any, simulationTime: Any = True) -> Stepped:  # noqa: N803
         """Let ``dt`` s of simulation time pass (one step at least); returns the time left over
@@ -239,25 +75,3 @@ class MotionCalls:
             return [end - world.time]
 
         return Stepped(waiting())
-
-
-def _plain(params: dict) -> dict:
-    """The caller's parameters without what cannot go back (callbacks, auxData as it came)."""
-    return {k: v for k, v in params.items() if k not in ("callback",)}
-
-
-def _rotation_axis(rot: np.ndarray, angle: float) -> np.ndarray:
-    if angle < 1e-9:
-        return np.array([0.0, 0.0, 1.0])
-    if abs(angle - math.pi) < 1e-6:  # half a turn: the axis from the symmetric part
-        m = (rot + np.eye(3)) / 2
-        axis = m[:, int(np.argmax(np.diag(m)))]
-        return axis / np.linalg.norm(axis)
-    axis = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]]) / (2 * math.sin(angle))
-    return axis / np.linalg.norm(axis)
-
-
-def _turn(axis: np.ndarray, angle: float) -> np.ndarray:
-    x, y, z = axis
-    k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
-    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)

@@ -44,7 +44,7 @@ from simx_server.sim.vision import Deferred
 from simx_server.zmq import codec, names
 from simx_server.zmq.budgets import RENDERS, Connection, reply_estimate
 from simx_server.zmq.frontend import Frontend, Incoming
-from simx_server.zmq.motion import Stepped
+from simx_server.zmq.motion import CallbackCall, Stepped
 from simx_server.zmq.remote_sim import RemoteSim, facade_functions
 from simx_server.zmq.renders import RenderedReplies, Rendering, values as _values
 from simx_server.zmq.sim_ik import RemoteSimIK
@@ -60,13 +60,17 @@ STEPPING = ("setStepping", "step", "yield", "switchThread", "acquireLock", "rele
 EDITS = frozenset({"loadScene", "loadModel", "removeObject", "removeObjects", "removeModel", "createDummy",
                    "setObjectParent", "setObjectAlias", "setObjectName", "importShape"})
 _EMPTY = cbor2.dumps({})
+#: Requests that end a long call suspended in its callback (the client gave the callback up, or
+#: the callback asks for a step of its own); any other request is the callback's own, served as usual.
+_ENDS_CALLBACK = frozenset({"sim.step", "sim.yield", "sim.switchThread", codec.END})
 
 
 class ZmqClient:
     """One ZMQ remote API client (a ``RemoteAPIClient``, by its uuid)."""
 
     __slots__ = ("uuid", "sync_id", "lock_id", "fd", "stepping", "locks", "timeout", "last_seen",
-                 "step_at", "waiting", "held", "label", "long", "long_func", "connection")
+                 "step_at", "waiting", "held", "label", "long", "long_func", "connection", "in_callback",
+                 "gave_up")
 
     def __init__(self, uuid: str, fd: int, timeout: float | None, now: float, connection: bytes = b""):
         self.uuid = uuid
@@ -82,6 +86,8 @@ class ZmqClient:
         self.held: list | None = None  # envelope of its _*executed*_, answered after the next step
         self.long = None  # the generator of a call that lasts several steps (sim.moveToConfig ...)
         self.long_func = ""
+        self.in_callback = False  # its long call waits for the _*executed*_ of a callback the client runs
+        self.gave_up = ""  # the long call abandoned while its callback ran (its _*executed*_ is refused)
         self.connection = connection  # its connection's routing id (ZmqService.connections)
 
 
@@ -178,10 +184,14 @@ class ZmqService(RenderedReplies):
             log.info("ZMQ client %s connected%s", client.label, f" ({quote(req.lang, 40)})" if req.lang else "")
         client.fd, client.last_seen = incoming.fd, now
         if req.func == codec.EXECUTED:
-            self._executed(client, envelope)
+            if client.in_callback:  # the callback's return values: the motion goes on
+                client.in_callback = False
+                self.frontend.send(envelope, self._advance(client, req.args))
+            else:
+                self._executed(client, envelope)
             return
         client.waiting = False  # any other request ends a sim.step's wait
-        if client.long is not None:
+        if client.long is not None and not (client.in_callback and req.func not in _ENDS_CALLBACK):
             self._end_long(client)  # and abandons a call that lasted several steps
         if req.func == codec.END:
             self.forget(client, "left")
@@ -229,6 +239,8 @@ class ZmqService(RenderedReplies):
                     return self._render(client, func, name, args)
                 values = self._facade(name, args)
                 if isinstance(values, Stepped):
+                    if client.long is not None:  # another long call from inside a callback
+                        self._end_long(client)
                     return self._start_long(client, func, values)
             elif namespace == "simIK" and name in self._ik_functions:
                 values = self._facade(name, args, ik=True)
@@ -337,6 +349,12 @@ class ZmqService(RenderedReplies):
 
     def _executed(self, client: ZmqClient, envelope: list) -> None:
         if not client.waiting:
+            if client.gave_up:
+                func, client.gave_up = client.gave_up, ""
+                self.frontend.send(envelope, self._error(client, func, "the motion ended while its callback ran (the "
+                                                                       "callback asked for a step, or made another "
+                                                                       "call that lasts several steps)"))
+                return
             self.frontend.send(envelope, self._error(client, codec.EXECUTED, "nothing waits for it (it answers "
                                                                              "a _*wait*_ of sim.step)"))
             return
@@ -386,10 +404,12 @@ class ZmqService(RenderedReplies):
         client.long, client.long_func = stepped.generator, func
         return self._advance(client)
 
-    def _advance(self, client: ZmqClient) -> bytes:
-        """Run the next increment: ``_*wait*_`` while it wants a step, else its reply."""
+    def _advance(self, client: ZmqClient, value: list | None = None) -> bytes:
+        """Run the next increment (``value``: the return values of the callback it asked for):
+        ``_*wait*_`` while it wants a step, ``{func: NAME, args}`` while it wants the client's
+        callback run, else its reply."""
         try:
-            next(client.long)
+            wanted = client.long.send(value)
         except StopIteration as done:
             self._end_long(client)
             return codec.encode_reply(done.value or [])
@@ -397,11 +417,21 @@ class ZmqService(RenderedReplies):
             func = client.long_func
             self._end_long(client)
             return self._call_error(client, func, exc)
+        if isinstance(wanted, CallbackCall):
+            client.in_callback = True
+            try:
+                return codec.encode_callback(wanted.callback, wanted.args)
+            except Exception as exc:  # arguments that cannot go over the wire
+                func = client.long_func
+                self._end_long(client)
+                return self._call_error(client, func, exc)
         return self._step(client, [])
 
     def _end_long(self, client: ZmqClient) -> None:
         generator, client.long = client.long, None
         client.waiting = False
+        if client.in_callback:
+            client.in_callback, client.gave_up = False, client.long_func
         if generator is not None:
             generator.close()
             if client.stepping:
@@ -448,7 +478,7 @@ class ZmqService(RenderedReplies):
             client.held = None
         if client.long is not None:
             client.long.close()
-            client.long = None
+            client.long, client.in_callback = None, False
         log.info("ZMQ client %s %s", client.label, how)
         self._unstep(client)
 

@@ -6,8 +6,12 @@ The programs (tests/e2e/zmq_programs/) are written in the style of CoppeliaSim's
 program on the bundled UR5 scene (stepping, joint targets, the Kinect's image as NumPy, the RG2's
 child script), ``p_controller.py`` (pController.py), ``image_relay.py``
 (synchronousImageTransmission.py), ``dummies.py`` (simpleTest.py) and ``movement.py``
-(simpleMovement.py: three clients in stepping mode from threads, sim.moveToConfig, sim.moveToPose). The scenes they load by
-CoppeliaSim's names (``messaging/*.ttt``) are simx's MJCF stand-ins in tests/scenes/zmq/.
+(simpleMovement.py: three clients in stepping mode from threads, sim.moveToConfig, sim.moveToPose),
+``arm_callback.py`` (sendMovementSequence-simMoveToConfig.py) and ``ik_callback.py``
+(sendIkMovementSequence-simMoveToPose.py): CoppeliaSim 4.3-4.5's positional sim.moveToConfig /
+sim.moveToPose with a Python callback. The scenes they load by CoppeliaSim's names
+(``messaging/*.ttt``), or that the server starts with for the last two (as those examples expect
+their scene loaded), are simx's MJCF stand-ins in tests/scenes/zmq/.
 """
 
 from __future__ import annotations
@@ -25,6 +29,9 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 PROGRAMS = Path(__file__).resolve().parent / "zmq_programs"
 SCENES = Path(__file__).resolve().parents[1] / "scenes" / "zmq"
+#: Programs that expect their scene loaded when they start, as their CoppeliaSim examples do.
+PRELOADED = {"arm_callback": SCENES / "messaging" / "movementViaRemoteApi.xml",
+             "ik_callback": SCENES / "messaging" / "ikMovementViaRemoteApi.xml"}
 
 
 @pytest.mark.parametrize("program,expected", [
@@ -33,10 +40,13 @@ SCENES = Path(__file__).resolve().parents[1] / "scenes" / "zmq"
     ("image_relay", ["20 images of 256x256 relayed"]),
     ("dummies", ["stepped: 10 steps to t = 0.500 s"]),
     ("movement", ["blueRobot: its configuration reached", "redRobot: its configuration reached", "raised by 0.200 m"]),
+    ("arm_callback", ["motion 1: ", "motion 2: ", "motion 3: "]),
+    ("ik_callback", ["pose 1: ", "pose 2: ", "pose 3: "]),
 ])
 def test_program_runs_unchanged(program, expected, tmp_path):
     port = free_port()
-    server = ServerProcess(str(SCENE), "--stopped", "--zmq-port", str(port), "--scene-path", str(SCENES))
+    scene = PRELOADED.get(program, SCENE)
+    server = ServerProcess(str(scene), "--stopped", "--zmq-port", str(port), "--scene-path", str(SCENES))
     try:
         env = dict(os.environ, SIMX_ZMQ_PORT=str(port), SIMX_SAVE_DIR=str(tmp_path))
         run = subprocess.run([sys.executable, str(PROGRAMS / f"{program}.py")], env=env, capture_output=True,
