@@ -152,8 +152,16 @@ class Script:
 
 @dataclass
 class Collection:
+    """A collection (``GRP``): its name and elements in order, each (object handle or -1,
+    V-REP's element type ``Gty``: 0 loose, 1 tree from base, 2 the same without it, 3 chain from
+    tip, 4 the same without it, 5 everything; additive ``Var``)."""
+
     name: str
-    objects: list[int]
+    elements: list[tuple[int, int, bool]]
+
+    @property
+    def objects(self) -> list[int]:
+        return [h for h, _, _ in self.elements]
 
 
 @dataclass

@@ -197,3 +197,23 @@ def add_ik_groups(conv) -> None:
         if group.explicit:
             items.append("explicit=true")
         conv.setting(f"ik:{name}", *items)
+
+
+#: V-REP's collection element types (``Gty``) by simx's names (simx_server.sim.scene_collections).
+_ELEMENTS = {0: "single", 1: "tree", 2: "tree_without_base", 3: "chain", 4: "chain_without_tip", 5: "all"}
+
+
+def add_collections(conv) -> None:
+    """Collections (``GRP``) as ``simx:collection:NAME items=...`` settings, their elements in
+    order (additive ``+``, subtractive ``-``)."""
+    for group in conv.scene.collections:
+        items = []
+        for handle, kind, additive in group.elements:
+            element = _ELEMENTS.get(kind)
+            obj = conv.scene.objects.get(handle)
+            if element is None or (element != "all" and obj is None):
+                conv.report.add("collection elements of unknown types or objects")
+                continue
+            items.append(("+" if additive else "-") + (element if element == "all" else f"{element}:{obj.name}"))
+        if group.name and items:
+            conv.setting(f"collection:{group.name}", "items=" + ",".join(items))

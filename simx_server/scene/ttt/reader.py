@@ -224,14 +224,20 @@ def _read_script(r: Records) -> Script:
 
 
 def _read_collection(r: Records) -> Collection:
-    objects = []
+    elements = []
     for tag, payload in r:
         if tag == "Asg":
-            sub = r.sub(tag, payload)
-            for t, p in sub:
+            handle, kind, additive = None, 0, True
+            for t, p in r.sub(tag, payload):
                 if t == "Obj" and len(p) >= 4:
-                    objects.append(struct.unpack_from("<i", p, 0)[0])
-    return Collection(r.string("Grn") or r.string("Nme"), objects)
+                    handle = struct.unpack_from("<i", p, 0)[0]
+                elif t == "Gty" and len(p) >= 1:
+                    kind = p[0]
+                elif t == "Var" and len(p) >= 1:
+                    additive = bool(p[0])
+            if handle is not None:
+                elements.append((handle, kind, additive))
+    return Collection(r.string("Grn") or r.string("Nme"), elements)
 
 
 def _read_ik_group(r: Records) -> IkGroup:

@@ -41,6 +41,9 @@ def test_settings_and_scripts(converted):
         {"name": "port", "value": "19999", "unit": "int"}]
     assert texts["simx:Cube"] == "customization_script=Cube_customization.lua vrep_version=40100"
     assert "sysCall_init" in (out / "Link_0_child.lua").read_text()
+    # collections: V-REP's elements in order, additive (+) and subtractive (-)
+    assert texts["simx:collection:Arm"] == "items=+tree:Base,-single:Tip"
+    assert texts["simx:collection:NotCube"] == "items=+all,-single:Cube"
 
 
 def test_model_poses_and_dynamics(converted):

@@ -174,6 +174,14 @@ def huffman_encode(data: bytes) -> bytes:
     return np.packbits(np.frombuffer(stream.encode(), np.uint8) - 48).tobytes()
 
 
+def collection(name: str, elements, handle: int = 2_000_000) -> bytes:
+    """A collection (``GRP``): ``elements`` of (object handle or -1, V-REP's element type ``Gty``,
+    additive)."""
+    items = [rec("Asg", lst(rec("Obj", i32(h, i)), rec("Gty", bytes([kind])), rec("Var", bytes([int(add)]))))
+             for i, (h, kind, add) in enumerate(elements)]
+    return rec("GRP", lst(rec("Gix", i32(handle)), rec("Grn", string(name)), rec("Par", b"\0"), *items))
+
+
 def ttt_file(body_records: bytes, serialization: int = 22, program: int = 40100, compress: bool = True) -> bytes:
     """A whole file: 1021-byte header + (Huffman-coded) body ending with EOF."""
     body = body_records + b"EOF"
@@ -186,7 +194,8 @@ def ttt_file(body_records: bytes, serialization: int = 22, program: int = 40100,
 def simple_scene(port: int = 19999, **kw) -> bytes:
     """A static floor, a base, a revolute joint carrying a dynamic link with a tip dummy, a free
     cube, a child script on the link, and on the base a threaded script that opens the legacy
-    remote API on ``port`` (a test that runs the scene gives a free port)."""
+    remote API on ``port`` (a test that runs the scene gives a free port); two collections: the
+    base's tree but the tip (``Arm``), everything but the cube (``NotCube``)."""
     return ttt_file(
         rec("SIM", lst(rec("Sts", f32(0.05)))) + rec("DYN", lst(rec("En2", i32(0) + f32(0, 0, -9.81)))) +
         cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False) +
@@ -195,6 +204,8 @@ def simple_scene(port: int = 19999, **kw) -> bytes:
         cuboid_shape(4, 3, "Link#0", (0.05, 0.05, 0.4), (0, 0, 0.2), mass=0.5) +
         dummy(5, 4, "Tip", (0, 0, 0.2)) +
         cuboid_shape(6, -1, "Cube", (0.1, 0.1, 0.1), (0.6, 0, 0.3), mass=0.2) +
+        collection("Arm", [(2, 1, True), (5, 0, False)]) +
+        collection("NotCube", [(-1, 5, True), (6, 0, False)], 2_000_001) +
         script(100, 4, "function sysCall_init()\n  print('hi')\nend\n") +
         script(101, 2, f"simRemoteApi.start({port})\n", threaded=True, parameters=(("port", "int", str(port)),)) +
         script(102, 6, "function sysCall_init() end\n", kind=6), **kw)
