@@ -97,6 +97,9 @@ class ProximityData:
     range: float
     angle: float       # cone/disc opening angle, rad (0 when not applicable)
     max_angle: float | None  # limited angle detection, rad
+    #: pyramid sizes at the offset and at the far end (x, y, x far, y far), cylinder radii (near,
+    #: far), m (``Ss3`` / ``_s3`` values 2-7)
+    sizes: tuple[float, ...] = ()
 
 
 @dataclass

@@ -87,6 +87,32 @@ def _dependent(conv, obj: TttObject) -> None:
     conv.deferred_equalities.append((obj.name, master.name, off + mult * master.data.position - j.position, mult))
 
 
+#: V-REP's proximity volume types (``Snt``) that simx casts as sets of rays (sim/sensors.py).
+_VOLUMES = {30: "pyramid", 31: "cylinder", 32: "disc"}
+
+
+def _volume_settings(p) -> list[str] | None:
+    """The ``simx:`` settings of a pyramid, cylinder or disc volume, None where the file's sizes
+    are not usable (not finite, negative)."""
+    kind = _VOLUMES[p.type]
+    items = [f"volume={kind}", f"offset={max(p.offset, 0.0):.6g}"]
+    sizes = p.sizes
+    if kind == "pyramid" and len(sizes) >= 4:
+        values = sizes[:4]
+        items += [f"size={values[0]:.6g},{values[1]:.6g}", f"size_far={values[2]:.6g},{values[3]:.6g}"]
+    elif kind == "cylinder" and len(sizes) >= 6:
+        values = sizes[4:6]
+        items += [f"radius={values[0]:.6g}", f"radius_far={values[1]:.6g}"]
+    elif kind == "disc" and 1e-3 < p.angle < math.pi:
+        values = ()
+        items.append(f"angle={math.degrees(p.angle):.6g}")
+    else:
+        return None
+    if not all(math.isfinite(v) and 0 <= v < 1e3 for v in values):
+        return None
+    return items
+
+
 def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
     """Dummies, proximity and vision sensors, lights, and the objects kept only as sites."""
     kind = obj.kind
@@ -135,8 +161,10 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         sensor.intprm[0] = 1  # the distance (what MJCF's parser sets by default)
         if p.type == _PROXIMITY_CONE and p.angle > 1e-3:
             conv.setting(obj.name, f"angle={math.degrees(p.angle):.6g}")
-        elif p.type not in (34, _PROXIMITY_CONE):
-            conv.report.add("proximity sensor volumes other than ray and cone (a ray along +z)")
+        elif p.type in _VOLUMES and _volume_settings(p) is not None:
+            conv.setting(obj.name, *_volume_settings(p))
+        elif p.type != 34:
+            conv.report.add("proximity sensor volumes without usable sizes (a ray along +z)")
         return
     site.size = [1e-3, 0, 0]
     site.group = 5

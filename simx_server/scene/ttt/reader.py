@@ -196,8 +196,10 @@ def _read_proximity(r: Records) -> ProximityData:
     vol = r.sub("Vod")
     ss3 = vol.floats("_s3", "Ss3", 9) if len(vol.get("_s3") or vol.get("Ss3") or b"") >= 36 else None
     offset, rng, angle = (float(ss3[0]), float(ss3[1]), float(ss3[8])) if ss3 is not None else (0.0, 0.1, 0.0)
+    sizes = tuple(float(v) for v in ss3[2:8]) if ss3 is not None else ()
     return ProximityData(type=r.int("Snt", 34), offset=offset, range=rng,
-                         angle=angle if np.isfinite(angle) and 0 < angle < 2 * np.pi else 0.0, max_angle=None)
+                         angle=angle if np.isfinite(angle) and 0 < angle < 2 * np.pi else 0.0, max_angle=None,
+                         sizes=sizes)
 
 
 def _read_vision(r: Records) -> VisionData:

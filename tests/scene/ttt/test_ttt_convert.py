@@ -76,3 +76,22 @@ def test_simx_convert_prints_the_report(tmp_path, capsys):
     bad.write_bytes(b"VREP" + bytes(10))
     assert simx_convert([str(bad), "-o", str(tmp_path / "b")]) == 2
     assert "bad.ttt: record header" in capsys.readouterr().err
+
+
+def test_proximity_volumes_become_settings(tmp_path):
+    body = (W.cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False)
+            + W.proximity_sensor(2, -1, "Door", 30, 0.0, 0.2, (0.5, 1.3, 0.6, 1.4, 0, 0))
+            + W.proximity_sensor(3, -1, "Tube", 31, 0.01, 0.3, (0, 0, 0, 0, 0.05, 0.08))
+            + W.proximity_sensor(4, -1, "Fan", 32, 0.0, 0.4, angle=1.0)
+            + W.proximity_sensor(5, -1, "Sonar", 33, 0.0, 0.4, angle=0.5)
+            + W.proximity_sensor(6, -1, "Beam", 34, 0.0, 0.4))
+    f = tmp_path / "sensors.ttt"
+    f.write_bytes(W.ttt_file(body))
+    xml, report = convert.convert(reader.read(f), tmp_path / "out", "sensors")
+    texts = _settings(xml)
+    assert texts["simx:Door"] == "volume=pyramid offset=0 size=0.5,1.3 size_far=0.6,1.4"
+    assert texts["simx:Tube"] == "volume=cylinder offset=0.01 radius=0.05 radius_far=0.08"
+    assert texts["simx:Fan"] == "volume=disc offset=0 angle=57.2958"
+    assert texts["simx:Sonar"] == "angle=28.6479"
+    assert "simx:Beam" not in texts
+    assert not any("proximity" in line for line in report.lines())

@@ -209,3 +209,12 @@ def simple_scene(port: int = 19999, **kw) -> bytes:
         script(100, 4, "function sysCall_init()\n  print('hi')\nend\n") +
         script(101, 2, f"simRemoteApi.start({port})\n", threaded=True, parameters=(("port", "int", str(port)),)) +
         script(102, 6, "function sysCall_init() end\n", kind=6), **kw)
+
+
+def proximity_sensor(handle: int, parent: int, name: str, kind: int = 34, offset: float = 0.0, reach: float = 0.5,
+                     sizes=(0.0,) * 6, angle: float = 0.0, pos=(0, 0, 0)) -> bytes:
+    """A proximity sensor (``SNR``): V-REP's volume type ``Snt`` (30 pyramid, 31 cylinder, 32 disc,
+    33 cone, 34 ray) and its ``Ss3`` values (offset, range, x, y, x far, y far, radius, radius
+    far, angle)."""
+    typed = lst(rec("Snt", i32(kind)), rec("Vod", lst(rec("Ss3", f32(offset, reach, *sizes, angle)))))
+    return rec("SNR", common(handle, parent, name, pos) + typed)
