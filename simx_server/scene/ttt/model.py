@@ -74,7 +74,7 @@ class JointData:
     control_loop: bool
     target_velocity: float = 0.0
     max_force: float = 0.0
-    target_position: float = 0.0
+    target_position: float | None = None  # None: the file does not say (Dtp / _tp)
     pid: tuple[float, float, float] | None = None
     spring: tuple[float, float] | None = None
     dependency: tuple[int, float, float] | None = None  # master handle, multiplier, offset

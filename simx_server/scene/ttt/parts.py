@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
+from simx_server.sim.motors import DEFAULT_PID_P
 from simx_server.scene.ttt.model import Pose, TttObject
 
 REVOLUTE, PRISMATIC, SPHERICAL = 10, 11, 12
@@ -48,8 +49,9 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
         conv.setting(obj.name, "mode=passive")
         return
     if j.mode == FORCE:
-        if j.spring is not None and j.control_mode == 12:
-            conv.report.add("spring joint modes (a position motor instead)")
+        if j.spring is not None and j.control_mode == 12 and _spring(jt, j):
+            conv.setting(obj.name, "mode=passive")  # the joint's own spring-damper instead of a motor
+            return
         if not j.motor:
             mode = "passive"
         else:
@@ -65,14 +67,34 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     act.name = f"{obj.name}_motor"
     act.target = obj.name
     act.trntype = mujoco.mjtTrn.mjTRN_JOINT
-    act.set_to_velocity(kv=100.0)
+    act.set_to_motor()
     force = max(abs(j.max_force) if math.isfinite(j.max_force) else 0.0, 1e-9)  # MuJoCo: a range lo < hi
     act.forcerange = [-force, force]
     act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
     items = [f"mode={mode}"]
     if j.max_velocity is not None and math.isfinite(j.max_velocity) and j.max_velocity > 0:
         items.append(f"max_velocity={j.max_velocity:.9g}")
+    if j.pid is not None and math.isfinite(j.pid[0]) and j.pid[0] > 0 and abs(j.pid[0] - DEFAULT_PID_P) > 1e-9:
+        items.append(f"pid_p={j.pid[0]:.9g}")
+    target = j.target_position
+    if mode == "position" and target is not None and math.isfinite(target) and abs(target - j.position) > 1e-9:
+        items.append(f"target_position={target:.9g}")
+    if math.isfinite(j.target_velocity) and j.target_velocity != 0:
+        items.append(f"target_velocity={j.target_velocity:.9g}")
     conv.setting(obj.name, *items)
+
+
+def _spring(jt, j) -> bool:
+    """V-REP 4.4's spring mode (control mode 12) as the MuJoCo joint's own spring and damper:
+    stiffness K and damping C from the file, at rest at the target position (the joint's position
+    where the file gives none). False (and nothing
+    set) where the file's values are not usable."""
+    k, c = j.spring
+    rest = j.position if j.target_position is None else j.target_position
+    if not (math.isfinite(k) and math.isfinite(c) and k >= 0 and c >= 0 and math.isfinite(rest)):
+        return False
+    jt.stiffness, jt.damping, jt.springref = [k, 0.0, 0.0], [c, 0.0, 0.0], rest
+    return True
 
 
 def _dependent(conv, obj: TttObject) -> None:
