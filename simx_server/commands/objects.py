@@ -6,11 +6,12 @@ checked here, never trusted."""
 from __future__ import annotations
 
 from simx_wire import constants as C
-from simx_wire.protocol import ArgumentError, UnknownObjectError, UnsupportedError
+from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_floats, as_int
 from simx_server.base.arguments import check_args as _args
 from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
+from simx_server.sim import scene_collections
 from simx_server.sim.world import matrix_from_euler, matrix_from_quaternion
 
 
@@ -108,8 +109,10 @@ def set_model_property(sim: Simulation, args: list) -> None:
 
 
 def get_collection_handle(sim: Simulation, args: list) -> int:
+    """``simxGetCollectionHandle``: the handle of a collection the scene declares
+    (``simx:collection:NAME``, :mod:`simx_server.sim.scene_collections`; a ``.ttt`` file's own)."""
     (name,) = _args(args, "str")
-    raise UnknownObjectError(f"collection {name!r} does not exist: simx scenes declare no collections")
+    return scene_collections.of(sim.world).handle(name)
 
 
 

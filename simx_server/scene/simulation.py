@@ -17,7 +17,7 @@ from simx_server.scripts import shapes
 from simx_server.scripts.facade_core import Signals
 from simx_server.scripts.facade_legacy import RemoteApiPorts
 from simx_server.scripts.scene_scripts import Scripts
-from simx_server.sim import ik
+from simx_server.sim import ik, scene_collections
 from simx_server.sim.physics import PhysicsError
 from simx_server.sim.sensors import SensorState
 from simx_server.sim.state import RunState
@@ -48,6 +48,7 @@ class Simulation:
         if ttt_cache.is_vrep_file(scene):  # a V-REP .ttt/.ttm: its (cached) MJCF conversion
             scene = ttt_cache.mjcf_for(scene)
         self.world = World(scene, dt)
+        scene_collections.of(self.world)  # the scene's collections: a wrong declaration is logged now
         self.vision = VisionSensors(self.world)
         self.signals = Signals()  # shared by every client and child script
         # The operator's scene is trusted, but no file that came through a transfer folder is.

@@ -7,9 +7,11 @@
   a dummy that carries its control points and the path through them (linear, ``subdiv``
   points per segment) as custom data ``PATHCTRLPT`` and ``PATH`` (packed doubles, as 4.3+ path
   objects do).
-* Collections are lists of scene objects (``addItemToCollection`` with ``sim.handle_single``,
-  ``handle_tree``, ``handle_chain``, ``handle_all``); drawing objects keep their items (nothing
-  is drawn headless). Both have handles of their own from 2,000,000 and 3,000,000.
+* Collections are sets of scene objects (:mod:`simx_server.sim.scene_collections`): those the
+  scene declares (a ``.ttt`` file's, converted) and those made with ``createCollection`` /
+  ``addItemToCollection`` (``sim.handle_single``, ``handle_tree``, ``handle_chain``,
+  ``handle_all``); ``checkCollision`` / ``checkDistance`` take them as entities. Drawing objects
+  keep their items (nothing is drawn headless). Handles of their own from 2,000,000 and 3,000,000.
 """
 
 from __future__ import annotations
@@ -20,12 +22,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnknownObjectError
-from simx_server.base.arguments import as_integer as _int, as_number as _num
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
+from simx_server.sim import scene_collections
 from simx_server.sim.objects import WORLD
 from simx_server.sim.state import SimulationView
 
-_COLLECTIONS, _DRAWINGS = 2_000_000, 3_000_000
-MAX_COLLECTIONS, MAX_DRAWINGS, MAX_ITEMS = 1000, 1000, 100_000
+_DRAWINGS = 3_000_000
+MAX_DRAWINGS, MAX_ITEMS = 1000, 100_000
 HANDLE_ALL, HANDLE_TREE, HANDLE_CHAIN, HANDLE_SINGLE = -2, -6, -7, -8
 
 
@@ -136,61 +139,50 @@ class PathCalls:
         return store
 
     def createCollection(self, options: Any = 0) -> int:  # noqa: N802
-        """An empty collection; its handle (from 2,000,000)."""
-        store = self._store("collections")
-        if len(store) >= MAX_COLLECTIONS:
-            raise ArgumentError(f"at most {MAX_COLLECTIONS} collections")
-        h = max(store, default=_COLLECTIONS - 1) + 1
-        store[h] = []
-        return h
+        """An empty collection; its handle (from 2,000,000, after the scene's own)."""
+        return scene_collections.of(self._world).create()
 
     def _collection(self, handle: Any) -> list:
-        c = self._store("collections").get(_int(handle, "collectionHandle"))
-        if c is None:
-            raise UnknownObjectError(f"no collection {handle}")
-        return c
+        return scene_collections.of(self._world).get(_int(handle, "collectionHandle"))
 
     def addItemToCollection(self, collectionHandle: Any, what: Any, objectHandle: Any, options: Any = 0) -> None:  # noqa: N802, N803
         """Add (``options`` bit 0: remove) ``sim.handle_single`` one object, ``handle_tree`` it and
-        everything below it (bit 1: without it), ``handle_chain`` it and its ancestors,
-        ``handle_all`` every object."""
+        everything below it (bit 1: without it), ``handle_chain`` it and its ancestors (bit 1:
+        without it), ``handle_all`` every object."""
         items, kind, opts = self._collection(collectionHandle), _int(what, "what"), _int(options, "options")
         w = self._world
         if kind == HANDLE_ALL:
-            chosen = list(w.objects)
+            chosen = scene_collections.element_members(w, "all", None)
         else:
             h = w.get(self._h(objectHandle)).handle
-            if kind == HANDLE_SINGLE:
-                chosen = [h]
-            elif kind == HANDLE_TREE:
-                chosen = [o for o in w.objects if self._below(o, h)] + ([] if opts & 2 else [h])
-            elif kind == HANDLE_CHAIN:
-                chosen = []
-                while h != WORLD:
-                    chosen.append(h)
-                    h = w.objects[h].parent
-            else:
+            element = {HANDLE_SINGLE: "single", HANDLE_TREE: "tree", HANDLE_CHAIN: "chain"}.get(kind)
+            if element is None:
                 raise ArgumentError("what: sim.handle_single, handle_tree, handle_chain or handle_all")
+            if opts & 2 and kind != HANDLE_SINGLE:
+                element += "_without_base" if kind == HANDLE_TREE else "_without_tip"
+            chosen = scene_collections.element_members(w, element, h)
         if opts & 1:
-            items[:] = [h for h in items if h not in set(chosen)]
+            gone = set(chosen)
+            items[:] = [h for h in items if h not in gone]
         else:
             items.extend(h for h in chosen if h not in items)
 
-    def _below(self, h: int, base: int) -> bool:
-        p = self._world.objects[h].parent
-        while p != WORLD:
-            if p == base:
-                return True
-            p = self._world.objects[p].parent
-        return False
-
     def getCollectionObjects(self, collectionHandle: Any) -> list[int]:  # noqa: N802, N803
         """The collection's objects (those still in the scene)."""
-        return [h for h in self._collection(collectionHandle) if h in self._world.objects]
+        return scene_collections.of(self._world).present(_int(collectionHandle, "collectionHandle"))
 
     def destroyCollection(self, collectionHandle: Any) -> None:  # noqa: N802, N803
-        self._collection(collectionHandle)
-        del self._store("collections")[_int(collectionHandle, "collectionHandle")]
+        scene_collections.of(self._world).remove(_int(collectionHandle, "collectionHandle"))
+
+    def getCollectionHandle(self, collectionName: Any) -> int:  # noqa: N802, N803
+        """The handle of the collection the scene declares as ``collectionName`` (CoppeliaSim's
+        deprecated ``sim.getCollectionHandle``, V-REP 3.x's ``simGetCollectionHandle``)."""
+        return scene_collections.of(self._world).handle(_text(collectionName, "collectionName"))
+
+    def getCollectionName(self, collectionHandle: Any) -> str:  # noqa: N802, N803
+        """The name of a collection (V-REP 3.x's ``simGetCollectionName``; "" for one made at run
+        time)."""
+        return scene_collections.of(self._world).name(_int(collectionHandle, "collectionHandle"))
 
     # ------------------------------------------------------------ drawing objects
     def addDrawingObject(self, objectType: Any, size: Any, duplicateTolerance: Any, parentObjectHandle: Any,  # noqa: N802, N803

@@ -20,7 +20,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
-from simx_server.sim import collisions, sensors
+from simx_server.sim import collisions, scene_collections, sensors
 from simx_server.sim.objects import JOINT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
 from simx_server.sim.state import SimulationView
 
@@ -34,17 +34,19 @@ class SensingCalls:
     # -------------------------------------------------------------- collision, distance
     def _entity(self, handle: Any, what: str) -> int:
         h = self._h(handle, what)
-        return h if h == C.sim_handle_all else self._world.get(h, SHAPE).handle
+        if h == C.sim_handle_all or scene_collections.is_collection(h):
+            return h
+        return self._world.get(h, SHAPE).handle
 
     def checkCollision(self, entity1Handle: Any, entity2Handle: Any) -> tuple[int, list[int]]:  # noqa: N802, N803
-        """``result, collidingObjects``: 1 and the two shapes' handles when shape ``entity1``
-        touches or overlaps ``entity2`` (``sim.handle_all``: any other collidable geom, the
-        shape's parent and children excepted as MuJoCo filters them), else 0 and ``[-1, -1]``."""
+        """``result, collidingObjects``: 1 and the two shapes' handles when shape or collection
+        ``entity1`` touches or overlaps ``entity2`` (``sim.handle_all``: any other collidable geom,
+        a shape's parent and children excepted as MuJoCo filters them), else 0 and ``[-1, -1]``."""
         sim = self._simulation("checkCollision")
         e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
         if not collisions.collision(sim, e1, e2):
             return 0, [-1, -1]
-        if e2 != C.sim_handle_all:
+        if e2 != C.sim_handle_all and not (scene_collections.is_collection(e1) or scene_collections.is_collection(e2)):
             return 1, [e1, e2]
         _, dist, pair = self._closest(e1, e2)
         return 1, pair

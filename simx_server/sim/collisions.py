@@ -27,6 +27,7 @@ import numpy as np
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
+from simx_server.sim import scene_collections
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, SHAPE, World, parse_settings
 
@@ -55,26 +56,36 @@ def collidable(m: mujoco.MjModel) -> np.ndarray:
     return (m.geom_contype != 0) | (m.geom_conaffinity != 0)
 
 
-def _entity_geoms(world: World, handle: int, what: str) -> tuple[np.ndarray, int]:
+def _entity_geoms(world: World, handle: int, what: str) -> tuple[np.ndarray, list[int]]:
+    """The collidable geoms of a shape or of a collection's shapes, and their bodies."""
+    m = world.model
+    if scene_collections.is_collection(handle):
+        members = scene_collections.of(world).present(handle)
+        bodies = [world.objects[h].mj_id for h in members if world.objects[h].type == SHAPE]
+        geoms = np.flatnonzero(np.isin(m.geom_bodyid, bodies) & collidable(m))
+        if geoms.size == 0:
+            raise ObjectTypeError(f"{what}: collection {handle} has no shape with a collidable geom")
+        return geoms, bodies
     obj = world.get(handle)
     if obj.type != SHAPE:
         raise ObjectTypeError(f"{what}: object {obj.name!r} (handle {handle}) is a "
-                              f"{_TYPE_NAMES.get(obj.type, 'object')}; collision and distance work on shapes (bodies)")
-    m = world.model
+                              f"{_TYPE_NAMES.get(obj.type, 'object')}; collision and distance work on shapes (bodies) "
+                              "and collections")
     geoms = np.flatnonzero((m.geom_bodyid == obj.mj_id) & collidable(m))
     if geoms.size == 0:
         raise ObjectTypeError(f"{what}: shape {obj.name!r} has no collidable geom (all have contype=0 "
                               "and conaffinity=0), so it cannot collide nor be measured")
-    return geoms, obj.mj_id
+    return geoms, [obj.mj_id]
 
 
-def _others(world: World, body: int) -> np.ndarray:
-    """Collidable geoms of every body but ``body``, its parent and its children (MuJoCo's
-    parent-child filter; the world body is never filtered)."""
+def _others(world: World, bodies: list[int]) -> np.ndarray:
+    """Collidable geoms of every body but ``bodies``; for a single body also but its parent and
+    its children (MuJoCo's parent-child filter; the world body is never filtered)."""
     m = world.model
     gb = m.geom_bodyid
-    keep = collidable(m) & (gb != body)
-    if not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
+    keep = collidable(m) & ~np.isin(gb, bodies)
+    if len(bodies) == 1 and not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
+        body = bodies[0]
         parent = int(m.body_parentid[body])
         if parent != 0:
             keep &= gb != parent
@@ -83,19 +94,19 @@ def _others(world: World, body: int) -> np.ndarray:
 
 
 def _pairs(world: World, e1: int, e2: int) -> tuple[np.ndarray, np.ndarray]:
-    g1, body = _entity_geoms(world, e1, "entity1")
+    g1, bodies = _entity_geoms(world, e1, "entity1")
     if e2 == C.sim_handle_all:
-        g2 = _others(world, body)
+        g2 = _others(world, bodies)
     else:
         g2, _ = _entity_geoms(world, e2, "entity2")
         if e2 == e1:
-            raise ArgumentError("entity1 and entity2 are the same shape; pass sim_handle_all (-2) "
-                                "as entity2 to test a shape against everything else")
+            raise ArgumentError("entity1 and entity2 are the same; pass sim_handle_all (-2) "
+                                "as entity2 to test it against everything else")
     a, b = np.meshgrid(g1, g2, indexing="ij")
     a, b = a.ravel(), b.ravel()
     m = world.model
-    both_planes = (m.geom_type[a] == _PLANE) & (m.geom_type[b] == _PLANE)
-    return a[~both_planes], b[~both_planes]
+    keep = ~((m.geom_type[a] == _PLANE) & (m.geom_type[b] == _PLANE)) & (a != b)
+    return a[keep], b[keep]
 
 
 def _lower_bounds(world: World, a: np.ndarray, b: np.ndarray) -> np.ndarray:

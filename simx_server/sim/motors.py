@@ -7,9 +7,14 @@ position and a target velocity, whatever the mode; two flags decide which acts:
 * motor on, ``sim_jointintparam_ctrl_enabled`` (2001) on: position control toward the target
   position, no faster than the upper velocity (2017, ``simx:`` ``max_velocity``) and with at most
   the maximum force/torque (``simxSetJointForce``); the loop's proportional gain is V-REP's
-  ``sim_jointfloatparam_pid_p`` (2002, default 0.1: a velocity of P/5 ms per unit of error);
+  ``sim_jointfloatparam_pid_p`` (2002, ``simx:`` ``pid_p``, default 0.1: a velocity of P/5 ms
+  per unit of error);
 * motor on, loop off: velocity control at the target velocity with at most the maximum force
   (so ``simxSetJointForce`` + a large target velocity is torque control).
+
+The targets start at the joint's rest position and 0, or where the scene says (``simx:``
+``target_position``, ``target_velocity``: what V-REP saved with the joint), and return there when
+the simulation stops.
 
 A joint's motor is the first actuator whose transmission is that joint, whatever its type
 (``<velocity>``, ``<position>``, ``<motor>`` with ``gear``, ``<general>``). At load
@@ -46,6 +51,7 @@ own, and motor calls answer an error naming the tendon.
 from __future__ import annotations
 
 import logging
+import math
 
 import mujoco
 import numpy as np
@@ -132,6 +138,27 @@ def _own_kv(m: mujoco.MjModel, a: int) -> float:
     return 0.0
 
 
+def _name(m: mujoco.MjModel, joint: int) -> str:
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, joint) or f"#{joint}"
+
+
+def _setting(settings: dict, key: str, default: float, joint: str, signed: bool = False) -> float:
+    """A joint's number setting (``simx:`` ``key=``), ``default`` when absent. Raises ValueError
+    naming the joint and the setting for a value that is not a finite number (or is
+    negative where ``signed`` is false)."""
+    raw = settings.get(key)
+    if raw is None:
+        return default
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or (value < 0 and not signed):
+        raise ValueError(f"joint {joint!r}: {key}={raw!r} in its simx: settings is not a "
+                         f"{'finite' if signed else 'non-negative'} number")
+    return value
+
+
 class Motors:
     """The motors of a model's joints: per-motor arrays, indexed by motor number.
 
@@ -161,7 +188,13 @@ class Motors:
         modes = [s.get("mode", "passive" if new else "position") for (_, _, s), new in zip(mine, added)]
         self.initial_enabled = np.array([mode != "passive" for mode in modes], dtype=bool)
         self.initial_loop = np.array([mode != "velocity" for mode in modes], dtype=bool)
-        self.initial_max_velocity = np.array([float(s.get("max_velocity", np.pi)) for _, _, s in mine])
+        self.initial_max_velocity = np.array([_setting(s, "max_velocity", np.pi, _name(m, j)) for _, j, s in mine])
+        self.initial_pid_p = np.array([_setting(s, "pid_p", DEFAULT_PID_P, _name(m, j)) for _, j, s in mine])
+        # targets the scene starts with (V-REP saves them with the joint): NaN = the joint's rest
+        self.initial_target_position = np.array([_setting(s, "target_position", np.nan, _name(m, j), signed=True)
+                                                 for _, j, s in mine])
+        self.initial_target_velocity = np.array([_setting(s, "target_velocity", 0.0, _name(m, j), signed=True)
+                                                 for _, j, s in mine])
         self.names = {h: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for (h, _, _), a in zip(mine, act)}
         for a in act:  # one actuator realises both laws; ctrl is a velocity or a position
             m.actuator_gaintype[a] = mujoco.mjtGain.mjGAIN_FIXED
@@ -208,9 +241,10 @@ class Motors:
         self.loop = self.initial_loop.copy()  # control loop on = position control
         self.max_velocity = self.initial_max_velocity.copy()
         self.max_force = self.initial_max_force.copy()
-        self.pid_p = np.full(len(self.act), DEFAULT_PID_P)
-        self.target_position = np.zeros(len(self.act)) if qpos is None else qpos[self.qadr].copy()
-        self.target_velocity = np.zeros(len(self.act))
+        self.pid_p = self.initial_pid_p.copy()
+        rest = np.zeros(len(self.act)) if qpos is None else qpos[self.qadr]
+        self.target_position = np.where(np.isnan(self.initial_target_position), rest, self.initial_target_position)
+        self.target_velocity = self.initial_target_velocity.copy()
         self.write_force_limits(m)
 
     def write_force_limits(self, m: mujoco.MjModel) -> None:

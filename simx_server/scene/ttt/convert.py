@@ -24,7 +24,7 @@ import numpy as np
 from simx_server.scene.ttt import geoms as G
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
-from simx_server.scene.ttt.parts import add_ik_groups, add_joint, add_loop_closures, add_sensor
+from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_loop_closures, add_sensor
 
 _MAX_EXCLUDES = 20_000
 ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
@@ -95,8 +95,7 @@ class Converter:
         self._excludes()
         for kind, n in s.skipped.items():
             self.report.add(kind, n)
-        if s.collections:
-            self.report.add("collections (not modelled)", len(s.collections))
+        add_collections(self)
         if s.engine != 0:
             engine = ENGINES[s.engine] if 0 <= s.engine < len(ENGINES) else str(s.engine)
             self.report.add(f"{engine} engine settings (MuJoCo's used; friction taken from Bullet's)")

@@ -74,7 +74,7 @@ class JointData:
     control_loop: bool
     target_velocity: float = 0.0
     max_force: float = 0.0
-    target_position: float = 0.0
+    target_position: float | None = None  # None: the file does not say (Dtp / _tp)
     pid: tuple[float, float, float] | None = None
     spring: tuple[float, float] | None = None
     dependency: tuple[int, float, float] | None = None  # master handle, multiplier, offset
@@ -97,6 +97,9 @@ class ProximityData:
     range: float
     angle: float       # cone/disc opening angle, rad (0 when not applicable)
     max_angle: float | None  # limited angle detection, rad
+    #: pyramid sizes at the offset and at the far end (x, y, x far, y far), cylinder radii (near,
+    #: far), m (``Ss3`` / ``_s3`` values 2-7)
+    sizes: tuple[float, ...] = ()
 
 
 @dataclass
@@ -152,8 +155,16 @@ class Script:
 
 @dataclass
 class Collection:
+    """A collection (``GRP``): its name and elements in order, each (object handle or -1,
+    V-REP's element type ``Gty``: 0 loose, 1 tree from base, 2 the same without it, 3 chain from
+    tip, 4 the same without it, 5 everything; additive ``Var``)."""
+
     name: str
-    objects: list[int]
+    elements: list[tuple[int, int, bool]]
+
+    @property
+    def objects(self) -> list[int]:
+        return [h for h, _, _ in self.elements]
 
 
 @dataclass

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
+from simx_server.sim.motors import DEFAULT_PID_P
 from simx_server.scene.ttt.model import Pose, TttObject
 
 REVOLUTE, PRISMATIC, SPHERICAL = 10, 11, 12
@@ -48,8 +49,9 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
         conv.setting(obj.name, "mode=passive")
         return
     if j.mode == FORCE:
-        if j.spring is not None and j.control_mode == 12:
-            conv.report.add("spring joint modes (a position motor instead)")
+        if j.spring is not None and j.control_mode == 12 and _spring(jt, j):
+            conv.setting(obj.name, "mode=passive")  # the joint's own spring-damper instead of a motor
+            return
         if not j.motor:
             mode = "passive"
         else:
@@ -65,14 +67,34 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     act.name = f"{obj.name}_motor"
     act.target = obj.name
     act.trntype = mujoco.mjtTrn.mjTRN_JOINT
-    act.set_to_velocity(kv=100.0)
+    act.set_to_motor()
     force = max(abs(j.max_force) if math.isfinite(j.max_force) else 0.0, 1e-9)  # MuJoCo: a range lo < hi
     act.forcerange = [-force, force]
     act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
     items = [f"mode={mode}"]
     if j.max_velocity is not None and math.isfinite(j.max_velocity) and j.max_velocity > 0:
         items.append(f"max_velocity={j.max_velocity:.9g}")
+    if j.pid is not None and math.isfinite(j.pid[0]) and j.pid[0] > 0 and abs(j.pid[0] - DEFAULT_PID_P) > 1e-9:
+        items.append(f"pid_p={j.pid[0]:.9g}")
+    target = j.target_position
+    if mode == "position" and target is not None and math.isfinite(target) and abs(target - j.position) > 1e-9:
+        items.append(f"target_position={target:.9g}")
+    if math.isfinite(j.target_velocity) and j.target_velocity != 0:
+        items.append(f"target_velocity={j.target_velocity:.9g}")
     conv.setting(obj.name, *items)
+
+
+def _spring(jt, j) -> bool:
+    """V-REP 4.4's spring mode (control mode 12) as the MuJoCo joint's own spring and damper:
+    stiffness K and damping C from the file, at rest at the target position (the joint's position
+    where the file gives none). False (and nothing
+    set) where the file's values are not usable."""
+    k, c = j.spring
+    rest = j.position if j.target_position is None else j.target_position
+    if not (math.isfinite(k) and math.isfinite(c) and k >= 0 and c >= 0 and math.isfinite(rest)):
+        return False
+    jt.stiffness, jt.damping, jt.springref = [k, 0.0, 0.0], [c, 0.0, 0.0], rest
+    return True
 
 
 def _dependent(conv, obj: TttObject) -> None:
@@ -85,6 +107,32 @@ def _dependent(conv, obj: TttObject) -> None:
         return
     mult, off = j.dependency[1], j.dependency[2]
     conv.deferred_equalities.append((obj.name, master.name, off + mult * master.data.position - j.position, mult))
+
+
+#: V-REP's proximity volume types (``Snt``) that simx casts as sets of rays (sim/sensors.py).
+_VOLUMES = {30: "pyramid", 31: "cylinder", 32: "disc"}
+
+
+def _volume_settings(p) -> list[str] | None:
+    """The ``simx:`` settings of a pyramid, cylinder or disc volume, None where the file's sizes
+    are not usable (not finite, negative)."""
+    kind = _VOLUMES[p.type]
+    items = [f"volume={kind}", f"offset={max(p.offset, 0.0):.6g}"]
+    sizes = p.sizes
+    if kind == "pyramid" and len(sizes) >= 4:
+        values = sizes[:4]
+        items += [f"size={values[0]:.6g},{values[1]:.6g}", f"size_far={values[2]:.6g},{values[3]:.6g}"]
+    elif kind == "cylinder" and len(sizes) >= 6:
+        values = sizes[4:6]
+        items += [f"radius={values[0]:.6g}", f"radius_far={values[1]:.6g}"]
+    elif kind == "disc" and 1e-3 < p.angle < math.pi:
+        values = ()
+        items.append(f"angle={math.degrees(p.angle):.6g}")
+    else:
+        return None
+    if not all(math.isfinite(v) and 0 <= v < 1e3 for v in values):
+        return None
+    return items
 
 
 def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
@@ -135,8 +183,10 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         sensor.intprm[0] = 1  # the distance (what MJCF's parser sets by default)
         if p.type == _PROXIMITY_CONE and p.angle > 1e-3:
             conv.setting(obj.name, f"angle={math.degrees(p.angle):.6g}")
-        elif p.type not in (34, _PROXIMITY_CONE):
-            conv.report.add("proximity sensor volumes other than ray and cone (a ray along +z)")
+        elif p.type in _VOLUMES and _volume_settings(p) is not None:
+            conv.setting(obj.name, *_volume_settings(p))
+        elif p.type != 34:
+            conv.report.add("proximity sensor volumes without usable sizes (a ray along +z)")
         return
     site.size = [1e-3, 0, 0]
     site.group = 5
@@ -197,3 +247,23 @@ def add_ik_groups(conv) -> None:
         if group.explicit:
             items.append("explicit=true")
         conv.setting(f"ik:{name}", *items)
+
+
+#: V-REP's collection element types (``Gty``) by simx's names (simx_server.sim.scene_collections).
+_ELEMENTS = {0: "single", 1: "tree", 2: "tree_without_base", 3: "chain", 4: "chain_without_tip", 5: "all"}
+
+
+def add_collections(conv) -> None:
+    """Collections (``GRP``) as ``simx:collection:NAME items=...`` settings, their elements in
+    order (additive ``+``, subtractive ``-``)."""
+    for group in conv.scene.collections:
+        items = []
+        for handle, kind, additive in group.elements:
+            element = _ELEMENTS.get(kind)
+            obj = conv.scene.objects.get(handle)
+            if element is None or (element != "all" and obj is None):
+                conv.report.add("collection elements of unknown types or objects")
+                continue
+            items.append(("+" if additive else "-") + (element if element == "all" else f"{element}:{obj.name}"))
+        if group.name and items:
+            conv.setting(f"collection:{group.name}", "items=" + ",".join(items))

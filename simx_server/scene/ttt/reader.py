@@ -196,8 +196,10 @@ def _read_proximity(r: Records) -> ProximityData:
     vol = r.sub("Vod")
     ss3 = vol.floats("_s3", "Ss3", 9) if len(vol.get("_s3") or vol.get("Ss3") or b"") >= 36 else None
     offset, rng, angle = (float(ss3[0]), float(ss3[1]), float(ss3[8])) if ss3 is not None else (0.0, 0.1, 0.0)
+    sizes = tuple(float(v) for v in ss3[2:8]) if ss3 is not None else ()
     return ProximityData(type=r.int("Snt", 34), offset=offset, range=rng,
-                         angle=angle if np.isfinite(angle) and 0 < angle < 2 * np.pi else 0.0, max_angle=None)
+                         angle=angle if np.isfinite(angle) and 0 < angle < 2 * np.pi else 0.0, max_angle=None,
+                         sizes=sizes)
 
 
 def _read_vision(r: Records) -> VisionData:
@@ -224,14 +226,20 @@ def _read_script(r: Records) -> Script:
 
 
 def _read_collection(r: Records) -> Collection:
-    objects = []
+    elements = []
     for tag, payload in r:
         if tag == "Asg":
-            sub = r.sub(tag, payload)
-            for t, p in sub:
+            handle, kind, additive = None, 0, True
+            for t, p in r.sub(tag, payload):
                 if t == "Obj" and len(p) >= 4:
-                    objects.append(struct.unpack_from("<i", p, 0)[0])
-    return Collection(r.string("Grn") or r.string("Nme"), objects)
+                    handle = struct.unpack_from("<i", p, 0)[0]
+                elif t == "Gty" and len(p) >= 1:
+                    kind = p[0]
+                elif t == "Var" and len(p) >= 1:
+                    additive = bool(p[0])
+            if handle is not None:
+                elements.append((handle, kind, additive))
+    return Collection(r.string("Grn") or r.string("Nme"), elements)
 
 
 def _read_ik_group(r: Records) -> IkGroup:

@@ -41,6 +41,9 @@ def test_settings_and_scripts(converted):
         {"name": "port", "value": "19999", "unit": "int"}]
     assert texts["simx:Cube"] == "customization_script=Cube_customization.lua vrep_version=40100"
     assert "sysCall_init" in (out / "Link_0_child.lua").read_text()
+    # collections: V-REP's elements in order, additive (+) and subtractive (-)
+    assert texts["simx:collection:Arm"] == "items=+tree:Base,-single:Tip"
+    assert texts["simx:collection:NotCube"] == "items=+all,-single:Cube"
 
 
 def test_model_poses_and_dynamics(converted):
@@ -73,3 +76,64 @@ def test_simx_convert_prints_the_report(tmp_path, capsys):
     bad.write_bytes(b"VREP" + bytes(10))
     assert simx_convert([str(bad), "-o", str(tmp_path / "b")]) == 2
     assert "bad.ttt: record header" in capsys.readouterr().err
+
+
+def test_proximity_volumes_become_settings(tmp_path):
+    body = (W.cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False)
+            + W.proximity_sensor(2, -1, "Door", 30, 0.0, 0.2, (0.5, 1.3, 0.6, 1.4, 0, 0))
+            + W.proximity_sensor(3, -1, "Tube", 31, 0.01, 0.3, (0, 0, 0, 0, 0.05, 0.08))
+            + W.proximity_sensor(4, -1, "Fan", 32, 0.0, 0.4, angle=1.0)
+            + W.proximity_sensor(5, -1, "Sonar", 33, 0.0, 0.4, angle=0.5)
+            + W.proximity_sensor(6, -1, "Beam", 34, 0.0, 0.4))
+    f = tmp_path / "sensors.ttt"
+    f.write_bytes(W.ttt_file(body))
+    xml, report = convert.convert(reader.read(f), tmp_path / "out", "sensors")
+    texts = _settings(xml)
+    assert texts["simx:Door"] == "volume=pyramid offset=0 size=0.5,1.3 size_far=0.6,1.4"
+    assert texts["simx:Tube"] == "volume=cylinder offset=0.01 radius=0.05 radius_far=0.08"
+    assert texts["simx:Fan"] == "volume=disc offset=0 angle=57.2958"
+    assert texts["simx:Sonar"] == "angle=28.6479"
+    assert "simx:Beam" not in texts
+    assert not any("proximity" in line for line in report.lines())
+
+
+def test_joint_targets_pid_and_spring_mode(tmp_path):
+    def arm(h, name, x, **kw):
+        return (W.cuboid_shape(h, -1, f"{name}_base", (0.1, 0.1, 0.1), (x, 0, 0.05), dynamic=False)
+                + W.joint(h + 1, h, name, (0, 0, 0.1), **kw)
+                + W.cuboid_shape(h + 2, h + 1, f"{name}_link", (0.3, 0.05, 0.05), (0.15, 0, 0), mass=0.2))
+
+    body = (arm(1, "Wheel", 0.0, loop=False, target_velocity=2.0)
+            + arm(4, "Servo", 1.0, extra=W.rec("Dpc", W.f32(0.5, 0, 0)) + W.rec("Dtp", W.f32(0.4)))
+            + arm(7, "Spring", 2.0, extra=W.rec("Dcm", W.i32(12)) + W.rec("Spp", W.f32(5.0, 0.5))
+                  + W.rec("Dtp", W.f32(0.3))))
+    f = tmp_path / "joints.ttt"
+    no_gravity = W.rec("DYN", W.lst(W.rec("En2", W.i32(0) + W.f32(0, 0, 0))))
+    f.write_bytes(W.ttt_file(no_gravity + body))
+    xml, report = convert.convert(reader.read(f), tmp_path / "out", "joints")
+    texts = _settings(xml)
+    assert texts["simx:Wheel"] == "mode=velocity max_velocity=2 target_velocity=2"
+    assert texts["simx:Servo"] == "mode=position max_velocity=2 pid_p=0.5 target_position=0.400000006"
+    assert texts["simx:Spring"] == "mode=passive"
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    j = m.joint("Spring")
+    assert m.jnt_stiffness[j.id] == pytest.approx(5.0) and m.dof_damping[j.dofadr[0]] == pytest.approx(0.5)
+    assert m.qpos_spring[j.qposadr[0]] == pytest.approx(0.3)
+    assert "spring" not in " ".join(report.lines())
+    # the scene runs as V-REP ran it: the wheel turns at its target velocity, the servo reaches
+    # its target, the spring holds the link at its rest position
+    from simx_server.scene.simulation import Simulation
+    sim = Simulation(xml, realtime=False)
+    try:
+        assert sim.world.motors.pid_p[sim.world.motor_index[sim.world.resolve("Servo").handle]] == 0.5
+        sim.start()
+        for _ in range(10):  # 0.5 s (the wheel's range ends at 1.5 rad)
+            sim.step()
+        d = sim.world.data
+        assert d.joint("Wheel").qvel[0] == pytest.approx(2.0, abs=0.05)
+        for _ in range(30):
+            sim.step()
+        assert d.joint("Servo").qpos[0] == pytest.approx(0.4, abs=0.01)
+        assert d.joint("Spring").qpos[0] == pytest.approx(0.3, abs=0.01)
+    finally:
+        sim.close()

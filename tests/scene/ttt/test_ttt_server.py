@@ -85,6 +85,10 @@ def test_serve_load_model_and_refuse_a_broken_file(cell, tmp_path, script_port):
             (0, str(cell / "cell.ttt"))
         rc, link = vrep.simxGetObjectHandle(cid, "Link#0", B)
         assert vrep.simxGetObjectParent(cid, link, B) == (0, j)
+        # the file's collections, by their names (handles from 2,000,000, in name order)
+        assert vrep.simxGetCollectionHandle(cid, "Arm", B) == (0, 2_000_000)
+        assert vrep.simxGetCollectionHandle(cid, "NotCube", B) == (0, 2_000_001)
+        assert vrep.simxGetCollectionHandle(cid, "Nothing", B)[0] == vrep.simx_return_remote_error_flag
         # a .ttm beside the scene: loaded as the real file, its base's handle back
         rc, base = vrep.simxLoadModel(cid, "crate.ttm", 0, B)
         assert rc == 0 and base >= 0

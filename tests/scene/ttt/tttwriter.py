@@ -96,10 +96,12 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
 
 
 def joint(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0), kind=10, position=0.0,
-          motor=True, loop=True, max_force=10.0) -> bytes:
+          motor=True, loop=True, max_force=10.0, target_velocity=0.0, extra: bytes = b"") -> bytes:
+    """A joint in force/torque mode; ``extra``: more typed records (``Dpc`` PID, ``Dtp`` target
+    position, ``Spp`` spring K and C, ``Dcm`` 4.4 control mode)."""
     va9 = (16 if motor else 0) | (32 if loop else 0)
     typed = lst(rec("Jtt", i32(kind)), rec("Jmd", i32(5)), rec("Pmr", f32(-1.5, 3.0)), rec("Prt", f32(position)),
-                rec("Va9", bytes([va9])), rec("Dmp", f32(0.0, max_force)), rec("Ulv", f32(2.0)))
+                rec("Va9", bytes([va9])), rec("Dmp", f32(target_velocity, max_force)), rec("Ulv", f32(2.0)), extra)
     return rec("JNT", common(handle, parent, name, pos, quat) + typed)
 
 
@@ -174,6 +176,14 @@ def huffman_encode(data: bytes) -> bytes:
     return np.packbits(np.frombuffer(stream.encode(), np.uint8) - 48).tobytes()
 
 
+def collection(name: str, elements, handle: int = 2_000_000) -> bytes:
+    """A collection (``GRP``): ``elements`` of (object handle or -1, V-REP's element type ``Gty``,
+    additive)."""
+    items = [rec("Asg", lst(rec("Obj", i32(h, i)), rec("Gty", bytes([kind])), rec("Var", bytes([int(add)]))))
+             for i, (h, kind, add) in enumerate(elements)]
+    return rec("GRP", lst(rec("Gix", i32(handle)), rec("Grn", string(name)), rec("Par", b"\0"), *items))
+
+
 def ttt_file(body_records: bytes, serialization: int = 22, program: int = 40100, compress: bool = True) -> bytes:
     """A whole file: 1021-byte header + (Huffman-coded) body ending with EOF."""
     body = body_records + b"EOF"
@@ -186,7 +196,8 @@ def ttt_file(body_records: bytes, serialization: int = 22, program: int = 40100,
 def simple_scene(port: int = 19999, **kw) -> bytes:
     """A static floor, a base, a revolute joint carrying a dynamic link with a tip dummy, a free
     cube, a child script on the link, and on the base a threaded script that opens the legacy
-    remote API on ``port`` (a test that runs the scene gives a free port)."""
+    remote API on ``port`` (a test that runs the scene gives a free port); two collections: the
+    base's tree but the tip (``Arm``), everything but the cube (``NotCube``)."""
     return ttt_file(
         rec("SIM", lst(rec("Sts", f32(0.05)))) + rec("DYN", lst(rec("En2", i32(0) + f32(0, 0, -9.81)))) +
         cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False) +
@@ -195,6 +206,17 @@ def simple_scene(port: int = 19999, **kw) -> bytes:
         cuboid_shape(4, 3, "Link#0", (0.05, 0.05, 0.4), (0, 0, 0.2), mass=0.5) +
         dummy(5, 4, "Tip", (0, 0, 0.2)) +
         cuboid_shape(6, -1, "Cube", (0.1, 0.1, 0.1), (0.6, 0, 0.3), mass=0.2) +
+        collection("Arm", [(2, 1, True), (5, 0, False)]) +
+        collection("NotCube", [(-1, 5, True), (6, 0, False)], 2_000_001) +
         script(100, 4, "function sysCall_init()\n  print('hi')\nend\n") +
         script(101, 2, f"simRemoteApi.start({port})\n", threaded=True, parameters=(("port", "int", str(port)),)) +
         script(102, 6, "function sysCall_init() end\n", kind=6), **kw)
+
+
+def proximity_sensor(handle: int, parent: int, name: str, kind: int = 34, offset: float = 0.0, reach: float = 0.5,
+                     sizes=(0.0,) * 6, angle: float = 0.0, pos=(0, 0, 0)) -> bytes:
+    """A proximity sensor (``SNR``): V-REP's volume type ``Snt`` (30 pyramid, 31 cylinder, 32 disc,
+    33 cone, 34 ray) and its ``Ss3`` values (offset, range, x, y, x far, y far, radius, radius
+    far, angle)."""
+    typed = lst(rec("Snt", i32(kind)), rec("Vod", lst(rec("Ss3", f32(offset, reach, *sizes, angle)))))
+    return rec("SNR", common(handle, parent, name, pos) + typed)

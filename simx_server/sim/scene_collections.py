@@ -1,0 +1,186 @@
+"""Collections: V-REP's named sets of scene objects, declared by the scene or made at run time.
+
+A scene declares a collection with a custom text (one per collection; ``simx-convert`` writes them
+from a ``.ttt`` file's ``GRP`` records)::
+
+    <text name="simx:collection:EverythingButRobot" data="items=+all,-tree:Robot"/>
+
+``items`` lists V-REP's collection elements in order, comma-separated, each ``+`` (additive) or
+``-`` (subtractive) and one of V-REP's element types (``sim_collectionelement_*``):
+
+* ``single:NAME`` (loose): the object alone;
+* ``tree:NAME`` (from base, included): the object and every object below it;
+  ``tree_without_base:NAME`` the same without the object;
+* ``chain:NAME`` (from tip, included): the object and its ancestors;
+  ``chain_without_tip:NAME`` the same without the object;
+* ``all``: every object of the scene.
+
+Elements apply in order: an additive one adds its objects, a subtractive one removes them, as
+V-REP resolved a collection. The members are computed when the scene loads (and again after an
+edit, from the same declaration). Collection handles start at 2,000,000, as V-REP's (declared
+collections first, in name order; ``sim.createCollection`` continues from there).
+"""
+
+from __future__ import annotations
+
+import logging
+import weakref
+
+from simx_wire.protocol import ArgumentError, UnknownObjectError
+from simx_server.base.arguments import quote
+from simx_server.sim.objects import WORLD
+from simx_server.sim.world import World
+
+log = logging.getLogger("simx.scene")
+
+PREFIX = "collection:"  # simx:collection:NAME
+#: V-REP's first collection handle.
+FIRST_HANDLE = 2_000_000
+#: Most collections of a scene (declared and made at run time together).
+MAX_COLLECTIONS = 1000
+#: V-REP's element types (``sim_collectionelement_*``, the file's ``Gty``) by their name here.
+ELEMENT_TYPES = {"single": 0, "tree": 1, "tree_without_base": 2, "chain": 3, "chain_without_tip": 4, "all": 5}
+
+
+def _below(world: World, h: int, base: int) -> bool:
+    p = world.objects[h].parent
+    while p != WORLD:
+        if p == base:
+            return True
+        p = world.objects[p].parent
+    return False
+
+
+def element_members(world: World, kind: str, handle: int | None) -> list[int]:
+    """The objects one element stands for (``kind`` as in :data:`ELEMENT_TYPES`; ``handle`` its
+    object, None for ``all``). Raises ArgumentError for an unknown kind."""
+    if kind == "all":
+        return list(world.objects)
+    if handle is None:
+        raise ArgumentError(f"collection element {kind!r} needs an object")
+    if kind in ("single",):
+        return [handle]
+    if kind in ("tree", "tree_without_base"):
+        below = [h for h in world.objects if _below(world, h, handle)]
+        return below if kind == "tree_without_base" else [handle, *below]
+    if kind in ("chain", "chain_without_tip"):
+        chain, h = [], handle
+        while h != WORLD:
+            chain.append(h)
+            h = world.objects[h].parent
+        return chain[1:] if kind == "chain_without_tip" else chain
+    raise ArgumentError(f"collection element type {kind!r} is not one of {', '.join(ELEMENT_TYPES)}")
+
+
+def parse_items(world: World, text: str) -> list[int]:
+    """The members of a declared collection, from its ``items`` setting (see the module).
+    Raises ValueError naming the element that is wrong or names no object."""
+    members: list[int] = []
+    for item in filter(None, text.split(",")):
+        sign, body = item[:1], item[1:]
+        if sign not in "+-" or not body:
+            raise ValueError(f"element {item!r} does not start with + or -")
+        kind, _, name = body.partition(":")
+        if kind not in ELEMENT_TYPES:
+            raise ValueError(f"element {item!r}: {kind!r} is not one of {', '.join(ELEMENT_TYPES)}")
+        handle = None
+        if kind != "all":
+            obj = world.by_name.get(name)
+            if obj is None:
+                raise ValueError(f"element {item!r}: no object {name!r} in the scene")
+            handle = obj.handle
+        chosen = element_members(world, kind, handle)
+        if sign == "+":
+            members.extend(h for h in chosen if h not in members)
+        else:
+            gone = set(chosen)
+            members = [h for h in members if h not in gone]
+    return members
+
+
+class Collections:
+    """The collections of one world: handle -> member object handles, and names.
+
+    Declared collections are read from the world's ``simx:collection:NAME`` settings; a
+    declaration with an element that names no object of the scene is logged (one line naming
+    the collection and the element) and left out, as a wrong IK group is."""
+
+    def __init__(self, world: World):
+        self.world = world
+        self.model = world.model
+        self.members: dict[int, list[int]] = {}
+        self.names: dict[str, int] = {}
+        for key, settings in sorted(world.settings.items()):
+            if not key.startswith(PREFIX):
+                continue
+            name = key[len(PREFIX):]
+            try:
+                members = parse_items(world, settings.get("items", ""))
+            except ValueError as exc:
+                log.error("collection %r (custom text simx:%s) ignored: %s", name, key, exc)
+                continue
+            handle = FIRST_HANDLE + len(self.members)
+            self.members[handle], self.names[name] = members, handle
+
+    def create(self) -> int:
+        """A new empty collection (``sim.createCollection``); its handle."""
+        if len(self.members) >= MAX_COLLECTIONS:
+            raise ArgumentError(f"at most {MAX_COLLECTIONS} collections")
+        handle = max(self.members, default=FIRST_HANDLE - 1) + 1
+        self.members[handle] = []
+        return handle
+
+    def get(self, handle: int) -> list[int]:
+        """The members of collection ``handle`` (the list itself). Raises UnknownObjectError."""
+        members = self.members.get(handle) if isinstance(handle, int) else None
+        if members is None:
+            raise UnknownObjectError(f"no collection with handle {quote(handle)}")
+        return members
+
+    def handle(self, name: str) -> int:
+        """The handle of the collection named ``name`` (a trailing ``#`` ignored, as object names).
+        Raises UnknownObjectError."""
+        key = name[:-1] if isinstance(name, str) and name.endswith("#") else name
+        h = self.names.get(key)
+        if h is None:
+            raise UnknownObjectError(f"collection {quote(name)} does not exist in the scene "
+                                     "(declare one with a simx:collection:NAME custom text)")
+        return h
+
+    def name(self, handle: int) -> str:
+        """The name of collection ``handle`` ("" for one made at run time without a name)."""
+        self.get(handle)
+        return next((n for n, h in self.names.items() if h == handle), "")
+
+    def remove(self, handle: int) -> None:
+        """Forget collection ``handle`` (``sim.destroyCollection``)."""
+        self.get(handle)
+        del self.members[handle]
+        self.names = {n: h for n, h in self.names.items() if h != handle}
+
+    def present(self, handle: int) -> list[int]:
+        """The members of collection ``handle`` that are still in the scene."""
+        return [h for h in self.get(handle) if h in self.world.objects]
+
+
+_COLLECTIONS: "weakref.WeakKeyDictionary[World, Collections]" = weakref.WeakKeyDictionary()
+
+
+def of(world: World) -> Collections:
+    """The collections of ``world`` (read from the scene on first use; run-time ones are kept
+    across edits, declared ones re-read with the edited model)."""
+    c = _COLLECTIONS.get(world)
+    if c is None:
+        c = _COLLECTIONS[world] = Collections(world)
+    elif c.model is not world.model:
+        fresh = Collections(world)
+        for h, members in c.members.items():
+            if h not in fresh.members:
+                fresh.members[h] = members
+        c = _COLLECTIONS[world] = fresh
+    return c
+
+
+def is_collection(handle: object) -> bool:
+    """Whether ``handle`` is in the collections' number range."""
+    return isinstance(handle, int) and not isinstance(handle, bool) and FIRST_HANDLE <= handle < FIRST_HANDLE + 1_000_000

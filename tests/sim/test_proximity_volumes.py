@@ -1,0 +1,66 @@
+"""V-REP's pyramid, cylinder and disc proximity volumes (``volume=`` in a sensor's ``simx:``
+settings, what ``simx-convert`` writes from a ``.ttt`` file's sensors): each a set of rays filling
+the volume (simx_server/sim/sensors.py ``volume_rays``); the reading is the detection nearest to
+the sensor's origin, as V-REP's."""
+
+from __future__ import annotations
+
+import pytest
+
+from simx_wire.protocol import ArgumentError
+from simx_server.scene.simulation import Simulation
+from simx_server.sim import sensors
+
+SCENE = """<mujoco model="volumes">
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <site name="Sensor" pos="0 0 0"/>
+    <body name="Target" pos="{x} {y} {z}"><geom type="box" size="0.02 0.02 0.02"/></body>
+  </worldbody>
+  <sensor><rangefinder site="Sensor" cutoff="{cutoff}"/></sensor>
+  <custom><text name="simx:Sensor" data="{settings}"/></custom>
+</mujoco>
+"""
+
+
+def read(tmp_path, settings: str, x: float, y: float = 0.0, z: float = 0.3, cutoff: float = 0.5):
+    path = tmp_path / "scene.xml"
+    path.write_text(SCENE.format(x=x, y=y, z=z, cutoff=cutoff, settings=settings))
+    sim = Simulation(path, realtime=False)
+    try:
+        return sensors.proximity_reading(sim, sim.world.resolve("Sensor").handle)
+    finally:
+        sim.close()
+
+
+@pytest.mark.parametrize("settings, inside, outside", [
+    # a box-shaped zone 0.4 m x 0.2 m wide (the kitchen's door sensors are such pyramids)
+    ("volume=pyramid size=0.4,0.2 size_far=0.4,0.2", (0.15, 0.0), (0.3, 0.0)),
+    ("volume=pyramid size=0.4,0.2 size_far=0.4,0.2", (0.0, 0.08), (0.0, 0.15)),
+    # a frustum that widens: 0.05 m at the sensor, 0.6 m at 0.5 m (0.33 m across at z = 0.3)
+    ("volume=pyramid size=0.05,0.05 size_far=0.6,0.6", (0.13, 0.0), (0.25, 0.0)),
+    ("volume=cylinder radius=0.12", (0.0, -0.1), (0.0, -0.2)),
+    # a flat 60-degree fan in the x-z plane: x = 0.15 at z = 0.3 is 26.6 degrees off the axis
+    ("volume=disc angle=60", (0.15, 0.0), (0.0, 0.1)),
+])
+def test_a_volume_sees_what_lies_in_it_and_not_beside_it(tmp_path, settings, inside, outside):
+    detected, point, handle, normal = read(tmp_path, settings, *inside)
+    assert detected and handle >= 0
+    assert point[2] == pytest.approx(0.28, abs=0.03)  # the target's near face (sensor frame)
+    assert normal[2] < -0.5  # facing the sensor
+    assert read(tmp_path, settings, *outside)[0] is False
+    assert read(tmp_path, "volume=ray", *inside)[0] is False  # a ray along +z misses it
+
+
+def test_the_volume_ends_at_its_range_and_starts_at_its_offset(tmp_path):
+    pyramid = "volume=pyramid size=0.2,0.2"
+    assert read(tmp_path, pyramid, 0.05, z=0.3, cutoff=0.25)[0] is False  # beyond the range
+    assert read(tmp_path, pyramid + " offset=0.35", 0.05, z=0.3)[0] is False  # before the offset
+    assert read(tmp_path, pyramid + " offset=0.1", 0.05, z=0.3)[0] is True
+
+
+def test_bad_volume_settings_are_errors_naming_the_sensor(tmp_path):
+    with pytest.raises(ArgumentError, match="'Sensor': volume='sphere'"):
+        read(tmp_path, "volume=sphere", 0.0)
+    with pytest.raises(ArgumentError, match="'Sensor': size='0.1'"):
+        read(tmp_path, "volume=pyramid size=0.1", 0.0)
