@@ -14,7 +14,7 @@ from simx_server.base.arguments import as_bytes, check_args as _args
 from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import sensors
-from simx_server.sim.sensors import force_sensor_reading, proximity_reading, stamp, vision_packet
+from simx_server.sim.sensors import force_sensor_reading, proximity_reading, stamp, vision_packet_job
 from simx_server.sim.vision import Deferred
 from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR
 
@@ -46,16 +46,18 @@ def break_force_sensor(sim: Simulation, args: list) -> None:
     sim.sensors.broken[h] = stamp(sim)
 
 
-def read_vision_sensor(sim: Simulation, args: list) -> list:
-    """``simxReadVisionSensor`` [h] -> [detectionState, [[15 floats]]].
+def read_vision_sensor(sim: Simulation, args: list) -> Deferred:
+    """``simxReadVisionSensor`` [h] -> [detectionState, [[15 floats]]], rendered later.
 
     One auxiliary packet, V-REP's default one (see :func:`vision_packet`), computed from the
-    sensor's current image. simx has no vision filters nor trigger conditions, so
-    detectionState is always False and there are no further packets.
+    sensor's current image and depth buffer on the render thread that draws them, as images
+    are: the simulation thread goes on while a large sensor renders. simx has no vision filters
+    nor trigger conditions, so detectionState is always False and there are no further packets.
     """
     (h,) = _args(args, "int")
     sim.world.get(h, VISION_SENSOR)
-    return [False, [vision_packet(sim, h)]]
+    packet = vision_packet_job(sim, h)
+    return sim.vision.rendered_with(h, lambda: [False, [packet()]])
 
 
 def set_vision_sensor_image(sim: Simulation, args: list) -> None:
@@ -137,6 +139,9 @@ def get_vision_sensor_depth_buffer(sim: Simulation, args: list) -> Deferred:
 
 
 
+#: Bytes a ReadVisionSensor reply counts in a reply's budget (15 doubles and their framing).
+PACKET_BYTES = 256
+
 #: Command name -> handler: vision sensor images and depth buffers (rendered on the render thread).
 IMAGE_HANDLERS: dict[str, Handler] = {
     "GetVisionSensorImage": get_vision_sensor_image,
@@ -156,10 +161,12 @@ def image_pixels(sim: Simulation, args: list) -> int:
 def image_size(sim: Simulation, name: str, args: list) -> int:
     """Bytes of the image a ``GetVisionSensorImage`` / ``GetVisionSensorDepthBuffer`` command of
     these arguments will return, before it is rendered (0 when its handle is no vision sensor:
-    the handler then answers the error)."""
+    the handler then answers the error); a ``ReadVisionSensor``'s packet counts PACKET_BYTES."""
     spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
     if spec is None:
         return 0
+    if name == "ReadVisionSensor":
+        return PACKET_BYTES
     if name == "GetVisionSensorDepthBuffer":
         return spec.depth_size()
     return spec.image_size(len(args) > 1 and type(args[1]) is int and bool(args[1] & 1))

@@ -454,6 +454,13 @@ class VisionSensors:
         simulation thread goes on, the caller replies when its future is done."""
         return Deferred(self.after(job), self._thread)
 
+    def rendered_with(self, handle: int, job: Callable[[], Any]) -> Deferred:
+        """As :meth:`rendered`, on the render thread that draws ``handle``'s frames for the
+        command being executed (the stream thread for a large streamed sensor, see
+        :meth:`_target`), so that a job waiting for a large frame holds no other thread."""
+        thread = self._target(self.spec(handle))
+        return Deferred(thread.executor.submit(job), thread)
+
     def depth(self, handle: int) -> np.ndarray:
         """Depth normalised to 0..1 between near and far, (h, w) float32, rows bottom-up."""
         return self.after(self.depth_job(handle)).result()

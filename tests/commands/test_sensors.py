@@ -269,7 +269,7 @@ def test_group_data_shapes_and_values(sim):
 # ------------------------------------------------------------------------- vision
 def test_vision_packet_matches_the_image_and_depth(sim):
     cam = H(sim, "cam")
-    detected, packets = cmd_sensors.read_vision_sensor(sim, [cam])
+    detected, packets = cmd_sensors.read_vision_sensor(sim, [cam]).future.result()  # rendered later
     assert detected is False and len(packets) == 1 and len(packets[0]) == 15
     rgb = sim.vision.image(cam, False).astype(float) / 255.0
     depth = sim.vision.depth(cam).astype(float)
@@ -304,7 +304,7 @@ def test_passive_sensor_image_set_get_and_packet(sim):
     cmd_sensors.set_vision_sensor_image(sim, [passive, img.tobytes(), 0])
     assert np.array_equal(S.override_image(sim, passive, False), img)
     assert np.array_equal(S.override_image(sim, passive, True), img.astype(int).sum(axis=2) // 3)
-    packet = cmd_sensors.read_vision_sensor(sim, [passive])[1][0]
+    packet = cmd_sensors.read_vision_sensor(sim, [passive]).future.result()[1][0]
     assert packet[1:4] == pytest.approx([0.0, 1 / 255, 2 / 255])  # R, G, B minima
     assert packet[6:9] == pytest.approx([141 / 255, 142 / 255, 143 / 255])  # maxima
     assert packet[10] == pytest.approx(img.mean() / 255)  # average intensity

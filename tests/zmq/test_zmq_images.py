@@ -5,6 +5,8 @@ image renders leaves nothing behind."""
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import cbor2
 import pytest
@@ -176,6 +178,36 @@ def test_the_simulation_steps_while_a_large_image_renders(clients):
         assert still_rendering and len(times) >= 3, times
     finally:
         loader.ret("sim.stopSimulation")
+
+
+def test_the_simulation_steps_while_a_legacy_read_vision_sensor_renders(zmq_server, clients):
+    """The legacy door's simxReadVisionSensor computes its packet on the render thread too: while
+    a legacy client's packet of the 4096x4096 sensor renders, a ZMQ client sees the simulation
+    time advance (before, the packet was computed on the simulation thread). Tried a few times,
+    in case a render is faster than a step."""
+    other = clients("watcher")
+    big = other.ret("sim.getObject", "/big")[0]
+    cid = vrep.simxStart("127.0.0.1", zmq_server.port, True, True, -60000, 5)  # blocking calls: 60 s
+    assert cid >= 0
+    other.ret("sim.startSimulation")
+    try:
+        for _ in range(5):
+            done: list = []
+            reader = threading.Thread(target=lambda: done.append(vrep.simxReadVisionSensor(cid, big, B)))
+            reader.start()
+            times = set()
+            while reader.is_alive() and len(times) < 3:
+                times.add(other.ret("sim.getSimulationTime")[0])
+            still_rendering = reader.is_alive()
+            reader.join(120)
+            rc, detected, packets = done[0]
+            assert rc == 0 and detected is False and len(packets[0]) == 15
+            if still_rendering:
+                break
+        assert still_rendering and len(times) >= 3, times
+    finally:
+        other.ret("sim.stopSimulation")
+        vrep.simxFinish(cid)
 
 
 def _new_state(client: Client) -> None:
