@@ -87,3 +87,37 @@ def camera_quat(vrep_quat: np.ndarray) -> np.ndarray:
     """A V-REP vision sensor looks along its +z with +y up; a MuJoCo camera along its -z:
     turn by 180 degrees about y."""
     return quat_mul(vrep_quat, np.array([0.0, 0.0, 1.0, 0.0]))
+
+
+#: V-REP's texture mappings (``Tob``) simx computes coordinates for: planar and cube.
+TEXTURE_PLANE, TEXTURE_CUBE = 0, 3
+
+
+def projected_uv(vertices: np.ndarray, faces: np.ndarray, frame: Pose, texture_frame: Pose, mode: int,
+                 scale: tuple[float, float]) -> np.ndarray | None:
+    """The texture coordinates V-REP computes for a texture the file keeps none for, one pair
+    per triangle corner ((3 x M, 2)): the vertices (in the mesh frame ``frame``, given in the
+    shape's frame) are taken into the texture's frame (``texture_frame``, in the shape's frame),
+    and a texture of ``scale`` (m, x by y) centred on its origin is projected along its z
+    (planar mapping), or per triangle along the texture frame's axis nearest to the triangle's
+    normal (cube mapping). None for another mapping (cylinder, sphere) or unusable values."""
+    sx, sy = scale
+    if mode not in (TEXTURE_PLANE, TEXTURE_CUBE) or not (np.isfinite(sx) and np.isfinite(sy) and sx > 0 and sy > 0):
+        return None
+    if not len(faces):
+        return None
+    to_texture = compose(inverse(texture_frame), frame)
+    pts = vertices @ quat_to_mat(to_texture.quat).T + to_texture.pos
+    corners = pts[faces]  # (M, 3, 3)
+    if mode == TEXTURE_PLANE:
+        a, b = corners[..., 0], corners[..., 1]
+    else:
+        normal = np.abs(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
+        axis = np.argmax(normal, axis=1)  # 0: seen along x, 1: y, 2: z
+        first = np.where(axis == 0, 1, 0)  # the two other axes, in order
+        second = np.where(axis == 2, 1, 2)
+        rows = np.arange(len(faces))[:, None]
+        a = corners[rows, np.arange(3)[None, :], first[:, None]]
+        b = corners[rows, np.arange(3)[None, :], second[:, None]]
+    uv = np.stack([a / sx + 0.5, b / sy + 0.5], axis=-1).reshape(-1, 2)
+    return uv if np.all(np.isfinite(uv)) else None

@@ -102,8 +102,26 @@ class GeomMaker:
                 g.friction = [shape.friction ** 2, 0.005, 0.0001]
             if g.material:
                 g.rgba = [1.0, 1.0, 1.0, 1.0]  # the texture as it is
+            elif mesh.texture >= 0 and visible and g.type != mujoco.mjtGeom.mjGEOM_MESH and self._skin(body, mesh, pose):
+                g.group = 3  # the primitive collides; its textured mesh (the skin) is what is seen
             elif mesh.texture >= 0:
                 self.report.add("textures without their coordinates (shown as the shape's colour)")
+
+    def _skin(self, body, mesh: Mesh, pose: Pose) -> bool:
+        """A textured primitive's look: MuJoCo's primitives take no texture coordinates, so the
+        triangles the file keeps for it, with its coordinates, become a visual-only mesh geom
+        beside the primitive (which still collides). False (nothing added) where the file's
+        coordinates or texture are not usable."""
+        if self.out is None or self._material(mesh) is None:
+            return False
+        g = self._mesh_geom(body, mesh, visual=True)
+        if g is None:
+            return False
+        g.pos, g.quat = pose.pos, pose.quat
+        g.rgba = [1.0, 1.0, 1.0, 1.0]
+        g.contype = g.conaffinity = 0
+        g.density = 0.0
+        return True
 
     def _geom(self, body, mesh: Mesh, name: str, index: int):
         s = np.abs(mesh.sizes)
@@ -124,6 +142,13 @@ class GeomMaker:
         if p == CAPSULE and s[0] > 0:
             r = s[0] / 2
             return self._new(body, G.mjGEOM_CAPSULE, [r, max(s[2] / 2 - r, 1e-4), 0])
+        return self._mesh_geom(body, mesh)
+
+    def _mesh_geom(self, body, mesh: Mesh, visual: bool = False):
+        """A mesh geom of ``mesh``'s triangles (with its texture where the file gives
+        coordinates); None for a degenerate mesh. ``visual``: it does not collide (no report of
+        its convex hull)."""
+        G = mujoco.mjtGeom
         usable = usable_mesh(mesh)
         if usable is None:
             if len(mesh.vertices):
@@ -145,7 +170,7 @@ class GeomMaker:
         else:
             m.uservert = vertices.astype(np.float32).ravel()
             m.userface = faces.astype(np.int32).ravel()
-        if not mesh.convex:
+        if not mesh.convex and not visual:
             self.report.add("non-convex meshes (collide as their convex hull)")
         g = body.add_geom()
         g.type = G.mjGEOM_MESH

@@ -8,7 +8,7 @@ import struct
 import numpy as np
 
 from simx_server.scene.ttt import errors as E
-from simx_server.scene.ttt.geometry import compose, mat_to_quat, pose7
+from simx_server.scene.ttt.geometry import compose, mat_to_quat, pose7, projected_uv
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
 from simx_server.scene.ttt.records import Records, unpack_indices
 
@@ -178,12 +178,23 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
     texture, uv = -1, None
     if r.get("Toj") is not None:
         toj = r.sub("Toj")
-        tob = toj.ints("Tob", 1)
-        if tob is not None:
-            texture = int(tob[0])
+        mapping = None
+        for tag, fmt in (("_ob", "<iidd"), ("Tob", "<iiff")):
+            p = toj.get(tag)
+            if p is not None and len(p) >= struct.calcsize(fmt):
+                tid, mode, sx, sy = struct.unpack_from(fmt, p, 0)
+                texture, mapping = int(tid), (int(mode), (float(sx), float(sy)))
+                break
+        else:
+            tob = toj.ints("Tob", 1)
+            if tob is not None:
+                texture = int(tob[0])
         ftc = toj.get("Ftc")
         if ftc is not None and len(ftc) >= 8:
             uv = np.frombuffer(ftc[: len(ftc) // 8 * 8], "<f4").reshape(-1, 2).astype(np.float64)
+        elif mapping is not None:  # coordinates V-REP computes from the texture's mapping
+            texture_frame = pose7(toj.floats("_rc", "Trc", 7), quat_first=True)
+            uv = projected_uv(vertices, faces, frame, texture_frame, *mapping)
     convex = bool(r.byte("Va2") & 1) or bool(info.byte("Var") & 4)
     wireframe = bool(r.byte("Var") & 4)
     return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe)

@@ -137,3 +137,35 @@ def test_joint_targets_pid_and_spring_mode(tmp_path):
         assert d.joint("Spring").qpos[0] == pytest.approx(0.3, abs=0.01)
     finally:
         sim.close()
+
+
+def test_textures_without_coordinates_are_projected_as_vrep_maps_them(tmp_path):
+    rgb = np.zeros((8, 8, 3), np.uint8)
+    rgb[:4] = 255
+    body = (W.texture(7, "tiles", rgb)
+            + W.cuboid_shape(1, -1, "Floor", (2, 1, 0.1), (0, 0, -0.05), dynamic=False,
+                             texture=W.texture_link(7, 0, (1.0, 0.5)))  # planar: 1 m x 0.5 m tiles
+            + W.cuboid_shape(2, -1, "Crate", (0.2, 0.2, 0.2), (0, 0, 0.3),
+                             texture=W.texture_link(7, 3, (0.2, 0.2))))  # cube: one texture per face
+    f = tmp_path / "textured.ttt"
+    f.write_bytes(W.ttt_file(body))
+    out = tmp_path / "out"
+    xml, report = convert.convert(reader.read(f), out, "textured")
+    assert not any("texture" in line for line in report.lines())
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    for body_name in ("Floor", "Crate"):
+        geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == m.body(body_name).id]
+        kinds = sorted((int(m.geom_type[g]), int(m.geom_contype[g]) > 0, int(m.geom_group[g]), int(m.geom_matid[g]) >= 0)
+                       for g in geoms)
+        # the primitive collides, hidden (group 3); its textured triangles are what is seen
+        assert kinds == [(int(mujoco.mjtGeom.mjGEOM_BOX), True, 3, False), (int(mujoco.mjtGeom.mjGEOM_MESH), False, 0, True)]
+
+    def coordinates(obj):
+        return {tuple(float(x) for x in line.split()[1:]) for line in obj.read_text().splitlines()
+                if line.startswith("vt ")}
+
+    floor, crate = sorted((out / "meshes").glob("*.obj"))
+    # planar along z: corners (+-1, +-0.5) of the floor at u = x / 1 + 0.5, v = y / 0.5 + 0.5
+    assert coordinates(floor) == {(u, v) for u in (-0.5, 1.5) for v in (-0.5, 1.5)}
+    # cube: each face projected along its own axis, the 0.2 m crate on one 0.2 m texture
+    assert coordinates(crate) == {(u, v) for u in (0.0, 1.0) for v in (0.0, 1.0)}

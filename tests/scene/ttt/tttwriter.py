@@ -78,8 +78,8 @@ def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: byte
 
 
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
-                 dynamic=True, respondable=True, extra: bytes = b"") -> bytes:
-    """A pure-cuboid shape (8 vertices inline, 12 triangles)."""
+                 dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"") -> bytes:
+    """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`."""
     hx, hy, hz = (s / 2 for s in size)
     v = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], "<f4")
     faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
@@ -88,7 +88,7 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
                rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, 0.01, 0.01, 0.01)))
     mesh = lst(rec("Cl0", lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))),
                rec("Ver", v.tobytes()), rec("Ind", faces.tobytes()),
-               rec("Ppr", struct.pack("<ifff", 3, *size)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)))
+               rec("Ppr", struct.pack("<ifff", 3, *size)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)), texture)
     typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
                 rec("Sss", bytes([0x80 if dynamic else 0])), rec("Ss3", bytes([1 if respondable else 0])),
                 rec("Dc2", struct.pack("<H", 0xFFFF)))
@@ -220,3 +220,16 @@ def proximity_sensor(handle: int, parent: int, name: str, kind: int = 34, offset
     far, angle)."""
     typed = lst(rec("Snt", i32(kind)), rec("Vod", lst(rec("Ss3", f32(offset, reach, *sizes, angle)))))
     return rec("SNR", common(handle, parent, name, pos) + typed)
+
+
+def texture(tid: int, name: str, rgb: np.ndarray) -> bytes:
+    """A top-level texture (``TEX``): ``rgb`` (h, w, 3) uint8, rows as the file keeps them."""
+    h, w = rgb.shape[:2]
+    return rec("TEX", lst(rec("Ipa", i32(tid, w, h)), rec("Gon", string(name)), rec("Img", rgb.astype(np.uint8).tobytes())))
+
+
+def texture_link(tid: int, mode: int = 0, scale=(1.0, 1.0), frame=(1, 0, 0, 0, 0, 0, 0)) -> bytes:
+    """A mesh's texture (``Toj``) without fixed coordinates: V-REP's mapping ``mode`` (0 planar,
+    3 cube), the texture's size ``scale`` (m) and its frame (qw qx qy qz x y z)."""
+    return rec("Toj", lst(rec("Tob", struct.pack("<iiff", tid, mode, *scale)), rec("Trc", f32(*frame)),
+                          rec("Ftc", b""), rec("Apm", i32(0))))
