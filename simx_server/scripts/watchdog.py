@@ -13,6 +13,22 @@ from typing import Any, Callable
 __all__ = ["WATCHDOG", "Watchdog"]
 
 
+def _cpu_clock(thread_id: int) -> int | None:
+    """The CPU-time clock of thread ``thread_id`` (POSIX), or None where there is none."""
+    try:
+        return time.pthread_getcpuclockid(thread_id)
+    except (AttributeError, OSError):
+        return None
+
+
+def _cpu(clock: int) -> float:
+    """Seconds of CPU time on ``clock``; +inf once it is gone (its thread ended)."""
+    try:
+        return time.clock_gettime(clock)
+    except OSError:
+        return float("inf")
+
+
 class _Interrupt(BaseException):
     """Raised asynchronously inside a Python script that overran its time bound."""
 
@@ -20,17 +36,23 @@ class _Interrupt(BaseException):
 class Watchdog:
     """Interrupts a Python script call that overruns its deadline.
 
-    One daemon thread; :meth:`bounded` arms it around a call. Past the deadline it raises
-    :class:`_Interrupt` in the calling thread (``PyThreadState_SetAsyncExc``), again every
-    50 ms in case the script swallows it, until the call returns. A script blocked inside C
-    (``time.sleep``, I/O) is interrupted only when that returns.
+    One daemon thread; :meth:`bounded` arms it around a call. The deadline is in the calling
+    thread's CPU time (as Lua scripts' bound: the script's own work, which a loaded machine does
+    not shorten), with a backstop of WALL_FACTOR times as much wall time for a script that
+    waits (sleeps, I/O, a render it asked for). Past either it raises :class:`_Interrupt` in the
+    calling thread (``PyThreadState_SetAsyncExc``), again every 50 ms in case the script
+    swallows it, until the call returns. A script blocked inside C (``time.sleep``, I/O) is
+    interrupted only when that returns.
     """
 
     REPEAT = 0.05
+    #: Wall time a call may take, in multiples of its CPU-time bound.
+    WALL_FACTOR = 10.0
 
     def __init__(self) -> None:
         self._cond = threading.Condition()
-        self._armed: tuple[float, int] | None = None
+        # (CPU clock of the thread or None, CPU deadline, wall deadline, thread id)
+        self._armed: tuple[int | None, float, float, int] | None = None
         self._fired = False
         self._thread: threading.Thread | None = None
 
@@ -45,10 +67,11 @@ class Watchdog:
                 if self._armed is None:
                     self._cond.wait()
                     continue
-                deadline, thread_id = self._armed
-                now = time.monotonic()
-                if now < deadline:
-                    self._cond.wait(deadline - now)
+                clock, cpu_deadline, wall_deadline, thread_id = self._armed
+                wall_left = wall_deadline - time.monotonic()
+                cpu_left = wall_left if clock is None else cpu_deadline - _cpu(clock)
+                if cpu_left > 0 and wall_left > 0:  # CPU time runs no faster than wall time
+                    self._cond.wait(min(cpu_left, wall_left))
                     continue
                 self._raise_in(thread_id, _Interrupt)
                 self._fired = True
@@ -69,7 +92,8 @@ class Watchdog:
                 continue
 
     def bounded(self, fn: Callable[[], Any], seconds: float) -> tuple[Any, traceback.StackSummary | None]:
-        """Run ``fn()`` for at most about ``seconds``; returns ``(result, None)``, or
+        """Run ``fn()`` for at most about ``seconds`` of the calling thread's CPU time (and
+        WALL_FACTOR times as much wall time); returns ``(result, None)``, or
         ``(None, where)`` when it overran, ``where`` being the stack it was interrupted in
         (empty when the script swallowed the interruption). Exceptions of ``fn`` propagate.
 
@@ -80,7 +104,13 @@ class Watchdog:
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name="simx-script-watchdog", daemon=True)
                 self._thread.start()
-            self._armed = (time.monotonic() + seconds, threading.get_ident())
+            thread_id = threading.get_ident()
+            clock = _cpu_clock(thread_id)
+            if clock is None:  # no per-thread CPU clock here: wall time
+                self._armed = (None, 0.0, time.monotonic() + seconds, thread_id)
+            else:
+                self._armed = (clock, _cpu(clock) + seconds, time.monotonic() + self.WALL_FACTOR * seconds,
+                               thread_id)
             self._fired = False
             self._cond.notify()
         result, fired, where = None, False, None

@@ -19,6 +19,7 @@ import logging
 import re
 import shutil
 import struct
+import time
 import weakref
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -706,3 +707,24 @@ def test_remote_script_faults_answer_errors_and_the_server_keeps_serving():
         assert lines, f"no log line matches {pattern!r}:\n{log}"
         if "cannot be loaded" not in pattern:
             assert any("simxCallScriptFunction failed" in line for line in lines), lines
+
+
+def test_python_scripts_are_bounded_in_cpu_time_with_a_wall_backstop(tmp_path, simulation):
+    """A Python script's script_timeout counts its thread's CPU time, as a Lua script's does: a
+    call that waits (a render it asked for on a loaded machine; here a sleep) is not cut at the
+    bound, one that works past it is, and one that waits past WALL_FACTOR times the bound is."""
+    from simx_server.scripts.watchdog import Watchdog
+
+    py = ("import time\n"
+          "def wait(*a):\n    time.sleep(0.3)\n    return [1]\n"
+          "def work(*a):\n    while True:\n        pass\n"
+          "def nap(*a):\n    while True:\n        time.sleep(0.01)\n")
+    sim = simulation(small_scene(tmp_path, {"P": ("c.py", py)}, "script_timeout=0.05"))
+    sim.start()
+    assert call(sim, "P", "wait") == [[1], [], [], b""]  # 0.3 s of waiting, past the 0.05 s bound
+    for function in ("work", "nap"):
+        start = time.monotonic()
+        with pytest.raises(ScriptError, match="did not return within 0.05 s"):
+            call(sim, "P", function)
+        if function == "nap":  # interrupted by the backstop, not before it
+            assert time.monotonic() - start >= Watchdog.WALL_FACTOR * 0.05
