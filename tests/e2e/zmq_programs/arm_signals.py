@@ -128,5 +128,11 @@ except Exception as exc:  # the script's error comes back to the client
     assert 'no movement data with id nothing' in str(exc), exc
 else:
     raise AssertionError('an unknown id was accepted')
+try:
+    send('/blueArm', mov('a9', [0.0] * 8))
+except Exception as exc:
+    assert 'moves 8 joints; the arm has 7' in str(exc), exc
+else:
+    raise AssertionError('8 joints for a 7-joint arm were accepted')
 sim.stopSimulation()
 print('OK arm_signals')

@@ -37,6 +37,14 @@ function remoteApi_movementDataFunction(data)
     if data.type ~= 'mov' and data.type ~= 'pts' then
         error("remoteApi_movementDataFunction: type must be 'mov' or 'pts', got " .. tostring(data.type))
     end
+    local n = data.type == 'mov' and #(data.targetConfig or {}) or 0
+    if data.type == 'pts' then
+        while data['j' .. (n + 1)] do n = n + 1 end
+    end
+    if n == 0 or n > #joints then
+        error('remoteApi_movementDataFunction: movement ' .. tostring(data.id) .. ' moves ' .. n
+              .. ' joints; the arm has ' .. #joints)
+    end
     movements[data.id] = data
 end
 

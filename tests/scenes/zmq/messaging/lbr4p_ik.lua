@@ -55,6 +55,9 @@ function remoteApi_movementDataFunction(data)
     if data.type ~= 'mov' and data.type ~= 'pts' then
         error("remoteApi_movementDataFunction: type must be 'mov' or 'pts', got " .. tostring(data.type))
     end
+    if data.type == 'mov' and (type(data.targetPose) ~= 'table' or #data.targetPose ~= 7) then
+        error('remoteApi_movementDataFunction: targetPose must be 7 numbers (x y z qx qy qz qw)')
+    end
     movements[data.id] = data
 end
 
