@@ -232,6 +232,12 @@ class RemoteSim(MotionCalls, ScriptSim):
             raise UnsupportedError("setVisionSensorImg of a window (pos/size) is not supported: send the whole image")
         self._handler("SetVisionSensorImage", self._h(sensorHandle), _bytes(image, "image"), _int(options, "options") & 1)
 
+    def getStringSignal(self, signalName: Any) -> str | bytes | None:  # noqa: N802, N803
+        """String signal ``signalName``: text where its bytes are UTF-8 (CoppeliaSim's ZMQ server
+        sends Lua strings so, and its example programs compare the value with a str), else
+        bytes; None when not set. ``getBufferSignal`` answers the same store as bytes."""
+        return _strings(super().getStringSignal(signalName))
+
     def waitForSignal(self, sigName: Any) -> Stepped:  # noqa: N802, N803
         """Wait, step after step, until signal ``sigName`` (of any kind) is set; its value. A
         call that lasts several steps (docs/ZMQ.md), at most MAX_MOTION_STEPS; the coroutine

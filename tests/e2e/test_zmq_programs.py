@@ -9,8 +9,11 @@ child script), ``p_controller.py`` (pController.py), ``image_relay.py``
 (simpleMovement.py: three clients in stepping mode from threads, sim.moveToConfig, sim.moveToPose),
 ``arm_callback.py`` (sendMovementSequence-simMoveToConfig.py) and ``ik_callback.py``
 (sendIkMovementSequence-simMoveToPose.py): CoppeliaSim 4.3-4.5's positional sim.moveToConfig /
-sim.moveToPose with a Python callback. The scenes they load by CoppeliaSim's names
-(``messaging/*.ttt``), or that the server starts with for the last two (as those examples expect
+sim.moveToPose with a Python callback, ``arm_signals.py`` (sendMovementSequence-mov.py, -pts.py,
+sendSimultan2MovementSequences-mov.py) and ``ik_signals.py`` (sendIkMovementSequence-mov.py,
+-pts.py): movements handed to the scene's threaded child scripts through script functions and a
+string signal. The scenes they load by CoppeliaSim's names
+(``messaging/*.ttt``), or that the server starts with for the last four (as those examples expect
 their scene loaded), are simx's MJCF stand-ins in tests/scenes/zmq/.
 """
 
@@ -31,7 +34,9 @@ PROGRAMS = Path(__file__).resolve().parent / "zmq_programs"
 SCENES = Path(__file__).resolve().parents[1] / "scenes" / "zmq"
 #: Programs that expect their scene loaded when they start, as their CoppeliaSim examples do.
 PRELOADED = {"arm_callback": SCENES / "messaging" / "movementViaRemoteApi.xml",
-             "ik_callback": SCENES / "messaging" / "ikMovementViaRemoteApi.xml"}
+             "ik_callback": SCENES / "messaging" / "ikMovementViaRemoteApi.xml",
+             "arm_signals": SCENES / "messaging" / "movementViaRemoteApi.xml",
+             "ik_signals": SCENES / "messaging" / "ikMovementViaRemoteApi.xml"}
 
 
 @pytest.mark.parametrize("program,expected", [
@@ -42,6 +47,8 @@ PRELOADED = {"arm_callback": SCENES / "messaging" / "movementViaRemoteApi.xml",
     ("movement", ["blueRobot: its configuration reached", "redRobot: its configuration reached", "raised by 0.200 m"]),
     ("arm_callback", ["motion 1: ", "motion 2: ", "motion 3: "]),
     ("ik_callback", ["pose 1: ", "pose 2: ", "pose 3: "]),
+    ("arm_signals", ["both arms: a1 executed", "a2, a3: joint 2 carried", "p1: the targets went through all 21 points"]),
+    ("ik_signals", ["m1: tip within", "m2, m3: tip within", "p1: the target went through all 25 poses"]),
 ])
 def test_program_runs_unchanged(program, expected, tmp_path):
     port = free_port()

@@ -95,6 +95,23 @@ def test_wait_for_signal_set_by_another_client(sim, zmq_server):
         sim.clearInt32Signal("go")
 
 
+def test_string_signals_come_back_as_text(sim):
+    """CoppeliaSim's example programs compare sim.getStringSignal's value with a str (the
+    movement examples wait for 'ready'): a UTF-8 value comes back as text, any other as bytes;
+    sim.getBufferSignal (4.6's name for the same store) always as bytes."""
+    try:
+        sim.setStringSignal("/arm_executedMovId", "ready")
+        assert sim.getStringSignal("/arm_executedMovId") == "ready"
+        sim.setStringSignal("/arm_executedMovId", "überall")
+        assert sim.getStringSignal("/arm_executedMovId") == "überall"
+        assert sim.getBufferSignal("/arm_executedMovId") == "überall".encode()
+        sim.setStringSignal("raw", b"\xff\x00\x80")
+        assert sim.getStringSignal("raw") == b"\xff\x00\x80"
+        assert sim.getStringSignal("never set") is None
+    finally:
+        sim.clearStringSignal()
+
+
 def test_stepping_one_client(sim):
     dt = sim.getSimulationTimeStep()
     assert sim.setStepping(True) == 0  # the previous level
