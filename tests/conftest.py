@@ -36,7 +36,7 @@ SLOW_FILES = {
     "e2e/test_viewer.py": 19, "transport/test_server_core.py": 18, "scene/test_confinement.py": 18,
     "client/test_envs.py": 18, "transport/test_pool.py": 17,
     "client/test_client_robustness.py": 16, "transport/test_pacing.py": 15,
-    "e2e/test_zmq_programs.py": 20, "client/test_dataset.py": 14, "zmq/test_zmq_images.py": 12,
+    "e2e/test_zmq_programs.py": 24, "client/test_dataset.py": 14, "zmq/test_zmq_images.py": 12,
     "transport/test_memory_budgets.py": 12, "transport/test_netns.py": 12,
     "client/test_outbox.py": 11, "scripts/test_facade4.py": 11,
     "transport/test_first_frame.py": 10, "e2e/test_pioneer.py": 10, "scripts/test_vpg_style.py": 8,
