@@ -280,21 +280,18 @@ class MotionCore:
             t = progress[3] / angle if abs(angle) > math.pi * 1e-5 else 0.0
             return p0 + np.array(progress[:3]), _turn(axis, t * angle) @ r0
 
+        def call(pos: np.ndarray, r: np.ndarray, v: Any, a: Any) -> CallbackCall:
+            """The callback's call with the pose (or matrix), velocity and acceleration."""
+            pose = [*map(float, pos), *quaternion_from_matrix(r)]
+            return CallbackCall(callback, [self.poseToMatrix(pose) if matrices else pose, v, a, aux])
+
         def motion() -> Generator[CallbackCall | None, Any, list]:
             pos, r = p0, r0
             if otg is not None:
                 for q, v, a, last in _run(otg, inp, out):
                     pos, r = pose_at(q)
                     if callback is not None:
-                        pose = [*map(float, pos), *quaternion_from_matrix(r)]
-                        yield CallbackCall(
-                            callback,
-                            [
-                                self.poseToMatrix(pose) if matrices else pose,
-                                *((v[0], a[0]) if metric is not None else (v, a)),
-                                aux,
-                            ],
-                        )
+                        yield call(pos, r, *((v[0], a[0]) if metric is not None else (v, a)))
                     if obj is not None:
                         self.setObjectPose(obj, [*pos, *quaternion_from_matrix(r)], rel)
                     yield
@@ -302,15 +299,7 @@ class MotionCore:
                         break
             else:  # already there: one step, one callback with the pose
                 if callback is not None:
-                    pose = [*map(float, pos), *quaternion_from_matrix(r)]
-                    yield CallbackCall(
-                        callback,
-                        [
-                            self.poseToMatrix(pose) if matrices else pose,
-                            *((0.0, 0.0) if metric is not None else ([0.0] * 4, [0.0] * 4)),
-                            aux,
-                        ],
-                    )
+                    yield call(pos, r, *((0.0, 0.0) if metric is not None else ([0.0] * 4, [0.0] * 4)))
                 yield
             pose = [*map(float, pos), *quaternion_from_matrix(r)]
             if callback is not None:
