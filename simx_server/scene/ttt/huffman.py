@@ -138,11 +138,12 @@ class _Table:
         # first a small table (fits the CPU cache); the few positions that start a longer code
         # look again in the full one. Slices of words bound the temporaries.
         ks = self.k_small
-        shifts = (32 - ks - np.arange(8)).astype(np.uint32)
+        shifts = (32 - ks - np.arange(8)).astype(np.intp)
         codes = np.empty((i1 - i0) * 8, np.int16)  # length << 8 | symbol (at most 20 << 8 | 255)
+        wide = w.astype(np.intp)  # indices of the platform's size: the gather converts none
         for a in range(0, i1 - i0, _SLICE_WORDS):
-            window = (w[a:a + _SLICE_WORDS, None] >> shifts[None, :]) & np.uint32((1 << ks) - 1)
-            codes[8 * a:8 * (a + len(window))] = self.table_small[window.ravel()]
+            window = (wide[a:a + _SLICE_WORDS, None] >> shifts[None, :]) & ((1 << ks) - 1)
+            np.take(self.table_small, window.ravel(), out=codes[8 * a:8 * (a + len(window))])
         if ks < self.k:
             more = np.flatnonzero(codes < 256)
             at = more + i0 * 8
