@@ -6,7 +6,7 @@ scene's joints; its objects are the scene's, with the scene's handles (``addElem
 target, base, constraints, weights, precision, flags), a calculation method (damped least
 squares, pseudo-inverse, Jacobian transpose), damping and iterations; its joints are those
 between each element's base and tip that are in ``simIK.jointmode_ik``. The solver is
-:mod:`simx_server.scripts.ik_solver` (MuJoCo's Jacobians, as the scene's own IK groups).
+:mod:`simx_server.sim.ik_solver` (MuJoCo's Jacobians, as the scene's own IK groups).
 
 ``handleGroup(env, group, {syncWorlds = true})`` reads the scene's joint positions into the
 environment, solves, and writes the result back: a joint with a motor gets it as its target
@@ -28,7 +28,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base.arguments import quote
-from simx_server.scripts import ik_solver as S
+from simx_server.sim import ik_solver as S
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
 from simx_server.sim import ik as scene_ik
 from simx_server.sim.objects import DUMMY, JOINT, WORLD

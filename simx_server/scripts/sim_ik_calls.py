@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnsupportedError
-from simx_server.scripts import ik_solver as S
+from simx_server.sim import ik_solver as S
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
 from simx_server.sim import ik as scene_ik
 from simx_server.sim.objects import DUMMY, JOINT, WORLD

@@ -9,7 +9,13 @@ A scene declares an IK group with a custom text (one per group)::
   target (V-REP's tip-target pair of an IK element).
 * ``base``: the body where the chain starts (optional: default the world). The chain is every
   hinge or slide joint with a motor between ``base`` and the tip's body.
-* ``constraints``: ``position`` (x, y, z) or ``pose`` (position and orientation; default).
+* ``constraints``: ``position`` (x, y, z), ``pose`` (position and orientation; default),
+  ``orientation``, or V-REP's constraint bits (x 1, y 2, z 4, alpha-beta 8, gamma 16: ``16`` is
+  the rotation about the target's z alone).
+* ``tip2``, ``target2``, ``base2``, ``constraints2`` ... up to MAX_ELEMENTS: V-REP's further
+  elements of the same group, solved together with the first (one damped least squares over
+  every element's constrained rows, :mod:`simx_server.sim.ik_solver`); the chain is every
+  element's joints.
 * ``damping``: λ of the damped least squares (m or rad; default 0.05).
 * ``iterations``: most solver iterations per resolution (default 10, at most
   :data:`simx_server.base.limits.MAX_IK_ITERATIONS`).
@@ -40,6 +46,7 @@ import numpy as np
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.base.arguments import quote
+from simx_server.sim import ik_solver
 from simx_server.sim.world import DUMMY, JOINT, SHAPE, World
 
 log = logging.getLogger("simx.ik")
@@ -48,6 +55,10 @@ PREFIX = "ik:"  # simx:ik:NAME
 #: Errors below which an iteration stops early (m, rad).
 _POSITION_TOLERANCE = 1e-5
 _ORIENTATION_TOLERANCE = 1e-4
+#: Largest joint step of one iteration of the general solver (rad, m), as CoppeliaSim's IK
+#: bounds its joints' steps: near a singular pose (an arm stretched out) damped least squares
+#: otherwise jumps to a far solution, turns away from the current pose.
+MAX_STEP_RAD, MAX_STEP_M = 0.2, 0.05
 #: V-REP's return of sim.handleIkGroup: sim_ikresult_success / fail.
 IK_SUCCESS, IK_FAIL = 1, 2
 
@@ -69,36 +80,82 @@ class IkGroup:
     dadr: np.ndarray  # their dof addresses
     low: np.ndarray  # their ranges (-inf/+inf where unlimited)
     high: np.ndarray
+    #: all the elements, for a group with several or with partial constraints (solved by
+    #: :func:`simx_server.sim.ik_solver.solve`); empty for one tip with pose or position
+    elements: list = dataclasses.field(default_factory=list)
 
 
 def _setting(settings: dict[str, str], key: str, default: str) -> str:
     return settings.get(key, default)
 
 
-def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> IkGroup:
-    """Build a group from its ``simx:ik:NAME`` settings; raises ValueError naming the problem."""
-    m = world.model
-    unknown = set(settings) - {"tip", "target", "base", "constraints", "damping", "iterations", "explicit"}
-    if unknown:
-        raise ValueError(f"unknown key(s) {sorted(unknown)}")
+#: ``constraints=`` words and V-REP's constraint bits (x 1, y 2, z 4, alpha-beta 8, gamma 16).
+_CONSTRAINTS = {"pose": 31, "position": 7, "orientation": 24}
+_ELEMENT_KEYS = ("tip", "target", "base", "constraints")
+MAX_ELEMENTS = 8
+
+
+def _bits(text: str) -> int:
+    if text in _CONSTRAINTS:
+        return _CONSTRAINTS[text]
+    try:
+        bits = int(text)
+    except ValueError:
+        bits = 0
+    if not 1 <= bits <= 31:
+        raise ValueError(f"constraints must be pose, position, orientation or V-REP's bits (1-31), got {text!r}")
+    return bits
+
+
+def _element(world: World, settings: dict[str, str], n: str) -> tuple[Any, Any, int, str | None, int]:
+    """Element ``n`` ("" for the first, "2", "3"... for the others): tip and target dummies, the
+    base body (0: the world) and its name, the constraint bits."""
     sites = {}
     for key in ("tip", "target"):
-        if key not in settings:
-            raise ValueError(f"{key}= is missing")
-        obj = world.by_name.get(settings[key])
+        if key + n not in settings:
+            raise ValueError(f"{key}{n}= is missing")
+        obj = world.by_name.get(settings[key + n])
         if obj is None or obj.type != DUMMY:
-            raise ValueError(f"{key}={settings[key]!r} is not a dummy (site) of the scene")
+            raise ValueError(f"{key}{n}={settings[key + n]!r} is not a dummy (site) of the scene")
         sites[key] = obj
-    base_name = settings.get("base")
+    base_name = settings.get("base" + n)
     base_body = 0
     if base_name is not None:
         obj = world.by_name.get(base_name)
         if obj is None or obj.type != SHAPE:
-            raise ValueError(f"base={base_name!r} is not a body of the scene")
+            raise ValueError(f"base{n}={base_name!r} is not a body of the scene")
         base_body = obj.mj_id
-    constraints = _setting(settings, "constraints", "pose")
-    if constraints not in ("pose", "position"):
-        raise ValueError(f"constraints must be pose or position, got {constraints!r}")
+    return sites["tip"], sites["target"], base_body, base_name, _bits(_setting(settings, "constraints" + n, "pose"))
+
+
+def _chain(world: World, tip: Any, base_body: int, base_name: str | None) -> list[tuple[int, int]]:
+    """(handle, joint id) of the joints with a motor from the base down to the tip's body."""
+    m = world.model
+    chain = []
+    b = tip.body
+    while b not in (0, base_body):
+        for j in range(m.body_jntadr[b] + m.body_jntnum[b] - 1, m.body_jntadr[b] - 1, -1):
+            jname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+            obj = world.by_name.get(jname or "")
+            if obj is not None and obj.type == JOINT and obj.handle in world.motor_index \
+                    and int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+                chain.append((obj.handle, j))
+        b = int(m.body_parentid[b])
+    if b != base_body:
+        raise ValueError(f"the tip {tip.name!r} is not below the base {base_name!r}")
+    return chain[::-1]
+
+
+def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> IkGroup:
+    """Build a group from its ``simx:ik:NAME`` settings; raises ValueError naming the problem."""
+    m = world.model
+    numbered = [str(k) for k in range(2, MAX_ELEMENTS + 1)]
+    allowed = {"damping", "iterations", "explicit"} | {key + n for key in _ELEMENT_KEYS for n in ["", *numbered]}
+    unknown = set(settings) - allowed
+    if unknown:
+        raise ValueError(f"unknown key(s) {sorted(unknown)}")
+    elements = [_element(world, settings, "")]
+    elements += [_element(world, settings, n) for n in numbered if "tip" + n in settings or "target" + n in settings]
     try:
         damping = float(_setting(settings, "damping", "0.05"))
         iterations = int(_setting(settings, "iterations", "10"))
@@ -109,30 +166,24 @@ def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> Ik
     if not 1 <= iterations <= L.MAX_IK_ITERATIONS:
         raise ValueError(f"iterations must be in [1, {L.MAX_IK_ITERATIONS}] "
                          f"(simx_server.base.limits.MAX_IK_ITERATIONS), got {iterations}")
-    # the chain: joints with a motor on the way from the tip's body up to the base
-    chain = []
-    b = sites["tip"].body
-    while b not in (0, base_body):
-        for j in range(m.body_jntadr[b] + m.body_jntnum[b] - 1, m.body_jntadr[b] - 1, -1):
-            jname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
-            obj = world.by_name.get(jname or "")
-            if obj is not None and obj.type == JOINT and obj.handle in world.motor_index \
-                    and int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
-                chain.append((obj.handle, j))
-        b = int(m.body_parentid[b])
-    if b != base_body:
-        raise ValueError(f"the tip {settings['tip']!r} is not below the base {base_name!r}")
+    chain: list[tuple[int, int]] = []
+    for tip, _, base_body, base_name, _ in elements:  # every element's joints, base first, once each
+        chain += [link for link in _chain(world, tip, base_body, base_name) if link not in chain]
     if not chain:
         raise ValueError("no motorised hinge or slide joint between the base and the tip")
-    chain.reverse()
     ids = np.array([j for _, j in chain])
     limited = m.jnt_limited[ids].astype(bool)
+    tip, target, _, _, bits = elements[0]
+    several = len(elements) > 1 or bits not in (7, 31)  # the general solver (ik_solver)
     return IkGroup(
-        name=name, handle=handle, tip=sites["tip"].mj_id, target=sites["target"].mj_id,
-        pose=constraints == "pose", damping=damping, iterations=iterations,
+        name=name, handle=handle, tip=tip.mj_id, target=target.mj_id,
+        pose=bits == 31, damping=damping, iterations=iterations,
         explicit=_setting(settings, "explicit", "false").lower() in ("true", "1", "yes"),
         joints=[h for h, _ in chain], qadr=m.jnt_qposadr[ids].copy(), dadr=m.jnt_dofadr[ids].copy(),
-        low=np.where(limited, m.jnt_range[ids, 0], -np.inf), high=np.where(limited, m.jnt_range[ids, 1], np.inf))
+        low=np.where(limited, m.jnt_range[ids, 0], -np.inf), high=np.where(limited, m.jnt_range[ids, 1], np.inf),
+        elements=[ik_solver.Element(i, t.handle, g.handle, constraints=c,
+                                    precision=(_POSITION_TOLERANCE, _ORIENTATION_TOLERANCE))
+                  for i, (t, g, _, _, c) in enumerate(elements)] if several else [])
 
 
 class IkGroups:
@@ -201,6 +252,12 @@ class IkGroups:
         motors = [w.motor_index[h] for h in g.joints]
         q = w.target_position[motors].astype(float)
         q = np.clip(q, g.low, g.high)
+        if g.elements:  # several elements, or constraints other than pose and position
+            hinge = m.jnt_type[[w.get(h).mj_id for h in g.joints]] == mujoco.mjtJoint.mjJNT_HINGE
+            ok, q, _ = ik_solver.solve(w, s, g.joints, q, g.elements, ik_solver.METHOD_DLS, g.damping, g.iterations,
+                                       np.where(hinge, MAX_STEP_RAD, MAX_STEP_M))
+            self._set_targets(g, q)
+            return IK_SUCCESS if ok else IK_FAIL
         lam2 = g.damping * g.damping
         jacp, jacr = self._jacp, self._jacr
         ok = False
@@ -218,12 +275,15 @@ class IkGroups:
             jac = np.vstack([jacp[:, g.dadr], jacr[:, g.dadr]]) if g.pose else jacp[:, g.dadr]
             dq = jac.T @ np.linalg.solve(jac @ jac.T + lam2 * np.eye(len(e)), e)
             q = np.clip(q + dq, g.low, g.high)
+        self._set_targets(g, q)
+        return IK_SUCCESS if ok else IK_FAIL
+
+    def _set_targets(self, g: IkGroup, q: np.ndarray) -> None:
         for h, value in zip(g.joints, q):
             try:
-                w.set_joint_target_position(h, float(value))
+                self.world.set_joint_target_position(h, float(value))
             except ObjectTypeError:  # a client put the joint in velocity mode: it is not driven
                 pass
-        return IK_SUCCESS if ok else IK_FAIL
 
 
 _GROUPS: "weakref.WeakKeyDictionary[World, IkGroups]" = weakref.WeakKeyDictionary()

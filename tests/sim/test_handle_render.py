@@ -109,7 +109,9 @@ def test_depth_buffer_and_grey_option_in_coded_mode(tutorial):
     try:
         coded = sim.vision.image(cam, False)
         grey = sim.vision.image(cam, True)
-        assert np.array_equal(sim.vision.depth(cam), depth)  # the depth buffer is the scene's
+        # the depth buffer is the scene's (a render of the same state: equal but for the last bit
+        # a software rasteriser may round differently between two renders)
+        np.testing.assert_allclose(sim.vision.depth(cam), depth, rtol=0, atol=1e-6)
     finally:
         cmd_parameters.set_object_int_parameter(sim, [cam, 1017, 0])
     assert np.array_equal(grey, (coded.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8))

@@ -213,7 +213,9 @@ end
     ("tip=link1 target=target", "is not a dummy"),
     ("tip=tip", "target= is missing"),
     ("tip=tip target=target iterations=100000", "MAX_IK_ITERATIONS"),
-    ("tip=tip target=target constraints=twist", "constraints must be pose or position"),
+    ("tip=tip target=target constraints=twist", "constraints must be pose, position, orientation"),
+    ("tip=tip target=target constraints=32", "bits (1-31)"),
+    ("tip=tip target=target tip2=tip", "target2= is missing"),
     ("tip=target target=tip", "no motorised hinge or slide joint"),
 ])
 def test_bad_declarations_are_logged_and_ignored(tmp_path, caplog, data, reason):
@@ -279,3 +281,70 @@ def test_a_chain_joint_in_velocity_mode_does_not_stop_the_simulation(ik_server):
     finally:
         vrep.simxStopSimulation(cid, BLOCK)
         vrep.simxFinish(cid)
+
+
+# A planar three-link arm: V-REP's two-element group of the youBot's kind, the tip's position
+# (x and z, bits 1 + 4) and a second tip's rotation about the target's z alone (gamma, bit 16).
+ARM3 = """<mujoco>
+  <compiler angle="radian"/>
+  <option timestep="0.002" gravity="0 0 0"/>
+  <worldbody>
+    <site name="target" pos="0.35 0 0.3" size="0.01"/>
+    <site name="target_o" pos="0 0.5 0" quat="{quat}" size="0.01"/>
+    <body name="base">
+      <body name="l1"><joint name="j1" type="hinge" axis="0 1 0" damping="1" armature="0.1"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.02" mass="1"/>
+        <body name="l2" pos="0 0 0.3"><joint name="j2" type="hinge" axis="0 1 0" damping="1" armature="0.1"/>
+          <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.02" mass="1"/>
+          <body name="l3" pos="0 0 0.3"><joint name="j3" type="hinge" axis="0 1 0" damping="1" armature="0.1"/>
+            <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.02" mass="1"/>
+            <site name="tip" pos="0 0 0.3" size="0.01"/>
+            <site name="tip_o" pos="0 0 0.15" quat="0.70710678 -0.70710678 0 0" size="0.01"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <velocity joint="j1" kv="50" forcerange="-100 100"/>
+    <velocity joint="j2" kv="50" forcerange="-100 100"/>
+    <velocity joint="j3" kv="50" forcerange="-100 100"/>
+  </actuator>
+  <custom>
+    <text name="simx:j1" data="mode=position max_velocity=2"/>
+    <text name="simx:j2" data="mode=position max_velocity=2"/>
+    <text name="simx:j3" data="mode=position max_velocity=2"/>
+    <text name="simx:ik:arm" data="tip=tip target=target base=base constraints=5 {second}"/>
+  </custom>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("second", [True, False], ids=["two elements", "position alone"])
+def test_a_group_of_two_elements_holds_both(tmp_path, second):
+    """The second element (tip2/target2, constraints2=16) turns the last link to the target's
+    angle while the first keeps the tip on its target; without it the angle is whatever the
+    redundant arm ends at."""
+    import mujoco
+
+    angle = 0.5  # the last link's angle from vertical, about y
+    about_y = np.array([math.cos(angle / 2), 0, math.sin(angle / 2), 0])
+    quat = np.empty(4)
+    mujoco.mju_mulQuat(quat, about_y, np.array([math.sqrt(0.5), -math.sqrt(0.5), 0, 0]))
+    scene = tmp_path / "arm3.xml"
+    scene.write_text(ARM3.format(quat=" ".join(f"{v:.9f}" for v in quat),
+                                 second="tip2=tip_o target2=target_o base2=base constraints2=16" if second else ""))
+    sim = Simulation(scene, dt=0.05, realtime=False)
+    try:
+        sim.start()
+        for _ in range(80):  # 4 s
+            sim.step()
+        w = sim.world
+        assert _distance(w, "tip", "target") < 2e-3
+        link = sum(float(w.data.joint(j).qpos[0]) for j in ("j1", "j2", "j3"))
+        if second:
+            assert link == pytest.approx(angle, abs=2e-3)
+        else:
+            assert abs(link - angle) > 0.05  # the position alone leaves the angle free
+    finally:
+        sim.close()

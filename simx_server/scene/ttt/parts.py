@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
+from simx_server.sim.ik import MAX_ELEMENTS as MAX_IK_ELEMENTS
 from simx_server.sim.motors import DEFAULT_PID_P
 from simx_server.scene.ttt.model import Pose, TttObject
 
@@ -76,6 +77,8 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
         items.append(f"max_velocity={j.max_velocity:.9g}")
     if j.pid is not None and math.isfinite(j.pid[0]) and j.pid[0] > 0 and abs(j.pid[0] - DEFAULT_PID_P) > 1e-9:
         items.append(f"pid_p={j.pid[0]:.9g}")
+    if j.pid is not None and mode == "position" and any(v != 0 for v in j.pid[1:]):
+        conv.report.add("position loops' I and D terms (simx's position law is V-REP's P loop)")
     target = j.target_position
     if mode == "position" and target is not None and math.isfinite(target) and abs(target - j.position) > 1e-9:
         items.append(f"target_position={target:.9g}")
@@ -220,7 +223,8 @@ def add_loop_closures(conv) -> None:
 
 def add_ik_groups(conv) -> None:
     """Old IK groups (``IKO``): each element's tip dummy, its linked target and its base as a
-    ``simx:ik:NAME`` setting (position constraints unless orientation is constrained too)."""
+    ``simx:ik:NAME`` setting (the first: position constraints unless orientation is constrained
+    too; the others ``tipN= targetN= baseN= constraintsN=`` with V-REP's constraint bits)."""
     taken = set()
     for group in conv.scene.ik_groups:
         if not group.elements:
@@ -233,8 +237,6 @@ def add_ik_groups(conv) -> None:
         target = conv.scene.objects.get(tip.data.linked)
         if target is None:
             continue
-        if len(group.elements) > 1:
-            conv.report.add("IK group elements beyond the first")
         name = group.name
         while name in taken:
             name += "_"
@@ -244,6 +246,18 @@ def add_ik_groups(conv) -> None:
         base = conv.scene.objects.get(base_h)
         if base is not None and base.handle in conv.bodies:
             items.append(f"base={base.name}")
+        for n, (tip_h, base_h, ctr) in enumerate(group.elements[1:MAX_IK_ELEMENTS], start=2):
+            tip = conv.scene.objects.get(tip_h)
+            target = conv.scene.objects.get(tip.data.linked) if tip is not None and tip.kind == "dummy" else None
+            if target is None or not 1 <= ctr <= 31:
+                conv.report.add("IK group elements without a linked tip dummy")
+                continue
+            items += [f"tip{n}={tip.name}", f"target{n}={target.name}", f"constraints{n}={ctr}"]
+            base = conv.scene.objects.get(base_h)
+            if base is not None and base.handle in conv.bodies:
+                items.append(f"base{n}={base.name}")
+        if len(group.elements) > MAX_IK_ELEMENTS:
+            conv.report.add(f"IK group elements beyond the {MAX_IK_ELEMENTS}th")
         if group.explicit:
             items.append("explicit=true")
         conv.setting(f"ik:{name}", *items)

@@ -169,3 +169,26 @@ def test_textures_without_coordinates_are_projected_as_vrep_maps_them(tmp_path):
     assert coordinates(floor) == {(u, v) for u in (-0.5, 1.5) for v in (-0.5, 1.5)}
     # cube: each face projected along its own axis, the 0.2 m crate on one 0.2 m texture
     assert coordinates(crate) == {(u, v) for u in (0.0, 1.0) for v in (0.0, 1.0)}
+
+
+def test_old_ik_groups_keep_every_element(tmp_path):
+    body = (W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
+            + W.joint(2, 1, "J1", (0, 0, 0.15)) + W.cuboid_shape(3, 2, "L1", (0.05, 0.05, 0.3), (0, 0, 0.15), mass=0.5)
+            + W.joint(4, 3, "J2", (0, 0, 0.15)) + W.cuboid_shape(5, 4, "L2", (0.05, 0.05, 0.3), (0, 0, 0.15), mass=0.5)
+            + W.dummy(6, 5, "Tip", (0, 0, 0.15), linked=7, link_type=0) + W.dummy(7, -1, "Target", (0.1, 0, 0.5), linked=6)
+            + W.dummy(8, 5, "TipO", (0, 0, 0.0), linked=9, link_type=0) + W.dummy(9, -1, "TargetO", (0, 0, 0.5), linked=8)
+            + W.ik_group("Arm", [(6, 1, 7), (8, 1, 16)]))
+    f = tmp_path / "ik.ttt"
+    f.write_bytes(W.ttt_file(body))
+    xml, report = convert.convert(reader.read(f), tmp_path / "out", "ik")
+    assert _settings(xml)["simx:ik:Arm"] == ("tip=Tip target=Target constraints=position base=Base "
+                                             "tip2=TipO target2=TargetO constraints2=16 base2=Base")
+    assert not any("IK group" in line for line in report.lines())
+    from simx_server.scene.simulation import Simulation
+    from simx_server.sim import ik
+    sim = Simulation(xml, realtime=False)
+    try:
+        group = ik.groups(sim.world).group("Arm")
+        assert [e.constraints for e in group.elements] == [7, 16] and len(group.joints) == 2
+    finally:
+        sim.close()

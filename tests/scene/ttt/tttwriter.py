@@ -233,3 +233,9 @@ def texture_link(tid: int, mode: int = 0, scale=(1.0, 1.0), frame=(1, 0, 0, 0, 0
     3 cube), the texture's size ``scale`` (m) and its frame (qw qx qy qz x y z)."""
     return rec("Toj", lst(rec("Tob", struct.pack("<iiff", tid, mode, *scale)), rec("Trc", f32(*frame)),
                           rec("Ftc", b""), rec("Apm", i32(0))))
+
+
+def ik_group(name: str, elements, explicit: bool = False) -> bytes:
+    """An old IK group (``IKO``): ``elements`` of (tip dummy, base, V-REP's constraint bits)."""
+    items = [rec("Ike", lst(rec("Ik2", i32(tip, base)), rec("Ctr", i32(ctr)))) for tip, base, ctr in elements]
+    return rec("IKO", lst(rec("Nme", string(name)), rec("Va2", bytes([2 if explicit else 0])), *items))

@@ -1,4 +1,6 @@
-"""The solver of ``simIK`` groups (:mod:`simx_server.scripts.sim_ik`) on MuJoCo's Jacobians.
+"""The solver of ``simIK`` groups (:mod:`simx_server.scripts.sim_ik`), and of the scene's IK
+groups with several elements or partial constraints (:mod:`simx_server.sim.ik`), on MuJoCo's
+Jacobians.
 
 An IK environment keeps its own joint positions; a group's elements each pull a tip (a dummy or a
 shape) onto a target (a dummy, or an explicit pose) under constraints (CoppeliaSim's
