@@ -7,27 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import ROOT
 from simx_client.protocol import ArgumentError, RemoteError
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+import facade_fixtures
 
-SENSORS = ROOT / "tests" / "scenes" / "sensors.xml"
-
-
-@pytest.fixture
-def sim():
-    s = Simulation(SENSORS, realtime=False)
-    s.start()
-    s.step()
-    yield s
-    s.stop()
-    s.close()
-
-
-@pytest.fixture
-def api(sim):
-    return ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
+sim, api = facade_fixtures.sim, facade_fixtures.api  # the shared fixtures
 
 
 def pts(flat):

@@ -9,27 +9,12 @@ import math
 import numpy as np
 import pytest
 
-from conftest import ROOT
 from simx_client.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+import facade_fixtures
+from facade_fixtures import SENSORS
 
-SENSORS = ROOT / "tests" / "scenes" / "sensors.xml"
-
-
-@pytest.fixture
-def sim():
-    s = Simulation(SENSORS, realtime=False)
-    s.start()
-    s.step()
-    yield s
-    s.stop()
-    s.close()
-
-
-@pytest.fixture
-def api(sim):
-    return ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
+sim, api = facade_fixtures.sim, facade_fixtures.api  # the shared fixtures
 
 
 def h(api, name):

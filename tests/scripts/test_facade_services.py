@@ -10,29 +10,22 @@ import shutil
 import numpy as np
 import pytest
 
-from conftest import ROOT
 from simx_client.protocol import ArgumentError, RemoteError
-from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+import facade_fixtures
+from facade_fixtures import SENSORS, running
 
-SENSORS = ROOT / "tests" / "scenes" / "sensors.xml"
+api = facade_fixtures.api  # the shared fixture (over this module's own sim)
 
 
 @pytest.fixture
 def sim(tmp_path):
+    """The scene copied beside the test's files (the calls under test write next to it)."""
     scene = tmp_path / "sensors.xml"
     shutil.copy(SENSORS, scene)
-    s = Simulation(scene, realtime=False)
-    s.start()
-    s.step()
+    s = running(scene)
     yield s
     s.stop()
     s.close()
-
-
-@pytest.fixture
-def api(sim):
-    return ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
 
 
 def test_images_round_trip_through_files_and_buffers(api, tmp_path):
