@@ -37,6 +37,30 @@ def _image(image: Any, resolution: Any, channels: int = 3) -> np.ndarray:
     return np.frombuffer(raw, np.uint8).reshape(h, w, channels)
 
 
+#: Most configurations getAlternateConfigs answers (whole turns multiply them joint by joint).
+MAX_ALTERNATE_CONFIGS = 10_000
+
+
+def alternate_configs(m: mujoco.MjModel, joints: list, config: list[float], lowLimits: Any = None,  # noqa: N803
+                      ranges: Any = None) -> list[float]:
+    """``config`` (one position per joint of ``joints``, scene objects) and the configurations
+    equal to it up to whole turns of its revolute joints within their ranges (or ``lowLimits`` /
+    ``ranges``), flat, configuration after configuration, at most MAX_ALTERNATE_CONFIGS of them
+    (``sim.getAlternateConfigs``, ``simIK.getAlternateConfigs``)."""
+    choices = []
+    for i, (obj, q) in enumerate(zip(joints, config)):
+        lo, hi = (m.jnt_range[obj.mj_id] if m.jnt_limited[obj.mj_id] else (-np.inf, np.inf))
+        if lowLimits is not None and ranges is not None:
+            lo, hi = _num(lowLimits[i], "lowLimits[i]"), _num(lowLimits[i], "lowLimits[i]") + _num(ranges[i], "ranges[i]")
+        if int(m.jnt_type[obj.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE and np.isfinite(lo) and np.isfinite(hi):
+            ks = range(int(np.ceil((lo - q) / (2 * np.pi))), int(np.floor((hi - q) / (2 * np.pi))) + 1)
+            choices.append([q + 2 * np.pi * k for k in ks] or [q])
+        else:
+            choices.append([q])
+    combos = itertools.islice(itertools.product(*choices), MAX_ALTERNATE_CONFIGS)
+    return [float(v) for combo in combos for v in combo]
+
+
 class MiscCalls:
     """Image utilities, referenced handles, alternate configurations, saving (facade mixin)."""
 
@@ -148,18 +172,7 @@ class MiscCalls:
         config = [_num(v, "inputConfig[i]") for v in inputConfig]
         if len(config) != len(joints):
             raise ArgumentError("inputConfig must have one value per joint")
-        choices = []
-        for i, (obj, q) in enumerate(zip(joints, config)):
-            lo, hi = (m.jnt_range[obj.mj_id] if m.jnt_limited[obj.mj_id] else (-np.inf, np.inf))
-            if lowLimits is not None and ranges is not None:
-                lo, hi = _num(lowLimits[i], "lowLimits[i]"), _num(lowLimits[i], "lowLimits[i]") + _num(ranges[i], "ranges[i]")
-            if int(m.jnt_type[obj.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE and np.isfinite(lo) and np.isfinite(hi):
-                ks = range(int(np.ceil((lo - q) / (2 * np.pi))), int(np.floor((hi - q) / (2 * np.pi))) + 1)
-                choices.append([q + 2 * np.pi * k for k in ks] or [q])
-            else:
-                choices.append([q])
-        combos = list(itertools.islice(itertools.product(*choices), 10_000))
-        return [float(v) for combo in combos for v in combo]
+        return alternate_configs(m, joints, config, lowLimits, ranges)
 
     # --------------------------------------------------------------- saving
     def _target_file(self, filename: Any) -> Path:

@@ -4,7 +4,6 @@ the SimIK)."""
 
 from __future__ import annotations
 
-import itertools
 import time
 from typing import Any
 
@@ -12,6 +11,7 @@ import mujoco
 import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.scripts.facade_misc import alternate_configs
 from simx_server.sim import ik_solver as S
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
 from simx_server.sim import ik as scene_ik
@@ -235,22 +235,12 @@ def generatePath(self, environmentHandle: Any, ikGroupHandle: Any, jointHandles:
 def getAlternateConfigs(self, environmentHandle: Any, jointHandles: Any, lowLimits: Any = None,  # noqa: N802, N803
                         ranges: Any = None) -> list[float]:
     """The environment's configuration and those equal to it up to whole turns of its hinges
-    within their ranges (or ``lowLimits``/``ranges``), flat (configuration after configuration)."""
+    within their ranges (or ``lowLimits``/``ranges``), flat (configuration after configuration),
+    at most facade_misc.MAX_ALTERNATE_CONFIGS."""
     env = self._env(environmentHandle)
     joints = [self._world.get(_int(j, "jointHandles[i]"), JOINT) for j in jointHandles]
-    m = self._world.model
-    choices = []
-    for i, obj in enumerate(joints):
-        q = self._q(env, obj.handle)
-        lo, hi = m.jnt_range[obj.mj_id] if m.jnt_limited[obj.mj_id] else (-np.inf, np.inf)
-        if lowLimits is not None and ranges is not None:
-            lo, hi = _num(lowLimits[i], "lowLimits[i]"), _num(lowLimits[i], "lowLimits[i]") + _num(ranges[i], "ranges[i]")
-        if int(m.jnt_type[obj.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE and np.isfinite(lo) and np.isfinite(hi):
-            ks = range(int(np.ceil((lo - q) / (2 * np.pi))), int(np.floor((hi - q) / (2 * np.pi))) + 1)
-            choices.append([q + 2 * np.pi * k for k in ks] or [q])
-        else:
-            choices.append([q])
-    return [float(v) for combo in itertools.product(*choices) for v in combo]
+    config = [self._q(env, obj.handle) for obj in joints]
+    return alternate_configs(self._world.model, joints, config, lowLimits, ranges)
 
 
 def computeGroupJacobian(self, environmentHandle: Any, ikGroupHandle: Any) -> tuple[list[float], list[float]]:  # noqa: N802, N803

@@ -109,3 +109,19 @@ def test_joint_weights_and_margins_shape_the_solution(rig):
     assert ik.getJointLimitMargin(env, joints[1]) == 0.1 and ik.getJointScrewLead(env, joints[1]) == 0.0
     position, quat, euler = ik.getObjectTransformation(env, sim.getObject("/UR5_tip"))
     assert position == pytest.approx(ik.getObjectPose(env, sim.getObject("/UR5_tip"))[:3])
+
+
+def test_alternate_configs_of_the_environment_match_the_scenes(rig):
+    """simIK.getAlternateConfigs answers sim.getAlternateConfigs' configurations (whole turns of
+    hinges within their ranges) for the environment's joint positions."""
+    _, sim, ik = rig
+    env, g, _ = _group(sim, ik)
+    joints = ik.getGroupJoints(env, g)[:2]
+    ik.setJointPosition(env, joints[0], 0.5)
+    ik.setJointPosition(env, joints[1], -0.25)
+    low, ranges = [-7.0, -1.0], [14.0, 2.0]  # the first turns twice more each way, the second not
+    flat = ik.getAlternateConfigs(env, joints, low, ranges)
+    assert flat == sim.getAlternateConfigs(joints, [0.5, -0.25], -1, low, ranges)
+    configs = [tuple(flat[i:i + 2]) for i in range(0, len(flat), 2)]
+    assert sorted(round(a, 6) for a, _ in configs) == [round(0.5 + 2 * 3.141592653589793 * k, 6) for k in (-1, 0, 1)]
+    assert {round(b, 9) for _, b in configs} == {-0.25}
