@@ -23,6 +23,15 @@ def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "object"
 
 
+def _unique(stem: str, used: set[str]) -> str:
+    """``stem``, with underscores added until no file of this conversion has it (two objects'
+    names can be the same once made safe for a file name); recorded in ``used``."""
+    while stem in used:
+        stem += "_"
+    used.add(stem)
+    return stem
+
+
 def write_scripts(conv) -> None:
     """Write each child/customization script of ``conv.scene`` into ``conv.out`` and record its
     settings; a main script that is not V-REP's default and disabled scripts are reported."""
@@ -45,10 +54,7 @@ def write_scripts(conv) -> None:
             continue
         kind = "child" if script.type == CHILD else "customization"
         ext = "py" if script.language.lower().startswith("py") else "lua"
-        stem = f"{_safe(obj.name)}_{kind}"
-        while stem in used:
-            stem += "_"
-        used.add(stem)
+        stem = _unique(f"{_safe(obj.name)}_{kind}", used)
         file = f"{stem}.{ext}"
         if conv.out is not None:
             (conv.out / file).write_text(script.text.replace("\r\n", "\n"), encoding="utf-8")
@@ -73,10 +79,7 @@ def write_custom_data(conv) -> None:
     for obj in conv.scene.objects.values():
         if not obj.custom_data:
             continue
-        stem = f"{_safe(obj.name)}_custom_data"
-        while stem in used:
-            stem += "_"
-        used.add(stem)
+        stem = _unique(f"{_safe(obj.name)}_custom_data", used)
         file = f"{stem}.json"
         if conv.out is not None:
             blocks = {tag: base64.b64encode(data).decode("ascii") for tag, data in obj.custom_data.items()}
