@@ -4,6 +4,7 @@ built, queued replies and connections per connection, the fair share per connect
 
 from __future__ import annotations
 
+import threading
 import time
 from pathlib import Path
 
@@ -260,6 +261,10 @@ def test_connections_beyond_the_cap_are_refused_and_descriptors_stay(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(tmp_path / "scene.xml"), "--stopped",
                              "--port", str(free_port()), "--zmq-port", str(port)], preexec_fn=low_limit,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    refused = "connections already (limits.MAX_ZMQ_CONNECTIONS, at most 128 here"
+    log: list[str] = []
+    reader = threading.Thread(target=lambda: log.extend(proc.stderr), daemon=True)  # the server's log, as it comes
+    reader.start()
     ctx = zmq.Context()
     try:
         assert ready_line(proc, 60) is not None
@@ -270,7 +275,11 @@ def test_connections_beyond_the_cap_are_refused_and_descriptors_stay(tmp_path):
             s.setsockopt(zmq.RCVTIMEO, 3000)
             s.connect(f"tcp://127.0.0.1:{port}")
             socks.append(s)
-        time.sleep(1.0)
+        # the server has taken all the connections it serves once it refuses one
+        deadline = time.monotonic() + 30
+        while not any(refused in line for line in log) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert any(refused in line for line in log), "".join(log)[-3000:]
         open_fds = len(list(Path(f"/proc/{proc.pid}/fd").iterdir()))
         assert open_fds < 256 - 32, open_fds  # room left for Zenoh's clients, the scene, the log
         for s in socks:
@@ -281,9 +290,9 @@ def test_connections_beyond_the_cap_are_refused_and_descriptors_stay(tmp_path):
     finally:
         ctx.destroy(0)
         proc.terminate()
-        _, err = proc.communicate(timeout=20)
-    assert "connections already (limits.MAX_ZMQ_CONNECTIONS, at most 128 here" in err, err[-3000:]
-    assert "Traceback" not in err
+        proc.wait(timeout=20)
+        reader.join(5)
+    assert "Traceback" not in "".join(log)
 
 
 def test_the_open_files_limit_is_raised_at_start(zmq_server):
