@@ -171,6 +171,27 @@ def namespace_pids(ns: str) -> list[int]:
     return [int(p) for p in out.stdout.split()] if out.returncode == 0 else []
 
 
+@pytest.fixture
+def official():
+    """``official(port)``: a client of CoppeliaSim's official ZMQ client on ``port``, its socket
+    and context closed when the test ends. A dropped client sits in a reference cycle with its
+    socket and context; the garbage collector then finalizes the context first, and pyzmq's
+    ``Context.__del__`` blocks in ``zmq_ctx_term`` on the still-open socket (a test worker hung
+    so, in whatever test ran the collection)."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    made = []
+
+    def make(port: int):
+        made.append(RemoteAPIClient("127.0.0.1", port))
+        return made[-1]
+
+    yield make
+    for client in made:
+        client.socket.close(0)
+        client.context.term()
+
+
 def free_port() -> int:
     """A TCP port nothing listens on now (loopback)."""
     with socket.socket() as s:

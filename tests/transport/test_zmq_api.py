@@ -27,17 +27,12 @@ def zmq_server():
 
 
 @pytest.fixture
-def sim(zmq_server):
+def sim(zmq_server, official):
     """The ``sim`` of a fresh client; the simulation stopped and no client stepped afterwards."""
-    client = RemoteAPIClient("127.0.0.1", zmq_server.zmq_port)
-    sim = client.require("sim")
+    sim = official(zmq_server.zmq_port).require("sim")
     yield sim
     sim.stopSimulation()  # also ends every ZMQ client's stepping mode, as CoppeliaSim's server does
     sim.setStepping(False)
-
-
-def new_sim(port: int):
-    return RemoteAPIClient("127.0.0.1", port).require("sim")
 
 
 def test_info_lists_facade_calls_constants_and_coppeliasim_names(sim):
@@ -84,9 +79,9 @@ def test_a_4x_program_first_calls(sim):
         sim.quitSimulator()
 
 
-def test_wait_for_signal_set_by_another_client(sim, zmq_server):
+def test_wait_for_signal_set_by_another_client(sim, zmq_server, official):
     sim.startSimulation()
-    setter = threading.Timer(0.3, lambda: new_sim(zmq_server.zmq_port).setInt32Signal("go", 7))
+    setter = threading.Timer(0.3, lambda: official(zmq_server.zmq_port).require("sim").setInt32Signal("go", 7))
     setter.start()
     try:
         assert sim.waitForSignal("go") == 7  # the call lasts steps until the other client sets it
@@ -123,9 +118,9 @@ def test_stepping_one_client(sim):
     assert sim.getBoolParam(sim.boolparam_waiting_for_trigger) is True
 
 
-def test_stepping_waits_for_every_stepped_client(sim, zmq_server):
-    other = new_sim(zmq_server.zmq_port)
-    watcher = new_sim(zmq_server.zmq_port)  # not stepped: it only looks
+def test_stepping_waits_for_every_stepped_client(sim, zmq_server, official):
+    other = official(zmq_server.zmq_port).require("sim")
+    watcher = official(zmq_server.zmq_port).require("sim")  # not stepped: it only looks
     sim.setStepping(True)
     other.setStepping(True)
     sim.startSimulation()
@@ -144,9 +139,9 @@ def test_stepping_waits_for_every_stepped_client(sim, zmq_server):
     other.setStepping(False)
 
 
-def test_a_lock_holds_the_simulation(sim, zmq_server):
+def test_a_lock_holds_the_simulation(sim, zmq_server, official):
     sim.startSimulation()  # asynchronous: it runs on its own
-    watcher = new_sim(zmq_server.zmq_port)
+    watcher = official(zmq_server.zmq_port).require("sim")
     t = watcher.getSimulationTime()
     wait_until(lambda: watcher.getSimulationTime() > t, what="the simulation running")
     sim.acquireLock()
@@ -238,12 +233,12 @@ def test_wait_and_motions_last_several_steps(sim):
     assert sim.setStepping(False) == 0  # the motion's own stepping is over
 
 
-def test_simik_maps_onto_the_scenes_ik_groups():
+def test_simik_maps_onto_the_scenes_ik_groups(official):
     port = free_port()
     ik_scene = Path(__file__).resolve().parents[2] / "scenes" / "ur5_ik.xml"
     srv = ServerProcess(str(ik_scene), "--stopped", "--zmq-port", str(port))
     try:
-        client = RemoteAPIClient("127.0.0.1", port)
+        client = official(port)
         sim, simIK = client.require("sim"), client.require("simIK")  # noqa: N806 (CoppeliaSim's name)
         env = simIK.createEnvironment()
         group = simIK.getGroupHandle(env, "UR5")

@@ -29,8 +29,8 @@ def zmq_server():
 
 
 @pytest.fixture
-def sim(zmq_server):
-    sim = RemoteAPIClient("127.0.0.1", zmq_server.zmq_port).require("sim")
+def sim(zmq_server, official):
+    sim = official(zmq_server.zmq_port).require("sim")
     yield sim
     sim.stopSimulation()
     sim.setStepping(False)
@@ -81,7 +81,7 @@ def test_move_to_pose_positional_with_callback_and_metric(sim):
     assert all(b >= a - 1e-12 for a, b in zip(xs, xs[1:]))  # along the straight line, monotonic
 
 
-def test_callback_error_ends_the_call_and_leaves_the_server_clean(sim, zmq_server):
+def test_callback_error_ends_the_call_and_leaves_the_server_clean(sim, zmq_server, official):
     joint = sim.getObject("/ArmJoint")
 
     def broken(config, vel, accel, aux):
@@ -97,7 +97,7 @@ def test_callback_error_ends_the_call_and_leaves_the_server_clean(sim, zmq_serve
     )
     assert out[0] == pytest.approx([0.3]) and moved[-1] == pytest.approx(0.3)
     assert sim.setStepping(False) == 0  # neither motion left its stepping behind
-    other = RemoteAPIClient("127.0.0.1", zmq_server.zmq_port).require("sim")
+    other = official(zmq_server.zmq_port).require("sim")
     t = other.getSimulationTime()
     wait_until(lambda: other.getSimulationTime() > t, 5, what="the simulation runs on its own again")
 
