@@ -65,6 +65,9 @@ class ViewerFeed:
         self._enqueue = enqueue
         self._waiting = 0  # model queries queued for the simulation thread
         self._count = threading.Lock()  # Zenoh's threads add to _waiting, the simulation thread takes
+        # a change of watchers (Zenoh's thread) waits for a put under way (the simulation thread),
+        # so that no state is put once "no viewer is watching" was seen
+        self._watchers = threading.RLock()
         self._tokens = float(limits.MAX_VIEWER_QUERIES)  # answers allowed now (token bucket)
         self._refilled = time.monotonic()
         self._publisher: zenoh.Publisher | None = None
@@ -88,11 +91,12 @@ class ViewerFeed:
     # ------------------------------------------------------------- Zenoh's threads
     def _on_matching(self, status: zenoh.MatchingStatus) -> None:
         watched = bool(status.matching)
-        if watched != self.watched:
-            self._last = None  # the first state after a change of watchers is always put
-            self.watched = watched
-            log.info("viewer feed: %s (%d states published so far)",
-                     "a viewer is watching" if watched else "no viewer is watching", self.published)
+        with self._watchers:
+            if watched != self.watched:
+                self._last = None  # the first state after a change of watchers is always put
+                self.watched = watched
+                log.info("viewer feed: %s (%d states published so far)",
+                         "a viewer is watching" if watched else "no viewer is watching", self.published)
 
     def _on_query(self, query: zenoh.Query) -> None:
         with self._count:
@@ -139,14 +143,15 @@ class ViewerFeed:
         self._send(("viewer", id(query)), lambda: answer(query, reply))
 
     def publish(self, world: Any) -> None:
-        """Put the current state when it differs from the last one put (call only when
-        :attr:`watched`)."""
+        """Put the current state when it differs from the last one put, while a viewer watches
+        (checked by the caller to spare the state's cost, and again here, with the watchers)."""
         try:
             payload = self._state(world, self._current(world))
-            if payload != self._last:
-                self._publisher.put(payload)
-                self._last = payload
-                self.published += 1
+            with self._watchers:
+                if self.watched and payload != self._last:
+                    self._publisher.put(payload)
+                    self._last = payload
+                    self.published += 1
         except Exception:  # a viewer must never stop the simulation
             log.exception("publishing the viewer state")
 
