@@ -98,6 +98,9 @@ local function executePts(data)
 end
 
 function sysCall_thread()
+    -- the thread yields where it says (sim.switchThread, a motion's steps) only: a point's
+    -- targets are set together, never split by an automatic switch on a busy machine
+    sim.setThreadAutomaticSwitch(false)
     sim.setStringSignal(signalName, 'ready')
     while true do
         if #queue > 0 then
