@@ -180,3 +180,43 @@ def test_the_front_doors_do_not_import_each_other():
              if (a.startswith("simx_server.zmq") and b.startswith("simx_server.legacy"))
              or (a.startswith("simx_server.legacy") and b.startswith("simx_server.zmq"))]
     assert not found, "a front door imports the other:\n" + "\n".join(found)
+
+
+def registry_imports(package: str) -> list[str]:
+    """``file:line -> name`` for each import of the legacy command registry in ``package``'s
+    files: ``simx_server.commands`` itself (its ``HANDLERS`` table, by command name) or a
+    ``HANDLERS`` name from anywhere. Functions of ``simx_server.commands.<module>`` imported by
+    their own names are no registry."""
+    found = []
+    for f in sorted((REPO / package).rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names if a.name == "simx_server.commands"]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [f"{node.module}.{a.name}" for a in node.names
+                         if node.module == "simx_server.commands" or a.name == "HANDLERS"]
+            else:
+                continue
+            found += [f"{f.relative_to(REPO)}:{node.lineno} -> {n}" for n in names]
+    return found
+
+
+def test_the_zmq_door_calls_no_legacy_handler_by_name():
+    """The ZMQ front door calls what it shares with the legacy one (parameters, passive images
+    ...) by the function's own name, in the layer that owns it, never a legacy command's handler
+    looked up in ``HANDLERS``."""
+    found = registry_imports("simx_server/zmq")
+    assert not found, "simx_server/zmq imports the legacy command registry:\n" + "\n".join(found)
+
+
+def test_the_registry_check_sees_a_violation(tmp_path, monkeypatch):
+    monkeypatch.setattr(sys.modules[__name__], "REPO", tmp_path)
+    door = tmp_path / "simx_server" / "zmq"
+    door.mkdir(parents=True)
+    (door / "a.py").write_text("from simx_server.commands.sensors import image_pixels\n"
+                               "def f():\n    from simx_server.commands import HANDLERS\n")
+    (door / "b.py").write_text("import simx_server.commands\nfrom simx_server.legacy.x import HANDLERS\n")
+    assert registry_imports("simx_server/zmq") == [
+        "simx_server/zmq/a.py:3 -> simx_server.commands.HANDLERS",
+        "simx_server/zmq/b.py:1 -> simx_server.commands",
+        "simx_server/zmq/b.py:2 -> simx_server.legacy.x.HANDLERS"]

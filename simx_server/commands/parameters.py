@@ -1,161 +1,72 @@
 """Parameter commands: the simulator's integer, floating, boolean, string and array parameters
 (``simxGetIntegerParameter``, ...) and objects' parameters (``simxGetObjectFloatParameter``, ...).
 Every handler is ``(simulation, args) -> result``; an id without a MuJoCo meaning is a remote error
-that names it. The object parameters themselves are :mod:`simx_server.sim.object_params`."""
+that names it. The simulator's parameters themselves are :mod:`simx_server.scene.parameters`
+(which the ZMQ ``sim`` calls too), objects' :mod:`simx_server.sim.object_params`."""
 
 from __future__ import annotations
 
-import os
-import random
-import sys
-from pathlib import Path
 from typing import Any, Callable
 
-from simx_wire import constants as C
-from simx_wire.protocol import RemoteError, UnsupportedError
 from simx_server.base.arguments import check_args as _args
 from simx_server.commands.handler import Handler
+from simx_server.scene import parameters
 from simx_server.scene.simulation import Simulation
-from simx_server.sim import physics
 from simx_server.sim.object_params import get_float_param, get_int_param, set_float_param, set_int_param
-from simx_server.sim.state import RunState
-
-# Parameters: what has a MuJoCo meaning (ids from vrepConst.py).
-INTPARAM_DYNAMIC_STEP_DIVIDER, INTPARAM_PLATFORM, INTPARAM_CORE_COUNT, INTPARAM_STOP_REQUEST_COUNTER = 7, 19, 24, 29
-
-
-INTPARAM_MOUSE_X, INTPARAM_MOUSE_Y, INTPARAM_MOUSE_BUTTONS = 22, 23, 31
-
-
-#: The mouse of a headless server: it never moves from the top-left corner of a window nobody
-#: sees (x = y = 0 pixels) and no button is ever pressed (bit mask 0). V-REP without a window
-#: answered an error; CoppeliaSim's simpleTest.py streams mouse_x, so simx answers this fixed
-#: point instead, the same every time (no made-up motion).
-HEADLESS_MOUSE = {INTPARAM_MOUSE_X: 0, INTPARAM_MOUSE_Y: 0, INTPARAM_MOUSE_BUTTONS: 0}
-
-
-_READ_ONLY_INTPARAMS = (INTPARAM_DYNAMIC_STEP_DIVIDER, INTPARAM_PLATFORM, INTPARAM_CORE_COUNT,
-                        INTPARAM_STOP_REQUEST_COUNTER, *HEADLESS_MOUSE)
-
-
-FLOATPARAM_RAND, FLOATPARAM_SIMULATION_TIME_STEP = 0, 1
-
-
-BOOLPARAM_DYNAMICS_HANDLING, BOOLPARAM_DISPLAY_ENABLED, BOOLPARAM_REALTIME = 6, 16, 25
-
-
-BOOLPARAM_HEADLESS, BOOLPARAM_WAITING_FOR_TRIGGER = 34, 45
-
-
-STRINGPARAM_APPLICATION_PATH, STRINGPARAM_SCENE_PATH_AND_NAME = 0, 13
-
-
-ARRAYPARAM_GRAVITY = 0
-
-
-def _param(kind: str, pid: int) -> str:
-    """How messages name a global parameter: ``boolean parameter sim_boolparam_fog_enabled (19)``."""
-    return f"{kind} parameter {C.describe(pid, C.GLOBAL_PARAM_PREFIXES[kind])}"
-
-
-def _unsupported_param(kind: str, pid: int) -> UnsupportedError:
-    return UnsupportedError(f"{_param(kind, pid)} has no meaning in simx (see docs/API.md for the supported ids)")
 
 
 def get_integer_parameter(sim: Simulation, args: list) -> int:
-    """``simxGetIntegerParameter`` [id] -> int: 7 dynamics step divider (MuJoCo substeps per
-    step), 19 platform (0 Windows, 1 macOS, 2 Linux), 24 core count, 29 stop request counter,
-    22/23 mouse x/y and 31 mouse buttons (always 0: see HEADLESS_MOUSE). Other ids ->
-    UnsupportedError."""
+    """``simxGetIntegerParameter`` [id] -> int (:func:`simx_server.scene.parameters.get_integer`)."""
     (pid,) = _args(args, "int")
-    if pid in HEADLESS_MOUSE:
-        return HEADLESS_MOUSE[pid]
-    values = {
-        INTPARAM_DYNAMIC_STEP_DIVIDER: lambda: sim.world.substeps,
-        INTPARAM_PLATFORM: lambda: 0 if sys.platform.startswith("win") else 1 if sys.platform == "darwin" else 2,
-        INTPARAM_CORE_COUNT: lambda: os.cpu_count() or 1,
-        INTPARAM_STOP_REQUEST_COUNTER: lambda: sim.stop_requests,
-    }
-    if pid not in values:
-        raise _unsupported_param("integer", pid)
-    return int(values[pid]())
+    return parameters.get_integer(sim, pid)
 
 
 def set_integer_parameter(sim: Simulation, args: list) -> None:
-    pid, _value = _args(args, "int", "int")
-    if pid in HEADLESS_MOUSE:
-        raise RemoteError(f"{_param('integer', pid)} (the mouse) is read-only: a headless server's mouse "
-                          "stays at (0, 0) with no button pressed")
-    if pid in _READ_ONLY_INTPARAMS:
-        raise RemoteError(f"{_param('integer', pid)} is read-only")
-    raise _unsupported_param("integer", pid)
+    """``simxSetIntegerParameter`` [id, value] (:func:`simx_server.scene.parameters.set_integer`)."""
+    pid, value = _args(args, "int", "int")
+    parameters.set_integer(sim, pid, value)
 
 
 def get_floating_parameter(sim: Simulation, args: list) -> float:
+    """``simxGetFloatingParameter`` [id] -> float (:func:`simx_server.scene.parameters.get_floating`)."""
     (pid,) = _args(args, "int")
-    if pid == FLOATPARAM_SIMULATION_TIME_STEP:
-        return sim.world.dt
-    if pid == FLOATPARAM_RAND:
-        return random.random()
-    raise _unsupported_param("float", pid)
+    return parameters.get_floating(sim, pid)
 
 
 def set_floating_parameter(sim: Simulation, args: list) -> None:
-    """``simxSetFloatingParameter`` [id, value]: 1 (time step, s) only, while stopped;
-    0 < dt <= limits.MAX_DT and at most limits.MAX_SUBSTEPS substeps, else ArgumentError."""
+    """``simxSetFloatingParameter`` [id, value] (:func:`simx_server.scene.parameters.set_floating`)."""
     pid, value = _args(args, "int", "float")
-    if pid != FLOATPARAM_SIMULATION_TIME_STEP:
-        raise _unsupported_param("float", pid)
-    if sim.state is not RunState.STOPPED:
-        raise RemoteError("the simulation time step can only change while the simulation is stopped")
-    sim.world.set_dt(value)
+    parameters.set_floating(sim, pid, value)
 
 
 def get_boolean_parameter(sim: Simulation, args: list) -> bool:
+    """``simxGetBooleanParameter`` [id] -> bool (:func:`simx_server.scene.parameters.get_boolean`)."""
     (pid,) = _args(args, "int")
-    values = {
-        BOOLPARAM_DYNAMICS_HANDLING: True,
-        BOOLPARAM_DISPLAY_ENABLED: False,
-        BOOLPARAM_HEADLESS: True,
-        BOOLPARAM_REALTIME: sim.realtime,
-        BOOLPARAM_WAITING_FOR_TRIGGER: sim.synchronous and sim.state is RunState.RUNNING,
-    }
-    if pid not in values:
-        raise _unsupported_param("boolean", pid)
-    return values[pid]
+    return parameters.get_boolean(sim, pid)
 
 
 def set_boolean_parameter(sim: Simulation, args: list) -> None:
+    """``simxSetBooleanParameter`` [id, value] (:func:`simx_server.scene.parameters.set_boolean`)."""
     pid, value = _args(args, "int", "any")
-    if pid != BOOLPARAM_REALTIME:
-        raise _unsupported_param("boolean", pid)
-    sim.realtime = bool(value)
+    parameters.set_boolean(sim, pid, value)
 
 
 def get_string_parameter(sim: Simulation, args: list) -> str:
+    """``simxGetStringParameter`` [id] -> str (:func:`simx_server.scene.parameters.get_string`)."""
     (pid,) = _args(args, "int")
-    if pid == STRINGPARAM_APPLICATION_PATH:
-        return str(Path(__file__).resolve().parent)
-    if pid == STRINGPARAM_SCENE_PATH_AND_NAME:
-        return sim.editor.public(sim.world.scene_path)  # never the transfer folder's path
-    raise _unsupported_param("string", pid)
+    return parameters.get_string(sim, pid)
 
 
 def get_array_parameter(sim: Simulation, args: list) -> list[float]:
+    """``simxGetArrayParameter`` [id] -> 3 floats (:func:`simx_server.scene.parameters.get_array`)."""
     (pid,) = _args(args, "int")
-    if pid != ARRAYPARAM_GRAVITY:
-        raise _unsupported_param("array", pid)
-    return sim.world.model.opt.gravity.tolist()
+    return parameters.get_array(sim, pid)
 
 
 def set_array_parameter(sim: Simulation, args: list) -> None:
-    """``simxSetArrayParameter`` [id, 3 floats]: 0 (gravity, m/s²) only; a magnitude above
-    limits.MAX_GRAVITY, NaN or infinity -> ArgumentError."""
+    """``simxSetArrayParameter`` [id, 3 floats] (:func:`simx_server.scene.parameters.set_array`)."""
     pid, values = _args(args, "int", "any")
-    if pid != ARRAYPARAM_GRAVITY:
-        raise _unsupported_param("array", pid)
-    sim.world.model.opt.gravity[:] = physics.check_gravity(values)
-
+    parameters.set_array(sim, pid, values)
 
 
 def get_object_float_parameter(sim: Simulation, args: list) -> float:
@@ -233,8 +144,6 @@ PARAM_IDENTITY_ARITY: dict[str, int] = {
     "GetObjectIntParameter": 2,
     "SetObjectIntParameter": 2,
 }
-
-
 
 
 #: Command name -> handler: the simulator's parameters.

@@ -9,12 +9,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.base.arguments import as_bytes, check_args as _args
 from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import sensors
-from simx_server.sim.sensors import force_sensor_reading, proximity_reading, stamp, vision_packet_job
+from simx_server.sim.sensors import force_sensor_reading, proximity_reading, set_passive_image, stamp, vision_packet_job
 from simx_server.sim.vision import Deferred
 from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR
 
@@ -69,25 +68,7 @@ def set_vision_sensor_image(sim: Simulation, args: list) -> None:
     any other length -> ArgumentError. simxGetVisionSensorImage returns it from then on.
     """
     h, image, options = _args(args, "int", "any", "int")
-    obj = sim.world.get(h, VISION_SENSOR)
-    if obj.settings.get("image") != "external":
-        raise ObjectTypeError(f"vision sensor {obj.name!r} is not passive: only sensors declared with "
-                              f"<text name=\"simx:{obj.name}\" data=\"image=external\"/> accept images")
-    spec = sim.vision.spec(h)
-    grey = bool(options & 1)
-    data = as_bytes(image, "image", byte_values=True)
-    need = spec.image_size(grey)
-    if len(data) != need:
-        raise ArgumentError(f"image has {len(data)} bytes; vision sensor {obj.name!r} is "
-                            f"{spec.width}x{spec.height}, so it needs {need} "
-                            f"({'grey, options bit 0 set' if grey else 'RGB, options bit 0 clear'})")
-    img = np.frombuffer(data, dtype=np.uint8)
-    if grey:
-        rgb = np.repeat(img.reshape(spec.height, spec.width, 1), 3, axis=2)
-    else:
-        rgb = img.reshape(spec.height, spec.width, 3).copy()
-    sim.sensors.passive.set(h, rgb)
-    sim.world.version += 1
+    set_passive_image(sim, h, as_bytes(image, "image", byte_values=True), bool(options & 1))
 
 
 def read_proximity_sensor(sim: Simulation, args: list) -> list:

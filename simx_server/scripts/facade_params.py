@@ -3,8 +3,9 @@ ZMQ clients alike (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
 
 Parameter ids are CoppeliaSim's (``sim.intparam_program_version`` ...). Each id with a meaning
 on a headless MuJoCo server answers it; the rest raise UnsupportedError naming the id (a ZMQ
-client's :class:`~simx_server.zmq.remote_sim.RemoteSim` first tries the legacy API's handlers,
-which know the mouse and the stop counter, through :meth:`ParamCalls._legacy_param`).
+client's :class:`~simx_server.zmq.remote_sim.RemoteSim` first tries the legacy API's parameters,
+which know the mouse and the stop counter, :mod:`simx_server.scene.parameters`, through
+:meth:`ParamCalls._legacy_param`).
 
 ``sim.intparam_program_version`` answers **40800**, CoppeliaSim 4.8.0 (major·10000 + minor·100
 + patch): the release whose API simx's ZMQ table and facade follow (docs/ZMQ.md), so a program

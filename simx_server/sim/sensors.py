@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import mujoco
 import numpy as np
 
-from simx_wire.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import FORCE_SENSOR, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, World
 
@@ -104,6 +104,41 @@ def override_image(sim: SimulationView, handle: int, grey: bool) -> np.ndarray |
     if grey:
         return (rgb.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)
     return rgb
+
+
+def set_passive_image(sim: SimulationView, handle: int, image: bytes, grey: bool) -> None:
+    """Write the image of a passive vision sensor (``simxSetVisionSensorImage``,
+    ``sim.setVisionSensorImg``); the sensor's image reads return it from then on.
+
+    Args:
+        sim: the simulation.
+        handle: a vision sensor declared ``image=external`` in its ``simx:NAME`` custom text.
+        image: rows bottom-up, width*height*3 RGB bytes, or width*height grey bytes when ``grey``
+            (stored with R = G = B).
+        grey: whether ``image`` is grey (the legacy ``options`` bit 0).
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a vision sensor, or one that is not passive.
+        ArgumentError: ``image`` is not the sensor's whole resolution in that format.
+    """
+    obj = sim.world.get(handle, VISION_SENSOR)
+    if obj.settings.get("image") != "external":
+        raise ObjectTypeError(f"vision sensor {obj.name!r} is not passive: only sensors declared with "
+                              f"<text name=\"simx:{obj.name}\" data=\"image=external\"/> accept images")
+    spec = sim.vision.spec(handle)
+    need = spec.image_size(grey)
+    if len(image) != need:
+        raise ArgumentError(f"image has {len(image)} bytes; vision sensor {obj.name!r} is "
+                            f"{spec.width}x{spec.height}, so it needs {need} "
+                            f"({'grey, options bit 0 set' if grey else 'RGB, options bit 0 clear'})")
+    img = np.frombuffer(image, dtype=np.uint8)
+    if grey:
+        rgb = np.repeat(img.reshape(spec.height, spec.width, 1), 3, axis=2)
+    else:
+        rgb = img.reshape(spec.height, spec.width, 3).copy()
+    sim.sensors.passive.set(handle, rgb)
+    sim.world.version += 1
 
 
 def _shape_of_body(world: World) -> dict[int, int]:

@@ -24,7 +24,7 @@ from typing import Any
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
 from simx_server.base.arguments import quote
-from simx_server.commands import HANDLERS
+from simx_server.scene import parameters
 from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts.facade import ScriptSim
@@ -32,6 +32,7 @@ from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int
 from simx_server.base.arguments import as_text as _text, as_vector as _vector
 from simx_server.scripts.facade_core import Signals
 from simx_server.sim import paths
+from simx_server.sim.sensors import set_passive_image
 from simx_server.sim.objects import WORLD
 from simx_server.sim.state import RunState
 from simx_server.zmq import names
@@ -95,10 +96,6 @@ class RemoteSim(MotionCalls, ScriptSim):
     def _path_base(self) -> int | None:
         return None  # a remote program is unassociated code: no object for "." and ":"
 
-    def _handler(self, command: str, *args: Any) -> Any:
-        """A legacy command's handler, for a call that means the same."""
-        return HANDLERS[command](self._simulation_, list(args))
-
     # ---------------------------------------------------------------- simulation
     def startSimulation(self) -> int:  # noqa: N802 (CoppeliaSim's names)
         """Start (or resume) the simulation; 1, or 0 when it already runs (CoppeliaSim's result)."""
@@ -124,13 +121,18 @@ class RemoteSim(MotionCalls, ScriptSim):
         return time.time()
 
     # ---------------------------------------------------------------- parameters
-    _LEGACY_PARAMS = {"integer": "IntegerParameter", "float": "FloatingParameter", "boolean": "BooleanParameter",
-                      "string": "StringParameter", "array": "ArrayParameter"}
+    #: Kind -> (getter, setter) of the legacy API's parameters (simx_server.scene.parameters).
+    _LEGACY_PARAMS = {"integer": (parameters.get_integer, parameters.set_integer),
+                      "float": (parameters.get_floating, parameters.set_floating),
+                      "boolean": (parameters.get_boolean, parameters.set_boolean),
+                      "string": (parameters.get_string, parameters.set_string),
+                      "array": (parameters.get_array, parameters.set_array)}
 
     def _legacy_param(self, kind: str, pid: int, *value: Any) -> Any:
         """Parameter ids the facade does not answer: the legacy API's (``simxGetIntegerParameter``
-        ...: the headless mouse, the stop counter)."""
-        return self._handler(("Set" if value else "Get") + self._LEGACY_PARAMS[kind], pid, *value)
+        ...: the headless mouse, the stop counter), from :mod:`simx_server.scene.parameters`."""
+        get, set_ = self._LEGACY_PARAMS[kind]
+        return set_(self._simulation_, pid, *value) if value else get(self._simulation_, pid)
 
     def getStringParam(self, parameter: Any) -> str:  # noqa: N802
         """String parameters: ``sim.stringparam_scenedefaultdir`` is the server's scene folder
@@ -230,7 +232,8 @@ class RemoteSim(MotionCalls, ScriptSim):
         bit 0: grey), rows bottom-up, the sensor's whole resolution; as ``simxSetVisionSensorImage``."""
         if any(v is not None and _vector(v, 2, "pos/size") != [0.0, 0.0] for v in (pos, size)):
             raise UnsupportedError("setVisionSensorImg of a window (pos/size) is not supported: send the whole image")
-        self._handler("SetVisionSensorImage", self._h(sensorHandle), _bytes(image, "image"), _int(options, "options") & 1)
+        set_passive_image(self._simulation_, self._h(sensorHandle), _bytes(image, "image"),
+                          bool(_int(options, "options") & 1))
 
     def getStringSignal(self, signalName: Any) -> str | bytes | None:  # noqa: N802, N803
         """String signal ``signalName``: text where its bytes are UTF-8 (CoppeliaSim's ZMQ server
