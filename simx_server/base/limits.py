@@ -166,8 +166,8 @@ MAX_REPLY_BYTES = 80 * 1024 * 1024
 
 #: Requests of one client waiting for the simulation thread; a request beyond is answered at
 #: once with an error result per command (remote error 8 at the facade), never queued. Room for
-#: a real program's burst of oneshot calls on a loaded machine (256 was met by a burst of 300
-#: setters); the per-client and total byte bounds below still bound the memory.
+#: a real program's burst of oneshot calls on a loaded machine (hundreds of setters sent at
+#: once); the per-client and total byte bounds below still bound the memory.
 MAX_QUEUED_REQUESTS = 1024
 #: Bytes one client may have waiting, counted as decoded requests take them (read_request's
 #: estimate, an upper bound); a single largest request still fits.
@@ -178,8 +178,9 @@ MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
 #: Simulation-thread time one request may take (s; the thread's CPU time): commands after that
-#: point answer an error naming this bound, not executed (a request of 100 LoadScene held every
-#: client 71 s). CPU time, because on a loaded machine the thread is descheduled, not busy.
+#: point answer an error naming this bound, not executed (else a request of 100 LoadScene
+#: commands would hold every client for over a minute). CPU time, because on a loaded machine
+#: the thread is descheduled, not busy.
 MAX_REQUEST_SECONDS = 0.5
 #: Wall time one request may take (s), waits included (renders a script waits for): the same.
 MAX_REQUEST_WALL_SECONDS = 2.0
@@ -223,8 +224,8 @@ ZENOH_CLOSE_SECONDS = 0.5
 #: Steps whose streamed images the stream render thread may still be making, all clients
 #: together: beyond, every client's image streams skip steps until it catches up (a stream gives
 #: the newest frame, as V-REP's did). Two keep that thread busy when a frame takes about a step;
-#: more let streams of huge images queue seconds of frames and memory (issue 23: 50 streams of
-#: a 4096x4096 sensor; requests render on their own thread).
+#: more let streams of huge images (tens of streams of a 4096x4096 sensor) queue seconds of
+#: frames and memory; requests render on their own thread.
 MAX_STREAM_STEPS_RENDERING = 2
 #: Streamed frames of at least this many pixels render on the stream render thread (made on the
 #: first such frame), so that they never delay another client's image request (1.5 s a frame at
@@ -280,13 +281,13 @@ LOG_REPEAT_INTERVAL = 10.0
 LOG_REPEAT_KEYS = 1024
 
 
-# ------------------------------------------------- names shared across MJCF kinds (issue 12)
+# ------------------------------------------------- names shared across MJCF kinds
 #: Renamed elements (``NAME#N``, see simx_server.sim.naming) listed by name in the one WARNING line a
 #: scene load writes about them; the rest are counted (each is named at DEBUG level). A few are
 #: enough to show the rule: dm_control's quadruped renames 13.
 MAX_RENAMES_LOGGED = 3
 
-# ----------------------------------------------------------------- script calls (issue 23, part 1)
+# ----------------------------------------------------------------- script calls
 #: Most values (ints + floats + strings) one simxCallScriptFunction may pass to a child script:
 #: checked before anything is converted, so that a Lua script's state (MAX_SCRIPT_MEMORY) can
 #: always hold them (a real program passes a few thousand at most).
@@ -301,7 +302,7 @@ MAX_SCRIPT_MEMORY = 256 << 20
 MAX_PATTERN_WORK = 10 ** 8
 
 # ----------------------------------------------------------------- child scripts' scene edits
-# (issue 12, part 7: the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/scripts/facade_objects.py)
+# (the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/scripts/facade_objects.py)
 #: Longest object name a child script may give with ``sim.setObjectName``/``sim.setObjectAlias``
 #: (V-REP's names are short; each name is kept in the scene's MjSpec and in every reply that
 #: lists names). Scene growth from ``sim.createDummy`` is bounded by MAX_SCENE_ELEMENTS.
@@ -311,13 +312,13 @@ MAX_SCRIPT_OBJECT_NAME = 128
 #: a joint's: far beyond any robot, small enough for MuJoCo's arithmetic.
 MAX_SCRIPT_FORCE = 1e8
 
-# ------------------------------------------------- joint motors (issue 12, part 1: motors.py)
+# ------------------------------------------------- joint motors (motors.py)
 #: Largest proportional gain of a joint's position loop (``sim_jointfloatparam_pid_p``, 2002, in
 #: V-REP's units: the loop asks P x error per 5 ms). 1 asks the whole error in one V-REP
 #: dynamics step; simx's loop gain is P / 5 ms, capped at 1/dt in any case.
 MAX_PID_P = 1.0
 
-# ----------------------------------------------------------------- vision sensors (issue 12, parts 4-5)
+# ----------------------------------------------------------------- vision sensors
 #: s the simulation thread waits for the render thread to make a scene's renderers (GL
 #: contexts and one warm-up frame per sensor) when the server starts and when a scene loads or
 #: changes while the simulation is stopped; past it the simulation goes on and the first images
@@ -325,7 +326,7 @@ MAX_PID_P = 1.0
 VISION_READY_TIMEOUT = 10.0
 
 # ---------------------------------------------------------------------------------------------
-# Inverse kinematics and imported shapes (issue 12, part 2: simx_server/sim/ik.py, simx_server/scripts/shapes.py)
+# Inverse kinematics and imported shapes (simx_server/sim/ik.py, simx_server/scripts/shapes.py)
 # ---------------------------------------------------------------------------------------------
 
 #: Most solver iterations an IK group may declare (``simx:ik:NAME ... iterations=N``): each is
@@ -345,7 +346,7 @@ MAX_VIEWER_QUERIES = 16
 #: generation; the excess is answered "server busy" at once, naming this bound.
 MAX_VIEWER_MODELS_PER_SECOND = 4.0
 
-# ----------------------------------------------------------------- the ZMQ remote API (issue 29)
+# ----------------------------------------------------------------- the ZMQ remote API
 # (simx_server/zmq: frontend.py, the socket thread; service.py, the simulation thread). The ZMQ
 # door has the legacy door's bounds (MAX_REQUEST_*, MAX_REPLY_BYTES, EDIT_SHARE, MAX_CLIENTS, the
 # script-call bounds above); these are its own. docs/SECURITY.md explains each one.

@@ -11,7 +11,7 @@ glibc defaults keep it:
 * one *arena* (heap) per thread up to 8 per core, each keeping its own free memory: Zenoh's
   threads, the simulation, render and sending threads each fill and keep theirs.
 
-Measured on a server with the fuzz test's large requests (issue 29): 1-10 MB strings in three
+Measured on a server with the fuzz test's large requests: 1-10 MB strings in three
 requests left it 71-75 MB larger, after the client closed too; with a fixed threshold and
 :data:`ARENA_MAX` arenas, +0 MB.
 

@@ -1,4 +1,4 @@
-"""Which Zenoh session holds a client id: the bound on client ids per peer (issue 23 part 4).
+"""Which Zenoh session holds a client id: the bound on client ids per peer.
 
 A liveliness token keeps a client's state from expiring and from being evicted when the server
 is full. Zenoh does not tell the server who sent a query or declared a token (a query's source

@@ -1,4 +1,4 @@
-"""What the server's loop does for the scene's scripts (issue 34), as a transport attached to the
+"""What the server's loop does for the scene's scripts, as a transport attached to the
 :class:`~simx_server.legacy.server.Server`: customization scripts' ``sysCall_nonSimulation``
 at every idle pass while the simulation is stopped (``sysCall_suspended`` while paused), and the
 legacy remote API ports that scripts open with ``simExtRemoteApiStart(port)`` /

@@ -1,4 +1,4 @@
-"""The viewer feed: what ``simx-viewer`` needs to show the running scene (issue 14).
+"""The viewer feed: what ``simx-viewer`` needs to show the running scene.
 
 Two Zenoh declarations on the server's session (keys and messages in ``simx_wire.protocol``,
 docs/PROTOCOL.md "The viewer feed"):

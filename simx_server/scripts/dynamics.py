@@ -1,4 +1,4 @@
-"""Scripts' callbacks at the dynamics step (issue 34): ``sysCall_jointCallback`` (a script's own
+"""Scripts' callbacks at the dynamics step: ``sysCall_jointCallback`` (a script's own
 controller for its joint) and ``sysCall_dynCallback``, run at every MuJoCo substep as V-REP ran
 them at every step of its physics engine.
 

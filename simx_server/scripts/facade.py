@@ -4,7 +4,7 @@
 poses, time, signals, messages, packing: the V-REP 3.x calls), :class:`ObjectCalls`
 (:mod:`simx_server.scripts.facade_objects`: tree, matrices, velocities, forces, scene edits),
 :class:`SensorCalls` (:mod:`simx_server.scripts.facade_sensors`: 4.x signal names, sensors, object
-parameters, simulation state) and CoppeliaSim 4.x's regular API by concern (issue 32; one module
+parameters, simulation state) and CoppeliaSim 4.x's regular API by concern (one module
 each: parameters, window functions answered headless, shapes, collision and sensing, data and
 properties, paths and collections, engine parameters, images and saving, meshes, Ruckig). The
 same object serves ZMQ clients (:class:`simx_server.zmq.remote_sim.RemoteSim`); docs/COVERAGE.md

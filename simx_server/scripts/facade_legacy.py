@@ -1,6 +1,6 @@
 """V-REP 3.x script calls with no CoppeliaSim 4.x twin in the facade: script parameters, script
 attributes and execution counts, custom data blocks, 16/32-bit boolean helpers, system time and
-``simExtRemoteApiStart`` (issue 34).
+``simExtRemoteApiStart``.
 
 :class:`LegacyCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`; the 3.x global
 names reach these methods through :mod:`simx_server.scripts.legacy_names`. A script is named by

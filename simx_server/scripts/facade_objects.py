@@ -1,5 +1,5 @@
 """CoppeliaSim 4.x script calls of the ``sim`` facade on scene objects: the tree, matrices,
-velocities, forces and scene edits (issue 12, part 7).
+velocities, forces and scene edits.
 
 :class:`ObjectCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`, the ``sim`` of child
 scripts. Scene edits (``createDummy``, ``setObjectParent``, ``setObjectName``/``setObjectAlias``)

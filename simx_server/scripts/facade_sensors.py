@@ -1,5 +1,5 @@
 """CoppeliaSim 4.x script calls of the ``sim`` facade: signals, sensors, object parameters and
-the simulation state (issue 12, part 7).
+the simulation state.
 
 :class:`SensorCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`, the ``sim`` of child
 scripts; it reads the simulation through the facade's ``_sim`` (a

@@ -1,4 +1,4 @@
-"""Object flags and dummy links of V-REP 3.x scenes' scripts (issue 34): ``sim.getObjectSpecialProperty``
+"""Object flags and dummy links of V-REP 3.x scenes' scripts: ``sim.getObjectSpecialProperty``
 / ``sim.setObjectSpecialProperty`` (V-REP 3.x's ``simGet/SetObjectSpecialProperty``, deprecated
 in CoppeliaSim 4.x) and ``sim.getLinkDummy`` / ``sim.setLinkDummy``, in MuJoCo's terms:
 

@@ -1,5 +1,5 @@
 """V-REP 3.x's tubes: in-process message pipes between scripts (``simTubeOpen``,
-``simTubeWrite``, ``simTubeRead``, ``simTubeStatus``, ``simTubeClose``; issue 34).
+``simTubeWrite``, ``simTubeRead``, ``simTubeStatus``, ``simTubeClose``).
 
 A tube is V-REP's full-duplex pipe between two scripts of the same simulator: two
 ``simTubeOpen(dataHeader, dataName, readBufferSize)`` calls with the same header and name open

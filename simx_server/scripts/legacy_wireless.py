@@ -1,4 +1,4 @@
-"""V-REP 3.x's wireless data between scripts: ``simSendData`` / ``simReceiveData`` (issue 34).
+"""V-REP 3.x's wireless data between scripts: ``simSendData`` / ``simReceiveData``.
 
 A script broadcasts a packet from an antenna (an object, default its own) to the scripts of a
 target: ``sim.handle_all`` (every script), ``sim.handle_tree`` (the scripts of the objects below

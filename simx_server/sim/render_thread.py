@@ -46,9 +46,8 @@ def sensor_option() -> mujoco.MjvOption:
 class GLLock:
     """Frames are drawn on both render threads at once (:meth:`shared`), but a GL context is
     made or freed alone (:meth:`exclusive`): MuJoCo's ``mjr_makeContext`` loads the process's
-    GL function pointers again (glad's globals) while the other thread may be calling them (a
-    suspect, not a proven cause, when an environment's server went away under load after the
-    stream thread came in). Writers go first: a waiting one holds back new frames."""
+    GL function pointers again (glad's globals) while the other thread may be calling them.
+    Writers go first: a waiting one holds back new frames."""
 
     def __init__(self) -> None:
         self._cond = threading.Condition()

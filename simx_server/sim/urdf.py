@@ -118,8 +118,8 @@ def _adapt(spec: mujoco.MjSpec, path: Path, root: Path | None) -> None:
     for name, data in settings.items():
         spec.add_text(name=f"simx:{name}", data=data)
     # V-REP's URDF import kept adjacent links from colliding; MuJoCo does not filter a body and its
-    # parent when the parent is welded to the world (a shoulder next to the base stalled at full
-    # torque): every joint's two links are excluded from contact.
+    # parent when the parent is welded to the world (a link touching the base would push against
+    # it, and its motor stall at full torque): every joint's two links are excluded from contact.
     # (Not with the author's fusestatic: an exclude would keep a static link from being fused.)
     bodies = {b.name for b in spec.bodies} if not spec.compiler.fusestatic else set()
     for joint in robot.findall("joint"):

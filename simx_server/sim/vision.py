@@ -30,8 +30,7 @@ the *request* render thread; large streamed images (``limits.STREAM_THREAD_PIXEL
 stream publisher through :attr:`VisionSensors.for_streams`) on a *stream* render thread made on
 the first of them, once its renderers are warm: a client's streams of huge images (a 4096x4096
 frame takes 1.5 s on llvmpipe) never queue ahead of another client's image request, which waits
-for its own frame only (issue 23). Images leave here
-as ``bytes`` in V-REP's layout: rows bottom-up, RGB, 8 bits; depth as float32 in 0..1 (linear
+for its own frame only. Images leave here as ``bytes`` in V-REP's layout: rows bottom-up, RGB, 8 bits; depth as float32 in 0..1 (linear
 between near and far).
 
 V-REP rendered every sensor every step, so a program's first streamed image came at once. Here
@@ -220,8 +219,8 @@ class VisionSensors:
     def _warm(self, width: int, height: int) -> None:
         """Make the request thread's renderer of a new size now (its GL context and
         ``MjrContext``: 0.15 s on llvmpipe, seconds on a loaded machine), while the client goes
-        on with its set-up, rather than in its first image call (a Ray env runner's first
-        synchronous step timed out on it under CI load)."""
+        on with its set-up, rather than in its first image call (which would make that call, and a
+        synchronous step waiting for it, seconds slower than the next ones)."""
         thread, model = self._thread, self.world.model
 
         def warm() -> None:

@@ -4,9 +4,9 @@
   from its arguments (an image from its sensor's resolution, an unpacked table from its buffer's
   length) is refused before it runs when it would pass ``limits.MAX_REPLY_BYTES`` or carry more
   than ``protocol.MAX_REQUEST_ITEMS`` values (the legacy door's image rule,
-  :func:`simx_server.commands.sensors.image_pixels`). A 100-byte ``sim.getVisionSensorImage``
-  after setting a 4096x4096 resolution (50 M floats) stalled the simulation 13.8 s and peaked
-  at 3.5 GB; ``sim.unpackUInt8Table`` of 60 MiB, 21.6 s.
+  :func:`simx_server.commands.sensors.image_pixels`): without it a 100-byte
+  ``sim.getVisionSensorImage`` of a 4096x4096 sensor (50 M values) holds the simulation thread
+  for seconds and takes gigabytes, as does ``sim.unpackUInt8Table`` of a 60 MiB buffer.
 * **The simulation thread's share per connection** (:class:`Connection`, the loop's
   :class:`~simx_server.loop.budgets.Share`): a connection's scene loads and edits cost their
   duration, and any other call its time past ``limits.MAX_REQUEST_SECONDS`` (a request's budget

@@ -1,4 +1,4 @@
-"""ZMQ calls that wait for a render (issue 29, item 5): their replies leave from the render thread.
+"""ZMQ calls that wait for a render: their replies leave from the render thread.
 
 A ZMQ image call (``sim.getVisionSensorImg`` and the others of :data:`~simx_server.zmq.budgets.RENDERS`)
 is executed on the simulation thread as far as the frames it needs: its arguments are checked,
