@@ -52,7 +52,14 @@ class Probe:
 
 # ------------------------------------------------------------ collision, distance
 def collidable(m: mujoco.MjModel) -> np.ndarray:
-    """Mask (ngeom,) of the geoms that can collide: contype or conaffinity not 0."""
+    """Mask (ngeom,) of the geoms that can collide: contype or conaffinity not 0.
+
+    Args:
+        m: the MuJoCo model.
+
+    Returns:
+        Boolean array of shape (ngeom,).
+    """
     return (m.geom_contype != 0) | (m.geom_conaffinity != 0)
 
 
@@ -128,7 +135,26 @@ def _geom_distance(world: World, g1: int, g2: int, distmax: float) -> float:
 
 
 def collision(sim: SimulationView, e1: int, e2: int) -> bool:
-    """Whether shape ``e1`` touches or overlaps shape ``e2`` (or anything else, ``e2`` = -2)."""
+    """Whether shape ``e1`` touches or overlaps shape ``e2`` (or anything else, ``e2`` = -2).
+
+    Implements ``simxReadCollision`` (V-REP's ``simCheckCollision``): geom pairs whose bounding
+    spheres come within COLLISION_TOLERANCE are measured with ``mj_geomDistance``.
+
+    Args:
+        sim: the simulation.
+        e1: handle of a shape or a collection.
+        e2: handle of another shape or collection, or ``sim_handle_all`` (-2): every collidable
+            geom but ``e1``'s (and, for a single body, its parent's and children's).
+
+    Returns:
+        True when some geom pair is within COLLISION_TOLERANCE (m) of touching.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a shape or collection, or one without a collidable geom.
+        ArgumentError: ``e1`` and ``e2`` are the same.
+        UnsupportedError: MuJoCo has no distance function for a pair of geom types.
+    """
     world = sim.world
     a, b = _pairs(world, e1, e2)
     close = _lower_bounds(world, a, b) <= COLLISION_TOLERANCE
@@ -137,7 +163,25 @@ def collision(sim: SimulationView, e1: int, e2: int) -> bool:
 
 
 def distance(sim: SimulationView, e1: int, e2: int) -> float:
-    """Smallest distance (m, >= 0, at most DISTANCE_MAX) between shape ``e1`` and ``e2``."""
+    """Smallest distance (m, >= 0, at most DISTANCE_MAX) between shape ``e1`` and ``e2``.
+
+    Implements ``simxReadDistance`` (V-REP's ``simCheckDistance``): ``mj_geomDistance`` over the
+    geom pairs, nearest bounding spheres first.
+
+    Args:
+        sim: the simulation.
+        e1: handle of a shape or a collection.
+        e2: handle of another shape or collection, or ``sim_handle_all`` (-2).
+
+    Returns:
+        The distance in m (0 when they touch or overlap).
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a shape or collection, or one without a collidable geom.
+        ArgumentError: ``e1`` and ``e2`` are the same, or no collidable geom to measure to.
+        UnsupportedError: MuJoCo has no distance function for a pair of geom types.
+    """
     world = sim.world
     a, b = _pairs(world, e1, e2)
     if a.size == 0:
@@ -155,7 +199,18 @@ PROBE_PREFIX = {"collision": "simx.collision:", "distance": "simx.distance:"}
 
 
 def probes(sim: SimulationView, kind: str) -> dict[str, Probe]:
-    """The declared collision or distance objects, read from the model's custom texts."""
+    """The declared collision or distance objects, read from the model's custom texts.
+
+    Read again only when the model changed; each name keeps its handle for the simulation's life
+    (``simxGetCollisionHandle`` / ``simxGetDistanceHandle``).
+
+    Args:
+        sim: the simulation (its ``sensors`` keep the probes).
+        kind: ``"collision"`` or ``"distance"``.
+
+    Returns:
+        Name -> :class:`Probe`; a declaration that cannot be used has its ``error`` set.
+    """
     st, m = sim.sensors, sim.world.model
     if st.probes_model is not m:
         st.probes = {k: {} for k in PROBE_PREFIX}

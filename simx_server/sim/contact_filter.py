@@ -30,7 +30,16 @@ _active: list[ContactFilter] = []  # at most a few: one per world with a decidin
 
 def default_discards(m: mujoco.MjModel, g1: int, g2: int) -> bool:
     """MuJoCo's own geom-level filter: discard unless ``contype`` of one geom shares a bit with
-    ``conaffinity`` of the other (``filterBitmask`` in MuJoCo's collision driver)."""
+    ``conaffinity`` of the other (``filterBitmask`` in MuJoCo's collision driver).
+
+    Args:
+        m: the MuJoCo model.
+        g1: a geom id.
+        g2: another geom id.
+
+    Returns:
+        True when MuJoCo would not collide the pair.
+    """
     return not (int(m.geom_contype[g1]) & int(m.geom_conaffinity[g2])) and not (
         int(m.geom_contype[g2]) & int(m.geom_conaffinity[g1]))
 
@@ -73,7 +82,14 @@ class ContactFilter:
         """The geom pairs ``(g1, g2)``, ``g1 < g2``, that MuJoCo's broad phase and geom bitmasks
         let through at the data's current positions (explicit ``<pair>`` elements excepted).
         Runs ``mj_kinematics`` and ``mj_collision`` on the data: its contacts are recomputed
-        by the next ``mj_step`` or ``mj_forward``, which start from ``qpos`` and ``qvel``."""
+        by the next ``mj_step`` or ``mj_forward``, which start from ``qpos`` and ``qvel``.
+
+        Args:
+            m: the MuJoCo model of the filter's data.
+
+        Returns:
+            Set of ``(g1, g2)`` geom id pairs.
+        """
         self._recording = set()
         try:
             mujoco.mj_kinematics(m, self.data)
@@ -84,7 +100,11 @@ class ContactFilter:
 
     def set_discarded(self, pairs: set[tuple[int, int]]) -> None:
         """Drop these geom pairs (``g1 < g2``) in every collision detection on the data until
-        the next call."""
+        the next call.
+
+        Args:
+            pairs: ``(g1, g2)`` geom id pairs with ``g1 < g2``.
+        """
         self._discarded = frozenset(pairs)
 
     def close(self) -> None:

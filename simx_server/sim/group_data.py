@@ -72,7 +72,21 @@ GROUP_DATA_TYPES = {
 
 
 def group_data(sim: SimulationView, object_type: int, data_type: int) -> list:
-    """[handles, ints, floats, strings] for ``simxGetObjectGroupData``; see get_object_group_data."""
+    """[handles, ints, floats, strings] for ``simxGetObjectGroupData``; see get_object_group_data.
+
+    Args:
+        sim: the simulation.
+        object_type: ``sim_handle_all`` (-2), ``sim_appobj_object_type`` (109) or a
+            ``sim_object_*_type`` (0-14).
+        data_type: V-REP's data type, 0-19, or CoppeliaSim 4.2's 20 (alias) and 21 (path).
+
+    Returns:
+        ``[handles, ints, floats, strings]``: the objects' handles and their data, flat, in
+        V-REP's order per object (positions in m, angles in rad, velocities in m/s and rad/s).
+
+    Raises:
+        UnsupportedError: an object type or data type simx does not have.
+    """
     world = sim.world
     if object_type in (C.sim_handle_all, C.sim_appobj_object_type):
         object_type = C.sim_handle_all

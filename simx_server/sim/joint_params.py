@@ -25,6 +25,18 @@ def get_param(world: World, handle: int, pid: int) -> float | int:
     P * error / 5 ms); 2003/2004: I and D gains, always 0 (simx's loop is proportional);
     2017: upper velocity (rad/s or m/s). 2000/2001 read 0 on a joint without a motor of its
     own (spherical, tendon-driven); the float ids raise ObjectTypeError there.
+
+    Args:
+        world: the world.
+        handle: a joint's handle.
+        pid: a ``sim_jointintparam_*`` / ``sim_jointfloatparam_*`` id (INT_PARAMS, FLOAT_PARAMS).
+
+    Returns:
+        An int for 2000/2001, else a float (gains; velocity in rad/s or m/s).
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a joint, or a float id of a joint without a motor of its own.
     """
     mo = world.motors
     if pid in INT_PARAMS and handle not in mo.index:
@@ -50,6 +62,18 @@ def set_param(world: World, handle: int, pid: int, value: float | int, name: str
     gain is P / 5 ms, at most 1/dt); 2017: upper velocity > 0 and at most
     limits.MAX_JOINT_VELOCITY. Others and values out of range: ArgumentError /
     UnsupportedError naming the parameter and quoting the value.
+
+    Args:
+        world: the world.
+        handle: a joint's handle.
+        pid: 2000, 2001, 2002 or 2017.
+        value: the new value (0/1, gain, or velocity in rad/s or m/s).
+        name: the parameter's legacy name, for messages.
+
+    Raises:
+        ObjectTypeError: not a joint with a motor of its own.
+        ArgumentError: a value out of range.
+        UnsupportedError: any other id (the I and D gains).
     """
     i = world.motor(handle)
     if pid in INT_PARAMS:

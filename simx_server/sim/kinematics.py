@@ -25,6 +25,19 @@ def joint_matrix(world: World, handle: int) -> np.ndarray:
 
     Hinge: rotation about z by ``q - ref``; slide: translation ``q - ref`` along z; ball: the
     rotation of its quaternion; free: its position and quaternion (world frame).
+
+    Implements ``simGetJointMatrix``.
+
+    Args:
+        world: the world.
+        handle: a joint's handle.
+
+    Returns:
+        Array (3, 4): rotation (3, 3) and translation in m.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a joint.
     """
     obj = world.get(handle, JOINT)
     m, d = world.model, world.data
@@ -56,6 +69,18 @@ def object_velocity(sim: SimulationView, handle: int) -> tuple[np.ndarray, np.nd
 
     ``mj_objectVelocity`` of the object's body frame (mjOBJ_XBODY, flg_local=0), moved to the
     object's own origin (site, camera, joint anchor, light) with v + w x r.
+
+    Implements ``simxGetObjectVelocity``.
+
+    Args:
+        sim: the simulation.
+        handle: any object's handle.
+
+    Returns:
+        ``(v, w)``: two arrays (3,), m/s and rad/s.
+
+    Raises:
+        UnknownObjectError: no such object.
     """
     world = sim.world
     obj = world.get(handle)

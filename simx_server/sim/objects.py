@@ -43,12 +43,29 @@ SCRIPT_SETTINGS = ("child_script", "customization_script", "threaded", "vrep_ver
 
 
 def without_scripts(text: str) -> str:
-    """The data of a ``simx:`` text without its script settings (:data:`SCRIPT_SETTINGS`)."""
+    """The data of a ``simx:`` text without its script settings (:data:`SCRIPT_SETTINGS`).
+
+    Args:
+        text: the data of a ``simx:NAME`` text (``"key=value ..."``).
+
+    Returns:
+        The same items, the script settings left out.
+    """
     return " ".join(i for i in text.split() if i.partition("=")[0] not in SCRIPT_SETTINGS)
 
 
 def parse_settings(text: str) -> dict[str, str]:
-    """Parse ``"key=value key=value"`` (the data of a ``simx:NAME`` custom text)."""
+    """Parse ``"key=value key=value"`` (the data of a ``simx:NAME`` custom text).
+
+    Args:
+        text: the text's data.
+
+    Returns:
+        Key -> value (strings); a later key replaces an earlier one.
+
+    Raises:
+        ValueError: an item that is not ``key=value``.
+    """
     settings = {}
     for item in text.split():
         key, sep, value = item.partition("=")

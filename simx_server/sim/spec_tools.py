@@ -113,7 +113,16 @@ def _subtree_objects(body) -> list[str]:
 
 def vrep_suffix(incoming: set[str], taken: set[str], trigger: set[str] | None = None) -> str:
     """V-REP's copy suffix: ``""`` when no incoming name (or no ``trigger`` name) is taken, else
-    the first ``#n`` that makes every incoming name free."""
+    the first ``#n`` that makes every incoming name free.
+
+    Args:
+        incoming: names of the objects being added.
+        taken: names already in the scene.
+        trigger: the names whose clash calls for a suffix (default: ``incoming``).
+
+    Returns:
+        ``""`` or ``"#n"``.
+    """
     if not (incoming if trigger is None else trigger) & taken:
         return ""
     n = 0
