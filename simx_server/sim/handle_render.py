@@ -43,11 +43,29 @@ _GEOM = int(mujoco.mjtObj.mjOBJ_GEOM)  # an int: comparing an array with the enu
 
 
 def mode_name(mode: int) -> str:
+    """How messages name a render mode: ``opengl (0)``, else ``render mode N``.
+
+    Args:
+        mode: a ``sim_visionintparam_render_mode`` value.
+
+    Returns:
+        The mode's name and number.
+    """
     return f"{MODE_NAMES[mode]} ({mode})" if mode in MODE_NAMES else f"render mode {mode}"
 
 
 def check_mode(mode: int) -> int:
-    """``mode`` if simx renders it; UnsupportedError naming it otherwise."""
+    """``mode`` if simx renders it; UnsupportedError naming it otherwise.
+
+    Args:
+        mode: a ``sim_visionintparam_render_mode`` value (1017).
+
+    Returns:
+        ``mode``.
+
+    Raises:
+        UnsupportedError: a mode simx does not render (the message lists the supported ones).
+    """
     if mode not in SUPPORTED:
         raise UnsupportedError(
             f"vision sensor {mode_name(mode)} is not supported by simx; supported: "
@@ -56,7 +74,18 @@ def check_mode(mode: int) -> int:
 
 
 def parse_mode(settings: dict[str, str], sensor: str) -> int:
-    """The ``render_mode`` of a sensor's custom text (default OpenGL); ValueError names the sensor."""
+    """The ``render_mode`` of a sensor's custom text (default OpenGL); ValueError names the sensor.
+
+    Args:
+        settings: the sensor's ``simx:NAME`` settings.
+        sensor: the sensor's name, for the message.
+
+    Returns:
+        The render mode (``sim_visionintparam_render_mode`` value).
+
+    Raises:
+        ValueError: a ``render_mode`` that is not one of TEXT_VALUES.
+    """
     value = settings.get("render_mode", "opengl").lower()
     if value not in TEXT_VALUES:
         raise ValueError(f"vision sensor {sensor!r}: render_mode={value!r} must be one of "
@@ -66,7 +95,17 @@ def parse_mode(settings: dict[str, str], sensor: str) -> int:
 
 def geom_colours(world: World) -> np.ndarray:
     """Packed colour (``r + 256 g + 65536 b``, uint32) of each geom, then BACKGROUND last: index
-    -1 (MuJoCo's "no object") reads the background."""
+    -1 (MuJoCo's "no object") reads the background.
+
+    Each geom has the colour of the shape (named body) it belongs to, or of its nearest shape
+    ancestor; geoms of the world body are background.
+
+    Args:
+        world: the world.
+
+    Returns:
+        Array (ngeom + 1,) uint32.
+    """
     m = world.model
     shape_of_body = {o.mj_id: o.handle for o in world.objects.values() if o.type == SHAPE}
     owner = np.full(m.nbody, BACKGROUND, dtype=np.uint32)
@@ -77,13 +116,28 @@ def geom_colours(world: World) -> np.ndarray:
 
 
 def coded_image(segmentation: np.ndarray, colours: np.ndarray) -> np.ndarray:
-    """(h, w, 3) uint8 colour-coded image from a segmentation frame ((h, w, 2) object id, type)."""
+    """(h, w, 3) uint8 colour-coded image from a segmentation frame ((h, w, 2) object id, type).
+
+    Args:
+        segmentation: (h, w, 2) int32 frame of MuJoCo's segmentation rendering.
+        colours: :func:`geom_colours` of the model rendered.
+
+    Returns:
+        (h, w, 3) uint8 RGB, each pixel the low 24 bits of the object's handle.
+    """
     ids = np.where(segmentation[..., 1] == _GEOM, segmentation[..., 0], -1)
     packed = colours[ids].astype("<u4", copy=False)
     return packed.view(np.uint8).reshape(*ids.shape, 4)[..., :3]
 
 
 def decode(image: np.ndarray) -> np.ndarray:
-    """Handles of a colour-coded (h, w, 3) uint8 image (BACKGROUND where no object is)."""
+    """Handles of a colour-coded (h, w, 3) uint8 image (BACKGROUND where no object is).
+
+    Args:
+        image: (h, w, 3) uint8 colour-coded image (``sim_visionintparam_render_mode`` 2).
+
+    Returns:
+        (h, w) int64 array of handles.
+    """
     rgb = image.astype(np.int64)
     return rgb[..., 0] | (rgb[..., 1] << 8) | (rgb[..., 2] << 16)

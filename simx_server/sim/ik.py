@@ -209,7 +209,17 @@ class IkGroups:
         self._jacp, self._jacr = np.zeros((3, nv)), np.zeros((3, nv))
 
     def group(self, which: Any) -> IkGroup:
-        """The group named ``which`` (str) or of handle ``which`` (int)."""
+        """The group named ``which`` (str) or of handle ``which`` (int).
+
+        Args:
+            which: a group's name or handle.
+
+        Returns:
+            The group.
+
+        Raises:
+            UnknownObjectError: no such group.
+        """
         if isinstance(which, str):
             g = self.groups.get(which)
         else:
@@ -226,7 +236,15 @@ class IkGroups:
                 self.solve(g)
 
     def tip_error(self, g: IkGroup, data: mujoco.MjData) -> np.ndarray:
-        """Target pose minus tip pose in ``data``: (3,) m, then for ``pose`` (3,) rad (world frame)."""
+        """Target pose minus tip pose in ``data``: (3,) m, then for ``pose`` (3,) rad (world frame).
+
+        Args:
+            g: the group.
+            data: MuJoCo data whose kinematics are up to date.
+
+        Returns:
+            Array (3,) or, for a pose group, (6,).
+        """
         e = data.site_xpos[g.target] - data.site_xpos[g.tip]
         if not g.pose:
             return e
@@ -245,7 +263,17 @@ class IkGroups:
         Returns IK_SUCCESS when the tip reaches the target within 0.01 mm / 0.1 mrad on the
         kinematic model, IK_FAIL otherwise (the targets still move as far as the iterations got,
         as V-REP's damped resolution did). A chain joint a client put in velocity mode keeps
-        its own target velocity (its target position is not set)."""
+        its own target velocity (its target position is not set).
+
+        Implements V-REP's ``simHandleIkGroup`` on one group (damped least squares on
+        ``mj_jacSite``, or :func:`simx_server.sim.ik_solver.solve` for several elements).
+
+        Args:
+            g: the group.
+
+        Returns:
+            IK_SUCCESS (1) or IK_FAIL (2).
+        """
         w, m, d, s = self.world, self.model, self.world.data, self._scratch
         s.qpos[:] = d.qpos
         s.mocap_pos[:], s.mocap_quat[:] = d.mocap_pos, d.mocap_quat
@@ -290,7 +318,14 @@ _GROUPS: "weakref.WeakKeyDictionary[World, IkGroups]" = weakref.WeakKeyDictionar
 
 
 def groups(world: World) -> IkGroups:
-    """The IK groups of ``world``'s current model (parsed once per model: an edit re-parses)."""
+    """The IK groups of ``world``'s current model (parsed once per model: an edit re-parses).
+
+    Args:
+        world: the world.
+
+    Returns:
+        Its :class:`IkGroups` (a declaration that cannot be used is logged and left out).
+    """
     g = _GROUPS.get(world)
     if g is None or g.model is not world.model:
         g = _GROUPS[world] = IkGroups(world)
@@ -298,7 +333,11 @@ def groups(world: World) -> IkGroups:
 
 
 def step(world: World) -> None:
-    """Solve the world's automatic IK groups (the simulation step's hook); cheap without any."""
+    """Solve the world's automatic IK groups (the simulation step's hook); cheap without any.
+
+    Args:
+        world: the world about to step.
+    """
     g = _GROUPS.get(world)
     if g is None or g.model is not world.model:
         g = groups(world)
@@ -327,7 +366,17 @@ def handleIkGroup(self, group: Any) -> int:  # noqa: N802 (V-REP's name)
     move; physics follows at the next step), or every non-explicit group for
     ``sim.handle_all`` (-2) and ``sim.handle_all_except_explicit`` (-3). Returns
     ``sim.ikresult_success`` (1) or ``sim.ikresult_fail`` (2); for several groups the number of
-    groups solved. Raises UnknownObjectError for an unknown group."""
+    groups solved. Raises UnknownObjectError for an unknown group.
+
+    Args:
+        group: an IK group's handle or name, or -2 / -3.
+
+    Returns:
+        1, 2, or the count of groups solved.
+
+    Raises:
+        UnknownObjectError: no such group.
+    """
     gs = groups(self._world)
     group = _group_arg(group)
     if group in (-2, -3):  # sim_handle_all, sim_handle_all_except_explicit
@@ -337,7 +386,17 @@ def handleIkGroup(self, group: Any) -> int:  # noqa: N802 (V-REP's name)
 
 
 def getIkGroupHandle(self, name: Any) -> int:  # noqa: N802
-    """``sim.getIkGroupHandle(name)``: handle of the group declared as ``simx:ik:NAME``."""
+    """``sim.getIkGroupHandle(name)``: handle of the group declared as ``simx:ik:NAME``.
+
+    Args:
+        name: the group's name (str or bytes).
+
+    Returns:
+        The group's handle.
+
+    Raises:
+        UnknownObjectError: no such group.
+    """
     return groups(self._world).group(str(_group_arg(name))).handle
 
 

@@ -43,7 +43,19 @@ class Element:
 
 def frame(world, data: mujoco.MjData, handle: int) -> tuple[np.ndarray, np.ndarray, str, int]:
     """``position, rotation, kind, id`` of a dummy (a site) or another object (its body's frame)
-    in ``data``."""
+    in ``data``.
+
+    Args:
+        world: the world.
+        data: MuJoCo data whose kinematics are up to date.
+        handle: an object's handle.
+
+    Returns:
+        ``(position (3,) m, rotation (3, 3), "site" or "body", MuJoCo id)``.
+
+    Raises:
+        UnknownObjectError: no such object.
+    """
     obj = world.get(handle)
     if obj.type in _SITES:
         return data.site_xpos[obj.mj_id].copy(), data.site_xmat[obj.mj_id].reshape(3, 3).copy(), "site", obj.mj_id
@@ -60,7 +72,19 @@ def _rotvec(r_target: np.ndarray, r_tip: np.ndarray) -> np.ndarray:
 
 
 def chain(world, tip: int, base: int) -> list[int]:
-    """Handles of the hinge and slide joints between ``base`` (-1: the world) and ``tip``, base first."""
+    """Handles of the hinge and slide joints between ``base`` (-1: the world) and ``tip``, base first.
+
+    Args:
+        world: the world.
+        tip: handle of the chain's tip.
+        base: handle of its base, or -1.
+
+    Returns:
+        Joint handles, base first.
+
+    Raises:
+        UnknownObjectError: ``tip`` or ``base`` is no object.
+    """
     m = world.model
     stop = -1 if base == -1 else world.get(base).body
     joint_of = {o.mj_id: o.handle for o in world.objects.values() if o.type == JOINT}
@@ -75,7 +99,19 @@ def chain(world, tip: int, base: int) -> list[int]:
 
 def errors(world, data, elements: list[Element], targets: dict[int, tuple]) -> tuple[np.ndarray, list, bool]:
     """Stacked weighted error, the rows' (element, kind, rows) and whether each element is within
-    its precision."""
+    its precision.
+
+    Args:
+        world: the world.
+        data: MuJoCo data whose kinematics are up to date.
+        elements: the IK elements (disabled ones, ``flags`` bit 0 clear, are skipped).
+        targets: element handle -> ``(position (3,), rotation (3, 3))`` instead of its target
+            object's frame.
+
+    Returns:
+        ``(error, rows, ok)``: the weighted error (m and rad, flat), what each block of rows is
+        (for :func:`jacobian`), and whether every element is within its precision.
+    """
     parts, rows, ok = [], [], True
     for el in elements:
         if not el.flags & 1:
@@ -97,6 +133,17 @@ def errors(world, data, elements: list[Element], targets: dict[int, tuple]) -> t
 
 
 def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
+    """The weighted Jacobian of the rows :func:`errors` chose, over the chain's joints.
+
+    Args:
+        world: the world.
+        data: MuJoCo data whose kinematics (and ``mj_comPos``) are up to date.
+        rows: the rows of :func:`errors`.
+        dadr: the chain joints' dof addresses.
+
+    Returns:
+        Array (len(error), len(dadr)).
+    """
     m = world.model
     jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
     blocks = []
@@ -114,7 +161,26 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
     ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
     make a joint move more (a larger weight) or less in the weighted least-norm step
-    ``W Jᵀ (J W Jᵀ + λ²I)⁻¹ e``; ``margins`` keep each joint that far inside its range."""
+    ``W Jᵀ (J W Jᵀ + λ²I)⁻¹ e``; ``margins`` keep each joint that far inside its range.
+
+    Args:
+        world: the world.
+        scratch: MuJoCo data to iterate in.
+        joints: the chain's joint handles.
+        q: their start positions (rad or m).
+        elements: the IK elements.
+        method: METHOD_PSEUDO_INVERSE, METHOD_DLS, METHOD_TRANSPOSE or METHOD_UNDAMPED.
+        damping: λ of the damped least squares.
+        iterations: the most steps.
+        max_step: per joint, the largest change of one step (rad or m).
+        targets: see :func:`errors`.
+        weights: see above.
+        margins: see above (rad or m).
+
+    Returns:
+        ``(ok, q, error)``: whether every element is within precision, the positions reached
+        (len(joints),) and the last weighted error.
+    """
     m = world.model
     qadr = np.array([world.model.jnt_qposadr[world.get(h).mj_id] for h in joints], int)
     dadr = np.array([world.model.jnt_dofadr[world.get(h).mj_id] for h in joints], int)

@@ -58,6 +58,10 @@ def vrep_names(model: mujoco.MjModel, previous: dict[Identity, str] | None = Non
     lists the elements whose V-REP name is not their MJCF name, by name then precedence;
     ``identities`` maps each element's ``(kind, MJCF name)`` to its V-REP name (the next
     call's ``previous``).
+
+    Args:
+        model: the compiled model.
+        previous: see above.
     """
     previous = previous or {}
     shared: dict[str, list[tuple[str, int, int]]] = {}
@@ -96,7 +100,16 @@ def vrep_names(model: mujoco.MjModel, previous: dict[Identity, str] | None = Non
 def describe(scene: str, renamed: list[Renamed], limit: int) -> str:
     """The one WARNING line a scene load writes about its renamed elements: their count and the
     first ``limit`` of them (``'knee' body -> 'knee#0'``), then how many more; :func:`details`
-    gives the DEBUG lines that name each one."""
+    gives the DEBUG lines that name each one.
+
+    Args:
+        scene: the scene's file name.
+        renamed: the renamed elements (``vrep_names``).
+        limit: how many to name.
+
+    Returns:
+        The line.
+    """
     items = [f"{r.mj_name!r} {r.kind} -> {r.name!r}" for r in renamed[:limit]]
     more = len(renamed) - limit
     if more > 0:
@@ -107,5 +120,13 @@ def describe(scene: str, renamed: list[Renamed], limit: int) -> str:
 
 
 def details(scene: str, renamed: list[Renamed]) -> list[str]:
-    """One line per renamed element (logged at DEBUG level, after :func:`describe`'s summary)."""
+    """One line per renamed element (logged at DEBUG level, after :func:`describe`'s summary).
+
+    Args:
+        scene: the scene's file name.
+        renamed: the renamed elements.
+
+    Returns:
+        The lines.
+    """
     return [f"scene {scene}: MJCF {r.kind} {r.mj_name!r} is the V-REP object {r.name!r}" for r in renamed]

@@ -92,7 +92,24 @@ def _bbox(world: World, handle: int, pid: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
-    """Value of float parameter ``pid`` of object ``handle``; see get_object_float_parameter."""
+    """Value of float parameter ``pid`` of object ``handle``; see get_object_float_parameter.
+
+    Implements ``simxGetObjectFloatParameter`` / ``sim.getObjectFloatParam`` (ids in
+    :func:`simx_server.commands.parameters.get_object_float_parameter`).
+
+    Args:
+        sim: the simulation.
+        handle: the object's handle.
+        pid: the parameter id.
+
+    Returns:
+        The value (m, m/s, rad, rad/s, kg, or a gain).
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: the id is of another object type.
+        UnsupportedError: an id simx does not answer.
+    """
     world = sim.world
     if pid not in _FLOAT_GET:
         world.get(handle)
@@ -134,7 +151,23 @@ def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
 
 
 def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) -> None:
-    """Set float parameter ``pid`` of ``handle``; see set_object_float_parameter."""
+    """Set float parameter ``pid`` of ``handle``; see set_object_float_parameter.
+
+    Implements ``simxSetObjectFloatParameter`` / ``sim.setObjectFloatParam``.
+
+    Args:
+        sim: the simulation.
+        handle: the object's handle.
+        pid: 1000/1001 clipping (m), 1004 perspective angle (rad), 2002/2017 joint motor,
+            3005 mass (kg).
+        value: the new value.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: the id is of another object type.
+        ArgumentError: a value out of range, NaN or infinite.
+        UnsupportedError: a read-only or unknown id.
+    """
     world = sim.world
     if pid not in _FLOAT_SET:
         world.get(handle)
@@ -178,7 +211,24 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
 
 
 def get_int_param(sim: SimulationView, handle: int, pid: int) -> int:
-    """Value of int parameter ``pid`` of ``handle``; see get_object_int_parameter."""
+    """Value of int parameter ``pid`` of ``handle``; see get_object_int_parameter.
+
+    Implements ``simxGetObjectIntParameter`` / ``sim.getObjectInt32Param``.
+
+    Args:
+        sim: the simulation.
+        handle: the object's handle.
+        pid: 1002/1003 resolution (pixels), 1017 render mode, 2000/2001 joint motor flags,
+            3003 static, 3004 respondable.
+
+    Returns:
+        The value.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: the id is of another object type.
+        UnsupportedError: an id simx does not answer.
+    """
     world = sim.world
     if pid not in _INT_GET:
         world.get(handle)
@@ -201,7 +251,23 @@ def get_int_param(sim: SimulationView, handle: int, pid: int) -> int:
 
 
 def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> None:
-    """Set int parameter ``pid`` of ``handle``; see set_object_int_parameter."""
+    """Set int parameter ``pid`` of ``handle``; see set_object_int_parameter.
+
+    Implements ``simxSetObjectIntParameter`` / ``sim.setObjectInt32Param``.
+
+    Args:
+        sim: the simulation.
+        handle: the object's handle.
+        pid: 1002/1003 resolution (pixels), 1017 render mode, 2000/2001 joint motor flags,
+            3003/3004 (only to the value they have).
+        value: the new value.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: the id is of another object type.
+        ArgumentError: a value out of range.
+        UnsupportedError: a value or id simx cannot set.
+    """
     world = sim.world
     if pid in (3003, 3004):  # static / respondable: what the MJCF says, fixed at run time
         if value not in (0, 1):
