@@ -95,6 +95,12 @@ def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
     driven through a tendon) a motor of its own, ``simx_motor:<joint>`` (added to ``spec``).
 
     Raises ValueError: MuJoCo cannot compile the spec.
+
+    Args:
+        spec: the scene's spec (actuators are added to it).
+
+    Returns:
+        The compiled model.
     """
     model = spec.compile()
     driven = {int(model.actuator_trnid[a, 0]) for a in range(model.nu) if model.actuator_trntype[a] in _JOINT_TRNS}
@@ -236,7 +242,12 @@ class Motors:
         return len(self.act)
 
     def reset(self, m: mujoco.MjModel, qpos: np.ndarray | None) -> None:
-        """Initial state (``simxStopSimulation``): flags and limits of the scene, targets at rest."""
+        """Initial state (``simxStopSimulation``): flags and limits of the scene, targets at rest.
+
+        Args:
+            m: the MuJoCo model (its actuators' force ranges are written).
+            qpos: the initial joint positions (nq,), the rest the targets start at; None: 0.
+        """
         self.enabled = self.initial_enabled.copy()
         self.loop = self.initial_loop.copy()  # control loop on = position control
         self.max_velocity = self.initial_max_velocity.copy()
@@ -248,14 +259,28 @@ class Motors:
         self.write_force_limits(m)
 
     def write_force_limits(self, m: mujoco.MjModel) -> None:
-        """Maximum forces (joint units) into the actuators' forcerange (actuator units)."""
+        """Maximum forces (joint units) into the actuators' forcerange (actuator units).
+
+        Args:
+            m: the MuJoCo model written to.
+        """
         if len(self.act):
             f = self.max_force / np.abs(self.gear)
             m.actuator_forcerange[self.act, 0] = -f
             m.actuator_forcerange[self.act, 1] = f
 
     def apply(self, m: mujoco.MjModel, d: mujoco.MjData, dt: float) -> None:
-        """Write gains, biases and controls of every motor for the next step of ``dt`` s."""
+        """Write gains, biases and controls of every motor for the next step of ``dt`` s.
+
+        V-REP's joint modes on MuJoCo actuators: motor off (no force), velocity control (target
+        velocity, m/s or rad/s), or position control (a proportional loop towards the target
+        position, at most the upper velocity), each bounded by the maximum force (N or N·m).
+
+        Args:
+            m: the MuJoCo model (gains and biases of the motors' actuators are written).
+            d: its data (``ctrl`` is written).
+            dt: the simulation step, s.
+        """
         if not len(self.act):
             return
         act, g = self.act, self.gear
@@ -279,16 +304,34 @@ class Motors:
         d.ctrl[act] = np.where(linear, self.target_position, np.where(on, v, 0.0))
 
     def copy_state(self, src: int, dst: int) -> None:
-        """Motor ``dst`` takes the flags, targets and limits of motor ``src`` (model copies)."""
+        """Motor ``dst`` takes the flags, targets and limits of motor ``src`` (model copies).
+
+        Args:
+            src: index of a motor.
+            dst: index of another motor.
+        """
         for name in ("enabled", "loop", "max_velocity", "max_force", "pid_p", "target_position", "target_velocity"):
             arr = getattr(self, name)
             arr[dst] = arr[src]
 
     def state(self, i: int) -> tuple:
-        """Everything a program set on motor ``i`` (kept across scene edits)."""
+        """Everything a program set on motor ``i`` (kept across scene edits).
+
+        Args:
+            i: the motor's index.
+
+        Returns:
+            Its values, in ``_STATE``'s order (for :meth:`restore`).
+        """
         return tuple(getattr(self, n)[i] for n in self._STATE)
 
     def restore(self, i: int, state: tuple) -> None:
+        """Give motor ``i`` what :meth:`state` returned (after a scene edit).
+
+        Args:
+            i: the motor's index in the new model.
+            state: what :meth:`state` returned.
+        """
         for n, value in zip(self._STATE, state):
             getattr(self, n)[i] = value
 

@@ -54,19 +54,41 @@ MAX_SEGMENTS = 64
 
 
 def alias(name: str) -> str:
-    """The CoppeliaSim alias of a V-REP name: the name without a copy suffix ``#N``."""
+    """The CoppeliaSim alias of a V-REP name: the name without a copy suffix ``#N``.
+
+    Args:
+        name: a V-REP object name.
+
+    Returns:
+        The alias.
+    """
     return _SUFFIX.sub("", name)
 
 
 def object_alias(obj: Any) -> str:
     """The alias of a scene object: its ``alias=`` setting (a converted 4.3+ ``.ttt``), else
-    :func:`alias` of its name."""
+    :func:`alias` of its name.
+
+    Args:
+        obj: a :class:`~simx_server.sim.objects.SceneObject`.
+
+    Returns:
+        The alias.
+    """
     return obj.settings.get("alias") or alias(obj.name)
 
 
 def path_parent(world: World, obj: Any) -> int:
     """The object's parent in paths: its ``vrep_parent=`` setting when that names an object
-    (``-1``: the world), else its parent."""
+    (``-1``: the world), else its parent.
+
+    Args:
+        world: the world.
+        obj: a scene object.
+
+    Returns:
+        The parent's handle, or -1 (the world).
+    """
     name = obj.settings.get("vrep_parent")
     if name is None:
         return obj.parent
@@ -78,7 +100,14 @@ def path_parent(world: World, obj: Any) -> int:
 
 def tree_order(world: World) -> tuple[list[int], dict[int, int], dict[int, int], dict[int, int]]:
     """``(handles in depth-first preorder, position of each in it, end of its subtree there
-    (exclusive), its depth: 1 for the world's children)``."""
+    (exclusive), its depth: 1 for the world's children)``.
+
+    Args:
+        world: the world.
+
+    Returns:
+        ``(order, position, end, depth)``.
+    """
     children: dict[int, list[int]] = {WORLD: []}
     for h, obj in world.objects.items():  # handles count up in tree order, edits append
         children.setdefault(h, [])
@@ -135,7 +164,23 @@ def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> 
     for unassociated code (a remote client), where ``./X``, ``./X[i]`` and ``:/X`` start from the
     scene root, as CoppeliaSim resolves them for code with no object (``.`` alone names nothing).
 
-    Raises ArgumentError for a path that is not one (empty segments, bad brackets, too long)."""
+    Raises ArgumentError for a path that is not one (empty segments, bad brackets, too long).
+
+    Implements CoppeliaSim 4.3+'s object paths (``sim.getObject``): ``/A/B``, ``./X``, ``:/X``,
+    ``A[n]``, ``{n}``, ``*`` wildcards; a bare name is looked up as a V-REP name.
+
+    Args:
+        world: the world.
+        path: the path.
+        index: >= 0: only the index-th match; -1: all.
+        proxy: the calling script's object, or None.
+
+    Returns:
+        Handles, possibly none.
+
+    Raises:
+        ArgumentError: not a path.
+    """
     if not isinstance(path, str):
         raise ArgumentError(f"object path must be a string, got {type(path).__name__}")
     if len(path) > MAX_PATH:
@@ -197,7 +242,21 @@ def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> 
 
 def find_one(world: World, path: str, index: int = -1, proxy: int | None = None) -> int:
     """The handle of the object ``path`` names (the first, or the ``index``-th); raises
-    UnknownObjectError naming the path when there is none (ArgumentError as :func:`find`)."""
+    UnknownObjectError naming the path when there is none (ArgumentError as :func:`find`).
+
+    Args:
+        world: the world.
+        path: the path (as :func:`find`).
+        index: >= 0: the index-th match; -1: the first.
+        proxy: the calling script's object, or None.
+
+    Returns:
+        A handle.
+
+    Raises:
+        UnknownObjectError: no object matches.
+        ArgumentError: not a path.
+    """
     found = find(world, path, index, proxy)
     if not found:
         which = f" with index {index}" if index >= 0 else ""

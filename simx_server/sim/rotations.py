@@ -13,7 +13,14 @@ from simx_server.base.arguments import quote
 
 
 def euler_from_matrix(r: np.ndarray) -> list[float]:
-    """V-REP's Euler angles [alpha, beta, gamma] (rad) of a rotation (3, 3): R = Rx(a) Ry(b) Rz(g)."""
+    """V-REP's Euler angles [alpha, beta, gamma] (rad) of a rotation (3, 3): R = Rx(a) Ry(b) Rz(g).
+
+    Args:
+        r: rotation matrix (3, 3).
+
+    Returns:
+        ``[alpha, beta, gamma]`` in rad; at gimbal lock (beta = ±pi/2) gamma is 0.
+    """
     beta = math.asin(max(-1.0, min(1.0, r[0, 2])))
     if abs(r[0, 2]) < 1 - 1e-9:
         return [math.atan2(-r[1, 2], r[2, 2]), beta, math.atan2(-r[0, 1], r[0, 0])]
@@ -21,7 +28,16 @@ def euler_from_matrix(r: np.ndarray) -> list[float]:
 
 
 def matrix_from_euler(alpha: float, beta: float, gamma: float) -> np.ndarray:
-    """Rotation (3, 3) of V-REP's Euler angles (rad): R = Rx(alpha) Ry(beta) Rz(gamma)."""
+    """Rotation (3, 3) of V-REP's Euler angles (rad): R = Rx(alpha) Ry(beta) Rz(gamma).
+
+    Args:
+        alpha: rad.
+        beta: rad.
+        gamma: rad.
+
+    Returns:
+        Array (3, 3).
+    """
     ca, sa, cb, sb = math.cos(alpha), math.sin(alpha), math.cos(beta), math.sin(beta)
     cg, sg = math.cos(gamma), math.sin(gamma)
     rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
@@ -31,7 +47,20 @@ def matrix_from_euler(alpha: float, beta: float, gamma: float) -> np.ndarray:
 
 
 def matrix_from_quaternion(x: float, y: float, z: float, w: float) -> np.ndarray:
-    """Rotation (3, 3) of a quaternion in V-REP's order; raises ArgumentError for a zero one."""
+    """Rotation (3, 3) of a quaternion in V-REP's order; raises ArgumentError for a zero one.
+
+    Args:
+        x: component x.
+        y: component y.
+        z: component z.
+        w: the scalar part (any scale: the quaternion is normalised).
+
+    Returns:
+        Array (3, 3).
+
+    Raises:
+        ArgumentError: a zero, NaN or infinite quaternion.
+    """
     q = np.array([w, x, y, z], dtype=float)
     if not np.isfinite(q).all():
         raise ArgumentError(f"quaternion must be finite, got {quote([x, y, z, w])}")
@@ -47,7 +76,14 @@ def matrix_from_quaternion(x: float, y: float, z: float, w: float) -> np.ndarray
 
 
 def quaternion_from_matrix(r: np.ndarray) -> list[float]:
-    """Quaternion of a rotation (3, 3) in V-REP's order [x, y, z, w]."""
+    """Quaternion of a rotation (3, 3) in V-REP's order [x, y, z, w].
+
+    Args:
+        r: rotation matrix (3, 3).
+
+    Returns:
+        ``[x, y, z, w]``, unit length.
+    """
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, np.ascontiguousarray(r).reshape(9))
     return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]

@@ -62,7 +62,14 @@ PACKAGE = "package://"
 
 def is_urdf(path: str | Path) -> bool:
     """Whether ``path`` is a URDF file (its root element is ``<robot>``), as MuJoCo decides.
-    False for a file that is not well-formed XML (MuJoCo reports that)."""
+    False for a file that is not well-formed XML (MuJoCo reports that).
+
+    Args:
+        path: a file.
+
+    Returns:
+        True for a URDF file.
+    """
     try:
         for _, el in ET.iterparse(str(path), events=("start",)):
             return el.tag.rsplit("}", 1)[-1] == "robot"
@@ -80,6 +87,9 @@ def load_spec(path: str | Path, root: Path | None = None) -> mujoco.MjSpec:
         root: for a file sent by a client, its transfer folder: every URDF mesh, ``package://``
             mapped, must lie inside it, checked before anything is looked up (None: not checked;
             :func:`simx_server.base.scene_guard.check_spec` checks MJCF files and the rest).
+
+    Returns:
+        The spec, not compiled.
 
     Raises:
         ValueError: MuJoCo's message, or a URDF mesh that cannot be found (naming its link).
@@ -193,7 +203,19 @@ def write_mjcf(urdf: str | Path, out: str | Path) -> int:
     """Convert ``urdf`` to an MJCF file ``out`` with simx's conventions written out (links as
     bodies, ``simx:`` texts for the joints' modes and velocities, mesh paths relative to
     ``out``'s folder). Returns the number of bodies. Raises ValueError: ``urdf`` is not a URDF
-    or cannot be loaded; OSError: ``out`` cannot be written."""
+    or cannot be loaded; OSError: ``out`` cannot be written.
+
+    Args:
+        urdf: the URDF file.
+        out: the MJCF file to write.
+
+    Returns:
+        The number of bodies (the world not counted).
+
+    Raises:
+        ValueError: not a URDF file, or MuJoCo cannot load or compile it.
+        OSError: ``out`` cannot be written.
+    """
     urdf, out = Path(urdf), Path(out)
     if not is_urdf(urdf):
         raise ValueError(f"{urdf}: not a URDF file (its root element is not <robot>)")
@@ -213,7 +235,15 @@ def write_mjcf(urdf: str | Path, out: str | Path) -> int:
 
 
 def main_to_mjcf(urdf: str | None, out: str) -> int:
-    """``simx-server robot.urdf --urdf-to-mjcf robot.xml``: 0, or 2 with one line on stderr."""
+    """``simx-server robot.urdf --urdf-to-mjcf robot.xml``: 0, or 2 with one line on stderr.
+
+    Args:
+        urdf: the URDF file (None or empty: an error).
+        out: the MJCF file to write.
+
+    Returns:
+        The process exit status: 0 or 2.
+    """
     if not urdf:
         print("simx-server: --urdf-to-mjcf: name the URDF file to convert", file=sys.stderr)
         return 2
