@@ -49,13 +49,35 @@ class PhysicsError(RemoteError):
 
 # ------------------------------------------------------------------------ bounds
 def out_of_range(what: str, value: Any, low: float, high: float, unit: str, bound: str) -> ArgumentError:
-    """The ArgumentError for ``value`` outside [low, high] (``bound``: the limits.py names)."""
+    """The ArgumentError for ``value`` outside [low, high] (``bound``: the limits.py names).
+
+    Args:
+        what: what the value is, for the message.
+        value: the value given.
+        low: the smallest allowed.
+        high: the largest allowed.
+        unit: its unit (``"m"``, ``"kg"`` ...).
+        bound: the limits.py name(s) of the bounds.
+
+    Returns:
+        The error, to raise.
+    """
     return ArgumentError(f"{what} must be finite and within [{low:g}, {high:g}] {unit} "
                          f"(simx_server.base.limits.{bound}), got {quote(value)}")
 
 
 def check_dt(dt: Any) -> float:
-    """``dt`` (s) if 0 < dt <= MAX_DT, else ArgumentError (``--dt``, parameter 1)."""
+    """``dt`` (s) if 0 < dt <= MAX_DT, else ArgumentError (``--dt``, parameter 1).
+
+    Args:
+        dt: the step asked for, s.
+
+    Returns:
+        ``dt`` as a float.
+
+    Raises:
+        ArgumentError: not a number in (0, MAX_DT].
+    """
     if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not 0 < dt <= L.MAX_DT:
         raise ArgumentError(f"the simulation time step (dt, --dt, sim_floatparam_simulation_time_step) must "
                             f"be > 0 and at most {L.MAX_DT:g} s (simx_server.base.limits.MAX_DT), got {quote(dt)}")
@@ -67,6 +89,13 @@ def substeps(dt: float, timestep: float) -> int:
 
     Raises:
         ArgumentError: more than MAX_SUBSTEPS, or a timestep that is not > 0 and finite.
+
+    Args:
+        dt: the simulation step, s.
+        timestep: MuJoCo's ``<option timestep>``, s.
+
+    Returns:
+        ``round(dt / timestep)``, at least 1.
     """
     if not (0 < timestep < math.inf):
         raise ArgumentError(f"the scene's <option timestep> must be > 0 and finite, got {quote(timestep)}")
@@ -79,7 +108,16 @@ def substeps(dt: float, timestep: float) -> int:
 
 
 def check_resolution(width: int, height: int, what: str) -> None:
-    """ArgumentError unless both sides are in 1..MAX_RESOLUTION pixels."""
+    """ArgumentError unless both sides are in 1..MAX_RESOLUTION pixels.
+
+    Args:
+        width: pixels.
+        height: pixels.
+        what: what has the resolution, for the message.
+
+    Raises:
+        ArgumentError: a side out of bounds.
+    """
     if not (0 < width <= L.MAX_RESOLUTION and 0 < height <= L.MAX_RESOLUTION):
         raise ArgumentError(f"{what}: resolution {width}x{height} is outside 1..{L.MAX_RESOLUTION} pixels a "
                             "side (simx_server.base.limits.MAX_RESOLUTION)")
@@ -90,6 +128,13 @@ def check_scene(model: mujoco.MjModel, dt: float) -> int:
 
     Raises:
         ArgumentError: too many substeps, or a camera (vision sensor) resolution out of bounds.
+
+    Args:
+        model: the compiled scene.
+        dt: the simulation step, s.
+
+    Returns:
+        MuJoCo substeps per step.
     """
     n = substeps(dt, float(model.opt.timestep))
     for c in range(model.ncam):
@@ -100,7 +145,15 @@ def check_scene(model: mujoco.MjModel, dt: float) -> int:
 
 
 def step_work(model: mujoco.MjModel, substeps: int) -> int:
-    """The estimated work of one step: ``substeps x solver iterations x geoms``."""
+    """The estimated work of one step: ``substeps x solver iterations x geoms``.
+
+    Args:
+        model: the compiled scene.
+        substeps: MuJoCo substeps per step.
+
+    Returns:
+        The product (compared with limits.MAX_STEP_WORK).
+    """
     return substeps * max(1, int(model.opt.iterations)) * max(1, int(model.ngeom))
 
 
@@ -108,7 +161,14 @@ def initial_contacts(model: mujoco.MjModel) -> int:
     """Contacts of the scene as compiled (its initial pose), by MuJoCo's collision detection
     alone on scratch data: no constraint is built and no solver runs, so 300 overlapping spheres
     (24,911 contacts, whose first step takes 30 s) cost about 10 ms. Contacts that overflow the
-    arena count as one more than ``limits.MAX_SCENE_CONTACTS``."""
+    arena count as one more than ``limits.MAX_SCENE_CONTACTS``.
+
+    Args:
+        model: the compiled scene.
+
+    Returns:
+        The number of contacts.
+    """
     data = mujoco.MjData(model)  # the arena is allocated, not touched: RSS grows by what is used
     mujoco.mj_kinematics(model, data)
     try:
@@ -129,6 +189,12 @@ def check_cost(model: mujoco.MjModel, substeps: int, previous: mujoco.MjModel | 
 
     Raises:
         ArgumentError: naming the bound.
+
+    Args:
+        model: the compiled scene or edit.
+        substeps: its MuJoCo substeps per step.
+        previous: the model it replaces, for an edit; None for a scene load.
+        previous_substeps: that model's substeps.
     """
     checks = ((lambda m, n: int(m.narena), L.MAX_ARENA_BYTES, "MAX_ARENA_BYTES", "bytes of MjData arena",
                f" (MuJoCo sizes it from the bodies when the MJCF does not: declare <size memory=\"{L.MAX_ARENA_BYTES >> 20}M\"/> "
@@ -154,6 +220,12 @@ def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, second
     Raises:
         StepTimeError: the step took too long (cut short, or its last substep ended late); its message gives the scene's contacts,
             constraint rows, solver iterations and substeps at that point.
+
+    Args:
+        model: the MuJoCo model.
+        data: its data, stepped.
+        substeps: MuJoCo steps to make.
+        seconds: the time allowed, s (limits.MAX_STEP_SECONDS for a client's scene).
     """
     start = time.perf_counter()
     deadline = start + seconds
@@ -169,7 +241,19 @@ def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, second
 
 
 def check_gravity(values: Any) -> list[float]:
-    """Gravity (3 floats, m/s²) whose magnitude is at most MAX_GRAVITY, else ArgumentError."""
+    """Gravity (3 floats, m/s²) whose magnitude is at most MAX_GRAVITY, else ArgumentError.
+
+    Checks ``simxSetArrayParameter(sim_arrayparam_gravity)`` and ``sim.setArrayParam``.
+
+    Args:
+        values: 3 numbers, m/s².
+
+    Returns:
+        The 3 values as floats.
+
+    Raises:
+        ArgumentError: not 3 numbers, NaN, infinite, or too large.
+    """
     if not isinstance(values, (list, tuple)) or len(values) != 3:
         raise ArgumentError(f"gravity must be a list of 3 numbers (m/s²), got {quote(values)}")
     g = [as_float(v, "gravity") for v in values]
@@ -185,6 +269,14 @@ def scaled_inertia(mass: float, old_mass: float, inertia: np.ndarray) -> np.ndar
 
     Raises:
         ArgumentError: ``mass`` outside [MIN_MASS, MAX_MASS], or an inertia above MAX_INERTIA.
+
+    Args:
+        mass: the new mass, kg.
+        old_mass: the body's mass now, kg (0: the inertia is made from its largest axis).
+        inertia: its principal inertia (3,), kg·m².
+
+    Returns:
+        Array (3,), kg·m².
     """
     if not L.MIN_MASS <= mass <= L.MAX_MASS:
         raise out_of_range("mass", mass, L.MIN_MASS, L.MAX_MASS, "kg", "MIN_MASS and MAX_MASS")
@@ -199,7 +291,17 @@ def scaled_inertia(mass: float, old_mass: float, inertia: np.ndarray) -> np.ndar
 
 
 def check_position(position: list[float]) -> list[float]:
-    """A position (3 floats, m) with every coordinate within ±MAX_POSITION, else ArgumentError."""
+    """A position (3 floats, m) with every coordinate within ±MAX_POSITION, else ArgumentError.
+
+    Args:
+        position: 3 floats, m.
+
+    Returns:
+        ``position``.
+
+    Raises:
+        ArgumentError: a coordinate beyond ±limits.MAX_POSITION (NaN included).
+    """
     for v in position:
         if not -L.MAX_POSITION <= v <= L.MAX_POSITION:
             raise out_of_range("each coordinate of a position", position, -L.MAX_POSITION, L.MAX_POSITION,
@@ -257,13 +359,29 @@ def install_warning_handler() -> None:
 
 
 def bad_state_view(data: mujoco.MjData) -> np.ndarray:
-    """A view of ``data``'s bad-state warning counters (nonzero after a blow-up)."""
+    """A view of ``data``'s bad-state warning counters (nonzero after a blow-up).
+
+    Args:
+        data: MuJoCo data.
+
+    Returns:
+        A view (not a copy) of ``data.warning.number`` over BAD_STATE's warnings.
+    """
     return data.warning.number[_BAD_FIRST:_BAD_LAST + 1]
 
 
 def blow_up(model: mujoco.MjModel, data: mujoco.MjData, time: float) -> PhysicsError:
     """The PhysicsError for a step that started at ``time`` (s) and hit a bad state; clears
-    the counters and MuJoCo's messages (the error replaces them)."""
+    the counters and MuJoCo's messages (the error replaces them).
+
+    Args:
+        model: the MuJoCo model.
+        data: its data after the step.
+        time: the simulation time at the step's start, s.
+
+    Returns:
+        The error (naming the quantity and the joint), to raise.
+    """
     numbers, infos = data.warning.number, data.warning.lastinfo
     kind = next(k for k in BAD_STATE if numbers[k])
     dof = int(infos[kind])

@@ -25,7 +25,18 @@ class Poses:
 
     # ------------------------------------------------------------------- poses
     def frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
-        """World position (3,) in m and rotation matrix (3, 3) of an object; -1 is the world."""
+        """World position (3,) in m and rotation matrix (3, 3) of an object; -1 is the world.
+
+        Args:
+            handle: an object's handle, or -1.
+
+        Returns:
+            ``(position, rotation)``: arrays (3,) m and (3, 3). A vision sensor's frame looks along
+            +z (V-REP's), a joint's z is its axis.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         if handle == WORLD:
             return np.zeros(3), np.eye(3)
         obj = self.get(handle)
@@ -44,7 +55,18 @@ class Poses:
         return d.light_xpos[obj.mj_id].copy(), _frame_with_z(d.light_xdir[obj.mj_id], np.eye(3))
 
     def relative_frame(self, handle: int, relative_to: int) -> tuple[np.ndarray, np.ndarray]:
-        """Pose of ``handle`` in the frame of ``relative_to`` (-1 world, -11 parent)."""
+        """Pose of ``handle`` in the frame of ``relative_to`` (-1 world, -11 parent).
+
+        Args:
+            handle: an object's handle.
+            relative_to: another object's handle, -1 or -11 (``sim_handle_parent``).
+
+        Returns:
+            ``(position, rotation)``: arrays (3,) m and (3, 3).
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         if relative_to == C.sim_handle_parent:
             relative_to = self.get(handle).parent
         p, r = self.frame(handle)
@@ -52,19 +74,62 @@ class Poses:
         return r0.T @ (p - p0), r0.T @ r
 
     def position(self, handle: int, relative_to: int) -> list[float]:
-        """Position (m) of an object relative to another. ``simxGetObjectPosition``."""
+        """Position (m) of an object relative to another. ``simxGetObjectPosition``.
+
+        Args:
+            handle: an object's handle.
+            relative_to: another object's handle, -1 (world) or -11 (parent).
+
+        Returns:
+            ``[x, y, z]`` in m.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return self.relative_frame(handle, relative_to)[0].tolist()
 
     def orientation(self, handle: int, relative_to: int) -> list[float]:
-        """Euler angles alpha, beta, gamma (rad) with R = Rx(a) Ry(b) Rz(g). ``simxGetObjectOrientation``."""
+        """Euler angles alpha, beta, gamma (rad) with R = Rx(a) Ry(b) Rz(g). ``simxGetObjectOrientation``.
+
+        Args:
+            handle: an object's handle.
+            relative_to: another object's handle, -1 (world) or -11 (parent).
+
+        Returns:
+            ``[alpha, beta, gamma]`` in rad.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return euler_from_matrix(self.relative_frame(handle, relative_to)[1])
 
     def quaternion(self, handle: int, relative_to: int) -> list[float]:
-        """Orientation as a quaternion in V-REP's order (x, y, z, w). ``simxGetObjectQuaternion``."""
+        """Orientation as a quaternion in V-REP's order (x, y, z, w). ``simxGetObjectQuaternion``.
+
+        Args:
+            handle: an object's handle.
+            relative_to: another object's handle, -1 (world) or -11 (parent).
+
+        Returns:
+            ``[x, y, z, w]``, unit length.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return quaternion_from_matrix(self.relative_frame(handle, relative_to)[1])
 
     def children(self, handle: int) -> list[int]:
-        """Handles of the objects whose parent is ``handle`` (-1: the world), in tree order."""
+        """Handles of the objects whose parent is ``handle`` (-1: the world), in tree order.
+
+        Args:
+            handle: an object's handle, or -1.
+
+        Returns:
+            Handles.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         if handle != WORLD:
             self.get(handle)
         return [o.handle for o in self.objects.values() if o.parent == handle]
@@ -82,6 +147,17 @@ class Poses:
         Other bodies with joints (several, a ball) and ball joints cannot be placed (set their
         joints instead): ObjectTypeError. A coordinate of ``position`` beyond
         ±limits.MAX_POSITION: ArgumentError.
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or -11.
+            position: the new position, or None to keep it.
+            rotation: the new rotation, or None to keep it.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: an object that cannot be placed (above).
+            ArgumentError: a position out of bounds.
         """
         if position is not None:
             physics.check_position(position)

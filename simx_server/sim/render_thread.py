@@ -30,6 +30,9 @@ def sensor_option() -> mujoco.MjvOption:
 
     MuJoCo's defaults with every visualisation extra off (``_SCENE_FLAGS`` kept), no frames
     nor labels, and no sites; geom, skin and flex groups as MuJoCo's defaults (0-2 visible).
+
+    Returns:
+        A new ``MjvOption``.
     """
     option = mujoco.MjvOption()
     for name in dir(mujoco.mjtVisFlag):
@@ -57,6 +60,7 @@ class GLLock:
 
     @contextmanager
     def shared(self) -> Iterator[None]:
+        """Draw a frame: waits while a context is made or a maker waits; frames run together."""
         with self._cond:
             self._cond.wait_for(lambda: not self._making and not self._waiting)
             self._drawing += 1
@@ -69,6 +73,7 @@ class GLLock:
 
     @contextmanager
     def exclusive(self) -> Iterator[None]:
+        """Make or free a GL context: waits until no frame is drawn; one at a time."""
         with self._cond:
             self._waiting += 1
             self._cond.wait_for(lambda: not self._making and not self._drawing)
@@ -133,7 +138,16 @@ class RenderThread:
         """The renderer of this size for ``model``, made now if needed (render thread).
 
         Raises RuntimeError once a renderer could not be made (no usable GL platform): a
-        second attempt after a failed one can abort the process (GLFW without a display)."""
+        second attempt after a failed one can abort the process (GLFW without a display).
+
+        Args:
+            model: the model to render.
+            width: pixels.
+            height: pixels (rows of the renderer; a taller frame is drawn in bands).
+
+        Returns:
+            The renderer.
+        """
         if self.failure is not None:
             raise RuntimeError(f"vision sensors cannot render here: {self.failure}")
         if model is not self.model:
@@ -157,18 +171,39 @@ class RenderThread:
         return r
 
     def charge(self, seconds: float, share: float) -> None:
-        """Count ``seconds`` of drawing (render thread); what is owed falls by ``share`` s per s."""
+        """Count ``seconds`` of drawing (render thread); what is owed falls by ``share`` s per s.
+
+        Args:
+            seconds: drawing time just spent, s.
+            share: the share of wall time drawing may take, s per s.
+        """
         now = time.monotonic()
         self._busy, self._busy_at = self.debt(share, now) + seconds, now
 
     def debt(self, share: float, now: float | None = None) -> float:
-        """Drawing time owed: the time charged less ``share`` s per s since (any thread)."""
+        """Drawing time owed: the time charged less ``share`` s per s since (any thread).
+
+        Args:
+            share: the share of wall time drawing may take, s per s.
+            now: ``time.monotonic()``, if the caller has it.
+
+        Returns:
+            Seconds owed, >= 0.
+        """
         now = time.monotonic() if now is None else now
         return max(0.0, self._busy - (now - self._busy_at) * share)
 
     def band_rows(self, width: int, height: int) -> int:
         """Rows of the renderer a ``width`` x ``height`` frame is drawn with: ``height``, or with
-        ``band_pixels`` the rows of one band (see :func:`render_bands`)."""
+        ``band_pixels`` the rows of one band (see :func:`render_bands`).
+
+        Args:
+            width: the frame's width, pixels.
+            height: its height, pixels.
+
+        Returns:
+            Rows.
+        """
         return height if not self.band_pixels else max(1, min(height, self.band_pixels // width))
 
     def free(self) -> None:
@@ -189,7 +224,15 @@ def render_bands(r: mujoco.Renderer, height: int) -> np.ndarray:
     of 255 (RGB) and 1e-4 m (depth) but for a pixel or two on a silhouette, which the cut frustum's
     rounding puts on the other side. Rows past the top of the last band are drawn and dropped.
     Each band is its own render, so on Mesa's llvmpipe, whose one rasteriser queue serves every
-    GL context of the process, another thread's frame waits for one band, not the whole frame."""
+    GL context of the process, another thread's frame waits for one band, not the whole frame.
+
+    Args:
+        r: a renderer whose scene is updated.
+        height: the frame's height in pixels.
+
+    Returns:
+        The frame: (height, width, 3) uint8 RGB, or (height, width) float32 depth, top-down.
+    """
     rows = r.height
     if rows >= height:
         with GL_LOCK.shared():  # not while the other render thread makes a context

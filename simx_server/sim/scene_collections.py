@@ -53,7 +53,16 @@ def _below(world: World, h: int, base: int) -> bool:
 
 def element_members(world: World, kind: str, handle: int | None) -> list[int]:
     """The objects one element stands for (``kind`` as in :data:`ELEMENT_TYPES`; ``handle`` its
-    object, None for ``all``). Raises ArgumentError for an unknown kind."""
+    object, None for ``all``). Raises ArgumentError for an unknown kind.
+
+    Args:
+        world: the world.
+        kind: ``single``, ``tree``, ``tree_without_base``, ``chain``, ``chain_without_tip`` or ``all``.
+        handle: the element's object, or None for ``all``.
+
+    Returns:
+        Handles.
+    """
     if kind == "all":
         return list(world.objects)
     if handle is None:
@@ -74,7 +83,15 @@ def element_members(world: World, kind: str, handle: int | None) -> list[int]:
 
 def parse_items(world: World, text: str) -> list[int]:
     """The members of a declared collection, from its ``items`` setting (see the module).
-    Raises ValueError naming the element that is wrong or names no object."""
+    Raises ValueError naming the element that is wrong or names no object.
+
+    Args:
+        world: the world.
+        text: ``+kind:name,-kind:name,...``.
+
+    Returns:
+        Handles, in the order they were added.
+    """
     members: list[int] = []
     for item in filter(None, text.split(",")):
         sign, body = item[:1], item[1:]
@@ -123,7 +140,14 @@ class Collections:
             self.members[handle], self.names[name] = members, handle
 
     def create(self) -> int:
-        """A new empty collection (``sim.createCollection``); its handle."""
+        """A new empty collection (``sim.createCollection``); its handle.
+
+        Returns:
+            The handle.
+
+        Raises:
+            ArgumentError: MAX_COLLECTIONS exist already.
+        """
         if len(self.members) >= MAX_COLLECTIONS:
             raise ArgumentError(f"at most {MAX_COLLECTIONS} collections")
         handle = max(self.members, default=FIRST_HANDLE - 1) + 1
@@ -131,7 +155,14 @@ class Collections:
         return handle
 
     def get(self, handle: int) -> list[int]:
-        """The members of collection ``handle`` (the list itself). Raises UnknownObjectError."""
+        """The members of collection ``handle`` (the list itself). Raises UnknownObjectError.
+
+        Args:
+            handle: a collection's handle.
+
+        Returns:
+            Object handles.
+        """
         members = self.members.get(handle) if isinstance(handle, int) else None
         if members is None:
             raise UnknownObjectError(f"no collection with handle {quote(handle)}")
@@ -139,7 +170,14 @@ class Collections:
 
     def handle(self, name: str) -> int:
         """The handle of the collection named ``name`` (a trailing ``#`` ignored, as object names).
-        Raises UnknownObjectError."""
+        Raises UnknownObjectError.
+
+        Args:
+            name: the collection's name.
+
+        Returns:
+            Its handle.
+        """
         key = name[:-1] if isinstance(name, str) and name.endswith("#") else name
         h = self.names.get(key)
         if h is None:
@@ -148,18 +186,45 @@ class Collections:
         return h
 
     def name(self, handle: int) -> str:
-        """The name of collection ``handle`` ("" for one made at run time without a name)."""
+        """The name of collection ``handle`` ("" for one made at run time without a name).
+
+        Args:
+            handle: a collection's handle.
+
+        Returns:
+            Its name.
+
+        Raises:
+            UnknownObjectError: no such collection.
+        """
         self.get(handle)
         return next((n for n, h in self.names.items() if h == handle), "")
 
     def remove(self, handle: int) -> None:
-        """Forget collection ``handle`` (``sim.destroyCollection``)."""
+        """Forget collection ``handle`` (``sim.destroyCollection``).
+
+        Args:
+            handle: a collection's handle.
+
+        Raises:
+            UnknownObjectError: no such collection.
+        """
         self.get(handle)
         del self.members[handle]
         self.names = {n: h for n, h in self.names.items() if h != handle}
 
     def present(self, handle: int) -> list[int]:
-        """The members of collection ``handle`` that are still in the scene."""
+        """The members of collection ``handle`` that are still in the scene.
+
+        Args:
+            handle: a collection's handle.
+
+        Returns:
+            Object handles.
+
+        Raises:
+            UnknownObjectError: no such collection.
+        """
         return [h for h in self.get(handle) if h in self.world.objects]
 
 
@@ -168,7 +233,14 @@ _COLLECTIONS: "weakref.WeakKeyDictionary[World, Collections]" = weakref.WeakKeyD
 
 def of(world: World) -> Collections:
     """The collections of ``world`` (read from the scene on first use; run-time ones are kept
-    across edits, declared ones re-read with the edited model)."""
+    across edits, declared ones re-read with the edited model).
+
+    Args:
+        world: the world.
+
+    Returns:
+        Its :class:`Collections`.
+    """
     c = _COLLECTIONS.get(world)
     if c is None:
         c = _COLLECTIONS[world] = Collections(world)
@@ -182,5 +254,12 @@ def of(world: World) -> Collections:
 
 
 def is_collection(handle: object) -> bool:
-    """Whether ``handle`` is in the collections' number range."""
+    """Whether ``handle`` is in the collections' number range.
+
+    Args:
+        handle: any value.
+
+    Returns:
+        True for an int in [FIRST_HANDLE, FIRST_HANDLE + 1,000,000).
+    """
     return isinstance(handle, int) and not isinstance(handle, bool) and FIRST_HANDLE <= handle < FIRST_HANDLE + 1_000_000
