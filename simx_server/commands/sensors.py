@@ -13,7 +13,8 @@ from simx_server.base.arguments import as_bytes, check_args as _args
 from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import sensors
-from simx_server.sim.sensors import force_sensor_reading, proximity_reading, set_passive_image, stamp, vision_packet_job
+from simx_server.sim.proximity import proximity_reading
+from simx_server.sim.sensors import force_sensor_reading, set_passive_image, stamp, vision_packet_job
 from simx_server.sim.vision import Deferred
 from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR
 

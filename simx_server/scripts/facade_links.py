@@ -13,7 +13,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num
-from simx_server.sim import sensors
+from simx_server.sim import proximity
 from simx_server.sim.objects import PROXIMITY_SENSOR
 from simx_server.sim.state import SimulationView
 
@@ -63,8 +63,8 @@ class LinkCalls:
         obj = self._world.objects[h]
         rot, origin = d.site_xmat[obj.mj_id].reshape(3, 3), d.site_xpos[obj.mj_id]
         local = (tri - origin) @ rot  # into the sensor frame: rays from the origin
-        cone = sensors.cone_angle(obj)
-        dirs = sensors.cone_directions(cone) if cone > 0 else np.array([[0.0, 0.0, 1.0]])
+        cone = proximity.cone_angle(obj)
+        dirs = proximity.cone_directions(cone) if cone > 0 else np.array([[0.0, 0.0, 1.0]])
         if len(dirs) * count > 4_000_000:
             raise ArgumentError(f"{count} triangles against {len(dirs)} rays: over 4,000,000 tests, give fewer")
         k = next((i for i in range(m.nsensor) if m.sensor_type[i] == mujoco.mjtSensor.mjSENS_RANGEFINDER

@@ -21,7 +21,7 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.scripts.facade_core import Signals, _int, _num, _text
-from simx_server.sim import object_params, sensors
+from simx_server.sim import object_params, proximity, sensors
 from simx_server.sim.state import RunState, SimulationView
 
 #: CoppeliaSim's simulation states (``sim.getSimulationState``), as ``sim.NAME`` constants.
@@ -83,7 +83,7 @@ class SensorCalls:
         point and normal zero and the handle -1); distance in m, point and normal in the
         sensor's frame (the ray runs along its z axis), the handle that of the shape hit (-1
         for geometry of the world body)."""
-        detected, point, hit, normal = sensors.proximity_reading(self._simulation("readProximitySensor"),
+        detected, point, hit, normal = proximity.proximity_reading(self._simulation("readProximitySensor"),
                                                                  self._h(handle))
         return int(detected), float(np.linalg.norm(point)), point, hit, normal
 

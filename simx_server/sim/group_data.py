@@ -12,7 +12,8 @@ import math
 from simx_wire import constants as C
 from simx_wire.protocol import UnsupportedError
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, object_velocity
-from simx_server.sim.sensors import force_sensor_reading, proximity_reading
+from simx_server.sim.proximity import proximity_reading
+from simx_server.sim.sensors import force_sensor_reading
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import (
     FORCE_SENSOR,

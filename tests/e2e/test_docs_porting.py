@@ -31,7 +31,7 @@ import pytest
 
 import simx_client
 from simx_client import constants as C
-from simx_server.sim import sensors
+from simx_server.sim import proximity, sensors
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.world import World
 
@@ -135,7 +135,7 @@ def test_example_scene_objects_and_ik_as_the_guide_says(tmp_path):
         assert np.linalg.norm(tip - target) < 1e-4
         # the sensors' sentence: prox sees Arm_link1 0.66 m away, Wrist_force reads Wrist's weight
         assert "`prox` detects `Arm_link1` 0.66 m away" in TEXT and "reads 2.12 N" in TEXT
-        detected, point, seen, _ = sensors.proximity_reading(sim, world.resolve("prox").handle)
+        detected, point, seen, _ = proximity.proximity_reading(sim, world.resolve("prox").handle)
         assert detected and seen == world.resolve("Arm_link1").handle
         assert point[2] == pytest.approx(0.66, abs=0.005)
         state, force, _ = sensors.force_sensor_reading(sim, world.resolve("Wrist_force").handle)

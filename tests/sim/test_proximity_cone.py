@@ -12,7 +12,7 @@ from conftest import ROOT
 from simx_client.protocol import ArgumentError
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.collisions import collision, probes
-from simx_server.sim.sensors import cone_directions, proximity_reading
+from simx_server.sim.proximity import cone_directions, proximity_reading
 
 PIONEER = ROOT / "scenes" / "pioneer_p3dx.xml"
 

@@ -1,6 +1,6 @@
 """V-REP's pyramid, cylinder and disc proximity volumes (``volume=`` in a sensor's ``simx:``
 settings, what ``simx-convert`` writes from a ``.ttt`` file's sensors): each a set of rays filling
-the volume (simx_server/sim/sensors.py ``volume_rays``); the reading is the detection nearest to
+the volume (simx_server/sim/proximity.py ``volume_rays``); the reading is the detection nearest to
 the sensor's origin, as V-REP's."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 
 from simx_wire.protocol import ArgumentError
 from simx_server.scene.simulation import Simulation
-from simx_server.sim import sensors
+from simx_server.sim import proximity
 
 SCENE = """<mujoco model="volumes">
   <option gravity="0 0 0"/>
@@ -28,7 +28,7 @@ def read(tmp_path, settings: str, x: float, y: float = 0.0, z: float = 0.3, cuto
     path.write_text(SCENE.format(x=x, y=y, z=z, cutoff=cutoff, settings=settings))
     sim = Simulation(path, realtime=False)
     try:
-        return sensors.proximity_reading(sim, sim.world.resolve("Sensor").handle)
+        return proximity.proximity_reading(sim, sim.world.resolve("Sensor").handle)
     finally:
         sim.close()
 

@@ -112,7 +112,7 @@ def _dependent(conv, obj: TttObject) -> None:
     conv.deferred_equalities.append((obj.name, master.name, off + mult * master.data.position - j.position, mult))
 
 
-#: V-REP's proximity volume types (``Snt``) that simx casts as sets of rays (sim/sensors.py).
+#: V-REP's proximity volume types (``Snt``) that simx casts as sets of rays (sim/proximity.py).
 _VOLUMES = {30: "pyramid", 31: "cylinder", 32: "disc"}
 
 

@@ -1,0 +1,239 @@
+"""Proximity sensors as V-REP's legacy remote API reads them (``simxReadProximitySensor``,
+``sim.readProximitySensor``): a ray, a cone (V-REP's sonars) or a volume of rays from a MuJoCo
+site carrying a ``rangefinder``.
+
+* ray: one ``mj_ray`` along the site's +z, excluding the site's own body, limited by the
+  rangefinder's ``cutoff``; the surface normal is the one ``mj_ray`` computes for the geom it hits.
+* cone (``angle=DEG`` in the sensor's ``simx:`` settings): ``mj_multiRay`` casts a fan of rays
+  filling the cone of that opening angle around +z; the nearest hit is the detection.
+* ``volume=pyramid``, ``cylinder`` or ``disc``: V-REP's other volume types, each a set of rays
+  filling the volume (:func:`volume_rays`).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import ArgumentError
+from simx_server.sim.sensors import site_sensor
+from simx_server.sim.state import SimulationView
+from simx_server.sim.world import PROXIMITY_SENSOR, SHAPE, World
+
+
+def _shape_of_body(world: World) -> dict[int, int]:
+    return {o.mj_id: o.handle for o in world.objects.values() if o.type == SHAPE}
+
+
+# -------------------------------------------------------------- proximity sensors
+#: Rays of a cone-type proximity sensor: its axis, then rings of rays every CONE_RING_STEP
+#: degrees of half-angle out to the cone's edge, rays CONE_RAY_SPACING degrees apart around
+#: each ring (a 30-degree sonar: 4 rings, 61 rays; one mj_multiRay call).
+CONE_RING_STEP = 3.75
+CONE_RAY_SPACING = 4.0
+
+
+@functools.lru_cache(maxsize=32)
+def cone_directions(angle: float) -> np.ndarray:
+    """Unit directions (n, 3) in the sensor frame filling a cone of opening ``angle`` (rad)
+    around +z: the axis first, the edge of the cone last."""
+    half = math.degrees(angle) / 2
+    rings = max(1, math.ceil(half / CONE_RING_STEP))
+    dirs = [np.array([[0.0, 0.0, 1.0]])]
+    for k in range(1, rings + 1):
+        theta = math.radians(half * k / rings)
+        count = max(6, math.ceil(360 * math.sin(theta) / CONE_RAY_SPACING))
+        phi = np.arange(count) * (2 * math.pi / count)
+        dirs.append(np.column_stack([math.sin(theta) * np.cos(phi), math.sin(theta) * np.sin(phi),
+                                     np.full(count, math.cos(theta))]))
+    return np.concatenate(dirs)
+
+
+def cone_angle(obj: Any) -> float:
+    """The opening angle (rad) of a cone-type proximity sensor (its ``simx:`` setting ``angle=``
+    in degrees, V-REP's cone "angle"), 0 for a ray-type one. Raises ArgumentError for a value
+    that is not a number in (0, 180)."""
+    raw = obj.settings.get("angle")
+    if raw is None:
+        return 0.0
+    try:
+        deg = float(raw)
+    except ValueError:
+        deg = math.nan
+    if not 0 < deg < 180:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: angle={raw!r} in its simx: settings is "
+                            "not an opening angle in degrees between 0 and 180")
+    return math.radians(deg)
+
+
+def max_angle(obj: Any) -> float:
+    """V-REP's "limited angle detection" of a proximity sensor (its ``simx:`` setting
+    ``max_angle=`` in degrees): a surface is detected only where the angle between the ray and
+    the surface's normal is at most this (an ultrasonic sensor does not hear a surface it meets
+    at a grazing angle, such as the floor); pi/2 (every surface) when not set. Raises
+    ArgumentError for a value that is not a number in (0, 90]."""
+    raw = obj.settings.get("max_angle")
+    if raw is None:
+        return math.pi / 2
+    try:
+        deg = float(raw)
+    except ValueError:
+        deg = math.nan
+    if not 0 < deg <= 90:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: max_angle={raw!r} in its simx: settings "
+                            "is not an angle in degrees in (0, 90]")
+    return math.radians(deg)
+
+
+#: Rays across each side of a pyramid-type volume, and rings / rays per ring of a cylinder.
+VOLUME_GRID = 7
+CYLINDER_RINGS, CYLINDER_RAYS = 3, 12
+
+
+def _floats(obj: Any, key: str, count: int, default: tuple[float, ...]) -> tuple[float, ...]:
+    raw = obj.settings.get(key)
+    if raw is None:
+        return default
+    try:
+        values = tuple(float(v) for v in raw.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != count or not all(math.isfinite(v) and v >= 0 for v in values):
+        raise ArgumentError(f"proximity sensor {obj.name!r}: {key}={raw!r} in its simx: settings is not "
+                            f"{count} comma-separated sizes in m")
+    return values
+
+
+def volume_rays(obj: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The rays of a ``volume=pyramid|cylinder|disc`` proximity sensor, in its frame: origins
+    (n, 3) m, unit directions (n, 3), lengths (n,) m; None for ray and cone types. The volume
+    lies between ``offset=`` (m, default 0) and the rangefinder's ``cutoff`` along +z, as V-REP's:
+
+    * ``pyramid``: a frustum from an ``size=X,Y`` rectangle at the offset to ``size_far=X,Y`` at
+      the cutoff (m); a VOLUME_GRID x VOLUME_GRID grid of rays joining the two faces;
+    * ``cylinder``: a cone frustum from ``radius=R`` to ``radius_far=R`` (m); rays on rings;
+    * ``disc``: a flat sector of opening ``angle=DEG`` in the sensor's x-z plane, from the
+      sensor's origin; a fan of rays CONE_RAY_SPACING degrees apart.
+
+    Raises ArgumentError for an unknown volume or a bad size."""
+    kind = obj.settings.get("volume", "ray")
+    if kind in ("ray", "cone"):
+        return None
+    (offset,) = _floats(obj, "offset", 1, (0.0,))
+    far = cutoff if math.isfinite(cutoff) else offset + 1.0
+    if far <= offset:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: its range ends (cutoff {far} m) before offset={offset}")
+    if kind == "pyramid":
+        x, y = _floats(obj, "size", 2, (0.1, 0.1))
+        xf, yf = _floats(obj, "size_far", 2, (x, y))
+        u, v = np.meshgrid(np.linspace(-0.5, 0.5, VOLUME_GRID), np.linspace(-0.5, 0.5, VOLUME_GRID))
+        u, v = u.ravel(), v.ravel()
+        near = np.column_stack([u * x, v * y, np.full(u.size, offset)])
+        end = np.column_stack([u * xf, v * yf, np.full(u.size, far)])
+    elif kind == "cylinder":
+        (r,) = _floats(obj, "radius", 1, (0.05,))
+        (rf,) = _floats(obj, "radius_far", 1, (r,))
+        frac = [0.0] + [k / CYLINDER_RINGS for k in range(1, CYLINDER_RINGS + 1) for _ in range(CYLINDER_RAYS)]
+        phi = [0.0] + [2 * math.pi * i / CYLINDER_RAYS for _ in range(CYLINDER_RINGS) for i in range(CYLINDER_RAYS)]
+        f, c, s = np.array(frac), np.cos(phi), np.sin(phi)
+        near = np.column_stack([f * r * c, f * r * s, np.full(f.size, offset)])
+        end = np.column_stack([f * rf * c, f * rf * s, np.full(f.size, far)])
+    elif kind == "disc":
+        angle = cone_angle(obj) or math.radians(90)
+        count = max(3, math.ceil(math.degrees(angle) / CONE_RAY_SPACING) + 1)
+        theta = np.linspace(-angle / 2, angle / 2, count)
+        dirs = np.column_stack([np.sin(theta), np.zeros(count), np.cos(theta)])
+        return np.zeros((count, 3)), dirs, np.full(count, far)
+    else:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: volume={kind!r} in its simx: settings is not "
+                            "ray, cone, pyramid, cylinder or disc")
+    span = end - near
+    lengths = np.linalg.norm(span, axis=1)
+    return near, span / lengths[:, None], lengths
+
+
+def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np.ndarray, exclude: int,
+                rays: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, int, np.ndarray, np.ndarray] | None:
+    """The detection nearest to the sensor's origin among ``rays`` (see :func:`volume_rays`):
+    (its distance from the origin m, geom, point (3,) in the sensor frame, surface normal (3,)
+    in the world frame), or None."""
+    starts, dirs, lengths = rays
+    best = None
+    gid = np.array([-1], dtype=np.int32)
+    normal = np.zeros(3)
+    for o, u, length in zip(starts, dirs, lengths):
+        dist = mujoco.mj_ray(m, d, origin + rot @ o, rot @ u, None, 1, exclude, gid, normal)
+        if dist < 0 or dist > length or gid[0] < 0:
+            continue
+        point = o + u * dist
+        reach = float(np.linalg.norm(point))
+        if best is None or reach < best[0]:
+            best = (reach, int(gid[0]), point, normal.copy())
+    return best
+
+
+def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[float], int, list[float]]:
+    """``simxReadProximitySensor``'s values: (detected, detected point (3,) m, detected object
+    handle, detected surface normal (3,)), point and normal in the sensor frame.
+
+    A ray-type sensor casts one ray along +z; a cone-type one (``angle=``) a fan of rays filling
+    the cone (:func:`cone_directions`), a pyramid, cylinder or disc one (``volume=``) the rays of
+    :func:`volume_rays`, and each reports the nearest hit, as V-REP's cone sensor
+    reports the nearest point of what lies in its volume (within the ray spacing), leaving out
+    surfaces met beyond ``max_angle=`` (:func:`max_angle`; cone sensors only). Geoms of the
+    sensor's own body are not seen; the range is the rangefinder's ``cutoff`` (0: unlimited).
+    Nothing detected: (False, [0, 0, 0], -1, [0, 0, 0]).
+
+    Raises UnknownObjectError/ObjectTypeError for another handle, ArgumentError for a bad
+    ``angle=`` setting.
+    """
+    world = sim.world
+    obj = world.get(handle, PROXIMITY_SENSOR)
+    m, d = world.model, world.data
+    site = obj.mj_id
+    k = site_sensor(m, site, mujoco.mjtSensor.mjSENS_RANGEFINDER)
+    cutoff = float(m.sensor_cutoff[k]) if k is not None and m.sensor_cutoff[k] > 0 else math.inf
+    rot = d.site_xmat[site].reshape(3, 3)
+    origin = d.site_xpos[site].copy()
+    exclude = int(m.site_bodyid[site])
+    rays = volume_rays(obj, cutoff)
+    angle = cone_angle(obj) if rays is None else 0.0
+    if rays is not None:
+        found = _volume_hit(m, d, rot, origin, exclude, rays)
+        if found is None:
+            return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
+        dist, geom, point, normal = found
+    elif angle > 0:
+        local = cone_directions(angle)
+        n = len(local)
+        geoms, dists, normals = np.full(n, -1, np.int32), np.full(n, -1.0), np.zeros(n * 3)
+        mujoco.mj_multiRay(m, d, origin, (local @ rot.T).ravel(), None, 1, exclude, geoms, dists,
+                           normals, n, min(cutoff, mujoco.mjMAXVAL))
+        found = (dists >= 0) & (geoms >= 0) & (dists <= cutoff)
+        limit = max_angle(obj)
+        if limit < math.pi / 2:  # the ray against the surface's normal (both unit vectors)
+            facing = -np.einsum("ij,ij->i", local @ rot.T, normals.reshape(-1, 3))
+            found &= facing >= math.cos(limit) - 1e-9
+        hits = np.flatnonzero(found)
+        if hits.size == 0:
+            return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
+        i = int(hits[np.argmin(dists[hits])])
+        dist, geom, point = float(dists[i]), int(geoms[i]), local[i] * dists[i]
+        normal = normals[3 * i:3 * i + 3]
+    else:
+        ids = np.array([-1], dtype=np.int32)
+        normal = np.zeros(3)
+        dist = mujoco.mj_ray(m, d, origin, rot[:, 2].copy(), None, 1, exclude, ids, normal)
+        geom = int(ids[0])
+        if dist < 0 or dist > cutoff or geom < 0:
+            return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
+        point = np.array([0.0, 0.0, dist])
+    hit = _shape_of_body(world).get(int(m.geom_bodyid[geom]), -1)
+    n = rot.T @ normal
+    norm = np.linalg.norm(n)
+    n = n / norm if norm > 0 else n
+    return True, [float(x) for x in point], hit, [float(x) for x in n]
