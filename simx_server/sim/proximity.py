@@ -40,7 +40,14 @@ CONE_RAY_SPACING = 4.0
 @functools.lru_cache(maxsize=32)
 def cone_directions(angle: float) -> np.ndarray:
     """Unit directions (n, 3) in the sensor frame filling a cone of opening ``angle`` (rad)
-    around +z: the axis first, the edge of the cone last."""
+    around +z: the axis first, the edge of the cone last.
+
+    Args:
+        angle: the cone's opening angle, rad.
+
+    Returns:
+        Array (n, 3), cached per angle (do not modify).
+    """
     half = math.degrees(angle) / 2
     rings = max(1, math.ceil(half / CONE_RING_STEP))
     dirs = [np.array([[0.0, 0.0, 1.0]])]
@@ -56,7 +63,14 @@ def cone_directions(angle: float) -> np.ndarray:
 def cone_angle(obj: Any) -> float:
     """The opening angle (rad) of a cone-type proximity sensor (its ``simx:`` setting ``angle=``
     in degrees, V-REP's cone "angle"), 0 for a ray-type one. Raises ArgumentError for a value
-    that is not a number in (0, 180)."""
+    that is not a number in (0, 180).
+
+    Args:
+        obj: a proximity sensor's scene object.
+
+    Returns:
+        Angle in rad.
+    """
     raw = obj.settings.get("angle")
     if raw is None:
         return 0.0
@@ -75,7 +89,14 @@ def max_angle(obj: Any) -> float:
     ``max_angle=`` in degrees): a surface is detected only where the angle between the ray and
     the surface's normal is at most this (an ultrasonic sensor does not hear a surface it meets
     at a grazing angle, such as the floor); pi/2 (every surface) when not set. Raises
-    ArgumentError for a value that is not a number in (0, 90]."""
+    ArgumentError for a value that is not a number in (0, 90].
+
+    Args:
+        obj: a proximity sensor's scene object.
+
+    Returns:
+        Angle in rad.
+    """
     raw = obj.settings.get("max_angle")
     if raw is None:
         return math.pi / 2
@@ -119,7 +140,15 @@ def volume_rays(obj: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.nda
     * ``disc``: a flat sector of opening ``angle=DEG`` in the sensor's x-z plane, from the
       sensor's origin; a fan of rays CONE_RAY_SPACING degrees apart.
 
-    Raises ArgumentError for an unknown volume or a bad size."""
+    Raises ArgumentError for an unknown volume or a bad size.
+
+    Args:
+        obj: a proximity sensor's scene object (its ``simx:`` settings).
+        cutoff: the rangefinder's range, m (``math.inf``: unlimited).
+
+    Returns:
+        ``(origins, directions, lengths)``, or None.
+    """
     kind = obj.settings.get("volume", "ray")
     if kind in ("ray", "cone"):
         return None
@@ -190,6 +219,18 @@ def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[floa
 
     Raises UnknownObjectError/ObjectTypeError for another handle, ArgumentError for a bad
     ``angle=`` setting.
+
+    Args:
+        sim: the simulation.
+        handle: a proximity sensor's handle.
+
+    Returns:
+        ``(detected, [x, y, z], object handle, [nx, ny, nz])``.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a proximity sensor.
+        ArgumentError: bad ``angle=``, ``max_angle=`` or volume settings.
     """
     world = sim.world
     obj = world.get(handle, PROXIMITY_SENSOR)

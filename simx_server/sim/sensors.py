@@ -48,11 +48,23 @@ class PassiveImages:
         self._images: dict[int, np.ndarray] = {}
 
     def set(self, handle: int, rgb: np.ndarray) -> None:
-        """Store ``rgb`` ((h, w, 3) uint8, rows bottom-up) as the sensor's image."""
+        """Store ``rgb`` ((h, w, 3) uint8, rows bottom-up) as the sensor's image.
+
+        Args:
+            handle: the sensor's handle.
+            rgb: the image.
+        """
         self._images[handle] = rgb
 
     def get(self, handle: int) -> np.ndarray | None:
-        """The stored image, or None if none was ever set."""
+        """The stored image, or None if none was ever set.
+
+        Args:
+            handle: the sensor's handle.
+
+        Returns:
+            (h, w, 3) uint8, rows bottom-up, or None.
+        """
         return self._images.get(handle)
 
     def clear(self) -> None:
@@ -72,7 +84,19 @@ class SensorState:
 
 
 def is_passive(sim: SimulationView, handle: int) -> bool:
-    """Whether vision sensor ``handle`` is passive (``image=external`` in its custom text)."""
+    """Whether vision sensor ``handle`` is passive (``image=external`` in its custom text).
+
+    Args:
+        sim: the simulation.
+        handle: a vision sensor's handle.
+
+    Returns:
+        True for a passive sensor.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a vision sensor.
+    """
     return sim.world.get(handle, VISION_SENSOR).settings.get("image") == "external"
 
 
@@ -82,6 +106,14 @@ def override_image(sim: SimulationView, handle: int, grey: bool) -> np.ndarray |
     Same contract as ``VisionSensors.image``: rows bottom-up, (h, w, 3) uint8 RGB, or (h, w)
     uint8 ``(R + G + B) // 3`` when ``grey``. A passive sensor nobody wrote to yet is black.
     Raises UnknownObjectError / ObjectTypeError for a handle that is not a vision sensor.
+
+    Args:
+        sim: the simulation.
+        handle: a vision sensor's handle.
+        grey: one byte per pixel (``simxGetVisionSensorImage``'s options bit 0).
+
+    Returns:
+        The image, or None.
     """
     if not is_passive(sim, handle):
         return None
@@ -161,6 +193,15 @@ def _site_wrench(world: World, site: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def stamp(sim: SimulationView) -> tuple[int, float]:
+    """When a force sensor breaks: the simulation's stop count and time (s), so that a stop
+    (scene reset) repairs it.
+
+    Args:
+        sim: the simulation.
+
+    Returns:
+        ``(stops, time)``.
+    """
     return getattr(sim, "stop_requests", 0), sim.world.time
 
 
@@ -177,7 +218,22 @@ def _broken(sim: SimulationView, handle: int) -> bool:
 
 
 def force_sensor_reading(sim: SimulationView, handle: int) -> tuple[int, list[float], list[float]]:
-    """(state, force (3,) N, torque (3,) N·m) of force sensor ``handle``; see read_force_sensor."""
+    """(state, force (3,) N, torque (3,) N·m) of force sensor ``handle``; see read_force_sensor.
+
+    Implements ``simxReadForceSensor`` / ``sim.readForceSensor``.
+
+    Args:
+        sim: the simulation.
+        handle: a force sensor's handle.
+
+    Returns:
+        ``(state, [fx, fy, fz], [tx, ty, tz])``: state bit 0 data available, bit 1 broken (then
+        both vectors are zero); force in N, torque in N·m, in the sensor (site) frame.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a force sensor.
+    """
     obj = sim.world.get(handle, FORCE_SENSOR)
     if _broken(sim, handle):
         return FORCE_STATE_BROKEN, [0.0] * 3, [0.0] * 3
@@ -200,13 +256,38 @@ def vision_packet(sim: SimulationView, handle: int) -> list[float]:
     image (intensity = (R + G + B) / 3) and depth buffer (normalised between near and far).
     Passive sensors use their stored image; the depth is always the rendered one (what
     simxGetVisionSensorDepthBuffer returns). Waits for the render (see :func:`vision_packet_job`).
+
+    Implements ``simxReadVisionSensor``'s packet.
+
+    Args:
+        sim: the simulation.
+        handle: a vision sensor's handle.
+
+    Returns:
+        15 floats: the 5 minima, 5 maxima, 5 averages.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a vision sensor.
     """
     return sim.vision.after(vision_packet_job(sim, handle)).result()
 
 
 def vision_packet_job(sim: SimulationView, handle: int) -> Callable[[], list[float]]:
     """:func:`vision_packet`'s frames submitted (simulation thread); the job returned computes
-    the packet from them, on the request render thread after them (``VisionSensors.after``)."""
+    the packet from them, on the request render thread after them (``VisionSensors.after``).
+
+    Args:
+        sim: the simulation.
+        handle: a vision sensor's handle.
+
+    Returns:
+        A function of no argument that returns the 15 floats of :func:`vision_packet`.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a vision sensor.
+    """
     rgb = override_image(sim, handle, False)
     image = (lambda: rgb) if rgb is not None else sim.vision.image_job(handle, False)
     depth_job = sim.vision.depth_job(handle)
