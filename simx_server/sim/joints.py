@@ -1,0 +1,107 @@
+"""Joints in V-REP's terms, as a mixin of :class:`simx_server.sim.world.World`: intrinsic
+positions (``simxGetJointPosition``, ``simxSetJointPosition``), their motors' targets, maximum
+forces and flags (``simxSetJointTargetPosition``, ``simxSetJointTargetVelocity``,
+``simxSetJointForce``), and the force a joint exerts (``simxGetJointForce``). Positions in rad
+(hinge) or m (slide), velocities in rad/s or m/s, forces in N·m or N. Joint motors themselves are
+:mod:`simx_server.sim.motors`.
+"""
+
+from __future__ import annotations
+
+from simx_wire.protocol import ObjectTypeError
+from simx_server.base import limits as L
+from simx_server.sim import physics
+from simx_server.sim.objects import JOINT
+
+# Bounds of the hot joint setters, as globals (one comparison each; see limits.py).
+_MAX_Q, _MAX_V, _MAX_F = L.MAX_JOINT_POSITION, L.MAX_JOINT_VELOCITY, L.MAX_JOINT_FORCE
+
+
+class Joints:
+    """Joints of a :class:`~simx_server.sim.world.World` (needs its model, data, registry and motors)."""
+
+    def _scalar_joint(self, handle: int) -> tuple[int, int]:
+        """``(qpos address, dof address)`` of a hinge or slide joint (hot path: precomputed)."""
+        addresses = self._scalar_joints.get(handle)
+        if addresses is None:
+            obj = self.get(handle, JOINT)  # raises for a handle that is not a joint
+            raise ObjectTypeError(f"joint {obj.name!r} is spherical/free: use simxGetJointMatrix / "
+                                  "simxSetSphericalJointMatrix")
+        return addresses
+
+    def joint_position(self, handle: int) -> float:
+        """Intrinsic position of a joint (rad or m). ``simxGetJointPosition``."""
+        return self._qpos.item(self._scalar_joint(handle)[0])
+
+    def set_joint_position(self, handle: int, position: float) -> None:
+        """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``.
+
+        Raises ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
+        """
+        qadr, dadr = self._scalar_joint(handle)
+        if not -_MAX_Q <= position <= _MAX_Q:
+            raise physics.out_of_range("joint position", position, -_MAX_Q, _MAX_Q, "rad or m", "MAX_JOINT_POSITION")
+        self.data.qpos[qadr] = position
+        self.data.qvel[dadr] = 0.0
+        if handle in self.motor_index:
+            self.target_position[self.motor_index[handle]] = position
+        self.changed()
+
+    def set_joint_target_position(self, handle: int, position: float) -> None:
+        """Target position of a joint's motor (rad or m), stored whatever the mode; it acts
+        while the motor and its control loop are enabled. ``simxSetJointTargetPosition``.
+
+        Raises UnknownObjectError / ObjectTypeError (not a joint, spherical, driven through a
+        tendon), ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
+        """
+        i = self.motor(handle)
+        if not -_MAX_Q <= position <= _MAX_Q:
+            raise physics.out_of_range("target position", position, -_MAX_Q, _MAX_Q, "rad or m", "MAX_JOINT_POSITION")
+        self.motors.target_position[i] = position
+
+    def set_joint_target_velocity(self, handle: int, velocity: float) -> None:
+        """Target velocity of a joint's motor (rad/s or m/s), stored whatever the mode; it acts
+        while the motor is enabled and its control loop is not. ``simxSetJointTargetVelocity``.
+
+        Raises as set_joint_target_position; ArgumentError unless |velocity| <=
+        limits.MAX_JOINT_VELOCITY.
+        """
+        i = self.motor(handle)
+        if not -_MAX_V <= velocity <= _MAX_V:
+            raise physics.out_of_range("target velocity", velocity, -_MAX_V, _MAX_V, "rad/s or m/s",
+                                       "MAX_JOINT_VELOCITY")
+        self.motors.target_velocity[i] = velocity
+
+    def set_joint_force(self, handle: int, force: float) -> None:
+        """Maximum force/torque of a joint's motor (N or N·m on the joint, sign ignored).
+        ``simxSetJointForce``.
+
+        Raises ArgumentError unless |force| <= limits.MAX_JOINT_FORCE.
+        """
+        i = self.motor(handle)
+        if not -_MAX_F <= force <= _MAX_F:
+            raise physics.out_of_range("joint force", force, -_MAX_F, _MAX_F, "N or N·m", "MAX_JOINT_FORCE")
+        self.motors.max_force[i] = abs(float(force))
+        self.motors.write_force_limits(self.model)
+
+    def joint_max_force(self, handle: int) -> float:
+        """Maximum force/torque of a joint's motor (N or N·m)."""
+        return float(self.motors.max_force[self.motor(handle)])
+
+    def set_motor_flags(self, handle: int, enabled: bool | None = None, loop: bool | None = None) -> None:
+        """Motor on/off (``sim_jointintparam_motor_enabled``, 2000) and control loop on/off
+        (``sim_jointintparam_ctrl_enabled``, 2001) of a joint. As in V-REP the targets are
+        kept: turning the loop on drives the joint toward the stored target position."""
+        i = self.motor(handle)
+        if enabled is not None:
+            self.motors.enabled[i] = enabled
+        if loop is not None:
+            self.motors.loop[i] = loop
+
+    def joint_force(self, handle: int) -> float:
+        """Force/torque the joint's motor applies now (N or N·m on the joint). ``simxGetJointForce``."""
+        _, dadr = self._scalar_joint(handle)
+        i = self.motors.index.get(handle)
+        if i is not None:
+            return float(self.data.actuator_force[self.motors.act[i]]) * float(self.motors.gear[i])
+        return float(self.data.qfrc_constraint[dadr])
