@@ -30,13 +30,28 @@ class Joints:
         return addresses
 
     def joint_position(self, handle: int) -> float:
-        """Intrinsic position of a joint (rad or m). ``simxGetJointPosition``."""
+        """Intrinsic position of a joint (rad or m). ``simxGetJointPosition``.
+
+        Args:
+            handle: a hinge or slide joint's handle.
+
+        Returns:
+            The position, rad or m.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint, or a spherical or free one.
+        """
         return self._qpos.item(self._scalar_joint(handle)[0])
 
     def set_joint_position(self, handle: int, position: float) -> None:
         """Teleport a joint to ``position`` (rad or m) and hold it there. ``simxSetJointPosition``.
 
         Raises ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
+
+        Args:
+            handle: a hinge or slide joint's handle.
+            position: rad or m.
         """
         qadr, dadr = self._scalar_joint(handle)
         if not -_MAX_Q <= position <= _MAX_Q:
@@ -53,6 +68,10 @@ class Joints:
 
         Raises UnknownObjectError / ObjectTypeError (not a joint, spherical, driven through a
         tendon), ArgumentError unless |position| <= limits.MAX_JOINT_POSITION.
+
+        Args:
+            handle: a joint's handle.
+            position: rad or m.
         """
         i = self.motor(handle)
         if not -_MAX_Q <= position <= _MAX_Q:
@@ -65,6 +84,10 @@ class Joints:
 
         Raises as set_joint_target_position; ArgumentError unless |velocity| <=
         limits.MAX_JOINT_VELOCITY.
+
+        Args:
+            handle: a joint's handle.
+            velocity: rad/s or m/s.
         """
         i = self.motor(handle)
         if not -_MAX_V <= velocity <= _MAX_V:
@@ -77,6 +100,10 @@ class Joints:
         ``simxSetJointForce``.
 
         Raises ArgumentError unless |force| <= limits.MAX_JOINT_FORCE.
+
+        Args:
+            handle: a joint's handle.
+            force: N or N·m.
         """
         i = self.motor(handle)
         if not -_MAX_F <= force <= _MAX_F:
@@ -85,13 +112,34 @@ class Joints:
         self.motors.write_force_limits(self.model)
 
     def joint_max_force(self, handle: int) -> float:
-        """Maximum force/torque of a joint's motor (N or N·m)."""
+        """Maximum force/torque of a joint's motor (N or N·m).
+
+        Args:
+            handle: a joint's handle.
+
+        Returns:
+            N or N·m, >= 0.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint with a motor of its own.
+        """
         return float(self.motors.max_force[self.motor(handle)])
 
     def set_motor_flags(self, handle: int, enabled: bool | None = None, loop: bool | None = None) -> None:
         """Motor on/off (``sim_jointintparam_motor_enabled``, 2000) and control loop on/off
         (``sim_jointintparam_ctrl_enabled``, 2001) of a joint. As in V-REP the targets are
-        kept: turning the loop on drives the joint toward the stored target position."""
+        kept: turning the loop on drives the joint toward the stored target position.
+
+        Args:
+            handle: a joint's handle.
+            enabled: the motor on or off; None: unchanged.
+            loop: the position control loop on or off; None: unchanged.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint with a motor of its own.
+        """
         i = self.motor(handle)
         if enabled is not None:
             self.motors.enabled[i] = enabled
@@ -99,7 +147,19 @@ class Joints:
             self.motors.loop[i] = loop
 
     def joint_force(self, handle: int) -> float:
-        """Force/torque the joint's motor applies now (N or N·m on the joint). ``simxGetJointForce``."""
+        """Force/torque the joint's motor applies now (N or N·m on the joint). ``simxGetJointForce``.
+
+        Args:
+            handle: a hinge or slide joint's handle.
+
+        Returns:
+            N or N·m: its motor's actuator force times the gear, or for a joint without a motor the
+            constraint force on its dof.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint, or a spherical or free one.
+        """
         _, dadr = self._scalar_joint(handle)
         i = self.motors.index.get(handle)
         if i is not None:

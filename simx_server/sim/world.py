@@ -147,6 +147,9 @@ class World(Poses, Joints):
         velocities, motors their mode, targets and maximum force; the simulation time goes on.
         Objects that disappeared lose their handle for good; new ones get new handles.
         Raises ArgumentError, changing nothing, when the model exceeds a bound (see _install).
+
+        Args:
+            model: the edited scene, compiled.
         """
         old_model, old_data = self.model, self.data
         joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
@@ -253,6 +256,12 @@ class World(Poses, Joints):
 
         Raises:
             UnknownObjectError: no such object.
+
+        Args:
+            name: a V-REP name, or a CoppeliaSim path.
+
+        Returns:
+            The object.
         """
         if not isinstance(name, str):
             raise ArgumentError(f"object name must be a string, got {type(name).__name__}")
@@ -275,6 +284,13 @@ class World(Poses, Joints):
         Raises:
             UnknownObjectError: no object has that handle.
             ObjectTypeError: the object is not of type ``otype``.
+
+        Args:
+            handle: an object's handle.
+            otype: an object type (``sim_object_*_type``), or None for any.
+
+        Returns:
+            The object.
         """
         if not isinstance(handle, int) or isinstance(handle, bool):
             raise ArgumentError(f"handle must be an int, got {type(handle).__name__}")
@@ -289,7 +305,14 @@ class World(Poses, Joints):
         return obj
 
     def objects_of_type(self, otype: int) -> list[int]:
-        """Handles of every object of ``otype`` (``sim_handle_all`` = -2: every object)."""
+        """Handles of every object of ``otype`` (``sim_handle_all`` = -2: every object).
+
+        Args:
+            otype: a ``sim_object_*_type`` value, or -2.
+
+        Returns:
+            Handles, in tree order.
+        """
         return [o.handle for o in self.objects.values() if otype == C.sim_handle_all or o.type == otype]
 
     # ------------------------------------------------------------------ motors
@@ -310,6 +333,16 @@ class World(Poses, Joints):
 
         Raises ObjectTypeError for a ball/free joint, and for a joint moved through a tendon
         (it has no motor of its own: the error names the tendon).
+
+        Args:
+            handle: a joint's handle.
+
+        Returns:
+            The motor's index in :attr:`motors`.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint, or one without a motor of its own.
         """
         i = self.motors.index.get(handle)
         if i is not None:
@@ -338,6 +371,11 @@ class World(Poses, Joints):
 
         Raises ArgumentError unless 0 < dt <= limits.MAX_DT and dt makes at most
         limits.MAX_SUBSTEPS substeps; nothing changes then.
+
+        Implements ``simxSetFloatingParameter(sim_floatparam_simulation_time_step)`` and ``--dt``.
+
+        Args:
+            dt: the step asked for, s.
         """
         dt = physics.check_dt(dt)
         self.substeps = physics.substeps(dt, float(self.model.opt.timestep))
