@@ -35,7 +35,7 @@ from simx_server.sim import naming
 from simx_server.sim import world as W
 from simx_server.sim.group_data import _joint_properties
 from simx_server.sim.object_params import _perspective
-from simx_server.sim.vision import sensor_spec
+from simx_server.sim.sensor_spec import sensor_spec
 
 TYPE_NAMES = {W.SHAPE: "shape", W.JOINT: "joint", W.DUMMY: "dummy", W.VISION_SENSOR: "vision sensor",
               W.LIGHT: "light", W.PROXIMITY_SENSOR: "proximity sensor", W.FORCE_SENSOR: "force sensor"}

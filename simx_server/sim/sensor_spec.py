@@ -1,0 +1,68 @@
+"""A vision sensor's static properties (:class:`SensorSpec`): resolution, near and far clipping,
+image kind, render mode, and the byte sizes of its image and depth buffer, read from the MuJoCo
+camera and its ``simx:NAME`` custom text (:func:`sensor_spec`). Rendering is
+:mod:`simx_server.sim.vision`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+
+from simx_server.sim import handle_render
+from simx_server.sim.physics import check_resolution
+
+DEFAULT_RESOLUTION = (256, 256)
+DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10.0
+
+@dataclasses.dataclass
+class SensorSpec:
+    """Static properties of one vision sensor."""
+
+    camera: int
+    width: int
+    height: int
+    near: float  # m
+    far: float  # m
+    depth_image: bool
+    shadows: bool = False
+    reflections: bool = False
+    render_mode: int = handle_render.OPENGL  # sim_visionintparam_render_mode; 2: colour-coded handles
+
+    @property
+    def pixels(self) -> int:
+        """Pixels of one frame: resX * resY."""
+        return self.width * self.height
+
+    def image_size(self, grey: bool) -> int:
+        """Bytes of one image (``simxGetVisionSensorImage`` / ``simxSetVisionSensorImage``): one
+        byte per pixel when ``grey``, three (RGB) otherwise."""
+        return self.pixels * (1 if grey else 3)
+
+    def depth_size(self) -> int:
+        """Bytes of one depth buffer (``simxGetVisionSensorDepthBuffer``): a float32 per pixel."""
+        return self.pixels * 4
+
+
+def _flag(settings: dict[str, str], key: str, sensor: str) -> bool:
+    """A ``true``/``false`` custom-text setting (default false); ValueError names the sensor."""
+    value = settings.get(key, "false").lower()
+    if value not in ("true", "false"):
+        raise ValueError(f"vision sensor {sensor!r}: {key}={value!r} must be true or false")
+    return value == "true"
+
+
+def sensor_spec(model: mujoco.MjModel, obj) -> SensorSpec:
+    """The static properties of vision sensor ``obj`` (a world.SceneObject of the camera): the
+    camera's resolution (DEFAULT_RESOLUTION when the MJCF leaves it at 1x1), near/far clipping
+    (m) and image kind from its ``simx:`` text. Raises ValueError for a bad setting."""
+    w, h = (int(x) for x in model.cam_resolution[obj.mj_id])
+    if (w, h) == (1, 1):
+        w, h = DEFAULT_RESOLUTION
+    check_resolution(w, h, f"vision sensor {obj.name!r}")  # World checked it at load too
+    s = obj.settings
+    return SensorSpec(obj.mj_id, w, h, float(s.get("near", DEFAULT_NEAR)), float(s.get("far", DEFAULT_FAR)),
+                      s.get("image", "rgb") == "depth",
+                      shadows=_flag(s, "shadows", obj.name), reflections=_flag(s, "reflections", obj.name),
+                      render_mode=handle_render.parse_mode(s, obj.name))
