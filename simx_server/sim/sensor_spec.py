@@ -37,11 +37,22 @@ class SensorSpec:
 
     def image_size(self, grey: bool) -> int:
         """Bytes of one image (``simxGetVisionSensorImage`` / ``simxSetVisionSensorImage``): one
-        byte per pixel when ``grey``, three (RGB) otherwise."""
+        byte per pixel when ``grey``, three (RGB) otherwise.
+
+        Args:
+            grey: one byte per pixel.
+
+        Returns:
+            Bytes.
+        """
         return self.pixels * (1 if grey else 3)
 
     def depth_size(self) -> int:
-        """Bytes of one depth buffer (``simxGetVisionSensorDepthBuffer``): a float32 per pixel."""
+        """Bytes of one depth buffer (``simxGetVisionSensorDepthBuffer``): a float32 per pixel.
+
+        Returns:
+            Bytes.
+        """
         return self.pixels * 4
 
 
@@ -56,7 +67,15 @@ def _flag(settings: dict[str, str], key: str, sensor: str) -> bool:
 def sensor_spec(model: mujoco.MjModel, obj) -> SensorSpec:
     """The static properties of vision sensor ``obj`` (a world.SceneObject of the camera): the
     camera's resolution (DEFAULT_RESOLUTION when the MJCF leaves it at 1x1), near/far clipping
-    (m) and image kind from its ``simx:`` text. Raises ValueError for a bad setting."""
+    (m) and image kind from its ``simx:`` text. Raises ValueError for a bad setting.
+
+    Args:
+        model: the compiled model.
+        obj: the sensor's scene object.
+
+    Returns:
+        Its :class:`SensorSpec`.
+    """
     w, h = (int(x) for x in model.cam_resolution[obj.mj_id])
     if (w, h) == (1, 1):
         w, h = DEFAULT_RESOLUTION

@@ -149,7 +149,13 @@ class VisionSensors:
         allowed: the sensor renders at the new size from the next image on (a GL context per
         size, at most limits.MAX_RENDERERS kept). The field of view keeps V-REP's rule (the
         perspective angle spans the larger side). Undone when the simulation stops, like the
-        other run-time sensor changes. Raises ArgumentError outside 1..MAX_RESOLUTION."""
+        other run-time sensor changes. Raises ArgumentError outside 1..MAX_RESOLUTION.
+
+        Args:
+            handle: a vision sensor's handle.
+            width: pixels, or None to keep it.
+            height: pixels, or None to keep it.
+        """
         spec = self.spec(handle)
         w = spec.width if width is None else int(width)
         h = spec.height if height is None else int(height)
@@ -180,7 +186,14 @@ class VisionSensors:
         thread.executor.submit(warm)
 
     def spec(self, handle: int) -> SensorSpec:
-        """The sensor's properties; raises UnknownObjectError/ObjectTypeError for other handles."""
+        """The sensor's properties; raises UnknownObjectError/ObjectTypeError for other handles.
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Returns:
+            Its :class:`~simx_server.sim.sensor_spec.SensorSpec`.
+        """
         self.world.get(handle, VISION_SENSOR)
         return self.specs[handle]
 
@@ -347,7 +360,14 @@ class VisionSensors:
         """The sensor's depth frame of the world's current state submitted (simulation thread);
         the job returned gives it, run on the request render thread after it (:meth:`after`),
         normalised to 0..1 between near and far, (h, w) float32, rows bottom-up. Raises
-        UnknownObjectError/ObjectTypeError for other handles."""
+        UnknownObjectError/ObjectTypeError for other handles.
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Returns:
+            The job.
+        """
         spec, raw = self.spec(handle), self._frame(handle, "depth")
         near, far = spec.near, spec.far  # as they are now, even if changed before the render
 
@@ -366,7 +386,15 @@ class VisionSensors:
 
     def image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
         """As :meth:`depth_job`, for the sensor's image: (h, w, 3) uint8 RGB, or (h, w) uint8 when
-        ``grey``, rows bottom-up."""
+        ``grey``, rows bottom-up.
+
+        Args:
+            handle: a vision sensor's handle.
+            grey: one byte per pixel.
+
+        Returns:
+            The job.
+        """
         kind = self._image_kind(self.spec(handle))
         if kind == "handles":  # V-REP's colour-coded handles (render mode 2)
             if self._colours is None:
@@ -408,13 +436,27 @@ class VisionSensors:
         return Deferred(thread.executor.submit(job), thread)
 
     def depth(self, handle: int) -> np.ndarray:
-        """Depth normalised to 0..1 between near and far, (h, w) float32, rows bottom-up."""
+        """Depth normalised to 0..1 between near and far, (h, w) float32, rows bottom-up.
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Returns:
+            Array (h, w) float32.
+        """
         return self.after(self.depth_job(handle)).result()
 
     def image(self, handle: int, grey: bool) -> np.ndarray:
         """The sensor's image, rows bottom-up: (h, w, 3) uint8 RGB, or (h, w) uint8 when ``grey``.
 
         ``grey`` is V-REP's options bit 0: one byte per pixel, (R + G + B) / 3.
+
+        Args:
+            handle: a vision sensor's handle.
+            grey: one byte per pixel.
+
+        Returns:
+            Array (h, w, 3) or (h, w) uint8.
         """
         return self.after(self.image_job(handle, grey)).result()
 
@@ -430,14 +472,26 @@ class VisionSensors:
         return Deferred(*cached)
 
     def image_deferred(self, handle: int, options: int) -> Deferred:
-        """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey)."""
+        """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey).
+
+        Args:
+            handle: a vision sensor's handle.
+            options: bit 0: grey.
+
+        Raises:
+            ArgumentError: ``options`` is not an int.
+        """
         if not isinstance(options, int):
             raise ArgumentError(f"options must be an int, got {type(options).__name__}")
         grey = bool(options & 1)
         return self._payload(handle, f"image{int(grey)}", lambda: self.image_job(handle, grey))
 
     def depth_deferred(self, handle: int) -> Deferred:
-        """``simxGetVisionSensorDepthBuffer``: a Deferred ``[[resX, resY], float32 bytes]``."""
+        """``simxGetVisionSensorDepthBuffer``: a Deferred ``[[resX, resY], float32 bytes]``.
+
+        Args:
+            handle: a vision sensor's handle.
+        """
         return self._payload(handle, "depth buffer", lambda: self.depth_job(handle))
 
     def image_bytes(self, handle: int, options: int) -> tuple[list[int], bytes]:
