@@ -82,7 +82,11 @@ _USER_NAME = re.compile(r"[A-Za-z0-9_.]{1,95}")  # 95 + 1 + 32 = 128, the longes
 
 
 def config_in_play() -> str:
-    """The client's Zenoh config file as messages name it: ``FILE ($SIMX_ZENOH_CONFIG)``, or none."""
+    """The client's Zenoh config file as messages name it: ``FILE ($SIMX_ZENOH_CONFIG)``, or none.
+
+    Returns:
+        The file and the variable that names it, or ``none (...)``.
+    """
     found = next(((os.environ[v], v) for v in CONFIG_ENV if os.environ.get(v)), None)
     return f"{found[0]} (${found[1]})" if found else f"none (neither ${' nor $'.join(CONFIG_ENV)} is set)"
 
@@ -100,6 +104,13 @@ def client_config(address: str, port: int) -> zenoh.Config:
 
     Raises:
         LocalError: the file cannot be read or is not a valid Zenoh config (``simxStart`` -1).
+
+    Args:
+        address: the server's host (``simxStart``'s connectionAddress).
+        port: its port (``simxStart``'s connectionPort).
+
+    Returns:
+        The config.
     """
     path, var = next(((os.environ[v], v) for v in CONFIG_ENV if os.environ.get(v)), (None, None))
     protocol = "tcp"
@@ -131,6 +142,12 @@ def client_id(config: zenoh.Config) -> str:
     Raises:
         LocalError: the user name is not 1 to 95 letters, digits, ``_`` or ``.`` (no ``-``:
             ``alice-$*`` must not match the ids of a user ``alice-x``).
+
+    Args:
+        config: the client's Zenoh config (for its user).
+
+    Returns:
+        The id.
     """
     user = os.environ.get(USER_ENV) or json.loads(config.get_json("transport/auth/usrpwd/user") or "null")
     ident = uuid.uuid4().hex
@@ -251,6 +268,14 @@ class Connection(OutboxSender):
             TimeoutError: no reply within the timeout (the server is gone or too slow).
             ProtocolError: the server refused the request.
             LocalError: arguments that cannot be encoded (nothing was sent).
+
+        Args:
+            commands: ``[name, mode, args]`` lists.
+            timeout: s; None: the connection's blocking timeout.
+            flush: send the outbox first.
+
+        Returns:
+            One ``[ok, value]`` per command.
         """
         with self._send_lock:
             if flush and self._outbox and not self._paused:
@@ -372,6 +397,14 @@ class Connection(OutboxSender):
 
         ``value`` is the command's result when the code is 0, the server's error message when
         it is 8, the reason when it is 32 (arguments that cannot be encoded), and None otherwise.
+
+        Args:
+            name: the command (``"GetJointPosition"`` ...).
+            args: its arguments, plain Python values.
+            mode: ``simx_opmode_*``, with its wait argument in the high 16 bits.
+
+        Returns:
+            ``(returnCode, value)``.
         """
         base = mode & P.MODE_MASK
         if base == P.MODE_BLOCKING:
@@ -444,7 +477,11 @@ class Connection(OutboxSender):
 
     def pause_communication(self, enable: bool) -> None:
         """``simxPauseCommunication``: hold the outbox (True), then let it leave (False): what
-        waits leaves together, at the next cycle or with the next blocking call."""
+        waits leaves together, at the next cycle or with the next blocking call.
+
+        Args:
+            enable: hold (True) or release (False).
+        """
         with self._lock:
             self._paused = bool(enable)
             if not self._paused and self._outbox:
@@ -452,7 +489,16 @@ class Connection(OutboxSender):
 
     def in_message_info(self, info_type: int) -> int | None:
         """A field of the last message received (simx_headeroffset_*), None if unknown or
-        disconnected (the legacy inbox, header included, is cleared on disconnection)."""
+        disconnected (the legacy inbox, header included, is cleared on disconnection).
+
+        Implements ``simxGetInMessageInfo``.
+
+        Args:
+            info_type: a ``simx_headeroffset_*`` value.
+
+        Returns:
+            The field, or None.
+        """
         if not self._alive:
             return None
         header, message = self._in
@@ -463,7 +509,16 @@ class Connection(OutboxSender):
         return self._header(header, info_type, fields)
 
     def out_message_info(self, info_type: int) -> int | None:
-        """A field of the last message sent (simx_headeroffset_*), None if unknown."""
+        """A field of the last message sent (simx_headeroffset_*), None if unknown.
+
+        Implements ``simxGetOutMessageInfo``.
+
+        Args:
+            info_type: a ``simx_headeroffset_*`` value.
+
+        Returns:
+            The field, or None.
+        """
         return self._header(self._out, info_type, {})
 
     def _header(self, header: tuple[int, float], info_type: int, fields: dict) -> int | None:
@@ -506,7 +561,24 @@ def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_t
                  reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX, cycle: float = DEFAULT_CYCLE
                  ) -> Connection | None:
     """Connect to a simx server, retrying until ``timeout`` s when ``wait``; None on failure.
-    ``cycle``: s between two requests of the outbox (:class:`Connection`)."""
+    ``cycle``: s between two requests of the outbox (:class:`Connection`).
+
+    Implements ``simxStart``'s connection: ``waitUntilConnected``, ``timeOutInMs``,
+    ``reconnectOnDisconnect`` and ``commThreadCycleInMs`` as arguments.
+
+    Args:
+        address: the server's host.
+        port: its port.
+        wait: retry until ``timeout`` (``waitUntilConnected``).
+        timeout: s.
+        blocking_timeout: s a blocking call waits for its reply.
+        reconnect: connect again after a disconnection.
+        prefix: the Zenoh key prefix of the server.
+        cycle: s.
+
+    Returns:
+        The connection, or None (the reason is logged).
+    """
     deadline = time.monotonic() + timeout
     while True:
         try:

@@ -12,7 +12,14 @@ NUMPY_ALIASES = {"int": int, "float": float, "bool": bool, "object": object, "st
 
 def legacy_names(constants: Iterable[str]) -> list[str]:
     """``__all__`` of a legacy module: every ``simx*`` function of :mod:`simx_client.api` and
-    the names ``constants`` (those of vrepConst.py or simConst.py), sorted."""
+    the names ``constants`` (those of vrepConst.py or simConst.py), sorted.
+
+    Args:
+        constants: the constants' names.
+
+    Returns:
+        The names.
+    """
     from simx_client import api
 
     functions = [n for n in vars(api) if n.startswith("simx") and callable(getattr(api, n))]

@@ -74,12 +74,22 @@ class Outbox:
         return ident in self._waiting
 
     def commands(self) -> list[list]:
-        """The waiting commands ``[name, mode, args]``, in the order they will be sent."""
+        """The waiting commands ``[name, mode, args]``, in the order they will be sent.
+
+        Returns:
+            A new list.
+        """
         return [command for command, _ in self._waiting.values()]
 
     def put(self, ident: tuple, command: list, packed: bytes) -> None:
         """Add a call (``packed`` is ``protocol.pack(command)``): it replaces a waiting call of
-        the same command and goes to the end."""
+        the same command and goes to the end.
+
+        Args:
+            ident: the command's identity (``protocol.identity``).
+            command: ``[name, mode, args]``.
+            packed: its encoding.
+        """
         key = _Unique() if command[0] in P.DO_NOT_OVERWRITE else ident
         waiting = self._waiting
         if key in waiting:
@@ -87,7 +97,11 @@ class Outbox:
         waiting[key] = (command, packed)
 
     def take(self) -> list[Batch]:
-        """Empty the outbox into batches (none when it is empty), oldest calls first."""
+        """Empty the outbox into batches (none when it is empty), oldest calls first.
+
+        Returns:
+            Batches of at most MAX_BATCH_COMMANDS commands and MAX_BATCH_BYTES bytes each.
+        """
         if not self._waiting:
             return []
         batches: list[Batch] = []
@@ -109,7 +123,11 @@ class Outbox:
 
     def refused(self, batch: Batch) -> None:
         """The server did not queue ``batch``: its commands wait again, ahead of those that came
-        since, except the ones called again since (waiting, or sent in a later batch)."""
+        since, except the ones called again since (waiting, or sent in a later batch).
+
+        Args:
+            batch: a batch :meth:`take` gave.
+        """
         newest = self._newest_sent
         back: dict[Any, tuple[list, bytes]] = {}
         for key, command, packed in zip(batch.keys, batch.commands, batch.packed):
@@ -122,7 +140,11 @@ class Outbox:
             self._waiting = back
 
     def answered(self, batch: Batch) -> None:
-        """``batch``'s request is over (answered, refused or timed out)."""
+        """``batch``'s request is over (answered, refused or timed out).
+
+        Args:
+            batch: a batch :meth:`take` gave.
+        """
         self._open -= 1
         if self._open <= 0:
             self._open = 0

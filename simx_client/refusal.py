@@ -78,7 +78,15 @@ def _handshake(host: str, port: int, context: ssl.SSLContext) -> str | None:
 
 def why_refused(config: zenoh.Config) -> str | None:
     """Why a server at the config's endpoint refused a session, or None when nobody listens there
-    (or the endpoint is not TCP or TLS, which this probe does not speak)."""
+    (or the endpoint is not TCP or TLS, which this probe does not speak).
+
+    Args:
+        config: the client's Zenoh config (its first connect endpoint, TLS and user settings).
+
+    Returns:
+        One sentence (a TLS mismatch, a certificate the client does not trust, a refused user),
+        or None.
+    """
     found = _endpoint(config)
     if found is None or found[0] not in ("tcp", "tls"):
         return None
@@ -114,6 +122,13 @@ def open_session(config: zenoh.Config, config_file: str) -> zenoh.Session:
     Raises:
         simx_wire.protocol.RefusedError: a server listens there and refused the session.
         zenoh.ZError: nobody listens there (or another failure of Zenoh's).
+
+    Args:
+        config: the client's Zenoh config.
+        config_file: how messages name it.
+
+    Returns:
+        The session.
     """
     try:
         return zenoh.open(config)

@@ -32,7 +32,15 @@ _SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
 def direct(callback: Any, drop: Any = None) -> zenoh.handlers.Callback:
     """A Zenoh callback run on Zenoh's own thread. The default ("indirect") starts a non-daemon
     Python thread per handler, which keeps the interpreter from exiting while a session is open.
-    Every callback here is short and never blocks."""
+    Every callback here is short and never blocks.
+
+    Args:
+        callback: called with each sample or reply.
+        drop: called once when the handler is dropped, or None.
+
+    Returns:
+        The handler, for Zenoh's ``declare_*`` and ``get``.
+    """
     return zenoh.handlers.Callback(callback, drop, indirect=False)
 
 
