@@ -73,6 +73,15 @@ class Box:
     pixels: int  # visible pixel count
 
     def yolo(self, width: int, height: int) -> str:
+        """The box as a YOLO label line: ``class cx cy w h``, normalised to the image's size.
+
+        Args:
+            width: the image's width, pixels.
+            height: its height, pixels.
+
+        Returns:
+            The line, without a newline.
+        """
         cx, cy = (self.x0 + self.x1) / 2 / width, (self.y0 + self.y1) / 2 / height
         w, h = (self.x1 - self.x0) / width, (self.y1 - self.y0) / height
         return f"{self.cls} {cx:.6f} {cy:.6f} {w:.6f} {h:.6f}"
@@ -82,7 +91,17 @@ def boxes(handles: np.ndarray, classes: list[list[int]], min_pixels: int = MIN_B
           min_side: int = MIN_BOX_SIDE) -> list[Box]:
     """One box per visible object of each class (``handles``: rows top-down), as YOLO labels
     mean instances: the bounding box of the object's visible pixels, dropped below
-    ``min_pixels`` or ``min_side``. A class of several objects gives a box for each of them."""
+    ``min_pixels`` or ``min_side``. A class of several objects gives a box for each of them.
+
+    Args:
+        handles: (h, w) int32 handles of a colour-coded image (:func:`decode_handles`).
+        classes: per class, the handles of its objects.
+        min_pixels: the fewest visible pixels of a box.
+        min_side: the shortest side of a box, pixels.
+
+    Returns:
+        The boxes, class by class.
+    """
     out = []
     for cls, members in enumerate(classes):
         for member in members:
@@ -109,7 +128,20 @@ def view_footprint(position, quaternion, angle: float, width: int, height: int, 
     """The polygon (4, 2) where a vision sensor at ``position`` (m) with ``quaternion`` (x, y, z,
     w; V-REP's sensor frame: it looks along +z, +x across the image's width) and perspective
     angle ``angle`` (rad, over the larger side) sees the plane at height ``z``, its angles shrunk
-    to ``share``; None when a corner ray does not meet the plane ahead of the sensor."""
+    to ``share``; None when a corner ray does not meet the plane ahead of the sensor.
+
+    Args:
+        position: the sensor's position (3,), m.
+        quaternion: its orientation, (x, y, z, w).
+        angle: its perspective angle, rad.
+        width: its resolution x, pixels.
+        height: its resolution y, pixels.
+        z: the plane's height, m.
+        share: the share of the view's angles kept, 0..1.
+
+    Returns:
+        Array (4, 2) of (x, y) in m, or None.
+    """
     half_x = math.atan(math.tan(angle / 2) * (1 if width >= height else width / height)) * share
     half_y = math.atan(math.tan(angle / 2) * (1 if height >= width else height / width)) * share
     p = np.asarray(position, float)
@@ -135,7 +167,17 @@ def _inside(polygon: np.ndarray, point: np.ndarray) -> bool:
 def place_in_view(rng: np.random.Generator, area, footprint: np.ndarray | None,
                   tries: int = 200) -> tuple[float, float, bool]:
     """A random spot ``(x, y, seen)`` of the surface ``area`` (x0, x1, y0, y1, z) that the sensor
-    sees (inside ``footprint``), or of the whole surface (``seen`` False) when they do not meet."""
+    sees (inside ``footprint``), or of the whole surface (``seen`` False) when they do not meet.
+
+    Args:
+        rng: the random generator.
+        area: ``(x0, x1, y0, y1, z)`` in m.
+        footprint: :func:`view_footprint`, or None.
+        tries: random points tried inside the footprint before giving up.
+
+    Returns:
+        ``(x, y, seen)``; x and y in m.
+    """
     x0, x1, y0, y1, _ = area
     if footprint is not None:
         lo, hi = np.maximum(footprint.min(axis=0), (x0, y0)), np.minimum(footprint.max(axis=0), (x1, y1))
@@ -148,7 +190,16 @@ def place_in_view(rng: np.random.Generator, area, footprint: np.ndarray | None,
 
 
 def draw(image_bgr: np.ndarray, found: list[Box], names: list[str]) -> np.ndarray:
-    """A copy of the image with each box and its class name drawn."""
+    """A copy of the image with each box and its class name drawn.
+
+    Args:
+        image_bgr: (h, w, 3) uint8 BGR image, rows top-down.
+        found: the boxes.
+        names: the class names.
+
+    Returns:
+        The new image.
+    """
     out = image_bgr.copy()
     for b in found:
         colour = _colour(b.cls)
@@ -164,6 +215,19 @@ def _colour(i: int) -> tuple[int, int, int]:
 
 
 def parse_floats(text: str, n: int | None, what: str) -> list[float]:
+    """The numbers of a comma-separated command-line value.
+
+    Args:
+        text: the value, ``"1,2.5,3"``.
+        n: how many there must be, or None for any.
+        what: the option, for the message.
+
+    Returns:
+        The numbers.
+
+    Raises:
+        DatasetError: not numbers, or not ``n`` of them.
+    """
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
@@ -176,7 +240,15 @@ def parse_floats(text: str, n: int | None, what: str) -> list[float]:
 
 
 def quat_rotate(q_xyzw, v: np.ndarray) -> np.ndarray:
-    """Rotate ``v`` by a V-REP quaternion (x, y, z, w)."""
+    """Rotate ``v`` by a V-REP quaternion (x, y, z, w).
+
+    Args:
+        q_xyzw: a unit quaternion.
+        v: a vector (3,).
+
+    Returns:
+        The rotated vector (3,).
+    """
     x, y, z, w = q_xyzw
     u = np.array([x, y, z])
     return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
@@ -320,7 +392,19 @@ class Result:
 
 def surface_area(scene: Scene, spec: str, margin: float) -> tuple[float, float, float, float, float]:
     """(x0, x1, y0, y1, z) from "x0,x1,y0,y1,z" (as given) or a shape's name (the top face of its
-    world bounding box, shrunk by ``margin`` m each side)."""
+    world bounding box, shrunk by ``margin`` m each side).
+
+    Args:
+        scene: the connection.
+        spec: ``"x0,x1,y0,y1,z"`` (m) or a shape's name.
+        margin: m.
+
+    Returns:
+        ``(x0, x1, y0, y1, z)`` in m.
+
+    Raises:
+        DatasetError: bad numbers, or no such object.
+    """
     if spec.count(",") == 4:
         x0, x1, y0, y1, z = parse_floats(spec, 5, "--surface")
         return x0, x1, y0, y1, z
@@ -338,6 +422,21 @@ def surface_area(scene: Scene, spec: str, margin: float) -> tuple[float, float, 
 
 
 def generate(opts: Options) -> Result:
+    """Write a YOLO data set (``simx-dataset``) from the running server's scene.
+
+    For each image: the arm is posed and the objects placed at random (``opts``), the sensor's
+    RGB image is taken, then its colour-coded-handles image of the same state, whose objects'
+    pixels give the boxes. The scene's joints, objects and render mode are put back afterwards.
+
+    Args:
+        opts: what to make and where.
+
+    Returns:
+        What was written, and how long it took.
+
+    Raises:
+        DatasetError: bad options, no server, an unknown object, or a failed call.
+    """
     if not opts.classes:
         raise DatasetError("name at least one class: --class NAME=OBJECT")
     if opts.count < 1:
@@ -477,6 +576,11 @@ def _class(text: str) -> tuple[str, list[str]]:
 
 
 def parser() -> argparse.ArgumentParser:
+    """The command line of ``simx-dataset``.
+
+    Returns:
+        The parser.
+    """
     p = argparse.ArgumentParser(
         prog="simx-dataset",
         description="Write a labelled YOLO data set (Ultralytics layout) from a running simx-server's scene: "
@@ -514,6 +618,14 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``simx-dataset``: :func:`generate` with the command line's options.
+
+    Args:
+        argv: the arguments, or None for ``sys.argv[1:]``.
+
+    Returns:
+        The process exit status: 0, or 2 with one line on stderr.
+    """
     args = parser().parse_args(argv)
     try:
         opts = Options(

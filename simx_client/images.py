@@ -53,7 +53,15 @@ class ImageList(list):
     def wrap(cls, values: list, array: np.ndarray) -> ImageList:
         """The list ``values`` (a plain list, copied) with ``array`` kept beside it: a 1-D
         array whose elements equal ``values`` (int8 for images, float32 for depth); it is made
-        read-only and never changed here."""
+        read-only and never changed here.
+
+        Args:
+            values: the legacy list.
+            array: the same values, 1-D.
+
+        Returns:
+            The list.
+        """
         self = cls(values)
         array.flags.writeable = False
         self._array = array
@@ -166,7 +174,15 @@ class LazyImageList(ImageList):
     @classmethod
     def lazy(cls, array: np.ndarray, to_list: Callable[[np.ndarray], list]) -> LazyImageList:
         """A list of ``to_list(array)``, made when first read as a list (``array``: 1-D int8
-        image bytes or float32 depth values, made read-only and never changed here)."""
+        image bytes or float32 depth values, made read-only and never changed here).
+
+        Args:
+            array: the values, 1-D.
+            to_list: makes the legacy list from ``array``.
+
+        Returns:
+            The list, empty until read.
+        """
         self = cls()
         array.flags.writeable = False
         self._array = array
@@ -216,7 +232,12 @@ def set_lazy_image_lists(client_id: int, enabled: bool = True) -> None:
     ``simxGetVisionSensorDepthBuffer`` of connection ``client_id`` return
     :class:`LazyImageList` (enabled) or :class:`ImageList` (the default). A program that only
     turns images into arrays saves the list's making (about 8 ms a 640x480 RGB frame, 5 ms a
-    depth buffer); the values are the same. Takes effect for replies received afterwards."""
+    depth buffer); the values are the same. Takes effect for replies received afterwards.
+
+    Args:
+        client_id: a connection's id (``simxStart``'s return).
+        enabled: lazy lists (True) or plain ones (False).
+    """
     if enabled:
         _LAZY_CLIENTS.add(int(client_id))
     else:
@@ -225,13 +246,27 @@ def set_lazy_image_lists(client_id: int, enabled: bool = True) -> None:
 
 def lazy_image_lists(client_id: int) -> bool:
     """Whether connection ``client_id`` returns :class:`LazyImageList` images (see
-    :func:`set_lazy_image_lists`)."""
+    :func:`set_lazy_image_lists`).
+
+    Args:
+        client_id: a connection's id.
+
+    Returns:
+        True when enabled.
+    """
     return int(client_id) in _LAZY_CLIENTS
 
 
 def decode_handles(coded: np.ndarray) -> np.ndarray:
     """Handles (int32, ``r + 256 g + 65536 b``, as CoppeliaSim encodes them) of a colour-coded
     (h, w, 3) uint8 image (render mode 2, ``sim_rendermode_colorcoded``); the background is
-    white (0xFFFFFF) where no object is."""
+    white (0xFFFFFF) where no object is.
+
+    Args:
+        coded: (h, w, 3) uint8 RGB.
+
+    Returns:
+        (h, w) int32 handles; 0xFFFFFF for the background.
+    """
     c = coded.astype(np.int32)
     return c[..., 0] | (c[..., 1] << 8) | (c[..., 2] << 16)
