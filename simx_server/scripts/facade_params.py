@@ -58,13 +58,29 @@ class ParamCalls:
         """An integer parameter: ``sim.intparam_program_version`` 40800 (CoppeliaSim 4.8.0),
         ``program_revision`` 0, ``program_full_version`` 4080000, ``dynamic_step_divider`` (MuJoCo
         substeps per step), ``dynamic_engine`` (``sim.physics_mujoco``), ``platform`` (0 Windows,
-        1 macOS, 2 Linux), ``core_count``, ``processid``. Others: UnsupportedError naming it."""
+        1 macOS, 2 Linux), ``core_count``, ``processid``. Others: UnsupportedError naming it.
+
+        Args:
+            parameter: a ``sim.intparam_*`` id.
+
+        Returns:
+            The value.
+        """
         pid = _int(parameter, "parameter")
         known = self._int_params().get(pid)
         return int(known()) if known is not None else self._legacy_param(_INT, pid)
 
     def setInt32Param(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        """Integer parameters are read-only in simx (the engine's step divider follows dt)."""
+        """Integer parameters are read-only in simx (the engine's step divider follows dt).
+
+        Args:
+            parameter: a ``sim.intparam_*`` id.
+            value: an integer.
+
+        Raises:
+            RemoteError: an id this facade answers (read-only).
+            UnsupportedError: any other id.
+        """
         pid, v = _int(parameter, "parameter"), _int(value, "intState")
         if pid in self._int_params():
             raise RemoteError(f"integer parameter {pid} is read-only in simx")
@@ -72,7 +88,17 @@ class ParamCalls:
 
     def getFloatParam(self, parameter: Any) -> float:  # noqa: N802
         """``sim.floatparam_simulation_time_step`` (s), ``floatparam_physicstimestep`` (MuJoCo's
-        timestep, s), ``floatparam_rand`` (uniform in [0, 1))."""
+        timestep, s), ``floatparam_rand`` (uniform in [0, 1)).
+
+        Args:
+            parameter: a ``sim.floatparam_*`` id.
+
+        Returns:
+            The value.
+
+        Raises:
+            UnsupportedError: an id simx does not answer.
+        """
         pid = _int(parameter, "parameter")
         world = self._simulation("getFloatParam").world
         if pid == 1:
@@ -84,7 +110,17 @@ class ParamCalls:
         return self._legacy_param(_FLOAT, pid)
 
     def setFloatParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        """``sim.floatparam_simulation_time_step`` (s, simulation stopped, as CoppeliaSim)."""
+        """``sim.floatparam_simulation_time_step`` (s, simulation stopped, as CoppeliaSim).
+
+        Args:
+            parameter: 1 (``sim.floatparam_simulation_time_step``).
+            value: the step, s.
+
+        Raises:
+            RemoteError: the simulation is not stopped.
+            ArgumentError: a step out of bounds (limits.MAX_DT, MAX_SUBSTEPS).
+            UnsupportedError: any other id.
+        """
         pid, v = _int(parameter, "parameter"), _num(value, "floatState")
         sim = self._simulation("setFloatParam")
         if pid != 1:
@@ -97,7 +133,17 @@ class ParamCalls:
     def getBoolParam(self, parameter: Any) -> bool:  # noqa: N802
         """``headless`` true, ``display_enabled`` false, ``realtime_simulation`` (paced to wall
         time), ``dynamics_handling_enabled`` true, ``ik_handling_enabled`` true (the scene's IK
-        groups are solved each step), ``scene_closing`` false."""
+        groups are solved each step), ``scene_closing`` false.
+
+        Args:
+            parameter: a ``sim.boolparam_*`` id.
+
+        Returns:
+            The value.
+
+        Raises:
+            UnsupportedError: an id simx does not answer.
+        """
         pid = _int(parameter, "parameter")
         sim = self._simulation("getBoolParam")
         known = {34: True, 16: False, 6: True, 4: True, 52: False, 25: bool(getattr(sim, "realtime", False))}
@@ -105,7 +151,15 @@ class ParamCalls:
 
     def setBoolParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
         """``sim.boolparam_realtime_simulation``: pace the free-running simulation to wall time;
-        ``display_enabled`` false is accepted (there is no display)."""
+        ``display_enabled`` false is accepted (there is no display).
+
+        Args:
+            parameter: a ``sim.boolparam_*`` id.
+            value: truthy or not.
+
+        Raises:
+            UnsupportedError: any other id (or ``display_enabled`` true).
+        """
         pid = _int(parameter, "parameter")
         sim = self._simulation("setBoolParam")
         if pid == 25:
@@ -117,7 +171,17 @@ class ParamCalls:
 
     def getStringParam(self, parameter: Any) -> str:  # noqa: N802
         """``sim.stringparam_scene_path_and_name``, ``scene_name``, ``application_path`` (the
-        simx_server package's folder), ``stringparam_uniqueid`` (the process id as text)."""
+        simx_server package's folder), ``stringparam_uniqueid`` (the process id as text).
+
+        Args:
+            parameter: a ``sim.stringparam_*`` id.
+
+        Returns:
+            The value.
+
+        Raises:
+            UnsupportedError: an id simx does not answer.
+        """
         pid = _int(parameter, "parameter")
         sim = self._simulation("getStringParam")
         if pid == 15:
@@ -128,19 +192,46 @@ class ParamCalls:
 
     def setStringParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
         """CoppeliaSim's settable string parameters (video file name, verbosities) belong to its
-        window and log settings: an UnsupportedError names the id."""
+        window and log settings: an UnsupportedError names the id.
+
+        Args:
+            parameter: a ``sim.stringparam_*`` id.
+            value: text.
+
+        Raises:
+            UnsupportedError: every id.
+        """
         pid = _int(parameter, "parameter")
         self._legacy_param(_STRING, pid, _text(value, "stringState"))
 
     def getArrayParam(self, parameter: Any) -> list[float]:  # noqa: N802
-        """``sim.arrayparam_gravity`` (m/s², the MuJoCo model's)."""
+        """``sim.arrayparam_gravity`` (m/s², the MuJoCo model's).
+
+        Args:
+            parameter: a ``sim.arrayparam_*`` id.
+
+        Returns:
+            ``[gx, gy, gz]``.
+
+        Raises:
+            UnsupportedError: any other id.
+        """
         pid = _int(parameter, "parameter")
         if pid == 0:
             return self._simulation("getArrayParam").world.model.opt.gravity.tolist()
         return self._legacy_param(_ARRAY, pid)
 
     def setArrayParam(self, parameter: Any, value: Any) -> None:  # noqa: N802
-        """``sim.arrayparam_gravity`` (3 numbers, m/s², bounded as ``simxSetArrayParameter``)."""
+        """``sim.arrayparam_gravity`` (3 numbers, m/s², bounded as ``simxSetArrayParameter``).
+
+        Args:
+            parameter: 0 (``sim.arrayparam_gravity``).
+            value: 3 numbers.
+
+        Raises:
+            ArgumentError: not 3 finite numbers, or a magnitude above limits.MAX_GRAVITY.
+            UnsupportedError: any other id.
+        """
         pid = _int(parameter, "parameter")
         v = _vector(value, 3, "arrayOfValues")
         if pid != 0:
@@ -157,20 +248,49 @@ class ParamCalls:
         return store
 
     def setNamedStringParam(self, paramName: Any, stringParam: Any) -> None:  # noqa: N802, N803
-        """Store a named parameter (text) for the server's lifetime (at most 1,000 names)."""
+        """Store a named parameter (text) for the server's lifetime (at most 1,000 names).
+
+        Args:
+            paramName: the name.
+            stringParam: the value (cut at 100,000 characters).
+
+        Raises:
+            RemoteError: 1,000 names are stored already.
+        """
         store, key = self._named(), _text(paramName, "paramName")
         if key not in store and len(store) >= 1000:
             raise RemoteError("the named parameters hold 1,000 names already")
         store[key] = _text(stringParam, "stringParam")[:100_000]
 
     def getNamedStringParam(self, paramName: Any) -> str | None:  # noqa: N802, N803
-        """A named parameter, nil (None) when not set."""
+        """A named parameter, nil (None) when not set.
+
+        Args:
+            paramName: the name.
+
+        Returns:
+            The value, or None.
+        """
         return self._named().get(_text(paramName, "paramName"))
 
     def setNamedInt32Param(self, paramName: Any, value: Any) -> None:  # noqa: N802, N803
+        """Store a named parameter as the text of an integer (:meth:`setNamedStringParam`).
+
+        Args:
+            paramName: the name.
+            value: an integer.
+        """
         self.setNamedStringParam(paramName, str(_int(value, "value")))
 
     def getNamedInt32Param(self, paramName: Any) -> int | None:  # noqa: N802, N803
+        """A named parameter read as an integer.
+
+        Args:
+            paramName: the name.
+
+        Returns:
+            The integer, or None when not set or not an integer's text.
+        """
         v = self.getNamedStringParam(paramName)
         try:
             return None if v is None else int(v)
@@ -178,9 +298,23 @@ class ParamCalls:
             return None
 
     def setNamedFloatParam(self, paramName: Any, value: Any) -> None:  # noqa: N802, N803
+        """Store a named parameter as the text of a number (:meth:`setNamedStringParam`).
+
+        Args:
+            paramName: the name.
+            value: a number.
+        """
         self.setNamedStringParam(paramName, repr(_num(value, "value")))
 
     def getNamedFloatParam(self, paramName: Any) -> float | None:  # noqa: N802, N803
+        """A named parameter read as a number.
+
+        Args:
+            paramName: the name.
+
+        Returns:
+            The number, or None when not set or not a number's text.
+        """
         v = self.getNamedStringParam(paramName)
         try:
             return None if v is None else float(v)
@@ -188,34 +322,71 @@ class ParamCalls:
             return None
 
     def setNamedBoolParam(self, paramName: Any, value: Any) -> None:  # noqa: N802, N803
+        """Store a named parameter as ``"true"`` or ``"false"``.
+
+        Args:
+            paramName: the name.
+            value: truthy or not.
+        """
         self.setNamedStringParam(paramName, "true" if value else "false")
 
     def getNamedBoolParam(self, paramName: Any) -> bool | None:  # noqa: N802, N803
+        """A named parameter read as a boolean (``true``, ``1``, ``on``: True).
+
+        Args:
+            paramName: the name.
+
+        Returns:
+            The boolean, or None when not set.
+        """
         v = self.getNamedStringParam(paramName)
         return None if v is None else v.lower() in ("true", "1", "on")
 
     # ----------------------------------------------------------------- misc
     def getRandom(self, seed: Any = None) -> float:  # noqa: N802
-        """A uniform number in [0, 1); ``seed`` (an integer) reseeds the generator first."""
+        """A uniform number in [0, 1); ``seed`` (an integer) reseeds the generator first.
+
+        Args:
+            seed: an integer, or None.
+
+        Returns:
+            The number.
+        """
         rng = getattr(self, "_rng", None)
         if rng is None or seed is not None:
             rng = self._rng = random.Random(None if seed is None else _int(seed, "seed"))
         return rng.random()
 
     def getIsRealTimeSimulation(self) -> int:  # noqa: N802
-        """1 when the free-running simulation is paced to wall time (``--speed``), else 0."""
+        """1 when the free-running simulation is paced to wall time (``--speed``), else 0.
+
+        Returns:
+            1 or 0.
+        """
         return int(bool(getattr(self._simulation("getIsRealTimeSimulation"), "realtime", False)))
 
     def getRealTimeSimulation(self) -> bool:  # noqa: N802
+        """Whether the free-running simulation is paced to wall time (:meth:`getIsRealTimeSimulation`)."""
         return bool(self.getIsRealTimeSimulation())
 
     def getSimulationStopping(self) -> bool:  # noqa: N802
-        """Whether the simulation is stopping (the scripts' ``sysCall_cleanup`` runs)."""
+        """Whether the simulation is stopping (the scripts' ``sysCall_cleanup`` runs).
+
+        Returns:
+            True while stopping.
+        """
         return bool(getattr(self._simulation("getSimulationStopping").scripts, "stopping", False))
 
     def quitSimulator(self, doNotDisplayMessages: Any = False) -> None:  # noqa: N802, N803
         """Refused: a script or client cannot end the server other clients share (stop it with
-        SIGTERM / Ctrl-C, docs/SECURITY.md)."""
+        SIGTERM / Ctrl-C, docs/SECURITY.md).
+
+        Args:
+            doNotDisplayMessages: ignored.
+
+        Raises:
+            RemoteError: always.
+        """
         raise RemoteError("sim.quitSimulator is refused: the server is shared by its clients and scripts; "
                           "stop simx-server itself (SIGTERM or Ctrl-C)")
 

@@ -57,15 +57,34 @@ class SensorCalls:
         """Set integer signal ``name`` (CoppeliaSim 4's name of ``setIntegerSignal``); a client's
         ``simxGetIntegerSignal`` reads it. The value must be an integer (a float with no
         fractional part is taken) that fits in 64 bits; signals set by scripts are cleared
-        when the simulation stops."""
+        when the simulation stops.
+
+        Args:
+            name: the signal's name (str or bytes).
+            value: an integer.
+
+        Raises:
+            ArgumentError: a bad name, or a value that is not a 64-bit integer.
+        """
         self._signals.set(Signals.INT, _signal_name(name), value, by_script=True)
 
     def getInt32Signal(self, name: Any) -> int | None:  # noqa: N802
-        """Integer signal ``name``; nil (None) when it is not set."""
+        """Integer signal ``name``; nil (None) when it is not set.
+
+        Args:
+            name: the signal's name.
+
+        Returns:
+            The value, or None.
+        """
         return self._signals.get(Signals.INT, _signal_name(name))
 
     def clearInt32Signal(self, name: Any = None) -> None:  # noqa: N802
-        """Clear integer signal ``name`` (every integer signal when nil)."""
+        """Clear integer signal ``name`` (every integer signal when nil).
+
+        Args:
+            name: the signal's name, or None for all.
+        """
         self._signals.clear(Signals.INT, None if name is None else _signal_name(name))
 
     # ------------------------------------------------------------------- sensors
@@ -73,7 +92,18 @@ class SensorCalls:
         """``result, forceVector, torqueVector`` of a force sensor (a site with MuJoCo force and
         torque sensors): result bit 0 = data available, bit 1 = broken; force (N) and torque
         (N·m) in the sensor's frame, as ``simxReadForceSensor`` reads them. A hanging 2 kg
-        payload reads about 19.6 N along gravity. Errors: not a force sensor."""
+        payload reads about 19.6 N along gravity. Errors: not a force sensor.
+
+        Args:
+            handle: a force sensor's handle.
+
+        Returns:
+            ``(result, [fx, fy, fz], [tx, ty, tz])``.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a force sensor.
+        """
         state, force, torque = sensors.force_sensor_reading(self._simulation("readForceSensor"), self._h(handle))
         return state, force, torque
 
@@ -82,7 +112,18 @@ class SensorCalls:
         (CoppeliaSim 4): result 1 when something is detected, else 0 (then distance 0, the
         point and normal zero and the handle -1); distance in m, point and normal in the
         sensor's frame (the ray runs along its z axis), the handle that of the shape hit (-1
-        for geometry of the world body)."""
+        for geometry of the world body).
+
+        Args:
+            handle: a proximity sensor's handle.
+
+        Returns:
+            ``(result, distance, [x, y, z], handle, [nx, ny, nz])``.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a proximity sensor.
+        """
         detected, point, hit, normal = proximity.proximity_reading(self._simulation("readProximitySensor"),
                                                                  self._h(handle))
         return int(detected), float(np.linalg.norm(point)), point, hit, normal
@@ -134,7 +175,23 @@ class SensorCalls:
         (``options`` bit 0: one grey byte per pixel), rows bottom-up as V-REP's, and
         ``{width, height}`` of it. ``pos``/``size`` ``{x, y}`` cut a window (from the bottom
         left corner; size {0, 0}: the whole image). ``rgbaCutOff`` is accepted and ignored
-        (no alpha channel). Errors: not a vision sensor, other option bits, a window outside."""
+        (no alpha channel). Errors: not a vision sensor, other option bits, a window outside.
+
+        Args:
+            handle: a vision sensor's handle.
+            options: bit 0: grey.
+            rgbaCutOff: ignored.
+            pos: ``[x, y]`` of the window's bottom-left pixel, or None.
+            size: ``[width, height]`` of the window in pixels, or None.
+
+        Returns:
+            ``(bytes, [width, height])`` (a Deferred reply over ZMQ, rendered on the render thread).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+            ArgumentError: other option bits, or a window outside the image.
+        """
         opts = _int(options, "options")
         if opts & ~1:
             raise UnsupportedError(f"getVisionSensorImg options {opts}: only bit 0 (greyscale) is supported")
@@ -154,7 +211,24 @@ class SensorCalls:
         """The image (V-REP 3.x / CoppeliaSim 4 before 4.4): a table of floats 0..1, three per
         pixel (RGB), rows bottom-up; ``returnType`` 1: a buffer of uint8 instead. Adding
         ``sim.handleflag_greyscale`` to the handle gives one value per pixel. ``posX/posY,
-        sizeX/sizeY``: a window (0, 0, 0, 0: the whole image)."""
+        sizeX/sizeY``: a window (0, 0, 0, 0: the whole image).
+
+        Args:
+            handle: a vision sensor's handle, plus ``sim.handleflag_greyscale`` for grey.
+            posX: the window's first column, pixels.
+            posY: its first row from the bottom, pixels.
+            sizeX: its width, pixels (0: the whole image).
+            sizeY: its height, pixels.
+            returnType: 0 floats, 1 a uint8 buffer.
+
+        Returns:
+            Floats in 0..1, or bytes.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+            ArgumentError: a ``returnType`` other than 0 or 1, or a window outside the image.
+        """
         h = _int(handle, "sensorHandle")
         grey = h >= 0 and bool(h & HANDLEFLAG_GREYSCALE)
         if grey:
@@ -176,48 +250,132 @@ class SensorCalls:
     def getObjectInt32Param(self, handle: Any, parameter: Any) -> int:  # noqa: N802
         """Integer parameter ``parameter`` (``sim.jointintparam_motor_enabled``,
         ``sim.visionintparam_resolution_x`` ...) of an object, as ``simxGetObjectIntParameter``
-        reads it (CoppeliaSim 4). Errors: a parameter simx does not support (named)."""
+        reads it (CoppeliaSim 4). Errors: a parameter simx does not support (named).
+
+        Args:
+            handle: the object's handle.
+            parameter: the parameter's id.
+
+        Returns:
+            The value (:func:`simx_server.sim.object_params.get_int_param`).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: the id is of another object type.
+            UnsupportedError: an id simx does not answer.
+        """
         return object_params.get_int_param(self._simulation("getObjectInt32Param"), self._h(handle),
                                      _int(parameter, "parameterID"))
 
     def setObjectInt32Param(self, handle: Any, parameter: Any, value: Any) -> None:  # noqa: N802
         """Set an integer parameter (CoppeliaSim 4), as ``simxSetObjectIntParameter``:
-        ``sim.jointintparam_ctrl_enabled`` 0/1 switches velocity / position control."""
+        ``sim.jointintparam_ctrl_enabled`` 0/1 switches velocity / position control.
+
+        Args:
+            handle: the object's handle.
+            parameter: the parameter's id.
+            value: an integer.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: the id is of another object type.
+            ArgumentError: a value out of range.
+            UnsupportedError: an id or value simx cannot set.
+        """
         object_params.set_int_param(self._simulation("setObjectInt32Param"), self._h(handle),
                               _int(parameter, "parameterID"), _int(value, "parameter"))
 
     def getObjectFloatParam(self, handle: Any, parameter: Any) -> float:  # noqa: N802
         """Float parameter of an object (CoppeliaSim 4), as ``simxGetObjectFloatParameter``
-        (velocities 11-14 in m/s and rad/s, bounding box 15-20 in m, clipping planes ...)."""
+        (velocities 11-14 in m/s and rad/s, bounding box 15-20 in m, clipping planes ...).
+
+        Args:
+            handle: the object's handle.
+            parameter: the parameter's id.
+
+        Returns:
+            The value (:func:`simx_server.sim.object_params.get_float_param`).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: the id is of another object type.
+            UnsupportedError: an id simx does not answer.
+        """
         return object_params.get_float_param(self._simulation("getObjectFloatParam"), self._h(handle),
                                        _int(parameter, "parameterID"))
 
     def setObjectFloatParam(self, handle: Any, parameter: Any, value: Any) -> None:  # noqa: N802
-        """Set a float parameter (CoppeliaSim 4), as ``simxSetObjectFloatParameter``."""
+        """Set a float parameter (CoppeliaSim 4), as ``simxSetObjectFloatParameter``.
+
+        Args:
+            handle: the object's handle.
+            parameter: the parameter's id.
+            value: a number (m, rad, kg, a gain).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: the id is of another object type.
+            ArgumentError: a value out of range.
+            UnsupportedError: a read-only or unknown id.
+        """
         object_params.set_float_param(self._simulation("setObjectFloatParam"), self._h(handle),
                                 _int(parameter, "parameterID"), _num(value, "parameter"))
 
     def getObjectInt32Parameter(self, handle: Any, parameter: Any) -> tuple[int, int]:  # noqa: N802
-        """V-REP 3.x: ``result, value``; result 0 (value 0) for a parameter simx does not support."""
+        """V-REP 3.x: ``result, value``; result 0 (value 0) for a parameter simx does not support.
+
+        Args:
+            handle: the object's handle.
+            parameter: the parameter's id.
+
+        Returns:
+            ``(result, value)``.
+        """
         try:
             return 1, self.getObjectInt32Param(handle, parameter)
         except UnsupportedError:
             return 0, 0
 
     def setObjectInt32Parameter(self, handle: Any, parameter: Any, value: Any) -> int:  # noqa: N802
-        """V-REP 3.x: returns 1."""
+        """V-REP 3.x: returns 1.
+
+        Args:
+            handle: the object's handle.
+            parameter: the parameter's id.
+            value: an integer.
+
+        Returns:
+            1.
+        """
         self.setObjectInt32Param(handle, parameter, value)
         return 1
 
     def getObjectFloatParameter(self, handle: Any, parameter: Any) -> tuple[int, float]:  # noqa: N802
-        """V-REP 3.x: ``result, value``; result 0 (value 0) for a parameter simx does not support."""
+        """V-REP 3.x: ``result, value``; result 0 (value 0) for a parameter simx does not support.
+
+        Args:
+            handle: the object's handle.
+            parameter: the parameter's id.
+
+        Returns:
+            ``(result, value)``.
+        """
         try:
             return 1, self.getObjectFloatParam(handle, parameter)
         except UnsupportedError:
             return 0, 0.0
 
     def setObjectFloatParameter(self, handle: Any, parameter: Any, value: Any) -> int:  # noqa: N802
-        """V-REP 3.x: returns 1."""
+        """V-REP 3.x: returns 1.
+
+        Args:
+            handle: the object's handle.
+            parameter: the parameter's id.
+            value: a number.
+
+        Returns:
+            1.
+        """
         self.setObjectFloatParam(handle, parameter, value)
         return 1
 
@@ -226,7 +384,11 @@ class SensorCalls:
         """CoppeliaSim's simulation state: ``sim.simulation_advancing_running`` (0x11) while it
         runs, ``sim.simulation_paused`` (0x08) while paused, ``sim.simulation_stopped`` (0)
         while stopped, ``sim.simulation_advancing_firstafterstop`` (0x10) in the ``sysCall_init``
-        of a start and ``sim.simulation_advancing_lastbeforestop`` (0x16) in ``sysCall_cleanup``."""
+        of a start and ``sim.simulation_advancing_lastbeforestop`` (0x16) in ``sysCall_cleanup``.
+
+        Returns:
+            The state.
+        """
 
         sim = self._simulation("getSimulationState")
         if getattr(sim.scripts, "stopping", False):  # sysCall_cleanup
