@@ -33,7 +33,7 @@ import numpy as np
 from simx_wire.protocol import ScriptError
 from simx_server.scripts import sim_ik
 from simx_server.scripts.facade import ScriptSim
-from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.signals import Signals
 from simx_server.scripts.facade_legacy import PythonThread
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.scripts.watchdog import WATCHDOG

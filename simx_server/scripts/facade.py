@@ -47,7 +47,8 @@ from simx_server.scripts.facade_services import ServiceCalls
 from simx_server.scripts.facade_shapes import ShapeCalls
 from simx_server.scripts.facade_trajectory import TrajectoryCalls
 from simx_server.scripts.facade_legacy import LegacyCalls
-from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, Signals, SimFacade
+from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, SimFacade
+from simx_server.scripts.signals import Signals
 from simx_server.scripts.facade_objects import AppliedForces, ObjectCalls
 from simx_server.scripts.facade_sensors import SensorCalls
 from simx_server.sim.state import SimulationView

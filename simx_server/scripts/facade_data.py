@@ -23,7 +23,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import quote
-from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.signals import Signals
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
 from simx_server.sim.objects import SHAPE
 from simx_server.sim.rotations import matrix_from_euler

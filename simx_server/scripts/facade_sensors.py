@@ -20,7 +20,8 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import quote
-from simx_server.scripts.facade_core import Signals, _int, _num, _text
+from simx_server.scripts.facade_core import _int, _num, _text
+from simx_server.scripts.signals import Signals
 from simx_server.sim import object_params, proximity, sensors
 from simx_server.sim.state import RunState, SimulationView
 

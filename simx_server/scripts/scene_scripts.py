@@ -18,7 +18,7 @@ from simx_wire.protocol import ArgumentError, ScriptError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.scripts.child import DEFAULT_TIMEOUT, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, PythonScript
 from simx_server.scripts.dynamics import DynamicsCallbacks
-from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.signals import Signals
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.scripts.lua import LuaScript
 from simx_server.sim.world import World

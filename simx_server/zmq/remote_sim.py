@@ -30,7 +30,7 @@ from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts.facade import ScriptSim
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int
 from simx_server.base.arguments import as_text as _text, as_vector as _vector
-from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.signals import Signals
 from simx_server.sim import paths
 from simx_server.sim.sensors import set_passive_image
 from simx_server.sim.objects import WORLD

@@ -19,7 +19,7 @@ from simx_server.commands import joints, objects, parameters, signals
 from simx_server.base import limits
 from simx_server.commands import parameters as cmd_parameters
 from simx_server.sim.physics import PhysicsError
-from simx_server.scripts.facade_core import Signals
+from simx_server.scripts.signals import Signals
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
 from simx_server.sim.world import World
