@@ -16,6 +16,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.scripts import shapes
+from simx_server.scripts.facade_joints import JointCalls
 from simx_server.scripts.signals import Signals
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num  # noqa: F401
 from simx_server.base.arguments import as_text as _text, as_vector as _vector  # noqa: F401 (the facade modules use them)
@@ -28,7 +29,11 @@ log = logging.getLogger("simx.scripts")
 def script_constants() -> dict[str, int]:
     """The ``sim.*`` constants of child scripts: every ``sim_X`` constant of vrepConst.py,
     simConst.py and the Lua API's extras (:data:`simx_wire.constants.SCRIPT_ONLY`) as
-    ``sim.X`` (Lua also reads it as ``sim_X``), plus ``handle_world`` (-1)."""
+    ``sim.X`` (Lua also reads it as ``sim_X``), plus ``handle_world`` (-1).
+
+    Returns:
+        Name (without ``sim.``) -> value.
+    """
     table = {**C.SIM_CONSTANTS, **C.VREP_CONSTANTS, **C.SCRIPT_ONLY}
     out = {name[4:]: value for name, value in table.items() if name.startswith("sim_")}
     out["handle_world"] = -1
@@ -43,7 +48,7 @@ SCRIPT_CONSTANTS: dict[str, int] = script_constants()
 _PACK_FORMATS = {"Int32": "i", "UInt32": "I", "Float": "f", "Double": "d", "UInt8": "B", "UInt16": "H"}
 
 
-class SimFacade:
+class SimFacade(JointCalls):
     """V-REP's ``sim`` API for child scripts, on top of the world (V-REP's names and units).
 
     The same object serves Python scripts directly and Lua scripts through
@@ -85,7 +90,14 @@ class SimFacade:
     def getObjectHandle(self, name: Any) -> int:  # noqa: N802 (V-REP's names)
         """Handle of the object called ``name`` (``sim.handle_self``: the script's object).
 
-        Raises UnknownObjectError (a Lua error) for an unknown name, as V-REP did."""
+        Raises UnknownObjectError (a Lua error) for an unknown name, as V-REP did.
+
+        Args:
+            name: the object's name, or ``sim.handle_self``.
+
+        Returns:
+            The handle.
+        """
         if not isinstance(name, (str, bytes, bytearray)):
             if _int(name, "object name") != C.sim_handle_self:
                 raise ArgumentError(f"object name must be a string or sim.handle_self, got {name!r}")
@@ -95,7 +107,18 @@ class SimFacade:
     def getObject(self, path: Any, options: dict | None = None) -> int:  # noqa: N802
         """CoppeliaSim 4.3's lookup: a name or ``/path``; ``"."`` is the script's object.
 
-        ``options = {noError = true}`` answers -1 instead of an error for an unknown object."""
+        ``options = {noError = true}`` answers -1 instead of an error for an unknown object.
+
+        Args:
+            path: a name, a path, or ``"."``.
+            options: ``{noError = true}``, or None.
+
+        Returns:
+            The handle, or -1.
+
+        Raises:
+            UnknownObjectError: no such object (without ``noError``).
+        """
         p = _text(path, "object path")
         if p == ".":
             return self._owner
@@ -107,93 +130,168 @@ class SimFacade:
             raise
 
     def getObjectName(self, handle: Any) -> str:  # noqa: N802
-        """Name of the object ``handle``."""
+        """Name of the object ``handle``.
+
+        Args:
+            handle: the object's handle (``sim.handle_self``: the script's object).
+
+        Returns:
+            The V-REP name.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return self._world.get(self._h(handle)).name
 
     getObjectAlias = getObjectName  # noqa: N815 (CoppeliaSim 4.3 name)
 
     def getObjectType(self, handle: Any) -> int:  # noqa: N802
-        """Type of the object (``sim.object_joint_type`` ...)."""
+        """Type of the object (``sim.object_joint_type`` ...).
+
+        Args:
+            handle: the object's handle.
+
+        Returns:
+            A ``sim.object_*_type`` value.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return self._world.get(self._h(handle)).type
 
     def getObjectParent(self, handle: Any) -> int:  # noqa: N802
-        """Handle of the object's parent, -1 for the world."""
+        """Handle of the object's parent, -1 for the world.
+
+        Args:
+            handle: the object's handle.
+
+        Returns:
+            The parent's handle, or -1.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return self._world.get(self._h(handle)).parent
 
     def getObjectAssociatedWithScript(self, script: Any) -> int:  # noqa: N802
-        """The script's object (only ``sim.handle_self`` is a script handle in simx)."""
+        """The script's object (only ``sim.handle_self`` is a script handle in simx).
+
+        Args:
+            script: ``sim.handle_self``.
+
+        Returns:
+            The script's object's handle.
+
+        Raises:
+            ArgumentError: any other script handle.
+        """
         if _int(script, "script handle") != C.sim_handle_self:
             raise ArgumentError("simx knows only sim.handle_self as a script handle")
         return self._owner
 
     def getObjects(self, index: Any, object_type: Any) -> int:  # noqa: N802
-        """The ``index``-th object (0-based) of ``object_type`` (``sim.handle_all``: any), or -1."""
+        """The ``index``-th object (0-based) of ``object_type`` (``sim.handle_all``: any), or -1.
+
+        Args:
+            index: 0-based.
+            object_type: a ``sim.object_*_type`` value, or ``sim.handle_all``.
+
+        Returns:
+            A handle, or -1 past the last.
+        """
         handles = self._world.objects_of_type(_int(object_type, "objectType"))
         i = _int(index, "index")
         return handles[i] if 0 <= i < len(handles) else -1
 
-    # ------------------------------------------------------------------ joints
-    def getJointPosition(self, handle: Any) -> float:  # noqa: N802
-        """Joint position (rad or m)."""
-        return self._world.joint_position(self._h(handle))
-
-    def setJointPosition(self, handle: Any, position: Any) -> None:  # noqa: N802
-        """Teleport a joint to ``position`` (rad or m)."""
-        self._world.set_joint_position(self._h(handle), _num(position, "position"))
-
-    def setJointTargetPosition(self, handle: Any, position: Any) -> None:  # noqa: N802
-        """Target position of the joint's motor (rad or m), stored whatever the mode (2000/2001 decide)."""
-        self._world.set_joint_target_position(self._h(handle), _num(position, "position"))
-
-    def getJointTargetPosition(self, handle: Any) -> float:  # noqa: N802
-        """Target position of a joint's motor (rad or m)."""
-        return float(self._world.target_position[self._world.motor(self._h(handle))])
-
-    def setJointTargetVelocity(self, handle: Any, velocity: Any) -> None:  # noqa: N802
-        """Target velocity of the joint's motor (rad/s or m/s), stored whatever the mode (2000/2001 decide)."""
-        self._world.set_joint_target_velocity(self._h(handle), _num(velocity, "velocity"))
-
-    def getJointTargetVelocity(self, handle: Any) -> float:  # noqa: N802
-        """Target velocity of a joint's motor (rad/s or m/s)."""
-        return float(self._world.target_velocity[self._world.motor(self._h(handle))])
-
-    def setJointForce(self, handle: Any, force: Any) -> None:  # noqa: N802
-        """Maximum force/torque of the joint's motor (N or N·m)."""
-        self._world.set_joint_force(self._h(handle), _num(force, "force"))
-
-    setJointMaxForce = setJointForce  # noqa: N815 (CoppeliaSim 4 name)
-
-    def getJointForce(self, handle: Any) -> float:  # noqa: N802
-        """Force/torque the joint's motor applies (N or N·m)."""
-        return self._world.joint_force(self._h(handle))
-
-    def getJointMaxForce(self, handle: Any) -> float:  # noqa: N802
-        """Maximum force/torque of the joint's motor (N or N·m)."""
-        return self._world.joint_max_force(self._h(handle))
-
     # ------------------------------------------------------------------- poses
     def getObjectPosition(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
-        """Position (m) relative to ``relative_to`` (-1 world, ``sim.handle_parent``)."""
+        """Position (m) relative to ``relative_to`` (-1 world, ``sim.handle_parent``).
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+
+        Returns:
+            ``[x, y, z]`` in m.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return self._world.position(self._h(handle), self._rel(relative_to))
 
     def getObjectOrientation(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
-        """Euler angles alpha, beta, gamma (rad), R = Rx(alpha) Ry(beta) Rz(gamma)."""
+        """Euler angles alpha, beta, gamma (rad), R = Rx(alpha) Ry(beta) Rz(gamma).
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+
+        Returns:
+            ``[alpha, beta, gamma]`` in rad.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return self._world.orientation(self._h(handle), self._rel(relative_to))
 
     def getObjectQuaternion(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
-        """Orientation as a quaternion (x, y, z, w)."""
+        """Orientation as a quaternion (x, y, z, w).
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+
+        Returns:
+            ``[x, y, z, w]``, unit length.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return self._world.quaternion(self._h(handle), self._rel(relative_to))
 
     def setObjectPosition(self, handle: Any, relative_to: Any, position: Any) -> None:  # noqa: N802
-        """Move an object to ``position`` (m) in the frame of ``relative_to``."""
+        """Move an object to ``position`` (m) in the frame of ``relative_to``.
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+            position: ``[x, y, z]`` in m.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: an object that cannot be placed (a body with several joints).
+            ArgumentError: not 3 numbers, or beyond limits.MAX_POSITION.
+        """
         self._set_pose(handle, relative_to, position=_vector(position, 3, "position"))
 
     def setObjectOrientation(self, handle: Any, relative_to: Any, euler: Any) -> None:  # noqa: N802
-        """Turn an object to Euler angles (rad) in the frame of ``relative_to``."""
+        """Turn an object to Euler angles (rad) in the frame of ``relative_to``.
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+            euler: ``[alpha, beta, gamma]`` in rad.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: an object that cannot be placed.
+            ArgumentError: not 3 numbers.
+        """
         self._set_pose(handle, relative_to, rotation=matrix_from_euler(*_vector(euler, 3, "eulerAngles")))
 
     def setObjectQuaternion(self, handle: Any, relative_to: Any, quaternion: Any) -> None:  # noqa: N802
-        """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``."""
+        """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``.
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+            quaternion: ``[x, y, z, w]``, any non-zero length.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: an object that cannot be placed.
+            ArgumentError: not 4 numbers, or a zero quaternion.
+        """
         self._set_pose(handle, relative_to, rotation=matrix_from_quaternion(*_vector(quaternion, 4, "quaternion")))
 
     def _set_pose(self, handle: Any, relative_to: Any, position: list[float] | None = None,
@@ -202,53 +300,122 @@ class SimFacade:
 
     # -------------------------------------------------------------------- time
     def getSimulationTime(self) -> float:  # noqa: N802
-        """Simulation time (s)."""
+        """Simulation time (s).
+
+        Returns:
+            s.
+        """
         return self._world.time
 
     def getSimulationTimeStep(self) -> float:  # noqa: N802
-        """Simulation step dt (s)."""
+        """Simulation step dt (s).
+
+        Returns:
+            s.
+        """
         return self._world.dt
 
     # ----------------------------------------------------------------- signals
     def setIntegerSignal(self, name: Any, value: Any) -> None:  # noqa: N802
-        """Set integer signal ``name``."""
+        """Set integer signal ``name``.
+
+        Args:
+            name: the signal's name.
+            value: an integer (64 bits).
+
+        Raises:
+            ArgumentError: a bad name or value, or the store's bounds.
+        """
         self._signals.set(Signals.INT, _text(name, "signal name"), value, by_script=True)
 
     def getIntegerSignal(self, name: Any) -> int | None:  # noqa: N802
-        """Integer signal ``name``; None (Lua nil) when not set."""
+        """Integer signal ``name``; None (Lua nil) when not set.
+
+        Args:
+            name: the signal's name.
+
+        Returns:
+            The value, or None.
+        """
         return self._signals.get(Signals.INT, _text(name, "signal name"))
 
     def clearIntegerSignal(self, name: Any = None) -> None:  # noqa: N802
-        """Clear integer signal ``name`` (every integer signal when None)."""
+        """Clear integer signal ``name`` (every integer signal when None).
+
+        Args:
+            name: the signal's name, or None.
+        """
         self._signals.clear(Signals.INT, None if name is None else _text(name, "signal name"))
 
     def setFloatSignal(self, name: Any, value: Any) -> None:  # noqa: N802
-        """Set float signal ``name``."""
+        """Set float signal ``name``.
+
+        Args:
+            name: the signal's name.
+            value: a number.
+
+        Raises:
+            ArgumentError: a bad name or value, or the store's bounds.
+        """
         self._signals.set(Signals.FLOAT, _text(name, "signal name"), _num(value, "value"), by_script=True)
 
     def getFloatSignal(self, name: Any) -> float | None:  # noqa: N802
-        """Float signal ``name``; None (Lua nil) when not set."""
+        """Float signal ``name``; None (Lua nil) when not set.
+
+        Args:
+            name: the signal's name.
+
+        Returns:
+            The value, or None.
+        """
         return self._signals.get(Signals.FLOAT, _text(name, "signal name"))
 
     def clearFloatSignal(self, name: Any = None) -> None:  # noqa: N802
-        """Clear float signal ``name`` (every float signal when None)."""
+        """Clear float signal ``name`` (every float signal when None).
+
+        Args:
+            name: the signal's name, or None.
+        """
         self._signals.clear(Signals.FLOAT, None if name is None else _text(name, "signal name"))
 
     def setStringSignal(self, name: Any, value: Any) -> None:  # noqa: N802
-        """Set string signal ``name`` (a byte string)."""
+        """Set string signal ``name`` (a byte string).
+
+        Args:
+            name: the signal's name.
+            value: bytes or text (stored as bytes).
+
+        Raises:
+            ArgumentError: a bad name or value, or the store's bounds (limits.MAX_SIGNAL_BYTES ...).
+        """
         self._signals.set(Signals.STRING, _text(name, "signal name"), _bytes(value, "value"), by_script=True)
 
     def getStringSignal(self, name: Any) -> bytes | None:  # noqa: N802
-        """String signal ``name`` as bytes; None (Lua nil) when not set."""
+        """String signal ``name`` as bytes; None (Lua nil) when not set.
+
+        Args:
+            name: the signal's name.
+
+        Returns:
+            The bytes, or None.
+        """
         return self._signals.get(Signals.STRING, _text(name, "signal name"))
 
     def clearStringSignal(self, name: Any = None) -> None:  # noqa: N802
-        """Clear string signal ``name`` (every string signal when None)."""
+        """Clear string signal ``name`` (every string signal when None).
+
+        Args:
+            name: the signal's name, or None.
+        """
         self._signals.clear(Signals.STRING, None if name is None else _text(name, "signal name"))
 
     # ---------------------------------------------------------------- messages
     def addStatusbarMessage(self, message: Any) -> None:  # noqa: N802
-        """Write ``message`` to the server log (there is no status bar)."""
+        """Write ``message`` to the server log (there is no status bar).
+
+        Args:
+            message: text, or None for an empty line.
+        """
         log.info("[%s] %s", self._label, _text(message, "message") if message is not None else "")
 
     # ----------------------------------------------------------------- packing
@@ -311,4 +478,4 @@ for _name, _fn in {**ik.FACADE_FUNCTIONS, **shapes.FACADE_FUNCTIONS}.items():
 
 #: Names of the facade's functions (``sim.NAME`` in both languages).
 FACADE_FUNCTIONS: tuple[str, ...] = tuple(sorted(
-    n for n, v in vars(SimFacade).items() if not n.startswith("_") and callable(v)))
+    n for klass in SimFacade.__mro__[:-1] for n, v in vars(klass).items() if not n.startswith("_") and callable(v)))

@@ -73,7 +73,14 @@ class Signals:
 
     def set(self, kind: str, name: str, value: Any, *, by_script: bool = False) -> None:
         """Set signal ``name`` of ``kind``; raises ArgumentError for a value of the wrong type or
-        beyond the store's bounds (then nothing changes)."""
+        beyond the store's bounds (then nothing changes).
+
+        Args:
+            kind: INT, FLOAT or STRING.
+            name: the signal's name.
+            value: an integer, a number, or bytes/text.
+            by_script: set by a child script: cleared when the simulation stops.
+        """
         self._check(kind, name)
         value = self._coerce(kind, value)
         values = self._values[kind]
@@ -98,7 +105,19 @@ class Signals:
             self._by_script.discard((kind, name))
 
     def get(self, kind: str, name: str, default: Any = None) -> Any:
-        """Value of signal ``name`` of ``kind``, ``default`` when it is not set."""
+        """Value of signal ``name`` of ``kind``, ``default`` when it is not set.
+
+        Args:
+            kind: INT, FLOAT or STRING.
+            name: the signal's name.
+            default: what an unset signal gives.
+
+        Returns:
+            int, float or bytes, or ``default``.
+
+        Raises:
+            ArgumentError: an unknown kind or a bad name.
+        """
         self._check(kind, name)
         return self._values[kind].get(name, default)
 
@@ -109,7 +128,15 @@ class Signals:
             self.count -= 1
 
     def clear(self, kind: str | None = None, name: str | None = None) -> None:
-        """Clear one signal, every signal of ``kind`` (``name`` None) or everything (both None)."""
+        """Clear one signal, every signal of ``kind`` (``name`` None) or everything (both None).
+
+        Args:
+            kind: INT, FLOAT, STRING or None.
+            name: the signal's name, or None.
+
+        Raises:
+            ArgumentError: an unknown kind or a bad name.
+        """
         for k in self.KINDS if kind is None else (kind,):
             self._check(k, "" if name is None else name)
             if name is None:
@@ -127,25 +154,38 @@ class Signals:
         self._by_script.clear()
 
     def names(self, kind: str) -> list[str]:
-        """Names of the signals of ``kind`` that are set."""
+        """Names of the signals of ``kind`` that are set.
+
+        Args:
+            kind: INT, FLOAT or STRING.
+
+        Returns:
+            The names, sorted.
+        """
         self._check(kind, "")
         return sorted(self._values[kind])
 
     # typed accessors
     def set_int(self, name: str, value: int, *, by_script: bool = False) -> None:
+        """Set integer signal ``name`` (:meth:`set`)."""
         self.set(self.INT, name, value, by_script=by_script)
 
     def get_int(self, name: str, default: int | None = None) -> int | None:
+        """Integer signal ``name``, ``default`` when not set (:meth:`get`)."""
         return self.get(self.INT, name, default)
 
     def set_float(self, name: str, value: float, *, by_script: bool = False) -> None:
+        """Set float signal ``name`` (:meth:`set`)."""
         self.set(self.FLOAT, name, value, by_script=by_script)
 
     def get_float(self, name: str, default: float | None = None) -> float | None:
+        """Float signal ``name``, ``default`` when not set (:meth:`get`)."""
         return self.get(self.FLOAT, name, default)
 
     def set_string(self, name: str, value: bytes | str, *, by_script: bool = False) -> None:
+        """Set string signal ``name`` (:meth:`set`)."""
         self.set(self.STRING, name, value, by_script=by_script)
 
     def get_string(self, name: str, default: bytes | None = None) -> bytes | None:
+        """String signal ``name`` as bytes, ``default`` when not set (:meth:`get`)."""
         return self.get(self.STRING, name, default)
