@@ -296,16 +296,40 @@ class ObjectCalls:
     # ------------------------------------------------------------------ poses
     def getObjectPosition(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
         """Position (m) relative to ``relative_to`` (-1 world, the default since CoppeliaSim 4.5;
-        ``sim.handle_parent``; any object)."""
+        ``sim.handle_parent``; any object).
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+
+        Returns:
+            ``[x, y, z]`` in m.
+        """
         return self._world.position(self._h(handle), self._rel(relative_to))
 
     def getObjectOrientation(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
         """Euler angles alpha, beta, gamma (rad), R = Rx(alpha) Ry(beta) Rz(gamma), relative to
-        ``relative_to`` (default: the world, as CoppeliaSim 4.5)."""
+        ``relative_to`` (default: the world, as CoppeliaSim 4.5).
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+
+        Returns:
+            ``[alpha, beta, gamma]`` in rad.
+        """
         return self._world.orientation(self._h(handle), self._rel(relative_to))
 
     def getObjectQuaternion(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
-        """Orientation as a quaternion (x, y, z, w) relative to ``relative_to`` (default: the world)."""
+        """Orientation as a quaternion (x, y, z, w) relative to ``relative_to`` (default: the world).
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+
+        Returns:
+            ``[x, y, z, w]``, unit length.
+        """
         return self._world.quaternion(self._h(handle), self._rel(relative_to))
 
     @staticmethod
@@ -318,26 +342,52 @@ class ObjectCalls:
 
     def setObjectPosition(self, handle: Any, relative_to: Any, position: Any = None) -> None:  # noqa: N802
         """Move an object to ``position`` (m) in the frame of ``relative_to``; arguments
-        ``(h, relativeTo, position)`` or, as CoppeliaSim 4.5, ``(h, position [, relativeTo])``."""
+        ``(h, relativeTo, position)`` or, as CoppeliaSim 4.5, ``(h, position [, relativeTo])``.
+
+        Args:
+            handle: the object's handle.
+            relative_to: a handle (-1, ``sim.handle_parent``), or the position (4.5's order).
+            position: ``[x, y, z]`` in m, or the handle (4.5's order; default -1).
+        """
         rel, value = self._order(relative_to, position)
         self._set_pose(handle, rel, position=_vector(value, 3, "position"))
 
     def setObjectOrientation(self, handle: Any, relative_to: Any, euler: Any = None) -> None:  # noqa: N802
         """Turn an object to Euler angles (rad) in the frame of ``relative_to``; both argument
-        orders, as :meth:`setObjectPosition`."""
+        orders, as :meth:`setObjectPosition`.
+
+        Args:
+            handle: the object's handle.
+            relative_to: a handle, or the angles (4.5's order).
+            euler: ``[alpha, beta, gamma]`` in rad, or the handle (4.5's order).
+        """
         rel, value = self._order(relative_to, euler)
         self._set_pose(handle, rel, rotation=matrix_from_euler(*_vector(value, 3, "eulerAngles")))
 
     def setObjectQuaternion(self, handle: Any, relative_to: Any, quaternion: Any = None) -> None:  # noqa: N802
         """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``; both
-        argument orders, as :meth:`setObjectPosition`."""
+        argument orders, as :meth:`setObjectPosition`.
+
+        Args:
+            handle: the object's handle.
+            relative_to: a handle, or the quaternion (4.5's order).
+            quaternion: ``[x, y, z, w]``, or the handle (4.5's order).
+        """
         rel, value = self._order(relative_to, quaternion)
         self._set_pose(handle, rel, rotation=matrix_from_quaternion(*_vector(value, 4, "quaternion")))
 
     def getObjectMatrix(self, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
         """The object's pose as 12 numbers, row by row: ``[Xx Yx Zx Px  Xy Yy Zy Py  Xz Yz Zz Pz]``
         (rotation columns X, Y, Z; position in m) relative to ``relative_to`` (-1 world,
-        ``sim.handle_parent``)."""
+        ``sim.handle_parent``).
+
+        Args:
+            handle: the object's handle.
+            relative_to: another object's handle, -1 or ``sim.handle_parent``.
+
+        Returns:
+            12 floats.
+        """
         p, r = self._world.relative_frame(self._h(handle), self._rel(relative_to))
         return np.hstack([r, p.reshape(3, 1)]).reshape(12).tolist()
 
@@ -345,7 +395,16 @@ class ObjectCalls:
         """Place an object by a 12-number matrix (see :meth:`getObjectMatrix`) relative to
         ``relative_to``. Both argument orders work: ``(h, relativeTo, matrix)`` (CoppeliaSim
         4.0-4.4) and ``(h, matrix [, relativeTo])`` (4.5+). The rotation part must be a rotation
-        (orthonormal within 1e-3; it is re-orthonormalised); the rules of setObjectPosition hold."""
+        (orthonormal within 1e-3; it is re-orthonormalised); the rules of setObjectPosition hold.
+
+        Args:
+            handle: the object's handle.
+            relative_to: a handle, or the matrix (4.5's order).
+            matrix: 12 numbers, or the handle (4.5's order).
+
+        Raises:
+            ArgumentError: not 12 numbers, or not a rotation.
+        """
         relative_to, matrix = self._order(relative_to, matrix)
         values = np.array(_vector(matrix, 12, "matrix")).reshape(3, 4)
         r = values[:, :3]
@@ -356,7 +415,14 @@ class ObjectCalls:
 
     def getObjectVelocity(self, handle: Any) -> tuple[list[float], list[float]]:  # noqa: N802
         """``linearVelocity, angularVelocity`` of the object's origin in world axes (m/s, rad/s),
-        as ``simxGetObjectVelocity``."""
+        as ``simxGetObjectVelocity``.
+
+        Args:
+            handle: the object's handle.
+
+        Returns:
+            ``([vx, vy, vz], [wx, wy, wz])``.
+        """
         v, w = kinematics.object_velocity(self._simulation("getObjectVelocity"), self._h(handle))
         return v.tolist(), w.tolist()
 
