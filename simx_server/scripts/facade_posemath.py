@@ -59,63 +59,176 @@ class PoseMath:
     """``sim.*`` pose and matrix arithmetic (CoppeliaSim 4.x names and layouts)."""
 
     def buildIdentityMatrix(self) -> list[float]:  # noqa: N802 (CoppeliaSim's names)
-        """The identity as a 12-number matrix."""
+        """The identity as a 12-number matrix.
+
+        Returns:
+            12 floats, ``[1 0 0 0  0 1 0 0  0 0 1 0]``.
+        """
         return _matrix(np.zeros(3), np.eye(3))
 
     def buildMatrix(self, position: Any, eulerAngles: Any) -> list[float]:  # noqa: N802, N803
-        """A 12-number matrix from a position (m) and Euler angles alpha, beta, gamma (rad)."""
+        """A 12-number matrix from a position (m) and Euler angles alpha, beta, gamma (rad).
+
+        Args:
+            position: ``[x, y, z]`` in m.
+            eulerAngles: ``[alpha, beta, gamma]`` in rad.
+
+        Returns:
+            12 floats, row by row (rotation columns and position).
+
+        Raises:
+            ArgumentError: not 3 numbers each.
+        """
         return _matrix(np.array(_vector(position, 3, "position")),
                        matrix_from_euler(*_vector(eulerAngles, 3, "eulerAngles")))
 
     def buildPose(self, position: Any, eulerAnglesOrAxis: Any, mode: Any = 0,  # noqa: N802, N803
                   axis2: Any = None) -> list[float]:
         """A 7-number pose from a position (m) and Euler angles (``mode`` 0; the other modes,
-        which build the frame from axes, are not implemented and say so)."""
+        which build the frame from axes, are not implemented and say so).
+
+        Args:
+            position: ``[x, y, z]`` in m.
+            eulerAnglesOrAxis: ``[alpha, beta, gamma]`` in rad.
+            mode: 0.
+            axis2: unused (mode 0).
+
+        Returns:
+            ``[x, y, z, qx, qy, qz, qw]``.
+
+        Raises:
+            ArgumentError: not 3 numbers each.
+            UnsupportedError: a mode other than 0.
+        """
         if int(_num(mode, "mode")) != 0:
             raise UnsupportedError("sim.buildPose: only mode 0 (Euler angles) is implemented in simx")
         return _pose(np.array(_vector(position, 3, "position")),
                      matrix_from_euler(*_vector(eulerAnglesOrAxis, 3, "eulerAngles")))
 
     def poseToMatrix(self, pose: Any) -> list[float]:  # noqa: N802
-        """The 12-number matrix of a 7-number pose."""
+        """The 12-number matrix of a 7-number pose.
+
+        Args:
+            pose: ``[x, y, z, qx, qy, qz, qw]`` (m; any non-zero quaternion length).
+
+        Returns:
+            12 floats.
+
+        Raises:
+            ArgumentError: not 7 numbers, or a zero quaternion.
+        """
         p, r, _ = _frame(_vector(pose, 7, "pose"), "pose")
         return _matrix(p, r)
 
     def matrixToPose(self, matrix: Any) -> list[float]:  # noqa: N802
-        """The 7-number pose of a 12-number matrix."""
+        """The 7-number pose of a 12-number matrix.
+
+        Args:
+            matrix: 12 numbers.
+
+        Returns:
+            ``[x, y, z, qx, qy, qz, qw]``, unit quaternion.
+
+        Raises:
+            ArgumentError: not 12 numbers.
+        """
         p, r, _ = _frame(_vector(matrix, 12, "matrix"), "matrix")
         return _pose(p, r)
 
     def getEulerAnglesFromMatrix(self, matrix: Any) -> list[float]:  # noqa: N802
-        """Euler angles alpha, beta, gamma (rad) of a 12-number matrix's rotation."""
+        """Euler angles alpha, beta, gamma (rad) of a 12-number matrix's rotation.
+
+        Args:
+            matrix: 12 numbers.
+
+        Returns:
+            ``[alpha, beta, gamma]`` in rad.
+
+        Raises:
+            ArgumentError: not 12 numbers.
+        """
         _, r, _ = _frame(_vector(matrix, 12, "matrix"), "matrix")
         return list(euler_from_matrix(r))
 
     def multiplyMatrices(self, matrixIn1: Any, matrixIn2: Any) -> list[float]:  # noqa: N802, N803
-        """``matrixIn1 * matrixIn2`` (12 numbers each)."""
+        """``matrixIn1 * matrixIn2`` (12 numbers each).
+
+        Args:
+            matrixIn1: 12 numbers.
+            matrixIn2: 12 numbers.
+
+        Returns:
+            12 floats.
+
+        Raises:
+            ArgumentError: not 12 numbers each.
+        """
         p1, r1, _ = _frame(_vector(matrixIn1, 12, "matrixIn1"), "matrixIn1")
         p2, r2, _ = _frame(_vector(matrixIn2, 12, "matrixIn2"), "matrixIn2")
         return _matrix(p1 + r1 @ p2, r1 @ r2)
 
     def multiplyPoses(self, poseIn1: Any, poseIn2: Any) -> list[float]:  # noqa: N802, N803
-        """``poseIn1 * poseIn2`` (7 numbers each)."""
+        """``poseIn1 * poseIn2`` (7 numbers each).
+
+        Args:
+            poseIn1: 7 numbers.
+            poseIn2: 7 numbers.
+
+        Returns:
+            7 floats.
+
+        Raises:
+            ArgumentError: not 7 numbers each, or a zero quaternion.
+        """
         p1, r1, _ = _frame(_vector(poseIn1, 7, "poseIn1"), "poseIn1")
         p2, r2, _ = _frame(_vector(poseIn2, 7, "poseIn2"), "poseIn2")
         return _pose(p1 + r1 @ p2, r1 @ r2)
 
     def getMatrixInverse(self, matrix: Any) -> list[float]:  # noqa: N802
-        """The inverse of a 12-number matrix."""
+        """The inverse of a 12-number matrix.
+
+        Args:
+            matrix: 12 numbers.
+
+        Returns:
+            12 floats.
+
+        Raises:
+            ArgumentError: not 12 numbers.
+        """
         p, r, _ = _frame(_vector(matrix, 12, "matrix"), "matrix")
         return _matrix(-r.T @ p, r.T)
 
     def getPoseInverse(self, pose: Any) -> list[float]:  # noqa: N802
-        """The inverse of a 7-number pose."""
+        """The inverse of a 7-number pose.
+
+        Args:
+            pose: 7 numbers.
+
+        Returns:
+            7 floats.
+
+        Raises:
+            ArgumentError: not 7 numbers, or a zero quaternion.
+        """
         p, r, _ = _frame(_vector(pose, 7, "pose"), "pose")
         return _pose(-r.T @ p, r.T)
 
     def interpolatePoses(self, poseIn1: Any, poseIn2: Any, interpolFactor: Any) -> list[float]:  # noqa: N802, N803
         """The pose at ``interpolFactor`` (0..1) between two poses: positions linearly, rotations
-        by spherical linear interpolation."""
+        by spherical linear interpolation.
+
+        Args:
+            poseIn1: 7 numbers.
+            poseIn2: 7 numbers.
+            interpolFactor: 0 gives ``poseIn1``, 1 ``poseIn2``.
+
+        Returns:
+            7 floats.
+
+        Raises:
+            ArgumentError: not 7 numbers each, or a zero quaternion.
+        """
         t = _num(interpolFactor, "interpolFactor")
         a, b = _vector(poseIn1, 7, "poseIn1"), _vector(poseIn2, 7, "poseIn2")
         q1, q2 = np.array(a[3:]), np.array(b[3:])
@@ -132,7 +245,18 @@ class PoseMath:
         return [float(x) for x in p] + (q / np.linalg.norm(q)).tolist()
 
     def multiplyVector(self, matrixOrPose: Any, inVectors: Any) -> list[float]:  # noqa: N802, N803
-        """Points (3 numbers each, one after the other) transformed by a matrix or a pose."""
+        """Points (3 numbers each, one after the other) transformed by a matrix or a pose.
+
+        Args:
+            matrixOrPose: 12 or 7 numbers.
+            inVectors: 3n numbers (m).
+
+        Returns:
+            3n floats (m).
+
+        Raises:
+            ArgumentError: not a matrix or pose, or not 3 numbers per point.
+        """
         p, r, _ = _frame(matrixOrPose, "matrix")
         n = len(inVectors) if isinstance(inVectors, (list, tuple)) else 0
         if n == 0 or n % 3:
@@ -142,7 +266,20 @@ class PoseMath:
 
     def rotateAroundAxis(self, matrixOrPose: Any, axis: Any, axisPos: Any, angle: Any) -> list[float]:  # noqa: N802, N803
         """A matrix or pose turned by ``angle`` (rad) about the line through ``axisPos`` (m)
-        along ``axis`` (world frame); returns the same layout it was given."""
+        along ``axis`` (world frame); returns the same layout it was given.
+
+        Args:
+            matrixOrPose: 12 or 7 numbers.
+            axis: the axis's direction (3 numbers, not zero).
+            axisPos: a point of the axis, m.
+            angle: rad.
+
+        Returns:
+            12 or 7 floats.
+
+        Raises:
+            ArgumentError: not a matrix or pose, or a zero axis.
+        """
         p, r, as_pose = _frame(matrixOrPose, "matrixIn")
         a = np.array(_vector(axis, 3, "axis"))
         norm = np.linalg.norm(a)
