@@ -72,7 +72,19 @@ class PathCalls:
 
     def getPathLengths(self, path: Any, dof: Any, distCallback: Any = None) -> tuple[list[float], float]:  # noqa: N802, N803
         """``pathLengths, totalLength``: the length along the path at each configuration (the
-        first 0), Euclidean between consecutive configurations."""
+        first 0), Euclidean between consecutive configurations.
+
+        Args:
+            path: configurations of ``dof`` numbers each, flat.
+            dof: numbers per configuration.
+            distCallback: must be None.
+
+        Returns:
+            ``(lengths, total)``, in the path's units (m for positions).
+
+        Raises:
+            ArgumentError: a malformed path, or a distance callback.
+        """
         if distCallback is not None:
             raise ArgumentError("getPathLengths with a distance callback: simx measures Euclidean lengths")
         lengths = _lengths(_path(path, _int(dof, "dof")))
@@ -81,14 +93,42 @@ class PathCalls:
     def getPathInterpolatedConfig(self, path: Any, pathLengths: Any, t: Any, method: Any = None,  # noqa: N802, N803
                                   types: Any = None) -> list[float]:
         """The configuration at length ``t`` along the path (clamped to its ends), linearly
-        between its two neighbours."""
+        between its two neighbours.
+
+        Args:
+            path: configurations, flat.
+            pathLengths: :meth:`getPathLengths`'s lengths.
+            t: the length along the path.
+            method: None or ``{type = 'linear'}``.
+            types: ignored.
+
+        Returns:
+            One configuration.
+
+        Raises:
+            ArgumentError: a malformed path, mismatched lengths, or another interpolation.
+        """
         _linear(method)
         pts = _path(path, _dof(path, pathLengths))
         return _at(pts, np.array([_num(v, "pathLengths[i]") for v in pathLengths]), _num(t, "t")).tolist()
 
     def resamplePath(self, path: Any, pathLengths: Any, finalConfigCnt: Any, method: Any = None,  # noqa: N802, N803
                      types: Any = None) -> list[float]:
-        """``finalConfigCnt`` configurations evenly spaced along the path, flat."""
+        """``finalConfigCnt`` configurations evenly spaced along the path, flat.
+
+        Args:
+            path: configurations, flat.
+            pathLengths: :meth:`getPathLengths`'s lengths.
+            finalConfigCnt: how many configurations, at least 2.
+            method: None or ``{type = 'linear'}``.
+            types: ignored.
+
+        Returns:
+            ``finalConfigCnt`` configurations, flat.
+
+        Raises:
+            ArgumentError: a malformed path, a count out of range, or another interpolation.
+        """
         _linear(method)
         n = _int(finalConfigCnt, "finalConfigCnt")
         if not 2 <= n <= MAX_ITEMS:
@@ -98,7 +138,19 @@ class PathCalls:
         return np.vstack([_at(pts, lengths, t) for t in np.linspace(0, lengths[-1], n)]).reshape(-1).tolist()
 
     def getClosestPosOnPath(self, path: Any, pathLengths: Any, absPt: Any) -> float:  # noqa: N802, N803
-        """The length along the path (its first 3 numbers a position, m) closest to point ``absPt``."""
+        """The length along the path (its first 3 numbers a position, m) closest to point ``absPt``.
+
+        Args:
+            path: configurations, flat.
+            pathLengths: :meth:`getPathLengths`'s lengths.
+            absPt: a point (3 numbers, m).
+
+        Returns:
+            The length along the path, m.
+
+        Raises:
+            ArgumentError: a malformed path or mismatched lengths.
+        """
         pts = _path(path, _dof(path, pathLengths))[:, :3]
         lengths = np.array([_num(v, "pathLengths[i]") for v in pathLengths])
         p = np.array([_num(v, "absPt[i]") for v in absPt][:3])
@@ -116,7 +168,22 @@ class PathCalls:
                    orientationMode: Any = 0, upVector: Any = None) -> int:  # noqa: N803
         """A path object: a dummy carrying ``ctrlPts`` (7 numbers per pose: x y z qx qy qz qw)
         and the path through them, linear with ``subdiv`` points per segment, as custom data
-        ``PATHCTRLPT`` and ``PATH`` (packed doubles). Its handle."""
+        ``PATHCTRLPT`` and ``PATH`` (packed doubles). Its handle.
+
+        Args:
+            ctrlPts: the control poses, 7 numbers each, flat.
+            options: ignored.
+            subdiv: points per segment, 1..1000.
+            smoothness: unused (the path is linear).
+            orientationMode: unused.
+            upVector: unused.
+
+        Returns:
+            The path dummy's handle.
+
+        Raises:
+            ArgumentError: malformed control points, or ``subdiv`` out of range.
+        """
         pts = _path(ctrlPts, 7)
         k = _int(subdiv, "subdiv")
         if not 1 <= k <= 1000 or len(pts) * k > MAX_ITEMS:
@@ -139,7 +206,17 @@ class PathCalls:
         return store
 
     def createCollection(self, options: Any = 0) -> int:  # noqa: N802
-        """An empty collection; its handle (from 2,000,000, after the scene's own)."""
+        """An empty collection; its handle (from 2,000,000, after the scene's own).
+
+        Args:
+            options: ignored.
+
+        Returns:
+            The handle.
+
+        Raises:
+            ArgumentError: too many collections (MAX_COLLECTIONS).
+        """
         return scene_collections.of(self._world).create()
 
     def _collection(self, handle: Any) -> list:
@@ -148,7 +225,18 @@ class PathCalls:
     def addItemToCollection(self, collectionHandle: Any, what: Any, objectHandle: Any, options: Any = 0) -> None:  # noqa: N802, N803
         """Add (``options`` bit 0: remove) ``sim.handle_single`` one object, ``handle_tree`` it and
         everything below it (bit 1: without it), ``handle_chain`` it and its ancestors (bit 1:
-        without it), ``handle_all`` every object."""
+        without it), ``handle_all`` every object.
+
+        Args:
+            collectionHandle: a collection's handle.
+            what: ``sim.handle_single``, ``handle_tree``, ``handle_chain`` or ``handle_all``.
+            objectHandle: the object (ignored for ``handle_all``).
+            options: bit 0 remove, bit 1 without the object itself.
+
+        Raises:
+            UnknownObjectError: no such collection or object.
+            ArgumentError: another ``what``.
+        """
         items, kind, opts = self._collection(collectionHandle), _int(what, "what"), _int(options, "options")
         w = self._world
         if kind == HANDLE_ALL:
@@ -168,26 +256,80 @@ class PathCalls:
             items.extend(h for h in chosen if h not in items)
 
     def getCollectionObjects(self, collectionHandle: Any) -> list[int]:  # noqa: N802, N803
-        """The collection's objects (those still in the scene)."""
+        """The collection's objects (those still in the scene).
+
+        Args:
+            collectionHandle: a collection's handle.
+
+        Returns:
+            Object handles.
+
+        Raises:
+            UnknownObjectError: no such collection.
+        """
         return scene_collections.of(self._world).present(_int(collectionHandle, "collectionHandle"))
 
     def destroyCollection(self, collectionHandle: Any) -> None:  # noqa: N802, N803
+        """Forget a collection (``sim.destroyCollection``).
+
+        Args:
+            collectionHandle: a collection's handle.
+
+        Raises:
+            UnknownObjectError: no such collection.
+        """
         scene_collections.of(self._world).remove(_int(collectionHandle, "collectionHandle"))
 
     def getCollectionHandle(self, collectionName: Any) -> int:  # noqa: N802, N803
         """The handle of the collection the scene declares as ``collectionName`` (CoppeliaSim's
-        deprecated ``sim.getCollectionHandle``, V-REP 3.x's ``simGetCollectionHandle``)."""
+        deprecated ``sim.getCollectionHandle``, V-REP 3.x's ``simGetCollectionHandle``).
+
+        Args:
+            collectionName: the name.
+
+        Returns:
+            The handle.
+
+        Raises:
+            UnknownObjectError: no such collection.
+        """
         return scene_collections.of(self._world).handle(_text(collectionName, "collectionName"))
 
     def getCollectionName(self, collectionHandle: Any) -> str:  # noqa: N802, N803
         """The name of a collection (V-REP 3.x's ``simGetCollectionName``; "" for one made at run
-        time)."""
+        time).
+
+        Args:
+            collectionHandle: a collection's handle.
+
+        Returns:
+            The name.
+
+        Raises:
+            UnknownObjectError: no such collection.
+        """
         return scene_collections.of(self._world).name(_int(collectionHandle, "collectionHandle"))
 
     # ------------------------------------------------------------ drawing objects
     def addDrawingObject(self, objectType: Any, size: Any, duplicateTolerance: Any, parentObjectHandle: Any,  # noqa: N802, N803
                          maxItemCount: Any, color: Any = None) -> int:  # noqa: N803
-        """A drawing object kept as data (headless: nothing drawn); its handle (from 3,000,000)."""
+        """A drawing object kept as data (headless: nothing drawn); its handle (from 3,000,000).
+
+        Args:
+            objectType: ``sim.drawing_*`` type and flags (kept).
+            size: point size or line width (kept).
+            duplicateTolerance: ignored.
+            parentObjectHandle: an object's handle, or -1 (kept).
+            maxItemCount: 1..MAX_ITEMS.
+            color: ignored.
+
+        Returns:
+            The handle.
+
+        Raises:
+            UnknownObjectError: no such parent object.
+            ArgumentError: MAX_DRAWINGS objects already, or ``maxItemCount`` out of range.
+        """
         store = self._store("drawings")
         if len(store) >= MAX_DRAWINGS:
             raise ArgumentError(f"at most {MAX_DRAWINGS} drawing objects")
@@ -204,7 +346,18 @@ class PathCalls:
 
     def addDrawingObjectItem(self, drawingObjectHandle: Any, itemData: Any) -> int:  # noqa: N802, N803
         """Append an item (its numbers); nil clears the object. Past ``maxItemCount`` the oldest
-        goes (CoppeliaSim's cyclic buffer). Returns 1."""
+        goes (CoppeliaSim's cyclic buffer). Returns 1.
+
+        Args:
+            drawingObjectHandle: a drawing object's handle.
+            itemData: the item's numbers, or None.
+
+        Returns:
+            1.
+
+        Raises:
+            UnknownObjectError: no such drawing object.
+        """
         d = self._store("drawings").get(_int(drawingObjectHandle, "drawingObjectHandle") & 0x3FFFFF)  # without sim.handleflag_* bits
         if d is None:
             raise UnknownObjectError(f"no drawing object {drawingObjectHandle}")
@@ -216,7 +369,14 @@ class PathCalls:
         return 1
 
     def removeDrawingObject(self, drawingObjectHandle: Any) -> None:  # noqa: N802, N803
-        """Remove one (``sim.handle_all``: every one)."""
+        """Remove one (``sim.handle_all``: every one).
+
+        Args:
+            drawingObjectHandle: a drawing object's handle, or ``sim.handle_all``.
+
+        Raises:
+            UnknownObjectError: no such drawing object.
+        """
         h, store = _int(drawingObjectHandle, "drawingObjectHandle"), self._store("drawings")
         if h == HANDLE_ALL:
             store.clear()
