@@ -41,7 +41,19 @@ class SensingCalls:
     def checkCollision(self, entity1Handle: Any, entity2Handle: Any) -> tuple[int, list[int]]:  # noqa: N802, N803
         """``result, collidingObjects``: 1 and the two shapes' handles when shape or collection
         ``entity1`` touches or overlaps ``entity2`` (``sim.handle_all``: any other collidable geom,
-        a shape's parent and children excepted as MuJoCo filters them), else 0 and ``[-1, -1]``."""
+        a shape's parent and children excepted as MuJoCo filters them), else 0 and ``[-1, -1]``.
+
+        Args:
+            entity1Handle: a shape or collection.
+            entity2Handle: another shape or collection, or ``sim.handle_all``.
+
+        Returns:
+            ``(result, [h1, h2])``.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape or collection, or one without a collidable geom.
+        """
         sim = self._simulation("checkCollision")
         e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
         if not collisions.collision(sim, e1, e2):
@@ -54,7 +66,19 @@ class SensingCalls:
     def checkCollisionEx(self, entity1Handle: Any, entity2Handle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
         """``segmentCount, segmentData``: 1 and the two witness points (6 numbers, m, world) of the
         deepest touch when the shapes collide, else 0 and ``[]`` (MuJoCo gives one contact
-        segment per geom pair, not the intersection curve CoppeliaSim's meshes give)."""
+        segment per geom pair, not the intersection curve CoppeliaSim's meshes give).
+
+        Args:
+            entity1Handle: a shape or collection.
+            entity2Handle: another shape or collection, or ``sim.handle_all``.
+
+        Returns:
+            ``(count, points)``: 0 or 1, and ``[]`` or 6 floats.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape or collection, or one without a collidable geom.
+        """
         e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
         if not collisions.collision(self._simulation("checkCollisionEx"), e1, e2):
             return 0, []
@@ -83,7 +107,20 @@ class SensingCalls:
     def checkDistance(self, entity1Handle: Any, entity2Handle: Any, threshold: Any = 0.0) -> tuple[int, list[float], list[int]]:  # noqa: N802, N803
         """``result, distanceData, objectHandlePair``: ``distanceData`` = the closest points on
         each shape (m, world) and their distance, ``[x1 y1 z1 x2 y2 z2 d]``; result 1 when ``d``
-        is below ``threshold`` (0: no threshold), else 0. Penetrating shapes measure 0."""
+        is below ``threshold`` (0: no threshold), else 0. Penetrating shapes measure 0.
+
+        Args:
+            entity1Handle: a shape or collection.
+            entity2Handle: another shape or collection, or ``sim.handle_all``.
+            threshold: m; 0: none.
+
+        Returns:
+            ``(result, [x1, y1, z1, x2, y2, z2, d], [h1, h2])``.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape or collection, or one without a collidable geom.
+        """
         e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
         limit = _num(threshold, "threshold")
         self._simulation("checkDistance")
@@ -97,7 +134,16 @@ class SensingCalls:
         """``collidingObjects, contactPoint, reactionForce, normalVector`` of the ``index``-th
         contact of the last step that involves shape ``objectHandle`` (``sim.handle_all``: any):
         the two shapes' handles, the point (m, world), the force on the first (N, world) and
-        the contact normal; nil past the last contact."""
+        the contact normal; nil past the last contact.
+
+        Args:
+            dynamicPass: ignored (MuJoCo's contacts of the last step).
+            objectHandle: a shape, or ``sim.handle_all``.
+            index: 0-based.
+
+        Returns:
+            ``([h1, h2], [x, y, z], [fx, fy, fz], [nx, ny, nz])``, or None.
+        """
         h = _int(objectHandle, "objectHandle")
         i = _int(index, "index")
         world = self._world
@@ -128,7 +174,18 @@ class SensingCalls:
     def handleVisionSensor(self, sensorHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
         """Render the sensor now: ``detectionCount, auxPacket1`` (0, V-REP's 15 values: min, max,
         average of intensity, red, green, blue, depth, 0..1). ``sim.handle_all``: each sensor;
-        returns the last's."""
+        returns the last's.
+
+        Args:
+            sensorHandle: a vision sensor, or ``sim.handle_all``.
+
+        Returns:
+            ``(0, packet)`` (rendered on the render thread).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+        """
         h = _int(sensorHandle, "sensorHandle")
         sim = self._simulation("handleVisionSensor")
         handles = (self._world.objects_of_type(VISION_SENSOR)
@@ -138,13 +195,35 @@ class SensingCalls:
 
     def readVisionSensor(self, sensorHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
         """``result, auxPacket1``: result 0 (no detection trigger in simx's filters), the 15-value
-        packet of the sensor's current image (as ``simxReadVisionSensor``)."""
+        packet of the sensor's current image (as ``simxReadVisionSensor``).
+
+        Args:
+            sensorHandle: a vision sensor's handle.
+
+        Returns:
+            ``(0, packet)``: 15 floats in 0..1.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+        """
         job = sensors.vision_packet_job(self._simulation("readVisionSensor"), self._vision(sensorHandle))
         return self._rendered("readVisionSensor", lambda: (0, job()))
 
     def checkVisionSensor(self, sensorHandle: Any, entityHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
         """As :meth:`readVisionSensor` (simx renders the whole scene: ``entityHandle`` is checked
-        and must be ``sim.handle_all`` or an object)."""
+        and must be ``sim.handle_all`` or an object).
+
+        Args:
+            sensorHandle: a vision sensor's handle.
+            entityHandle: ``sim.handle_all``.
+
+        Returns:
+            ``(0, packet)``.
+
+        Raises:
+            UnsupportedError: one entity rather than ``sim.handle_all``.
+        """
         e = _int(entityHandle, "entityHandle")
         if e != C.sim_handle_all:
             self._world.get(e)
@@ -153,7 +232,14 @@ class SensingCalls:
         return self.readVisionSensor(sensorHandle)
 
     def getVisionSensorResolution(self, sensorHandle: Any) -> list[int]:  # noqa: N802, N803
-        """``[width, height]`` (pixels; CoppeliaSim 4.0-4.2's name of ``getVisionSensorRes``)."""
+        """``[width, height]`` (pixels; CoppeliaSim 4.0-4.2's name of ``getVisionSensorRes``).
+
+        Args:
+            sensorHandle: a vision sensor's handle.
+
+        Returns:
+            ``[width, height]``.
+        """
         spec = self._simulation("getVisionSensorResolution").vision.spec(self._vision(sensorHandle))
         return [spec.width, spec.height]
 
@@ -162,7 +248,22 @@ class SensingCalls:
     def getVisionSensorCharImage(self, sensorHandle: Any, posX: Any = 0, posY: Any = 0, sizeX: Any = 0,  # noqa: N802, N803
                                  sizeY: Any = 0, rgbaCutOff: Any = 0) -> tuple[bytes, int, int]:  # noqa: N803
         """``image, resolutionX, resolutionY``: uint8 RGB bytes, rows bottom-up (a window with
-        ``posX..sizeY``; 0s: the whole image)."""
+        ``posX..sizeY``; 0s: the whole image).
+
+        Args:
+            sensorHandle: a vision sensor's handle.
+            posX: the window's first column, pixels.
+            posY: its first row from the bottom, pixels.
+            sizeX: its width (0: the whole image).
+            sizeY: its height.
+            rgbaCutOff: ignored.
+
+        Returns:
+            ``(bytes, width, height)`` of the window.
+
+        Raises:
+            ArgumentError: a window outside the image.
+        """
         image = self._image_job("getVisionSensorCharImage", self._vision(sensorHandle), False)
 
         def finish() -> tuple[bytes, int, int]:
@@ -172,7 +273,11 @@ class SensingCalls:
         return self._rendered("getVisionSensorCharImage", finish)
 
     def resetVisionSensor(self, sensorHandle: Any) -> None:  # noqa: N802, N803
-        """Nothing kept between renders: checked and done."""
+        """Nothing kept between renders: checked and done.
+
+        Args:
+            sensorHandle: a vision sensor's handle.
+        """
         self._vision(sensorHandle)
 
     # -------------------------------------------------------------- proximity sensors
@@ -181,7 +286,14 @@ class SensingCalls:
 
     def handleProximitySensor(self, sensorHandle: Any) -> tuple[int, float, list[float], int, list[float]]:  # noqa: N802, N803
         """Cast the sensor's ray(s) now: as :meth:`readProximitySensor` (``sim.handle_all``: each
-        proximity sensor, the last one's reading)."""
+        proximity sensor, the last one's reading).
+
+        Args:
+            sensorHandle: a proximity sensor, or ``sim.handle_all``.
+
+        Returns:
+            ``(result, distance, [x, y, z], handle, [nx, ny, nz])``.
+        """
         h = _int(sensorHandle, "sensorHandle")
         if h in (C.sim_handle_all, C.sim_handle_all_except_explicit):
             handles = self._world.objects_of_type(PROXIMITY_SENSOR)
@@ -195,7 +307,15 @@ class SensingCalls:
 
     def checkProximitySensor(self, sensorHandle: Any, entityHandle: Any) -> tuple[int, float, list[float]]:  # noqa: N802, N803
         """``result, distance, detectedPoint`` against ``entityHandle`` (``sim.handle_all``: any
-        shape; a shape: only that one counts)."""
+        shape; a shape: only that one counts).
+
+        Args:
+            sensorHandle: a proximity sensor's handle.
+            entityHandle: a shape, or ``sim.handle_all``.
+
+        Returns:
+            ``(result, distance, [x, y, z])``: m, sensor frame.
+        """
         detected, dist, point, hit, _ = self.readProximitySensor(self._proximity(sensorHandle))
         e = _int(entityHandle, "entityHandle")
         if e != C.sim_handle_all and (detected and hit != self._world.get(e).handle):
@@ -203,7 +323,11 @@ class SensingCalls:
         return detected, dist, point
 
     def resetProximitySensor(self, sensorHandle: Any) -> None:  # noqa: N802, N803
-        """Nothing kept between casts: checked and done."""
+        """Nothing kept between casts: checked and done.
+
+        Args:
+            sensorHandle: a proximity sensor, or ``sim.handle_all``.
+        """
         h = _int(sensorHandle, "sensorHandle")
         if h not in (C.sim_handle_all, C.sim_handle_all_except_explicit):
             self._proximity(h)
@@ -225,7 +349,14 @@ class SensingCalls:
 
     def getJointInterval(self, objectHandle: Any) -> tuple[bool, list[float]]:  # noqa: N802, N803
         """``cyclic, interval``: interval = ``[min, range]`` (rad or m, MuJoCo's ``jnt_range``);
-        a hinge without limits is cyclic (``[-pi, 2 pi]``)."""
+        a hinge without limits is cyclic (``[-pi, 2 pi]``).
+
+        Args:
+            objectHandle: a joint's handle.
+
+        Returns:
+            ``(cyclic, [min, range])``.
+        """
         obj = self._joint(objectHandle)
         m = self._world.model
         lo, hi = (float(v) for v in m.jnt_range[obj.mj_id])
@@ -237,7 +368,16 @@ class SensingCalls:
 
     def setJointInterval(self, objectHandle: Any, cyclic: Any, interval: Any) -> None:  # noqa: N802, N803
         """Set the joint's limits ``[min, range]`` (rad or m); ``cyclic`` true removes them (a
-        hinge). Written to the model and the scene's MjSpec (kept by later edits)."""
+        hinge). Written to the model and the scene's MjSpec (kept by later edits).
+
+        Args:
+            objectHandle: a joint's handle.
+            cyclic: true to remove the limits.
+            interval: ``[min, range]``, rad or m.
+
+        Raises:
+            ArgumentError: a negative range.
+        """
         obj = self._joint(objectHandle)
         lo, span = _vector(interval, 2, "interval")
         if span < 0:
@@ -257,13 +397,29 @@ class SensingCalls:
 
     def getJointMode(self, jointHandle: Any) -> tuple[int, int]:  # noqa: N802, N803
         """``jointMode, options``: ``sim.jointmode_dynamic`` (5) for a joint with a motor, else
-        ``sim.jointmode_kinematic`` (0); options 0."""
+        ``sim.jointmode_kinematic`` (0); options 0.
+
+        Args:
+            jointHandle: a joint's handle.
+
+        Returns:
+            ``(mode, 0)``.
+        """
         obj = self._joint(jointHandle)
         return (JOINTMODE_DYNAMIC if obj.handle in self._world.motor_index else JOINTMODE_KINEMATIC), 0
 
     def setJointMode(self, jointHandle: Any, jointMode: Any, options: Any = 0) -> None:  # noqa: N802, N803
         """Only ``sim.jointmode_dynamic`` (5, or its ``jointmode_force`` alias) for a joint with a
-        motor: simx's joints are all simulated by MuJoCo (kinematic and dependent modes are not)."""
+        motor: simx's joints are all simulated by MuJoCo (kinematic and dependent modes are not).
+
+        Args:
+            jointHandle: a joint's handle.
+            jointMode: 5.
+            options: ignored.
+
+        Raises:
+            UnsupportedError: another mode, or a joint without a motor.
+        """
         obj = self._joint(jointHandle)
         mode = _int(jointMode, "jointMode")
         if mode != JOINTMODE_DYNAMIC or obj.handle not in self._world.motor_index:
@@ -272,7 +428,14 @@ class SensingCalls:
 
     def getJointDependency(self, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
         """``masterJointHandle, offset, multCoeff`` of an MJCF joint equality (``<joint joint1
-        joint2 polycoef>``, q1 = offset + coeff·q2), or ``-1, 0, 1`` without one."""
+        joint2 polycoef>``, q1 = offset + coeff·q2), or ``-1, 0, 1`` without one.
+
+        Args:
+            jointHandle: a joint's handle.
+
+        Returns:
+            ``(masterHandle, offset, coefficient)``.
+        """
         obj = self._joint(jointHandle)
         m = self._world.model
         by_id = {o.mj_id: o.handle for o in self._world.objects.values() if o.type == JOINT}
