@@ -103,7 +103,7 @@ class Clients:
         """The clients silent for longer than their ``expiry`` at ``now``, oldest first, but
         those their door keeps (its ``keeps(client)``; ``keeps`` overrides it). They stay
         registered: the loop has their door forget them."""
-        out = []
+        out: list[Any] = []
         for door, clients in list(self._doors.values()):
             kept = keeps if keeps is not None else door.keeps
             out.extend(c for c in clients.values() if now - c.last_seen > c.expiry and not kept(c))

@@ -115,7 +115,14 @@ class Loop:
     # ------------------------------------------------------------- front doors
     def attach(self, door: FrontDoor) -> None:
         """Serve ``door`` from this loop (before :meth:`serve`): its ``(kind, item)``
-        deliveries go to its ``handle``; it hears of every step and housekeeping pass."""
+        deliveries go to its ``handle``; it hears of every step and housekeeping pass.
+
+        Raises:
+            ValueError: another door attached declares one of its kinds.
+        """
+        taken = [kind for kind in door.kinds if kind in self._kinds]
+        if taken:
+            raise ValueError(f"{type(door).__name__}: kind(s) {', '.join(taken)} taken by another door")
         self.doors.append(door)
         for kind in door.kinds:
             self._kinds[kind] = door

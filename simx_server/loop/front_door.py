@@ -56,17 +56,21 @@ class FrontDoor(Protocol):
     def handle(self, kind: str, item: Any) -> None:
         """Serve one delivered item: execute its request on the simulation and hand the reply
         over for sending. Must not raise for anything a client sent (the loop logs what does)."""
+        return None
 
     def publish(self) -> None:
         """After each successful step, and each idle pass while the simulation is not running:
         send the clients' streamed updates."""
+        return None
 
     def after_step(self) -> None:
         """After each simulation step, and each loop pass without one: answer what waited for it."""
+        return None
 
     def housekeeping(self, now: float) -> None:
         """A few times a second (``now``: ``time.monotonic()``, s), after the loop expired the
         registry's silent clients: the door's own periodic work."""
+        return None
 
     def keeps(self, client: Any) -> bool:
         """Whether ``client`` (one of the door's in the registry) stays past its expiry (it holds
@@ -77,10 +81,12 @@ class FrontDoor(Protocol):
         """Drop ``client`` (the loop's housekeeping: it expired; ``how`` says so for the log):
         remove it from the registry (:meth:`Clients.remove`), drop the door's own state of it,
         take it out of the synchronous barrier."""
+        return None
 
     def fault(self, reason: str) -> None:
         """A simulation step failed (the simulation has stopped): every registered client is
         marked already (``Client.fault``, told at its next request); the door tells what waits."""
+        return None
 
     def watched(self) -> bool:
         """Whether someone the registry does not count watches the steps (a viewer, a client
@@ -90,6 +96,7 @@ class FrontDoor(Protocol):
     def close(self) -> None:
         """Stop the door's threads and sockets (once, when the loop ends, after the simulation
         and the sending thread have finished what was handed over)."""
+        return None
 
 
 class ReadyDoor(Protocol):

@@ -46,12 +46,12 @@ class InProcessDoor(FrontDoor):
     Args:
         loop: the loop it is attached to (``loop.attach(door)`` is the caller's).
         max_pending: calls handed over and not answered yet, over all clients.
+        kind: the kind of its deliveries (one per door attached to a loop).
     """
 
-    kinds: tuple[str, ...] = ("in-process",)
-
-    def __init__(self, loop: LoopAccess, max_pending: int = MAX_PENDING) -> None:
+    def __init__(self, loop: LoopAccess, max_pending: int = MAX_PENDING, kind: str = "in-process") -> None:
         self.loop = loop
+        self.kinds: tuple[str, ...] = (kind,)
         self.max_pending = max_pending
         self.expired: list[str] = []  # clients the loop's housekeeping dropped, oldest first
         #: ``(client, message)`` of each failed step told to a client, at its next call.
@@ -74,7 +74,7 @@ class InProcessDoor(FrontDoor):
                 future.set_exception(RuntimeError(f"refused: {self._pending} calls pending (max_pending)"))
                 return future
             self._pending += 1
-        self.loop.deliver(("in-process", _Call(client, fn, future, after_step)))
+        self.loop.deliver((self.kinds[0], _Call(client, fn, future, after_step)))
         return future
 
     def stepping(self, client: str, on: bool) -> Future[Any]:
