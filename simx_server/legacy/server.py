@@ -290,8 +290,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             entry = self._registry.get(client)
             if entry is None:
                 entry = self._join(client)
-            now = time.monotonic()
-            entry.last_seen = now
+            entry.last_seen = session.last_seen  # when its intake took its last request (Zenoh's thread)
             if entry.fault is None:
                 results = self._run(client, commands)
             else:  # a failed step since this client's last request: told instead of executed
