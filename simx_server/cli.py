@@ -360,7 +360,7 @@ def _attach_zmq(server, args: argparse.Namespace) -> str | None:
         log.warning("ZMQ remote API without authentication (--zmq-insecure): whoever reaches its port runs the "
                     "simulation, around --zenoh-config's TLS, passwords and access control (docs/SECURITY.md)")
     port = args.zmq_port if args.zmq_port is not None else DEFAULT_PORT
-    api = ZmqRemoteApi(server, endpoints(args.host or list(DEFAULT_HOSTS), port), curve)
+    api = ZmqRemoteApi(server.loop, endpoints(args.host or list(DEFAULT_HOSTS), port), curve)
     try:
         api.open()
     except zmq.ZMQError as exc:

@@ -220,3 +220,27 @@ def test_the_registry_check_sees_a_violation(tmp_path, monkeypatch):
         "simx_server/zmq/a.py:3 -> simx_server.commands.HANDLERS",
         "simx_server/zmq/b.py:1 -> simx_server.commands",
         "simx_server/zmq/b.py:2 -> simx_server.legacy.x.HANDLERS"]
+
+
+def test_no_front_door_subclasses_the_loop():
+    """A front door is attached to the loop (``loop.attach(door)``) and reaches it through
+    ``loop.front_door``'s interface; none extends :class:`simx_server.loop.core.Loop` to override
+    its policies (pacing, stepping, the barrier, expiry)."""
+    found = []
+    for path in ROOT.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef):
+                bases = {b.id if isinstance(b, ast.Name) else b.attr if isinstance(b, ast.Attribute) else ""
+                         for b in node.bases}
+                if "Loop" in bases:
+                    found.append(f"{module_name(path)}.{node.name}")
+    assert not found, "classes that subclass the loop: " + ", ".join(found)
+
+
+def test_the_subclass_check_sees_one(tmp_path, monkeypatch):
+    (tmp_path / "simx_server" / "legacy").mkdir(parents=True)
+    (tmp_path / "simx_server" / "legacy" / "door.py").write_text(
+        "from simx_server.loop import core\n\nclass Door(core.Loop):\n    pass\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path / "simx_server")
+    with pytest.raises(AssertionError, match="simx_server.legacy.door.Door"):
+        test_no_front_door_subclasses_the_loop()

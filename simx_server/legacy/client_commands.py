@@ -1,8 +1,8 @@
 """Commands about the calling client rather than the world: goodbye, synchronous mode and its
 trigger, the errors kept for ``simxGetLastErrors``, and forgetting a client. A mixin of
-:class:`simx_server.legacy.server.Server` (which provides ``sim``, ``sessions``, ``_streams``,
-``_errors``, ``_edit_shares`` and ``_clients``; the loop, :class:`simx_server.loop.core.Loop`,
-``_step`` and ``_leave_sync``).
+:class:`simx_server.legacy.server.LegacyDoor` (which provides ``sim``, ``loop`` (the loop's
+:class:`~simx_server.loop.front_door.LoopAccess`: ``step_now``, ``leave_sync``, ``clients``),
+``sessions``, ``_streams`` and ``_registry``, the door's clients in the loop's registry).
 """
 
 from __future__ import annotations
@@ -19,7 +19,11 @@ class ClientCommands:
     """The commands a client sends about itself (see the module docstring)."""
 
     def _last_errors(self, client: str, args: list) -> list[str]:
-        return self._errors.pop(client, [])
+        entry = self._registry.get(client)
+        if entry is None:
+            return []
+        errors, entry.errors = entry.errors, []
+        return errors
 
     def _bye(self, client: str, args: list) -> None:
         self._forget(client, "disconnected")
@@ -31,7 +35,7 @@ class ClientCommands:
             self.sim.enable_sync(client, True)
             log.info("client %s: synchronous mode on", client)
         elif self.sim.is_synchronous(client):
-            self._leave_sync(client, "left synchronous mode")
+            self.loop.leave_sync(client, "left synchronous mode")
 
     def _trigger(self, client: str, args: list) -> None:
         sim = self.sim
@@ -39,20 +43,21 @@ class ClientCommands:
             raise P.RemoteError(
                 "simxSynchronousTrigger: this client has not enabled synchronous mode (call "
                 "simxSynchronous(clientID, True)); the simulation steps once every client that did has triggered")
-        if sim.state is RunState.RUNNING and sim.trigger(client) and not self._step():
-            session = self.sessions.get(client)
-            message = session.fault if session is not None else "the simulation step failed"
-            if session is not None:
-                session.fault = None  # told now, by this call's error
+        if sim.state is RunState.RUNNING and sim.trigger(client) and not self.loop.step_now():
+            entry = self._registry.get(client)
+            message = entry.fault if entry is not None and entry.fault else "the simulation step failed"
+            if entry is not None:
+                entry.fault = None  # told now, by this call's error
             raise P.RemoteError(message)
 
     def _forget(self, client: str, how: str) -> None:
+        """Drop ``client``'s state: its streams, its intake (unless requests of it wait), its
+        registry entry (errors, edit share); it leaves the synchronous barrier."""
         self._streams.pop(client, None)
-        self._errors.pop(client, None)
-        self._edit_shares.pop(client, None)
         self.sessions.remove(client)
-        if client in self._clients:
-            self._clients.discard(client)
+        entry = self._registry.get(client)
+        if entry is not None:
+            self.loop.clients.remove(entry)
             log.info("client %s %s", client, how)
         if self.sim.is_synchronous(client):
-            self._leave_sync(client, f"{how}: out of synchronous mode")
+            self.loop.leave_sync(client, f"{how}: out of synchronous mode")

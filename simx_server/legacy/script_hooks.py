@@ -1,5 +1,5 @@
-"""What the server's loop does for the scene's scripts, as a transport attached to the
-:class:`~simx_server.legacy.server.Server`: customization scripts' ``sysCall_nonSimulation``
+"""What the server's loop does for the scene's scripts, as a front door attached to the
+loop (:class:`~simx_server.legacy.server.Server`): customization scripts' ``sysCall_nonSimulation``
 at every idle pass while the simulation is stopped (``sysCall_suspended`` while paused), and the
 legacy remote API ports that scripts open with ``simExtRemoteApiStart(port)`` /
 ``simRemoteApi.start(port)``, how V-REP scenes open the server on 19999 for their programs.
@@ -22,6 +22,7 @@ from typing import Any
 
 import zenoh
 
+from simx_server.loop.front_door import FrontDoor
 from simx_server.sim.state import RunState
 
 log = logging.getLogger("simx.server")
@@ -29,10 +30,11 @@ log = logging.getLogger("simx.server")
 _ENDPOINT = re.compile(r"^(?P<proto>[a-z]+)/(?P<host>\[[^\]]+\]|[^:/]+):(?P<port>\d+)(?P<rest>.*)$")
 
 
-class ScriptHooks:
-    """A transport attached to the server (``server.attach``): idle passes of customization
-    scripts in :meth:`after_step`; the ports scripts ask for, polled from ``sim.remote_api`` in
-    :meth:`housekeeping` (a few times a second), their sessions closed at the end."""
+class ScriptHooks(FrontDoor):
+    """A front door attached to the loop (``server.attach``), with no clients of its own: idle
+    passes of customization scripts in :meth:`after_step`; the ports scripts ask for, polled from
+    ``sim.remote_api`` in :meth:`housekeeping` (a few times a second), their sessions closed at
+    the end."""
 
     kinds: tuple[str, ...] = ()  # it puts nothing in the ready ring
 
@@ -56,9 +58,6 @@ class ScriptHooks:
         state = self.sim.state
         if state is not RunState.RUNNING:
             self.sim.scripts.idle(paused=state is RunState.PAUSED)
-
-    def client_count(self) -> int:
-        return 0
 
     def housekeeping(self, now: float) -> None:
         self.poll(getattr(self.sim, "remote_api", None))

@@ -3,14 +3,20 @@
 Zenoh callbacks never touch MuJoCo and never block: the query callback reads and checks the
 request, answers at once what it refuses (unreadable, over a bound, a full client queue) and
 queues the rest in the client's own bounded queue (:mod:`simx_server.legacy.sessions`), whose
-session then sits in the loop's ready ring; liveliness callbacks note clients' tokens. The
-simulation loop (:class:`simx_server.loop.core.Loop`, which :class:`Server` extends) serves the
-ready sessions round robin, between physics steps, under its pacing; here each request is
-executed atomically within the budgets (reply size, request time, the client's share of scene
-edits), its reply handed to the sending thread (:mod:`simx_server.loop.courier`: a client that
-stops reading never holds the simulation thread), and after every step each client's streamed
-commands are published. Nothing a client sends ends the simulation thread: an exception of a
-step stops the simulation and is reported to every client at its next request.
+session then sits in the loop's ready ring (a :class:`~simx_server.loop.front_door.ReadyClient`);
+liveliness callbacks note clients' tokens. The simulation loop (:class:`simx_server.loop.core.Loop`,
+to which :class:`LegacyDoor` is attached) takes the ready sessions round robin, between physics
+steps, under its pacing, and has the door serve each one's next request
+(:meth:`LegacyDoor.serve_ready`): it is executed atomically within the budgets (reply size,
+request time, the client's share of scene edits), its reply handed to the sending thread
+(:mod:`simx_server.loop.courier`: a client that stops reading never holds the simulation
+thread), and after every step each client's streamed commands are published
+(:meth:`LegacyDoor.publish`). The door's clients are in the loop's registry
+(:class:`LegacyClient`: the loop expires them and tells them of a failed step); what is the
+door's own (its Zenoh queries and queues, its stream tables) stays here.
+
+:class:`Server` is the convenient whole: a loop with this door attached (``simx-server`` adds
+the ZMQ door and the scripts' hooks to it).
 """
 
 from __future__ import annotations
@@ -30,9 +36,10 @@ from simx_server.scene.simulation import Simulation
 from simx_server.sim.vision import Deferred
 from simx_server.legacy.client_commands import ClientCommands
 from simx_server.legacy.consoles import CONSOLE_COMMANDS, Consoles
-from simx_server.loop.budgets import Share
 from simx_server.loop.budgets import cut as _cut
+from simx_server.loop.clients import Client
 from simx_server.loop.core import PACINGS, Loop
+from simx_server.loop.front_door import FrontDoor, LoopAccess
 from simx_server.legacy.peers import PeerCheck
 from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
                                            resolve, send_refusal)
@@ -45,11 +52,26 @@ log = logging.getLogger("simx.server")
 DEFAULT_HOSTS = ("127.0.0.1",)
 DEFAULT_PORTS = (19997, 19999)
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
-__all__ = ["DEFAULT_HOSTS", "DEFAULT_PORTS", "PACINGS", "Server"]
+__all__ = ["DEFAULT_HOSTS", "DEFAULT_PORTS", "PACINGS", "LegacyClient", "LegacyDoor", "Server"]
 
 
-class Server(ClientCommands, StreamPublisher, Loop):
-    """Serves one :class:`Simulation` on Zenoh: the simulation loop with the legacy remote API's door.
+class LegacyClient(Client):
+    """A legacy remote API client in the loop's registry, with the errors kept for its
+    ``simxGetLastErrors`` (at most limits.MAX_ERRORS_KEPT)."""
+
+    __slots__ = ("errors",)
+
+    def __init__(self, client_id: str, door: Any, now: float, expiry: float):
+        super().__init__(client_id, door, now, expiry)
+        self.errors: list[str] = []
+
+    def expired_how(self) -> str:
+        return f"expired (no liveliness token, no request for {self.expiry:g} s)"
+
+
+class Server:
+    """Serves one :class:`Simulation` on Zenoh: a simulation loop (:attr:`loop`) with the legacy
+    remote API's door (:attr:`door`) attached; other doors are attached with :meth:`attach`.
 
     Args:
         sim: the simulation (owned by the thread that calls serve()).
@@ -74,19 +96,58 @@ class Server(ClientCommands, StreamPublisher, Loop):
     def __init__(self, sim: Simulation, config: zenoh.Config, speed: float = 1.0,
                  prefix: str = P.DEFAULT_PREFIX, client_expiry: float = limits.CLIENT_EXPIRY,
                  pacing: str = "legacy"):
-        super().__init__(sim, speed=speed, client_expiry=client_expiry, pacing=pacing)
+        self.loop = Loop(sim, speed=speed, client_expiry=client_expiry, pacing=pacing)
+        self.door = LegacyDoor(self.loop, config, prefix)
+        self.loop.attach(self.door)
+        self.sim = sim
+
+    def open(self) -> None:
+        """Open the legacy door's Zenoh session (raises zenoh.ZError)."""
+        self.door.open()
+
+    def attach(self, door: FrontDoor) -> None:
+        """Serve another front door from the loop (before :meth:`serve`)."""
+        self.loop.attach(door)
+
+    def serve(self) -> None:
+        """Run the simulation loop until :meth:`request_stop`."""
+        self.loop.serve()
+
+    def request_stop(self) -> None:
+        """Ask :meth:`serve` to return (safe from signal handlers and other threads)."""
+        self.loop.request_stop()
+
+    def close(self) -> None:
+        """Close the simulation, the sending thread and every door; idempotent."""
+        self.loop.close()
+
+
+class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
+    """The legacy remote API's front door on ``loop`` (``loop.attach(door)`` is the caller's).
+
+    Args:
+        loop: the loop (:class:`~simx_server.loop.front_door.LoopAccess`).
+        config: Zenoh config (see :func:`zenoh_config`).
+        prefix: key-expression prefix (``simx``).
+    """
+
+    #: ``("gone", client)``: a client's liveliness token went; ``("viewer-model", query)``.
+    kinds: tuple[str, ...] = ("gone", "viewer-model")
+
+    def __init__(self, loop: LoopAccess, config: zenoh.Config, prefix: str = P.DEFAULT_PREFIX):
+        self.loop = loop
+        self.sim = loop.sim
+        self.courier = loop.courier
         self.prefix = prefix
         self._config = config
-        self.sessions = Sessions(self._queue)  # their sessions are the ready ring's ready clients
+        self._registry: dict[str, LegacyClient] = loop.clients.of(self)  # this door's clients, by id
+        self.sessions = Sessions(loop.ring, door=self)  # their sessions are the ready ring's ready clients
         self.peers = PeerCheck(self.sessions, prefix)  # which Zenoh session holds each token
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
-        self._clients: set[str] = set()
-        self._errors: dict[str, list[str]] = {}  # per client, for simxGetLastErrors
-        self._edit_shares: dict[str, Share] = {}  # per client: its share of the simulation thread (edits)
         self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
         self.session: zenoh.Session | None = None
-        self.viewers = ViewerFeed(prefix, self._queue.put, self.courier.send)  # simx-viewer's model and state
+        self.viewers = ViewerFeed(prefix, loop.deliver, self.courier.send)  # simx-viewer's model and state
 
     # ------------------------------------------------------------ zenoh side
     def open(self) -> None:
@@ -135,7 +196,7 @@ class Server(ClientCommands, StreamPublisher, Loop):
                 return  # the simulation thread replies
             t, state, scene = self.sim.stamp()
             reply = P.response(t, state, [[False, refused]] * len(commands),
-                               int((time.monotonic() - self._t0) * 1000), scene)
+                               int((time.monotonic() - self.loop.started) * 1000), scene)
             log.warning("client %s: request of %d command(s) not queued: %s", client, len(commands), refused)
         except P.ProtocolError as exc:
             log.warning("malformed request on %s refused: %s", quote(key), exc)
@@ -150,12 +211,11 @@ class Server(ClientCommands, StreamPublisher, Loop):
         gone = sample.kind == zenoh.SampleKind.DELETE
         self.peers.token(client, not gone)  # a token protects its client once its session is known
         if gone:
-            self._queue.put(("gone", client))
+            self.loop.deliver(("gone", client))
 
     def close(self) -> None:
-        """Close the other doors, finish pending renders and their replies, then close the
-        session; idempotent."""
-        Loop.close(self)
+        """Close the Zenoh session (the loop has finished pending renders and their replies);
+        idempotent."""
         if self.session is not None:
             session, self.session = self.session, None
             # Zenoh's close waits for every link: one to a client that stopped reading held it
@@ -176,35 +236,49 @@ class Server(ClientCommands, StreamPublisher, Loop):
         except Exception as exc:  # closing must not mask the reason we stop
             log.debug("closing Zenoh session: %s", exc)
 
-    # ------------------------------------------------- the loop's hooks (Loop)
-    def _ready_blocking(self, ready: Session) -> bool:
-        return Sessions.head_is_blocking(ready)
+    # ------------------------------------------ what the loop calls (FrontDoor, ReadyDoor)
+    blocking = staticmethod(Sessions.head_is_blocking)  # its next request is paced (ReadyDoor)
 
-    def _serve_ready(self, ready: Session, step: int | None) -> None:
+    def serve_ready(self, ready: Session, step: int | None) -> None:
+        """Serve a ready session's next request (``step``: the step its blocking call sees)."""
         request = self.sessions.take(ready)
         if request is not None:
             if step is not None:
                 ready.step = step  # legacy pacing: the step its blocking call saw
             self._answer(ready, request[0], request[1])
 
-    def _control(self, kind: str, value: Any) -> None:
+    def handle(self, kind: str, item: Any) -> None:
         if kind == "gone":
-            self._forget(value, "left")
-        elif kind == "viewer-model":  # value is the query here
-            self.viewers.answer(value, self.sim.world)
+            self._forget(item, "left")
+        elif kind == "viewer-model":  # item is the query here
+            self.viewers.answer(item, self.sim.world)
 
-    def _publish(self) -> None:
+    def publish(self) -> None:
         self._publish_streams()
 
-    def _fault_all(self, reason: str) -> None:
-        self.sessions.fault_all(reason)
+    def keeps(self, client: Any) -> bool:
+        """A client whose liveliness token protects it, or whose requests wait, does not expire."""
+        return self.sessions.pinned(client.id)
 
-    def _expire(self, now: float) -> None:
-        for client in self.sessions.expired(self.client_expiry):
-            self._forget(client, f"expired (no liveliness token, no request for {self.client_expiry:g} s)")
+    def forget(self, client: Any, how: str) -> None:
+        self._forget(client.id, how)
 
-    def _watched(self) -> bool:
+    def housekeeping(self, now: float) -> None:
+        """Forget the clients the intake dropped to make room (limits.MAX_CLIENTS)."""
+        for client in self.sessions.take_evicted():
+            self._forget(client, f"expired (no liveliness token, no request for {self.loop.client_expiry:g} s)")
+
+    def watched(self) -> bool:
         return bool(len(self.sessions) or self.viewers.watched)
+
+    def _join(self, client: str) -> LegacyClient:
+        """The registry entry of ``client``, made at its first request (logged)."""
+        entry = self._registry.get(client)
+        if entry is None:
+            entry = LegacyClient(client, self, time.monotonic(), self.loop.client_expiry)
+            self.loop.clients.add(entry)
+            log.info("client %s connected", client)
+        return entry
 
     # ------------------------------------------------------------ requests
     def _answer(self, session: Session, query: zenoh.Query, commands: list) -> None:
@@ -213,17 +287,18 @@ class Server(ClientCommands, StreamPublisher, Loop):
         gets a reply, whatever happens (then a short refusal)."""
         client = session.client
         try:
-            if client not in self._clients:
-                self._clients.add(client)
-                log.info("client %s connected", client)
-            if session.fault is None:
+            entry = self._registry.get(client)
+            if entry is None:
+                entry = self._join(client)
+            entry.last_seen = session.last_seen  # when its intake took its last request (Zenoh's thread)
+            if entry.fault is None:
                 results = self._run(client, commands)
             else:  # a failed step since this client's last request: told instead of executed
-                message, session.fault = session.fault, None
+                message, entry.fault = entry.fault, None
                 self._keep_error(client, message)
                 results = [[False, message]] * len(commands)
             t, state, scene = self.sim.stamp()
-            server_time = int((time.monotonic() - self._t0) * 1000)
+            server_time = int((time.monotonic() - self.loop.started) * 1000)
             renders = [value.future for _, value in results if type(value) is Deferred]
             bulk = renders and sum(image_size(self.sim, name, args) for (name, _, args), (_, value)
                                    in zip(commands, results) if type(value) is Deferred) >= limits.BULK_SEND_BYTES
@@ -315,9 +390,7 @@ class Server(ClientCommands, StreamPublisher, Loop):
         its duration, the debt falls by limits.EDIT_SHARE s per s (loop.budgets.Share); past the
         share the call is refused (``BUSY``)."""
         now = time.monotonic()
-        share = self._edit_shares.get(client)
-        if share is None:
-            share = self._edit_shares[client] = Share(now)
+        share = self._join(client).share
         if share.over(now):
             return self._refused(client, name, f"{P.BUSY}: this client's scene loads and edits took more than "
                                                f"{limits.EDIT_SHARE:.0%} of the simulation thread "
@@ -375,7 +448,7 @@ class Server(ClientCommands, StreamPublisher, Loop):
         return [False, message]
 
     def _keep_error(self, client: str, message: str) -> None:
-        errors = self._errors.setdefault(client, [])
+        errors = self._join(client).errors
         errors.append(message)
         del errors[:-limits.MAX_ERRORS_KEPT]
 

@@ -1,9 +1,10 @@
 """Per-client intake: bounded request queues served round robin, render bounds, expiry.
 
 Zenoh's threads call :meth:`Sessions.admit` with a parsed request; the simulation thread takes
-requests back with :meth:`Sessions.take`. Between them is one ``queue.SimpleQueue``, the
-*ready ring*: it holds each client that has requests waiting exactly once (plus the server's
-control messages). The simulation thread takes a client from the ring, executes that client's
+requests back with :meth:`Sessions.take`. Between them is one ``queue.SimpleQueue``, the loop's
+*ready ring*: it holds each client that has requests waiting exactly once (a
+:class:`~simx_server.loop.front_door.ReadyClient` of the legacy door, beside the other doors'
+deliveries). The simulation thread takes a client from the ring, executes that client's
 oldest request and, if the client has more, puts it back at the end of the ring: clients are
 served one request each in turn, so one client's flood delays another's request by at most
 one request per flooding client, never by the flood's length.
@@ -16,7 +17,10 @@ reason and the caller answers it at once. A client with
 is sent, so that a flood of image requests, or requests of a client that stopped reading, queue
 up in its own bounded queue, not in the render thread's nor the sending thread's.
 
-No MuJoCo in here: this module is the queueing discipline alone, testable without a server.
+This is the door's own intake state, on Zenoh's threads and under a lock; what the loop keeps
+of every client (last request, expiry, edit share, a failed step's message) is in its registry
+(:mod:`simx_server.loop.clients`). No MuJoCo in here: this module is the queueing discipline
+alone, testable without a server.
 """
 
 from __future__ import annotations
@@ -36,18 +40,17 @@ _MODE_MASK, _MODE_BLOCKING = P.MODE_MASK, P.MODE_BLOCKING
 class Session:
     """The intake state of one client (its queue and counters); touched under the lock."""
 
-    __slots__ = ("client", "queue", "queued_bytes", "scheduled", "parked", "unsent", "last_seen", "fault",
-                 "step")
+    __slots__ = ("client", "door", "queue", "queued_bytes", "scheduled", "parked", "unsent", "last_seen", "step")
 
-    def __init__(self, client: str, now: float):
+    def __init__(self, client: str, now: float, door: Any = None):
         self.client = client
+        self.door = door  # the door that serves it (front_door.ReadyClient)
         self.queue: collections.deque = collections.deque()  # (request, payload size)
         self.queued_bytes = 0
         self.scheduled = False  # in the ready ring, or parked (it has requests waiting)
         self.parked = False  # waiting for one of its sends before it is served again
         self.unsent = 0  # replies and stream updates of this client handed over and not sent yet
         self.last_seen = now  # time.monotonic() of its last request
-        self.fault = None  # a message for its next request (the simulation step failed)
         self.step = -1  # Simulation.steps when its last blocking request was answered (legacy pacing)
 
 
@@ -56,6 +59,7 @@ class Sessions:
 
     Args:
         ready: the ring the simulation thread waits on; gets :class:`Session` objects.
+        door: the door their sessions name (``Session.door``: the loop has it serve them).
         max_requests, max_bytes: a client's queue bounds (requests, payload bytes).
         max_total_bytes: payload bytes queued over all clients.
         max_clients: clients with state.
@@ -69,8 +73,9 @@ class Sessions:
                  max_bytes: int = limits.MAX_QUEUED_BYTES, max_total_bytes: int = limits.MAX_QUEUED_BYTES_TOTAL,
                  max_clients: int = limits.MAX_CLIENTS, max_unsent: int = limits.MAX_UNSENT_PER_CLIENT,
                  max_per_user: int = limits.MAX_CLIENTS_PER_USER, max_per_peer: int = limits.MAX_CLIENTS_PER_PEER,
-                 max_tokens: int = limits.MAX_CLIENT_TOKENS):
+                 max_tokens: int = limits.MAX_CLIENT_TOKENS, door: Any = None):
         self.ready = ready
+        self.door = door
         self.max_requests, self.max_bytes, self.max_total_bytes = max_requests, max_bytes, max_total_bytes
         self.max_clients, self.max_unsent, self.max_per_user = max_clients, max_unsent, max_per_user
         self._per_user: dict[str, int] = {}  # authenticated user -> its clients with state
@@ -106,19 +111,15 @@ class Sessions:
                 if len(self._sessions) >= self.max_clients and not self._evict_one():
                     return (f"{P.BUSY}: it serves {self.max_clients} clients already "
                             "(limits.MAX_CLIENTS); try again later")
-                s = self._sessions[client] = Session(client, now)
+                s = self._sessions[client] = Session(client, now, self.door)
                 if user:
                     self._per_user[user] = self._per_user.get(user, 0) + 1
             s.last_seen = now
-            if len(s.queue) >= self.max_requests:
-                return (f"{P.BUSY}: this client has {len(s.queue)} requests waiting "
-                        f"(limits.MAX_QUEUED_REQUESTS); request dropped")
-            if s.queued_bytes + size > self.max_bytes:
-                return (f"{P.BUSY}: this client has {s.queued_bytes} bytes of requests waiting "
-                        f"(limits.MAX_QUEUED_BYTES = {self.max_bytes}); request dropped")
-            if self._total_bytes + size > self.max_total_bytes:
-                return (f"{P.BUSY}: {self._total_bytes} bytes of requests waiting from all clients "
-                        f"(limits.MAX_QUEUED_BYTES_TOTAL = {self.max_total_bytes}); request dropped")
+            refused = self._bound(s, size)
+            if refused is not None:
+                if not s.scheduled and not s.queue and not s.unsent:
+                    self._drop(client)  # a client whose first request is refused keeps no state
+                return refused
             s.queue.append((request, size))
             s.queued_bytes += size
             self._total_bytes += size
@@ -127,6 +128,19 @@ class Sessions:
             s.scheduled = True
         # Put after the lock: the simulation thread it wakes takes the same lock at once.
         self.ready.put(s)
+        return None
+
+    def _bound(self, s: Session, size: int) -> str | None:
+        """Why a request of ``size`` bytes of ``s`` cannot be queued (lock held), or None."""
+        if len(s.queue) >= self.max_requests:
+            return (f"{P.BUSY}: this client has {len(s.queue)} requests waiting "
+                    f"(limits.MAX_QUEUED_REQUESTS); request dropped")
+        if s.queued_bytes + size > self.max_bytes:
+            return (f"{P.BUSY}: this client has {s.queued_bytes} bytes of requests waiting "
+                    f"(limits.MAX_QUEUED_BYTES = {self.max_bytes}); request dropped")
+        if self._total_bytes + size > self.max_total_bytes:
+            return (f"{P.BUSY}: {self._total_bytes} bytes of requests waiting from all clients "
+                    f"(limits.MAX_QUEUED_BYTES_TOTAL = {self.max_total_bytes}); request dropped")
         return None
 
     def _evict_one(self, user: str | None = None) -> bool:
@@ -242,11 +256,18 @@ class Sessions:
         """Whether a stream update of ``s`` may be handed over now."""
         return s is None or s.unsent < self.max_unsent
 
-    def fault_all(self, message: str) -> None:
-        """Tell every client, at its next request, that ``message`` happened."""
+    def pinned(self, client: str) -> bool:
+        """Whether ``client`` stays whatever its silence: its liveliness token protects it, or
+        requests of it wait (the loop's expiry asks, through the door's ``keeps``)."""
         with self._lock:
-            for s in self._sessions.values():
-                s.fault = message
+            s = self._sessions.get(client)
+            return client in self.tokens or (s is not None and s.scheduled)
+
+    def take_evicted(self) -> list[str]:
+        """The clients dropped to make room since the last call (the simulation thread forgets them)."""
+        with self._lock:
+            gone, self.evicted = self.evicted, []
+        return gone
 
     def remove(self, client: str) -> None:
         """Forget a client's intake state unless requests of it wait (its replies not sent yet are still sent)."""
@@ -257,7 +278,9 @@ class Sessions:
 
     def expired(self, expiry: float) -> list[str]:
         """Remove and return the clients with no liveliness token, nothing pending and no
-        request for ``expiry`` s, plus those evicted to make room since the last call."""
+        request for ``expiry`` s, plus those evicted to make room since the last call. (The
+        server expires its clients through the loop's registry instead, which asks
+        :meth:`pinned`; this serves a queue used alone.)"""
         deadline = time.monotonic() - expiry
         with self._lock:
             gone, self.evicted = self.evicted, []

@@ -2,7 +2,7 @@
 every simulation step and published on ``simx/<name>/stream/<client>`` by the sending thread
 (images once the render thread has drawn them; in order with the client's replies), each update
 within the reply budget
-(``limits.MAX_REPLY_BYTES``). A mixin of :class:`simx_server.legacy.server.Server`.
+(``limits.MAX_REPLY_BYTES``). A mixin of :class:`simx_server.legacy.server.LegacyDoor`.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ class _Stream:
 
 
 class StreamPublisher:
-    """Publishing of the clients\x27 streams (needs the server\x27s ``session``, ``prefix``, ``sim``, ``sessions``, ``courier``, ``viewers``, ``_streams``, ``_stream_renders`` and ``_resolve``)."""
+    """Publishing of the clients\x27 streams (needs the door\x27s ``session``, ``prefix``, ``sim``, ``sessions``, ``courier``, ``viewers``, ``_streams``, ``_stream_renders`` and ``_resolve``)."""
 
     def _publish_streams(self) -> None:
         if self.session is None:

@@ -43,7 +43,7 @@ log = logging.getLogger("simx.viewer")
 
 
 class ViewerFeed:
-    """The server's side of simx-viewer: one per :class:`simx_server.legacy.server.Server`.
+    """The server's side of simx-viewer: one per :class:`simx_server.legacy.server.LegacyDoor`.
 
     Args:
         prefix: the server's key-expression prefix.

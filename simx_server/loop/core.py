@@ -8,10 +8,10 @@ synchronous client has triggered, the barrier of
 
 * a front door's ``(kind, item)`` delivery (:mod:`simx_server.loop.front_door`): handed to the
   door that declared ``kind`` (:meth:`Loop.attach`);
-* a *ready client* of the door whose clients sit in the ring themselves (the legacy remote
-  API's sessions, :mod:`simx_server.legacy.sessions`): served with :meth:`Loop._serve_ready`,
-  under the loop's pacing;
-* a control tuple of the loop (``("stop", None)``) or of that door (:meth:`Loop._control`).
+* a *ready client* (:class:`~simx_server.loop.front_door.ReadyClient`) of a door whose clients
+  sit in the ring themselves (the legacy remote API's sessions): its door serves its next
+  request (``ready.door.serve_ready``), under the loop's pacing;
+* the loop's own ``("stop", None)``, which only wakes it.
 
 **Pacing** (``pacing="legacy"``, the default): while the simulation runs asynchronously, a
 ready client whose next request is blocking and whose previous blocking request saw the
@@ -19,18 +19,24 @@ current step is *held* until the simulation has stepped, so two consecutive bloc
 never see the same step (V-REP executed remote commands once per simulation pass).
 ``"immediate"`` serves every request as soon as it is taken.
 
-After every step, and every pass without one while the simulation is not running, each door's
-``after_step`` runs (what waited for the step is answered). A few times a second the loop does
-its housekeeping: each door expires its silent clients, and the rate-limited log summaries
-that are due are written. Nothing a client sends ends the loop: an exception of a step stops
-the simulation and is reported to every client at its next request (:meth:`Loop._fault_all`).
+After every step, and every idle pass while the simulation is not running, each door's
+``publish`` sends its streamed updates; after every step, and every pass without one, each
+door's ``after_step`` runs (what waited for the step is answered). A few times a second the
+loop does its housekeeping: it asks its client registry (:attr:`Loop.clients`,
+:mod:`simx_server.loop.clients`) which clients of any door expired and has their door
+``forget`` them, runs each door's ``housekeeping``, and writes the rate-limited log summaries
+that are due. Nothing a client sends ends the loop: an exception of a step stops the
+simulation and is reported to every client of every door at its next request
+(``Clients.fault_all``, then each door's ``fault``).
 
 Replies leave on the sending thread (:attr:`Loop.courier`, :mod:`simx_server.loop.courier`), so
 a client that stops reading never holds the simulation thread.
 
-:class:`Loop` runs alone (no door but those attached: the tests' in-process door); the legacy
-remote API's Zenoh front door (:class:`simx_server.legacy.server.Server`) extends it with the
-hooks below (its ready clients, its control messages, its stream updates, its expiry).
+The loop reaches its doors only through :class:`~simx_server.loop.front_door.FrontDoor` (and
+a ready client's :class:`~simx_server.loop.front_door.ReadyDoor`); no door subclasses it. The
+doors: the legacy remote API over Zenoh (:class:`simx_server.legacy.server.LegacyDoor`), the
+ZMQ remote API (:class:`simx_server.zmq.remote_api.ZmqRemoteApi`), the tests' in-process door
+(:class:`simx_server.loop.in_process.InProcessDoor`).
 """
 
 from __future__ import annotations
@@ -45,6 +51,7 @@ from typing import Any
 
 from simx_server.base import limits
 from simx_server.loop import logs
+from simx_server.loop.clients import Clients
 from simx_server.loop.courier import Courier
 from simx_server.loop.front_door import FrontDoor
 from simx_server.sim.physics import PhysicsError
@@ -67,7 +74,7 @@ class Loop:
             calls :meth:`serve`).
         speed: real-time factor in asynchronous mode; 0 runs as fast as possible.
         client_expiry: s a client may stay silent before its state is dropped
-            (limits.CLIENT_EXPIRY; the doors that keep per-client state apply it).
+            (limits.CLIENT_EXPIRY; the default expiry of the registry's clients).
         pacing: ``"legacy"`` or ``"immediate"`` (see the module docstring).
 
     Raises:
@@ -88,13 +95,16 @@ class Loop:
         self.client_expiry = client_expiry
         self.pacing = pacing
         self._paced = pacing == "legacy"
-        #: The ready ring: deliveries, ready clients and control tuples.
-        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        #: The ready ring (thread-safe): deliveries, ready clients and ``("stop", None)``.
+        self.ring: queue.SimpleQueue[Any] = queue.SimpleQueue()
         #: Thread-safe: how a front door's thread hands ``(kind, item)`` to the simulation thread.
-        self.deliver: Callable[[Any], None] = self._queue.put
+        self.deliver: Callable[[Any], None] = self.ring.put
         self._stopping = threading.Event()
         self._held: list[Any] = []  # ready clients whose next blocking call waits for the next step
-        self._t0 = time.monotonic()
+        #: ``time.monotonic()`` when the loop was made.
+        self.started = time.monotonic()
+        #: Every door's clients: identity, last request, expiry, edit share, fault (simulation thread).
+        self.clients = Clients()
         self._housekeeping_at = 0.0
         #: Sends replies and updates off the simulation thread.
         self.courier = Courier()
@@ -105,7 +115,14 @@ class Loop:
     # ------------------------------------------------------------- front doors
     def attach(self, door: FrontDoor) -> None:
         """Serve ``door`` from this loop (before :meth:`serve`): its ``(kind, item)``
-        deliveries go to its ``handle``; it hears of every step and housekeeping pass."""
+        deliveries go to its ``handle``; it hears of every step and housekeeping pass.
+
+        Raises:
+            ValueError: another door attached declares one of its kinds.
+        """
+        taken = [kind for kind in door.kinds if kind in self._kinds]
+        if taken:
+            raise ValueError(f"{type(door).__name__}: kind(s) {', '.join(taken)} taken by another door")
         self.doors.append(door)
         for kind in door.kinds:
             self._kinds[kind] = door
@@ -123,17 +140,20 @@ class Loop:
     def request_stop(self) -> None:
         """Ask :meth:`serve` to return (safe from signal handlers and other threads)."""
         self._stopping.set()
-        self._queue.put(("stop", None))
+        self.ring.put(("stop", None))
 
     def close(self) -> None:
-        """Close the doors, the simulation (its pending renders) and the sending thread."""
-        for door in self.doors:
-            try:
-                door.close()
-            except Exception:  # closing must not mask the reason we stop
-                log.exception("closing %s", type(door).__name__)
-        self.sim.close()
-        self.courier.close()
+        """Close the simulation (its pending renders), the sending thread (the sends handed over
+        leave first), then the doors."""
+        try:
+            self.sim.close()
+            self.courier.close()
+        finally:
+            for door in self.doors:
+                try:
+                    door.close()
+                except Exception:  # closing must not mask the reason we stop
+                    log.exception("closing %s", type(door).__name__)
 
     # ------------------------------------------------------------ the loop
     def serve(self) -> None:
@@ -150,7 +170,7 @@ class Loop:
             try:
                 if now < next_tick:
                     try:  # noqa: SIM105  (not contextlib.suppress: an object per pass of the hot loop)
-                        self._handle(self._queue.get(timeout=next_tick - now))
+                        self._handle(self.ring.get(timeout=next_tick - now))
                     except queue.Empty:
                         pass
                     continue
@@ -162,7 +182,7 @@ class Loop:
                     self._step()
                     interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
                 elif sim.state is not RunState.RUNNING:
-                    self._publish()  # idle tick: streams keep being served
+                    self._publish()  # idle pass: streams keep being served
                     self._after_step()
                 if self._held:  # stepped, or no longer stepping: their blocking calls are due
                     self._release_held()
@@ -176,41 +196,43 @@ class Loop:
     def _drain(self) -> None:
         for _ in range(_DRAIN_LIMIT):
             try:
-                self._handle(self._queue.get_nowait())
+                self._handle(self.ring.get_nowait())
             except queue.Empty:
                 return
             if self._stopping.is_set():
                 return
 
     def _handle(self, item: Any) -> None:
-        if type(item) is not tuple:  # a ready client
-            if self._paced and self._stepping() and self._ready_blocking(item):
+        if type(item) is not tuple:  # a ready client (front_door.ReadyClient)
+            door = item.door
+            if self._paced and self._stepping() and door.blocking(item):
                 steps = self.sim.steps
                 if item.step == steps:  # its previous blocking call saw this step: wait for the next
                     self._held.append(item)  # stays scheduled; its queue and bounds are unchanged
                     return
-                self._serve_ready(item, steps)
+                door.serve_ready(item, steps)
                 return
-            self._serve_ready(item, None)
+            door.serve_ready(item, None)
             return
         kind, value = item
-        door = self._kinds.get(kind)
-        if door is not None:
-            door.handle(kind, value)
-        else:
-            self._control(kind, value)
+        handler = self._kinds.get(kind)
+        if handler is not None:
+            handler.handle(kind, value)
+        # else ("stop", None): it only woke the loop
 
     def _release_held(self) -> None:
         held, self._held = self._held, []
-        put = self._queue.put
+        put = self.ring.put
         for ready in held:  # back in the ring, in the order they were held
             put(ready)
 
     def _housekeeping(self, now: float) -> None:
-        """Expire silent clients and write due log summaries (a few times a second)."""
+        """Expire silent clients, run the doors' housekeeping and write due log summaries (a
+        few times a second)."""
         self._housekeeping_at = now + _HOUSEKEEPING
         try:
-            self._expire(now)
+            for client in self.clients.expired(now):
+                client.door.forget(client, client.expired_how())
             for door in self.doors:
                 door.housekeeping(now)
             logs.flush()
@@ -224,7 +246,7 @@ class Loop:
         """As fast as possible (``--speed 0``) with no client and no viewer: nobody would see the
         steps, so none are taken (the loop sleeps until a request comes) and an idle server of a
         pool leaves the cores to the servers in use. Paced servers keep V-REP's clock."""
-        return not self.sim.realtime and not self._watched() and not sum(door.client_count() for door in self.doors)
+        return not self.sim.realtime and not self.clients.count() and not any(door.watched() for door in self.doors)
 
     def _step(self) -> bool:
         """One step and its updates; False when the step failed (the simulation is then
@@ -280,28 +302,18 @@ class Loop:
         if released and self.sim.state is RunState.RUNNING:
             self._step()  # a failure is told to every client at its next request
 
-    # ------------------------------------------------ hooks of the ready-ring door
-    def _serve_ready(self, ready: Any, step: int | None) -> None:
-        """Serve a ready client's next request (``step``: the step its blocking request sees,
-        under legacy pacing; None otherwise). The loop alone has no ready clients."""
-        raise TypeError(f"not a ready-ring item: {type(ready).__name__}")
-
-    def _ready_blocking(self, ready: Any) -> bool:
-        """Whether a ready client's next request is blocking (paced)."""
-        return False
-
-    def _control(self, kind: str, value: Any) -> None:
-        """A control tuple no attached door declared (``("stop", None)`` only wakes the loop)."""
-
     def _publish(self) -> None:
-        """After each step and each idle tick: send streamed updates (none here)."""
+        for door in self.doors:
+            try:
+                door.publish()
+            except Exception:  # a bug must not end the simulation thread
+                log.exception("%s publishing", type(door).__name__)
 
     def _fault_all(self, reason: str) -> None:
-        """A step failed: every client is told ``reason`` at its next request."""
-
-    def _expire(self, now: float) -> None:
-        """Housekeeping: drop the ready-ring door's silent clients."""
-
-    def _watched(self) -> bool:
-        """Whether someone besides the doors' clients watches the steps (a viewer)."""
-        return False
+        """A step failed: every client of every door is told ``reason`` at its next request."""
+        self.clients.fault_all(reason)
+        for door in self.doors:
+            try:
+                door.fault(reason)
+            except Exception:  # a bug must not end the simulation thread
+                log.exception("%s told of a failed step", type(door).__name__)

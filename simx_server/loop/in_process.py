@@ -7,7 +7,9 @@ does what every front door does, in a few lines: bound (pending calls), hand ove
 (:attr:`LoopAccess.deliver`), execute on the simulation thread, and send the reply from the
 sending thread (:attr:`LoopAccess.courier`, on the client's lane). Per-client state and expiry,
 the synchronous barrier (:meth:`InProcessDoor.stepping`) and calls that wait for the next step
-(``after_step=True``) go through the loop as the real doors' do.
+(``after_step=True``) go through the loop as the real doors' do: its clients are in the loop's
+registry (:mod:`simx_server.loop.clients`), which expires them (:meth:`InProcessDoor.forget`);
+a failed step is told to a client at its next call (:attr:`InProcessDoor.faults`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ from collections.abc import Callable
 from concurrent.futures import Future
 from typing import Any
 
-from simx_server.loop.front_door import LoopAccess
+from simx_server.loop.clients import Client
+from simx_server.loop.front_door import FrontDoor, LoopAccess
 from simx_server.sim.state import RunState
 
 #: Calls handed over and not answered yet, over all clients; past it a call is refused at once.
@@ -37,21 +40,22 @@ class _Call:
         self.value: Any = None  # its result, kept while it waits for a step
 
 
-class InProcessDoor:
+class InProcessDoor(FrontDoor):
     """Calls from this process served by ``loop`` (see the module docstring).
 
     Args:
         loop: the loop it is attached to (``loop.attach(door)`` is the caller's).
         max_pending: calls handed over and not answered yet, over all clients.
+        kind: the kind of its deliveries (one per door attached to a loop).
     """
 
-    kinds: tuple[str, ...] = ("in-process",)
-
-    def __init__(self, loop: LoopAccess, max_pending: int = MAX_PENDING) -> None:
+    def __init__(self, loop: LoopAccess, max_pending: int = MAX_PENDING, kind: str = "in-process") -> None:
         self.loop = loop
+        self.kinds: tuple[str, ...] = (kind,)
         self.max_pending = max_pending
-        self.clients: dict[str, float] = {}  # client -> time.monotonic() of its last call
-        self.expired: list[str] = []  # clients dropped by housekeeping, oldest first
+        self.expired: list[str] = []  # clients the loop's housekeeping dropped, oldest first
+        #: ``(client, message)`` of each failed step told to a client, at its next call.
+        self.faults: list[tuple[str, str]] = []
         self._waiting: list[_Call] = []  # after_step calls executed, answered after the next step
         self._pending = 0
         self._lock = threading.Lock()
@@ -70,7 +74,7 @@ class InProcessDoor:
                 future.set_exception(RuntimeError(f"refused: {self._pending} calls pending (max_pending)"))
                 return future
             self._pending += 1
-        self.loop.deliver(("in-process", _Call(client, fn, future, after_step)))
+        self.loop.deliver((self.kinds[0], _Call(client, fn, future, after_step)))
         return future
 
     def stepping(self, client: str, on: bool) -> Future[Any]:
@@ -97,7 +101,16 @@ class InProcessDoor:
     # ---------------------------------------------------- simulation thread
     def handle(self, kind: str, item: Any) -> None:
         call: _Call = item
-        self.clients[call.client] = time.monotonic()
+        now = time.monotonic()
+        registry = self.loop.clients
+        client = registry.get(self, call.client)
+        if client is None:
+            client = Client(call.client, self, now, self.loop.client_expiry)
+            registry.add(client)
+        registry.seen(client, now)
+        if client.fault is not None:  # a failed step since its last call: told now
+            self.faults.append((call.client, client.fault))
+            client.fault = None
         sim = self.loop.sim
         call.step_at = sim.steps
         try:
@@ -121,19 +134,21 @@ class InProcessDoor:
             for call in due:
                 self._send(call, call.value, None)
 
-    def housekeeping(self, now: float) -> None:
-        """Forget the clients silent for longer than the loop's client expiry."""
-        expiry = self.loop.client_expiry
-        for client in [c for c, seen in self.clients.items() if now - seen > expiry]:
-            if any(c.client == client for c in self._waiting):
-                continue
-            del self.clients[client]
-            self.expired.append(client)
-            if self.loop.sim.is_synchronous(client):
-                self.loop.leave_sync(client, "expired: out of synchronous mode")
+    def keeps(self, client: Any) -> bool:
+        """A client with a call waiting for a step stays."""
+        return any(c.client == client.id for c in self._waiting)
+
+    def forget(self, client: Any, how: str) -> None:
+        """Drop ``client`` (it expired): out of the registry and of the synchronous barrier."""
+        if not self.loop.clients.remove(client):
+            return
+        self.expired.append(client.id)
+        if self.loop.sim.is_synchronous(client.id):
+            self.loop.leave_sync(client.id, f"{how}: out of synchronous mode")
 
     def client_count(self) -> int:
-        return len(self.clients)
+        """The door's clients in the loop's registry."""
+        return self.loop.clients.count(self)
 
     def close(self) -> None:
         for call in self._waiting:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from simx_server.base import limits
 from simx_server.base.resources import raise_open_files_limit
-from simx_server.loop.front_door import LoopAccess
+from simx_server.loop.front_door import FrontDoor, LoopAccess
 from simx_server.zmq.frontend import DEFAULT_PORT, Frontend, Gate
 from simx_server.zmq.service import ZmqService
 
@@ -51,13 +51,14 @@ def curve_keys(folder: str | Path) -> tuple[bytes, bytes, frozenset]:
     return secret, public, keys
 
 
-class ZmqRemoteApi:
+class ZmqRemoteApi(FrontDoor):
     """CoppeliaSim's ZMQ remote API served by the loop ``server`` on ``endpoints``: a front door
     (:class:`~simx_server.loop.front_door.FrontDoor`).
 
     :meth:`open` binds the socket (zmq.ZMQError when it cannot) and starts its thread; the
-    server calls the rest (``handle``, ``after_step``, ``housekeeping``, ``client_count``,
-    ``close``) from its simulation thread.
+    loop calls the rest (``handle``, ``after_step``, ``housekeeping``, ``close``) from its
+    simulation thread. Its clients are in the loop's registry under :attr:`service` (their
+    ``door``: it keeps and forgets them, :meth:`ZmqService.keeps`, :meth:`ZmqService.forget`).
     """
 
     kinds: tuple[str, ...] = ("zmq", "zmq-gone")
@@ -91,9 +92,6 @@ class ZmqRemoteApi:
 
     def housekeeping(self, now: float) -> None:
         self.service.housekeeping(now)
-
-    def client_count(self) -> int:
-        return len(self.service.clients)
 
     def close(self) -> None:
         self.frontend.close()

@@ -18,9 +18,11 @@ steps, as it serves every front door's requests (:mod:`simx_server.loop.front_do
   completes the barrier the step runs then and there.
 
 ``sim.stopSimulation`` resets every ZMQ client's stepping level and locks, as CoppeliaSim's ZMQ
-server does. A client is forgotten (it leaves the barrier) when its connection closes, when it
-sends ``_*end*_``, or after its ``timeout`` (s, its first request's; 600 by default) without a
-request. Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s; those that
+server does. Clients are in the loop's registry (:mod:`simx_server.loop.clients`; a
+:class:`ZmqClient` is its entry with what is the ZMQ door's own). A client is forgotten (it
+leaves the barrier) when its connection closes, when it sends ``_*end*_``, or when the loop's
+housekeeping finds it past its ``timeout`` (s, its first request's; 600 by default) without a
+request (:meth:`ZmqService.keeps`: not while its ``_*executed*_`` waits for a step). Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s; those that
 render (images, depth buffers, vision packets) are answered from the render thread once their
 frames are drawn (:mod:`simx_server.zmq.renders`), the simulation going on meanwhile.
 """
@@ -38,6 +40,7 @@ from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.loop.budgets import cut
+from simx_server.loop.clients import Client
 from simx_server.loop.front_door import LoopAccess
 from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
@@ -65,22 +68,24 @@ _EMPTY = cbor2.dumps({})
 _ENDS_CALLBACK = frozenset({"sim.step", "sim.yield", "sim.switchThread", codec.END})
 
 
-class ZmqClient:
-    """One ZMQ remote API client (a ``RemoteAPIClient``, by its uuid)."""
+class ZmqClient(Client):
+    """One ZMQ remote API client (a ``RemoteAPIClient``, by its uuid): its entry in the loop's
+    registry (``id``: the uuid; ``expiry``: its ``timeout``), with its stepping state."""
 
-    __slots__ = ("uuid", "sync_id", "lock_id", "fd", "stepping", "locks", "timeout", "last_seen",
+    __slots__ = ("uuid", "sync_id", "lock_id", "fd", "stepping", "locks", "timeout",
                  "step_at", "waiting", "held", "label", "long", "long_func", "connection", "in_callback",
                  "gave_up")
 
-    def __init__(self, uuid: str, fd: int, timeout: float | None, now: float, connection: bytes = b""):
+    def __init__(self, uuid: str, fd: int, timeout: float | None, now: float, connection: bytes = b"",
+                 door: Any = None):
+        super().__init__(uuid, door, now, timeout if timeout is not None else codec.DEFAULT_TIMEOUT)
         self.uuid = uuid
         self.label = f"zmq:{uuid[:8]}"
         self.sync_id, self.lock_id = f"zmq:{uuid}", f"zmq-lock:{uuid}"
         self.fd = fd
         self.stepping = 0  # sim.setStepping level
         self.locks = 0  # sim.acquireLock count
-        self.timeout = timeout if timeout is not None else codec.DEFAULT_TIMEOUT
-        self.last_seen = now
+        self.timeout = self.expiry
         self.step_at = -1  # Simulation.steps when its sim.step() came
         self.waiting = False  # its sim.step() was answered _*wait*_: _*executed*_ is due
         self.held: list | None = None  # envelope of its _*executed*_, answered after the next step
@@ -96,14 +101,15 @@ class ZmqService(RenderedReplies):
 
     Args:
         server: the loop (:class:`~simx_server.loop.front_door.LoopAccess`: its ``sim``,
-            ``step_now`` and ``leave_sync``).
+            ``clients``, ``step_now`` and ``leave_sync``).
         frontend: the socket thread that replies go through.
     """
 
     def __init__(self, server: LoopAccess, frontend: Frontend):
         self.server = server
         self.frontend = frontend
-        self.clients: dict[str, ZmqClient] = {}
+        #: This door's clients by uuid: the loop's registry's dict of them.
+        self.clients: dict[str, ZmqClient] = server.clients.of(self)
         self.connections: dict[bytes, Connection] = {}  # routing id -> its uuids and share
         self._remote: RemoteSim | None = None
         self._functions = facade_functions()
@@ -179,7 +185,8 @@ class ZmqService(RenderedReplies):
                     f"server busy: it serves {len(self.clients)} ZMQ clients already (limits.MAX_CLIENTS), all "
                     "stepped, locked or waiting; try again later"))
                 return
-            client = self.clients[req.uuid] = ZmqClient(req.uuid, incoming.fd, req.timeout, now, identity)
+            client = ZmqClient(req.uuid, incoming.fd, req.timeout, now, identity, self)
+            self.server.clients.add(client)
             connection.uuids.add(req.uuid)
             log.info("ZMQ client %s connected%s", client.label, f" ({quote(req.lang, 40)})" if req.lang else "")
         client.fd, client.last_seen = incoming.fd, now
@@ -466,9 +473,13 @@ class ZmqService(RenderedReplies):
             self.server.leave_sync(client.lock_id, "lock released")
 
     # ------------------------------------------------------------------- clients
+    def keeps(self, client: ZmqClient) -> bool:
+        """A client whose ``_*executed*_`` waits for a step does not expire."""
+        return client.held is not None
+
     def forget(self, client: ZmqClient, how: str) -> None:
         """Drop a client: it leaves the barrier (the step the others triggered may run now)."""
-        if self.clients.pop(client.uuid, None) is None:
+        if not self.server.clients.remove(client):
             return
         connection = self.connections.get(client.connection)
         if connection is not None:
@@ -485,19 +496,17 @@ class ZmqService(RenderedReplies):
     def _evict_one(self) -> bool:
         """Forget the longest silent client that holds nothing (no stepping, lock or wait), to make
         room for a new one; False when there is none."""
-        idle = [c for c in self.clients.values() if not (c.stepping or c.locks or c.held or c.long)]
-        if not idle:
+        idle = self.server.clients.oldest(self, lambda c: not (c.stepping or c.locks or c.held or c.long))
+        if idle is None:
             return False
-        self.forget(min(idle, key=lambda c: c.last_seen), "dropped to make room for a new client")
+        self.forget(idle, "dropped to make room for a new client")
         return True
 
     def housekeeping(self, now: float) -> None:
-        """Forget the clients silent for longer than their timeout (none waits for a step); serve
-        the scene edits whose wait is over (also when no step comes)."""
+        """Serve the scene edits whose wait is over (also when no step comes); the loop has
+        expired the silent clients before (:meth:`keeps`, :meth:`forget`)."""
         if self._deferred:
             self._run_deferred()
-        for client in [c for c in self.clients.values() if c.held is None and now - c.last_seen > c.timeout]:
-            self.forget(client, f"expired (no request for {client.timeout:g} s)")
 
 
 def _shown(signature: inspect.Signature) -> str:

@@ -80,7 +80,7 @@ def test_every_command_has_exactly_one_executor():
     """The server looks a command up in HANDLERS first and in its own client commands only
     when it is not there: the two tables must not overlap, and together cover COMMANDS."""
     from simx_server.commands import HANDLERS
-    from simx_server.legacy.server import Server
+    from simx_server.legacy.server import LegacyDoor as Server
 
     own = set(Server._CLIENT_COMMANDS)
     assert not own & set(HANDLERS)

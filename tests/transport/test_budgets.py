@@ -183,11 +183,12 @@ def test_the_time_budget_counts_the_threads_work_not_a_loaded_machines_wait(monk
     import zenoh as _zenoh
 
     from simx_server.scene.simulation import Simulation
-    from simx_server.legacy.server import Server
+    from simx_server.legacy.server import LegacyDoor
+    from simx_server.loop.core import Loop
 
     sim = Simulation(SCENE, dt=0.05, realtime=False)
     try:
-        server = Server(sim, _zenoh.Config())
+        server = LegacyDoor(Loop(sim), _zenoh.Config())
 
         def waits(client, name, mode, args):  # descheduled: wall time, no CPU
             time.sleep(0.3)

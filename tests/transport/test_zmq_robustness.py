@@ -177,10 +177,12 @@ def test_fresh_client_ids_do_not_grow_the_server(monkeypatch):
     nothing makes room, so the count of clients stays bounded (in-process check of the rule)."""
     from simx_server.base import limits
     from simx_server.zmq.frontend import Incoming
+    from simx_server.loop.clients import Clients
     from simx_server.zmq.service import ZmqService
 
     class Server:  # what the service needs of the server for these calls
         sim = None
+        clients = Clients()
 
     class Frontend:
         def __init__(self):
@@ -207,6 +209,7 @@ def test_scene_edits_past_the_share_wait_their_turn(monkeypatch):
     from conftest import wait_until
     from simx_server.base import limits
     from simx_server.scene.simulation import Simulation
+    from simx_server.loop.clients import Clients
     from simx_server.zmq.frontend import Incoming
     from simx_server.zmq.service import ZmqService
 
@@ -214,7 +217,7 @@ def test_scene_edits_past_the_share_wait_their_turn(monkeypatch):
     monkeypatch.setattr(limits, "EDIT_SHARE", 0.5)
     sim = Simulation(SCENES / "scripted.xml")
     try:
-        server = type("Server", (), {"sim": sim})()
+        server = type("Server", (), {"sim": sim, "clients": Clients()})()
         sent = []
         frontend = type("Frontend", (), {"send": lambda self, env, payload: sent.append(cbor2.loads(payload))})()
         service = ZmqService(server, frontend)

@@ -377,6 +377,7 @@ def test_the_edit_share_is_counted_per_connection_not_per_uuid(monkeypatch, tmp_
     another connection's edit is served at once. In-process, with a real simulation."""
     from simx_server.scene.simulation import Simulation
     from simx_server.zmq.frontend import Incoming
+    from simx_server.loop.clients import Clients
     from simx_server.zmq.service import ZmqService
 
     monkeypatch.setattr(limits, "EDIT_DEBT_SECONDS", 0.0)
@@ -386,7 +387,7 @@ def test_the_edit_share_is_counted_per_connection_not_per_uuid(monkeypatch, tmp_
     try:
         sent = []
         frontend = type("Frontend", (), {"send": lambda self, env, payload: sent.append((env, cbor2.loads(payload)))})()
-        service = ZmqService(type("Server", (), {"sim": sim})(), frontend)
+        service = ZmqService(type("Server", (), {"sim": sim, "clients": Clients()})(), frontend)
 
         def edit(connection: bytes, uuid: str) -> None:
             service.handle("zmq", Incoming([connection], codec.read_request(codec.encode_request(
