@@ -248,6 +248,11 @@ STREAM_RENDER_DEBT_SECONDS = 0.5
 #: 4096x4096 image were dropped every time: a streaming client received none in 10 s), and on the
 #: sending thread it gives way to other clients' sends, for at most MAX_BULK_DEFER_SECONDS.
 BULK_SEND_BYTES = 4 * 1024 * 1024
+#: A reply of at most this many bytes, to a request served in place on Zenoh's thread
+#: (loop.core.Loop.serve_or_deliver) by a client with no streams and nothing on its way, is sent
+#: by that thread itself rather than the sending thread: one thread hand-over less per call.
+#: Only such a client's own link can be full then (of its earlier replies it has not read).
+IN_PLACE_REPLY_BYTES = 16 * 1024
 MAX_BULK_DEFER_SECONDS = 0.5
 #: Bulk stream updates take at most this share of the sending thread's time, with a debt of
 #: BULK_DEBT_SECONDS allowed; past it an update is not pushed (its stream skips that step).

@@ -141,7 +141,9 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self.prefix = prefix
         self._config = config
         self._registry: dict[str, LegacyClient] = loop.clients.of(self)  # this door's clients, by id
-        self.sessions = Sessions(loop.ring, door=self)  # their sessions are the ready ring's ready clients
+        # Their sessions are the ready ring's ready clients; one with nothing waiting is served
+        # on Zenoh's thread when the simulation thread waits for work (Loop.serve_or_deliver).
+        self.sessions = Sessions(loop.ring, door=self, schedule=self._schedule)
         self.peers = PeerCheck(self.sessions, prefix)  # which Zenoh session holds each token
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
@@ -308,6 +310,11 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                                           large=True)
             else:  # encoded now: the values are this step's
                 encoded = self._response(t, state, results, server_time, scene, client)
+                sends = self.loop.in_place
+                if (sends is not None and len(encoded) <= limits.IN_PLACE_REPLY_BYTES
+                        and not session.unsent and not self._streams.get(client)):
+                    self._send_in_place(sends, session, query, encoded)
+                    return
 
                 def payload() -> bytes:
                     return encoded
@@ -319,6 +326,30 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             def payload() -> bytes:
                 return refusal
         self._reply(session, query, payload, renders, bulk)
+
+    def _schedule(self, session: Session) -> None:
+        """Zenoh's thread: a client with nothing waiting has a request. A blocking call (its
+        client waits for the reply) is served in place when it can be (Loop.serve_or_deliver),
+        unless it loads or edits the scene (which would hold Zenoh's thread as long as it
+        takes); anything else goes to the ready ring: a oneshot or streaming flood is served
+        round robin by the simulation thread, not by Zenoh's threads in parallel, where it
+        would take the interpreter from every other client's calls."""
+        if Sessions.head_is_blocking(session) and session.queue[0][0][1][0][0] not in NOT_STREAMABLE:
+            self.loop.serve_or_deliver(session)
+        else:
+            self.loop.ring.put(session)
+
+    def _send_in_place(self, sends: list, session: Session, query: zenoh.Query, encoded: bytes) -> None:
+        """Served in place, with nothing of its client on its way: the reply is sent by the
+        thread that read the request, once the simulation is let go (Loop.serve_or_deliver)."""
+        def send() -> None:
+            try:
+                answer(query, encoded)
+            finally:
+                self.sessions.sent(session)
+
+        self.sessions.handed_over(session)
+        sends.append(send)
 
     def _reply(self, session: Session, query: zenoh.Query, payload, renders: list, bulk: bool = False) -> None:
         """Hand ``query``'s reply (``payload()``, called on the sending thread) to the courier

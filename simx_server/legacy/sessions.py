@@ -60,6 +60,8 @@ class Sessions:
     Args:
         ready: the ring the simulation thread waits on; gets :class:`Session` objects.
         door: the door their sessions name (``Session.door``: the loop has it serve them).
+        schedule: how :meth:`admit` schedules a client that had nothing waiting (thread-safe;
+            default: ``ready.put``; the server serves it in place when it can).
         max_requests, max_bytes: a client's queue bounds (requests, payload bytes).
         max_total_bytes: payload bytes queued over all clients.
         max_clients: clients with state.
@@ -73,9 +75,10 @@ class Sessions:
                  max_bytes: int = limits.MAX_QUEUED_BYTES, max_total_bytes: int = limits.MAX_QUEUED_BYTES_TOTAL,
                  max_clients: int = limits.MAX_CLIENTS, max_unsent: int = limits.MAX_UNSENT_PER_CLIENT,
                  max_per_user: int = limits.MAX_CLIENTS_PER_USER, max_per_peer: int = limits.MAX_CLIENTS_PER_PEER,
-                 max_tokens: int = limits.MAX_CLIENT_TOKENS, door: Any = None):
+                 max_tokens: int = limits.MAX_CLIENT_TOKENS, door: Any = None, schedule: Any = None):
         self.ready = ready
         self.door = door
+        self._schedule = schedule if schedule is not None else ready.put
         self.max_requests, self.max_bytes, self.max_total_bytes = max_requests, max_bytes, max_total_bytes
         self.max_clients, self.max_unsent, self.max_per_user = max_clients, max_unsent, max_per_user
         self._per_user: dict[str, int] = {}  # authenticated user -> its clients with state
@@ -126,8 +129,8 @@ class Sessions:
             if s.scheduled:
                 return None
             s.scheduled = True
-        # Put after the lock: the simulation thread it wakes takes the same lock at once.
-        self.ready.put(s)
+        # Scheduled after the lock: whoever serves it takes the same lock at once.
+        self._schedule(s)
         return None
 
     def _bound(self, s: Session, size: int) -> str | None:

@@ -32,6 +32,18 @@ simulation and is reported to every client of every door at its next request
 Replies leave on the sending thread (:attr:`Loop.courier`, :mod:`simx_server.loop.courier`), so
 a client that stops reading never holds the simulation thread.
 
+**Serving in place** (:meth:`Loop.serve_or_deliver`): one lock, the *owner*, is held by whoever
+serves the simulation. The simulation thread holds it always except while it waits for work
+(for the next item or the next step's time). A door's reading thread that has a quick request
+whose client waits for the reply (a blocking legacy call, a ZMQ call) takes the owner if it is
+free, nothing waits in the ring and the simulation thread does not want it back, serves the
+request exactly as the simulation thread would (the same ``_handle``, pacing included) and
+sends its small reply itself once it has let the owner go: the two thread hand-overs of a call
+(ring, then sending thread), which cost more than the call's execution, are skipped. Otherwise
+the item goes to the ring as before. The simulation is still touched by one thread at a time,
+always between two steps; the owner is held from the loop's construction, so nothing is served
+before :meth:`serve` runs or after it returns.
+
 The loop reaches its doors only through :class:`~simx_server.loop.front_door.FrontDoor` (and
 a ready client's :class:`~simx_server.loop.front_door.ReadyDoor`); no door subclasses it. The
 doors: the legacy remote API over Zenoh (:class:`simx_server.legacy.server.LegacyDoor`), the
@@ -111,6 +123,15 @@ class Loop:
         #: The front doors attached (:meth:`attach`).
         self.doors: list[FrontDoor] = []
         self._kinds: dict[str, FrontDoor] = {}  # delivery kind -> the door that handles it
+        #: Whoever serves the simulation holds it: the simulation thread (from construction, so
+        #: that nothing is served before :meth:`serve` nor after it), except while it waits for
+        #: work; a front door's thread while it serves an item in place (:meth:`serve_or_deliver`).
+        self._owner = threading.Lock()
+        self._owner.acquire()
+        self._wanted = False  # the simulation thread waits for the simulation: no door takes it
+        #: While an item is served in place: sends the door runs on its own thread once the
+        #: simulation is let go (:meth:`serve_or_deliver`); None otherwise.
+        self.in_place: list[Callable[[], None]] | None = None
 
     # ------------------------------------------------------------- front doors
     def attach(self, door: FrontDoor) -> None:
@@ -165,14 +186,21 @@ class Loop:
         gc.collect()
         gc.freeze()
         next_tick = time.monotonic()
+        owner, get = self._owner, self.ring.get
         while not self._stopping.is_set():
             now = time.monotonic()
             try:
                 if now < next_tick:
-                    try:  # noqa: SIM105  (not contextlib.suppress: an object per pass of the hot loop)
-                        self._handle(self.ring.get(timeout=next_tick - now))
+                    owner.release()  # waiting for work: a door's thread may serve an item meanwhile
+                    try:
+                        item = get(timeout=next_tick - now)
                     except queue.Empty:
-                        pass
+                        continue
+                    finally:
+                        self._wanted = True  # no door's thread takes the simulation from here
+                        owner.acquire()
+                        self._wanted = False
+                    self._handle(item)
                     continue
                 self._drain()  # requests are always served between steps, even at full speed
                 if self._stopping.is_set():
@@ -192,6 +220,35 @@ class Loop:
                 log.exception("simulation loop")
                 interval = sim.world.dt
             next_tick = max(next_tick + interval, now)
+
+    def serve_or_deliver(self, item: Any) -> None:
+        """A front door's thread: serve ``item`` (a ready-ring item: a delivery or a ready
+        client) on this thread now if the simulation thread is waiting for work, else put it in
+        the ready ring. Served in place, the item sees exactly what the simulation thread would
+        have shown it (the loop's pacing applies; the simulation is between two steps), and
+        the reply skips two thread hand-overs (about 0.1 ms of a 0.4 ms blocking call): the
+        door may append its sends to :attr:`in_place`, which run here once the simulation is
+        let go. Thread-safe; never waits for the simulation thread."""
+        owner = self._owner
+        # Only while nothing waits: items in the ring, and the simulation thread, go first (a
+        # client's flood served in place would otherwise starve the ring's round robin).
+        if self._wanted or not self.ring.empty() or not owner.acquire(blocking=False):
+            self.ring.put(item)
+            return
+        sends: list[Callable[[], None]] = []
+        self.in_place = sends
+        try:
+            self._handle(item)
+        except Exception:  # as on the simulation thread: a bug is logged, the door goes on
+            log.exception("serving a request in place")
+        finally:
+            self.in_place = None
+            owner.release()
+        for send in sends:
+            try:
+                send()
+            except Exception:
+                log.exception("sending a reply in place")
 
     def _drain(self) -> None:
         for _ in range(_DRAIN_LIMIT):

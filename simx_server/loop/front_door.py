@@ -134,6 +134,9 @@ class LoopAccess(Protocol):
     ring: queue.SimpleQueue[Any]
     #: The sending thread: replies go out in order per lane, after their renders.
     courier: Courier
+    #: While an item is served in place: the door's sends to run after the simulation is let
+    #: go, on the door's thread; None otherwise.
+    in_place: list[Callable[[], None]] | None
     #: s a client may stay silent before it is dropped (limits.CLIENT_EXPIRY; a door may give
     #: its clients their own, as ZMQ clients their ``timeout``).
     client_expiry: float
@@ -141,6 +144,10 @@ class LoopAccess(Protocol):
     clients: Clients
     #: ``time.monotonic()`` when the loop was made (a legacy reply's server time counts from it).
     started: float
+
+    def serve_or_deliver(self, item: Any) -> None:
+        """Thread-safe: serve a ready-ring item on the calling thread if the simulation thread
+        is waiting for work, else put it in the ready ring (Loop.serve_or_deliver)."""
 
     def step_now(self) -> bool:
         """One step now (the door's stepped client completed the synchronous barrier); False

@@ -61,10 +61,15 @@ class InProcessDoor(FrontDoor):
         self._lock = threading.Lock()
 
     # ---------------------------------------------------------- any thread
-    def call(self, client: str, fn: Callable[[Any], Any], after_step: bool = False) -> Future[Any]:
+    def call(
+        self, client: str, fn: Callable[[Any], Any], after_step: bool = False, in_place: bool = False
+    ) -> Future[Any]:
         """``fn(sim)`` run on the simulation thread for ``client``; the future holds its result
         or its exception. ``after_step``: the result is sent once a step has run since (at
         once while the simulation is not running), as a ZMQ ``sim.step()`` is answered.
+        ``in_place``: run on the calling thread if the simulation thread waits for work
+        (:meth:`LoopAccess.serve_or_deliver`, as the Zenoh and ZMQ doors serve quick calls),
+        the future then done when this returns.
 
         The future's exception is ``RuntimeError`` at once when ``max_pending`` calls wait.
         """
@@ -74,7 +79,8 @@ class InProcessDoor(FrontDoor):
                 future.set_exception(RuntimeError(f"refused: {self._pending} calls pending (max_pending)"))
                 return future
             self._pending += 1
-        self.loop.deliver((self.kinds[0], _Call(client, fn, future, after_step)))
+        item = (self.kinds[0], _Call(client, fn, future, after_step))
+        (self.loop.serve_or_deliver if in_place else self.loop.deliver)(item)
         return future
 
     def stepping(self, client: str, on: bool) -> Future[Any]:
@@ -164,4 +170,8 @@ class InProcessDoor(FrontDoor):
             else:
                 call.future.set_result(value)
 
+        sends = self.loop.in_place
+        if sends is not None:  # served in place: answered by the calling thread
+            sends.append(send)
+            return
         self.loop.courier.send(call.client, send)

@@ -77,13 +77,23 @@ class Frontend:
         endpoints: ZMQ endpoints to bind (``tcp://127.0.0.1:23000``).
         deliver: called on the socket thread with ``("zmq", Incoming)`` or ``("zmq-gone", fd)``
             (the server's ready ring's ``put``); must not block.
+        serve: called on the socket thread with ``("zmq", Incoming)`` for a request that
+            ``in_place`` accepts: the loop serves it on this thread when the simulation thread
+            waits for work, else puts it in the ring (``Loop.serve_or_deliver``); its reply is
+            sent at once, without a wake-up of this thread. None: ``deliver``.
+        in_place: which requests ``serve`` gets (quick calls: not a scene load or edit, which
+            would hold the socket thread as long as they take).
 
     Raises (from :meth:`open`): zmq.ZMQError when an endpoint cannot be bound.
     """
 
-    def __init__(self, endpoints: list[str], deliver: Callable[[Any], None], gate: Gate | None = None):
+    def __init__(self, endpoints: list[str], deliver: Callable[[Any], None], gate: Gate | None = None,
+                 serve: Callable[[Any], None] | None = None,
+                 in_place: Callable[[codec.Request], bool] = lambda request: True):
         self.endpoints = list(endpoints)
         self._deliver = deliver
+        self._serve = serve if serve is not None else deliver
+        self._in_place = in_place
         self.gate = gate if gate is not None else Gate()
         self._unsent: dict[bytes, int] = {}  # identity -> bytes of its tracked replies not sent yet
         self._unsent_total = 0
@@ -226,6 +236,8 @@ class Frontend:
                         except zmq.Again:
                             break
                         self._on_message(router, frames)
+                        if not router.get(zmq.EVENTS) & zmq.POLLIN:
+                            break  # nothing more to read: no zmq.Again raised (a few µs a call)
                     if self._pending and not router.get(zmq.EVENTS) & zmq.POLLIN:
                         self._await_reply(router)
         except Exception:  # never reached by a client's input; log it, the server goes on without ZMQ
@@ -272,6 +284,9 @@ class Frontend:
             os.read(self._wake_r, 65536)
         except BlockingIOError:
             pass
+        self._send_replies(router)
+
+    def _send_replies(self, router: zmq.Socket) -> None:
         while True:
             try:
                 envelope, payload, held = self._replies.get_nowait()
@@ -282,8 +297,8 @@ class Frontend:
             self._done(envelope[0])
             self.release(envelope[0], held)  # counted as unsent below, if the kernel does not take it at once
             try:
-                if len(payload) < TRACKED_BYTES:
-                    router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False)
+                if len(payload) < TRACKED_BYTES:  # copied: cheaper than a zero-copy Frame per part
+                    router.send_multipart([*envelope, payload], zmq.NOBLOCK)
                     continue
                 tracker = router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False, track=True)
             except zmq.ZMQError as exc:  # the peer went, or its queue is full: its reply is lost
@@ -318,7 +333,7 @@ class Frontend:
 
     def _answer(self, router: zmq.Socket, envelope: list, payload: bytes) -> None:
         try:
-            router.send_multipart([*envelope, payload], zmq.NOBLOCK, copy=False)
+            router.send_multipart([*envelope, payload], zmq.NOBLOCK)
         except zmq.ZMQError as exc:
             log.debug("ZMQ reply not sent: %s", exc)
 
@@ -366,7 +381,18 @@ class Frontend:
             return
         self._pending[identity] = (fd, size)
         self._pending_bytes += size
-        self._deliver(("zmq", Incoming(envelope, request, fd, size)))
+        if not self._in_place(request):
+            self._deliver(("zmq", Incoming(envelope, request, fd, size)))
+            return
+        # Served here when the simulation thread waits for work: its reply, put on the queue
+        # meanwhile, is sent below without a wake-up through the pipe (as while awaiting).
+        self._awaiting = True
+        try:
+            self._serve(("zmq", Incoming(envelope, request, fd, size)))
+        finally:
+            self._awaiting = False
+        if not self._replies.empty():
+            self._send_replies(router)
 
 
 class Gate:

@@ -12,7 +12,8 @@ from simx_server.base import limits
 from simx_server.base.resources import raise_open_files_limit
 from simx_server.loop.front_door import FrontDoor, LoopAccess
 from simx_server.zmq.frontend import DEFAULT_PORT, Frontend, Gate
-from simx_server.zmq.service import ZmqService
+from simx_server.zmq.codec import Request
+from simx_server.zmq.service import EDITS, ZmqService
 
 log = logging.getLogger("simx.zmq")
 
@@ -66,7 +67,7 @@ class ZmqRemoteApi(FrontDoor):
     def __init__(self, server: LoopAccess, endpoints: list[str], curve: tuple[bytes, bytes, frozenset] | None = None):
         files = raise_open_files_limit()
         gate = Gate(curve, max(16, min(limits.MAX_ZMQ_CONNECTIONS, files // 2)))
-        self.frontend = Frontend(endpoints, server.deliver, gate)
+        self.frontend = Frontend(endpoints, server.deliver, gate, server.serve_or_deliver, _quick)
         self.service = ZmqService(server, self.frontend)
 
     @property
@@ -95,3 +96,8 @@ class ZmqRemoteApi(FrontDoor):
 
     def close(self) -> None:
         self.frontend.close()
+
+
+def _quick(request: Request) -> bool:
+    """Whether a request may be served on the socket thread: not a scene load or edit."""
+    return request.func.rpartition(".")[2] not in EDITS
