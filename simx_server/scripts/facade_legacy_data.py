@@ -213,7 +213,8 @@ class LegacyDataCalls:
             1.
 
         Raises:
-            ArgumentError: a port out of range, or no server behind the simulation.
+            ArgumentError: a port out of range, or a simulation that serves no remote API.
+            UnsupportedError: no simulation behind the script.
         """
         p = _int(port, "port")
         if not 1 <= p <= 65535:
@@ -233,7 +234,8 @@ class LegacyDataCalls:
             1 or -1.
 
         Raises:
-            ArgumentError: no server behind the simulation, or not an integer.
+            ArgumentError: not an integer, or a simulation that serves no remote API.
+            UnsupportedError: no simulation behind the script.
         """
         ports = self._ports()
         p = _int(port, "port")
