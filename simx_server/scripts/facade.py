@@ -23,6 +23,7 @@ from simx_wire.protocol import UnsupportedError
 from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
 from simx_server.scripts.facade_build import BuildCalls
 from simx_server.scripts.facade_clouds import CloudCalls
+from simx_server.scripts.facade_octrees import OctreeCalls
 from simx_server.scripts.facade_common import CommonCalls
 from simx_server.scripts.facade_create import CreateCalls
 from simx_server.scripts.facade_data import DataCalls
@@ -66,7 +67,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
+class ScriptSim(CloudCalls, OctreeCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
                 GraphCalls, LinkCalls, ParticleCalls, PoseMath, CommonCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
                 DataCalls, ScriptMotionCalls,
                 ShapeCalls, InertiaCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
