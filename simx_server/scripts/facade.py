@@ -44,6 +44,7 @@ from simx_server.scripts.facade_posemath import PoseMath
 from simx_server.scripts.facade_props import PropertyCalls
 from simx_server.scripts.facade_ruckig import RuckigCalls
 from simx_server.scripts.facade_sensing import SensingCalls
+from simx_server.scripts.facade_joint_modes import JointModeCalls
 from simx_server.scripts.facade_services import ServiceCalls
 from simx_server.scripts.facade_shapes import ShapeCalls
 from simx_server.scripts.facade_inertia import InertiaCalls
@@ -70,7 +71,7 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
 class ScriptSim(CloudCalls, OctreeCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
                 GraphCalls, LinkCalls, ParticleCalls, PoseMath, CommonCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
                 DataCalls, ScriptMotionCalls,
-                ShapeCalls, InertiaCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
+                ShapeCalls, InertiaCalls, SensingCalls, JointModeCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 
