@@ -78,6 +78,7 @@ class GraphCalls:
             The stream's id.
 
         Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
             ArgumentError: MAX_STREAMS streams already, or a bad argument.
         """
         g = self._graph(graphHandle)
@@ -102,6 +103,7 @@ class GraphCalls:
             value: the value (in the stream's unit).
 
         Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
             UnknownObjectError: no such stream.
             ArgumentError: MAX_VALUES values already, or not a number.
         """
@@ -130,6 +132,7 @@ class GraphCalls:
             movAvgPeriod: samples, at least 1.
 
         Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
             UnknownObjectError: no such stream.
             ArgumentError: an unknown type or period.
         """
@@ -161,6 +164,7 @@ class GraphCalls:
             The curve's id.
 
         Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
             UnsupportedError: ``dim`` other than 2.
             ArgumentError: not 2 stream ids.
             UnknownObjectError: no such stream.
@@ -203,6 +207,7 @@ class GraphCalls:
             The 8-tuple: str, int, 3 floats, n floats, n floats, 4 floats, int, int.
 
         Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
             UnsupportedError: another ``graphType``.
             ArgumentError: an index past the last.
         """
@@ -235,6 +240,7 @@ class GraphCalls:
             The copy's id.
 
         Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
             UnknownObjectError: no such stream or curve.
         """
         g, cid = self._graph(graphHandle), _int(curveId, "curveId")
@@ -263,6 +269,7 @@ class GraphCalls:
             curveId: a stream's or curve's id, or -1.
 
         Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
             UnknownObjectError: no such stream or curve.
         """
         g, cid = self._graph(graphHandle), _int(curveId, "curveId")
