@@ -123,22 +123,56 @@ class ImageList(list):
         return super().__imul__(n)
 
     def append(self, value: Any) -> None:
+        """``list.append``, forgetting the cached array.
+
+        Args:
+            value: a pixel value.
+
+        """
         self._array = None
         super().append(value)
 
     def extend(self, values: Any) -> None:
+        """``list.extend``, forgetting the cached array.
+
+        Args:
+            values: pixel values.
+
+        """
         self._array = None
         super().extend(values)
 
     def insert(self, index: Any, value: Any) -> None:
+        """``list.insert``, forgetting the cached array.
+
+        Args:
+            index: where.
+            value: a pixel value.
+
+        """
         self._array = None
         super().insert(index, value)
 
     def pop(self, *index: Any) -> Any:
+        """``list.pop``, forgetting the cached array.
+
+        Args:
+            *index: where (none: the last).
+
+        Returns:
+            The value removed.
+
+        """
         self._array = None
         return super().pop(*index)
 
     def remove(self, value: Any) -> None:
+        """``list.remove``, forgetting the cached array.
+
+        Args:
+            value: the pixel value to remove (the first one).
+
+        """
         self._array = None
         super().remove(value)
 
@@ -147,6 +181,13 @@ class ImageList(list):
         super().clear()
 
     def sort(self, *args: Any, **kwargs: Any) -> None:
+        """``list.sort``, forgetting the cached array.
+
+        Args:
+            *args: ``list.sort``'s.
+            **kwargs: ``list.sort``'s (``key``, ``reverse``).
+
+        """
         self._array = None
         super().sort(*args, **kwargs)
 

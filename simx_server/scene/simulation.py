@@ -15,7 +15,7 @@ from simx_server.scene.editor import Editor
 from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts import shapes
 from simx_server.scripts.signals import Signals
-from simx_server.scripts.facade_legacy import RemoteApiPorts
+from simx_server.scripts.facade_legacy_data import RemoteApiPorts
 from simx_server.scripts.scene_scripts import Scripts
 from simx_server.sim import ik, scene_collections
 from simx_server.sim.physics import PhysicsError

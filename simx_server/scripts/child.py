@@ -34,7 +34,7 @@ from simx_wire.protocol import ScriptError
 from simx_server.scripts import sim_ik
 from simx_server.scripts.facade import ScriptSim
 from simx_server.scripts.signals import Signals
-from simx_server.scripts.facade_legacy import PythonThread
+from simx_server.scripts.facade_threads import PythonThread
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.scripts.watchdog import WATCHDOG
 from simx_server.sim.world import World

@@ -23,6 +23,7 @@ from simx_wire.protocol import UnsupportedError
 from simx_server.scripts import facade_legacy, facade_objects, facade_sensors
 from simx_server.scripts.facade_build import BuildCalls
 from simx_server.scripts.facade_clouds import CloudCalls
+from simx_server.scripts.facade_octrees import OctreeCalls
 from simx_server.scripts.facade_common import CommonCalls
 from simx_server.scripts.facade_create import CreateCalls
 from simx_server.scripts.facade_data import DataCalls
@@ -43,8 +44,10 @@ from simx_server.scripts.facade_posemath import PoseMath
 from simx_server.scripts.facade_props import PropertyCalls
 from simx_server.scripts.facade_ruckig import RuckigCalls
 from simx_server.scripts.facade_sensing import SensingCalls
+from simx_server.scripts.facade_joint_modes import JointModeCalls
 from simx_server.scripts.facade_services import ServiceCalls
 from simx_server.scripts.facade_shapes import ShapeCalls
+from simx_server.scripts.facade_inertia import InertiaCalls
 from simx_server.scripts.facade_trajectory import TrajectoryCalls
 from simx_server.scripts.facade_legacy import LegacyCalls
 from simx_server.scripts.facade_core import SCRIPT_CONSTANTS, SimFacade
@@ -65,10 +68,10 @@ FACADE_CONSTANTS: dict[str, int] = {**_COPPELIASIM_4, **SCRIPT_CONSTANTS, **faca
                                     **facade_sensors.CONSTANTS, **facade_legacy.CONSTANTS}
 
 
-class ScriptSim(CloudCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
+class ScriptSim(CloudCalls, OctreeCalls, ServiceCalls, FlagCalls, CreateCalls, MeshOpCalls, LookCalls, TrajectoryCalls, BuildCalls,
                 GraphCalls, LinkCalls, ParticleCalls, PoseMath, CommonCalls, ParamCalls, GuiCalls, RuckigCalls, MeshCalls, MiscCalls, EngineCalls, PathCalls, PropertyCalls,
                 DataCalls, ScriptMotionCalls,
-                ShapeCalls, SensingCalls, ObjectCalls, SensorCalls, LegacyCalls,
+                ShapeCalls, InertiaCalls, SensingCalls, JointModeCalls, ObjectCalls, SensorCalls, LegacyCalls,
                 SimFacade):
     """``sim`` of one child script: every call of docs/SCRIPTS.md.
 

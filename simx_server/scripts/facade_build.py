@@ -55,7 +55,25 @@ class BuildCalls:
         (m): ``xPointCount`` x ``yPointCount`` values, x varying fastest, the first row at -y;
         ``xSize`` (m) spans the x points, the y points keep the same spacing. The heights are
         the surface's z in the shape's frame (MuJoCo's height field sits on its lowest point).
-        ``options`` and ``shadingAngle`` (display) have no meaning for MuJoCo."""
+        ``options`` and ``shadingAngle`` (display) have no meaning for MuJoCo.
+
+        ``sim.createHeightfieldShape``.
+
+        Args:
+            options: checked.
+            shadingAngle: checked (rad).
+            xPointCount: at least 2.
+            yPointCount: at least 2.
+            xSize: m.
+            heights: xPointCount * yPointCount numbers, m.
+
+        Returns:
+            The shape's handle.
+
+        Raises:
+            ArgumentError: counts or sizes out of range, or heights of the wrong length.
+            UnsupportedError: no simulation behind the script.
+        """
         _int(options, "options")
         _num(shadingAngle, "shadingAngle")
         nx, ny, size = _int(xPointCount, "xPointCount"), _int(yPointCount, "yPointCount"), _num(xSize, "xSize")
@@ -108,7 +126,22 @@ class BuildCalls:
         first shape's frame, joint and name; its inertia is MuJoCo's from the geoms (unless the
         first has explicit inertia). ``merge`` true groups too (MuJoCo keeps each geom; no mesh
         is fused). Shapes on joints other than a free joint, or carrying other objects:
-        UnsupportedError."""
+        UnsupportedError.
+
+        ``sim.groupShapes``.
+
+        Args:
+            shapeHandles: at least 2 shape handles.
+            merge: grouped as well.
+
+        Returns:
+            The compound shape's handle.
+
+        Raises:
+            ArgumentError: fewer than 2 shapes, or one twice.
+            UnknownObjectError: no such object.
+            UnsupportedError: as said above, or no simulation behind the script.
+        """
         if not isinstance(shapeHandles, (list, tuple)) or len(shapeHandles) < 2:
             raise ArgumentError("shapeHandles must hold at least 2 shape handles")
         objs = [self._loose_shape(h, "shapeHandles[i]") for h in shapeHandles]
@@ -141,7 +174,20 @@ class BuildCalls:
         """Spread a compound shape's geoms over shapes of their own: the first geom stays in the
         shape, each other gets a new body (named after the shape) at its world pose, with a free
         joint when the shape had one. Returns the handles, the shape's first; a simple shape:
-        ``[shapeHandle]``."""
+        ``[shapeHandle]``.
+
+        ``sim.ungroupShape``.
+
+        Args:
+            shapeHandle: a shape's handle.
+
+        Returns:
+            The shapes' handles.
+
+        Raises:
+            UnknownObjectError: no such object.
+            UnsupportedError: a shape on a joint other than a free one, or no simulation.
+        """
         obj = self._loose_shape(shapeHandle, "shapeHandle")
         m = self._world.model
         geoms = np.flatnonzero(m.geom_bodyid == obj.mj_id)

@@ -1,5 +1,6 @@
 """CoppeliaSim 4.x's point clouds and octrees kept as data (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`).
+:class:`simx_server.scripts.facade.ScriptSim`; the octree calls are in
+:mod:`simx_server.scripts.facade_octrees`, on this module's helpers).
 
 Each is a scene object with a frame: a MuJoCo site (so ``sim.getObjectType`` answers
 ``sim.object_dummy_type``; poses, parents and removal work as for any dummy) whose points or
@@ -129,7 +130,22 @@ class CloudCalls:
                          pointSize: Any) -> int:  # noqa: N803
         """A new, empty point cloud at the world origin; its handle. ``maxVoxelSize`` (m) and
         ``maxPtCntPerVoxel`` describe CoppeliaSim's calculation structure and are kept
-        (:meth:`getPointCloudOptions`); ``options`` and ``pointSize`` (pixels) likewise."""
+        (:meth:`getPointCloudOptions`); ``options`` and ``pointSize`` (pixels) likewise.
+
+        ``sim.createPointCloud``.
+
+        Args:
+            maxVoxelSize: m, positive.
+            maxPtCntPerVoxel: at least 1.
+            options: kept.
+            pointSize: pixels, kept.
+
+        Returns:
+            The point cloud's handle.
+
+        Raises:
+            ArgumentError: a size or count out of range, or not numbers.
+        """
         size, per, opts, psize = (_num(maxVoxelSize, "maxVoxelSize"), _int(maxPtCntPerVoxel, "maxPtCntPerVoxel"),
                                   _int(options, "options"), _num(pointSize, "pointSize"))
         if not size > 0 or per < 1:
@@ -140,12 +156,38 @@ class CloudCalls:
         return h
 
     def getPointCloudOptions(self, pointCloudHandle: Any) -> tuple[float, int, int, float]:  # noqa: N802, N803
-        """``maxVoxelSize, maxPtCntPerVoxel, options, pointSize``."""
+        """``maxVoxelSize, maxPtCntPerVoxel, options, pointSize``.
+
+        ``sim.getPointCloudOptions``.
+
+        Args:
+            pointCloudHandle: the point cloud's handle.
+
+        Returns:
+            ``(maxVoxelSize, maxPtCntPerVoxel, options, pointSize)``: m, int, int, pixels.
+
+        Raises:
+            UnknownObjectError: not a point cloud.
+        """
         c = self._cloud(pointCloudHandle, "pointCloud")
         return c["size"], c["per"], c["options"], c["pointSize"]
 
     def setPointCloudOptions(self, pointCloudHandle: Any, maxVoxelSize: Any, maxPtCntPerVoxel: Any,  # noqa: N802, N803
                              options: Any, pointSize: Any) -> None:  # noqa: N803
+        """``sim.setPointCloudOptions``: the values :meth:`getPointCloudOptions` answers.
+
+        Args:
+            pointCloudHandle: the point cloud's handle.
+            maxVoxelSize: m, positive.
+            maxPtCntPerVoxel: at least 1.
+            options: kept.
+            pointSize: pixels, kept.
+
+        Raises:
+            UnknownObjectError: not a point cloud.
+            ArgumentError: a size or count out of range, or not numbers.
+
+        """
         c = self._cloud(pointCloudHandle, "pointCloud")
         size, per = _num(maxVoxelSize, "maxVoxelSize"), _int(maxPtCntPerVoxel, "maxPtCntPerVoxel")
         if not size > 0 or per < 1:
@@ -153,7 +195,19 @@ class CloudCalls:
         c.update(size=size, per=per, options=_int(options, "options"), pointSize=_num(pointSize, "pointSize"))
 
     def getPointCloudPoints(self, pointCloudHandle: Any) -> list[float]:  # noqa: N802, N803
-        """The points, relative to the point cloud's frame (m, x, y, z each)."""
+        """The points, relative to the point cloud's frame (m, x, y, z each).
+
+        ``sim.getPointCloudPoints``.
+
+        Args:
+            pointCloudHandle: the point cloud's handle.
+
+        Returns:
+            3n floats, m.
+
+        Raises:
+            UnknownObjectError: not a point cloud.
+        """
         return self._cloud(pointCloudHandle, "pointCloud")["pts"].reshape(-1).tolist()
 
     def _add_points(self, h: int, c: dict, local: np.ndarray, rgb: np.ndarray, tol: Any) -> int:
@@ -169,7 +223,24 @@ class CloudCalls:
                                    color: Any = None, duplicateTolerance: Any = None) -> int:  # noqa: N803
         """Add points (world coordinates; ``options`` bit 0: relative to the cloud's frame; bit 1:
         ``color`` holds one RGB per point). With ``duplicateTolerance`` (m), a point within it of
-        one already in the cloud (or inserted before it) is left out. The cloud's point count."""
+        one already in the cloud (or inserted before it) is left out. The cloud's point count.
+
+        ``sim.insertPointsIntoPointCloud``.
+
+        Args:
+            pointCloudHandle: the point cloud's handle.
+            options: bit 0 relative to the cloud, bit 1 one colour per point.
+            points: 3n numbers, m.
+            color: 3 numbers (3n with bit 1) in 0..1, or None.
+            duplicateTolerance: m, or None.
+
+        Returns:
+            The point count.
+
+        Raises:
+            UnknownObjectError: not a point cloud.
+            ArgumentError: points or colours of the wrong length or kind.
+        """
         c, opts = self._cloud(pointCloudHandle, "pointCloud"), _int(options, "options")
         h = _int(pointCloudHandle, "pointCloudHandle")
         local = self._to_local(h, _points(points), bool(opts & 1))
@@ -182,7 +253,23 @@ class CloudCalls:
     def removePointsFromPointCloud(self, pointCloudHandle: Any, options: Any, points: Any,  # noqa: N802, N803
                                    tolerance: Any) -> int:  # noqa: N803
         """Remove the cloud's points within ``tolerance`` (m) of any of ``points`` (world; bit 0 of
-        ``options``: relative to the cloud); nil points: all of them. The cloud's point count."""
+        ``options``: relative to the cloud); nil points: all of them. The cloud's point count.
+
+        ``sim.removePointsFromPointCloud``.
+
+        Args:
+            pointCloudHandle: the point cloud's handle.
+            options: bit 0: points relative to the cloud.
+            points: 3n numbers (m), or None.
+            tolerance: m.
+
+        Returns:
+            The point count.
+
+        Raises:
+            UnknownObjectError: not a point cloud.
+            ArgumentError: points of the wrong length or kind.
+        """
         c, opts = self._cloud(pointCloudHandle, "pointCloud"), _int(options, "options")
         if points is None:
             return self._keep(c, np.zeros(len(c["pts"]), dtype=bool))
@@ -191,7 +278,23 @@ class CloudCalls:
 
     def intersectPointsWithPointCloud(self, pointCloudHandle: Any, options: Any, points: Any,  # noqa: N802, N803
                                       tolerance: Any) -> int:  # noqa: N803
-        """Keep only the cloud's points within ``tolerance`` (m) of one of ``points``. The count."""
+        """Keep only the cloud's points within ``tolerance`` (m) of one of ``points``. The count.
+
+        ``sim.intersectPointsWithPointCloud``.
+
+        Args:
+            pointCloudHandle: the point cloud's handle.
+            options: bit 0: points relative to the cloud.
+            points: 3n numbers, m.
+            tolerance: m.
+
+        Returns:
+            The point count.
+
+        Raises:
+            UnknownObjectError: not a point cloud.
+            ArgumentError: points of the wrong length or kind.
+        """
         c, opts = self._cloud(pointCloudHandle, "pointCloud"), _int(options, "options")
         local = self._to_local(_int(pointCloudHandle, "h"), _points(points), bool(opts & 1))
         return self._keep(c, geo.near_mask(c["pts"], local, _num(tolerance, "tolerance")))
@@ -199,7 +302,26 @@ class CloudCalls:
     def insertObjectIntoPointCloud(self, pointCloudHandle: Any, objectHandle: Any, options: Any,  # noqa: N802, N803
                                    gridSize: Any, color: Any = None, duplicateTolerance: Any = None) -> int:  # noqa: N803
         """Add an object's points: a shape's surface sampled ``gridSize`` m apart, a point cloud's
-        points, an octree's voxel centres, a dummy's position. The cloud's point count."""
+        points, an octree's voxel centres, a dummy's position. The cloud's point count.
+
+        ``sim.insertObjectIntoPointCloud``.
+
+        Args:
+            pointCloudHandle: the point cloud's handle.
+            objectHandle: a shape, point cloud, octree or dummy.
+            options: checked, ignored.
+            gridSize: m, the sampling step on a shape.
+            color: 3 numbers in 0..1, or None.
+            duplicateTolerance: m, or None.
+
+        Returns:
+            The point count.
+
+        Raises:
+            UnknownObjectError: not a point cloud, or no such object.
+            ArgumentError: a bad argument.
+            UnsupportedError: an object that is no shape, dummy, point cloud or octree.
+        """
         c, h = self._cloud(pointCloudHandle, "pointCloud"), _int(pointCloudHandle, "pointCloudHandle")
         _int(options, "options")
         world = self._object_points(objectHandle, _num(gridSize, "gridSize"))
@@ -209,110 +331,29 @@ class CloudCalls:
     def subtractObjectFromPointCloud(self, pointCloudHandle: Any, objectHandle: Any, options: Any,  # noqa: N802, N803
                                      tolerance: Any) -> int:  # noqa: N803
         """Remove the cloud's points that collide with an object (inside a shape's solid, an
-        octree's voxels, or within ``tolerance`` m of it). The cloud's point count."""
+        octree's voxels, or within ``tolerance`` m of it). The cloud's point count.
+
+        ``sim.subtractObjectFromPointCloud``.
+
+        Args:
+            pointCloudHandle: the point cloud's handle.
+            objectHandle: a shape, point cloud, octree or dummy.
+            options: checked, ignored.
+            tolerance: m.
+
+        Returns:
+            The point count.
+
+        Raises:
+            UnknownObjectError: not a point cloud, or no such object.
+            ArgumentError: a bad argument.
+            UnsupportedError: an object that is no shape, dummy, point cloud or octree.
+        """
         c, h = self._cloud(pointCloudHandle, "pointCloud"), _int(pointCloudHandle, "pointCloudHandle")
         _int(options, "options")
         if not len(c["pts"]):
             return 0
         return self._keep(c, ~self._inside(objectHandle, self._to_world(h, c["pts"]), _num(tolerance, "tolerance")))
-
-    # ------------------------------------------------------------------ octrees
-    def createOctree(self, voxelSize: Any, options: Any, pointSize: Any) -> int:  # noqa: N802, N803
-        """A new, empty octree of ``voxelSize`` (m) voxels at the world origin; its handle."""
-        size = _num(voxelSize, "voxelSize")
-        if not size > 0:
-            raise ArgumentError("voxelSize must be positive")
-        h = self._new_frame("Octree")
-        self._store("clouds")[h] = {"kind": "octree", "size": size, "options": _int(options, "options"),
-                                    "pointSize": _num(pointSize, "pointSize"), "keys": np.empty((0, 3), np.int64),
-                                    "rgb": np.empty((0, 3)), "tags": np.empty(0, np.int64)}
-        return h
-
-    def _add_voxels(self, c: dict, local: np.ndarray, rgb: np.ndarray, tags: np.ndarray) -> int:
-        keys = np.vstack([c["keys"], np.floor(local / c["size"]).astype(np.int64)])
-        _, first = np.unique(keys, axis=0, return_index=True)  # a voxel already there keeps its colour and tag
-        first.sort()
-        if len(first) > MAX_POINTS:
-            raise ArgumentError(f"an octree holds at most {MAX_POINTS} voxels")
-        c["keys"], c["rgb"] = keys[first], np.vstack([c["rgb"], rgb])[first]
-        c["tags"] = np.concatenate([c["tags"], tags])[first]
-        return len(c["keys"])
-
-    def insertVoxelsIntoOctree(self, octreeHandle: Any, options: Any, points: Any, color: Any = None,  # noqa: N802, N803
-                               tag: Any = None) -> int:
-        """Occupy the voxels containing ``points`` (world; ``options`` bit 0: relative to the
-        octree; bit 1: one colour and tag per point). The octree's voxel count."""
-        c, opts, h = self._cloud(octreeHandle, "octree"), _int(options, "options"), _int(octreeHandle, "octreeHandle")
-        local = self._to_local(h, _points(points), bool(opts & 1))
-        n = len(local)
-        if tag is None:
-            tags = np.zeros(n, np.int64)
-        else:
-            t = [_int(v, "tag") for v in (tag if isinstance(tag, (list, tuple)) else [tag])]
-            if len(t) < (n if opts & 2 else 1):
-                raise ArgumentError("tag must hold one number per point (options bit 1) or one")
-            tags = np.array(t[:n] if opts & 2 else t[:1] * n, np.int64)
-        return self._add_voxels(c, local, _colours(color, n, bool(opts & 2)), tags)
-
-    def removeVoxelsFromOctree(self, octreeHandle: Any, options: Any, points: Any) -> int:  # noqa: N802, N803
-        """Free the voxels containing ``points`` (nil: every voxel). The octree's voxel count."""
-        c, opts, h = self._cloud(octreeHandle, "octree"), _int(options, "options"), _int(octreeHandle, "octreeHandle")
-        if points is None:
-            keep = np.zeros(len(c["keys"]), dtype=bool)
-        else:
-            gone = np.floor(self._to_local(h, _points(points), bool(opts & 1)) / c["size"]).astype(np.int64)
-            keep = ~geo.near_mask(c["keys"].astype(float), gone.astype(float), 0.5)
-        c["keys"], c["rgb"], c["tags"] = c["keys"][keep], c["rgb"][keep], c["tags"][keep]
-        return len(c["keys"])
-
-    def getOctreeVoxels(self, octreeHandle: Any) -> list[float]:  # noqa: N802, N803
-        """The voxels' centres relative to the octree's frame (m, x, y, z each)."""
-        c = self._cloud(octreeHandle, "octree")
-        return ((c["keys"] + 0.5) * c["size"]).reshape(-1).tolist()
-
-    def checkOctreePointOccupancy(self, octreeHandle: Any, options: Any, points: Any) -> tuple[int, int, int, int]:  # noqa: N802, N803
-        """``result, tag, locationLow, locationHigh``: result 1 when every point (``options`` bit 1:
-        any point) lies in an occupied voxel; the tag of the first such voxel and its grid index
-        (simx's location code: x, y, z as 21-bit fields offset by 2^20, low and high 32 bits)."""
-        c, opts, h = self._cloud(octreeHandle, "octree"), _int(options, "options"), _int(octreeHandle, "octreeHandle")
-        idx = np.floor(self._to_local(h, _points(points), bool(opts & 1)) / c["size"]).astype(np.int64)
-        if not len(idx) or not len(c["keys"]):
-            return 0, 0, 0, 0
-        hit = geo.near_mask(idx.astype(float), c["keys"].astype(float), 0.5)
-        ok = hit.any() if opts & 2 else hit.all()
-        if not ok:
-            return 0, 0, 0, 0
-        first = idx[int(np.flatnonzero(hit)[0])]
-        v = int(np.flatnonzero((c["keys"] == first).all(axis=1))[0])
-        code = sum(((int(first[i]) + (1 << 20)) & 0x1FFFFF) << (21 * i) for i in range(3))
-        return 1, int(c["tags"][v]), code & 0xFFFFFFFF, code >> 32
-
-    def insertObjectIntoOctree(self, octreeHandle: Any, objectHandle: Any, options: Any, color: Any = None,  # noqa: N802, N803
-                               tag: Any = 0) -> int:
-        """Occupy the voxels an object passes through: a shape's surface, a point cloud's points,
-        another octree's voxel centres, a dummy's position. The octree's voxel count."""
-        c, h = self._cloud(octreeHandle, "octree"), _int(octreeHandle, "octreeHandle")
-        _int(options, "options")
-        local = self._to_local(h, self._object_points(objectHandle, c["size"] / 2), False)
-        n = len(local)
-        return self._add_voxels(c, local, _colours(color, n, False), np.full(n, _int(tag or 0, "tag"), np.int64))
-
-    def subtractObjectFromOctree(self, octreeHandle: Any, objectHandle: Any, options: Any) -> int:  # noqa: N802, N803
-        """Free the voxels an object occupies: those it passes through (as
-        :meth:`insertObjectIntoOctree` marks them) and, for a shape, those whose centre lies in
-        its solid. The octree's voxel count."""
-        c, h = self._cloud(octreeHandle, "octree"), _int(octreeHandle, "octreeHandle")
-        _int(options, "options")
-        if not len(c["keys"]):
-            return 0
-        crossed = np.floor(self._to_local(h, self._object_points(objectHandle, c["size"] / 2), False)
-                           / c["size"]).astype(float)
-        gone = geo.near_mask(c["keys"].astype(float), crossed, 0.5)
-        obj = self._world.get(_int(objectHandle, "objectHandle"))
-        if obj.type == SHAPE and _int(objectHandle, "objectHandle") not in self._store("clouds"):
-            gone |= self._inside(objectHandle, self._to_world(h, (c["keys"] + 0.5) * c["size"]), 0.0)
-        c["keys"], c["rgb"], c["tags"] = c["keys"][~gone], c["rgb"][~gone], c["tags"][~gone]
-        return len(c["keys"])
 
     if TYPE_CHECKING:  # provided by the facade
         _world: Any

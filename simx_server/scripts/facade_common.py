@@ -23,11 +23,34 @@ class CommonCalls:
     """Objects, joints and depth buffers for scripts and clients (facade mixin)."""
 
     def removeObject(self, objectHandle: Any) -> None:  # noqa: N802, N803
-        """Remove an object (a shape with its body subtree), as ``simxRemoveObject``."""
+        """Remove an object (a shape with its body subtree), as ``simxRemoveObject``.
+
+        ``sim.removeObject``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: the world (-1).
+            UnsupportedError: an object simx cannot remove, or no simulation behind the script.
+        """
         self._simulation("removeObject").editor.remove_object(self._h(objectHandle))
 
     def removeObjects(self, objectHandles: Any, delayedRemoval: Any = False) -> None:  # noqa: N802, N803
-        """Remove several objects (each as :meth:`removeObject`; ``delayedRemoval`` ignored)."""
+        """Remove several objects (each as :meth:`removeObject`; ``delayedRemoval`` ignored).
+
+        ``sim.removeObjects``.
+
+        Args:
+            objectHandles: list of handles (ones already removed with a parent are skipped).
+            delayedRemoval: ignored.
+
+        Raises:
+            ArgumentError: not a list of integers.
+            UnknownObjectError: no such object.
+            UnsupportedError: an object simx cannot remove, or no simulation behind the script.
+        """
         if not isinstance(objectHandles, list):
             raise ArgumentError("objectHandles must be a list of handles")
         for h in objectHandles:
@@ -35,17 +58,56 @@ class CommonCalls:
                 self.removeObject(h)
 
     def removeModel(self, objectHandle: Any, delayedRemoval: Any = False) -> int:  # noqa: N802, N803
-        """Remove a model (the body subtree of a shape); returns how many objects went."""
+        """Remove a model (the body subtree of a shape); returns how many objects went.
+
+        ``sim.removeModel``.
+
+        Args:
+            objectHandle: the model's base object, or ``sim.handle_self``.
+            delayedRemoval: ignored.
+
+        Returns:
+            The number of objects removed.
+
+        Raises:
+            UnknownObjectError: no such object.
+            UnsupportedError: an object simx cannot remove, or no simulation behind the script.
+        """
         before = len(self._world.objects)
         self._simulation("removeModel").editor.remove_model(self._h(objectHandle))
         return before - len(self._world.objects)
 
     def isHandle(self, objectHandle: Any) -> bool:  # noqa: N802, N803
-        """Whether an object has this handle."""
+        """Whether an object has this handle.
+
+        ``sim.isHandle``.
+
+        Args:
+            objectHandle: an integer.
+
+        Returns:
+            True or False.
+
+        Raises:
+            ArgumentError: not an integer.
+        """
         return _int(objectHandle, "objectHandle") in self._world.objects
 
     def getObjectChild(self, objectHandle: Any, index: Any) -> int:  # noqa: N802, N803
-        """The ``index``-th (0-based) child of an object (-1: of the world), or -1."""
+        """The ``index``-th (0-based) child of an object (-1: of the world), or -1.
+
+        ``sim.getObjectChild``.
+
+        Args:
+            objectHandle: the parent's handle, -1 (the world) or ``sim.handle_self``.
+            index: 0-based.
+
+        Returns:
+            The child's handle, or -1.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         h, i = self._h(objectHandle), _int(index, "index")
         if h != WORLD:
             self._world.get(h)
@@ -53,7 +115,21 @@ class CommonCalls:
         return children[i] if 0 <= i < len(children) else -1
 
     def getJointType(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """``sim.joint_revolute_subtype`` (10) or ``sim.joint_prismatic_subtype`` (11)."""
+        """``sim.joint_revolute_subtype`` (10) or ``sim.joint_prismatic_subtype`` (11).
+
+        ``sim.getJointType``.
+
+        Args:
+            objectHandle: a joint's handle, or ``sim.handle_self``.
+
+        Returns:
+            10 or 11.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint.
+            UnsupportedError: a MuJoCo free or ball joint.
+        """
         obj = self._world.get(self._h(objectHandle), JOINT)
         kind = _JOINT_TYPES.get(int(self._world.model.jnt_type[obj.mj_id]))
         if kind is None:
@@ -62,23 +138,81 @@ class CommonCalls:
         return kind
 
     def getJointVelocity(self, jointHandle: Any) -> float:  # noqa: N802, N803
-        """Joint velocity (rad/s or m/s)."""
+        """Joint velocity (rad/s or m/s).
+
+        ``sim.getJointVelocity``.
+
+        Args:
+            jointHandle: a joint's handle, or ``sim.handle_self``.
+
+        Returns:
+            rad/s or m/s.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint.
+            UnsupportedError: no simulation behind the script.
+        """
         return object_params.get_float_param(self._simulation("getJointVelocity"), self._h(jointHandle), C.sim_jointfloatparam_velocity)
 
     def setJointTargetForce(self, objectHandle: Any, forceOrTorque: Any, signedValue: Any = True) -> None:  # noqa: N802, N803
         """The most force/torque the joint's motor applies (N or N·m), as ``simxSetJointForce``
-        (its magnitude; simx's motors have no separate force mode, see docs/API.md)."""
+        (its magnitude; simx's motors have no separate force mode, see docs/API.md).
+
+        ``sim.setJointTargetForce``.
+
+        Args:
+            objectHandle: a joint's handle, or ``sim.handle_self``.
+            forceOrTorque: N or N·m (its magnitude is used).
+            signedValue: ignored.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint.
+            ArgumentError: not a number.
+        """
         self._world.set_joint_force(self._h(objectHandle), abs(_num(forceOrTorque, "forceOrTorque")))
 
     def getJointTargetForce(self, jointHandle: Any) -> float:  # noqa: N802, N803
-        """The motor's force/torque limit (N or N·m)."""
+        """The motor's force/torque limit (N or N·m).
+
+        ``sim.getJointTargetForce``.
+
+        Args:
+            jointHandle: a joint's handle, or ``sim.handle_self``.
+
+        Returns:
+            N or N·m.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint.
+        """
         return self._world.joint_max_force(self._h(jointHandle))
 
     def getVisionSensorDepth(self, sensorHandle: Any, options: Any = 0, pos: Any = None,  # noqa: N802, N803
                              size: Any = None) -> tuple[bytes, list[int]]:
         """``depth, resolution``: the depth buffer as float32 bytes, rows bottom-up; values 0..1
         from near to far clipping plane, or (``options`` bit 0) distances in m. ``pos``/``size``
-        cut a window as in ``getVisionSensorImg``."""
+        cut a window as in ``getVisionSensorImg``.
+
+        ``sim.getVisionSensorDepth``.
+
+        Args:
+            sensorHandle: a vision sensor's handle.
+            options: bit 0: metres.
+            pos: ``[x, y]`` pixels, or None.
+            size: ``[w, h]`` pixels (0: to the edge), or None.
+
+        Returns:
+            ``(depth, resolution)``: w*h float32 bytes and ``[w, h]``.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+            UnsupportedError: options beyond bit 0, or no simulation behind the script.
+            ArgumentError: a window outside the image.
+        """
         opts = _int(options, "options")
         if opts & ~1:
             raise UnsupportedError(f"getVisionSensorDepth options {opts}: only bit 0 (metres) is supported")

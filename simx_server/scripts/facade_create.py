@@ -46,7 +46,22 @@ class CreateCalls:
         ``options`` bit 0: perspective (else orthographic); ``intParams`` resolution x, y (and 2
         reserved); ``floatParams`` near and far clipping (m), the view angle (rad, perspective)
         or the orthographic size (m), then the body size and null-pixel colour (no meaning for a
-        MuJoCo camera). Errors: a bad resolution, near not in (0, far)."""
+        MuJoCo camera). Errors: a bad resolution, near not in (0, far).
+
+        ``sim.createVisionSensor``.
+
+        Args:
+            options: bit 0: perspective.
+            intParams: at least 2 integers (pixels).
+            floatParams: at least 3 numbers (m, m, rad or m).
+
+        Returns:
+            The sensor's handle.
+
+        Raises:
+            ArgumentError: a bad resolution or clipping planes.
+            UnsupportedError: no simulation behind the script.
+        """
         opts = _int(options, "options")
         ints = _numbers(intParams, 2, "intParams", integer=True)
         floats = _numbers(floatParams, 3, "floatParams")
@@ -75,7 +90,24 @@ class CreateCalls:
         ``sensorType`` ``sim.proximitysensor_ray`` (34: one ray, a rangefinder) or
         ``sim.proximitysensor_cone`` (33: a fan of rays filling the cone); ``floatParams`` offset
         (0: simx's rays start at the sensor), range (m), and for a cone its angle (rad, index 9).
-        Pyramid, cylinder and disc volumes: UnsupportedError (MuJoCo casts rays)."""
+        Pyramid, cylinder and disc volumes: UnsupportedError (MuJoCo casts rays).
+
+        ``sim.createProximitySensor``.
+
+        Args:
+            sensorType: 33 or 34.
+            subType: checked.
+            options: checked.
+            intParams: integers (checked).
+            floatParams: numbers (m, rad).
+
+        Returns:
+            The sensor's handle.
+
+        Raises:
+            UnsupportedError: another volume type, or no simulation behind the script.
+            ArgumentError: bad parameters (a range that is not positive).
+        """
         kind = _int(sensorType, "sensorType")
         _int(subType, "subType")
         _int(options, "options")

@@ -69,29 +69,115 @@ class EngineCalls:
                 setattr(opt, field, value)
 
     def getEngineFloatParam(self, paramId: Any, objectHandle: Any) -> float:  # noqa: N802, N803
-        """``sim.mujoco_global_impratio``, ``wind1..3`` (m/s), ``density`` (kg/m³), ``viscosity``."""
+        """``sim.mujoco_global_impratio``, ``wind1..3`` (m/s), ``density`` (kg/m³), ``viscosity``.
+
+        ``sim.getEngineFloatParam``.
+
+        Args:
+            paramId: a ``sim.mujoco_global_*`` float parameter.
+            objectHandle: -1 (global parameters only).
+
+        Returns:
+            The value (MuJoCo's ``opt`` field).
+
+        Raises:
+            UnsupportedError: a parameter with no MuJoCo counterpart, or a per-object one.
+        """
         return float(self._opt(*self._engine("getEngineFloatParam", paramId, objectHandle, "float")))
 
     def setEngineFloatParam(self, paramId: Any, objectHandle: Any, floatParam: Any) -> None:  # noqa: N802, N803
+        """``sim.setEngineFloatParam``: set a MuJoCo ``opt`` field (see :meth:`getEngineFloatParam`).
+
+        Args:
+            paramId: a ``sim.mujoco_global_*`` float parameter.
+            objectHandle: -1 (global parameters only).
+            floatParam: the value, in the field's range.
+
+        Raises:
+            UnsupportedError: a parameter with no MuJoCo counterpart, or a per-object one.
+            ArgumentError: a value out of range, or not a number.
+
+        """
         self._set_opt(*self._engine("setEngineFloatParam", paramId, objectHandle, "float"), _num(floatParam, "floatParam"))
 
     def getEngineInt32Param(self, paramId: Any, objectHandle: Any) -> int:  # noqa: N802, N803
-        """``sim.mujoco_global_iterations``, ``integrator``, ``solver``, ``cone`` (MuJoCo's enums)."""
+        """``sim.mujoco_global_iterations``, ``integrator``, ``solver``, ``cone`` (MuJoCo's enums).
+
+        ``sim.getEngineInt32Param``.
+
+        Args:
+            paramId: a ``sim.mujoco_global_*`` integer parameter.
+            objectHandle: -1 (global parameters only).
+
+        Returns:
+            The value.
+
+        Raises:
+            UnsupportedError: a parameter with no MuJoCo counterpart, or a per-object one.
+        """
         return int(self._opt(*self._engine("getEngineInt32Param", paramId, objectHandle, "int")))
 
     def setEngineInt32Param(self, paramId: Any, objectHandle: Any, int32Param: Any) -> None:  # noqa: N802, N803
+        """``sim.setEngineInt32Param``: set a MuJoCo ``opt`` field (see :meth:`getEngineInt32Param`).
+
+        Args:
+            paramId: a ``sim.mujoco_global_*`` integer parameter.
+            objectHandle: -1 (global parameters only).
+            int32Param: the value, in the field's range.
+
+        Raises:
+            UnsupportedError: a parameter with no MuJoCo counterpart, or a per-object one.
+            ArgumentError: a value out of range, or not an integer.
+
+        """
         self._set_opt(*self._engine("setEngineInt32Param", paramId, objectHandle, "int"), _int(int32Param, "int32Param"))
 
     def getEngineBoolParam(self, paramId: Any, objectHandle: Any) -> bool:  # noqa: N802, N803
-        """``sim.mujoco_global_multiccd``."""
+        """``sim.mujoco_global_multiccd``.
+
+        ``sim.getEngineBoolParam``.
+
+        Args:
+            paramId: a ``sim.mujoco_global_*`` boolean parameter.
+            objectHandle: -1 (global parameters only).
+
+        Returns:
+            The value.
+
+        Raises:
+            UnsupportedError: a parameter with no MuJoCo counterpart, or a per-object one.
+        """
         return bool(self._opt(*self._engine("getEngineBoolParam", paramId, objectHandle, "bool")))
 
     def setEngineBoolParam(self, paramId: Any, objectHandle: Any, boolParam: Any) -> None:  # noqa: N802, N803
+        """``sim.setEngineBoolParam``: set a MuJoCo flag (see :meth:`getEngineBoolParam`).
+
+        Args:
+            paramId: a ``sim.mujoco_global_*`` boolean parameter.
+            objectHandle: -1 (global parameters only).
+            boolParam: the value (truthiness).
+
+        Raises:
+            UnsupportedError: a parameter with no MuJoCo counterpart, or a per-object one.
+
+        """
         self._set_opt(*self._engine("setEngineBoolParam", paramId, objectHandle, "bool"), bool(boolParam))
 
     def isDynamicallyEnabled(self, objectHandle: Any) -> bool:  # noqa: N802, N803
         """Whether MuJoCo simulates the object's dynamics: a shape not welded to the world, a
-        joint; other objects follow their body."""
+        joint; other objects follow their body.
+
+        ``sim.isDynamicallyEnabled``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            True or False.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         obj = self._world.get(self._h(objectHandle))
         if obj.type == JOINT:
             return True
@@ -99,49 +185,136 @@ class EngineCalls:
 
     # ------------------------------------------------------------------ objects
     def getObjectsWithTag(self, tagName: Any, justModels: Any = False) -> list[int]:  # noqa: N802, N803
-        """The objects that carry custom data ``tagName`` (``writeCustomDataBlockEx``)."""
+        """The objects that carry custom data ``tagName`` (``writeCustomDataBlockEx``).
+
+        ``sim.getObjectsWithTag``.
+
+        Args:
+            tagName: the custom data tag.
+            justModels: ignored.
+
+        Returns:
+            The handles, sorted.
+
+        Raises:
+            ArgumentError: ``tagName`` is not a string.
+        """
         tag = _text(tagName, "tagName")
         holder = getattr(self, "_sim", None) or self
         store = getattr(holder, "custom_data", {})
         return sorted(h for h, block in store.items() if tag in block and h in self._world.objects)
 
     def getObjectHierarchyOrder(self, objectHandle: Any) -> tuple[int, int]:  # noqa: N802, N803
-        """``order, totalSiblings``: the object's place among its parent's children (tree order)."""
+        """``order, totalSiblings``: the object's place among its parent's children (tree order).
+
+        ``sim.getObjectHierarchyOrder``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            ``(order, totalSiblings)``: 0-based index and count.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         obj = self._world.get(self._h(objectHandle))
         siblings = [o.handle for o in self._world.objects.values() if o.parent == obj.parent]
         return siblings.index(obj.handle), len(siblings)
 
     def getObjectSizeFactor(self, objectHandle: Any) -> float:  # noqa: N802, N803
-        """1: simx never scales objects (``scaleObject`` is not implemented)."""
+        """1: simx never scales objects (``scaleObject`` is not implemented).
+
+        ``sim.getObjectSizeFactor``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            1.0.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         self._world.get(self._h(objectHandle))
         return 1.0
 
     # ------------------------------------------------------------ API and settings
     def getApiFunc(self, scriptHandle: Any, apiWord: Any) -> list[str]:  # noqa: N802, N803
-        """Names of the ``sim`` functions that start with ``apiWord`` (``sim.`` prefix optional)."""
+        """Names of the ``sim`` functions that start with ``apiWord`` (``sim.`` prefix optional).
+
+        ``sim.getApiFunc``.
+
+        Args:
+            scriptHandle: ignored.
+            apiWord: the prefix.
+
+        Returns:
+            ``sim.NAME`` strings, sorted.
+
+        Raises:
+            ArgumentError: ``apiWord`` is not a string.
+        """
         word = _text(apiWord, "apiWord").removeprefix("sim.")
         names = sorted(n for klass in type(self).__mro__ for n, v in vars(klass).items()
                        if not n.startswith("_") and callable(v) and n.startswith(word))
         return [f"sim.{n}" for n in dict.fromkeys(names)]
 
     def getApiInfo(self, scriptHandle: Any, apiWord: Any) -> str:  # noqa: N802, N803
-        """The documentation of ``sim.apiWord`` (its docstring), ``""`` when it has none."""
+        """The documentation of ``sim.apiWord`` (its docstring), ``""`` when it has none.
+
+        ``sim.getApiInfo``.
+
+        Args:
+            scriptHandle: ignored.
+            apiWord: the function's name.
+
+        Returns:
+            The text.
+
+        Raises:
+            ArgumentError: ``apiWord`` is not a string.
+        """
         fn = getattr(type(self), _text(apiWord, "apiWord").removeprefix("sim."), None)
         return (fn.__doc__ or "").strip() if callable(fn) else ""
 
     def getSettingString(self, key: Any) -> str | None:  # noqa: N802
-        """simx has no user settings file: nil for every key."""
+        """simx has no user settings file: nil for every key.
+
+        ``sim.getSettingString``.
+
+        Args:
+            key: the setting's name.
+
+        Returns:
+            None.
+
+        Raises:
+            ArgumentError: ``key`` is not a string.
+        """
         _text(key, "key")
         return None
 
     getSettingBool = getSettingInt32 = getSettingFloat = getSettingString  # noqa: N815
 
     def getSimulatorMessage(self) -> tuple[int, list[int], list[int]]:  # noqa: N802
-        """``-1``: no message queue (no window events), as CoppeliaSim with an empty queue."""
+        """``-1``: no message queue (no window events), as CoppeliaSim with an empty queue.
+
+        ``sim.getSimulatorMessage``.
+
+        Returns:
+            ``(-1, [0, 0, 0, 0], [0, 0, 0, 0])``: message, auxiliary data, auxiliary data 2.
+        """
         return -1, [0, 0, 0, 0], [0, 0, 0, 0]
 
     def getLastInfo(self) -> str:  # noqa: N802
-        """``""``: simx reports information in its log, not through this call."""
+        """``""``: simx reports information in its log, not through this call.
+
+        ``sim.getLastInfo``.
+
+        Returns:
+            ``""``.
+        """
         return ""
 
     if TYPE_CHECKING:  # provided by the facade

@@ -50,29 +50,89 @@ class FlagCalls:
         return self._world.get(self._h(handle, "objectHandle")).handle
 
     def getObjectProperty(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """The object's ``sim.objectproperty_*`` bits (window behaviour: selectable, collapsed...)."""
+        """The object's ``sim.objectproperty_*`` bits (window behaviour: selectable, collapsed...).
+
+        ``sim.getObjectProperty``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            The bits.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         h = self._flag_target(objectHandle)
         return int(self._flags("object").get(h, OBJECTPROPERTY_SELECTABLE))
 
     def setObjectProperty(self, objectHandle: Any, property: Any) -> None:  # noqa: N802, N803, A002
-        """Keep the object's ``sim.objectproperty_*`` bits (no window: nothing else changes)."""
+        """Keep the object's ``sim.objectproperty_*`` bits (no window: nothing else changes).
+
+        ``sim.setObjectProperty``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+            property: the bits.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not an integer.
+        """
         self._flags("object")[self._flag_target(objectHandle)] = _int(property, "property")
 
     def getModelProperty(self, objectHandle: Any) -> int:  # noqa: N802, N803
         """The ``sim.modelproperty_*`` bits of a model base; ``sim.modelproperty_not_model`` for
-        an object that is none."""
+        an object that is none.
+
+        ``sim.getModelProperty``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            The bits.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return int(self._flags("model").get(self._flag_target(objectHandle), MODELPROPERTY_NOT_MODEL))
 
     def setModelProperty(self, objectHandle: Any, property: Any) -> None:  # noqa: N802, N803, A002
         """Keep the ``sim.modelproperty_*`` bits; bits without ``sim.modelproperty_not_model``
-        make the object a model base (CoppeliaSim's rule)."""
+        make the object a model base (CoppeliaSim's rule).
+
+        ``sim.setModelProperty``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+            property: the bits.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not an integer.
+        """
         self._flags("model")[self._flag_target(objectHandle)] = _int(property, "property")
 
     def convertPropertyValue(self, value: Any, fromType: Any, toType: Any) -> Any:  # noqa: N802, N803
         """``value`` of ``sim.propertytype_*`` ``fromType`` as ``toType``: between numbers (bool,
         int, long, float), string and buffer (UTF-8), numeric vectors of one length (vector2/3,
         color, quaternion, pose, matrices, float and int arrays), quaternion and matrix3x3,
-        pose and matrix4x4 (16 numbers, row-major). ArgumentError for any other pair."""
+        pose and matrix4x4 (16 numbers, row-major). ArgumentError for any other pair.
+
+        ``sim.convertPropertyValue`` (CoppeliaSim 4.8).
+
+        Args:
+            value: the value.
+            fromType: a ``sim.propertytype_*``.
+            toType: a ``sim.propertytype_*``.
+
+        Returns:
+            The converted value.
+
+        Raises:
+            ArgumentError: an unknown type, a pair with no conversion, or a value of the wrong kind.
+        """
         src, dst = _int(fromType, "fromType"), _int(toType, "toType")
         if src not in TYPES or dst not in TYPES:
             raise ArgumentError(f"unknown property type {src if src not in TYPES else dst}")

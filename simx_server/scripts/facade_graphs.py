@@ -62,7 +62,25 @@ class GraphCalls:
 
     def addGraphStream(self, graphHandle: Any, streamName: Any, unit: Any, options: Any = 0,  # noqa: N802, N803
                        color: Any = None, cyclicRange: Any = np.pi) -> int:  # noqa: N803
-        """A new, empty time stream on the graph; its id."""
+        """A new, empty time stream on the graph; its id.
+
+        ``sim.addGraphStream``.
+
+        Args:
+            graphHandle: the graph's handle.
+            streamName: the stream's name.
+            unit: its unit's text.
+            options: kept.
+            color: RGB 0..1, or None (red).
+            cyclicRange: kept (rad).
+
+        Returns:
+            The stream's id.
+
+        Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
+            ArgumentError: MAX_STREAMS streams already, or a bad argument.
+        """
         g = self._graph(graphHandle)
         if len(g["streams"]) >= MAX_STREAMS:
             raise ArgumentError(f"at most {MAX_STREAMS} streams per graph")
@@ -75,7 +93,20 @@ class GraphCalls:
         return sid
 
     def setGraphStreamValue(self, graphHandle: Any, streamId: Any, value: Any) -> None:  # noqa: N802, N803
-        """Record ``value`` for the current simulation time."""
+        """Record ``value`` for the current simulation time.
+
+        ``sim.setGraphStreamValue``.
+
+        Args:
+            graphHandle: the graph's handle.
+            streamId: the stream's id.
+            value: the value (in the stream's unit).
+
+        Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
+            UnknownObjectError: no such stream.
+            ArgumentError: MAX_VALUES values already, or not a number.
+        """
         s = self._stream(self._graph(graphHandle), streamId)
         t, v = float(self._world.time), _num(value, "value")
         if s["t"] and s["t"][-1] == t:
@@ -88,7 +119,23 @@ class GraphCalls:
 
     def setGraphStreamTransformation(self, graphHandle: Any, streamId: Any, trType: Any, mult: Any = 1.0,  # noqa: N802, N803
                                      off: Any = 0.0, movAvgPeriod: Any = 1) -> None:  # noqa: N803
-        """How the stream's values are read (see the module's text)."""
+        """How the stream's values are read (see the module's text).
+
+        ``sim.setGraphStreamTransformation``.
+
+        Args:
+            graphHandle: the graph's handle.
+            streamId: the stream's id.
+            trType: a ``sim.stream_transf_*`` (0..3).
+            mult: factor.
+            off: offset.
+            movAvgPeriod: samples, at least 1.
+
+        Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
+            UnknownObjectError: no such stream.
+            ArgumentError: an unknown type or period.
+        """
         s = self._stream(self._graph(graphHandle), streamId)
         kind, n = _int(trType, "trType"), _int(movAvgPeriod, "movAvgPeriod")
         if kind not in (0, 1, 2, 3) or n < 1:
@@ -98,7 +145,30 @@ class GraphCalls:
     def addGraphCurve(self, graphHandle: Any, curveName: Any, dim: Any, streamIds: Any, defaultValues: Any,  # noqa: N802, N803
                       unitStr: Any, options: Any = 0, color: Any = None, curveWidth: Any = 2) -> int:  # noqa: N803
         """An x/y curve (``dim`` 2) of two streams; its id. 3D curves: UnsupportedError (their
-        points cannot be read back through ``getGraphCurve``'s x/y data)."""
+        points cannot be read back through ``getGraphCurve``'s x/y data).
+
+        ``sim.addGraphCurve``.
+
+        Args:
+            graphHandle: the graph's handle.
+            curveName: the curve's name.
+            dim: 2.
+            streamIds: 2 stream ids (x, y).
+            defaultValues: ignored.
+            unitStr: its unit's text.
+            options: kept.
+            color: RGB 0..1, or None (yellow).
+            curveWidth: pixels, kept.
+
+        Returns:
+            The curve's id.
+
+        Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
+            UnsupportedError: ``dim`` other than 2.
+            ArgumentError: not 2 stream ids.
+            UnknownObjectError: no such stream.
+        """
         g = self._graph(graphHandle)
         if _int(dim, "dim") != 2:
             raise UnsupportedError("addGraphCurve: simx keeps 2D curves (dim 2)")
@@ -124,7 +194,23 @@ class GraphCalls:
     def getGraphCurve(self, graphHandle: Any, graphType: Any, curveIndex: Any) -> tuple:  # noqa: N802, N803
         """``label, attributes, curveColor, xData, yData, minMax, curveId, curveWidth`` of the
         ``curveIndex``-th time stream (``graphType`` 0) or x/y curve (1); minMax: min and max of
-        x then y."""
+        x then y.
+
+        ``sim.getGraphCurve``.
+
+        Args:
+            graphHandle: the graph's handle.
+            graphType: 0 or 1.
+            curveIndex: 0-based.
+
+        Returns:
+            The 8-tuple: str, int, 3 floats, n floats, n floats, 4 floats, int, int.
+
+        Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
+            UnsupportedError: another ``graphType``.
+            ArgumentError: an index past the last.
+        """
         g, kind, i = self._graph(graphHandle), _int(graphType, "graphType"), _int(curveIndex, "curveIndex")
         if kind == 0:
             items = list(g["streams"].items())
@@ -141,7 +227,22 @@ class GraphCalls:
                 c.get("width", 2))
 
     def duplicateGraphCurveToStatic(self, graphHandle: Any, curveId: Any, curveName: Any = "") -> int:  # noqa: N802, N803
-        """A static copy (no longer updated) of a stream's time curve or of an x/y curve; its id."""
+        """A static copy (no longer updated) of a stream's time curve or of an x/y curve; its id.
+
+        ``sim.duplicateGraphCurveToStatic``.
+
+        Args:
+            graphHandle: the graph's handle.
+            curveId: a stream's or curve's id.
+            curveName: the copy's name (``""``: from the source's).
+
+        Returns:
+            The copy's id.
+
+        Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
+            UnknownObjectError: no such stream or curve.
+        """
         g, cid = self._graph(graphHandle), _int(curveId, "curveId")
         if cid in g["curves"]:
             src = g["curves"][cid]
@@ -159,7 +260,18 @@ class GraphCalls:
         return new
 
     def destroyGraphCurve(self, graphHandle: Any, curveId: Any) -> None:  # noqa: N802, N803
-        """Remove a curve or a stream (and the curves built on it); -1: every one."""
+        """Remove a curve or a stream (and the curves built on it); -1: every one.
+
+        ``sim.destroyGraphCurve``.
+
+        Args:
+            graphHandle: the graph's handle.
+            curveId: a stream's or curve's id, or -1.
+
+        Raises:
+            ObjectTypeError: ``graphHandle`` is not a graph (simx's graphs are dummies).
+            UnknownObjectError: no such stream or curve.
+        """
         g, cid = self._graph(graphHandle), _int(curveId, "curveId")
         if cid == -1:
             g["streams"].clear()

@@ -36,7 +36,25 @@ class GuiCalls:
     # auxiliary consoles: their text goes to the log
     def auxiliaryConsoleOpen(self, title: Any, maxLines: Any, mode: Any, position: Any = None,  # noqa: N802, N803
                              size: Any = None, textColor: Any = None, backgroundColor: Any = None) -> int:  # noqa: N803
-        """A console handle (from 1); its text goes to the server log, prefixed by ``title``."""
+        """A console handle (from 1); its text goes to the server log, prefixed by ``title``.
+
+        ``sim.auxiliaryConsoleOpen``.
+
+        Args:
+            title: the console's title (first 100 characters kept).
+            maxLines: ignored (headless).
+            mode: ignored.
+            position: ignored (pixels).
+            size: ignored (pixels).
+            textColor: ignored.
+            backgroundColor: ignored.
+
+        Returns:
+            The console handle.
+
+        Raises:
+            ArgumentError: ``title`` is not a string.
+        """
         h = self._gui_handle()
         consoles = getattr(self, "_consoles", None) or {}
         consoles[h] = _text(title, "title")[:100]
@@ -44,7 +62,20 @@ class GuiCalls:
         return h
 
     def auxiliaryConsolePrint(self, consoleHandle: Any, text: Any) -> int:  # noqa: N802, N803
-        """Write ``text`` to the server log (INFO, ``[label: title]``); 1 (0 for an unknown console)."""
+        """Write ``text`` to the server log (INFO, ``[label: title]``); 1 (0 for an unknown console).
+
+        ``sim.auxiliaryConsolePrint``.
+
+        Args:
+            consoleHandle: from :meth:`auxiliaryConsoleOpen`.
+            text: the text, or None (clears the console: nothing logged).
+
+        Returns:
+            1, or 0 for an unknown console.
+
+        Raises:
+            ArgumentError: ``consoleHandle`` not an integer, or ``text`` not a string.
+        """
         title = (getattr(self, "_consoles", None) or {}).get(_int(consoleHandle, "consoleHandle"))
         if title is None:
             return 0
@@ -53,66 +84,235 @@ class GuiCalls:
         return 1
 
     def auxiliaryConsoleClose(self, consoleHandle: Any) -> int:  # noqa: N802, N803
+        """``sim.auxiliaryConsoleClose``: forget the console.
+
+        Args:
+            consoleHandle: from :meth:`auxiliaryConsoleOpen`.
+
+        Returns:
+            1, or 0 for an unknown console.
+
+        Raises:
+            ArgumentError: ``consoleHandle`` is not an integer.
+
+        """
         return int((getattr(self, "_consoles", None) or {}).pop(_int(consoleHandle, "consoleHandle"), None) is not None)
 
     def auxiliaryConsoleShow(self, consoleHandle: Any, showState: Any) -> int:  # noqa: N802, N803
+        """``sim.auxiliaryConsoleShow``: nothing to show (headless).
+
+        Args:
+            consoleHandle: from :meth:`auxiliaryConsoleOpen`.
+            showState: ignored.
+
+        Returns:
+            1 for an open console, else 0.
+
+        Raises:
+            ArgumentError: ``consoleHandle`` is not an integer.
+
+        """
         return int(_int(consoleHandle, "consoleHandle") in (getattr(self, "_consoles", None) or {}))
 
     # text editors: nothing opens
     def textEditorOpen(self, initText: Any, properties: Any = "") -> int:  # noqa: N802, N803
-        """A handle; no editor opens (headless)."""
+        """A handle; no editor opens (headless).
+
+        ``sim.textEditorOpen``.
+
+        Args:
+            initText: ignored.
+            properties: ignored.
+
+        Returns:
+            The editor's handle.
+        """
         return self._gui_handle()
 
     def textEditorClose(self, handle: Any) -> tuple[str, list[int], list[int]]:  # noqa: N802
+        """``sim.textEditorClose`` of an editor nobody saw.
+
+        Args:
+            handle: the editor's handle (not checked).
+
+        Returns:
+            ``("", [0, 0], [0, 0])``: text, position and size (pixels).
+
+        """
         return "", [0, 0], [0, 0]
 
     def textEditorShow(self, handle: Any, showState: Any) -> None:  # noqa: N802, N803
+        """``sim.textEditorShow``: nothing to show (headless).
+
+        Args:
+            handle: the editor's handle.
+            showState: ignored.
+
+        Raises:
+            ArgumentError: ``handle`` is not an integer.
+
+        """
         _int(handle, "handle")
 
     def textEditorGetInfo(self, handle: Any) -> tuple[str, list[int], list[int], bool]:  # noqa: N802
-        """``text, pos, size, visible`` of an editor nobody sees: empty, at 0, hidden."""
+        """``text, pos, size, visible`` of an editor nobody sees: empty, at 0, hidden.
+
+        Args:
+            handle: the editor's handle (not checked).
+
+        Returns:
+            ``("", [0, 0], [0, 0], False)``.
+        """
         return "", [0, 0], [0, 0], False
 
     # views and pages
     def floatingViewAdd(self, posX: Any, posY: Any, sizeX: Any, sizeY: Any, options: Any) -> int:  # noqa: N802, N803
-        """A view handle; no view opens (headless)."""
+        """A view handle; no view opens (headless).
+
+        ``sim.floatingViewAdd``.
+
+        Args:
+            posX: ignored (0..1 of the window).
+            posY: ignored.
+            sizeX: ignored.
+            sizeY: ignored.
+            options: ignored.
+
+        Returns:
+            The view's handle.
+        """
         return self._gui_handle()
 
     def floatingViewRemove(self, floatingViewHandle: Any) -> int:  # noqa: N802, N803
+        """``sim.floatingViewRemove``: no view to remove (headless).
+
+        Args:
+            floatingViewHandle: ignored.
+
+        Returns:
+            1.
+
+        """
         return 1
 
     def adjustView(self, viewHandleOrIndex: Any, objectHandle: Any, options: Any, viewLabel: Any = None) -> int:  # noqa: N802, N803
+        """``sim.adjustView``: no view to adjust (headless).
+
+        Args:
+            viewHandleOrIndex: ignored.
+            objectHandle: ignored.
+            options: ignored.
+            viewLabel: ignored.
+
+        Returns:
+            0.
+
+        """
         return 0
 
     def cameraFitToView(self, viewHandleOrIndex: Any, objectHandles: Any = None, options: Any = 0,  # noqa: N802, N803
                         scaling: Any = 1.0) -> int:
+        """``sim.cameraFitToView``: no view to fit (headless).
+
+        Args:
+            viewHandleOrIndex: ignored.
+            objectHandles: ignored.
+            options: ignored.
+            scaling: ignored.
+
+        Returns:
+            0.
+
+        """
         return 0
 
     def getPage(self) -> int:  # noqa: N802
+        """``sim.getPage``: page 0 (headless).
+
+        Returns:
+            0.
+
+        """
         return 0
 
     def setPage(self, pageIndex: Any) -> None:  # noqa: N802, N803
+        """``sim.setPage``: no pages (headless).
+
+        Args:
+            pageIndex: the page, checked and ignored.
+
+        Raises:
+            ArgumentError: ``pageIndex`` is not an integer.
+
+        """
         _int(pageIndex, "pageIndex")
 
     def getNavigationMode(self) -> int:  # noqa: N802
+        """``sim.getNavigationMode``: mode 0 (headless).
+
+        Returns:
+            0.
+
+        """
         return 0
 
     def setNavigationMode(self, navigationMode: Any) -> None:  # noqa: N802, N803
+        """``sim.setNavigationMode``: no navigation (headless).
+
+        Args:
+            navigationMode: a ``sim.navigation_*`` value, checked and ignored.
+
+        Raises:
+            ArgumentError: ``navigationMode`` is not an integer.
+
+        """
         _int(navigationMode, "navigationMode")
 
     def refreshDialogs(self, refreshDegree: Any) -> int:  # noqa: N802, N803
+        """``sim.refreshDialogs``: no dialogs (headless).
+
+        Args:
+            refreshDegree: ignored.
+
+        Returns:
+            0.
+
+        """
         return 0
 
     def announceSceneContentChange(self) -> int:  # noqa: N802
-        """0: no undo buffer without a window."""
+        """0: no undo buffer without a window.
+
+        ``sim.announceSceneContentChange``.
+
+        Returns:
+            0.
+        """
         return 0
 
     # the selection: what scripts and clients set (no mouse)
     def getObjectSelection(self) -> list[int]:  # noqa: N802
-        """The selected objects' handles (no GUI: what scripts and clients set)."""
+        """The selected objects' handles (no GUI: what scripts and clients set).
+
+        ``sim.getObjectSelection``.
+
+        Returns:
+            The handles, in selection order.
+        """
         sim = getattr(self, "_sim", None)
         return list(getattr(sim, "selection", []) or [])
 
     def setObjectSelection(self, objectHandles: Any) -> None:  # noqa: N802, N803
+        """``sim.setObjectSelection``: the selection :meth:`getObjectSelection` answers.
+
+        Args:
+            objectHandles: list of object handles.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not a list of integers.
+            UnsupportedError: no simulation behind the script.
+
+        """
         sim = self._simulation("setObjectSelection")
         sim.selection = [self._world.get(_int(h, "objectHandle")).handle for h in objectHandles]

@@ -1,6 +1,7 @@
 """V-REP 3.x script calls with no CoppeliaSim 4.x twin in the facade: script parameters, script
-attributes and execution counts, custom data blocks, 16/32-bit boolean helpers, system time and
-``simExtRemoteApiStart``.
+attributes and execution counts (custom data blocks, boolean helpers, system time and
+``simExtRemoteApiStart``: :mod:`simx_server.scripts.facade_legacy_data`; Python scripts' thread
+calls: :mod:`simx_server.scripts.facade_threads`).
 
 :class:`LegacyCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`; the 3.x global
 names reach these methods through :mod:`simx_server.scripts.legacy_names`. A script is named by
@@ -11,17 +12,17 @@ handle arguments are object handles (``sim.handle_self``: this script).
 from __future__ import annotations
 
 import logging
-import time
 from typing import Any
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError
-from simx_server.scripts.facade_objects import HANDLE_SCENE
 from simx_server.scripts.legacy_names import CONSTANTS as LEGACY_CONSTANTS
 from simx_server.scripts.legacy_objects import LegacyObjectCalls
 from simx_server.scripts.legacy_tubes import TubeCalls
 from simx_server.scripts.legacy_wireless import WirelessCalls
-from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
+from simx_server.scripts.facade_threads import PythonThreadCalls
+from simx_server.scripts.facade_legacy_data import LegacyDataCalls, RemoteApiPorts as RemoteApiPorts
+from simx_server.base.arguments import as_integer as _int, as_text as _text
 
 log = logging.getLogger("simx.scripts")
 
@@ -29,164 +30,22 @@ log = logging.getLogger("simx.scripts")
 CONSTANTS: dict[str, int] = dict(LEGACY_CONSTANTS)
 
 _ATTR = {name: LEGACY_CONSTANTS[name] for name in LEGACY_CONSTANTS if "attribute" in name}
-_MAX_CUSTOM_DATA = 1 << 20  # bytes of one custom data block (limits of the scene's own store)
-
-
-class RemoteApiPorts:
-    """Ports scripts asked the legacy remote API to serve (``simExtRemoteApiStart(port)``).
-
-    The script facade records requests (:meth:`request`); the transport takes them
-    (:meth:`take`) on its own thread and says which ports it serves (:attr:`served`)."""
-
-    def __init__(self) -> None:
-        self.pending: list[int] = []
-        self.served: set[int] = set()
-
-    def request(self, port: int) -> None:
-        if port not in self.served and port not in self.pending:
-            self.pending.append(port)
-
-    def take(self) -> list[int]:
-        """The ports requested since the last call (in order), emptied."""
-        out, self.pending = self.pending, []
-        return out
-
-
-class ThreadEnd(BaseException):
-    """Raised inside a Python script's thread to end it (the simulation stopped, or it overran
-    its time bound); not an ``Exception``, so ``except Exception`` does not swallow it."""
-
-
-class PythonThread:
-    """A Python script's ``sysCall_thread`` / ``sysCall_threadmain`` run as a coroutine: its own
-    OS thread, but only ever running while the simulation thread waits for it (a hand-off in
-    both directions), so the script sees the simulation as from the simulation thread.
-
-    :meth:`resume` runs it until it yields (``sim.switchThread()``, ``sim.step()``,
-    ``sim.wait``, ``sim.waitForSignal``) or ends, for at most ``timeout`` s: past that the thread
-    is interrupted (an asynchronous :class:`ThreadEnd`, repeated every 50 ms until it lets go)
-    and ended. :meth:`end` ends it at the simulation's stop.
-    """
-
-    def __init__(self, fn: Any, name: str):
-        import threading
-
-        self._go, self._back = threading.Semaphore(0), threading.Semaphore(0)
-        self._ending = False
-        self.alive = True
-        self.error: BaseException | None = None
-        self._thread = threading.Thread(target=self._run, args=(fn,), name=f"simx-script-thread {name}", daemon=True)
-        self._thread.start()
-
-    def _run(self, fn: Any) -> None:
-        self._go.acquire()
-        try:
-            if not self._ending:
-                fn()
-        except ThreadEnd:
-            pass
-        except BaseException as exc:  # reported by resume() on the simulation thread
-            self.error = exc
-        finally:
-            self.alive = False
-            self._back.release()
-
-    def in_thread(self) -> bool:
-        import threading
-
-        return threading.current_thread() is self._thread
-
-    def switch(self) -> None:
-        """In the thread: give the step back; returns when resumed (raises ThreadEnd at the end)."""
-        self._back.release()
-        self._go.acquire()
-        if self._ending:
-            raise ThreadEnd
-
-    def resume(self, timeout: float) -> bool:
-        """Run the thread until it yields or ends; True when it yielded in time, False when it
-        overran ``timeout`` (it is then ended). Its error, if it raised one, is in :attr:`error`."""
-        import ctypes
-
-        if not self.alive:
-            return True
-        self._go.release()
-        if self._back.acquire(timeout=timeout):
-            return True
-        self._ending = True
-        ident = self._thread.ident
-        for _ in range(40):  # interrupt it until it lets go (at most ~2 s)
-            ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(ident), ctypes.py_object(ThreadEnd))
-            if self._back.acquire(timeout=0.05):
-                break
-        self.alive = False
-        return False
-
-    def end(self) -> None:
-        """End the thread (the simulation stops): it raises ThreadEnd where it waits."""
-        if self.alive:
-            self._ending = True
-            self._go.release()
-            self._back.acquire(timeout=1.0)
-        self.alive = False
-
-
-class PythonThreadCalls:
-    """The thread functions of ``sim`` for Python scripts (a mixin of the facade; Lua scripts get
-    their own from :data:`THREADS_LUA`)."""
-
-    def _py_thread(self, what: str) -> PythonThread:
-        script = getattr(self, "_script", None)
-        thread = getattr(script, "py_thread", None)
-        if thread is None or not thread.in_thread():
-            raise ArgumentError(f"sim.{what} can only be called in a threaded script (sysCall_thread)")
-        return thread
-
-    def switchThread(self) -> int:  # noqa: N802
-        """Give the rest of this step back; the thread resumes at the next step."""
-        self._py_thread("switchThread").switch()
-        return 1
-
-    def step(self) -> None:
-        """CoppeliaSim 4.6's name of :meth:`switchThread` in threads."""
-        self._py_thread("step").switch()
-
-    def wait(self, dt: Any, simulationTime: Any = True) -> float:  # noqa: N803
-        """Yield until ``dt`` s of simulation time (``simulationTime`` false: wall time) passed."""
-        thread = self._py_thread("wait")
-        dt = _num(dt, "dt")
-        if simulationTime is False:
-            end = time.monotonic() + dt
-            while time.monotonic() < end:
-                thread.switch()
-        else:
-            end = self.getSimulationTime() + dt
-            while self.getSimulationTime() < end - 1e-9:
-                thread.switch()
-        return 0.0
-
-    def waitForSignal(self, name: Any) -> Any:  # noqa: N802
-        """Yield until an integer, float or string signal ``name`` exists; returns its value."""
-        thread = self._py_thread("waitForSignal")
-        while True:
-            for kind in ("int", "float", "string"):
-                value = self._signals.get(kind, _text(name, "signal name"))
-                if value is not None:
-                    return value
-            thread.switch()
-
-    def setThreadAutomaticSwitch(self, allow: Any) -> int:  # noqa: N802
-        """Python threads switch only where they call the functions above: accepted, returns 0."""
-        return 0
 
 
 def name_suffix(name: str) -> tuple[int, str]:
-    """V-REP's name suffix: ``("robot#2")`` -> ``(2, "robot")``, ``("robot")`` -> ``(-1, "robot")``."""
+    """V-REP's name suffix: ``("robot#2")`` -> ``(2, "robot")``, ``("robot")`` -> ``(-1, "robot")``.
+
+    Args:
+        name: a V-REP object name.
+
+    Returns:
+        ``(suffix, base)``: the suffix number (-1: none) and the name without ``#suffix``.
+    """
     base, sep, tail = name.rpartition("#")
     return (int(tail), base) if sep and tail.isdigit() else (-1, name)
 
 
-class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls):
+class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls, LegacyDataCalls):
     """V-REP 3.x calls of child and customization scripts (a mixin of ScriptSim)."""
 
     # ---------------------------------------------------------------- names of copies
@@ -200,7 +59,18 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
         whose object is a copy (``robot#0``), ``getObjectHandle("motor")`` finds ``motor#0``, the
         motor of the same copy; ``"motor#"`` means the name without a suffix, and a name with a
         suffix or a path is taken as it is. ``sim.setNameSuffix(n)`` changes the suffix (-1:
-        none). Raises UnknownObjectError for an unknown name, as V-REP did."""
+        none). Raises UnknownObjectError for an unknown name, as V-REP did.
+
+        Args:
+            name: the object's name or path, or ``sim.handle_self``.
+
+        Returns:
+            The handle.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: ``name`` is neither a string nor ``sim.handle_self``.
+        """
         if isinstance(name, (str, bytes, bytearray)):
             text = _text(name, "object name")
             suffix = self._suffix()
@@ -211,12 +81,35 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
         return super().getObjectHandle(name)
 
     def getNameSuffix(self, name: Any = None) -> tuple[int, str]:  # noqa: N802
-        """The suffix number of ``name`` (nil: the script's object) and the name without it."""
+        """The suffix number of ``name`` (nil: the script's object) and the name without it.
+
+        Args:
+            name: an object name, or None (the script's object's name).
+
+        Returns:
+            ``(suffix, base)``: ``simGetNameSuffix``'s suffix number (-1: none) and the name without it.
+
+        Raises:
+            ArgumentError: ``name`` is not a string.
+            UnknownObjectError: no ``name`` and the script's object is gone.
+        """
         text = self._world.get(self._owner).name if name is None else _text(name, "name")
         return name_suffix(text)
 
     def setNameSuffix(self, suffix: Any) -> int:  # noqa: N802
-        """The suffix later ``getObjectHandle`` calls of this script append (-1: none)."""
+        """The suffix later ``getObjectHandle`` calls of this script append (-1: none).
+
+        ``simSetNameSuffix``.
+
+        Args:
+            suffix: the suffix number; below -1 counts as -1 (none).
+
+        Returns:
+            1.
+
+        Raises:
+            ArgumentError: ``suffix`` is not an integer.
+        """
         self._name_suffix = max(-1, _int(suffix, "nameSuffixNumber"))
         return 1
 
@@ -238,7 +131,20 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
         """3.x script simulation parameters (the scene's ``script_parameters=FILE.json``): the
         value of ``parameterName`` as a number when it reads as one (else a string; a string
         always with ``forceStringReturn``), nil when the script has no such parameter.
-        ``sim.handle_all`` as the script: a table of the values of every script that has it."""
+        ``sim.handle_all`` as the script: a table of the values of every script that has it.
+
+        Args:
+            scriptHandle: the script's object handle, ``sim.handle_self`` or ``sim.handle_all``.
+            parameterName: the parameter's name.
+            forceStringReturn: answer the value as a string.
+
+        Returns:
+            The value (int, float or str), None when the script has no such parameter; with
+            ``sim.handle_all``, the list of the values found.
+
+        Raises:
+            ArgumentError: a bad argument, or an object that has no script.
+        """
         name = _text(parameterName, "parameterName")
         h = _int(scriptHandle, "scriptHandle")
         if h == C.sim_handle_all:
@@ -250,7 +156,21 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
 
     def setScriptSimulationParameter(self, scriptHandle: Any, parameterName: Any,  # noqa: N802, N803
                                      parameterValue: Any) -> int:  # noqa: N803
-        """Set (or add) a script simulation parameter of the script; returns 1."""
+        """Set (or add) a script simulation parameter of the script; returns 1.
+
+        ``simSetScriptSimulationParameter``.
+
+        Args:
+            scriptHandle: the script's object handle, or ``sim.handle_self``.
+            parameterName: the parameter's name.
+            parameterValue: the new value (bytes are decoded as UTF-8).
+
+        Returns:
+            1.
+
+        Raises:
+            ArgumentError: a bad argument, or an object that has no script.
+        """
         script = self._own(scriptHandle, "scriptHandle")
         name = _text(parameterName, "parameterName")
         value = parameterValue.decode("utf-8", "replace") if isinstance(parameterValue, bytes) else parameterValue
@@ -263,12 +183,30 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
 
     def getScriptExecutionCount(self) -> int:  # noqa: N802
         """How many times the script's life-cycle functions (or old-style passes) have run since
-        the simulation started."""
+        the simulation started.
+
+        ``simGetScriptExecutionCount``.
+
+        Returns:
+            The count (0 outside a script).
+        """
         me = getattr(self, "_script", None)
         return me.executions if me is not None else 0
 
     def getScriptAssociatedWithObject(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """The object's child script (its object's handle), -1 when it has none."""
+        """The object's child script (its object's handle), -1 when it has none.
+
+        ``simGetScriptAssociatedWithObject``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            The object's handle when it has a child script, else -1.
+
+        Raises:
+            ArgumentError: ``objectHandle`` is not an integer.
+        """
         h = self._h(objectHandle)
         me = getattr(self, "_script", None)
         manager = me.shared.get("manager") if me is not None else None
@@ -276,7 +214,19 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
         return h if script is not None and script.kind == "child" else -1
 
     def getCustomizationScriptAssociatedWithObject(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """The object's customization script (its object's handle), -1 when it has none."""
+        """The object's customization script (its object's handle), -1 when it has none.
+
+        ``simGetCustomizationScriptAssociatedWithObject``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            The object's handle when it has a customization script, else -1.
+
+        Raises:
+            ArgumentError: ``objectHandle`` is not an integer.
+        """
         h = self._h(objectHandle)
         me = getattr(self, "_script", None)
         manager = me.shared.get("manager") if me is not None else None
@@ -288,7 +238,19 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
         execution count (V-REP 3.1.3's compatibility header of old scripts sets it to 0 at the
         first actuation pass, so that ``simGetScriptExecutionCount()==0`` marks it); the others
         are accepted and logged (simx runs every script every step, in object-tree order).
-        Returns 1."""
+        Returns 1.
+
+        Args:
+            scriptHandle: the script's object handle, or ``sim.handle_self``.
+            attributeID: a ``sim.scriptattribute_*`` constant.
+            value: the attribute's value (an integer for the execution count).
+
+        Returns:
+            1.
+
+        Raises:
+            ArgumentError: a bad argument, or an object that has no script.
+        """
         script = self._own(scriptHandle, "scriptHandle")
         if _int(attributeID, "attributeID") == _ATTR["scriptattribute_executioncount"]:
             script.executions = _int(value, "value")
@@ -298,7 +260,20 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
 
     def getScriptAttribute(self, scriptHandle: Any, attributeID: Any) -> Any:  # noqa: N802, N803
         """``sim.scriptattribute_executioncount``, ``_scripttype``, ``_enabled`` (true),
-        ``_executionorder`` (normal), ``_debuglevel`` (0)."""
+        ``_executionorder`` (normal), ``_debuglevel`` (0).
+
+        ``simGetScriptAttribute``.
+
+        Args:
+            scriptHandle: the script's object handle, or ``sim.handle_self``.
+            attributeID: a ``sim.scriptattribute_*`` constant.
+
+        Returns:
+            The attribute's value (int or bool).
+
+        Raises:
+            ArgumentError: an unsupported attribute, a bad argument, or an object without a script.
+        """
         script = self._own(scriptHandle, "scriptHandle")
         a = _int(attributeID, "attributeID")
         if a == _ATTR["scriptattribute_executioncount"]:
@@ -315,7 +290,20 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
 
     def handleChildScripts(self, callType: Any, *args: Any) -> int:  # noqa: N802, N803
         """V-REP's cascade of child scripts: simx runs every child script itself at every pass,
-        so nothing is left to run here; returns 0 (child scripts run by this call)."""
+        so nothing is left to run here; returns 0 (child scripts run by this call).
+
+        ``simHandleChildScripts``.
+
+        Args:
+            callType: a ``sim.syscb_*`` / ``sim_childscriptcall_*`` constant.
+            *args: passed on by V-REP to the child scripts; ignored.
+
+        Returns:
+            0.
+
+        Raises:
+            ArgumentError: ``callType`` is not an integer.
+        """
         _int(callType, "callType")
         return 0
 
@@ -325,101 +313,31 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
         """V-REP 3.0-3.2's ``simDelegateChildScriptExecution()``: a threaded child script hands
         the cascade of its descendants' non-threaded child scripts to the main script (it cannot
         run them from its own loop). simx runs every child script itself at every pass, with no
-        cascade, so they already run as delegated: returns 1."""
+        cascade, so they already run as delegated: returns 1.
+
+        Returns:
+            1.
+        """
         return 1
 
     def getInt32Parameter(self, parameter: Any) -> int | None:  # noqa: N802
         """V-REP 3.x's ``simGetIntegerParameter`` / ``simGetInt32Parameter``: as
         ``sim.getInt32Param``, except ``sim.intparam_flymode_camera_handle``, which answers nil:
         a headless server has no fly-mode camera, and V-REP's Lua answered nil where the call
-        found none (scripts test ``if (flyModeCameraHandle) then``)."""
+        found none (scripts test ``if (flyModeCameraHandle) then``).
+
+        Args:
+            parameter: a ``sim.intparam_*`` constant.
+
+        Returns:
+            The value, or None for ``sim.intparam_flymode_camera_handle``.
+
+        Raises:
+            ArgumentError: an unknown parameter, or not an integer.
+        """
         if _int(parameter, "parameter") == C.sim_intparam_flymode_camera_handle:
             return None
         return self.getInt32Param(parameter)
-
-    # ---------------------------------------------------------------- custom data blocks
-    def _blocks(self, handle: Any) -> dict:
-        h = self._h(handle)
-        if h not in (HANDLE_SCENE, -1):
-            self._world.get(h)
-        me = getattr(self, "_script", None)
-        store = me.shared.setdefault("custom_data", {}) if me is not None else {}
-        return store.setdefault(h, {})
-
-    def writeCustomDataBlock(self, objectHandle: Any, tagName: Any, data: Any) -> int:  # noqa: N802, N803
-        """Store ``data`` (bytes) under ``tagName`` on an object (``sim.handle_scene``: the scene);
-        empty data or nil removes the tag. Blocks live as long as the loaded scene."""
-        blocks, tag = self._blocks(objectHandle), _text(tagName, "tagName")
-        if data is None or data == b"" or data == "":
-            blocks.pop(tag, None)
-            return 1
-        raw = _bytes(data, "data")
-        if len(raw) > _MAX_CUSTOM_DATA:
-            raise ArgumentError(f"custom data block {tag!r} of {len(raw)} bytes: at most {_MAX_CUSTOM_DATA}")
-        blocks[tag] = raw
-        return 1
-
-    def readCustomDataBlock(self, objectHandle: Any, tagName: Any) -> bytes | None:  # noqa: N802, N803
-        """The block stored under ``tagName``, nil when there is none."""
-        return self._blocks(objectHandle).get(_text(tagName, "tagName"))
-
-    def readCustomDataBlockTags(self, objectHandle: Any) -> list[str]:  # noqa: N802, N803
-        """The tags of the object's custom data blocks."""
-        return sorted(self._blocks(objectHandle))
-
-    # ---------------------------------------------------------------- helpers
-    def boolOr32(self, a: Any, b: Any) -> int:  # noqa: N802
-        """``a | b`` on 32-bit unsigned values (3.x ``simBoolOr16`` too)."""
-        return (_int(a, "value1") | _int(b, "value2")) & 0xFFFFFFFF
-
-    def boolAnd32(self, a: Any, b: Any) -> int:  # noqa: N802
-        """``a & b`` on 32-bit unsigned values (3.x ``simBoolAnd16`` too)."""
-        return (_int(a, "value1") & _int(b, "value2")) & 0xFFFFFFFF
-
-    def boolXor32(self, a: Any, b: Any) -> int:  # noqa: N802
-        """``a ^ b`` on 32-bit unsigned values (3.x ``simBoolXor16`` too)."""
-        return (_int(a, "value1") ^ _int(b, "value2")) & 0xFFFFFFFF
-
-    def getSystemTimeInMs(self, previousTime: Any = -1) -> int:  # noqa: N802, N803
-        """Milliseconds of a monotonic clock (``previousTime`` -1), or elapsed since ``previousTime``."""
-        now = int(time.monotonic() * 1000) & 0x7FFFFFFF
-        prev = _int(previousTime, "previousTime")
-        return now if prev == -1 else (now - prev) & 0x7FFFFFFF
-
-    # ---------------------------------------------------------------- remote API plugin
-    def _ports(self) -> RemoteApiPorts:
-        sim = self._simulation("remoteApiStart")
-        ports = getattr(sim, "remote_api", None)
-        if ports is None:
-            raise ArgumentError("remoteApiStart needs a server (this simulation serves no remote API)")
-        return ports
-
-    def remoteApiStart(self, port: Any, maxPacketSize: Any = 1300, debug: Any = False,  # noqa: N802, N803
-                       preEnableTrigger: Any = False) -> int:  # noqa: N803
-        """``simExtRemoteApiStart(port)`` / ``simRemoteApi.start(port)``: serve the legacy remote
-        API on ``port`` too (a no-op when it is served already: 19997/19999 by default); the
-        server opens it on its own thread, under the same host and security configuration.
-        Returns 1 (the port is served or will be)."""
-        p = _int(port, "port")
-        if not 1 <= p <= 65535:
-            raise ArgumentError(f"port must be 1..65535, got {p}")
-        self._ports().request(p)
-        return 1
-
-    def remoteApiStatus(self, port: Any) -> int:  # noqa: N802
-        """1 when the legacy remote API is served on ``port`` (or about to be), else -1."""
-        ports = self._ports()
-        p = _int(port, "port")
-        return 1 if p in ports.served or p in ports.pending else -1
-
-    def remoteApiStop(self, port: Any) -> int:  # noqa: N802
-        """Ports opened for the scene stay open while the server runs: logged, returns 0."""
-        log.info("[%s] simRemoteApi.stop(%s): simx keeps serving the port", self._label, port)
-        return 0
-
-    def remoteApiReset(self) -> int:  # noqa: N802
-        """Nothing to reset: returns 0."""
-        return 0
 
 
 def _parameter(script: Any, name: str, as_string: bool) -> Any:

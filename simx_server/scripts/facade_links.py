@@ -26,7 +26,23 @@ class LinkCalls:
     def checkVisionSensorEx(self, sensorHandle: Any, entityHandle: Any, returnImage: Any) -> list[float]:  # noqa: N802, N803
         """The sensor's image now: RGB values 0..1 (``returnImage`` true) or its depth 0..1 (near
         to far), rows bottom-up. simx renders the whole scene: ``entityHandle`` must be
-        ``sim.handle_all`` (an object alone: UnsupportedError)."""
+        ``sim.handle_all`` (an object alone: UnsupportedError).
+
+        ``sim.checkVisionSensorEx``.
+
+        Args:
+            sensorHandle: a vision sensor's handle.
+            entityHandle: ``sim.handle_all``.
+            returnImage: true: RGB, false: depth.
+
+        Returns:
+            w*h*3 (or w*h) floats in 0..1.
+
+        Raises:
+            UnsupportedError: one entity, or no simulation behind the script.
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+        """
         e = _int(entityHandle, "entityHandle")
         if e != HANDLE_ALL:
             self._world.get(e)
@@ -46,7 +62,27 @@ class LinkCalls:
         segments (no area: a ray meets neither, result 0), 2 triangles (9 numbers each, world
         coordinates, ``itemCount`` of them). Within the sensor's range and ``threshold`` (m);
         ``mode`` bit 0 front faces (counter-clockwise seen from the sensor), bit 1 back faces,
-        bit 3 only surfaces facing the sensor within ``maxAngle`` (rad)."""
+        bit 3 only surfaces facing the sensor within ``maxAngle`` (rad).
+
+        ``sim.checkProximitySensorEx2``.
+
+        Args:
+            sensorHandle: a proximity sensor's handle.
+            vertices: the items' numbers, m (world frame).
+            itemType: 0, 1 or 2.
+            itemCount: how many items.
+            mode: detection bits.
+            threshold: m.
+            maxAngle: rad.
+
+        Returns:
+            ``(result, distance, detectedPoint, normalVector)``: int, m, 3 floats (m), 3 floats.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a proximity sensor.
+            ArgumentError: an unknown item type, or vertices that do not fit the count.
+        """
         h = self._world.get(self._h(sensorHandle, "sensorHandle"), PROXIMITY_SENSOR).handle
         kind, count, opts = _int(itemType, "itemType"), _int(itemCount, "itemCount"), _int(mode, "mode")
         limit, angle = _num(threshold, "threshold"), _num(maxAngle, "maxAngle")

@@ -45,7 +45,21 @@ class LookCalls:
         return np.flatnonzero(self._world.model.geom_bodyid == obj.mj_id)
 
     def getShapeAppearance(self, handle: Any, opts: Any = None) -> dict:  # noqa: N802
-        """``{"geoms": [{"name", "color" (RGBA 0..1), ["specular", "emission", "shininess"]}]}``."""
+        """``{"geoms": [{"name", "color" (RGBA 0..1), ["specular", "emission", "shininess"]}]}``.
+
+        ``sim.getShapeAppearance``.
+
+        Args:
+            handle: a shape's handle.
+            opts: ignored.
+
+        Returns:
+            The map.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+        """
         m = self._world.model
         out = []
         for g in self._shape_geoms(handle):
@@ -60,7 +74,23 @@ class LookCalls:
 
     def setShapeAppearance(self, handle: Any, savedData: Any, opts: Any = None) -> int:  # noqa: N802, N803
         """Apply a map :meth:`getShapeAppearance` returned (one entry per geom, in order);
-        returns the shape's handle."""
+        returns the shape's handle.
+
+        ``sim.setShapeAppearance``.
+
+        Args:
+            handle: a shape's handle.
+            savedData: the map.
+            opts: ignored.
+
+        Returns:
+            The shape's handle.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            ArgumentError: a map that does not fit the shape, or colours out of 0..1.
+        """
         geoms = self._shape_geoms(handle)
         items = savedData.get("geoms") if isinstance(savedData, dict) else None
         if not isinstance(items, list) or len(items) != len(geoms):
@@ -83,7 +113,19 @@ class LookCalls:
 
     def setShapeMaterial(self, shapeHandle: Any, materialIdOrShapeHandle: Any) -> None:  # noqa: N802, N803
         """Give a shape the appearance of another shape (``materialIdOrShapeHandle``), geom by geom
-        (the first geom's for any beyond the other's count)."""
+        (the first geom's for any beyond the other's count).
+
+        ``sim.setShapeMaterial``.
+
+        Args:
+            shapeHandle: the shape to change.
+            materialIdOrShapeHandle: the shape to copy from.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            ArgumentError: the source shape has no geom.
+        """
         src = self.getShapeAppearance(materialIdOrShapeHandle)["geoms"]
         n = len(self._shape_geoms(shapeHandle))
         if not src:
@@ -92,7 +134,19 @@ class LookCalls:
 
     # ------------------------------------------------------------------ textures
     def getTextureId(self, textureName: Any) -> tuple[int, list[int]]:  # noqa: N802, N803
-        """``textureId, resolution`` of the MuJoCo texture named ``textureName``."""
+        """``textureId, resolution`` of the MuJoCo texture named ``textureName``.
+
+        ``sim.getTextureId``.
+
+        Args:
+            textureName: the texture's name.
+
+        Returns:
+            ``(textureId, [w, h])``, pixels.
+
+        Raises:
+            UnknownObjectError: no such texture.
+        """
         name = _text(textureName, "textureName")
         m = self._world.model
         t = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TEXTURE, name)
@@ -101,7 +155,20 @@ class LookCalls:
         return t, [int(m.tex_width[t]), int(m.tex_height[t])]
 
     def getShapeTextureId(self, shapeHandle: Any) -> int:  # noqa: N802, N803
-        """The RGB texture of the shape's first geom's material; -1 when it has none."""
+        """The RGB texture of the shape's first geom's material; -1 when it has none.
+
+        ``sim.getShapeTextureId``.
+
+        Args:
+            shapeHandle: a shape's handle.
+
+        Returns:
+            The texture id, or -1.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+        """
         m = self._world.model
         for g in self._shape_geoms(shapeHandle):
             mat = int(m.geom_matid[g])
@@ -111,7 +178,25 @@ class LookCalls:
     def readTexture(self, textureId: Any, options: Any = 0, posX: Any = 0, posY: Any = 0,  # noqa: N802, N803
                     sizeX: Any = 0, sizeY: Any = 0) -> bytes:  # noqa: N803
         """RGB bytes (rows bottom-up) of a texture or of a window ``posX..posX+sizeX`` x
-        ``posY..posY+sizeY`` of it (0 sizes: the whole)."""
+        ``posY..posY+sizeY`` of it (0 sizes: the whole).
+
+        ``sim.readTexture``.
+
+        Args:
+            textureId: the texture id.
+            options: checked, ignored.
+            posX: pixels.
+            posY: pixels.
+            sizeX: pixels (0: to the edge).
+            sizeY: pixels (0: to the edge).
+
+        Returns:
+            sizeX*sizeY*3 bytes.
+
+        Raises:
+            UnknownObjectError: no such texture.
+            ArgumentError: a window outside the texture.
+        """
         m = self._world.model
         t = _int(textureId, "textureId")
         if not 0 <= t < m.ntex:
@@ -133,7 +218,27 @@ class LookCalls:
         confinement) made a MuJoCo texture, shown on a new static plane shape at the world origin
         of ``planeSizes`` x, y (m; nil: 1 m wide, the image's aspect) with the texture repeated
         ``scalingUV`` u, v times. ``options``, ``xy_g``, ``fixedResolution`` and ``resolution``
-        (OpenGL texture settings) are checked and have no further effect."""
+        (OpenGL texture settings) are checked and have no further effect.
+
+        ``sim.createTexture``.
+
+        Args:
+            fileName: an image file.
+            options: checked.
+            planeSizes: ``[x, y]`` m, or None.
+            scalingUV: ``[u, v]``, or None.
+            xy_g: checked.
+            fixedResolution: checked.
+            resolution: checked.
+
+        Returns:
+            ``(shapeHandle, textureId, [w, h])``.
+
+        Raises:
+            ArgumentError: not an image, or sizes that are not positive.
+            RemoteError: a file outside ``loadImage``'s folders.
+            UnsupportedError: no simulation behind the script.
+        """
         _int(options, "options")
         _int(fixedResolution, "fixedResolution")
         data = self._image_file(_text(fileName, "fileName"), False).read_bytes()
@@ -170,7 +275,25 @@ class LookCalls:
         """Put MuJoCo texture ``textureId`` on the shape's geoms (a material of its own with that
         RGB texture, repeated ``uvScaling`` u, v times) or, with -1, take their materials off
         (their colour kept). MuJoCo maps a texture by the geom's type: ``mappingMode``,
-        ``position`` and ``orientation`` are checked and have no further effect."""
+        ``position`` and ``orientation`` are checked and have no further effect.
+
+        ``sim.setShapeTexture``.
+
+        Args:
+            shapeHandle: a shape's handle.
+            textureId: a texture id, or -1.
+            mappingMode: checked.
+            options: checked.
+            uvScaling: ``[u, v]``, positive.
+            position: ignored.
+            orientation: ignored.
+
+        Raises:
+            UnknownObjectError: no such object or texture.
+            ObjectTypeError: not a shape.
+            ArgumentError: a bad ``uvScaling``.
+            UnsupportedError: a texture without a name, or no simulation behind the script.
+        """
         geoms = self._shape_geoms(shapeHandle)
         obj = self._world.objects[self._h(shapeHandle, "shapeHandle")]
         m = self._world.model
@@ -208,7 +331,21 @@ class LookCalls:
 
     # ------------------------------------------------------------------ parameters
     def getObjectStringParam(self, objectHandle: Any, parameterID: Any) -> str:  # noqa: N802, N803
-        """A string parameter (see the module's text); others: UnsupportedError naming it."""
+        """A string parameter (see the module's text); others: UnsupportedError naming it.
+
+        ``sim.getObjectStringParam``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+            parameterID: a ``sim.objstringparam_*`` / ``sim.shapestringparam_*`` value.
+
+        Returns:
+            The string.
+
+        Raises:
+            UnknownObjectError: no such object.
+            UnsupportedError: another parameter.
+        """
         h, pid = self._h(objectHandle), _int(parameterID, "parameterID")
         obj = self._world.get(h)
         if pid == UNIQUE_ID:
@@ -219,7 +356,22 @@ class LookCalls:
         raise UnsupportedError(f"string parameter {pid} of {obj.name!r}: not supported by simx")
 
     def getObjectFloatArrayParam(self, objectHandle: Any, parameterID: Any) -> list[float]:  # noqa: N802, N803
-        """``sim.visionfarrayparam_viewfrustum``: 24 numbers (m, see the module's text)."""
+        """``sim.visionfarrayparam_viewfrustum``: 24 numbers (m, see the module's text).
+
+        ``sim.getObjectFloatArrayParam``.
+
+        Args:
+            objectHandle: a vision sensor's handle.
+            parameterID: ``sim.visionfarrayparam_viewfrustum``.
+
+        Returns:
+            24 floats: the near and far planes' corners in the sensor's frame, m.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+            UnsupportedError: another parameter, or no simulation behind the script.
+        """
         pid = _int(parameterID, "parameterID")
         if pid not in (VIEWFRUSTUM, CAMERA_VIEWFRUSTUM):
             raise UnsupportedError(f"float array parameter {pid}: not supported by simx")

@@ -43,7 +43,25 @@ class MeshCalls:
     def importMesh(self, fileformat: Any, pathAndFilename: Any, options: Any = 0,  # noqa: N802, N803
                    identicalVerticeTolerance: Any = 0.0, scalingFactor: Any = 1.0) -> tuple[list, list]:  # noqa: N803
         """``vertices, indices`` of an OBJ (0) or binary STL (4) file: one table of each (one
-        mesh), as MuJoCo reads it (vertices in m, scaled by ``scalingFactor``)."""
+        mesh), as MuJoCo reads it (vertices in m, scaled by ``scalingFactor``).
+
+        ``sim.importMesh``.
+
+        Args:
+            fileformat: 0 (OBJ) or 4 (binary STL).
+            pathAndFilename: a file the server may read.
+            options: checked.
+            identicalVerticeTolerance: ignored.
+            scalingFactor: factor on the vertices.
+
+        Returns:
+            ``([vertices], [indices])``: 3n floats (m) and 3t ints.
+
+        Raises:
+            UnsupportedError: another format, or no simulation behind the script.
+            ArgumentError: no such file, or one MuJoCo cannot read.
+            RemoteError: a file outside the folders the server reads.
+        """
         fmt = _int(fileformat, "fileformat")
         if fmt not in _SUFFIX:
             raise UnsupportedError("importMesh formats: 0 OBJ, 4 binary STL (what MuJoCo reads)")
@@ -70,7 +88,23 @@ class MeshCalls:
     def exportMesh(self, fileformat: Any, pathAndFilename: Any, options: Any, scalingFactor: Any,  # noqa: N802, N803
                    vertices: Any, indices: Any) -> None:
         """Write meshes (tables of vertex tables and index tables) as one OBJ file (format 0),
-        in the server's scene folders only (``saveScene``'s rule)."""
+        in the server's scene folders only (``saveScene``'s rule).
+
+        ``sim.exportMesh``.
+
+        Args:
+            fileformat: 0 (OBJ).
+            pathAndFilename: a file name in the server's scene folder.
+            options: ignored.
+            scalingFactor: factor on the vertices (0: 1).
+            vertices: list of 3n-number tables, m.
+            indices: list of 3t-integer tables.
+
+        Raises:
+            UnsupportedError: another format.
+            ArgumentError: meshes that do not fit.
+            RemoteError: a file outside the scene folder.
+        """
         if _int(fileformat, "fileformat") != 0:
             raise UnsupportedError("exportMesh writes OBJ (format 0) only")
         name = _text(pathAndFilename, "pathAndFilename")
@@ -88,7 +122,27 @@ class MeshCalls:
     def createShape(self, options: Any, shadingAngle: Any, vertices: Any, indices: Any, normals: Any = None,  # noqa: N802, N803
                     textureCoordinates: Any = None, texture: Any = None, textureResolution: Any = None) -> int:  # noqa: N803
         """A dynamic, respondable mesh shape at the world origin from ``vertices`` (m) and
-        ``indices`` (MuJoCo uses the convex hull for contacts); its handle. Textures: refused."""
+        ``indices`` (MuJoCo uses the convex hull for contacts); its handle. Textures: refused.
+
+        ``sim.createShape``.
+
+        Args:
+            options: checked.
+            shadingAngle: ignored (rad).
+            vertices: 3n numbers, m.
+            indices: 3t integers.
+            normals: ignored.
+            textureCoordinates: ignored.
+            texture: must be empty.
+            textureResolution: ignored.
+
+        Returns:
+            The shape's handle.
+
+        Raises:
+            UnsupportedError: a texture, or no simulation behind the script.
+            ArgumentError: a bad mesh.
+        """
         if texture:
             raise UnsupportedError("createShape with a texture: no run-time textures in simx")
         v, f = _mesh(vertices, indices)
@@ -107,7 +161,21 @@ class MeshCalls:
 
     def setJointDependency(self, jointHandle: Any, masterJointHandle: Any, offset: Any, multCoeff: Any) -> None:  # noqa: N802, N803
         """Make the joint follow ``masterJointHandle``: q = offset + multCoeff · q_master (an MJCF
-        joint equality; -1 as master removes the joint's equalities)."""
+        joint equality; -1 as master removes the joint's equalities).
+
+        ``sim.setJointDependency``.
+
+        Args:
+            jointHandle: the dependent joint.
+            masterJointHandle: the master joint, or -1.
+            offset: rad or m.
+            multCoeff: factor.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint.
+            UnsupportedError: no simulation behind the script.
+        """
         w = self._world
         joint = w.get(self._h(jointHandle, "jointHandle"), JOINT)
         master = _int(masterJointHandle, "masterJointHandle")
@@ -128,7 +196,22 @@ class MeshCalls:
     def scaleObject(self, objectHandle: Any, xScale: Any, yScale: Any, zScale: Any, options: Any = 0) -> None:  # noqa: N802, N803
         """Scale a shape's geoms (sizes and positions in its frame) by x, y, z (0.001..1000):
         boxes and ellipsoids along each axis, meshes by their scale; spheres, cylinders and
-        capsules need equal x and y (and z for spheres). Its mass scales with the volume."""
+        capsules need equal x and y (and z for spheres). Its mass scales with the volume.
+
+        ``sim.scaleObject``.
+
+        Args:
+            objectHandle: a shape's handle, or ``sim.handle_self``.
+            xScale: factor.
+            yScale: factor.
+            zScale: factor.
+            options: checked.
+
+        Raises:
+            UnknownObjectError: no such object.
+            UnsupportedError: not a shape, unequal factors a geom cannot take, or no simulation.
+            ArgumentError: factors out of range.
+        """
         obj = self._world.get(self._h(objectHandle))
         if obj.type != 0:  # sim.object_shape_type
             raise UnsupportedError("scaleObject: simx scales shapes (bodies) only")

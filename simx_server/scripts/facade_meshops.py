@@ -43,7 +43,23 @@ class MeshOpCalls:
         """Move a shape's reference frame to ``pose`` (x, y, z, qx, qy, qz, qw; world) without
         moving its geometry; seven zeros: to the centre of its bounding box, axes kept. Shapes
         moved by joints other than a free joint: UnsupportedError (their joints are placed in
-        the frame). Returns 1."""
+        the frame). Returns 1.
+
+        ``sim.relocateShapeFrame``.
+
+        Args:
+            shapeHandle: a shape's handle, or ``sim.handle_self``.
+            pose: 7 numbers (m and a quaternion), or seven zeros.
+
+        Returns:
+            1.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            ArgumentError: not 7 numbers.
+            UnsupportedError: as said above, or no simulation behind the script.
+        """
         obj = self._world.get(self._h(shapeHandle, "shapeHandle"), SHAPE)
         v = _vector(pose, 7, "pose")
         m = self._world.model
@@ -86,7 +102,20 @@ class MeshOpCalls:
 
     def setShapeBB(self, shapeHandle: Any, size: Any) -> None:  # noqa: N802, N803
         """Scale a shape so that its bounding box (its frame) measures ``size`` x, y, z (m), as
-        :meth:`scaleObject` scales it (each axis by new size / current size)."""
+        :meth:`scaleObject` scales it (each axis by new size / current size).
+
+        ``sim.setShapeBB``.
+
+        Args:
+            shapeHandle: a shape's handle, or ``sim.handle_self``.
+            size: 3 positive numbers, m.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            ArgumentError: sizes that are not positive, or factors out of range.
+            UnsupportedError: a geom that cannot take the factors, or no simulation.
+        """
         h = self._h(shapeHandle, "shapeHandle")
         new = np.array(_vector(size, 3, "size"))
         old = np.array(self.getShapeBB(h))
@@ -98,7 +127,20 @@ class MeshOpCalls:
     def scaleObjects(self, objectHandles: Any, scalingFactor: Any, scalePositionsToo: Any) -> None:  # noqa: N802, N803
         """Scale shapes by ``scalingFactor`` (0.001..1000, as :meth:`scaleObject`); with
         ``scalePositionsToo``, each object's position relative to its parent scales too (other
-        objects than shapes only move)."""
+        objects than shapes only move).
+
+        ``sim.scaleObjects``.
+
+        Args:
+            objectHandles: list of handles.
+            scalingFactor: 0.001..1000.
+            scalePositionsToo: bool or 0/1.
+
+        Raises:
+            ArgumentError: an empty or bad list, or a factor out of range.
+            UnknownObjectError: no such object.
+            UnsupportedError: a geom that cannot be scaled, or no simulation behind the script.
+        """
         if not isinstance(objectHandles, (list, tuple)) or not objectHandles:
             raise ArgumentError("objectHandles must be a table of handles")
         f = _num(scalingFactor, "scalingFactor")

@@ -46,7 +46,21 @@ def alternate_configs(m: mujoco.MjModel, joints: list, config: list[float], lowL
     """``config`` (one position per joint of ``joints``, scene objects) and the configurations
     equal to it up to whole turns of its revolute joints within their ranges (or ``lowLimits`` /
     ``ranges``), flat, configuration after configuration, at most MAX_ALTERNATE_CONFIGS of them
-    (``sim.getAlternateConfigs``, ``simIK.getAlternateConfigs``)."""
+    (``sim.getAlternateConfigs``, ``simIK.getAlternateConfigs``).
+
+    Args:
+        m: the scene's MuJoCo model.
+        joints: the joints' scene objects.
+        config: one position per joint (rad or m).
+        lowLimits: one lower limit per joint (rad or m), or None.
+        ranges: one range per joint, or None.
+
+    Returns:
+        n * len(joints) floats.
+
+    Raises:
+        ArgumentError: limits that are not numbers.
+    """
     choices = []
     for i, (obj, q) in enumerate(zip(joints, config)):
         lo, hi = (m.jnt_range[obj.mj_id] if m.jnt_limited[obj.mj_id] else (-np.inf, np.inf))
@@ -68,7 +82,22 @@ class MiscCalls:
     def getScaledImage(self, imageIn: Any, resolutionIn: Any, desiredResolutionOut: Any,  # noqa: N802, N803
                        options: Any = 0) -> tuple[bytes, list[int]]:
         """``imageOut, effectiveResolutionOut``: an RGB image resized (OpenCV, area averaging
-        down, linear up); ``options`` bit 0: keep the aspect ratio inside the desired size."""
+        down, linear up); ``options`` bit 0: keep the aspect ratio inside the desired size.
+
+        ``sim.getScaledImage``.
+
+        Args:
+            imageIn: w*h*3 bytes, RGB.
+            resolutionIn: ``[w, h]``, pixels.
+            desiredResolutionOut: ``[w, h]``, pixels.
+            options: bit 0: keep the aspect ratio.
+
+        Returns:
+            ``(imageOut, effectiveResolutionOut)``: RGB bytes and ``[w, h]``.
+
+        Raises:
+            ArgumentError: an image that does not match its resolution, or a size out of range.
+        """
         img = _image(imageIn, resolutionIn)
         w, h = (_int(v, "desiredResolutionOut[i]") for v in desiredResolutionOut)
         if not (0 < w <= MAX_IMAGE_SIDE and 0 < h <= MAX_IMAGE_SIDE):
@@ -82,7 +111,21 @@ class MiscCalls:
 
     def transformImage(self, image: Any, resolution: Any, options: Any) -> bytes:  # noqa: N802
         """The RGB image transformed: ``options`` bit 0 swaps red and blue, bit 1 flips it
-        vertically, bit 2 horizontally."""
+        vertically, bit 2 horizontally.
+
+        ``sim.transformImage``.
+
+        Args:
+            image: w*h*3 bytes, RGB.
+            resolution: ``[w, h]``, pixels.
+            options: bits 0-2.
+
+        Returns:
+            The RGB bytes.
+
+        Raises:
+            ArgumentError: an image that does not match its resolution.
+        """
         img = _image(image, resolution).copy()
         opts = _int(options, "options")
         if opts & 1:
@@ -95,7 +138,23 @@ class MiscCalls:
 
     def combineRgbImages(self, img1: Any, img1Res: Any, img2: Any, img2Res: Any, operation: Any) -> bytes:  # noqa: N802, N803
         """``sim.imgcomb_vertical`` (0: img2 above img1, rows bottom-up) or ``imgcomb_horizontal``
-        (1: side by side) of two RGB images of matching size."""
+        (1: side by side) of two RGB images of matching size.
+
+        ``sim.combineRgbImages``.
+
+        Args:
+            img1: w*h*3 bytes, RGB.
+            img1Res: ``[w, h]``, pixels.
+            img2: w*h*3 bytes, RGB.
+            img2Res: ``[w, h]``, pixels.
+            operation: 0 or 1.
+
+        Returns:
+            The combined RGB bytes.
+
+        Raises:
+            ArgumentError: an unknown operation, sizes that do not match, or a bad image.
+        """
         a, b = _image(img1, img1Res), _image(img2, img2Res)
         op = _int(operation, "operation")
         if op not in (0, 1) or a.shape[1 - op] != b.shape[1 - op]:
@@ -104,7 +163,24 @@ class MiscCalls:
 
     def transformBuffer(self, inBuffer: Any, inFormat: Any, multiplier: Any, offset: Any, outFormat: Any) -> bytes:  # noqa: N802, N803
         """A buffer of ``sim.buffer_*`` items (uint8 ... double), each ``value * multiplier +
-        offset``, as another type (``outFormat`` + ``sim.buffer_clamp``: clamped to its range)."""
+        offset``, as another type (``outFormat`` + ``sim.buffer_clamp``: clamped to its range).
+
+        ``sim.transformBuffer``.
+
+        Args:
+            inBuffer: bytes of ``inFormat`` items.
+            inFormat: ``sim.buffer_*`` (0-7).
+            multiplier: factor.
+            offset: added after the factor.
+            outFormat: ``sim.buffer_*``, plus ``sim.buffer_clamp`` (256) to clamp.
+
+        Returns:
+            The bytes of ``outFormat`` items.
+
+        Raises:
+            UnsupportedError: a format out of 0-7.
+            ArgumentError: a bad argument.
+        """
         src, dst = _int(inFormat, "inFormat"), _int(outFormat, "outFormat")
         clamp, dst = bool(dst & 256), dst & ~256
         if src not in _BUFFER or dst not in _BUFFER:
@@ -121,7 +197,23 @@ class MiscCalls:
 
     def getVisionSensorDepthBuffer(self, sensorHandle: Any, pos: Any = None, size: Any = None) -> list[float]:  # noqa: N802, N803
         """The depth buffer as a table of floats 0..1 (near to far clipping plane), rows
-        bottom-up; ``sensorHandle + sim.handleflag_depthbuffermeters``: distances in m."""
+        bottom-up; ``sensorHandle + sim.handleflag_depthbuffermeters``: distances in m.
+
+        ``sim.getVisionSensorDepthBuffer``.
+
+        Args:
+            sensorHandle: a vision sensor's handle (plus ``sim.handleflag_depthbuffermeters``).
+            pos: must be None.
+            size: must be None.
+
+        Returns:
+            w*h floats, 0..1 (or m).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+            UnsupportedError: a window (``pos``/``size``), or no simulation behind the script.
+        """
         h = _int(sensorHandle, "sensorHandle")
         metres = h >= 0 and bool(h & 0x800000)  # sim.handleflag_depthbuffermeters
         if metres:
@@ -140,25 +232,88 @@ class MiscCalls:
         return store.setdefault(self._world.get(self._h(handle)).handle, {})
 
     def setReferencedHandles(self, objectHandle: Any, referencedHandles: Any, tag: Any = "") -> None:  # noqa: N802, N803
-        """Store handles that ``objectHandle`` refers to under ``tag`` (any scene objects)."""
+        """Store handles that ``objectHandle`` refers to under ``tag`` (any scene objects).
+
+        ``sim.setReferencedHandles``.
+
+        Args:
+            objectHandle: the referring object.
+            referencedHandles: list of handles (the first 10,000 kept).
+            tag: the tag (``""``: the default one).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: a bad argument.
+        """
         refs = [self._world.get(_int(h, "referencedHandles[i]")).handle for h in referencedHandles]
         self._refs(objectHandle)[_text(tag, "tag")] = refs[:10_000]
 
     def addReferencedHandle(self, objectHandle: Any, referencedHandle: Any, tag: Any = "", opts: Any = None) -> None:  # noqa: N802, N803
+        """``sim.addReferencedHandle``: add one handle under ``tag`` (once; at most 10,000).
+
+        Args:
+            objectHandle: the referring object.
+            referencedHandle: the handle to add.
+            tag: the tag (``""``: the default one).
+            opts: ignored.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: a bad argument.
+
+        """
         refs = self._refs(objectHandle).setdefault(_text(tag, "tag"), [])
         h = self._world.get(_int(referencedHandle, "referencedHandle")).handle
         if h not in refs and len(refs) < 10_000:
             refs.append(h)
 
     def getReferencedHandles(self, objectHandle: Any, tag: Any = "") -> list[int]:  # noqa: N802, N803
-        """The handles stored under ``tag``, those still in the scene (-1 for a removed one)."""
+        """The handles stored under ``tag``, those still in the scene (-1 for a removed one).
+
+        ``sim.getReferencedHandles``.
+
+        Args:
+            objectHandle: the referring object.
+            tag: the tag (``""``: the default one).
+
+        Returns:
+            The handles.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return [h if h in self._world.objects else -1 for h in self._refs(objectHandle).get(_text(tag, "tag"), [])]
 
     def getReferencedHandle(self, objectHandle: Any, tag: Any = "") -> int:  # noqa: N802, N803
+        """``sim.getReferencedHandle``: the first handle stored under ``tag``.
+
+        Args:
+            objectHandle: the referring object.
+            tag: the tag (``""``: the default one).
+
+        Returns:
+            The handle, or -1 (none, or removed).
+
+        Raises:
+            UnknownObjectError: no such object.
+
+        """
         refs = self.getReferencedHandles(objectHandle, tag)
         return refs[0] if refs else -1
 
     def getReferencedHandlesTags(self, objectHandle: Any) -> list[str]:  # noqa: N802, N803
+        """``sim.getReferencedHandlesTags``: the tags the object stores handles under.
+
+        Args:
+            objectHandle: the referring object.
+
+        Returns:
+            The tags, sorted.
+
+        Raises:
+            UnknownObjectError: no such object.
+
+        """
         return sorted(self._refs(objectHandle))
 
     # ---------------------------------------------------------- configurations
@@ -166,7 +321,25 @@ class MiscCalls:
                             lowLimits: Any = None, ranges: Any = None) -> list[float]:
         """``inputConfig`` and the configurations equal to it up to whole turns of revolute
         joints within their ranges (or ``lowLimits`` / ``ranges``), flat; the tip's pose is the
-        same in each (``tipHandle`` only checked)."""
+        same in each (``tipHandle`` only checked).
+
+        ``sim.getAlternateConfigs``.
+
+        Args:
+            jointHandles: n joint handles.
+            inputConfig: n positions (rad or m).
+            tipHandle: checked only.
+            lowLimits: n lower limits, or None.
+            ranges: n ranges, or None.
+
+        Returns:
+            k * n floats.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a joint.
+            ArgumentError: lengths that differ.
+        """
         m = self._world.model
         joints = [self._world.get(_int(j, "jointHandles[i]"), JOINT) for j in jointHandles]
         config = [_num(v, "inputConfig[i]") for v in inputConfig]
@@ -193,7 +366,18 @@ class MiscCalls:
 
     def saveScene(self, filename: Any) -> None:  # noqa: N802
         """Write the scene as it is now (its MjSpec with the edits) as MJCF; the file name is
-        checked as ``loadScene``'s (see the module's text)."""
+        checked as ``loadScene``'s (see the module's text).
+
+        ``sim.saveScene``.
+
+        Args:
+            filename: a ``.xml`` name in the server's scene folder.
+
+        Raises:
+            ArgumentError: not a ``.xml`` name.
+            RemoteError: a file outside the scene folder.
+            UnsupportedError: MuJoCo cannot write the scene, or no simulation behind the script.
+        """
         file = self._target_file(filename)
         spec = self._simulation("saveScene").editor._live_spec()
         try:
@@ -203,7 +387,20 @@ class MiscCalls:
         file.write_text(text, encoding="utf-8")
 
     def saveModel(self, modelBaseHandle: Any, filename: Any) -> None:  # noqa: N802, N803
-        """Write the body subtree of a shape (a model) as an MJCF file of its own."""
+        """Write the body subtree of a shape (a model) as an MJCF file of its own.
+
+        ``sim.saveModel``.
+
+        Args:
+            modelBaseHandle: a shape's handle.
+            filename: a ``.xml`` name in the server's scene folder.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not a shape, or not a ``.xml`` name.
+            RemoteError: a file outside the scene folder.
+            UnsupportedError: MuJoCo cannot write the model, or no simulation behind the script.
+        """
         file = self._target_file(filename)
         obj = self._world.get(self._h(modelBaseHandle))
         spec = self._simulation("saveModel").editor._live_spec()

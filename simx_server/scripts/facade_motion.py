@@ -49,7 +49,17 @@ class CallbackCall:
 def positional_config(args: tuple) -> tuple[dict, Any, Any]:
     """CoppeliaSim 4.3-4.5's ``sim.moveToConfig(flags, currentPos, currentVel, currentAccel,
     maxVel, maxAccel, maxJerk, targetPos, targetVel, callback, auxData, cyclicJoints, timeStep)``
-    as the map form's fields (nil ones left out), its ``callback`` and ``auxData``."""
+    as the map form's fields (nil ones left out), its ``callback`` and ``auxData``.
+
+    Args:
+        args: the 8 to 13 positional arguments.
+
+    Returns:
+        ``(params, callback, auxData)``.
+
+    Raises:
+        ArgumentError: a count out of 8..13.
+    """
     if not 8 <= len(args) <= 13:
         raise ArgumentError(
             "sim.moveToConfig takes one map of parameters (4.6) or 8 to 13 arguments (4.3-4.5: flags, "
@@ -69,7 +79,17 @@ def positional_config(args: tuple) -> tuple[dict, Any, Any]:
 def positional_pose(args: tuple) -> tuple[dict, Any, Any]:
     """CoppeliaSim 4.3-4.5's ``sim.moveToPose(flags, currentPose, maxVel, maxAccel, maxJerk,
     targetPose, callback, auxData, metric, timeStep)`` as the map form's fields, its ``callback``
-    and ``auxData``. Poses are 7 numbers (x, y, z, qx, qy, qz, qw) or 12 (a matrix)."""
+    and ``auxData``. Poses are 7 numbers (x, y, z, qx, qy, qz, qw) or 12 (a matrix).
+
+    Args:
+        args: the 6 to 10 positional arguments.
+
+    Returns:
+        ``(params, callback, auxData)``.
+
+    Raises:
+        ArgumentError: a count out of 6..10, or a pose of the wrong length.
+    """
     if not 6 <= len(args) <= 10:
         raise ArgumentError(
             "sim.moveToPose takes one map of parameters (4.6) or 6 to 10 arguments (4.3-4.5: flags, "
@@ -325,7 +345,15 @@ class ScriptMotionCalls(MotionCore):
         ``(flags, currentPos, currentVel, currentAccel, maxVel, maxAccel, maxJerk, targetPos,
         targetVel, callback, auxData [, cyclicJoints, timeStep])`` calls ``callback(pos, vel,
         accel, auxData)`` each step instead of moving joints and returns ``pos, vel, accel,
-        timeLeft``. Raises ArgumentError outside a thread and for bad arguments."""
+        timeLeft``. Raises ArgumentError outside a thread and for bad arguments.
+
+        Args:
+            params: the map (4.6), or ``flags`` (4.3-4.5).
+            *legacy: the other 4.3-4.5 arguments.
+
+        Returns:
+            The map, or ``(pos, vel, accel, timeLeft)``.
+        """
         thread = self._py_thread("moveToConfig")
         return _drive(thread, self._config_motion(params, legacy, _python_callback))
 
@@ -337,7 +365,18 @@ class ScriptMotionCalls(MotionCore):
         returns the map with the final ``pose``, ``matrix`` and ``timeLeft``; 4.3-4.5's
         ``(flags, currentPose, maxVel, maxAccel, maxJerk, targetPose, callback, auxData [,
         metric, timeStep])`` calls ``callback(pose, vel, accel, auxData)`` each step and returns
-        ``pose, timeLeft``."""
+        ``pose, timeLeft``.
+
+        Args:
+            params: the map (4.6), or ``flags`` (4.3-4.5).
+            *legacy: the other 4.3-4.5 arguments.
+
+        Returns:
+            The map, or ``(pose, timeLeft)``.
+
+        Raises:
+            ArgumentError: outside a threaded Python script, or bad arguments.
+        """
         thread = self._py_thread("moveToPose")
         return _drive(thread, self._pose_motion(params, legacy, _python_callback))
 

@@ -24,9 +24,9 @@ from simx_server.base import limits as L
 from simx_server.base.arguments import quote
 from simx_server.scripts.facade_core import _int, _num, _text, _vector
 from simx_server.sim import kinematics, paths
-from simx_server.sim.spec_tools import _FRAMES, _KIND, _MJ_OBJ
 from simx_server.sim.state import SimulationView
-from simx_server.sim.world import JOINT, SHAPE, WORLD, World, matrix_from_euler, matrix_from_quaternion
+from simx_server.scripts.object_rename import rename
+from simx_server.sim.world import SHAPE, WORLD, World, matrix_from_euler, matrix_from_quaternion
 
 #: ``sim.handle_scene``: the base of ``getObjectsInTree`` that means the whole scene.
 HANDLE_SCENE = -12
@@ -53,7 +53,17 @@ class AppliedForces:
         """Add ``force`` (N) and ``torque`` (N·m), world axes, at body ``body``'s centre of mass.
 
         Raises ArgumentError, adding nothing, when a component of the sum would exceed
-        ``limits.MAX_SCRIPT_FORCE``."""
+        ``limits.MAX_SCRIPT_FORCE``.
+
+        Args:
+            world: the scene.
+            body: MuJoCo body id.
+            force: 3 floats, N.
+            torque: 3 floats, N·m.
+
+        Raises:
+            ArgumentError: the sum would exceed ``limits.MAX_SCRIPT_FORCE``.
+        """
         if self._data is not world.data:  # a new MjData (scene edit, new scene): nothing pending there
             self._data, self._bodies = world.data, set()
         total = world.data.xfrc_applied[body] + np.concatenate([force, torque])
@@ -64,127 +74,17 @@ class AppliedForces:
         self._bodies.add(body)
 
     def clear(self, world: World) -> None:
-        """Zero what :meth:`add` wrote (after the step that applied it)."""
+        """Zero what :meth:`add` wrote (after the step that applied it).
+
+        Args:
+            world: the scene.
+        """
         if self._bodies and self._data is world.data:
             world.data.xfrc_applied[sorted(self._bodies)] = 0.0
         self._data, self._bodies = None, set()
 
     def __bool__(self) -> bool:
         return bool(self._bodies)
-
-
-# ------------------------------------------------------------------------ renaming
-def _joint_ids(world: World, obj) -> list[int]:
-    """MuJoCo joints whose state replace_model matches by the object's name (itself, or a
-    free body's free joint)."""
-    m = world.model
-    if obj.type == JOINT:
-        return [obj.mj_id]
-    if obj.type == SHAPE and m.body_jntnum[obj.mj_id] == 1 \
-            and m.jnt_type[m.body_jntadr[obj.mj_id]] == mujoco.mjtJoint.mjJNT_FREE:
-        return [int(m.body_jntadr[obj.mj_id])]
-    return []
-
-
-def _retarget(spec: mujoco.MjSpec, kind: str, old: str, new: str) -> None:
-    """Point the actuators, sensors, constraints and settings that name ``old`` (an element of
-    ``kind``) at ``new``: MjSpec refers by name and does not follow a rename."""
-    objtype = _MJ_OBJ[kind]
-    trn = {"joint": (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT),
-           "site": (mujoco.mjtTrn.mjTRN_SITE, mujoco.mjtTrn.mjTRN_SLIDERCRANK),
-           "body": (mujoco.mjtTrn.mjTRN_BODY,)}.get(kind, ())
-    for a in spec.actuators:
-        if a.trntype in trn and a.target == old:
-            a.target = new
-        if kind == "site":
-            a.refsite = new if a.refsite == old else a.refsite
-            a.slidersite = new if a.slidersite == old else a.slidersite
-    for s in spec.sensors:
-        if s.objtype == objtype and s.objname == old:
-            s.objname = new
-        if s.reftype == objtype and s.refname == old:
-            s.refname = new
-    for eq in spec.equalities:
-        same = (eq.type == mujoco.mjtEq.mjEQ_JOINT) if kind == "joint" else (eq.objtype == objtype)
-        if same:
-            eq.name1 = new if eq.name1 == old else eq.name1
-            eq.name2 = new if eq.name2 == old else eq.name2
-    if kind == "body":
-        for ex in spec.excludes:
-            ex.bodyname1 = new if ex.bodyname1 == old else ex.bodyname1
-            ex.bodyname2 = new if ex.bodyname2 == old else ex.bodyname2
-        for el in list(spec.cameras) + list(spec.lights):
-            if el.targetbody == old:
-                el.targetbody = new
-    text = spec.text(f"simx:{old}")
-    if text is not None:
-        text.name = f"simx:{new}"
-        # a converted .ttt's own alias (simx_server.sim.paths) follows the new name
-        text.data = " ".join(f"alias={paths.alias(new)}" if i.startswith("alias=") else i for i in text.data.split())
-    for t in spec.texts:  # and so do the V-REP parents that name it
-        if t.name.startswith("simx:") and f"vrep_parent={old}" in t.data.split():
-            t.data = " ".join(f"vrep_parent={new}" if i == f"vrep_parent={old}" else i for i in t.data.split())
-
-
-def rename(sim: SimulationView, handle: int, name: str) -> None:
-    """Give object ``handle`` the name ``name`` through the scene editor; it keeps its handle,
-    its pose (also one set at run time), its joint state and its child script.
-
-    Raises ArgumentError (the world, a name taken by another object), or the editor's errors
-    (UnsupportedError for an object MuJoCo cannot rename, the scene's growth bounds).
-    """
-    world, editor = sim.world, sim.editor
-    if handle == WORLD:
-        raise ArgumentError("the world (-1) has no name to change")
-    obj = world.get(handle)
-    old = obj.name
-    if name == old:
-        return
-    if name in world.by_name:
-        raise ArgumentError(f"name {quote(name)} is taken by another object "
-                            f"(handle {world.by_name[name].handle})")
-    m, d = world.model, world.data
-    kind = _KIND.get(obj.type)
-    frame = _FRAMES.get(kind)  # the placement in its body, which may have been set at run time
-    placed = tuple(getattr(m, f)[obj.mj_id].copy() for f in frame[:2]) if frame else None
-    states = [(d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + _joint_size(m, j)[0]].copy(),
-               d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + _joint_size(m, j)[1]].copy()) for j in _joint_ids(world, obj)]
-    mocap = None  # a mocap body's pose lives in MjData, matched by name too
-    if obj.type == SHAPE and m.body_mocapid[obj.mj_id] >= 0:
-        k = m.body_mocapid[obj.mj_id]
-        mocap = (d.mocap_pos[k].copy(), d.mocap_quat[k].copy())
-    names = world._handle_of_name  # replace_model keeps a handle for a known name: give it the new one
-
-    def change(spec: mujoco.MjSpec) -> None:
-        kind_, el, _ = editor._spec_element(spec, handle)
-        el.name = name
-        _retarget(spec, kind_, old, name)
-        names[name] = handle
-
-    try:
-        editor._edit(change)
-    except BaseException:
-        if names.get(name) == handle and name not in world.by_name:
-            del names[name]
-        raise
-    obj = world.get(handle)
-    m, d = world.model, world.data
-    if placed is not None:
-        for f, value in zip(frame[:2], placed):
-            getattr(m, f)[obj.mj_id] = value
-        if kind == "site":
-            m.site_sameframe[obj.mj_id] = 0  # MuJoCo's shortcut for a site at its body's origin
-    if mocap is not None and m.body_mocapid[obj.mj_id] >= 0:
-        d.mocap_pos[m.body_mocapid[obj.mj_id]], d.mocap_quat[m.body_mocapid[obj.mj_id]] = mocap
-    for j, (qpos, qvel) in zip(_joint_ids(world, obj), states):
-        d.qpos[m.jnt_qposadr[j]:m.jnt_qposadr[j] + len(qpos)] = qpos
-        d.qvel[m.jnt_dofadr[j]:m.jnt_dofadr[j] + len(qvel)] = qvel
-    world.changed()
-
-
-def _joint_size(m: mujoco.MjModel, j: int) -> tuple[int, int]:
-    """(nq, nv) of joint ``j``."""
-    return {0: (7, 6), 1: (4, 3)}.get(int(m.jnt_type[j]), (1, 1))
 
 
 # --------------------------------------------------------------------------- mixin
@@ -202,7 +102,19 @@ class ObjectCalls:
         ``A{n}``, wildcards), ``"."`` (the script's object) or a path below it (``"./arm/joint"``),
         ``":"`` / ``":/B"`` from the script's model base. ``options`` ``{noError = true}`` answers -1
         instead of an error for an unknown object; ``{index = n}`` takes the n-th (0-based) of
-        the objects the path matches, in tree order."""
+        the objects the path matches, in tree order.
+
+        Args:
+            path: a name or path.
+            options: ``{noError = true, index = n}``, or None.
+
+        Returns:
+            The handle, or -1 (``noError``).
+
+        Raises:
+            UnknownObjectError: no such object (without ``noError``).
+            ArgumentError: a path that is not a string.
+        """
         p = _text(path, "object path")
         opts = options if isinstance(options, dict) else {}
         index = _int(opts.get("index", -1), "index")
@@ -222,7 +134,18 @@ class ObjectCalls:
         """The object's alias (CoppeliaSim 4.3; in simx the name, or a converted 4.3+ ``.ttt``'s
         own alias: :func:`simx_server.sim.paths.object_alias`): ``options`` -1 or 0 the alias
         alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form ``sim.getObject`` and
-        ``simxGetObjectHandle`` resolve)."""
+        ``simxGetObjectHandle`` resolve).
+
+        Args:
+            handle: the object's handle, or ``sim.handle_self``.
+            options: -1, 0 or 1 and above.
+
+        Returns:
+            The alias or path.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         obj = self._world.get(self._h(handle))
         if _int(options, "options") <= 0:
             return obj.settings.get("alias") or obj.name
@@ -236,8 +159,17 @@ class ObjectCalls:
         """Rename an object (V-REP 3.x / CoppeliaSim 4.0-4.2): a client then finds it under
         ``name`` with ``simxGetObjectHandle``; its handle stays. ``name``: letters, digits and
         ``_``, an optional ``#n`` suffix, at most ``limits.MAX_SCRIPT_OBJECT_NAME`` (128) characters,
-        not taken by another object
-        (names are global in V-REP); otherwise an error, nothing changes."""
+        not taken by another object (names are global in V-REP); otherwise an error, nothing changes.
+
+        Args:
+            handle: the object's handle, or ``sim.handle_self``.
+            name: the new name.
+
+        Raises:
+            ArgumentError: a bad or taken name, or the world.
+            UnknownObjectError: no such object.
+            UnsupportedError: an object MuJoCo cannot rename, or no simulation behind the script.
+        """
         text = _text(name, "objectName")
         if len(text) > L.MAX_SCRIPT_OBJECT_NAME or not _NAME.fullmatch(text):
             raise ArgumentError(f"object name {quote(text)} must be 1 to {L.MAX_SCRIPT_OBJECT_NAME} letters, "
@@ -248,8 +180,18 @@ class ObjectCalls:
     def setObjectAlias(self, handle: Any, alias: Any, options: Any = 0) -> None:  # noqa: N802
         """Rename an object (CoppeliaSim 4.3): characters other than letters, digits and ``_``
         become ``_``, as CoppeliaSim does; at most ``limits.MAX_SCRIPT_OBJECT_NAME`` (128) characters,
-        not the name of another
-        object (an error: simx names are unique, as V-REP's were). ``options`` is ignored."""
+        not the name of another object (an error: simx names are unique, as V-REP's were).
+
+        Args:
+            handle: the object's handle, or ``sim.handle_self``.
+            alias: the new alias.
+            options: checked.
+
+        Raises:
+            ArgumentError: an empty, long or taken alias, or the world.
+            UnknownObjectError: no such object.
+            UnsupportedError: an object MuJoCo cannot rename, or no simulation behind the script.
+        """
         text = _text(alias, "alias")
         _int(options, "options")
         if not text or len(text) > L.MAX_SCRIPT_OBJECT_NAME:
@@ -261,7 +203,18 @@ class ObjectCalls:
         """Hang an object from ``parent`` (-1: the world), keeping its world pose when
         ``keepInPlace`` (else its pose relative to the parent), as ``simxSetObjectParent``:
         a shape moves with its body subtree; in MuJoCo objects hang from shapes or the world
-        only, and a joint belongs to its body (both: an error)."""
+        only, and a joint belongs to its body (both: an error).
+
+        Args:
+            handle: the object's handle, or ``sim.handle_self``.
+            parent: the new parent's handle, -1 or ``sim.handle_self``.
+            keepInPlace: bool or 0/1.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: a parent MuJoCo cannot take (a loop, a joint, not a shape).
+            UnsupportedError: no simulation behind the script.
+        """
         sim = self._simulation("setObjectParent")
         p = _int(parent, "parentObjectHandle")
         p = self._owner if p == C.sim_handle_self else p
@@ -273,7 +226,19 @@ class ObjectCalls:
         """Handles of the objects in the tree below ``base`` (``sim.handle_scene``: the whole
         scene), depth first in tree order, the base first; ``objectType`` filters
         (``sim.handle_all``: any type); ``options`` bit 0 leaves out the base, bit 1 keeps only
-        its direct children."""
+        its direct children.
+
+        Args:
+            base: the tree's base, or ``sim.handle_scene``.
+            objectType: a ``sim.object_*_type``, or ``sim.handle_all``.
+            options: bits 0 and 1.
+
+        Returns:
+            The handles.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         b = _int(base, "treeBaseHandle")
         otype, opts = _int(objectType, "objectType"), _int(options, "options")
         world = self._world
@@ -431,7 +396,14 @@ class ObjectCalls:
         before a script teleports a robot: the object's tree (its body and every body below it;
         ``sim.handle_all``: the whole scene) stops, every degree of freedom of those bodies'
         joints, free joints included, at zero velocity, and the contacts are rebuilt for the
-        current poses (``mj_forward``). Errors: an unknown handle."""
+        current poses (``mj_forward``). Errors: an unknown handle.
+
+        Args:
+            handle: the object's handle, or ``sim.handle_all``.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         world = self._world
         m, d = world.model, world.data
         h = _int(handle, "objectHandle")
@@ -461,7 +433,20 @@ class ObjectCalls:
     def addForce(self, handle: Any, position: Any, force: Any) -> None:  # noqa: N802
         """Add ``force`` (N, world axes) at ``position`` (m, in the shape's frame) for the next
         simulation step; forces add up and are reset after that step (CoppeliaSim: after
-        ``sim.handleDynamics``). Errors: not a shape, a static shape."""
+        ``sim.handleDynamics``). Errors: not a shape, a static shape.
+
+        ``sim.addForce``.
+
+        Args:
+            handle: a dynamic shape's handle.
+            position: 3 numbers, m (shape frame).
+            force: 3 numbers, N (world frame).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape, or a static one.
+            ArgumentError: not 3 numbers, or a sum over ``limits.MAX_SCRIPT_FORCE``.
+        """
         body = self._dynamic_body(handle)
         p = np.array(_vector(position, 3, "position"))
         f = np.array(_vector(force, 3, "force"))
@@ -471,7 +456,20 @@ class ObjectCalls:
 
     def addForceAndTorque(self, handle: Any, force: Any = None, torque: Any = None) -> None:  # noqa: N802
         """Add ``force`` (N) and ``torque`` (N·m), world axes, at the shape's centre of mass for
-        the next simulation step (nil: none); reset after it, as :meth:`addForce`."""
+        the next simulation step (nil: none); reset after it, as :meth:`addForce`.
+
+        ``sim.addForceAndTorque``.
+
+        Args:
+            handle: a dynamic shape's handle.
+            force: 3 numbers (N), or None.
+            torque: 3 numbers (N·m), or None.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape, or a static one.
+            ArgumentError: not 3 numbers, or a sum over ``limits.MAX_SCRIPT_FORCE``.
+        """
         body = self._dynamic_body(handle)
         f = np.zeros(3) if force is None else np.array(_vector(force, 3, "force"))
         t = np.zeros(3) if torque is None else np.array(_vector(torque, 3, "torque"))
@@ -482,7 +480,21 @@ class ObjectCalls:
         """A new dummy (a sphere site of diameter ``size`` m) at the world origin, as
         ``simxCreateDummy``; returns its handle (named ``Dummy``, ``Dummy0``...). ``size``
         defaults to 0.005 m (CoppeliaSim 4.x); ``color``: nil
-        or 12 numbers 0..1 (ambient/diffuse, specular, emission RGB; the first three colour it)."""
+        or 12 numbers 0..1 (ambient/diffuse, specular, emission RGB; the first three colour it).
+
+        ``sim.createDummy``.
+
+        Args:
+            size: m.
+            color: 12 numbers in 0..1, or None.
+
+        Returns:
+            The dummy's handle.
+
+        Raises:
+            ArgumentError: a size that is not positive, or colours out of 0..1.
+            UnsupportedError: no simulation behind the script.
+        """
         s = _num(size, "size")
         colors = None
         if color is not None:

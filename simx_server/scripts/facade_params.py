@@ -366,7 +366,11 @@ class ParamCalls:
         return int(bool(getattr(self._simulation("getIsRealTimeSimulation"), "realtime", False)))
 
     def getRealTimeSimulation(self) -> bool:  # noqa: N802
-        """Whether the free-running simulation is paced to wall time (:meth:`getIsRealTimeSimulation`)."""
+        """Whether the free-running simulation is paced to wall time (:meth:`getIsRealTimeSimulation`).
+
+        Returns:
+            True or False.
+        """
         return bool(self.getIsRealTimeSimulation())
 
     def getSimulationStopping(self) -> bool:  # noqa: N802

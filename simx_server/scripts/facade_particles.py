@@ -75,9 +75,24 @@ class Particles:
         return bool(self.objects)
 
     def count(self) -> int:
+        """Particles alive in the scene.
+
+        Returns:
+            The count.
+
+        """
         return sum(len(o.age) for o in self.objects.values())
 
     def create(self, obj: _ParticleObject) -> int:
+        """Keep a new particle object.
+
+        Args:
+            obj: the object.
+
+        Returns:
+            Its handle.
+
+        """
         handle, self._next = self._next, self._next + 1
         self.objects[handle] = obj
         return handle
@@ -85,7 +100,16 @@ class Particles:
     def advance(self, world: Any, forces: Any, dt: float) -> int:
         """Move every particle by one step of ``dt`` s; absorbed particles add their push to
         ``forces`` (an :class:`~simx_server.scripts.facade_objects.AppliedForces`). Returns how
-        many hit a body."""
+        many hit a body.
+
+        Args:
+            world: the scene's :class:`~simx_server.sim.world.World`.
+            forces: the forces scripts add for the next step.
+            dt: s.
+
+        Returns:
+            The count of particles that hit a body.
+        """
         m, d = world.model, world.data
         gravity = np.asarray(m.opt.gravity, dtype=float)
         geomid = np.zeros(1, dtype=np.int32)
@@ -139,7 +163,25 @@ class ParticleCalls:
         ignores gravity; the drawing kinds are accepted and not drawn), ``size`` (m, the
         particles' diameter), ``density`` (kg/m^3), ``params`` (ignored: V-REP's engine
         parameters), ``lifeTime`` (s; 0: until the simulation stops), ``maxItemCount`` (1 to
-        MAX_ITEMS_PER_OBJECT), colours (not drawn). Returns its handle. Raises ArgumentError."""
+        MAX_ITEMS_PER_OBJECT), colours (not drawn). Returns its handle. Raises ArgumentError.
+
+        ``sim.addParticleObject``.
+
+        Args:
+            objectType: ``sim.particle_*`` bits.
+            size: m.
+            density: kg/m³.
+            params: ignored.
+            lifeTime: s.
+            maxItemCount: 1..MAX_ITEMS_PER_OBJECT.
+            *colors: ignored.
+
+        Returns:
+            The particle object's handle.
+
+        Raises:
+            ArgumentError: values out of range.
+        """
         options = _int(objectType, "objectType")
         d, s, life = _num(size, "size"), _num(density, "density"), _num(lifeTime, "lifeTime")
         count = _int(maxItemCount, "maxItemCount")
@@ -159,7 +201,17 @@ class ParticleCalls:
         """Add a particle to the object: ``itemData`` is a position and the point it would
         reach one second later (6 numbers, m, world frame); nil or an empty table removes all
         of the object's particles. Raises ArgumentError (unknown handle, bad data, or more than
-        MAX_PARTICLES particles in the scene)."""
+        MAX_PARTICLES particles in the scene).
+
+        ``sim.addParticleObjectItem``.
+
+        Args:
+            objectHandle: the particle object's handle.
+            itemData: 6 numbers (m), or None / empty.
+
+        Raises:
+            ArgumentError: as said above.
+        """
         particles = self._particles()
         obj = particles.objects.get(_int(objectHandle, "objectHandle"))
         if obj is None:
@@ -178,7 +230,16 @@ class ParticleCalls:
 
     def removeParticleObject(self, objectHandle: Any) -> None:  # noqa: N802, N803
         """Remove a particle object and its particles (``sim.handle_all``: every one). Raises
-        ArgumentError for an unknown handle."""
+        ArgumentError for an unknown handle.
+
+        ``sim.removeParticleObject``.
+
+        Args:
+            objectHandle: the particle object's handle, or ``sim.handle_all``.
+
+        Raises:
+            ArgumentError: no such particle object.
+        """
         particles = self._particles()
         h = _int(objectHandle, "objectHandle")
         if h == HANDLE_ALL:

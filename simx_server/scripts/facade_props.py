@@ -93,13 +93,41 @@ class PropertyCalls:
         return out
 
     def getPropertyName(self, target: Any, index: Any, options: Any = None) -> tuple[str, str] | None:  # noqa: N802
-        """``name, class`` of the ``index``-th property of ``target``; nil past the last."""
+        """``name, class`` of the ``index``-th property of ``target``; nil past the last.
+
+        ``sim.getPropertyName`` (CoppeliaSim 4.8).
+
+        Args:
+            target: an object handle or ``sim.handle_scene``.
+            index: 0-based.
+            options: ignored.
+
+        Returns:
+            ``(name, class)``, or None.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         names = self._names(_int(target, "target"))
         i = _int(index, "index")
         return (names[i], "customData" if names[i].startswith("customData.") else "object") if 0 <= i < len(names) else None
 
     def getPropertyInfo(self, target: Any, pName: Any, options: Any = None) -> tuple[int, int, str] | None:  # noqa: N802, N803
-        """``type, flags, description`` of a property (flags bit 0: read-only); nil when none."""
+        """``type, flags, description`` of a property (flags bit 0: read-only); nil when none.
+
+        ``sim.getPropertyInfo`` (CoppeliaSim 4.8).
+
+        Args:
+            target: an object handle or ``sim.handle_scene``.
+            pName: the property's name.
+            options: ignored.
+
+        Returns:
+            ``(type, flags, description)``, or None.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         h, name = _int(target, "target"), _text(pName, "pName")
         if name.startswith("customData."):
             if self.readCustomDataBlockEx(h, name[11:]) is None:
@@ -111,26 +139,75 @@ class PropertyCalls:
         return None
 
     def getPropertyTypeString(self, pType: Any) -> str:  # noqa: N802, N803
-        """``"int"``, ``"float"``... of a ``sim.propertytype_*``."""
+        """``"int"``, ``"float"``... of a ``sim.propertytype_*``.
+
+        ``sim.getPropertyTypeString``.
+
+        Args:
+            pType: a ``sim.propertytype_*``.
+
+        Returns:
+            The type's name.
+
+        Raises:
+            ArgumentError: an unknown type.
+        """
         t = _int(pType, "pType")
         if t not in TYPES:
             raise ArgumentError(f"no property type {t}")
         return TYPES[t][0]
 
     def getProperties(self, target: Any, options: Any = None) -> dict[str, Any]:  # noqa: N802
-        """Every property of ``target`` and its value."""
+        """Every property of ``target`` and its value.
+
+        ``sim.getProperties`` (CoppeliaSim 4.8).
+
+        Args:
+            target: an object handle or ``sim.handle_scene``.
+            options: ignored.
+
+        Returns:
+            ``{name: value}``.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         h = _int(target, "target")
         return {n: self.getProperty(h, n, {"noError": True}) for n in self._names(h)}
 
     def setProperties(self, target: Any, props: Any) -> None:  # noqa: N802
-        """``setProperty`` for each ``name = value`` of a table."""
+        """``setProperty`` for each ``name = value`` of a table.
+
+        ``sim.setProperties`` (CoppeliaSim 4.8).
+
+        Args:
+            target: an object handle or ``sim.handle_scene``.
+            props: ``{name: value}``.
+
+        Raises:
+            ArgumentError: not a table, or a property simx cannot set.
+            UnknownObjectError: no such object.
+        """
         if not isinstance(props, dict):
             raise ArgumentError("props must be a table of name = value")
         for name, value in props.items():
             self.setProperty(target, name, value)
 
     def getPropertiesInfos(self, target: Any, options: Any = None) -> dict[str, dict]:  # noqa: N802
-        """``{name = {type, flags, descr}}`` for every property of ``target``."""
+        """``{name = {type, flags, descr}}`` for every property of ``target``.
+
+        ``sim.getPropertiesInfos`` (CoppeliaSim 4.8).
+
+        Args:
+            target: an object handle or ``sim.handle_scene``.
+            options: ignored.
+
+        Returns:
+            ``{name: {type, flags, descr}}``.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         h = _int(target, "target")
         out = {}
         for n in self._names(h):

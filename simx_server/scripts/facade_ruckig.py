@@ -69,19 +69,70 @@ class RuckigCalls:
     def ruckigPos(self, dofs: Any, baseCycleTime: Any, flags: Any, currentPosVelAccel: Any,  # noqa: N802, N803
                   maxVelAccelJerk: Any, selection: Any, targetPosVel: Any) -> int:  # noqa: N803
         """A position-interface Ruckig object (current position, velocity, acceleration; limits
-        of velocity, acceleration, jerk; target position and velocity, ``dofs`` each); its handle."""
+        of velocity, acceleration, jerk; target position and velocity, ``dofs`` each); its handle.
+
+        ``sim.ruckigPos``.
+
+        Args:
+            dofs: 1..MAX_DOFS.
+            baseCycleTime: s, in (0, 10].
+            flags: Ruckig's synchronization flags.
+            currentPosVelAccel: 3*dofs numbers (m or rad, /s, /s²).
+            maxVelAccelJerk: 3*dofs positive numbers.
+            selection: dofs numbers (1: the degree of freedom is used).
+            targetPosVel: 2*dofs numbers.
+
+        Returns:
+            The Ruckig object's handle.
+
+        Raises:
+            ArgumentError: counts, lengths or limits out of range, or too many Ruckig objects.
+        """
         return self._ruckig_new(True, dofs, baseCycleTime, flags, currentPosVelAccel, maxVelAccelJerk, selection,
                                 targetPosVel)
 
     def ruckigVel(self, dofs: Any, baseCycleTime: Any, flags: Any, currentPosVelAccel: Any,  # noqa: N802, N803
                   maxAccelJerk: Any, selection: Any, targetVel: Any) -> int:  # noqa: N803
-        """A velocity-interface Ruckig object (limits of acceleration and jerk; a target velocity)."""
+        """A velocity-interface Ruckig object (limits of acceleration and jerk; a target velocity).
+
+        ``sim.ruckigVel``.
+
+        Args:
+            dofs: 1..MAX_DOFS.
+            baseCycleTime: s, in (0, 10].
+            flags: Ruckig's synchronization flags.
+            currentPosVelAccel: 3*dofs numbers (m or rad, /s, /s²).
+            maxAccelJerk: 2*dofs positive numbers.
+            selection: dofs numbers (1: the degree of freedom is used).
+            targetVel: 2*dofs numbers (velocity, acceleration).
+
+        Returns:
+            The Ruckig object's handle.
+
+        Raises:
+            ArgumentError: counts, lengths or limits out of range, or too many Ruckig objects.
+        """
         return self._ruckig_new(False, dofs, baseCycleTime, flags, currentPosVelAccel, maxAccelJerk, selection,
                                 targetVel)
 
     def ruckigStep(self, handle: Any, cycleTime: Any) -> tuple[int, list[float], float]:  # noqa: N802, N803
         """Advance by ``cycleTime`` (s, a whole number of base cycles): ``result, newPosVelAccel,
-        synchronizationTime``; result 0 working, 1 finished, negative a Ruckig error."""
+        synchronizationTime``; result 0 working, 1 finished, negative a Ruckig error.
+
+        ``sim.ruckigStep``.
+
+        Args:
+            handle: from :meth:`ruckigPos` / :meth:`ruckigVel`.
+            cycleTime: s.
+
+        Returns:
+            ``(result, newPosVelAccel, synchronizationTime)``: int, 3*dofs floats (``[]`` on an
+            error), s.
+
+        Raises:
+            UnknownObjectError: no such Ruckig object.
+            ArgumentError: ``cycleTime`` over MAX_UPDATES base cycles.
+        """
         from ruckig import Result
         obj = self._ruckig_objects().get(_int(handle, "handle"))
         if obj is None:
@@ -102,6 +153,15 @@ class RuckigCalls:
         return (1 if result == Result.Finished else 0), state, float(out.trajectory.duration)
 
     def ruckigRemove(self, handle: Any) -> None:  # noqa: N802
+        """``sim.ruckigRemove``: forget a Ruckig object.
+
+        Args:
+            handle: from :meth:`ruckigPos` / :meth:`ruckigVel`.
+
+        Raises:
+            UnknownObjectError: no such Ruckig object.
+
+        """
         if self._ruckig_objects().pop(_int(handle, "handle"), None) is None:
             raise UnknownObjectError(f"no Ruckig object {handle}")
 
@@ -110,7 +170,20 @@ class RuckigCalls:
         """The state of a joint motion stepped by the caller: ``params`` as ``sim.moveToConfig``'s
         (``joints`` or ``pos``, ``targetPos``, ``maxVel``, ``maxAccel``, ``maxJerk``, optional
         ``vel``, ``accel``, ``targetVel``, ``flags``, ``timeStep``); each
-        :meth:`moveToConfig_step` advances it one time step and sets the joints' target positions."""
+        :meth:`moveToConfig_step` advances it one time step and sets the joints' target positions.
+
+        ``sim.moveToConfig_init`` (CoppeliaSim 4.7).
+
+        Args:
+            params: the parameter table (positions rad or m, limits per second, /s², /s³).
+
+        Returns:
+            The motion's data table for :meth:`moveToConfig_step`.
+
+        Raises:
+            ArgumentError: not a table, no joints or positions, or lengths that differ.
+            UnknownObjectError: no such joint.
+        """
         if not isinstance(params, dict):
             raise ArgumentError("moveToConfig_init takes a table of parameters")
         joints = [self._world.get(_int(j, "joints[i]")).handle for j in params.get("joints", [])]
@@ -132,7 +205,19 @@ class RuckigCalls:
 
     def moveToConfig_step(self, data: Any) -> tuple[int, dict]:  # noqa: N802
         """One time step: ``result, data`` (result 0 moving, 1 arrived); the joints' target positions
-        (and ``data.pos``, ``vel``, ``accel``) follow the trajectory."""
+        (and ``data.pos``, ``vel``, ``accel``) follow the trajectory.
+
+        ``sim.moveToConfig_step``.
+
+        Args:
+            data: the table :meth:`moveToConfig_init` returned.
+
+        Returns:
+            ``(result, data)``.
+
+        Raises:
+            ArgumentError: not that table, or Ruckig found no trajectory.
+        """
         if not isinstance(data, dict) or "ruckigObject" not in data:
             raise ArgumentError("moveToConfig_step takes the table moveToConfig_init returned")
         result, state, _ = self.ruckigStep(data["ruckigObject"], data["timeStep"])
@@ -145,7 +230,13 @@ class RuckigCalls:
         return result, data
 
     def moveToConfig_cleanup(self, data: Any) -> None:  # noqa: N802
-        """Release the motion's trajectory object."""
+        """Release the motion's trajectory object.
+
+        ``sim.moveToConfig_cleanup``.
+
+        Args:
+            data: the table :meth:`moveToConfig_init` returned (anything else: nothing done).
+        """
         if isinstance(data, dict) and "ruckigObject" in data:
             self._ruckig_objects().pop(_int(data["ruckigObject"], "ruckigObject"), None)
 
@@ -155,7 +246,20 @@ class RuckigCalls:
         (``object`` or ``pose``, ``targetPose``, optional ``relObject``, ``maxVel``, ``maxAccel``,
         ``maxJerk`` of 4 degrees of freedom x, y, z and the rotation angle, or with ``metric``
         (4 weights) of 1 along a straight line; ``flags``, ``timeStep``). Each
-        :meth:`moveToPose_step` advances it one time step and places the object."""
+        :meth:`moveToPose_step` advances it one time step and places the object.
+
+        ``sim.moveToPose_init`` (CoppeliaSim 4.7).
+
+        Args:
+            params: the parameter table (poses 7 numbers, m and quaternion).
+
+        Returns:
+            The motion's data table for :meth:`moveToPose_step`.
+
+        Raises:
+            ArgumentError: not a table, no ``targetPose``, or neither ``object`` nor ``pose``.
+            UnknownObjectError: no such object.
+        """
         if not isinstance(params, dict) or params.get("targetPose") is None:
             raise ArgumentError("moveToPose_init takes a table of parameters with targetPose")
         rel = _int(params.get("relObject", -1), "relObject")
@@ -198,7 +302,19 @@ class RuckigCalls:
 
     def moveToPose_step(self, data: Any) -> tuple[int, dict]:  # noqa: N802
         """One time step: ``result, data`` (result 0 moving, 1 arrived); ``data.pose`` (x, y, z,
-        qx, qy, qz, qw) and the object follow the trajectory."""
+        qx, qy, qz, qw) and the object follow the trajectory.
+
+        ``sim.moveToPose_step``.
+
+        Args:
+            data: the table :meth:`moveToPose_init` returned.
+
+        Returns:
+            ``(result, data)``.
+
+        Raises:
+            ArgumentError: not that table, or Ruckig found no trajectory.
+        """
         if not isinstance(data, dict) or "ruckigObject" not in data:
             raise ArgumentError("moveToPose_step takes the table moveToPose_init returned")
         result, state, _ = self.ruckigStep(data["ruckigObject"], data["timeStep"])
@@ -221,6 +337,12 @@ class RuckigCalls:
         return result, data
 
     def moveToPose_cleanup(self, data: Any) -> None:  # noqa: N802
-        """Release the motion's trajectory object."""
+        """Release the motion's trajectory object.
+
+        ``sim.moveToPose_cleanup``.
+
+        Args:
+            data: the table :meth:`moveToPose_init` returned (anything else: nothing done).
+        """
         if isinstance(data, dict) and "ruckigObject" in data:
             self._ruckig_objects().pop(_int(data["ruckigObject"], "ruckigObject"), None)

@@ -7,7 +7,7 @@
 * Vision and proximity sensors are rendered / cast when read, so "explicit handling" changes
   nothing: ``handleVisionSensor`` and ``readVisionSensor`` give V-REP's 15-value packet of the
   current image, ``handleProximitySensor`` and ``readProximitySensor`` cast the ray now.
-* Joints: intervals are MuJoCo's ``jnt_range``; modes map onto simx's motors.
+* Joints: :mod:`simx_server.scripts.facade_joint_modes`.
 """
 
 from __future__ import annotations
@@ -19,17 +19,14 @@ import numpy as np
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
-from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim import collisions, scene_collections, sensors
-from simx_server.sim.objects import JOINT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
+from simx_server.sim.objects import PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
 from simx_server.sim.state import SimulationView
-
-#: CoppeliaSim's ``sim.jointmode_kinematic`` (0), ``dependent`` (4), ``dynamic`` (5).
-JOINTMODE_KINEMATIC, JOINTMODE_DEPENDENT, JOINTMODE_DYNAMIC = 0, 4, 5
 
 
 class SensingCalls:
-    """Collision and distance checks, sensor handling, joint intervals and modes (facade mixin)."""
+    """Collision and distance checks, sensor handling (facade mixin)."""
 
     # -------------------------------------------------------------- collision, distance
     def _entity(self, handle: Any, what: str) -> int:
@@ -333,128 +330,88 @@ class SensingCalls:
             self._proximity(h)
 
     def getExplicitHandling(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """Sensors are read when asked in simx: 0, or what :meth:`setExplicitHandling` stored."""
+        """Sensors are read when asked in simx: 0, or what :meth:`setExplicitHandling` stored.
+
+        ``sim.getExplicitHandling``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            The flags.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return int(getattr(self, "_explicit", {}).get(self._world.get(self._h(objectHandle)).handle, 0))
 
     def setExplicitHandling(self, objectHandle: Any, explicitHandlingFlags: Any) -> None:  # noqa: N802, N803
-        """Stored (``getExplicitHandling`` reads it); simx renders and casts on demand either way."""
+        """Stored (``getExplicitHandling`` reads it); simx renders and casts on demand either way.
+
+        ``sim.setExplicitHandling``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+            explicitHandlingFlags: the flags.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not an integer.
+        """
         explicit = getattr(self, "_explicit", None)
         if explicit is None:
             explicit = self._explicit = {}
         explicit[self._world.get(self._h(objectHandle)).handle] = _int(explicitHandlingFlags, "flags")
 
-    # -------------------------------------------------------------------- joints
-    def _joint(self, handle: Any) -> Any:
-        return self._world.get(self._h(handle, "jointHandle"), JOINT)
-
-    def getJointInterval(self, objectHandle: Any) -> tuple[bool, list[float]]:  # noqa: N802, N803
-        """``cyclic, interval``: interval = ``[min, range]`` (rad or m, MuJoCo's ``jnt_range``);
-        a hinge without limits is cyclic (``[-pi, 2 pi]``).
-
-        Args:
-            objectHandle: a joint's handle.
-
-        Returns:
-            ``(cyclic, [min, range])``.
-        """
-        obj = self._joint(objectHandle)
-        m = self._world.model
-        lo, hi = (float(v) for v in m.jnt_range[obj.mj_id])
-        if not m.jnt_limited[obj.mj_id]:
-            if int(m.jnt_type[obj.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE:
-                return True, [-np.pi, 2 * np.pi]
-            return False, [-1e6, 2e6]
-        return False, [lo, hi - lo]
-
-    def setJointInterval(self, objectHandle: Any, cyclic: Any, interval: Any) -> None:  # noqa: N802, N803
-        """Set the joint's limits ``[min, range]`` (rad or m); ``cyclic`` true removes them (a
-        hinge). Written to the model and the scene's MjSpec (kept by later edits).
-
-        Args:
-            objectHandle: a joint's handle.
-            cyclic: true to remove the limits.
-            interval: ``[min, range]``, rad or m.
-
-        Raises:
-            ArgumentError: a negative range.
-        """
-        obj = self._joint(objectHandle)
-        lo, span = _vector(interval, 2, "interval")
-        if span < 0:
-            raise ArgumentError("interval's range must not be negative")
-        m = self._world.model
-        m.jnt_range[obj.mj_id] = [lo, lo + span]
-        m.jnt_limited[obj.mj_id] = not cyclic
-        sim = getattr(self, "_sim", None)
-        try:
-            el = sim.editor._live_spec().joint(obj.name) if sim is not None else None
-        except UnsupportedError:
-            el = None
-        if el is not None:
-            el.range = [lo, lo + span]
-            el.limited = mujoco.mjtLimited.mjLIMITED_FALSE if cyclic else mujoco.mjtLimited.mjLIMITED_TRUE
-        self._world.changed()
-
-    def getJointMode(self, jointHandle: Any) -> tuple[int, int]:  # noqa: N802, N803
-        """``jointMode, options``: ``sim.jointmode_dynamic`` (5) for a joint with a motor, else
-        ``sim.jointmode_kinematic`` (0); options 0.
-
-        Args:
-            jointHandle: a joint's handle.
-
-        Returns:
-            ``(mode, 0)``.
-        """
-        obj = self._joint(jointHandle)
-        return (JOINTMODE_DYNAMIC if obj.handle in self._world.motor_index else JOINTMODE_KINEMATIC), 0
-
-    def setJointMode(self, jointHandle: Any, jointMode: Any, options: Any = 0) -> None:  # noqa: N802, N803
-        """Only ``sim.jointmode_dynamic`` (5, or its ``jointmode_force`` alias) for a joint with a
-        motor: simx's joints are all simulated by MuJoCo (kinematic and dependent modes are not).
-
-        Args:
-            jointHandle: a joint's handle.
-            jointMode: 5.
-            options: ignored.
-
-        Raises:
-            UnsupportedError: another mode, or a joint without a motor.
-        """
-        obj = self._joint(jointHandle)
-        mode = _int(jointMode, "jointMode")
-        if mode != JOINTMODE_DYNAMIC or obj.handle not in self._world.motor_index:
-            raise UnsupportedError(f"setJointMode {mode}: simx's joints are dynamic (MuJoCo); kinematic, IK and "
-                                   "dependent modes do not exist (use setJointPosition to place a joint)")
-
-    def getJointDependency(self, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
-        """``masterJointHandle, offset, multCoeff`` of an MJCF joint equality (``<joint joint1
-        joint2 polycoef>``, q1 = offset + coeff·q2), or ``-1, 0, 1`` without one.
-
-        Args:
-            jointHandle: a joint's handle.
-
-        Returns:
-            ``(masterHandle, offset, coefficient)``.
-        """
-        obj = self._joint(jointHandle)
-        m = self._world.model
-        by_id = {o.mj_id: o.handle for o in self._world.objects.values() if o.type == JOINT}
-        for e in range(m.neq):
-            if m.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and m.eq_obj1id[e] == obj.mj_id and m.eq_obj2id[e] >= 0:
-                return by_id.get(int(m.eq_obj2id[e]), -1), float(m.eq_data[e][0]), float(m.eq_data[e][1])
-        return -1, 0.0, 1.0
-
     # ------------------------------------------------------------------ objects
     def getVelocity(self, shapeHandle: Any) -> tuple[list[float], list[float]]:  # noqa: N802, N803
-        """``linearVelocity, angularVelocity`` of a shape's body (m/s, rad/s, world frame)."""
+        """``linearVelocity, angularVelocity`` of a shape's body (m/s, rad/s, world frame).
+
+        ``sim.getVelocity``.
+
+        Args:
+            shapeHandle: a shape's handle, or ``sim.handle_self``.
+
+        Returns:
+            ``(linearVelocity, angularVelocity)``: 3 floats each.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+        """
         return self.getObjectVelocity(self._world.get(self._h(shapeHandle, "shapeHandle"), SHAPE).handle)
 
     def getObjectUid(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """The object's unique id: simx's handles are never given twice, so the handle."""
+        """The object's unique id: simx's handles are never given twice, so the handle.
+
+        ``sim.getObjectUid``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+
+        Returns:
+            The handle.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         return self._world.get(self._h(objectHandle)).handle
 
     def getObjectFromUid(self, uid: Any, options: Any = None) -> int:  # noqa: N802
-        """The object of a unique id (its handle); -1 with ``{noError = true}``, else an error."""
+        """The object of a unique id (its handle); -1 with ``{noError = true}``, else an error.
+
+        ``sim.getObjectFromUid``.
+
+        Args:
+            uid: the unique id.
+            options: ``{noError = true}``, or None.
+
+        Returns:
+            The handle, or -1.
+
+        Raises:
+            UnknownObjectError: no such object (without ``noError``).
+        """
         h = _int(uid, "uid")
         if h in self._world.objects:
             return h
@@ -464,7 +421,19 @@ class SensingCalls:
 
     def getScriptHandle(self, objectHandleOrName: Any = None) -> int:  # noqa: N802, N803
         """CoppeliaSim 4.0-4.2: the handle of an object's child script (in simx: the object's
-        handle; ``sim.handle_self`` / nil: this script's); -1 without a script."""
+        handle; ``sim.handle_self`` / nil: this script's); -1 without a script.
+
+        ``sim.getScriptHandle``.
+
+        Args:
+            objectHandleOrName: a handle, a name, or None.
+
+        Returns:
+            The object's handle, or -1.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         if objectHandleOrName is None:
             h = self._h(C.sim_handle_self)
         elif isinstance(objectHandleOrName, (str, bytes)):

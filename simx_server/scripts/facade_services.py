@@ -63,7 +63,25 @@ class ServiceCalls:
     def saveImage(self, image: Any, resolution: Any, options: Any, filename: Any, quality: Any = -1) -> bytes:  # noqa: N802
         """Write an image (``resolution`` x, y; ``options`` bit 0: RGBA, bit 1: greyscale, else
         RGB) as an image file, or, when ``filename`` is just a format (``".png"``, ``".jpg"``),
-        return the encoded file as a buffer. ``quality`` 0..100 (JPEG; -1: OpenCV's default)."""
+        return the encoded file as a buffer. ``quality`` 0..100 (JPEG; -1: OpenCV's default).
+
+        ``sim.saveImage``.
+
+        Args:
+            image: w*h*n bytes, rows bottom-up.
+            resolution: ``[w, h]``, pixels.
+            options: bit 0 RGBA, bit 1 greyscale.
+            filename: a file name in the server's image folder, or a format such as ``".png"``.
+            quality: 0..100, or -1.
+
+        Returns:
+            The encoded file (format only), else ``b""``.
+
+        Raises:
+            ArgumentError: an image that does not match its resolution, or an unknown format.
+            RemoteError: a file outside the image folder.
+            UnsupportedError: a format OpenCV cannot encode.
+        """
         opts, name, q = _int(options, "options"), _text(filename, "filename"), _int(quality, "quality")
         w, h = (_int(v, "resolution[i]") for v in (resolution or [])[:2]) if resolution and len(resolution) >= 2 \
             else (0, 0)
@@ -88,7 +106,21 @@ class ServiceCalls:
     def loadImage(self, options: Any, filename: Any) -> tuple[bytes, list[int]]:  # noqa: N802
         """``image, resolution`` of an image file, or of an encoded image given as a buffer
         (bytes, or ``options`` bit 1 with a string): RGB, or RGBA with ``options`` bit 0; rows
-        bottom-up."""
+        bottom-up.
+
+        ``sim.loadImage``.
+
+        Args:
+            options: bit 0 RGBA, bit 1 ``filename`` is the encoded image.
+            filename: a file name in the server's image folder, or the encoded bytes.
+
+        Returns:
+            ``(image, [w, h])``: w*h*3 (or 4) bytes and pixels.
+
+        Raises:
+            ArgumentError: not an image OpenCV can read.
+            RemoteError: a file outside the image folder.
+        """
         opts = _int(options, "options")
         if isinstance(filename, (bytes, bytearray)) or opts & 2:
             data = _bytes(filename, "serializedImage")
@@ -108,7 +140,21 @@ class ServiceCalls:
     def getObjectAliasRelative(self, handle: Any, baseHandle: Any, options: Any = -1) -> str:  # noqa: N802, N803
         """The object's path relative to ``baseHandle`` (``./link/joint``, the form
         ``sim.getObject`` resolves with ``proxy``); an object outside the base's tree, or a base of
-        ``sim.handle_world``: its full path as ``getObjectAlias(handle, 1)``."""
+        ``sim.handle_world``: its full path as ``getObjectAlias(handle, 1)``.
+
+        ``sim.getObjectAliasRelative``.
+
+        Args:
+            handle: the object's handle, or ``sim.handle_self``.
+            baseHandle: the base object's handle.
+            options: checked.
+
+        Returns:
+            The path.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         obj = self._world.get(self._h(handle))
         base = _int(baseHandle, "baseHandle")
         _int(options, "options")
@@ -124,7 +170,20 @@ class ServiceCalls:
 
     def getModelBB(self, handle: Any) -> list[float]:  # noqa: N802
         """Size ``[x, y, z]`` (m) of the box, in the object's frame, around every shape of its
-        tree (the model's), as CoppeliaSim 4.7's ``sim.getModelBB``."""
+        tree (the model's), as CoppeliaSim 4.7's ``sim.getModelBB``.
+
+        ``sim.getModelBB``.
+
+        Args:
+            handle: the model's base object, or ``sim.handle_self``.
+
+        Returns:
+            3 floats, m.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: no shape in its tree.
+        """
         h = self._h(handle)
         self._world.get(h)
         rot, pos = self._frame_of(h)
@@ -142,13 +201,38 @@ class ServiceCalls:
         return m[:, :3], m[:, 3]
 
     def getObjectPose(self, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
-        """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world)."""
+        """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world).
+
+        ``sim.getObjectPose``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+            relativeToObjectHandle: -1 (world), ``sim.handle_parent`` or an object.
+
+        Returns:
+            7 floats: m and a unit quaternion.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
         h, rel = self._h(objectHandle), self._rel(relativeToObjectHandle)
         return self._world.position(h, rel) + self._world.quaternion(h, rel)
 
     def setObjectPose(self, objectHandle: Any, relativeTo: Any, pose: Any = None) -> None:  # noqa: N802, N803
         """Place an object by a 7-number pose; ``(h, pose [, relativeTo])`` (4.5+) or
-        ``(h, relativeTo, pose)``; the rules of ``setObjectPosition`` hold."""
+        ``(h, relativeTo, pose)``; the rules of ``setObjectPosition`` hold.
+
+        ``sim.setObjectPose``.
+
+        Args:
+            objectHandle: the object's handle, or ``sim.handle_self``.
+            relativeTo: -1 (world), ``sim.handle_parent`` or an object; or the pose (4.5+ order).
+            pose: 7 numbers (m and a quaternion), or the frame (4.5+ order).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not 7 numbers, or an object that cannot be placed.
+        """
         rel, value = self._order(relativeTo, pose)
         v = _vector(value, 7, "pose")
         self._set_pose(objectHandle, rel, position=v[:3], rotation=matrix_from_quaternion(*v[3:]))
@@ -156,7 +240,21 @@ class ServiceCalls:
     def getObjectChildPose(self, objectHandle: Any) -> list[float]:  # noqa: N802, N803
         """The pose (x, y, z, qx, qy, qz, qw; m) of a joint's child frame in the joint's frame: its
         intrinsic motion (a hinge's rotation about z, a slide's translation along z, a ball's
-        rotation). Other objects: ArgumentError."""
+        rotation). Other objects: ArgumentError.
+
+        ``sim.getObjectChildPose``.
+
+        Args:
+            objectHandle: a joint's handle, or ``sim.handle_self``.
+
+        Returns:
+            7 floats: m and a unit quaternion.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not a joint.
+            UnsupportedError: a free joint.
+        """
         obj = self._world.get(self._h(objectHandle, "objectHandle"))
         if obj.type != JOINT:
             raise ArgumentError(f"{obj.name!r} is not a joint: only a joint has a child pose in simx")
@@ -175,7 +273,19 @@ class ServiceCalls:
 
     def setObjectChildPose(self, objectHandle: Any, pose: Any) -> None:  # noqa: N802, N803
         """Set a joint's intrinsic motion from a child pose (see :meth:`getObjectChildPose`): a
-        hinge takes the rotation's angle about z, a slide the z translation, a ball the rotation."""
+        hinge takes the rotation's angle about z, a slide the z translation, a ball the rotation.
+
+        ``sim.setObjectChildPose``.
+
+        Args:
+            objectHandle: a joint's handle, or ``sim.handle_self``.
+            pose: 7 numbers, m and a quaternion.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not a joint, not 7 numbers, or a zero quaternion.
+            UnsupportedError: a free joint.
+        """
         obj = self._world.get(self._h(objectHandle, "objectHandle"))
         if obj.type != JOINT:
             raise ArgumentError(f"{obj.name!r} is not a joint: only a joint has a child pose in simx")
@@ -206,7 +316,26 @@ class ServiceCalls:
         detection only within ``threshold`` m and, with ``mode`` bit 3, where the surface faces the
         sensor within ``maxAngle`` (rad). ``mode`` bit 0 asks for front faces (what MuJoCo's rays
         see); back faces alone (bit 1 without bit 0): UnsupportedError. Bit 2 (fast) changes
-        nothing: the rays are exact."""
+        nothing: the rays are exact.
+
+        ``sim.checkProximitySensorEx``.
+
+        Args:
+            sensorHandle: a proximity sensor's handle.
+            entityHandle: an object, or ``sim.handle_all``.
+            mode: detection bits.
+            threshold: m.
+            maxAngle: rad.
+
+        Returns:
+            ``(result, distance, detectedPoint, detectedObjectHandle, normalVector)``: int, m, 3 floats
+            (m), int, 3 floats.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a proximity sensor.
+            UnsupportedError: back faces only (mode bit 0 clear).
+        """
         opts, limit, angle = _int(mode, "mode"), _num(threshold, "threshold"), _num(maxAngle, "maxAngle")
         if not opts & 1:
             raise UnsupportedError("checkProximitySensorEx: MuJoCo's rays detect front faces only (set mode bit 0)")
@@ -221,7 +350,18 @@ class ServiceCalls:
 
     def removeReferencedObjects(self, objectHandle: Any, tag: Any = "") -> None:  # noqa: N802, N803
         """Remove from the scene the objects ``objectHandle`` references under ``tag``
-        (``sim.setReferencedHandles``), then forget the references."""
+        (``sim.setReferencedHandles``), then forget the references.
+
+        ``sim.removeReferencedObjects``.
+
+        Args:
+            objectHandle: the referring object.
+            tag: the tag (``""``: the default one).
+
+        Raises:
+            UnknownObjectError: no such object.
+            UnsupportedError: no simulation behind the script.
+        """
         sim = self._simulation("removeReferencedObjects")
         refs = self.getReferencedHandles(objectHandle, tag)
         for h in refs:
@@ -233,7 +373,22 @@ class ServiceCalls:
                         precision: Any = None) -> int:
         """V-REP's ``simCreatePureShape``: ``primitiveType`` 0 cuboid, 1 sphere, 2 cylinder, 3 cone
         (refused: MuJoCo has no cone); ``options`` bit 4 (16): static; ``sizes`` x, y, z (m);
-        ``mass`` (kg); ``precision`` (tessellation) has no meaning for MuJoCo's exact primitives."""
+        ``mass`` (kg); ``precision`` (tessellation) has no meaning for MuJoCo's exact primitives.
+
+        Args:
+            primitiveType: 0-3.
+            options: bit 4 (16): static.
+            sizes: 3 numbers, m.
+            mass: kg.
+            precision: ignored.
+
+        Returns:
+            The shape's handle.
+
+        Raises:
+            ArgumentError: an unknown type, sizes or mass out of range.
+            UnsupportedError: a cone, or no simulation behind the script.
+        """
         kind, opts = _int(primitiveType, "primitiveType"), _int(options, "options")
         if kind not in _PURE:
             raise ArgumentError("primitiveType must be 0 (cuboid), 1 (sphere), 2 (cylinder) or 3 (cone)")
@@ -243,7 +398,13 @@ class ServiceCalls:
 
     # ------------------------------------------------------------------ application services
     def getThreadId(self) -> int:  # noqa: N802
-        """The id of the server thread running the call (Python's ``threading.get_ident``)."""
+        """The id of the server thread running the call (Python's ``threading.get_ident``).
+
+        ``sim.getThreadId``.
+
+        Returns:
+            The thread id.
+        """
         return threading.get_ident()
 
     if TYPE_CHECKING:  # provided by the facade

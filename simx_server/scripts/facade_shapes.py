@@ -1,5 +1,6 @@
 """CoppeliaSim 4.x's shape calls on MuJoCo bodies (mixin of :class:`simx_server.scripts.facade.ScriptSim`):
-mass and inertia, colours, bounding boxes, meshes and primitive shapes.
+colours, bounding boxes, meshes and primitive shapes (mass and inertia:
+:mod:`simx_server.scripts.facade_inertia`).
 
 A V-REP shape is a MuJoCo body (:mod:`simx_server.sim.objects`); its geoms are its components.
 Mass and inertia are the body's (``body_mass``, ``body_inertia`` in the principal frame
@@ -15,8 +16,7 @@ import mujoco
 import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnsupportedError
-from simx_server.base import limits as L
-from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
+from simx_server.base.arguments import as_integer as _int, as_text as _text, as_vector as _vector
 from simx_server.sim.objects import DUMMY, LIGHT, SHAPE
 from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_server.sim.state import SimulationView
@@ -39,94 +39,33 @@ def _geom_pose(m: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 class ShapeCalls:
-    """Shape mass, inertia, colours, bounding boxes, meshes, primitive shapes (facade mixin)."""
+    """Shape colours, bounding boxes, meshes, primitive shapes (facade mixin)."""
 
     def _shape(self, handle: Any) -> Any:
         return self._world.get(self._h(handle, "shapeHandle"), SHAPE)
-
-    # ------------------------------------------------------------- mass and inertia
-    def getShapeMass(self, shapeHandle: Any) -> float:  # noqa: N802, N803
-        """Mass of the shape's body (kg)."""
-        return float(self._world.model.body_mass[self._shape(shapeHandle).mj_id])
-
-    def setShapeMass(self, shapeHandle: Any, mass: Any) -> None:  # noqa: N802, N803
-        """Set the body's mass (kg, within limits.MIN_MASS..MAX_MASS); its inertia scales with it,
-        as CoppeliaSim keeps the mass-divided inertia."""
-        obj = self._shape(shapeHandle)
-        new = _num(mass, "mass")
-        if not L.MIN_MASS <= new <= L.MAX_MASS:
-            raise ArgumentError(f"mass must lie in [{L.MIN_MASS}, {L.MAX_MASS}] kg, got {new}")
-        m = self._world.model
-        old = float(m.body_mass[obj.mj_id])
-        m.body_inertia[obj.mj_id] *= new / old if old > 0 else 1.0
-        m.body_mass[obj.mj_id] = new
-        self._spec_inertial(obj)
-
-    def getShapeInertia(self, shapeHandle: Any) -> tuple[list[float], list[float]]:  # noqa: N802, N803
-        """``inertiaMatrix, transformationMatrix``: the 3x3 inertia tensor (kg·m², 9 numbers row
-        by row) about the centre of mass, in the frame whose pose relative to the shape's frame
-        the 12-number matrix gives (MuJoCo's principal frame: the tensor is diagonal)."""
-        obj = self._shape(shapeHandle)
-        m = self._world.model
-        rot = np.empty(9)
-        mujoco.mju_quat2Mat(rot, m.body_iquat[obj.mj_id])
-        pose = np.hstack([rot.reshape(3, 3), m.body_ipos[obj.mj_id].reshape(3, 1)])
-        return np.diag(m.body_inertia[obj.mj_id]).reshape(9).tolist(), pose.reshape(12).tolist()
-
-    def setShapeInertia(self, shapeHandle: Any, inertiaMatrix: Any, transformationMatrix: Any) -> None:  # noqa: N802, N803
-        """Set the inertia tensor (9 numbers, kg·m², symmetric positive definite) about the centre
-        of mass placed by ``transformationMatrix`` (12 numbers, relative to the shape's frame)."""
-        obj = self._shape(shapeHandle)
-        tensor = np.array(_vector(inertiaMatrix, 9, "inertiaMatrix")).reshape(3, 3)
-        pose = np.array(_vector(transformationMatrix, 12, "transformationMatrix")).reshape(3, 4)
-        if not np.allclose(tensor, tensor.T, atol=1e-9):
-            raise ArgumentError("inertiaMatrix must be symmetric")
-        values, axes = np.linalg.eigh(pose[:, :3] @ tensor @ pose[:, :3].T)
-        if values.min() <= 0:
-            raise ArgumentError("inertiaMatrix must be positive definite")
-        if np.linalg.det(axes) < 0:
-            axes[:, 0] *= -1
-        quat = np.empty(4)
-        mujoco.mju_mat2Quat(quat, axes.reshape(9).copy())
-        m = self._world.model
-        m.body_inertia[obj.mj_id], m.body_iquat[obj.mj_id], m.body_ipos[obj.mj_id] = values, quat, pose[:, 3]
-        self._spec_inertial(obj)
-
-    def _spec_inertial(self, obj: Any) -> None:
-        """Write the body's inertial values into the scene's MjSpec (they survive later edits)."""
-        sim = getattr(self, "_sim", None)
-        try:
-            body = sim.editor._live_spec().body(obj.name) if sim is not None else None
-        except UnsupportedError:
-            body = None
-        m = self._world.model
-        if body is not None:
-            body.explicitinertial = True
-            body.mass, body.ipos = float(m.body_mass[obj.mj_id]), m.body_ipos[obj.mj_id].copy()
-            body.iquat, body.inertia = m.body_iquat[obj.mj_id].copy(), m.body_inertia[obj.mj_id].copy()
-        self._world.changed()
-
-    def computeMassAndInertia(self, shapeHandle: Any, density: Any) -> int:  # noqa: N802, N803
-        """The body's mass from its geoms' volumes at ``density`` (kg/m³) (boxes, spheres,
-        ellipsoids, cylinders, capsules; mesh geoms count no volume: MuJoCo's model keeps none); the inertia scales with the mass. Returns 1 (0: no volume, unchanged)."""
-        obj = self._shape(shapeHandle)
-        rho = _num(density, "density")
-        if not 0 < rho <= 1e5:
-            raise ArgumentError("density must lie in (0, 1e5] kg/m³")
-        m = self._world.model
-        old = float(m.body_mass[obj.mj_id])
-        volume = sum(_volume(m, int(g)) for g in _geoms(self._world, obj.mj_id))
-        if volume <= 0 or old <= 0:
-            return 0
-        self.setShapeMass(shapeHandle, min(max(rho * volume, L.MIN_MASS), L.MAX_MASS))
-        return 1
 
     # ------------------------------------------------------------------ colours
     def getShapeColor(self, shapeHandle: Any, colorName: Any, colorComponent: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
         """``result, rgbData`` of the shape's first geom named ``colorName`` (any for nil or
         ``""``): component 0/1 ambient-diffuse/diffuse the RGB (its material's when it has one),
         2 specular and 3 emission the material's scalar three times, 4 transparency {1 - alpha}.
-        result 0 when no geom matches."""
+        result 0 when no geom matches.
+
+        ``sim.getShapeColor``.
+
+        Args:
+            shapeHandle: a shape's handle, or ``sim.handle_self``.
+            colorName: a geom's name, or None / ``""`` (any).
+            colorComponent: 0-4 (``sim.colorcomponent_*``).
+
+        Returns:
+            ``(result, rgbData)``: 1 or 0, and 3 floats in 0..1 (1 for transparency).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            ArgumentError: a component out of 0-4.
+        """
         obj = self._shape(shapeHandle)
         name = None if colorName is None else _text(colorName, "colorName")
         component = _int(colorComponent, "colorComponent")
@@ -148,7 +87,23 @@ class ShapeCalls:
 
     def getObjectColor(self, objectHandle: Any, index: Any, colorComponent: Any) -> list[float] | None:  # noqa: N802, N803
         """Colour of a shape's ``index``-th geom (as :meth:`getShapeColor`) or of a dummy (its
-        site's rgba); nil (None) for an index past the last."""
+        site's rgba); nil (None) for an index past the last.
+
+        ``sim.getObjectColor``.
+
+        Args:
+            objectHandle: a shape or dummy.
+            index: 0-based geom index (a dummy has index 0).
+            colorComponent: 0-4 (``sim.colorcomponent_*``).
+
+        Returns:
+            3 floats in 0..1 (1 for transparency), or None.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: neither a shape nor a dummy.
+            UnsupportedError: an unnamed geom after the first.
+        """
         obj = self._world.get(self._h(objectHandle))
         i, m = _int(index, "index"), self._world.model
         if obj.type == DUMMY:
@@ -165,7 +120,24 @@ class ShapeCalls:
         return self.getShapeColor(objectHandle, name, colorComponent)[1]
 
     def setObjectColor(self, objectHandle: Any, index: Any, colorComponent: Any, rgbData: Any) -> bool:  # noqa: N802, N803
-        """Colour of a shape's ``index``-th geom (as ``setShapeColor``); false past the last."""
+        """Colour of a shape's ``index``-th geom (as ``setShapeColor``); false past the last.
+
+        ``sim.setObjectColor``.
+
+        Args:
+            objectHandle: a shape's handle.
+            index: 0-based geom index.
+            colorComponent: 0-4 (``sim.colorcomponent_*``).
+            rgbData: 3 numbers in 0..1 (transparency: 1).
+
+        Returns:
+            True, or False past the last geom.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            ArgumentError: a bad colour or component.
+        """
         geoms = _geoms(self._world, self._shape(objectHandle).mj_id)
         i = _int(index, "index")
         if not 0 <= i < len(geoms):
@@ -194,7 +166,20 @@ class ShapeCalls:
         return np.vstack(out)
 
     def getShapeBB(self, shapeHandle: Any) -> list[float]:  # noqa: N802, N803
-        """Size ``[x, y, z]`` (m) of the shape's bounding box in its own frame."""
+        """Size ``[x, y, z]`` (m) of the shape's bounding box in its own frame.
+
+        ``sim.getShapeBB``.
+
+        Args:
+            shapeHandle: a shape's handle, or ``sim.handle_self``.
+
+        Returns:
+            3 floats, m.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+        """
         c = self._corners(self._shape(shapeHandle).mj_id)
         return (c.max(axis=0) - c.min(axis=0)).tolist()
 
@@ -202,7 +187,21 @@ class ShapeCalls:
         """``vertices, indices, normals`` of the shape's mesh and box geoms in the shape's frame
         (m; 3 numbers per vertex, 3 indices per triangle, 9 normal numbers per triangle).
         UnsupportedError for a shape with other primitives (spheres, cylinders...: MuJoCo keeps
-        no mesh of them)."""
+        no mesh of them).
+
+        ``sim.getShapeMesh``.
+
+        Args:
+            shapeHandle: a shape's handle, or ``sim.handle_self``.
+
+        Returns:
+            ``(vertices, indices, normals)``: 3n floats (m), 3t ints, 9t floats.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            UnsupportedError: a geom other than a mesh or box, or no geom.
+        """
         obj = self._shape(shapeHandle)
         m = self._world.model
         verts, faces = [], []
@@ -234,7 +233,20 @@ class ShapeCalls:
 
     def getShapeGeomInfo(self, shapeHandle: Any) -> tuple[int, int, list[float]]:  # noqa: N802, N803
         """``result, pureType, dimensions``: result bit 0 compound (several geoms), bit 1 pure
-        (one primitive); pureType a ``sim.primitiveshape_*``; dimensions the bounding box (m)."""
+        (one primitive); pureType a ``sim.primitiveshape_*``; dimensions the bounding box (m).
+
+        ``sim.getShapeGeomInfo``.
+
+        Args:
+            shapeHandle: a shape's handle, or ``sim.handle_self``.
+
+        Returns:
+            ``(result, pureType, dimensions)``: int, int, 3 floats (m).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+        """
         obj = self._shape(shapeHandle)
         m = self._world.model
         geoms = _geoms(self._world, obj.mj_id)
@@ -245,14 +257,46 @@ class ShapeCalls:
         return int(len(geoms) > 1) | (2 if pure else 0), pure, dims
 
     def getShapeViz(self, shapeHandle: Any, itemIndex: Any) -> dict:  # noqa: N802, N803
-        """``{vertices, indices, normals, colors}`` of the shape's mesh (:meth:`getShapeMesh`)."""
+        """``{vertices, indices, normals, colors}`` of the shape's mesh (:meth:`getShapeMesh`).
+
+        ``sim.getShapeViz``.
+
+        Args:
+            shapeHandle: a shape's handle, or ``sim.handle_self``.
+            itemIndex: ignored (the whole shape).
+
+        Returns:
+            A dict: ``vertices`` (3n floats, m), ``indices`` (3t ints), ``normals`` (9t floats),
+            ``colors`` (9 floats, 0..1).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            UnsupportedError: a geom other than a mesh or box.
+        """
         v, i, n = self.getShapeMesh(shapeHandle)
         _, rgb = self.getShapeColor(shapeHandle, None, 0)
         return {"vertices": v, "indices": i, "normals": n, "colors": rgb + rgb + rgb}
 
     def changeEntityColor(self, entityHandle: Any, newColor: Any, colorComponent: Any = 0) -> list[dict]:  # noqa: N802, N803
         """Colour every geom of a shape and the shapes below it (RGB 0..1; component 0/1 the
-        colour, 4 transparency); returns the original colours for :meth:`restoreEntityColor`."""
+        colour, 4 transparency); returns the original colours for :meth:`restoreEntityColor`.
+
+        ``sim.changeEntityColor``.
+
+        Args:
+            entityHandle: a shape's handle.
+            newColor: 3 numbers in 0..1 (component 4: the first is the transparency).
+            colorComponent: 0, 1 or 4.
+
+        Returns:
+            The saved colours (one dict per geom).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a shape.
+            ArgumentError: a colour out of 0..1.
+        """
         root = self._shape(entityHandle)
         m, world = self._world.model, self._world
         rgb = _vector(newColor, 3, "newColor")
@@ -271,7 +315,16 @@ class ShapeCalls:
         return saved
 
     def restoreEntityColor(self, originalColorData: Any) -> None:  # noqa: N802, N803
-        """Put back the colours :meth:`changeEntityColor` returned (until the scene is edited)."""
+        """Put back the colours :meth:`changeEntityColor` returned (until the scene is edited).
+
+        ``sim.restoreEntityColor``.
+
+        Args:
+            originalColorData: the list :meth:`changeEntityColor` returned.
+
+        Raises:
+            ArgumentError: not that list, or one that no longer fits the scene.
+        """
         m = self._world.model
         for item in originalColorData or []:
             if not isinstance(item, dict) or not {"geom", "rgba", "matid"} <= set(item):
@@ -292,7 +345,20 @@ class ShapeCalls:
 
     def getLightParameters(self, lightHandle: Any) -> tuple[int, list[float], list[float], list[float]]:  # noqa: N802, N803
         """``state, zero, diffusePart, specularPart`` of a light (MuJoCo's ``light_active``,
-        ``light_diffuse``, ``light_specular``; the second, CoppeliaSim's ambient, is 0s)."""
+        ``light_diffuse``, ``light_specular``; the second, CoppeliaSim's ambient, is 0s).
+
+        ``sim.getLightParameters``.
+
+        Args:
+            lightHandle: a light's handle.
+
+        Returns:
+            ``(state, zero, diffusePart, specularPart)``: 0/1 and three lists of 3 floats (0..1).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a light.
+        """
         obj = self._world.get(self._h(lightHandle, "lightHandle"), LIGHT)
         m = self._world.model
         return (int(m.light_active[obj.mj_id]), [0.0, 0.0, 0.0], m.light_diffuse[obj.mj_id].tolist(),
@@ -300,7 +366,22 @@ class ShapeCalls:
 
     def setLightParameters(self, lightHandle: Any, state: Any, zero: Any = None, diffusePart: Any = None,  # noqa: N802, N803
                            specularPart: Any = None) -> None:  # noqa: N803
-        """Switch a light on (1) or off (0) and set its diffuse and specular colours (0..1; nil keeps)."""
+        """Switch a light on (1) or off (0) and set its diffuse and specular colours (0..1; nil keeps).
+
+        ``sim.setLightParameters``.
+
+        Args:
+            lightHandle: a light's handle.
+            state: bit 0: on.
+            zero: ignored (CoppeliaSim's ambient part).
+            diffusePart: 3 numbers in 0..1, or None.
+            specularPart: 3 numbers in 0..1, or None.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a light.
+            ArgumentError: a colour out of 0..1.
+        """
         obj = self._world.get(self._h(lightHandle, "lightHandle"), LIGHT)
         m = self._world.model
         m.light_active[obj.mj_id] = bool(_int(state, "state") & 1)
@@ -314,7 +395,22 @@ class ShapeCalls:
 
     def copyPasteObjects(self, objectHandles: Any, options: Any = 0) -> list[int]:  # noqa: N802, N803
         """Copies of shapes (with their body subtrees), dummies, sensors and lights, as
-        ``simxCopyPasteObjects``; the copies' handles."""
+        ``simxCopyPasteObjects``; the copies' handles.
+
+        ``sim.copyPasteObjects``.
+
+        Args:
+            objectHandles: list of handles.
+            options: checked, ignored.
+
+        Returns:
+            The copies' handles, in order.
+
+        Raises:
+            ArgumentError: not a list of integers.
+            UnknownObjectError: no such object.
+            UnsupportedError: an object simx cannot copy, or no simulation behind the script.
+        """
         if not isinstance(objectHandles, (list, tuple)):
             raise ArgumentError("objectHandles must be a table of handles")
         _int(options, "options")
@@ -326,7 +422,22 @@ class ShapeCalls:
         ``cuboid`` (3), ``spheroid`` (4), ``cylinder`` (5), ``capsule`` (8); ``sizes`` x, y, z (m,
         full extents). The shape is a dynamic, respondable free body of 1,000 kg/m³ (call
         ``sim.setShapeMass``); ``options`` bit 1 (value 2) makes it static. Cones and
-        heightfields: UnsupportedError (MuJoCo has no cone geom). Returns its handle."""
+        heightfields: UnsupportedError (MuJoCo has no cone geom). Returns its handle.
+
+        ``sim.createPrimitiveShape``.
+
+        Args:
+            primitiveType: a ``sim.primitiveshape_*`` value.
+            sizes: 3 numbers, m, each in (0, 1000].
+            options: bit 1 (2): static.
+
+        Returns:
+            The shape's handle.
+
+        Raises:
+            UnsupportedError: a cone or heightfield, or no simulation behind the script.
+            ArgumentError: sizes out of range.
+        """
         kind = _int(primitiveType, "primitiveType")
         if kind not in PRIMITIVES:
             raise UnsupportedError(f"createPrimitiveShape type {kind}: simx makes planes, discs, cuboids, "
@@ -360,20 +471,3 @@ class ShapeCalls:
         def _simulation(self, what: str) -> SimulationView: ...
 
         def setShapeColor(self, shapeHandle: Any, colorName: Any, colorComponent: Any, rgbData: Any) -> int: ...
-
-
-def _volume(m: mujoco.MjModel, g: int) -> float:
-    """Volume of geom ``g`` (m³) as MuJoCo measured it: its mass at its density."""
-    s = m.geom_size[g]
-    kind = int(m.geom_type[g])
-    if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        return float(8 * s[0] * s[1] * s[2])
-    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return float(4 / 3 * np.pi * s[0] ** 3)
-    if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
-        return float(4 / 3 * np.pi * s[0] * s[1] * s[2])
-    if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
-        return float(np.pi * s[0] ** 2 * 2 * s[1])
-    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        return float(np.pi * s[0] ** 2 * 2 * s[1] + 4 / 3 * np.pi * s[0] ** 3)
-    return 0.0  # meshes: MuJoCo 3.x's model keeps no mesh volume

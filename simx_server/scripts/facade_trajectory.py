@@ -80,7 +80,25 @@ class TrajectoryCalls:
         each, ``dof`` = len(path) / len(pathLengths)) and the time (s) at which the fastest motion
         within the limits reaches each. ``minMaxVel`` / ``minMaxAccel``: per dof a minimum and a
         maximum (``{min1, max1, min2, max2...}``; minimum < 0 < maximum). Errors: a path of
-        fewer than 2 configurations, path lengths not increasing, limits that stop the motion."""
+        fewer than 2 configurations, path lengths not increasing, limits that stop the motion.
+
+        ``sim.generateTimeOptimalTrajectory``.
+
+        Args:
+            path: n * dof numbers (rad or m).
+            pathLengths: n increasing numbers.
+            minMaxVel: 2 * dof numbers (per second).
+            minMaxAccel: 2 * dof numbers (per second²).
+            trajPtSamples: how many samples.
+            boundaryCondition: the spline's end condition.
+            timeout: s.
+
+        Returns:
+            ``(path, times)``: trajPtSamples * dof floats and trajPtSamples floats (s).
+
+        Raises:
+            ArgumentError: as said above.
+        """
         lengths = np.array([_num(v, "pathLengths[i]") for v in (pathLengths or [])], dtype=float)
         n = len(lengths)
         if not 2 <= n <= MAX_POINTS or not isinstance(path, (list, tuple)) or len(path) % n:

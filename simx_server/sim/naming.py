@@ -62,6 +62,9 @@ def vrep_names(model: mujoco.MjModel, previous: dict[Identity, str] | None = Non
     Args:
         model: the compiled model.
         previous: see above.
+
+    Returns:
+        ``(names, renamed, identities)`` as said above.
     """
     previous = previous or {}
     shared: dict[str, list[tuple[str, int, int]]] = {}

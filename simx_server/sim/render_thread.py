@@ -60,7 +60,11 @@ class GLLock:
 
     @contextmanager
     def shared(self) -> Iterator[None]:
-        """Draw a frame: waits while a context is made or a maker waits; frames run together."""
+        """Draw a frame: waits while a context is made or a maker waits; frames run together.
+
+        Yields:
+            None, while the frame may be drawn.
+        """
         with self._cond:
             self._cond.wait_for(lambda: not self._making and not self._waiting)
             self._drawing += 1
@@ -73,7 +77,11 @@ class GLLock:
 
     @contextmanager
     def exclusive(self) -> Iterator[None]:
-        """Make or free a GL context: waits until no frame is drawn; one at a time."""
+        """Make or free a GL context: waits until no frame is drawn; one at a time.
+
+        Yields:
+            None, while the context may be made or freed.
+        """
         with self._cond:
             self._waiting += 1
             self._cond.wait_for(lambda: not self._making and not self._drawing)

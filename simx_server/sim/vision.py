@@ -60,12 +60,12 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 
-from simx_wire.protocol import ArgumentError
 from simx_server.base import limits as L
 from simx_server.sim import handle_render
 from simx_server.sim.physics import check_resolution
 from simx_server.sim.render_thread import RenderThread, render_bands
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
+from simx_server.sim.vision_results import Deferred, VisionResults
 from simx_server.sim.world import VISION_SENSOR, World
 
 log = logging.getLogger("simx.vision")
@@ -82,17 +82,7 @@ def _grey(img: np.ndarray) -> np.ndarray:
     return _THIRD[total]
 
 
-class Deferred:
-    """A command result that a render thread completes (the server replies once it is done);
-    ``thread`` is that render thread (None: unknown)."""
-
-    __slots__ = ("future", "thread")
-
-    def __init__(self, future: Future, thread: RenderThread | None = None):
-        self.future, self.thread = future, thread
-
-
-class VisionSensors:
+class VisionSensors(VisionResults):
     """The scene's vision sensors.
 
     Methods are called on the simulation thread; rendering happens on render threads (each a
@@ -199,13 +189,28 @@ class VisionSensors:
 
     def after(self, job: Callable[[], Any]) -> Future:
         """Run ``job`` on the request render thread once every render submitted to it so far
-        is done."""
+        is done.
+
+        Args:
+            job: a callable of no argument.
+
+        Returns:
+            The future of ``job()``.
+        """
         return self._thread.executor.submit(job)
 
     def after_all(self, renders: list[Deferred], job: Callable[[], Any]) -> Future:
         """A future of ``job()``, run once every render of ``renders`` is done, on the stream
         render thread if one of them is drawn there, else on the request thread; the wait holds
-        no thread (frames may come from either thread: the cache shares them)."""
+        no thread (frames may come from either thread: the cache shares them).
+
+        Args:
+            renders: the Deferred renders to wait for.
+            job: a callable of no argument.
+
+        Returns:
+            The future of ``job()``.
+        """
         streaming = self._streaming is not None and any(d.thread is self._streaming for d in renders)
         executor, result = (self._streaming if streaming else self._thread).executor, Future()
         futures = [d.future for d in renders]
@@ -290,7 +295,11 @@ class VisionSensors:
     def streams_over_share(self) -> bool:
         """Whether the stream render thread drew more than ``limits.STREAM_RENDER_SHARE`` of the
         time lately (``limits.STREAM_RENDER_DEBT_SECONDS`` ahead): streams of its large frames then
-        skip steps."""
+        skip steps.
+
+        Returns:
+            True when streams should skip steps.
+        """
         s = self._streaming
         return s is not None and s.debt(L.STREAM_RENDER_SHARE) > L.STREAM_RENDER_DEBT_SECONDS
 
@@ -321,7 +330,14 @@ class VisionSensors:
         """Wait until the renderers made at load are ready: whether they are (False on timeout).
 
         The server waits for them before it starts the simulation, so that a fresh server's
-        first streamed image comes within a step or two of the streaming call."""
+        first streamed image comes within a step or two of the streaming call.
+
+        Args:
+            timeout: s, or None (no limit).
+
+        Returns:
+            True when ready.
+        """
         try:
             self._ready.result(timeout)
         except TimeoutError:
@@ -421,86 +437,6 @@ class VisionSensors:
             return _grey(img) if grey else img
 
         return rgb
-
-    def rendered(self, job: Callable[[], Any]) -> Deferred:
-        """``job()`` on the request render thread once every render submitted to it so far is
-        done (the frames of :meth:`image_job` and :meth:`depth_job`), as a Deferred: the
-        simulation thread goes on, the caller replies when its future is done."""
-        return Deferred(self.after(job), self._thread)
-
-    def rendered_with(self, handle: int, job: Callable[[], Any]) -> Deferred:
-        """As :meth:`rendered`, on the render thread that draws ``handle``'s frames for the
-        command being executed (the stream thread for a large streamed sensor, see
-        :meth:`_target`), so that a job waiting for a large frame holds no other thread."""
-        thread = self._target(self.spec(handle))
-        return Deferred(thread.executor.submit(job), thread)
-
-    def depth(self, handle: int) -> np.ndarray:
-        """Depth normalised to 0..1 between near and far, (h, w) float32, rows bottom-up.
-
-        Args:
-            handle: a vision sensor's handle.
-
-        Returns:
-            Array (h, w) float32.
-        """
-        return self.after(self.depth_job(handle)).result()
-
-    def image(self, handle: int, grey: bool) -> np.ndarray:
-        """The sensor's image, rows bottom-up: (h, w, 3) uint8 RGB, or (h, w) uint8 when ``grey``.
-
-        ``grey`` is V-REP's options bit 0: one byte per pixel, (R + G + B) / 3.
-
-        Args:
-            handle: a vision sensor's handle.
-            grey: one byte per pixel.
-
-        Returns:
-            Array (h, w, 3) or (h, w) uint8.
-        """
-        return self.after(self.image_job(handle, grey)).result()
-
-    def _payload(self, handle: int, kind: str, job: Callable[[], Callable[[], np.ndarray]]) -> Deferred:
-        """``[[resX, resY], bytes]`` of a frame, made once per state and shared (see :meth:`_cached`)."""
-        cached = self._cached((handle, kind))
-        if cached is None:
-            spec, frame = self.spec(handle), job()
-            thread = self._target(spec)
-            cached = thread.executor.submit(
-                lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()]), thread
-            self._cache[(handle, kind)] = (self.world.version, *cached)
-        return Deferred(*cached)
-
-    def image_deferred(self, handle: int, options: int) -> Deferred:
-        """``simxGetVisionSensorImage``: a Deferred ``[[resX, resY], bytes]`` (options bit 0: grey).
-
-        Args:
-            handle: a vision sensor's handle.
-            options: bit 0: grey.
-
-        Raises:
-            ArgumentError: ``options`` is not an int.
-        """
-        if not isinstance(options, int):
-            raise ArgumentError(f"options must be an int, got {type(options).__name__}")
-        grey = bool(options & 1)
-        return self._payload(handle, f"image{int(grey)}", lambda: self.image_job(handle, grey))
-
-    def depth_deferred(self, handle: int) -> Deferred:
-        """``simxGetVisionSensorDepthBuffer``: a Deferred ``[[resX, resY], float32 bytes]``.
-
-        Args:
-            handle: a vision sensor's handle.
-        """
-        return self._payload(handle, "depth buffer", lambda: self.depth_job(handle))
-
-    def image_bytes(self, handle: int, options: int) -> tuple[list[int], bytes]:
-        """:meth:`image_deferred`, waited for: ``([resX, resY], bytes)``."""
-        return tuple(self.image_deferred(handle, options).future.result())
-
-    def depth_bytes(self, handle: int) -> tuple[list[int], bytes]:
-        """:meth:`depth_deferred`, waited for: ``([resX, resY], float32 bytes)``."""
-        return tuple(self.depth_deferred(handle).future.result())
 
     def close(self) -> None:
         """Finish pending jobs, free every GL context (on its thread) and stop; idempotent.

@@ -1,0 +1,130 @@
+"""CoppeliaSim 4.x's joint intervals, modes and dependencies on MuJoCo (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`): intervals are MuJoCo's ``jnt_range``; modes map
+onto simx's motors; dependencies are MJCF joint equalities.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_vector as _vector
+from simx_server.sim.objects import JOINT
+from simx_server.sim.state import SimulationView
+
+#: CoppeliaSim's ``sim.jointmode_kinematic`` (0), ``dependent`` (4), ``dynamic`` (5).
+JOINTMODE_KINEMATIC, JOINTMODE_DEPENDENT, JOINTMODE_DYNAMIC = 0, 4, 5
+
+
+class JointModeCalls:
+    """Joint intervals, modes and dependencies (facade mixin)."""
+
+    def _joint(self, handle: Any) -> Any:
+        return self._world.get(self._h(handle, "jointHandle"), JOINT)
+
+    def getJointInterval(self, objectHandle: Any) -> tuple[bool, list[float]]:  # noqa: N802, N803
+        """``cyclic, interval``: interval = ``[min, range]`` (rad or m, MuJoCo's ``jnt_range``);
+        a hinge without limits is cyclic (``[-pi, 2 pi]``).
+
+        Args:
+            objectHandle: a joint's handle.
+
+        Returns:
+            ``(cyclic, [min, range])``.
+        """
+        obj = self._joint(objectHandle)
+        m = self._world.model
+        lo, hi = (float(v) for v in m.jnt_range[obj.mj_id])
+        if not m.jnt_limited[obj.mj_id]:
+            if int(m.jnt_type[obj.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE:
+                return True, [-np.pi, 2 * np.pi]
+            return False, [-1e6, 2e6]
+        return False, [lo, hi - lo]
+
+    def setJointInterval(self, objectHandle: Any, cyclic: Any, interval: Any) -> None:  # noqa: N802, N803
+        """Set the joint's limits ``[min, range]`` (rad or m); ``cyclic`` true removes them (a
+        hinge). Written to the model and the scene's MjSpec (kept by later edits).
+
+        Args:
+            objectHandle: a joint's handle.
+            cyclic: true to remove the limits.
+            interval: ``[min, range]``, rad or m.
+
+        Raises:
+            ArgumentError: a negative range.
+        """
+        obj = self._joint(objectHandle)
+        lo, span = _vector(interval, 2, "interval")
+        if span < 0:
+            raise ArgumentError("interval's range must not be negative")
+        m = self._world.model
+        m.jnt_range[obj.mj_id] = [lo, lo + span]
+        m.jnt_limited[obj.mj_id] = not cyclic
+        sim = getattr(self, "_sim", None)
+        try:
+            el = sim.editor._live_spec().joint(obj.name) if sim is not None else None
+        except UnsupportedError:
+            el = None
+        if el is not None:
+            el.range = [lo, lo + span]
+            el.limited = mujoco.mjtLimited.mjLIMITED_FALSE if cyclic else mujoco.mjtLimited.mjLIMITED_TRUE
+        self._world.changed()
+
+    def getJointMode(self, jointHandle: Any) -> tuple[int, int]:  # noqa: N802, N803
+        """``jointMode, options``: ``sim.jointmode_dynamic`` (5) for a joint with a motor, else
+        ``sim.jointmode_kinematic`` (0); options 0.
+
+        Args:
+            jointHandle: a joint's handle.
+
+        Returns:
+            ``(mode, 0)``.
+        """
+        obj = self._joint(jointHandle)
+        return (JOINTMODE_DYNAMIC if obj.handle in self._world.motor_index else JOINTMODE_KINEMATIC), 0
+
+    def setJointMode(self, jointHandle: Any, jointMode: Any, options: Any = 0) -> None:  # noqa: N802, N803
+        """Only ``sim.jointmode_dynamic`` (5, or its ``jointmode_force`` alias) for a joint with a
+        motor: simx's joints are all simulated by MuJoCo (kinematic and dependent modes are not).
+
+        Args:
+            jointHandle: a joint's handle.
+            jointMode: 5.
+            options: ignored.
+
+        Raises:
+            UnsupportedError: another mode, or a joint without a motor.
+        """
+        obj = self._joint(jointHandle)
+        mode = _int(jointMode, "jointMode")
+        if mode != JOINTMODE_DYNAMIC or obj.handle not in self._world.motor_index:
+            raise UnsupportedError(f"setJointMode {mode}: simx's joints are dynamic (MuJoCo); kinematic, IK and "
+                                   "dependent modes do not exist (use setJointPosition to place a joint)")
+
+    def getJointDependency(self, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
+        """``masterJointHandle, offset, multCoeff`` of an MJCF joint equality (``<joint joint1
+        joint2 polycoef>``, q1 = offset + coeff·q2), or ``-1, 0, 1`` without one.
+
+        Args:
+            jointHandle: a joint's handle.
+
+        Returns:
+            ``(masterHandle, offset, coefficient)``.
+        """
+        obj = self._joint(jointHandle)
+        m = self._world.model
+        by_id = {o.mj_id: o.handle for o in self._world.objects.values() if o.type == JOINT}
+        for e in range(m.neq):
+            if m.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and m.eq_obj1id[e] == obj.mj_id and m.eq_obj2id[e] >= 0:
+                return by_id.get(int(m.eq_obj2id[e]), -1), float(m.eq_data[e][0]), float(m.eq_data[e][1])
+        return -1, 0.0, 1.0
+
+    if TYPE_CHECKING:  # provided by the facade
+        _world: Any
+
+        def _h(self, handle: Any, what: str = "object handle") -> int: ...
+
+        def _simulation(self, what: str) -> SimulationView: ...
