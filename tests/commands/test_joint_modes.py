@@ -180,7 +180,7 @@ def test_legacy_program_switches_modes_through_the_api():
     """simxSetJointTargetVelocity(j, 1.0) then simxSetObjectIntParameter(j, 2001, 0) moves the
     joint at 1 rad/s; the stored target position acts again once the loop is back on; motor off
     frees the joint. Through a real server, stepped."""
-    srv = ServerProcess(str(SCENES / "arm6_position.xml"), "--speed", "0")
+    srv = ServerProcess(str(SCENES / "arm6_position.xml"), "--speed", "0", renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     try:
         assert cid >= 0

@@ -113,7 +113,7 @@ def test_require_loads_text_chunks_only(sim, tmp_path):
 
 def test_the_issues_attack_on_a_real_server_is_a_remote_error():
     """9 M ints to RG2's rg2Open aborted the server (Lua panic, exit 134)."""
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate")
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     try:
         assert cid >= 0

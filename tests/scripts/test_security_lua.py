@@ -116,7 +116,7 @@ def test_allow_unsafe_lua_flag_gives_them_back(tmp_path):
     import vrep
 
     scene, outside = sandbox_scene(tmp_path)
-    server = ServerProcess(str(scene), "--allow-unsafe-lua")
+    server = ServerProcess(str(scene), "--allow-unsafe-lua", renderers="on-demand")
     cid = -1
     try:
         cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)

@@ -75,7 +75,7 @@ def _distance(world, a: str, b: str) -> float:
 
 @pytest.fixture(scope="module")
 def ik_server():
-    srv = ServerProcess(str(IK_SCENE), "--speed", "0", ports=[free_port()])
+    srv = ServerProcess(str(IK_SCENE), "--speed", "0", ports=[free_port()], renderers="on-demand")
     yield srv
     log = srv.stop()
     assert "Traceback" not in log, log
