@@ -78,6 +78,27 @@ def pytest_collection_modifyitems(session, config, items):
     items[:] = [items[k] for k in order]
 
 
+@pytest.fixture(autouse=True)
+def _renderers_on_demand(request, monkeypatch):
+    """Under the marker ``renderers_on_demand`` (tests and modules whose in-process
+    ``Simulation`` is never asked for an image), a ``Simulation`` made in the test (not in a
+    module-scoped fixture) makes its renderers at the first image, as the server's
+    ``--renderers on-demand``, unless the test passes ``renderers_at_load`` itself: each
+    Simulation has its own GL context (0.35-0.45 s of CPU to make on llvmpipe) and every edit
+    made its renderers again at load (test_editing.py: 22 s of CPU, 4 s without)."""
+    if request.node.get_closest_marker("renderers_on_demand") is None:
+        return
+    from simx_server.scene.simulation import Simulation
+
+    made_at_load = Simulation.__init__
+
+    def on_demand(self, *args, **kwargs):
+        kwargs.setdefault("renderers_at_load", False)
+        made_at_load(self, *args, **kwargs)
+
+    monkeypatch.setattr(Simulation, "__init__", on_demand)
+
+
 SHARED = ROOT.parent / "shared"
 LEGACY = SHARED / "legacy"
 REFERENCE = SHARED / "reference"

@@ -17,6 +17,8 @@ from conftest import ServerProcess
 from simx_client.protocol import ObjectTypeError
 from simx_server.sim.world import World
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENES = Path(__file__).resolve().parents[1] / "scenes" / "joints"
 B = vrep.simx_opmode_blocking
 MOTOR, LOOP, PID_P, VMAX = 2000, 2001, 2002, 2017  # sim_jointintparam_motor_enabled, _ctrl_enabled, ...

@@ -29,6 +29,8 @@ import vrep
 from conftest import SCENE, ServerProcess, free_port, wait_until
 from simx_client.protocol import ArgumentError, RemoteError
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 TMP = Path(tempfile.gettempdir()).resolve()
 OK, REMOTE = vrep.simx_return_ok, vrep.simx_return_remote_error_flag
 WAIT = vrep.simx_opmode_blocking

@@ -26,6 +26,8 @@ from simx_client.protocol import RemoteError
 from simx_server.base import limits as L
 from simx_server.base.scene_guard import mesh_vertices
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 B = vrep.simx_opmode_blocking
 
 

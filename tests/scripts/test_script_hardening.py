@@ -16,6 +16,8 @@ from simx_client.protocol import ArgumentError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 CHILD = vrep.sim_scripttype_childscript
 B = vrep.simx_opmode_blocking
 

@@ -34,6 +34,8 @@ from simx_server.scripts.scene_scripts import Scripts
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.world import World
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 LEGACY_RG2 = LEGACY / "RG2.lua"
 SCRIPT_SCENE = ROOT / "tests" / "scenes" / "scripts" / "scripts_scene.xml"
 CHILD = 1  # sim_scripttype_childscript

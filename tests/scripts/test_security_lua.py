@@ -22,6 +22,8 @@ from conftest import ServerProcess
 from simx_client.protocol import ScriptError
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENE = """<mujoco model="sandbox test">
   <worldbody>
     <body name="Box" pos="0 0 0.1"><geom type="box" size="0.01 0.01 0.01"/></body>

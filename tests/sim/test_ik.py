@@ -22,6 +22,8 @@ from simx_server.sim import ik
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.world import matrix_from_euler
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 IK_SCENE = ROOT / "scenes" / "ur5_ik.xml"
 BLOCK = vrep.simx_opmode_blocking
 DOWN = (math.pi / 2, 0.0, math.pi / 2)

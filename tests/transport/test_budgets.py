@@ -23,6 +23,8 @@ from simx_server.base import limits as L
 from simx_server.commands import HANDLERS, NOT_STREAMABLE
 from simx_server.commands.editing import EDITING_HANDLERS
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 B, STREAMING = vrep.simx_opmode_blocking, vrep.simx_opmode_streaming
 
 
