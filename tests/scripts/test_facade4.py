@@ -365,7 +365,7 @@ def test_remote_4x_counter_signal_and_scene_edits_seen_by_a_client():
     simxGetObjectHandle / simxGetObjectParent; an unknown call answers remote error 8."""
     import vrep
 
-    server = ServerProcess(str(SCENE4))
+    server = ServerProcess(str(SCENE4), renderers="on-demand")
     log = ""
     try:
         cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)

@@ -597,7 +597,7 @@ def test_remote_legacy_rg2_lua_closes_on_the_ball_and_opens(tmp_path):
     B = vrep.simx_opmode_blocking
     scene = ur5_copy(tmp_path, require_shared(LEGACY_RG2), "RG2.lua")
     assert (tmp_path / "RG2.lua").read_bytes() == LEGACY_RG2.read_bytes()
-    server = ServerProcess(str(scene))
+    server = ServerProcess(str(scene), renderers="on-demand")
     cid = -1
     try:
         cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)
