@@ -390,7 +390,7 @@ def _child_args(args: argparse.Namespace) -> list[str]:
         out += ["--zenoh-config", args.zenoh_config]
     out += ["--dt", repr(args.dt), "--speed", repr(args.speed), "--pacing", args.pacing,
             "--prefix", args.prefix, "--log-level", args.log_level, "--log-interval", repr(args.log_interval),
-            "--client-expiry", repr(args.client_expiry)]
+            "--client-expiry", repr(args.client_expiry), "--renderers", args.renderers]
     for folder in args.scene_path:
         out += ["--scene-path", folder]
     out.append("--no-zmq")  # one ZMQ port cannot serve N servers

@@ -155,7 +155,7 @@ class VisionSensors:
     for the scene's sensors are made at once on the request thread (see :meth:`wait_ready`), on
     the stream thread when it is first needed. ``previous`` is the VisionSensors of the scene
     this one replaces (a load, an edit): its render threads and contexts are taken over, and
-    ``previous`` must not be used afterwards (``at_load`` too). ``at_load`` False: no renderer is
+    ``previous`` must not be used afterwards (its ``at_load`` is kept). ``at_load`` False: no renderer is
     made before a frame is asked for (server ``--renderers on-demand``). Call close() when done.
 
     Attributes:

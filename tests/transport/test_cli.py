@@ -102,3 +102,13 @@ def test_client_program_exits_promptly_without_finish(tmp_path):
         assert time.monotonic() - t0 < 10
     finally:
         srv.stop()
+
+
+def test_instances_get_the_renderers_option():
+    """``--instances N --renderers on-demand``: each server of the pool is started with it."""
+    from simx_server.cli import _child_args, parse_args
+
+    args = _child_args(parse_args(["--instances", "2", "--renderers", "on-demand"]))
+    assert args[args.index("--renderers") + 1] == "on-demand"
+    args = _child_args(parse_args(["--instances", "2"]))
+    assert args[args.index("--renderers") + 1] == "at-load"  # the default, as a single server's
