@@ -22,8 +22,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering for in-process t
 ROOT = Path(__file__).resolve().parents[1]
 
 #: Seconds the test files of 3 s or more take (setup, calls and teardown, from pytest's junit
-#: report of a whole-suite run on 2 cores with the suite's 4 workers, 2026-11-23, beside other
-#: work: load 0.3 at the start, 9-10 at the end; 410 s in all). pytest-xdist's --dist loadfile
+#: report of a whole-suite run on 2 cores with the suite's 4 workers, nothing else running,
+#: 2026-11-23: 240 s in all, without the train and ray extras; test_zmq_hardening.py's figure
+#: without the 30 s a test of it spent failing in that run). pytest-xdist's --dist loadfile
 #: hands files out in the order of its queue; by default it sorts that queue by test count, so
 #: one-test files such as the Ray cluster test (32 s) came last and a worker ended the run alone
 #: with them (about 20 s of the suite's 141 s).
@@ -35,41 +36,33 @@ SLOW_FILES = {
     # process of a fresh clone compiling its modules, its env servers timed out a trigger).
     # The DDPG smoke test's figure is from a run with the train extra (2026-11-22).
     "e2e/test_ray_cluster.py": 9, "e2e/test_train_ddpg.py": 30,
-    "e2e/test_zmq_programs.py": 90, "zmq/test_zmq_hardening.py": 58, "client/test_outbox.py": 57,
-    "scripts/test_script_census.py": 56, "e2e/test_robotcontrol_e2e.py": 51,
-    "scripts/test_facade4.py": 48, "zmq/test_zmq_images.py": 48,
-    "scripts/test_facade_groups.py": 46, "e2e/test_viewer.py": 42,
-    "scene/ttt/test_ttt_corpus.py": 41, "transport/test_pool.py": 38,
-    "client/test_envs_local_servers.py": 37, "client/test_envs.py": 34,
-    "scripts/test_vpg_style.py": 33, "sim/test_render_threads.py": 32,
-    "commands/test_sensors.py": 31, "e2e/test_pioneer.py": 30,
-    "scripts/test_facade_services.py": 30, "commands/test_small_fidelity.py": 28,
-    "transport/test_big_streams.py": 27, "transport/test_cli.py": 27,
-    "client/test_client_robustness.py": 27, "transport/test_memory_budgets.py": 27,
-    "scripts/test_scripts.py": 26, "transport/test_first_frame.py": 24,
-    "client/test_dataset.py": 22, "transport/test_memory_kept.py": 22, "scene/test_editing.py": 20,
-    "transport/test_first_run.py": 20, "scripts/test_script_hardening.py": 19,
-    "client/test_api_objects.py": 19, "transport/test_netns.py": 19,
-    "transport/test_pacing.py": 19, "transport/test_budgets.py": 18,
-    "transport/test_server_core.py": 18, "client/test_pool_gym.py": 17, "test_layers.py": 15,
-    "e2e/test_integration.py": 15, "client/test_api_sensors.py": 15,
-    "scene/test_inspect_scene.py": 15, "transport/test_security.py": 14,
-    "zmq/test_zmq_security.py": 13, "sim/test_physics_bounds.py": 13,
-    "transport/test_zmq_api.py": 12, "transport/test_zmq_robustness.py": 12,
-    "sim/test_handle_render.py": 12, "transport/test_fuzz.py": 12,
-    "scripts/test_facade_meshops.py": 11, "scene/test_urdf.py": 11,
-    "transport/test_slow_consumer.py": 11, "sim/test_ik.py": 11, "scene/test_scene.py": 10,
-    "client/test_image_lists.py": 10, "transport/test_stepped.py": 10,
-    "scripts/test_legacy_scripts.py": 10, "scripts/test_legacy_remote.py": 9,
-    "scene/ttt/test_ttt_server.py": 9, "scene/test_scene_budgets.py": 9,
-    "transport/test_client_slots.py": 9, "sim/test_tutorial_pose.py": 9,
-    "transport/test_cli_messages.py": 8, "e2e/test_api32_zmq.py": 8,
-    "scene/test_confinement.py": 8, "transport/test_idle.py": 8, "client/test_client_faults.py": 8,
-    "scripts/test_api32_scripts.py": 6, "e2e/test_docs_porting.py": 5,
-    "transport/test_streamed_setters.py": 5, "e2e/test_xdisplay.py": 5,
-    "scene/ttt/test_ttt_reader.py": 4, "commands/test_joint_modes.py": 4,
-    "scripts/test_contact_callback.py": 4, "base/test_wire_imports.py": 4,
-    "zmq/test_zmq_callbacks.py": 3,
+    "zmq/test_zmq_hardening.py": 24, "e2e/test_zmq_programs.py": 38, "e2e/test_viewer.py": 36,
+    "scripts/test_script_census.py": 35, "scene/ttt/test_ttt_corpus.py": 35,
+    "transport/test_memory_budgets.py": 32, "transport/test_pool.py": 32,
+    "client/test_envs.py": 31, "e2e/test_robotcontrol_e2e.py": 29,
+    "client/test_envs_local_servers.py": 27, "client/test_client_robustness.py": 25,
+    "zmq/test_zmq_images.py": 25, "client/test_outbox.py": 24, "client/test_dataset.py": 23,
+    "e2e/test_pioneer.py": 22, "transport/test_server_core.py": 20, "transport/test_netns.py": 19,
+    "scripts/test_vpg_style.py": 17, "transport/test_pacing.py": 17,
+    "transport/test_big_streams.py": 16, "sim/test_render_threads.py": 15,
+    "transport/test_memory_kept.py": 14, "client/test_pool_gym.py": 13,
+    "transport/test_first_frame.py": 13, "scripts/test_scripts.py": 12,
+    "scripts/test_facade4.py": 12, "transport/test_cli.py": 12, "transport/test_budgets.py": 11,
+    "client/test_api_objects.py": 11, "commands/test_small_fidelity.py": 10,
+    "client/test_api_sensors.py": 10, "scene/test_confinement.py": 10,
+    "e2e/test_integration.py": 10, "scene/test_inspect_scene.py": 9,
+    "scripts/test_script_hardening.py": 9, "scene/test_editing.py": 9,
+    "scripts/test_facade_services.py": 9, "transport/test_first_run.py": 8,
+    "transport/test_fuzz.py": 7, "transport/test_stepped.py": 7, "zmq/test_zmq_security.py": 6,
+    "client/test_client_faults.py": 6, "transport/test_security.py": 6,
+    "transport/test_slow_consumer.py": 6, "test_layers.py": 6, "scene/ttt/test_ttt_server.py": 6,
+    "commands/test_sensors.py": 6, "sim/test_tutorial_pose.py": 6,
+    "transport/test_client_slots.py": 5, "sim/test_physics_bounds.py": 5,
+    "transport/test_zmq_api.py": 5, "transport/test_idle.py": 5,
+    "scripts/test_legacy_remote.py": 5, "scene/test_urdf.py": 4, "sim/test_handle_render.py": 4,
+    "sim/test_ik.py": 4, "transport/test_zmq_robustness.py": 4, "scripts/test_facade_groups.py": 3,
+    "scene/test_scene_budgets.py": 3, "e2e/test_api32_zmq.py": 3,
+    "transport/test_streamed_setters.py": 3, "client/test_image_lists.py": 3,
 }
 
 
