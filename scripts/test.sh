@@ -10,7 +10,7 @@ bash "$ROOT/scripts/system-deps.sh" --with-x
 ensure_test_venv
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$ROOT"
-# The suite writes bytecode caches (gitignored __pycache__): it starts about 140 simx-server
+# The suite writes bytecode caches (gitignored __pycache__): it starts about 165 simx-server
 # processes and as many client programs, and with PYTHONDONTWRITEBYTECODE set (this project's
 # machines set it) each would compile ~80 modules again (0.1-0.15 s of CPU each time) and each
 # pytest worker would rewrite every test module's asserts again (2.5 s): 126 s instead of 150 s.
@@ -26,7 +26,7 @@ workers="${SIMX_TEST_WORKERS:-4}"
 dist=()
 # --no-loadscope-reorder: files are queued longest first (tests/conftest.py, SLOW_FILES), not by test count.
 [ "$workers" != 0 ] && dist=(-n "$workers" --dist loadfile --no-loadscope-reorder)
-echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 7-8 minutes on 2 cores) ..."
+echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 4-5 minutes on 2 quiet cores) ..."
 start=$SECONDS
 status=0
 if [ $# -eq 0 ] && [ "$workers" != 0 ]; then

@@ -21,43 +21,48 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering for in-process t
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: Seconds the test files of 3 s or more take (setup, calls and teardown, measured on 2 cores
-#: with the suite's 4 workers, 2026-11-22). pytest-xdist's --dist loadfile hands files out in
-#: the order of its queue; by default it sorts that queue by test count, so one-test files such
-#: as the Ray cluster test (32 s) came last and a worker ended the run alone with them (about
-#: 20 s of the suite's 141 s).
+#: Seconds the test files of 3 s or more take (setup, calls and teardown, from pytest's junit
+#: report of a whole-suite run on 2 cores with the suite's 4 workers, nothing else running,
+#: 2026-11-23: 240 s in all, without the train and ray extras; test_zmq_hardening.py's figure
+#: without the 30 s a test of it spent failing in that run). pytest-xdist's --dist loadfile
+#: hands files out in the order of its queue; by default it sorts that queue by test count, so
+#: one-test files such as the Ray cluster test (32 s) came last and a worker ended the run alone
+#: with them (about 20 s of the suite's 141 s).
 #: scripts/test.sh passes --no-loadscope-reorder and the hook below queues files longest first
 #: (these; the others, mostly unit tests, by their test count at 0.05 s each).
 SLOW_FILES = {
     # The Ray cluster test runs alone after the others in scripts/test.sh's whole-suite run; its
     # weight orders it when pytest is given paths (queued mid-run: started first, with every
     # process of a fresh clone compiling its modules, its env servers timed out a trigger).
-    "e2e/test_ray_cluster.py": 9, "e2e/test_train_ddpg.py": 30, "scene/test_editing.py": 19,
-    "e2e/test_viewer.py": 19, "transport/test_server_core.py": 18, "scene/test_confinement.py": 18,
-    "client/test_envs.py": 18, "transport/test_pool.py": 17,
-    "client/test_client_robustness.py": 16, "transport/test_pacing.py": 15,
-    "e2e/test_zmq_programs.py": 24, "client/test_dataset.py": 14, "zmq/test_zmq_images.py": 12,
-    "transport/test_memory_budgets.py": 12, "transport/test_netns.py": 12,
-    "client/test_outbox.py": 11, "scripts/test_facade4.py": 11,
-    "transport/test_first_frame.py": 10, "e2e/test_pioneer.py": 10, "scripts/test_vpg_style.py": 8,
-    "transport/test_budgets.py": 8, "e2e/test_robotcontrol_e2e.py": 8,
-    "e2e/test_integration.py": 8, "transport/test_cli.py": 7, "scripts/test_scripts.py": 7,
-    "commands/test_small_fidelity.py": 7, "transport/test_security.py": 7,
-    "transport/test_fuzz.py": 7, "commands/test_sensors.py": 7, "transport/test_first_run.py": 6,
-    "transport/test_big_streams.py": 6,
-    "client/test_envs_local_servers.py": 6, "scene/test_inspect_scene.py": 6,
-    "client/test_api_objects.py": 6, "scripts/test_script_hardening.py": 6,
-    "transport/test_slow_consumer.py": 5, "scene/test_scene_budgets.py": 5,
-    "sim/test_physics_bounds.py": 5, "sim/test_tutorial_pose.py": 5,
-    "client/test_client_faults.py": 5, "transport/test_idle.py": 4, "client/test_pool_gym.py": 4,
-    "transport/test_client_slots.py": 4, "client/test_api_sensors.py": 4,
-    "sim/test_handle_render.py": 3, "transport/test_zmq_api.py": 3, "sim/test_ik.py": 3,
-    "transport/test_streamed_setters.py": 3,
-    # .ttt files, the corpus's scripts, the ZMQ door's bounds (issues 29, 31, 34)
-    "scene/ttt/test_ttt_corpus.py": 20, "scripts/test_script_census.py": 16,
-    "scene/ttt/test_ttt_server.py": 8, "scripts/test_legacy_remote.py": 8, "e2e/test_api32_zmq.py": 6,
-    "transport/test_memory_kept.py": 6, "zmq/test_zmq_hardening.py": 5, "scene/ttt/test_ttt_reader.py": 3,
-    "zmq/test_zmq_security.py": 3,
+    # The DDPG smoke test's figure is from a run with the train extra (2026-11-22).
+    "e2e/test_ray_cluster.py": 9, "e2e/test_train_ddpg.py": 30,
+    "zmq/test_zmq_hardening.py": 24, "e2e/test_zmq_programs.py": 38, "e2e/test_viewer.py": 36,
+    "scripts/test_script_census.py": 35, "scene/ttt/test_ttt_corpus.py": 35,
+    "transport/test_memory_budgets.py": 32, "transport/test_pool.py": 32,
+    "client/test_envs.py": 31, "e2e/test_robotcontrol_e2e.py": 29,
+    "client/test_envs_local_servers.py": 27, "client/test_client_robustness.py": 25,
+    "zmq/test_zmq_images.py": 25, "client/test_outbox.py": 24, "client/test_dataset.py": 23,
+    "e2e/test_pioneer.py": 22, "transport/test_server_core.py": 20, "transport/test_netns.py": 19,
+    "scripts/test_vpg_style.py": 17, "transport/test_pacing.py": 17,
+    "transport/test_big_streams.py": 16, "sim/test_render_threads.py": 15,
+    "transport/test_memory_kept.py": 14, "client/test_pool_gym.py": 13,
+    "transport/test_first_frame.py": 13, "scripts/test_scripts.py": 12,
+    "scripts/test_facade4.py": 12, "transport/test_cli.py": 12, "transport/test_budgets.py": 11,
+    "client/test_api_objects.py": 11, "commands/test_small_fidelity.py": 10,
+    "client/test_api_sensors.py": 10, "scene/test_confinement.py": 10,
+    "e2e/test_integration.py": 10, "scene/test_inspect_scene.py": 9,
+    "scripts/test_script_hardening.py": 9, "scene/test_editing.py": 9,
+    "scripts/test_facade_services.py": 9, "transport/test_first_run.py": 8,
+    "transport/test_fuzz.py": 7, "transport/test_stepped.py": 7, "zmq/test_zmq_security.py": 6,
+    "client/test_client_faults.py": 6, "transport/test_security.py": 6,
+    "transport/test_slow_consumer.py": 6, "test_layers.py": 6, "scene/ttt/test_ttt_server.py": 6,
+    "commands/test_sensors.py": 6, "sim/test_tutorial_pose.py": 6,
+    "transport/test_client_slots.py": 5, "sim/test_physics_bounds.py": 5,
+    "transport/test_zmq_api.py": 5, "transport/test_idle.py": 5,
+    "scripts/test_legacy_remote.py": 5, "scene/test_urdf.py": 4, "sim/test_handle_render.py": 4,
+    "sim/test_ik.py": 4, "transport/test_zmq_robustness.py": 4, "scripts/test_facade_groups.py": 3,
+    "scene/test_scene_budgets.py": 3, "e2e/test_api32_zmq.py": 3,
+    "transport/test_streamed_setters.py": 3, "client/test_image_lists.py": 3,
 }
 
 
@@ -76,6 +81,27 @@ def pytest_collection_modifyitems(session, config, items):
     weight = {n: SLOW_FILES.get(n, 0.05 * c) for n, c in counts.items()}
     order = sorted(range(len(items)), key=lambda k: -weight[names[k]])  # stable
     items[:] = [items[k] for k in order]
+
+
+@pytest.fixture(autouse=True)
+def _renderers_on_demand(request, monkeypatch):
+    """Under the marker ``renderers_on_demand`` (tests and modules whose in-process
+    ``Simulation`` is never asked for an image), a ``Simulation`` made in the test (not in a
+    module-scoped fixture) makes its renderers at the first image, as the server's
+    ``--renderers on-demand``, unless the test passes ``renderers_at_load`` itself: each
+    Simulation has its own GL context (0.35-0.45 s of CPU to make on llvmpipe) and every edit
+    made its renderers again at load (test_editing.py: 22 s of CPU, 4 s without)."""
+    if request.node.get_closest_marker("renderers_on_demand") is None:
+        return
+    from simx_server.scene.simulation import Simulation
+
+    made_at_load = Simulation.__init__
+
+    def on_demand(self, *args, **kwargs):
+        kwargs.setdefault("renderers_at_load", False)
+        made_at_load(self, *args, **kwargs)
+
+    monkeypatch.setattr(Simulation, "__init__", on_demand)
 
 
 SHARED = ROOT.parent / "shared"
@@ -215,18 +241,24 @@ def ready_line(proc: subprocess.Popen, timeout: float) -> str | None:
 
 
 class ServerProcess:
-    """A ``simx-server`` subprocess; started with :meth:`start`, stopped by PID in :meth:`stop`."""
+    """A ``simx-server`` subprocess, ready when made; stopped by PID in :meth:`stop`.
 
-    def __init__(self, *args: str, ports: list[int] | None = None, cwd: str | Path | None = None):
+    ``renderers``: the server's ``--renderers``. The default, ``"at-load"``, is what users get;
+    the servers of tests that read no image say ``"on-demand"``: no GL context is made, which
+    halves the CPU of a start (0.5 of 1.1 s; the suite starts more than a hundred servers)."""
+
+    def __init__(self, *args: str, ports: list[int] | None = None, cwd: str | Path | None = None,
+                 renderers: str = "at-load"):
         # The ZMQ remote API only where a test asks for it (--zmq-port): servers of parallel tests
         # must not compete for its default port.
         zmq = [] if any(a.split("=")[0] in ("--zmq-port", "--no-zmq") for a in args) else ["--no-zmq"]
+        added = [*zmq, "--renderers", renderers]  # after the test's own options
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
         for attempt in range(3):
             # A port found free may be taken before the server binds it (another worker's client
             # or server): with ports of its own choosing, the server is started again on others.
             self.ports = ports or [free_port()]
-            cmd = [sys.executable, "-m", "simx_server.cli", *args, *zmq]
+            cmd = [sys.executable, "-m", "simx_server.cli", *args, *added]
             for p in self.ports:
                 cmd += ["--port", str(p)]
             # The log goes to a file: a pipe nobody reads would fill up and block the server.

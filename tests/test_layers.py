@@ -7,6 +7,7 @@ under ``TYPE_CHECKING`` count like the others."""
 from __future__ import annotations
 
 import ast
+import functools
 import sys
 from pathlib import Path
 
@@ -46,9 +47,15 @@ def imports(path: Path, modules: set[str]) -> set[str]:
 
 def graph(root: Path | None = None) -> dict[str, set[str]]:
     """Module -> the modules of its own package it imports, for ``simx_server`` (or ``root``)."""
-    files = sorted((root or ROOT).rglob("*.py"))
-    modules = {module_name(f) for f in files} - {(root or ROOT).name}
-    return {module_name(f): imports(f, modules) for f in files}
+    return {m: set(targets) for m, targets in _graph(root or ROOT).items()}  # a copy: callers may change it
+
+
+@functools.cache
+def _graph(root: Path) -> dict[str, frozenset[str]]:
+    """:func:`graph`, parsed once per folder (1.5 s of CPU for simx_server; five tests ask)."""
+    files = sorted(root.rglob("*.py"))
+    modules = {module_name(f) for f in files} - {root.name}
+    return {module_name(f): frozenset(imports(f, modules)) for f in files}
 
 
 def imported_packages(path: Path) -> dict[str, int]:

@@ -91,7 +91,8 @@ class VisionSensors(VisionResults):
     for the scene's sensors are made at once on the request thread (see :meth:`wait_ready`), on
     the stream thread when it is first needed. ``previous`` is the VisionSensors of the scene
     this one replaces (a load, an edit): its render threads and contexts are taken over, and
-    ``previous`` must not be used afterwards. Call close() when done.
+    ``previous`` must not be used afterwards (its ``at_load`` is kept). ``at_load`` False: no renderer is
+    made before a frame is asked for (server ``--renderers on-demand``). Call close() when done.
 
     Attributes:
         for_streams: set by the stream publisher while it executes streamed commands: their
@@ -100,8 +101,9 @@ class VisionSensors(VisionResults):
             is not late).
     """
 
-    def __init__(self, world: World, previous: VisionSensors | None = None):
+    def __init__(self, world: World, previous: VisionSensors | None = None, at_load: bool = True):
         self.world = world
+        self.at_load = previous.at_load if previous is not None else at_load
         self._streaming: RenderThread | None = None  # the stream render thread, made on demand
         self._streaming_ready: Future | None = None  # its renderers are warm
         if previous is not None and previous._owner:
@@ -309,7 +311,7 @@ class VisionSensors(VisionResults):
         the renderers are then made on the first request."""
         model = self.world.model
         thread.newest = model
-        if not self.specs:
+        if not self.specs or not self.at_load:
             return thread.executor.submit(thread.free)  # the old scene's contexts are not needed
         data, specs = copy.copy(self.world.data), list(self.specs.values())
 

@@ -147,7 +147,7 @@ def test_split_modes_are_delivered_whole(vrep_client):
 
 def test_connection_id_follows_the_server_and_reconnects():
     port = free_port()
-    srv = ServerProcess(str(SCENE), ports=[port])
+    srv = ServerProcess(str(SCENE), ports=[port], renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", port, True, False, 5000, 5)  # may reconnect
     try:
         assert cid >= 0
@@ -159,7 +159,7 @@ def test_connection_id_follows_the_server_and_reconnects():
         wait_until(lambda: vrep.simxGetConnectionId(cid) == -1, 10, 0.05,
                    "connection id -1 once the server left")
         assert vrep.simxGetObjectHandle(cid, "UR5", B)[0] & vrep.simx_return_timeout_flag
-        srv = ServerProcess(str(SCENE), ports=[port])
+        srv = ServerProcess(str(SCENE), ports=[port], renderers="on-demand")
         wait_until(lambda: vrep.simxGetConnectionId(cid) not in (-1, first), 20, 0.05, "reconnection")
         vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_remove)
         wait_until(lambda: vrep.simxGetJointPosition(cid, j, vrep.simx_opmode_buffer)[0] == 0, 20, 0.05,

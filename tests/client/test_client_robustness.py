@@ -123,7 +123,7 @@ def test_killed_and_restarted_server(tmp_path):
     """SIGKILL, then a new server on the same ports: the inbox is cleared at once; the
     reconnecting client streams again (values of the new server), the other stays at -1."""
     ports = [free_port(), free_port()]
-    srv = ServerProcess(str(SCENE), "--stopped", ports=ports)
+    srv = ServerProcess(str(SCENE), "--stopped", ports=ports, renderers="on-demand")
     stays = back = -1
     try:
         stays, back, j, first_id = _two_streaming_clients(ports)
@@ -133,7 +133,7 @@ def test_killed_and_restarted_server(tmp_path):
         srv.proc.wait()
         _check_outage(stays, back, j, "after SIGKILL")
         srv.stop()
-        srv = ServerProcess(str(SCENE), "--stopped", ports=ports)
+        srv = ServerProcess(str(SCENE), "--stopped", ports=ports, renderers="on-demand")
         # The new server starts from the scene: joint 1 at 0, never the old 0.5.
         wait_until(lambda: vrep.simxGetConnectionId(back) not in (-1, first_id), 20, 0.02, "reconnection")
         wait_until(lambda: vrep.simxGetJointPosition(back, j, BUF)[0] == 0, 10, 0.01, "fresh stream data")
@@ -155,7 +155,8 @@ def test_server_frozen_past_its_lease(tmp_path):
     """SIGSTOP for longer than the Zenoh lease: the clients see the server gone and clear their
     inbox; after SIGCONT the reconnecting client streams again, the other stays at -1."""
     ports = [free_port(), free_port()]
-    srv = ServerProcess(str(SCENE), "--stopped", "--zenoh-config", _lease_config(tmp_path, ports), ports=ports)
+    srv = ServerProcess(str(SCENE), "--stopped", "--zenoh-config", _lease_config(tmp_path, ports), ports=ports,
+                        renderers="on-demand")
     stays = back = -1
     try:
         stays, back, j, first_id = _two_streaming_clients(ports)
@@ -263,7 +264,7 @@ def test_no_argument_makes_a_simx_function_raise(tmp_path, caplog):
     caplog.set_level("ERROR", logger="simx.client")  # the thousands of warnings are expected
     tmp = tmp_path / "robustness.txt"
     tmp.write_bytes(b"data")
-    srv = ServerProcess(str(SCENE), "--stopped")
+    srv = ServerProcess(str(SCENE), "--stopped", renderers="on-demand")
     cid = _start(srv.port, reconnect=False)
     calls = 0
     try:
@@ -340,7 +341,7 @@ def test_raw_arguments_are_argument_errors(tmp_path):
     """A client of the protocol (not the facade) sends dicts, nested lists, bytes, huge ints,
     deep nesting as arguments of every command, in every mode: each is answered, as a remote
     error and never as an internal error; the server logs no traceback."""
-    srv = ServerProcess(str(SCENE), "--stopped")
+    srv = ServerProcess(str(SCENE), "--stopped", renderers="on-demand")
     deep = []
     for _ in range(1000):
         deep = [deep]

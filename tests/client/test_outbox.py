@@ -79,7 +79,7 @@ def test_20000_oneshot_appends_lose_nothing_and_leave_in_few_requests(vrep_clien
 
 def test_the_final_target_of_a_20000_oneshot_loop_is_the_last_one_set():
     """A position-controlled joint ends at the last target of 20,000 oneshot calls."""
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, CYCLE_MS)
     try:
         assert cid >= 0 and vrep.simxSynchronous(cid, True) == 0
@@ -205,7 +205,7 @@ def test_a_blocking_call_takes_the_outbox_with_it(server):
 
 
 def test_a_oneshot_before_a_synchronous_trigger_runs_in_that_step():
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 10_000)
     try:
         assert cid >= 0 and vrep.simxSynchronous(cid, True) == 0
@@ -227,7 +227,8 @@ def test_requests_answered_busy_are_sent_again():
     queue is filled to its bound (limits.MAX_QUEUED_REQUESTS) under its own id: its oneshots are
     answered "server busy", wait in the outbox and run, all of them and in order, once the
     server has room again."""
-    srv = ServerProcess(str(HEAVY), "--stopped", "--dt", "0.05", "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(HEAVY), "--stopped", "--dt", "0.05", "--pacing", "immediate", ports=[free_port()],
+                        renderers="on-demand")
     raw = zenoh.open(client_config("127.0.0.1", srv.port))
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, CYCLE_MS)
     nowhere = zenoh.handlers.Callback(lambda reply: None, indirect=False)

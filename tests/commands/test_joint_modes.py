@@ -17,6 +17,8 @@ from conftest import ServerProcess
 from simx_client.protocol import ObjectTypeError
 from simx_server.sim.world import World
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENES = Path(__file__).resolve().parents[1] / "scenes" / "joints"
 B = vrep.simx_opmode_blocking
 MOTOR, LOOP, PID_P, VMAX = 2000, 2001, 2002, 2017  # sim_jointintparam_motor_enabled, _ctrl_enabled, ...
@@ -180,7 +182,7 @@ def test_legacy_program_switches_modes_through_the_api():
     """simxSetJointTargetVelocity(j, 1.0) then simxSetObjectIntParameter(j, 2001, 0) moves the
     joint at 1 rad/s; the stored target position acts again once the loop is back on; motor off
     frees the joint. Through a real server, stepped."""
-    srv = ServerProcess(str(SCENES / "arm6_position.xml"), "--speed", "0")
+    srv = ServerProcess(str(SCENES / "arm6_position.xml"), "--speed", "0", renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     try:
         assert cid >= 0

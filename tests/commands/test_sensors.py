@@ -52,6 +52,7 @@ def test_handlers_table_is_complete():
 
 
 # ----------------------------------------------------------------- proximity sensor
+@pytest.mark.renderers_on_demand  # no image read
 def test_proximity_sensor_point_handle_normal_cutoff_and_nothing(sim):
     prox, target = H(sim, "prox"), H(sim, "target")
     detected, point, hit, normal = cmd_sensors.read_proximity_sensor(sim, [prox])
@@ -76,6 +77,7 @@ def test_proximity_sensor_point_handle_normal_cutoff_and_nothing(sim):
 
 
 # --------------------------------------------------------------------- force sensor
+@pytest.mark.renderers_on_demand  # no image read
 def test_force_sensor_reads_the_hanging_weight_and_its_moment(sim):
     ft = H(sim, "ft")
     sim.start()
@@ -98,6 +100,7 @@ def test_force_sensor_reads_the_hanging_weight_and_its_moment(sim):
         cmd_sensors.break_force_sensor(sim, [H(sim, "payload")])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_mass_parameter_changes_the_measured_weight(sim):
     payload, ft = H(sim, "payload"), H(sim, "ft")
     assert cmd_parameters.get_object_float_parameter(sim, [payload, 3005]) == pytest.approx(2.0)
@@ -114,6 +117,7 @@ def test_mass_parameter_changes_the_measured_weight(sim):
 
 
 # ---------------------------------------------------------------------------- joints
+@pytest.mark.renderers_on_demand  # no image read
 def test_joint_matrix_of_hinge_slide_and_ball(sim):
     w = sim.world
     w.set_joint_position(H(sim, "hinge"), 0.3)
@@ -137,6 +141,7 @@ def _rotation(axis, angle):
     return r.reshape(3, 3)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_spherical_joint_matrix_round_trip_moves_the_body(sim):
     ball = H(sim, "ball")
     rot = _rotation([1, 2, 3], 0.8)
@@ -163,6 +168,7 @@ def test_spherical_joint_matrix_round_trip_moves_the_body(sim):
 
 
 # ---------------------------------------------------------------- collision, distance
+@pytest.mark.renderers_on_demand  # no image read
 def test_collision_touching_and_separated(sim):
     a, b, c = H(sim, "blockA"), H(sim, "blockB"), H(sim, "blockC")
     assert cmd_collisions.check_collision(sim, [a, c]) is True  # overlap 0.01 m (two static bodies)
@@ -206,6 +212,7 @@ def test_distance_equals_the_known_gaps(sim):
 
 
 # ------------------------------------------------------------------------ velocities
+@pytest.mark.renderers_on_demand  # no image read
 def test_velocity_of_a_falling_body_is_g_t(sim):
     faller = H(sim, "faller")
     for _ in range(10):  # 0.5 s
@@ -220,6 +227,7 @@ def test_velocity_of_a_falling_body_is_g_t(sim):
     assert floats[6 * i:6 * i + 6] == pytest.approx(v + w, abs=1e-12)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_velocity_of_a_turning_body_and_points_on_it(sim):
     d, m = sim.world.data, sim.world.model
     d.qvel[m.jnt_dofadr[sim.world.resolve("hinge").mj_id]] = 2.0  # about world y
@@ -354,6 +362,7 @@ def test_vision_parameters_and_their_errors(sim):
         cmd_parameters.get_object_float_parameter(sim, [999, 1000])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_joint_and_shape_parameters(sim):
     hinge, ball = H(sim, "hinge"), H(sim, "ball")
     assert cmd_parameters.get_object_float_parameter(sim, [hinge, 2017]) == 1.5

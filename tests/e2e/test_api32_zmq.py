@@ -20,7 +20,8 @@ PROGRAM = Path(__file__).resolve().parent / "zmq_programs" / "arm32.py"
 
 def test_ik_pick_and_place_reach_and_line_follower_over_zmq(tmp_path):
     port = free_port()
-    server = ServerProcess(str(ROOT / "tests" / "scenes" / "api32" / "arm.xml"), "--stopped", "--zmq-port", str(port))
+    server = ServerProcess(str(ROOT / "tests" / "scenes" / "api32" / "arm.xml"), "--stopped", "--zmq-port", str(port),
+                           renderers="on-demand")
     try:
         env = dict(os.environ, SIMX_ZMQ_PORT=str(port))
         run = subprocess.run([sys.executable, str(PROGRAM)], env=env, capture_output=True, text=True, timeout=300,
@@ -38,7 +39,8 @@ BREADTH = Path(__file__).resolve().parent / "zmq_programs" / "breadth32.py"
 
 def test_second_round_functions_over_zmq(tmp_path):
     port = free_port()
-    server = ServerProcess(str(ROOT / "tests" / "scenes" / "api32" / "arm.xml"), "--stopped", "--zmq-port", str(port))
+    server = ServerProcess(str(ROOT / "tests" / "scenes" / "api32" / "arm.xml"), "--stopped", "--zmq-port", str(port),
+                           renderers="on-demand")
     try:
         env = dict(os.environ, SIMX_ZMQ_PORT=str(port))
         run = subprocess.run([sys.executable, str(BREADTH)], env=env, capture_output=True, text=True, timeout=300,

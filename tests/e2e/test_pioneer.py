@@ -16,7 +16,7 @@ PROGRAM = Path(__file__).resolve().parent / "pioneer_braitenberg.py"
 
 
 def test_braitenberg_program_drives_60_s_without_touching_a_wall():
-    server = ServerProcess(str(ROOT / "scenes" / "pioneer_p3dx.xml"), "--speed", "10")
+    server = ServerProcess(str(ROOT / "scenes" / "pioneer_p3dx.xml"), "--speed", "10", renderers="on-demand")
     try:
         run = subprocess.run([sys.executable, str(PROGRAM), str(server.port), "60"],
                              capture_output=True, text=True, timeout=240, check=False)

@@ -50,7 +50,7 @@ def _published_counts(log: str, what: str) -> list[int]:
 
 
 def test_state_is_published_only_while_a_viewer_subscribes():
-    server = ServerProcess(str(SCENE))
+    server = ServerProcess(str(SCENE), renderers="on-demand")
     try:
         with zenoh.open(client_config("127.0.0.1", server.port)) as session:
             t0 = _model_state(session)[1]
@@ -81,7 +81,7 @@ def test_state_is_published_only_while_a_viewer_subscribes():
 
 def test_two_viewers_follow_an_edit_and_a_scene_load():
     other = ROOT / "tests" / "scenes" / "sensors.xml"
-    server = ServerProcess(str(SCENE), "--scene-path", str(other.parent))
+    server = ServerProcess(str(SCENE), "--scene-path", str(other.parent), renderers="on-demand")
     import vrep
 
     cid = -1
@@ -151,7 +151,7 @@ def test_viewer_window_shows_the_arm_moving(tmp_path):
     import cv2
     import vrep
 
-    server = ServerProcess(str(SCENE))
+    server = ServerProcess(str(SCENE), renderers="on-demand")
     viewer = None
     cid = -1
     with VirtualDisplay(*_SCREEN, fbdir=str(tmp_path)) as xd:

@@ -22,6 +22,8 @@ from simx_server.loop.in_process import InProcessDoor
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENE = """<mujoco>
   <option timestep="0.01"/>
   <worldbody>

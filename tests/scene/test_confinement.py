@@ -29,6 +29,8 @@ import vrep
 from conftest import SCENE, ServerProcess, free_port, wait_until
 from simx_client.protocol import ArgumentError, RemoteError
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 TMP = Path(tempfile.gettempdir()).resolve()
 OK, REMOTE = vrep.simx_return_ok, vrep.simx_return_remote_error_flag
 WAIT = vrep.simx_opmode_blocking
@@ -71,7 +73,7 @@ def png(width: int, height: int, rgb=(255, 0, 0)) -> bytes:
 @pytest.fixture(scope="module")
 def server_b():
     """A server whose operator (wrongly) lists the temporary folder as a scene folder."""
-    srv = ServerProcess(str(SCENE), "--scene-path", str(TMP), ports=[free_port(), free_port()])
+    srv = ServerProcess(str(SCENE), "--scene-path", str(TMP), ports=[free_port(), free_port()], renderers="on-demand")
     yield srv
     srv.stop()
 
@@ -93,7 +95,7 @@ def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b,
     host_tmp = (tmp_path / "host-tmp").resolve()
     host_tmp.mkdir()
     monkeypatch.setenv("TMPDIR", str(host_tmp))
-    server_a = ServerProcess(str(SCENE), "--stopped", ports=[free_port()])
+    server_a = ServerProcess(str(SCENE), "--stopped", ports=[free_port()], renderers="on-demand")
     try:
         a = connect(server_a.port)
         for name, text in ((script, EVIL_SCRIPT), (scene, EVIL_SCENE.format(script=script))):
@@ -133,7 +135,7 @@ def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b,
     unmarked = host_tmp / f"simx-999999999-0-decoy{token}"  # not ours (no marker): stays
     unmarked.mkdir()
     try:
-        restarted = ServerProcess(str(SCENE), "--stopped", ports=[free_port()])
+        restarted = ServerProcess(str(SCENE), "--stopped", ports=[free_port()], renderers="on-demand")
         try:
             assert not folder.exists()
             assert mine.is_dir() and unmarked.is_dir()

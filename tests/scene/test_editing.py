@@ -22,6 +22,10 @@ from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
 from simx_server.sim.world import DUMMY, SHAPE
 
+# Renderers at the first image (tests/conftest.py): only test_vision_renders_after_edit reads
+# images, from a Simulation that makes them at load, as the server does by default.
+pytestmark = pytest.mark.renderers_on_demand
+
 BOX = Path(__file__).resolve().parents[1] / "scenes" / "model_box.xml"
 
 
@@ -274,7 +278,15 @@ def test_load_scene_and_close_scene(sim):
     assert sim.state is RunState.STOPPED and sim.world.objects == {} and sim.world.model.nbody == 1
 
 
-def test_vision_renders_after_edit(sim):
+@pytest.fixture
+def sim_at_load():
+    s = Simulation(SCENE, dt=0.05, realtime=False, renderers_at_load=True)
+    yield s
+    s.close()
+
+
+def test_vision_renders_after_edit(sim_at_load):
+    sim = sim_at_load
     w = sim.world
     cam = w.resolve("kinect_rgb").handle
     H["CreateDummy"](sim, [0.01, None])  # an edit: renderers rebuilt for the new model

@@ -9,6 +9,8 @@ from simx_client.protocol import RemoteError
 from simx_server.commands.editing import EDITING_HANDLERS as H
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 
 def test_load_scene_while_running_says_how_to_stop(tmp_path):
     scene = tmp_path / "box.xml"

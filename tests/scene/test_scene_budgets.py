@@ -26,6 +26,8 @@ from simx_client.protocol import RemoteError
 from simx_server.base import limits as L
 from simx_server.base.scene_guard import mesh_vertices
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 B = vrep.simx_opmode_blocking
 
 
@@ -126,7 +128,7 @@ def boxes(n: int) -> bytes:
 def test_a_heavy_client_scene_is_stopped_on_a_real_server_and_every_client_told(tmp_path):
     """A client's scene within every bound at load whose steps take seconds: the first step
     stops after MAX_STEP_SECONDS and the reason reaches the client at its next call."""
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate", "--stopped", ports=[free_port()])
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", "--stopped", ports=[free_port()], renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     try:
         assert cid >= 0

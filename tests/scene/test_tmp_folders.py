@@ -15,6 +15,8 @@ from conftest import ROOT
 from simx_server.base import scene_guard as guard
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCRIPTS = ROOT / "tests" / "scenes" / "scripts"
 CHILD = 1
 

@@ -81,7 +81,7 @@ def test_urdf_maps_links_and_joints_like_mjcf(package):
 
 
 def test_legacy_client_moves_a_urdf_joint(package):
-    srv = ServerProcess(str(package / "urdf" / "two_link.urdf"), "--pacing", "immediate")
+    srv = ServerProcess(str(package / "urdf" / "two_link.urdf"), "--pacing", "immediate", renderers="on-demand")
     cid = -1
     try:
         assert "two_link.urdf, 5 objects" in srv.ready_line
@@ -124,7 +124,8 @@ def test_client_sent_urdf_loads_and_its_meshes_stay_in_the_transfer_folder(packa
     (sent / "climbs.urdf").write_text(in_link(plain, "link1", '"link.stl"', '"../link.stl"'))
     # the transfer folder is <tmp>/simx-...: "package://tmp" would be the system's temporary folder
     (sent / "package.urdf").write_text(in_link(plain, "link1", '"link.stl"', '"package://tmp/link.stl"'))
-    srv = ServerProcess(str(package / "urdf" / "two_link_scene.xml"), "--pacing", "immediate", "--stopped")
+    srv = ServerProcess(str(package / "urdf" / "two_link_scene.xml"), "--pacing", "immediate", "--stopped",
+                        renderers="on-demand")
     cid = -1
     try:
         cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)

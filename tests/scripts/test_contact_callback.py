@@ -11,6 +11,8 @@ import pytest
 
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENE = """<mujoco model="contact callback">
   <option timestep="0.002" gravity="0 0 -9.81"/>
   <worldbody>

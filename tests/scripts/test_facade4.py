@@ -49,6 +49,7 @@ def handle(sim: Simulation, name: str) -> int:
 
 
 # ------------------------------------------------------------------------- signals
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_int32_float_and_string_signals_set_get_and_clear(sim, api):
     ints, floats, _, buf = call(sim, api, "signals", [42], [2.5], ["sig"], b"\x00bytes")
@@ -57,6 +58,7 @@ def test_int32_float_and_string_signals_set_get_and_clear(sim, api):
     assert sim.signals.get_int("sig") is None
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("counter,signal", [("Counter", "steps"), ("PyCounter", "py_steps")])
 def test_a_4x_step_counter_counts_steps(sim, counter, signal):
     for _ in range(3):
@@ -65,6 +67,7 @@ def test_a_4x_step_counter_counts_steps(sim, counter, signal):
 
 
 # ------------------------------------------------------------------- scene edits
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_create_dummy_then_set_object_name_keeps_handle_and_pose(sim, api):
     count = len(sim.world.objects)
@@ -80,6 +83,7 @@ def test_create_dummy_then_set_object_name_keeps_handle_and_pose(sim, api):
     assert sim.world.position(h, -1) == pytest.approx([1.0, 2.0, 3.0])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_set_object_alias_renames_a_joint_with_its_motor_settings_and_state(sim, api):
     joint = handle(sim, "Arm_joint")
@@ -109,6 +113,7 @@ def test_renamed_sensors_camera_and_script_object_keep_working(sim):
     assert call(sim, "Api2", "state")[0][0] == 0x11  # the renamed object's script runs on
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_set_object_parent_moves_the_subtree_in_place(sim, api):
     hand, holder, arm = handle(sim, "Hand"), handle(sim, "Holder"), handle(sim, "Arm")
@@ -121,6 +126,7 @@ def test_set_object_parent_moves_the_subtree_in_place(sim, api):
     assert ints == [arm]
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_bad_names_and_sizes_answer_errors_and_change_nothing(sim, api):
     count = len(sim.world.objects)
@@ -136,6 +142,7 @@ def test_bad_names_and_sizes_answer_errors_and_change_nothing(sim, api):
 
 
 # ------------------------------------------------------------------------ poses
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_object_matrix_get_and_set_in_both_argument_orders(sim, api):
     tip = handle(sim, "Tip")
@@ -153,6 +160,7 @@ def test_object_matrix_get_and_set_in_both_argument_orders(sim, api):
         call(sim, api, "setMatrix", [cube, 0], [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_poses_in_coppeliasim_4_5_argument_order(sim, api):
     cube = handle(sim, "Cube")
@@ -161,6 +169,7 @@ def test_poses_in_coppeliasim_4_5_argument_order(sim, api):
     assert sim.world.position(cube, -1) == pytest.approx([1, 2, 3])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_renamed_free_and_mocap_bodies_keep_their_state(sim):
     facade = ScriptSim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
     cube, mark = handle(sim, "Cube"), handle(sim, "Mark")
@@ -180,6 +189,7 @@ def test_renamed_free_and_mocap_bodies_keep_their_state(sim):
     assert sim.world.model.site_size[sim.world.get(dummy).mj_id][0] == pytest.approx(0.0025)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_object_velocity_of_a_falling_body(sim, api):
     cube = handle(sim, "Cube")
@@ -192,6 +202,7 @@ def test_object_velocity_of_a_falling_body(sim, api):
     assert vw == pytest.approx(v.tolist() + w.tolist())
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_objects_in_tree(sim, api):
     joint, arm, hand, tip = (handle(sim, n) for n in ("Arm_joint", "Arm", "Hand", "Tip"))
@@ -230,6 +241,7 @@ def _below(world, h, base) -> bool:
 
 
 # ------------------------------------------------------------------------ forces
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_add_force_and_torque_acts_for_one_step(sim, api):
     cube = handle(sim, "Cube")
@@ -242,6 +254,7 @@ def test_add_force_and_torque_acts_for_one_step(sim, api):
     assert kinematics.object_velocity(sim, cube)[0][2] == pytest.approx(v1 - G * dt, abs=0.01)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_add_force_off_centre_turns_the_body(sim, api):
     cube = handle(sim, "Cube")
@@ -262,6 +275,7 @@ def test_add_force_off_centre_turns_the_body(sim, api):
 
 
 # ----------------------------------------------------------------------- sensors
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_read_force_sensor_weighs_the_payload(sim, api):
     for _ in range(2):
@@ -273,6 +287,7 @@ def test_read_force_sensor_weighs_the_payload(sim, api):
         call(sim, api, "readForce", [handle(sim, "Tip")])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_read_proximity_sensor_sees_the_wall(sim, api):
     ints, f, _, _ = call(sim, api, "readProx", [handle(sim, "prox")])
@@ -309,6 +324,7 @@ def test_vision_sensor_image_windows(sim):
         facade.getVisionSensorImg(cam, 0, 0, [1, 2, 3])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_object_int32_and_float_params(sim, api):
     joint = handle(sim, "Arm_joint")
@@ -320,6 +336,7 @@ def test_object_int32_and_float_params(sim, api):
     assert sim.world.max_velocity[sim.world.motor(joint)] == 2.5
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api,init", [("Api", "lua_init_state"), ("PyApi", "py_init_state")])
 def test_simulation_state(sim, api, init, caplog):
     assert sim.signals.get_int(init) == 0x10  # sysCall_init: advancing, first after stop
@@ -333,6 +350,7 @@ def test_simulation_state(sim, api, init, caplog):
     assert states == ["22", "22"]  # both scripts' sysCall_cleanup: advancing, last before stop (0x16)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api", APIS)
 def test_get_object_relative_to_the_script(sim, api):
     link, tip = f"{api}Link", f"{api}Tip"
@@ -345,6 +363,7 @@ def test_get_object_relative_to_the_script(sim, api):
     assert facade.getObject("/Holder", {"index": 1, "noError": True}) == -1  # names are unique
 
 
+@pytest.mark.renderers_on_demand  # no image read
 @pytest.mark.parametrize("api,language", [("Api", "lua"), ("PyApi", "py")])
 def test_unknown_calls_fail_naming_the_function(sim, api, language):
     pattern = rf"api\.{language}:\d+: .*sim\.launchExecutable is not available in simx"
@@ -365,7 +384,7 @@ def test_remote_4x_counter_signal_and_scene_edits_seen_by_a_client():
     simxGetObjectHandle / simxGetObjectParent; an unknown call answers remote error 8."""
     import vrep
 
-    server = ServerProcess(str(SCENE4))
+    server = ServerProcess(str(SCENE4), renderers="on-demand")
     log = ""
     try:
         cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)

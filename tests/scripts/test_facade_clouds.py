@@ -11,6 +11,8 @@ from simx_client.protocol import ArgumentError, RemoteError
 from simx_server.scene.simulation import Simulation
 import facade_fixtures
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 sim, api = facade_fixtures.sim, facade_fixtures.api  # the shared fixtures
 
 

@@ -10,6 +10,8 @@ from simx_client.protocol import ArgumentError, RemoteError
 from simx_server.scene.simulation import Simulation
 from simx_server.scripts.facade import ScriptSim
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 LUA = """
 function sysCall_init()
     graph = sim.getObject('/Graph')

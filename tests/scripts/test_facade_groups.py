@@ -21,6 +21,7 @@ def h(api, name):
     return api.getObject("/" + name)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_parameters_answer_a_4x_version(api, sim):
     assert api.getInt32Param(api.intparam_program_version) == 40800
     assert api.getInt32Param(api.intparam_program_full_version) == 4080000
@@ -37,6 +38,7 @@ def test_parameters_answer_a_4x_version(api, sim):
     assert 0 <= api.getRandom(7) < 1 and api.getRandom(7) == api.getRandom(7)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_shape_mass_inertia_colour_and_bounding_box(api, sim):
     a = h(api, "blockA")
     mass = api.getShapeMass(a)
@@ -56,6 +58,7 @@ def test_shape_mass_inertia_colour_and_bounding_box(api, sim):
     assert (extent.max(0) - extent.min(0)) == pytest.approx(size)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_primitive_shape_is_a_dynamic_body(api, sim):
     s = api.createPrimitiveShape(api.primitiveshape_cuboid, [0.1, 0.2, 0.3])
     assert api.getObjectType(s) == api.object_shape_type
@@ -65,6 +68,7 @@ def test_primitive_shape_is_a_dynamic_body(api, sim):
         api.createPrimitiveShape(6, [0.1, 0.1, 0.1])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_collision_and_distance(api):
     a, b, c = h(api, "blockA"), h(api, "blockB"), h(api, "blockC")
     assert api.checkCollision(a, c) == (1, [a, c])  # C overlaps A by 0.01 m
@@ -95,6 +99,7 @@ def test_sensors_handled_explicitly(api, sim):
     assert api.getExplicitHandling(cam) == 1
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_joints_interval_mode_and_dependency(api):
     j = h(api, "hinge")
     cyclic, interval = api.getJointInterval(j)
@@ -108,6 +113,7 @@ def test_joints_interval_mode_and_dependency(api):
         api.setJointMode(j, 4)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_objects_uid_velocity_and_script_handles(api):
     f = h(api, "faller")
     assert api.getObjectUid(f) == f and api.getObjectFromUid(f) == f
@@ -117,6 +123,7 @@ def test_objects_uid_velocity_and_script_handles(api):
     assert api.getScriptHandle(f) == -1  # no script on it
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_gui_functions_answer_as_headless(api, caplog):
     console = api.auxiliaryConsoleOpen("out", 10, 0)
     with caplog.at_level("INFO", logger="simx.scripts"):
@@ -129,6 +136,7 @@ def test_gui_functions_answer_as_headless(api, caplog):
     assert api.getObjectSelection() == [h(api, "faller")]
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_bad_arguments_are_named(api):
     with pytest.raises(ArgumentError, match="sizes"):
         api.createPrimitiveShape(3, [0.1, 0.2])
@@ -137,6 +145,7 @@ def test_bad_arguments_are_named(api):
     assert not math.isnan(api.getShapeMass(h(api, "blockA")))
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_pack_table_custom_data_and_properties(api, sim):
     table = {"a": [1, 2.5, "x"], "b": {"c": True}}
     assert api.unpackTable(api.packTable(table)) == table
@@ -160,6 +169,7 @@ def test_pack_table_custom_data_and_properties(api, sim):
     assert api.getBufferSignal("buf") == b"\x01\x02" and "buf" in [api.getSignalName(0, 2)]
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_rotation_arithmetic(api):
     ident = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0]
     turned = [0, -1, 0, 1, 1, 0, 0, 2, 0, 0, 1, 3]  # 90 degrees about z, moved
@@ -174,6 +184,7 @@ def test_rotation_arithmetic(api):
     assert api.getConfigDistance([3.0], [-3.0], None, [1]) == pytest.approx(2 * math.pi - 6)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_typed_properties(api):
     a = h(api, "blockA")
     api.setIntProperty(a, "customData.count", 3)
@@ -192,6 +203,7 @@ def test_typed_properties(api):
     assert api.getPropertyName(a, 0)[0].startswith("customData.")
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_paths_collections_and_drawing_objects(api):
     path = [0, 0, 0, 3, 0, 0, 3, 4, 0]  # 3 points in 3D
     lengths, total = api.getPathLengths(path, 3)
@@ -215,6 +227,7 @@ def test_paths_collections_and_drawing_objects(api):
         api.addDrawingObjectItem(d, [0, 0, 0])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_engine_parameters_and_application_queries(api, sim):
     assert api.getEngineInt32Param(api.mujoco_global_iterations, -1) == sim.world.model.opt.iterations
     api.setEngineFloatParam(api.mujoco_global_wind1, -1, 2.5)
@@ -270,6 +283,7 @@ def test_images_references_alternates_and_saving(api, sim, tmp_path):
         api.saveScene("scene.ttt")
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_entity_colours_lights_and_copies(api, sim):
     a = h(api, "blockA")
     before = api.getShapeColor(a, None, 0)[1]
@@ -286,6 +300,7 @@ def test_entity_colours_lights_and_copies(api, sim):
     assert len(copies) == 1 and len(sim.world.objects) > count and copies[0] != h(api, "ball_above")
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_ruckig_objects_step_to_their_target(api):
     r = api.ruckigPos(1, 0.01, 0, [0, 0, 0], [1, 2, 10], [1], [0.5, 0])
     for _ in range(1000):
@@ -301,6 +316,7 @@ def test_ruckig_objects_step_to_their_target(api):
         api.ruckigStep(r, 0.01)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_meshes_and_joint_dependency(api, sim):
     verts = [0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1]
     faces = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]
@@ -321,6 +337,7 @@ def test_meshes_and_joint_dependency(api, sim):
     assert api.getJointDependency(slide) == (-1, 0.0, 1.0)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_move_to_config_in_steps(api, sim):
     j = h(api, "target_x")
     data = api.moveToConfig_init({"joints": [j], "targetPos": [0.2], "maxVel": [0.5], "maxAccel": [2],
@@ -334,6 +351,7 @@ def test_move_to_config_in_steps(api, sim):
     api.moveToConfig_cleanup(data)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_scale_object(api):
     a = h(api, "blockA")
     mass = api.getShapeMass(a)

@@ -20,6 +20,7 @@ def world_mesh(api, h):
     return v @ m[:, :3].T + m[:, 3]
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_relocated_frame_leaves_the_geometry_in_place(api):
     a = api.getObject("/blockA")
     before = world_mesh(api, a)
@@ -38,6 +39,7 @@ def test_relocated_frame_leaves_the_geometry_in_place(api):
         api.relocateShapeFrame(api.getObject("/hinge_link"), [0] * 7)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_bounding_box_size_and_scaling(api):
     a, b = api.getObject("/blockA"), api.getObject("/blockB")
     api.setShapeBB(a, [0.1, 0.4, 0.2])
@@ -109,6 +111,7 @@ def test_appearance_textures_and_parameters(tmp_path):
         sim.close()
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_heightfield_shape_has_the_given_heights(api, sim):
     xs = np.linspace(-0.5, 0.5, 5)
     ys = np.linspace(-0.25, 0.25, 3)
@@ -127,6 +130,7 @@ def test_heightfield_shape_has_the_given_heights(api, sim):
         api.createHeightfieldShape(0, 0.5, 5, 3, 1.0, [0.0] * 14)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_group_then_ungroup_keeps_the_geometry(api, sim):
     a, b = api.getObject("/blockA"), api.getObject("/blockB")
     before = np.vstack([world_mesh(api, a), world_mesh(api, b)])

@@ -50,6 +50,7 @@ def test_images_round_trip_through_files_and_buffers(api, tmp_path):
         api.loadImage(0, "scene.xml")
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_alias_relative_model_bb_and_pure_shapes(api):
     payload, mount = api.getObject("/mount/payload"), api.getObject("/mount")
     assert api.getObjectAliasRelative(payload, mount) == "./payload"
@@ -63,6 +64,7 @@ def test_alias_relative_model_bb_and_pure_shapes(api):
         api.createPureShape(9, 0, [0.1, 0.1, 0.1], 1)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_joint_child_pose_is_its_motion(api, sim):
     hinge, ball = api.getObject("/hinge"), api.getObject("/ball")
     api.setJointPosition(hinge, 0.5)
@@ -77,6 +79,7 @@ def test_joint_child_pose_is_its_motion(api, sim):
         api.getObjectChildPose(api.getObject("/blockA"))
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_referenced_objects_are_removed(api, sim):
     a, b = api.getObject("/blockA"), api.getObject("/blockB")
     d = api.createDummy(0.01)
@@ -86,6 +89,7 @@ def test_referenced_objects_are_removed(api, sim):
     assert isinstance(api.getThreadId(), int)
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_move_to_pose_in_steps_places_the_object(api):
     d = api.createDummy(0.01)
     api.setObjectPose(d, [0, 0, 0, 0, 0, 0, 1])
@@ -159,6 +163,7 @@ def test_sensors_created_at_run_time_see_and_detect(api, sim):
         api.createVisionSensor(1, [32, 24, 0, 0], [5, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0])
 
 
+@pytest.mark.renderers_on_demand  # no image read
 def test_time_optimal_trajectory_is_bang_bang_on_a_line(api):
     path, lengths = [0.0, 0.25, 0.5, 0.75, 1.0], [0.0, 0.25, 0.5, 0.75, 1.0]
     pts, times = api.generateTimeOptimalTrajectory(path, lengths, [-0.5, 0.5], [-1, 1], 1000)

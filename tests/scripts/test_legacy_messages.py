@@ -14,6 +14,8 @@ import pytest
 from test_scripts import call, small_scene
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 
 @pytest.fixture
 def run(tmp_path):

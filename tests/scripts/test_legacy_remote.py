@@ -29,7 +29,7 @@ def client():
     servers, cids = [], []
 
     def connect(scene) -> int:
-        server = ServerProcess(str(scene))
+        server = ServerProcess(str(scene), renderers="on-demand")
         servers.append(server)
         cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)
         assert cid >= 0
@@ -141,7 +141,7 @@ def test_simExtRemoteApiStart_in_a_script_serves_the_legacy_api_on_that_port(tmp
 
     own, extra = free_port(), free_port()
     scene = small_scene(tmp_path, {"UR5": ("ur5.lua", REMOTE_API_START.format(extra=extra, same=own))})
-    server = ServerProcess(str(scene), ports=[own])
+    server = ServerProcess(str(scene), ports=[own], renderers="on-demand")
     cid = -1
     try:
         # The request is acted on in the server's housekeeping (a few times a second), after the
@@ -180,7 +180,7 @@ def test_customization_script_runs_its_non_simulation_passes_while_stopped(tmp_p
 
     scene = small_scene(tmp_path, {"Custom": ("idle.lua", NON_SIMULATION)})
     scene.write_text(scene.read_text().replace('data="child_script=idle.lua', 'data="customization_script=idle.lua'))
-    server = ServerProcess(str(scene), "--stopped")
+    server = ServerProcess(str(scene), "--stopped", renderers="on-demand")
     cid = -1
     try:
         cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)

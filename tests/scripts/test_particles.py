@@ -10,6 +10,8 @@ import pytest
 
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENE = """<mujoco>
   <option timestep="0.005" gravity="0 0 0"/>
   <worldbody>

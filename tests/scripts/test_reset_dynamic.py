@@ -8,6 +8,8 @@ import pytest
 
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 CHILD = 1
 SCENE = """<mujoco model="reset">
   <option timestep="0.002"/>

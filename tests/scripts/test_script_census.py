@@ -21,6 +21,8 @@ import pytest
 
 from conftest import SHARED, require_shared
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 CORPUS = SHARED / "ttt-corpus"
 SECONDS = 2.0
 _MISSING = re.compile(r"(\b[\w.]+) is not available in simx")

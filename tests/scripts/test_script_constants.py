@@ -10,6 +10,8 @@ from simx_client import constants as C
 from simx_server.scripts.facade import FACADE_CONSTANTS
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 CHILD = C.sim_scripttype_childscript
 
 SCENE = """<mujoco model="script constants">

@@ -16,6 +16,8 @@ from simx_client.protocol import ArgumentError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 CHILD = vrep.sim_scripttype_childscript
 B = vrep.simx_opmode_blocking
 
@@ -113,7 +115,7 @@ def test_require_loads_text_chunks_only(sim, tmp_path):
 
 def test_the_issues_attack_on_a_real_server_is_a_remote_error():
     """9 M ints to RG2's rg2Open aborted the server (Lua panic, exit 134)."""
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate")
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     try:
         assert cid >= 0

@@ -34,6 +34,8 @@ from simx_server.scripts.scene_scripts import Scripts
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.world import World
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 LEGACY_RG2 = LEGACY / "RG2.lua"
 SCRIPT_SCENE = ROOT / "tests" / "scenes" / "scripts" / "scripts_scene.xml"
 CHILD = 1  # sim_scripttype_childscript
@@ -595,7 +597,7 @@ def test_remote_legacy_rg2_lua_closes_on_the_ball_and_opens(tmp_path):
     B = vrep.simx_opmode_blocking
     scene = ur5_copy(tmp_path, require_shared(LEGACY_RG2), "RG2.lua")
     assert (tmp_path / "RG2.lua").read_bytes() == LEGACY_RG2.read_bytes()
-    server = ServerProcess(str(scene))
+    server = ServerProcess(str(scene), renderers="on-demand")
     cid = -1
     try:
         cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)

@@ -22,6 +22,8 @@ from conftest import ServerProcess
 from simx_client.protocol import ScriptError
 from simx_server.scene.simulation import Simulation
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENE = """<mujoco model="sandbox test">
   <worldbody>
     <body name="Box" pos="0 0 0.1"><geom type="box" size="0.01 0.01 0.01"/></body>
@@ -116,7 +118,7 @@ def test_allow_unsafe_lua_flag_gives_them_back(tmp_path):
     import vrep
 
     scene, outside = sandbox_scene(tmp_path)
-    server = ServerProcess(str(scene), "--allow-unsafe-lua")
+    server = ServerProcess(str(scene), "--allow-unsafe-lua", renderers="on-demand")
     cid = -1
     try:
         cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)

@@ -12,6 +12,8 @@ from simx_server.scene.simulation import Simulation
 from simx_server.scripts.facade import ScriptSim
 from simx_server.scripts.sim_ik import SimIK, functions
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 UR5 = ROOT / "scenes" / "ur5_ik.xml"
 
 

@@ -22,6 +22,8 @@ from simx_server.sim import ik
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.world import matrix_from_euler
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 IK_SCENE = ROOT / "scenes" / "ur5_ik.xml"
 BLOCK = vrep.simx_opmode_blocking
 DOWN = (math.pi / 2, 0.0, math.pi / 2)
@@ -75,7 +77,7 @@ def _distance(world, a: str, b: str) -> float:
 
 @pytest.fixture(scope="module")
 def ik_server():
-    srv = ServerProcess(str(IK_SCENE), "--speed", "0", ports=[free_port()])
+    srv = ServerProcess(str(IK_SCENE), "--speed", "0", ports=[free_port()], renderers="on-demand")
     yield srv
     log = srv.stop()
     assert "Traceback" not in log, log

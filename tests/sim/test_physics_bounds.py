@@ -82,7 +82,7 @@ def sim():
 # ------------------------------------------------- defect 1: work per step
 def test_huge_time_step_is_refused_and_the_server_keeps_running():
     """Issue: stop; dt = 1e7; start -> the process exited (an exception in mj_step)."""
-    srv = ServerProcess(str(SCENE), "--speed", "0")
+    srv = ServerProcess(str(SCENE), "--speed", "0", renderers="on-demand")
     try:
         cid = _connect(srv)
         assert vrep.simxStopSimulation(cid, B) == 0
@@ -169,7 +169,7 @@ def _check_scene_bounds(sim, tmp_path):
 # ------------------------------------------------ defect 2: physical ranges
 def test_gravity_flood_reproduction_is_refused_and_time_advances():
     """Issue: gravity [0, 0, -3e38] -> 188 KB/s of MuJoCo warnings, simulation time stuck."""
-    srv = ServerProcess(str(SCENE), "--speed", "0")
+    srv = ServerProcess(str(SCENE), "--speed", "0", renderers="on-demand")
     try:
         cid = _connect(srv)
         grav = vrep.sim_arrayparam_gravity
@@ -258,7 +258,7 @@ def test_blow_up_stops_the_simulation_with_one_log_line():
     the light wrist joint). MuJoCo then resets the state at every step and warned each time
     (stdout flood, time stuck at 0): the simulation now stops, one line says why, and it runs
     again after simxStartSimulation."""
-    srv = ServerProcess(str(SCENE), "--speed", "0")
+    srv = ServerProcess(str(SCENE), "--speed", "0", renderers="on-demand")
     try:
         cid = _connect(srv)
         rc, wrist = vrep.simxGetObjectHandle(cid, "UR5_joint6", B)

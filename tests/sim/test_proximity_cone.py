@@ -14,6 +14,8 @@ from simx_server.scene.simulation import Simulation
 from simx_server.sim.collisions import collision, probes
 from simx_server.sim.proximity import cone_directions, proximity_reading
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 PIONEER = ROOT / "scenes" / "pioneer_p3dx.xml"
 
 # Two sensors at the origin looking along +x (site +z = world +x), one a ray, one a 30-degree

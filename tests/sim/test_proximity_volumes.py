@@ -11,6 +11,8 @@ from simx_wire.protocol import ArgumentError
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import proximity
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENE = """<mujoco model="volumes">
   <option gravity="0 0 0"/>
   <worldbody>

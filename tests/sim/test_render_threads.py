@@ -224,3 +224,31 @@ def test_a_resolution_set_at_run_time_makes_its_renderer_at_once(sim):
     renders = vision.renders
     (w, h), data = vision.image_bytes(cam, 0)
     assert (w, h) == (64, 48) and len(data) == 64 * 48 * 3 and vision.renders == renders + 1
+
+
+def test_renderers_on_demand_are_made_at_the_first_image_and_draw_the_same_frames():
+    """``--renderers on-demand`` (Simulation(renderers_at_load=False)): no renderer (GL context)
+    exists before an image is asked for, also after an edit; the first image makes it and is
+    the frame a server with its renderers made at load gives; a resolution set at run time
+    still makes its renderer at once."""
+    from simx_server.scene.editor import refresh_vision
+
+    eager = Simulation(SCENE, dt=0.05, realtime=False)
+    lazy = Simulation(SCENE, dt=0.05, realtime=False, renderers_at_load=False)
+    try:
+        assert eager.vision.wait_ready(30) and lazy.vision.wait_ready(30)
+        assert len(eager.vision._thread.renderers) == 2  # one per sensor size, made at load
+        assert not lazy.vision._thread.renderers
+        cam = lazy.world.resolve("cam").handle
+        refresh_vision(lazy)  # what an edit or a scene load does: the new sensors stay on demand
+        assert not lazy.vision.at_load and lazy.vision.wait_ready(30)
+        assert not lazy.vision._thread.renderers and lazy.vision.renders == 0
+        assert lazy.vision.image_bytes(cam, 0) == eager.vision.image_bytes(cam, 0)
+        assert lazy.vision.depth_deferred(cam).future.result(30) == eager.vision.depth_deferred(cam).future.result(30)
+        assert list(lazy.vision._thread.renderers) == [(32, 24)] and lazy.vision.renders == 2
+        lazy.vision.set_resolution(cam, 64, 48)  # a user's change: its renderer is warmed at once
+        lazy.vision.after(lambda: None).result(30)
+        assert (64, 48) in lazy.vision._thread.renderers
+    finally:
+        eager.close()
+        lazy.close()

@@ -14,6 +14,8 @@ from simx_server.scene.simulation import Simulation
 from simx_server.scripts.facade import ScriptSim
 from simx_server.sim import scene_collections
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 SCENE = """<mujoco model="collections">
   <option gravity="0 0 0"/>
   <worldbody>

@@ -11,6 +11,8 @@ from conftest import SCENE
 from simx_client.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.sim.world import JOINT, SHAPE, VISION_SENSOR, World
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 
 @pytest.fixture
 def world():

@@ -23,12 +23,14 @@ from simx_server.base import limits as L
 from simx_server.commands import HANDLERS, NOT_STREAMABLE
 from simx_server.commands.editing import EDITING_HANDLERS
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 B, STREAMING = vrep.simx_opmode_blocking, vrep.simx_opmode_streaming
 
 
 @pytest.fixture(scope="module")
 def server():
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     yield srv
     srv.stop()
 
@@ -150,7 +152,7 @@ def test_a_request_of_many_scene_loads_is_cut_at_its_time_budget_and_the_client_
     """100 LoadScene in one request held every client 71.5 s: the request stops executing after
     limits.MAX_REQUEST_SECONDS, and the client's loads and edits past limits.EDIT_SHARE of the
     simulation thread answer busy, while another client is served in between."""
-    srv = ServerProcess(str(SCENE), "--stopped", "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(SCENE), "--stopped", "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     session = zenoh.open(client_config("127.0.0.1", srv.port))
     try:
         loader = uuid.uuid4().hex

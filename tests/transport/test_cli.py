@@ -32,7 +32,7 @@ def test_missing_scene_exits_nonzero(tmp_path):
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_default_scene_serves_then_exits_within_2_s(sig):
-    srv = ServerProcess()  # no scene argument: the bundled UR5 scene
+    srv = ServerProcess(renderers="on-demand")  # no scene argument: the bundled UR5 scene
     try:
         assert "ur5_rg2_kinect.xml" in srv.ready_line
         cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
@@ -86,7 +86,7 @@ def test_zenoh_config_file_sets_the_endpoints(tmp_path):
 
 def test_client_program_exits_promptly_without_finish(tmp_path):
     """A legacy program that never calls simxFinish still ends at once (no hang at exit)."""
-    srv = ServerProcess()
+    srv = ServerProcess(renderers="on-demand")
     try:
         script = tmp_path / "forgetful.py"
         script.write_text(
@@ -102,3 +102,13 @@ def test_client_program_exits_promptly_without_finish(tmp_path):
         assert time.monotonic() - t0 < 10
     finally:
         srv.stop()
+
+
+def test_instances_get_the_renderers_option():
+    """``--instances N --renderers on-demand``: each server of the pool is started with it."""
+    from simx_server.cli import _child_args, parse_args
+
+    args = _child_args(parse_args(["--instances", "2", "--renderers", "on-demand"]))
+    assert args[args.index("--renderers") + 1] == "on-demand"
+    args = _child_args(parse_args(["--instances", "2"]))
+    assert args[args.index("--renderers") + 1] == "at-load"  # the default, as a single server's

@@ -39,7 +39,7 @@ def _log(server: ServerProcess) -> str:
 
 
 def test_one_session_with_1100_tokens_leaves_room_for_new_clients():
-    server = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()])
+    server = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     flooder = zenoh.open(client_config("127.0.0.1", server.port))
     try:
         first = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)  # before the flood, then idle

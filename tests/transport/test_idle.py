@@ -28,7 +28,7 @@ def cpu_share(pid: int, seconds: float) -> float:
 def test_speed0_server_without_clients_is_idle_and_steps_for_a_client():
     import vrep
 
-    srv = ServerProcess(str(SCENE), "--speed", "0")
+    srv = ServerProcess(str(SCENE), "--speed", "0", renderers="on-demand")
     try:
         share = cpu_share(srv.proc.pid, 2.0)
         assert share < 0.05, f"an idle --speed 0 server used {share:.0%} of a core"

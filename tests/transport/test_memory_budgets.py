@@ -152,7 +152,7 @@ def _vm(pid: int, field: str) -> float:
 
 @pytest.fixture(scope="module")
 def server():
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     yield srv
     srv.stop()
 

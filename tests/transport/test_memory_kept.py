@@ -61,7 +61,7 @@ def _connection(port: int, requests: int = 30, size: int = 5000) -> None:
 
 
 def test_connections_that_come_and_go_leave_the_server_flat():
-    srv = ServerProcess("--pacing", "immediate")
+    srv = ServerProcess("--pacing", "immediate", renderers="on-demand")
     try:
         for _ in range(WARM_UP):
             _connection(srv.port)

@@ -24,7 +24,7 @@ def start():
     started = []
 
     def run(*options: str, ports: int = 1) -> tuple[ServerProcess, list[int]]:
-        srv = ServerProcess(str(SCENE), *options, ports=[free_port() for _ in range(ports)])
+        srv = ServerProcess(str(SCENE), *options, ports=[free_port() for _ in range(ports)], renderers="on-demand")
         cids = [vrep.simxStart("127.0.0.1", p, True, True, 5000, 5) for p in srv.ports]
         started.append((srv, cids))
         assert all(cid >= 0 for cid in cids)

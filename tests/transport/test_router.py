@@ -47,7 +47,7 @@ def test_two_servers_behind_one_router(router, tmp_path, monkeypatch):
     config.write_text('{ mode: "peer", connect: { endpoints: ["tcp/127.0.0.1:%d"] }, '
                       'scouting: { multicast: { enabled: false } } }' % router)
     servers = [ServerProcess(str(SCENE), "--zenoh-config", str(config), "--prefix", f"simx{i}", "--stopped",
-                             "--pacing", "immediate") for i in range(2)]
+                             "--pacing", "immediate", renderers="on-demand") for i in range(2)]
     cids = []
     try:
         for i in range(2):

@@ -66,7 +66,7 @@ def secure(tmp_path_factory):
     files = {name: install(name, root, port, tutorial_port=tutorial_port)
              for name in ("server.json5", "users.txt", "client-alice.json5", "client-bob.json5")}
     server = ServerProcess("--zenoh-config", str(files["server.json5"]), "--stopped", ports=[port, tutorial_port],
-                           cwd=root)
+                           cwd=root, renderers="on-demand")
     with pytest.MonkeyPatch.context() as mp:
         mp.chdir(root)  # the clients of this module read the configs' relative paths from there
         yield server, files
@@ -259,7 +259,7 @@ def test_mutual_tls_binds_the_certificate_name_to_the_client_ids(secure, env, tm
     port = free_port()
     config = install("server-mtls.json5", root, port, tmp_path)
     alice = install("client-mtls-alice.json5", root, port, tmp_path)
-    server = ServerProcess("--zenoh-config", str(config), "--stopped", ports=[port], cwd=root)
+    server = ServerProcess("--zenoh-config", str(config), "--stopped", ports=[port], cwd=root, renderers="on-demand")
     try:
         env.setenv("SIMX_ZENOH_CONFIG", str(alice))
         env.setenv("SIMX_USER", "alice")
@@ -384,7 +384,7 @@ def plain_config(port: int) -> zenoh.Config:
 @pytest.fixture(scope="module")
 def plain_server():
     """A server as it runs by default: plain TCP on loopback, no authentication, no access control."""
-    server = ServerProcess("--stopped")
+    server = ServerProcess("--stopped", renderers="on-demand")
     yield server
     server.stop()
 

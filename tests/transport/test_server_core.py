@@ -81,7 +81,7 @@ def raw(core):
 def test_a_failing_step_stops_the_simulation_and_is_reported_to_every_client():
     """mj_step raising (arena overflow) used to end the process; now the simulation stops and
     each client's next call answers remote error with the reason, once."""
-    srv = ServerProcess(str(ARENA), "--stopped")
+    srv = ServerProcess(str(ARENA), "--stopped", renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     session = zenoh.open(client_config("127.0.0.1", srv.port))
     try:
@@ -120,7 +120,7 @@ def test_a_failing_step_stops_the_simulation_and_is_reported_to_every_client():
 def test_sigterm_stops_the_server_within_2_s_during_a_long_step():
     """A step of about 20 s (heavy_step.xml) does not hold up SIGTERM (before: as long as the
     step; 7.7 s with dt 1000)."""
-    srv = ServerProcess(str(HEAVY), "--dt", "0.5")
+    srv = ServerProcess(str(HEAVY), "--dt", "0.5", renderers="on-demand")
     session = zenoh.open(client_config("127.0.0.1", srv.port))
     try:
         client = uuid.uuid4().hex

@@ -30,7 +30,7 @@ def test_the_servers_zenoh_config_bounds_a_blocked_reply():
 
 
 def test_a_stopped_consumer_does_not_make_another_clients_calls_time_out():
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate")
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", renderers="on-demand")
     stuck = None
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     try:

@@ -23,7 +23,7 @@ def stepped():
     started = []
 
     def start(scene: str):
-        srv = ServerProcess(str(ROOT / "scenes" / scene), "--stopped")
+        srv = ServerProcess(str(ROOT / "scenes" / scene), "--stopped", renderers="on-demand")
         cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
         assert cid >= 0
         started.append((srv, cid))

@@ -15,7 +15,7 @@ STREAMING, BLOCKING = vrep.simx_opmode_streaming, vrep.simx_opmode_blocking
 
 @pytest.fixture(scope="module")
 def stepped():
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     assert cid >= 0
     assert vrep.simxSynchronous(cid, True) == 0
@@ -106,7 +106,7 @@ def test_the_newest_stream_period_is_kept(stepped):
 
 def test_a_streamed_script_call_runs_with_its_newest_arguments():
     scene = SCENE.parents[1] / "tests" / "scenes" / "scripts" / "scripts_scene.xml"
-    srv = ServerProcess(str(scene), "--pacing", "immediate", ports=[free_port()])
+    srv = ServerProcess(str(scene), "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
     try:
         assert cid >= 0 and vrep.simxSynchronous(cid, True) == 0

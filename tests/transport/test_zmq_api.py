@@ -20,7 +20,7 @@ SCENES = Path(__file__).resolve().parents[1] / "scenes" / "zmq"
 @pytest.fixture(scope="module")
 def zmq_server():
     port = free_port()
-    srv = ServerProcess(str(SCENES / "scripted.xml"), "--stopped", "--zmq-port", str(port))
+    srv = ServerProcess(str(SCENES / "scripted.xml"), "--stopped", "--zmq-port", str(port), renderers="on-demand")
     srv.zmq_port = port
     yield srv
     srv.stop()
@@ -236,7 +236,7 @@ def test_wait_and_motions_last_several_steps(sim):
 def test_simik_maps_onto_the_scenes_ik_groups(official):
     port = free_port()
     ik_scene = Path(__file__).resolve().parents[2] / "scenes" / "ur5_ik.xml"
-    srv = ServerProcess(str(ik_scene), "--stopped", "--zmq-port", str(port))
+    srv = ServerProcess(str(ik_scene), "--stopped", "--zmq-port", str(port), renderers="on-demand")
     try:
         client = official(port)
         sim, simIK = client.require("sim"), client.require("simIK")  # noqa: N806 (CoppeliaSim's name)

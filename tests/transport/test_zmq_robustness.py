@@ -21,7 +21,7 @@ UUID = "robustness-test"
 @pytest.fixture(scope="module")
 def zmq_server():
     port = free_port()
-    srv = ServerProcess(str(SCENES / "scripted.xml"), "--stopped", "--zmq-port", str(port))
+    srv = ServerProcess(str(SCENES / "scripted.xml"), "--stopped", "--zmq-port", str(port), renderers="on-demand")
     srv.zmq_port = port
     yield srv
     log = srv.stop()

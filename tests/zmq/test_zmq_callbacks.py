@@ -22,7 +22,7 @@ SCENES = Path(__file__).resolve().parents[1] / "scenes" / "zmq"
 @pytest.fixture(scope="module")
 def zmq_server():
     port = free_port()
-    srv = ServerProcess(str(SCENES / "scripted.xml"), "--stopped", "--zmq-port", str(port))
+    srv = ServerProcess(str(SCENES / "scripted.xml"), "--stopped", "--zmq-port", str(port), renderers="on-demand")
     srv.zmq_port = port
     yield srv
     srv.stop()

@@ -79,7 +79,8 @@ def test_curve_lets_in_only_authorised_keys(secure_root, tmp_path):
     zmq.auth.create_certificates(tmp_path, "mallory")  # a key pair nobody authorised
     port, zmq_port = free_port(), free_port()
     server = ServerProcess("--zenoh-config", str(_config(secure_root, port)), "--stopped", "--zmq-port",
-                           str(zmq_port), "--zmq-curve", str(keys), ports=[port], cwd=secure_root)
+                           str(zmq_port), "--zmq-curve", str(keys), ports=[port], cwd=secure_root,
+                           renderers="on-demand")
     server_public, _ = zmq.auth.load_certificate(keys / "server.key")
     ctx = zmq.Context()
     try:

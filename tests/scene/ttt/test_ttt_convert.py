@@ -14,6 +14,8 @@ import tttwriter as W
 from simx_server.scene.ttt import convert, reader
 from simx_server.scene.ttt.cli import main as simx_convert
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 
 @pytest.fixture()
 def converted(tmp_path):

@@ -15,6 +15,8 @@ import tttwriter as W
 from simx_server.scene.ttt import convert, reader
 from simx_server.scene.ttt.errors import SceneFileError
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
 TABLE = struct.pack("<4f", 1.5, 0.25, 0.75, 0.5)
 
 SCRIPT = """

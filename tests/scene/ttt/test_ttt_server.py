@@ -64,7 +64,7 @@ def _connect(port: int, seconds: float = 10.0) -> int:
 
 
 def test_serve_load_model_and_refuse_a_broken_file(cell, tmp_path, script_port):
-    srv = ServerProcess(str(cell / "cell.ttt"))
+    srv = ServerProcess(str(cell / "cell.ttt"), renderers="on-demand")
     try:
         cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
         assert cid >= 0
@@ -108,13 +108,13 @@ def test_serve_load_model_and_refuse_a_broken_file(cell, tmp_path, script_port):
 
 
 def test_second_start_uses_the_cache(cell, tmp_path):
-    srv = ServerProcess(str(cell / "cell.ttt"))
+    srv = ServerProcess(str(cell / "cell.ttt"), renderers="on-demand")
     srv.stop()
     converted = list((tmp_path / "cache" / "simx" / "ttt").glob("*/scene.xml"))
     assert len(converted) == 1
     stamp = converted[0].stat().st_mtime_ns
     time.sleep(0.05)
-    srv = ServerProcess(str(cell / "cell.ttt"))
+    srv = ServerProcess(str(cell / "cell.ttt"), renderers="on-demand")
     srv.stop()
     assert list((tmp_path / "cache" / "simx" / "ttt").glob("*/scene.xml")) == converted
     assert converted[0].stat().st_mtime_ns == stamp  # not converted again
