@@ -6,13 +6,12 @@ Real :class:`~simx_server.loop.core.Loop` and simulation, in-process doors, no s
 from __future__ import annotations
 
 import collections
-import threading
 import time
-from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
+import loop_fixtures
 import pytest
+from loop_fixtures import WAIT, LoopThread
 
 from simx_server.loop.clients import Client, Clients
 from simx_server.loop.core import Loop
@@ -21,14 +20,7 @@ from simx_server.loop.in_process import InProcessDoor
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
 
-SCENE = """<mujoco>
-  <option timestep="0.01"/>
-  <worldbody>
-    <body name="arm"><joint name="hinge" type="hinge" axis="0 0 1"/><geom type="capsule" size="0.02 0.1"/></body>
-  </worldbody>
-</mujoco>
-"""
-WAIT = 10.0  # s: a bound on a loaded machine, never a timing under test
+sim = loop_fixtures.sim  # the shared fixture
 
 
 class Door(FrontDoor):
@@ -66,27 +58,7 @@ def test_the_registry_counts_expires_and_marks_each_doors_clients() -> None:
     assert registry.count(a) == 2 and registry.get(a, "old") is None
 
 
-class Served:
-    """A loop serving on a thread of its own."""
-
-    def __init__(self, sim: Simulation, **kwargs: Any) -> None:
-        self.loop = Loop(sim, **kwargs)
-        self.thread = threading.Thread(target=self.loop.serve, name="test-loop", daemon=True)
-
-    def stop(self) -> None:
-        self.loop.request_stop()
-        self.thread.join(WAIT)
-        assert not self.thread.is_alive(), "serve() did not return after request_stop()"
-        self.loop.close()
-
-
-@pytest.fixture
-def sim(tmp_path: Path) -> Iterator[Simulation]:
-    scene = tmp_path / "arm.xml"
-    scene.write_text(SCENE)
-    simulation = Simulation(scene, dt=0.01, realtime=False)
-    yield simulation
-    simulation.close()
+Served = LoopThread  # a loop serving on a thread, no door but the test's
 
 
 def wait_for(condition: Any, what: str) -> None:

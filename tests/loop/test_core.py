@@ -11,10 +11,11 @@ import threading
 import time
 from collections.abc import Iterator
 from concurrent.futures import Future
-from pathlib import Path
 from typing import Any
 
+import loop_fixtures
 import pytest
+from loop_fixtures import WAIT, LoopThread
 
 from simx_server.loop.core import Loop
 from simx_server.loop.front_door import FrontDoor, LoopAccess
@@ -22,44 +23,21 @@ from simx_server.loop.in_process import InProcessDoor
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
 
+sim = loop_fixtures.sim  # the shared fixture
+
 pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 
-SCENE = """<mujoco>
-  <option timestep="0.01"/>
-  <worldbody>
-    <body name="arm"><joint name="hinge" type="hinge" axis="0 0 1"/><geom type="capsule" size="0.02 0.1"/></body>
-  </worldbody>
-</mujoco>
-"""
-WAIT = 10.0  # s: a bound on a loaded machine, never a timing under test
 
-
-class Served:
+class Served(LoopThread):
     """A loop serving on a thread, with an in-process door attached."""
 
     def __init__(self, sim: Simulation, **kwargs: Any) -> None:
-        self.loop = Loop(sim, **kwargs)
+        super().__init__(sim, **kwargs)
         self.door = InProcessDoor(self.loop)
         self.loop.attach(self.door)
-        self.thread = threading.Thread(target=self.loop.serve, name="test-loop", daemon=True)
 
     def call(self, fn: Any, client: str = "a", after_step: bool = False) -> Any:
         return self.door.call(client, fn, after_step).result(WAIT)
-
-    def stop(self) -> None:
-        self.loop.request_stop()
-        self.thread.join(WAIT)
-        assert not self.thread.is_alive(), "serve() did not return after request_stop()"
-        self.loop.close()
-
-
-@pytest.fixture
-def sim(tmp_path: Path) -> Iterator[Simulation]:
-    scene = tmp_path / "arm.xml"
-    scene.write_text(SCENE)
-    simulation = Simulation(scene, dt=0.01, realtime=False)
-    yield simulation
-    simulation.close()
 
 
 @pytest.fixture

@@ -9,40 +9,34 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Iterator
-from pathlib import Path
 
+import loop_fixtures
 import pytest
+from loop_fixtures import WAIT, LoopThread
 
-from simx_server.loop.core import Loop
 from simx_server.loop.in_process import InProcessDoor
 from simx_server.scene.simulation import Simulation
 
-SCENE = """<mujoco><option timestep="0.01"/><worldbody>
-  <body name="arm"><joint name="hinge" type="hinge"/><geom type="capsule" size="0.02 0.1"/></body>
-</worldbody></mujoco>
-"""
-WAIT = 10.0  # s: a bound on a loaded machine, never a timing under test
+sim = loop_fixtures.sim  # the shared fixture
 
 
 def thread_name(sim: Simulation) -> str:
     return threading.current_thread().name
 
 
-class Served:
-    """A loop with an in-process door, and the thread that will serve it (not started)."""
+class Served(LoopThread):
+    """A loop at full speed (it waits for work: nobody steps it) with an in-process door, and
+    the thread that will serve it (not started)."""
 
     def __init__(self, sim: Simulation) -> None:
-        self.loop = Loop(sim, speed=0)
+        super().__init__(sim, speed=0)
         self.door = InProcessDoor(self.loop)
         self.loop.attach(self.door)
-        self.thread = threading.Thread(target=self.loop.serve, name="test-loop", daemon=True)
 
 
 @pytest.fixture
-def served(tmp_path: Path) -> Iterator[Served]:
-    scene = tmp_path / "arm.xml"
-    scene.write_text(SCENE)
-    s = Served(Simulation(scene, dt=0.01, realtime=False))
+def served(sim: Simulation) -> Iterator[Served]:
+    s = Served(sim)
     yield s
     if s.thread.is_alive():
         s.loop.request_stop()
