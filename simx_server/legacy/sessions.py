@@ -1,4 +1,4 @@
-"""Per-client intake: bounded request queues served round robin, render bounds, expiry.
+"""Per-client intake: bounded request queues served round robin, render bounds, evictions.
 
 Zenoh's threads call :meth:`Sessions.admit` with a parsed request; the simulation thread takes
 requests back with :meth:`Sessions.take`. Between them is one ``queue.SimpleQueue``, the loop's
@@ -278,21 +278,6 @@ class Sessions:
             s = self._sessions.get(client)
             if s is not None and not s.scheduled:
                 self._drop(client)
-
-    def expired(self, expiry: float) -> list[str]:
-        """Remove and return the clients with no liveliness token, nothing pending and no
-        request for ``expiry`` s, plus those evicted to make room since the last call. (The
-        server expires its clients through the loop's registry instead, which asks
-        :meth:`pinned`; this serves a queue used alone.)"""
-        deadline = time.monotonic() - expiry
-        with self._lock:
-            gone, self.evicted = self.evicted, []
-            for client, s in self._sessions.items():
-                if s.last_seen < deadline and client not in self.tokens and not s.scheduled:
-                    gone.append(client)
-            for client in gone:
-                self._drop(client)
-        return gone
 
 
 def _user(client: str) -> str:

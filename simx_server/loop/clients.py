@@ -2,7 +2,7 @@
 
 A front door registers each client it serves (:meth:`Clients.add`: a :class:`Client`, or a
 subclass of it that carries what is the door's own: its Zenoh intake, its ZMQ stepping level),
-notes each of its requests (:meth:`Clients.seen`) and removes it when it leaves
+notes each of its requests (``Client.last_seen``) and removes it when it leaves
 (:meth:`Clients.remove`). The registry keeps what every door needs of a client:
 
 * its identity (``id``, unique within its door) and its door;
@@ -83,11 +83,6 @@ class Clients:
         del clients[client.id]
         return True
 
-    @staticmethod
-    def seen(client: Client, now: float) -> None:
-        """``client`` sent a request at ``now`` (``time.monotonic()``, s)."""
-        client.last_seen = now
-
     def __iter__(self) -> Iterator[Any]:
         for _, clients in list(self._doors.values()):
             yield from list(clients.values())
@@ -99,14 +94,13 @@ class Clients:
             return len(entry[1]) if entry is not None else 0
         return sum(len(clients) for _, clients in self._doors.values())
 
-    def expired(self, now: float, keeps: Callable[[Any], bool] | None = None) -> list[Any]:
+    def expired(self, now: float) -> list[Any]:
         """The clients silent for longer than their ``expiry`` at ``now``, oldest first, but
-        those their door keeps (its ``keeps(client)``; ``keeps`` overrides it). They stay
-        registered: the loop has their door forget them."""
+        those their door keeps (its ``keeps(client)``). They stay registered: the loop has
+        their door forget them."""
         out: list[Any] = []
         for door, clients in list(self._doors.values()):
-            kept = keeps if keeps is not None else door.keeps
-            out.extend(c for c in clients.values() if now - c.last_seen > c.expiry and not kept(c))
+            out.extend(c for c in clients.values() if now - c.last_seen > c.expiry and not door.keeps(c))
         out.sort(key=lambda c: c.last_seen)
         return out
 

@@ -113,7 +113,7 @@ class InProcessDoor(FrontDoor):
         if client is None:
             client = Client(call.client, self, now, self.loop.client_expiry)
             registry.add(client)
-        registry.seen(client, now)
+        client.last_seen = now
         if client.fault is not None:  # a failed step since its last call: told now
             self.faults.append((call.client, client.fault))
             client.fault = None

@@ -314,7 +314,7 @@ def test_sessions_bound_queues_and_serve_round_robin():
     assert sessions.take(ring.get()) == "a7"
     sessions.tokens.discard("b")
     assert sessions.admit("c", "c0", 1) is None  # b, idle and tokenless, made room
-    assert sessions.expired(1000.0) == ["b"]
+    assert sessions.take_evicted() == ["b"]  # the door forgets it at its housekeeping
 
 
 # ------------------------------------------------------------------ defects 7 and 8: sizes
