@@ -305,27 +305,28 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             bulk = renders and sum(image_size(self.sim, name, args) for (name, _, args), (_, value)
                                    in zip(commands, results) if type(value) is Deferred) >= limits.BULK_SEND_BYTES
             if renders:  # encoded by the sending thread once rendered: one such reply in memory at a time
+                in_place = False
+
                 def payload() -> bytes:
                     return self._response(t, state, self._resolve(results, client), server_time, scene, client,
                                           large=True)
             else:  # encoded now: the values are this step's
                 encoded = self._response(t, state, results, server_time, scene, client)
-                sends = self.loop.in_place
-                if (sends is not None and len(encoded) <= limits.IN_PLACE_REPLY_BYTES
-                        and not session.unsent and not self._streams.get(client)):
-                    self._send_in_place(sends, session, query, encoded)
-                    return
+                # Served in place, with nothing of its client on its way: sent by the thread
+                # that read the request, once the simulation is let go (Loop.serve_or_deliver).
+                in_place = (len(encoded) <= limits.IN_PLACE_REPLY_BYTES and not session.unsent
+                            and not self._streams.get(client))
 
                 def payload() -> bytes:
                     return encoded
         except Exception as exc:  # the server never dies from a client
             log.exception("client %s: answering a request", client)
             refusal = P.error_response(f"internal error while answering the request: {type(exc).__name__}")
-            renders, bulk = [], False
+            renders, bulk, in_place = [], False, False
 
             def payload() -> bytes:
                 return refusal
-        self._reply(session, query, payload, renders, bulk)
+        self._reply(session, query, payload, renders, bulk, in_place)
 
     def _schedule(self, session: Session) -> None:
         """Zenoh's thread: a client with nothing waiting has a request. A blocking call (its
@@ -339,22 +340,12 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         else:
             self.loop.ring.put(session)
 
-    def _send_in_place(self, sends: list, session: Session, query: zenoh.Query, encoded: bytes) -> None:
-        """Served in place, with nothing of its client on its way: the reply is sent by the
-        thread that read the request, once the simulation is let go (Loop.serve_or_deliver)."""
-        def send() -> None:
-            try:
-                answer(query, encoded)
-            finally:
-                self.sessions.sent(session)
-
-        self.sessions.handed_over(session)
-        sends.append(send)
-
-    def _reply(self, session: Session, query: zenoh.Query, payload, renders: list, bulk: bool = False) -> None:
+    def _reply(self, session: Session, query: zenoh.Query, payload, renders: list, bulk: bool = False,
+               in_place: bool = False) -> None:
         """Hand ``query``'s reply (``payload()``, called on the sending thread) to the courier
         on its client's lane: sent once ``renders`` are done, in order with its stream updates
-        (``bulk``: images of limits.BULK_SEND_BYTES or more, see loop.courier)."""
+        (``bulk``: images of limits.BULK_SEND_BYTES or more, see loop.courier). ``in_place``,
+        while the request is served in place: sent by the serving thread instead."""
         client = session.client
 
         def send() -> None:
@@ -364,7 +355,11 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                 self.sessions.sent(session)
 
         self.sessions.handed_over(session)
-        self.courier.send(client, send, renders, bulk)
+        sends = self.loop.in_place
+        if in_place and sends is not None:
+            sends.append(send)
+        else:
+            self.courier.send(client, send, renders, bulk)
 
     _response = staticmethod(encode_response)
 
