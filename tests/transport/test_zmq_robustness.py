@@ -126,8 +126,9 @@ def test_huge_arguments(req, zmq_server):
 
 def test_one_request_at_a_time_per_connection(zmq_server):
     """A raw DEALER that sends a second request before the first's reply gets an error for it.
-    The first is a scene edit, served by the simulation thread (a quick call would be served
-    and answered by the socket thread before it reads the second)."""
+    The first is a scene edit (a rename: the scene is compiled again, milliseconds), served by
+    the simulation thread; a quick call would be served and answered by the socket thread
+    before it reads the second."""
     ctx = zmq.Context()
     dealer = ctx.socket(zmq.DEALER)
     dealer.setsockopt(zmq.RCVTIMEO, 20000)
@@ -135,10 +136,12 @@ def test_one_request_at_a_time_per_connection(zmq_server):
     try:
         dealer.send_multipart([b"", codec.encode_request("sim.getObject", ["/ArmJoint"], UUID)])
         joint = cbor2.loads(dealer.recv_multipart()[-1])["ret"][0]
-        first = codec.encode_request("sim.setObjectAlias", [joint, "ArmJoint"], UUID)
+        first = codec.encode_request("sim.setObjectAlias", [joint, "ArmJointRenamed"], UUID)
         for _ in range(2):
             dealer.send_multipart([b"", first])
         replies = [cbor2.loads(dealer.recv_multipart()[-1]) for _ in range(2)]
+        dealer.send_multipart([b"", codec.encode_request("sim.setObjectAlias", [joint, "ArmJoint"], UUID)])
+        assert "ret" in cbor2.loads(dealer.recv_multipart()[-1])  # the scene as the other tests know it
         assert sorted(list(r) for r in replies) == [["err"], ["ret"]]
         assert any("one request at a time" in r.get("err", "") for r in replies)
     finally:
