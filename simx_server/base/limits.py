@@ -25,7 +25,7 @@ MAX_SUBSTEPS = 10_000
 #: camera's ``resolution``, checked when a scene loads). A 4096x4096 RGB image is 48 MiB and its
 #: depth buffer 64 MiB, both under MAX_REPLY_BYTES.
 MAX_RESOLUTION = 4096
-#: Most renderers (a GL context and MjrContext each, one per image size) a render thread keeps;
+#: Most renderers (an MjrContext and offscreen buffer each, one per image size) a render thread keeps;
 #: resolutions set at run time beyond that close the least recently used.
 MAX_RENDERERS = 8
 

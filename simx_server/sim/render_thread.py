@@ -1,8 +1,9 @@
-"""A render thread: one worker that owns GL contexts and the renderers made on them.
+"""A render thread: one worker that owns a GL context and the renderers made in it.
 
 :class:`simx_server.sim.vision.VisionSensors` uses two, for requests and for streams; each
-keeps one ``mujoco.Renderer`` (a GL context and ``MjrContext``) per image size, bound to one
-model, at most ``limits.MAX_RENDERERS``.
+keeps one GL context and, in it, one renderer (a ``mujoco.Renderer`` with its own
+``MjrContext`` and offscreen buffer) per image size, bound to one model, at most
+``limits.MAX_RENDERERS``.
 """
 
 from __future__ import annotations
@@ -107,27 +108,79 @@ def _close(renderer: mujoco.Renderer) -> None:
         pass
 
 
-def _make_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-    """A renderer of ``width`` x ``height`` whose offscreen buffer is of that size.
+class SensorRenderer(mujoco.Renderer):
+    """A ``mujoco.Renderer`` drawn in a GL context it shares with the other renderers of its
+    render thread: its own ``MjrContext``, whose offscreen buffer is ``width`` x ``height``.
+
+    ``mujoco.Renderer`` makes a GL context per renderer. On Mesa's llvmpipe a fresh context's
+    first ``MjrContext`` costs 1-1.5 s (4 s and more on a loaded machine), a further one in the
+    same context 0.2 s: a sensor set to a new resolution, or a scene loaded, would make the
+    first image, and the synchronous step whose streams wait for it, seconds late. Frames are the
+    same, pixel for pixel, as a renderer's of its own context.
 
     ``MjrContext`` sizes its offscreen buffers by the model's ``offwidth`` x ``offheight``,
     which is the largest sensor's size: once a sensor was set to 4096x4096, every renderer made
-    after it (a 640x480 one, a 4096x256 band) took a 4096x4096 buffer, about 300 MB on llvmpipe,
-    and the renderers kept per thread held 1.1-1.5 GB. The model's size is set to the
-    renderer's for the time it is made (GL_LOCK held: the other render thread makes none
-    meanwhile); ``mujoco.Renderer`` only checks it then."""
-    g = model.vis.global_
-    saved = g.offwidth, g.offheight
-    g.offwidth, g.offheight = width, height
-    try:
-        return mujoco.Renderer(model, height, width)
-    finally:
-        g.offwidth, g.offheight = saved
+    after it (a 640x480 one, a 4096x256 band) took a 4096x4096 buffer, about 300 MB on
+    llvmpipe. The model's size is set to the renderer's for the time it is made (the caller
+    holds GL_LOCK exclusively: the other render thread makes none meanwhile).
+
+    The attributes set are those ``mujoco.Renderer.__init__`` sets (mujoco 3.17), less the GL
+    context it would make; ``tests/sim/test_render_threads.py`` compares the frames.
+
+    Args:
+        model: the model drawn.
+        width: pixels.
+        height: pixels.
+        context: the render thread's ``mujoco.GLContext``, current on the calling thread.
+    """
+
+    def __init__(self, model: mujoco.MjModel, width: int, height: int, context: mujoco.GLContext) -> None:
+        self._gl_context = None
+        self._mjr_context = None
+        self._width, self._height, self._model = width, height, model
+        self._scene = mujoco.MjvScene(model=model, maxgeom=10000)
+        self._scene_option = mujoco.MjvOption()
+        self._rect = mujoco.MjrRect(0, 0, width, height)
+        self._depth_rendering = False
+        self._segmentation_rendering = False
+        context.make_current()
+        g = model.vis.global_
+        saved = g.offwidth, g.offheight
+        g.offwidth, g.offheight = width, height
+        try:
+            self._mjr_context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        finally:
+            g.offwidth, g.offheight = saved
+        self._mjr_context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self._gl_context = context
+
+    def render(self, *, out: np.ndarray | None = None) -> np.ndarray:
+        """``mujoco.Renderer.render`` into this renderer's own offscreen buffer (the context's
+        other renderers bind theirs).
+
+        Args:
+            out: as ``mujoco.Renderer.render``.
+
+        Returns:
+            The frame, top-down rows (``mujoco.Renderer`` flips MuJoCo's bottom-up read):
+            (height, width, 3) uint8 RGB, (height, width) float32 depth in m, or
+            (height, width, 2) int32 segmentation.
+        """
+        self._gl_context.make_current()
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._mjr_context)
+        return super().render(out=out)
+
+    def close(self) -> None:
+        """Free this renderer's ``MjrContext`` (on its render thread); the shared GL context stays."""
+        if self._mjr_context:
+            self._mjr_context.free()
+        self._mjr_context = None
+        self._gl_context = None
 
 
 class RenderThread:
-    """A render thread and the state only it touches: the renderers (one GL context and
-    ``MjrContext`` per resolution), bound to one model. Shared by the successive VisionSensors
+    """A render thread and the state only it touches: its GL context and the renderers in it
+    (an ``MjrContext`` per resolution), bound to one model. Shared by the successive VisionSensors
     of a server (scene loads, edits); jobs run in the order they were submitted."""
 
     def __init__(self, name: str = "simx-render", band_pixels: int | None = None) -> None:
@@ -140,6 +193,7 @@ class RenderThread:
         self.newest: mujoco.MjModel | None = None  # set on the simulation thread: the latest scene
         self.option: mujoco.MjvOption | None = None
         self.failure: str | None = None  # why no GL context can be made: not tried again
+        self.context: mujoco.GLContext | None = None  # render thread: the renderers' one GL context
         self.snapshot: tuple[int, mujoco.MjData] | None = None  # simulation thread: (version, the state it shows)
 
     def renderer(self, model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
@@ -167,7 +221,9 @@ class RenderThread:
                 _close(self.renderers.popitem(last=False)[1])
             try:
                 with GL_LOCK.exclusive():
-                    r = _make_renderer(model, width, height)
+                    if self.context is None:
+                        self.context = mujoco.GLContext(width, height)
+                    r = SensorRenderer(model, width, height, self.context)
             except Exception as exc:
                 self.failure = f"{type(exc).__name__}: {exc}"
                 raise
@@ -215,11 +271,22 @@ class RenderThread:
         return height if not self.band_pixels else max(1, min(height, self.band_pixels // width))
 
     def free(self) -> None:
-        """Free every GL context (render thread)."""
+        """Free every renderer (render thread); the GL context stays for the next scene's."""
         for r in self.renderers.values():
             _close(r)
         self.renderers.clear()
         self.model = None
+
+    def close(self) -> None:
+        """Free every renderer and the GL context (render thread; before the thread ends)."""
+        self.free()
+        context, self.context = self.context, None
+        if context is not None:
+            try:
+                with GL_LOCK.exclusive():
+                    context.free()
+            except Exception:  # a context already torn down by the driver
+                pass
 
 
 def render_bands(r: mujoco.Renderer, height: int) -> np.ndarray:

@@ -35,7 +35,8 @@ for its own frame only. Images leave here as ``bytes`` in V-REP's layout: rows b
 (resolution, clipping, image kind) are :mod:`simx_server.sim.sensor_spec`.
 
 V-REP rendered every sensor every step, so a program's first streamed image came at once. Here
-the renderers (a GL context and MuJoCo's ``MjrContext``, about 0.2 s on a software renderer)
+the renderers (MuJoCo's ``MjrContext`` in the render thread's one GL context: about 1 s for the
+first on a software renderer, 0.2 s for each further one)
 and one warm-up frame per sensor are made on the request render thread as soon as a scene loads
 or its model changes (an edit), not on the first request: the first streamed image is in the
 client's inbox within a step or two of the streaming call (streams use that thread until the
@@ -138,7 +139,7 @@ class VisionSensors(VisionResults):
 
     def set_resolution(self, handle: int, width: int | None = None, height: int | None = None) -> None:
         """``sim_visionintparam_resolution_x``/``_y`` (1002/1003) set at run time, as V-REP
-        allowed: the sensor renders at the new size from the next image on (a GL context per
+        allowed: the sensor renders at the new size from the next image on (a renderer per
         size, at most limits.MAX_RENDERERS kept). The field of view keeps V-REP's rule (the
         perspective angle spans the larger side). Undone when the simulation stops, like the
         other run-time sensor changes. Raises ArgumentError outside 1..MAX_RESOLUTION.
@@ -162,8 +163,8 @@ class VisionSensors(VisionResults):
         self._warm(w, h)
 
     def _warm(self, width: int, height: int) -> None:
-        """Make the request thread's renderer of a new size now (its GL context and
-        ``MjrContext``: 0.15 s on llvmpipe, seconds on a loaded machine), while the client goes
+        """Make the request thread's renderer of a new size now (its ``MjrContext``: 0.2 s on
+        llvmpipe, a second on a loaded machine), while the client goes
         on with its set-up, rather than in its first image call (which would make that call, and a
         synchronous step waiting for it, seconds slower than the next ones)."""
         thread, model = self._thread, self.world.model
@@ -307,7 +308,7 @@ class VisionSensors(VisionResults):
 
     def _prepare(self, thread: RenderThread) -> Future:
         """Make the renderers of this scene's sensors on ``thread`` and draw one frame of each
-        (the first frame of a GL context costs several later ones); a failure is logged once and
+        (the first frame of a renderer costs several later ones); a failure is logged once and
         the renderers are then made on the first request."""
         model = self.world.model
         thread.newest = model
@@ -449,6 +450,6 @@ class VisionSensors(VisionResults):
             threads = [t for t in (self._thread, self._streaming) if t is not None]
             for thread in threads:
                 thread.newest = None  # a preparation not started yet is skipped
-                thread.executor.submit(thread.free)
+                thread.executor.submit(thread.close)
             for thread in threads:
                 thread.executor.shutdown(wait=True)
