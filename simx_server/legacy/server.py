@@ -266,9 +266,11 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self._forget(client.id, how)
 
     def housekeeping(self, now: float) -> None:
-        """Forget the clients the intake dropped to make room (limits.MAX_CLIENTS)."""
+        """Forget the clients the intake dropped to make room for another (limits.MAX_CLIENTS,
+        limits.MAX_CLIENTS_PER_USER): the oldest without a liveliness token or a request waiting."""
         for client in self.sessions.take_evicted():
-            self._forget(client, f"expired (no liveliness token, no request for {self.loop.client_expiry:g} s)")
+            self._forget(client, "evicted to make room for another client (limits.MAX_CLIENTS or "
+                                 "MAX_CLIENTS_PER_USER): it held no liveliness token and had no request waiting")
 
     def watched(self) -> bool:
         return bool(len(self.sessions) or self.viewers.watched)
@@ -335,7 +337,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         takes); anything else goes to the ready ring: a oneshot or streaming flood is served
         round robin by the simulation thread, not by Zenoh's threads in parallel, where it
         would take the interpreter from every other client's calls."""
-        if Sessions.head_is_blocking(session) and session.queue[0][0][1][0][0] not in NOT_STREAMABLE:
+        name = Sessions.blocking_head(session)
+        if name is not None and name not in NOT_STREAMABLE:
             self.loop.serve_or_deliver(session)
         else:
             self.loop.ring.put(session)

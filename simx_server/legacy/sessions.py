@@ -236,11 +236,21 @@ class Sessions:
     def head_is_blocking(s: Session) -> bool:
         """Whether the oldest request of ``s`` is a blocking call (one command, blocking mode):
         the request that legacy pacing holds until the next simulation step."""
+        return Sessions.blocking_head(s) is not None
+
+    @staticmethod
+    def blocking_head(s: Session) -> str | None:
+        """The command name of the oldest request of ``s`` when it is a blocking call (one
+        command, blocking mode), else None. A queued request is ``((query, commands), size)``,
+        each command ``[name, mode, args]``."""
         queued = s.queue
         if not queued:
-            return False
-        commands = queued[0][0][1]
-        return len(commands) == 1 and commands[0][1] & _MODE_MASK == _MODE_BLOCKING
+            return None
+        (_query, commands), _size = queued[0]
+        if len(commands) != 1:
+            return None
+        name, mode, _args = commands[0]
+        return name if mode & _MODE_MASK == _MODE_BLOCKING else None
 
     def handed_over(self, s: Session) -> None:
         """A reply or stream update of ``s`` was handed to the sending thread."""
