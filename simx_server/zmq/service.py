@@ -193,6 +193,10 @@ class ZmqService(RenderedReplies):
             connection.uuids.add(req.uuid)
             log.info("ZMQ client %s connected%s", client.label, f" ({quote(req.lang, 40)})" if req.lang else "")
         client.fd, client.last_seen = incoming.fd, now
+        if client.fault is not None and req.func != codec.END:  # told instead of executed
+            func = (client.long_func or "sim.step") if req.func == codec.EXECUTED else req.func
+            self.frontend.send(envelope, self._told_fault(client, func))
+            return
         if req.func == codec.EXECUTED:
             if client.in_callback:  # the callback's return values: the motion goes on
                 client.in_callback = False
@@ -378,8 +382,22 @@ class ZmqService(RenderedReplies):
 
     def _resume(self, client: ZmqClient) -> bytes:
         """The reply due once a client's step has run: its sim.step's (empty) return, or the next
-        increment of its call that lasts several steps (``_*wait*_`` again, or its return)."""
+        increment of its call that lasts several steps (``_*wait*_`` again, or its return); the
+        error of a failed step instead, when that step failed."""
+        if client.fault is not None:
+            return self._told_fault(client, client.long_func if client.long is not None else "sim.step")
         return self._advance(client) if client.long is not None else codec.encode_reply([])
+
+    def _told_fault(self, client: ZmqClient, func: str) -> bytes:
+        """The ``{err}`` reply that tells ``client`` the failed step it is marked with
+        (``Client.fault``, the loop's rule for every door's clients: once, at its next call);
+        its wait for a step and any call that lasts several steps end with it."""
+        message, client.fault = client.fault or "", None
+        client.waiting = False
+        if client.long is not None:
+            self._end_long(client)
+            client.gave_up = ""  # told now, by this error
+        return self._error(client, func, message)
 
     def after_step(self) -> None:
         """After a step (or a loop pass without one): answer the ``_*executed*_`` whose step has
