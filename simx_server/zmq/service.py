@@ -19,7 +19,7 @@ steps, as it serves every front door's requests (:mod:`simx_server.loop.front_do
 
 ``sim.stopSimulation`` resets every ZMQ client's stepping level and locks, as CoppeliaSim's ZMQ
 server does. Clients are in the loop's registry (:mod:`simx_server.loop.clients`; a
-:class:`ZmqClient` is its entry with what is the ZMQ door's own). A client is forgotten (it
+:class:`~simx_server.zmq.clients.ZmqClient` is its entry with what is the ZMQ door's own). A client is forgotten (it
 leaves the barrier) when its connection closes, when it sends ``_*end*_``, or when the loop's
 housekeeping finds it past its ``timeout`` (s, its first request's; 600 by default) without a
 request (:meth:`ZmqService.keeps`: not while its ``_*executed*_`` waits for a step). Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s; those that
@@ -40,12 +40,12 @@ from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base.arguments import quote
 from simx_server.loop.budgets import cut
-from simx_server.loop.clients import Client
 from simx_server.loop.front_door import LoopAccess
 from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
 from simx_server.zmq import codec, names
 from simx_server.zmq.budgets import RENDERS, Connection, reply_estimate
+from simx_server.zmq.clients import ZmqClient
 from simx_server.zmq.frontend import Frontend, Incoming
 from simx_server.zmq.motion import CallbackCall, Stepped
 from simx_server.zmq.remote_sim import RemoteSim, facade_functions
@@ -66,37 +66,6 @@ _EMPTY = cbor2.dumps({})
 #: Requests that end a long call suspended in its callback (the client gave the callback up, or
 #: the callback asks for a step of its own); any other request is the callback's own, served as usual.
 _ENDS_CALLBACK = frozenset({"sim.step", "sim.yield", "sim.switchThread", codec.END})
-
-
-class ZmqClient(Client):
-    """One ZMQ remote API client (a ``RemoteAPIClient``, by its uuid): its entry in the loop's
-    registry (``id``: the uuid; ``expiry``: its ``timeout``), with its stepping state."""
-
-    __slots__ = ("sync_id", "lock_id", "fd", "stepping", "locks",
-                 "step_at", "waiting", "held", "label", "long", "long_func", "connection", "in_callback",
-                 "gave_up")
-
-    def __init__(self, uuid: str, fd: int, timeout: float | None, now: float, connection: bytes = b"",
-                 door: Any = None):
-        super().__init__(uuid, door, now, timeout if timeout is not None else codec.DEFAULT_TIMEOUT)
-        self.label = f"zmq:{uuid[:8]}"
-        self.sync_id, self.lock_id = f"zmq:{uuid}", f"zmq-lock:{uuid}"
-        self.fd = fd
-        self.stepping = 0  # sim.setStepping level
-        self.locks = 0  # sim.acquireLock count
-        self.step_at = -1  # Simulation.steps when its sim.step() came
-        self.waiting = False  # its sim.step() was answered _*wait*_: _*executed*_ is due
-        self.held: list | None = None  # envelope of its _*executed*_, answered after the next step
-        self.long = None  # the generator of a call that lasts several steps (sim.moveToConfig ...)
-        self.long_func = ""
-        self.in_callback = False  # its long call waits for the _*executed*_ of a callback the client runs
-        self.gave_up = ""  # the long call abandoned while its callback ran (its _*executed*_ is refused)
-        self.connection = connection  # its connection's routing id (ZmqService.connections)
-
-    @property
-    def uuid(self) -> str:
-        """The client's uuid: its id in the registry."""
-        return self.id
 
 
 class ZmqService(RenderedReplies):
