@@ -13,7 +13,7 @@ import time
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
-from typing import Iterator
+from typing import Callable, Iterator
 
 import mujoco
 import numpy as np
@@ -100,11 +100,13 @@ class GLLock:
 GL_LOCK = GLLock()
 
 
-def _close(renderer: mujoco.Renderer) -> None:
+def _free_gl(free: Callable[[], None]) -> None:
+    """Run ``free`` (a renderer's ``close``, a GL context's ``free``) alone (GL_LOCK); a
+    context already torn down by the driver is no error."""
     try:
         with GL_LOCK.exclusive():
-            renderer.close()
-    except Exception:  # a context already torn down by the driver
+            free()
+    except Exception:
         pass
 
 
@@ -156,7 +158,9 @@ class SensorRenderer(mujoco.Renderer):
 
     def render(self, *, out: np.ndarray | None = None) -> np.ndarray:
         """``mujoco.Renderer.render`` into this renderer's own offscreen buffer (the context's
-        other renderers bind theirs).
+        other renderers bind theirs). The render thread's context is current on it from the
+        first renderer made to :meth:`RenderThread.close` (the thread makes no other current),
+        so the buffer is bound here and ``mujoco.Renderer.render`` makes it current once.
 
         Args:
             out: as ``mujoco.Renderer.render``.
@@ -166,7 +170,6 @@ class SensorRenderer(mujoco.Renderer):
             (height, width, 3) uint8 RGB, (height, width) float32 depth in m, or
             (height, width, 2) int32 segmentation.
         """
-        self._gl_context.make_current()
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._mjr_context)
         return super().render(out=out)
 
@@ -218,7 +221,7 @@ class RenderThread:
         r = self.renderers.get((width, height))
         if r is None:
             while len(self.renderers) >= L.MAX_RENDERERS:  # sizes set at run time: bounded
-                _close(self.renderers.popitem(last=False)[1])
+                _free_gl(self.renderers.popitem(last=False)[1].close)
             try:
                 with GL_LOCK.exclusive():
                     if self.context is None:
@@ -273,7 +276,7 @@ class RenderThread:
     def free(self) -> None:
         """Free every renderer (render thread); the GL context stays for the next scene's."""
         for r in self.renderers.values():
-            _close(r)
+            _free_gl(r.close)
         self.renderers.clear()
         self.model = None
 
@@ -282,11 +285,7 @@ class RenderThread:
         self.free()
         context, self.context = self.context, None
         if context is not None:
-            try:
-                with GL_LOCK.exclusive():
-                    context.free()
-            except Exception:  # a context already torn down by the driver
-                pass
+            _free_gl(context.free)
 
 
 def render_bands(r: mujoco.Renderer, height: int) -> np.ndarray:
