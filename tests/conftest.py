@@ -282,6 +282,26 @@ class ServerProcess:
         err = self.stop()
         raise RuntimeError(f"simx-server did not become ready:\n{err}")
 
+    def log_so_far(self) -> str:
+        """The server's log (stderr) while it runs, read through a file description of its own
+        (reading through ``self.log`` would move the server's write offset)."""
+        with open(f"/proc/{self.proc.pid}/fd/2") as f:
+            return f.read()
+
+    def thread_dump(self, timeout: float = 5.0) -> str:
+        """The server's log once it has written every thread's stack (SIGUSR1: simx-server's
+        faulthandler), for a test whose server stopped answering; what the log holds after
+        ``timeout`` s without the dump, or a line saying the server had exited."""
+        if self.proc.poll() is not None:
+            return f"(the server had exited, status {self.proc.returncode})"
+        self.proc.send_signal(signal.SIGUSR1)
+        deadline = time.monotonic() + timeout
+        text = self.log_so_far()
+        while "most recent call first" not in text and time.monotonic() < deadline:
+            time.sleep(0.05)
+            text = self.log_so_far()
+        return text
+
     def stop(self, timeout: float = 10.0) -> str:
         """SIGTERM, wait, SIGKILL if needed; returns the server's log (stderr)."""
         if self.proc.poll() is None:

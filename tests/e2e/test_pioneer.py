@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from conftest import ROOT, ServerProcess
 
 PROGRAM = Path(__file__).resolve().parent / "pioneer_braitenberg.py"
@@ -18,8 +20,13 @@ PROGRAM = Path(__file__).resolve().parent / "pioneer_braitenberg.py"
 def test_braitenberg_program_drives_60_s_without_touching_a_wall():
     server = ServerProcess(str(ROOT / "scenes" / "pioneer_p3dx.xml"), "--speed", "10", renderers="on-demand")
     try:
-        run = subprocess.run([sys.executable, str(PROGRAM), str(server.port), "60"],
-                             capture_output=True, text=True, timeout=240, check=False)
+        try:
+            run = subprocess.run([sys.executable, str(PROGRAM), str(server.port), "60"],
+                                 capture_output=True, text=True, timeout=240, check=False)
+        except subprocess.TimeoutExpired as exc:  # the server stopped answering: show where it is
+            err = exc.stderr.decode(errors="replace") if isinstance(exc.stderr, bytes) else exc.stderr or ""
+            pytest.fail(f"the program did not finish within 240 s; its stderr ends:\n{err[-2000:]}\n"
+                        f"the server's log and threads:\n{server.thread_dump()[-12000:]}")
         assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-4000:]
         result = json.loads(run.stdout.strip().splitlines()[-1])
     finally:

@@ -33,11 +33,6 @@ def _call(session: zenoh.Session, client: str) -> list:
     return []
 
 
-def _log(server: ServerProcess) -> str:
-    with open(f"/proc/{server.proc.pid}/fd/2") as f:  # a description of its own: the server's offset stays
-        return f.read()
-
-
 def test_one_session_with_1100_tokens_leaves_room_for_new_clients():
     server = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port()], renderers="on-demand")
     flooder = zenoh.open(client_config("127.0.0.1", server.port))
@@ -52,7 +47,7 @@ def test_one_session_with_1100_tokens_leaves_room_for_new_clients():
             client = uuid.uuid4().hex
             tokens.append(flooder.liveliness().declare_token(P.client_token_key("simx", client)))
             served += _call(flooder, client) == [True, None]
-        assert served >= L.MAX_CLIENTS - 1, _log(server)[-3000:]  # served until full, then the unprotected ones give way
+        assert served >= L.MAX_CLIENTS - 1, server.log_so_far()[-3000:]  # served until full, then the unprotected ones give way
         for _ in range(3):  # new clients still get in, each taking an unprotected flooder id's place
             newcomer = Connection("127.0.0.1", server.port)  # its own Zenoh session, as a program's
             try:
@@ -61,9 +56,9 @@ def test_one_session_with_1100_tokens_leaves_room_for_new_clients():
                 newcomer.close()
         assert vrep.simxGetPingTime(first)[0] == 0
         # each newcomer took an unprotected flooder id's place: forgotten at the next housekeeping
-        wait_until(lambda: _log(server).count("evicted to make room for another client") >= 3, timeout=10,
+        wait_until(lambda: server.log_so_far().count("evicted to make room for another client") >= 3, timeout=10,
                    what="the evicted ids forgotten")
-        log = _log(server)
+        log = server.log_so_far()
         assert "limits.MAX_CLIENTS_PER_PEER" in log and "(limits.MAX_CLIENTS);" not in log
         first_id = next(line.split("client ", 1)[1].split()[0] for line in log.splitlines() if "connected" in line)
         # its own session answered for it: kept
