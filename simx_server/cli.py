@@ -27,6 +27,7 @@ from simx_wire.protocol import zenoh_reason
 from simx_server import __version__
 from simx_server.base import limits
 from simx_server.loop import logs
+from simx_server.scene.formats import SCENE_FILES_TEXT
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
 SWITCH_INTERVAL = 0.0005  # s, sys.setswitchinterval (Python's default: 0.005)
@@ -128,7 +129,7 @@ def missing_scene(args: argparse.Namespace) -> str | None:
         return None
     where = "--list-objects: " if args.list_objects else ""
     return (f"simx-server: {where}no scene file {args.scene!r} (relative paths start in {Path.cwd()}): give the "
-            "path of an MJCF (.xml) or URDF (.urdf) file, or none for the bundled scene")
+            f"path of {SCENE_FILES_TEXT}, or none for the bundled scene")
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -215,8 +216,7 @@ def argument_error(args: argparse.Namespace) -> str | None:
         return ("simx-server: --zmq-port with --zenoh-config: the ZMQ remote API has no authentication of its own; "
                 "add --zmq-curve DIR (CURVE keys) or --zmq-insecure (docs/SECURITY.md)")
     if args.scene and Path(args.scene).is_dir():
-        return (f"simx-server: {args.scene} is a folder, not a scene file: give an MJCF (.xml) or URDF (.urdf) "
-                "file")
+        return f"simx-server: {args.scene} is a folder, not a scene file: give {SCENE_FILES_TEXT}"
     return missing_scene(args)
 
 
