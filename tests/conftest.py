@@ -104,6 +104,36 @@ def _renderers_on_demand(request, monkeypatch):
     monkeypatch.setattr(Simulation, "__init__", on_demand)
 
 
+#: Groups of skipped tests the summary names (issue 44): a part of each skip reason -> the group.
+SKIP_GROUPS = (
+    ("a plain clone has no ../shared", "the tutorial's own files (../shared beside the checkout: robotControl.py, "
+                                       "RG2.lua, the reference tables, the real scene files)"),
+    ("needs the train extra", "training (the train extra: scripts/install-train.sh)"),
+    ("needs the ray extra", "Ray RLlib (the ray extra: scripts/install-train.sh ray)"),
+    ("coppeliasim_zmqremoteapi_client", "CoppeliaSim's ZMQ client (the test extra)"),
+    ("gymnasium", "Gymnasium (the test extra)"),
+)
+
+
+@pytest.hookimpl(hookwrapper=True, tryfirst=True)
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    """Close the run with one line per group of skipped tests and why they were skipped, so a
+    green run on a plain clone says what it did not run (``-ra`` lists each test above); the
+    outermost wrapper, so that these lines come after pytest's own short summary."""
+    yield
+    skipped = terminalreporter.stats.get("skipped", [])
+    if not skipped:
+        return
+    groups: dict[str, int] = {}
+    for report in skipped:
+        reason = str(report.longrepr[2] if isinstance(report.longrepr, tuple) else report.longrepr)
+        group = next((name for key, name in SKIP_GROUPS if key in reason), "other reasons (listed above)")
+        groups[group] = groups.get(group, 0) + 1
+    terminalreporter.write_sep("-", "simx: skipped tests, by group")
+    for group, count in sorted(groups.items(), key=lambda kv: -kv[1]):
+        terminalreporter.write_line(f"simx: skipped {count} test(s) of {group}")
+
+
 SHARED = ROOT.parent / "shared"
 LEGACY = SHARED / "legacy"
 REFERENCE = SHARED / "reference"
