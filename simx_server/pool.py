@@ -18,7 +18,7 @@ behind; create the pool on a thread that lives as long as it (the main thread, u
 
 ``pool.claims`` (a picklable :class:`ServerClaims`) gives each process that calls ``claim()`` a
 server of its own, for identical environment constructors (``gymnasium.make_vec``), and
-``pool.close_with(envs)`` closes the pool when ``envs`` is closed (README, "Many servers").
+``pool.close_with(envs)`` closes the pool when ``envs`` is closed (docs/SERVER.md, "Many servers").
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Callable
 
 READY = "simx-server ready"
 LISTEN_FAILED = "cannot listen"
@@ -136,6 +137,9 @@ class ServerPool:
             removed by :meth:`close`.
         timeout: seconds for all servers to be ready.
         env: environment of the servers (default: this process's, with ``MUJOCO_GL=egl`` unless set).
+        progress: called with a line of text as each server becomes ready (``"simx-server 2 of 3
+            ready on port 40123 after 4.1 s"``), for programs that show what a long start is doing;
+            default: nothing.
 
     Attributes:
         addresses: ``[(host, port), ...]``, in server order.
@@ -148,7 +152,9 @@ class ServerPool:
 
     def __init__(self, n: int, scene: str | os.PathLike | None = None, *args: str, host: str = "127.0.0.1",
                  ports: list[int] | None = None, log_dir: str | os.PathLike | None = None,
-                 timeout: float = START_TIMEOUT, env: dict | None = None):
+                 timeout: float = START_TIMEOUT, env: dict | None = None,
+                 progress: Callable[[str], None] | None = None):
+        self._progress = progress
         self._instances: list[_Instance] = []
         if n < 1:
             raise ValueError(f"a pool needs at least 1 server, got {n}")
@@ -200,13 +206,17 @@ class ServerPool:
                             else None))
 
     def _wait_ready(self, timeout: float) -> None:
-        deadline = time.monotonic() + timeout
+        start = time.monotonic()
+        deadline = start + timeout
         waiting = list(self._instances)
         while waiting:
             for inst in list(waiting):
                 text = inst.log_text()
                 if READY in text:
                     waiting.remove(inst)
+                    if self._progress is not None:
+                        self._progress(f"simx-server {len(self._instances) - len(waiting)} of {len(self._instances)} "
+                                       f"ready on port {inst.port} after {time.monotonic() - start:.1f} s")
                     continue
                 if inst.proc.poll() is None:
                     continue

@@ -26,7 +26,7 @@ them in an MJCF scene that attaches the URDF (``<asset><model file="robot.urdf"/
 ``<attach model=... body=... prefix=""/>``: MuJoCo parses the URDF itself there, without the
 conventions above), or convert it once with ``simx-server robot.urdf --urdf-to-mjcf robot.xml``
 (:func:`write_mjcf`: an MJCF with the conventions above written out) and edit that, as V-REP
-users import a URDF and save the scene. See README.md, "URDF".
+users import a URDF and save the scene. See docs/SCENES.md, "URDF".
 
 A URDF sent by a client goes through :mod:`simx_server.base.scene_guard` like MJCF: its ``<link>``\\ s
 count as bodies, its ``<mesh filename>``\\ s must lie in the transfer folder (``package://``

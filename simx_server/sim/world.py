@@ -2,7 +2,7 @@
 
 No transport in here; every method runs on the simulation thread and is testable alone.
 
-Mapping (see README and docs/ARCHITECTURE.md): named bodies are shapes, joints are joints,
+Mapping (see docs/SCENES.md and docs/ARCHITECTURE.md): named bodies are shapes, joints are joints,
 sites are dummies, cameras are vision sensors, lights are lights, -1 is the world. Objects get
 handles in tree order, starting at 1, stable while the scene is loaded. A name that elements of
 several kinds share is given out by :mod:`simx_server.sim.naming` (``head``, ``head#0``, ...).

@@ -34,8 +34,12 @@ def _connect(host: str, port: int) -> int:
 
 
 def test_pool_of_two_serves_separate_simulations_and_close_stops_them():
-    pool = ServerPool(2, SCENE, "--pacing", "immediate", "--stopped")
+    lines: list[str] = []
+    pool = ServerPool(2, SCENE, "--pacing", "immediate", "--stopped", progress=lines.append)
     try:
+        ports = sorted(port for _, port in pool.addresses)
+        assert [line.split(" ready")[0] for line in lines] == ["simx-server 1 of 2", "simx-server 2 of 2"]
+        assert sorted(int(line.split("port ")[1].split()[0]) for line in lines) == ports
         assert len(pool.addresses) == 2 and len(set(pool.addresses)) == 2
         assert all(host == "127.0.0.1" for host, _ in pool.addresses)
         pids = pool.pids
