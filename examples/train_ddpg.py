@@ -273,7 +273,9 @@ def main(argv: list[str] | None = None) -> dict:
     if args.evaluate:
         if not Path(args.evaluate).is_file():
             sys.exit(f"--evaluate: no policy file {args.evaluate}")
-        with ServerPool(args.servers, None, "--speed", "0") as pool:
+        print(f"[evaluate] starting {args.servers} simx-servers ...", flush=True)
+        with ServerPool(args.servers, None, "--speed", "0",
+                        progress=lambda line: print(f"[evaluate] {line}", flush=True)) as pool:
             result = {"policy": str(args.evaluate), "env": "simx/UR5BallReach-v0", "episode_steps": args.episode_steps,
                       "eval_seeds": [EVAL_SEED, EVAL_SEED + args.eval_episodes - 1], "servers": args.servers,
                       **evaluate(pool.addresses, args.episode_steps, args.evaluate, args.eval_episodes, deadline),
@@ -338,6 +340,8 @@ def main(argv: list[str] | None = None) -> dict:
                       f"training left ~{_clock(left)}", flush=True)
             if self.first is None:
                 self.first = (self.num_timesteps, now)
+                print(f"[train] first step done ({_clock(now - t0)} since the start); random actions until "
+                      f"{args.learning_starts:,} steps, then learning", flush=True)
             # the reserve from the steps/s measured over 30 s at least (the first resets are slow)
             measured = now - self.first[1] >= 30 and self.num_timesteps > self.first[0]
             if measured:
@@ -360,11 +364,17 @@ def main(argv: list[str] | None = None) -> dict:
         return 25.0 + steps / (rate / args.servers * (args.servers + 1))
 
     # One server more than environments: the model-selection evaluations run on it, beside training.
-    print(f"[train] starting {args.servers + 1} simx-servers ...", flush=True)
-    with ServerPool(args.servers + 1, None, "--speed", "0") as pool:
+    print(f"[train] starting {args.servers + 1} simx-servers (each loads the scene and makes its renderers) ...",
+          flush=True)
+    with ServerPool(args.servers + 1, None, "--speed", "0", progress=lambda line: print(f"[train] {line}", flush=True)) \
+            as pool:
         fns = [lambda a=a: make_env(*a, args.episode_steps) for a in pool.addresses[:-1]]
         # One process per environment (spawn: no forked Zenoh session); one environment: this process.
+        envs_start = time.monotonic()
+        print(f"[train] starting {len(fns)} environment process(es) (each imports MuJoCo's client side and "
+              "connects to its server) ...", flush=True)
         venv = VecMonitor(SubprocVecEnv(fns, start_method="spawn") if len(fns) > 1 else DummyVecEnv(fns))
+        print(f"[train] environments ready after {time.monotonic() - envs_start:.1f} s", flush=True)
         venv.seed(args.seed)
         n_actions = venv.action_space.shape[0]
         model = DDPG("MlpPolicy", venv, learning_rate=1e-3, buffer_size=200_000,
@@ -380,7 +390,7 @@ def main(argv: list[str] | None = None) -> dict:
         select_env.seed(SELECT_SEED)
         select = EvalCallback(select_env, eval_freq=max(1, args.select_every // len(fns)),
                               n_eval_episodes=args.select_episodes, best_model_save_path=str(out),
-                              log_path=str(out), deterministic=True, verbose=0)
+                              log_path=str(out), deterministic=True, verbose=1)
         episodes = EpisodeLog()
         print(f"[train] DDPG, {args.steps:,} env steps on {args.servers} servers"
               f"{'' if args.max_minutes is None else f', the whole run bounded to {args.max_minutes:g} min'}; "
