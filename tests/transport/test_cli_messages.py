@@ -31,8 +31,8 @@ def test_a_bad_port_is_refused_before_the_scene_loads(tmp_path, port):
 def test_a_folder_given_as_the_scene_says_so(tmp_path):
     out = run(str(tmp_path))
     assert out.returncode == 2
-    assert out.stderr.strip() == (f"simx-server: {tmp_path} is a folder, not a scene file: give an MJCF (.xml) "
-                                  "or URDF (.urdf) file"), out.stderr
+    assert out.stderr.strip() == (f"simx-server: {tmp_path} is a folder, not a scene file: give an MJCF (.xml), "
+                                  "URDF (.urdf) or V-REP / CoppeliaSim (.ttt, .ttm) file"), out.stderr
 
 
 def test_list_objects_into_a_closed_pipe_ends_quietly():
