@@ -89,11 +89,17 @@ MAX_SIGNAL_NAME = 1024
 # parse is quadratic: 10,000 replicated bodies took 10.7 s, 90,000 froze clients 22.6 s).
 # Files of the operator (the scene on the command line, --scene-path folders) are not
 # measured; edits by clients are (bodies and elements).
+# Files clients write (issue 40): each client writes only into its own folder of the transfer
+# folder (simxTransferFile, sim.saveScene, sim.saveImage, sim.exportMesh...), within its own
+# budget, so one client's files never use up another's room (8 x 32 MiB from one client once
+# locked every other out until a restart); the total bounds the disk all of them take.
 #: Largest file one simxTransferFile may store, in bytes.
 MAX_TRANSFER_FILE_BYTES = 32 * 1024 * 1024
-#: Most bytes the transfer folder may hold in all.
-MAX_TRANSFER_FOLDER_BYTES = 256 * 1024 * 1024
-#: Most files and folders the transfer folder may hold.
+#: Most bytes one client's folder may hold (its transfers and the files its calls wrote).
+MAX_CLIENT_FILES_BYTES = 64 * 1024 * 1024
+#: Most bytes all clients' folders together may hold.
+MAX_TRANSFER_FOLDER_BYTES = 1024 * 1024 * 1024
+#: Most files and folders one client's folder may hold.
 MAX_TRANSFER_FILES = 1000
 #: Most bytes of MJCF a client may have loaded at once (a scene or model with its <include>s).
 MAX_SCENE_FILE_BYTES = 4 * 1024 * 1024

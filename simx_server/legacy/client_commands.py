@@ -55,6 +55,7 @@ class ClientCommands:
         registry entry (errors, edit share); it leaves the synchronous barrier."""
         self._streams.pop(client, None)
         self.sessions.remove(client)
+        self.sim.editor.files.release(f"legacy:{client}")  # its folder and budget
         entry = self._registry.get(client)
         if entry is not None:
             self.loop.clients.remove(entry)

@@ -463,7 +463,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                     streams[ident] = _Stream(name, args, delay)
             elif streams and name not in P.DO_NOT_OVERWRITE:
                 streams.pop(P.identity(name, args), None)  # a new non-streamed call replaces the stream
-            return [True, handler(self.sim, args)]
+            with self.sim.editor.files.acting(f"legacy:{client}"):  # its file calls use its own folder
+                return [True, handler(self.sim, args)]
         except P.RemoteError as exc:
             label = name if name in P.COMMANDS else quote(name)
             message = _cut(f"simx{label}: {exc}")

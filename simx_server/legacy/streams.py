@@ -63,6 +63,7 @@ class StreamPublisher:
             self._publish_each(sim, now, rendering, step_renders, large)
         finally:
             sim.vision.for_streams = False
+            sim.editor.files.caller = None  # set per client below
         if step_renders:
             self._stream_renders.append(step_renders)
 
@@ -77,6 +78,7 @@ class StreamPublisher:
             session = self.sessions.get(client)
             if not self.sessions.can_send(session):
                 continue  # its updates and replies wait to be sent: its streams skip this step
+            sim.editor.files.caller = f"legacy:{client}"  # its streamed calls act as it (client_files)
             images = not rendering  # else its image streams skip this step
             budget = limits.MAX_REPLY_BYTES
             entries = []

@@ -1,17 +1,37 @@
-"""The transfer folder and the files clients name: ``simxTransferFile``, ``simxEraseFile``,
-and where ``simxLoadScene``/``simxLoadModel`` find a file (options bit 0: the client's, in the
-transfer folder; else a server-side path in a trusted folder). Trust rules: docs/SECURITY.md,
-"Files and scenes sent by clients"; the folder itself and the checks: scene_guard.
+"""The transfer folder, each client's folder in it, and the files clients name: ``simxTransferFile``,
+``simxEraseFile``, where ``simxLoadScene``/``simxLoadModel`` find a file (options bit 0: the
+client's own, in its folder; else a server-side path in a trusted folder), and where the facade's
+file calls (``sim.saveScene``, ``sim.saveImage``, ``sim.loadImage``, ``sim.importShape``...) may
+write and read. Trust rules: docs/SECURITY.md, "Files and scenes sent by clients"; the folder
+itself and the checks: scene_guard.
+
+Who calls: a front door sets :attr:`ClientFiles.caller` (``"zmq:<uuid>"``, ``"legacy:<id>"``)
+around each request it serves (:meth:`ClientFiles.acting`) and calls :meth:`ClientFiles.release`
+when the client leaves. A client's files live in ``<transfer folder>/.simx-clients/<hash of its
+key>`` (0700, made at its first file), within ``MAX_CLIENT_FILES_BYTES`` for it and
+``MAX_TRANSFER_FOLDER_BYTES`` for all together; the folder goes when the client leaves, or, when
+it holds the loaded scene, when that scene is replaced. In-process use (tests, no door: caller
+None) has the transfer folder itself as its folder.
+
+The facade's file calls ask :meth:`ClientFiles.writer` who writes: a script whose file lies in a
+client's folder (a scene that client sent) always acts as that client; a script of the operator's
+scene acts as the client that called it (``simxCallScriptFunction``, ``sim.callScriptFunction``:
+:meth:`ClientFiles.on_behalf`) and as the operator otherwise; a door's own calls (the ZMQ ``sim``)
+act as the door's caller. The operator (None) writes as V-REP did: relative names in the first
+scene's folder, anything in the scene folders, never in a transfer folder.
 
 Runs on the simulation thread, like every handler; nothing here is on a per-call hot path.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import logging
 import os
 import shutil
 import weakref
+from collections.abc import Iterator
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
 
@@ -23,9 +43,12 @@ from simx_server.scene.ttt import cache as ttt_cache
 
 log = logging.getLogger("simx.editing")
 
+#: The transfer folder's subfolder that holds one folder per client (a reserved ``.simx`` name).
+CLIENTS = ".simx-clients"
+
 
 class ClientFiles:
-    """The transfer folder of one server process and the folders it trusts.
+    """The transfer folder of one server process, its clients' folders, and the trusted folders.
 
     Args:
         scene: the scene the server started with (the operator's): its folder is trusted.
@@ -41,40 +64,178 @@ class ClientFiles:
         self.close = weakref.finalize(self, shutil.rmtree, str(self.files_dir), ignore_errors=True)
         self.roots = [Path(os.path.realpath(ttt_cache.origin(scene).parent)),
                       *(Path(os.path.realpath(p)) for p in scene_paths)]
+        #: The client the simulation thread serves now (set by the doors), None: no client.
+        self.caller: str | None = None
+        self._script_caller: str | None = None  # the client that called into a script now
+        self._folders: dict[str, Path] = {}  # client key -> its folder
+        self._usage: dict[str, tuple[int, int]] = {}  # client key ("" the in-process one) -> (entries, bytes)
+        self._scene_key: str | None = None  # the client whose folder holds the loaded scene
+        self._gone: set[str] = set()  # clients gone whose folder holds the loaded scene
 
-    def transfer_path(self, name: Any) -> Path:
-        """Where a transferred file called ``name`` lives; refuses names outside the folder
-        and the server's own names (``.simx*``)."""
+    # ------------------------------------------------------------- who calls
+    @contextlib.contextmanager
+    def acting(self, key: str | None) -> Iterator[None]:
+        """Serve client ``key`` (a door's request) inside the block."""
+        previous, self.caller = self.caller, key
+        if key:
+            self._gone.discard(key)
+        try:
+            yield
+        finally:
+            self.caller = previous
+
+    @contextlib.contextmanager
+    def on_behalf(self) -> Iterator[None]:
+        """A client's call into a scene script (simxCallScriptFunction): the operator's scripts
+        write and read as that client inside the block."""
+        previous, self._script_caller = self._script_caller, self.caller
+        try:
+            yield
+        finally:
+            self._script_caller = previous
+
+    def writer(self, script_path: Path | None) -> str | None:
+        """Who a facade call acts as (see the module's text): a client's key (``""``: the
+        in-process caller's folder) or None for the operator.
+
+        Args:
+            script_path: the calling script's file, None for a door's own facade.
+        """
+        if script_path is None:
+            return self.caller
+        key = self.key_of(Path(script_path))
+        return key if key is not None else self._script_caller
+
+    # ------------------------------------------------------------- folders
+    def folder(self, key: str | None) -> Path:
+        """The folder of client ``key`` (made now if need be); the transfer folder itself for
+        the in-process caller (None or ``""``)."""
+        if not key:
+            return self.files_dir
+        folder = self._folders.get(key)
+        if folder is None:
+            folder = self.files_dir / CLIENTS / hashlib.sha256(key.encode("utf-8", "surrogatepass")).hexdigest()[:32]
+            folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+            self._folders[key] = folder
+        return folder
+
+    def key_of(self, path: Path) -> str | None:
+        """The client whose folder holds ``path`` (``""``: the transfer folder's own files), or
+        None when it lies in no folder of this server's."""
+        path = Path(os.path.realpath(path))
+        for key, folder in self._folders.items():
+            if guard.inside(path, folder):
+                return key
+        if guard.inside(path, self.files_dir) and not guard.inside(path, self.files_dir / CLIENTS):
+            return ""
+        return None
+
+    def release(self, key: str) -> None:
+        """Client ``key`` left: its folder goes, and its budget with it (kept while the loaded
+        scene lies in it: then it goes when that scene is replaced)."""
+        if key == self._scene_key:
+            self._gone.add(key)
+            return
+        self._remove(key)
+
+    def scene_installed(self, file: Path) -> None:
+        """``file`` is now the loaded scene: the folder of a client that left and held the
+        scene before goes."""
+        previous, key = self._scene_key, self.key_of(file)
+        self._scene_key = key or None
+        if previous and previous != self._scene_key and previous in self._gone:
+            self._gone.discard(previous)
+            self._remove(previous)
+
+    def _remove(self, key: str) -> None:
+        folder = self._folders.pop(key, None)
+        self._usage.pop(key, None)
+        if folder is not None:
+            shutil.rmtree(folder, ignore_errors=True)
+            log.info("files of client %s removed", quote(key, 60))
+
+    def _measure(self, key: str) -> tuple[int, int]:
+        usage = self._usage[key] = guard.folder_usage(self.folder(key))
+        return usage
+
+    # ------------------------------------------------------------- names
+    def transfer_path(self, name: Any, key: str | None = None) -> Path:
+        """Where the file called ``name`` of the calling client (or of ``key``) lives; refuses
+        names outside its folder and the server's own names (``.simx*``)."""
         if not isinstance(name, str) or not name or "\x00" in name:
             raise ArgumentError("file name must be a non-empty string")
+        folder = self.folder(self.caller if key is None else key)
         pure = PurePosixPath(name)
-        path = (self.files_dir / pure).resolve()
-        if pure.is_absolute() or ".." in pure.parts or self.files_dir not in path.parents:
-            raise ArgumentError(f"file name {quote(name)} refused: outside the transfer folder")
+        path = (folder / pure).resolve()
+        if pure.is_absolute() or ".." in pure.parts or folder not in path.parents:
+            raise ArgumentError(f"file name {quote(name)} refused: outside the transfer folder (a relative "
+                                "name in the client's own folder)")
         if any(part.startswith(".simx") for part in pure.parts):
             raise ArgumentError(f"file name {quote(name)} refused: names starting with .simx are reserved")
         return path
 
     def public(self, path: Path) -> str:
-        """``path`` as a client may see it: files in the transfer folder by their name in it; a
+        """``path`` as a client may see it: files in a client's folder by their name in it; a
         V-REP file's conversion as that file."""
         path = ttt_cache.origin(path)
-        if guard.inside(path, self.files_dir):
-            return path.relative_to(self.files_dir).as_posix()
+        key = self.key_of(path)
+        if key is not None:
+            return Path(os.path.realpath(path)).relative_to(self.folder(key)).as_posix()
         return str(path)
 
     def scrub(self, text: str) -> str:
         """An error text without the transfer folder's path (it is never named in replies)."""
+        for folder in sorted(self._folders.values(), key=lambda f: -len(str(f))):
+            text = text.replace(f"{folder}{os.sep}", "").replace(str(folder), "<your folder>")
         return text.replace(f"{self.files_dir}{os.sep}", "").replace(str(self.files_dir), "<transfer folder>")
 
+    # ------------------------------------------------------------- writing
+    def store(self, path: Path, data: bytes, key: str | None, name: str) -> None:
+        """Write ``data`` as ``path`` (in the folder of client ``key``), within its budgets.
+
+        Raises:
+            RemoteError: its folder would hold more than ``MAX_TRANSFER_FILES`` entries or
+                ``MAX_CLIENT_FILES_BYTES``, all clients' folders more than
+                ``MAX_TRANSFER_FOLDER_BYTES``; the file cannot be written.
+        """
+        key = key or ""
+        folder = self.folder(key)
+        entries, used = self._usage.get(key) or self._measure(key)
+        try:
+            old = path.stat().st_size if path.is_file() else None
+        except OSError:
+            old = None
+        size = len(data)
+        new_entries = (old is None) + sum(1 for p in path.parents if guard.inside(p, folder)
+                                          and p != folder and not p.exists())
+        if entries + new_entries > limits.MAX_TRANSFER_FILES:
+            raise RemoteError(f"file {quote(name)} refused: this client's folder holds {entries:,} files and "
+                              f"folders, MAX_TRANSFER_FILES = {limits.MAX_TRANSFER_FILES:,} (erase some)")
+        mine = used - (old or 0) + size
+        if mine > limits.MAX_CLIENT_FILES_BYTES:
+            raise RemoteError(f"file {quote(name)} refused: this client's files would take {mine:,} bytes, more "
+                              f"than MAX_CLIENT_FILES_BYTES = {limits.MAX_CLIENT_FILES_BYTES:,} (erase some)")
+        total = mine + sum(b for k, (_, b) in self._usage.items() if k != key)
+        if total > limits.MAX_TRANSFER_FOLDER_BYTES:
+            raise RemoteError(f"file {quote(name)} refused: the clients' files would take {total:,} bytes, more than "
+                              f"MAX_TRANSFER_FOLDER_BYTES = {limits.MAX_TRANSFER_FOLDER_BYTES:,} (erase some)")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(path.name + ".part")
+            tmp.write_bytes(data)
+            tmp.replace(path)
+        except OSError as exc:  # str(exc) would name the folder
+            raise RemoteError(f"cannot store {quote(name)}: {exc.strerror}") from None
+        finally:
+            self._measure(key)
+
     def transfer_file(self, name: str, data: Any) -> None:
-        """``simxTransferFile``: store ``data`` as ``name`` in the transfer folder.
+        """``simxTransferFile``: store ``data`` as ``name`` in the calling client's folder.
 
         Raises:
             ArgumentError: a name outside the folder or reserved, data not bytes or larger than
                 ``MAX_TRANSFER_FILE_BYTES``.
-            RemoteError: the folder would hold more than ``MAX_TRANSFER_FILES`` entries or
-                ``MAX_TRANSFER_FOLDER_BYTES``; the file cannot be written.
+            RemoteError: past a budget of :meth:`store`; the file cannot be written.
         """
         if not isinstance(data, (bytes, bytearray, memoryview)):
             raise ArgumentError(f"file data must be bytes, got {type(data).__name__}")
@@ -83,31 +244,11 @@ class ClientFiles:
         if size > limits.MAX_TRANSFER_FILE_BYTES:
             raise ArgumentError(f"file {quote(name)} refused: {size:,} bytes, more than "
                                 f"MAX_TRANSFER_FILE_BYTES = {limits.MAX_TRANSFER_FILE_BYTES:,}")
-        entries, used = guard.folder_usage(self.files_dir)
-        try:
-            old = path.stat().st_size if path.is_file() else None
-        except OSError:
-            old = None
-        new_entries = (old is None) + sum(1 for p in path.parents if guard.inside(p, self.files_dir)
-                                          and p != self.files_dir and not p.exists())
-        if entries + new_entries > limits.MAX_TRANSFER_FILES:
-            raise RemoteError(f"file {quote(name)} refused: the transfer folder holds {entries:,} files and "
-                              f"folders, MAX_TRANSFER_FILES = {limits.MAX_TRANSFER_FILES:,} (erase some)")
-        if used - (old or 0) + size > limits.MAX_TRANSFER_FOLDER_BYTES:
-            raise RemoteError(f"file {quote(name)} refused: the transfer folder would hold {used - (old or 0) + size:,}"
-                              f" bytes, more than MAX_TRANSFER_FOLDER_BYTES = {limits.MAX_TRANSFER_FOLDER_BYTES:,}"
-                              " (erase some)")
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(path.name + ".part")
-            tmp.write_bytes(bytes(data))
-            tmp.replace(path)
-        except OSError as exc:
-            raise RemoteError(f"cannot store {quote(name)}: {exc.strerror}") from exc
+        self.store(path, bytes(data), self.caller, name)
         log.info("received file %s (%d bytes)", quote(name), size)
 
     def erase_file(self, name: str) -> None:
-        """``simxEraseFile``: delete a transferred file."""
+        """``simxEraseFile``: delete a file of the calling client's folder."""
         path = self.transfer_path(name)
         if not path.is_file():
             raise RemoteError(f"no transferred file {quote(name)}")
@@ -115,9 +256,66 @@ class ClientFiles:
             path.unlink()
         except OSError as exc:  # str(exc) would name the transfer folder
             raise RemoteError(f"cannot erase {quote(name)}: {exc.strerror}") from None
+        finally:
+            self._measure(self.caller or "")
 
+    # ------------------------------------------------------- the facade's files
+    def target(self, name: str, key: str | None, what: str) -> Path:
+        """Where a facade call (``sim.saveScene``, ``sim.saveImage``...) acting as ``key`` (see
+        :meth:`writer`) writes the file ``name``: a client, by a relative name in its own folder;
+        the operator, in the scene folders (relative: the first scene's), never in a transfer
+        folder.
+
+        Raises:
+            ArgumentError: a client's name outside its folder or reserved.
+            RemoteError: the operator's file outside the scene folders; no such folder.
+        """
+        if key is not None:
+            file = self.transfer_path(name, key)
+        else:
+            file = Path(name)
+            if not file.is_absolute():
+                file = self.roots[0] / file
+            file = Path(os.path.realpath(file))
+            if not any(guard.inside(file, root) for root in self.roots) or guard.is_transferred(file):
+                raise RemoteError(f"file {quote(name)} refused: {what} writes only in the server's scene folder and "
+                                  "its --scene-path folders")
+        if not file.parent.is_dir():
+            raise RemoteError(f"no folder for {quote(name)}")
+        return file
+
+    def write(self, file: Path, data: bytes, key: str | None, name: str) -> None:
+        """Write a file :meth:`target` gave: a client's within its budgets (:meth:`store`)."""
+        if key is not None:
+            self.store(file, data, key, name)
+            return
+        file.write_bytes(data)
+
+    def source(self, name: str, key: str | None, what: str, here: Path | None = None) -> Path:
+        """The file a facade call acting as ``key`` reads (``sim.loadImage``,
+        ``sim.importShape``...): in the scene folders (not a transfer folder) or the caller's
+        own folder (the operator: the in-process caller's). A relative name is the caller's own
+        file where it has one, else relative to ``here`` (default: the first scene's folder). The
+        refusal reads the same whether the file exists or not.
+
+        Raises:
+            RemoteError: anywhere else.
+        """
+        own = self.folder(key) if key or key == "" else self.files_dir
+        file = Path(name)
+        if not file.is_absolute():
+            mine = Path(os.path.realpath(own / file))
+            file = mine if guard.inside(mine, own) and mine.is_file() else (here or self.roots[0]) / file
+        file = Path(os.path.realpath(file))
+        if not ((guard.inside(file, own) and self.key_of(file) == (key or ""))
+                or any(guard.inside(file, root) and not guard.is_transferred(file) for root in self.roots)):
+            raise RemoteError(f"{what}: {quote(name)} refused: files are read only from the server's scene folder, "
+                              "its --scene-path folders and the client's own files")
+        return file
+
+    # ------------------------------------------------------------- scenes
     def resolve(self, path: Any, options: int, scene: Path) -> Path:
-        """A model or scene file: options bit 0 -> a transferred file, else a server path,
+        """A model or scene file: options bit 0 -> the calling client's file, else a server path,
         absolute or relative to the folder of ``scene`` (the loaded one; the first scene's folder
         while the loaded scene is a client's), which must lie in the first scene's folder or a ``--scene-path`` folder
         and in no transfer folder (of this server or another). A ``.ttt``/``.ttm`` file gives
@@ -130,11 +328,15 @@ class ClientFiles:
         file = self.locate(path, options, ttt_cache.origin(scene))
         if not ttt_cache.is_vrep_file(file):
             return file
-        # a V-REP scene or model: its MJCF conversion (a client's: into its transfer folder)
+        # a V-REP scene or model: its MJCF conversion (a client's: into its own folder)
         try:
-            return ttt_cache.mjcf_for(file, self.files_dir / ".simx" / "ttt" if options & 1 else None)
+            return ttt_cache.mjcf_for(file, self.folder(self.caller) / ".simx" / "ttt" if options & 1 else None)
         except (ValueError, OSError) as exc:
             raise RemoteError(self.scrub(f"cannot load {quote(path)}: {exc}")) from None
+
+    def root_of(self, file: Path) -> Path:
+        """The client's folder that holds ``file`` (the transfer folder for in-process files)."""
+        return self.folder(self.key_of(file) or "")
 
     def locate(self, path: Any, options: int, scene: Path) -> Path:
         """The file :meth:`resolve` loads, under the same rules, before any conversion (a

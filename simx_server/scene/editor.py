@@ -146,13 +146,14 @@ class Editor(ObjectEdits):
 
     def _client_spec(self, file: Path, what: str, dt: float | None) -> mujoco.MjSpec:
         """Parse a client-sent MJCF file, measured before and after parsing (scene_guard)."""
-        guard.check_client_file(file, self.files_dir, what)
+        root = self.files.root_of(file)  # the sending client's folder
+        guard.check_client_file(file, root, what)
         try:
             with _quiet_mujoco():
-                spec = load_spec(file, root=self.files_dir)  # a URDF's meshes: confined before looked up
+                spec = load_spec(file, root=root)  # a URDF's meshes: confined before looked up
         except ValueError as exc:
             raise RemoteError(f"cannot load {what}: {self._scrub(_one_line(exc))}") from None
-        guard.check_spec(spec, what, root=self.files_dir, dt=dt)
+        guard.check_spec(spec, what, root=root, dt=dt)
         return spec
 
     # ------------------------------------------------------------------- spec
@@ -319,6 +320,7 @@ class Editor(ObjectEdits):
             raise RemoteError(f"cannot load scene {label}: {text}") from None
         old.close()  # the old scene's customization scripts end, the new one's begin
         sim.world, sim.scripts = world, scripts
+        self.files.scene_installed(file)  # a client's folder that holds it stays while it is loaded
         custom_data.install(sim, blocks)
         scripts.open()
         refresh_vision(sim)

@@ -66,7 +66,7 @@ class MeshCalls:
         if fmt not in _SUFFIX:
             raise UnsupportedError("importMesh formats: 0 OBJ, 4 binary STL (what MuJoCo reads)")
         sim = self._simulation("importMesh")
-        file = shapes._readable(sim, _text(pathAndFilename, "pathAndFilename"))
+        file = shapes._readable(sim, _text(pathAndFilename, "pathAndFilename"), self.__dict__.get("_script"), "importMesh")
         if file.suffix.lower() != _SUFFIX[fmt] or not file.is_file():
             raise ArgumentError(f"importMesh: no {_SUFFIX[fmt]} file {file.name!r}")
         if file.stat().st_size > L.MAX_IMPORT_BYTES:
@@ -88,13 +88,13 @@ class MeshCalls:
     def exportMesh(self, fileformat: Any, pathAndFilename: Any, options: Any, scalingFactor: Any,  # noqa: N802, N803
                    vertices: Any, indices: Any) -> None:
         """Write meshes (tables of vertex tables and index tables) as one OBJ file (format 0),
-        in the server's scene folders only (``saveScene``'s rule).
+        where ``saveScene`` writes (a client: into its own folder, within its budget).
 
         ``sim.exportMesh``.
 
         Args:
             fileformat: 0 (OBJ).
-            pathAndFilename: a file name in the server's scene folder.
+            pathAndFilename: a file name (a client: relative, in its own folder).
             options: ignored.
             scalingFactor: factor on the vertices (0: 1).
             vertices: list of 3n-number tables, m.
@@ -102,13 +102,14 @@ class MeshCalls:
 
         Raises:
             UnsupportedError: another format.
-            ArgumentError: meshes that do not fit.
-            RemoteError: a file outside the scene folder.
+            ArgumentError: meshes that do not fit; a client's name outside its folder.
+            RemoteError: the operator's file outside the scene folders; past the client's budget.
         """
         if _int(fileformat, "fileformat") != 0:
             raise UnsupportedError("exportMesh writes OBJ (format 0) only")
         name = _text(pathAndFilename, "pathAndFilename")
-        file = self._target_file(name[:-4] + ".xml" if name.lower().endswith(".obj") else name + ".xml")
+        file, key = self._target_file(name[:-4] + ".xml" if name.lower().endswith(".obj") else name + ".xml",
+                                      "exportMesh")
         file = file.with_suffix(".obj")
         scale = _num(scalingFactor, "scalingFactor") or 1.0
         lines, base = [], 0
@@ -117,7 +118,7 @@ class MeshCalls:
             lines += [f"v {x * scale:.9g} {y * scale:.9g} {z * scale:.9g}" for x, y, z in v]
             lines += [f"f {a + base + 1} {b + base + 1} {c + base + 1}" for a, b, c in f]
             base += len(v)
-        file.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        self._simulation("exportMesh").editor.files.write(file, ("\n".join(lines) + "\n").encode("utf-8"), key, name)
 
     def createShape(self, options: Any, shadingAngle: Any, vertices: Any, indices: Any, normals: Any = None,  # noqa: N802, N803
                     textureCoordinates: Any = None, texture: Any = None, textureResolution: Any = None) -> int:  # noqa: N803
@@ -250,4 +251,4 @@ class MeshCalls:
 
         def _simulation(self, what: str) -> SimulationView: ...
 
-        def _target_file(self, filename: Any) -> Any: ...
+        def _target_file(self, filename: Any, what: str = "saveScene") -> Any: ...

@@ -2,15 +2,16 @@
 saving the scene as MJCF (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
 
 Images are uint8 RGB buffers, rows bottom-up, as ``getVisionSensorImg`` returns them; scaling is
-OpenCV's. ``saveScene`` / ``saveModel`` write MJCF (``MjSpec.to_xml``) under the confinement of
-``loadScene``: a ``.xml`` file in the server's scene folder or a ``--scene-path`` folder, never
-in a transfer folder; meshes held in memory cannot be written as MJCF (an error says so).
+OpenCV's. ``saveScene`` / ``saveModel`` write MJCF (``MjSpec.to_xml``): a client (and a script it
+calls, and a scene it sent) writes a ``.xml`` file by a relative name into its own folder, within
+its budget; the operator's scripts write in the server's scene folder or a ``--scene-path``
+folder, never in a transfer folder (:mod:`simx_server.scene.client_files`); meshes held in
+memory cannot be written as MJCF (an error says so).
 """
 
 from __future__ import annotations
 
 import itertools
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -18,9 +19,7 @@ import cv2
 import mujoco
 import numpy as np
 
-from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
-from simx_server.base import scene_guard as guard
-from simx_server.base.arguments import quote
+from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim.objects import JOINT
 from simx_server.sim.state import SimulationView
@@ -348,43 +347,45 @@ class MiscCalls:
         return alternate_configs(m, joints, config, lowLimits, ranges)
 
     # --------------------------------------------------------------- saving
-    def _target_file(self, filename: Any) -> Path:
-        sim = self._simulation("saveScene")
+    def _target_file(self, filename: Any, what: str = "saveScene") -> tuple[Path, str | None]:
+        """``(file, writer)``: where a file call writes ``filename`` (a ``.xml`` name) and who
+        writes it (:meth:`ClientFiles.writer <simx_server.scene.client_files.ClientFiles.writer>`:
+        a client, in its own folder; the operator's scripts, in the scene folders)."""
+        sim = self._simulation(what)
         name = _text(filename, "filename")
         if not name or "\x00" in name or not name.lower().endswith(".xml"):
             raise ArgumentError("simx saves MJCF: give a .xml file name")
-        file = Path(name)
-        if not file.is_absolute():
-            file = sim.editor.files.roots[0] / file
-        file = Path(os.path.realpath(file))
-        if not any(guard.inside(file, root) for root in sim.editor.files.roots) or guard.is_transferred(file):
-            raise RemoteError(f"file {quote(name)} refused: scenes are saved only in the server's scene folder and "
-                              "its --scene-path folders")
-        if not file.parent.is_dir():
-            raise RemoteError(f"no folder for {quote(name)}")
-        return file
+        files = sim.editor.files
+        key = files.writer(self._script_path())
+        return files.target(name, key, f"sim.{what}"), key
+
+    def _script_path(self) -> Path | None:
+        """The calling script's file (None: a door's own facade), for :meth:`ClientFiles.writer`."""
+        script = self.__dict__.get("_script")
+        return getattr(script, "path", None) if script is not None else None
 
     def saveScene(self, filename: Any) -> None:  # noqa: N802
-        """Write the scene as it is now (its MjSpec with the edits) as MJCF; the file name is
-        checked as ``loadScene``'s (see the module's text).
+        """Write the scene as it is now (its MjSpec with the edits) as MJCF: a client's into its
+        own folder, the operator's scripts' into the scene folders (see the module's text).
 
         ``sim.saveScene``.
 
         Args:
-            filename: a ``.xml`` name in the server's scene folder.
+            filename: a ``.xml`` name (a client: relative, in its own folder).
 
         Raises:
-            ArgumentError: not a ``.xml`` name.
-            RemoteError: a file outside the scene folder.
+            ArgumentError: not a ``.xml`` name; a client's name outside its folder.
+            RemoteError: the operator's file outside the scene folders; past the client's
+                budget (``MAX_CLIENT_FILES_BYTES``, ``MAX_TRANSFER_FOLDER_BYTES``).
             UnsupportedError: MuJoCo cannot write the scene, or no simulation behind the script.
         """
-        file = self._target_file(filename)
+        file, key = self._target_file(filename)
         spec = self._simulation("saveScene").editor._live_spec()
         try:
             text = spec.to_xml()
         except ValueError as exc:
             raise UnsupportedError(f"MuJoCo cannot write this scene as MJCF: {exc}") from None
-        file.write_text(text, encoding="utf-8")
+        self._simulation("saveScene").editor.files.write(file, text.encode("utf-8"), key, str(filename))
 
     def saveModel(self, modelBaseHandle: Any, filename: Any) -> None:  # noqa: N802, N803
         """Write the body subtree of a shape (a model) as an MJCF file of its own.
@@ -393,17 +394,19 @@ class MiscCalls:
 
         Args:
             modelBaseHandle: a shape's handle.
-            filename: a ``.xml`` name in the server's scene folder.
+            filename: a ``.xml`` name, as :meth:`saveScene`'s.
 
         Raises:
             UnknownObjectError: no such object.
-            ArgumentError: not a shape, or not a ``.xml`` name.
-            RemoteError: a file outside the scene folder.
+            ArgumentError: not a shape, or not a ``.xml`` name; a client's name outside its folder.
+            RemoteError: as :meth:`saveScene`.
             UnsupportedError: MuJoCo cannot write the model, or no simulation behind the script.
         """
-        file = self._target_file(filename)
+        file, key = self._target_file(filename, "saveModel")
         obj = self._world.get(self._h(modelBaseHandle))
-        spec = self._simulation("saveModel").editor._live_spec()
+        # a copy: attaching the live spec's body would tie the scene's spec to the model's
+        # (every later saveScene and edit then failed: "attached by reference to a parent spec")
+        spec = self._simulation("saveModel").editor._live_spec().copy()
         body = spec.body(obj.name) if obj.type == 0 else None
         if body is None:
             raise ArgumentError(f"{obj.name!r} is not a shape (a body) to save as a model")
@@ -415,7 +418,7 @@ class MiscCalls:
             text = model.to_xml()
         except ValueError as exc:
             raise UnsupportedError(f"MuJoCo cannot write this model as MJCF: {exc}") from None
-        file.write_text(text, encoding="utf-8")
+        self._simulation("saveModel").editor.files.write(file, text.encode("utf-8"), key, str(filename))
 
     if TYPE_CHECKING:  # provided by the facade
         _world: Any

@@ -1,6 +1,6 @@
 """CoppeliaSim 4.x's image files, object queries and application services (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): ``saveImage`` / ``loadImage`` (OpenCV, under the
-confinement of ``saveScene``), ``getObjectAliasRelative``, ``getModelBB``,
+:class:`simx_server.scripts.facade.ScriptSim`): ``saveImage`` / ``loadImage`` (OpenCV; a client
+writes into its own folder and reads from it and the scene folders: client_files), ``getObjectAliasRelative``, ``getModelBB``,
 ``getObjectChildPose`` / ``setObjectChildPose`` (a joint's intrinsic motion),
 ``removeReferencedObjects``, ``createPureShape`` (V-REP's older ``createPrimitiveShape``),
 ``getThreadId``.
@@ -12,7 +12,6 @@ are written and read top-down (the picture the right way up).
 from __future__ import annotations
 
 import math
-import os
 import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -21,9 +20,7 @@ import cv2
 import mujoco
 import numpy as np
 
-from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
-from simx_server.base import scene_guard as guard
-from simx_server.base.arguments import quote
+from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
 from simx_server.base.arguments import as_vector as _vector
 from simx_server.sim.objects import JOINT, SHAPE, WORLD
@@ -45,20 +42,19 @@ class ServiceCalls:
 
     # ------------------------------------------------------------------ image files
     def _image_file(self, filename: str, writing: bool) -> Path:
-        sim = self._simulation("saveImage" if writing else "loadImage")
+        """The image file a call writes or reads: a client's (or a script's acting for one) in its
+        own folder, reads also from the scene folders; the operator's scripts' in the scene
+        folders (:meth:`ClientFiles.target <simx_server.scene.client_files.ClientFiles.target>`,
+        :meth:`ClientFiles.source <simx_server.scene.client_files.ClientFiles.source>`)."""
+        what = "saveImage" if writing else "loadImage"
+        sim = self._simulation(what)
         if not filename or "\x00" in filename or Path(filename).suffix.lower() not in _IMAGE_FORMATS:
             raise ArgumentError(f"give an image file name ending in one of {', '.join(_IMAGE_FORMATS)}")
-        file = Path(filename)
-        if not file.is_absolute():
-            file = sim.editor.files.roots[0] / file
-        file = Path(os.path.realpath(file))
-        if not any(guard.inside(file, root) for root in sim.editor.files.roots) or (
-                writing and guard.is_transferred(file)):
-            raise RemoteError(f"file {quote(filename)} refused: images are read and written only in the server's "
-                              "scene folder and its --scene-path folders")
-        if writing and not file.parent.is_dir():
-            raise RemoteError(f"no folder for {quote(filename)}")
-        return file
+        files = sim.editor.files
+        key = files.writer(self._script_path())
+        if writing:
+            return files.target(filename, key, f"sim.{what}")
+        return files.source(filename, key, f"sim.{what}")
 
     def saveImage(self, image: Any, resolution: Any, options: Any, filename: Any, quality: Any = -1) -> bytes:  # noqa: N802
         """Write an image (``resolution`` x, y; ``options`` bit 0: RGBA, bit 1: greyscale, else
@@ -71,15 +67,17 @@ class ServiceCalls:
             image: w*h*n bytes, rows bottom-up.
             resolution: ``[w, h]``, pixels.
             options: bit 0 RGBA, bit 1 greyscale.
-            filename: a file name in the server's image folder, or a format such as ``".png"``.
+            filename: a file name (a client: relative, in its own folder), or a format such as
+                ``".png"``.
             quality: 0..100, or -1.
 
         Returns:
             The encoded file (format only), else ``b""``.
 
         Raises:
-            ArgumentError: an image that does not match its resolution, or an unknown format.
-            RemoteError: a file outside the image folder.
+            ArgumentError: an image that does not match its resolution, or an unknown format; a
+                client's name outside its folder.
+            RemoteError: the operator's file outside the scene folders; past the client's budget.
             UnsupportedError: a format OpenCV cannot encode.
         """
         opts, name, q = _int(options, "options"), _text(filename, "filename"), _int(quality, "quality")
@@ -100,7 +98,8 @@ class ServiceCalls:
             raise UnsupportedError(f"OpenCV cannot encode {ext} images")
         if name.startswith("."):
             return data.tobytes()
-        self._image_file(name, True).write_bytes(data.tobytes())
+        files = self._simulation("saveImage").editor.files
+        files.write(self._image_file(name, True), data.tobytes(), files.writer(self._script_path()), name)
         return b""
 
     def loadImage(self, options: Any, filename: Any) -> tuple[bytes, list[int]]:  # noqa: N802
@@ -112,14 +111,15 @@ class ServiceCalls:
 
         Args:
             options: bit 0 RGBA, bit 1 ``filename`` is the encoded image.
-            filename: a file name in the server's image folder, or the encoded bytes.
+            filename: a file name (the scene folders, or the client's own folder: relative names
+                are its own file where it has one), or the encoded bytes.
 
         Returns:
             ``(image, [w, h])``: w*h*3 (or 4) bytes and pixels.
 
         Raises:
             ArgumentError: not an image OpenCV can read.
-            RemoteError: a file outside the image folder.
+            RemoteError: a file outside the scene folders and the client's own folder.
         """
         opts = _int(options, "options")
         if isinstance(filename, (bytes, bytearray)) or opts & 2:
@@ -413,6 +413,8 @@ class ServiceCalls:
         def _h(self, handle: Any, what: str = "object handle") -> int: ...
 
         def _simulation(self, what: str) -> SimulationView: ...
+
+        def _script_path(self) -> Path | None: ...
 
         def _corners(self, body: int) -> np.ndarray: ...
 

@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import weakref
 from pathlib import Path
 from typing import Any
 
 import mujoco
 
-from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
@@ -58,29 +57,32 @@ def restore_poses(world: World, poses: list[tuple[int, Any, Any]]) -> None:
 
 
 
-def _readable(sim: SimulationView, path: str) -> Path:
-    """``path`` (relative: to the scene's folder) if it lies where the server reads clients'
-    meshes from: the operator's scene folder, a ``--scene-path`` folder, or this server's
-    transfer folder (files sent with simxTransferFile). A scene's script may pass a client's path
-    here (VPG's importShape does), so anything else is refused, with the same words whether or
-    not such a file exists (docs/SECURITY.md).
+def _readable(sim: SimulationView, path: str, script: Any = None, what: str = "importShape") -> Path:
+    """``path`` if the caller may read it (:meth:`ClientFiles.source
+    <simx_server.scene.client_files.ClientFiles.source>`): the operator's scene folder and
+    ``--scene-path`` folders, or the calling client's own folder (files it sent with
+    simxTransferFile or wrote); relative names: the client's own file, else from the scene's
+    folder. A scene's script may pass a client's path here (VPG's importShape does), so anything
+    else is refused, with the same words whether or not such a file exists (docs/SECURITY.md).
+
+    Args:
+        sim: the simulation.
+        path: the file name as given.
+        script: the calling script (its file says whose scene it is), None for a door's facade.
+        what: the call, for the error.
 
     Raises:
         ArgumentError: outside those folders.
     """
     files = sim.editor.files
-    file = Path(path)
-    if not file.is_absolute():
-        file = sim.world.scene_path.parent / file
-    file = Path(os.path.realpath(file))
-    if not (guard.inside(file, Path(os.path.realpath(files.files_dir)))
-            or any(guard.inside(file, root) and not guard.is_transferred(file) for root in files.roots)):
-        raise ArgumentError(f"importShape: {quote(path)} refused: meshes are read only from the scene's folder, "
-                            "--scene-path folders and files sent with simxTransferFile")
-    return file
+    key = files.writer(getattr(script, "path", None) if script is not None else None)
+    try:
+        return files.source(path, key, what, sim.world.scene_path.parent)
+    except RemoteError as exc:
+        raise ArgumentError(str(exc)) from None
 
 
-def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float) -> int:
+def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float, script: Any = None) -> int:
     """Add the mesh of file ``path`` (.obj or binary .stl, at most limits.MAX_IMPORT_BYTES) as a new
     dynamic, respondable shape at the world origin, scaled by ``scaling``; returns its handle.
 
@@ -90,7 +92,7 @@ def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float
     if suffixes is None:
         raise ArgumentError(f"importShape: file format {quote(fileformat)} is not one simx reads "
                             "(0 OBJ, 4 binary STL; MuJoCo reads no DXF, 3DS nor ASCII STL)")
-    file = _readable(sim, path)
+    file = _readable(sim, path, script)
     if file.suffix.lower() not in suffixes:
         raise ArgumentError(f"importShape: {quote(path)} is not a {'/'.join(suffixes)} file (format {fileformat})")
     if not math.isfinite(scaling) or not 0 < scaling <= 1000:
@@ -151,7 +153,7 @@ def importShape(self, fileformat: Any, pathAndFilename: Any, options: Any = 0,  
     _int(options, "options")
     _num(identicalVerticeTolerance, "identicalVerticeTolerance")
     scale = _num(scalingFactor, "scalingFactor") if scalingFactor is not None else 0.0
-    return import_shape(self._simulation("importShape"), fmt, path, scale or 1.0)
+    return import_shape(self._simulation("importShape"), fmt, path, scale or 1.0, self.__dict__.get("_script"))
 
 
 def setShapeColor(self, shapeHandle: Any, colorName: Any, colorComponent: Any,  # noqa: N802, N803

@@ -17,7 +17,7 @@ class ZmqClient(Client):
 
     __slots__ = ("sync_id", "lock_id", "fd", "stepping", "locks",
                  "step_at", "waiting", "held", "label", "long", "long_func", "connection", "in_callback",
-                 "gave_up")
+                 "gave_up", "files_key")
 
     def __init__(self, uuid: str, fd: int, timeout: float | None, now: float, connection: bytes = b"",
                  door: Any = None):
@@ -35,6 +35,7 @@ class ZmqClient(Client):
         self.in_callback = False  # its long call waits for the _*executed*_ of a callback the client runs
         self.gave_up = ""  # the long call abandoned while its callback ran (its _*executed*_ is refused)
         self.connection = connection  # its connection's routing id (ZmqService.connections)
+        self.files_key = f"zmq:{uuid}"  # its folder's key (simx_server.scene.client_files)
 
     @property
     def uuid(self) -> str:

@@ -309,7 +309,9 @@ class RemoteSim(MotionCalls, ScriptSim):
             script = self._simulation_.scripts.script_of(self._world.get(handle).handle)
         except ScriptError:
             raise ScriptError(f"object {self._world.get(handle).name!r} has no child script") from None
-        return tuple(_strings(v) for v in script.call_values(name, list(args)))
+        with self._simulation_.editor.files.on_behalf():  # the script's file calls act as this client
+            values = script.call_values(name, list(args))
+        return tuple(_strings(v) for v in values)
 
 
 def facade_functions() -> dict[str, Any]:

@@ -192,7 +192,8 @@ class ZmqService(RenderedReplies):
     def _answer(self, client: ZmqClient, envelope: list, func: str, args: list) -> None:
         """Reply to ``func(*args)``; its time (on this thread) is charged to the client's connection."""
         start = time.monotonic()
-        payload = self._call(client, func, args)
+        with self.sim.editor.files.acting(client.files_key):  # its file calls use its own folder
+            payload = self._call(client, func, args)
         done = time.monotonic()
         connection = self.connections.get(client.connection)
         if connection is not None:
@@ -481,6 +482,7 @@ class ZmqService(RenderedReplies):
             client.long.close()
             client.long, client.in_callback = None, False
         log.info("ZMQ client %s %s", client.label, how)
+        self.sim.editor.files.release(client.files_key)  # its folder and budget
         self._unstep(client)
 
     def _evict_one(self) -> bool:

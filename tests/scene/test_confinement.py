@@ -57,8 +57,9 @@ def last_errors(cid: int) -> list[str]:
 
 
 def folders_holding(name: str, tmp: Path = TMP) -> list[Path]:
-    """Transfer folders (of any server) in ``tmp`` that hold a file called ``name``."""
-    return [d for d in tmp.glob("simx-*") if (d / name).is_file()]
+    """Transfer folders (of any server) in ``tmp`` that hold a file called ``name`` (in a
+    client's folder, ``.simx-clients/*``, or the folder itself)."""
+    return [d for d in tmp.glob("simx-*") if (d / name).is_file() or any(d.glob(f".simx-clients/*/{name}"))]
 
 
 def png(width: int, height: int, rgb=(255, 0, 0)) -> bytes:
