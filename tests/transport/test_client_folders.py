@@ -273,3 +273,13 @@ def test_a_client_scenes_script_is_confined_to_that_clients_folder(server, tmp_p
         poll(lambda: folder not in client_files(server), "the folder goes with the scene")
     finally:
         vrep.simxFinish(other)
+
+
+def test_a_zmq_clients_folder_goes_when_it_leaves(server):
+    """A ZMQ client's files (and their room) go when it ends (the official client's _*end*_)."""
+    c = Zmq(server.zmq_port, "leaving-" + str(time.monotonic_ns()))
+    before = set(client_files(server))
+    assert "ret" in c.call("sim.saveImage", PNG_2x2, [2, 2], 0, "bye.png", -1)
+    (folder,) = set(client_files(server)) - before
+    c.close()
+    poll(lambda: folder not in client_files(server), "the folder of the ZMQ client that left removed")
