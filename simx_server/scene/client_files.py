@@ -301,7 +301,7 @@ class ClientFiles:
         Raises:
             RemoteError: anywhere else.
         """
-        own = self.folder(key) if key or key == "" else self.files_dir
+        own = self.folder(key)  # the operator: the in-process caller's (the transfer folder itself)
         file = Path(name)
         if not file.is_absolute():
             mine = Path(os.path.realpath(own / file))
