@@ -62,7 +62,7 @@ import mujoco
 import numpy as np
 
 from simx_server.base import limits as L
-from simx_server.sim import handle_render
+from simx_server.sim import handle_render, vision_look
 from simx_server.sim.physics import check_resolution
 from simx_server.sim.render_thread import RenderThread, render_bands
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
@@ -130,6 +130,7 @@ class VisionSensors(VisionResults):
         self._cache.clear()
         self._colours = None
         m = world.model
+        vision_look.scene_look(m)  # a look it cannot give refuses the scene (ValueError)
         for obj in world.objects.values():
             if obj.type == VISION_SENSOR:
                 self.specs[obj.handle] = sensor_spec(m, obj)
@@ -277,6 +278,8 @@ class VisionSensors(VisionResults):
             r.update_scene(data, camera=spec.camera, scene_option=thread.option)
             r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
             r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
+            if kind == "rgb":
+                vision_look.apply(r.scene, model)  # V-REP's lighting where the scene asks for it
             return render_bands(r, spec.height)
         finally:
             if kind == "depth":

@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt import geoms as G
+from simx_server.scene.ttt import looks
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_loop_closures, add_sensor
@@ -74,8 +75,7 @@ class Converter:
         self.spec.option.gravity = s.gravity
         self.spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         self.spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-        self.spec.visual.headlight.ambient = s.ambient if s.ambient is not None else [0.2, 0.2, 0.2]
-        self.spec.visual.headlight.diffuse = [0.5, 0.5, 0.5]
+        looks.headlight(self.spec, s.ambient)  # V-REP's ambient light, no camera headlight
         if s.background is not None:  # V-REP's background gradient as a sky box
             sky = self.spec.add_texture()
             sky.name = "ttt_background"
@@ -90,6 +90,7 @@ class Converter:
         for root in s.roots:
             self._emit(root, self.spec.worldbody, Pose(), -1)
         self._aliases()
+        looks.count_lights(self)
         add_loop_closures(self)
         add_ik_groups(self)
         self._excludes()
@@ -107,6 +108,7 @@ class Converter:
         far = max([v.far for v in sensors] + [50.0])
         self.spec.visual.map.znear = max(near, 1e-4) / 2.0
         self.spec.visual.map.zfar = far / 2.0
+        self.setting("scene:vision", "look=vrep")  # sensors render with V-REP's lighting (sim/vision_look.py)
         for name, items in self.settings.items():
             t = self.spec.add_text()
             t.name = f"simx:{name}"

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt.geometry import compose
+from simx_server.scene.ttt.looks import Look, Materials
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
 
 # V-REP primitive type -> how it becomes a geom (the others are meshes)
@@ -71,7 +72,8 @@ class GeomMaker:
     def __init__(self, spec: mujoco.MjSpec, out: Path | None, report, textures: dict | None = None):
         self.spec, self.out, self.report = spec, out, report
         self.textures = textures or {}
-        self.materials: dict[int, str] = {}  # texture id -> material name
+        self.materials: dict[int, str] = {}  # texture id -> texture name
+        self.looks = Materials(spec, report)
         self.count = 0
         if out is not None:
             (out / "meshes").mkdir(parents=True, exist_ok=True)
@@ -91,7 +93,8 @@ class GeomMaker:
             if g is None:
                 continue
             g.pos, g.quat = pose.pos, pose.quat
-            g.rgba = [*mesh.color, 1.0]
+            look = mesh.look or Look(diffuse=tuple(mesh.color))
+            g.rgba = [*mesh.color, look.opacity]
             g.contype, g.conaffinity = contype, conaffinity
             if not visible:
                 g.group = 3
@@ -101,11 +104,13 @@ class GeomMaker:
                 # mu^2 gives Bullet's value for two equal materials
                 g.friction = [shape.friction ** 2, 0.005, 0.0001]
             if g.material:
-                g.rgba = [1.0, 1.0, 1.0, 1.0]  # the texture as it is
+                g.rgba = [1.0, 1.0, 1.0, look.opacity]  # the texture as it is
             elif mesh.texture >= 0 and visible and g.type != mujoco.mjtGeom.mjGEOM_MESH and self._skin(body, mesh, pose):
                 g.group = 3  # the primitive collides; its textured mesh (the skin) is what is seen
             elif mesh.texture >= 0:
                 self.report.add("textures without their coordinates (shown as the shape's colour)")
+            if not g.material and g.group != 3:  # V-REP's specular, shininess, emission (looks.py)
+                g.material = self.looks.material(look)
 
     def _skin(self, body, mesh: Mesh, pose: Pose) -> bool:
         """A textured primitive's look: MuJoCo's primitives take no texture coordinates, so the
@@ -180,8 +185,9 @@ class GeomMaker:
         return g
 
     def _material(self, mesh: Mesh) -> str | None:
-        """The material showing the mesh's texture (a PNG in ``textures/``), when the file gives
-        texture coordinates per triangle corner; None otherwise."""
+        """The material showing the mesh's texture (a PNG in ``textures/``) with its colour
+        object's specular, shininess and emission, when the file gives texture coordinates per
+        triangle corner; None otherwise."""
         tex = self.textures.get(mesh.texture)
         if tex is None or mesh.uv is None or len(mesh.uv) != 3 * len(mesh.faces) or not len(mesh.faces):
             return None
@@ -197,11 +203,8 @@ class GeomMaker:
             t.name = f"ttt_tex{mesh.texture}"
             t.type = mujoco.mjtTexture.mjTEXTURE_2D
             t.file = f"tex{mesh.texture}.png"
-            mat = self.spec.add_material()
-            mat.name = f"ttt_mat{mesh.texture}"
-            mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = t.name
-            self.materials[mesh.texture] = mat.name
-        return self.materials[mesh.texture]
+            self.materials[mesh.texture] = t.name
+        return self.looks.material(mesh.look or Look(), self.materials[mesh.texture])
 
     @staticmethod
     def _new(body, kind, size):

@@ -7,8 +7,12 @@ relative to the parent object's frame (for children of joints: the joint's *disp
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from simx_server.scene.ttt.looks import Look
 
 
 @dataclass
@@ -41,6 +45,7 @@ class Mesh:
     uv: np.ndarray | None = None
     convex: bool = False
     wireframe: bool = False  # drawn as edges only in V-REP
+    look: Look | None = None  # the colour object (specular, emission, shininess, opacity)
 
 
 @dataclass

@@ -8,6 +8,7 @@ import math
 import mujoco
 import numpy as np
 
+from simx_server.scene.ttt import looks
 from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
 from simx_server.sim.ik import MAX_ELEMENTS as MAX_IK_ELEMENTS
 from simx_server.sim.motors import DEFAULT_PID_P
@@ -164,8 +165,7 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         light.name = obj.name
         light.pos = local.pos
         light.dir = quat_to_mat(local.quat) @ np.array([0.0, 0, 1])
-        light.diffuse = [0.3, 0.3, 0.3]
-        light.castshadow = False
+        looks.add_light(conv, obj.data if isinstance(obj.data, looks.LightData) else looks.LightData(), light)
         return
     site = body.add_site()
     site.name = obj.name

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simx_server.scene.ttt import custom, shapes
+from simx_server.scene.ttt import custom, looks, shapes
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.errors import SceneFileError
 from simx_server.scene.ttt.geometry import pose7
@@ -149,6 +149,8 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
         obj.data = _read_proximity(typed)
     elif kind == "vision_sensor":
         obj.data = _read_vision(typed)
+    elif kind == "light":
+        obj.data = looks.read_light(typed)
     elif kind == "force_sensor":
         size = typed.floats("_iz", "Siz", 1)
         obj.data = ForceSensorData(float(size[0]) if size is not None else 0.01)
@@ -276,12 +278,12 @@ def _read_simulation(r: Records, scene: TttScene) -> None:
 
 
 def _read_environment(r: Records, scene: TttScene) -> None:
-    """The background gradient (``Clc`` up, ``Cld`` down) and the ambient light (``Alc``)."""
-    up, down, amb = r.floats(None, "Clc", 3), r.floats(None, "Cld", 3), r.floats(None, "Alc", 3)
+    """The background gradient (``Clc`` up, ``Cld`` down) and the ambient light
+    (:func:`~simx_server.scene.ttt.looks.read_ambient`)."""
+    up, down = r.floats(None, "Clc", 3), r.floats(None, "Cld", 3)
     if up is not None and down is not None and np.all(np.isfinite(up)) and np.all(np.isfinite(down)):
         scene.background = (np.clip(up, 0, 1), np.clip(down, 0, 1))
-    if amb is not None and np.all(np.isfinite(amb)):
-        scene.ambient = np.clip(amb, 0, 1)
+    scene.ambient = looks.read_ambient(r)
 
 
 def _read_texture(r: Records) -> Texture | None:

@@ -9,6 +9,7 @@ import numpy as np
 
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.geometry import compose, mat_to_quat, pose7, projected_uv
+from simx_server.scene.ttt.looks import Look, read_colour
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
 from simx_server.scene.ttt.records import Records, unpack_indices
 
@@ -166,15 +167,8 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
             primitive, sizes = int(vals[0]), np.array(vals[1:4], dtype=np.float64)
             break
     frame = pose7(r.floats("_pf", "Ppf", 7), quat_first=False)
-    color = np.array([0.7, 0.7, 0.7])
-    cl0 = r.sub("Cl0")
-    for tag in ("Cl2", "Cl1"):
-        c = cl0.get(tag)
-        if c is not None and len(c) >= 12:
-            rgb = np.frombuffer(c[:12], "<f4").astype(np.float64)
-            if np.all(np.isfinite(rgb)):
-                color = np.clip(rgb, 0, 1)
-            break
+    look = read_colour(r.sub("Cl0")) or Look()
+    color = np.array(look.diffuse)
     texture, uv = -1, None
     if r.get("Toj") is not None:
         toj = r.sub("Toj")
@@ -197,4 +191,4 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
             uv = projected_uv(vertices, faces, frame, texture_frame, *mapping)
     convex = bool(r.byte("Va2") & 1) or bool(info.byte("Var") & 4)
     wireframe = bool(r.byte("Var") & 4)
-    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe)
+    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe, look)

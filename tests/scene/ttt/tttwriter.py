@@ -78,15 +78,18 @@ def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: byte
 
 
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
-                 dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"") -> bytes:
-    """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`."""
+                 dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"",
+                 colour: bytes | None = None) -> bytes:
+    """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`;
+    ``colour``: its colour object (:func:`colour_object`; default an old ``Cl2`` of (0.2, 0.4, 0.6))."""
     hx, hy, hz = (s / 2 for s in size)
     v = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], "<f4")
     faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
                       [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], "<i4")
     info = lst(rec("Nme", string(name)), rec("Mas", f32(mass)),
                rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, 0.01, 0.01, 0.01)))
-    mesh = lst(rec("Cl0", lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))),
+    cl0 = colour if colour is not None else lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))
+    mesh = lst(rec("Cl0", cl0),
                rec("Ver", v.tobytes()), rec("Ind", faces.tobytes()),
                rec("Ppr", struct.pack("<ifff", 3, *size)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)), texture)
     typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
@@ -239,3 +242,44 @@ def ik_group(name: str, elements, explicit: bool = False) -> bytes:
     """An old IK group (``IKO``): ``elements`` of (tip dummy, base, V-REP's constraint bits)."""
     items = [rec("Ike", lst(rec("Ik2", i32(tip, base)), rec("Ctr", i32(ctr)))) for tip, base, ctr in elements]
     return rec("IKO", lst(rec("Nme", string(name)), rec("Va2", bytes([2 if explicit else 0])), *items))
+
+
+def colour_object(diffuse=(0.7, 0.7, 0.7), specular=(0.25, 0.25, 0.25), emission=(0.0, 0.0, 0.0),
+                  shininess: int = 48, light=(0.0, 0.0, 0.0), opacity: float | None = None) -> bytes:
+    """A colour object (CColorObject) as V-REP 3.1.3+ writes it: ``Cl3`` the 15 colours
+    (ambient-diffuse, light diffuse, specular, emission, auxiliary), ``Sh2`` shininess, ``Trf``
+    opacity and ``Var`` (bit 2 clear: translucent, when ``opacity`` is given)."""
+    colours = f32(*diffuse, *light, *specular, *emission, 0.5, 0.0, 0.0)
+    var = bytes([0 if opacity is not None else 4])
+    return lst(rec("Cl3", colours), rec("Sh2", i32(shininess)), rec("Trf", f32(opacity or 0.5)), rec("Var", var))
+
+
+def light(handle: int, parent: int, name: str, kind: int = 3, diffuse=(0.5, 0.5, 0.5), specular=(0.5, 0.5, 0.5),
+          pos=(0, 0, 0), quat=(1, 0, 0, 0), active: bool = True, local: bool = False,
+          attenuation=(0.25, 0.0, 0.1), cutoff: float = 1.0) -> bytes:
+    """A light (``LGT``): V-REP's type (1 omnidirectional, 2 spot, 3 directional: along its +z),
+    its colours, ``Cas`` bits (0 active, 1 local), attenuation and spot cut-off (rad)."""
+    typed = lst(rec("Cp2", struct.pack("<iif", kind, 5, 0.1)), rec("Cp3", f32(cutoff)), rec("Caf", f32(*attenuation)),
+                rec("Cas", bytes([int(active) | 2 * int(local)])),
+                rec("Cl2", colour_object((0, 0, 0), specular, light=diffuse)))
+    return rec("LGT", common(handle, parent, name, pos, quat) + typed)
+
+
+def camera_sensor(handle: int, parent: int, name: str, resolution=(64, 64), ortho_size: float = 1.0,
+                  pos=(0, 0, 0), quat=(1, 0, 0, 0), perspective: bool = False, angle: float = 1.0,
+                  near: float = 0.01, far: float = 5.0) -> bytes:
+    """A vision sensor (``RSN``) looking along its +z: ``Ccp`` (ortho size, view angle, near,
+    far), ``Res``, ``Va3`` bit 0 perspective."""
+    typed = lst(rec("Ccp", f32(ortho_size, angle, near, far)), rec("Res", i32(*resolution)),
+                rec("Va3", bytes([int(perspective)])))
+    return rec("RSN", common(handle, parent, name, pos, quat) + typed)
+
+
+def environment(ambient=None, old_ambient=None) -> bytes:
+    """The environment (``ENV``): ``Al2`` the ambient light, ``Alc`` its older half-value twin."""
+    records = []
+    if ambient is not None:
+        records.append(rec("Al2", f32(*ambient)))
+    if old_ambient is not None:
+        records.append(rec("Alc", f32(*old_ambient)))
+    return rec("ENV", lst(*records))

@@ -1,0 +1,134 @@
+"""V-REP's look in converted scenes (simx_server/scene/ttt/looks.py, simx_server/sim/vision_look.py):
+a vision sensor sees a flat surface in the colour OpenGL's fixed-function lighting gives it with
+V-REP's material, lights and ambient light, as V-REP drew it."""
+
+from __future__ import annotations
+
+import math
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from simx_server.scene.simulation import Simulation  # noqa: E402
+from simx_server.scene.ttt.convert import convert  # noqa: E402
+from simx_server.scene.ttt.looks import read_ambient, read_colour  # noqa: E402
+from simx_server.scene.ttt.reader import read  # noqa: E402
+from simx_server.scene.ttt.records import Records  # noqa: E402
+
+import tttwriter as W  # noqa: E402
+
+# Three materials (ambient-diffuse, specular, shininess); each drawn without and with an emission
+# colour proportional to its diffuse one (the line follower's line: grey 0.72, emission 0.5).
+MATERIALS = [((0.8, 0.2, 0.1), (0.5, 0.5, 0.5), 20, 0.375),
+             ((0.72, 0.72, 0.72), (0.25, 0.25, 0.25), 48, 0.5 / 0.72),
+             ((0.1, 0.3, 0.9), (0.1, 0.1, 0.1), 5, 0.5)]
+# A directional light 40 degrees off the vertical, travelling toward +x (V-REP: along its +z).
+SUN_QUAT = (math.cos(math.radians(70)), 0.0, math.sin(math.radians(70)), 0.0)
+TO_LIGHT = np.array([-math.sin(math.radians(40)), 0.0, math.cos(math.radians(40))])
+DEFAULT_AMBIENT = 0.2  # V-REP's (CEnvironment::setUpDefaultValues): the file has no ENV record
+SIZE, RES = 1.0, 64  # the orthographic sensor's view (m) and resolution
+
+
+def fixed_function(diffuse, specular, shininess, emission, light_diffuse, light_specular) -> np.ndarray:
+    """OpenGL's lighting of a surface facing up, seen from straight above by a distant viewer
+    (V-REP leaves GL_LIGHT_MODEL_LOCAL_VIEWER off), under one directional light and V-REP's
+    global ambient light: emission + ambient x diffuse + (N.L) diffuse x light diffuse +
+    (N.H)^shininess specular x light specular, 0-255."""
+    n = v = np.array([0.0, 0, 1])
+    half = (TO_LIGHT + v) / np.linalg.norm(TO_LIGHT + v)
+    d, s = np.asarray(diffuse), np.asarray(specular)
+    rgb = (np.asarray(emission) + DEFAULT_AMBIENT * d + max(n @ TO_LIGHT, 0) * d * np.asarray(light_diffuse)
+           + max(n @ half, 0) ** shininess * s * np.asarray(light_specular))
+    return np.round(np.clip(rgb, 0, 1) * 255)
+
+
+def shapes() -> tuple[bytes, list[tuple[float, float, np.ndarray, tuple]]]:
+    """Six flat-topped boxes (top at z = 0) in a 3 x 2 grid: (records, [(x, y, emission, material)])."""
+    records, placed = b"", []
+    for i, (diffuse, specular, shininess, glow) in enumerate(MATERIALS):
+        for j, lit in enumerate((False, True)):
+            emission = tuple(glow * c for c in diffuse) if lit else (0.0, 0.0, 0.0)
+            x, y = (i - 1) * 0.3, (j - 0.5) * 0.4
+            look = W.colour_object(diffuse, specular, emission, shininess)
+            records += W.cuboid_shape(10 + 2 * i + j, -1, f"Box{i}{j}", (0.2, 0.2, 0.1), (x, y, -0.05),
+                                      dynamic=False, colour=look)
+            placed.append((x, y, np.array(emission), (diffuse, specular, shininess)))
+    return records, placed
+
+
+@pytest.mark.parametrize("light_diffuse, light_specular", [((1.0, 1.0, 1.0), (0.6, 0.6, 0.6)),
+                                                           ((0.9, 0.6, 0.3), (0.5, 0.4, 0.2))])
+def test_a_sensor_sees_the_fixed_function_colour_of_each_material(tmp_path, light_diffuse, light_specular):
+    boxes, placed = shapes()
+    body = (W.light(1, -1, "Sun", 3, light_diffuse, light_specular, pos=(0, 0, 2), quat=SUN_QUAT) +
+            W.camera_sensor(2, -1, "Top", (RES, RES), SIZE, pos=(0, 0, 1), quat=(0, 1, 0, 0)) + boxes)
+    (tmp_path / "looks.ttt").write_bytes(W.ttt_file(body))
+    xml, report = convert(read(tmp_path / "looks.ttt"), tmp_path / "out")
+    assert report.lines() == []  # proportional emissions and grey speculars: nothing approximated
+    sim = Simulation(xml, realtime=False)
+    try:
+        (w, h), data = sim.vision.image_bytes(sim.world.resolve("Top").handle, 0)
+    finally:
+        sim.close()
+    image = np.frombuffer(data, np.uint8).reshape(h, w, 3).astype(int)  # V-REP's rows: bottom-up
+    for x, y, emission, (diffuse, specular, shininess) in placed:
+        # looking down from +z (the sensor turned about x): image right is world -x, up is -y
+        col, row = int(w / 2 - x / SIZE * w), int(h / 2 - y / SIZE * h)
+        want = fixed_function(diffuse, specular, shininess, emission, light_diffuse, light_specular)
+        got = image[row - 2:row + 3, col - 2:col + 3].reshape(-1, 3)
+        assert np.abs(got - want).max() <= 6, (diffuse, emission.tolist(), got.min(0), got.max(0), want)
+
+
+def test_light_and_headlight_carry_vrep_settings(tmp_path):
+    body = (W.light(1, -1, "Lamp", 1, (0.4, 0.5, 0.6), (0.1, 0.2, 0.3), attenuation=(0.5, 0.1, 0.2)) +
+            W.light(2, -1, "Spot", 2, cutoff=math.radians(30)) +
+            W.light(3, -1, "Off", 3, active=False) + W.light(4, -1, "Local", 3, local=True) +
+            W.environment(ambient=(0.3, 0.35, 0.4)))
+    (tmp_path / "lights.ttt").write_bytes(W.ttt_file(body))
+    xml, report = convert(read(tmp_path / "lights.ttt"), tmp_path / "out")
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    lamp, spot, off, local = (m.light(n) for n in ("Lamp", "Spot", "Off", "Local"))
+    # omnidirectional: a spot light of 180 degrees (MuJoCo's classic renderer draws no point light)
+    assert lamp.type == mujoco.mjtLightType.mjLIGHT_SPOT and lamp.cutoff == 180
+    np.testing.assert_allclose(lamp.diffuse, [0.4, 0.5, 0.6], atol=1e-6)
+    np.testing.assert_allclose(lamp.specular, [0.1, 0.2, 0.3], atol=1e-6)
+    np.testing.assert_allclose(lamp.ambient, 0)  # V-REP's lights have no ambient
+    np.testing.assert_allclose(lamp.attenuation, [0.5, 0.1, 0.2], atol=1e-6)
+    assert spot.cutoff == pytest.approx(30) and spot.exponent == 5
+    assert off.active == 0 and local.active == 0
+    assert report.counts["local lights (off: simx's sensors use the scene's lights)"] == 1
+    np.testing.assert_allclose(m.vis.headlight.ambient, [0.3, 0.35, 0.4], atol=1e-6)
+    np.testing.assert_allclose(m.vis.headlight.diffuse, 0)
+    np.testing.assert_allclose(m.vis.headlight.specular, 0)
+
+
+def test_what_mujoco_cannot_give_is_reported(tmp_path):
+    look = W.colour_object((0.5, 0.5, 0.1), (0.9, 0.1, 0.1), (0.0, 0.3, 0.0))
+    body = W.cuboid_shape(1, -1, "Odd", (0.1, 0.1, 0.1), dynamic=False, colour=look)
+    (tmp_path / "odd.ttt").write_bytes(W.ttt_file(body))
+    xml, report = convert(read(tmp_path / "odd.ttt"), tmp_path / "out")
+    assert set(report.counts) == {"specular colours that are not grey (their mean: MuJoCo's specular is a level)",
+                                  "emission colours that are not a multiple of the shape's colour (the closest)"}
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    mat = m.geom_matid[m.body("Odd").geomadr[0]]
+    assert m.mat_specular[mat] == pytest.approx(1.1 / 3, abs=1e-6)
+    # the least-squares multiple of (0.5, 0.5, 0.1) closest to (0, 0.3, 0): 0.15 / 0.51
+    assert m.mat_emission[mat] == pytest.approx(0.15 / 0.51, abs=1e-6)
+
+
+def test_older_colour_and_ambient_records_as_vrep_reads_them():
+    # before 3.1.3 a shape kept Cl2 only: (colour x 0.85) - 0.125 with a light diffuse of 0.25
+    old = W.lst(W.rec("Cl2", W.f32(*(np.array([0.8, 0.4, 0.2]) * 0.85 - 0.125), 0.25, 0.25, 0.25, *[0.0] * 9)))
+    look = read_colour(Records(old, "t"))
+    np.testing.assert_allclose(look.diffuse, [0.8, 0.4, 0.2], atol=1e-6)
+    assert look.shininess == 48 and look.opacity == 1
+    # Alc is half the ambient light (capped at 0.4 once doubled); Al2 the light itself
+    assert read_ambient(Records(W.lst(W.rec("Alc", W.f32(0.1, 0.1, 0.15))), "t")).tolist() == pytest.approx(
+        [0.2, 0.2, 0.3])
+    assert read_ambient(Records(W.lst(W.rec("Alc", W.f32(0.3, 0.3, 0.3))), "t")).tolist() == pytest.approx([0.4] * 3)
+    assert read_ambient(Records(W.lst(W.rec("Al2", W.f32(0.5, 0.5, 0.5)), W.rec("Alc", W.f32(0.1, 0.1, 0.1))),
+                                "t")).tolist() == pytest.approx([0.5] * 3)
