@@ -117,7 +117,7 @@ class GeomMaker:
         triangles the file keeps for it, with its coordinates, become a visual-only mesh geom
         beside the primitive (which still collides). False (nothing added) where the file's
         coordinates or texture are not usable."""
-        if self.out is None or self._material(mesh) is None:
+        if self.out is None or self._texture(mesh) is None:
             return False
         g = self._mesh_geom(body, mesh, visual=True)
         if g is None:
@@ -165,7 +165,8 @@ class GeomMaker:
         m = self.spec.add_mesh()
         m.name = mname
         m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
-        material = self._material(mesh) if self.out is not None else None
+        texture = self._texture(mesh) if self.out is not None else None
+        material = self.looks.material(mesh.look or Look(), texture) if texture is not None else None
         if material is not None:
             write_obj(self.out / "meshes" / f"{mname}.obj", vertices, faces, mesh.uv, len(mesh.faces))
             m.file = f"{mname}.obj"
@@ -184,10 +185,9 @@ class GeomMaker:
             g.material = material
         return g
 
-    def _material(self, mesh: Mesh) -> str | None:
-        """The material showing the mesh's texture (a PNG in ``textures/``) with its colour
-        object's specular, shininess and emission, when the file gives texture coordinates per
-        triangle corner; None otherwise."""
+    def _texture(self, mesh: Mesh) -> str | None:
+        """The MJCF texture of the mesh's texture (a PNG in ``textures/``), when the file gives
+        texture coordinates per triangle corner; None otherwise."""
         tex = self.textures.get(mesh.texture)
         if tex is None or mesh.uv is None or len(mesh.uv) != 3 * len(mesh.faces) or not len(mesh.faces):
             return None
@@ -204,7 +204,7 @@ class GeomMaker:
             t.type = mujoco.mjtTexture.mjTEXTURE_2D
             t.file = f"tex{mesh.texture}.png"
             self.materials[mesh.texture] = t.name
-        return self.looks.material(mesh.look or Look(), self.materials[mesh.texture])
+        return self.materials[mesh.texture]
 
     @staticmethod
     def _new(body, kind, size):

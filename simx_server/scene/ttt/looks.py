@@ -213,7 +213,8 @@ def count_lights(conv) -> None:
 
 
 class Materials:
-    """MuJoCo materials of V-REP colour objects, one per distinct look (and texture).
+    """MuJoCo materials of V-REP colour objects: one per geom, as V-REP keeps a colour object per
+    mesh (a script's ``sim.setShapeAppearance`` changes one shape's material, not its look-alikes').
 
     Args:
         spec: the MjSpec being built; report: the converter's report.
@@ -221,21 +222,18 @@ class Materials:
 
     def __init__(self, spec: mujoco.MjSpec, report) -> None:
         self.spec, self.report = spec, report
-        self.names: dict[tuple, str] = {}
+        self.count = 0
 
     def material(self, look: Look, texture: str | None = None) -> str:
-        """The name of the material of ``look`` (and of the texture ``texture``, drawn as it is:
-        the material's colour white), made on first use.
+        """The name of a new material of ``look`` (and of the texture ``texture``, drawn as it is:
+        the material's colour white).
 
         Args:
             look: the mesh's colour object.
             texture: an MJCF texture name, or None.
         """
-        key = (look, texture)
-        name = self.names.get(key)
-        if name is not None:
-            return name
-        name = f"ttt_look{len(self.names)}"
+        self.count += 1
+        name = f"ttt_look{self.count}"
         mat = self.spec.add_material()
         mat.name = name
         colour = np.ones(3) if texture is not None else np.asarray(look.diffuse)
@@ -247,7 +245,6 @@ class Materials:
         mat.emission = self._emission(colour, np.asarray(look.emission))
         if texture is not None:
             mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = texture
-        self.names[key] = name
         return name
 
     def _emission(self, colour: np.ndarray, emission: np.ndarray) -> float:
