@@ -284,6 +284,8 @@ def _read_environment(r: Records, scene: TttScene) -> None:
     if up is not None and down is not None and np.all(np.isfinite(up)) and np.all(np.isfinite(down)):
         scene.background = (np.clip(up, 0, 1), np.clip(down, 0, 1))
     scene.ambient = looks.read_ambient(r)
+    if r.byte("Var") & 16:  # CEnvironment's fogEnabled: V-REP's sensors drew it
+        scene.skipped["fog (vision sensors draw none)"] = 1
 
 
 def _read_texture(r: Records) -> Texture | None:

@@ -87,7 +87,7 @@ def test_light_and_headlight_carry_vrep_settings(tmp_path):
     body = (W.light(1, -1, "Lamp", 1, (0.4, 0.5, 0.6), (0.1, 0.2, 0.3), attenuation=(0.5, 0.1, 0.2)) +
             W.light(2, -1, "Spot", 2, cutoff=math.radians(30)) +
             W.light(3, -1, "Off", 3, active=False) + W.light(4, -1, "Local", 3, local=True) +
-            W.environment(ambient=(0.3, 0.35, 0.4)))
+            W.environment(ambient=(0.3, 0.35, 0.4), fog=True))
     (tmp_path / "lights.ttt").write_bytes(W.ttt_file(body))
     xml, report = convert(read(tmp_path / "lights.ttt"), tmp_path / "out")
     m = mujoco.MjModel.from_xml_path(str(xml))
@@ -101,6 +101,7 @@ def test_light_and_headlight_carry_vrep_settings(tmp_path):
     assert spot.cutoff == pytest.approx(30) and spot.exponent == 5
     assert off.active == 0 and local.active == 0
     assert report.counts["local lights (off: simx's sensors use the scene's lights)"] == 1
+    assert report.counts["fog (vision sensors draw none)"] == 1
     np.testing.assert_allclose(m.vis.headlight.ambient, [0.3, 0.35, 0.4], atol=1e-6)
     np.testing.assert_allclose(m.vis.headlight.diffuse, 0)
     np.testing.assert_allclose(m.vis.headlight.specular, 0)

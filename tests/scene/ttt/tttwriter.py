@@ -275,9 +275,10 @@ def camera_sensor(handle: int, parent: int, name: str, resolution=(64, 64), orth
     return rec("RSN", common(handle, parent, name, pos, quat) + typed)
 
 
-def environment(ambient=None, old_ambient=None) -> bytes:
-    """The environment (``ENV``): ``Al2`` the ambient light, ``Alc`` its older half-value twin."""
-    records = []
+def environment(ambient=None, old_ambient=None, fog: bool = False) -> bytes:
+    """The environment (``ENV``): ``Al2`` the ambient light, ``Alc`` its older half-value twin,
+    ``Var`` bit 4 fog."""
+    records = [rec("Var", bytes([16 if fog else 0]))]
     if ambient is not None:
         records.append(rec("Al2", f32(*ambient)))
     if old_ambient is not None:
