@@ -110,7 +110,7 @@ class GeomMaker:
             elif mesh.texture >= 0:
                 self.report.add("textures without their coordinates (shown as the shape's colour)")
             if not g.material and g.group != 3:  # V-REP's specular, shininess, emission (looks.py)
-                g.material = self.looks.material(look)
+                g.material = self.looks.material(look, owner=body.name) or ""
 
     def _skin(self, body, mesh: Mesh, pose: Pose) -> bool:
         """A textured primitive's look: MuJoCo's primitives take no texture coordinates, so the
@@ -166,7 +166,7 @@ class GeomMaker:
         m.name = mname
         m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         texture = self._texture(mesh) if self.out is not None else None
-        material = self.looks.material(mesh.look or Look(), texture) if texture is not None else None
+        material = self.looks.material(mesh.look or Look(), texture, body.name) if texture is not None else None
         if material is not None:
             write_obj(self.out / "meshes" / f"{mname}.obj", vertices, faces, mesh.uv, len(mesh.faces))
             m.file = f"{mname}.obj"

@@ -34,6 +34,9 @@ from simx_server.scene.ttt.records import Records
 OMNI, SPOT, DIRECTIONAL = 1, 2, 3
 #: V-REP's ambient light when the file stores none (``CEnvironment::setUpDefaultValues``).
 DEFAULT_AMBIENT = (0.2, 0.2, 0.2)
+#: Materials a converted scene gets at most (MuJoCo's renderer: 999 beside a sky box; room left
+#: for textures of the scene's own and scripts' shapes).
+MAX_MATERIALS = 900
 #: OpenGL lights MuJoCo draws with (GL_MAX_LIGHTS, 8), less the headlight that carries the ambient.
 MAX_LIGHTS = 7
 
@@ -213,8 +216,10 @@ def count_lights(conv) -> None:
 
 
 class Materials:
-    """MuJoCo materials of V-REP colour objects: one per geom, as V-REP keeps a colour object per
-    mesh (a script's ``sim.setShapeAppearance`` changes one shape's material, not its look-alikes').
+    """MuJoCo materials of V-REP colour objects: one per shape and look (a script's
+    ``sim.setShapeAppearance`` changes one shape's materials, not its look-alikes'), at most
+    MAX_MATERIALS (MuJoCo's renderer takes at most 999 materials beside a sky box: a geom for
+    one per mesh, 1,207 in the kitchen scene, could not be drawn).
 
     Args:
         spec: the MjSpec being built; report: the converter's report.
@@ -222,18 +227,27 @@ class Materials:
 
     def __init__(self, spec: mujoco.MjSpec, report) -> None:
         self.spec, self.report = spec, report
-        self.count = 0
+        self.names: dict[tuple, str] = {}
 
-    def material(self, look: Look, texture: str | None = None) -> str:
-        """The name of a new material of ``look`` (and of the texture ``texture``, drawn as it is:
-        the material's colour white).
+    def material(self, look: Look, texture: str | None = None, owner: str = "") -> str | None:
+        """The name of the material of ``look`` for the shape ``owner`` (and of the texture
+        ``texture``, drawn as it is: the material's colour white), made on first use; None
+        beyond MAX_MATERIALS (reported: the geom keeps its colour, and sensors give it V-REP's
+        default specular and shininess).
 
         Args:
             look: the mesh's colour object.
             texture: an MJCF texture name, or None.
+            owner: the shape's name.
         """
-        self.count += 1
-        name = f"ttt_look{self.count}"
+        key = (owner, look, texture)
+        name = self.names.get(key)
+        if name is not None:
+            return name
+        if len(self.names) >= MAX_MATERIALS:
+            self.report.add(f"shape looks beyond the {MAX_MATERIALS}th material (V-REP's default specular)")
+            return None
+        name = f"ttt_look{len(self.names) + 1}"
         mat = self.spec.add_material()
         mat.name = name
         colour = np.ones(3) if texture is not None else np.asarray(look.diffuse)
@@ -245,6 +259,7 @@ class Materials:
         mat.emission = self._emission(colour, np.asarray(look.emission))
         if texture is not None:
             mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = texture
+        self.names[key] = name
         return name
 
     def _emission(self, colour: np.ndarray, emission: np.ndarray) -> float:

@@ -15,6 +15,7 @@ import pytest  # noqa: E402
 
 from simx_server.scene.simulation import Simulation  # noqa: E402
 from simx_server.scene.ttt.convert import convert  # noqa: E402
+from simx_server.scene.ttt import looks  # noqa: E402
 from simx_server.scene.ttt.looks import read_ambient, read_colour  # noqa: E402
 from simx_server.scene.ttt.reader import read  # noqa: E402
 from simx_server.scene.ttt.records import Records  # noqa: E402
@@ -133,3 +134,18 @@ def test_older_colour_and_ambient_records_as_vrep_reads_them():
     assert read_ambient(Records(W.lst(W.rec("Alc", W.f32(0.3, 0.3, 0.3))), "t")).tolist() == pytest.approx([0.4] * 3)
     assert read_ambient(Records(W.lst(W.rec("Al2", W.f32(0.5, 0.5, 0.5)), W.rec("Alc", W.f32(0.1, 0.1, 0.1))),
                                 "t")).tolist() == pytest.approx([0.5] * 3)
+
+
+def test_materials_stay_within_what_mujocos_renderer_draws(tmp_path, monkeypatch):
+    # MuJoCo draws at most 999 materials beside a sky box: one per mesh made the kitchen scene
+    # (1,207 meshes) undrawable. Here the bound is 2: the third look keeps its colour only.
+    monkeypatch.setattr(looks, "MAX_MATERIALS", 2)
+    body = b"".join(W.cuboid_shape(1 + i, -1, f"Box{i}", (0.1, 0.1, 0.1), (i * 0.2, 0, 0), dynamic=False,
+                                   colour=W.colour_object((0.2 * (i + 1), 0.1, 0.1))) for i in range(3))
+    (tmp_path / "many.ttt").write_bytes(W.ttt_file(body))
+    xml, report = convert(read(tmp_path / "many.ttt"), tmp_path / "out")
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    assert m.nmat == 2
+    assert [int(m.geom_matid[m.body(f"Box{i}").geomadr[0]]) >= 0 for i in range(3)] == [True, True, False]
+    np.testing.assert_allclose(m.geom_rgba[m.body("Box2").geomadr[0]], [0.6, 0.1, 0.1, 1], atol=1e-6)
+    assert report.counts["shape looks beyond the 2th material (V-REP's default specular)"] == 1
