@@ -149,3 +149,24 @@ def test_materials_stay_within_what_mujocos_renderer_draws(tmp_path, monkeypatch
     assert [int(m.geom_matid[m.body(f"Box{i}").geomadr[0]]) >= 0 for i in range(3)] == [True, True, False]
     np.testing.assert_allclose(m.geom_rgba[m.body("Box2").geomadr[0]], [0.6, 0.1, 0.1, 1], atol=1e-6)
     assert report.counts["shape looks beyond the 2th material (V-REP's default specular)"] == 1
+
+
+def test_the_epuck_camera_sees_its_track_as_vrep_did(tmp_path):
+    """The e-puck line follower (a public project's own scene, ../shared/ttt-corpus/): V-REP
+    showed the track as a black line on a light floor. With MuJoCo's headlight and the darker
+    backward-compatibility colours, the floor was dark grey (about 50) and the line hard to
+    tell from it."""
+    try:
+        from conftest import SHARED, require_shared
+    except ImportError:  # pragma: no cover - run from the repository root
+        from tests.conftest import SHARED, require_shared
+    path = require_shared(SHARED / "ttt-corpus" / "RL-LDV-TUM+epuck-vrep__epuck_test.ttt")
+    xml, _ = convert(read(path), tmp_path / "out")
+    sim = Simulation(xml, realtime=False)
+    try:
+        (w, h), data = sim.vision.image_bytes(sim.world.resolve("ePuck_camera").handle, 0)
+    finally:
+        sim.close()
+    floor = np.frombuffer(data, np.uint8).reshape(h, w, 3)[: h // 3].astype(int).mean(axis=2)  # rows bottom-up
+    assert np.percentile(floor, 50) > 180  # the light floor
+    assert (floor < 40).mean() > 0.05  # the black line
