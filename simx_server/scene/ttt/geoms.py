@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt.geometry import compose
-from simx_server.scene.ttt.looks import Look, Materials
+from simx_server.scene.ttt.looks import Look, Materials, texture_colour
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
 
 # V-REP primitive type -> how it becomes a geom (the others are meshes)
@@ -103,8 +103,8 @@ class GeomMaker:
                 # Bullet multiplies the two shapes' coefficients, MuJoCo takes the larger:
                 # mu^2 gives Bullet's value for two equal materials
                 g.friction = [shape.friction ** 2, 0.005, 0.0001]
-            if g.material:
-                g.rgba = [1.0, 1.0, 1.0, look.opacity]  # the texture as it is
+            if g.material:  # the texture over the shape's colour as V-REP applies it (looks.py)
+                g.rgba = texture_colour(look, mesh.texture_mode)
             elif mesh.texture >= 0 and visible and g.type != mujoco.mjtGeom.mjGEOM_MESH and self._skin(body, mesh, pose):
                 g.group = 3  # the primitive collides; its textured mesh (the skin) is what is seen
             elif mesh.texture >= 0:
@@ -123,7 +123,7 @@ class GeomMaker:
         if g is None:
             return False
         g.pos, g.quat = pose.pos, pose.quat
-        g.rgba = [1.0, 1.0, 1.0, 1.0]
+        g.rgba = texture_colour(mesh.look or Look(diffuse=tuple(mesh.color)), mesh.texture_mode)
         g.contype = g.conaffinity = 0
         g.density = 0.0
         return True
@@ -166,7 +166,8 @@ class GeomMaker:
         m.name = mname
         m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         texture = self._texture(mesh) if self.out is not None else None
-        material = self.looks.material(mesh.look or Look(), texture, body.name) if texture is not None else None
+        look = mesh.look or Look(diffuse=tuple(mesh.color))
+        material = self.looks.material(look, texture, body.name, mesh.texture_mode) if texture is not None else None
         if material is not None:
             write_obj(self.out / "meshes" / f"{mname}.obj", vertices, faces, mesh.uv, len(mesh.faces))
             m.file = f"{mname}.obj"

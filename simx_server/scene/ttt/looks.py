@@ -215,6 +215,20 @@ def count_lights(conv) -> None:
         conv.report.add(f"active lights beyond the {MAX_LIGHTS}th (not drawn)", len(active) - MAX_LIGHTS)
 
 
+def texture_colour(look: Look, mode: int) -> list[float]:
+    """The RGBA a textured geom and its material get: V-REP draws a texture with OpenGL's
+    texture environment mode (rendering.cpp ``_startTextureDisplay``): modulate (0, the default)
+    multiplies it with the lit colour of the shape's material, as MuJoCo does, so the material
+    keeps the shape's colour; the other modes (1 decal: the texture as it is) take white.
+
+    Args:
+        look: the mesh's colour object.
+        mode: V-REP's apply mode.
+    """
+    colour = look.diffuse if mode != 1 else (1.0, 1.0, 1.0)
+    return [*colour, look.opacity]
+
+
 class Materials:
     """MuJoCo materials of V-REP colour objects: one per shape and look (a script's
     ``sim.setShapeAppearance`` changes one shape's materials, not its look-alikes'), at most
@@ -229,18 +243,19 @@ class Materials:
         self.spec, self.report = spec, report
         self.names: dict[tuple, str] = {}
 
-    def material(self, look: Look, texture: str | None = None, owner: str = "") -> str | None:
+    def material(self, look: Look, texture: str | None = None, owner: str = "", mode: int = 0) -> str | None:
         """The name of the material of ``look`` for the shape ``owner`` (and of the texture
-        ``texture``, drawn as it is: the material's colour white), made on first use; None
-        beyond MAX_MATERIALS (reported: the geom keeps its colour, and sensors give it V-REP's
-        default specular and shininess).
+        ``texture`` in V-REP's apply ``mode``, see :func:`texture_colour`), made on first use;
+        None beyond MAX_MATERIALS (reported: the geom keeps its colour, and sensors give it
+        V-REP's default specular and shininess).
 
         Args:
             look: the mesh's colour object.
             texture: an MJCF texture name, or None.
             owner: the shape's name.
+            mode: the texture's apply mode (``Apm``): 0 modulate, 1 decal, 2 add, 3 blend.
         """
-        key = (owner, look, texture)
+        key = (owner, look, texture, mode if texture is not None else 0)
         name = self.names.get(key)
         if name is not None:
             return name
@@ -250,15 +265,19 @@ class Materials:
         name = f"ttt_look{len(self.names) + 1}"
         mat = self.spec.add_material()
         mat.name = name
-        colour = np.ones(3) if texture is not None else np.asarray(look.diffuse)
-        mat.rgba = [*colour, look.opacity]
+        rgba = texture_colour(look, mode if texture is not None else 0)
+        mat.rgba = rgba
         mat.specular = float(np.mean(look.specular))
         if np.ptp(look.specular) > 1 / 255:
             self.report.add("specular colours that are not grey (their mean: MuJoCo's specular is a level)")
         mat.shininess = look.shininess / 128.0
-        mat.emission = self._emission(colour, np.asarray(look.emission))
+        mat.emission = self._emission(np.asarray(rgba[:3]), np.asarray(look.emission))
         if texture is not None:
             mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = texture
+            if mode == 1:  # decal: the texture unlit (emission 1 saturates the lit colour it multiplies)
+                mat.emission, mat.specular = 1.0, 0.0
+            elif mode not in (0, 1):
+                self.report.add("textures added to or blended with the shape's colour (multiplied with it)")
         self.names[key] = name
         return name
 

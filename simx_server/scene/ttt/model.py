@@ -46,6 +46,7 @@ class Mesh:
     convex: bool = False
     wireframe: bool = False  # drawn as edges only in V-REP
     look: Look | None = None  # the colour object (specular, emission, shininess, opacity)
+    texture_mode: int = 0  # how the texture meets the colour: 0 modulate, 1 decal, 2 add, 3 blend
 
 
 @dataclass

@@ -169,7 +169,7 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
     frame = pose7(r.floats("_pf", "Ppf", 7), quat_first=False)
     look = read_colour(r.sub("Cl0")) or Look()
     color = np.array(look.diffuse)
-    texture, uv = -1, None
+    texture, uv, texture_mode = -1, None, 0
     if r.get("Toj") is not None:
         toj = r.sub("Toj")
         mapping = None
@@ -183,6 +183,7 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
             tob = toj.ints("Tob", 1)
             if tob is not None:
                 texture = int(tob[0])
+        texture_mode = toj.int("Apm") if toj.get("Apm") is not None else (toj.byte("Bst") >> 1) & 1
         ftc = toj.get("Ftc")
         if ftc is not None and len(ftc) >= 8:
             uv = np.frombuffer(ftc[: len(ftc) // 8 * 8], "<f4").reshape(-1, 2).astype(np.float64)
@@ -191,4 +192,4 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
             uv = projected_uv(vertices, faces, frame, texture_frame, *mapping)
     convex = bool(r.byte("Va2") & 1) or bool(info.byte("Var") & 4)
     wireframe = bool(r.byte("Var") & 4)
-    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe, look)
+    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe, look, texture_mode)

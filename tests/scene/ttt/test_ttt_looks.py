@@ -170,3 +170,27 @@ def test_the_epuck_camera_sees_its_track_as_vrep_did(tmp_path):
     floor = np.frombuffer(data, np.uint8).reshape(h, w, 3)[: h // 3].astype(int).mean(axis=2)  # rows bottom-up
     assert np.percentile(floor, 50) > 180  # the light floor
     assert (floor < 40).mean() > 0.05  # the black line
+
+
+@pytest.mark.parametrize("apply", [0, 1])
+def test_a_texture_meets_the_shapes_colour_as_vrep_applies_it(tmp_path, apply):
+    # V-REP's texture modes (rendering.cpp _startTextureDisplay): modulate (0) multiplies the
+    # texture with the shape's lit colour, decal (1) shows it as it is, unlit
+    diffuse = (0.6, 0.3, 0.2)
+    white = np.full((8, 8, 3), 255, np.uint8)
+    body = (W.texture(7, "white", white) +
+            W.light(1, -1, "Sun", 3, (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), pos=(0, 0, 2), quat=SUN_QUAT) +
+            W.camera_sensor(2, -1, "Top", (RES, RES), SIZE, pos=(0, 0, 1), quat=(0, 1, 0, 0)) +
+            W.cuboid_shape(3, -1, "Tile", (0.6, 0.6, 0.1), (0, 0, -0.05), dynamic=False,
+                           colour=W.colour_object(diffuse, (0.0, 0.0, 0.0)),
+                           texture=W.texture_link(7, 0, (0.6, 0.6), apply=apply)))
+    (tmp_path / "tile.ttt").write_bytes(W.ttt_file(body))
+    xml, report = convert(read(tmp_path / "tile.ttt"), tmp_path / "out")
+    sim = Simulation(xml, realtime=False)
+    try:
+        (w, h), data = sim.vision.image_bytes(sim.world.resolve("Top").handle, 0)
+    finally:
+        sim.close()
+    got = np.frombuffer(data, np.uint8).reshape(h, w, 3)[h // 2 - 2:h // 2 + 3, w // 2 - 2:w // 2 + 3].reshape(-1, 3)
+    want = fixed_function(diffuse, (0, 0, 0), 48, (0, 0, 0), (1, 1, 1), (0, 0, 0)) if apply == 0 else np.full(3, 255)
+    assert np.abs(got.astype(int) - want).max() <= 6, (got.min(0), got.max(0), want)

@@ -231,11 +231,12 @@ def texture(tid: int, name: str, rgb: np.ndarray) -> bytes:
     return rec("TEX", lst(rec("Ipa", i32(tid, w, h)), rec("Gon", string(name)), rec("Img", rgb.astype(np.uint8).tobytes())))
 
 
-def texture_link(tid: int, mode: int = 0, scale=(1.0, 1.0), frame=(1, 0, 0, 0, 0, 0, 0)) -> bytes:
+def texture_link(tid: int, mode: int = 0, scale=(1.0, 1.0), frame=(1, 0, 0, 0, 0, 0, 0), apply: int = 0) -> bytes:
     """A mesh's texture (``Toj``) without fixed coordinates: V-REP's mapping ``mode`` (0 planar,
-    3 cube), the texture's size ``scale`` (m) and its frame (qw qx qy qz x y z)."""
+    3 cube), the texture's size ``scale`` (m) and its frame (qw qx qy qz x y z); ``apply`` how it
+    meets the shape's colour (``Apm``: 0 modulate, 1 decal)."""
     return rec("Toj", lst(rec("Tob", struct.pack("<iiff", tid, mode, *scale)), rec("Trc", f32(*frame)),
-                          rec("Ftc", b""), rec("Apm", i32(0))))
+                          rec("Ftc", b""), rec("Apm", i32(apply))))
 
 
 def ik_group(name: str, elements, explicit: bool = False) -> bytes:
