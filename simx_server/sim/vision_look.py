@@ -65,7 +65,7 @@ def _of(model: mujoco.MjModel) -> tuple[bool, bool]:
     """(V-REP's look, some geom has no material) of ``model``, cached by the model (render thread)."""
     hit = _cache.get(id(model))
     if hit is None or hit[0] is not model:
-        if len(_cache) > 8:
+        if len(_cache) >= 2:  # the two render threads' models; older scenes are not kept alive
             _cache.clear()
         hit = _cache[id(model)] = (model, scene_look(model) == "vrep", bool((model.geom_matid < 0).any()))
     return hit[1], hit[2]
