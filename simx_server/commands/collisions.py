@@ -45,7 +45,7 @@ def _probe_handle(sim: Simulation, args: list, kind: str) -> int:
     (name,) = _args(args, "str")
     probe = probes(sim, kind).get(name[:-1] if name.endswith("#") else name)
     if probe is None:
-        raise UnknownObjectError(f"no {kind} object {name!r} in scene {sim.world.scene_path.name}; declare "
+        raise UnknownObjectError(f"no {kind} object {name!r} in scene {sim.world.scene_name}; declare "
                                  f"it as <text name=\"{PROBE_PREFIX[kind]}{name}\" "
                                  f"data=\"entity1=BODY entity2=BODY|all\"/> in <custom>")
     return probe.handle

@@ -106,6 +106,12 @@ def mjcf_for(path: str | Path, root: Path | None = None) -> Path:
         counts = {}
     for kind, n in sorted(counts.items()):
         log.info("%s: not carried over: %d x %s", path.name, n, kind)
+    try:
+        taken = json.loads((folder / "taken.json").read_text())
+    except (OSError, ValueError):
+        taken = []
+    if taken:
+        log.info("%s: taken from the file: %s", path.name, "; ".join(map(str, taken)))
     _origins[Path(os.path.realpath(xml))] = Path(os.path.realpath(path))
     _origins[Path(os.path.realpath(folder))] = Path(os.path.realpath(path.parent))
     return xml

@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt import geoms as G
+from simx_server.scene.ttt import settings
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_loop_closures, add_sensor
@@ -31,10 +32,12 @@ ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
 
 
 class Report:
-    """What did not carry over, by kind: ``{kind: count}``; :meth:`lines` one line per kind."""
+    """What did not carry over, by kind: ``{kind: count}``; :meth:`lines` one line per kind;
+    ``taken``: the file's simulation settings that were applied (:mod:`.settings`), one line each."""
 
     def __init__(self):
         self.counts: Counter[str] = Counter()
+        self.taken: list[str] = []  # the file's settings that were applied, one line each
 
     def add(self, kind: str, n: int = 1) -> None:
         self.counts[kind] += n
@@ -70,8 +73,7 @@ class Converter:
     # ---------------------------------------------------------------- entry
     def build(self) -> mujoco.MjSpec:
         s = self.scene
-        self.spec.option.timestep = min(0.002, s.time_step)
-        self.spec.option.gravity = s.gravity
+        settings.apply(self)  # time step, gravity, real-time mode (simx:scene:simulation)
         self.spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         self.spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
         self.spec.visual.headlight.ambient = s.ambient if s.ambient is not None else [0.2, 0.2, 0.2]
@@ -321,4 +323,5 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
     text = text.replace(f'texturedir="{out / "textures"}"', 'texturedir="textures"', 1)
     xml.write_text(text)
     (out / "report.json").write_text(json.dumps(dict(conv.report.counts), indent=1))
+    (out / "taken.json").write_text(json.dumps(conv.report.taken, indent=1))
     return xml, conv.report

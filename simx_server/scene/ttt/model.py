@@ -205,3 +205,4 @@ class TttScene:
     background: tuple[np.ndarray, np.ndarray] | None = None  # environment colours: up, down (RGB 0-1)
     ambient: np.ndarray | None = None  # ambient light (RGB 0-1)
     skipped: dict[str, int] = field(default_factory=dict)  # what was read but is not modelled: count
+    saved_settings: object | None = None  # settings.SavedSettings: the SIM/DYN records' settings

@@ -239,3 +239,25 @@ def ik_group(name: str, elements, explicit: bool = False) -> bytes:
     """An old IK group (``IKO``): ``elements`` of (tip dummy, base, V-REP's constraint bits)."""
     items = [rec("Ike", lst(rec("Ik2", i32(tip, base)), rec("Ctr", i32(ctr)))) for tip, base, ctr in elements]
     return rec("IKO", lst(rec("Nme", string(name)), rec("Va2", bytes([2 if explicit else 0])), *items))
+
+
+def simulation(time_step: float, preset: int = 5, real_time: bool | None = None, factor: float = 1.0,
+               double: bool = False) -> bytes:
+    """The simulation settings (``SIM``): the step as V-REP 3.x writes it (``Sts`` f32 and the
+    preset index ``Spi``, 5 = custom) or, with ``double``, as 4.5 does (``_t3`` f64 too);
+    real-time mode (``Ss2`` bit 0) and its multiplier (``Rtc``), left out when ``real_time`` is None."""
+    items = [rec("Sts", f32(time_step)), rec("Spi", i32(preset))]
+    if double:
+        items.append(rec("_t3", struct.pack("<d", time_step)))
+    if real_time is not None:
+        items += [rec("Ss2", bytes([1 if real_time else 0])), rec("Rtc", f32(factor))]
+    return rec("SIM", lst(*items))
+
+
+def dynamics(gravity=(0, 0, -9.81), engine: int = 0, step: float | None = None) -> bytes:
+    """The engine record (``En2``: engine, gravity, settings mode) and, with ``step``, the 4.5
+    physics step ``_tp``."""
+    items = [rec("En2", i32(engine) + f32(*gravity) + i32(4))]
+    if step is not None:
+        items.append(rec("_tp", struct.pack("<d", step)))
+    return rec("DYN", lst(*items))
