@@ -19,8 +19,9 @@ def lst(*records: bytes) -> bytes:
     return b"".join(records) + b"EOO"
 
 
-def string(text: str) -> bytes:
-    raw = text.encode()
+def string(text: str | bytes) -> bytes:
+    """An i32-length-prefixed string (text as UTF-8, bytes unchanged)."""
+    raw = text if isinstance(text, bytes) else text.encode()
     return struct.pack("<i", len(raw)) + raw
 
 
@@ -132,8 +133,9 @@ def light_encode(text: bytes) -> bytes:
 
 
 def script(handle: int, obj: int, text: str, kind: int = 1, threaded: bool = False,
-           parameters: tuple[tuple[str, str, str], ...] = ()) -> bytes:
-    """A script record (``LST``); ``parameters``: (name, unit, value) simulation parameters."""
+           parameters: tuple[tuple[str, str, str | bytes], ...] = ()) -> bytes:
+    """A script record (``LST``); ``parameters``: (name, unit, value) simulation parameters, a
+    value of bytes stored unchanged."""
     par = i32(len(parameters)) + b"".join(string(n) + string(u) + string(v) + i32(0) for n, u, v in parameters)
     return rec("LST", lst(rec("Si2", i32(handle, obj, kind)), rec("Va2", bytes([1 if threaded else 0])),
                           rec("Ste", light_encode(text.encode())), rec("Prm", lst(rec("Par", par)))))
