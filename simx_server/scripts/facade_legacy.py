@@ -1,6 +1,7 @@
 """V-REP 3.x script calls with no CoppeliaSim 4.x twin in the facade: script parameters, script
 attributes and execution counts (custom data blocks, boolean helpers, system time and
-``simExtRemoteApiStart``: :mod:`simx_server.scripts.facade_legacy_data`; Python scripts' thread
+``simExtRemoteApiStart``: :mod:`simx_server.scripts.facade_legacy_data`; collision and distance
+objects: :mod:`simx_server.scripts.legacy_measurements`; Python scripts' thread
 calls: :mod:`simx_server.scripts.facade_threads`).
 
 :class:`LegacyCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`; the 3.x global
@@ -18,6 +19,7 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError
 from simx_server.scripts import script_parameters
 from simx_server.scripts.legacy_names import CONSTANTS as LEGACY_CONSTANTS
+from simx_server.scripts.legacy_measurements import MeasurementCalls
 from simx_server.scripts.legacy_objects import LegacyObjectCalls
 from simx_server.scripts.legacy_tubes import TubeCalls
 from simx_server.scripts.legacy_wireless import WirelessCalls
@@ -46,7 +48,7 @@ def name_suffix(name: str) -> tuple[int, str]:
     return (int(tail), base) if sep and tail.isdigit() else (-1, name)
 
 
-class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls, LegacyDataCalls):
+class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls, LegacyDataCalls, MeasurementCalls):
     """V-REP 3.x calls of child and customization scripts (a mixin of ScriptSim)."""
 
     # ---------------------------------------------------------------- names of copies

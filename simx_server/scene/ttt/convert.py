@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt import geoms as G
-from simx_server.scene.ttt import settings
+from simx_server.scene.ttt import measurements, settings
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_loop_closures, add_sensor
@@ -98,6 +98,7 @@ class Converter:
         for kind, n in s.skipped.items():
             self.report.add(kind, n)
         add_collections(self)
+        measurements.add(self)  # COL/DST: named collision and distance objects
         if s.engine != 0:
             engine = ENGINES[s.engine] if 0 <= s.engine < len(ENGINES) else str(s.engine)
             self.report.add(f"{engine} engine settings (MuJoCo's used; friction taken from Bullet's)")

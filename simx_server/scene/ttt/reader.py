@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simx_server.scene.ttt import custom, settings, shapes
+from simx_server.scene.ttt import custom, measurements, settings, shapes
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.errors import SceneFileError
 from simx_server.scene.ttt.geometry import pose7
@@ -75,6 +75,10 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                 scene.scripts.append(_read_script(top.sub(tag, payload)))
             elif tag == "GRP":
                 scene.collections.append(_read_collection(top.sub(tag, payload)))
+            elif tag in ("COL", "DST"):
+                m = measurements.read(top.sub(tag, payload), "collision" if tag == "COL" else "distance")
+                if m is not None:
+                    scene.measurements.append(m)
             elif tag == "IKO":
                 scene.ik_groups.append(_read_ik_group(top.sub(tag, payload)))
             elif tag == "DYN":
@@ -240,7 +244,7 @@ def _read_collection(r: Records) -> Collection:
                     additive = bool(p[0])
             if handle is not None:
                 elements.append((handle, kind, additive))
-    return Collection(r.string("Grn") or r.string("Nme"), elements)
+    return Collection(r.string("Grn") or r.string("Nme"), elements, r.int("Gix", -1))
 
 
 def _read_ik_group(r: Records) -> IkGroup:

@@ -263,3 +263,19 @@ def dynamics(gravity=(0, 0, -9.81), engine: int = 0, step: float | None = None) 
     if step is not None:
         items.append(rec("_tp", struct.pack("<d", step)))
     return rec("DYN", lst(*items))
+
+
+def collision_object(name: str, entity1: int, entity2: int, handle: int = 1) -> bytes:
+    """A V-REP collision object (``COL``): entities are object or collection handles, entity2 -1
+    = all other objects."""
+    return rec("COL", lst(rec("Inx", i32(entity1, entity2, handle)), rec("Nme", string(name)),
+                          rec("Var", bytes([0]))))
+
+
+def distance_object(name: str, entity1: int, entity2: int, handle: int = 1, threshold: float | None = None) -> bytes:
+    """A V-REP distance object (``DST``), with ``threshold`` (m) enabled when given."""
+    var = rec("Var", bytes([1 if threshold is not None else 0]))
+    items = [rec("Inx", i32(entity1, entity2, handle)), rec("Nme", string(name)), var]
+    if threshold is not None:
+        items.append(rec("_rh", struct.pack("<d", threshold)))
+    return rec("DST", lst(*items))
