@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt import geoms as G
-from simx_server.scene.ttt import measurements, settings
+from simx_server.scene.ttt import inertia, measurements, settings
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_loop_closures, add_sensor
@@ -69,6 +69,7 @@ class Converter:
         self.world_pose: dict[int, Pose] = {}     # handle -> world pose in the file
         self.moved: set[int] = set()              # dynamic shapes hung from the world (free)
         self.deferred_equalities: list[tuple[str, str, float, float]] = []  # dependent joints
+        self.repaired_inertias: list[str] = []    # shapes whose moments broke A + B >= C
 
     # ---------------------------------------------------------------- entry
     def build(self) -> mujoco.MjSpec:
@@ -99,6 +100,7 @@ class Converter:
             self.report.add(kind, n)
         add_collections(self)
         measurements.add(self)  # COL/DST: named collision and distance objects
+        inertia.report(self)  # shapes whose inertias MuJoCo would refuse, repaired
         if s.engine != 0:
             engine = ENGINES[s.engine] if 0 <= s.engine < len(ENGINES) else str(s.engine)
             self.report.add(f"{engine} engine settings (MuJoCo's used; friction taken from Bullet's)")
@@ -185,7 +187,7 @@ class Converter:
                 _tiny_inertial(b)  # a kinematic part: no mass of its own in V-REP
             else:
                 b.mass = d.mass
-                b.inertia = np.maximum(d.inertia, 1e-9)
+                b.inertia = inertia.repaired(self, obj.name, d.inertia)
                 b.ipos, b.iquat = d.inertia_frame.pos, d.inertia_frame.quat
             b.explicitinertial = True
         if joint is not None:
@@ -251,7 +253,7 @@ class Converter:
                 self.bodies[child.handle] = b
                 self.model_of[child.handle] = model
                 if not d.static:
-                    b.mass, b.inertia = d.mass, np.maximum(d.inertia, 1e-9)
+                    b.mass, b.inertia = d.mass, inertia.repaired(self, child.name, d.inertia)
                     b.ipos, b.iquat = d.inertia_frame.pos, d.inertia_frame.quat
                     b.explicitinertial = True
                 contype, conaffinity = G.collision_bits(d)

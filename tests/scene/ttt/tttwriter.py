@@ -79,14 +79,16 @@ def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: byte
 
 
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
-                 dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"") -> bytes:
-    """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`."""
+                 dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"",
+                 moments=(0.01, 0.01, 0.01)) -> bytes:
+    """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`;
+    ``moments``: its principal moments of inertia as V-REP stores them (divided by the mass)."""
     hx, hy, hz = (s / 2 for s in size)
     v = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], "<f4")
     faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
                       [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], "<i4")
     info = lst(rec("Nme", string(name)), rec("Mas", f32(mass)),
-               rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, 0.01, 0.01, 0.01)))
+               rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, *moments)))
     mesh = lst(rec("Cl0", lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))),
                rec("Ver", v.tobytes()), rec("Ind", faces.tobytes()),
                rec("Ppr", struct.pack("<ifff", 3, *size)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)), texture)
