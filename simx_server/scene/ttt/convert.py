@@ -33,11 +33,13 @@ ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
 
 class Report:
     """What did not carry over, by kind: ``{kind: count}``; :meth:`lines` one line per kind;
-    ``taken``: the file's simulation settings that were applied (:mod:`.settings`), one line each."""
+    ``taken``: the file's simulation settings that were applied (:mod:`.settings`), ``repaired``:
+    what was changed so that MuJoCo accepts it (:mod:`.inertia`), one line each."""
 
     def __init__(self):
         self.counts: Counter[str] = Counter()
         self.taken: list[str] = []  # the file's settings that were applied, one line each
+        self.repaired: list[str] = []  # what was changed so that MuJoCo accepts it, one line each
 
     def add(self, kind: str, n: int = 1) -> None:
         self.counts[kind] += n
@@ -326,5 +328,6 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
     text = text.replace(f'texturedir="{out / "textures"}"', 'texturedir="textures"', 1)
     xml.write_text(text)
     (out / "report.json").write_text(json.dumps(dict(conv.report.counts), indent=1))
-    (out / "taken.json").write_text(json.dumps(conv.report.taken, indent=1))
+    (out / "notes.json").write_text(json.dumps({"taken": conv.report.taken, "repaired": conv.report.repaired},
+                                               indent=1))
     return xml, conv.report

@@ -36,9 +36,9 @@ def repaired(conv, name: str, moments: np.ndarray) -> np.ndarray:
 
 
 def report(conv) -> None:
-    """One report line naming the shapes whose inertias were repaired (none: nothing)."""
+    """One ``repaired`` line of the report naming the shapes whose inertias were repaired."""
     names = conv.repaired_inertias
     if names:
         shown = ", ".join(names[:_MAX_NAMED]) + (", ..." if len(names) > _MAX_NAMED else "")
-        conv.report.add(f"shape inertias that break A + B >= C, set to the nearest valid ones: {shown}",
-                        len(names))
+        conv.report.repaired.append(f"{len(names)} x shape inertias that break A + B >= C, set to the nearest "
+                                    f"valid ones: {shown}")

@@ -27,7 +27,8 @@ def test_the_nearest_valid_moments_and_the_shape_named(tmp_path):
     f = tmp_path / "rod.ttt"
     f.write_bytes(_scene())
     xml, report = convert.convert(reader.read(f), tmp_path / "out", "scene")
-    assert report.lines() == ["1 x shape inertias that break A + B >= C, set to the nearest valid ones: Rod"]
+    assert report.repaired == ["1 x shape inertias that break A + B >= C, set to the nearest valid ones: Rod"]
+    assert report.lines() == []  # repaired, not lost
     import mujoco
 
     m = mujoco.MjModel.from_xml_path(str(xml))
@@ -52,5 +53,5 @@ def test_the_server_loads_it_and_says_so(tmp_path, monkeypatch, caplog):
         assert np.all(np.isfinite(sim.world.data.qpos))
     finally:
         sim.close()
-    assert "rod.ttt: not carried over: 1 x shape inertias that break A + B >= C, set to the nearest valid " \
+    assert "rod.ttt: repaired: 1 x shape inertias that break A + B >= C, set to the nearest valid " \
            "ones: Rod" in caplog.text
