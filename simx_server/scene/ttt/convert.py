@@ -326,6 +326,8 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
     xml = out / f"{stem or conv.spec.modelname}.xml"
     text = spec.to_xml().replace(f'meshdir="{out / "meshes"}"', 'meshdir="meshes"', 1)
     text = text.replace(f'texturedir="{out / "textures"}"', 'texturedir="textures"', 1)
+    if "balanceinertia" not in text:  # MjSpec.to_xml leaves the compiler flag out
+        text = text.replace("<compiler ", '<compiler balanceinertia="true" ', 1)
     xml.write_text(text)
     (out / "report.json").write_text(json.dumps(dict(conv.report.counts), indent=1))
     (out / "notes.json").write_text(json.dumps({"taken": conv.report.taken, "repaired": conv.report.repaired},

@@ -5,9 +5,10 @@ CoppeliaSim 4.5 rev2: :mod:`simx_server.scene.ttt.shapes`) and simulates them as
 refuses moments that break the triangle inequality (``A + B >= C`` for each ordering: "inertia
 must satisfy A + B >= C; use 'balanceinertia'"). Such moments become the nearest valid ones: the
 excess ``C - A - B`` is moved in equal thirds off the largest moment onto the two others (the
-Euclidean projection onto ``A + B = C``, which keeps their sum, the trace), and each repaired
-shape is named in the load report. MuJoCo's own ``balanceinertia`` (all three set to their mean)
-stays on as the compiler's last resort.
+Euclidean projection onto ``A + B = C``, which keeps their sum, the trace; with a margin of
+MARGIN so that the MJCF's rounding keeps it valid), and each repaired shape is named in the load
+report. MuJoCo's own ``balanceinertia`` (all three set to their mean) stays on in the written
+MJCF as the compiler's last resort.
 """
 
 from __future__ import annotations
@@ -15,6 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 _FLOOR = 1e-9  # kg·m², the smallest moment a moving body gets
+#: Relative margin kept above ``A + B = C``: the MJCF keeps 6 significant digits, and moments on
+#: the boundary (a flat plate's) must not break it once rounded.
+MARGIN = 1e-4
 _MAX_NAMED = 20  # shapes named in the report line; the count covers all
 
 
@@ -25,13 +29,15 @@ def repaired(conv, name: str, moments: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(m)):
         return m
     big = int(np.argmax(m))
-    excess = m[big] - (m.sum() - m[big])
-    if excess <= 0:
+    others = m.sum() - m[big]
+    if others >= m[big] * (1 + MARGIN):
         return m
-    t = excess / 3.0 * (1 + 1e-9)  # a hair more, so that rounding leaves it valid
+    # (A + t) + (B + t) = (C - t)(1 + MARGIN): the excess off C, in thirds, onto A and B
+    t = (m[big] * (1 + MARGIN) - others) / (3 + MARGIN)
     out = m + t
     out[big] = m[big] - t
-    conv.repaired_inertias.append(name)
+    if others < m[big]:  # broken in the file (not only at the rounding's edge): said
+        conv.repaired_inertias.append(name)
     return out
 
 
