@@ -332,7 +332,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.stopped:
         sim.start()
     print(f"simx-server ready: scene {scene.name}, {len(sim.world.objects)} objects, "
-          f"{saved_settings_text(sim, args)}, listening on {', '.join(endpoints)}{zmq_line}", flush=True)
+          f"{sim.pacing_text(args.dt, args.speed)}, listening on {', '.join(endpoints)}{zmq_line}", flush=True)
     try:
         server.serve()
     finally:
@@ -340,17 +340,6 @@ def main(argv: list[str] | None = None) -> int:
         server.close()
         logging.getLogger("simx.server").info("stopped")
     return 0
-
-
-def saved_settings_text(sim, args: argparse.Namespace) -> str:
-    """The ready line's part about the step and the pacing: ``dt 0.01 s (the scene's)``, and
-    ``real time x2 (the scene's)`` / ``as fast as possible (the scene's)`` where the scene's saved
-    real-time mode applies (no ``--speed``); what ``--dt`` / ``--speed`` gave is said plainly."""
-    saved = sim.world.scene_settings
-    text = f"dt {sim.world.dt:g} s" + (" (the scene's)" if args.dt is None and saved.dt is not None else "")
-    if args.speed is None and saved.speed is not None:
-        text += ", " + (f"real time x{saved.speed:g}" if saved.speed > 0 else "as fast as possible") + " (the scene's)"
-    return text
 
 
 def _attach_zmq(server, args: argparse.Namespace) -> str | None:

@@ -91,6 +91,17 @@ class Simulation:
         saved = self.world.scene_settings.speed
         return 1.0 if saved is None else saved
 
+    def pacing_text(self, dt: float | None, speed: float | None) -> str:
+        """The ready line's part about the step and the pacing, given ``--dt`` / ``--speed``
+        (None: not given): ``dt 0.01 s (the scene's)``, and ``real time x2 (the scene's)`` or
+        ``as fast as possible (the scene's)`` where the scene's saved real-time mode applies."""
+        saved = self.world.scene_settings
+        text = f"dt {self.world.dt:g} s" + (" (the scene's)" if dt is None and saved.dt is not None else "")
+        if speed is None and saved.speed is not None:
+            text += ", " + (f"real time x{saved.speed:g}" if saved.speed > 0 else "as fast as possible")
+            text += " (the scene's)"
+        return text
+
     @property
     def scene_id(self) -> int:
         """Identifies the loaded scene (simx_headeroffset_scene_id): 16 bits of its path's hash."""
