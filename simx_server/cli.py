@@ -154,9 +154,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="serve the ZMQ remote API without authentication beside --zenoh-config (off otherwise)")
     p.add_argument("--zenoh-config", metavar="FILE",
                    help="Zenoh config file (endpoints, TLS, authentication); multicast scouting stays off")
-    p.add_argument("--dt", type=float, default=0.05, help="simulation step in s (default 0.05)")
-    p.add_argument("--speed", type=float, default=1.0,
-                   help="real-time factor in asynchronous mode; 0 = as fast as possible (default 1)")
+    p.add_argument("--dt", type=float, default=None,
+                   help="simulation step in s (default: the scene's saved step, a .ttt's own; else 0.05)")
+    p.add_argument("--speed", type=float, default=None,
+                   help="real-time factor in asynchronous mode; 0 = as fast as possible (default: the scene's "
+                        "saved real-time mode, a .ttt's own: its multiplier, or 0 when off; else 1)")
     p.add_argument("--stopped", action="store_true", help="start with the simulation stopped")
     p.add_argument("--pacing", choices=["legacy", "immediate"], default="legacy",
                    help="blocking calls while the simulation runs asynchronously: 'legacy' (default) serves "
@@ -246,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
         from simx_server.scene.listing import main as list_objects
 
         try:
-            return list_objects(args.scene or default_scene(), as_json=args.json, dt=args.dt)
+            return list_objects(args.scene or default_scene(), as_json=args.json, dt=args.dt)  # None: the scene's
         except BrokenPipeError:  # `simx-server --list-objects | head`: the reader has enough
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit's flush
             return 0
@@ -295,14 +297,15 @@ def main(argv: list[str] | None = None) -> int:
         print(taken, file=sys.stderr)
         return 2
     try:
-        sim = Simulation(scene, dt=args.dt, realtime=args.speed > 0, allow_remote_code=args.allow_remote_code,
-                         allow_unsafe_lua=args.allow_unsafe_lua, scene_paths=args.scene_path,
-                         renderers_at_load=args.renderers == "at-load")
+        sim = Simulation(scene, dt=args.dt, realtime=None if args.speed is None else args.speed > 0,
+                         allow_remote_code=args.allow_remote_code, allow_unsafe_lua=args.allow_unsafe_lua,
+                         scene_paths=args.scene_path, renderers_at_load=args.renderers == "at-load")
     except (ValueError, OSError) as exc:
         print(f"simx-server: {exc}", file=sys.stderr)
         return 2
+    speed = sim.speed(args.speed)
     try:
-        server = Server(sim, config, speed=args.speed, prefix=args.prefix, client_expiry=args.client_expiry,
+        server = Server(sim, config, speed=speed, prefix=args.prefix, client_expiry=args.client_expiry,
                         pacing=args.pacing)
         server.open()
         server.attach(ScriptHooks(sim, config))  # simExtRemoteApiStart(port) in the scene's scripts
@@ -329,7 +332,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.stopped:
         sim.start()
     print(f"simx-server ready: scene {scene.name}, {len(sim.world.objects)} objects, "
-          f"dt {sim.world.dt:g} s, listening on {', '.join(endpoints)}{zmq_line}", flush=True)
+          f"{sim.pacing_text(args.dt, args.speed)}, listening on {', '.join(endpoints)}{zmq_line}", flush=True)
     try:
         server.serve()
     finally:
@@ -388,7 +391,10 @@ def _child_args(args: argparse.Namespace) -> list[str]:
     out = [args.scene] if args.scene else []
     if args.zenoh_config:
         out += ["--zenoh-config", args.zenoh_config]
-    out += ["--dt", repr(args.dt), "--speed", repr(args.speed), "--pacing", args.pacing,
+    for flag, value in (("--dt", args.dt), ("--speed", args.speed)):
+        if value is not None:  # else each server takes the scene's own
+            out += [flag, repr(value)]
+    out += ["--pacing", args.pacing,
             "--prefix", args.prefix, "--log-level", args.log_level, "--log-interval", repr(args.log_interval),
             "--client-expiry", repr(args.client_expiry), "--renderers", args.renderers]
     for folder in args.scene_path:

@@ -7,10 +7,10 @@ from __future__ import annotations
 from typing import Any, Callable
 
 from simx_wire import constants as C
-from simx_wire.protocol import ArgumentError, UnknownObjectError
+from simx_wire.protocol import ArgumentError
 from simx_server.base.arguments import check_args as _args
 from simx_server.scene.simulation import Simulation
-from simx_server.sim.collisions import PROBE_PREFIX, collision, distance, probes
+from simx_server.sim.collisions import collision, distance, probe_entities, probe_named
 
 
 def _entity_args(sim: Simulation, args: list) -> tuple[int, int]:
@@ -43,28 +43,12 @@ def check_distance(sim: Simulation, args: list) -> float:
 
 def _probe_handle(sim: Simulation, args: list, kind: str) -> int:
     (name,) = _args(args, "str")
-    probe = probes(sim, kind).get(name[:-1] if name.endswith("#") else name)
-    if probe is None:
-        raise UnknownObjectError(f"no {kind} object {name!r} in scene {sim.world.scene_path.name}; declare "
-                                 f"it as <text name=\"{PROBE_PREFIX[kind]}{name}\" "
-                                 f"data=\"entity1=BODY entity2=BODY|all\"/> in <custom>")
-    return probe.handle
+    return probe_named(sim, kind, name).handle
 
 
 def _probe_entities(sim: Simulation, args: list, kind: str) -> tuple[int, int]:
     (h,) = _args(args, "int")
-    probe = next((p for p in probes(sim, kind).values() if p.handle == h), None)
-    if probe is None:
-        raise UnknownObjectError(f"no {kind} object with handle {h}")
-    if probe.error:
-        raise ArgumentError(probe.error)
-    world = sim.world
-    try:
-        e1 = world.resolve(probe.entity1).handle
-        e2 = C.sim_handle_all if probe.entity2 is None else world.resolve(probe.entity2).handle
-    except UnknownObjectError as exc:
-        raise UnknownObjectError(f"{kind} object {probe.name!r}: {exc}") from None
-    return e1, e2
+    return probe_entities(sim, kind, h)
 
 
 def get_collision_handle(sim: Simulation, args: list) -> int:

@@ -14,7 +14,7 @@ def hello(sim: Simulation, args: list) -> dict:
     """Handshake: the scene and protocol the server runs."""
     return {
         "protocol": PROTOCOL_VERSION,
-        "scene": sim.world.scene_path.name,
+        "scene": sim.world.scene_name,
         "objects": len(sim.world.objects),
         "dt": sim.world.dt,
     }

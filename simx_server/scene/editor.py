@@ -55,6 +55,7 @@ from simx_server.base.arguments import quote
 from simx_server.scene import custom_data
 from simx_server.scene.client_files import ClientFiles
 from simx_server.scene.edits import ObjectEdits
+from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts.scene_scripts import Scripts
 from simx_server.sim import motors
 from simx_server.sim.spec_tools import (
@@ -170,7 +171,7 @@ class Editor(ObjectEdits):
                     spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
                     baseline = _poses(world.model) if fresh else _poses(spec.compile())
             except ValueError as exc:
-                raise UnsupportedError(f"scene {world.scene_path.name} cannot be edited: "
+                raise UnsupportedError(f"scene {world.scene_name} cannot be edited: "
                                        f"{_one_line(exc)}") from None
             self._spec, self._spec_world, self._baseline = spec, world, baseline
         return self._spec
@@ -305,12 +306,13 @@ class Editor(ObjectEdits):
         """Load ``file`` as the scene; ``spec`` is its parse when the caller has it already
         (a client's scene, measured): MuJoCo's parse is most of a load's time."""
         sim = self.sim
-        dt = sim.world.requested_dt
+        dt = getattr(sim, "dt_override", sim.world.requested_dt)  # None: the new scene's saved step, as V-REP loads a scene's settings
         old = sim.scripts
         # A scene in a transfer folder (any server's) brings no code, unless --allow-remote-code.
         untrusted = guard.transfer_folders(self.files_dir, *([file.parent] if guard.is_transferred(file) else []))
         try:
-            world = World(file, dt, bounded=spec is not None)  # a client's scene: arena and step work bounded
+            name = ttt_cache.origin(file).name if file.name != ttt_cache.origin(file).name else None
+            world = World(file, dt, bounded=spec is not None, name=name)  # a client's scene: bounded
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
                               allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted, simulation=sim)
             blocks = custom_data.load(world)

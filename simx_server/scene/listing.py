@@ -66,10 +66,11 @@ def _vision_sensor(world: W.World, obj: W.SceneObject) -> dict[str, Any]:
             "near": spec.near, "far": spec.far, "view_angle": _perspective(world.model, spec)}
 
 
-def describe(scene: str | Path, dt: float = 0.05) -> dict[str, Any]:
+def describe(scene: str | Path, dt: float | None = None, name: str | None = None) -> dict[str, Any]:
     """The scene's V-REP objects, in tree order, as plain data.
 
-    Returns ``{"scene": file name, "objects": [...]}``; each object is a dict with ``handle``,
+    ``dt``: the step (None: the scene's saved one); ``name``: the file the user gave when
+    ``scene`` is its conversion (a .ttt's MJCF). Returns ``{"scene": file name, "objects": [...]}``; each object is a dict with ``handle``,
     ``name``, ``type`` (``sim_object_*_type``), ``type_name``, ``parent`` (handle, -1 the
     world), ``depth`` (0 for children of the world), ``mjcf_name`` where the V-REP name is
     not the MJCF name (:mod:`simx_server.sim.naming`: ``head#0``) and the settings of its type (see the
@@ -81,7 +82,7 @@ def describe(scene: str | Path, dt: float = 0.05) -> dict[str, Any]:
     """
     from simx_server.scripts.scene_scripts import Scripts  # the scene's scripts, read and compiled, not run
 
-    world = W.World(scene, dt)
+    world = W.World(scene, dt, name=name)
     scripts = Scripts(world, untrusted=transfer_folders())
     m = world.model
     renamed = {r.name: r for r in naming.vrep_names(m)[1]}
@@ -116,7 +117,7 @@ def describe(scene: str | Path, dt: float = 0.05) -> dict[str, Any]:
             if script.load_error:
                 entry["child_script"]["error"] = script.load_error
         objects.append(entry)
-    return {"scene": world.scene_path.name, "objects": objects}
+    return {"scene": world.scene_name, "objects": objects}
 
 
 def _tree_order(world: W.World) -> list[W.SceneObject]:
@@ -179,7 +180,7 @@ def format_tree(described: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def main(scene: str | Path, as_json: bool = False, dt: float = 0.05) -> int:
+def main(scene: str | Path, as_json: bool = False, dt: float | None = None) -> int:
     """Print the listing of ``scene`` to stdout; 0, or 2 with one line on stderr when the scene
     is missing or cannot be loaded."""
     path = Path(scene)
@@ -187,9 +188,11 @@ def main(scene: str | Path, as_json: bool = False, dt: float = 0.05) -> int:
         print(f"simx-server: --list-objects: no scene file {str(path)!r}", file=sys.stderr)
         return 2
     try:
+        name = None
         if ttt_cache.is_vrep_file(path):  # a V-REP .ttt/.ttm: its (cached) MJCF conversion
+            name = path.name  # the listing names the user's file, not the cache's
             path = ttt_cache.mjcf_for(path)
-        described = describe(path, dt)
+        described = describe(path, dt, name)
     except (ValueError, OSError) as exc:
         text = " ".join(str(exc).split())  # MuJoCo's messages span lines
         print(f"simx-server: --list-objects: {text}", file=sys.stderr)

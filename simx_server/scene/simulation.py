@@ -32,8 +32,9 @@ class Simulation:
 
     Args:
         scene: MJCF file.
-        dt: simulation step in s.
-        realtime: whether asynchronous mode paces steps to wall time (the server's --speed > 0).
+        dt: simulation step in s; None: the scene's saved step (a .ttt's), else 0.05 (``--dt``).
+        realtime: whether asynchronous mode paces steps to wall time (the server's --speed > 0);
+            None: the scene's saved real-time mode, else True.
         allow_remote_code: let child scripts run code sent by clients (--allow-remote-code).
         allow_unsafe_lua: give Lua child scripts files, processes and the environment (--allow-unsafe-lua).
         scene_paths: folders server-side scenes and models may be loaded from, besides the
@@ -45,12 +46,16 @@ class Simulation:
         ValueError: the scene or one of its scripts cannot be loaded.
     """
 
-    def __init__(self, scene: str | Path, dt: float = 0.05, realtime: bool = True,
+    def __init__(self, scene: str | Path, dt: float | None = None, realtime: bool | None = None,
                  allow_remote_code: bool = False, allow_unsafe_lua: bool = False, scene_paths=(),
                  renderers_at_load: bool = True):
+        name = None
         if ttt_cache.is_vrep_file(scene):  # a V-REP .ttt/.ttm: its (cached) MJCF conversion
+            name = Path(scene).name  # messages name the user's file, not the cache's
             scene = ttt_cache.mjcf_for(scene)
-        self.world = World(scene, dt)
+        #: The step the server was told (``--dt``), None: each scene's own (its saved step).
+        self.dt_override = dt
+        self.world = World(scene, dt, name=name)
         scene_collections.of(self.world)  # the scene's collections: a wrong declaration is logged now
         self.vision = VisionSensors(self.world, at_load=renderers_at_load)
         self.signals = Signals()  # shared by every client and child script
@@ -60,7 +65,7 @@ class Simulation:
         self.sensors = SensorState()
         self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
         self.state = RunState.STOPPED
-        self.realtime = realtime
+        self.realtime = realtime if realtime is not None else self.speed() > 0
         #: Stepped mode: some client enabled it, so a step runs only when every such client
         #: has triggered (:meth:`enable_sync`, :meth:`trigger`). Read it, never set it.
         self.synchronous = False
@@ -77,6 +82,25 @@ class Simulation:
         self.custom_data: dict[int, dict[str, bytes]] = {}
         custom_data.install(self, custom_data.load(self.world))
         self.scripts.open()  # customization scripts run from the scene's load
+
+    def speed(self, given: float | None = None) -> float:
+        """The asynchronous real-time factor: ``given`` (``--speed``) when not None, else the
+        scene's saved real-time mode (its multiplier, 0 when off: as fast as possible), else 1."""
+        if given is not None:
+            return given
+        saved = self.world.scene_settings.speed
+        return 1.0 if saved is None else saved
+
+    def pacing_text(self, dt: float | None, speed: float | None) -> str:
+        """The ready line's part about the step and the pacing, given ``--dt`` / ``--speed``
+        (None: not given): ``dt 0.01 s (the scene's)``, and ``real time x2 (the scene's)`` or
+        ``as fast as possible (the scene's)`` where the scene's saved real-time mode applies."""
+        saved = self.world.scene_settings
+        text = f"dt {self.world.dt:g} s" + (" (the scene's)" if dt is None and saved.dt is not None else "")
+        if speed is None and saved.speed is not None:
+            text += ", " + (f"real time x{saved.speed:g}" if saved.speed > 0 else "as fast as possible")
+            text += " (the scene's)"
+        return text
 
     @property
     def scene_id(self) -> int:

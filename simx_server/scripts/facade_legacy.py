@@ -1,6 +1,7 @@
 """V-REP 3.x script calls with no CoppeliaSim 4.x twin in the facade: script parameters, script
 attributes and execution counts (custom data blocks, boolean helpers, system time and
-``simExtRemoteApiStart``: :mod:`simx_server.scripts.facade_legacy_data`; Python scripts' thread
+``simExtRemoteApiStart``: :mod:`simx_server.scripts.facade_legacy_data`; collision and distance
+objects: :mod:`simx_server.scripts.legacy_measurements`; Python scripts' thread
 calls: :mod:`simx_server.scripts.facade_threads`).
 
 :class:`LegacyCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`; the 3.x global
@@ -16,7 +17,9 @@ from typing import Any
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError
+from simx_server.scripts import script_parameters
 from simx_server.scripts.legacy_names import CONSTANTS as LEGACY_CONSTANTS
+from simx_server.scripts.legacy_measurements import MeasurementCalls
 from simx_server.scripts.legacy_objects import LegacyObjectCalls
 from simx_server.scripts.legacy_tubes import TubeCalls
 from simx_server.scripts.legacy_wireless import WirelessCalls
@@ -45,7 +48,7 @@ def name_suffix(name: str) -> tuple[int, str]:
     return (int(tail), base) if sep and tail.isdigit() else (-1, name)
 
 
-class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls, LegacyDataCalls):
+class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls, LegacyDataCalls, MeasurementCalls):
     """V-REP 3.x calls of child and customization scripts (a mixin of ScriptSim)."""
 
     # ---------------------------------------------------------------- names of copies
@@ -128,10 +131,12 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
 
     def getScriptSimulationParameter(self, scriptHandle: Any, parameterName: Any,  # noqa: N802, N803
                                      forceStringReturn: Any = False) -> Any:
-        """3.x script simulation parameters (the scene's ``script_parameters=FILE.json``): the
-        value of ``parameterName`` as a number when it reads as one (else a string; a string
-        always with ``forceStringReturn``), nil when the script has no such parameter.
-        ``sim.handle_all`` as the script: a table of the values of every script that has it.
+        """3.x script simulation parameters (the scene's ``script_parameters=FILE.json``), typed as
+        V-REP pushes them (``_simGetScriptSimulationParameter`` and ``pushCorrectTypeOntoLuaStack_old``,
+        :mod:`simx_server.scripts.script_parameters`): nil, a boolean, a number, or the string
+        (bytes unchanged); the string always with ``forceStringReturn``; nil when the script has
+        no such parameter. ``sim.handle_all`` as the script: a table of the values of every
+        script that has it (V-REP 3.x).
 
         Args:
             scriptHandle: the script's object handle, ``sim.handle_self`` or ``sim.handle_all``.
@@ -139,8 +144,8 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
             forceStringReturn: answer the value as a string.
 
         Returns:
-            The value (int, float or str), None when the script has no such parameter; with
-            ``sim.handle_all``, the list of the values found.
+            The value (None, bool, int, float, str, or bytes for binary data), None when the
+            script has no such parameter; with ``sim.handle_all``, the list of the values found.
 
         Raises:
             ArgumentError: a bad argument, or an object that has no script.
@@ -151,34 +156,48 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
             me = getattr(self, "_script", None)
             manager = me.shared.get("manager") if me is not None else None
             scripts = list(manager.scripts.values()) if manager is not None else [me]
-            return [v for s in scripts if (v := _parameter(s, name, bool(forceStringReturn))) is not None]
-        return _parameter(self._own(h, "scriptHandle"), name, bool(forceStringReturn))
+            found = [_parameter(s, name, bool(forceStringReturn)) for s in scripts]
+            return [v for ok, v in found if ok]
+        return _parameter(self._own(h, "scriptHandle"), name, bool(forceStringReturn))[1]
 
     def setScriptSimulationParameter(self, scriptHandle: Any, parameterName: Any,  # noqa: N802, N803
                                      parameterValue: Any) -> int:  # noqa: N803
-        """Set (or add) a script simulation parameter of the script; returns 1.
+        """Set (or add) a script simulation parameter; the value is kept as its bytes (a number
+        as its text), read back typed by :meth:`getScriptSimulationParameter`.
 
-        ``simSetScriptSimulationParameter``.
+        ``simSetScriptSimulationParameter`` (CoppeliaSim's ``_simSetScriptSimulationParameter``):
+        ``sim.handle_tree`` sets it in the child scripts of every object below this script's,
+        ``sim.handle_chain`` in those above it (``getScriptTree_old`` / ``getScriptChain_old``,
+        the calling script left out).
 
         Args:
-            scriptHandle: the script's object handle, or ``sim.handle_self``.
+            scriptHandle: the script's object handle, ``sim.handle_self``, ``sim.handle_tree``
+                or ``sim.handle_chain``.
             parameterName: the parameter's name.
-            parameterValue: the new value (bytes are decoded as UTF-8).
+            parameterValue: the new value (string, bytes or number).
 
         Returns:
-            1.
+            1 for one script; with tree or chain, the number of scripts set.
 
         Raises:
             ArgumentError: a bad argument, or an object that has no script.
         """
-        script = self._own(scriptHandle, "scriptHandle")
         name = _text(parameterName, "parameterName")
-        value = parameterValue.decode("utf-8", "replace") if isinstance(parameterValue, bytes) else parameterValue
-        for p in script.parameters:
-            if p.get("name") == name:
-                p["value"] = value
-                return 1
-        script.parameters.append({"name": name, "value": value, "unit": ""})
+        h = _int(scriptHandle, "scriptHandle")
+        if parameterValue is None or isinstance(parameterValue, (dict, list, tuple)):
+            raise ArgumentError(f"parameterValue must be a string or a number, got {type(parameterValue).__name__}")
+        value = script_parameters.as_bytes(parameterValue)
+        if h in (C.sim_handle_tree, C.sim_handle_chain):
+            me = getattr(self, "_script", None)
+            manager = me.shared.get("manager") if me is not None else None
+            if me is None or manager is None:
+                raise ArgumentError("scriptHandle: sim.handle_tree and sim.handle_chain need a calling script")
+            pick = script_parameters.tree if h == C.sim_handle_tree else script_parameters.chain
+            targets = [manager.scripts[o] for o in pick(self._world, me.owner) if o in manager.scripts]
+            for script in targets:
+                _store(script, name, value)
+            return len(targets)
+        _store(self._own(h, "scriptHandle"), name, value)
         return 1
 
     def getScriptExecutionCount(self) -> int:  # noqa: N802
@@ -340,19 +359,20 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
         return self.getInt32Param(parameter)
 
 
-def _parameter(script: Any, name: str, as_string: bool) -> Any:
+def _parameter(script: Any, name: str, as_string: bool) -> tuple[bool, Any]:
+    """``(found, value)`` of ``script``'s parameter ``name``, typed (or as a string)."""
     for p in getattr(script, "parameters", ()):
         if p.get("name") == name:
             value = p.get("value")
             if as_string:
-                return "" if value is None else str(value)
-            if isinstance(value, (int, float)) and not isinstance(value, bool):
-                return value
-            text = str(value).strip()
-            for cast in (int, float):
-                try:
-                    return cast(text)
-                except ValueError:
-                    pass
-            return text
-    return None
+                return True, script_parameters.as_string("" if value is None else value)
+            return True, script_parameters.typed("" if value is None else value)
+    return False, None
+
+
+def _store(script: Any, name: str, value: bytes) -> None:
+    for p in script.parameters:
+        if p.get("name") == name:
+            p["value"] = value
+            return
+    script.parameters.append({"name": name, "value": value, "unit": ""})

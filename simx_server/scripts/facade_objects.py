@@ -124,7 +124,7 @@ class ObjectCalls:
         if opts.get("noError"):
             return -1
         which = f" with index {index}" if index >= 0 else ""
-        raise UnknownObjectError(f"object {quote(p)}{which} does not exist in scene {self._world.scene_path.name}")
+        raise UnknownObjectError(f"object {quote(p)}{which} does not exist in scene {self._world.scene_name}")
 
     def _path_base(self) -> int | None:
         """The object relative paths start from (``.``): the script's."""

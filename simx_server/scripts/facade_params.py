@@ -185,7 +185,7 @@ class ParamCalls:
         pid = _int(parameter, "parameter")
         sim = self._simulation("getStringParam")
         if pid == 15:
-            return sim.world.scene_path.name
+            return sim.world.scene_name
         if pid == 0:
             return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
         return self._legacy_param(_STRING, pid)

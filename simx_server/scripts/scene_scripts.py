@@ -7,7 +7,6 @@
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 from pathlib import Path
@@ -16,6 +15,7 @@ from typing import Any, Iterable
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ScriptError, UnknownObjectError
 from simx_server.base import limits as L
+from simx_server.scripts import script_parameters
 from simx_server.scripts.child import DEFAULT_TIMEOUT, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, PythonScript
 from simx_server.scripts.dynamics import DynamicsCallbacks
 from simx_server.scripts.signals import Signals
@@ -257,26 +257,10 @@ def script_options(world: World, obj: Any, timeout: float) -> dict:
 
 
 def read_parameters(world: World, name: str, file: str | None) -> list[dict]:
-    """The script simulation parameters of ``file`` (JSON: a list of ``{"name", "value", "unit"}``
-    next to the scene); [] without a file. ValueError for a file outside the scene's folder,
-    missing, too large or not such a list."""
-    if not file:
-        return []
-    folder = world.scene_path.parent
-    path = (folder / file).resolve()
-    if folder.resolve() not in path.parents or not path.is_file():
-        raise ValueError(f"script_parameters {file!r} of {name!r} not found in {folder}")
-    if path.stat().st_size > L.MAX_SCRIPT_CALL_BYTES:
-        raise ValueError(f"script_parameters {file!r} of {name!r} is larger than {L.MAX_SCRIPT_CALL_BYTES} bytes")
-    try:
-        items = json.loads(path.read_text(encoding="utf-8"))
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise ValueError(f"script_parameters {file!r} of {name!r}: {exc}") from None
-    if not isinstance(items, list) or not all(isinstance(i, dict) and isinstance(i.get("name"), str)
-                                               for i in items):
-        raise ValueError(f"script_parameters {file!r} of {name!r} must be a JSON list of "
-                         '{"name", "value", "unit"} objects')
-    return [{"name": i["name"], "value": i.get("value", ""), "unit": i.get("unit", "")} for i in items]
+    """The script simulation parameters of ``file`` next to the scene
+    (:func:`simx_server.scripts.script_parameters.load`); [] without a file. ValueError for a file
+    outside the scene's folder, missing, too large or not such a list."""
+    return script_parameters.load(world.scene_path.parent, name, file)
 
 
 _WRONG_TYPES = "script arguments must be lists of ints, floats and strings, and bytes"

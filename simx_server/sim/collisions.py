@@ -12,8 +12,11 @@ simxReadDistance), as V-REP's legacy remote API has them.
         <text name="simx.distance:NAME" data="entity1=BODY entity2=all"/>
       </custom>
 
-  ``entity2`` may be ``all`` (or left out): every other collidable geom. Handles of collision
-  objects and of distance objects are two namespaces of their own, each from 1 in text order.
+  ``entity2`` may be ``all`` (or left out): every other collidable geom; an entity
+  ``collection:NAME`` is a declared collection (``simx:collection:NAME``). Handles of collision
+  objects and of distance objects are two namespaces of their own, each from 1 in text order. A
+  converted ``.ttt`` declares its own (V-REP's ``COL`` / ``DST`` records,
+  :mod:`simx_server.scene.ttt.measurements`).
 
 The command handlers are in :mod:`simx_server.commands.collisions`; poses are those of the last ``mj_forward``.
 """
@@ -26,7 +29,7 @@ import mujoco
 import numpy as np
 
 from simx_wire import constants as C
-from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
+from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
 from simx_server.sim import scene_collections
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, SHAPE, World, parse_settings
@@ -196,6 +199,66 @@ def distance(sim: SimulationView, e1: int, e2: int) -> float:
 
 
 PROBE_PREFIX = {"collision": "simx.collision:", "distance": "simx.distance:"}
+COLLECTION_ENTITY = "collection:"  # an entity that names a declared collection
+
+
+def probe_named(sim: SimulationView, kind: str, name: str) -> Probe:
+    """The declared collision or distance object ``name`` (a trailing ``#`` ignored, as V-REP's
+    ``simGetCollisionHandle`` / ``simGetDistanceHandle``).
+
+    Args:
+        sim: the simulation.
+        kind: ``"collision"`` or ``"distance"``.
+        name: the object's name.
+
+    Returns:
+        The probe.
+
+    Raises:
+        UnknownObjectError: no such object, naming the scene and how to declare one.
+    """
+    probe = probes(sim, kind).get(name[:-1] if name.endswith("#") else name)
+    if probe is None:
+        raise UnknownObjectError(f"no {kind} object {name!r} in scene {sim.world.scene_name}; declare "
+                                 f"it as <text name=\"{PROBE_PREFIX[kind]}{name}\" "
+                                 f"data=\"entity1=BODY entity2=BODY|all\"/> in <custom>")
+    return probe
+
+
+def probe_entities(sim: SimulationView, kind: str, handle: int) -> tuple[int, int]:
+    """The two entities (shape or collection handles; entity2 ``sim_handle_all`` for "all other
+    objects") of the collision or distance object ``handle``.
+
+    Args:
+        sim: the simulation.
+        kind: ``"collision"`` or ``"distance"``.
+        handle: the object's handle (its own namespace, from 1).
+
+    Returns:
+        ``(entity1, entity2)``.
+
+    Raises:
+        UnknownObjectError: no such object, or an entity that names nothing in the scene.
+        ArgumentError: the declaration cannot be used (its error).
+    """
+    probe = next((p for p in probes(sim, kind).values() if p.handle == handle), None)
+    if probe is None:
+        raise UnknownObjectError(f"no {kind} object with handle {handle}")
+    if probe.error:
+        raise ArgumentError(probe.error)
+    world = sim.world
+
+    def entity(text: str) -> int:
+        if text.startswith(COLLECTION_ENTITY):
+            return scene_collections.of(world).handle(text[len(COLLECTION_ENTITY):])
+        return world.resolve(text).handle
+
+    try:
+        e1 = entity(probe.entity1)
+        e2 = C.sim_handle_all if probe.entity2 is None else entity(probe.entity2)
+    except UnknownObjectError as exc:
+        raise UnknownObjectError(f"{kind} object {probe.name!r}: {exc}") from None
+    return e1, e2
 
 
 def probes(sim: SimulationView, kind: str) -> dict[str, Probe]:

@@ -345,7 +345,7 @@ def step(world: World) -> None:
         try:
             g.solve_automatic()
         except Exception:  # never a step fault: the arm keeps its last targets
-            log.exception("IK groups of %s not solved this step", world.scene_path.name)
+            log.exception("IK groups of %s not solved this step", world.scene_name)
 
 
 # ----------------------------------------------------------------- the sim facade's calls

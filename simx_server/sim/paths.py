@@ -260,5 +260,5 @@ def find_one(world: World, path: str, index: int = -1, proxy: int | None = None)
     found = find(world, path, index, proxy)
     if not found:
         which = f" with index {index}" if index >= 0 else ""
-        raise UnknownObjectError(f"object {quote(path)}{which} does not exist in scene {world.scene_path.name}")
+        raise UnknownObjectError(f"object {quote(path)}{which} does not exist in scene {world.scene_name}")
     return found[0]

@@ -26,7 +26,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import motors, naming, physics, urdf
+from simx_server.sim import motors, naming, physics, scene_settings, urdf
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     DUMMY,
@@ -68,8 +68,11 @@ class World(Poses, Joints):
 
     Args:
         scene: path of an MJCF file, or of a URDF file (:mod:`simx_server.sim.urdf`).
-        dt: simulation step in s (V-REP's default 0.05); made of MuJoCo substeps of the
-            model's own timestep.
+        dt: simulation step in s, made of MuJoCo substeps of the model's own timestep; None:
+            the step the scene declares (:mod:`simx_server.sim.scene_settings`), else V-REP's
+            default 0.05.
+        name: the file the user gave, when ``scene`` is its conversion (a .ttt's MJCF): what
+            messages name (default: ``scene``'s file name).
         bounded: a client's scene: the compiled model's data arena, step work and contacts as
             loaded must stay within MAX_ARENA_BYTES, MAX_STEP_WORK and MAX_SCENE_CONTACTS
             (:func:`physics.check_cost`), checked before its MjData is made, and each step
@@ -82,8 +85,10 @@ class World(Poses, Joints):
             MAX_SUBSTEPS, MAX_RESOLUTION).
     """
 
-    def __init__(self, scene: str | Path, dt: float = 0.05, bounded: bool = False):
+    def __init__(self, scene: str | Path, dt: float | None = 0.05, bounded: bool = False, name: str | None = None):
         self.scene_path = Path(scene).resolve()
+        #: The file the user gave (a .ttt for its converted MJCF): what messages about the scene name.
+        self.scene_name = name or self.scene_path.name
         #: A client's scene: its compiled model's arena and step work are bounded (check_cost).
         self.bounded = bounded
         #: ``hook(model, data)`` run before each MuJoCo substep (scripts' sysCall_jointCallback
@@ -91,13 +96,22 @@ class World(Poses, Joints):
         self.substep_hook = None
         physics.install_warning_handler()  # MuJoCo's warnings go to the log, not to stdout
         try:
-            self.requested_dt = physics.check_dt(dt)  # s; the actual dt is a whole number of timesteps
+            if dt is not None:
+                self.requested_dt = physics.check_dt(dt)  # s; the actual dt is a whole number of timesteps
         except ArgumentError as exc:
             raise ValueError(str(exc)) from None
         try:  # through MjSpec: joints without an actuator get a (disabled) motor
             model = motors.compile_spec(urdf.load_spec(self.scene_path))  # MJCF, or URDF (simx_server.sim.urdf)
         except Exception as exc:
-            raise ValueError(f"cannot load scene {self.scene_path}: {exc}") from exc
+            raise ValueError(f"cannot load scene {name or self.scene_path}: {exc}") from exc
+        #: The step and real-time mode the scene declares (a .ttt's saved ones), used where the
+        #: server's options say nothing (``dt`` None here, no ``--speed``).
+        self.scene_settings = scene_settings.read(model, self.scene_name)
+        if dt is None:
+            try:
+                self.requested_dt = physics.check_dt(self.scene_settings.dt or scene_settings.DEFAULT_DT)
+            except ArgumentError as exc:
+                raise ValueError(f"scene {self.scene_name}: saved time step: {exc}") from None
         self.version = 0  # bumped whenever the state changes (cache key for renders)
         self.time = 0.0  # s, simulation time as of the last changed()
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
@@ -105,7 +119,7 @@ class World(Poses, Joints):
         try:
             self._install(model)
         except ArgumentError as exc:
-            raise ValueError(f"scene {self.scene_path.name}: {exc}") from None
+            raise ValueError(f"scene {self.scene_name}: {exc}") from None
         self.reset()
 
     def _install(self, model: mujoco.MjModel) -> None:
@@ -195,7 +209,7 @@ class World(Poses, Joints):
         if not name:
             return parent
         if name in self.by_name:
-            log.warning("scene %s: name %r used twice; the %s keeps it", self.scene_path.name,
+            log.warning("scene %s: name %r used twice; the %s keeps it", self.scene_name,
                         name, _TYPE_NAMES[self.by_name[name].type])
             return parent
         handle = self._handle_of_name.get(name)
@@ -214,8 +228,8 @@ class World(Poses, Joints):
         vrep_names, renamed, self._identities = naming.vrep_names(m, getattr(self, "_identities", None))
         names = lambda t, i: vrep_names.get((int(t), int(i)))  # noqa: E731
         if renamed and set(renamed) != getattr(self, "_renamed", None):  # once, not at every edit
-            log.warning("%s", naming.describe(self.scene_path.name, renamed, L.MAX_RENAMES_LOGGED))
-            for line in naming.details(self.scene_path.name, renamed) if log.isEnabledFor(logging.DEBUG) else ():
+            log.warning("%s", naming.describe(self.scene_name, renamed, L.MAX_RENAMES_LOGGED))
+            for line in naming.details(self.scene_name, renamed) if log.isEnabledFor(logging.DEBUG) else ():
                 log.debug("%s", line)
         self._renamed = set(renamed)
         site_type = {}  # sites carrying a rangefinder or a force sensor are sensors
@@ -275,7 +289,7 @@ class World(Poses, Joints):
                 found = []
             obj = self.objects[found[0]] if found else None
         if obj is None:
-            raise UnknownObjectError(f"object {name!r} does not exist in scene {self.scene_path.name}")
+            raise UnknownObjectError(f"object {name!r} does not exist in scene {self.scene_name}")
         return obj
 
     def get(self, handle: int, otype: int | None = None) -> SceneObject:

@@ -106,6 +106,13 @@ def mjcf_for(path: str | Path, root: Path | None = None) -> Path:
         counts = {}
     for kind, n in sorted(counts.items()):
         log.info("%s: not carried over: %d x %s", path.name, n, kind)
+    try:
+        notes = json.loads((folder / "notes.json").read_text())
+    except (OSError, ValueError):
+        notes = {}
+    for key, label in (("taken", "taken from the file"), ("repaired", "repaired")):
+        if notes.get(key):
+            log.info("%s: %s: %s", path.name, label, "; ".join(map(str, notes[key])))
     _origins[Path(os.path.realpath(xml))] = Path(os.path.realpath(path))
     _origins[Path(os.path.realpath(folder))] = Path(os.path.realpath(path.parent))
     return xml

@@ -27,6 +27,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"simx-convert: {exc}", file=sys.stderr)
         return 2
     print(f"wrote {xml} ({len(scene.objects)} objects, {len(scene.scripts)} scripts)")
+    if report.taken:
+        print(f"taken from the file: {'; '.join(report.taken)}")
+    if report.repaired:
+        print(f"repaired: {'; '.join(report.repaired)}")
     for line in report.lines():
         print(f"not carried over: {line}")
     return 0

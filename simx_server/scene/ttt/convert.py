@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt import geoms as G
-from simx_server.scene.ttt import looks
+from simx_server.scene.ttt import inertia, looks, measurements, settings
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_loop_closures, add_sensor
@@ -32,10 +32,14 @@ ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
 
 
 class Report:
-    """What did not carry over, by kind: ``{kind: count}``; :meth:`lines` one line per kind."""
+    """What did not carry over, by kind: ``{kind: count}``; :meth:`lines` one line per kind;
+    ``taken``: the file's simulation settings that were applied (:mod:`.settings`), ``repaired``:
+    what was changed so that MuJoCo accepts it (:mod:`.inertia`), one line each."""
 
     def __init__(self):
         self.counts: Counter[str] = Counter()
+        self.taken: list[str] = []  # the file's settings that were applied, one line each
+        self.repaired: list[str] = []  # what was changed so that MuJoCo accepts it, one line each
 
     def add(self, kind: str, n: int = 1) -> None:
         self.counts[kind] += n
@@ -67,12 +71,12 @@ class Converter:
         self.world_pose: dict[int, Pose] = {}     # handle -> world pose in the file
         self.moved: set[int] = set()              # dynamic shapes hung from the world (free)
         self.deferred_equalities: list[tuple[str, str, float, float]] = []  # dependent joints
+        self.repaired_inertias: list[str] = []    # shapes whose moments broke A + B >= C
 
     # ---------------------------------------------------------------- entry
     def build(self) -> mujoco.MjSpec:
         s = self.scene
-        self.spec.option.timestep = min(0.002, s.time_step)
-        self.spec.option.gravity = s.gravity
+        settings.apply(self)  # time step, gravity, real-time mode (simx:scene:simulation)
         self.spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         self.spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
         looks.headlight(self.spec, s.ambient)  # V-REP's ambient light, no camera headlight
@@ -97,6 +101,8 @@ class Converter:
         for kind, n in s.skipped.items():
             self.report.add(kind, n)
         add_collections(self)
+        measurements.add(self)  # COL/DST: named collision and distance objects
+        inertia.report(self)  # shapes whose inertias MuJoCo would refuse, repaired
         if s.engine != 0:
             engine = ENGINES[s.engine] if 0 <= s.engine < len(ENGINES) else str(s.engine)
             self.report.add(f"{engine} engine settings (MuJoCo's used; friction taken from Bullet's)")
@@ -185,7 +191,7 @@ class Converter:
                 _tiny_inertial(b)  # a kinematic part: no mass of its own in V-REP
             else:
                 b.mass = d.mass
-                b.inertia = np.maximum(d.inertia, 1e-9)
+                b.inertia = inertia.repaired(self, obj.name, d.inertia)
                 b.ipos, b.iquat = d.inertia_frame.pos, d.inertia_frame.quat
             b.explicitinertial = True
         if joint is not None:
@@ -251,7 +257,7 @@ class Converter:
                 self.bodies[child.handle] = b
                 self.model_of[child.handle] = model
                 if not d.static:
-                    b.mass, b.inertia = d.mass, np.maximum(d.inertia, 1e-9)
+                    b.mass, b.inertia = d.mass, inertia.repaired(self, child.name, d.inertia)
                     b.ipos, b.iquat = d.inertia_frame.pos, d.inertia_frame.quat
                     b.explicitinertial = True
                 contype, conaffinity = G.collision_bits(d)
@@ -322,6 +328,10 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
     xml = out / f"{stem or conv.spec.modelname}.xml"
     text = spec.to_xml().replace(f'meshdir="{out / "meshes"}"', 'meshdir="meshes"', 1)
     text = text.replace(f'texturedir="{out / "textures"}"', 'texturedir="textures"', 1)
+    if "balanceinertia" not in text:  # MjSpec.to_xml leaves the compiler flag out
+        text = text.replace("<compiler ", '<compiler balanceinertia="true" ', 1)
     xml.write_text(text)
     (out / "report.json").write_text(json.dumps(dict(conv.report.counts), indent=1))
+    (out / "notes.json").write_text(json.dumps({"taken": conv.report.taken, "repaired": conv.report.repaired},
+                                               indent=1))
     return xml, conv.report

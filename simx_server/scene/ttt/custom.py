@@ -27,6 +27,16 @@ DEVELOPER_DATA_HEADER = 356248756  # the header of simWriteCustomDataBlock's blo
 _MAX_PARAMETERS = 10_000
 
 
+def _raw_string(payload: memoryview, p: int, where: Records, tag: str) -> tuple[bytes, int]:
+    """An i32-length-prefixed byte string at ``p``, bytes unchanged; and the position after it."""
+    if p + 4 > len(payload):
+        raise where.error(tag, "string truncated")
+    n, = struct.unpack_from("<i", payload, p)
+    if n < 0 or n > E.MAX_STRING_BYTES or p + 4 + n > len(payload):
+        raise where.error(tag, f"string of declared size {n:,} beyond its record")
+    return bytes(payload[p + 4:p + 4 + n]), p + 4 + n
+
+
 def read_custom_data(common: Records) -> tuple[dict[str, bytes], int]:
     """The custom data blocks of an object (``{tag: data}``) from its common records, the newer
     ``Cda`` preferred, and the count of developer data blocks of other headers (not modelled).
@@ -81,7 +91,12 @@ def _tagged_entries(block: memoryview, where: Records) -> dict[str, bytes]:
 
 def read_parameters(holder: Records, tag: str) -> list[dict]:
     """The script simulation parameters in ``holder``'s ``tag`` record (``Prm`` of a script,
-    ``Lsp`` of an object) as ``{name, value, unit}``; [] when absent."""
+    ``Lsp`` of an object) as ``{name, value, unit}``, the value the stored bytes unchanged (V-REP
+    keeps any bytes there: a recorded trajectory, a packed table); [] when absent.
+
+    Raises:
+        SceneFileError: a string whose size runs beyond its record.
+    """
     sub = holder.sub(tag)
     par = sub.get("Par")
     params: list[dict] = []
@@ -92,7 +107,7 @@ def read_parameters(holder: Records, tag: str) -> list[dict]:
     for _ in range(max(0, min(count, _MAX_PARAMETERS))):
         name, p = read_string(par, p, sub, "Par")
         unit, p = read_string(par, p, sub, "Par")
-        value, p = read_string(par, p, sub, "Par")
+        value, p = _raw_string(par, p, sub, "Par")
         p += 4  # properties
         params.append({"name": name, "value": value, "unit": unit})
     return params

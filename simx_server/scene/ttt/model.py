@@ -167,6 +167,7 @@ class Collection:
 
     name: str
     elements: list[tuple[int, int, bool]]
+    handle: int = -1  # the collection's handle in the file (``Gix``: what COL/DST entities name)
 
     @property
     def objects(self) -> list[int]:
@@ -211,3 +212,5 @@ class TttScene:
     background: tuple[np.ndarray, np.ndarray] | None = None  # environment colours: up, down (RGB 0-1)
     ambient: np.ndarray | None = None  # ambient light (RGB 0-1)
     skipped: dict[str, int] = field(default_factory=dict)  # what was read but is not modelled: count
+    saved_settings: object | None = None  # settings.SavedSettings: the SIM/DYN records' settings
+    measurements: list = field(default_factory=list)  # measurements.Measurement: COL/DST objects

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simx_server.scene.ttt import custom, looks, shapes
+from simx_server.scene.ttt import custom, looks, measurements, settings, shapes
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.errors import SceneFileError
 from simx_server.scene.ttt.geometry import pose7
@@ -49,6 +49,7 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
     scene = TttScene(file=file, serialization=header.serialization, program_version=header.program_version,
                      is_model=header.file_type == 2 or Path(path).suffix.lower() == ".ttm",
                      objects={}, roots=[], scripts=[], collections=[], ik_groups=[], textures={})
+    scene.saved_settings = settings.SavedSettings()
     pool = shapes.MeshPool()
     for tag, payload in top:
         if tag == "VIN":
@@ -74,6 +75,10 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                 scene.scripts.append(_read_script(top.sub(tag, payload)))
             elif tag == "GRP":
                 scene.collections.append(_read_collection(top.sub(tag, payload)))
+            elif tag in ("COL", "DST"):
+                m = measurements.read(top.sub(tag, payload), "collision" if tag == "COL" else "distance")
+                if m is not None:
+                    scene.measurements.append(m)
             elif tag == "IKO":
                 scene.ik_groups.append(_read_ik_group(top.sub(tag, payload)))
             elif tag == "DYN":
@@ -241,7 +246,7 @@ def _read_collection(r: Records) -> Collection:
                     additive = bool(p[0])
             if handle is not None:
                 elements.append((handle, kind, additive))
-    return Collection(r.string("Grn") or r.string("Nme"), elements)
+    return Collection(r.string("Grn") or r.string("Nme"), elements, r.int("Gix", -1))
 
 
 def _read_ik_group(r: Records) -> IkGroup:
@@ -265,16 +270,16 @@ def _read_dynamics(r: Records, scene: TttScene) -> None:
             g = np.frombuffer(payload[4:4 + 3 * np.dtype(dtype).itemsize], dtype=dtype).astype(np.float64)
             if np.all(np.isfinite(g)):
                 scene.gravity = g
-            return
+                scene.saved_settings.gravity_saved = True
+            break
+    settings.read_dynamics(r, scene.engine, scene.saved_settings)
 
 
 def _read_simulation(r: Records, scene: TttScene) -> None:
-    st2 = r.ints("St2", 1, "<u8")
-    dt = r.floats("_t3", "Sts", 1)
-    if st2 is not None and 0 < st2[0] < 10_000_000:
-        scene.time_step = float(st2[0]) * 1e-6
-    elif dt is not None and 0 < dt[0] < 10:
-        scene.time_step = float(dt[0])
+    """The simulation step and real-time mode (:mod:`simx_server.scene.ttt.settings`)."""
+    settings.read_simulation(r, scene.saved_settings)
+    if scene.saved_settings.time_step is not None:
+        scene.time_step = scene.saved_settings.time_step
 
 
 def _read_environment(r: Records, scene: TttScene) -> None:

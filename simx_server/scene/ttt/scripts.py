@@ -5,7 +5,7 @@ objects with ``simx:OBJECT`` settings (docs/PORTING.md, "Bring your .ttt"):
 ``customization_script=FILE.lua``, ``vrep_version=NNNNN`` (the file's program version, for the
 API of its time) and ``script_parameters=FILE.json`` (a JSON list of ``{name, value, unit}``:
 V-REP's script simulation parameters, when the script or, from CoppeliaSim 4.3, its object has
-any). An object's custom data blocks (``sim.readCustomDataBlock``) go into ``custom_data=FILE.json``
+any; a value that is not UTF-8 text is ``value_base64``, its bytes unchanged). An object's custom data blocks (``sim.readCustomDataBlock``) go into ``custom_data=FILE.json``
 (a JSON object: tag -> the block's bytes in base64), which the scene loader gives to the scripts
 (:mod:`simx_server.scene.custom_data`).
 """
@@ -65,11 +65,27 @@ def write_scripts(conv) -> None:
         if parameters:
             pfile = f"{stem}_parameters.json"
             if conv.out is not None:
-                (conv.out / pfile).write_text(json.dumps(parameters, indent=1))
+                (conv.out / pfile).write_text(json.dumps([parameter_json(p) for p in parameters], indent=1))
             items.append(f"script_parameters={pfile}")
         if not any(i.startswith("vrep_version=") for i in conv.settings.get(obj.name, [])):
             items.append(f"vrep_version={scene.program_version}")
         conv.setting(obj.name, *items)
+
+
+def parameter_json(parameter: dict) -> dict:
+    """A script simulation parameter as the JSON file keeps it: ``value`` where the bytes are
+    UTF-8 text, else ``value_base64`` (the bytes unchanged: V-REP gives scripts the stored bytes,
+    :mod:`simx_server.scripts.script_parameters`)."""
+    value = parameter["value"]
+    out = {"name": parameter["name"], "unit": parameter["unit"]}
+    if isinstance(value, (bytes, bytearray)):
+        try:
+            out["value"] = bytes(value).decode("utf-8")
+        except UnicodeDecodeError:
+            out["value_base64"] = base64.b64encode(value).decode("ascii")
+    else:
+        out["value"] = value
+    return out
 
 
 def write_custom_data(conv) -> None:

@@ -60,7 +60,7 @@ def test_reader_reads_custom_data_parameters_and_aliases(tmp_path):
     robot, pad, floor = scene.objects[1], scene.objects[2], scene.objects[5]
     assert robot.custom_data == {"tableParams": TABLE} and robot.developer_data == 2
     assert floor.custom_data == {"XYZ_INFO": b"sizes=5,5"}
-    assert pad.script_parameters == [{"name": "speed", "value": "2.5", "unit": "m/s"}]
+    assert pad.script_parameters == [{"name": "speed", "value": b"2.5", "unit": "m/s"}]
     assert robot.alias == "MTB" and scene.objects[4].alias == "Sensor"
     assert robot.model_base and pad.model_base
     assert scene.skipped == {"object custom data of other headers (V-REP's simAddObjectCustomData)": 2}

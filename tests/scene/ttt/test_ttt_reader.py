@@ -76,7 +76,7 @@ def test_read_synthetic_scene(tmp_path):
     child, threaded, custom = s.scripts
     assert child.object == 4 and child.type == 1 and not child.threaded and "sysCall_init" in child.text
     assert threaded.object == 2 and threaded.threaded and threaded.text == "simRemoteApi.start(19999)\n"
-    assert threaded.parameters == [{"name": "port", "value": "19999", "unit": "int"}]
+    assert threaded.parameters == [{"name": "port", "value": b"19999", "unit": "int"}]  # bytes as stored
     assert custom.object == 6 and custom.type == 6
 
 

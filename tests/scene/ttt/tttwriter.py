@@ -19,8 +19,9 @@ def lst(*records: bytes) -> bytes:
     return b"".join(records) + b"EOO"
 
 
-def string(text: str) -> bytes:
-    raw = text.encode()
+def string(text: str | bytes) -> bytes:
+    """An i32-length-prefixed string (text as UTF-8, bytes unchanged)."""
+    raw = text if isinstance(text, bytes) else text.encode()
     return struct.pack("<i", len(raw)) + raw
 
 
@@ -79,15 +80,16 @@ def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: byte
 
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
                  dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"",
-                 colour: bytes | None = None) -> bytes:
+                 colour: bytes | None = None, moments=(0.01, 0.01, 0.01)) -> bytes:
     """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`;
-    ``colour``: its colour object (:func:`colour_object`; default an old ``Cl2`` of (0.2, 0.4, 0.6))."""
+    ``colour``: its colour object (:func:`colour_object`; default an old ``Cl2`` of (0.2, 0.4, 0.6));
+    ``moments``: its principal moments of inertia as V-REP stores them (divided by the mass)."""
     hx, hy, hz = (s / 2 for s in size)
     v = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], "<f4")
     faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
                       [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], "<i4")
     info = lst(rec("Nme", string(name)), rec("Mas", f32(mass)),
-               rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, 0.01, 0.01, 0.01)))
+               rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, *moments)))
     cl0 = colour if colour is not None else lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))
     mesh = lst(rec("Cl0", cl0),
                rec("Ver", v.tobytes()), rec("Ind", faces.tobytes()),
@@ -135,8 +137,9 @@ def light_encode(text: bytes) -> bytes:
 
 
 def script(handle: int, obj: int, text: str, kind: int = 1, threaded: bool = False,
-           parameters: tuple[tuple[str, str, str], ...] = ()) -> bytes:
-    """A script record (``LST``); ``parameters``: (name, unit, value) simulation parameters."""
+           parameters: tuple[tuple[str, str, str | bytes], ...] = ()) -> bytes:
+    """A script record (``LST``); ``parameters``: (name, unit, value) simulation parameters, a
+    value of bytes stored unchanged."""
     par = i32(len(parameters)) + b"".join(string(n) + string(u) + string(v) + i32(0) for n, u, v in parameters)
     return rec("LST", lst(rec("Si2", i32(handle, obj, kind)), rec("Va2", bytes([1 if threaded else 0])),
                           rec("Ste", light_encode(text.encode())), rec("Prm", lst(rec("Par", par)))))
@@ -285,3 +288,41 @@ def environment(ambient=None, old_ambient=None, fog: bool = False) -> bytes:
     if old_ambient is not None:
         records.append(rec("Alc", f32(*old_ambient)))
     return rec("ENV", lst(*records))
+
+
+def simulation(time_step: float, preset: int = 5, real_time: bool | None = None, factor: float = 1.0,
+               double: bool = False) -> bytes:
+    """The simulation settings (``SIM``): the step as V-REP 3.x writes it (``Sts`` f32 and the
+    preset index ``Spi``, 5 = custom) or, with ``double``, as 4.5 does (``_t3`` f64 too);
+    real-time mode (``Ss2`` bit 0) and its multiplier (``Rtc``), left out when ``real_time`` is None."""
+    items = [rec("Sts", f32(time_step)), rec("Spi", i32(preset))]
+    if double:
+        items.append(rec("_t3", struct.pack("<d", time_step)))
+    if real_time is not None:
+        items += [rec("Ss2", bytes([1 if real_time else 0])), rec("Rtc", f32(factor))]
+    return rec("SIM", lst(*items))
+
+
+def dynamics(gravity=(0, 0, -9.81), engine: int = 0, step: float | None = None) -> bytes:
+    """The engine record (``En2``: engine, gravity, settings mode) and, with ``step``, the 4.5
+    physics step ``_tp``."""
+    items = [rec("En2", i32(engine) + f32(*gravity) + i32(4))]
+    if step is not None:
+        items.append(rec("_tp", struct.pack("<d", step)))
+    return rec("DYN", lst(*items))
+
+
+def collision_object(name: str, entity1: int, entity2: int, handle: int = 1) -> bytes:
+    """A V-REP collision object (``COL``): entities are object or collection handles, entity2 -1
+    = all other objects."""
+    return rec("COL", lst(rec("Inx", i32(entity1, entity2, handle)), rec("Nme", string(name)),
+                          rec("Var", bytes([0]))))
+
+
+def distance_object(name: str, entity1: int, entity2: int, handle: int = 1, threshold: float | None = None) -> bytes:
+    """A V-REP distance object (``DST``), with ``threshold`` (m) enabled when given."""
+    var = rec("Var", bytes([1 if threshold is not None else 0]))
+    items = [rec("Inx", i32(entity1, entity2, handle)), rec("Nme", string(name)), var]
+    if threshold is not None:
+        items.append(rec("_rh", struct.pack("<d", threshold)))
+    return rec("DST", lst(*items))

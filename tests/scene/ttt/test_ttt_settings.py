@@ -1,0 +1,92 @@
+"""A ``.ttt``'s saved simulation settings (issue 41): the time step (a custom 10 ms step, a
+preset, CoppeliaSim 4.5's double), gravity, real-time mode and the physics step, read as
+CoppeliaSim's ``CSimulation::serialize`` / ``CDynamicsContainer::serialize`` load them, applied
+by default, ``--dt`` / ``--speed`` winning, and said in the report and the ready line."""
+
+from __future__ import annotations
+
+import mujoco
+import pytest
+
+import tttwriter as W
+
+try:
+    from conftest import ServerProcess
+except ImportError:
+    from tests.conftest import ServerProcess
+
+import vrep
+from simx_server.scene.ttt import convert, reader
+from simx_server.sim.world import World
+
+B = vrep.simx_opmode_blocking
+
+
+def _scene(*settings: bytes) -> bytes:
+    return W.ttt_file(b"".join(settings) + W.cuboid_shape(1, -1, "Box", (0.1, 0.1, 0.1), (0, 0, 0.5)))
+
+
+@pytest.mark.parametrize("record, expected", [
+    (W.simulation(0.01), 0.01),                        # custom, as V-REP 3.x saves it
+    (W.simulation(0.01, preset=2), 0.05),              # a preset: V-REP's value, not the stored one
+    (W.simulation(0.015, preset=4), 0.01),
+    (W.simulation(0.0125, preset=2, double=True), 0.0125),  # 4.5: _t3 is the step itself
+], ids=["custom", "preset", "another_preset", "double"])
+def test_the_saved_step_as_coppeliasim_reads_it(tmp_path, record, expected):
+    path = tmp_path / "s.ttt"
+    path.write_bytes(_scene(record))
+    scene = reader.read(path)
+    assert scene.saved_settings.time_step == pytest.approx(expected)
+    xml, report = convert.convert(scene, tmp_path / "out", "scene")
+    world = World(xml, None)  # no --dt: the scene's
+    assert world.dt == pytest.approx(expected)
+    assert world.substeps * world.model.opt.timestep == pytest.approx(expected)  # whole substeps
+    assert world.model.opt.timestep <= 0.002 + 1e-12
+    assert any(line.startswith(f"simulation time step {expected * 1000:g} ms") for line in report.taken)
+    assert World(xml, 0.05).dt == pytest.approx(0.05)  # --dt wins
+
+
+def test_gravity_real_time_and_physics_step_are_reported(tmp_path):
+    path = tmp_path / "s.ttt"
+    path.write_bytes(_scene(W.simulation(0.01, real_time=True, factor=2.0), W.dynamics((0, 0, -1.62), step=0.001)))
+    xml, report = convert.convert(reader.read(path), tmp_path / "out", "scene")
+    world = World(xml, None)
+    assert list(world.model.opt.gravity) == pytest.approx([0, 0, -1.62])
+    assert world.model.opt.timestep == pytest.approx(0.001)  # the engine's finer step
+    assert (world.scene_settings.real_time, world.scene_settings.speed) == (True, 2.0)
+    text = "; ".join(report.taken)
+    for part in ("simulation time step 10 ms (custom)", "real-time mode x2", "gravity (0, 0, -1.62)",
+                 "physics step 1 ms"):
+        assert part in text, text
+
+
+def test_a_file_without_settings_keeps_simx_defaults(tmp_path):
+    path = tmp_path / "s.ttt"
+    path.write_bytes(_scene())
+    xml, report = convert.convert(reader.read(path), tmp_path / "out", "scene")
+    world = World(xml, None)
+    assert world.dt == pytest.approx(0.05) and world.scene_settings.speed is None
+    assert report.taken == []
+    assert mujoco.mj_name2id(world.model, mujoco.mjtObj.mjOBJ_TEXT, "simx:scene:simulation") < 0
+
+
+def test_a_server_steps_at_the_saved_10_ms_unless_told(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    path = tmp_path / "custom.ttt"
+    path.write_bytes(_scene(W.simulation(0.01, real_time=False)))
+    dt = vrep.sim_floatparam_simulation_time_step
+    srv = ServerProcess(str(path), "--stopped", renderers="on-demand")
+    try:
+        assert "dt 0.01 s (the scene's), as fast as possible (the scene's)" in srv.ready_line, srv.ready_line
+        cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
+        assert cid >= 0
+        assert vrep.simxGetFloatingParameter(cid, dt, B) == (0, pytest.approx(0.01))
+        vrep.simxFinish(cid)
+    finally:
+        log = srv.stop()
+    assert "custom.ttt: taken from the file: simulation time step 10 ms (custom); real-time mode off" in log, log
+    srv = ServerProcess(str(path), "--stopped", "--dt", "0.05", "--speed", "1", renderers="on-demand")
+    try:
+        assert "dt 0.05 s," in srv.ready_line and "the scene's" not in srv.ready_line, srv.ready_line
+    finally:
+        srv.stop()
