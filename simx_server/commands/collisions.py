@@ -23,9 +23,10 @@ def _entity_args(sim: Simulation, args: list) -> tuple[int, int]:
 def check_collision(sim: Simulation, args: list) -> bool:
     """``simxCheckCollision`` [entity1, entity2] -> bool.
 
-    Entities are shapes (bodies: all their collidable geoms, i.e. contype or conaffinity not 0);
-    entity2 = sim_handle_all (-2) means every other collidable geom except those of the parent
-    and child bodies (MuJoCo's parent-child filter). True when two geoms are at most
+    Entities are shapes (bodies: their colliding geoms, all of them for a shape that has none),
+    tested whatever their collidable flag, as V-REP's ``simCheckCollision``; entity2 =
+    sim_handle_all (-2) means every other collidable shape (V-REP's flag,
+    :mod:`simx_server.sim.properties`) except the parent and child bodies (MuJoCo's parent-child filter). True when two geoms are at most
     COLLISION_TOLERANCE apart (touching or penetrating), by ``mj_geomDistance`` on the current
     poses: unlike ``data.contact`` this sees pairs that MuJoCo's contype/conaffinity, weld and
     exclude filters skip, such as two static bodies.
@@ -35,7 +36,7 @@ def check_collision(sim: Simulation, args: list) -> bool:
 
 def check_distance(sim: Simulation, args: list) -> float:
     """``simxCheckDistance`` [entity1, entity2] -> float: the smallest distance (m) between the
-    collidable geoms of two shapes (entity2 may be -2, as in simxCheckCollision), by
+    geoms of two shapes (entity2 may be -2: every measurable shape, as in simxCheckCollision), by
     ``mj_geomDistance``; 0 when they touch or overlap (V-REP reports no penetration depth), at
     most DISTANCE_MAX."""
     return distance(sim, *_entity_args(sim, args))
@@ -60,8 +61,9 @@ def get_collision_handle(sim: Simulation, args: list) -> int:
 
 def read_collision(sim: Simulation, args: list) -> bool:
     """``simxReadCollision`` [h] -> bool: the collision object's state now (see
-    simxCheckCollision; computed on demand from the current poses)."""
-    return collision(sim, *_probe_entities(sim, args, "collision"))
+    simxCheckCollision; computed on demand from the current poses). Only collidable shapes take
+    part, as in V-REP's collision objects (``CCollisionObject_old::handleCollision``)."""
+    return collision(sim, *_probe_entities(sim, args, "collision"), override=False)
 
 
 def get_distance_handle(sim: Simulation, args: list) -> int:
@@ -72,8 +74,8 @@ def get_distance_handle(sim: Simulation, args: list) -> int:
 
 def read_distance(sim: Simulation, args: list) -> float:
     """``simxReadDistance`` [h] -> float: the distance object's smallest distance now (m; see
-    simxCheckDistance)."""
-    return distance(sim, *_probe_entities(sim, args, "distance"))
+    simxCheckDistance). Only measurable shapes take part, as in V-REP's distance objects."""
+    return distance(sim, *_probe_entities(sim, args, "distance"), override=False)
 
 
 #: Command name -> handler, merged into simx_server.commands.HANDLERS.

@@ -49,7 +49,7 @@ class SensingCalls:
 
         Raises:
             UnknownObjectError: no such object.
-            ObjectTypeError: not a shape or collection, or one without a collidable geom.
+            ObjectTypeError: not a shape or collection, or a shape without geoms.
         """
         sim = self._simulation("checkCollision")
         e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
@@ -74,7 +74,7 @@ class SensingCalls:
 
         Raises:
             UnknownObjectError: no such object.
-            ObjectTypeError: not a shape or collection, or one without a collidable geom.
+            ObjectTypeError: not a shape or collection, or a shape without geoms.
         """
         e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
         if not collisions.collision(self._simulation("checkCollisionEx"), e1, e2):
@@ -116,7 +116,7 @@ class SensingCalls:
 
         Raises:
             UnknownObjectError: no such object.
-            ObjectTypeError: not a shape or collection, or one without a collidable geom.
+            ObjectTypeError: not a shape or collection, or a shape without geoms.
         """
         e1, e2 = self._entity(entity1Handle, "entity1Handle"), self._entity(entity2Handle, "entity2Handle")
         limit = _num(threshold, "threshold")

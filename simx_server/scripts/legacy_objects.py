@@ -1,17 +1,12 @@
 """Object flags and dummy links of V-REP 3.x scenes' scripts: ``sim.getObjectSpecialProperty``
 / ``sim.setObjectSpecialProperty`` (V-REP 3.x's ``simGet/SetObjectSpecialProperty``, deprecated
-in CoppeliaSim 4.x) and ``sim.getLinkDummy`` / ``sim.setLinkDummy``, in MuJoCo's terms:
+in CoppeliaSim 4.x) and ``sim.getLinkDummy`` / ``sim.setLinkDummy``.
 
-* **collidable** and **measurable** (``sim.objectspecialproperty_collidable`` 1,
-  ``_measurable`` 2): the shape's geoms take part in contacts, collision and distance checks
-  (``contype``/``conaffinity`` not 0; simx measures distances between the collidable geoms, so the
-  two flags go together);
-* **detectable** (``_detectable_all`` 496 and its bits): simx's proximity sensors cast MuJoCo rays
-  at every geom, so every shape with geoms is detectable by all sensor kinds;
-* **renderable** (``_renderable`` 512): a geom of MuJoCo's visible groups 0-2 (vision sensors
-  render those); clearing it moves the shape's geoms to group 3, setting it moves them back;
-* ``_cuttable`` and ``_pathplanning_ignored``: simx has no mills and no path planning; read as 0,
-  accepted and ignored when set.
+The special properties (collidable 1, measurable 2, detectable 16-256, renderable 512,
+cuttable 1024, path planning ignored 2048) are V-REP's, kept per object and independent of
+physical contact (respondable, MuJoCo's ``contype``/``conaffinity``): see
+:mod:`simx_server.sim.properties` for who reads them. Every object has them, as in V-REP;
+simx has no mills and no path planning, so the last two bits are kept and change nothing.
 
 A dummy link is a MuJoCo equality between the two dummies' sites (a ``.ttt`` scene's dynamic
 loop closures are converted to ``connect`` equalities): ``setLinkDummy(a, b)`` activates the
@@ -28,71 +23,53 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int
-from simx_server.sim.collisions import collidable
+from simx_server.sim import properties
 
 __all__ = ["LegacyObjectCalls"]
 
-_COLLIDABLE, _MEASURABLE, _DETECTABLE, _RENDERABLE = 1, 2, 496, 512
-_IGNORED = 1024 | 2048  # cuttable, path planning ignored
-_HIDDEN_GROUP = 3  # a MuJoCo geom group that vision sensors and the viewer do not show
 
 
 class LegacyObjectCalls:
     """Special properties and dummy links (a mixin of the facade, through LegacyCalls)."""
 
-    def _geoms_of(self, handle: Any, what: str) -> tuple[Any, np.ndarray]:
-        obj = self._world.get(self._h(handle, what))
-        m = self._world.model
-        if obj.type != C.sim_object_shape_type:
-            return obj, np.zeros(0, dtype=int)
-        return obj, np.flatnonzero(m.geom_bodyid == obj.mj_id)
-
     def getObjectSpecialProperty(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """The object's special property bits (see the module): collidable | measurable when a
-        geom of the shape collides, detectable (all kinds) when it has geoms, renderable when a
-        geom is in groups 0-2. Objects other than shapes: 0."""
-        _, geoms = self._geoms_of(objectHandle, "objectHandle")
-        if geoms.size == 0:
-            return 0
-        m = self._world.model
-        bits = _DETECTABLE
-        if np.any(collidable(m)[geoms]):
-            bits |= _COLLIDABLE | _MEASURABLE
-        if np.any(m.geom_group[geoms] <= 2):
-            bits |= _RENDERABLE
-        return bits
+        """The object's special property bits: set by a script, else the scene's (a ``.ttt``'s
+        ``Omp``), else V-REP's default for its type (a shape: collidable, measurable, detectable,
+        renderable; others: 0). See :func:`simx_server.sim.properties.special`.
+
+        ``sim.getObjectSpecialProperty`` / ``simGetObjectSpecialProperty``.
+
+        Args:
+            objectHandle: the object's handle.
+
+        Returns:
+            ``sim.objectspecialproperty_*`` bits.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
+        return properties.special(self._world, self._h(objectHandle, "objectHandle"))
 
     def setObjectSpecialProperty(self, objectHandle: Any, property: Any) -> int:  # noqa: A002, N802, N803
-        """Set the special property bits of a shape (see the module); returns 1. Raises
-        UnsupportedError for what MuJoCo's model cannot express here: measurable without
-        collidable (or the reverse), or part of the detectable bits (simx's proximity sensors
-        detect every geom)."""
-        obj, geoms = self._geoms_of(objectHandle, "objectHandle")
-        bits = _int(property, "property")
-        if geoms.size == 0:
-            if bits & ~_IGNORED:
-                raise UnsupportedError(f"sim.setObjectSpecialProperty: {obj.name!r} is not a shape with geoms: "
-                                       "only shapes have collidable/measurable/detectable/renderable flags in simx")
-            return 1
-        if bool(bits & _COLLIDABLE) != bool(bits & _MEASURABLE):
-            raise UnsupportedError("sim.setObjectSpecialProperty: collidable and measurable go together in simx "
-                                   "(distances are measured between the collidable geoms)")
-        if bits & _DETECTABLE != _DETECTABLE:
-            raise UnsupportedError("sim.setObjectSpecialProperty: simx's proximity sensors detect every geom: "
-                                   "the detectable flags cannot be cleared")
-        m = self._world.model
-        saved = self._world.__dict__.setdefault("special_property_saved", {})
-        for g in geoms.tolist():
-            if bits & _COLLIDABLE and m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
-                m.geom_contype[g], m.geom_conaffinity[g] = saved.pop(("collide", g), (1, 1))
-            elif not bits & _COLLIDABLE and (m.geom_contype[g] or m.geom_conaffinity[g]):
-                saved[("collide", g)] = (int(m.geom_contype[g]), int(m.geom_conaffinity[g]))
-                m.geom_contype[g] = m.geom_conaffinity[g] = 0
-            if bits & _RENDERABLE and m.geom_group[g] > 2:
-                m.geom_group[g] = saved.pop(("group", g), 0)
-            elif not bits & _RENDERABLE and m.geom_group[g] <= 2:
-                saved[("group", g)] = int(m.geom_group[g])
-                m.geom_group[g] = _HIDDEN_GROUP
+        """Set the object's special property bits; returns 1. Collision and distance checks,
+        proximity sensors and vision sensors follow them from now on; physical contact does not
+        change (V-REP's respondable flag is another one).
+
+        ``sim.setObjectSpecialProperty`` / ``simSetObjectSpecialProperty``
+        (coppeliaSimLib ``CSceneObject::setLocalObjectSpecialProperty``).
+
+        Args:
+            objectHandle: the object's handle.
+            property: ``sim.objectspecialproperty_*`` bits.
+
+        Returns:
+            1.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ArgumentError: not an integer.
+        """
+        properties.set_special(self._world, self._h(objectHandle, "objectHandle"), _int(property, "property"))
         return 1
 
     # ---------------------------------------------------------------- dummy links

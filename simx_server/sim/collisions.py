@@ -2,9 +2,11 @@
 distance objects (simxGetCollisionHandle, simxReadCollision, simxGetDistanceHandle,
 simxReadDistance), as V-REP's legacy remote API has them.
 
-* collision / distance = ``mj_geomDistance`` between the collidable geoms (``contype`` or
-  ``conaffinity`` not 0) of shapes (bodies), independent of MuJoCo's contact filtering, so
-  static bodies and excluded pairs are measured too.
+* collision / distance = ``mj_geomDistance`` between the geoms of shapes (bodies), independent
+  of MuJoCo's contact filtering, so static bodies and excluded pairs are measured too. Which
+  shapes take part follows V-REP's collidable / measurable flags, not physical contact
+  (:mod:`simx_server.sim.properties`): a shape named explicitly is always tested, the members of
+  a collection and "everything else" only when they have the flag.
 * collision and distance objects are declared in the scene::
 
       <custom>
@@ -12,11 +14,12 @@ simxReadDistance), as V-REP's legacy remote API has them.
         <text name="simx.distance:NAME" data="entity1=BODY entity2=all"/>
       </custom>
 
-  ``entity2`` may be ``all`` (or left out): every other collidable geom; an entity
-  ``collection:NAME`` is a declared collection (``simx:collection:NAME``). Handles of collision
-  objects and of distance objects are two namespaces of their own, each from 1 in text order. A
-  converted ``.ttt`` declares its own (V-REP's ``COL`` / ``DST`` records,
-  :mod:`simx_server.scene.ttt.measurements`).
+  ``entity2`` may be ``all`` (or left out): every other collidable shape; an entity
+  ``collection:NAME`` is a declared collection (``simx:collection:NAME``). A declared object
+  tests only shapes that have the flag, even the ones it names, as V-REP's collision and
+  distance objects do. Handles of collision objects and of distance objects are two namespaces
+  of their own, each from 1 in text order. A converted ``.ttt`` declares its own (V-REP's
+  ``COL`` / ``DST`` records, :mod:`simx_server.scene.ttt.measurements`).
 
 The command handlers are in :mod:`simx_server.commands.collisions`; poses are those of the last ``mj_forward``.
 """
@@ -30,7 +33,7 @@ import numpy as np
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
-from simx_server.sim import scene_collections
+from simx_server.sim import properties, scene_collections
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, SHAPE, World, parse_settings
 
@@ -66,34 +69,42 @@ def collidable(m: mujoco.MjModel) -> np.ndarray:
     return (m.geom_contype != 0) | (m.geom_conaffinity != 0)
 
 
-def _entity_geoms(world: World, handle: int, what: str) -> tuple[np.ndarray, list[int]]:
-    """The collidable geoms of a shape or of a collection's shapes, and their bodies."""
+def _entity_geoms(world: World, handle: int, what: str, bit: int, override: bool) -> tuple[np.ndarray, list[int]]:
+    """The geoms of a shape or of a collection's shapes that take part, and their bodies.
+
+    V-REP's rule (coppeliaSimLib ``CCollisionRoutine::doEntitiesCollide``,
+    ``CDistanceRoutine::getDistanceBetweenEntitiesIfSmaller``): a shape named explicitly is tested
+    whatever its collidable / measurable flag when ``override`` (``sim.checkCollision``,
+    ``sim.checkDistance``); a collection's members, and every shape of a declared collision or
+    distance object (``override`` False), only when they have the flag ``bit``
+    (:mod:`simx_server.sim.properties`). Empty when nothing takes part."""
     m = world.model
     if scene_collections.is_collection(handle):
         members = scene_collections.of(world).present(handle)
         bodies = [world.objects[h].mj_id for h in members if world.objects[h].type == SHAPE]
-        geoms = np.flatnonzero(np.isin(m.geom_bodyid, bodies) & collidable(m))
-        if geoms.size == 0:
-            raise ObjectTypeError(f"{what}: collection {handle} has no shape with a collidable geom")
+        flagged = properties.geom_mask(world, bit)
+        geoms = np.flatnonzero(np.isin(m.geom_bodyid, bodies) & flagged)
         return geoms, bodies
     obj = world.get(handle)
     if obj.type != SHAPE:
         raise ObjectTypeError(f"{what}: object {obj.name!r} (handle {handle}) is a "
                               f"{_TYPE_NAMES.get(obj.type, 'object')}; collision and distance work on shapes (bodies) "
                               "and collections")
-    geoms = np.flatnonzero((m.geom_bodyid == obj.mj_id) & collidable(m))
+    geoms = properties.shape_geoms(m, obj.mj_id)
     if geoms.size == 0:
-        raise ObjectTypeError(f"{what}: shape {obj.name!r} has no collidable geom (all have contype=0 "
-                              "and conaffinity=0), so it cannot collide nor be measured")
+        raise ObjectTypeError(f"{what}: shape {obj.name!r} has no geom, so it cannot collide nor be measured")
+    if not override and not properties.special(world, handle) & bit:
+        geoms = geoms[:0]
     return geoms, [obj.mj_id]
 
 
-def _others(world: World, bodies: list[int]) -> np.ndarray:
-    """Collidable geoms of every body but ``bodies``; for a single body also but its parent and
-    its children (MuJoCo's parent-child filter; the world body is never filtered)."""
+def _others(world: World, bodies: list[int], bit: int) -> np.ndarray:
+    """Geoms of every shape with the flag ``bit`` (and the world body's colliding geoms) but
+    ``bodies``; for a single body also but its parent and its children (MuJoCo's parent-child
+    filter; the world body is never filtered)."""
     m = world.model
     gb = m.geom_bodyid
-    keep = collidable(m) & ~np.isin(gb, bodies)
+    keep = properties.geom_mask(world, bit) & ~np.isin(gb, bodies)
     if len(bodies) == 1 and not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_FILTERPARENT:
         body = bodies[0]
         parent = int(m.body_parentid[body])
@@ -103,12 +114,12 @@ def _others(world: World, bodies: list[int]) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
-def _pairs(world: World, e1: int, e2: int) -> tuple[np.ndarray, np.ndarray]:
-    g1, bodies = _entity_geoms(world, e1, "entity1")
+def _pairs(world: World, e1: int, e2: int, bit: int = properties.COLLIDABLE, override: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    g1, bodies = _entity_geoms(world, e1, "entity1", bit, override)
     if e2 == C.sim_handle_all:
-        g2 = _others(world, bodies)
+        g2 = _others(world, bodies, bit)
     else:
-        g2, _ = _entity_geoms(world, e2, "entity2")
+        g2, _ = _entity_geoms(world, e2, "entity2", bit, override)
         if e2 == e1:
             raise ArgumentError("entity1 and entity2 are the same; pass sim_handle_all (-2) "
                                 "as entity2 to test it against everything else")
@@ -137,7 +148,7 @@ def _geom_distance(world: World, g1: int, g2: int, distmax: float) -> float:
                                f"{names[1]} geom: {exc}") from None
 
 
-def collision(sim: SimulationView, e1: int, e2: int) -> bool:
+def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> bool:
     """Whether shape ``e1`` touches or overlaps shape ``e2`` (or anything else, ``e2`` = -2).
 
     Implements ``simxReadCollision`` (V-REP's ``simCheckCollision``): geom pairs whose bounding
@@ -147,25 +158,27 @@ def collision(sim: SimulationView, e1: int, e2: int) -> bool:
         sim: the simulation.
         e1: handle of a shape or a collection.
         e2: handle of another shape or collection, or ``sim_handle_all`` (-2): every collidable
-            geom but ``e1``'s (and, for a single body, its parent's and children's).
+            shape but ``e1`` (and, for a single body, its parent and children).
+        override: test the shapes named explicitly whatever their collidable flag (V-REP's
+            ``simCheckCollision``); False for a declared collision object.
 
     Returns:
         True when some geom pair is within COLLISION_TOLERANCE (m) of touching.
 
     Raises:
         UnknownObjectError: no such object.
-        ObjectTypeError: not a shape or collection, or one without a collidable geom.
+        ObjectTypeError: not a shape or collection, or a shape without geoms.
         ArgumentError: ``e1`` and ``e2`` are the same.
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
     """
     world = sim.world
-    a, b = _pairs(world, e1, e2)
+    a, b = _pairs(world, e1, e2, properties.COLLIDABLE, override)
     close = _lower_bounds(world, a, b) <= COLLISION_TOLERANCE
     return any(_geom_distance(world, g1, g2, 2 * COLLISION_TOLERANCE) <= COLLISION_TOLERANCE
                for g1, g2 in zip(a[close], b[close]))
 
 
-def distance(sim: SimulationView, e1: int, e2: int) -> float:
+def distance(sim: SimulationView, e1: int, e2: int, override: bool = True) -> float:
     """Smallest distance (m, >= 0, at most DISTANCE_MAX) between shape ``e1`` and ``e2``.
 
     Implements ``simxReadDistance`` (V-REP's ``simCheckDistance``): ``mj_geomDistance`` over the
@@ -175,20 +188,23 @@ def distance(sim: SimulationView, e1: int, e2: int) -> float:
         sim: the simulation.
         e1: handle of a shape or a collection.
         e2: handle of another shape or collection, or ``sim_handle_all`` (-2).
+        override: measure the shapes named explicitly whatever their measurable flag (V-REP's
+            ``simCheckDistance``); False for a declared distance object.
 
     Returns:
         The distance in m (0 when they touch or overlap).
 
     Raises:
         UnknownObjectError: no such object.
-        ObjectTypeError: not a shape or collection, or one without a collidable geom.
-        ArgumentError: ``e1`` and ``e2`` are the same, or no collidable geom to measure to.
+        ObjectTypeError: not a shape or collection, or a shape without geoms.
+        ArgumentError: ``e1`` and ``e2`` are the same, or no measurable shape to measure to.
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
     """
     world = sim.world
-    a, b = _pairs(world, e1, e2)
+    a, b = _pairs(world, e1, e2, properties.MEASURABLE, override)
     if a.size == 0:
-        raise ArgumentError("there is no collidable geom to measure the distance to")
+        raise ArgumentError("there is no measurable shape to measure the distance to (V-REP's measurable "
+                            "flag, sim.setObjectSpecialProperty)")
     lb = _lower_bounds(world, a, b)
     best = DISTANCE_MAX
     for i in np.argsort(lb, kind="stable"):

@@ -8,6 +8,10 @@ site carrying a ``rangefinder``.
   filling the cone of that opening angle around +z; the nearest hit is the detection.
 * ``volume=pyramid``, ``cylinder`` or ``disc``: V-REP's other volume types, each a set of rays
   filling the volume (:func:`volume_rays`).
+* what is seen: shapes that are detectable by the sensor's type (``sensable=``, V-REP's
+  detectable flags, :mod:`simx_server.sim.properties`; coppeliaSimLib
+  ``CProxSensorRoutine::detectEntity`` with ``getAllDetectableObjectsFromSceneExcept``), and the
+  world body's colliding geoms; rays pass through the rest.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import mujoco
 import numpy as np
 
 from simx_wire.protocol import ArgumentError
+from simx_server.sim import properties
 from simx_server.sim.sensors import site_sensor
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import PROXIMITY_SENSOR, SHAPE, World
@@ -27,6 +32,61 @@ from simx_server.sim.world import PROXIMITY_SENSOR, SHAPE, World
 
 def _shape_of_body(world: World) -> dict[int, int]:
     return {o.mj_id: o.handle for o in world.objects.values() if o.type == SHAPE}
+
+
+def sensable(obj: Any) -> int:
+    """The detectable bit a proximity sensor senses (its ``simx:`` setting ``sensable=``, V-REP's
+    detection type: 16 ultrasonic, 32 infrared, 64 laser, 128 inductive, 256 capacitive; default
+    ultrasonic, as ``CProxSensor``'s constructor). Raises ArgumentError for another value.
+
+    Args:
+        obj: a proximity sensor's scene object.
+
+    Returns:
+        One of the ``sim.objectspecialproperty_detectable_*`` bits.
+    """
+    raw = obj.settings.get("sensable", "16")
+    names = properties.DETECTABLE
+    value = names.get(raw)
+    if value is None:
+        try:
+            value = int(raw)
+        except ValueError:
+            value = -1
+    if value not in names.values():
+        raise ArgumentError(f"proximity sensor {obj.name!r}: sensable={raw!r} in its simx: settings is not "
+                            f"one of {sorted(names.values())} or {sorted(names)}")
+    return value
+
+
+#: How many undetectable shapes one ray may pass through before it gives up.
+MAX_PASS_THROUGH = 16
+
+
+def _ray(m: mujoco.MjModel, d: mujoco.MjData, origin: np.ndarray, direction: np.ndarray, exclude: int,
+         seen: np.ndarray, first: tuple[float, int, np.ndarray] | None = None) -> tuple[float, int, np.ndarray]:
+    """``mj_ray`` that passes through geoms a sensor does not detect (``seen[g]`` False, V-REP's
+    detectable flags): it casts again from just beyond each such geom, leaving out its body.
+    ``first``: the result of a cast already made from ``origin``. Returns (distance from
+    ``origin`` m or -1, geom or -1, surface normal (3,) world)."""
+    gid = np.array([-1], dtype=np.int32)
+    normal = np.zeros(3)
+    travelled, start, skip = 0.0, origin, exclude
+    for _ in range(MAX_PASS_THROUGH):
+        if first is not None:
+            dist, geom, normal = first
+            first = None
+        else:
+            dist = mujoco.mj_ray(m, d, start, direction, None, 1, skip, gid, normal)
+            geom = int(gid[0])
+        if dist < 0 or geom < 0:
+            return -1.0, -1, normal
+        if seen[geom]:
+            return travelled + dist, geom, normal.copy()
+        travelled += dist
+        start = start + dist * direction
+        skip = int(m.geom_bodyid[geom])
+    return -1.0, -1, normal
 
 
 # -------------------------------------------------------------- proximity sensors
@@ -186,22 +246,21 @@ def volume_rays(obj: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.nda
 
 
 def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np.ndarray, exclude: int,
-                rays: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, int, np.ndarray, np.ndarray] | None:
+                rays: tuple[np.ndarray, np.ndarray, np.ndarray],
+                seen: np.ndarray) -> tuple[float, int, np.ndarray, np.ndarray] | None:
     """The detection nearest to the sensor's origin among ``rays`` (see :func:`volume_rays`):
     (its distance from the origin m, geom, point (3,) in the sensor frame, surface normal (3,)
     in the world frame), or None."""
     starts, dirs, lengths = rays
     best = None
-    gid = np.array([-1], dtype=np.int32)
-    normal = np.zeros(3)
     for o, u, length in zip(starts, dirs, lengths):
-        dist = mujoco.mj_ray(m, d, origin + rot @ o, rot @ u, None, 1, exclude, gid, normal)
-        if dist < 0 or dist > length or gid[0] < 0:
+        dist, geom, normal = _ray(m, d, origin + rot @ o, rot @ u, exclude, seen)
+        if dist < 0 or dist > length or geom < 0:
             continue
         point = o + u * dist
         reach = float(np.linalg.norm(point))
         if best is None or reach < best[0]:
-            best = (reach, int(gid[0]), point, normal.copy())
+            best = (reach, geom, point, normal)
     return best
 
 
@@ -243,8 +302,9 @@ def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[floa
     exclude = int(m.site_bodyid[site])
     rays = volume_rays(obj, cutoff)
     angle = cone_angle(obj) if rays is None else 0.0
+    seen = properties.geom_mask(world, sensable(obj))
     if rays is not None:
-        found = _volume_hit(m, d, rot, origin, exclude, rays)
+        found = _volume_hit(m, d, rot, origin, exclude, rays, seen)
         if found is None:
             return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
         dist, geom, point, normal = found
@@ -252,8 +312,12 @@ def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[floa
         local = cone_directions(angle)
         n = len(local)
         geoms, dists, normals = np.full(n, -1, np.int32), np.full(n, -1.0), np.zeros(n * 3)
-        mujoco.mj_multiRay(m, d, origin, (local @ rot.T).ravel(), None, 1, exclude, geoms, dists,
+        world_dirs = local @ rot.T
+        mujoco.mj_multiRay(m, d, origin, world_dirs.ravel(), None, 1, exclude, geoms, dists,
                            normals, n, min(cutoff, mujoco.mjMAXVAL))
+        for i in np.flatnonzero((geoms >= 0) & ~seen[np.maximum(geoms, 0)]):  # undetectable: look beyond
+            first = (float(dists[i]), int(geoms[i]), normals[3 * i:3 * i + 3].copy())
+            dists[i], geoms[i], normals[3 * i:3 * i + 3] = _ray(m, d, origin, world_dirs[i].copy(), exclude, seen, first)
         found = (dists >= 0) & (geoms >= 0) & (dists <= cutoff)
         limit = max_angle(obj)
         if limit < math.pi / 2:  # the ray against the surface's normal (both unit vectors)
@@ -266,10 +330,7 @@ def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[floa
         dist, geom, point = float(dists[i]), int(geoms[i]), local[i] * dists[i]
         normal = normals[3 * i:3 * i + 3]
     else:
-        ids = np.array([-1], dtype=np.int32)
-        normal = np.zeros(3)
-        dist = mujoco.mj_ray(m, d, origin, rot[:, 2].copy(), None, 1, exclude, ids, normal)
-        geom = int(ids[0])
+        dist, geom, normal = _ray(m, d, origin, rot[:, 2].copy(), exclude, seen)
         if dist < 0 or dist > cutoff or geom < 0:
             return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
         point = np.array([0.0, 0.0, dist])

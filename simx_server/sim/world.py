@@ -26,7 +26,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import motors, naming, physics, scene_settings, urdf
+from simx_server.sim import motors, naming, physics, properties, scene_settings, urdf
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     DUMMY,
@@ -145,6 +145,7 @@ class World(Poses, Joints):
         self.objects: dict[int, SceneObject] = {}
         self.by_name: dict[str, SceneObject] = {}
         self._register_objects()
+        properties.apply_rendering(self)  # non-renderable shapes out of the vision sensors' groups
         scalar = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
         self._scalar_joints = {o.handle: (int(model.jnt_qposadr[o.mj_id]), int(model.jnt_dofadr[o.mj_id]))
                                for o in self.objects.values()

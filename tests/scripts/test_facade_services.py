@@ -112,11 +112,14 @@ def test_move_to_pose_in_steps_places_the_object(api):
 
 def test_property_flags_and_value_conversion(api):
     a, d = api.getObject("/blockA"), api.createDummy(0.01)
-    assert api.getObjectSpecialProperty(a) == 1 | 2 | 496 | 512  # blockA's geom collides
-    assert api.getObjectSpecialProperty(api.getObject("/target")) == 496 | 512  # contype 0: not collidable
-    assert api.getObjectSpecialProperty(d) == 0
+    assert api.getObjectSpecialProperty(a) == 1 | 2 | 496 | 512  # V-REP's default for a shape
+    # not respondable (contype 0) but collidable all the same: the flags are not MuJoCo's contact bits
+    assert api.getObjectSpecialProperty(api.getObject("/target")) == 1 | 2 | 496 | 512
+    assert api.getObjectSpecialProperty(d) == 0  # a dummy's default
     api.setObjectSpecialProperty(a, api.objectspecialproperty_detectable_all | api.objectspecialproperty_renderable)
-    assert api.getObjectSpecialProperty(a) == 496 | 512  # its geom no longer collides
+    assert api.getObjectSpecialProperty(a) == 496 | 512
+    geom = int(api._world.model.body("blockA").geomadr[0])
+    assert api._world.model.geom_contype[geom] == 1  # it still collides physically (respondable)
     assert api.getObjectProperty(a) == api.objectproperty_selectable
     api.setObjectProperty(a, api.objectproperty_collapsed)
     assert api.getObjectProperty(a) == api.objectproperty_collapsed

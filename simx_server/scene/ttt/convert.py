@@ -25,6 +25,7 @@ from simx_server.scene.ttt import geoms as G
 from simx_server.scene.ttt import inertia, looks, measurements, settings
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
+from simx_server.sim.properties import SHAPE_DEFAULT
 from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_loop_closures, add_sensor
 
 _MAX_EXCLUDES = 20_000
@@ -95,6 +96,7 @@ class Converter:
             self._emit(root, self.spec.worldbody, Pose(), -1)
         self._aliases()
         looks.count_lights(self)
+        self._special_properties()
         add_loop_closures(self)
         add_ik_groups(self)
         self._excludes()
@@ -142,6 +144,29 @@ class Converter:
                 self.setting(obj.name, f"alias={alias}")
             if obj.model_base:  # paths' ':' and '::' (simx_server.sim.paths)
                 self.setting(obj.name, "model_base=1")
+
+    def _special_properties(self) -> None:
+        """Each object's special properties (collidable, measurable, detectable, renderable) as
+        V-REP uses them, ``special=N`` where they differ from simx's default for the type
+        (:mod:`simx_server.sim.properties`): the file's ``Omp`` with the ``sim.modelproperty_not_*``
+        overrides of the model bases above it (coppeliaSimLib
+        ``CSceneObject::getCumulativeObjectSpecialProperty``). A proximity sensor's detection
+        type (``Sst``) becomes ``sensable=N`` where it is not ultrasonic (16, V-REP's default)."""
+        overrides = {1: 1, 2: 2, 4: 512, 8: 496}  # not_collidable, _measurable, _renderable, _detectable
+        for obj in self.scene.objects.values():
+            if obj.kind == "proximity_sensor" and obj.data.sensable != 16:
+                self.setting(obj.name, f"sensable={obj.data.sensable}")
+            if obj.special is None:
+                continue
+            bits, up = obj.special, obj
+            while up is not None:
+                if up.model_base and up.model_property & 0xF000 != 0xF000:
+                    for flag, cleared in overrides.items():
+                        if up.model_property & flag:
+                            bits &= ~cleared
+                up = self.scene.objects.get(up.parent)
+            if bits != (SHAPE_DEFAULT if obj.kind == "shape" else 0):
+                self.setting(obj.name, f"special={bits}")
 
     # ---------------------------------------------------------------- tree
     def _world_poses(self, obj: TttObject, parent: Pose) -> None:

@@ -106,6 +106,7 @@ class ProximityData:
     #: pyramid sizes at the offset and at the far end (x, y, x far, y far), cylinder radii (near,
     #: far), m (``Ss3`` / ``_s3`` values 2-7)
     sizes: tuple[float, ...] = ()
+    sensable: int = 16  # ``Sst``: the detectable bit it senses (16 ultrasonic ... 256 capacitive)
 
 
 @dataclass
@@ -143,6 +144,8 @@ class TttObject:
     custom_data: dict[str, bytes] = field(default_factory=dict)  # sim.readCustomDataBlock's blocks: tag -> data
     developer_data: int = 0  # custom data blocks of other headers (V-REP's simAddObjectCustomData), not kept
     script_parameters: list[dict] = field(default_factory=list)  # 4.3+: kept with the object (``Lsp``)
+    special: int | None = None  # V-REP's object special property bits (``Omp``), None: not in the file
+    model_property: int = 0xF000  # ``Mpo``: a model base's override bits (sim.modelproperty_not_*)
 
 
 @dataclass

@@ -143,6 +143,9 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
                     layers=int(lar[0]) if lar is not None else 1)
     obj.custom_data, obj.developer_data = custom.read_custom_data(common)
     obj.script_parameters = custom.read_parameters(common, "Lsp")
+    if common.get("Omp") is not None:  # CSceneObject::serialize: _localObjectSpecialProperty
+        obj.special = common.int("Omp")
+    obj.model_property = common.int("Mpo", 0xF000)
     if kind == "shape":
         obj.data = shapes.read_shape(typed, pool)
     elif kind == "joint":
@@ -206,7 +209,7 @@ def _read_proximity(r: Records) -> ProximityData:
     sizes = tuple(float(v) for v in ss3[2:8]) if ss3 is not None else ()
     return ProximityData(type=r.int("Snt", 34), offset=offset, range=rng,
                          angle=angle if np.isfinite(angle) and 0 < angle < 2 * np.pi else 0.0, max_angle=None,
-                         sizes=sizes)
+                         sizes=sizes, sensable=r.int("Sst", 16))
 
 
 def _read_vision(r: Records) -> VisionData:

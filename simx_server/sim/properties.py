@@ -1,0 +1,180 @@
+"""V-REP's object special properties: *collidable*, *measurable*, *detectable* (per proximity
+sensor type) and *renderable*, kept per object and independent of *respondable* (MuJoCo's
+``contype``/``conaffinity``, physical contact).
+
+V-REP keeps them in each object's ``_localObjectSpecialProperty`` (coppeliaSimLib
+``CSceneObject::serialize``, record ``Omp``; ``CSceneObject::getCumulativeObjectSpecialProperty``
+lets a model base's ``sim.modelproperty_not_*`` bits override them). In simx:
+
+* an object's bits come from its ``simx:`` setting ``special=N`` (a ``.ttt`` writes the file's
+  value there), else V-REP's default for its type: a shape is collidable, measurable, detectable
+  by every sensor type and renderable (``CShape``'s constructor), other objects have none;
+* ``sim.setObjectSpecialProperty`` changes them at run time (:func:`set_special`); the value
+  stays with the object's handle through scene edits and through a stop, as in V-REP;
+* collision and distance checks (:mod:`simx_server.sim.collisions`) test the geoms of the shapes
+  that are collidable / measurable, whatever their ``contype`` (``mj_geomDistance`` needs none);
+* proximity sensors (:mod:`simx_server.sim.proximity`) see only detectable shapes;
+* a shape that is not renderable is not drawn in vision sensors: its visible geoms (MuJoCo groups
+  0-2) are moved to group 3, which neither vision sensors nor the viewer draw.
+
+Geoms of the world body (an MJCF floor) belong to no object: they are tested for collision and
+distance when their ``contype``/``conaffinity`` say they collide, and always detected.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from simx_wire.protocol import ArgumentError
+from simx_server.sim.objects import SHAPE
+
+COLLIDABLE, MEASURABLE, RENDERABLE = 1, 2, 512
+#: ``sim.objectspecialproperty_detectable_*`` by proximity sensor type; together ``_detectable_all``.
+DETECTABLE = {"ultrasonic": 16, "infrared": 32, "laser": 64, "inductive": 128, "capacitive": 256}
+DETECTABLE_ALL = 496
+CUTTABLE, PATHPLANNING_IGNORED = 1024, 2048
+ALL_BITS = COLLIDABLE | MEASURABLE | DETECTABLE_ALL | RENDERABLE | CUTTABLE | PATHPLANNING_IGNORED
+#: V-REP's default for a new shape (``CShape::CShape``); every other object type has 0.
+SHAPE_DEFAULT = COLLIDABLE | MEASURABLE | DETECTABLE_ALL | RENDERABLE
+#: The MuJoCo geom group non-renderable shapes' visible geoms go to (not drawn by default).
+HIDDEN_GROUP = 3
+
+
+def _store(world: Any) -> dict[int, int]:
+    """handle -> bits set at run time (kept on the world, which edits keep)."""
+    return world.__dict__.setdefault("special_properties", {})
+
+
+def special(world: Any, handle: int) -> int:
+    """The special property bits of object ``handle``: set at run time, else its ``special=``
+    setting, else V-REP's default for its type.
+
+    ``sim.getObjectSpecialProperty`` (coppeliaSimLib ``CSceneObject::getLocalObjectSpecialProperty``).
+
+    Args:
+        world: the :class:`~simx_server.sim.world.World`.
+        handle: an object's handle.
+
+    Returns:
+        ``sim.objectspecialproperty_*`` bits.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ArgumentError: a ``special=`` setting that is not an integer.
+    """
+    obj = world.get(handle)
+    bits = _store(world).get(obj.handle)
+    if bits is not None:
+        return bits
+    raw = obj.settings.get("special")
+    if raw is None:
+        return SHAPE_DEFAULT if obj.type == SHAPE else 0
+    try:
+        return int(raw, 0) & ALL_BITS
+    except ValueError:
+        raise ArgumentError(f"object {obj.name!r}: special={raw!r} in its simx: settings is not an integer "
+                            "(V-REP's sim.objectspecialproperty_* bits)") from None
+
+
+def set_special(world: Any, handle: int, bits: int) -> None:
+    """Set object ``handle``'s special property bits (unknown bits are dropped, as V-REP keeps
+    only its own); a shape's renderable bit takes effect in vision sensors at once.
+
+    ``sim.setObjectSpecialProperty`` (coppeliaSimLib ``CSceneObject::setLocalObjectSpecialProperty``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+        bits: ``sim.objectspecialproperty_*`` bits.
+
+    Raises:
+        UnknownObjectError: no such object.
+    """
+    obj = world.get(handle)
+    _store(world)[obj.handle] = int(bits) & ALL_BITS
+    world.__dict__.pop("_special_masks", None)
+    if obj.type == SHAPE:
+        apply_rendering(world)
+
+
+def forget(world: Any, handles: set[int]) -> None:
+    """Drop the run-time bits of objects that left the scene (their handles are never reused).
+
+    Args:
+        world: the world.
+        handles: handles of removed objects.
+    """
+    store = _store(world)
+    for h in handles:
+        store.pop(h, None)
+    world.__dict__.pop("_special_masks", None)
+
+
+def shape_geoms(m: Any, body: int) -> np.ndarray:
+    """The geoms that stand for a shape (MuJoCo body ``body``) in collision, distance and
+    detection: those that collide (``contype`` or ``conaffinity`` not 0) where it has any (an
+    MJCF body's visual-only copies are left out), else all of its geoms.
+
+    Args:
+        m: the MuJoCo model.
+        body: the body's id.
+
+    Returns:
+        Geom ids, shape (n,).
+    """
+    mine = m.geom_bodyid == body
+    colliding = mine & ((m.geom_contype != 0) | (m.geom_conaffinity != 0))
+    return np.flatnonzero(colliding if colliding.any() else mine)
+
+
+def geom_mask(world: Any, bit: int) -> np.ndarray:
+    """Mask (ngeom,) of the geoms of the shapes that have any of ``bit`` (collision, distance,
+    detection), plus the world body's geoms (they belong to no object): its colliding ones for
+    collision and distance, all of them for detection. Cached per model until a bit changes.
+
+    Args:
+        world: the world.
+        bit: ``COLLIDABLE``, ``MEASURABLE``, or detectable bits.
+
+    Returns:
+        Boolean array of shape (ngeom,).
+    """
+    m = world.model
+    cache = world.__dict__.get("_special_masks")
+    if cache is None or cache[0] is not m:
+        cache = world._special_masks = (m, {})
+    if bit in cache[1]:
+        return cache[1][bit]
+    mask = m.geom_bodyid == 0
+    if bit & (COLLIDABLE | MEASURABLE):
+        mask &= (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+    for obj in world.objects.values():
+        if obj.type == SHAPE and special(world, obj.handle) & bit:
+            mask[shape_geoms(m, obj.mj_id)] = True
+    mask.flags.writeable = False
+    cache[1][bit] = mask
+    return mask
+
+
+def apply_rendering(world: Any) -> None:
+    """Put the visible geoms of non-renderable shapes in HIDDEN_GROUP and those of renderable
+    ones back in the group the model was compiled with. Called when a model is installed (an
+    edit compiles a new one) and when a renderable bit changes.
+
+    Args:
+        world: the world (its current model).
+    """
+    m = world.model
+    compiled = world.__dict__.get("_compiled_geom_group")
+    if compiled is None or compiled.shape != m.geom_group.shape or world.__dict__.get("_grouped_model") is not m:
+        compiled = world._compiled_geom_group = m.geom_group.copy()
+        world._grouped_model = m
+    groups = compiled.copy()
+    for obj in world.objects.values():
+        if obj.type == SHAPE and not special(world, obj.handle) & RENDERABLE:
+            geoms = np.flatnonzero((m.geom_bodyid == obj.mj_id) & (compiled <= 2))
+            groups[geoms] = HIDDEN_GROUP
+    m.geom_group[:] = groups
+    world.version += 1  # cached renders are stale
