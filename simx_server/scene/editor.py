@@ -7,7 +7,8 @@ spec, compiles it to a new ``MjModel`` and hands it to :meth:`World.replace_mode
 every object that is still there (matched by name): its handle, joint positions and
 velocities, free bodies' poses, motors' mode/targets/maximum force and the simulation time.
 Objects that commands placed while the simulation runs (``World.set_pose``) stay where they
-are until it stops. A failed edit changes nothing. Vision sensors are rebuilt after each edit
+are until it stops, and what commands changed in the model (colours, masses, sizes, limits,
+view angles: :mod:`simx_server.scene.kept_state`) and the objects' special properties stay too. A failed edit changes nothing. Vision sensors are rebuilt after each edit
 (their renderers belong to the old model).
 
 Rules, in V-REP's terms (docs/API.md lists them per command):
@@ -52,7 +53,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, Unsuppor
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
-from simx_server.scene import custom_data
+from simx_server.scene import custom_data, kept_state
 from simx_server.scene.client_files import ClientFiles
 from simx_server.scene.edits import ObjectEdits
 from simx_server.scene.ttt import cache as ttt_cache
@@ -104,6 +105,7 @@ class Editor(ObjectEdits):
         self._spec: mujoco.MjSpec | None = None
         self._spec_world: World | None = None  # the world (scene) the spec describes
         self._baseline: dict[str, np.ndarray] | None = None  # poses as last compiled
+        self._baseline_state: dict[str, np.ndarray] | None = None  # other kept fields as last compiled
         self._placed: set[tuple[str, str]] = set()
         self._asset_counter = [0]  # numbers in-memory asset names
         self._parse_now()
@@ -169,11 +171,13 @@ class Editor(ObjectEdits):
                 with _quiet_mujoco():
                     spec = load_spec(world.scene_path)
                     spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
-                    baseline = _poses(world.model) if fresh else _poses(spec.compile())
+                    compiled = world.model if fresh else spec.compile()
+                    baseline = _poses(compiled)
             except ValueError as exc:
                 raise UnsupportedError(f"scene {world.scene_name} cannot be edited: "
                                        f"{_one_line(exc)}") from None
             self._spec, self._spec_world, self._baseline = spec, world, baseline
+            self._baseline_state = kept_state.snapshot(compiled)
         return self._spec
 
     def _runtime_placements(self) -> list[tuple]:
@@ -215,6 +219,8 @@ class Editor(ObjectEdits):
             i = mujoco.mj_name2id(m, _MJ_OBJ[kind], name)
             if i >= 0 and mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(getattr(m, fparent)[i])) == parent:
                 getattr(m, fpos)[i], getattr(m, frot)[i] = pos, rot
+                if kind == "site":
+                    m.site_sameframe[i] = 0  # else MuJoCo keeps a site compiled at its body's origin there
         for name, (pos, quat) in mocap.items():
             b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
             if b >= 0 and m.body_mocapid[b] >= 0:
@@ -245,10 +251,14 @@ class Editor(ObjectEdits):
                 raise UnsupportedError("MuJoCo cannot compile the edited scene: "
                                        f"{self._scrub(_one_line(exc))}") from None
         placements, mocap = self._runtime_placements(), self._mocap_poses()
-        baseline = _poses(model)
+        kept = kept_state.changes(world.model, self._baseline_state)
+        baseline, baseline_state = _poses(model), kept_state.snapshot(model)
         world.replace_model(model)
-        self._spec, self._baseline = spec, baseline
+        self._spec, self._baseline, self._baseline_state = spec, baseline, baseline_state
         self._restore_placements(placements, mocap, self._placed)
+        if kept_state.restore(world.model, kept, {name for _, name in self._placed}):
+            kept_state.settle(world)
+        world.changed()
         refresh_vision(self.sim)
         self._drop_orphan_scripts()
         self.sim.selection = [h for h in self.sim.selection if h in world.objects]  # removed ones leave it
@@ -332,7 +342,9 @@ class Editor(ObjectEdits):
             try:
                 with _quiet_mujoco():
                     spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
-                    self._spec, self._spec_world, self._baseline = spec, world, _poses(spec.compile())
+                    compiled = spec.compile()
+                    self._spec, self._spec_world, self._baseline = spec, world, _poses(compiled)
+                    self._baseline_state = kept_state.snapshot(compiled)
             except ValueError as exc:
                 log.warning("scene %s cannot be edited: %s", label, _one_line(exc))
         else:
