@@ -11,6 +11,7 @@ import logging
 import math
 
 import mujoco
+import numpy as np
 
 from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base.arguments import quote
@@ -222,6 +223,29 @@ class ObjectEdits:
             dst.fromto = [math.nan, 0, 0, 0, 0, 0]
             dst.size = m.site_size[i].copy()
 
+    def _carrier(self, spec: mujoco.MjSpec, parent):
+        """The spec body that carries object ``parent``: the shape's own, or the one its element
+        is in (also an unnamed one, such as a converted joint's)."""
+        if parent.type == SHAPE:
+            return spec.body(parent.name)
+        kind = _KIND.get(parent.type)
+        el = getattr(spec, kind)(parent.name) if kind is not None else None
+        if el is None:
+            raise UnsupportedError(f"{parent.name!r} is not in the scene's MjSpec: it cannot be a parent here")
+        return el.parent
+
+    def _parent_in_body(self, parent: int, body: int) -> tuple:
+        """The frame of object ``parent`` (-1: the world) in MuJoCo body ``body``'s frame, as
+        ``(pos, quat)``: identity for a shape (its body), the world, and an object another body
+        carries (a shape's own joint, which moves with it)."""
+        world = self.sim.world
+        if parent == WORLD or world.get(parent).type == SHAPE or world.get(parent).body != body:
+            return np.zeros(3), np.array([1.0, 0, 0, 0])
+        p, r = world.frame(parent)
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, np.ascontiguousarray(r).reshape(9))
+        return _compose(_inverse(_body_world(world, body)), (np.asarray(p, float), q))
+
     def _copy_state(self, src: str, dst: str) -> None:
         """Joint positions and motors of a copied subtree from its original (same tree shape)."""
         w = self.sim.world
@@ -246,27 +270,38 @@ class ObjectEdits:
         w.version += 1
 
     def set_parent(self, handle: int, parent: int, keep_in_place: bool) -> None:
-        """``simxSetObjectParent``: move a body subtree (or a site, camera, light) to another
-        body or the world, keeping its world pose or its pose relative to its parent."""
+        """``simxSetObjectParent`` / ``sim.setObjectParent``: move a body subtree (or a site,
+        camera, light) under any object or the world, keeping its world pose
+        (``keep_in_place``) or its pose relative to its parent.
+
+        As in CoppeliaSim (``CSceneObject::setParent``), any object may be a parent: a shape is
+        its body; a dummy, sensor, camera, light or joint is carried by a body in MuJoCo, and
+        the child goes into that body (for a joint: the body it moves), at the parent object's
+        frame, with ``vrep_parent=`` recording V-REP's parent for ``sim.getObjectParent``.
+
+        Raises:
+            ArgumentError: the world, or a parent inside the child's subtree.
+            UnsupportedError: a joint as the child (it belongs to its body), or a move MuJoCo
+                cannot make (a free body under another body, references lost).
+        """
         world = self.sim.world
         if handle == WORLD:
             raise ArgumentError("the world (-1) cannot be re-parented")
         obj = world.get(handle)
         if obj.type == JOINT:
             raise UnsupportedError(f"joint {obj.name!r} belongs to its body in MuJoCo: re-parent the body")
-        if parent != WORLD:
-            new_parent = world.get(parent)
-            if new_parent.type != SHAPE:
-                raise UnsupportedError("MuJoCo objects can only hang from shapes (bodies) or the world (-1)")
+        new_parent = world.get(parent) if parent != WORLD else None
+        if new_parent is not None:
             if parent == handle or (obj.type == SHAPE and any(a.handle == handle for a in self._ancestors(new_parent))):
                 raise ArgumentError(f"{new_parent.name!r} is {obj.name!r} or one of its descendants")
-            parent_body = new_parent.mj_id
+            parent_body = new_parent.mj_id if new_parent.type == SHAPE else new_parent.body
         else:
             parent_body = 0
         m = world.model
         old_body = int(m.body_parentid[obj.mj_id]) if obj.type == SHAPE else obj.body
-        if old_body == parent_body:
+        if old_body == parent_body and obj.parent == parent:
             return  # already there: both poses unchanged
+        vrep_parent = None if new_parent is None or new_parent.type == SHAPE else new_parent.name
         kind = _KIND[obj.type]
         if kind == "light":
             local = (m.light_pos[obj.mj_id].copy(), m.light_dir[obj.mj_id].copy())
@@ -274,16 +309,19 @@ class ObjectEdits:
             pos, quat = {"body": (m.body_pos, m.body_quat), "site": (m.site_pos, m.site_quat),
                          "camera": (m.cam_pos, m.cam_quat)}[kind]
             local = (pos[obj.mj_id].copy(), quat[obj.mj_id].copy())
-        if keep_in_place:
+        if keep_in_place:  # the same world pose, seen from the new body
             to_new = _compose(_inverse(_body_world(world, parent_body)), _body_world(world, old_body))
-            if kind == "light":
-                local = (to_new[0] + _rotate(to_new[1], local[0]), _rotate(to_new[1], local[1]))
-            else:
-                local = _compose(to_new, local)
+        else:  # the same pose relative to the (V-REP) parent: old parent's frame -> new parent's
+            to_new = _compose(self._parent_in_body(parent, parent_body),
+                              _inverse(self._parent_in_body(obj.parent, old_body)))
+        if kind == "light":
+            local = (to_new[0] + _rotate(to_new[1], local[0]), _rotate(to_new[1], local[1]))
+        else:
+            local = _compose(to_new, local)
 
         def change(spec: mujoco.MjSpec):
             kind_, el, _ = self._spec_element(spec, handle)
-            target = spec.worldbody if parent_body == 0 else spec.body(world.get(parent).name)
+            target = spec.worldbody if parent_body == 0 else self._carrier(spec, new_parent)
             counts = {name: len(getattr(spec, name)) for name in _REFERRING_LISTS}
             if kind_ == "body":
                 moved = target.add_frame().attach_body(el, "", _MARK)
@@ -296,6 +334,7 @@ class ObjectEdits:
                 raise UnsupportedError(f"moving {obj.name!r} would lose {', '.join(lost)} that link it "
                                        "to the rest of the scene")
             self._placed.add((kind_, obj.name))
+            _set_setting(spec, obj.name, "vrep_parent", vrep_parent)
             if kind_ == "light":
                 moved.pos, moved.dir = local
             else:
@@ -312,3 +351,17 @@ class ObjectEdits:
                 raise UnsupportedError(f"{obj.name!r} has a free joint, and MuJoCo allows free joints "
                                        "only in children of the world") from None
             raise
+
+
+def _set_setting(spec: mujoco.MjSpec, name: str, key: str, value: str | None) -> None:
+    """Set ``key=value`` in the ``simx:NAME`` text of the spec (None: remove the key)."""
+    t = spec.text(f"simx:{name}")
+    items = [i for i in (t.data.split() if t is not None else []) if i.partition("=")[0] != key]
+    if value is not None:
+        items.append(f"{key}={value}")
+    if t is None and items:
+        spec.add_text(name=f"simx:{name}", data=" ".join(items))
+    elif t is not None and items:
+        t.data = " ".join(items)
+    elif t is not None:
+        spec.delete(t)

@@ -73,3 +73,31 @@ def parse_settings(text: str) -> dict[str, str]:
             raise ValueError(f"setting {item!r} is not key=value")
         settings[key] = value
     return settings
+
+
+def apply_vrep_parents(objects: dict[int, SceneObject], by_name: dict[str, SceneObject]) -> None:
+    """Give each object whose ``simx:`` settings say ``vrep_parent=NAME`` (``-1``: the world)
+    that parent, as V-REP's tree has it, where MuJoCo's tree cannot: an object hung from a
+    dummy, a joint, a sensor or a light is carried by that object's body in MuJoCo, but
+    ``sim.getObjectParent`` answers the object (coppeliaSimLib ``CSceneObject::getParent``).
+    A setting that names no object, or that would close a cycle, is left out (the MuJoCo
+    parent stays).
+
+    Args:
+        objects: handle -> object, parents as MuJoCo's tree gives them (changed in place).
+        by_name: name -> object.
+    """
+    for obj in objects.values():
+        name = obj.settings.get("vrep_parent")
+        if name is None:
+            continue
+        other = None if name == "-1" else by_name.get(name)
+        if name != "-1" and (other is None or other is obj):
+            continue
+        new = WORLD if other is None else other.handle
+        h, seen = new, set()
+        while h != WORLD and h not in seen and h != obj.handle:
+            seen.add(h)
+            h = objects[h].parent
+        if h == WORLD:
+            obj.parent = new

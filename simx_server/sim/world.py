@@ -38,6 +38,7 @@ from simx_server.sim.objects import (  # noqa: F401 (importers of the world use 
     VISION_SENSOR,
     WORLD,
     SceneObject,
+    apply_vrep_parents,
     parse_settings,
 )
 from simx_server.sim.joints import Joints
@@ -261,6 +262,7 @@ class World(Poses, Joints):
             for i in np.flatnonzero(bodies[:count] == 0):
                 t = site_type.get(int(i), DUMMY) if otype == DUMMY else otype
                 self._add(names(table, int(i)), t, int(i), 0, WORLD)
+        apply_vrep_parents(self.objects, self.by_name)  # V-REP's tree where MuJoCo's differs
 
     def resolve(self, name: str) -> SceneObject:
         """The object named ``name`` (``simxGetObjectHandle`` rules).
