@@ -16,7 +16,9 @@ Paths (CoppeliaSim's manual, "Accessing scene objects programmatically"):
 * ``/A/B/C``: an object ``C`` below an object ``B`` below an object ``A``, each anywhere below
   the previous one (intermediate levels may be left out: ``/UR5/UR5_joint3``); ``/A`` alone is
   any object ``A`` of the scene;
-* ``.`` the calling script's object, ``./B`` below it; ``:`` the script's model base (the
+* ``.`` the calling script's object, ``./B`` below it; ``..`` its parent (``../..`` the
+  grandparent, ``../B`` below the parent; coppeliaSimLib
+  ``CSceneObjectContainer::_getObjectFromSimplePath``); ``:`` the script's model base (the
   nearest object at or above the script's with the ``model_base=1`` setting, which a converted
   ``.ttt`` gives its model bases; else the script object's topmost ancestor below the world),
   ``:/B`` below it, ``::`` the model base above that one; for code with no
@@ -194,6 +196,17 @@ def find(world: World, path: str, index: int = -1, proxy: int | None = None) -> 
     order, position, end, depth = tree_order(world)
     if path[0] == "/":
         base, rest = WORLD, path[1:]
+    elif path.startswith(".."):  # the script object's parent, "../.." its grandparent, "../X" below it
+        base, rest = (WORLD if proxy is None else proxy), path
+        while rest.startswith(".."):
+            if base == WORLD:
+                return []
+            base, rest = path_parent(world, world.objects[base]), rest[2:]
+            if rest == "":
+                return [base] if index <= 0 and base != WORLD else []
+            if not rest.startswith("/"):
+                raise ArgumentError(f"object path {quote(path)}: after .. comes / (../sibling) or nothing")
+            rest = rest[1:]
     else:
         base = WORLD if proxy is None else proxy  # unassociated code (a remote client): the scene root
         rest = path[1:]

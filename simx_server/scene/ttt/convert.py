@@ -248,12 +248,16 @@ class Converter:
         j = obj.data
         displaced = compose(frame, joint_displacement(j.type, j.position))
         shapes = [c for c in obj.children if c.kind == "shape"]
-        if len(obj.children) == 1 and shapes:
+        scripts = [c for c in obj.children if c.kind == "script"]  # 4.6+ script objects ride along
+        if len(obj.children) - len(scripts) == 1 and shapes:
             child = shapes[0]
             rel = inverse(child.pose)  # the joint frame seen from the child's body
             axis = quat_to_mat(rel.quat) @ np.array([0.0, 0, 1])
             self._shape(child, body, compose(displaced, child.pose), model,
                         joint=lambda b: add_joint(self, obj, b, rel.pos, axis))
+            for script in scripts:  # in the child's body, which the joint moves
+                self._emit(script, self.bodies[child.handle], rel, model)
+                self.vrep_parent(script)
             return
         # several children, or none that is a shape: an unnamed body at the displaced frame
         # carries the joint, its children inside

@@ -150,7 +150,8 @@ class TttObject:
 
 @dataclass
 class Script:
-    """A script: type 0 main, 1 child, 6 customization (4/5/7 retired callbacks)."""
+    """A script: type 0 main, 1 child, 6 customization (4/5/7 retired callbacks). In 4.6+ files
+    a script is also a scene object (``SCT``): ``handle`` and ``object`` are then that object's."""
 
     handle: int
     object: int
@@ -160,6 +161,7 @@ class Script:
     text: str
     language: str = "lua"
     parameters: list[dict] = field(default_factory=list)
+    proxy: bool = False  # 4.6+ script object whose parent stands for it (``Va3`` bit 2, _parentIsProxy)
 
 
 @dataclass

@@ -60,9 +60,8 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                 continue
             if tag in OBJECT_KINDS or _is_object(payload):
                 obj = _read_object(top, tag, payload, pool)
-                if obj.kind == "script":
-                    scene.skipped["script objects (4.6+)"] = scene.skipped.get("script objects (4.6+)", 0) + 1
-                    continue
+                if obj.kind == "script":  # 4.6+: the script is an object of the tree
+                    scene.scripts.append(obj.data)
                 if obj.handle in scene.objects:
                     raise top.error(tag, f"object handle {obj.handle} used twice")
                 scene.objects[obj.handle] = obj
@@ -162,7 +161,18 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
     elif kind == "force_sensor":
         size = typed.floats("_iz", "Siz", 1)
         obj.data = ForceSensorData(float(size[0]) if size is not None else 0.01)
+    elif kind == "script":
+        obj.data = _read_script_object(typed, obj.handle)
     return obj
+
+
+def _read_script_object(r: Records, handle: int) -> Script:
+    """A CoppeliaSim 4.6+ script object (``SCT``, coppeliaSimLib ``CScript::serialize``): its
+    script (``CDetachedScript::serialize``) is the record list in ``Soo``, the one an ``LST``
+    holds; it runs as the script of the object itself."""
+    script = _read_script(r.sub("Soo"))
+    script.handle = script.object = handle
+    return script
 
 
 def _read_joint(r: Records) -> JointData:
@@ -232,7 +242,7 @@ def _read_script(r: Records) -> Script:
     lang = r.string("Lne", "lua") if r.get("Lne") is not None else "lua"
     params = custom.read_parameters(r, "Prm")
     return Script(handle, obj, typ, threaded=bool(va2 & 1), disabled=bool(va2 & 2), text=text,
-                  language=lang or "lua", parameters=params)
+                  language=lang or "lua", parameters=params, proxy=bool(r.byte("Va3") & 4))
 
 
 def _read_collection(r: Records) -> Collection:

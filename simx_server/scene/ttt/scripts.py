@@ -5,7 +5,11 @@ objects with ``simx:OBJECT`` settings (docs/PORTING.md, "Bring your .ttt"):
 ``customization_script=FILE.lua``, ``vrep_version=NNNNN`` (the file's program version, for the
 API of its time) and ``script_parameters=FILE.json`` (a JSON list of ``{name, value, unit}``:
 V-REP's script simulation parameters, when the script or, from CoppeliaSim 4.3, its object has
-any; a value that is not UTF-8 text is ``value_base64``, its bytes unchanged). An object's custom data blocks (``sim.readCustomDataBlock``) go into ``custom_data=FILE.json``
+any; a value that is not UTF-8 text is ``value_base64``, its bytes unchanged). A CoppeliaSim
+4.6+ script object (``SCT``) is a site of the tree (its alias and path resolve,
+``sim.getObject('.')`` in it is itself, as coppeliaSimLib's ``simGetObject_internal`` takes the
+script object as the emitting object) that carries its own script; with "parent is proxy" set,
+the script is its parent's. An object's custom data blocks (``sim.readCustomDataBlock``) go into ``custom_data=FILE.json``
 (a JSON object: tag -> the block's bytes in base64), which the scene loader gives to the scripts
 (:mod:`simx_server.scene.custom_data`).
 """
@@ -37,6 +41,8 @@ def write_scripts(conv) -> None:
     settings; a main script that is not V-REP's default and disabled scripts are reported."""
     scene = conv.scene
     used: set[str] = set()
+    taken = {(s.object, s.type) for s in scene.scripts if scene.objects.get(s.object) is not None
+             and scene.objects[s.object].kind != "script"}
     for script in scene.scripts:
         if script.type == MAIN:
             if script.text and "-- This is the main script" not in script.text[:200]:
@@ -46,6 +52,13 @@ def write_scripts(conv) -> None:
             conv.report.add("retired callback scripts")
             continue
         obj = scene.objects.get(script.object)
+        if obj is not None and obj.kind == "script" and script.proxy:
+            # 4.6+ "parent is proxy": the script acts for its parent (sim.getObject('.') is the
+            # parent), unless that object has a script of this kind already
+            parent = scene.objects.get(obj.parent)
+            if parent is not None and (parent.handle, script.type) not in taken:
+                taken.add((parent.handle, script.type))
+                obj = parent
         if obj is None:
             conv.report.add("scripts attached to no object")
             continue

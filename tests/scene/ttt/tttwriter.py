@@ -182,6 +182,18 @@ def huffman_encode(data: bytes) -> bytes:
     return np.packbits(np.frombuffer(stream.encode(), np.uint8) - 48).tobytes()
 
 
+def script_object(handle: int, parent: int, name: str, text: str, kind: int = 1, proxy: bool = False,
+                  pos=(0, 0, 0), extra: bytes = b"") -> bytes:
+    """A CoppeliaSim 4.6+ script object (``SCT``, ``CScript::serialize``): the common part, then
+    ``Sos`` size, ``Var``, and ``Soo``: the script's own records (``CDetachedScript::serialize``:
+    ``Si2`` (0, object, type), ``Va2``, ``Va3`` (bit 2: parent is proxy), ``Ste`` with 4.6's
+    ``--lua`` first line, ``Lne``)."""
+    soo = lst(rec("Si2", i32(0, -1, kind)), rec("Va2", bytes([0xC8])), rec("Va3", bytes([1 | (4 if proxy else 0)])),
+              rec("Ste", light_encode(("--lua\n" + text).encode())), rec("Lne", string("lua")))
+    typed = lst(rec("Sos", struct.pack("<d", 0.01)), rec("Var", bytes([0])), rec("Soo", soo))
+    return rec("SCT", common(handle, parent, name, pos, extra=alias(name) + extra) + typed)
+
+
 def collection(name: str, elements, handle: int = 2_000_000) -> bytes:
     """A collection (``GRP``): ``elements`` of (object handle or -1, V-REP's element type ``Gty``,
     additive)."""
