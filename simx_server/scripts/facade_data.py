@@ -24,12 +24,16 @@ from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import quote
 from simx_server.scripts.signals import Signals
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_text as _text
+from simx_server.sim import properties
 from simx_server.sim.objects import SHAPE
 from simx_server.scripts.facade_rotations import RotationCalls
 
 HANDLE_SCENE, HANDLE_APP = -12, -13
 _MAX_CUSTOM_BYTES = 16 << 20  # all custom data of a server
 _CBOR_FIRST = set(range(0x80, 0xC0)) | {0xF6}  # CBOR arrays, maps, null
+#: CoppeliaSim 4.8's boolean object properties over V-REP's special property bits (detectable: all kinds).
+_SPECIAL = {"collidable": properties.COLLIDABLE, "measurable": properties.MEASURABLE,
+            "detectable": properties.DETECTABLE_ALL}
 
 
 def _plain(value: Any, depth: int = 0) -> Any:
@@ -337,6 +341,8 @@ class DataCalls(RotationCalls):
                   "pose": lambda: self._world.position(handle, -1) + self._world.quaternion(handle, -1)}
         if obj.type == SHAPE:
             values["mass"] = lambda: float(self._world.model.body_mass[obj.mj_id])
+        for key, bits in _SPECIAL.items():  # CoppeliaSim 4.8's names of the special properties
+            values[key] = lambda bits=bits: properties.special(self._world, handle) & bits == bits
         if name not in values:
             raise UnknownObjectError(f"object {obj.name!r} has no property {quote(name)} in simx "
                                      f"(it has customData.*, signal.* on the scene, {', '.join(sorted(values))})")
@@ -345,7 +351,8 @@ class DataCalls(RotationCalls):
     def getProperty(self, target: Any, pName: Any, options: Any = None) -> Any:  # noqa: N802, N803
         """A property of an object or of the scene (``sim.handle_scene``): ``customData.TAG``
         (the custom data block, unpacked when it is a packed table), ``signal.NAME`` (a signal of
-        any kind), ``alias``, ``objectType``, ``parentHandle``, ``pose``, ``mass`` (shapes).
+        any kind), ``alias``, ``objectType``, ``parentHandle``, ``pose``, ``mass`` (shapes),
+        ``collidable``, ``measurable``, ``detectable`` (V-REP's special properties, booleans).
         Errors: no such property (``{noError = true}``: nil).
 
         ``sim.getProperty`` (CoppeliaSim 4.8).
@@ -386,8 +393,10 @@ class DataCalls(RotationCalls):
             raise
 
     def setProperty(self, target: Any, pName: Any, pValue: Any, pType: Any = None) -> None:  # noqa: N802, N803
-        """Set ``customData.TAG`` (tables packed, bytes and text as they are) or, on the scene,
-        ``signal.NAME`` (an integer, float or buffer signal by the value's type).
+        """Set ``customData.TAG`` (tables packed, bytes and text as they are), an object's
+        ``collidable``, ``measurable`` or ``detectable`` (its special property bits, as
+        ``sim.setObjectSpecialProperty``) or, on the scene, ``signal.NAME`` (an integer, float or
+        buffer signal by the value's type).
 
         ``sim.setProperty`` (CoppeliaSim 4.8).
 
@@ -406,13 +415,18 @@ class DataCalls(RotationCalls):
             value = pValue if isinstance(pValue, (bytes, bytearray)) else (
                 pValue.encode() if isinstance(pValue, str) else cbor2.dumps(_plain(pValue)))
             self.writeCustomDataBlockEx(h, name[11:], value)
+        elif name in _SPECIAL and h >= 0:  # sceneObject.collidable / measurable / detectable
+            handle = self._h(h)
+            bits = properties.special(self._world, handle)
+            want = _SPECIAL[name]
+            properties.set_special(self._world, handle, bits | want if bool(pValue) else bits & ~want)
         elif name.startswith("signal.") and h == HANDLE_SCENE:
             kind = Signals.INT if isinstance(pValue, int) and not isinstance(pValue, bool) else (
                 Signals.FLOAT if isinstance(pValue, float) else Signals.STRING)
             self._signals.set(kind, name[7:], pValue, by_script=True)
         else:
-            raise ArgumentError(f"property {quote(name)} cannot be set in simx (customData.* and the scene's "
-                                "signal.* can)")
+            raise ArgumentError(f"property {quote(name)} cannot be set in simx (customData.*, an object's "
+                                "collidable, measurable and detectable, and the scene's signal.* can)")
 
     def removeProperty(self, target: Any, pName: Any, options: Any = None) -> None:  # noqa: N802, N803
         """``sim.removeProperty`` (CoppeliaSim 4.8): remove ``customData.TAG`` or, on the scene,

@@ -39,7 +39,8 @@ TYPES: dict[int, tuple[str, Any]] = {
     15: ("intarray2", lambda v: [_int(x, "value[i]") for x in _vector(v, 2, "value")]),
     16: ("long", lambda v: _int(v, "value")),
 }
-_OBJECT_TYPES = {"alias": 3, "objectType": 1, "parentHandle": 1, "handle": 1, "objectUid": 16, "pose": 7, "mass": 2}
+_OBJECT_TYPES = {"alias": 3, "objectType": 1, "parentHandle": 1, "handle": 1, "objectUid": 16, "pose": 7, "mass": 2,
+                 "collidable": 0, "measurable": 0, "detectable": 0}
 
 
 def _table_error(v: Any) -> Any:

@@ -112,3 +112,15 @@ def test_renderable_moves_geoms_out_of_the_vision_groups_and_edits_keep_it(scene
     assert api.getObjectSpecialProperty(robot) == 1 | 2 | 496
     assert m.geom_group[m.body("Robot").geomadr[0]] == properties.HIDDEN_GROUP
     assert m.geom_group[m.body("Hidden").geomadr[0]] == properties.HIDDEN_GROUP
+
+
+def test_coppeliasim_48_property_names(scene):
+    _, sim = scene
+    ghost = sim.world.resolve("Ghost").handle
+    api = ScriptSim(sim.world, ghost, sim.signals, simulation=sim)
+    assert api.getBoolProperty(ghost, "collidable") is False
+    api.setBoolProperty(ghost, "collidable", True)
+    api.setBoolProperty(ghost, "detectable", True)
+    assert api.getObjectSpecialProperty(ghost) == 1 | 496
+    assert api.getBoolProperty(ghost, "collidable") and not api.getBoolProperty(ghost, "measurable")
+    assert "collidable" in [api.getPropertyName(ghost, i)[0] for i in range(12) if api.getPropertyName(ghost, i)]
