@@ -99,19 +99,6 @@ def set_special(world: Any, handle: int, bits: int) -> None:
         apply_rendering(world)
 
 
-def forget(world: Any, handles: set[int]) -> None:
-    """Drop the run-time bits of objects that left the scene (their handles are never reused).
-
-    Args:
-        world: the world.
-        handles: handles of removed objects.
-    """
-    store = _store(world)
-    for h in handles:
-        store.pop(h, None)
-    world.__dict__.pop("_special_masks", None)
-
-
 def shape_geoms(m: Any, body: int) -> np.ndarray:
     """The geoms that stand for a shape (MuJoCo body ``body``) in collision, distance and
     detection: those that collide (``contype`` or ``conaffinity`` not 0) where it has any (an
