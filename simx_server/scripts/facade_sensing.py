@@ -20,7 +20,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
-from simx_server.sim import collisions, scene_collections, sensors
+from simx_server.sim import collisions, proximity, scene_collections, sensors
 from simx_server.sim.objects import PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
 from simx_server.sim.state import SimulationView
 
@@ -304,7 +304,8 @@ class SensingCalls:
 
     def checkProximitySensor(self, sensorHandle: Any, entityHandle: Any) -> tuple[int, float, list[float]]:  # noqa: N802, N803
         """``result, distance, detectedPoint`` against ``entityHandle`` (``sim.handle_all``: any
-        shape; a shape: only that one counts).
+        detectable shape; a shape: only that one, whatever its detectable flags, as V-REP's
+        ``simCheckProximitySensor`` overrides them for a single object; nothing else is in the way).
 
         Args:
             sensorHandle: a proximity sensor's handle.
@@ -313,11 +314,13 @@ class SensingCalls:
         Returns:
             ``(result, distance, [x, y, z])``: m, sensor frame.
         """
-        detected, dist, point, hit, _ = self.readProximitySensor(self._proximity(sensorHandle))
         e = _int(entityHandle, "entityHandle")
-        if e != C.sim_handle_all and (detected and hit != self._world.get(e).handle):
-            return 0, 0.0, [0.0, 0.0, 0.0]
-        return detected, dist, point
+        if e == C.sim_handle_all:
+            detected, dist, point, hit, _ = self.readProximitySensor(self._proximity(sensorHandle))
+            return detected, dist, point
+        found, point, _, _ = proximity.proximity_reading(self._simulation("checkProximitySensor"),
+                                                        self._proximity(sensorHandle), self._world.get(e, SHAPE).handle)
+        return int(found), float(np.linalg.norm(point)), point
 
     def resetProximitySensor(self, sensorHandle: Any) -> None:  # noqa: N802, N803
         """Nothing kept between casts: checked and done.

@@ -264,7 +264,8 @@ def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np
     return best
 
 
-def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[float], int, list[float]]:
+def proximity_reading(sim: SimulationView, handle: int,
+                      entity: int | None = None) -> tuple[bool, list[float], int, list[float]]:
     """``simxReadProximitySensor``'s values: (detected, detected point (3,) m, detected object
     handle, detected surface normal (3,)), point and normal in the sensor frame.
 
@@ -282,6 +283,10 @@ def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[floa
     Args:
         sim: the simulation.
         handle: a proximity sensor's handle.
+        entity: None (every detectable shape), or one shape that alone is looked for, whatever
+            its detectable flags, the rest neither seen nor in the way (V-REP's
+            ``simCheckProximitySensor``: ``CProxSensorRoutine::detectEntity`` with the flag
+            overridden for a single object).
 
     Returns:
         ``(detected, [x, y, z], object handle, [nx, ny, nz])``.
@@ -302,7 +307,11 @@ def proximity_reading(sim: SimulationView, handle: int) -> tuple[bool, list[floa
     exclude = int(m.site_bodyid[site])
     rays = volume_rays(obj, cutoff)
     angle = cone_angle(obj) if rays is None else 0.0
-    seen = properties.geom_mask(world, sensable(obj))
+    if entity is None:
+        seen = properties.geom_mask(world, sensable(obj))
+    else:
+        seen = np.zeros(m.ngeom, dtype=bool)
+        seen[properties.shape_geoms(m, world.get(entity, SHAPE).mj_id)] = True
     if rays is not None:
         found = _volume_hit(m, d, rot, origin, exclude, rays, seen)
         if found is None:

@@ -124,3 +124,15 @@ def test_coppeliasim_48_property_names(scene):
     assert api.getObjectSpecialProperty(ghost) == 1 | 496
     assert api.getBoolProperty(ghost, "collidable") and not api.getBoolProperty(ghost, "measurable")
     assert "collidable" in [api.getPropertyName(ghost, i)[0] for i in range(12) if api.getPropertyName(ghost, i)]
+
+
+def test_check_proximity_sensor_on_one_shape_overrides_its_flag(scene):
+    _, sim = scene
+    h = lambda n: sim.world.resolve(n).handle  # noqa: E731
+    api = ScriptSim(sim.world, h("Eye"), sim.signals, simulation=sim)
+    # the glass is not detectable: looked for alone it is found all the same, at 0.35 m
+    result, dist, point = api.checkProximitySensor(h("Eye"), h("Glass"))
+    assert result == 1 and dist == pytest.approx(0.35, abs=1e-6)
+    # the plate alone: the ultrasonic sensor finds it too, through the glass in front of it
+    assert api.checkProximitySensor(h("Ear"), h("Plate"))[:2] == (1, pytest.approx(0.75, abs=1e-6))
+    assert api.checkProximitySensor(h("Ear"), -2)[0] == 0  # the plate is not ultrasonic-detectable
