@@ -6,12 +6,12 @@ checked here, never trusted."""
 from __future__ import annotations
 
 from simx_wire import constants as C
-from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import ArgumentError
 from simx_server.base.arguments import as_floats, as_int
 from simx_server.base.arguments import check_args as _args
 from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
-from simx_server.sim import scene_collections
+from simx_server.sim import properties, scene_collections
 from simx_server.sim.world import matrix_from_euler, matrix_from_quaternion
 
 
@@ -94,18 +94,27 @@ MODELPROPERTY_NOT_MODEL = 0xF000  # sim_modelproperty_not_model
 
 
 def get_model_property(sim: Simulation, args: list) -> int:
-    """A body directly under the world with bodies below it is a model (all its parts on: 0)."""
+    """``simxGetModelProperty``: the model's bits where the scene or a client gave them (a
+    ``.ttt``'s model bases, ``simxSetModelProperty``: :func:`simx_server.sim.properties.model_property`);
+    otherwise a body directly under the world with bodies below it is a model (all its parts
+    on: 0)."""
     (h,) = _args(args, "int")
-    obj = sim.world.get(h)
-    is_model = obj.parent == -1 and obj.type == 0 and bool(sim.world.children(h))
+    world = sim.world
+    obj = world.get(h)
+    bits = properties.model_property(world, h)
+    if bits != MODELPROPERTY_NOT_MODEL or h in world.__dict__.get("model_properties", {}):
+        return bits
+    is_model = obj.parent == -1 and obj.type == 0 and bool(world.children(h))
     return 0 if is_model else MODELPROPERTY_NOT_MODEL
 
 
 def set_model_property(sim: Simulation, args: list) -> None:
-    h, _prop = _args(args, "int", "int")
-    sim.world.get(h)
-    raise UnsupportedError("model properties (collidable, renderable, dynamic...) cannot be switched in MuJoCo "
-                           "at run time; edit the MJCF (contype/conaffinity, group, mass) instead")
+    """``simxSetModelProperty``: a model base's ``sim_modelproperty_not_*`` bits; not
+    collidable, measurable, detectable, renderable (and not visible) act on every object of the
+    model (V-REP's overrides of the special properties); the others are kept, nothing else
+    changes (MuJoCo's dynamics and contacts follow the MJCF)."""
+    h, prop = _args(args, "int", "int")
+    properties.set_model_property(sim.world, h, prop)
 
 
 def get_collection_handle(sim: Simulation, args: list) -> int:

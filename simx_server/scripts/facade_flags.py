@@ -1,13 +1,12 @@
 """CoppeliaSim 4.x's object and model property flags and ``convertPropertyValue`` (mixin of
 :class:`simx_server.scripts.facade.ScriptSim`).
 
-The flags are kept per object in the simulation's store (they do not change MuJoCo's model:
-collisions, rendering and dynamics follow the MJCF). Until set, an object answers what its MJCF
-means: ``getObjectProperty`` ``sim.objectproperty_selectable`` (CoppeliaSim's default);
-``getModelProperty`` ``sim.modelproperty_not_model`` unless the object was made a model base by
-``setModelProperty``. The special property flags, which do change the model (collidable and
-measurable are the geoms' ``contype``/``conaffinity``), are in
-:mod:`simx_server.scripts.legacy_objects`.
+The object property flags are kept per object in the simulation's store (they change nothing
+else). Until set, an object answers ``getObjectProperty`` ``sim.objectproperty_selectable``
+(CoppeliaSim's default). Model properties are :mod:`simx_server.sim.properties`': a model base's
+``not_*`` bits override the special properties (collidable, measurable, detectable, renderable:
+:mod:`simx_server.scripts.legacy_objects`) below it, as in V-REP; ``getModelProperty`` answers
+``sim.modelproperty_not_model`` for an object that is no model base.
 """
 
 from __future__ import annotations
@@ -20,9 +19,10 @@ import numpy as np
 from simx_wire.protocol import ArgumentError
 from simx_server.base.arguments import as_integer as _int
 from simx_server.scripts.facade_props import TYPES
+from simx_server.sim import properties
 from simx_server.sim.state import SimulationView
 
-OBJECTPROPERTY_SELECTABLE, MODELPROPERTY_NOT_MODEL = 32, 0xF000
+OBJECTPROPERTY_SELECTABLE = 32
 _SCALARS = {0, 1, 2, 16}                                  # bool, int, float, long
 _LENGTHS = {5: 3, 6: 4, 7: 7, 8: 9, 9: 16, 10: 3, 14: 2, 15: 2}  # fixed-size numeric types
 _ARRAYS = {11, 13}                                         # floatarray, intarray
@@ -82,8 +82,8 @@ class FlagCalls:
         self._flags("object")[self._flag_target(objectHandle)] = _int(property, "property")
 
     def getModelProperty(self, objectHandle: Any) -> int:  # noqa: N802, N803
-        """The ``sim.modelproperty_*`` bits of a model base; ``sim.modelproperty_not_model`` for
-        an object that is none.
+        """The ``sim.modelproperty_*`` bits of a model base (a ``.ttt``'s, or set by
+        ``setModelProperty``); ``sim.modelproperty_not_model`` for an object that is none.
 
         ``sim.getModelProperty``.
 
@@ -96,11 +96,14 @@ class FlagCalls:
         Raises:
             UnknownObjectError: no such object.
         """
-        return int(self._flags("model").get(self._flag_target(objectHandle), MODELPROPERTY_NOT_MODEL))
+        return properties.model_property(self._world, self._flag_target(objectHandle))
 
     def setModelProperty(self, objectHandle: Any, property: Any) -> None:  # noqa: N802, N803, A002
-        """Keep the ``sim.modelproperty_*`` bits; bits without ``sim.modelproperty_not_model``
-        make the object a model base (CoppeliaSim's rule).
+        """Set the ``sim.modelproperty_*`` bits; bits without ``sim.modelproperty_not_model``
+        make the object a model base (CoppeliaSim's rule) whose ``not_collidable``,
+        ``not_measurable``, ``not_detectable``, ``not_renderable`` and ``not_visible`` bits
+        override the special properties of everything at and below it
+        (:func:`simx_server.sim.properties.cumulative`); the other bits are kept.
 
         ``sim.setModelProperty``.
 
@@ -112,7 +115,7 @@ class FlagCalls:
             UnknownObjectError: no such object.
             ArgumentError: not an integer.
         """
-        self._flags("model")[self._flag_target(objectHandle)] = _int(property, "property")
+        properties.set_model_property(self._world, self._flag_target(objectHandle), _int(property, "property"))
 
     def convertPropertyValue(self, value: Any, fromType: Any, toType: Any) -> Any:  # noqa: N802, N803
         """``value`` of ``sim.propertytype_*`` ``fromType`` as ``toType``: between numbers (bool,

@@ -93,7 +93,7 @@ def _entity_geoms(world: World, handle: int, what: str, bit: int, override: bool
     geoms = properties.shape_geoms(m, obj.mj_id)
     if geoms.size == 0:
         raise ObjectTypeError(f"{what}: shape {obj.name!r} has no geom, so it cannot collide nor be measured")
-    if not override and not properties.special(world, handle) & bit:
+    if not override and not properties.cumulative(world, handle) & bit:
         geoms = geoms[:0]
     return geoms, [obj.mj_id]
 

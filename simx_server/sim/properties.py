@@ -9,6 +9,9 @@ lets a model base's ``sim.modelproperty_not_*`` bits override them). In simx:
 * an object's bits come from its ``simx:`` setting ``special=N`` (a ``.ttt`` writes the file's
   value there), else V-REP's default for its type: a shape is collidable, measurable, detectable
   by every sensor type and renderable (``CShape``'s constructor), other objects have none;
+* a model base's ``sim.modelproperty_not_collidable`` / ``_measurable`` / ``_renderable`` /
+  ``_detectable`` / ``_visible`` bits (``model_property=N``, a ``.ttt``'s ``Mpo``, or
+  ``sim.setModelProperty``) clear those flags for everything at and below it (:func:`cumulative`);
 * ``sim.setObjectSpecialProperty`` changes them at run time (:func:`set_special`); the value
   stays with the object's handle through scene edits and through a stop, as in V-REP;
 * collision and distance checks (:mod:`simx_server.sim.collisions`) test the geoms of the shapes
@@ -78,6 +81,91 @@ def special(world: Any, handle: int) -> int:
                             "(V-REP's sim.objectspecialproperty_* bits)") from None
 
 
+#: ``sim.modelproperty_not_*`` bits of a model base -> the special bits they clear below it
+#: (coppeliaSimLib ``CSceneObject::getCumulativeObjectSpecialProperty``); not_visible (256) hides
+#: the model in every view, vision sensors included.
+MODEL_OVERRIDES = {1: COLLIDABLE, 2: MEASURABLE, 4: RENDERABLE, 8: DETECTABLE_ALL, 256: RENDERABLE}
+NOT_MODEL = 0xF000
+
+
+def model_property(world: Any, handle: int) -> int:
+    """The ``sim.modelproperty_*`` bits of object ``handle``: set at run time, else its
+    ``model_property=`` setting (a ``.ttt``'s ``Mpo``), else 0 for a model base
+    (``model_base=1``) and ``sim.modelproperty_not_model`` for any other object.
+
+    ``sim.getModelProperty`` (coppeliaSimLib ``CSceneObject::getModelProperty``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+
+    Returns:
+        The bits.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ArgumentError: a ``model_property=`` setting that is not an integer.
+    """
+    obj = world.get(handle)
+    bits = world.__dict__.setdefault("model_properties", {}).get(obj.handle)
+    if bits is not None:
+        return bits
+    raw = obj.settings.get("model_property")
+    if raw is None:
+        return 0 if obj.settings.get("model_base") == "1" else NOT_MODEL
+    try:
+        return int(raw, 0)
+    except ValueError:
+        raise ArgumentError(f"object {obj.name!r}: model_property={raw!r} in its simx: settings is not an "
+                            "integer (V-REP's sim.modelproperty_* bits)") from None
+
+
+def set_model_property(world: Any, handle: int, bits: int) -> None:
+    """Set object ``handle``'s model property bits: bits with ``sim.modelproperty_not_model``
+    make it no model base (only that bit is kept, CoppeliaSim's rule), others a model base whose
+    ``not_*`` bits override the special properties of every object at and below it.
+
+    ``sim.setModelProperty`` (coppeliaSimLib ``CSceneObject::setModelProperty``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+        bits: ``sim.modelproperty_*`` bits.
+
+    Raises:
+        UnknownObjectError: no such object.
+    """
+    obj = world.get(handle)
+    bits = int(bits)
+    world.__dict__.setdefault("model_properties", {})[obj.handle] = NOT_MODEL if bits & NOT_MODEL else bits
+    world.__dict__.pop("_special_masks", None)
+    apply_rendering(world)
+
+
+def cumulative(world: Any, handle: int) -> int:
+    """The special bits that act on object ``handle``: its own less what the model bases at and
+    above it override (coppeliaSimLib ``CSceneObject::getCumulativeObjectSpecialProperty``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+
+    Returns:
+        ``sim.objectspecialproperty_*`` bits.
+    """
+    bits = special(world, handle)
+    h, seen = handle, set()
+    while h != -1 and h not in seen:
+        seen.add(h)
+        prop = model_property(world, h)
+        if prop & NOT_MODEL != NOT_MODEL:
+            for flag, cleared in MODEL_OVERRIDES.items():
+                if prop & flag:
+                    bits &= ~cleared
+        h = world.objects[h].parent
+    return bits
+
+
 def set_special(world: Any, handle: int, bits: int) -> None:
     """Set object ``handle``'s special property bits (unknown bits are dropped, as V-REP keeps
     only its own); a shape's renderable bit takes effect in vision sensors at once.
@@ -138,7 +226,7 @@ def geom_mask(world: Any, bit: int) -> np.ndarray:
     if bit & (COLLIDABLE | MEASURABLE):
         mask &= (m.geom_contype != 0) | (m.geom_conaffinity != 0)
     for obj in world.objects.values():
-        if obj.type == SHAPE and special(world, obj.handle) & bit:
+        if obj.type == SHAPE and cumulative(world, obj.handle) & bit:
             mask[shape_geoms(m, obj.mj_id)] = True
     mask.flags.writeable = False
     cache[1][bit] = mask
@@ -160,7 +248,7 @@ def apply_rendering(world: Any) -> None:
         world._grouped_model = m
     groups = compiled.copy()
     for obj in world.objects.values():
-        if obj.type == SHAPE and not special(world, obj.handle) & RENDERABLE:
+        if obj.type == SHAPE and not cumulative(world, obj.handle) & RENDERABLE:
             geoms = np.flatnonzero((m.geom_bodyid == obj.mj_id) & (compiled <= 2))
             groups[geoms] = HIDDEN_GROUP
     m.geom_group[:] = groups

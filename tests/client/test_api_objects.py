@@ -86,7 +86,11 @@ def test_selection_and_model_property(vrep_client):
     assert vrep.simxGetObjectSelection(vrep_client, B) == (0, [])
     assert vrep.simxGetModelProperty(vrep_client, ur5, B) == (0, 0)
     assert vrep.simxGetModelProperty(vrep_client, j1, B) == (0, 0xF000)
-    assert vrep.simxSetModelProperty(vrep_client, ur5, 0, B) == 8
+    # a model's not-collidable override (V-REP's, over its objects' special properties)
+    assert vrep.simxSetModelProperty(vrep_client, ur5, vrep.sim_modelproperty_not_collidable, B) == 0
+    assert vrep.simxGetModelProperty(vrep_client, ur5, B) == (0, vrep.sim_modelproperty_not_collidable)
+    assert vrep.simxSetModelProperty(vrep_client, ur5, 0, B) == 0
+    assert vrep.simxGetModelProperty(vrep_client, ur5, B) == (0, 0)
 
 
 def test_parameters(vrep_client):

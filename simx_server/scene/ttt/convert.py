@@ -146,27 +146,20 @@ class Converter:
                 self.setting(obj.name, "model_base=1")
 
     def _special_properties(self) -> None:
-        """Each object's special properties (collidable, measurable, detectable, renderable) as
-        V-REP uses them, ``special=N`` where they differ from simx's default for the type
-        (:mod:`simx_server.sim.properties`): the file's ``Omp`` with the ``sim.modelproperty_not_*``
-        overrides of the model bases above it (coppeliaSimLib
-        ``CSceneObject::getCumulativeObjectSpecialProperty``). A proximity sensor's detection
-        type (``Sst``) becomes ``sensable=N`` where it is not ultrasonic (16, V-REP's default)."""
-        overrides = {1: 1, 2: 2, 4: 512, 8: 496}  # not_collidable, _measurable, _renderable, _detectable
+        """Each object's special properties (collidable, measurable, detectable, renderable:
+        the file's ``Omp``, coppeliaSimLib ``CSceneObject::serialize``) as ``special=N`` where
+        they differ from simx's default for the type, and a model base's override bits (``Mpo``:
+        ``sim.modelproperty_not_*``) as ``model_property=N`` (:mod:`simx_server.sim.properties`
+        combines them as ``CSceneObject::getCumulativeObjectSpecialProperty``). A proximity
+        sensor's detection type (``Sst``) becomes ``sensable=N`` where it is not ultrasonic (16,
+        V-REP's default)."""
         for obj in self.scene.objects.values():
             if obj.kind == "proximity_sensor" and obj.data.sensable != 16:
                 self.setting(obj.name, f"sensable={obj.data.sensable}")
-            if obj.special is None:
-                continue
-            bits, up = obj.special, obj
-            while up is not None:
-                if up.model_base and up.model_property & 0xF000 != 0xF000:
-                    for flag, cleared in overrides.items():
-                        if up.model_property & flag:
-                            bits &= ~cleared
-                up = self.scene.objects.get(up.parent)
-            if bits != (SHAPE_DEFAULT if obj.kind == "shape" else 0):
-                self.setting(obj.name, f"special={bits}")
+            if obj.special is not None and obj.special != (SHAPE_DEFAULT if obj.kind == "shape" else 0):
+                self.setting(obj.name, f"special={obj.special}")
+            if obj.model_base and obj.model_property & 0xF000 != 0xF000 and obj.model_property != 0:
+                self.setting(obj.name, f"model_property={obj.model_property}")
 
     # ---------------------------------------------------------------- tree
     def _world_poses(self, obj: TttObject, parent: Pose) -> None:

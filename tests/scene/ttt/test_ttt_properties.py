@@ -42,7 +42,11 @@ def scene(tmp_path):
             + _shape(5, "Glass", (3, 0, 0.6), 1 | 2 | 512)         # not detectable
             + _shape(6, "Plate", (3, 0, 0.2), 1 | 2 | 32 | 512)    # infrared-detectable only
             + _down_sensor(7, "Eye", (3, 0, 1.0), 32)              # an infrared sensor
-            + _down_sensor(8, "Ear", (3, 0, 1.0), 16))            # an ultrasonic one
+            + _down_sensor(8, "Ear", (3, 0, 1.0), 16)             # an ultrasonic one
+            # a model whose base says: not collidable, not renderable, for all of it
+            + W.cuboid_shape(9, -1, "Cart", (0.1, 0.1, 0.1), (-1, 0, 0.5), dynamic=False,
+                             extra=W.model_base() + W.rec("Mpo", W.i32(1 | 4)))
+            + W.cuboid_shape(10, 9, "CartPart", (0.1, 0.1, 0.1), (-0.08, 0, 0), dynamic=False))
     f = tmp_path / "flags.ttt"
     f.write_bytes(W.ttt_file(body))
     xml, _ = convert.convert(reader.read(f), tmp_path / "out", "flags")
@@ -62,6 +66,7 @@ def test_the_files_flags_become_settings(scene):
     assert texts["simx:Ghost"] == "special=0"
     assert texts["simx:Hidden"] == "special=499"
     assert texts["simx:Eye"] == "sensable=32"
+    assert "model_property=5" in texts["simx:Cart"]
     h = sim.world.resolve
     assert [properties.special(sim.world, h(n).handle) for n in ("Robot", "FinishLine", "Ghost", "Hidden")] == \
         [ALL, ALL, 0, 499]
@@ -84,6 +89,24 @@ def test_collision_follows_collidable_not_respondable(scene):
     api.setObjectSpecialProperty(line, 1)                      # collidable, not measurable
     assert cmd.check_collision(sim, [robot, -2]) is True
     assert cmd.check_distance(sim, [robot, -2]) > 0.5          # the others measured: Hidden, Glass, Plate
+
+
+def test_a_model_base_overrides_its_parts_flags(scene):
+    _, sim = scene
+    h = lambda n: sim.world.resolve(n).handle  # noqa: E731
+    m = sim.world.model
+    assert properties.special(sim.world, h("CartPart")) == ALL                     # its own flags
+    assert properties.cumulative(sim.world, h("CartPart")) == 2 | 496               # what acts
+    assert m.geom_group[m.body("CartPart").geomadr[0]] == properties.HIDDEN_GROUP
+    part = m.body("CartPart").geomadr[0]
+    assert cmd.check_collision(sim, [h("Cart"), h("CartPart")]) is True            # explicit: tested
+    assert not properties.geom_mask(sim.world, properties.COLLIDABLE)[part]        # not among "all others"
+    assert properties.geom_mask(sim.world, properties.MEASURABLE)[part]
+    api = ScriptSim(sim.world, h("Cart"), sim.signals, simulation=sim)
+    assert api.getModelProperty(h("Cart")) == 5
+    api.setModelProperty(h("Cart"), 0)                                             # overrides off
+    assert properties.geom_mask(sim.world, properties.COLLIDABLE)[part]
+    assert sim.world.model.geom_group[part] <= 2
 
 
 def test_proximity_sensors_see_only_detectable_shapes(scene):
