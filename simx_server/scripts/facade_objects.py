@@ -202,8 +202,10 @@ class ObjectCalls:
     def setObjectParent(self, handle: Any, parent: Any, keepInPlace: Any = True) -> None:  # noqa: N802, N803
         """Hang an object from ``parent`` (-1: the world), keeping its world pose when
         ``keepInPlace`` (else its pose relative to the parent), as ``simxSetObjectParent``:
-        a shape moves with its body subtree; in MuJoCo objects hang from shapes or the world
-        only, and a joint belongs to its body (both: an error).
+        a shape moves with its body subtree; any object may be the parent (a force sensor,
+        dummy, joint, camera, light: the child goes into the body that carries it, and
+        ``getObjectParent`` answers that object; coppeliaSimLib ``CSceneObject::setParent``);
+        a joint belongs to its body in MuJoCo and cannot be moved alone (an error).
 
         Args:
             handle: the object's handle, or ``sim.handle_self``.
@@ -212,7 +214,7 @@ class ObjectCalls:
 
         Raises:
             UnknownObjectError: no such object.
-            ArgumentError: a parent MuJoCo cannot take (a loop, a joint, not a shape).
+            ArgumentError: a parent inside the object's own subtree.
             UnsupportedError: no simulation behind the script.
         """
         sim = self._simulation("setObjectParent")
