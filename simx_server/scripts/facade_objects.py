@@ -200,12 +200,9 @@ class ObjectCalls:
 
     # ------------------------------------------------------------------ tree
     def setObjectParent(self, handle: Any, parent: Any, keepInPlace: Any = True) -> None:  # noqa: N802, N803
-        """Hang an object from ``parent`` (-1: the world), keeping its world pose when
-        ``keepInPlace`` (else its pose relative to the parent), as ``simxSetObjectParent``:
-        a shape moves with its body subtree; any object may be the parent (a force sensor,
-        dummy, joint, camera, light: the child goes into the body that carries it, and
-        ``getObjectParent`` answers that object; coppeliaSimLib ``CSceneObject::setParent``);
-        a joint belongs to its body in MuJoCo and cannot be moved alone (an error).
+        """Hang an object from ``parent`` (-1: the world; any object, as coppeliaSimLib's
+        ``CSceneObject::setParent``: see ``Editor.set_parent``), keeping its world pose when
+        ``keepInPlace`` (else its pose relative to the parent), as ``simxSetObjectParent``.
 
         Args:
             handle: the object's handle, or ``sim.handle_self``.

@@ -83,7 +83,11 @@ class MeasurementCalls:
         """
         handles = self._measured("collision", "handleCollision", collisionObjectHandle)
         sim = self._simulation("handleCollision")
-        results = [self.checkCollision(*collisions.probe_entities(sim, "collision", h)) for h in handles]
+        results = []
+        for h in handles:  # a collision object tests collidable shapes only (override off, as V-REP's)
+            e1, e2 = collisions.probe_entities(sim, "collision", h)
+            results.append(self.checkCollision(e1, e2) if collisions.collision(sim, e1, e2, override=False)
+                           else (0, [-1, -1]))
         if _int(collisionObjectHandle, "collisionObjectHandle") in _ALL:
             return sum(1 for r, _ in results if r)
         result, pair = results[0]
@@ -124,7 +128,8 @@ class MeasurementCalls:
         """
         handles = self._measured("distance", "handleDistance", distanceObjectHandle)
         sim = self._simulation("handleDistance")
-        values = [collisions.distance(sim, *collisions.probe_entities(sim, "distance", h)) for h in handles]
+        values = [collisions.distance(sim, *collisions.probe_entities(sim, "distance", h), override=False)
+                  for h in handles]  # measurable shapes only, as V-REP's distance objects
         if _int(distanceObjectHandle, "distanceObjectHandle") in _ALL:
             return len(values)
         return 1, values[0]
