@@ -159,3 +159,31 @@ def test_check_proximity_sensor_on_one_shape_overrides_its_flag(scene):
     # the plate alone: the ultrasonic sensor finds it too, through the glass in front of it
     assert api.checkProximitySensor(h("Ear"), h("Plate"))[:2] == (1, pytest.approx(0.75, abs=1e-6))
     assert api.checkProximitySensor(h("Ear"), -2)[0] == 0  # the plate is not ultrasonic-detectable
+
+
+MEASURED = """<mujoco><worldbody>
+  <body name="A" pos="0 0 1"><geom type="box" size="0.1 0.1 0.1"/></body>
+  <body name="B" pos="0.15 0 1"><geom type="box" size="0.1 0.1 0.1" contype="0" conaffinity="0"/></body>
+</worldbody><custom>
+  <text name="simx:B" data="special=0"/>
+  <text name="simx.collision:AB" data="entity1=A entity2=B"/>
+  <text name="simx.distance:AB" data="entity1=A entity2=B"/>
+</custom></mujoco>"""
+
+
+def test_declared_collision_objects_test_only_flagged_shapes(tmp_path):
+    (tmp_path / "measured.xml").write_text(MEASURED)
+    sim = Simulation(tmp_path / "measured.xml", realtime=False)
+    try:
+        a, b = sim.world.resolve("A").handle, sim.world.resolve("B").handle
+        assert cmd.check_collision(sim, [a, b]) is True                  # simxCheckCollision: flag overridden
+        h = cmd.get_collision_handle(sim, ["AB"])
+        assert cmd.read_collision(sim, [h]) is False                     # a collision object: B is not collidable
+        api = ScriptSim(sim.world, a, sim.signals, simulation=sim)
+        assert api.handleCollision(h) == 0                               # the same from a script
+        with pytest.raises(Exception, match="measurable"):
+            cmd.read_distance(sim, [cmd.get_distance_handle(sim, ["AB"])])
+        api.setObjectSpecialProperty(b, 1 | 2)
+        assert cmd.read_collision(sim, [h]) is True and api.handleCollision(h)[0] == 1
+    finally:
+        sim.close()
