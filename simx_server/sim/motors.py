@@ -32,8 +32,10 @@ step so that the substeps run in C:
   constraint-based motors do; everything is clipped to the maximum force.
 
 ``kv`` is the servo gain: a ``<velocity>`` actuator keeps its own ``kv`` (the author's choice);
-any other gets ``f * M / h`` with ``M = 1 / (M^-1)_ii`` the joint's effective inertia now (it
-changes with the configuration, so it is recomputed each step), ``h`` the model's timestep and
+any other gets ``f * M / h`` with ``M`` the joint's effective inertia now, with the scene's
+equality constraints held (:mod:`simx_server.sim.mechanisms`: a motor that closes a linkage moves
+all of it; without equalities ``M = 1 / (M^-1)_ii``; it changes with the configuration, so it is
+recomputed each step), ``h`` the model's timestep and
 ``f`` IMPLICIT_KV_FRACTION, the velocity term being integrated implicitly: a model using the
 Euler integrator is switched to ``implicitfast`` (which differs from Euler only in treating
 actuators' and fluid forces' velocity terms implicitly too); under RK4 ``f`` is KV_FRACTION,
@@ -57,6 +59,7 @@ import mujoco
 import numpy as np
 
 from simx_server.base import limits as L
+from simx_server.sim import mechanisms
 
 log = logging.getLogger("simx.world")
 
@@ -286,7 +289,8 @@ class Motors:
         act, g = self.act, self.gear
         q = d.qpos[self.qadr]
         mujoco.mj_solveM(m, d, self._minv, self._unit)
-        inertia = 1.0 / np.maximum(self._minv[np.arange(len(act)), self.dadr], 1e-12)
+        # through the scene's equalities: a motor closing a loop drives the whole linkage
+        inertia = 1.0 / np.maximum(mechanisms.inverse_inertia(m, d, self._minv, self.dadr), 1e-12)
         kv = np.where(self.own_kv > 0, self.own_kv, self.kv_fraction * inertia / m.opt.timestep)
         dof = self.dadr
         ff = d.qfrc_bias[dof] - d.qfrc_passive[dof]  # static load, joint springs and dampers
