@@ -259,6 +259,7 @@ class Motors:
         rest = np.zeros(len(self.act)) if qpos is None else qpos[self.qadr]
         self.target_position = np.where(np.isnan(self.initial_target_position), rest, self.initial_target_position)
         self.target_velocity = self.initial_target_velocity.copy()
+        self._last = (np.zeros(0), np.zeros(0), 0.0)  # positions, velocity targets, time at the last apply
         self.write_force_limits(m)
 
     def write_force_limits(self, m: mujoco.MjModel) -> None:
@@ -299,6 +300,7 @@ class Motors:
         on, position = self.enabled, self.enabled & self.loop
         linear = position & (np.abs(err) * kp <= self.max_velocity)
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
+        ff = ff + self._stall_force(q, v, on & ~linear & (self.own_kv == 0), float(d.time))
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         gain = np.where(linear, kv * kp, kv) / g
         m.actuator_gainprm[act, 0] = np.where(on, gain, 0.0)
@@ -306,6 +308,33 @@ class Motors:
         m.actuator_biasprm[act, 1] = np.where(linear, -kv * kp / g ** 2, 0.0)
         m.actuator_biasprm[act, 2] = np.where(on, -kv / g ** 2, 0.0)
         d.ctrl[act] = np.where(linear, self.target_position, np.where(on, v, 0.0))
+
+    def _stall_force(self, q: np.ndarray, v: np.ndarray, velocity_law: np.ndarray, now: float) -> np.ndarray:
+        """The extra force of the motors held back since the last call: V-REP's velocity motor is
+        a constraint that pushes with its whole maximum force when the target velocity cannot be
+        reached (a gripper closed on a cube grips with its 20 N), where the servo alone gives
+        ``kv * v`` (3 N on the RG2). A motor on the velocity law with the same target as at the
+        last call (once per step, or per substep while scripts' joint callbacks run) that covered
+        less than half of ``v`` times the time since gets ``sign(v) * max_force`` more (the
+        actuator's force range clips the sum to the maximum); once it moves again, none.
+
+        Args:
+            q: (n,) the joints' positions now.
+            v: (n,) their target velocities from now on.
+            velocity_law: (n,) which motors follow the velocity law from now on.
+            now: the simulation time (s).
+
+        Returns:
+            (n,) the extra force (N or N·m), 0 for the others.
+        """
+        last_q, last_v, last_t = self._last
+        self._last = (q.copy(), np.where(velocity_law, v, np.nan), now)
+        elapsed = now - last_t
+        if len(last_q) != len(q) or not elapsed > 0:
+            return np.zeros(len(q))
+        moved = (q - last_q) * np.sign(v)
+        blocked = velocity_law & (v == last_v) & (v != 0) & (moved < 0.5 * np.abs(v) * elapsed)
+        return np.where(blocked, np.sign(v) * self.max_force, 0.0)
 
     def copy_state(self, src: int, dst: int) -> None:
         """Motor ``dst`` takes the flags, targets and limits of motor ``src`` (model copies).
