@@ -75,6 +75,9 @@ KV_FRACTION = 0.5
 #: The same under the implicit integrators, which integrate the servo's velocity term
 #: implicitly and coupled through the mass matrix (stable at any gain): stiff tracking.
 IMPLICIT_KV_FRACTION = 0.9
+#: A velocity-mode motor is held back (it gets its whole force, :meth:`Motors._stall_force`) when
+#: it moved, and moves, at less than this fraction of its target velocity: stopped, not slow.
+STALLED = 0.1
 
 _JOINT_TRNS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
 _TENDON_TRN = int(mujoco.mjtTrn.mjTRN_TENDON)
@@ -259,7 +262,12 @@ class Motors:
         rest = np.zeros(len(self.act)) if qpos is None else qpos[self.qadr]
         self.target_position = np.where(np.isnan(self.initial_target_position), rest, self.initial_target_position)
         self.target_velocity = self.initial_target_velocity.copy()
-        self._last = (np.zeros(0), np.zeros(0), 0.0)  # positions, velocity targets, time at the last apply
+        self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
+        self._bias = np.zeros(len(self.act))
+        #: Some motor is held back (:meth:`_stall_force`): the world applies the motors at every substep.
+        self.stalled = False
+        #: Motors a script's joint callback drives (scripts/dynamics.py): its own law, no stall force.
+        self.scripted = np.zeros(len(self.act), dtype=bool)
         self.write_force_limits(m)
 
     def write_force_limits(self, m: mujoco.MjModel) -> None:
@@ -300,7 +308,8 @@ class Motors:
         on, position = self.enabled, self.enabled & self.loop
         linear = position & (np.abs(err) * kp <= self.max_velocity)
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
-        ff = ff + self._stall_force(q, v, on & ~linear & (self.own_kv == 0), float(d.time))
+        velocity_mode = on & ~self.loop & (self.own_kv == 0) & ~self.scripted
+        ff = ff + self._stall_force(q, d.qvel[dof], v, velocity_mode, float(d.time))
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         gain = np.where(linear, kv * kp, kv) / g
         m.actuator_gainprm[act, 0] = np.where(on, gain, 0.0)
@@ -309,32 +318,44 @@ class Motors:
         m.actuator_biasprm[act, 2] = np.where(on, -kv / g ** 2, 0.0)
         d.ctrl[act] = np.where(linear, self.target_position, np.where(on, v, 0.0))
 
-    def _stall_force(self, q: np.ndarray, v: np.ndarray, velocity_law: np.ndarray, now: float) -> np.ndarray:
+    def _stall_force(self, q: np.ndarray, qdot: np.ndarray, v: np.ndarray, velocity_law: np.ndarray,
+                     now: float) -> np.ndarray:
         """The extra force of the motors held back since the last call: V-REP's velocity motor is
         a constraint that pushes with its whole maximum force when the target velocity cannot be
         reached (a gripper closed on a cube grips with its 20 N), where the servo alone gives
-        ``kv * v`` (3 N on the RG2). A motor on the velocity law with the same target as at the
-        last call (once per step, or per substep while scripts' joint callbacks run) that covered
-        less than half of ``v`` times the time since gets ``sign(v) * max_force`` more (the
-        actuator's force range clips the sum to the maximum); once it moves again, none.
+        ``kv * v`` (3 N on the RG2). A motor in velocity mode with the same target as at the last
+        call (once per step, or per substep while scripts' joint callbacks run) that covered less
+        than STALLED of ``v`` times the time since, and moves at less than STALLED of ``v`` now, gets
+        ``sign(v) * max_force`` more (the actuator's force range clips the sum to the maximum);
+        once it moves again, none. While a motor is held back, the world applies the motors at
+        every substep (:attr:`stalled`), so that one released in the middle of a step stops
+        pushing within a substep. Position control, and a script's joint callback (its own
+        control law, :attr:`scripted`), keep the servo alone.
 
         Args:
             q: (n,) the joints' positions now.
+            qdot: (n,) their velocities now.
             v: (n,) their target velocities from now on.
-            velocity_law: (n,) which motors follow the velocity law from now on.
+            velocity_law: (n,) which motors are in velocity mode from now on.
             now: the simulation time (s).
 
         Returns:
             (n,) the extra force (N or N·m), 0 for the others.
         """
         last_q, last_v, last_t = self._last
-        self._last = (q.copy(), np.where(velocity_law, v, np.nan), now)
         elapsed = now - last_t
+        if len(last_q) == len(q) and elapsed == 0:  # applied again at the same instant
+            return self._bias
+        self._last = (q.copy(), np.where(velocity_law, v, np.nan), now)
         if len(last_q) != len(q) or not elapsed > 0:
-            return np.zeros(len(q))
-        moved = (q - last_q) * np.sign(v)
-        blocked = velocity_law & (v == last_v) & (v != 0) & (moved < 0.5 * np.abs(v) * elapsed)
-        return np.where(blocked, np.sign(v) * self.max_force, 0.0)
+            blocked = np.zeros(len(q), dtype=bool)
+        else:
+            moved = (q - last_q) * np.sign(v)
+            blocked = (velocity_law & (v == last_v) & (v != 0) & (moved < STALLED * np.abs(v) * elapsed)
+                       & (qdot * np.sign(v) < STALLED * np.abs(v)))
+        self.stalled = bool(blocked.any())
+        self._bias = np.where(blocked, np.sign(v) * self.max_force, 0.0)
+        return self._bias
 
     def copy_state(self, src: int, dst: int) -> None:
         """Motor ``dst`` takes the flags, targets and limits of motor ``src`` (model copies).
