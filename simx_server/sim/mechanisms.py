@@ -150,3 +150,72 @@ def dependency_of_polycoef(qpos0_joint: float, qpos0_master: float, a0: float, a
         ``(offset, mult)``.
     """
     return a0 + qpos0_joint - a1 * qpos0_master, a1
+
+
+#: V-REP's bound on a dependency's offset and multiplier (CJoint::setDependencyParams).
+MAX_DEPENDENCY_PARAM = 10_000.0
+
+
+def set_dependency(spec: mujoco.MjSpec, joint: str, master: str | None, offset: float, mult: float,
+                   qpos0: tuple[float, float] = (0.0, 0.0)) -> None:
+    """``sim.setJointDependency`` on a spec: ``joint`` follows ``master`` (``q = offset + mult *
+    q_master``), or nothing (``master`` None), as CoppeliaSim's ``simSetJointDependency_internal``
+    and ``CJoint::setDependencyMasterJointHandle`` do it: the joint's former dependency goes; a
+    joint of the master's chain that depended on ``joint`` loses its dependency (V-REP breaks the
+    loop there); offset and multiplier are bounded to +-10000. The equality is stiff (see the
+    module).
+
+    Args:
+        spec: the scene's spec (changed in place).
+        joint: the dependent joint's name.
+        master: the master joint's name, or None.
+        offset: rad or m.
+        mult: the multiplier.
+        qpos0: the compiled model's ``qpos0`` of ``joint`` and ``master`` (rad or m; the spec's
+            ``ref`` may be in degrees).
+
+    Raises:
+        ValueError: ``master`` is ``joint`` (V-REP refuses it too).
+    """
+    if master == joint:
+        raise ValueError(f"joint {joint!r} cannot depend on itself")
+    joint_eqs = [e for e in spec.equalities if e.type == mujoco.mjtEq.mjEQ_JOINT and e.name2]
+    for eq in joint_eqs:
+        if eq.name1 == joint:
+            spec.delete(eq)
+    if master is None:
+        return
+    masters = {e.name1: e for e in joint_eqs if e.name1 != joint}
+    current, seen = master, set()
+    while current in masters and current not in seen:
+        seen.add(current)
+        eq = masters[current]
+        if eq.name2 == joint:  # the master's chain leads back here: V-REP cuts it at that link
+            spec.delete(eq)
+            break
+        current = eq.name2
+    offset = min(max(float(offset), -MAX_DEPENDENCY_PARAM), MAX_DEPENDENCY_PARAM)
+    mult = min(max(float(mult), -MAX_DEPENDENCY_PARAM), MAX_DEPENDENCY_PARAM)
+    data = dependency_polycoef(qpos0[0], qpos0[1], offset, mult)
+    spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=joint, name2=master,
+                      data=data + [0.0] * (mujoco.mjNEQDATA - len(data)),
+                      solref=stiff_solref(spec.option.timestep), solimp=list(LOOP_SOLIMP))
+
+
+def dependency(m: mujoco.MjModel, joint_id: int) -> tuple[int, float, float] | None:
+    """The dependency of joint ``joint_id``: ``(master joint id, offset, mult)`` in V-REP's terms
+    (positions, :func:`dependency_of_polycoef`), None without one. Reads the first joint
+    equality whose first joint it is.
+
+    Args:
+        m: the model.
+        joint_id: a joint's id.
+    """
+    for e in range(m.neq):
+        if m.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and m.eq_obj1id[e] == joint_id and m.eq_obj2id[e] >= 0:
+            master = int(m.eq_obj2id[e])
+            off, mult = dependency_of_polycoef(float(m.qpos0[m.jnt_qposadr[joint_id]]),
+                                               float(m.qpos0[m.jnt_qposadr[master]]),
+                                               float(m.eq_data[e][0]), float(m.eq_data[e][1]))
+            return master, off, mult
+    return None
