@@ -14,7 +14,7 @@ in CoppeliaSim 4.x) and ``sim.getLinkDummy`` / ``sim.setLinkDummy``, in MuJoCo's
   accepted and ignored when set.
 
 A dummy link is a MuJoCo equality between the two dummies' sites (a ``.ttt`` scene's dynamic
-loop closures are converted to ``connect`` equalities): ``setLinkDummy(a, b)`` activates the
+loop closures are converted to ``weld`` equalities): ``setLinkDummy(a, b)`` activates the
 equality that joins them, ``setLinkDummy(a, -1)`` deactivates every equality of ``a``.
 """
 

@@ -1,20 +1,20 @@
 """Linked mechanisms: V-REP's dependent joints and loop closures as MuJoCo equalities that hold,
-and the inertia a motor moves when its joint is part of such a mechanism.
+and the inertia a motor moves when its joint is part of such a mechanism (CoppeliaSim's
+``CJoint::setDependencyParams``, its MuJoCo plugin's ``CRigidBodyContainerDyn`` in ``simDyn``).
 
 Stiffness. MuJoCo's constraints are soft: a constraint's reference acceleration is scaled by the
 inverse inertia MuJoCo estimated for it at ``qpos0`` (``efc_diagApprox``), and a light body that
 closes a loop (V-REP's RG2 drives its fingers through a 1 g helper) gets a constraint, or a joint
-limit, too soft to hold a 20 N motor (MuJoCo's defaults, ``solref`` 0.02 s and ``solimp`` 0.95,
-let such a limit give 36 mm). V-REP's engines (Bullet, ODE) treat joint limits and loop closures
-as hard constraints. :func:`stiff_solref` (a time constant of two timesteps, the shortest MuJoCo
-takes without its own safety clamp) and LIMIT_SOLIMP (99 % impedance) hold that limit to
-0.3 mm; loop closures and dependencies take the same time constant with MuJoCo's default
-impedance (LOOP_SOLIMP).
+limit, too soft to hold a 20 N motor (with MuJoCo's defaults, ``solref`` 0.02 s and ``solimp``
+0.95, the RG2's open/close joint ran 9.5 mm past its limit). V-REP's engines (Bullet, ODE) treat
+joint limits and loop closures as hard constraints. :func:`stiff_solref` (a time constant of two
+timesteps, the shortest MuJoCo takes without its own safety clamp) and LIMIT_SOLIMP (99 %
+impedance) hold that limit to under 1 mm; loop closures and dependencies take the same time
+constant with MuJoCo's default impedance (LOOP_SOLIMP).
 
-Inertia.
-V-REP's grippers (the RG2, the Barrett hand, most parallel grippers) close their kinematic loops
-with dummy-to-dummy links and dependent joints, MuJoCo equalities here
-(:mod:`simx_server.scene.ttt.parts`). A motor on such a joint, often on a 1 g helper body,
+Inertia. V-REP's grippers (the RG2, most parallel grippers) close their kinematic loops with
+dummy-to-dummy links and dependent joints, MuJoCo equalities here
+(:mod:`simx_server.scene.ttt.mechanisms`). A motor on such a joint, often on a 1 g helper body,
 moves the whole linkage through the constraints: the open chain's inertia ``1 / (M^-1)_ii``
 (a few grams) understates what it drives by orders of magnitude, and a servo gain taken from it
 (:mod:`simx_server.sim.motors`) cannot move the fingers against their own weight.
@@ -203,13 +203,15 @@ def set_dependency(spec: mujoco.MjSpec, joint: str, master: str | None, offset: 
 
 
 def dependency(m: mujoco.MjModel, joint_id: int) -> tuple[int, float, float] | None:
-    """The dependency of joint ``joint_id``: ``(master joint id, offset, mult)`` in V-REP's terms
-    (positions, :func:`dependency_of_polycoef`), None without one. Reads the first joint
-    equality whose first joint it is.
+    """The dependency of joint ``joint_id`` in V-REP's terms (positions,
+    :func:`dependency_of_polycoef`): the first joint equality whose first joint it is.
 
     Args:
         m: the model.
         joint_id: a joint's id.
+
+    Returns:
+        ``(master joint id, offset, mult)``, or None without a dependency.
     """
     for e in range(m.neq):
         if m.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and m.eq_obj1id[e] == joint_id and m.eq_obj2id[e] >= 0:

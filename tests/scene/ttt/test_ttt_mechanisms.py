@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -181,3 +182,18 @@ def test_a_closed_gripper_lifts_a_cube(scenes):
         assert seen["mirror"] < 2e-3 and seen["hinge"] < 0.03, seen
     finally:
         rig.close()
+
+
+def test_what_cannot_be_linked_is_reported_and_left_free(tmp_path):
+    body = (W.cuboid_shape(1, -1, "Base", (0.1, 0.1, 0.1), dynamic=False)
+            + W.joint(2, 1, "Orphan", kind=11, motor=False, mode=4, extra=W.dependency(5, 1.0, 0.0))
+            + W.cuboid_shape(3, 2, "Link", (0.05, 0.05, 0.05), mass=0.1)
+            + W.dummy(4, 3, "Lonely", linked=99, link_type=0)
+            + W.dummy(5, 1, "NotAJoint"))
+    f = tmp_path / "broken.ttt"
+    f.write_bytes(W.ttt_file(body))
+    xml, report = convert.convert(reader.read(f), tmp_path / "out", "broken")
+    lines = report.lines()
+    assert "1 x dependent joints without their master (left free)" in lines
+    assert "1 x loop closures to a missing dummy (left open)" in lines
+    assert mujoco.MjModel.from_xml_path(str(xml)).neq == 0
