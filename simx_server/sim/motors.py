@@ -264,6 +264,7 @@ class Motors:
         self.target_velocity = self.initial_target_velocity.copy()
         self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
         self._bias = np.zeros(len(self.act))
+        self._inertia_at: tuple[float, np.ndarray] = (0.0, np.zeros(0))  # (time, inertia) of this step
         #: Some motor is held back (:meth:`_stall_force`): the world applies the motors at every substep.
         self.stalled = False
         #: Motors a script's joint callback drives (scripts/dynamics.py): its own law, no stall force.
@@ -297,9 +298,7 @@ class Motors:
             return
         act, g = self.act, self.gear
         q = d.qpos[self.qadr]
-        mujoco.mj_solveM(m, d, self._minv, self._unit)
-        # through the scene's equalities: a motor closing a loop drives the whole linkage
-        inertia = 1.0 / np.maximum(mechanisms.inverse_inertia(m, d, self._minv, self.dadr), 1e-12)
+        inertia = self._inertia(m, d, dt)
         kv = np.where(self.own_kv > 0, self.own_kv, self.kv_fraction * inertia / m.opt.timestep)
         dof = self.dadr
         ff = d.qfrc_bias[dof] - d.qfrc_passive[dof]  # static load, joint springs and dampers
@@ -317,6 +316,29 @@ class Motors:
         m.actuator_biasprm[act, 1] = np.where(linear, -kv * kp / g ** 2, 0.0)
         m.actuator_biasprm[act, 2] = np.where(on, -kv / g ** 2, 0.0)
         d.ctrl[act] = np.where(linear, self.target_position, np.where(on, v, 0.0))
+
+    def _inertia(self, m: mujoco.MjModel, d: mujoco.MjData, dt: float) -> np.ndarray:
+        """The joints' effective inertia through the scene's equalities (a motor closing a loop
+        drives the whole linkage: :func:`simx_server.sim.mechanisms.inverse_inertia`), computed
+        once per step: scripts' joint callbacks apply the motors at every substep, and the
+        configuration changes little within a step.
+
+        Args:
+            m: the model.
+            d: its data.
+            dt: the step (s).
+
+        Returns:
+            (n,) kg or kg·m².
+        """
+        at, cached = self._inertia_at
+        elapsed = float(d.time) - at
+        if len(cached) == len(self.act) and 0 <= elapsed < dt - 0.5 * m.opt.timestep:
+            return cached
+        mujoco.mj_solveM(m, d, self._minv, self._unit)
+        inertia = 1.0 / np.maximum(mechanisms.inverse_inertia(m, d, self._minv, self.dadr), 1e-12)
+        self._inertia_at = (float(d.time), inertia)
+        return inertia
 
     def _stall_force(self, q: np.ndarray, qdot: np.ndarray, v: np.ndarray, velocity_law: np.ndarray,
                      now: float) -> np.ndarray:
