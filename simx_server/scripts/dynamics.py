@@ -110,6 +110,7 @@ class DynamicsCallbacks:
                 if "force" in out:
                     motors.max_force[i] = abs(float(out["force"]))
                 motors.enabled[i], motors.loop[i] = True, False
+                motors.scripted[i] = True  # the script's own law: no stall force (sim/motors.py)
                 changed = True
         if changed:
             w.motors.write_force_limits(m)

@@ -12,6 +12,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_vector as _vector
+from simx_server.sim import mechanisms
 from simx_server.sim.objects import JOINT
 from simx_server.sim.state import SimulationView
 
@@ -106,7 +107,8 @@ class JointModeCalls:
 
     def getJointDependency(self, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
         """``masterJointHandle, offset, multCoeff`` of an MJCF joint equality (``<joint joint1
-        joint2 polycoef>``, q1 = offset + coeff·q2), or ``-1, 0, 1`` without one.
+        joint2 polycoef>``), in V-REP's terms: q1 = offset + coeff·q2 on the joints' positions
+        (MuJoCo's polycoef is relative to their ``ref``), or ``-1, 0, 1`` without one.
 
         Args:
             jointHandle: a joint's handle.
@@ -115,12 +117,11 @@ class JointModeCalls:
             ``(masterHandle, offset, coefficient)``.
         """
         obj = self._joint(jointHandle)
-        m = self._world.model
+        found = mechanisms.dependency(self._world.model, obj.mj_id)
+        if found is None:
+            return -1, 0.0, 1.0
         by_id = {o.mj_id: o.handle for o in self._world.objects.values() if o.type == JOINT}
-        for e in range(m.neq):
-            if m.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and m.eq_obj1id[e] == obj.mj_id and m.eq_obj2id[e] >= 0:
-                return by_id.get(int(m.eq_obj2id[e]), -1), float(m.eq_data[e][0]), float(m.eq_data[e][1])
-        return -1, 0.0, 1.0
+        return by_id.get(found[0], -1), found[1], found[2]
 
     if TYPE_CHECKING:  # provided by the facade
         _world: Any

@@ -18,6 +18,7 @@ from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.scripts import shapes
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
+from simx_server.sim import mechanisms
 from simx_server.sim.objects import JOINT
 from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_server.sim.state import SimulationView
@@ -161,8 +162,10 @@ class MeshCalls:
         return sim.editor._edit(change)
 
     def setJointDependency(self, jointHandle: Any, masterJointHandle: Any, offset: Any, multCoeff: Any) -> None:  # noqa: N802, N803
-        """Make the joint follow ``masterJointHandle``: q = offset + multCoeff · q_master (an MJCF
-        joint equality; -1 as master removes the joint's equalities).
+        """Make the joint follow ``masterJointHandle``: q = offset + multCoeff · q_master, on the
+        joints' positions (an MJCF joint equality relative to their ``ref``); -1 as master removes
+        the joint's dependency; a joint of the master's chain that depended on this one loses its
+        dependency, as V-REP breaks the loop (:func:`simx_server.sim.mechanisms.set_dependency`).
 
         ``sim.setJointDependency``.
 
@@ -175,6 +178,7 @@ class MeshCalls:
         Raises:
             UnknownObjectError: no such object.
             ObjectTypeError: not a joint.
+            ArgumentError: the joint as its own master.
             UnsupportedError: no simulation behind the script.
         """
         w = self._world
@@ -184,13 +188,14 @@ class MeshCalls:
         off, k = _num(offset, "offset"), _num(multCoeff, "multCoeff")
         sim = self._simulation("setJointDependency")
 
-        def change(spec: mujoco.MjSpec):
-            for eq in list(spec.equalities):
-                if eq.type == mujoco.mjtEq.mjEQ_JOINT and eq.name1 == joint.name:
-                    spec.delete(eq)
-            if mname is not None:
-                spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=joint.name, name2=mname,
-                                  data=[off, k] + [0.0] * (mujoco.mjNEQDATA - 2))
+        if mname == joint.name:
+            raise ArgumentError(f"setJointDependency: joint {joint.name!r} cannot depend on itself")
+
+        m = w.model
+        qpos0 = tuple(float(m.qpos0[m.jnt_qposadr[w.get(h).mj_id]]) for h in (joint.handle, master if mname else joint.handle))
+
+        def change(spec: mujoco.MjSpec):  # a stiff equality on positions (sim/mechanisms.py)
+            mechanisms.set_dependency(spec, joint.name, mname, off, k, qpos0)
 
         sim.editor._edit(change)
 

@@ -9,7 +9,7 @@ physical contact (respondable, MuJoCo's ``contype``/``conaffinity``): see
 simx has no mills and no path planning, so the last two bits are kept and change nothing.
 
 A dummy link is a MuJoCo equality between the two dummies' sites (a ``.ttt`` scene's dynamic
-loop closures are converted to ``connect`` equalities): ``setLinkDummy(a, b)`` activates the
+loop closures are converted to ``weld`` equalities): ``setLinkDummy(a, b)`` activates the
 equality that joins them, ``setLinkDummy(a, -1)`` deactivates every equality of ``a``.
 """
 

@@ -32,8 +32,10 @@ step so that the substeps run in C:
   constraint-based motors do; everything is clipped to the maximum force.
 
 ``kv`` is the servo gain: a ``<velocity>`` actuator keeps its own ``kv`` (the author's choice);
-any other gets ``f * M / h`` with ``M = 1 / (M^-1)_ii`` the joint's effective inertia now (it
-changes with the configuration, so it is recomputed each step), ``h`` the model's timestep and
+any other gets ``f * M / h`` with ``M`` the joint's effective inertia now, with the scene's
+equality constraints held (:mod:`simx_server.sim.mechanisms`: a motor that closes a linkage moves
+all of it; without equalities ``M = 1 / (M^-1)_ii``; it changes with the configuration, so it is
+recomputed each step), ``h`` the model's timestep and
 ``f`` IMPLICIT_KV_FRACTION, the velocity term being integrated implicitly: a model using the
 Euler integrator is switched to ``implicitfast`` (which differs from Euler only in treating
 actuators' and fluid forces' velocity terms implicitly too); under RK4 ``f`` is KV_FRACTION,
@@ -57,6 +59,7 @@ import mujoco
 import numpy as np
 
 from simx_server.base import limits as L
+from simx_server.sim import mechanisms
 
 log = logging.getLogger("simx.world")
 
@@ -72,6 +75,9 @@ KV_FRACTION = 0.5
 #: The same under the implicit integrators, which integrate the servo's velocity term
 #: implicitly and coupled through the mass matrix (stable at any gain): stiff tracking.
 IMPLICIT_KV_FRACTION = 0.9
+#: A velocity-mode motor is held back (it gets its whole force, :meth:`Motors._stall_force`) when
+#: it moved, and moves, at less than this fraction of its target velocity: stopped, not slow.
+STALLED = 0.1
 
 _JOINT_TRNS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
 _TENDON_TRN = int(mujoco.mjtTrn.mjTRN_TENDON)
@@ -256,6 +262,13 @@ class Motors:
         rest = np.zeros(len(self.act)) if qpos is None else qpos[self.qadr]
         self.target_position = np.where(np.isnan(self.initial_target_position), rest, self.initial_target_position)
         self.target_velocity = self.initial_target_velocity.copy()
+        self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
+        self._bias = np.zeros(len(self.act))
+        self._inertia_at: tuple[float, np.ndarray] = (0.0, np.zeros(0))  # (time, inertia) of this step
+        #: Some motor is held back (:meth:`_stall_force`): the world applies the motors at every substep.
+        self.stalled = False
+        #: Motors a script's joint callback drives (scripts/dynamics.py): its own law, no stall force.
+        self.scripted = np.zeros(len(self.act), dtype=bool)
         self.write_force_limits(m)
 
     def write_force_limits(self, m: mujoco.MjModel) -> None:
@@ -285,8 +298,7 @@ class Motors:
             return
         act, g = self.act, self.gear
         q = d.qpos[self.qadr]
-        mujoco.mj_solveM(m, d, self._minv, self._unit)
-        inertia = 1.0 / np.maximum(self._minv[np.arange(len(act)), self.dadr], 1e-12)
+        inertia = self._inertia(m, d, dt)
         kv = np.where(self.own_kv > 0, self.own_kv, self.kv_fraction * inertia / m.opt.timestep)
         dof = self.dadr
         ff = d.qfrc_bias[dof] - d.qfrc_passive[dof]  # static load, joint springs and dampers
@@ -295,6 +307,8 @@ class Motors:
         on, position = self.enabled, self.enabled & self.loop
         linear = position & (np.abs(err) * kp <= self.max_velocity)
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
+        velocity_mode = on & ~self.loop & (self.own_kv == 0) & ~self.scripted
+        ff = ff + self._stall_force(q, d.qvel[dof], v, velocity_mode, float(d.time))
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         gain = np.where(linear, kv * kp, kv) / g
         m.actuator_gainprm[act, 0] = np.where(on, gain, 0.0)
@@ -302,6 +316,68 @@ class Motors:
         m.actuator_biasprm[act, 1] = np.where(linear, -kv * kp / g ** 2, 0.0)
         m.actuator_biasprm[act, 2] = np.where(on, -kv / g ** 2, 0.0)
         d.ctrl[act] = np.where(linear, self.target_position, np.where(on, v, 0.0))
+
+    def _inertia(self, m: mujoco.MjModel, d: mujoco.MjData, dt: float) -> np.ndarray:
+        """The joints' effective inertia through the scene's equalities (a motor closing a loop
+        drives the whole linkage: :func:`simx_server.sim.mechanisms.inverse_inertia`), computed
+        once per step: scripts' joint callbacks apply the motors at every substep, and the
+        configuration changes little within a step.
+
+        Args:
+            m: the model.
+            d: its data.
+            dt: the step (s).
+
+        Returns:
+            (n,) kg or kg·m².
+        """
+        at, cached = self._inertia_at
+        elapsed = float(d.time) - at
+        if len(cached) == len(self.act) and 0 <= elapsed < dt - 0.5 * m.opt.timestep:
+            return cached
+        mujoco.mj_solveM(m, d, self._minv, self._unit)
+        inertia = 1.0 / np.maximum(mechanisms.inverse_inertia(m, d, self._minv, self.dadr), 1e-12)
+        self._inertia_at = (float(d.time), inertia)
+        return inertia
+
+    def _stall_force(self, q: np.ndarray, qdot: np.ndarray, v: np.ndarray, velocity_law: np.ndarray,
+                     now: float) -> np.ndarray:
+        """The extra force of the motors held back since the last call: V-REP's velocity motor is
+        a constraint that pushes with its whole maximum force when the target velocity cannot be
+        reached (a gripper closed on a cube grips with its 20 N), where the servo alone gives
+        ``kv * v`` (3 N on the RG2). A motor in velocity mode with the same target as at the last
+        call (once per step, or per substep while scripts' joint callbacks run) that covered less
+        than STALLED of ``v`` times the time since, and moves at less than STALLED of ``v`` now, gets
+        ``sign(v) * max_force`` more (the actuator's force range clips the sum to the maximum);
+        once it moves again, none. While a motor is held back, the world applies the motors at
+        every substep (:attr:`stalled`), so that one released in the middle of a step stops
+        pushing within a substep. Position control, and a script's joint callback (its own
+        control law, :attr:`scripted`), keep the servo alone.
+
+        Args:
+            q: (n,) the joints' positions now.
+            qdot: (n,) their velocities now.
+            v: (n,) their target velocities from now on.
+            velocity_law: (n,) which motors are in velocity mode from now on.
+            now: the simulation time (s).
+
+        Returns:
+            (n,) the extra force (N or N·m), 0 for the others.
+        """
+        last_q, last_v, last_t = self._last
+        elapsed = now - last_t
+        if len(last_q) == len(q) and elapsed == 0:  # applied again at the same instant
+            return self._bias
+        self._last = (q.copy(), np.where(velocity_law, v, np.nan), now)
+        if len(last_q) != len(q) or not elapsed > 0:
+            blocked = np.zeros(len(q), dtype=bool)
+        else:
+            moved = (q - last_q) * np.sign(v)
+            blocked = (velocity_law & (v == last_v) & (v != 0) & (moved < STALLED * np.abs(v) * elapsed)
+                       & (qdot * np.sign(v) < STALLED * np.abs(v)))
+        self.stalled = bool(blocked.any())
+        self._bias = np.where(blocked, np.sign(v) * self.max_force, 0.0)
+        return self._bias
 
     def copy_state(self, src: int, dst: int) -> None:
         """Motor ``dst`` takes the flags, targets and limits of motor ``src`` (model copies).

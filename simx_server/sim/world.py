@@ -419,6 +419,10 @@ class World(Poses, Joints):
             for _ in range(self.substeps):
                 self.substep_hook(m, d)
                 mujoco.mj_step(m, d)
+        elif self.motors.stalled and not self.bounded:  # a motor held back: judged at every substep
+            for _ in range(self.substeps):
+                mujoco.mj_step(m, d)
+                self.motors.apply(m, d, self.dt)
         elif self.bounded:  # a client's scene: at most MAX_STEP_SECONDS of the simulation thread
             physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS)
         else:

@@ -7,7 +7,9 @@ with xdotool, as a person would, and checks the effects from a second client in 
 test process:
 
 * Q x10 turns ``UR5_joint1`` to +10 degrees;
-* T closes the RG2 (``RG2_openCloseJoint`` falls), Y opens it again (rises);
+* T closes the RG2 (``RG2_openCloseJoint`` falls), Y opens it again (rises); on the tutorial's
+  own ``scene.ttt`` also in the DDPG part's pose ``[90, -45, 90, 0, -100, 0]`` and in a bent one
+  (joint 2 at 31, joint 3 at 30 degrees), set from the test's client, opening to its limit;
 * SPACE saves ``saveImg\\rgbImg\\<8 chars>_rgb.jpg`` and ``saveImg\\depthImg\\<8 chars>_depth.jpg``
   (Windows-style paths: on Linux plain file names with backslashes, in the program's cwd);
   the RGB one is a real picture, the depth one loads;
@@ -40,6 +42,8 @@ PROGRAM = LEGACY / "robotControl.py"
 # the tutorial's own V-REP scene file, served through its MJCF conversion (simx_server.scene.ttt)
 TUTORIAL_TTT = SHARED / "ttt-corpus" / "Ianlande+Vrep_yolov3_ddpg_pytorch__scenes_scene.ttt"
 PORT = 19999  # hard-coded in robotControl.py
+TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees: the DDPG part's pose
+BENT_POSE = [0, 31, 30, 0, 0, 0]  # joint 2 at 31, joint 3 at 30 degrees (issue 41)
 TITLE = "Vrep yolov3 ddpg pytorch"
 FRAME = "imgTemp\\frame.jpg"  # one file name with a backslash (the program's Windows path)
 RGB_NAME = re.compile(r"^saveImg\\rgbImg\\([A-Za-z0-9]{8})_rgb\.jpg$")
@@ -81,6 +85,7 @@ def server19999(request):
         if "cannot listen" in str(exc):  # lost a race for the port
             pytest.skip(f"port {PORT} (hard-coded in robotControl.py) was taken: {exc}")
         raise
+    srv.kind = request.param  # which scene the test runs on
     yield srv
     srv.stop()
 
@@ -213,17 +218,39 @@ def test_robotcontrol_keyboard_session(server19999, tmp_path):
 
             prog.wait_for(lambda: f"UR5_joint1 to reach +10 deg +- 0.5 (read {seen[-5:]})", at_10_deg, 60)
 
+            def close_and_open(where: str) -> None:
+                """T closes the RG2, Y opens it again (each to where it stops)."""
+                open_pos = joint(grip)
+                press(xd.display, wid, "t")
+                prog.wait_for(f"RG2_openCloseJoint to fall from {open_pos:.4f} (close, {where})",
+                              lambda: joint(grip) < open_pos - 0.02, 60)
+                # Let it travel, then check that Y reverses it.
+                closed_pos = settled(grip, f"the RG2 to finish closing ({where})")
+                assert closed_pos < open_pos - 0.03, where + prog.diagnostics()
+                press(xd.display, wid, "y")
+                prog.wait_for(f"RG2_openCloseJoint to rise from {closed_pos:.4f} (open, {where})",
+                              lambda: joint(grip) > closed_pos + 0.02, 60)
+                if server19999.kind == "ttt":  # the .ttt's RG2: open to its limit again
+                    assert settled(grip, f"the RG2 to finish opening ({where})") > 0.05, where + prog.diagnostics()
+
             # --- T closes the RG2, Y opens it again.
-            open_pos = joint(grip)
-            press(xd.display, wid, "t")
-            prog.wait_for(f"RG2_openCloseJoint to fall from {open_pos:.4f} (close)",
-                          lambda: joint(grip) < open_pos - 0.02, 60)
-            # Let it travel, then check that Y reverses it.
-            closed_pos = settled(grip, "the RG2 to finish closing")
-            assert closed_pos < open_pos - 0.03, prog.diagnostics()
-            press(xd.display, wid, "y")
-            prog.wait_for(f"RG2_openCloseJoint to rise from {closed_pos:.4f} (open)",
-                          lambda: joint(grip) > closed_pos + 0.02, 60)
+            close_and_open("joint 1 at 10 degrees")
+            if server19999.kind == "ttt":
+                # On the tutorial's own scene.ttt, in the DDPG part's pose and in a bent one (set by
+                # this test's client: the program sends joint targets only when a key moves one).
+                for where, pose in (("the tutorial pose", TUTORIAL_POSE), ("a bent pose", BENT_POSE)):
+                    handles = [vrep.simxGetObjectHandle(cid, f"UR5_joint{i + 1}", B)[1] for i in range(6)]
+                    for h, angle in zip(handles, pose):
+                        assert vrep.simxSetJointTargetPosition(cid, h, math.radians(angle), B) == 0
+                    prog.wait_for(f"the arm to reach {where} {pose}",
+                                  lambda: all(abs(math.degrees(joint(h)) - a) < 1.0 for h, a in zip(handles, pose)), 60)
+                    close_and_open(where)
+                for h in handles:  # back where the program left them (its L key would do the same)
+                    vrep.simxSetJointTargetPosition(cid, h, 0.0, B)
+                vrep.simxSetJointTargetPosition(cid, j1, math.radians(10.0), B)
+                prog.wait_for("the arm back at joint 1 = 10 degrees",
+                              lambda: abs(math.degrees(joint(j1)) - 10.0) < 0.5
+                              and all(abs(joint(h)) < 0.01 for h in handles[1:]), 60)
 
             # --- SPACE saves an RGB and a depth JPEG under Windows-style names.
             press(xd.display, wid, "space")

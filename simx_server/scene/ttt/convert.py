@@ -26,7 +26,8 @@ from simx_server.scene.ttt import inertia, looks, measurements, settings
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.sim.properties import SHAPE_DEFAULT
-from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_loop_closures, add_sensor
+from simx_server.scene.ttt.mechanisms import add_loop_closures
+from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_sensor
 
 _MAX_EXCLUDES = 20_000
 ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
@@ -71,7 +72,8 @@ class Converter:
         self.model_of: dict[int, int] = {}        # shape handle -> its model base's handle (-1 none)
         self.world_pose: dict[int, Pose] = {}     # handle -> world pose in the file
         self.moved: set[int] = set()              # dynamic shapes hung from the world (free)
-        self.deferred_equalities: list[tuple[str, str, float, float]] = []  # dependent joints
+        #: dependent joints: (joint, master, offset, multiplier, their positions in the file)
+        self.deferred_equalities: list[tuple[str, str, float, float, float, float]] = []
         self.repaired_inertias: list[str] = []    # shapes whose moments broke A + B >= C
 
     # ---------------------------------------------------------------- entry

@@ -1,5 +1,6 @@
-"""Joints, dummies, sensors, lights, loop closures and IK groups of a converted scene
-(:mod:`simx_server.scene.ttt.convert`), with their ``simx:`` settings (docs/PORTING.md)."""
+"""Joints, dummies, sensors, lights and IK groups of a converted scene
+(:mod:`simx_server.scene.ttt.convert`), with their ``simx:`` settings (docs/PORTING.md); loop
+closures and dependent joints are in :mod:`simx_server.scene.ttt.mechanisms`."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import math
 import mujoco
 import numpy as np
 
-from simx_server.scene.ttt import looks
+from simx_server.scene.ttt import looks, mechanisms
 from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
 from simx_server.sim.ik import MAX_ELEMENTS as MAX_IK_ELEMENTS
 from simx_server.sim.motors import DEFAULT_PID_P
@@ -16,7 +17,6 @@ from simx_server.scene.ttt.model import Pose, TttObject
 
 REVOLUTE, PRISMATIC, SPHERICAL = 10, 11, 12
 PASSIVE, MOTION_OLD, IK_OLD, IK_DEPENDENT_OLD, DEPENDENT, FORCE = 0, 1, 2, 3, 4, 5
-LOOP_CLOSURE, IK_TIP_TARGET = 0, 5  # sim_dummy_linktype_dynamics_loop_closure, ..._ik_tip_target
 _PROXIMITY_CONE = 33
 
 
@@ -27,7 +27,8 @@ def settings_text(items: dict[str, str]) -> str:
 def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> None:
     """The joint ``obj`` in ``body`` at ``pos`` along ``axis`` (body frame), its motor as simx
     models it: an actuator with V-REP's maximum force, ``mode`` and ``max_velocity`` in its
-    ``simx:`` setting; a dependent joint an MJCF joint equality."""
+    ``simx:`` setting; a dependent joint an MJCF joint equality; a limit that holds
+    (:mod:`simx_server.scene.ttt.mechanisms`)."""
     j = obj.data
     jt = body.add_joint()
     jt.name = obj.name
@@ -43,11 +44,12 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     if not (j.type == REVOLUTE and j.cyclic) and math.isfinite(j.range) and j.range > 0:
         jt.range = [j.minimum, j.minimum + j.range]
         jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        mechanisms.stiff_limit(conv, jt)  # V-REP's limits are hard: they hold under the motors
     else:
         jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
     mode = None
     if j.mode == DEPENDENT or (j.dependency is not None and j.mode in (DEPENDENT, IK_DEPENDENT_OLD)):
-        _dependent(conv, obj)
+        mechanisms.dependent(conv, obj)  # its equality (scene/ttt/mechanisms.py), or free
         conv.setting(obj.name, "mode=passive")
         return
     if j.mode == FORCE:
@@ -99,18 +101,6 @@ def _spring(jt, j) -> bool:
         return False
     jt.stiffness, jt.damping, jt.springref = [k, 0.0, 0.0], [c, 0.0, 0.0], rest
     return True
-
-
-def _dependent(conv, obj: TttObject) -> None:
-    """V-REP's dependent joint (q = offset + multiplier x q_master) as MuJoCo's joint equality
-    ``q1 - ref1 = a + b (q2 - ref2)``."""
-    j = obj.data
-    master = conv.scene.objects.get(j.dependency[0]) if j.dependency else None
-    if master is None or master.kind != "joint":
-        conv.report.add("dependent joints without their master (left free)")
-        return
-    mult, off = j.dependency[1], j.dependency[2]
-    conv.deferred_equalities.append((obj.name, master.name, off + mult * master.data.position - j.position, mult))
 
 
 #: V-REP's proximity volume types (``Snt``) that simx casts as sets of rays (sim/proximity.py).
@@ -195,31 +185,6 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
     site.group = 5
     if kind != "script":  # a 4.6+ script object: a site its script runs on (scripts.write_scripts)
         conv.report.add(f"{kind.replace('_', ' ')} objects (kept as dummies)")
-
-
-def add_loop_closures(conv) -> None:
-    """Dummy pairs linked as dynamic loop closures: an equality keeping the two sites together
-    (V-REP: a ball-joint-like constraint), and dependent joints' equalities."""
-    done = set()
-    for obj in conv.scene.objects.values():
-        if obj.kind != "dummy" or obj.data.linked < 0 or obj.data.link_type != LOOP_CLOSURE:
-            continue
-        other = conv.scene.objects.get(obj.data.linked)
-        pair = frozenset((obj.handle, obj.data.linked))
-        if other is None or other.kind != "dummy" or pair in done:
-            continue
-        done.add(pair)
-        eq = conv.spec.add_equality()
-        eq.type = mujoco.mjtEq.mjEQ_CONNECT
-        eq.objtype = mujoco.mjtObj.mjOBJ_SITE
-        eq.name1, eq.name2 = obj.name, other.name
-        eq.solref = [0.005, 1.0]
-    for dep, master, a, b in conv.deferred_equalities:
-        eq = conv.spec.add_equality()
-        eq.type = mujoco.mjtEq.mjEQ_JOINT
-        eq.name1, eq.name2 = dep, master
-        eq.data[:5] = [a, b, 0, 0, 0]
-        eq.solref = [0.005, 1.0]
 
 
 def add_ik_groups(conv) -> None:

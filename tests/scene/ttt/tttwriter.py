@@ -80,10 +80,11 @@ def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: byte
 
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
                  dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"",
-                 colour: bytes | None = None, moments=(0.01, 0.01, 0.01)) -> bytes:
+                 colour: bytes | None = None, moments=(0.01, 0.01, 0.01), quat=(1, 0, 0, 0)) -> bytes:
     """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`;
     ``colour``: its colour object (:func:`colour_object`; default an old ``Cl2`` of (0.2, 0.4, 0.6));
-    ``moments``: its principal moments of inertia as V-REP stores them (divided by the mass)."""
+    ``moments``: its principal moments of inertia as V-REP stores them (divided by the mass);
+    ``quat``: its orientation in its parent's frame (w, x, y, z)."""
     hx, hy, hz = (s / 2 for s in size)
     v = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], "<f4")
     faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
@@ -97,17 +98,25 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
     typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
                 rec("Sss", bytes([0x80 if dynamic else 0])), rec("Ss3", bytes([1 if respondable else 0])),
                 rec("Dc2", struct.pack("<H", 0xFFFF)))
-    return rec("SHP", common(handle, parent, name, pos, extra=extra) + typed)
+    return rec("SHP", common(handle, parent, name, pos, quat, extra=extra) + typed)
 
 
 def joint(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0), kind=10, position=0.0,
-          motor=True, loop=True, max_force=10.0, target_velocity=0.0, extra: bytes = b"") -> bytes:
-    """A joint in force/torque mode; ``extra``: more typed records (``Dpc`` PID, ``Dtp`` target
-    position, ``Spp`` spring K and C, ``Dcm`` 4.4 control mode)."""
+          motor=True, loop=True, max_force=10.0, target_velocity=0.0, extra: bytes = b"", mode: int = 5,
+          limits=(-1.5, 3.0)) -> bytes:
+    """A joint in force/torque mode (``mode`` 5; 4: dependent, with a :func:`dependency` in
+    ``extra``); ``limits``: V-REP's minimum and range; ``extra``: more typed records (``Dpc`` PID,
+    ``Dtp`` target position, ``Spp`` spring K and C, ``Dcm`` 4.4 control mode)."""
     va9 = (16 if motor else 0) | (32 if loop else 0)
-    typed = lst(rec("Jtt", i32(kind)), rec("Jmd", i32(5)), rec("Pmr", f32(-1.5, 3.0)), rec("Prt", f32(position)),
+    typed = lst(rec("Jtt", i32(kind)), rec("Jmd", i32(mode)), rec("Pmr", f32(*limits)), rec("Prt", f32(position)),
                 rec("Va9", bytes([va9])), rec("Dmp", f32(target_velocity, max_force)), rec("Ulv", f32(2.0)), extra)
     return rec("JNT", common(handle, parent, name, pos, quat) + typed)
+
+
+def dependency(master: int, mult: float, offset: float) -> bytes:
+    """A joint's dependency record (``Jdt``: master handle, multiplier, offset, as V-REP stores
+    them): q = offset + mult * q_master."""
+    return rec("Jdt", struct.pack("<iff", master, mult, offset))
 
 
 def dummy(handle: int, parent: int, name: str, pos=(0, 0, 0), linked=-1, link_type=0, extra: bytes = b"") -> bytes:
