@@ -104,10 +104,6 @@ class BuildCalls:
         return sim.editor._edit(change)
 
 
-    def _frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
-        mat = np.array(self.getObjectMatrix(handle, -1), dtype=float).reshape(3, 4)
-        return mat[:, :3], mat[:, 3]
-
     def _loose_shape(self, handle: Any, what: str) -> Any:
         """A shape (body) that is static or free, with no child body, site or camera."""
         obj = self._world.get(self._h(handle, what), SHAPE)
@@ -230,3 +226,5 @@ class BuildCalls:
         def _simulation(self, what: str) -> SimulationView: ...
 
         def getObjectMatrix(self, handle: Any, relative_to: Any = -1) -> list[float]: ...
+
+        def _frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]: ...

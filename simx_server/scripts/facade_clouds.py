@@ -67,10 +67,6 @@ class CloudCalls:
         self._world.get(h)  # still in the scene
         return rec
 
-    def _frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
-        m = np.array(self.getObjectMatrix(handle, -1), dtype=float).reshape(3, 4)
-        return m[:, :3], m[:, 3]
-
     def _to_local(self, handle: int, pts: np.ndarray, relative: bool) -> np.ndarray:
         if relative:
             return pts
@@ -363,3 +359,5 @@ class CloudCalls:
         def _simulation(self, what: str) -> SimulationView: ...
 
         def getObjectMatrix(self, handle: Any, relative_to: Any = -1) -> list[float]: ...
+
+        def _frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]: ...

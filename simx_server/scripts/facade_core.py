@@ -14,14 +14,14 @@ from typing import Any
 import numpy as np
 
 from simx_wire import constants as C
-from simx_wire.protocol import ArgumentError, UnknownObjectError
+from simx_wire.protocol import ArgumentError
 from simx_server.scripts import shapes
 from simx_server.scripts.facade_joints import JointCalls
 from simx_server.scripts.signals import Signals
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num  # noqa: F401
 from simx_server.base.arguments import as_text as _text, as_vector as _vector  # noqa: F401 (the facade modules use them)
 from simx_server.sim import ik
-from simx_server.sim.world import World, matrix_from_euler, matrix_from_quaternion
+from simx_server.sim.world import World
 
 log = logging.getLogger("simx.scripts")
 
@@ -87,48 +87,6 @@ class SimFacade(JointCalls):
         return rel
 
     # ----------------------------------------------------------------- objects
-    def getObjectHandle(self, name: Any) -> int:  # noqa: N802 (V-REP's names)
-        """Handle of the object called ``name`` (``sim.handle_self``: the script's object).
-
-        Raises UnknownObjectError (a Lua error) for an unknown name, as V-REP did.
-
-        Args:
-            name: the object's name, or ``sim.handle_self``.
-
-        Returns:
-            The handle.
-        """
-        if not isinstance(name, (str, bytes, bytearray)):
-            if _int(name, "object name") != C.sim_handle_self:
-                raise ArgumentError(f"object name must be a string or sim.handle_self, got {name!r}")
-            return self._owner
-        return self._world.resolve(_text(name, "object name")).handle
-
-    def getObject(self, path: Any, options: dict | None = None) -> int:  # noqa: N802
-        """CoppeliaSim 4.3's lookup: a name or ``/path``; ``"."`` is the script's object.
-
-        ``options = {noError = true}`` answers -1 instead of an error for an unknown object.
-
-        Args:
-            path: a name, a path, or ``"."``.
-            options: ``{noError = true}``, or None.
-
-        Returns:
-            The handle, or -1.
-
-        Raises:
-            UnknownObjectError: no such object (without ``noError``).
-        """
-        p = _text(path, "object path")
-        if p == ".":
-            return self._owner
-        try:
-            return self._world.resolve(p).handle
-        except UnknownObjectError:
-            if isinstance(options, dict) and options.get("noError"):
-                return -1
-            raise
-
     def getObjectName(self, handle: Any) -> str:  # noqa: N802
         """Name of the object ``handle``.
 
@@ -142,8 +100,6 @@ class SimFacade(JointCalls):
             UnknownObjectError: no such object.
         """
         return self._world.get(self._h(handle)).name
-
-    getObjectAlias = getObjectName  # noqa: N815 (CoppeliaSim 4.3 name)
 
     def getObjectType(self, handle: Any) -> int:  # noqa: N802
         """Type of the object (``sim.object_joint_type`` ...).
@@ -204,99 +160,14 @@ class SimFacade(JointCalls):
         return handles[i] if 0 <= i < len(handles) else -1
 
     # ------------------------------------------------------------------- poses
-    def getObjectPosition(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
-        """Position (m) relative to ``relative_to`` (-1 world, ``sim.handle_parent``).
-
-        Args:
-            handle: the object's handle.
-            relative_to: another object's handle, -1 or ``sim.handle_parent``.
-
-        Returns:
-            ``[x, y, z]`` in m.
-
-        Raises:
-            UnknownObjectError: no such object.
-        """
-        return self._world.position(self._h(handle), self._rel(relative_to))
-
-    def getObjectOrientation(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
-        """Euler angles alpha, beta, gamma (rad), R = Rx(alpha) Ry(beta) Rz(gamma).
-
-        Args:
-            handle: the object's handle.
-            relative_to: another object's handle, -1 or ``sim.handle_parent``.
-
-        Returns:
-            ``[alpha, beta, gamma]`` in rad.
-
-        Raises:
-            UnknownObjectError: no such object.
-        """
-        return self._world.orientation(self._h(handle), self._rel(relative_to))
-
-    def getObjectQuaternion(self, handle: Any, relative_to: Any) -> list[float]:  # noqa: N802
-        """Orientation as a quaternion (x, y, z, w).
-
-        Args:
-            handle: the object's handle.
-            relative_to: another object's handle, -1 or ``sim.handle_parent``.
-
-        Returns:
-            ``[x, y, z, w]``, unit length.
-
-        Raises:
-            UnknownObjectError: no such object.
-        """
-        return self._world.quaternion(self._h(handle), self._rel(relative_to))
-
-    def setObjectPosition(self, handle: Any, relative_to: Any, position: Any) -> None:  # noqa: N802
-        """Move an object to ``position`` (m) in the frame of ``relative_to``.
-
-        Args:
-            handle: the object's handle.
-            relative_to: another object's handle, -1 or ``sim.handle_parent``.
-            position: ``[x, y, z]`` in m.
-
-        Raises:
-            UnknownObjectError: no such object.
-            ObjectTypeError: an object that cannot be placed (a body with several joints).
-            ArgumentError: not 3 numbers, or beyond limits.MAX_POSITION.
-        """
-        self._set_pose(handle, relative_to, position=_vector(position, 3, "position"))
-
-    def setObjectOrientation(self, handle: Any, relative_to: Any, euler: Any) -> None:  # noqa: N802
-        """Turn an object to Euler angles (rad) in the frame of ``relative_to``.
-
-        Args:
-            handle: the object's handle.
-            relative_to: another object's handle, -1 or ``sim.handle_parent``.
-            euler: ``[alpha, beta, gamma]`` in rad.
-
-        Raises:
-            UnknownObjectError: no such object.
-            ObjectTypeError: an object that cannot be placed.
-            ArgumentError: not 3 numbers.
-        """
-        self._set_pose(handle, relative_to, rotation=matrix_from_euler(*_vector(euler, 3, "eulerAngles")))
-
-    def setObjectQuaternion(self, handle: Any, relative_to: Any, quaternion: Any) -> None:  # noqa: N802
-        """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``.
-
-        Args:
-            handle: the object's handle.
-            relative_to: another object's handle, -1 or ``sim.handle_parent``.
-            quaternion: ``[x, y, z, w]``, any non-zero length.
-
-        Raises:
-            UnknownObjectError: no such object.
-            ObjectTypeError: an object that cannot be placed.
-            ArgumentError: not 4 numbers, or a zero quaternion.
-        """
-        self._set_pose(handle, relative_to, rotation=matrix_from_quaternion(*_vector(quaternion, 4, "quaternion")))
-
     def _set_pose(self, handle: Any, relative_to: Any, position: list[float] | None = None,
                   rotation: np.ndarray | None = None) -> None:
         self._world.set_pose(self._h(handle), self._rel(relative_to), position=position, rotation=rotation)
+
+    def _frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
+        """The object's rotation (3x3) and position (3, m) in the world (point clouds, octrees, shapes built)."""
+        mat = np.array(self.getObjectMatrix(handle, -1), dtype=float).reshape(3, 4)
+        return mat[:, :3], mat[:, 3]
 
     # -------------------------------------------------------------------- time
     def getSimulationTime(self) -> float:  # noqa: N802

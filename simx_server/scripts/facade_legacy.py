@@ -57,31 +57,37 @@ class LegacyCalls(TubeCalls, WirelessCalls, LegacyObjectCalls, PythonThreadCalls
             self._name_suffix = name_suffix(self._world.get(self._owner).name)[0] if self._owner > 0 else -1
         return self._name_suffix
 
-    def getObjectHandle(self, name: Any) -> int:  # noqa: N802
-        """V-REP 3.x / CoppeliaSim 4.0-4.2's lookup with its automatic name suffix: in a script
-        whose object is a copy (``robot#0``), ``getObjectHandle("motor")`` finds ``motor#0``, the
-        motor of the same copy; ``"motor#"`` means the name without a suffix, and a name with a
-        suffix or a path is taken as it is. ``sim.setNameSuffix(n)`` changes the suffix (-1:
-        none). Raises UnknownObjectError for an unknown name, as V-REP did.
+    def getObjectHandle(self, name: Any, options: Any = None) -> int:  # noqa: N802
+        """The object ``name`` names, in every form ``sim.getObject`` takes (CoppeliaSim 4.3/4.4's
+        ``sim.getObjectHandle``, coppeliaSimLib's ``simGetObjectHandleEx_internal``: a path
+        starting with ``/``, ``.`` or ``:`` is looked up as ``sim.getObject`` looks it up, with
+        ``options`` ``{index = n, noError = true}``), and V-REP 3.x's names with their automatic
+        suffix: in a script whose object is a copy (``robot#0``), ``getObjectHandle("motor")``
+        finds ``motor#0``, the motor of the same copy; ``"motor#"`` means the name without a
+        suffix, and a name with a suffix is taken as it is. ``sim.setNameSuffix(n)`` changes the
+        suffix (-1: none). ``sim.handle_self``: the script's object.
 
         Args:
-            name: the object's name or path, or ``sim.handle_self``.
+            name: a name (``motor``, ``motor#0``, ``motor#``), an alias path (``/robot/motor``,
+                ``./motor``, ``:/motor``, ``/joint[2]``), or ``sim.handle_self``.
+            options: ``{index = n, noError = true}`` as for ``sim.getObject``, or None.
 
         Returns:
-            The handle.
+            The handle, or -1 (``noError``).
 
         Raises:
-            UnknownObjectError: no such object.
+            UnknownObjectError: no such object (without ``noError``), as V-REP raised it.
             ArgumentError: ``name`` is neither a string nor ``sim.handle_self``.
         """
-        if isinstance(name, (str, bytes, bytearray)):
-            text = _text(name, "object name")
-            suffix = self._suffix()
-            if text.endswith("#"):
-                return self._world.resolve(text[:-1]).handle
-            if suffix >= 0 and "#" not in text and not text.startswith(("/", ".", ":")):
-                return self._world.resolve(f"{text}#{suffix}").handle
-        return super().getObjectHandle(name)
+        if not isinstance(name, (str, bytes, bytearray)):
+            if _int(name, "object name") != C.sim_handle_self:
+                raise ArgumentError(f"object name must be a string or sim.handle_self, got {name!r}")
+            return self._owner
+        text = _text(name, "object name")
+        suffix = self._suffix()
+        if suffix >= 0 and "#" not in text and not text.startswith(("/", ".", ":")):
+            text = f"{text}#{suffix}"
+        return self.getObject(text, options)
 
     def getNameSuffix(self, name: Any = None) -> tuple[int, str]:  # noqa: N802
         """The suffix number of ``name`` (nil: the script's object) and the name without it.

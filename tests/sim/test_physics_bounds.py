@@ -241,10 +241,10 @@ def test_masses_positions_and_rotations_out_of_range_are_argument_errors(sim):
 
 
 def test_script_setters_obey_the_same_bounds(sim):
-    from simx_server.scripts.facade_core import SimFacade
+    from simx_server.scripts.facade import ScriptSim
 
     w = sim.world
-    facade = SimFacade(w, w.resolve("UR5").handle, sim.signals)
+    facade = ScriptSim(w, w.resolve("UR5").handle, sim.signals)
     h = w.resolve("UR5_joint1").handle
     with pytest.raises(ArgumentError, match="MAX_JOINT_POSITION"):
         facade.setJointPosition(h, 1e39)
