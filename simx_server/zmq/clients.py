@@ -17,12 +17,13 @@ class ZmqClient(Client):
 
     __slots__ = ("sync_id", "lock_id", "fd", "stepping", "locks",
                  "step_at", "waiting", "held", "label", "long", "long_func", "connection", "in_callback",
-                 "gave_up", "files_key")
+                 "gave_up", "files_key", "version")
 
     def __init__(self, uuid: str, fd: int, timeout: float | None, now: float, connection: bytes = b"",
-                 door: Any = None):
+                 door: Any = None, version: int = codec.PROTOCOL_VERSION):
         super().__init__(uuid, door, now, timeout if timeout is not None else codec.DEFAULT_TIMEOUT)
-        self.label = f"zmq:{uuid[:8]}"
+        self.version = version  # its requests' protocol version (1: CoppeliaSim 4.3-4.5's client)
+        self.label = f"zmq:{uuid[:8]}" if version == codec.PROTOCOL_VERSION else f"zmq43:{uuid[-8:]}"
         self.sync_id, self.lock_id = f"zmq:{uuid}", f"zmq-lock:{uuid}"
         self.fd = fd
         self.stepping = 0  # sim.setStepping level

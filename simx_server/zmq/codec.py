@@ -1,8 +1,11 @@
-"""The messages of CoppeliaSim's ZMQ remote API, protocol version 2: CBOR maps read under bounds.
+"""The messages of CoppeliaSim's ZMQ remote API, protocol versions 2 and 1: CBOR maps read under bounds.
 
-A request is a CBOR map ``{func, args, uuid [, ver, lang, timeout, argsL]}``; the reply a map
-``{ret: [values]}``, ``{err: text}`` or ``{func: "_*wait*_", args: []}`` (docs/PROTOCOL.md,
-part 2). Clients are untrusted: before cbor2 builds any object, :func:`scan` walks the
+A request of protocol version 2 (CoppeliaSim 4.6+, ``coppeliasim-zmqremoteapi-client`` 2.x) is a
+CBOR map ``{func, args, uuid [, ver, lang, timeout, argsL]}``; its reply a map ``{ret: [values]}``,
+``{err: text}`` or ``{func: "_*wait*_", args: []}``. A request of version 1 (CoppeliaSim 4.3-4.5's
+client, the ``zmqRemoteApi`` package) is ``{func, args}`` with no uuid; its reply ``{success: true,
+ret: [values]}`` or ``{success: false, error: text}`` (:func:`to_version_1`). Each request's
+version is told by its uuid (docs/PROTOCOL.md, part 2). Clients are untrusted: before cbor2 builds any object, :func:`scan` walks the
 message's item heads without recursion and refuses what the protocol never sends and what
 would cost more than its size suggests (tags, indefinite lengths, simple values other than
 false/true/null, a length beyond the message, more than :data:`MAX_ITEMS` items, containers
@@ -24,6 +27,9 @@ from simx_wire.protocol import MAX_REQUEST_DECODED_BYTES, ProtocolError
 
 #: The protocol version simx speaks (CoppeliaSim 4.6 and later; ``ver`` of a client's first request).
 PROTOCOL_VERSION = 2
+#: The version before it (CoppeliaSim 4.3-4.5's client: requests without uuid, ``{success}`` replies),
+#: served beside version 2 on the same port.
+VERSION_1 = 1
 #: Largest request in bytes (an image sent with sim.setVisionSensorImg fits: 4096² RGB is 48 MiB).
 MAX_REQUEST_BYTES = 64 * 1024 * 1024
 #: Deepest nesting of containers in a request (the request map is level 1, its args level 2).
@@ -140,23 +146,50 @@ def scan(data: bytes, max_depth: int = MAX_DEPTH, max_items: int = MAX_ITEMS,
 
 
 class Request:
-    """One request: ``func`` (str), ``args`` (list), ``uuid`` (str), and the first contact's
-    ``lang`` and ``timeout`` (s, None when not given)."""
+    """One request: ``func`` (str), ``args`` (list), ``uuid`` (str; for version 1, which has none,
+    the frontend names the client by its connection), the first contact's ``lang`` and
+    ``timeout`` (s, None when not given), and its protocol ``version`` (2, or :data:`VERSION_1`)."""
 
-    __slots__ = ("func", "args", "uuid", "lang", "timeout")
+    __slots__ = ("func", "args", "uuid", "lang", "timeout", "version")
 
-    def __init__(self, func: str, args: list, uuid: str, lang: str | None = None, timeout: float | None = None):
+    def __init__(self, func: str, args: list, uuid: str, lang: str | None = None, timeout: float | None = None,
+                 version: int = PROTOCOL_VERSION):
         self.func, self.args, self.uuid, self.lang, self.timeout = func, args, uuid, lang, timeout
+        self.version = version
 
     def __repr__(self) -> str:
         return f"Request({self.func!r}, {len(self.args)} args, uuid={self.uuid!r})"
 
 
+class RequestError(ProtocolError):
+    """A request refused before it is served; ``version``: its protocol version (which reply
+    shape the client reads), None when the message is not a request map at all."""
+
+    def __init__(self, message: str, version: int | None = None):
+        super().__init__(message)
+        self.version = version
+
+
 def read_request(data: bytes) -> Request:
-    """The request in ``data``; raises ProtocolError naming what is wrong.
+    """The request in ``data``; raises :class:`RequestError` naming what is wrong.
 
     ``args`` may be absent (no arguments); the string ``"_*NIL*_"`` among them stands for nil
-    (None). A ``ver`` other than 2 is refused; a map without ``uuid`` is protocol version 1's."""
+    (None). A map with a ``uuid`` is protocol version 2's (a ``ver`` other than 2 is refused);
+    one without is version 1's (CoppeliaSim 4.3-4.5's client: ``{func, args}``; its ``eval``
+    requests, Lua code to run, are refused)."""
+    try:
+        msg = _decode(data)
+    except ProtocolError as exc:
+        raise RequestError(str(exc)) from None
+    version = PROTOCOL_VERSION if "uuid" in msg else VERSION_1
+    try:
+        return _request(msg) if version == PROTOCOL_VERSION else _request_1(msg)
+    except ProtocolError as exc:
+        raise RequestError(str(exc), version) from None
+
+
+def _decode(data: bytes) -> dict:
+    """The CBOR map in ``data``, read under the bounds of :func:`scan`."""
     if len(data) > MAX_REQUEST_BYTES:
         raise ProtocolError(f"request of {len(data)} bytes refused: at most {MAX_REQUEST_BYTES} (codec.MAX_REQUEST_BYTES)")
     scan(data)
@@ -166,16 +199,28 @@ def read_request(data: bytes) -> Request:
         raise ProtocolError(f"not CBOR: {str(exc)[:200]}") from None
     if not isinstance(msg, dict):
         raise ProtocolError(f"a request is a CBOR map {{func, args, uuid}}, got {type(msg).__name__}")
+    return msg
+
+
+def _request(msg: dict) -> Request:
     uuid = msg.get("uuid")
-    if uuid is None:
-        raise ProtocolError("the client's ZMQ remote API version does not match: this server speaks protocol "
-                            f"version {PROTOCOL_VERSION} (requests carry a uuid; coppeliasim-zmqremoteapi-client 2.x)")
     ver = msg.get("ver")
     if ver is not None and ver != PROTOCOL_VERSION:
         raise ProtocolError(f"protocol version {_short(ver)} refused: this server speaks version {PROTOCOL_VERSION} "
                             "(coppeliasim-zmqremoteapi-client 2.x)")
     if not isinstance(uuid, str) or not 0 < len(uuid) <= MAX_NAME:
         raise ProtocolError(f"uuid must be a string of 1 to {MAX_NAME} characters")
+    func, args = _func_args(msg)
+    lang = msg.get("lang")
+    timeout = msg.get("timeout")
+    if timeout is not None:
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not math.isfinite(timeout):
+            raise ProtocolError("timeout must be a number of seconds")
+        timeout = min(max(float(timeout), MIN_TIMEOUT), MAX_TIMEOUT)
+    return Request(func, args, uuid, lang if isinstance(lang, str) else None, timeout)
+
+
+def _func_args(msg: dict) -> tuple[str, list]:
     func = msg.get("func")
     if not isinstance(func, str) or not 0 < len(func) <= MAX_NAME:
         raise ProtocolError(f"func must be a function name, a string of 1 to {MAX_NAME} characters")
@@ -184,14 +229,22 @@ def read_request(data: bytes) -> Request:
         args = []
     if not isinstance(args, list):
         raise ProtocolError(f"args must be an array, got {type(args).__name__}")
-    args = [None if a == NIL else a for a in args]
-    lang = msg.get("lang")
-    timeout = msg.get("timeout")
-    if timeout is not None:
-        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not math.isfinite(timeout):
-            raise ProtocolError("timeout must be a number of seconds")
-        timeout = min(max(float(timeout), MIN_TIMEOUT), MAX_TIMEOUT)
-    return Request(func, args, uuid, lang if isinstance(lang, str) else None, timeout)
+    return func, [None if a == NIL else a for a in args]
+
+
+def _request_1(msg: dict) -> Request:
+    """A request of CoppeliaSim 4.3-4.5's client (its add-on's ``zmqRemoteApi.handleRequest``):
+    ``{func, args}``; ``uuid`` is left empty for the frontend to fill."""
+    if "func" not in msg and "eval" in msg:
+        raise ProtocolError("eval requests are refused: simx runs no code a client sends (call functions by name; "
+                            "docs/SECURITY.md)")
+    if "ver" in msg:
+        raise ProtocolError(f"a request with ver {_short(msg['ver'])} needs a uuid (protocol version "
+                            f"{PROTOCOL_VERSION}: coppeliasim-zmqremoteapi-client 2.x)")
+    func, args = _func_args(msg)
+    if func.startswith("_*"):
+        raise ProtocolError(f"{_short(func)} is a message of protocol version {PROTOCOL_VERSION} (requests with a uuid)")
+    return Request(func, args, "", version=VERSION_1)
 
 
 def _short(value: Any) -> str:
@@ -217,9 +270,38 @@ def encode_reply(values: list | tuple) -> bytes:
     return cbor2.dumps({"ret": list(values)}, default=_default)
 
 
-def encode_error(message: str) -> bytes:
-    """``{err: message}``: the client raises an exception with this text."""
-    return cbor2.dumps({"err": message})
+def encode_error(message: str, version: int | None = PROTOCOL_VERSION) -> bytes:
+    """The reply of a failed request, whose text the client raises: ``{err: message}`` (version
+    2), ``{success: false, error: message}`` (version 1), or both in one map for a message
+    whose version is not known (not a request map): each client version reads its keys."""
+    if version == PROTOCOL_VERSION:
+        return cbor2.dumps({"err": message})
+    if version == VERSION_1:
+        return cbor2.dumps({"success": False, "error": message})
+    return cbor2.dumps({"err": message, "success": False, "error": message})
+
+
+# The heads of version 2's {ret: ...} and {err: ...} maps (a 1-pair map, a 3-letter key), and
+# of version 1's two-pair maps that replace them, {success: true, ret: ...} / {success: false, error: ...}.
+_RET_2, _ERR_2 = b"\xa1\x63ret", b"\xa1\x63err"
+_RET_1 = b"\xa2" + cbor2.dumps("success") + cbor2.dumps(True) + cbor2.dumps("ret")
+_ERR_1 = b"\xa2" + cbor2.dumps("success") + cbor2.dumps(False) + cbor2.dumps("error")
+
+
+def to_version_1(payload: bytes) -> bytes:
+    """A version-2 reply (:func:`encode_reply`, :func:`encode_error`) as version 1's client reads
+    it (CoppeliaSim 4.3-4.5's add-on, ``zmqRemoteApi.handleRequest``): ``{success: true, ret}``
+    or ``{success: false, error}``. The value is kept as encoded (an image is not copied twice);
+    another reply (``_*wait*_``, a callback, ``{}``), which version 1 has no use for, becomes an error."""
+    head = payload[:5]
+    if head == _RET_2:
+        return _RET_1 + payload[5:]
+    if head == _ERR_2:
+        return _ERR_1 + payload[5:]
+    if payload == cbor2.dumps({}):
+        return _RET_1 + cbor2.dumps([])
+    return encode_error("this reply has no form in protocol version 1 (CoppeliaSim 4.3-4.5's client); "
+                        "use coppeliasim-zmqremoteapi-client 2.x", VERSION_1)
 
 
 def encode_wait() -> bytes:

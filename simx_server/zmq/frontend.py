@@ -24,6 +24,13 @@ counts from its call on: :meth:`Frontend.reserve`); libzmq queues at most
 ``ZMQ_QUEUED_MESSAGES`` messages each way per connection. Every new connection passes the ZAP
 handler (:class:`Gate`) on this thread: beyond ``max_connections`` it is refused (its
 descriptor closed at once), and with CURVE keys only the authorised clients' public keys pass.
+
+Protocol version 1 (CoppeliaSim 4.3-4.5's client, issue 43) is served beside version 2: the
+frontend tells each request's version (:func:`~simx_server.zmq.codec.read_request`), names a
+version-1 client by its connection (its requests carry no uuid), and sends it its replies in
+version 1's shape (:func:`~simx_server.zmq.codec.to_version_1`). That client's ``client.step()``
+then waits for a message on a second socket, a PUB on the port after the main one (CoppeliaSim's
+``cntPort``): the reply to its step is preceded by one (:meth:`Frontend.send`, ``publish``).
 """
 
 from __future__ import annotations
@@ -31,16 +38,17 @@ from __future__ import annotations
 import logging
 import os
 import queue
+import struct
 import threading
 from typing import Any, Callable
 
 import zmq
 import zmq.utils.monitor
-import zmq.utils.z85
 
 from simx_wire.protocol import ProtocolError
 from simx_server.base import limits
 from simx_server.zmq import codec
+from simx_server.zmq.gate import Gate
 
 log = logging.getLogger("simx.zmq")
 
@@ -54,6 +62,8 @@ ZMQ_QUEUED_MESSAGES = 16
 #: kernel has them; smaller ones are bounded by ZMQ_QUEUED_MESSAGES.
 TRACKED_BYTES = 64 * 1024
 _ZAP_ENDPOINT = "inproc://zeromq.zap.01"
+#: The uuid of a version-1 client (which sends none) is this and its connection's routing id in hex.
+VERSION_1_PREFIX = "zmq43-"
 #: Where clients connect unless told otherwise (CoppeliaSim's default port).
 DEFAULT_PORT = 23000
 _POLL_MS = 200  # the thread checks for close() at least this often
@@ -109,8 +119,15 @@ class Frontend:
 
     def __init__(self, endpoints: list[str], deliver: Callable[[Any], None], gate: Gate | None = None,
                  serve: Callable[[Any], None] | None = None,
-                 in_place: Callable[[codec.Request], bool] = lambda request: True):
+                 in_place: Callable[[codec.Request], bool] = lambda request: True,
+                 counter_endpoints: list[str] | tuple[str, ...] = ()):
         self.endpoints = list(endpoints)
+        #: Where the step counter of version-1 clients is published (the main port + 1); those
+        #: bound (:meth:`open`; one that cannot be bound is logged and left out).
+        self.counter_endpoints, self.counter_bound = list(counter_endpoints), []
+        self._counter: zmq.Socket | None = None
+        self._counter_monitor: zmq.Socket | None = None  # its connections count toward the gate's bound
+        self._versions: dict[bytes, tuple[int, int]] = {}  # identity -> (fd, protocol version) of its requests
         self._deliver = deliver
         self._serve = serve if serve is not None else deliver
         self._in_place = in_place
@@ -162,13 +179,35 @@ class Frontend:
             ctx.term()
             self._ctx = None
             raise
+        self._open_counter(ctx)
         self._thread = threading.Thread(target=self._run, args=(router, monitor, zap), name="simx-zmq", daemon=True)
         self._thread.start()
 
-    def send(self, envelope: list, payload: bytes, held: int = 0) -> None:
+    def _open_counter(self, ctx: zmq.Context) -> None:
+        """Bind the PUB socket of version 1's step counter (CoppeliaSim 4.3-4.5's add-on: ``cntSocket``,
+        conflated); an endpoint in use is logged, and version-1 clients cannot step without one."""
+        if not self.counter_endpoints:
+            return
+        pub = self._counter = ctx.socket(zmq.PUB)
+        pub.setsockopt(zmq.LINGER, 0)
+        pub.setsockopt(zmq.CONFLATE, 1)
+        pub.setsockopt(zmq.ZAP_DOMAIN, b"simx")
+        self.gate.configure(pub)
+        self._counter_monitor = pub.get_monitor_socket(zmq.EVENT_ACCEPTED | zmq.EVENT_DISCONNECTED)
+        for endpoint in self.counter_endpoints:
+            try:
+                pub.bind(endpoint)
+                self.counter_bound.append(pub.getsockopt(zmq.LAST_ENDPOINT).decode())
+            except zmq.ZMQError as exc:
+                log.warning("ZMQ step counter of CoppeliaSim 4.3-4.5's clients not served on %s (%s): their "
+                            "client.step() cannot be served (the port after --zmq-port must be free)", endpoint,
+                            exc.strerror)
+
+    def send(self, envelope: list, payload: bytes, held: int = 0, publish: int | None = None) -> None:
         """Reply ``payload`` to the request of ``envelope`` (thread-safe; never blocks); ``held``:
-        the bytes :meth:`reserve` held for it, given back once the reply is counted as unsent."""
-        self._replies.put((envelope, payload, held))
+        the bytes :meth:`reserve` held for it, given back once the reply is counted as unsent;
+        ``publish``: a step count to publish on the counter socket first (a version-1 step's reply)."""
+        self._replies.put((envelope, payload, held, publish))
         if self._awaiting:  # the socket thread waits on the queue itself: the put woke it
             return
         try:
@@ -238,11 +277,16 @@ class Frontend:
         poller.register(zap, zmq.POLLIN)
         poller.register(router, zmq.POLLIN)
         poller.register(self._wake_r, zmq.POLLIN)
+        counted = self._counter_monitor
+        if counted is not None:
+            poller.register(counted, zmq.POLLIN)
         try:
             while not self._stop.is_set():
                 events = dict(poller.poll(_POLL_MS))
                 if monitor in events:
                     self._on_monitor(monitor)
+                if counted is not None and counted in events:
+                    self._on_monitor(counted, counter=True)
                 if zap in events:
                     self.gate.answer(zap)
                 if self._trackers:
@@ -266,8 +310,13 @@ class Frontend:
             monitor.close(0)
             router.close(0)
             zap.close(0)
+            for sock in (self._counter_monitor, self._counter):
+                if sock is not None:
+                    sock.close(0)
 
-    def _on_monitor(self, monitor: zmq.Socket) -> None:
+    def _on_monitor(self, monitor: zmq.Socket, counter: bool = False) -> None:
+        """Count the connections accepted and closed (``counter``: the step counter's), and tell
+        the simulation thread which request connection closed."""
         while True:
             try:
                 event = zmq.utils.monitor.recv_monitor_message(monitor, zmq.NOBLOCK)
@@ -278,8 +327,12 @@ class Frontend:
             elif event["event"] == zmq.EVENT_DISCONNECTED:
                 fd = int(event["value"])
                 self.gate.connections.discard(fd)
+                if counter:  # a subscriber of the step counter: no request, no client
+                    continue
                 for identity in [i for i, (f, _) in self._pending.items() if f == fd]:
                     self._done(identity)
+                for identity in [i for i, (f, _) in self._versions.items() if f == fd]:
+                    del self._versions[identity]
                 self._deliver(("zmq-gone", fd))
 
     def _await_reply(self, router: zmq.Socket) -> None:
@@ -309,13 +362,20 @@ class Frontend:
     def _send_replies(self, router: zmq.Socket) -> None:
         while True:
             try:
-                envelope, payload, held = self._replies.get_nowait()
+                envelope, payload, held, publish = self._replies.get_nowait()
             except queue.Empty:
                 return
             if not envelope:
                 continue
             self._done(envelope[0])
             self.release(envelope[0], held)  # counted as unsent below, if the kernel does not take it at once
+            if self._versions.get(envelope[0], (0, 0))[1] == codec.VERSION_1:
+                payload = codec.to_version_1(payload)
+                if publish is not None and self._counter is not None:  # before the reply: client.step() reads it after
+                    try:
+                        self._counter.send(struct.pack("<I", publish & 0xFFFFFFFF), _NOBLOCK)
+                    except zmq.ZMQError as exc:
+                        log.debug("ZMQ step count not published: %s", exc)
             try:
                 if len(payload) < TRACKED_BYTES:  # copied: cheaper than a zero-copy Frame per part
                     _send_small(router, envelope, payload)
@@ -351,7 +411,9 @@ class Frontend:
         if entry is not None:
             self._pending_bytes -= entry[1]
 
-    def _answer(self, router: zmq.Socket, envelope: list, payload: bytes) -> None:
+    def _answer(self, router: zmq.Socket, envelope: list, message: str, version: int | None) -> None:
+        """Send the error ``message`` in the shape of protocol ``version`` (None: unknown, both)."""
+        payload = codec.encode_error(message, version)
         try:
             _send_small(router, envelope, payload)
         except zmq.ZMQError as exc:
@@ -390,15 +452,19 @@ class Frontend:
                 raise ProtocolError(f"server busy: {self._pending_bytes} bytes of requests are waiting "
                                     "(limits.MAX_QUEUED_BYTES_TOTAL); try again later")
             request = codec.read_request(bytes(data) if size <= 4096 else data)
-        except ProtocolError as exc:
+        except ProtocolError as exc:  # in the shape of its version, else its connection's last one
             log.warning("ZMQ request refused: %s", exc)
-            self._answer(router, envelope, codec.encode_error(str(exc)))
+            version = getattr(exc, "version", None) or self._versions.get(identity, (0, None))[1]
+            self._answer(router, envelope, str(exc), version)
             return
         except Exception as exc:  # the server never dies from a client
             log.exception("reading a ZMQ request")
-            self._answer(router, envelope, codec.encode_error(f"internal error while reading the request: "
-                                                               f"{type(exc).__name__}"))
+            self._answer(router, envelope, f"internal error while reading the request: {type(exc).__name__}",
+                         self._versions.get(identity, (0, None))[1])
             return
+        self._versions[identity] = (fd, request.version)
+        if request.version == codec.VERSION_1:  # no uuid: the client is its connection
+            request.uuid = f"{VERSION_1_PREFIX}{identity.hex()}"
         self._pending[identity] = (fd, size)
         self._pending_bytes += size
         if not self._in_place(request):
@@ -413,62 +479,3 @@ class Frontend:
             self._awaiting = False
         if not self._replies.empty():
             self._send_replies(router)
-
-
-class Gate:
-    """The ZAP handler (ZeroMQ's authentication protocol, RFC 27) of the ZMQ remote API: every
-    new connection is asked about once, on the socket thread.
-
-    Args:
-        curve: ``(server_secret_key, server_public_key, client_public_keys)`` (Z85 bytes) to
-            require CURVE (encryption and client authentication: a connection passes only with
-            one of ``client_public_keys``), or None (no authentication: ZMQ's NULL mechanism).
-        max_connections: connections served at once; a new one beyond is refused (ZAP status
-            400; its descriptor is closed at once and the refusal logged).
-    """
-
-    def __init__(self, curve: tuple[bytes, bytes, frozenset] | None = None,
-                 max_connections: int = limits.MAX_ZMQ_CONNECTIONS):
-        self.curve = curve
-        self.max_connections = max_connections
-        self.connections: set[int] = set()  # descriptors of the accepted connections
-        self.refused = 0
-
-    def configure(self, router: zmq.Socket) -> None:
-        if self.curve is not None:
-            secret, public, _ = self.curve
-            router.setsockopt(zmq.CURVE_SERVER, 1)
-            router.setsockopt(zmq.CURVE_SECRETKEY, secret)
-            router.setsockopt(zmq.CURVE_PUBLICKEY, public)
-
-    def answer(self, zap: zmq.Socket) -> None:
-        """Answer the ZAP requests waiting on ``zap``."""
-        while True:
-            try:
-                frames = zap.recv_multipart(zmq.NOBLOCK)
-            except zmq.Again:
-                return
-            version, request_id = (frames + [b"", b""])[:2]
-            status, text = self._decide(frames)
-            zap.send_multipart([version, request_id, status, text, b"", b""])
-
-    def _decide(self, frames: list[bytes]) -> tuple[bytes, bytes]:
-        if len(frames) < 6 or frames[0] != b"1.0":
-            return b"500", b"bad ZAP request"
-        address, mechanism = frames[3].decode(errors="replace"), frames[5]
-        if len(self.connections) > self.max_connections:
-            self.refused += 1
-            log.warning("ZMQ connection from %s refused: %d connections already (limits.MAX_ZMQ_CONNECTIONS, "
-                        "at most %d here; the open-files limit)", address, len(self.connections) - 1,
-                        self.max_connections)
-            return b"400", b"server busy: too many ZMQ connections"
-        if self.curve is None:
-            return (b"200", b"OK") if mechanism == b"NULL" else (b"400", b"unexpected mechanism")
-        if mechanism != b"CURVE" or len(frames) < 7:
-            return b"400", b"CURVE required"
-        key = zmq.utils.z85.encode(frames[6]) if len(frames[6]) == 32 else b""
-        if key not in self.curve[2]:
-            log.warning("ZMQ connection from %s refused: its CURVE key is not an authorised client's "
-                        "(--zmq-curve)", address)
-            return b"400", b"unknown client key"
-        return b"200", b"OK"

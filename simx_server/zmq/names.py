@@ -20,11 +20,14 @@ The official client turns the answer of ``zmqRemoteApi.info('sim')`` into the at
 
 from __future__ import annotations
 
+import inspect
 import json
 from functools import lru_cache
 from importlib import resources
 from typing import Any
 
+from simx_wire.protocol import ArgumentError, RemoteError
+from simx_server.base.arguments import quote
 from simx_server.scripts.facade import FACADE_CONSTANTS
 
 #: The namespaces ``zmqRemoteApi.require`` accepts.
@@ -92,3 +95,35 @@ def info(namespace: str, implemented: set[str] | frozenset[str]) -> dict[str, di
     for name in sorted(set(implemented) | coppeliasim_functions(namespace)):
         out[name] = {"func": {}}
     return out
+
+
+def api_call(name: str, args: list, implemented: dict[str, frozenset[str]]) -> list:
+    """The return values of ``zmqRemoteApi.NAME(*args)``: ``require(module)`` (nothing, once the
+    module is one of :data:`NAMESPACES`) and ``info(module)`` (:func:`info`; ``implemented``: the
+    functions simx answers, by namespace), as CoppeliaSim's add-on answers them.
+
+    Raises:
+        ArgumentError: not one module name.
+        RemoteError: a module simx does not have, or another ``zmqRemoteApi`` function.
+    """
+    if name == "require":
+        module = args[0] if len(args) == 1 else None
+        if not isinstance(module, str):
+            raise ArgumentError("zmqRemoteApi.require takes one module name")
+        if module.split("-")[0] not in NAMESPACES:
+            raise RemoteError(f"module {quote(module, 60)} is not available in simx (it has {', '.join(NAMESPACES)})")
+        return []
+    if name == "info":
+        module = args[0] if len(args) == 1 else None
+        if not isinstance(module, str) or module.split("-")[0] not in NAMESPACES:
+            raise RemoteError(f"no module {quote(module, 60)} (simx has {', '.join(NAMESPACES)})")
+        namespace = module.split("-")[0]
+        return [info(namespace, implemented[namespace])]
+    raise RemoteError("no such function")
+
+
+def shown(signature: inspect.Signature) -> str:
+    """A facade method's arguments as an error message shows them: ``(handle, relativeTo=...)``."""
+    params = list(signature.parameters.values())[1:]
+    return "(" + ", ".join(p.name if p.default is inspect.Parameter.empty else f"{p.name}=..."
+                           for p in params) + ")"

@@ -11,7 +11,8 @@ from pathlib import Path
 from simx_server.base import limits
 from simx_server.base.resources import raise_open_files_limit
 from simx_server.loop.front_door import FrontDoor, LoopAccess
-from simx_server.zmq.frontend import DEFAULT_PORT, Frontend, Gate
+from simx_server.zmq.frontend import DEFAULT_PORT, Frontend
+from simx_server.zmq.gate import Gate
 from simx_server.zmq.codec import Request
 from simx_server.zmq.service import EDITS, ZmqService
 
@@ -23,6 +24,17 @@ __all__ = ["DEFAULT_PORT", "ZmqRemoteApi", "curve_keys", "endpoints"]
 def endpoints(hosts: list[str] | tuple[str, ...], port: int) -> list[str]:
     """ZMQ endpoints for ``hosts`` (``--host``) on ``port``: ``tcp://HOST:PORT`` (IPv6 in brackets)."""
     return [f"tcp://[{h}]:{port}" if ":" in h else f"tcp://{h}:{port}" for h in hosts]
+
+
+def counter_endpoints(main: list[str]) -> list[str]:
+    """Where CoppeliaSim 4.3-4.5's clients read the step counter: each of ``main``'s hosts on the
+    port after its own (their ``RemoteAPIClient(host, port)`` connects ``cntport = port + 1``)."""
+    out = []
+    for endpoint in main:
+        head, _, port = endpoint.rpartition(":")
+        if port.isdigit() and int(port) < 65535:
+            out.append(f"{head}:{int(port) + 1}")
+    return out
 
 
 def curve_keys(folder: str | Path) -> tuple[bytes, bytes, frozenset]:
@@ -67,7 +79,8 @@ class ZmqRemoteApi(FrontDoor):
     def __init__(self, server: LoopAccess, endpoints: list[str], curve: tuple[bytes, bytes, frozenset] | None = None):
         files = raise_open_files_limit()
         gate = Gate(curve, max(16, min(limits.MAX_ZMQ_CONNECTIONS, files // 2)))
-        self.frontend = Frontend(endpoints, server.deliver, gate, server.serve_or_deliver, _quick)
+        self.frontend = Frontend(endpoints, server.deliver, gate, server.serve_or_deliver, _quick,
+                                 counter_endpoints(endpoints))
         self.service = ZmqService(server, self.frontend)
 
     @property
@@ -77,6 +90,8 @@ class ZmqRemoteApi(FrontDoor):
 
     def open(self) -> None:
         self.frontend.open()
+        if self.frontend.counter_bound:
+            log.info("ZMQ step counter of CoppeliaSim 4.3-4.5's clients on %s", ", ".join(self.frontend.counter_bound))
         if self.frontend.gate.curve is not None:
             log.info("ZMQ remote API with CURVE: %d authorised client keys", len(self.frontend.gate.curve[2]))
         elif any(not (e.startswith("tcp://127.") or e.startswith("tcp://[::1]") or e.startswith("tcp://localhost"))

@@ -66,6 +66,12 @@ _EMPTY = cbor2.dumps({})
 #: Requests that end a long call suspended in its callback (the client gave the callback up, or
 #: the callback asks for a step of its own); any other request is the callback's own, served as usual.
 _ENDS_CALLBACK = frozenset({"sim.step", "sim.yield", "sim.switchThread", codec.END})
+#: A version-1 client's step (CoppeliaSim 4.3-4.5's ``client.step()`` sends ``step``): answered
+#: once a step has run, the step counter published first.
+_STEPS_1 = frozenset({"step", "sim.step", "sim.yield", "sim.switchThread"})
+_NO_COUNTER = ("the step counter (a PUB socket on the port after the server's ZMQ port, which this client's "
+               "client.step() reads) could not be bound, see the server's log; free that port, or use "
+               "coppeliasim-zmqremoteapi-client 2.x")
 
 
 class ZmqService(RenderedReplies):
@@ -157,7 +163,7 @@ class ZmqService(RenderedReplies):
                     f"server busy: it serves {len(self.clients)} ZMQ clients already (limits.MAX_CLIENTS), all "
                     "stepped, locked or waiting; try again later"))
                 return
-            client = ZmqClient(req.uuid, incoming.fd, req.timeout, now, identity, self)
+            client = ZmqClient(req.uuid, incoming.fd, req.timeout, now, identity, self, req.version)
             self.server.clients.add(client)
             connection.uuids.add(req.uuid)
             log.info("ZMQ client %s connected%s", client.label, f" ({quote(req.lang, 40)})" if req.lang else "")
@@ -191,6 +197,10 @@ class ZmqService(RenderedReplies):
 
     def _answer(self, client: ZmqClient, envelope: list, func: str, args: list) -> None:
         """Reply to ``func(*args)``; its time (on this thread) is charged to the client's connection."""
+        if client.version == codec.VERSION_1 and func in _STEPS_1:  # no _*wait*_ in version 1
+            self._step(client, [])
+            self._executed(client, envelope)
+            return
         start = time.monotonic()
         with self.sim.editor.files.acting(client.files_key):  # its file calls use its own folder
             payload = self._call(client, func, args)
@@ -208,8 +218,10 @@ class ZmqService(RenderedReplies):
         a call that renders, the reply to send once the render thread is done (:class:`Rendering`)."""
         namespace, _, name = func.partition(".")
         try:
-            if namespace == "zmqRemoteApi":
-                values = self._api(name, args)
+            if func == "setStepping" and client.version == codec.VERSION_1:
+                values = self._set_stepping_1(client, args)
+            elif namespace == "zmqRemoteApi":
+                values = names.api_call(name, args, self._implemented)
             elif namespace == "sim" and name in self._own:
                 reply = self._own[name](client, args)
                 if isinstance(reply, bytes):
@@ -223,6 +235,11 @@ class ZmqService(RenderedReplies):
                     return self._render(client, func, name, args)
                 values = self._facade(name, args)
                 if isinstance(values, Stepped):
+                    if client.version == codec.VERSION_1:
+                        values.generator.close()
+                        raise RemoteError("a call that lasts several simulation steps needs protocol version 2 "
+                                          "(coppeliasim-zmqremoteapi-client 2.x); CoppeliaSim 4.3-4.5's client runs "
+                                          "sim.wait, sim.waitForSignal, sim.moveToConfig and sim.moveToPose itself")
                     if client.long is not None:  # another long call from inside a callback
                         self._end_long(client)
                     return self._start_long(client, func, values)
@@ -273,7 +290,7 @@ class ZmqService(RenderedReplies):
             try:
                 signature.bind(remote, *args)
             except TypeError as arity:
-                raise ArgumentError(f"{arity} ({'simIK' if ik else 'sim'}.{name}{_shown(signature)})") from None
+                raise ArgumentError(f"{arity} ({'simIK' if ik else 'sim'}.{name}{names.shown(signature)})") from None
             raise exc
         if isinstance(result, (Stepped, Deferred)):
             return result
@@ -290,23 +307,6 @@ class ZmqService(RenderedReplies):
             if self.clients.get(client.uuid) is client:
                 self._answer(client, envelope, func, args)
 
-    def _api(self, name: str, args: list) -> list:
-        if name == "require":
-            module = args[0] if len(args) == 1 else None
-            if not isinstance(module, str):
-                raise ArgumentError("zmqRemoteApi.require takes one module name")
-            if module.split("-")[0] not in names.NAMESPACES:
-                raise RemoteError(f"module {quote(module, 60)} is not available in simx (it has "
-                                  f"{', '.join(names.NAMESPACES)})")
-            return []
-        if name == "info":
-            module = args[0] if len(args) == 1 else None
-            if not isinstance(module, str) or module.split("-")[0] not in names.NAMESPACES:
-                raise RemoteError(f"no module {quote(module, 60)} (simx has {', '.join(names.NAMESPACES)})")
-            ns = module.split("-")[0]
-            return [names.info(ns, self._implemented[ns])]
-        raise RemoteError("no such function")
-
     # ------------------------------------------------------------------ stepping
     def _set_stepping(self, client: ZmqClient, args: list) -> list:
         if len(args) != 1:
@@ -322,6 +322,17 @@ class ZmqService(RenderedReplies):
             if client.stepping == 0:
                 self.server.leave_sync(client.sync_id, "left stepping mode")
         return [previous]
+
+    def _set_stepping_1(self, client: ZmqClient, args: list) -> list:
+        """CoppeliaSim 4.3-4.5's ``setStepping(enable, uuid)`` (its add-on's global function; the
+        uuid names the client, here its connection): stepped or not, no levels; returns nothing."""
+        enable = bool(args and args[0])
+        if enable and not self.frontend.counter_bound:
+            raise RemoteError(_NO_COUNTER)
+        if enable != bool(client.stepping):
+            client.stepping = min(client.stepping, 1)
+            self._set_stepping(client, [enable])
+        return []
 
     def _step(self, client: ZmqClient, args: list) -> bytes:
         sim = self.sim
@@ -344,7 +355,7 @@ class ZmqService(RenderedReplies):
             return
         if self.sim.state is not RunState.RUNNING or self.sim.steps > client.step_at:
             client.waiting = False
-            self.frontend.send(envelope, self._resume(client))
+            self._send_resumed(client, envelope)
             return
         if client.held is None:
             self._held += 1
@@ -357,6 +368,12 @@ class ZmqService(RenderedReplies):
         if client.fault is not None:
             return self._told_fault(client, client.long_func if client.long is not None else "sim.step")
         return self._advance(client) if client.long is not None else codec.encode_reply([])
+
+    def _send_resumed(self, client: ZmqClient, envelope: list) -> None:
+        """Send :meth:`_resume`'s reply; a version-1 client's goes after the step count is
+        published, which its ``client.step()`` waits for once answered."""
+        publish = {"publish": self.sim.steps} if client.version == codec.VERSION_1 else {}
+        self.frontend.send(envelope, self._resume(client), **publish)
 
     def _told_fault(self, client: ZmqClient, func: str) -> bytes:
         """The ``{err}`` reply that tells ``client`` the failed step it is marked with
@@ -390,7 +407,7 @@ class ZmqService(RenderedReplies):
                     if client.held is not None and (sim.state is not RunState.RUNNING or sim.steps > client.step_at):
                         envelope, client.held, client.waiting = client.held, None, False
                         self._held -= 1
-                        self.frontend.send(envelope, self._resume(client))
+                        self._send_resumed(client, envelope)
         finally:
             self._in_after_step = False
 
@@ -500,8 +517,3 @@ class ZmqService(RenderedReplies):
         if self._deferred:
             self._run_deferred()
 
-
-def _shown(signature: inspect.Signature) -> str:
-    params = list(signature.parameters.values())[1:]
-    return "(" + ", ".join(p.name if p.default is inspect.Parameter.empty else f"{p.name}=..."
-                           for p in params) + ")"
