@@ -146,3 +146,25 @@ def test_codec_reads_version_1_and_answers_in_its_shape():
     with pytest.raises(codec.RequestError) as refused:
         codec.read_request(cbor2.dumps({"eval": "print(1)"}))
     assert refused.value.version == codec.VERSION_1
+
+
+def test_a_taken_counter_port_is_told():
+    """With the port after the ZMQ port in use, the server logs it and serves on; a 4.3/4.4 client's
+    setStepping(True) then answers an error that names the step counter, instead of a step() that
+    would wait for ever."""
+    port = free_pair()
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", port + 1))
+        taken.listen()
+        srv = ServerProcess(str(SCENES / "scripted.xml"), "--stopped", "--zmq-port", str(port),
+                            renderers="on-demand")
+        client = Client43(port)
+        try:
+            sim = client.getObject("sim")
+            assert sim.getObject("/ArmJoint") >= 0
+            with pytest.raises(Exception, match="step counter"):
+                client.setStepping(True)
+        finally:
+            client.close()
+            log = srv.stop()
+    assert "step counter of CoppeliaSim 4.3-4.5's clients not served" in log, log[-2000:]
