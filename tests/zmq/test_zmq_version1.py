@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import socket
 import struct
+import threading
 from pathlib import Path
 
 import cbor2
@@ -131,6 +132,27 @@ def test_both_versions_on_one_port(client, zmq_server, official):
         sim2.getObject("/Nothing")
     with pytest.raises(Exception, match="does not exist"):
         sim1.getObject("/Nothing")
+
+
+def test_stepped_clients_of_both_versions_share_one_barrier(client, zmq_server, official):
+    """A stepped 2.x client's sim.step() and a stepped 4.3/4.4 client's client.step() make one
+    simulation step together: each returns after it, and time advanced by one step, not two."""
+    sim2 = official(zmq_server.zmq_port).require("sim")
+    sim1 = client.getObject("sim")
+    sim2.setStepping(True)
+    client.setStepping(True)
+    try:
+        sim1.startSimulation()
+        t0 = sim1.getSimulationTime()
+        stepper = threading.Thread(target=sim2.step)
+        stepper.start()
+        client.step()
+        stepper.join(20)
+        assert not stepper.is_alive()
+        assert sim1.getSimulationTime() == pytest.approx(t0 + DT)
+    finally:
+        sim2.setStepping(False)
+        client.setStepping(False)
 
 
 def test_codec_reads_version_1_and_answers_in_its_shape():
