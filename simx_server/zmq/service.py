@@ -516,4 +516,3 @@ class ZmqService(RenderedReplies):
         expired the silent clients before (:meth:`keeps`, :meth:`forget`)."""
         if self._deferred:
             self._run_deferred()
-
