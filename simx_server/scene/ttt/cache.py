@@ -75,7 +75,7 @@ def mjcf_for(path: str | Path, root: Path | None = None) -> Path:
         ValueError: MuJoCo cannot compile the conversion.
         OSError: the file cannot be read, or the cache written.
     """
-    from simx_server.scene.ttt import convert, reader
+    from simx_server.scene.ttt import worker
 
     path = Path(path)
     size = path.stat().st_size
@@ -91,8 +91,8 @@ def mjcf_for(path: str | Path, root: Path | None = None) -> Path:
         root.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=f".{key}-", dir=root))
         try:
-            scene = reader.read(path, data)
-            convert.convert(scene, work, stem)
+            worker.convert(path.name, data, work, stem)
+            del data
             try:
                 work.rename(folder)
             except OSError:  # another process converted the same file meanwhile

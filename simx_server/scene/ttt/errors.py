@@ -25,10 +25,13 @@ class SceneFileError(ValueError):
 
     Attributes:
         file: the file's name (as given).
-        record: the tag path of the record being read (e.g. ``"SHP/Ge2/Gst"``), or ``"header"``.
+        record: the tag path of the record being read (e.g. ``"SHP/Ge2/Gst"``), ``"header"``,
+            or ``"worker"`` (the worker process's bounds, :mod:`simx_server.scene.ttt.worker`).
+        message: what is wrong, without the file and the record.
     """
 
     def __init__(self, file: str, record: str, message: str):
         super().__init__(f"{file}: record {record}: {message}")
         self.file = file
         self.record = record
+        self.message = message
