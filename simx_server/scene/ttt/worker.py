@@ -35,6 +35,8 @@ CPU_SECONDS = 60
 WALL_FACTOR = 3
 _SCENE, _COMPILE, _MEMORY = 3, 4, 5  # worker exit codes with a JSON line on stdout
 _MAX_OUTPUT = 64 * 1024  # bytes of the worker's stdout/stderr kept
+# what a library that could not allocate within RLIMIT_AS writes before it ends the process
+_OUT_OF_MEMORY = (b"MemoryError", b"std::bad_alloc", b"Memory allocation", b"Cannot allocate memory")
 
 
 def limits() -> tuple[int, int]:
@@ -113,7 +115,7 @@ def _outcome(file: str, code: int, stdout: bytes, stderr: bytes, memory: int, cp
     if code in (-signal.SIGXCPU, -signal.SIGKILL):
         raise SceneFileError(file, "worker", f"conversion took more than its CPU-time bound "
                              f"(RLIMIT_CPU = {cpu} s, SIMX_TTT_WORKER_CPU_S)")
-    if b"MemoryError" in stderr or b"std::bad_alloc" in stderr or code == -signal.SIGSEGV:
+    if any(sign in stderr for sign in _OUT_OF_MEMORY) or code == -signal.SIGSEGV:
         raise SceneFileError(file, "worker", f"conversion {memory_text}")
     last = stderr.decode("utf-8", "replace").strip().splitlines()[-1:] or [f"exit code {code}"]
     raise SceneFileError(file, "worker", f"conversion failed: {last[0][:300]}")
@@ -143,6 +145,11 @@ def main(argv: list[str]) -> int:
         print(json.dumps({"record": exc.record, "message": exc.message}), flush=True)
         return _SCENE
     except MemoryError:
+        print(json.dumps({"memory": True}), flush=True)
+        return _MEMORY
+    except ImportError as exc:  # a library that could not map itself within RLIMIT_AS
+        if "memory" not in str(exc).lower():
+            raise
         print(json.dumps({"memory": True}), flush=True)
         return _MEMORY
     except ValueError as exc:
