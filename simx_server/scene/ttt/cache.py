@@ -62,22 +62,28 @@ def cache_root() -> Path:
     return root
 
 
-def mjcf_for(path: str | Path, root: Path | None = None) -> Path:
+def mjcf_for(path: str | Path, root: Path | None = None, client: bool | None = None) -> Path:
     """The MJCF scene converted from the ``.ttt``/``.ttm`` file ``path`` (converted now, or
     found in the cache); logs what did not carry over, one line per kind.
 
     Args:
         path: the V-REP file.
         root: the folder that holds conversions (default :func:`cache_root`).
+        client: a client's file, read under a client's bounds (default: ``root`` is given,
+            which callers do for a client's transfer folder). The conversion runs in the
+            bounded worker process (:mod:`simx_server.scene.ttt.worker`); this waits for it.
 
     Raises:
-        SceneFileError: the file cannot be read (naming the file and the record).
+        SceneFileError: the file cannot be read (naming the file and the record), or the
+            worker went past its memory or CPU bound (record ``worker``).
         ValueError: MuJoCo cannot compile the conversion.
         OSError: the file cannot be read, or the cache written.
     """
     from simx_server.scene.ttt import worker
 
     path = Path(path)
+    if client is None:
+        client = root is not None
     size = path.stat().st_size
     if size > E.MAX_FILE_BYTES:
         raise SceneFileError(path.name, "header", f"{size:,} bytes, more than MAX_FILE_BYTES = {E.MAX_FILE_BYTES:,}")
@@ -91,7 +97,7 @@ def mjcf_for(path: str | Path, root: Path | None = None) -> Path:
         root.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=f".{key}-", dir=root))
         try:
-            worker.convert(path.name, data, work, stem)
+            worker.convert(path.name, data, work, stem, client=client)
             del data
             try:
                 work.rename(folder)

@@ -54,7 +54,7 @@ def limits() -> tuple[int, int]:
     return memory, seconds
 
 
-def convert(file: str, data: bytes, out: Path, stem: str) -> None:
+def convert(file: str, data: bytes, out: Path, stem: str, client: bool = False) -> None:
     """Convert a file's bytes into ``out/<stem>.xml`` (and its meshes, scripts, report) in a
     bounded worker process; blocks the calling thread until the worker is done (call it off the
     simulation thread where clients are served).
@@ -64,6 +64,8 @@ def convert(file: str, data: bytes, out: Path, stem: str) -> None:
         data: its bytes (at most ``MAX_FILE_BYTES``, checked by the caller).
         out: an existing empty folder that receives the conversion.
         stem: the MJCF's file name without ``.xml`` (``scene`` or ``model``).
+        client: a client's file: more objects than a client's scene may have elements
+            (``limits.MAX_SCENE_ELEMENTS``) are refused as they are read, not after converting.
 
     Raises:
         SceneFileError: the file cannot be read or is beyond a reader bound (as the reader
@@ -78,7 +80,8 @@ def convert(file: str, data: bytes, out: Path, stem: str) -> None:
     env["PYTHONPATH"] = os.pathsep.join([package_root, *filter(None, [env.get("PYTHONPATH")])])
     env.update(OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1",
                SIMX_TTT_WORKER_LIMITS=f"{memory} {cpu}")
-    proc = subprocess.Popen([sys.executable, "-m", "simx_server.scene.ttt.worker", file, str(out), stem],
+    argv = [sys.executable, "-m", "simx_server.scene.ttt.worker", file, str(out), stem, "client" if client else "operator"]
+    proc = subprocess.Popen(argv,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
                             close_fds=True, start_new_session=True)
     try:
@@ -127,12 +130,17 @@ def _bound_self(memory: int, cpu: int) -> None:
 
 
 def main(argv: list[str]) -> int:
-    """The worker's entry point: ``FILE OUT STEM`` (the file's bytes on stdin); returns the exit
-    code (0 done; 3 a reader error, 4 MuJoCo refused the result, 5 out of memory, each with one
-    JSON line on stdout)."""
-    file, out, stem = argv
+    """The worker's entry point: ``FILE OUT STEM client|operator`` (the file's bytes on stdin);
+    returns the exit code (0 done; 3 a reader error, 4 MuJoCo refused the result, 5 out of
+    memory, each with one JSON line on stdout)."""
+    file, out, stem, whose = argv
     memory, cpu = (int(v) for v in os.environ["SIMX_TTT_WORKER_LIMITS"].split())
     _bound_self(memory, cpu)
+    if whose == "client":  # each object becomes at least one MuJoCo element
+        from simx_server.base import limits as L
+        from simx_server.scene.ttt import errors as E
+
+        E.MAX_OBJECTS = min(E.MAX_OBJECTS, L.MAX_SCENE_ELEMENTS)
     try:
         data = sys.stdin.buffer.read()
         from simx_server.scene.ttt import convert as conversion

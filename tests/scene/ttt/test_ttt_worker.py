@@ -51,6 +51,14 @@ def test_the_worker_converts_a_file_and_says_a_reader_error_as_the_reader_does(t
     assert err.value.record == "DMY"
 
 
+def test_a_clients_file_has_no_more_objects_than_a_clients_scene_has_elements(tmp_path):
+    from simx_server.base import limits as L
+
+    many = W.ttt_file(b"".join(W.dummy(k, -1, f"D{k}") for k in range(1, L.MAX_SCENE_ELEMENTS + 2)), compress=False)
+    with pytest.raises(SceneFileError, match=f"more than MAX_OBJECTS = {L.MAX_SCENE_ELEMENTS:,} objects"):
+        worker.convert("many.ttt", many, tmp_path, "scene", client=True)
+
+
 def test_the_worker_stops_at_its_memory_bound(tmp_path, monkeypatch):
     monkeypatch.setenv("SIMX_TTT_WORKER_MB", "100")  # less than the interpreter and its libraries need
     with pytest.raises(SceneFileError, match=r"^s.ttt: record worker: conversion ran out of its memory bound "
