@@ -88,10 +88,11 @@ def mjcf_for(path: str | Path, root: Path | None = None, client: bool | None = N
     if size > E.MAX_FILE_BYTES:
         raise SceneFileError(path.name, "header", f"{size:,} bytes, more than MAX_FILE_BYTES = {E.MAX_FILE_BYTES:,}")
     data = path.read_bytes()
-    key = hashlib.sha256(data + CONVERTER_VERSION.encode()).hexdigest()[:32]
+    stem = "scene" if path.suffix.lower() == ".ttt" else "model"
+    # the same bytes as a .ttt and a .ttm convert to scene.xml and model.xml: two folders
+    key = hashlib.sha256(data + CONVERTER_VERSION.encode() + stem.encode()).hexdigest()[:32]
     root = cache_root() if root is None else root
     folder = root / key
-    stem = "scene" if path.suffix.lower() == ".ttt" else "model"
     xml = folder / f"{stem}.xml"
     if not xml.is_file():
         root.mkdir(parents=True, exist_ok=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import threading
 
+import numpy as np
 import pytest
 
 from simx_server.scene.ttt import worker
@@ -32,6 +33,17 @@ _MANY = 40_000  # dummies: about 3.5 s of one core to convert, so past a 1 s CPU
 
 def _many_dummies() -> bytes:
     return W.ttt_file(b"".join(W.dummy(k, -1, f"D{k}") for k in range(1, _MANY + 1)), compress=False)
+
+
+def _heavy_meshes() -> bytes:
+    """Eight shapes of 199,000 random triangles over one pool array of 100,000 vertices (20 MB):
+    about 4.6 s of one core to convert (MuJoCo's convex hulls), within every reader bound."""
+    rng = np.random.default_rng(40)
+    pool = W.mesh_pool(rng.random((100_000, 3)), rng.integers(0, 100_000, 3 * 199_000))
+    more = b"".join(W.rec("VIN", W.lst(W.rec("Ind", rng.integers(0, 100_000, 3 * 199_000).astype("<i4").tobytes())))
+                    for _ in range(7))
+    shapes = b"".join(W.pool_shape(k + 1, -1, f"S{k}", 0, k) for k in range(8))
+    return W.ttt_file(pool + more + shapes, compress=False)
 
 
 def _rss_mb(pid: int) -> float:
@@ -75,16 +87,18 @@ def test_the_worker_stops_at_its_cpu_bound(tmp_path, monkeypatch):
 
 @pytest.fixture()
 def bounded(tmp_path, monkeypatch):
-    """A scene folder with a plain start scene, the many-dummies file as a scene and as a model,
-    the conversion cache in the test's folder, the worker's CPU bound at 1 s."""
+    """A scene folder with a plain start scene, a file that takes more than 1 s of CPU to
+    convert as a scene and as a model, the conversion cache in the test's folder, the worker's
+    CPU bound at 1 s."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     monkeypatch.setenv("SIMX_TTT_WORKER_CPU_S", "1")
     folder = tmp_path / "scenes"
     folder.mkdir()
     (folder / "start.ttt").write_bytes(W.ttt_file(W.cuboid_shape(1, -1, "Floor", (2, 2, 0.1), dynamic=False)))
-    many = _many_dummies()
-    (folder / "many.ttt").write_bytes(many)
-    (folder / "many.ttm").write_bytes(many)
+    heavy = _heavy_meshes()
+    (folder / "many.ttt").write_bytes(heavy)
+    (folder / "many.ttm").write_bytes(heavy)
+    (folder / "dummies.ttt").write_bytes(_many_dummies())
     return folder
 
 
@@ -145,9 +159,12 @@ def test_a_clients_file_and_a_good_scene_file_load_through_the_worker(bounded, t
         assert vrep.simxLoadScene(cid, str(tmp_path / "chain.ttt"), 1, B) == vrep.simx_return_remote_error_flag
         assert vrep.simxLoadScene(cid, str(tmp_path / "box.ttt"), 1, B) == 0
         assert vrep.simxGetObjectHandle(cid, "Box", B)[0] == 0
+        # a scene-folder file a client asks for is read under a client's bounds too
+        assert vrep.simxLoadScene(cid, "dummies.ttt", 0, B) == vrep.simx_return_remote_error_flag
         vrep.simxFinish(cid)
     finally:
         log = srv.stop()
+    assert "dummies.ttt: record DMY: more than MAX_OBJECTS = 10,000 objects" in log
     assert "chain.ttt: record DMY: object 'D201' lies 201 levels deep, more than MAX_TREE_DEPTH = 200" in log
     assert "RecursionError" not in log
 
@@ -169,6 +186,6 @@ def test_zmq_loads_of_vrep_files_answer_once_loaded(bounded, official):
 
 
 def test_the_command_line_file_is_converted_in_the_bounded_worker(bounded):
-    with pytest.raises(RuntimeError, match=r"simx-server: many.ttt: record worker: conversion took more than its "
+    with pytest.raises(RuntimeError, match=r"simx-server: dummies.ttt: record worker: conversion took more than its "
                                            r"CPU-time bound \(RLIMIT_CPU = 1 s"):
-        ServerProcess(str(bounded / "many.ttt"), "--stopped", renderers="on-demand")
+        ServerProcess(str(bounded / "dummies.ttt"), "--stopped", renderers="on-demand")
