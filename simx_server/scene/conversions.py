@@ -73,7 +73,9 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path]
     file = files.locate(path, options, ttt_cache.origin(sim.world.scene_path))
     if not ttt_cache.is_vrep_file(file):
         return None
-    root = files.files_dir / ".simx" / "ttt" if options & 1 else None
+    caller = files.caller  # the client the door serves now: the install acts as it too
+    client_root = files.folder(caller) if options & 1 else None  # its own folder (resolve's rule)
+    root = client_root / ".simx" / "ttt" if client_root is not None else None
     with _count_lock:
         if _pending[0] > MAX_WAITING:
             raise RemoteError(f"{BUSY}: {_pending[0]} scene files are being converted or wait for it "
@@ -84,7 +86,8 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path]
 
     def install(xml: Path) -> None:  # the simulation thread
         try:
-            future.set_result(finish(xml))
+            with files.acting(caller):
+                future.set_result(finish(xml))
         except Exception as exc:
             if not isinstance(exc, RemoteError):
                 log.exception("loading %s", label)
@@ -94,7 +97,7 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path]
         try:
             with _turn:
                 xml = ttt_cache.mjcf_for(file, root, client=True)  # a client asked: a client's bounds
-                _warm(xml, files, options)
+                _warm(xml, client_root)
         except (ValueError, OSError) as exc:
             message = files.scrub(f"cannot load {label}: {exc}")
             log.warning("%s", message)
@@ -113,17 +116,17 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path]
     return Deferred(future)
 
 
-def _warm(xml: Path, files: Any, options: int) -> None:
+def _warm(xml: Path, client_root: Path | None) -> None:
     """Compile the converted MJCF once on this thread and drop the model: MuJoCo releases the
     GIL while it compiles and keeps the meshes it processed (convex hulls, inertia) in its
     process-wide asset cache, so the load on the simulation thread compiles them again in a
     fraction of the time (measured: 100 shapes of one 190,000-triangle mesh 4.3 -> 0.85 s, four
     199,000-triangle meshes 6.0 -> 0.36 s). A client's conversion is measured first, as the
-    simulation thread will measure it; a failure here is left for that load to report. (MuJoCo's
+    simulation thread will measure it (``client_root``: the client's folder); a failure here is left for that load to report. (MuJoCo's
     warning handler is process-wide and the simulation thread swaps it: not touched here.)"""
     try:
-        if options & 1:
-            guard.check_client_file(xml, files.files_dir, "scene")
+        if client_root is not None:
+            guard.check_client_file(xml, client_root, "scene")
         if any((xml.parent / "meshes").iterdir()):  # only meshes are cached
             mujoco.MjModel.from_xml_path(str(xml))
     except Exception as exc:  # the load on the simulation thread says what is wrong

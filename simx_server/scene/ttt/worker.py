@@ -8,7 +8,8 @@ with ``subprocess``, no fork of the server's threads) on its standard input; tha
 an address-space limit (``RLIMIT_AS``, :data:`MEMORY_BYTES`) and a CPU-time limit
 (``RLIMIT_CPU``, :data:`CPU_SECONDS`) on itself before it reads anything, converts the file into
 the folder it was given (MJCF, meshes, textures, scripts, ``report.json``) and exits. The server
-waits at most :data:`WALL_SECONDS` of wall time, then kills it. Whatever the worker allocated
+waits at most :data:`WALL_FACTOR` x the CPU bound (at least :data:`WALL_MIN_SECONDS`) of wall
+time, then kills it. Whatever the worker allocated
 goes with it: the server's memory stays where it was.
 
 The operator sets the bounds with ``SIMX_TTT_WORKER_MB`` and ``SIMX_TTT_WORKER_CPU_S``
@@ -31,8 +32,8 @@ from simx_server.scene.ttt.errors import SceneFileError
 MEMORY_BYTES = 3 * 1024 * 1024 * 1024
 #: Default CPU-time bound of a worker (``RLIMIT_CPU``), s; ``SIMX_TTT_WORKER_CPU_S``.
 CPU_SECONDS = 60
-#: Wall time a worker may take, as a multiple of its CPU bound (it may be descheduled).
-WALL_FACTOR = 3
+#: Wall time a worker may take, as a multiple of its CPU bound (it may be descheduled), and at least.
+WALL_FACTOR, WALL_MIN_SECONDS = 3, 60
 _SCENE, _COMPILE, _MEMORY = 3, 4, 5  # worker exit codes with a JSON line on stdout
 _MAX_OUTPUT = 64 * 1024  # bytes of the worker's stdout/stderr kept
 # what a library that could not allocate within RLIMIT_AS writes before it ends the process
@@ -74,7 +75,7 @@ def convert(file: str, data: bytes, out: Path, stem: str, client: bool = False) 
         ValueError: MuJoCo cannot compile the conversion (its message).
     """
     memory, cpu = limits()
-    wall = cpu * WALL_FACTOR + 10
+    wall = max(WALL_MIN_SECONDS, cpu * WALL_FACTOR)
     env = {k: v for k, v in os.environ.items() if not k.startswith(("MUJOCO_GL", "PYOPENGL"))}
     package_root = str(Path(__file__).resolve().parents[3])
     env["PYTHONPATH"] = os.pathsep.join([package_root, *filter(None, [env.get("PYTHONPATH")])])
@@ -90,7 +91,7 @@ def convert(file: str, data: bytes, out: Path, stem: str, client: bool = False) 
         proc.kill()
         proc.communicate()
         raise SceneFileError(file, "worker", f"conversion took more than its {wall} s of wall time "
-                             f"({WALL_FACTOR} x SIMX_TTT_WORKER_CPU_S + 10)") from None
+                             f"({WALL_FACTOR} x SIMX_TTT_WORKER_CPU_S, at least {WALL_MIN_SECONDS} s)") from None
     finally:
         if proc.poll() is None:
             proc.kill()
