@@ -18,6 +18,7 @@ The operator sets the bounds with ``SIMX_TTT_WORKER_MB`` and ``SIMX_TTT_WORKER_C
 
 from __future__ import annotations
 
+import atexit
 import json
 import os
 import resource
@@ -36,6 +37,7 @@ CPU_SECONDS = 60
 WALL_FACTOR, WALL_MIN_SECONDS = 3, 60
 _SCENE, _COMPILE, _MEMORY = 3, 4, 5  # worker exit codes with a JSON line on stdout
 _MAX_OUTPUT = 64 * 1024  # bytes of the worker's stdout/stderr kept
+_running: set[subprocess.Popen] = set()  # workers under way (killed at the server's exit)
 # what a library that could not allocate within RLIMIT_AS writes before it ends the process
 _OUT_OF_MEMORY = (b"MemoryError", b"std::bad_alloc", b"Memory allocation", b"Cannot allocate memory")
 
@@ -85,6 +87,7 @@ def convert(file: str, data: bytes, out: Path, stem: str, client: bool = False) 
     proc = subprocess.Popen(argv,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
                             close_fds=True, start_new_session=True)
+    _running.add(proc)
     try:
         stdout, stderr = proc.communicate(data, timeout=wall)
     except subprocess.TimeoutExpired:
@@ -93,10 +96,19 @@ def convert(file: str, data: bytes, out: Path, stem: str, client: bool = False) 
         raise SceneFileError(file, "worker", f"conversion took more than its {wall} s of wall time "
                              f"({WALL_FACTOR} x SIMX_TTT_WORKER_CPU_S, at least {WALL_MIN_SECONDS} s)") from None
     finally:
+        _running.discard(proc)
         if proc.poll() is None:
             proc.kill()
             proc.wait()
     _outcome(file, proc.returncode, stdout[-_MAX_OUTPUT:], stderr[-_MAX_OUTPUT:], memory, cpu)
+
+
+@atexit.register
+def _end_running() -> None:
+    """The server exits: its workers end with it (a conversion nobody waits for)."""
+    for proc in list(_running):
+        if proc.poll() is None:
+            proc.kill()
 
 
 def _outcome(file: str, code: int, stdout: bytes, stderr: bytes, memory: int, cpu: int) -> None:
