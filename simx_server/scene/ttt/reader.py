@@ -63,6 +63,8 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                 obj = _read_object(top, tag, payload, pool)
                 if obj.kind == "script":  # 4.6+: the script is an object of the tree
                     scene.scripts.append(obj.data)
+                    script_bytes += len(obj.data.text)
+                    _check_script_bytes(top, tag, script_bytes)
                 if obj.handle in scene.objects:
                     raise top.error(tag, f"object handle {obj.handle} used twice")
                 scene.objects[obj.handle] = obj
@@ -74,8 +76,7 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
             elif tag == "LST":
                 scene.scripts.append(_read_script(top.sub(tag, payload)))
                 script_bytes += len(scene.scripts[-1].text)
-                if script_bytes > E.MAX_SCRIPT_BYTES:
-                    raise top.error(tag, f"scripts of more than MAX_SCRIPT_BYTES = {E.MAX_SCRIPT_BYTES:,} bytes in all")
+                _check_script_bytes(top, tag, script_bytes)
             elif tag == "GRP":
                 scene.collections.append(_read_collection(top.sub(tag, payload)))
             elif tag in ("COL", "DST"):
@@ -104,6 +105,11 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
             raise SceneFileError(file, tag, f"malformed: {exc}") from None
     _build_tree(scene)
     return scene
+
+
+def _check_script_bytes(top: Records, tag: str, total: int) -> None:
+    if total > E.MAX_SCRIPT_BYTES:
+        raise top.error(tag, f"scripts of more than MAX_SCRIPT_BYTES = {E.MAX_SCRIPT_BYTES:,} bytes in all")
 
 
 def _is_object(payload: memoryview) -> bool:
