@@ -26,7 +26,7 @@ from pathlib import Path
 from simx_wire.protocol import zenoh_reason
 from simx_server import __version__
 from simx_server.base import limits
-from simx_server.loop import logs
+from simx_server.loop import logs, tasks
 from simx_server.scene.formats import SCENE_FILES_TEXT
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
@@ -309,6 +309,7 @@ def main(argv: list[str] | None = None) -> int:
                         pacing=args.pacing)
         server.open()
         server.attach(ScriptHooks(sim, config))  # simExtRemoteApiStart(port) in the scene's scripts
+        tasks.attach(server.loop, sim)  # .ttt/.ttm loads: converted off the simulation thread, then loaded
     except (zenoh.ZError, ValueError, OSError) as exc:
         print(listen_failure(endpoints, exc), file=sys.stderr)
         sim.close()

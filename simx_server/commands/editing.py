@@ -1,7 +1,8 @@
 """The scene-editing command handlers: ``(simulation, args) -> result``, each checking its
 arguments and calling the simulation's :class:`~simx_server.scene.editor.Editor`.
 
-Runs on the simulation thread, like every handler.
+Runs on the simulation thread, like every handler; a load of a ``.ttt``/``.ttm`` file answers
+a Deferred (converted in a worker process, loaded later: :mod:`simx_server.scene.conversions`).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from typing import Any
 from simx_wire.protocol import ArgumentError
 from simx_server.base.arguments import check_args as _args
 from simx_server.scene.simulation import Simulation
+from simx_server.sim.vision_results import Deferred
 
 
 # --------------------------------------------------------------------------- handlers
@@ -30,9 +32,9 @@ def erase_file(sim: Simulation, args: list) -> None:
     sim.editor.erase_file(name)
 
 
-def load_model(sim: Simulation, args: list) -> int:
+def load_model(sim: Simulation, args: list) -> int | Deferred:
     path, options = _args(args, "str", "int")
-    return sim.editor.load_model(path, options)
+    return sim.editor.load_model(path, options, defer=True)  # a .ttm: converted off this thread
 
 
 def remove_object(sim: Simulation, args: list) -> None:
@@ -63,9 +65,9 @@ def set_object_parent(sim: Simulation, args: list) -> None:
     sim.editor.set_parent(h, parent, _bool(keep, "keepInPlace"))
 
 
-def load_scene(sim: Simulation, args: list) -> None:
+def load_scene(sim: Simulation, args: list) -> Deferred | None:
     path, options = _args(args, "str", "int")
-    sim.editor.load_scene(path, options)
+    return sim.editor.load_scene(path, options, defer=True)  # a .ttt: converted off this thread
 
 
 def close_scene(sim: Simulation, args: list) -> None:

@@ -94,6 +94,8 @@ def resolve(results: list, client: str) -> list:
         if isinstance(value, Deferred):
             try:
                 value = value.future.result()
+            except P.RemoteError as exc:  # a deferred scene load that failed (scene.conversions)
+                ok, value = False, str(exc)
             except Exception as exc:
                 log.exception("client %s: rendering failed", client)
                 ok, value = False, f"internal error while rendering: {type(exc).__name__}: {exc}"

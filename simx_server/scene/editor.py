@@ -53,7 +53,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, Unsuppor
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
-from simx_server.scene import custom_data, kept_state
+from simx_server.scene import conversions, custom_data, kept_state
 from simx_server.scene.client_files import ClientFiles
 from simx_server.scene.edits import ObjectEdits
 from simx_server.scene.ttt import cache as ttt_cache
@@ -72,6 +72,7 @@ from simx_server.sim.spec_tools import (
 from simx_server.sim.state import RunState, SimulationView
 from simx_server.sim.urdf import load_spec
 from simx_server.sim.vision import VisionSensors
+from simx_server.sim.vision_results import Deferred
 from simx_server.sim.world import WORLD, World
 
 log = logging.getLogger("simx.editing")
@@ -292,13 +293,30 @@ class Editor(ObjectEdits):
             raise UnsupportedError(f"object {obj.name!r} is not in the scene's MjSpec")
         return kind, el, obj
 
-    def load_scene(self, path: str, options: int) -> None:
-        """``simxLoadScene``: replace the scene (simulation stopped only); handles restart."""
+    def load_scene(self, path: str, options: int, defer: bool = False) -> Deferred | None:
+        """``simxLoadScene``: replace the scene (simulation stopped only); handles restart.
 
+        ``defer``: a ``.ttt`` file is converted off the simulation thread and the load
+        completes later (:mod:`simx_server.scene.conversions`): returns its Deferred (None
+        when loaded at once)."""
+
+        self._check_stopped()
+        if defer:
+            pending = conversions.later(self.sim, self.files, path, options,
+                                        lambda xml: self._load_scene_file(xml, path, options))
+            if pending is not None:
+                return pending
+        self._load_scene_file(self.resolve(path, options), path, options)
+        return None
+
+    def _check_stopped(self) -> None:
         if self.sim.state is not RunState.STOPPED:
             raise RemoteError("stop the simulation first: call sim.stopSimulation() (simxStopSimulation) before, "
                               "or start simx-server with --stopped (CoppeliaSim starts stopped; docs/ZMQ.md)")
-        file = self.resolve(path, options)
+
+    def _load_scene_file(self, file: Path, path: str, options: int) -> None:
+        """Load the resolved scene ``file`` (MJCF) that ``path`` named."""
+        self._check_stopped()
         spec = None
         if options & 1:  # a client's scene: measured before MuJoCo parses and compiles it
             spec = self._client_spec(file, f"scene {quote(path)}", self.sim.world.requested_dt)

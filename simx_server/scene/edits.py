@@ -15,6 +15,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base.arguments import quote
+from simx_server.scene import conversions
 from simx_server.sim.spec_tools import (
     _KIND,
     _MARK,
@@ -46,18 +47,30 @@ from simx_server.sim.spec_tools import (
 )
 from simx_server.sim.objects import without_scripts
 from simx_server.sim.urdf import load_spec
+from simx_server.sim.vision_results import Deferred
 from simx_server.sim.world import JOINT, SHAPE, WORLD
 
 log = logging.getLogger("simx.editing")
 
 
 class ObjectEdits:
-    """The object commands of the :class:`~simx_server.scene.editor.Editor` (which provides ``sim``, ``_edit``, ``_taken``, ``_spec_element``, ``resolve``, ``_client_spec``)."""
+    """The object commands of the :class:`~simx_server.scene.editor.Editor` (which provides ``sim``, ``files``, ``_edit``, ``_taken``, ``_spec_element``, ``resolve``, ``_client_spec``)."""
 
     # --------------------------------------------------------------- commands
-    def load_model(self, path: str, options: int) -> int:
-        """``simxLoadModel``: attach an MJCF model's world children; returns its base handle."""
-        file = self.resolve(path, options)
+    def load_model(self, path: str, options: int, defer: bool = False) -> int | Deferred:
+        """``simxLoadModel``: attach an MJCF model's world children; returns its base handle.
+
+        ``defer``: a ``.ttm`` file is converted off the simulation thread and the load completes
+        later (:mod:`simx_server.scene.conversions`): returns the Deferred of the handle."""
+        if defer:
+            pending = conversions.later(self.sim, self.files, path, options,
+                                        lambda xml: self._load_model_file(xml, path, options))
+            if pending is not None:
+                return pending
+        return self._load_model_file(self.resolve(path, options), path, options)
+
+    def _load_model_file(self, file, path: str, options: int) -> int:
+        """Attach the resolved model ``file`` (MJCF) that ``path`` named; its base's handle."""
         if options & 1:  # a client's model: measured, its files confined to the transfer folder
             child = self._client_spec(file, f"model {quote(path)}", None)
         else:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import zlib
+from typing import Any, Callable
 from pathlib import Path
 
 from simx_wire import protocol as P
@@ -73,6 +74,9 @@ class Simulation:
         self.steps = 0
         self._scene_id: tuple[World | None, int] = (None, 0)
         self.stop_requests = 0  # sim_intparam_stop_request_counter
+        #: ``post(job)``: run ``job()`` on the simulation thread (thread-safe), given by the loop
+        #: that serves it (simx_server.loop.tasks.attach); None in-process: .ttt loads then wait.
+        self.post: Callable[[Callable[[], Any]], None] | None = None
         self.selection: list[int] = []  # simxGetObjectSelection (no GUI: only what clients set)
         #: Why the simulation last stopped by itself (a physics blow-up), None after a start.
         self.stop_reason: str | None = None

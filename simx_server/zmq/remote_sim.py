@@ -200,14 +200,15 @@ class RemoteSim(MotionCalls, ScriptSim):
         if isinstance(filename, (bytes, bytearray)):
             raise UnsupportedError("sim.loadScene of a serialized scene (a buffer) is not supported; give a file name")
         name = self._stand_in(_text(filename, "filename"), COPPELIASIM_SCENES)
-        self._simulation_.editor.load_scene(name, 0)
+        return self._simulation_.editor.load_scene(name, 0, defer=True)  # a .ttt: converted off this thread
 
     def loadModel(self, filename: Any) -> int:  # noqa: N802
         """Add a server-side model file (``simxLoadModel`` with options 0; a ``.ttm`` path loads
         the MJCF model of the same stem); returns its base's handle."""
         if isinstance(filename, (bytes, bytearray)):
             raise UnsupportedError("sim.loadModel of a serialized model (a buffer) is not supported; give a file name")
-        return self._simulation_.editor.load_model(self._stand_in(_text(filename, "filename"), COPPELIASIM_MODELS), 0)
+        return self._simulation_.editor.load_model(self._stand_in(_text(filename, "filename"), COPPELIASIM_MODELS), 0,
+                                                   defer=True)  # a .ttm: converted off this thread
 
     # ------------------------------------------------------------------ objects
     def getObjectSel(self) -> list[int]:  # noqa: N802

@@ -234,6 +234,8 @@ class ZmqService(RenderedReplies):
                 if name in RENDERS:
                     return self._render(client, func, name, args)
                 values = self._facade(name, args)
+                if type(values) is Deferred:  # a .ttt/.ttm converted off this thread: replied once loaded
+                    return Rendering(values, 0, self._signature(name).return_annotation in ("None", None))
                 if isinstance(values, Stepped):
                     if client.version == codec.VERSION_1:
                         values.generator.close()

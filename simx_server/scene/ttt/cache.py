@@ -62,37 +62,44 @@ def cache_root() -> Path:
     return root
 
 
-def mjcf_for(path: str | Path, root: Path | None = None) -> Path:
+def mjcf_for(path: str | Path, root: Path | None = None, client: bool | None = None) -> Path:
     """The MJCF scene converted from the ``.ttt``/``.ttm`` file ``path`` (converted now, or
     found in the cache); logs what did not carry over, one line per kind.
 
     Args:
         path: the V-REP file.
         root: the folder that holds conversions (default :func:`cache_root`).
+        client: a client's file, read under a client's bounds (default: ``root`` is given,
+            which callers do for a client's transfer folder). The conversion runs in the
+            bounded worker process (:mod:`simx_server.scene.ttt.worker`); this waits for it.
 
     Raises:
-        SceneFileError: the file cannot be read (naming the file and the record).
+        SceneFileError: the file cannot be read (naming the file and the record), or the
+            worker went past its memory or CPU bound (record ``worker``).
         ValueError: MuJoCo cannot compile the conversion.
         OSError: the file cannot be read, or the cache written.
     """
-    from simx_server.scene.ttt import convert, reader
+    from simx_server.scene.ttt import worker
 
     path = Path(path)
+    if client is None:
+        client = root is not None
     size = path.stat().st_size
     if size > E.MAX_FILE_BYTES:
         raise SceneFileError(path.name, "header", f"{size:,} bytes, more than MAX_FILE_BYTES = {E.MAX_FILE_BYTES:,}")
     data = path.read_bytes()
-    key = hashlib.sha256(data + CONVERTER_VERSION.encode()).hexdigest()[:32]
+    stem = "scene" if path.suffix.lower() == ".ttt" else "model"
+    # the same bytes as a .ttt and a .ttm convert to scene.xml and model.xml: two folders
+    key = hashlib.sha256(data + CONVERTER_VERSION.encode() + stem.encode()).hexdigest()[:32]
     root = cache_root() if root is None else root
     folder = root / key
-    stem = "scene" if path.suffix.lower() == ".ttt" else "model"
     xml = folder / f"{stem}.xml"
     if not xml.is_file():
         root.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=f".{key}-", dir=root))
         try:
-            scene = reader.read(path, data)
-            convert.convert(scene, work, stem)
+            worker.convert(path.name, data, work, stem, client=client)
+            del data
             try:
                 work.rename(folder)
             except OSError:  # another process converted the same file meanwhile

@@ -75,6 +75,7 @@ class GeomMaker:
         self.materials: dict[int, str] = {}  # texture id -> texture name
         self.looks = Materials(spec, report)
         self.count = 0
+        self._shared: dict[tuple, str] = {}  # (vertices, faces) ids -> mesh asset name
         if out is not None:
             (out / "meshes").mkdir(parents=True, exist_ok=True)
 
@@ -152,22 +153,41 @@ class GeomMaker:
     def _mesh_geom(self, body, mesh: Mesh, visual: bool = False):
         """A mesh geom of ``mesh``'s triangles (with its texture where the file gives
         coordinates); None for a degenerate mesh. ``visual``: it does not collide (no report of
-        its convex hull)."""
+        its convex hull). Shapes that point at the same pool arrays (``reader.MeshPool``) share
+        one mesh asset (an untextured mesh's asset depends on its arrays only)."""
         G = mujoco.mjtGeom
-        usable = usable_mesh(mesh)
-        if usable is None:
-            if len(mesh.vertices):
-                self.report.add("degenerate meshes (left out)")
-            return None
-        vertices, faces = usable
+        key = (id(mesh.vertices), id(mesh.faces)) if mesh.uv is None else None
+        mname = self._shared.get(key) if key is not None else None
+        material = None
+        if mname is None:
+            usable = usable_mesh(mesh)
+            if usable is None:
+                if len(mesh.vertices):
+                    self.report.add("degenerate meshes (left out)")
+                return None
+            texture = self._texture(mesh) if self.out is not None else None
+            look = mesh.look or Look(diffuse=tuple(mesh.color))
+            material = self.looks.material(look, texture, body.name, mesh.texture_mode) if texture is not None else None
+            mname = self._mesh_asset(mesh, *usable, material)
+            if key is not None:
+                self._shared[key] = mname
+        if not mesh.convex and not visual:
+            self.report.add("non-convex meshes (collide as their convex hull)")
+        g = body.add_geom()
+        g.type = G.mjGEOM_MESH
+        g.meshname = mname
+        if material is not None:
+            g.material = material
+        return g
+
+    def _mesh_asset(self, mesh: Mesh, vertices: np.ndarray, faces: np.ndarray, material: str | None) -> str:
+        """A new mesh asset of ``vertices`` (N, 3) and ``faces`` (M, 3), its file written
+        (OBJ with the texture coordinates where ``material`` shows a texture); its name."""
         self.count += 1
         mname = f"ttt_mesh{self.count}"
         m = self.spec.add_mesh()
         m.name = mname
         m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
-        texture = self._texture(mesh) if self.out is not None else None
-        look = mesh.look or Look(diffuse=tuple(mesh.color))
-        material = self.looks.material(look, texture, body.name, mesh.texture_mode) if texture is not None else None
         if material is not None:
             write_obj(self.out / "meshes" / f"{mname}.obj", vertices, faces, mesh.uv, len(mesh.faces))
             m.file = f"{mname}.obj"
@@ -177,14 +197,7 @@ class GeomMaker:
         else:
             m.uservert = vertices.astype(np.float32).ravel()
             m.userface = faces.astype(np.int32).ravel()
-        if not mesh.convex and not visual:
-            self.report.add("non-convex meshes (collide as their convex hull)")
-        g = body.add_geom()
-        g.type = G.mjGEOM_MESH
-        g.meshname = mname
-        if material is not None:
-            g.material = material
-        return g
+        return mname
 
     def _texture(self, mesh: Mesh) -> str | None:
         """The MJCF texture of the mesh's texture (a PNG in ``textures/``), when the file gives

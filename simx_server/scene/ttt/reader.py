@@ -51,6 +51,7 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                      objects={}, roots=[], scripts=[], collections=[], ik_groups=[], textures={})
     scene.saved_settings = settings.SavedSettings()
     pool = shapes.MeshPool()
+    script_bytes = pixels = 0
     for tag, payload in top:
         if tag == "VIN":
             pool.read(top.sub(tag, payload))
@@ -62,6 +63,8 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                 obj = _read_object(top, tag, payload, pool)
                 if obj.kind == "script":  # 4.6+: the script is an object of the tree
                     scene.scripts.append(obj.data)
+                    script_bytes += len(obj.data.text)
+                    _check_script_bytes(top, tag, script_bytes)
                 if obj.handle in scene.objects:
                     raise top.error(tag, f"object handle {obj.handle} used twice")
                 scene.objects[obj.handle] = obj
@@ -72,6 +75,8 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                     raise top.error(tag, f"more than MAX_OBJECTS = {E.MAX_OBJECTS:,} objects")
             elif tag == "LST":
                 scene.scripts.append(_read_script(top.sub(tag, payload)))
+                script_bytes += len(scene.scripts[-1].text)
+                _check_script_bytes(top, tag, script_bytes)
             elif tag == "GRP":
                 scene.collections.append(_read_collection(top.sub(tag, payload)))
             elif tag in ("COL", "DST"):
@@ -90,19 +95,21 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
                 tex = _read_texture(top.sub(tag, payload))
                 if tex is not None:
                     scene.textures[tex.id] = tex
+                    pixels += tex.width * tex.height
+                    if pixels > E.MAX_SCENE_TEXTURE_PIXELS:
+                        raise top.error(tag, "textures of more than MAX_SCENE_TEXTURE_PIXELS = "
+                                        f"{E.MAX_SCENE_TEXTURE_PIXELS:,} pixels in all")
         except SceneFileError:
             raise
         except (struct.error, ValueError, IndexError) as exc:
             raise SceneFileError(file, tag, f"malformed: {exc}") from None
-    for obj in scene.objects.values():
-        parent = scene.objects.get(obj.parent)
-        if parent is None or parent is obj:
-            obj.parent = -1
-            scene.roots.append(obj)
-        else:
-            parent.children.append(obj)
-    _check_cycles(scene)
+    _build_tree(scene)
     return scene
+
+
+def _check_script_bytes(top: Records, tag: str, total: int) -> None:
+    if total > E.MAX_SCRIPT_BYTES:
+        raise top.error(tag, f"scripts of more than MAX_SCRIPT_BYTES = {E.MAX_SCRIPT_BYTES:,} bytes in all")
 
 
 def _is_object(payload: memoryview) -> bool:
@@ -110,20 +117,49 @@ def _is_object(payload: memoryview) -> bool:
     return bytes(payload[:10]) == b"3do\x03\x00\x00\x00\x39\x3a\x3b"
 
 
-def _check_cycles(scene: TttScene) -> None:
-    seen: set[int] = set()
-    todo = list(scene.roots)
-    while todo:
-        obj = todo.pop()
-        seen.add(obj.handle)
-        todo.extend(obj.children)
-    for obj in scene.objects.values():
-        if obj.handle not in seen:  # part of a parent cycle: hang it from the world
+def _build_tree(scene: TttScene) -> None:
+    """Children lists and roots from each object's parent handle; objects in a parent cycle
+    (which V-REP's own tree cannot hold) hang from the world. Linear and iterative: one pass
+    over the objects, one walk from the roots (CoppeliaSim keeps its tree by parent pointers,
+    ``CSceneObject::getParent``; a cycle is this reader's problem, not V-REP's).
+
+    Raises:
+        SceneFileError: the tree is deeper than ``MAX_TREE_DEPTH`` (MuJoCo's XML parser stops
+            at 500 nested elements, and a deep chain would make every later walk deep).
+    """
+    objects = scene.objects
+    for obj in objects.values():
+        parent = objects.get(obj.parent)
+        if parent is None or parent is obj:
             obj.parent = -1
             scene.roots.append(obj)
-            for other in scene.objects.values():
-                if obj in other.children:
-                    other.children.remove(obj)
+        else:
+            parent.children.append(obj)
+    depth: dict[int, int] = {}
+    todo = [(obj, 1) for obj in scene.roots]
+    while todo:
+        obj, d = todo.pop()
+        depth[obj.handle] = d
+        if d > E.MAX_TREE_DEPTH:
+            raise SceneFileError(scene.file, obj.tag, f"object {obj.name!r} lies {d:,} levels deep, "
+                                 f"more than MAX_TREE_DEPTH = {E.MAX_TREE_DEPTH}")
+        todo.extend((child, d + 1) for child in obj.children)
+    cut = [obj for obj in objects.values() if obj.handle not in depth]  # in a parent cycle
+    if not cut:
+        return
+    in_cycle = {obj.handle for obj in cut}
+    for obj in cut:
+        obj.children = [c for c in obj.children if c.handle not in in_cycle]
+    for obj in cut:  # hang each from the world; what hangs from it stays with it
+        obj.parent = -1
+        scene.roots.append(obj)
+    todo = [(obj, 1) for obj in cut]
+    while todo:
+        obj, d = todo.pop()
+        if d > E.MAX_TREE_DEPTH:
+            raise SceneFileError(scene.file, obj.tag, f"object {obj.name!r} lies {d:,} levels deep, "
+                                 f"more than MAX_TREE_DEPTH = {E.MAX_TREE_DEPTH}")
+        todo.extend((child, d + 1) for child in obj.children)
 
 
 def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject:
@@ -238,6 +274,8 @@ def _read_script(r: Records) -> Script:
         obj = r.int("Coc", -1)
     va2 = r.byte("Va2")
     raw = r.get("Ste")
+    if raw is not None and len(raw) > E.MAX_STRING_BYTES:
+        raise r.error("Ste", f"script text of {len(raw):,} bytes, more than MAX_STRING_BYTES = {E.MAX_STRING_BYTES:,}")
     text = light_decode(bytes(raw)).decode("utf-8", "replace").rstrip("\x00") if raw is not None else ""
     lang = r.string("Lne", "lua") if r.get("Lne") is not None else "lua"
     params = custom.read_parameters(r, "Prm")
@@ -312,7 +350,9 @@ def _read_texture(r: Records) -> Texture | None:
     if ipa is None or img is None:
         return None
     tid, w, h = (int(v) for v in ipa)
-    if w <= 0 or h <= 0 or w * h > E.MAX_TEXTURE_PIXELS or len(img) < w * h * 3:
+    if w > 0 and h > 0 and w * h > E.MAX_TEXTURE_PIXELS:
+        raise r.error("Ipa", f"texture of {w:,} x {h:,} pixels, more than MAX_TEXTURE_PIXELS = {E.MAX_TEXTURE_PIXELS:,}")
+    if w <= 0 or h <= 0 or len(img) < w * h * 3:
         return None
     channels = 4 if len(img) >= w * h * 4 else 3
     rgb = np.frombuffer(img[:w * h * channels], np.uint8).reshape(h, w, channels)

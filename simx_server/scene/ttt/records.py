@@ -225,33 +225,90 @@ def light_decode(text: bytes) -> bytes:
     return (out & 0xFF).astype(np.uint8).tobytes()
 
 
-def unpack_indices(payload: memoryview, where: Records, tag: str) -> np.ndarray:
-    """The packed, delta-coded index array of older files (``In2``): i32 count, then per index
-    1-4 bytes (top 2 bits of the first = extra byte count; biased delta to the previous)."""
+_PACK_CHUNK = 1024   # bytes walked by one walker of unpack_indices
+_PACK_GROUP = 4096   # chunks walked together (their positions: 4 x 4096 x 1024 int32 = 64 MiB at most)
+
+
+def packed_count(payload: memoryview, where: Records, tag: str) -> int:
+    """The declared value count of a packed index array (``In2``), checked against its record
+    and ``MAX_MESH_TRIANGLES`` before anything is decoded."""
     if len(payload) < 4:
         raise where.error(tag, "truncated")
     count, = struct.unpack_from("<i", payload, 0)
     if count < 0 or count > 3 * E.MAX_MESH_TRIANGLES or count > len(payload) - 4:
-        raise where.error(tag, f"index count {count:,} beyond its record or MAX_MESH_TRIANGLES")
+        raise where.error(tag, f"index count {count:,} beyond its record or 3 x MAX_MESH_TRIANGLES = "
+                          f"{3 * E.MAX_MESH_TRIANGLES:,}")
+    return count
+
+
+def _value_starts(data: np.ndarray, count: int, where: Records, tag: str) -> np.ndarray:
+    """Where each of the first ``count`` packed values starts in ``data`` (its first byte's top
+    two bits: how many bytes follow), walked with numpy: the bytes are cut into chunks, and four
+    walkers per chunk start at its first four bytes, all chunks in lock step. A value is at most
+    4 bytes long, so the true chain enters each chunk at one of those four; which one follows
+    from where the previous chunk's true walker left it."""
+    n = len(data)
+    step = ((data >> 6) + 1).astype(np.int32)
+    chunks = -(-n // _PACK_CHUNK)
+    out: list[np.ndarray] = []
+    found, j = 0, 0
+    for c0 in range(0, chunks, _PACK_GROUP):
+        c1 = min(chunks, c0 + _PACK_GROUP)
+        base = np.arange(c0, c1, dtype=np.int32) * _PACK_CHUNK
+        pos = (base[:, None] + np.arange(4, dtype=np.int32)).ravel()  # walker 4c + k starts at k
+        limit = np.minimum(np.repeat(base + _PACK_CHUNK, 4), n)
+        seen = []
+        active = pos < limit
+        while active.any():
+            seen.append(np.where(active, pos, -1))
+            pos = pos + np.where(active, step[np.minimum(pos, n - 1)], 0)
+            active = pos < limit
+        trail = np.stack(seen) if seen else np.empty((0, len(pos)), np.int32)
+        cols = np.empty(c1 - c0, dtype=np.int64)
+        for c in range(c1 - c0):  # the true walker of each chunk, from the previous one's exit
+            if j > 3:
+                break
+            cols[c] = 4 * c + j
+            j = int(pos[4 * c + j]) - int(base[c]) - _PACK_CHUNK
+        else:
+            c = c1 - c0
+        taken = trail[:, cols[:c]].T.ravel()
+        taken = taken[taken >= 0]
+        out.append(taken[:count - found])
+        found += len(out[-1])
+        if found >= count or j > 3:
+            break
+    starts = np.concatenate(out) if out else np.empty(0, np.int32)
+    if len(starts) < count:
+        raise where.error(tag, f"packed indices end after {len(starts):,} of {count:,}")
+    return starts
+
+
+def unpack_indices(payload: memoryview, where: Records, tag: str) -> np.ndarray:
+    """The packed, delta-coded index array of older files (``In2``): i32 count, then per index
+    1-4 bytes (top 2 bits of the first = extra byte count; biased delta to the previous), as
+    CoppeliaSim's ``CMeshRoutines``' packed index format; decoded with numpy (no per-value
+    Python step), bounded by :func:`packed_count` first.
+
+    Returns:
+        The indices, (count,) int64.
+
+    Raises:
+        SceneFileError: a count beyond its record or bound, or values that end early.
+    """
+    count = packed_count(payload, where, tag)
     data = np.frombuffer(payload[4:], dtype=np.uint8)
-    extra = (data >> 6).astype(np.int64)
-    # the start of each value: walk the chain of byte counts (one Python step per value)
-    starts = np.empty(count, dtype=np.int64)
-    step = (extra + 1).tolist()
-    p, n = 0, len(step)
-    for k in range(count):
-        if p >= n:
-            raise where.error(tag, f"packed indices end after {k:,} of {count:,}")
-        starts[k] = p
-        p += step[p]
-    if p > n:
+    if count == 0:
+        return np.zeros(0, np.int64)
+    starts = _value_starts(data, count, where, tag)
+    extra = data[starts] >> 6
+    if int(starts[-1] + extra[-1]) >= len(data):
         raise where.error(tag, "packed indices truncated")
-    padded = np.concatenate([data, np.zeros(4, np.uint8)]).astype(np.int64)
-    e = extra[starts]
-    b0 = padded[starts] & 0x3F
-    b1 = np.where(e >= 1, padded[starts + 1], 0)
-    b2 = np.where(e >= 2, padded[starts + 2], 0)
-    b3 = np.where(e >= 3, padded[starts + 3], 0)
-    bias = np.array([31, 8191, 2097151, 536870911], dtype=np.int64)[e]
-    diff = b0 + (b1 << 6) + (b2 << 14) + (b3 << 22) - bias
-    return np.cumsum(diff).astype(np.int64)
+    padded = np.concatenate([data, np.zeros(4, np.uint8)])
+    # int32 throughout (a value's delta is within +-2**30): a quarter of int64's memory
+    diff = (padded[starts] & 0x3F).astype(np.int32)
+    for k in (1, 2, 3):
+        more = np.flatnonzero(extra >= k)
+        diff[more] += padded[starts[more] + k].astype(np.int32) << (8 * k - 2)
+    diff -= np.array([31, 8191, 2097151, 536870911], dtype=np.int32)[extra]
+    return np.cumsum(diff, dtype=np.int64)

@@ -11,49 +11,92 @@ from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.geometry import compose, mat_to_quat, pose7, projected_uv
 from simx_server.scene.ttt.looks import Look, read_colour
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
-from simx_server.scene.ttt.records import Records, unpack_indices
+from simx_server.scene.ttt.records import Records, packed_count, unpack_indices
 
 
 class MeshPool:
-    """The deduplicated arrays shapes point into: vertices, indices (normals are recomputed
-    by MuJoCo, so they are not kept)."""
+    """The deduplicated arrays shapes point into (``VIN``): vertices, indices (normals are
+    recomputed by MuJoCo, so they are not kept). Each array is decoded once, when a shape first
+    points at it, and every shape that points at it gets the same numpy array (never a copy),
+    as CoppeliaSim shares them (``CMeshManip``/``CMesh::serialize`` with its ``Vev``/``Inv``
+    references into the scene's ``VIN`` pool). Keeps the file's totals of decoded vertices and
+    triangles (``MAX_SCENE_VERTICES``, ``MAX_SCENE_TRIANGLES``), counted before decoding."""
 
     def __init__(self):
         self.vertices: list[tuple[Records, memoryview]] = []
         self.indices: list[tuple[Records, str, memoryview]] = []
+        self._vertex_arrays: dict[int, np.ndarray] = {}
+        self._faces: dict[int, np.ndarray] = {}
+        self._checked: set[tuple[int, int]] = set()  # (vertex, index) pairs whose indices are in range
+        self.total_vertices = 0
+        self.total_triangles = 0
 
     def read(self, r: Records) -> None:
+        """Take the pool's arrays from its record list (not decoded yet)."""
         for tag, payload in r:
             if tag == "Ver":
                 self.vertices.append((r, payload))
             elif tag in ("Ind", "In2"):
                 self.indices.append((r, tag, payload))
 
+    def count(self, where: Records, tag: str, vertices: int = 0, triangles: int = 0) -> None:
+        """Add to the file's totals before decoding; raises SceneFileError past a bound."""
+        self.total_vertices += vertices
+        self.total_triangles += triangles
+        if self.total_vertices > E.MAX_SCENE_VERTICES:
+            raise where.error(tag, f"more than MAX_SCENE_VERTICES = {E.MAX_SCENE_VERTICES:,} vertices in the file")
+        if self.total_triangles > E.MAX_SCENE_TRIANGLES:
+            raise where.error(tag, f"more than MAX_SCENE_TRIANGLES = {E.MAX_SCENE_TRIANGLES:,} triangles in the file")
+
     def vertex_array(self, index: int, where: Records) -> np.ndarray:
+        """Pool vertex array ``index``, (N, 3) float64, m (shared: do not modify)."""
         if not 0 <= index < len(self.vertices):
             raise where.error("Vev", f"vertex array {index} not in the mesh pool ({len(self.vertices)})")
-        return vertex_array(*self.vertices[index])
+        array = self._vertex_arrays.get(index)
+        if array is None:
+            r, payload = self.vertices[index]
+            array = self._vertex_arrays[index] = vertex_array(r, payload, self)
+        return array
 
-    def index_array(self, index: int, where: Records) -> np.ndarray:
+    def face_array(self, index: int, where: Records) -> np.ndarray:
+        """Pool index array ``index`` as triangles, (M, 3) int64 (shared: do not modify)."""
         if not 0 <= index < len(self.indices):
             raise where.error("Inv", f"index array {index} not in the mesh pool ({len(self.indices)})")
-        r, tag, payload = self.indices[index]
-        return index_array(r, tag, payload)
+        faces = self._faces.get(index)
+        if faces is None:
+            r, tag, payload = self.indices[index]
+            indices = index_array(r, tag, payload, self)
+            faces = self._faces[index] = indices[: len(indices) // 3 * 3].reshape(-1, 3)
+        return faces
+
+    def check_once(self, vertex: int, index: int) -> bool:
+        """True the first time a (vertex array, index array) pair is asked for."""
+        if (vertex, index) in self._checked:
+            return False
+        self._checked.add((vertex, index))
+        return True
 
 
-def vertex_array(r: Records, payload: memoryview) -> np.ndarray:
+def vertex_array(r: Records, payload: memoryview, pool: MeshPool) -> np.ndarray:
+    """A ``Ver`` record's vertices, (N, 3) float64; counted in ``pool``'s totals first."""
     n = len(payload) // 12
     if n > E.MAX_MESH_VERTICES:
         raise r.error("Ver", f"{n:,} vertices, more than MAX_MESH_VERTICES = {E.MAX_MESH_VERTICES:,}")
+    pool.count(r, "Ver", vertices=n)
     return np.frombuffer(payload[:n * 12], dtype="<f4").reshape(n, 3).astype(np.float64)
 
 
-def index_array(r: Records, tag: str, payload: memoryview) -> np.ndarray:
+def index_array(r: Records, tag: str, payload: memoryview, pool: MeshPool) -> np.ndarray:
+    """An ``Ind`` (i32) or ``In2`` (packed) record's indices, int64; counted in ``pool``'s
+    totals before decoding."""
     if tag == "In2":
+        count = packed_count(payload, r, tag)
+        pool.count(r, tag, triangles=count // 3)
         return unpack_indices(payload, r, tag)
     n = len(payload) // 4
     if n > 3 * E.MAX_MESH_TRIANGLES:
         raise r.error(tag, f"{n // 3:,} triangles, more than MAX_MESH_TRIANGLES = {E.MAX_MESH_TRIANGLES:,}")
+    pool.count(r, tag, triangles=n // 3)
     return np.frombuffer(payload[:n * 4], dtype="<i4").astype(np.int64)
 
 
@@ -143,21 +186,25 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
     info = parent.sub("Geo", payload)
     r = parent.sub("Geo", payload, start=info.end)
     name = info.string("Nme")
+    vev = inv = -1  # pool arrays (shared by every shape that points at them)
     if r.get("Vev") is not None:
-        vertices = pool.vertex_array(r.int("Vev"), r)
+        vev = r.int("Vev")
+        vertices = pool.vertex_array(vev, r)
     elif r.get("Ver") is not None:
-        vertices = vertex_array(r, r.get("Ver"))
+        vertices = vertex_array(r, r.get("Ver"), pool)
     else:
         vertices = np.zeros((0, 3))
     if r.get("Inv") is not None:
-        indices = pool.index_array(r.int("Inv"), r)
+        inv = r.int("Inv")
+        faces = pool.face_array(inv, r)
     elif r.get("Ind") is not None or r.get("In2") is not None:
         tag = "Ind" if r.get("Ind") is not None else "In2"
-        indices = index_array(r, tag, r.get(tag))
+        indices = index_array(r, tag, r.get(tag), pool)
+        faces = indices[: len(indices) // 3 * 3].reshape(-1, 3)
     else:
-        indices = np.zeros(0, np.int64)
-    faces = indices[: len(indices) // 3 * 3].reshape(-1, 3)
-    if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
+        faces = np.zeros((0, 3), np.int64)
+    if faces.size and (vev < 0 or inv < 0 or pool.check_once(vev, inv)) and (
+            faces.min() < 0 or faces.max() >= len(vertices)):
         raise r.error("Inv", f"mesh {name!r}: an index outside its {len(vertices):,} vertices")
     primitive, sizes = 0, np.zeros(3)
     for tag, fmt in (("_pr", "<iddd"), ("Ppr", "<ifff")):

@@ -347,3 +347,35 @@ def distance_object(name: str, entity1: int, entity2: int, handle: int = 1, thre
     if threshold is not None:
         items.append(rec("_rh", struct.pack("<d", threshold)))
     return rec("DST", lst(*items))
+
+
+def mesh_pool(vertices: np.ndarray, indices: np.ndarray | bytes) -> bytes:
+    """The shared mesh pool (``VIN``): one vertex array (``Ver``, (N, 3) float32) and one index
+    array (``Ind`` int32, or ``In2`` when ``indices`` are packed bytes, :func:`packed`)."""
+    ind = rec("In2", indices) if isinstance(indices, bytes) else rec("Ind", np.asarray(indices, "<i4").tobytes())
+    return rec("VIN", lst(rec("Ver", np.asarray(vertices, "<f4").tobytes()), ind))
+
+
+def pool_shape(handle: int, parent: int, name: str, vertex_array: int = 0, index_array: int = 0,
+               pos=(0, 0, 0)) -> bytes:
+    """A static mesh shape whose triangles are pool arrays (``Vev``/``Inv`` indices into ``VIN``)."""
+    info = lst(rec("Nme", string(name)), rec("Mas", f32(1.0)), rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, 0.01, 0.01, 0.01)))
+    mesh = lst(rec("Vev", i32(vertex_array)), rec("Inv", i32(index_array)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)))
+    typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))), rec("Sss", bytes([0])), rec("Ss3", bytes([1])))
+    return rec("SHP", common(handle, parent, name, pos) + typed)
+
+
+def packed(values) -> bytes:
+    """V-REP's packed index array (``In2``): i32 count, then each delta to the previous value in
+    1 to 4 bytes (top 2 bits of the first: how many follow; biased)."""
+    out = bytearray(struct.pack("<i", len(values)))
+    prev = 0
+    for v in values:
+        d, prev = int(v) - prev, int(v)
+        for n, bias in enumerate((31, 8191, 2097151, 536870911)):
+            x = d + bias
+            if 0 <= x < (1 << (6 + 8 * n)):
+                out.append((x & 0x3F) | (n << 6))
+                out.extend((x >> (6 + 8 * k)) & 0xFF for k in range(n))
+                break
+    return bytes(out)
