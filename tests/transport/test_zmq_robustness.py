@@ -186,8 +186,12 @@ def test_fresh_client_ids_do_not_grow_the_server(monkeypatch):
     from simx_server.loop.clients import Clients
     from simx_server.zmq.service import ZmqService
 
-    class Server:  # what the service needs of the server for these calls
-        sim = None
+    from types import SimpleNamespace
+
+    from simx_server.scene.client_files import ClientFiles
+
+    class Server:  # what the service needs of the server for these calls: clients, and each client's files
+        sim = SimpleNamespace(editor=SimpleNamespace(files=ClientFiles(SCENES / "scripted.xml")))
         clients = Clients()
 
     class Frontend:
