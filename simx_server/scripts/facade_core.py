@@ -249,6 +249,12 @@ class SimFacade(JointCalls):
         """
         self._signals.clear(Signals.FLOAT, None if name is None else _text(name, "signal name"))
 
+    # CoppeliaSim 4.1-4.4's names for the same store (its float signals hold doubles): the 4.4 ZMQ
+    # client's own ``sim.waitForSignal`` calls ``getDoubleSignal``.
+    setDoubleSignal = setFloatSignal  # noqa: N815
+    getDoubleSignal = getFloatSignal  # noqa: N815
+    clearDoubleSignal = clearFloatSignal  # noqa: N815
+
     def setStringSignal(self, name: Any, value: Any) -> None:  # noqa: N802
         """Set string signal ``name`` (a byte string).
 

@@ -36,6 +36,14 @@ def _frame(value: Any, what: str) -> tuple[np.ndarray, np.ndarray, bool]:
     raise ArgumentError(f"{what} must be a pose (7 numbers: x y z qx qy qz qw) or a matrix (12 numbers)")
 
 
+def _first(value: Any, n: int) -> Any:
+    """The first ``n`` items of a longer list (CoppeliaSim's Lua API reads the numbers it needs
+    from a table and ignores the rest); anything else unchanged, for ``as_vector`` to judge."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    return value[:n] if isinstance(value, (list, tuple)) and len(value) > n else value
+
+
 def _pose(p: np.ndarray, r: np.ndarray) -> list[float]:
     return [float(x) for x in p] + [float(x) for x in quaternion_from_matrix(r)]
 
@@ -134,6 +142,40 @@ class PoseMath:
         """
         p, r, _ = _frame(_vector(matrix, 12, "matrix"), "matrix")
         return _pose(p, r)
+
+    def buildMatrixQ(self, position: Any, quaternion: Any) -> list[float]:  # noqa: N802
+        """A 12-number matrix from a position (m) and a quaternion ``[qx, qy, qz, qw]``
+        (CoppeliaSim 4.0-4.4's ``sim.buildMatrixQ``, which its 4.4 ZMQ client's ``moveToPose`` calls).
+
+        Args:
+            position: ``[x, y, z]`` in m; as CoppeliaSim, a longer table's first 3 numbers (the
+                4.4 client passes a whole pose).
+            quaternion: ``[qx, qy, qz, qw]`` (the first 4 numbers of a longer table), normalised here.
+
+        Returns:
+            12 floats, row by row (rotation columns and position).
+
+        Raises:
+            ArgumentError: fewer than 3 and 4 numbers, or a zero quaternion.
+        """
+        p = np.asarray(_vector(_first(position, 3), 3, "position"), float)
+        return _matrix(p, matrix_from_quaternion(*_vector(_first(quaternion, 4), 4, "quaternion")))
+
+    def getQuaternionFromMatrix(self, matrix: Any) -> list[float]:  # noqa: N802
+        """The rotation of a 12-number matrix as a quaternion ``[qx, qy, qz, qw]``
+        (CoppeliaSim 4.0-4.4's ``sim.getQuaternionFromMatrix``).
+
+        Args:
+            matrix: 12 numbers.
+
+        Returns:
+            ``[qx, qy, qz, qw]``, unit quaternion.
+
+        Raises:
+            ArgumentError: not 12 numbers.
+        """
+        _, r, _ = _frame(_vector(matrix, 12, "matrix"), "matrix")
+        return list(quaternion_from_matrix(r))
 
     def getEulerAnglesFromMatrix(self, matrix: Any) -> list[float]:  # noqa: N802
         """Euler angles alpha, beta, gamma (rad) of a 12-number matrix's rotation.

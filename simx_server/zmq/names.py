@@ -52,6 +52,7 @@ DEPRECATED: dict[str, tuple[str, ...]] = {
         "setObjectFloatParameter", "setObjectInt32Parameter", "setObjectName", "setObjectSizeValues",
         "setShapeMassAndInertia", "setSphericalJointMatrix", "setStringParameter", "setVisionSensorImage",
         "getIntegerSignal", "setInt32Parameter", "getScriptName", "getNameSuffix", "setNameSuffix",
+        "buildMatrixQ", "getQuaternionFromMatrix", "getDoubleSignal", "setDoubleSignal", "clearDoubleSignal",
     ),
     "simIK": ("findConfig", "getConfigForTipPose", "addIkElementFromScene", "getIkGroupHandle",
               "handleIkGroup", "createIkGroup", "doesIkGroupExist", "applyIkEnvironmentToScene",

@@ -85,3 +85,13 @@ def test_remote_get_object_handle_finds_what_get_object_finds(sim):
     for path in ("./arm", "/robot/arm", "arm", "robot#0", "/arm[1]"):
         assert remote.getObjectHandle(path) == remote.getObject(path), path
     assert remote.getObjectHandle("./arm") == handle(sim, "arm")
+
+
+def test_the_4_1_double_signal_names_reach_the_float_signals(sim):
+    """CoppeliaSim 4.1-4.4's ``sim.*DoubleSignal`` (the 4.4 ZMQ client's ``waitForSignal`` calls
+    ``getDoubleSignal``) read and write the store of ``sim.*FloatSignal``."""
+    remote = RemoteSim(sim)
+    remote.setDoubleSignal("level", 2.5)
+    assert remote.getFloatSignal("level") == 2.5 and remote.getDoubleSignal("level") == 2.5
+    remote.clearDoubleSignal("level")
+    assert remote.getFloatSignal("level") is None

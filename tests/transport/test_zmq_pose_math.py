@@ -46,3 +46,16 @@ def test_bad_shapes_are_argument_errors():
                  lambda: m.multiplyVector([0, 0, 0, 0, 0, 0, 1], [1, 2])):
         with pytest.raises(ArgumentError):
             call()
+
+
+def test_the_4_4_quaternion_matrix_calls_round_trip():
+    """``buildMatrixQ`` / ``getQuaternionFromMatrix`` (CoppeliaSim 4.0-4.4's, which the 4.4 ZMQ
+    client's own ``moveToPose`` calls) agree with the pose layout."""
+    pose = m.buildPose([0.1, 0.2, 0.3], [0.3, -0.2, 0.5])
+    matrix = m.buildMatrixQ(pose[:3], pose[3:])
+    assert np.allclose(matrix, m.poseToMatrix(pose))
+    assert m.buildMatrixQ(pose, pose[3:]) == matrix  # the 4.4 client passes the whole pose as position
+    q = m.getQuaternionFromMatrix(matrix)
+    assert np.allclose(q, pose[3:]) or np.allclose(q, -np.asarray(pose[3:]))
+    with pytest.raises(ArgumentError):
+        m.buildMatrixQ([0, 0, 0], [0, 0, 0, 0])
