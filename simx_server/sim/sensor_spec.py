@@ -12,6 +12,7 @@ import mujoco
 
 from simx_server.sim import handle_render
 from simx_server.sim.physics import check_resolution
+from simx_server.sim.vision_filters import Step, parse_chain
 
 DEFAULT_RESOLUTION = (256, 256)
 DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10.0
@@ -29,6 +30,11 @@ class SensorSpec:
     shadows: bool = False
     reflections: bool = False
     render_mode: int = handle_render.OPENGL  # sim_visionintparam_render_mode; 2: colour-coded handles
+    filters: tuple[Step, ...] = ()  # the filter chain (simx_server.sim.vision_filters)
+    ignore_rgb: bool = False  # V-REP's "ignore RGB info": the image is the background colour
+    ignore_depth: bool = False  # "ignore depth info": the depth buffer is all 1 (far)
+    basic_stats: bool = True  # V-REP's default packet is computed (else it is empty)
+    background: tuple[int, int, int] = (0, 0, 0)  # default background colour, bytes (V-REP's x 255.1)
 
     @property
     def pixels(self) -> int:
@@ -84,4 +90,19 @@ def sensor_spec(model: mujoco.MjModel, obj) -> SensorSpec:
     return SensorSpec(obj.mj_id, w, h, float(s.get("near", DEFAULT_NEAR)), float(s.get("far", DEFAULT_FAR)),
                       s.get("image", "rgb") == "depth",
                       shadows=_flag(s, "shadows", obj.name), reflections=_flag(s, "reflections", obj.name),
-                      render_mode=handle_render.parse_mode(s, obj.name))
+                      render_mode=handle_render.parse_mode(s, obj.name),
+                      filters=parse_chain(s.get("filters", ""), obj.name),
+                      ignore_rgb=_flag(s, "ignore_rgb", obj.name), ignore_depth=_flag(s, "ignore_depth", obj.name),
+                      basic_stats=s.get("basic_stats", "true").lower() != "false",
+                      background=_colour(s.get("background", "0,0,0"), obj.name))
+
+
+def _colour(text: str, sensor: str) -> tuple[int, int, int]:
+    """``background=r,g,b`` (0..1 each) as V-REP's bytes (value x 255.1, truncated)."""
+    try:
+        rgb = [float(c) for c in text.split(",")]
+    except ValueError:
+        rgb = []
+    if len(rgb) != 3 or not all(0.0 <= c <= 1.0 for c in rgb):
+        raise ValueError(f"vision sensor {sensor!r}: background={text[:40]!r} must be three numbers 0..1")
+    return tuple(int(c * 255.1) for c in rgb)

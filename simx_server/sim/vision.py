@@ -66,24 +66,13 @@ from simx_server.sim import handle_render, vision_look
 from simx_server.sim.physics import check_resolution
 from simx_server.sim.render_thread import RenderThread, render_bands
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
+from simx_server.sim.vision_chain import VisionChain
 from simx_server.sim.vision_results import Deferred, VisionResults
 from simx_server.sim.world import VISION_SENSOR, World
 
 log = logging.getLogger("simx.vision")
 
-_THIRD = (np.arange(3 * 255 + 1) // 3).astype(np.uint8)  # (R + G + B) -> (R + G + B) // 3
-
-
-def _grey(img: np.ndarray) -> np.ndarray:
-    """V-REP's grey image of an (h, w, 3) uint8 RGB image: (R + G + B) // 3, (h, w) uint8 (a sum
-    of the planes and a table: 6x faster than numpy's sum over the last axis, 0.07 s at 4096²)."""
-    total = img[..., 0].astype(np.uint16)
-    total += img[..., 1]
-    total += img[..., 2]
-    return _THIRD[total]
-
-
-class VisionSensors(VisionResults):
+class VisionSensors(VisionChain, VisionResults):
     """The scene's vision sensors.
 
     Methods are called on the simulation thread; rendering happens on render threads (each a
@@ -117,6 +106,7 @@ class VisionSensors(VisionResults):
         self.for_streams = False
         self._cache: dict[tuple[int, str], tuple[int, Future, RenderThread]] = {}
         self._colours: np.ndarray | None = None  # geom id -> packed handle colour (handle_render)
+        self._filter_states: dict = {}  # handle -> its filter chain's images (vision_filters.FilterState)
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
         self._ready = self._prepare(self._thread)
@@ -129,6 +119,7 @@ class VisionSensors(VisionResults):
         self.specs: dict[int, SensorSpec] = {}
         self._cache.clear()
         self._colours = None
+        self._filter_states.clear()
         m = world.model
         vision_look.scene_look(m)  # a look it cannot give refuses the scene (ValueError)
         for obj in world.objects.values():
@@ -378,10 +369,11 @@ class VisionSensors(VisionResults):
         self._cache[(handle, kind)] = (version, future, thread)
         return future
 
-    def depth_job(self, handle: int) -> Callable[[], np.ndarray]:
+    def _rendered_depth_job(self, handle: int) -> Callable[[], np.ndarray]:
         """The sensor's depth frame of the world's current state submitted (simulation thread);
         the job returned gives it, run on the request render thread after it (:meth:`after`),
-        normalised to 0..1 between near and far, (h, w) float32, rows bottom-up. Raises
+        normalised to 0..1 between near and far, (h, w) float32, rows bottom-up (before the
+        sensor's options and filters: see :meth:`depth_job`). Raises
         UnknownObjectError/ObjectTypeError for other handles.
 
         Args:
@@ -406,13 +398,12 @@ class VisionSensors(VisionResults):
             return "handles"
         return "depth" if spec.depth_image else "rgb"
 
-    def image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
-        """As :meth:`depth_job`, for the sensor's image: (h, w, 3) uint8 RGB, or (h, w) uint8 when
-        ``grey``, rows bottom-up.
+    def _rendered_image_job(self, handle: int) -> Callable[[], np.ndarray]:
+        """As :meth:`_rendered_depth_job`, for the sensor's rendered image: (h, w, 3) uint8 RGB,
+        rows bottom-up (before the sensor's options and filters: see :meth:`image_job`).
 
         Args:
             handle: a vision sensor's handle.
-            grey: one byte per pixel.
 
         Returns:
             The job.
@@ -422,27 +413,17 @@ class VisionSensors(VisionResults):
             if self._colours is None:
                 self._colours = handle_render.geom_colours(self.world)
             seg, colours = self._frame(handle, "handles"), self._colours
-
-            def coded() -> np.ndarray:
-                img = handle_render.coded_image(seg.result(), colours)[::-1]
-                return _grey(img) if grey else img
-
-            return coded
+            return lambda: handle_render.coded_image(seg.result(), colours)[::-1]
         if kind == "depth":
-            depth = self.depth_job(handle)
+            depth = self._raw_depth_job(handle)
 
             def from_depth() -> np.ndarray:
                 g = np.rint(depth() * 255.0).astype(np.uint8)
-                return g if grey else np.repeat(g[:, :, None], 3, axis=2)
+                return np.repeat(g[:, :, None], 3, axis=2)
 
             return from_depth
         raw = self._frame(handle, "rgb")
-
-        def rgb() -> np.ndarray:
-            img = raw.result()[::-1]
-            return _grey(img) if grey else img
-
-        return rgb
+        return lambda: raw.result()[::-1]
 
     def close(self) -> None:
         """Finish pending jobs, free every GL context (on its thread) and stop; idempotent.

@@ -118,6 +118,14 @@ class VisionData:
     far: float
     perspective: bool
     explicit: bool
+    #: filter components (simx_server.scene.ttt.filters.FilterComponent), in order
+    filters: list = field(default_factory=list)
+    ignore_rgb: bool = False
+    ignore_depth: bool = False
+    basic_stats: bool = True  # V-REP's default packet (``Va2`` bit 4 clear)
+    background: np.ndarray | None = None  # default background colour ``Db2`` (RGB 0-1)
+    same_background: bool = False  # the environment's background instead (``Va3`` bit 7)
+    render_mode: int = 0  # sim_rendermode_*: 0 OpenGL, 1 auxiliary channels, 2 colour-coded handles
 
 
 @dataclass
