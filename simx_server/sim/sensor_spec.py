@@ -34,7 +34,9 @@ class SensorSpec:
     ignore_rgb: bool = False  # V-REP's "ignore RGB info": the image is the background colour
     ignore_depth: bool = False  # "ignore depth info": the depth buffer is all 1 (far)
     basic_stats: bool = True  # V-REP's default packet is computed (else it is empty)
-    background: tuple[int, int, int] = (0, 0, 0)  # default background colour, bytes (V-REP's x 255.1)
+    #: the background colour, bytes (V-REP's value x 255.1): what an ignore-RGB sensor shows and
+    #: what a sensor shows where no object is (None: MuJoCo's sky box, black for ignore-RGB)
+    background: tuple[int, int, int] | None = None
 
     @property
     def pixels(self) -> int:
@@ -94,7 +96,7 @@ def sensor_spec(model: mujoco.MjModel, obj) -> SensorSpec:
                       filters=parse_chain(s.get("filters", ""), obj.name),
                       ignore_rgb=_flag(s, "ignore_rgb", obj.name), ignore_depth=_flag(s, "ignore_depth", obj.name),
                       basic_stats=s.get("basic_stats", "true").lower() != "false",
-                      background=_colour(s.get("background", "0,0,0"), obj.name))
+                      background=_colour(s["background"], obj.name) if "background" in s else None)
 
 
 def _colour(text: str, sensor: str) -> tuple[int, int, int]:

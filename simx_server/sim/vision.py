@@ -271,6 +271,8 @@ class VisionSensors(VisionChain, VisionResults):
             r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
             if kind == "rgb":
                 vision_look.apply(r.scene, model)  # V-REP's lighting where the scene asks for it
+            # V-REP clears a sensor's image to its background colour: no sky box behind the scene
+            r.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = spec.background is None
             return render_bands(r, spec.height)
         finally:
             if kind == "depth":

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from simx_server.sim import vision_filters as VF
+from simx_server.sim.handle_render import COLOR_CODED
 
 if TYPE_CHECKING:
     from simx_server.sim.render_thread import RenderThread
@@ -113,9 +114,22 @@ class VisionChain:
             The job.
         """
         spec = self.spec(handle)
+        colour = np.array(spec.background or (0, 0, 0), np.uint8)
         if spec.ignore_rgb:
-            return lambda: np.broadcast_to(np.array(spec.background, np.uint8), (spec.height, spec.width, 3))
-        return self._rendered_image_job(handle)
+            return lambda: np.broadcast_to(colour, (spec.height, spec.width, 3))
+        image = self._rendered_image_job(handle)
+        if not colour.any() or spec.depth_image or spec.render_mode == COLOR_CODED:
+            return image  # drawn without a sky box: black where no object is
+        # another colour where no object is: the pixels at MuJoCo's far plane (its depth frame)
+        depth, m = self._frame(handle, "depth"), self.world.model
+        far = np.float32(0.999 * m.vis.map.zfar * m.stat.extent)
+
+        def on_background() -> np.ndarray:
+            img = image().copy()
+            img[depth.result()[::-1] >= far] = colour
+            return img
+
+        return on_background
 
     def image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
         """As :meth:`depth_job`, for the sensor's image: (h, w, 3) uint8 RGB, or (h, w) uint8
@@ -201,3 +215,5 @@ class VisionChain:
         def _rendered_depth_job(self, handle: int) -> Callable[[], np.ndarray]: ...
 
         def _rendered_image_job(self, handle: int) -> Callable[[], np.ndarray]: ...
+
+        def _frame(self, handle: int, kind: str) -> Future: ...

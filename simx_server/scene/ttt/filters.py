@@ -7,7 +7,8 @@ The records follow coppeliaSimLib's loaders: ``CComposedFilter::serialize`` (``C
 ``Sfe`` bit 0 enabled); each component becomes the ``simVision`` call of
 ``CSimpleFilter::getCodeEquivalent``. ``CVisionSensor::serialize`` gives the options: ``Va2``
 bits 1 ignore RGB, 2 ignore depth, 4 no basic statistics (V-REP's default packet); ``Va3`` bit 7
-background = the environment's; ``Db2`` the default background colour; ``Rmd`` the render mode.
+background = the environment's fog background colour (``Fbg``); ``Db2`` the default background
+colour (what ``CVisionSensor`` clears its image to, ``_clearBuffers``); ``Rmd`` the render mode.
 """
 
 from __future__ import annotations
@@ -117,7 +118,7 @@ def read_filters(r: Records) -> list[FilterComponent]:
 
 
 def _num(v: float) -> str:
-    return f"{v:.9g}"
+    return f"{v:.7g}"  # the file's float32 values, as written (0.2, not 0.200000003)
 
 
 def _call(name: str, *args: float) -> str:
@@ -203,10 +204,12 @@ def vision_settings(conv, v, name: str) -> list[str]:
     if not v.basic_stats:
         items.append("basic_stats=false")
     background = v.background
-    if v.same_background and conv.scene.background is not None:
-        background = conv.scene.background[0]  # V-REP's environment (fog) background colour
-    if background is not None and np.all(np.isfinite(background)):
-        items.append("background=" + ",".join(_num(float(c)) for c in np.clip(background, 0, 1)))
+    if v.same_background:  # the environment's fog background colour (Fbg, default black)
+        fog = conv.scene.fog_background
+        background = fog if fog is not None else np.zeros(3)
+    if background is None or not np.all(np.isfinite(background)):
+        background = np.zeros(3)  # CVisionSensor's default: black
+    items.append("background=" + ",".join(_num(float(c)) for c in np.clip(background, 0, 1)))
     if v.render_mode == 2:
         items.append("render_mode=handles")
     elif v.render_mode == 1:

@@ -224,6 +224,7 @@ class TttScene:
     time_step: float = 0.05  # s
     background: tuple[np.ndarray, np.ndarray] | None = None  # environment colours: up, down (RGB 0-1)
     ambient: np.ndarray | None = None  # ambient light (RGB 0-1)
+    fog_background: np.ndarray | None = None  # the environment's fog/sensor background ``Fbg`` (RGB 0-1)
     skipped: dict[str, int] = field(default_factory=dict)  # what was read but is not modelled: count
     saved_settings: object | None = None  # settings.SavedSettings: the SIM/DYN records' settings
     measurements: list = field(default_factory=list)  # measurements.Measurement: COL/DST objects

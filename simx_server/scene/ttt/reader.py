@@ -308,6 +308,9 @@ def _read_environment(r: Records, scene: TttScene) -> None:
     scene.ambient = looks.read_ambient(r)
     if r.byte("Var") & 16:  # CEnvironment's fogEnabled: V-REP's sensors drew it
         scene.skipped["fog (vision sensors draw none)"] = 1
+    fbg = r.floats(None, "Fbg", 3)  # what vision sensors clear to (CVisionSensor: glClearColor)
+    if fbg is not None and np.all(np.isfinite(fbg)):
+        scene.fog_background = np.clip(fbg, 0, 1)
 
 
 def _read_texture(r: Records) -> Texture | None:

@@ -129,6 +129,23 @@ def test_sensor_options_from_the_file(load):
     assert _h(sim, "Tower") in ids and _h(sim, "Floor") in ids
 
 
+def test_the_background_is_the_sensors_colour_not_the_sky(load):
+    """V-REP clears a sensor's image to its default background colour (Db2), or with Va3 bit 7
+    to the environment's fog background (Fbg, black when the file has none): no sky box."""
+    up = (1.0, 0.0, 0.0, 0.0)  # the sensor's +z (its view) up: nothing in view
+    sim, texts, _ = load(V.scene(
+        V.vision_sensor(10, "blue", background=(0.2, 0.4, 0.6), quat=up),
+        V.vision_sensor(11, "black", quat=up),
+        V.vision_sensor(12, "env", background=(1, 1, 1), quat=up, va3=128),
+        V.vision_sensor(13, "floor", background=(0.2, 0.4, 0.6))))
+    assert "background=0.2,0.4,0.6" in texts["simx:blue"].split() and "background=0,0,0" in texts["simx:env"].split()
+    assert np.all(sim.vision.image(_h(sim, "blue"), False) == [51, 102, 153])  # x 255.1, truncated
+    assert not sim.vision.image(_h(sim, "black"), False).any()
+    assert not sim.vision.image(_h(sim, "env"), False).any()
+    floor = sim.vision.image(_h(sim, "floor"), False)
+    assert not np.all(floor == [51, 102, 153], axis=2).any()  # the floor fills its view
+
+
 @pytest.mark.skipif(not TUTORIAL.is_file() and not os.environ.get("CI"), reason="needs ../shared/ttt-corpus")
 def test_the_tutorials_kinect_depth_outputs_grey_depth(load):
     """The tutorial's scene.ttt: kinect_depth's chain (2, 4) makes V-REP's grey depth image;

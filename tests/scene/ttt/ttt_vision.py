@@ -26,14 +26,15 @@ def component(kind: int, bytes_=(), ints=(), floats=(), enabled: bool = True) ->
 
 def vision_sensor(handle: int, name: str, components=(), pos=(0, 0, 1.5), res=(64, 48), ortho: float | None = None,
                   angle: float = 1.0472, near: float = 0.1, far: float = 2.0, va2: int = 0, background=(0, 0, 0),
-                  render_mode: int = 0) -> bytes:
-    """A vision sensor looking down from ``pos``; perspective unless ``ortho`` (m) is given;
-    ``va2``: bits 1 ignore RGB, 2 ignore depth, 4 no basic statistics."""
-    va3 = 0 if ortho is not None else 1
+                  render_mode: int = 0, quat=DOWN, va3: int = 0) -> bytes:
+    """A vision sensor looking down from ``pos`` (``quat``: another orientation); perspective
+    unless ``ortho`` (m) is given; ``va2``: bits 1 ignore RGB, 2 ignore depth, 4 no basic
+    statistics; ``va3``: more bits (7: the environment's background)."""
+    va3 |= 0 if ortho is not None else 1
     typed = lst(rec("Ccp", f32(ortho or 1.0, angle, near, far)), rec("Res", i32(*res)), rec("Va3", bytes([va3])),
                 rec("Va2", bytes([va2])), rec("Db2", f32(*background)), rec("Rmd", i32(render_mode)),
                 rec("Cfr", lst(*components)))
-    return rec("RSN", W.common(handle, -1, name, pos, DOWN) + typed)
+    return rec("RSN", W.common(handle, -1, name, pos, quat) + typed)
 
 
 def scene(*sensors: bytes) -> bytes:
