@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from simx_server.sim import vision_filters as VF
-from simx_server.sim.handle_render import COLOR_CODED
+from simx_server.sim.handle_render import BACKGROUND, COLOR_CODED
 
 if TYPE_CHECKING:
     from simx_server.sim.render_thread import RenderThread
@@ -43,6 +43,19 @@ def grey_of(img: np.ndarray) -> np.ndarray:
     total += img[..., 1]
     total += img[..., 2]
     return _THIRD[total]
+
+
+def handles_of(img: np.ndarray) -> np.ndarray:
+    """The handles of a colour-coded image (render mode 2): ``r + 256 g + 65536 b``.
+
+    Args:
+        img: (h, w, 3) uint8.
+
+    Returns:
+        (h, w) int64 handles; ``handle_render.BACKGROUND`` where no object is.
+    """
+    c = img.astype(np.int64)
+    return c[..., 0] + (c[..., 1] << 8) + (c[..., 2] << 16)
 
 
 def default_packet(rgb: np.ndarray, depth: np.ndarray) -> list[float]:
@@ -177,7 +190,8 @@ class VisionChain:
         """``simxReadVisionSensor``'s result of the world's current state (frames submitted
         now; the job returned computes it on the render thread after them): whether a filter
         triggered, and the packets: V-REP's default packet (:func:`default_packet`, empty when
-        the sensor's "compute basic statistics" is off), then each filter step's packet.
+        the sensor's "compute basic statistics" is off; for a sensor rendering colour-coded
+        handles, the handles it sees, each + 0.5, as V-REP 3.x), then each filter step's packet.
 
         Args:
             handle: a vision sensor's handle.
@@ -192,8 +206,14 @@ class VisionChain:
         depth = self._raw_depth_job(handle)
         filtered = self._filtered(handle) if spec.filters and image is None else None
 
+        coded = spec.render_mode == COLOR_CODED
+
         def read() -> tuple[bool, list[list[float]]]:
-            packets = [default_packet(raw(), depth()) if spec.basic_stats else []]
+            if coded:  # V-REP 3.x: the handles seen, each + 0.5 (whatever the statistics setting)
+                seen = np.unique(handles_of(raw()))
+                packets = [[float(h) + 0.5 for h in seen[seen < BACKGROUND]]]
+            else:
+                packets = [default_packet(raw(), depth()) if spec.basic_stats else []]
             if filtered is None:
                 return False, packets
             result = filtered.result()

@@ -127,6 +127,9 @@ def test_sensor_options_from_the_file(load):
     coded = sim.vision.image(_h(sim, "coded"), False).astype(np.int64)
     ids = set(np.unique(coded[..., 0] + 256 * coded[..., 1] + 65536 * coded[..., 2]).tolist())
     assert _h(sim, "Tower") in ids and _h(sim, "Floor") in ids
+    # V-REP 3.x's first packet of a colour-coded sensor: the handles it sees, each + 0.5
+    _, packets = cmd_sensors.read_vision_sensor(sim, [_h(sim, "coded")]).future.result()
+    assert packets == [sorted(h + 0.5 for h in ids if h != 0xFFFFFF)]
 
 
 def test_the_background_is_the_sensors_colour_not_the_sky(load):
