@@ -1,5 +1,6 @@
 """A vision sensor's static properties (:class:`SensorSpec`): resolution, near and far clipping,
-image kind, render mode, and the byte sizes of its image and depth buffer, read from the MuJoCo
+image kind, render mode, filter chain, V-REP's options (ignore RGB / depth, basic statistics,
+background colour), and the byte sizes of its image and depth buffer, read from the MuJoCo
 camera and its ``simx:NAME`` custom text (:func:`sensor_spec`). Rendering is
 :mod:`simx_server.sim.vision`.
 """

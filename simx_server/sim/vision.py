@@ -7,7 +7,10 @@ near/far clipping planes and image kind come from the ``simx:NAME`` custom text
 (``near=0.01 far=10 image=rgb|depth``). A sensor with ``image=depth`` shows its depth as grey
 in all three channels (near dark, far bright), as a V-REP depth sensor with a
 "depth to image" filter does. ``render_mode=handles`` (or ``sim_visionintparam_render_mode`` set
-to 2) makes the image V-REP's colour-coded handles (simx_server.sim.handle_render).
+to 2) makes the image V-REP's colour-coded handles (simx_server.sim.handle_render). A sensor
+with a ``background=`` colour (every sensor of a ``.ttt``) is drawn as V-REP drew it: no sky
+box, that colour where no object is, nothing outside its near and far planes; its filter chain
+and options ("ignore RGB", ...) are :mod:`simx_server.sim.vision_chain`.
 
 Like V-REP's default vision-sensor renderer (plain OpenGL), sensors draw neither shadows nor
 reflections, whatever the scene's lights and materials say; ``shadows=true`` and
@@ -66,7 +69,7 @@ from simx_server.sim import handle_render, vision_look
 from simx_server.sim.physics import check_resolution
 from simx_server.sim.render_thread import RenderThread, render_bands
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
-from simx_server.sim.vision_chain import VisionChain
+from simx_server.sim.vision_chain import VisionChain, clip_planes
 from simx_server.sim.vision_results import Deferred, VisionResults
 from simx_server.sim.world import VISION_SENSOR, World
 
@@ -269,10 +272,12 @@ class VisionSensors(VisionChain, VisionResults):
             r.update_scene(data, camera=spec.camera, scene_option=thread.option)
             r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
             r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
-            if kind == "rgb":
-                vision_look.apply(r.scene, model)  # V-REP's lighting where the scene asks for it
             # V-REP clears a sensor's image to its background colour: no sky box behind the scene
             r.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = spec.background is None
+            if spec.background is not None and kind != "depth":
+                clip_planes(r.scene, spec.near, spec.far)  # and nothing outside its planes
+            if kind == "rgb":  # (after the planes: it moves an orthographic camera back, planes too)
+                vision_look.apply(r.scene, model)  # V-REP's lighting where the scene asks for it
             return render_bands(r, spec.height)
         finally:
             if kind == "depth":

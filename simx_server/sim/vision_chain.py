@@ -16,6 +16,7 @@ from __future__ import annotations
 from concurrent.futures import Future
 from typing import TYPE_CHECKING, Callable
 
+import mujoco
 import numpy as np
 
 from simx_server.sim import vision_filters as VF
@@ -56,6 +57,27 @@ def handles_of(img: np.ndarray) -> np.ndarray:
     """
     c = img.astype(np.int64)
     return c[..., 0] + (c[..., 1] << 8) + (c[..., 2] << 16)
+
+
+def clip_planes(scene: mujoco.MjvScene, near: float, far: float) -> None:
+    """Give the scene's cameras the sensor's own clipping planes (V-REP clips a sensor's image at
+    its near and far planes; MuJoCo at the model's ``znear``/``zfar``): objects nearer than
+    ``near`` or farther than ``far`` are not drawn. A perspective frustum's sides are given at
+    its near plane, so they are scaled with it. Only for images drawn without the sky box (it
+    would be cut off too) and never for depth frames (MuJoCo converts their depth with the
+    model's planes).
+
+    Args:
+        scene: a scene updated for the sensor's camera (``update_scene`` done).
+        near: m, > 0.
+        far: m, > near.
+    """
+    for cam in scene.camera:
+        if not cam.orthographic and cam.frustum_near > 0:
+            k = near / cam.frustum_near
+            cam.frustum_bottom, cam.frustum_top = cam.frustum_bottom * k, cam.frustum_top * k
+            cam.frustum_width, cam.frustum_center = cam.frustum_width * k, cam.frustum_center * k
+        cam.frustum_near, cam.frustum_far = near, far
 
 
 def default_packet(rgb: np.ndarray, depth: np.ndarray) -> list[float]:
@@ -133,9 +155,9 @@ class VisionChain:
         image = self._rendered_image_job(handle)
         if not colour.any() or spec.depth_image or spec.render_mode == COLOR_CODED:
             return image  # drawn without a sky box: black where no object is
-        # another colour where no object is: the pixels at MuJoCo's far plane (its depth frame)
-        depth, m = self._frame(handle, "depth"), self.world.model
-        far = np.float32(0.999 * m.vis.map.zfar * m.stat.extent)
+        # another colour where no object is: the pixels beyond the sensor's far plane in its
+        # depth frame (drawn with MuJoCo's planes: see clip_planes)
+        depth, far = self._frame(handle, "depth"), np.float32(spec.far)
 
         def on_background() -> np.ndarray:
             img = image().copy()

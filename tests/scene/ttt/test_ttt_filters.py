@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import cv2
 import mujoco
 import numpy as np
 import pytest
@@ -48,7 +49,6 @@ def _h(sim, name):
 def _save(name: str, img: np.ndarray) -> None:
     """Keep a PNG of ``img`` (rows bottom-up) where SIMX_TEST_PNGS points, to look at."""
     if PNGS.is_dir():
-        import cv2
         cv2.imwrite(str(PNGS / name), np.ascontiguousarray(img[::-1, :, ::-1] if img.ndim == 3 else img[::-1]))
 
 
@@ -147,6 +147,20 @@ def test_the_background_is_the_sensors_colour_not_the_sky(load):
     assert not sim.vision.image(_h(sim, "env"), False).any()
     floor = sim.vision.image(_h(sim, "floor"), False)
     assert not np.all(floor == [51, 102, 153], axis=2).any()  # the floor fills its view
+
+
+def test_a_sensor_sees_nothing_beyond_its_far_plane(load):
+    """V-REP clips a sensor's image at its clipping planes: with far = 1.2 m, looking down from
+    1.5 m, the floor is gone (the background colour), the tower's top (0.9 m away) stays."""
+    sim, _, _ = load(V.scene(V.vision_sensor(10, "short", far=1.2, background=(0.2, 0.4, 0.6)),
+                             V.vision_sensor(11, "long", far=2.0, background=(0.2, 0.4, 0.6))))
+    short, long_ = sim.vision.image(_h(sim, "short"), False), sim.vision.image(_h(sim, "long"), False)
+    _save("synthetic_far_plane.png", short)
+    bg = np.all(short == [51, 102, 153], axis=2)
+    tower = sim.vision.depth(_h(sim, "long")) < (1.2 - 0.1) / 1.9  # nearer than 1.2 m
+    assert tower.sum() > 50 and np.array_equal(bg, ~tower)
+    inside = cv2.erode(tower.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0  # not its anti-aliased edge
+    assert not np.all(long_ == [51, 102, 153], axis=2).any() and np.array_equal(short[inside], long_[inside])
 
 
 @pytest.mark.skipif(not TUTORIAL.is_file() and not os.environ.get("CI"), reason="needs ../shared/ttt-corpus")
