@@ -41,7 +41,8 @@ STEPS: dict[str, int] = {
     "workImgToBuffer1": 0, "workImgToBuffer2": 0, "buffer1ToWorkImg": 0, "buffer2ToWorkImg": 0,
     "swapBuffers": 0, "swapWorkImgWithBuffer1": 0, "addWorkImgToBuffer1": 0, "subtractWorkImgFromBuffer1": 0,
     "addBuffer1ToWorkImg": 0, "subtractBuffer1FromWorkImg": 0, "multiplyWorkImgWithBuffer1": 0,
-    "horizontalFlipWorkImg": 0, "verticalFlipWorkImg": 0, "shiftWorkImg": 3,
+    "horizontalFlipWorkImg": 0, "verticalFlipWorkImg": 0, "shiftWorkImg": 3, "rotateWorkImg": 1,
+    "resizeWorkImg": 2,
     "matrix3x3OnWorkImg": 11, "matrix5x5OnWorkImg": 27, "sharpenWorkImg": 0, "edgeDetectionOnWorkImg": 1,
     "rectangularCutWorkImg": 3, "circularCutWorkImg": 2, "normalizeWorkImg": 0,
     "intensityScaleOnWorkImg": 3, "selectiveColorOnWorkImg": 9, "scaleAndOffsetWorkImg": 10,
@@ -243,6 +244,18 @@ def _shift(work: np.ndarray, a: tuple[float, ...]) -> None:
             work[h + ys:] = 0.0
 
 
+def _gather(work: np.ndarray, src_x: np.ndarray, src_y: np.ndarray) -> None:
+    """Each pixel takes the one at (trunc(src_x), trunc(src_y)) (pixel units, C's int()), black
+    where that falls outside the image: simVision's nearest-pixel ``resizeWorkImg`` and
+    ``rotateWorkImg``."""
+    h, w = work.shape[:2]
+    x, y = np.trunc(src_x).astype(np.int64), np.trunc(src_y).astype(np.int64)
+    inside = (x >= 0) & (x < w) & (y >= 0) & (y < h)
+    out = np.zeros_like(work)
+    out[inside] = work[y[inside], x[inside]]
+    work[...] = out
+
+
 def _cut(st: FilterState, outside: np.ndarray, to_b1: bool) -> None:
     """Black the work image ``outside`` the cut; buffer 1 gets what was cut (if asked)."""
     if to_b1:
@@ -306,6 +319,15 @@ def _step(st: FilterState, s: Step, rgb: np.ndarray, depth: np.ndarray | None, r
         work[...] = work[::-1].copy()
     elif n == "shiftWorkImg":
         _shift(work, a)
+    elif n == "resizeWorkImg":  # scale x, y about the centre
+        h, w = work.shape[:2]
+        dy, dx = _centred(h, w)
+        _gather(work, np.broadcast_to(w / 2 + dx / a[0], (h, w)), np.broadcast_to(h / 2 + dy / a[1], (h, w)))
+    elif n == "rotateWorkImg":  # by a[0] rad about the centre
+        h, w = work.shape[:2]
+        dy, dx = _centred(h, w)
+        c, sn = math.cos(-a[0]), math.sin(-a[0])
+        _gather(work, w / 2 + dx * c - dy * sn, h / 2 + dx * sn + dy * c)
     elif n == "matrix3x3OnWorkImg":
         _matrix(work, a, 3)
     elif n == "matrix5x5OnWorkImg":

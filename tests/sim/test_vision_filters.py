@@ -32,8 +32,8 @@ def rgb():
 def test_parse_chain_names_what_is_wrong():
     assert VF.parse_chain("sensorImgToWorkImg;edgeDetectionOnWorkImg(0.2);workImgToSensorImg", "cam") == (
         VF.Step("sensorImgToWorkImg"), VF.Step("edgeDetectionOnWorkImg", (0.2,)), VF.Step("workImgToSensorImg"))
-    with pytest.raises(ValueError, match="'cam': unknown filter step 'rotateWorkImg"):
-        VF.parse_chain("rotateWorkImg(1)", "cam")
+    with pytest.raises(ValueError, match="'cam': unknown filter step 'colorSegmentationOnWorkImg"):
+        VF.parse_chain("colorSegmentationOnWorkImg(0.3)", "cam")
     with pytest.raises(ValueError, match="takes 1 finite numbers"):
         VF.parse_chain("edgeDetectionOnWorkImg", "cam")
     with pytest.raises(ValueError, match="takes 1 finite"):
@@ -156,3 +156,24 @@ def test_binary_packet_and_trigger():
     assert proportion == pytest.approx(0.25) and cx == pytest.approx(19.5 / 40) and cy == pytest.approx(4.5 / 40)
     assert angle == pytest.approx(0, abs=1e-6) and roundness < 0.1 and res.trigger
     assert not run(hit.replace("0.25,0.05", "0.5,0.05"), img).trigger
+
+
+def test_rotate_and_resize_take_the_nearest_pixel_about_the_centre(rgb):
+    """simVision's rotateWorkImg / resizeWorkImg, against their loops written out."""
+    h, w = rgb.shape[:2]
+    work = rgb / np.float32(255.0)
+
+    def ref(source):  # (i, j) -> where the pixel comes from, in pixels (C's int() truncation)
+        out = np.zeros_like(work)
+        for j in range(h):
+            for i in range(w):
+                x, y = (int(v) for v in source(i + 0.5 - w / 2, j + 0.5 - h / 2))
+                if 0 <= x < w and 0 <= y < h:
+                    out[j, i] = work[y, x]
+        return out_bytes(out)
+
+    c, s = math.cos(-0.3), math.sin(-0.3)
+    rotated = run("sensorImgToWorkImg;rotateWorkImg(0.3);workImgToSensorImg", rgb).image
+    assert np.array_equal(rotated, ref(lambda dx, dy: (w / 2 + dx * c - dy * s, h / 2 + dx * s + dy * c)))
+    resized = run("sensorImgToWorkImg;resizeWorkImg(1.5,0.75);workImgToSensorImg", rgb).image
+    assert np.array_equal(resized, ref(lambda dx, dy: (w / 2 + dx / 1.5, h / 2 + dy / 0.75)))

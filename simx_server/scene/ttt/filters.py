@@ -22,7 +22,7 @@ import numpy as np
 from simx_server.scene.ttt.records import Records
 
 #: V-REP's component type ids (simConst ``sim_filtercomponent_*``) that simx cannot apply.
-UNSUPPORTED = {15: "rotate", 17: "resize", 32: "correlation with buffer 1", 33: "colour segmentation",
+UNSUPPORTED = {32: "correlation with buffer 1", 33: "colour segmentation",
                35: "image to coordinates", 36: "pixel change", 37: "velodyne", -1: "plugin filter"}
 #: Components without parameters: type id -> simVision function.
 _PLAIN = {1: "sensorImgToWorkImg", 2: "sensorDepthMapToWorkImg", 4: "workImgToSensorImg",
@@ -56,6 +56,8 @@ def _defaults(t: int) -> tuple[list[int], list[int], list[float]]:
     """``CSimpleFilter::setFilterType``'s default (bytes, ints, floats) of a component type."""
     table: dict[int, tuple[list[int], list[int], list[float]]] = {
         3: ([], [], [1.0, 1.0, 1.0]),
+        15: ([], [], [math.radians(45.0)]),
+        17: ([], [], [1.2, 1.2]),
         16: ([0], [], [0.5, 0.5]),
         18: ([], [1], _gaussian(3)),
         19: ([], [1], _gaussian(5)),
@@ -133,7 +135,9 @@ def _step(c: FilterComponent) -> str | None:
     bit = (lambda k: 1 if b and b[0] & k else 0)
     calls = {
         3: lambda: _call("uniformImgToWorkImg", *f[:3]),
+        15: lambda: _call("rotateWorkImg", f[0]),
         16: lambda: _call("shiftWorkImg", f[0], f[1], 1 - bit(1)),
+        17: lambda: _call("resizeWorkImg", f[0], f[1]),
         18: lambda: _call("matrix3x3OnWorkImg", i[0], f[9], *f[:9]),
         19: lambda: _call("matrix5x5OnWorkImg", i[0], f[25], *f[:25]),
         21: lambda: _call("edgeDetectionOnWorkImg", f[0]),
