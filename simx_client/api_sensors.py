@@ -65,8 +65,7 @@ def simxGetVisionSensorImage(clientID, sensorHandle, options, operationMode):
 
 def _depth(value: list) -> tuple[list[int], ImageList]:
     resolution, data = value
-    floats = np.frombuffer(data, dtype=np.float32)
-    return list(resolution), ImageList.wrap(floats.tolist(), floats)
+    return list(resolution), ImageList.of_floats(data)
 
 
 def _depth_lazy(value: list) -> tuple[list[int], LazyImageList]:

@@ -14,7 +14,7 @@ from simx_server.commands.handler import Handler
 from simx_server.scene.simulation import Simulation
 from simx_server.sim import sensors
 from simx_server.sim.proximity import proximity_reading
-from simx_server.sim.sensors import force_sensor_reading, set_passive_image, stamp, vision_packet_job
+from simx_server.sim.sensors import force_sensor_reading, set_passive_image, stamp, vision_read_job
 from simx_server.sim.vision import Deferred
 from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR
 
@@ -47,17 +47,24 @@ def break_force_sensor(sim: Simulation, args: list) -> None:
 
 
 def read_vision_sensor(sim: Simulation, args: list) -> Deferred:
-    """``simxReadVisionSensor`` [h] -> [detectionState, [[15 floats]]], rendered later.
+    """``simxReadVisionSensor`` [h] -> [detectionState, [packet, ...]], rendered later.
 
-    One auxiliary packet, V-REP's default one (see :func:`vision_packet`), computed from the
-    sensor's current image and depth buffer on the render thread that draws them, as images
-    are: the simulation thread goes on while a large sensor renders. simx has no vision filters
-    nor trigger conditions, so detectionState is always False and there are no further packets.
+    V-REP's default packet (15 floats, see :func:`vision_packet`; empty when the sensor's
+    "compute basic statistics" is off), then one packet per filter step that makes one (blob
+    detection: ``[count, 6, size, angle, x, y, width, height, ...]``), computed from the
+    sensor's current frames on the render thread that draws them, as images are: the
+    simulation thread goes on while a large sensor renders. detectionState: a filter step
+    triggered the sensor (``binaryWorkImg``'s trigger).
     """
     (h,) = _args(args, "int")
     sim.world.get(h, VISION_SENSOR)
-    packet = vision_packet_job(sim, h)
-    return sim.vision.rendered_with(h, lambda: [False, [packet()]])
+    read = vision_read_job(sim, h)
+
+    def reply() -> list:
+        trigger, packets = read()
+        return [trigger, packets]
+
+    return sim.vision.rendered_with(h, reply)
 
 
 def set_vision_sensor_image(sim: Simulation, args: list) -> None:
@@ -147,8 +154,9 @@ def image_size(sim: Simulation, name: str, args: list) -> int:
     spec = sim.vision.specs.get(args[0]) if args and type(args[0]) is int else None
     if spec is None:
         return 0
-    if name == "ReadVisionSensor":
-        return PACKET_BYTES
+    if name == "ReadVisionSensor":  # blob packets: at most a blob per 2 pixels, 6 doubles each
+        blobs = any(st.name == "blobDetectionOnWorkImg" for st in spec.filters)
+        return PACKET_BYTES + (27 * spec.pixels if blobs else 0)
     if name == "GetVisionSensorDepthBuffer":
         return spec.depth_size()
     return spec.image_size(len(args) > 1 and type(args[1]) is int and bool(args[1] & 1))

@@ -9,8 +9,10 @@ described with what a porting user must match: its handle, its V-REP type (the
 * joints: revolute / prismatic / spherical, V-REP's joint mode (force/torque mode: motor on or
   off, control loop on = position target, off = velocity target, as :mod:`simx_server.sim.motors`
   implements them), maximum force/torque and upper velocity, position range;
-* vision sensors: resolution, image kind, near/far clipping planes and perspective angle (the
-  larger of the horizontal and vertical view angles, as ``sim_visionfloatparam_perspective_angle``);
+* vision sensors: resolution, image kind (``depth`` also for a filter chain that outputs the
+  depth image), near/far clipping planes and perspective angle (the
+  larger of the horizontal and vertical view angles, as ``sim_visionfloatparam_perspective_angle``),
+  the filter chain (:mod:`simx_server.sim.vision_filters`);
 * proximity sensors: the range (the rangefinder's cutoff); lights: directional or spotlight;
 * any object with a child script: its file and language.
 
@@ -32,6 +34,7 @@ from simx_server.base.limits import MAX_JOINT_FORCE
 from simx_server.base.scene_guard import transfer_folders
 from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.sim import naming
+from simx_server.sim import vision_filters as VF
 from simx_server.sim import world as W
 from simx_server.sim.group_data import _joint_properties
 from simx_server.sim.object_params import _perspective
@@ -62,8 +65,13 @@ def _joint(world: W.World, obj: W.SceneObject) -> dict[str, Any]:
 
 def _vision_sensor(world: W.World, obj: W.SceneObject) -> dict[str, Any]:
     spec = sensor_spec(world.model, obj)
-    return {"resolution": [spec.width, spec.height], "image": "depth" if spec.depth_image else "rgb",
-            "near": spec.near, "far": spec.far, "view_angle": _perspective(world.model, spec)}
+    steps = [s.name + (f"({','.join(f'{a:g}' for a in s.args)})" if s.args else "") for s in spec.filters]
+    depth = spec.depth_image or (VF.uses_depth(spec.filters) and VF.writes_image(spec.filters))
+    out = {"resolution": [spec.width, spec.height], "image": "depth" if depth else "rgb",
+           "near": spec.near, "far": spec.far, "view_angle": _perspective(world.model, spec)}
+    if steps:
+        out["filters"] = ";".join(steps)
+    return out
 
 
 def describe(scene: str | Path, dt: float | None = None, name: str | None = None) -> dict[str, Any]:
@@ -153,6 +161,8 @@ def _settings_text(o: dict[str, Any]) -> str:
         w, h = o["resolution"]
         parts.append(f"{w}x{h} {o['image']}, near {o['near']:g} m, far {o['far']:g} m, "
                      f"view angle {math.degrees(o['view_angle']):.4g} deg")
+        if "filters" in o:
+            parts.append(f"filters {o['filters']}")
     elif o["type"] == W.SHAPE and "body" in o:
         parts.append(o["body"])
     elif o["type"] == W.PROXIMITY_SENSOR:

@@ -168,16 +168,17 @@ class SensingCalls:
     def _vision(self, handle: Any) -> int:
         return self._world.get(self._h(handle, "sensorHandle"), VISION_SENSOR).handle
 
-    def handleVisionSensor(self, sensorHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
-        """Render the sensor now: ``detectionCount, auxPacket1`` (0, V-REP's 15 values: min, max,
-        average of intensity, red, green, blue, depth, 0..1). ``sim.handle_all``: each sensor;
-        returns the last's.
+    def handleVisionSensor(self, sensorHandle: Any) -> tuple:  # noqa: N802, N803
+        """Render the sensor now: ``detectionCount, auxPacket1, auxPacket2...``: how many sensors
+        their filters triggered, V-REP's 15 values (min, max, average of intensity, red, green,
+        blue, depth, 0..1) and the filters' packets (see :meth:`readVisionSensor`).
+        ``sim.handle_all``: each sensor; returns the last's packets.
 
         Args:
             sensorHandle: a vision sensor, or ``sim.handle_all``.
 
         Returns:
-            ``(0, packet)`` (rendered on the render thread).
+            ``(count, packet, ...)`` (rendered on the render thread).
 
         Raises:
             UnknownObjectError: no such object.
@@ -187,25 +188,38 @@ class SensingCalls:
         sim = self._simulation("handleVisionSensor")
         handles = (self._world.objects_of_type(VISION_SENSOR)
                    if h in (C.sim_handle_all, C.sim_handle_all_except_explicit) else [self._vision(h)])
-        jobs = [sensors.vision_packet_job(sim, one) for one in handles]  # each rendered now
-        return self._rendered("handleVisionSensor", lambda: (0, jobs[-1]() if jobs else []))
+        jobs = [sensors.vision_read_job(sim, one) for one in handles]  # each rendered now
 
-    def readVisionSensor(self, sensorHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
-        """``result, auxPacket1``: result 0 (no detection trigger in simx's filters), the 15-value
-        packet of the sensor's current image (as ``simxReadVisionSensor``).
+        def finish() -> tuple:
+            results = [job() for job in jobs]
+            return (sum(t for t, _ in results), *(results[-1][1] if results else [[]]))
+
+        return self._rendered("handleVisionSensor", finish)
+
+    def readVisionSensor(self, sensorHandle: Any) -> tuple:  # noqa: N802, N803
+        """``result, auxPacket1, auxPacket2...`` (as ``simxReadVisionSensor``): result 1 when a
+        filter step of the sensor triggered (``binaryWorkImg``), else 0; V-REP's default packet
+        of the sensor's image before its filters (15 floats in 0..1, empty when its "compute
+        basic statistics" is off), then each filter step's packet (``blobDetectionOnWorkImg``:
+        ``[count, 6, size, angle, x, y, width, height, ...]``).
 
         Args:
             sensorHandle: a vision sensor's handle.
 
         Returns:
-            ``(0, packet)``: 15 floats in 0..1.
+            ``(result, packet, ...)``.
 
         Raises:
             UnknownObjectError: no such object.
             ObjectTypeError: not a vision sensor.
         """
-        job = sensors.vision_packet_job(self._simulation("readVisionSensor"), self._vision(sensorHandle))
-        return self._rendered("readVisionSensor", lambda: (0, job()))
+        job = sensors.vision_read_job(self._simulation("readVisionSensor"), self._vision(sensorHandle))
+
+        def finish() -> tuple:
+            trigger, packets = job()
+            return (int(trigger), *packets)
+
+        return self._rendered("readVisionSensor", finish)
 
     def checkVisionSensor(self, sensorHandle: Any, entityHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
         """As :meth:`readVisionSensor` (simx renders the whole scene: ``entityHandle`` is checked

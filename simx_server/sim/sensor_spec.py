@@ -1,5 +1,6 @@
 """A vision sensor's static properties (:class:`SensorSpec`): resolution, near and far clipping,
-image kind, render mode, and the byte sizes of its image and depth buffer, read from the MuJoCo
+image kind, render mode, filter chain, V-REP's options (ignore RGB / depth, basic statistics,
+background colour), and the byte sizes of its image and depth buffer, read from the MuJoCo
 camera and its ``simx:NAME`` custom text (:func:`sensor_spec`). Rendering is
 :mod:`simx_server.sim.vision`.
 """
@@ -12,6 +13,7 @@ import mujoco
 
 from simx_server.sim import handle_render
 from simx_server.sim.physics import check_resolution
+from simx_server.sim.vision_filters import Step, parse_chain
 
 DEFAULT_RESOLUTION = (256, 256)
 DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10.0
@@ -29,6 +31,13 @@ class SensorSpec:
     shadows: bool = False
     reflections: bool = False
     render_mode: int = handle_render.OPENGL  # sim_visionintparam_render_mode; 2: colour-coded handles
+    filters: tuple[Step, ...] = ()  # the filter chain (simx_server.sim.vision_filters)
+    ignore_rgb: bool = False  # V-REP's "ignore RGB info": the image is the background colour
+    ignore_depth: bool = False  # "ignore depth info": the depth buffer is all 1 (far)
+    basic_stats: bool = True  # V-REP's default packet is computed (else it is empty)
+    #: the background colour, bytes (V-REP's value x 255.1): what an ignore-RGB sensor shows and
+    #: what a sensor shows where no object is (None: MuJoCo's sky box, black for ignore-RGB)
+    background: tuple[int, int, int] | None = None
 
     @property
     def pixels(self) -> int:
@@ -84,4 +93,19 @@ def sensor_spec(model: mujoco.MjModel, obj) -> SensorSpec:
     return SensorSpec(obj.mj_id, w, h, float(s.get("near", DEFAULT_NEAR)), float(s.get("far", DEFAULT_FAR)),
                       s.get("image", "rgb") == "depth",
                       shadows=_flag(s, "shadows", obj.name), reflections=_flag(s, "reflections", obj.name),
-                      render_mode=handle_render.parse_mode(s, obj.name))
+                      render_mode=handle_render.parse_mode(s, obj.name),
+                      filters=parse_chain(s.get("filters", ""), obj.name),
+                      ignore_rgb=_flag(s, "ignore_rgb", obj.name), ignore_depth=_flag(s, "ignore_depth", obj.name),
+                      basic_stats=s.get("basic_stats", "true").lower() != "false",
+                      background=_colour(s["background"], obj.name) if "background" in s else None)
+
+
+def _colour(text: str, sensor: str) -> tuple[int, int, int]:
+    """``background=r,g,b`` (0..1 each) as V-REP's bytes (value x 255.1, truncated)."""
+    try:
+        rgb = [float(c) for c in text.split(",")]
+    except ValueError:
+        rgb = []
+    if len(rgb) != 3 or not all(0.0 <= c <= 1.0 for c in rgb):
+        raise ValueError(f"vision sensor {sensor!r}: background={text[:40]!r} must be three numbers 0..1")
+    return tuple(int(c * 255.1) for c in rgb)

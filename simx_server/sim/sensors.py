@@ -250,14 +250,16 @@ def force_sensor_reading(sim: SimulationView, handle: int) -> tuple[int, list[fl
 
 # ----------------------------------------------------------------- vision sensors
 def vision_packet(sim: SimulationView, handle: int) -> list[float]:
-    """V-REP's default vision packet: 15 floats in 0..1.
+    """V-REP's default vision packet: 15 floats in 0..1 (empty when the sensor's "compute
+    basic statistics" is off).
 
-    min, max and average of (intensity, red, green, blue, depth) over the sensor's current
-    image (intensity = (R + G + B) / 3) and depth buffer (normalised between near and far).
-    Passive sensors use their stored image; the depth is always the rendered one (what
-    simxGetVisionSensorDepthBuffer returns). Waits for the render (see :func:`vision_packet_job`).
+    min, max and average of (intensity, red, green, blue, depth) over the sensor's image before
+    its filters (intensity = (R + G + B) // 3; bytes in V-REP's integer arithmetic, averages
+    truncated) and depth buffer (normalised between near and far), as V-REP computed it
+    before applying the filters (``CVisionSensor::_computeDefaultReturnValuesAndApplyFilters``).
+    Passive sensors use their stored image. Waits for the render (see :func:`vision_read_job`).
 
-    Implements ``simxReadVisionSensor``'s packet.
+    Implements ``simxReadVisionSensor``'s first packet.
 
     Args:
         sim: the simulation.
@@ -270,35 +272,25 @@ def vision_packet(sim: SimulationView, handle: int) -> list[float]:
         UnknownObjectError: no such object.
         ObjectTypeError: not a vision sensor.
     """
-    return sim.vision.after(vision_packet_job(sim, handle)).result()
+    return sim.vision.after(vision_read_job(sim, handle)).result()[1][0]
 
 
-def vision_packet_job(sim: SimulationView, handle: int) -> Callable[[], list[float]]:
-    """:func:`vision_packet`'s frames submitted (simulation thread); the job returned computes
-    the packet from them, on the request render thread after them (``VisionSensors.after``).
+def vision_read_job(sim: SimulationView, handle: int) -> Callable[[], tuple[bool, list[list[float]]]]:
+    """``simxReadVisionSensor``'s frames submitted (simulation thread); the job returned gives
+    ``(triggered, packets)`` from them, on the render thread after them: V-REP's default packet
+    (:func:`vision_packet`), then one packet per filter step that makes one (blob detection,
+    binary image), and whether a filter step triggered the sensor
+    (``VisionSensors.read_job``). A passive sensor's stored image is measured, unfiltered.
 
     Args:
         sim: the simulation.
         handle: a vision sensor's handle.
 
     Returns:
-        A function of no argument that returns the 15 floats of :func:`vision_packet`.
+        A function of no argument that returns ``(triggered, [packet, ...])``.
 
     Raises:
         UnknownObjectError: no such object.
         ObjectTypeError: not a vision sensor.
     """
-    rgb = override_image(sim, handle, False)
-    image = (lambda: rgb) if rgb is not None else sim.vision.image_job(handle, False)
-    depth_job = sim.vision.depth_job(handle)
-
-    def packet() -> list[float]:
-        px = image().reshape(-1, 3)
-        intensity = px.sum(axis=1, dtype=np.uint32)
-        depth = depth_job()
-        mins = [intensity.min() / 765.0, *(px.min(axis=0) / 255.0), float(depth.min())]
-        maxs = [intensity.max() / 765.0, *(px.max(axis=0) / 255.0), float(depth.max())]
-        avgs = [intensity.mean() / 765.0, *(px.mean(axis=0) / 255.0), float(depth.mean(dtype=np.float64))]
-        return [float(x) for x in (*mins, *maxs, *avgs)]
-
-    return packet
+    return sim.vision.read_job(handle, override_image(sim, handle, False))

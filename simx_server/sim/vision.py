@@ -7,7 +7,10 @@ near/far clipping planes and image kind come from the ``simx:NAME`` custom text
 (``near=0.01 far=10 image=rgb|depth``). A sensor with ``image=depth`` shows its depth as grey
 in all three channels (near dark, far bright), as a V-REP depth sensor with a
 "depth to image" filter does. ``render_mode=handles`` (or ``sim_visionintparam_render_mode`` set
-to 2) makes the image V-REP's colour-coded handles (simx_server.sim.handle_render).
+to 2) makes the image V-REP's colour-coded handles (simx_server.sim.handle_render). A sensor
+with a ``background=`` colour (every sensor of a ``.ttt``) is drawn as V-REP drew it: no sky
+box, that colour where no object is, nothing outside its near and far planes; its filter chain
+and options ("ignore RGB", ...) are :mod:`simx_server.sim.vision_chain`.
 
 Like V-REP's default vision-sensor renderer (plain OpenGL), sensors draw neither shadows nor
 reflections, whatever the scene's lights and materials say; ``shadows=true`` and
@@ -66,24 +69,13 @@ from simx_server.sim import handle_render, vision_look
 from simx_server.sim.physics import check_resolution
 from simx_server.sim.render_thread import RenderThread, render_bands
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
+from simx_server.sim.vision_chain import VisionChain, clip_planes
 from simx_server.sim.vision_results import Deferred, VisionResults
 from simx_server.sim.world import VISION_SENSOR, World
 
 log = logging.getLogger("simx.vision")
 
-_THIRD = (np.arange(3 * 255 + 1) // 3).astype(np.uint8)  # (R + G + B) -> (R + G + B) // 3
-
-
-def _grey(img: np.ndarray) -> np.ndarray:
-    """V-REP's grey image of an (h, w, 3) uint8 RGB image: (R + G + B) // 3, (h, w) uint8 (a sum
-    of the planes and a table: 6x faster than numpy's sum over the last axis, 0.07 s at 4096²)."""
-    total = img[..., 0].astype(np.uint16)
-    total += img[..., 1]
-    total += img[..., 2]
-    return _THIRD[total]
-
-
-class VisionSensors(VisionResults):
+class VisionSensors(VisionChain, VisionResults):
     """The scene's vision sensors.
 
     Methods are called on the simulation thread; rendering happens on render threads (each a
@@ -117,6 +109,7 @@ class VisionSensors(VisionResults):
         self.for_streams = False
         self._cache: dict[tuple[int, str], tuple[int, Future, RenderThread]] = {}
         self._colours: np.ndarray | None = None  # geom id -> packed handle colour (handle_render)
+        self._filter_states: dict = {}  # handle -> its filter chain's images (vision_filters.FilterState)
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
         self._ready = self._prepare(self._thread)
@@ -129,6 +122,7 @@ class VisionSensors(VisionResults):
         self.specs: dict[int, SensorSpec] = {}
         self._cache.clear()
         self._colours = None
+        self._filter_states.clear()
         m = world.model
         vision_look.scene_look(m)  # a look it cannot give refuses the scene (ValueError)
         for obj in world.objects.values():
@@ -278,7 +272,11 @@ class VisionSensors(VisionResults):
             r.update_scene(data, camera=spec.camera, scene_option=thread.option)
             r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
             r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
-            if kind == "rgb":
+            # V-REP clears a sensor's image to its background colour: no sky box behind the scene
+            r.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = spec.background is None
+            if spec.background is not None and kind != "depth":
+                clip_planes(r.scene, spec.near, spec.far)  # and nothing outside its planes
+            if kind == "rgb":  # (after the planes: it moves an orthographic camera back, planes too)
                 vision_look.apply(r.scene, model)  # V-REP's lighting where the scene asks for it
             return render_bands(r, spec.height)
         finally:
@@ -378,10 +376,11 @@ class VisionSensors(VisionResults):
         self._cache[(handle, kind)] = (version, future, thread)
         return future
 
-    def depth_job(self, handle: int) -> Callable[[], np.ndarray]:
+    def _rendered_depth_job(self, handle: int) -> Callable[[], np.ndarray]:
         """The sensor's depth frame of the world's current state submitted (simulation thread);
         the job returned gives it, run on the request render thread after it (:meth:`after`),
-        normalised to 0..1 between near and far, (h, w) float32, rows bottom-up. Raises
+        normalised to 0..1 between near and far, (h, w) float32, rows bottom-up (before the
+        sensor's options and filters: see :meth:`depth_job`). Raises
         UnknownObjectError/ObjectTypeError for other handles.
 
         Args:
@@ -406,13 +405,12 @@ class VisionSensors(VisionResults):
             return "handles"
         return "depth" if spec.depth_image else "rgb"
 
-    def image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]:
-        """As :meth:`depth_job`, for the sensor's image: (h, w, 3) uint8 RGB, or (h, w) uint8 when
-        ``grey``, rows bottom-up.
+    def _rendered_image_job(self, handle: int) -> Callable[[], np.ndarray]:
+        """As :meth:`_rendered_depth_job`, for the sensor's rendered image: (h, w, 3) uint8 RGB,
+        rows bottom-up (before the sensor's options and filters: see :meth:`image_job`).
 
         Args:
             handle: a vision sensor's handle.
-            grey: one byte per pixel.
 
         Returns:
             The job.
@@ -422,27 +420,17 @@ class VisionSensors(VisionResults):
             if self._colours is None:
                 self._colours = handle_render.geom_colours(self.world)
             seg, colours = self._frame(handle, "handles"), self._colours
-
-            def coded() -> np.ndarray:
-                img = handle_render.coded_image(seg.result(), colours)[::-1]
-                return _grey(img) if grey else img
-
-            return coded
+            return lambda: handle_render.coded_image(seg.result(), colours)[::-1]
         if kind == "depth":
-            depth = self.depth_job(handle)
+            depth = self._raw_depth_job(handle)
 
             def from_depth() -> np.ndarray:
                 g = np.rint(depth() * 255.0).astype(np.uint8)
-                return g if grey else np.repeat(g[:, :, None], 3, axis=2)
+                return np.repeat(g[:, :, None], 3, axis=2)
 
             return from_depth
         raw = self._frame(handle, "rgb")
-
-        def rgb() -> np.ndarray:
-            img = raw.result()[::-1]
-            return _grey(img) if grey else img
-
-        return rgb
+        return lambda: raw.result()[::-1]
 
     def close(self) -> None:
         """Finish pending jobs, free every GL context (on its thread) and stop; idempotent.

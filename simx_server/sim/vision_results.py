@@ -95,7 +95,7 @@ class VisionResults:
             spec, frame = self.spec(handle), job()
             thread = self._target(spec)
             cached = thread.executor.submit(
-                lambda: [[spec.width, spec.height], np.ascontiguousarray(frame()).tobytes()]), thread
+                lambda: [[spec.width, spec.height], np.asarray(frame()).tobytes()]), thread  # one copy, flipped or not
             self._cache[(handle, kind)] = (self.world.version, *cached)
         return Deferred(*cached)
 

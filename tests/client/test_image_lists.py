@@ -288,6 +288,22 @@ def test_a_lazy_reply_is_the_legacy_reply_unmade():
     assert type(dep) is LazyImageList and list.__len__(dep) == 0 and dep == _depth([[64, 48], floats])[1]
 
 
+def test_depth_lists_are_made_in_one_pass_with_the_same_values(monkeypatch):
+    """``ImageList.of_floats`` (the depth reply's list, made from the bytes in one C loop)
+    equals the float32 values' ``tolist()``, keeps them as the array, and a host whose float
+    is not the wire's little-endian float32 takes NumPy's path to the same list."""
+    import simx_client.images as images
+
+    raw = np.random.default_rng(1).random(64 * 48, dtype=np.float32)
+    raw[:5] = [0.0, 1.0, np.float32(1 / 3), np.nextafter(np.float32(1), np.float32(0)), 1e-30]
+    fast = ImageList.of_floats(raw.tobytes())
+    assert type(fast) is ImageList and fast == raw.tolist() and all(type(v) is float for v in fast[:5])
+    assert np.array(fast, dtype=np.float32).tobytes() == raw.tobytes()
+    monkeypatch.setattr(images, "_LITTLE", False)
+    slow = ImageList.of_floats(raw.tobytes())
+    assert slow == fast and np.array_equal(np.array(slow, dtype=np.float32), raw)
+
+
 def test_lazy_lists_from_a_real_server_are_per_client(vrep_client):
     import vrep
 

@@ -279,12 +279,14 @@ def test_vision_packet_matches_the_image_and_depth(sim):
     cam = H(sim, "cam")
     detected, packets = cmd_sensors.read_vision_sensor(sim, [cam]).future.result()  # rendered later
     assert detected is False and len(packets) == 1 and len(packets[0]) == 15
-    rgb = sim.vision.image(cam, False).astype(float) / 255.0
+    img = sim.vision.image(cam, False).astype(np.int64)
     depth = sim.vision.depth(cam).astype(float)
-    channels = [rgb.mean(axis=2), rgb[..., 0], rgb[..., 1], rgb[..., 2], depth]
-    expected = ([c.min() for c in channels] + [c.max() for c in channels]
-                + [c.mean() for c in channels])
+    # V-REP 3.x's integer arithmetic: intensity (R + G + B) // 3, averages truncated, / 255
+    channels = [img.sum(axis=2) // 3, img[..., 0], img[..., 1], img[..., 2]]
+    expected = ([c.min() / 255 for c in channels] + [depth.min()] + [c.max() / 255 for c in channels]
+                + [depth.max()] + [(c.sum() // c.size) / 255 for c in channels] + [depth.mean()])
     assert packets[0] == pytest.approx(expected, abs=1e-6)
+    rgb = img / 255.0
     assert rgb.max() > 0.5 and depth.min() < depth.max()  # the scene is in view, not blank
     with pytest.raises(ObjectTypeError):
         cmd_sensors.read_vision_sensor(sim, [H(sim, "prox")])
@@ -315,7 +317,8 @@ def test_passive_sensor_image_set_get_and_packet(sim):
     packet = cmd_sensors.read_vision_sensor(sim, [passive]).future.result()[1][0]
     assert packet[1:4] == pytest.approx([0.0, 1 / 255, 2 / 255])  # R, G, B minima
     assert packet[6:9] == pytest.approx([141 / 255, 142 / 255, 143 / 255])  # maxima
-    assert packet[10] == pytest.approx(img.mean() / 255)  # average intensity
+    # average intensity: V-REP's integer mean of the per-pixel (R + G + B) // 3
+    assert packet[10] == pytest.approx((img.astype(int).sum(axis=2) // 3).sum() // 48 / 255)
     grey = bytes(range(48))
     cmd_sensors.set_vision_sensor_image(sim, [passive, list(grey), 1])  # a list of ints, grey
     assert np.array_equal(S.override_image(sim, passive, True), np.arange(48).reshape(6, 8))

@@ -12,7 +12,8 @@ test process:
   (joint 2 at 31, joint 3 at 30 degrees), set from the test's client, opening to its limit;
 * SPACE saves ``saveImg\\rgbImg\\<8 chars>_rgb.jpg`` and ``saveImg\\depthImg\\<8 chars>_depth.jpg``
   (Windows-style paths: on Linux plain file names with backslashes, in the program's cwd);
-  the RGB one is a real picture, the depth one loads;
+  the RGB one is a real picture, the depth one kinect_depth's grey depth image inverted by the
+  program (near pixels bright), as on V-REP;
 * P exits with status 0 within 5 s;
 * the server still serves a new client afterwards.
 """
@@ -44,6 +45,7 @@ TUTORIAL_TTT = SHARED / "ttt-corpus" / "Ianlande+Vrep_yolov3_ddpg_pytorch__scene
 PORT = 19999  # hard-coded in robotControl.py
 TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees: the DDPG part's pose
 BENT_POSE = [0, 31, 30, 0, 0, 0]  # joint 2 at 31, joint 3 at 30 degrees (issue 41)
+PNGS = Path(os.environ.get("SIMX_TEST_PNGS", "/nonexistent"))  # where to keep the saved images, to look at
 TITLE = "Vrep yolov3 ddpg pytorch"
 FRAME = "imgTemp\\frame.jpg"  # one file name with a backslash (the program's Windows path)
 RGB_NAME = re.compile(r"^saveImg\\rgbImg\\([A-Za-z0-9]{8})_rgb\.jpg$")
@@ -85,7 +87,7 @@ def server19999(request):
         if "cannot listen" in str(exc):  # lost a race for the port
             pytest.skip(f"port {PORT} (hard-coded in robotControl.py) was taken: {exc}")
         raise
-    srv.kind = request.param  # which scene the test runs on
+    srv.kind = request.param  # which scene the test runs on (and names the images kept for SIMX_TEST_PNGS)
     yield srv
     srv.stop()
 
@@ -158,6 +160,23 @@ def press(display: str, window_id: str, key: str, times: int = 1) -> None:
     """
     for _ in range(times):
         send_keys(display, window_id, key, delay_ms=0)
+
+
+def _check_depth_image(saved, vrep, cid: int, kinect: int) -> None:
+    """robotControl's depth image is kinect_depth's grey depth image, inverted (255 - value,
+    rows top-down): grey, and bright where the sensor's depth buffer is near."""
+    import numpy as np
+
+    assert np.abs(saved.astype(int) - saved[..., :1]).max() <= 12, "the depth image is not grey (JPEG aside)"
+    rc, res, buf = vrep.simxGetVisionSensorDepthBuffer(cid, kinect, vrep.simx_opmode_blocking)
+    assert rc == 0
+    depth = np.asarray(buf, np.float32).reshape(res[1], res[0])[::-1]  # rows top-down, as saved
+    grey = saved[..., 0].astype(np.float64)
+    near, far = depth < 0.6, depth > 0.95  # 0..1 between the sensor's near and far planes
+    assert near.sum() > 100 and far.sum() > 100, "kinect_depth should see near and far things"
+    assert grey[near].mean() > grey[far].mean() + 30, "near pixels are not brighter than far ones"
+    expected = 255 - (depth * np.float32(255.1)).astype(np.uint8).astype(np.float64)
+    assert np.corrcoef(grey.ravel(), expected.ravel())[0, 1] > 0.95
 
 
 def _saved(cwd: Path, pattern: re.Pattern) -> list[str]:
@@ -252,7 +271,15 @@ def test_robotcontrol_keyboard_session(server19999, tmp_path):
                               lambda: abs(math.degrees(joint(j1)) - 10.0) < 0.5
                               and all(abs(joint(h)) < 0.01 for h in handles[1:]), 60)
 
-            # --- SPACE saves an RGB and a depth JPEG under Windows-style names.
+            # --- SPACE saves an RGB and a depth JPEG under Windows-style names (the gripper still,
+            # so that the depth buffer read below shows what the saved image shows).
+            settled(grip, "the RG2 to finish opening")
+            rc, camera = vrep.simxGetObjectHandle(cid, "DetectionCamera", B)
+            if rc == 0:  # the tutorial's scene.ttt: its Kinect looks along -x at nothing within 3.5 m;
+                # 1.2 m in front of the robot it sees it (kinect_depth: V-REP's grey depth image)
+                assert vrep.simxSetObjectPosition(cid, camera, -1, [1.2, 0.35, 1.0], B) == 0
+            rc, kinect = vrep.simxGetObjectHandle(cid, "kinect_depth", B)
+            assert rc == 0, prog.diagnostics()
             press(xd.display, wid, "space")
             prog.wait_for("'save image' on stdout",
                           lambda: "save image" in _tail(prog.out_path, 10_000), 90, period=0.2)
@@ -272,6 +299,10 @@ def test_robotcontrol_keyboard_session(server19999, tmp_path):
                 assert rgb is not None and rgb.shape == (480, 640, 3), f"bad RGB image {i}{prog.diagnostics()}"
                 assert float(rgb.std()) > 10.0, f"RGB image {i} is blank (std {rgb.std():.2f})"
                 assert depth is not None and depth.shape == (480, 640, 3), f"bad depth image {i}{prog.diagnostics()}"
+                if PNGS.is_dir():  # to look at
+                    cv2.imwrite(str(PNGS / f"robotcontrol_{server19999.kind}_depth.png"), depth)
+                    cv2.imwrite(str(PNGS / f"robotcontrol_{server19999.kind}_rgb.png"), rgb)
+                _check_depth_image(depth, vrep, cid, kinect)
 
             # --- P quits with status 0 within 5 s.
             press(xd.display, wid, "p")

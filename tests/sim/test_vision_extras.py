@@ -110,7 +110,7 @@ def test_sensor_images_show_no_visualisation_extras(sim):
 
 def test_grey_images_are_v_reps_integer_mean():
     """V-REP's grey image (options bit 0): (R + G + B) // 3 per pixel, by a table (exact)."""
-    from simx_server.sim.vision import _grey
+    from simx_server.sim.vision_chain import grey_of as _grey
 
     img = np.random.default_rng(3).integers(0, 256, (64, 48, 3), dtype=np.uint8)
     expected = (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)

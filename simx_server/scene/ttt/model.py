@@ -118,6 +118,14 @@ class VisionData:
     far: float
     perspective: bool
     explicit: bool
+    #: filter components (simx_server.scene.ttt.filters.FilterComponent), in order
+    filters: list = field(default_factory=list)
+    ignore_rgb: bool = False
+    ignore_depth: bool = False
+    basic_stats: bool = True  # V-REP's default packet (``Va2`` bit 4 clear)
+    background: np.ndarray | None = None  # default background colour ``Db2`` (RGB 0-1)
+    same_background: bool = False  # the environment's background instead (``Va3`` bit 7)
+    render_mode: int = 0  # sim_rendermode_*: 0 OpenGL, 1 auxiliary channels, 2 colour-coded handles
 
 
 @dataclass
@@ -216,6 +224,7 @@ class TttScene:
     time_step: float = 0.05  # s
     background: tuple[np.ndarray, np.ndarray] | None = None  # environment colours: up, down (RGB 0-1)
     ambient: np.ndarray | None = None  # ambient light (RGB 0-1)
+    fog_background: np.ndarray | None = None  # the environment's fog/sensor background ``Fbg`` (RGB 0-1)
     skipped: dict[str, int] = field(default_factory=dict)  # what was read but is not modelled: count
     saved_settings: object | None = None  # settings.SavedSettings: the SIM/DYN records' settings
     measurements: list = field(default_factory=list)  # measurements.Measurement: COL/DST objects

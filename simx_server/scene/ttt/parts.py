@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 
 from simx_server.scene.ttt import looks, mechanisms
+from simx_server.scene.ttt.filters import vision_settings
 from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
 from simx_server.sim.ik import MAX_ELEMENTS as MAX_IK_ELEMENTS
 from simx_server.sim.motors import DEFAULT_PID_P
@@ -148,7 +149,8 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         else:
             cam.proj = mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC
             cam.fovy = max(v.ortho_size, 1e-4) * (h / w if w > h else 1.0)
-        conv.setting(obj.name, "image=rgb", f"near={max(v.near, 1e-4):.6g}", f"far={max(v.far, v.near + 1e-3):.6g}")
+        conv.setting(obj.name, "image=rgb", f"near={max(v.near, 1e-4):.6g}", f"far={max(v.far, v.near + 1e-3):.6g}",
+                     *vision_settings(conv, v, obj.name))
         return
     if kind == "light":
         light = body.add_light()

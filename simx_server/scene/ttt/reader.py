@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simx_server.scene.ttt import custom, looks, measurements, settings, shapes
+from simx_server.scene.ttt import custom, filters, looks, measurements, settings, shapes
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.errors import SceneFileError
 from simx_server.scene.ttt.geometry import pose7
@@ -264,7 +264,11 @@ def _read_vision(r: Records) -> VisionData:
     va3 = r.byte("Va3", 1)
     ortho, angle, near, far = (float(v) for v in ccp) if ccp is not None else (1.0, np.radians(60), 0.01, 10.0)
     w, h = (int(res[0]), int(res[1])) if res is not None else (256, 256)
-    return VisionData((w, h), angle, ortho, near, far, perspective=bool(va3 & 1), explicit=bool(va3 & 2))
+    va2 = r.byte("Va2")
+    return VisionData((w, h), angle, ortho, near, far, perspective=bool(va3 & 1), explicit=bool(va3 & 2),
+                      filters=filters.read_filters(r), ignore_rgb=bool(va2 & 2), ignore_depth=bool(va2 & 4),
+                      basic_stats=not va2 & 16, background=r.floats(None, "Db2", 3),
+                      same_background=bool(va3 & 128), render_mode=r.int("Rmd", 0))
 
 
 def _read_script(r: Records) -> Script:
@@ -342,6 +346,9 @@ def _read_environment(r: Records, scene: TttScene) -> None:
     scene.ambient = looks.read_ambient(r)
     if r.byte("Var") & 16:  # CEnvironment's fogEnabled: V-REP's sensors drew it
         scene.skipped["fog (vision sensors draw none)"] = 1
+    fbg = r.floats(None, "Fbg", 3)  # what vision sensors clear to (CVisionSensor: glClearColor)
+    if fbg is not None and np.all(np.isfinite(fbg)):
+        scene.fog_background = np.clip(fbg, 0, 1)
 
 
 def _read_texture(r: Records) -> Texture | None:
