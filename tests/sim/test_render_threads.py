@@ -242,8 +242,13 @@ def test_the_stream_thread_owes_its_drawing_time_less_its_share():
 
 
 def test_streamed_frames_of_the_stream_thread_count_against_its_share(sim, monkeypatch):
+    """A frame drawn on the stream thread is charged to it, and its debt decides whether streams
+    skip steps. The debt's fall with time (tested above, with explicit times) is stopped here
+    (a share of 0): the time between drawing and reading the debt, which machine load decides,
+    then changes nothing (with the real share the debt had fallen to 0 once under load)."""
     from simx_server.base import limits
 
+    monkeypatch.setattr(limits, "STREAM_RENDER_SHARE", 0.0)  # what is owed stays owed
     vision = sim.vision
     cam = sim.world.resolve("cam").handle
     vision.for_streams = True
@@ -261,7 +266,7 @@ def test_streamed_frames_of_the_stream_thread_count_against_its_share(sim, monke
     finally:
         vision.for_streams = False
     owed = vision._streaming.debt(limits.STREAM_RENDER_SHARE)
-    assert owed > 0  # the frame's drawing time
+    assert owed > 0  # the frames' drawing time on the stream thread
     monkeypatch.setattr(limits, "STREAM_RENDER_DEBT_SECONDS", owed / 2)
     assert vision.streams_over_share()
     monkeypatch.setattr(limits, "STREAM_RENDER_DEBT_SECONDS", 10.0)
