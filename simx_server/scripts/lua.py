@@ -14,7 +14,11 @@ Each script gets its own Lua state, made afresh at every simulation start, prepa
   ``table.getn``, ``math.pow``) exist.
 * A count hook bounds every call: every :data:`HOOK_COUNT` instructions it asks Python whether
   the call's deadline (in the thread's CPU time) has passed, and then raises a Lua error and keeps raising at every
-  instruction so that no ``pcall`` can swallow it. Coroutines get the hook too.
+  instruction so that no ``pcall`` can swallow it. Coroutines get the hook too, and it also
+  runs after each garbage-collection cycle (one ``..`` of long strings copies much memory in one
+  instruction; ``collectgarbage("stop")`` is a no-op). The library functions that loop in C
+  (patterns, ``string.rep``, ``table.sort``...) are bounded by
+  :mod:`simx_server.scripts.lua_bounds`.
 * Safety (CoppeliaSim's defaults): no ``python`` bridge (no eval, no builtins, no Python
   attribute access), no binary chunks, no ``os.exit``, no ``debug.sethook``. Unless the server
   runs with ``--allow-unsafe-lua``: no ``dofile``/``loadfile``, no ``io`` functions (no files, no
@@ -40,6 +44,7 @@ from simx_server.scripts.call_arguments import script_argument_bytes
 from simx_server.scripts.child import LIFE_CYCLE_CALLS, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
 from simx_server.scripts import sim_ik
 from simx_server.scripts.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
+from simx_server.scripts.lua_bounds import BOUNDS_LUA, CHECK_WORK, PIECE, SORT_IN_C
 from simx_server.scripts.rewrites import lua_file_text, rewrite
 from simx_server.scripts.threads import LuaStyles
 
@@ -57,7 +62,7 @@ MAX_MEMORY = L.MAX_SCRIPT_MEMORY
 _MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
 
 PRELUDE = r"""
-local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, PATTERN_WORK = ...
+local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, BOUNDS = ...
 local G = _G
 local sethook, gethook, getinfo, traceback = debug.sethook, debug.gethook, debug.getinfo, debug.traceback
 local error, select, type, tostring, pairs, rawget, setmetatable = error, select, type, tostring, pairs, rawget, setmetatable
@@ -68,15 +73,26 @@ local lua_load, cocreate, coresume = load, coroutine.create, coroutine.resume
 -- on it runs (and raises) at every instruction, so that a pcall cannot swallow the interruption.
 local TIMEOUT = "interrupted: the script did not return within its time bound (script_timeout)"
 local hook
+local function interrupt(level)
+  sethook(hook, "", 1)
+  error(TIMEOUT, level)
+end
 hook = function()
-  if expired() then
-    sethook(hook, "", 1)
-    error(TIMEOUT, 2)
-  end
+  if expired() then interrupt(3) end
   local _, _, count = gethook()
   if count ~= COUNT then sethook(hook, "", COUNT) end
 end
 sethook(hook, "", COUNT)
+-- One instruction (a `..` of long strings) may copy much memory: the hook also runs at the next
+-- instruction after each garbage-collection cycle, whose pace follows the bytes allocated (a
+-- finalizer of simx's, which makes its successor; scripts cannot stop the collector).
+local lua_setmetatable, lua_collect = setmetatable, collectgarbage
+local function canary() lua_setmetatable({}, {__gc = function() sethook(hook, "", 1) canary() end}) end
+canary()
+G.collectgarbage = function(opt, ...)
+  if opt == "stop" then return 0 end
+  return lua_collect(opt, ...)
+end
 coroutine.create = function(f)
   local co = cocreate(f)
   sethook(co, hook, "", COUNT)
@@ -149,22 +165,8 @@ G.unpack = unpack
 table.getn = function(t) return #t end
 math.pow = function(x, y) return x ^ y end
 
--- Pattern matching is C code, out of the count hook's reach: a pattern with q repetitions
--- (* + -) runs on a subject of n bytes only while n ^ q stays within PATTERN_WORK.
-local str_find, str_match, str_gmatch, str_gsub = string.find, string.match, string.gmatch, string.gsub
-local function check_pattern(fname, s, p, plain)
-  if plain or type(s) ~= "string" or type(p) ~= "string" then return end
-  local q = select(2, str_gsub(str_gsub(p, "%%.", ""), "[%*%+%-]", ""))
-  if q > 0 and (#s) ^ q > PATTERN_WORK then
-    error(("string.%s: a pattern with %d repetitions on %d bytes is refused: at most %g steps of "
-      .. "matching (limits.MAX_PATTERN_WORK), which the script's time bound cannot interrupt"):format(
-      fname, q, #s, PATTERN_WORK), 3)
-  end
-end
-string.find = function(s, p, init, plain) check_pattern("find", s, p, plain) return str_find(s, p, init, plain) end
-string.match = function(s, p, init) check_pattern("match", s, p) return str_match(s, p, init) end
-string.gmatch = function(s, p, init) check_pattern("gmatch", s, p) return str_gmatch(s, p, init) end
-string.gsub = function(s, p, r, n) check_pattern("gsub", s, p) return str_gsub(s, p, r, n) end
+-- C functions out of the count hook's reach (patterns, string.rep, table.sort...): lua_bounds.py.
+BOUNDS(expired, interrupt)
 
 -- Finalizers would run when the state is closed or collected, outside every time bound.
 local lua_setmetatable = setmetatable
@@ -395,7 +397,8 @@ class LuaScript(LuaStyles, ChildScript):
             rt.table_from({**{k.encode(): v for k, v in FACADE_CONSTANTS.items()},
                            **{f"simIK.{k}".encode(): v for k, v in sim_ik.CONSTANTS.items()}}),
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
-            self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(), L.MAX_PATTERN_WORK)
+            self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(),
+            rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY))
         self._prepare_styles(rt)
         self._run_top_level(rt.compile(self._source, name=f"@{self.path.name}", mode="t"))
 
