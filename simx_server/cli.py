@@ -176,6 +176,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--allow-unsafe-lua", action="store_true",
                    help="give Lua child scripts files, processes and the environment (io, os.execute, "
                         "os.remove, dofile, package.path...), as CoppeliaSim's executeUnsafe; off by default")
+    p.add_argument("--allow-python-scripts", action="store_true",
+                   help="run the scenes' Python child and customization scripts, which run with the server's "
+                        "rights (files, processes, network); off by default: each is refused with one log line "
+                        "and the scene loads with its Lua scripts")
     p.add_argument("--scene-path", action="append", metavar="DIR", default=[],
                    help="folder clients may load server-side scenes and models from (simxLoadScene/"
                         "simxLoadModel with options 0), besides the scene's folder (repeatable)")
@@ -299,7 +303,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         sim = Simulation(scene, dt=args.dt, realtime=None if args.speed is None else args.speed > 0,
                          allow_remote_code=args.allow_remote_code, allow_unsafe_lua=args.allow_unsafe_lua,
-                         scene_paths=args.scene_path, renderers_at_load=args.renderers == "at-load")
+                         scene_paths=args.scene_path, renderers_at_load=args.renderers == "at-load",
+                         allow_python_scripts=args.allow_python_scripts)
     except (ValueError, OSError) as exc:
         print(f"simx-server: {exc}", file=sys.stderr)
         return 2
@@ -401,7 +406,7 @@ def _child_args(args: argparse.Namespace) -> list[str]:
     for folder in args.scene_path:
         out += ["--scene-path", folder]
     out.append("--no-zmq")  # one ZMQ port cannot serve N servers
-    for flag in ("stopped", "allow_remote_code", "allow_unsafe_lua"):
+    for flag in ("stopped", "allow_remote_code", "allow_unsafe_lua", "allow_python_scripts"):
         if getattr(args, flag):
             out.append("--" + flag.replace("_", "-"))
     return out

@@ -275,14 +275,17 @@ class ServerProcess:
 
     ``renderers``: the server's ``--renderers``. The default, ``"at-load"``, is what users get;
     the servers of tests that read no image say ``"on-demand"``: no GL context is made, which
-    halves the CPU of a start (0.5 of 1.1 s; the suite starts more than a hundred servers)."""
+    halves the CPU of a start (0.5 of 1.1 s; the suite starts more than a hundred servers).
+    ``python_scripts``: the server runs the scenes' Python scripts (``--allow-python-scripts``;
+    many test scenes have some); the tests of the refusal say False."""
 
     def __init__(self, *args: str, ports: list[int] | None = None, cwd: str | Path | None = None,
-                 renderers: str = "at-load"):
+                 renderers: str = "at-load", python_scripts: bool = True):
         # The ZMQ remote API only where a test asks for it (--zmq-port): servers of parallel tests
         # must not compete for its default port.
         zmq = [] if any(a.split("=")[0] in ("--zmq-port", "--no-zmq") for a in args) else ["--no-zmq"]
-        added = [*zmq, "--renderers", renderers]  # after the test's own options
+        python = ["--allow-python-scripts"] if python_scripts and "--allow-python-scripts" not in args else []
+        added = [*zmq, *python, "--renderers", renderers]  # after the test's own options
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
         for attempt in range(3):
             # A port found free may be taken before the server binds it (another worker's client

@@ -307,10 +307,21 @@ MAX_SCRIPT_CALL_VALUES = 1 << 20
 MAX_SCRIPT_CALL_BYTES = 16 << 20
 #: Memory cap of one Lua child script's state (bytes).
 MAX_SCRIPT_MEMORY = 256 << 20
-#: Most work of one Lua pattern match (string.find/match/gmatch/gsub without plain): a pattern
-#: with q repetitions (* + -) runs on a subject of n bytes only while n ** q stays under this.
-#: The matcher is C code, which the scripts' instruction-count time bound does not reach.
+#: Most work of one Lua pattern match (string.find/match/gmatch/gsub, about 1 ns a step): the
+#: matcher's worst case, estimated from the pattern before it runs (simx_server/scripts/lua_bounds.py:
+#: ``?`` doubles the rest, ``*`` ``+`` ``-`` multiply it by n + 1, n + 1 starting points unless
+#: anchored). The matcher is C code, which the scripts' instruction-count time bound does not reach.
 MAX_PATTERN_WORK = 10 ** 8
+#: CPU seconds all of a scene's scripts may take together in one pass of the simulation thread
+#: (a simulation start; a step's actuation and sensing; an idle pass of customization scripts);
+#: the script running when it ends is interrupted and named (simx_server/scripts/budget.py).
+MAX_SCRIPTS_STEP_TIME = 2.0
+#: Bytes all of a scene's Lua script states may hold together (each at most MAX_SCRIPT_MEMORY).
+MAX_SCRIPTS_MEMORY = 512 << 20
+#: Distinct ports the scripts may ask the legacy remote API to serve with simExtRemoteApiStart /
+#: simRemoteApi.start (those the server listens on already count once asked for; the others stay
+#: open while the server runs, on the server's own hosts).
+MAX_SCRIPT_PORTS = 8
 
 # ----------------------------------------------------------------- child scripts' scene edits
 # (the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/scripts/facade_objects.py)

@@ -342,7 +342,8 @@ class Editor(ObjectEdits):
             name = ttt_cache.origin(file).name if file.name != ttt_cache.origin(file).name else None
             world = World(file, dt, bounded=spec is not None, name=name)  # a client's scene: bounded
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
-                              allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted, simulation=sim)
+                              allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted, simulation=sim,
+                              allow_python_scripts=old.allow_python_scripts)
             blocks = custom_data.load(world)
         except (ValueError, RemoteError) as exc:
             text = self._scrub(_one_line(exc))

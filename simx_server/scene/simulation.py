@@ -38,6 +38,8 @@ class Simulation:
             None: the scene's saved real-time mode, else True.
         allow_remote_code: let child scripts run code sent by clients (--allow-remote-code).
         allow_unsafe_lua: give Lua child scripts files, processes and the environment (--allow-unsafe-lua).
+        allow_python_scripts: run the scene's Python scripts, with the server's rights
+            (--allow-python-scripts); off: each is refused with one log line, the rest loads.
         scene_paths: folders server-side scenes and models may be loaded from, besides the
             scene's own folder (--scene-path).
         renderers_at_load: make the vision sensors' renderers at load, so that the first image
@@ -49,7 +51,7 @@ class Simulation:
 
     def __init__(self, scene: str | Path, dt: float | None = None, realtime: bool | None = None,
                  allow_remote_code: bool = False, allow_unsafe_lua: bool = False, scene_paths=(),
-                 renderers_at_load: bool = True):
+                 renderers_at_load: bool = True, allow_python_scripts: bool = False):
         name = None
         if ttt_cache.is_vrep_file(scene):  # a V-REP .ttt/.ttm: its (cached) MJCF conversion
             name = Path(scene).name  # messages name the user's file, not the cache's
@@ -62,7 +64,8 @@ class Simulation:
         self.signals = Signals()  # shared by every client and child script
         # The operator's scene is trusted, but no file that came through a transfer folder is.
         self.scripts = Scripts(self.world, self.signals, allow_remote_code=allow_remote_code,
-                               allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders(), simulation=self)
+                               allow_unsafe_lua=allow_unsafe_lua, untrusted=transfer_folders(), simulation=self,
+                               allow_python_scripts=allow_python_scripts)
         self.sensors = SensorState()
         self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
         self.state = RunState.STOPPED

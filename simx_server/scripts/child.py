@@ -33,14 +33,15 @@ import numpy as np
 from simx_wire.protocol import ScriptError
 from simx_server.scripts import sim_ik
 from simx_server.scripts.facade import ScriptSim
+from simx_server.scripts.budget import ScriptBudget
 from simx_server.scripts.signals import Signals
 from simx_server.scripts.facade_threads import PythonThread
 from simx_server.scripts.facade_objects import AppliedForces
 from simx_server.scripts.watchdog import WATCHDOG
 from simx_server.sim.world import World
 
-__all__ = ["DEFAULT_TIMEOUT", "LIFE_CYCLE", "LIFE_CYCLE_CALLS", "REMOTE_CODE_FLAG", "UNSAFE_LUA_FLAG", "ChildScript",
-           "PythonScript",
+__all__ = ["DEFAULT_TIMEOUT", "LIFE_CYCLE", "LIFE_CYCLE_CALLS", "PYTHON_SCRIPTS_FLAG", "REMOTE_CODE_FLAG",
+           "UNSAFE_LUA_FLAG", "ChildScript", "PythonScript", "RefusedScript",
            "ScriptTimeoutError", "legacy_outputs"]
 
 log = logging.getLogger("simx.scripts")
@@ -58,6 +59,9 @@ REMOTE_CODE_FLAG = "--allow-remote-code"
 #: The command-line flag that gives Lua scripts back the functions CoppeliaSim calls unsafe
 #: (files, processes, environment, C modules: ``io.*``, ``os.execute``, ``dofile``...).
 UNSAFE_LUA_FLAG = "--allow-unsafe-lua"
+#: The command-line flag that lets scenes' Python scripts run: they run with the server's rights
+#: (files, processes, network), which only the operator can give.
+PYTHON_SCRIPTS_FLAG = "--allow-python-scripts"
 _STEP_FUNCTIONS = ("sysCall_actuation", "sysCall_sensing")
 
 
@@ -78,6 +82,7 @@ class ChildScript:
     """
 
     language = "?"
+    refused = False  # a RefusedScript: not run by the operator's choice (its start is not logged again)
 
     def __init__(self, world: World, owner: int, path: Path, *, signals: Signals | None = None,
                  timeout: float = DEFAULT_TIMEOUT, allow_remote_code: bool = False,
@@ -95,6 +100,7 @@ class ChildScript:
         self.version = version  # the V-REP version that wrote it (30600 = 3.6.0), None: current
         self.parameters = list(parameters or [])  # script simulation parameters: {"name", "value", "unit"}
         self.shared = shared if shared is not None else {}  # one dict per Scripts (custom data, requests)
+        self.budget: ScriptBudget | None = self.shared.get("budget")  # all scripts' time and memory together
         self.executions = 0  # sim.getScriptExecutionCount
         self.label = f"{kind} script {path.name} of {self.object_name!r}"
         self.signals = signals if signals is not None else Signals()
@@ -143,7 +149,7 @@ class ChildScript:
     def resume_thread(self) -> None:
         """Resume the script's thread (a coroutine) until it yields, once per step before
         ``sysCall_actuation``; errors and overruns go to the log and end the thread."""
-        if self.running and not self.load_error and self._thread_alive():
+        if self.running and not self.load_error and self._thread_alive() and not self._pass_spent("thread"):
             self._guarded("thread", self._resume_thread)
 
     def life_cycle(self, function: str) -> None:
@@ -154,9 +160,36 @@ class ChildScript:
         skipped until the simulation restarts, so that the simulation keeps its pace."""
         if not self.running or self.load_error or function in self._skipped:
             return
-        if self._defines(function):
+        if self._defines(function) and not self._pass_spent(function):
             self.executions += 1
             self._guarded(function, lambda: self._run_function(function, ()))
+
+    def _pass_spent(self, function: str) -> bool:
+        """True (and a debug line) when the scene's scripts have used up the current pass's
+        time (:class:`~simx_server.scripts.budget.ScriptBudget`): the call is skipped this pass."""
+        if self.budget is not None and self.budget.spent():
+            log.debug("%s, %s: skipped in this pass: the scripts' time per pass is spent "
+                      "(limits.MAX_SCRIPTS_STEP_TIME)", self.label, function)
+            return True
+        return False
+
+    def _call_bound(self) -> tuple[float, bool]:
+        """``(seconds, by_pass)``: the next call's time bound, the script's ``script_timeout`` or
+        what is left of the pass if less (``by_pass``)."""
+        if self.budget is None:
+            return self.timeout, False
+        return self.budget.bound(self.timeout)
+
+    def _overrun(self, by_pass: bool) -> str:
+        """The end of an overrun's message: which bound it passed."""
+        if by_pass:
+            return (f"interrupted: the scene's scripts used up their {self.budget.seconds:g} s of this pass "
+                    "(limits.MAX_SCRIPTS_STEP_TIME)")
+        return f"interrupted: did not return within {self.timeout:g} s (script_timeout)"
+
+    def memory_used(self) -> int:
+        """Bytes its script state holds that count toward limits.MAX_SCRIPTS_MEMORY (Lua)."""
+        return 0
 
     def _guarded(self, function: str, run: Callable[[], Any]) -> None:
         try:
@@ -247,6 +280,23 @@ class ChildScript:
     def _fault(self, what: str, detail: str, timeout: bool = False) -> ScriptError:
         cls = ScriptTimeoutError if timeout else ScriptError
         return cls(f"{self.label}, {what}: {detail}")
+
+
+class RefusedScript(ChildScript):
+    """A script the server was not allowed to run (a scene's Python script without
+    :data:`PYTHON_SCRIPTS_FLAG`): attached, as a script that failed to load, so that the scene
+    loads and its other scripts run; its refusal is logged once, when the scene loads, and every
+    remote call into it answers it. Its file is not read."""
+
+    language = "Python"
+    refused = True
+
+    def _load(self) -> None:
+        self.load_error = (f"not run: a scene's Python scripts run with the server's rights, only when the "
+                           f"server is started with {PYTHON_SCRIPTS_FLAG}")
+
+    def _drop(self) -> None:
+        pass
 
 
 def _refuse(name: str) -> Callable[..., Any]:
@@ -340,23 +390,25 @@ class PythonScript(ChildScript):
 
     def _resume_thread(self) -> None:
         thread = self.py_thread
-        if not thread.resume(self.timeout):
-            raise self._fault("thread", f"{self.path.name}: interrupted: did not yield within {self.timeout:g} s "
-                                        "(script_timeout)", timeout=True)
+        seconds, by_pass = self._call_bound()
+        if not thread.resume(seconds):
+            message = self._overrun(True) if by_pass else f"interrupted: did not yield within {self.timeout:g} s " \
+                                                           "(script_timeout)"
+            raise self._fault("thread", f"{self.path.name}: {message}", timeout=True)
         if thread.error is not None:
             exc, thread.error = thread.error, None
             raise self._fault("thread", f"{self._where(traceback.extract_tb(exc.__traceback__))}"
                                         f"{type(exc).__name__}: {exc}")
 
     def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
+        seconds, by_pass = self._call_bound()
         try:
-            result, interrupted_at = WATCHDOG.bounded(fn, self.timeout)
+            result, interrupted_at = WATCHDOG.bounded(fn, seconds)
         except Exception as exc:
             raise self._fault(what, f"{self._where(traceback.extract_tb(exc.__traceback__))}"
                                     f"{type(exc).__name__}: {exc}") from None
         if interrupted_at is not None:
-            raise self._fault(what, f"{self._where(interrupted_at)}interrupted: did not return "
-                                    f"within {self.timeout:g} s (script_timeout)", timeout=True)
+            raise self._fault(what, f"{self._where(interrupted_at)}{self._overrun(by_pass)}", timeout=True)
         return result
 
     def _where(self, stack: traceback.StackSummary) -> str:

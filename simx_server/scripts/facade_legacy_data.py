@@ -13,6 +13,7 @@ import time
 from typing import Any
 
 from simx_wire.protocol import ArgumentError
+from simx_server.base import limits as L
 from simx_server.scripts.facade_objects import HANDLE_SCENE
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_text as _text
 
@@ -32,14 +33,24 @@ class RemoteApiPorts:
         self.served: set[int] = set()
 
     def request(self, port: int) -> None:
-        """Ask for ``port`` to be served (ignored when it is served or asked for already).
+        """Ask for ``port`` to be served (ignored when it is served or asked for already); at
+        most limits.MAX_SCRIPT_PORTS ports in all (those the server listens on already count
+        once asked for). The port listens on the server's own hosts (loopback unless the
+        operator's configuration says otherwise, :mod:`simx_server.legacy.script_hooks`).
 
         Args:
             port: TCP port, 1..65535 (checked by the caller).
 
+        Raises:
+            ArgumentError: a new port past limits.MAX_SCRIPT_PORTS.
         """
-        if port not in self.served and port not in self.pending:
-            self.pending.append(port)
+        if port in self.served or port in self.pending:
+            return
+        if len(self.served) + len(self.pending) >= L.MAX_SCRIPT_PORTS:
+            raise ArgumentError(f"remoteApiStart({port}): scripts may ask for at most {L.MAX_SCRIPT_PORTS} ports "
+                                f"(limits.MAX_SCRIPT_PORTS); asked already: "
+                                f"{', '.join(map(str, sorted(self.served | set(self.pending))))}")
+        self.pending.append(port)
 
     def take(self) -> list[int]:
         """The ports requested since the last call (in order), emptied.
@@ -213,7 +224,8 @@ class LegacyDataCalls:
             1.
 
         Raises:
-            ArgumentError: a port out of range, or a simulation that serves no remote API.
+            ArgumentError: a port out of range, a new port past limits.MAX_SCRIPT_PORTS, or a
+                simulation that serves no remote API.
             UnsupportedError: no simulation behind the script.
         """
         p = _int(port, "port")

@@ -474,22 +474,37 @@ class LuaScript(LuaStyles, ChildScript):
         self._runtime = None
         self._facade = None
 
+    def memory_used(self) -> int:
+        rt = self._runtime
+        return 0 if rt is None else rt.get_memory_used()
+
     def _bounded(self, what: str, fn: Any, args: tuple) -> Any:
+        """``fn(*args)`` under the call's time bound (the script's or what is left of the pass,
+        :meth:`_call_bound`) and memory cap (its own, or what the scene's other Lua scripts leave
+        of limits.MAX_SCRIPTS_MEMORY); raises ScriptError / ScriptTimeoutError naming the bound."""
         self._timed_out = False
-        self._deadline = time.thread_time() + self.timeout
+        seconds, by_pass = self._call_bound()
+        self._deadline = time.thread_time() + seconds
+        rt = self._runtime
+        cap = MAX_MEMORY if self.budget is None or rt is None else max(1, self.budget.memory_cap(self, MAX_MEMORY))
+        if cap != MAX_MEMORY:
+            rt.set_max_memory(cap)
         try:
             return fn(*args)
         except _lupa.LuaMemoryError as exc:
-            raise self._fault(what, f"out of memory ({MAX_MEMORY >> 20} MiB per script): "
-                                    f"{_first_line(exc)}") from None
+            bound = (f"{MAX_MEMORY >> 20} MiB per script" if cap == MAX_MEMORY else
+                     f"the scene's Lua scripts hold at most {self.budget.memory >> 20} MiB together, "
+                     f"limits.MAX_SCRIPTS_MEMORY; {cap >> 20} MiB were left to this one")
+            raise self._fault(what, f"out of memory ({bound}): {_first_line(exc)}") from None
         except _lupa.LuaError as exc:
             if self._timed_out:
                 where = re.match(rf"{re.escape(self.path.name)}:\d+: ", _first_line(exc))
                 prefix = where.group(0) if where else ""
-                raise self._fault(what, f"{prefix}interrupted: did not return within {self.timeout:g} s "
-                                        "(script_timeout)", timeout=True) from None
+                raise self._fault(what, f"{prefix}{self._overrun(by_pass)}", timeout=True) from None
             raise self._fault(what, _first_line(exc)) from None
         except Exception as exc:  # a Python error crossing Lua (a bug in simx): still the script's fault line
             raise self._fault(what, f"internal error: {type(exc).__name__}: {exc}") from None
         finally:
             self._deadline = math.inf
+            if cap != MAX_MEMORY and self._runtime is rt:
+                rt.set_max_memory(MAX_MEMORY)

@@ -16,7 +16,9 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ScriptError, UnknownObjectError
 from simx_server.base import limits as L
 from simx_server.scripts import script_parameters
-from simx_server.scripts.child import DEFAULT_TIMEOUT, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, PythonScript
+from simx_server.scripts.child import (DEFAULT_TIMEOUT, PYTHON_SCRIPTS_FLAG, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG,
+                                      ChildScript, PythonScript, RefusedScript)
+from simx_server.scripts.budget import ScriptBudget
 from simx_server.scripts.dynamics import DynamicsCallbacks
 from simx_server.scripts.signals import Signals
 from simx_server.scripts.facade_objects import AppliedForces
@@ -28,11 +30,14 @@ log = logging.getLogger("simx.scripts")
 
 # ---------------------------------------------------------------- the manager
 def load_script(world: World, owner: int, file: str, *, untrusted: Iterable[Path] = (),
-                **options: Any) -> ChildScript:
+                allow_python_scripts: bool = False, **options: Any) -> ChildScript:
     """The child script ``file`` (relative to the scene's folder) of object ``owner``.
 
     ``untrusted`` are folders that clients can write to (the ``simxTransferFile`` folder): a
-    script there is code sent by a client, refused unless ``allow_remote_code``.
+    script there is code sent by a client, refused unless ``allow_remote_code``. A Python
+    script (``.py``, also a .ttt's script with CoppeliaSim's python marker, converted to one)
+    runs only with ``allow_python_scripts`` (the server's ``--allow-python-scripts``): without
+    it, a :class:`~simx_server.scripts.child.RefusedScript` stands in its place, logged once.
 
     Raises:
         ValueError: the file lies outside the scene's folder or in an untrusted one, does not
@@ -53,7 +58,8 @@ def load_script(world: World, owner: int, file: str, *, untrusted: Iterable[Path
     if not path.is_file():
         raise ValueError(f"child script {file!r} of {name!r} not found in {folder}")
     if path.suffix == ".py":
-        return PythonScript(world, owner, path, **options)
+        return PythonScript(world, owner, path, **options) if allow_python_scripts else RefusedScript(
+            world, owner, path, **options)
     if path.suffix == ".lua":
         return LuaScript(world, owner, path, **options)
     raise ValueError(f"child script {file!r} of {name!r}: unknown language (use .lua or .py)")
@@ -76,6 +82,9 @@ class Scripts:
             ``os.execute``/``remove``/``rename``/``getenv``..., ``dofile``/``loadfile``, any
             ``package.path``/``cpath``); the server's ``--allow-unsafe-lua``. Off: a script
             that calls one gets a Lua error naming the flag.
+        allow_python_scripts: run the scene's Python scripts (``.py``), which have the server's
+            rights; the server's ``--allow-python-scripts``. Off: each is refused with one log
+            line, the scene loads and its Lua scripts run.
         simulation: the :class:`~simx_server.scene.simulation.Simulation` that owns these scripts;
             the facade calls that read sensors or edit the scene need it (without it they
             raise UnsupportedError).
@@ -88,16 +97,20 @@ class Scripts:
 
     def __init__(self, world: World, signals: Signals | None = None, *, allow_remote_code: bool = False,
                  timeout: float = DEFAULT_TIMEOUT, untrusted: Iterable[Path] = (),
-                 allow_unsafe_lua: bool = False, simulation: Any = None):
+                 allow_unsafe_lua: bool = False, simulation: Any = None, allow_python_scripts: bool = False):
         self.world = world
         self.signals = signals if signals is not None else Signals()
         self.forces = AppliedForces()  # sim.addForce & co., for the next step
         self.stopping = False  # True while the scripts' sysCall_cleanup run
         self.allow_remote_code = allow_remote_code
         self.allow_unsafe_lua = allow_unsafe_lua
+        self.allow_python_scripts = allow_python_scripts
         self.scripts: dict[int, ChildScript] = {}
         self.customization: dict[int, ChildScript] = {}  # customization scripts, by object
-        self.shared: dict = {"manager": self}  # custom data blocks, the scripts' view of each other
+        #: All scripts' time per pass and memory together (simx_server/scripts/budget.py).
+        self.budget = ScriptBudget(states=self._all)
+        self._step_end: float | None = None  # the pass of the step whose actuation ran (its sensing shares it)
+        self.shared: dict = {"manager": self, "budget": self.budget}  # custom data, the scripts' view of each other
         self.opened = False
         self.dynamics = DynamicsCallbacks(world)  # sysCall_jointCallback / sysCall_dynCallback at each substep
         for obj in world.objects.values():
@@ -108,6 +121,7 @@ class Scripts:
                 options = script_options(world, obj, timeout)
                 table[obj.handle] = load_script(world, obj.handle, file, untrusted=untrusted, signals=self.signals,
                                                 allow_remote_code=allow_remote_code,
+                                                allow_python_scripts=allow_python_scripts,
                                                 allow_unsafe_lua=allow_unsafe_lua, simulation=simulation,
                                                 forces=self.forces, shared=self.shared,
                                                 kind="child" if key == "child_script" else "customization",
@@ -116,6 +130,11 @@ class Scripts:
             log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
         if allow_unsafe_lua and self.scripts:
             log.warning("Lua child scripts may use files, processes and the environment (%s)", UNSAFE_LUA_FLAG)
+        if allow_python_scripts and any(isinstance(s, PythonScript) for s in self._all()):
+            log.warning("the scene's Python scripts run with the server's rights (%s)", PYTHON_SCRIPTS_FLAG)
+
+    def _all(self) -> list[ChildScript]:
+        return [*self.scripts.values(), *self.customization.values()]
 
     def open(self) -> None:
         """The scene is loaded: customization scripts run their top level and ``sysCall_init``
@@ -123,13 +142,18 @@ class Scripts:
         if self.opened:
             return
         self.opened = True
-        for script in self.customization.values():
+        with self.budget.pass_of("open"):
+            self._start_all(self.customization.values(), "at load")
+
+    def _start_all(self, scripts: Iterable[ChildScript], when: str) -> None:
+        for script in scripts:
             try:
                 script.start()
             except ScriptError as exc:
-                log.error("%s", exc)
-            except Exception:
-                log.exception("%s: internal error at load", script.label)
+                if not script.refused:  # a refused script was logged when the scene loaded
+                    log.error("%s", exc)
+            except Exception:  # the other scripts start all the same
+                log.exception("%s: internal error %s", script.label, when)
 
     def close(self) -> None:
         """The scene is unloaded: customization scripts' ``sysCall_cleanup``, then their state goes;
@@ -144,7 +168,8 @@ class Scripts:
     def idle(self, paused: bool = False) -> None:
         """A pass of the server's loop without a step: customization scripts'
         ``sysCall_nonSimulation`` while stopped, ``sysCall_suspended`` while paused."""
-        self._customization("sysCall_suspended" if paused else "sysCall_nonSimulation")
+        with self.budget.pass_of("idle"):
+            self._customization("sysCall_suspended" if paused else "sysCall_nonSimulation")
 
     def _customization(self, function: str) -> None:
         for script in self.customization.values():
@@ -154,24 +179,21 @@ class Scripts:
         """Simulation starts: customization scripts' ``sysCall_beforeSimulation``, then every
         child script runs its top level, ``sysCall_init`` and its thread's first part."""
         self.open()
-        self._customization("sysCall_beforeSimulation")
-        for script in self.scripts.values():
-            try:
-                script.start()
-            except ScriptError as exc:
-                log.error("%s", exc)
-            except Exception:  # the other scripts start all the same
-                log.exception("%s: internal error at start", script.label)
+        with self.budget.pass_of("start"):
+            self._customization("sysCall_beforeSimulation")
+            self._start_all(self.scripts.values(), "at start")
         self.dynamics.install([*self.scripts.values(), *self.customization.values()])
 
     def actuation(self) -> None:
         """Before a step: each child script's thread resumes, then its ``sysCall_actuation``;
         then the customization scripts' ``sysCall_actuation``."""
         self.shared["pass"] = self.shared.get("pass", 0) + 1  # simulation passes (wireless data: next pass)
-        for script in self.scripts.values():
-            script.resume_thread()
-            script.life_cycle("sysCall_actuation")
-        self._customization("sysCall_actuation")
+        with self.budget.pass_of("step"):
+            self._step_end = self.budget.deadline  # the step's sensing shares this pass
+            for script in self.scripts.values():
+                script.resume_thread()
+                script.life_cycle("sysCall_actuation")
+            self._customization("sysCall_actuation")
         particles = self.shared.get("particles")
         if particles:  # particle objects: moved once a step, their pushes applied by this step
             particles.advance(self.world, self.forces, self.world.dt)
@@ -180,18 +202,21 @@ class Scripts:
         """After a step: forces scripts added are reset (the step applied them), then
         ``sysCall_sensing`` of every script."""
         self.forces.clear(self.world)
-        for script in self.scripts.values():
-            script.life_cycle("sysCall_sensing")
-        self._customization("sysCall_sensing")
+        end, self._step_end = self._step_end, None
+        with self.budget.pass_of("step", end):
+            for script in self.scripts.values():
+                script.life_cycle("sysCall_sensing")
+            self._customization("sysCall_sensing")
 
     def stop(self) -> None:
         """Simulation stops: ``sysCall_cleanup`` of every script; signals set by scripts go."""
         self.stopping = True  # sim.getSimulationState in sysCall_cleanup: the last pass before the stop
         self.dynamics.remove()
         try:
-            for script in self.scripts.values():
-                script.stop()
-            self._customization("sysCall_afterSimulation")
+            with self.budget.pass_of("stop"):
+                for script in self.scripts.values():
+                    script.stop()
+                self._customization("sysCall_afterSimulation")
         finally:
             self.stopping = False
         self.signals.clear_script_signals()

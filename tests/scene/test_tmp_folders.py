@@ -32,7 +32,7 @@ def demo():
 def test_a_simx_named_folder_of_a_person_is_not_a_transfer_folder(demo):
     assert not guard.is_transferred(demo / "facade.lua")
     assert demo not in guard.transfer_folders()
-    sim = Simulation(demo / "scripts_scene.xml", dt=0.05, realtime=False)
+    sim = Simulation(demo / "scripts_scene.xml", dt=0.05, realtime=False, allow_python_scripts=True)
     try:
         assert sim.editor.files_dir not in (demo, *demo.parents)
         assert guard.is_transferred(sim.editor.files_dir / "x.lua")  # the server's own still is

@@ -18,7 +18,7 @@ CHILD = 1
 
 @pytest.fixture
 def sim():
-    s = Simulation(ARM, realtime=False)
+    s = Simulation(ARM, realtime=False, allow_python_scripts=True)
     s.start()
     yield s
     s.stop()

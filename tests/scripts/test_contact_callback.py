@@ -61,7 +61,7 @@ def run(tmp_path, name: str, source: str, seconds: float = 1.0) -> Simulation:
     (tmp_path / name).write_text(source)
     scene = tmp_path / "scene.xml"
     scene.write_text(SCENE.format(script=name))
-    sim = Simulation(scene, realtime=False)
+    sim = Simulation(scene, realtime=False, allow_python_scripts=name.endswith(".py"))
     sim.start()
     for _ in range(round(seconds / sim.world.dt)):
         sim.step()

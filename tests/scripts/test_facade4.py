@@ -33,7 +33,7 @@ CAMERA = (16, 12)
 
 @pytest.fixture
 def sim():
-    s = Simulation(SCENE4, realtime=False)
+    s = Simulation(SCENE4, realtime=False, allow_python_scripts=True)
     s.start()
     yield s
     s.stop()

@@ -365,7 +365,7 @@ def sysCall_cleanup():
 
 
 def test_python_script_thread_runs_as_a_coroutine(run):
-    sim = run({"Box": ("thread.py", PY_THREAD)})
+    sim = run({"Box": ("thread.py", PY_THREAD)}, allow_python_scripts=True)
     sim.start()
     assert signal(sim, "py_passes") == 1
     steps(sim, 3)  # resumed before each step: at t = 0 and 0.05 still waiting, at 0.1 the second pass
@@ -385,7 +385,7 @@ def test_a_python_thread_that_never_yields_is_interrupted(tmp_path, caplog):
              "def sysCall_actuation():\n    global n\n    n = globals().get('n', 0) + 1\n" \
              "    sim.setIntegerSignal('n', n)\n"
     sim = Simulation(small_scene(tmp_path, {"Box": ("spin.py", source)}, settings="script_timeout=0.2"),
-                     realtime=False)
+                     realtime=False, allow_python_scripts=True)
     try:
         sim.start()
         steps(sim, 2)

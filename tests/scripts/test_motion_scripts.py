@@ -120,7 +120,7 @@ def sim(tmp_path):
     (tmp_path / "movers.xml").write_text(SCENE)
     (tmp_path / "mover.lua").write_text(LUA)
     (tmp_path / "mover.py").write_text(PY)
-    s = Simulation(tmp_path / "movers.xml", realtime=False)
+    s = Simulation(tmp_path / "movers.xml", realtime=False, allow_python_scripts=True)
     s.start()
     yield s
     s.stop()

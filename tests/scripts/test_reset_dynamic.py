@@ -47,7 +47,7 @@ def sim(tmp_path):
     (tmp_path / "scene.xml").write_text(SCENE)
     (tmp_path / "reset.lua").write_text(LUA)
     (tmp_path / "reset.py").write_text(PY)
-    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False)
+    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False, allow_python_scripts=True)
     s.start()
     yield s
     s.close()

@@ -87,7 +87,7 @@ def simulation(tmp_path):
     (tmp_path / "colours.lua").write_text(LUA)
     (tmp_path / "colours.py").write_text(PY)
     (tmp_path / "scene.xml").write_text(SCENE)
-    sim = Simulation(tmp_path / "scene.xml", realtime=False)
+    sim = Simulation(tmp_path / "scene.xml", realtime=False, allow_python_scripts=True)
     sim.start()
     yield sim
     sim.close()

@@ -108,9 +108,9 @@ def simulation():
     sims = []
 
     def make(scene: Path, **script_options) -> Simulation:
-        sim = Simulation(scene, realtime=False)
+        sim = Simulation(scene, realtime=False, allow_python_scripts=True)  # the scenes have Python scripts
         if script_options:  # Simulation builds Scripts(world); rebuild with the options under test
-            sim.scripts = Scripts(sim.world, **script_options)
+            sim.scripts = Scripts(sim.world, **{"allow_python_scripts": True, **script_options})
         sims.append(sim)
         return sim
 
@@ -550,8 +550,9 @@ def test_scripts_in_a_folder_clients_write_to_are_refused(tmp_path):
     world = World(scene)
     with pytest.raises(ValueError, match="sent by a client .*--allow-remote-code"):
         Scripts(world, untrusted=[tmp_path])
-    assert set(Scripts(world, untrusted=[tmp_path], allow_remote_code=True).scripts) == {world.resolve("Box").handle}
-    assert len(Scripts(world, untrusted=[tmp_path / "elsewhere"]).scripts) == 1
+    assert set(Scripts(world, untrusted=[tmp_path], allow_remote_code=True, allow_python_scripts=True).scripts) == {
+        world.resolve("Box").handle}
+    assert len(Scripts(world, untrusted=[tmp_path / "elsewhere"], allow_python_scripts=True).scripts) == 1
 
 
 def test_scene_errors_refuse_the_scene(tmp_path):

@@ -225,7 +225,7 @@ def test_scene_edits_past_the_share_wait_their_turn(monkeypatch):
 
     monkeypatch.setattr(limits, "EDIT_DEBT_SECONDS", 0.0)  # no burst: the second edit waits at once
     monkeypatch.setattr(limits, "EDIT_SHARE", 0.5)
-    sim = Simulation(SCENES / "scripted.xml")
+    sim = Simulation(SCENES / "scripted.xml", allow_python_scripts=True)
     try:
         server = type("Server", (), {"sim": sim, "clients": Clients()})()
         sent = []
