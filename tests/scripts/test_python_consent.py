@@ -124,3 +124,4 @@ def test_instances_get_the_flag():
 
     assert "--allow-python-scripts" in _child_args(parse_args(["--instances", "2", "--allow-python-scripts"]))
     assert "--allow-python-scripts" not in _child_args(parse_args(["--instances", "2"]))
+

@@ -146,12 +146,14 @@ def light_encode(text: bytes) -> bytes:
 
 
 def script(handle: int, obj: int, text: str, kind: int = 1, threaded: bool = False,
-           parameters: tuple[tuple[str, str, str | bytes], ...] = ()) -> bytes:
+           parameters: tuple[tuple[str, str, str | bytes], ...] = (), language: str | None = None) -> bytes:
     """A script record (``LST``); ``parameters``: (name, unit, value) simulation parameters, a
-    value of bytes stored unchanged."""
+    value of bytes stored unchanged; ``language``: CoppeliaSim 4.6's language marker (``Lne``:
+    "python"), none for Lua."""
     par = i32(len(parameters)) + b"".join(string(n) + string(u) + string(v) + i32(0) for n, u, v in parameters)
+    lne = rec("Lne", string(language)) if language is not None else b""
     return rec("LST", lst(rec("Si2", i32(handle, obj, kind)), rec("Va2", bytes([1 if threaded else 0])),
-                          rec("Ste", light_encode(text.encode())), rec("Prm", lst(rec("Par", par)))))
+                          rec("Ste", light_encode(text.encode())), lne, rec("Prm", lst(rec("Par", par)))))
 
 
 def huffman_encode(data: bytes) -> bytes:
