@@ -118,7 +118,7 @@ def test_many_burning_scripts_leave_the_clients_served(tmp_path):
     a client's calls are answered in between, and each script is named once in the log. (The
     client waits up to 60 s for a reply: a busy machine stretches the steps' 2 s of CPU.)"""
     scene = many(tmp_path, 10, BURN, "script_timeout=0.3")
-    srv = ServerProcess(str(scene), "--pacing", "immediate", renderers="on-demand")
+    srv = ServerProcess(str(scene), "--stopped", "--pacing", "immediate", renderers="on-demand")
     cid = vrep.simxStart("127.0.0.1", srv.port, True, True, -60000, 5)  # blocking calls: 60 s
     try:
         assert cid >= 0 and vrep.simxStartSimulation(cid, vrep.simx_opmode_blocking) == 0
