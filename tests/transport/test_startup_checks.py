@@ -33,8 +33,8 @@ def test_a_port_in_use_is_refused_before_the_scene_loads(tmp_path):
 
 def test_a_scene_path_typo_is_one_line_for_serving_and_listing(tmp_path):
     served, listed = run("scens/ur5.xml", cwd=tmp_path), run("--list-objects", "scens/ur5.xml", cwd=tmp_path)
-    tail = (f"no scene file 'scens/ur5.xml' (relative paths start in {tmp_path}): give the path of an MJCF (.xml) "
-            "or URDF (.urdf) file, or none for the bundled scene")
+    tail = (f"no scene file 'scens/ur5.xml' (relative paths start in {tmp_path}): give the path of an MJCF (.xml), "
+            "URDF (.urdf) or V-REP / CoppeliaSim (.ttt, .ttm) file, or none for the bundled scene")
     assert (served.returncode, listed.returncode) == (2, 2)
     assert served.stderr.strip() == f"simx-server: {tail}", served.stderr
     assert listed.stderr.strip() == f"simx-server: --list-objects: {tail}", listed.stderr
