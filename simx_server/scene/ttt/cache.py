@@ -111,12 +111,13 @@ def mjcf_for(path: str | Path, root: Path | None = None, client: bool | None = N
         counts = json.loads((folder / "report.json").read_text())
     except (OSError, ValueError):
         counts = {}
-    for kind, n in sorted(counts.items()):
-        log.info("%s: not carried over: %d x %s", path.name, n, kind)
     try:
         notes = json.loads((folder / "notes.json").read_text())
     except (OSError, ValueError):
         notes = {}
+    approximated = set(notes.get("approximated") or ())
+    for kind, n in sorted(counts.items()):
+        log.info("%s: %s: %d x %s", path.name, "approximated" if kind in approximated else "not carried over", n, kind)
     for key, label in (("taken", "taken from the file"), ("repaired", "repaired")):
         if notes.get(key):
             log.info("%s: %s: %s", path.name, label, "; ".join(map(str, notes[key])))

@@ -31,6 +31,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"taken from the file: {'; '.join(report.taken)}")
     if report.repaired:
         print(f"repaired: {'; '.join(report.repaired)}")
+    for line in report.approximations():
+        print(f"approximated: {line}")
     for line in report.lines():
         print(f"not carried over: {line}")
     return 0

@@ -34,20 +34,32 @@ ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
 
 
 class Report:
-    """What did not carry over, by kind: ``{kind: count}``; :meth:`lines` one line per kind;
-    ``taken``: the file's simulation settings that were applied (:mod:`.settings`), ``repaired``:
-    what was changed so that MuJoCo accepts it (:mod:`.inertia`), one line each."""
+    """What did not carry over as V-REP had it, by kind: ``counts`` ``{kind: count}`` of every
+    kind; the kinds in ``approximated`` were carried over in the closest form MuJoCo has (the
+    kind's text says which), the others were left out. :meth:`lines` one line per kind left out,
+    :meth:`approximations` one per kind approximated; ``taken``: the file's simulation settings
+    that were applied (:mod:`.settings`), ``repaired``: what was changed so that MuJoCo accepts it
+    (:mod:`.inertia`), one line each."""
 
     def __init__(self):
         self.counts: Counter[str] = Counter()
+        self.approximated: set[str] = set()
         self.taken: list[str] = []  # the file's settings that were applied, one line each
         self.repaired: list[str] = []  # what was changed so that MuJoCo accepts it, one line each
 
-    def add(self, kind: str, n: int = 1) -> None:
+    def add(self, kind: str, n: int = 1, approximated: bool = False) -> None:
+        """Count ``n`` items of ``kind``; ``approximated``: carried over in a close form, not left out."""
         self.counts[kind] += n
+        if approximated:
+            self.approximated.add(kind)
 
     def lines(self) -> list[str]:
-        return [f"{n} x {kind}" for kind, n in sorted(self.counts.items())]
+        """``"N x kind"`` for each kind not carried over."""
+        return [f"{n} x {kind}" for kind, n in sorted(self.counts.items()) if kind not in self.approximated]
+
+    def approximations(self) -> list[str]:
+        """``"N x kind"`` for each kind carried over approximately."""
+        return [f"{n} x {kind}" for kind, n in sorted(self.counts.items()) if kind in self.approximated]
 
 
 class Converter:
@@ -109,7 +121,7 @@ class Converter:
         inertia.report(self)  # shapes whose inertias MuJoCo would refuse, repaired
         if s.engine != 0:
             engine = ENGINES[s.engine] if 0 <= s.engine < len(ENGINES) else str(s.engine)
-            self.report.add(f"{engine} engine settings (MuJoCo's used; friction taken from Bullet's)")
+            self.report.add(f"{engine} engine settings (MuJoCo's used; friction taken from Bullet's)", approximated=True)
         # fixed statistic so that the clipping planes are the vision sensors' (MuJoCo's
         # znear/zfar are fractions of the extent), as in simx's own scenes
         sensors = [o.data for o in s.objects.values() if o.kind == "vision_sensor"]
@@ -197,7 +209,7 @@ class Converter:
         if not d.static and joint is None and body is not self.spec.worldbody and not self._carried(obj):
             # V-REP simulates a dynamic shape that hangs from no joint or force sensor freely
             self.moved.add(obj.handle)
-            self.report.add("dynamic shapes free of their parent (a top-level free body, as V-REP simulates them)")
+            self.report.add("dynamic shapes free of their parent (a top-level free body, as V-REP simulates them)", approximated=True)
             body, local = self.spec.worldbody, self.world_pose[obj.handle]
             self.vrep_parent(obj)
         b = body.add_body()
@@ -356,6 +368,6 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
         text = text.replace("<compiler ", '<compiler balanceinertia="true" ', 1)
     xml.write_text(text)
     (out / "report.json").write_text(json.dumps(dict(conv.report.counts), indent=1))
-    (out / "notes.json").write_text(json.dumps({"taken": conv.report.taken, "repaired": conv.report.repaired},
-                                               indent=1))
+    (out / "notes.json").write_text(json.dumps({"taken": conv.report.taken, "repaired": conv.report.repaired,
+                                                "approximated": sorted(conv.report.approximated)}, indent=1))
     return xml, conv.report

@@ -217,7 +217,7 @@ def vision_settings(conv, v, name: str) -> list[str]:
     if v.render_mode == 2:
         items.append("render_mode=handles")
     elif v.render_mode == 1:
-        conv.report.add("vision sensors in OpenGL auxiliary-channel render mode (rendered in colour)")
+        conv.report.add("vision sensors in OpenGL auxiliary-channel render mode (rendered in colour)", approximated=True)
     elif v.render_mode not in (0, 7, 8):
-        conv.report.add("vision sensors rendered by POV-Ray or an external renderer (rendered with OpenGL)")
+        conv.report.add("vision sensors rendered by POV-Ray or an external renderer (rendered with OpenGL)", approximated=True)
     return items

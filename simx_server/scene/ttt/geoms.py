@@ -109,7 +109,7 @@ class GeomMaker:
             elif mesh.texture >= 0 and visible and g.type != mujoco.mjtGeom.mjGEOM_MESH and self._skin(body, mesh, pose):
                 g.group = 3  # the primitive collides; its textured mesh (the skin) is what is seen
             elif mesh.texture >= 0:
-                self.report.add("textures without their coordinates (shown as the shape's colour)")
+                self.report.add("textures without their coordinates (shown as the shape's colour)", approximated=True)
             if not g.material and g.group != 3:  # V-REP's specular, shininess, emission (looks.py)
                 g.material = self.looks.material(look, owner=body.name) or ""
 
@@ -172,7 +172,7 @@ class GeomMaker:
             if key is not None:
                 self._shared[key] = mname
         if not mesh.convex and not visual:
-            self.report.add("non-convex meshes (collide as their convex hull)")
+            self.report.add("non-convex meshes (collide as their convex hull)", approximated=True)
         g = body.add_geom()
         g.type = G.mjGEOM_MESH
         g.meshname = mname

@@ -260,7 +260,7 @@ class Materials:
         if name is not None:
             return name
         if len(self.names) >= MAX_MATERIALS:
-            self.report.add(f"shape looks beyond the {MAX_MATERIALS}th material (V-REP's default specular)")
+            self.report.add(f"shape looks beyond the {MAX_MATERIALS}th material (V-REP's default specular)", approximated=True)
             return None
         name = f"ttt_look{len(self.names) + 1}"
         mat = self.spec.add_material()
@@ -269,7 +269,7 @@ class Materials:
         mat.rgba = rgba
         mat.specular = float(np.mean(look.specular))
         if np.ptp(look.specular) > 1 / 255:
-            self.report.add("specular colours that are not grey (their mean: MuJoCo's specular is a level)")
+            self.report.add("specular colours that are not grey (their mean: MuJoCo's specular is a level)", approximated=True)
         mat.shininess = look.shininess / 128.0
         mat.emission = self._emission(np.asarray(rgba[:3]), np.asarray(look.emission))
         if texture is not None:
@@ -277,7 +277,7 @@ class Materials:
             if mode == 1:  # decal: the texture unlit (emission 1 saturates the lit colour it multiplies)
                 mat.emission, mat.specular = 1.0, 0.0
             elif mode not in (0, 1):
-                self.report.add("textures added to or blended with the shape's colour (multiplied with it)")
+                self.report.add("textures added to or blended with the shape's colour (multiplied with it)", approximated=True)
         self.names[key] = name
         return name
 
@@ -289,5 +289,5 @@ class Materials:
         norm = float(colour @ colour)
         e = float(colour @ emission) / norm if norm > 0 else 0.0
         if np.abs(e * colour - emission).max() > 1 / 255:
-            self.report.add("emission colours that are not a multiple of the shape's colour (the closest)")
+            self.report.add("emission colours that are not a multiple of the shape's colour (the closest)", approximated=True)
         return max(e, 0.0)

@@ -38,7 +38,7 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     jt.armature = 0.01
     if j.type == SPHERICAL:
         jt.type = mujoco.mjtJoint.mjJNT_BALL
-        conv.report.add("spherical joint positions (start at the file's pose, zero there)")
+        conv.report.add("spherical joint positions (start at the file's pose, zero there)", approximated=True)
         return
     jt.type = mujoco.mjtJoint.mjJNT_HINGE if j.type == REVOLUTE else mujoco.mjtJoint.mjJNT_SLIDE
     jt.ref = j.position
@@ -64,7 +64,7 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     elif j.mode in (IK_OLD, MOTION_OLD):
         mode = "position"
         if j.mode == MOTION_OLD:
-            conv.report.add("motion-mode joints (position control instead)")
+            conv.report.add("motion-mode joints (position control instead)", approximated=True)
     else:  # passive: moved only by what pushes it (no motor)
         conv.setting(obj.name, "mode=passive")
         return
@@ -82,7 +82,7 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     if j.pid is not None and math.isfinite(j.pid[0]) and j.pid[0] > 0 and abs(j.pid[0] - DEFAULT_PID_P) > 1e-9:
         items.append(f"pid_p={j.pid[0]:.9g}")
     if j.pid is not None and mode == "position" and any(v != 0 for v in j.pid[1:]):
-        conv.report.add("position loops' I and D terms (simx's position law is V-REP's P loop)")
+        conv.report.add("position loops' I and D terms (simx's position law is V-REP's P loop)", approximated=True)
     target = j.target_position
     if mode == "position" and target is not None and math.isfinite(target) and abs(target - j.position) > 1e-9:
         items.append(f"target_position={target:.9g}")
@@ -141,7 +141,7 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         w, h = (max(1, min(int(n), 4096)) for n in v.resolution)
         cam.resolution = [w, h]
         if (w, h) == (1, 1):  # MuJoCo's default: simx cannot tell it from an unset one (256x256)
-            conv.report.add("1x1 vision sensors (256x256 in simx)")
+            conv.report.add("1x1 vision sensors (256x256 in simx)", approximated=True)
         if v.perspective:
             angle = min(max(v.view_angle, 1e-3), math.pi - 1e-3)
             fovy = angle if h >= w else 2 * math.atan(math.tan(angle / 2) * h / w)
@@ -181,7 +181,7 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         elif p.type in _VOLUMES and _volume_settings(p) is not None:
             conv.setting(obj.name, *_volume_settings(p))
         elif p.type != 34:
-            conv.report.add("proximity sensor volumes without usable sizes (a ray along +z)")
+            conv.report.add("proximity sensor volumes without usable sizes (a ray along +z)", approximated=True)
         return
     site.size = [1e-3, 0, 0]
     site.group = 5

@@ -18,6 +18,27 @@ except ImportError:
 
 CORPUS = SHARED / "ttt-corpus"
 FILES = sorted(p.name for p in CORPUS.glob("*.tt[tm]")) if CORPUS.is_dir() else ["<corpus missing>"]
+#: "not carried over" kinds per corpus file when issue 41 began (docs/PORTING.md's table).
+NOT_CARRIED_THEN = {
+    'BTIRAI+youbot__youbot_simple_example.ttt': 4,
+    'Ianlande+Vrep_yolov3_ddpg_pytorch__scenes_scene.ttt': 4,
+    'RL-LDV-TUM+epuck-vrep__epuck_test.ttt': 3,
+    'jchoi2507+CoppeliaSim_Remote_API__UR10_UR10_Linear_Movement_Test.ttt': 4,
+    'jchoi2507+CoppeliaSim_Remote_API__UR5_Deep_Fry_Simulation_v1_UR5_Deep_Fry_Simulation.ttt': 4,
+    'jchoi2507+CoppeliaSim_Remote_API__UR5_Deep_Fry_Simulation_v2_UR5_Deep_Fry_Simulationv2.ttt': 4,
+    'pranavraj575+swarm_coppeliasim__ros_ctrl_models_quad_copter.ttm': 2,
+    'pranavraj575+swarm_coppeliasim__scenes_testSceneForModelDevelopmentv2.ttt': 3,
+    'rhenandias+coppeliasim-scara-python__scene.ttt': 3,
+    'salkhan23+ITCortex__vrep_objects_BubbleRob.ttm': 3,
+    'salkhan23+ITCortex__vrep_objects_ItCortexRobot.ttm': 1,
+    'salkhan23+ITCortex__vrep_objects_bowl.ttm': 1,
+    'salkhan23+ITCortex__vrep_scenes_Kitchen_scene.ttt': 4,
+    'salkhan23+ITCortex__vrep_scenes_Kitchen_scene_Bryan.ttt': 4,
+    'salkhan23+ITCortex__vrep_scenes_hrr_task_micro.ttt': 2,
+    'salkhan23+ITCortex__vrep_scenes_object_environment.ttt': 3,
+    'salkhan23+ITCortex__vrep_scenes_vrep_IT.ttt': 2,
+    'salkhan23+ITCortex__vrep_scenes_vrep_it_cortex.ttt': 7,
+}
 _ELEMENT = {"shape": mujoco.mjtObj.mjOBJ_BODY, "dummy": mujoco.mjtObj.mjOBJ_SITE,
             "force_sensor": mujoco.mjtObj.mjOBJ_SITE, "proximity_sensor": mujoco.mjtObj.mjOBJ_SITE,
             "vision_sensor": mujoco.mjtObj.mjOBJ_CAMERA, "joint": mujoco.mjtObj.mjOBJ_JOINT,
@@ -60,6 +81,10 @@ def test_corpus_file_converts_loads_and_steps(name, tmp_path):
     path = require_shared(CORPUS / name)
     scene = reader.read(path)
     xml, report = convert.convert(scene, tmp_path, "scene")
+    # the load report names no more kinds left out than when issue 41 began (docs/PORTING.md), and
+    # what was carried over in a close form (meshes colliding as their hull) as approximated
+    assert len(report.lines()) <= NOT_CARRIED_THEN[name], report.lines()
+    assert not any("convex hull" in line for line in report.lines())
     m = mujoco.MjModel.from_xml_path(str(xml))
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)
