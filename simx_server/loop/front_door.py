@@ -154,6 +154,12 @@ class LoopAccess(Protocol):
         when it failed (every client is told, as for any failed step)."""
         ...
 
+    def step_after_reply(self) -> None:
+        """The door's stepped client completed the synchronous barrier: the step runs once the
+        request being served has been answered, before anything else is served
+        (Loop.step_after_reply); a failure is told to every client at its next request."""
+        ...
+
     def leave_sync(self, client: str, how: str) -> None:
         """``client`` leaves the synchronous barrier (``how``: for the log); the step the others
         all triggered runs now."""
