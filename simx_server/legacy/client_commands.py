@@ -48,7 +48,7 @@ class ClientCommands:
                 "simxSynchronousTrigger: this client has not enabled synchronous mode (call "
                 "simxSynchronous(clientID, True)); the simulation steps once every client that did has triggered")
         if sim.state is RunState.RUNNING and sim.trigger(client):
-            self.loop.step_after_reply()
+            self._trigger_reply = self.loop.step_after_reply()  # set by _reply once sent
 
     def _forget(self, client: str, how: str) -> None:
         """Drop ``client``'s state: its streams, its intake (unless requests of it wait), its

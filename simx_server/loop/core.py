@@ -84,6 +84,8 @@ _DRAIN_LIMIT = 64  # requests executed between two checks of the step clock
 _HOUSEKEEPING = 0.25  # s between two passes of client expiry and log summaries
 #: s a door's thread waits for a trigger's step to serve its item in place after it (_after_due).
 _DUE_WAIT = 0.02
+#: s the simulation thread waits for a trigger's reply to leave before its step (step_after_reply).
+_DUE_REPLY_WAIT = 0.005
 _DUE = ("due", None)  # wakes the simulation thread for a step a trigger released (no door's kind)
 #: ``--pacing``: legacy (a client's blocking calls see distinct simulation steps) or immediate.
 PACINGS = ("legacy", "immediate")
@@ -147,6 +149,7 @@ class Loop:
         #: (:meth:`step_after_reply`); whoever holds the owner next runs it before anything else.
         self._due = False
         self._due_running = False  # that step runs now: a door's thread may wait for it (_after_due)
+        self._due_reply = threading.Event()  # set once the trigger's reply is handed to Zenoh
 
     # ------------------------------------------------------------- front doors
     def attach(self, door: FrontDoor) -> None:
@@ -168,7 +171,7 @@ class Loop:
         failed (every client is told, as for any failed step)."""
         return self._step()
 
-    def step_after_reply(self) -> None:
+    def step_after_reply(self) -> threading.Event:
         """A stepped client completed the synchronous barrier: the step runs once the trigger's
         reply has been handed over, while that reply and the client's next call travel, and
         before anything else is served (whoever holds the simulation next runs it first), so
@@ -176,8 +179,16 @@ class Loop:
         trigger is answered in the pass that releases the step, before the step has run
         (simExtRemoteApi's ``simxSynchronousTrigger`` is answered at the
         ``mainscriptabouttobecalled`` event, and ``simxGetPingTime`` waits for the next one).
-        A failed step is told to every client at its next request, as any failed step."""
+        A failed step is told to every client at its next request, as any failed step.
+
+        Returns:
+            The event the door sets once the trigger's reply is handed to Zenoh: the simulation
+            thread waits for it (at most ``_DUE_REPLY_WAIT`` s) before stepping, since a step
+            holds the interpreter and the sending thread could not send the reply meanwhile
+            (measured in the Gymnasium env: the trigger's reply waited 3 ms)."""
         self._due = True
+        self._due_reply = threading.Event()
+        return self._due_reply
 
     def leave_sync(self, client: str, how: str) -> None:
         """``client`` (of any door) leaves the synchronous barrier; the step the others all
@@ -315,6 +326,8 @@ class Loop:
         self._due = False
         self._due_running = True
         try:
+            if not self._due_reply.is_set():  # served on this thread: its reply is with the courier
+                self._due_reply.wait(_DUE_REPLY_WAIT)
             if self.sim.state is RunState.RUNNING:
                 self._step()  # a failure is told to every client at its next request
         finally:
