@@ -25,6 +25,10 @@ class Settings:
 
     quick: bool
     log_dir: Path
+    #: ``--baseline DIR``: another source tree of simx (an older commit, ``git archive`` or
+    #: ``git worktree``) whose server the suites that support it (``sync``, ``envstep``) time
+    #: side by side with this tree's, in the same run; None: not measured.
+    baseline: Path | None = None
 
     def n(self, full: int, quick: int) -> int:
         return quick if self.quick else full

@@ -126,18 +126,21 @@ class Server(Proc):
 
     ``probe_log``: run the instrumented server (benchmarks/instrumented_server.py), which writes
     the wall time (CLOCK_MONOTONIC) at the end of every simulation step and the duration of
-    every vision-sensor frame to that file on exit.
+    every vision-sensor frame to that file on exit. ``root``: run the server of that simx
+    source tree instead of this one (``--baseline``).
     """
 
     def __init__(self, log_dir: Path, *args: str, port: int | None = None, probe_log: Path | None = None,
-                 name: str = "server"):
+                 name: str = "server", root: Path | None = None):
         self.port = port or free_port()
         module = "benchmarks.instrumented_server" if probe_log else "simx_server.cli"
         zmq = [] if "--zmq-port" in args else ["--no-zmq"]  # the ZMQ remote API only where a suite asks
         cmd = [sys.executable, "-m", module, str(SCENE), "--port", str(self.port),
                "--log-level", "WARNING", *zmq, *args]
         env = child_env(**({"SIMX_BENCH_PROBE_LOG": str(probe_log)} if probe_log else {}))
-        super().__init__(f"{name}-{self.port}", cmd, log_dir, env=env, cwd=ROOT)
+        if root is not None:  # another source tree's server (--baseline): its code, this scene
+            env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), os.environ.get("PYTHONPATH", "")) if p)
+        super().__init__(f"{name}-{self.port}", cmd, log_dir, env=env, cwd=root or ROOT)
 
 
 class Echo(Proc):

@@ -46,6 +46,7 @@ SUITES = {
     "robustness": ("benchmarks.robustness", "8. robustness (issue 11)"),
     "dataset": ("benchmarks.dataset", "9. simx-dataset images per second (issue 13)"),
     "envs": ("benchmarks.envs", "Gymnasium env steps/s, remote vs in-process (issue 13)"),
+    "envstep": ("benchmarks.env_step", "one env's step, remote and in-process interleaved (issue 44)"),
     "idle": ("benchmarks.idle", "idle servers cost nothing: an env beside 3 idle servers (issue 20)"),
     "outbox": ("benchmarks.outbox", "command batching: a loop of oneshot calls on the wire (issue 19)"),
     "zmq": ("benchmarks.zmq_api", "CoppeliaSim's ZMQ remote API: against bare REQ/REP and the legacy API (issue 22)"),
@@ -53,7 +54,7 @@ SUITES = {
 #: Suites run only when named in --only: the robustness suite floods a server on purpose and
 #: soaks it for 3 minutes (about 5 minutes in all), which the everyday run should not do; the
 #: envs suite starts up to 4 servers at once and takes a few minutes of 640x480 renders.
-OPT_IN = {"robustness", "envs", "idle"}
+OPT_IN = {"robustness", "envs", "envstep", "idle"}
 
 
 def _fmt(v, unit: str = "") -> str:
@@ -118,6 +119,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--skip", help="comma-separated suites to leave out")
     p.add_argument("--tag", default="", help="label stored in the JSON and its file name (e.g. gpu)")
     p.add_argument("--out", type=Path, help="JSON output path (default benchmarks/results/latest.json)")
+    p.add_argument("--baseline", type=Path,
+                   help="another simx source tree (e.g. `git archive <commit> | tar -x -C DIR`) whose server "
+                        "the sync and envstep suites time side by side with this tree's")
     args = p.parse_args(argv)
 
     only = [x for x in (args.only or "").split(",") if x]
@@ -129,12 +133,15 @@ def main(argv: list[str] | None = None) -> int:
 
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     log_dir = RESULTS / "logs" / stamp
-    settings = Settings(quick=args.quick, log_dir=log_dir)
+    if args.baseline is not None and not (args.baseline / "simx_server" / "cli.py").is_file():
+        p.error(f"--baseline {args.baseline}: not a simx source tree (no simx_server/cli.py)")
+    settings = Settings(quick=args.quick, log_dir=log_dir, baseline=args.baseline)
     meta = {
         "started": _dt.datetime.now().isoformat(timespec="seconds"),
         "mode": "quick" if args.quick else "full",
         "tag": args.tag,
         "commit": _git_commit(),
+        "baseline": str(args.baseline) if args.baseline else None,
         "python": platform.python_version(),
         "platform": platform.platform(),
         "cpus": os.cpu_count(),

@@ -6,6 +6,9 @@ ping's request/reply sizes) to benchmarks/zenoh_echo.py, plus MuJoCo stepping th
 in this process with no transport (``Simulation(scene, 0.05).step()``: the same step the server
 runs, scripts included). floor = p50(two round trips) + p50(in-process step).
 The arm is at rest in both (same state, same physics cost).
+
+With ``--baseline DIR`` the same steps against a server of that source tree (an older commit)
+join the interleaved blocks: before and after in one run, against the same floor.
 """
 
 from __future__ import annotations
@@ -24,32 +27,46 @@ def run(s: Settings) -> list[Figure]:
 
     sim = Simulation(SCENE, 0.05)
     sim.start()
+    base_srv = base = None
     try:
         with Server(s.log_dir, "--dt", "0.05", name="sync") as srv, Echo(s.log_dir) as echo:
+            if s.baseline is not None:
+                base_srv = Server(s.log_dir, "--dt", "0.05", name="sync-baseline", root=s.baseline)
+                base = connect(base_srv.port)
             cid = connect(srv.port)
             floor = Floor(echo.port)
             try:
-                return _measure(s, cid, floor, sim)
+                return _measure(s, cid, floor, sim, base)
             finally:
-                api.simxSynchronous(cid, False)
+                for c in (cid, base):
+                    if c is not None:
+                        api.simxSynchronous(c, False)
+                        api.simxFinish(c)
                 floor.close()
-                api.simxFinish(cid)
     finally:
+        if base_srv is not None:
+            base_srv.stop()
         sim.close()
 
 
-def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
+def _start_stepping(cid: int) -> None:
     for rc, what in ((api.simxSynchronous(cid, True), "simxSynchronous"),
                      (api.simxStartSimulation(cid, B), "simxStartSimulation")):
         if rc != 0:
             raise RuntimeError(f"{what} failed with return code {rc}")
+
+
+def _measure(s: Settings, cid: int, floor: Floor, sim, base: int | None = None) -> list[Figure]:
+    _start_stepping(cid)
+    if base is not None:
+        _start_stepping(base)
     trig = wire_sizes(cid, [["SynchronousTrigger", B, []]])
     ping = wire_sizes(cid, [["GetPingTime", B, []]])
     api.simxGetPingTime(cid)  # wire_sizes ran one trigger: start counting after it
     t0 = api.simxGetLastCmdTime(cid)
     failures = []
 
-    def step() -> None:
+    def step(cid: int = cid) -> None:
         rc = api.simxSynchronousTrigger(cid)
         rc2, _ = api.simxGetPingTime(cid)
         if rc or rc2:
@@ -60,8 +77,10 @@ def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
         floor.call(ping[1], ping[0])
 
     n0 = sim.steps
-    t = interleaved(s.n(30, 6), 20, {"step": step, "floor_rt2": two_rt, "physics": sim.step},
-                    budget_s=s.t(60, 20))
+    cases = {"step": step, "floor_rt2": two_rt, "physics": sim.step}
+    if base is not None:
+        cases["baseline"] = lambda: step(base)
+    t = interleaved(s.n(30, 6), 20, cases, budget_s=s.t(60, 20))
     if failures:
         raise RuntimeError(f"{len(failures)} failed steps, e.g. return codes {failures[0]}")
     api.simxGetPingTime(cid)
@@ -73,7 +92,13 @@ def _measure(s: Settings, cid: int, floor: Floor, sim) -> list[Figure]:
                  "p10": ms["floor_rt2"]["p10"] + ms["physics"]["p10"],
                  "p90": ms["floor_rt2"]["p90"] + ms["physics"]["p90"]}
     steps_expected = len(t["step"]) + 5  # + warm-up
-    return [
+    baseline = [] if base is None else [
+        Figure("sync.step_baseline", "sync step, --baseline tree's server", "ms", ms["baseline"], floor=composite,
+               note=f"server of {s.baseline}"),
+        Figure("sync.steps_per_s_baseline", "sync steps/s, --baseline tree's server", "1/s",
+               rate_summary(t["baseline"]), floor={"label": "in-process steps/s", **rate_summary(t["physics"])}),
+    ]
+    return baseline + [
         Figure("sync.step", "sync step: SynchronousTrigger + GetPingTime", "ms", ms["step"], floor=composite,
                target=Target("ratio", "<=", 2.5, "p50 <= 2.5x floor"),
                note=f"sim advanced {advanced_ms} ms for {steps_expected} triggers (expect {steps_expected * 50})",

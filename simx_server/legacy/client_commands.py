@@ -1,7 +1,7 @@
 """Commands about the calling client rather than the world: goodbye, synchronous mode and its
 trigger, the errors kept for ``simxGetLastErrors``, and forgetting a client. A mixin of
 :class:`simx_server.legacy.server.LegacyDoor` (which provides ``sim``, ``loop`` (the loop's
-:class:`~simx_server.loop.front_door.LoopAccess`: ``step_now``, ``leave_sync``, ``clients``),
+:class:`~simx_server.loop.front_door.LoopAccess`: ``step_after_reply``, ``leave_sync``, ``clients``),
 ``sessions``, ``_streams`` and ``_registry``, the door's clients in the loop's registry).
 """
 
@@ -38,17 +38,17 @@ class ClientCommands:
             self.loop.leave_sync(client, "left synchronous mode")
 
     def _trigger(self, client: str, args: list) -> None:
+        """``simxSynchronousTrigger``: the step the barrier releases runs once this reply has
+        been handed over (``LoopAccess.step_after_reply``), as V-REP answered the trigger
+        before the step ran; the client's next call sees the step (``simxGetPingTime``
+        returns once it is done). A step that fails is told at the client's next request."""
         sim = self.sim
         if not sim.is_synchronous(client):
             raise P.RemoteError(
                 "simxSynchronousTrigger: this client has not enabled synchronous mode (call "
                 "simxSynchronous(clientID, True)); the simulation steps once every client that did has triggered")
-        if sim.state is RunState.RUNNING and sim.trigger(client) and not self.loop.step_now():
-            entry = self._registry.get(client)
-            message = entry.fault if entry is not None and entry.fault else "the simulation step failed"
-            if entry is not None:
-                entry.fault = None  # told now, by this call's error
-            raise P.RemoteError(message)
+        if sim.state is RunState.RUNNING and sim.trigger(client):
+            self._trigger_reply = self.loop.step_after_reply()  # set by _reply once sent
 
     def _forget(self, client: str, how: str) -> None:
         """Drop ``client``'s state: its streams, its intake (unless requests of it wait), its

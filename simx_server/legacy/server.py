@@ -148,6 +148,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
         self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
+        self._trigger_reply: threading.Event | None = None  # a trigger's step waits for its reply
         self.session: zenoh.Session | None = None
         self.viewers = ViewerFeed(prefix, loop.deliver, self.courier.send)  # simx-viewer's model and state
 
@@ -350,12 +351,15 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         (``bulk``: images of limits.BULK_SEND_BYTES or more, see loop.courier). ``in_place``,
         while the request is served in place: sent by the serving thread instead."""
         client = session.client
+        stepping, self._trigger_reply = self._trigger_reply, None  # a trigger's step waits for it
 
         def send() -> None:
             try:
                 answer(query, payload())
             finally:
                 self.sessions.sent(session)
+                if stepping is not None:
+                    stepping.set()
 
         self.sessions.handed_over(session)
         sends = self.loop.in_place

@@ -32,6 +32,7 @@ its defaults (each hook does nothing); it never subclasses the loop.
 from __future__ import annotations
 
 import queue
+import threading
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
@@ -152,6 +153,13 @@ class LoopAccess(Protocol):
     def step_now(self) -> bool:
         """One step now (the door's stepped client completed the synchronous barrier); False
         when it failed (every client is told, as for any failed step)."""
+        ...
+
+    def step_after_reply(self) -> threading.Event:
+        """The door's stepped client completed the synchronous barrier: the step runs once the
+        request being served has been answered, before anything else is served
+        (Loop.step_after_reply); a failure is told to every client at its next request. The
+        door sets the event returned once that request's reply is handed to its transport."""
         ...
 
     def leave_sync(self, client: str, how: str) -> None:

@@ -98,11 +98,12 @@ def test_a_failing_step_stops_the_simulation_and_is_reported_to_every_client():
             assert rc == 0 and any("step failed" in e for e in errors)
             assert vrep.simxGetObjectHandle(cid, "Box1", B)[0] == 0
             assert srv.proc.poll() is None
-        # In synchronous mode the trigger whose step fails answers the failure itself.
+        # In synchronous mode a failed step is told at the client's next call (here its next
+        # trigger): a trigger is answered before its step runs, as V-REP's was.
         assert vrep.simxSynchronous(cid, True) == 0 and vrep.simxStartSimulation(cid, B) == 0
         codes = [vrep.simxSynchronousTrigger(cid) for _ in range(10)]
         assert vrep.simx_return_remote_error_flag in codes
-        assert vrep.simxGetPingTime(cid)[0] == 0  # told once, by the trigger
+        assert vrep.simxGetPingTime(cid)[0] == 0  # told once
         assert "step failed" in call(session, a, [["GetPingTime", B, []]])[5][0][1]
     finally:
         session.close()
