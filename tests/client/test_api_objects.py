@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-import time
+import threading
 
 import numpy as np
 import pytest
@@ -250,33 +250,47 @@ def test_scene_editing_while_running_keeps_other_handles(vrep_client, tmp_path):
 
 def test_negative_start_timeout_is_the_blocking_timeout():
     """simxStart(..., timeOutInMs < 0, ...): |t| bounds every blocking call (extApi.c's rule).
-    A peer that answers only the handshake shows it: the next blocking call times out."""
+    A peer that answers the handshake at once and every other request SLOW_ANSWER s late (slow
+    on purpose) shows it by the outcome, not by seconds: with -300 ms the call times out before
+    the answer comes; with the default 5 s blocking timeout the same late answer is taken."""
     import zenoh
 
     from simx_client import protocol as P
     from simx_server.legacy.zenoh_config import zenoh_config
 
+    slow_answer = 2.0  # s: far beyond 0.3 s, well within the default 5 s
     port = free_port()
-    held = []
+    timers = []
+
+    def answer(query):
+        try:
+            query.reply(query.key_expr, P.response(0, 0, [[True, 42]]))
+        except zenoh.ZError:
+            pass  # the query ended: its client stopped waiting
 
     def on_query(query):
         _, commands = P.parse_request(query.payload.to_bytes())
         if commands[0][0] == "Hello":
             query.reply(query.key_expr, P.response(0, 0, [[True, {"protocol": P.PROTOCOL_VERSION}]]))
         else:
-            held.append(query)  # never answered
+            timers.append(threading.Timer(slow_answer, answer, (query,)))
+            timers[-1].start()
 
     session = zenoh.open(zenoh_config([f"tcp/127.0.0.1:{port}"]))
     queryable = session.declare_queryable(P.call_keys(), on_query)
     try:
-        cid = vrep.simxStart("127.0.0.1", port, True, True, -300, 5)
-        assert cid >= 0
-        t0 = time.monotonic()
-        assert vrep.simxGetObjectHandle(cid, "UR5", B) == (vrep.simx_return_timeout_flag | 1, 0)
-        assert time.monotonic() - t0 < 3.0  # 0.3 s, not the default 5 s
-        vrep.simxFinish(cid)
+        for start_timeout, outcome in ((-300, (vrep.simx_return_timeout_flag | 1, 0)),
+                                       (5000, (vrep.simx_return_ok, 42))):  # the late answer taken
+            cid = vrep.simxStart("127.0.0.1", port, True, True, start_timeout, 5)
+            assert cid >= 0
+            try:
+                assert vrep.simxGetObjectHandle(cid, "UR5", B) == outcome, start_timeout
+            finally:
+                vrep.simxFinish(cid)  # one connection per address and port in a process, as in V-REP
     finally:
-        held.clear()
+        for timer in timers:
+            timer.cancel()
+            timer.join()
         queryable.undeclare()
         session.close()
 
