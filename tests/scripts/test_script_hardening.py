@@ -6,8 +6,6 @@ shapes of the issue run against a real server."""
 
 from __future__ import annotations
 
-import time
-
 import pytest
 
 import vrep
@@ -83,13 +81,13 @@ def test_arguments_that_would_not_fit_in_the_lua_state_are_refused_not_a_crash(s
 
 
 def test_a_pathological_pattern_is_refused_and_a_normal_one_works(sim):
+    # The outcome is the error naming the bound: a match this size, run, would take hours (the
+    # test would then end at pytest's timeout), and the scripts' time bound cannot stop C code.
     subject = "a" * 100_000
-    t0 = time.monotonic()
     with pytest.raises(ScriptError, match=r"MAX_PATTERN_WORK"):
         call(sim, "find", strings=[subject, ".-.-.-.-.-b"])
     with pytest.raises(ScriptError, match=r"MAX_PATTERN_WORK"):
         call(sim, "method", strings=[subject, "(.-)(.-)(.-)b"])  # the string metatable's methods too
-    assert time.monotonic() - t0 < 5  # refused, not run (its run would take hours)
     assert call(sim, "find", strings=["abc123", "%d+"])[0] == [4]
     assert call(sim, "find", strings=[subject, "b"])[0] == [-1]  # one repetition-free scan: fine
 
