@@ -7,6 +7,7 @@ import subprocess
 import sys
 import textwrap
 import time
+import types
 
 import msgpack
 import numpy as np
@@ -64,13 +65,23 @@ def test_joint_target_position_moves_joint_within_velocity_limit(vrep_client):
     rc, q0 = vrep.simxGetJointPosition(vrep_client, h, B)
     assert rc == 0
     target = q0 + math.radians(90)
-    t0 = time.monotonic()
-    assert vrep.simxSetJointTargetPosition(vrep_client, h, target, ONESHOT) in (0, 1)
-    # 180 deg/s at most: after ~0.2 s of simulation it cannot have covered 90 degrees.
-    time.sleep(0.2)
-    rc, q_mid = vrep.simxGetJointPosition(vrep_client, h, B)
-    elapsed = time.monotonic() - t0
-    assert q_mid - q0 <= math.pi * (elapsed + 0.1) + 1e-3
+    # 180 deg/s at most, in simulation time: stepped by this client (synchronous mode), each
+    # reading is checked against the simulation time passed since the target was set, whatever
+    # the machine's speed (a free-running simulation was compared with the wall clock).
+    assert vrep.simxSynchronous(vrep_client, True) == 0
+    try:
+        assert vrep.simxSetJointTargetPosition(vrep_client, h, target, B) == 0
+        t_set = vrep.simxGetLastCmdTime(vrep_client)
+        moved = []
+        for _ in range(4):
+            assert vrep.simxSynchronousTrigger(vrep_client) == 0
+            rc, q = vrep.simxGetJointPosition(vrep_client, h, B)
+            assert rc == 0
+            moved.append((q - q0, (vrep.simxGetLastCmdTime(vrep_client) - t_set) / 1000))
+    finally:
+        assert vrep.simxSynchronous(vrep_client, False) == 0
+    assert [round(t, 3) for _, t in moved] == [0.05, 0.1, 0.15, 0.2], moved  # one step per trigger
+    assert 0 < moved[0][0] and all(q <= math.pi * t + 1e-3 for q, t in moved), moved  # moving, within 180 deg/s
     wait_until(lambda: abs(vrep.simxGetJointPosition(vrep_client, h, B)[1] - target) < math.radians(0.5))
     vrep.simxSetJointTargetPosition(vrep_client, h, q0, B)
     wait_until(lambda: abs(vrep.simxGetJointPosition(vrep_client, h, B)[1] - q0) < math.radians(0.5))
@@ -361,11 +372,30 @@ def test_synchronous_stepping(vrep_client):
     assert vrep.simxSynchronousTrigger(vrep_client) == 8
 
 
-def test_finish_all_and_start_timeout():
-    t0 = time.monotonic()
+def test_finish_all_and_start_timeout(monkeypatch, caplog):
+    """simxStart's positive timeOutInMs bounds its connection wait: the retries stop at the
+    client's own deadline (simx_client.connection.wait_connect's timer). Counted, not timed: on a
+    clock that moves only by the client's 50 ms sleeps between tries, 500 ms is 11 tries to
+    open a session (12 where the float sum falls short); the default 5 s would be 101."""
+    from simx_client import connection
+
+    clock, opened = [0.0], []
+
+    def sleep(seconds: float) -> None:
+        clock[0] += seconds
+
+    def counting_open(*args, **kwargs):
+        opened.append(clock[0])
+        return open_session(*args, **kwargs)
+
+    open_session = connection.open_session
+    monkeypatch.setattr(connection, "time", types.SimpleNamespace(monotonic=lambda: clock[0], sleep=sleep))
+    monkeypatch.setattr(connection, "open_session", counting_open)
     port = __import__("conftest").free_port()
-    assert vrep.simxStart("127.0.0.1", port, True, True, 500, 5) == -1
-    assert time.monotonic() - t0 < 3.0
+    with caplog.at_level("INFO", logger=connection.log.name):
+        assert vrep.simxStart("127.0.0.1", port, True, True, 500, 5) == -1
+    assert len(opened) in (11, 12) and opened[-1] >= 0.5 - 1e-9, opened
+    assert [r.getMessage() for r in caplog.records if f"no simx server at 127.0.0.1:{port}" in r.getMessage()]
     assert vrep.simxFinish(-1) is None
 
 
