@@ -14,7 +14,7 @@ test process:
   (Windows-style paths: on Linux plain file names with backslashes, in the program's cwd);
   the RGB one is a real picture, the depth one kinect_depth's grey depth image inverted by the
   program (near pixels bright), as on V-REP;
-* P exits with status 0 within 5 s;
+* P exits with status 0 (waited for at most 30 s);
 * the server still serves a new client afterwards.
 """
 
@@ -213,17 +213,20 @@ def test_robotcontrol_keyboard_session(server19999, tmp_path):
                 return q
 
             def settled(h: int, what: str) -> float:
-                """The joint's position once it stops moving (two reads 0.3 s apart agree)."""
-                last = [joint(h)]
+                """The joint's position once it stops moving: two reads 0.3 s of simulation time
+                apart agree (0.3 s of wall clock was less simulation on a loaded machine, where
+                a joint still moving slowly looked settled)."""
+                last = [joint(h), vrep.simxGetLastCmdTime(cid)]  # the position, its time (ms)
 
                 def still():
-                    time.sleep(0.3)
-                    q = joint(h)
+                    q, t = joint(h), vrep.simxGetLastCmdTime(cid)
+                    if t - last[1] < 300:
+                        return False
                     done = abs(q - last[0]) < 1e-4
-                    last[0] = q
+                    last[:] = [q, t]
                     return done
 
-                prog.wait_for(what, still, 30, period=0.0)
+                prog.wait_for(what, still, 60, period=0.05)
                 return last[0]
 
             # --- Q x10: joint 1 by +1 degree each, to +10 degrees.
@@ -304,16 +307,13 @@ def test_robotcontrol_keyboard_session(server19999, tmp_path):
                     cv2.imwrite(str(PNGS / f"robotcontrol_{server19999.kind}_rgb.png"), rgb)
                 _check_depth_image(depth, vrep, cid, kinect)
 
-            # --- P quits with status 0 within 5 s.
+            # --- P quits with status 0 (waited for at most 30 s).
             press(xd.display, wid, "p")
-            t0 = time.monotonic()
-            try:
-                rc = prog.proc.wait(timeout=5.0)
+            try:  # a bound on the wait only: the program exits on P
+                rc = prog.proc.wait(timeout=30.0)
             except subprocess.TimeoutExpired:
-                prog.fail("robotControl.py did not exit within 5 s of P")
-            elapsed = time.monotonic() - t0
+                prog.fail("robotControl.py did not exit within 30 s of P")
             assert rc == 0, f"exit status {rc} after P" + prog.diagnostics()
-            assert elapsed < 5.0
         finally:
             prog.kill()
             if cid >= 0:
