@@ -18,7 +18,6 @@ import stat
 import struct
 import tempfile
 import threading
-import time
 import uuid
 import zlib
 from pathlib import Path
@@ -222,36 +221,36 @@ def vm_hwm_kb(pid: int) -> int:
 
 
 def test_scene_bombs_are_refused_at_once_while_others_are_served(server_b, client_b, tmp_path):
+    """The bombs are refused before anything is parsed (the errors name the guard's bounds, the
+    server's peak memory stays small), and another client's blocking calls, made throughout,
+    are all answered: none runs into its 5 s blocking timeout (the client's timer), which each
+    call in flight during a freeze like the one before the fix (22-30 s) would. Stated without
+    a latency in seconds, which the machine's speed and load decide."""
     assert len(TEXTURE_BOMB) < 260 and len(REPLICATE_BOMB) < 260
     other = connect(server_b.ports[1])  # one connection per port and process, as in V-REP
     try:
-        def call() -> float:
-            t = time.perf_counter()
-            assert vrep.simxGetObjectHandle(other, "UR5", WAIT)[0] == OK
-            return time.perf_counter() - t
-
-        unloaded = sorted(call() for _ in range(60))
-        p99 = unloaded[int(0.99 * len(unloaded))]
-        latencies, stop = [], threading.Event()
+        codes, stop = [], threading.Event()  # the return code of each of the other client's calls
 
         def keep_calling():
             while not stop.is_set():
-                latencies.append(call())
+                codes.append(vrep.simxGetObjectHandle(other, "UR5", WAIT)[0])
 
         worker = threading.Thread(target=keep_calling)
         worker.start()
         try:
+            wait_until(lambda: len(codes) >= 5, 30, what="the other client's first calls")
             for name, xml in (("texture_bomb.xml", TEXTURE_BOMB), ("replicate_bomb.xml", REPLICATE_BOMB)):
                 local = tmp_path / name
                 local.write_text(xml)
                 for load in (lambda: vrep.simxLoadScene(client_b, str(local), 1, WAIT),
                              lambda: vrep.simxLoadModel(client_b, str(local), 1, WAIT)[0]):
                     assert load() == REMOTE  # the errors below name the guard's bounds: refused unparsed
-            wait_until(lambda: len(latencies) >= 20, 10, what="the other client's calls")
+            after = len(codes)
+            wait_until(lambda: len(codes) >= after + 5, 30, what="the other client's calls after the loads")
         finally:
             stop.set()
             worker.join()
-        assert max(latencies) < max(10 * p99, 0.5), (max(latencies), p99)  # the bombs froze clients 22-30 s
+        assert codes == [OK] * len(codes), codes  # the bombs froze clients 22-30 s before the fix
         errors = last_errors(client_b)
         assert any("texture" in e and "pixels" in e for e in errors), errors
         assert any("bodies" in e for e in errors), errors
