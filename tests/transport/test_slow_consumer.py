@@ -46,12 +46,14 @@ def test_a_stopped_consumer_does_not_make_another_clients_calls_time_out():
             codes.append(vrep.simxGetObjectHandle(cid, "UR5_joint1", B)[0])
         assert codes and set(codes) == {0}, f"{sum(c != 0 for c in codes)} of {len(codes)} calls failed"
         vrep.simxFinish(cid)
-        # SIGTERM still ends the server within 2 s: Zenoh's close waited 11.6 s for the stopped
-        # peer's link (limits.ZENOH_CLOSE_SECONDS), the sending thread 2 s for its blocked reply
-        t0 = time.monotonic()
-        log = srv.stop()
-        stopped_in = time.monotonic() - t0
-        assert srv.proc.returncode == 0 and stopped_in < 2.0, f"{stopped_in:.2f} s"
+        # SIGTERM still ends the server: Zenoh's close waited 11.6 s for the stopped peer's link;
+        # now the server goes on after limits.ZENOH_CLOSE_SECONDS (a timer in
+        # legacy.server.Server.close), and says so. The server exits by itself (status 0,
+        # not the SIGKILL that ServerProcess.stop sends when its wait runs out) and the log
+        # shows the timer did it: not a time in seconds, which the machine's load decides.
+        log = srv.stop(timeout=30)
+        assert srv.proc.returncode == 0, srv.proc.returncode
+        assert "(limits.ZENOH_CLOSE_SECONDS)" in log, log[-3000:]
     finally:
         if stuck is not None:
             os.kill(stuck.pid, signal.SIGKILL)
