@@ -48,7 +48,8 @@ def pending() -> int:
     return _pending[0]
 
 
-def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path], Any]) -> Deferred | None:
+def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Any], Any],
+          prepare: Callable[[Path], Any] | None = None) -> Deferred | None:
     """Convert the V-REP file that ``path`` names off the simulation thread, then run
     ``finish(mjcf)`` on the simulation thread; None where there is nothing to defer (not a
     ``.ttt``/``.ttm`` file, or no ``sim.post``): the caller then loads it at once.
@@ -58,7 +59,12 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path]
         files: the editor's :class:`~simx_server.scene.client_files.ClientFiles`.
         path, options: as the load command gives them (options bit 0: a transferred file).
         finish: the load of the converted MJCF (on the simulation thread); its return value
-            is the Deferred's.
+            is the Deferred's. Given ``prepare``, it gets ``prepare``'s outcome instead of
+            the MJCF's path: its value, or the exception it raised (``finish`` raises it).
+        prepare: the load's work that touches nothing the simulation thread owns (MuJoCo's
+            parse and compile of the converted MJCF, a new ``World``), run on the conversion's
+            thread after the conversion, in the same turn (one at a time: each may take the
+            memory of a scene); None: the conversion's thread only warms MuJoCo's mesh cache.
 
     Returns:
         The Deferred of ``finish``'s value (its exception: the load's error).
@@ -84,10 +90,10 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path]
     future: Future = Future()
     label = quote(path)
 
-    def install(xml: Path) -> None:  # the simulation thread
+    def install(ready: Any) -> None:  # the simulation thread
         try:
             with files.acting(caller):
-                future.set_result(finish(xml))
+                future.set_result(finish(ready))
         except Exception as exc:
             if not isinstance(exc, RemoteError):
                 log.exception("loading %s", label)
@@ -97,7 +103,14 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path]
         try:
             with _turn:
                 xml = ttt_cache.mjcf_for(file, root, client=True)  # a client asked: a client's bounds
-                _warm(xml, client_root)
+                ready: Any = xml
+                if prepare is None:
+                    _warm(xml, client_root)
+                else:
+                    try:
+                        ready = prepare(xml)
+                    except Exception as exc:  # finish, on the simulation thread, says what is wrong
+                        ready = exc
         except (ValueError, OSError) as exc:
             message = files.scrub(f"cannot load {label}: {exc}")
             log.warning("%s", message)
@@ -110,7 +123,7 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Path]
         finally:
             with _count_lock:
                 _pending[0] -= 1
-        post(lambda: install(xml))
+        post(lambda: install(ready))
 
     threading.Thread(target=convert, name="simx-ttt-convert", daemon=True).start()
     return Deferred(future)

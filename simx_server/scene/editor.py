@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 import mujoco
 import numpy as np
@@ -148,13 +148,14 @@ class Editor(ObjectEdits):
     def _scrub(self, text: str) -> str:
         return self.files.scrub(text)
 
-    def _client_spec(self, file: Path, what: str, dt: float | None) -> mujoco.MjSpec:
-        """Parse a client-sent MJCF file, measured before and after parsing (scene_guard)."""
-        root = self.files.root_of(file)  # the sending client's folder
+    def _client_spec(self, file: Path, what: str, dt: float | None, root: Path | None = None) -> mujoco.MjSpec:
+        """Parse a client-sent MJCF file, measured before and after parsing (scene_guard); any
+        thread given ``root``, the sending client's folder (else the simulation thread's files
+        tell it). MuJoCo's warnings go to physics.SINK (the process-wide handler is not swapped)."""
+        root = root if root is not None else self.files.root_of(file)
         guard.check_client_file(file, root, what)
         try:
-            with _quiet_mujoco():
-                spec = load_spec(file, root=root)  # a URDF's meshes: confined before looked up
+            spec = load_spec(file, root=root)  # a URDF's meshes: confined before looked up
         except ValueError as exc:
             raise RemoteError(f"cannot load {what}: {self._scrub(_one_line(exc))}") from None
         guard.check_spec(spec, what, root=root, dt=dt)
@@ -296,31 +297,47 @@ class Editor(ObjectEdits):
     def load_scene(self, path: str, options: int, defer: bool = False) -> Deferred | None:
         """``simxLoadScene``: replace the scene (simulation stopped only); handles restart.
 
-        ``defer``: a ``.ttt`` file is converted off the simulation thread and the load
-        completes later (:mod:`simx_server.scene.conversions`): returns its Deferred (None
-        when loaded at once)."""
+        ``defer``: a ``.ttt`` file is converted off the simulation thread, and MuJoCo's parse
+        and compile of the converted file and the new :class:`World` are made there too
+        (:meth:`prepare_scene`); the simulation thread then only swaps the scene in
+        (:meth:`_swap_scene`) and the load completes (:mod:`simx_server.scene.conversions`):
+        returns its Deferred (None when loaded at once)."""
 
         self._check_stopped()
         if defer:
-            pending = conversions.later(self.sim, self.files, path, options,
-                                        lambda xml: self._load_scene_file(xml, path, options))
+            label, dt, now = quote(path), self._load_dt(), self.sim.world.requested_dt
+            root = self.files.folder(self.files.caller) if options & 1 else None  # the sender's folder
+            pending = conversions.later(self.sim, self.files, path, options, self._finish_scene,
+                                        lambda xml: self.prepare_scene(xml, label, dt, root, now))
             if pending is not None:
                 return pending
         self._load_scene_file(self.resolve(path, options), path, options)
         return None
+
+    def _finish_scene(self, ready: Any) -> None:
+        """The simulation thread's part of a deferred load: ``ready`` is what
+        :meth:`prepare_scene` made, or the exception it raised."""
+        if isinstance(ready, BaseException):
+            raise ready
+        self._check_stopped()
+        self._swap_scene(ready)
 
     def _check_stopped(self) -> None:
         if self.sim.state is not RunState.STOPPED:
             raise RemoteError("stop the simulation first: call sim.stopSimulation() (simxStopSimulation) before, "
                               "or start simx-server with --stopped (CoppeliaSim starts stopped; docs/ZMQ.md)")
 
+    def _load_dt(self) -> float | None:
+        """The step a loaded scene gets: ``--dt``, else (None) the new scene's saved step, as
+        V-REP loads a scene's settings."""
+        sim = self.sim
+        return getattr(sim, "dt_override", sim.world.requested_dt)
+
     def _load_scene_file(self, file: Path, path: str, options: int) -> None:
         """Load the resolved scene ``file`` (MJCF) that ``path`` named."""
         self._check_stopped()
-        spec = None
-        if options & 1:  # a client's scene: measured before MuJoCo parses and compiles it
-            spec = self._client_spec(file, f"scene {quote(path)}", self.sim.world.requested_dt)
-        self._install_scene(file, quote(path), spec)
+        root = self.files.root_of(file) if options & 1 else None  # a client's scene: measured
+        self._swap_scene(self.prepare_scene(file, quote(path), self._load_dt(), root, self.sim.world.requested_dt))
 
     def close_scene(self) -> None:
         """``simxCloseScene``: stop the simulation and replace the scene with an empty one."""
@@ -328,45 +345,97 @@ class Editor(ObjectEdits):
         empty = self.files_dir / ".simx" / "empty.xml"
         empty.parent.mkdir(exist_ok=True)
         empty.write_text(_EMPTY_SCENE)
-        self._install_scene(empty, "empty")
+        self._swap_scene(self.prepare_scene(empty, "empty", self._load_dt()))
 
-    def _install_scene(self, file: Path, label: str, spec: mujoco.MjSpec | None = None) -> None:
-        """Load ``file`` as the scene; ``spec`` is its parse when the caller has it already
-        (a client's scene, measured): MuJoCo's parse is most of a load's time."""
-        sim = self.sim
-        dt = getattr(sim, "dt_override", sim.world.requested_dt)  # None: the new scene's saved step, as V-REP loads a scene's settings
+    def prepare_scene(self, file: Path, label: str, dt: float | None, root: Path | None = None,
+                      step: float | None = None) -> PreparedScene:
+        """The part of a scene load that touches nothing of the live simulation, on any thread:
+        the client's file measured (``root``: the sending client's folder, as
+        :meth:`_client_spec`), MuJoCo's parse and compile of ``file`` into a new :class:`World`,
+        its custom data, and the ``MjSpec`` that later edits start from (its poses as compiled:
+        the new world's). Nothing made here is seen by the simulation until
+        :meth:`_swap_scene` (one thread owns a model once it is live). As CoppeliaSim's
+        ``CFileOperations::loadScene`` reads the whole file before it replaces the scene.
+
+        Args:
+            file: the MJCF (or URDF) file, resolved; a ``.ttt``'s conversion.
+            label: the path as the client gave it, quoted, for messages.
+            dt: the step (s), None: the scene's saved step.
+            root: the client's folder for a client's file (bounds checked, a bounded World);
+                None for a server-side file.
+            step: the live scene's step (s), which a client's file is measured against
+                (``scene_guard.check_spec``), read on the simulation thread.
+
+        Raises:
+            RemoteError: ``cannot load scene <label>: ...`` (MuJoCo's message, or the bound
+                the file exceeds).
+        """
+        spec = None
+        try:
+            if root is not None:  # a client's scene: measured before MuJoCo parses and compiles it
+                spec = self._client_spec(file, f"scene {label}", step, root)
+            name = ttt_cache.origin(file).name if file.name != ttt_cache.origin(file).name else None
+            world = World(file, dt, bounded=spec is not None, name=name)  # a client's scene: bounded
+            blocks = custom_data.load(world)
+        except (ValueError, RemoteError) as exc:
+            raise self._load_error(exc, file, label) from None
+        editing = None
+        try:
+            # (MuJoCo's warnings go to physics.SINK, as the World's: _quiet_mujoco swaps the
+            # process-wide handler, which only the simulation thread may do)
+            if spec is None:
+                spec = load_spec(world.scene_path)
+            spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
+            # the world's model is the file's, compiled: its poses are the edits' baseline
+            editing = (spec, _poses(world.model), kept_state.snapshot(world.model))
+        except ValueError as exc:
+            log.warning("scene %s cannot be edited: %s", label, _one_line(exc))
+        return PreparedScene(file, label, world, blocks, editing)
+
+    def _load_error(self, exc: Exception, file: Path, label: str) -> RemoteError:
+        text = self._scrub(_one_line(exc))
+        text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix
+        return RemoteError(f"cannot load scene {label}: {text}")
+
+    def _swap_scene(self, prepared: PreparedScene) -> None:
+        """Make ``prepared`` (:meth:`prepare_scene`) the scene, on the simulation thread: its
+        scripts (customization scripts begin, the old scene's end), custom data, vision
+        sensors (the render thread's renderers handed over), a fresh selection and sensor state.
+
+        Raises:
+            RemoteError: a script of the scene cannot be loaded; nothing changed then.
+        """
+        sim, file, world = self.sim, prepared.file, prepared.world
         old = sim.scripts
         # A scene in a transfer folder (any server's) brings no code, unless --allow-remote-code.
         untrusted = guard.transfer_folders(self.files_dir, *([file.parent] if guard.is_transferred(file) else []))
         try:
-            name = ttt_cache.origin(file).name if file.name != ttt_cache.origin(file).name else None
-            world = World(file, dt, bounded=spec is not None, name=name)  # a client's scene: bounded
             scripts = Scripts(world, sim.signals, allow_remote_code=old.allow_remote_code,
                               allow_unsafe_lua=old.allow_unsafe_lua, untrusted=untrusted, simulation=sim,
                               allow_python_scripts=old.allow_python_scripts)
-            blocks = custom_data.load(world)
         except (ValueError, RemoteError) as exc:
-            text = self._scrub(_one_line(exc))
-            text = text.removeprefix(f"cannot load scene {self.public(file)}: ")  # World's own prefix
-            raise RemoteError(f"cannot load scene {label}: {text}") from None
+            raise self._load_error(exc, file, prepared.label) from None
         old.close()  # the old scene's customization scripts end, the new one's begin
         sim.world, sim.scripts = world, scripts
         self.files.scene_installed(file)  # a client's folder that holds it stays while it is loaded
-        custom_data.install(sim, blocks)
+        custom_data.install(sim, prepared.blocks)
         scripts.open()
         refresh_vision(sim)
         sim.sensors = type(sim.sensors)()  # per-scene sensor state (probes, passive images) starts afresh
-        self._spec = self._spec_world = self._baseline = None
-        if spec is not None:
-            try:
-                with _quiet_mujoco():
-                    spec.assets = {**(spec.assets or {}), **_embed_assets(spec, self._asset_counter)}
-                    compiled = spec.compile()
-                    self._spec, self._spec_world, self._baseline = spec, world, _poses(compiled)
-                    self._baseline_state = kept_state.snapshot(compiled)
-            except ValueError as exc:
-                log.warning("scene %s cannot be edited: %s", label, _one_line(exc))
-        else:
-            self._parse_now()
+        self._spec = self._spec_world = self._baseline = self._baseline_state = None
+        if prepared.editing is not None:
+            self._spec, self._baseline, self._baseline_state = prepared.editing
+            self._spec_world = world
         sim.selection = []
-        log.info("scene %s loaded: %d objects", label, len(world.objects))
+        log.info("scene %s loaded: %d objects", prepared.label, len(world.objects))
+
+
+class PreparedScene(NamedTuple):
+    """A loaded scene not yet live (:meth:`Editor.prepare_scene`): made on any thread, handed
+    to the simulation thread once (:meth:`Editor._swap_scene`), never shared before."""
+
+    file: Path  #: the MJCF file loaded
+    label: str  #: the path the client gave, quoted
+    world: World  #: the new world (model, data, objects)
+    blocks: dict[int, dict[str, bytes]]  #: its custom data (custom_data.load)
+    editing: tuple | None  #: (spec, poses, kept state) for edits; None: the scene cannot be edited

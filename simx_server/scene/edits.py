@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import logging
 import math
+from pathlib import Path
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -36,7 +38,6 @@ from simx_server.sim.spec_tools import (
     _names,
     _object_names,
     _one_line,
-    _quiet_mujoco,
     _rename_assets,
     _rotate,
     _set_local_pose,
@@ -53,6 +54,16 @@ from simx_server.sim.world import JOINT, SHAPE, WORLD
 log = logging.getLogger("simx.editing")
 
 
+class PreparedModel(NamedTuple):
+    """A model read for loading (:meth:`ObjectEdits.prepare_model`): made on any thread, handed
+    to the simulation thread once, never shared before."""
+
+    file: Path  #: the MJCF file read
+    label: str  #: the path the client gave, quoted
+    spec: mujoco.MjSpec  #: the model's spec, its files in memory, its scripts dropped
+    assets: dict[str, bytes]  #: those files, by the names the spec gives them
+
+
 class ObjectEdits:
     """The object commands of the :class:`~simx_server.scene.editor.Editor` (which provides ``sim``, ``files``, ``_edit``, ``_taken``, ``_spec_element``, ``resolve``, ``_client_spec``)."""
 
@@ -60,30 +71,56 @@ class ObjectEdits:
     def load_model(self, path: str, options: int, defer: bool = False) -> int | Deferred:
         """``simxLoadModel``: attach an MJCF model's world children; returns its base handle.
 
-        ``defer``: a ``.ttm`` file is converted off the simulation thread and the load completes
-        later (:mod:`simx_server.scene.conversions`): returns the Deferred of the handle."""
+        ``defer``: a ``.ttm`` file is converted off the simulation thread, where the model's
+        spec is also parsed and compiled once alone (:meth:`prepare_model`: its meshes then
+        wait in MuJoCo's cache under the names the scene's compile looks up), and the load
+        completes later (:mod:`simx_server.scene.conversions`): returns the Deferred of the
+        handle."""
         if defer:
-            pending = conversions.later(self.sim, self.files, path, options,
-                                        lambda xml: self._load_model_file(xml, path, options))
+            label = quote(path)
+            root = self.files.folder(self.files.caller) if options & 1 else None  # the sender's folder
+            pending = conversions.later(self.sim, self.files, path, options, self._finish_model,
+                                        lambda xml: self.prepare_model(xml, label, root))
             if pending is not None:
                 return pending
-        return self._load_model_file(self.resolve(path, options), path, options)
+        file = self.resolve(path, options)
+        root = self.files.root_of(file) if options & 1 else None
+        return self._attach_model(self.prepare_model(file, quote(path), root, warm=False))
 
-    def _load_model_file(self, file, path: str, options: int) -> int:
-        """Attach the resolved model ``file`` (MJCF) that ``path`` named; its base's handle."""
-        if options & 1:  # a client's model: measured, its files confined to the transfer folder
-            child = self._client_spec(file, f"model {quote(path)}", None)
+    def _finish_model(self, ready) -> int:
+        if isinstance(ready, BaseException):
+            raise ready
+        return self._attach_model(ready)
+
+    def prepare_model(self, file, label: str, root=None, warm: bool = True) -> PreparedModel:
+        """The part of a model load that touches nothing of the live scene, on any thread: the
+        model's ``MjSpec`` parsed (a client's file measured first: ``root``, the sender's
+        folder, as :meth:`_client_spec`), its files read into memory under names of their own
+        (:func:`_embed_assets`), its scripts dropped; ``warm``: compiled once alone and
+        dropped, which leaves its meshes processed (convex hulls, inertia) in MuJoCo's cache
+        under those names, so that the scene's compile on the simulation thread finds them
+        there (before, a 100-shape model's meshes, compiled from memory, held that thread
+        1.3-2.3 s). As CoppeliaSim's ``CFileOperations::loadModel`` reads the file whole before
+        it adds the model to the scene.
+
+        Args:
+            file: the MJCF (or URDF) file, resolved; a ``.ttm``'s conversion.
+            label: the path as the client gave it, quoted, for messages.
+            root: the client's folder for a client's file; None for a server-side file.
+            warm: compile the model alone once (off the simulation thread only).
+
+        Raises:
+            RemoteError: ``cannot load model <label>: ...`` (MuJoCo's parse message or a bound).
+        """
+        if root is not None:  # a client's model: measured, its files confined to its folder
+            child = self._client_spec(file, f"model {label}", None, root)
         else:
             try:
-                with _quiet_mujoco():
-                    child = load_spec(file)
+                child = load_spec(file)  # (MuJoCo's warnings: physics.SINK, on any thread)
             except ValueError as exc:
-                raise RemoteError(f"cannot load model {quote(path)}: {_one_line(exc)}") from None
+                raise RemoteError(f"cannot load model {label}: {_one_line(exc)}") from None
         child_assets = _embed_assets(child, self._asset_counter)
         child.assets = {**(child.assets or {}), **child_assets}
-        base = child.worldbody.first_body()
-        if base is not None and not base.name:
-            base.name = child.modelname or file.stem
         for t in list(child.texts):  # child scripts of loaded models are not run
             if t.name.startswith("simx:") and ("child_script=" in t.data or "customization_script=" in t.data):
                 log.warning("model %s: scripts of %r ignored", file.name, t.name[5:])
@@ -92,6 +129,20 @@ class ObjectEdits:
                     t.data = rest
                 else:
                     child.delete(t)
+        if warm and child.meshes:
+            try:  # MuJoCo releases the GIL while it compiles; the attach's compile reports errors
+                child.copy().compile()
+            except Exception as exc:
+                log.debug("warming MuJoCo's cache with model %s: %s", label, exc)
+        return PreparedModel(file, label, child, child_assets)
+
+    def _attach_model(self, prepared: PreparedModel) -> int:
+        """Attach a prepared model (:meth:`prepare_model`) to the scene, on the simulation
+        thread (one compile of the scene with it, :meth:`_edit`); its base's handle."""
+        file, path, child, child_assets = prepared
+        base = child.worldbody.first_body()
+        if base is not None and not base.name:
+            base.name = child.modelname or file.stem
 
         def change(spec: mujoco.MjSpec):
             taken = self._taken(spec)
@@ -104,7 +155,7 @@ class ObjectEdits:
                 return lambda: self.sim.world.resolve(base.name + suffix).handle
             first = next((e.name + suffix for e in _elements(child, ("sites", "cameras", "lights")) if e.name), None)
             if first is None:
-                raise ArgumentError(f"model {quote(path)} has no body nor named site, camera or light")
+                raise ArgumentError(f"model {path} has no body nor named site, camera or light")
             return lambda: self.sim.world.resolve(first).handle
 
         handle = self._edit(change)
