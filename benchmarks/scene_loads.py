@@ -17,8 +17,8 @@ The files (written with the tests' writer, ``tests/scene/ttt/tttwriter.py``):
 * ``texture``: a cuboid with a 4096x4096 texture;
 * ``pool.ttm``: the pool file as a model.
 
-Run alone: ``MUJOCO_GL=egl python -m benchmarks.scene_loads [--quick]`` (quick: pool and
-pool.ttm only). Every process is started here and stopped by its own PID; loopback only.
+Run alone: ``MUJOCO_GL=egl python -m benchmarks.scene_loads [--quick] [case ...]`` (quick:
+pool and pool.ttm only). Every process is started here and stopped by its own PID; loopback only.
 """
 
 from __future__ import annotations
@@ -126,8 +126,9 @@ def run_case(case: str, folder: Path, log_dir: Path) -> dict:
 
 
 def main(argv: list[str]) -> None:
-    """Run the cases (``--quick``: pool and pool.ttm) and print one line of figures each."""
-    cases = ["pool", "pool.ttm"] if "--quick" in argv else list(CASES)
+    """Run the cases named in ``argv`` (none: all; ``--quick``: pool and pool.ttm) and print
+    one line of figures each."""
+    cases = [a for a in argv if a in CASES] or (["pool", "pool.ttm"] if "--quick" in argv else list(CASES))
     os.environ.setdefault("MUJOCO_GL", "egl")
     with tempfile.TemporaryDirectory(prefix="simx-bench-loads-") as tmp:
         folder = Path(tmp)

@@ -3,9 +3,12 @@
 A client's ``simxLoadScene``/``simxLoadModel`` (and ZMQ's ``sim.loadScene``/``sim.loadModel``)
 of a V-REP file returns at once with a :class:`~simx_server.sim.vision_results.Deferred`; a
 background thread has the file read and converted in its bounded worker process
-(:func:`simx_server.scene.ttt.cache.mjcf_for`, :mod:`simx_server.scene.ttt.worker`), then hands
-the load of the converted MJCF to the simulation thread (``sim.post``, given by
-:func:`simx_server.loop.tasks.attach`). The simulation keeps stepping and every other client
+(:func:`simx_server.scene.ttt.cache.mjcf_for`, :mod:`simx_server.scene.ttt.worker`), then
+prepares the load there too, touching nothing the simulation thread owns (a scene: MuJoCo's
+parse and compile of the converted MJCF and the new ``World``, ``Editor.prepare_scene``; a
+model: its ``MjSpec``, compiled once alone so that its meshes wait in MuJoCo's cache,
+``prepare_model``), and hands the rest to the simulation thread (``sim.post``, given by
+:func:`simx_server.loop.tasks.attach`): a scene's swap, a model's attach and compile. The simulation keeps stepping and every other client
 keeps being served meanwhile; the load's reply leaves when the load is done, with its value or
 its error. The file is read under a client's bounds, whoever's folder it is in (no more objects than
 ``limits.MAX_SCENE_ELEMENTS``: loading the MJCF of 100,000 objects held the simulation thread

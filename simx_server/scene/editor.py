@@ -37,7 +37,9 @@ Rules, in V-REP's terms (docs/API.md lists them per command):
 The MjSpec tools (pose maths, names, references, cloning) are in :mod:`simx_server.sim.spec_tools`,
 the command handlers (``EDITING_HANDLERS``) in :mod:`simx_server.commands.editing`.
 
-Runs on the simulation thread, like every handler.
+Runs on the simulation thread, like every handler, except :meth:`Editor.prepare_scene` and
+``prepare_model`` (any thread: a deferred load's conversion thread), which build a new world or
+model spec and share nothing with the live simulation until the simulation thread takes it.
 """
 
 from __future__ import annotations
