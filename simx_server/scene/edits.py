@@ -129,7 +129,7 @@ class ObjectEdits:
                     t.data = rest
                 else:
                     child.delete(t)
-        if warm and child.meshes:
+        if warm and (child.meshes or child.textures):
             try:  # MuJoCo releases the GIL while it compiles; the attach's compile reports errors
                 child.copy().compile()
             except Exception as exc:

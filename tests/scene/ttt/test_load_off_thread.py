@@ -111,18 +111,9 @@ def test_a_model_is_prepared_off_the_simulation_thread_and_attached_whole(folder
 def test_prepare_model_leaves_the_models_meshes_in_mujocos_cache(tmp_path):
     """In-process: the model's meshes, compiled once alone under the names its spec gives
     them, are found in MuJoCo's cache by the scene's compile (the cache grows no more)."""
-    import numpy as np
-
     from simx_server.scene.simulation import Simulation
 
-    rng = np.random.default_rng(3)
-    (tmp_path / "meshes").mkdir()
-    vertices = rng.random((3000, 3)).astype("<f4")
-    faces = rng.integers(0, 3000, (6000, 3)).astype("<i4")
-    _write_stl(tmp_path / "meshes" / "rock.stl", vertices[faces])
-    (tmp_path / "rock.xml").write_text(
-        '<mujoco model="rock"><compiler meshdir="meshes"/><asset><mesh name="rock" file="rock.stl"/></asset>'
-        '<worldbody><body name="Rock"><freejoint/><geom type="mesh" mesh="rock"/></body></worldbody></mujoco>')
+    _rock_files(tmp_path, seed=3)
     (tmp_path / "start.xml").write_text('<mujoco><worldbody><body name="Floor"><geom size="1 1 .1" type="box"/>'
                                         '</body></worldbody></mujoco>')
     sim = Simulation(tmp_path / "start.xml", renderers_at_load=False)
@@ -135,6 +126,42 @@ def test_prepare_model_leaves_the_models_meshes_in_mujocos_cache(tmp_path):
         assert _cache_bytes() == before  # the scene's compile found the rock processed already
     finally:
         sim.close()
+
+
+def test_a_prepared_scenes_first_edit_finds_its_meshes_in_mujocos_cache(tmp_path):
+    """In-process: a scene prepared with ``warm`` (a deferred load) has the edits' spec, whose
+    files are in memory under names of their own, compiled once; the first edit's compile then
+    finds its meshes processed (the cache grows no more), instead of processing them on the
+    simulation thread."""
+    from simx_server.scene.simulation import Simulation
+
+    _rock_files(tmp_path, seed=4)
+    (tmp_path / "start.xml").write_text('<mujoco><worldbody><body name="Floor"><geom size="1 1 .1" type="box"/>'
+                                        '</body></worldbody></mujoco>')
+    sim = Simulation(tmp_path / "start.xml", renderers_at_load=False)
+    try:
+        editor = sim.editor
+        editor._swap_scene(editor.prepare_scene(tmp_path / "rock.xml", "'rock.xml'", None, warm=True))
+        before = _cache_bytes()
+        editor.create_dummy(0.01, None)  # an edit: the scene's spec compiled on the simulation thread
+        assert _cache_bytes() == before
+        assert sim.world.resolve("Rock").type == 0  # a shape
+    finally:
+        sim.close()
+
+
+def _rock_files(folder, seed: int) -> None:
+    """``rock.xml``: a free body of one random 6,000-triangle mesh (``meshes/rock.stl``)."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    (folder / "meshes").mkdir()
+    vertices = rng.random((3000, 3)).astype("<f4")
+    faces = rng.integers(0, 3000, (6000, 3)).astype("<i4")
+    _write_stl(folder / "meshes" / "rock.stl", vertices[faces])
+    (folder / "rock.xml").write_text(
+        '<mujoco model="rock"><compiler meshdir="meshes"/><asset><mesh name="rock" file="rock.stl"/></asset>'
+        '<worldbody><body name="Rock"><freejoint/><geom type="mesh" mesh="rock"/></body></worldbody></mujoco>')
 
 
 def _cache_bytes() -> int:
