@@ -370,8 +370,8 @@ class Editor(ObjectEdits):
             warm: compile the edits' spec once (off the simulation thread only): its meshes
                 and textures, read into memory under names of their own, are then in MuJoCo's
                 cache for the first edit, which otherwise compiles them afresh on the
-                simulation thread (a ``simxLoadModel`` after loading 100 shapes on one
-                190,000-triangle mesh: 1.96 s, the next edit 0.25 s).
+                simulation thread (a dummy created after loading 100 shapes on one
+                190,000-triangle mesh: 1.96 s, 0.30 s warmed).
 
         Raises:
             RemoteError: ``cannot load scene <label>: ...`` (MuJoCo's message, or the bound
