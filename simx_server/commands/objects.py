@@ -102,7 +102,7 @@ def get_model_property(sim: Simulation, args: list) -> int:
     world = sim.world
     obj = world.get(h)
     bits = properties.model_property(world, h)
-    if bits != MODELPROPERTY_NOT_MODEL or h in world.__dict__.get("model_properties", {}):
+    if bits != MODELPROPERTY_NOT_MODEL or h in world.properties.model:
         return bits
     is_model = obj.parent == -1 and obj.type == 0 and bool(world.children(h))
     return 0 if is_model else MODELPROPERTY_NOT_MODEL

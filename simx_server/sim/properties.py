@@ -26,6 +26,7 @@ distance when their ``contype``/``conaffinity`` say they collide, and always det
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -45,9 +46,27 @@ SHAPE_DEFAULT = COLLIDABLE | MEASURABLE | DETECTABLE_ALL | RENDERABLE
 HIDDEN_GROUP = 3
 
 
+@dataclass
+class ObjectProperties:
+    """What a :class:`~simx_server.sim.world.World` keeps of its objects' special and model
+    properties (``world.properties``; the world lives through scene edits, and so do these).
+
+    Attributes:
+        special: handle -> special property bits set at run time.
+        model: handle -> model property bits set at run time.
+        masks: ``(model, {bit: geom mask})``: :func:`geom_mask`'s cache for one compiled model.
+        compiled_groups: ``(model, geom groups as compiled)``: :func:`apply_rendering`'s reference.
+    """
+
+    special: dict[int, int] = field(default_factory=dict)
+    model: dict[int, int] = field(default_factory=dict)
+    masks: tuple[Any, dict[int, np.ndarray]] | None = None
+    compiled_groups: tuple[Any, np.ndarray] | None = None
+
+
 def _store(world: Any) -> dict[int, int]:
     """handle -> bits set at run time (kept on the world, which edits keep)."""
-    return world.__dict__.setdefault("special_properties", {})
+    return world.properties.special
 
 
 def special(world: Any, handle: int) -> int:
@@ -107,7 +126,7 @@ def model_property(world: Any, handle: int) -> int:
         ArgumentError: a ``model_property=`` setting that is not an integer.
     """
     obj = world.get(handle)
-    bits = world.__dict__.setdefault("model_properties", {}).get(obj.handle)
+    bits = world.properties.model.get(obj.handle)
     if bits is not None:
         return bits
     raw = obj.settings.get("model_property")
@@ -137,8 +156,8 @@ def set_model_property(world: Any, handle: int, bits: int) -> None:
     """
     obj = world.get(handle)
     bits = int(bits)
-    world.__dict__.setdefault("model_properties", {})[obj.handle] = NOT_MODEL if bits & NOT_MODEL else bits
-    world.__dict__.pop("_special_masks", None)
+    world.properties.model[obj.handle] = NOT_MODEL if bits & NOT_MODEL else bits
+    world.properties.masks = None
     apply_rendering(world)
 
 
@@ -182,7 +201,7 @@ def set_special(world: Any, handle: int, bits: int) -> None:
     """
     obj = world.get(handle)
     _store(world)[obj.handle] = int(bits) & ALL_BITS
-    world.__dict__.pop("_special_masks", None)
+    world.properties.masks = None
     if obj.type == SHAPE:
         apply_rendering(world)
 
@@ -217,9 +236,9 @@ def geom_mask(world: Any, bit: int) -> np.ndarray:
         Boolean array of shape (ngeom,).
     """
     m = world.model
-    cache = world.__dict__.get("_special_masks")
+    cache = world.properties.masks
     if cache is None or cache[0] is not m:
-        cache = world._special_masks = (m, {})
+        cache = world.properties.masks = (m, {})
     if bit in cache[1]:
         return cache[1][bit]
     mask = m.geom_bodyid == 0
@@ -242,10 +261,10 @@ def apply_rendering(world: Any) -> None:
         world: the world (its current model).
     """
     m = world.model
-    compiled = world.__dict__.get("_compiled_geom_group")
-    if compiled is None or compiled.shape != m.geom_group.shape or world.__dict__.get("_grouped_model") is not m:
-        compiled = world._compiled_geom_group = m.geom_group.copy()
-        world._grouped_model = m
+    kept = world.properties.compiled_groups
+    if kept is None or kept[0] is not m or kept[1].shape != m.geom_group.shape:
+        kept = world.properties.compiled_groups = (m, m.geom_group.copy())
+    compiled = kept[1]
     groups = compiled.copy()
     for obj in world.objects.values():
         if obj.type == SHAPE and not cumulative(world, obj.handle) & RENDERABLE:

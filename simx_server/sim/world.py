@@ -117,6 +117,7 @@ class World(Poses, Joints):
         self.time = 0.0  # s, simulation time as of the last changed()
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
         self._next_handle = 1  # handles are never given twice
+        self.properties = properties.ObjectProperties()  # special and model properties set at run time
         try:
             self._install(model)
         except ArgumentError as exc:
