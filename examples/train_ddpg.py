@@ -2,7 +2,7 @@
 
     scripts/install-train.sh                 # gymnasium, stable-baselines3, PyTorch's CPU build, matplotlib
     python examples/train_ddpg.py --evaluate # the shipped policy against a random one (at most 2 minutes)
-    python examples/train_ddpg.py --quick    # a short training whose success rate rises (about 7 minutes)
+    python examples/train_ddpg.py --quick    # a short training whose success rate rises (3-7 minutes)
     nice -n 19 python examples/train_ddpg.py --servers 2 --steps 20000 --max-minutes 25 --out runs/ddpg
 
 The script starts its own simx-servers (``ServerPool``), trains DDPG on a ``SubprocVecEnv`` of
@@ -62,7 +62,7 @@ SELECT_SEED = 5_000  # the model-selection evaluations' environment starts from 
 #: the policy trained by this script and shipped with the docs (docs/TRAINING.md says how)
 SHIPPED_POLICY = Path(__file__).resolve().parent.parent / "docs" / "training" / "ddpg_policy.zip"
 EVALUATE_MINUTES = 2.0  # --evaluate's bound when --max-minutes is not given
-#: --quick: a short run whose success rate rises within about 7 minutes on 2 cores (the full
+#: --quick: a short run whose success rate rises within 3-7 minutes on 2 cores (the full
 #: run's first 4,000 steps, with more frequent, shorter selection evaluations). No time bound:
 #: a run cut by --max-minutes stops where the machine's speed says, so its result would vary;
 #: without one, every run gives the same episodes and the same result (docs/TRAINING.md).
@@ -251,7 +251,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0, help="seed of the training (networks, noise, environments)")
     parser.add_argument("--out", default="runs/ddpg", help="folder for the models, CSV, PNG and JSON")
     parser.add_argument("--quick", action="store_true",
-                        help="a short run whose success rate rises within about 7 minutes on 2 cores, the same episodes and "
+                        help="a short run whose success rate rises within 3-7 minutes on 2 cores, the same episodes and "
                              "result every time: the defaults "
                              "become " + ", ".join(f"--{k.replace('_', '-')} {v}" for k, v in QUICK.items()))
     parser.add_argument("--evaluate", nargs="?", const=str(SHIPPED_POLICY), default=None, metavar="POLICY",
