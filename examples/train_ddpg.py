@@ -2,7 +2,7 @@
 
     scripts/install-train.sh                 # gymnasium, stable-baselines3, PyTorch's CPU build, matplotlib
     python examples/train_ddpg.py --evaluate # the shipped policy against a random one (at most 2 minutes)
-    python examples/train_ddpg.py --quick    # a short training whose success rate rises (about 10 minutes)
+    python examples/train_ddpg.py --quick    # a short training whose success rate rises (3-7 minutes)
     nice -n 19 python examples/train_ddpg.py --servers 2 --steps 20000 --max-minutes 25 --out runs/ddpg
 
 The script starts its own simx-servers (``ServerPool``), trains DDPG on a ``SubprocVecEnv`` of
@@ -62,10 +62,12 @@ SELECT_SEED = 5_000  # the model-selection evaluations' environment starts from 
 #: the policy trained by this script and shipped with the docs (docs/TRAINING.md says how)
 SHIPPED_POLICY = Path(__file__).resolve().parent.parent / "docs" / "training" / "ddpg_policy.zip"
 EVALUATE_MINUTES = 2.0  # --evaluate's bound when --max-minutes is not given
-#: --quick: a short run whose success rate rises within about 10 minutes on 2 cores (the full
-#: run's first 4,000 steps, with more frequent, shorter selection evaluations)
+#: --quick: a short run whose success rate rises within 3-7 minutes on 2 cores (the full
+#: run's first 4,000 steps, with more frequent, shorter selection evaluations). No time bound:
+#: a run cut by --max-minutes stops where the machine's speed says, so its result would vary;
+#: without one, every run gives the same episodes and the same result (docs/TRAINING.md).
 QUICK = {"steps": 4_000, "select_every": 1_000, "select_episodes": 5,
-         "eval_episodes": 10, "max_minutes": 10.0, "log_every": 250, "out": "runs/ddpg-quick"}
+         "eval_episodes": 10, "log_every": 250, "out": "runs/ddpg-quick"}
 
 
 def make_env(host: str, port: int, episode_steps: int) -> gym.Env:
@@ -249,7 +251,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0, help="seed of the training (networks, noise, environments)")
     parser.add_argument("--out", default="runs/ddpg", help="folder for the models, CSV, PNG and JSON")
     parser.add_argument("--quick", action="store_true",
-                        help="a short run whose success rate rises within about 10 minutes on 2 cores: the defaults "
+                        help="a short run whose success rate rises within 3-7 minutes on 2 cores, the same episodes and "
+                             "result every time: the defaults "
                              "become " + ", ".join(f"--{k.replace('_', '-')} {v}" for k, v in QUICK.items()))
     parser.add_argument("--evaluate", nargs="?", const=str(SHIPPED_POLICY), default=None, metavar="POLICY",
                         help="train nothing: evaluate POLICY (a policy.zip or model.zip; without POLICY the "
@@ -291,6 +294,10 @@ def main(argv: list[str] | None = None) -> dict:
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
     torch.set_num_threads(1)  # small networks: one thread is fastest and leaves the cores to the servers
+    # Reproducible training: the seed reaches Python's, NumPy's (replay buffer samples, action
+    # noise) and PyTorch's generators, the action space (random actions before learning) and the
+    # environments' resets (venv.seed); PyTorch uses only deterministic kernels, on one thread.
+    torch.use_deterministic_algorithms(True)
     set_random_seed(args.seed)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

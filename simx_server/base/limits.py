@@ -214,7 +214,8 @@ MAX_PEER_CHECKS = 256
 MAX_CLIENT_TOKENS = 2 * MAX_CLIENTS
 #: Replies and stream updates of one client handed to the sending thread and not sent yet
 #: (waiting for their images, or for room on the client's link). A client at the bound is not
-#: served until one is sent; its streams skip steps meanwhile.
+#: served until one is sent; its streams skip steps meanwhile (a synchronous client's do not:
+#: legacy/streams.py).
 MAX_UNSENT_PER_CLIENT = 4
 #: s a reply may wait for room on its client's link before Zenoh closes that link (Zenoh's
 #: ``transport/link/tx/queue/congestion_control/block/wait_before_close``, default 5 s). A

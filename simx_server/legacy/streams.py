@@ -16,6 +16,7 @@ import zenoh
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.commands import HANDLERS
+from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
 from simx_server.legacy.replies import IMAGES, SMALL, image_pixels, image_size, pack_large, reply_size
 from simx_server.legacy.sessions import Session
@@ -72,14 +73,19 @@ class StreamPublisher:
         """Execute and hand over every client's due streams (images only when not ``rendering``,
         and not of ``large`` pixels or more)."""
         encodings: dict = {}  # this step's updates with images, by content: encoded once
+        running = sim.state is RunState.RUNNING
         for client, streams in self._streams.items():
             if not streams:
                 continue
             session = self.sessions.get(client)
-            if not self.sessions.can_send(session):
+            # A client of the synchronous barrier gets every step's update (see _put_stream):
+            # its steps come only with its triggers, which it sends once their replies came.
+            stepped = running and sim.is_synchronous(client)
+            if not stepped and not self.sessions.can_send(session):
                 continue  # its updates and replies wait to be sent: its streams skip this step
             sim.editor.files.caller = f"legacy:{client}"  # its streamed calls act as it (client_files)
-            images = not rendering  # else its image streams skip this step
+            images = stepped or not rendering  # else its image streams skip this step
+            big = None if stepped else large
             budget = limits.MAX_REPLY_BYTES
             entries = []
             renders = []
@@ -88,7 +94,7 @@ class StreamPublisher:
                     continue
                 name = s.name
                 if name in IMAGES:
-                    if not images or (large and image_pixels(sim, s.args) >= large):
+                    if not images or (big and image_pixels(sim, s.args) >= big):
                         continue
                     cost = image_size(sim, name, s.args)
                     if cost > budget:
@@ -116,16 +122,24 @@ class StreamPublisher:
                     entries.append([name, list(ident[1:]), False, f"internal error: {type(exc).__name__}"])
             if entries:
                 bulk = limits.MAX_REPLY_BYTES - budget >= limits.BULK_SEND_BYTES  # the update's bytes, about
-                encoded = self._put_stream(client, session, entries, renders, encodings, bulk)
+                encoded = self._put_stream(client, session, entries, renders, encodings, bulk, stepped)
                 if encoded is not None:
                     step_renders.append(encoded)  # after its frames
 
     def _put_stream(self, client: str, sess: Session | None, entries: list, renders: list[Deferred],
-                    encodings: dict, bulk: bool = False) -> Future | None:
+                    encodings: dict, bulk: bool = False, stepped: bool = False) -> Future | None:
         """Hand one client's stream update to the sending thread (its lane): published once
         ``renders`` (its images) are done and encoded, in order with the client's replies.
         ``bulk`` (images of limits.BULK_SEND_BYTES or more): put with blocking congestion control
         (Zenoh's "drop" dropped 50 MB updates every time) and giving way to other clients' sends.
+        ``stepped`` (a client of the synchronous barrier, after a step): put with blocking
+        congestion control too, and never skipped, as V-REP guaranteed that after
+        ``simxSynchronousTrigger`` + ``simxGetPingTime`` the inbox holds that step's streamed
+        values (simExtRemoteApi's ``CSimxSocket``: each main-script pass executes the streamed
+        commands into ``_dataToSend``, which goes out inside the reply to the client's next
+        message). Zenoh's "drop" left an update out whenever its link's queue had no room
+        within ``wait_before_drop`` (1 ms), which a loaded machine's Zenoh thread missed about
+        once in 300 steps: the client then read the previous step's values.
 
         An update with images is encoded on the render thread, after its frames, into Zenoh's
         bytes (a 4096x4096 image is 50 MB to copy twice: 80 ms; putting the result costs
@@ -159,11 +173,11 @@ class StreamPublisher:
             def update() -> bytes:
                 return payload
 
-        congestion = zenoh.CongestionControl.BLOCK if bulk else zenoh.CongestionControl.DROP
+        congestion = zenoh.CongestionControl.BLOCK if bulk or stepped else zenoh.CongestionControl.DROP
 
         def send() -> None:
             try:
-                if not bulk or self.courier.bulk_allowed():
+                if not bulk or stepped or self.courier.bulk_allowed():
                     session.put(key, update(), congestion_control=congestion)
             except Exception:
                 log.exception("client %s: publishing its streams", client)
