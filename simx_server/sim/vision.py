@@ -67,7 +67,7 @@ import numpy as np
 from simx_server.base import limits as L
 from simx_server.sim import handle_render, vision_look
 from simx_server.sim.physics import check_resolution
-from simx_server.sim.render_thread import RenderThread, render_bands
+from simx_server.sim.render_thread import RenderThread, flat_planes, render_bands
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
 from simx_server.sim.vision_chain import VisionChain, clip_planes
 from simx_server.sim.vision_results import Deferred, VisionResults
@@ -278,6 +278,8 @@ class VisionSensors(VisionChain, VisionResults):
                 clip_planes(r.scene, spec.near, spec.far)  # and nothing outside its planes
             if kind == "rgb":  # (after the planes: it moves an orthographic camera back, planes too)
                 vision_look.apply(r.scene, model)  # V-REP's lighting where the scene asks for it
+            elif kind == "depth":
+                flat_planes(r.scene, model, data)  # unlit: a plane needs no grid (most of the frame's time)
             return render_bands(r, spec.height)
         finally:
             if kind == "depth":
