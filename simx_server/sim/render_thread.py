@@ -8,13 +8,14 @@ keeps one GL context and, in it, one renderer (a ``mujoco.Renderer`` with its ow
 
 from __future__ import annotations
 
+import ctypes
 import math
 import threading
 import time
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
 import mujoco
 import numpy as np
@@ -111,6 +112,32 @@ def _free_gl(free: Callable[[], None]) -> None:
         pass
 
 
+_GL_COLOR_MASK: list[Any] = []  # glColorMask, or None, once looked up
+
+
+def colour_mask() -> Callable[[int, int, int, int], None] | None:
+    """OpenGL's ``glColorMask(r, g, b, a)`` (0/1 each) for the context current on the calling
+    thread, or None where it cannot be had.
+
+    Taken from the GL library of PyOpenGL's platform (the one mujoco's ``GLContext`` made the
+    context with: EGL's libOpenGL, OSMesa, GLX) and called through ctypes: PyOpenGL's own
+    wrapper checks ``glGetError`` after the call and would raise on an error that one of
+    MuJoCo's calls left pending.
+
+    Returns:
+        The function, or None.
+    """
+    if not _GL_COLOR_MASK:
+        try:
+            from OpenGL import platform
+
+            proto = ctypes.CFUNCTYPE(None, ctypes.c_ubyte, ctypes.c_ubyte, ctypes.c_ubyte, ctypes.c_ubyte)
+            _GL_COLOR_MASK.append(proto(("glColorMask", platform.PLATFORM.GL)))
+        except Exception:  # no PyOpenGL platform, no such symbol: colour is written, as before
+            _GL_COLOR_MASK.append(None)
+    return _GL_COLOR_MASK[0]
+
+
 class SensorRenderer(mujoco.Renderer):
     """A ``mujoco.Renderer`` drawn in a GL context it shares with the other renderers of its
     render thread: its own ``MjrContext``, whose offscreen buffer is ``width`` x ``height``.
@@ -172,7 +199,16 @@ class SensorRenderer(mujoco.Renderer):
             (height, width, 2) int32 segmentation.
         """
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._mjr_context)
-        return super().render(out=out)
+        mask = colour_mask() if self._depth_rendering else None
+        if mask is None:
+            return super().render(out=out)
+        # A depth frame reads the depth buffer only: no colour written (MuJoCo never sets the
+        # mask itself). On llvmpipe 640x480, 1.9 -> 1.3 ms for the bundled scene; same depths.
+        mask(0, 0, 0, 0)
+        try:
+            return super().render(out=out)
+        finally:
+            mask(1, 1, 1, 1)
 
     def close(self) -> None:
         """Free this renderer's ``MjrContext`` (on its render thread); the shared GL context stays."""

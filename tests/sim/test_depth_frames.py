@@ -1,7 +1,8 @@
-"""Depth frames draw each plane as one quad (render_thread.flat_planes), not MuJoCo's lighting
+"""Depth frames: each plane drawn as one quad (render_thread.flat_planes), not MuJoCo's lighting
 grid: the same depths, the same edges, for infinite planes with and without a material's
-``texrepeat`` and for a finite, tilted one; and a frame's depths do not depend on the camera
-drawn before it."""
+``texrepeat`` and for a finite, tilted one; a frame's depths do not depend on the camera
+drawn before it; no colour is written (render_thread.colour_mask), and colour frames drawn
+after one are as before."""
 
 from __future__ import annotations
 
@@ -131,3 +132,19 @@ def test_depth_does_not_depend_on_the_camera_drawn_before(sim):
     depths(sim, "down")
     after_down = depths(sim, "wide")
     assert np.array_equal(depths(sim, "wide"), after_down)
+
+
+def test_depth_frame_writes_no_colour_and_leaves_colour_frames_as_they_were(sim, monkeypatch):
+    from simx_server.sim import render_thread
+
+    assert render_thread.colour_mask() is not None  # found on this GL platform
+    down, wide = sim.world.resolve("down").handle, sim.world.resolve("wide").handle
+    sim.world.changed()
+    reference = sim.vision._frame(down, "rgb").result()
+    other = sim.vision._frame(wide, "rgb").result()  # the same renderer (one size) draws both
+    masked = depths(sim, "down")  # (a new state, the same scene)
+    # Drawn after the depth frame: colour written again (else it would show the wide view).
+    assert np.array_equal(sim.vision._frame(down, "rgb").result(), reference)
+    assert not np.array_equal(other, reference)
+    monkeypatch.setattr(render_thread, "_GL_COLOR_MASK", [None])  # colour written, as MuJoCo does
+    assert np.array_equal(depths(sim, "down"), masked)
