@@ -372,9 +372,9 @@ class VisionSensors(VisionChain, VisionResults):
             return cached[0]
         spec = self.spec(handle)
         thread = self._target(spec)
-        if thread.snapshot is None or thread.snapshot[0] != version:  # one copy per thread: each reads its own
-            thread.snapshot = (version, copy.copy(self.world.data))  # the state this version shows
-        future = thread.executor.submit(self._render, thread, self.world.model, thread.snapshot[1], spec, kind)
+        state = thread.state(version, self.world.model, self.world.data)  # one copy per thread: each reads its own
+        future = thread.executor.submit(self._render, thread, self.world.model, state, spec, kind)
+        thread.reading(state, future)
         self._cache[(handle, kind)] = (version, future, thread)
         return future
 
