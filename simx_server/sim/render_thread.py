@@ -9,19 +9,18 @@ keeps one GL context and, in it, one renderer (a ``mujoco.Renderer`` with its ow
 from __future__ import annotations
 
 import copy
-import ctypes
-import math
 import threading
 import time
 from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
-from typing import Any, Callable, Iterator
+from typing import Callable, Iterator
 
 import mujoco
 import numpy as np
 
 from simx_server.base import limits as L
+from simx_server.sim import depth_frames
 
 
 #: MuJoCo's visualisation flags a sensor keeps on (everything else, rays, contacts, joints...,
@@ -117,32 +116,6 @@ def _free_gl(free: Callable[[], None]) -> None:
         pass
 
 
-_GL_COLOR_MASK: list[Any] = []  # glColorMask, or None, once looked up
-
-
-def colour_mask() -> Callable[[int, int, int, int], None] | None:
-    """OpenGL's ``glColorMask(r, g, b, a)`` (0/1 each) for the context current on the calling
-    thread, or None where it cannot be had.
-
-    Taken from the GL library of PyOpenGL's platform (the one mujoco's ``GLContext`` made the
-    context with: EGL's libOpenGL, OSMesa, GLX) and called through ctypes: PyOpenGL's own
-    wrapper checks ``glGetError`` after the call and would raise on an error that one of
-    MuJoCo's calls left pending.
-
-    Returns:
-        The function, or None.
-    """
-    if not _GL_COLOR_MASK:
-        try:
-            from OpenGL import platform
-
-            proto = ctypes.CFUNCTYPE(None, ctypes.c_ubyte, ctypes.c_ubyte, ctypes.c_ubyte, ctypes.c_ubyte)
-            _GL_COLOR_MASK.append(proto(("glColorMask", platform.PLATFORM.GL)))
-        except Exception:  # no PyOpenGL platform, no such symbol: colour is written, as before
-            _GL_COLOR_MASK.append(None)
-    return _GL_COLOR_MASK[0]
-
-
 class SensorRenderer(mujoco.Renderer):
     """A ``mujoco.Renderer`` drawn in a GL context it shares with the other renderers of its
     render thread: its own ``MjrContext``, whose offscreen buffer is ``width`` x ``height``.
@@ -178,6 +151,7 @@ class SensorRenderer(mujoco.Renderer):
         self._rect = mujoco.MjrRect(0, 0, width, height)
         self._depth_rendering = False
         self._segmentation_rendering = False
+        self._depth_scratch: dict[str, np.ndarray] = {}  # depth_frames.draw_depth's buffers
         context.make_current()
         g = model.vis.global_
         saved = g.offwidth, g.offheight
@@ -198,22 +172,23 @@ class SensorRenderer(mujoco.Renderer):
         Args:
             out: as ``mujoco.Renderer.render``.
 
+        A depth frame (no ``out``) is :func:`simx_server.sim.depth_frames.draw_depth`'s:
+        the same depths, without colour writes, in fewer passes.
+
         Returns:
-            The frame, top-down rows (``mujoco.Renderer`` flips MuJoCo's bottom-up read):
+            The frame, top-down rows (``mujoco.Renderer`` flips MuJoCo's bottom-up read; a
+            depth frame is a top-down view of bottom-up rows):
             (height, width, 3) uint8 RGB, (height, width) float32 depth in m, or
             (height, width, 2) int32 segmentation.
         """
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._mjr_context)
-        mask = colour_mask() if self._depth_rendering else None
-        if mask is None:
+        if not self._depth_rendering or out is not None:
             return super().render(out=out)
-        # A depth frame reads the depth buffer only: no colour written (MuJoCo never sets the
-        # mask itself). On llvmpipe 640x480, 1.9 -> 1.3 ms for the bundled scene; same depths.
-        mask(0, 0, 0, 0)
-        try:
-            return super().render(out=out)
-        finally:
-            mask(1, 1, 1, 1)
+        if self._mjr_context is None:
+            raise RuntimeError("render cannot be called after close.")
+        if self._gl_context:
+            self._gl_context.make_current()
+        return depth_frames.draw_depth(self._scene, self._rect, self._mjr_context, self._model, self._depth_scratch)
 
     def close(self) -> None:
         """Free this renderer's ``MjrContext`` (on its render thread); the shared GL context stays."""
@@ -378,64 +353,6 @@ class RenderThread:
         context, self.context = self.context, None
         if context is not None:
             _free_gl(context.free)
-
-
-def flat_planes(scene: mujoco.MjvScene, model: mujoco.MjModel, data: mujoco.MjData) -> int:
-    """Draw the scene's plane geoms as one quad each (16 in all) instead of MuJoCo's grid, for
-    a frame that is not lit (depth): the same plane, the same extent.
-
-    MuJoCo draws a plane with a display list of its own (``makePlane`` in MuJoCo's
-    ``render_context.c``): a grid of up to ``mjMAXPLANEGRID`` x ``mjMAXPLANEGRID`` quads
-    (40,000 for an infinite plane) so that fixed-function lighting, computed per vertex, shows
-    highlights on it. A depth frame is drawn unlit (``mjRND_SEGMENT``), where a plane's depth is
-    linear across it in screen space: the grid only costs time (on llvmpipe, 640x480, the
-    bundled scene's floor was 3.7 ms of a 5 ms depth frame). A geom with ``dataid`` -1 is drawn
-    with the list for planes without their own (``numquads`` x ``numquads`` quads over -1..1,
-    scaled by the geom's ``size``), so each plane's size is set to its grid's half extent: the
-    model's size where it is finite (the grid spans it exactly), else the grid ``makePlane``
-    makes, ``mjMAXPLANEGRID / 2`` cells of ``(2.1 zfar + 2 sX) / mjMAXPLANEGRID``, with ``sX``
-    from the material's ``texrepeat`` or ``2.1 zfar / (mjMAXPLANEGRID - 2)``.
-
-    An infinite plane is centred under the camera in steps of ``2 sX`` as ``mjv_updateScene``
-    does (``addGeomGeoms``), but on the camera of this frame: ``mjv_updateScene`` places the
-    geoms before it moves the scene's camera, so it centres them on the previous frame's camera,
-    and a frame's depths then depended (in their last bits) on the camera drawn before it.
-    Depths equal the grid's to within rounding (5e-6 m at 2.9 m in the bundled scene's Kinect
-    frame; the same pixels at the far plane, but for a pixel on a plane's edge seen edge-on).
-
-    Call after ``update_scene`` and before the render; ``update_scene`` makes the geoms anew.
-
-    Args:
-        scene: the ``MjvScene`` about to be drawn (its geoms are changed in place).
-        model: the model it shows.
-        data: the state it shows (the planes' poses).
-
-    Returns:
-        The number of planes changed.
-    """
-    zfar = model.vis.map.zfar * model.stat.extent
-    cells = mujoco.mjMAXPLANEGRID
-    head = 0.5 * (np.asarray(scene.camera[0].pos, float) + np.asarray(scene.camera[1].pos, float))
-    changed = 0
-    for i in range(scene.ngeom):
-        g = scene.geoms[i]
-        if g.type != mujoco.mjtGeom.mjGEOM_PLANE or g.dataid < 0 or g.objtype != mujoco.mjtObj.mjOBJ_GEOM:
-            continue
-        size, matid = model.geom_size[g.objid], model.geom_matid[g.objid]
-        pos, axes = data.geom_xpos[g.objid].copy(), data.geom_xmat[g.objid].reshape(3, 3)
-        for k in range(2):
-            if size[k] > 0:
-                g.size[k] = size[k]
-                continue
-            repeat = model.mat_texrepeat[matid][k] if matid >= 0 else 0.0
-            step = 2.0 / repeat if repeat > 0 else 2.1 * zfar / (cells - 2)
-            g.size[k] = (2.1 * zfar + 2.0 * step) / cells * (cells // 2)
-            along = float(np.dot(head - data.geom_xpos[g.objid], axes[:, k]))
-            pos += axes[:, k] * (2.0 * step * math.floor(0.5 * along / step + 0.5))  # mju_round
-        g.pos[:] = pos
-        g.dataid = -1
-        changed += 1
-    return changed
 
 
 def render_bands(r: mujoco.Renderer, height: int) -> np.ndarray:

@@ -67,7 +67,8 @@ import numpy as np
 from simx_server.base import limits as L
 from simx_server.sim import handle_render, vision_look
 from simx_server.sim.physics import check_resolution
-from simx_server.sim.render_thread import RenderThread, flat_planes, render_bands
+from simx_server.sim.depth_frames import flat_planes
+from simx_server.sim.render_thread import RenderThread, render_bands
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
 from simx_server.sim.vision_chain import VisionChain, clip_planes
 from simx_server.sim.vision_results import Deferred, VisionResults
@@ -395,8 +396,11 @@ class VisionSensors(VisionChain, VisionResults):
         near, far = spec.near, spec.far  # as they are now, even if changed before the render
 
         def normalised() -> np.ndarray:
-            norm = (raw.result() - near) / (far - near)
-            return np.clip(norm, 0.0, 1.0, out=norm).astype(np.float32, copy=False)[::-1]
+            # The frame's top-down rows are a view of bottom-up ones (depth_frames.draw_depth):
+            # flipped back, they are contiguous, and so is the buffer made from them.
+            norm = raw.result()[::-1] - near
+            norm /= far - near
+            return np.clip(norm, 0.0, 1.0, out=norm).astype(np.float32, copy=False)
 
         return normalised
 

@@ -1,7 +1,7 @@
-"""Depth frames: each plane drawn as one quad (render_thread.flat_planes), not MuJoCo's lighting
+"""Depth frames: each plane drawn as one quad (depth_frames.flat_planes), not MuJoCo's lighting
 grid: the same depths, the same edges, for infinite planes with and without a material's
 ``texrepeat`` and for a finite, tilted one; a frame's depths do not depend on the camera
-drawn before it; no colour is written (render_thread.colour_mask), and colour frames drawn
+drawn before it; no colour is written (depth_frames.colour_mask), and colour frames drawn
 after one are as before."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import pytest  # noqa: E402
 
 from simx_server.scene.simulation import Simulation  # noqa: E402
 from simx_server.sim import vision  # noqa: E402
-from simx_server.sim.render_thread import flat_planes  # noqa: E402
+from simx_server.sim.depth_frames import flat_planes  # noqa: E402
 
 # An infinite floor whose material repeats its texture 3 x 5 times per metre, an infinite wall
 # without a material at the left, a finite tilted plane, a box; a wide camera low over the floor sees the
@@ -33,10 +33,12 @@ SCENE = """
     <body name="box" pos="-0.4 1 0.2"><geom type="box" size="0.2 0.2 0.2"/></body>
     <camera name="wide" pos="0.2 -0.5 0.4" xyaxes="1 0 0 0 0.3 1" resolution="160 120" fovy="100"/>
     <camera name="down" pos="0 1 2.5" resolution="160 120" fovy="70"/>
+    <camera name="flat" pos="0 1 3" projection="orthographic" resolution="160 120" fovy="4"/>
   </worldbody>
   <custom>
     <text name="simx:wide" data="near=0.05 far=7.9 image=depth"/>
     <text name="simx:down" data="near=0.05 far=3 image=depth"/>
+    <text name="simx:flat" data="near=0.05 far=3 image=depth"/>
   </custom>
 </mujoco>
 """
@@ -135,9 +137,9 @@ def test_depth_does_not_depend_on_the_camera_drawn_before(sim):
 
 
 def test_depth_frame_writes_no_colour_and_leaves_colour_frames_as_they_were(sim, monkeypatch):
-    from simx_server.sim import render_thread
+    from simx_server.sim import depth_frames
 
-    assert render_thread.colour_mask() is not None  # found on this GL platform
+    assert depth_frames.colour_mask() is not None  # found on this GL platform
     down, wide = sim.world.resolve("down").handle, sim.world.resolve("wide").handle
     sim.world.changed()
     reference = sim.vision._frame(down, "rgb").result()
@@ -146,5 +148,29 @@ def test_depth_frame_writes_no_colour_and_leaves_colour_frames_as_they_were(sim,
     # Drawn after the depth frame: colour written again (else it would show the wide view).
     assert np.array_equal(sim.vision._frame(down, "rgb").result(), reference)
     assert not np.array_equal(other, reference)
-    monkeypatch.setattr(render_thread, "_GL_COLOR_MASK", [None])  # colour written, as MuJoCo does
+    monkeypatch.setattr(depth_frames, "_GL_COLOR_MASK", [None])  # colour written, as MuJoCo does
     assert np.array_equal(depths(sim, "down"), masked)
+
+
+@pytest.mark.parametrize("camera", ["wide", "down", "flat"])
+def test_depth_read_back_equals_mujoco_renderers(sim, camera):
+    # draw_depth against mujoco.Renderer.render's own depth path (colour written, float64
+    # copies, rows flipped by a copy) on the same renderer and scene: equal, value for value,
+    # for perspective and orthographic cameras.
+    v = sim.vision
+    spec = v.spec(sim.world.resolve(camera).handle)
+
+    def both() -> tuple[np.ndarray, np.ndarray]:
+        r = v._thread.renderer(sim.world.model, spec.width, spec.height)
+        r.enable_depth_rendering()
+        try:
+            r.update_scene(sim.world.data, camera=spec.camera, scene_option=v._thread.option)
+            assert bool(r.scene.camera[0].orthographic) == (camera == "flat")
+            ours = r.render()
+            return ours, mujoco.Renderer.render(r)
+        finally:
+            r.disable_depth_rendering()
+
+    ours, theirs = v.after(both).result()
+    assert ours.dtype == theirs.dtype == np.float32 and ours.shape == theirs.shape
+    assert np.array_equal(ours, theirs) and 0 < theirs.min() < theirs.max()
