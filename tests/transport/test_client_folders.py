@@ -20,7 +20,7 @@ import pytest
 import zmq
 
 import vrep
-from conftest import ServerProcess, free_port
+from conftest import ServerProcess, free_port, wait_until
 from simx_server.base import limits
 from simx_server.zmq import codec
 
@@ -110,16 +110,6 @@ def client_files(srv) -> dict[str, list[str]]:
     return {d.name: sorted(p.relative_to(d).as_posix() for p in d.rglob("*") if p.is_file()
                            and not p.relative_to(d).as_posix().startswith(".simx"))
             for d in root.iterdir()}
-
-
-def poll(condition, what: str, timeout: float = 20.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.05)
-    raise AssertionError(f"not within {timeout} s: {what}")
 
 
 @pytest.fixture
@@ -231,7 +221,7 @@ def test_each_clients_budget_is_its_own_and_freed_when_it_leaves(server, tmp_pat
         (a_folder,) = [k for k, v in folders.items() if "big0.bin" in v]
     finally:
         vrep.simxFinish(a)
-    poll(lambda: a_folder not in client_files(server), "the folder of the client that left removed")
+    wait_until(lambda: a_folder not in client_files(server), timeout=20, what="the folder of the client that left removed")
     try:
         assert vrep.simxTransferFile(b, str(small), "small2.bin", 30, B) == vrep.simx_return_ok
     finally:
@@ -265,12 +255,12 @@ def test_a_client_scenes_script_is_confined_to_that_clients_folder(server, tmp_p
         assert not (server.folder / "adv_from_script.xml").exists() and not (server.folder / "mine.xml").exists()
     finally:
         vrep.simxFinish(cid)
-    poll(lambda: server.log_so_far().count(" disconnected") > left, "the server saw the client leave")
+    wait_until(lambda: server.log_so_far().count(" disconnected") > left, timeout=20, what="the server saw the client leave")
     assert folder in client_files(server)  # the loaded scene's folder stays
     other = _legacy(server, 1)
     try:
         assert vrep.simxLoadScene(other, "scene.xml", 0, B) == vrep.simx_return_ok
-        poll(lambda: folder not in client_files(server), "the folder goes with the scene")
+        wait_until(lambda: folder not in client_files(server), timeout=20, what="the folder goes with the scene")
     finally:
         vrep.simxFinish(other)
 
@@ -282,4 +272,4 @@ def test_a_zmq_clients_folder_goes_when_it_leaves(server):
     assert "ret" in c.call("sim.saveImage", PNG_2x2, [2, 2], 0, "bye.png", -1)
     (folder,) = set(client_files(server)) - before
     c.close()
-    poll(lambda: folder not in client_files(server), "the folder of the ZMQ client that left removed")
+    wait_until(lambda: folder not in client_files(server), timeout=20, what="the folder of the ZMQ client that left removed")
