@@ -273,8 +273,9 @@ def test_negative_start_timeout_is_the_blocking_timeout():
         if commands[0][0] == "Hello":
             query.reply(query.key_expr, P.response(0, 0, [[True, {"protocol": P.PROTOCOL_VERSION}]]))
         else:
-            timers.append(threading.Timer(slow_answer, answer, (query,)))
-            timers[-1].start()
+            timer = threading.Timer(slow_answer, answer, (query,))
+            timer.start()
+            timers.append(timer)  # started before the test's cleanup can see it
 
     session = zenoh.open(zenoh_config([f"tcp/127.0.0.1:{port}"]))
     queryable = session.declare_queryable(P.call_keys(), on_query)
@@ -288,10 +289,10 @@ def test_negative_start_timeout_is_the_blocking_timeout():
             finally:
                 vrep.simxFinish(cid)  # one connection per address and port in a process, as in V-REP
     finally:
-        for timer in timers:
+        queryable.undeclare()  # no new answer timers from here on
+        for timer in list(timers):
             timer.cancel()
             timer.join()
-        queryable.undeclare()
         session.close()
 
 
