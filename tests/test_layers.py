@@ -17,7 +17,7 @@ REPO = Path(__file__).resolve().parents[1]
 ROOT = REPO / "simx_server"
 
 #: Layer of each package, lowest first: a module may import its own layer and the ones below.
-LAYERS = ["base", "sim", "scripts", "scene", "commands", "loop", "legacy", "zmq", "(top)"]
+LAYERS = ["base", "sim", "api", "scripts", "scene", "commands", "loop", "legacy", "zmq", "(top)"]
 
 
 def module_name(path: Path) -> str:
@@ -251,3 +251,32 @@ def test_the_subclass_check_sees_one(tmp_path, monkeypatch):
     monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path / "simx_server")
     with pytest.raises(AssertionError, match="simx_server.legacy.door.Door"):
         test_no_front_door_subclasses_the_loop()
+
+
+def test_no_class_has_more_than_three_bases():
+    """No class of the server is assembled from many mixins (the ``sim`` API once was one class
+    of 32 mixin bases, whose shadowed names went unnoticed): at most 3 bases each."""
+    wide = [f"{f.relative_to(REPO)}:{n.lineno} {n.name} ({len(n.bases)} bases)"
+            for f in sorted(ROOT.rglob("*.py")) for n in ast.walk(ast.parse(f.read_text(), str(f)))
+            if isinstance(n, ast.ClassDef) and len(n.bases) > 3]
+    assert not wide, wide
+
+
+def test_every_api_name_is_registered_once_by_one_decorator():
+    """Each ``@sim_function``/``@simik_function`` name appears once in the source of the API
+    package (the table also refuses a second registration at import), and the table holds them."""
+    from simx_server.api import SIM, SIMIK
+
+    seen: dict[tuple[str, str], list[str]] = {}
+    for f in sorted((ROOT / "api").rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                    and node.func.id in ("sim_function", "simik_function")):
+                for arg in node.args:
+                    if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                        seen.setdefault((node.func.id, arg.value), []).append(f"{f.name}:{node.lineno}")
+    twice = {k: v for k, v in seen.items() if len(v) > 1}
+    assert not twice, twice
+    literal = {name for (kind, name) in seen if kind == "sim_function"}
+    assert literal <= set(SIM) and {n for (k, n) in seen if k == "simik_function"} <= set(SIMIK)
+    assert len(literal) > 400

@@ -4,7 +4,7 @@ at every idle pass while the simulation is stopped (``sysCall_suspended`` while 
 legacy remote API ports that scripts open with ``simExtRemoteApiStart(port)`` /
 ``simRemoteApi.start(port)``, how V-REP scenes open the server on 19999 for their programs.
 
-The script facade records the request (:class:`~simx_server.scripts.facade_legacy.RemoteApiPorts`,
+The script facade records the request (:class:`~simx_server.api.sim.legacy.RemoteApiPorts`,
 ``Simulation.remote_api``); :class:`ScriptHooks` acts on it from the server's loop. A port the
 server listens on already (19997 and 19999 by default) is a no-op. Another port gets a Zenoh
 session of its own, made from the server's configuration (the same file's TLS, authentication

@@ -143,6 +143,10 @@ class Editor(ObjectEdits):
         """The file a LoadScene/LoadModel names (see :meth:`ClientFiles.resolve`)."""
         return self.files.resolve(path, options, self.sim.world.scene_path)
 
+    def scene_origin(self) -> Path:
+        """The ``.ttt``/``.ttm`` the loaded scene was converted from (its own path otherwise)."""
+        return ttt_cache.origin(self.sim.world.scene_path)
+
     def public(self, path: Path) -> str:
         """``path`` as a client may see it (never the transfer folder's path)."""
         return self.files.public(path)

@@ -4,8 +4,8 @@
 
 One implementation for both front doors: the legacy commands (``simxGetIntegerParameter`` ...,
 :mod:`simx_server.commands.parameters`) unpack their arguments and call these functions; the ZMQ
-``sim`` (:class:`simx_server.zmq.remote_sim.RemoteSim`) calls them for the ids CoppeliaSim 4.x's
-own parameters (:mod:`simx_server.scripts.facade_params`) do not answer. An id without a meaning
+``sim`` (:class:`simx_server.api.sim.remote.RemoteSim`) calls them for the ids CoppeliaSim 4.x's
+own parameters (:mod:`simx_server.api.sim.params`) do not answer. An id without a meaning
 in simx raises :class:`~simx_wire.protocol.UnsupportedError` naming it.
 """
 
@@ -19,7 +19,6 @@ from typing import Any
 
 from simx_wire import constants as C
 from simx_wire.protocol import RemoteError, UnsupportedError
-from simx_server.scene.simulation import Simulation
 from simx_server.sim import physics
 from simx_server.sim.state import RunState
 
@@ -54,7 +53,7 @@ def _unsupported_param(kind: str, pid: int) -> UnsupportedError:
     return UnsupportedError(f"{_param(kind, pid)} has no meaning in simx (see docs/API.md for the supported ids)")
 
 
-def get_integer(sim: Simulation, pid: int) -> int:
+def get_integer(sim: Any, pid: int) -> int:
     """An integer parameter (``simxGetIntegerParameter``).
 
     Args:
@@ -82,7 +81,7 @@ def get_integer(sim: Simulation, pid: int) -> int:
     return int(values[pid]())
 
 
-def set_integer(sim: Simulation, pid: int, value: int) -> None:
+def set_integer(sim: Any, pid: int, value: int) -> None:
     """Set an integer parameter (``simxSetIntegerParameter``): simx has none to set.
 
     Args:
@@ -102,7 +101,7 @@ def set_integer(sim: Simulation, pid: int, value: int) -> None:
     raise _unsupported_param("integer", pid)
 
 
-def get_floating(sim: Simulation, pid: int) -> float:
+def get_floating(sim: Any, pid: int) -> float:
     """A floating parameter (``simxGetFloatingParameter``).
 
     Args:
@@ -123,7 +122,7 @@ def get_floating(sim: Simulation, pid: int) -> float:
     raise _unsupported_param("float", pid)
 
 
-def set_floating(sim: Simulation, pid: int, value: float) -> None:
+def set_floating(sim: Any, pid: int, value: float) -> None:
     """Set a floating parameter (``simxSetFloatingParameter``): the time step only.
 
     Args:
@@ -143,7 +142,7 @@ def set_floating(sim: Simulation, pid: int, value: float) -> None:
     sim.world.set_dt(value)
 
 
-def get_boolean(sim: Simulation, pid: int) -> bool:
+def get_boolean(sim: Any, pid: int) -> bool:
     """A boolean parameter (``simxGetBooleanParameter``).
 
     Args:
@@ -170,7 +169,7 @@ def get_boolean(sim: Simulation, pid: int) -> bool:
     return values[pid]
 
 
-def set_boolean(sim: Simulation, pid: int, value: Any) -> None:
+def set_boolean(sim: Any, pid: int, value: Any) -> None:
     """Set a boolean parameter (``simxSetBooleanParameter``): real-time pacing only.
 
     Args:
@@ -186,7 +185,7 @@ def set_boolean(sim: Simulation, pid: int, value: Any) -> None:
     sim.realtime = bool(value)
 
 
-def get_string(sim: Simulation, pid: int) -> str:
+def get_string(sim: Any, pid: int) -> str:
     """A string parameter (``simxGetStringParameter``).
 
     Args:
@@ -207,7 +206,7 @@ def get_string(sim: Simulation, pid: int) -> str:
     raise _unsupported_param("string", pid)
 
 
-def set_string(sim: Simulation, pid: int, value: str) -> None:
+def set_string(sim: Any, pid: int, value: str) -> None:
     """Set a string parameter: simx has none to set (the legacy API has no such command;
     CoppeliaSim's settable ones are its window's and log's settings).
 
@@ -217,7 +216,7 @@ def set_string(sim: Simulation, pid: int, value: str) -> None:
     raise _unsupported_param("string", pid)
 
 
-def get_array(sim: Simulation, pid: int) -> list[float]:
+def get_array(sim: Any, pid: int) -> list[float]:
     """An array parameter (``simxGetArrayParameter``).
 
     Args:
@@ -235,7 +234,7 @@ def get_array(sim: Simulation, pid: int) -> list[float]:
     return sim.world.model.opt.gravity.tolist()
 
 
-def set_array(sim: Simulation, pid: int, values: Any) -> None:
+def set_array(sim: Any, pid: int, values: Any) -> None:
     """Set an array parameter (``simxSetArrayParameter``): gravity only.
 
     Args:

@@ -11,12 +11,12 @@ from pathlib import Path
 
 from simx_wire import protocol as P
 from simx_server.base.scene_guard import transfer_folders
-from simx_server.scene import custom_data
+from simx_server.scene import custom_data, parameters
 from simx_server.scene.editor import Editor
 from simx_server.scene.ttt import cache as ttt_cache
-from simx_server.scripts import shapes
-from simx_server.scripts.signals import Signals
-from simx_server.scripts.facade_legacy_data import RemoteApiPorts
+from simx_server.api.sim import shape_import as shapes
+from simx_server.api.signals import Signals
+from simx_server.api.sim.legacy_data import RemoteApiPorts
 from simx_server.scripts.scene_scripts import Scripts
 from simx_server.sim import ik, scene_collections
 from simx_server.sim.physics import PhysicsError
@@ -26,6 +26,14 @@ from simx_server.sim.vision import VisionSensors
 from simx_server.sim.world import World
 
 log = logging.getLogger("simx.simulation")
+
+
+#: Kind -> (getter, setter) of the legacy API's parameters.
+_LEGACY_PARAMETERS = {"integer": (parameters.get_integer, parameters.set_integer),
+                      "float": (parameters.get_floating, parameters.set_floating),
+                      "boolean": (parameters.get_boolean, parameters.set_boolean),
+                      "string": (parameters.get_string, parameters.set_string),
+                      "array": (parameters.get_array, parameters.set_array)}
 
 
 class Simulation:
@@ -136,6 +144,24 @@ class Simulation:
         if self.realtime:
             bits |= P.STATE_REALTIME
         return time_ms, bits, self.scene_id
+
+    def legacy_parameter(self, kind: str, pid: int, *value: Any) -> Any:
+        """The legacy API's parameter ``pid`` (``simxGetIntegerParameter``...: the headless mouse,
+        the stop counter; :mod:`simx_server.scene.parameters`), or set it when ``value`` is given.
+
+        Args:
+            kind: ``"integer"``, ``"float"``, ``"boolean"``, ``"string"`` or ``"array"``.
+            pid: the parameter's id.
+            value: the new value, to set it.
+
+        Returns:
+            The value (None when set).
+
+        Raises:
+            UnsupportedError: an id the legacy API does not answer.
+        """
+        get, set_ = _LEGACY_PARAMETERS[kind]
+        return set_(self, pid, *value) if value else get(self, pid)
 
     def start(self) -> None:
         """``simxStartSimulation``: from stopped, run the scripts' init; from paused, resume."""

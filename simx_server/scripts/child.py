@@ -5,7 +5,7 @@ data="child_script=FILE"/></custom>``; FILE (``.lua`` or ``.py``) lies in the sc
 scripts come only from the server's disk. An optional ``script_timeout=SECONDS`` in the same
 text bounds every call into that script (default :data:`DEFAULT_TIMEOUT`).
 
-Both languages see one :class:`~simx_server.scripts.facade.ScriptSim` as ``sim`` (V-REP's names and units) and follow
+Both languages see the one table of :mod:`simx_server.api` as ``sim`` (V-REP's names and units) and follow
 V-REP's non-threaded life cycle: the file's top level and ``sysCall_init`` when the simulation
 starts, ``sysCall_actuation`` before and ``sysCall_sensing`` after every step,
 ``sysCall_cleanup`` when it stops (then the script's state is dropped: a restart begins afresh).
@@ -31,12 +31,11 @@ from typing import Any, Callable
 import numpy as np
 
 from simx_wire.protocol import ScriptError
-from simx_server.scripts import sim_ik
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import ApiNamespace, script_sim
 from simx_server.scripts.budget import ScriptBudget
-from simx_server.scripts.signals import Signals
-from simx_server.scripts.facade_threads import PythonThread
-from simx_server.scripts.facade_objects import AppliedForces
+from simx_server.api.signals import Signals
+from simx_server.api.sim.threads import PythonThread
+from simx_server.api.sim.forces import AppliedForces
 from simx_server.scripts.watchdog import WATCHDOG
 from simx_server.sim.world import World
 
@@ -116,12 +115,11 @@ class ChildScript:
         if self.load_error:
             log.error("%s cannot be loaded: %s", self.label, self.load_error)
 
-    def facade(self) -> ScriptSim:
-        """A new ``sim`` for this script."""
-        facade = ScriptSim(self.world, self.owner, self.signals, label=self.path.name,
-                           simulation=self.simulation, forces=self.forces)
-        facade._script = self  # the calls about the script itself (execution count, parameters, threads)
-        return facade
+    def facade(self) -> ApiNamespace:
+        """A new ``sim`` for this script (its context knows the script: execution count,
+        parameters, threads)."""
+        return script_sim(self.world, self.owner, self.signals, label=self.path.name,
+                          simulation=self.simulation, forces=self.forces, script=self)
 
     # ---------------------------------------------------------------- life cycle
     def start(self) -> None:
@@ -319,7 +317,7 @@ def _script_builtins(allow_remote_code: bool) -> dict[str, Any]:
 
 
 class PythonScript(ChildScript):
-    """A Python child script: globals ``sim`` (:class:`ScriptSim`) and ``print`` (to the log)."""
+    """A Python child script: globals ``sim`` and ``simIK`` (:class:`~simx_server.api.context.ApiNamespace`) and ``print`` (to the log)."""
 
     language = "Python"
 
@@ -345,7 +343,7 @@ class PythonScript(ChildScript):
             "sim": self.facade(),
             "print": self._print,
         }
-        self.namespace["simIK"] = sim_ik.SimIK(self.namespace["sim"])  # CoppeliaSim 4.x's simIK
+        self.namespace["simIK"] = self.namespace["sim"].context.simik  # CoppeliaSim 4.x's simIK
         self._bounded("top level", lambda: exec(self._code, self.namespace))
 
     def _defines(self, function: str) -> bool:

@@ -3,8 +3,8 @@
 Each script gets its own Lua state, made afresh at every simulation start, prepared by
 :data:`PRELUDE`:
 
-* ``sim``: one Lua function per :data:`~simx_server.scripts.facade.FACADE_FUNCTIONS` entry,
-  each calling the script's :class:`~simx_server.scripts.facade.ScriptSim` through one Python
+* ``sim``: one Lua function per entry of :data:`simx_server.api.registry.SIM`,
+  each calling the table with the script's context through one Python
   dispatcher;
   Python lists come back as Lua tables, ``str`` and ``bytes`` as Lua strings. A facade error
   becomes a Lua error at the script's line (``RG2.lua:17: sim.getObjectHandle: ...``); an
@@ -42,8 +42,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scripts.call_arguments import script_argument_bytes
 from simx_server.scripts.child import LIFE_CYCLE_CALLS, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
-from simx_server.scripts import sim_ik
-from simx_server.scripts.facade import FACADE_CONSTANTS, FACADE_FUNCTIONS
+from simx_server.api import SIM, SIMIK
 from simx_server.scripts.lua_bounds import BOUNDS_LUA, CHECK_WORK, PIECE, SORT_IN_C
 from simx_server.scripts.rewrites import lua_file_text, rewrite
 from simx_server.scripts.threads import LuaStyles
@@ -141,7 +140,7 @@ setmetatable(sim, {__index = function(_, key)
   error(where() .. "sim." .. tostring(key) .. " is not available in simx (docs/SCRIPTS.md lists what is)", 0)
 end})
 G.sim = sim
--- CoppeliaSim 4.x's simIK (simx_server/scripts/sim_ik.py), as for ZMQ clients.
+-- CoppeliaSim 4.x's simIK (simx_server/api/simik/), as for ZMQ clients.
 G.simIK = simIK
 -- V-REP before 3.6: simGetObjectHandle(...), sim_handle_self.
 setmetatable(G, {__index = function(_, key)
@@ -337,9 +336,9 @@ class LuaScript(LuaStyles, ChildScript):
         fname = name.decode()
         try:
             target = self._facade
-            if fname.startswith("simIK."):  # simIK's functions over this script's sim
-                target, fname = sim_ik.SimIK(self._facade), fname[6:]
-            result = getattr(target, fname)(*[self._from_lua(a) for a in args])
+            if fname.startswith("simIK."):  # simIK's functions over this script's context
+                target, fname = self._facade.context.simik, fname[6:]
+            result = target.call(fname, *[self._from_lua(a) for a in args])
             if isinstance(result, tuple):
                 return (True, *[self._to_lua(v) for v in result])
             return True, self._to_lua(result)
@@ -393,9 +392,9 @@ class LuaScript(LuaStyles, ChildScript):
         prelude = rt.compile(PRELUDE, name="=simx")
         self._lookup = prelude(
             self._dispatch, self._expired, self._write_log,
-            rt.table_from([n.encode() for n in FACADE_FUNCTIONS] + [f"simIK.{n}".encode() for n in sim_ik.functions()]),
-            rt.table_from({**{k.encode(): v for k, v in FACADE_CONSTANTS.items()},
-                           **{f"simIK.{k}".encode(): v for k, v in sim_ik.CONSTANTS.items()}}),
+            rt.table_from([n.encode() for n in SIM] + [f"simIK.{n}".encode() for n in SIMIK]),
+            rt.table_from({**{k.encode(): v for k, v in SIM.constants.items()},
+                           **{f"simIK.{k}".encode(): v for k, v in SIMIK.constants.items()}}),
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(),
             rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY))

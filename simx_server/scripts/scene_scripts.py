@@ -15,13 +15,13 @@ from typing import Any, Iterable
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ScriptError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.scripts import script_parameters
+from simx_server.api import script_parameters
 from simx_server.scripts.child import (DEFAULT_TIMEOUT, PYTHON_SCRIPTS_FLAG, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG,
                                       ChildScript, PythonScript, RefusedScript)
 from simx_server.scripts.budget import ScriptBudget
 from simx_server.scripts.dynamics import DynamicsCallbacks
-from simx_server.scripts.signals import Signals
-from simx_server.scripts.facade_objects import AppliedForces
+from simx_server.api.signals import Signals
+from simx_server.api.sim.forces import AppliedForces
 from simx_server.scripts.lua import LuaScript
 from simx_server.sim.world import World
 
@@ -283,7 +283,7 @@ def script_options(world: World, obj: Any, timeout: float) -> dict:
 
 def read_parameters(world: World, name: str, file: str | None) -> list[dict]:
     """The script simulation parameters of ``file`` next to the scene
-    (:func:`simx_server.scripts.script_parameters.load`); [] without a file. ValueError for a file
+    (:func:`simx_server.api.script_parameters.load`); [] without a file. ValueError for a file
     outside the scene's folder, missing, too large or not such a list."""
     return script_parameters.load(world.scene_path.parent, name, file)
 

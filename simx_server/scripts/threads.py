@@ -11,7 +11,7 @@ script's ``sysCall_cleanup`` still runs). It yields in:
 * ``sim.switchThread()`` / ``simSwitchThread()``, ``sim.yield()``, ``sim.step()`` (4.6);
 * ``sim.wait(dt [, simulationTime=true])`` / ``simWait``: until ``dt`` s of simulation time (or
   of wall time) have passed; ``sim.moveToConfig`` / ``sim.moveToPose``: once per increment of
-  the motion (:mod:`simx_server.scripts.facade_motion`), whose 4.3-4.5 callback runs in Lua; ``sim.waitForSignal(name)`` / ``simWaitForSignal``: until an
+  the motion (:mod:`simx_server.api.sim.motion`), whose 4.3-4.5 callback runs in Lua; ``sim.waitForSignal(name)`` / ``simWaitForSignal``: until an
   integer, float or string signal ``name`` exists (returns its value);
 * any ``sim`` call, once the thread has run longer than its time slice since it was resumed
   (``sim.setThreadSwitchTiming(ms)``, default 2 ms) while automatic switching is on
@@ -36,9 +36,10 @@ import time
 from typing import Any
 
 from simx_wire.protocol import RemoteError
-from simx_server.scripts.facade import FACADE_FUNCTIONS
-from simx_server.scripts.facade_motion import CallbackCall
-from simx_server.scripts.legacy_names import (CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS,
+from simx_server.api import SIM, Callers
+from simx_server.api.sim import motion
+from simx_server.api.sim.stepped import CallbackCall
+from simx_server.api.legacy_names import (CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS,
                                               doc_table)
 
 __all__ = ["LUA_FUNCTIONS", "THREADS_LUA", "LuaStyles", "script_functions"]
@@ -53,8 +54,9 @@ LUA_FUNCTIONS = ("switchThread", "yield", "step", "wait", "waitForSignal", "setT
 
 
 def script_functions() -> frozenset[str]:
-    """Every ``sim.NAME`` function of Lua scripts: the facade's and :data:`LUA_FUNCTIONS`."""
-    return frozenset(FACADE_FUNCTIONS) | frozenset(LUA_FUNCTIONS)
+    """Every ``sim.NAME`` function of child scripts: the table's (those scripts may call) and
+    :data:`LUA_FUNCTIONS`."""
+    return frozenset(SIM.names(Callers.SCRIPTS)) | frozenset(LUA_FUNCTIONS)
 
 #: Lua run in each script's state after the prelude: the thread functions of ``sim``; returns
 #: ``launch(f)``, ``resume()`` (true while the thread lives; raises the thread's error),
@@ -235,7 +237,7 @@ class LuaStyles:
         try:
             if op == b"begin":
                 name = args[0].decode() if isinstance(args[0], bytes) else str(args[0])
-                return True, self._facade._lua_motion(name, [self._from_lua(a) for a in args[1:]])
+                return True, motion.lua_motion(self._facade.context, name, [self._from_lua(a) for a in args[1:]])
             wanted = args[0].send(None)
             if isinstance(wanted, CallbackCall):
                 return True, b"call", self._to_lua(wanted.args[:3])

@@ -348,8 +348,19 @@ def step(world: World) -> None:
             log.exception("IK groups of %s not solved this step", world.scene_name)
 
 
-# ----------------------------------------------------------------- the sim facade's calls
-def _group_arg(value: Any) -> Any:
+# ------------------------------------------------------------ for sim.handleIkGroup & co.
+def group_arg(value: Any) -> Any:
+    """An IK group argument as the ``sim`` calls take it (:mod:`simx_server.api.sim.ik_groups`).
+
+    Args:
+        value: a handle (int, or an integral float from Lua) or a name (str or bytes).
+
+    Returns:
+        The handle (int) or the name (str).
+
+    Raises:
+        ArgumentError: anything else.
+    """
     if isinstance(value, (bytes, bytearray)):
         value = bytes(value).decode("utf-8", "replace")
     if isinstance(value, str):
@@ -360,48 +371,3 @@ def _group_arg(value: Any) -> Any:
         raise ArgumentError(f"IK group must be a handle or a name, got {quote(value)}")
     return value
 
-
-def handleIkGroup(self, group: Any) -> int:  # noqa: N802 (V-REP's name)
-    """``sim.handleIkGroup(ikGroupHandle)``: solve one group now (its joints' target positions
-    move; physics follows at the next step), or every non-explicit group for
-    ``sim.handle_all`` (-2) and ``sim.handle_all_except_explicit`` (-3). Returns
-    ``sim.ikresult_success`` (1) or ``sim.ikresult_fail`` (2); for several groups the number of
-    groups solved. Raises UnknownObjectError for an unknown group.
-
-    Args:
-        group: an IK group's handle or name, or -2 / -3.
-
-    Returns:
-        1, 2, or the count of groups solved.
-
-    Raises:
-        UnknownObjectError: no such group.
-    """
-    gs = groups(self._world)
-    group = _group_arg(group)
-    if group in (-2, -3):  # sim_handle_all, sim_handle_all_except_explicit
-        chosen = [g for g in gs.groups.values() if group == -2 or not g.explicit]
-        return sum(gs.solve(g) == IK_SUCCESS for g in chosen)
-    return gs.solve(gs.group(group))
-
-
-def getIkGroupHandle(self, name: Any) -> int:  # noqa: N802
-    """``sim.getIkGroupHandle(name)``: handle of the group declared as ``simx:ik:NAME``.
-
-    Args:
-        name: the group's name (str or bytes).
-
-    Returns:
-        The group's handle.
-
-    Raises:
-        UnknownObjectError: no such group.
-    """
-    return groups(self._world).group(str(_group_arg(name))).handle
-
-
-#: Functions the ``sim`` facade gains (registered by :mod:`simx_server.scripts.facade_core`).
-FACADE_FUNCTIONS = {
-    "handleIkGroup": handleIkGroup,
-    "getIkGroupHandle": getIkGroupHandle,
-}

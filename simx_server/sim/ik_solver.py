@@ -1,4 +1,4 @@
-"""The solver of ``simIK`` groups (:mod:`simx_server.scripts.sim_ik`), and of the scene's IK
+"""The solver of ``simIK`` groups (:mod:`simx_server.api.simik.environments`), and of the scene's IK
 groups with several elements or partial constraints (:mod:`simx_server.sim.ik`), on MuJoCo's
 Jacobians.
 

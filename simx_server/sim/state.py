@@ -45,3 +45,15 @@ class SimulationView(Protocol):
     scripts: Any
     editor: Any
     selection: list[int]
+
+    def legacy_parameter(self, kind: str, pid: int, *value: Any) -> Any:
+        """The legacy API's parameter ``pid`` (``simxGetIntegerParameter``...), or set it.
+
+        Args:
+            kind: ``"integer"``, ``"float"``, ``"boolean"``, ``"string"`` or ``"array"``.
+            pid: the parameter's id.
+            value: the new value, to set it.
+
+        Returns:
+            The value (None when set).
+        """

@@ -23,8 +23,8 @@ from typing import Any
 from simx_wire.protocol import MAX_REQUEST_ITEMS
 from simx_server.base import limits
 from simx_server.loop.budgets import Share
-from simx_server.scripts.facade_core import _PACK_FORMATS
-from simx_server.scripts.facade_sensors import HANDLEFLAG_GREYSCALE as _GREYSCALE
+from simx_server.api.sim.core import _PACK_FORMATS
+from simx_server.api.sim.sensors import HANDLEFLAG_GREYSCALE as _GREYSCALE
 from simx_server.commands.sensors import image_pixels
 
 _DEPTH_METRES = 0x800000  # sim.handleflag_depthbuffermeters
@@ -93,7 +93,7 @@ def reply_estimate(sim: Any, name: str, args: list) -> str | None:
 
 
 #: Calls that wait for a render: the ZMQ service replies once the render thread is done
-#: (:attr:`~simx_server.scripts.facade_sensors.SensorCalls.defer_renders`).
+#: (:attr:`~simx_server.api.sim.sensors.SensorCalls.defer_renders`).
 RENDERS = frozenset({"getVisionSensorImg", "getVisionSensorImage", "getVisionSensorCharImage",
                      "getVisionSensorDepth", "getVisionSensorDepthBuffer", "checkVisionSensorEx",
                      "readVisionSensor", "checkVisionSensor", "handleVisionSensor"})

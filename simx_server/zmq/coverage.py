@@ -1,8 +1,8 @@
 """What simx implements of CoppeliaSim 4.x's ``sim`` (442 functions) and ``simIK`` (76), from
-the code: a function is **implemented** when the facade (:class:`~simx_server.zmq.remote_sim.RemoteSim`,
-the same object child scripts use), the ZMQ service's stepping calls or
-:class:`~simx_server.scripts.sim_ik.SimIK` defines it; **headless** when it is one of the window
-functions answered as a headless CoppeliaSim does (:class:`~simx_server.scripts.facade_gui.GuiCalls`).
+the code: a function is **implemented** when the API table (:data:`simx_server.api.registry.SIM` /
+:data:`~simx_server.api.registry.SIMIK`, which child scripts and ZMQ clients share) or the ZMQ
+service's stepping calls have it; **headless** when it is one of the window functions answered as
+a headless CoppeliaSim does (the functions of :mod:`simx_server.api.sim.gui`).
 Every other function has an entry in :data:`NOT_IMPLEMENTED`: ``("n/a", why)`` where it has no
 meaning for a headless MuJoCo server (the main script's own steps, plugins, callbacks into a
 client), ``("refused", why)`` where the server refuses it by design (docs/SECURITY.md), or
@@ -14,10 +14,7 @@ checks the file is current and every function has its status.
 
 from __future__ import annotations
 
-from simx_server.scripts.facade_gui import GuiCalls
-from simx_server.scripts.sim_ik import functions as ik_functions
-from simx_server.zmq import names
-from simx_server.zmq.remote_sim import facade_functions
+from simx_server.api import SIM, SIMIK, Callers, names
 from simx_server.zmq.service import STEPPING
 
 _MAIN = "the main script's own step: simx's loop runs it (sensing, dynamics, scripts) every step"
@@ -82,10 +79,10 @@ def _status(name: str, implemented: set[str], missing: dict[str, tuple[str, str]
 
 def table() -> dict[str, list[tuple[str, str, str]]]:
     """``{namespace: [(name, status, why)]}`` for every function of CoppeliaSim's 4.x tables."""
-    gui = {n for n, v in vars(GuiCalls).items() if not n.startswith("_") and callable(v)}
-    sim_impl = set(facade_functions()) | set(STEPPING)
+    gui = {n for n in SIM if SIM[n].module == "simx_server.api.sim.gui"}
+    sim_impl = set(SIM.names(Callers.CLIENTS)) | set(STEPPING)
     out = {"sim": [(n, *_status(n, sim_impl, NOT_IMPLEMENTED, gui)) for n in sorted(names.current_functions("sim"))],
-           "simIK": [(n, *_status(n, set(ik_functions()), IK_NOT_IMPLEMENTED, set()))
+           "simIK": [(n, *_status(n, set(SIMIK.names(Callers.CLIENTS)), IK_NOT_IMPLEMENTED, set()))
                      for n in sorted(names.current_functions("simIK"))]}
     return out
 

@@ -22,7 +22,8 @@ server does. Clients are in the loop's registry (:mod:`simx_server.loop.clients`
 :class:`~simx_server.zmq.clients.ZmqClient` is its entry with what is the ZMQ door's own). A client is forgotten (it
 leaves the barrier) when its connection closes, when it sends ``_*end*_``, or when the loop's
 housekeeping finds it past its ``timeout`` (s, its first request's; 600 by default) without a
-request (:meth:`ZmqService.keeps`: not while its ``_*executed*_`` waits for a step). Every other ``sim.NAME`` is :class:`~simx_server.zmq.remote_sim.RemoteSim`'s; those that
+request (:meth:`ZmqService.keeps`: not while its ``_*executed*_`` waits for a step). Every other ``sim.NAME`` and
+``simIK.NAME`` is the API table's (:mod:`simx_server.api`); those that
 render (images, depth buffers, vision packets) are answered from the render thread once their
 frames are drawn (:mod:`simx_server.zmq.renders`), the simulation going on meanwhile.
 """
@@ -43,14 +44,13 @@ from simx_server.loop.budgets import cut
 from simx_server.loop.front_door import LoopAccess
 from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
-from simx_server.zmq import codec, names
+from simx_server.zmq import codec
 from simx_server.zmq.budgets import RENDERS, Connection, reply_estimate
 from simx_server.zmq.clients import ZmqClient
 from simx_server.zmq.frontend import Frontend, Incoming
-from simx_server.zmq.motion import CallbackCall, Stepped
-from simx_server.zmq.remote_sim import RemoteSim, facade_functions
+from simx_server.api import SIM, SIMIK, CallContext, Callers, client_context, names
+from simx_server.api.sim.stepped import CallbackCall, Stepped
 from simx_server.zmq.renders import RenderedReplies, Rendering, values as _values
-from simx_server.zmq.sim_ik import RemoteSimIK
 
 log = logging.getLogger("simx.zmq")
 
@@ -89,8 +89,8 @@ class ZmqService(RenderedReplies):
         #: This door's clients by uuid: the loop's registry's dict of them.
         self.clients: dict[str, ZmqClient] = server.clients.of(self)
         self.connections: dict[bytes, Connection] = {}  # routing id -> its uuids and share
-        self._remote: RemoteSim | None = None
-        self._functions = facade_functions()
+        self._remote: CallContext | None = None
+        self._functions = {n: SIM[n].function for n in SIM.names(Callers.CLIENTS)}
         self._signatures: dict[str, inspect.Signature] = {}
         self._held = 0  # clients with a held _*executed*_
         self._in_after_step = self._again = False
@@ -100,7 +100,7 @@ class ZmqService(RenderedReplies):
             "switchThread": self._step, "acquireLock": self._acquire_lock, "releaseLock": self._release_lock,
             "stopSimulation": self._stop_simulation,
         }
-        self._ik_functions = {n: f for n, f in vars(RemoteSimIK).items() if not n.startswith("_") and callable(f)}
+        self._ik_functions = {n: SIMIK[n].function for n in SIMIK.names(Callers.CLIENTS)}
         self._implemented = {"sim": frozenset(self._functions) | frozenset(STEPPING),
                              "simIK": frozenset(self._ik_functions)}
 
@@ -109,9 +109,10 @@ class ZmqService(RenderedReplies):
         return self.server.sim
 
     @property
-    def remote(self) -> RemoteSim:
-        if self._remote is None or self._remote._simulation_ is not self.server.sim:
-            self._remote = RemoteSim(self.server.sim)
+    def remote(self) -> CallContext:
+        """This door's clients' context of the API table (made anew for a new simulation)."""
+        if self._remote is None or self._remote.view is not self.server.sim:
+            self._remote = client_context(self.server.sim)
         return self._remote
 
     # ------------------------------------------------------------ the ready ring
@@ -283,9 +284,7 @@ class ZmqService(RenderedReplies):
         return signature
 
     def _facade(self, name: str, args: list, ik: bool = False) -> list | Stepped | Deferred:
-        fn = (self._ik_functions if ik else self._functions)[name]
-        signature = self._signature(name, ik)
-        remote = RemoteSimIK(self.remote) if ik else self.remote
+        fn, signature, remote = (self._ik_functions if ik else self._functions)[name], self._signature(name, ik), self.remote
         try:
             result = fn(remote, *args)
         except TypeError as exc:  # the wrong number of arguments, or a bad one met deeper in

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 from simx_server.scene.simulation import Simulation
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read
@@ -23,7 +23,7 @@ def placed():
     """A running simulation in which scripts placed, moved and changed things."""
     sim = Simulation(SENSORS, realtime=False)
     sim.start()
-    api = ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
+    api = script_sim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
     h = sim.world.resolve
     dummy = api.createDummy(0.05)
     api.setObjectPosition(dummy, -1, [0.1, 0.2, 0.3])

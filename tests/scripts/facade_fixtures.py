@@ -8,7 +8,7 @@ import pytest
 
 from conftest import ROOT
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 
 SENSORS = ROOT / "tests" / "scenes" / "sensors.xml"
 
@@ -30,4 +30,4 @@ def sim():
 
 @pytest.fixture
 def api(sim):
-    return ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
+    return script_sim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)

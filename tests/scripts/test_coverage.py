@@ -5,7 +5,8 @@ ZMQ service answering every listed name, and the docs linking it."""
 from __future__ import annotations
 
 from conftest import ROOT
-from simx_server.zmq import coverage, names
+from simx_server.api import names
+from simx_server.zmq import coverage
 
 
 def test_coverage_doc_is_current():

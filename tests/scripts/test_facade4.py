@@ -19,8 +19,10 @@ import pytest
 from conftest import ROOT, SCENE, ServerProcess, wait_until
 from simx_client.protocol import ArgumentError, ScriptError
 from simx_server.sim import kinematics
-from simx_server.scripts.facade import FACADE_FUNCTIONS, ScriptSim
+from simx_server.api import SIM, script_sim
 from simx_server.scene.simulation import Simulation
+
+FACADE_FUNCTIONS = tuple(SIM)
 
 SCENE4 = ROOT / "tests" / "scenes" / "facade4" / "facade4.xml"
 CHILD = 1  # sim_scripttype_childscript
@@ -101,7 +103,7 @@ def test_set_object_alias_renames_a_joint_with_its_motor_settings_and_state(sim,
 
 
 def test_renamed_sensors_camera_and_script_object_keep_working(sim):
-    facade = ScriptSim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
+    facade = script_sim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
     for old, new in [("ft", "FT2"), ("prox", "Prox2"), ("cam", "Cam2"), ("payload", "Payload2"), ("Api", "Api2")]:
         h = handle(sim, old)
         facade.setObjectAlias(h, new)
@@ -171,7 +173,7 @@ def test_poses_in_coppeliasim_4_5_argument_order(sim, api):
 
 @pytest.mark.renderers_on_demand  # no image read
 def test_renamed_free_and_mocap_bodies_keep_their_state(sim):
-    facade = ScriptSim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
+    facade = script_sim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
     cube, mark = handle(sim, "Cube"), handle(sim, "Mark")
     facade.setObjectPosition(mark, [1.5, -2.5, 0.5])  # a mocap pose, set at run time
     for _ in range(3):
@@ -219,7 +221,7 @@ def test_objects_in_tree_lists_the_ur5(tmp_path):
     s = Simulation(SCENE, realtime=False)
     try:
         w = s.world
-        facade = ScriptSim(w, w.resolve("UR5").handle, s.signals, simulation=s)
+        facade = script_sim(w, w.resolve("UR5").handle, s.signals, simulation=s)
         tree = facade.getObjectsInTree(w.resolve("UR5").handle)
         names = [w.get(h).name for h in tree]
         assert names[0] == "UR5"
@@ -311,7 +313,7 @@ def test_vision_sensor_images(sim, api):
 
 def test_vision_sensor_image_windows(sim):
     cam = handle(sim, "cam")
-    facade = ScriptSim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
+    facade = script_sim(sim.world, handle(sim, "PyApi"), sim.signals, simulation=sim)
     full = sim.vision.image(cam, False)
     img, res = facade.getVisionSensorImg(cam, 0, 0, [2, 3], [4, 5])  # from the bottom left corner
     assert res == [4, 5] and img == full[3:8, 2:6].tobytes()
@@ -358,7 +360,7 @@ def test_get_object_relative_to_the_script(sim, api):
     assert call(sim, api, "relative", [], [], [tip])[0] == [handle(sim, tip)]  # anywhere below
     assert call(sim, api, "relative", [], [], [f"{tip}/{link}"])[0] == [-1]  # wrong order
     assert call(sim, api, "relative", [], [], ["Tip"])[0] == [-1]  # exists, but not below the script
-    facade = ScriptSim(sim.world, handle(sim, api), sim.signals, simulation=sim)
+    facade = script_sim(sim.world, handle(sim, api), sim.signals, simulation=sim)
     assert facade.getObject("/Holder", {"index": 0}) == handle(sim, "Holder")
     assert facade.getObject("/Holder", {"index": 1, "noError": True}) == -1  # names are unique
 

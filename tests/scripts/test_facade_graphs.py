@@ -8,7 +8,7 @@ import pytest
 
 from simx_client.protocol import ArgumentError, RemoteError
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 
@@ -59,7 +59,7 @@ def test_a_script_records_streams_and_reads_curves(sim):
 
 
 def test_transformations_static_copies_and_errors(sim):
-    api = ScriptSim(sim.world, sim.world.resolve("Graph").handle, sim.signals, simulation=sim)
+    api = script_sim(sim.world, sim.world.resolve("Graph").handle, sim.signals, simulation=sim)
     g = api.getObject("/Graph")
     s = api.addGraphStream(g, "ones", "")
     for _ in range(4):

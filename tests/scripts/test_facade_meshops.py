@@ -8,7 +8,7 @@ import pytest
 
 from simx_client.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 import facade_fixtures
 
 sim, api = facade_fixtures.sim, facade_fixtures.api  # the shared fixtures
@@ -68,7 +68,7 @@ def test_appearance_textures_and_parameters(tmp_path):
     sim = Simulation(scene, realtime=False)
     sim.start()
     try:
-        api = ScriptSim(sim.world, sim.world.resolve("tiled").handle, sim.signals, simulation=sim)
+        api = script_sim(sim.world, sim.world.resolve("tiled").handle, sim.signals, simulation=sim)
         tiled, plain = api.getObject("/tiled"), api.getObject("/plain")
         tex, res = api.getTextureId("checks")
         assert api.getShapeTextureId(tiled) == tex and api.getShapeTextureId(plain) == -1
@@ -163,7 +163,7 @@ def test_dummy_links_and_vision_check_image(tmp_path):
     sim = Simulation(scene, realtime=False)
     sim.start()
     try:
-        api = ScriptSim(sim.world, sim.world.resolve("arm").handle, sim.signals, simulation=sim)
+        api = script_sim(sim.world, sim.world.resolve("arm").handle, sim.signals, simulation=sim)
         tip, anchor, f1, f2 = (api.getObject("/" + n) for n in ("arm/tipA", "anchor", "free1", "free2"))
         assert api.getLinkDummy(tip) == anchor and api.getLinkDummy(anchor) == tip  # the MJCF weld
         assert api.getLinkDummy(f1) == -1

@@ -1,8 +1,8 @@
 """One definition per ``sim`` name, and ``sim.getObjectHandle`` taking every form ``sim.getObject``
 takes (issue 43).
 
-``ScriptSim`` is assembled from mixins; a name defined in two of them was silently shadowed by
-the earlier one in its method resolution order (``getObjectHandle`` in SimFacade took fewer path
+The facade was once assembled from mixins, and a name defined in two of them was silently
+shadowed by the earlier one in its method resolution order (``getObjectHandle`` took fewer path
 forms than ``getObject``: ``sim.getObjectHandle('./lumibot_leftMotor')`` answered "does not
 exist" where ``sim.getObject`` found it). The scene here: two copies of a small model, V-REP's
 way (``robot`` and ``robot#0``, each with an ``arm`` that shares the alias ``arm``).
@@ -15,8 +15,8 @@ import pytest
 from simx_wire import constants as C
 from simx_wire.protocol import UnknownObjectError
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
-from simx_server.zmq.remote_sim import RemoteSim
+from simx_server.api import client_context, script_sim
+from simx_server.api.registry import ApiTable, DuplicateApiName
 
 MODEL_COPIES = """
 <mujoco model="copies">
@@ -34,16 +34,18 @@ MODEL_COPIES = """
 """
 
 
-def test_no_name_is_defined_in_two_classes_of_the_facade():
-    """Each attribute of ScriptSim is defined by one class of its MRO: a second definition would
-    shadow the first without a word."""
-    where: dict[str, list[str]] = {}
-    for klass in ScriptSim.__mro__:
-        for name in vars(klass):
-            if not (name.startswith("__") and name.endswith("__")):
-                where.setdefault(name, []).append(klass.__qualname__)
-    twice = {name: owners for name, owners in where.items() if len(owners) > 1}
-    assert not twice, f"names defined in more than one class of ScriptSim: {twice}"
+def test_a_name_registered_twice_is_an_error():
+    """The table refuses a second definition of a name, naming both (at import, for a module)."""
+    table = ApiTable("sim")
+
+    def first(ctx): ...
+
+    def second(ctx): ...
+
+    table.register("getObject", first)
+    with pytest.raises(DuplicateApiName, match=r"sim\.getObject is registered twice.*first.*second"):
+        table.register("getObject", second)
+    assert table["getObject"].function is first
 
 
 @pytest.fixture
@@ -62,7 +64,7 @@ def handle(sim, name: str) -> int:
 def test_get_object_handle_takes_every_form_get_object_takes(sim):
     """In the script of the copy ``robot#0``: paths, indices, aliases, ``:`` and ``noError`` as
     ``sim.getObject``; bare names with the script's automatic suffix, as V-REP 3.x."""
-    api = ScriptSim(sim.world, handle(sim, "robot#0"), sim.signals, simulation=sim)
+    api = script_sim(sim.world, handle(sim, "robot#0"), sim.signals, simulation=sim)
     arm, arm0, robot0 = handle(sim, "arm"), handle(sim, "arm#0"), handle(sim, "robot#0")
     for path, options in [("./arm", None), ("/robot/arm", None), ("/arm", {"index": 1}), (":", None),
                           (":/arm", None), ("/arm[1]", None), (".", None), ("arm#0", None), ("arm#", None)]:
@@ -81,7 +83,7 @@ def test_get_object_handle_takes_every_form_get_object_takes(sim):
 
 def test_remote_get_object_handle_finds_what_get_object_finds(sim):
     """A remote program (ZMQ) has no object: ``./x`` starts from the scene root, for both calls."""
-    remote = RemoteSim(sim)
+    remote = client_context(sim).sim
     for path in ("./arm", "/robot/arm", "arm", "robot#0", "/arm[1]"):
         assert remote.getObjectHandle(path) == remote.getObject(path), path
     assert remote.getObjectHandle("./arm") == handle(sim, "arm")
@@ -90,7 +92,7 @@ def test_remote_get_object_handle_finds_what_get_object_finds(sim):
 def test_the_4_1_double_signal_names_reach_the_float_signals(sim):
     """CoppeliaSim 4.1-4.4's ``sim.*DoubleSignal`` (the 4.4 ZMQ client's ``waitForSignal`` calls
     ``getDoubleSignal``) read and write the store of ``sim.*FloatSignal``."""
-    remote = RemoteSim(sim)
+    remote = client_context(sim).sim
     remote.setDoubleSignal("level", 2.5)
     assert remote.getFloatSignal("level") == 2.5 and remote.getDoubleSignal("level") == 2.5
     remote.clearDoubleSignal("level")

@@ -118,8 +118,8 @@ def test_property_flags_and_value_conversion(api):
     assert api.getObjectSpecialProperty(d) == 0  # a dummy's default
     api.setObjectSpecialProperty(a, api.objectspecialproperty_detectable_all | api.objectspecialproperty_renderable)
     assert api.getObjectSpecialProperty(a) == 496 | 512
-    geom = int(api._world.model.body("blockA").geomadr[0])
-    assert api._world.model.geom_contype[geom] == 1  # it still collides physically (respondable)
+    geom = int(api.context.world.model.body("blockA").geomadr[0])
+    assert api.context.world.model.geom_contype[geom] == 1  # it still collides physically (respondable)
     assert api.getObjectProperty(a) == api.objectproperty_selectable
     api.setObjectProperty(a, api.objectproperty_collapsed)
     assert api.getObjectProperty(a) == api.objectproperty_collapsed

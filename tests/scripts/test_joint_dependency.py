@@ -8,7 +8,7 @@ import pytest
 
 from simx_client.protocol import ArgumentError
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read here
 
@@ -35,7 +35,7 @@ def rig(tmp_path):
     xml.write_text(SCENE)
     sim = Simulation(xml, realtime=False)
     sim.start()
-    api = ScriptSim(sim.world, sim.world.resolve("base").handle, sim.signals, simulation=sim)
+    api = script_sim(sim.world, sim.world.resolve("base").handle, sim.signals, simulation=sim)
     yield sim, api
     sim.stop()
     sim.close()

@@ -283,7 +283,7 @@ def test_custom_data_blocks(run):
 # ---------------------------------------------------------------- docs
 def test_docs_list_every_3x_function_with_its_status_as_the_code_says():
     from conftest import ROOT
-    from simx_server.scripts.legacy_names import DOC_BEGIN, DOC_END, doc_table
+    from simx_server.api.legacy_names import DOC_BEGIN, DOC_END, doc_table
     from simx_server.scripts.threads import script_functions
 
     text = (ROOT / "docs" / "SCRIPTS.md").read_text()
@@ -301,7 +301,7 @@ ISSUE_NAMES = ("simGetObjectHandle", "simSetJointTargetVelocity", "simReadProxim
 
 
 def test_the_3x_functions_the_issue_names_run():
-    from simx_server.scripts.legacy_names import status
+    from simx_server.api.legacy_names import status
     from simx_server.scripts.threads import script_functions
 
     functions = script_functions()

@@ -7,8 +7,10 @@ from __future__ import annotations
 import pytest
 
 from simx_client import constants as C
-from simx_server.scripts.facade import FACADE_CONSTANTS
+from simx_server.api import SIM
 from simx_server.scene.simulation import Simulation
+
+FACADE_CONSTANTS = SIM.constants
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 

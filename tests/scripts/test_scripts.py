@@ -29,7 +29,7 @@ import pytest
 
 from conftest import LEGACY, ROOT, SCENE, ServerProcess, require_shared
 from simx_client.protocol import ScriptError
-from simx_server.scripts.signals import Signals
+from simx_server.api.signals import Signals
 from simx_server.scripts.scene_scripts import Scripts
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.world import World

@@ -9,8 +9,8 @@ import pytest
 from conftest import ROOT
 from simx_client.protocol import ArgumentError, UnknownObjectError
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
-from simx_server.scripts.sim_ik import SimIK, functions
+from simx_server.api import script_sim
+from simx_server.api import SIMIK
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 
@@ -20,8 +20,8 @@ UR5 = ROOT / "scenes" / "ur5_ik.xml"
 @pytest.fixture
 def rig():
     s = Simulation(UR5, realtime=False)
-    sim = ScriptSim(s.world, s.world.resolve("UR5").handle, s.signals, simulation=s)
-    yield s, sim, SimIK(sim)
+    sim = script_sim(s.world, s.world.resolve("UR5").handle, s.signals, simulation=s)
+    yield s, sim, sim.context.simik
     s.close()
 
 
@@ -89,9 +89,9 @@ def test_find_configs_and_generate_path(rig):
 
 
 def test_every_simik_function_has_coppeliasim_s_name():
-    from simx_server.zmq import names
+    from simx_server.api import names
     listed = names.coppeliasim_functions("simIK")
-    assert set(functions()) <= listed, set(functions()) - listed
+    assert set(SIMIK) <= listed, set(SIMIK) - listed
 
 
 def test_joint_weights_and_margins_shape_the_solution(rig):

@@ -169,7 +169,7 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
     rebuilt on the edited model and the tip still follows its target."""
     import numpy as np
 
-    from simx_server.scripts.facade import ScriptSim
+    from simx_server.api import script_sim
     from simx_server.scene.simulation import Simulation
 
     sim = Simulation(IK_SCENE, dt=0.05, realtime=False, scene_paths=[tmp_path])
@@ -182,7 +182,7 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
     finally:
         sys.path.remove(str(PROGRAM.parent))
     write_cube(str(mesh), 0.04)
-    f = ScriptSim(w, w.resolve("remoteApiCommandServer").handle, sim.signals, simulation=sim)
+    f = script_sim(w, w.resolve("remoteApiCommandServer").handle, sim.signals, simulation=sim)
     h = f.importShape(0, str(mesh), 0, 0.0, 1.0)
     assert f.setShapeColor(h, None, 0, [0.1, 0.2, 0.3]) == 1
     geom = int(np.flatnonzero(w.model.geom_bodyid == w.get(h).mj_id)[0])
@@ -213,7 +213,7 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
 def test_imported_shapes_stay_in_place_when_the_simulation_stops(tmp_path):
     """A stop puts the scene's own objects back, not imported shapes: they stay where they are
     (their model pose is the origin, inside the robot's base and the table)."""
-    from simx_server.scripts.facade import ScriptSim
+    from simx_server.api import script_sim
     from simx_server.scene.simulation import Simulation
 
     sys.path.insert(0, str(PROGRAM.parent))
@@ -226,7 +226,7 @@ def test_imported_shapes_stay_in_place_when_the_simulation_stops(tmp_path):
     sim = Simulation(IK_SCENE, dt=0.05, realtime=False, scene_paths=[tmp_path])
     w = sim.world
     sim.start()
-    f = ScriptSim(w, w.resolve("remoteApiCommandServer").handle, sim.signals, simulation=sim)
+    f = script_sim(w, w.resolve("remoteApiCommandServer").handle, sim.signals, simulation=sim)
     h = f.importShape(0, str(mesh), 0, 0.0, 1.0)
     f.setObjectPosition(h, -1, [-0.5, 0.1, 0.05])
     for _ in range(10):

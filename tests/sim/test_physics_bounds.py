@@ -19,7 +19,7 @@ from simx_server.commands import joints, objects, parameters, signals
 from simx_server.base import limits
 from simx_server.commands import parameters as cmd_parameters
 from simx_server.sim.physics import PhysicsError
-from simx_server.scripts.signals import Signals
+from simx_server.api.signals import Signals
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
 from simx_server.sim.world import World
@@ -241,10 +241,10 @@ def test_masses_positions_and_rotations_out_of_range_are_argument_errors(sim):
 
 
 def test_script_setters_obey_the_same_bounds(sim):
-    from simx_server.scripts.facade import ScriptSim
+    from simx_server.api import script_sim
 
     w = sim.world
-    facade = ScriptSim(w, w.resolve("UR5").handle, sim.signals)
+    facade = script_sim(w, w.resolve("UR5").handle, sim.signals)
     h = w.resolve("UR5_joint1").handle
     with pytest.raises(ArgumentError, match="MAX_JOINT_POSITION"):
         facade.setJointPosition(h, 1e39)

@@ -11,7 +11,7 @@ import pytest
 
 from simx_wire.protocol import UnknownObjectError
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 from simx_server.sim import scene_collections
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
@@ -69,7 +69,7 @@ def test_elements_apply_in_order_and_handles_follow_the_names(sim, caplog):
 def test_facade_names_objects_and_collision_with_collections(sim):
     sim.start()
     sim.step()
-    api = ScriptSim(sim.world, sim.world.resolve("Base").handle, sim.signals, simulation=sim)
+    api = script_sim(sim.world, sim.world.resolve("Base").handle, sim.signals, simulation=sim)
     arm, balls = api.getCollectionHandle("Arm"), api.getCollectionHandle("Balls")
     assert api.getCollectionName(arm) == "Arm"
     assert names(sim, api.getCollectionObjects(arm)) == ["Base", "Hinge", "Link"]

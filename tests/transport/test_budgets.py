@@ -67,7 +67,7 @@ def test_scene_loads_edits_and_transfers_do_not_stream(cid):
 
 def test_an_append_beyond_the_signal_bound_is_refused_before_it_is_built(cid, monkeypatch):
     from simx_server.commands.signals import append_string_signal
-    from simx_server.scripts.signals import Signals
+    from simx_server.api.signals import Signals
 
     class Sim:  # the handler reads the store only
         signals = Signals(max_bytes=10)

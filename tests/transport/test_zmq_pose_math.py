@@ -1,4 +1,4 @@
-"""CoppeliaSim's pose arithmetic over ZMQ (simx_server.zmq.pose_math), in-process: layouts of
+"""CoppeliaSim's pose arithmetic over ZMQ (simx_server.api.sim.posemath), in-process: layouts of
 matrices (12 numbers, row by row) and poses (x y z qx qy qz qw), and rotateAroundAxis."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from simx_client.protocol import ArgumentError
-from simx_server.zmq.pose_math import PoseMath
+from simx_server.api import CallContext, Callers
 
-m = PoseMath()
+m = CallContext(None, -1, caller=Callers.CLIENTS).sim  # no scene: the arithmetic needs none
 
 
 def test_pose_and_matrix_round_trip():

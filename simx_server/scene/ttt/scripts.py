@@ -88,7 +88,7 @@ def write_scripts(conv) -> None:
 def parameter_json(parameter: dict) -> dict:
     """A script simulation parameter as the JSON file keeps it: ``value`` where the bytes are
     UTF-8 text, else ``value_base64`` (the bytes unchanged: V-REP gives scripts the stored bytes,
-    :mod:`simx_server.scripts.script_parameters`)."""
+    :mod:`simx_server.api.script_parameters`)."""
     value = parameter["value"]
     out = {"name": parameter["name"], "unit": parameter["unit"]}
     if isinstance(value, (bytes, bytearray)):

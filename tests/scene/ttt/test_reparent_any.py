@@ -14,7 +14,7 @@ import tttwriter as W
 from conftest import ROOT
 from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import convert, reader
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read
 
@@ -25,7 +25,7 @@ SENSORS = ROOT / "tests" / "scenes" / "sensors.xml"
 def api():
     sim = Simulation(SENSORS, realtime=False)
     sim.start()
-    yield ScriptSim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
+    yield script_sim(sim.world, sim.world.resolve("blockA").handle, sim.signals, simulation=sim)
     sim.stop()
     sim.close()
 
@@ -35,12 +35,12 @@ def _h(api, name):
 
 
 def test_a_shape_hangs_from_a_force_sensor_in_place(api):
-    cube, ft = _h(api, "blockB"), api._world.resolve("ft").handle
+    cube, ft = _h(api, "blockB"), api.context.world.resolve("ft").handle
     before = api.getObjectPosition(cube, -1)
     api.setObjectParent(cube, ft, True)
     assert api.getObjectParent(cube) == ft
     assert api.getObjectPosition(cube, -1) == pytest.approx(before, abs=1e-9)
-    m = api._world.model
+    m = api.context.world.model
     assert m.body_parentid[m.body("blockB").id] == m.body("payload").id  # the body carrying the sensor
     api.createDummy(0.01)                                                  # an edit keeps the parent
     assert api.getObjectParent(cube) == ft
@@ -51,7 +51,7 @@ def test_a_shape_hangs_from_a_force_sensor_in_place(api):
 
 
 def test_without_keep_in_place_the_pose_is_relative_to_the_new_parent(api):
-    cube, marker = _h(api, "blockB"), api._world.resolve("marker").handle  # a dummy on ball_above
+    cube, marker = _h(api, "blockB"), api.context.world.resolve("marker").handle  # a dummy on ball_above
     api.setObjectPosition(marker, -1, [-0.4, 2.0, 0.9])                    # 0.1 m above its body's origin
     rel = api.getObjectPosition(cube, -1)                                  # relative to the world, its parent
     api.setObjectParent(cube, marker, False)
@@ -61,8 +61,8 @@ def test_without_keep_in_place_the_pose_is_relative_to_the_new_parent(api):
 
 
 def test_a_shape_under_a_joint_turns_with_it(api):
-    cube, hinge = _h(api, "blockB"), api._world.resolve("hinge").handle    # hinge at (2, 0, 1), axis y
-    sim = api._sim
+    cube, hinge = _h(api, "blockB"), api.context.world.resolve("hinge").handle    # hinge at (2, 0, 1), axis y
+    sim = api.context.view
     api.setObjectPosition(cube, -1, [2.5, 0.0, 1.0])
     api.setObjectParent(cube, hinge, True)
     assert api.getObjectParent(cube) == hinge
@@ -75,7 +75,7 @@ def test_a_shape_under_a_joint_turns_with_it(api):
 
 
 def test_a_camera_and_a_dummy_as_parents_of_sites(api):
-    cam, prox = api._world.resolve("cam").handle, api._world.resolve("prox").handle
+    cam, prox = api.context.world.resolve("cam").handle, api.context.world.resolve("prox").handle
     d = api.createDummy(0.01)
     api.setObjectPosition(d, -1, [0.3, 2.0, 2.5])
     api.setObjectParent(d, cam, True)
@@ -84,7 +84,7 @@ def test_a_camera_and_a_dummy_as_parents_of_sites(api):
     api.setObjectParent(prox, d, True)                                     # a sensor under that dummy
     assert api.getObjectParent(prox) == d
     with pytest.raises(Exception, match="descendants"):
-        api.setObjectParent(_h(api, "ball_above"), api._world.resolve("marker").handle, True)
+        api.setObjectParent(_h(api, "ball_above"), api.context.world.resolve("marker").handle, True)
 
 
 def test_a_ttt_shape_hung_from_a_dummy_keeps_that_parent(tmp_path):

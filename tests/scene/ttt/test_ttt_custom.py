@@ -124,13 +124,13 @@ def test_the_scenes_script_reads_its_custom_data_parameters_and_paths(tmp_path, 
 def test_renaming_keeps_aliases_and_the_vrep_tree_true(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     from simx_server.scene.simulation import Simulation
-    from simx_server.scripts.facade import ScriptSim
+    from simx_server.api import script_sim
 
     f = tmp_path / "pad.ttt"
     f.write_bytes(_scene())
     sim = Simulation(f, realtime=False)
     try:
-        api = ScriptSim(sim.world, sim.world.resolve("MTB_Robot").handle, sim.signals, simulation=sim)
+        api = script_sim(sim.world, sim.world.resolve("MTB_Robot").handle, sim.signals, simulation=sim)
         sensor = api.getObject("/MTB/suctionPad/Sensor")
         assert api.getObjectAlias(sensor) == "Sensor"
         api.setObjectAlias(sensor, "Probe")  # the file's alias gives way to the new one
@@ -212,13 +212,13 @@ def test_a_scene_loaded_later_brings_its_custom_data(tmp_path, monkeypatch):
 def test_full_paths_walk_vreps_tree(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     from simx_server.scene.simulation import Simulation
-    from simx_server.scripts.facade import ScriptSim
+    from simx_server.api import script_sim
 
     f = tmp_path / "pad.ttt"
     f.write_bytes(_scene())
     sim = Simulation(f, realtime=False)
     try:
-        api = ScriptSim(sim.world, sim.world.resolve("MTB_Robot").handle, sim.signals, simulation=sim)
+        api = script_sim(sim.world, sim.world.resolve("MTB_Robot").handle, sim.signals, simulation=sim)
         body = sim.world.resolve("suctionPadBodyRespondable").handle
         path = api.getObjectAlias(body, 1)
         assert path == "/MTB_Robot/suctionPad/suctionPadBodyRespondable"

@@ -11,7 +11,7 @@ import pytest
 import tttwriter as W
 
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts import script_parameters as SP
+from simx_server.api import script_parameters as SP
 
 #: A recorded trajectory: 5,000 float32 joint angles, bytes that are not UTF-8 (zeros included).
 TRAJECTORY = np.linspace(-3.1, 3.1, 5000, dtype="<f4").tobytes()

@@ -12,7 +12,7 @@ import tttwriter as W
 from simx_server.commands import collisions as cmd
 from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import convert, reader
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 from simx_server.sim import properties
 from simx_server.sim.proximity import proximity_reading
 
@@ -81,7 +81,7 @@ def test_collision_follows_collidable_not_respondable(scene):
     assert cmd.check_collision(sim, [robot, line]) is True
     assert cmd.check_collision(sim, [robot, ghost]) is True   # named explicitly: V-REP tests it anyway
     assert cmd.check_distance(sim, [robot, line]) == 0.0
-    api = ScriptSim(sim.world, robot, sim.signals, simulation=sim)
+    api = script_sim(sim.world, robot, sim.signals, simulation=sim)
     api.setObjectSpecialProperty(line, 0)                      # nothing else is collidable near the robot now
     assert api.getObjectSpecialProperty(line) == 0
     assert cmd.check_collision(sim, [robot, -2]) is False
@@ -102,7 +102,7 @@ def test_a_model_base_overrides_its_parts_flags(scene):
     assert cmd.check_collision(sim, [h("Cart"), h("CartPart")]) is True            # explicit: tested
     assert not properties.geom_mask(sim.world, properties.COLLIDABLE)[part]        # not among "all others"
     assert properties.geom_mask(sim.world, properties.MEASURABLE)[part]
-    api = ScriptSim(sim.world, h("Cart"), sim.signals, simulation=sim)
+    api = script_sim(sim.world, h("Cart"), sim.signals, simulation=sim)
     assert api.getModelProperty(h("Cart")) == 5
     api.setModelProperty(h("Cart"), 0)                                             # overrides off
     assert properties.geom_mask(sim.world, properties.COLLIDABLE)[part]
@@ -116,7 +116,7 @@ def test_proximity_sensors_see_only_detectable_shapes(scene):
     assert detected and obj == h("Plate")                      # through the glass, onto the plate
     assert point[2] == pytest.approx(0.75, abs=1e-6)
     assert proximity_reading(sim, h("Ear"))[0] is False        # the plate is not ultrasonic-detectable
-    api = ScriptSim(sim.world, h("Glass"), sim.signals, simulation=sim)
+    api = script_sim(sim.world, h("Glass"), sim.signals, simulation=sim)
     api.setObjectSpecialProperty(h("Glass"), ALL)
     assert proximity_reading(sim, h("Ear"))[2] == h("Glass")
 
@@ -127,7 +127,7 @@ def test_renderable_moves_geoms_out_of_the_vision_groups_and_edits_keep_it(scene
     assert m.geom_group[m.body("Hidden").geomadr[0]] == properties.HIDDEN_GROUP
     assert m.geom_group[m.body("Robot").geomadr[0]] <= 2
     robot = sim.world.resolve("Robot").handle
-    api = ScriptSim(sim.world, robot, sim.signals, simulation=sim)
+    api = script_sim(sim.world, robot, sim.signals, simulation=sim)
     api.setObjectSpecialProperty(robot, 1 | 2 | 496)
     assert sim.world.model.geom_group[m.body("Robot").geomadr[0]] == properties.HIDDEN_GROUP
     api.createDummy(0.01)                                      # an edit: a new model, the flags stay
@@ -140,7 +140,7 @@ def test_renderable_moves_geoms_out_of_the_vision_groups_and_edits_keep_it(scene
 def test_coppeliasim_48_property_names(scene):
     _, sim = scene
     ghost = sim.world.resolve("Ghost").handle
-    api = ScriptSim(sim.world, ghost, sim.signals, simulation=sim)
+    api = script_sim(sim.world, ghost, sim.signals, simulation=sim)
     assert api.getBoolProperty(ghost, "collidable") is False
     api.setBoolProperty(ghost, "collidable", True)
     api.setBoolProperty(ghost, "detectable", True)
@@ -152,7 +152,7 @@ def test_coppeliasim_48_property_names(scene):
 def test_check_proximity_sensor_on_one_shape_overrides_its_flag(scene):
     _, sim = scene
     h = lambda n: sim.world.resolve(n).handle  # noqa: E731
-    api = ScriptSim(sim.world, h("Eye"), sim.signals, simulation=sim)
+    api = script_sim(sim.world, h("Eye"), sim.signals, simulation=sim)
     # the glass is not detectable: looked for alone it is found all the same, at 0.35 m
     result, dist, point = api.checkProximitySensor(h("Eye"), h("Glass"))
     assert result == 1 and dist == pytest.approx(0.35, abs=1e-6)
@@ -179,7 +179,7 @@ def test_declared_collision_objects_test_only_flagged_shapes(tmp_path):
         assert cmd.check_collision(sim, [a, b]) is True                  # simxCheckCollision: flag overridden
         h = cmd.get_collision_handle(sim, ["AB"])
         assert cmd.read_collision(sim, [h]) is False                     # a collision object: B is not collidable
-        api = ScriptSim(sim.world, a, sim.signals, simulation=sim)
+        api = script_sim(sim.world, a, sim.signals, simulation=sim)
         assert api.handleCollision(h) == 0                               # the same from a script
         with pytest.raises(Exception, match="measurable"):
             cmd.read_distance(sim, [cmd.get_distance_handle(sim, ["AB"])])

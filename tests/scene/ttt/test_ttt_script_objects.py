@@ -10,7 +10,7 @@ import tttwriter as W
 from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import convert, reader
 from simx_server.sim import paths
-from simx_server.zmq.remote_sim import RemoteSim
+from simx_server.api import client_context
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read
 
@@ -83,7 +83,7 @@ def test_script_objects_run_and_answer_by_path(scene, tmp_path):
         assert sim.signals.get_int("proxy_self") == w.resolve("Gripper").handle
         ints, _, strings, _ = sim.scripts.call("IK", 1, "ping", [], [], [], b"")
         assert ints == [ik + 1000] and strings == ["pong"]
-        remote = RemoteSim(sim)                                # what a ZMQ program calls
+        remote = client_context(sim).sim                               # what a ZMQ program calls
         assert remote.getScript(1, "/UR3/IK") == ik           # sim.scripttype_simulation
         assert remote.callScriptFunction("hello", ik, 41) == (42, "IK")
         motor = w.motor_index[w.resolve("joint").handle]

@@ -31,7 +31,7 @@ try:
 except ImportError:  # tests/ imported as a package
     from tests.conftest import SHARED, require_shared
 from simx_server.scene.simulation import Simulation
-from simx_server.scripts.facade import ScriptSim
+from simx_server.api import script_sim
 from simx_server.sim.physics import PhysicsError
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read here
@@ -58,7 +58,7 @@ class Gripping:
         self.pose = list(TUTORIAL_POSE)
         self.aim(self.pose)
         self.run(80)  # 4 s: the arm gets there
-        self.api = api = ScriptSim(w, w.resolve("RG2").handle, sim.signals, simulation=sim)
+        self.api = api = script_sim(w, w.resolve("RG2").handle, sim.signals, simulation=sim)
         motor = w.resolve("RG2_openCloseJoint").handle
         api.setJointTargetVelocity(motor, -0.01)  # close slowly until the pads are 1.5 mm wider than the cube
         for _ in range(200):

@@ -1,0 +1,168 @@
+"""CoppeliaSim 4.x's shape frame and size edits on the scene's MjSpec (mixin of
+:class:`simx_server.scripts.facade.ScriptSim`): ``sim.relocateShapeFrame`` (the body's frame
+moves, its geoms, sites, cameras, lights, inertia and child bodies stay where they are in the
+world), ``sim.setShapeBB`` and ``sim.scaleObjects`` (through ``sim.scaleObject``'s geom
+scaling). Each edit recompiles the scene as the scene editor does.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from simx_server.api.context import CallContext
+from simx_server.api.registry import sim_function
+from simx_server.api.sim import core as _core
+from simx_server.api.sim import shapes as _shapes
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
+from simx_server.sim.objects import SHAPE, WORLD
+from simx_server.sim.rotations import matrix_from_quaternion
+
+
+def _quat(rot: np.ndarray) -> np.ndarray:
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(rot).reshape(9))
+    return q
+
+
+def _moved(pos: Any, quat: Any, rd: np.ndarray, pd: np.ndarray) -> tuple[list[float], list[float]]:
+    """A local pose (MuJoCo pos, quat w-first) re-expressed after the frame change (rd, pd)."""
+    q = np.empty(4)
+    mujoco.mju_mulQuat(q, _quat(rd), np.asarray(quat, float) / np.linalg.norm(quat))
+    return (rd @ np.asarray(pos, float) + pd).tolist(), q.tolist()
+
+
+# Shape frame relocation and bounding-box sizing (facade mixin).
+
+def _shape_frame(ctx: CallContext, handle: int) -> tuple[np.ndarray, np.ndarray]:
+    m = np.array(ctx.sim.getObjectMatrix(handle, -1), dtype=float).reshape(3, 4)
+    return m[:, :3], m[:, 3]
+
+
+@sim_function("relocateShapeFrame")
+def relocateShapeFrame(ctx: CallContext, shapeHandle: Any, pose: Any) -> int:  # noqa: N802, N803
+    """Move a shape's reference frame to ``pose`` (x, y, z, qx, qy, qz, qw; world) without
+    moving its geometry; seven zeros: to the centre of its bounding box, axes kept. Shapes
+    moved by joints other than a free joint: UnsupportedError (their joints are placed in
+    the frame). Returns 1.
+
+    ``sim.relocateShapeFrame``.
+
+    Args:
+        shapeHandle: a shape's handle, or ``sim.handle_self``.
+        pose: 7 numbers (m and a quaternion), or seven zeros.
+
+    Returns:
+        1.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a shape.
+        ArgumentError: not 7 numbers.
+        UnsupportedError: as said above, or no simulation behind the script.
+    """
+    obj = ctx.world.get(ctx.h(shapeHandle, "shapeHandle"), SHAPE)
+    v = _vector(pose, 7, "pose")
+    m = ctx.world.model
+    b = obj.mj_id
+    free = int(m.body_jntnum[b]) == 1 and int(m.jnt_type[m.body_jntadr[b]]) == mujoco.mjtJoint.mjJNT_FREE
+    if int(m.body_jntnum[b]) and not free:
+        raise UnsupportedError(f"relocateShapeFrame: {obj.name!r} moves on joints placed in its frame "
+                               "(only static and free shapes)")
+    r_old, p_old = _shape_frame(ctx, obj.handle)
+    if not any(v):
+        c = _shapes.corners(ctx, b)
+        r_new, p_new = r_old, r_old @ ((c.max(axis=0) + c.min(axis=0)) / 2) + p_old
+    else:
+        if not np.linalg.norm(v[3:]) > 0:
+            raise ArgumentError("pose's quaternion must not be zero")
+        r_new, p_new = np.asarray(matrix_from_quaternion(*v[3:]), float), np.array(v[:3])
+    rd, pd = r_new.T @ r_old, r_new.T @ (p_old - p_new)  # old frame in the new one
+    parent = ctx.world.objects[obj.handle].parent
+    if parent == WORLD:
+        r_par, p_par = np.eye(3), np.zeros(3)
+    else:
+        r_par, p_par = _shape_frame(ctx, parent)
+    local_p, local_r = r_par.T @ (p_new - p_par), r_par.T @ r_new
+    sim = ctx.simulation("relocateShapeFrame")
+
+    def change(spec: mujoco.MjSpec) -> None:
+        body = spec.body(obj.name)
+        for items in (body.geoms, body.sites, body.cameras, body.lights, body.bodies, body.frames):
+            for el in items:
+                if getattr(el, "frame", None) is None:  # in a frame: moves with it
+                    el.pos, el.quat = _moved(el.pos, el.quat, rd, pd)
+        if body.explicitinertial:
+            body.ipos, body.iquat = _moved(body.ipos, body.iquat, rd, pd)
+        body.pos, body.quat = local_p.tolist(), _quat(local_r).tolist()
+
+    sim.editor._edit(change)
+    if free or m.body_mocapid[b] >= 0:  # the compiled pose is the start; the state keeps the old place
+        _core.set_pose(ctx, obj.handle, WORLD, position=p_new.tolist(), rotation=r_new)
+    return 1
+
+
+@sim_function("setShapeBB")
+def setShapeBB(ctx: CallContext, shapeHandle: Any, size: Any) -> None:  # noqa: N802, N803
+    """Scale a shape so that its bounding box (its frame) measures ``size`` x, y, z (m), as
+    :meth:`scaleObject` scales it (each axis by new size / current size).
+
+    ``sim.setShapeBB``.
+
+    Args:
+        shapeHandle: a shape's handle, or ``sim.handle_self``.
+        size: 3 positive numbers, m.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a shape.
+        ArgumentError: sizes that are not positive, or factors out of range.
+        UnsupportedError: a geom that cannot take the factors, or no simulation.
+    """
+    h = ctx.h(shapeHandle, "shapeHandle")
+    new = np.array(_vector(size, 3, "size"))
+    old = np.array(ctx.sim.getShapeBB(h))
+    if not np.all(new > 0):
+        raise ArgumentError("size must be positive")
+    f = np.where(old > 1e-12, new / np.maximum(old, 1e-12), 1.0)
+    ctx.sim.scaleObject(h, *f.tolist())
+
+
+@sim_function("scaleObjects")
+def scaleObjects(ctx: CallContext, objectHandles: Any, scalingFactor: Any, scalePositionsToo: Any) -> None:  # noqa: N802, N803
+    """Scale shapes by ``scalingFactor`` (0.001..1000, as :meth:`scaleObject`); with
+    ``scalePositionsToo``, each object's position relative to its parent scales too (other
+    objects than shapes only move).
+
+    ``sim.scaleObjects``.
+
+    Args:
+        objectHandles: list of handles.
+        scalingFactor: 0.001..1000.
+        scalePositionsToo: bool or 0/1.
+
+    Raises:
+        ArgumentError: an empty or bad list, or a factor out of range.
+        UnknownObjectError: no such object.
+        UnsupportedError: a geom that cannot be scaled, or no simulation behind the script.
+    """
+    if not isinstance(objectHandles, (list, tuple)) or not objectHandles:
+        raise ArgumentError("objectHandles must be a table of handles")
+    f = _num(scalingFactor, "scalingFactor")
+    if not 1e-3 <= f <= 1e3:
+        raise ArgumentError("scalingFactor must lie in [0.001, 1000]")
+    move = bool(scalePositionsToo) if isinstance(scalePositionsToo, bool) else bool(_int(scalePositionsToo, "x"))
+    handles = [ctx.world.get(ctx.h(x, "objectHandles[i]")).handle for x in objectHandles]
+    local = {h: ctx.sim.getObjectPosition(h, ctx.world.objects[h].parent) for h in handles}
+    for h in handles:
+        if ctx.world.objects[h].type == SHAPE:
+            ctx.sim.scaleObject(h, f, f, f)
+    if move:
+        for h in handles:
+            parent = ctx.world.objects[h].parent
+            ctx.sim.setObjectPosition(h, parent, [c * f for c in local[h]])
+
+

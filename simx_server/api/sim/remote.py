@@ -1,0 +1,231 @@
+"""``sim`` of a ZMQ remote API client: the child scripts' facade, plus what remote programs need.
+
+:class:`RemoteSim` *is* the facade of child scripts (:class:`~simx_server.scripts.facade.ScriptSim`,
+docs/SCRIPTS.md): one implementation of every ``sim.NAME`` both share, with the world it works on
+read from the simulation at each call (a scene load replaces it). On top it adds the calls that a
+program outside the scene makes and a script did not need (CoppeliaSim 4.x's names, arguments and
+returns): running the simulation, its parameters, scene files, removing objects, poses as 7
+numbers, passive vision sensors and depth buffers, calls into the scene's child scripts, the
+log; pose arithmetic comes with ScriptSim (:class:`~simx_server.api.sim.posemath.PoseMath`). The stepping calls
+(``sim.setStepping``, ``sim.step``, ``sim.acquireLock``, ``sim.releaseLock``) belong to a client,
+not to the scene: :mod:`simx_server.zmq.service` answers them.
+
+Runs on the simulation thread, like every command handler.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+
+from simx_server.api.context import CallContext
+from simx_server.api.registry import Callers, sim_function
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_server.base.arguments import quote
+from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int
+from simx_server.base.arguments import as_text as _text, as_vector as _vector
+from simx_server.sim import paths
+from simx_server.sim.sensors import set_passive_image
+from simx_server.sim.state import RunState
+from simx_server.api import names
+from simx_server.api.sim.stepped import strings_as_text
+
+log = logging.getLogger("simx.zmq")
+
+#: Scene and model files of CoppeliaSim that stand for MJCF files of the same stem.
+COPPELIASIM_SCENES, COPPELIASIM_MODELS = (".ttt",), (".ttm",)
+_VERBOSITY_MASK = 0xFFF  # sim.addLog's level, without its flags (undecorated, only terminal, once)
+
+
+# ``sim`` as the ZMQ remote API offers it, over one :class:`Simulation`.
+#
+# Args:
+# simulation: the server's simulation (its world, vision sensors, scripts and editor are
+# read at each call).
+
+
+@sim_function("startSimulation", callers=Callers.CLIENTS)
+def startSimulation(ctx: CallContext) -> int:  # noqa: N802 (CoppeliaSim's names)
+    """Start (or resume) the simulation; 1, or 0 when it already runs (CoppeliaSim's result)."""
+    if ctx.simulation("startSimulation").state is RunState.RUNNING:
+        return 0
+    ctx.simulation("startSimulation").start()
+    return 1
+
+
+@sim_function("pauseSimulation", callers=Callers.CLIENTS)
+def pauseSimulation(ctx: CallContext) -> int:  # noqa: N802
+    """Pause a running simulation; 1, or 0 when it does not run."""
+    if ctx.simulation("pauseSimulation").state is not RunState.RUNNING:
+        return 0
+    ctx.simulation("pauseSimulation").pause()
+    return 1
+
+
+@sim_function("stopSimulation", callers=Callers.CLIENTS)
+def stopSimulation(ctx: CallContext, wait: Any = False) -> None:  # noqa: N802
+    """Stop the simulation: the scripts' cleanup, then the scene's initial state. simx stops
+    at once, so ``wait`` changes nothing (the state is stopped when the call returns)."""
+    ctx.simulation("stopSimulation").stop()
+
+
+@sim_function("getSystemTime", callers=Callers.CLIENTS)
+def getSystemTime(ctx: CallContext) -> float:  # noqa: N802
+    """Wall-clock time in s (for differences)."""
+    return time.time()
+
+
+@sim_function("addLog", callers=Callers.CLIENTS)
+def addLog(ctx: CallContext, verbosityLevel: Any, logMessage: Any) -> None:  # noqa: N802, N803
+    """Write ``logMessage`` to the server's log at the level of ``verbosityLevel``
+    (``sim.verbosity_errors``/``scripterrors``: error, ``warnings``/``scriptwarnings``: warning,
+    others: info)."""
+    level = _int(verbosityLevel, "verbosityLevel") & _VERBOSITY_MASK
+    text = _text(logMessage, "logMessage")
+    text = (text[:1000] + f"... ({len(text)} characters)" if len(text) > 1000 else text).encode(
+        "unicode_escape").decode("ascii")  # one log line, whatever the client sends
+    if level in (200, 420):
+        log.error("[client] %s", text)
+    elif level in (300, 430):
+        log.warning("[client] %s", text)
+    elif level != 100:  # sim.verbosity_none
+        log.info("[client] %s", text)
+
+
+def _stand_in(ctx: CallContext, filename: str, kinds: tuple[str, ...]) -> str:
+    """The file to load for a CoppeliaSim scene (.ttt) or model (.ttm): the file itself where
+    it exists (loaded through its MJCF conversion), else the MJCF that stands in for it: the
+    same path with .xml, else ``<stem>.xml`` in the server's scene folders; other names as given."""
+    path = Path(filename)
+    if path.suffix.lower() not in kinds:
+        return filename
+    editor = ctx.simulation("_stand_in").editor
+    try:  # the real file, where one exists (converted to MJCF as it is loaded)
+        editor.files.locate(filename, 0, editor.scene_origin())
+        return filename
+    except RemoteError:
+        pass
+    candidates = [str(path.with_suffix(".xml"))] + [str(root / f"{path.stem}.xml") for root in editor.files.roots]
+    for candidate in candidates:
+        try:
+            file = editor.resolve(candidate, 0)
+        except RemoteError:
+            continue
+        log.info("%s %s: %s stands in for it", "scene" if kinds == COPPELIASIM_SCENES else "model",
+                 quote(filename), editor.public(file))
+        return str(file)
+    raise RemoteError(f"no MJCF file stands in for {quote(filename)}: looked for {path.stem}.xml beside it and "
+                      "in the server's scene folders (the scene's folder and --scene-path)")
+
+
+@sim_function("loadScene", callers=Callers.CLIENTS)
+def loadScene(ctx: CallContext, filename: Any) -> None:  # noqa: N802
+    """Replace the scene with a server-side scene file, under ``simxLoadScene``'s rules (the
+    simulation stopped; only the scene's folder and ``--scene-path`` folders). A CoppeliaSim
+    ``.ttt`` path loads the MJCF scene of the same stem (see :meth:`_stand_in`)."""
+    if isinstance(filename, (bytes, bytearray)):
+        raise UnsupportedError("sim.loadScene of a serialized scene (a buffer) is not supported; give a file name")
+    name = _stand_in(ctx, _text(filename, "filename"), COPPELIASIM_SCENES)
+    return ctx.simulation("loadScene").editor.load_scene(name, 0, defer=True)  # a .ttt: converted off this thread
+
+
+@sim_function("loadModel", callers=Callers.CLIENTS)
+def loadModel(ctx: CallContext, filename: Any) -> int:  # noqa: N802
+    """Add a server-side model file (``simxLoadModel`` with options 0; a ``.ttm`` path loads
+    the MJCF model of the same stem); returns its base's handle."""
+    if isinstance(filename, (bytes, bytearray)):
+        raise UnsupportedError("sim.loadModel of a serialized model (a buffer) is not supported; give a file name")
+    return ctx.simulation("loadModel").editor.load_model(_stand_in(ctx, _text(filename, "filename"), COPPELIASIM_MODELS), 0,
+                                               defer=True)  # a .ttm: converted off this thread
+
+
+@sim_function("getObjectSel", callers=Callers.CLIENTS)
+def getObjectSel(ctx: CallContext) -> list[int]:  # noqa: N802
+    """The object selection (no GUI: what clients set)."""
+    return list(ctx.simulation("getObjectSel").selection)
+
+
+@sim_function("setObjectSel", callers=Callers.CLIENTS)
+def setObjectSel(ctx: CallContext, objectHandles: Any) -> None:  # noqa: N802, N803
+    if not isinstance(objectHandles, list):
+        raise ArgumentError("objectHandles must be a list of handles")
+    ctx.simulation("setObjectSel").selection = [ctx.world.get(ctx.h(h, "objectHandle")).handle for h in objectHandles]
+
+
+@sim_function("setVisionSensorImg", callers=Callers.CLIENTS)
+def setVisionSensorImg(ctx: CallContext, sensorHandle: Any, image: Any, options: Any = 0, pos: Any = None,  # noqa: N802, N803
+                       size: Any = None) -> None:
+    """Write an image into a passive vision sensor (``image=external``): uint8 RGB (``options``
+    bit 0: grey), rows bottom-up, the sensor's whole resolution; as ``simxSetVisionSensorImage``."""
+    if any(v is not None and _vector(v, 2, "pos/size") != [0.0, 0.0] for v in (pos, size)):
+        raise UnsupportedError("setVisionSensorImg of a window (pos/size) is not supported: send the whole image")
+    set_passive_image(ctx.simulation("setVisionSensorImg"), ctx.h(sensorHandle), _bytes(image, "image"),
+                      bool(_int(options, "options") & 1))
+
+
+@sim_function("isDeprecated", callers=Callers.CLIENTS)
+def isDeprecated(ctx: CallContext, funcOrConst: Any) -> int:  # noqa: N802, N803
+    """1 for a function CoppeliaSim 4.x keeps under a deprecated name (``sim.getScriptHandle``...),
+    0 for a current function or constant, -1 for an unknown name."""
+    name = _text(funcOrConst, "funcOrConst").removeprefix("sim.")
+    if name in names.DEPRECATED["sim"]:
+        return 1
+    return 0 if name in names.current_functions("sim") or name in names.constants("sim") else -1
+
+
+@sim_function("setVisionSensorCharImage", callers=Callers.CLIENTS)
+def setVisionSensorCharImage(ctx: CallContext, sensorHandle: Any, image: Any) -> None:  # noqa: N802, N803
+    """CoppeliaSim's older name: :meth:`setVisionSensorImg` of a whole RGB image."""
+    setVisionSensorImg(ctx, sensorHandle, image)
+
+
+@sim_function("closeScene", callers=Callers.CLIENTS)
+def closeScene(ctx: CallContext) -> int:  # noqa: N802
+    """Stop the simulation and replace the scene with an empty one (``simxCloseScene``); 1."""
+    ctx.simulation("closeScene").editor.close_scene()
+    return 1
+
+
+@sim_function("getScript", callers=Callers.CLIENTS)
+def getScript(ctx: CallContext, scriptType: Any, objectHandle: Any = -1, scriptName: Any = "") -> int:  # noqa: N802, N803
+    """The script handle of an object's child script (``sim.scripttype_childscript``): in simx
+    the handle of the object it is attached to (``objectHandle``, or a path or name); -1
+    when it has none."""
+    if _int(scriptType, "scriptType") != C.sim_scripttype_childscript:
+        raise UnsupportedError("sim.getScript: simx has child scripts only (sim.scripttype_childscript)")
+    target = objectHandle if isinstance(objectHandle, (str, bytes)) else scriptName if scriptName else objectHandle
+    if isinstance(target, (str, bytes)):
+        h = paths.find_one(ctx.world, _text(target, "scriptName"))
+    else:
+        h = ctx.h(target)
+    return h if h in ctx.simulation("getScript").scripts.scripts else -1
+
+
+@sim_function("callScriptFunction", callers=Callers.CLIENTS)
+def callScriptFunction(ctx: CallContext, functionName: Any, scriptHandleOrType: Any, *args: Any) -> tuple:  # noqa: N802, N803
+    """Call a function of a child script with any arguments; returns its return values.
+
+    ``("func@/path", sim.scripttype_childscript, ...)`` (CoppeliaSim 4.0-4.5: the script of
+    the object the path or name names) or ``("func", scriptHandle, ...)`` (4.6+: a handle of
+    :meth:`getScript`, which is the object's). Lua strings come back as text where they are
+    UTF-8, as bytes otherwise. Errors: no such object, script or function; the script's own."""
+    name = _text(functionName, "functionName")
+    target = _int(scriptHandleOrType, "scriptHandleOrType")
+    if "@" in name:
+        name, _, where = name.partition("@")
+        if target != C.sim_scripttype_childscript:
+            raise UnsupportedError("sim.callScriptFunction: simx has child scripts only (sim.scripttype_childscript)")
+        handle = paths.find_one(ctx.world, where)
+    else:
+        handle = ctx.h(target)
+    try:
+        script = ctx.simulation("callScriptFunction").scripts.script_of(ctx.world.get(handle).handle)
+    except ScriptError:
+        raise ScriptError(f"object {ctx.world.get(handle).name!r} has no child script") from None
+    with ctx.simulation("callScriptFunction").editor.files.on_behalf():  # the script's file calls act as this client
+        values = script.call_values(name, list(args))
+    return tuple(strings_as_text(v) for v in values)

@@ -1,0 +1,207 @@
+"""Shapes made by scripts: ``sim.importShape`` (an .obj/.stl mesh through ``MjSpec``),
+and ``sim.setShapeColor`` (``sim.setObjectName`` is the facade's own, simx_server.api.sim.objects).
+
+The imported shape is a new body of the world (V-REP's shape) holding one mesh geom; the
+scene is edited through :class:`simx_server.scene.editor.Editor` (all or nothing, handles kept, the
+simulation goes on). The facade functions here are registered on
+:class:`simx_server.api.sim.core.SimFacade` and reach the scene's editor through the script's
+``sim`` (:meth:`simx_server.scripts.facade.ScriptSim._simulation`), as the other scene-editing calls do.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import weakref
+from pathlib import Path
+from typing import Any
+
+import mujoco
+
+from simx_server.api.context import CallContext
+from simx_server.api.registry import sim_function
+from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
+from simx_server.base import limits as L
+from simx_server.base import scene_guard as guard
+from simx_server.base.arguments import quote
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
+from simx_server.sim.spec_tools import _names, vrep_suffix
+from simx_server.sim.state import SimulationView
+from simx_server.sim.world import SHAPE, World
+
+log = logging.getLogger("simx.shapes")
+
+#: Handles of the shapes imported into each world (kept in place when the simulation stops).
+_IMPORTED: "weakref.WeakKeyDictionary[World, set[int]]" = weakref.WeakKeyDictionary()
+#: V-REP's importShape file formats MuJoCo reads: 0 OBJ, 4 binary STL (not 1 DXF, 2 3DS, 3 ASCII STL).
+_FORMATS = {0: (".obj",), 4: (".stl",)}
+#: Contact of imported shapes: elliptic-cone friction with torsion (condim 4), grippable.
+_FRICTION = [1.0, 0.02, 0.001]
+
+
+
+def imported_poses(world: World) -> list[tuple[int, Any, Any]]:
+    """``(handle, position, rotation)`` of the world's imported shapes, to :func:`restore_poses`
+    after the simulation's reset: V-REP leaves objects made during a simulation where they are
+    when it stops (their initial pose in the model is the origin, where they were imported)."""
+    handles = _IMPORTED.get(world, ())
+    return [(h, *world.frame(h)) for h in sorted(handles) if h in world.objects]
+
+
+def restore_poses(world: World, poses: list[tuple[int, Any, Any]]) -> None:
+    """Put imported shapes back where :func:`imported_poses` found them (at rest)."""
+    for h, p, r in poses:
+        if h in world.objects:
+            try:
+                world.set_pose(h, -1, position=p.tolist(), rotation=r)
+            except Exception as exc:  # a pose out of bounds (after a blow-up): the origin then
+                log.warning("imported shape %r left at its initial pose: %s", world.get(h).name, exc)
+
+
+
+def _readable(sim: SimulationView, path: str, script: Any = None, what: str = "importShape") -> Path:
+    """``path`` if the caller may read it (:meth:`ClientFiles.source
+    <simx_server.scene.client_files.ClientFiles.source>`): the operator's scene folder and
+    ``--scene-path`` folders, or the calling client's own folder (files it sent with
+    simxTransferFile or wrote); relative names: the client's own file, else from the scene's
+    folder. A scene's script may pass a client's path here (VPG's importShape does), so anything
+    else is refused, with the same words whether or not such a file exists (docs/SECURITY.md).
+
+    Args:
+        sim: the simulation.
+        path: the file name as given.
+        script: the calling script (its file says whose scene it is), None for a door's facade.
+        what: the call, for the error.
+
+    Raises:
+        ArgumentError: outside those folders.
+    """
+    files = sim.editor.files
+    key = files.writer(getattr(script, "path", None) if script is not None else None)
+    try:
+        return files.source(path, key, what, sim.world.scene_path.parent)
+    except RemoteError as exc:
+        raise ArgumentError(str(exc)) from None
+
+
+def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float, script: Any = None) -> int:
+    """Add the mesh of file ``path`` (.obj or binary .stl, at most limits.MAX_IMPORT_BYTES) as a new
+    dynamic, respondable shape at the world origin, scaled by ``scaling``; returns its handle.
+
+    Raises ArgumentError for a bad format, extension, scale or a file that cannot be read,
+    UnsupportedError when MuJoCo cannot compile the mesh (the scene is then unchanged)."""
+    suffixes = _FORMATS.get(fileformat)
+    if suffixes is None:
+        raise ArgumentError(f"importShape: file format {quote(fileformat)} is not one simx reads "
+                            "(0 OBJ, 4 binary STL; MuJoCo reads no DXF, 3DS nor ASCII STL)")
+    file = _readable(sim, path, script)
+    if file.suffix.lower() not in suffixes:
+        raise ArgumentError(f"importShape: {quote(path)} is not a {'/'.join(suffixes)} file (format {fileformat})")
+    if not math.isfinite(scaling) or not 0 < scaling <= 1000:
+        raise ArgumentError(f"importShape: scaling factor must be in (0, 1000], got {quote(scaling)}")
+    try:
+        if not file.is_file():
+            raise ArgumentError(f"importShape: no file {quote(path)}")
+        size = file.stat().st_size
+        if size > L.MAX_IMPORT_BYTES:
+            raise ArgumentError(f"importShape: {quote(path)} has {size} bytes, more than "
+                                f"{L.MAX_IMPORT_BYTES} (simx_server.base.limits.MAX_IMPORT_BYTES)")
+        data = file.read_bytes()
+    except OSError as exc:
+        raise ArgumentError(f"importShape: cannot read {quote(path)}: {quote(exc.strerror)}") from None
+    vertices = guard.mesh_vertices(data, file.name)  # as MuJoCo's reader counts them, before it parses
+    if vertices > L.MAX_MESH_VERTICES:
+        raise ArgumentError(f"importShape: {quote(path)} has {vertices:,} vertices, more than "
+                            f"{L.MAX_MESH_VERTICES:,} (simx_server.base.limits.MAX_MESH_VERTICES)")
+    editor = sim.editor
+    editor._asset_counter[0] += 1
+    key = f"simx-asset-{editor._asset_counter[0]}-import{file.suffix.lower()}"
+
+    def change(spec: mujoco.MjSpec):
+        suffix = vrep_suffix({"Shape", "Shape_mesh", "Shape_geom"}, _names(spec))
+        name = f"Shape{suffix}"
+        spec.assets = {**(spec.assets or {}), key: data}
+        mesh = spec.add_mesh(name=f"Shape_mesh{suffix}", file=key)
+        mesh.scale = [scaling] * 3
+        body = spec.worldbody.add_body(name=name)
+        body.add_freejoint()
+        body.add_geom(name=f"Shape_geom{suffix}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name,
+                      condim=4, friction=_FRICTION, rgba=[0.8, 0.8, 0.8, 1.0])
+        return lambda: sim.world.resolve(name).handle
+
+    handle = editor._edit(change)
+    _IMPORTED.setdefault(sim.world, set()).add(handle)
+    log.info("imported shape %r (handle %d) from %s", sim.world.get(handle).name, handle, file.name)
+    return handle
+
+
+@sim_function("importShape")
+def importShape(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options: Any = 0,  # noqa: N802, N803
+                identicalVerticeTolerance: Any = 0.0, scalingFactor: Any = 1.0) -> int:  # noqa: N803
+    """``sim.importShape(fileformat, pathAndFilename, options, identicalVerticeTolerance,
+    scalingFactor)``: add a mesh file as a new shape at the world origin; returns its handle.
+
+    ``fileformat``: 0 OBJ, 4 binary STL (V-REP's codes; 1 DXF, 2 3DS and 3 ASCII STL are
+    refused: MuJoCo reads none of them).
+    The path is read by the server (the scene's script decides what it imports). ``options``
+    and ``identicalVerticeTolerance`` are accepted and ignored (MuJoCo merges nothing);
+    ``scalingFactor`` (0 or absent: 1) scales the mesh. Unlike V-REP, whose imported shapes are
+    static until made dynamic, the shape is dynamic and respondable (a free body: what programs
+    that import objects then ask for). Its name is ``Shape`` (``Shape#0``... when taken):
+    rename it with ``sim.setObjectName``. Raises ArgumentError (bad argument, unreadable or too
+    large file) or UnsupportedError (MuJoCo cannot read the mesh); the scene is then unchanged.
+    """
+    fmt = _int(fileformat, "fileformat")
+    path = _text(pathAndFilename, "pathAndFilename")
+    _int(options, "options")
+    _num(identicalVerticeTolerance, "identicalVerticeTolerance")
+    scale = _num(scalingFactor, "scalingFactor") if scalingFactor is not None else 0.0
+    return import_shape(ctx.simulation("importShape"), fmt, path, scale or 1.0, ctx.script)
+
+
+@sim_function("setShapeColor")
+def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorComponent: Any,  # noqa: N802, N803
+                  rgbData: Any) -> int:  # noqa: N803
+    """``sim.setShapeColor(shapeHandle, colorName, colorComponent, rgbData)``: colour of a
+    shape's geoms (those named ``colorName``, every one for nil or ``""``).
+
+    ``colorComponent`` 0 (``sim.colorcomponent_ambient_diffuse``) or 1 (diffuse) with
+    ``rgbData`` = {r, g, b} in [0, 1] (the geom's material, if any, is dropped so that the
+    colour shows); 4 (``sim.colorcomponent_transparency``) with {t}, the opacity lost, as
+    V-REP's transparency (alpha = 1 - t). Other components (specular, emission...) are
+    accepted and ignored, as MuJoCo renders no such per-geom colours. Returns 1. The colour
+    lasts until the scene is reloaded (stopping the simulation keeps it). Raises
+    UnknownObjectError / ObjectTypeError (not a shape), ArgumentError (bad colour)."""
+    world = ctx.world
+    obj = world.get(ctx.h(shapeHandle, "shapeHandle"), SHAPE)
+    name = None if colorName is None else _text(colorName, "colorName")
+    component = _int(colorComponent, "colorComponent")
+    values = _vector(rgbData, 1 if component == 4 else 3, "rgbData") if component in (0, 1, 4) else None
+    if values is not None and not all(0.0 <= v <= 1.0 for v in values):
+        raise ArgumentError(f"rgbData must be in [0, 1], got {quote(rgbData)}")
+    m = world.model
+    geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == obj.mj_id
+             and (not name or mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) == name)]
+    if values is None:
+        return 1
+    try:
+        spec = ctx.simulation("setShapeColor").editor._live_spec()
+    except UnsupportedError:
+        spec = None
+    for g in geoms:
+        rgba = m.geom_rgba[g].copy()
+        if component == 4:
+            rgba[3] = 1.0 - values[0]
+        else:
+            rgba[:3] = values
+            m.geom_matid[g] = -1
+        m.geom_rgba[g] = rgba
+        # the spec too, so that the colour survives later edits of the scene
+        gname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
+        el = spec.geom(gname) if spec is not None and gname else None
+        if el is not None:
+            el.rgba = rgba
+            if component != 4:
+                el.material = ""
+    world.version += 1  # cached renders are stale
+    return 1

@@ -1,0 +1,495 @@
+"""``simIK``'s solving, configuration search, path, joint and object calls: methods of
+:class:`simx_server.api.simik.environments.SimIK` (defined here to keep each module short; ``self`` is
+the SimIK)."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from simx_server.api.context import CallContext
+from simx_server.api.registry import simik_function
+from simx_server.api.sim import core as _core
+from simx_server.api.simik import environments as _environments
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.api.sim.misc import alternate_configs
+from simx_server.sim import ik_solver as S
+from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
+from simx_server.sim import ik as scene_ik
+from simx_server.sim.objects import DUMMY, JOINT, WORLD
+from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matrix_from_quaternion
+
+RESULT_NOT_PERFORMED, RESULT_SUCCESS, RESULT_FAIL = 0, 1, 2
+CALC_NOTPERFORMED, CALC_NOTWITHINTOLERANCE = 1, 16
+MAX_PATH_POINTS, MAX_SEARCH_SECONDS = 10_000, 10.0
+
+
+def _precision(ctx: CallContext, env, g) -> list[float]:
+    """Largest remaining linear (m) and angular (rad) error of the group's enabled elements."""
+    d = _environments.env_data(ctx, env)
+    lin = ang = 0.0
+    for el in g.elements:
+        if el.flags & 1 and el.target != -1:
+            p, r, _, _ = S.frame(ctx.world, d, el.tip)
+            tp, tr, _, _ = S.frame(ctx.world, d, el.target)
+            lin = max(lin, float(np.linalg.norm((tp - p)[[i for i, b in enumerate((1, 2, 4)) if el.constraints & b]])))
+            if el.constraints & 24:
+                ang = max(ang, float(np.linalg.norm(S._rotvec(tr, r))))
+    return [lin, ang]
+
+
+def _options(options: Any) -> dict:
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ArgumentError("options must be a table ({syncWorlds = true, allowError = false})")
+    return options
+
+
+@simik_function("handleGroup")
+def handleGroup(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, options: Any = None) -> tuple[int, int, list[float]]:  # noqa: N802, N803
+    """Solve a group: ``result, flags, precision`` (``simIK.result_success`` / ``result_fail``,
+    ``simIK.calc_*`` bits, the remaining linear (m) and angular (rad) error). ``options``
+    ``{syncWorlds = true}`` reads the scene's joints first and writes the result to the scene
+    (``allowError = true``: also when it failed). A scene group (``simx:ik:NAME``) is solved as
+    ``sim.handleIkGroup``."""
+    env = _environments.env_of(ctx, environmentHandle)
+    g = _environments.group_of(ctx, env, ikGroupHandle)
+    opts = _options(options)
+    if g.flags == -1:
+        return scene_ik.groups(ctx.world).solve(scene_ik.groups(ctx.world).group(g.handle)), 0, [0.0, 0.0]
+    if not g.flags & 1 or not any(el.flags & 1 and el.target != -1 for el in g.elements):
+        return RESULT_NOT_PERFORMED, CALC_NOTPERFORMED, [0.0, 0.0]
+    joints = _environments.joints_of(ctx, env, g)
+    if opts.get("syncWorlds"):
+        for j in joints:
+            env.q[j] = ctx.world.joint_position(j)
+    ok, joints, q = _environments.solve(ctx, env, g)
+    env.q.update(zip(joints, (float(v) for v in q)))
+    g.failure = "" if ok else "the tip did not reach the target within the elements' precision"
+    if opts.get("syncWorlds") and (ok or opts.get("allowError")):
+        _environments.write_scene(ctx, joints, q)
+    return (RESULT_SUCCESS if ok else RESULT_FAIL), (0 if ok else CALC_NOTWITHINTOLERANCE), _precision(ctx, env, g)
+
+
+@simik_function("handleGroups")
+def handleGroups(ctx: CallContext, environmentHandle: Any, ikGroupHandles: Any, options: Any = None) -> tuple[int, int, list[float]]:  # noqa: N802, N803
+    """:func:`handleGroup` for each group in turn; the worst result."""
+    if not isinstance(ikGroupHandles, (list, tuple)):
+        ikGroupHandles = [ikGroupHandles]
+    out = (RESULT_NOT_PERFORMED, CALC_NOTPERFORMED, [0.0, 0.0])
+    for g in ikGroupHandles:
+        r = handleGroup(ctx, environmentHandle, g, options)
+        out = r if r[0] >= out[0] else out
+    return out
+
+
+@simik_function("applySceneToIkEnvironment")
+def applySceneToIkEnvironment(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any = None) -> None:  # noqa: N802, N803
+    """CoppeliaSim 4.0-4.2: read the scene's joint positions into the environment."""
+    syncFromSim(ctx, environmentHandle, None if ikGroupHandle is None else [ikGroupHandle])
+
+
+@simik_function("applyIkEnvironmentToScene")
+def applyIkEnvironmentToScene(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any,  # noqa: N802, N803
+                              applyOnlyWhenSuccessful: Any = False) -> int:  # noqa: N803
+    """CoppeliaSim 4.0-4.2: the scene's joints in, solve, the result out (only on success when
+    ``applyOnlyWhenSuccessful``); the result."""
+    return handleGroup(ctx, environmentHandle, ikGroupHandle,
+                       {"syncWorlds": True, "allowError": not applyOnlyWhenSuccessful})[0]
+
+
+def _groups(ctx: CallContext, env, groups: Any) -> list:
+    if groups is None:
+        return list(env.groups.values())
+    return [_environments.group_of(ctx, env, g) for g in (groups if isinstance(groups, (list, tuple)) else [groups])]
+
+
+@simik_function("syncFromSim")
+def syncFromSim(ctx: CallContext, environmentHandle: Any, ikGroups: Any = None) -> None:  # noqa: N802, N803
+    """Read the scene's joint positions into the environment (the groups' joints; nil: all)."""
+    env = _environments.env_of(ctx, environmentHandle)
+    for g in _groups(ctx, env, ikGroups):
+        for j in _environments.joints_of(ctx, env, g):
+            env.q[j] = ctx.world.joint_position(j)
+
+
+@simik_function("syncToSim")
+def syncToSim(ctx: CallContext, environmentHandle: Any, ikGroups: Any = None) -> None:  # noqa: N802, N803
+    """Write the environment's joint positions to the scene (motors: as target positions)."""
+    env = _environments.env_of(ctx, environmentHandle)
+    for g in _groups(ctx, env, ikGroups):
+        joints = _environments.joints_of(ctx, env, g)
+        _environments.write_scene(ctx, joints, [_environments.q_of(ctx, env, j) for j in joints])
+
+
+def _check_joints(ctx: CallContext, env, g, jointHandles: Any) -> list[int]:
+    group_joints = _environments.joints_of(ctx, env, g)
+    if jointHandles is None:
+        return group_joints
+    joints = [_int(j, "jointHandles[i]") for j in jointHandles]
+    if sorted(joints) != sorted(group_joints):
+        raise ArgumentError(f"jointHandles must be the group's joints {group_joints} (in any order)")
+    return joints
+
+
+@simik_function("findConfigs")
+def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, params: Any = None,  # noqa: N802, N803
+                configs: Any = None) -> list[list[float]]:
+    """Configurations of ``jointHandles`` that put the group's tips on their targets: random
+    restarts within the joints' ranges (unlimited hinges: ±pi), each solved by damped least
+    squares. ``params``: ``maxTime`` (s, default 0.5, at most 10), ``findMultiple`` (default
+    false: the first found), ``maxDist`` (keep configs closer than this to the current one,
+    ``pMetric`` weighting it). Sorted by distance to the current configuration; empty when none."""
+    env = _environments.env_of(ctx, environmentHandle)
+    g = _environments.group_of(ctx, env, ikGroupHandle)
+    joints = _check_joints(ctx, env, g, jointHandles)
+    p = _options(params)
+    max_time = min(_num(p.get("maxTime", 0.5), "maxTime"), MAX_SEARCH_SECONDS)
+    multiple = bool(p.get("findMultiple", False))
+    max_dist = p.get("maxDist")
+    metric = np.ones(len(joints)) if p.get("pMetric") is None else np.array(_vector(p["pMetric"], len(joints), "pMetric"))
+    order = _environments.joints_of(ctx, env, g)
+    m = ctx.world.model
+    jid = [ctx.world.get(j).mj_id for j in order]
+    low = np.array([m.jnt_range[j][0] if m.jnt_limited[j] else -np.pi for j in jid])
+    high = np.array([m.jnt_range[j][1] if m.jnt_limited[j] else np.pi for j in jid])
+    current = np.array([_environments.q_of(ctx, env, j) for j in order])
+    rng = np.random.default_rng(int(p.get("seed", 0)) if "seed" in p else None)
+    method, damping = g.method, g.damping
+    g.method, g.damping = S.METHOD_DLS, max(g.damping, 0.05)
+    found: list[np.ndarray] = []
+    deadline = time.monotonic() + max_time
+    try:
+        start = current
+        while time.monotonic() < deadline:
+            ok, _, q = _environments.solve(ctx, env, g, q0=start.copy(), iterations=max(g.iterations, 100))
+            if ok and not any(np.allclose(q, f, atol=1e-3) for f in found):
+                d = float(np.sqrt(np.sum((metric * (q - current)) ** 2)))
+                if max_dist is None or d <= _num(max_dist, "maxDist"):
+                    found.append(q)
+                    if not multiple:
+                        break
+            start = rng.uniform(low, high)
+    finally:
+        g.method, g.damping = method, damping
+    found.sort(key=lambda q: float(np.sqrt(np.sum((metric * (q - current)) ** 2))))
+    index = [order.index(j) for j in joints]
+    return [[float(q[i]) for i in index] for q in found]
+
+
+@simik_function("findConfig", "getConfigForTipPose")
+def findConfig(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, thresholdDist: Any = 0.1,  # noqa: N802, N803
+               maxTime: Any = 0.5, metric: Any = None, callback: Any = None, auxData: Any = None) -> list[float] | None:  # noqa: N803
+    """CoppeliaSim 4.0-4.2: the first configuration :func:`findConfigs` finds, nil when none
+    (``maxTime`` in s; a ``callback`` is refused: simx cannot call back a client)."""
+    if callback is not None:
+        raise UnsupportedError("simIK.findConfig with a callback: simx cannot call a client's function")
+    found = findConfigs(ctx, environmentHandle, ikGroupHandle, jointHandles, {"maxTime": maxTime, "pMetric": metric})
+    return found[0] if found else None
+
+
+
+
+@simik_function("generatePath")
+def generatePath(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, tipHandle: Any,  # noqa: N802, N803
+                 pathPointCount: Any, validationCallback: Any = None, auxData: Any = None) -> list[float]:  # noqa: N803
+    """A joint path along which the tip moves straight (position linear, rotation along the
+    shortest arc) from where it is to its target, ``pathPointCount`` points (2..10,000), as one
+    flat list (point after point, ``jointHandles``' order); empty when a point has no solution.
+    The environment's joint positions are unchanged afterwards."""
+    env = _environments.env_of(ctx, environmentHandle)
+    g = _environments.group_of(ctx, env, ikGroupHandle)
+    joints = _check_joints(ctx, env, g, jointHandles)
+    if validationCallback is not None:
+        raise UnsupportedError("simIK.generatePath with a callback: simx cannot call a client's function")
+    n = _int(pathPointCount, "pathPointCount")
+    if not 2 <= n <= MAX_PATH_POINTS:
+        raise ArgumentError(f"pathPointCount must lie in 2..{MAX_PATH_POINTS}")
+    tip = ctx.h(tipHandle, "tipHandle")
+    el = next((e for e in g.elements if e.tip == tip), None)
+    if el is None:
+        raise ArgumentError(f"no element of the group has tip {tip}")
+    order = _environments.joints_of(ctx, env, g)
+    saved = {j: _environments.q_of(ctx, env, j) for j in order}
+    d = _environments.env_data(ctx, env)
+    p0, r0, _, _ = S.frame(ctx.world, d, el.tip)
+    p1, r1, _, _ = S.frame(ctx.world, d, el.target)
+    q0, q1, qt = np.empty(4), np.empty(4), np.empty(4)
+    mujoco.mju_mat2Quat(q0, r0.reshape(9).copy())
+    mujoco.mju_mat2Quat(q1, r1.reshape(9).copy())
+    index = [order.index(j) for j in joints]
+    q = np.array([saved[j] for j in order])
+    out: list[float] = []
+    try:
+        for k in range(n):
+            t = k / (n - 1)
+            dq = np.empty(3)
+            mujoco.mju_subQuat(dq, q1, q0)
+            qt[:] = q0
+            mujoco.mju_quatIntegrate(qt, dq, t)
+            rot = np.empty(9)
+            mujoco.mju_quat2Mat(rot, qt)
+            ok, _, q = _environments.solve(ctx, env, g, targets={el.handle: (p0 + t * (p1 - p0), rot.reshape(3, 3))}, q0=q,
+                                   iterations=max(g.iterations, 50))
+            if not ok:
+                return []
+            env.q.update(zip(order, (float(v) for v in q)))
+            out += [float(q[i]) for i in index]
+    finally:
+        env.q.update(saved)
+    return out
+
+
+@simik_function("getAlternateConfigs")
+def getAlternateConfigs(ctx: CallContext, environmentHandle: Any, jointHandles: Any, lowLimits: Any = None,  # noqa: N802, N803
+                        ranges: Any = None) -> list[float]:
+    """The environment's configuration and those equal to it up to whole turns of its hinges
+    within their ranges (or ``lowLimits``/``ranges``), flat (configuration after configuration),
+    at most facade_misc.MAX_ALTERNATE_CONFIGS."""
+    env = _environments.env_of(ctx, environmentHandle)
+    joints = [ctx.world.get(ctx.h(j, "jointHandles[i]"), JOINT) for j in jointHandles]
+    config = [_environments.q_of(ctx, env, obj.handle) for obj in joints]
+    return alternate_configs(ctx.world.model, joints, config, lowLimits, ranges)
+
+
+@simik_function("computeGroupJacobian")
+def computeGroupJacobian(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any) -> tuple[list[float], list[float]]:  # noqa: N802, N803
+    """``jacobian, errorVector`` of the group in the environment's configuration: the weighted,
+    constrained rows (world axes for positions, the target's axes for rotations) by the
+    group's joints (row after row)."""
+    env = _environments.env_of(ctx, environmentHandle)
+    g = _environments.group_of(ctx, env, ikGroupHandle)
+    joints = _environments.joints_of(ctx, env, g)
+    d = _environments.env_data(ctx, env)
+    e, rows, _ = S.errors(ctx.world, d, [el for el in g.elements if el.target != -1], {})
+    dadr = np.array([ctx.world.model.jnt_dofadr[ctx.world.get(j).mj_id] for j in joints], int)
+    return S.jacobian(ctx.world, d, rows, dadr).reshape(-1).tolist(), e.tolist()
+
+
+# ----------------------------------------------------------------------- joints
+@simik_function("getJointPosition")
+def getJointPosition(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> float:  # noqa: N802, N803
+    """The joint's position in the environment (rad or m)."""
+    return _environments.q_of(ctx, _environments.env_of(ctx, environmentHandle), _environments.joint_of(ctx, jointHandle).handle)
+
+
+@simik_function("setJointPosition")
+def setJointPosition(ctx: CallContext, environmentHandle: Any, jointHandle: Any, position: Any) -> None:  # noqa: N802, N803
+    _environments.env_of(ctx, environmentHandle).q[_environments.joint_of(ctx, jointHandle).handle] = _num(position, "position")
+
+
+@simik_function("getJointMode")
+def getJointMode(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> int:  # noqa: N802, N803
+    """``simIK.jointmode_ik`` (2: moved by the groups) or ``jointmode_passive`` (0)."""
+    return _environments.env_of(ctx, environmentHandle).mode.get(_environments.joint_of(ctx, jointHandle).handle, 2)
+
+
+@simik_function("setJointMode")
+def setJointMode(ctx: CallContext, environmentHandle: Any, jointHandle: Any, jointMode: Any) -> None:  # noqa: N802, N803
+    mode = _int(jointMode, "jointMode")
+    if mode not in (0, 2):
+        raise UnsupportedError("simIK joint modes: jointmode_passive (0) and jointmode_ik (2)")
+    _environments.env_of(ctx, environmentHandle).mode[_environments.joint_of(ctx, jointHandle).handle] = mode
+
+
+@simik_function("getJointType")
+def getJointType(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> int:  # noqa: N802, N803
+    """``simIK.jointtype_revolute`` (10) or ``jointtype_prismatic`` (11)."""
+    _environments.env_of(ctx, environmentHandle)
+    kind = int(ctx.world.model.jnt_type[_environments.joint_of(ctx, jointHandle).mj_id])
+    if kind not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+        raise UnsupportedError("a MuJoCo ball or free joint has no simIK joint type simx handles")
+    return 10 if kind == mujoco.mjtJoint.mjJNT_HINGE else 11
+
+
+@simik_function("getJointInterval")
+def getJointInterval(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> tuple[bool, list[float]]:  # noqa: N802, N803
+    """``cyclic, [min, range]`` (the scene joint's, as ``sim.getJointInterval``)."""
+    _environments.env_of(ctx, environmentHandle)
+    return ctx.sim.getJointInterval(_environments.joint_of(ctx, jointHandle).handle)
+
+
+@simik_function("setJointInterval")
+def setJointInterval(ctx: CallContext, environmentHandle: Any, jointHandle: Any, cyclic: Any, interval: Any = None) -> None:  # noqa: N802, N803
+    """Sets the scene joint's interval (the environment's joints are the scene's)."""
+    _environments.env_of(ctx, environmentHandle)
+    ctx.sim.setJointInterval(_environments.joint_of(ctx, jointHandle).handle, cyclic, interval)
+
+
+@simik_function("getJointMaxStepSize")
+def getJointMaxStepSize(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> float:  # noqa: N802, N803
+    """Largest step of the joint per solver iteration (default 10° for hinges, 0.1 m for slides)."""
+    j = _environments.joint_of(ctx, jointHandle)
+    default = np.radians(10) if int(ctx.world.model.jnt_type[j.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE else 0.1
+    return float(_environments.env_of(ctx, environmentHandle).max_step.get(j.handle, default))
+
+
+@simik_function("setJointMaxStepSize")
+def setJointMaxStepSize(ctx: CallContext, environmentHandle: Any, jointHandle: Any, stepSize: Any) -> None:  # noqa: N802, N803
+    v = _num(stepSize, "stepSize")
+    if v <= 0:
+        raise ArgumentError("stepSize must be positive")
+    _environments.env_of(ctx, environmentHandle).max_step[_environments.joint_of(ctx, jointHandle).handle] = v
+
+
+@simik_function("getJointWeight")
+def getJointWeight(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> float:  # noqa: N802, N803
+    """The joint's weight in the solver's weighted least-norm step (default 1)."""
+    return float(_environments.env_of(ctx, environmentHandle).weight.get(_environments.joint_of(ctx, jointHandle).handle, 1.0))
+
+
+@simik_function("setJointWeight")
+def setJointWeight(ctx: CallContext, environmentHandle: Any, jointHandle: Any, weight: Any) -> None:  # noqa: N802, N803
+    """> 0: larger moves the joint more, smaller less (CoppeliaSim's joint weight)."""
+    v = _num(weight, "weight")
+    if v <= 0:
+        raise ArgumentError("weight must be positive (set the joint passive to hold it)")
+    _environments.env_of(ctx, environmentHandle).weight[_environments.joint_of(ctx, jointHandle).handle] = v
+
+
+@simik_function("getJointLimitMargin")
+def getJointLimitMargin(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> float:  # noqa: N802, N803
+    """How far inside its range the solver keeps the joint (rad or m, default 0)."""
+    return float(_environments.env_of(ctx, environmentHandle).margin.get(_environments.joint_of(ctx, jointHandle).handle, 0.0))
+
+
+@simik_function("setJointLimitMargin")
+def setJointLimitMargin(ctx: CallContext, environmentHandle: Any, jointHandle: Any, margin: Any) -> None:  # noqa: N802, N803
+    v = _num(margin, "margin")
+    if v < 0:
+        raise ArgumentError("margin must not be negative")
+    _environments.env_of(ctx, environmentHandle).margin[_environments.joint_of(ctx, jointHandle).handle] = v
+
+
+@simik_function("getJointScrewLead")
+def getJointScrewLead(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> float:  # noqa: N802, N803
+    """0: MuJoCo's hinges and slides are not screws."""
+    _environments.env_of(ctx, environmentHandle)
+    _environments.joint_of(ctx, jointHandle)
+    return 0.0
+
+
+@simik_function("getJointDependency")
+def getJointDependency(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
+    """``masterJoint, offset, multCoeff`` of the scene's joint equality (as ``sim.getJointDependency``)."""
+    _environments.env_of(ctx, environmentHandle)
+    return ctx.sim.getJointDependency(_environments.joint_of(ctx, jointHandle).handle)
+
+
+@simik_function("getObjectTransformation")
+def getObjectTransformation(ctx: CallContext, environmentHandle: Any, objectHandle: Any,  # noqa: N802, N803
+                            relativeToObjectHandle: Any = -1) -> tuple[list[float], list[float], list[float]]:  # noqa: N803
+    """CoppeliaSim 4.0-4.2: ``position, quaternion, euler`` (as :func:`getObjectPose`)."""
+    p = getObjectPose(ctx, environmentHandle, objectHandle, relativeToObjectHandle)
+    return p[:3], p[3:], list(euler_from_matrix(np.asarray(matrix_from_quaternion(*p[3:]))))
+
+
+@simik_function("setObjectTransformation")
+def setObjectTransformation(ctx: CallContext, environmentHandle: Any, objectHandle: Any, relativeToObjectHandle: Any,  # noqa: N802, N803
+                            position: Any, eulerOrQuaternion: Any) -> None:  # noqa: N803
+    """CoppeliaSim 4.0-4.2: place a dummy by position and quaternion (4) or Euler angles (3)."""
+    rot = (np.asarray(matrix_from_quaternion(*_vector(eulerOrQuaternion, 4, "quaternion")))
+           if isinstance(eulerOrQuaternion, (list, tuple)) and len(eulerOrQuaternion) == 4
+           else np.asarray(matrix_from_euler(*_vector(eulerOrQuaternion, 3, "eulerAngles"))))
+    _environments.env_of(ctx, environmentHandle)
+    _core.set_pose(ctx, ctx.h(objectHandle, "objectHandle"), ctx.h(relativeToObjectHandle, "relativeToObjectHandle"),
+                      position=_vector(position, 3, "position"), rotation=rot)
+
+
+# ---------------------------------------------------------------------- objects
+@simik_function("getObjectHandle")
+def getObjectHandle(ctx: CallContext, environmentHandle: Any, objectName: Any) -> int:  # noqa: N802, N803
+    """The scene object of that name or path (the environment's objects are the scene's)."""
+    _environments.env_of(ctx, environmentHandle)
+    return ctx.sim.getObject(_text(objectName, "objectName"))
+
+
+@simik_function("doesObjectExist")
+def doesObjectExist(ctx: CallContext, environmentHandle: Any, objectName: Any) -> bool:  # noqa: N802, N803
+    _environments.env_of(ctx, environmentHandle)
+    return ctx.sim.getObject(_text(objectName, "objectName"), {"noError": True}) != -1
+
+
+@simik_function("getObjects")
+def getObjects(ctx: CallContext, environmentHandle: Any, index: Any) -> tuple[int, str, bool, int]:  # noqa: N802, N803
+    """``objectHandle, objectName, isJoint, jointType`` of the ``index``-th dummy or joint; -1 past the last."""
+    _environments.env_of(ctx, environmentHandle)
+    objs = [o for o in ctx.world.objects.values() if o.type in (DUMMY, JOINT)]
+    i = _int(index, "index")
+    if not 0 <= i < len(objs):
+        return -1, "", False, -1
+    o = objs[i]
+    kind = int(ctx.world.model.jnt_type[o.mj_id]) if o.type == JOINT else -1
+    return o.handle, o.name, o.type == JOINT, {3: 10, 2: 11}.get(kind, -1) if o.type == JOINT else -1
+
+
+@simik_function("getObjectType")
+def getObjectType(ctx: CallContext, environmentHandle: Any, objectHandle: Any) -> int:  # noqa: N802, N803
+    """``simIK.objecttype_joint`` (1) or ``objecttype_dummy`` (4)."""
+    _environments.env_of(ctx, environmentHandle)
+    o = ctx.world.get(ctx.h(objectHandle, "objectHandle"))
+    if o.type not in (DUMMY, JOINT):
+        raise UnsupportedError(f"{o.name!r} is neither a dummy nor a joint: not an IK object")
+    return o.type
+
+
+@simik_function("getObjectParent")
+def getObjectParent(ctx: CallContext, environmentHandle: Any, objectHandle: Any) -> int:  # noqa: N802, N803
+    _environments.env_of(ctx, environmentHandle)
+    return ctx.world.get(ctx.h(objectHandle, "objectHandle")).parent
+
+
+@simik_function("getObjectPose")
+def getObjectPose(ctx: CallContext, environmentHandle: Any, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
+    """``[x y z qx qy qz qw]`` in the environment's configuration (relative to another object, -1 world)."""
+    env = _environments.env_of(ctx, environmentHandle)
+    d = _environments.env_data(ctx, env)
+    p, r, _, _ = S.frame(ctx.world, d, ctx.h(objectHandle, "objectHandle"))
+    rel = ctx.h(relativeToObjectHandle, "relativeToObjectHandle")
+    if rel != WORLD:
+        pr, rr, _, _ = S.frame(ctx.world, d, rel)
+        p, r = rr.T @ (p - pr), rr.T @ r
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, r.reshape(9).copy())
+    return [*p.tolist(), float(q[1]), float(q[2]), float(q[3]), float(q[0])]
+
+
+@simik_function("setObjectPose")
+def setObjectPose(ctx: CallContext, environmentHandle: Any, objectHandle: Any, pose: Any, relativeToObjectHandle: Any = -1) -> None:  # noqa: N802, N803
+    """Place a dummy (a target): the scene's, which the environment shares."""
+    _environments.env_of(ctx, environmentHandle)
+    v = _vector(pose, 7, "pose")
+    _core.set_pose(ctx, ctx.h(objectHandle, "objectHandle"), ctx.h(relativeToObjectHandle, "relativeToObjectHandle"),
+                      position=v[:3], rotation=np.asarray(matrix_from_quaternion(*v[3:])))
+
+
+@simik_function("getObjectMatrix")
+def getObjectMatrix(ctx: CallContext, environmentHandle: Any, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
+    """12 numbers (3x4, row by row), as :func:`getObjectPose`."""
+    p = getObjectPose(ctx, environmentHandle, objectHandle, relativeToObjectHandle)
+    r = np.asarray(matrix_from_quaternion(*p[3:]))
+    return np.hstack([r, np.array(p[:3]).reshape(3, 1)]).reshape(12).tolist()
+
+
+@simik_function("setObjectMatrix")
+def setObjectMatrix(ctx: CallContext, environmentHandle: Any, objectHandle: Any, matrix: Any, relativeToObjectHandle: Any = -1) -> None:  # noqa: N802, N803
+    _environments.env_of(ctx, environmentHandle)
+    m = np.array(_vector(matrix, 12, "matrix")).reshape(3, 4)
+    _core.set_pose(ctx, ctx.h(objectHandle, "objectHandle"), ctx.h(relativeToObjectHandle, "relativeToObjectHandle"),
+                      position=m[:, 3].tolist(), rotation=m[:, :3])
+
+
+@simik_function("createDebugOverlay")
+def createDebugOverlay(ctx: CallContext, environmentHandle: Any, tipHandle: Any, baseHandle: Any = -1) -> int:  # noqa: N802, N803
+    """Headless: nothing is drawn; an overlay handle (0)."""
+    _environments.env_of(ctx, environmentHandle)
+    return 0
+
+
+@simik_function("eraseDebugOverlay")
+def eraseDebugOverlay(ctx: CallContext, debugObject: Any) -> None:  # noqa: N802, N803
+    """Headless: nothing to erase."""
