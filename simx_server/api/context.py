@@ -149,11 +149,20 @@ class CallContext:
 
     # ------------------------------------------------------------------ handles
     def h(self, handle: Any, what: str = "object handle") -> int:
-        """An object handle argument as an int: ``sim.handle_self`` is the caller's object.
+        """An object argument as a handle: an int (``sim.handle_self`` is the caller's object), or
+        any form ``sim.getObject`` takes (CoppeliaSim 4.3+ accepts an object path wherever a
+        handle goes): a name (``arm``, 3.x's ``arm#0``), a path (``/UR5/joint``, ``./arm``,
+        ``:``, ``/arm[1]``), or ``{"path": ..., "index": n}``.
 
         Raises:
-            ArgumentError: not an integer.
+            ArgumentError: not an integer, a path or such a map.
+            UnknownObjectError: a path that names no object.
         """
+        if isinstance(handle, (str, bytes)):
+            return int(self.sim.getObject(handle))
+        if isinstance(handle, dict) and "path" in handle:
+            options = {k: v for k, v in handle.items() if k != "path"}
+            return int(self.sim.getObject(handle["path"], options))
         h = as_integer(handle, what)
         return self.owner if h == C.sim_handle_self else h
 

@@ -50,9 +50,11 @@ def test_errors_name_the_function_and_the_problem(sim):
     assert sim.getObject("/Nowhere", {"noError": True}) == -1
     with pytest.raises(Exception, match=r"sim\.getJointPosition: .*argument"):
         sim.getJointPosition()
-    with pytest.raises(Exception, match=r"sim\.getJointPosition: .*objectHandle|handle"):
-        sim.getJointPosition("ArmJoint")
-    assert sim.getJointPosition(sim.getObject("/ArmJoint")) == 0.0  # the server goes on
+    with pytest.raises(Exception, match=r"sim\.getJointPosition: object '/Nowhere' does not exist"):
+        sim.getJointPosition("/Nowhere")  # an object argument may be a path (CoppeliaSim 4.3+)
+    with pytest.raises(Exception, match=r"sim\.getJointPosition: object handle must be an integer"):
+        sim.getJointPosition(1.5)
+    assert sim.getJointPosition(sim.getObject("/ArmJoint")) == sim.getJointPosition("ArmJoint") == 0.0
 
 
 def test_object_paths_of_coppeliasim_4(sim):

@@ -95,7 +95,7 @@ def test_bad_requests_are_answered_with_err_and_change_nothing(req, name):
     ("sim.generateTextShape", ["simx"], "not implemented by simx"),
     ("sim.getJointPosition", [], "missing a required argument"),
     ("sim.getJointPosition", [1, 2, 3], "too many positional arguments"),
-    ("sim.getJointPosition", ["x" * 100000], "must be an integer"),
+    ("sim.getJointPosition", ["x" * 100000], "object path of 100000 characters refused"),
     ("sim.setObjectPosition", [1, -1, [float("nan"), 0, 0]], "finite"),
     ("sim.getObject", [{"deep": [[[[1]]]]}], "must be a string"),
     ("sim.loadScene", ["../../../../etc/passwd"], "refused"),
