@@ -9,7 +9,8 @@ ensure_test_venv  # the same install as scripts/test.sh: nothing more after it
 cd "$ROOT"
 # The strict part of the tree: the format check and mypy's strict mode cover these (keep the
 # per-file-ignores glob and the mypy override in pyproject.toml in step with this list).
-STRICT=(simx_wire simx_client/servers.py simx_server/commands/handler.py simx_server/loop scripts/wire_imports.py
+STRICT=(simx_wire simx_client/servers.py simx_server/commands/handler.py simx_server/loop simx_server/api/registry.py
+        simx_server/api/context.py scripts/wire_imports.py
         tests/base tests/loop)
 if [ "${1:-}" = --fix ]; then
     "$VENV/bin/ruff" check --fix .

@@ -10,17 +10,22 @@ attributes of one object.
 from __future__ import annotations
 
 import dataclasses
-import random
 import functools
-from typing import Any, Callable
+import random
+from collections.abc import Callable
+from typing import Any
 
-from simx_wire import constants as C
-from simx_wire.protocol import UnsupportedError
 from simx_server.api.registry import SIM, SIMIK, ApiFunction, ApiTable, Callers
 from simx_server.api.signals import Signals
 from simx_server.base.arguments import as_integer
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import World
+from simx_wire import constants
+from simx_wire.protocol import UnsupportedError
+
+_HANDLE_SELF: int = constants.VREP_CONSTANTS["sim_handle_self"]
+_HANDLE_PARENT: int = constants.VREP_CONSTANTS["sim_handle_parent"]
+
 
 @dataclasses.dataclass
 class CallerState:
@@ -34,19 +39,19 @@ class CallerState:
     #: ``sim.getNameSuffix`` / ``setNameSuffix`` (V-REP 3.x): None until first read.
     name_suffix: int | None = None
     #: The caller's own shared stores (tubes, wireless, particles) when it is not a script.
-    own_shared: dict = dataclasses.field(default_factory=dict)
+    own_shared: dict[str, Any] = dataclasses.field(default_factory=dict)
     #: ``sim.getRandom``'s generator, made at its first call.
     rng: random.Random | None = None
     #: Ruckig objects by handle, and the last handle given.
-    ruckig: dict | None = None
+    ruckig: dict[int, Any] | None = None
     ruckig_next: int | None = None
     #: Explicit-handling flags of objects (``sim.setExplicitHandling``).
-    explicit: dict | None = None
+    explicit: dict[int, int] | None = None
     #: Headless GUI handles given so far; auxiliary consoles by handle.
     gui_handles: int = 0
-    consoles: dict | None = None
+    consoles: dict[int, str] | None = None
     #: simIK environments by handle; the scratch MjData the solver uses, and its model.
-    ik_environments: dict | None = None
+    ik_environments: dict[int, Any] | None = None
     ik_scratch: Any = None
     ik_scratch_model: Any = None
 
@@ -67,9 +72,18 @@ class CallContext:
             forces are then read from it).
     """
 
-    def __init__(self, world: World | None, owner: int, signals: Signals | None = None, label: str = "",
-                 view: SimulationView | None = None, forces: Any = None, script: Any = None,
-                 caller: Callers = Callers.SCRIPTS, live: Callable[[], Any] | None = None):
+    def __init__(
+        self,
+        world: World | None,
+        owner: int,
+        signals: Signals | None = None,
+        label: str = "",
+        view: SimulationView | None = None,
+        forces: Any = None,
+        script: Any = None,
+        caller: Callers = Callers.SCRIPTS,
+        live: Callable[[], Any] | None = None,
+    ):
         self._world_fixed = world
         self._live = live
         self.owner = owner
@@ -90,7 +104,8 @@ class CallContext:
     def world(self) -> World:
         """The scene (a remote client's: the simulation's current one)."""
         if self._live is not None:
-            return self._live().world
+            world: World = self._live().world
+            return world
         assert self._world_fixed is not None
         return self._world_fixed
 
@@ -98,7 +113,8 @@ class CallContext:
     def view(self) -> SimulationView | None:
         """The simulation behind the caller, or None (a bare script in a test)."""
         if self._live is not None:
-            return self._live()
+            view: SimulationView = self._live()
+            return view
         return self._view
 
     @property
@@ -164,7 +180,7 @@ class CallContext:
             options = {k: v for k, v in handle.items() if k != "path"}
             return int(self.sim.getObject(handle["path"], options))
         h = as_integer(handle, what)
-        return self.owner if h == C.sim_handle_self else h
+        return self.owner if h == _HANDLE_SELF else h
 
     def rel(self, relative_to: Any) -> int:
         """A ``relativeToObjectHandle`` argument: -1 (the world), ``sim.handle_parent``, or an object.
@@ -173,7 +189,7 @@ class CallContext:
             UnknownObjectError: no such object.
         """
         rel = self.h(relative_to, "relativeToObjectHandle")
-        if rel not in (-1, C.sim_handle_parent):
+        if rel not in (-1, _HANDLE_PARENT):
             self.world.get(rel)
         return rel
 
@@ -205,8 +221,10 @@ class ApiNamespace:
         """
         entry = self._table.get(name)
         if entry is None:
-            raise AttributeError(f"{self._table.library}.{name} is not available in simx "
-                                 "(docs/SCRIPTS.md and docs/COVERAGE.md list what is)")
+            raise AttributeError(
+                f"{self._table.library}.{name} is not available in simx "
+                "(docs/SCRIPTS.md and docs/COVERAGE.md list what is)"
+            )
         if not entry.callers & self.context.caller:
             who = "remote API clients" if entry.callers == Callers.CLIENTS else "child scripts"
             raise UnsupportedError(f"{entry.qualified} is served to {who} only in simx")

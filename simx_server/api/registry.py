@@ -8,19 +8,20 @@ CoppeliaSim's arguments. Lua child scripts, Python child scripts and ZMQ clients
 this table (as CoppeliaSim's own ``luaScriptFunctions.cpp`` and Gymnasium's registry: one name,
 one definition); docs/COVERAGE.md and docs/SCRIPTS.md are generated from it.
 
-Registering a name twice raises :class:`DuplicateApiName` when the second module is imported.
+Registering a name twice raises :class:`DuplicateApiNameError` when the second module is imported.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import enum
-from typing import Any, Callable, Iterator, TypeVar
+from collections.abc import Callable, Iterator
+from typing import Any, TypeVar
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 
-class DuplicateApiName(RuntimeError):
+class DuplicateApiNameError(RuntimeError):
     """A CoppeliaSim name registered by two functions (a programming error, raised at import)."""
 
 
@@ -73,11 +74,13 @@ class ApiTable:
         self.constants: dict[str, Any] = {}
 
     def register(self, name: str, function: Callable[..., Any], callers: Callers = Callers.ALL) -> None:
-        """Add ``name``; DuplicateApiName if it is already in the table."""
+        """Add ``name``; DuplicateApiNameError if it is already in the table."""
         old = self._entries.get(name)
         if old is not None:
-            raise DuplicateApiName(f"{self.library}.{name} is registered twice: by {old.module}.{old.function.__name__} "
-                                   f"and {function.__module__}.{function.__name__}")
+            raise DuplicateApiNameError(
+                f"{self.library}.{name} is registered twice: by {old.module}.{old.function.__name__} "
+                f"and {function.__module__}.{function.__name__}"
+            )
         self._entries[name] = ApiFunction(self.library, name, function, callers)
 
     def get(self, name: str) -> ApiFunction | None:
@@ -116,6 +119,7 @@ def _decorator(table: ApiTable, names: tuple[str, ...], callers: Callers) -> Cal
         for name in names or (function.__name__,):
             table.register(name, function, callers)
         return function
+
     return register
 
 
@@ -127,7 +131,7 @@ def sim_function(*names: str, callers: Callers = Callers.ALL) -> Callable[[F], F
         callers: who may call it (default both child scripts and remote clients).
 
     Raises:
-        DuplicateApiName: a name is already registered (at import).
+        DuplicateApiNameError: a name is already registered (at import).
     """
     return _decorator(SIM, names, callers)
 

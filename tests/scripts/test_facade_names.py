@@ -16,7 +16,7 @@ from simx_wire import constants as C
 from simx_wire.protocol import UnknownObjectError
 from simx_server.scene.simulation import Simulation
 from simx_server.api import client_context, script_sim
-from simx_server.api.registry import ApiTable, DuplicateApiName
+from simx_server.api.registry import ApiTable, DuplicateApiNameError
 
 MODEL_COPIES = """
 <mujoco model="copies">
@@ -43,7 +43,7 @@ def test_a_name_registered_twice_is_an_error():
     def second(ctx): ...
 
     table.register("getObject", first)
-    with pytest.raises(DuplicateApiName, match=r"sim\.getObject is registered twice.*first.*second"):
+    with pytest.raises(DuplicateApiNameError, match=r"sim\.getObject is registered twice.*first.*second"):
         table.register("getObject", second)
     assert table["getObject"].function is first
 
