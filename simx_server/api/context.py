@@ -119,7 +119,7 @@ class CallContext:
 
     @property
     def forces(self) -> Any:
-        """The forces scripts added for the next step (:class:`simx_server.api.sim.objects.AppliedForces`)."""
+        """The forces scripts added for the next step (:class:`simx_server.api.sim.forces.AppliedForces`)."""
         if self._live is not None:
             return self._live().scripts.forces
         return self._forces

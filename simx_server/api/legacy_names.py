@@ -1,11 +1,12 @@
-"""V-REP 3.x's global names in child scripts, mapped onto the one ``sim`` facade.
+"""V-REP 3.x's global names in child scripts, mapped onto the one ``sim`` API table.
 
 V-REP before 3.6 wrote ``simGetObjectHandle(...)``, ``sim_handle_self`` and
 ``if (sim_call_type==sim_childscriptcall_initialization) then``; CoppeliaSim 4.x writes
 ``sim.getObjectHandle``, ``sim.handle_self`` and ``sysCall_init``. simx has ONE implementation
-(the facade, :mod:`simx_server.scripts.facade`) and this table of aliases:
+(the ``sim`` functions of :mod:`simx_server.api.sim`, registered in
+:data:`simx_server.api.registry.SIM`) and this table of aliases:
 
-* :func:`facade_name` gives the facade function a 3.x global name calls: the exceptions of
+* :func:`facade_name` gives the ``sim`` function a 3.x global name calls: the exceptions of
   :data:`FUNCTION_ALIASES` (the renames CoppeliaSim's loader applies, ``CDetachedScript::
   _performNewApiAdjustments_old`` and ``_adjustScriptText5/7_old``), otherwise V-REP's own rule
   ``simXxxYyy`` -> ``sim.xxxYyy``;
@@ -17,7 +18,7 @@ V-REP before 3.6 wrote ``simGetObjectHandle(...)``, ``sim_handle_self`` and
   (:func:`status`), and ``tests/scripts/test_legacy_scripts.py`` keeps that list true.
 
 Lua resolves a 3.x global through :data:`LEGACY_LUA` (run after :data:`~simx_server.scripts.lua.PRELUDE`):
-a name the facade lacks is a function that raises an error naming it when called.
+a name ``sim`` lacks is a function that raises an error naming it when called.
 """
 
 from __future__ import annotations
@@ -82,7 +83,7 @@ CONSTANTS: dict[str, int] = {
     "scriptexecorder_first": 0, "scriptexecorder_normal": 1, "scriptexecorder_last": 2,
 }
 
-#: 3.x global names whose facade function is not ``simXxx`` -> ``xxx``.
+#: 3.x global names whose ``sim`` function is not ``simXxx`` -> ``xxx``.
 FUNCTION_ALIASES: dict[str, str] = {
     # _adjustScriptText7_old (V-REP <= 3.3.2 packing names)
     "simPackInts": "packInt32Table", "simPackUInts": "packUInt32Table", "simPackFloats": "packFloatTable",
@@ -98,7 +99,7 @@ FUNCTION_ALIASES: dict[str, str] = {
     **{f"sim{v}{k}Parameter": f"{v.lower()}{k}Param" for k in ("Bool", "Int32", "Float", "String", "Array",
                                                                  "EngineFloat", "EngineInt32", "EngineBool")
        for v in ("Get", "Set")},
-    "simGetInt32Parameter": "getInt32Parameter",  # 3.x's answers where 4.x raises (facade_legacy)
+    "simGetInt32Parameter": "getInt32Parameter",  # 3.x's answers where 4.x raises (api.sim.legacy)
     "simGetObjectIntParameter": "getObjectInt32Parameter", "simSetObjectIntParameter": "setObjectInt32Parameter",
     # _performNewApiAdjustments_old's renames
     "simBoolOr16": "boolOr32", "simBoolAnd16": "boolAnd32", "simBoolXor16": "boolXor32",
@@ -219,7 +220,7 @@ V_REP_3_FUNCTIONS: tuple[str, ...] = tuple(dict.fromkeys(
 
 
 def facade_name(name: str) -> str | None:
-    """The facade function 3.x global ``name`` calls (``simGetObjectHandle`` -> ``getObjectHandle``),
+    """The ``sim`` function 3.x global ``name`` calls (``simGetObjectHandle`` -> ``getObjectHandle``),
     None for a name that is not a 3.x function name."""
     if name in FUNCTION_ALIASES:
         return FUNCTION_ALIASES[name]
@@ -228,8 +229,8 @@ def facade_name(name: str) -> str | None:
 
 
 def status(name: str, functions: frozenset[str] | set[str] | tuple[str, ...]) -> str:
-    """What 3.x function ``name`` does in simx, given the facade's ``functions``:
-    ``sim.X`` (it calls facade function X), ``UI no-op`` or ``missing`` (an error naming it)."""
+    """What 3.x function ``name`` does in simx, given the names of the ``sim`` ``functions``:
+    ``sim.X`` (it calls ``sim`` function X), ``UI no-op`` or ``missing`` (an error naming it)."""
     if name in UI_FUNCTIONS:
         return "UI no-op"
     target = facade_name(name)
@@ -243,7 +244,7 @@ _PLUGINS = ("simVision", "simSurfRec", "simQHull", "simAssimp", "simOpenMesh", "
 
 #: Lua run in each script's state after the prelude (arguments: the ``sim`` table, the
 #: :data:`FUNCTION_ALIASES` and :data:`UI_FUNCTIONS` tables, the log writer): resolves V-REP 3.x
-#: global names (``sim_X`` constants, ``simX`` functions) through the facade, makes ``simUI``
+#: global names (``sim_X`` constants, ``simX`` functions) through ``sim``, makes ``simUI``
 #: and the old custom UI functions logged no-ops, ``simRemoteApi`` the remote API plugin's table,
 #: and a 3.x function simx lacks a function raising an error that names it.
 LEGACY_LUA = r"""

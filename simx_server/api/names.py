@@ -124,7 +124,7 @@ def api_call(name: str, args: list, implemented: dict[str, frozenset[str]]) -> l
 
 
 def shown(signature: inspect.Signature) -> str:
-    """A facade method's arguments as an error message shows them: ``(handle, relativeTo=...)``."""
+    """An API function's arguments (after ``ctx``) as an error message shows them: ``(handle, relativeTo=...)``."""
     params = list(signature.parameters.values())[1:]
     return "(" + ", ".join(p.name if p.default is inspect.Parameter.empty else f"{p.name}=..."
                            for p in params) + ")"

@@ -1,5 +1,5 @@
 """Renaming a scene object through the scene editor (``sim.setObjectName``,
-``sim.setObjectAlias`` of :class:`simx_server.api.sim.objects.ObjectCalls`): the object
+``sim.setObjectAlias``, :mod:`simx_server.api.sim.objects`): the object
 keeps its handle, its pose, its joint state and its child script across the recompiled model.
 """
 

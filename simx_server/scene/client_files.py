@@ -1,6 +1,6 @@
 """The transfer folder, each client's folder in it, and the files clients name: ``simxTransferFile``,
 ``simxEraseFile``, where ``simxLoadScene``/``simxLoadModel`` find a file (options bit 0: the
-client's own, in its folder; else a server-side path in a trusted folder), and where the facade's
+client's own, in its folder; else a server-side path in a trusted folder), and where the ``sim``
 file calls (``sim.saveScene``, ``sim.saveImage``, ``sim.loadImage``, ``sim.importShape``...) may
 write and read. Trust rules: docs/SECURITY.md, "Files and scenes sent by clients"; the folder
 itself and the checks: scene_guard.
@@ -13,7 +13,7 @@ key>`` (0700, made at its first file), within ``MAX_CLIENT_FILES_BYTES`` for it 
 it holds the loaded scene, when that scene is replaced. In-process use (tests, no door: caller
 None) has the transfer folder itself as its folder.
 
-The facade's file calls ask :meth:`ClientFiles.writer` who writes: a script whose file lies in a
+The ``sim`` file calls ask :meth:`ClientFiles.writer` who writes: a script whose file lies in a
 client's folder (a scene that client sent) always acts as that client; a script of the operator's
 scene acts as the client that called it (``simxCallScriptFunction``, ``sim.callScriptFunction``:
 :meth:`ClientFiles.on_behalf`) and as the operator otherwise; a door's own calls (the ZMQ ``sim``)
@@ -95,11 +95,11 @@ class ClientFiles:
             self._script_caller = previous
 
     def writer(self, script_path: Path | None) -> str | None:
-        """Who a facade call acts as (see the module's text): a client's key (``""``: the
+        """Who a ``sim`` file call acts as (see the module's text): a client's key (``""``: the
         in-process caller's folder) or None for the operator.
 
         Args:
-            script_path: the calling script's file, None for a door's own facade.
+            script_path: the calling script's file, None for a door's own calls (a ZMQ client's ``sim``).
         """
         if script_path is None:
             return self.caller
@@ -259,9 +259,9 @@ class ClientFiles:
         finally:
             self._measure(self.caller or "")
 
-    # ------------------------------------------------------- the facade's files
+    # --------------------------------------------------- the sim calls' files
     def target(self, name: str, key: str | None, what: str) -> Path:
-        """Where a facade call (``sim.saveScene``, ``sim.saveImage``...) acting as ``key`` (see
+        """Where a ``sim`` call (``sim.saveScene``, ``sim.saveImage``...) acting as ``key`` (see
         :meth:`writer`) writes the file ``name``: a client, by a relative name in its own folder;
         the operator, in the scene folders (relative: the first scene's), never in a transfer
         folder.
@@ -292,7 +292,7 @@ class ClientFiles:
         file.write_bytes(data)
 
     def source(self, name: str, key: str | None, what: str, here: Path | None = None) -> Path:
-        """The file a facade call acting as ``key`` reads (``sim.loadImage``,
+        """The file a ``sim`` call acting as ``key`` reads (``sim.loadImage``,
         ``sim.importShape``...): in the scene folders (not a transfer folder) or the caller's
         own folder (the operator: the in-process caller's). A relative name is the caller's own
         file where it has one, else relative to ``here`` (default: the first scene's folder). The

@@ -19,7 +19,7 @@ from simx_server.sim.world import World
 
 log = logging.getLogger("simx.scene")
 
-MAX_SCENE_CUSTOM_BYTES = 16 << 20  # the whole custom data store's bound (facade_data)
+MAX_SCENE_CUSTOM_BYTES = 16 << 20  # the whole custom data store's bound (api.sim.data)
 
 
 def load(world: World) -> dict[int, dict[str, bytes]]:

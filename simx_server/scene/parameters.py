@@ -4,8 +4,8 @@
 
 One implementation for both front doors: the legacy commands (``simxGetIntegerParameter`` ...,
 :mod:`simx_server.commands.parameters`) unpack their arguments and call these functions; the ZMQ
-``sim`` (:class:`simx_server.api.sim.remote.RemoteSim`) calls them for the ids CoppeliaSim 4.x's
-own parameters (:mod:`simx_server.api.sim.params`) do not answer. An id without a meaning
+``sim`` parameter functions (:mod:`simx_server.api.sim.params`) call them for a remote client's
+ids that CoppeliaSim 4.x's own parameters do not answer. An id without a meaning
 in simx raises :class:`~simx_wire.protocol.UnsupportedError` naming it.
 """
 

@@ -1,4 +1,4 @@
-"""Child scripts attached to scene objects, and the ``sim`` facade they call.
+"""Child scripts attached to scene objects, and the ``sim`` namespace each one calls.
 
 A scene attaches a script to an object with ``<custom><text name="simx:OBJECT"
 data="child_script=FILE"/></custom>``; FILE (``.lua`` or ``.py``) lies in the scene's folder:
@@ -89,7 +89,7 @@ class ChildScript:
                  kind: str = "child", threaded: bool = False, version: int | None = None,
                  parameters: list | None = None, shared: dict | None = None):
         self.world = world
-        self.simulation = simulation  # the Simulation, for the facade calls that need it (sensors, edits)
+        self.simulation = simulation  # the Simulation, for the sim calls that need it (sensors, edits)
         self.forces = forces if forces is not None else AppliedForces()
         self.owner = owner
         self.path = path

@@ -1,4 +1,4 @@
-"""Lua child scripts, run by lupa (Lua 5.4) against the shared ``sim`` facade.
+"""Lua child scripts, run by lupa (Lua 5.4) against the shared ``sim`` API table.
 
 Each script gets its own Lua state, made afresh at every simulation start, prepared by
 :data:`PRELUDE`:
@@ -6,7 +6,7 @@ Each script gets its own Lua state, made afresh at every simulation start, prepa
 * ``sim``: one Lua function per entry of :data:`simx_server.api.registry.SIM`,
   each calling the table with the script's context through one Python
   dispatcher;
-  Python lists come back as Lua tables, ``str`` and ``bytes`` as Lua strings. A facade error
+  Python lists come back as Lua tables, ``str`` and ``bytes`` as Lua strings. A ``sim`` error
   becomes a Lua error at the script's line (``RG2.lua:17: sim.getObjectHandle: ...``); an
   unknown ``sim.NAME`` is a Lua error that names it. Every V-REP constant is ``sim.NAME`` too,
   and the pre-3.6 spellings ``simGetObjectHandle`` / ``sim_handle_self`` resolve to them.
@@ -106,7 +106,7 @@ coroutine.wrap = function(f)
   end
 end
 
--- The sim facade. Its errors name the script's line: the first caller with a line number
+-- The sim API. Its errors name the script's line: the first caller with a line number
 -- (sim functions may be called through pcall or as tail calls).
 local function where()
   for level = 3, 20 do

@@ -7,7 +7,7 @@ stay those of the file). :func:`rewrite` applies CoppeliaSim's text rewrites for
 by V-REP / CoppeliaSim ``version`` (e.g. 30600 for 3.6.0; the ``vrep_version=`` setting of the
 script's object): each entry of :data:`REWRITES` is one of CoppeliaSim's load-time steps
 (``CDetachedScript::_adjustScriptTextN_old``) that changes what a script does in simx. The steps
-that only rename functions are not text rewrites here: both names resolve to one facade function
+that only rename functions are not text rewrites here: both names resolve to one ``sim`` function
 (:mod:`simx_server.api.legacy_names`). docs/SCRIPTS.md lists each rewrite.
 """
 

@@ -86,7 +86,7 @@ class Scripts:
             rights; the server's ``--allow-python-scripts``. Off: each is refused with one log
             line, the scene loads and its Lua scripts run.
         simulation: the :class:`~simx_server.scene.simulation.Simulation` that owns these scripts;
-            the facade calls that read sensors or edit the scene need it (without it they
+            the ``sim`` calls that read sensors or edit the scene need it (without it they
             raise UnsupportedError).
 
     Raises:

@@ -46,7 +46,7 @@ __all__ = ["LUA_FUNCTIONS", "THREADS_LUA", "LuaStyles", "script_functions"]
 
 log = logging.getLogger("simx.scripts")
 
-#: ``sim`` functions that Lua scripts get from :data:`THREADS_LUA` (not facade methods).
+#: ``sim`` functions that Lua scripts get from :data:`THREADS_LUA` (not entries of the API table).
 LUA_FUNCTIONS = ("switchThread", "yield", "step", "wait", "waitForSignal", "setThreadAutomaticSwitch",
                  "getThreadAutomaticSwitch", "setThreadSwitchTiming", "getThreadSwitchTiming",
                  "setThreadResumeLocation", "resumeThreads", "setThreadIsFree", "isScriptRunningInThread",
@@ -130,7 +130,7 @@ sim.setThreadIsFree = function() return 0 end
 sim.isScriptRunningInThread = function() return in_thread() and 1 or 0 end
 sim.isScriptExecutionThreaded = function() return T.co ~= nil and 1 or 0 end
 
--- sim.moveToConfig / sim.moveToPose (threads only): the motion is the facade's (motion("begin")),
+-- sim.moveToConfig / sim.moveToPose (threads only): the motion is the API's (motion("begin")),
 -- run one increment at a time (motion("next")): "call" runs the 4.3-4.5 callback here, in Lua,
 -- with the auxData kept here; "step" yields the thread; "done" returns the call's values.
 local function mover(name, at)
@@ -231,9 +231,10 @@ class LuaStyles:
 
     def _motion_call(self, op: bytes, *args: Any) -> tuple:
         """``sim.moveToConfig`` / ``sim.moveToPose`` of a Lua thread (:data:`THREADS_LUA`):
-        ``("begin", name, args...)`` makes the facade's motion, ``("next", motion)`` runs its next
-        increment: ``(True, "call", {pos, vel, accel})``, ``(True, "step")`` or ``(True, "done",
-        {return values})``; ``(False, message)`` on an error. Never raises."""
+        ``("begin", name, args...)`` makes the motion (:func:`simx_server.api.sim.motion.lua_motion`),
+        ``("next", motion)`` runs its next increment: ``(True, "call", {pos, vel, accel})``,
+        ``(True, "step")`` or ``(True, "done", {return values})``; ``(False, message)`` on an error.
+        Never raises."""
         try:
             if op == b"begin":
                 name = args[0].decode() if isinstance(args[0], bytes) else str(args[0])

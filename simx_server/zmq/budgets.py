@@ -93,7 +93,7 @@ def reply_estimate(sim: Any, name: str, args: list) -> str | None:
 
 
 #: Calls that wait for a render: the ZMQ service replies once the render thread is done
-#: (:attr:`~simx_server.api.sim.sensors.SensorCalls.defer_renders`).
+#: (:attr:`~simx_server.api.context.CallContext.defer_renders`).
 RENDERS = frozenset({"getVisionSensorImg", "getVisionSensorImage", "getVisionSensorCharImage",
                      "getVisionSensorDepth", "getVisionSensorDepthBuffer", "checkVisionSensorEx",
                      "readVisionSensor", "checkVisionSensor", "handleVisionSensor"})

@@ -4,7 +4,7 @@ A ZMQ image call (``sim.getVisionSensorImg`` and the others of :data:`~simx_serv
 is executed on the simulation thread as far as the frames it needs: its arguments are checked,
 its frames are submitted to the request render thread, and the job that makes its value from
 them (a window cut, bytes or floats) is queued behind them there
-(:attr:`~simx_server.api.sim.sensors.SensorCalls.defer_renders`: the facade answers a
+(:attr:`~simx_server.api.context.CallContext.defer_renders`: the ``sim`` function answers a
 :class:`~simx_server.sim.vision.Deferred`). The simulation thread goes on; once the job is done,
 the render thread encodes the reply and hands it to the socket thread (``Frontend.send``), as the
 legacy door's image replies leave when their renders are done. A 4096x4096 render (0.5-1.5 s on a
@@ -40,7 +40,7 @@ class Rendering:
 
 
 def values(result: Any, returns_none: bool) -> list:
-    """A facade function's return as the reply's values: a tuple's items, one value otherwise;
+    """An API function's return as the reply's values: a tuple's items, one value otherwise;
     nothing from a function that returns nothing, nil from one that returns a value."""
     if result is None:
         return [] if returns_none else [None]

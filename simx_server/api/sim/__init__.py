@@ -7,7 +7,7 @@ groups them: objects and the scene tree (:mod:`.core`, :mod:`.objects`, :mod:`.c
 shapes and meshes (:mod:`.shapes`, :mod:`.shape_import`, :mod:`.mesh`, :mod:`.meshops`,
 :mod:`.inertia`, :mod:`.looks`, :mod:`.build`), sensors (:mod:`.sensors`, :mod:`.sensing`,
 :mod:`.create`), point clouds and octrees (:mod:`.clouds`, :mod:`.octrees`), paths and motion
-(:mod:`.paths`, :mod:`.trajectory`, :mod:`.ruckig`, :mod:`.motion`, :mod:`.client_motion`),
+(:mod:`.paths`, :mod:`.trajectory`, :mod:`.ruckig`, :mod:`.motion`, :mod:`.stepped`),
 pose arithmetic (:mod:`.posemath`, :mod:`.rotations`), simulation and parameters
 (:mod:`.params`, :mod:`.engine`, :mod:`.remote`), drawing, graphs and particles
 (:mod:`.links`, :mod:`.graphs`, :mod:`.particles`), windows answered headless (:mod:`.gui`),

@@ -1,5 +1,5 @@
-"""CoppeliaSim 4.x's shapes built from data at run time on the scene's MjSpec (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): ``sim.createHeightfieldShape`` (a MuJoCo
+"""CoppeliaSim 4.x's shapes built from data at run time on the scene's MjSpec:
+``sim.createHeightfieldShape`` (a MuJoCo
 height field), ``sim.groupShapes`` and ``sim.ungroupShape`` (geoms gathered into one body or
 spread over bodies of their own). Each edit recompiles the scene as the scene editor does.
 """
@@ -48,7 +48,7 @@ def _copy_geom(m: mujoco.MjModel, g: int, src: Any, dst_body: Any, rd: np.ndarra
 
 
 
-# Height fields, grouping and ungrouping of shapes (facade mixin).
+# Height fields, grouping and ungrouping of shapes.
 
 @sim_function("createHeightfieldShape")
 def createHeightfieldShape(ctx: CallContext, options: Any, shadingAngle: Any, xPointCount: Any, yPointCount: Any,  # noqa: N802, N803

@@ -1,6 +1,5 @@
-"""CoppeliaSim 4.x's point clouds and octrees kept as data (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`; the octree calls are in
-:mod:`simx_server.api.sim.octrees`, on this module's helpers).
+"""CoppeliaSim 4.x's point clouds and octrees kept as data (``sim.createPointCloud`` and the calls on
+point clouds; the octree calls are in :mod:`simx_server.api.sim.octrees`, on this module's helpers).
 
 Each is a scene object with a frame: a MuJoCo site (so ``sim.getObjectType`` answers
 ``sim.object_dummy_type``; poses, parents and removal work as for any dummy) whose points or
@@ -58,7 +57,7 @@ def _colours(color: Any, n: int, per_point: bool) -> np.ndarray:
     return c[:need].reshape(-1, 3) if per_point else np.tile(c[:3], (n, 1))
 
 
-# ``sim.createPointCloud``, ``createOctree`` and the calls on them (facade mixin).
+# ``sim.createPointCloud``, ``createOctree`` and the calls on them.
 
 def cloud(ctx: CallContext, handle: Any, kind: str) -> dict:
     h = ctx.h(handle, f"{kind}Handle")
@@ -133,7 +132,7 @@ def createPointCloud(ctx: CallContext, maxVoxelSize: Any, maxPtCntPerVoxel: Any,
                      pointSize: Any) -> int:  # noqa: N803
     """A new, empty point cloud at the world origin; its handle. ``maxVoxelSize`` (m) and
     ``maxPtCntPerVoxel`` describe CoppeliaSim's calculation structure and are kept
-    (:meth:`getPointCloudOptions`); ``options`` and ``pointSize`` (pixels) likewise.
+    (:func:`getPointCloudOptions`); ``options`` and ``pointSize`` (pixels) likewise.
 
     ``sim.createPointCloud``.
 
@@ -181,7 +180,7 @@ def getPointCloudOptions(ctx: CallContext, pointCloudHandle: Any) -> tuple[float
 @sim_function("setPointCloudOptions")
 def setPointCloudOptions(ctx: CallContext, pointCloudHandle: Any, maxVoxelSize: Any, maxPtCntPerVoxel: Any,  # noqa: N802, N803
                          options: Any, pointSize: Any) -> None:  # noqa: N803
-    """``sim.setPointCloudOptions``: the values :meth:`getPointCloudOptions` answers.
+    """``sim.setPointCloudOptions``: the values :func:`getPointCloudOptions` answers.
 
     Args:
         pointCloudHandle: the point cloud's handle.

@@ -1,6 +1,6 @@
-"""Calls of CoppeliaSim 4.x that child scripts and remote programs make alike (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): removing objects and models, handles and
-children, joint types, velocities and force limits, vision sensors' depth as a buffer.
+"""CoppeliaSim 4.x's ``sim`` functions that child scripts and remote programs call alike: removing
+objects and models, handles and children, joint types, velocities and force limits, vision
+sensors' depth as a buffer.
 """
 
 from __future__ import annotations
@@ -21,8 +21,6 @@ from simx_server.sim.objects import JOINT, WORLD
 _JOINT_TYPES = {0: None, 1: None, 2: 11, 3: 10}  # mjtJoint free, ball -> (none); slide -> prismatic, hinge -> revolute
 
 
-# Objects, joints and depth buffers for scripts and clients (facade mixin).
-
 @sim_function("removeObject")
 def removeObject(ctx: CallContext, objectHandle: Any) -> None:  # noqa: N802, N803
     """Remove an object (a shape with its body subtree), as ``simxRemoveObject``.
@@ -42,7 +40,7 @@ def removeObject(ctx: CallContext, objectHandle: Any) -> None:  # noqa: N802, N8
 
 @sim_function("removeObjects")
 def removeObjects(ctx: CallContext, objectHandles: Any, delayedRemoval: Any = False) -> None:  # noqa: N802, N803
-    """Remove several objects (each as :meth:`removeObject`; ``delayedRemoval`` ignored).
+    """Remove several objects (each as :func:`removeObject`; ``delayedRemoval`` ignored).
 
     ``sim.removeObjects``.
 

@@ -19,7 +19,7 @@ from simx_wire.protocol import ArgumentError
 from simx_server.api.signals import Signals
 from simx_server.api.sim.stepped import strings_as_text
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num  # noqa: F401
-from simx_server.base.arguments import as_text as _text, as_vector as _vector  # noqa: F401 (the facade modules use them)
+from simx_server.base.arguments import as_text as _text, as_vector as _vector  # noqa: F401 (api.sim modules use them)
 
 log = logging.getLogger("simx.scripts")
 
@@ -41,24 +41,17 @@ def script_constants() -> dict[str, int]:
 SCRIPT_CONSTANTS: dict[str, int] = script_constants()
 
 
-# ---------------------------------------------------------------------- the facade
 #: pack/unpack formats: struct code and item size of each V-REP pack*Table function.
 _PACK_FORMATS = {"Int32": "i", "UInt32": "I", "Float": "f", "Double": "d", "UInt8": "B", "UInt16": "H"}
 
 
-# V-REP's ``sim`` API for child scripts, on top of the world (V-REP's names and units).
+# V-REP's core ``sim`` functions, on top of the world (V-REP's names and units).
 #
-# The same object serves Python scripts directly and Lua scripts through
-# :mod:`simx_server.scripts.lua` (every public method becomes ``sim.NAME`` there, every
-# constant of :func:`script_constants` ``sim.CONSTANT``). Vectors are lists (Lua tables),
-# strings may be ``str`` or ``bytes``, buffers are ``bytes``. Errors raise the simx exceptions
-# (UnknownObjectError, ObjectTypeError, ArgumentError); Lua sees them as Lua errors.
-#
-# Args:
-# world: the scene.
-# owner: handle of the object the script is attached to (``sim.handle_self``).
-# signals: the signal store (one per server).
-# label: how log lines name the script.
+# Python scripts call them directly and Lua scripts through :mod:`simx_server.scripts.lua`
+# (every registered function is ``sim.NAME`` there, every constant of :func:`script_constants`
+# ``sim.CONSTANT``). Vectors are lists (Lua tables), strings may be ``str`` or ``bytes``, buffers
+# are ``bytes``. Errors raise the simx exceptions (UnknownObjectError, ObjectTypeError,
+# ArgumentError); Lua sees them as Lua errors.
 
 @sim_function("getObjectName")
 def getObjectName(ctx: CallContext, handle: Any) -> str:  # noqa: N802

@@ -1,9 +1,8 @@
-"""CoppeliaSim 4.x's sensors created at run time (mixin of :class:`simx_server.scripts.facade.ScriptSim`):
-``sim.createVisionSensor`` (a MuJoCo camera) and ``sim.createProximitySensor`` (a site carrying a
-``rangefinder``), added to the scene's MjSpec and recompiled as the scene editor does for
-``sim.createDummy``. Each appears at the world origin with CoppeliaSim's orientation (looking
-along the world's +z); its settings (near/far clipping, a cone's angle) go into its ``simx:``
-custom text, as in a scene file (docs/SCENES.md).
+"""CoppeliaSim 4.x's sensors created at run time: ``sim.createVisionSensor`` (a MuJoCo camera) and
+``sim.createProximitySensor`` (a site carrying a ``rangefinder``), added to the scene's MjSpec and
+recompiled as the scene editor does for ``sim.createDummy``. Each appears at the world origin with
+CoppeliaSim's orientation (looking along the world's +z); its settings (near/far clipping, a cone's
+angle) go into its ``simx:`` custom text, as in a scene file (docs/SCENES.md).
 """
 
 from __future__ import annotations
@@ -29,7 +28,7 @@ def _numbers(values: Any, n: int, what: str, integer: bool = False) -> list:
     return [(_int if integer else _num)(v, f"{what}[i]") for v in values[:n]]
 
 
-# Run-time creation of vision and proximity sensors (facade mixin).
+# Run-time creation of vision and proximity sensors.
 
 def _create(ctx: CallContext, what: str, base: str, build) -> int:
     sim = ctx.simulation(what)

@@ -1,4 +1,4 @@
-"""CoppeliaSim 4.x's data calls (mixin of :class:`simx_server.scripts.facade.ScriptSim`): table
+"""CoppeliaSim 4.x's data functions of ``sim``: table
 packing, buffer signals, custom data on objects and the scene, the 4.8+ properties API over
 them (rotation arithmetic: :mod:`simx_server.api.sim.rotations`).
 
@@ -52,7 +52,7 @@ def _plain(value: Any, depth: int = 0) -> Any:
     return value
 
 
-# Packing, buffer signals, custom data, properties, rotation arithmetic (facade mixin).
+# Packing, buffer signals, custom data, properties.
 
 @sim_function("packTable")
 def packTable(ctx: CallContext, aTable: Any, scheme: Any = 0) -> bytes:  # noqa: N802, N803
@@ -80,7 +80,7 @@ def packTable(ctx: CallContext, aTable: Any, scheme: Any = 0) -> bytes:  # noqa:
 
 @sim_function("unpackTable")
 def unpackTable(ctx: CallContext, buffer: Any) -> Any:  # noqa: N802
-    """The table of a buffer :meth:`packTable` wrote (CBOR).
+    """The table of a buffer :func:`packTable` wrote (CBOR).
 
     ``sim.unpackTable``.
 
@@ -314,7 +314,7 @@ def readCustomStringData(ctx: CallContext, objectHandle: Any, tagName: Any) -> s
 
 @sim_function("writeCustomTableData")
 def writeCustomTableData(ctx: CallContext, objectHandle: Any, tagName: Any, data: Any, options: Any = None) -> None:  # noqa: N802, N803
-    """Store a table (packed as :meth:`packTable`).
+    """Store a table (packed as :func:`packTable`).
 
     ``sim.writeCustomTableData``.
 
@@ -397,7 +397,7 @@ def getProperty(ctx: CallContext, target: Any, pName: Any, options: Any = None) 
             if raw is None:
                 raise UnknownObjectError(f"no property {quote(name)}")
             if (h, name) in getattr(ctx.holder, "custom_types", {}):
-                return cbor2.loads(raw)  # written by a typed setter (facade_props)
+                return cbor2.loads(raw)  # written by a typed setter (simx_server.api.sim.props)
             return unpackTable(ctx, raw) if raw[:1] and raw[0] in _CBOR_FIRST else raw
         if name.startswith("signal.") and h == HANDLE_SCENE:
             for kind in Signals.KINDS:

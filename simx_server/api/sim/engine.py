@@ -1,5 +1,6 @@
 """CoppeliaSim 4.x's engine parameters where MuJoCo has them, and application queries answered
-from simx's own state (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
+from simx's own state (``sim.getEngineFloatParam`` and its kin, ``sim.getObjectsWithTag``,
+``sim.getApiInfo``, ``sim.getSettingBool`` ...).
 
 Engine parameters: CoppeliaSim's ``sim.mujoco_global_*`` ids map onto the model's ``mjOption``
 (``impratio``, ``wind``, ``density``, ``viscosity``, ``iterations``, ``integrator``, ``solver``,
@@ -92,7 +93,7 @@ def getEngineFloatParam(ctx: CallContext, paramId: Any, objectHandle: Any) -> fl
 
 @sim_function("setEngineFloatParam")
 def setEngineFloatParam(ctx: CallContext, paramId: Any, objectHandle: Any, floatParam: Any) -> None:  # noqa: N802, N803
-    """``sim.setEngineFloatParam``: set a MuJoCo ``opt`` field (see :meth:`getEngineFloatParam`).
+    """``sim.setEngineFloatParam``: set a MuJoCo ``opt`` field (see :func:`getEngineFloatParam`).
 
     Args:
         paramId: a ``sim.mujoco_global_*`` float parameter.
@@ -128,7 +129,7 @@ def getEngineInt32Param(ctx: CallContext, paramId: Any, objectHandle: Any) -> in
 
 @sim_function("setEngineInt32Param")
 def setEngineInt32Param(ctx: CallContext, paramId: Any, objectHandle: Any, int32Param: Any) -> None:  # noqa: N802, N803
-    """``sim.setEngineInt32Param``: set a MuJoCo ``opt`` field (see :meth:`getEngineInt32Param`).
+    """``sim.setEngineInt32Param``: set a MuJoCo ``opt`` field (see :func:`getEngineInt32Param`).
 
     Args:
         paramId: a ``sim.mujoco_global_*`` integer parameter.
@@ -164,7 +165,7 @@ def getEngineBoolParam(ctx: CallContext, paramId: Any, objectHandle: Any) -> boo
 
 @sim_function("setEngineBoolParam")
 def setEngineBoolParam(ctx: CallContext, paramId: Any, objectHandle: Any, boolParam: Any) -> None:  # noqa: N802, N803
-    """``sim.setEngineBoolParam``: set a MuJoCo flag (see :meth:`getEngineBoolParam`).
+    """``sim.setEngineBoolParam``: set a MuJoCo flag (see :func:`getEngineBoolParam`).
 
     Args:
         paramId: a ``sim.mujoco_global_*`` boolean parameter.

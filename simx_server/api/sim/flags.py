@@ -1,5 +1,5 @@
-"""CoppeliaSim 4.x's object and model property flags and ``convertPropertyValue`` (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`).
+"""CoppeliaSim 4.x's object and model property flags (``sim.getObjectProperty``,
+``sim.setModelProperty`` ...) and ``sim.convertPropertyValue``.
 
 The object property flags are kept per object in the simulation's store (they change nothing
 else). Until set, an object answers ``getObjectProperty`` ``sim.objectproperty_selectable``
@@ -42,7 +42,7 @@ def _mat_to_quat(m: list[float]) -> list[float]:
     return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]
 
 
-# Property flags of objects and models; property value conversion (facade mixin).
+# Property flags of objects and models; property value conversion.
 
 def _flags(ctx: CallContext, kind: str) -> dict:
     return _paths.store_of(ctx, f"flags_{kind}")

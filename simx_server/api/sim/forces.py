@@ -26,7 +26,7 @@ class AppliedForces:
 
     ``add`` accumulates a wrench (world frame, at the body's centre of mass) in MuJoCo's
     ``xfrc_applied``; ``clear`` zeroes the rows it wrote, once the step that applied them is
-    over. One per :class:`~simx_server.scripts.scene_scripts.Scripts`, shared by its scripts' facades.
+    over. One per :class:`~simx_server.scripts.scene_scripts.Scripts`, shared by its scripts' contexts.
     """
 
     def __init__(self) -> None:
@@ -141,7 +141,7 @@ def addForce(ctx: CallContext, handle: Any, position: Any, force: Any) -> None: 
 @sim_function("addForceAndTorque")
 def addForceAndTorque(ctx: CallContext, handle: Any, force: Any = None, torque: Any = None) -> None:  # noqa: N802
     """Add ``force`` (N) and ``torque`` (N·m), world axes, at the shape's centre of mass for
-    the next simulation step (nil: none); reset after it, as :meth:`addForce`.
+    the next simulation step (nil: none); reset after it, as :func:`addForce`.
 
     ``sim.addForceAndTorque``.
 

@@ -1,5 +1,5 @@
-"""CoppeliaSim 4.x's graph streams and curves kept as data (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`).
+"""CoppeliaSim 4.x's graph streams and curves kept as data (``sim.addGraphStream``,
+``sim.setGraphStreamValue``, ``sim.getGraphCurve`` ...).
 
 A graph in simx is a dummy (the ``.ttt`` loader turns CoppeliaSim's graph objects into sites;
 any dummy may serve). ``sim.setGraphStreamValue`` records the stream's value at the current
@@ -49,7 +49,7 @@ def _transformed(s: dict) -> tuple[np.ndarray, np.ndarray]:
     return t, y
 
 
-# Graph streams and curves (facade mixin).
+# Graph streams and curves.
 
 def _graph(ctx: CallContext, handle: Any) -> dict:
     h = ctx.world.get(ctx.h(handle, "graphHandle"), DUMMY).handle

@@ -1,5 +1,5 @@
-"""CoppeliaSim 4.x's window functions, answered as a headless CoppeliaSim answers them (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`).
+"""CoppeliaSim 4.x's window functions (``sim.auxiliaryConsoleOpen``, ``sim.floatingViewAdd``,
+``sim.textEditorOpen`` ...), answered as a headless CoppeliaSim answers them.
 
 simx has no window: text meant for a console or an editor goes to the server's log (one INFO
 line naming the caller), the rest answer neutral values (a handle for what was opened, page 0,
@@ -71,7 +71,7 @@ def auxiliaryConsolePrint(ctx: CallContext, consoleHandle: Any, text: Any) -> in
     ``sim.auxiliaryConsolePrint``.
 
     Args:
-        consoleHandle: from :meth:`auxiliaryConsoleOpen`.
+        consoleHandle: from :func:`auxiliaryConsoleOpen`.
         text: the text, or None (clears the console: nothing logged).
 
     Returns:
@@ -93,7 +93,7 @@ def auxiliaryConsoleClose(ctx: CallContext, consoleHandle: Any) -> int:  # noqa:
     """``sim.auxiliaryConsoleClose``: forget the console.
 
     Args:
-        consoleHandle: from :meth:`auxiliaryConsoleOpen`.
+        consoleHandle: from :func:`auxiliaryConsoleOpen`.
 
     Returns:
         1, or 0 for an unknown console.
@@ -110,7 +110,7 @@ def auxiliaryConsoleShow(ctx: CallContext, consoleHandle: Any, showState: Any) -
     """``sim.auxiliaryConsoleShow``: nothing to show (headless).
 
     Args:
-        consoleHandle: from :meth:`auxiliaryConsoleOpen`.
+        consoleHandle: from :func:`auxiliaryConsoleOpen`.
         showState: ignored.
 
     Returns:
@@ -340,7 +340,7 @@ def getObjectSelection(ctx: CallContext) -> list[int]:  # noqa: N802
 
 @sim_function("setObjectSelection")
 def setObjectSelection(ctx: CallContext, objectHandles: Any) -> None:  # noqa: N802, N803
-    """``sim.setObjectSelection``: the selection :meth:`getObjectSelection` answers.
+    """``sim.setObjectSelection``: the selection :func:`getObjectSelection` answers.
 
     Args:
         objectHandles: list of object handles.

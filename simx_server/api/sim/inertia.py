@@ -1,5 +1,4 @@
-"""CoppeliaSim 4.x's mass and inertia calls of shapes (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): ``sim.getShapeMass``, ``sim.setShapeMass``,
+"""CoppeliaSim 4.x's mass and inertia functions of shapes: ``sim.getShapeMass``, ``sim.setShapeMass``,
 ``sim.getShapeInertia``, ``sim.setShapeInertia``, ``sim.computeMassAndInertia``, on the MuJoCo
 body of the shape (its ``body_mass``, ``body_inertia``, ``body_iquat``, ``body_ipos``), written
 into the scene's MjSpec as well so that later edits keep them.
@@ -21,7 +20,7 @@ from simx_server.base.arguments import as_number as _num, as_vector as _vector
 from simx_server.api.sim.shapes import _geoms
 
 
-# Mass and inertia of shapes (facade mixin; ``_shape`` comes from ShapeCalls).
+# Mass and inertia of shapes (``_shape`` comes from :mod:`simx_server.api.sim.shapes`).
 
 @sim_function("getShapeMass")
 def getShapeMass(ctx: CallContext, shapeHandle: Any) -> float:  # noqa: N802, N803

@@ -1,6 +1,6 @@
-"""CoppeliaSim 4.x's joint intervals, modes and dependencies on MuJoCo (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): intervals are MuJoCo's ``jnt_range``; modes map
-onto simx's motors; dependencies are MJCF joint equalities.
+"""CoppeliaSim 4.x's joint intervals, modes and dependencies on MuJoCo (``sim.getJointInterval``,
+``sim.setJointMode``, ``sim.getJointDependency`` ...): intervals are MuJoCo's ``jnt_range``; modes
+map onto simx's motors; dependencies are MJCF joint equalities.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from simx_server.sim.objects import JOINT
 JOINTMODE_KINEMATIC, JOINTMODE_DEPENDENT, JOINTMODE_DYNAMIC = 0, 4, 5
 
 
-# Joint intervals, modes and dependencies (facade mixin).
+# Joint intervals, modes and dependencies.
 
 def _joint(ctx: CallContext, handle: Any) -> Any:
     return ctx.world.get(ctx.h(handle, "jointHandle"), JOINT)

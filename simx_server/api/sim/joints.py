@@ -1,6 +1,5 @@
-"""V-REP's joint calls of the ``sim`` facade (``sim.getJointPosition``, ``sim.setJointTargetVelocity``
-...), a mixin of :class:`simx_server.api.sim.core.SimFacade`: positions in rad (hinge) or
-m (slide), velocities in rad/s or m/s, forces in N·m or N, on
+"""V-REP's joint functions of ``sim`` (``sim.getJointPosition``, ``sim.setJointTargetVelocity``
+...): positions in rad (hinge) or m (slide), velocities in rad/s or m/s, forces in N·m or N, on
 :class:`simx_server.sim.joints.Joints`.
 """
 
@@ -16,7 +15,7 @@ if TYPE_CHECKING:
     pass
 
 
-# Joint positions, motor targets and forces (mixin of the facade).
+# Joint positions, motor targets and forces.
 
 @sim_function("getJointPosition")
 def getJointPosition(ctx: CallContext, handle: Any) -> float:  # noqa: N802

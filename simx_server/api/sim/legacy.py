@@ -1,11 +1,11 @@
-"""V-REP 3.x script calls with no CoppeliaSim 4.x twin in the facade: script parameters, script
+"""V-REP 3.x script calls with no CoppeliaSim 4.x twin in ``sim``: script parameters, script
 attributes and execution counts (custom data blocks, boolean helpers, system time and
 ``simExtRemoteApiStart``: :mod:`simx_server.api.sim.legacy_data`; collision and distance
 objects: :mod:`simx_server.api.sim.legacy_measurements`; Python scripts' thread
 calls: :mod:`simx_server.api.sim.threads`).
 
-:class:`LegacyCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`; the 3.x global
-names reach these methods through :mod:`simx_server.api.legacy_names`. A script is named by
+They are ``sim`` functions like the 4.x ones; the 3.x global names reach them through
+:mod:`simx_server.api.legacy_names`. A script is named by
 its object's handle in simx (``sim.getScriptHandle()`` is the script's object), so the script
 handle arguments are object handles (``sim.handle_self``: this script).
 """
@@ -45,7 +45,7 @@ def name_suffix(name: str) -> tuple[int, str]:
     return (int(tail), base) if sep and tail.isdigit() else (-1, name)
 
 
-# V-REP 3.x calls of child and customization scripts (a mixin of ScriptSim).
+# V-REP 3.x calls of child and customization scripts.
 
 def _suffix(ctx: CallContext) -> int:
     if ctx.state.name_suffix is None:  # a script's object; none for the world (ZMQ clients)
@@ -174,7 +174,7 @@ def getScriptSimulationParameter(ctx: CallContext, scriptHandle: Any, parameterN
 def setScriptSimulationParameter(ctx: CallContext, scriptHandle: Any, parameterName: Any,  # noqa: N802, N803
                                  parameterValue: Any) -> int:  # noqa: N803
     """Set (or add) a script simulation parameter; the value is kept as its bytes (a number
-    as its text), read back typed by :meth:`getScriptSimulationParameter`.
+    as its text), read back typed by :func:`getScriptSimulationParameter`.
 
     ``simSetScriptSimulationParameter`` (CoppeliaSim's ``_simSetScriptSimulationParameter``):
     ``sim.handle_tree`` sets it in the child scripts of every object below this script's,

@@ -1,9 +1,8 @@
 """V-REP 3.x script calls with no CoppeliaSim 4.x twin, of data rather than scripts: custom data
 blocks, 16/32-bit boolean helpers, system time and ``simExtRemoteApiStart``.
 
-:class:`LegacyDataCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim` (through
-:class:`simx_server.api.sim.legacy.LegacyCalls`); :class:`RemoteApiPorts` is what the
-server's legacy transport reads the ports that scripts ask for from.
+:class:`RemoteApiPorts` is what the server's legacy transport reads the ports that scripts ask
+for from.
 """
 
 from __future__ import annotations
@@ -27,7 +26,7 @@ _MAX_CUSTOM_DATA = 1 << 20  # bytes of one custom data block (limits of the scen
 class RemoteApiPorts:
     """Ports scripts asked the legacy remote API to serve (``simExtRemoteApiStart(port)``).
 
-    The script facade records requests (:meth:`request`); the transport takes them
+    ``sim.remoteApiStart`` & co. record requests (:meth:`request`); the transport takes them
     (:meth:`take`) on its own thread and says which ports it serves (:attr:`served`)."""
 
     def __init__(self) -> None:
@@ -64,7 +63,7 @@ class RemoteApiPorts:
         return out
 
 
-# Custom data blocks, boolean helpers, system time, remote API ports (a mixin of ScriptSim).
+# Custom data blocks, boolean helpers, system time, remote API ports.
 
 def _blocks(ctx: CallContext, handle: Any) -> dict:
     h = ctx.h(handle)

@@ -5,8 +5,7 @@
 
 The objects are the scene's declared ones (:func:`simx_server.sim.collisions.probes`: a
 converted ``.ttt``'s ``COL``/``DST`` records). simx measures when asked, so *handle* and *read*
-give the same answer, from the current poses; a reset has nothing to clear. A mixin of
-:class:`simx_server.scripts.facade.ScriptSim` (through ``LegacyCalls``).
+give the same answer, from the current poses; a reset has nothing to clear.
 """
 
 from __future__ import annotations
@@ -22,7 +21,7 @@ from simx_server.sim import collisions
 _ALL = (C.sim_handle_all, C.sim_handle_all_except_explicit)
 
 
-# Collision and distance objects (facade mixin).
+# Collision and distance objects.
 
 @sim_function("getCollisionHandle")
 def getCollisionHandle(ctx: CallContext, collisionObjectName: Any) -> int:  # noqa: N802, N803
@@ -104,7 +103,7 @@ def handleCollision(ctx: CallContext, collisionObjectHandle: Any) -> Any:  # noq
 @sim_function("readCollision")
 def readCollision(ctx: CallContext, collisionObjectHandle: Any) -> Any:  # noqa: N802, N803
     """The state of collision object ``collisionObjectHandle``: ``1, {shape1, shape2}`` when
-    its entities touch, else 0 (measured now, as :meth:`handleCollision`).
+    its entities touch, else 0 (measured now, as :func:`handleCollision`).
 
     ``simReadCollision``.
 

@@ -30,7 +30,7 @@ from simx_server.sim import properties
 
 
 
-# Special properties and dummy links (a mixin of the facade, through LegacyCalls).
+# Special properties and dummy links.
 
 @sim_function("getObjectSpecialProperty")
 def getObjectSpecialProperty(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N802, N803

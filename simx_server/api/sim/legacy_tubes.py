@@ -11,8 +11,7 @@ oldest packet of its own buffer (nil when there is none; ``blockingOperation`` t
 threaded script: yields until one arrives). Tubes opened by scripts during a simulation close
 when it stops, as V-REP's do.
 
-:class:`TubeCalls` is a mixin of the facade (through
-:class:`~simx_server.api.sim.legacy.LegacyCalls`); :class:`Tubes` is the registry, one per
+The ``sim.tube*`` functions here open and use them; :class:`Tubes` is the registry, one per
 scene's scripts (kept in their shared dictionary).
 """
 

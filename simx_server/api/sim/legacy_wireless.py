@@ -53,7 +53,7 @@ class _Packet:
     persistence: float
 
 
-# ``sim.sendData`` / ``sim.receiveData`` (a mixin of the facade, through LegacyCalls).
+# ``sim.sendData`` / ``sim.receiveData``.
 
 def _wireless(ctx: CallContext) -> tuple[list, int]:
     me = ctx.script

@@ -1,7 +1,6 @@
-"""CoppeliaSim 4.x's ``sim.checkVisionSensorEx`` and ``sim.checkProximitySensorEx2`` (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`). Dummy links (``sim.getLinkDummy`` /
-``sim.setLinkDummy``: the scene's equalities between two dummies' sites) are in
-:mod:`simx_server.api.sim.legacy_objects`.
+"""CoppeliaSim 4.x's ``sim.checkVisionSensorEx`` and ``sim.checkProximitySensorEx2``. Dummy links
+(``sim.getLinkDummy`` / ``sim.setLinkDummy``: the scene's equalities between two dummies' sites) are
+in :mod:`simx_server.api.sim.legacy_objects`.
 """
 
 from __future__ import annotations
@@ -23,7 +22,7 @@ from simx_server.sim.objects import PROXIMITY_SENSOR
 HANDLE_ALL, MAX_ITEMS = -2, 100_000
 
 
-# Vision and proximity sensor checks of CoppeliaSim 4.x (facade mixin).
+# Vision and proximity sensor checks of CoppeliaSim 4.x.
 
 @sim_function("checkVisionSensorEx")
 def checkVisionSensorEx(ctx: CallContext, sensorHandle: Any, entityHandle: Any, returnImage: Any) -> list[float]:  # noqa: N802, N803

@@ -1,5 +1,5 @@
 """CoppeliaSim 4.x's shape appearance, textures and the object string and float-array
-parameters (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
+parameters.
 
 * ``getShapeAppearance`` returns, per geom of the shape, its colour (RGBA 0..1) and, where it has
   a MuJoCo material, the material's specular, emission and shininess; ``setShapeAppearance``
@@ -40,7 +40,7 @@ def _rgb_role() -> int:
     return int(mujoco.mjtTextureRole.mjTEXROLE_RGB)
 
 
-# Appearance, textures, string and float-array parameters (facade mixin).
+# Appearance, textures, string and float-array parameters.
 
 def _shape_geoms(ctx: CallContext, handle: Any) -> np.ndarray:
     obj = ctx.world.get(ctx.h(handle, "shapeHandle"), SHAPE)
@@ -79,7 +79,7 @@ def getShapeAppearance(ctx: CallContext, handle: Any, opts: Any = None) -> dict:
 
 @sim_function("setShapeAppearance")
 def setShapeAppearance(ctx: CallContext, handle: Any, savedData: Any, opts: Any = None) -> int:  # noqa: N802, N803
-    """Apply a map :meth:`getShapeAppearance` returned (one entry per geom, in order);
+    """Apply a map :func:`getShapeAppearance` returned (one entry per geom, in order);
     returns the shape's handle.
 
     ``sim.setShapeAppearance``.

@@ -1,5 +1,5 @@
-"""CoppeliaSim 4.x's mesh files and mesh shapes, and joint dependencies, through MjSpec (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`).
+"""CoppeliaSim 4.x's mesh files and mesh shapes, and joint dependencies, through MjSpec
+(``sim.importMesh``, ``sim.exportMesh``, ``sim.createShape``, ``sim.setJointDependency``).
 
 ``importMesh`` reads an OBJ or binary STL file (the confinement of ``sim.importShape``:
 :func:`simx_server.api.sim.shape_import._readable`) through MuJoCo's mesh reader; ``exportMesh`` writes
@@ -40,7 +40,7 @@ def _mesh(vertices: Any, indices: Any) -> tuple[np.ndarray, np.ndarray]:
     return v, f
 
 
-# ``importMesh``, ``exportMesh``, ``createShape``, ``setJointDependency`` (facade mixin).
+# ``importMesh``, ``exportMesh``, ``createShape``, ``setJointDependency``.
 
 @sim_function("importMesh")
 def importMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options: Any = 0,  # noqa: N802, N803

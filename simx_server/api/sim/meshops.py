@@ -1,5 +1,4 @@
-"""CoppeliaSim 4.x's shape frame and size edits on the scene's MjSpec (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): ``sim.relocateShapeFrame`` (the body's frame
+"""CoppeliaSim 4.x's shape frame and size edits on the scene's MjSpec: ``sim.relocateShapeFrame`` (the body's frame
 moves, its geoms, sites, cameras, lights, inertia and child bodies stay where they are in the
 world), ``sim.setShapeBB`` and ``sim.scaleObjects`` (through ``sim.scaleObject``'s geom
 scaling). Each edit recompiles the scene as the scene editor does.
@@ -35,7 +34,7 @@ def _moved(pos: Any, quat: Any, rd: np.ndarray, pd: np.ndarray) -> tuple[list[fl
     return (rd @ np.asarray(pos, float) + pd).tolist(), q.tolist()
 
 
-# Shape frame relocation and bounding-box sizing (facade mixin).
+# Shape frame relocation and bounding-box sizing.
 
 def _shape_frame(ctx: CallContext, handle: int) -> tuple[np.ndarray, np.ndarray]:
     m = np.array(ctx.sim.getObjectMatrix(handle, -1), dtype=float).reshape(3, 4)
@@ -108,7 +107,7 @@ def relocateShapeFrame(ctx: CallContext, shapeHandle: Any, pose: Any) -> int:  #
 @sim_function("setShapeBB")
 def setShapeBB(ctx: CallContext, shapeHandle: Any, size: Any) -> None:  # noqa: N802, N803
     """Scale a shape so that its bounding box (its frame) measures ``size`` x, y, z (m), as
-    :meth:`scaleObject` scales it (each axis by new size / current size).
+    :func:`~simx_server.api.sim.mesh.scaleObject` scales it (each axis by new size / current size).
 
     ``sim.setShapeBB``.
 
@@ -133,7 +132,7 @@ def setShapeBB(ctx: CallContext, shapeHandle: Any, size: Any) -> None:  # noqa: 
 
 @sim_function("scaleObjects")
 def scaleObjects(ctx: CallContext, objectHandles: Any, scalingFactor: Any, scalePositionsToo: Any) -> None:  # noqa: N802, N803
-    """Scale shapes by ``scalingFactor`` (0.001..1000, as :meth:`scaleObject`); with
+    """Scale shapes by ``scalingFactor`` (0.001..1000, as :func:`~simx_server.api.sim.mesh.scaleObject`); with
     ``scalePositionsToo``, each object's position relative to its parent scales too (other
     objects than shapes only move).
 

@@ -1,5 +1,6 @@
 """CoppeliaSim 4.x's image and buffer utilities, referenced handles, alternate configurations and
-saving the scene as MJCF (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
+saving the scene as MJCF (``sim.getScaledImage``, ``sim.transformImage``, ``sim.getReferencedHandles``,
+``sim.getAlternateConfigs``, ``sim.saveScene``, ``sim.saveModel`` ...).
 
 Images are uint8 RGB buffers, rows bottom-up, as ``getVisionSensorImg`` returns them; scaling is
 OpenCV's. ``saveScene`` / ``saveModel`` write MJCF (``MjSpec.to_xml``): a client (and a script it
@@ -76,7 +77,7 @@ def alternate_configs(m: mujoco.MjModel, joints: list, config: list[float], lowL
     return [float(v) for combo in combos for v in combo]
 
 
-# Image utilities, referenced handles, alternate configurations, saving (facade mixin).
+# Image utilities, referenced handles, alternate configurations, saving.
 
 @sim_function("getScaledImage")
 def getScaledImage(ctx: CallContext, imageIn: Any, resolutionIn: Any, desiredResolutionOut: Any,  # noqa: N802, N803
@@ -381,7 +382,7 @@ def target_file(ctx: CallContext, filename: Any, what: str = "saveScene") -> tup
 
 
 def script_path(ctx: CallContext) -> Path | None:
-    """The calling script's file (None: a door's own facade), for :meth:`ClientFiles.writer`."""
+    """The calling script's file (None: a ZMQ door's clients), for :meth:`ClientFiles.writer`."""
     script = ctx.script
     return getattr(script, "path", None) if script is not None else None
 
@@ -419,12 +420,12 @@ def saveModel(ctx: CallContext, modelBaseHandle: Any, filename: Any) -> None:  #
 
     Args:
         modelBaseHandle: a shape's handle.
-        filename: a ``.xml`` name, as :meth:`saveScene`'s.
+        filename: a ``.xml`` name, as :func:`saveScene`'s.
 
     Raises:
         UnknownObjectError: no such object.
         ArgumentError: not a shape, or not a ``.xml`` name; a client's name outside its folder.
-        RemoteError: as :meth:`saveScene`.
+        RemoteError: as :func:`saveScene`.
         UnsupportedError: MuJoCo cannot write the model, or no simulation behind the script.
     """
     file, key = target_file(ctx, filename, "saveModel")

@@ -7,14 +7,15 @@ control follows) or, for joints without an active motor, their positions; ``move
 with a ``metric``). Both also take CoppeliaSim 4.3-4.5's positional form, whose ``callback``
 gets each step's state instead of anything being moved.
 
-One implementation for every caller: :class:`MotionCore` builds a motion as a generator that
+One implementation for every caller: :func:`config_motion` and :func:`pose_motion` build a motion as a generator that
 yields ``None`` when it wants a simulation step and a :class:`CallbackCall` when it wants the
 caller's callback run (the driver sends it the callback's return values), and returns the call's
-return values. Drivers: :class:`ScriptMotionCalls` here, in a Python script's thread (the
-callback a Python callable, a step a thread switch) and a Lua script's thread (``THREADS_LUA``
-of :mod:`simx_server.scripts.threads`: the callback a Lua function, a step a coroutine yield);
-:mod:`simx_server.api.sim.client_motion` for ZMQ clients (the callback the client's ``"NAME@func"``, a step
-a ``_*wait*_``). The 4.6 map's ``callback`` and ``ik`` fields are not supported (an error says so).
+return values. Drivers: :func:`moveToConfig` / :func:`moveToPose` here, in a Python script's
+thread (the callback a Python callable, a step a thread switch); a Lua script's thread
+(``THREADS_LUA`` of :mod:`simx_server.scripts.threads`, through :func:`lua_motion`: the callback a
+Lua function, a step a coroutine yield); for ZMQ clients a :class:`~simx_server.api.sim.stepped.Stepped`
+that :mod:`simx_server.zmq.service` drives (the callback the client's ``"NAME@func"``, a step a
+``_*wait*_``). The 4.6 map's ``callback`` and ``ik`` fields are not supported (an error says so).
 """
 
 from __future__ import annotations
@@ -166,7 +167,7 @@ Motion = Generator["CallbackCall | None", Any, list]
 Accept = Callable[[Any], Any]
 
 
-# The motions as generators (mixin of the script facade; :class:`Motion` drivers run them).
+# The motions as generators (:data:`Motion`; the drivers below and in the callers run them).
 
 def config_motion(ctx: CallContext, params: Any, legacy: tuple, accept: Accept) -> Motion:
     """``sim.moveToConfig``'s motion: move joints along a jerk-limited trajectory, one increment per simulation step
@@ -325,8 +326,8 @@ def pose_motion(ctx: CallContext, params: Any, legacy: tuple, accept: Accept) ->
 
 
 
-# ``sim.moveToConfig`` and ``sim.moveToPose`` in script threads (mixin of the facade): a
-# Python script's calls drive the motion here; a Lua script's go through ``THREADS_LUA``,
+# ``sim.moveToConfig`` and ``sim.moveToPose``: a Python script's calls drive the motion here in its
+# thread; a ZMQ client's get a Stepped the service drives; a Lua script's go through ``THREADS_LUA``,
 # which runs its Lua callback and yields its coroutine (:func:`lua_motion`).
 
 @sim_function("moveToConfig")

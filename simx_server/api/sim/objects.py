@@ -33,11 +33,7 @@ _NAME = re.compile(r"[A-Za-z0-9_]+(#[0-9]+)?")  # V-REP's name characters, optio
 _NOT_ALIAS = re.compile(r"[^A-Za-z0-9_]")  # CoppeliaSim replaces these with '_' in aliases
 
 
-# --------------------------------------------------------------------------- mixin
-# The object tree, matrices, velocities, forces and scene edits (mixin of the facade).
-#
-# Needs the facade's ``_world``, ``_owner``, ``_h``, ``_rel``, ``_set_pose``,
-# ``_simulation(what)`` and ``_forces`` (an :class:`AppliedForces`).
+# The object tree, matrices, velocities and scene edits.
 
 @sim_function("getObject")
 def getObject(ctx: CallContext, path: Any, options: Any = None) -> int:  # noqa: N802
@@ -276,7 +272,7 @@ def setObjectPosition(ctx: CallContext, handle: Any, relative_to: Any, position:
 @sim_function("setObjectOrientation")
 def setObjectOrientation(ctx: CallContext, handle: Any, relative_to: Any, euler: Any = None) -> None:  # noqa: N802
     """Turn an object to Euler angles (rad) in the frame of ``relative_to``; both argument
-    orders, as :meth:`setObjectPosition`.
+    orders, as :func:`setObjectPosition`.
 
     Args:
         handle: the object's handle.
@@ -290,7 +286,7 @@ def setObjectOrientation(ctx: CallContext, handle: Any, relative_to: Any, euler:
 @sim_function("setObjectQuaternion")
 def setObjectQuaternion(ctx: CallContext, handle: Any, relative_to: Any, quaternion: Any = None) -> None:  # noqa: N802
     """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``; both
-    argument orders, as :meth:`setObjectPosition`.
+    argument orders, as :func:`setObjectPosition`.
 
     Args:
         handle: the object's handle.
@@ -320,7 +316,7 @@ def getObjectMatrix(ctx: CallContext, handle: Any, relative_to: Any = -1) -> lis
 
 @sim_function("setObjectMatrix")
 def setObjectMatrix(ctx: CallContext, handle: Any, relative_to: Any, matrix: Any = None) -> None:  # noqa: N802
-    """Place an object by a 12-number matrix (see :meth:`getObjectMatrix`) relative to
+    """Place an object by a 12-number matrix (see :func:`getObjectMatrix`) relative to
     ``relative_to``. Both argument orders work: ``(h, relativeTo, matrix)`` (CoppeliaSim
     4.0-4.4) and ``(h, matrix [, relativeTo])`` (4.5+). The rotation part must be a rotation
     (orthonormal within 1e-3; it is re-orthonormalised); the rules of setObjectPosition hold.

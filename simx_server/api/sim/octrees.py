@@ -1,7 +1,6 @@
-"""CoppeliaSim 4.x's octrees kept as data (mixin of :class:`simx_server.scripts.facade.ScriptSim`):
-``sim.createOctree`` and the calls on octrees. An octree is a scene object with a frame (as a
-point cloud, :mod:`simx_server.api.sim.clouds`, whose helpers these calls share): a set of
-cubic voxels of one size on a grid aligned with that frame (centres at
+"""CoppeliaSim 4.x's octrees kept as data: ``sim.createOctree`` and the calls on octrees. An octree
+is a scene object with a frame (as a point cloud, :mod:`simx_server.api.sim.clouds`, whose helpers
+these calls share): a set of cubic voxels of one size on a grid aligned with that frame (centres at
 ``(i + 0.5) * voxelSize``), each with a colour and a tag.
 """
 
@@ -22,7 +21,7 @@ from simx_server.api.sim.clouds import MAX_POINTS, _colours, _points
 from simx_server.sim.objects import SHAPE
 
 
-# ``sim.createOctree`` and the calls on octrees (facade mixin; the helpers come from CloudCalls).
+# ``sim.createOctree`` and the calls on octrees (the helpers come from :mod:`simx_server.api.sim.clouds`).
 
 @sim_function("createOctree")
 def createOctree(ctx: CallContext, voxelSize: Any, options: Any, pointSize: Any) -> int:  # noqa: N802, N803
@@ -211,7 +210,7 @@ def insertObjectIntoOctree(ctx: CallContext, octreeHandle: Any, objectHandle: An
 @sim_function("subtractObjectFromOctree")
 def subtractObjectFromOctree(ctx: CallContext, octreeHandle: Any, objectHandle: Any, options: Any) -> int:  # noqa: N802, N803
     """Free the voxels an object occupies: those it passes through (as
-    :meth:`insertObjectIntoOctree` marks them) and, for a shape, those whose centre lies in
+    :func:`insertObjectIntoOctree` marks them) and, for a shape, those whose centre lies in
     its solid. The octree's voxel count.
 
     ``sim.subtractObjectFromOctree``.

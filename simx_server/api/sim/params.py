@@ -1,14 +1,14 @@
 """CoppeliaSim 4.x's simulator parameters, the random generator and the run flags, for scripts and
-ZMQ clients alike (mixin of :class:`simx_server.scripts.facade.ScriptSim`).
+ZMQ clients alike (``sim.getInt32Param`` and the other typed and named parameter functions,
+``sim.getRandom``, ``sim.getIsRealTimeSimulation``, ``sim.quitSimulator``).
 
 Parameter ids are CoppeliaSim's (``sim.intparam_program_version`` ...). Each id with a meaning
-on a headless MuJoCo server answers it; the rest raise UnsupportedError naming the id (a ZMQ
-client's :class:`~simx_server.api.sim.remote.RemoteSim` first tries the legacy API's parameters,
-which know the mouse and the stop counter, :mod:`simx_server.scene.parameters`, through
-:meth:`ParamCalls._legacy_param`).
+on a headless MuJoCo server answers it; the rest raise UnsupportedError naming the id (for a ZMQ
+client, :func:`_legacy_param` first tries the legacy API's parameters, which know the mouse and
+the stop counter, :mod:`simx_server.scene.parameters`).
 
 ``sim.intparam_program_version`` answers **40800**, CoppeliaSim 4.8.0 (major·10000 + minor·100
-+ patch): the release whose API simx's ZMQ table and facade follow (docs/ZMQ.md), so a program
++ patch): the release whose API simx's ZMQ table and ``sim`` functions follow (docs/ZMQ.md), so a program
 that checks ``>= 40300`` before using 4.3's paths takes the 4.x branch.
 """
 
@@ -38,7 +38,7 @@ _INT, _FLOAT, _BOOL, _STRING, _ARRAY = "integer", "float", "boolean", "string", 
 
 
 # ``sim.get/setInt32Param``, ``Float``, ``Bool``, ``String``, ``Array`` and named parameters,
-# ``getRandom``, ``getIsRealTimeSimulation``, ``quitSimulator`` (mixin of the facade).
+# ``getRandom``, ``getIsRealTimeSimulation``, ``quitSimulator``.
 
 #: CoppeliaSim 4.x string parameters simx answers besides the legacy ones (simConst.h's numbering).
 STRINGPARAM_SCENE_PATH, STRINGPARAM_SCENE_NAME, STRINGPARAM_SCENEDEFAULTDIR = 14, 15, 132
@@ -94,7 +94,7 @@ def setInt32Param(ctx: CallContext, parameter: Any, value: Any) -> None:  # noqa
         value: an integer.
 
     Raises:
-        RemoteError: an id this facade answers (read-only).
+        RemoteError: an id this module answers (read-only).
         UnsupportedError: any other id.
     """
     pid, v = _int(parameter, "parameter"), _int(value, "intState")
@@ -319,7 +319,7 @@ def getNamedStringParam(ctx: CallContext, paramName: Any) -> str | None:  # noqa
 
 @sim_function("setNamedInt32Param")
 def setNamedInt32Param(ctx: CallContext, paramName: Any, value: Any) -> None:  # noqa: N802, N803
-    """Store a named parameter as the text of an integer (:meth:`setNamedStringParam`).
+    """Store a named parameter as the text of an integer (:func:`setNamedStringParam`).
 
     Args:
         paramName: the name.
@@ -347,7 +347,7 @@ def getNamedInt32Param(ctx: CallContext, paramName: Any) -> int | None:  # noqa:
 
 @sim_function("setNamedFloatParam")
 def setNamedFloatParam(ctx: CallContext, paramName: Any, value: Any) -> None:  # noqa: N802, N803
-    """Store a named parameter as the text of a number (:meth:`setNamedStringParam`).
+    """Store a named parameter as the text of a number (:func:`setNamedStringParam`).
 
     Args:
         paramName: the name.
@@ -426,7 +426,7 @@ def getIsRealTimeSimulation(ctx: CallContext) -> int:  # noqa: N802
 
 @sim_function("getRealTimeSimulation")
 def getRealTimeSimulation(ctx: CallContext) -> bool:  # noqa: N802
-    """Whether the free-running simulation is paced to wall time (:meth:`getIsRealTimeSimulation`).
+    """Whether the free-running simulation is paced to wall time (:func:`getIsRealTimeSimulation`).
 
     Returns:
         True or False.

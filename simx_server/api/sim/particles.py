@@ -1,6 +1,6 @@
 """V-REP's particle objects (``sim.addParticleObject``, ``sim.addParticleObjectItem``,
-``sim.removeParticleObject``; ``simAddParticleObject`` & co. in 3.x) as force sources: a mixin of
-:class:`simx_server.scripts.facade.ScriptSim` and the registry that moves the particles.
+``sim.removeParticleObject``; ``simAddParticleObject`` & co. in 3.x) as force sources: those
+``sim`` functions and the registry that moves the particles (:class:`Particles`).
 
 MuJoCo has no particles. Here each particle is a point of mass ``density * pi * size**3 / 6``
 (a sphere of diameter ``size``) that flies in a straight line (under gravity unless the object
@@ -101,7 +101,7 @@ class Particles:
 
     def advance(self, world: Any, forces: Any, dt: float) -> int:
         """Move every particle by one step of ``dt`` s; absorbed particles add their push to
-        ``forces`` (an :class:`~simx_server.api.sim.objects.AppliedForces`). Returns how
+        ``forces`` (an :class:`~simx_server.api.sim.forces.AppliedForces`). Returns how
         many hit a body.
 
         Args:
@@ -150,7 +150,7 @@ class Particles:
         return hits
 
 
-# ``sim.addParticleObject`` & co. (facade mixin); the registry lives in the scripts' shared
+# ``sim.addParticleObject`` & co.; the registry lives in the scripts' shared
 # dictionary, so that the simulation moves it every step.
 
 def _particles(ctx: CallContext) -> Particles:

@@ -1,5 +1,5 @@
-"""CoppeliaSim 4.x's path helpers, collections and drawing objects kept as data (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`).
+"""CoppeliaSim 4.x's path helpers, collections and drawing objects kept as data (``sim.getPathLengths``,
+``sim.createCollection``, ``sim.addDrawingObject`` and their kin).
 
 * Paths are flat lists of configurations (``dof`` numbers each), as CoppeliaSim's Lua helpers
   take them: lengths along the path (Euclidean between consecutive configurations),
@@ -68,7 +68,7 @@ def _linear(method: Any) -> None:
         raise ArgumentError(f"interpolation {kind!r}: simx interpolates paths linearly ({{type = 'linear'}})")
 
 
-# Path helpers, collections, drawing objects (facade mixin).
+# Path helpers, collections, drawing objects.
 
 @sim_function("getPathLengths")
 def getPathLengths(ctx: CallContext, path: Any, dof: Any, distCallback: Any = None) -> tuple[list[float], float]:  # noqa: N802, N803
@@ -100,7 +100,7 @@ def getPathInterpolatedConfig(ctx: CallContext, path: Any, pathLengths: Any, t: 
 
     Args:
         path: configurations, flat.
-        pathLengths: :meth:`getPathLengths`'s lengths.
+        pathLengths: :func:`getPathLengths`'s lengths.
         t: the length along the path.
         method: None or ``{type = 'linear'}``.
         types: ignored.
@@ -123,7 +123,7 @@ def resamplePath(ctx: CallContext, path: Any, pathLengths: Any, finalConfigCnt: 
 
     Args:
         path: configurations, flat.
-        pathLengths: :meth:`getPathLengths`'s lengths.
+        pathLengths: :func:`getPathLengths`'s lengths.
         finalConfigCnt: how many configurations, at least 2.
         method: None or ``{type = 'linear'}``.
         types: ignored.
@@ -149,7 +149,7 @@ def getClosestPosOnPath(ctx: CallContext, path: Any, pathLengths: Any, absPt: An
 
     Args:
         path: configurations, flat.
-        pathLengths: :meth:`getPathLengths`'s lengths.
+        pathLengths: :func:`getPathLengths`'s lengths.
         absPt: a point (3 numbers, m).
 
     Returns:

@@ -1,6 +1,5 @@
 """CoppeliaSim 4.x's pose and matrix arithmetic for remote programs (``sim.rotateAroundAxis``,
-``sim.poseToMatrix``, ``sim.multiplyPoses`` ...): a mixin of :class:`simx_server.scripts.facade.ScriptSim`,
-so child scripts and ZMQ clients (:class:`simx_server.api.sim.remote.RemoteSim`) share it.
+``sim.poseToMatrix``, ``sim.multiplyPoses`` ...), which child scripts and ZMQ clients call alike.
 
 Pure arithmetic, no scene. CoppeliaSim's layouts: a *matrix* is 12 numbers row by row
 ``[Xx Yx Zx Px  Xy Yy Zy Py  Xz Yz Zz Pz]`` (rotation columns, then the position, m); a *pose*

@@ -1,6 +1,6 @@
-"""CoppeliaSim 4.8+'s typed property getters and setters (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`), over :class:`~simx_server.api.sim.data.DataCalls`'
-``getProperty`` / ``setProperty``.
+"""CoppeliaSim 4.8+'s typed property getters and setters (``sim.getIntProperty``,
+``sim.setFloatProperty`` ...), over :func:`~simx_server.api.sim.data.getProperty` /
+:func:`~simx_server.api.sim.data.setProperty`.
 
 A typed setter (``sim.setIntProperty(h, 'customData.count', 3)``) stores the value as a custom
 data block (CBOR) and remembers its ``sim.propertytype_*``; a typed getter reads any property

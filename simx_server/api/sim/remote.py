@@ -1,12 +1,13 @@
-"""``sim`` of a ZMQ remote API client: the child scripts' facade, plus what remote programs need.
+"""The ``sim`` functions that a program outside the scene calls and a script did not need.
 
-:class:`RemoteSim` *is* the facade of child scripts (:class:`~simx_server.scripts.facade.ScriptSim`,
-docs/SCRIPTS.md): one implementation of every ``sim.NAME`` both share, with the world it works on
-read from the simulation at each call (a scene load replaces it). On top it adds the calls that a
-program outside the scene makes and a script did not need (CoppeliaSim 4.x's names, arguments and
-returns): running the simulation, its parameters, scene files, removing objects, poses as 7
-numbers, passive vision sensors and depth buffers, calls into the scene's child scripts, the
-log; pose arithmetic comes with ScriptSim (:class:`~simx_server.api.sim.posemath.PoseMath`). The stepping calls
+A ZMQ remote API client calls the same table as child scripts (docs/SCRIPTS.md): one
+implementation of every ``sim.NAME``, with the world read from the simulation at each call (a
+scene load replaces it; :func:`simx_server.api.client_context`). The functions here are the
+ones a remote program adds (CoppeliaSim 4.x's names, arguments and returns): running the
+simulation, scene files, the object selection, passive vision sensors' images, calls into the
+scene's child scripts, the log, each registered for clients only
+(:attr:`~simx_server.api.registry.Callers.CLIENTS`). Pose arithmetic is shared with scripts
+(:mod:`simx_server.api.sim.posemath`). The stepping calls
 (``sim.setStepping``, ``sim.step``, ``sim.acquireLock``, ``sim.releaseLock``) belong to a client,
 not to the scene: :mod:`simx_server.zmq.service` answers them.
 
@@ -41,12 +42,8 @@ COPPELIASIM_SCENES, COPPELIASIM_MODELS = (".ttt",), (".ttm",)
 _VERBOSITY_MASK = 0xFFF  # sim.addLog's level, without its flags (undecorated, only terminal, once)
 
 
-# ``sim`` as the ZMQ remote API offers it, over one :class:`Simulation`.
-#
-# Args:
-# simulation: the server's simulation (its world, vision sensors, scripts and editor are
-# read at each call).
-
+# ``sim`` as the ZMQ remote API offers it, over the server's simulation (its world, vision
+# sensors, scripts and editor are read at each call: :meth:`CallContext.simulation`).
 
 @sim_function("startSimulation", callers=Callers.CLIENTS)
 def startSimulation(ctx: CallContext) -> int:  # noqa: N802 (CoppeliaSim's names)
@@ -126,7 +123,7 @@ def _stand_in(ctx: CallContext, filename: str, kinds: tuple[str, ...]) -> str:
 def loadScene(ctx: CallContext, filename: Any) -> None:  # noqa: N802
     """Replace the scene with a server-side scene file, under ``simxLoadScene``'s rules (the
     simulation stopped; only the scene's folder and ``--scene-path`` folders). A CoppeliaSim
-    ``.ttt`` path loads the MJCF scene of the same stem (see :meth:`_stand_in`)."""
+    ``.ttt`` path loads the MJCF scene of the same stem (see :func:`_stand_in`)."""
     if isinstance(filename, (bytes, bytearray)):
         raise UnsupportedError("sim.loadScene of a serialized scene (a buffer) is not supported; give a file name")
     name = _stand_in(ctx, _text(filename, "filename"), COPPELIASIM_SCENES)
@@ -179,7 +176,7 @@ def isDeprecated(ctx: CallContext, funcOrConst: Any) -> int:  # noqa: N802, N803
 
 @sim_function("setVisionSensorCharImage", callers=Callers.CLIENTS)
 def setVisionSensorCharImage(ctx: CallContext, sensorHandle: Any, image: Any) -> None:  # noqa: N802, N803
-    """CoppeliaSim's older name: :meth:`setVisionSensorImg` of a whole RGB image."""
+    """CoppeliaSim's older name: :func:`setVisionSensorImg` of a whole RGB image."""
     setVisionSensorImg(ctx, sensorHandle, image)
 
 
@@ -211,7 +208,7 @@ def callScriptFunction(ctx: CallContext, functionName: Any, scriptHandleOrType: 
 
     ``("func@/path", sim.scripttype_childscript, ...)`` (CoppeliaSim 4.0-4.5: the script of
     the object the path or name names) or ``("func", scriptHandle, ...)`` (4.6+: a handle of
-    :meth:`getScript`, which is the object's). Lua strings come back as text where they are
+    :func:`getScript`, which is the object's). Lua strings come back as text where they are
     UTF-8, as bytes otherwise. Errors: no such object, script or function; the script's own."""
     name = _text(functionName, "functionName")
     target = _int(scriptHandleOrType, "scriptHandleOrType")

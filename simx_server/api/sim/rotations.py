@@ -1,6 +1,5 @@
-"""CoppeliaSim 4.x's rotation arithmetic of the facade (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`, through
-:class:`simx_server.api.sim.data.DataCalls`): rotation axes, matrix interpolation,
+"""CoppeliaSim 4.x's rotation arithmetic of ``sim`` (``sim.getRotationAxis``,
+``sim.interpolateMatrices``, ``sim.yawPitchRollToAlphaBetaGamma`` ...): rotation axes, matrix interpolation,
 yaw-pitch-roll and V-REP's Euler angles, quaternion inverse, configuration distance.
 """
 
@@ -115,7 +114,7 @@ def yawPitchRollToAlphaBetaGamma(ctx: CallContext, yawAngle: Any, pitchAngle: An
 
 @sim_function("alphaBetaGammaToYawPitchRoll")
 def alphaBetaGammaToYawPitchRoll(ctx: CallContext, alphaAngle: Any, betaAngle: Any, gammaAngle: Any) -> tuple[float, float, float]:  # noqa: N802, N803
-    """The inverse of :meth:`yawPitchRollToAlphaBetaGamma` (rad).
+    """The inverse of :func:`yawPitchRollToAlphaBetaGamma` (rad).
 
     ``sim.alphaBetaGammaToYawPitchRoll``.
 

@@ -1,8 +1,8 @@
 """CoppeliaSim 4.x's Ruckig objects (``sim.ruckigPos``, ``ruckigVel``, ``ruckigStep``,
-``ruckigRemove``) on the ``ruckig`` library CoppeliaSim uses too (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): jerk-limited online trajectories a script or a
-client steps itself, and ``moveToConfig`` / ``moveToPose`` in steps on them
-(``_init``, ``_step``, ``_cleanup``). Handles from 4,000,000; at most 256 objects per facade."""
+``ruckigRemove``) on the ``ruckig`` library CoppeliaSim uses too: jerk-limited online trajectories
+a script or a client steps itself, and ``moveToConfig`` / ``moveToPose`` in steps on them
+(``_init``, ``_step``, ``_cleanup``). Handles from 4,000,000; at most 256 objects per caller
+(a script, or a ZMQ door's clients: :class:`~simx_server.api.context.CallerState`)."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ def _floats(values: Any, n: int, what: str) -> list[float]:
     return [_num(v, what) for v in values[:n]]
 
 
-# Ruckig position and velocity interfaces, stepped by the caller (facade mixin).
+# Ruckig position and velocity interfaces, stepped by the caller.
 
 def _ruckig_objects(ctx: CallContext) -> dict:
     objs = ctx.state.ruckig
@@ -130,7 +130,7 @@ def ruckigStep(ctx: CallContext, handle: Any, cycleTime: Any) -> tuple[int, list
     ``sim.ruckigStep``.
 
     Args:
-        handle: from :meth:`ruckigPos` / :meth:`ruckigVel`.
+        handle: from :func:`ruckigPos` / :func:`ruckigVel`.
         cycleTime: s.
 
     Returns:
@@ -166,7 +166,7 @@ def ruckigRemove(ctx: CallContext, handle: Any) -> None:  # noqa: N802
     """``sim.ruckigRemove``: forget a Ruckig object.
 
     Args:
-        handle: from :meth:`ruckigPos` / :meth:`ruckigVel`.
+        handle: from :func:`ruckigPos` / :func:`ruckigVel`.
 
     Raises:
         UnknownObjectError: no such Ruckig object.
@@ -181,7 +181,7 @@ def moveToConfig_init(ctx: CallContext, params: Any) -> dict:  # noqa: N802
     """The state of a joint motion stepped by the caller: ``params`` as ``sim.moveToConfig``'s
     (``joints`` or ``pos``, ``targetPos``, ``maxVel``, ``maxAccel``, ``maxJerk``, optional
     ``vel``, ``accel``, ``targetVel``, ``flags``, ``timeStep``); each
-    :meth:`moveToConfig_step` advances it one time step and sets the joints' target positions.
+    :func:`moveToConfig_step` advances it one time step and sets the joints' target positions.
 
     ``sim.moveToConfig_init`` (CoppeliaSim 4.7).
 
@@ -189,7 +189,7 @@ def moveToConfig_init(ctx: CallContext, params: Any) -> dict:  # noqa: N802
         params: the parameter table (positions rad or m, limits per second, /s², /s³).
 
     Returns:
-        The motion's data table for :meth:`moveToConfig_step`.
+        The motion's data table for :func:`moveToConfig_step`.
 
     Raises:
         ArgumentError: not a table, no joints or positions, or lengths that differ.
@@ -223,7 +223,7 @@ def moveToConfig_step(ctx: CallContext, data: Any) -> tuple[int, dict]:  # noqa:
     ``sim.moveToConfig_step``.
 
     Args:
-        data: the table :meth:`moveToConfig_init` returned.
+        data: the table :func:`moveToConfig_init` returned.
 
     Returns:
         ``(result, data)``.
@@ -250,7 +250,7 @@ def moveToConfig_cleanup(ctx: CallContext, data: Any) -> None:  # noqa: N802
     ``sim.moveToConfig_cleanup``.
 
     Args:
-        data: the table :meth:`moveToConfig_init` returned (anything else: nothing done).
+        data: the table :func:`moveToConfig_init` returned (anything else: nothing done).
     """
     if isinstance(data, dict) and "ruckigObject" in data:
         _ruckig_objects(ctx).pop(_int(data["ruckigObject"], "ruckigObject"), None)
@@ -262,7 +262,7 @@ def moveToPose_init(ctx: CallContext, params: Any) -> dict:  # noqa: N802
     (``object`` or ``pose``, ``targetPose``, optional ``relObject``, ``maxVel``, ``maxAccel``,
     ``maxJerk`` of 4 degrees of freedom x, y, z and the rotation angle, or with ``metric``
     (4 weights) of 1 along a straight line; ``flags``, ``timeStep``). Each
-    :meth:`moveToPose_step` advances it one time step and places the object.
+    :func:`moveToPose_step` advances it one time step and places the object.
 
     ``sim.moveToPose_init`` (CoppeliaSim 4.7).
 
@@ -270,7 +270,7 @@ def moveToPose_init(ctx: CallContext, params: Any) -> dict:  # noqa: N802
         params: the parameter table (poses 7 numbers, m and quaternion).
 
     Returns:
-        The motion's data table for :meth:`moveToPose_step`.
+        The motion's data table for :func:`moveToPose_step`.
 
     Raises:
         ArgumentError: not a table, no ``targetPose``, or neither ``object`` nor ``pose``.
@@ -325,7 +325,7 @@ def moveToPose_step(ctx: CallContext, data: Any) -> tuple[int, dict]:  # noqa: N
     ``sim.moveToPose_step``.
 
     Args:
-        data: the table :meth:`moveToPose_init` returned.
+        data: the table :func:`moveToPose_init` returned.
 
     Returns:
         ``(result, data)``.
@@ -362,7 +362,7 @@ def moveToPose_cleanup(ctx: CallContext, data: Any) -> None:  # noqa: N802
     ``sim.moveToPose_cleanup``.
 
     Args:
-        data: the table :meth:`moveToPose_init` returned (anything else: nothing done).
+        data: the table :func:`moveToPose_init` returned (anything else: nothing done).
     """
     if isinstance(data, dict) and "ruckigObject" in data:
         _ruckig_objects(ctx).pop(_int(data["ruckigObject"], "ruckigObject"), None)

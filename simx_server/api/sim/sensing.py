@@ -1,5 +1,4 @@
-"""CoppeliaSim 4.x's collision, distance, sensor-handling and joint calls on MuJoCo (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`).
+"""CoppeliaSim 4.x's collision, distance and sensor-handling functions of ``sim`` on MuJoCo.
 
 * ``checkCollision`` / ``checkDistance`` / ``getContactInfo``: MuJoCo's narrow phase
   (``mj_geomDistance``, :mod:`simx_server.sim.collisions`) between the shapes' collidable geoms,
@@ -27,7 +26,7 @@ from simx_server.sim import collisions, proximity, scene_collections, sensors
 from simx_server.sim.objects import PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
 
 
-# Collision and distance checks, sensor handling (facade mixin).
+# Collision and distance checks, sensor handling.
 
 def _entity(ctx: CallContext, handle: Any, what: str) -> int:
     h = ctx.h(handle, what)
@@ -182,7 +181,7 @@ def vision_of(ctx: CallContext, handle: Any) -> int:
 def handleVisionSensor(ctx: CallContext, sensorHandle: Any) -> tuple:  # noqa: N802, N803
     """Render the sensor now: ``detectionCount, auxPacket1, auxPacket2...``: how many sensors
     their filters triggered, V-REP's 15 values (min, max, average of intensity, red, green,
-    blue, depth, 0..1) and the filters' packets (see :meth:`readVisionSensor`).
+    blue, depth, 0..1) and the filters' packets (see :func:`readVisionSensor`).
     ``sim.handle_all``: each sensor; returns the last's packets.
 
     Args:
@@ -237,7 +236,7 @@ def readVisionSensor(ctx: CallContext, sensorHandle: Any) -> tuple:  # noqa: N80
 
 @sim_function("checkVisionSensor")
 def checkVisionSensor(ctx: CallContext, sensorHandle: Any, entityHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
-    """As :meth:`readVisionSensor` (simx renders the whole scene: ``entityHandle`` is checked
+    """As :func:`readVisionSensor` (simx renders the whole scene: ``entityHandle`` is checked
     and must be ``sim.handle_all`` or an object).
 
     Args:
@@ -317,8 +316,8 @@ def _proximity(ctx: CallContext, handle: Any) -> int:
 
 @sim_function("handleProximitySensor")
 def handleProximitySensor(ctx: CallContext, sensorHandle: Any) -> tuple[int, float, list[float], int, list[float]]:  # noqa: N802, N803
-    """Cast the sensor's ray(s) now: as :meth:`readProximitySensor` (``sim.handle_all``: each
-    proximity sensor, the last one's reading).
+    """Cast the sensor's ray(s) now: as :func:`~simx_server.api.sim.sensors.readProximitySensor`
+    (``sim.handle_all``: each proximity sensor, the last one's reading).
 
     Args:
         sensorHandle: a proximity sensor, or ``sim.handle_all``.
@@ -374,7 +373,7 @@ def resetProximitySensor(ctx: CallContext, sensorHandle: Any) -> None:  # noqa: 
 
 @sim_function("getExplicitHandling")
 def getExplicitHandling(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N802, N803
-    """Sensors are read when asked in simx: 0, or what :meth:`setExplicitHandling` stored.
+    """Sensors are read when asked in simx: 0, or what :func:`setExplicitHandling` stored.
 
     ``sim.getExplicitHandling``.
 

@@ -1,8 +1,8 @@
-"""CoppeliaSim 4.x script calls of the ``sim`` facade: signals, sensors, object parameters and
-the simulation state.
+"""CoppeliaSim 4.x's ``sim`` functions of signals, sensors, object parameters and the simulation
+state.
 
-:class:`SensorCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim`, the ``sim`` of child
-scripts; it reads the simulation through the facade's ``_sim`` (a
+They read the simulation through :meth:`CallContext.simulation
+<simx_server.api.context.CallContext.simulation>` (a
 :class:`~simx_server.scene.simulation.Simulation`) and the sensor functions of
 :mod:`simx_server.sim.sensors` (``force_sensor_reading``, ``proximity_reading``, ``get_int_param``,
 ``set_int_param``, ``get_float_param``, ``set_float_param``, ``override_image``) and
@@ -47,9 +47,7 @@ def _pair(value: Any, what: str) -> tuple[int, int]:
     return _int(value[0], f"{what}[1]"), _int(value[1], f"{what}[2]")
 
 
-# Signals, sensors, object parameters and the simulation state (mixin of the facade).
-#
-# Needs the facade's ``_world``, ``_owner``, ``_signals``, ``_h(handle)`` and ``_simulation(what)``.
+# Signals, sensors, object parameters and the simulation state.
 
 @sim_function("setInt32Signal")
 def setInt32Signal(ctx: CallContext, name: Any, value: Any) -> None:  # noqa: N802 (CoppeliaSim's names)

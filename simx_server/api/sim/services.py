@@ -1,9 +1,8 @@
-"""CoppeliaSim 4.x's image files, object queries and application services (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): ``saveImage`` / ``loadImage`` (OpenCV; a client
-writes into its own folder and reads from it and the scene folders: client_files), ``getObjectAliasRelative``, ``getModelBB``,
-``getObjectChildPose`` / ``setObjectChildPose`` (a joint's intrinsic motion),
-``removeReferencedObjects``, ``createPureShape`` (V-REP's older ``createPrimitiveShape``),
-``getThreadId``.
+"""CoppeliaSim 4.x's image files, object queries and application services: ``saveImage`` /
+``loadImage`` (OpenCV; a client writes into its own folder and reads from it and the scene folders:
+client_files), ``getObjectAliasRelative``, ``getModelBB``, ``getObjectChildPose`` /
+``setObjectChildPose`` (a joint's intrinsic motion), ``removeReferencedObjects``,
+``createPureShape`` (V-REP's older ``createPrimitiveShape``), ``getThreadId``.
 
 Images are uint8 buffers with rows bottom-up, as ``getVisionSensorImg`` returns them; files
 are written and read top-down (the picture the right way up).
@@ -42,7 +41,7 @@ def _channels(options: int) -> int:
     return 1 if options & 2 else 4 if options & 1 else 3
 
 
-# Image files, object queries and application services (facade mixin).
+# Image files, object queries and application services.
 
 def image_file(ctx: CallContext, filename: str, writing: bool) -> Path:
     """The image file a call writes or reads: a client's (or a script's acting for one) in its
@@ -291,7 +290,7 @@ def getObjectChildPose(ctx: CallContext, objectHandle: Any) -> list[float]:  # n
 
 @sim_function("setObjectChildPose")
 def setObjectChildPose(ctx: CallContext, objectHandle: Any, pose: Any) -> None:  # noqa: N802, N803
-    """Set a joint's intrinsic motion from a child pose (see :meth:`getObjectChildPose`): a
+    """Set a joint's intrinsic motion from a child pose (see :func:`getObjectChildPose`): a
     hinge takes the rotation's angle about z, a slide the z translation, a ball the rotation.
 
     ``sim.setObjectChildPose``.

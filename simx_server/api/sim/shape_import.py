@@ -1,11 +1,11 @@
 """Shapes made by scripts: ``sim.importShape`` (an .obj/.stl mesh through ``MjSpec``),
-and ``sim.setShapeColor`` (``sim.setObjectName`` is the facade's own, simx_server.api.sim.objects).
+and ``sim.setShapeColor`` (``sim.setObjectName``: :mod:`simx_server.api.sim.objects`).
 
 The imported shape is a new body of the world (V-REP's shape) holding one mesh geom; the
 scene is edited through :class:`simx_server.scene.editor.Editor` (all or nothing, handles kept, the
-simulation goes on). The facade functions here are registered on
-:class:`simx_server.api.sim.core.SimFacade` and reach the scene's editor through the script's
-``sim`` (:meth:`simx_server.scripts.facade.ScriptSim._simulation`), as the other scene-editing calls do.
+simulation goes on). The ``sim`` functions here reach the scene's editor through the caller's
+context (:meth:`CallContext.simulation <simx_server.api.context.CallContext.simulation>`), as the other
+scene-editing calls do.
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ def _readable(sim: SimulationView, path: str, script: Any = None, what: str = "i
     Args:
         sim: the simulation.
         path: the file name as given.
-        script: the calling script (its file says whose scene it is), None for a door's facade.
+        script: the calling script (its file says whose scene it is), None for a ZMQ door's clients.
         what: the call, for the error.
 
     Raises:

@@ -1,6 +1,5 @@
-"""CoppeliaSim 4.x's shape calls on MuJoCo bodies (mixin of :class:`simx_server.scripts.facade.ScriptSim`):
-colours, bounding boxes, meshes and primitive shapes (mass and inertia:
-:mod:`simx_server.api.sim.inertia`).
+"""CoppeliaSim 4.x's shape functions of ``sim`` on MuJoCo bodies: colours, bounding boxes, meshes
+and primitive shapes (mass and inertia: :mod:`simx_server.api.sim.inertia`).
 
 A V-REP shape is a MuJoCo body (:mod:`simx_server.sim.objects`); its geoms are its components.
 Mass and inertia are the body's (``body_mass``, ``body_inertia`` in the principal frame
@@ -39,7 +38,7 @@ def _geom_pose(m: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray]:
     return m.geom_pos[g].copy(), rot.reshape(3, 3)
 
 
-# Shape colours, bounding boxes, meshes, primitive shapes (facade mixin).
+# Shape colours, bounding boxes, meshes, primitive shapes.
 
 def shape_of(ctx: CallContext, handle: Any) -> Any:
     return ctx.world.get(ctx.h(handle, "shapeHandle"), SHAPE)
@@ -89,7 +88,7 @@ def getShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
 
 @sim_function("getObjectColor")
 def getObjectColor(ctx: CallContext, objectHandle: Any, index: Any, colorComponent: Any) -> list[float] | None:  # noqa: N802, N803
-    """Colour of a shape's ``index``-th geom (as :meth:`getShapeColor`) or of a dummy (its
+    """Colour of a shape's ``index``-th geom (as :func:`getShapeColor`) or of a dummy (its
     site's rgba); nil (None) for an index past the last.
 
     ``sim.getObjectColor``.
@@ -270,7 +269,7 @@ def getShapeGeomInfo(ctx: CallContext, shapeHandle: Any) -> tuple[int, int, list
 
 @sim_function("getShapeViz")
 def getShapeViz(ctx: CallContext, shapeHandle: Any, itemIndex: Any) -> dict:  # noqa: N802, N803
-    """``{vertices, indices, normals, colors}`` of the shape's mesh (:meth:`getShapeMesh`).
+    """``{vertices, indices, normals, colors}`` of the shape's mesh (:func:`getShapeMesh`).
 
     ``sim.getShapeViz``.
 
@@ -295,7 +294,7 @@ def getShapeViz(ctx: CallContext, shapeHandle: Any, itemIndex: Any) -> dict:  # 
 @sim_function("changeEntityColor")
 def changeEntityColor(ctx: CallContext, entityHandle: Any, newColor: Any, colorComponent: Any = 0) -> list[dict]:  # noqa: N802, N803
     """Colour every geom of a shape and the shapes below it (RGB 0..1; component 0/1 the
-    colour, 4 transparency); returns the original colours for :meth:`restoreEntityColor`.
+    colour, 4 transparency); returns the original colours for :func:`restoreEntityColor`.
 
     ``sim.changeEntityColor``.
 
@@ -332,12 +331,12 @@ def changeEntityColor(ctx: CallContext, entityHandle: Any, newColor: Any, colorC
 
 @sim_function("restoreEntityColor")
 def restoreEntityColor(ctx: CallContext, originalColorData: Any) -> None:  # noqa: N802, N803
-    """Put back the colours :meth:`changeEntityColor` returned (until the scene is edited).
+    """Put back the colours :func:`changeEntityColor` returned (until the scene is edited).
 
     ``sim.restoreEntityColor``.
 
     Args:
-        originalColorData: the list :meth:`changeEntityColor` returned.
+        originalColorData: the list :func:`changeEntityColor` returned.
 
     Raises:
         ArgumentError: not that list, or one that no longer fits the scene.

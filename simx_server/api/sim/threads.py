@@ -1,10 +1,8 @@
 """Python scripts' threads: :class:`PythonThread` runs a script's ``sysCall_thread`` as a
-coroutine on its own OS thread, and :class:`PythonThreadCalls` gives such a script the thread
-functions of ``sim`` (``sim.switchThread``, ``sim.step``, ``sim.wait``, ``sim.waitForSignal``).
+coroutine on its own OS thread, and the ``sim`` functions here give such a script the thread
+functions (``sim.switchThread``, ``sim.step``, ``sim.wait``, ``sim.waitForSignal``).
 
-:class:`PythonThreadCalls` is a mixin of :class:`simx_server.scripts.facade.ScriptSim` (through
-:class:`simx_server.api.sim.legacy.LegacyCalls`); Lua scripts get their own thread
-functions from :mod:`simx_server.scripts.threads`.
+Lua scripts get their own thread functions from :mod:`simx_server.scripts.threads`.
 """
 
 from __future__ import annotations
@@ -111,8 +109,8 @@ class PythonThread:
         self.alive = False
 
 
-# The thread functions of ``sim`` for Python scripts (a mixin of the facade; Lua scripts get
-# their own from :data:`THREADS_LUA`).
+# The thread functions of ``sim`` for Python scripts (Lua scripts get their own from
+# :data:`simx_server.scripts.threads.THREADS_LUA`).
 
 def py_thread(ctx: CallContext, what: str) -> PythonThread:
     script = ctx.script
@@ -140,7 +138,7 @@ def switchThread(ctx: CallContext) -> int:  # noqa: N802
 
 @sim_function("step")
 def step(ctx: CallContext) -> None:
-    """CoppeliaSim 4.6's name of :meth:`switchThread` in threads."""
+    """CoppeliaSim 4.6's name of :func:`switchThread` in threads."""
     py_thread(ctx, "step").switch()
 
 

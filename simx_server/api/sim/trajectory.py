@@ -1,6 +1,5 @@
-"""CoppeliaSim 4.x's ``sim.generateTimeOptimalTrajectory`` (mixin of
-:class:`simx_server.scripts.facade.ScriptSim`): the fastest timing of a path under per-joint
-velocity and acceleration limits, as CoppeliaSim computes it with TOPP-RA.
+"""CoppeliaSim 4.x's ``sim.generateTimeOptimalTrajectory``: the fastest timing of a path under
+per-joint velocity and acceleration limits, as CoppeliaSim computes it with TOPP-RA.
 
 The path (configurations at ``pathLengths``) is interpolated by a cubic spline in the path
 parameter s (``'not-a-knot'``, ``'natural'`` or ``'clamped'`` ends), sampled at
@@ -72,7 +71,7 @@ def _u_range(dq: np.ndarray, ddq: np.ndarray, x: float, amin: np.ndarray, amax: 
     return lo, hi
 
 
-# Time-optimal path timing (facade mixin).
+# Time-optimal path timing.
 
 @sim_function("generateTimeOptimalTrajectory")
 def generateTimeOptimalTrajectory(ctx: CallContext, path: Any, pathLengths: Any, minMaxVel: Any, minMaxAccel: Any,  # noqa: N802, N803

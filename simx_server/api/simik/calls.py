@@ -1,6 +1,5 @@
-"""``simIK``'s solving, configuration search, path, joint and object calls: methods of
-:class:`simx_server.api.simik.environments.SimIK` (defined here to keep each module short; ``self`` is
-the SimIK)."""
+"""``simIK``'s solving, configuration search, path, joint and object calls, over the environments
+of :mod:`simx_server.api.simik.environments` (apart from them to keep each module short)."""
 
 from __future__ import annotations
 
@@ -249,7 +248,7 @@ def getAlternateConfigs(ctx: CallContext, environmentHandle: Any, jointHandles: 
                         ranges: Any = None) -> list[float]:
     """The environment's configuration and those equal to it up to whole turns of its hinges
     within their ranges (or ``lowLimits``/``ranges``), flat (configuration after configuration),
-    at most facade_misc.MAX_ALTERNATE_CONFIGS."""
+    at most :data:`simx_server.api.sim.misc.MAX_ALTERNATE_CONFIGS`."""
     env = _environments.env_of(ctx, environmentHandle)
     joints = [ctx.world.get(ctx.h(j, "jointHandles[i]"), JOINT) for j in jointHandles]
     config = [_environments.q_of(ctx, env, obj.handle) for obj in joints]

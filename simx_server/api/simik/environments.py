@@ -68,8 +68,8 @@ class Environment:
     next_element: int = 1
 
 
-# ``simIK.*`` over one ``sim`` facade (its world, its simulation); the environments live on
-# the facade, so that they last between a client's calls.
+# ``simIK.*`` over one caller's context (its world, its simulation); the environments live in
+# its :class:`~simx_server.api.context.CallerState`, so that they last between a client's calls.
 
 def _envs(ctx: CallContext) -> dict[int, Environment]:
     envs = ctx.state.ik_environments
