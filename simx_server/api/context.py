@@ -54,6 +54,8 @@ class CallerState:
     ik_environments: dict[int, Any] | None = None
     ik_scratch: Any = None
     ik_scratch_model: Any = None
+    #: ``sim.setAutoYieldDelay``'s delay in ms (CoppeliaSim's default: 2 ms).
+    auto_yield_delay_ms: int = 2
 
 
 class CallContext:

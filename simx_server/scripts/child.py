@@ -82,6 +82,8 @@ class ChildScript:
 
     language = "?"
     refused = False  # a RefusedScript: not run by the operator's choice (its start is not logged again)
+    #: The last error's message and stack traceback (``sim.getStackTraceback`` reads and clears it).
+    last_traceback = ""
 
     def __init__(self, world: World, owner: int, path: Path, *, signals: Signals | None = None,
                  timeout: float = DEFAULT_TIMEOUT, allow_remote_code: bool = False,
@@ -216,6 +218,17 @@ class ChildScript:
             self.running = False
             self._drop()
 
+    def system_call(self, function: str, args: tuple) -> None:
+        """A system callback with arguments (``sysCall_msg(message, origin)``) if the script defines
+        it; its return values are dropped and its errors go to the log only, as life-cycle functions'."""
+        if self.running and not self.load_error and self._defines(function) and not self._pass_spent(function):
+            self._guarded(function, lambda: self._run_values(function, args))
+
+    def _traced(self, fault: ScriptError, traceback_text: str = "") -> ScriptError:
+        """``fault``, kept with its stack traceback as the script's :attr:`last_traceback`."""
+        self.last_traceback = f"{fault}\n{traceback_text}" if traceback_text else str(fault)
+        return fault
+
     def call(self, function: str, ints: list, floats: list, strings: list, buffer: bytes) -> list:
         """Call a script function remotely; returns ``[ints, floats, strings, buffer]``.
 
@@ -344,7 +357,13 @@ class PythonScript(ChildScript):
             "print": self._print,
         }
         self.namespace["simIK"] = self.namespace["sim"].context.simik  # CoppeliaSim 4.x's simIK
+        self._initial_globals = frozenset(self.namespace)
         self._bounded("top level", lambda: exec(self._code, self.namespace))
+
+    def user_variables(self) -> dict[str, Any]:
+        """``sim.getUserVariables``: the globals the script's own code made, name -> value."""
+        initial = getattr(self, "_initial_globals", frozenset())
+        return {k: v for k, v in self.namespace.items() if k not in initial}
 
     def _defines(self, function: str) -> bool:
         return callable(self.namespace.get(function))
@@ -395,23 +414,31 @@ class PythonScript(ChildScript):
             raise self._fault("thread", f"{self.path.name}: {message}", timeout=True)
         if thread.error is not None:
             exc, thread.error = thread.error, None
-            raise self._fault("thread", f"{self._where(traceback.extract_tb(exc.__traceback__))}"
-                                        f"{type(exc).__name__}: {exc}")
+            stack = traceback.extract_tb(exc.__traceback__)
+            raise self._traced(self._fault("thread", f"{self._where(stack)}{type(exc).__name__}: {exc}"),
+                               self._stack_text(stack))
 
     def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
         seconds, by_pass = self._call_bound()
         try:
             result, interrupted_at = WATCHDOG.bounded(fn, seconds)
         except Exception as exc:
-            raise self._fault(what, f"{self._where(traceback.extract_tb(exc.__traceback__))}"
-                                    f"{type(exc).__name__}: {exc}") from None
+            stack = traceback.extract_tb(exc.__traceback__)
+            raise self._traced(self._fault(what, f"{self._where(stack)}{type(exc).__name__}: {exc}"),
+                               self._stack_text(stack)) from None
         if interrupted_at is not None:
-            raise self._fault(what, f"{self._where(interrupted_at)}{self._overrun(by_pass)}", timeout=True)
+            raise self._traced(self._fault(what, f"{self._where(interrupted_at)}{self._overrun(by_pass)}",
+                                           timeout=True), self._stack_text(interrupted_at))
         return result
 
     def _where(self, stack: traceback.StackSummary) -> str:
         frames = [f for f in stack if Path(f.filename) == self.path]
         return f"{self.path.name}:{frames[-1].lineno}: " if frames else f"{self.path.name}: "
+
+    def _stack_text(self, stack: traceback.StackSummary) -> str:
+        """The script's own frames of ``stack`` as Python prints a traceback (the server's are left out)."""
+        frames = traceback.StackSummary.from_list([f for f in stack if Path(f.filename) == self.path])
+        return "Traceback (most recent call last):\n" + "".join(frames.format()) if frames else ""
 
 
 def legacy_outputs(out: Any) -> list:

@@ -267,11 +267,24 @@ package.loaded.debug = G.debug
 -- Functions that can be called remotely: Lua functions the script defines as globals.
 local base = {}
 for k, v in pairs(G) do base[k] = v end
+-- sim.getUserVariables as CoppeliaSim's sim.lua: the globals that were not there when the script's
+-- own code began (snapshot() is called just before it), name -> value.
+local initGlobals = base
+sim.getUserVariables = function()
+  local ng = {}
+  for k, v in pairs(G) do if initGlobals[k] == nil then ng[k] = v end end
+  ng.sim_call_type = nil
+  return ng
+end
+local function snapshot()
+  initGlobals = {}
+  for k in pairs(G) do initGlobals[k] = true end
+end
 return function(name)
   local f = rawget(G, name)
   if type(f) == "function" and f ~= base[name] and getinfo(f, "S").what ~= "C" then return f end
   return nil
-end
+end, snapshot
 """
 
 
@@ -286,6 +299,15 @@ def _first_line(exc: BaseException) -> str:
         msg = msg.decode("utf-8", errors="replace")
     msg = str(msg)
     return msg.split("\nstack traceback:", 1)[0].strip()
+
+
+def _stack_traceback(exc: BaseException) -> str:
+    """The ``stack traceback:`` part of a Lua error's message (lupa adds Lua's), or ""."""
+    msg = exc.args[0] if exc.args else str(exc)
+    if isinstance(msg, bytes):
+        msg = msg.decode("utf-8", errors="replace")
+    _, found, rest = str(msg).partition("\nstack traceback:")
+    return f"stack traceback:{rest}" if found else ""
 
 
 class LuaScript(LuaStyles, ChildScript):
@@ -390,7 +412,7 @@ class LuaScript(LuaStyles, ChildScript):
         self._facade = self.facade()
         rt = self._runtime = self._new_runtime()
         prelude = rt.compile(PRELUDE, name="=simx")
-        self._lookup = prelude(
+        self._lookup, snapshot = prelude(
             self._dispatch, self._expired, self._write_log,
             rt.table_from([n.encode() for n in SIM] + [f"simIK.{n}".encode() for n in SIMIK]),
             rt.table_from({**{k.encode(): v for k, v in SIM.constants.items()},
@@ -399,6 +421,7 @@ class LuaScript(LuaStyles, ChildScript):
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(),
             rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY))
         self._prepare_styles(rt)
+        snapshot()  # sim.getUserVariables: the globals from here on are the script's
         self._run_top_level(rt.compile(self._source, name=f"@{self.path.name}", mode="t"))
 
     def _defines(self, function: str) -> bool:
@@ -496,11 +519,12 @@ class LuaScript(LuaStyles, ChildScript):
                      f"limits.MAX_SCRIPTS_MEMORY; {cap >> 20} MiB were left to this one")
             raise self._fault(what, f"out of memory ({bound}): {_first_line(exc)}") from None
         except _lupa.LuaError as exc:
+            stack = _stack_traceback(exc)
             if self._timed_out:
                 where = re.match(rf"{re.escape(self.path.name)}:\d+: ", _first_line(exc))
                 prefix = where.group(0) if where else ""
-                raise self._fault(what, f"{prefix}{self._overrun(by_pass)}", timeout=True) from None
-            raise self._fault(what, _first_line(exc)) from None
+                raise self._traced(self._fault(what, f"{prefix}{self._overrun(by_pass)}", timeout=True), stack) from None
+            raise self._traced(self._fault(what, _first_line(exc)), stack) from None
         except Exception as exc:  # a Python error crossing Lua (a bug in simx): still the script's fault line
             raise self._fault(what, f"internal error: {type(exc).__name__}: {exc}") from None
         finally:

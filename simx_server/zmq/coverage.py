@@ -51,9 +51,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     "setObjectHierarchyOrder": ("missing", "MjSpec cannot reorder a body's children in place"),
     **{n: ("missing", "no writable string or float-array parameter is mapped (the readable ones are)")
        for n in ("setObjectFloatArrayParam", "setObjectStringParam")},
-    **{n: ("missing", "application services: not written yet")
-       for n in ("getStackTraceback", "getUserVariables",
-                 "getAutoYieldDelay", "setAutoYieldDelay", "broadcastMsg")},
     **{n: ("n/a", "the event stream of CoppeliaSim's user interfaces: no UI") for n in (
         "getGenesisEvents", "pushUserEvent", "setEventFilters")},
     "getScriptFunctions": ("n/a", "the official client answers it itself (a proxy object; docs/ZMQ.md)"),
