@@ -17,7 +17,7 @@ V-REP before 3.6 wrote ``simGetObjectHandle(...)``, ``sim_handle_self`` and
   old custom UIs, the remote API plugin's); docs/SCRIPTS.md lists each with its status
   (:func:`status`), and ``tests/scripts/test_legacy_scripts.py`` keeps that list true.
 
-Lua resolves a 3.x global through :data:`LEGACY_LUA` (run after :data:`~simx_server.scripts.lua.PRELUDE`):
+Lua resolves a 3.x global through :data:`LEGACY_LUA` (run after :data:`~simx_server.scripts.lua_prelude.PRELUDE`):
 a name ``sim`` lacks is a function that raises an error naming it when called.
 """
 

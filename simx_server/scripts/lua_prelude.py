@@ -1,0 +1,235 @@
+"""The Lua code that prepares each Lua child script's state (:mod:`simx_server.scripts.lua`).
+
+:data:`PRELUDE` is compiled once per script and called with the Python side's dispatcher, clock
+check, log writer, the table's names and constants, the safety flags and the C-loop bounds of
+:mod:`simx_server.scripts.lua_bounds`; it builds ``sim``/``simIK``, installs the count hook,
+removes what the safety defaults forbid, and returns the lookup of the script's own functions and
+the snapshot that ``sim.getUserVariables`` compares against.
+"""
+
+PRELUDE = r"""
+local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, BOUNDS = ...
+local G = _G
+local sethook, gethook, getinfo, traceback = debug.sethook, debug.gethook, debug.getinfo, debug.traceback
+local error, select, type, tostring, pairs, rawget, setmetatable = error, select, type, tostring, pairs, rawget, setmetatable
+local pack, unpack, concat = table.pack, table.unpack, table.concat
+local lua_load, cocreate, coresume = load, coroutine.create, coroutine.resume
+
+-- Time bound: the hook runs every COUNT instructions; past the deadline it raises, and from then
+-- on it runs (and raises) at every instruction, so that a pcall cannot swallow the interruption.
+local TIMEOUT = "interrupted: the script did not return within its time bound (script_timeout)"
+local hook
+local function interrupt(level)
+  sethook(hook, "", 1)
+  error(TIMEOUT, level)
+end
+hook = function()
+  if expired() then interrupt(3) end
+  local _, _, count = gethook()
+  if count ~= COUNT then sethook(hook, "", COUNT) end
+end
+sethook(hook, "", COUNT)
+-- One instruction (a `..` of long strings) may copy much memory: the hook also runs at the next
+-- instruction after each garbage-collection cycle, whose pace follows the bytes allocated (a
+-- finalizer of simx's, which makes its successor; scripts cannot stop the collector).
+local lua_setmetatable, lua_collect = setmetatable, collectgarbage
+local function canary() lua_setmetatable({}, {__gc = function() sethook(hook, "", 1) canary() end}) end
+canary()
+G.collectgarbage = function(opt, ...)
+  if opt == "stop" then return 0 end
+  return lua_collect(opt, ...)
+end
+coroutine.create = function(f)
+  local co = cocreate(f)
+  sethook(co, hook, "", COUNT)
+  return co
+end
+coroutine.wrap = function(f)
+  local co = coroutine.create(f)
+  return function(...)
+    local r = pack(coresume(co, ...))
+    if r[1] then return unpack(r, 2, r.n) end
+    error(r[2], 0)
+  end
+end
+
+-- The sim API. Its errors name the script's line: the first caller with a line number
+-- (sim functions may be called through pcall or as tail calls).
+local function where()
+  for level = 3, 20 do
+    local info = getinfo(level, "Sl")
+    if not info then break end
+    if info.currentline and info.currentline > 0 then
+      return info.short_src .. ":" .. info.currentline .. ": "
+    end
+  end
+  return ""
+end
+local sim = {}
+local function bind(name)
+  return function(...)
+    local r = pack(dispatch(name, ...))
+    if r[1] then return unpack(r, 2, r.n) end
+    error(where() .. "sim." .. name .. ": " .. tostring(r[2]), 0)
+  end
+end
+-- simIK.NAME functions and constants come in the same lists, under "simIK." names.
+local simIK = {}
+for i = 1, #names do
+  local ik = names[i]:match("^simIK%.(.+)$")
+  if ik then simIK[ik] = bind(names[i]) else sim[names[i]] = bind(names[i]) end
+end
+for k, v in pairs(constants) do
+  local ik = k:match("^simIK%.(.+)$")
+  if ik then simIK[ik] = v else sim[k] = v end
+end
+setmetatable(sim, {__index = function(_, key)
+  error(where() .. "sim." .. tostring(key) .. " is not available in simx (docs/SCRIPTS.md lists what is)", 0)
+end})
+G.sim = sim
+-- CoppeliaSim 4.x's simIK (simx_server/api/simik/), as for ZMQ clients.
+G.simIK = simIK
+-- V-REP before 3.6: simGetObjectHandle(...), sim_handle_self.
+setmetatable(G, {__index = function(_, key)
+  if type(key) ~= "string" then return nil end
+  local c = key:match("^sim_(.+)$")
+  if c then return rawget(sim, c) end
+  local f = key:match("^sim(%u.*)$")
+  if f then return rawget(sim, f:sub(1, 1):lower() .. f:sub(2)) end
+  return nil
+end})
+
+-- print goes to the server log.
+G.print = function(...)
+  local parts = {}
+  for i = 1, select("#", ...) do parts[i] = tostring((select(i, ...))) end
+  write_log(concat(parts, "\t"))
+end
+
+-- Lua 5.1 names that V-REP scripts use.
+G.unpack = unpack
+table.getn = function(t) return #t end
+math.pow = function(x, y) return x ^ y end
+
+-- C functions out of the count hook's reach (patterns, string.rep, table.sort...): lua_bounds.py.
+BOUNDS(expired, interrupt)
+
+-- Finalizers would run when the state is closed or collected, outside every time bound.
+local lua_setmetatable = setmetatable
+G.setmetatable = function(t, mt)
+  if type(mt) == "table" and rawget(mt, "__gc") ~= nil then
+    error("setmetatable: __gc finalizers are not available in simx child scripts (they would run "
+      .. "outside the script's time bound, when its state is closed)", 2)
+  end
+  return lua_setmetatable(t, mt)
+end
+
+-- Safety.
+local function refuse(name, why)
+  return function() error(name .. " is not available in simx child scripts" .. (why or ""), 2) end
+end
+local REMOTE = ": simx runs code sent by clients only when the server is started with " .. FLAG
+if allow_code then
+  G.load = function(chunk, chunkname, mode, env)
+    if env == nil then return lua_load(chunk, chunkname, "t") end
+    return lua_load(chunk, chunkname, "t", env)
+  end
+  G.loadstring = function(s, chunkname) return lua_load(s, chunkname, "t") end
+else
+  G.load = refuse("load", REMOTE)
+  G.loadstring = refuse("loadstring", REMOTE)
+end
+-- Files, processes and the environment (CoppeliaSim's "unsafe" functions): only with UNSAFE_FLAG.
+local UNSAFE = ": file, process and environment functions need the server flag " .. UNSAFE_FLAG
+local lua_loadfile, lua_searchpath = loadfile, package.searchpath
+-- require reads Lua text only: a precompiled chunk can crash the Lua VM.
+local function text_searcher(name)
+  local file, err = lua_searchpath(name, package.path)
+  if not file then return "\n\t" .. err end
+  local chunk, lerr = lua_loadfile(file, "t")
+  if not chunk then
+    error(("error loading module '%s' from file '%s':\n\t%s"):format(name, file, lerr), 0)
+  end
+  return chunk, file
+end
+package.searchers[2] = text_searcher
+package.searchers[3], package.searchers[4] = nil, nil  -- C libraries: never
+if allow_unsafe then  -- plain Lua, but text chunks only (precompiled ones can crash the Lua VM)
+  G.loadfile = function(file, mode, env)
+    if env == nil then return lua_loadfile(file, "t") end
+    return lua_loadfile(file, "t", env)
+  end
+  G.dofile = function(file)
+    local f = assert(lua_loadfile(file, "t"))
+    return f()
+  end
+else
+  G.dofile = refuse("dofile", UNSAFE .. " (use require with a module in the scene's folder)")
+  G.loadfile = refuse("loadfile", UNSAFE .. " (use require with a module in the scene's folder)")
+  for _, name in ipairs({"open", "popen", "lines", "input", "output", "read", "write", "close", "tmpfile"}) do
+    io[name] = refuse("io." .. name, UNSAFE)
+  end
+  io.stdin, io.stdout, io.stderr = nil, nil, nil  -- io.stdin:read() would block the simulation
+  for _, name in ipairs({"execute", "remove", "rename", "tmpname", "getenv", "setlocale"}) do
+    os[name] = refuse("os." .. name, UNSAFE)
+  end
+  package.loadlib = refuse("package.loadlib", UNSAFE)
+  package.searchpath = refuse("package.searchpath", UNSAFE)
+  -- require finds Lua modules in the scene's folder only, whatever a script does to package.path,
+  -- package.cpath or package.searchers: the loader reads them from this table, reset at each call.
+  -- The searchers are kept here, out of the script's reach (called directly they would read a
+  -- package.path the script set), and lent to the loader for the time of one require.
+  local pkg, lua_require, searchers = package, require, {package.searchers[1], package.searchers[2]}
+  local pcall = pcall
+  -- A client's scene runs from the server's transfer folder: its errors say "<scene folder>".
+  local function hide_folder(message)
+    message = tostring(message)
+    local out, i = {}, 1
+    while true do
+      local a, b = message:find(scene_dir, i, true)
+      if not a then break end
+      out[#out + 1] = message:sub(i, a - 1) .. "<scene folder>"
+      i = b + 1
+    end
+    out[#out + 1] = message:sub(i)
+    return concat(out)
+  end
+  pkg.searchers = {}
+  G.require = function(name)
+    pkg.path, pkg.cpath, pkg.searchers = scene_dir .. "/?.lua", "", {searchers[1], searchers[2]}
+    local r = pack(pcall(lua_require, name))
+    pkg.path, pkg.searchers = scene_dir .. "/?.lua", {}
+    if not r[1] then error(hide_folder(r[2]), 0) end  -- the message says where, not the server's folder
+    return unpack(r, 2, r.n)
+  end
+end
+os.exit = refuse("os.exit", " (it would end the server; simxStopSimulation stops the simulation)")
+package.path = scene_dir .. "/?.lua"
+package.cpath = ""
+G.python = nil
+package.loaded.python = nil
+G.debug = {traceback = traceback, getinfo = getinfo}
+package.loaded.debug = G.debug
+
+-- Functions that can be called remotely: Lua functions the script defines as globals.
+local base = {}
+for k, v in pairs(G) do base[k] = v end
+-- sim.getUserVariables as CoppeliaSim's sim.lua: the globals that were not there when the script's
+-- own code began (snapshot() is called just before it), name -> value.
+local initGlobals = base
+sim.getUserVariables = function()
+  local ng = {}
+  for k, v in pairs(G) do if initGlobals[k] == nil then ng[k] = v end end
+  ng.sim_call_type = nil
+  return ng
+end
+local function snapshot()
+  initGlobals = {}
+  for k in pairs(G) do initGlobals[k] = true end
+end
+return function(name)
+  local f = rawget(G, name)
+  if type(f) == "function" and f ~= base[name] and getinfo(f, "S").what ~= "C" then return f end
+  return nil
+end, snapshot
+"""
