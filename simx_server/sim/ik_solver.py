@@ -19,6 +19,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
+from simx_server.sim.ik_chain import coupling_matrix
 from simx_server.sim.objects import DUMMY, FORCE_SENSOR, JOINT, PROXIMITY_SENSOR
 
 _SITES = (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR)  # objects that are MuJoCo sites
@@ -132,7 +133,7 @@ def errors(world, data, elements: list[Element], targets: dict[int, tuple]) -> t
     return (np.concatenate(parts) if parts else np.zeros(0)), rows, ok
 
 
-def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
+def jacobian(world, data, rows: list, dadr: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
     """The weighted Jacobian of the rows :func:`errors` chose, over the chain's joints.
 
     Args:
@@ -140,6 +141,9 @@ def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
         data: MuJoCo data whose kinematics (and ``mj_comPos``) are up to date.
         rows: the rows of :func:`errors`.
         dadr: the chain joints' dof addresses.
+        columns: (nv, len(dadr)) map from the chain's joint velocities to dof velocities, when
+            dependent joints follow them (:func:`simx_server.sim.ik_chain.coupling_matrix`);
+            None: each column is its joint's dof alone.
 
     Returns:
         Array (len(error), len(dadr)).
@@ -149,19 +153,28 @@ def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
     blocks = []
     for el, kind, mid, pick_lin, pick_ang, tr in rows:
         (mujoco.mj_jacSite if kind == "site" else mujoco.mj_jacBody)(m, data, jacp, jacr, mid)
-        blocks.append(el.weights[0] * jacp[pick_lin][:, dadr])
-        blocks.append(el.weights[1] * (tr.T @ jacr)[pick_ang][:, dadr])
+        lin, ang = jacp[pick_lin], (tr.T @ jacr)[pick_ang]
+        if columns is None:
+            lin, ang = lin[:, dadr], ang[:, dadr]
+        else:
+            lin, ang = lin @ columns, ang @ columns
+        blocks.append(el.weights[0] * lin)
+        blocks.append(el.weights[1] * ang)
     return np.vstack(blocks) if blocks else np.zeros((0, len(dadr)))
 
 
 def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, elements: list[Element],
           method: int, damping: float, iterations: int, max_step: np.ndarray,
           targets: dict[int, tuple] | None = None, weights: np.ndarray | None = None,
-          margins: np.ndarray | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
+          margins: np.ndarray | None = None,
+          slaves: list[tuple[int, int, int, float, float]] | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
     ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
     make a joint move more (a larger weight) or less in the weighted least-norm step
     ``W Jᵀ (J W Jᵀ + λ²I)⁻¹ e``; ``margins`` keep each joint that far inside its range.
+    ``slaves`` are dependent joints ``(qpos address, dof address, column, offset, mult)``:
+    each is put at ``offset + mult * q[column]`` at every iteration, and its motion is part of
+    its column of the Jacobian (CoppeliaSim's linear joint dependencies).
 
     Args:
         world: the world.
@@ -176,6 +189,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         targets: see :func:`errors`.
         weights: see above.
         margins: see above (rad or m).
+        slaves: see above.
 
     Returns:
         ``(ok, q, error)``: whether every element is within precision, the positions reached
@@ -193,15 +207,21 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     w = np.ones(len(joints)) if weights is None else np.asarray(weights, float)
     targets = targets or {}
     q = np.clip(np.asarray(q, float), low, high)
+    slaves = slaves or []
+    columns = None
+    if slaves:
+        columns = coupling_matrix(m.nv, dadr, [(dof, col, mult) for _, dof, col, _, mult in slaves])
     e = np.zeros(0)
     for it in range(iterations + 1):
         scratch.qpos[qadr] = q
+        for sq, _, col, offset, mult in slaves:
+            scratch.qpos[sq] = offset + mult * q[col]
         mujoco.mj_kinematics(m, scratch)
         mujoco.mj_comPos(m, scratch)
         e, rows, ok = errors(world, scratch, elements, targets)
         if ok or it == iterations or not len(joints):
             return ok, q, e
-        jac = jacobian(world, scratch, rows, dadr)
+        jac = jacobian(world, scratch, rows, dadr, columns)
         if method == METHOD_TRANSPOSE:
             dq = w * (jac.T @ e)
         else:
