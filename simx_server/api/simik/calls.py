@@ -19,6 +19,7 @@ from simx_server.api.sim.misc import alternate_configs
 from simx_server.sim import ik_solver as S
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
 from simx_server.sim import ik as scene_ik
+from simx_server.sim.ik_chain import coupling_matrix
 from simx_server.sim.objects import DUMMY, JOINT, WORLD
 from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matrix_from_quaternion
 
@@ -71,7 +72,7 @@ def handleGroup(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, op
     env.q.update(zip(joints, (float(v) for v in q)))
     g.failure = "" if ok else "the tip did not reach the target within the elements' precision"
     if opts.get("syncWorlds") and (ok or opts.get("allowError")):
-        _environments.write_scene(ctx, joints, q)
+        _environments.write_scene(ctx, *_environments.with_slaves(ctx, env, joints, q))
     return (RESULT_SUCCESS if ok else RESULT_FAIL), (0 if ok else CALC_NOTWITHINTOLERANCE), _precision(ctx, env, g)
 
 
@@ -123,7 +124,8 @@ def syncToSim(ctx: CallContext, environmentHandle: Any, ikGroups: Any = None) ->
     env = _environments.env_of(ctx, environmentHandle)
     for g in _groups(ctx, env, ikGroups):
         joints = _environments.joints_of(ctx, env, g)
-        _environments.write_scene(ctx, joints, [_environments.q_of(ctx, env, j) for j in joints])
+        _environments.write_scene(ctx, *_environments.with_slaves(ctx, env, joints,
+                                                                  [_environments.q_of(ctx, env, j) for j in joints]))
 
 
 def _check_joints(ctx: CallContext, env, g, jointHandles: Any) -> list[int]:
@@ -267,7 +269,9 @@ def computeGroupJacobian(ctx: CallContext, environmentHandle: Any, ikGroupHandle
     d = _environments.env_data(ctx, env)
     e, rows, _ = S.errors(ctx.world, d, [el for el in g.elements if el.target != -1], {})
     dadr = np.array([ctx.world.model.jnt_dofadr[ctx.world.get(j).mj_id] for j in joints], int)
-    return S.jacobian(ctx.world, d, rows, dadr).reshape(-1).tolist(), e.tolist()
+    slaves = _environments.slaves_of(ctx, env, joints)
+    columns = coupling_matrix(ctx.world.model.nv, dadr, [(dof, col, k) for _, dof, col, _, k in slaves]) if slaves else None
+    return S.jacobian(ctx.world, d, rows, dadr, columns).reshape(-1).tolist(), e.tolist()
 
 
 # ----------------------------------------------------------------------- joints
@@ -298,11 +302,14 @@ def setJointMode(ctx: CallContext, environmentHandle: Any, jointHandle: Any, joi
 
 @simik_function("getJointType")
 def getJointType(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> int:  # noqa: N802, N803
-    """``simIK.jointtype_revolute`` (10) or ``jointtype_prismatic`` (11)."""
+    """``simIK.jointtype_revolute`` (10), ``jointtype_prismatic`` (11) or ``jointtype_spherical``
+    (12: a MuJoCo ball joint)."""
     _environments.env_of(ctx, environmentHandle)
     kind = int(ctx.world.model.jnt_type[_environments.joint_of(ctx, jointHandle).mj_id])
+    if kind == mujoco.mjtJoint.mjJNT_BALL:
+        return 12
     if kind not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
-        raise UnsupportedError("a MuJoCo ball or free joint has no simIK joint type simx handles")
+        raise UnsupportedError("a MuJoCo free joint has no simIK joint type")
     return 10 if kind == mujoco.mjtJoint.mjJNT_HINGE else 11
 
 
@@ -375,9 +382,13 @@ def getJointScrewLead(ctx: CallContext, environmentHandle: Any, jointHandle: Any
 
 @simik_function("getJointDependency")
 def getJointDependency(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
-    """``masterJoint, offset, multCoeff`` of the scene's joint equality (as ``sim.getJointDependency``)."""
-    _environments.env_of(ctx, environmentHandle)
-    return ctx.sim.getJointDependency(_environments.joint_of(ctx, jointHandle).handle)
+    """``masterJoint, offset, multCoeff``: the environment's (``simIK.setJointDependency``), else
+    the scene's joint equality (as ``sim.getJointDependency``)."""
+    env = _environments.env_of(ctx, environmentHandle)
+    j = _environments.joint_of(ctx, jointHandle).handle
+    if j in env.dependency:
+        return env.dependency[j]
+    return ctx.sim.getJointDependency(j)
 
 
 @simik_function("getObjectTransformation")

@@ -32,7 +32,7 @@ from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectErro
 from simx_server.base.arguments import quote
 from simx_server.sim import ik_solver as S
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
-from simx_server.sim import ik as scene_ik
+from simx_server.sim import ik as scene_ik, ik_chain
 from simx_server.sim.objects import DUMMY, JOINT, WORLD
 
 #: ``simIK.NAME`` constants (CoppeliaSim 4.x's: ``simIK.constraint_pose``, ``method_damped_least_squares``...).
@@ -64,6 +64,10 @@ class Environment:
     weight: dict = dataclasses.field(default_factory=dict)  # joint handle -> weight in the step
     margin: dict = dataclasses.field(default_factory=dict)  # joint handle -> limit margin (rad or m)
     max_step: dict = dataclasses.field(default_factory=dict)
+    #: joint handle -> (master, offset, mult): simIK.setJointDependency (master -1: none)
+    dependency: dict = dataclasses.field(default_factory=dict)
+    #: ball joint handle -> its rotation (w, x, y, z) in the environment (simIK.setSphericalJoint*)
+    ball: dict = dataclasses.field(default_factory=dict)
     next_group: int = _FIRST_GROUP
     next_element: int = 1
 
@@ -111,17 +115,41 @@ def joint_of(ctx: CallContext, handle: Any) -> Any:
 
 
 def q_of(ctx: CallContext, env: Environment, joint: int) -> float:
+    """The joint's position in the environment (a dependent joint's: from its master's)."""
+    if env.dependency.get(joint, (-1,))[0] != -1:
+        root, offset, mult = ik_chain.root_of(env.dependency, joint)
+        return offset + mult * q_of(ctx, env, root)
     if joint not in env.q:
         env.q[joint] = ctx.world.joint_position(joint)
     return env.q[joint]
 
 
 def joints_of(ctx: CallContext, env: Environment, g: Group) -> list[int]:
+    """The joints the group moves, base first: the chains' joints in IK mode, a dependent joint
+    replaced by its master (when every joint from it to its master is in IK mode), once each
+    (CoppeliaSim's ``CikElement::_getNakedJacobian``)."""
     out: list[int] = []
     for el in g.elements:
         if el.flags & 1:
-            out += [j for j in S.chain(ctx.world, el.tip, el.base) if j not in out]
-    return [j for j in out if env.mode.get(j, JOINTMODE_IK) == JOINTMODE_IK]
+            for j in S.chain(ctx.world, el.tip, el.base):
+                if env.mode.get(j, JOINTMODE_IK) != JOINTMODE_IK:
+                    continue
+                while j is not None and env.dependency.get(j, (-1,))[0] != -1:
+                    j = env.dependency[j][0]
+                    j = j if env.mode.get(j, JOINTMODE_IK) == JOINTMODE_IK else None
+                if j is not None and j not in out:
+                    out.append(j)
+    return out
+
+
+def slaves_of(ctx: CallContext, env: Environment, joints: list[int]) -> list[tuple[int, int, int, float, float]]:
+    """The dependent joints that follow one of ``joints``, for :func:`simx_server.sim.ik_solver.solve`."""
+    m = ctx.world.model
+    out = []
+    for slave, col, offset, mult in ik_chain.couplings(env.dependency, joints):
+        jid = ctx.world.get(slave).mj_id
+        out.append((int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid]), col, offset, mult))
+    return out
 
 
 def _scratch(ctx: CallContext) -> mujoco.MjData:
@@ -141,6 +169,13 @@ def env_data(ctx: CallContext, env: Environment) -> mujoco.MjData:
     for j, q in env.q.items():
         if j in w.objects:
             d.qpos[w.model.jnt_qposadr[w.objects[j].mj_id]] = q
+    for j, (master, _, _) in env.dependency.items():
+        if master != -1 and j in w.objects:
+            d.qpos[w.model.jnt_qposadr[w.objects[j].mj_id]] = q_of(ctx, env, j)
+    for j, quat in env.ball.items():
+        if j in w.objects:
+            adr = w.model.jnt_qposadr[w.objects[j].mj_id]
+            d.qpos[adr:adr + 4] = quat
     mujoco.mj_kinematics(w.model, d)
     mujoco.mj_comPos(w.model, d)
     return d
@@ -157,11 +192,19 @@ def solve(ctx: CallContext, env: Environment, g: Group, targets: dict | None = N
     weights = np.array([env.weight.get(j, 1.0) for j in joints])
     margins = np.array([env.margin.get(j, 0.0) for j in joints])
     ok, q, _ = S.solve(ctx.world, d, joints, q, g.elements, g.method, g.damping,
-                       g.iterations if iterations is None else iterations, steps, targets, weights, margins)
+                       g.iterations if iterations is None else iterations, steps, targets, weights, margins,
+                       slaves_of(ctx, env, joints))
     return ok, joints, q
 
 
-def write_scene(ctx: CallContext, joints: list[int], q: np.ndarray) -> None:
+def with_slaves(ctx: CallContext, env: Environment, joints: list[int], q: Any) -> tuple[list[int], list[float]]:
+    """``joints`` and ``q``, then the dependent joints that follow them at their positions."""
+    slaves = ik_chain.couplings(env.dependency, joints)
+    return ([*joints, *(s for s, _, _, _ in slaves)],
+            [*(float(v) for v in q), *(offset + mult * float(q[col]) for _, col, offset, mult in slaves)])
+
+
+def write_scene(ctx: CallContext, joints: list[int], q: Any) -> None:
     w = ctx.world
     for j, v in zip(joints, q):
         if j in w.motor_index:
