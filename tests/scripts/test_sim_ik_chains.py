@@ -1,7 +1,8 @@
 """simIK's joints and chains (simx_server/api/simik/chains.py): computeJacobian against finite
 differences of the environment's forward kinematics, joint matrices and transformations,
-spherical joints' rotations, and linear joint dependencies coupling joints in a solve; through
-the Python API and a Lua child script, on tests/scenes/simik_chains/chain.xml."""
+spherical joints' rotations, linear joint dependencies coupling joints in a solve, and saving and
+loading an environment (simx_server/api/simik/storage.py); through the Python API and a Lua child
+script, on tests/scenes/simik_chains/chain.xml."""
 
 from __future__ import annotations
 
@@ -254,3 +255,41 @@ def test_lua_child_script_jacobian_and_dependency(rig):
         assert sim.getJointTargetPosition(h["j2"]) == pytest.approx(q2)
     finally:
         s.stop()
+
+
+def test_save_and_load_an_environment(rig):
+    s, sim, ik, env, h = rig
+    ik.setJointDependency(env, h["j2"], h["j1"], 0.1, 0.5)
+    ik.setJointWeight(env, h["j4"], 0.25)
+    ik.setJointMode(env, h["j3"], ik.jointmode_passive)
+    g = _arm_group(ik, env, h)
+    el = ik.addElementFromScene(env, g, -1, h["tip"], h["target"], 7)[0]
+    ik.setElementPrecision(env, g, el, [0.002, 0.01])
+    data = ik.save(env)
+    assert isinstance(data, bytes)
+    other = ik.createEnvironment()
+    ik.load(other, data)
+    assert ik.getGroupHandle(other, "arm") == g and ik.getGroupCalculation(other, g) == (1, 0.02, 300)
+    assert ik.getGroupJoints(other, g) == ik.getGroupJoints(env, g) == [h["j1"], h["j4"]]
+    assert ik.getJointDependency(other, h["j2"]) == (h["j1"], 0.1, 0.5)
+    assert ik.getJointWeight(other, h["j4"]) == 0.25 and ik.getElementPrecision(other, g, el) == [0.002, 0.01]
+    assert ik.getJointMatrix(other, h["wristJoint"]) == pytest.approx(ik.getJointMatrix(env, h["wristJoint"]))
+    assert ik.getObjectPose(other, h["tip"]) == pytest.approx(ik.getObjectPose(env, h["tip"]))
+    # both solve alike, and a new group of the loaded one takes a new handle
+    assert ik.handleGroup(other, g)[0] == ik.handleGroup(env, g)[0]
+    assert [ik.getJointPosition(other, j) for j in (h["j1"], h["j2"], h["j4"])] == pytest.approx(
+        [ik.getJointPosition(env, j) for j in (h["j1"], h["j2"], h["j4"])])
+    assert ik.createGroup(other, "more") not in (g,)
+    # refusals: an environment with groups, CoppeliaSim's format, another scene's names, garbage
+    with pytest.raises(ArgumentError, match="empty"):
+        ik.load(other, data)
+    fresh = ik.createEnvironment()
+    with pytest.raises(ArgumentError, match="simx"):
+        ik.load(fresh, b"\x00\x01CoppeliaSim IK data")
+    with pytest.raises(ArgumentError, match="another scene"):
+        ik.load(fresh, data.replace(b'"j1"', b'"elbow"'))
+    with pytest.raises(ArgumentError):
+        ik.load(fresh, data[:-5])
+    with pytest.raises(ArgumentError):
+        ik.load(fresh, data.replace(b'"iterations":300', b'"iterations":1e9'))
+    assert ik.doesGroupExist(fresh, "arm") is False and ik.getJointDependency(fresh, h["j2"])[0] == -1  # unchanged
