@@ -63,7 +63,6 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
 IK_NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", "an environment's objects are the scene's: building or reparenting IK-only objects is not "
                       "supported") for n in ("createDummy", "createJoint", "eraseObject", "setObjectParent")},
-    **{n: ("missing", "CoppeliaSim's IK file format (load/save) has no MuJoCo counterpart") for n in ("load", "save")},
     "setJointScrewLead": ("missing", "a MuJoCo hinge cannot translate along its axis: no screw joints"),
 }
 
