@@ -1,8 +1,8 @@
 """simIK's joints and chains (simx_server/api/simik/chains.py): computeJacobian against finite
 differences of the environment's forward kinematics, joint matrices and transformations,
 spherical joints' rotations, linear joint dependencies coupling joints in a solve, and saving and
-loading an environment (simx_server/api/simik/storage.py); through the Python API and a Lua child
-script, on tests/scenes/simik_chains/chain.xml."""
+loading an environment (simx_server/api/simik/storage.py); through the Python API, a Lua child
+script and CoppeliaSim's official ZMQ client, on tests/scenes/simik_chains/chain.xml."""
 
 from __future__ import annotations
 
@@ -293,3 +293,33 @@ def test_save_and_load_an_environment(rig):
     with pytest.raises(ArgumentError):
         ik.load(fresh, data.replace(b'"iterations":300', b'"iterations":1e9'))
     assert ik.doesGroupExist(fresh, "arm") is False and ik.getJointDependency(fresh, h["j2"])[0] == -1  # unchanged
+
+
+def test_zmq_client_jacobian_dependency_and_buffer(rig, official):
+    pytest.importorskip("coppeliasim_zmqremoteapi_client")
+    from conftest import ServerProcess, free_port
+
+    _, sim, ik, env, h = rig
+    port = free_port()
+    srv = ServerProcess(str(CHAIN), "--stopped", "--zmq-port", str(port), renderers="on-demand")
+    try:
+        simIK = official(port).require("simIK")  # noqa: N806 (CoppeliaSim's name)
+        remote = simIK.createEnvironment()
+        for name, q in Q.items():
+            simIK.setJointPosition(remote, "/" + name, q)  # object paths, as CoppeliaSim 4.3+
+        simIK.setSphericalJointRotation(remote, h["wristJoint"], WRIST)
+        tip = simIK.getObjectPose(remote, h["tip"], -1)
+        jac, err = simIK.computeJacobian(remote, -1, h["wristJoint"], simIK.constraint_pose, tip)
+        assert np.array(jac).reshape(6, 7) == pytest.approx(_finite_differences(ik, env, h), abs=1e-4)
+        simIK.setJointDependency(remote, h["j2"], h["j1"], 0.1, 0.5)
+        assert simIK.getJointPosition(remote, h["j2"]) == pytest.approx(0.1 + 0.5 * Q["j1"])
+        pos, quat, euler = simIK.getJointTransformation(remote, h["wristJoint"])
+        assert euler == pytest.approx(WRIST)
+        data = simIK.save(remote)  # bytes both ways
+        copy = simIK.createEnvironment()
+        simIK.load(copy, data)
+        assert list(simIK.getJointDependency(copy, h["j2"])) == [h["j1"], 0.1, 0.5]
+        with pytest.raises(Exception, match="simIK.setJointDependency: .*callback"):
+            simIK.setJointDependency(remote, h["j2"], h["j1"], 0, 1, "cb")
+    finally:
+        srv.stop()
