@@ -87,6 +87,13 @@ def unit_quaternion(rotation: np.ndarray) -> np.ndarray:
     return quat / np.linalg.norm(quat)
 
 
+def rotation_matrix(quat_wxyz: np.ndarray) -> np.ndarray:
+    """The rotation (3, 3) of a unit quaternion (w, x, y, z)."""
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(quat_wxyz, float))
+    return rot.reshape(3, 3)
+
+
 # ------------------------------------------------------------------- dependencies
 def link_dependency(dependency: dict[int, tuple[int, float, float]], slave: int, master: int) -> None:
     """Record that ``slave`` follows ``master`` (-1: none), breaking a loop as CoppeliaSim does

@@ -323,3 +323,96 @@ def test_zmq_client_jacobian_dependency_and_buffer(rig, official):
             simIK.setJointDependency(remote, h["j2"], h["j1"], 0, 1, "cb")
     finally:
         srv.stop()
+
+
+def _reachable(ik, env, h, q):
+    """The tip's world position at joint positions ``q`` (j1..j4), the environment put back."""
+    saved = {n: ik.getJointPosition(env, h[n]) for n in q}
+    for n, v in q.items():
+        ik.setJointPosition(env, h[n], v)
+    p = ik.getObjectPose(env, h["tip"])[:3]
+    for n, v in saved.items():
+        ik.setJointPosition(env, h[n], v)
+    return p
+
+
+def test_environment_dummies_as_target_and_tip(rig):
+    s, sim, ik, env, h = rig
+    assert ik.createDummy(env) != ik.createDummy(env, "goal")
+    goal = ik.getObjectHandle(env, "goal")
+    assert ik.getObjectHandle(env, "dummy0") not in (goal, h["tip"]) and ik.doesObjectExist(env, "goal")
+    assert ik.getObjectType(env, goal) == ik.objecttype_dummy and ik.getObjectParent(env, goal) == -1
+    assert not ik.doesObjectExist(ik.createEnvironment(), "goal")  # the environment's own
+    with pytest.raises(ArgumentError):
+        ik.createDummy(env, "goal")
+    with pytest.raises(ArgumentError):
+        ik.createDummy(env, "tip")  # a scene object's name
+    # a target of the environment only: the scene's target and joints do not move
+    scene_target, scene_q = sim.getObjectPosition(h["target"], -1), sim.getJointPosition(h["j1"])
+    g = ik.createGroup(env, "byHand")
+    ik.setGroupCalculation(env, g, ik.method_damped_least_squares, 0.02, 300)
+    el = ik.addElement(env, g, h["tip"])
+    ik.setElementConstraints(env, g, el, ik.constraint_position)
+    ik.setTargetDummy(env, h["tip"], goal)
+    assert ik.getTargetDummy(env, h["tip"]) == goal
+    p = _reachable(ik, env, h, {"j1": -0.3, "j2": 0.2, "j3": 0.1, "j4": -0.5})
+    ik.setObjectPose(env, goal, [*p, 0, 0, 0, 1])
+    assert ik.getObjectPose(env, goal)[:3] == pytest.approx(p)
+    assert ik.handleGroup(env, g)[0] == ik.result_success
+    assert ik.getObjectPose(env, h["tip"])[:3] == pytest.approx(p, abs=1e-3)
+    assert sim.getObjectPosition(h["target"], -1) == scene_target and sim.getJointPosition(h["j1"]) == scene_q
+    # a tip of the environment only, carried by the scene's wrist body 0.1 m ahead of it
+    tool = ik.createDummy(env, "tool")
+    ik.setObjectParent(env, tool, "/wrist", False)
+    ik.setObjectPose(env, tool, [0.1, 0, 0, 0, 0, 0, 1], ik.handle_parent)
+    wrist = np.array(ik.getObjectMatrix(env, "/wrist")).reshape(3, 4)
+    assert ik.getObjectPose(env, tool)[:3] == pytest.approx(wrist[:, 3] + wrist[:, 0] * 0.1)
+    g2 = ik.createGroup(env, "tool")
+    ik.setGroupCalculation(env, g2, ik.method_damped_least_squares, 0.02, 300)
+    el2 = ik.addElement(env, g2, tool)
+    ik.setElementConstraints(env, g2, el2, ik.constraint_position)
+    goal2 = ik.createDummy(env, "goal2")
+    ik.setTargetDummy(env, tool, goal2)
+    ik.setObjectPose(env, goal2, [*(np.array(p) + [0.0, 0.05, -0.05]), 0, 0, 0, 1])
+    jac, err = ik.computeGroupJacobian(env, g2)  # the tool's point, by differences
+    before = np.array(ik.getObjectPose(env, tool)[:3])
+    ik.setJointPosition(env, h["j2"], ik.getJointPosition(env, h["j2"]) + 1e-6)
+    assert np.array(jac).reshape(3, 4)[:, 1] == pytest.approx((np.array(ik.getObjectPose(env, tool)[:3]) - before) / 1e-6, abs=1e-4)
+    assert ik.handleGroup(env, g2)[0] == ik.result_success
+    assert ik.getObjectPose(env, tool)[:3] == pytest.approx(ik.getObjectPose(env, goal2)[:3], abs=1e-3)
+
+
+def test_environment_dummies_parents_erasing_and_saving(rig):
+    s, sim, ik, env, h = rig
+    a, b = ik.createDummy(env, "a"), ik.createDummy(env, "b")
+    ik.setObjectPose(env, a, [0.1, 0.2, 0.3, 0, 0, 0, 1])
+    ik.setObjectParent(env, a, h["link3"])  # kept in place, then carried by link3
+    assert ik.getObjectPose(env, a)[:3] == pytest.approx([0.1, 0.2, 0.3]) and ik.getObjectParent(env, a) == h["link3"]
+    ik.setObjectParent(env, b, a, False)  # b keeps its pose relative to a (the origin): it goes to a
+    assert ik.getObjectPose(env, b) == pytest.approx(ik.getObjectPose(env, a))
+    ik.setJointPosition(env, h["j4"], 0.0)
+    moved = ik.getObjectPose(env, b)[:3]
+    assert moved != pytest.approx([0.1, 0.2, 0.3], abs=1e-3)  # j4 turned link3, and a and b with it
+    with pytest.raises(ArgumentError):
+        ik.setObjectParent(env, a, b)  # a loop
+    with pytest.raises(ArgumentError):
+        ik.setObjectParent(env, h["tip"], a)  # the scene's
+    with pytest.raises(ArgumentError):
+        ik.eraseObject(env, h["tip"])
+    # saved and loaded with the rest
+    g = ik.createGroup(env, "g")
+    ik.setTargetDummy(env, h["tip"], b)
+    el = ik.addElement(env, g, h["tip"])
+    ik.setTargetDummy(env, h["tip"], b)
+    other = ik.createEnvironment()
+    ik.load(other, ik.save(env))
+    assert ik.getObjectHandle(other, "b") == b and ik.getObjectPose(other, b) == pytest.approx(ik.getObjectPose(env, b))
+    assert ik.getTargetDummy(other, h["tip"]) == b
+    # erasing a: b goes to link3 and stays in place; erasing b: the element has no target
+    ik.eraseObject(env, a)
+    assert ik.getObjectParent(env, b) == h["link3"] and ik.getObjectPose(env, b)[:3] == pytest.approx(moved)
+    ik.eraseObject(env, b)
+    assert not ik.doesObjectExist(env, "b") and ik.getTargetDummy(env, h["tip"]) == -1
+    assert ik.getElementConstraints(env, g, el) == 31  # the element stays (its tip is the scene's)
+    with pytest.raises(UnknownObjectError):
+        ik.getObjectPose(env, b)

@@ -39,6 +39,7 @@ from simx_server.sim.objects import DUMMY, JOINT, WORLD
 CONSTANTS: dict[str, int] = json.loads((Path(__file__).resolve().parents[2] / "zmq" / "coppeliasim_api.json")
                                        .read_text(encoding="utf-8"))["constants"]["simIK"]
 RESULT_NOT_PERFORMED, RESULT_SUCCESS, RESULT_FAIL = 0, 1, 2
+HANDLE_PARENT = CONSTANTS["handle_parent"]
 JOINTMODE_PASSIVE, JOINTMODE_IK = 0, 2
 _FIRST_GROUP = 1000  # created groups' handles (the scene's groups keep theirs, from 1)
 MAX_ENVIRONMENTS, MAX_GROUPS, MAX_ITERATIONS = 64, 256, 1000
@@ -56,6 +57,23 @@ class Group:
     failure: str = ""
 
 
+#: Handles of an environment's own dummies (``simIK.createDummy``): above the scene's, below
+#: ``simIK.handleflag_tipdummy``; at most MAX_DUMMIES per environment.
+FIRST_DUMMY, MAX_DUMMIES = 2_000_000, 1024
+
+
+@dataclasses.dataclass
+class LocalDummy:
+    """A dummy of an environment only (``simIK.createDummy``): its pose relative to its parent
+    (-1 the world, a scene object, or another of the environment's dummies)."""
+
+    handle: int
+    name: str
+    parent: int = WORLD
+    position: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+    rotation: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3))
+
+
 @dataclasses.dataclass
 class Environment:
     groups: dict = dataclasses.field(default_factory=dict)
@@ -68,6 +86,9 @@ class Environment:
     dependency: dict = dataclasses.field(default_factory=dict)
     #: ball joint handle -> its rotation (w, x, y, z) in the environment (simIK.setSphericalJoint*)
     ball: dict = dataclasses.field(default_factory=dict)
+    #: handle -> LocalDummy: the environment's own dummies
+    dummies: dict = dataclasses.field(default_factory=dict)
+    next_dummy: int = FIRST_DUMMY
     next_group: int = _FIRST_GROUP
     next_element: int = 1
 
@@ -124,6 +145,62 @@ def q_of(ctx: CallContext, env: Environment, joint: int) -> float:
     return env.q[joint]
 
 
+def frame(ctx: CallContext, env: Environment, data: mujoco.MjData, handle: int) -> tuple[np.ndarray, np.ndarray, str, int]:
+    """``position, rotation, kind, id`` of an object in ``data``, as
+    :func:`simx_server.sim.ik_solver.frame`; an environment's own dummy is a ``"point"`` carried
+    by the body of its first scene ancestor (0: the world).
+
+    Raises:
+        UnknownObjectError: no such object.
+    """
+    dummy = env.dummies.get(handle)
+    if dummy is None:
+        return S.frame(ctx.world, data, handle)
+    if dummy.parent == WORLD:
+        return dummy.position.copy(), dummy.rotation.copy(), "point", 0
+    p, r, _, _ = frame(ctx, env, data, dummy.parent)
+    return p + r @ dummy.position, r @ dummy.rotation, "point", carrier(ctx, env, dummy.parent)
+
+
+def carrier(ctx: CallContext, env: Environment, handle: int) -> int:
+    """The MuJoCo body that carries an object (an environment's dummy: its first scene
+    ancestor's; 0 the world)."""
+    while handle in env.dummies:
+        handle = env.dummies[handle].parent
+    return 0 if handle == WORLD else int(ctx.world.get(handle).body)
+
+
+def object_of(ctx: CallContext, env: Environment, handle: Any, what: str = "objectHandle") -> int:
+    """An object argument: one of the environment's dummies (by handle or name), else the
+    scene's (every form ``sim.getObject`` takes). UnknownObjectError when neither."""
+    if isinstance(handle, str):
+        for d in env.dummies.values():
+            if d.name == handle:
+                return int(d.handle)
+    h = ctx.h(handle, what)
+    if h not in env.dummies and h != WORLD:
+        ctx.world.get(h)
+    return h
+
+
+def place_dummy(ctx: CallContext, env: Environment, handle: int, relative_to: int, position: Any,
+                rotation: Any) -> None:
+    """Put one of the environment's dummies at a pose relative to ``relative_to`` (-1 the world,
+    ``simIK.handle_parent``, or an object), in the environment's configuration; the rotation is
+    made orthonormal."""
+    dummy = env.dummies[handle]
+    p, r = np.asarray(position, float), ik_chain.rotation_matrix(ik_chain.unit_quaternion(rotation))
+    if relative_to != HANDLE_PARENT:
+        d = env_data(ctx, env)
+        if relative_to != WORLD:
+            pr, rr, _, _ = frame(ctx, env, d, relative_to)
+            p, r = pr + rr @ p, rr @ r
+        if dummy.parent != WORLD:
+            pp, rp, _, _ = frame(ctx, env, d, dummy.parent)
+            p, r = rp.T @ (p - pp), rp.T @ r
+    dummy.position, dummy.rotation = p, r
+
+
 def joints_of(ctx: CallContext, env: Environment, g: Group) -> list[int]:
     """The joints the group moves, base first: the chains' joints in IK mode, a dependent joint
     replaced by its master (when every joint from it to its master is in IK mode), once each
@@ -131,7 +208,8 @@ def joints_of(ctx: CallContext, env: Environment, g: Group) -> list[int]:
     out: list[int] = []
     for el in g.elements:
         if el.flags & 1:
-            for j in S.chain(ctx.world, el.tip, el.base):
+            tip_body = carrier(ctx, env, el.tip) if el.tip in env.dummies else None
+            for j in S.chain(ctx.world, el.tip, el.base, tip_body):
                 if env.mode.get(j, JOINTMODE_IK) != JOINTMODE_IK:
                     continue
                 while j is not None and env.dependency.get(j, (-1,))[0] != -1:
@@ -193,7 +271,7 @@ def solve(ctx: CallContext, env: Environment, g: Group, targets: dict | None = N
     margins = np.array([env.margin.get(j, 0.0) for j in joints])
     ok, q, _ = S.solve(ctx.world, d, joints, q, g.elements, g.method, g.damping,
                        g.iterations if iterations is None else iterations, steps, targets, weights, margins,
-                       slaves_of(ctx, env, joints))
+                       slaves_of(ctx, env, joints), lambda data, h: frame(ctx, env, data, h))
     return ok, joints, q
 
 
@@ -356,9 +434,12 @@ def addElementFromScene(ctx: CallContext, environmentHandle: Any, ikGroup: Any, 
 
 @simik_function("addElement")
 def addElement(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, tipDummyHandle: Any) -> int:  # noqa: N802, N803
-    """An element for a tip already known (a scene dummy); target and base set later."""
+    """An element for a tip already known (a scene dummy or one of the environment's); target and
+    base set later."""
     env = env_of(ctx, environmentHandle)
-    tip = ctx.world.get(ctx.h(tipDummyHandle, "tipDummyHandle"), DUMMY).handle
+    tip = object_of(ctx, env, tipDummyHandle, "tipDummyHandle")
+    if tip not in env.dummies:
+        tip = ctx.world.get(tip, DUMMY).handle
     el = S.Element(env.next_element, tip, -1)
     env.next_element += 1
     group_of(ctx, env, ikGroupHandle).elements.append(el)
@@ -445,8 +526,8 @@ def getElementWeights(ctx: CallContext, environmentHandle: Any, ikGroupHandle: A
 def setTargetDummy(ctx: CallContext, environmentHandle: Any, tipDummyHandle: Any, targetDummyHandle: Any) -> None:  # noqa: N802, N803
     """Link a tip to a target: every element of the environment with that tip."""
     env = env_of(ctx, environmentHandle)
-    tip, target = ctx.h(tipDummyHandle, "tipDummyHandle"), ctx.h(targetDummyHandle, "targetDummyHandle")
-    ctx.world.get(target)
+    tip = object_of(ctx, env, tipDummyHandle, "tipDummyHandle")
+    target = object_of(ctx, env, targetDummyHandle, "targetDummyHandle")
     for g in env.groups.values():
         for el in g.elements:
             if el.tip == tip:
@@ -455,5 +536,6 @@ def setTargetDummy(ctx: CallContext, environmentHandle: Any, tipDummyHandle: Any
 
 @simik_function("getTargetDummy")
 def getTargetDummy(ctx: CallContext, environmentHandle: Any, tipDummyHandle: Any) -> int:  # noqa: N802, N803
-    env, tip = env_of(ctx, environmentHandle), ctx.h(tipDummyHandle, "tipDummyHandle")
+    env = env_of(ctx, environmentHandle)
+    tip = object_of(ctx, env, tipDummyHandle, "tipDummyHandle")
     return next((el.target for g in env.groups.values() for el in g.elements if el.tip == tip), -1)

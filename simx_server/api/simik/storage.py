@@ -4,8 +4,9 @@ CoppeliaSim saves an environment's kinematic content (its objects, joints and gr
 kinematics routines' binary format (``ikSave`` / ``ikLoad`` of coppeliaKinematicsRoutines'
 ``ik.cpp``) and loads it into an *empty* environment only ("Environment must be empty"). An
 environment of simx has the scene's objects, so what it saves is what it holds of its own: its
-groups and their elements, and its joints' positions, modes, weights, limit margins, step sizes,
-dependencies and spherical joints' rotations, with the name of every scene object it refers to.
+own dummies, groups and their elements, and its joints' positions, modes, weights, limit
+margins, step sizes, dependencies and spherical joints' rotations, with the name of every scene
+object it refers to.
 The buffer is simx's (``simxIK1`` and JSON): it loads into an environment of the same scene (the
 names are checked), in this server or another; a buffer CoppeliaSim wrote is refused by name, as
 is anything that does not check out. The buffer is untrusted input: its size, counts and every
@@ -52,15 +53,17 @@ def save(ctx: CallContext, environmentHandle: Any) -> bytes:  # noqa: N803
                                                   else float(v))
     for j, quat in env.ball.items():
         joints.setdefault(int(j), {})["ball"] = [float(v) for v in quat]
-    used = set(joints)
+    dummies = [{"handle": d.handle, "name": d.name, "parent": d.parent, "position": d.position.tolist(),
+                "rotation": d.rotation.reshape(9).tolist()} for d in env.dummies.values()]
+    used = set(joints) | {d.parent for d in env.dummies.values()}
     for g in env.groups.values():
         for el in g.elements:
             used |= {el.tip, el.target, el.base}
     for spec in joints.values():
         if "dependency" in spec:
             used.add(int(spec["dependency"][0]))
-    names = {str(h): w.get(h).name for h in sorted(used) if h != WORLD and h in w.objects}
-    body = {"objects": names, "groups": groups, "joints": {str(j): s for j, s in joints.items()},
+    names = {str(h): w.get(h).name for h in sorted(used) if h != WORLD and h not in env.dummies and h in w.objects}
+    body = {"objects": names, "dummies": dummies, "next_dummy": env.next_dummy, "groups": groups, "joints": {str(j): s for j, s in joints.items()},
             "next_group": env.next_group, "next_element": env.next_element}
     return MAGIC + json.dumps(body, separators=(",", ":")).encode("utf-8")
 
@@ -97,6 +100,7 @@ class _Reader:
 
     def __init__(self, ctx: CallContext):
         self.w = ctx.world
+        self.local: set[int] = set()  # the buffer's own dummies
 
     def _dict(self, v: Any, what: str) -> dict:
         if not isinstance(v, dict):
@@ -120,7 +124,7 @@ class _Reader:
 
     def _object(self, h: Any, what: str, names: dict, world_ok: bool = True) -> int:
         h = self._int(h, what)
-        if h == WORLD and world_ok:
+        if (h == WORLD and world_ok) or h in self.local:
             return h
         saved = names.get(str(h))
         obj = self.w.objects.get(h)
@@ -139,6 +143,9 @@ class _Reader:
         body = self._dict(body, "the buffer")
         names = self._dict(body.get("objects", {}), "objects")
         env = _environments.Environment()
+        self._dummies(env, body.get("dummies", []), names)
+        env.next_dummy = max(self._int(body.get("next_dummy", env.next_dummy), "next_dummy", 0),
+                             max(env.dummies, default=env.next_dummy - 1) + 1)
         groups = body.get("groups", [])
         if not isinstance(groups, list) or len(groups) > _environments.MAX_GROUPS:
             raise ArgumentError(f"simIK.load: groups must be a list of at most {_environments.MAX_GROUPS}")
@@ -157,6 +164,32 @@ class _Reader:
         els = [el.handle for g in env.groups.values() for el in g.elements]
         env.next_element = max(self._int(body.get("next_element", 1), "next_element", 0), max(els, default=0) + 1)
         return env
+
+    def _dummies(self, env: _environments.Environment, specs: Any, names: dict) -> None:
+        if not isinstance(specs, list) or len(specs) > _environments.MAX_DUMMIES:
+            raise ArgumentError(f"simIK.load: dummies must be a list of at most {_environments.MAX_DUMMIES}")
+        top = _environments.FIRST_DUMMY + 16 * _environments.MAX_DUMMIES
+        specs = [self._dict(d, "a dummy") for d in specs]
+        self.local = {self._int(d.get("handle"), "a dummy's handle", _environments.FIRST_DUMMY, top) for d in specs}
+        if len(self.local) != len(specs):
+            raise ArgumentError("simIK.load: a dummy's handle twice")
+        for d in specs:
+            name = d.get("name")
+            if not isinstance(name, str) or not 0 < len(name) <= 200:
+                raise ArgumentError("simIK.load: a dummy's name must be a string of 1-200 characters")
+            rot = np.array(self._nums(d.get("rotation"), 9, "a dummy's rotation", -2.0)).reshape(3, 3)
+            if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6):
+                raise ArgumentError("simIK.load: a dummy's rotation is not a rotation")
+            h = int(d["handle"])
+            env.dummies[h] = _environments.LocalDummy(h, name, self._object(d.get("parent", -1), "a dummy's parent", names),
+                                                      np.array(self._nums(d.get("position"), 3, "a dummy's position")), rot)
+        for h in env.dummies:  # no loops of parents
+            a, seen = env.dummies[h].parent, {h}
+            while a in env.dummies:
+                if a in seen:
+                    raise ArgumentError("simIK.load: the dummies' parents form a loop")
+                seen.add(a)
+                a = env.dummies[a].parent
 
     def _group(self, spec: dict, names: dict) -> _environments.Group:
         name = spec.get("name")
