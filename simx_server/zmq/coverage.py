@@ -61,8 +61,8 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
 
 #: simIK functions simx does not implement: (status, why).
 IK_NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
-    **{n: ("missing", "an environment's objects are the scene's: building or reparenting IK-only objects is not "
-                      "supported") for n in ("createDummy", "createJoint", "eraseObject", "setObjectParent")},
+    "createJoint": ("missing", "an environment's joints are the scene's (MuJoCo's): its own dummies are served, "
+                               "joints of its own would need kinematics beside MuJoCo's"),
     "setJointScrewLead": ("missing", "a MuJoCo hinge cannot translate along its axis: no screw joints"),
 }
 
