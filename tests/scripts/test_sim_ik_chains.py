@@ -416,3 +416,20 @@ def test_environment_dummies_parents_erasing_and_saving(rig):
     assert ik.getElementConstraints(env, g, el) == 31  # the element stays (its tip is the scene's)
     with pytest.raises(UnknownObjectError):
         ik.getObjectPose(env, b)
+
+
+def test_a_deep_line_of_dummies_and_the_bound(rig):
+    _, sim, ik, env, h = rig
+    parent = h["link3"]
+    for _ in range(1023):
+        d = ik.createDummy(env)
+        ik.setObjectParent(env, d, parent, False)
+        ik.setObjectPose(env, d, [0.001, 0, 0, 0, 0, 0, 1], ik.handle_parent)
+        parent = d
+    link3 = np.array(ik.getObjectMatrix(env, h["link3"])).reshape(3, 4)
+    assert ik.getObjectPose(env, parent)[:3] == pytest.approx(link3[:, 3] + 1.023 * link3[:, 0])
+    d = ik.createDummy(env)
+    with pytest.raises(ArgumentError, match="at most 1024"):
+        ik.createDummy(env)
+    ik.eraseObject(env, d)
+    assert ik.getObjectType(env, ik.createDummy(env, "last")) == ik.objecttype_dummy

@@ -30,8 +30,9 @@ from simx_wire.protocol import ArgumentError
 MAX_NAME = 200
 
 
-def _exists(ctx: CallContext, env: _environments.Environment, name: str) -> bool:
-    return any(d.name == name for d in env.dummies.values()) or ctx.sim.getObject(name, {"noError": True}) != -1
+def _exists(ctx: CallContext, names: set[str], name: str) -> bool:
+    """Whether ``name`` is one of the environment's dummies' (``names``) or a scene object's."""
+    return name in names or ctx.sim.getObject(name, {"noError": True}) != -1
 
 
 @simik_function("createDummy")
@@ -49,12 +50,13 @@ def createDummy(ctx: CallContext, environmentHandle: Any, dummyName: Any = "") -
     name = _text(dummyName, "dummyName") if dummyName is not None else ""
     if len(name) > MAX_NAME:
         raise ArgumentError(f"dummyName is longer than {MAX_NAME} characters")
+    names = {d.name for d in env.dummies.values()}
     if not name:
         n = 0
-        while _exists(ctx, env, f"dummy{n}"):
+        while _exists(ctx, names, f"dummy{n}"):
             n += 1
         name = f"dummy{n}"
-    elif _exists(ctx, env, name):
+    elif _exists(ctx, names, name):
         raise ArgumentError(f"an object named {name!r} exists already in the environment")
     h, env.next_dummy = env.next_dummy, env.next_dummy + 1
     env.dummies[h] = _environments.LocalDummy(h, name)

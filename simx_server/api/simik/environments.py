@@ -153,13 +153,16 @@ def frame(ctx: CallContext, env: Environment, data: mujoco.MjData, handle: int) 
     Raises:
         UnknownObjectError: no such object.
     """
-    dummy = env.dummies.get(handle)
-    if dummy is None:
+    if handle not in env.dummies:
         return S.frame(ctx.world, data, handle)
-    if dummy.parent == WORLD:
-        return dummy.position.copy(), dummy.rotation.copy(), "point", 0
-    p, r, _, _ = frame(ctx, env, data, dummy.parent)
-    return p + r @ dummy.position, r @ dummy.rotation, "point", carrier(ctx, env, dummy.parent)
+    chain = []  # the dummy and its dummy ancestors, nearest first (no loops: setObjectParent refuses them)
+    while handle in env.dummies:
+        chain.append(env.dummies[handle])
+        handle = chain[-1].parent
+    p, r = (np.zeros(3), np.eye(3)) if handle == WORLD else S.frame(ctx.world, data, handle)[:2]
+    for dummy in reversed(chain):
+        p, r = p + r @ dummy.position, r @ dummy.rotation
+    return p, r, "point", 0 if handle == WORLD else int(ctx.world.get(handle).body)
 
 
 def carrier(ctx: CallContext, env: Environment, handle: int) -> int:
