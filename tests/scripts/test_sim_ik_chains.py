@@ -253,6 +253,8 @@ def test_lua_child_script_jacobian_and_dependency(rig):
         q1, q2, offset, mult = floats
         assert (offset, mult) == (0.05, -0.5) and q2 == pytest.approx(0.05 - 0.5 * q1)
         assert sim.getJointTargetPosition(h["j2"]) == pytest.approx(q2)
+        (size, copied_group), pose, kinds, _ = s.scripts.call("Chains", CHILD, "saved", [], [0.4, 0.1, 0.2], [], b"")
+        assert size > 100 and copied_group >= 1000 and pose == pytest.approx([0.4, 0.1, 0.2]) and kinds == ["string"]
     finally:
         s.stop()
 

@@ -35,3 +35,14 @@ function coupled(ints, floats, strings, buf)
     local joints = simIK.getGroupJoints(env, group)
     return {result, #joints, master}, {simIK.getJointPosition(env, j1), simIK.getJointPosition(env, j2), offset, mult}
 end
+
+-- the environment saved to a buffer (a Lua string) and loaded into a new one, with a dummy of its own
+function saved(ints, floats, strings, buf)
+    local goal = simIK.createDummy(env, 'goal')
+    simIK.setObjectPose(env, goal, {floats[1], floats[2], floats[3], 0, 0, 0, 1})
+    local data = simIK.save(env)
+    local copy = simIK.createEnvironment()
+    simIK.load(copy, data)
+    local pose = simIK.getObjectPose(copy, simIK.getObjectHandle(copy, 'goal'), -1)
+    return {#data, simIK.getGroupHandle(copy, 'group' .. group)}, {pose[1], pose[2], pose[3]}, {type(data)}
+end
