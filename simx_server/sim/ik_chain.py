@@ -22,7 +22,9 @@ reference:
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -72,6 +74,12 @@ def unit_quaternion(rotation: np.ndarray) -> np.ndarray:
     """The unit quaternion (w, x, y, z) of the nearest rotation to a 3x3 matrix (CoppeliaSim
     normalises the matrix first, ``ikSetSphericalJointMatrix``).
 
+    Args:
+        rotation: a 3x3 matrix (9 numbers), a rotation up to scale and noise.
+
+    Returns:
+        Array (4,): w, x, y, z, unit length.
+
     Raises:
         ArgumentError: a singular matrix (no rotation is near it).
     """
@@ -88,10 +96,73 @@ def unit_quaternion(rotation: np.ndarray) -> np.ndarray:
 
 
 def rotation_matrix(quat_wxyz: np.ndarray) -> np.ndarray:
-    """The rotation (3, 3) of a unit quaternion (w, x, y, z)."""
+    """The rotation matrix of a unit quaternion.
+
+    Args:
+        quat_wxyz: w, x, y, z.
+
+    Returns:
+        Array (3, 3).
+    """
     rot = np.empty(9)
     mujoco.mju_quat2Mat(rot, np.asarray(quat_wxyz, float))
     return rot.reshape(3, 3)
+
+
+# ------------------------------------------------------------------ environments' own dummies
+@dataclasses.dataclass
+class LocalDummy:
+    """A dummy of a ``simIK`` environment only (``simIK.createDummy``): its pose relative to its
+    parent (-1 the world, a scene object, or another of the environment's dummies)."""
+
+    handle: int
+    name: str
+    parent: int = -1
+    position: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+    rotation: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3))
+
+
+def dummy_frame(world, dummies: dict[int, LocalDummy], data: mujoco.MjData, handle: int,
+                scene_frame: Callable[[int], tuple]) -> tuple[np.ndarray, np.ndarray, str, int]:
+    """``position, rotation, "point", body`` of an environment's dummy in ``data``: its dummy
+    ancestors' poses composed on its first scene ancestor's frame (``scene_frame(handle)``; the
+    world for -1), carried by that ancestor's body (0: the world). A loop of parents cannot
+    happen (``simIK.setObjectParent`` refuses one).
+
+    Args:
+        world: the world.
+        dummies: the environment's dummies by handle.
+        data: MuJoCo data whose kinematics are up to date.
+        handle: one of ``dummies``.
+        scene_frame: a scene object's ``(position, rotation, ...)`` in ``data``.
+
+    Returns:
+        ``(position (3,) m, rotation (3, 3), "point", MuJoCo body id)``.
+    """
+    line = []
+    while handle in dummies:
+        line.append(dummies[handle])
+        handle = line[-1].parent
+    p, r = (np.zeros(3), np.eye(3)) if handle == -1 else scene_frame(handle)[:2]
+    for dummy in reversed(line):
+        p, r = p + r @ dummy.position, r @ dummy.rotation
+    return p, r, "point", 0 if handle == -1 else int(world.get(handle).body)
+
+
+def carrier(world, dummies: dict[int, LocalDummy], handle: int) -> int:
+    """The MuJoCo body that carries one of an environment's dummies.
+
+    Args:
+        world: the world.
+        dummies: the environment's dummies by handle.
+        handle: one of them (or a scene object: its own body).
+
+    Returns:
+        The body id of its first scene ancestor (0: the world).
+    """
+    while handle in dummies:
+        handle = dummies[handle].parent
+    return 0 if handle == -1 else int(world.get(handle).body)
 
 
 # ------------------------------------------------------------------- dependencies
@@ -122,8 +193,19 @@ def link_dependency(dependency: dict[int, tuple[int, float, float]], slave: int,
 
 
 def root_of(dependency: dict[int, tuple[int, float, float]], joint: int) -> tuple[int, float, float]:
-    """``(root master, offset, mult)`` with ``position(joint) = offset + mult * position(root)``,
-    following slaves of slaves; ``(joint, 0, 1)`` for a joint that follows nothing."""
+    """Where a joint's position comes from, following slaves of slaves.
+
+    Args:
+        dependency: slave handle -> ``(master, offset, mult)`` (master -1: none).
+        joint: a joint's handle.
+
+    Returns:
+        ``(root master, offset, mult)`` with ``position(joint) = offset + mult *
+        position(root)``; ``(joint, 0, 1)`` for a joint that follows nothing.
+
+    Raises:
+        ArgumentError: a line of dependencies longer than MAX_DEPENDENCY_DEPTH.
+    """
     offset, mult = 0.0, 1.0
     for _ in range(MAX_DEPENDENCY_DEPTH):
         master, o, k = dependency.get(joint, (-1, 0.0, 1.0))
@@ -135,8 +217,15 @@ def root_of(dependency: dict[int, tuple[int, float, float]], joint: int) -> tupl
 
 
 def couplings(dependency: dict[int, tuple[int, float, float]], columns: list[int]) -> list[tuple[int, int, float, float]]:
-    """The slaves that follow one of ``columns`` (the solver's joints): ``(slave, column index,
-    offset, mult)`` each, with the root's offset and factor."""
+    """The slaves that follow one of the solver's joints.
+
+    Args:
+        dependency: slave handle -> ``(master, offset, mult)`` (master -1: none).
+        columns: the solver's joint handles.
+
+    Returns:
+        ``(slave, column index, offset, mult)`` each, offset and factor from its root master.
+    """
     index = {j: i for i, j in enumerate(columns)}
     out = []
     for slave, (master, _, _) in dependency.items():
@@ -156,6 +245,9 @@ def coupling_matrix(nv: int, dadr: np.ndarray, slaves: list[tuple[int, int, floa
         nv: the model's dof count.
         dadr: the columns' dof addresses.
         slaves: ``(slave dof address, column index, mult)``.
+
+    Returns:
+        Array (nv, len(dadr)).
     """
     m = np.zeros((nv, len(dadr)))
     m[np.asarray(dadr, int), np.arange(len(dadr))] = 1.0
@@ -166,8 +258,15 @@ def coupling_matrix(nv: int, dadr: np.ndarray, slaves: list[tuple[int, int, floa
 
 # ----------------------------------------------------------------------- Jacobian
 def rotation_vector(r: np.ndarray) -> np.ndarray:
-    """Axis times angle (rad) of a rotation matrix (the limit of CoppeliaSim's Euler angles of a
-    small interpolated step, divided by the step)."""
+    """Axis times angle of a rotation (the limit of CoppeliaSim's Euler angles of a small
+    interpolated step, divided by the step).
+
+    Args:
+        r: rotation matrix (3, 3).
+
+    Returns:
+        Array (3,), rad.
+    """
     quat, v = np.empty(4), np.empty(3)
     mujoco.mju_mat2Quat(quat, np.asarray(r, float).reshape(9).copy())
     mujoco.mju_quat2Vel(v, quat, 1.0)
@@ -198,8 +297,14 @@ def _partial_target(constraints: int, r_tip: np.ndarray, r_target: np.ndarray) -
 
 
 def rows_of(constraints: int) -> tuple[list[int], list[int]]:
-    """The position rows (0 x, 1 y, 2 z) and rotation rows (0 alpha, 1 beta, 2 gamma) of
-    ``simIK.constraint_*`` bits, in CoppeliaSim's order."""
+    """The rows of constraint bits, in CoppeliaSim's order.
+
+    Args:
+        constraints: ``simIK.constraint_*`` bits.
+
+    Returns:
+        ``(position rows (0 x, 1 y, 2 z), rotation rows (0 alpha, 1 beta, 2 gamma))``.
+    """
     lin = [i for i, bit in enumerate((CONSTRAINT_X, CONSTRAINT_Y, CONSTRAINT_Z)) if constraints & bit]
     ang = ([0, 1] if constraints & CONSTRAINT_ALPHA_BETA else []) + ([2] if constraints & CONSTRAINT_GAMMA else [])
     return lin, ang

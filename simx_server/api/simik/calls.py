@@ -12,8 +12,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simik_function
-from simx_server.api.sim import core as _core
-from simx_server.api.simik import environments as _environments
+from simx_server.api.simik import dummies as _dummies, environments as _environments
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.api.sim.misc import alternate_configs
 from simx_server.sim import ik_solver as S
@@ -407,22 +406,7 @@ def setObjectTransformation(ctx: CallContext, environmentHandle: Any, objectHand
     rot = (np.asarray(matrix_from_quaternion(*_vector(eulerOrQuaternion, 4, "quaternion")))
            if isinstance(eulerOrQuaternion, (list, tuple)) and len(eulerOrQuaternion) == 4
            else np.asarray(matrix_from_euler(*_vector(eulerOrQuaternion, 3, "eulerAngles"))))
-    _place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, _vector(position, 3, "position"), rot)
-
-
-def _place(ctx: CallContext, environmentHandle: Any, objectHandle: Any, relativeToObjectHandle: Any,  # noqa: N803
-           position: list[float], rotation: np.ndarray) -> None:
-    """Place one of the environment's dummies in it, or a scene object (a target) in the scene."""
-    env = _environments.env_of(ctx, environmentHandle)
-    h = _environments.object_of(ctx, env, objectHandle)
-    rel = _environments.object_of(ctx, env, relativeToObjectHandle, "relativeToObjectHandle") \
-        if relativeToObjectHandle != _environments.HANDLE_PARENT else _environments.HANDLE_PARENT
-    if h in env.dummies:
-        _environments.place_dummy(ctx, env, h, rel, position, rotation)
-    elif rel in env.dummies:
-        raise ArgumentError("a scene object cannot be placed relative to a dummy of an IK environment")
-    else:
-        _core.set_pose(ctx, h, rel, position=position, rotation=rotation)
+    _dummies.place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, _vector(position, 3, "position"), rot)
 
 
 # ---------------------------------------------------------------------- objects
@@ -432,10 +416,8 @@ def getObjectHandle(ctx: CallContext, environmentHandle: Any, objectName: Any) -
     environment's other objects are the scene's)."""
     env = _environments.env_of(ctx, environmentHandle)
     name = _text(objectName, "objectName")
-    for dummy in env.dummies.values():
-        if dummy.name == name:
-            return int(dummy.handle)
-    return ctx.sim.getObject(name)
+    own = next((d.handle for d in env.dummies.values() if d.name == name), None)
+    return int(own) if own is not None else ctx.sim.getObject(name)
 
 
 @simik_function("doesObjectExist")
@@ -491,10 +473,8 @@ def getObjectPose(ctx: CallContext, environmentHandle: Any, objectHandle: Any, r
     d = _environments.env_data(ctx, env)
     h = _environments.object_of(ctx, env, objectHandle)
     p, r, _, _ = _environments.frame(ctx, env, d, h)
-    rel = _environments.HANDLE_PARENT if relativeToObjectHandle == _environments.HANDLE_PARENT else \
-        _environments.object_of(ctx, env, relativeToObjectHandle, "relativeToObjectHandle")
-    if rel == _environments.HANDLE_PARENT:
-        rel = getObjectParent(ctx, environmentHandle, h)
+    rel = getObjectParent(ctx, environmentHandle, h) if relativeToObjectHandle == _environments.HANDLE_PARENT \
+        else _environments.object_of(ctx, env, relativeToObjectHandle, "relativeToObjectHandle")
     if rel != WORLD:
         pr, rr, _, _ = _environments.frame(ctx, env, d, rel)
         p, r = rr.T @ (p - pr), rr.T @ r
@@ -508,7 +488,7 @@ def setObjectPose(ctx: CallContext, environmentHandle: Any, objectHandle: Any, p
     """Place a dummy (a target): one of the environment's own in the environment, a scene object
     in the scene (which the environment shares)."""
     v = _vector(pose, 7, "pose")
-    _place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, v[:3], np.asarray(matrix_from_quaternion(*v[3:])))
+    _dummies.place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, v[:3], np.asarray(matrix_from_quaternion(*v[3:])))
 
 
 @simik_function("getObjectMatrix")
@@ -522,7 +502,7 @@ def getObjectMatrix(ctx: CallContext, environmentHandle: Any, objectHandle: Any,
 @simik_function("setObjectMatrix")
 def setObjectMatrix(ctx: CallContext, environmentHandle: Any, objectHandle: Any, matrix: Any, relativeToObjectHandle: Any = -1) -> None:  # noqa: N802, N803
     m = np.array(_vector(matrix, 12, "matrix")).reshape(3, 4)
-    _place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, m[:, 3].tolist(), m[:, :3])
+    _dummies.place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, m[:, 3].tolist(), m[:, :3])
 
 
 @simik_function("createDebugOverlay")

@@ -22,12 +22,53 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simik_function
+from simx_server.api.sim import core as _core
 from simx_server.api.simik import environments as _environments
 from simx_server.base.arguments import as_text as _text
+from simx_server.sim import ik_chain
 from simx_server.sim.objects import WORLD
 from simx_wire.protocol import ArgumentError
 
 MAX_NAME = 200
+
+
+def place_dummy(ctx: CallContext, env: _environments.Environment, handle: int, relative_to: int, position: Any,
+                rotation: Any) -> None:
+    """Put one of the environment's dummies at a pose relative to ``relative_to`` (-1 the world,
+    ``simIK.handle_parent``, or an object), in the environment's configuration; the rotation is
+    made orthonormal."""
+    dummy = env.dummies[handle]
+    p, r = np.asarray(position, float), ik_chain.rotation_matrix(ik_chain.unit_quaternion(rotation))
+    if relative_to != _environments.HANDLE_PARENT:
+        d = _environments.env_data(ctx, env)
+        if relative_to != WORLD:
+            pr, rr, _, _ = _environments.frame(ctx, env, d, relative_to)
+            p, r = pr + rr @ p, rr @ r
+        if dummy.parent != WORLD:
+            pp, rp, _, _ = _environments.frame(ctx, env, d, dummy.parent)
+            p, r = rp.T @ (p - pp), rp.T @ r
+    dummy.position, dummy.rotation = p, r
+
+
+def place(ctx: CallContext, environmentHandle: Any, objectHandle: Any, relativeToObjectHandle: Any,  # noqa: N803
+          position: list[float], rotation: np.ndarray) -> None:
+    """``simIK.setObjectPose`` & co.: one of the environment's dummies in the environment, a scene
+    object (a target) in the scene, which the environment shares.
+
+    Raises:
+        ArgumentError: a scene object relative to one of the environment's dummies.
+    """
+    env = _environments.env_of(ctx, environmentHandle)
+    h = _environments.object_of(ctx, env, objectHandle)
+    parent = _environments.HANDLE_PARENT
+    rel = parent if relativeToObjectHandle == parent else _environments.object_of(
+        ctx, env, relativeToObjectHandle, "relativeToObjectHandle")
+    if h in env.dummies:
+        place_dummy(ctx, env, h, rel, position, rotation)
+    elif rel in env.dummies:
+        raise ArgumentError("a scene object cannot be placed relative to a dummy of an IK environment")
+    else:
+        _core.set_pose(ctx, h, rel, position=position, rotation=rotation)
 
 
 def _exists(ctx: CallContext, names: set[str], name: str) -> bool:
@@ -98,7 +139,7 @@ def setObjectParent(ctx: CallContext, environmentHandle: Any, objectHandle: Any,
     if keepInPlace:
         p, r = _world_pose(ctx, env, h)
         dummy.parent = parent
-        _environments.place_dummy(ctx, env, h, WORLD, p, r)
+        place_dummy(ctx, env, h, WORLD, p, r)
     else:
         dummy.parent = parent
 
@@ -118,7 +159,7 @@ def eraseObject(ctx: CallContext, environmentHandle: Any, objectHandle: Any) -> 
     for child in [d.handle for d in env.dummies.values() if d.parent == h]:
         p, r = _world_pose(ctx, env, child)
         env.dummies[child].parent = parent
-        _environments.place_dummy(ctx, env, child, WORLD, p, r)
+        place_dummy(ctx, env, child, WORLD, p, r)
     del env.dummies[h]
     for g in env.groups.values():
         g.elements = [el for el in g.elements if h not in (el.tip, el.base)]

@@ -62,16 +62,7 @@ class Group:
 FIRST_DUMMY, MAX_DUMMIES = 2_000_000, 1024
 
 
-@dataclasses.dataclass
-class LocalDummy:
-    """A dummy of an environment only (``simIK.createDummy``): its pose relative to its parent
-    (-1 the world, a scene object, or another of the environment's dummies)."""
-
-    handle: int
-    name: str
-    parent: int = WORLD
-    position: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
-    rotation: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3))
+LocalDummy = ik_chain.LocalDummy
 
 
 @dataclasses.dataclass
@@ -146,31 +137,11 @@ def q_of(ctx: CallContext, env: Environment, joint: int) -> float:
 
 
 def frame(ctx: CallContext, env: Environment, data: mujoco.MjData, handle: int) -> tuple[np.ndarray, np.ndarray, str, int]:
-    """``position, rotation, kind, id`` of an object in ``data``, as
-    :func:`simx_server.sim.ik_solver.frame`; an environment's own dummy is a ``"point"`` carried
-    by the body of its first scene ancestor (0: the world).
-
-    Raises:
-        UnknownObjectError: no such object.
-    """
+    """``position, rotation, kind, id`` of an object in ``data`` (:func:`simx_server.sim.ik_solver.frame`;
+    the environment's own dummies: :func:`simx_server.sim.ik_chain.dummy_frame`)."""
     if handle not in env.dummies:
         return S.frame(ctx.world, data, handle)
-    chain = []  # the dummy and its dummy ancestors, nearest first (no loops: setObjectParent refuses them)
-    while handle in env.dummies:
-        chain.append(env.dummies[handle])
-        handle = chain[-1].parent
-    p, r = (np.zeros(3), np.eye(3)) if handle == WORLD else S.frame(ctx.world, data, handle)[:2]
-    for dummy in reversed(chain):
-        p, r = p + r @ dummy.position, r @ dummy.rotation
-    return p, r, "point", 0 if handle == WORLD else int(ctx.world.get(handle).body)
-
-
-def carrier(ctx: CallContext, env: Environment, handle: int) -> int:
-    """The MuJoCo body that carries an object (an environment's dummy: its first scene
-    ancestor's; 0 the world)."""
-    while handle in env.dummies:
-        handle = env.dummies[handle].parent
-    return 0 if handle == WORLD else int(ctx.world.get(handle).body)
+    return ik_chain.dummy_frame(ctx.world, env.dummies, data, handle, lambda h: S.frame(ctx.world, data, h))
 
 
 def object_of(ctx: CallContext, env: Environment, handle: Any, what: str = "objectHandle") -> int:
@@ -186,24 +157,6 @@ def object_of(ctx: CallContext, env: Environment, handle: Any, what: str = "obje
     return h
 
 
-def place_dummy(ctx: CallContext, env: Environment, handle: int, relative_to: int, position: Any,
-                rotation: Any) -> None:
-    """Put one of the environment's dummies at a pose relative to ``relative_to`` (-1 the world,
-    ``simIK.handle_parent``, or an object), in the environment's configuration; the rotation is
-    made orthonormal."""
-    dummy = env.dummies[handle]
-    p, r = np.asarray(position, float), ik_chain.rotation_matrix(ik_chain.unit_quaternion(rotation))
-    if relative_to != HANDLE_PARENT:
-        d = env_data(ctx, env)
-        if relative_to != WORLD:
-            pr, rr, _, _ = frame(ctx, env, d, relative_to)
-            p, r = pr + rr @ p, rr @ r
-        if dummy.parent != WORLD:
-            pp, rp, _, _ = frame(ctx, env, d, dummy.parent)
-            p, r = rp.T @ (p - pp), rp.T @ r
-    dummy.position, dummy.rotation = p, r
-
-
 def joints_of(ctx: CallContext, env: Environment, g: Group) -> list[int]:
     """The joints the group moves, base first: the chains' joints in IK mode, a dependent joint
     replaced by its master (when every joint from it to its master is in IK mode), once each
@@ -211,7 +164,7 @@ def joints_of(ctx: CallContext, env: Environment, g: Group) -> list[int]:
     out: list[int] = []
     for el in g.elements:
         if el.flags & 1:
-            tip_body = carrier(ctx, env, el.tip) if el.tip in env.dummies else None
+            tip_body = ik_chain.carrier(ctx.world, env.dummies, el.tip) if el.tip in env.dummies else None
             for j in S.chain(ctx.world, el.tip, el.base, tip_body):
                 if env.mode.get(j, JOINTMODE_IK) != JOINTMODE_IK:
                     continue
