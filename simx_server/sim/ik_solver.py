@@ -15,10 +15,12 @@ by its maximum step size and its position clamped to its range.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
 
+from simx_server.sim.ik_chain import coupling_matrix
 from simx_server.sim.objects import DUMMY, FORCE_SENSOR, JOINT, PROXIMITY_SENSOR
 
 _SITES = (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR)  # objects that are MuJoCo sites
@@ -71,13 +73,15 @@ def _rotvec(r_target: np.ndarray, r_tip: np.ndarray) -> np.ndarray:
     return r_tip @ dq
 
 
-def chain(world, tip: int, base: int) -> list[int]:
+def chain(world, tip: int, base: int, tip_body: int | None = None) -> list[int]:
     """Handles of the hinge and slide joints between ``base`` (-1: the world) and ``tip``, base first.
 
     Args:
         world: the world.
         tip: handle of the chain's tip.
         base: handle of its base, or -1.
+        tip_body: the body that carries the tip, when it is no scene object (a dummy of a
+            ``simIK`` environment): ``tip`` is then not looked up.
 
     Returns:
         Joint handles, base first.
@@ -88,7 +92,7 @@ def chain(world, tip: int, base: int) -> list[int]:
     m = world.model
     stop = -1 if base == -1 else world.get(base).body
     joint_of = {o.mj_id: o.handle for o in world.objects.values() if o.type == JOINT}
-    out, b = [], world.get(tip).body
+    out, b = [], world.get(tip).body if tip_body is None else tip_body
     while b > 0 and b != stop:
         for j in range(m.body_jntadr[b] + m.body_jntnum[b] - 1, m.body_jntadr[b] - 1, -1):
             if int(m.jnt_type[j]) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE) and j in joint_of:
@@ -97,7 +101,8 @@ def chain(world, tip: int, base: int) -> list[int]:
     return out[::-1]
 
 
-def errors(world, data, elements: list[Element], targets: dict[int, tuple]) -> tuple[np.ndarray, list, bool]:
+def errors(world, data, elements: list[Element], targets: dict[int, tuple],
+           frame_of: Callable[[mujoco.MjData, int], tuple] | None = None) -> tuple[np.ndarray, list, bool]:
     """Stacked weighted error, the rows' (element, kind, rows) and whether each element is within
     its precision.
 
@@ -107,17 +112,21 @@ def errors(world, data, elements: list[Element], targets: dict[int, tuple]) -> t
         elements: the IK elements (disabled ones, ``flags`` bit 0 clear, are skipped).
         targets: element handle -> ``(position (3,), rotation (3, 3))`` instead of its target
             object's frame.
+        frame_of: ``frame_of(data, handle)`` as :func:`frame` (default), for objects that are no
+            scene objects (a ``simIK`` environment's own dummies: kind ``"point"``, the id the
+            body that carries them).
 
     Returns:
         ``(error, rows, ok)``: the weighted error (m and rad, flat), what each block of rows is
         (for :func:`jacobian`), and whether every element is within its precision.
     """
     parts, rows, ok = [], [], True
+    fr = frame_of or (lambda d, h: frame(world, d, h))
     for el in elements:
         if not el.flags & 1:
             continue
-        p, r, kind, mid = frame(world, data, el.tip)
-        tp, tr = targets[el.handle] if el.handle in targets else frame(world, data, el.target)[:2]
+        p, r, kind, mid = fr(data, el.tip)
+        tp, tr = targets[el.handle] if el.handle in targets else fr(data, el.target)[:2]
         lin = tp - p
         ang = _rotvec(tr, r)
         pick_lin = [i for i, bit in enumerate((1, 2, 4)) if el.constraints & bit]
@@ -128,11 +137,11 @@ def errors(world, data, elements: list[Element], targets: dict[int, tuple]) -> t
             ok = False
         parts.append(el.weights[0] * lin[pick_lin])
         parts.append(el.weights[1] * ang_local[pick_ang])
-        rows.append((el, kind, mid, pick_lin, pick_ang, tr))
+        rows.append((el, kind, mid, pick_lin, pick_ang, tr, p))
     return (np.concatenate(parts) if parts else np.zeros(0)), rows, ok
 
 
-def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
+def jacobian(world, data, rows: list, dadr: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
     """The weighted Jacobian of the rows :func:`errors` chose, over the chain's joints.
 
     Args:
@@ -140,6 +149,9 @@ def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
         data: MuJoCo data whose kinematics (and ``mj_comPos``) are up to date.
         rows: the rows of :func:`errors`.
         dadr: the chain joints' dof addresses.
+        columns: (nv, len(dadr)) map from the chain's joint velocities to dof velocities, when
+            dependent joints follow them (:func:`simx_server.sim.ik_chain.coupling_matrix`);
+            None: each column is its joint's dof alone.
 
     Returns:
         Array (len(error), len(dadr)).
@@ -147,21 +159,34 @@ def jacobian(world, data, rows: list, dadr: np.ndarray) -> np.ndarray:
     m = world.model
     jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
     blocks = []
-    for el, kind, mid, pick_lin, pick_ang, tr in rows:
-        (mujoco.mj_jacSite if kind == "site" else mujoco.mj_jacBody)(m, data, jacp, jacr, mid)
-        blocks.append(el.weights[0] * jacp[pick_lin][:, dadr])
-        blocks.append(el.weights[1] * (tr.T @ jacr)[pick_ang][:, dadr])
+    for el, kind, mid, pick_lin, pick_ang, tr, p in rows:
+        if kind == "point":  # a point carried by body ``mid`` (0: the world, fixed)
+            mujoco.mj_jac(m, data, jacp, jacr, p, mid)
+        else:
+            (mujoco.mj_jacSite if kind == "site" else mujoco.mj_jacBody)(m, data, jacp, jacr, mid)
+        lin, ang = jacp[pick_lin], (tr.T @ jacr)[pick_ang]
+        if columns is None:
+            lin, ang = lin[:, dadr], ang[:, dadr]
+        else:
+            lin, ang = lin @ columns, ang @ columns
+        blocks.append(el.weights[0] * lin)
+        blocks.append(el.weights[1] * ang)
     return np.vstack(blocks) if blocks else np.zeros((0, len(dadr)))
 
 
 def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, elements: list[Element],
           method: int, damping: float, iterations: int, max_step: np.ndarray,
           targets: dict[int, tuple] | None = None, weights: np.ndarray | None = None,
-          margins: np.ndarray | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
+          margins: np.ndarray | None = None,
+          slaves: list[tuple[int, int, int, float, float]] | None = None,
+          frame_of: Callable[[mujoco.MjData, int], tuple] | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
     ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
     make a joint move more (a larger weight) or less in the weighted least-norm step
     ``W Jᵀ (J W Jᵀ + λ²I)⁻¹ e``; ``margins`` keep each joint that far inside its range.
+    ``slaves`` are dependent joints ``(qpos address, dof address, column, offset, mult)``:
+    each is put at ``offset + mult * q[column]`` at every iteration, and its motion is part of
+    its column of the Jacobian (CoppeliaSim's linear joint dependencies).
 
     Args:
         world: the world.
@@ -176,6 +201,8 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         targets: see :func:`errors`.
         weights: see above.
         margins: see above (rad or m).
+        slaves: see above.
+        frame_of: see :func:`errors`.
 
     Returns:
         ``(ok, q, error)``: whether every element is within precision, the positions reached
@@ -193,15 +220,21 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     w = np.ones(len(joints)) if weights is None else np.asarray(weights, float)
     targets = targets or {}
     q = np.clip(np.asarray(q, float), low, high)
+    slaves = slaves or []
+    columns = None
+    if slaves:
+        columns = coupling_matrix(m.nv, dadr, [(dof, col, mult) for _, dof, col, _, mult in slaves])
     e = np.zeros(0)
     for it in range(iterations + 1):
         scratch.qpos[qadr] = q
+        for sq, _, col, offset, mult in slaves:
+            scratch.qpos[sq] = offset + mult * q[col]
         mujoco.mj_kinematics(m, scratch)
         mujoco.mj_comPos(m, scratch)
-        e, rows, ok = errors(world, scratch, elements, targets)
+        e, rows, ok = errors(world, scratch, elements, targets, frame_of)
         if ok or it == iterations or not len(joints):
             return ok, q, e
-        jac = jacobian(world, scratch, rows, dadr)
+        jac = jacobian(world, scratch, rows, dadr, columns)
         if method == METHOD_TRANSPOSE:
             dq = w * (jac.T @ e)
         else:

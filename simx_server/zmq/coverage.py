@@ -58,13 +58,9 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
 
 #: simIK functions simx does not implement: (status, why).
 IK_NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
-    **{n: ("missing", "an environment's objects are the scene's: building or reparenting IK-only objects is not "
-                      "supported") for n in ("createDummy", "createJoint", "eraseObject", "setObjectParent")},
-    **{n: ("missing", "CoppeliaSim's IK file format (load/save) has no MuJoCo counterpart") for n in ("load", "save")},
-    **{n: ("missing", "spherical joints and joint dependencies: MuJoCo ball joints and equalities not mapped")
-       for n in ("setSphericalJointMatrix", "setSphericalJointRotation", "setJointDependency",
-                 "getJointMatrix", "getJointTransformation", "setJointScrewLead")},
-    "computeJacobian": ("missing", "use computeGroupJacobian"),
+    "createJoint": ("missing", "an environment's joints are the scene's (MuJoCo's): its own dummies are served, "
+                               "joints of its own would need kinematics beside MuJoCo's"),
+    "setJointScrewLead": ("missing", "a MuJoCo hinge cannot translate along its axis: no screw joints"),
 }
 
 

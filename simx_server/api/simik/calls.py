@@ -11,13 +11,13 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simik_function
-from simx_server.api.sim import core as _core
-from simx_server.api.simik import environments as _environments
+from simx_server.api.simik import dummies as _dummies, environments as _environments
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.api.sim.misc import alternate_configs
 from simx_server.sim import ik_solver as S
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
 from simx_server.sim import ik as scene_ik
+from simx_server.sim.ik_chain import coupling_matrix
 from simx_server.sim.objects import DUMMY, JOINT, WORLD
 from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matrix_from_quaternion
 
@@ -32,8 +32,8 @@ def _precision(ctx: CallContext, env, g) -> list[float]:
     lin = ang = 0.0
     for el in g.elements:
         if el.flags & 1 and el.target != -1:
-            p, r, _, _ = S.frame(ctx.world, d, el.tip)
-            tp, tr, _, _ = S.frame(ctx.world, d, el.target)
+            p, r, _, _ = _environments.frame(ctx, env, d, el.tip)
+            tp, tr, _, _ = _environments.frame(ctx, env, d, el.target)
             lin = max(lin, float(np.linalg.norm((tp - p)[[i for i, b in enumerate((1, 2, 4)) if el.constraints & b]])))
             if el.constraints & 24:
                 ang = max(ang, float(np.linalg.norm(S._rotvec(tr, r))))
@@ -70,7 +70,7 @@ def handleGroup(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, op
     env.q.update(zip(joints, (float(v) for v in q)))
     g.failure = "" if ok else "the tip did not reach the target within the elements' precision"
     if opts.get("syncWorlds") and (ok or opts.get("allowError")):
-        _environments.write_scene(ctx, joints, q)
+        _environments.write_scene(ctx, *_environments.with_slaves(ctx, env, joints, q))
     return (RESULT_SUCCESS if ok else RESULT_FAIL), (0 if ok else CALC_NOTWITHINTOLERANCE), _precision(ctx, env, g)
 
 
@@ -122,7 +122,8 @@ def syncToSim(ctx: CallContext, environmentHandle: Any, ikGroups: Any = None) ->
     env = _environments.env_of(ctx, environmentHandle)
     for g in _groups(ctx, env, ikGroups):
         joints = _environments.joints_of(ctx, env, g)
-        _environments.write_scene(ctx, joints, [_environments.q_of(ctx, env, j) for j in joints])
+        _environments.write_scene(ctx, *_environments.with_slaves(ctx, env, joints,
+                                                                  [_environments.q_of(ctx, env, j) for j in joints]))
 
 
 def _check_joints(ctx: CallContext, env, g, jointHandles: Any) -> list[int]:
@@ -208,15 +209,15 @@ def generatePath(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, j
     n = _int(pathPointCount, "pathPointCount")
     if not 2 <= n <= MAX_PATH_POINTS:
         raise ArgumentError(f"pathPointCount must lie in 2..{MAX_PATH_POINTS}")
-    tip = ctx.h(tipHandle, "tipHandle")
+    tip = _environments.object_of(ctx, env, tipHandle, "tipHandle")
     el = next((e for e in g.elements if e.tip == tip), None)
     if el is None:
         raise ArgumentError(f"no element of the group has tip {tip}")
     order = _environments.joints_of(ctx, env, g)
     saved = {j: _environments.q_of(ctx, env, j) for j in order}
     d = _environments.env_data(ctx, env)
-    p0, r0, _, _ = S.frame(ctx.world, d, el.tip)
-    p1, r1, _, _ = S.frame(ctx.world, d, el.target)
+    p0, r0, _, _ = _environments.frame(ctx, env, d, el.tip)
+    p1, r1, _, _ = _environments.frame(ctx, env, d, el.target)
     q0, q1, qt = np.empty(4), np.empty(4), np.empty(4)
     mujoco.mju_mat2Quat(q0, r0.reshape(9).copy())
     mujoco.mju_mat2Quat(q1, r1.reshape(9).copy())
@@ -264,9 +265,12 @@ def computeGroupJacobian(ctx: CallContext, environmentHandle: Any, ikGroupHandle
     g = _environments.group_of(ctx, env, ikGroupHandle)
     joints = _environments.joints_of(ctx, env, g)
     d = _environments.env_data(ctx, env)
-    e, rows, _ = S.errors(ctx.world, d, [el for el in g.elements if el.target != -1], {})
+    e, rows, _ = S.errors(ctx.world, d, [el for el in g.elements if el.target != -1], {},
+                          lambda data, h: _environments.frame(ctx, env, data, h))
     dadr = np.array([ctx.world.model.jnt_dofadr[ctx.world.get(j).mj_id] for j in joints], int)
-    return S.jacobian(ctx.world, d, rows, dadr).reshape(-1).tolist(), e.tolist()
+    slaves = _environments.slaves_of(ctx, env, joints)
+    columns = coupling_matrix(ctx.world.model.nv, dadr, [(dof, col, k) for _, dof, col, _, k in slaves]) if slaves else None
+    return S.jacobian(ctx.world, d, rows, dadr, columns).reshape(-1).tolist(), e.tolist()
 
 
 # ----------------------------------------------------------------------- joints
@@ -297,11 +301,14 @@ def setJointMode(ctx: CallContext, environmentHandle: Any, jointHandle: Any, joi
 
 @simik_function("getJointType")
 def getJointType(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> int:  # noqa: N802, N803
-    """``simIK.jointtype_revolute`` (10) or ``jointtype_prismatic`` (11)."""
+    """``simIK.jointtype_revolute`` (10), ``jointtype_prismatic`` (11) or ``jointtype_spherical``
+    (12: a MuJoCo ball joint)."""
     _environments.env_of(ctx, environmentHandle)
     kind = int(ctx.world.model.jnt_type[_environments.joint_of(ctx, jointHandle).mj_id])
+    if kind == mujoco.mjtJoint.mjJNT_BALL:
+        return 12
     if kind not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
-        raise UnsupportedError("a MuJoCo ball or free joint has no simIK joint type simx handles")
+        raise UnsupportedError("a MuJoCo free joint has no simIK joint type")
     return 10 if kind == mujoco.mjtJoint.mjJNT_HINGE else 11
 
 
@@ -374,9 +381,13 @@ def getJointScrewLead(ctx: CallContext, environmentHandle: Any, jointHandle: Any
 
 @simik_function("getJointDependency")
 def getJointDependency(ctx: CallContext, environmentHandle: Any, jointHandle: Any) -> tuple[int, float, float]:  # noqa: N802, N803
-    """``masterJoint, offset, multCoeff`` of the scene's joint equality (as ``sim.getJointDependency``)."""
-    _environments.env_of(ctx, environmentHandle)
-    return ctx.sim.getJointDependency(_environments.joint_of(ctx, jointHandle).handle)
+    """``masterJoint, offset, multCoeff``: the environment's (``simIK.setJointDependency``), else
+    the scene's joint equality (as ``sim.getJointDependency``)."""
+    env = _environments.env_of(ctx, environmentHandle)
+    j = _environments.joint_of(ctx, jointHandle).handle
+    if j in env.dependency:
+        return env.dependency[j]
+    return ctx.sim.getJointDependency(j)
 
 
 @simik_function("getObjectTransformation")
@@ -394,31 +405,37 @@ def setObjectTransformation(ctx: CallContext, environmentHandle: Any, objectHand
     rot = (np.asarray(matrix_from_quaternion(*_vector(eulerOrQuaternion, 4, "quaternion")))
            if isinstance(eulerOrQuaternion, (list, tuple)) and len(eulerOrQuaternion) == 4
            else np.asarray(matrix_from_euler(*_vector(eulerOrQuaternion, 3, "eulerAngles"))))
-    _environments.env_of(ctx, environmentHandle)
-    _core.set_pose(ctx, ctx.h(objectHandle, "objectHandle"), ctx.h(relativeToObjectHandle, "relativeToObjectHandle"),
-                      position=_vector(position, 3, "position"), rotation=rot)
+    _dummies.place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, _vector(position, 3, "position"), rot)
 
 
 # ---------------------------------------------------------------------- objects
 @simik_function("getObjectHandle")
 def getObjectHandle(ctx: CallContext, environmentHandle: Any, objectName: Any) -> int:  # noqa: N802, N803
-    """The scene object of that name or path (the environment's objects are the scene's)."""
-    _environments.env_of(ctx, environmentHandle)
-    return ctx.sim.getObject(_text(objectName, "objectName"))
+    """The environment's dummy of that name, else the scene object of that name or path (the
+    environment's other objects are the scene's)."""
+    env = _environments.env_of(ctx, environmentHandle)
+    name = _text(objectName, "objectName")
+    own = next((d.handle for d in env.dummies.values() if d.name == name), None)
+    return int(own) if own is not None else ctx.sim.getObject(name)
 
 
 @simik_function("doesObjectExist")
 def doesObjectExist(ctx: CallContext, environmentHandle: Any, objectName: Any) -> bool:  # noqa: N802, N803
-    _environments.env_of(ctx, environmentHandle)
-    return ctx.sim.getObject(_text(objectName, "objectName"), {"noError": True}) != -1
+    env = _environments.env_of(ctx, environmentHandle)
+    name = _text(objectName, "objectName")
+    return any(d.name == name for d in env.dummies.values()) or ctx.sim.getObject(name, {"noError": True}) != -1
 
 
 @simik_function("getObjects")
 def getObjects(ctx: CallContext, environmentHandle: Any, index: Any) -> tuple[int, str, bool, int]:  # noqa: N802, N803
-    """``objectHandle, objectName, isJoint, jointType`` of the ``index``-th dummy or joint; -1 past the last."""
-    _environments.env_of(ctx, environmentHandle)
+    """``objectHandle, objectName, isJoint, jointType`` of the ``index``-th dummy or joint (the
+    scene's, then the environment's own dummies); -1 past the last."""
+    env = _environments.env_of(ctx, environmentHandle)
     objs = [o for o in ctx.world.objects.values() if o.type in (DUMMY, JOINT)]
     i = _int(index, "index")
+    if len(objs) <= i < len(objs) + len(env.dummies):
+        dummy = list(env.dummies.values())[i - len(objs)]
+        return dummy.handle, dummy.name, False, -1
     if not 0 <= i < len(objs):
         return -1, "", False, -1
     o = objs[i]
@@ -429,8 +446,11 @@ def getObjects(ctx: CallContext, environmentHandle: Any, index: Any) -> tuple[in
 @simik_function("getObjectType")
 def getObjectType(ctx: CallContext, environmentHandle: Any, objectHandle: Any) -> int:  # noqa: N802, N803
     """``simIK.objecttype_joint`` (1) or ``objecttype_dummy`` (4)."""
-    _environments.env_of(ctx, environmentHandle)
-    o = ctx.world.get(ctx.h(objectHandle, "objectHandle"))
+    env = _environments.env_of(ctx, environmentHandle)
+    h = _environments.object_of(ctx, env, objectHandle)
+    if h in env.dummies:
+        return DUMMY
+    o = ctx.world.get(h)
     if o.type not in (DUMMY, JOINT):
         raise UnsupportedError(f"{o.name!r} is neither a dummy nor a joint: not an IK object")
     return o.type
@@ -438,8 +458,11 @@ def getObjectType(ctx: CallContext, environmentHandle: Any, objectHandle: Any) -
 
 @simik_function("getObjectParent")
 def getObjectParent(ctx: CallContext, environmentHandle: Any, objectHandle: Any) -> int:  # noqa: N802, N803
-    _environments.env_of(ctx, environmentHandle)
-    return ctx.world.get(ctx.h(objectHandle, "objectHandle")).parent
+    """The object's parent (-1: none): an environment's dummy's own (``simIK.setObjectParent``), a
+    scene object's in the scene."""
+    env = _environments.env_of(ctx, environmentHandle)
+    h = _environments.object_of(ctx, env, objectHandle)
+    return int(env.dummies[h].parent) if h in env.dummies else ctx.world.get(h).parent
 
 
 @simik_function("getObjectPose")
@@ -447,10 +470,12 @@ def getObjectPose(ctx: CallContext, environmentHandle: Any, objectHandle: Any, r
     """``[x y z qx qy qz qw]`` in the environment's configuration (relative to another object, -1 world)."""
     env = _environments.env_of(ctx, environmentHandle)
     d = _environments.env_data(ctx, env)
-    p, r, _, _ = S.frame(ctx.world, d, ctx.h(objectHandle, "objectHandle"))
-    rel = ctx.h(relativeToObjectHandle, "relativeToObjectHandle")
+    h = _environments.object_of(ctx, env, objectHandle)
+    p, r, _, _ = _environments.frame(ctx, env, d, h)
+    rel = getObjectParent(ctx, environmentHandle, h) if relativeToObjectHandle == _environments.HANDLE_PARENT \
+        else _environments.object_of(ctx, env, relativeToObjectHandle, "relativeToObjectHandle")
     if rel != WORLD:
-        pr, rr, _, _ = S.frame(ctx.world, d, rel)
+        pr, rr, _, _ = _environments.frame(ctx, env, d, rel)
         p, r = rr.T @ (p - pr), rr.T @ r
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, r.reshape(9).copy())
@@ -459,11 +484,10 @@ def getObjectPose(ctx: CallContext, environmentHandle: Any, objectHandle: Any, r
 
 @simik_function("setObjectPose")
 def setObjectPose(ctx: CallContext, environmentHandle: Any, objectHandle: Any, pose: Any, relativeToObjectHandle: Any = -1) -> None:  # noqa: N802, N803
-    """Place a dummy (a target): the scene's, which the environment shares."""
-    _environments.env_of(ctx, environmentHandle)
+    """Place a dummy (a target): one of the environment's own in the environment, a scene object
+    in the scene (which the environment shares)."""
     v = _vector(pose, 7, "pose")
-    _core.set_pose(ctx, ctx.h(objectHandle, "objectHandle"), ctx.h(relativeToObjectHandle, "relativeToObjectHandle"),
-                      position=v[:3], rotation=np.asarray(matrix_from_quaternion(*v[3:])))
+    _dummies.place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, v[:3], np.asarray(matrix_from_quaternion(*v[3:])))
 
 
 @simik_function("getObjectMatrix")
@@ -476,10 +500,8 @@ def getObjectMatrix(ctx: CallContext, environmentHandle: Any, objectHandle: Any,
 
 @simik_function("setObjectMatrix")
 def setObjectMatrix(ctx: CallContext, environmentHandle: Any, objectHandle: Any, matrix: Any, relativeToObjectHandle: Any = -1) -> None:  # noqa: N802, N803
-    _environments.env_of(ctx, environmentHandle)
     m = np.array(_vector(matrix, 12, "matrix")).reshape(3, 4)
-    _core.set_pose(ctx, ctx.h(objectHandle, "objectHandle"), ctx.h(relativeToObjectHandle, "relativeToObjectHandle"),
-                      position=m[:, 3].tolist(), rotation=m[:, :3])
+    _dummies.place(ctx, environmentHandle, objectHandle, relativeToObjectHandle, m[:, 3].tolist(), m[:, :3])
 
 
 @simik_function("createDebugOverlay")

@@ -32,13 +32,14 @@ from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectErro
 from simx_server.base.arguments import quote
 from simx_server.sim import ik_solver as S
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
-from simx_server.sim import ik as scene_ik
+from simx_server.sim import ik as scene_ik, ik_chain
 from simx_server.sim.objects import DUMMY, JOINT, WORLD
 
 #: ``simIK.NAME`` constants (CoppeliaSim 4.x's: ``simIK.constraint_pose``, ``method_damped_least_squares``...).
 CONSTANTS: dict[str, int] = json.loads((Path(__file__).resolve().parents[2] / "zmq" / "coppeliasim_api.json")
                                        .read_text(encoding="utf-8"))["constants"]["simIK"]
 RESULT_NOT_PERFORMED, RESULT_SUCCESS, RESULT_FAIL = 0, 1, 2
+HANDLE_PARENT = CONSTANTS["handle_parent"]
 JOINTMODE_PASSIVE, JOINTMODE_IK = 0, 2
 _FIRST_GROUP = 1000  # created groups' handles (the scene's groups keep theirs, from 1)
 MAX_ENVIRONMENTS, MAX_GROUPS, MAX_ITERATIONS = 64, 256, 1000
@@ -56,6 +57,14 @@ class Group:
     failure: str = ""
 
 
+#: Handles of an environment's own dummies (``simIK.createDummy``): above the scene's, below
+#: ``simIK.handleflag_tipdummy``; at most MAX_DUMMIES per environment.
+FIRST_DUMMY, MAX_DUMMIES = 2_000_000, 1024
+
+
+LocalDummy = ik_chain.LocalDummy
+
+
 @dataclasses.dataclass
 class Environment:
     groups: dict = dataclasses.field(default_factory=dict)
@@ -64,6 +73,13 @@ class Environment:
     weight: dict = dataclasses.field(default_factory=dict)  # joint handle -> weight in the step
     margin: dict = dataclasses.field(default_factory=dict)  # joint handle -> limit margin (rad or m)
     max_step: dict = dataclasses.field(default_factory=dict)
+    #: joint handle -> (master, offset, mult): simIK.setJointDependency (master -1: none)
+    dependency: dict = dataclasses.field(default_factory=dict)
+    #: ball joint handle -> its rotation (w, x, y, z) in the environment (simIK.setSphericalJoint*)
+    ball: dict = dataclasses.field(default_factory=dict)
+    #: handle -> LocalDummy: the environment's own dummies
+    dummies: dict = dataclasses.field(default_factory=dict)
+    next_dummy: int = FIRST_DUMMY
     next_group: int = _FIRST_GROUP
     next_element: int = 1
 
@@ -111,17 +127,63 @@ def joint_of(ctx: CallContext, handle: Any) -> Any:
 
 
 def q_of(ctx: CallContext, env: Environment, joint: int) -> float:
+    """The joint's position in the environment (a dependent joint's: from its master's)."""
+    if env.dependency.get(joint, (-1,))[0] != -1:
+        root, offset, mult = ik_chain.root_of(env.dependency, joint)
+        return offset + mult * q_of(ctx, env, root)
     if joint not in env.q:
         env.q[joint] = ctx.world.joint_position(joint)
     return env.q[joint]
 
 
+def frame(ctx: CallContext, env: Environment, data: mujoco.MjData, handle: int) -> tuple[np.ndarray, np.ndarray, str, int]:
+    """``position, rotation, kind, id`` of an object in ``data`` (:func:`simx_server.sim.ik_solver.frame`;
+    the environment's own dummies: :func:`simx_server.sim.ik_chain.dummy_frame`)."""
+    if handle not in env.dummies:
+        return S.frame(ctx.world, data, handle)
+    return ik_chain.dummy_frame(ctx.world, env.dummies, data, handle, lambda h: S.frame(ctx.world, data, h))
+
+
+def object_of(ctx: CallContext, env: Environment, handle: Any, what: str = "objectHandle") -> int:
+    """An object argument: one of the environment's dummies (by handle or name), else the
+    scene's (every form ``sim.getObject`` takes). UnknownObjectError when neither."""
+    if isinstance(handle, str):
+        for d in env.dummies.values():
+            if d.name == handle:
+                return int(d.handle)
+    h = ctx.h(handle, what)
+    if h not in env.dummies and h != WORLD:
+        ctx.world.get(h)
+    return h
+
+
 def joints_of(ctx: CallContext, env: Environment, g: Group) -> list[int]:
+    """The joints the group moves, base first: the chains' joints in IK mode, a dependent joint
+    replaced by its master (when every joint from it to its master is in IK mode), once each
+    (CoppeliaSim's ``CikElement::_getNakedJacobian``)."""
     out: list[int] = []
     for el in g.elements:
         if el.flags & 1:
-            out += [j for j in S.chain(ctx.world, el.tip, el.base) if j not in out]
-    return [j for j in out if env.mode.get(j, JOINTMODE_IK) == JOINTMODE_IK]
+            tip_body = ik_chain.carrier(ctx.world, env.dummies, el.tip) if el.tip in env.dummies else None
+            for j in S.chain(ctx.world, el.tip, el.base, tip_body):
+                if env.mode.get(j, JOINTMODE_IK) != JOINTMODE_IK:
+                    continue
+                while j is not None and env.dependency.get(j, (-1,))[0] != -1:
+                    j = env.dependency[j][0]
+                    j = j if env.mode.get(j, JOINTMODE_IK) == JOINTMODE_IK else None
+                if j is not None and j not in out:
+                    out.append(j)
+    return out
+
+
+def slaves_of(ctx: CallContext, env: Environment, joints: list[int]) -> list[tuple[int, int, int, float, float]]:
+    """The dependent joints that follow one of ``joints``, for :func:`simx_server.sim.ik_solver.solve`."""
+    m = ctx.world.model
+    out = []
+    for slave, col, offset, mult in ik_chain.couplings(env.dependency, joints):
+        jid = ctx.world.get(slave).mj_id
+        out.append((int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid]), col, offset, mult))
+    return out
 
 
 def _scratch(ctx: CallContext) -> mujoco.MjData:
@@ -141,6 +203,13 @@ def env_data(ctx: CallContext, env: Environment) -> mujoco.MjData:
     for j, q in env.q.items():
         if j in w.objects:
             d.qpos[w.model.jnt_qposadr[w.objects[j].mj_id]] = q
+    for j, (master, _, _) in env.dependency.items():
+        if master != -1 and j in w.objects:
+            d.qpos[w.model.jnt_qposadr[w.objects[j].mj_id]] = q_of(ctx, env, j)
+    for j, quat in env.ball.items():
+        if j in w.objects:
+            adr = w.model.jnt_qposadr[w.objects[j].mj_id]
+            d.qpos[adr:adr + 4] = quat
     mujoco.mj_kinematics(w.model, d)
     mujoco.mj_comPos(w.model, d)
     return d
@@ -157,11 +226,19 @@ def solve(ctx: CallContext, env: Environment, g: Group, targets: dict | None = N
     weights = np.array([env.weight.get(j, 1.0) for j in joints])
     margins = np.array([env.margin.get(j, 0.0) for j in joints])
     ok, q, _ = S.solve(ctx.world, d, joints, q, g.elements, g.method, g.damping,
-                       g.iterations if iterations is None else iterations, steps, targets, weights, margins)
+                       g.iterations if iterations is None else iterations, steps, targets, weights, margins,
+                       slaves_of(ctx, env, joints), lambda data, h: frame(ctx, env, data, h))
     return ok, joints, q
 
 
-def write_scene(ctx: CallContext, joints: list[int], q: np.ndarray) -> None:
+def with_slaves(ctx: CallContext, env: Environment, joints: list[int], q: Any) -> tuple[list[int], list[float]]:
+    """``joints`` and ``q``, then the dependent joints that follow them at their positions."""
+    slaves = ik_chain.couplings(env.dependency, joints)
+    return ([*joints, *(s for s, _, _, _ in slaves)],
+            [*(float(v) for v in q), *(offset + mult * float(q[col]) for _, col, offset, mult in slaves)])
+
+
+def write_scene(ctx: CallContext, joints: list[int], q: Any) -> None:
     w = ctx.world
     for j, v in zip(joints, q):
         if j in w.motor_index:
@@ -313,9 +390,12 @@ def addElementFromScene(ctx: CallContext, environmentHandle: Any, ikGroup: Any, 
 
 @simik_function("addElement")
 def addElement(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, tipDummyHandle: Any) -> int:  # noqa: N802, N803
-    """An element for a tip already known (a scene dummy); target and base set later."""
+    """An element for a tip already known (a scene dummy or one of the environment's); target and
+    base set later."""
     env = env_of(ctx, environmentHandle)
-    tip = ctx.world.get(ctx.h(tipDummyHandle, "tipDummyHandle"), DUMMY).handle
+    tip = object_of(ctx, env, tipDummyHandle, "tipDummyHandle")
+    if tip not in env.dummies:
+        tip = ctx.world.get(tip, DUMMY).handle
     el = S.Element(env.next_element, tip, -1)
     env.next_element += 1
     group_of(ctx, env, ikGroupHandle).elements.append(el)
@@ -402,8 +482,8 @@ def getElementWeights(ctx: CallContext, environmentHandle: Any, ikGroupHandle: A
 def setTargetDummy(ctx: CallContext, environmentHandle: Any, tipDummyHandle: Any, targetDummyHandle: Any) -> None:  # noqa: N802, N803
     """Link a tip to a target: every element of the environment with that tip."""
     env = env_of(ctx, environmentHandle)
-    tip, target = ctx.h(tipDummyHandle, "tipDummyHandle"), ctx.h(targetDummyHandle, "targetDummyHandle")
-    ctx.world.get(target)
+    tip = object_of(ctx, env, tipDummyHandle, "tipDummyHandle")
+    target = object_of(ctx, env, targetDummyHandle, "targetDummyHandle")
     for g in env.groups.values():
         for el in g.elements:
             if el.tip == tip:
@@ -412,5 +492,6 @@ def setTargetDummy(ctx: CallContext, environmentHandle: Any, tipDummyHandle: Any
 
 @simik_function("getTargetDummy")
 def getTargetDummy(ctx: CallContext, environmentHandle: Any, tipDummyHandle: Any) -> int:  # noqa: N802, N803
-    env, tip = env_of(ctx, environmentHandle), ctx.h(tipDummyHandle, "tipDummyHandle")
+    env = env_of(ctx, environmentHandle)
+    tip = object_of(ctx, env, tipDummyHandle, "tipDummyHandle")
     return next((el.target for g in env.groups.values() for el in g.elements if el.tip == tip), -1)
