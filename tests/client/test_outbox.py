@@ -221,6 +221,28 @@ def test_a_oneshot_before_a_synchronous_trigger_runs_in_that_step():
         srv.stop()
 
 
+def test_a_synchronous_trigger_takes_the_outbox_in_its_own_request(server):
+    """With a 10 s communication cycle: what waits in the outbox travels in the trigger's
+    request (one request, as V-REP's client sent it in the blocking call's message), runs
+    before the trigger, and its replies land in the inbox as their own request's would."""
+    cid = vrep.simxStart("127.0.0.1", server.ports[1], True, True, 5000, 10_000)
+    assert cid >= 0
+    try:
+        assert vrep.simxSynchronous(cid, True) == 0
+        vrep.simxSetIntegerSignal(cid, "carried", 1, ONESHOT)  # the first batch leaves at once
+        assert vrep.simxGetIntegerSignal(cid, "carried", B) == (0, 1)
+        m0 = message_id(cid)
+        vrep.simxSetIntegerSignal(cid, "carried", 7, ONESHOT)
+        assert vrep.simxGetIntegerSignal(cid, "carried", vrep.simx_opmode_streaming)[0] == 1  # no value yet
+        assert message_id(cid) == m0  # both wait for the next cycle...
+        assert vrep.simxSynchronousTrigger(cid) == 0  # ...or the trigger, which takes them along
+        assert message_id(cid) - m0 == 1, "the outbox left in a request of its own"
+        assert vrep.simxGetIntegerSignal(cid, "carried", vrep.simx_opmode_buffer) == (0, 7)
+    finally:
+        vrep.simxSynchronous(cid, False)
+        vrep.simxFinish(cid)
+
+
 # ------------------------------------------------------------------ busy answers
 def test_requests_answered_busy_are_sent_again():
     """The server is held in a long step (heavy_step.xml: seconds per step) while this client's
