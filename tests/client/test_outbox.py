@@ -73,8 +73,10 @@ def test_20000_oneshot_appends_lose_nothing_and_leave_in_few_requests(vrep_clien
     vrep.simxClearStringSignal(cid, "loop", B)
     sent, elapsed = requests_sent(cid, loop)
     assert string_signal(cid, "loop") == (digits * (n // 10)).encode(), "appends lost or out of order"
-    # At most one request per communication cycle (+ the one a blocking call flushes).
-    assert sent <= elapsed / (CYCLE_MS / 1000) + 2, f"{sent} requests in {elapsed:.2f} s"
+    # At most one request per communication cycle (+ the one a blocking call flushes), except
+    # that an outbox of more than MAX_BATCH_COMMANDS leaves in several: a loop that runs the
+    # 20,000 calls within a few cycles still needs n / MAX_BATCH_COMMANDS requests.
+    assert sent <= elapsed / (CYCLE_MS / 1000) + 2 + n // MAX_BATCH_COMMANDS, f"{sent} requests in {elapsed:.2f} s"
 
 
 def test_the_final_target_of_a_20000_oneshot_loop_is_the_last_one_set():
