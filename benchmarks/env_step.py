@@ -7,7 +7,8 @@ and of ``simx/UR5BallReach-v0`` on one simx-server (default legacy pacing, start
 ``--stopped``), in turns, the order shuffled every round, at 84x84 (sensors at 112x84) and
 640x480. With ``--baseline DIR`` two more cases join the turns: the same env (this tree's
 client) on a server of that source tree, and the same again with the client sending its outbox
-apart from the trigger, as it did before issue 44 (:func:`_without_carry`): with a tree from
+apart from the trigger, as it did before issue 44
+(:func:`_without_carry`): with a tree from
 before it, the old client and server. Figures: the median step time of each, and its ratio
 to the in-process median of the same run (issue 44's target at 84x84: <= 1.2x).
 """
@@ -19,7 +20,7 @@ import time
 
 import numpy as np
 
-from benchmarks.common import Settings, loadavg, perf
+from benchmarks.common import Settings, client_as_before_issue44, loadavg, perf
 from benchmarks.envs import SIZES, InProcessReach
 from benchmarks.procs import Server
 from benchmarks.stats import Figure, Target, summary
@@ -35,13 +36,8 @@ def _remote_env(port: int, width: int, height: int):
 
 
 def _without_carry(env) -> None:
-    """Make ``env``'s connection send its outbox in requests of its own before a trigger, as the
-    client did before issue 44 (``OutboxSender._carry``, the client's only change there): with
-    ``--baseline`` a tree from before it, the row is the old client and server."""
-    from simx_client import api
-
-    conn = api._connections[env.client_id]
-    conn._carry = lambda commands: None
+    """``env``'s connection as the client was before issue 44 (:func:`benchmarks.common.client_as_before_issue44`)."""
+    client_as_before_issue44(env.client_id)
 
 
 def _measure(cases: dict, rounds: int, block: int, warmup: int, budget_s: float) -> dict[str, list[float]]:
@@ -111,7 +107,7 @@ def run(s: Settings) -> list[Figure]:
             figures.append(Figure(f"envstep.baseline.{size}", f"remote env step, --baseline server, {size}", "ms",
                                   ms["baseline"], floor=floor, note=f"server of {s.baseline}"))
             figures.append(Figure(f"envstep.baseline_client.{size}",
-                                  f"remote env step, --baseline server, outbox not carried, {size}", "ms",
+                                  f"remote env step, --baseline server and client, {size}", "ms",
                                   ms["baseline_client"], floor=floor,
-                                  note=f"server of {s.baseline}; the client sends the outbox apart from the trigger"))
+                                  note=f"server of {s.baseline}; the client as before issue 44 (outbox apart from the trigger)"))
     return figures
