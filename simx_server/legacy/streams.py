@@ -42,6 +42,14 @@ class _Stream:
 #: render thread starts it at once instead of once the pass's other streams are executed
 #: (interleaved A/B, the Gymnasium env's step at 84x84: 0.06-0.2 ms shorter, issue 44).
 _RENDER_HANDOFF = 50e-6
+#: Zenoh priority of a synchronous client's stream updates. Zenoh's sending pipeline held a small
+#: message that followed a large one in the same priority queue for about its batching time
+#: limit (1 ms): the ping's reply behind the step's update with images (bare Zenoh, a 60 KB put
+#: then a small reply: 1.35 ms; the put at this priority: 0.31 ms). Replies travel at the
+#: queries' priority (data). The update, handed over before the ping's reply and of higher
+#: priority, still arrives before it; a reply handed over before an update may now arrive after
+#: it (issue 44).
+_STEPPED_PRIORITY = zenoh.Priority.INTERACTIVE_HIGH
 
 
 class StreamPublisher:
@@ -153,7 +161,8 @@ class StreamPublisher:
         commands into ``_dataToSend``, which goes out inside the reply to the client's next
         message). Zenoh's "drop" left an update out whenever its link's queue had no room
         within ``wait_before_drop`` (1 ms), which a loaded machine's Zenoh thread missed about
-        once in 300 steps: the client then read the previous step's values.
+        once in 300 steps: the client then read the previous step's values. Its updates travel
+        at Zenoh's priority ``_STEPPED_PRIORITY``, above its replies.
 
         An update with images is encoded on the render thread, after its frames, into Zenoh's
         bytes (a 4096x4096 image is 50 MB to copy twice: 80 ms; putting the result costs
@@ -188,11 +197,12 @@ class StreamPublisher:
                 return payload
 
         congestion = zenoh.CongestionControl.BLOCK if bulk or stepped else zenoh.CongestionControl.DROP
+        priority = _STEPPED_PRIORITY if stepped else zenoh.Priority.DEFAULT
 
         def send() -> None:
             try:
                 if not bulk or stepped or self.courier.bulk_allowed():
-                    session.put(key, update(), congestion_control=congestion)
+                    session.put(key, update(), congestion_control=congestion, priority=priority)
             except Exception:
                 log.exception("client %s: publishing its streams", client)
             finally:
