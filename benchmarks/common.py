@@ -50,6 +50,14 @@ def connection(cid: int) -> Connection:
     return api._connections[cid]
 
 
+def client_as_before_issue44(cid: int) -> None:
+    """Make the connection ``cid`` behave as the client did before issue 44's throughput work
+    (with ``--baseline`` a tree from before it, the old client and server): its outbox leaves
+    in requests of its own before a trigger (``OutboxSender._carry``, the client's only change)."""
+    conn = connection(cid)
+    conn._carry = lambda commands: None  # type: ignore[method-assign]
+
+
 def wire_sizes(cid: int, commands: list[list]) -> tuple[int, int]:
     """(request bytes, reply bytes) of one simx request carrying ``commands``, measured on
     the wire by sending it once."""

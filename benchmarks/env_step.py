@@ -5,8 +5,11 @@ between them. Here the two are interleaved: blocks of ``block`` env steps of the
 floor (:class:`benchmarks.envs.InProcessReach`, the same env logic on MuJoCo in this process)
 and of ``simx/UR5BallReach-v0`` on one simx-server (default legacy pacing, started
 ``--stopped``), in turns, the order shuffled every round, at 84x84 (sensors at 112x84) and
-640x480. With ``--baseline DIR`` a third case joins the turns: the same env (this tree's
-client) on a server of that source tree. Figures: the median step time of each, and its ratio
+640x480. With ``--baseline DIR`` two more cases join the turns: the same env (this tree's
+client) on a server of that source tree, and the same again with the client sending its outbox
+apart from the trigger, as it did before issue 44
+(:func:`_without_carry`): with a tree from
+before it, the old client and server. Figures: the median step time of each, and its ratio
 to the in-process median of the same run (issue 44's target at 84x84: <= 1.2x).
 """
 
@@ -17,7 +20,7 @@ import time
 
 import numpy as np
 
-from benchmarks.common import Settings, loadavg, perf
+from benchmarks.common import Settings, client_as_before_issue44, loadavg, perf
 from benchmarks.envs import SIZES, InProcessReach
 from benchmarks.procs import Server
 from benchmarks.stats import Figure, Target, summary
@@ -30,6 +33,11 @@ def _remote_env(port: int, width: int, height: int):
     env.reset(seed=0)
     env.action_space.seed(1)
     return env
+
+
+def _without_carry(env) -> None:
+    """``env``'s connection as the client was before issue 44 (:func:`benchmarks.common.client_as_before_issue44`)."""
+    client_as_before_issue44(env.client_id)
 
 
 def _measure(cases: dict, rounds: int, block: int, warmup: int, budget_s: float) -> dict[str, list[float]]:
@@ -68,12 +76,16 @@ def run(s: Settings) -> list[Figure]:
             if s.baseline is not None:
                 servers.append(Server(s.log_dir, "--stopped", name=f"envstep-base-{width}", root=s.baseline))
             envs = [_remote_env(srv.port, width, height) for srv in servers]
+            if len(servers) > 1:  # the baseline server once more, with the client as it was before issue 44
+                envs.append(_remote_env(servers[1].port, width, height))
+                _without_carry(envs[-1])
             inproc.reset()
             rng = np.random.default_rng(1)
             cases = {"inproc": (inproc.step, lambda: rng.uniform(-5, 5, 3)),
                      "remote": (envs[0].step, envs[0].action_space.sample)}
             if len(envs) > 1:
                 cases["baseline"] = (envs[1].step, envs[1].action_space.sample)
+                cases["baseline_client"] = (envs[2].step, envs[2].action_space.sample)
             t = _measure(cases, rounds, block, warmup, budget)
         finally:
             for env in envs:
@@ -94,4 +106,8 @@ def run(s: Settings) -> list[Figure]:
         if "baseline" in ms:
             figures.append(Figure(f"envstep.baseline.{size}", f"remote env step, --baseline server, {size}", "ms",
                                   ms["baseline"], floor=floor, note=f"server of {s.baseline}"))
+            figures.append(Figure(f"envstep.baseline_client.{size}",
+                                  f"remote env step, --baseline server and client, {size}", "ms",
+                                  ms["baseline_client"], floor=floor,
+                                  note=f"server of {s.baseline}; the client as before issue 44 (outbox apart from the trigger)"))
     return figures

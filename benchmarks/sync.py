@@ -8,12 +8,13 @@ runs, scripts included). floor = p50(two round trips) + p50(in-process step).
 The arm is at rest in both (same state, same physics cost).
 
 With ``--baseline DIR`` the same steps against a server of that source tree (an older commit)
-join the interleaved blocks: before and after in one run, against the same floor.
+join the interleaved blocks, and against a second such server with the client as it was before
+issue 44 (``client_as_before_issue44``): before and after in one run, against the same floor.
 """
 
 from __future__ import annotations
 
-from benchmarks.common import Floor, Settings, connect, interleaved, wire_sizes
+from benchmarks.common import Floor, Settings, client_as_before_issue44, connect, interleaved, wire_sizes
 from benchmarks.procs import SCENE, Echo, Server
 from benchmarks.stats import Figure, Target, rate_summary, scaled, summary
 from simx_client import api
@@ -27,25 +28,30 @@ def run(s: Settings) -> list[Figure]:
 
     sim = Simulation(SCENE, 0.05)
     sim.start()
-    base_srv = base = None
+    base_srv = base = base_client = base_client_srv = None
     try:
         with Server(s.log_dir, "--dt", "0.05", name="sync") as srv, Echo(s.log_dir) as echo:
             if s.baseline is not None:
                 base_srv = Server(s.log_dir, "--dt", "0.05", name="sync-baseline", root=s.baseline)
                 base = connect(base_srv.port)
+                # the baseline server once more, with the client as it was before issue 44
+                base_client_srv = Server(s.log_dir, "--dt", "0.05", name="sync-baseline-client", root=s.baseline)
+                base_client = connect(base_client_srv.port)
+                client_as_before_issue44(base_client)
             cid = connect(srv.port)
             floor = Floor(echo.port)
             try:
-                return _measure(s, cid, floor, sim, base)
+                return _measure(s, cid, floor, sim, base, base_client)
             finally:
-                for c in (cid, base):
+                for c in (cid, base, base_client):
                     if c is not None:
                         api.simxSynchronous(c, False)
                         api.simxFinish(c)
                 floor.close()
     finally:
-        if base_srv is not None:
-            base_srv.stop()
+        for server in (base_srv, base_client_srv):
+            if server is not None:
+                server.stop()
         sim.close()
 
 
@@ -56,10 +62,12 @@ def _start_stepping(cid: int) -> None:
             raise RuntimeError(f"{what} failed with return code {rc}")
 
 
-def _measure(s: Settings, cid: int, floor: Floor, sim, base: int | None = None) -> list[Figure]:
+def _measure(s: Settings, cid: int, floor: Floor, sim, base: int | None = None,
+             base_client: int | None = None) -> list[Figure]:
     _start_stepping(cid)
-    if base is not None:
-        _start_stepping(base)
+    for c in (base, base_client):
+        if c is not None:
+            _start_stepping(c)
     trig = wire_sizes(cid, [["SynchronousTrigger", B, []]])
     ping = wire_sizes(cid, [["GetPingTime", B, []]])
     api.simxGetPingTime(cid)  # wire_sizes ran one trigger: start counting after it
@@ -80,6 +88,8 @@ def _measure(s: Settings, cid: int, floor: Floor, sim, base: int | None = None) 
     cases = {"step": step, "floor_rt2": two_rt, "physics": sim.step}
     if base is not None:
         cases["baseline"] = lambda: step(base)
+    if base_client is not None:
+        cases["baseline_client"] = lambda: step(base_client)
     t = interleaved(s.n(30, 6), 20, cases, budget_s=s.t(60, 20))
     if failures:
         raise RuntimeError(f"{len(failures)} failed steps, e.g. return codes {failures[0]}")
@@ -97,6 +107,9 @@ def _measure(s: Settings, cid: int, floor: Floor, sim, base: int | None = None) 
                note=f"server of {s.baseline}"),
         Figure("sync.steps_per_s_baseline", "sync steps/s, --baseline tree's server", "1/s",
                rate_summary(t["baseline"]), floor={"label": "in-process steps/s", **rate_summary(t["physics"])}),
+        Figure("sync.steps_per_s_baseline_client", "sync steps/s, --baseline server and client", "1/s",
+               rate_summary(t["baseline_client"]), floor={"label": "in-process steps/s", **rate_summary(t["physics"])},
+               note="the client as before issue 44 (benchmarks.common.client_as_before_issue44)"),
     ]
     return baseline + [
         Figure("sync.step", "sync step: SynchronousTrigger + GetPingTime", "ms", ms["step"], floor=composite,

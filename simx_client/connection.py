@@ -277,21 +277,39 @@ class Connection(OutboxSender):
         Returns:
             One ``[ok, value]`` per command.
         """
+        carried, epoch = None, self._epoch
         with self._send_lock:
             if flush and self._outbox and not self._paused:
-                self._send_outbox(background=False)
-            payload, header = self._payload(commands)
-            if timeout is None:
-                replies = self._querier.get(payload=payload)
-            else:
-                replies = self.session.get(self._key, payload=payload, timeout=timeout)
-        for reply in replies:
-            ok = reply.ok
-            if ok is not None:
-                message = self._accept(ok.payload.to_bytes(), header)
-                self.last_cmd_time = message[1]
-                return message[5]
-        raise TimeoutError(f"no reply from the simx server at {self.address}:{self.port}")
+                carried = self._carry(commands)  # a trigger takes the outbox along (OutboxSender._carry)
+                if carried is None:
+                    self._send_outbox(background=False)
+            try:
+                if carried is None:
+                    payload, header = self._payload(commands)
+                else:  # the outbox's commands first, as their own request would have run them
+                    packed = carried.packed + [P.pack(command) for command in commands]
+                    payload, header = self._payload(carried.commands + commands, self._encoder.encode_packed(packed))
+                if timeout is None:
+                    replies = self._querier.get(payload=payload)
+                else:
+                    replies = self.session.get(self._key, payload=payload, timeout=timeout)
+            except BaseException:
+                if carried is not None:  # not sent: the batch is over, as an asynchronous send that failed
+                    self._carried(carried, None, epoch)
+                raise
+        message = None
+        try:
+            for reply in replies:
+                ok = reply.ok
+                if ok is not None:
+                    message = self._accept(ok.payload.to_bytes(), header)
+                    self.last_cmd_time = message[1]
+                    break
+        finally:
+            results = None if carried is None else self._carried(carried, message, epoch)
+        if message is None:
+            raise TimeoutError(f"no reply from the simx server at {self.address}:{self.port}")
+        return message[5] if results is None else results
 
     def _accept(self, payload: bytes, header: tuple[int, float]) -> list:
         """Decode a response (raises ProtocolError) and keep it for the message-info calls."""

@@ -27,6 +27,9 @@ log = logging.getLogger("simx.client")
 DEFAULT_CYCLE = 0.005  # s between two requests of the outbox (commThreadCycleInMs 5, the usual)
 _RETRY_FIRST, _RETRY_MOST = 0.005, 0.2  # s before a refused batch is sent again (doubling while busy)
 _SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
+#: Most outbox commands a ``simxSynchronousTrigger`` takes along in its request (OutboxSender._carry);
+#: the server's limits.MAX_CARRIED_COMMANDS is the same value.
+CARRY_MOST = P.MAX_CARRIED_COMMANDS
 
 
 def direct(callback: Any, drop: Any = None) -> zenoh.handlers.Callback:
@@ -97,6 +100,59 @@ class OutboxSender:
                 self._batches_out += len(batches)
         for batch in batches:
             self._send_async(batch.commands, self._encoder.encode_packed(batch.packed), batch, background)
+
+    def _carry(self, commands: list[list]) -> Batch | None:
+        """The outbox, taken as one batch to travel in the request of ``commands`` (``_send_lock``
+        held, outbox not empty, communication not paused), or None when it leaves in requests of
+        its own (:meth:`_send_outbox`).
+
+        Only a ``simxSynchronousTrigger`` takes it along, as V-REP's client sent what waited in
+        its outbox in the message of the blocking call: a step's targets reach the server in the
+        trigger's request, one request a step instead of two, and the server serves it in place
+        (``simx_server.legacy.sessions.Sessions.carried_trigger``). Other blocking calls do not:
+        legacy pacing holds, and serves in place, requests of one blocking command only, which a
+        blocking read relies on; a trigger is paced by the barrier instead. Not with split
+        commands (the asynchronous path counts them in flight), nor beyond
+        :data:`CARRY_MOST` commands (the server serves larger batches round robin)."""
+        if len(commands) != 1 or commands[0][0] != "SynchronousTrigger":
+            return None
+        with self._lock:
+            if not self._alive or self._closed or len(self._outbox) > CARRY_MOST:
+                return None
+            if any(mode & P.MODE_MASK in _SPLIT for _name, mode, _args in self._outbox.commands()):
+                return None
+            batches = self._outbox.take()
+            if len(batches) != 1:  # cannot happen within CARRY_MOST commands; sent apart if it did
+                for batch in batches:
+                    self._outbox.refused(batch)
+                    self._outbox.answered(batch)
+                return None
+            self._next_send = time.monotonic() + self.cycle
+            return batches[0]
+
+    def _carried(self, batch: Batch, message: list | None, epoch: int) -> list:
+        """File the results of a carried ``batch`` (the first of ``message``'s results; None:
+        no reply) as its own reply would have been filed; returns the other results. A
+        "server busy" answer puts the batch back in the outbox."""
+        results = [] if message is None else message[5]
+        n = len(batch.commands)
+        with self._lock:
+            try:
+                if message is None or epoch != self._epoch or not self._alive:
+                    return results[n:]
+                if P.busy(results):
+                    self._refused(batch)
+                    return results[n:]
+                self._retry = _RETRY_FIRST
+                t = message[1]
+                for (name, mode, args), (ok, value) in zip(batch.commands, results):
+                    if mode & P.MODE_MASK != P.MODE_DISCONTINUE:
+                        self._store(P.identity(name, args), ok, value, t)
+                return results[n:]
+            finally:
+                self._outbox.answered(batch)
+                if self._outbox:
+                    self._wake.notify()
 
     def _refused(self, batch: Batch) -> None:
         """The server answered ``batch`` busy (lock held): it waits again, sent after a pause

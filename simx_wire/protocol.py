@@ -118,6 +118,10 @@ DO_NOT_OVERWRITE = frozenset({
 #: Most commands in one request: the server refuses more (simx_server.base.limits), and the
 #: client's outbox sends larger batches in several requests.
 MAX_COMMANDS_PER_REQUEST = 1024
+#: Most commands waiting in a client's outbox that a blocking ``SynchronousTrigger`` takes along
+#: in its request (sent before it, in the same request, as V-REP's client did): such a request
+#: is served as the trigger alone would be (in place when the server waits for work).
+MAX_CARRIED_COMMANDS = 64
 #: The start of the error message of every result of a request the server could not queue
 #: (a client's queue or the server's is full): ``[[False, "server busy: <why>"], ...]``, one per
 #: command, none executed. A client may send such commands again later (its outbox does).

@@ -339,7 +339,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         round robin by the simulation thread, not by Zenoh's threads in parallel, where it
         would take the interpreter from every other client's calls."""
         name = Sessions.blocking_head(session)
-        if name is not None and name not in NOT_STREAMABLE:
+        if (name is not None and name not in NOT_STREAMABLE) or Sessions.carried_trigger(session):
             self.loop.serve_or_deliver(session)
         else:
             self.loop.ring.put(session)

@@ -33,6 +33,7 @@ from typing import Any
 
 from simx_wire import protocol as P
 from simx_server.base import limits
+from simx_server.commands import NOT_STREAMABLE
 
 _MODE_MASK, _MODE_BLOCKING = P.MODE_MASK, P.MODE_BLOCKING
 
@@ -251,6 +252,27 @@ class Sessions:
             return None
         name, mode, _args = commands[0]
         return name if mode & _MODE_MASK == _MODE_BLOCKING else None
+
+    @staticmethod
+    def carried_trigger(s: Session) -> bool:
+        """Whether the oldest request of ``s`` is a blocking ``SynchronousTrigger`` that carries
+        the commands its client's outbox held (at most ``protocol.MAX_CARRIED_COMMANDS``, none
+        blocking, none editing the scene): served as the trigger alone would be
+        (``LegacyDoor._schedule``). Legacy pacing does not hold it (:meth:`head_is_blocking`):
+        a trigger's steps come with the barrier, not with the clock."""
+        queued = s.queue
+        if not queued:
+            return False
+        (_query, commands), _size = queued[0]
+        if not 1 < len(commands) <= P.MAX_CARRIED_COMMANDS + 1:
+            return False
+        name, mode, _args = commands[-1]
+        if name != "SynchronousTrigger" or mode & _MODE_MASK != _MODE_BLOCKING:
+            return False
+        for name, mode, _args in commands[:-1]:
+            if mode & _MODE_MASK == _MODE_BLOCKING or name in NOT_STREAMABLE:
+                return False
+        return True
 
     def handed_over(self, s: Session) -> None:
         """A reply or stream update of ``s`` was handed to the sending thread."""

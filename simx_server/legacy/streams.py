@@ -38,6 +38,20 @@ class _Stream:
         self.args, self.delay = args, delay_ms / 1000.0
 
 
+#: s this thread lets the interpreter go after submitting a pass's first frame, so that the
+#: render thread starts it at once instead of once the pass's other streams are executed
+#: (interleaved A/B, the Gymnasium env's step at 84x84: 0.06-0.2 ms shorter, issue 44).
+_RENDER_HANDOFF = 50e-6
+#: Zenoh priority of a synchronous client's stream updates. Zenoh's sending pipeline held a small
+#: message that followed a large one in the same priority queue for about its batching time
+#: limit (1 ms): the ping's reply behind the step's update with images (bare Zenoh, a 60 KB put
+#: then a small reply: 1.35 ms; the put at this priority: 0.31 ms). Replies travel at the
+#: queries' priority (data). The update, handed over before the ping's reply and of higher
+#: priority, still arrives before it; a reply handed over before an update may now arrive after
+#: it (issue 44).
+_STEPPED_PRIORITY = zenoh.Priority.INTERACTIVE_HIGH
+
+
 class StreamPublisher:
     """Publishing of the clients\x27 streams (needs the door\x27s ``session``, ``prefix``, ``sim``, ``sessions``, ``courier``, ``viewers``, ``_streams``, ``_stream_renders`` and ``_resolve``)."""
 
@@ -74,6 +88,11 @@ class StreamPublisher:
         and not of ``large`` pixels or more)."""
         encodings: dict = {}  # this step's updates with images, by content: encoded once
         running = sim.state is RunState.RUNNING
+        # The first frame submitted to a render thread waits for the interpreter to start, which
+        # this thread holds while it executes the other streams: it lets it go once a pass
+        # (_RENDER_HANDOFF) so that the frame renders meanwhile (MuJoCo's rendering runs without
+        # the interpreter).
+        handed_off = False
         for client, streams in self._streams.items():
             if not streams:
                 continue
@@ -108,6 +127,9 @@ class StreamPublisher:
                     value = handler(sim, s.args)
                     if type(value) is Deferred:
                         renders.append(value)
+                        if not handed_off:  # once a pass: the render thread starts now (see above)
+                            handed_off = True
+                            time.sleep(_RENDER_HANDOFF)
                     elif type(value) not in SMALL:
                         budget -= reply_size(value)
                         if budget < 0:
@@ -139,7 +161,8 @@ class StreamPublisher:
         commands into ``_dataToSend``, which goes out inside the reply to the client's next
         message). Zenoh's "drop" left an update out whenever its link's queue had no room
         within ``wait_before_drop`` (1 ms), which a loaded machine's Zenoh thread missed about
-        once in 300 steps: the client then read the previous step's values.
+        once in 300 steps: the client then read the previous step's values. Its updates travel
+        at Zenoh's priority ``_STEPPED_PRIORITY``, above its replies.
 
         An update with images is encoded on the render thread, after its frames, into Zenoh's
         bytes (a 4096x4096 image is 50 MB to copy twice: 80 ms; putting the result costs
@@ -174,11 +197,12 @@ class StreamPublisher:
                 return payload
 
         congestion = zenoh.CongestionControl.BLOCK if bulk or stepped else zenoh.CongestionControl.DROP
+        priority = _STEPPED_PRIORITY if stepped else zenoh.Priority.DEFAULT
 
         def send() -> None:
             try:
                 if not bulk or stepped or self.courier.bulk_allowed():
-                    session.put(key, update(), congestion_control=congestion)
+                    session.put(key, update(), congestion_control=congestion, priority=priority)
             except Exception:
                 log.exception("client %s: publishing its streams", client)
             finally:
