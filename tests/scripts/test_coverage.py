@@ -36,3 +36,15 @@ def test_deprecated_names_are_listed_for_the_client():
 def test_docs_link_the_table():
     for doc in ("ZMQ.md", "SCRIPTS.md"):
         assert "COVERAGE.md" in (ROOT / "docs" / doc).read_text(encoding="utf-8"), doc
+
+
+def test_scripts_doc_lists_the_table_by_module():
+    """docs/SCRIPTS.md's list of every function by module is the API table's (generated), and it
+    names every entry of both libraries."""
+    from simx_server.api import SIM, SIMIK, listing
+
+    text = (ROOT / "docs" / "SCRIPTS.md").read_text(encoding="utf-8")
+    begin, end = text.index(listing.BEGIN), text.index(listing.END) + len(listing.END)
+    assert text[begin:end] == listing.markdown(), "docs/SCRIPTS.md's api-table is stale: run python scripts/gen_coverage.py"
+    block = text[begin:end]
+    assert all(f"`{n}`" in block for n in [*SIM, *SIMIK])

@@ -289,7 +289,7 @@ def test_docs_list_every_3x_function_with_its_status_as_the_code_says():
     text = (ROOT / "docs" / "SCRIPTS.md").read_text()
     begin, end = text.index(DOC_BEGIN), text.index(DOC_END) + len(DOC_END)
     assert text[begin:end] == doc_table(script_functions()), \
-        "docs/SCRIPTS.md's 3.x list is stale: paste `python -m simx_server.scripts.threads` in its place"
+        "docs/SCRIPTS.md's 3.x list is stale: run python scripts/gen_coverage.py"
 
 
 ISSUE_NAMES = ("simGetObjectHandle", "simSetJointTargetVelocity", "simReadProximitySensor", "simGetObjectPosition",

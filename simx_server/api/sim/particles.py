@@ -1,5 +1,5 @@
 """V-REP's particle objects (``sim.addParticleObject``, ``sim.addParticleObjectItem``,
-``sim.removeParticleObject``; ``simAddParticleObject`` & co. in 3.x) as force sources: those
+``sim.removeParticleObject``; and 3.x's ``simAddParticleObject`` and its kin) as force sources: those
 ``sim`` functions and the registry that moves the particles (:class:`Particles`).
 
 MuJoCo has no particles. Here each particle is a point of mass ``density * pi * size**3 / 6``
@@ -230,7 +230,7 @@ def addParticleObjectItem(ctx: CallContext, objectHandle: Any, itemData: Any) ->
     item = np.array([_num(v, "itemData") for v in values[:6]])
     if particles.count() >= MAX_PARTICLES:
         raise ArgumentError(f"sim.addParticleObjectItem: the scene has {MAX_PARTICLES} particles already "
-                            "(facade_particles.MAX_PARTICLES)")
+                            "(MAX_PARTICLES of simx_server/api/sim/particles.py)")
     obj.add(item)
 
 
