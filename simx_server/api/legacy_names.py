@@ -6,7 +6,7 @@ V-REP before 3.6 wrote ``simGetObjectHandle(...)``, ``sim_handle_self`` and
 (the ``sim`` functions of :mod:`simx_server.api.sim`, registered in
 :data:`simx_server.api.registry.SIM`) and this table of aliases:
 
-* :func:`facade_name` gives the ``sim`` function a 3.x global name calls: the exceptions of
+* :func:`sim_name` gives the ``sim`` function a 3.x global name calls: the exceptions of
   :data:`FUNCTION_ALIASES` (the renames CoppeliaSim's loader applies, ``CDetachedScript::
   _performNewApiAdjustments_old`` and ``_adjustScriptText5/7_old``), otherwise V-REP's own rule
   ``simXxxYyy`` -> ``sim.xxxYyy``;
@@ -26,7 +26,7 @@ from __future__ import annotations
 import re
 
 __all__ = ["CONSTANTS", "FUNCTION_ALIASES", "LEGACY_LUA", "SYSCB", "UI_FUNCTIONS", "V_REP_3_FUNCTIONS",
-           "facade_name", "status"]
+           "sim_name", "status"]
 
 #: CoppeliaSim's system-callback numbers (``sim.syscb_*``); ``sim_call_type`` takes these values.
 SYSCB: dict[str, int] = {
@@ -219,7 +219,7 @@ V_REP_3_FUNCTIONS: tuple[str, ...] = tuple(dict.fromkeys(
     _API_MAP.split() + list(UI_FUNCTIONS) + list(FUNCTION_ALIASES)))
 
 
-def facade_name(name: str) -> str | None:
+def sim_name(name: str) -> str | None:
     """The ``sim`` function 3.x global ``name`` calls (``simGetObjectHandle`` -> ``getObjectHandle``),
     None for a name that is not a 3.x function name."""
     if name in FUNCTION_ALIASES:
@@ -233,7 +233,7 @@ def status(name: str, functions: frozenset[str] | set[str] | tuple[str, ...]) ->
     ``sim.X`` (it calls ``sim`` function X), ``UI no-op`` or ``missing`` (an error naming it)."""
     if name in UI_FUNCTIONS:
         return "UI no-op"
-    target = facade_name(name)
+    target = sim_name(name)
     return f"sim.{target}" if target in functions else "missing"
 
 #: Plugin namespaces of V-REP / CoppeliaSim that simx does not have: ``simROS`` & co. are nil, as
@@ -330,7 +330,7 @@ def doc_table(functions: frozenset[str] | set[str] | tuple[str, ...]) -> str:
     total = len(V_REP_3_FUNCTIONS)
     return "\n".join([
         DOC_BEGIN,
-        f"**Run** ({len(rows['runs'])} of {total}; each calls the facade function named): "
+        f"**Run** ({len(rows['runs'])} of {total}; each calls the `sim` function named): "
         + ", ".join(rows["runs"]) + ".",
         "",
         f"**User-interface no-ops** ({len(rows['UI no-op'])}; logged once, neutral result): "

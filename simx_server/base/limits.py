@@ -325,7 +325,7 @@ MAX_SCRIPTS_MEMORY = 512 << 20
 MAX_SCRIPT_PORTS = 8
 
 # ----------------------------------------------------------------- child scripts' scene edits
-# (the CoppeliaSim 4.x calls of the ``sim`` facade, simx_server/scripts/facade_objects.py)
+# (the CoppeliaSim 4.x calls on scene objects, simx_server/api/sim/objects.py)
 #: Longest object name a child script may give with ``sim.setObjectName``/``sim.setObjectAlias``
 #: (V-REP's names are short; each name is kept in the scene's MjSpec and in every reply that
 #: lists names). Scene growth from ``sim.createDummy`` is bounded by MAX_SCENE_ELEMENTS.

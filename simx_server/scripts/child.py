@@ -117,7 +117,7 @@ class ChildScript:
         if self.load_error:
             log.error("%s cannot be loaded: %s", self.label, self.load_error)
 
-    def facade(self) -> ApiNamespace:
+    def sim_namespace(self) -> ApiNamespace:
         """A new ``sim`` for this script (its context knows the script: execution count,
         parameters, threads)."""
         return script_sim(self.world, self.owner, self.signals, label=self.path.name,
@@ -353,7 +353,7 @@ class PythonScript(ChildScript):
             "__name__": f"simx_script_{self.object_name}",
             "__file__": str(self.path),
             "__builtins__": _script_builtins(self.allow_remote_code),
-            "sim": self.facade(),
+            "sim": self.sim_namespace(),
             "print": self._print,
         }
         self.namespace["simIK"] = self.namespace["sim"].context.simik  # CoppeliaSim 4.x's simIK

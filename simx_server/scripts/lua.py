@@ -132,9 +132,9 @@ class LuaScript(LuaStyles, ChildScript):
         """``sim.NAME(...)`` from Lua: (True, results...) or (False, message); never raises."""
         fname = name.decode()
         try:
-            target = self._facade
+            target = self._sim
             if fname.startswith("simIK."):  # simIK's functions over this script's context
-                target, fname = self._facade.context.simik, fname[6:]
+                target, fname = self._sim.context.simik, fname[6:]
             result = target.call(fname, *[self._from_lua(a) for a in args])
             if isinstance(result, tuple):
                 return (True, *[self._to_lua(v) for v in result])
@@ -184,7 +184,7 @@ class LuaScript(LuaStyles, ChildScript):
 
     # ---------------------------------------------------------- life cycle
     def _create(self) -> None:
-        self._facade = self.facade()
+        self._sim = self.sim_namespace()
         rt = self._runtime = self._new_runtime()
         prelude = rt.compile(PRELUDE, name="=simx")
         self._lookup, snapshot = prelude(
@@ -269,7 +269,7 @@ class LuaScript(LuaStyles, ChildScript):
     def _drop(self) -> None:
         self._lookup = None
         self._runtime = None
-        self._facade = None
+        self._sim = None
 
     def memory_used(self) -> int:
         rt = self._runtime

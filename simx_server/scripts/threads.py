@@ -238,7 +238,7 @@ class LuaStyles:
         try:
             if op == b"begin":
                 name = args[0].decode() if isinstance(args[0], bytes) else str(args[0])
-                return True, motion.lua_motion(self._facade.context, name, [self._from_lua(a) for a in args[1:]])
+                return True, motion.lua_motion(self._sim.context, name, [self._from_lua(a) for a in args[1:]])
             wanted = args[0].send(None)
             if isinstance(wanted, CallbackCall):
                 return True, b"call", self._to_lua(wanted.args[:3])

@@ -49,7 +49,7 @@ def values(result: Any, returns_none: bool) -> list:
 
 class RenderedReplies:
     """The ZMQ service's calls that render (mixin of :class:`~simx_server.zmq.service.ZmqService`;
-    needs its ``frontend``, ``sim``, ``_facade``, ``_signature``, ``_error`` and ``_call_error``)."""
+    needs its ``frontend``, ``sim``, ``_call_table``, ``_signature``, ``_error`` and ``_call_error``)."""
 
     def _render(self, client: Any, func: str, name: str, args: list) -> bytes | Rendering:
         """Start a call that waits for a render (budgets.RENDERS): its frames and the job making
@@ -61,7 +61,7 @@ class RenderedReplies:
         if refused is not None:
             return self._error(client, func, refused)
         try:
-            value = self._facade(name, args)
+            value = self._call_table(name, args)
         except Exception as exc:
             self.frontend.release(client.connection, held)
             return self._call_error(client, func, exc)

@@ -234,7 +234,7 @@ class ZmqService(RenderedReplies):
                     return self._error(client, func, refused)
                 if name in RENDERS:
                     return self._render(client, func, name, args)
-                values = self._facade(name, args)
+                values = self._call_table(name, args)
                 if type(values) is Deferred:  # a .ttt/.ttm converted off this thread: replied once loaded
                     return Rendering(values, 0, self._signature(name).return_annotation in ("None", None))
                 if isinstance(values, Stepped):
@@ -247,7 +247,7 @@ class ZmqService(RenderedReplies):
                         self._end_long(client)
                     return self._start_long(client, func, values)
             elif namespace == "simIK" and name in self._ik_functions:
-                values = self._facade(name, args, ik=True)
+                values = self._call_table(name, args, ik=True)
             elif name in names.coppeliasim_functions(namespace):
                 raise RemoteError(f"not implemented by simx (CoppeliaSim 4.x has {namespace}.{name}; "
                                   "docs/ZMQ.md lists what simx has)")
@@ -283,7 +283,7 @@ class ZmqService(RenderedReplies):
             signature = self._signatures[key] = inspect.signature((self._ik_functions if ik else self._functions)[name])
         return signature
 
-    def _facade(self, name: str, args: list, ik: bool = False) -> list | Stepped | Deferred:
+    def _call_table(self, name: str, args: list, ik: bool = False) -> list | Stepped | Deferred:
         fn, signature, remote = (self._ik_functions if ik else self._functions)[name], self._signature(name, ik), self.remote
         try:
             result = fn(remote, *args)
@@ -467,7 +467,7 @@ class ZmqService(RenderedReplies):
         return []
 
     def _stop_simulation(self, client: ZmqClient, args: list) -> list:
-        self._facade("stopSimulation", args)
+        self._call_table("stopSimulation", args)
         for other in self.clients.values():  # CoppeliaSim's ZMQ server: a stop ends every client's stepping
             self._unstep(other)
         self.after_step()

@@ -71,7 +71,7 @@ def test_lua_scripts_get_booleans_numbers_and_the_binary_bytes(sim):
 
 def test_python_scripts_get_the_typed_values(sim):
     robot = sim.world.resolve("Robot").handle
-    facade = sim.scripts.scripts[robot].facade()  # what a Python child script's sim is
+    facade = sim.scripts.scripts[robot].sim_namespace()  # what a Python child script's sim is
     get = facade.getScriptSimulationParameter
     assert get(-4, "active") is False
     assert get(-4, "count") == 41
