@@ -238,6 +238,7 @@ def test_a_client_scenes_script_is_confined_to_that_clients_folder(server, tmp_p
     left = server.log_so_far().count(" disconnected")
     try:
         before = set(client_files(server))
+        vrep.simxStopSimulation(cid, B)  # the server starts running; a scene loads only when stopped
         for name in ("sent.lua", "sent.xml"):
             assert vrep.simxTransferFile(cid, str(tmp_path / name), name, 30, B) == vrep.simx_return_ok
         assert vrep.simxLoadScene(cid, str(tmp_path / "sent.xml"), 1, B) == vrep.simx_return_ok
