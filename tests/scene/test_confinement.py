@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import stat
 import struct
 import tempfile
@@ -108,13 +109,23 @@ def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b,
         assert stat.S_IMODE(folder.stat().st_mode) == 0o700
         assert f"simx-{server_a.proc.pid}-" in folder.name
 
-        # Server B (even with the temporary folder as a --scene-path) refuses A's files.
+        # Server B (even with the temporary folder as a --scene-path) refuses A's files; stopped
+        # first, so that the loads are refused for where the files are, not for a running
+        # simulation.
+        assert vrep.simxStopSimulation(client_b, WAIT) == OK
         assert vrep.simxLoadScene(client_b, str(folder / scene), 0, WAIT) == REMOTE
         assert vrep.simxLoadModel(client_b, str(folder / scene), 0, WAIT)[0] == REMOTE
-        # Server paths outside the scene's folder and --scene-path folders are refused too.
-        outside = tmp_path / "outside.xml"
-        outside.write_text('<mujoco><worldbody><body name="Out"><geom size=".1"/></body></worldbody></mujoco>')
-        assert vrep.simxLoadScene(client_b, str(outside), 0, WAIT) == REMOTE
+        assert all("refused" in e for e in last_errors(client_b)[-2:]), last_errors(client_b)
+        # Server paths outside the scene's folder and --scene-path folders are refused too (a
+        # folder beside the tests: neither the temporary folder nor the scene's).
+        outside_dir = Path(tempfile.mkdtemp(prefix=".outside-", dir=Path(__file__).resolve().parent))
+        try:
+            outside = outside_dir / "outside.xml"
+            outside.write_text('<mujoco><worldbody><body name="Out"><geom size=".1"/></body></worldbody></mujoco>')
+            assert vrep.simxLoadScene(client_b, str(outside), 0, WAIT) == REMOTE
+            assert "refused" in last_errors(client_b)[-1], last_errors(client_b)
+        finally:
+            shutil.rmtree(outside_dir)
         assert vrep.simxStartSimulation(client_b, WAIT) == OK
         try:
             wait_until(lambda: vrep.simxGetObjectHandle(client_b, "UR5", WAIT)[0] == OK, 5, what="B's own scene")
@@ -152,6 +163,7 @@ def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b,
 
 # ------------------------------------------------------------------ defect 4
 def test_client_scene_may_name_only_files_sent_with_it(client_b, tmp_path):
+    vrep.simxStopSimulation(client_b, WAIT)  # the server starts running; a scene loads only when stopped
     secret = tmp_path / "secret.png"  # a server file a client must not see through a camera
     secret.write_bytes(png(8, 8))
     missing = tmp_path / "absent.png"  # as long a name as secret.png

@@ -118,8 +118,16 @@ def test_depth_buffer_and_grey_option_in_coded_mode(tutorial):
     assert ball < 256 and set(np.unique(grey[HR.decode(coded) == ball]).tolist()) == {ball // 3}
 
 
-def test_parameter_errors_and_stop_restores_the_scene_mode(tutorial):
-    sim, w = tutorial, tutorial.world
+def test_parameter_errors_and_stop_restores_the_scene_mode():
+    sim = tutorial_sim()  # its own: the stop below also undoes the module's tutorial pose
+    try:
+        _parameter_errors_and_stop(sim)
+    finally:
+        sim.close()
+
+
+def _parameter_errors_and_stop(sim) -> None:
+    w = sim.world
     cam = w.resolve("kinect_rgb").handle
     for mode, name in ((1, "auxchannels"), (3, "povray"), (7, "opengl3"), (42, "render mode 42")):
         with pytest.raises(UnsupportedError, match=f"1017.*{name}"):

@@ -22,12 +22,14 @@ DT_MS = 50  # the server's default dt
 STREAMING, BUFFER, BLOCKING = vrep.simx_opmode_streaming, vrep.simx_opmode_buffer, vrep.simx_opmode_blocking
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def fresh():
-    """A fresh server (simulation running, dt 50 ms, at a quarter of real time) and two clients:
-    the reader and the clock. The claim is in steps; a quarter of real time gives each step 200 ms
-    of wall time, so that what is measured is when the image is rendered (the step after the
-    call), not how slow the shared cores of a loaded test machine make llvmpipe."""
+    """A fresh server for each test (simulation running, dt 50 ms, at a quarter of real time)
+    and two clients: the reader and the clock. The first test's claim is about a server no one
+    has used yet, so the server is not shared between tests. The claim is in steps; a quarter
+    of real time gives each step 200 ms of wall time, so that what is measured is when the image
+    is rendered (the step after the call), not how slow the shared cores of a loaded test
+    machine make llvmpipe."""
     srv = ServerProcess(str(SCENE), "--speed", "0.25", ports=[free_port(), free_port()])
     reader = vrep.simxStart("127.0.0.1", srv.ports[0], True, True, 5000, 5)
     clock = vrep.simxStart("127.0.0.1", srv.ports[1], True, True, 5000, 5)
