@@ -56,6 +56,18 @@ def last_errors(cid: int) -> list[str]:
     return errors
 
 
+def untrusted_folder() -> Path:
+    """A writable folder that server B does not trust: outside the temporary folder (its
+    --scene-path) and the scene's folder, wherever the checkout lies (beside the tests, the
+    home folder, /var/tmp or /dev/shm)."""
+    trusted = (TMP, SCENE.resolve().parent)
+    for place in (Path(__file__).resolve().parent, Path.home(), Path("/var/tmp"), Path("/dev/shm")):
+        place = place.resolve()
+        if place.is_dir() and os.access(place, os.W_OK) and not any(place.is_relative_to(t) for t in trusted):
+            return place
+    pytest.fail(f"no writable folder outside {', '.join(map(str, trusted))} for the refusal to test")
+
+
 def folders_holding(name: str, tmp: Path = TMP) -> list[Path]:
     """Transfer folders (of any server) in ``tmp`` that hold a file called ``name`` (in a
     client's folder, ``.simx-clients/*``, or the folder itself)."""
@@ -116,9 +128,8 @@ def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b,
         assert vrep.simxLoadScene(client_b, str(folder / scene), 0, WAIT) == REMOTE
         assert vrep.simxLoadModel(client_b, str(folder / scene), 0, WAIT)[0] == REMOTE
         assert all("refused" in e for e in last_errors(client_b)[-2:]), last_errors(client_b)
-        # Server paths outside the scene's folder and --scene-path folders are refused too (a
-        # folder beside the tests: neither the temporary folder nor the scene's).
-        outside_dir = Path(tempfile.mkdtemp(prefix=".outside-", dir=Path(__file__).resolve().parent))
+        # Server paths outside the scene's folder and --scene-path folders are refused too.
+        outside_dir = Path(tempfile.mkdtemp(prefix=".simx-outside-", dir=untrusted_folder()))
         try:
             outside = outside_dir / "outside.xml"
             outside.write_text('<mujoco><worldbody><body name="Out"><geom size=".1"/></body></worldbody></mujoco>')
