@@ -280,8 +280,15 @@ def test_connections_beyond_the_cap_are_refused_and_descriptors_stay(tmp_path):
         while not any(refused in line for line in log) and time.monotonic() < deadline:
             time.sleep(0.05)
         assert any(refused in line for line in log), ("no refusal", len(log), "".join(log)[-3000:])
-        open_fds = len(list(Path(f"/proc/{proc.pid}/fd").iterdir()))
-        assert open_fds < 256 - 32, open_fds  # room left for Zenoh's clients, the scene, the log
+        # Room left for Zenoh's clients, the scene, the log: once the refused handshakes' descriptors
+        # are closed (the first refusal's count may still hold some of the 72 connections refused).
+        def open_fds() -> int:
+            return len(list(Path(f"/proc/{proc.pid}/fd").iterdir()))
+
+        deadline = time.monotonic() + 30
+        while open_fds() >= 256 - 32 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert open_fds() < 256 - 32, open_fds()
         for s in socks:
             s.close(0)
         # served once the server has seen the others go (a handshake it still refuses meanwhile
