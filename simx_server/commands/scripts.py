@@ -10,8 +10,11 @@ from simx_server.scene.simulation import Simulation
 
 def call_script_function(sim: Simulation, args: list) -> list:
     obj, stype, fn, ints, floats, strings, buf = _args(args, "str", "int", "str", "any", "any", "any", "any")
-    with sim.editor.files.on_behalf():  # the script's file calls act as the calling client
-        return sim.scripts.call(obj, stype, fn, ints, floats, strings, buf)
+    try:
+        with sim.editor.files.on_behalf():  # the script's file calls act as the calling client
+            return sim.scripts.call(obj, stype, fn, ints, floats, strings, buf)
+    finally:
+        sim.apply_requests()  # the function asked to stop or pause: now that it has returned
 
 
 

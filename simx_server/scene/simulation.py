@@ -85,6 +85,8 @@ class Simulation:
         self.steps = 0
         self._scene_id: tuple[World | None, int] = (None, 0)
         self.stop_requests = 0  # sim_intparam_stop_request_counter
+        self._requested: RunState | None = None  # a script's stop or pause, due at the end of its pass
+        self._phase = ""  # "starting" (scripts' init) or "stopping" (their cleanup), else ""
         #: ``post(job)``: run ``job()`` on the simulation thread (thread-safe), given by the loop
         #: that serves it (simx_server.loop.tasks.attach); None in-process: .ttt loads then wait.
         self.post: Callable[[Callable[[], Any]], None] | None = None
@@ -167,8 +169,42 @@ class Simulation:
         """``simxStartSimulation``: from stopped, run the scripts' init; from paused, resume."""
         if self.state is RunState.STOPPED:
             self.stop_reason = None
-            self.scripts.start()
+            self._requested = None
+            self._phase = "starting"  # a stop asked in sysCall_init comes after the first pass
+            try:
+                self.scripts.start()
+            finally:
+                self._phase = ""
         self.state = RunState.RUNNING
+
+    def request(self, state: RunState) -> int:
+        """A script's ``sim.stopSimulation`` (``state`` STOPPED) or ``sim.pauseSimulation``
+        (PAUSED): as in CoppeliaSim, a request that takes effect once the current pass is over
+        (the end of this step, or of the client's call into a script that made it), never in
+        the middle of the script that asks; a stop outranks a pause.
+
+        Args:
+            state: ``RunState.STOPPED`` or ``RunState.PAUSED``.
+
+        Returns:
+            1 when requested, 0 when it cannot be (stopped already; a pause when not running).
+        """
+        if self._phase == "stopping":  # asked in sysCall_cleanup: stopping already
+            return 0
+        running = self.state is RunState.RUNNING or self._phase == "starting"
+        if not running and (self.state is RunState.STOPPED or state is RunState.PAUSED):
+            return 0
+        if self._requested is not RunState.STOPPED:
+            self._requested = state
+        return 1
+
+    def apply_requests(self) -> None:
+        """Carry out a script's stop or pause request (:meth:`request`), if one is due."""
+        requested, self._requested = self._requested, None
+        if requested is RunState.STOPPED:
+            self.stop()
+        elif requested is RunState.PAUSED:
+            self.pause()
 
     def pause(self) -> None:
         """``simxPauseSimulation``: keeps the state; ignored while stopped (as V-REP)."""
@@ -183,17 +219,23 @@ class Simulation:
     def _halt(self) -> None:
         if self.state is RunState.STOPPED:
             return
-        self.scripts.stop()
+        self._phase = "stopping"
+        try:
+            self.scripts.stop()
+        finally:
+            self._phase = ""
         imported = shapes.imported_poses(self.world)  # shapes imported while running stay in place
         self.world.reset()
         shapes.restore_poses(self.world, imported)
         self.vision.reset()  # clipping planes changed by clients
         self.state = RunState.STOPPED
+        self._requested = None  # asked during the cleanup: stopped already
         for client in self._sync:  # triggers given before the stop do not count for the next run
             self._sync[client] = False
 
     def step(self) -> None:
-        """One simulation step of dt: actuation scripts, IK groups, physics, sensing scripts.
+        """One simulation step of dt: actuation scripts, IK groups, physics, sensing scripts;
+        then a stop or pause a script asked for in it (:meth:`request`).
 
         Raises:
             physics.PhysicsError: the physics blew up (MuJoCo found NaN, infinite or huge
@@ -212,6 +254,8 @@ class Simulation:
             raise
         self.scripts.sensing()
         self.steps += 1
+        if self._requested is not None:  # a script's sim.stopSimulation / pauseSimulation in this pass
+            self.apply_requests()
 
     # ------------------------------------------------ synchronous mode (a barrier)
     def enable_sync(self, client: str, enable: bool) -> bool:

@@ -46,6 +46,22 @@ class SimulationView(Protocol):
     editor: Any
     selection: list[int]
 
+    def request(self, state: RunState) -> int:
+        """A script's stop or pause, carried out once the current pass is over
+        (``Simulation.request``).
+
+        Args:
+            state: ``RunState.STOPPED`` or ``RunState.PAUSED``.
+
+        Returns:
+            1 when requested, 0 when it cannot be.
+        """
+        ...
+
+    def apply_requests(self) -> None:
+        """Carry out a script's stop or pause request, if one is due."""
+        ...
+
     def legacy_parameter(self, kind: str, pid: int, *value: Any) -> Any:
         """The legacy API's parameter ``pid`` (``simxGetIntegerParameter``...), or set it.
 

@@ -100,9 +100,12 @@ def test_every_entry_of_the_table_is_reachable(door, tmp_path, request):
 
 def test_clients_only_entries_are_the_remote_programs_calls():
     """Which entries scripts may not call: the ones that act on the server from outside the scene
-    (loading and closing scenes, running the simulation...), each refused with its name."""
+    (loading and closing scenes, starting the simulation...), each refused with its name. A
+    script may stop or pause the simulation (a request, as in CoppeliaSim:
+    tests/scripts/test_script_stop.py)."""
     only = set(SIM.names(Callers.CLIENTS)) - set(SIM.names(Callers.SCRIPTS))
-    assert {"loadScene", "closeScene", "startSimulation", "stopSimulation"} <= only
+    assert {"loadScene", "closeScene", "startSimulation"} <= only
+    assert not {"stopSimulation", "pauseSimulation"} & only
     assert all(SIM[n].module == "simx_server.api.sim.remote" for n in only)
     assert set(SIMIK.names(Callers.SCRIPTS)) == set(SIMIK)
 

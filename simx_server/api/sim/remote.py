@@ -1,4 +1,4 @@
-"""The ``sim`` functions that a program outside the scene calls and a script did not need.
+"""The ``sim`` functions that a program outside the scene calls (and a script may stop or pause).
 
 A ZMQ remote API client calls the same table as child scripts (docs/SCRIPTS.md): one
 implementation of every ``sim.NAME``, with the world read from the simulation at each call (a
@@ -6,7 +6,9 @@ scene load replaces it; :func:`simx_server.api.client_context`). The functions h
 ones a remote program adds (CoppeliaSim 4.x's names, arguments and returns): running the
 simulation, scene files, the object selection, passive vision sensors' images, calls into the
 scene's child scripts, the log, each registered for clients only
-(:attr:`~simx_server.api.registry.Callers.CLIENTS`). Pose arithmetic is shared with scripts
+(:attr:`~simx_server.api.registry.Callers.CLIENTS`) but ``sim.stopSimulation`` and
+``sim.pauseSimulation``, which a child script calls too (a request, carried out once its pass
+is over). Pose arithmetic is shared with scripts
 (:mod:`simx_server.api.sim.posemath`). The stepping calls
 (``sim.setStepping``, ``sim.step``, ``sim.acquireLock``, ``sim.releaseLock``) belong to a client,
 not to the scene: :mod:`simx_server.zmq.service` answers them.
@@ -54,20 +56,31 @@ def startSimulation(ctx: CallContext) -> int:  # noqa: N802 (CoppeliaSim's names
     return 1
 
 
-@sim_function("pauseSimulation", callers=Callers.CLIENTS)
+@sim_function("pauseSimulation")
 def pauseSimulation(ctx: CallContext) -> int:  # noqa: N802
-    """Pause a running simulation; 1, or 0 when it does not run."""
+    """Pause a running simulation; 1, or 0 when it does not run. From a child script, a
+    request carried out once the current pass is over (as CoppeliaSim's, whose scripts'
+    requests wait for the main loop): the script's code goes on meanwhile."""
+    if ctx.caller is Callers.SCRIPTS:
+        return ctx.simulation("pauseSimulation").request(RunState.PAUSED)
     if ctx.simulation("pauseSimulation").state is not RunState.RUNNING:
         return 0
     ctx.simulation("pauseSimulation").pause()
     return 1
 
 
-@sim_function("stopSimulation", callers=Callers.CLIENTS)
-def stopSimulation(ctx: CallContext, wait: Any = False) -> None:  # noqa: N802
-    """Stop the simulation: the scripts' cleanup, then the scene's initial state. simx stops
-    at once, so ``wait`` changes nothing (the state is stopped when the call returns)."""
+@sim_function("stopSimulation")
+def stopSimulation(ctx: CallContext, wait: Any = False) -> int | None:  # noqa: N802
+    """Stop the simulation: the scripts' cleanup, then the scene's initial state. For a remote
+    client simx stops at once, so ``wait`` changes nothing (the state is stopped when the call
+    returns). From a child script (V-REP's ``simStopSimulation`` too), a request carried out
+    once the current pass is over, as in CoppeliaSim (its scripts' requests wait for the main
+    loop; ``wait`` cannot wait for the pass the script runs in): 1, or 0 when stopped already.
+    """
+    if ctx.caller is Callers.SCRIPTS:
+        return ctx.simulation("stopSimulation").request(RunState.STOPPED)
     ctx.simulation("stopSimulation").stop()
+    return None
 
 
 @sim_function("getSystemTime", callers=Callers.CLIENTS)
@@ -223,6 +236,9 @@ def callScriptFunction(ctx: CallContext, functionName: Any, scriptHandleOrType: 
         script = ctx.simulation("callScriptFunction").scripts.script_of(ctx.world.get(handle).handle)
     except ScriptError:
         raise ScriptError(f"object {ctx.world.get(handle).name!r} has no child script") from None
-    with ctx.simulation("callScriptFunction").editor.files.on_behalf():  # the script's file calls act as this client
-        values = script.call_values(name, list(args))
+    try:
+        with ctx.simulation("callScriptFunction").editor.files.on_behalf():  # the script's file calls act as this client
+            values = script.call_values(name, list(args))
+    finally:
+        ctx.simulation("callScriptFunction").apply_requests()  # a stop or pause it asked for, now
     return tuple(strings_as_text(v) for v in values)
