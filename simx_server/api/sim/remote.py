@@ -1,14 +1,15 @@
-"""The ``sim`` functions that a program outside the scene calls (and a script may stop or pause).
+"""The ``sim`` functions of a program outside the scene (running the simulation, scene files, the log).
 
 A ZMQ remote API client calls the same table as child scripts (docs/SCRIPTS.md): one
 implementation of every ``sim.NAME``, with the world read from the simulation at each call (a
 scene load replaces it; :func:`simx_server.api.client_context`). The functions here are the
 ones a remote program adds (CoppeliaSim 4.x's names, arguments and returns): running the
 simulation, scene files, the object selection, passive vision sensors' images, calls into the
-scene's child scripts, the log, each registered for clients only
-(:attr:`~simx_server.api.registry.Callers.CLIENTS`) but ``sim.stopSimulation`` and
-``sim.pauseSimulation``, which a child script calls too (a request, carried out once its pass
-is over). Pose arithmetic is shared with scripts
+scene's child scripts, the log. Those that act on the server from outside the scene
+(starting the simulation, loading and closing scenes and models, calling into scripts) are
+registered for clients only (:attr:`~simx_server.api.registry.Callers.CLIENTS`); a child
+script calls the others too (``sim.stopSimulation`` and ``sim.pauseSimulation`` are then a
+request, carried out once its pass is over). Pose arithmetic is shared with scripts
 (:mod:`simx_server.api.sim.posemath`). The stepping calls
 (``sim.setStepping``, ``sim.step``, ``sim.acquireLock``, ``sim.releaseLock``) belong to a client,
 not to the scene: :mod:`simx_server.zmq.service` answers them.
@@ -83,13 +84,13 @@ def stopSimulation(ctx: CallContext, wait: Any = False) -> int | None:  # noqa: 
     return None
 
 
-@sim_function("getSystemTime", callers=Callers.CLIENTS)
+@sim_function("getSystemTime")
 def getSystemTime(ctx: CallContext) -> float:  # noqa: N802
     """Wall-clock time in s (for differences)."""
     return time.time()
 
 
-@sim_function("addLog", callers=Callers.CLIENTS)
+@sim_function("addLog")
 def addLog(ctx: CallContext, verbosityLevel: Any, logMessage: Any) -> None:  # noqa: N802, N803
     """Write ``logMessage`` to the server's log at the level of ``verbosityLevel``
     (``sim.verbosity_errors``/``scripterrors``: error, ``warnings``/``scriptwarnings``: warning,
@@ -98,12 +99,13 @@ def addLog(ctx: CallContext, verbosityLevel: Any, logMessage: Any) -> None:  # n
     text = _text(logMessage, "logMessage")
     text = (text[:1000] + f"... ({len(text)} characters)" if len(text) > 1000 else text).encode(
         "unicode_escape").decode("ascii")  # one log line, whatever the client sends
+    who = "client" if ctx.caller is Callers.CLIENTS else ctx.label  # a script: its own name, as print
     if level in (200, 420):
-        log.error("[client] %s", text)
+        log.error("[%s] %s", who, text)
     elif level in (300, 430):
-        log.warning("[client] %s", text)
+        log.warning("[%s] %s", who, text)
     elif level != 100:  # sim.verbosity_none
-        log.info("[client] %s", text)
+        log.info("[%s] %s", who, text)
 
 
 def _stand_in(ctx: CallContext, filename: str, kinds: tuple[str, ...]) -> str:
@@ -153,20 +155,20 @@ def loadModel(ctx: CallContext, filename: Any) -> int:  # noqa: N802
                                                defer=True)  # a .ttm: converted off this thread
 
 
-@sim_function("getObjectSel", callers=Callers.CLIENTS)
+@sim_function("getObjectSel")
 def getObjectSel(ctx: CallContext) -> list[int]:  # noqa: N802
     """The object selection (no GUI: what clients set)."""
     return list(ctx.simulation("getObjectSel").selection)
 
 
-@sim_function("setObjectSel", callers=Callers.CLIENTS)
+@sim_function("setObjectSel")
 def setObjectSel(ctx: CallContext, objectHandles: Any) -> None:  # noqa: N802, N803
     if not isinstance(objectHandles, list):
         raise ArgumentError("objectHandles must be a list of handles")
     ctx.simulation("setObjectSel").selection = [ctx.world.get(ctx.h(h, "objectHandle")).handle for h in objectHandles]
 
 
-@sim_function("setVisionSensorImg", callers=Callers.CLIENTS)
+@sim_function("setVisionSensorImg")
 def setVisionSensorImg(ctx: CallContext, sensorHandle: Any, image: Any, options: Any = 0, pos: Any = None,  # noqa: N802, N803
                        size: Any = None) -> None:
     """Write an image into a passive vision sensor (``image=external``): uint8 RGB (``options``
@@ -177,7 +179,7 @@ def setVisionSensorImg(ctx: CallContext, sensorHandle: Any, image: Any, options:
                       bool(_int(options, "options") & 1))
 
 
-@sim_function("isDeprecated", callers=Callers.CLIENTS)
+@sim_function("isDeprecated")
 def isDeprecated(ctx: CallContext, funcOrConst: Any) -> int:  # noqa: N802, N803
     """1 for a function CoppeliaSim 4.x keeps under a deprecated name (``sim.getScriptHandle``...),
     0 for a current function or constant, -1 for an unknown name."""
@@ -187,7 +189,7 @@ def isDeprecated(ctx: CallContext, funcOrConst: Any) -> int:  # noqa: N802, N803
     return 0 if name in names.current_functions("sim") or name in names.constants("sim") else -1
 
 
-@sim_function("setVisionSensorCharImage", callers=Callers.CLIENTS)
+@sim_function("setVisionSensorCharImage")
 def setVisionSensorCharImage(ctx: CallContext, sensorHandle: Any, image: Any) -> None:  # noqa: N802, N803
     """CoppeliaSim's older name: :func:`setVisionSensorImg` of a whole RGB image."""
     setVisionSensorImg(ctx, sensorHandle, image)
@@ -200,11 +202,14 @@ def closeScene(ctx: CallContext) -> int:  # noqa: N802
     return 1
 
 
-@sim_function("getScript", callers=Callers.CLIENTS)
+@sim_function("getScript")
 def getScript(ctx: CallContext, scriptType: Any, objectHandle: Any = -1, scriptName: Any = "") -> int:  # noqa: N802, N803
     """The script handle of an object's child script (``sim.scripttype_childscript``): in simx
     the handle of the object it is attached to (``objectHandle``, or a path or name); -1
-    when it has none."""
+    when it has none. From a script, ``sim.getScript(sim.handle_self)`` is its own handle
+    (CoppeliaSim 4.6+)."""
+    if _int(scriptType, "scriptType") == C.sim_handle_self and ctx.caller is Callers.SCRIPTS:
+        return ctx.owner
     if _int(scriptType, "scriptType") != C.sim_scripttype_childscript:
         raise UnsupportedError("sim.getScript: simx has child scripts only (sim.scripttype_childscript)")
     target = objectHandle if isinstance(objectHandle, (str, bytes)) else scriptName if scriptName else objectHandle
