@@ -1,7 +1,8 @@
 """The calls of api/sim/remote.py that child scripts make too (CoppeliaSim's scripts do):
 ``sim.getScript(sim.handle_self)``, ``sim.getSystemTime``, ``sim.addLog`` (a line naming the
 script file, as ``print``), the object selection and ``sim.isDeprecated``; while ``sim.loadScene`` and
-``sim.startSimulation`` stay refused with their names. Lua and Python child scripts in process."""
+``sim.startSimulation`` stay refused with their names; and ``sim.callScriptFunction`` from one
+child script into another (not into itself, nor back into a script whose call is under way). Lua and Python child scripts in process."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from simx_server.scene.simulation import Simulation
+from simx_server.sim.state import RunState
 from simx_wire.protocol import ScriptError
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read here
@@ -35,6 +37,13 @@ function logIt() sim.addLog(sim.verbosity_scriptwarnings, 'from lua') end
 function selection(h) sim.setObjectSel({h}) return sim.getObjectSel() end
 function deprecated() return sim.isDeprecated('sim.addStatusbarMessage'), sim.isDeprecated('sim.getObject') end
 function load() local ok, err = pcall(sim.loadScene, 'x.xml') return ok, err end
+function viaPython(x) return sim.callScriptFunction('double@/PyBox', sim.scripttype_childscript, x) end
+function viaHandle(x) return sim.callScriptFunction('double', sim.getScript(sim.scripttype_childscript, '/PyBox'), x) end
+function half(x) return x / 2, 'lua' end
+function self() return pcall(sim.callScriptFunction, 'half@/LuaBox', sim.scripttype_childscript, 4) end
+function cycle() return sim.callScriptFunction('back@/PyBox', sim.scripttype_childscript) end
+function stopVia() local r = sim.callScriptFunction('stop@/PyBox', sim.scripttype_childscript)
+  return r, sim.getSimulationState() end
 """
 
 PY = """
@@ -48,6 +57,22 @@ def log_it():
 
 def start():
     sim.startSimulation()
+
+
+def double(x):
+    return 2 * x
+
+
+def via_lua(x):
+    return sim.callScriptFunction('half@/LuaBox', sim.scripttype_childscript, x)
+
+
+def back():
+    return sim.callScriptFunction('half@/LuaBox', sim.scripttype_childscript, 2)
+
+
+def stop():
+    return sim.stopSimulation()
 """
 
 
@@ -97,3 +122,24 @@ def test_scene_and_run_calls_stay_refused_with_their_names(sim):
     assert ok is False and b"sim.loadScene is served to remote API clients only" in err
     with pytest.raises(ScriptError, match="UnsupportedError: sim.startSimulation is served to remote API clients only"):
         call(sim, "PyBox", "start")
+
+
+def test_a_script_calls_another_scripts_function(sim):
+    assert call(sim, "LuaBox", "viaPython", 21) == [42]
+    assert call(sim, "LuaBox", "viaHandle", 5) == [10]
+    assert call(sim, "PyBox", "via_lua", 3) == [1.5, "lua"]
+
+
+def test_a_script_cannot_call_into_itself_or_back_into_its_caller(sim):
+    ok, err = call(sim, "LuaBox", "self")
+    assert ok is False and b"cannot be called from inside its own call" in err
+    with pytest.raises(ScriptError, match="lua_box.lua of 'LuaBox' is running"):
+        call(sim, "LuaBox", "cycle")  # LuaBox -> PyBox.back -> LuaBox.half: refused in PyBox, raised on
+    assert call(sim, "LuaBox", "viaPython", 1) == [2]  # nothing left behind: calls work again
+
+
+def test_a_stop_asked_through_another_script_waits_for_the_pass(sim):
+    assert call(sim, "LuaBox", "stopVia") == [1, 0x11]  # still running inside the calling script
+    assert sim.state is RunState.RUNNING
+    sim.step()
+    assert sim.state is RunState.STOPPED

@@ -220,14 +220,24 @@ def getScript(ctx: CallContext, scriptType: Any, objectHandle: Any = -1, scriptN
     return h if h in ctx.simulation("getScript").scripts.scripts else -1
 
 
-@sim_function("callScriptFunction", callers=Callers.CLIENTS)
+#: The child scripts whose call into another script (``sim.callScriptFunction``) is under way:
+#: a call back into one of them would run inside its own running code (its time bound and
+#: state are those of the call under way), so it is refused.
+_WAITING: set[int] = set()
+
+
+@sim_function("callScriptFunction")
 def callScriptFunction(ctx: CallContext, functionName: Any, scriptHandleOrType: Any, *args: Any) -> tuple:  # noqa: N802, N803
     """Call a function of a child script with any arguments; returns its return values.
 
     ``("func@/path", sim.scripttype_childscript, ...)`` (CoppeliaSim 4.0-4.5: the script of
     the object the path or name names) or ``("func", scriptHandle, ...)`` (4.6+: a handle of
     :func:`getScript`, which is the object's). Lua strings come back as text where they are
-    UTF-8, as bytes otherwise. Errors: no such object, script or function; the script's own."""
+    UTF-8, as bytes otherwise. A child script calls another script's function the same way
+    (CoppeliaSim's gripper and controller scripts do), not its own nor one whose call to it is
+    under way. A stop or pause the function asks for comes once a client's call has returned
+    (a script's: at the end of its pass). Errors: no such object, script or function; a call
+    back into a calling script; the script's own."""
     name = _text(functionName, "functionName")
     target = _int(scriptHandleOrType, "scriptHandleOrType")
     if "@" in name:
@@ -237,13 +247,23 @@ def callScriptFunction(ctx: CallContext, functionName: Any, scriptHandleOrType: 
         handle = paths.find_one(ctx.world, where)
     else:
         handle = ctx.h(target)
+    simulation = ctx.simulation("callScriptFunction")
     try:
-        script = ctx.simulation("callScriptFunction").scripts.script_of(ctx.world.get(handle).handle)
+        script = simulation.scripts.script_of(ctx.world.get(handle).handle)
     except ScriptError:
         raise ScriptError(f"object {ctx.world.get(handle).name!r} has no child script") from None
+    caller = ctx.script
+    if caller is not None and (script is caller or id(script) in _WAITING):
+        raise ScriptError(f"sim.callScriptFunction: {script.label} is running (it made this call, or a call that "
+                          f"led to it): a script's function cannot be called from inside its own call")
+    if caller is not None:
+        _WAITING.add(id(caller))
     try:
-        with ctx.simulation("callScriptFunction").editor.files.on_behalf():  # the script's file calls act as this client
+        with simulation.editor.files.on_behalf():  # the script's file calls act as this client
             values = script.call_values(name, list(args))
     finally:
-        ctx.simulation("callScriptFunction").apply_requests()  # a stop or pause it asked for, now
+        if caller is not None:
+            _WAITING.discard(id(caller))
+        else:  # a client's call: a stop or pause the function asked for, now that it returned
+            simulation.apply_requests()
     return tuple(strings_as_text(v) for v in values)
