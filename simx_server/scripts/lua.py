@@ -14,7 +14,10 @@ Each script gets its own Lua state, made afresh at every simulation start, prepa
   ``table.getn``, ``math.pow``) exist.
 * A count hook bounds every call: every :data:`HOOK_COUNT` instructions it asks Python whether
   the call's deadline (in the thread's CPU time) has passed, and then raises a Lua error and keeps raising at every
-  instruction so that no ``pcall`` can swallow it. Coroutines get the hook too, and it also
+  instruction so that no ``pcall`` can swallow it. Lua runs code in an error's wake with hooks
+  off, so none of the script's runs there: an ``xpcall`` message handler is skipped once the
+  deadline has passed, and ``coroutine.close`` does not run the ``__close`` metamethods of a
+  coroutine the timeout killed (``__gc`` is refused outright). Coroutines get the hook too, and it also
   runs after each garbage-collection cycle (one ``..`` of long strings copies much memory in one
   instruction; ``collectgarbage("stop")`` is a no-op). The library functions that loop in C
   (patterns, ``string.rep``, ``table.sort``...) are bounded by

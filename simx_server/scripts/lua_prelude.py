@@ -44,10 +44,34 @@ coroutine.create = function(f)
   sethook(co, hook, "", COUNT)
   return co
 end
+-- Lua runs hooks off while a hook runs, and the timeout is raised from inside the hook, so no
+-- script code may run in the error's wake: an xpcall message handler is not called once the
+-- deadline has passed (it would run with hooks off, forever if it loops), and a coroutine that
+-- died of the timeout keeps hooks off for good (lua_resume leaves them so), so its pending
+-- __close metamethods are not run by coroutine.close.
+local lua_xpcall, coclose = xpcall, coroutine.close
+local timed_out = setmetatable({}, {__mode = "k"})
+G.xpcall = function(f, handler, ...)
+  if type(handler) ~= "function" then return lua_xpcall(f, handler, ...) end
+  return lua_xpcall(f, function(m)
+    if expired() then return m end
+    return handler(m)
+  end, ...)
+end
+local function resume(co, ...)
+  local r = pack(coresume(co, ...))
+  if not r[1] and expired() then timed_out[co] = true end
+  return unpack(r, 1, r.n)
+end
+coroutine.resume = resume
+coroutine.close = function(co)
+  if timed_out[co] then return false, TIMEOUT end
+  return coclose(co)
+end
 coroutine.wrap = function(f)
   local co = coroutine.create(f)
   return function(...)
-    local r = pack(coresume(co, ...))
+    local r = pack(resume(co, ...))
     if r[1] then return unpack(r, 2, r.n) end
     error(r[2], 0)
   end

@@ -11,6 +11,7 @@ import pytest
 import vrep
 from conftest import SCENE, ServerProcess
 from simx_client.protocol import ArgumentError, ScriptError
+from simx_server.scripts.child import ScriptTimeoutError
 from simx_server.base import limits as L
 from simx_server.scene.simulation import Simulation
 
@@ -130,3 +131,59 @@ def test_the_issues_attack_on_a_real_server_is_a_remote_error():
     finally:
         vrep.simxFinish(cid)
         srv.stop()
+
+
+# Issue 48: Lua runs a message handler with hooks off when the error comes from inside a hook (the
+# time bound's own error), and a coroutine that died of it keeps hooks off, so its __close
+# metamethods would run unbounded at coroutine.close. Each function below froze the server for good.
+HANDLERS_LUA = r"""
+local function spin() while true do end end
+function loop_in_handler_of_timeout() xpcall(spin, spin) return {}, {}, {}, "" end
+function loop_in_handler_of_error() xpcall(function() error("plain") end, spin) return {}, {}, {}, "" end
+function pcall_loop_in_handler()
+  xpcall(spin, function(m) while true do pcall(spin) end end) return {}, {}, {}, ""
+end
+function doom_coroutine()
+  co = coroutine.create(function() local x <close> = setmetatable({}, {__close = spin}); spin() end)
+  local ok = coroutine.resume(co)
+  return {ok and 1 or 0}, {}, {}, ""
+end
+function close_doomed() local ok, err = coroutine.close(co) return {ok and 1 or 0}, {}, {tostring(err)}, "" end
+function close_in_timeout() local x <close> = setmetatable({}, {__close = spin}); spin() end
+function handlers_still_work()
+  local _, handled = xpcall(function() error("plain", 0) end, function(m) return "handled " .. m end)
+  local co = coroutine.create(function()
+    local x <close> = setmetatable({}, {__close = function() closed = true end})
+    coroutine.yield()
+  end)
+  coroutine.resume(co)
+  local ok = coroutine.close(co)
+  return {ok and 1 or 0, closed and 1 or 0}, {}, {handled}, ""
+end
+"""
+
+
+@pytest.fixture
+def handler_sim(tmp_path):
+    (tmp_path / "box.lua").write_text(HANDLERS_LUA)
+    (tmp_path / "scene.xml").write_text(SCENE_XML.replace("child_script=box.lua", "child_script=box.lua script_timeout=0.2"))
+    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False)
+    s.start()
+    yield s
+    s.close()
+
+
+@pytest.mark.parametrize("function", ["loop_in_handler_of_timeout", "loop_in_handler_of_error",
+                                      "pcall_loop_in_handler", "close_in_timeout"])
+def test_message_handlers_and_closers_stay_inside_the_time_bound(handler_sim, function):
+    with pytest.raises(ScriptTimeoutError, match=r"within 0.2 s \(script_timeout\)"):
+        call(handler_sim, function)
+    assert call(handler_sim, "handlers_still_work")[0] == [1, 1]  # the script serves its next call
+
+
+def test_a_coroutine_killed_by_the_time_bound_does_not_run_its_closers(handler_sim):
+    assert call(handler_sim, "doom_coroutine")[0] == [0]  # resume reports the timeout as an error
+    ints, _, strings, _ = call(handler_sim, "close_doomed")  # its closers would run with hooks off
+    assert ints == [0] and "time bound" in strings[0]
+    ints, _, strings, _ = call(handler_sim, "handlers_still_work")
+    assert ints == [1, 1] and strings == ["handled plain"]
