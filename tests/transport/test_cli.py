@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import zipfile
+from pathlib import Path
 
 import pytest
 
 import vrep
-from conftest import ROOT, ServerProcess, free_port, wait_until
+from conftest import ROOT, ServerProcess, free_port, ready_line, wait_until
 from simx_server.cli import STOP_GRACE
 
 
@@ -58,16 +62,73 @@ def test_default_scene_serves_then_exits_within_2_s(sig):
     assert err.rstrip().endswith("stopped") and "exiting without waiting" not in err, err[-2000:]
 
 
-def test_wheel_ships_scenes_and_legacy_modules(tmp_path):
+def test_the_built_wheel_installs_a_server_and_client_that_work(tmp_path):
+    """What ``pip install <checkout>`` gives a user (not the editable install the suite runs on):
+    the wheel is built, installed into a fresh environment, its ``simx-server`` serves the bundled
+    scene and a legacy program run by that environment's Python talks to it (issue 49: a wheel
+    that lacked ``simx_server.api`` installed fine and then could not start)."""
+    # Built from a copy of the checkout's files (tracked, or untracked and not ignored), as a fresh
+    # clone has them: setuptools would otherwise reuse a build/ folder an earlier build left.
+    source = tmp_path / "source"
+    files = subprocess.run(["git", "ls-files", "-co", "--exclude-standard", "-z"], cwd=ROOT, capture_output=True,
+                           check=True).stdout.decode().split("\0")
+    for name in filter(None, files):
+        if (ROOT / name).is_file():
+            (source / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / name, source / name)
     # --no-build-isolation: the test extra's setuptools builds it, nothing is downloaded
     out = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-                          "-w", str(tmp_path), str(ROOT)], capture_output=True, text=True, timeout=300)
+                          "-w", str(tmp_path), str(source)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     (wheel,) = tmp_path.glob("simx-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
-    for required in ("simx_server/scenes/ur5_rg2_kinect.xml", "simx_server/scenes/pioneer_p3dx.xml", "simx_server/scenes/rg2.py", "simx_server/scenes/rg2.lua", "vrep.py", "sim.py",
-                     "vrepConst.py", "simConst.py", "simx_wire/protocol.py", "simx_client/api.py", "simx_server/cli.py"):
+    for required in ("simx_server/scenes/ur5_rg2_kinect.xml", "simx_server/scenes/rg2.lua", "vrep.py", "sim.py",
+                     "simx_server/zmq/coppeliasim_api.json"):
         assert required in names, f"{required} missing from the wheel"
+    # Every package of the checkout is in the wheel: a package missing from it is what broke.
+    packages = {p.parent.relative_to(ROOT).as_posix() for top in ("simx_wire", "simx_client", "simx_server", "simx_viewer")
+                for p in (ROOT / top).rglob("__init__.py")}
+    assert {p for p in packages if f"{p}/__init__.py" not in names} == set()
+
+    # A fresh environment with the wheel alone; its dependencies come from the test environment's
+    # site-packages through a .pth line (a plain path: the editable install's finder there is not run).
+    env_dir = tmp_path / "fresh"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True, timeout=120)
+    python = env_dir / "bin" / "python"
+    site = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    deps = next(p for p in map(Path, sys.path) if p.name == "site-packages" and (p / "mujoco").is_dir())
+    (Path(site) / "simx-test-deps.pth").write_text(f"{deps}\n")
+    out = subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index",
+                          "-q", str(wheel)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    where = subprocess.run([str(python), "-c", "import simx_server; print(simx_server.__file__)"],
+                           capture_output=True, text=True, cwd=tmp_path, check=True).stdout
+    assert where.startswith(site), where  # the wheel's copy, not the checkout
+
+    port = free_port()
+    env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
+    with tempfile.TemporaryFile(mode="w+") as log:
+        server = subprocess.Popen([str(env_dir / "bin" / "simx-server"), "--port", str(port), "--no-zmq",
+                                   "--renderers", "on-demand"], stdout=subprocess.PIPE, stderr=log, text=True,
+                                  cwd=tmp_path, env=env)
+        try:
+            line = ready_line(server, timeout=60)
+            log.seek(0)
+            assert line is not None and "ur5_rg2_kinect.xml" in line, log.read()[-3000:]
+            program = ("import vrep\n"
+                       f"cid = vrep.simxStart('127.0.0.1', {port}, True, True, 5000, 5)\n"
+                       "rc, h = vrep.simxGetObjectHandle(cid, 'UR5_joint1', vrep.simx_opmode_blocking)\n"
+                       "print(cid >= 0, rc, h > 0, vrep.__file__)\n"
+                       "vrep.simxFinish(cid)\n")
+            out = subprocess.run([str(python), "-c", program], capture_output=True, text=True, cwd=tmp_path,
+                                 env=env, timeout=120)
+            assert out.returncode == 0, out.stderr
+            ok, rc, handle, module = out.stdout.split()
+            assert (ok, rc, handle) == ("True", "0", "True") and module.startswith(site)
+        finally:
+            server.terminate()
+            server.wait(timeout=30)
 
 
 def test_zenoh_config_file_sets_the_endpoints(tmp_path):
