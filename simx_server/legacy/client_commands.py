@@ -2,7 +2,7 @@
 trigger, the errors kept for ``simxGetLastErrors``, and forgetting a client. A mixin of
 :class:`simx_server.legacy.server.LegacyDoor` (which provides ``sim``, ``loop`` (the loop's
 :class:`~simx_server.loop.front_door.LoopAccess`: ``step_after_reply``, ``leave_sync``, ``clients``),
-``sessions``, ``_streams`` and ``_registry``, the door's clients in the loop's registry).
+``sessions``, ``_streams``, ``_held_updates`` and ``_registry``, the door's clients in the loop's registry).
 """
 
 from __future__ import annotations
@@ -54,6 +54,7 @@ class ClientCommands:
         """Drop ``client``'s state: its streams, its intake (unless requests of it wait), its
         registry entry (errors, edit share); it leaves the synchronous barrier."""
         self._streams.pop(client, None)
+        self._held_updates.pop(client, None)
         self.sessions.remove(client)
         self.sim.editor.files.release(f"legacy:{client}")  # its folder and budget
         entry = self._registry.get(client)

@@ -147,6 +147,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self.peers = PeerCheck(self.sessions, prefix)  # which Zenoh session holds each token
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
+        self._held_updates: dict[str, tuple] = {}  # synchronous clients' step updates, sent before their next reply
         self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
         self._trigger_reply: threading.Event | None = None  # a trigger's step waits for its reply
         self.session: zenoh.Session | None = None
@@ -352,6 +353,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         while the request is served in place: sent by the serving thread instead."""
         client = session.client
         stepping, self._trigger_reply = self._trigger_reply, None  # a trigger's step waits for it
+        if self._hand_held(client):  # its step's stream update leaves right ahead (StreamPublisher)
+            in_place = False
 
         def send() -> None:
             try:

@@ -2,7 +2,9 @@
 every simulation step and published on ``simx/<name>/stream/<client>`` by the sending thread
 (images once the render thread has drawn them; in order with the client's replies), each update
 within the reply budget
-(``limits.MAX_REPLY_BYTES``). A mixin of :class:`simx_server.legacy.server.LegacyDoor`.
+(``limits.MAX_REPLY_BYTES``). A client of the synchronous barrier gets a step's update with the
+reply to its next request, right ahead of it (:meth:`StreamPublisher._put_stream`). A mixin of
+:class:`simx_server.legacy.server.LegacyDoor`.
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ _STEPPED_PRIORITY = zenoh.Priority.INTERACTIVE_HIGH
 
 
 class StreamPublisher:
-    """Publishing of the clients\x27 streams (needs the door\x27s ``session``, ``prefix``, ``sim``, ``sessions``, ``courier``, ``viewers``, ``_streams``, ``_stream_renders`` and ``_resolve``)."""
+    """Publishing of the clients\x27 streams (needs the door\x27s ``session``, ``prefix``, ``sim``, ``sessions``, ``courier``, ``viewers``, ``_streams``, ``_stream_renders``, ``_held_updates`` and ``_resolve``)."""
 
     def _publish_streams(self) -> None:
         if self.session is None:
@@ -162,7 +164,14 @@ class StreamPublisher:
         message). Zenoh's "drop" left an update out whenever its link's queue had no room
         within ``wait_before_drop`` (1 ms), which a loaded machine's Zenoh thread missed about
         once in 300 steps: the client then read the previous step's values. Its updates travel
-        at Zenoh's priority ``_STEPPED_PRIORITY``, above its replies.
+        at Zenoh's priority ``_STEPPED_PRIORITY``, above its replies, and each is *held* until
+        that client's next request is answered, then handed over right ahead of that reply
+        (:meth:`_hand_held`): as in V-REP (``CSimxSocket::_executeCommands`` runs a pass's
+        received commands, the trigger among them, and its streamed commands together, before
+        the pass's main script; their replies leave together), the trigger's reply comes with
+        the values and the clock of the state it was executed on, never with those of the step
+        it releases, which a program's read right after the trigger raced (its clock advanced
+        by 0 or 2 steps about one time in three).
 
         An update with images is encoded on the render thread, after its frames, into Zenoh's
         bytes (a 4096x4096 image is 50 MB to copy twice: 80 ms; putting the result costs
@@ -209,7 +218,23 @@ class StreamPublisher:
                 if sess is not None:
                     self.sessions.sent(sess)
 
+        self._hand_held(client)  # an earlier update of this client leaves first
+        if stepped:
+            self._held_updates[client] = (sess, send, waits, bulk)
+        else:
+            self._hand(client, sess, send, waits, bulk)
+        return waits[0] if waits else None
+
+    def _hand_held(self, client: str) -> bool:
+        """Hand ``client``'s held stream update (a synchronous client's, see :meth:`_put_stream`)
+        to the sending thread, if any: before its next reply. True when there was one."""
+        held = self._held_updates.pop(client, None)
+        if held is None:
+            return False
+        self._hand(client, *held)
+        return True
+
+    def _hand(self, client: str, sess: Session | None, send, waits: list, bulk: bool) -> None:
         if sess is not None:
             self.sessions.handed_over(sess)
         self.courier.send(client, send, waits, bulk)
-        return waits[0] if waits else None

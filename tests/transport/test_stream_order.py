@@ -1,6 +1,8 @@
 """V-REP's synchronous-mode idiom: after ``simxSynchronousTrigger`` + ``simxGetPingTime``, the
 streamed values in the inbox (``simx_opmode_buffer``) are those of the step just run, images
-included, also when the server's link to the client has no room for the update at once.
+included, also when the server's link to the client has no room for the update at once. After a
+trigger alone, the inbox holds the streamed values of the pass that executed the trigger, and
+``simxGetLastCmdTime`` their time: one step more at every trigger.
 
 simx used to publish a step's stream update with images from the render thread while the ping's
 reply went at once: the buffer held the previous step's values 9 times in 10. Later, a
@@ -83,3 +85,53 @@ def test_synchronous_streams_are_never_dropped(tmp_path):
     stale, q_true = _stale_steps(20, "--zenoh-config", str(config), small_image=False, depth=True)
     assert q_true > 0.3  # the joint moved: an earlier step's value differs from the truth
     assert stale == [], f"buffer values of an earlier step after trigger + ping at steps {stale}"
+
+
+def test_after_a_trigger_alone_the_clock_and_the_buffer_advance_one_step():
+    """A line follower's loop: trigger, read the stream with ``simx_opmode_buffer``, read the
+    clock with ``simxGetLastCmdTime``, no ping. As in V-REP (simExtRemoteApi's
+    ``CSimxSocket::_executeCommands``: the trigger and the streamed commands run in the same pass,
+    before its main script, and their replies travel together), each trigger's clock is the one
+    of the pass that executed it, one step after the previous trigger's, and the buffered value
+    is the joint's position at that time (a second client records the truth at every step).
+    simx used to put a step's update right after the step, which raced the trigger's reply and
+    the program's read: the clock advanced by 0 or 2 steps about one time in three."""
+    ports = [free_port(), free_port()]
+    srv = ServerProcess(str(SCENE), "--stopped", ports=ports)
+    cid = watcher = -1
+    try:
+        cid = vrep.simxStart("127.0.0.1", ports[0], True, True, 5000, 5)
+        watcher = vrep.simxStart("127.0.0.1", ports[1], True, True, 5000, 5)
+        assert cid >= 0 and watcher >= 0
+        joint = vrep.simxGetObjectHandle(cid, "UR5_joint1", B)[1]
+        assert vrep.simxSynchronous(cid, True) == 0 and vrep.simxStartSimulation(cid, B) == 0
+        vrep.simxGetJointPosition(cid, joint, S)
+        assert vrep.simxGetPingTime(cid)[0] == 0
+        truth = {}  # simulation time (ms) -> the joint's position then
+
+        def record() -> None:
+            rc, q = vrep.simxGetJointPosition(watcher, joint, B)
+            assert rc == 0
+            truth[vrep.simxGetLastCmdTime(watcher)] = q
+
+        record()
+        times, values = [], []
+        for i in range(40):
+            vrep.simxSetJointTargetPosition(cid, joint, 0.05 * i, vrep.simx_opmode_oneshot)
+            assert vrep.simxSynchronousTrigger(cid) == 0
+            rc, q = vrep.simxGetJointPosition(cid, joint, BUF)
+            assert rc == 0
+            times.append(vrep.simxGetLastCmdTime(cid))
+            values.append(q)
+            record()  # after the step this trigger released
+        steps = [b - a for a, b in zip(times, times[1:])]
+        assert steps == [50] * 39, f"clock steps after each trigger: {steps}"
+        assert times[0] == min(truth)  # the first trigger's pass: before any step
+        wrong = [k for k, (t, q) in enumerate(zip(times, values)) if truth.get(t) != q]
+        assert wrong == [], f"buffered values not of the clock's step after triggers {wrong}"
+        assert abs(values[-1] - values[0]) > 0.3  # the joint moved: another step's value would differ
+    finally:
+        for c in (cid, watcher):
+            if c >= 0:
+                vrep.simxFinish(c)
+        srv.stop()
