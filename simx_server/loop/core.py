@@ -17,7 +17,10 @@ synchronous client has triggered, the barrier of
 ready client whose next request is blocking and whose previous blocking request saw the
 current step is *held* until the simulation has stepped, so two consecutive blocking calls
 never see the same step (V-REP executed remote commands once per simulation pass).
-``"immediate"`` serves every request as soon as it is taken.
+``"immediate"`` serves every request as soon as it is taken. Whatever the pacing, a door may
+hold a running pass open (:meth:`Loop.hold_pass`): the asynchronous step then waits, serving
+requests, until its window since the previous step is over (the ZMQ door: 2 ms per client
+served, CoppeliaSim's ZMQ server).
 
 **Synchronous stepping**: a step the barrier releases on a legacy trigger
 (:meth:`Loop.step_after_reply`) runs once the trigger's reply has been handed over, on the
