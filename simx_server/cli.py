@@ -389,7 +389,8 @@ def _attach_zmq(server, args: argparse.Namespace) -> str | None:
               "--zmq-port N, or --no-zmq", file=sys.stderr)
         return None
     server.attach(api)
-    return f"; ZMQ remote API on {', '.join(api.bound)}"
+    pace = f"a running pass serves its requests {limits.ZMQ_PASS_WINDOW * 1000:g} ms per client, as CoppeliaSim's"
+    return f"; ZMQ remote API on {', '.join(api.bound)} ({pace})"
 
 
 def _child_args(args: argparse.Namespace) -> list[str]:

@@ -391,6 +391,9 @@ MAX_ZMQ_UNSENT_BYTES_TOTAL = 256 * 1024 * 1024
 #: open-files limit (raised to the hard limit at start), so that Zenoh's clients always find
 #: descriptors: 986 idle ZMQ connections made a new legacy client fail (limit 1,024).
 MAX_ZMQ_CONNECTIONS = 1000
+#: s a running simulation's pass keeps serving ZMQ requests, per client served in it, before its
+#: step (CoppeliaSim's ZMQ remote API add-on: ``msgQueueTimeout_running``; Loop.hold_pass).
+ZMQ_PASS_WINDOW = 0.002
 #: ZMQ clients (uuids) one connection may hold: the official client uses one per connection;
 #: one connection took all MAX_CLIENTS slots with 1,100 stepping uuids in 0.4 s.
 MAX_ZMQ_CLIENTS_PER_CONNECTION = 8

@@ -17,7 +17,10 @@ synchronous client has triggered, the barrier of
 ready client whose next request is blocking and whose previous blocking request saw the
 current step is *held* until the simulation has stepped, so two consecutive blocking calls
 never see the same step (V-REP executed remote commands once per simulation pass).
-``"immediate"`` serves every request as soon as it is taken.
+``"immediate"`` serves every request as soon as it is taken. Whatever the pacing, a door may
+hold a running pass open (:meth:`Loop.hold_pass`): the asynchronous step then waits, serving
+requests, until its window since the previous step is over (the ZMQ door: 2 ms per client
+served, CoppeliaSim's ZMQ server).
 
 **Synchronous stepping**: a step the barrier releases on a legacy trigger
 (:meth:`Loop.step_after_reply`) runs once the trigger's reply has been handed over, on the
@@ -150,6 +153,11 @@ class Loop:
         self._due = False
         self._due_running = False  # that step runs now: a door's thread may wait for it (_after_due)
         self._due_reply = threading.Event()  # set once the trigger's reply is handed to Zenoh
+        #: The current pass's service window (:meth:`hold_pass`): when the pass began (its last
+        #: step), the clients served in it and the time each of them adds.
+        self._pass_began = time.monotonic()
+        self._pass_clients: set[str] = set()
+        self._pass_window = 0.0
 
     # ------------------------------------------------------------- front doors
     def attach(self, door: FrontDoor) -> None:
@@ -195,6 +203,52 @@ class Loop:
         triggered runs now."""
         self._leave_sync(client, how)
 
+    def hold_pass(self, client: str, seconds: float) -> None:
+        """A door served ``client``; while the simulation runs, the loop keeps serving requests
+        before its next asynchronous step until ``seconds`` (s) per client served since the
+        last step have passed since that step, as CoppeliaSim's ZMQ remote API server does
+        (``zmqRemoteApi.handleQueue`` in its add-on, called from ``sysCall_actuation``: once a
+        request came in a pass it polls for more until ``msgQueueTimeout_running`` x the
+        number of clients served, 2 ms each, have passed). A client that does not step thus
+        gets a few calls per simulation pass however fast the passes run, and a pass without
+        requests is not slowed. Nothing while the simulation does not run."""
+        if self.sim.state is not RunState.RUNNING:
+            return
+        self._pass_clients.add(client)
+        self._pass_window = max(self._pass_window, seconds)
+
+    def _window_left(self) -> float:
+        """s left of the current pass's service window (<= 0: none or over)."""
+        if not self._pass_clients:
+            return 0.0
+        return self._pass_began + self._pass_window * len(self._pass_clients) - time.monotonic()
+
+    def _take(self, timeout: float) -> Any:
+        """Wait at most ``timeout`` s for a ring item with the simulation let go (a door's
+        thread may serve an item in place meanwhile); the item, or None."""
+        owner = self._owner
+        owner.release()
+        try:
+            return self.ring.get(timeout=timeout)
+        except queue.Empty:
+            return None
+        finally:
+            self._wanted = True  # no door's thread takes the simulation from here
+            owner.acquire()
+            self._wanted = False
+
+    def _serve_window(self) -> None:
+        """Serve what comes until the pass's service window (:meth:`hold_pass`) is over."""
+        while not self._stopping.is_set():
+            left = self._window_left()
+            if left <= 0:
+                return
+            item = self._take(left)
+            if item is not None:
+                self._handle(item)
+            if self._due:
+                self._run_due()
+
     def request_stop(self) -> None:
         """Ask :meth:`serve` to return (safe from signal handlers and other threads)."""
         self._stopping.set()
@@ -223,20 +277,13 @@ class Loop:
         gc.collect()
         gc.freeze()
         next_tick = time.monotonic()
-        owner, get = self._owner, self.ring.get
         while not self._stopping.is_set():
             now = time.monotonic()
             try:
                 if now < next_tick:
-                    owner.release()  # waiting for work: a door's thread may serve an item meanwhile
-                    try:
-                        item = get(timeout=next_tick - now)
-                    except queue.Empty:
+                    item = self._take(next_tick - now)  # waiting for work: a door may serve meanwhile
+                    if item is None:
                         continue
-                    finally:
-                        self._wanted = True  # no door's thread takes the simulation from here
-                        owner.acquire()
-                        self._wanted = False
                     self._handle(item)
                     if self._due:  # served here: its reply is with the sending thread
                         self._run_due()
@@ -248,6 +295,9 @@ class Loop:
                     break
                 interval = sim.world.dt
                 if self._stepping() and not self._idle():
+                    self._serve_window()
+                    if not self._stepping():  # a request served in the window stopped or paused it
+                        continue
                     self._step()
                     interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
                 elif sim.state is not RunState.RUNNING:
@@ -383,13 +433,17 @@ class Loop:
 
     def _step(self) -> bool:
         """One step and its updates; False when the step failed (the simulation is then
-        stopped and every client is told at its next request)."""
+        stopped and every client is told at its next request). A new pass begins: its service
+        window is empty (:meth:`hold_pass`)."""
+        self._pass_clients.clear()
         try:
             self.sim.step()
         except Exception as exc:  # nothing a client sends may end the simulation thread
             self._step_failed(exc)
             self._after_step()
             return False
+        finally:
+            self._pass_began = time.monotonic()
         self._publish()
         self._after_step()
         return True

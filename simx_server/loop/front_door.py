@@ -150,6 +150,11 @@ class LoopAccess(Protocol):
         """Thread-safe: serve a ready-ring item on the calling thread if the simulation thread
         is waiting for work, else put it in the ready ring (Loop.serve_or_deliver)."""
 
+    def hold_pass(self, client: str, seconds: float) -> None:
+        """The door served ``client``; while the simulation runs, the next asynchronous step waits
+        until ``seconds`` per client served since the last step have passed since that step,
+        requests being served meanwhile (Loop.hold_pass, CoppeliaSim's ZMQ service window)."""
+
     def step_now(self) -> bool:
         """One step now (the door's stepped client completed the synchronous barrier); False
         when it failed (every client is told, as for any failed step)."""

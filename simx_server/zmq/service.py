@@ -169,6 +169,7 @@ class ZmqService(RenderedReplies):
             connection.uuids.add(req.uuid)
             log.info("ZMQ client %s connected%s", client.label, f" ({quote(req.lang, 40)})" if req.lang else "")
         client.fd, client.last_seen = incoming.fd, now
+        self.server.hold_pass(req.uuid, limits.ZMQ_PASS_WINDOW)  # served a while (CoppeliaSim's handleQueue)
         if client.fault is not None and req.func != codec.END:  # told instead of executed
             func = (client.long_func or "sim.step") if req.func == codec.EXECUTED else req.func
             self.frontend.send(envelope, self._told_fault(client, func))

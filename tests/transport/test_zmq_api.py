@@ -109,6 +109,11 @@ def test_string_signals_come_back_as_text(sim):
         sim.clearStringSignal()
 
 
+def test_the_ready_line_says_how_a_running_pass_serves_zmq(zmq_server):
+    """The pace a client that does not step gets: CoppeliaSim's 2 ms per client and pass."""
+    assert "(a running pass serves its requests 2 ms per client, as CoppeliaSim's)" in zmq_server.ready_line
+
+
 def test_stepping_one_client(sim):
     dt = sim.getSimulationTimeStep()
     assert sim.setStepping(True) == 0  # the previous level

@@ -194,6 +194,9 @@ def test_fresh_client_ids_do_not_grow_the_server(monkeypatch):
         sim = SimpleNamespace(editor=SimpleNamespace(files=ClientFiles(SCENES / "scripted.xml")))
         clients = Clients()
 
+        def hold_pass(self, client, seconds):  # the loop's service window: no loop here
+            pass
+
     class Frontend:
         def __init__(self):
             self.sent = []
@@ -227,7 +230,8 @@ def test_scene_edits_past_the_share_wait_their_turn(monkeypatch):
     monkeypatch.setattr(limits, "EDIT_SHARE", 0.5)
     sim = Simulation(SCENES / "scripted.xml", allow_python_scripts=True)
     try:
-        server = type("Server", (), {"sim": sim, "clients": Clients()})()
+        server = type("Server", (), {"sim": sim, "clients": Clients(),
+                                     "hold_pass": lambda self, client, seconds: None})()
         sent = []
         frontend = type("Frontend", (), {"send": lambda self, env, payload: sent.append(cbor2.loads(payload))})()
         service = ZmqService(server, frontend)

@@ -394,7 +394,8 @@ def test_the_edit_share_is_counted_per_connection_not_per_uuid(monkeypatch, tmp_
     try:
         sent = []
         frontend = type("Frontend", (), {"send": lambda self, env, payload: sent.append((env, cbor2.loads(payload)))})()
-        service = ZmqService(type("Server", (), {"sim": sim, "clients": Clients()})(), frontend)
+        server = type("Server", (), {"sim": sim, "clients": Clients(), "hold_pass": lambda self, client, seconds: None})
+        service = ZmqService(server(), frontend)
 
         def edit(connection: bytes, uuid: str) -> None:
             service.handle("zmq", Incoming([connection], codec.read_request(codec.encode_request(
