@@ -113,6 +113,9 @@ end})
 G.sim = sim
 -- CoppeliaSim 4.x's simIK (simx_server/api/simik/), as for ZMQ clients.
 G.simIK = simIK
+-- CoppeliaSim 4.5+ scripts start with `sim = require('sim')`: the same tables as modules
+-- (CoppeliaSim's lua/sim.lua and the simIK plugin's simIK.lua return them), 'sim-2' too.
+package.loaded.sim, package.loaded["sim-2"], package.loaded.simIK = sim, sim, simIK
 -- V-REP before 3.6: simGetObjectHandle(...), sim_handle_self.
 setmetatable(G, {__index = function(_, key)
   if type(key) ~= "string" then return nil end

@@ -234,11 +234,21 @@ def getVisionSensorDepthBuffer(ctx: CallContext, sensorHandle: Any, pos: Any = N
 
 
 def _refs(ctx: CallContext, handle: Any) -> dict[str, list[int]]:
+    """The object's referenced handles, tag -> handles; first seeded from the scene's
+    ``refs.TAG=NAME,NAME`` settings (a converted ``.ttt``'s, :mod:`simx_server.scene.ttt.custom`)."""
     holder = ctx.holder
     store = getattr(holder, "referenced_handles", None)
     if store is None:
         store = holder.referenced_handles = {}
-    return store.setdefault(ctx.world.get(ctx.h(handle)).handle, {})
+    obj = ctx.world.get(ctx.h(handle))
+    refs = store.get(obj.handle)
+    if refs is None:
+        refs = store[obj.handle] = {}
+        for key, value in obj.settings.items():
+            if key == "refs" or key.startswith("refs."):
+                found = [ctx.world.by_name.get(n) for n in value.split(",")]
+                refs[key[5:]] = [o.handle for o in found if o is not None]
+    return refs
 
 
 @sim_function("setReferencedHandles")

@@ -1,0 +1,153 @@
+"""What CoppeliaSim 4.x scenes' own scripts and old IK groups rely on (issue 50): an old IK
+group's explicit-handling flag as the file stores it (``Var`` bit 6), the ``sim``/``simIK``
+modules 4.5+ scripts ``require``, and the referenced handles (``Cr2``) a 4.6 IK script object
+reads with ``sim.getReferencedHandle``."""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+import pytest
+
+import tttwriter as W
+from simx_server.api import client_context
+from simx_server.scene.simulation import Simulation
+from simx_server.scene.ttt import convert, reader
+
+pytestmark = pytest.mark.renderers_on_demand  # no image is read
+
+
+def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False) -> bytes:
+    """Two hinge arm (the first unlimited with ``cyclic``), its tip linked to a target at the
+    tip, one old IK group."""
+    return (W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
+            + W.joint(2, 1, "J1", (0, 0, 0.15), quat=(0.7071068, 0.7071068, 0, 0), limits=(-3.0, 6.0), cyclic=cyclic)
+            + W.cuboid_shape(3, 2, "L1", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
+            + W.joint(4, 3, "J2", (0, 0.15, 0), limits=(-3.0, 6.0))
+            + W.cuboid_shape(5, 4, "L2", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
+            + W.dummy(6, 5, "Tip", (0, 0.15, 0), linked=7, link_type=5)
+            + W.dummy(7, -1, "Target", (0, 0, 0.85), linked=6, link_type=5)
+            + extra + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit))
+
+
+def _load(tmp_path, body: bytes, program: int = 40100) -> Simulation:
+    f = tmp_path / "scene.ttt"
+    f.write_bytes(W.ttt_file(body, serialization=25, program=program))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "scene")
+    return Simulation(xml, realtime=False)
+
+
+def test_explicit_group_is_read_from_the_var_flags(tmp_path):
+    """coppeliaSimLib ``CIkGroup_old::serialize``: ``Var`` bit 6 is explicit handling."""
+    for explicit in (True, False):
+        f = tmp_path / f"g{explicit}.ttt"
+        f.write_bytes(W.ttt_file(_arm(explicit)))
+        assert reader.read(f).ik_groups[0].explicit is explicit
+
+
+def test_explicit_group_runs_only_when_called(tmp_path):
+    """An explicit group leaves the joints' targets alone until ``sim.handleIkGroup``."""
+    sim = _load(tmp_path, _arm(explicit=True))
+    try:
+        api = client_context(sim).sim
+        j1, tip, target = api.getObject("/J1"), api.getObject("/Tip"), api.getObject("/Target")
+        sim.start()
+        api.setObjectPosition(target, -1, [0.1, 0.0, 0.78])
+        api.setJointTargetPosition(j1, 0.3)
+        for _ in range(3):
+            sim.step()
+        assert api.getJointTargetPosition(j1) == pytest.approx(0.3)
+        for _ in range(5):
+            api.handleIkGroup(api.getIkGroupHandle("Arm"))
+        assert api.handleIkGroup(api.getIkGroupHandle("Arm")) == 1  # sim.ikresult_success
+        for _ in range(20):
+            sim.step()
+        gap = np.linalg.norm(np.subtract(api.getObjectPosition(tip, -1), api.getObjectPosition(target, -1)))
+        assert gap < 0.01
+    finally:
+        sim.close()
+
+
+def test_automatic_group_follows_a_moved_target(tmp_path):
+    """A group that is not explicit is solved at every step: a target a client moves is followed."""
+    sim = _load(tmp_path, _arm(explicit=False))
+    try:
+        api = client_context(sim).sim
+        tip, target = api.getObject("/Tip"), api.getObject("/Target")
+        sim.start()
+        api.setObjectPosition(target, -1, [0.1, 0.0, 0.78])
+        for _ in range(60):
+            sim.step()
+        gap = np.linalg.norm(np.subtract(api.getObjectPosition(tip, -1), api.getObjectPosition(target, -1)))
+        assert gap < 0.01
+    finally:
+        sim.close()
+
+
+IK_SCRIPT = """
+sim = require('sim')
+simIK = require 'simIK'
+local sim2 = require('sim-2')
+function sysCall_init()
+    self = sim.getObject('.')
+    sim.setInt32Signal('self', self)
+    sim.setInt32Signal('tip', sim.getReferencedHandle(self, 'ik.tip'))
+    sim.setInt32Signal('same', (sim2 == sim and type(simIK.createEnvironment) == 'function') and 1 or 0)
+end
+"""
+
+
+def _refs(tag: str, *handles: int) -> bytes:
+    """A tagged referenced-handles record (``Cr2``: tag, count, handles)."""
+    return W.rec("Cr2", W.string(tag) + W.i32(len(handles), *handles))
+
+
+def test_46_script_requires_sim_and_reads_its_references(tmp_path):
+    """4.5+ scripts' ``require('sim')``/``'simIK'`` return the ``sim`` and ``simIK`` tables (CoppeliaSim's
+    ``lua/sim.lua``, the simIK plugin's ``simIK.lua``); ``sim.getReferencedHandle`` answers what the
+    file stored (coppeliaSimLib ``CSceneObject::serialize``: ``Cr2``)."""
+    body = _arm(False, W.script_object(8, 1, "IK", IK_SCRIPT, kind=1, extra=_refs("ik.tip", 6)))
+    sim = _load(tmp_path, body, program=40600)
+    try:
+        w = sim.world
+        sim.start()
+        sim.step()
+        assert sim.signals.get_int("self") == w.resolve("IK").handle
+        assert sim.signals.get_int("tip") == w.resolve("Tip").handle
+        assert sim.signals.get_int("same") == 1
+    finally:
+        sim.close()
+
+
+def test_untagged_references_are_read(tmp_path):
+    """``Crh``: count, then (object type, handle, 0) per entry; tag ``""``."""
+    crh = W.rec("Crh", W.i32(2) + W.i32(0, 6, 0) + W.i32(0, 7, 0))
+    f = tmp_path / "r.ttt"
+    f.write_bytes(W.ttt_file(W.dummy(6, -1, "A") + W.dummy(7, -1, "B", extra=crh)))
+    assert reader.read(f).objects[7].references == {"": [6, 7]}
+    bad = W.rec("Cr2", W.string("t") + struct.pack("<i", 5))
+    f.write_bytes(W.ttt_file(W.dummy(7, -1, "B", extra=bad)))
+    with pytest.raises(Exception, match="truncated"):
+        reader.read(f)
+
+
+def test_simik_solves_chains_with_an_unlimited_joint(tmp_path):
+    """simIK with a cyclic (unlimited) joint in the chain: its bounds stay infinite (no NaN from
+    the middle of an infinite interval), the group is solved and the scene follows."""
+    sim = _load(tmp_path, _arm(explicit=True, cyclic=True))
+    try:
+        api, ik = client_context(sim).sim, client_context(sim).simik
+        base, tip, target = api.getObject("/Base"), api.getObject("/Tip"), api.getObject("/Target")
+        sim.start()
+        api.setObjectPosition(target, -1, [0.1, 0.0, 0.78])
+        env = ik.createEnvironment()
+        group = ik.createGroup(env)
+        ik.addElementFromScene(env, group, base, tip, target, ik.constraint_position)
+        for _ in range(30):  # as a 4.x IK script does at each actuation
+            ik.handleGroup(env, group, {"syncWorlds": True, "allowError": True})
+            sim.step()
+        gap = np.linalg.norm(np.subtract(api.getObjectPosition(tip, -1), api.getObjectPosition(target, -1)))
+        assert gap < 0.01
+    finally:
+        sim.close()
