@@ -249,10 +249,11 @@ class Scripts:
         return script.call(function, list(ints), [float(v) for v in floats], list(strings), bytes(buffer))
 
     def script_of(self, handle: int) -> ChildScript:
-        """The child script of object ``handle``; ScriptError when it has none."""
-        script = self.scripts.get(handle)
+        """The child script of object ``handle``, else its customization script (a 4.6+
+        script object of either type); ScriptError when it has none."""
+        script = self.scripts.get(handle) or self.customization.get(handle)
         if script is None:
-            raise ScriptError(f"object {self.world.get(handle).name!r} has no child script")
+            raise ScriptError(f"object {self.world.get(handle).name!r} has no script")
         return script
 
 

@@ -275,3 +275,71 @@ def find_one(world: World, path: str, index: int = -1, proxy: int | None = None)
         which = f" with index {index}" if index >= 0 else ""
         raise UnknownObjectError(f"object {quote(path)}{which} does not exist in scene {world.scene_name}")
     return found[0]
+
+
+def _children(world: World, parent: int) -> list[int]:
+    """The children of ``parent`` in paths' tree (-1: the world), in handle order."""
+    return [h for h, o in world.objects.items() if path_parent(world, o) == parent]
+
+
+def alias_with_order(world: World, handle: int) -> str:
+    """``alias[n]``: the object's alias, with its order among its siblings of the same alias
+    where it is not unique there (coppeliaSimLib ``CSceneObject::getObjectAliasAndOrderIfRequired``
+    and ``handleOrderIndexOfChildren``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+
+    Returns:
+        The alias, ``[n]`` appended where siblings share it.
+    """
+    obj = world.objects[handle]
+    short = object_alias(obj)
+    same = [h for h in _children(world, path_parent(world, obj)) if object_alias(world.objects[h]) == short]
+    return short if len(same) < 2 else f"{short}[{same.index(handle)}]"
+
+
+def full_path(world: World, handle: int) -> str:
+    """``/A/B/alias``: every ancestor's :func:`alias_with_order` (coppeliaSimLib
+    ``CSceneObject::getObjectAlias_fullPath``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+
+    Returns:
+        The path.
+    """
+    parts, h = [], handle
+    while h != WORLD and len(parts) <= len(world.objects):
+        parts.append(alias_with_order(world, h))
+        h = path_parent(world, world.objects[h])
+    return "/" + "/".join(reversed(parts))
+
+
+def short_path(world: World, handle: int) -> str:
+    """The shortest alias path that still names the object: from the object up, an ancestor is
+    kept where it is a model base or where leaving it out would name another object (coppeliaSimLib
+    ``CSceneObject::getObjectAlias_shortPath``; past 8 levels, :func:`full_path`).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+
+    Returns:
+        The path, e.g. ``/UR3/openCloseJoint``.
+    """
+    path = "/" + alias_with_order(world, handle)
+    kept = 1
+    h = path_parent(world, world.objects[handle])
+    while h != WORLD:
+        if kept > 8:
+            return full_path(world, handle)
+        up = path_parent(world, world.objects[h])
+        found = find(world, path if up == WORLD else "." + path, -1, None if up == WORLD else up)
+        if world.objects[h].settings.get("model_base") == "1" or found[:1] != [handle]:
+            path = "/" + alias_with_order(world, h) + path
+            kept += 1
+        h = up
+    return path

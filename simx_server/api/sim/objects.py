@@ -69,29 +69,45 @@ def getObject(ctx: CallContext, path: Any, options: Any = None) -> int:  # noqa:
 
 @sim_function("getObjectAlias")
 def getObjectAlias(ctx: CallContext, handle: Any, options: Any = -1) -> str:  # noqa: N802 (CoppeliaSim's names)
-    """The object's alias (CoppeliaSim 4.3; in simx the name, or a converted 4.3+ ``.ttt``'s
-    own alias: :func:`simx_server.sim.paths.object_alias`): ``options`` -1 or 0 the alias
-    alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form ``sim.getObject`` and
-    ``simxGetObjectHandle`` resolve).
+    """The object's alias or alias path, as coppeliaSimLib ``simGetObjectAlias_internal``:
+    ``options`` -1 the alias (in simx the name less its ``#N``, or a converted 4.3+ ``.ttt``'s
+    own alias: :func:`simx_server.sim.paths.object_alias`), 0 the alias with its order among
+    same-alias siblings (``joint[1]``), 1 the shortest path that names it (``/UR3/openCloseJoint``),
+    2 the full path, 3 the alias where unique in the scene else 4: ``alias__HANDLE__``, 5 the
+    short path shortened for printing (``/A/ ... /alias``). 6-9 (paths with ``{n}`` indices) are
+    refused.
 
     Args:
         handle: the object's handle, or ``sim.handle_self``.
-        options: -1, 0 or 1 and above.
+        options: -1 to 5.
 
     Returns:
         The alias or path.
 
     Raises:
         UnknownObjectError: no such object.
+        ArgumentError: another ``options``.
     """
     obj = ctx.world.get(ctx.h(handle))
-    if _int(options, "options") <= 0:
-        return obj.settings.get("alias") or obj.name
-    parts, h = [], obj.handle
-    while h != WORLD and len(parts) <= len(ctx.world.objects):  # V-REP's tree, as paths walk it
-        parts.append(ctx.world.objects[h].name)
-        h = paths.path_parent(ctx.world, ctx.world.objects[h])
-    return "/" + "/".join(reversed(parts))
+    w, opt = ctx.world, _int(options, "options")
+    short = paths.object_alias(obj)
+    if opt == -1:
+        return short
+    if opt == 0:
+        return paths.alias_with_order(w, obj.handle)
+    if opt == 1:
+        return paths.short_path(w, obj.handle)
+    if opt == 2:
+        return paths.full_path(w, obj.handle)
+    if opt == 3 and len(paths.find(w, "/" + short)) < 2:
+        return short
+    if opt in (3, 4):
+        return f"{short}__{obj.handle}__"
+    if opt == 5:
+        path = paths.short_path(w, obj.handle)
+        parts = path.split("/")
+        return path if len(path) <= 40 or len(parts) < 4 else f"/{parts[1]}/ ... /{parts[-1]}"
+    raise ArgumentError(f"getObjectAlias options {opt}: simx answers -1 to 5")
 
 
 @sim_function("setObjectName")

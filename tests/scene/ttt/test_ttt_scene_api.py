@@ -151,3 +151,80 @@ def test_simik_solves_chains_with_an_unlimited_joint(tmp_path):
         assert gap < 0.01
     finally:
         sim.close()
+
+
+def _gripper() -> bytes:
+    """A model ``Robot`` (alias) holding a gripper model with two ``finger`` links and its
+    ``openCloseJoint``; a second, unrelated ``openCloseJoint`` at the top level."""
+    return (W.cuboid_shape(1, -1, "Robot_base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False,
+                           extra=W.alias("Robot") + W.model_base())
+            + W.cuboid_shape(2, 1, "RG2", (0.1, 0.1, 0.1), (0, 0, 0.2), dynamic=False, extra=W.model_base())
+            + W.joint(3, 2, "RG2_openCloseJoint", (0, 0, 0.1), kind=11, common_extra=W.alias("openCloseJoint"))
+            + W.dummy(4, 3, "RG2_finger", (0.02, 0, 0), extra=W.alias("finger"))
+            + W.dummy(5, 3, "RG2_finger0", (-0.02, 0, 0), extra=W.alias("finger"))
+            + W.dummy(6, -1, "other_openCloseJoint", (1, 0, 0), extra=W.alias("openCloseJoint")))
+
+
+def test_object_alias_options_follow_coppeliasim(tmp_path):
+    """``sim.getObjectAlias`` as coppeliaSimLib ``simGetObjectAlias_internal``: -1 the alias, 0 with
+    its order among same-alias siblings, 1 the short path (model bases kept, an ancestor left
+    out where the path still names the object), 2 the full path, 3/4 ``alias__HANDLE__``."""
+    sim = _load(tmp_path, _gripper())
+    try:
+        api, w = client_context(sim).sim, sim.world
+        joint, f0, f1 = (w.resolve(n).handle for n in ("RG2_openCloseJoint", "RG2_finger", "RG2_finger0"))
+        assert api.getObjectAlias(joint) == "openCloseJoint"
+        assert api.getObjectAlias(joint, 1) == "/Robot/RG2/openCloseJoint"
+        assert api.getObjectAlias(joint, 2) == "/Robot/RG2/openCloseJoint"
+        assert (api.getObjectAlias(f0, 0), api.getObjectAlias(f1, 0)) == ("finger[0]", "finger[1]")
+        assert api.getObjectAlias(f1, 1) == "/Robot/RG2/finger[1]"  # the joint left out
+        assert api.getObjectAlias(f1, 2) == "/Robot/RG2/openCloseJoint/finger[1]"
+        assert api.getObject(api.getObjectAlias(f1, 1)) == f1
+        assert api.getObjectAlias(joint, 3) == f"openCloseJoint__{joint}__"  # two in the scene
+        assert api.getObjectAlias(f0, 4) == f"finger__{f0}__"
+        with pytest.raises(Exception, match="options"):
+            api.getObjectAlias(joint, 7)
+    finally:
+        sim.close()
+
+
+COUNTER = """
+function sysCall_actuation()
+    sim.setInt32Signal('passes', (sim.getInt32Signal('passes') or 0) + 1)
+end
+function handleIk()
+    sim.setInt32Signal('called', (sim.getInt32Signal('called') or 0) + 1)
+end
+"""
+
+
+def test_scripts_are_disabled_and_called_by_handle(tmp_path):
+    """``sim.setScriptInt32Param(h, sim.scriptintparam_enabled, 0)`` stops a script's system
+    callbacks (coppeliaSimLib ``simSetScriptInt32Param_internal``: ``setScriptIsDisabled``); a 4.6
+    customization script object answers ``sim.callScriptFunction`` by its handle."""
+    body = (W.cuboid_shape(1, -1, "Robot", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
+            + W.script_object(2, 1, "IK", COUNTER, kind=6))
+    sim = _load(tmp_path, body, program=40600)
+    try:
+        api = client_context(sim).sim
+        ik = api.getObject("/Robot/IK")
+        sim.start()
+        for _ in range(3):
+            sim.step()
+        passes = sim.signals.get_int("passes")
+        assert passes >= 3 and api.getScriptInt32Param(ik, api.scriptintparam_enabled) == 1
+        assert api.setScriptInt32Param(ik, api.scriptintparam_enabled, 0) == 1
+        for _ in range(3):
+            sim.step()
+        assert sim.signals.get_int("passes") == passes
+        assert api.getScriptInt32Param(ik, api.scriptintparam_enabled) == 0
+        assert api.getScriptInt32Param(ik, api.scriptintparam_type) == api.scripttype_customization
+        api.callScriptFunction("handleIk", ik)
+        assert sim.signals.get_int("called") == 1
+        api.setScriptInt32Param(ik, api.scriptintparam_enabled, 1)
+        sim.step()
+        assert sim.signals.get_int("passes") == passes + 1
+        with pytest.raises(Exception, match="no script"):
+            api.setScriptInt32Param(api.getObject("/Robot"), api.scriptintparam_enabled, 0)
+    finally:
+        sim.close()
