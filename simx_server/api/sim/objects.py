@@ -42,23 +42,27 @@ def getObject(ctx: CallContext, path: Any, options: Any = None) -> int:  # noqa:
     ``A{n}``, wildcards), ``"."`` (the script's object) or a path below it (``"./arm/joint"``),
     ``":"`` / ``":/B"`` from the script's model base. ``options`` ``{noError = true}`` answers -1
     instead of an error for an unknown object; ``{index = n}`` takes the n-th (0-based) of
-    the objects the path matches, in tree order.
+    the objects the path matches, in tree order; ``{proxy = h}``: relative paths start from
+    object ``h`` instead of the caller's (coppeliaSimLib ``simGetObject_internal``; an absolute
+    ``/A`` path ignores it).
 
     Args:
         path: a name or path.
-        options: ``{noError = true, index = n}``, or None.
+        options: ``{noError = true, index = n, proxy = h}``, or None.
 
     Returns:
         The handle, or -1 (``noError``).
 
     Raises:
-        UnknownObjectError: no such object (without ``noError``).
+        UnknownObjectError: no such object (without ``noError``), or no proxy object ``h``.
         ArgumentError: a path that is not a string.
     """
     p = _text(path, "object path")
     opts = options if isinstance(options, dict) else {}
     index = _int(opts.get("index", -1), "index")
-    found = paths.find(ctx.world, p, index, ctx.path_base())
+    proxy = opts.get("proxy", -1)  # simGetObject_internal: the object '.' and ':' start from
+    base = ctx.path_base() if proxy in (-1, None) else ctx.world.get(_int(proxy, "proxy")).handle
+    found = paths.find(ctx.world, p, index, base)
     if found:
         return found[0]
     if opts.get("noError"):

@@ -184,6 +184,13 @@ def test_object_alias_options_follow_coppeliasim(tmp_path):
         assert api.getObjectAlias(f0, 4) == f"finger__{f0}__"
         with pytest.raises(Exception, match="options"):
             api.getObjectAlias(joint, 7)
+        rg2 = w.resolve("RG2").handle
+        assert api.getObject("./openCloseJoint", {"proxy": rg2}) == joint  # simGetObject_internal
+        assert api.getObject("..", {"proxy": joint}) == rg2
+        assert api.getObject("/openCloseJoint", {"proxy": rg2}) == joint  # absolute: the first in tree order
+        assert api.getObject("./finger", {"proxy": w.resolve("other_openCloseJoint").handle, "noError": True}) == -1
+        with pytest.raises(Exception, match="999"):
+            api.getObject("./finger", {"proxy": 999})
     finally:
         sim.close()
 
