@@ -235,3 +235,33 @@ def test_scripts_are_disabled_and_called_by_handle(tmp_path):
             api.setScriptInt32Param(api.getObject("/Robot"), api.scriptintparam_enabled, 0)
     finally:
         sim.close()
+
+
+def test_old_scripts_colours_and_proximity_of_dummies(tmp_path):
+    """``sim.setShapeColor`` with 0-255 components is clamped (CoppeliaSim keeps them, OpenGL
+    clamps them when drawing); ``'@backCompatibility1:H'`` is shape H with the 3.1.3 colour
+    correction (coppeliaSimLib ``_simSetShapeColor``); ``sim.checkProximitySensor`` of a dummy
+    sees its origin inside the volume (``CProxSensorRoutine::_detectDummy``), a ray never."""
+    body = (W.cuboid_shape(1, -1, "Box", (0.1, 0.1, 0.1), (2, 0, 0.05), dynamic=False)
+            + W.proximity_sensor(2, -1, "Pyramid", kind=30, offset=0.05, reach=0.5, sizes=(0.2, 0.2, 0.4, 0.4, 0, 0))
+            + W.proximity_sensor(3, -1, "Ray", kind=34, reach=0.5, pos=(0.3, 0, 0))
+            + W.dummy(4, -1, "Inside", (0.05, 0, 0.3)) + W.dummy(5, -1, "Beside", (0.3, 0, 0.3)))
+    sim = _load(tmp_path, body)
+    try:
+        api, w = client_context(sim).sim, sim.world
+        box = api.getObject("/Box")
+        assert api.setShapeColor(box, None, 0, [255, 0, 128]) == 1
+        geom = next(g for g in range(w.model.ngeom) if w.model.geom_bodyid[g] == w.get(box).mj_id)
+        assert list(w.model.geom_rgba[geom][:3]) == pytest.approx([1.0, 0.0, 1.0])
+        assert api.setShapeColor(f"@backCompatibility1:{box}", None, 0, [0.6, 0.35, 0.1]) == 1
+        assert list(w.model.geom_rgba[geom][:3]) == pytest.approx([1.0, 0.6 / 0.85, 0.35 / 0.85], abs=1e-6)
+        with pytest.raises(Exception, match="no handle"):
+            api.setShapeColor("@backCompatibility1:x", None, 0, [0, 0, 0])
+        pyramid, ray = api.getObject("/Pyramid"), api.getObject("/Ray")
+        inside, beside = api.getObject("/Inside"), api.getObject("/Beside")
+        result, dist, point = api.checkProximitySensor(pyramid, inside)
+        assert result == 1 and point == pytest.approx([0.05, 0, 0.3], abs=1e-6) and dist == pytest.approx(0.30414, abs=1e-4)
+        assert api.checkProximitySensor(pyramid, beside)[0] == 0  # 0.3 m aside, the volume is 0.15 m wide there
+        assert api.checkProximitySensor(ray, beside)[0] == 0  # straight above the ray: rays never see dummies
+    finally:
+        sim.close()
