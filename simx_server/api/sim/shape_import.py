@@ -191,8 +191,6 @@ def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
     name = None if colorName is None else _text(colorName, "colorName")
     component = _int(colorComponent, "colorComponent")
     values = _vector(rgbData, 1 if component == 4 else 3, "rgbData") if component in (0, 1, 4) else None
-    if values is not None and not all(math.isfinite(v) for v in values):
-        raise ArgumentError(f"rgbData must be finite, got {quote(rgbData)}")
     if values is not None and correct and component == 0 and not (name or "").startswith("@"):
         values = [(v + 0.25) / 0.85 for v in values]
         values = [v / max(values) for v in values] if max(values) > 1.0 else values
