@@ -265,3 +265,60 @@ def test_old_scripts_colours_and_proximity_of_dummies(tmp_path):
         assert api.checkProximitySensor(ray, beside)[0] == 0  # straight above the ray: rays never see dummies
     finally:
         sim.close()
+
+
+BUNDLED = """
+local path = require('models.path_customization-2')
+function sysCall_init()
+    path.init()
+    sim.setInt32Signal('loaded', path.anything() == nil and 1 or 0)
+end
+"""
+
+
+def test_bundled_model_modules_load_headless(tmp_path, caplog):
+    """A 4.x path's customization script requires CoppeliaSim's bundled
+    ``models.path_customization-2``: it loads, its (GUI) functions do nothing, one log line says so."""
+    body = (W.dummy(1, -1, "Path") + W.script_object(2, 1, "Script", BUNDLED, kind=1))
+    sim = _load(tmp_path, body, program=40600)
+    try:
+        with caplog.at_level("INFO"):
+            sim.start()
+            sim.step()
+        assert sim.signals.get_int("loaded") == 1
+        said = [r.getMessage() for r in caplog.records if "models.path_customization-2" in r.getMessage()]
+        assert len(said) == 1 and "do nothing" in said[0]
+    finally:
+        sim.close()
+
+
+def test_selection_and_texture_calls_of_old_scripts(tmp_path, caplog):
+    """``sim.addObjectToSelection`` / ``removeObjectFromSelection`` / ``isObjectInSelection``
+    (coppeliaSimLib ``simAddObjectToSelection_internal``...): single, tree, chain, all; a
+    shape's texture parameters (``sim.shapefloatparam_texture_x``...) are accepted and said, once,
+    not to be carried out."""
+    sim = _load(tmp_path, _gripper())
+    try:
+        api, w = client_context(sim).sim, sim.world
+        rg2, joint = w.resolve("RG2").handle, w.resolve("RG2_openCloseJoint").handle
+        base = w.resolve("Robot_base").handle
+        assert api.addObjectToSelection(api.handle_single, joint) == 1
+        assert api.getObjectSelection() == [joint] and api.isObjectInSelection(joint) == 1
+        api.addObjectToSelection(api.handle_chain, joint)
+        assert sorted(api.getObjectSelection()) == sorted([joint, rg2, base])
+        api.removeObjectFromSelection(api.handle_tree, rg2)
+        assert api.getObjectSelection() == [base] and api.isObjectInSelection(joint) == 0
+        api.removeObjectFromSelection(api.handle_all, -1)
+        assert api.getObjectSelection() == []
+        with pytest.raises(Exception, match="what must be"):
+            api.addObjectToSelection(5, joint)
+        from simx_server.sim import object_params
+        object_params._told.discard(api.shapefloatparam_texture_x)  # said once per server
+        with caplog.at_level("INFO"):
+            for v in (0.1, 0.2):
+                assert api.setObjectFloatParameter(base, api.shapefloatparam_texture_x, v) == 1
+        assert len([r for r in caplog.records if "not carried out" in r.getMessage()]) == 1
+        with pytest.raises(Exception):
+            api.setObjectFloatParameter(joint, api.shapefloatparam_texture_x, 0.1)  # not a shape
+    finally:
+        sim.close()
