@@ -191,6 +191,8 @@ def test_object_alias_options_follow_coppeliasim(tmp_path):
         assert api.getObject("./finger", {"proxy": w.resolve("other_openCloseJoint").handle, "noError": True}) == -1
         with pytest.raises(Exception, match="999"):
             api.getObject("./finger", {"proxy": 999})
+        # the deprecated sim.getObjectHandle takes the same paths (4.2+; a client: '.' is the scene root)
+        assert api.getObjectHandle("./openCloseJoint") == joint == api.getObjectHandle("./Robot/RG2/openCloseJoint")
     finally:
         sim.close()
 
