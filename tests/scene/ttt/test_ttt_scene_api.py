@@ -324,3 +324,26 @@ def test_selection_and_texture_calls_of_old_scripts(tmp_path, caplog):
             api.setObjectFloatParameter(joint, api.shapefloatparam_texture_x, 0.1)  # not a shape
     finally:
         sim.close()
+
+
+PLUGINS = """
+simUI = require('simUI')
+function sysCall_init()
+    sim.setInt32Signal('ui', simUI.create('<ui/>'))
+    local ok, err = pcall(require, 'simVision')
+    sim.setStringSignal('vision', tostring(ok) .. ' ' .. tostring(err))
+end
+"""
+
+
+def test_plugin_modules_as_a_headless_coppeliasim_has_them(tmp_path):
+    """``require('simUI')`` is the headless simUI table (its calls logged no-ops, ``create`` -1);
+    a plugin simx lacks (``simVision``) fails to load, saying so."""
+    sim = _load(tmp_path, W.dummy(1, -1, "Holder") + W.script_object(2, 1, "Script", PLUGINS, kind=1), program=40600)
+    try:
+        sim.start()
+        sim.step()
+        assert sim.signals.get_int("ui") == -1
+        assert sim.signals.get_string("vision").startswith(b"false simVision is a CoppeliaSim plugin")
+    finally:
+        sim.close()
