@@ -110,6 +110,7 @@ class ChildScript:
         self.allow_unsafe_lua = allow_unsafe_lua  # Lua only: Python scripts are trusted code
         self.running = False
         self.disabled = False  # sim.setScriptInt32Param(h, sim.scriptintparam_enabled, 0): no callbacks
+        self._pending = False  # disabled when it would have started: it starts once enabled
         self.load_error: str | None = None
         self.start_error: str | None = None
         self._skipped: set[str] = set()  # life-cycle functions skipped until the next start
@@ -131,6 +132,9 @@ class ChildScript:
 
         Raises ScriptError when the script cannot run (load error, error in its top level);
         it then stays attached, and remote calls answer that error."""
+        if self.disabled:  # a script saved disabled, or disabled since: it starts when enabled
+            self._pending = True
+            return
         self.running = True
         self.start_error = None
         self._skipped.clear()
@@ -212,8 +216,21 @@ class ChildScript:
         except Exception:  # never let the simulation step die with a script
             log.exception("%s, %s: internal error", self.label, function)
 
+    def enable(self, on: bool) -> None:
+        """``sim.scriptintparam_enabled``: a disabled script's system callbacks do not run; one
+        that was disabled when it would have started starts now (top level, ``sysCall_init``),
+        as CoppeliaSim initializes a script at its first pass once enabled. Errors go to the log."""
+        self.disabled = not on
+        if on and self._pending:
+            self._pending = False
+            try:
+                self.start()
+            except ScriptError as exc:
+                log.error("%s", exc)
+
     def stop(self) -> None:
         """Simulation stops: ``sysCall_cleanup``, then the script's state is dropped."""
+        self._pending = False
         try:
             self.life_cycle("sysCall_cleanup")
         finally:

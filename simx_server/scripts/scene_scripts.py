@@ -126,6 +126,7 @@ class Scripts:
                                                 forces=self.forces, shared=self.shared,
                                                 kind="child" if key == "child_script" else "customization",
                                                 **options)
+                table[obj.handle].disabled = obj.settings.get("script_disabled") == "1"  # saved disabled
         if allow_remote_code and self.scripts:
             log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
         if allow_unsafe_lua and self.scripts:

@@ -216,7 +216,8 @@ def _script_param(ctx: CallContext, scriptHandle: Any, parameterID: Any) -> tupl
 @sim_function("setScriptInt32Param")
 def setScriptInt32Param(ctx: CallContext, scriptHandle: Any, parameterID: Any, parameter: Any) -> int:  # noqa: N802, N803
     """``sim.scriptintparam_enabled``: 0 disables the script (its system callbacks no more run;
-    its functions can still be called), 1 enables it again; ``sim.scriptintparam_execcount`` sets
+    its functions can still be called), 1 enables it again (a script saved disabled starts then:
+    top level and ``sysCall_init``); ``sim.scriptintparam_execcount`` sets
     its execution count. Other parameters: ArgumentError (simx runs scripts in tree order).
 
     coppeliaSimLib ``simSetScriptInt32Param_internal`` (``CDetachedScript::setScriptIsDisabled``,
@@ -236,7 +237,7 @@ def setScriptInt32Param(ctx: CallContext, scriptHandle: Any, parameterID: Any, p
     script, p = _script_param(ctx, scriptHandle, parameterID)
     value = _int(parameter, "parameter")
     if p == _ENABLED:
-        script.disabled = value == 0
+        script.enable(value != 0)
     elif p == _EXECCOUNT:
         script.executions = value
     else:

@@ -347,3 +347,30 @@ def test_plugin_modules_as_a_headless_coppeliasim_has_them(tmp_path):
         assert sim.signals.get_string("vision").startswith(b"false simVision is a CoppeliaSim plugin")
     finally:
         sim.close()
+
+
+def test_a_script_saved_disabled_exists_and_starts_when_enabled(tmp_path):
+    """A script saved disabled is kept, not run; ``sim.setScriptInt32Param(h,
+    sim.scriptintparam_enabled, 1)`` starts it (top level, ``sysCall_init``) at once."""
+    text = "function sysCall_init() sim.setInt32Signal('init', 1) end\n" + COUNTER
+    body = (W.cuboid_shape(1, -1, "Robot", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
+            + W.script_object(2, 1, "Script", text, kind=1, disabled=True))
+    f = tmp_path / "scene.ttt"
+    f.write_bytes(W.ttt_file(body, serialization=25, program=40600))
+    xml, report = convert.convert(reader.read(f), tmp_path / "out", "scene")
+    assert not any("disabled" in line for line in report.lines())
+    sim = Simulation(xml, realtime=False)
+    try:
+        api = client_context(sim).sim
+        script = api.getObject("/Robot/Script")
+        sim.start()
+        for _ in range(3):
+            sim.step()
+        assert sim.signals.get_int("init") is None and sim.signals.get_int("passes") is None
+        assert api.getScriptInt32Param(script, api.scriptintparam_enabled) == 0
+        api.setScriptInt32Param(script, api.scriptintparam_enabled, 1)
+        assert sim.signals.get_int("init") == 1
+        sim.step()
+        assert sim.signals.get_int("passes") == 1
+    finally:
+        sim.close()

@@ -195,12 +195,12 @@ def huffman_encode(data: bytes) -> bytes:
 
 
 def script_object(handle: int, parent: int, name: str, text: str, kind: int = 1, proxy: bool = False,
-                  pos=(0, 0, 0), extra: bytes = b"") -> bytes:
+                  pos=(0, 0, 0), extra: bytes = b"", disabled: bool = False) -> bytes:
     """A CoppeliaSim 4.6+ script object (``SCT``, ``CScript::serialize``): the common part, then
     ``Sos`` size, ``Var``, and ``Soo``: the script's own records (``CDetachedScript::serialize``:
-    ``Si2`` (0, object, type), ``Va2``, ``Va3`` (bit 2: parent is proxy), ``Ste`` with 4.6's
+    ``Si2`` (0, object, type), ``Va2`` (bit 1: disabled), ``Va3`` (bit 2: parent is proxy), ``Ste`` with 4.6's
     ``--lua`` first line, ``Lne``)."""
-    soo = lst(rec("Si2", i32(0, -1, kind)), rec("Va2", bytes([0xC8])), rec("Va3", bytes([1 | (4 if proxy else 0)])),
+    soo = lst(rec("Si2", i32(0, -1, kind)), rec("Va2", bytes([0xC8 | (2 if disabled else 0)])), rec("Va3", bytes([1 | (4 if proxy else 0)])),
               rec("Ste", light_encode(("--lua\n" + text).encode())), rec("Lne", string("lua")))
     typed = lst(rec("Sos", struct.pack("<d", 0.01)), rec("Var", bytes([0])), rec("Soo", soo))
     return rec("SCT", common(handle, parent, name, pos, extra=alias(name) + extra) + typed)
