@@ -110,7 +110,7 @@ class ChildScript:
         self.allow_unsafe_lua = allow_unsafe_lua  # Lua only: Python scripts are trusted code
         self.running = False
         self.disabled = False  # sim.setScriptInt32Param(h, sim.scriptintparam_enabled, 0): no callbacks
-        self._pending = False  # disabled when it would have started: it starts once enabled
+        self.pending_start = False  # disabled when it would have started: it starts once enabled
         self.load_error: str | None = None
         self.start_error: str | None = None
         self._skipped: set[str] = set()  # life-cycle functions skipped until the next start
@@ -133,7 +133,7 @@ class ChildScript:
         Raises ScriptError when the script cannot run (load error, error in its top level);
         it then stays attached, and remote calls answer that error."""
         if self.disabled:  # a script saved disabled, or disabled since: it starts when enabled
-            self._pending = True
+            self.pending_start = True
             return
         self.running = True
         self.start_error = None
@@ -154,8 +154,7 @@ class ChildScript:
     def resume_thread(self) -> None:
         """Resume the script's thread (a coroutine) until it yields, once per step before
         ``sysCall_actuation``; errors and overruns go to the log and end the thread."""
-        if self.running and not self.disabled and not self.load_error and self._thread_alive() \
-                and not self._pass_spent("thread"):
+        if self.running and not self.disabled and not self.load_error and self._thread_alive() and not self._pass_spent("thread"):
             self._guarded("thread", self._resume_thread)
 
     def life_cycle(self, function: str) -> None:
@@ -216,21 +215,9 @@ class ChildScript:
         except Exception:  # never let the simulation step die with a script
             log.exception("%s, %s: internal error", self.label, function)
 
-    def enable(self, on: bool) -> None:
-        """``sim.scriptintparam_enabled``: a disabled script's system callbacks do not run; one
-        that was disabled when it would have started starts now (top level, ``sysCall_init``),
-        as CoppeliaSim initializes a script at its first pass once enabled. Errors go to the log."""
-        self.disabled = not on
-        if on and self._pending:
-            self._pending = False
-            try:
-                self.start()
-            except ScriptError as exc:
-                log.error("%s", exc)
-
     def stop(self) -> None:
         """Simulation stops: ``sysCall_cleanup``, then the script's state is dropped."""
-        self._pending = False
+        self.pending_start = False
         try:
             self.life_cycle("sysCall_cleanup")
         finally:

@@ -12,14 +12,16 @@ object it is attached to (``sim.getScript``).
 from __future__ import annotations
 
 import copy
+import logging
 from typing import Any
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.base.arguments import as_integer as _int, as_number as _num
 from simx_wire import constants
-from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import ArgumentError, ScriptError, UnsupportedError
 
+log = logging.getLogger("simx.scripts")
 _HANDLE_SELF: int = constants.VREP_CONSTANTS["sim_handle_self"]
 #: ``sim.broadcastMsg`` calls nested in receivers' ``sysCall_msg`` (a receiver that broadcasts
 #: back): past this depth the call is refused rather than recursing without end.
@@ -237,7 +239,13 @@ def setScriptInt32Param(ctx: CallContext, scriptHandle: Any, parameterID: Any, p
     script, p = _script_param(ctx, scriptHandle, parameterID)
     value = _int(parameter, "parameter")
     if p == _ENABLED:
-        script.enable(value != 0)
+        script.disabled = value == 0
+        if value and script.pending_start:  # saved disabled: it starts now (CoppeliaSim: at its first pass)
+            script.pending_start = False
+            try:
+                script.start()
+            except ScriptError as exc:
+                log.error("%s", exc)
     elif p == _EXECCOUNT:
         script.executions = value
     else:

@@ -374,3 +374,27 @@ def test_a_script_saved_disabled_exists_and_starts_when_enabled(tmp_path):
         assert sim.signals.get_int("passes") == 1
     finally:
         sim.close()
+
+
+def test_configuration_trees_put_a_robot_back(tmp_path):
+    """``sim.getConfigurationTree`` / ``setConfigurationTree`` (coppeliaSimLib ``CMemorizedConf_old``):
+    joints return to their positions and a moved object to its pose; a foreign buffer is refused."""
+    sim = _load(tmp_path, _arm(explicit=True) + W.cuboid_shape(9, -1, "Crate", (0.1, 0.1, 0.1), (1, 0, 0.05),
+                                                               dynamic=False))
+    try:
+        api = client_context(sim).sim
+        j1, j2, crate = api.getObject("/J1"), api.getObject("/J2"), api.getObject("/Crate")
+        api.setJointPosition(j1, 0.4)
+        saved, scene = api.getConfigurationTree(api.getObject("/Base")), api.getConfigurationTree(api.handle_all)
+        api.setJointPosition(j1, -0.7)
+        api.setJointPosition(j2, 0.9)
+        api.setObjectPosition(crate, -1, [1.5, 0.5, 0.05])
+        assert api.setConfigurationTree(saved) == 1
+        assert (api.getJointPosition(j1), api.getJointPosition(j2)) == pytest.approx((0.4, 0.0))
+        assert api.getObjectPosition(crate, -1) == pytest.approx([1.5, 0.5, 0.05])  # not in the arm's tree
+        api.setConfigurationTree(scene)
+        assert api.getObjectPosition(crate, -1) == pytest.approx([1.0, 0.0, 0.05])
+        with pytest.raises(Exception, match="not a buffer"):
+            api.setConfigurationTree(b"elsewhere")
+    finally:
+        sim.close()
