@@ -343,3 +343,34 @@ def short_path(world: World, handle: int) -> str:
             kept += 1
         h = up
     return path
+
+
+def index_path(world: World, handle: int, models: int) -> str:
+    """``/parentModel{1}/alias{3}``: the object's alias, after those of up to ``models`` model
+    bases above it, each with its index among every object its path so far names (``{0}`` left
+    out where it is the only one; coppeliaSimLib ``CSceneObject::getObjectPathAndIndex``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+        models: how many model bases above it to name (``getObjectAlias`` options 6-9: 0, 1, 2, all).
+
+    Returns:
+        The path.
+    """
+    chain, p = [handle], path_parent(world, world.objects[handle])
+    for _ in range(models):
+        while p != WORLD and world.objects[p].settings.get("model_base") != "1":
+            p = path_parent(world, world.objects[p])
+        if p == WORLD:
+            break
+        chain.append(p)
+        p = path_parent(world, world.objects[p])
+    path = ""
+    for h in reversed(chain):
+        path += "/" + object_alias(world.objects[h])
+        found = find(world, path)
+        index = found.index(h) if h in found else 0
+        if index or len(found) > 1:
+            path += f"{{{index}}}"
+    return path

@@ -78,12 +78,12 @@ def getObjectAlias(ctx: CallContext, handle: Any, options: Any = -1) -> str:  # 
     own alias: :func:`simx_server.sim.paths.object_alias`), 0 the alias with its order among
     same-alias siblings (``joint[1]``), 1 the shortest path that names it (``/UR3/openCloseJoint``),
     2 the full path, 3 the alias where unique in the scene else 4: ``alias__HANDLE__``, 5 the
-    short path shortened for printing (``/A/ ... /alias``). 6-9 (paths with ``{n}`` indices) are
-    refused.
+    short path shortened for printing (``/A/ ... /alias``), 6-9 the alias with its ``{n}`` index
+    after 0, 1, 2 or all of the model bases above it (``/Robot{1}/finger{3}``).
 
     Args:
         handle: the object's handle, or ``sim.handle_self``.
-        options: -1 to 5.
+        options: -1 to 9.
 
     Returns:
         The alias or path.
@@ -111,7 +111,9 @@ def getObjectAlias(ctx: CallContext, handle: Any, options: Any = -1) -> str:  # 
         path = paths.short_path(w, obj.handle)
         parts = path.split("/")
         return path if len(path) <= 40 or len(parts) < 4 else f"/{parts[1]}/ ... /{parts[-1]}"
-    raise ArgumentError(f"getObjectAlias options {opt}: simx answers -1 to 5")
+    if opt in (6, 7, 8, 9):
+        return paths.index_path(w, obj.handle, {6: 0, 7: 1, 8: 2, 9: len(w.objects)}[opt])
+    raise ArgumentError(f"getObjectAlias options {opt}: CoppeliaSim's are -1 to 9")
 
 
 @sim_function("setObjectName")

@@ -182,8 +182,12 @@ def test_object_alias_options_follow_coppeliasim(tmp_path):
         assert api.getObject(api.getObjectAlias(f1, 1)) == f1
         assert api.getObjectAlias(joint, 3) == f"openCloseJoint__{joint}__"  # two in the scene
         assert api.getObjectAlias(f0, 4) == f"finger__{f0}__"
+        assert api.getObjectAlias(joint, 6) == "/openCloseJoint{0}"  # two in the scene, this one first
+        assert api.getObjectAlias(f1, 6) == "/finger{1}" and api.getObjectAlias(f1, 7) == "/RG2/finger{1}"
+        assert api.getObjectAlias(f1, 9) == "/Robot/RG2/finger{1}"
+        assert api.getObject(api.getObjectAlias(f1, 8)) == f1
         with pytest.raises(Exception, match="options"):
-            api.getObjectAlias(joint, 7)
+            api.getObjectAlias(joint, 10)
         rg2 = w.resolve("RG2").handle
         assert api.getObject("./openCloseJoint", {"proxy": rg2}) == joint  # simGetObject_internal
         assert api.getObject("..", {"proxy": joint}) == rg2
