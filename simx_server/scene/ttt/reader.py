@@ -179,6 +179,7 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
     obj.custom_data, obj.developer_data = custom.read_custom_data(common)
     obj.script_parameters = custom.read_parameters(common, "Lsp")
     obj.references = custom.read_references(common)
+    obj.extension = common.string("Rst")  # CSceneObject::serialize: the extension string
     if common.get("Omp") is not None:  # CSceneObject::serialize: _localObjectSpecialProperty
         obj.special = common.int("Omp")
     obj.model_property = common.int("Mpo", 0xF000)

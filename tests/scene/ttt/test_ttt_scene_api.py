@@ -402,3 +402,23 @@ def test_configuration_trees_put_a_robot_back(tmp_path):
             api.setConfigurationTree(b"elsewhere")
     finally:
         sim.close()
+
+
+def test_extension_strings_are_read(tmp_path):
+    """``sim.getExtensionString`` answers the object's ``Rst`` text (coppeliaSimLib
+    ``CSceneObject::serialize``), or a key's value in it (``tt::getValueOfKey``, ``a@b`` nested)."""
+    text = "povray {pattern {3} finish {phong {0.5}}} other {x}"
+    body = W.dummy(1, -1, "Marked", extra=W.rec("Rst", W.string(text))) + W.dummy(2, -1, "Plain")
+    sim = _load(tmp_path, body)
+    try:
+        api = client_context(sim).sim
+        marked, plain = api.getObject("/Marked"), api.getObject("/Plain")
+        assert api.getExtensionString(marked, -1) == text
+        assert api.getExtensionString(marked, -1, "povray") == "pattern {3} finish {phong {0.5}}"
+        assert api.getExtensionString(marked, -1, "phong@finish@povray") == "0.5"
+        assert api.getExtensionString(marked, -1, "missing") is None
+        assert api.getExtensionString(plain, -1) is None
+        with pytest.raises(Exception, match="scene's"):
+            api.getExtensionString(-1, -1)
+    finally:
+        sim.close()
