@@ -114,8 +114,8 @@ G.sim = sim
 -- CoppeliaSim 4.x's simIK (simx_server/api/simik/), as for ZMQ clients.
 G.simIK = simIK
 -- CoppeliaSim 4.5+ scripts start with `sim = require('sim')`: the same tables as modules
--- (CoppeliaSim's lua/sim.lua and the simIK plugin's simIK.lua return them), 'sim-2' too.
-package.loaded.sim, package.loaded["sim-2"], package.loaded.simIK = sim, sim, simIK
+-- (CoppeliaSim's lua/sim.lua and the simIK plugin's simIK.lua return them), 'sim-1'/'sim-2' too.
+package.loaded.sim, package.loaded["sim-1"], package.loaded["sim-2"], package.loaded.simIK = sim, sim, sim, simIK
 -- CoppeliaSim's bundled model-customization modules (require('models.path_customization-2')...)
 -- draw and edit a model in the GUI: headless, they load and each of their functions does nothing,
 -- said once in the log (a script's own module of the same name in the scene's folder wins).
