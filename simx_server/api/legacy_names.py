@@ -289,6 +289,14 @@ G.simUI = setmetatable({}, {__index = function(t, key)
   rawset(t, key, f)
   return f
 end})
+-- 4.5+ scripts' simUI = require('simUI'): the same headless table; a plugin simx lacks fails to
+-- load with a message that says so (as in a CoppeliaSim without that plugin).
+package.loaded.simUI = G.simUI
+for name in pairs(plugins) do
+  package.preload[name] = function()
+    error(name .. " is a CoppeliaSim plugin that simx does not have (docs/SCRIPTS.md)", 0)
+  end
+end
 G.simRemoteApi = {
   start = function(...) return sim.remoteApiStart(...) end,
   stop = function(...) return sim.remoteApiStop(...) end,

@@ -109,6 +109,8 @@ class ChildScript:
         self.allow_remote_code = allow_remote_code
         self.allow_unsafe_lua = allow_unsafe_lua  # Lua only: Python scripts are trusted code
         self.running = False
+        self.disabled = False  # sim.setScriptInt32Param(h, sim.scriptintparam_enabled, 0): no callbacks
+        self.pending_start = False  # disabled when it would have started: it starts once enabled
         self.load_error: str | None = None
         self.start_error: str | None = None
         self._skipped: set[str] = set()  # life-cycle functions skipped until the next start
@@ -130,6 +132,9 @@ class ChildScript:
 
         Raises ScriptError when the script cannot run (load error, error in its top level);
         it then stays attached, and remote calls answer that error."""
+        if self.disabled:  # a script saved disabled, or disabled since: it starts when enabled
+            self.pending_start = True
+            return
         self.running = True
         self.start_error = None
         self._skipped.clear()
@@ -149,7 +154,7 @@ class ChildScript:
     def resume_thread(self) -> None:
         """Resume the script's thread (a coroutine) until it yields, once per step before
         ``sysCall_actuation``; errors and overruns go to the log and end the thread."""
-        if self.running and not self.load_error and self._thread_alive() and not self._pass_spent("thread"):
+        if self.running and not self.disabled and not self.load_error and self._thread_alive() and not self._pass_spent("thread"):
             self._guarded("thread", self._resume_thread)
 
     def life_cycle(self, function: str) -> None:
@@ -158,7 +163,7 @@ class ChildScript:
         Repeats of the same error are logged at debug level; a script interrupted for
         overrunning its time bound in ``sysCall_actuation``/``sysCall_sensing`` has both
         skipped until the simulation restarts, so that the simulation keeps its pace."""
-        if not self.running or self.load_error or function in self._skipped:
+        if not self.running or self.disabled or self.load_error or function in self._skipped:
             return
         if self._defines(function) and not self._pass_spent(function):
             self.executions += 1
@@ -212,6 +217,7 @@ class ChildScript:
 
     def stop(self) -> None:
         """Simulation stops: ``sysCall_cleanup``, then the script's state is dropped."""
+        self.pending_start = False
         try:
             self.life_cycle("sysCall_cleanup")
         finally:

@@ -113,6 +113,23 @@ end})
 G.sim = sim
 -- CoppeliaSim 4.x's simIK (simx_server/api/simik/), as for ZMQ clients.
 G.simIK = simIK
+-- CoppeliaSim 4.5+ scripts start with `sim = require('sim')`: the same tables as modules
+-- (CoppeliaSim's lua/sim.lua and the simIK plugin's simIK.lua return them), 'sim-1'/'sim-2' too.
+package.loaded.sim, package.loaded["sim-1"], package.loaded["sim-2"], package.loaded.simIK = sim, sim, sim, simIK
+-- CoppeliaSim's bundled model-customization modules (require('models.path_customization-2')...)
+-- draw and edit a model in the GUI: headless, they load and each of their functions does nothing,
+-- said once in the log (a script's own module of the same name in the scene's folder wins).
+local own_module = package.searchpath
+setmetatable(package.preload, {__index = function(_, name)
+  if type(name) ~= "string" or not name:match("^models%.") or own_module(name, scene_dir .. "/?.lua") then
+    return nil
+  end
+  return function()
+    write_log("require('" .. name .. "'): CoppeliaSim's bundled model-customization module; headless, "
+      .. "its functions (the model's editing and drawing in the GUI) do nothing in simx")
+    return setmetatable({}, {__index = function() return function() end end})
+  end
+end})
 -- V-REP before 3.6: simGetObjectHandle(...), sim_handle_self.
 setmetatable(G, {__index = function(_, key)
   if type(key) ~= "string" then return nil end

@@ -126,6 +126,7 @@ class Scripts:
                                                 forces=self.forces, shared=self.shared,
                                                 kind="child" if key == "child_script" else "customization",
                                                 **options)
+                table[obj.handle].disabled = obj.settings.get("script_disabled") == "1"  # saved disabled
         if allow_remote_code and self.scripts:
             log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
         if allow_unsafe_lua and self.scripts:
@@ -249,10 +250,11 @@ class Scripts:
         return script.call(function, list(ints), [float(v) for v in floats], list(strings), bytes(buffer))
 
     def script_of(self, handle: int) -> ChildScript:
-        """The child script of object ``handle``; ScriptError when it has none."""
-        script = self.scripts.get(handle)
+        """The child script of object ``handle``, else its customization script (a 4.6+
+        script object of either type); ScriptError when it has none."""
+        script = self.scripts.get(handle) or self.customization.get(handle)
         if script is None:
-            raise ScriptError(f"object {self.world.get(handle).name!r} has no child script")
+            raise ScriptError(f"object {self.world.get(handle).name!r} has no script")
         return script
 
 

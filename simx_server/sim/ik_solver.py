@@ -215,8 +215,10 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     limited = np.array([bool(m.jnt_limited[j]) for j in jid])
     low = np.where(limited, [m.jnt_range[j][0] for j in jid], -np.inf)
     high = np.where(limited, [m.jnt_range[j][1] for j in jid], np.inf)
-    if margins is not None:
-        low, high = np.minimum(low + margins, (low + high) / 2), np.maximum(high - margins, (low + high) / 2)
+    if margins is not None:  # an unlimited joint's bounds stay infinite (their middle is NaN)
+        mid = np.where(limited, (np.where(limited, low, 0) + np.where(limited, high, 0)) / 2, 0.0)
+        low = np.where(limited, np.minimum(low + margins, mid), low)
+        high = np.where(limited, np.maximum(high - margins, mid), high)
     w = np.ones(len(joints)) if weights is None else np.asarray(weights, float)
     targets = targets or {}
     q = np.clip(np.asarray(q, float), low, high)

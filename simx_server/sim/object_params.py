@@ -8,6 +8,7 @@ other plain-value functions here serve them, the script facade and in-process ca
 
 from __future__ import annotations
 
+import logging
 import math
 
 import mujoco
@@ -29,6 +30,10 @@ _PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
 PARAM_NAMES = {v: n for n, v in reversed(C.VREP_CONSTANTS.items()) if n.startswith(C.OBJECT_PARAM_PREFIXES)}
 _FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2002, 2018), 3005}
 _FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
+#: ``sim.shapefloatparam_texture_x`` ... ``_texture_scaling_y``: where a shape's texture lies on it.
+_TEXTURE_FLOATS = range(3006, 3014)
+_told: set[int] = set()  # texture parameters already logged as not carried out
+log = logging.getLogger("simx.sim")
 _INT_GET = {1002, 1003, 1017, 2000, 2001, 3003, 3004}
 _INT_SET = {1002, 1003, 1017, 2000, 2001}
 
@@ -159,7 +164,8 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
         sim: the simulation.
         handle: the object's handle.
         pid: 1000/1001 clipping (m), 1004 perspective angle (rad), 2002/2017 joint motor,
-            3005 mass (kg).
+            3005 mass (kg); 3006-3013 (a shape's texture position, orientation, scaling):
+            accepted and not carried out (one log line per parameter).
         value: the new value.
 
     Raises:
@@ -169,6 +175,13 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
         UnsupportedError: a read-only or unknown id.
     """
     world = sim.world
+    if pid in _TEXTURE_FLOATS and math.isfinite(value):  # old scene scripts slide a belt's texture
+        world.get(handle, SHAPE)
+        if pid not in _told:
+            _told.add(pid)
+            log.info("%s of a shape is not carried out in simx (MuJoCo's textures do not move on their "
+                     "geoms): the call is accepted, the texture stays", _pname(pid))
+        return
     if pid not in _FLOAT_SET:
         world.get(handle)
         raise _unsupported(pid, "float", True)

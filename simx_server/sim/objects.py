@@ -39,7 +39,7 @@ class SceneObject:
 #: ``simx:`` settings that belong to an object's scripts (docs/SCRIPTS.md): copies of the object
 #: and models loaded into a scene drop them all together.
 SCRIPT_SETTINGS = ("child_script", "customization_script", "threaded", "vrep_version", "script_parameters",
-                   "script_timeout")
+                   "script_timeout", "script_disabled")
 
 
 def without_scripts(text: str) -> str:

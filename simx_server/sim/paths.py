@@ -275,3 +275,102 @@ def find_one(world: World, path: str, index: int = -1, proxy: int | None = None)
         which = f" with index {index}" if index >= 0 else ""
         raise UnknownObjectError(f"object {quote(path)}{which} does not exist in scene {world.scene_name}")
     return found[0]
+
+
+def _children(world: World, parent: int) -> list[int]:
+    """The children of ``parent`` in paths' tree (-1: the world), in handle order."""
+    return [h for h, o in world.objects.items() if path_parent(world, o) == parent]
+
+
+def alias_with_order(world: World, handle: int) -> str:
+    """``alias[n]``: the object's alias, with its order among its siblings of the same alias
+    where it is not unique there (coppeliaSimLib ``CSceneObject::getObjectAliasAndOrderIfRequired``
+    and ``handleOrderIndexOfChildren``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+
+    Returns:
+        The alias, ``[n]`` appended where siblings share it.
+    """
+    obj = world.objects[handle]
+    short = object_alias(obj)
+    same = [h for h in _children(world, path_parent(world, obj)) if object_alias(world.objects[h]) == short]
+    return short if len(same) < 2 else f"{short}[{same.index(handle)}]"
+
+
+def full_path(world: World, handle: int) -> str:
+    """``/A/B/alias``: every ancestor's :func:`alias_with_order` (coppeliaSimLib
+    ``CSceneObject::getObjectAlias_fullPath``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+
+    Returns:
+        The path.
+    """
+    parts, h = [], handle
+    while h != WORLD and len(parts) <= len(world.objects):
+        parts.append(alias_with_order(world, h))
+        h = path_parent(world, world.objects[h])
+    return "/" + "/".join(reversed(parts))
+
+
+def short_path(world: World, handle: int) -> str:
+    """The shortest alias path that still names the object: from the object up, an ancestor is
+    kept where it is a model base or where leaving it out would name another object (coppeliaSimLib
+    ``CSceneObject::getObjectAlias_shortPath``; past 8 levels, :func:`full_path`).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+
+    Returns:
+        The path, e.g. ``/UR3/openCloseJoint``.
+    """
+    path = "/" + alias_with_order(world, handle)
+    kept = 1
+    h = path_parent(world, world.objects[handle])
+    while h != WORLD:
+        if kept > 8:
+            return full_path(world, handle)
+        up = path_parent(world, world.objects[h])
+        found = find(world, path if up == WORLD else "." + path, -1, None if up == WORLD else up)
+        if world.objects[h].settings.get("model_base") == "1" or found[:1] != [handle]:
+            path = "/" + alias_with_order(world, h) + path
+            kept += 1
+        h = up
+    return path
+
+
+def index_path(world: World, handle: int, models: int) -> str:
+    """``/parentModel{1}/alias{3}``: the object's alias, after those of up to ``models`` model
+    bases above it, each with its index among every object its path so far names (``{0}`` left
+    out where it is the only one; coppeliaSimLib ``CSceneObject::getObjectPathAndIndex``).
+
+    Args:
+        world: the world.
+        handle: an object's handle.
+        models: how many model bases above it to name (``getObjectAlias`` options 6-9: 0, 1, 2, all).
+
+    Returns:
+        The path.
+    """
+    chain, p = [handle], path_parent(world, world.objects[handle])
+    for _ in range(models):
+        while p != WORLD and world.objects[p].settings.get("model_base") != "1":
+            p = path_parent(world, world.objects[p])
+        if p == WORLD:
+            break
+        chain.append(p)
+        p = path_parent(world, world.objects[p])
+    path = ""
+    for h in reversed(chain):
+        path += "/" + object_alias(world.objects[h])
+        found = find(world, path)
+        index = found.index(h) if h in found else 0
+        if index or len(found) > 1:
+            path += f"{{{index}}}"
+    return path

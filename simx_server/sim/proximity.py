@@ -348,3 +348,56 @@ def proximity_reading(sim: SimulationView, handle: int,
     norm = np.linalg.norm(n)
     n = n / norm if norm > 0 else n
     return True, [float(x) for x in point], hit, [float(x) for x in n]
+
+
+def dummy_reading(world: World, handle: int, dummy: int) -> tuple[bool, list[float]]:
+    """Whether proximity sensor ``handle`` detects dummy ``dummy``, and its origin in the sensor
+    frame (m): as coppeliaSimLib ``CProxSensorRoutine::_detectDummy``, a dummy is a point, seen
+    when its origin lies in the sensor's volume; a ray-type sensor never sees one. The volume is
+    the sensor's cone (``angle=``: its opening), pyramid (``size=`` at ``offset=``, ``size_far=``
+    at the range) or cylinder (``radius=``, ``radius_far=``), between ``offset=`` and the
+    rangefinder's cutoff; a disc's thickness is not known to simx: ArgumentError.
+
+    Args:
+        world: the world.
+        handle: a proximity sensor's handle.
+        dummy: a dummy's handle.
+
+    Returns:
+        ``(detected, [x, y, z])``; not detected: ``(False, [0, 0, 0])``.
+
+    Raises:
+        ObjectTypeError: not a proximity sensor or not a dummy.
+        ArgumentError: a disc-type sensor, or bad volume settings.
+    """
+    from simx_server.sim.objects import DUMMY
+
+    obj = world.get(handle, PROXIMITY_SENSOR)
+    target = world.get(dummy, DUMMY)
+    m, d = world.model, world.data
+    k = site_sensor(m, obj.mj_id, mujoco.mjtSensor.mjSENS_RANGEFINDER)
+    far = float(m.sensor_cutoff[k]) if k is not None and m.sensor_cutoff[k] > 0 else math.inf
+    rot = d.site_xmat[obj.mj_id].reshape(3, 3)
+    p = rot.T @ (d.site_xpos[target.mj_id] - d.site_xpos[obj.mj_id])
+    kind = obj.settings.get("volume", "cone" if obj.settings.get("angle") else "ray")
+    (offset,) = _floats(obj, "offset", 1, (0.0,))
+    if kind == "disc":
+        raise ArgumentError(f"checkProximitySensor of a dummy: {obj.name!r} is a disc-type sensor, whose "
+                            "thickness simx does not know")
+    dist = float(np.linalg.norm(p))
+    if kind == "ray" or dist == 0.0:
+        inside = False
+    elif kind == "cone":
+        inside = offset <= dist <= far and math.acos(max(-1.0, min(1.0, p[2] / dist))) <= cone_angle(obj) / 2
+    else:
+        end = far if math.isfinite(far) else offset + 1.0
+        f = (p[2] - offset) / (end - offset) if end > offset else -1.0
+        if kind == "pyramid":
+            x, y = _floats(obj, "size", 2, (0.1, 0.1))
+            xf, yf = _floats(obj, "size_far", 2, (x, y))
+            inside = 0 <= f <= 1 and abs(p[0]) <= (x + f * (xf - x)) / 2 and abs(p[1]) <= (y + f * (yf - y)) / 2
+        else:
+            (r,) = _floats(obj, "radius", 1, (0.05,))
+            (rf,) = _floats(obj, "radius_far", 1, (r,))
+            inside = 0 <= f <= 1 and math.hypot(p[0], p[1]) <= r + f * (rf - r)
+    return (True, [float(v) for v in p]) if inside else (False, [0.0, 0.0, 0.0])

@@ -33,7 +33,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                    "handleSimulationStart", "initScript", "moduleEntry",
                                    "fastIdleLoop", "handleGraph", "resetGraph")},
     **{n: ("n/a", _PLUGIN) for n in ("getLoadedPlugins", "getPluginInfo", "getPluginName", "isPluginLoaded",
-                                     "loadPlugin", "setPluginInfo", "getExtensionString", "registerScriptFuncHook")},
+                                     "loadPlugin", "setPluginInfo", "registerScriptFuncHook")},
     **{n: ("n/a", _CALLBACK) for n in ("visitTree", "scheduleExecution", "cancelScheduledExecution", "testCB",
                                        "Object")},
     **{n: ("refused", _SECURITY) for n in ("launchExecutable", "serialOpen", "serialClose", "serialCheck", "serialRead",

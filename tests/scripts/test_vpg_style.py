@@ -195,8 +195,10 @@ def test_shape_colour_and_name_through_the_facade(tmp_path):
     assert w.model.geom_rgba[geom][:3] == pytest.approx([0.1, 0.2, 0.3])  # the colour survived
     with pytest.raises(Exception, match="taken by another object"):
         f.setObjectName(h2, "red_cube")
-    with pytest.raises(Exception, match="rgbData must be in"):
-        f.setShapeColor(h, None, 0, [2, 0, 0])
+    f.setShapeColor(h, None, 0, [2, 0, 0])  # kept by CoppeliaSim, clamped when drawn
+    assert w.model.geom_rgba[geom][:3] == pytest.approx([1, 0, 0])
+    with pytest.raises(Exception, match="must be finite"):
+        f.setShapeColor(h, None, 0, [float("nan"), 0, 0])
     with pytest.raises(Exception, match="MAX_IMPORT_BYTES"):
         big = tmp_path / "big.obj"
         big.write_bytes(b"#" * (17 * 1024 * 1024))

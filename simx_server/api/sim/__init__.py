@@ -12,7 +12,7 @@ pose arithmetic (:mod:`.posemath`, :mod:`.rotations`), simulation and parameters
 (:mod:`.params`, :mod:`.engine`, :mod:`.remote`), drawing, graphs and particles
 (:mod:`.links`, :mod:`.graphs`, :mod:`.particles`), windows answered headless (:mod:`.gui`),
 files and services (:mod:`.misc`, :mod:`.services`), threads (:mod:`.threads`), and V-REP 3.x's
-calls (:mod:`.legacy` and the ``legacy_*`` modules).
+calls (:mod:`.legacy` and the ``legacy_*`` modules, configuration trees in :mod:`.legacy_config`).
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ from pathlib import Path
 from simx_server.api.registry import SIM
 from simx_server.api.sim import (  # noqa: F401 (each module registers its functions)
     build, clouds, common, core, create, data, engine, flags, forces, graphs, gui, ik_groups, inertia, joint_modes,
-    joints, legacy, legacy_data, legacy_measurements, legacy_objects, legacy_tubes, legacy_wireless, links, looks,
-    mesh, meshops, misc, motion, objects, octrees, params, particles, paths, posemath, props, remote, rotations,
-    ruckig, scripting, sensing, sensors, services, shape_import, shapes, stepped, threads, trajectory)
+    joints, legacy, legacy_config, legacy_data, legacy_measurements, legacy_objects, legacy_tubes, legacy_wireless,
+    links, looks, mesh, meshops, misc, motion, objects, octrees, params, particles, paths, posemath, props, remote,
+    rotations, ruckig, scripting, sensing, sensors, services, shape_import, shapes, stepped, threads, trajectory)
 
 #: CoppeliaSim 4.x's ``sim`` constants (``sim.primitiveshape_cuboid``, ``sim.intparam_program_version``...),
 #: from the table the ZMQ remote API ships (``simx_server/zmq/coppeliasim_api.json``, data read here).

@@ -16,6 +16,7 @@ from typing import Any
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.base.arguments import as_integer as _int, as_text as _text
+from simx_wire.protocol import ArgumentError
 
 log = logging.getLogger("simx.scripts")
 
@@ -355,3 +356,90 @@ def setObjectSelection(ctx: CallContext, objectHandles: Any) -> None:  # noqa: N
     sim.selection = [ctx.world.get(ctx.h(h, "objectHandle")).handle for h in objectHandles]
 
 
+
+
+def _selection_targets(ctx: CallContext, what: int, handle: Any) -> list[int]:
+    """The objects ``sim_handle_single`` / ``_tree`` / ``_chain`` / ``_all`` name around ``handle``."""
+    w = ctx.world
+    if what == -2:  # sim_handle_all
+        return list(w.objects)
+    h = w.get(ctx.h(handle, "objectHandle")).handle
+    if what == -6:  # sim_handle_tree: the object and every object below it
+        found, todo = [], [h]
+        while todo:
+            cur = todo.pop()
+            found.append(cur)
+            todo.extend(o.handle for o in w.objects.values() if o.parent == cur)
+        return found
+    if what == -7:  # sim_handle_chain: the object and every object above it
+        chain = [h]
+        while w.objects[chain[-1]].parent != -1 and len(chain) <= len(w.objects):
+            chain.append(w.objects[chain[-1]].parent)
+        return chain
+    if what == -8:  # sim_handle_single
+        return [h]
+    raise ArgumentError(f"what must be sim.handle_single, _tree, _chain or _all, got {what}")
+
+
+@sim_function("addObjectToSelection")
+def addObjectToSelection(ctx: CallContext, what: Any, objectHandle: Any = None) -> int:  # noqa: N802, N803
+    """V-REP 3.x's ``simAddObjectToSelection(what, objectHandle)``: the object (``sim.handle_single``),
+    its tree (``sim.handle_tree``), its chain of parents (``sim.handle_chain``) or every object
+    (``sim.handle_all``) join the selection :func:`getObjectSelection` answers (coppeliaSimLib
+    ``simAddObjectToSelection_internal``).
+
+    Args:
+        what: ``sim.handle_single``, ``_tree``, ``_chain`` or ``_all``.
+        objectHandle: the object (ignored for ``sim.handle_all``).
+
+    Returns:
+        1.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ArgumentError: another ``what``.
+    """
+    sim = ctx.simulation("addObjectToSelection")
+    current = list(getattr(sim, "selection", []) or [])
+    sim.selection = current + [h for h in _selection_targets(ctx, _int(what, "what"), objectHandle) if h not in current]
+    return 1
+
+
+@sim_function("removeObjectFromSelection")
+def removeObjectFromSelection(ctx: CallContext, what: Any, objectHandle: Any = None) -> int:  # noqa: N802, N803
+    """V-REP 3.x's ``simRemoveObjectFromSelection(what, objectHandle)``: as
+    :func:`addObjectToSelection`, the objects leave the selection (``sim.handle_all``: all of them;
+    coppeliaSimLib ``simRemoveObjectFromSelection_internal``).
+
+    Args:
+        what: ``sim.handle_single``, ``_tree``, ``_chain`` or ``_all``.
+        objectHandle: the object (ignored for ``sim.handle_all``).
+
+    Returns:
+        1.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ArgumentError: another ``what``.
+    """
+    sim = ctx.simulation("removeObjectFromSelection")
+    gone = set(_selection_targets(ctx, _int(what, "what"), objectHandle))
+    sim.selection = [h for h in (getattr(sim, "selection", []) or []) if h not in gone]
+    return 1
+
+
+@sim_function("isObjectInSelection")
+def isObjectInSelection(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N802, N803
+    """V-REP 3.x's ``simIsObjectInSelection``: 1 when the object is selected, else 0.
+
+    Args:
+        objectHandle: the object's handle.
+
+    Returns:
+        1 or 0.
+
+    Raises:
+        UnknownObjectError: no such object.
+    """
+    h = ctx.world.get(ctx.h(objectHandle, "objectHandle")).handle
+    return int(h in (getattr(ctx.view, "selection", []) or []))

@@ -12,6 +12,7 @@ memory cannot be written as MJCF (an error says so).
 
 from __future__ import annotations
 
+import base64
 import itertools
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.api.sim import sensors as _sensors
+from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim.objects import JOINT
@@ -234,11 +236,21 @@ def getVisionSensorDepthBuffer(ctx: CallContext, sensorHandle: Any, pos: Any = N
 
 
 def _refs(ctx: CallContext, handle: Any) -> dict[str, list[int]]:
+    """The object's referenced handles, tag -> handles; first seeded from the scene's
+    ``refs.TAG=NAME,NAME`` settings (a converted ``.ttt``'s, :mod:`simx_server.scene.ttt.custom`)."""
     holder = ctx.holder
     store = getattr(holder, "referenced_handles", None)
     if store is None:
         store = holder.referenced_handles = {}
-    return store.setdefault(ctx.world.get(ctx.h(handle)).handle, {})
+    obj = ctx.world.get(ctx.h(handle))
+    refs = store.get(obj.handle)
+    if refs is None:
+        refs = store[obj.handle] = {}
+        for key, value in obj.settings.items():
+            if key == "refs" or key.startswith("refs."):
+                found = [ctx.world.by_name.get(n) for n in value.split(",")]
+                refs[key[5:]] = [o.handle for o in found if o is not None]
+    return refs
 
 
 @sim_function("setReferencedHandles")
@@ -447,3 +459,54 @@ def saveModel(ctx: CallContext, modelBaseHandle: Any, filename: Any) -> None:  #
     ctx.simulation("saveModel").editor.files.write(file, text.encode("utf-8"), key, str(filename))
 
 
+
+
+def _value_of_key(key: str, text: str) -> str | None:
+    """``tt::getValueOfKey``: in ``key1 {value1} key2 {value2 {nested}}``, the value of ``key``
+    (``a@b``: key ``a`` inside the value of ``b``), None when absent."""
+    for part in reversed(key.split("@")):
+        pairs, rest = {}, text
+        while "{" in rest:
+            p1, depth = rest.index("{"), 0
+            for p2 in range(p1, len(rest)):
+                depth += {"{": 1, "}": -1}.get(rest[p2], 0)
+                if depth == 0:
+                    break
+            else:
+                break
+            pairs.setdefault(rest[:p1].strip(), rest[p1 + 1:p2].strip())
+            rest = rest[p2 + 1:]
+        text = pairs.get(part, "")
+        if not text:
+            return None
+    return text
+
+
+@sim_function("getExtensionString")
+def getExtensionString(ctx: CallContext, objectHandle: Any, index: Any, key: Any = None) -> str | None:  # noqa: N802, N803
+    """An object's extension string as the ``.ttt`` stored it (``extension=`` setting), or the
+    value of ``key`` in it (``povray@...``), as coppeliaSimLib ``simGetExtensionString_internal``;
+    None (Lua nil) when empty or absent. The scene's own (``objectHandle`` -1) and a shape's
+    mesh colours' (``index`` >= 0) are not read from the file: UnsupportedError.
+
+    Args:
+        objectHandle: an object's handle.
+        index: -1 (the object's own string).
+        key: a key, or None / "" for the whole string.
+
+    Returns:
+        The text, or None.
+
+    Raises:
+        UnknownObjectError: no such object.
+        UnsupportedError: the scene's or a mesh colour's string.
+    """
+    h, i = _int(objectHandle, "objectHandle"), _int(index, "index")
+    if h == -1 or (i >= 0 and ctx.world.get(ctx.h(h)).type == C.sim_object_shape_type):
+        raise UnsupportedError("getExtensionString: simx keeps objects' extension strings only (not the "
+                               "scene's, nor a shape's mesh colours')")
+    raw = ctx.world.get(ctx.h(h)).settings.get("extension", "")
+    text = base64.urlsafe_b64decode(raw + "=" * (-len(raw) % 4)).decode("utf-8", "replace") if raw else ""
+    if text and key:
+        return _value_of_key(_text(key, "key"), text)
+    return text or None

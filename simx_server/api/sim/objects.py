@@ -42,23 +42,27 @@ def getObject(ctx: CallContext, path: Any, options: Any = None) -> int:  # noqa:
     ``A{n}``, wildcards), ``"."`` (the script's object) or a path below it (``"./arm/joint"``),
     ``":"`` / ``":/B"`` from the script's model base. ``options`` ``{noError = true}`` answers -1
     instead of an error for an unknown object; ``{index = n}`` takes the n-th (0-based) of
-    the objects the path matches, in tree order.
+    the objects the path matches, in tree order; ``{proxy = h}``: relative paths start from
+    object ``h`` instead of the caller's (coppeliaSimLib ``simGetObject_internal``; an absolute
+    ``/A`` path ignores it).
 
     Args:
         path: a name or path.
-        options: ``{noError = true, index = n}``, or None.
+        options: ``{noError = true, index = n, proxy = h}``, or None.
 
     Returns:
         The handle, or -1 (``noError``).
 
     Raises:
-        UnknownObjectError: no such object (without ``noError``).
+        UnknownObjectError: no such object (without ``noError``), or no proxy object ``h``.
         ArgumentError: a path that is not a string.
     """
     p = _text(path, "object path")
     opts = options if isinstance(options, dict) else {}
     index = _int(opts.get("index", -1), "index")
-    found = paths.find(ctx.world, p, index, ctx.path_base())
+    proxy = opts.get("proxy", -1)  # simGetObject_internal: the object '.' and ':' start from
+    base = ctx.path_base() if proxy in (-1, None) else ctx.world.get(_int(proxy, "proxy")).handle
+    found = paths.find(ctx.world, p, index, base)
     if found:
         return found[0]
     if opts.get("noError"):
@@ -69,29 +73,47 @@ def getObject(ctx: CallContext, path: Any, options: Any = None) -> int:  # noqa:
 
 @sim_function("getObjectAlias")
 def getObjectAlias(ctx: CallContext, handle: Any, options: Any = -1) -> str:  # noqa: N802 (CoppeliaSim's names)
-    """The object's alias (CoppeliaSim 4.3; in simx the name, or a converted 4.3+ ``.ttt``'s
-    own alias: :func:`simx_server.sim.paths.object_alias`): ``options`` -1 or 0 the alias
-    alone, 1 and above the full path ``/UR5/UR5_joint1`` (the form ``sim.getObject`` and
-    ``simxGetObjectHandle`` resolve).
+    """The object's alias or alias path, as coppeliaSimLib ``simGetObjectAlias_internal``:
+    ``options`` -1 the alias (in simx the name less its ``#N``, or a converted 4.3+ ``.ttt``'s
+    own alias: :func:`simx_server.sim.paths.object_alias`), 0 the alias with its order among
+    same-alias siblings (``joint[1]``), 1 the shortest path that names it (``/UR3/openCloseJoint``),
+    2 the full path, 3 the alias where unique in the scene else 4: ``alias__HANDLE__``, 5 the
+    short path shortened for printing (``/A/ ... /alias``), 6-9 the alias with its ``{n}`` index
+    after 0, 1, 2 or all of the model bases above it (``/Robot{1}/finger{3}``).
 
     Args:
         handle: the object's handle, or ``sim.handle_self``.
-        options: -1, 0 or 1 and above.
+        options: -1 to 9.
 
     Returns:
         The alias or path.
 
     Raises:
         UnknownObjectError: no such object.
+        ArgumentError: another ``options``.
     """
     obj = ctx.world.get(ctx.h(handle))
-    if _int(options, "options") <= 0:
-        return obj.settings.get("alias") or obj.name
-    parts, h = [], obj.handle
-    while h != WORLD and len(parts) <= len(ctx.world.objects):  # V-REP's tree, as paths walk it
-        parts.append(ctx.world.objects[h].name)
-        h = paths.path_parent(ctx.world, ctx.world.objects[h])
-    return "/" + "/".join(reversed(parts))
+    w, opt = ctx.world, _int(options, "options")
+    short = paths.object_alias(obj)
+    if opt == -1:
+        return short
+    if opt == 0:
+        return paths.alias_with_order(w, obj.handle)
+    if opt == 1:
+        return paths.short_path(w, obj.handle)
+    if opt == 2:
+        return paths.full_path(w, obj.handle)
+    if opt == 3 and len(paths.find(w, "/" + short)) < 2:
+        return short
+    if opt in (3, 4):
+        return f"{short}__{obj.handle}__"
+    if opt == 5:
+        path = paths.short_path(w, obj.handle)
+        parts = path.split("/")
+        return path if len(path) <= 40 or len(parts) < 4 else f"/{parts[1]}/ ... /{parts[-1]}"
+    if opt in (6, 7, 8, 9):
+        return paths.index_path(w, obj.handle, {6: 0, 7: 1, 8: 2, 9: len(w.objects)}[opt])
+    raise ArgumentError(f"getObjectAlias options {opt}: CoppeliaSim's are -1 to 9")
 
 
 @sim_function("setObjectName")

@@ -12,14 +12,16 @@ object it is attached to (``sim.getScript``).
 from __future__ import annotations
 
 import copy
+import logging
 from typing import Any
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.base.arguments import as_integer as _int, as_number as _num
 from simx_wire import constants
-from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import ArgumentError, ScriptError, UnsupportedError
 
+log = logging.getLogger("simx.scripts")
 _HANDLE_SELF: int = constants.VREP_CONSTANTS["sim_handle_self"]
 #: ``sim.broadcastMsg`` calls nested in receivers' ``sysCall_msg`` (a receiver that broadcasts
 #: back): past this depth the call is refused rather than recursing without end.
@@ -196,3 +198,84 @@ def getAutoYieldDelay(ctx: CallContext) -> float:  # noqa: N802
         The delay in s.
     """
     return ctx.state.auto_yield_delay_ms / 1000.0
+
+
+#: ``sim.scriptintparam_*`` (CoppeliaSim 4.x's values; ``simSetScriptInt32Param_internal`` also
+#: takes the older 0-9, offset by 10100).
+_EXECORDER, _EXECCOUNT, _TYPE, _HANDLE, _ENABLED, _OBJECTHANDLE, _LANG, _AUTORESTART = range(10100, 10108)
+
+
+def _script_param(ctx: CallContext, scriptHandle: Any, parameterID: Any) -> tuple[Any, int]:  # noqa: N803
+    h = _int(scriptHandle, "scriptHandle")
+    h = ctx.owner if h == _HANDLE_SELF else h
+    script = _script_of(ctx, h)
+    if script is None:
+        raise ArgumentError(f"scriptHandle: object {h} has no script")
+    p = _int(parameterID, "parameterID")
+    return script, p + 10100 if 0 <= p < 10 else p
+
+
+@sim_function("setScriptInt32Param")
+def setScriptInt32Param(ctx: CallContext, scriptHandle: Any, parameterID: Any, parameter: Any) -> int:  # noqa: N802, N803
+    """``sim.scriptintparam_enabled``: 0 disables the script (its system callbacks no more run;
+    its functions can still be called), 1 enables it again (a script saved disabled starts then:
+    top level and ``sysCall_init``); ``sim.scriptintparam_execcount`` sets
+    its execution count. Other parameters: ArgumentError (simx runs scripts in tree order).
+
+    coppeliaSimLib ``simSetScriptInt32Param_internal`` (``CDetachedScript::setScriptIsDisabled``,
+    ``setNumberOfPasses``).
+
+    Args:
+        scriptHandle: the script's handle (its object's), or ``sim.handle_self``.
+        parameterID: a ``sim.scriptintparam_*`` constant.
+        parameter: the value.
+
+    Returns:
+        1.
+
+    Raises:
+        ArgumentError: no such script, or a parameter simx does not set.
+    """
+    script, p = _script_param(ctx, scriptHandle, parameterID)
+    value = _int(parameter, "parameter")
+    if p == _ENABLED:
+        script.disabled = value == 0
+        if value and script.pending_start:  # saved disabled: it starts now (CoppeliaSim: at its first pass)
+            script.pending_start = False
+            try:
+                script.start()
+            except ScriptError as exc:
+                log.error("%s", exc)
+    elif p == _EXECCOUNT:
+        script.executions = value
+    else:
+        raise ArgumentError(f"setScriptInt32Param: parameter {p} is not one simx sets "
+                            f"(sim.scriptintparam_enabled, sim.scriptintparam_execcount)")
+    return 1
+
+
+@sim_function("getScriptInt32Param")
+def getScriptInt32Param(ctx: CallContext, scriptHandle: Any, parameterID: Any) -> int:  # noqa: N802, N803
+    """``sim.scriptintparam_enabled`` (1/0), ``_execcount``, ``_type`` (``sim.scripttype_*``),
+    ``_handle`` and ``_objecthandle`` (in simx both the object's handle), ``_lang`` (0 Lua,
+    1 Python), ``_execorder`` (0, normal), ``_autorestartonerror`` (0).
+
+    coppeliaSimLib ``simGetScriptInt32Param_internal``.
+
+    Args:
+        scriptHandle: the script's handle (its object's), or ``sim.handle_self``.
+        parameterID: a ``sim.scriptintparam_*`` constant.
+
+    Returns:
+        The value.
+
+    Raises:
+        ArgumentError: no such script or parameter.
+    """
+    script, p = _script_param(ctx, scriptHandle, parameterID)
+    values = {_ENABLED: int(not script.disabled), _EXECCOUNT: script.executions,
+              _TYPE: 1 if script.kind == "child" else 6, _HANDLE: script.owner, _OBJECTHANDLE: script.owner,
+              _LANG: int(type(script).__name__ == "PythonScript"), _EXECORDER: 0, _AUTORESTART: 0}
+    if p not in values:
+        raise ArgumentError(f"getScriptInt32Param: no script parameter {p}")
+    return values[p]

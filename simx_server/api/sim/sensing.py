@@ -341,11 +341,12 @@ def handleProximitySensor(ctx: CallContext, sensorHandle: Any) -> tuple[int, flo
 def checkProximitySensor(ctx: CallContext, sensorHandle: Any, entityHandle: Any) -> tuple[int, float, list[float]]:  # noqa: N802, N803
     """``result, distance, detectedPoint`` against ``entityHandle`` (``sim.handle_all``: any
     detectable shape; a shape: only that one, whatever its detectable flags, as V-REP's
-    ``simCheckProximitySensor`` overrides them for a single object; nothing else is in the way).
+    ``simCheckProximitySensor`` overrides them for a single object; nothing else is in the way;
+    a dummy: its origin, when inside the volume, :func:`simx_server.sim.proximity.dummy_reading`).
 
     Args:
         sensorHandle: a proximity sensor's handle.
-        entityHandle: a shape, or ``sim.handle_all``.
+        entityHandle: a shape, a dummy, or ``sim.handle_all``.
 
     Returns:
         ``(result, distance, [x, y, z])``: m, sensor frame.
@@ -354,6 +355,9 @@ def checkProximitySensor(ctx: CallContext, sensorHandle: Any, entityHandle: Any)
     if e == C.sim_handle_all:
         detected, dist, point, hit, _ = ctx.sim.readProximitySensor(_proximity(ctx, sensorHandle))
         return detected, dist, point
+    if ctx.world.get(e).type == C.sim_object_dummy_type:  # a point (CProxSensorRoutine::_detectDummy)
+        found, point = proximity.dummy_reading(ctx.world, _proximity(ctx, sensorHandle), e)
+        return int(found), float(np.linalg.norm(point)), point
     found, point, _, _ = proximity.proximity_reading(ctx.simulation("checkProximitySensor"),
                                                     _proximity(ctx, sensorHandle), ctx.world.get(e, SHAPE).handle)
     return int(found), float(np.linalg.norm(point)), point

@@ -147,7 +147,7 @@ def loadImage(ctx: CallContext, options: Any, filename: Any) -> tuple[bytes, lis
 def getObjectAliasRelative(ctx: CallContext, handle: Any, baseHandle: Any, options: Any = -1) -> str:  # noqa: N802, N803
     """The object's path relative to ``baseHandle`` (``./link/joint``, the form
     ``sim.getObject`` resolves with ``proxy``); an object outside the base's tree, or a base of
-    ``sim.handle_world``: its full path as ``getObjectAlias(handle, 1)``.
+    ``sim.handle_world``: its full path as ``getObjectAlias(handle, 2)``.
 
     ``sim.getObjectAliasRelative``.
 
@@ -172,7 +172,7 @@ def getObjectAliasRelative(ctx: CallContext, handle: Any, baseHandle: Any, optio
         parts.append(ctx.world.objects[h].name)
         h = ctx.world.objects[h].parent
     if h == WORLD:
-        return ctx.sim.getObjectAlias(obj.handle, 1)
+        return ctx.sim.getObjectAlias(obj.handle, 2)
     return "./" + "/".join(reversed(parts))
 
 

@@ -159,6 +159,10 @@ def importShape(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options
     return import_shape(ctx.simulation("importShape"), fmt, path, scale or 1.0, ctx.script)
 
 
+#: The prefix V-REP 3.1.3's compatibility helper puts before a shape handle (``colorCorrectionFunction``).
+_BACK1 = "@backCompatibility1:"
+
+
 @sim_function("setShapeColor")
 def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorComponent: Any,  # noqa: N802, N803
                   rgbData: Any) -> int:  # noqa: N803
@@ -168,17 +172,30 @@ def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
     ``colorComponent`` 0 (``sim.colorcomponent_ambient_diffuse``) or 1 (diffuse) with
     ``rgbData`` = {r, g, b} in [0, 1] (the geom's material, if any, is dropped so that the
     colour shows); 4 (``sim.colorcomponent_transparency``) with {t}, the opacity lost, as
-    V-REP's transparency (alpha = 1 - t). Other components (specular, emission...) are
-    accepted and ignored, as MuJoCo renders no such per-geom colours. Returns 1. The colour
-    lasts until the scene is reloaded (stopping the simulation keeps it). Raises
-    UnknownObjectError / ObjectTypeError (not a shape), ArgumentError (bad colour)."""
+    V-REP's transparency (alpha = 1 - t). Components outside [0, 1] (old scripts pass 0-255)
+    are kept by CoppeliaSim (``CColorObject::setColor``) and clamped by OpenGL when drawn: simx
+    clamps them. Other components (specular, emission...) are accepted and ignored, as MuJoCo
+    renders no such per-geom colours. ``shapeHandle`` ``'@backCompatibility1:H'`` (the helper
+    V-REP 3.1.3 added to old scripts) is shape H with the ambient-diffuse colour corrected as
+    coppeliaSimLib ``_simSetShapeColor`` does ((c + 0.25) / 0.85, scaled to a largest of 1).
+    Returns 1. The colour lasts until the scene is reloaded (stopping the simulation keeps it).
+    Raises UnknownObjectError / ObjectTypeError (not a shape), ArgumentError (bad colour)."""
     world = ctx.world
+    correct = isinstance(shapeHandle, (str, bytes)) and _text(shapeHandle, "shapeHandle").startswith(_BACK1)
+    if correct:
+        try:
+            shapeHandle = int(_text(shapeHandle, "shapeHandle")[len(_BACK1):])
+        except ValueError:
+            raise ArgumentError(f"shapeHandle {quote(shapeHandle)}: no handle after {_BACK1}") from None
     obj = world.get(ctx.h(shapeHandle, "shapeHandle"), SHAPE)
     name = None if colorName is None else _text(colorName, "colorName")
     component = _int(colorComponent, "colorComponent")
     values = _vector(rgbData, 1 if component == 4 else 3, "rgbData") if component in (0, 1, 4) else None
-    if values is not None and not all(0.0 <= v <= 1.0 for v in values):
-        raise ArgumentError(f"rgbData must be in [0, 1], got {quote(rgbData)}")
+    if values is not None and correct and component == 0 and not (name or "").startswith("@"):
+        values = [(v + 0.25) / 0.85 for v in values]
+        values = [v / max(values) for v in values] if max(values) > 1.0 else values
+    if values is not None:
+        values = [min(max(float(v), 0.0), 1.0) for v in values]
     m = world.model
     geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == obj.mj_id
              and (not name or mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) == name)]

@@ -13,6 +13,7 @@ so that their names still resolve. V-REP semantics MJCF has no attribute for go 
 
 from __future__ import annotations
 
+import base64
 import json
 import re
 from collections import Counter
@@ -150,14 +151,25 @@ class Converter:
             self.setting(obj.name, f"vrep_parent={name}")
 
     def _aliases(self) -> None:
-        """CoppeliaSim 4.3+ aliases that are not the name less its ``#N`` (``alias=A``) and
-        model bases (``model_base=1``)."""
+        """CoppeliaSim 4.3+ aliases that are not the name less its ``#N`` (``alias=A``), model
+        bases (``model_base=1``), referenced handles (``refs.TAG=NAME,NAME``; ``refs=`` the
+        untagged ones) and extension strings (``extension=BASE64``)."""
         for obj in self.scene.objects.values():
             alias = re.sub(r"[^A-Za-z0-9_]", "_", obj.alias)
             if alias and alias != re.sub(r"#\d+$", "", obj.name):
                 self.setting(obj.name, f"alias={alias}")
             if obj.model_base:  # paths' ':' and '::' (simx_server.sim.paths)
                 self.setting(obj.name, "model_base=1")
+            for tag, handles in obj.references.items():  # sim.getReferencedHandles
+                names = [self.names[h] for h in handles if h in self.names]
+                if re.fullmatch(r"[A-Za-z0-9_.]*", tag) and names and all(
+                        _setting_safe(n) and "," not in n for n in names):
+                    self.setting(obj.name, f"refs{'.' + tag if tag else ''}={','.join(names)}")
+                else:
+                    self.report.add("referenced handles of tags or names simx cannot store")
+            if obj.extension.strip():  # sim.getExtensionString: the text as unpadded URL-safe base64
+                text = base64.urlsafe_b64encode(obj.extension.encode()).decode().rstrip("=")
+                self.setting(obj.name, f"extension={text}")
 
     def _special_properties(self) -> None:
         """Each object's special properties (collidable, measurable, detectable, renderable:

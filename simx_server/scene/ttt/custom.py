@@ -14,6 +14,10 @@ Custom data (what ``sim.writeCustomDataBlock`` wrote; scripts read it back with
 Script simulation parameters: the script's ``Prm`` (up to 4.2) or the object's ``Lsp`` (4.3+)
 hold one ``Par`` record: i32 count, then per parameter three i32-length strings (name, unit,
 value) and i32 properties.
+
+Referenced handles (``sim.setReferencedHandles``; coppeliaSimLib ``CSceneObject::serialize``):
+``Crh`` the untagged list (i32 count, then per entry i32 object type, i32 handle, i32 0) and one
+``Cr2`` per tag (i32-length tag, i32 count, i32 handles).
 """
 
 from __future__ import annotations
@@ -111,3 +115,28 @@ def read_parameters(holder: Records, tag: str) -> list[dict]:
         p += 4  # properties
         params.append({"name": name, "value": value, "unit": unit})
     return params
+
+
+_MAX_REFERENCES = 10_000
+
+
+def read_references(common: Records) -> dict[str, list[int]]:
+    """An object's referenced handles, tag -> handles in the file's numbering (``Crh``: tag
+    ``""``; ``Cr2``: one tag each), as coppeliaSimLib ``CSceneObject::serialize`` loads them.
+    A truncated record raises SceneFileError naming it."""
+    refs: dict[str, list[int]] = {}
+    for tag, payload in common:
+        if tag == "Crh":
+            if len(payload) < 4:
+                raise common.error(tag, "truncated")
+            n = struct.unpack_from("<i", payload, 0)[0]
+            if not 0 <= n <= _MAX_REFERENCES or len(payload) < 4 + 12 * n:
+                raise common.error(tag, f"{n} references in {len(payload)} bytes")
+            refs[""] = [struct.unpack_from("<i", payload, 4 + 12 * i + 4)[0] for i in range(n)]
+        elif tag == "Cr2":
+            key, p = read_string(payload, 0, common, tag)
+            n = struct.unpack_from("<i", payload, p)[0] if p + 4 <= len(payload) else -1
+            if not 0 <= n <= _MAX_REFERENCES or len(payload) < p + 4 + 4 * n:
+                raise common.error(tag, f"references of tag {key!r} truncated")
+            refs[key] = list(struct.unpack_from(f"<{n}i", payload, p + 4))
+    return refs

@@ -152,6 +152,8 @@ class TttObject:
     custom_data: dict[str, bytes] = field(default_factory=dict)  # sim.readCustomDataBlock's blocks: tag -> data
     developer_data: int = 0  # custom data blocks of other headers (V-REP's simAddObjectCustomData), not kept
     script_parameters: list[dict] = field(default_factory=list)  # 4.3+: kept with the object (``Lsp``)
+    references: dict[str, list[int]] = field(default_factory=dict)  # sim.setReferencedHandles: tag -> handles
+    extension: str = ""  # sim.getExtensionString's text (``Rst``)
     special: int | None = None  # V-REP's object special property bits (``Omp``), None: not in the file
     model_property: int = 0xF000  # ``Mpo``: a model base's override bits (sim.modelproperty_not_*)
 

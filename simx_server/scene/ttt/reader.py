@@ -178,6 +178,8 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
                     layers=int(lar[0]) if lar is not None else 1)
     obj.custom_data, obj.developer_data = custom.read_custom_data(common)
     obj.script_parameters = custom.read_parameters(common, "Lsp")
+    obj.references = custom.read_references(common)
+    obj.extension = common.string("Rst")  # CSceneObject::serialize: the extension string
     if common.get("Omp") is not None:  # CSceneObject::serialize: _localObjectSpecialProperty
         obj.special = common.int("Omp")
     obj.model_property = common.int("Mpo", 0xF000)
@@ -313,8 +315,10 @@ def _read_ik_group(r: Records) -> IkGroup:
             ctr = sub.int("Ctr", 7)
             if ik2 is not None:
                 elements.append((int(ik2[0]), int(ik2[1]), ctr))
-    va = r.byte("Va2")
-    return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=bool(va & 2))
+    # "Var" (coppeliaSimLib CIkGroup_old::serialize): bit 6 explicit handling; files before it
+    # carried the flag as Va2 bit 1 (read there since 2020 no more, kept for old files)
+    explicit = bool(r.byte("Var") & 64) if r.get("Var") is not None else bool(r.byte("Va2") & 2)
+    return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=explicit)
 
 
 def _read_dynamics(r: Records, scene: TttScene) -> None:

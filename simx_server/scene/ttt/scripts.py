@@ -38,7 +38,8 @@ def _unique(stem: str, used: set[str]) -> str:
 
 def write_scripts(conv) -> None:
     """Write each child/customization script of ``conv.scene`` into ``conv.out`` and record its
-    settings; a main script that is not V-REP's default and disabled scripts are reported."""
+    settings (a disabled one with ``script_disabled=1``: loaded, not run until enabled); a main
+    script that is not V-REP's default is reported."""
     scene = conv.scene
     used: set[str] = set()
     taken = {(s.object, s.type) for s in scene.scripts if scene.objects.get(s.object) is not None
@@ -62,9 +63,6 @@ def write_scripts(conv) -> None:
         if obj is None:
             conv.report.add("scripts attached to no object")
             continue
-        if script.disabled:
-            conv.report.add("disabled scripts")
-            continue
         kind = "child" if script.type == CHILD else "customization"
         ext = "py" if script.language.lower().startswith("py") else "lua"
         stem = _unique(f"{_safe(obj.name)}_{kind}", used)
@@ -74,6 +72,8 @@ def write_scripts(conv) -> None:
         items = [f"{kind}_script={file}"]
         if script.threaded and script.type == CHILD:
             items.append("threaded=1")
+        if script.disabled:  # kept, not run: a client may enable it (sim.scriptintparam_enabled)
+            items.append("script_disabled=1")
         parameters = script.parameters or obj.script_parameters  # 4.3+ keeps them with the object
         if parameters:
             pfile = f"{stem}_parameters.json"

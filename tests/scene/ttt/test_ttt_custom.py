@@ -221,7 +221,7 @@ def test_full_paths_walk_vreps_tree(tmp_path, monkeypatch):
         api = script_sim(sim.world, sim.world.resolve("MTB_Robot").handle, sim.signals, simulation=sim)
         body = sim.world.resolve("suctionPadBodyRespondable").handle
         path = api.getObjectAlias(body, 1)
-        assert path == "/MTB_Robot/suctionPad/suctionPadBodyRespondable"
+        assert path == "/MTB/suctionPad/BodyRespondable"  # aliases; both model bases kept
         assert api.getObject(path) == body
     finally:
         sim.close()

@@ -103,14 +103,15 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
 
 def joint(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0), kind=10, position=0.0,
           motor=True, loop=True, max_force=10.0, target_velocity=0.0, extra: bytes = b"", mode: int = 5,
-          limits=(-1.5, 3.0)) -> bytes:
+          limits=(-1.5, 3.0), cyclic: bool = False, common_extra: bytes = b"") -> bytes:
     """A joint in force/torque mode (``mode`` 5; 4: dependent, with a :func:`dependency` in
     ``extra``); ``limits``: V-REP's minimum and range; ``extra``: more typed records (``Dpc`` PID,
-    ``Dtp`` target position, ``Spp`` spring K and C, ``Dcm`` 4.4 control mode)."""
-    va9 = (16 if motor else 0) | (32 if loop else 0)
+    ``Dtp`` target position, ``Spp`` spring K and C, ``Dcm`` 4.4 control mode); ``cyclic``: an
+    unlimited revolute joint (``Va9`` bit 0); ``common_extra``: more common records (:func:`alias`)."""
+    va9 = (16 if motor else 0) | (32 if loop else 0) | (1 if cyclic else 0)
     typed = lst(rec("Jtt", i32(kind)), rec("Jmd", i32(mode)), rec("Pmr", f32(*limits)), rec("Prt", f32(position)),
                 rec("Va9", bytes([va9])), rec("Dmp", f32(target_velocity, max_force)), rec("Ulv", f32(2.0)), extra)
-    return rec("JNT", common(handle, parent, name, pos, quat) + typed)
+    return rec("JNT", common(handle, parent, name, pos, quat, extra=common_extra) + typed)
 
 
 def dependency(master: int, mult: float, offset: float) -> bytes:
@@ -194,12 +195,12 @@ def huffman_encode(data: bytes) -> bytes:
 
 
 def script_object(handle: int, parent: int, name: str, text: str, kind: int = 1, proxy: bool = False,
-                  pos=(0, 0, 0), extra: bytes = b"") -> bytes:
+                  pos=(0, 0, 0), extra: bytes = b"", disabled: bool = False) -> bytes:
     """A CoppeliaSim 4.6+ script object (``SCT``, ``CScript::serialize``): the common part, then
     ``Sos`` size, ``Var``, and ``Soo``: the script's own records (``CDetachedScript::serialize``:
-    ``Si2`` (0, object, type), ``Va2``, ``Va3`` (bit 2: parent is proxy), ``Ste`` with 4.6's
+    ``Si2`` (0, object, type), ``Va2`` (bit 1: disabled), ``Va3`` (bit 2: parent is proxy), ``Ste`` with 4.6's
     ``--lua`` first line, ``Lne``)."""
-    soo = lst(rec("Si2", i32(0, -1, kind)), rec("Va2", bytes([0xC8])), rec("Va3", bytes([1 | (4 if proxy else 0)])),
+    soo = lst(rec("Si2", i32(0, -1, kind)), rec("Va2", bytes([0xC8 | (2 if disabled else 0)])), rec("Va3", bytes([1 | (4 if proxy else 0)])),
               rec("Ste", light_encode(("--lua\n" + text).encode())), rec("Lne", string("lua")))
     typed = lst(rec("Sos", struct.pack("<d", 0.01)), rec("Var", bytes([0])), rec("Soo", soo))
     return rec("SCT", common(handle, parent, name, pos, extra=alias(name) + extra) + typed)
@@ -266,9 +267,10 @@ def texture_link(tid: int, mode: int = 0, scale=(1.0, 1.0), frame=(1, 0, 0, 0, 0
 
 
 def ik_group(name: str, elements, explicit: bool = False) -> bytes:
-    """An old IK group (``IKO``): ``elements`` of (tip dummy, base, V-REP's constraint bits)."""
+    """An old IK group (``IKO``): ``elements`` of (tip dummy, base, V-REP's constraint bits);
+    ``Var`` as CoppeliaSim writes it (bit 0 enabled, bit 6 explicit handling)."""
     items = [rec("Ike", lst(rec("Ik2", i32(tip, base)), rec("Ctr", i32(ctr)))) for tip, base, ctr in elements]
-    return rec("IKO", lst(rec("Nme", string(name)), rec("Va2", bytes([2 if explicit else 0])), *items))
+    return rec("IKO", lst(rec("Nme", string(name)), rec("Var", bytes([1 | (64 if explicit else 0)])), *items))
 
 
 def colour_object(diffuse=(0.7, 0.7, 0.7), specular=(0.25, 0.25, 0.25), emission=(0.0, 0.0, 0.0),

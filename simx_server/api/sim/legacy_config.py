@@ -1,0 +1,114 @@
+"""V-REP 3.x's configuration trees: ``sim.getConfigurationTree`` / ``sim.setConfigurationTree``
+(deprecated in CoppeliaSim 4.2, still used by old scene scripts to put a robot back as it was).
+
+As coppeliaSimLib ``simGetConfigurationTree_internal`` / ``simSetConfigurationTree_internal``
+and ``CMemorizedConf_old``: each object of the tree (``sim.handle_all``: the scene) is kept with
+its parent and its pose relative to that parent, a joint also with its position; restoring goes
+parents first, sets each object still under the same parent back to its local pose (an object
+whose pose follows from its joints is already there once they are) and each joint to its
+position, and stops the moved objects (``resetDynamicObject``).
+
+The buffer is simx's own (a client only hands back what it got): ``SIMXCT1``, then per object
+i32 handle, i32 parent handle (-1: the world), 7 f64 (x y z qx qy qz qw, m) and f64 joint
+position (NaN for other objects).
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from typing import Any
+
+import numpy as np
+
+from simx_server.api.context import CallContext
+from simx_server.api.registry import sim_function
+from simx_wire import constants as C
+from simx_wire.protocol import ArgumentError
+from simx_server.sim.objects import JOINT, WORLD
+
+_MAGIC = b"SIMXCT1"
+_ITEM = struct.Struct("<ii7dd")
+
+
+def _tree(ctx: CallContext, root: int) -> list[int]:
+    """``root`` and every object below it, parents first (the scene for ``sim.handle_all``)."""
+    w = ctx.world
+    if root == C.sim_handle_all:
+        return list(w.objects)
+    out, todo = [], [w.get(root).handle]
+    while todo:
+        h = todo.pop(0)
+        out.append(h)
+        todo.extend(o.handle for o in w.objects.values() if o.parent == h)
+    return out
+
+
+@sim_function("getConfigurationTree")
+def getConfigurationTree(ctx: CallContext, objectHandle: Any) -> bytes:  # noqa: N802, N803
+    """The configuration of an object's tree (``sim.handle_all``: the whole scene) as a buffer
+    for :func:`setConfigurationTree` (V-REP 3.x ``simGetConfigurationTree``).
+
+    Args:
+        objectHandle: the tree's base, or ``sim.handle_all``.
+
+    Returns:
+        The buffer (simx's layout, see the module).
+
+    Raises:
+        UnknownObjectError: no such object.
+    """
+    w = ctx.world
+    parts = [_MAGIC]
+    for h in _tree(ctx, ctx.h(objectHandle, "objectHandle")):
+        obj = w.objects[h]
+        pose = ctx.sim.getObjectPose(h, obj.parent)
+        q = w.joint_position(h) if obj.type == JOINT and w.model.jnt_type[obj.mj_id] in (2, 3) else math.nan
+        parts.append(_ITEM.pack(h, obj.parent, *pose, q))
+    return b"".join(parts)
+
+
+@sim_function("setConfigurationTree")
+def setConfigurationTree(ctx: CallContext, rawBufferHandle: Any) -> int:  # noqa: N802, N803
+    """Put back what :func:`getConfigurationTree` kept (V-REP 3.x ``simSetConfigurationTree``):
+    objects gone since are skipped, an object under another parent keeps its pose, joints
+    return to their positions; what moved is stopped. Returns 1.
+
+    Args:
+        rawBufferHandle: the buffer :func:`getConfigurationTree` answered.
+
+    Returns:
+        1.
+
+    Raises:
+        ArgumentError: not such a buffer.
+    """
+    raw = rawBufferHandle.encode("latin-1") if isinstance(rawBufferHandle, str) else rawBufferHandle
+    if not isinstance(raw, (bytes, bytearray)) or not bytes(raw).startswith(_MAGIC) or \
+            (len(raw) - len(_MAGIC)) % _ITEM.size:
+        raise ArgumentError("setConfigurationTree: not a buffer of sim.getConfigurationTree")
+    w = ctx.world
+    items = [_ITEM.unpack_from(raw, len(_MAGIC) + k * _ITEM.size) for k in range((len(raw) - len(_MAGIC)) // _ITEM.size)]
+
+    def depth(h: int) -> int:
+        n = 0
+        while h != WORLD and h in w.objects and n <= len(w.objects):
+            h, n = w.objects[h].parent, n + 1
+        return n
+
+    moved = []
+    for h, parent, *rest in sorted(items, key=lambda item: depth(item[0])):
+        obj = w.objects.get(h)
+        if obj is None or obj.parent != parent:
+            continue
+        pose, q = rest[:7], rest[7]
+        if obj.type == JOINT:
+            if not math.isnan(q) and abs(w.joint_position(h) - q) > 1e-12:
+                ctx.sim.setJointPosition(h, q)
+                moved.append(h)
+        elif not np.allclose(ctx.sim.getObjectPose(h, parent), pose, atol=1e-9):
+            ctx.sim.setObjectPose(h, parent, list(pose))
+            moved.append(h)
+    for h in moved:
+        ctx.sim.resetDynamicObject(h)
+    return 1
