@@ -26,7 +26,8 @@ from simx_server.sim.objects import WORLD, SceneObject
 
 
 def hold(editor, part: SceneObject, parent: SceneObject | None, keep_in_place: bool) -> None:
-    """Hang the free body ``part`` from ``parent`` (None: the world, a release).
+    """Hang the free body ``part`` from ``parent``: held when ``parent``'s body can move (a
+    grasp), free under the world (None) or an object fixed to it (a release).
 
     Args:
         editor: the scene's :class:`~simx_server.scene.editor.Editor`.
@@ -40,10 +41,10 @@ def hold(editor, part: SceneObject, parent: SceneObject | None, keep_in_place: b
     """
     world = editor.sim.world
     rel = None if keep_in_place else world.relative_frame(part.handle, part.parent)
-    if parent is None:
-        grasps.release(world, part, WORLD)
+    if parent is None or not grasps.moves(world.model, grasps.carrier(parent)):
+        grasps.release(world, part, parent)
         if rel is not None:
-            world.set_pose(part.handle, WORLD, list(rel[0]), rel[1])
+            world.set_pose(part.handle, WORLD if parent is None else parent.handle, list(rel[0]), rel[1])
         world.changed()
         return
     if rel is not None:

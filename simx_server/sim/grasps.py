@@ -1,7 +1,12 @@
 """Grasping: a dynamic shape (a MuJoCo free body) hung from another object by
 ``sim.setObjectParent(part, gripperAttachPoint, true)``, as pick-and-place programs and PyRep's
 ``Gripper.grasp`` hold what they pick, and given back to the world by
-``sim.setObjectParent(part, -1, true)``.
+``sim.setObjectParent(part, -1, true)``, or to an object that does not move (PyRep's
+``Gripper.release`` gives the part back to its old parent, often a task's static dummy).
+
+Which parents hold: an object carried by a body that can move (a joint above it, or a mocap
+body: ``body_weldid`` not 0). Under the world or an object fixed to it the part stays free, only
+its logical parent changes, as a dynamic shape under a static object in CoppeliaSim.
 
 MuJoCo allows free joints only in children of the world, so the part's body stays where it is
 and a weld equality named ``simx_grasp:PART`` (added to the model once per part, inactive, by
@@ -44,6 +49,7 @@ class Grasp:
     body: str  #: the MuJoCo body that carries the parent ("world": body 0)
     relpose: np.ndarray  #: (7,) that body's pose in the part's frame (MuJoCo's weld ``relpose``)
     home: int  #: the part's parent handle before its first grasp (given back on reset)
+    held: bool = True  #: False: a parent that does not move (the part is free, only its parent changed)
 
 
 def weld_name(part: str) -> str:
@@ -82,6 +88,19 @@ def weld_of(m: mujoco.MjModel, part: str) -> int:
         Its equality id, or -1 when the model has none.
     """
     return int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, weld_name(part)))
+
+
+def moves(m: mujoco.MjModel, body: int) -> bool:
+    """Whether a MuJoCo body can move (a joint above it, or a mocap body): what holds a part.
+
+    Args:
+        m: the model.
+        body: a body id (0: the world).
+
+    Returns:
+        False for the world and the bodies welded to it (``body_weldid`` 0).
+    """
+    return int(m.body_weldid[body]) != 0
 
 
 def carrier(obj: SceneObject) -> int:
@@ -144,19 +163,25 @@ def attach(world, part: SceneObject, parent: SceneObject, relpose: np.ndarray | 
     part.parent = parent.handle
 
 
-def release(world, part: SceneObject, parent: int = WORLD) -> None:
-    """Let ``part`` go: its weld off, its V-REP parent ``parent``; it keeps its pose and velocity.
+def release(world, part: SceneObject, parent: SceneObject | None = None) -> None:
+    """Let ``part`` go: its weld off, its V-REP parent ``parent`` (the world, or an object that
+    does not move: the part stays free, as a dynamic shape under a static object in
+    CoppeliaSim); it keeps its pose and velocity.
 
     Args:
         world: the World.
-        part: a grasped part (a part not grasped only gets its parent).
-        parent: its new V-REP parent (-1: the world).
+        part: a free part, grasped or not.
+        parent: its new V-REP parent; None: the world.
     """
     e = weld_of(world.model, part.name)
     if e >= 0:
         world.data.eq_active[e] = 0
-    world.grasps.pop(part.name, None)
-    part.parent = parent
+    old = world.grasps.pop(part.name, None)
+    home = old.home if old is not None else part.parent
+    handle = WORLD if parent is None else parent.handle
+    if handle != home:  # remembered, so that an edit's new registry keeps it (until a stop)
+        world.grasps[part.name] = Grasp("" if parent is None else parent.name, "", np.zeros(7), home, held=False)
+    part.parent = handle
 
 
 def placed(world, part: SceneObject) -> None:
@@ -169,7 +194,7 @@ def placed(world, part: SceneObject) -> None:
     """
     g = world.grasps.get(part.name)
     e = weld_of(world.model, part.name)
-    if g is None or e < 0:
+    if g is None or not g.held or e < 0:
         return
     m, d = world.model, world.data
     mujoco.mj_kinematics(m, d)
@@ -185,8 +210,11 @@ def follow(world) -> None:
         world: the World.
     """
     m, d = world.model, world.data
+    held = [(name, g) for name, g in world.grasps.items() if g.held]
+    if not held:
+        return
     mujoco.mj_kinematics(m, d)
-    for name, g in world.grasps.items():
+    for name, g in held:
         obj = world.by_name.get(name)
         body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, g.body) if g.body != "world" else 0
         if obj is None or body < 0 or not is_free(m, obj.mj_id):
@@ -199,7 +227,7 @@ def follow(world) -> None:
         a = int(m.jnt_qposadr[m.body_jntadr[obj.mj_id]])
         d.qpos[a:a + 3] = d.xpos[body] - p
         d.qpos[a + 3:a + 7] = q
-        if len(world.grasps) > 1:  # a part held by another grasped part follows it
+        if len(held) > 1:  # a part held by another grasped part follows it
             mujoco.mj_kinematics(m, d)
 
 
@@ -227,7 +255,12 @@ def reapply(world, grasps: dict[str, Grasp]) -> None:
     """
     for name, g in grasps.items():
         part, parent = world.by_name.get(name), world.by_name.get(g.parent)
-        if part is None or parent is None or weld_of(world.model, name) < 0 or not is_free(world.model, part.mj_id):
+        if part is None or not is_free(world.model, part.mj_id) or (parent is None and g.parent):
             continue
-        attach(world, part, parent, g.relpose)
+        if g.held and weld_of(world.model, name) >= 0:
+            attach(world, part, parent, g.relpose)
+        elif not g.held:
+            release(world, part, parent)
+        else:
+            continue
         world.grasps[name].home = g.home

@@ -184,3 +184,32 @@ def test_grasp_through_the_zmq_door(tmp_path, official):
     finally:
         log = srv.stop()
     assert "Traceback" not in log, log[-3000:]
+
+
+def test_released_to_a_static_parent_the_part_falls_under_it(tmp_path):
+    # PyRep's Gripper.release gives the part back to its old parent, often a task's static dummy
+    f = tmp_path / "grasp.xml"
+    f.write_text(SCENE.replace('<geom name="floor"', '<site name="task_base" pos="1 1 0"/>\n    <geom name="floor"'))
+    sim = Simulation(f, dt=0.05, realtime=False)
+    try:
+        sim.start()
+        api = script_sim(sim.world, sim.world.resolve("gripper").handle, sim.signals, simulation=sim)
+        cube, attach, lift = api.getObject("/cube"), api.getObject("/attach"), api.getObject("/lift")
+        base = api.getObject("/task_base")
+        api.setObjectParent(cube, base, True)  # a static parent: the cube stays free
+        assert api.getObjectParent(cube) == base
+        api.setObjectParent(cube, attach, True)
+        api.setJointTargetPosition(lift, 0.2)
+        _run(sim, 1.0)
+        z = api.getObjectPosition(cube, -1)[2]
+        assert z == pytest.approx(0.225, abs=5e-3)
+        api.setObjectParent(cube, base, True)  # release
+        assert api.getObjectParent(cube) == base and cube in api.getObjectsInTree(base)
+        api.createDummy(0.01)  # an edit keeps that parent
+        assert api.getObjectParent(cube) == base
+        _run(sim, 1.5)
+        assert api.getObjectPosition(cube, -1)[2] == pytest.approx(0.025, abs=2e-3)  # fell to the floor
+        sim.stop()
+        assert api.getObjectParent(cube) == -1  # the parent at the start
+    finally:
+        sim.close()
