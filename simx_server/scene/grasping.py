@@ -5,15 +5,18 @@ editor, and handles ``keepInPlace``).
 A dynamic shape is a MuJoCo free body, which MuJoCo keeps among the world's children, so
 re-parenting one under another object does not move its body: it is held by a weld switched on
 at run time, and the logical tree shows the new parent (``sim.getObjectParent``, poses relative
-to it, ``sim.getObjectsInTree``). The first grasp of a part adds its weld to the model (one
-recompile, an inactive ``simx_grasp:PART`` weld to the world, retargeted at each grasp); later
-grasps and releases of that part change only the weld's state, not the model's structure.
+to it, ``sim.getObjectsInTree``). The first grasp adds a weld for every dynamic shape of the
+scene that has none (one recompile: an inactive ``simx_grasp:PART`` weld to the world each,
+retargeted at each grasp); later grasps and releases change only the welds' state, not the
+model's structure (a model loaded later gets its welds at the first grasp of one of its parts).
 
 CoppeliaSim (``CSceneObject::setParent``) keeps a re-parented object's absolute pose, or with
-``keepInPlace`` false its local pose, now relative to the new parent; its dynamics engine moves a
-non-static shape hung from a non-joint parent by itself. simx holds it to the new parent instead
-(what pick-and-place programs and PyRep's ``Gripper.grasp`` expect of a re-parented part: that
-it follows the gripper), and lets it fall again once its parent is the world.
+``keepInPlace`` false its local pose, now relative to the new parent; its dynamics engine
+(simExtDynamics' ``CRigidBodyContainerDyn::reportRigidBodyConfigurationsAndVelocities``) moves a
+non-static shape hung from a non-joint parent by itself. simx holds it to a new parent that
+moves instead (what pick-and-place programs and PyRep's ``Gripper.grasp`` expect of a
+re-parented part: that it follows the gripper), and leaves it free under the world or an
+object fixed to it.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import mujoco
 
 from simx_server.sim import grasps
 from simx_server.sim.mechanisms import LIMIT_SOLIMP, stiff_solref
-from simx_server.sim.objects import WORLD, SceneObject
+from simx_server.sim.objects import SHAPE, WORLD, SceneObject
 
 
 def hold(editor, part: SceneObject, parent: SceneObject | None, keep_in_place: bool) -> None:
@@ -51,7 +54,10 @@ def hold(editor, part: SceneObject, parent: SceneObject | None, keep_in_place: b
         world.set_pose(part.handle, parent.handle, list(rel[0]), rel[1])
     if grasps.weld_of(world.model, part.name) < 0:
         name, parent_name = part.name, parent.name
-        editor._edit(lambda spec: _add_weld(editor, spec, part))
+        m = world.model
+        free = [o for o in world.objects.values() if o.type == SHAPE and grasps.is_free(m, o.mj_id)
+                and grasps.weld_of(m, o.name) < 0]  # every free part at once: one recompile
+        editor._edit(lambda spec: [_add_weld(editor, spec, o) for o in free])
         part, parent = world.by_name[name], world.by_name[parent_name]
     grasps.attach(world, part, parent)
     world.changed()

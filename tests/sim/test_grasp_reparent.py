@@ -213,3 +213,12 @@ def test_released_to_a_static_parent_the_part_falls_under_it(tmp_path):
         assert api.getObjectParent(cube) == -1  # the parent at the start
     finally:
         sim.close()
+
+
+def test_the_first_grasp_makes_every_part_graspable_without_recompile(scene):
+    sim, api = scene
+    w = sim.world
+    api.setObjectParent(api.getObject("/cube"), api.getObject("/attach"), True)  # the one recompile
+    model = w.model
+    api.setObjectParent(api.getObject("/other"), api.getObject("/attach"), True)  # another part
+    assert w.model is model and api.getObjectParent(api.getObject("/other")) == api.getObject("/attach")
