@@ -135,3 +135,36 @@ def test_the_rg2_follows_a_position_target_on_its_open_close_joint(pose):
             assert q("RG2_leftJoint0") == pytest.approx(-q("RG2_rightJoint0"), abs=0.02)  # mirrored
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize("pose", list(POSES))
+def test_the_robotiq_comes_to_rest_as_pyrep_judges_it(converted, pose):
+    """PyRep's ``Robotiq85Gripper.actuate``: each step, an active joint that moved less than
+    0.01 mm since the last is given velocity 0, the others the drive velocity; done when both
+    are still. A stopped joint must then stay still while the other still pushes (V-REP's
+    velocity motor holds it), or the loop never ends (PyRep's test gives up after 1000 steps)."""
+    base, joints, fingers, closed_max, open_min, _, _ = FAMILIES["Robotiq85"]
+    sim = Simulation(_fixed(converted, "Robotiq85", POSES[pose]), dt=0.05, realtime=False)
+    try:
+        w = sim.world
+        api = script_sim(w, w.resolve(base).handle, sim.signals, simulation=sim)
+        sim.start()
+        hs = [w.resolve(n).handle for n in joints]
+        for to_open in (False, True, False, True):
+            prev: list[float | None] = [None, None]
+            for _ in range(300):
+                cur = [api.getJointPosition(h) for h in hs]
+                still = [p is not None and abs(c - p) < 1e-5 for c, p in zip(cur, prev)]
+                for h, s in zip(hs, still):
+                    api.setJointTargetVelocity(h, 0.0 if s else (0.04 if to_open else -0.04))
+                if all(still):
+                    break
+                prev = cur
+                sim.step()
+            else:
+                pytest.fail(f"still moving after 300 steps ({'opening' if to_open else 'closing'})")
+            a, b = (w.data.body(n).xpos for n in fingers)
+            gap = float(np.linalg.norm(a - b))
+            assert gap > open_min if to_open else gap < closed_max
+    finally:
+        sim.close()
