@@ -17,7 +17,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base.arguments import quote
-from simx_server.scene import conversions
+from simx_server.scene import conversions, grasping
 from simx_server.sim.spec_tools import (
     _KIND,
     _MARK,
@@ -46,6 +46,7 @@ from simx_server.sim.spec_tools import (
     _subtree_objects,
     vrep_suffix,
 )
+from simx_server.sim import grasps
 from simx_server.sim.objects import without_scripts
 from simx_server.sim.urdf import load_spec
 from simx_server.sim.vision_results import Deferred
@@ -338,6 +339,8 @@ class ObjectEdits:
         camera, light) under any object or the world, keeping its world pose
         (``keep_in_place``) or its pose relative to its parent.
 
+        A dynamic shape (a free body) stays a child of the world in MuJoCo, held to its new
+        parent by a weld (:mod:`simx_server.scene.grasping`: grasping, and releasing to -1).
         As in CoppeliaSim (``CSceneObject::setParent``), any object may be a parent: a shape is
         its body; a dummy, sensor, camera, light or joint is carried by a body in MuJoCo, and
         the child goes into that body (for a joint: the body it moves), at the parent object's
@@ -346,7 +349,7 @@ class ObjectEdits:
         Raises:
             ArgumentError: the world, or a parent inside the child's subtree.
             UnsupportedError: a joint as the child (it belongs to its body), or a move MuJoCo
-                cannot make (a free body under another body, references lost).
+                cannot make (references lost).
         """
         world = self.sim.world
         if handle == WORLD:
@@ -362,6 +365,8 @@ class ObjectEdits:
         else:
             parent_body = 0
         m = world.model
+        if obj.type == SHAPE and grasps.is_free(m, obj.mj_id) and (new_parent is not None or obj.name in world.grasps):
+            return grasping.hold(self, obj, new_parent, keep_in_place)  # a dynamic shape: held by a weld
         old_body = int(m.body_parentid[obj.mj_id]) if obj.type == SHAPE else obj.body
         if old_body == parent_body and obj.parent == parent:
             return  # already there: both poses unchanged

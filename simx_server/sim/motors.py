@@ -26,6 +26,10 @@ step so that the substeps run in C:
 * position law: far from the target (more than vmax / Kp away) ``v = +-vmax`` for the whole
   step; near it the linear law ``tau = ff + kv * (Kp * (target - q) - qdot)``, which never asks
   more than vmax from there on;
+* a velocity motor told to stop (target 0) keeps its joint still: under the implicit
+  integrators its servo gain is HOLD_KV_FACTOR times the usual (V-REP's velocity motor is a
+  velocity constraint, which holds a stopped joint against any load up to the maximum force;
+  a damper of the usual gain let a gripper's linkage creep its stopped joints open);
 * ``ff`` is the joint's load at the start of the step (MuJoCo's ``qfrc_bias``: gravity and
   Coriolis forces, minus ``qfrc_passive``: the joint's spring, damper and gravity compensation),
   so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
@@ -75,6 +79,11 @@ KV_FRACTION = 0.5
 #: The same under the implicit integrators, which integrate the servo's velocity term
 #: implicitly and coupled through the mass matrix (stable at any gain): stiff tracking.
 IMPLICIT_KV_FRACTION = 0.9
+#: Servo gain of a velocity-mode motor told to stop (target 0), as a multiple of the usual one,
+#: under the implicit integrators: V-REP's velocity motor is a velocity constraint bounded by the
+#: maximum force, which keeps a stopped joint still against anything up to that force (a gripper
+#: stopped against its stop neither springs back nor creeps open under its linkage's load).
+HOLD_KV_FACTOR = 300.0
 #: A velocity-mode motor is held back (it gets its whole force, :meth:`Motors._stall_force`) when
 #: it moved, and moves, at less than this fraction of its target velocity: stopped, not slow.
 STALLED = 0.1
@@ -309,6 +318,8 @@ class Motors:
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
         velocity_mode = on & ~self.loop & (self.own_kv == 0) & ~self.scripted
         ff = ff + self._stall_force(q, d.qvel[dof], v, velocity_mode, float(d.time))
+        if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still
+            kv = np.where(velocity_mode & (v == 0), HOLD_KV_FACTOR * kv, kv)
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         gain = np.where(linear, kv * kp, kv) / g
         m.actuator_gainprm[act, 0] = np.where(on, gain, 0.0)

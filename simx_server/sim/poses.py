@@ -11,7 +11,7 @@ import numpy as np
 
 from simx_wire import constants as C
 from simx_wire.protocol import ObjectTypeError
-from simx_server.sim import physics
+from simx_server.sim import grasps, physics
 from simx_server.sim.objects import _TYPE_NAMES, DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
 from simx_server.sim.rotations import (
     _frame_with_z,
@@ -202,6 +202,8 @@ class Poses:
         else:
             raise ObjectTypeError(f"{obj.name!r} is a {_TYPE_NAMES[obj.type]}: it cannot be placed; "
                                   "move the body it belongs to")
+        if obj.name in self.grasps:  # a grasped part keeps its new pose relative to what holds it
+            grasps.placed(self, obj)
         self.changed()
 
     def _place_joint(self, b: int, p: np.ndarray, r: np.ndarray, p_now: np.ndarray, r_now: np.ndarray) -> None:

@@ -26,7 +26,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import motors, naming, physics, properties, scene_settings, urdf
+from simx_server.sim import grasps, motors, naming, physics, properties, scene_settings, urdf
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     DUMMY,
@@ -56,7 +56,8 @@ log = logging.getLogger("simx.world")
 #: Model fields that clients may change while the simulation runs (poses, masses, view
 #: angles); reset() restores them, as V-REP restores a scene on stop.
 _RESTORED_FIELDS = ("body_pos", "body_quat", "site_pos", "site_quat", "cam_pos", "cam_quat", "light_pos",
-                    "light_dir", "body_mass", "body_inertia", "cam_fovy", "jnt_pos", "jnt_axis")
+                    "light_dir", "body_mass", "body_inertia", "cam_fovy", "jnt_pos", "jnt_axis",
+                    "eq_obj1id", "eq_obj2id", "eq_data")  # eq_*: grasps (simx_server.sim.grasps)
 #: (nq, nv) of each mjtJoint: free, ball, slide, hinge.
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
 
@@ -118,6 +119,8 @@ class World(Poses, Joints):
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
         self._next_handle = 1  # handles are never given twice
         self.properties = properties.ObjectProperties()  # special and model properties set at run time
+        #: Grasped parts (dynamic shapes hung from another object): name -> grasps.Grasp.
+        self.grasps: dict[str, grasps.Grasp] = {}
         try:
             self._install(model)
         except ArgumentError as exc:
@@ -169,6 +172,7 @@ class World(Poses, Joints):
             model: the edited scene, compiled.
         """
         old_model, old_data = self.model, self.data
+        held = dict(self.grasps)
         joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
         kept = {h: self.motors.state(i) for h, i in self.motor_index.items()}
         free = {o.name: int(old_model.body_jntadr[o.mj_id]) for o in self.objects.values()
@@ -191,6 +195,7 @@ class World(Poses, Joints):
                 self.motors.restore(i, state)
         self.motors.write_force_limits(m)
         d.time = old_data.time
+        grasps.reapply(self, held)
         self.changed()
 
     # ----------------------------------------------------------------- registry
@@ -381,6 +386,7 @@ class World(Poses, Joints):
         mujoco.mj_resetData(self.model, self.data)
         self.motors.reset(self.model, self.data.qpos)
         self.data.ctrl[:] = 0.0
+        grasps.let_all_go(self)
         self.changed()
 
     # -------------------------------------------------------------------- time
@@ -437,7 +443,10 @@ class World(Poses, Joints):
     def changed(self) -> None:
         """After any change of state: recompute derived quantities, invalidate cached renders,
         and note the simulation time (``time``, s: every reply reads it, and a plain attribute
-        costs no call into MuJoCo's bindings)."""
+        costs no call into MuJoCo's bindings). Grasped parts are put back on what holds
+        them first (:func:`simx_server.sim.grasps.follow`)."""
+        if self.grasps:
+            grasps.follow(self)
         mujoco.mj_forward(self.model, self.data)
         self.version += 1
         self.time = self.data.time

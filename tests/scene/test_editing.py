@@ -14,8 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import SCENE
-from simx_client.protocol import (ArgumentError, ObjectTypeError, RemoteError, UnknownObjectError,
-                                  UnsupportedError)
+from simx_client.protocol import ArgumentError, ObjectTypeError, RemoteError, UnknownObjectError
 from simx_server.commands.editing import EDITING_HANDLERS as H
 from simx_server.sim.spec_tools import vrep_suffix
 from simx_server.scene.simulation import Simulation
@@ -234,9 +233,10 @@ def test_set_object_parent(sim):
     for x, y in zip(local_pose, w.relative_frame(rg2, link6)):
         assert x == pytest.approx(y, abs=1e-9)
 
+    sphere = w.resolve("Sphere").handle  # a dynamic shape: held by a weld (tests/sim/test_grasp_reparent.py)
+    H["SetObjectParent"](sim, [sphere, table, True])
+    assert w.get(sphere).parent == table and w.model.body_parentid[w.get(sphere).mj_id] == 0
     model = w.model
-    with pytest.raises(UnsupportedError, match="free joint"):
-        H["SetObjectParent"](sim, [w.resolve("Sphere").handle, table, True])
     with pytest.raises(ArgumentError):
         H["SetObjectParent"](sim, [w.resolve("UR5").handle, link6, True])  # its own descendant
     assert w.model is model  # failed edits change nothing

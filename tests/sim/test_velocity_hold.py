@@ -1,0 +1,57 @@
+"""A velocity motor told to stop holds its joint still (issue 50, item B): V-REP's velocity motor
+is a velocity constraint bounded by the maximum force, so a joint at target velocity 0 does not
+move under a load below that force (a gripper's linkage pressing on its active joints; PyRep's
+``Gripper.actuate`` calls a joint still when it moves less than 0.01 mm in a step). simx's servo
+alone is a damper: it crept under a steady load. Engine-level, in-process."""
+
+from __future__ import annotations
+
+import pytest
+
+from simx_server.api import script_sim
+from simx_server.scene.simulation import Simulation
+
+pytestmark = pytest.mark.renderers_on_demand  # no image is read
+
+SCENE = """<mujoco model="hold">
+  <option timestep="0.005"/>
+  <custom><text name="simx:slide" data="mode=velocity max_velocity=1"/></custom>
+  <worldbody>
+    <body name="carriage">
+      <joint name="slide" type="slide" axis="1 0 0" range="-1 1"/>
+      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+    </body>
+  </worldbody>
+  <actuator><general name="m" joint="slide" forcelimited="true" forcerange="-10 10"/></actuator>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("load", [2.0, 8.0])  # N along the slide, below the motor's 10 N
+def test_a_stopped_velocity_motor_holds_against_a_load(tmp_path, load):
+    (tmp_path / "hold.xml").write_text(SCENE)
+    sim = Simulation(tmp_path / "hold.xml", dt=0.05, realtime=False)
+    try:
+        w = sim.world
+        api = script_sim(w, w.resolve("carriage").handle, sim.signals, simulation=sim)
+        slide = api.getObject("/slide")
+        sim.start()
+        api.setJointTargetVelocity(slide, 0.1)
+        for _ in range(5):
+            sim.step()
+        api.setJointTargetVelocity(slide, 0.0)
+        w.data.xfrc_applied[w.model.body("carriage").id, 0] = load  # a steady push along +x
+        sim.step()
+        moves = []
+        for _ in range(10):
+            before = api.getJointPosition(slide)
+            sim.step()
+            moves.append(abs(api.getJointPosition(slide) - before))
+        assert max(moves) < 1e-5, moves  # still, as PyRep's Gripper.actuate judges it (0.01 mm)
+        w.data.xfrc_applied[w.model.body("carriage").id, 0] = 15.0  # more than the motor's force
+        before = api.getJointPosition(slide)
+        for _ in range(5):
+            sim.step()
+        assert api.getJointPosition(slide) - before > 0.01  # it gives way
+    finally:
+        sim.close()
