@@ -172,8 +172,10 @@ class ChildScript:
         """Run a life-cycle function if the script defines it; errors go to the log only.
 
         Repeats of the same error are logged at debug level; a script interrupted for
-        overrunning its time bound in ``sysCall_actuation``/``sysCall_sensing`` has both
-        skipped until the simulation restarts, so that the simulation keeps its pace."""
+        overrunning its own time bound in ``sysCall_actuation``/``sysCall_sensing`` has both
+        skipped until the simulation restarts, so that the simulation keeps its pace; one
+        interrupted by the scene's scripts' time (the pass's end, their share) has all its
+        callbacks but ``sysCall_cleanup`` skipped until then (:attr:`cut`)."""
         if not self._may_run(function):
             return
         if self._defines(function) and not self._pass_spent(function):
