@@ -317,6 +317,21 @@ MAX_PATTERN_WORK = 10 ** 8
 #: (a simulation start; a step's actuation and sensing; an idle pass of customization scripts);
 #: the script running when it ends is interrupted and named (simx_server/scripts/budget.py).
 MAX_SCRIPTS_STEP_TIME = 2.0
+#: CPU seconds of the scripts in each pass that are never charged to their share: a pass this
+#: short keeps a client's call waiting no longer than a slow step would (V-REP's default step is
+#: 50 ms; scripts of real scenes take a few ms a pass).
+SCRIPTS_PASS_ALLOWANCE = 0.1
+#: The fraction of the server's CPU time (SCRIPTS_SHARE_WINDOW) the scripts may take beyond their
+#: per-pass allowances: at least the other half is left to the clients and the physics. Once it is
+#: taken, each pass gets the allowance only, and the script running past it is interrupted, named
+#: and its callbacks skipped until the next start (simx_server/scripts/budget.py). Every callback
+#: counts: life-cycle functions, thread resumes, dynamics-step, joint and contact callbacks, child
+#: and customization scripts.
+SCRIPTS_SHARE = 0.5
+#: Seconds of the server's CPU time (``time.process_time``, not wall time: a busy machine that
+#: deschedules the server does not change the outcome) over which SCRIPTS_SHARE is counted: a
+#: burst of up to SCRIPTS_SHARE x SCRIPTS_SHARE_WINDOW = 5 s of long passes is let through.
+SCRIPTS_SHARE_WINDOW = 10.0
 #: Bytes all of a scene's Lua script states may hold together (each at most MAX_SCRIPT_MEMORY).
 MAX_SCRIPTS_MEMORY = 512 << 20
 #: Distinct ports the scripts may ask the legacy remote API to serve with simExtRemoteApiStart /

@@ -1,9 +1,14 @@
 """What a script call's arguments take in a Lua state, bounded before any conversion (both
-doors: the legacy simxCallScriptFunction and the ZMQ sim.callScriptFunction)."""
+doors: the legacy simxCallScriptFunction and the ZMQ sim.callScriptFunction), and a script
+function's results as the legacy call's four lists (:func:`legacy_outputs`)."""
 
 from __future__ import annotations
 
-from simx_wire.protocol import ArgumentError
+from typing import Any
+
+import numpy as np
+
+from simx_wire.protocol import ArgumentError, ScriptError
 from simx_server.base import limits as L
 
 #: Bytes a converted value may take in a Lua state at most (a table slot as the table grows,
@@ -48,3 +53,68 @@ def script_argument_bytes(args: tuple) -> int:
         raise ArgumentError(f"{size} bytes of strings passed to a script function: at most "
                             f"{L.MAX_SCRIPT_CALL_BYTES} (limits.MAX_SCRIPT_CALL_BYTES)")
     return _LUA_BYTES_PER_VALUE * values + _LUA_BYTES_PER_TABLE * tables + size
+
+
+def legacy_outputs(out: Any) -> list:
+    """A script function's return value as the legacy ``[ints, floats, strings, buffer]``.
+
+    Accepts None, one value, or a tuple/list of up to four; missing values are empty. Numbers
+    in the ints list are truncated to integers (as V-REP's C side did), strings may be bytes
+    (decoded as UTF-8), the buffer bytes or str. Raises ScriptError for anything else."""
+    if out is None:
+        values: list = []
+    elif isinstance(out, tuple):
+        values = list(out)
+    else:
+        values = [out]
+    if len(values) > 4:
+        raise ScriptError(f"returned {len(values)} values; at most 4 (ints, floats, strings, buffer)")
+    values += [None] * (4 - len(values))
+    ints, floats, strings, buf = values
+    try:
+        ints = [_as_int(v) for v in _seq(ints, "ints")]
+        floats = [_as_float(v) for v in _seq(floats, "floats")]
+        strings = [_as_str(v) for v in _seq(strings, "strings")]
+        if buf is None:
+            buf = b""
+        elif isinstance(buf, str):
+            buf = buf.encode("utf-8")
+        elif isinstance(buf, (bytes, bytearray, memoryview)):
+            buf = bytes(buf)
+        else:
+            raise TypeError(f"the buffer must be a string (bytes), got {type(buf).__name__}")
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ScriptError(f"returned values of the wrong types: {exc}") from None
+    return [ints, floats, strings, buf]
+
+
+def _seq(value: Any, what: str) -> list:
+    if value is None:
+        return []
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return list(value)
+    raise TypeError(f"{what} must be a list (a Lua table), got {type(value).__name__}")
+
+
+def _as_int(v: Any) -> int:
+    if isinstance(v, (str, bytes)) or v is None:
+        raise TypeError(f"ints must be numbers, got {v!r}")
+    return int(v)
+
+
+def _as_float(v: Any) -> float:
+    if isinstance(v, (str, bytes)) or v is None:
+        raise TypeError(f"floats must be numbers, got {v!r}")
+    return float(v)
+
+
+def _as_str(v: Any) -> str:
+    if isinstance(v, (bytes, bytearray)):
+        return bytes(v).decode("utf-8", errors="replace")
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return str(v)
+    raise TypeError(f"strings must be strings, got {v!r}")

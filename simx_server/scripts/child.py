@@ -22,17 +22,17 @@ functions go to the log. See docs/SCRIPTS.md.
 from __future__ import annotations
 
 import builtins
+import contextlib
 import inspect
 import logging
 import traceback
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
-
 from simx_wire.protocol import ScriptError
 from simx_server.api import ApiNamespace, script_sim
-from simx_server.scripts.budget import ScriptBudget
+from simx_server.scripts.budget import PASS, SHARE, ScriptBudget
+from simx_server.scripts.call_arguments import legacy_outputs
 from simx_server.api.signals import Signals
 from simx_server.api.sim.threads import PythonThread
 from simx_server.api.sim.forces import AppliedForces
@@ -65,7 +65,14 @@ _STEP_FUNCTIONS = ("sysCall_actuation", "sysCall_sensing")
 
 
 class ScriptTimeoutError(ScriptError):
-    """A call into a script did not return within its time bound and was interrupted."""
+    """A call into a script did not return within its time bound and was interrupted.
+
+    Attributes:
+        bound: the bound it passed: None (its own ``script_timeout``), ``"pass"`` (the pass's end,
+            limits.MAX_SCRIPTS_STEP_TIME) or ``"share"`` (the scripts' share, limits.SCRIPTS_SHARE).
+    """
+
+    bound: str | None = None
 
 
 # ---------------------------------------------------------------- child scripts
@@ -114,6 +121,9 @@ class ChildScript:
         self.load_error: str | None = None
         self.start_error: str | None = None
         self._skipped: set[str] = set()  # life-cycle functions skipped until the next start
+        #: Passed the scene's scripts' time (the pass's end or their share): every callback but
+        #: ``sysCall_cleanup`` is skipped until the next start.
+        self.cut = False
         self._last_error: dict[str, str] = {}  # last error logged per life-cycle function
         self._load()
         if self.load_error:
@@ -137,12 +147,13 @@ class ChildScript:
             return
         self.running = True
         self.start_error = None
-        self._skipped.clear()
+        self.rearm()
         self._last_error.clear()
         if self.load_error:
             raise ScriptError(f"{self.label} cannot be loaded: {self.load_error}")
         try:
-            self._create()
+            with self._charged():  # the top level counts toward the scripts' time as a callback
+                self._create()
         except ScriptError as exc:
             self.start_error = str(exc)
             raise
@@ -151,45 +162,68 @@ class ChildScript:
             self._guarded("thread", self._launch_thread)
             self.resume_thread()
 
+    def rearm(self) -> None:
+        """The simulation starts: callbacks skipped for an overrun run again."""
+        self._skipped.clear()
+        self.cut = False
+
     def resume_thread(self) -> None:
         """Resume the script's thread (a coroutine) until it yields, once per step before
         ``sysCall_actuation``; errors and overruns go to the log and end the thread."""
-        if self.running and not self.disabled and not self.load_error and self._thread_alive() and not self._pass_spent("thread"):
+        if self._may_run("thread") and self._thread_alive() and not self._pass_spent("thread"):
             self._guarded("thread", self._resume_thread)
 
     def life_cycle(self, function: str) -> None:
         """Run a life-cycle function if the script defines it; errors go to the log only.
 
         Repeats of the same error are logged at debug level; a script interrupted for
-        overrunning its time bound in ``sysCall_actuation``/``sysCall_sensing`` has both
-        skipped until the simulation restarts, so that the simulation keeps its pace."""
-        if not self.running or self.disabled or self.load_error or function in self._skipped:
+        overrunning its own time bound in ``sysCall_actuation``/``sysCall_sensing`` has both
+        skipped until the simulation restarts, so that the simulation keeps its pace; one
+        interrupted by the scene's scripts' time (the pass's end, their share) has all its
+        callbacks but ``sysCall_cleanup`` skipped until then (:attr:`cut`)."""
+        if not self._may_run(function):
             return
         if self._defines(function) and not self._pass_spent(function):
             self.executions += 1
             self._guarded(function, lambda: self._run_function(function, ()))
 
+    def _may_run(self, function: str) -> bool:
+        """Whether callback ``function`` may run now: the script runs, enabled, loaded, and neither the
+        function (an overrun of its step functions) nor the script (:attr:`cut`) is skipped."""
+        if not self.running or self.disabled or self.load_error or function in self._skipped:
+            return False
+        return not self.cut or function == "sysCall_cleanup"
+
     def _pass_spent(self, function: str) -> bool:
         """True (and a debug line) when the scene's scripts have used up the current pass's
         time (:class:`~simx_server.scripts.budget.ScriptBudget`): the call is skipped this pass."""
         if self.budget is not None and self.budget.spent():
-            log.debug("%s, %s: skipped in this pass: the scripts' time per pass is spent "
-                      "(limits.MAX_SCRIPTS_STEP_TIME)", self.label, function)
+            log.debug("%s, %s: skipped in this pass: the scripts' time in it is spent "
+                      "(limits.MAX_SCRIPTS_STEP_TIME, SCRIPTS_SHARE)", self.label, function)
             return True
         return False
 
-    def _call_bound(self) -> tuple[float, bool]:
-        """``(seconds, by_pass)``: the next call's time bound, the script's ``script_timeout`` or
-        what is left of the pass if less (``by_pass``)."""
+    def _charged(self) -> Any:
+        """A context in which the script's work counts toward the scripts' time (a callback)."""
+        return contextlib.nullcontext() if self.budget is None else self.budget.callback()
+
+    def _call_bound(self) -> tuple[float, str | None]:
+        """``(seconds, why)``: the next call's time bound, the script's ``script_timeout`` or what
+        is left of the pass or of the scripts' share if less (``why``: budget.PASS or SHARE)."""
         if self.budget is None:
-            return self.timeout, False
+            return self.timeout, None
         return self.budget.bound(self.timeout)
 
-    def _overrun(self, by_pass: bool) -> str:
+    def _overrun(self, why: str | None) -> str:
         """The end of an overrun's message: which bound it passed."""
-        if by_pass:
-            return (f"interrupted: the scene's scripts used up their {self.budget.seconds:g} s of this pass "
+        budget = self.budget
+        if why == PASS and budget is not None:
+            return (f"interrupted: the scene's scripts used up their {budget.seconds:g} s of this pass "
                     "(limits.MAX_SCRIPTS_STEP_TIME)")
+        if why == SHARE and budget is not None:
+            return (f"interrupted: the scene's scripts took their share of the server's time, "
+                    f"{budget.share:.0%} of {budget.window:g} s beyond {budget.allowance:g} s a pass "
+                    "(limits.SCRIPTS_SHARE)")
         return f"interrupted: did not return within {self.timeout:g} s (script_timeout)"
 
     def memory_used(self) -> int:
@@ -197,10 +231,18 @@ class ChildScript:
         return 0
 
     def _guarded(self, function: str, run: Callable[[], Any]) -> None:
+        """Run callback ``function`` (``run``), charged to the scripts' time; its errors go to
+        the log. An overrun of the pass's end or of the scripts' share cuts the script (every
+        callback skipped until the next start); one of its own bound, in a step function, skips
+        its step functions until then."""
         try:
-            run()
+            with self._charged():
+                run()
         except ScriptTimeoutError as exc:
-            if function in _STEP_FUNCTIONS:
+            if exc.bound in (PASS, SHARE):
+                self.cut = True
+                log.error("%s; its callbacks are skipped until the simulation restarts", exc)
+            elif function in _STEP_FUNCTIONS:
                 self._skipped.update(_STEP_FUNCTIONS)
                 log.error("%s; its %s are skipped until the simulation restarts", exc, " and ".join(_STEP_FUNCTIONS))
             else:
@@ -227,7 +269,7 @@ class ChildScript:
     def system_call(self, function: str, args: tuple) -> None:
         """A system callback with arguments (``sysCall_msg(message, origin)``) if the script defines
         it; its return values are dropped and its errors go to the log only, as life-cycle functions'."""
-        if self.running and not self.load_error and self._defines(function) and not self._pass_spent(function):
+        if self._may_run(function) and self._defines(function) and not self._pass_spent(function):
             self._guarded(function, lambda: self._run_values(function, args))
 
     def _traced(self, fault: ScriptError, traceback_text: str = "") -> ScriptError:
@@ -294,9 +336,13 @@ class ChildScript:
     def _thread_alive(self) -> bool:
         return False  # _resume_thread() runs the thread until it yields, in languages that have threads
 
-    def _fault(self, what: str, detail: str, timeout: bool = False) -> ScriptError:
-        cls = ScriptTimeoutError if timeout else ScriptError
-        return cls(f"{self.label}, {what}: {detail}")
+    def _fault(self, what: str, detail: str, timeout: bool = False, bound: str | None = None) -> ScriptError:
+        """The error of ``what`` (a ScriptTimeoutError, of ``bound``, when ``timeout``)."""
+        if not timeout:
+            return ScriptError(f"{self.label}, {what}: {detail}")
+        fault = ScriptTimeoutError(f"{self.label}, {what}: {detail}")
+        fault.bound = bound
+        return fault
 
 
 class RefusedScript(ChildScript):
@@ -413,11 +459,11 @@ class PythonScript(ChildScript):
 
     def _resume_thread(self) -> None:
         thread = self.py_thread
-        seconds, by_pass = self._call_bound()
+        seconds, why = self._call_bound()
         if not thread.resume(seconds):
-            message = self._overrun(True) if by_pass else f"interrupted: did not yield within {self.timeout:g} s " \
-                                                           "(script_timeout)"
-            raise self._fault("thread", f"{self.path.name}: {message}", timeout=True)
+            message = self._overrun(why) if why else f"interrupted: did not yield within {self.timeout:g} s " \
+                                                     "(script_timeout)"
+            raise self._fault("thread", f"{self.path.name}: {message}", timeout=True, bound=why)
         if thread.error is not None:
             exc, thread.error = thread.error, None
             stack = traceback.extract_tb(exc.__traceback__)
@@ -425,7 +471,7 @@ class PythonScript(ChildScript):
                                self._stack_text(stack))
 
     def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
-        seconds, by_pass = self._call_bound()
+        seconds, why = self._call_bound()
         try:
             result, interrupted_at = WATCHDOG.bounded(fn, seconds)
         except Exception as exc:
@@ -433,8 +479,8 @@ class PythonScript(ChildScript):
             raise self._traced(self._fault(what, f"{self._where(stack)}{type(exc).__name__}: {exc}"),
                                self._stack_text(stack)) from None
         if interrupted_at is not None:
-            raise self._traced(self._fault(what, f"{self._where(interrupted_at)}{self._overrun(by_pass)}",
-                                           timeout=True), self._stack_text(interrupted_at))
+            raise self._traced(self._fault(what, f"{self._where(interrupted_at)}{self._overrun(why)}",
+                                           timeout=True, bound=why), self._stack_text(interrupted_at))
         return result
 
     def _where(self, stack: traceback.StackSummary) -> str:
@@ -445,68 +491,3 @@ class PythonScript(ChildScript):
         """The script's own frames of ``stack`` as Python prints a traceback (the server's are left out)."""
         frames = traceback.StackSummary.from_list([f for f in stack if Path(f.filename) == self.path])
         return "Traceback (most recent call last):\n" + "".join(frames.format()) if frames else ""
-
-
-def legacy_outputs(out: Any) -> list:
-    """A script function's return value as the legacy ``[ints, floats, strings, buffer]``.
-
-    Accepts None, one value, or a tuple/list of up to four; missing values are empty. Numbers
-    in the ints list are truncated to integers (as V-REP's C side did), strings may be bytes
-    (decoded as UTF-8), the buffer bytes or str. Raises ScriptError for anything else."""
-    if out is None:
-        values: list = []
-    elif isinstance(out, tuple):
-        values = list(out)
-    else:
-        values = [out]
-    if len(values) > 4:
-        raise ScriptError(f"returned {len(values)} values; at most 4 (ints, floats, strings, buffer)")
-    values += [None] * (4 - len(values))
-    ints, floats, strings, buf = values
-    try:
-        ints = [_as_int(v) for v in _seq(ints, "ints")]
-        floats = [_as_float(v) for v in _seq(floats, "floats")]
-        strings = [_as_str(v) for v in _seq(strings, "strings")]
-        if buf is None:
-            buf = b""
-        elif isinstance(buf, str):
-            buf = buf.encode("utf-8")
-        elif isinstance(buf, (bytes, bytearray, memoryview)):
-            buf = bytes(buf)
-        else:
-            raise TypeError(f"the buffer must be a string (bytes), got {type(buf).__name__}")
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise ScriptError(f"returned values of the wrong types: {exc}") from None
-    return [ints, floats, strings, buf]
-
-
-def _seq(value: Any, what: str) -> list:
-    if value is None:
-        return []
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (list, tuple)):
-        return list(value)
-    raise TypeError(f"{what} must be a list (a Lua table), got {type(value).__name__}")
-
-
-def _as_int(v: Any) -> int:
-    if isinstance(v, (str, bytes)) or v is None:
-        raise TypeError(f"ints must be numbers, got {v!r}")
-    return int(v)
-
-
-def _as_float(v: Any) -> float:
-    if isinstance(v, (str, bytes)) or v is None:
-        raise TypeError(f"floats must be numbers, got {v!r}")
-    return float(v)
-
-
-def _as_str(v: Any) -> str:
-    if isinstance(v, (bytes, bytearray)):
-        return bytes(v).decode("utf-8", errors="replace")
-    if isinstance(v, str):
-        return v
-    if isinstance(v, (int, float)) and not isinstance(v, bool):
-        return str(v)
-    raise TypeError(f"strings must be strings, got {v!r}")

@@ -25,13 +25,17 @@ them at every step of its physics engine.
   ``vortex``, ``newton``: friction, restitution...) have no MuJoCo counterpart: one log line per
   script, and MuJoCo's contact parameters stay.
 
-An error in a callback is logged once (then at debug level) and the simulation goes on.
+An error in a callback is logged once (then at debug level) and the simulation goes on. Every
+callback runs in the step's pass and counts toward the scene's scripts' time
+(:mod:`simx_server.scripts.budget`): a script that passes the pass's end or the scripts' share is
+named and its callbacks are skipped until the next start.
 """
 
 from __future__ import annotations
 
 import logging
-from typing import Any
+from contextlib import AbstractContextManager
+from typing import Any, Callable
 
 import mujoco
 import numpy as np
@@ -52,8 +56,9 @@ class DynamicsCallbacks:
     """The scene's scripts that have dynamics-step callbacks; installs the world's substep hook
     while any such script runs (:meth:`install` at start, :meth:`remove` at stop)."""
 
-    def __init__(self, world: Any):
+    def __init__(self, world: Any, step_pass: Callable[[], AbstractContextManager[Any]] | None = None):
         self.world = world
+        self._step_pass = step_pass  # the scripts' pass of the current step (budget.ScriptBudget.pass_of)
         self.joints: list[tuple[Any, int]] = []  # (script, joint handle)
         self.dyn: list[Any] = []
         self.contact: list[Any] = []
@@ -90,8 +95,16 @@ class DynamicsCallbacks:
         self._shape_of = None
 
     def _substep(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
-        """Before one MuJoCo substep (the world's hook); the dyn callbacks' after-step call for
-        the previous substep comes first."""
+        """Before one MuJoCo substep (the world's hook), in the step's pass of the scripts."""
+        if self._step_pass is None:
+            self._callbacks(m, d)
+            return
+        with self._step_pass():
+            self._callbacks(m, d)
+
+    def _callbacks(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """The callbacks of one substep; the dyn callbacks' after-step call for the previous
+        substep comes first."""
         w = self.world
         total = w.substeps
         self._pass = self._pass % total + 1
@@ -177,6 +190,10 @@ class DynamicsCallbacks:
 
     @staticmethod
     def _call(script: Any, function: str, data: dict) -> Any:
+        """``function(data)`` of ``script``, its first result; None when it is skipped (the
+        script cut, the pass's time spent) or fails."""
+        if not script._may_run(function) or script._pass_spent(function):
+            return None
         result: list = []
         script._guarded(function, lambda: result.extend(script._run_values(function, (data,))))
         return result[0] if result else None

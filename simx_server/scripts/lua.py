@@ -283,7 +283,7 @@ class LuaScript(LuaStyles, ChildScript):
         :meth:`_call_bound`) and memory cap (its own, or what the scene's other Lua scripts leave
         of limits.MAX_SCRIPTS_MEMORY); raises ScriptError / ScriptTimeoutError naming the bound."""
         self._timed_out = False
-        seconds, by_pass = self._call_bound()
+        seconds, why = self._call_bound()
         self._deadline = time.thread_time() + seconds
         rt = self._runtime
         cap = MAX_MEMORY if self.budget is None or rt is None else max(1, self.budget.memory_cap(self, MAX_MEMORY))
@@ -301,7 +301,8 @@ class LuaScript(LuaStyles, ChildScript):
             if self._timed_out:
                 where = re.match(rf"{re.escape(self.path.name)}:\d+: ", _first_line(exc))
                 prefix = where.group(0) if where else ""
-                raise self._traced(self._fault(what, f"{prefix}{self._overrun(by_pass)}", timeout=True), stack) from None
+                raise self._traced(self._fault(what, f"{prefix}{self._overrun(why)}", timeout=True, bound=why),
+                                  stack) from None
             raise self._traced(self._fault(what, _first_line(exc)), stack) from None
         except Exception as exc:  # a Python error crossing Lua (a bug in simx): still the script's fault line
             raise self._fault(what, f"internal error: {type(exc).__name__}: {exc}") from None

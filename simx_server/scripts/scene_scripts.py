@@ -18,7 +18,7 @@ from simx_server.base import limits as L
 from simx_server.api import script_parameters
 from simx_server.scripts.child import (DEFAULT_TIMEOUT, PYTHON_SCRIPTS_FLAG, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG,
                                       ChildScript, PythonScript, RefusedScript)
-from simx_server.scripts.budget import ScriptBudget
+from simx_server.scripts.budget import ScriptBudget, ScriptPass
 from simx_server.scripts.dynamics import DynamicsCallbacks
 from simx_server.api.signals import Signals
 from simx_server.api.sim.forces import AppliedForces
@@ -107,12 +107,13 @@ class Scripts:
         self.allow_python_scripts = allow_python_scripts
         self.scripts: dict[int, ChildScript] = {}
         self.customization: dict[int, ChildScript] = {}  # customization scripts, by object
-        #: All scripts' time per pass and memory together (simx_server/scripts/budget.py).
+        #: All scripts' time per pass, share over time and memory together (simx_server/scripts/budget.py).
         self.budget = ScriptBudget(states=self._all)
-        self._step_end: float | None = None  # the pass of the step whose actuation ran (its sensing shares it)
+        self._step: ScriptPass | None = None  # the pass of the step whose actuation ran (the rest shares it)
         self.shared: dict = {"manager": self, "budget": self.budget}  # custom data, the scripts' view of each other
         self.opened = False
-        self.dynamics = DynamicsCallbacks(world)  # sysCall_jointCallback / sysCall_dynCallback at each substep
+        # sysCall_jointCallback / sysCall_dynCallback / sysCall_contactCallback at each substep, in the step's pass
+        self.dynamics = DynamicsCallbacks(world, lambda: self.budget.pass_of("step", self._step))
         for obj in world.objects.values():
             for key, table in (("child_script", self.scripts), ("customization_script", self.customization)):
                 file = obj.settings.get(key)
@@ -180,6 +181,8 @@ class Scripts:
         """Simulation starts: customization scripts' ``sysCall_beforeSimulation``, then every
         child script runs its top level, ``sysCall_init`` and its thread's first part."""
         self.open()
+        for script in self.customization.values():  # skipped for an overrun until this start
+            script.rearm()
         with self.budget.pass_of("start"):
             self._customization("sysCall_beforeSimulation")
             self._start_all(self.scripts.values(), "at start")
@@ -189,8 +192,8 @@ class Scripts:
         """Before a step: each child script's thread resumes, then its ``sysCall_actuation``;
         then the customization scripts' ``sysCall_actuation``."""
         self.shared["pass"] = self.shared.get("pass", 0) + 1  # simulation passes (wireless data: next pass)
-        with self.budget.pass_of("step"):
-            self._step_end = self.budget.deadline  # the step's sensing shares this pass
+        with self.budget.pass_of("step") as step:
+            self._step = step  # the step's dynamics callbacks and sensing share this pass
             for script in self.scripts.values():
                 script.resume_thread()
                 script.life_cycle("sysCall_actuation")
@@ -203,8 +206,8 @@ class Scripts:
         """After a step: forces scripts added are reset (the step applied them), then
         ``sysCall_sensing`` of every script."""
         self.forces.clear(self.world)
-        end, self._step_end = self._step_end, None
-        with self.budget.pass_of("step", end):
+        step, self._step = self._step, None
+        with self.budget.pass_of("step", step):
             for script in self.scripts.values():
                 script.life_cycle("sysCall_sensing")
             self._customization("sysCall_sensing")
