@@ -28,6 +28,7 @@ from typing import Any
 
 import zenoh
 
+from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
@@ -143,7 +144,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self._registry: dict[str, LegacyClient] = loop.clients.of(self)  # this door's clients, by id
         # Their sessions are the ready ring's ready clients; one with nothing waiting is served
         # on Zenoh's thread when the simulation thread waits for work (Loop.serve_or_deliver).
-        self.sessions = Sessions(loop.ring, door=self, schedule=self._schedule)
+        self.sessions = Sessions(loop.ring, door=self, schedule=self._schedule, prove=True)
         self.peers = PeerCheck(self.sessions, prefix)  # which Zenoh session holds each token
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
@@ -194,9 +195,14 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
             if self.sessions.get(client) is None and not P.valid_client_id(client):  # once per client
                 raise P.ProtocolError("invalid client id: 1 to 128 characters without / * $ ? #")
-            refused = self.sessions.admit(client, (query, commands), size)
+            attachment = query.attachment  # the proof that the id is the sender's (simx_wire.proof)
+            refused = self.sessions.admit(client, (query, commands), size, data,
+                                          attachment.to_bytes() if attachment is not None else None,
+                                          any(c[0] == "Hello" for c in commands))
             if refused is None:
                 return  # the simulation thread replies
+            if refused.startswith((PR.UNKNOWN, PR.NOT_YOURS)):
+                raise P.ProtocolError(refused)
             t, state, scene = self.sim.stamp()
             reply = P.response(t, state, [[False, refused]] * len(commands),
                                int((time.monotonic() - self.loop.started) * 1000), scene)
@@ -298,6 +304,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             entry.last_seen = session.last_seen  # when its intake took its last request (Zenoh's thread)
             if entry.fault is None:
                 results = self._run(client, commands)
+                if session.secret is not None:
+                    _tell_secret(commands, results, session.secret)
             else:  # a failed step since this client's last request: told instead of executed
                 message, entry.fault = entry.fault, None
                 self._keep_error(client, message)
@@ -491,3 +499,11 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
         "GetLastErrors": "_last_errors", **{name: None for name in CONSOLE_COMMANDS},
     }
+
+
+def _tell_secret(commands: list, results: list, secret: bytes) -> None:
+    """A ``Hello``'s result carries its client's secret (``"secret"``, simx_wire.proof): the reply
+    goes to the querier alone, which proves every later request with it."""
+    for (name, _mode, _args), result in zip(commands, results):
+        if name == "Hello" and result[0] is True and type(result[1]) is dict:
+            result[1] = {**result[1], "secret": secret}
