@@ -69,7 +69,7 @@ class Window:
     """The sequence numbers of one client used so far: the highest, and which of the
     :data:`WINDOW` below it were seen. Not thread-safe (the server holds its intake lock)."""
 
-    __slots__ = ("top", "seen")
+    __slots__ = ("seen", "top")
 
     def __init__(self) -> None:
         self.top = 0

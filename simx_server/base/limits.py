@@ -101,6 +101,11 @@ MAX_CLIENT_FILES_BYTES = 64 * 1024 * 1024
 MAX_TRANSFER_FOLDER_BYTES = 1024 * 1024 * 1024
 #: Most files and folders one client's folder may hold.
 MAX_TRANSFER_FILES = 1000
+#: Longest file name a client may give, in UTF-8 bytes, and longest part of it between two ``/``
+#: (the file system's 255, less the ``.part`` a file is written under first): a 5,000-character
+#: name made simxEraseFile raise ENAMETOOLONG, whose message named the server's folder.
+MAX_FILE_NAME_BYTES = 1024
+MAX_FILE_NAME_PART_BYTES = 250
 #: Most bytes of MJCF a client may have loaded at once (a scene or model with its <include>s).
 MAX_SCENE_FILE_BYTES = 4 * 1024 * 1024
 #: Largest asset file (mesh, texture, height field, skin) a client-sent scene may name, in bytes.

@@ -175,7 +175,8 @@ class Sessions:
         if seq is None:
             return f"{PR.NOT_YOURS}: the request's proof does not hold for client {P.quote(client)}"
         if not s.window.take(seq):
-            return f"{PR.NOT_YOURS}: request number {seq} of client {P.quote(client)} was used before (a replay)"
+            return (f"{PR.NOT_YOURS}: request number {seq} of client {P.quote(client)} was used before, or is "
+                    f"more than {PR.WINDOW} below its highest (a replay)")
         return None
 
     def _bound(self, s: Session, size: int) -> str | None:

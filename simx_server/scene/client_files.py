@@ -164,8 +164,14 @@ class ClientFiles:
         names outside its folder and the server's own names (``.simx*``)."""
         if not isinstance(name, str) or not name or "\x00" in name:
             raise ArgumentError("file name must be a non-empty string")
-        folder = self.folder(self.caller if key is None else key)
         pure = PurePosixPath(name)
+        size = len(name.encode("utf-8", "surrogatepass"))
+        if size > limits.MAX_FILE_NAME_BYTES or any(len(part.encode("utf-8", "surrogatepass"))
+                                                    > limits.MAX_FILE_NAME_PART_BYTES for part in pure.parts):
+            raise ArgumentError(f"file name {quote(name)} refused: at most {limits.MAX_FILE_NAME_BYTES} bytes "
+                                f"(limits.MAX_FILE_NAME_BYTES), {limits.MAX_FILE_NAME_PART_BYTES} between two '/' "
+                                "(limits.MAX_FILE_NAME_PART_BYTES)")
+        folder = self.folder(self.caller if key is None else key)
         path = (folder / pure).resolve()
         if pure.is_absolute() or ".." in pure.parts or folder not in path.parents:
             raise ArgumentError(f"file name {quote(name)} refused: outside the transfer folder (a relative "

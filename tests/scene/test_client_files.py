@@ -85,3 +85,19 @@ def test_who_writes_a_scripts_file(files, tmp_path):
     assert files.target("out.xml", None, "sim.saveScene") == tmp_path / "out.xml"
     with pytest.raises(RemoteError, match="refused"):
         files.target(str(files.files_dir / "x.xml"), None, "sim.saveScene")
+
+
+@pytest.mark.parametrize("name", ["a" * 5000, "d/" + "b" * (limits.MAX_FILE_NAME_PART_BYTES + 1),
+                                  "/".join(["c" * 200] * 6), "é" * 126])
+def test_a_name_too_long_is_refused_naming_the_bound_never_the_folder(files, name):
+    """A 5,000-character name made simxEraseFile raise ENAMETOOLONG, an internal error whose
+    message named the server's folder (issue 48): every file call refuses it with the bound."""
+    with files.acting("legacy:a"):
+        for call in (lambda: files.erase_file(name), lambda: files.transfer_file(name, b"x"),
+                     lambda: files.resolve(name, 1, files.roots[0] / "scene.xml"),
+                     lambda: files.target(name, "legacy:a", "sim.saveScene")):
+            with pytest.raises(ArgumentError, match="MAX_FILE_NAME") as refused:
+                call()
+            assert str(files.files_dir) not in str(refused.value) and len(str(refused.value)) < 400
+        files.transfer_file("é" * 125, b"x")  # 250 bytes: in bounds
+        files.erase_file("é" * 125)

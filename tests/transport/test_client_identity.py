@@ -17,7 +17,7 @@ import pytest
 import zenoh
 
 import vrep
-from conftest import ServerProcess
+from conftest import ServerProcess, wait_until
 from simx_client import api
 from simx_client.connection import client_config
 from simx_wire import proof as PR
@@ -65,9 +65,9 @@ def test_another_session_presenting_a_clients_id_cannot_act_as_it(tmp_path):
                     att = query.attachment
                     seen.put((query.payload.to_bytes(), att.to_bytes() if att is not None else None))
 
-            with bob.declare_queryable(P.call_keys(), snoop):
-                assert vrep.simxGetPingTime(cid)[0] == 0
-                payload, proof = seen.get(timeout=10)  # alice's own request, as it went by
+            with bob.declare_queryable(P.call_keys(), snoop):  # reaches the router in its own time
+                wait_until(lambda: vrep.simxGetPingTime(cid)[0] == 0 and not seen.empty(), what="a request seen")
+                payload, proof = seen.get()  # alice's own request, as it went by
             assert proof is not None and len(proof) == PR.PROOF_BYTES
             erase = P.request(alice, [["EraseFile", B, ["keep.txt"]]])
             bye = P.request(alice, [["Bye", 0, []]])
