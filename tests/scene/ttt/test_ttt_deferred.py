@@ -6,6 +6,7 @@ here the test's thread, as the loop would run it."""
 from __future__ import annotations
 
 import queue
+import threading
 
 import pytest
 
@@ -76,10 +77,41 @@ def test_a_simulation_started_meanwhile_refuses_the_load(sim):
     assert "Floor" in sim.world.by_name
 
 
-def test_loads_past_the_waiting_bound_are_answered_busy(sim, monkeypatch):
-    monkeypatch.setattr(conversions, "_pending", [conversions.MAX_WAITING + 1])
-    with pytest.raises(RemoteError, match="server busy: .*MAX_WAITING = 4"):
-        H["LoadScene"](sim, ["box.ttt", 0])
+def test_each_client_has_its_share_of_the_conversion_queue_served_round_robin(sim, monkeypatch):
+    """Five clients' slow files filled the server-wide queue (4 waiting) and another client's
+    small file was answered busy meanwhile (issue 48). Now each client has
+    MAX_WAITING_PER_CLIENT loads converted or waiting: its next is busy, naming the share, and
+    a newcomer's load is taken; the worker takes them in turn, one per client."""
+    real, gate, order = conversions.ttt_cache.mjcf_for, threading.Event(), []
+
+    def held(file, root, client=False):  # the first conversion takes as long as the test wants
+        order.append(file.name)
+        if len(order) == 1:
+            assert gate.wait(60)
+        return real(file, root, client=client)
+
+    monkeypatch.setattr(conversions.ttt_cache, "mjcf_for", held)
+    files = sim.editor.files
+    names = [f"m{i}.ttm" for i in range(6)]
+    for name in names:
+        (files.roots[0] / name).write_bytes((files.roots[0] / "crate.ttm").read_bytes())
+    deferred = []
+    for i, name in enumerate(names[:5]):  # five clients, one load each
+        with files.acting(f"legacy:c{i}"):
+            deferred.append(H["LoadModel"](sim, [name, 0]))
+            with pytest.raises(RemoteError, match="server busy: .*MAX_WAITING_PER_CLIENT = 1"):
+                H["LoadModel"](sim, ["box.ttt", 0])  # its second, while its first waits
+    assert conversions.pending() == 5
+    with files.acting("legacy:newcomer"):
+        deferred.append(H["LoadModel"](sim, [names[5], 0]))  # before: busy
+    gate.set()
+    for d in deferred:
+        _run_posted(sim, d)
+    assert order == names  # one per client, in turn
+    assert conversions.pending() == 0
+    with files.acting("legacy:c0"):  # its share is back
+        again = H["LoadModel"](sim, ["crate.ttm", 0])
+    assert type(again) is Deferred and _run_posted(sim, again) is not None
 
 
 def test_without_a_loop_the_load_waits_for_the_worker(sim):
