@@ -99,6 +99,14 @@ MAX_TRANSFER_FILE_BYTES = 32 * 1024 * 1024
 MAX_CLIENT_FILES_BYTES = 64 * 1024 * 1024
 #: Most bytes all clients' folders together may hold.
 MAX_TRANSFER_FOLDER_BYTES = 1024 * 1024 * 1024
+#: Shares of that total (issue 48: 16 clients x 64 MiB filled it in 9 s and every other client's
+#: 1 kB file was refused for as long as they stayed): each client may always hold this many bytes
+#: ("its minimum", room for RESERVED / MIN clients kept free for them) ...
+MIN_CLIENT_FILES_BYTES = 1024 * 1024
+RESERVED_CLIENT_FILES_BYTES = 256 * 1024 * 1024
+#: ... and above it draws on the rest of the total (MAX_TRANSFER_FOLDER_BYTES - RESERVED: the
+#: pool), at most the pool divided by the number of clients holding files: a share that shrinks
+#: as clients come (files already written stay; its next write waits until it erases some).
 #: Most files and folders one client's folder may hold.
 MAX_TRANSFER_FILES = 1000
 #: Longest file name a client may give, in UTF-8 bytes, and longest part of it between two ``/``
