@@ -43,7 +43,7 @@ from simx_server.loop.core import PACINGS, Loop
 from simx_server.loop.front_door import FrontDoor, LoopAccess
 from simx_server.legacy.peers import PeerCheck
 from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
-                                           resolve, send_refusal)
+                                           resolve, send_refusal, tell_secret)
 from simx_server.legacy.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.legacy.streams import StreamPublisher, _Stream
 from simx_server.legacy.viewer_feed import ViewerFeed
@@ -305,7 +305,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             if entry.fault is None:
                 results = self._run(client, commands)
                 if session.secret is not None:
-                    _tell_secret(commands, results, session.secret)
+                    tell_secret(commands, results, session.secret)
             else:  # a failed step since this client's last request: told instead of executed
                 message, entry.fault = entry.fault, None
                 self._keep_error(client, message)
@@ -401,6 +401,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                 continue
             if name in NOT_STREAMABLE:
                 result = self._edit(client, name, mode, args)
+                if type(result[1]) is Deferred:  # a load or transfer done off this thread
+                    self._keep_later(client, name, result[1])
                 results.append(result)
                 continue
             result = execute(client, name, mode, args)
@@ -489,6 +491,21 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self._keep_error(client, message)
         return [False, message]
 
+    def _keep_later(self, client: str, name: str, deferred: Deferred) -> None:
+        """The error of a load or transfer that completes off the simulation thread is kept for
+        ``simxGetLastErrors`` and logged, as an error of a command run at once is."""
+        errors = self._join(client).errors
+
+        def done(future: Any) -> None:
+            exc = future.exception()
+            if isinstance(exc, P.RemoteError):
+                message = _cut(f"simx{name}: {exc}")
+                log.warning("client %s: simx%s failed: %s", client, name, message[len(name) + 6:])
+                errors.append(message)  # (one list operation at a time: no lock needed)
+                del errors[:-limits.MAX_ERRORS_KEPT]
+
+        deferred.future.add_done_callback(done)
+
     def _keep_error(self, client: str, message: str) -> None:
         errors = self._join(client).errors
         errors.append(message)
@@ -499,11 +516,3 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         "Bye": "_bye", "Synchronous": "_synchronous", "SynchronousTrigger": "_trigger",
         "GetLastErrors": "_last_errors", **{name: None for name in CONSOLE_COMMANDS},
     }
-
-
-def _tell_secret(commands: list, results: list, secret: bytes) -> None:
-    """A ``Hello``'s result carries its client's secret (``"secret"``, simx_wire.proof): the reply
-    goes to the querier alone, which proves every later request with it."""
-    for (name, _mode, _args), result in zip(commands, results):
-        if name == "Hello" and result[0] is True and type(result[1]) is dict:
-            result[1] = {**result[1], "secret": secret}

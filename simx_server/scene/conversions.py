@@ -1,7 +1,10 @@
-"""Scene and model loads whose ``.ttt``/``.ttm`` file is converted off the simulation thread.
+"""Scene and model loads whose ``.ttt``/``.ttm`` file is converted, and whose client MJCF or
+URDF file is parsed and compiled, off the simulation thread.
 
 A client's ``simxLoadScene``/``simxLoadModel`` (and ZMQ's ``sim.loadScene``/``sim.loadModel``)
-of a V-REP file returns at once with a :class:`~simx_server.sim.vision_results.Deferred`; a
+of a V-REP file, or of the client's own MJCF/URDF file (options bit 0: two 199,000-vertex,
+470,000-face OBJ meshes compiled on the simulation thread froze every client 9.4 s), returns at
+once with a :class:`~simx_server.sim.vision_results.Deferred`; a
 background thread has the file read and converted in its bounded worker process
 (:func:`simx_server.scene.ttt.cache.mjcf_for`, :mod:`simx_server.scene.ttt.worker`), then
 prepares the load there too, touching nothing the simulation thread owns (a scene: MuJoCo's
@@ -14,9 +17,9 @@ its error. The file is read under a client's bounds, whoever's folder it is in (
 ``limits.MAX_SCENE_ELEMENTS``: loading the MJCF of 100,000 objects held the simulation thread
 for a minute). One conversion runs at a time, on one thread, taking the waiting loads round robin
 by client; each client has at most :data:`MAX_WAITING_PER_CLIENT` loads converted or waiting
-(more: refused ``server busy``), so a client's load waits behind at most that many of every other
-client's, whatever they send (a server-wide bound of 4 let five clients' 12 MB files refuse every
-other client's 1 kB file for 32 s). Without ``sim.post`` (no loop serves the simulation: in-process
+(more: refused ``server busy``), and a client's load waits behind at most one load of every
+other client, whatever they send (a server-wide bound of 4 let five clients' 12 MB files refuse
+every other client's 1 kB file for 32 s). Without ``sim.post`` (no loop serves the simulation: in-process
 use) the conversion runs in the worker and the caller waits, as before.
 
 V-REP's own ``simLoadScene`` blocks its caller until the scene is loaded; so does the reply here.
@@ -44,8 +47,9 @@ from simx_server.sim.vision_results import Deferred
 log = logging.getLogger("simx.editing")
 
 #: Loads of one client (a door's caller key; None: the operator's, in-process) converted or
-#: waiting for it at once.
-MAX_WAITING_PER_CLIENT = 1
+#: waiting for it at once. Taken round robin, a client's load waits behind at most one load of
+#: each other client, however many each has waiting.
+MAX_WAITING_PER_CLIENT = 4
 
 
 class Conversions:
@@ -145,8 +149,9 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Any],
     if post is None:
         return None
     file = files.locate(path, options, ttt_cache.origin(sim.world.scene_path))
-    if not ttt_cache.is_vrep_file(file):
-        return None
+    vrep = ttt_cache.is_vrep_file(file)
+    if not vrep and not (options & 1 and prepare is not None):
+        return None  # an operator's MJCF: loaded at once (trusted, as V-REP loaded its files)
     caller = files.caller  # the client the door serves now: the install acts as it too
     client_root = files.folder(caller) if options & 1 else None  # its own folder (resolve's rule)
     root = client_root / ".simx" / "ttt" if client_root is not None else None
@@ -164,7 +169,8 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Any],
 
     def convert() -> None:  # the conversion's thread, one job at a time
         try:
-            xml = ttt_cache.mjcf_for(file, root, client=True)  # a client asked: a client's bounds
+            # a client asked: a client's bounds; a client's MJCF/URDF is prepared as it is
+            xml = ttt_cache.mjcf_for(file, root, client=True) if vrep else file
             ready: Any = xml
             if prepare is None:
                 _warm(xml, client_root)

@@ -17,6 +17,7 @@ import pytest
 import vrep
 from conftest import ServerProcess, free_port
 from simx_client import api
+from simx_server.scene import conversions
 from simx_wire import protocol as P
 
 pytestmark = pytest.mark.renderers_on_demand
@@ -34,24 +35,27 @@ def test_one_clients_loads_take_its_share_of_the_conversion_queue_and_transfers_
     b = vrep.simxStart("127.0.0.1", srv.ports[1], True, True, 5000, 5)
     try:
         assert a >= 0 and b >= 0
-        for cid, names in ((a, ("m1.ttm", "m2.ttm")), (b, ("m3.ttm",))):
+        share = conversions.MAX_WAITING_PER_CLIENT
+        for cid, names in ((a, [f"m{i}.ttm" for i in range(share + 1)]), (b, ("b.ttm",))):
             for name in names:  # written off the simulation thread; the reply once written
                 assert vrep.simxTransferFile(cid, str(model), name, 5, B) == 0
         folder = next(Path(tempfile.gettempdir()).glob(f"simx-{srv.proc.pid}-*"))
-        assert len(list(folder.glob(".simx-clients/*/m*.ttm"))) == 3
-        # a's two loads in one request: the first is converted (a worker process), the second,
-        # executed microseconds later, finds a's share taken.
+        assert len(list(folder.glob(".simx-clients/*/*.ttm"))) == share + 2
+        # a's loads in one request: the first is converted (a worker process), the others wait,
+        # and the last, executed microseconds later, finds a's share taken.
         got: list = []
-        first = threading.Thread(target=lambda: got.append(api._connections[a].request(
-            [["LoadModel", ONESHOT, ["m1.ttm", 1]], ["LoadModel", ONESHOT, ["m2.ttm", 1]]], timeout=120)))
+        loads = [["LoadModel", ONESHOT, [f"m{i}.ttm", 1]] for i in range(share + 1)]
+        first = threading.Thread(target=lambda: got.append(api._connections[a].request(loads, timeout=120)))
         first.start()
-        ((ok, handle),) = api._connections[b].request([["LoadModel", B, ["m3.ttm", 1]]], timeout=120)
+        ((ok, handle),) = api._connections[b].request([["LoadModel", B, ["b.ttm", 1]]], timeout=120)
         first.join(120)
         assert ok is True and type(handle) is int, handle  # b's load is not busy
-        (ok1, h1), (ok2, why) = got[0]
-        assert ok1 is True and type(h1) is int
-        assert ok2 is False and why.startswith(f"simxLoadModel: {P.BUSY}") and "MAX_WAITING_PER_CLIENT = 1" in why
-        assert api._connections[a].request([["LoadModel", B, ["m2.ttm", 1]]], timeout=120)[0][0] is True  # back
+        *done, (ok, why) = got[0]
+        assert [(ok, type(h)) for ok, h in done] == [(True, int)] * share
+        assert ok is False and why.startswith(f"simxLoadModel: {P.BUSY}"), why
+        assert f"MAX_WAITING_PER_CLIENT = {share}" in why
+        again = [["LoadModel", B, [f"m{share}.ttm", 1]]]
+        assert api._connections[a].request(again, timeout=120)[0][0] is True  # its share is back
     finally:
         vrep.simxFinish(a)
         vrep.simxFinish(b)

@@ -80,8 +80,9 @@ def test_a_simulation_started_meanwhile_refuses_the_load(sim):
 def test_each_client_has_its_share_of_the_conversion_queue_served_round_robin(sim, monkeypatch):
     """Five clients' slow files filled the server-wide queue (4 waiting) and another client's
     small file was answered busy meanwhile (issue 48). Now each client has
-    MAX_WAITING_PER_CLIENT loads converted or waiting: its next is busy, naming the share, and
-    a newcomer's load is taken; the worker takes them in turn, one per client."""
+    MAX_WAITING_PER_CLIENT loads converted or waiting: its next is busy, naming the share, and a
+    newcomer's load is taken; the worker takes them round robin, one per client in turn, so the
+    newcomer's comes before any client's third."""
     real, gate, order = conversions.ttt_cache.mjcf_for, threading.Event(), []
 
     def held(file, root, client=False):  # the first conversion takes as long as the test wants
@@ -92,26 +93,28 @@ def test_each_client_has_its_share_of_the_conversion_queue_served_round_robin(si
 
     monkeypatch.setattr(conversions.ttt_cache, "mjcf_for", held)
     files = sim.editor.files
-    names = [f"m{i}.ttm" for i in range(6)]
-    for name in names:
-        (files.roots[0] / name).write_bytes((files.roots[0] / "crate.ttm").read_bytes())
+    share = conversions.MAX_WAITING_PER_CLIENT
+    crate = (files.roots[0] / "crate.ttm").read_bytes()
     deferred = []
-    for i, name in enumerate(names[:5]):  # five clients, one load each
-        with files.acting(f"legacy:c{i}"):
-            deferred.append(H["LoadModel"](sim, [name, 0]))
-            with pytest.raises(RemoteError, match="server busy: .*MAX_WAITING_PER_CLIENT = 1"):
-                H["LoadModel"](sim, ["box.ttt", 0])  # its second, while its first waits
-    assert conversions.pending() == 5
+    for c in ("a", "b", "c", "d", "e"):
+        with files.acting(f"legacy:{c}"):
+            for j in range(share):
+                (files.roots[0] / f"{c}{j}.ttm").write_bytes(crate)
+                deferred.append(H["LoadModel"](sim, [f"{c}{j}.ttm", 0]))
+            with pytest.raises(RemoteError, match=f"server busy: .*MAX_WAITING_PER_CLIENT = {share}"):
+                H["LoadModel"](sim, ["box.ttt", 0])  # one more, while its share waits
+    assert conversions.pending() == 5 * share
+    (files.roots[0] / "new.ttm").write_bytes(crate)
     with files.acting("legacy:newcomer"):
-        deferred.append(H["LoadModel"](sim, [names[5], 0]))  # before: busy
+        deferred.append(H["LoadModel"](sim, ["new.ttm", 0]))  # before: busy
     gate.set()
-    for d in deferred:
-        _run_posted(sim, d)
-    assert order == names  # one per client, in turn
+    for _ in deferred:
+        sim.jobs.get(timeout=60)()  # posted in the order converted
+    assert all(d.future.result(timeout=0) is not None for d in deferred)
+    # a0 was under way; then one of each client in turn (a again first, being first in the ring)
+    assert order[:8] == ["a0.ttm", "a1.ttm", "b0.ttm", "c0.ttm", "d0.ttm", "e0.ttm", "new.ttm", "a2.ttm"]
+    assert sorted(order) == sorted([f"{c}{j}.ttm" for c in "abcde" for j in range(share)] + ["new.ttm"])
     assert conversions.pending() == 0
-    with files.acting("legacy:c0"):  # its share is back
-        again = H["LoadModel"](sim, ["crate.ttm", 0])
-    assert type(again) is Deferred and _run_posted(sim, again) is not None
 
 
 def test_without_a_loop_the_load_waits_for_the_worker(sim):
