@@ -104,6 +104,10 @@ MAX_TRANSFER_FOLDER_BYTES = 1024 * 1024 * 1024
 #: ("its minimum", room for RESERVED / MIN clients kept free for them) ...
 MIN_CLIENT_FILES_BYTES = 1024 * 1024
 RESERVED_CLIENT_FILES_BYTES = 256 * 1024 * 1024
+#: Bytes of simxTransferFile taken from the requests and not written yet (the files' thread
+#: writes them), of one client and of all: beyond, "server busy" (the client sends it again).
+MAX_UNWRITTEN_BYTES = 64 * 1024 * 1024
+MAX_UNWRITTEN_BYTES_TOTAL = 256 * 1024 * 1024
 #: ... and above it draws on the rest of the total (MAX_TRANSFER_FOLDER_BYTES - RESERVED: the
 #: pool), at most the pool divided by the number of clients holding files: a share that shrinks
 #: as clients come (files already written stay; its next write waits until it erases some).

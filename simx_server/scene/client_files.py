@@ -37,7 +37,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
 
-from simx_wire.protocol import ArgumentError, RemoteError
+from simx_wire.protocol import BUSY, ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
@@ -77,6 +77,7 @@ class ClientFiles:
         self._lock = threading.Lock()  # _usage and _pending: the writing thread updates them too
         self._pending: dict[str, list[Any]] = {}  # key -> [entries, bytes, writes] not written yet
         self._writer: ThreadPoolExecutor | None = None
+        self._unwritten: dict[str, int] = {}  # key -> bytes handed to the files' thread, not written yet
 
     # ------------------------------------------------------------- who calls
     @contextlib.contextmanager
@@ -320,17 +321,25 @@ class ClientFiles:
             raise ArgumentError(f"file {quote(name)} refused: {size:,} bytes, more than "
                                 f"MAX_TRANSFER_FILE_BYTES = {limits.MAX_TRANSFER_FILE_BYTES:,}")
         key = self.caller or ""
+        if later:
+            self._unwritten_room(key, size, name)
         reserved = self._reserve(path, size, key, name)
         data = data if type(data) is bytes else bytes(data)
 
         def write() -> None:
-            self._write(path, data, key, name, reserved)
+            try:
+                self._write(path, data, key, name, reserved)
+            finally:
+                if later:
+                    with self._lock:
+                        self._unwritten[key] -= size
             log.info("received file %s (%d bytes)", quote(name), size)
 
         if not later:
             write()
             return None
         with self._lock:  # the write cannot end (it takes this lock) before it is listed
+            self._unwritten[key] = self._unwritten.get(key, 0) + size
             if self._writer is None:
                 self._writer = ThreadPoolExecutor(1, thread_name_prefix="simx-files")
             future = self._writer.submit(write)
@@ -343,6 +352,18 @@ class ClientFiles:
 
         future.add_done_callback(done)
         return future
+
+    def _unwritten_room(self, key: str, size: int, name: str) -> None:
+        """Raises RemoteError (``server busy``) when ``size`` more bytes for the files' thread
+        would pass ``MAX_UNWRITTEN_BYTES`` of this client or ``MAX_UNWRITTEN_BYTES_TOTAL``."""
+        with self._lock:
+            mine, total = self._unwritten.get(key, 0), sum(self._unwritten.values())
+        if mine + size > limits.MAX_UNWRITTEN_BYTES:
+            raise RemoteError(f"{BUSY}: file {quote(name)}: {mine:,} bytes of this client's files are being written "
+                              f"(limits.MAX_UNWRITTEN_BYTES = {limits.MAX_UNWRITTEN_BYTES:,}); send it again")
+        if total + size > limits.MAX_UNWRITTEN_BYTES_TOTAL:
+            raise RemoteError(f"{BUSY}: file {quote(name)}: {total:,} bytes of files are being written "
+                              f"(limits.MAX_UNWRITTEN_BYTES_TOTAL = {limits.MAX_UNWRITTEN_BYTES_TOTAL:,}); send it again")
 
     def erase_file(self, name: str) -> None:
         """``simxEraseFile``: delete a file of the calling client's folder."""

@@ -137,7 +137,7 @@ def test_a_group_cannot_fill_the_folder_and_a_newcomer_always_has_its_minimum(fi
     assert sum(b for _, b in files._usage.values()) == 1300  # 40 minimums and the pool: nothing lost
 
 
-def test_transfers_are_written_off_the_calling_thread_and_counted_before(files):
+def test_transfers_are_written_off_the_calling_thread_and_counted_before(files, monkeypatch):
     """With ``later`` the file is counted at once (the next transfer past the budget is refused
     before the first is written) and written by the files' thread; the client's next file call
     waits for it."""
@@ -150,6 +150,7 @@ def test_transfers_are_written_off_the_calling_thread_and_counted_before(files):
         real(*args)
 
     files._write = held
+    monkeypatch.setattr(limits, "MAX_UNWRITTEN_BYTES", 4 * limits.MAX_TRANSFER_FILE_BYTES)  # not the bound here
     with files.acting("legacy:a"):
         first = files.transfer_file("a.bin", b"a" * limits.MAX_TRANSFER_FILE_BYTES, later=True)
         second = files.transfer_file("b.bin", b"b" * limits.MAX_TRANSFER_FILE_BYTES, later=True)
@@ -160,4 +161,27 @@ def test_transfers_are_written_off_the_calling_thread_and_counted_before(files):
         files.erase_file("a.bin")  # waits for its writes: finds the file
         assert first.result(timeout=0) is None and second.result(timeout=0) is None
         assert files._usage["legacy:a"][1] == limits.MAX_TRANSFER_FILE_BYTES
+        files.transfer_file("c.bin", b"c", later=True).result(timeout=30)
+
+
+def test_bytes_not_written_yet_are_bounded_per_client_and_in_all(files, monkeypatch):
+    """Rewriting one file costs no room in the folder: the bytes handed to the files' thread are
+    bounded instead (per client, and for all), answered "server busy" beyond."""
+    import threading
+    monkeypatch.setattr(limits, "MAX_UNWRITTEN_BYTES", 250)
+    monkeypatch.setattr(limits, "MAX_UNWRITTEN_BYTES_TOTAL", 400)
+    gate, real = threading.Event(), files._write
+    files._write = lambda *args: (gate.wait(30), real(*args))[1]
+    writes = []
+    with files.acting("legacy:a"):
+        writes += [files.transfer_file("same.bin", b"a" * 100, later=True) for _ in range(2)]
+        with pytest.raises(RemoteError, match=r"server busy: .*200 bytes .*MAX_UNWRITTEN_BYTES = 250"):
+            files.transfer_file("same.bin", b"a" * 100, later=True)
+    with files.acting("legacy:b"):
+        writes.append(files.transfer_file("b.bin", b"b" * 200, later=True))
+    with files.acting("legacy:c"), pytest.raises(RemoteError, match="MAX_UNWRITTEN_BYTES_TOTAL = 400"):
+        files.transfer_file("c.bin", b"c", later=True)
+    gate.set()
+    assert [w.result(timeout=30) for w in writes] == [None] * 3
+    with files.acting("legacy:c"):
         files.transfer_file("c.bin", b"c", later=True).result(timeout=30)
