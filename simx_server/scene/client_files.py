@@ -140,17 +140,26 @@ class ClientFiles:
     def release(self, key: str) -> None:
         """Client ``key`` left: its folder goes, and its budget with it (kept while the loaded
         scene lies in it: then it goes when that scene is replaced)."""
-        self.settle(key)
+        self.settle(key, wait=True)
         if key == self._scene_key:
             self._gone.add(key)
             return
         self._remove(key)
 
-    def settle(self, key: str | None) -> None:
-        """Wait until the writes of client ``key`` (``simxTransferFile``, off the simulation
-        thread) are done: what it does next with its files sees them written, in order."""
+    def settle(self, key: str | None, wait: bool = False) -> None:
+        """What client ``key`` does next with its files sees its writes (``simxTransferFile``,
+        off the simulation thread) done: raises RemoteError (``server busy``) while some are
+        not, so that the simulation thread never waits behind the files' thread (a client's
+        blocking transfer is answered once written); ``wait``: wait for them instead (the
+        client left: its folder goes after them).
+
+        Raises:
+            RemoteError: without ``wait``, writes of the client not done yet."""
         with self._lock:
             writes = list(self._pending.get(key or "", (0, 0, []))[2])
+        if writes and not wait:
+            raise RemoteError(f"{BUSY}: {len(writes)} file(s) this client sent are being written; "
+                              "send it again once they are (a blocking simxTransferFile returns then)")
         for write in writes:
             try:
                 write.result()
@@ -306,7 +315,7 @@ class ClientFiles:
         ``later``: the file is counted against the budgets now and written by a thread of its own
         (one write at a time, in order), off the simulation thread (sixteen 32 MiB writes on it
         pushed other clients' p99 from 5 ms to 1.7 s); returns the write's Future (its result
-        None, or the RemoteError). The client's next file call waits for it (:meth:`settle`).
+        None, or the RemoteError). The client's file calls meanwhile are busy (:meth:`settle`).
 
         Raises:
             ArgumentError: a name outside the folder or reserved, data not bytes or larger than

@@ -157,9 +157,11 @@ def test_transfers_are_written_off_the_calling_thread_and_counted_before(files, 
         with pytest.raises(RemoteError, match="MAX_CLIENT_FILES_BYTES"):
             files.transfer_file("c.bin", b"c", later=True)  # counted, not written yet
         assert not first.done() and not (files.folder("legacy:a") / "a.bin").exists()
+        with pytest.raises(RemoteError, match="server busy: 2 file.s. this client sent are being written"):
+            files.erase_file("a.bin")  # never waits on the calling thread
         gate.set()
-        files.erase_file("a.bin")  # waits for its writes: finds the file
-        assert first.result(timeout=0) is None and second.result(timeout=0) is None
+        assert first.result(timeout=30) is None and second.result(timeout=30) is None
+        files.erase_file("a.bin")
         assert files._usage["legacy:a"][1] == limits.MAX_TRANSFER_FILE_BYTES
         files.transfer_file("c.bin", b"c", later=True).result(timeout=30)
 

@@ -91,8 +91,8 @@ def test_a_clients_mjcf_is_compiled_off_the_simulation_thread(sim, monkeypatch):
             return _real(self, *args, **kwargs)
 
         monkeypatch.setattr(editor, name, spy)
-    H["TransferFile"](sim, ["grid.obj", grid_obj(30)])
-    H["TransferFile"](sim, ["one.xml", scene(1)])
+    for name, data in (("grid.obj", grid_obj(30)), ("one.xml", scene(1))):
+        H["TransferFile"](sim, [name, data]).future.result(timeout=30)  # written off this thread
     world = sim.world
     deferred = H["LoadScene"](sim, ["one.xml", 1])
     assert type(deferred) is Deferred and sim.world is world  # not loaded yet
