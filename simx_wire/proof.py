@@ -9,8 +9,8 @@ does not prove one. What proves it (protocol version 4):
   the id to a random secret of :data:`SECRET_BYTES` the server makes; the ``Hello`` result carries
   it (``"secret"``, msgpack bin). A reply goes to its querier only, so no other session sees it.
 * Every later request carries, as its Zenoh *attachment*, :func:`seal`'s :data:`PROOF_BYTES`:
-  a sequence number (8 bytes, big-endian, larger than every earlier one of the client) and
-  HMAC-SHA256 of that number and the request's payload, keyed by the secret, cut to 16 bytes.
+  a sequence number (8 bytes, big-endian, larger than every earlier one of the client) and the
+  16-byte keyed BLAKE2b of that number and the request's payload, keyed by the secret.
   A session that saw such a request can neither make another one (no secret) nor replay it
   (:class:`Window` refuses a number used before).
 * A request without a proof under an id the server knows is refused; so is one whose proof does
@@ -44,9 +44,11 @@ def new_secret() -> bytes:
 
 
 def _mac(secret: bytes, seq: bytes, payload: bytes) -> bytes:
-    mac = hmac.new(secret, seq, hashlib.sha256)
+    """BLAKE2b keyed with the secret (its MAC mode: RFC 7693), of ``seq`` and then ``payload``,
+    a digest of :data:`MAC_BYTES`: about 1.5 us for a request of a call (HMAC-SHA256: 8 us)."""
+    mac = hashlib.blake2b(seq, key=secret, digest_size=MAC_BYTES)
     mac.update(payload)
-    return mac.digest()[:MAC_BYTES]
+    return mac.digest()
 
 
 def seal(secret: bytes, seq: int, payload: bytes) -> bytes:
