@@ -249,8 +249,18 @@ class Connection(OutboxSender):
     def _hello(self, timeout: float | None = None) -> Any:
         """The handshake: the server's ``Hello`` result, whose ``"secret"`` proves this client's
         later requests (simx_wire.proof). Sent without a proof: the server binds the id anew."""
-        self._secret = None
-        info = self.request([["Hello", P.MODE_BLOCKING, []]], timeout, rebind=False)[0][1]
+        info = self._request([["Hello", P.MODE_BLOCKING, []]], timeout, False, prove=False)[0][1]
+        if type(info) is dict and type(info.get("secret")) is bytes:
+            self._secret = info.pop("secret")  # other threads' requests meanwhile used the old one
+        return info
+
+    def _handshake(self) -> Any:
+        """A handshake again (the server came back): proven when this client has a secret, so
+        that a server that still knows it answers; one that forgot it (a restart) makes
+        :meth:`request` handshake anew (:meth:`_rebind`). The ``Hello`` result, its secret kept."""
+        if self._secret is None:
+            return self._hello()
+        info = self.request([["Hello", P.MODE_BLOCKING, []]])[0][1]
         if type(info) is dict and type(info.get("secret")) is bytes:
             self._secret = info.pop("secret")
         return info
@@ -314,7 +324,7 @@ class Connection(OutboxSender):
         self._rebind(secret)
         return self._request(commands, timeout, flush)
 
-    def _request(self, commands: list[list], timeout: float | None, flush: bool) -> list[list]:
+    def _request(self, commands: list[list], timeout: float | None, flush: bool, prove: bool = True) -> list[list]:
         carried, epoch = None, self._epoch
         with self._send_lock:
             if flush and self._outbox and not self._paused:
@@ -327,7 +337,7 @@ class Connection(OutboxSender):
                 else:  # the outbox's commands first, as their own request would have run them
                     packed = carried.packed + [P.pack(command) for command in commands]
                     payload, header = self._payload(carried.commands + commands, self._encoder.encode_packed(packed))
-                attachment = self._seal(payload, header)
+                attachment = self._seal(payload, header) if prove else None
                 if timeout is None:
                     replies = self._querier.get(payload=payload, attachment=attachment)
                 else:
@@ -422,7 +432,7 @@ class Connection(OutboxSender):
         try:
             while True:
                 try:
-                    info = self._hello()  # a restarted server knows no client: a new secret
+                    info = self._handshake()
                     break
                 except (TimeoutError, zenoh.ZError) as exc:
                     log.info("reconnecting to %s:%d: %s", self.address, self.port, exc)
