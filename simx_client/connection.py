@@ -39,6 +39,7 @@ from typing import Any
 import zenoh
 
 from simx_wire import constants as C
+from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_client.outbox import MAX_BATCH_COMMANDS
 from simx_client.refusal import open_session
@@ -200,7 +201,9 @@ class Connection(OutboxSender):
         self.converted: dict[tuple, tuple[Any, Any]] = {}  # the facade's last conversion per command
         self._key = P.call_key(prefix, self.client)
         self._encoder = P.RequestEncoder(self.client)
-        self._messages = itertools.count(1)
+        self._messages = itertools.count(1)  # also the sequence numbers of the requests' proofs
+        self._secret: bytes | None = None  # the server's for this client id (simx_wire.proof), from Hello
+        self._rebinding = threading.Lock()
         self._t0 = time.monotonic()
         self._out = (0, 0.0)  # (message id, client time) of the last request
         self._in: tuple[tuple[int, float], list] = ((0, 0.0), _NO_RESPONSE)  # its header and the last reply
@@ -212,7 +215,7 @@ class Connection(OutboxSender):
             # always include every update that arrived before the reply a caller just got.
             self._subscriber = self.session.declare_subscriber(
                 P.stream_key(prefix, self.client), zenoh.handlers.RingChannel(STREAM_BACKLOG))
-            self.server_info = self.request([["Hello", P.MODE_BLOCKING, []]], hello_timeout)[0][1]
+            self.server_info = self._hello(hello_timeout)  # before the token: nobody knows the id yet
             # Answers the server's question "which session holds this id?" (one empty reply):
             # Zenoh stamps the reply with this session's id, so the server can bound ids per session.
             self._peer = self.session.declare_queryable(
@@ -243,6 +246,37 @@ class Connection(OutboxSender):
             return False
 
     # --------------------------------------------------------------- transport
+    def _hello(self, timeout: float | None = None) -> Any:
+        """The handshake: the server's ``Hello`` result, whose ``"secret"`` proves this client's
+        later requests (simx_wire.proof). Sent without a proof: the server binds the id anew."""
+        info = self._request([["Hello", P.MODE_BLOCKING, []]], timeout, False, prove=False)[0][1]
+        if type(info) is dict and type(info.get("secret")) is bytes:
+            self._secret = info.pop("secret")  # other threads' requests meanwhile used the old one
+        return info
+
+    def _handshake(self) -> Any:
+        """A handshake again (the server came back): proven when this client has a secret, so
+        that a server that still knows it answers; one that forgot it (a restart) makes
+        :meth:`request` handshake anew (:meth:`_rebind`). The ``Hello`` result, its secret kept."""
+        if self._secret is None:
+            return self._hello()
+        info = self.request([["Hello", P.MODE_BLOCKING, []]])[0][1]
+        if type(info) is dict and type(info.get("secret")) is bytes:
+            self._secret = info.pop("secret")
+        return info
+
+    def _rebind(self, secret: bytes | None) -> None:
+        """The server forgot this client (proof.UNKNOWN): handshake again, once for all the
+        requests that were refused with ``secret``."""
+        with self._rebinding:
+            if self._secret is secret and secret is not None:
+                self._hello()
+
+    def _seal(self, payload: bytes, header: tuple[int, float]) -> bytes | None:
+        """The attachment that proves request ``header[0]`` is this client's (None before its Hello)."""
+        secret = self._secret
+        return None if secret is None else PR.seal(secret, header[0], payload)
+
     def _encode(self, commands: list[list]) -> bytes:
         """The request carrying ``commands``; LocalError for arguments msgpack cannot carry
         (an int beyond 64 bits, a lone surrogate in a str, nesting beyond msgpack's limit)."""
@@ -260,9 +294,12 @@ class Connection(OutboxSender):
         header = self._out = (next(self._messages), time.monotonic())
         return payload, header
 
-    def request(self, commands: list[list], timeout: float | None = None, flush: bool = False) -> list[list]:
+    def request(self, commands: list[list], timeout: float | None = None, flush: bool = False,
+                rebind: bool = True) -> list[list]:
         """Send commands and wait for their results ``[[ok, value], ...]``; with ``flush``, what
         waits in the outbox leaves first, right ahead of them (unless communication is paused).
+        A server that forgot this client (its state expired) is handshaken again and the
+        commands sent once more (unless ``rebind`` is false).
 
         Raises:
             TimeoutError: no reply within the timeout (the server is gone or too slow).
@@ -273,10 +310,21 @@ class Connection(OutboxSender):
             commands: ``[name, mode, args]`` lists.
             timeout: s; None: the connection's blocking timeout.
             flush: send the outbox first.
+            rebind: handshake again when the server forgot this client.
 
         Returns:
             One ``[ok, value]`` per command.
         """
+        secret = self._secret
+        try:
+            return self._request(commands, timeout, flush)
+        except P.ProtocolError as exc:
+            if not rebind or PR.UNKNOWN not in str(exc):
+                raise
+        self._rebind(secret)
+        return self._request(commands, timeout, flush)
+
+    def _request(self, commands: list[list], timeout: float | None, flush: bool, prove: bool = True) -> list[list]:
         carried, epoch = None, self._epoch
         with self._send_lock:
             if flush and self._outbox and not self._paused:
@@ -289,10 +337,11 @@ class Connection(OutboxSender):
                 else:  # the outbox's commands first, as their own request would have run them
                     packed = carried.packed + [P.pack(command) for command in commands]
                     payload, header = self._payload(carried.commands + commands, self._encoder.encode_packed(packed))
+                attachment = self._seal(payload, header) if prove else None
                 if timeout is None:
-                    replies = self._querier.get(payload=payload)
+                    replies = self._querier.get(payload=payload, attachment=attachment)
                 else:
-                    replies = self.session.get(self._key, payload=payload, timeout=timeout)
+                    replies = self.session.get(self._key, payload=payload, timeout=timeout, attachment=attachment)
             except BaseException:
                 if carried is not None:  # not sent: the batch is over, as an asynchronous send that failed
                     self._carried(carried, None, epoch)
@@ -383,7 +432,7 @@ class Connection(OutboxSender):
         try:
             while True:
                 try:
-                    info = self.request([["Hello", P.MODE_BLOCKING, []]])[0][1]
+                    info = self._handshake()
                     break
                 except (TimeoutError, zenoh.ZError) as exc:
                     log.info("reconnecting to %s:%d: %s", self.address, self.port, exc)
@@ -561,8 +610,9 @@ class Connection(OutboxSender):
         parts[-1] = parts[-1] + [P.pack(["Bye", P.MODE_ONESHOT, []])]
         try:
             for packed in parts:
-                session.get(self._key, _direct(lambda reply: None), payload=self._encoder.encode_packed(packed),
-                            timeout=0.5)
+                payload = self._encoder.encode_packed(packed)
+                session.get(self._key, _direct(lambda reply: None), payload=payload, timeout=0.5,
+                            attachment=self._seal(payload, (next(self._messages), 0.0)))
         except zenoh.ZError:
             pass
         closer = threading.Thread(target=session.close, daemon=True)

@@ -19,6 +19,7 @@ from typing import Any
 
 import zenoh
 
+from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_client.outbox import Batch, Outbox
 
@@ -170,6 +171,7 @@ class OutboxSender:
         the results land in the inbox. ``batch``: the outbox batch they are, which a busy answer
         puts back; ``background``: sent by the sender thread (counted in ``_batches_out``)."""
         payload, header = self._payload(commands, payload)
+        secret = self._secret
         split = [P.identity(n, a) for n, m, a in commands if m & P.MODE_MASK in _SPLIT]
         epoch = self._epoch
         answered = []
@@ -182,6 +184,8 @@ class OutboxSender:
                 message = self._accept(reply.ok.payload.to_bytes(), header)
             except P.ProtocolError as exc:
                 log.warning("%s", exc)
+                if PR.UNKNOWN in str(exc):  # the server forgot this client: handshake again, off its thread
+                    threading.Thread(target=self._rebind, args=(secret,), daemon=True).start()
                 return
             t = message[1]
             with self._lock:
@@ -216,7 +220,7 @@ class OutboxSender:
             for ident in split:
                 self._in_flight[ident] = self._in_flight.get(ident, 0) + 1
         try:
-            self._querier.get(direct(on_reply, on_done), payload=payload)
+            self._querier.get(direct(on_reply, on_done), payload=payload, attachment=self._seal(payload, header))
         except Exception as exc:  # zenoh.ZError (a closed session), or anything: the batch is over
             answered.append(False)  # said here
             on_done()

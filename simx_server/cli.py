@@ -223,6 +223,8 @@ def argument_error(args: argparse.Namespace) -> str | None:
                 "add --zmq-curve DIR (CURVE keys) or --zmq-insecure (docs/SECURITY.md)")
     if args.scene and Path(args.scene).is_dir():
         return f"simx-server: {args.scene} is a folder, not a scene file: give {SCENE_FILES_TEXT}"
+    if args.scene and Path(args.scene).exists() and not Path(args.scene).is_file():  # reading a FIFO waits for good
+        return f"simx-server: {args.scene} is not a regular file (a FIFO, socket or device): give {SCENE_FILES_TEXT}"
     return missing_scene(args)
 
 

@@ -10,7 +10,8 @@ Key expressions (``prefix`` defaults to ``"simx"``):
   queries the key that carries its own id; the payload is a *request* naming the same id (a
   request whose id differs from its key's is refused), the reply's payload is a *response*.
   With the id in the key, Zenoh access control can allow each user only its own ids
-  (docs/SECURITY.md).
+  (docs/SECURITY.md). Every request after the ``Hello`` carries, as its Zenoh attachment, the
+  proof that the id is its sender's (:mod:`simx_wire.proof`).
 * ``<prefix>/stream/<client>`` -- the server publishes a *stream update* for one client after
   every simulation step (and at each idle tick while the simulation is not running).
 * ``<prefix>/alive/server`` and ``<prefix>/alive/client/<client>`` -- liveliness tokens.
@@ -41,7 +42,7 @@ import msgpack
 
 from simx_wire import decoded_size
 
-PROTOCOL_VERSION = 3  # 2: one call key for every client; 1: the same fields in msgpack maps
+PROTOCOL_VERSION = 4  # 3: requests without proof; 2: one call key for every client; 1: maps
 DEFAULT_PREFIX = "simx"
 
 # Bits of ``server_state`` (same meaning as V-REP's simx_headeroffset_server_state byte).

@@ -99,8 +99,25 @@ MAX_TRANSFER_FILE_BYTES = 32 * 1024 * 1024
 MAX_CLIENT_FILES_BYTES = 64 * 1024 * 1024
 #: Most bytes all clients' folders together may hold.
 MAX_TRANSFER_FOLDER_BYTES = 1024 * 1024 * 1024
+#: Shares of that total (issue 48: 16 clients x 64 MiB filled it in 9 s and every other client's
+#: 1 kB file was refused for as long as they stayed): each client may always hold this many bytes
+#: ("its minimum", room for RESERVED / MIN clients kept free for them) ...
+MIN_CLIENT_FILES_BYTES = 1024 * 1024
+RESERVED_CLIENT_FILES_BYTES = 256 * 1024 * 1024
+#: Bytes of simxTransferFile taken from the requests and not written yet (the files' thread
+#: writes them), of one client and of all: beyond, "server busy" (the client sends it again).
+MAX_UNWRITTEN_BYTES = 64 * 1024 * 1024
+MAX_UNWRITTEN_BYTES_TOTAL = 256 * 1024 * 1024
+#: ... and above it draws on the rest of the total (MAX_TRANSFER_FOLDER_BYTES - RESERVED: the
+#: pool), at most the pool divided by the number of clients holding files: a share that shrinks
+#: as clients come (files already written stay; its next write waits until it erases some).
 #: Most files and folders one client's folder may hold.
 MAX_TRANSFER_FILES = 1000
+#: Longest file name a client may give, in UTF-8 bytes, and longest part of it between two ``/``
+#: (the file system's 255, less the ``.part`` a file is written under first): a 5,000-character
+#: name made simxEraseFile raise ENAMETOOLONG, whose message named the server's folder.
+MAX_FILE_NAME_BYTES = 1024
+MAX_FILE_NAME_PART_BYTES = 250
 #: Most bytes of MJCF a client may have loaded at once (a scene or model with its <include>s).
 MAX_SCENE_FILE_BYTES = 4 * 1024 * 1024
 #: Largest asset file (mesh, texture, height field, skin) a client-sent scene may name, in bytes.
@@ -121,6 +138,12 @@ MAX_SCENE_HFIELD_CELLS = 2 * MAX_HFIELD_CELLS
 #: them in a scene (MuJoCo computes each mesh's convex hull: 200,000 vertices take 0.3-1 s).
 MAX_MESH_VERTICES = 200_000
 MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
+#: Most faces (triangles, a polygon counting as its fan) of one mesh, and of all meshes of a
+#: scene: the compile's time and memory grow with faces (a 199,000-vertex, 397,000-face OBJ:
+#: 1.5 s of CPU and +347 MB at its peak); two in-bounds 199,000-vertex meshes of 470,000 faces
+#: each froze every client 9.4 s and took a server from 230 MB to 1,349 MB.
+MAX_MESH_FACES = 400_000
+MAX_SCENE_MESH_FACES = 2 * MAX_MESH_FACES
 #: Most bytes of MuJoCo's data arena (contacts, constraints and the solver's scratch memory)
 #: of a client's scene or of a scene after a client's edit: its <size memory>, and the compiled
 #: model's ``narena``, which MuJoCo sizes itself when the MJCF does not (100 free spheres: 57

@@ -39,6 +39,8 @@ import mujoco
 from simx_wire.protocol import RemoteError
 from simx_server.base import limits
 from simx_server.base.arguments import quote
+from simx_server.base.mesh_counts import mesh_faces, mesh_vertices
+from simx_server.base.mesh_counts import png_pixels as _png_pixels
 
 log = logging.getLogger("simx.files")
 
@@ -170,41 +172,11 @@ def _over(what: str, count: float, bound_name: str) -> None:
 _UNITS = {"MAX_SCENE_BODIES": "bodies", "MAX_SCENE_ELEMENTS": "elements", "MAX_TEXTURE_PIXELS": "texture pixels",
           "MAX_SCENE_TEXTURE_PIXELS": "texture pixels in all", "MAX_HFIELD_CELLS": "height-field cells",
           "MAX_SCENE_HFIELD_CELLS": "height-field cells in all", "MAX_SCENE_MESH_VERTICES": "mesh vertices in all",
-          "MAX_MESH_VERTICES": "mesh vertices", "MAX_SCENE_FILE_BYTES": "bytes", "MAX_ASSET_FILE_BYTES": "bytes",
+          "MAX_MESH_VERTICES": "mesh vertices", "MAX_MESH_FACES": "mesh faces",
+          "MAX_SCENE_MESH_FACES": "mesh faces in all", "MAX_SCENE_FILE_BYTES": "bytes", "MAX_ASSET_FILE_BYTES": "bytes",
           "MAX_XML_DEPTH": "levels of nesting", "MAX_ARENA_BYTES": "bytes of arena",
           "MAX_SIZE_ENTRIES": "entries", "MAX_SOLVER_ITERATIONS": "iterations", "MAX_VISUAL_SIZE": "pixels",
           "MAX_VISUAL_DETAIL": "", "MAX_RESOLUTION": "pixels"}
-
-
-def _png_pixels(head: bytes) -> int | None:
-    if head[:8] == b"\x89PNG\r\n\x1a\n" and len(head) >= 24 and head[12:16] == b"IHDR":
-        w, h = struct.unpack(">II", head[16:24])
-        return w * h
-    return None
-
-
-#: An OBJ vertex line as MuJoCo's reader (tinyobjloader) takes one: after \n, \r or \r\n (or at
-#: the start), optional blanks (space, tab), ``v``, a blank.
-_OBJ_VERTEX = re.compile(rb"(?:^|[\r\n])[ \t]*v[ \t]")
-
-
-def mesh_vertices(data: bytes, name: str) -> int:
-    """Vertices a mesh file holds (an upper bound), counted as MuJoCo's readers take them.
-
-    By the extension MuJoCo picks its reader by: ``.stl`` is read as binary STL whatever its
-    first bytes (an 80-byte header that starts with ``solid`` included), three vertices per
-    triangle of its count; ``.obj`` by its vertex lines (CR, LF or CRLF, leading blanks);
-    ``.msh`` by its header's count; any other name (a ``content_type``) by the most of these
-    and three floats per vertex."""
-    ext = posixpath.splitext(name.lower())[1]
-    if ext == ".stl":
-        return 3 * struct.unpack("<I", data[80:84])[0] if len(data) >= 84 else 0
-    text = len(_OBJ_VERTEX.findall(data))
-    if ext == ".obj":
-        return text
-    if ext == ".msh":
-        return max(text, struct.unpack("<i", data[:4])[0] if len(data) >= 4 else 0)
-    return max(text, len(data) // 12)
 
 
 def _number(el: ET.Element, attr: str, what: str, default: str = "1") -> list[int]:
@@ -401,7 +373,7 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
     counts = element_counts(spec)
     _over(what, counts[0], "MAX_SCENE_BODIES")
     _over(what, counts[1], "MAX_SCENE_ELEMENTS")
-    total = verts_total = cells_total = 0
+    total = verts_total = cells_total = faces_total = 0
     files = [(t, "texturedir") for t in spec.textures] + [(e, "meshdir") for e in
                                                         (*spec.meshes, *spec.hfields, *spec.skins)]
     for el, folder_attr in files:
@@ -439,6 +411,9 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
             verts = len(el.uservert) // 3 + (mesh_vertices(data, el.file) if data else 0)
             _over(label, verts, "MAX_MESH_VERTICES")
             verts_total += verts
+            faces = len(el.userface) // 3 + (mesh_faces(data, el.file) if data else 0)
+            _over(label, faces, "MAX_MESH_FACES")
+            faces_total += faces
         elif isinstance(el, mujoco.MjsSkin):  # a .skn file starts with its vertex count
             verts = len(el.vert) // 3 + (max(struct.unpack("<i", data[:4])[0], 0) if len(data) >= 4 else 0)
             _over(label, verts, "MAX_MESH_VERTICES")
@@ -448,6 +423,7 @@ def check_spec(spec: mujoco.MjSpec, what: str, root: Path | None = None, dt: flo
         verts_total += len(flex.vert) // 3
     _over(what, total, "MAX_SCENE_TEXTURE_PIXELS")
     _over(what, verts_total, "MAX_SCENE_MESH_VERTICES")
+    _over(what, faces_total, "MAX_SCENE_MESH_FACES")
     _over(what, cells_total, "MAX_SCENE_HFIELD_CELLS")
     for n in spec.numerics:
         _over(f"{what} (numeric {quote(n.name)})", max(n.size, len(n.data)), "MAX_SIZE_ENTRIES")

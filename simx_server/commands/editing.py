@@ -22,9 +22,12 @@ def _bool(value: Any, what: str) -> bool:
     raise ArgumentError(f"{what} must be a bool, got {value!r}")
 
 
-def transfer_file(sim: Simulation, args: list) -> None:
+def transfer_file(sim: Simulation, args: list) -> Deferred | None:
+    """``simxTransferFile``: with a loop (``sim.post``), the file is written off the simulation
+    thread and the reply leaves once it is written (a Deferred)."""
     name, data = _args(args, "str", "any")
-    sim.editor.transfer_file(name, data)
+    write = sim.editor.transfer_file(name, data, later=getattr(sim, "post", None) is not None)
+    return None if write is None else Deferred(write)
 
 
 def erase_file(sim: Simulation, args: list) -> None:

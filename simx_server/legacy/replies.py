@@ -129,3 +129,11 @@ def send_refusal(query: zenoh.Query, key: str, reply: bytes) -> None:
         answer(query, reply)
     except Exception as exc:
         log.warning("replying on %s: %s", quote(key), exc)
+
+
+def tell_secret(commands: list, results: list, secret: bytes) -> None:
+    """A ``Hello``'s result carries its client's secret (``"secret"``, simx_wire.proof): the reply
+    goes to the querier alone, which proves every later request with it."""
+    for (name, _mode, _args), result in zip(commands, results):
+        if name == "Hello" and result[0] is True and type(result[1]) is dict:
+            result[1] = {**result[1], "secret": secret}

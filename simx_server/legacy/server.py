@@ -28,6 +28,7 @@ from typing import Any
 
 import zenoh
 
+from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
@@ -42,7 +43,7 @@ from simx_server.loop.core import PACINGS, Loop
 from simx_server.loop.front_door import FrontDoor, LoopAccess
 from simx_server.legacy.peers import PeerCheck
 from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
-                                           resolve, send_refusal)
+                                           resolve, send_refusal, tell_secret)
 from simx_server.legacy.sessions import Session, Sessions, keep_thread_state, zenoh_thread
 from simx_server.legacy.streams import StreamPublisher, _Stream
 from simx_server.legacy.viewer_feed import ViewerFeed
@@ -143,7 +144,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self._registry: dict[str, LegacyClient] = loop.clients.of(self)  # this door's clients, by id
         # Their sessions are the ready ring's ready clients; one with nothing waiting is served
         # on Zenoh's thread when the simulation thread waits for work (Loop.serve_or_deliver).
-        self.sessions = Sessions(loop.ring, door=self, schedule=self._schedule)
+        self.sessions = Sessions(loop.ring, door=self, schedule=self._schedule, prove=True)
         self.peers = PeerCheck(self.sessions, prefix)  # which Zenoh session holds each token
         self._streams: dict[str, dict[tuple, _Stream]] = {}
         self._stream_renders: list = []  # futures of the last step's image-stream updates (StreamPublisher)
@@ -195,9 +196,14 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
             if self.sessions.get(client) is None and not P.valid_client_id(client):  # once per client
                 raise P.ProtocolError("invalid client id: 1 to 128 characters without / * $ ? #")
-            refused = self.sessions.admit(client, (query, commands), size)
+            attachment = query.attachment  # the proof that the id is the sender's (simx_wire.proof)
+            refused = self.sessions.admit(client, (query, commands), size, data,
+                                          attachment.to_bytes() if attachment is not None else None,
+                                          any(c[0] == "Hello" for c in commands))
             if refused is None:
                 return  # the simulation thread replies
+            if refused.startswith((PR.UNKNOWN, PR.NOT_YOURS)):
+                raise P.ProtocolError(refused)
             t, state, scene = self.sim.stamp()
             reply = P.response(t, state, [[False, refused]] * len(commands),
                                int((time.monotonic() - self.loop.started) * 1000), scene)
@@ -299,6 +305,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             entry.last_seen = session.last_seen  # when its intake took its last request (Zenoh's thread)
             if entry.fault is None:
                 results = self._run(client, commands)
+                if session.secret is not None:
+                    tell_secret(commands, results, session.secret)
             else:  # a failed step since this client's last request: told instead of executed
                 message, entry.fault = entry.fault, None
                 self._keep_error(client, message)
@@ -396,6 +404,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                 continue
             if name in NOT_STREAMABLE:
                 result = self._edit(client, name, mode, args)
+                if type(result[1]) is Deferred:  # a load or transfer done off this thread
+                    self._keep_later(client, name, result[1])
                 results.append(result)
                 continue
             result = execute(client, name, mode, args)
@@ -483,6 +493,21 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                       exc_info=not isinstance(exc, RecursionError))
         self._keep_error(client, message)
         return [False, message]
+
+    def _keep_later(self, client: str, name: str, deferred: Deferred) -> None:
+        """The error of a load or transfer that completes off the simulation thread is kept for
+        ``simxGetLastErrors`` and logged, as an error of a command run at once is."""
+        errors = self._join(client).errors
+
+        def done(future: Any) -> None:
+            exc = future.exception()
+            if isinstance(exc, P.RemoteError):
+                message = _cut(f"simx{name}: {exc}")
+                log.warning("client %s: simx%s failed: %s", client, name, message[len(name) + 6:])
+                errors.append(message)  # (one list operation at a time: no lock needed)
+                del errors[:-limits.MAX_ERRORS_KEPT]
+
+        deferred.future.add_done_callback(done)
 
     def _keep_error(self, client: str, message: str) -> None:
         errors = self._join(client).errors

@@ -31,6 +31,7 @@ import threading
 import time
 from typing import Any
 
+from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.commands import NOT_STREAMABLE
@@ -41,7 +42,8 @@ _MODE_MASK, _MODE_BLOCKING = P.MODE_MASK, P.MODE_BLOCKING
 class Session:
     """The intake state of one client (its queue and counters); touched under the lock."""
 
-    __slots__ = ("client", "door", "queue", "queued_bytes", "scheduled", "parked", "unsent", "last_seen", "step")
+    __slots__ = ("client", "door", "queue", "queued_bytes", "scheduled", "parked", "unsent", "last_seen", "step",
+                 "secret", "window")
 
     def __init__(self, client: str, now: float, door: Any = None):
         self.client = client
@@ -53,6 +55,8 @@ class Session:
         self.unsent = 0  # replies and stream updates of this client handed over and not sent yet
         self.last_seen = now  # time.monotonic() of its last request
         self.step = -1  # Simulation.steps when its last blocking request was answered (legacy pacing)
+        self.secret: bytes | None = None  # what its requests prove (simx_wire.proof); None: not handshaken
+        self.window = PR.Window()  # the sequence numbers of its proofs used so far
 
 
 class Sessions:
@@ -70,14 +74,18 @@ class Sessions:
         max_per_peer: client ids one Zenoh session's tokens protect (:mod:`.peers`).
         max_tokens: liveliness tokens recorded (protected and unverified together).
         max_unsent: a client's replies and updates not sent yet before it is parked.
+        prove: whether a client id belongs to the client that handshook under it
+            (:mod:`simx_wire.proof`; the door's sessions always do; off for queueing tests).
     """
 
     def __init__(self, ready: queue.SimpleQueue, max_requests: int = limits.MAX_QUEUED_REQUESTS,
                  max_bytes: int = limits.MAX_QUEUED_BYTES, max_total_bytes: int = limits.MAX_QUEUED_BYTES_TOTAL,
                  max_clients: int = limits.MAX_CLIENTS, max_unsent: int = limits.MAX_UNSENT_PER_CLIENT,
                  max_per_user: int = limits.MAX_CLIENTS_PER_USER, max_per_peer: int = limits.MAX_CLIENTS_PER_PEER,
-                 max_tokens: int = limits.MAX_CLIENT_TOKENS, door: Any = None, schedule: Any = None):
+                 max_tokens: int = limits.MAX_CLIENT_TOKENS, door: Any = None, schedule: Any = None,
+                 prove: bool = False):
         self.ready = ready
+        self.prove = prove
         self.door = door
         self._schedule = schedule if schedule is not None else ready.put
         self.max_requests, self.max_bytes, self.max_total_bytes = max_requests, max_bytes, max_total_bytes
@@ -101,12 +109,21 @@ class Sessions:
         return self._sessions.get(client)
 
     # ------------------------------------------------------------ Zenoh's threads
-    def admit(self, client: str, request: Any, size: int) -> str | None:
+    def admit(self, client: str, request: Any, size: int, payload: bytes = b"", proof: bytes | None = None,
+              hello: bool = False) -> str | None:
         """Queue ``request`` (``size`` payload bytes) of ``client``; None when queued, else the
-        reason it was not (the caller answers the request with it at once)."""
+        reason it was not (the caller answers the request with it at once).
+
+        With ``prove``: ``payload`` is the request's bytes, ``proof`` its attachment (None: none),
+        ``hello`` whether it asks for a ``Hello``. A request that does not prove the id is its
+        sender's (:meth:`_unproven`) is refused before anything of it is kept."""
         now = time.monotonic()
         with self._lock:
             s = self._sessions.get(client)
+            if self.prove:
+                refused = self._unproven(client, s, payload, proof)
+                if refused is not None:
+                    return refused
             if s is None:
                 user = _user(client)
                 if user and self._per_user.get(user, 0) >= self.max_per_user and not self._evict_one(user):
@@ -118,6 +135,8 @@ class Sessions:
                 s = self._sessions[client] = Session(client, now, self.door)
                 if user:
                     self._per_user[user] = self._per_user.get(user, 0) + 1
+            if self.prove and hello and s.secret is None:
+                s.secret = PR.new_secret()  # its Hello's reply tells it, and it alone
             s.last_seen = now
             refused = self._bound(s, size)
             if refused is not None:
@@ -132,6 +151,32 @@ class Sessions:
             s.scheduled = True
         # Scheduled after the lock: whoever serves it takes the same lock at once.
         self._schedule(s)
+        return None
+
+    @staticmethod
+    def _unproven(client: str, s: Session | None, payload: bytes, proof: bytes | None) -> str | None:
+        """Why a request under ``client`` (whose session is ``s``) is not its sender's to make
+        (lock held), or None. An id the server does not know is free: a request without a proof
+        takes it (its Hello binds the id to a new secret). An id bound to a secret takes only
+        requests whose proof holds, each sequence number once. An id whose first requests were
+        no Hello (a client of the protocol that never asked for a secret) is not bound."""
+        if s is None:
+            if proof is None:
+                return None
+            return (f"{PR.UNKNOWN}: this server does not know client {P.quote(client)} (it left, expired, or "
+                    "the server restarted); handshake again (Hello) for a new secret")
+        if s.secret is None:
+            return None if proof is None else (f"{PR.NOT_YOURS}: client {P.quote(client)} was not handshaken: "
+                                               "it has no secret to prove")
+        if proof is None:
+            return (f"{PR.NOT_YOURS}: client id {P.quote(client)} belongs to the session that handshook under "
+                    "it; its requests carry the proof of its secret (docs/PROTOCOL.md, Identity)")
+        seq = PR.check(s.secret, proof, payload)
+        if seq is None:
+            return f"{PR.NOT_YOURS}: the request's proof does not hold for client {P.quote(client)}"
+        if not s.window.take(seq):
+            return (f"{PR.NOT_YOURS}: request number {seq} of client {P.quote(client)} was used before, or is "
+                    f"more than {PR.WINDOW} below its highest (a replay)")
         return None
 
     def _bound(self, s: Session, size: int) -> str | None:

@@ -1,7 +1,10 @@
-"""Scene and model loads whose ``.ttt``/``.ttm`` file is converted off the simulation thread.
+"""Scene and model loads whose ``.ttt``/``.ttm`` file is converted, and whose client MJCF or
+URDF file is parsed and compiled, off the simulation thread.
 
 A client's ``simxLoadScene``/``simxLoadModel`` (and ZMQ's ``sim.loadScene``/``sim.loadModel``)
-of a V-REP file returns at once with a :class:`~simx_server.sim.vision_results.Deferred`; a
+of a V-REP file, or of the client's own MJCF/URDF file (options bit 0: two 199,000-vertex,
+470,000-face OBJ meshes compiled on the simulation thread froze every client 9.4 s), returns at
+once with a :class:`~simx_server.sim.vision_results.Deferred`; a
 background thread has the file read and converted in its bounded worker process
 (:func:`simx_server.scene.ttt.cache.mjcf_for`, :mod:`simx_server.scene.ttt.worker`), then
 prepares the load there too, touching nothing the simulation thread owns (a scene: MuJoCo's
@@ -12,8 +15,11 @@ model: its ``MjSpec``, compiled once alone so that its meshes wait in MuJoCo's c
 keeps being served meanwhile; the load's reply leaves when the load is done, with its value or
 its error. The file is read under a client's bounds, whoever's folder it is in (no more objects than
 ``limits.MAX_SCENE_ELEMENTS``: loading the MJCF of 100,000 objects held the simulation thread
-for a minute). One conversion runs at a time, at most :data:`MAX_WAITING` more wait for their turn
-(more: refused ``server busy``). Without ``sim.post`` (no loop serves the simulation: in-process
+for a minute). One conversion runs at a time, on one thread, taking the waiting loads round robin
+by client; each client has at most :data:`MAX_WAITING_PER_CLIENT` loads converted or waiting
+(more: refused ``server busy``), and a client's load waits behind at most one load of every
+other client, whatever they send (a server-wide bound of 4 let five clients' 12 MB files refuse
+every other client's 1 kB file for 32 s). Without ``sim.post`` (no loop serves the simulation: in-process
 use) the conversion runs in the worker and the caller waits, as before.
 
 V-REP's own ``simLoadScene`` blocks its caller until the scene is loaded; so does the reply here.
@@ -22,6 +28,7 @@ Commands of the same request after the load run before it completes (against the
 
 from __future__ import annotations
 
+import collections
 import logging
 import threading
 from collections.abc import Callable
@@ -39,16 +46,78 @@ from simx_server.sim.vision_results import Deferred
 
 log = logging.getLogger("simx.editing")
 
-#: Loads that may wait for the conversion under way (per server).
-MAX_WAITING = 4
-_turn = threading.Semaphore(1)  # one worker process at a time (each may take its memory bound)
-_count_lock = threading.Lock()
-_pending = [0]
+#: Loads of one client (a door's caller key; None: the operator's, in-process) converted or
+#: waiting for it at once. Taken round robin, a client's load waits behind at most one load of
+#: each other client, however many each has waiting.
+MAX_WAITING_PER_CLIENT = 4
+
+
+class Conversions:
+    """The conversions waiting for the one worker, served round robin by client on one thread
+    (started when a job comes, ended when none waits): each may take the worker's memory bound."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._jobs: dict[str | None, collections.deque] = {}  # client -> its jobs not started
+        self._ring: collections.deque = collections.deque()  # clients with jobs waiting, in turn
+        self._pending: dict[str | None, int] = {}  # client -> its jobs waiting or running
+        self._running = False
+
+    def pending(self, client: Any = ...) -> int:
+        """Jobs waiting or running, of ``client`` (default: of all clients)."""
+        with self._lock:
+            return sum(self._pending.values()) if client is ... else self._pending.get(client, 0)
+
+    def add(self, client: str | None, job: Callable[[], None]) -> None:
+        """Queue ``job`` of ``client``; raises RemoteError (``server busy``) past its share."""
+        with self._lock:
+            mine = self._pending.get(client, 0)
+            if mine >= MAX_WAITING_PER_CLIENT:
+                raise RemoteError(f"{BUSY}: {mine} scene file(s) of this client are being converted or wait for it "
+                                  f"(scene.conversions.MAX_WAITING_PER_CLIENT = {MAX_WAITING_PER_CLIENT}); "
+                                  "try again once loaded")
+            self._pending[client] = mine + 1
+            jobs = self._jobs.setdefault(client, collections.deque())
+            if not jobs:
+                self._ring.append(client)
+            jobs.append(job)
+            if self._running:
+                return
+            self._running = True
+        threading.Thread(target=self._serve, name="simx-ttt-convert", daemon=True).start()
+
+    def _serve(self) -> None:
+        while True:
+            with self._lock:
+                if not self._ring:
+                    self._running = False
+                    return
+                client = self._ring.popleft()
+                jobs = self._jobs[client]
+                job = jobs.popleft()
+                if jobs:
+                    self._ring.append(client)  # its next job after every other client's
+                else:
+                    del self._jobs[client]
+            try:
+                job()
+            except Exception:  # a job reports its own errors; the queue must outlive it
+                log.exception("a scene conversion")
+            finally:
+                with self._lock:
+                    left = self._pending[client] - 1
+                    if left:
+                        self._pending[client] = left
+                    else:
+                        del self._pending[client]
+
+
+waiting = Conversions()
 
 
 def pending() -> int:
     """Conversions under way or waiting for their turn (any thread)."""
-    return _pending[0]
+    return waiting.pending()
 
 
 def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Any], Any],
@@ -74,22 +143,18 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Any],
 
     Raises:
         ArgumentError, RemoteError: the path is refused (as :meth:`ClientFiles.locate`), or
-            :data:`MAX_WAITING` loads already wait (``server busy``).
+            :data:`MAX_WAITING_PER_CLIENT` loads of this client already wait (``server busy``).
     """
     post = getattr(sim, "post", None)
     if post is None:
         return None
     file = files.locate(path, options, ttt_cache.origin(sim.world.scene_path))
-    if not ttt_cache.is_vrep_file(file):
-        return None
+    vrep = ttt_cache.is_vrep_file(file)
+    if not vrep and not (options & 1 and prepare is not None):
+        return None  # an operator's MJCF: loaded at once (trusted, as V-REP loaded its files)
     caller = files.caller  # the client the door serves now: the install acts as it too
     client_root = files.folder(caller) if options & 1 else None  # its own folder (resolve's rule)
     root = client_root / ".simx" / "ttt" if client_root is not None else None
-    with _count_lock:
-        if _pending[0] > MAX_WAITING:
-            raise RemoteError(f"{BUSY}: {_pending[0]} scene files are being converted or wait for it "
-                              f"(scene.conversions.MAX_WAITING = {MAX_WAITING}); try again later")
-        _pending[0] += 1
     future: Future = Future()
     label = quote(path)
 
@@ -102,18 +167,18 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Any],
                 log.exception("loading %s", label)
             future.set_exception(exc)
 
-    def convert() -> None:  # the conversion's thread
+    def convert() -> None:  # the conversion's thread, one job at a time
         try:
-            with _turn:
-                xml = ttt_cache.mjcf_for(file, root, client=True)  # a client asked: a client's bounds
-                ready: Any = xml
-                if prepare is None:
-                    _warm(xml, client_root)
-                else:
-                    try:
-                        ready = prepare(xml)
-                    except Exception as exc:  # finish, on the simulation thread, says what is wrong
-                        ready = exc
+            # a client asked: a client's bounds; a client's MJCF/URDF is prepared as it is
+            xml = ttt_cache.mjcf_for(file, root, client=True) if vrep else file
+            ready: Any = xml
+            if prepare is None:
+                _warm(xml, client_root)
+            else:
+                try:
+                    ready = prepare(xml)
+                except Exception as exc:  # finish, on the simulation thread, says what is wrong
+                    ready = exc
         except (ValueError, OSError) as exc:
             message = files.scrub(f"cannot load {label}: {exc}")
             log.warning("%s", message)
@@ -123,12 +188,9 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Any],
             log.exception("converting %s", label)
             future.set_exception(RemoteError(f"cannot load {label}: internal error {type(exc).__name__}"))
             return
-        finally:
-            with _count_lock:
-                _pending[0] -= 1
         post(lambda: install(ready))
 
-    threading.Thread(target=convert, name="simx-ttt-convert", daemon=True).start()
+    waiting.add(caller, convert)  # RemoteError (busy) past the client's share
     return Deferred(future)
 
 

@@ -131,9 +131,10 @@ class Editor(ObjectEdits):
         """The transfer folder (private to this server process)."""
         return self.files.files_dir
 
-    def transfer_file(self, name: str, data: Any) -> None:
-        """``simxTransferFile`` (see :meth:`ClientFiles.transfer_file`)."""
-        self.files.transfer_file(name, data)
+    def transfer_file(self, name: str, data: Any, later: bool = False) -> Any:
+        """``simxTransferFile`` (see :meth:`ClientFiles.transfer_file`): None, or with ``later``
+        the Future of the write."""
+        return self.files.transfer_file(name, data, later)
 
     def erase_file(self, name: str) -> None:
         """``simxEraseFile``: delete a transferred file."""

@@ -261,8 +261,14 @@ def test_requests_answered_busy_are_sent_again():
         client = simx_api._connections[cid].client
         other = uuid.uuid4().hex
 
+        conn = simx_api._connections[cid]
+
         def ask(who: str, commands: list, handler=nowhere) -> None:
-            raw.get(P.call_key("simx", who), handler, payload=P.request(who, commands), timeout=120)
+            payload = P.request(who, commands)  # under the client's id: with its proof (simx_wire.proof)
+            proof = conn._seal(payload, (next(conn._messages), 0.0)) if who == client else None
+            # The client's own on its own session: they reach the server in the order of their numbers.
+            (conn.session if who == client else raw).get(P.call_key("simx", who), handler, payload=payload,
+                                                           timeout=120, attachment=proof)
 
         def in_step() -> bool:
             ping = P.request(other, [["GetPingTime", B, []]])

@@ -24,6 +24,8 @@ def files(tmp_path):
 def test_the_total_budget_holds_across_clients_and_each_budget_is_its_own(files, monkeypatch):
     monkeypatch.setattr(limits, "MAX_CLIENT_FILES_BYTES", 100)
     monkeypatch.setattr(limits, "MAX_TRANSFER_FOLDER_BYTES", 250)
+    monkeypatch.setattr(limits, "MIN_CLIENT_FILES_BYTES", 0)  # no shares: the total alone
+    monkeypatch.setattr(limits, "RESERVED_CLIENT_FILES_BYTES", 0)
     for key in ("zmq:a", "zmq:b"):
         with files.acting(key):
             files.transfer_file("x.bin", b"x" * 100)
@@ -85,3 +87,103 @@ def test_who_writes_a_scripts_file(files, tmp_path):
     assert files.target("out.xml", None, "sim.saveScene") == tmp_path / "out.xml"
     with pytest.raises(RemoteError, match="refused"):
         files.target(str(files.files_dir / "x.xml"), None, "sim.saveScene")
+
+
+@pytest.mark.parametrize("name", ["a" * 5000, "d/" + "b" * (limits.MAX_FILE_NAME_PART_BYTES + 1),
+                                  "/".join(["c" * 200] * 6), "é" * 126])
+def test_a_name_too_long_is_refused_naming_the_bound_never_the_folder(files, name):
+    """A 5,000-character name made simxEraseFile raise ENAMETOOLONG, an internal error whose
+    message named the server's folder (issue 48): every file call refuses it with the bound."""
+    with files.acting("legacy:a"):
+        for call in (lambda: files.erase_file(name), lambda: files.transfer_file(name, b"x"),
+                     lambda: files.resolve(name, 1, files.roots[0] / "scene.xml"),
+                     lambda: files.target(name, "legacy:a", "sim.saveScene")):
+            with pytest.raises(ArgumentError, match="MAX_FILE_NAME") as refused:
+                call()
+            assert str(files.files_dir) not in str(refused.value) and len(str(refused.value)) < 400
+        files.transfer_file("é" * 125, b"x")  # 250 bytes: in bounds
+        files.erase_file("é" * 125)
+
+
+def test_a_group_cannot_fill_the_folder_and_a_newcomer_always_has_its_minimum(files, monkeypatch):
+    """16 clients x 64 MiB filled the 1 GiB total and every other client's 1 kB file was refused
+    for as long as they stayed (issue 48). Scaled down (total 1,300 bytes, 400 of them reserved
+    for 40 minimums of 10 bytes, 400 a client at most): 16 clients writing all they can stop at
+    their share of the pool (900 divided by the clients holding files, and what the pool has
+    left); the total never fills, and newcomer after newcomer still writes its minimum."""
+    monkeypatch.setattr(limits, "MAX_TRANSFER_FOLDER_BYTES", 1300)
+    monkeypatch.setattr(limits, "RESERVED_CLIENT_FILES_BYTES", 400)
+    monkeypatch.setattr(limits, "MIN_CLIENT_FILES_BYTES", 10)
+    monkeypatch.setattr(limits, "MAX_CLIENT_FILES_BYTES", 400)
+    held, refusals = [], []
+    for i in range(16):
+        key = f"legacy:greedy{i}"
+        with files.acting(key):
+            for j in range(40):  # 40 x 10 bytes: its whole MAX_CLIENT_FILES_BYTES
+                try:
+                    files.transfer_file(f"f{j}", b"g" * 10)
+                except RemoteError as exc:
+                    refusals.append(str(exc))
+                    break
+        held.append(files._usage[key][1])
+    # 390 above the minimum each for two (shares 900 and 450), the pool's last 120 for the third,
+    # the minimum for the others.
+    assert held == [400, 400, 130] + [10] * 13
+    assert len(refusals) == 14 and all("MIN_CLIENT_FILES_BYTES" in r for r in refusals), refusals
+    assert "its share of the transfer folder with 2 clients" not in "".join(refusals)  # the 2nd got all it asked
+    for i in range(24):  # the rest of the reserve: a minimum for each newcomer
+        with files.acting(f"legacy:newcomer{i}"):
+            files.transfer_file("small", b"n" * 10)
+    assert sum(b for _, b in files._usage.values()) == 1300  # 40 minimums and the pool: nothing lost
+
+
+def test_transfers_are_written_off_the_calling_thread_and_counted_before(files, monkeypatch):
+    """With ``later`` the file is counted at once (the next transfer past the budget is refused
+    before the first is written) and written by the files' thread; the client's next file call
+    waits for it."""
+    import threading
+    gate, real = threading.Event(), files._write
+
+    def held(*args):
+        assert threading.current_thread() is not threading.main_thread()
+        assert gate.wait(30)
+        real(*args)
+
+    files._write = held
+    monkeypatch.setattr(limits, "MAX_UNWRITTEN_BYTES", 4 * limits.MAX_TRANSFER_FILE_BYTES)  # not the bound here
+    with files.acting("legacy:a"):
+        first = files.transfer_file("a.bin", b"a" * limits.MAX_TRANSFER_FILE_BYTES, later=True)
+        second = files.transfer_file("b.bin", b"b" * limits.MAX_TRANSFER_FILE_BYTES, later=True)
+        with pytest.raises(RemoteError, match="MAX_CLIENT_FILES_BYTES"):
+            files.transfer_file("c.bin", b"c", later=True)  # counted, not written yet
+        assert not first.done() and not (files.folder("legacy:a") / "a.bin").exists()
+        with pytest.raises(RemoteError, match="server busy: 2 file.s. this client sent are being written"):
+            files.erase_file("a.bin")  # never waits on the calling thread
+        gate.set()
+        assert first.result(timeout=30) is None and second.result(timeout=30) is None
+        files.erase_file("a.bin")
+        assert files._usage["legacy:a"][1] == limits.MAX_TRANSFER_FILE_BYTES
+        files.transfer_file("c.bin", b"c", later=True).result(timeout=30)
+
+
+def test_bytes_not_written_yet_are_bounded_per_client_and_in_all(files, monkeypatch):
+    """Rewriting one file costs no room in the folder: the bytes handed to the files' thread are
+    bounded instead (per client, and for all), answered "server busy" beyond."""
+    import threading
+    monkeypatch.setattr(limits, "MAX_UNWRITTEN_BYTES", 250)
+    monkeypatch.setattr(limits, "MAX_UNWRITTEN_BYTES_TOTAL", 400)
+    gate, real = threading.Event(), files._write
+    files._write = lambda *args: (gate.wait(30), real(*args))[1]
+    writes = []
+    with files.acting("legacy:a"):
+        writes += [files.transfer_file("same.bin", b"a" * 100, later=True) for _ in range(2)]
+        with pytest.raises(RemoteError, match=r"server busy: .*200 bytes .*MAX_UNWRITTEN_BYTES = 250"):
+            files.transfer_file("same.bin", b"a" * 100, later=True)
+    with files.acting("legacy:b"):
+        writes.append(files.transfer_file("b.bin", b"b" * 200, later=True))
+    with files.acting("legacy:c"), pytest.raises(RemoteError, match="MAX_UNWRITTEN_BYTES_TOTAL = 400"):
+        files.transfer_file("c.bin", b"c", later=True)
+    gate.set()
+    assert [w.result(timeout=30) for w in writes] == [None] * 3
+    with files.acting("legacy:c"):
+        files.transfer_file("c.bin", b"c", later=True).result(timeout=30)

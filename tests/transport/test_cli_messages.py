@@ -4,6 +4,7 @@ log line."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -33,6 +34,17 @@ def test_a_folder_given_as_the_scene_says_so(tmp_path):
     assert out.returncode == 2
     assert out.stderr.strip() == (f"simx-server: {tmp_path} is a folder, not a scene file: give an MJCF (.xml), "
                                   "URDF (.urdf) or V-REP / CoppeliaSim (.ttt, .ttm) file"), out.stderr
+
+
+@pytest.mark.parametrize("suffix", [".ttt", ".xml"])
+def test_a_fifo_given_as_the_scene_is_refused_in_one_line_before_it_is_read(tmp_path, suffix):
+    """``mkfifo x.ttt; simx-server x.ttt`` waited for a writer for good (issue 48)."""
+    fifo = tmp_path / f"x{suffix}"
+    os.mkfifo(fifo)
+    out = run(str(fifo))
+    assert out.returncode == 2
+    assert out.stderr.strip() == (f"simx-server: {fifo} is not a regular file (a FIFO, socket or device): give an MJCF "
+                                  "(.xml), URDF (.urdf) or V-REP / CoppeliaSim (.ttt, .ttm) file"), out.stderr
 
 
 def test_list_objects_into_a_closed_pipe_ends_quietly():

@@ -50,7 +50,9 @@ IDS = [f"fuzz{i}" for i in range(8)]
 #: make the final legacy-client check depend on the dice.
 SCENE_CHANGING = {"Synchronous", "LoadScene", "CloseScene", "LoadModel", "RemoveObject", "RemoveModel",
                   "TransferFile", "EraseFile", "CopyPasteObjects", "SetObjectParent"}
-COMMANDS = sorted(set(P.COMMANDS) - SCENE_CHANGING)
+#: A Hello binds its id to a secret (simx_wire.proof) that this raw fuzzer does not keep: its
+#: later requests under the id would be refused. tests/transport/test_fuzz_identity.py fuzzes proofs.
+COMMANDS = sorted(set(P.COMMANDS) - SCENE_CHANGING - {"Hello"})
 
 
 def _nested(depth: int, leaf: bytes = b"\xc0") -> bytes:
@@ -136,7 +138,7 @@ class Fuzzer:
         elif where == 1:
             message = [P.PROTOCOL_VERSION, cid, cmds][:r.randrange(3)] + ([] if r.random() < 0.5 else [cid, cmds, junk])
         elif where == 2:
-            message = [r.choice([0, 1, 2, 4, -3, "3", None, 2**64 - 1, 3.5]), cid, cmds]
+            message = [r.choice([0, 1, 2, 3, -3, "4", None, 2**64 - 1, 3.5]), cid, cmds]  # any but 4
         elif where == 3:
             message = [P.PROTOCOL_VERSION, r.choice([None, 5, ["fuzz0"], {"id": 1}, b"fuzz0"]), cmds]
         elif where == 4:
@@ -297,7 +299,7 @@ def _check_reply(label: str, kind: str, n: int, replies: list) -> list[str]:
         if kind == "response":
             problems.append(f"{label}: refused ({str(message.get('err'))[:120]!r}), expected a response")
         if message.get("v") != P.PROTOCOL_VERSION or type(message.get("err")) is not str:
-            problems.append(f"{label}: a refusal that is not {{'v': 3, 'err': str}}: {str(message)[:120]}")
+            problems.append(f"{label}: a refusal that is not {{'v': {P.PROTOCOL_VERSION}, 'err': str}}: {str(message)[:120]}")
         if len(reply) > MAX_REFUSAL:
             problems.append(f"{label}: refusal of {len(reply):,} bytes (> {MAX_REFUSAL:,})")
         return problems

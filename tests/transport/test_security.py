@@ -29,12 +29,14 @@ import threading
 import time
 from pathlib import Path
 
+import msgpack
 import pytest
 import zenoh
 
 from conftest import ROOT, ServerProcess, free_port, wait_until
 from simx_client import api, connection
 from simx_client import protocol as P
+from simx_wire import proof as PR
 
 DOCS = ROOT / "docs" / "security"
 B, STREAMING, BUFFER = 0x010000, 0x020000, 0x030000  # simx_opmode_blocking, _streaming, _buffer
@@ -353,9 +355,11 @@ def attack(victim_id: str, attacker: zenoh.Config, witness: zenoh.Config, reads,
         replies = list(bob.get(P.call_key(P.DEFAULT_PREFIX, victim_id), timeout=bye_timeout,
                                payload=P.request(victim_id, [["Bye", 0, []]])))
         bye_answered = any(r.ok is not None for r in replies)
+        bye_refused = any(r.ok is not None and type(m := msgpack.unpackb(r.ok.payload.to_bytes())) is dict
+                          and str(m.get("err", "")).startswith(PR.NOT_YOURS) for r in replies)
     return {"forged reads": sum(v == FORGED for v in values), "reads": values,
             "queries seen by the attacker": len(answered), "forged update delivered": forged_seen,
-            "Bye answered": bye_answered, "server token seen": server_seen}
+            "Bye answered": bye_answered, "Bye refused": bye_refused, "server token seen": server_seen}
 
 
 def test_access_control_keeps_other_users_out(secure, env):
@@ -375,7 +379,8 @@ def test_access_control_keeps_other_users_out(secure, env):
         alice = zenoh.Config.from_file(str(files["client-alice.json5"]))
         got = attack(victim, bob, alice, reads)
         assert got == {"forged reads": 0, "reads": [handle] * 20, "queries seen by the attacker": 0,
-                       "forged update delivered": False, "Bye answered": False, "server token seen": True}
+                       "forged update delivered": False, "Bye answered": False, "Bye refused": False,
+                       "server token seen": True}
         # alice still works, streams included.
         assert api.simxGetObjectHandle(cid, ROBOT, STREAMING)[0] in (0, 1)
         wait_until(lambda: api.simxGetObjectHandle(cid, ROBOT, BUFFER) == (0, handle),
@@ -401,8 +406,9 @@ def plain_server():
 
 
 def test_without_access_control_the_same_attack_succeeds(plain_server, env):
-    """The control: on a plain server bob sees alice's calls, forges her stream and says Bye
-    under her id."""
+    """The control: on a plain server bob sees alice's calls and forges her stream; his Bye under
+    her id is answered, but refused: her requests carry the proof of her secret, his cannot
+    (tests/transport/test_client_identity.py)."""
     cid = start(plain_server.port)
     assert cid >= 0
     try:
@@ -416,7 +422,7 @@ def test_without_access_control_the_same_attack_succeeds(plain_server, env):
     finally:
         api.simxFinish(cid)
     assert got["forged reads"] > 0 and got["queries seen by the attacker"] > 0
-    assert got["forged update delivered"] and got["Bye answered"]
+    assert got["forged update delivered"] and got["Bye answered"] and got["Bye refused"]
 
 
 def test_a_wildcard_client_id_is_refused(plain_server, env):

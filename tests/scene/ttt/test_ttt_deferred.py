@@ -6,6 +6,7 @@ here the test's thread, as the loop would run it."""
 from __future__ import annotations
 
 import queue
+import threading
 
 import pytest
 
@@ -76,10 +77,44 @@ def test_a_simulation_started_meanwhile_refuses_the_load(sim):
     assert "Floor" in sim.world.by_name
 
 
-def test_loads_past_the_waiting_bound_are_answered_busy(sim, monkeypatch):
-    monkeypatch.setattr(conversions, "_pending", [conversions.MAX_WAITING + 1])
-    with pytest.raises(RemoteError, match="server busy: .*MAX_WAITING = 4"):
-        H["LoadScene"](sim, ["box.ttt", 0])
+def test_each_client_has_its_share_of_the_conversion_queue_served_round_robin(sim, monkeypatch):
+    """Five clients' slow files filled the server-wide queue (4 waiting) and another client's
+    small file was answered busy meanwhile (issue 48). Now each client has
+    MAX_WAITING_PER_CLIENT loads converted or waiting: its next is busy, naming the share, and a
+    newcomer's load is taken; the worker takes them round robin, one per client in turn, so the
+    newcomer's comes before any client's third."""
+    real, gate, order = conversions.ttt_cache.mjcf_for, threading.Event(), []
+
+    def held(file, root, client=False):  # the first conversion takes as long as the test wants
+        order.append(file.name)
+        if len(order) == 1:
+            assert gate.wait(60)
+        return real(file, root, client=client)
+
+    monkeypatch.setattr(conversions.ttt_cache, "mjcf_for", held)
+    files = sim.editor.files
+    share = conversions.MAX_WAITING_PER_CLIENT
+    crate = (files.roots[0] / "crate.ttm").read_bytes()
+    deferred = []
+    for c in ("a", "b", "c", "d", "e"):
+        with files.acting(f"legacy:{c}"):
+            for j in range(share):
+                (files.roots[0] / f"{c}{j}.ttm").write_bytes(crate)
+                deferred.append(H["LoadModel"](sim, [f"{c}{j}.ttm", 0]))
+            with pytest.raises(RemoteError, match=f"server busy: .*MAX_WAITING_PER_CLIENT = {share}"):
+                H["LoadModel"](sim, ["box.ttt", 0])  # one more, while its share waits
+    assert conversions.pending() == 5 * share
+    (files.roots[0] / "new.ttm").write_bytes(crate)
+    with files.acting("legacy:newcomer"):
+        deferred.append(H["LoadModel"](sim, ["new.ttm", 0]))  # before: busy
+    gate.set()
+    for _ in deferred:
+        sim.jobs.get(timeout=60)()  # posted in the order converted
+    assert all(d.future.result(timeout=0) is not None for d in deferred)
+    # a0 was under way; then one of each client in turn (a again first, being first in the ring)
+    assert order[:8] == ["a0.ttm", "a1.ttm", "b0.ttm", "c0.ttm", "d0.ttm", "e0.ttm", "new.ttm", "a2.ttm"]
+    assert sorted(order) == sorted([f"{c}{j}.ttm" for c in "abcde" for j in range(share)] + ["new.ttm"])
+    assert conversions.pending() == 0
 
 
 def test_without_a_loop_the_load_waits_for_the_worker(sim):
