@@ -495,8 +495,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         return [False, message]
 
     def _keep_later(self, client: str, name: str, deferred: Deferred) -> None:
-        """The error of a load or transfer that completes off the simulation thread is kept for
-        ``simxGetLastErrors`` and logged, as an error of a command run at once is."""
+        """A load's or transfer's error off the simulation thread: kept and logged as any."""
         errors = self._join(client).errors
 
         def done(future: Any) -> None:
