@@ -23,6 +23,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
+from simx_server.api.sim.legacy_paths import create_old_path
 from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim import scene_collections
@@ -177,10 +178,12 @@ def createPath(ctx: CallContext, ctrlPts: Any, options: Any = 0, subdiv: Any = 1
                orientationMode: Any = 0, upVector: Any = None) -> int:  # noqa: N803
     """A path object: a dummy carrying ``ctrlPts`` (7 numbers per pose: x y z qx qy qz qw)
     and the path through them, linear with ``subdiv`` points per segment, as custom data
-    ``PATHCTRLPT`` and ``PATH`` (packed doubles). Its handle.
+    ``PATHCTRLPT`` and ``PATH`` (packed doubles). Its handle. A number first is the old form,
+    ``sim.createPath(attributes, intParams, floatParams, color)``, as CoppeliaSim's ``sim.lua``
+    dispatches it: an old path object (:func:`~simx_server.api.sim.legacy_paths.create_old_path`).
 
     Args:
-        ctrlPts: the control poses, 7 numbers each, flat.
+        ctrlPts: the control poses, 7 numbers each, flat (or the old form's attributes).
         options: ignored.
         subdiv: points per segment, 1..1000.
         smoothness: unused (the path is linear).
@@ -193,6 +196,8 @@ def createPath(ctx: CallContext, ctrlPts: Any, options: Any = 0, subdiv: Any = 1
     Raises:
         ArgumentError: malformed control points, or ``subdiv`` out of range.
     """
+    if isinstance(ctrlPts, (int, float)) and not isinstance(ctrlPts, bool):  # the old form, as sim.lua's
+        return create_old_path(ctx, ctrlPts, options, subdiv, smoothness)
     pts = _path(ctrlPts, 7)
     k = _int(subdiv, "subdiv")
     if not 1 <= k <= 1000 or len(pts) * k > MAX_ITEMS:
