@@ -187,3 +187,25 @@ def test_camera_parameters(api, sim):
     assert api.getObjectInt32Param(top, c.cameraintparam_perspective_operation) == 1
     with pytest.raises(Exception):
         get(sim.world.resolve("Marker").handle, c.camerafloatparam_perspective_angle)
+
+
+def test_4x_path_helpers_follow_coppeliasims_lua(api):
+    """``sim-1.lua``'s helpers: a pose path's length is its positions', quaternions interpolate on
+    the sphere, ``quadraticBezier`` rounds the corners, ``closed`` goes back to the start."""
+    s = math.sqrt(0.5)
+    poses = [0, 0, 0, 0, 0, 0, 1, 3, 0, 0, 0, 0, s, s]  # x y z qx qy qz qw: a quarter turn about z
+    lengths, total = api.getPathLengths(poses, 7)
+    assert lengths == pytest.approx([0, 3]) and total == pytest.approx(3)
+    mid = api.getPathInterpolatedConfig(poses, lengths, 1.5, None, [0, 0, 0, 2, 2, 2, 2])
+    assert mid == pytest.approx([1.5, 0, 0, 0, 0, math.sin(math.pi / 8), math.cos(math.pi / 8)])
+    corner = [0, 0, 1, 0, 1, 1]
+    lengths, _ = api.getPathLengths(corner, 2)
+    assert api.getPathInterpolatedConfig(corner, lengths, 1.5) == pytest.approx([1, 0.5])
+    bezier = {"type": "quadraticBezier", "strength": 1.0}
+    assert api.getPathInterpolatedConfig(corner, lengths, 1.0, bezier) == pytest.approx([0.875, 0.125])
+    assert api.getPathInterpolatedConfig(corner, lengths, 0.2, bezier) == pytest.approx([0.2, 0])  # open start
+    loop = api.resamplePath(corner, lengths, 5, {"type": "linear", "closed": True})
+    assert loop[-2:] == pytest.approx([0, 0], abs=1e-6)  # closed: back at the start
+    assert len(loop) == 10 and loop[4:6] == pytest.approx([1, (2 + math.sqrt(2)) / 2 - 1], abs=1e-6)
+    with pytest.raises(Exception, match="interpolation"):
+        api.getPathInterpolatedConfig(corner, lengths, 1.0, {"type": "cubic"})

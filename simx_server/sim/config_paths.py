@@ -1,0 +1,121 @@
+"""CoppeliaSim 4.x's path helpers on configurations, as its ``sim-1.lua`` computes them (they are
+Lua-side in CoppeliaSim): ``sim.getPathLengths`` (``locals.getConfigDistance`` with the metric 1
+on the first 3 numbers, 0 on the others: a pose path's length is its positions'),
+``sim.getPathInterpolatedConfig`` (``linear`` and ``quadraticBezier`` with its ``strength``,
+``closed`` / ``forceOpen``; ``types`` 0 plain, 1 cyclic revolute (-pi..pi), 2 quaternion x y z w
+in 4 consecutive numbers, interpolated on the sphere), ``sim.closePath`` and ``sim.resamplePath``.
+
+A path is an ``(n, dof)`` array of configurations; lengths one per configuration, the first 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from simx_wire.protocol import ArgumentError
+from simx_server.sim.old_paths import slerp
+
+
+def lengths(path: np.ndarray) -> np.ndarray:
+    """``sim.getPathLengths`` without a callback: cumulative distances, metric 1 on the first 3
+    numbers of each configuration and 0 on the others (m for positions)."""
+    metric = np.array([1.0 if i < 3 else 0.0 for i in range(path.shape[1])])
+    steps = np.sqrt((((path[1:] - path[:-1]) * metric) ** 2).sum(axis=1))
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def close(path: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``sim.closePath``: the first configuration appended, its length after the last's."""
+    extra = float(lengths(np.vstack([path[-1], path[0]]))[-1])
+    return np.vstack([path, path[:1]]), np.append(times, times[-1] + extra)
+
+
+def _lerp(a: np.ndarray, b: np.ndarray, t: float, types: list[int]) -> np.ndarray:
+    """``locals.linearInterpolate``."""
+    out = a * (1 - t) + b * t
+    q = 0
+    for i, kind in enumerate(types):
+        if kind == 1:
+            dx = math.atan2(math.sin(b[i] - a[i]), math.cos(b[i] - a[i]))
+            v = a[i] + dx * t
+            out[i] = math.atan2(math.sin(v), math.cos(v))
+        elif kind == 2:
+            q += 1
+            if q == 4:
+                q = 0
+                qa, qb = a[i - 3:i + 1], b[i - 3:i + 1]  # x y z w
+                r = slerp(np.array([qa[3], *qa[:3]]), np.array([qb[3], *qb[:3]]), t)
+                out[i - 3:i + 1] = [r[1], r[2], r[3], r[0]]
+    return out
+
+
+def interpolated(path: np.ndarray, times: np.ndarray, t: float, method: dict | None = None,
+                 types: list[int] | None = None) -> np.ndarray:
+    """``sim.getPathInterpolatedConfig``: the configuration at length ``t`` (clamped).
+
+    Args:
+        path: (n, dof) configurations, n >= 2.
+        times: n lengths.
+        t: the length along the path.
+        method: ``{type = 'linear' | 'quadraticBezier', strength, forceOpen, closed}``.
+        types: one per number (0 plain, 1 cyclic, 2 quaternion); default all 0.
+
+    Raises:
+        ArgumentError: another interpolation type, or mismatched sizes.
+    """
+    method = method or {}
+    kind = method.get("type", "linear")
+    if kind not in ("linear", "quadraticBezier"):
+        raise ArgumentError(f"interpolation {kind!r}: CoppeliaSim's are 'linear' and 'quadraticBezier'")
+    closed = method.get("closed") is True
+    force_open = method.get("forceOpen") is True if method.get("closed") is None else not closed
+    strength = float(method.get("strength", 1.0))
+    if closed:
+        path, times = close(path, times)
+    n, dof = path.shape
+    types = list(types) if types is not None else [0] * dof
+    if len(times) != n or len(types) != dof:
+        raise ArgumentError("Bad table size.")
+    t = max(t, 0.0)
+    if t >= times[-1]:
+        t = float(times[-1]) - 1e-8
+    li = hi = 0
+    for i in range(1, n):
+        li, hi = i - 1, i
+        if times[hi] > t:
+            break
+    span = times[hi] - times[li]
+    t = (t - times[li]) / span if span != 0 else 0.0
+    if kind == "linear":
+        return _lerp(path[li], path[hi], t, types)
+    w = max(0.05, strength)
+    is_closed = not force_open and bool(np.all(path[0] == path[-1]))
+    last = n - 1
+    if t < 0.5:
+        if (li == 0 and not is_closed) or t >= 0.5 * w:
+            return _lerp(path[li], path[hi], t, types)
+        i0 = last - 1 if li == 0 else li - 1
+        a = _lerp(path[i0], path[li], 1 - 0.25 * w + t * 0.5, types)
+        b = _lerp(path[li], path[hi], 0.25 * w + t * 0.5, types)
+        return _lerp(a, b, 0.5 + t / w, types)
+    if (hi == last and not is_closed) or t <= 1 - 0.5 * w:
+        return _lerp(path[li], path[hi], t, types)
+    i2 = 1 if hi == last else hi + 1
+    t -= 1 - 0.5 * w
+    a = _lerp(path[li], path[hi], 1 - 0.5 * w + t * 0.5, types)
+    b = _lerp(path[hi], path[i2], t * 0.5, types)
+    return _lerp(a, b, t / w, types)
+
+
+def resample(path: np.ndarray, times: np.ndarray, count: int, method: dict | None = None,
+             types: list[int] | None = None) -> np.ndarray:
+    """``sim.resamplePath``: ``count`` configurations evenly spaced in length."""
+    method = dict(method or {})
+    if method.get("closed") is True:
+        path, times = close(path, times)
+        method.pop("closed")
+        method["forceOpen"] = False
+    return np.vstack([interpolated(path, times, float(times[-1]) * i / (count - 1), method, types)
+                      for i in range(count)])
