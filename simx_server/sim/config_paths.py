@@ -3,7 +3,8 @@ Lua-side in CoppeliaSim): ``sim.getPathLengths`` (``locals.getConfigDistance`` w
 on the first 3 numbers, 0 on the others: a pose path's length is its positions'),
 ``sim.getPathInterpolatedConfig`` (``linear`` and ``quadraticBezier`` with its ``strength``,
 ``closed`` / ``forceOpen``; ``types`` 0 plain, 1 cyclic revolute (-pi..pi), 2 quaternion x y z w
-in 4 consecutive numbers, interpolated on the sphere), ``sim.closePath`` and ``sim.resamplePath``.
+in 4 consecutive numbers, interpolated on the sphere), ``sim.closePath`` and ``sim.resamplePath``;
+and the ``PATH`` data of a 4.3+ path object (:func:`through_control_points`).
 
 A path is an ``(n, dof)`` array of configurations; lengths one per configuration, the first 0.
 """
@@ -15,7 +16,7 @@ import math
 import numpy as np
 
 from simx_wire.protocol import ArgumentError
-from simx_server.sim.old_paths import slerp
+from simx_server.sim.old_paths import matrix_to_quat, slerp
 
 
 def lengths(path: np.ndarray) -> np.ndarray:
@@ -119,3 +120,73 @@ def resample(path: np.ndarray, times: np.ndarray, count: int, method: dict | Non
         method["forceOpen"] = False
     return np.vstack([interpolated(path, times, float(times[-1]) * i / (count - 1), method, types)
                       for i in range(count)])
+
+
+_QUAT_TYPES = [0, 0, 0, 2, 2, 2, 2]
+
+
+def through_control_points(ctrl: np.ndarray, options: int, count: int, smoothness: float, mode: int,
+                           up: np.ndarray) -> np.ndarray:
+    """A 4.3+ path object's ``PATH`` data from its control poses (``(n, 7)``: x y z qx qy qz qw),
+    as CoppeliaSim's ``models/path_customization-2.lua`` computes it (``_S.path.computePaths``):
+    ``options`` bit 1 closed (the first pose appended); with ``smoothness`` != 0, ``2 count``
+    poses along the quadratic Bezier path of that strength, then ``count`` poses evenly spaced
+    (linear between those); ``options`` bit 4: orientations recomputed along the path with
+    ``up`` as up vector, ``mode`` 0..5 which axis goes along it (``recomputeOrientations``).
+
+    Raises:
+        ArgumentError: the control points all coincide.
+    """
+    closed = bool(options & 2)
+    pts = np.vstack([ctrl, ctrl[:1]]) if closed else ctrl
+    times = lengths(pts)
+    if times[-1] <= 0:
+        raise ArgumentError("the control points of a path must not all coincide")
+    if smoothness != 0:
+        bezier = {"type": "quadraticBezier", "forceOpen": False, "strength": smoothness}
+        pts = np.vstack([interpolated(pts, times, i * times[-1] / (2 * count - 1), bezier, _QUAT_TYPES)
+                         for i in range(2 * count)])
+        times = lengths(pts)
+    out = np.vstack([interpolated(pts, times, i * times[-1] / (count - 1), None, _QUAT_TYPES) for i in range(count)])
+    return _orient(out, closed, mode, up) if options & 16 else out
+
+
+def _orient(path: np.ndarray, closed: bool, mode: int, up: np.ndarray) -> np.ndarray:
+    """``_S.path.recomputeOrientations``: each pose's axes from the direction along the path
+    (``vf``) and ``vr = vf x up``, as orientation ``mode`` picks them."""
+    n, out, prev_pose = len(path), path.copy(), None
+    pos = path[:, :3]
+
+    def before(i):
+        return (i - 1) if i != 0 else (n - 2 if closed else None)
+
+    def after(i):
+        return (i + 1) if i != n - 1 else (1 if closed else None)
+
+    for i in range(n):
+        p1, i0 = pos[i], before(i)
+        coincident = i0 is not None and np.linalg.norm(p1 - pos[i0]) < 1e-4
+        if not (coincident and prev_pose is not None):
+            for _ in range(n):
+                if i0 is None or np.linalg.norm(p1 - pos[i0]) >= 1e-4:
+                    break
+                i0 = before(i0)
+            i2 = after(i)
+            for _ in range(n):
+                if i2 is None or np.linalg.norm(p1 - pos[i2]) >= 1e-4:
+                    break
+                i2 = after(i2)
+            if i0 is not None and i2 is not None:
+                vf = pos[i2] - pos[i0]
+            else:
+                vf = pos[i2] - p1 if i0 is None else p1 - pos[i0]
+            vf = vf / (np.linalg.norm(vf) or 1.0)
+            vr = np.cross(vf, up)
+            vr = vr / (np.linalg.norm(vr) or 1.0)
+            axes = {0: (vf, np.cross(vr, vf), vr), 1: (vf, -vr, np.cross(vf, -vr)), 2: (np.cross(vr, vf), vf, -vr),
+                    3: (vr, vf, np.cross(vr, vf)), 4: (np.cross(vr, vf), vr, vf),
+                    5: (-vr, np.cross(vr, vf), vf)}.get(mode, (vf, np.cross(vr, vf), vr))
+            w, x, y, z = matrix_to_quat(np.column_stack(axes))
+            prev_pose = np.array([*p1, x, y, z, w])
+        out[i] = prev_pose
+    return out

@@ -173,38 +173,49 @@ def getClosestPosOnPath(ctx: CallContext, path: Any, pathLengths: Any, absPt: An
 @sim_function("createPath")
 def createPath(ctx: CallContext, ctrlPts: Any, options: Any = 0, subdiv: Any = 100, smoothness: Any = 1.0,  # noqa: N802, N803
                orientationMode: Any = 0, upVector: Any = None) -> int:  # noqa: N803
-    """A path object: a dummy carrying ``ctrlPts`` (7 numbers per pose: x y z qx qy qz qw)
-    and the path through them, linear with ``subdiv`` points per segment, as custom data
-    ``PATHCTRLPT`` and ``PATH`` (packed doubles). Its handle. A number first is the old form,
-    ``sim.createPath(attributes, intParams, floatParams, color)``, as CoppeliaSim's ``sim.lua``
-    dispatches it: an old path object (:func:`~simx_server.api.sim.legacy_paths.create_old_path`).
+    """A 4.3+ path object, as CoppeliaSim's ``sim.createPath`` makes it: a dummy aliased ``Path``
+    (where no other object has that name)
+    carrying its control poses as custom data ``PATHCTRLPTS`` (and ``PATHCTRLPT``, the same) and
+    the path through them as ``PATH`` (packed doubles, 7 per pose: x y z qx qy qz qw, in the
+    path's frame), ``subdiv`` poses computed as its path model's script does
+    (:func:`simx_server.sim.config_paths.through_control_points`). No control point dummies
+    and no customization script are made. A number first is the old form,
+    ``sim.createPath(attributes, intParams, floatParams, color)``, as ``sim.lua`` dispatches it:
+    an old path object (:func:`~simx_server.api.sim.legacy_paths.create_old_path`).
 
     Args:
-        ctrlPts: the control poses, 7 numbers each, flat (or the old form's attributes).
-        options: ignored.
-        subdiv: points per segment, 1..1000.
-        smoothness: unused (the path is linear).
-        orientationMode: unused.
-        upVector: unused.
+        ctrlPts: the control poses, 7 numbers each, flat, at least 2 (or the old form's attributes).
+        options: bit 1 closed, bit 4 automatic orientation (others: display only).
+        subdiv: poses of ``PATH``, 2..100,000.
+        smoothness: the quadratic Bezier strength; 0: straight between the control points.
+        orientationMode: with automatic orientation, 0..5 (x along the path, y up ... z along, y up).
+        upVector: with automatic orientation, the up vector (default ``[0, 0, 1]``).
 
     Returns:
         The path dummy's handle.
 
     Raises:
-        ArgumentError: malformed control points, or ``subdiv`` out of range.
+        ArgumentError: malformed control points, ``subdiv`` out of range, or control points that
+            all coincide.
     """
     if isinstance(ctrlPts, (int, float)) and not isinstance(ctrlPts, bool):  # the old form, as sim.lua's
         return create_old_path(ctx, ctrlPts, options, subdiv, smoothness)
     pts = _path(ctrlPts, 7)
     k = _int(subdiv, "subdiv")
-    if not 1 <= k <= 1000 or len(pts) * k > MAX_ITEMS:
-        raise ArgumentError("subdiv must lie in 1..1000 (and the path hold at most 100,000 poses)")
-    dense = [pts[0]] + [pts[i] + (j / k) * (pts[i + 1] - pts[i]) for i in range(len(pts) - 1)
-                        for j in range(1, k + 1)]
-    h = ctx.sim.createDummy(0.01)
+    if len(pts) < 2 or not 2 <= k <= MAX_ITEMS:
+        raise ArgumentError(f"createPath needs 2 control poses or more and subdiv in 2..{MAX_ITEMS}")
+    up = np.array(_path(upVector, 3)[0] if upVector is not None else [0.0, 0, 1])
+    dense = config_paths.through_control_points(pts, _int(options, "options"), k, _num(smoothness, "smoothness"),
+                                                _int(orientationMode, "orientationMode"), up)
+    h = ctx.sim.createDummy(0.04)
+    try:
+        ctx.sim.setObjectAlias(h, "Path")
+    except ArgumentError:  # simx names objects uniquely: another object is named Path already
+        pass
     pack = lambda a: struct.pack(f"<{a.size}d", *a.reshape(-1))  # noqa: E731
+    ctx.sim.writeCustomDataBlockEx(h, "PATHCTRLPTS", pack(pts))
     ctx.sim.writeCustomDataBlockEx(h, "PATHCTRLPT", pack(pts))
-    ctx.sim.writeCustomDataBlockEx(h, "PATH", pack(np.array(dense)))
+    ctx.sim.writeCustomDataBlockEx(h, "PATH", pack(dense))
     return h
 
 

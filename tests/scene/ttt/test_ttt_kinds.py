@@ -209,3 +209,23 @@ def test_4x_path_helpers_follow_coppeliasims_lua(api):
     assert len(loop) == 10 and loop[4:6] == pytest.approx([1, (2 + math.sqrt(2)) / 2 - 1], abs=1e-6)
     with pytest.raises(Exception, match="interpolation"):
         api.getPathInterpolatedConfig(corner, lengths, 1.0, {"type": "cubic"})
+
+
+def test_4x_create_path_computes_path_data_as_its_model_script(api, sim):
+    """``sim.createPath``'s new form: a dummy ``Path`` with ``PATHCTRLPTS`` and ``PATH`` (``subdiv``
+    poses), as ``models/path_customization-2.lua`` computes them."""
+    ctrl = [0, 0, 0, 0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 1]
+    p = api.createPath(ctrl, 0, 5, 1.0)
+    assert api.getObjectType(p) == C.sim_object_dummy_type  # a 4.3+ path is a dummy
+    assert api.unpackDoubleTable(api.readCustomBufferData(p, "PATHCTRLPTS")) == pytest.approx(ctrl)
+    path = np.array(api.unpackDoubleTable(api.readCustomBufferData(p, "PATH"))).reshape(-1, 7)
+    assert path[:, 0] == pytest.approx([0, 0.25, 0.5, 0.75, 1.0], abs=1e-6) and len(path) == 5
+    oriented = api.createPath(ctrl, 16, 3, 1.0, 0, [0, 0, 1])  # x along the path, y up
+    path = np.array(api.unpackDoubleTable(api.readCustomBufferData(oriented, "PATH"))).reshape(-1, 7)
+    s = math.sqrt(0.5)
+    assert path[1, 3:] == pytest.approx([s, 0, 0, s], abs=1e-6)  # a quarter turn about x: y up is z
+    corner = api.createPath([0, 0, 0, 0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 1, 1, 1, 0, 0, 0, 0, 1], 0, 50, 1.0)
+    path = np.array(api.unpackDoubleTable(api.readCustomBufferData(corner, "PATH"))).reshape(-1, 7)
+    assert np.min(np.linalg.norm(path[:, :3] - [1, 0, 0], axis=1)) > 0.05  # the corner is rounded
+    with pytest.raises(Exception, match="coincide"):
+        api.createPath([0, 0, 0, 0, 0, 0, 1] * 2, 0, 5)
