@@ -24,6 +24,14 @@ INT_IDS = frozenset({PERSPECTIVE})
 def get_float(world, handle: int, pid: int) -> float:
     """A camera's float parameter ``pid`` (:data:`FLOAT_IDS`).
 
+    Args:
+        world: the world.
+        handle: the camera's handle.
+        pid: the parameter id.
+
+    Returns:
+        The value (rad or m).
+
     Raises:
         ObjectTypeError: ``handle`` is not a camera.
     """
@@ -33,6 +41,12 @@ def get_float(world, handle: int, pid: int) -> float:
 
 def set_float(world, handle: int, pid: int, value: float) -> None:
     """Set a camera's float parameter ``pid`` (:data:`FLOAT_IDS`; clipping planes: unchanged).
+
+    Args:
+        world: the world.
+        handle: the camera's handle.
+        pid: the parameter id.
+        value: rad or m.
 
     Raises:
         ObjectTypeError: not a camera. ArgumentError: a value that is not finite.
@@ -47,10 +61,32 @@ def set_float(world, handle: int, pid: int, value: float) -> None:
 
 
 def get_int(world, handle: int, pid: int) -> int:
-    """A camera's int parameter ``pid`` (:data:`INT_IDS`)."""
+    """A camera's int parameter ``pid`` (:data:`INT_IDS`).
+
+    Args:
+        world: the world.
+        handle: the camera's handle.
+        pid: the parameter id.
+
+    Returns:
+        1 perspective, 0 orthographic.
+
+    Raises:
+        ObjectTypeError: not a camera.
+    """
     return int(kept_objects.store(world).camera(handle).perspective)
 
 
 def set_int(world, handle: int, pid: int, value: int) -> None:
-    """Set a camera's int parameter ``pid`` (:data:`INT_IDS`): nonzero perspective."""
+    """Set a camera's int parameter ``pid`` (:data:`INT_IDS`).
+
+    Args:
+        world: the world.
+        handle: the camera's handle.
+        pid: the parameter id.
+        value: nonzero perspective, 0 orthographic.
+
+    Raises:
+        ObjectTypeError: not a camera.
+    """
     kept_objects.store(world).camera(handle).perspective = value != 0

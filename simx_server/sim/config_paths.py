@@ -21,14 +21,29 @@ from simx_server.sim.old_paths import matrix_to_quat, slerp
 
 def lengths(path: np.ndarray) -> np.ndarray:
     """``sim.getPathLengths`` without a callback: cumulative distances, metric 1 on the first 3
-    numbers of each configuration and 0 on the others (m for positions)."""
+    numbers of each configuration and 0 on the others (m for positions).
+
+    Args:
+        path: (n, dof) configurations.
+
+    Returns:
+        (n,) lengths, the first 0.
+    """
     metric = np.array([1.0 if i < 3 else 0.0 for i in range(path.shape[1])])
     steps = np.sqrt((((path[1:] - path[:-1]) * metric) ** 2).sum(axis=1))
     return np.concatenate([[0.0], np.cumsum(steps)])
 
 
 def close(path: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``sim.closePath``: the first configuration appended, its length after the last's."""
+    """``sim.closePath``: the first configuration appended, its length after the last's.
+
+    Args:
+        path: (n, dof) configurations.
+        times: (n,) lengths.
+
+    Returns:
+        ``(path, times)`` with one configuration more.
+    """
     extra = float(lengths(np.vstack([path[-1], path[0]]))[-1])
     return np.vstack([path, path[:1]]), np.append(times, times[-1] + extra)
 
@@ -62,6 +77,9 @@ def interpolated(path: np.ndarray, times: np.ndarray, t: float, method: dict | N
         t: the length along the path.
         method: ``{type = 'linear' | 'quadraticBezier', strength, forceOpen, closed}``.
         types: one per number (0 plain, 1 cyclic, 2 quaternion); default all 0.
+
+    Returns:
+        (dof,) the configuration.
 
     Raises:
         ArgumentError: another interpolation type, or mismatched sizes.
@@ -112,7 +130,21 @@ def interpolated(path: np.ndarray, times: np.ndarray, t: float, method: dict | N
 
 def resample(path: np.ndarray, times: np.ndarray, count: int, method: dict | None = None,
              types: list[int] | None = None) -> np.ndarray:
-    """``sim.resamplePath``: ``count`` configurations evenly spaced in length."""
+    """``sim.resamplePath``: ``count`` configurations evenly spaced in length.
+
+    Args:
+        path: (n, dof) configurations.
+        times: (n,) lengths.
+        count: how many, at least 2.
+        method: as :func:`interpolated`'s.
+        types: as :func:`interpolated`'s.
+
+    Returns:
+        (count, dof) configurations.
+
+    Raises:
+        ArgumentError: as :func:`interpolated`.
+    """
     method = dict(method or {})
     if method.get("closed") is True:
         path, times = close(path, times)
@@ -133,6 +165,17 @@ def through_control_points(ctrl: np.ndarray, options: int, count: int, smoothnes
     poses along the quadratic Bezier path of that strength, then ``count`` poses evenly spaced
     (linear between those); ``options`` bit 4: orientations recomputed along the path with
     ``up`` as up vector, ``mode`` 0..5 which axis goes along it (``recomputeOrientations``).
+
+    Args:
+        ctrl: (n, 7) control poses, n >= 2.
+        options: the path's option bits.
+        count: poses of the result, at least 2.
+        smoothness: the Bezier strength (0: none).
+        mode: the automatic orientation mode.
+        up: (3,) the up vector.
+
+    Returns:
+        (count, 7) poses.
 
     Raises:
         ArgumentError: the control points all coincide.

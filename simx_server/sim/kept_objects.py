@@ -46,6 +46,12 @@ class KeptObjects:
     def path(self, handle: int) -> OldPath:
         """The old path ``handle``.
 
+        Args:
+            handle: the path's handle.
+
+        Returns:
+            Its container (loaded from its data file when first asked for).
+
         Raises:
             UnknownObjectError: no such object. ObjectTypeError: not an old path.
         """
@@ -60,6 +66,12 @@ class KeptObjects:
     def camera(self, handle: int) -> CameraState:
         """The camera ``handle``'s optics.
 
+        Args:
+            handle: the camera's handle.
+
+        Returns:
+            Its optics (the scene's when first asked for).
+
         Raises:
             UnknownObjectError: no such object. ObjectTypeError: not a camera.
         """
@@ -73,7 +85,14 @@ class KeptObjects:
 
 
 def store(world) -> KeptObjects:
-    """The store of ``world`` (made on first use)."""
+    """The store of ``world`` (made on first use).
+
+    Args:
+        world: the world.
+
+    Returns:
+        Its store.
+    """
     kept = getattr(world, "_kept_objects", None)
     if kept is None:
         kept = world._kept_objects = KeptObjects(world)

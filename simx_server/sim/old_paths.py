@@ -40,7 +40,16 @@ def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
-    """``C4Vector::buildInterpolation``: from ``a`` towards ``b`` (the shorter way) by ``t``."""
+    """``C4Vector::buildInterpolation``: from ``a`` towards ``b`` (the shorter way) by ``t``.
+
+    Args:
+        a: quaternion w x y z.
+        b: quaternion w x y z.
+        t: 0..1.
+
+    Returns:
+        The unit quaternion w x y z.
+    """
     if float(np.dot(a, b)) < 0:
         a = -a
     d = _qmul(np.array([a[0], -a[1], -a[2], -a[3]]), b)
@@ -55,11 +64,27 @@ def slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
 
 
 def angle_between(a: np.ndarray, b: np.ndarray) -> float:
-    """``C4Vector::getAngleBetweenQuaternions`` (rad)."""
+    """``C4Vector::getAngleBetweenQuaternions``.
+
+    Args:
+        a: quaternion w x y z.
+        b: quaternion w x y z.
+
+    Returns:
+        The angle, rad.
+    """
     return 2 * math.acos(min(1.0, abs(float(np.dot(a, b)))))
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """The rotation matrix of a unit quaternion.
+
+    Args:
+        q: quaternion w x y z.
+
+    Returns:
+        (3, 3) matrix.
+    """
     w, x, y, z = q
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
@@ -67,6 +92,14 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def matrix_to_quat(m: np.ndarray) -> np.ndarray:
+    """The unit quaternion of a rotation matrix (MuJoCo's ``mju_mat2Quat``).
+
+    Args:
+        m: (3, 3) matrix.
+
+    Returns:
+        Quaternion w x y z.
+    """
     import mujoco  # only MuJoCo's conversion, no model
 
     q = np.empty(4)
@@ -200,7 +233,11 @@ class OldPath:
 
     # ------------------------------------------------------------ queries
     def length(self) -> float:
-        """``CPathCont_old::getBezierVirtualPathLength`` (m of virtual length)."""
+        """``CPathCont_old::getBezierVirtualPathLength``.
+
+        Returns:
+            The virtual length, m (0 for fewer than 2 Bezier points).
+        """
         if len(self.bezier) < 2:
             return 0.0
         return self.bezier[0].vcum if self.attributes & CLOSED else self.bezier[-1].vcum
@@ -232,6 +269,12 @@ class OldPath:
         """The pose in the path's frame at ``relative`` (0..1) of its virtual length, or of control
         point ``-(relative + 1)`` where ``relative`` <= -0.5 (``simGetPositionOnPath_internal``).
 
+        Args:
+            relative: 0..1, or <= -0.5.
+
+        Returns:
+            ``(position (3,) m, quaternion w x y z)``.
+
         Raises:
             ArgumentError: the path is empty, or no such control point.
         """
@@ -248,7 +291,11 @@ class OldPath:
         return _lerp_pose(a.pos, a.quat, b.pos, b.quat, t)
 
     def set_position(self, p: float) -> None:
-        """``CPathCont_old::setPosition``: wrapped (closed) or clamped to the length."""
+        """``CPathCont_old::setPosition``: wrapped (closed) or clamped to the length.
+
+        Args:
+            p: the position, m of virtual length.
+        """
         total = self.length()
         if self.attributes & CLOSED and total > 0:
             p = math.fmod(p, total) % total
@@ -259,7 +306,16 @@ class OldPath:
     # ------------------------------------------------------------ edits
     def insert(self, start: int, points: np.ndarray, closed: bool) -> None:
         """``simInsertPathCtrlPoints_internal``: control points at ``start`` (clamped), the closed
-        attribute as given; values limited as ``CSimplePathPoint_old``'s setters do."""
+        attribute as given; values limited as ``CSimplePathPoint_old``'s setters do.
+
+        Args:
+            start: the index of the first new point.
+            points: (k, POINT_SIZE) control points.
+            closed: the path is closed.
+
+        Raises:
+            ArgumentError: more than MAX_POINTS points in all.
+        """
         pts = points.copy()
         pts[:, 7:9] = np.clip(pts[:, 7:9], 0.1, 0.99)
         counts = np.clip(np.rint(pts[:, 9]), 1, 100)
@@ -277,7 +333,12 @@ class OldPath:
 
     def cut(self, start: int, count: int) -> None:
         """``simCutPathCtrlPoints_internal``: ``count`` points from ``start``; every point when
-        either is negative."""
+        either is negative.
+
+        Args:
+            start: the first point removed.
+            count: how many.
+        """
         if start < 0 or count < 0:
             self.points = self.points[:0]
         else:
