@@ -5,6 +5,8 @@
 
 One store per :class:`~simx_server.sim.world.World` (:func:`store`), made when first asked for and
 kept across the world's edits (handles do not change); a new scene has a new world, a new store.
+A simulation's stop gives each path its position and each camera its view angle and ortho size
+back, as CoppeliaSim does (:func:`simulation_started`, :func:`simulation_ended`).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ class KeptObjects:
         self.world = world
         self.paths: dict[int, OldPath] = {}
         self.cameras: dict[int, CameraState] = {}
+        self.initial: dict[int, object] = {}  # what a simulation stop restores (simulation_started)
 
     def path(self, handle: int) -> OldPath:
         """The old path ``handle``.
@@ -82,6 +85,41 @@ class KeptObjects:
         if handle not in self.cameras:
             self.cameras[handle] = _camera(obj)
         return self.cameras[handle]
+
+
+def simulation_started(world) -> None:
+    """Remember each path's position and each camera's view angle and ortho size, to be restored
+    when the simulation stops (``CPathCont_old::initializeInitialValues``,
+    ``CCamera::initializeInitialValues``).
+
+    Args:
+        world: the world.
+    """
+    kept = store(world)
+    kept.initial = {}
+    for obj in list(world.objects.values()):
+        if obj.type == PATH:
+            kept.initial[obj.handle] = kept.path(obj.handle).position
+        elif obj.type == CAMERA:
+            c = kept.camera(obj.handle)
+            kept.initial[obj.handle] = (c.view_angle, c.ortho_size)
+
+
+def simulation_ended(world) -> None:
+    """Restore what :func:`simulation_started` remembered (``CPathCont_old::simulationEnded``,
+    ``CCamera::simulationEnded``), for the objects still there.
+
+    Args:
+        world: the world.
+    """
+    kept = getattr(world, "_kept_objects", None)
+    for handle, value in (getattr(kept, "initial", None) or {}).items():
+        if handle in kept.paths and world.objects.get(handle) is not None:
+            kept.paths[handle].set_position(value)
+        elif handle in kept.cameras and world.objects.get(handle) is not None:
+            kept.cameras[handle].view_angle, kept.cameras[handle].ortho_size = value
+    if kept is not None:
+        kept.initial = {}
 
 
 def store(world) -> KeptObjects:

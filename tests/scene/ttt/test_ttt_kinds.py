@@ -229,3 +229,78 @@ def test_4x_create_path_computes_path_data_as_its_model_script(api, sim):
     assert np.min(np.linalg.norm(path[:, :3] - [1, 0, 0], axis=1)) > 0.05  # the corner is rounded
     with pytest.raises(Exception, match="coincide"):
         api.createPath([0, 0, 0, 0, 0, 0, 1] * 2, 0, 5)
+
+
+PATH_SCRIPT = """
+function sysCall_init()
+  local p = sim.getObjectHandle('Path')
+  local xyz = sim.getPositionOnPath(p, 0.5)
+  sim.setFloatSignal('mid_x', xyz[1])
+  sim.setFloatSignal('length', sim.getPathLength(p))
+  sim.setInt32Signal('camera_type', sim.getObjectType(sim.getObjectHandle('DefaultCamera')))
+end
+"""
+
+
+def test_legacy_clients_and_scripts_see_the_kinds(tmp_path, monkeypatch):
+    """Over a real server: ``simxGetObjects`` by type, ``simxGetObjectGroupData``'s names and
+    types, a camera's float parameter, and a 4.1 child script's old path calls."""
+    import vrep
+
+    try:
+        from conftest import ServerProcess
+    except ImportError:
+        from tests.conftest import ServerProcess
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    f = tmp_path / "kinds.ttt"
+    f.write_bytes(W.ttt_file(
+        W.cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False) +
+        camera(2, -1, "DefaultCamera") + camera(3, -1, "TopCamera", perspective=False) +
+        old_path(4, -1, "Path", CORNER, 1 | 2 | 128) + W.script(100, 1, PATH_SCRIPT),
+        serialization=24, program=40100))
+    B = vrep.simx_opmode_blocking
+    srv = ServerProcess(str(f), renderers="on-demand")
+    try:
+        cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
+        assert cid >= 0
+        rc, cams = vrep.simxGetObjects(cid, vrep.sim_object_camera_type, B)
+        assert rc == 0 and len(cams) == 2
+        rc, paths = vrep.simxGetObjects(cid, vrep.sim_object_path_type, B)
+        assert rc == 0 and len(paths) == 1
+        rc, handles, _, _, names = vrep.simxGetObjectGroupData(cid, vrep.sim_object_path_type, 0, B)
+        assert rc == 0 and names == ["Path"]
+        rc, handles, types, _, _ = vrep.simxGetObjectGroupData(cid, vrep.sim_handle_all, 1, B)
+        assert rc == 0 and types[handles.index(cams[0])] == 3 and types[handles.index(paths[0])] == 8
+        rc, cam = vrep.simxGetObjectHandle(cid, "DefaultCamera", B)
+        assert vrep.simxGetObjectFloatParameter(cid, cam, vrep.sim_camerafloatparam_perspective_angle, B) == \
+            (0, pytest.approx(0.9))
+        assert vrep.simxSynchronous(cid, True) == 0
+        assert vrep.simxStartSimulation(cid, B) == 0
+        assert vrep.simxSynchronousTrigger(cid) == 0  # one pass: the child script's init has run
+        rc, x = vrep.simxGetFloatSignal(cid, "mid_x", B)
+        assert rc == 0 and x == pytest.approx(0.9375, abs=1e-5)
+        assert vrep.simxGetIntegerSignal(cid, "camera_type", B) == (0, 3)
+        vrep.simxStopSimulation(cid, B)
+        vrep.simxFinish(cid)
+    finally:
+        srv.stop()
+
+
+def test_a_stop_restores_path_positions_and_camera_optics(api, sim):
+    """``CPathCont_old::simulationEnded`` / ``CCamera::simulationEnded``: what changed while running
+    is back at the stop; what changed while stopped stays."""
+    track, cam = sim.world.resolve("Track").handle, sim.world.resolve("DefaultCamera").handle
+    angle = api.camerafloatparam_perspective_angle
+    sim.start()
+    api.setPathPosition(track, 1.5)
+    api.setObjectFloatParam(cam, angle, 1.2)
+    sim.step()
+    assert api.getPathPosition(track) == pytest.approx(1.5)
+    sim.stop()
+    assert api.getPathPosition(track) == pytest.approx(0.5)  # the file's
+    assert api.getObjectFloatParam(cam, angle) == pytest.approx(0.9)
+    api.setPathPosition(track, 1.0)  # stopped: kept
+    sim.start()
+    sim.stop()
+    assert api.getPathPosition(track) == pytest.approx(1.0)
