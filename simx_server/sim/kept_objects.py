@@ -11,6 +11,7 @@ back, as CoppeliaSim does (:func:`simulation_started`, :func:`simulation_ended`)
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -85,6 +86,28 @@ class KeptObjects:
         if handle not in self.cameras:
             self.cameras[handle] = _camera(obj)
         return self.cameras[handle]
+
+
+def copied(world, pairs: list[tuple[int, int]]) -> None:
+    """Give each copy (``(original, copy)`` handles) of an old path or camera the original's
+    current state, as CoppeliaSim copies the object (``CPath_old::copyYourself``,
+    ``CCamera::copyYourself``).
+
+    Args:
+        world: the world.
+        pairs: ``(original, copy)`` handles.
+    """
+    kept = getattr(world, "_kept_objects", None)
+    if kept is None:
+        return
+    for src, dst in pairs:
+        if src in kept.paths and dst in world.objects and world.objects[dst].type == PATH:
+            p = kept.paths[src]
+            kept.paths[dst] = OldPath({"points": p.points.tolist(), "attributes": p.attributes,
+                                       "length_method": p.length_method, "angle_coeff": p.angle_coeff,
+                                       "on_spot_coeff": p.on_spot_coeff, "position": p.position})
+        elif src in kept.cameras and dst in world.objects and world.objects[dst].type == CAMERA:
+            kept.cameras[dst] = dataclasses.replace(kept.cameras[src])
 
 
 def simulation_started(world) -> None:

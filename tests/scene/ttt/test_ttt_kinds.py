@@ -304,3 +304,16 @@ def test_a_stop_restores_path_positions_and_camera_optics(api, sim):
     sim.start()
     sim.stop()
     assert api.getPathPosition(track) == pytest.approx(1.0)
+
+
+def test_a_copied_path_keeps_its_current_points(api, sim):
+    path = api.createPath(-1, None, None, None)
+    api.insertPathCtrlPoints(path, 0, 0, 2, [0, 0, 0, 0, 0, 0, 1, 0, 1, 0.5, 0.5, 3, 0, 0, 0, 0, 0, 1, 0, 1, 0.5, 0.5])
+    cam = sim.world.resolve("DefaultCamera").handle
+    api.setObjectFloatParam(cam, api.camerafloatparam_ortho_size, 4.0)
+    path2, cam2 = api.copyPasteObjects([path, cam])
+    assert api.getObjectType(path2) == 8 and api.getPathLength(path2) == pytest.approx(3.0)
+    assert api.getObjectType(cam2) == 3
+    assert api.getObjectFloatParam(cam2, api.camerafloatparam_ortho_size) == pytest.approx(4.0)
+    api.cutPathCtrlPoints(path, -1, 0)  # the original only
+    assert api.getPathLength(path2) == pytest.approx(3.0)
