@@ -290,6 +290,39 @@ class OldPath:
         a, b = self.bezier[i], self.bezier[(i + 1) % len(self.bezier)]
         return _lerp_pose(a.pos, a.quat, b.pos, b.quat, t)
 
+    def closest(self, point: np.ndarray) -> float:
+        """``CPathCont_old::getPositionOnPathClosestTo``: the virtual distance along the path of
+        the point of its Bezier segments closest to ``point`` (path's frame).
+
+        Args:
+            point: (3,) m, in the path's frame.
+
+        Returns:
+            The distance along the path, m of virtual length.
+
+        Raises:
+            ArgumentError: the path is empty.
+        """
+        bz, closed = self.bezier, bool(self.attributes & CLOSED)
+        if not bz:
+            raise ArgumentError("the path is empty")
+        best, where = math.inf, 0.0
+        for i in range(len(bz) - (0 if closed and len(bz) - 1 != 2 else 1)):
+            b0, b1 = bz[i], bz[(i + 1) % len(bz)]
+            vd = b1.pos - b0.pos
+            n2 = float(np.dot(vd, vd))
+            c = 0.0 if n2 == 0 else min(max(float(np.dot(point - b0.pos, vd)) / n2, 0.0), 1.0)
+            d = float(np.linalg.norm(b0.pos + c * vd - point))
+            if d < best:
+                best = d
+                if n2 == 0:
+                    where = b0.vcum
+                elif i != 0 or not closed:
+                    where = b0.vcum * (1 - c) + b1.vcum * c
+                else:
+                    where = b1.vcum * c
+        return where
+
     def set_position(self, p: float) -> None:
         """``CPathCont_old::setPosition``: wrapped (closed) or clamped to the length.
 

@@ -1,6 +1,7 @@
 """V-REP's old path objects (``sim_object_path_type``, deprecated in CoppeliaSim 4.2 and still
 served by its ``sim1`` table): ``sim.getPositionOnPath``, ``sim.getOrientationOnPath``,
 ``sim.getPathPosition`` / ``sim.setPathPosition``, ``sim.getPathLength``,
+``sim.getClosestPositionOnPath``,
 ``sim.insertPathCtrlPoints``, ``sim.cutPathCtrlPoints`` and ``sim.createPath``'s old form
 (:func:`create_old_path`, which :func:`simx_server.api.sim.paths.createPath` calls when its first
 argument is a number, as CoppeliaSim's ``sim.createPath`` does).
@@ -66,6 +67,29 @@ def getOrientationOnPath(ctx: CallContext, pathHandle: Any, relativeDistance: An
         ``[alpha, beta, gamma]``, rad.
     """
     return [float(v) for v in euler_from_matrix(_world_pose(ctx, pathHandle, relativeDistance)[1])]
+
+
+@sim_function("getClosestPositionOnPath")
+def getClosestPositionOnPath(ctx: CallContext, pathHandle: Any, position: Any) -> float:  # noqa: N802, N803
+    """The relative position (0..1 of the virtual length) on the path closest to ``position``
+    (m, in the path's frame, as coppeliaSimLib takes it). ``simGetClosestPositionOnPath_internal``.
+
+    Args:
+        pathHandle: an old path.
+        position: 3 numbers, m.
+
+    Returns:
+        0..1.
+
+    Raises:
+        ObjectTypeError: not a path. ArgumentError: an empty path, or not 3 numbers.
+    """
+    if not isinstance(position, (list, tuple)) or len(position) < 3:
+        raise ArgumentError("position must hold 3 numbers")
+    path = _path(ctx, pathHandle)
+    where = path.closest(np.array([_num(v, "position[i]") for v in position[:3]]))
+    total = path.length()
+    return float(where / total) if total != 0 else float(where)
 
 
 @sim_function("getPathPosition")

@@ -317,3 +317,10 @@ def test_a_copied_path_keeps_its_current_points(api, sim):
     assert api.getObjectFloatParam(cam2, api.camerafloatparam_ortho_size) == pytest.approx(4.0)
     api.cutPathCtrlPoints(path, -1, 0)  # the original only
     assert api.getPathLength(path2) == pytest.approx(3.0)
+
+
+def test_closest_position_on_an_old_path(api, sim):
+    track = sim.world.resolve("Track").handle  # (0,0) -> (1,0) -> (1,1), length 2, in its frame
+    assert api.getClosestPositionOnPath(track, [0.5, -0.3, 0]) == pytest.approx(0.25)
+    assert api.getClosestPositionOnPath(track, [1.4, 0.6, 0]) == pytest.approx(0.8)
+    assert api.getClosestPositionOnPath(track, [-1, -1, 0]) == pytest.approx(0.0)
