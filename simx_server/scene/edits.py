@@ -46,7 +46,7 @@ from simx_server.sim.spec_tools import (
     _subtree_objects,
     vrep_suffix,
 )
-from simx_server.sim import grasps
+from simx_server.sim import grasps, kept_objects
 from simx_server.sim.objects import without_scripts
 from simx_server.sim.urdf import load_spec
 from simx_server.sim.vision_results import Deferred
@@ -219,7 +219,8 @@ class ObjectEdits:
         return self._edit(change)
 
     def copy_paste(self, handles: list[int]) -> list[int]:
-        """``simxCopyPasteObjects``: copy shapes (body subtrees), dummies, sensors and lights."""
+        """``simxCopyPasteObjects``: copy shapes (body subtrees), dummies, sensors and lights (an old
+        path with its current points, a camera with its optics)."""
         world = self.sim.world
         objs = [world.get(h) for h in handles]
         unique = {o.handle: o for o in objs}.values()
@@ -251,7 +252,9 @@ class ObjectEdits:
             def after():
                 for src, dst in copied_bodies:
                     self._copy_state(src, dst)
-                return [world.resolve(new_name[o.name]).handle for o in objs]
+                copies = [world.resolve(new_name[o.name]).handle for o in objs]
+                kept_objects.copied(world, [(o.handle, h) for o, h in zip(objs, copies)])  # paths, cameras
+                return copies
             return after
 
         return self._edit(change)

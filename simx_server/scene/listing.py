@@ -41,7 +41,8 @@ from simx_server.sim.object_params import _perspective
 from simx_server.sim.sensor_spec import sensor_spec
 
 TYPE_NAMES = {W.SHAPE: "shape", W.JOINT: "joint", W.DUMMY: "dummy", W.VISION_SENSOR: "vision sensor",
-              W.LIGHT: "light", W.PROXIMITY_SENSOR: "proximity sensor", W.FORCE_SENSOR: "force sensor"}
+              W.LIGHT: "light", W.PROXIMITY_SENSOR: "proximity sensor", W.FORCE_SENSOR: "force sensor",
+              W.CAMERA: "camera", W.PATH: "path"}
 _JOINT_KINDS = {10: "revolute", 11: "prismatic", 12: "spherical"}
 
 

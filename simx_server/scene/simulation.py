@@ -18,7 +18,7 @@ from simx_server.api.sim import shape_import as shapes
 from simx_server.api.signals import Signals
 from simx_server.api.sim.legacy_data import RemoteApiPorts
 from simx_server.scripts.scene_scripts import Scripts
-from simx_server.sim import ik, scene_collections
+from simx_server.sim import ik, kept_objects, scene_collections
 from simx_server.sim.physics import PhysicsError
 from simx_server.sim.sensors import SensorState
 from simx_server.sim.state import RunState
@@ -171,6 +171,7 @@ class Simulation:
             self.stop_reason = None
             self._requested = None
             self._phase = "starting"  # a stop asked in sysCall_init comes after the first pass
+            kept_objects.simulation_started(self.world)  # paths' positions, cameras' optics
             try:
                 self.scripts.start()
             finally:
@@ -228,6 +229,7 @@ class Simulation:
         self.world.reset()
         shapes.restore_poses(self.world, imported)
         self.vision.reset()  # clipping planes changed by clients
+        kept_objects.simulation_ended(self.world)  # paths' positions, cameras' optics
         self.state = RunState.STOPPED
         self._requested = None  # asked during the cleanup: stopped already
         for client in self._sync:  # triggers given before the stop do not count for the next run

@@ -21,9 +21,9 @@ import mujoco
 import numpy as np
 
 from simx_server.sim.ik_chain import coupling_matrix
-from simx_server.sim.objects import DUMMY, FORCE_SENSOR, JOINT, PROXIMITY_SENSOR
+from simx_server.sim.objects import JOINT, SITES
 
-_SITES = (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR)  # objects that are MuJoCo sites
+_SITES = SITES  # objects that are MuJoCo sites
 
 METHOD_PSEUDO_INVERSE, METHOD_DLS, METHOD_TRANSPOSE, METHOD_UNDAMPED = 0, 1, 2, 3
 CONSTRAINT_POSITION, CONSTRAINT_ALPHA_BETA, CONSTRAINT_GAMMA = 7, 8, 16

@@ -17,11 +17,11 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
-from simx_server.sim import handle_render, joint_params, physics
+from simx_server.sim import camera_params, handle_render, joint_params, physics
 from simx_server.sim.collisions import collidable
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
 from simx_server.sim.state import SimulationView
-from simx_server.sim.world import _TYPE_NAMES, JOINT, SHAPE, VISION_SENSOR, World
+from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, SHAPE, VISION_SENSOR, World
 
 _PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
 
@@ -116,6 +116,8 @@ def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
         UnsupportedError: an id simx does not answer.
     """
     world = sim.world
+    if pid in camera_params.FLOAT_IDS and world.get(handle).type == CAMERA:
+        return camera_params.get_float(world, handle, pid)
     if pid not in _FLOAT_GET:
         world.get(handle)
         raise _unsupported(pid, "float", False)
@@ -182,6 +184,9 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
             log.info("%s of a shape is not carried out in simx (MuJoCo's textures do not move on their "
                      "geoms): the call is accepted, the texture stays", _pname(pid))
         return
+    if pid in camera_params.FLOAT_IDS and world.get(handle).type == CAMERA:
+        camera_params.set_float(world, handle, pid, value)
+        return
     if pid not in _FLOAT_SET:
         world.get(handle)
         raise _unsupported(pid, "float", True)
@@ -243,6 +248,8 @@ def get_int_param(sim: SimulationView, handle: int, pid: int) -> int:
         UnsupportedError: an id simx does not answer.
     """
     world = sim.world
+    if pid in camera_params.INT_IDS and world.get(handle).type == CAMERA:
+        return camera_params.get_int(world, handle, pid)
     if pid not in _INT_GET:
         world.get(handle)
         raise _unsupported(pid, "int", False)
@@ -291,6 +298,9 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
                 "when the scene loads (its joints, contype/conaffinity in the MJCF); MuJoCo cannot "
                 "switch it at run time")
         return  # already so (sim.importShape's shapes are dynamic and respondable): nothing to do
+    if pid in camera_params.INT_IDS and world.get(handle).type == CAMERA:
+        camera_params.set_int(world, handle, pid, value)
+        return
     if pid not in _INT_SET:
         world.get(handle)
         raise _unsupported(pid, "int", True)

@@ -1,5 +1,6 @@
 """V-REP's object types as simx maps them onto MuJoCo (shape = body, joint, dummy = site, vision
-sensor = camera, light, proximity sensor and force sensor on sites; the world is -1), the
+sensor = camera, light, proximity sensor and force sensor on sites, V-REP's view cameras and old
+path objects on sites that keep their types; the world is -1), the
 registry entry of one object (:class:`SceneObject`) and the ``simx:`` settings text of MJCF
 elements (:func:`parse_settings`).
 """
@@ -17,10 +18,17 @@ VISION_SENSOR = C.sim_object_visionsensor_type
 LIGHT = C.sim_object_light_type
 PROXIMITY_SENSOR = C.sim_object_proximitysensor_type
 FORCE_SENSOR = C.sim_object_forcesensor_type
+CAMERA = C.sim_object_camera_type
+PATH = C.sim_object_path_type
 WORLD = -1
 
 _TYPE_NAMES = {SHAPE: "shape", JOINT: "joint", DUMMY: "dummy", VISION_SENSOR: "vision sensor", LIGHT: "light",
-               PROXIMITY_SENSOR: "proximity sensor", FORCE_SENSOR: "force sensor"}
+               PROXIMITY_SENSOR: "proximity sensor", FORCE_SENSOR: "force sensor", CAMERA: "camera",
+               PATH: "path"}
+#: The object types simx keeps on a MuJoCo site (``mj_id`` is a site id).
+SITES = (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR, CAMERA, PATH)
+#: Types a site keeps from its ``object_type=N`` setting (a .ttt's view cameras and old paths).
+KEPT_TYPES = {str(CAMERA): CAMERA, str(PATH): PATH}
 
 
 @dataclasses.dataclass

@@ -12,7 +12,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ObjectTypeError
 from simx_server.sim import grasps, physics
-from simx_server.sim.objects import _TYPE_NAMES, DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, WORLD
+from simx_server.sim.objects import _TYPE_NAMES, JOINT, LIGHT, SHAPE, SITES, VISION_SENSOR, WORLD
 from simx_server.sim.rotations import (
     _frame_with_z,
     euler_from_matrix,
@@ -46,7 +46,7 @@ class Poses:
         if obj.type == JOINT:
             return d.xanchor[obj.mj_id].copy(), _frame_with_z(d.xaxis[obj.mj_id],
                                                               d.xmat[obj.body].reshape(3, 3))
-        if obj.type in (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR):
+        if obj.type in SITES:
             return d.site_xpos[obj.mj_id].copy(), d.site_xmat[obj.mj_id].reshape(3, 3).copy()
         if obj.type == VISION_SENSOR:
             # MuJoCo cameras look along -z with y up; V-REP sensors look along +z with y up.
@@ -189,7 +189,7 @@ class Poses:
                 raise ObjectTypeError(f"{obj.name!r} is moved by its joints: set their positions instead")
         elif obj.type == JOINT and m.body_jntnum[obj.body] == 1 and int(m.jnt_type[obj.mj_id]) in _PLACEABLE:
             self._place_joint(obj.body, p, r, p_now, r_now)
-        elif obj.type in (DUMMY, PROXIMITY_SENSOR, FORCE_SENSOR):
+        elif obj.type in SITES:
             m.site_pos[obj.mj_id], m.site_quat[obj.mj_id] = self._in_parent(obj.body, p, quat)
             m.site_sameframe[obj.mj_id] = 0  # else MuJoCo keeps a site compiled at its body's origin there
         elif obj.type == VISION_SENSOR:

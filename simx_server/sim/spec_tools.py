@@ -16,7 +16,8 @@ import mujoco
 import numpy as np
 
 from simx_server.sim.objects import without_scripts
-from simx_server.sim.world import DUMMY, FORCE_SENSOR, JOINT, LIGHT, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR, World
+from simx_server.sim.world import JOINT, LIGHT, SHAPE, VISION_SENSOR, World
+from simx_server.sim.objects import SITES
 
 log = logging.getLogger("simx.editing")  # the editor's log: MuJoCo's warnings while editing
 
@@ -30,8 +31,7 @@ _ALL_LISTS = _TREE_LISTS + _ASSET_LISTS + _OTHER_LISTS
 #: Lists whose length an element move must not change (a lost reference is a lost element).
 _REFERRING_LISTS = ("actuators", "sensors", "equalities", "tendons", "excludes", "pairs", "texts")
 #: V-REP object type -> spec list / accessor of the element behind it.
-_KIND = {SHAPE: "body", JOINT: "joint", DUMMY: "site", PROXIMITY_SENSOR: "site",
-         FORCE_SENSOR: "site", VISION_SENSOR: "camera", LIGHT: "light"}
+_KIND = {SHAPE: "body", JOINT: "joint", VISION_SENSOR: "camera", LIGHT: "light", **dict.fromkeys(SITES, "site")}
 _MJ_OBJ = {"body": mujoco.mjtObj.mjOBJ_BODY, "joint": mujoco.mjtObj.mjOBJ_JOINT,
            "site": mujoco.mjtObj.mjOBJ_SITE, "camera": mujoco.mjtObj.mjOBJ_CAMERA,
            "light": mujoco.mjtObj.mjOBJ_LIGHT}

@@ -29,10 +29,13 @@ from simx_server.base import limits as L
 from simx_server.sim import grasps, motors, naming, physics, properties, scene_settings, urdf
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
+    CAMERA,
     DUMMY,
     FORCE_SENSOR,
     JOINT,
+    KEPT_TYPES,
     LIGHT,
+    PATH,
     PROXIMITY_SENSOR,
     SHAPE,
     VISION_SENSOR,
@@ -254,7 +257,7 @@ class World(Poses, Joints):
             body_handle[b] = self._add(names(mujoco.mjtObj.mjOBJ_BODY, b), SHAPE, b, b, parent)
             me = body_handle[b]
             for s in np.flatnonzero(m.site_bodyid == b):
-                self._add(names(mujoco.mjtObj.mjOBJ_SITE, s), site_type.get(int(s), DUMMY), int(s), b, me)
+                self._add(names(mujoco.mjtObj.mjOBJ_SITE, s), self._site_type(site_type, names, int(s)), int(s), b, me)
             for c in np.flatnonzero(m.cam_bodyid == b):
                 self._add(names(mujoco.mjtObj.mjOBJ_CAMERA, c), VISION_SENSOR, int(c), b, me)
             for li in np.flatnonzero(m.light_bodyid == b):
@@ -266,9 +269,16 @@ class World(Poses, Joints):
         ):
             bodies = {DUMMY: m.site_bodyid, VISION_SENSOR: m.cam_bodyid, LIGHT: m.light_bodyid}[otype]
             for i in np.flatnonzero(bodies[:count] == 0):
-                t = site_type.get(int(i), DUMMY) if otype == DUMMY else otype
+                t = self._site_type(site_type, names, int(i)) if otype == DUMMY else otype
                 self._add(names(table, int(i)), t, int(i), 0, WORLD)
         apply_vrep_parents(self.objects, self.by_name)  # V-REP's tree where MuJoCo's differs
+
+    def _site_type(self, sensors: dict[int, int], names, site: int) -> int:
+        """A site's object type: a sensor's (rangefinder, force), else the ``object_type=N`` its
+        settings keep (a .ttt's camera 3 or old path 8), else a dummy."""
+        if site in sensors:
+            return sensors[site]
+        return KEPT_TYPES.get(self.settings.get(names(mujoco.mjtObj.mjOBJ_SITE, site) or "", {}).get("object_type", ""), DUMMY)
 
     def resolve(self, name: str) -> SceneObject:
         """The object named ``name`` (``simxGetObjectHandle`` rules).

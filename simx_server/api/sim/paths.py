@@ -2,8 +2,10 @@
 ``sim.createCollection``, ``sim.addDrawingObject`` and their kin).
 
 * Paths are flat lists of configurations (``dof`` numbers each), as CoppeliaSim's Lua helpers
-  take them: lengths along the path (Euclidean between consecutive configurations),
-  interpolation and resampling (linear), the closest position to a point. ``createPath`` makes
+  take them: lengths along the path (Euclidean between the first 3 numbers of consecutive
+  configurations), interpolation and resampling (linear or quadratic Bezier, plain, cyclic or
+  quaternion numbers: :mod:`simx_server.sim.config_paths`, as CoppeliaSim's ``sim-1.lua``), the
+  closest position to a point. ``createPath`` makes
   a dummy that carries its control points and the path through them (linear, ``subdiv``
   points per segment) as custom data ``PATHCTRLPT`` and ``PATH`` (packed doubles, as 4.3+ path
   objects do).
@@ -23,9 +25,10 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
+from simx_server.api.sim.legacy_paths import create_old_path
 from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
-from simx_server.sim import scene_collections
+from simx_server.sim import config_paths, scene_collections
 from simx_server.sim.objects import WORLD
 
 _DRAWINGS = 3_000_000
@@ -41,10 +44,6 @@ def _path(path: Any, dof: int) -> np.ndarray:
     return np.array([_num(v, "path[i]") for v in path]).reshape(-1, dof)
 
 
-def _lengths(pts: np.ndarray) -> np.ndarray:
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-
-
 def _dof(path: Any, lengths: Any) -> int:
     n = len(lengths) if isinstance(lengths, (list, tuple, np.ndarray)) else 0
     if n < 1 or len(path) % n:
@@ -52,20 +51,18 @@ def _dof(path: Any, lengths: Any) -> int:
     return len(path) // n
 
 
-def _at(pts: np.ndarray, lengths: np.ndarray, t: float) -> np.ndarray:
-    t = min(max(t, 0.0), float(lengths[-1]))
-    i = int(np.searchsorted(lengths, t, side="right")) - 1
-    if i >= len(pts) - 1:
-        return pts[-1]
-    span = lengths[i + 1] - lengths[i]
-    f = 0.0 if span <= 0 else (t - lengths[i]) / span
-    return pts[i] + f * (pts[i + 1] - pts[i])
+def _method(method: Any) -> dict | None:
+    if method is not None and not isinstance(method, dict):
+        raise ArgumentError("method must be a table ({type = 'linear'} or {type = 'quadraticBezier', strength = s})")
+    return method
 
 
-def _linear(method: Any) -> None:
-    kind = method.get("type", "linear") if isinstance(method, dict) else "linear"
-    if kind != "linear":
-        raise ArgumentError(f"interpolation {kind!r}: simx interpolates paths linearly ({{type = 'linear'}})")
+def _types(types: Any, dof: int) -> list[int] | None:
+    if types is None:
+        return None
+    if not isinstance(types, (list, tuple)) or len(types) != dof:
+        raise ArgumentError(f"types must hold {dof} integers (0 plain, 1 cyclic, 2 quaternion)")
+    return [_int(v, "types[i]") for v in types]
 
 
 # Path helpers, collections, drawing objects.
@@ -73,7 +70,8 @@ def _linear(method: Any) -> None:
 @sim_function("getPathLengths")
 def getPathLengths(ctx: CallContext, path: Any, dof: Any, distCallback: Any = None) -> tuple[list[float], float]:  # noqa: N802, N803
     """``pathLengths, totalLength``: the length along the path at each configuration (the
-    first 0), Euclidean between consecutive configurations.
+    first 0), Euclidean between the first 3 numbers of consecutive configurations (CoppeliaSim's
+    ``sim-1.lua``: metric 1 on the first 3, 0 on the others).
 
     Args:
         path: configurations of ``dof`` numbers each, flat.
@@ -88,22 +86,23 @@ def getPathLengths(ctx: CallContext, path: Any, dof: Any, distCallback: Any = No
     """
     if distCallback is not None:
         raise ArgumentError("getPathLengths with a distance callback: simx measures Euclidean lengths")
-    lengths = _lengths(_path(path, _int(dof, "dof")))
+    lengths = config_paths.lengths(_path(path, _int(dof, "dof")))
     return lengths.tolist(), float(lengths[-1])
 
 
 @sim_function("getPathInterpolatedConfig")
 def getPathInterpolatedConfig(ctx: CallContext, path: Any, pathLengths: Any, t: Any, method: Any = None,  # noqa: N802, N803
                               types: Any = None) -> list[float]:
-    """The configuration at length ``t`` along the path (clamped to its ends), linearly
-    between its two neighbours.
+    """The configuration at length ``t`` along the path (clamped to its ends), as CoppeliaSim's
+    ``sim-1.lua`` interpolates it (:func:`simx_server.sim.config_paths.interpolated`).
 
     Args:
         path: configurations, flat.
         pathLengths: :func:`getPathLengths`'s lengths.
         t: the length along the path.
-        method: None or ``{type = 'linear'}``.
-        types: ignored.
+        method: None, ``{type = 'linear'}`` or ``{type = 'quadraticBezier', strength = s}``, with
+            ``closed`` / ``forceOpen``.
+        types: one per number: 0 plain, 1 cyclic revolute, 2 quaternion (x y z w).
 
     Returns:
         One configuration.
@@ -111,9 +110,9 @@ def getPathInterpolatedConfig(ctx: CallContext, path: Any, pathLengths: Any, t: 
     Raises:
         ArgumentError: a malformed path, mismatched lengths, or another interpolation.
     """
-    _linear(method)
     pts = _path(path, _dof(path, pathLengths))
-    return _at(pts, np.array([_num(v, "pathLengths[i]") for v in pathLengths]), _num(t, "t")).tolist()
+    times = np.array([_num(v, "pathLengths[i]") for v in pathLengths])
+    return config_paths.interpolated(pts, times, _num(t, "t"), _method(method), _types(types, pts.shape[1])).tolist()
 
 
 @sim_function("resamplePath")
@@ -125,8 +124,8 @@ def resamplePath(ctx: CallContext, path: Any, pathLengths: Any, finalConfigCnt: 
         path: configurations, flat.
         pathLengths: :func:`getPathLengths`'s lengths.
         finalConfigCnt: how many configurations, at least 2.
-        method: None or ``{type = 'linear'}``.
-        types: ignored.
+        method: as :func:`getPathInterpolatedConfig`'s.
+        types: as :func:`getPathInterpolatedConfig`'s.
 
     Returns:
         ``finalConfigCnt`` configurations, flat.
@@ -134,13 +133,12 @@ def resamplePath(ctx: CallContext, path: Any, pathLengths: Any, finalConfigCnt: 
     Raises:
         ArgumentError: a malformed path, a count out of range, or another interpolation.
     """
-    _linear(method)
     n = _int(finalConfigCnt, "finalConfigCnt")
     if not 2 <= n <= MAX_ITEMS:
         raise ArgumentError(f"finalConfigCnt must lie in 2..{MAX_ITEMS}")
     pts = _path(path, _dof(path, pathLengths))
     lengths = np.array([_num(v, "pathLengths[i]") for v in pathLengths])
-    return np.vstack([_at(pts, lengths, t) for t in np.linspace(0, lengths[-1], n)]).reshape(-1).tolist()
+    return config_paths.resample(pts, lengths, n, _method(method), _types(types, pts.shape[1])).reshape(-1).tolist()
 
 
 @sim_function("getClosestPosOnPath")
@@ -175,34 +173,49 @@ def getClosestPosOnPath(ctx: CallContext, path: Any, pathLengths: Any, absPt: An
 @sim_function("createPath")
 def createPath(ctx: CallContext, ctrlPts: Any, options: Any = 0, subdiv: Any = 100, smoothness: Any = 1.0,  # noqa: N802, N803
                orientationMode: Any = 0, upVector: Any = None) -> int:  # noqa: N803
-    """A path object: a dummy carrying ``ctrlPts`` (7 numbers per pose: x y z qx qy qz qw)
-    and the path through them, linear with ``subdiv`` points per segment, as custom data
-    ``PATHCTRLPT`` and ``PATH`` (packed doubles). Its handle.
+    """A 4.3+ path object, as CoppeliaSim's ``sim.createPath`` makes it: a dummy aliased ``Path``
+    (where no other object has that name)
+    carrying its control poses as custom data ``PATHCTRLPTS`` (and ``PATHCTRLPT``, the same) and
+    the path through them as ``PATH`` (packed doubles, 7 per pose: x y z qx qy qz qw, in the
+    path's frame), ``subdiv`` poses computed as its path model's script does
+    (:func:`simx_server.sim.config_paths.through_control_points`). No control point dummies
+    and no customization script are made. A number first is the old form,
+    ``sim.createPath(attributes, intParams, floatParams, color)``, as ``sim.lua`` dispatches it:
+    an old path object (:func:`~simx_server.api.sim.legacy_paths.create_old_path`).
 
     Args:
-        ctrlPts: the control poses, 7 numbers each, flat.
-        options: ignored.
-        subdiv: points per segment, 1..1000.
-        smoothness: unused (the path is linear).
-        orientationMode: unused.
-        upVector: unused.
+        ctrlPts: the control poses, 7 numbers each, flat, at least 2 (or the old form's attributes).
+        options: bit 1 closed, bit 4 automatic orientation (others: display only).
+        subdiv: poses of ``PATH``, 2..100,000.
+        smoothness: the quadratic Bezier strength; 0: straight between the control points.
+        orientationMode: with automatic orientation, 0..5 (x along the path, y up ... z along, y up).
+        upVector: with automatic orientation, the up vector (default ``[0, 0, 1]``).
 
     Returns:
         The path dummy's handle.
 
     Raises:
-        ArgumentError: malformed control points, or ``subdiv`` out of range.
+        ArgumentError: malformed control points, ``subdiv`` out of range, or control points that
+            all coincide.
     """
+    if isinstance(ctrlPts, (int, float)) and not isinstance(ctrlPts, bool):  # the old form, as sim.lua's
+        return create_old_path(ctx, ctrlPts, options, subdiv, smoothness)
     pts = _path(ctrlPts, 7)
     k = _int(subdiv, "subdiv")
-    if not 1 <= k <= 1000 or len(pts) * k > MAX_ITEMS:
-        raise ArgumentError("subdiv must lie in 1..1000 (and the path hold at most 100,000 poses)")
-    dense = [pts[0]] + [pts[i] + (j / k) * (pts[i + 1] - pts[i]) for i in range(len(pts) - 1)
-                        for j in range(1, k + 1)]
-    h = ctx.sim.createDummy(0.01)
+    if len(pts) < 2 or not 2 <= k <= MAX_ITEMS:
+        raise ArgumentError(f"createPath needs 2 control poses or more and subdiv in 2..{MAX_ITEMS}")
+    up = np.array(_path(upVector, 3)[0] if upVector is not None else [0.0, 0, 1])
+    dense = config_paths.through_control_points(pts, _int(options, "options"), k, _num(smoothness, "smoothness"),
+                                                _int(orientationMode, "orientationMode"), up)
+    h = ctx.sim.createDummy(0.04)
+    try:
+        ctx.sim.setObjectAlias(h, "Path")
+    except ArgumentError:  # simx names objects uniquely: another object is named Path already
+        pass
     pack = lambda a: struct.pack(f"<{a.size}d", *a.reshape(-1))  # noqa: E731
+    ctx.sim.writeCustomDataBlockEx(h, "PATHCTRLPTS", pack(pts))
     ctx.sim.writeCustomDataBlockEx(h, "PATHCTRLPT", pack(pts))
-    ctx.sim.writeCustomDataBlockEx(h, "PATH", pack(np.array(dense)))
+    ctx.sim.writeCustomDataBlockEx(h, "PATH", pack(dense))
     return h
 
 

@@ -6,8 +6,8 @@ to its parent; dynamic under a joint: that joint's body; dynamic elsewhere: a fr
 top level, as V-REP simulates it), a joint a named ``<joint>`` (children posed relative to its
 displaced frame, ``ref`` = its position in the file), a dummy a site, a proximity sensor a site
 with a ``<rangefinder>``, a force sensor a site with ``<force>``/``<torque>``, a vision sensor a
-``<camera>``, a light a ``<light>``; V-REP's view cameras, graphs, paths and others become sites
-so that their names still resolve. V-REP semantics MJCF has no attribute for go into
+``<camera>``, a light a ``<light>``; V-REP's view cameras and old paths become sites that keep
+their types (:mod:`.kinds`), graphs and others sites so that their names still resolve. V-REP semantics MJCF has no attribute for go into
 ``<custom><text name="simx:NAME" .../>`` settings.
 """
 

@@ -9,7 +9,7 @@ import math
 import mujoco
 import numpy as np
 
-from simx_server.scene.ttt import looks, mechanisms
+from simx_server.scene.ttt import kinds, looks, mechanisms
 from simx_server.scene.ttt.filters import vision_settings
 from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
 from simx_server.sim.ik import MAX_ELEMENTS as MAX_IK_ELEMENTS
@@ -185,6 +185,8 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         return
     site.size = [1e-3, 0, 0]
     site.group = 5
+    if kinds.add_kept_object(conv, obj):  # a camera or old path keeps its type (scene.ttt.kinds)
+        return
     if kind != "script":  # a 4.6+ script object: a site its script runs on (scripts.write_scripts)
         conv.report.add(f"{kind.replace('_', ' ')} objects (kept as dummies)")
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simx_server.scene.ttt import custom, filters, looks, measurements, settings, shapes
+from simx_server.scene.ttt import custom, filters, kinds, looks, measurements, settings, shapes
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.errors import SceneFileError
 from simx_server.scene.ttt.geometry import pose7
@@ -201,6 +201,10 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
         obj.data = ForceSensorData(float(size[0]) if size is not None else 0.01)
     elif kind == "script":
         obj.data = _read_script_object(typed, obj.handle)
+    elif kind == "camera":
+        obj.data = kinds.read_camera(typed)
+    elif kind == "path":
+        obj.data = kinds.read_path(typed)
     return obj
 
 
