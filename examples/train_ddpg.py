@@ -199,7 +199,7 @@ def plot(rows: list[dict], selections: list[dict], path: Path, title: str) -> No
     success = np.array([r["success"] for r in rows], dtype=float)
     window = max(1, min(50, len(rows) // 5))
     kernel = np.ones(window) / window
-    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=100)
+    fig, ax = plt.subplots(figsize=(8, 5.2), dpi=100)
     ax.plot(steps, returns, ".", ms=3, alpha=0.35, color="tab:blue", label="episode return")
     if len(rows) >= window:
         ax.plot(steps[window - 1:], np.convolve(returns, kernel, "valid"), color="tab:blue",
@@ -218,12 +218,35 @@ def plot(rows: list[dict], selections: list[dict], path: Path, title: str) -> No
     ax2.set_ylabel("success rate")
     lines = ax.get_legend_handles_labels()
     lines2 = ax2.get_legend_handles_labels()
-    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], loc="lower right", fontsize=8)
+    # Below the axes, not over them: the curves and the points fill the whole plot.
+    fig.legend(lines[0] + lines2[0], lines[1] + lines2[1], loc="lower center", ncol=2, fontsize=8, frameon=False)
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
     fig.savefig(path)
     plt.close(fig)
+
+
+def _title(result: dict) -> str:
+    """The learning curve's title from a run's ``evaluation.json`` content."""
+    trained, random_policy = result["trained"], result["random"]
+    return (f"DDPG on simx/UR5BallReach-v0 (tutorial state, {result['servers']} servers): evaluation "
+            f"{trained['successes']}/{trained['episodes']} reached vs random {random_policy['successes']}/"
+            f"{random_policy['episodes']}")
+
+
+def plot_from(prefix: str) -> Path:
+    """Draw a run's learning curve again from its files: ``PREFIX_episodes.csv`` (or
+    ``PREFIX/episodes.csv``) and the ``evaluation.json`` beside it; writes and returns
+    ``..._learning_curve.png`` (``learning_curve.png`` in a folder)."""
+    base = Path(prefix)
+    name = (lambda kind: base / kind) if base.is_dir() else (lambda kind: base.with_name(f"{base.name}_{kind}"))
+    with open(name("episodes.csv"), newline="") as f:
+        rows = [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+    result = json.loads(name("evaluation.json").read_text())
+    path = name("learning_curve.png")
+    plot(rows, result.get("selection_evaluations", []), path, _title(result))
+    return path
 
 
 def _clock(seconds: float) -> str:
@@ -257,6 +280,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--evaluate", nargs="?", const=str(SHIPPED_POLICY), default=None, metavar="POLICY",
                         help="train nothing: evaluate POLICY (a policy.zip or model.zip; without POLICY the "
                              f"shipped {SHIPPED_POLICY.name}) and a random policy over --eval-episodes seeded episodes")
+    parser.add_argument("--plot", metavar="PREFIX",
+                        help="train nothing: draw a run's learning curve again from PREFIX_episodes.csv and "
+                             "PREFIX_evaluation.json (or a run's --out folder), e.g. docs/training/ddpg_run4")
     args = parser.parse_args(argv)
     if args.evaluate and args.max_minutes is None:
         args.max_minutes = EVALUATE_MINUTES
@@ -268,6 +294,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
+    if args.plot:
+        print(f"[plot] wrote {plot_from(args.plot)}")
+        return {}
     t0, load_start = time.monotonic(), os.getloadavg()[0]
     deadline = None if args.max_minutes is None else time.time() + 60 * args.max_minutes
 
@@ -439,10 +468,7 @@ def main(argv: list[str] | None = None) -> dict:
         "selection_evaluations": selections, "wall_s": round(time.monotonic() - t0, 1), "machine": machine(load_start),
     }
     (out / "evaluation.json").write_text(json.dumps(result, indent=2) + "\n")
-    plot(rows, selections, out / "learning_curve.png",
-         f"DDPG on simx/UR5BallReach-v0 (tutorial state, {args.servers} servers): evaluation "
-         f"{trained['successes']}/{trained['episodes']} reached vs random {random_policy['successes']}/"
-         f"{random_policy['episodes']}")
+    plot(rows, selections, out / "learning_curve.png", _title(result))
     print(json.dumps(result, indent=2))
     return result
 

@@ -33,14 +33,19 @@ if [ $# -eq 0 ] && [ "$workers" != 0 ]; then
   # The whole suite: the two-node Ray cluster test (marker "ray") runs alone after the others.
   # Beside three busy workers on 2 cores its env runners' Zenoh sessions to their servers lost
   # their lease or a step took over 20 s (3 of the last 8 clean runs); alone it takes about 30 s,
-  # about what it added to the parallel run.
-  "$VENV/bin/python" -m pytest -ra "${dist[@]}" -m "not ray" || status=$?
+  # about what it added to the parallel run. Each run writes a JUnit report; the last lines are
+  # the total of both (scripts/suite_total.py), as neither run's own count is the suite's.
+  reports=$(mktemp -d)
+  trap 'rm -rf "$reports"' EXIT
+  "$VENV/bin/python" -m pytest -ra "${dist[@]}" -m "not ray" --junitxml="$reports/main.xml" || status=$?
   ray_status=0
-  "$VENV/bin/python" -m pytest -ra -m ray || ray_status=$?
+  "$VENV/bin/python" -m pytest -ra -m ray --junitxml="$reports/ray.xml" || ray_status=$?
   [ "$ray_status" = 5 ] && ray_status=0  # no test has the marker: nothing to run
   [ "$status" = 0 ] && status=$ray_status
+  echo "simx: the tests took $((SECONDS - start)) s (exit status $status)."
+  "$VENV/bin/python" "$ROOT/scripts/suite_total.py" "$reports/main.xml" "$reports/ray.xml"
 else
   "$VENV/bin/python" -m pytest -ra ${dist[@]+"${dist[@]}"} "$@" || status=$?
+  echo "simx: the tests took $((SECONDS - start)) s (exit status $status)."
 fi
-echo "simx: the tests took $((SECONDS - start)) s (exit status $status)."
 exit "$status"

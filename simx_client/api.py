@@ -33,7 +33,8 @@ import numpy as np
 
 from simx_wire import constants as C
 from simx_wire import protocol as P
-from simx_client.connection import DEFAULT_BLOCKING_TIMEOUT, PREFIX_ENV, wait_connect
+from simx_client.connect import wait_connect
+from simx_client.connection import DEFAULT_BLOCKING_TIMEOUT, PREFIX_ENV
 
 # The simx* functions by concern; each module calls calls._command itself (no wrapper here).
 from simx_client.api_objects import *  # noqa: F401,F403

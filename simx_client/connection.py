@@ -41,6 +41,7 @@ import zenoh
 from simx_wire import constants as C
 from simx_wire import proof as PR
 from simx_wire import protocol as P
+from simx_client.client_config import CONFIG_ENV, PREFIX_ENV, client_config, config_in_play  # noqa: F401 (re-exported)
 from simx_client.outbox import MAX_BATCH_COMMANDS
 from simx_client.refusal import open_session
 from simx_client.sender import DEFAULT_CYCLE, OutboxSender, direct
@@ -70,67 +71,11 @@ def _answer_peer_check(query: zenoh.Query) -> None:
         query.drop()
 
 
-#: Environment variables naming a client Zenoh config file, first found wins (ZENOH_CONFIG is
-#: Zenoh's own convention). docs/SECURITY.md shows TLS and user/password files.
-CONFIG_ENV = ("SIMX_ZENOH_CONFIG", "ZENOH_CONFIG")
 #: Environment variable with the user name that starts the client id (default: the config's
 #: ``transport/auth/usrpwd/user``); needed with mTLS, where the user is the certificate's name.
 USER_ENV = "SIMX_USER"
-#: Environment variable with the server's key-expression prefix for ``simxStart`` (default ``simx``).
-PREFIX_ENV = "SIMX_PREFIX"
 _USER_SEPARATOR = "-"  # client id = <user>-<uuid4 hex>: never in a user name
 _USER_NAME = re.compile(r"[A-Za-z0-9_.]{1,95}")  # 95 + 1 + 32 = 128, the longest client id
-
-
-def config_in_play() -> str:
-    """The client's Zenoh config file as messages name it: ``FILE ($SIMX_ZENOH_CONFIG)``, or none.
-
-    Returns:
-        The file and the variable that names it, or ``none (...)``.
-    """
-    found = next(((os.environ[v], v) for v in CONFIG_ENV if os.environ.get(v)), None)
-    return f"{found[0]} (${found[1]})" if found else f"none (neither ${' nor $'.join(CONFIG_ENV)} is set)"
-
-
-def client_config(address: str, port: int) -> zenoh.Config:
-    """Zenoh config of a client: what ``simxStart`` asks for, over the user's config file.
-
-    Without a config file: client mode, one endpoint ``tcp/<address>:<port>``, multicast
-    scouting off. With a file named by ``$SIMX_ZENOH_CONFIG`` (or else ``$ZENOH_CONFIG``), that
-    file (TLS certificates, user/password...) with the same three settings forced: mode
-    ``client``, scouting off, and one connect endpoint ``<protocol>/<address>:<port>`` where
-    ``<protocol>`` is the one of the file's first connect endpoint (``tls``, ``quic``...), ``tcp``
-    when it has none. So an unchanged legacy program reaches a TLS server through the
-    environment alone; the file's own addresses are not used (``simxStart``'s are).
-
-    Raises:
-        LocalError: the file cannot be read or is not a valid Zenoh config (``simxStart`` -1).
-
-    Args:
-        address: the server's host (``simxStart``'s connectionAddress).
-        port: its port (``simxStart``'s connectionPort).
-
-    Returns:
-        The config.
-    """
-    path, var = next(((os.environ[v], v) for v in CONFIG_ENV if os.environ.get(v)), (None, None))
-    protocol = "tcp"
-    if path is None:
-        config = zenoh.Config()
-    else:
-        try:
-            config = zenoh.Config.from_file(path)
-            endpoints = json.loads(config.get_json("connect/endpoints") or "[]")
-        except (zenoh.ZError, ValueError) as exc:
-            raise P.LocalError(f"cannot use the Zenoh config {path} (${var}): {exc}") from None
-        if isinstance(endpoints, dict):  # per mode: {"client": [...], "peer": [...]}
-            endpoints = endpoints.get("client") or []
-        if endpoints:
-            protocol = str(endpoints[0]).split("/", 1)[0]
-    config.insert_json5("mode", '"client"')
-    config.insert_json5("connect/endpoints", json.dumps([f"{protocol}/{address}:{port}"]))
-    config.insert_json5("scouting/multicast/enabled", "false")
-    return config
 
 
 def client_id(config: zenoh.Config) -> str:
@@ -623,58 +568,3 @@ class Connection(OutboxSender):
     def connected(self) -> bool:
         """Whether the session is open and the server's liveliness token is seen."""
         return "session" in self.__dict__ and self._alive and not self.session.is_closed()
-
-
-def wait_connect(address: str, port: int, wait: bool, timeout: float, blocking_timeout: float,
-                 reconnect: bool = False, prefix: str = P.DEFAULT_PREFIX, cycle: float = DEFAULT_CYCLE
-                 ) -> Connection | None:
-    """Connect to a simx server, retrying until ``timeout`` s when ``wait``; None on failure.
-    ``cycle``: s between two requests of the outbox (:class:`Connection`).
-
-    Implements ``simxStart``'s connection: ``waitUntilConnected``, ``timeOutInMs``,
-    ``reconnectOnDisconnect`` and ``commThreadCycleInMs`` as arguments.
-
-    Args:
-        address: the server's host.
-        port: its port.
-        wait: retry until ``timeout`` (``waitUntilConnected``).
-        timeout: s.
-        blocking_timeout: s a blocking call waits for its reply.
-        reconnect: connect again after a disconnection.
-        prefix: the Zenoh key prefix of the server.
-        cycle: s.
-
-    Returns:
-        The connection, or None (the reason is logged).
-    """
-    deadline = time.monotonic() + timeout
-    while True:
-        try:
-            return Connection(address, port, blocking_timeout, prefix, reconnect=reconnect, cycle=cycle,
-                              hello_timeout=max(0.1, min(blocking_timeout, deadline - time.monotonic())))
-        except (P.ProtocolError, P.LocalError) as exc:
-            log.error("simxStart(%s, %d): %s", address, port, exc)
-            return None
-        except P.RefusedError as exc:  # waiting would not change the server's answer
-            log.warning("simxStart(%s, %d): %s", address, port, exc)
-            return None
-        except (zenoh.ZError, TimeoutError) as exc:
-            if not wait or time.monotonic() >= deadline:
-                _log_nobody(address, port, exc)
-                return None
-        time.sleep(0.05)
-
-
-_told_nobody: set[tuple[str, int]] = set()  # (address, port) whose "no simx server" was a WARNING
-
-
-def _log_nobody(address: str, port: int, exc: BaseException) -> None:
-    """``simxStart`` found no simx server: a WARNING the first time for this address and port in
-    this process (visible at Python's default log level, where a legacy program that retries
-    forever would otherwise show nothing), INFO at every later try."""
-    first = (address, port) not in _told_nobody
-    _told_nobody.add((address, port))
-    log.log(logging.WARNING if first else logging.INFO,
-            "simxStart(%s, %d): no simx server at %s:%d (start one there: scripts/serve.sh, or simx-server; "
-            "it listens on 19997 and 19999 by default, a --zenoh-config file on its listen endpoints): %s",
-            address, port, address, port, P.zenoh_reason(str(exc)))

@@ -135,17 +135,19 @@ def missing_scene(args: argparse.Namespace) -> str | None:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         prog="simx-server",
-        description="MuJoCo simulation server speaking V-REP's legacy remote API over Eclipse Zenoh.",
+        description="MuJoCo simulation server for V-REP / CoppeliaSim scenes and programs: V-REP's legacy "
+                    "remote API over Eclipse Zenoh and CoppeliaSim's ZMQ remote API.",
     )
     p.add_argument("--version", action=_VersionAction)
-    p.add_argument("scene", nargs="?", help=f"MJCF or URDF scene file (default: the bundled {DEFAULT_SCENE})")
+    p.add_argument("scene", nargs="?", help=f"the scene: {SCENE_FILES_TEXT} (default: the bundled {DEFAULT_SCENE})")
     p.add_argument("--host", action="append", help="address to listen on (repeatable; default 127.0.0.1)")
     p.add_argument("--port", action="append", type=int,
                    help="TCP port to listen on (repeatable; default 19997 and 19999)")
     p.add_argument("--zmq-port", type=int, metavar="N",
                    help="TCP port of CoppeliaSim's ZMQ remote API (coppeliasim-zmqremoteapi-client programs), on "
                         "the --host addresses (default 23000; when that default is taken the server goes on without "
-                        "it and says so)")
+                        "it and says so), and on N+1 (default 23001) the step counter of CoppeliaSim 4.3-4.5's "
+                        "client")
     p.add_argument("--no-zmq", action="store_true", help="do not serve the ZMQ remote API")
     p.add_argument("--zmq-curve", metavar="DIR",
                    help="ZMQ remote API with CURVE encryption and client keys: DIR/server.key_secret and "

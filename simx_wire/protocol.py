@@ -32,8 +32,6 @@ Binary data (images, depth buffers, script buffers) travels as msgpack ``bin``.
 
 from __future__ import annotations
 
-import re
-import reprlib
 import threading
 from collections.abc import Callable, Iterable
 from typing import Any
@@ -41,6 +39,13 @@ from typing import Any
 import msgpack
 
 from simx_wire import decoded_size
+
+# Re-exported: the command identity's helpers and the quoting of peer values live in modules of their own.
+from simx_wire.hashable import IDENTITY_DEPTH as IDENTITY_DEPTH
+from simx_wire.hashable import _hashable as _hashable
+from simx_wire.text import QUOTE_LIMIT as QUOTE_LIMIT
+from simx_wire.text import quote as quote
+from simx_wire.text import zenoh_reason as zenoh_reason
 
 PROTOCOL_VERSION = 4  # 3: requests without proof; 2: one call key for every client; 1: maps
 DEFAULT_PREFIX = "simx"
@@ -239,11 +244,6 @@ def client_token_prefix(prefix: str = DEFAULT_PREFIX) -> str:
     return f"{prefix}/alive/client/*"
 
 
-#: Container levels of an identifying argument kept as nested tuples; deeper levels are
-#: flattened into one tuple of tokens (built without recursion). Legacy arguments are flat.
-IDENTITY_DEPTH = 16
-
-
 def identity(name: str, args: list[Any]) -> tuple[Any, ...]:
     """The legacy identity of a command: its name and identifying arguments, hashable for any
     msgpack value a client sends (see :func:`_hashable`)."""
@@ -252,94 +252,6 @@ def identity(name: str, args: list[Any]) -> tuple[Any, ...]:
         if type(a) is list or type(a) is dict:
             return (name, *(_hashable(a) for a in head))
     return (name, *head)
-
-
-def _hashable(value: Any, depth: int = IDENTITY_DEPTH) -> Any:
-    """A hashable stand-in for ``value``: lists (and tuples) become tuples, dicts the tuple
-    ``(key1, value1, key2, value2, ...)``, other unhashable values (never from msgpack) their type and repr.
-    Levels deeper than ``depth`` become one flat tuple of tokens, so that a value nested 1,000
-    deep costs no deep recursion (here, nor when hashing or comparing the result).
-
-    Sent through msgpack and read back (tuples as arrays), the result maps to itself: the
-    identity a server puts in a stream update is the one its client computed.
-    """
-    t = type(value)
-    if t is list or t is tuple:
-        if depth > 0:
-            return tuple([_hashable(v, depth - 1) for v in value])
-        if not any(type(v) in _CONTAINERS for v in value):
-            return tuple([_leaf(v) for v in value])  # as flat as _flat's tokens read back
-        return _flat(value)
-    if t is dict:
-        if depth > 0:
-            return tuple([_hashable(x, depth - 1) for item in value.items() for x in item])
-        return _flat(value)
-    if depth > 0:
-        try:
-            hash(value)
-        except TypeError:
-            return (t.__name__, repr(value))
-    return _leaf(value)
-
-
-_CONTAINERS = (list, tuple, dict)
-
-
-def _leaf(value: Any) -> Any:
-    try:
-        hash(value)
-    except TypeError:
-        return f"<{type(value).__name__}> {value!r}"
-    return value
-
-
-def _flat(value: Any) -> tuple[Any, ...]:
-    """Tokens of a nested value in depth-first order (``"["`` or ``"{"`` and the size open a
-    container), built with an explicit stack."""
-    tokens: list[Any] = []
-    stack = [value]
-    while stack:
-        v = stack.pop()
-        t = type(v)
-        if t is list or t is tuple:
-            tokens += ("[", len(v))
-            stack.extend(reversed(v))
-        elif t is dict:
-            tokens += ("{", len(v))
-            for k, item in reversed(list(v.items())):
-                stack += (item, k)
-        else:
-            tokens.append(_leaf(v))
-    return tuple(tokens)
-
-
-QUOTE_LIMIT = 60  # characters of a peer's value quoted in an error or a log line
-
-
-#: The Rust source location Zenoh appends to its errors (`` at /root/.cargo/.../tcp.rs:61.``).
-_SOURCE_LOCATION = re.compile(r"\s+at /\S+?\.rs:\d+\.?")
-
-
-def zenoh_reason(error: BaseException | str) -> str:
-    """A Zenoh error's text without the library's source locations, which tell a user nothing."""
-    return _SOURCE_LOCATION.sub("", str(error)).strip()
-
-
-def quote(value: Any, limit: int = QUOTE_LIMIT) -> str:
-    """``repr(value)`` cut to ``limit`` characters (with ``...`` and the full length), for error
-    messages and log lines that name a peer's input, on both sides: an attacker's 10 MB name must
-    not come back as a 10 MB reply, and a value nested 1,000 deep must not overflow the stack."""
-    r = reprlib.Repr()
-    r.maxstring = r.maxother = limit
-    r.maxlevel, r.maxlist, r.maxtuple, r.maxdict = 3, 8, 8, 8
-    try:
-        text = r.repr(value)
-    except Exception:  # a value whose repr fails is named by its type
-        text = f"<{type(value).__name__}>"
-    if len(text) > limit:
-        size = len(value) if isinstance(value, (str, bytes, list, dict)) else None
-        text = text[:limit] + "..." + (f" ({size} long)" if size is not None else "")
-    return text
 
 
 _packers = threading.local()  # a msgpack Packer is reusable but not thread-safe

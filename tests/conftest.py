@@ -140,19 +140,21 @@ REFERENCE = SHARED / "reference"
 SCENE = ROOT / "scenes" / "ur5_rg2_kinect.xml"
 
 
-def require_shared(path: Path) -> Path:
-    """``path`` (a file of the tutorial kept in ``../shared/`` beside the checkout: the legacy
-    program, the original RG2.lua, the reference tables) when it exists.
+def require_shared(path: Path, what: str = "from the tutorial") -> Path:
+    """``path`` (a file or folder kept in ``../shared/`` beside the checkout: the tutorial's legacy
+    program, the original RG2.lua, the reference tables, the corpus of real scene files) when it
+    exists; ``what`` says in a few words what it is (the skip reason puts it in parentheses).
 
     A plain clone has no ``../shared``: then the calling test SKIPS, with a reason that names the
     missing file and the absolute path where it is expected. When the environment variable ``CI``
     is set (non-empty) it FAILS instead, so CI, which keeps ``../shared`` beside its checkout,
     never silently loses these tests. Call it at the start of the test or fixture that needs it.
     """
+    path = Path(os.path.normpath(path))  # "tests/../../shared/x" names ../shared as "shared/x"
     if path.exists():
         return path
     why = (f"{path.relative_to(SHARED.parent) if path.is_relative_to(SHARED.parent) else path.name} "
-           f"(from the tutorial) is missing: expected at {path}; a plain clone has no ../shared beside it")
+           f"({what}) is missing: expected at {path}; a plain clone has no ../shared beside it")
     if os.environ.get("CI"):
         pytest.fail(f"{why} (CI is set: failing instead of skipping)", pytrace=False)
     pytest.skip(why)

@@ -374,10 +374,10 @@ def test_synchronous_stepping(vrep_client):
 
 def test_finish_all_and_start_timeout(monkeypatch, caplog):
     """simxStart's positive timeOutInMs bounds its connection wait: the retries stop at the
-    client's own deadline (simx_client.connection.wait_connect's timer). Counted, not timed: on a
+    client's own deadline (simx_client.connect.wait_connect's timer). Counted, not timed: on a
     clock that moves only by the client's 50 ms sleeps between tries, 500 ms is 11 tries to
     open a session (12 where the float sum falls short); the default 5 s would be 101."""
-    from simx_client import connection
+    from simx_client import connect, connection
 
     clock, opened = [0.0], []
 
@@ -389,7 +389,9 @@ def test_finish_all_and_start_timeout(monkeypatch, caplog):
         return open_session(*args, **kwargs)
 
     open_session = connection.open_session
-    monkeypatch.setattr(connection, "time", types.SimpleNamespace(monotonic=lambda: clock[0], sleep=sleep))
+    fake_time = types.SimpleNamespace(monotonic=lambda: clock[0], sleep=sleep)
+    monkeypatch.setattr(connection, "time", fake_time)
+    monkeypatch.setattr(connect, "time", fake_time)  # wait_connect's retries
     monkeypatch.setattr(connection, "open_session", counting_open)
     port = __import__("conftest").free_port()
     with caplog.at_level("INFO", logger=connection.log.name):

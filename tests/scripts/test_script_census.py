@@ -55,9 +55,9 @@ def _corpus() -> list:
     return sorted(p for p in CORPUS.glob("*.tt[tm]")) if CORPUS.is_dir() else []
 
 
-@pytest.mark.parametrize("path", _corpus() or [CORPUS / "(the corpus)"], ids=lambda p: p.name)
+@pytest.mark.parametrize("path", _corpus() or [CORPUS], ids=lambda p: p.name)  # no folder: one test that skips
 def test_every_script_of_the_corpus_runs_2_s_without_a_script_error(path, caplog):
-    require_shared(path)
+    require_shared(path, "the corpus of real V-REP / CoppeliaSim scene files")
     if importlib.util.find_spec("simx_server.scene.ttt") is None:
         pytest.skip("simx_server.scene.ttt (the .ttt reader, issue 31) is not on this branch: the census "
                     "loads the corpus's scenes through it")

@@ -34,7 +34,7 @@ import pytest
 import zenoh
 
 from conftest import ROOT, ServerProcess, free_port, wait_until
-from simx_client import api, connection
+from simx_client import api, connect, connection
 from simx_client import protocol as P
 from simx_wire import proof as PR
 
@@ -236,7 +236,7 @@ def test_zenoh_config_variable_and_refused_clients(secure, env, tmp_path, caplog
             attempts.append(1)
             super().__init__(*args, **kwargs)
 
-    env.setattr(connection, "Connection", Counted)
+    env.setattr(connect, "Connection", Counted)  # what simxStart (connect.wait_connect) makes
     for config, cause in causes.items():
         env.setenv("SIMX_ZENOH_CONFIG", str(config))
         caplog.clear()

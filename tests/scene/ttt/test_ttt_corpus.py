@@ -17,7 +17,9 @@ except ImportError:
     from tests.conftest import SHARED, require_shared
 
 CORPUS = SHARED / "ttt-corpus"
-FILES = sorted(p.name for p in CORPUS.glob("*.tt[tm]")) if CORPUS.is_dir() else ["<corpus missing>"]
+#: The corpus's file names; without the folder, one test that skips naming the folder.
+FILES = sorted(p.name for p in CORPUS.glob("*.tt[tm]")) if CORPUS.is_dir() else [""]
+CORPUS_WHAT = "the corpus of real V-REP / CoppeliaSim scene files"
 #: "not carried over" kinds per corpus file when issue 41 began (docs/PORTING.md's table).
 NOT_CARRIED_THEN = {
     'BTIRAI+youbot__youbot_simple_example.ttt': 4,
@@ -76,9 +78,9 @@ def _file_world_poses(scene):
     return out
 
 
-@pytest.mark.parametrize("name", FILES)
+@pytest.mark.parametrize("name", FILES, ids=lambda name: name or "ttt-corpus")
 def test_corpus_file_converts_loads_and_steps(name, tmp_path):
-    path = require_shared(CORPUS / name)
+    path = require_shared(CORPUS / name, CORPUS_WHAT if not name else "a file of the corpus of real scene files")
     scene = reader.read(path)
     xml, report = convert.convert(scene, tmp_path, "scene")
     # the load report names no more kinds left out than when issue 41 began (docs/PORTING.md), and

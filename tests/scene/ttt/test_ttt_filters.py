@@ -16,8 +16,12 @@ import ttt_vision as V
 from simx_server.commands import sensors as cmd_sensors
 from simx_server.scene.ttt import convert, reader
 
-TUTORIAL = Path(__file__).resolve().parents[3] / ".." / "shared" / "ttt-corpus" / \
-    "Ianlande+Vrep_yolov3_ddpg_pytorch__scenes_scene.ttt"
+try:
+    from conftest import SHARED, require_shared
+except ImportError:
+    from tests.conftest import SHARED, require_shared
+
+TUTORIAL = SHARED / "ttt-corpus" / "Ianlande+Vrep_yolov3_ddpg_pytorch__scenes_scene.ttt"
 PNGS = Path(os.environ.get("SIMX_TEST_PNGS", "/nonexistent"))
 
 
@@ -163,11 +167,10 @@ def test_a_sensor_sees_nothing_beyond_its_far_plane(load):
     assert not np.all(long_ == [51, 102, 153], axis=2).any() and np.array_equal(short[inside], long_[inside])
 
 
-@pytest.mark.skipif(not TUTORIAL.is_file() and not os.environ.get("CI"), reason="needs ../shared/ttt-corpus")
 def test_the_tutorials_kinect_depth_outputs_grey_depth(load):
     """The tutorial's scene.ttt: kinect_depth's chain (2, 4) makes V-REP's grey depth image;
     kinect_rgb's (1, 4) is the identity."""
-    sim, texts, report = load(TUTORIAL.read_bytes())
+    sim, texts, report = load(require_shared(TUTORIAL, "the tutorial's scene").read_bytes())
     assert "filters=sensorDepthMapToWorkImg;workImgToSensorImg" in texts["simx:kinect_depth"].split()
     assert "filters=" not in texts["simx:kinect_rgb"]
     depth_h, rgb_h = _h(sim, "kinect_depth"), _h(sim, "kinect_rgb")
