@@ -15,7 +15,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from simx_server.api import client_context
+from simx_server.api import CallContext, Callers
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
 
@@ -28,6 +28,16 @@ from pyrep.textures.texture import Texture
 
 #: The scene ``launch()`` loads without a scene file: a floor and a light.
 EMPTY_SCENE = Path(__file__).resolve().parent / "assets" / "empty.xml"
+
+
+class _InProcessContext(CallContext):
+    """The context of a PyRep in this process: a remote API client's (as ZMQ's, see
+    :func:`simx_server.api.client_context`) whose image calls wait for their frame, as a
+    script's do, rather than answering a deferred reply."""
+
+    @property
+    def defer_renders(self) -> bool:
+        return False
 
 
 class PyRep:
@@ -59,7 +69,9 @@ class PyRep:
             self._simulation = Simulation(path.resolve())
         except ValueError as exc:
             raise PyRepError(f"PyRep could not load the scene {scene_file}: {exc}") from exc
-        self._ctx = client_context(self._simulation, label="pyrep")
+        simulation = self._simulation
+        self._ctx = _InProcessContext(None, -1, simulation.signals, "pyrep", caller=Callers.CLIENTS,
+                                      live=lambda: simulation)
         sim.push(self._ctx)
 
     def make_current(self) -> None:

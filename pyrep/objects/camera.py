@@ -16,5 +16,8 @@ class Camera(Object):
     def _get_requested_type(self) -> ObjectType:
         return ObjectType.CAMERA
 
+    def _type_ok(self, actual: ObjectType) -> bool:
+        return actual in (ObjectType.CAMERA, ObjectType.DUMMY)  # simx makes it a dummy (see docs/PYREP.md)
+
 
 object_type_to_class[ObjectType.CAMERA] = Camera

@@ -56,8 +56,9 @@ class Joint(Object):
         sim.call("setJointTargetVelocity", self._handle, float(velocity))
 
     def get_joint_force(self) -> float:
-        """The force (N) or torque (N·m) the joint applies."""
-        return float(sim.call("getJointForce", self._handle))
+        """The force (N) or torque (N·m) on the joint, with CoppeliaSim 4.1's sign: the opposite
+        of the force the motor applies (``sim.getJointForce`` of 4.2+, which simx follows)."""
+        return -float(sim.call("getJointForce", self._handle))
 
     def set_joint_force(self, force: float) -> None:
         """Sets the motor's maximum force (N) or torque (N·m)."""

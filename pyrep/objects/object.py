@@ -197,7 +197,7 @@ class Object:
         """Rotates the object by ``rotation`` (3,) rad about its own z, then y, then x axis."""
         m = self.get_matrix()
         rx, ry, rz = (float(v) for v in rotation)
-        local = _rot("z", rz) @ _rot("y", ry) @ _rot("x", rx)
+        local = _rot("x", rx) @ _rot("y", ry) @ _rot("z", rz)  # about the object's axes: z, then y, then x
         m[:3, :3] = m[:3, :3] @ local
         self.set_matrix(m)
 
@@ -340,12 +340,12 @@ class Object:
     # ------------------------------------------------------- geometry
     def get_bounding_box(self) -> list[float]:
         """``[min_x, max_x, min_y, max_y, min_z, max_z]`` (m) in the object's frame."""
-        return self._float_params(21, 24, 22, 25, 23, 26)  # sim_objfloatparam_objbbox_*
+        return self._float_params(15, 18, 16, 19, 17, 20)  # sim_objfloatparam_objbbox_*
 
     def get_model_bounding_box(self) -> list[float]:
         """The model's bounding box, as :meth:`get_bounding_box`."""
         self._check_model()
-        return self._float_params(15, 18, 16, 19, 17, 20)  # sim_objfloatparam_modelbbox_*
+        return self._float_params(21, 24, 22, 25, 23, 26)  # sim_objfloatparam_modelbbox_*
 
     def _float_params(self, *params: int) -> list[float]:
         return [float(sim.call("getObjectFloatParam", self._handle, p)) for p in params]

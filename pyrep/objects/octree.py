@@ -35,6 +35,9 @@ class Octree(Object):
     def _get_requested_type(self) -> ObjectType:
         return ObjectType.OCTREE
 
+    def _type_ok(self, actual: ObjectType) -> bool:
+        return actual in (ObjectType.OCTREE, ObjectType.DUMMY)  # simx makes it a dummy (see docs/PYREP.md)
+
     def insert_voxels(self, points: list[float], color: Any = None, options: int = 0) -> None:
         """Adds the voxels holding ``points`` (3n, m).
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 from pyrep.backend import sim
 from pyrep.const import ObjectType
 from pyrep.objects.object import Object, object_type_to_class
@@ -17,8 +15,8 @@ class ProximitySensor(Object):
 
     def read(self) -> float:
         """Distance (m) to the detected point, -1.0 when nothing is detected."""
-        state, _, point, _, _ = sim.call("readProximitySensor", self._handle)
-        return math.sqrt(sum(float(v) ** 2 for v in point)) if state else -1.0
+        state, distance, _, _, _ = sim.call("readProximitySensor", self._handle)
+        return float(distance) if state else -1.0
 
     def is_detected(self, obj: Object) -> bool:
         """Whether the sensor detects ``obj`` now."""
