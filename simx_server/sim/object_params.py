@@ -16,7 +16,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
-from simx_server.sim import handle_render, joint_params, physics
+from simx_server.sim import handle_render, joint_params, physics, vision_params
 from simx_server.sim.collisions import collidable
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
 from simx_server.sim.state import SimulationView
@@ -111,6 +111,8 @@ def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
         UnsupportedError: an id simx does not answer.
     """
     world = sim.world
+    if pid in vision_params.FLOAT_IDS and world.get(handle).type == VISION_SENSOR:
+        return vision_params.get_float(sim, handle, pid)
     if pid not in _FLOAT_GET:
         world.get(handle)
         raise _unsupported(pid, "float", False)
@@ -169,6 +171,9 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
         UnsupportedError: a read-only or unknown id.
     """
     world = sim.world
+    if pid in vision_params.FLOAT_IDS and world.get(handle).type == VISION_SENSOR:
+        vision_params.set_float(sim, handle, pid, value)
+        return
     if pid not in _FLOAT_SET:
         world.get(handle)
         raise _unsupported(pid, "float", True)
@@ -230,6 +235,8 @@ def get_int_param(sim: SimulationView, handle: int, pid: int) -> int:
         UnsupportedError: an id simx does not answer.
     """
     world = sim.world
+    if pid in vision_params.INT_IDS and world.get(handle).type == VISION_SENSOR:
+        return vision_params.get_int(sim, handle, pid)
     if pid not in _INT_GET:
         world.get(handle)
         raise _unsupported(pid, "int", False)
@@ -278,6 +285,9 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
                 "when the scene loads (its joints, contype/conaffinity in the MJCF); MuJoCo cannot "
                 "switch it at run time")
         return  # already so (sim.importShape's shapes are dynamic and respondable): nothing to do
+    if pid in vision_params.INT_IDS and world.get(handle).type == VISION_SENSOR:
+        vision_params.set_int(sim, handle, pid, value)
+        return
     if pid not in _INT_SET:
         world.get(handle)
         raise _unsupported(pid, "int", True)

@@ -76,11 +76,13 @@ def createVisionSensor(ctx: CallContext, options: Any, intParams: Any, floatPara
 
     def build(spec: mujoco.MjSpec, name: str) -> None:
         cam = spec.worldbody.add_camera(name=name, quat=[0, 0, 1, 0], resolution=[w, h])  # MuJoCo looks along -z
+        # V-REP's angle and size span the larger side; MuJoCo's fovy the vertical one
         if opts & 1:
-            cam.fovy = math.degrees(view)
+            half = view / 2 if h >= w else math.atan(math.tan(view / 2) * h / w)
+            cam.fovy = math.degrees(2 * half)
         else:
             cam.proj = mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC
-            cam.fovy = view  # an orthographic camera's fovy is its view height (m)
+            cam.fovy = view * min(h / w, 1.0)  # an orthographic camera's fovy is its view height (m)
         spec.add_text(name=f"simx:{name}", data=f"near={near} far={far}")
 
     return _create(ctx, "createVisionSensor", "Vision_sensor", build)
