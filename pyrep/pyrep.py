@@ -173,9 +173,16 @@ class PyRep:
         return Shape(int(sim.call("groupShapes", [o.get_handle() for o in objects], True)))
 
     def export_scene(self, filename: str) -> None:
-        """Saves the scene as it is now (simx writes MJCF, whatever the extension)."""
+        """Saves the scene as it is now: MJCF (``sim.saveScene``), whatever the extension (a
+        ``.ttt`` name gets MJCF too; simx writes no CoppeliaSim file)."""
         self._require()
-        sim.call("saveScene", filename)
+        target = Path(filename).resolve()
+        if target.suffix.lower() == ".xml":
+            sim.call("saveScene", str(target))
+            return
+        staging = target.with_name(target.name + ".xml")
+        sim.call("saveScene", str(staging))
+        os.replace(staging, target)
 
     def import_model(self, filename: str) -> Object:
         """Adds a model file (``.ttm`` or MJCF) to the scene; returns its base object."""

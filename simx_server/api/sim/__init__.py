@@ -22,7 +22,7 @@ from pathlib import Path
 
 from simx_server.api.registry import SIM
 from simx_server.api.sim import (  # noqa: F401 (each module registers its functions)
-    build, clouds, common, core, create, data, engine, flags, forces, graphs, gui, ik_groups, inertia, joint_modes,
+    build, clouds, common, config_tree, core, create, data, engine, flags, forces, graphs, gui, ik_groups, inertia, joint_modes,
     joints, legacy, legacy_data, legacy_measurements, legacy_objects, legacy_tubes, legacy_wireless, links, looks,
     mesh, meshops, misc, motion, objects, octrees, params, particles, paths, posemath, props, remote, rotations,
     ruckig, scripting, sensing, sensors, services, shape_import, shapes, stepped, threads, trajectory)
