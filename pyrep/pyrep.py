@@ -187,8 +187,18 @@ class PyRep:
     def import_model(self, filename: str) -> Object:
         """Adds a model file (``.ttm`` or MJCF) to the scene; returns its base object."""
         self._require()
-        handle = sim.call("loadModel", str(Path(filename).resolve()))
+        path = Path(filename).resolve()
+        self._trust(path.parent)
+        handle = sim.call("loadModel", str(path))
         return Object.get_object(int(handle))
+
+    def _trust(self, folder: Path) -> None:
+        """Let the scene load files of ``folder``: a PyRep program owns its process, so every
+        folder it names is its own (a server trusts only its scene's and --scene-path folders)."""
+        roots = self.simulation.editor.files.roots
+        real = Path(os.path.realpath(folder))
+        if real not in roots:
+            roots.append(real)
 
     def create_texture(self, filename: str, interpolate: bool = True, decal_mode: bool = False,
                        repeat_along_u: bool = False, repeat_along_v: bool = False) -> tuple[Shape, Texture]:
