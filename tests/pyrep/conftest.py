@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 SCENE = """<mujoco model="pyrep_small">
+  <compiler angle="radian"/>
   <option timestep="0.01"/>
   <worldbody>
     <light name="light" pos="0 0 3" dir="0 0 -1"/>
@@ -26,7 +27,7 @@ SCENE = """<mujoco model="pyrep_small">
     <camera name="cam" pos="0 -1.5 0.8" xyaxes="1 0 0 0 0.5 1" resolution="32 24"/>
   </worldbody>
   <actuator>
-    <position name="hinge_motor" joint="hinge" kp="20"/>
+    <velocity name="hinge_motor" joint="hinge" kv="2"/>
   </actuator>
 </mujoco>
 """
