@@ -177,6 +177,7 @@ class PyRep:
         ``.ttt`` name gets MJCF too; simx writes no CoppeliaSim file)."""
         self._require()
         target = Path(filename).resolve()
+        self._trust(target.parent)
         if target.suffix.lower() == ".xml":
             sim.call("saveScene", str(target))
             return

@@ -73,9 +73,10 @@ class Light(Object):
                 warnings.warn(f"spot exponent must be an integer, rounding {spot_exponent}", stacklevel=2)
             sim.call("setObjectFloatParam", self._handle, _SPOT_EXPONENT, float(round(spot_exponent)))
         if spot_cutoff is not None:
-            if float(spot_cutoff) > np.pi / 2:
-                warnings.warn("spot_cutoff above pi/2: set to pi/2", stacklevel=2)
-            sim.call("setObjectFloatParam", self._handle, _SPOT_CUTOFF, min(float(spot_cutoff), np.pi / 2))
+            if float(spot_cutoff) > np.pi / 2:  # PyRep warns, and sets it
+                warnings.warn(f"Tried to set spot_cutoff to {spot_cutoff}, but the maximum allowed value is pi/2",
+                              stacklevel=2)
+            sim.call("setObjectFloatParam", self._handle, _SPOT_CUTOFF, float(spot_cutoff))
         if any(v is not None for v in (const_atten_factor, linear_atten_factor, quad_atten_factor)):
             raise Exception("CoppeliaSim currently does not support setting attenuation factors")
 

@@ -2,7 +2,7 @@
 
 ``sim_lightintparam_pov_casts_shadows`` (8000) is MuJoCo's ``light_castshadow``;
 ``sim_lightfloatparam_spot_exponent`` (8001) its ``light_exponent``;
-``sim_lightfloatparam_spot_cutoff`` (8002, rad; at most pi/2) its ``light_cutoff`` (degrees);
+``sim_lightfloatparam_spot_cutoff`` (8002, rad, up to pi) its ``light_cutoff`` (degrees);
 the constant, linear and quadratic attenuation factors (8003-8005) its ``light_attenuation``,
 read only (CoppeliaSim 4.1 does not set them either). Run-time changes are undone when the
 simulation stops (the model is reloaded).
@@ -61,7 +61,7 @@ def get_float(sim: SimulationView, handle: int, pid: int) -> float:
 
 
 def set_float(sim: SimulationView, handle: int, pid: int, value: float) -> None:
-    """Set the spot exponent (>= 0) or cutoff (rad, in (0, pi/2]) of light ``handle``.
+    """Set the spot exponent (>= 0) or cutoff (rad, in (0, pi]) of light ``handle``.
 
     Raises:
         ArgumentError: a value out of range.
@@ -77,8 +77,8 @@ def set_float(sim: SimulationView, handle: int, pid: int, value: float) -> None:
             raise ArgumentError(f"sim_lightfloatparam_spot_exponent (8001): must be >= 0, got {value}")
         m.light_exponent[i] = value
     else:
-        if not 0 < value <= math.pi / 2 + 1e-9:
-            raise ArgumentError(f"sim_lightfloatparam_spot_cutoff (8002): must be in (0, pi/2] rad, got {value}")
+        if not 0 < value <= math.pi:
+            raise ArgumentError(f"sim_lightfloatparam_spot_cutoff (8002): must be in (0, pi] rad, got {value}")
         m.light_cutoff[i] = math.degrees(value)
         if not hasattr(sim.world, "light_cutoffs"):
             sim.world.light_cutoffs = {}  # type: ignore[attr-defined]
