@@ -30,12 +30,27 @@ def _light(sim: SimulationView, handle: int) -> int:
 
 
 def get_int(sim: SimulationView, handle: int, pid: int) -> int:
-    """Whether light ``handle`` casts shadows (8000)."""
+    """Whether light ``handle`` casts shadows (8000).
+
+    Args:
+        sim: the simulation.
+        handle: the light's handle.
+        pid: the parameter id.
+
+    Returns:
+        The value.
+    """
     return int(bool(sim.world.model.light_castshadow[_light(sim, handle)]))
 
 
 def set_int(sim: SimulationView, handle: int, pid: int, value: int) -> None:
     """Set whether light ``handle`` casts shadows (8000: 0 or 1).
+
+    Args:
+        sim: the simulation.
+        handle: the light's handle.
+        pid: the parameter id.
+        value: the new value.
 
     Raises:
         ArgumentError: not 0 or 1.
@@ -47,7 +62,16 @@ def set_int(sim: SimulationView, handle: int, pid: int, value: int) -> None:
 
 
 def get_float(sim: SimulationView, handle: int, pid: int) -> float:
-    """Spot exponent, spot cutoff (rad) or an attenuation factor of light ``handle``."""
+    """Spot exponent, spot cutoff (rad) or an attenuation factor of light ``handle``.
+
+    Args:
+        sim: the simulation.
+        handle: the light's handle.
+        pid: the parameter id.
+
+    Returns:
+        The value.
+    """
     m, i = sim.world.model, _light(sim, handle)
     if pid == SPOT_EXPONENT:
         return float(m.light_exponent[i])
@@ -62,6 +86,12 @@ def get_float(sim: SimulationView, handle: int, pid: int) -> float:
 
 def set_float(sim: SimulationView, handle: int, pid: int, value: float) -> None:
     """Set the spot exponent (>= 0) or cutoff (rad, in (0, pi]) of light ``handle``.
+
+    Args:
+        sim: the simulation.
+        handle: the light's handle.
+        pid: the parameter id.
+        value: the new value.
 
     Raises:
         ArgumentError: a value out of range.

@@ -45,7 +45,16 @@ def _larger_side(spec) -> float:
 
 
 def get_int(sim: SimulationView, handle: int, pid: int) -> int:
-    """Int parameter 1004, 1005, 1008 or 1018 of vision sensor ``handle`` (see the module)."""
+    """Int parameter 1004, 1005, 1008 or 1018 of vision sensor ``handle`` (see the module).
+
+    Args:
+        sim: the simulation.
+        handle: the vision sensor's handle.
+        pid: the parameter id.
+
+    Returns:
+        The value.
+    """
     spec = _spec(sim, handle)
     if pid in (WINDOWED_X, WINDOWED_Y):
         return int(spec.windowed[0 if pid == WINDOWED_X else 1])
@@ -56,6 +65,12 @@ def get_int(sim: SimulationView, handle: int, pid: int) -> int:
 
 def set_int(sim: SimulationView, handle: int, pid: int, value: int) -> None:
     """Set int parameter 1004, 1005, 1008 or 1018 of vision sensor ``handle``.
+
+    Args:
+        sim: the simulation.
+        handle: the vision sensor's handle.
+        pid: the parameter id.
+        value: the new value.
 
     Raises:
         ArgumentError: a negative window size, a projection other than 0 or 1.
@@ -97,6 +112,14 @@ def set_int(sim: SimulationView, handle: int, pid: int, value: int) -> None:
 def get_float(sim: SimulationView, handle: int, pid: int) -> float:
     """``sim_visionfloatparam_ortho_size`` (m) of vision sensor ``handle``.
 
+    Args:
+        sim: the simulation.
+        handle: the vision sensor's handle.
+        pid: the parameter id.
+
+    Returns:
+        The value.
+
     Raises:
         UnsupportedError: a perspective sensor given no orthographic size (the scene's is not kept).
     """
@@ -111,6 +134,12 @@ def get_float(sim: SimulationView, handle: int, pid: int) -> float:
 
 def set_float(sim: SimulationView, handle: int, pid: int, value: float) -> None:
     """Set ``sim_visionfloatparam_ortho_size`` (m, > 0) of vision sensor ``handle``.
+
+    Args:
+        sim: the simulation.
+        handle: the vision sensor's handle.
+        pid: the parameter id.
+        value: the new value.
 
     Raises:
         ArgumentError: not a positive finite number.
