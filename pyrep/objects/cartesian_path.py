@@ -49,10 +49,10 @@ class CartesianPath(Object):
 
     def _control_points(self) -> np.ndarray:
         """The control poses (n, 7): x y z qx qy qz qw in the path's frame."""
-        tags = sim.call("readCustomDataBlockTags", self._handle) or []
+        tags = sim.call("readCustomDataTags", self._handle) or []
         if _PATHCTRLPT not in tags:
             return np.zeros((0, 7))
-        data = bytes(sim.call("readCustomDataBlock", self._handle, _PATHCTRLPT))
+        data = bytes(sim.call("readCustomDataBlockEx", self._handle, _PATHCTRLPT))
         return np.array(struct.unpack(f"<{len(data) // 8}d", data)).reshape(-1, 7)
 
     def get_pose_on_path(self, relative_distance: float) -> tuple[list[float], list[float]]:

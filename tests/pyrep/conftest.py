@@ -24,8 +24,12 @@ SCENE = """<mujoco model="pyrep_small">
         <site name="tip" pos="0.4 0 0"/>
       </body>
     </body>
+    <site name="prox" pos="0.5 0 1.0" quat="0 1 0 0"/>
     <camera name="cam" pos="0 -1.5 0.8" xyaxes="1 0 0 0 0.5 1" resolution="32 24"/>
   </worldbody>
+  <sensor>
+    <rangefinder site="prox" cutoff="2"/>
+  </sensor>
   <actuator>
     <velocity name="hinge_motor" joint="hinge" kv="2"/>
   </actuator>
