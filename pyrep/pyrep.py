@@ -46,6 +46,7 @@ class PyRep:
     def __init__(self) -> None:
         self._simulation: Simulation | None = None
         self._ctx: Any = None
+        self._remote: Any = None  # a RemoteContext when connected to a simx-server
         self.running = False
 
     # ----------------------------------------------------------- life
@@ -74,12 +75,27 @@ class PyRep:
                                       live=lambda: simulation)
         sim.push(self._ctx)
 
+    def connect(self, host: str = "127.0.0.1", port: int = 23000) -> None:
+        """Instead of ``launch``: drive the scene of a running ``simx-server`` over its ZMQ remote
+        API (the official client, :mod:`pyrep.backend.remote`); ``start()`` puts this client in
+        stepping mode, so that ``step()`` advances the server's simulation by one step.
+
+        Raises:
+            PyRepError: this instance runs a scene already, or the official client is missing.
+        """
+        from pyrep.backend.remote import RemoteContext
+
+        if self._simulation is not None or self._remote is not None:
+            raise PyRepError("This PyRep instance has a scene already: shutdown() first")
+        self._remote = self._ctx = RemoteContext(host, port)
+        sim.push(self._ctx)
+
     def make_current(self) -> None:
         """Makes the objects made from now on act on this instance's world."""
         sim.push(self._require())
 
     def _require(self) -> Any:
-        if self._simulation is None:
+        if self._simulation is None and self._remote is None:
             raise PyRepError("PyRep is not launched: call launch(scene) first")
         sim.push(self._ctx)
         return self._ctx
@@ -92,7 +108,14 @@ class PyRep:
         return self._simulation
 
     def shutdown(self) -> None:
-        """Stops the simulation and frees it (renderers, scripts)."""
+        """Stops the simulation and frees it (renderers, scripts); connected: stops the server's
+        simulation and closes the client."""
+        if self._remote is not None:
+            self.stop()
+            sim.pop(self._ctx)
+            self._remote.close()
+            self._remote = self._ctx = None
+            return
         if self._simulation is None:
             return
         if self._simulation.state is not RunState.STOPPED:
@@ -105,12 +128,23 @@ class PyRep:
 
     def start(self) -> None:
         """Starts the simulation (child scripts' init); ``step()`` then advances it."""
+        if self._remote is not None:
+            self._require()
+            sim.call("setStepping", True)
+            sim.call("startSimulation")
+            self.running = True
+            return
         s = self.simulation
         s.start()
         self.running = True
 
     def stop(self) -> None:
         """Stops the simulation: scripts' cleanup, the scene back to its state at start."""
+        if self._remote is not None:
+            self._require()
+            sim.call("stopSimulation")
+            self.running = False
+            return
         s = self.simulation
         if s.state is not RunState.STOPPED:
             s.stop()
@@ -119,6 +153,11 @@ class PyRep:
     def step(self) -> None:
         """One simulation step (scripts, IK groups, physics, sensors) while started; nothing
         while stopped (as PyRep, whose step only refreshes the UI then)."""
+        if self._remote is not None:
+            self._require()
+            if self.running:
+                sim.call("step")
+            return
         s = self.simulation
         if s.state is RunState.RUNNING:
             s.step()
@@ -138,12 +177,13 @@ class PyRep:
         """
         if not dt > 0:
             raise ValueError("dt must be > 0")
-        self.simulation.world.set_dt(float(dt)) if hasattr(self.simulation.world, "set_dt") else \
-            sim.call("setFloatParam", sim.sim_floatparam_simulation_time_step, float(dt))  # type: ignore[attr-defined]
+        self._require()
+        sim.call("setFloatParam", sim.sim_floatparam_simulation_time_step, float(dt))  # type: ignore[attr-defined]
 
     def get_simulation_timestep(self) -> float:
         """The step (s)."""
-        return float(self.simulation.world.dt)
+        self._require()
+        return float(sim.call("getSimulationTimeStep"))
 
     # --------------------------------------------------------- scene
     def script_call(self, function_name_at_script_name: str, script_handle_or_type: int,
@@ -196,6 +236,8 @@ class PyRep:
     def _trust(self, folder: Path) -> None:
         """Let the scene load files of ``folder``: a PyRep program owns its process, so every
         folder it names is its own (a server trusts only its scene's and --scene-path folders)."""
+        if self._remote is not None:  # the server decides what it reads
+            return
         roots = self.simulation.editor.files.roots
         real = Path(os.path.realpath(folder))
         if real not in roots:
