@@ -76,3 +76,21 @@ def test_panda_gripper_grasps_a_cube(pr):
     pr.start()
     assert gripper.grasp(cube)
     assert cube.get_parent() is not None
+
+
+def test_turtlebot_drives_forward_on_its_wheels(pr):
+    from pyrep.robots.mobiles.turtlebot import TurtleBot
+
+    pr.stop()
+    pr.import_model(str(require_shared(MODELS / "mobiles" / "turtlebot.ttm")))
+    bot = TurtleBot()
+    pr.start()
+    bot.set_2d_pose([1.0, 1.0, 0.0])
+    start = bot.get_2d_pose()
+    bot.set_base_angular_velocites([5.0, 5.0])
+    for _ in range(40):
+        pr.step()
+    x, y, yaw = bot.get_2d_pose() - start
+    assert x > 0.1 and abs(y) < 0.02 and abs(yaw) < 0.05  # straight ahead along its x axis
+    linear, angular = bot.get_base_velocities()
+    assert linear > 0 and abs(angular) < 0.05
