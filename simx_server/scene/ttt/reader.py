@@ -313,8 +313,10 @@ def _read_ik_group(r: Records) -> IkGroup:
             ctr = sub.int("Ctr", 7)
             if ik2 is not None:
                 elements.append((int(ik2[0]), int(ik2[1]), ctr))
-    va = r.byte("Va2")
-    return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=bool(va & 2))
+    # CIkGroup::serialize (coppeliaSimLib): "Var" bit 0 active, bit 6 explicit handling ("Va2"
+    # holds the joint-limit correction); an inactive group runs only when asked, as an explicit one
+    var = r.byte("Var", 1)
+    return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=bool(var & 0x40) or not var & 1)
 
 
 def _read_dynamics(r: Records, scene: TttScene) -> None:
