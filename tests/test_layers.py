@@ -150,6 +150,22 @@ def test_the_client_starts_servers_in_one_place():
     assert not found, "simx_client imports simx_server outside simx_client/servers.py:\n" + "\n".join(found)
 
 
+def test_pyrep_is_a_client_of_the_api_table():
+    """``pyrep`` sits on top: the server, the wire and the client never import it, and it reaches
+    the server only through the API table, the simulation and the run state (docs/PYREP.md)."""
+    for package in ("simx_server", "simx_wire", "simx_client", "simx_viewer"):
+        found = imports_of(package, {"pyrep"})
+        assert not found, f"{package} imports pyrep:\n" + "\n".join(found)
+    allowed = {"simx_server", "simx_server.api", "simx_server.scene.simulation", "simx_server.sim.state"}
+    used = set()
+    for f in sorted((REPO / "pyrep").rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("simx_server"):
+                used.add(node.module)
+    assert used <= allowed, f"pyrep imports server modules beyond the table: {sorted(used - allowed)}"
+    test_no_import_circle(REPO / "pyrep")
+
+
 def test_no_import_circle_in_the_benchmarks():
     test_no_import_circle(REPO / "benchmarks")
 
@@ -167,7 +183,8 @@ def test_the_package_checks_see_a_violation(tmp_path, monkeypatch):
 
 
 def test_no_module_is_long():
-    long = {module_name(f): n for f in ROOT.rglob("*.py") if (n := len(f.read_text().splitlines())) > 520}
+    files = [*ROOT.rglob("*.py"), *(REPO / "pyrep").rglob("*.py")]
+    long = {str(f.relative_to(REPO)): n for f in files if (n := len(f.read_text().splitlines())) > 520}
     assert not long, f"modules over about 500 lines: {long}"
 
 

@@ -3,7 +3,8 @@
 ``sim_visionintparam_render_mode`` (1017) picks how a V-REP vision sensor renders:
 0 OpenGL (the visible colours), 1 auxiliary channels, 2 colour-coded handles, 3 POV-Ray,
 4 reserved, 5 external renderer, 6 external renderer (windowed), 7 OpenGL3, 8 OpenGL3
-(windowed). simx renders 0 (its ordinary image) and 2; the others answer UnsupportedError.
+(windowed). simx renders 0 (its ordinary image), 7 and 8 (CoppeliaSim's OpenGL3 renderer draws the
+same visible colours: simx's ordinary image too, headless) and 2; the others answer UnsupportedError.
 
 In mode 2 every pixel is the handle of the shape it shows, as V-REP draws it
 (``glColor3ub(h & 255, (h >> 8) & 255, (h >> 16) & 255)``): ``h = r + 256 g + 65536 b``.
@@ -34,7 +35,8 @@ MODE_NAMES = {
     6: "sim_rendermode_extrendererwindowed", 7: "sim_rendermode_opengl3",
     8: "sim_rendermode_opengl3windowed",
 }
-SUPPORTED = (OPENGL, COLOR_CODED)
+OPENGL3, OPENGL3_WINDOWED = 7, 8
+SUPPORTED = (OPENGL, COLOR_CODED, OPENGL3, OPENGL3_WINDOWED)
 #: ``render_mode=`` values of a sensor's ``simx:`` custom text.
 TEXT_VALUES = {"opengl": OPENGL, "0": OPENGL, "handles": COLOR_CODED, "colorcoded": COLOR_CODED,
                "2": COLOR_CODED}

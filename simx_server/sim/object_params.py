@@ -17,11 +17,11 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
-from simx_server.sim import camera_params, handle_render, joint_params, physics
+from simx_server.sim import camera_params, handle_render, joint_params, light_params, physics, vision_params
 from simx_server.sim.collisions import collidable
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
 from simx_server.sim.state import SimulationView
-from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, SHAPE, VISION_SENSOR, World
+from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, LIGHT, SHAPE, VISION_SENSOR, World
 
 _PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
 
@@ -118,6 +118,10 @@ def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
     world = sim.world
     if pid in camera_params.FLOAT_IDS and world.get(handle).type == CAMERA:
         return camera_params.get_float(world, handle, pid)
+    if pid in vision_params.FLOAT_IDS and world.get(handle).type == VISION_SENSOR:
+        return vision_params.get_float(sim, handle, pid)
+    if pid in light_params.FLOAT_IDS and world.get(handle).type == LIGHT:
+        return light_params.get_float(sim, handle, pid)
     if pid not in _FLOAT_GET:
         world.get(handle)
         raise _unsupported(pid, "float", False)
@@ -187,6 +191,12 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
     if pid in camera_params.FLOAT_IDS and world.get(handle).type == CAMERA:
         camera_params.set_float(world, handle, pid, value)
         return
+    if pid in vision_params.FLOAT_IDS and world.get(handle).type == VISION_SENSOR:
+        vision_params.set_float(sim, handle, pid, value)
+        return
+    if pid in light_params.FLOAT_IDS and world.get(handle).type == LIGHT:
+        light_params.set_float(sim, handle, pid, value)
+        return
     if pid not in _FLOAT_SET:
         world.get(handle)
         raise _unsupported(pid, "float", True)
@@ -250,6 +260,10 @@ def get_int_param(sim: SimulationView, handle: int, pid: int) -> int:
     world = sim.world
     if pid in camera_params.INT_IDS and world.get(handle).type == CAMERA:
         return camera_params.get_int(world, handle, pid)
+    if pid in vision_params.INT_IDS and world.get(handle).type == VISION_SENSOR:
+        return vision_params.get_int(sim, handle, pid)
+    if pid in light_params.INT_IDS and world.get(handle).type == LIGHT:
+        return light_params.get_int(sim, handle, pid)
     if pid not in _INT_GET:
         world.get(handle)
         raise _unsupported(pid, "int", False)
@@ -300,6 +314,12 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
         return  # already so (sim.importShape's shapes are dynamic and respondable): nothing to do
     if pid in camera_params.INT_IDS and world.get(handle).type == CAMERA:
         camera_params.set_int(world, handle, pid, value)
+        return
+    if pid in vision_params.INT_IDS and world.get(handle).type == VISION_SENSOR:
+        vision_params.set_int(sim, handle, pid, value)
+        return
+    if pid in light_params.INT_IDS and world.get(handle).type == LIGHT:
+        light_params.set_int(sim, handle, pid, value)
         return
     if pid not in _INT_SET:
         world.get(handle)

@@ -38,6 +38,11 @@ class SensorSpec:
     #: the background colour, bytes (V-REP's value x 255.1): what an ignore-RGB sensor shows and
     #: what a sensor shows where no object is (None: MuJoCo's sky box, black for ignore-RGB)
     background: tuple[int, int, int] | None = None
+    #: windowed size (pixels; no effect headless), the orthographic size kept while perspective
+    #: (m), the perspective fovy kept while orthographic (deg): simx_server.sim.vision_params
+    windowed: tuple[int, int] = (0, 0)
+    ortho_size: float | None = None
+    persp_fovy: float | None = None
 
     @property
     def pixels(self) -> int:

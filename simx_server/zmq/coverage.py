@@ -45,9 +45,8 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
     **{n: ("missing", _MESH_EDIT) for n in ("alignShapeBB",
                                             "generateShapeFromPath",
                                             "generateTextShape")},
-    **{n: ("missing", "a joint or force sensor alone at the world origin: a MuJoCo joint or force sensor "
-                      "needs the body it moves or measures (make the body, then the joint, in MJCF)")
-       for n in ("createJoint", "createForceSensor")},
+    "createJoint": ("missing", "a joint alone at the world origin: a MuJoCo joint needs the body it moves "
+                               "(make the body, then the joint, in MJCF)"),
     "setObjectHierarchyOrder": ("missing", "MjSpec cannot reorder a body's children in place"),
     **{n: ("missing", "no writable string or float-array parameter is mapped (the readable ones are)")
        for n in ("setObjectFloatArrayParam", "setObjectStringParam")},

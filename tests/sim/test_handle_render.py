@@ -129,10 +129,13 @@ def test_parameter_errors_and_stop_restores_the_scene_mode():
 def _parameter_errors_and_stop(sim) -> None:
     w = sim.world
     cam = w.resolve("kinect_rgb").handle
-    for mode, name in ((1, "auxchannels"), (3, "povray"), (7, "opengl3"), (42, "render mode 42")):
+    for mode, name in ((1, "auxchannels"), (3, "povray"), (5, "extrenderer"), (42, "render mode 42")):
         with pytest.raises(UnsupportedError, match=f"1017.*{name}"):
             cmd_parameters.set_object_int_parameter(sim, [cam, 1017, mode])
     assert cmd_parameters.get_object_int_parameter(sim, [cam, 1017]) == 0
+    cmd_parameters.set_object_int_parameter(sim, [cam, 1017, 7])  # OpenGL3: the same visible colours
+    assert cmd_parameters.get_object_int_parameter(sim, [cam, 1017]) == 7
+    cmd_parameters.set_object_int_parameter(sim, [cam, 1017, 0])
     with pytest.raises(ObjectTypeError):
         cmd_parameters.set_object_int_parameter(sim, [w.resolve("UR5_joint1").handle, 1017, 2])
     with pytest.raises(ObjectTypeError):

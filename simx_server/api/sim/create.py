@@ -76,11 +76,13 @@ def createVisionSensor(ctx: CallContext, options: Any, intParams: Any, floatPara
 
     def build(spec: mujoco.MjSpec, name: str) -> None:
         cam = spec.worldbody.add_camera(name=name, quat=[0, 0, 1, 0], resolution=[w, h])  # MuJoCo looks along -z
+        # V-REP's angle and size span the larger side; MuJoCo's fovy the vertical one
         if opts & 1:
-            cam.fovy = math.degrees(view)
+            half = view / 2 if h >= w else math.atan(math.tan(view / 2) * h / w)
+            cam.fovy = math.degrees(2 * half)
         else:
             cam.proj = mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC
-            cam.fovy = view  # an orthographic camera's fovy is its view height (m)
+            cam.fovy = view * min(h / w, 1.0)  # an orthographic camera's fovy is its view height (m)
         spec.add_text(name=f"simx:{name}", data=f"near={near} far={far}")
 
     return _create(ctx, "createVisionSensor", "Vision_sensor", build)
@@ -141,3 +143,42 @@ def createProximitySensor(ctx: CallContext, sensorType: Any, subType: Any, optio
     return _create(ctx, "createProximitySensor", "Proximity_sensor", build)
 
 
+
+
+@sim_function("createForceSensor")
+def createForceSensor(ctx: CallContext, options: Any, intParams: Any, floatParams: Any, color: Any = None) -> int:  # noqa: N802, N803
+    """A new force sensor at the world origin: a site with MuJoCo force and torque sensors (as
+    simx reads a scene's force sensors); its handle. ``floatParams[0]`` is its size (m);
+    CoppeliaSim's filter and breaking thresholds (``intParams``, the other ``floatParams``)
+    have no MuJoCo counterpart and are checked only. Made on the world body, it reads what
+    MuJoCo's force and torque sensors read at a site of the world body (the world's reaction on
+    what rests on it); attached below a body (``sim.setObjectParent``) it measures that body's
+    interaction.
+
+    ``sim.createForceSensor``.
+
+    Args:
+        options: checked.
+        intParams: at least 5 integers (checked).
+        floatParams: at least 1 number: the size (m, > 0).
+        color: ignored (None or colours).
+
+    Returns:
+        The sensor's handle.
+
+    Raises:
+        ArgumentError: a size that is not positive, malformed parameters.
+        UnsupportedError: no simulation behind the script.
+    """
+    _int(options, "options")
+    _numbers(intParams, 5, "intParams", integer=True)
+    size = _numbers(floatParams, 1, "floatParams")[0]
+    if not size > 0:
+        raise ArgumentError("floatParams[0]: the sensor's size must be > 0 (m)")
+
+    def build(spec: mujoco.MjSpec, name: str) -> None:
+        spec.worldbody.add_site(name=name, size=[size / 2, size / 2, size / 2], type=mujoco.mjtGeom.mjGEOM_CYLINDER)
+        for kind, suffix in ((mujoco.mjtSensor.mjSENS_FORCE, "force"), (mujoco.mjtSensor.mjSENS_TORQUE, "torque")):
+            spec.add_sensor(name=f"{name}_{suffix}", type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=name)
+
+    return _create(ctx, "createForceSensor", "Force_sensor", build)

@@ -5,7 +5,9 @@ from simx's own state (``sim.getEngineFloatParam`` and its kin, ``sim.getObjects
 Engine parameters: CoppeliaSim's ``sim.mujoco_global_*`` ids map onto the model's ``mjOption``
 (``impratio``, ``wind``, ``density``, ``viscosity``, ``iterations``, ``integrator``, ``solver``,
 ``cone``, the multi-CCD flag); the Bullet, ODE, Vortex and Newton ids answer an error naming
-them. Set values are written to the model and to the scene's MjSpec (kept by later edits).
+them, except the per-shape friction coefficients (Bullet's ``bullet_body_friction``, ODE's
+``ode_body_friction``, Newton's static and kinetic friction), which map onto MuJoCo's sliding
+friction of the shape's geoms (``geom_friction[:, 0]``). Set values are written to the model and to the scene's MjSpec (kept by later edits).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from simx_server.api.registry import SIM, sim_function
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim.objects import JOINT, SHAPE
+from simx_wire.protocol import ObjectTypeError
 
 #: ``sim.mujoco_global_*`` id -> (mjOption field, index or None, kind).
 ENGINE_PARAMS: dict[int, tuple[str, int | None, str]] = {
@@ -29,6 +32,23 @@ ENGINE_PARAMS: dict[int, tuple[str, int | None, str]] = {
 }
 _LIMITS = {"impratio": (1e-6, 1e3), "wind": (-1e3, 1e3), "density": (0.0, 1e4), "viscosity": (0.0, 1e3),
            "iterations": (1, 1000), "integrator": (0, 3), "solver": (0, 2), "cone": (0, 1)}
+
+
+#: Per-shape friction ids of CoppeliaSim's engines (simConst: sim_bullet_body_friction...).
+BODY_FRICTION = {6003: "bullet_body_friction", 15001: "ode_body_friction", 33001: "newton_body_staticfriction",
+                 33002: "newton_body_kineticfriction"}
+
+
+def _friction_geoms(ctx: CallContext, what: str, pid: int, objectHandle: Any) -> Any:  # noqa: N803
+    """The geoms of the shape ``objectHandle`` whose friction ``pid`` reads or sets."""
+    obj = ctx.world.get(ctx.h(objectHandle, "objectHandle"))
+    if obj.type != SHAPE:
+        raise ObjectTypeError(f"sim.{what}: {BODY_FRICTION[pid]} applies to shapes; {obj.name!r} is not one")
+    m = ctx.world.model
+    geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == obj.mj_id]
+    if not geoms:
+        raise ObjectTypeError(f"sim.{what}: shape {obj.name!r} has no geometry")
+    return geoms
 
 
 # ``sim.get/setEngine*Param``, ``isDynamicallyEnabled``, object tags and order, API info.
@@ -79,8 +99,8 @@ def getEngineFloatParam(ctx: CallContext, paramId: Any, objectHandle: Any) -> fl
     ``sim.getEngineFloatParam``.
 
     Args:
-        paramId: a ``sim.mujoco_global_*`` float parameter.
-        objectHandle: -1 (global parameters only).
+        paramId: a ``sim.mujoco_global_*`` float parameter, or a body friction id (BODY_FRICTION).
+        objectHandle: -1 (global parameters), a shape for a body friction.
 
     Returns:
         The value (MuJoCo's ``opt`` field).
@@ -88,6 +108,9 @@ def getEngineFloatParam(ctx: CallContext, paramId: Any, objectHandle: Any) -> fl
     Raises:
         UnsupportedError: a parameter with no MuJoCo counterpart, or a per-object one.
     """
+    if isinstance(paramId, int) and paramId in BODY_FRICTION:
+        geoms = _friction_geoms(ctx, "getEngineFloatParam", paramId, objectHandle)
+        return float(ctx.world.model.geom_friction[geoms[0], 0])
     return float(_opt(ctx, *_engine(ctx, "getEngineFloatParam", paramId, objectHandle, "float")))
 
 
@@ -96,8 +119,8 @@ def setEngineFloatParam(ctx: CallContext, paramId: Any, objectHandle: Any, float
     """``sim.setEngineFloatParam``: set a MuJoCo ``opt`` field (see :func:`getEngineFloatParam`).
 
     Args:
-        paramId: a ``sim.mujoco_global_*`` float parameter.
-        objectHandle: -1 (global parameters only).
+        paramId: a ``sim.mujoco_global_*`` float parameter, or a body friction id (BODY_FRICTION).
+        objectHandle: -1 (global parameters), a shape for a body friction.
         floatParam: the value, in the field's range.
 
     Raises:
@@ -105,6 +128,13 @@ def setEngineFloatParam(ctx: CallContext, paramId: Any, objectHandle: Any, float
         ArgumentError: a value out of range, or not a number.
 
     """
+    if isinstance(paramId, int) and paramId in BODY_FRICTION:
+        value = _num(floatParam, "floatParam")
+        if not 0.0 <= value <= 1e3:
+            raise ArgumentError(f"{BODY_FRICTION[paramId]} must lie in [0, 1000]")
+        for g in _friction_geoms(ctx, "setEngineFloatParam", paramId, objectHandle):
+            ctx.world.model.geom_friction[g, 0] = value
+        return
     _set_opt(ctx, *_engine(ctx, "setEngineFloatParam", paramId, objectHandle, "float"), _num(floatParam, "floatParam"))
 
 

@@ -34,7 +34,7 @@ _ITEM = struct.Struct("<ii7dd")
 def _tree(ctx: CallContext, root: int) -> list[int]:
     """``root`` and every object below it, parents first (the scene for ``sim.handle_all``)."""
     w = ctx.world
-    if root == C.sim_handle_all:
+    if root in (C.sim_handle_all, -12):  # sim.handle_all, sim.handle_scene (4.x)
         return list(w.objects)
     out, todo = [], [w.get(root).handle]
     while todo:

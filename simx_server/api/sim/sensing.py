@@ -18,7 +18,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
-from simx_server.api.sim import sensors as _sensors
+from simx_server.api.sim import point_distance, sensors as _sensors
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
@@ -42,8 +42,8 @@ def checkCollision(ctx: CallContext, entity1Handle: Any, entity2Handle: Any) -> 
     a shape's parent and children excepted as MuJoCo filters them), else 0 and ``[-1, -1]``.
 
     Args:
-        entity1Handle: a shape or collection.
-        entity2Handle: another shape or collection, or ``sim.handle_all``.
+        entity1Handle: a shape, dummy (a point) or collection.
+        entity2Handle: another shape, dummy or collection, or ``sim.handle_all``.
 
     Returns:
         ``(result, [h1, h2])``.
@@ -124,10 +124,13 @@ def checkDistance(ctx: CallContext, entity1Handle: Any, entity2Handle: Any, thre
         UnknownObjectError: no such object.
         ObjectTypeError: not a shape or collection, or a shape without geoms.
     """
-    e1, e2 = _entity(ctx, entity1Handle, "entity1Handle"), _entity(ctx, entity2Handle, "entity2Handle")
     limit = _num(threshold, "threshold")
     ctx.simulation("checkDistance")
-    points, d, pair = _closest(ctx, e1, e2)
+    measured = point_distance.measure(ctx, entity1Handle, entity2Handle)  # a dummy: a point
+    if measured is None:
+        e1, e2 = _entity(ctx, entity1Handle, "entity1Handle"), _entity(ctx, entity2Handle, "entity2Handle")
+        measured = _closest(ctx, e1, e2)
+    points, d, pair = measured
     d = max(0.0, d)
     if limit > 0 and d >= limit:
         return 0, [*points, d], pair

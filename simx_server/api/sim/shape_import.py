@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import mujoco
+import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
@@ -207,6 +208,11 @@ def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
         spec = None
     for g in geoms:
         rgba = m.geom_rgba[g].copy()
+        mat = int(m.geom_matid[g])
+        untextured = mat >= 0 and not np.any(np.asarray(m.mat_texid[mat]) >= 0)
+        if component == 4 and untextured:  # the material's colour shows: taken over with the new alpha
+            rgba = m.mat_rgba[mat].copy()
+            m.geom_matid[g] = -1
         if component == 4:
             rgba[3] = 1.0 - values[0]
         else:
@@ -218,7 +224,7 @@ def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
         el = spec.geom(gname) if spec is not None and gname else None
         if el is not None:
             el.rgba = rgba
-            if component != 4:
+            if component != 4 or untextured:
                 el.material = ""
     world.version += 1  # cached renders are stale
     return 1

@@ -16,6 +16,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
+from simx_server.api.sim import shape_texture
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_text as _text, as_vector as _vector
 from simx_server.sim.objects import DUMMY, LIGHT, SHAPE
@@ -279,7 +280,8 @@ def getShapeViz(ctx: CallContext, shapeHandle: Any, itemIndex: Any) -> dict:  # 
 
     Returns:
         A dict: ``vertices`` (3n floats, m), ``indices`` (3t ints), ``normals`` (9t floats),
-        ``colors`` (9 floats, 0..1).
+        ``colors`` (9 floats, 0..1), and for a textured shape ``texture``
+        (:mod:`.shape_texture`).
 
     Raises:
         UnknownObjectError: no such object.
@@ -288,7 +290,9 @@ def getShapeViz(ctx: CallContext, shapeHandle: Any, itemIndex: Any) -> dict:  # 
     """
     v, i, n = getShapeMesh(ctx, shapeHandle)
     _, rgb = getShapeColor(ctx, shapeHandle, None, 0)
-    return {"vertices": v, "indices": i, "normals": n, "colors": rgb + rgb + rgb}
+    viz = {"vertices": v, "indices": i, "normals": n, "colors": rgb + rgb + rgb}
+    texture = shape_texture.texture_of(ctx.world.model, shape_of(ctx, shapeHandle).mj_id)
+    return viz if texture is None else {**viz, "texture": texture}
 
 
 @sim_function("changeEntityColor")

@@ -194,3 +194,16 @@ def test_old_ik_groups_keep_every_element(tmp_path):
         assert [e.constraints for e in group.elements] == [7, 16] and len(group.joints) == 2
     finally:
         sim.close()
+
+
+def test_ik_group_explicit_handling_is_var_bit_6(tmp_path):
+    """CIkGroup::serialize keeps "explicit handling" in bit 6 of "Var" (bit 0: active); PyRep's
+    arms' groups are explicit, solved only when asked, and a group of an explicit "Var" is read so
+    even when "Va2" (joint-limit correction) has bit 1 set."""
+    body = (W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
+            + W.joint(2, 1, "J1", (0, 0, 0.15)) + W.cuboid_shape(3, 2, "L1", (0.05, 0.05, 0.3), (0, 0, 0.15), mass=0.5)
+            + W.dummy(6, 3, "Tip", (0, 0, 0.15), linked=7, link_type=0) + W.dummy(7, -1, "Target", (0.1, 0, 0.5), linked=6))
+    for explicit in (False, True):
+        f = tmp_path / f"ik{explicit}.ttt"
+        f.write_bytes(W.ttt_file(body + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit)))
+        assert reader.read(f).ik_groups[0].explicit is explicit

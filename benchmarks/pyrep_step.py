@@ -1,0 +1,112 @@
+"""PyRep on simx: the cost of ``PyRep.step()`` against MuJoCo's own ``mj_step`` (the floor).
+
+The scene: PyRep's Panda arm and Panda gripper (``../shared/pyrep/robot_ttms``) imported into
+``pyrep``'s empty scene, in this process, headless. Two cases: physics only (``step()``), and
+``step()`` plus one 128x128 RGB image of a vision sensor (``capture_rgb()``, what an RLBench
+observation reads per camera). The floor runs the same compiled ``MjModel`` on its own
+``MjData``: ``mj_step`` as many times as simx's step has substeps, plus, in the camera case, one
+``mujoco.Renderer`` image of the same camera. Reports ms per step (median of rounds) and the
+ratio to the floor; PyRep on CoppeliaSim 4.1 publishes about 120 ms per RLBench step
+(RLBench #247), for comparison.
+
+Run: ``MUJOCO_GL=egl python -m benchmarks.pyrep_step [--steps N] [--rounds R]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+MODELS = Path(__file__).resolve().parents[1].parent / "shared" / "pyrep" / "robot_ttms"
+
+
+def _setup(camera: bool):
+    from pyrep import PyRep
+    from pyrep.objects import VisionSensor
+    from pyrep.robots.arms.panda import Panda
+
+    pr = PyRep()
+    pr.launch("", headless=True)
+    pr.import_model(str(MODELS / "arms" / "Panda.ttm"))
+    pr.import_model(str(MODELS / "end_effectors" / "PandaGripper.ttm"))
+    sensor = None
+    if camera:
+        sensor = VisionSensor.create([128, 128], position=[1.5, 0.0, 1.5], orientation=[np.pi, -0.8, -np.pi / 2])
+    pr.start()
+    arm = Panda()
+    arm.set_joint_target_velocities([0.1] * 7)
+    return pr, sensor
+
+
+def _time(fn, steps: int, rounds: int) -> float:
+    """Median over ``rounds`` of the mean ms per call of ``fn`` over ``steps`` calls."""
+    results = []
+    for _ in range(rounds):
+        start = time.perf_counter()
+        for _ in range(steps):
+            fn()
+        results.append((time.perf_counter() - start) / steps * 1e3)
+    return statistics.median(results)
+
+
+def measure(camera: bool, steps: int, rounds: int) -> tuple[float, float]:
+    """``(pyrep ms per step, floor ms per step)``."""
+    pr, sensor = _setup(camera)
+    try:
+        world = pr.simulation.world
+        if sensor is not None:
+            def pyrep_step() -> None:
+                pr.step()
+                sensor.capture_rgb()
+        else:
+            pyrep_step = pr.step
+        for _ in range(20):
+            pyrep_step()
+        ours = _time(pyrep_step, steps, rounds)
+        m = world.model
+        d = mujoco.MjData(m)
+        mujoco.mj_copyData(d, m, world.data)
+        substeps = world.substeps
+        renderer = mujoco.Renderer(m, 128, 128) if sensor is not None else None
+        cam = int(np.argmax([m.camera(i).name.startswith("Vision_sensor") for i in range(m.ncam)])) if renderer else -1
+
+        def floor() -> None:
+            for _ in range(substeps):
+                mujoco.mj_step(m, d)
+            if renderer is not None:
+                renderer.update_scene(d, camera=cam)
+                flags = renderer.scene.flags  # as simx's sensors render: no shadows, no reflections
+                flags[mujoco.mjtRndFlag.mjRND_SHADOW] = flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+                renderer.render()
+
+        for _ in range(20):
+            floor()
+        base = _time(floor, steps, rounds)
+        if renderer is not None:
+            renderer.close()
+        return ours, base
+    finally:
+        pr.shutdown()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=200)
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args()
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    print("case                       pyrep step (ms)   mj_step floor (ms)   ratio")
+    for camera in (False, True):
+        ours, base = measure(camera, args.steps, args.rounds)
+        label = "Panda + gripper, 128x128 RGB" if camera else "Panda + gripper"
+        print(f"{label:<28} {ours:>12.3f}   {base:>16.3f}   {ours / base:>8.2f}x")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""The calls PyRep's objects make, mapped onto simx's API table (:mod:`pyrep.backend.sim`)."""

@@ -1,0 +1,94 @@
+"""PyRep's ``pyrep.backend.sim`` over simx's API table.
+
+PyRep talks to CoppeliaSim through one process-wide C library; here every call goes to the
+``sim``/``simIK`` table of :mod:`simx_server.api` (the functions Lua, Python scripts and ZMQ
+clients call), bound to the simulation of the current :class:`pyrep.PyRep` (the last launched
+one still running, or the one made current with :meth:`pyrep.PyRep.make_current`).
+
+Constants: every ``sim_*`` constant of V-REP/CoppeliaSim that simx knows, plus the few PyRep
+uses that only CoppeliaSim 4.x has (``sim_handle_scene``, ``sim_object_octree_type``...).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from simx_server.api import ApiNamespace, CallContext
+from simx_wire.constants import VREP_CONSTANTS
+from simx_wire.protocol import SimxError
+
+from pyrep.errors import CoppeliaSimError, PyRepError
+
+globals().update({k: v for k, v in VREP_CONSTANTS.items() if k.startswith("sim_")})
+
+# CoppeliaSim 4.1's values (simConst.lua of 4.1) of the constants PyRep uses that V-REP 3.x lacks.
+sim_handle_scene = -12
+sim_object_octree_type = 15
+sim_object_pointcloud_type = 16
+sim_texturemap_plane = 0
+sim_texturemap_cylinder = 1
+sim_texturemap_sphere = 2
+sim_texturemap_cube = 3
+sim_scripttype_addonscript = 2
+sim_bullet_body_friction = 6003
+sim_light_omnidirectional_subtype = 1
+sim_light_spot_subtype = 2
+sim_light_directional_subtype = 3
+
+#: The contexts of the launched PyRep instances, the current one last.
+_contexts: list[CallContext] = []
+
+
+def push(ctx: CallContext) -> None:
+    """Make ``ctx`` (a launched PyRep's) current."""
+    if ctx in _contexts:
+        _contexts.remove(ctx)
+    _contexts.append(ctx)
+
+
+def pop(ctx: CallContext) -> None:
+    """Forget ``ctx`` (its PyRep shut down); the previous one becomes current."""
+    if ctx in _contexts:
+        _contexts.remove(ctx)
+
+
+def context() -> CallContext:
+    """The current PyRep's call context.
+
+    Raises:
+        PyRepError: no PyRep is launched.
+    """
+    if not _contexts:
+        raise PyRepError("PyRep is not launched: call PyRep().launch(scene) first")
+    return _contexts[-1]
+
+
+def api() -> ApiNamespace:
+    """``sim`` of the current PyRep (the API table bound to its simulation)."""
+    return context().sim
+
+
+def call(name: str, *args: Any) -> Any:
+    """``sim.<name>(*args)`` on the current PyRep's simulation.
+
+    Raises:
+        CoppeliaSimError: (a RuntimeError, as PyRep's backend raises) the table refused the call
+            (no such object, bad argument, not supported by simx); the message names the call.
+    """
+    try:
+        return api().call(name, *args)
+    except (SimxError, AttributeError) as exc:
+        raise CoppeliaSimError(f"sim.{name}: {exc}") from exc
+
+
+def ik_call(name: str, *args: Any) -> Any:
+    """``simIK.<name>(*args)`` on the current PyRep's simulation (errors as :func:`call`)."""
+    try:
+        return context().simik.call(name, *args)
+    except (SimxError, AttributeError) as exc:
+        raise CoppeliaSimError(f"simIK.{name}: {exc}") from exc
+
+
+def simulation() -> Any:
+    """The current PyRep's :class:`~simx_server.scene.simulation.Simulation`."""
+    return context().simulation("pyrep")

@@ -1,0 +1,294 @@
+"""PyRep's ``Arm``: joints, a tip and a target dummy; inverse kinematics and motion planning.
+
+Inverse kinematics is damped least squares on the geometric Jacobian (joint axes and positions
+read from the scene through the API table), from the arm's current configuration; the scene is
+restored afterwards (PyRep's ``solve_ik_via_jacobian`` does not move the arm either). Paths:
+``get_linear_path`` follows a straight line of the tip, ``get_nonlinear_path`` a joint-space
+path to an IK solution, straight when collision-free, else found by RRT-Connect
+(:mod:`pyrep.robots.arms.planning`), with collisions checked by MuJoCo through
+``sim.checkCollision`` of the arm's collection (``<name>_arm``) against the scene.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from pyrep.backend import sim
+from pyrep.errors import ConfigurationError, ConfigurationPathError, IKError
+from pyrep.objects.dummy import Dummy
+from pyrep.objects.object import Object
+from pyrep.robots.arms import planning
+from pyrep.robots.configuration_paths.arm_configuration_path import ArmConfigurationPath
+from pyrep.robots.robot_component import RobotComponent
+
+
+class Arm(RobotComponent):
+    """An arm ``name`` with joints ``<name>_joint1..n``, ``<name>_tip`` and ``<name>_target``."""
+
+    def __init__(self, count: int, name: str, num_joints: int, base_name: str | None = None,
+                 max_velocity: float = 1.0, max_acceleration: float = 4.0, max_jerk: float = 1000):
+        joint_names = [f"{name}_joint{i + 1}" for i in range(num_joints)]
+        super().__init__(count, name, joint_names, base_name)
+        suffix = "" if count == 0 else f"#{count - 1}"
+        self.max_velocity = max_velocity
+        self.max_acceleration = max_acceleration
+        self.max_jerk = max_jerk
+        self._ik_target = Dummy(f"{name}_target{suffix}")
+        self._ik_tip = Dummy(f"{name}_tip{suffix}")
+        try:
+            self._collision_collection: int | None = int(sim.call("getCollectionHandle", f"{name}_arm{suffix}"))
+        except RuntimeError:
+            self._collision_collection = None
+        self._constraints = np.ones(6, dtype=bool)  # x y z, alpha-beta (2), gamma
+        self._max_iterations = 200
+        self._damping = 0.05
+
+    # ------------------------------------------------------ IK settings
+    def set_ik_element_properties(self, constraint_x: bool = True, constraint_y: bool = True,
+                                  constraint_z: bool = True, constraint_alpha_beta: bool = True,
+                                  constraint_gamma: bool = True) -> None:
+        """Which of the tip's coordinates IK must reach."""
+        self._constraints = np.array([constraint_x, constraint_y, constraint_z, constraint_alpha_beta,
+                                      constraint_alpha_beta, constraint_gamma])
+
+    def set_ik_group_properties(self, resolution_method: str = "pseudo_inverse", max_iterations: int = 6,
+                                dls_damping: float = 0.1) -> None:
+        """IK's method (``pseudo_inverse``, ``damped_least_squares``, ``jacobian_transpose``),
+        iterations and damping.
+
+        Raises:
+            Exception: an unknown method.
+        """
+        if resolution_method not in ("pseudo_inverse", "damped_least_squares", "jacobian_transpose"):
+            raise Exception(f"Invalid resolution method: {resolution_method}")
+        self._max_iterations = max(int(max_iterations), 50)
+        self._damping = 0.01 if resolution_method == "pseudo_inverse" else float(dls_damping)
+
+    # ---------------------------------------------------------- poses
+    def get_tip(self) -> Dummy:
+        """The tip dummy: the point that IK and paths place."""
+        return self._ik_tip
+
+    def _target_matrix(self, position: Any, euler: Any, quaternion: Any, relative_to: Object | None) -> np.ndarray:
+        """The world pose (4, 4) to reach (the target dummy is moved there, as PyRep does)."""
+        self._ik_target.set_position(position, relative_to)
+        if euler is not None:
+            self._ik_target.set_orientation(euler, relative_to)
+        elif quaternion is not None:
+            self._ik_target.set_quaternion(quaternion, relative_to)
+        return self._ik_target.get_matrix()
+
+    def get_jacobian(self) -> np.ndarray:
+        """The (6, n) geometric Jacobian of the tip (linear rows, then angular), world frame."""
+        return self._jacobian()
+
+    def _jacobian(self) -> np.ndarray:
+        tip = self._ik_tip.get_position()
+        cols = []
+        for joint in self.joints:
+            m = joint.get_matrix()
+            axis, origin = m[:3, 2], m[:3, 3]
+            if joint.get_joint_type().name == "PRISMATIC":
+                cols.append(np.concatenate([axis, np.zeros(3)]))
+            else:
+                cols.append(np.concatenate([np.cross(axis, tip - origin), axis]))
+        return np.array(cols).T
+
+    def _limits(self) -> tuple[np.ndarray, np.ndarray]:
+        cyclic, intervals = self.get_joint_intervals()
+        lo = np.array([-np.inf if c else i[0] for c, i in zip(cyclic, intervals)])
+        hi = np.array([np.inf if c else i[0] + i[1] for c, i in zip(cyclic, intervals)])
+        return lo, hi
+
+    def _error(self, goal: np.ndarray) -> np.ndarray:
+        m = self._ik_tip.get_matrix()
+        dp = goal[:3, 3] - m[:3, 3]
+        r = goal[:3, :3] @ m[:3, :3].T
+        angle = np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0))
+        if angle < 1e-9:
+            dw = np.zeros(3)
+        else:
+            dw = angle / (2 * np.sin(angle)) * np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+        err = np.concatenate([dp, dw])
+        err[~self._constraints] = 0.0
+        return err
+
+    def _solve(self, goal: np.ndarray, start: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray | None:
+        """Joint values reaching ``goal`` from ``start``, or None (the arm left at the last try)."""
+        q = start.copy()
+        for _ in range(self._max_iterations):
+            self.set_joint_positions(q.tolist())
+            err = self._error(goal)
+            if np.linalg.norm(err[:3]) < 1e-3 and np.linalg.norm(err[3:]) < 1e-2:
+                return q
+            jac = self._jacobian()
+            jac[~self._constraints] = 0.0
+            step = jac.T @ np.linalg.solve(jac @ jac.T + self._damping ** 2 * np.eye(6), err)
+            norm = np.linalg.norm(step)
+            if norm > 0.3:
+                step *= 0.3 / norm
+            q = np.clip(q + step, lo, hi)
+        return None
+
+    def solve_ik_via_jacobian(self, position: Any, euler: Any = None, quaternion: Any = None,
+                              relative_to: Object | None = None) -> np.ndarray:
+        """Joint values (n,) that put the tip at the pose, from the current configuration (the arm
+        is not moved).
+
+        Raises:
+            IKError: no solution from here.
+        """
+        goal = self._target_matrix(position, euler, quaternion, relative_to)
+        start = np.array(self.get_joint_positions())
+        lo, hi = self._limits()
+        try:
+            found = self._solve(goal, start, lo, hi)
+        finally:
+            self.set_joint_positions(start.tolist())
+        if found is None:
+            raise IKError("IK failed. Perhaps the distance was between the tip and target was too large.")
+        return found
+
+    def solve_ik(self, position: Any, euler: Any = None, quaternion: Any = None,
+                 relative_to: Object | None = None) -> list[float]:
+        """PyRep's older name of :meth:`solve_ik_via_jacobian` (a list)."""
+        return self.solve_ik_via_jacobian(position, euler, quaternion, relative_to).tolist()
+
+    def solve_ik_via_sampling(self, position: Any, euler: Any = None, quaternion: Any = None,
+                              ignore_collisions: bool = False, trials: int = 300, max_configs: int = 1,
+                              distance_threshold: float = 0.65, max_time_ms: int = 10,
+                              relative_to: Object | None = None) -> np.ndarray:
+        """Up to ``max_configs`` configurations (m, n) reaching the pose, from random starts,
+        collision-free unless ``ignore_collisions``, nearest to the current one first.
+
+        Raises:
+            ConfigurationError: none found in ``trials`` tries.
+        """
+        goal = self._target_matrix(position, euler, quaternion, relative_to)
+        start = np.array(self.get_joint_positions())
+        lo, hi = self._limits()
+        rng = np.random.default_rng(0)
+        found: list[np.ndarray] = []
+        try:
+            for trial in range(max(int(trials), 1)):
+                seed = start if trial == 0 else rng.uniform(np.maximum(lo, -np.pi), np.minimum(hi, np.pi))
+                q = self._solve(goal, seed, lo, hi)
+                if q is not None and (ignore_collisions or not self._collides(q)):
+                    found.append(q)
+                    if len(found) >= max_configs:
+                        break
+        finally:
+            self.set_joint_positions(start.tolist())
+        if not found:
+            raise ConfigurationError("Could not find a valid joint configuration for desired end effector pose.")
+        found.sort(key=lambda q: float(np.linalg.norm(q - start)))
+        return np.array(found)
+
+    def get_configs_for_tip_pose(self, position: Any, euler: Any = None, quaternion: Any = None,
+                                 ignore_collisions: bool = False, trials: int = 300, max_configs: int = 60,
+                                 relative_to: Object | None = None) -> list[list[float]]:
+        """PyRep's older interface of :meth:`solve_ik_via_sampling` (lists)."""
+        return self.solve_ik_via_sampling(position, euler, quaternion, ignore_collisions, trials,
+                                          max_configs, relative_to=relative_to).tolist()
+
+    # ------------------------------------------------------- collisions
+    def check_arm_collision(self, obj: Object | None = None) -> bool:
+        """Whether the arm's collection collides with ``obj`` (None: anything else)."""
+        if self._collision_collection is None:
+            return False
+        other = sim.sim_handle_all if obj is None else obj.get_handle()  # type: ignore[attr-defined]
+        result = sim.call("checkCollision", self._collision_collection, other)
+        return bool(result[0] if isinstance(result, (list, tuple)) else result)
+
+    def _collides(self, q: np.ndarray) -> bool:
+        self.set_joint_positions(q.tolist())
+        return self.check_arm_collision()
+
+    # ------------------------------------------------------------ paths
+    def _step_size(self) -> float:
+        dt = float(sim.call("getSimulationTimeStep"))
+        return max(self.max_velocity * dt, 1e-3)
+
+    def get_linear_path(self, position: Any, euler: Any = None, quaternion: Any = None, steps: int = 50,
+                        ignore_collisions: bool = False, relative_to: Object | None = None) -> ArmConfigurationPath:
+        """A path moving the tip along the straight line to the pose (``steps`` poses on it).
+
+        Raises:
+            ConfigurationPathError: a pose of the line cannot be reached, or collides.
+        """
+        goal = self._target_matrix(position, euler, quaternion, relative_to)
+        start = np.array(self.get_joint_positions())
+        lo, hi = self._limits()
+        poses = planning.interpolate_poses(self._ik_tip.get_matrix(), goal, max(int(steps), 1))
+        configs = [start]
+        try:
+            for pose in poses:
+                q = self._solve(pose, configs[-1], lo, hi)
+                if q is None or (not ignore_collisions and self._collides(q)):
+                    raise ConfigurationPathError("Could not create path.")
+                configs.append(q)
+        finally:
+            self.set_joint_positions(start.tolist())
+        return ArmConfigurationPath(self, planning.densify(np.array(configs), self._step_size()))
+
+    def get_nonlinear_path(self, position: Any, euler: Any = None, quaternion: Any = None,
+                           ignore_collisions: bool = False, trials: int = 300, max_configs: int = 1,
+                           distance_threshold: float = 0.65, max_time_ms: int = 10, trials_per_goal: int = 1,
+                           algorithm: Any = None, relative_to: Object | None = None) -> ArmConfigurationPath:
+        """A collision-free joint-space path to a configuration reaching the pose.
+
+        Raises:
+            ConfigurationPathError: no such path was found.
+        """
+        try:
+            goals = self.solve_ik_via_sampling(position, euler, quaternion, ignore_collisions, trials,
+                                               max(max_configs, 1), relative_to=relative_to)
+        except ConfigurationError as exc:
+            raise ConfigurationPathError("Could not create path.") from exc
+        start = np.array(self.get_joint_positions())
+        lo, hi = self._limits()
+        check = (lambda q: False) if ignore_collisions else self._collides
+        try:
+            for goal in goals:
+                path = planning.rrt_connect(start, goal, check, np.maximum(lo, -np.pi), np.minimum(hi, np.pi),
+                                            step=0.1, max_nodes=2000)
+                if path is not None:
+                    return ArmConfigurationPath(self, planning.densify(path, self._step_size()))
+        finally:
+            self.set_joint_positions(start.tolist())
+        raise ConfigurationPathError("Could not create path.")
+
+    def get_path(self, position: Any, euler: Any = None, quaternion: Any = None, ignore_collisions: bool = False,
+                 trials: int = 300, max_configs: int = 1, distance_threshold: float = 0.65,
+                 max_time_ms: int = 10, trials_per_goal: int = 1, algorithm: Any = None,
+                 relative_to: Object | None = None) -> ArmConfigurationPath:
+        """A linear path when one exists, else a nonlinear one.
+
+        Raises:
+            ConfigurationPathError: neither was found.
+        """
+        try:
+            return self.get_linear_path(position, euler, quaternion, ignore_collisions=ignore_collisions,
+                                        relative_to=relative_to)
+        except ConfigurationPathError:
+            return self.get_nonlinear_path(position, euler, quaternion, ignore_collisions, trials, max_configs,
+                                           relative_to=relative_to)
+
+    def get_path_from_cartesian_path(self, path: Any) -> ArmConfigurationPath:
+        """A path through the poses of a ``CartesianPath`` (50 along it)."""
+        start = np.array(self.get_joint_positions())
+        lo, hi = self._limits()
+        configs = [start]
+        try:
+            for t in np.linspace(0.0, 1.0, 50):
+                pos, ori = path.get_pose_on_path(float(t))
+                goal = self._target_matrix(pos, ori, None, None)
+                q = self._solve(goal, configs[-1], lo, hi)
+                if q is None:
+                    raise ConfigurationPathError("Could not create a path from cartesian path.")
+                configs.append(q)
+        finally:
+            self.set_joint_positions(start.tolist())
+        return ArmConfigurationPath(self, planning.densify(np.array(configs), self._step_size()))

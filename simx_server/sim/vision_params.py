@@ -1,0 +1,154 @@
+"""Vision-sensor parameters beyond the optics V-REP's legacy API answered: windowed size,
+entity to render, perspective or orthographic projection, orthographic size.
+
+``sim_visionintparam_windowed_size_x``/``_y`` (1004/1005, int) are the size of the window a
+CoppeliaSim sensor can show its image in: kept, with no effect headless (0: full screen).
+``sim_visionintparam_entity_to_render`` (1008): -1 (everything) only; MuJoCo renders the whole
+scene. ``sim_visionintparam_perspective_operation`` (1018): 1 perspective, 0 orthographic
+(MuJoCo's ``cam_projection``). ``sim_visionfloatparam_ortho_size`` (1005, float): the view's
+size along its larger side (m), MuJoCo's orthographic ``fovy`` being the vertical extent. A
+perspective sensor keeps the orthographic size it is given for when it turns orthographic,
+and its angle while orthographic; a sensor that turns orthographic with no size given sees at
+1 m what it saw in perspective (CoppeliaSim's ``CVisionSensor::setPerspectiveOperation`` keeps
+both values on the sensor). Run-time changes are undone when the simulation stops, as the
+clipping planes (the model is reloaded).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+
+from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_server.sim.state import SimulationView
+
+WINDOWED_X, WINDOWED_Y, ENTITY, PERSPECTIVE = 1004, 1005, 1008, 1018
+ORTHO_SIZE = 1005
+INT_IDS = (WINDOWED_X, WINDOWED_Y, ENTITY, PERSPECTIVE)
+FLOAT_IDS = (ORTHO_SIZE,)
+_ORTHO = int(mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC)
+_PERSP = int(mujoco.mjtProjection.mjPROJ_PERSPECTIVE)
+
+
+def _spec(sim: SimulationView, handle: int):
+    return sim.vision.spec(handle)
+
+
+def _ortho(sim: SimulationView, spec) -> bool:
+    return int(sim.world.model.cam_projection[spec.camera]) == _ORTHO
+
+
+def _larger_side(spec) -> float:
+    """Factor from MuJoCo's vertical extent to V-REP's size along the larger side."""
+    return spec.width / spec.height if spec.width > spec.height else 1.0
+
+
+def get_int(sim: SimulationView, handle: int, pid: int) -> int:
+    """Int parameter 1004, 1005, 1008 or 1018 of vision sensor ``handle`` (see the module).
+
+    Args:
+        sim: the simulation.
+        handle: the vision sensor's handle.
+        pid: the parameter id.
+
+    Returns:
+        The value.
+    """
+    spec = _spec(sim, handle)
+    if pid in (WINDOWED_X, WINDOWED_Y):
+        return int(spec.windowed[0 if pid == WINDOWED_X else 1])
+    if pid == ENTITY:
+        return -1
+    return 0 if _ortho(sim, spec) else 1
+
+
+def set_int(sim: SimulationView, handle: int, pid: int, value: int) -> None:
+    """Set int parameter 1004, 1005, 1008 or 1018 of vision sensor ``handle``.
+
+    Args:
+        sim: the simulation.
+        handle: the vision sensor's handle.
+        pid: the parameter id.
+        value: the new value.
+
+    Raises:
+        ArgumentError: a negative window size, a projection other than 0 or 1.
+        UnsupportedError: an entity to render other than -1.
+    """
+    spec = _spec(sim, handle)
+    m = sim.world.model
+    if pid in (WINDOWED_X, WINDOWED_Y):
+        if value < 0:
+            raise ArgumentError(f"windowed size must be >= 0, got {value}")
+        size = list(spec.windowed)
+        size[0 if pid == WINDOWED_X else 1] = int(value)
+        spec.windowed = (size[0], size[1])
+        return
+    if pid == ENTITY:
+        if value != -1:
+            raise UnsupportedError("sim_visionintparam_entity_to_render (1008): simx renders the whole scene "
+                                   "(-1) only; MuJoCo has no per-object render selection")
+        return
+    if value not in (0, 1):
+        raise ArgumentError(f"sim_visionintparam_perspective_operation (1018): 0 or 1, got {value}")
+    if value == (0 if _ortho(sim, spec) else 1):
+        return
+    cam = spec.camera
+    if value == 0:  # to orthographic: keep the angle, take the kept size (or the view at 1 m)
+        spec.persp_fovy = float(m.cam_fovy[cam])
+        size = spec.ortho_size
+        if size is None:
+            size = 2 * math.tan(math.radians(float(m.cam_fovy[cam])) / 2) * _larger_side(spec)
+        m.cam_projection[cam] = _ORTHO
+        m.cam_fovy[cam] = size / _larger_side(spec)
+    else:
+        spec.ortho_size = float(m.cam_fovy[cam]) * _larger_side(spec)
+        m.cam_projection[cam] = _PERSP
+        m.cam_fovy[cam] = spec.persp_fovy if spec.persp_fovy is not None else 60.0
+    sim.world.version += 1
+
+
+def get_float(sim: SimulationView, handle: int, pid: int) -> float:
+    """``sim_visionfloatparam_ortho_size`` (m) of vision sensor ``handle``.
+
+    Args:
+        sim: the simulation.
+        handle: the vision sensor's handle.
+        pid: the parameter id.
+
+    Returns:
+        The value.
+
+    Raises:
+        UnsupportedError: a perspective sensor given no orthographic size (the scene's is not kept).
+    """
+    spec = _spec(sim, handle)
+    if _ortho(sim, spec):
+        return float(sim.world.model.cam_fovy[spec.camera]) * _larger_side(spec)
+    if spec.ortho_size is None:
+        raise UnsupportedError("sim_visionfloatparam_ortho_size (1005): this perspective sensor has no "
+                               "orthographic size in simx until one is set")
+    return float(spec.ortho_size)
+
+
+def set_float(sim: SimulationView, handle: int, pid: int, value: float) -> None:
+    """Set ``sim_visionfloatparam_ortho_size`` (m, > 0) of vision sensor ``handle``.
+
+    Args:
+        sim: the simulation.
+        handle: the vision sensor's handle.
+        pid: the parameter id.
+        value: the new value.
+
+    Raises:
+        ArgumentError: not a positive finite number.
+    """
+    if not (math.isfinite(value) and value > 0):
+        raise ArgumentError(f"sim_visionfloatparam_ortho_size (1005): must be > 0 (m), got {value}")
+    spec = _spec(sim, handle)
+    if _ortho(sim, spec):
+        sim.world.model.cam_fovy[spec.camera] = value / _larger_side(spec)
+        sim.world.version += 1
+    else:
+        spec.ortho_size = float(value)
