@@ -91,13 +91,47 @@ def shape_bounds(m: mujoco.MjModel, d: mujoco.MjData, geoms: np.ndarray) -> tupl
     return c.min(axis=0), c.max(axis=0)
 
 
+def _triangle_samples(m: mujoco.MjModel, d: mujoco.MjData, g: int, spacing: float) -> np.ndarray:
+    """World points on the triangles of mesh geom ``g``, at most about ``spacing`` m apart along
+    each triangle's edges (a barycentric grid per triangle, built once per grid size).
+
+    Raises:
+        ArgumentError: more than MAX_CELLS points.
+    """
+    mesh = int(m.geom_dataid[g])
+    vadr, fadr, fnum = int(m.mesh_vertadr[mesh]), int(m.mesh_faceadr[mesh]), int(m.mesh_facenum[mesh])
+    tri = m.mesh_vert[vadr:][m.mesh_face[fadr:fadr + fnum]].astype(float)  # (t, 3, 3), mesh frame
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    longest = np.max([np.linalg.norm(b - a, axis=1), np.linalg.norm(c - a, axis=1), np.linalg.norm(c - b, axis=1)], axis=0)
+    divisions = np.maximum(1, np.ceil(longest / spacing)).astype(int)
+    if int(((divisions + 1) * (divisions + 2) // 2).sum()) > MAX_CELLS:
+        raise ArgumentError(f"grid size {spacing} m is too fine for this mesh (over {MAX_CELLS} points)")
+    pts = []
+    for n in np.unique(divisions):
+        i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+        keep = i + j <= n
+        u, v = i[keep] / n, j[keep] / n  # (k,)
+        sel = divisions == n
+        aa, ba, ca = a[sel][:, None], (b - a)[sel][:, None], (c - a)[sel][:, None]
+        pts.append((aa + u[None, :, None] * ba + v[None, :, None] * ca).reshape(-1, 3))
+    local = np.vstack(pts) if pts else np.zeros((0, 3))
+    return local @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g]
+
+
 def surface_points(m: mujoco.MjModel, d: mujoco.MjData, geoms: np.ndarray, spacing: float) -> np.ndarray:
     """World points on the shape's surface, about ``spacing`` m apart: the cells of a grid of that
     pitch the surface crosses, each cell centre moved onto the surface along the distance's
     gradient (a few near sharp edges, which do not get there within 1/1000 of the pitch, are
-    left out)."""
+    left out). A visual-only mesh, which MuJoCo gives no convex hull (no distance field here),
+    is sampled on its triangles instead."""
     if not spacing > 0:
         raise ArgumentError("the grid size must be positive")
+    hull_less = [int(g) for g in geoms if int(m.geom_type[g]) == mujoco.mjtGeom.mjGEOM_MESH
+                 and int(m.mesh_graphadr[int(m.geom_dataid[g])]) < 0]
+    if hull_less:
+        others = np.array([g for g in geoms if int(g) not in hull_less], dtype=int)
+        sampled = [_triangle_samples(m, d, g, spacing) for g in hull_less]
+        return np.vstack(sampled + ([surface_points(m, d, others, spacing)] if len(others) else []))
     lo, hi = shape_bounds(m, d, geoms)
     lo, hi = lo - spacing, hi + spacing
     counts = np.ceil((hi - lo) / spacing).astype(int)

@@ -75,3 +75,27 @@ def test_signals_and_dummy_creation(pr):
     dummy.set_position([0.1, 0.2, 0.3])
     assert np.allclose(dummy.get_position(), [0.1, 0.2, 0.3])
     assert dummy.check_distance(Shape("cube")) == pytest.approx(np.linalg.norm([0.35, 0.2, 0.0]) - 0.05, abs=0.06)
+
+
+def test_octree_takes_a_visual_only_mesh(tmp_path):
+    """A mesh that collides with nothing gets no convex hull from MuJoCo (no distance field):
+    ``insert_object`` samples its triangles instead, so its voxels lie on its faces."""
+    from pyrep import PyRep
+
+    scene = tmp_path / "visual_mesh.xml"
+    scene.write_text("""<mujoco><asset>
+  <mesh name="tetra" vertex="0 0 0  0.2 0 0  0 0.2 0  0 0 0.2"/>
+</asset><worldbody>
+  <body name="deco" pos="0 0 0.5"><geom name="deco" type="mesh" mesh="tetra" contype="0" conaffinity="0"/></body>
+</worldbody></mujoco>""")
+    pr = PyRep()
+    pr.launch(str(scene), headless=True)
+    try:
+        octree = Octree.create(0.02)
+        octree.insert_object(Shape("deco"))
+        voxels = np.asarray(octree.get_voxels()).reshape(-1, 3)
+        assert len(voxels) > 10
+        assert voxels.min(axis=0) == pytest.approx([0.0, 0.0, 0.5], abs=0.03)
+        assert voxels.max(axis=0) == pytest.approx([0.2, 0.2, 0.7], abs=0.03)
+    finally:
+        pr.shutdown()
