@@ -159,8 +159,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--dt", type=float, default=None,
                    help="simulation step in s (default: the scene's saved step, a .ttt's own; else 0.05)")
     p.add_argument("--speed", type=float, default=None,
-                   help="real-time factor in asynchronous mode; 0 = as fast as possible (default: the scene's "
-                        "saved real-time mode, a .ttt's own: its multiplier, or 0 when off; else 1)")
+                   help="real-time factor in asynchronous mode; 0 = as fast as possible, as CoppeliaSim headless "
+                        "(default: the scene's saved real-time mode, a .ttt's own: its multiplier, or when off "
+                        "a pass per 60 Hz display frame, as CoppeliaSim's window; else 1)")
     p.add_argument("--stopped", action="store_true", help="start with the simulation stopped")
     p.add_argument("--pacing", choices=["legacy", "immediate"], default="legacy",
                    help="blocking calls while the simulation runs asynchronously: 'legacy' (default) serves "

@@ -432,6 +432,13 @@ MAX_ZMQ_CONNECTIONS = 1000
 #: s a running simulation's pass keeps serving ZMQ requests, per client served in it, before its
 #: step (CoppeliaSim's ZMQ remote API add-on: ``msgQueueTimeout_running``; Loop.hold_pass).
 ZMQ_PASS_WINDOW = 0.002
+#: Passes per s of wall time of a scene saved "not real time" (its asynchronous mode) when
+#: ``--speed`` is not given: the pace its users saw in CoppeliaSim's window, which renders the
+#: scene after every pass while simulating, sleeping nowhere (simThread.cpp
+#: ``CSimThread::_idleSleepAndCheckIfRenderRequired``, passes per rendering 1), the rendered
+#: frame's buffer swap waiting for a 60 Hz display. ``--speed 0`` is CoppeliaSim's headless pace
+#: instead (``-h``: nothing rendered, as fast as possible).
+DISPLAY_FRAME_RATE = 60.0
 #: ZMQ clients (uuids) one connection may hold: the official client uses one per connection;
 #: one connection took all MAX_CLIENTS slots with 1,100 stepping uuids in 0.4 s.
 MAX_ZMQ_CLIENTS_PER_CONNECTION = 8

@@ -299,7 +299,7 @@ class Loop:
                     if not self._stepping():  # a request served in the window stopped or paused it
                         continue
                     self._step()
-                    interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else 0.0
+                    interval = sim.world.dt / (self.speed or 1.0) if sim.realtime else sim.frame_interval
                 elif sim.state is not RunState.RUNNING:
                     self._publish()  # idle pass: streams keep being served
                     self._after_step()
@@ -426,8 +426,8 @@ class Loop:
         return bool(self.sim.state is RunState.RUNNING and not self.sim.synchronous)
 
     def _idle(self) -> bool:
-        """As fast as possible (``--speed 0``) with no client and no viewer: nobody would see the
-        steps, so none are taken (the loop sleeps until a request comes) and an idle server of a
+        """Not real time (``--speed 0``, a scene saved not real time) with no client and no
+        viewer: nobody would see the steps, so none are taken (the loop sleeps until a request comes) and an idle server of a
         pool leaves the cores to the servers in use. Paced servers keep V-REP's clock."""
         return not self.sim.realtime and not self.clients.count() and not any(door.watched() for door in self.doors)
 

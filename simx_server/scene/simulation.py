@@ -10,6 +10,7 @@ from typing import Any, Callable
 from pathlib import Path
 
 from simx_wire import protocol as P
+from simx_server.base import limits
 from simx_server.base.scene_guard import transfer_folders
 from simx_server.scene import custom_data, parameters
 from simx_server.scene.editor import Editor
@@ -78,6 +79,11 @@ class Simulation:
         self.editor = Editor(self, scene_paths)  # scene editing (MjSpec) and the transfer folder
         self.state = RunState.STOPPED
         self.realtime = realtime if realtime is not None else self.speed() > 0
+        #: s of wall time between two asynchronous passes when not real time: a display frame
+        #: (limits.DISPLAY_FRAME_RATE) for a scene saved not real time and no ``--speed``, else 0
+        #: (as fast as possible).
+        self.frame_interval = (1.0 / limits.DISPLAY_FRAME_RATE
+                               if realtime is None and self.world.scene_settings.speed == 0 else 0.0)
         #: Stepped mode: some client enabled it, so a step runs only when every such client
         #: has triggered (:meth:`enable_sync`, :meth:`trigger`). Read it, never set it.
         self.synchronous = False
@@ -102,7 +108,8 @@ class Simulation:
 
     def speed(self, given: float | None = None) -> float:
         """The asynchronous real-time factor: ``given`` (``--speed``) when not None, else the
-        scene's saved real-time mode (its multiplier, 0 when off: as fast as possible), else 1."""
+        scene's saved real-time mode (its multiplier, 0 when off: not paced to wall time, see
+        :attr:`frame_interval`), else 1."""
         if given is not None:
             return given
         saved = self.world.scene_settings.speed
@@ -111,12 +118,14 @@ class Simulation:
     def pacing_text(self, dt: float | None, speed: float | None) -> str:
         """The ready line's part about the step and the pacing, given ``--dt`` / ``--speed``
         (None: not given): ``dt 0.01 s (the scene's)``, and ``real time x2 (the scene's)`` or
-        ``as fast as possible (the scene's)`` where the scene's saved real-time mode applies."""
+        ``a pass per 60 Hz display frame (the scene's not real time ...)`` where the scene's saved
+        real-time mode applies."""
         saved = self.world.scene_settings
         text = f"dt {self.world.dt:g} s" + (" (the scene's)" if dt is None and saved.dt is not None else "")
         if speed is None and saved.speed is not None:
-            text += ", " + (f"real time x{saved.speed:g}" if saved.speed > 0 else "as fast as possible")
-            text += " (the scene's)"
+            text += ", " + (f"real time x{saved.speed:g} (the scene's)" if saved.speed > 0 else
+                            f"a pass per {limits.DISPLAY_FRAME_RATE:g} Hz display frame (the scene's not real "
+                            "time, as CoppeliaSim's window runs it; --speed 0: as fast as possible)")
         return text
 
     @property

@@ -150,7 +150,7 @@ def apply(conv) -> None:
         factor = saved.real_time_factor if saved.real_time_factor is not None else 1.0
         items += [f"real_time={int(saved.real_time)}", f"real_time_factor={factor:.9g}"]
         taken.append(f"real-time mode x{factor:g}" if saved.real_time else
-                     "real-time mode off (as fast as possible)")
+                     "real-time mode off (a pass per display frame, as CoppeliaSim's window)")
     if saved.gravity_saved:
         g = ", ".join(f"{v:g}" for v in s.gravity)
         taken.append(f"gravity ({g}) m/s²")

@@ -77,7 +77,8 @@ def test_a_server_steps_at_the_saved_10_ms_unless_told(tmp_path, monkeypatch):
     dt = vrep.sim_floatparam_simulation_time_step
     srv = ServerProcess(str(path), "--stopped", renderers="on-demand")
     try:
-        assert "dt 0.01 s (the scene's), as fast as possible (the scene's)" in srv.ready_line, srv.ready_line
+        assert ("dt 0.01 s (the scene's), a pass per 60 Hz display frame (the scene's not real time"
+                in srv.ready_line), srv.ready_line
         cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
         assert cid >= 0
         assert vrep.simxGetFloatingParameter(cid, dt, B) == (0, pytest.approx(0.01))
@@ -88,5 +89,32 @@ def test_a_server_steps_at_the_saved_10_ms_unless_told(tmp_path, monkeypatch):
     srv = ServerProcess(str(path), "--stopped", "--dt", "0.05", "--speed", "1", renderers="on-demand")
     try:
         assert "dt 0.05 s," in srv.ready_line and "the scene's" not in srv.ready_line, srv.ready_line
+    finally:
+        srv.stop()
+
+
+def test_a_scene_saved_not_real_time_runs_at_the_window_pace(tmp_path, monkeypatch):
+    """Real time off in the file and no ``--speed``: at most one pass per 60 Hz display frame of
+    wall time, as CoppeliaSim's window runs it (a slow machine takes fewer, never more); a
+    program that sleeps 1 s with the simulation running sees about 60 passes, not thousands."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    path = tmp_path / "window.ttt"
+    path.write_bytes(_scene(W.simulation(0.05, preset=2, real_time=False)))
+    srv = ServerProcess(str(path), "--stopped", renderers="on-demand")
+    try:
+        cid = vrep.simxStart("127.0.0.1", srv.port, True, True, 5000, 5)
+        assert cid >= 0
+        import time
+
+        began = time.monotonic()
+        assert vrep.simxStartSimulation(cid, B) == 0
+        time.sleep(1.0)
+        rc, _ = vrep.simxGetPingTime(cid)
+        elapsed = time.monotonic() - began
+        passes = round(vrep.simxGetLastCmdTime(cid) / 50)
+        assert rc == 0 and passes >= 1
+        assert passes <= elapsed * 60 + 2, (passes, elapsed)  # an upper bound: the pace caps the rate
+        vrep.simxStopSimulation(cid, B)
+        vrep.simxFinish(cid)
     finally:
         srv.stop()
