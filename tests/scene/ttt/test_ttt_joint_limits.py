@@ -1,0 +1,100 @@
+"""A revolute joint CoppeliaSim saved at the end of its interval (issue 50: the UR3 of
+"Libro-CoppeliaSim" chapters 19-20, its joints at +2*pi or -2*pi of a [-2*pi, +2*pi] interval).
+
+coppeliaSimLib ``CJoint::serialize`` stores the interval as minimum and range (``_mr``/``Pmr``),
+the position (``_rt``/``Prt``) and cyclic as ``Va9`` bit 0; ``CJoint::setPosition`` clamps a
+non-cyclic joint into ``[min, min + range]``, which is how a joint gets saved exactly at a limit.
+The joint converts as a limited hinge with its position at that limit, and simIK keeps it inside
+(coppeliaKinematicsRoutines ``CJoint::setPosition`` clamps each step of ``CikGroup::applyDq``):
+a target that needs the joint further stays out of reach, one that needs it back is reached.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tttwriter as W
+from simx_server.api import client_context
+from simx_server.scene.simulation import Simulation
+from simx_server.scene.ttt import convert, reader
+
+pytestmark = pytest.mark.renderers_on_demand  # no image is read
+
+LOW, RANGE = -1.0, 2.0  # J1's interval: [-1, 1] rad, saved at its upper end
+
+
+def _arm() -> bytes:
+    """Two-hinge arm; J1 saved at its upper limit (non-cyclic), J2 at 0.3 rad."""
+    return (W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
+            + W.joint(2, 1, "J1", (0, 0, 0.15), quat=(0.7071068, 0.7071068, 0, 0), limits=(LOW, RANGE),
+                      position=LOW + RANGE)
+            + W.cuboid_shape(3, 2, "L1", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
+            + W.joint(4, 3, "J2", (0, 0.15, 0), limits=(-3.0, 6.0), position=0.3)
+            + W.cuboid_shape(5, 4, "L2", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
+            + W.dummy(6, 5, "Tip", (0, 0.15, 0))
+            + W.dummy(7, -1, "Target", (0, 0, 0.85)))
+
+
+@pytest.fixture
+def arm(tmp_path):
+    f = tmp_path / "scene.ttt"
+    f.write_bytes(W.ttt_file(_arm(), serialization=25, program=41000))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "scene")
+    sim = Simulation(xml, realtime=False)
+    yield sim
+    sim.close()
+
+
+def test_joint_saved_at_its_limit_converts_limited_at_that_limit(tmp_path):
+    f = tmp_path / "scene.ttt"
+    f.write_bytes(W.ttt_file(_arm(), serialization=25, program=41000))
+    j1 = reader.read(f).objects[2].data
+    assert (j1.cyclic, j1.minimum, j1.range, j1.position) == (False, LOW, RANGE, LOW + RANGE)
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "scene")
+    sim = Simulation(xml, realtime=False)
+    try:
+        m, d = sim.world.model, sim.world.data
+        jid = m.joint("J1").id
+        assert bool(m.jnt_limited[jid])
+        assert m.jnt_range[jid].tolist() == pytest.approx([LOW, LOW + RANGE])
+        assert d.qpos[m.jnt_qposadr[jid]] == pytest.approx(LOW + RANGE)
+    finally:
+        sim.close()
+
+
+def _tip_at(api, j1: int, j2: int, tip: int, q1: float, q2: float) -> list[float]:
+    """The tip's world position with the joints at ``q1``, ``q2`` (simulation stopped)."""
+    api.setJointPosition(j1, q1)
+    api.setJointPosition(j2, q2)
+    return api.getObjectPosition(tip, -1)
+
+
+@pytest.mark.parametrize("q1, reachable", [(0.4, True), (1.4, False)], ids=["back-inside", "past-the-limit"])
+def test_simik_moves_a_joint_off_its_limit_but_never_past_it(arm, q1, reachable):
+    """The target is where the tip is with J1 at ``q1`` (J2 at 0.5): back inside the interval
+    the group reaches it; past the upper limit J1 stays at the limit, the tip short of it."""
+    api, ik = client_context(arm).sim, client_context(arm).simik
+    base, tip, target = api.getObject("/Base"), api.getObject("/Tip"), api.getObject("/Target")
+    j1, j2 = api.getObject("/J1"), api.getObject("/J2")
+    goal = _tip_at(api, j1, j2, tip, q1, 0.5)
+    _tip_at(api, j1, j2, tip, LOW + RANGE, 0.3)  # back to the saved pose, J1 at its limit
+    api.setObjectPosition(target, -1, goal)
+    env = ik.createEnvironment()
+    group = ik.createGroup(env)
+    ik.setGroupCalculation(env, group, ik.method_damped_least_squares, 0.1, 10)
+    ik.addElementFromScene(env, group, base, tip, target, ik.constraint_position)
+    arm.start()
+    highest = -np.inf
+    for _ in range(40):  # as the scene's IK script does at each actuation
+        ik.handleGroup(env, group, {"syncWorlds": True, "allowError": True})
+        arm.step()
+        highest = max(highest, ik.getJointPosition(env, j1))
+    gap = float(np.linalg.norm(np.subtract(api.getObjectPosition(tip, -1), goal)))
+    assert highest <= LOW + RANGE + 1e-9
+    if reachable:
+        assert gap < 0.01
+        assert api.getJointPosition(j1) == pytest.approx(q1, abs=0.02)
+    else:
+        assert gap > 0.02
+        assert ik.getJointPosition(env, j1) == pytest.approx(LOW + RANGE)
