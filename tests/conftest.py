@@ -272,6 +272,13 @@ def ready_line(proc: subprocess.Popen, timeout: float) -> str | None:
     return None
 
 
+def _fork_servers() -> bool:
+    """Whether ServerProcess forks its servers (tests/server_fork.py): by default, where that
+    module is beside this one (a copy of this file alone, as test_first_run.py makes, starts
+    ``python -m simx_server.cli``); ``SIMX_TEST_FORK_SERVERS=0`` never."""
+    return os.environ.get("SIMX_TEST_FORK_SERVERS", "1") != "0" and (Path(__file__).parent / "server_fork.py").is_file()
+
+
 class ServerProcess:
     """A ``simx-server`` subprocess, ready when made; stopped by PID in :meth:`stop`.
 
@@ -298,7 +305,13 @@ class ServerProcess:
                 cmd += ["--port", str(p)]
             # The log goes to a file: a pipe nobody reads would fill up and block the server.
             self.log = tempfile.TemporaryFile(mode="w+")
-            self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self.log, env=env, text=True, cwd=cwd)
+            if _fork_servers():  # forked from a process that has imported the server (tests/server_fork.py)
+                from server_fork import ForkedServer
+
+                self.proc = ForkedServer(cmd[3:], env, cwd, self.log)
+            else:
+                self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self.log, env=env, text=True,
+                                             cwd=cwd)
             try:
                 self.ready_line = self._wait_ready(timeout=60)
                 return

@@ -51,7 +51,8 @@ def test_default_scene_serves_then_exits_within_2_s(sig):
         # the Bye is served on the simulation thread: the signal must not overtake it
         wait_until(lambda: "disconnected" in log(), what="the client's Bye served")
         srv.proc.send_signal(sig)
-        assert srv.proc.wait(timeout=30) == 0  # a bound on the wait only: a hang fails here
+        code = srv.proc.wait(timeout=30)  # a bound on the wait only: a hang fails here
+        assert code == 0, f"exit status {code}; the server's log:\n{log()[-4000:]}"
     finally:
         err = srv.stop()
     assert "connected" in err and "disconnected" in err  # connect and leave are logged
