@@ -2,8 +2,10 @@
 ``sim.readProximitySensor``): a ray, a cone (V-REP's sonars) or a volume of rays from a MuJoCo
 site carrying a ``rangefinder``.
 
-* ray: one ``mj_ray`` along the site's +z, excluding the site's own body, limited by the
-  rangefinder's ``cutoff``; the surface normal is the one ``mj_ray`` computes for the geom it hits.
+* ray: one ``mj_ray`` along the site's +z from ``offset=`` (m, default 0; V-REP's default ray
+  has 0.1) to the rangefinder's ``cutoff`` (offset + range), excluding the site's own body; what
+  lies nearer than the offset is not seen, the distance is from the site (:func:`ray_offset`).
+  The surface normal is the one ``mj_ray`` computes for the geom it hits.
 * cone (``angle=DEG`` in the sensor's ``simx:`` settings): ``mj_multiRay`` casts a fan of rays
   filling the cone of that opening angle around +z; the nearest hit is the detection.
 * ``volume=pyramid``, ``cylinder`` or ``disc``: V-REP's other volume types, each a set of rays
@@ -56,6 +58,33 @@ def sensable(obj: Any) -> int:
     if value not in names.values():
         raise ArgumentError(f"proximity sensor {obj.name!r}: sensable={raw!r} in its simx: settings is not "
                             f"one of {sorted(names.values())} or {sorted(names)}")
+    return value
+
+
+def ray_offset(obj: Any) -> float:
+    """Where a ray-type proximity sensor's ray starts along its +z (its ``simx:`` setting
+    ``offset=``, m, may be negative; 0 when not set), as CoppeliaSim's: the ray runs from
+    ``(0, 0, offset)`` for ``range`` m and the distance is measured from the sensor's origin
+    (coppeliaSimLib ``CProxSensorRoutine::_detectShape``, ray branch, with
+    ``geom_raySensorDetectMeshIfSmaller``). Raises ArgumentError for a value that is not a
+    number within 1000 m (``CConvexVolume::setOffset``'s bounds).
+
+    Args:
+        obj: a proximity sensor's scene object.
+
+    Returns:
+        The offset, m.
+    """
+    raw = obj.settings.get("offset")
+    if raw is None:
+        return 0.0
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not -1000 <= value <= 1000:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: offset={raw!r} in its simx: settings is not "
+                            "a distance in m within 1000")
     return value
 
 
@@ -269,16 +298,17 @@ def proximity_reading(sim: SimulationView, handle: int,
     """``simxReadProximitySensor``'s values: (detected, detected point (3,) m, detected object
     handle, detected surface normal (3,)), point and normal in the sensor frame.
 
-    A ray-type sensor casts one ray along +z; a cone-type one (``angle=``) a fan of rays filling
-    the cone (:func:`cone_directions`), a pyramid, cylinder or disc one (``volume=``) the rays of
-    :func:`volume_rays`, and each reports the nearest hit, as V-REP's cone sensor
-    reports the nearest point of what lies in its volume (within the ray spacing), leaving out
-    surfaces met beyond ``max_angle=`` (:func:`max_angle`; cone sensors only). Geoms of the
-    sensor's own body are not seen; the range is the rangefinder's ``cutoff`` (0: unlimited).
-    Nothing detected: (False, [0, 0, 0], -1, [0, 0, 0]).
+    A ray-type sensor casts one ray along +z from its :func:`ray_offset` on (nothing nearer is
+    seen); a cone-type one (``angle=``) a fan of rays filling the cone (:func:`cone_directions`),
+    a pyramid, cylinder or disc one (``volume=``) the rays of :func:`volume_rays`, and each
+    reports the nearest hit, as V-REP's cone sensor reports the nearest point of what lies in
+    its volume (within the ray spacing), leaving out surfaces met beyond ``max_angle=``
+    (:func:`max_angle`; cone sensors only). Geoms of the sensor's own body are not seen; the
+    range is the rangefinder's ``cutoff`` (0: unlimited). Nothing detected: (False, [0, 0, 0],
+    -1, [0, 0, 0]).
 
     Raises UnknownObjectError/ObjectTypeError for another handle, ArgumentError for a bad
-    ``angle=`` setting.
+    ``angle=`` or ``offset=`` setting.
 
     Args:
         sim: the simulation.
@@ -294,7 +324,7 @@ def proximity_reading(sim: SimulationView, handle: int,
     Raises:
         UnknownObjectError: no such object.
         ObjectTypeError: not a proximity sensor.
-        ArgumentError: bad ``angle=``, ``max_angle=`` or volume settings.
+        ArgumentError: bad ``angle=``, ``max_angle=``, ``offset=`` or volume settings.
     """
     world = sim.world
     obj = world.get(handle, PROXIMITY_SENSOR)
@@ -338,11 +368,12 @@ def proximity_reading(sim: SimulationView, handle: int,
         i = int(hits[np.argmin(dists[hits])])
         dist, geom, point = float(dists[i]), int(geoms[i]), local[i] * dists[i]
         normal = normals[3 * i:3 * i + 3]
-    else:
-        dist, geom, normal = _ray(m, d, origin, rot[:, 2].copy(), exclude, seen)
-        if dist < 0 or dist > cutoff or geom < 0:
+    else:  # one ray from the offset on (CoppeliaSim's ray volume), its hit measured from the origin
+        axis, start = rot[:, 2].copy(), ray_offset(obj)
+        dist, geom, normal = _ray(m, d, origin + start * axis, axis, exclude, seen)
+        if dist < 0 or start + dist > cutoff or geom < 0:
             return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
-        point = np.array([0.0, 0.0, dist])
+        point = np.array([0.0, 0.0, start + dist])
     hit = _shape_of_body(world).get(int(m.geom_bodyid[geom]), -1)
     n = rot.T @ normal
     norm = np.linalg.norm(n)

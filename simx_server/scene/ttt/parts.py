@@ -180,7 +180,10 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
             conv.setting(obj.name, f"angle={math.degrees(p.angle):.6g}")
         elif p.type in _VOLUMES and _volume_settings(p) is not None:
             conv.setting(obj.name, *_volume_settings(p))
-        elif p.type != 34:
+        elif p.type == 34:  # a ray starts at its offset (CProxSensorRoutine::_detectShape)
+            if p.offset != 0 and math.isfinite(p.offset):
+                conv.setting(obj.name, f"offset={min(max(p.offset, -1000.0), 1000.0):.6g}")
+        else:
             conv.report.add("proximity sensor volumes without usable sizes (a ray along +z)", approximated=True)
         return
     site.size = [1e-3, 0, 0]
