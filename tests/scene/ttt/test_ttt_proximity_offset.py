@@ -75,3 +75,68 @@ def test_create_proximity_sensor_keeps_a_ray_offset(tmp_path):
         assert (res, hit) == (1, api.getObject("/Wall")) and dist == pytest.approx(0.3, abs=1e-6)
     finally:
         sim.close()
+
+
+def _cone_scene(tmp_path) -> Simulation:
+    """The cover and wall of :func:`_scene` above an upward 30-degree cone sensor ``Sonar`` whose
+    apex lies 0.05 m up its axis (offset), seeing from 0.1 m (radius) to 0.3 m from the apex."""
+    no_gravity = W.rec("DYN", W.lst(W.rec("En2", W.i32(0) + W.f32(0, 0, 0))))
+    body = (no_gravity
+            + W.cuboid_shape(1, -1, "Cover", (0.1, 0.1, 0.1), (0, 0, 1), dynamic=False)
+            + W.cuboid_shape(2, -1, "Wall", (1, 1, 0.1), (0, 0, 1.35), dynamic=False)
+            + W.proximity_sensor(3, -1, "Sonar", kind=33, offset=0.05, reach=0.2, sizes=(0, 0, 0, 0, 0.1, 0),
+                                 angle=0.5236, pos=(0, 0, 1))
+            + W.dummy(4, -1, "Close", (0, 0, 1.1)) + W.dummy(5, -1, "Far", (0, 0, 1.25)))
+    f = tmp_path / "sonar.ttt"
+    f.write_bytes(W.ttt_file(body, serialization=25, program=40700))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "sonar")
+    return Simulation(xml, realtime=False)
+
+
+def test_a_cone_sees_from_its_radius_around_its_offset_apex(tmp_path):
+    """coppeliaSimLib ``CConvexVolume`` (cone): the apex ``offset`` up the axis, the volume
+    between ``radius`` and ``radius + range`` from it; distances from the sensor's origin."""
+    sim = _cone_scene(tmp_path)
+    try:
+        api = client_context(sim).sim
+        sonar, wall = api.getObject("/Sonar"), api.getObject("/Wall")
+        settings = sim.world.resolve("Sonar").settings
+        assert (settings["offset"], settings["radius"]) == ("0.05", "0.1")
+        # the cover's top face (0.05 m from the apex) lies within the radius: the wall is heard
+        res, dist, point, hit, _ = api.readProximitySensor(sonar)
+        assert (res, hit) == (1, wall) and dist == pytest.approx(0.3, abs=1e-6)
+        assert point == pytest.approx([0, 0, 0.3], abs=1e-6)
+        api.setObjectPosition(wall, -1, [0, 0, 1.39])  # underside 0.34 m from the origin, 0.29 from the apex
+        assert api.readProximitySensor(sonar)[:2] == (1, pytest.approx(0.34, abs=1e-6))
+        api.setObjectPosition(wall, -1, [0, 0, 1.41])  # 0.31 m from the apex: beyond radius + range
+        assert api.readProximitySensor(sonar)[0] == 0
+    finally:
+        sim.close()
+
+
+def test_a_cone_sees_a_dummy_only_beyond_its_radius(tmp_path):
+    """``sim.checkProximitySensor`` of a dummy (``CProxSensorRoutine::_detectDummy``): its origin
+    must lie in the cone's volume, beyond the radius from the apex."""
+    sim = _cone_scene(tmp_path)
+    try:
+        api = client_context(sim).sim
+        sonar = api.getObject("/Sonar")
+        assert api.checkProximitySensor(sonar, api.getObject("/Close"))[0] == 0  # 0.05 m from the apex
+        result, dist, _ = api.checkProximitySensor(sonar, api.getObject("/Far"))  # 0.2 m from the apex
+        assert result == 1 and dist == pytest.approx(0.25, abs=1e-6)
+    finally:
+        sim.close()
+
+
+def test_create_proximity_sensor_makes_a_cone_with_an_offset_and_a_radius(tmp_path):
+    """floatParams[0] offset, [1] range, [7] radius, [9] angle (``sim.createProximitySensor``)."""
+    sim = _cone_scene(tmp_path)
+    try:
+        api = client_context(sim).sim
+        params = [0.05, 0.2, 0, 0, 0, 0, 0, 0.1, 0, 0.5236] + [0.0] * 5
+        made = api.createProximitySensor(api.proximitysensor_cone, 16, 0, [0] * 8, params)
+        api.setObjectPosition(made, -1, [0.01, 0, 1])
+        res, dist, _, hit, _ = api.readProximitySensor(made)
+        assert (res, hit) == (1, api.getObject("/Wall")) and dist == pytest.approx(0.3, abs=1e-4)
+    finally:
+        sim.close()
