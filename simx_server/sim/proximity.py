@@ -202,6 +202,21 @@ def max_angle(obj: Any) -> float:
     return math.radians(deg)
 
 
+def cone_radius(obj: Any) -> float:
+    """How far from its apex a cone-type proximity sensor starts seeing (its ``simx:`` setting
+    ``radius=``, m, default 0; CoppeliaSim's cone volume lies between ``radius`` and ``radius +
+    range`` from the apex, coppeliaSimLib ``CConvexVolume``). Raises ArgumentError for a value
+    that is not a size in m.
+
+    Args:
+        obj: a proximity sensor's scene object.
+
+    Returns:
+        The radius, m.
+    """
+    return _floats(obj, "radius", 1, (0.0,))[0]
+
+
 #: Rays across each side of a pyramid-type volume, and rings / rays per ring of a cylinder.
 VOLUME_GRID = 7
 CYLINDER_RINGS, CYLINDER_RAYS = 3, 12
@@ -307,7 +322,7 @@ def _cone_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, or
     to the sensor's origin, or None."""
     local = cone_directions(angle)
     n = len(local)
-    start, near = axis_offset(obj), _floats(obj, "radius", 1, (0.0,))[0]
+    start, near = axis_offset(obj), cone_radius(obj)
     apex = origin + start * rot[:, 2]
     reach = cutoff - start
     geoms, dists, normals = np.full(n, -1, np.int32), np.full(n, -1.0), np.zeros(n * 3)
@@ -448,7 +463,7 @@ def dummy_reading(world: World, handle: int, dummy: int) -> tuple[bool, list[flo
     elif kind == "cone":  # from its apex offset= up the axis, between radius= and the cutoff
         q = p - np.array([0.0, 0.0, axis_offset(obj)])
         reach = float(np.linalg.norm(q))
-        near = _floats(obj, "radius", 1, (0.0,))[0]
+        near = cone_radius(obj)
         inside = (reach > 0 and near <= reach <= far - axis_offset(obj)
                   and math.acos(max(-1.0, min(1.0, q[2] / reach))) <= cone_angle(obj) / 2)
     else:

@@ -140,3 +140,22 @@ def test_create_proximity_sensor_makes_a_cone_with_an_offset_and_a_radius(tmp_pa
         assert (res, hit) == (1, api.getObject("/Wall")) and dist == pytest.approx(0.3, abs=1e-4)
     finally:
         sim.close()
+
+
+def test_check_proximity_sensor_ex2_rays_start_at_the_offset(tmp_path):
+    """``sim.checkProximitySensorEx2`` on given triangles: the same ray, from its offset on."""
+    sim = _scene(tmp_path)
+    try:
+        api = client_context(sim).sim
+        eye = api.getObject("/Eye")
+
+        def square(z: float) -> list[float]:  # two triangles facing down at height z, 0.2 m wide
+            a, b, c, e = [-0.1, -0.1, z], [0.1, -0.1, z], [0.1, 0.1, z], [-0.1, 0.1, z]
+            return a + c + b + a + e + c
+
+        assert api.checkProximitySensorEx2(eye, square(1.05), 2, 2, 3, 5.0, 0)[0] == 0  # within the offset
+        res, dist, point, normal = api.checkProximitySensorEx2(eye, square(1.05) + square(1.2), 2, 4, 3, 5.0, 0)
+        assert res == 1 and dist == pytest.approx(0.2, abs=1e-9) and point == pytest.approx([0, 0, 0.2], abs=1e-9)
+        assert api.checkProximitySensorEx2(eye, square(1.2), 2, 2, 3, 0.15, 0)[0] == 0  # beyond the threshold
+    finally:
+        sim.close()
