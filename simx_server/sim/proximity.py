@@ -2,10 +2,14 @@
 ``sim.readProximitySensor``): a ray, a cone (V-REP's sonars) or a volume of rays from a MuJoCo
 site carrying a ``rangefinder``.
 
-* ray: one ``mj_ray`` along the site's +z, excluding the site's own body, limited by the
-  rangefinder's ``cutoff``; the surface normal is the one ``mj_ray`` computes for the geom it hits.
+* ray: one ``mj_ray`` along the site's +z from ``offset=`` (m, default 0; V-REP's default ray
+  has 0.1) to the rangefinder's ``cutoff`` (offset + range), excluding the site's own body; what
+  lies nearer than the offset is not seen, the distance is from the site (:func:`axis_offset`).
+  The surface normal is the one ``mj_ray`` computes for the geom it hits.
 * cone (``angle=DEG`` in the sensor's ``simx:`` settings): ``mj_multiRay`` casts a fan of rays
-  filling the cone of that opening angle around +z; the nearest hit is the detection.
+  filling the cone of that opening angle around +z, from its apex ``offset=`` m up the axis,
+  seeing from ``radius=`` m (default 0) from the apex to the cutoff; the hit nearest to the
+  site is the detection.
 * ``volume=pyramid``, ``cylinder`` or ``disc``: V-REP's other volume types, each a set of rays
   filling the volume (:func:`volume_rays`).
 * what is seen: shapes that are detectable by the sensor's type (``sensable=``, V-REP's
@@ -56,6 +60,34 @@ def sensable(obj: Any) -> int:
     if value not in names.values():
         raise ArgumentError(f"proximity sensor {obj.name!r}: sensable={raw!r} in its simx: settings is not "
                             f"one of {sorted(names.values())} or {sorted(names)}")
+    return value
+
+
+def axis_offset(obj: Any) -> float:
+    """Where a ray-type proximity sensor's ray starts along its +z, or where a cone-type one's
+    apex lies (its ``simx:`` setting ``offset=``, m, may be negative; 0 when not set), as
+    CoppeliaSim's: the ray runs from ``(0, 0, offset)`` for ``range`` m (coppeliaSimLib
+    ``CProxSensorRoutine::_detectShape``, ray branch, with ``geom_raySensorDetectMeshIfSmaller``),
+    the cone volume is translated by it (``CConvexVolume``), and distances are measured from
+    the sensor's origin. Raises ArgumentError for a value that is not a
+    number within 1000 m (``CConvexVolume::setOffset``'s bounds).
+
+    Args:
+        obj: a proximity sensor's scene object.
+
+    Returns:
+        The offset, m.
+    """
+    raw = obj.settings.get("offset")
+    if raw is None:
+        return 0.0
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not -1000 <= value <= 1000:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: offset={raw!r} in its simx: settings is not "
+                            "a distance in m within 1000")
     return value
 
 
@@ -170,6 +202,21 @@ def max_angle(obj: Any) -> float:
     return math.radians(deg)
 
 
+def cone_radius(obj: Any) -> float:
+    """How far from its apex a cone-type proximity sensor starts seeing (its ``simx:`` setting
+    ``radius=``, m, default 0; CoppeliaSim's cone volume lies between ``radius`` and ``radius +
+    range`` from the apex, coppeliaSimLib ``CConvexVolume``). Raises ArgumentError for a value
+    that is not a size in m.
+
+    Args:
+        obj: a proximity sensor's scene object.
+
+    Returns:
+        The radius, m.
+    """
+    return _floats(obj, "radius", 1, (0.0,))[0]
+
+
 #: Rays across each side of a pyramid-type volume, and rings / rays per ring of a cylinder.
 VOLUME_GRID = 7
 CYLINDER_RINGS, CYLINDER_RAYS = 3, 12
@@ -264,21 +311,62 @@ def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np
     return best
 
 
+def _cone_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, origin: np.ndarray, exclude: int,
+              seen: np.ndarray, angle: float, cutoff: float) -> tuple[int, np.ndarray, np.ndarray] | None:
+    """The nearest detection of a cone-type sensor (opening ``angle`` rad): a fan of rays
+    (:func:`cone_directions`) from its apex, :func:`axis_offset` up its axis, seeing from its
+    ``radius=`` (m, default 0) to ``cutoff`` along the axis, as CoppeliaSim's cone volume
+    (coppeliaSimLib ``CConvexVolume``: between ``radius`` and ``radius + range`` from the apex).
+    A ray stopped nearer than the radius, or by an undetectable geom, casts again from beyond.
+    Returns (geom, point (3,) in the sensor frame, surface normal (3,) world), the point nearest
+    to the sensor's origin, or None."""
+    local = cone_directions(angle)
+    n = len(local)
+    start, near = axis_offset(obj), cone_radius(obj)
+    apex = origin + start * rot[:, 2]
+    reach = cutoff - start
+    geoms, dists, normals = np.full(n, -1, np.int32), np.full(n, -1.0), np.zeros(n * 3)
+    world_dirs = local @ rot.T
+    mujoco.mj_multiRay(m, d, apex, world_dirs.ravel(), None, 1, exclude, geoms, dists,
+                       normals, n, min(reach, mujoco.mjMAXVAL))
+    near_hit = (geoms >= 0) & (dists < near)
+    for i in np.flatnonzero(near_hit):  # within the radius: not in the volume, look from the radius on
+        dist, geoms[i], normals[3 * i:3 * i + 3] = _ray(m, d, apex + near * world_dirs[i], world_dirs[i].copy(),
+                                                        exclude, seen)
+        dists[i] = near + dist if dist >= 0 else -1.0
+    for i in np.flatnonzero(~near_hit & (geoms >= 0) & ~seen[np.maximum(geoms, 0)]):  # undetectable: look beyond
+        first = (float(dists[i]), int(geoms[i]), normals[3 * i:3 * i + 3].copy())
+        dists[i], geoms[i], normals[3 * i:3 * i + 3] = _ray(m, d, apex, world_dirs[i].copy(), exclude, seen, first)
+    found = (dists >= 0) & (geoms >= 0) & (dists <= reach)
+    limit = max_angle(obj)
+    if limit < math.pi / 2:  # the ray against the surface's normal (both unit vectors)
+        facing = -np.einsum("ij,ij->i", world_dirs, normals.reshape(-1, 3))
+        found &= facing >= math.cos(limit) - 1e-9
+    hits = np.flatnonzero(found)
+    if hits.size == 0:
+        return None
+    points = local[hits] * dists[hits, None] + np.array([0.0, 0.0, start])
+    k = int(np.argmin(np.linalg.norm(points, axis=1)))
+    i = int(hits[k])
+    return int(geoms[i]), points[k], normals[3 * i:3 * i + 3]
+
+
 def proximity_reading(sim: SimulationView, handle: int,
                       entity: int | None = None) -> tuple[bool, list[float], int, list[float]]:
     """``simxReadProximitySensor``'s values: (detected, detected point (3,) m, detected object
     handle, detected surface normal (3,)), point and normal in the sensor frame.
 
-    A ray-type sensor casts one ray along +z; a cone-type one (``angle=``) a fan of rays filling
-    the cone (:func:`cone_directions`), a pyramid, cylinder or disc one (``volume=``) the rays of
-    :func:`volume_rays`, and each reports the nearest hit, as V-REP's cone sensor
-    reports the nearest point of what lies in its volume (within the ray spacing), leaving out
-    surfaces met beyond ``max_angle=`` (:func:`max_angle`; cone sensors only). Geoms of the
-    sensor's own body are not seen; the range is the rangefinder's ``cutoff`` (0: unlimited).
-    Nothing detected: (False, [0, 0, 0], -1, [0, 0, 0]).
+    A ray-type sensor casts one ray along +z from its :func:`axis_offset` on (nothing nearer is
+    seen); a cone-type one (``angle=``) a fan of rays filling the cone (:func:`cone_directions`),
+    a pyramid, cylinder or disc one (``volume=``) the rays of :func:`volume_rays`, and each
+    reports the nearest hit, as V-REP's cone sensor reports the nearest point of what lies in
+    its volume (within the ray spacing), leaving out surfaces met beyond ``max_angle=``
+    (:func:`max_angle`; cone sensors only). Geoms of the sensor's own body are not seen; the
+    range is the rangefinder's ``cutoff`` (0: unlimited). Nothing detected: (False, [0, 0, 0],
+    -1, [0, 0, 0]).
 
     Raises UnknownObjectError/ObjectTypeError for another handle, ArgumentError for a bad
-    ``angle=`` setting.
+    ``angle=`` or ``offset=`` setting.
 
     Args:
         sim: the simulation.
@@ -294,7 +382,7 @@ def proximity_reading(sim: SimulationView, handle: int,
     Raises:
         UnknownObjectError: no such object.
         ObjectTypeError: not a proximity sensor.
-        ArgumentError: bad ``angle=``, ``max_angle=`` or volume settings.
+        ArgumentError: bad ``angle=``, ``max_angle=``, ``offset=`` or volume settings.
     """
     world = sim.world
     obj = world.get(handle, PROXIMITY_SENSOR)
@@ -318,31 +406,16 @@ def proximity_reading(sim: SimulationView, handle: int,
             return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
         dist, geom, point, normal = found
     elif angle > 0:
-        local = cone_directions(angle)
-        n = len(local)
-        geoms, dists, normals = np.full(n, -1, np.int32), np.full(n, -1.0), np.zeros(n * 3)
-        world_dirs = local @ rot.T
-        mujoco.mj_multiRay(m, d, origin, world_dirs.ravel(), None, 1, exclude, geoms, dists,
-                           normals, n, min(cutoff, mujoco.mjMAXVAL))
-        for i in np.flatnonzero((geoms >= 0) & ~seen[np.maximum(geoms, 0)]):  # undetectable: look beyond
-            first = (float(dists[i]), int(geoms[i]), normals[3 * i:3 * i + 3].copy())
-            dists[i], geoms[i], normals[3 * i:3 * i + 3] = _ray(m, d, origin, world_dirs[i].copy(), exclude, seen, first)
-        found = (dists >= 0) & (geoms >= 0) & (dists <= cutoff)
-        limit = max_angle(obj)
-        if limit < math.pi / 2:  # the ray against the surface's normal (both unit vectors)
-            facing = -np.einsum("ij,ij->i", local @ rot.T, normals.reshape(-1, 3))
-            found &= facing >= math.cos(limit) - 1e-9
-        hits = np.flatnonzero(found)
-        if hits.size == 0:
+        cone = _cone_hit(m, d, obj, rot, origin, exclude, seen, angle, cutoff)
+        if cone is None:
             return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
-        i = int(hits[np.argmin(dists[hits])])
-        dist, geom, point = float(dists[i]), int(geoms[i]), local[i] * dists[i]
-        normal = normals[3 * i:3 * i + 3]
-    else:
-        dist, geom, normal = _ray(m, d, origin, rot[:, 2].copy(), exclude, seen)
-        if dist < 0 or dist > cutoff or geom < 0:
+        geom, point, normal = cone
+    else:  # one ray from the offset on (CoppeliaSim's ray volume), its hit measured from the origin
+        axis, start = rot[:, 2].copy(), axis_offset(obj)
+        dist, geom, normal = _ray(m, d, origin + start * axis, axis, exclude, seen)
+        if dist < 0 or start + dist > cutoff or geom < 0:
             return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
-        point = np.array([0.0, 0.0, dist])
+        point = np.array([0.0, 0.0, start + dist])
     hit = _shape_of_body(world).get(int(m.geom_bodyid[geom]), -1)
     n = rot.T @ normal
     norm = np.linalg.norm(n)
@@ -354,8 +427,9 @@ def dummy_reading(world: World, handle: int, dummy: int) -> tuple[bool, list[flo
     """Whether proximity sensor ``handle`` detects dummy ``dummy``, and its origin in the sensor
     frame (m): as coppeliaSimLib ``CProxSensorRoutine::_detectDummy``, a dummy is a point, seen
     when its origin lies in the sensor's volume; a ray-type sensor never sees one. The volume is
-    the sensor's cone (``angle=``: its opening), pyramid (``size=`` at ``offset=``, ``size_far=``
-    at the range) or cylinder (``radius=``, ``radius_far=``), between ``offset=`` and the
+    the sensor's cone (``angle=``: its opening, from ``radius=`` around its apex ``offset=`` up
+    the axis to the rangefinder's cutoff), pyramid (``size=`` at ``offset=``, ``size_far=`` at
+    the range) or cylinder (``radius=``, ``radius_far=``), these between ``offset=`` and the
     rangefinder's cutoff; a disc's thickness is not known to simx: ArgumentError.
 
     Args:
@@ -380,16 +454,20 @@ def dummy_reading(world: World, handle: int, dummy: int) -> tuple[bool, list[flo
     rot = d.site_xmat[obj.mj_id].reshape(3, 3)
     p = rot.T @ (d.site_xpos[target.mj_id] - d.site_xpos[obj.mj_id])
     kind = obj.settings.get("volume", "cone" if obj.settings.get("angle") else "ray")
-    (offset,) = _floats(obj, "offset", 1, (0.0,))
     if kind == "disc":
         raise ArgumentError(f"checkProximitySensor of a dummy: {obj.name!r} is a disc-type sensor, whose "
                             "thickness simx does not know")
     dist = float(np.linalg.norm(p))
     if kind == "ray" or dist == 0.0:
         inside = False
-    elif kind == "cone":
-        inside = offset <= dist <= far and math.acos(max(-1.0, min(1.0, p[2] / dist))) <= cone_angle(obj) / 2
+    elif kind == "cone":  # from its apex offset= up the axis, between radius= and the cutoff
+        q = p - np.array([0.0, 0.0, axis_offset(obj)])
+        reach = float(np.linalg.norm(q))
+        near = cone_radius(obj)
+        inside = (reach > 0 and near <= reach <= far - axis_offset(obj)
+                  and math.acos(max(-1.0, min(1.0, q[2] / reach))) <= cone_angle(obj) / 2)
     else:
+        (offset,) = _floats(obj, "offset", 1, (0.0,))
         end = far if math.isfinite(far) else offset + 1.0
         f = (p[2] - offset) / (end - offset) if end > offset else -1.0
         if kind == "pyramid":

@@ -94,7 +94,9 @@ def createProximitySensor(ctx: CallContext, sensorType: Any, subType: Any, optio
     """A new proximity sensor at the world origin, detecting along +z; its handle.
     ``sensorType`` ``sim.proximitysensor_ray`` (34: one ray, a rangefinder) or
     ``sim.proximitysensor_cone`` (33: a fan of rays filling the cone); ``floatParams`` offset
-    (0: simx's rays start at the sensor), range (m), and for a cone its angle (rad, index 9).
+    (m: where a ray starts along +z, or the cone's apex; nothing nearer is seen), range (m, from
+    there on), and for a cone its radius (m, index 7: it sees from that far from its apex on,
+    out to radius + range) and angle (rad, index 9), as CoppeliaSim's ``CConvexVolume``.
     Pyramid, cylinder and disc volumes: UnsupportedError (MuJoCo casts rays).
 
     ``sim.createProximitySensor``.
@@ -111,7 +113,8 @@ def createProximitySensor(ctx: CallContext, sensorType: Any, subType: Any, optio
 
     Raises:
         UnsupportedError: another volume type, or no simulation behind the script.
-        ArgumentError: bad parameters (a range that is not positive).
+        ArgumentError: bad parameters (a range that is not positive, an offset or radius
+            beyond 1000 m, a negative radius).
     """
     kind = _int(sensorType, "sensorType")
     _int(subType, "subType")
@@ -122,10 +125,13 @@ def createProximitySensor(ctx: CallContext, sensorType: Any, subType: Any, optio
                                "(MuJoCo casts rays, it has no detection volumes)")
     floats = _numbers(floatParams, 10 if kind == PROXIMITY_CONE else 2, "floatParams")
     offset, reach = floats[:2]
-    if offset != 0:
-        raise UnsupportedError("createProximitySensor: a non-zero offset (simx's rays start at the sensor)")
-    if not 0 < reach <= 1e4:
-        raise ArgumentError("floatParams[2]: the range must lie in (0, 10000] m")
+    near = floats[7] if kind == PROXIMITY_CONE else 0.0  # a cone's radius: it sees from there on
+    if not -1000 <= offset <= 1000:
+        raise ArgumentError("floatParams[1]: the offset must lie in [-1000, 1000] m")
+    if not 0 <= near <= 1000:
+        raise ArgumentError("floatParams[8]: the cone's radius must lie in [0, 1000] m")
+    if not 0 < reach <= 1e4 or offset + near + reach <= 0:
+        raise ArgumentError("floatParams[2]: the range must lie in (0, 10000] m and end ahead of the sensor")
     angle = math.degrees(floats[9]) if kind == PROXIMITY_CONE else 0.0
     if kind == PROXIMITY_CONE and not 0 < angle < 180:
         raise ArgumentError("floatParams[10]: the cone's angle must lie in (0, pi) rad")
@@ -136,9 +142,12 @@ def createProximitySensor(ctx: CallContext, sensorType: Any, subType: Any, optio
         ref = mujoco.MjSpec.from_string('<mujoco><worldbody><site name="s"/></worldbody>'
                                         '<sensor><rangefinder site="s"/></sensor></mujoco>').sensors[0]
         spec.add_sensor(name=f"{name}_range", type=ref.type, objtype=ref.objtype, objname=name,
-                        cutoff=reach, intprm=list(ref.intprm))
-        if kind == PROXIMITY_CONE:
-            spec.add_text(name=f"simx:{name}", data=f"angle={angle}")
+                        cutoff=offset + near + reach, intprm=list(ref.intprm))
+        # the ray starts at the offset, the cone's apex lies there (proximity.axis_offset)
+        items = ([f"angle={angle}"] if kind == PROXIMITY_CONE else []) + ([f"offset={offset!r}"] if offset else [])
+        items += [f"radius={near!r}"] if near > 0 else []
+        if items:
+            spec.add_text(name=f"simx:{name}", data=" ".join(items))
 
     return _create(ctx, "createProximitySensor", "Proximity_sensor", build)
 

@@ -64,7 +64,10 @@ def checkProximitySensorEx2(ctx: CallContext, sensorHandle: Any, vertices: Any, 
     """``result, distance, detectedPoint, normalVector`` (sensor frame) of the sensor's ray(s)
     (one along +z, or a cone's fan) against given geometry: ``itemType`` 0 points, 1
     segments (no area: a ray meets neither, result 0), 2 triangles (9 numbers each, world
-    coordinates, ``itemCount`` of them). Within the sensor's range and ``threshold`` (m);
+    coordinates, ``itemCount`` of them). The ray starts, the cone's apex lies, at the sensor's
+    ``offset=`` up its axis, and a cone sees from its ``radius=`` on
+    (:func:`~simx_server.sim.proximity.axis_offset`, :func:`~simx_server.sim.proximity.cone_radius`);
+    distances from the sensor's origin. Within the sensor's range and ``threshold`` (m);
     ``mode`` bit 0 front faces (counter-clockwise seen from the sensor), bit 1 back faces,
     bit 3 only surfaces facing the sensor within ``maxAngle`` (rad).
 
@@ -102,14 +105,16 @@ def checkProximitySensorEx2(ctx: CallContext, sensorHandle: Any, vertices: Any, 
     m, d = ctx.world.model, ctx.world.data
     obj = ctx.world.objects[h]
     rot, origin = d.site_xmat[obj.mj_id].reshape(3, 3), d.site_xpos[obj.mj_id]
-    local = (tri - origin) @ rot  # into the sensor frame: rays from the origin
     cone = proximity.cone_angle(obj)
+    start = proximity.axis_offset(obj)  # the ray's start, the cone's apex, up the axis
+    near = proximity.cone_radius(obj) if cone > 0 else 0.0
+    local = (tri - origin) @ rot - np.array([0.0, 0.0, start])  # into the sensor frame, from the start
     dirs = proximity.cone_directions(cone) if cone > 0 else np.array([[0.0, 0.0, 1.0]])
     if len(dirs) * count > 4_000_000:
         raise ArgumentError(f"{count} triangles against {len(dirs)} rays: over 4,000,000 tests, give fewer")
     k = next((i for i in range(m.nsensor) if m.sensor_type[i] == mujoco.mjtSensor.mjSENS_RANGEFINDER
               and m.sensor_objtype[i] == mujoco.mjtObj.mjOBJ_SITE and m.sensor_objid[i] == obj.mj_id), None)
-    reach = min(limit, float(m.sensor_cutoff[k]) if k is not None and m.sensor_cutoff[k] > 0 else np.inf)
+    reach = (float(m.sensor_cutoff[k]) if k is not None and m.sensor_cutoff[k] > 0 else np.inf) - start
     e1, e2 = local[:, 1] - local[:, 0], local[:, 2] - local[:, 0]  # Moller-Trumbore, rays x triangles
     p = np.cross(dirs[:, None, :], e2[None])
     det = np.einsum("tk,rtk->rt", e1, p)
@@ -123,16 +128,18 @@ def checkProximitySensorEx2(ctx: CallContext, sensorHandle: Any, vertices: Any, 
     normal = np.cross(e1, e2)
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
     front = np.einsum("rk,tk->rt", dirs, normal) < 0  # facing the ray: counter-clockwise seen from the sensor
-    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist >= 0) & (dist <= reach)
+    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist >= near) & (dist <= reach)
+    hit &= np.linalg.norm(dirs[:, None, :] * dist[..., None] + [0.0, 0.0, start], axis=2) <= limit
     hit &= np.where(front, bool(opts & 1), bool(opts & 2))
     if opts & 8:
         cosine = np.abs(np.einsum("rk,tk->rt", dirs, normal))
         hit &= np.arccos(np.clip(cosine, -1.0, 1.0)) <= angle
     if not hit.any():
         return none
-    r, t = np.unravel_index(np.argmin(np.where(hit, dist, np.inf)), hit.shape)
+    points = dirs[:, None, :] * dist[..., None] + [0.0, 0.0, start]  # from the origin, as CoppeliaSim's
+    reaches = np.linalg.norm(points, axis=2)
+    r, t = np.unravel_index(np.argmin(np.where(hit, reaches, np.inf)), hit.shape)
     n = normal[t] if front[r, t] else -normal[t]  # towards the sensor
-    point = dirs[r] * dist[r, t]
-    return 1, float(dist[r, t]), point.tolist(), n.tolist()
+    return 1, float(reaches[r, t]), points[r, t].tolist(), n.tolist()
 
 

@@ -130,6 +130,21 @@ def _volume_settings(p) -> list[str] | None:
     return items
 
 
+def _near_part(p, cone: bool) -> tuple[float, float]:
+    """A ray or cone sensor's offset along +z and, for a cone, its radius (m, within 1000):
+    CoppeliaSim casts a ray from ``(0, 0, offset)`` (``CProxSensorRoutine::_detectShape``) and
+    sees in a cone between ``radius`` and ``radius + range`` from an apex at that offset
+    (``CConvexVolume``'s cone volume); nothing nearer is seen."""
+    start = min(max(p.offset, -1000.0), 1000.0) if math.isfinite(p.offset) else 0.0
+    near = p.sizes[4] if cone and len(p.sizes) >= 5 and math.isfinite(p.sizes[4]) else 0.0
+    return start, min(max(near, 0.0), 1000.0)
+
+
+def _start_settings(start: float, near: float) -> list[str]:
+    """The ``simx:`` settings ``offset=`` and ``radius=`` of :func:`_near_part`, where not 0."""
+    return ([f"offset={start:.6g}"] if start != 0 else []) + ([f"radius={near:.6g}"] if near > 0 else [])
+
+
 def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
     """Dummies, proximity and vision sensors, lights, and the objects kept only as sites."""
     kind = obj.kind
@@ -174,13 +189,18 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         sensor.type = mujoco.mjtSensor.mjSENS_RANGEFINDER
         sensor.objtype = mujoco.mjtObj.mjOBJ_SITE
         sensor.objname = obj.name
-        sensor.cutoff = max(p.offset + p.range, 1e-3)
+        cone = p.type == _PROXIMITY_CONE and p.angle > 1e-3
+        start, near = _near_part(p, cone)
+        sensor.cutoff = max(start + near + p.range, 1e-3)
         sensor.intprm[0] = 1  # the distance (what MJCF's parser sets by default)
-        if p.type == _PROXIMITY_CONE and p.angle > 1e-3:
-            conv.setting(obj.name, f"angle={math.degrees(p.angle):.6g}")
+        if cone:
+            conv.setting(obj.name, f"angle={math.degrees(p.angle):.6g}", *_start_settings(start, near))
         elif p.type in _VOLUMES and _volume_settings(p) is not None:
             conv.setting(obj.name, *_volume_settings(p))
-        elif p.type != 34:
+        elif p.type == 34:
+            if start != 0:
+                conv.setting(obj.name, *_start_settings(start, 0.0))
+        else:
             conv.report.add("proximity sensor volumes without usable sizes (a ray along +z)", approximated=True)
         return
     site.size = [1e-3, 0, 0]
