@@ -14,7 +14,9 @@ script's ``sysCall_cleanup`` still runs). It yields in:
   the motion (:mod:`simx_server.api.sim.motion`), whose 4.3-4.5 callback runs in Lua; ``sim.waitForSignal(name)`` / ``simWaitForSignal``: until an
   integer, float or string signal ``name`` exists (returns its value);
 * any ``sim`` call, once the thread has run longer than its time slice since it was resumed
-  (``sim.setThreadSwitchTiming(ms)``, default 2 ms) while automatic switching is on
+  (``sim.setThreadSwitchTiming(ms)``, default 2 ms) while automatic switching is on. The slice
+  is counted in the simulation thread's CPU time (CoppeliaSim counts wall time): a loaded
+  machine that deschedules the server does not move a thread's switches
   (``sim.setThreadAutomaticSwitch(false)`` forbids it, ``true`` allows it again; levels nest as
   in CoppeliaSim 4.x).
 
@@ -62,7 +64,7 @@ def script_functions() -> frozenset[str]:
 #: ``launch(f)``, ``resume()`` (true while the thread lives; raises the thread's error),
 #: ``wrap()`` (automatic switching at every ``sim`` call, for threaded scripts only) and ``alive()``.
 THREADS_LUA = r"""
-local sim, now, motion = ...
+local sim, now, motion, slice_clock = ...
 local co_create, co_resume = coroutine.create, coroutine.resume
 local co_running, co_yield = coroutine.running, coroutine.yield
 local co_status, yieldable = coroutine.status, coroutine.isyieldable
@@ -183,7 +185,7 @@ end
 local function resume()
   local co = T.co
   if co == nil then return false end
-  T.resumed = now()
+  T.resumed = slice_clock()
   local ok, err = co_resume(co)
   if not ok then T.co = nil error(err, 0) end
   if co_status(co) == "dead" then T.co = nil return false end
@@ -195,7 +197,7 @@ local function wrap()
        and name ~= "tubeRead" and name ~= "moveToConfig" and name ~= "moveToPose" then
       sim[name] = function(...)
         local r = pack(f(...))
-        if T.level == 0 and in_thread() and now() - T.resumed > T.slice and yieldable() then co_yield() end
+        if T.level == 0 and in_thread() and slice_clock() - T.resumed > T.slice and yieldable() then co_yield() end
         return unpack(r, 1, r.n)
       end
     end
@@ -226,7 +228,8 @@ class LuaStyles:
                                           v.encode() if isinstance(v, str) else v) for k, v in UI_FUNCTIONS.items()})
         rt.compile(LEGACY_LUA, name="=simx")(g.sim, aliases, uis, self._write_log)
         threads = rt.compile(THREADS_LUA, name="=simx")
-        self._launch, self._resume, self._wrap, self._alive = threads(g.sim, time.monotonic, self._motion_call)
+        self._launch, self._resume, self._wrap, self._alive = threads(g.sim, time.monotonic, self._motion_call,
+                                                                     time.thread_time)
         self.old_style = False
 
     def _motion_call(self, op: bytes, *args: Any) -> tuple:
