@@ -232,3 +232,19 @@ def test_joint_max_velocity_is_the_last_saved_of_4_4s_and_4_3s(tmp_path):
     xml, _ = convert.convert(reader.read(f), tmp_path / "out", "joints")
     assert _settings(xml)["simx:Wrist"] == "mode=position max_velocity=6.25"
 
+
+@pytest.mark.parametrize("text, customized", [
+    ("-- The main script is not supposed to be modified, except in special cases.\nrequire('defaultMainScript')", False),
+    ("--lua\n\nrequire 'defaultMainScript'\n", False),
+    ("require('defaultMainScript')\nfunction sysCall_actuation() sim.handleDynamics(0.05) end", True),
+    ("function sysCall_init() end", True),
+])
+def test_a_main_script_is_reported_only_when_not_the_default(tmp_path, text, customized):
+    """CoppeliaSim 4.x saves its default main script as a comment and ``require('defaultMainScript')``
+    (coppeliaSimLib ``DEFAULT_MAINSCRIPT_CODE``); simx runs its own main loop, so only a main
+    script with code of its own is reported as not carried over."""
+    f = tmp_path / "main.ttt"
+    f.write_bytes(W.ttt_file(W.cuboid_shape(1, -1, "Box", (0.1, 0.1, 0.1), (0, 0, 0.05))
+                             + W.script(0, -1, text, kind=0), serialization=25, program=41000))
+    _, report = convert.convert(reader.read(f), tmp_path / "out", "main")
+    assert ("customized main scripts" in " ".join(report.lines())) is customized
