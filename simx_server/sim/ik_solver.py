@@ -9,7 +9,8 @@ shape) onto a target (a dummy, or an explicit pose) under constraints (CoppeliaS
 groups): the stacked, weighted error of the elements' constrained rows, the Jacobian of the
 group's joints (``mj_jacSite`` / ``mj_jacBody``), and a step by the group's method (damped least
 squares ``Jᵀ(JJᵀ + λ²I)⁻¹e``, pseudo-inverse, Jacobian transpose), each joint's step bounded
-by its maximum step size and its position clamped to its range.
+by its maximum step size (unless the group ignores them, as ``simIK``'s do by default) and its
+position clamped to its range, as coppeliaKinematicsRoutines' ``CIkGroupContainer::computeIk``.
 """
 
 from __future__ import annotations
@@ -179,14 +180,18 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
           targets: dict[int, tuple] | None = None, weights: np.ndarray | None = None,
           margins: np.ndarray | None = None,
           slaves: list[tuple[int, int, int, float, float]] | None = None,
-          frame_of: Callable[[mujoco.MjData, int], tuple] | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
+          frame_of: Callable[[mujoco.MjData, int], tuple] | None = None,
+          bound_steps: bool = True) -> tuple[bool, np.ndarray, np.ndarray]:
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
     ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
     make a joint move more (a larger weight) or less in the weighted least-norm step
     ``W Jᵀ (J W Jᵀ + λ²I)⁻¹ e``; ``margins`` keep each joint that far inside its range.
     ``slaves`` are dependent joints ``(qpos address, dof address, column, offset, mult)``:
     each is put at ``offset + mult * q[column]`` at every iteration, and its motion is part of
-    its column of the Jacobian (CoppeliaSim's linear joint dependencies).
+    its column of the Jacobian (CoppeliaSim's linear joint dependencies). A hinge's step is
+    wrapped into (-pi, pi] (``CikGroup::computeDq``); with ``bound_steps`` a step larger than a
+    joint's ``max_step`` is scaled down whole, as ``CIkGroupContainer::computeIk`` interpolates
+    the target unless the group has ``simIK.group_ignoremaxsteps``.
 
     Args:
         world: the world.
@@ -203,6 +208,8 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         margins: see above (rad or m).
         slaves: see above.
         frame_of: see :func:`errors`.
+        bound_steps: scale steps down to ``max_step`` (False: the group ignores max step sizes,
+            CoppeliaSim's default for ``simIK.createGroup``).
 
     Returns:
         ``(ok, q, error)``: whether every element is within precision, the positions reached
@@ -212,6 +219,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     qadr = np.array([world.model.jnt_qposadr[world.get(h).mj_id] for h in joints], int)
     dadr = np.array([world.model.jnt_dofadr[world.get(h).mj_id] for h in joints], int)
     jid = [world.get(h).mj_id for h in joints]
+    hinge = np.array([int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE for j in jid], bool)
     limited = np.array([bool(m.jnt_limited[j]) for j in jid])
     low = np.where(limited, [m.jnt_range[j][0] for j in jid], -np.inf)
     high = np.where(limited, [m.jnt_range[j][1] for j in jid], np.inf)
@@ -242,8 +250,9 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         else:
             lam2 = damping * damping if method == METHOD_DLS else 1e-10
             dq = w * (jac.T @ np.linalg.solve((jac * w) @ jac.T + lam2 * np.eye(len(e)), e))
-        scale = np.max(np.abs(dq) / max_step) if len(dq) else 0.0
+        scale = np.max(np.abs(dq) / max_step) if bound_steps and len(dq) else 0.0
         if scale > 1:
             dq = dq / scale
+        dq = np.where(hinge, np.arctan2(np.sin(dq), np.cos(dq)), dq)
         q = np.clip(q + dq, low, high)
     return False, q, e
