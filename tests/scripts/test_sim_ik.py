@@ -158,3 +158,32 @@ def test_a_new_group_is_coppeliasims_and_ignores_max_step_sizes(rig):
     assert largest_step(ik.group_enabled | ik.group_ignoremaxsteps) > math.radians(10) + 1e-3
     assert largest_step(ik.group_enabled) <= math.radians(10) + 1e-9
 
+
+def test_synced_group_sets_positions_while_stopped_and_targets_once_the_physics_runs(rig):
+    """simIK.lua's ``syncToSim``: a joint in dynamic mode that ``sim.isDynamicallyEnabled`` gets
+    the solution as its target position, any other as its position. CoppeliaSim's engine marks
+    objects dynamically simulated at its first step of a run, so while the simulation is stopped
+    and in the first pass (a ``sysCall_nonSimulation``, a ``sysCall_init``) the arm itself moves."""
+    s, sim, ik = rig
+    env, g, _ = _group(sim, ik)
+    joints = ik.getGroupJoints(env, g)
+    target = sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0] + 0.05, pos[1] - 0.04, pos[2] - 0.03])
+    assert not sim.isDynamicallyEnabled(joints[0])
+    assert ik.handleGroup(env, g, {"syncWorlds": True})[0] == ik.result_success
+    assert [sim.getJointPosition(j) for j in joints] == pytest.approx([ik.getJointPosition(env, j) for j in joints])
+    s.start()
+    assert not sim.isDynamicallyEnabled(joints[0])  # the first pass, before the physics' first step
+    s.step()
+    assert sim.isDynamicallyEnabled(joints[0])
+    before = [sim.getJointPosition(j) for j in joints]
+    sim.setObjectPosition(target, -1, [pos[0] - 0.03, pos[1] + 0.04, pos[2]])
+    assert ik.handleGroup(env, g, {"syncWorlds": True})[0] == ik.result_success
+    solution = [ik.getJointPosition(env, j) for j in joints]
+    assert [sim.getJointTargetPosition(j) for j in joints] == pytest.approx(solution)
+    assert [sim.getJointPosition(j) for j in joints] == pytest.approx(before, abs=1e-3)  # the motors move them
+    assert max(abs(a - b) for a, b in zip(solution, before)) > 0.02
+    for _ in range(40):
+        s.step()
+    assert [sim.getJointPosition(j) for j in joints] == pytest.approx(solution, abs=0.01)

@@ -9,9 +9,10 @@ between each element's base and tip that are in ``simIK.jointmode_ik``. The solv
 :mod:`simx_server.sim.ik_solver` (MuJoCo's Jacobians, as the scene's own IK groups).
 
 ``handleGroup(env, group, {syncWorlds = true})`` reads the scene's joint positions into the
-environment, solves, and writes the result back: a joint with a motor gets it as its target
-position (physics follows at the next step, as V-REP's IK in a dynamic scene), one without as
-its position. A new group ignores the joints' max step sizes, as CoppeliaSim's
+environment, solves, and writes the result back: while the physics runs, a joint with a motor
+gets it as its target position (physics follows at the next step, as V-REP's IK in a dynamic
+scene), one without as its position; while the simulation is stopped every joint gets it as its
+position (:func:`write_scene`). A new group ignores the joints' max step sizes, as CoppeliaSim's
 (``CikGroup``: ``group_enabled | group_ignoremaxsteps``, 3 iterations). Without ``syncWorlds`` the result stays in the environment (``getJointPosition``,
 ``syncToSim``). The scene's own IK groups (``simx:ik:NAME``) are groups of every environment
 too, under their names and handles: ``handleGroup`` on one solves it as ``sim.handleIkGroup``.
@@ -29,6 +30,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simik_function
+from simx_server.api.sim.engine import dynamics_running
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base.arguments import quote
 from simx_server.sim import ik_solver as S
@@ -243,9 +245,14 @@ def with_slaves(ctx: CallContext, env: Environment, joints: list[int], q: Any) -
 
 
 def write_scene(ctx: CallContext, joints: list[int], q: Any) -> None:
+    """``simIK.syncToSim``: a joint in dynamic mode (with a motor) gets ``q`` as its target
+    position while the physics engine simulates it, any other joint (and every joint while the
+    simulation is stopped, or in its first pass) as its position (simIK.lua's ``syncToSim``:
+    ``sim.isDynamicallyEnabled``)."""
     w = ctx.world
+    dynamic = dynamics_running(ctx)
     for j, v in zip(joints, q):
-        if j in w.motor_index:
+        if dynamic and j in w.motor_index:
             try:
                 w.set_joint_target_position(j, float(v))
                 continue
