@@ -28,6 +28,8 @@ _SITES = SITES  # objects that are MuJoCo sites
 
 METHOD_PSEUDO_INVERSE, METHOD_DLS, METHOD_TRANSPOSE, METHOD_UNDAMPED = 0, 1, 2, 3
 CONSTRAINT_POSITION, CONSTRAINT_ALPHA_BETA, CONSTRAINT_GAMMA = 7, 8, 16
+#: CoppeliaSim's joint displacement for its numeric Jacobian (rad or m; ``CikElement``).
+FD_STEP = 0.01
 
 
 @dataclasses.dataclass
@@ -191,7 +193,11 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     its column of the Jacobian (CoppeliaSim's linear joint dependencies). A hinge's step is
     wrapped into (-pi, pi] (``CikGroup::computeDq``); with ``bound_steps`` a step larger than a
     joint's ``max_step`` is scaled down whole, as ``CIkGroupContainer::computeIk`` interpolates
-    the target unless the group has ``simIK.group_ignoremaxsteps``.
+    the target unless the group has ``simIK.group_ignoremaxsteps``. A limited joint within
+    ``FD_STEP`` of its upper limit moves the tip less in the Jacobian, not at all at the limit:
+    CoppeliaSim differentiates by moving each joint ``FD_STEP`` up through ``CJoint::setPosition``,
+    which clamps it to its range (``CikElement::_getNakedJacobian``), so that such a joint
+    stays at its upper limit.
 
     Args:
         world: the world.
@@ -223,6 +229,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     limited = np.array([bool(m.jnt_limited[j]) for j in jid])
     low = np.where(limited, [m.jnt_range[j][0] for j in jid], -np.inf)
     high = np.where(limited, [m.jnt_range[j][1] for j in jid], np.inf)
+    top = high.copy()  # the range's upper end, before margins: the Jacobian's clamp
     if margins is not None:  # an unlimited joint's bounds stay infinite (their middle is NaN)
         mid = np.where(limited, (np.where(limited, low, 0) + np.where(limited, high, 0)) / 2, 0.0)
         low = np.where(limited, np.minimum(low + margins, mid), low)
@@ -244,7 +251,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         e, rows, ok = errors(world, scratch, elements, targets, frame_of)
         if ok or it == iterations or not len(joints):
             return ok, q, e
-        jac = jacobian(world, scratch, rows, dadr, columns)
+        jac = jacobian(world, scratch, rows, dadr, columns) * np.clip((top - q) / FD_STEP, 0.0, 1.0)
         if method == METHOD_TRANSPOSE:
             dq = w * (jac.T @ e)
         else:
