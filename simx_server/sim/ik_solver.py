@@ -9,7 +9,8 @@ shape) onto a target (a dummy, or an explicit pose) under constraints (CoppeliaS
 groups): the stacked, weighted error of the elements' constrained rows, the Jacobian of the
 group's joints (``mj_jacSite`` / ``mj_jacBody``), and a step by the group's method (damped least
 squares ``Jᵀ(JJᵀ + λ²I)⁻¹e``, pseudo-inverse, Jacobian transpose), each joint's step bounded
-by its maximum step size and its position clamped to its range.
+by its maximum step size (unless the group ignores them, as ``simIK``'s do by default) and its
+position clamped to its range, as coppeliaKinematicsRoutines' ``CIkGroupContainer::computeIk``.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ _SITES = SITES  # objects that are MuJoCo sites
 
 METHOD_PSEUDO_INVERSE, METHOD_DLS, METHOD_TRANSPOSE, METHOD_UNDAMPED = 0, 1, 2, 3
 CONSTRAINT_POSITION, CONSTRAINT_ALPHA_BETA, CONSTRAINT_GAMMA = 7, 8, 16
+#: CoppeliaSim's joint displacement for its numeric Jacobian (rad or m; ``CikElement``).
+FD_STEP = 0.01
 
 
 @dataclasses.dataclass
@@ -179,14 +182,22 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
           targets: dict[int, tuple] | None = None, weights: np.ndarray | None = None,
           margins: np.ndarray | None = None,
           slaves: list[tuple[int, int, int, float, float]] | None = None,
-          frame_of: Callable[[mujoco.MjData, int], tuple] | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
+          frame_of: Callable[[mujoco.MjData, int], tuple] | None = None,
+          bound_steps: bool = True) -> tuple[bool, np.ndarray, np.ndarray]:
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
     ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
     make a joint move more (a larger weight) or less in the weighted least-norm step
     ``W Jᵀ (J W Jᵀ + λ²I)⁻¹ e``; ``margins`` keep each joint that far inside its range.
     ``slaves`` are dependent joints ``(qpos address, dof address, column, offset, mult)``:
     each is put at ``offset + mult * q[column]`` at every iteration, and its motion is part of
-    its column of the Jacobian (CoppeliaSim's linear joint dependencies).
+    its column of the Jacobian (CoppeliaSim's linear joint dependencies). A hinge's step is
+    wrapped into (-pi, pi] (``CikGroup::computeDq``); with ``bound_steps`` a step larger than a
+    joint's ``max_step`` is scaled down whole, as ``CIkGroupContainer::computeIk`` interpolates
+    the target unless the group has ``simIK.group_ignoremaxsteps``. A limited joint within
+    ``FD_STEP`` of its upper limit moves the tip less in the Jacobian, not at all at the limit:
+    CoppeliaSim differentiates by moving each joint ``FD_STEP`` up through ``CJoint::setPosition``,
+    which clamps it to its range (``CikElement::_getNakedJacobian``), so that such a joint
+    stays at its upper limit.
 
     Args:
         world: the world.
@@ -203,6 +214,8 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         margins: see above (rad or m).
         slaves: see above.
         frame_of: see :func:`errors`.
+        bound_steps: scale steps down to ``max_step`` (False: the group ignores max step sizes,
+            CoppeliaSim's default for ``simIK.createGroup``).
 
     Returns:
         ``(ok, q, error)``: whether every element is within precision, the positions reached
@@ -212,9 +225,11 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     qadr = np.array([world.model.jnt_qposadr[world.get(h).mj_id] for h in joints], int)
     dadr = np.array([world.model.jnt_dofadr[world.get(h).mj_id] for h in joints], int)
     jid = [world.get(h).mj_id for h in joints]
+    hinge = np.array([int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE for j in jid], bool)
     limited = np.array([bool(m.jnt_limited[j]) for j in jid])
     low = np.where(limited, [m.jnt_range[j][0] for j in jid], -np.inf)
     high = np.where(limited, [m.jnt_range[j][1] for j in jid], np.inf)
+    top = high.copy()  # the range's upper end, before margins: the Jacobian's clamp
     if margins is not None:  # an unlimited joint's bounds stay infinite (their middle is NaN)
         mid = np.where(limited, (np.where(limited, low, 0) + np.where(limited, high, 0)) / 2, 0.0)
         low = np.where(limited, np.minimum(low + margins, mid), low)
@@ -236,14 +251,15 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         e, rows, ok = errors(world, scratch, elements, targets, frame_of)
         if ok or it == iterations or not len(joints):
             return ok, q, e
-        jac = jacobian(world, scratch, rows, dadr, columns)
+        jac = jacobian(world, scratch, rows, dadr, columns) * np.clip((top - q) / FD_STEP, 0.0, 1.0)
         if method == METHOD_TRANSPOSE:
             dq = w * (jac.T @ e)
         else:
             lam2 = damping * damping if method == METHOD_DLS else 1e-10
             dq = w * (jac.T @ np.linalg.solve((jac * w) @ jac.T + lam2 * np.eye(len(e)), e))
-        scale = np.max(np.abs(dq) / max_step) if len(dq) else 0.0
+        scale = np.max(np.abs(dq) / max_step) if bound_steps and len(dq) else 0.0
         if scale > 1:
             dq = dq / scale
+        dq = np.where(hinge, np.arctan2(np.sin(dq), np.cos(dq)), dq)
         q = np.clip(q + dq, low, high)
     return False, q, e

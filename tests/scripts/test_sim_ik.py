@@ -4,6 +4,8 @@ one facade that serves scripts and ZMQ clients."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from conftest import ROOT
@@ -127,3 +129,61 @@ def test_alternate_configs_of_the_environment_match_the_scenes(rig):
     configs = [tuple(flat[i:i + 2]) for i in range(0, len(flat), 2)]
     assert sorted(round(a, 6) for a, _ in configs) == [round(0.5 + 2 * 3.141592653589793 * k, 6) for k in (-1, 0, 1)]
     assert {round(b, 9) for _, b in configs} == {-0.25}
+
+
+def test_a_new_group_is_coppeliasims_and_ignores_max_step_sizes(rig):
+    """``simIK.createGroup`` gives CoppeliaSim's ``CikGroup``: pseudo-inverse, damping 0.1, 3
+    iterations, ``group_enabled | group_ignoremaxsteps``; so one iteration may turn a joint more
+    than its max step size (10 degrees), and without that flag it may not."""
+    _, sim, ik = rig
+    env = ik.createEnvironment()
+    fresh = ik.createGroup(env)
+    assert ik.getGroupCalculation(env, fresh) == (ik.method_pseudo_inverse, 0.1, 3)
+    env, g, _ = _group(sim, ik)
+    assert ik.getGroupFlags(env, g) == ik.group_enabled | ik.group_ignoremaxsteps
+    ik.setGroupCalculation(env, g, ik.method_damped_least_squares, 0.05, 1)
+    target = sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0] + 0.15, pos[1] - 0.15, pos[2] - 0.1])
+    joints = ik.getGroupJoints(env, g)
+    start = [ik.getJointPosition(env, j) for j in joints]
+
+    def largest_step(flags):
+        for j, q in zip(joints, start):
+            ik.setJointPosition(env, j, q)
+        ik.setGroupFlags(env, g, flags)
+        ik.handleGroup(env, g)  # the environment only: one iteration
+        return max(abs(ik.getJointPosition(env, j) - q) for j, q in zip(joints, start))
+
+    assert largest_step(ik.group_enabled | ik.group_ignoremaxsteps) > math.radians(10) + 1e-3
+    assert largest_step(ik.group_enabled) <= math.radians(10) + 1e-9
+
+
+def test_synced_group_sets_positions_while_stopped_and_targets_once_the_physics_runs(rig):
+    """simIK.lua's ``syncToSim``: a joint in dynamic mode that ``sim.isDynamicallyEnabled`` gets
+    the solution as its target position, any other as its position. CoppeliaSim's engine marks
+    objects dynamically simulated at its first step of a run, so while the simulation is stopped
+    and in the first pass (a ``sysCall_nonSimulation``, a ``sysCall_init``) the arm itself moves."""
+    s, sim, ik = rig
+    env, g, _ = _group(sim, ik)
+    joints = ik.getGroupJoints(env, g)
+    target = sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0] + 0.05, pos[1] - 0.04, pos[2] - 0.03])
+    assert not sim.isDynamicallyEnabled(joints[0])
+    assert ik.handleGroup(env, g, {"syncWorlds": True})[0] == ik.result_success
+    assert [sim.getJointPosition(j) for j in joints] == pytest.approx([ik.getJointPosition(env, j) for j in joints])
+    s.start()
+    assert not sim.isDynamicallyEnabled(joints[0])  # the first pass, before the physics' first step
+    s.step()
+    assert sim.isDynamicallyEnabled(joints[0])
+    before = [sim.getJointPosition(j) for j in joints]
+    sim.setObjectPosition(target, -1, [pos[0] - 0.03, pos[1] + 0.04, pos[2]])
+    assert ik.handleGroup(env, g, {"syncWorlds": True})[0] == ik.result_success
+    solution = [ik.getJointPosition(env, j) for j in joints]
+    assert [sim.getJointTargetPosition(j) for j in joints] == pytest.approx(solution)
+    assert [sim.getJointPosition(j) for j in joints] == pytest.approx(before, abs=1e-3)  # the motors move them
+    assert max(abs(a - b) for a, b in zip(solution, before)) > 0.02
+    for _ in range(40):
+        s.step()
+    assert [sim.getJointPosition(j) for j in joints] == pytest.approx(solution, abs=0.01)

@@ -21,6 +21,7 @@ from simx_server.api.registry import SIM, sim_function
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim.objects import JOINT, SHAPE
+from simx_server.sim.state import RunState
 from simx_wire.protocol import ObjectTypeError
 
 #: ``sim.mujoco_global_*`` id -> (mjOption field, index or None, kind).
@@ -209,10 +210,24 @@ def setEngineBoolParam(ctx: CallContext, paramId: Any, objectHandle: Any, boolPa
     _set_opt(ctx, *_engine(ctx, "setEngineBoolParam", paramId, objectHandle, "bool"), bool(boolParam))
 
 
+def dynamics_running(ctx: CallContext) -> bool:
+    """Whether the physics engine simulates the scene now: the simulation runs (or is paused)
+    and its first step is done (True for a script without a simulation). CoppeliaSim's objects
+    are marked dynamically simulated by the engine's first ``sim.handleDynamics`` of a run
+    (simDyn ``CRigidBodyContainerDyn_base``, after the first pass's actuation scripts) and
+    unmarked when it ends (``CSceneObject::simulationEnded``)."""
+    view = ctx.view
+    if view is None:
+        return True
+    return view.state is not RunState.STOPPED and ctx.world.data.time > 0
+
+
 @sim_function("isDynamicallyEnabled")
 def isDynamicallyEnabled(ctx: CallContext, objectHandle: Any) -> bool:  # noqa: N802, N803
-    """Whether MuJoCo simulates the object's dynamics: a shape not welded to the world, a
-    joint; other objects follow their body.
+    """Whether MuJoCo simulates the object's dynamics now (:func:`dynamics_running`): a shape
+    not welded to the world, a joint in dynamic mode (one with a motor); other objects follow
+    their body. False while the simulation is stopped, as CoppeliaSim's
+    ``simIsDynamicallyEnabled_internal``.
 
     ``sim.isDynamicallyEnabled``.
 
@@ -226,8 +241,10 @@ def isDynamicallyEnabled(ctx: CallContext, objectHandle: Any) -> bool:  # noqa: 
         UnknownObjectError: no such object.
     """
     obj = ctx.world.get(ctx.h(objectHandle))
+    if not dynamics_running(ctx):
+        return False
     if obj.type == JOINT:
-        return True
+        return obj.handle in ctx.world.motor_index
     return obj.type == SHAPE and int(ctx.world.model.body_weldid[obj.mj_id]) != 0
 
 

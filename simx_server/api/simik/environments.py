@@ -9,9 +9,11 @@ between each element's base and tip that are in ``simIK.jointmode_ik``. The solv
 :mod:`simx_server.sim.ik_solver` (MuJoCo's Jacobians, as the scene's own IK groups).
 
 ``handleGroup(env, group, {syncWorlds = true})`` reads the scene's joint positions into the
-environment, solves, and writes the result back: a joint with a motor gets it as its target
-position (physics follows at the next step, as V-REP's IK in a dynamic scene), one without as
-its position. Without ``syncWorlds`` the result stays in the environment (``getJointPosition``,
+environment, solves, and writes the result back: while the physics runs, a joint with a motor
+gets it as its target position (physics follows at the next step, as V-REP's IK in a dynamic
+scene), one without as its position; while the simulation is stopped every joint gets it as its
+position (:func:`write_scene`). A new group ignores the joints' max step sizes, as CoppeliaSim's
+(``CikGroup``: ``group_enabled | group_ignoremaxsteps``, 3 iterations). Without ``syncWorlds`` the result stays in the environment (``getJointPosition``,
 ``syncToSim``). The scene's own IK groups (``simx:ik:NAME``) are groups of every environment
 too, under their names and handles: ``handleGroup`` on one solves it as ``sim.handleIkGroup``.
 """
@@ -28,6 +30,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simik_function
+from simx_server.api.sim.engine import dynamics_running
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base.arguments import quote
 from simx_server.sim import ik_solver as S
@@ -41,6 +44,8 @@ CONSTANTS: dict[str, int] = json.loads((Path(__file__).resolve().parents[2] / "z
 RESULT_NOT_PERFORMED, RESULT_SUCCESS, RESULT_FAIL = 0, 1, 2
 HANDLE_PARENT = CONSTANTS["handle_parent"]
 JOINTMODE_PASSIVE, JOINTMODE_IK = 0, 2
+GROUP_ENABLED, GROUP_IGNOREMAXSTEPS = 1, 2  # simIK.group_* bits
+PRECISION = (0.0005, np.radians(0.1))  # a new element's linear (m) and angular (rad), CikElement's
 _FIRST_GROUP = 1000  # created groups' handles (the scene's groups keep theirs, from 1)
 MAX_ENVIRONMENTS, MAX_GROUPS, MAX_ITERATIONS = 64, 256, 1000
 
@@ -52,8 +57,8 @@ class Group:
     elements: list = dataclasses.field(default_factory=list)
     method: int = S.METHOD_PSEUDO_INVERSE
     damping: float = 0.1
-    iterations: int = 6
-    flags: int = 1  # simIK.group_enabled
+    iterations: int = 3
+    flags: int = 3  # simIK.group_enabled | group_ignoremaxsteps (CikGroup's defaults)
     failure: str = ""
 
 
@@ -227,7 +232,8 @@ def solve(ctx: CallContext, env: Environment, g: Group, targets: dict | None = N
     margins = np.array([env.margin.get(j, 0.0) for j in joints])
     ok, q, _ = S.solve(ctx.world, d, joints, q, g.elements, g.method, g.damping,
                        g.iterations if iterations is None else iterations, steps, targets, weights, margins,
-                       slaves_of(ctx, env, joints), lambda data, h: frame(ctx, env, data, h))
+                       slaves_of(ctx, env, joints), lambda data, h: frame(ctx, env, data, h),
+                       bound_steps=not g.flags & GROUP_IGNOREMAXSTEPS)
     return ok, joints, q
 
 
@@ -239,9 +245,14 @@ def with_slaves(ctx: CallContext, env: Environment, joints: list[int], q: Any) -
 
 
 def write_scene(ctx: CallContext, joints: list[int], q: Any) -> None:
+    """``simIK.syncToSim``: a joint in dynamic mode (with a motor) gets ``q`` as its target
+    position while the physics engine simulates it, any other joint (and every joint while the
+    simulation is stopped, or in its first pass) as its position (simIK.lua's ``syncToSim``:
+    ``sim.isDynamicallyEnabled``)."""
     w = ctx.world
+    dynamic = dynamics_running(ctx)
     for j, v in zip(joints, q):
-        if j in w.motor_index:
+        if dynamic and j in w.motor_index:
             try:
                 w.set_joint_target_position(j, float(v))
                 continue
@@ -279,7 +290,8 @@ def duplicateEnvironment(ctx: CallContext, environmentHandle: Any) -> int:  # no
 
 @simik_function("createGroup")
 def createGroup(ctx: CallContext, environmentHandle: Any, ikGroupName: Any = "") -> int:  # noqa: N802, N803
-    """A new group (pseudo-inverse, 6 iterations, enabled); its handle."""
+    """A new group (pseudo-inverse, 3 iterations, ``group_enabled | group_ignoremaxsteps``, as
+    CoppeliaSim's ``CikGroup``); its handle."""
     env = env_of(ctx, environmentHandle)
     if len(env.groups) >= MAX_GROUPS:
         raise ArgumentError(f"at most {MAX_GROUPS} IK groups per environment")
@@ -327,7 +339,8 @@ def getGroupCalculation(ctx: CallContext, environmentHandle: Any, ikGroupHandle:
 
 @simik_function("setGroupFlags")
 def setGroupFlags(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, flags: Any) -> None:  # noqa: N802, N803
-    """``simIK.group_enabled`` (bit 0); the other bits are kept (simx's solver always bounds steps)."""
+    """``simIK.group_enabled`` (bit 0) and ``group_ignoremaxsteps`` (bit 1, set: each iteration's
+    step is not scaled down to the joints' max step sizes); the other bits are kept, unused."""
     group_of(ctx, env_of(ctx, environmentHandle), ikGroupHandle).flags = _int(flags, "flags")
 
 
@@ -378,7 +391,7 @@ def addElementFromScene(ctx: CallContext, environmentHandle: Any, ikGroup: Any, 
                                                   (targetHandle, "targetHandle")))
     for h in (tip, target) + ((base,) if base != WORLD else ()):
         w.get(h)
-    el = S.Element(env.next_element, tip, target, base, _int(constraints, "constraints"))
+    el = S.Element(env.next_element, tip, target, base, _int(constraints, "constraints"), precision=PRECISION)
     env.next_element += 1
     g.elements.append(el)
     objects = [h for h in (base, tip, target) if h != WORLD] + S.chain(w, tip, base)
@@ -396,7 +409,7 @@ def addElement(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, tip
     tip = object_of(ctx, env, tipDummyHandle, "tipDummyHandle")
     if tip not in env.dummies:
         tip = ctx.world.get(tip, DUMMY).handle
-    el = S.Element(env.next_element, tip, -1)
+    el = S.Element(env.next_element, tip, -1, precision=PRECISION)
     env.next_element += 1
     group_of(ctx, env, ikGroupHandle).elements.append(el)
     return el.handle

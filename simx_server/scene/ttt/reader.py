@@ -244,9 +244,12 @@ def _read_joint(r: Records) -> JointData:
             if master >= 0:
                 j.dependency = (master, mult, off)
             break
-    ulv = r.floats(None, "Ulv", 1)
-    if ulv is not None:
-        j.max_velocity = float(ulv[0])
+    for tag, payload in r:  # in file order, as CJoint::serialize loads them: the last one counts
+        if tag in ("_uc", "Ruc") and len(payload) >= (8 if tag == "_uc" else 4):  # 4.4+: _maxVelAccelJerk
+            j.max_velocity = float(np.frombuffer(payload[:8], "<f8")[0] if tag == "_uc" else
+                                   np.frombuffer(payload[:4], "<f4")[0])
+        elif tag == "Ulv" and len(payload) >= 4 and (j.mode == 5 or va9 & 64):  # <= 4.3, dynamic or hybrid
+            j.max_velocity = float(np.frombuffer(payload[:4], "<f4")[0])
     if r.get("Dcm") is not None:
         j.control_mode = r.int("Dcm")
         j.motor = j.control_mode != 0

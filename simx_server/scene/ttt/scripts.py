@@ -46,7 +46,7 @@ def write_scripts(conv) -> None:
              and scene.objects[s.object].kind != "script"}
     for script in scene.scripts:
         if script.type == MAIN:
-            if script.text and "-- This is the main script" not in script.text[:200]:
+            if script.text and not is_default_main_script(script.text):
                 conv.report.add("customized main scripts (simx runs its own main loop)")
             continue
         if script.type not in (CHILD, CUSTOMIZATION):
@@ -83,6 +83,21 @@ def write_scripts(conv) -> None:
         if not any(i.startswith("vrep_version=") for i in conv.settings.get(obj.name, [])):
             items.append(f"vrep_version={scene.program_version}")
         conv.setting(obj.name, *items)
+
+
+#: The code of CoppeliaSim 4.x's default main script (coppeliaSimLib ``DEFAULT_MAINSCRIPT_CODE``:
+#: a comment, then ``require('defaultMainScript')``), spelled any way Lua allows.
+_DEFAULT_MAIN = re.compile(r"""require\s*\(?\s*(['"])defaultMainScript\1\s*\)?""")
+
+
+def is_default_main_script(text: str) -> bool:
+    """Whether a main script is V-REP's or CoppeliaSim's default one: V-REP 3.x's full text
+    (``-- This is the main script``), or 4.x's ``require('defaultMainScript')`` with nothing but
+    comments and a ``--lua`` line around it."""
+    if "-- This is the main script" in text[:200]:
+        return True
+    code = "\n".join(line for line in (raw.split("--", 1)[0].strip() for raw in text.splitlines()) if line)
+    return _DEFAULT_MAIN.fullmatch(code) is not None
 
 
 def parameter_json(parameter: dict) -> dict:

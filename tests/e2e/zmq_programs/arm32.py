@@ -23,6 +23,9 @@ link2, obstacle, eye = sim.getObject('/link2'), sim.getObject('/obstacle'), sim.
 env = simIK.createEnvironment()
 group = simIK.createGroup(env)
 simIK.setGroupCalculation(env, group, simIK.method_damped_least_squares, 0.05, 100)
+# CoppeliaSim's groups ignore the joints' max step sizes by default: with damping 0.05 the reach's
+# first steps would leap both joints to their upper limits, where simIK leaves them; bound them
+simIK.setGroupFlags(env, group, simIK.group_enabled)
 simIK.addElementFromScene(env, group, base, tip, target, simIK.constraint_x | simIK.constraint_y)
 
 sim.setStepping(True)

@@ -207,3 +207,44 @@ def test_ik_group_explicit_handling_is_var_bit_6(tmp_path):
         f = tmp_path / f"ik{explicit}.ttt"
         f.write_bytes(W.ttt_file(body + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit)))
         assert reader.read(f).ik_groups[0].explicit is explicit
+
+
+def test_joint_max_velocity_is_the_last_saved_of_4_4s_and_4_3s(tmp_path):
+    """CoppeliaSim 4.4+ saves a joint's max velocity, acceleration and jerk (``_uc``, doubles;
+    ``Ruc``, floats) and reads 4.3's upper velocity limit (``Ulv``) only for a dynamic joint;
+    ``CJoint::serialize`` loads them in file order, the last one counts. The position loop
+    runs no faster than that velocity (the UR3 of issue 50: 180 deg/s for joints 1-3, 360 for 4-6)."""
+    import struct
+
+    def arm(h, name, x, **kw):
+        return (W.cuboid_shape(h, -1, f"{name}_base", (0.1, 0.1, 0.1), (x, 0, 0.05), dynamic=False)
+                + W.joint(h + 1, h, name, (0, 0, 0.1), **kw)
+                + W.cuboid_shape(h + 2, h + 1, f"{name}_link", (0.3, 0.05, 0.05), (0.15, 0, 0), mass=0.2))
+
+    uc = W.rec("_uc", struct.pack("<3d", 6.25, 12.5, 25.0))
+    body = (arm(1, "Wrist", 0.0, extra=uc)  # written after Ulv (2.0): 4.4's value counts
+            + arm(4, "Old", 1.0)  # Ulv only: 4.3's value
+            + arm(7, "Ruc", 2.0, extra=W.rec("Ruc", W.f32(4.0, 8.0, 16.0))))
+    f = tmp_path / "joints.ttt"
+    f.write_bytes(W.ttt_file(body, serialization=25, program=41000))
+    velocities = {o.name: o.data.max_velocity for o in reader.read(f).objects.values() if o.kind == "joint"}
+    assert velocities == {"Wrist": 6.25, "Old": 2.0, "Ruc": 4.0}
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "joints")
+    assert _settings(xml)["simx:Wrist"] == "mode=position max_velocity=6.25"
+
+
+@pytest.mark.parametrize("text, customized", [
+    ("-- The main script is not supposed to be modified, except in special cases.\nrequire('defaultMainScript')", False),
+    ("--lua\n\nrequire 'defaultMainScript'\n", False),
+    ("require('defaultMainScript')\nfunction sysCall_actuation() sim.handleDynamics(0.05) end", True),
+    ("function sysCall_init() end", True),
+])
+def test_a_main_script_is_reported_only_when_not_the_default(tmp_path, text, customized):
+    """CoppeliaSim 4.x saves its default main script as a comment and ``require('defaultMainScript')``
+    (coppeliaSimLib ``DEFAULT_MAINSCRIPT_CODE``); simx runs its own main loop, so only a main
+    script with code of its own is reported as not carried over."""
+    f = tmp_path / "main.ttt"
+    f.write_bytes(W.ttt_file(W.cuboid_shape(1, -1, "Box", (0.1, 0.1, 0.1), (0, 0, 0.05))
+                             + W.script(0, -1, text, kind=0), serialization=25, program=41000))
+    _, report = convert.convert(reader.read(f), tmp_path / "out", "main")
+    assert ("customized main scripts" in " ".join(report.lines())) is customized
