@@ -259,8 +259,18 @@ class Shape(Object):
             texture_options=int(texture.get("options", 0)))
 
     def reorient_bounding_box(self, relative_to: Any = None) -> None:
-        """Aligns the shape's frame with its bounding box (``sim.alignShapeBB``)."""
-        sim.call("relocateShapeFrame", self._handle, [0, 0, 0, 0, 0, 0, 0])
+        """Aligns the shape's bounding box with the world's axes (``relative_to`` None), with
+        ``relative_to``'s, or with its mesh (``relative_to`` the shape itself), then puts its
+        frame at the box's centre, as CoppeliaSim 4.1's ``simReorientShapeBoundingBox``
+        (``sim.alignShapeBB``, then ``sim.relocateShapeFrame``; simx's box lies along the frame)."""
+        if relative_to is None:
+            quaternion = [0.0, 0.0, 0.0, 1.0]
+        elif relative_to.get_handle() == self._handle:
+            quaternion = [0.0, 0.0, 0.0, 0.0]
+        else:
+            quaternion = [float(q) for q in relative_to.get_quaternion()]
+        if sim.call("alignShapeBB", self._handle, [0.0, 0.0, 0.0, *quaternion]):
+            sim.call("relocateShapeFrame", self._handle, [0, 0, 0, 0, 0, 0, 0])
 
     def add_force(self, position: Any, force: Any, reset_force_torque: bool = False) -> None:
         """Adds ``force`` (N, world frame) at ``position`` (m, the shape's frame) for the next step."""
