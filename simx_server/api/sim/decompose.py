@@ -19,7 +19,7 @@ from simx_server.api.registry import sim_function
 from simx_server.api.sim import shapes as _shapes
 from simx_server.base import limits as L
 from simx_server.base.arguments import as_integer as _int, as_number as _num
-from simx_server.sim.spec_tools import _names, vrep_suffix
+from simx_server.sim.spec_tools import _names, solid_mesh, vrep_suffix
 from simx_wire.protocol import ArgumentError, UnsupportedError
 
 #: CoppeliaSim's V-HACD defaults (``CSceneObjectOperations::convexDecompose``'s statics): voxel
@@ -88,7 +88,8 @@ def _hulls(v: np.ndarray, f: np.ndarray, resolution: int, vertices: int) -> list
     vhacdx = _need("vhacdx", "vhacdx", "convexDecompose")
     parts = vhacdx.compute_vhacd(v, f.astype(np.uint32), maxConvexHulls=MAX_HULLS // 4, resolution=resolution,
                                  maxNumVerticesPerCH=vertices)
-    return [(np.asarray(p, float), np.asarray(t, np.int64)) for p, t in parts if len(p) >= 4 and len(t) >= 4]
+    hulls = [solid_mesh(np.asarray(p, float), np.asarray(t, np.int64)) for p, t in parts if len(t)]
+    return [h for h in hulls if h is not None]  # a flat hull gets a back face, a line-like one goes
 
 
 @sim_function("convexDecompose")
@@ -160,6 +161,7 @@ def convexDecompose(ctx: CallContext, shapeHandle: Any, options: Any, intParams:
         for k, (hv, hf) in enumerate(hulls):
             mesh = spec.add_mesh(name=f"{name}_hull{k}" + vrep_suffix({f"{name}_hull{k}"}, taken))
             mesh.uservert, mesh.userface = hv.reshape(-1).tolist(), hf.reshape(-1).tolist()
+            mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL  # thin hulls too (the mass is the shape's)
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=rgba,
                           contype=contact[0], conaffinity=contact[1])
         return lambda: world.resolve(name).handle

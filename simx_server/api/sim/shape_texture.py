@@ -126,7 +126,7 @@ def applyTexture(ctx: CallContext, shapeHandle: Any, textureCoordinates: Any, te
         tex = spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=w, height=h,
                                nchannel=channels)
         tex.data = np.ascontiguousarray(image).tobytes()
-        mat = spec.add_material(name=name + "_material")
+        mat = spec.add_material(name=name + "_material", rgba=rgba)  # the shape's colour, read and shown
         textures = list(mat.textures)
         textures[_RGB] = tex.name
         mat.textures = textures
