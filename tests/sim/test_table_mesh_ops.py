@@ -9,7 +9,7 @@ import pytest
 
 from simx_server.api import client_context
 from simx_server.scene.simulation import Simulation
-from simx_wire.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError, UnsupportedError
 
 
 def l_prism() -> tuple[np.ndarray, np.ndarray]:
@@ -136,3 +136,15 @@ def test_align_shape_bb(sim):
     size = sorted(api.getShapeBB(ell))
     assert size == pytest.approx([0.05, 0.2, 0.2], abs=1e-6)
     assert api.alignShapeBB(api.getObject("/ball"), [0] * 7) == 0  # a pure shape keeps its box
+
+
+def test_convex_decompose_without_vhacdx_names_the_package(sim, tmp_path, monkeypatch):
+    """V-HACD runs in a worker process (simx_server/base/vhacd_worker.py); where it cannot import
+    vhacdx the call says what to install."""
+    _, api = sim
+    shadow = tmp_path / "shadow" / "vhacdx"
+    shadow.mkdir(parents=True)
+    (shadow / "__init__.py").write_text("raise ImportError('no vhacdx here')\n")
+    monkeypatch.setenv("PYTHONPATH", str(shadow.parent))
+    with pytest.raises(UnsupportedError, match="pip install vhacdx"):
+        api.convexDecompose(api.getObject("/ell"), 0, [], [])

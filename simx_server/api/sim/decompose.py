@@ -1,9 +1,9 @@
 """CoppeliaSim 4.1's mesh decimation and convex decomposition (``sim.getDecimatedMesh``,
 ``sim.convexDecompose``) on libraries that do the same work: Fast Quadric Mesh Simplification
 (the ``fast-simplification`` package) where CoppeliaSim calls OpenMesh's decimator, V-HACD (the
-``vhacdx`` package, V-HACD 4) where CoppeliaSim calls HACD or V-HACD 2. Both are imported when
-called; without them the call answers an UnsupportedError that says what to install (``pip
-install simx[pyrep]``). Their results are the libraries' own, not CoppeliaSim's: the same kind
+``vhacdx`` package, V-HACD 4, run in a bounded worker process: it holds the GIL for seconds) where
+CoppeliaSim calls HACD or V-HACD 2. Both are imported when called; without them the call
+answers an UnsupportedError that says what to install (``pip install simx[pyrep]``). Their results are the libraries' own, not CoppeliaSim's: the same kind
 of mesh, not the same triangles.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.api.sim import shapes as _shapes
-from simx_server.base import limits as L
+from simx_server.base import limits as L, vhacd_worker
 from simx_server.base.arguments import as_integer as _int, as_number as _num
 from simx_server.sim.spec_tools import _names, solid_mesh, vrep_suffix
 from simx_wire.protocol import ArgumentError, UnsupportedError
@@ -25,7 +25,7 @@ from simx_wire.protocol import ArgumentError, UnsupportedError
 #: CoppeliaSim's V-HACD defaults (``CSceneObjectOperations::convexDecompose``'s statics): voxel
 #: resolution, vertices per hull; and the bounds simx keeps them within (time and memory).
 VHACD_RESOLUTION, VHACD_MAX_VERTICES = 100_000, 64
-MAX_RESOLUTION, MAX_HULLS = 1_000_000, 256
+MAX_RESOLUTION, MAX_HULLS = 400_000, 64
 #: The parameters of the last decomposition (CoppeliaSim keeps them in statics too: option bit 2
 #: "same as last time").
 _last: dict[str, int] = {"resolution": VHACD_RESOLUTION, "vertices": VHACD_MAX_VERTICES}
@@ -85,9 +85,15 @@ def getDecimatedMesh(ctx: CallContext, verticesIn: Any, indicesIn: Any,  # noqa:
 
 
 def _hulls(v: np.ndarray, f: np.ndarray, resolution: int, vertices: int) -> list[tuple[np.ndarray, np.ndarray]]:
-    vhacdx = _need("vhacdx", "vhacdx", "convexDecompose")
-    parts = vhacdx.compute_vhacd(v, f.astype(np.uint32), maxConvexHulls=MAX_HULLS // 4, resolution=resolution,
-                                 maxNumVerticesPerCH=vertices)
+    """V-HACD's hulls, computed in a bounded worker process (:mod:`simx_server.base.vhacd_worker`:
+    vhacdx holds the GIL for its whole run)."""
+    try:
+        parts = vhacd_worker.decompose(v, f, resolution, vertices, MAX_HULLS)
+    except vhacd_worker.MissingPackageError:
+        raise UnsupportedError("convexDecompose needs the vhacdx package: pip install vhacdx "
+                               "(or simx's pyrep extra)") from None
+    except vhacd_worker.DecompositionError as exc:
+        raise UnsupportedError(f"convexDecompose: {exc}") from None
     hulls = [solid_mesh(np.asarray(p, float), np.asarray(t, np.int64)) for p, t in parts if len(t)]
     return [h for h in hulls if h is not None]  # a flat hull gets a back face, a line-like one goes
 
