@@ -136,3 +136,38 @@ def test_velocity_lock_holds_a_stopped_joint_beyond_its_force(sim):
     assert api.getJointPosition(hinge) > 0.01 or api.getJointPosition(hinge) < -0.01
     simulation.stop()
     assert api.getObjectInt32Param(hinge, api.jointintparam_velocity_lock) == 0  # CJoint::simulationEnded
+
+
+LUA = """
+function sysCall_init()
+  local cube, hinge = sim.getObject('/cube'), sim.getObject('/hinge')
+  sim.setObjectInt32Param(cube, sim.shapeintparam_static, 1)
+  sim.setJointMode(hinge, sim.jointmode_kinematic, 0)
+  sim.setObjectInt32Param(hinge, sim.jointintparam_velocity_lock, 1)
+  local v, i = sim.getDecimatedMesh({0,0,0, 1,0,0, 0,1,0, 1,1,0}, {0,1,2, 1,3,2}, 0.5)
+  triangles = #i // 3
+end
+function report()
+  local hinge = sim.getObject('/hinge')
+  return sim.getObjectInt32Param(sim.getObject('/cube'), sim.shapeintparam_static), sim.getJointMode(hinge),
+         sim.getObjectInt32Param(hinge, sim.jointintparam_velocity_lock), triangles
+end
+"""
+
+
+def test_a_lua_script_reaches_the_same_calls(tmp_path):
+    """The calls live in the table: a child script's ``sim`` has them as the ZMQ door and pyrep do."""
+    (tmp_path / "shelf.lua").write_text(LUA)
+    path = tmp_path / "scene.xml"
+    path.write_text(SCENE.replace('<custom><text name="simx:hinge" data="mode=velocity"/></custom>',
+                                  '<custom><text name="simx:hinge" data="mode=velocity"/>'
+                                  '<text name="simx:shelf" data="child_script=shelf.lua"/></custom>'))
+    simulation = Simulation(path)
+    try:
+        simulation.start()
+        simulation.step()
+        api = client_context(simulation, "test").sim
+        assert api.callScriptFunction("report", api.getScript(api.scripttype_childscript, api.getObject("/shelf"))) \
+            == (1, 0, 1, 1)  # static, kinematic, locked, one triangle of two
+    finally:
+        simulation.close()

@@ -14,7 +14,7 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.base import limits as L
-from simx_server.base.arguments import as_integer
+from simx_server.base.arguments import as_bytes, as_integer
 from simx_server.sim.objects import SHAPE
 from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_wire.protocol import ArgumentError
@@ -71,7 +71,7 @@ def applyTexture(ctx: CallContext, shapeHandle: Any, textureCoordinates: Any, te
     Args:
         shapeHandle: a shape of one mesh geom.
         textureCoordinates: 6t numbers (u, v per triangle corner).
-        texture: the image, w*h*3 (or *4) bytes or integers 0-255, rows first.
+        texture: the image, w*h*3 (or *4) bytes or byte values, rows first.
         textureResolution: ``[w, h]``, pixels.
         options: bits as said.
 
@@ -107,11 +107,10 @@ def applyTexture(ctx: CallContext, shapeHandle: Any, textureCoordinates: Any, te
         raise ArgumentError(f"applyTexture: a resolution of at most {L.MAX_TEXTURE_PIXELS} pixels "
                             "(limits.MAX_TEXTURE_PIXELS)")
     channels = 4 if opts & 16 else 3
-    pixels = np.frombuffer(texture, np.uint8) if isinstance(texture, (bytes, bytearray)) else \
-        np.asarray(texture, dtype=np.int64)
-    if pixels.size != w * h * channels or pixels.min(initial=0) < 0 or pixels.max(initial=0) > 255:
-        raise ArgumentError(f"applyTexture: the texture must be {w}x{h}x{channels} bytes")
-    image = pixels.astype(np.uint8).reshape(h, w, channels)
+    pixels = np.frombuffer(as_bytes(texture, "texture", byte_values=True), np.uint8)
+    if pixels.size != w * h * channels:
+        raise ArgumentError(f"applyTexture: the texture must be {w}x{h}x{channels} bytes, got {pixels.size}")
+    image = pixels.reshape(h, w, channels)
     if opts & 32:
         image = image[:, ::-1]
     if opts & 64:
