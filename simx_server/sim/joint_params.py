@@ -83,7 +83,7 @@ def set_param(world: World, handle: int, pid: int, value: float | int, name: str
     """
     i = world.motor(handle)
     if pid == 2030:
-        world.motors.locked[i] = value != 0
+        world.motors.set_locked(i, value != 0)
     elif pid in INT_PARAMS:
         if value not in (0, 1):
             raise ArgumentError(f"{name}: value must be 0 or 1, got {quote(value)}")

@@ -286,6 +286,7 @@ class Motors:
         #: ``sim_jointintparam_velocity_lock`` per motor; where each locked motor stopped (NaN: not now).
         self.locked = np.zeros(len(self.act), dtype=bool)
         self._lock_q = np.full(len(self.act), np.nan)
+        self._refresh_flags()
         self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
         self._bias = np.zeros(len(self.act))
         self._inertia_at: tuple[float, np.ndarray] = (0.0, np.zeros(0))  # (time, inertia) of this step
@@ -295,10 +296,31 @@ class Motors:
         self.scripted = np.zeros(len(self.act), dtype=bool)
         self.write_force_limits(m)
 
-    @property
-    def kinematic(self) -> bool:
-        """Whether some joint is in a kinematic mode (:mod:`simx_server.sim.kinematic`)."""
-        return bool(len(self.act)) and bool((self.joint_mode != JOINTMODE_FORCE).any())
+    def _refresh_flags(self) -> None:
+        """Note whether any motor is kinematic or locked (read at every step: plain attributes)."""
+        #: Some joint is in a kinematic mode (:mod:`simx_server.sim.kinematic`).
+        self.kinematic = bool((self.joint_mode != JOINTMODE_FORCE).any())
+        self._locking = bool(self.locked.any()) or not bool(np.isnan(self._lock_q).all())
+
+    def set_joint_mode(self, i: int, mode: int) -> None:
+        """Motor ``i``'s joint in CoppeliaSim's mode ``mode`` (JOINTMODE_FORCE, 0 or 2).
+
+        Args:
+            i: a motor number.
+            mode: the mode.
+        """
+        self.joint_mode[i] = mode
+        self._refresh_flags()
+
+    def set_locked(self, i: int, locked: bool) -> None:
+        """``sim_jointintparam_velocity_lock`` of motor ``i``.
+
+        Args:
+            i: a motor number.
+            locked: lock a stopped velocity motor where it stopped.
+        """
+        self.locked[i] = locked
+        self._refresh_flags()
 
     def write_force_limits(self, m: mujoco.MjModel) -> None:
         """Maximum forces (joint units) into the actuators' forcerange (actuator units).
@@ -342,7 +364,7 @@ class Motors:
         if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still
             kv = np.where(velocity_mode & (v == 0), HOLD_KV_FACTOR * kv, kv)
         target = self.target_position
-        if self.locked.any() or not np.isnan(self._lock_q).all():
+        if self._locking:
             target, kp, linear = self._lock(m, q, on & ~self.loop & (v == 0), dt, kp, linear)
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         gain = np.where(linear, kv * kp, kv) / g
@@ -371,6 +393,7 @@ class Motors:
         """
         lock = self.locked & stopped
         self._lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
+        self._locking = bool(self.locked.any()) or bool(lock.any())
         force = np.where(lock, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
         m.actuator_forcerange[self.act, 0], m.actuator_forcerange[self.act, 1] = -force, force
         return (np.where(lock, self._lock_q, self.target_position), np.where(lock, 1.0 / dt, kp), linear | lock)
@@ -447,6 +470,7 @@ class Motors:
         for name in self._STATE:
             arr = getattr(self, name)
             arr[dst] = arr[src]
+        self._refresh_flags()
 
     def state(self, i: int) -> tuple:
         """Everything a program set on motor ``i`` (kept across scene edits).
@@ -468,6 +492,7 @@ class Motors:
         """
         for n, value in zip(self._STATE, state):
             getattr(self, n)[i] = value
+        self._refresh_flags()
 
     _STATE = ("enabled", "loop", "max_velocity", "max_force", "pid_p", "target_position", "target_velocity",
               "joint_mode", "locked")

@@ -424,7 +424,8 @@ class World(Poses, Joints):
         Before the substeps, each joint motor's actuator gets the gain and bias of V-REP's law
         for its mode (free joint, position control toward the target no faster than the upper
         velocity, or velocity control; force limited), see :mod:`simx_server.sim.motors`; the
-        substeps then run in C.
+        substeps then run in C. Joints in a kinematic mode are held where the step finds them and
+        put back there after it (:mod:`simx_server.sim.kinematic`).
 
         Raises:
             physics.PhysicsError: MuJoCo found a NaN, infinite or huge position, velocity or

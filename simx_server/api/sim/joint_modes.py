@@ -124,7 +124,7 @@ def setJointMode(ctx: CallContext, jointHandle: Any, jointMode: Any, options: An
     world = ctx.world
     i = world.motor(obj.handle)
     if mode == JOINTMODE_DYNAMIC:
-        world.motors.joint_mode[i] = mode
+        world.motors.set_joint_mode(i, mode)
         kinematic.release(world, i)
         return
     if mode not in kinematic.KINEMATIC_MODES:
@@ -139,7 +139,7 @@ def setJointMode(ctx: CallContext, jointHandle: Any, jointMode: Any, options: An
         sim.editor._edit(lambda spec: kinematic.add_equalities(spec, names))
         world = ctx.world
         i = world.motor(world.by_name[name].handle)
-    world.motors.joint_mode[i] = mode
+    world.motors.set_joint_mode(i, mode)
 
 
 @sim_function("getJointDependency")
