@@ -163,10 +163,19 @@ class Shape(Object):
                 np.array(normals, dtype=np.float64).reshape(-1, 3))
 
     def decimate_mesh(self, percentage: float) -> Shape:
-        """A new shape with ``percentage`` of this one's triangles (``sim.getDecimatedMesh``)."""
+        """A new shape with about ``percentage`` (0.1-0.9) of this one's triangles, at this one's
+        pose (``sim.getDecimatedMesh``, then ``create_mesh``).
+
+        Raises:
+            ValueError: ``percentage`` outside 0.1-0.9.
+        """
+        if percentage < 0.1 or percentage > 0.9:
+            raise ValueError("percentage param must be between 0.1 and 0.9.")
         vertices, indices = sim.call("getDecimatedMesh", *[v.flatten().tolist() for v in self.get_mesh_data()[:2]],
                                      float(percentage))
-        return Shape.create_mesh(vertices, indices)
+        shape = Shape.create_mesh(vertices, indices)
+        shape.set_matrix(self.get_matrix())
+        return shape
 
     def get_convex_decomposition(self, morph: bool = False, same: bool = False, use_vhacd: bool = False,
                                  individual_meshes: bool = False, hacd_extra_points: bool = True,
@@ -180,11 +189,16 @@ class Shape(Object):
                                  vhacd_max_vertex: int = 64, vhacd_concavity: float = 0.0025,
                                  vhacd_alpha: float = 0.05, vhacd_beta: float = 0.05,
                                  vhacd_gamma: float = 0.00125, vhacd_min_vol: float = 0.0001) -> Shape:
-        """The shape's convex decomposition (``sim.convexDecompose``): a new shape, or this one
-        changed when ``morph``."""
-        options = (1 if morph else 0) | (4 if same else 0) | (128 if use_vhacd else 0)
-        return Shape(int(sim.call("convexDecompose", self._handle, options, [hacd_min_clusters, hacd_tri_target],
-                                  [hacd_max_concavity, hacd_max_dist])))
+        """The shape's convex decomposition (``sim.convexDecompose``, V-HACD in simx): a new
+        shape, or this one changed when ``morph``. Options and parameters as PyRep passes them."""
+        flags = (morph, False, same, hacd_extra_points, hacd_face_points, individual_meshes, False, use_vhacd,
+                 vhacd_pca, vhacd_tetrahedron)
+        options = sum(1 << i for i, on in enumerate(flags) if on)
+        ints = [hacd_min_clusters, hacd_tri_target, hacd_max_vertex, hacd_max_iter, 0, vhacd_res, vhacd_depth,
+                vhacd_plane_downsample, vhacd_hull_downsample, vhacd_max_vertex]
+        floats = [hacd_max_concavity, hacd_max_dist, hacd_cluster_thresh, 0.0, 0.0, vhacd_concavity, vhacd_alpha,
+                  vhacd_beta, vhacd_gamma, vhacd_min_vol]
+        return Shape(int(sim.call("convexDecompose", self._handle, options, ints, [float(f) for f in floats])))
 
     def get_texture(self) -> Texture:
         """The shape's texture (id -1: none)."""
@@ -208,12 +222,22 @@ class Shape(Object):
         return [Shape(int(h)) for h in sim.call("ungroupShape", self._handle)]
 
     def apply_texture(self, texture_coords: np.ndarray, texture: np.ndarray, interpolate: bool = True,
-                      decal_mode: bool = False, is_rgba: bool = False, fake_opacity: bool = False) -> None:
-        """Puts an image on the shape with per-vertex texture coordinates (``sim.applyTexture``)."""
-        options = (0 if interpolate else 1) | (2 if decal_mode else 0) | (8 if is_rgba else 0)
-        resolution = list(np.asarray(texture).shape[1::-1])
-        sim.call("applyTexture", self._handle, np.asarray(texture_coords).flatten().tolist(),
-                 np.asarray(texture, dtype=np.uint8).tobytes(), resolution, options)
+                      decal_mode: bool = False, is_rgba: bool = False, fliph: bool = False,
+                      flipv: bool = False) -> None:
+        """Puts an image on the shape (one mesh) with a (u, v) pair per triangle corner
+        (``sim.applyTexture``): ``texture`` (h, w, 3) RGB or (h, w, 4) RGBA uint8.
+
+        Raises:
+            TypeError: ``texture`` is not a numpy array.
+        """
+        texture_coords = np.asarray(texture_coords)
+        if not isinstance(texture, np.ndarray):
+            raise TypeError("texture must be np.ndarray type")
+        height, width = texture.shape[:2]
+        options = ((0 if interpolate else 1) | (2 if decal_mode else 0) | (16 if is_rgba else 0)
+                   | (32 if fliph else 0) | (64 if flipv else 0))
+        sim.call("applyTexture", self._handle, texture_coords.flatten().tolist(),
+                 np.ascontiguousarray(texture, dtype=np.uint8).tobytes(), [width, height], options)
 
     def get_shape_viz(self, index: int) -> SShapeVizInfo:
         """The ``index``-th visual item: vertices (n, 3), indices (t, 3), normals (3t, 3),
@@ -235,8 +259,18 @@ class Shape(Object):
             texture_options=int(texture.get("options", 0)))
 
     def reorient_bounding_box(self, relative_to: Any = None) -> None:
-        """Aligns the shape's frame with its bounding box (``sim.alignShapeBB``)."""
-        sim.call("relocateShapeFrame", self._handle, [0, 0, 0, 0, 0, 0, 0])
+        """Aligns the shape's bounding box with the world's axes (``relative_to`` None), with
+        ``relative_to``'s, or with its mesh (``relative_to`` the shape itself), then puts its
+        frame at the box's centre, as CoppeliaSim 4.1's ``simReorientShapeBoundingBox``
+        (``sim.alignShapeBB``, then ``sim.relocateShapeFrame``; simx's box lies along the frame)."""
+        if relative_to is None:
+            quaternion = [0.0, 0.0, 0.0, 1.0]
+        elif relative_to.get_handle() == self._handle:
+            quaternion = [0.0, 0.0, 0.0, 0.0]
+        else:
+            quaternion = [float(q) for q in relative_to.get_quaternion()]
+        if sim.call("alignShapeBB", self._handle, [0.0, 0.0, 0.0, *quaternion]):
+            sim.call("relocateShapeFrame", self._handle, [0, 0, 0, 0, 0, 0, 0])
 
     def add_force(self, position: Any, force: Any, reset_force_torque: bool = False) -> None:
         """Adds ``force`` (N, world frame) at ``position`` (m, the shape's frame) for the next step."""

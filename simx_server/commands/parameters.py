@@ -103,7 +103,8 @@ def get_object_int_parameter(sim: Simulation, args: list) -> int:
 
     Supported ids: vision sensors 1002/1003 resolution x/y (pixels), 1017 render mode (0 OpenGL,
     2 colour-coded handles; simx_server.sim.handle_render); joints 2000 motor enabled,
-    2001 control loop enabled (1: position control when the motor is on); shapes
+    2001 control loop enabled (1: position control when the motor is on), 2030 motor locked at
+    zero velocity; shapes
     3003 static (1 when welded to the world), 3004 respondable (1 when a geom has contype or
     conaffinity). Others -> UnsupportedError naming the id.
     """
@@ -119,10 +120,10 @@ def set_object_int_parameter(sim: Simulation, args: list) -> None:
     VisionSensors.set_resolution), 1017 render mode of a vision sensor (0 OpenGL, 2 colour-coded handles; the others
     -> UnsupportedError naming the mode; back to the MJCF's at simulation stop), 2000 motor enabled
     (0: free joint) and 2001 control loop enabled (1: position control, holding the current position when it starts; 0: velocity control) of a joint
-    (simx_server.sim.joint_params.set_param); 3003 static and 3004 respondable of a shape only to the
-    value they have (a scene's script marking an imported shape dynamic and respondable, as
-    V-REP scripts do); another value -> UnsupportedError (fixed when the scene loads). Other
-    ids -> UnsupportedError with the reason.
+    (simx_server.sim.joint_params.set_param), 2030 motor locked at zero velocity; 3003 static
+    (the scene rebuilt with the shape's free joint taken away or added: shapes on joints or grasped
+    -> UnsupportedError) and 3004 respondable (its geoms' contact bits) of a shape
+    (simx_server.sim.shape_dynamics). Other ids -> UnsupportedError with the reason.
     """
     h, pid, value = _args(args, "int", "int", "int")
     set_int_param(sim, h, pid, value)

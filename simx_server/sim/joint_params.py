@@ -1,6 +1,7 @@
 """Joint motors' object parameters (``simxGetObjectIntParameter`` / ``simxSetObjectFloatParameter``
-on a joint): 2000 motor enabled, 2001 control loop enabled, 2002-2004 PID gains, 2017 upper
-velocity, read from and written to the world's :class:`~simx_server.sim.motors.Motors`.
+on a joint): 2000 motor enabled, 2001 control loop enabled, 2030 motor locked at zero velocity,
+2002-2004 PID gains, 2017 upper velocity, read from and written to the world's
+:class:`~simx_server.sim.motors.Motors`.
 """
 
 from __future__ import annotations
@@ -11,8 +12,9 @@ from simx_server.base.arguments import quote
 from simx_server.sim.world import World
 
 #: Joint object parameters this module answers (legacy ids): 2000 motor enabled, 2001 control
-#: loop enabled (ints); 2002-2004 PID gains, 2017 upper velocity (floats).
-INT_PARAMS = {2000, 2001}
+#: loop enabled, 2030 ``sim_jointintparam_velocity_lock`` (ints); 2002-2004 PID gains, 2017 upper
+#: velocity (floats).
+INT_PARAMS = {2000, 2001, 2030}
 FLOAT_PARAMS = {2002, 2003, 2004, 2017}
 FLOAT_SETTABLE = {2002, 2017}
 
@@ -21,7 +23,8 @@ def get_param(world: World, handle: int, pid: int) -> float | int:
     """Value of joint parameter ``pid`` (INT_PARAMS or FLOAT_PARAMS) of joint ``handle``.
 
     2000: 1 when the motor is enabled; 2001: 1 when its position control loop is enabled
-    (V-REP reports the flag whatever the motor); 2002: P gain (V-REP's units: the loop asks
+    (V-REP reports the flag whatever the motor); 2030: 1 when the motor locks its joint where a
+    zero target velocity stopped it (coppeliaSimLib ``CJoint::getMotorLock``); 2002: P gain (V-REP's units: the loop asks
     P * error / 5 ms); 2003/2004: I and D gains, always 0 (simx's loop is proportional);
     2017: upper velocity (rad/s or m/s). 2000/2001 read 0 on a joint without a motor of its
     own (spherical, tendon-driven); the float ids raise ObjectTypeError there.
@@ -32,7 +35,7 @@ def get_param(world: World, handle: int, pid: int) -> float | int:
         pid: a ``sim_jointintparam_*`` / ``sim_jointfloatparam_*`` id (INT_PARAMS, FLOAT_PARAMS).
 
     Returns:
-        An int for 2000/2001, else a float (gains; velocity in rad/s or m/s).
+        An int for 2000/2001/2030, else a float (gains; velocity in rad/s or m/s).
 
     Raises:
         UnknownObjectError: no such object.
@@ -47,6 +50,8 @@ def get_param(world: World, handle: int, pid: int) -> float | int:
         return int(mo.enabled[i])
     if pid == 2001:
         return int(mo.loop[i])
+    if pid == 2030:
+        return int(mo.locked[i])
     if pid == 2002:
         return float(mo.pid_p[i])
     if pid == 2017:
@@ -58,7 +63,8 @@ def set_param(world: World, handle: int, pid: int, value: float | int, name: str
     """Set joint parameter ``pid`` (``name`` is its legacy name, for messages).
 
     2000 / 2001: 0 or 1 (motor on/off, control loop on/off; the targets are kept, as V-REP
-    keeps them); 2002: P gain > 0 and at most limits.MAX_PID_P (V-REP's units; the loop's
+    keeps them); 2030: 0 or 1, lock the joint where a zero target velocity stops it (any
+    nonzero value is 1, as ``CJoint::setMotorLock(parameter != 0)``); 2002: P gain > 0 and at most limits.MAX_PID_P (V-REP's units; the loop's
     gain is P / 5 ms, at most 1/dt); 2017: upper velocity > 0 and at most
     limits.MAX_JOINT_VELOCITY. Others and values out of range: ArgumentError /
     UnsupportedError naming the parameter and quoting the value.
@@ -66,7 +72,7 @@ def set_param(world: World, handle: int, pid: int, value: float | int, name: str
     Args:
         world: the world.
         handle: a joint's handle.
-        pid: 2000, 2001, 2002 or 2017.
+        pid: 2000, 2001, 2030, 2002 or 2017.
         value: the new value (0/1, gain, or velocity in rad/s or m/s).
         name: the parameter's legacy name, for messages.
 
@@ -76,7 +82,9 @@ def set_param(world: World, handle: int, pid: int, value: float | int, name: str
         UnsupportedError: any other id (the I and D gains).
     """
     i = world.motor(handle)
-    if pid in INT_PARAMS:
+    if pid == 2030:
+        world.motors.set_locked(i, value != 0)
+    elif pid in INT_PARAMS:
         if value not in (0, 1):
             raise ArgumentError(f"{name}: value must be 0 or 1, got {quote(value)}")
         world.set_motor_flags(handle, **{("enabled" if pid == 2000 else "loop"): bool(value)})

@@ -33,7 +33,15 @@ step so that the substeps run in C:
 * ``ff`` is the joint's load at the start of the step (MuJoCo's ``qfrc_bias``: gravity and
   Coriolis forces, minus ``qfrc_passive``: the joint's spring, damper and gravity compensation),
   so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
-  constraint-based motors do; everything is clipped to the maximum force.
+  constraint-based motors do; everything is clipped to the maximum force;
+* "lock motor when target velocity is zero" (``sim_jointintparam_velocity_lock``, 2030, off by
+  default): a velocity motor told to stop holds the position where it stopped with no force
+  limit (the position law at gain 1/dt, force range limits.MAX_JOINT_FORCE), as CoppeliaSim's
+  ``CJoint::handleDynJoint`` asks its engine to lock a joint whose ``_motorLock`` is set and
+  whose target velocity is 0;
+* a joint in a kinematic mode (:attr:`Motors.joint_mode` ``sim_jointmode_passive`` 0 or
+  ``sim_jointmode_ik`` 2, :mod:`simx_server.sim.kinematic`) has no motor force: it is held
+  where it is put.
 
 ``kv`` is the servo gain: a ``<velocity>`` actuator keeps its own ``kv`` (the author's choice);
 any other gets ``f * M / h`` with ``M`` the joint's effective inertia now, with the scene's
@@ -87,6 +95,8 @@ HOLD_KV_FACTOR = 300.0
 #: A velocity-mode motor is held back (it gets its whole force, :meth:`Motors._stall_force`) when
 #: it moved, and moves, at less than this fraction of its target velocity: stopped, not slow.
 STALLED = 0.1
+#: CoppeliaSim's ``sim_jointmode_force`` (4.3+: ``sim.jointmode_dynamic``): a joint driven by physics.
+JOINTMODE_FORCE = 5
 
 _JOINT_TRNS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
 _TENDON_TRN = int(mujoco.mjtTrn.mjTRN_TENDON)
@@ -271,6 +281,12 @@ class Motors:
         rest = np.zeros(len(self.act)) if qpos is None else qpos[self.qadr]
         self.target_position = np.where(np.isnan(self.initial_target_position), rest, self.initial_target_position)
         self.target_velocity = self.initial_target_velocity.copy()
+        #: CoppeliaSim's joint mode per motor (JOINTMODE_FORCE, or a kinematic mode: 0 or 2).
+        self.joint_mode = np.full(len(self.act), JOINTMODE_FORCE, dtype=int)
+        #: ``sim_jointintparam_velocity_lock`` per motor; where each locked motor stopped (NaN: not now).
+        self.locked = np.zeros(len(self.act), dtype=bool)
+        self._lock_q = np.full(len(self.act), np.nan)
+        self._refresh_flags()
         self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
         self._bias = np.zeros(len(self.act))
         self._inertia_at: tuple[float, np.ndarray] = (0.0, np.zeros(0))  # (time, inertia) of this step
@@ -279,6 +295,32 @@ class Motors:
         #: Motors a script's joint callback drives (scripts/dynamics.py): its own law, no stall force.
         self.scripted = np.zeros(len(self.act), dtype=bool)
         self.write_force_limits(m)
+
+    def _refresh_flags(self) -> None:
+        """Note whether any motor is kinematic or locked (read at every step: plain attributes)."""
+        #: Some joint is in a kinematic mode (:mod:`simx_server.sim.kinematic`).
+        self.kinematic = bool((self.joint_mode != JOINTMODE_FORCE).any())
+        self._locking = bool(self.locked.any()) or not bool(np.isnan(self._lock_q).all())
+
+    def set_joint_mode(self, i: int, mode: int) -> None:
+        """Motor ``i``'s joint in CoppeliaSim's mode ``mode`` (JOINTMODE_FORCE, 0 or 2).
+
+        Args:
+            i: a motor number.
+            mode: the mode.
+        """
+        self.joint_mode[i] = mode
+        self._refresh_flags()
+
+    def set_locked(self, i: int, locked: bool) -> None:
+        """``sim_jointintparam_velocity_lock`` of motor ``i``.
+
+        Args:
+            i: a motor number.
+            locked: lock a stopped velocity motor where it stopped.
+        """
+        self.locked[i] = locked
+        self._refresh_flags()
 
     def write_force_limits(self, m: mujoco.MjModel) -> None:
         """Maximum forces (joint units) into the actuators' forcerange (actuator units).
@@ -313,20 +355,48 @@ class Motors:
         ff = d.qfrc_bias[dof] - d.qfrc_passive[dof]  # static load, joint springs and dampers
         kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
         err = self.target_position - q
-        on, position = self.enabled, self.enabled & self.loop
+        on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
+        position = on & self.loop
         linear = position & (np.abs(err) * kp <= self.max_velocity)
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
         velocity_mode = on & ~self.loop & (self.own_kv == 0) & ~self.scripted
         ff = ff + self._stall_force(q, d.qvel[dof], v, velocity_mode, float(d.time))
         if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still
             kv = np.where(velocity_mode & (v == 0), HOLD_KV_FACTOR * kv, kv)
+        target = self.target_position
+        if self._locking:
+            target, kp, linear = self._lock(m, q, on & ~self.loop & (v == 0), dt, kp, linear)
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         gain = np.where(linear, kv * kp, kv) / g
         m.actuator_gainprm[act, 0] = np.where(on, gain, 0.0)
         m.actuator_biasprm[act, 0] = np.where(on, ff / g, 0.0)
         m.actuator_biasprm[act, 1] = np.where(linear, -kv * kp / g ** 2, 0.0)
         m.actuator_biasprm[act, 2] = np.where(on, -kv / g ** 2, 0.0)
-        d.ctrl[act] = np.where(linear, self.target_position, np.where(on, v, 0.0))
+        d.ctrl[act] = np.where(linear, target, np.where(on, v, 0.0))
+
+    def _lock(self, m: mujoco.MjModel, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
+              linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The locked motors (``sim_jointintparam_velocity_lock`` on, velocity mode, target 0):
+        each holds the position where it stopped by the position law at gain 1/dt, with no force
+        limit (CoppeliaSim's ``CJoint::handleDynJoint`` returns bit 1, "motor locked", for them).
+
+        Args:
+            m: the model (the locked actuators' force ranges are written).
+            q: (n,) the joints' positions now.
+            stopped: (n,) motors in velocity mode with target 0.
+            dt: the step, s.
+            kp: (n,) the position loops' gains, 1/s.
+            linear: (n,) the motors under the linear position law.
+
+        Returns:
+            ``(target, kp, linear)`` with the locked motors' entries changed.
+        """
+        lock = self.locked & stopped
+        self._lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
+        self._locking = bool(self.locked.any()) or bool(lock.any())
+        force = np.where(lock, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
+        m.actuator_forcerange[self.act, 0], m.actuator_forcerange[self.act, 1] = -force, force
+        return (np.where(lock, self._lock_q, self.target_position), np.where(lock, 1.0 / dt, kp), linear | lock)
 
     def _inertia(self, m: mujoco.MjModel, d: mujoco.MjData, dt: float) -> np.ndarray:
         """The joints' effective inertia through the scene's equalities (a motor closing a loop
@@ -397,9 +467,10 @@ class Motors:
             src: index of a motor.
             dst: index of another motor.
         """
-        for name in ("enabled", "loop", "max_velocity", "max_force", "pid_p", "target_position", "target_velocity"):
+        for name in self._STATE:
             arr = getattr(self, name)
             arr[dst] = arr[src]
+        self._refresh_flags()
 
     def state(self, i: int) -> tuple:
         """Everything a program set on motor ``i`` (kept across scene edits).
@@ -421,5 +492,7 @@ class Motors:
         """
         for n, value in zip(self._STATE, state):
             getattr(self, n)[i] = value
+        self._refresh_flags()
 
-    _STATE = ("enabled", "loop", "max_velocity", "max_force", "pid_p", "target_position", "target_velocity")
+    _STATE = ("enabled", "loop", "max_velocity", "max_force", "pid_p", "target_position", "target_velocity",
+              "joint_mode", "locked")

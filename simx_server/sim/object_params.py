@@ -17,8 +17,8 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
-from simx_server.sim import camera_params, handle_render, joint_params, light_params, physics, vision_params
-from simx_server.sim.collisions import collidable
+from simx_server.sim import (camera_params, handle_render, joint_params, light_params, physics, shape_dynamics,
+                             vision_params)
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, LIGHT, SHAPE, VISION_SENSOR, World
@@ -34,8 +34,8 @@ _FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
 _TEXTURE_FLOATS = range(3006, 3014)
 _told: set[int] = set()  # texture parameters already logged as not carried out
 log = logging.getLogger("simx.sim")
-_INT_GET = {1002, 1003, 1017, 2000, 2001, 3003, 3004}
-_INT_SET = {1002, 1003, 1017, 2000, 2001}
+_INT_GET = {1002, 1003, 1017, 2000, 2001, 2030, 3003, 3004}
+_INT_SET = {1002, 1003, 1017, 2000, 2001, 2030}
 
 
 def _pname(pid: int) -> str:
@@ -278,10 +278,9 @@ def get_int_param(sim: SimulationView, handle: int, pid: int) -> int:
         _need(world, handle, JOINT, pid)
         return joint_params.get_param(world, handle, pid)
     obj = _need(world, handle, SHAPE, pid)
-    m = world.model
-    if pid == 3003:
-        return int(m.body_weldid[obj.mj_id] == 0)
-    return int(bool(np.any(collidable(m)[m.geom_bodyid == obj.mj_id])))
+    if pid == shape_dynamics.STATIC:
+        return int(shape_dynamics.is_static(world, obj))
+    return int(shape_dynamics.is_respondable(world, obj))
 
 
 def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> None:
@@ -292,8 +291,8 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
     Args:
         sim: the simulation.
         handle: the object's handle.
-        pid: 1002/1003 resolution (pixels), 1017 render mode, 2000/2001 joint motor flags,
-            3003/3004 (only to the value they have).
+        pid: 1002/1003 resolution (pixels), 1017 render mode, 2000/2001/2030 joint motor flags,
+            3003 static, 3004 respondable (:mod:`simx_server.sim.shape_dynamics`).
         value: the new value.
 
     Raises:
@@ -303,15 +302,16 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
         UnsupportedError: a value or id simx cannot set.
     """
     world = sim.world
-    if pid in (3003, 3004):  # static / respondable: what the MJCF says, fixed at run time
-        if value not in (0, 1):
-            raise ArgumentError(f"{_pname(pid)}: value must be 0 or 1, got {quote(value)}")
-        if get_int_param(sim, handle, pid) != value:
-            raise UnsupportedError(
-                f"{_pname(pid)}: a shape's {'static' if pid == 3003 else 'respondable'} flag is fixed "
-                "when the scene loads (its joints, contype/conaffinity in the MJCF); MuJoCo cannot "
-                "switch it at run time")
-        return  # already so (sim.importShape's shapes are dynamic and respondable): nothing to do
+    if pid in (shape_dynamics.STATIC, shape_dynamics.RESPONDABLE):  # CShape::setStatic / setRespondable
+        obj = _need(world, handle, SHAPE, pid)
+        try:
+            if pid == shape_dynamics.STATIC:
+                shape_dynamics.set_static(sim, obj, value != 0)
+            else:
+                shape_dynamics.set_respondable(world, obj, value != 0)
+        except UnsupportedError as exc:
+            raise UnsupportedError(f"{_pname(pid)}: {exc}") from None
+        return
     if pid in camera_params.INT_IDS and world.get(handle).type == CAMERA:
         camera_params.set_int(world, handle, pid, value)
         return

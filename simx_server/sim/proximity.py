@@ -10,8 +10,11 @@ site carrying a ``rangefinder``.
   filling the cone of that opening angle around +z, from its apex ``offset=`` m up the axis,
   seeing from ``radius=`` m (default 0) from the apex to the cutoff; the hit nearest to the
   site is the detection.
-* ``volume=pyramid``, ``cylinder`` or ``disc``: V-REP's other volume types, each a set of rays
-  filling the volume (:func:`volume_rays`).
+* ``volume=pyramid``: the nearest point of the detectable triangles inside the frustum, exactly
+  as CoppeliaSim's volume sensors find it (:mod:`simx_server.sim.proximity_volume`; geoms with
+  no triangles in MuJoCo, spheres, capsules..., by rays);
+* ``volume=cylinder`` or ``disc``: V-REP's other volume types, each a set of rays filling the
+  volume (:func:`volume_rays`).
 * what is seen: shapes that are detectable by the sensor's type (``sensable=``, V-REP's
   detectable flags, :mod:`simx_server.sim.properties`; coppeliaSimLib
   ``CProxSensorRoutine::detectEntity`` with ``getAllDetectableObjectsFromSceneExcept``), and the
@@ -28,7 +31,7 @@ import mujoco
 import numpy as np
 
 from simx_wire.protocol import ArgumentError
-from simx_server.sim import properties
+from simx_server.sim import properties, proximity_volume
 from simx_server.sim.sensors import site_sensor
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import PROXIMITY_SENSOR, SHAPE, World
@@ -311,6 +314,18 @@ def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np
     return best
 
 
+def _pyramid_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, origin: np.ndarray,
+                 exclude: int, seen: np.ndarray, cutoff: float) -> tuple[float, int, np.ndarray, np.ndarray] | None:
+    """A pyramid volume's exact detection among triangle geoms
+    (:func:`simx_server.sim.proximity_volume.nearest_inside`), its frustum from :func:`volume_rays`'
+    settings."""
+    (offset,) = _floats(obj, "offset", 1, (0.0,))
+    far = cutoff if math.isfinite(cutoff) else offset + 1.0
+    x, y = _floats(obj, "size", 2, (0.1, 0.1))
+    planes = proximity_volume.pyramid(offset, far, (x, y), _floats(obj, "size_far", 2, (x, y)))
+    return proximity_volume.nearest_inside(m, d, rot, origin, exclude, seen, planes, max_angle(obj))
+
+
 def _cone_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, origin: np.ndarray, exclude: int,
               seen: np.ndarray, angle: float, cutoff: float) -> tuple[int, np.ndarray, np.ndarray] | None:
     """The nearest detection of a cone-type sensor (opening ``angle`` rad): a fan of rays
@@ -401,7 +416,12 @@ def proximity_reading(sim: SimulationView, handle: int,
         seen = np.zeros(m.ngeom, dtype=bool)
         seen[properties.shape_geoms(m, world.get(entity, SHAPE).mj_id)] = True
     if rays is not None:
-        found = _volume_hit(m, d, rot, origin, exclude, rays, seen)
+        pyramid = obj.settings.get("volume") == "pyramid"
+        exact = _pyramid_hit(m, d, obj, rot, origin, exclude, seen, cutoff) if pyramid else None
+        found = _volume_hit(m, d, rot, origin, exclude, rays,
+                            seen & ~proximity_volume.triangle_geoms(m) if pyramid else seen)
+        if exact is not None and (found is None or exact[0] < found[0]):
+            found = exact
         if found is None:
             return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
         dist, geom, point, normal = found

@@ -319,3 +319,34 @@ def _rename_assets(child: mujoco.MjSpec, taken: set[str]) -> None:
                     tex = list(e.textures)
                     if old in tex:
                         e.textures = [new if t == old else t for t in tex]
+
+
+#: How far behind a flat mesh its back face lies (m): a volume MuJoCo can compile.
+FLAT_MESH_BACK = 1e-4
+
+
+def solid_mesh(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices and faces MuJoCo can compile for a mesh that CoppeliaSim takes as it is: a flat
+    mesh (a wall, a floor tile, one triangle: MuJoCo needs four vertices not in one plane for
+    its convex hull) gets a back face FLAT_MESH_BACK behind it, the same triangles reversed, so
+    that it has a volume; points on a line give None.
+
+    Args:
+        vertices: (n, 3) m, n >= 3.
+        faces: (t, 3) vertex indices.
+
+    Returns:
+        ``(vertices, faces)``, the flat mesh's doubled, or None.
+    """
+    v, f = np.asarray(vertices, float), np.asarray(faces)
+    if len(v) < 3 or len(f) < 1 or not np.all(np.isfinite(v)):
+        return None
+    centred = v - v.mean(axis=0)
+    scale = max(1e-9, float(np.abs(centred).max()))
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    if sv[1] <= 1e-7 * scale:  # all on a line
+        return None
+    if len(sv) > 2 and sv[-1] > 1e-7 * scale:
+        return v, f
+    normal = vt[-1] if len(vt) > 2 else np.cross(vt[0], vt[1])
+    return np.vstack([v, v - FLAT_MESH_BACK * normal]), np.vstack([f, f[:, ::-1] + len(v)])

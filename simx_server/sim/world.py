@@ -26,7 +26,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import grasps, motors, naming, physics, properties, scene_settings, urdf
+from simx_server.sim import grasps, kinematic, motors, naming, physics, properties, scene_settings, urdf
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     CAMERA,
@@ -124,6 +124,8 @@ class World(Poses, Joints):
         self.properties = properties.ObjectProperties()  # special and model properties set at run time
         #: Grasped parts (dynamic shapes hung from another object): name -> grasps.Grasp.
         self.grasps: dict[str, grasps.Grasp] = {}
+        #: Contact bits of shapes made not respondable (sim/shape_dynamics.py): name -> (contype, conaffinity).
+        self.respondable_bits: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         try:
             self._install(model)
         except ArgumentError as exc:
@@ -422,7 +424,8 @@ class World(Poses, Joints):
         Before the substeps, each joint motor's actuator gets the gain and bias of V-REP's law
         for its mode (free joint, position control toward the target no faster than the upper
         velocity, or velocity control; force limited), see :mod:`simx_server.sim.motors`; the
-        substeps then run in C.
+        substeps then run in C. Joints in a kinematic mode are held where the step finds them and
+        put back there after it (:mod:`simx_server.sim.kinematic`).
 
         Raises:
             physics.PhysicsError: MuJoCo found a NaN, infinite or huge position, velocity or
@@ -431,6 +434,7 @@ class World(Poses, Joints):
                 limits.MAX_STEP_SECONDS (physics.StepTimeError, the rest of its substeps not run).
         """
         m, d = self.model, self.data
+        held = kinematic.hold(self) if self.motors.kinematic else None  # joints in a kinematic mode
         self.motors.apply(m, d, self.dt)
         if self.substep_hook is not None:  # scripts' joint and dynamics callbacks: at each substep
             for _ in range(self.substeps):
@@ -446,6 +450,8 @@ class World(Poses, Joints):
             mujoco.mj_step(m, d, nstep=self.substeps)
         if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)
             raise physics.blow_up(m, d, self.time)
+        if held is not None:
+            kinematic.settle(self, held)
         if physics.SINK.count:
             physics.SINK.report()  # other warnings (contact buffer full...): once per kind
         self.changed()  # mj_step leaves positions and sensors one substep behind the state

@@ -42,9 +42,7 @@ NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
                                            "getPersistentDataTags", "getMatchingPersistentDataTags")},
     "writeTexture": ("missing", _TEXTURE),
     "getGraphInfo": ("missing", _GRAPH),
-    **{n: ("missing", _MESH_EDIT) for n in ("alignShapeBB",
-                                            "generateShapeFromPath",
-                                            "generateTextShape")},
+    **{n: ("missing", _MESH_EDIT) for n in ("generateShapeFromPath", "generateTextShape")},
     "createJoint": ("missing", "a joint alone at the world origin: a MuJoCo joint needs the body it moves "
                                "(make the body, then the joint, in MJCF)"),
     "setObjectHierarchyOrder": ("missing", "MjSpec cannot reorder a body's children in place"),

@@ -389,15 +389,14 @@ def test_joint_and_shape_parameters(sim):
     assert cmd_parameters.get_object_int_parameter(sim, [a, 3003]) == 1  # welded to the world
     assert cmd_parameters.get_object_int_parameter(sim, [H(sim, "faller"), 3003]) == 0
     assert cmd_parameters.get_object_int_parameter(sim, [H(sim, "target"), 3004]) == 0  # contype 0
-    # Static / respondable can be "set" to what they are (scripts mark shapes dynamic and
-    # respondable); another value is refused, since MuJoCo fixes them when the scene loads.
-    cmd_parameters.set_object_int_parameter(sim, [H(sim, "faller"), 3003, 0])
-    cmd_parameters.set_object_int_parameter(sim, [a, 3003, 1])
-    with pytest.raises(UnsupportedError, match="fixed"):
-        cmd_parameters.set_object_int_parameter(sim, [H(sim, "faller"), 3003, 1])
-    with pytest.raises(UnsupportedError, match="fixed"):
-        cmd_parameters.set_object_int_parameter(sim, [H(sim, "target"), 3004, 1])
-    with pytest.raises(ArgumentError):
-        cmd_parameters.set_object_int_parameter(sim, [a, 3004, 7])
+    # Static / respondable switch at run time through the legacy command too (a rebuild for
+    # static, the contact bits for respondable; any nonzero value is 1, as CoppeliaSim's)
+    cmd_parameters.set_object_int_parameter(sim, [H(sim, "faller"), 3003, 0])  # already so
+    cmd_parameters.set_object_int_parameter(sim, [H(sim, "faller"), 3003, 1])
+    assert cmd_parameters.get_object_int_parameter(sim, [H(sim, "faller"), 3003]) == 1
+    cmd_parameters.set_object_int_parameter(sim, [H(sim, "target"), 3004, 7])
+    assert cmd_parameters.get_object_int_parameter(sim, [H(sim, "target"), 3004]) == 1
+    with pytest.raises(UnsupportedError, match="joints"):
+        cmd_parameters.set_object_int_parameter(sim, [H(sim, "hinge_link"), 3003, 1])  # on a hinge
     with pytest.raises(UnsupportedError, match="3006"):
         cmd_parameters.get_object_float_parameter(sim, [a, 3006])

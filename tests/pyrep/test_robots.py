@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from pyrep.const import PrimitiveShape
-from pyrep.errors import CoppeliaSimError
 from pyrep.objects import Shape
 
 try:
@@ -66,16 +65,86 @@ def test_panda_gripper_closes_and_opens(pr):
         assert check(gripper.get_open_amount())
 
 
-@pytest.mark.xfail(raises=CoppeliaSimError, strict=False,
-                   reason="sim.setObjectParent of a free (dynamic) shape to a moving parent is being made "
-                          "to work in the engine on another branch (h50-grasp)")
-def test_panda_gripper_grasps_a_cube(pr):
-    gripper = _gripper(pr)
-    tip = Shape("Panda_gripper").get_objects_in_tree()[1]  # Panda_tip
-    cube = Shape.create(PrimitiveShape.CUBOID, [0.02, 0.02, 0.02], mass=0.05, position=tip.get_position())
-    pr.start()
+@pytest.fixture
+def panda_scene():
+    """PyRep's Panda (with its gripper) in the empty scene, a static table below its tip and a
+    4 cm cube of 50 g on it, under the tip."""
+    from pyrep import PyRep
+    from pyrep.robots.arms.panda import Panda
+    from pyrep.robots.end_effectors.panda_gripper import PandaGripper
+
+    pr = PyRep()
+    pr.launch("", headless=True)
+    try:
+        pr.import_model(str(require_shared(MODELS / "arms" / "Panda.ttm")))
+        arm, gripper = Panda(), PandaGripper()
+        centre = arm.get_tip().get_position() + np.array([0.0, 0.0, -0.25])
+        top = centre[2] - 0.02
+        Shape.create(PrimitiveShape.CUBOID, [0.3, 0.3, top], static=True, position=[centre[0], centre[1], top / 2])
+        cube = Shape.create(PrimitiveShape.CUBOID, [0.04, 0.04, 0.04], mass=0.05, position=list(centre))
+        pr.start()
+        yield pr, arm, gripper, cube
+    finally:
+        pr.shutdown()
+
+
+def _move_tip(pr, arm, position, quaternion) -> None:
+    """``get_path`` to ``position`` (m), followed with ``step()`` until its end, then settled."""
+    path = arm.get_path(position, quaternion=quaternion)
+    steps = 0
+    while not path.step():
+        pr.step()
+        steps += 1
+        assert steps < 500
+    for _ in range(10):
+        pr.step()
+
+
+def test_panda_gripper_grasps_lifts_and_releases_a_cube(panda_scene):
+    pr, arm, gripper, cube = panda_scene
+    tip = arm.get_tip()
+    down = tip.get_quaternion()
+    start = cube.get_position()
+    _move_tip(pr, arm, start + [0.0, 0.0, 0.1], down)
+    _move_tip(pr, arm, start, down)
+    steps = 0
+    while not gripper.actuate(0.0, 0.1):  # the fingers stop on the cube's sides
+        pr.step()
+        steps += 1
+        assert steps < 200
+    assert 0.3 < np.mean(gripper.get_open_amount()) < 0.7  # 4 cm of the 8 cm opening
     assert gripper.grasp(cube)
-    assert cube.get_parent() is not None
+    assert cube.get_parent() is not None and gripper.get_grasped_objects() == [cube]
+    _move_tip(pr, arm, start + [0.0, 0.0, 0.2], down)
+    lifted = cube.get_position()
+    assert lifted[2] == pytest.approx(start[2] + 0.2, abs=0.01)  # it rose with the hand
+    assert np.linalg.norm(lifted - tip.get_position()) < 0.01  # between the fingers
+    gripper.release()
+    assert cube.get_parent() is None and gripper.get_grasped_objects() == []
+    steps = 0
+    while not gripper.actuate(1.0, 0.1):
+        pr.step()
+        steps += 1
+        assert steps < 200
+    for _ in range(20):
+        pr.step()
+    assert cube.get_position()[2] == pytest.approx(start[2], abs=0.005)  # fell back onto the table
+    assert tip.get_position()[2] > start[2] + 0.15  # and the hand stayed up
+
+
+def test_panda_reaches_a_dummy_through_get_path_and_step(panda_scene):
+    """RLBench's waypoints are dummies: the tip goes to one's position and orientation."""
+    from pyrep.objects import Dummy
+
+    pr, arm, _, cube = panda_scene
+    tip = arm.get_tip()
+    waypoint = Dummy.create(0.01)
+    waypoint.set_position(tip.get_position() + np.array([-0.1, 0.15, -0.05]))
+    waypoint.set_orientation(tip.get_orientation() + np.array([0.0, 0.0, 0.4]))
+    _move_tip(pr, arm, waypoint.get_position(), waypoint.get_quaternion())
+    assert np.linalg.norm(tip.get_position() - waypoint.get_position()) < 0.01
+    relative = tip.get_quaternion(relative_to=waypoint)
+    assert abs(relative[3]) > np.cos(0.05 / 2)  # within 0.05 rad of the dummy's orientation
 
 
 def test_turtlebot_drives_forward_on_its_wheels(pr):

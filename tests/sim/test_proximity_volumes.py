@@ -1,7 +1,8 @@
 """V-REP's pyramid, cylinder and disc proximity volumes (``volume=`` in a sensor's ``simx:``
-settings, what ``simx-convert`` writes from a ``.ttt`` file's sensors): each a set of rays filling
-the volume (simx_server/sim/proximity.py ``volume_rays``); the reading is the detection nearest to
-the sensor's origin, as V-REP's."""
+settings, what ``simx-convert`` writes from a ``.ttt`` file's sensors): the pyramid exact on
+triangles (simx_server/sim/proximity_volume.py), the others a set of rays filling the volume
+(simx_server/sim/proximity.py ``volume_rays``); the reading is the detection nearest to the
+sensor's origin, as V-REP's."""
 
 from __future__ import annotations
 
@@ -66,3 +67,37 @@ def test_bad_volume_settings_are_errors_naming_the_sensor(tmp_path):
         read(tmp_path, "volume=sphere", 0.0)
     with pytest.raises(ArgumentError, match="'Sensor': size='0.1'"):
         read(tmp_path, "volume=pyramid size=0.1", 0.0)
+
+
+EXACT = """<mujoco model="exact">
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <body name="floor"><geom type="plane" size="0 0 0.05"/></body>
+    <site name="Sensor" pos="0 0 0" zaxis="0 -1 0"/>
+    <body name="rod" pos="0.031 -0.25 0.02"><geom type="box" size="0.001 0.001 0.01"/></body>
+  </worldbody>
+  <sensor><rangefinder site="Sensor" cutoff="0.3"/></sensor>
+  <custom><text name="simx:Sensor" data="volume=pyramid offset=0.1 size=0.2,0.1 size_far=0.4,0.2"/></custom>
+</mujoco>
+"""
+
+
+def test_pyramid_finds_the_nearest_point_inside_exactly(tmp_path):
+    """PyRep's test scene: a floor through the pyramid's near face is detected at the face's
+    centre (CoppeliaSim reports 0.1, the offset); with the floor not detectable, a 2 mm rod
+    between the former ray grid's lines is found at its nearest corner."""
+    path = tmp_path / "scene.xml"
+    path.write_text(EXACT)
+    sim = Simulation(path, realtime=False)
+    try:
+        sensor = sim.world.resolve("Sensor").handle
+        detected, point, handle, normal = proximity.proximity_reading(sim, sensor)
+        assert detected and handle == sim.world.resolve("floor").handle
+        assert point == pytest.approx([0.0, 0.0, 0.1], abs=1e-9)
+        rod = sim.world.resolve("rod").handle
+        detected, point, handle, normal = proximity.proximity_reading(sim, sensor, entity=rod)
+        assert detected and handle == rod
+        assert point == pytest.approx([0.03, 0.01, 0.249], abs=1e-9)  # its corner nearest the sensor
+        assert normal[2] == pytest.approx(-1.0)  # its face towards the sensor
+    finally:
+        sim.close()

@@ -4,7 +4,7 @@ Importing this package registers every ``sim.NAME`` in :data:`simx_server.api.re
 and fills its constants (:data:`CONSTANTS`). The categories, as CoppeliaSim's API reference
 groups them: objects and the scene tree (:mod:`.core`, :mod:`.objects`, :mod:`.common`,
 :mod:`.flags`, :mod:`.props`, :mod:`.data`), joints (:mod:`.joints`, :mod:`.joint_modes`),
-shapes and meshes (:mod:`.shapes`, :mod:`.shape_import`, :mod:`.mesh`, :mod:`.meshops`,
+shapes and meshes (:mod:`.shapes`, :mod:`.shape_import`, :mod:`.mesh`, :mod:`.meshops`, :mod:`.decompose`,
 :mod:`.inertia`, :mod:`.looks`, :mod:`.build`), sensors (:mod:`.sensors`, :mod:`.sensing`,
 :mod:`.create`), point clouds and octrees (:mod:`.clouds`, :mod:`.octrees`), paths and motion
 (:mod:`.paths`, :mod:`.trajectory`, :mod:`.ruckig`, :mod:`.motion`, :mod:`.stepped`),
@@ -22,11 +22,11 @@ from pathlib import Path
 
 from simx_server.api.registry import SIM
 from simx_server.api.sim import (  # noqa: F401 (each module registers its functions)
-    build, clouds, common, core, create, data, engine, flags, forces, graphs, gui, ik_groups, inertia, joint_modes,
-    joints, legacy, legacy_config, legacy_data, legacy_measurements, legacy_objects, legacy_paths, legacy_tubes,
-    legacy_wireless, links, looks, mesh, meshops, misc, motion, objects, octrees, params, particles, paths, posemath,
-    props, remote, rotations, ruckig, scripting, sensing, sensors, services, shape_import, shapes, stepped, threads,
-    trajectory)
+    build, clouds, common, core, create, data, decompose, engine, flags, forces, graphs, gui, ik_groups, inertia,
+    joint_modes, joints, legacy, legacy_config, legacy_data, legacy_measurements, legacy_objects, legacy_paths,
+    legacy_tubes, legacy_wireless, links, looks, mesh, meshops, misc, motion, objects, octrees, params, particles,
+    paths, posemath, props, remote, rotations, ruckig, scripting, sensing, sensors, services, shape_import,
+    shape_texture, shapes, stepped, threads, trajectory)
 
 #: CoppeliaSim 4.x's ``sim`` constants (``sim.primitiveshape_cuboid``, ``sim.intparam_program_version``...),
 #: from the table the ZMQ remote API ships (``simx_server/zmq/coppeliasim_api.json``, data read here).

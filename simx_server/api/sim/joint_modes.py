@@ -1,6 +1,7 @@
 """CoppeliaSim 4.x's joint intervals, modes and dependencies on MuJoCo (``sim.getJointInterval``,
 ``sim.setJointMode``, ``sim.getJointDependency`` ...): intervals are MuJoCo's ``jnt_range``; modes
-map onto simx's motors; dependencies are MJCF joint equalities.
+map onto simx's motors and kinematic joints (:mod:`simx_server.sim.kinematic`); dependencies are
+MJCF joint equalities.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_vector as _vector
-from simx_server.sim import mechanisms
+from simx_server.sim import kinematic, mechanisms
 from simx_server.sim.objects import JOINT
 
 #: CoppeliaSim's ``sim.jointmode_kinematic`` (0), ``dependent`` (4), ``dynamic`` (5).
@@ -81,8 +82,9 @@ def setJointInterval(ctx: CallContext, objectHandle: Any, cyclic: Any, interval:
 
 @sim_function("getJointMode")
 def getJointMode(ctx: CallContext, jointHandle: Any) -> tuple[int, int]:  # noqa: N802, N803
-    """``jointMode, options``: ``sim.jointmode_dynamic`` (5) for a joint with a motor, else
-    ``sim.jointmode_kinematic`` (0); options 0.
+    """``jointMode, options``: the mode :func:`setJointMode` gave a joint with a motor
+    (``sim.jointmode_dynamic``, 5, unless set), ``sim.jointmode_kinematic`` (0) for a joint
+    without one; options 0 (coppeliaSimLib ``simGetJointMode_internal``).
 
     Args:
         jointHandle: a joint's handle.
@@ -91,27 +93,53 @@ def getJointMode(ctx: CallContext, jointHandle: Any) -> tuple[int, int]:  # noqa
         ``(mode, 0)``.
     """
     obj = _joint(ctx, jointHandle)
-    return (JOINTMODE_DYNAMIC if obj.handle in ctx.world.motor_index else JOINTMODE_KINEMATIC), 0
+    i = ctx.world.motor_index.get(obj.handle)
+    return (JOINTMODE_KINEMATIC if i is None else int(ctx.world.motors.joint_mode[i])), 0
 
 
 @sim_function("setJointMode")
 def setJointMode(ctx: CallContext, jointHandle: Any, jointMode: Any, options: Any = 0) -> None:  # noqa: N802, N803
-    """Only ``sim.jointmode_dynamic`` (5, or its ``jointmode_force`` alias) for a joint with a
-    motor: simx's joints are all simulated by MuJoCo (kinematic and dependent modes are not).
+    """A joint with a motor in force/torque mode (``sim.jointmode_dynamic`` / 4.1's
+    ``sim_jointmode_force``, 5: driven by physics) or in a kinematic mode (4.1's
+    ``sim_jointmode_passive`` 0 / ``sim.jointmode_kinematic``, ``sim_jointmode_ik`` 2): held
+    where ``sim.setJointPosition`` puts it, carrying its bodies as a rigid link, no motor force
+    (:mod:`simx_server.sim.kinematic`; the first kinematic joint of a scene adds the equalities
+    that hold them: one recompile). Stopping the simulation gives every joint its mode at the
+    start, as CoppeliaSim's ``CJoint::simulationEnded``. coppeliaSimLib
+    ``simSetJointMode_internal`` -> ``CJoint::setJointMode``.
 
     Args:
         jointHandle: a joint's handle.
-        jointMode: 5.
-        options: ignored.
+        jointMode: 5, 0 or 2.
+        options: checked (bit 0, V-REP's "hybrid" operation, has no meaning in simx).
 
     Raises:
-        UnsupportedError: another mode, or a joint without a motor.
+        ObjectTypeError: a joint without a motor of its own (spherical, tendon-driven).
+        UnsupportedError: the dependent modes (3, 4: use ``sim.setJointDependency``), 1, or a
+            scene that cannot be edited.
     """
     obj = _joint(ctx, jointHandle)
     mode = _int(jointMode, "jointMode")
-    if mode != JOINTMODE_DYNAMIC or obj.handle not in ctx.world.motor_index:
-        raise UnsupportedError(f"setJointMode {mode}: simx's joints are dynamic (MuJoCo); kinematic, IK and "
-                               "dependent modes do not exist (use setJointPosition to place a joint)")
+    _int(options, "options")
+    world = ctx.world
+    i = world.motor(obj.handle)
+    if mode == JOINTMODE_DYNAMIC:
+        world.motors.set_joint_mode(i, mode)
+        kinematic.release(world, i)
+        return
+    if mode not in kinematic.KINEMATIC_MODES:
+        raise UnsupportedError(f"setJointMode {mode}: simx's joint modes are 5 (force/torque), 0 (passive, "
+                               "kinematic) and 2 (IK); a dependent joint is made with setJointDependency")
+    if kinematic.equalities(world)[i] < 0:  # the scene's first kinematic joint: the equalities
+        sim = ctx.simulation("setJointMode")
+        m = world.model
+        names = [n for a in world.motors.act
+                 if (n := mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, int(m.actuator_trnid[a, 0])))]
+        name = obj.name
+        sim.editor._edit(lambda spec: kinematic.add_equalities(spec, names))
+        world = ctx.world
+        i = world.motor(world.by_name[name].handle)
+    world.motors.set_joint_mode(i, mode)
 
 
 @sim_function("getJointDependency")

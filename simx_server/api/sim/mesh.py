@@ -23,7 +23,7 @@ from simx_server.api.sim import shape_import as shapes
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim import mechanisms
 from simx_server.sim.objects import JOINT
-from simx_server.sim.spec_tools import _names, vrep_suffix
+from simx_server.sim.spec_tools import _names, solid_mesh, vrep_suffix
 
 _SUFFIX = {0: ".obj", 4: ".stl"}
 
@@ -31,8 +31,8 @@ _SUFFIX = {0: ".obj", 4: ".stl"}
 def _mesh(vertices: Any, indices: Any) -> tuple[np.ndarray, np.ndarray]:
     v = np.array([_num(x, "vertices[i]") for x in vertices]).reshape(-1, 3) if len(vertices) % 3 == 0 else None
     f = np.array([_int(x, "indices[i]") for x in indices]).reshape(-1, 3) if len(indices) % 3 == 0 else None
-    if v is None or f is None or len(v) < 4 or len(f) < 1:
-        raise ArgumentError("vertices (3 numbers each, at least 4) and indices (3 per triangle) must fit")
+    if v is None or f is None or len(v) < 3 or len(f) < 1:
+        raise ArgumentError("vertices (3 numbers each, at least 3) and indices (3 per triangle) must fit")
     if len(v) > L.MAX_MESH_VERTICES:
         raise ArgumentError(f"more than {L.MAX_MESH_VERTICES} vertices (limits.MAX_MESH_VERTICES)")
     if f.min() < 0 or f.max() >= len(v):
@@ -130,9 +130,13 @@ def exportMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options:
 def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any, indices: Any, normals: Any = None,  # noqa: N802, N803
                 textureCoordinates: Any = None, texture: Any = None, textureResolution: Any = None) -> int:  # noqa: N803
     """A dynamic, respondable mesh shape at the world origin from ``vertices`` (m) and
-    ``indices`` (MuJoCo uses the convex hull for contacts); its handle. Textures: refused.
+    ``indices`` (MuJoCo uses the convex hull for contacts); its handle. Textures: refused. A
+    flat mesh (one triangle and up: CoppeliaSim's ``simCreateMeshShape_internal`` takes 3
+    vertices, MuJoCo needs a volume) gets a back face 0.1 mm behind it
+    (:func:`simx_server.sim.spec_tools.solid_mesh`), its mass and inertia those of a shell, as
+    the ``.ttt`` converter's flat meshes; ``sim.getShapeMesh`` then reads both faces.
 
-    ``sim.createShape``.
+    ``sim.createShape`` (and 4.1's ``simCreateMeshShape``).
 
     Args:
         options: checked.
@@ -149,17 +153,24 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
 
     Raises:
         UnsupportedError: a texture, or no simulation behind the script.
-        ArgumentError: a bad mesh.
+        ArgumentError: a bad mesh (points on a line included).
     """
     if texture:
         raise UnsupportedError("createShape with a texture: no run-time textures in simx")
     v, f = _mesh(vertices, indices)
+    solid = solid_mesh(v, f)
+    if solid is None:
+        raise ArgumentError("createShape: the vertices lie on a line")
+    flat = len(solid[0]) != len(v)
+    v, f = solid
     sim = ctx.simulation("createShape")
 
     def change(spec: mujoco.MjSpec):
         suffix = vrep_suffix({"Shape", "Shape_mesh"}, _names(spec) | set(sim.world.by_name))
         mesh = spec.add_mesh(name=f"Shape_mesh{suffix}")
         mesh.uservert, mesh.userface = v.reshape(-1).tolist(), f.reshape(-1).tolist()
+        if flat:
+            mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         body = spec.worldbody.add_body(name=f"Shape{suffix}")
         body.add_freejoint()
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1])

@@ -1,6 +1,6 @@
 """CoppeliaSim 4.x's shape frame and size edits on the scene's MjSpec: ``sim.relocateShapeFrame`` (the body's frame
 moves, its geoms, sites, cameras, lights, inertia and child bodies stay where they are in the
-world), ``sim.setShapeBB`` and ``sim.scaleObjects`` (through ``sim.scaleObject``'s geom
+world), ``sim.alignShapeBB`` (the same, turning the frame), ``sim.setShapeBB`` and ``sim.scaleObjects`` (through ``sim.scaleObject``'s geom
 scaling). Each edit recompiles the scene as the scene editor does.
 """
 
@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import cv2
 import mujoco
 import numpy as np
 
@@ -18,7 +19,7 @@ from simx_server.api.sim import shapes as _shapes
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
 from simx_server.sim.objects import SHAPE, WORLD
-from simx_server.sim.rotations import matrix_from_quaternion
+from simx_server.sim.rotations import matrix_from_quaternion, quaternion_from_matrix
 
 
 def _quat(rot: np.ndarray) -> np.ndarray:
@@ -165,3 +166,77 @@ def scaleObjects(ctx: CallContext, objectHandles: Any, scalingFactor: Any, scale
             ctx.sim.setObjectPosition(h, parent, [c * f for c in local[h]])
 
 
+
+
+def box_axes(points: np.ndarray) -> np.ndarray:
+    """Axes (3, 3), columns x, y, z, of a small box around ``points`` (n, 3), as CoppeliaSim's
+    ``CAlgos::getMainAxis`` searches for them: among the points' principal axes, and about each
+    the rectangle of least area around the points projected across it (OpenCV's
+    ``minAreaRect``), the box of least volume; x its shortest side, z its longest
+    (``getMainAxis``'s order), right-handed.
+
+    Args:
+        points: (n, 3), n >= 1.
+
+    Returns:
+        A rotation matrix (3, 3).
+    """
+    centred = points - points.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    pca = np.eye(3) if vt.shape[0] < 3 else vt.T
+    best, best_volume = pca, np.inf
+    for k in range(3):
+        axis = pca[:, k]
+        a, b = pca[:, (k + 1) % 3], pca[:, (k + 2) % 3]
+        flat = np.column_stack([centred @ a, centred @ b]).astype(np.float32)
+        (_, _), (_, _), angle = cv2.minAreaRect(flat)
+        c, s = np.cos(np.radians(angle)), np.sin(np.radians(angle))
+        u, w = c * a + s * b, -s * a + c * b
+        axes = np.column_stack([u, w, axis])
+        extent = np.ptp(centred @ axes, axis=0)
+        if float(np.prod(extent)) < best_volume - 1e-15:
+            best, best_volume = axes, float(np.prod(extent))
+    order = np.argsort(np.ptp(centred @ best, axis=0))  # x shortest, z longest
+    best = best[:, order]
+    if np.linalg.det(best) < 0:
+        best[:, 0] = -best[:, 0]
+    return best
+
+
+@sim_function("alignShapeBB")
+def alignShapeBB(ctx: CallContext, shapeHandle: Any, pose: Any) -> int:  # noqa: N802, N803
+    """Align a shape's bounding box with ``pose``'s orientation (world), or with its mesh
+    (seven zeros, or a zero quaternion: the smallest box, :func:`box_axes`); 1, or 0 for a
+    shape of one primitive (coppeliaSimLib ``simAlignShapeBB_internal``: pure shapes keep
+    theirs). simx's bounding box lies along the shape's frame (``sim.getShapeBB``), so the
+    frame turns there about its origin (:func:`relocateShapeFrame`: the geometry stays where it
+    is); CoppeliaSim keeps a bounding-box frame apart from the shape's.
+
+    ``sim.alignShapeBB`` (4.1's ``simReorientShapeBoundingBox``).
+
+    Args:
+        shapeHandle: a shape's handle, or ``sim.handle_self``.
+        pose: 7 numbers (x, y, z ignored; qx, qy, qz, qw in the world frame), or seven zeros.
+
+    Returns:
+        1, or 0 for a shape of one primitive.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a shape.
+        ArgumentError: not 7 numbers.
+        UnsupportedError: as :func:`relocateShapeFrame`, or no simulation behind the caller.
+    """
+    obj = ctx.world.get(ctx.h(shapeHandle, "shapeHandle"), SHAPE)
+    v = _vector(pose, 7, "pose")
+    m = ctx.world.model
+    geoms = np.flatnonzero(m.geom_bodyid == obj.mj_id)
+    if len(geoms) == 1 and int(m.geom_type[geoms[0]]) != int(mujoco.mjtGeom.mjGEOM_MESH):
+        return 0
+    r_old, p_old = _shape_frame(ctx, obj.handle)
+    if not np.linalg.norm(v[3:]) > 0:
+        r_new = r_old @ box_axes(_shapes.corners(ctx, obj.mj_id))
+    else:
+        r_new = np.asarray(matrix_from_quaternion(*v[3:]), float)
+    relocateShapeFrame(ctx, obj.handle, [*p_old.tolist(), *quaternion_from_matrix(r_new)])
+    return 1

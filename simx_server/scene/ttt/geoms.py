@@ -11,6 +11,7 @@ import numpy as np
 from simx_server.scene.ttt.geometry import compose
 from simx_server.scene.ttt.looks import Look, Materials, texture_colour
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
+from simx_server.sim.spec_tools import solid_mesh
 
 # V-REP primitive type -> how it becomes a geom (the others are meshes)
 PLANE, DISC, CUBOID, SPHEROID, CYLINDER, CONE, HEIGHTFIELD, CAPSULE = 1, 2, 3, 4, 5, 6, 7, 8
@@ -46,19 +47,9 @@ def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, uv: np.ndarra
 
 def usable_mesh(mesh: Mesh) -> tuple[np.ndarray, np.ndarray] | None:
     """Vertices and faces MuJoCo can compile, or None: a flat mesh (a wall, a floor tile) gets a
-    back face 0.1 mm behind it so that it has a volume; fewer than 3 points are left out."""
-    v, f = mesh.vertices, mesh.faces
-    if len(v) < 3 or len(f) < 1 or not np.all(np.isfinite(v)):
-        return None
-    centred = v - v.mean(axis=0)
-    scale = max(1e-9, float(np.abs(centred).max()))
-    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
-    if sv[1] <= 1e-7 * scale:  # all on a line
-        return None
-    if sv[-1] > 1e-7 * scale:
-        return v, f
-    normal = vt[-1]
-    return np.vstack([v, v - 1e-4 * normal]), np.vstack([f, f[:, ::-1] + len(v)])
+    back face 0.1 mm behind it so that it has a volume (:func:`simx_server.sim.spec_tools.solid_mesh`);
+    fewer than 3 points are left out."""
+    return solid_mesh(mesh.vertices, mesh.faces)
 
 
 class GeomMaker:

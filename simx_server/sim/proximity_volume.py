@@ -1,0 +1,196 @@
+"""The exact detection of a pyramid-type proximity sensor: the point nearest to the sensor's
+origin of the detectable triangles inside its volume, as CoppeliaSim computes it for its volume
+sensors (coppeliaSimLib ``CProxSensorRoutine::_detectShape``, non-ray branch:
+``geomPlugin_volumeSensorDetectMeshIfSmaller`` with the volume's ``planesInside``, built by
+``CConvexVolume::computeVolumes``: six planes for a pyramid). Casting rays through the volume
+misses what crosses it between the rays, and sees nothing of a surface the rays start on or
+behind (a floor through the sensor's near face: CoppeliaSim reports the near face's centre).
+
+Each candidate triangle (in the sensor's frame) is clipped by the volume's planes
+(Sutherland-Hodgman, all triangles at once in numpy) and the point of the clipped polygon
+nearest to the origin is found; the nearest of all is the detection. No triangle hides another:
+CoppeliaSim's volume sensors see through everything. Triangles come from mesh geoms (MuJoCo's
+``mesh_vert``/``mesh_face``), boxes (12) and planes (2, an infinite plane cut to the volume's
+reach); geoms of other types have no triangles in MuJoCo and are left to the rays
+(:mod:`simx_server.sim.proximity`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+_MESH, _BOX, _PLANE = (int(mujoco.mjtGeom.mjGEOM_MESH), int(mujoco.mjtGeom.mjGEOM_BOX),
+                       int(mujoco.mjtGeom.mjGEOM_PLANE))
+_BOX_FACES = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
+                       [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]])
+_BOX_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+
+
+def triangle_geoms(m: mujoco.MjModel) -> np.ndarray:
+    """Mask (ngeom,) of the geoms whose triangles this module reads (mesh, box, plane).
+
+    Args:
+        m: the model.
+
+    Returns:
+        Boolean array.
+    """
+    return np.isin(m.geom_type, (_MESH, _BOX, _PLANE))
+
+
+def pyramid(offset: float, far: float, size: tuple[float, float],
+            size_far: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A pyramid volume's planes and corners in the sensor frame: a frustum from an ``size``
+    (x, y; m) rectangle at ``offset`` to a ``size_far`` one at ``far`` along +z
+    (``CConvexVolume::computeVolumes``, PYRAMID_TYPE_CONVEX_VOLUME).
+
+    Args:
+        offset: m.
+        far: m, more than ``offset``.
+        size: full widths at ``offset``, m.
+        size_far: full widths at ``far``, m.
+
+    Returns:
+        ``(normals (6, 3), offsets (6,), corners (8, 3))``: a point p is inside where
+        ``normals @ p <= offsets`` for every plane.
+    """
+    length = far - offset
+    kx, ky = (size_far[0] - size[0]) / (2 * length), (size_far[1] - size[1]) / (2 * length)
+    normals = np.array([[0, 0, -1], [0, 0, 1], [1, 0, -kx], [-1, 0, -kx], [0, 1, -ky], [0, -1, -ky]], dtype=float)
+    offsets = np.array([-offset, far, size[0] / 2 - kx * offset, size[0] / 2 - kx * offset,
+                        size[1] / 2 - ky * offset, size[1] / 2 - ky * offset])
+    corners = np.array([[sx * w / 2, sy * h / 2, z] for z, (w, h) in ((offset, size), (far, size_far))
+                        for sx in (-1, 1) for sy in (-1, 1)])
+    return normals, offsets, corners
+
+
+def _geom_triangles(m: mujoco.MjModel, d: mujoco.MjData, g: int, centre: np.ndarray, reach: float) -> np.ndarray:
+    """Triangles (t, 3, 3) of geom ``g`` in the world frame; an infinite plane cut to a square of
+    ``reach`` around ``centre``'s foot."""
+    kind = int(m.geom_type[g])
+    if kind == _MESH:
+        mid = int(m.geom_dataid[g])
+        v = m.mesh_vert[m.mesh_vertadr[mid]:m.mesh_vertadr[mid] + m.mesh_vertnum[mid]].astype(float)
+        f = m.mesh_face[m.mesh_faceadr[mid]:m.mesh_faceadr[mid] + m.mesh_facenum[mid]]
+    elif kind == _BOX:
+        v, f = _BOX_CORNERS * m.geom_size[g], _BOX_FACES
+    else:
+        rot = d.geom_xmat[g].reshape(3, 3)
+        foot = rot.T @ (centre - d.geom_xpos[g])
+        hx = m.geom_size[g, 0] if m.geom_size[g, 0] > 0 else reach
+        hy = m.geom_size[g, 1] if m.geom_size[g, 1] > 0 else reach
+        cx = float(np.clip(foot[0], -hx, hx)) if m.geom_size[g, 0] > 0 else float(foot[0])
+        cy = float(np.clip(foot[1], -hy, hy)) if m.geom_size[g, 1] > 0 else float(foot[1])
+        lx, ly = (min(hx, reach), min(hy, reach))
+        x0, x1 = max(-hx, cx - lx), min(hx, cx + lx)
+        y0, y1 = max(-hy, cy - ly), min(hy, cy + ly)
+        v = np.array([[x0, y0, 0], [x1, y0, 0], [x1, y1, 0], [x0, y1, 0]], dtype=float)
+        f = np.array([[0, 1, 2], [0, 2, 3]])
+    return (v @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g])[f]
+
+
+def _clip(poly: np.ndarray, count: np.ndarray, normal: np.ndarray, offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """Clip every convex polygon (N, K, 3) of ``count`` (N,) corners by ``normal @ p <= offset``."""
+    n, k = poly.shape[:2]
+    idx = np.arange(k)[None, :]
+    valid = idx < count[:, None]
+    s = poly @ normal - offset
+    nxt = np.where(idx + 1 < count[:, None], idx + 1, 0)
+    pn, sn = np.take_along_axis(poly, nxt[:, :, None], axis=1), np.take_along_axis(s, nxt, axis=1)
+    cin, nin = s <= 0, sn <= 0
+    denom = s - sn
+    t = s / np.where(denom == 0, 1.0, denom)
+    inter = poly + t[:, :, None] * (pn - poly)
+    cand = np.stack([poly, inter], axis=2).reshape(n, 2 * k, 3)
+    keep = np.stack([cin & valid, (cin != nin) & valid], axis=2).reshape(n, 2 * k)
+    order = np.argsort(~keep, axis=1, kind="stable")[:, :k]
+    return np.take_along_axis(cand, order[:, :, None], axis=1), keep.sum(axis=1)
+
+
+def _nearest(poly: np.ndarray, count: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """The point (N, 3) of each planar convex polygon nearest to the origin."""
+    n, k = poly.shape[:2]
+    idx = np.arange(k)[None, :]
+    valid = idx < count[:, None]
+    foot = np.einsum("nj,nj->n", poly[:, 0], normal)[:, None] * normal  # the origin projected on the plane
+    nxt = np.where(idx + 1 < count[:, None], idx + 1, 0)
+    a = poly
+    e = np.take_along_axis(poly, nxt[:, :, None], axis=1) - a
+    side = np.einsum("nkj,nj->nk", np.cross(e, foot[:, None, :] - a), normal)
+    inside = (count >= 3) & np.all((side >= -1e-12) | ~valid, axis=1)
+    t = np.clip(np.einsum("nkj,nkj->nk", -a, e) / np.maximum(np.einsum("nkj,nkj->nk", e, e), 1e-300), 0.0, 1.0)
+    q = a + t[:, :, None] * e
+    dist = np.where(valid, np.linalg.norm(q, axis=2), np.inf)
+    best = np.take_along_axis(q, np.argmin(dist, axis=1)[:, None, None], axis=1)[:, 0]
+    return np.where(inside[:, None], foot, best)
+
+
+def nearest_inside(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np.ndarray, exclude: int,
+                   seen: np.ndarray, planes: tuple[np.ndarray, np.ndarray, np.ndarray],
+                   max_angle: float = math.pi / 2) -> tuple[float, int, np.ndarray, np.ndarray] | None:
+    """The detection of a convex volume: the point nearest to the sensor's origin of the
+    triangles of the ``seen`` geoms (mesh, box, plane; not of body ``exclude``) inside it.
+
+    Args:
+        m: the model.
+        d: its data (after kinematics).
+        rot: the sensor's frame (3, 3), world.
+        origin: the sensor's origin (3,), world.
+        exclude: the sensor's own body.
+        seen: (ngeom,) the geoms that may be detected.
+        planes: what :func:`pyramid` returned (sensor frame).
+        max_angle: rad; a triangle is seen only where the line from the origin meets it at most
+            this far from its normal (V-REP's "limited angle detection"); pi/2: every triangle.
+
+    Returns:
+        ``(distance m, geom, point (3,) sensor frame, surface normal (3,) world, facing the
+        sensor)``, or None.
+    """
+    normals, offsets, corners = planes
+    centre_local = corners.mean(axis=0)
+    reach = float(np.linalg.norm(corners - centre_local, axis=1).max())
+    centre = origin + rot @ centre_local
+    candidates = np.flatnonzero(seen & triangle_geoms(m) & (m.geom_bodyid != exclude))
+    gaps = np.linalg.norm(d.geom_xpos[candidates] - centre, axis=1) - m.geom_rbound[candidates]
+    candidates = candidates[(gaps <= reach) | (m.geom_type[candidates] == _PLANE)]
+    if not candidates.size:
+        return None
+    tris, owner = [], []
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    for g in candidates:
+        t = (_geom_triangles(m, d, int(g), centre, reach) - origin) @ rot  # sensor frame
+        near = np.all(t.max(axis=1) >= lo - 1e-12, axis=1) & np.all(t.min(axis=1) <= hi + 1e-12, axis=1)
+        if near.any():
+            tris.append(t[near])
+            owner.append(np.full(int(near.sum()), g))
+    if not tris:
+        return None
+    tri, geom = np.concatenate(tris), np.concatenate(owner)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = np.linalg.norm(normal, axis=1)
+    keep = area > 1e-18
+    tri, geom, normal = tri[keep], geom[keep], normal[keep] / area[keep, None]
+    poly = np.zeros((len(tri), 3 + len(offsets), 3))
+    poly[:, :3] = tri
+    count = np.full(len(tri), 3)
+    for n, off in zip(normals, offsets):
+        poly, count = _clip(poly, count, n, float(off))
+    hit = count > 0
+    if not hit.any():
+        return None
+    poly, count, normal, geom = poly[hit], count[hit], normal[hit], geom[hit]
+    point = _nearest(poly, count, normal)
+    dist = np.linalg.norm(point, axis=1)
+    if max_angle < math.pi / 2:
+        facing = np.abs(np.einsum("nj,nj->n", point, normal)) / np.maximum(dist, 1e-300)
+        dist = np.where(facing >= math.cos(max_angle) - 1e-9, dist, np.inf)
+    if not np.isfinite(dist.min()):
+        return None
+    # an edge or corner nearest: of the triangles that share it, the one that faces the origin most
+    ties = np.flatnonzero(dist <= dist.min() + 1e-9)
+    i = int(ties[np.argmax(np.abs(np.einsum("nj,nj->n", point[ties], normal[ties])))])
+    n = normal[i] if float(point[i] @ normal[i]) <= 0 else -normal[i]
+    return float(dist[i]), int(geom[i]), point[i], rot @ n

@@ -1,0 +1,140 @@
+"""A shape's static and respondable flags switched at run time: ``sim_shapeintparam_static``
+(3003) and ``sim_shapeintparam_respondable`` (3004) of ``sim.setObjectInt32Param`` /
+``simxSetObjectIntParameter``, as CoppeliaSim's ``CShape::setStatic`` and
+``CShape::setRespondable`` (coppeliaSimLib ``simSetObjectInt32Param_internal``). Like
+CoppeliaSim's, the flags keep their value when the simulation stops.
+
+* respondable: whether the shape's geoms take part in MuJoCo's contacts (``contype`` /
+  ``conaffinity`` not both 0), which MuJoCo reads at every step: switching it off zeroes them
+  and keeps their values (:attr:`World.respondable_bits`), switching it on gives them back
+  (1/1, MuJoCo's default, for geoms that never had any). No recompile; scene edits keep the
+  values (``scene/kept_state.py``).
+* static: a static shape is a body welded to the world (``body_weldid`` 0), a dynamic one a
+  free body. MuJoCo fixes a body's joints when it compiles, so the switch rebuilds the scene
+  through its spec, as the scene editor does for every edit (the state of everything else
+  kept, ``Editor._edit``): a dynamic shape made static loses its free joint and stays where it
+  is now (its compiled pose stays the one at the start, so stopping the simulation puts it
+  back); a static shape at the world's root made dynamic gets a free joint, at rest where it
+  is. A shape carried by joints, or one grasped (held by a weld, :mod:`simx_server.sim.grasps`),
+  cannot be switched: UnsupportedError.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from simx_wire.protocol import UnsupportedError
+from simx_server.sim import grasps
+from simx_server.sim.collisions import collidable
+from simx_server.sim.objects import SceneObject
+
+#: ``sim_shapeintparam_static``, ``sim_shapeintparam_respondable``.
+STATIC, RESPONDABLE = 3003, 3004
+
+
+def is_static(world, obj: SceneObject) -> bool:
+    """Whether a shape is static (its body welded to the world).
+
+    Args:
+        world: the World.
+        obj: a shape.
+
+    Returns:
+        True when ``body_weldid`` is 0.
+    """
+    return int(world.model.body_weldid[obj.mj_id]) == 0
+
+
+def is_respondable(world, obj: SceneObject) -> bool:
+    """Whether a shape is respondable (some geom of it has contact bits).
+
+    Args:
+        world: the World.
+        obj: a shape.
+
+    Returns:
+        True when a geom of its body has ``contype`` or ``conaffinity``.
+    """
+    m = world.model
+    return bool(np.any(collidable(m)[m.geom_bodyid == obj.mj_id]))
+
+
+def set_respondable(world, obj: SceneObject, value: bool) -> None:
+    """Switch a shape's geoms in or out of MuJoCo's contacts (see the module).
+
+    Args:
+        world: the World.
+        obj: a shape.
+        value: respondable or not.
+    """
+    if is_respondable(world, obj) == value:
+        return
+    m = world.model
+    geoms = np.flatnonzero(m.geom_bodyid == obj.mj_id)
+    if not value:
+        world.respondable_bits[obj.name] = (m.geom_contype[geoms].copy(), m.geom_conaffinity[geoms].copy())
+        m.geom_contype[geoms] = m.geom_conaffinity[geoms] = 0
+    else:
+        kept = world.respondable_bits.pop(obj.name, None)
+        if kept is not None and len(kept[0]) == len(geoms):
+            m.geom_contype[geoms], m.geom_conaffinity[geoms] = kept
+        else:
+            m.geom_contype[geoms] = m.geom_conaffinity[geoms] = 1
+    world.changed()
+
+
+def set_static(sim, obj: SceneObject, static: bool) -> None:
+    """Make a dynamic shape static or a static one dynamic (see the module); the scene is
+    rebuilt through the scene editor (``sim.editor``).
+
+    Args:
+        sim: the simulation (its world and editor).
+        obj: a shape.
+        static: the new flag.
+
+    Raises:
+        UnsupportedError: a shape carried by joints or grasped, a static shape that is not at
+            the world's root, or a scene that cannot be edited.
+    """
+    world = sim.world
+    if is_static(world, obj) == static:
+        return
+    m, d, b = world.model, world.data, obj.mj_id
+    name = obj.name
+    pos, quat = d.xpos[b].copy(), d.xquat[b].copy()
+    if static and not grasps.is_free(m, b):
+        raise UnsupportedError(f"shape {name!r} moves on joints of the scene: simx makes a shape static by "
+                               "taking its free joint away, and it has none")
+    held = world.grasps.get(name)
+    if held is not None and held.held:
+        raise UnsupportedError(f"shape {name!r} is held by {held.parent!r} (a grasp): release it first")
+    if not static and (int(m.body_parentid[b]) != 0 or int(m.body_jntnum[b]) or m.body_mocapid[b] >= 0):
+        raise UnsupportedError(f"shape {name!r} hangs from another body of the scene: MuJoCo gives free joints "
+                               "only to the world's children")
+
+    def change(spec: mujoco.MjSpec):
+        _, body, _ = sim.editor._spec_element(spec, obj.handle)
+        if static:
+            for joint in list(body.joints):
+                spec.delete(joint)
+        else:
+            body.add_freejoint()
+        return lambda: _place(world, name, pos, quat, static)
+
+    sim.editor._edit(change)
+
+
+def _place(world, name: str, pos: np.ndarray, quat: np.ndarray, static: bool) -> None:
+    """After the rebuild: the shape where it was (a static body: its model pose; a free body:
+    its joint's position), at rest."""
+    m, d = world.model, world.data
+    b = world.by_name[name].mj_id
+    if static:
+        m.body_pos[b], m.body_quat[b] = pos, quat  # a run-time placement: reset() restores the start
+    else:
+        j = int(m.body_jntadr[b])
+        qa, da = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
+        d.qpos[qa:qa + 3], d.qpos[qa + 3:qa + 7] = pos, quat
+        d.qvel[da:da + 6] = 0.0
+    world.changed()

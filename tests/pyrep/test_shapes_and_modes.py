@@ -1,0 +1,98 @@
+"""``pyrep``'s shape and joint methods that the API table gained for PyRep (issue 51): dynamic and
+respondable switches, joint modes and the motor lock, one-triangle meshes, decimation, convex
+decomposition, applied textures and re-oriented bounding boxes, on the small scene."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pyrep.const import JointMode
+from pyrep.objects import Joint, Shape
+
+
+def test_cube_switched_static_hangs_and_unresponsive_falls_through(pr):
+    cube = Shape("cube")
+    assert cube.is_dynamic() and cube.is_respondable()
+    cube.set_dynamic(False)
+    assert not cube.is_dynamic()
+    for _ in range(10):
+        pr.step()
+    assert cube.get_position()[2] == pytest.approx(0.3)  # static where it was
+    cube.set_dynamic(True)
+    cube.set_respondable(False)
+    assert cube.is_dynamic() and not cube.is_respondable()
+    for _ in range(30):
+        pr.step()
+    assert cube.get_position()[2] < 0.0  # through the floor
+
+
+def test_joint_in_ik_mode_is_placed_and_stays(pr):
+    hinge, link = Joint("hinge"), Shape("link")
+    assert hinge.get_joint_mode() == JointMode.FORCE
+    hinge.set_joint_mode(JointMode.IK)
+    assert hinge.get_joint_mode() == JointMode.IK
+    hinge.set_joint_position(0.5)
+    hinge.set_joint_target_position(1.0)  # its motor gives no force in IK mode
+    for _ in range(10):
+        pr.step()
+    assert hinge.get_joint_position() == pytest.approx(0.5, abs=1e-12)
+    assert link.get_orientation()[2] == pytest.approx(0.5, abs=1e-9)
+    hinge.set_joint_mode(JointMode.FORCE)
+    for _ in range(10):
+        pr.step()
+    assert hinge.get_joint_position() > 0.6  # the motor drives it again
+    assert not hinge.is_motor_locked_at_zero_velocity()
+    hinge.set_motor_locked_at_zero_velocity(True)
+    assert hinge.is_motor_locked_at_zero_velocity()
+
+
+def test_meshes_made_decimated_decomposed_and_textured(pr):
+    triangle = Shape.create_mesh([-0.1, -0.1, 0.0, -0.1, 0.1, 0.0, 0.1, 0.0, 0.0], [0, 1, 2])
+    assert isinstance(triangle, Shape)
+    k = 15
+    x, y = np.meshgrid(np.linspace(0, 0.3, k), np.linspace(0, 0.3, k))
+    vertices = np.column_stack([x.ravel(), y.ravel(), 0.05 * (x.ravel() - 0.15) ** 2 * 40])  # a trough
+    faces = [[i * k + j, i * k + j + 1, (i + 1) * k + j + 1] for i in range(k - 1) for j in range(k - 1)]
+    faces += [[i * k + j, (i + 1) * k + j + 1, (i + 1) * k + j] for i in range(k - 1) for j in range(k - 1)]
+    trough = Shape.create_mesh(vertices.ravel().tolist(), np.ravel(faces).tolist())
+    trough.set_position([0.0, 0.8, 0.5])
+    _, indices, _ = trough.get_mesh_data()
+    fewer = trough.decimate_mesh(0.2)
+    assert len(fewer.get_mesh_data()[1]) < 0.3 * len(indices)
+    assert np.allclose(fewer.get_position(), trough.get_position())
+    with pytest.raises(ValueError):
+        trough.decimate_mesh(0.95)
+    hulls = trough.get_convex_decomposition(use_vhacd=True, vhacd_res=10000)
+    assert isinstance(hulls, Shape) and hulls != trough
+    assert trough.get_convex_decomposition(morph=True, same=True) == trough
+    _, indices, _ = triangle.get_mesh_data()
+    coords = np.tile([[0.0, 0.0], [1.0, 0.0], [0.5, 1.0]], (len(indices), 1))
+    image = np.zeros((2, 2, 3), np.uint8)
+    image[0, 0] = [255, 0, 0]
+    triangle.apply_texture(coords, image)
+    info = triangle.get_shape_viz(0)
+    assert info.texture.shape == (2, 2, 4) and tuple(info.texture[0, 0]) == (255, 0, 0, 255)
+    assert np.allclose(info.texture_coords, coords)
+    with pytest.raises(TypeError):
+        triangle.apply_texture(coords, image.tolist())
+
+
+def test_reorient_bounding_box_turns_the_frame_not_the_mesh(pr):
+    box = Shape.create_mesh([0, 0, 0, 0.4, 0, 0, 0, 0.1, 0, 0.4, 0.1, 0, 0, 0, 0.05, 0.4, 0, 0.05, 0, 0.1, 0.05,
+                             0.4, 0.1, 0.05],
+                            [0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6,
+                             1, 3, 5, 3, 7, 5])
+    box.set_orientation([0.0, 0.0, 0.7])
+    def size():
+        bb = np.array(box.get_bounding_box())
+        return bb[1::2] - bb[::2]
+
+    before = size()
+    box.reorient_bounding_box()  # along the world's axes: a box turned by 0.7 rad needs a bigger one
+    assert np.allclose(box.get_orientation(), 0.0, atol=1e-9)
+    assert size() == pytest.approx([0.4 * np.cos(0.7) + 0.1 * np.sin(0.7), 0.4 * np.sin(0.7) + 0.1 * np.cos(0.7),
+                                    0.05], abs=1e-6)
+    assert np.prod(size()) > np.prod(before)
+    box.reorient_bounding_box(relative_to=box)  # its own smallest box again
+    assert sorted(size()) == pytest.approx([0.05, 0.1, 0.4], abs=1e-6)
