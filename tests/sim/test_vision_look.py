@@ -1,6 +1,6 @@
 """A scene's look for vision sensors (simx_server/sim/vision_look.py): MJCF scenes keep MuJoCo's
 unless ``<text name="simx:scene:vision" data="look=vrep"/>`` asks for V-REP's (ambient light
-only from the headlight, V-REP's default material on geoms without one)."""
+only from the headlight, V-REP's default material on geoms without one, OpenGL's distant viewer)."""
 
 from __future__ import annotations
 
