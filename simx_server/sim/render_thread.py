@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from simx_server.base import limits as L
-from simx_server.sim import depth_frames
+from simx_server.sim import depth_frames, vision_look
 
 
 #: MuJoCo's visualisation flags a sensor keeps on (everything else, rays, contacts, joints...,
@@ -162,6 +162,8 @@ class SensorRenderer(mujoco.Renderer):
             g.offwidth, g.offheight = saved
         self._mjr_context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         self._gl_context = context
+        # V-REP's look: geoms drawn with OpenGL's distant viewer, as V-REP's sensors draw them
+        self._viewer_lists = vision_look.distant_viewer(self._mjr_context) if vision_look.asks_vrep(model) else []
 
     def render(self, *, out: np.ndarray | None = None) -> np.ndarray:
         """``mujoco.Renderer.render`` into this renderer's own offscreen buffer (the context's
@@ -193,6 +195,8 @@ class SensorRenderer(mujoco.Renderer):
     def close(self) -> None:
         """Free this renderer's ``MjrContext`` (on its render thread); the shared GL context stays."""
         if self._mjr_context:
+            vision_look.restore(self._mjr_context, self._viewer_lists)  # MuJoCo frees its own lists
+            self._viewer_lists = []
             self._mjr_context.free()
         self._mjr_context = None
         self._gl_context = None

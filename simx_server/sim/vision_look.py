@@ -13,26 +13,32 @@ with, on top of the scene's own lights and materials:
   diffuse and specular are 0), as V-REP's global ambient light;
 * V-REP's default material on geoms that have no material of their own (specular 0.25,
   shininess 48/128, no emission; MuJoCo's defaults are 0.5 and 0.5);
-* for an orthographic sensor, the viewer far away along its axis, as OpenGL's default distant
-  viewer that V-REP leaves on (MuJoCo's renderer sets a local viewer, so that specular
-  highlights on a flat surface vary across the image where V-REP's are uniform). A perspective
-  sensor keeps MuJoCo's local viewer: its highlights are where a viewer at the sensor sees them.
+* OpenGL's distant viewer, which V-REP leaves on (coppeliaSimLib never sets
+  ``GL_LIGHT_MODEL_LOCAL_VIEWER``: ``initGl_ifNeeded`` in ``gui/rendering/rendering.cpp`` and
+  ``COffscreenGlContext`` set ``GL_LIGHT_MODEL_TWO_SIDE`` only, so OpenGL's initial ``GL_FALSE``
+  holds): specular highlights are computed for a view along the sensor's axis, uniform on a flat
+  surface across the whole image, in perspective sensors too. MuJoCo's renderer turns the local
+  viewer on in every ``mjr_render`` (``initLights`` in ``render_gl3.c``), after which it draws each
+  geom with a display list of its ``MjrContext``; :func:`distant_viewer` gives the context lists
+  that turn it off again before they draw the geom's own (a light-model change is recorded in a
+  display list and runs where the list is called).
 """
 
 from __future__ import annotations
 
+import logging
+
 import mujoco
+
+log = logging.getLogger("simx.vision")
 
 #: The custom text a scene's look is read from, and its values.
 TEXT = "simx:scene:vision"
 LOOKS = ("mujoco", "vrep")
 #: V-REP's default colour object (``CColorObject::setDefaultValues``): specular level, shininess 0-1.
 DEFAULT_SPECULAR, DEFAULT_SHININESS = 0.25, 48 / 128
-#: How far back an orthographic sensor's viewer goes, in multiples of its far clipping distance:
-#: at 2x, a point at the edge of the view is seen under a fraction of a degree (specular within
-#: about 1 % of V-REP's), and the sky box (drawn at 0.7x the far distance around the viewer)
-#: still fills the view.
-_DISTANT = 2.0
+#: The ``MjrContext`` display lists MuJoCo draws geoms with (``base*`` first list, ``range*`` count).
+_GEOM_LISTS = ("Builtin", "Plane", "Mesh", "HField")
 
 _cache: dict[int, tuple[mujoco.MjModel, bool, bool]] = {}
 
@@ -92,9 +98,73 @@ def apply(scene: mujoco.MjvScene, model: mujoco.MjModel) -> None:
             g = scene.geoms[i]
             if g.matid < 0 and g.objtype == mujoco.mjtObj.mjOBJ_GEOM and model.geom_matid[g.objid] < 0:
                 g.specular, g.shininess, g.emission = DEFAULT_SPECULAR, DEFAULT_SHININESS, 0.0
-    for cam in scene.camera:
-        if cam.orthographic:
-            back = _DISTANT * cam.frustum_far
-            cam.pos[:] = [p - back * f for p, f in zip(cam.pos, cam.forward)]
-            cam.frustum_near += back
-            cam.frustum_far += back
+
+
+def asks_vrep(model: mujoco.MjModel) -> bool:
+    """Whether ``model``'s sensors are drawn with V-REP's look (cached by the model).
+
+    Args:
+        model: the compiled scene.
+
+    Returns:
+        True for ``look=vrep``.
+    """
+    return _of(model)[0]
+
+
+def distant_viewer(context: mujoco.MjrContext) -> list[tuple[str, int, int]]:
+    """Make ``context`` draw its geoms with OpenGL's distant viewer, as V-REP's sensors are drawn:
+    each geom display list (builtin shapes, planes, meshes, height fields) gets a new list that sets
+    ``GL_LIGHT_MODEL_LOCAL_VIEWER`` to ``GL_FALSE`` and calls the original; the context's ``base*``
+    then names the new lists. Depth and segmentation frames draw unlit: the setting changes nothing
+    there. Call with the context's GL context current; undo with :func:`restore` before the
+    ``MjrContext`` is freed (``mjr_freeContext`` deletes the lists its ``base*`` name).
+
+    Args:
+        context: a new ``MjrContext`` (its lists as ``mjr_makeContext`` made them).
+
+    Returns:
+        ``[(kind, original first list, new first list)]``, for :func:`restore`.
+    """
+    from OpenGL import GL  # after the GL context: mujoco chose PyOpenGL's platform (EGL, OSMesa)
+
+    made: list[tuple[str, int, int]] = []
+    try:
+        for kind in _GEOM_LISTS:
+            base, count = getattr(context, "base" + kind), getattr(context, "range" + kind)
+            if count <= 0:
+                continue
+            first = int(GL.glGenLists(count))
+            if first == 0:
+                raise RuntimeError(f"glGenLists({count}) gave no lists")
+            made.append((kind, base, first))
+            for i in range(count):
+                GL.glNewList(first + i, GL.GL_COMPILE)
+                GL.glLightModeli(GL.GL_LIGHT_MODEL_LOCAL_VIEWER, GL.GL_FALSE)
+                GL.glCallList(base + i)
+                GL.glEndList()
+            setattr(context, "base" + kind, first)
+    except Exception as exc:  # the frames keep MuJoCo's local viewer
+        restore(context, made)
+        log.warning("vision sensors: OpenGL's distant viewer not set (%s: %s): specular highlights "
+                    "as MuJoCo's local viewer sees them", type(exc).__name__, exc)
+        return []
+    return made
+
+
+def restore(context: mujoco.MjrContext, made: list[tuple[str, int, int]]) -> None:
+    """Give ``context`` back the lists :func:`distant_viewer` replaced and delete its own (GL
+    context current).
+
+    Args:
+        context: the ``MjrContext``.
+        made: what :func:`distant_viewer` returned.
+    """
+    from OpenGL import GL
+
+    for kind, base, first in made:
+        setattr(context, "base" + kind, base)
+        try:
+            GL.glDeleteLists(first, getattr(context, "range" + kind))
+        except Exception:  # a context the driver tore down: its lists went with it
+            pass

@@ -1,6 +1,6 @@
 """A scene's look for vision sensors (simx_server/sim/vision_look.py): MJCF scenes keep MuJoCo's
 unless ``<text name="simx:scene:vision" data="look=vrep"/>`` asks for V-REP's (ambient light
-only from the headlight, V-REP's default material on geoms without one)."""
+only from the headlight, V-REP's default material on geoms without one, OpenGL's distant viewer)."""
 
 from __future__ import annotations
 
@@ -51,3 +51,42 @@ def test_mjcf_scenes_keep_mujocos_look_unless_they_ask_for_vreps(tmp_path):
 def test_a_look_simx_cannot_give_refuses_the_scene(tmp_path):
     with pytest.raises(ValueError, match="look='pov' is not one of mujoco, vrep"):
         centre(tmp_path, '<custom><text name="simx:scene:vision" data="look=pov"/></custom>')
+
+
+GLOSSY = """<mujoco>
+  <visual><headlight ambient="0.2 0.2 0.2" diffuse="0 0 0" specular="0 0 0"/></visual>
+  <asset><material name="gloss" rgba="0.5 0.5 0.6 1" specular="0.5" shininess="0.375"/></asset>
+  <worldbody>
+    <light name="down" directional="true" dir="0 0 -1" diffuse="0.6 0.6 0.6" specular="0.6 0.6 0.6"/>
+    <geom type="box" size="0.15 0.15 0.05" pos="0 0 -0.05" material="gloss"/>
+    <geom type="box" size="0.15 0.15 0.05" pos="0.8 0 -0.05" material="gloss"/>
+    <camera name="eye" pos="0 0 2" resolution="64 64" fovy="60"/>
+  </worldbody>
+  {custom}
+</mujoco>
+"""
+
+
+def tiles(tmp_path, custom: str) -> tuple[np.ndarray, np.ndarray]:
+    """The centre pixel of the tile under a perspective camera and of the one 22 degrees off its axis."""
+    path = tmp_path / "glossy.xml"
+    path.write_text(GLOSSY.format(custom=custom))
+    sim = Simulation(path, realtime=False)
+    try:
+        (w, h), data = sim.vision.image_bytes(sim.world.resolve("eye").handle, 0)
+    finally:
+        sim.close()
+    image = np.frombuffer(data, np.uint8).reshape(h, w, 3).astype(int)
+    off = int(w / 2 + 0.8 / (2 * np.tan(np.radians(30))) * w / 2)  # world +x is image right
+    return image[h // 2, w // 2], image[h // 2, off]
+
+
+def test_vreps_look_keeps_a_highlight_across_a_perspective_view_and_mujocos_does_not(tmp_path):
+    # V-REP (OpenGL's distant viewer): the light straight above gives both tiles its highlight
+    centre, side = tiles(tmp_path, '<custom><text name="simx:scene:vision" data="look=vrep"/></custom>')
+    want = np.clip(0.2 * np.array([0.5, 0.5, 0.6]) + 0.6 * np.array([0.5, 0.5, 0.6]) + 0.5 * 0.6, 0, 1) * 255
+    np.testing.assert_allclose(centre, want, atol=3)
+    np.testing.assert_allclose(side, want, atol=3)
+    # MuJoCo's look keeps its local viewer: the tile off the axis loses most of its highlight
+    centre, side = tiles(tmp_path, "")
+    assert (centre - side).min() > 20, (centre, side)

@@ -34,15 +34,16 @@ DEFAULT_AMBIENT = 0.2  # V-REP's (CEnvironment::setUpDefaultValues): the file ha
 SIZE, RES = 1.0, 64  # the orthographic sensor's view (m) and resolution
 
 
-def fixed_function(diffuse, specular, shininess, emission, light_diffuse, light_specular) -> np.ndarray:
+def fixed_function(diffuse, specular, shininess, emission, light_diffuse, light_specular,
+                   to_light=TO_LIGHT) -> np.ndarray:
     """OpenGL's lighting of a surface facing up, seen from straight above by a distant viewer
     (V-REP leaves GL_LIGHT_MODEL_LOCAL_VIEWER off), under one directional light and V-REP's
     global ambient light: emission + ambient x diffuse + (N.L) diffuse x light diffuse +
     (N.H)^shininess specular x light specular, 0-255."""
     n = v = np.array([0.0, 0, 1])
-    half = (TO_LIGHT + v) / np.linalg.norm(TO_LIGHT + v)
+    half = (to_light + v) / np.linalg.norm(to_light + v)
     d, s = np.asarray(diffuse), np.asarray(specular)
-    rgb = (np.asarray(emission) + DEFAULT_AMBIENT * d + max(n @ TO_LIGHT, 0) * d * np.asarray(light_diffuse)
+    rgb = (np.asarray(emission) + DEFAULT_AMBIENT * d + max(n @ to_light, 0) * d * np.asarray(light_diffuse)
            + max(n @ half, 0) ** shininess * s * np.asarray(light_specular))
     return np.round(np.clip(rgb, 0, 1) * 255)
 
@@ -82,6 +83,34 @@ def test_a_sensor_sees_the_fixed_function_colour_of_each_material(tmp_path, ligh
         want = fixed_function(diffuse, specular, shininess, emission, light_diffuse, light_specular)
         got = image[row - 2:row + 3, col - 2:col + 3].reshape(-1, 3)
         assert np.abs(got - want).max() <= 6, (diffuse, emission.tolist(), got.min(0), got.max(0), want)
+
+
+def test_a_perspective_sensor_sees_a_highlight_as_vrep_does_across_its_view(tmp_path):
+    # V-REP's distant viewer: a flat glossy surface under a light straight above has its whole
+    # highlight wherever it lies in a perspective sensor's view (a maze's walls seen from above
+    # keep one colour). MuJoCo's local viewer lost most of it 22 and 30 degrees off the axis.
+    diffuse, specular = (0.5, 0.5, 0.6), (0.5, 0.5, 0.5)
+    look = W.colour_object(diffuse, specular, shininess=48)
+    tiles = [(0.0, 0.0), (0.8, 0.0), (-0.8, 0.0), (0.0, 0.8), (0.8, 0.8)]
+    body = (W.light(1, -1, "Down", 3, (0.6, 0.6, 0.6), (0.6, 0.6, 0.6), pos=(0, 0, 3), quat=(0, 1, 0, 0)) +
+            W.camera_sensor(2, -1, "Eye", (RES, RES), pos=(0, 0, 2), quat=(0, 1, 0, 0), perspective=True,
+                            angle=math.radians(60)) +
+            b"".join(W.cuboid_shape(10 + i, -1, f"Tile{i}", (0.3, 0.3, 0.1), (x, y, -0.05), dynamic=False,
+                                    colour=look) for i, (x, y) in enumerate(tiles)))
+    (tmp_path / "eye.ttt").write_bytes(W.ttt_file(body))
+    xml, _ = convert(read(tmp_path / "eye.ttt"), tmp_path / "out")
+    sim = Simulation(xml, realtime=False)
+    try:
+        (w, h), data = sim.vision.image_bytes(sim.world.resolve("Eye").handle, 0)
+    finally:
+        sim.close()
+    image = np.frombuffer(data, np.uint8).reshape(h, w, 3).astype(int)  # V-REP's rows: bottom-up
+    want = fixed_function(diffuse, specular, 48, (0, 0, 0), (0.6,) * 3, (0.6,) * 3, np.array([0.0, 0, 1]))
+    half_view = 2 * math.tan(math.radians(30))  # m, at the tiles' tops, 2 m below the sensor
+    for x, y in tiles:
+        col, row = int(w / 2 - x / half_view * w / 2), int(h / 2 - y / half_view * h / 2)
+        got = image[row - 1:row + 2, col - 1:col + 2].reshape(-1, 3)
+        assert np.abs(got - want).max() <= 3, ((x, y), got.min(0), got.max(0), want)
 
 
 def test_light_and_headlight_carry_vrep_settings(tmp_path):
