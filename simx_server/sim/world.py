@@ -124,6 +124,8 @@ class World(Poses, Joints):
         self.properties = properties.ObjectProperties()  # special and model properties set at run time
         #: Grasped parts (dynamic shapes hung from another object): name -> grasps.Grasp.
         self.grasps: dict[str, grasps.Grasp] = {}
+        #: Joints' frames in their bodies (3, 3) changed at run time, by name (:mod:`simx_server.sim.poses`).
+        self.joint_frames: dict[str, np.ndarray] = {}
         try:
             self._install(model)
         except ArgumentError as exc:
@@ -397,6 +399,7 @@ class World(Poses, Joints):
         self.motors.reset(self.model, self.data.qpos)
         self.data.ctrl[:] = 0.0
         grasps.let_all_go(self)
+        self.joint_frames.clear()
         self.changed()
 
     # -------------------------------------------------------------------- time
