@@ -18,7 +18,7 @@ from simx_server.scene.ttt import convert, reader
 pytestmark = pytest.mark.renderers_on_demand  # no image is read
 
 
-def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False) -> bytes:
+def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False, enabled: bool = True) -> bytes:
     """Two hinge arm (the first unlimited with ``cyclic``), its tip linked to a target at the
     tip, one old IK group."""
     return (W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
@@ -28,7 +28,7 @@ def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False) -> bytes:
             + W.cuboid_shape(5, 4, "L2", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
             + W.dummy(6, 5, "Tip", (0, 0.15, 0), linked=7, link_type=5)
             + W.dummy(7, -1, "Target", (0, 0, 0.85), linked=6, link_type=5)
-            + extra + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit))
+            + extra + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit, enabled=enabled))
 
 
 def _load(tmp_path, body: bytes, program: int = 40100) -> Simulation:
@@ -39,11 +39,13 @@ def _load(tmp_path, body: bytes, program: int = 40100) -> Simulation:
 
 
 def test_explicit_group_is_read_from_the_var_flags(tmp_path):
-    """coppeliaSimLib ``CIkGroup_old::serialize``: ``Var`` bit 6 is explicit handling."""
+    """coppeliaSimLib ``CIkGroup_old::serialize``: ``Var`` bit 6 is explicit handling, bit 0 enabled."""
     for explicit in (True, False):
-        f = tmp_path / f"g{explicit}.ttt"
-        f.write_bytes(W.ttt_file(_arm(explicit)))
-        assert reader.read(f).ik_groups[0].explicit is explicit
+        for enabled in (True, False):
+            f = tmp_path / f"g{explicit}{enabled}.ttt"
+            f.write_bytes(W.ttt_file(_arm(explicit, enabled=enabled)))
+            group = reader.read(f).ik_groups[0]
+            assert (group.explicit, group.enabled) == (explicit, enabled)
 
 
 def test_explicit_group_runs_only_when_called(tmp_path):
@@ -83,6 +85,44 @@ def test_automatic_group_follows_a_moved_target(tmp_path):
         assert gap < 0.01
     finally:
         sim.close()
+
+
+def _gap(api) -> float:
+    return float(np.linalg.norm(np.subtract(api.getObjectPosition(api.getObject("/Tip"), -1),
+                                            api.getObjectPosition(api.getObject("/Target"), -1))))
+
+
+def test_handle_ik_group_as_coppeliasim_handles_it(tmp_path):
+    """coppeliaSimLib ``simHandleIkGroup_internal``: one group only if tagged explicit (else an
+    error), ``sim.handle_all`` every group, ``sim.handle_all_except_explicit`` the others; a
+    group saved inactive is never solved (``CIkGroup_old::computeGroupIk``: not performed)."""
+    for explicit, enabled in ((False, True), (True, True), (True, False), (False, False)):
+        folder = tmp_path / f"{explicit}{enabled}"
+        folder.mkdir()
+        sim = _load(folder, _arm(explicit=explicit, enabled=enabled))
+        try:
+            api = client_context(sim).sim
+            arm = api.getIkGroupHandle("Arm")
+            sim.start()
+            api.setObjectPosition(api.getObject("/Target"), -1, [0.1, 0.0, 0.78])
+            start = _gap(api)
+            for _ in range(40):
+                sim.step()
+            solved_by_steps = _gap(api) < 0.01
+            assert solved_by_steps is (enabled and not explicit), (explicit, enabled)
+            if not explicit:
+                with pytest.raises(Exception, match="not tagged for explicit handling"):
+                    api.handleIkGroup(arm)
+            else:
+                assert api.handleIkGroup(arm) == (1 if enabled else 0)  # success / not performed
+            assert api.handleIkGroup(api.handle_all_except_explicit) == int(enabled and not explicit)
+            for _ in range(10):
+                assert api.handleIkGroup(api.handle_all) == int(enabled)  # explicit ones too
+            for _ in range(20):
+                sim.step()
+            assert (_gap(api) < 0.01) is enabled and (enabled or _gap(api) == pytest.approx(start, abs=0.05))
+        finally:
+            sim.close()
 
 
 IK_SCRIPT = """
