@@ -372,23 +372,33 @@ def test_selection_and_texture_calls_of_old_scripts(tmp_path, caplog):
 
 PLUGINS = """
 simUI = require('simUI')
+simVision = require('simVision')
 function sysCall_init()
     sim.setInt32Signal('ui', simUI.create('<ui/>'))
-    local ok, err = pcall(require, 'simVision')
+    local ok, err = pcall(require, 'simOpenMesh')
+    sim.setStringSignal('mesh', tostring(ok) .. ' ' .. tostring(err))
+    ok, err = pcall(simVision.sensorImgToWorkImg, 1)
     sim.setStringSignal('vision', tostring(ok) .. ' ' .. tostring(err))
+end
+function sysCall_vision(inData)
+    simVision.sensorImgToWorkImg(inData.handle)
 end
 """
 
 
 def test_plugin_modules_as_a_headless_coppeliasim_has_them(tmp_path):
     """``require('simUI')`` is the headless simUI table (its calls logged no-ops, ``create`` -1);
-    a plugin simx lacks (``simVision``) fails to load, saying so."""
+    a plugin simx lacks (``simOpenMesh``) fails to load, saying so; ``simVision`` loads (a 4.5+
+    vision sensor's script requires it at its top) and each of its functions says that simx
+    calls no vision callback: the script's other callbacks run."""
     sim = _load(tmp_path, W.dummy(1, -1, "Holder") + W.script_object(2, 1, "Script", PLUGINS, kind=1), program=40600)
     try:
         sim.start()
         sim.step()
         assert sim.signals.get_int("ui") == -1
-        assert sim.signals.get_string("vision").startswith(b"false simVision is a CoppeliaSim plugin")
+        assert sim.signals.get_string("mesh").startswith(b"false simOpenMesh is a CoppeliaSim plugin")
+        assert sim.signals.get_string("vision").startswith(b"false")
+        assert b"simVision.sensorImgToWorkImg: simx does not call vision callbacks" in sim.signals.get_string("vision")
     finally:
         sim.close()
 
