@@ -71,6 +71,12 @@ class Poses:
         (:attr:`World.joint_frames`). None: a frame with z along the axis, turned from the
         body's by the least rotation.
 
+        Args:
+            obj: a joint.
+
+        Returns:
+            A rotation (3, 3), or None.
+
         Raises:
             ValueError: a ``frame`` setting that is not four numbers.
         """
