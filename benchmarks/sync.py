@@ -10,9 +10,15 @@ The arm is at rest in both (same state, same physics cost).
 With ``--baseline DIR`` the same steps against a server of that source tree (an older commit)
 join the interleaved blocks, and against a second such server with the client as it was before
 issue 44 (``client_as_before_issue44``): before and after in one run, against the same floor.
+
+A line follower's step (issue 50) joins them on servers of its own: ``simxSynchronousTrigger``,
+then the streamed ``UR5_joint1`` position read with ``simx_opmode_buffer`` (no ping), the idiom
+whose clock V-REP advances by one step per trigger; with ``--baseline`` also on that tree's server.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 from benchmarks.common import Floor, Settings, client_as_before_issue44, connect, interleaved, wire_sizes
 from benchmarks.procs import SCENE, Echo, Server
@@ -29,8 +35,14 @@ def run(s: Settings) -> list[Figure]:
     sim = Simulation(SCENE, 0.05)
     sim.start()
     base_srv = base = base_client = base_client_srv = None
+    follow_srvs: list[Server] = []
+    follow: list[int] = []
     try:
         with Server(s.log_dir, "--dt", "0.05", name="sync") as srv, Echo(s.log_dir) as echo:
+            for root, name in ((None, "sync-follow"), (s.baseline, "sync-follow-baseline")):
+                if name == "sync-follow" or root is not None:
+                    follow_srvs.append(Server(s.log_dir, "--dt", "0.05", name=name, root=root))
+                    follow.append(connect(follow_srvs[-1].port))
             if s.baseline is not None:
                 base_srv = Server(s.log_dir, "--dt", "0.05", name="sync-baseline", root=s.baseline)
                 base = connect(base_srv.port)
@@ -41,15 +53,15 @@ def run(s: Settings) -> list[Figure]:
             cid = connect(srv.port)
             floor = Floor(echo.port)
             try:
-                return _measure(s, cid, floor, sim, base, base_client)
+                return _measure(s, cid, floor, sim, base, base_client, follow)
             finally:
-                for c in (cid, base, base_client):
+                for c in (cid, base, base_client, *follow):
                     if c is not None:
                         api.simxSynchronous(c, False)
                         api.simxFinish(c)
                 floor.close()
     finally:
-        for server in (base_srv, base_client_srv):
+        for server in (base_srv, base_client_srv, *follow_srvs):
             if server is not None:
                 server.stop()
         sim.close()
@@ -62,8 +74,23 @@ def _start_stepping(cid: int) -> None:
             raise RuntimeError(f"{what} failed with return code {rc}")
 
 
+def _follower(cid: int, failures: list) -> Callable[[], None]:
+    """A line follower's step on ``cid``: trigger, then the streamed joint from the inbox."""
+    _start_stepping(cid)
+    joint = api.simxGetObjectHandle(cid, "UR5_joint1", B)[1]
+    api.simxGetJointPosition(cid, joint, C.simx_opmode_streaming)
+    api.simxGetPingTime(cid)
+
+    def step() -> None:
+        rc = api.simxSynchronousTrigger(cid)
+        rc2, _ = api.simxGetJointPosition(cid, joint, C.simx_opmode_buffer)
+        if rc or rc2:
+            failures.append((rc, rc2))
+    return step
+
+
 def _measure(s: Settings, cid: int, floor: Floor, sim, base: int | None = None,
-             base_client: int | None = None) -> list[Figure]:
+             base_client: int | None = None, follow: list[int] | None = None) -> list[Figure]:
     _start_stepping(cid)
     for c in (base, base_client):
         if c is not None:
@@ -90,6 +117,8 @@ def _measure(s: Settings, cid: int, floor: Floor, sim, base: int | None = None,
         cases["baseline"] = lambda: step(base)
     if base_client is not None:
         cases["baseline_client"] = lambda: step(base_client)
+    for name, c in zip(("follow", "follow_baseline"), follow or []):
+        cases[name] = _follower(c, failures)
     t = interleaved(s.n(30, 6), 20, cases, budget_s=s.t(60, 20))
     if failures:
         raise RuntimeError(f"{len(failures)} failed steps, e.g. return codes {failures[0]}")
@@ -111,7 +140,11 @@ def _measure(s: Settings, cid: int, floor: Floor, sim, base: int | None = None,
                rate_summary(t["baseline_client"]), floor={"label": "in-process steps/s", **rate_summary(t["physics"])},
                note="the client as before issue 44 (benchmarks.common.client_as_before_issue44)"),
     ]
-    return baseline + [
+    physics_rate = {"label": "in-process steps/s", **rate_summary(t["physics"])}
+    followers = [Figure(f"sync.{name}_steps_per_s", f"line follower's steps/s (trigger + buffer read){what}", "1/s",
+                        rate_summary(t[name]), floor=physics_rate)
+                 for name, what in (("follow", ""), ("follow_baseline", ", --baseline tree's server")) if name in t]
+    return followers + baseline + [
         Figure("sync.step", "sync step: SynchronousTrigger + GetPingTime", "ms", ms["step"], floor=composite,
                target=Target("ratio", "<=", 2.5, "p50 <= 2.5x floor"),
                note=f"sim advanced {advanced_ms} ms for {steps_expected} triggers (expect {steps_expected * 50})",

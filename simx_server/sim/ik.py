@@ -21,6 +21,8 @@ A scene declares an IK group with a custom text (one per group)::
   :data:`simx_server.base.limits.MAX_IK_ITERATIONS`).
 * ``explicit``: ``true`` leaves the group to scripts (``sim.handleIkGroup``), as V-REP's
   "explicit handling" flag; otherwise it is solved every simulation step.
+* ``enabled``: ``false`` for a group V-REP's dialog left inactive: never solved, neither every
+  step nor when a script asks (coppeliaSimLib ``CIkGroup_old::computeGroupIk``).
 
 Every simulation step, after the child scripts' actuation and before physics (where V-REP's
 main script called ``sim.handleIkGroup(sim.handle_all_except_explicit)``), each group is solved
@@ -59,8 +61,8 @@ _ORIENTATION_TOLERANCE = 1e-4
 #: bounds its joints' steps: near a singular pose (an arm stretched out) damped least squares
 #: otherwise jumps to a far solution, turns away from the current pose.
 MAX_STEP_RAD, MAX_STEP_M = 0.2, 0.05
-#: V-REP's return of sim.handleIkGroup: sim_ikresult_success / fail.
-IK_SUCCESS, IK_FAIL = 1, 2
+#: V-REP's return of sim.handleIkGroup: sim_ikresult_not_performed / success / fail.
+IK_NOT_PERFORMED, IK_SUCCESS, IK_FAIL = 0, 1, 2
 
 
 @dataclasses.dataclass
@@ -83,6 +85,8 @@ class IkGroup:
     #: all the elements, for a group with several or with partial constraints (solved by
     #: :func:`simx_server.sim.ik_solver.solve`); empty for one tip with pose or position
     elements: list = dataclasses.field(default_factory=list)
+    #: False: never solved (V-REP's inactive group)
+    enabled: bool = True
 
 
 def _setting(settings: dict[str, str], key: str, default: str) -> str:
@@ -150,7 +154,7 @@ def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> Ik
     """Build a group from its ``simx:ik:NAME`` settings; raises ValueError naming the problem."""
     m = world.model
     numbered = [str(k) for k in range(2, MAX_ELEMENTS + 1)]
-    allowed = {"damping", "iterations", "explicit"} | {key + n for key in _ELEMENT_KEYS for n in ["", *numbered]}
+    allowed = {"damping", "iterations", "explicit", "enabled"} | {key + n for key in _ELEMENT_KEYS for n in ["", *numbered]}
     unknown = set(settings) - allowed
     if unknown:
         raise ValueError(f"unknown key(s) {sorted(unknown)}")
@@ -179,6 +183,7 @@ def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> Ik
         name=name, handle=handle, tip=tip.mj_id, target=target.mj_id,
         pose=bits == 31, damping=damping, iterations=iterations,
         explicit=_setting(settings, "explicit", "false").lower() in ("true", "1", "yes"),
+        enabled=_setting(settings, "enabled", "true").lower() in ("true", "1", "yes"),
         joints=[h for h, _ in chain], qadr=m.jnt_qposadr[ids].copy(), dadr=m.jnt_dofadr[ids].copy(),
         low=np.where(limited, m.jnt_range[ids, 0], -np.inf), high=np.where(limited, m.jnt_range[ids, 1], np.inf),
         elements=[ik_solver.Element(i, t.handle, g.handle, constraints=c,
@@ -230,9 +235,10 @@ class IkGroups:
         return g
 
     def solve_automatic(self) -> None:
-        """Solve every group that is not explicit (once per simulation step)."""
+        """Solve every enabled group that is not explicit (once per simulation step: V-REP's
+        main script's ``sim.handleIkGroup(sim.handle_all_except_explicit)``)."""
         for g in self.groups.values():
-            if not g.explicit:
+            if g.enabled and not g.explicit:
                 self.solve(g)
 
     def tip_error(self, g: IkGroup, data: mujoco.MjData) -> np.ndarray:

@@ -6,13 +6,15 @@ Positions in m, angles in rad, quaternions (x, y, z, w) as V-REP writes them.
 
 from __future__ import annotations
 
+import functools
+
 import mujoco
 import numpy as np
 
 from simx_wire import constants as C
 from simx_wire.protocol import ObjectTypeError
 from simx_server.sim import grasps, physics
-from simx_server.sim.objects import _TYPE_NAMES, JOINT, LIGHT, SHAPE, SITES, VISION_SENSOR, WORLD
+from simx_server.sim.objects import _TYPE_NAMES, JOINT, LIGHT, SHAPE, SITES, VISION_SENSOR, WORLD, SceneObject
 from simx_server.sim.rotations import (
     _frame_with_z,
     euler_from_matrix,
@@ -44,8 +46,15 @@ class Poses:
         if obj.type == SHAPE:
             return d.xpos[obj.mj_id].copy(), d.xmat[obj.mj_id].reshape(3, 3).copy()
         if obj.type == JOINT:
-            return d.xanchor[obj.mj_id].copy(), _frame_with_z(d.xaxis[obj.mj_id],
-                                                              d.xmat[obj.body].reshape(3, 3))
+            j, m = obj.mj_id, self.model
+            anchor = d.xanchor[j].copy()
+            if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:  # MuJoCo's anchor is before the slide's travel
+                a = m.jnt_qposadr[j]
+                anchor += (d.qpos[a] - m.qpos0[a]) * d.xaxis[j]
+            in_body = self.joint_frame_in_body(obj)
+            if in_body is not None:
+                return anchor, d.xmat[obj.body].reshape(3, 3) @ in_body
+            return anchor, _frame_with_z(d.xaxis[j], d.xmat[obj.body].reshape(3, 3))
         if obj.type in SITES:
             return d.site_xpos[obj.mj_id].copy(), d.site_xmat[obj.mj_id].reshape(3, 3).copy()
         if obj.type == VISION_SENSOR:
@@ -54,12 +63,74 @@ class Poses:
             return d.cam_xpos[obj.mj_id].copy(), r
         return d.light_xpos[obj.mj_id].copy(), _frame_with_z(d.light_xdir[obj.mj_id], np.eye(3))
 
-    def relative_frame(self, handle: int, relative_to: int) -> tuple[np.ndarray, np.ndarray]:
-        """Pose of ``handle`` in the frame of ``relative_to`` (-1 world, -11 parent).
+    def joint_frame_in_body(self, obj: SceneObject) -> np.ndarray | None:
+        """The rotation (3, 3) of joint ``obj``'s (moved) frame in its MuJoCo body, where simx
+        knows it: a .ttt joint merged into its child shape's body keeps its frame there as
+        ``frame=w,x,y,z`` (MuJoCo keeps only the axis; the x and y of V-REP's frame place what
+        is relative to it, e.g. omni-wheels' rollers), changed when the body is placed anew
+        (:attr:`World.joint_frames`). None: a frame with z along the axis, turned from the
+        body's by the least rotation.
+
+        Args:
+            obj: a joint.
+
+        Returns:
+            A rotation (3, 3), or None.
+
+        Raises:
+            ValueError: a ``frame`` setting that is not four numbers.
+        """
+        kept = self.joint_frames.get(obj.name)
+        if kept is not None:
+            return kept
+        text = obj.settings.get("frame")
+        return None if text is None else _frame_setting(text, obj.name)
+
+    def base_frame(self, handle: int) -> tuple[np.ndarray, np.ndarray]:
+        """The frame of an object itself, as V-REP gives it (coppeliaSimLib
+        ``CSceneObject::getCumulativeTransformation``): a joint's frame without its own motion
+        (its base frame: a hinge not turned by its angle, a slide not moved by its travel, a
+        ball not turned by its rotation); any other object's :meth:`frame`. :meth:`frame` is
+        the frame things hang from (``getFullCumulativeTransformation``), the joint's moved one.
+
+        Args:
+            handle: an object's handle, or -1.
+
+        Returns:
+            ``(position, rotation)``: arrays (3,) m and (3, 3).
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
+        p, r = self.frame(handle)
+        if handle == WORLD or (obj := self.get(handle)).type != JOINT:
+            return p, r
+        m, d = self.model, self.data
+        a, kind = int(m.jnt_qposadr[obj.mj_id]), int(m.jnt_type[obj.mj_id])
+        # a .ttt joint's ``ref`` is the position it was saved at, where its body was placed: the
+        # moved frame is the base turned (moved) by qpos itself, as V-REP's by its position
+        if kind == mujoco.mjtJoint.mjJNT_HINGE:
+            c, s = np.cos(d.qpos[a]), np.sin(d.qpos[a])
+            r = r @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # r @ Rz(-q)
+        elif kind == mujoco.mjtJoint.mjJNT_SLIDE:
+            p = p - float(d.qpos[a]) * r[:, 2]
+        elif kind == mujoco.mjtJoint.mjJNT_BALL:
+            b = d.xmat[obj.body].reshape(3, 3)  # the body turned by the ball's rotation q
+            turn = _mat(d.qpos[a:a + 4])
+            r = b @ turn.T @ (b.T @ r)  # the frame's fixed place in its body, on the body unturned
+        return p, r
+
+    def relative_frame(self, handle: int, relative_to: int,
+                       reference_base: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Pose of ``handle`` (its :meth:`base_frame`, V-REP's frame of the object) in the
+        frame of ``relative_to`` (-1 world, -11 parent): a joint's moved frame, what its
+        children hang from (coppeliaSimLib ``simGetObjectPosition_internal`` & co.), or with
+        ``reference_base`` its base frame (``sim.handleflag_reljointbaseframe``).
 
         Args:
             handle: an object's handle.
             relative_to: another object's handle, -1 or -11 (``sim_handle_parent``).
+            reference_base: a joint as ``relative_to`` counts by its base frame.
 
         Returns:
             ``(position, rotation)``: arrays (3,) m and (3, 3).
@@ -69,16 +140,17 @@ class Poses:
         """
         if relative_to == C.sim_handle_parent:
             relative_to = self.get(handle).parent
-        p, r = self.frame(handle)
-        p0, r0 = self.frame(relative_to)
+        p, r = self.base_frame(handle)
+        p0, r0 = self.base_frame(relative_to) if reference_base else self.frame(relative_to)
         return r0.T @ (p - p0), r0.T @ r
 
-    def position(self, handle: int, relative_to: int) -> list[float]:
+    def position(self, handle: int, relative_to: int, reference_base: bool = False) -> list[float]:
         """Position (m) of an object relative to another. ``simxGetObjectPosition``.
 
         Args:
             handle: an object's handle.
             relative_to: another object's handle, -1 (world) or -11 (parent).
+            reference_base: a joint as ``relative_to`` counts by its base frame.
 
         Returns:
             ``[x, y, z]`` in m.
@@ -86,14 +158,15 @@ class Poses:
         Raises:
             UnknownObjectError: no such object.
         """
-        return self.relative_frame(handle, relative_to)[0].tolist()
+        return self.relative_frame(handle, relative_to, reference_base)[0].tolist()
 
-    def orientation(self, handle: int, relative_to: int) -> list[float]:
+    def orientation(self, handle: int, relative_to: int, reference_base: bool = False) -> list[float]:
         """Euler angles alpha, beta, gamma (rad) with R = Rx(a) Ry(b) Rz(g). ``simxGetObjectOrientation``.
 
         Args:
             handle: an object's handle.
             relative_to: another object's handle, -1 (world) or -11 (parent).
+            reference_base: a joint as ``relative_to`` counts by its base frame.
 
         Returns:
             ``[alpha, beta, gamma]`` in rad.
@@ -101,14 +174,15 @@ class Poses:
         Raises:
             UnknownObjectError: no such object.
         """
-        return euler_from_matrix(self.relative_frame(handle, relative_to)[1])
+        return euler_from_matrix(self.relative_frame(handle, relative_to, reference_base)[1])
 
-    def quaternion(self, handle: int, relative_to: int) -> list[float]:
+    def quaternion(self, handle: int, relative_to: int, reference_base: bool = False) -> list[float]:
         """Orientation as a quaternion in V-REP's order (x, y, z, w). ``simxGetObjectQuaternion``.
 
         Args:
             handle: an object's handle.
             relative_to: another object's handle, -1 (world) or -11 (parent).
+            reference_base: a joint as ``relative_to`` counts by its base frame.
 
         Returns:
             ``[x, y, z, w]``, unit length.
@@ -116,7 +190,7 @@ class Poses:
         Raises:
             UnknownObjectError: no such object.
         """
-        return quaternion_from_matrix(self.relative_frame(handle, relative_to)[1])
+        return quaternion_from_matrix(self.relative_frame(handle, relative_to, reference_base)[1])
 
     def children(self, handle: int) -> list[int]:
         """Handles of the objects whose parent is ``handle`` (-1: the world), in tree order.
@@ -135,7 +209,7 @@ class Poses:
         return [o.handle for o in self.objects.values() if o.parent == handle]
 
     def set_pose(self, handle: int, relative_to: int, position: list[float] | None = None,
-                 rotation: np.ndarray | None = None) -> None:
+                 rotation: np.ndarray | None = None, reference_base: bool = False) -> None:
         """Move an object: ``position`` (3,) in m and/or ``rotation`` (3, 3), both expressed in the
         frame of ``relative_to`` (-1 world, -11 parent). ``simxSetObjectPosition`` & co.
 
@@ -153,6 +227,8 @@ class Poses:
             relative_to: another object's handle, -1 or -11.
             position: the new position, or None to keep it.
             rotation: the new rotation, or None to keep it.
+            reference_base: a joint as ``relative_to`` counts by its base frame
+                (``sim.handleflag_reljointbaseframe``); else by its moved frame.
 
         Raises:
             UnknownObjectError: no such object.
@@ -164,8 +240,8 @@ class Poses:
         obj = self.get(handle)
         if relative_to == C.sim_handle_parent:
             relative_to = obj.parent
-        p0, r0 = self.frame(relative_to)
-        p_now, r_now = self.frame(handle)
+        p0, r0 = self.base_frame(relative_to) if reference_base else self.frame(relative_to)
+        p_now, r_now = self.base_frame(handle)  # a joint is placed by its base frame, as in V-REP
         p = p_now if position is None else p0 + r0 @ np.asarray(position, dtype=float)
         r = r_now if rotation is None else r0 @ rotation
         m, d = self.model, self.data
@@ -224,7 +300,10 @@ class Poses:
         staying where it is: the body gets the pose (``p``, ``r``) at the current joint state,
         and the joint's anchor and axis are re-expressed in the body's new frame."""
         m, d = self.model, self.data
+        joint = next((o for o in self.objects.values() if o.type == JOINT and o.mj_id == j), None)
+        frame = self.frame(joint.handle)[1] if joint is not None else None  # the joint's, in the world: kept
         anchor, axis = d.xanchor[j].copy(), d.xaxis[j].copy()
+        axis /= np.linalg.norm(axis)  # a unit axis: placed every step (omni-wheels), no error may grow
         q = float(d.qpos[m.jnt_qposadr[j]] - m.qpos0[m.jnt_qposadr[j]])
         undo_r, undo_p = np.eye(3), np.zeros(3)  # the joint's displacement, undone: world -> world
         if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE):
@@ -241,6 +320,8 @@ class Poses:
         mujoco.mju_mat2Quat(m.body_quat[b], np.ascontiguousarray(rp.T @ r0).reshape(9))
         m.jnt_pos[j] = r0.T @ (anchor - p0)  # where the joint is, seen from the body at rest (MuJoCo's
         m.jnt_axis[j] = r0.T @ axis         # anchor is the rest frame's: a slide moves the body past it)
+        if frame is not None:
+            self.joint_frames[joint.name] = r.T @ frame  # in the body, which now has r at this joint state
 
     def _in_parent(self, body: int, p: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World pose (p, quat) expressed in body ``body``'s frame."""
@@ -254,6 +335,20 @@ class Poses:
 
 #: Joints that V-REP lets a script place, and under which a shape can be placed: hinge, slide.
 _PLACEABLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+@functools.lru_cache(maxsize=4096)
+def _frame_setting(text: str, name: str) -> np.ndarray:
+    """A joint's ``frame=w,x,y,z`` setting as a rotation matrix (read-only)."""
+    try:
+        q = np.array([float(v) for v in text.split(",")])
+        if q.shape != (4,) or not np.all(np.isfinite(q)) or not np.linalg.norm(q) > 0:
+            raise ValueError
+    except ValueError:
+        raise ValueError(f"frame of joint {name!r} must be a quaternion w,x,y,z, got {text[:60]!r}") from None
+    rot = _mat(q / np.linalg.norm(q))
+    rot.setflags(write=False)
+    return rot
 
 
 def _mat(quat: np.ndarray) -> np.ndarray:

@@ -126,6 +126,8 @@ class World(Poses, Joints):
         self.grasps: dict[str, grasps.Grasp] = {}
         #: Contact bits of shapes made not respondable (sim/shape_dynamics.py): name -> (contype, conaffinity).
         self.respondable_bits: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        #: Joints' frames in their bodies (3, 3) changed at run time, by name (:mod:`simx_server.sim.poses`).
+        self.joint_frames: dict[str, np.ndarray] = {}
         try:
             self._install(model)
         except ArgumentError as exc:
@@ -399,6 +401,7 @@ class World(Poses, Joints):
         self.motors.reset(self.model, self.data.qpos)
         self.data.ctrl[:] = 0.0
         grasps.let_all_go(self)
+        self.joint_frames.clear()
         self.changed()
 
     # -------------------------------------------------------------------- time

@@ -1,4 +1,5 @@
-"""Census of the scripts of ``../shared/ttt-corpus/`` (issue 34): each scene's own scripts load,
+"""Census of the scripts of ``../shared/ttt-corpus/`` (issue 34) and of PyRep's models
+(``../shared/pyrep/robot_ttms/``): each scene's own scripts load,
 run their initialization and 2 s of simulation with no script error; the functions simx still
 lacks are printed (a call to one raises an error that names it, ``NAME is not available in
 simx``).
@@ -24,6 +25,7 @@ from conftest import SHARED, require_shared
 pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 
 CORPUS = SHARED / "ttt-corpus"
+ROBOT_TTMS = SHARED / "pyrep" / "robot_ttms"  # PyRep's models: their scripts run too (the youBot's omni-wheels)
 SECONDS = 2.0
 _MISSING = re.compile(r"(\b[\w.]+) is not available in simx")
 
@@ -52,7 +54,9 @@ SIMX_GAPS: dict[str, list[tuple[str, str]]] = {}
 
 
 def _corpus() -> list:
-    return sorted(p for p in CORPUS.glob("*.tt[tm]")) if CORPUS.is_dir() else []
+    """The corpus's files, then PyRep's robot models (``../shared/pyrep/robot_ttms/``)."""
+    corpus = sorted(p for p in CORPUS.glob("*.tt[tm]")) if CORPUS.is_dir() else []
+    return corpus + (sorted(ROBOT_TTMS.rglob("*.ttm")) if ROBOT_TTMS.is_dir() else [])
 
 
 @pytest.mark.parametrize("path", _corpus() or [CORPUS], ids=lambda p: p.name)  # no folder: one test that skips

@@ -135,9 +135,40 @@ def getObjects(ctx: CallContext, index: Any, object_type: Any) -> int:  # noqa: 
     return handles[i] if 0 <= i < len(handles) else -1
 
 
+#: Bits of an object handle that are flags (coppeliaSimLib ``sim_handleflag_flagmask``), the
+#: handle proper (``sim_handleflag_handlemask``), and the pose calls' flags.
+HANDLE_FLAGS, HANDLE_MASK = 0x0FF00000, 0x000FFFFF
+HANDLEFLAG_RELJOINTBASEFRAME, HANDLEFLAG_WXYZQUAT = 0x400000, 0x1000000
+#: Scripts written before this version (CoppeliaSim 4.0.1) count a joint they are relative to by
+#: its base frame (coppeliaSimLib ``CDetachedScript::_adjustScriptText11_old``).
+_JOINT_BASE_BEFORE = 40001
+
+
+def pose_handles(ctx: CallContext, handle: Any, relative_to: Any) -> tuple[int, int, bool, int]:
+    """The object and reference of a pose call, as coppeliaSimLib ``simGetObjectPosition_internal``
+    & co. read them: the object handle less its flags (``handle + sim.handleflag_reljointbaseframe``,
+    ``+ sim.handleflag_wxyzquat``), the reference (-1, ``sim.handle_parent`` or an object),
+    whether a joint as reference counts by its base frame (the flag, or a script saved before
+    CoppeliaSim 4.0.1, for which CoppeliaSim adds the flag to its pose calls:
+    ``_adjustScriptText11_old``), and the flags.
+
+    Raises:
+        UnknownObjectError: no such object as reference.
+    """
+    h = ctx.h(handle)
+    flags = h & HANDLE_FLAGS if h >= 0 else 0
+    h = h & HANDLE_MASK if flags else h
+    version = getattr(ctx.script, "version", None)
+    old = isinstance(version, int) and version < _JOINT_BASE_BEFORE
+    return h, ctx.rel(relative_to), bool(flags & HANDLEFLAG_RELJOINTBASEFRAME) or old, flags
+
+
 def set_pose(ctx: CallContext, handle: Any, relative_to: Any, position: list[float] | None = None,
-              rotation: np.ndarray | None = None) -> None:
-    ctx.world.set_pose(ctx.h(handle), ctx.rel(relative_to), position=position, rotation=rotation)
+             rotation: np.ndarray | None = None) -> None:
+    """Place an object (:meth:`simx_server.sim.world.World.set_pose`), its handle's flags read
+    as :func:`pose_handles` reads them."""
+    h, rel, base, _ = pose_handles(ctx, handle, relative_to)
+    ctx.world.set_pose(h, rel, position=position, rotation=rotation, reference_base=base)
 
 
 def frame_of(ctx: CallContext, handle: int) -> tuple[np.ndarray, np.ndarray]:

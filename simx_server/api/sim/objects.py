@@ -228,7 +228,10 @@ def getObjectsInTree(ctx: CallContext, base: Any, objectType: Any = C.sim_handle
 @sim_function("getObjectPosition")
 def getObjectPosition(ctx: CallContext, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
     """Position (m) relative to ``relative_to`` (-1 world, the default since CoppeliaSim 4.5;
-    ``sim.handle_parent``; any object).
+    ``sim.handle_parent``; any object). A joint's position is its base frame's; a joint as
+    ``relative_to`` counts by its moved frame, or by its base frame for
+    ``handle + sim.handleflag_reljointbaseframe`` and for scripts saved before CoppeliaSim 4.0.1
+    (:func:`~simx_server.api.sim.core.pose_handles`; coppeliaSimLib ``simGetObjectPosition_internal``).
 
     Args:
         handle: the object's handle.
@@ -237,7 +240,8 @@ def getObjectPosition(ctx: CallContext, handle: Any, relative_to: Any = -1) -> l
     Returns:
         ``[x, y, z]`` in m.
     """
-    return ctx.world.position(ctx.h(handle), ctx.rel(relative_to))
+    h, rel, base, _ = _core.pose_handles(ctx, handle, relative_to)
+    return ctx.world.position(h, rel, base)
 
 
 @sim_function("getObjectOrientation")
@@ -252,21 +256,26 @@ def getObjectOrientation(ctx: CallContext, handle: Any, relative_to: Any = -1) -
     Returns:
         ``[alpha, beta, gamma]`` in rad.
     """
-    return ctx.world.orientation(ctx.h(handle), ctx.rel(relative_to))
+    h, rel, base, _ = _core.pose_handles(ctx, handle, relative_to)
+    return ctx.world.orientation(h, rel, base)
 
 
 @sim_function("getObjectQuaternion")
 def getObjectQuaternion(ctx: CallContext, handle: Any, relative_to: Any = -1) -> list[float]:  # noqa: N802
-    """Orientation as a quaternion (x, y, z, w) relative to ``relative_to`` (default: the world).
+    """Orientation as a quaternion (x, y, z, w) relative to ``relative_to`` (default: the world);
+    ``handle + sim.handleflag_wxyzquat`` gives (w, x, y, z) (coppeliaSimLib
+    ``simGetObjectQuaternion_internal``).
 
     Args:
-        handle: the object's handle.
+        handle: the object's handle, plus ``sim.handleflag_*`` (:func:`~simx_server.api.sim.core.pose_handles`).
         relative_to: another object's handle, -1 or ``sim.handle_parent``.
 
     Returns:
         ``[x, y, z, w]``, unit length.
     """
-    return ctx.world.quaternion(ctx.h(handle), ctx.rel(relative_to))
+    h, rel, base, flags = _core.pose_handles(ctx, handle, relative_to)
+    q = ctx.world.quaternion(h, rel, base)
+    return [q[3], *q[:3]] if flags & _core.HANDLEFLAG_WXYZQUAT else q
 
 
 def order(relative_to: Any, value: Any) -> tuple[Any, Any]:
@@ -281,6 +290,10 @@ def order(relative_to: Any, value: Any) -> tuple[Any, Any]:
 def setObjectPosition(ctx: CallContext, handle: Any, relative_to: Any, position: Any = None) -> None:  # noqa: N802
     """Move an object to ``position`` (m) in the frame of ``relative_to``; arguments
     ``(h, relativeTo, position)`` or, as CoppeliaSim 4.5, ``(h, position [, relativeTo])``.
+    A joint is placed by its base frame; a joint as ``relative_to`` counts by its moved frame,
+    or by its base frame for ``h + sim.handleflag_reljointbaseframe`` and for scripts saved
+    before CoppeliaSim 4.0.1 (:func:`~simx_server.api.sim.core.pose_handles`; coppeliaSimLib
+    ``simSetObjectPosition_internal``).
 
     Args:
         handle: the object's handle.
@@ -308,7 +321,8 @@ def setObjectOrientation(ctx: CallContext, handle: Any, relative_to: Any, euler:
 @sim_function("setObjectQuaternion")
 def setObjectQuaternion(ctx: CallContext, handle: Any, relative_to: Any, quaternion: Any = None) -> None:  # noqa: N802
     """Turn an object to quaternion (x, y, z, w) in the frame of ``relative_to``; both
-    argument orders, as :func:`setObjectPosition`.
+    argument orders, as :func:`setObjectPosition`; ``handle + sim.handleflag_wxyzquat`` takes
+    (w, x, y, z).
 
     Args:
         handle: the object's handle.
@@ -316,7 +330,10 @@ def setObjectQuaternion(ctx: CallContext, handle: Any, relative_to: Any, quatern
         quaternion: ``[x, y, z, w]``, or the handle (4.5's order).
     """
     rel, value = order(relative_to, quaternion)
-    _core.set_pose(ctx, handle, rel, rotation=matrix_from_quaternion(*_vector(value, 4, "quaternion")))
+    q = _vector(value, 4, "quaternion")
+    if _core.pose_handles(ctx, handle, rel)[3] & _core.HANDLEFLAG_WXYZQUAT:  # (w, x, y, z)
+        q = [*q[1:], q[0]]
+    _core.set_pose(ctx, handle, rel, rotation=matrix_from_quaternion(*q))
 
 
 @sim_function("getObjectMatrix")
@@ -332,7 +349,8 @@ def getObjectMatrix(ctx: CallContext, handle: Any, relative_to: Any = -1) -> lis
     Returns:
         12 floats.
     """
-    p, r = ctx.world.relative_frame(ctx.h(handle), ctx.rel(relative_to))
+    h, rel, base, _ = _core.pose_handles(ctx, handle, relative_to)
+    p, r = ctx.world.relative_frame(h, rel, base)
     return np.hstack([r, p.reshape(3, 1)]).reshape(12).tolist()
 
 

@@ -213,9 +213,11 @@ def _frame_of(ctx: CallContext, handle: int) -> tuple[np.ndarray, np.ndarray]:
 
 @sim_function("getObjectPose")
 def getObjectPose(ctx: CallContext, objectHandle: Any, relativeToObjectHandle: Any = -1) -> list[float]:  # noqa: N802, N803
-    """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world).
+    """``[x, y, z, qx, qy, qz, qw]`` of an object relative to another (-1: the world); the
+    handle's flags as :func:`~simx_server.api.sim.core.pose_handles` reads them
+    (``sim.handleflag_wxyzquat``: ``qw, qx, qy, qz``).
 
-    ``sim.getObjectPose``.
+    ``sim.getObjectPose`` (coppeliaSimLib ``simGetObjectPose_internal``).
 
     Args:
         objectHandle: the object's handle, or ``sim.handle_self``.
@@ -227,8 +229,9 @@ def getObjectPose(ctx: CallContext, objectHandle: Any, relativeToObjectHandle: A
     Raises:
         UnknownObjectError: no such object.
     """
-    h, rel = ctx.h(objectHandle), ctx.rel(relativeToObjectHandle)
-    return ctx.world.position(h, rel) + ctx.world.quaternion(h, rel)
+    h, rel, base, flags = _core.pose_handles(ctx, objectHandle, relativeToObjectHandle)
+    q = ctx.world.quaternion(h, rel, base)
+    return ctx.world.position(h, rel, base) + ([q[3], *q[:3]] if flags & _core.HANDLEFLAG_WXYZQUAT else q)
 
 
 @sim_function("setObjectPose")
@@ -249,7 +252,8 @@ def setObjectPose(ctx: CallContext, objectHandle: Any, relativeTo: Any, pose: An
     """
     rel, value = _objects.order(relativeTo, pose)
     v = _vector(value, 7, "pose")
-    _core.set_pose(ctx, objectHandle, rel, position=v[:3], rotation=matrix_from_quaternion(*v[3:]))
+    q = v[3:] if not _core.pose_handles(ctx, objectHandle, rel)[3] & _core.HANDLEFLAG_WXYZQUAT else [*v[4:], v[3]]
+    _core.set_pose(ctx, objectHandle, rel, position=v[:3], rotation=matrix_from_quaternion(*q))
 
 
 @sim_function("getObjectChildPose")

@@ -272,6 +272,8 @@ class Converter:
             child = shapes[0]
             rel = inverse(child.pose)  # the joint frame seen from the child's body
             axis = quat_to_mat(rel.quat) @ np.array([0.0, 0, 1])
+            if abs(abs(float(rel.quat[0])) - 1.0) > 1e-9:  # MuJoCo keeps only its axis: its x, y here
+                self.setting(obj.name, "frame=" + ",".join(f"{v:.9g}" for v in rel.quat))
             self._shape(child, body, compose(displaced, child.pose), model,
                         joint=lambda b: add_joint(self, obj, b, rel.pos, axis))
             for script in scripts:  # in the child's body, which the joint moves

@@ -196,6 +196,7 @@ class IkGroup:
     name: str
     elements: list[tuple[int, int, int]]  # (tip handle, base handle, constraints)
     explicit: bool = False
+    enabled: bool = True
 
 
 @dataclass

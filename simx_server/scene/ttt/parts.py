@@ -250,6 +250,8 @@ def add_ik_groups(conv) -> None:
             conv.report.add(f"IK group elements beyond the {MAX_IK_ELEMENTS}th")
         if group.explicit:
             items.append("explicit=true")
+        if not group.enabled:
+            items.append("enabled=false")
         conv.setting(f"ik:{name}", *items)
 
 

@@ -322,12 +322,13 @@ def _read_ik_group(r: Records) -> IkGroup:
             ctr = sub.int("Ctr", 7)
             if ik2 is not None:
                 elements.append((int(ik2[0]), int(ik2[1]), ctr))
-    # "Var" (coppeliaSimLib CIkGroup_old::serialize): bit 0 active, bit 6 explicit handling ("Va2"
-    # holds the joint-limit correction); an inactive group runs only when asked, as an explicit
-    # one. Files before "Var" carried the explicit flag as Va2 bit 1 (kept for those files).
-    var = r.get("Var")
-    explicit = bool(r.byte("Var") & 0x40) or not r.byte("Var") & 1 if var is not None else bool(r.byte("Va2") & 2)
-    return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=explicit)
+    # "Var" (coppeliaSimLib CIkGroup_old::serialize): bit 0 enabled, bit 6 explicit handling ("Va2"
+    # holds the joint-limit correction). Files before "Var" carried the explicit flag as Va2 bit 1
+    # (kept for those files).
+    if r.get("Var") is not None:
+        var = r.byte("Var")
+        return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=bool(var & 0x40), enabled=bool(var & 1))
+    return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=bool(r.byte("Va2") & 2))
 
 
 def _read_dynamics(r: Records, scene: TttScene) -> None:

@@ -1,7 +1,8 @@
 """Linked grippers open and close by both drive styles in every pose (issue 50, item B): target
 velocities on the active joints (PyRep's ``Gripper.actuate``, the RG2 script's rg2Open/rg2Close)
 and a position target with the joint's control loop on, measured as the change of the finger
-opening. The ROBOTIQ 85 closes its kinematic loops with six dynamics loop closures (site welds:
+opening: the ROBOTIQ 85 and the BaxterGripper standalone in four orientations, the RG2 on the
+tutorial's UR5 in four arm poses. The ROBOTIQ 85 closes its kinematic loops with six dynamics loop closures (site welds:
 simx_server/scene/ttt/mechanisms.py) and is driven by two prismatic joints inside the linkage;
 the BaxterGripper has two prismatic fingers and no loop; the RG2 (the tutorial's scene) four
 loop closures and a 1 g helper body.
@@ -107,9 +108,13 @@ def test_a_standalone_gripper_opens_and_closes(converted, family, pose, style):
         sim.close()
 
 
-@pytest.mark.parametrize("pose", [[90, -45, 90, 0, -100, 0], [0, -90, 90, -90, -90, 0], [45, -60, 120, 30, 90, 45]],
-                         ids=["tutorial", "down", "side"])
-def test_the_rg2_follows_a_position_target_on_its_open_close_joint(pose):
+@pytest.mark.parametrize("style", ["velocity", "position"])
+@pytest.mark.parametrize("pose", [[90, -45, 90, 0, -100, 0], [0, -90, 90, -90, -90, 0], [45, -60, 120, 30, 90, 45],
+                                  [0, 31, 30, 0, 0, 0]], ids=["tutorial", "down", "side", "bent"])
+def test_the_rg2_opens_and_closes_by_its_open_close_joint(pose, style):
+    """The tutorial's RG2 on its UR5 in four arm poses: a target velocity on its open/close joint
+    (the RG2 script's rg2Open / rg2Close: 0.05 m/s at 20 N) or a position target with the
+    joint's control loop on; the fingers mirrored all the way."""
     sim = Simulation(require_shared(TUTORIAL_TTT), realtime=False)
     try:
         w = sim.world
@@ -124,11 +129,14 @@ def test_the_rg2_follows_a_position_target_on_its_open_close_joint(pose):
         for _ in range(80):
             sim.step()
         oc = w.resolve("RG2_openCloseJoint").handle
-        api.setObjectInt32Param(oc, CTRL_ENABLED, 1)
+        api.setObjectInt32Param(oc, CTRL_ENABLED, 1 if style == "position" else 0)
         api.setJointForce(oc, 20.0)
         for target, check in ((-0.048, lambda x: x < -0.04), (0.0538, lambda x: x > 0.05),
                               (-0.048, lambda x: x < -0.04), (0.0538, lambda x: x > 0.05)):
-            api.setJointTargetPosition(oc, target)
+            if style == "position":
+                api.setJointTargetPosition(oc, target)
+            else:
+                api.setJointTargetVelocity(oc, 0.05 if target > 0 else -0.05)
             for _ in range(60):
                 sim.step()
             assert check(q("RG2_openCloseJoint")), (target, q("RG2_openCloseJoint"))

@@ -5,6 +5,8 @@ reason where the folder is absent; fails when ``CI`` is set (conftest.require_sh
 
 from __future__ import annotations
 
+import re
+
 import mujoco
 import numpy as np
 import pytest
@@ -12,9 +14,9 @@ import pytest
 from simx_server.scene.ttt import convert, reader
 
 try:
-    from conftest import SHARED, require_shared
+    from conftest import ROOT, SHARED, require_shared
 except ImportError:
-    from tests.conftest import SHARED, require_shared
+    from tests.conftest import ROOT, SHARED, require_shared
 
 CORPUS = SHARED / "ttt-corpus"
 #: The corpus's file names; without the folder, one test that skips naming the folder.
@@ -41,6 +43,11 @@ NOT_CARRIED_THEN = {
     'salkhan23+ITCortex__vrep_scenes_vrep_IT.ttt': 2,
     'salkhan23+ITCortex__vrep_scenes_vrep_it_cortex.ttt': 7,
 }
+#: docs/PORTING.md's table of the corpus's reports: file -> its "now" columns (kinds not carried
+#: over, their count, kinds approximated), which each file's test checks against its report.
+DOC_NOW = {m[1]: (int(m[2]), int(m[3].replace(",", "")), int(m[4])) for m in re.finditer(
+    r"^\| `([^`]+\.tt[tm])` \| \d+ \| [\d,]+ \| (\d+) \| ([\d,]+) \| (\d+) \|$",
+    (ROOT / "docs" / "PORTING.md").read_text(), re.M)}
 _ELEMENT = {"shape": mujoco.mjtObj.mjOBJ_BODY, "dummy": mujoco.mjtObj.mjOBJ_SITE,
             "force_sensor": mujoco.mjtObj.mjOBJ_SITE, "proximity_sensor": mujoco.mjtObj.mjOBJ_SITE,
             "vision_sensor": mujoco.mjtObj.mjOBJ_CAMERA, "joint": mujoco.mjtObj.mjOBJ_JOINT,
@@ -86,6 +93,9 @@ def test_corpus_file_converts_loads_and_steps(name, tmp_path):
     # the load report names no more kinds left out than when issue 41 began (docs/PORTING.md), and
     # what was carried over in a close form (meshes colliding as their hull) as approximated
     assert len(report.lines()) <= NOT_CARRIED_THEN[name], report.lines()
+    now = (len(report.lines()), sum(report.counts[k] for k in report.counts if k not in report.approximated),
+           len(report.approximations()))
+    assert DOC_NOW.get(name) == now, f"docs/PORTING.md's row of {name}: now {now}, {report.lines()}"
     assert not any("convex hull" in line for line in report.lines())
     m = mujoco.MjModel.from_xml_path(str(xml))
     d = mujoco.MjData(m)

@@ -18,7 +18,7 @@ from simx_server.scene.ttt import convert, reader
 pytestmark = pytest.mark.renderers_on_demand  # no image is read
 
 
-def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False) -> bytes:
+def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False, enabled: bool = True) -> bytes:
     """Two hinge arm (the first unlimited with ``cyclic``), its tip linked to a target at the
     tip, one old IK group."""
     return (W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
@@ -28,7 +28,7 @@ def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False) -> bytes:
             + W.cuboid_shape(5, 4, "L2", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
             + W.dummy(6, 5, "Tip", (0, 0.15, 0), linked=7, link_type=5)
             + W.dummy(7, -1, "Target", (0, 0, 0.85), linked=6, link_type=5)
-            + extra + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit))
+            + extra + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit, enabled=enabled))
 
 
 def _load(tmp_path, body: bytes, program: int = 40100) -> Simulation:
@@ -39,11 +39,13 @@ def _load(tmp_path, body: bytes, program: int = 40100) -> Simulation:
 
 
 def test_explicit_group_is_read_from_the_var_flags(tmp_path):
-    """coppeliaSimLib ``CIkGroup_old::serialize``: ``Var`` bit 6 is explicit handling."""
+    """coppeliaSimLib ``CIkGroup_old::serialize``: ``Var`` bit 6 is explicit handling, bit 0 enabled."""
     for explicit in (True, False):
-        f = tmp_path / f"g{explicit}.ttt"
-        f.write_bytes(W.ttt_file(_arm(explicit)))
-        assert reader.read(f).ik_groups[0].explicit is explicit
+        for enabled in (True, False):
+            f = tmp_path / f"g{explicit}{enabled}.ttt"
+            f.write_bytes(W.ttt_file(_arm(explicit, enabled=enabled)))
+            group = reader.read(f).ik_groups[0]
+            assert (group.explicit, group.enabled) == (explicit, enabled)
 
 
 def test_explicit_group_runs_only_when_called(tmp_path):
@@ -83,6 +85,44 @@ def test_automatic_group_follows_a_moved_target(tmp_path):
         assert gap < 0.01
     finally:
         sim.close()
+
+
+def _gap(api) -> float:
+    return float(np.linalg.norm(np.subtract(api.getObjectPosition(api.getObject("/Tip"), -1),
+                                            api.getObjectPosition(api.getObject("/Target"), -1))))
+
+
+def test_handle_ik_group_as_coppeliasim_handles_it(tmp_path):
+    """coppeliaSimLib ``simHandleIkGroup_internal``: one group only if tagged explicit (else an
+    error), ``sim.handle_all`` every group, ``sim.handle_all_except_explicit`` the others; a
+    group saved inactive is never solved (``CIkGroup_old::computeGroupIk``: not performed)."""
+    for explicit, enabled in ((False, True), (True, True), (True, False), (False, False)):
+        folder = tmp_path / f"{explicit}{enabled}"
+        folder.mkdir()
+        sim = _load(folder, _arm(explicit=explicit, enabled=enabled))
+        try:
+            api = client_context(sim).sim
+            arm = api.getIkGroupHandle("Arm")
+            sim.start()
+            api.setObjectPosition(api.getObject("/Target"), -1, [0.1, 0.0, 0.78])
+            start = _gap(api)
+            for _ in range(40):
+                sim.step()
+            solved_by_steps = _gap(api) < 0.01
+            assert solved_by_steps is (enabled and not explicit), (explicit, enabled)
+            if not explicit:
+                with pytest.raises(Exception, match="not tagged for explicit handling"):
+                    api.handleIkGroup(arm)
+            else:
+                assert api.handleIkGroup(arm) == (1 if enabled else 0)  # success / not performed
+            assert api.handleIkGroup(api.handle_all_except_explicit) == int(enabled and not explicit)
+            for _ in range(10):
+                assert api.handleIkGroup(api.handle_all) == int(enabled)  # explicit ones too
+            for _ in range(20):
+                sim.step()
+            assert (_gap(api) < 0.01) is enabled and (enabled or _gap(api) == pytest.approx(start, abs=0.05))
+        finally:
+            sim.close()
 
 
 IK_SCRIPT = """
@@ -332,23 +372,33 @@ def test_selection_and_texture_calls_of_old_scripts(tmp_path, caplog):
 
 PLUGINS = """
 simUI = require('simUI')
+simVision = require('simVision')
 function sysCall_init()
     sim.setInt32Signal('ui', simUI.create('<ui/>'))
-    local ok, err = pcall(require, 'simVision')
+    local ok, err = pcall(require, 'simOpenMesh')
+    sim.setStringSignal('mesh', tostring(ok) .. ' ' .. tostring(err))
+    ok, err = pcall(simVision.sensorImgToWorkImg, 1)
     sim.setStringSignal('vision', tostring(ok) .. ' ' .. tostring(err))
+end
+function sysCall_vision(inData)
+    simVision.sensorImgToWorkImg(inData.handle)
 end
 """
 
 
 def test_plugin_modules_as_a_headless_coppeliasim_has_them(tmp_path):
     """``require('simUI')`` is the headless simUI table (its calls logged no-ops, ``create`` -1);
-    a plugin simx lacks (``simVision``) fails to load, saying so."""
+    a plugin simx lacks (``simOpenMesh``) fails to load, saying so; ``simVision`` loads (a 4.5+
+    vision sensor's script requires it at its top) and each of its functions says that simx
+    calls no vision callback: the script's other callbacks run."""
     sim = _load(tmp_path, W.dummy(1, -1, "Holder") + W.script_object(2, 1, "Script", PLUGINS, kind=1), program=40600)
     try:
         sim.start()
         sim.step()
         assert sim.signals.get_int("ui") == -1
-        assert sim.signals.get_string("vision").startswith(b"false simVision is a CoppeliaSim plugin")
+        assert sim.signals.get_string("mesh").startswith(b"false simOpenMesh is a CoppeliaSim plugin")
+        assert sim.signals.get_string("vision").startswith(b"false")
+        assert b"simVision.sensorImgToWorkImg: simx does not call vision callbacks" in sim.signals.get_string("vision")
     finally:
         sim.close()
 

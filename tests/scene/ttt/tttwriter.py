@@ -266,13 +266,13 @@ def texture_link(tid: int, mode: int = 0, scale=(1.0, 1.0), frame=(1, 0, 0, 0, 0
                           rec("Ftc", b""), rec("Apm", i32(apply))))
 
 
-def ik_group(name: str, elements, explicit: bool = False) -> bytes:
+def ik_group(name: str, elements, explicit: bool = False, enabled: bool = True) -> bytes:
     """An old IK group (``IKO``): ``elements`` of (tip dummy, base, V-REP's constraint bits);
     ``Var`` as CoppeliaSim writes it (bit 0 enabled, bit 6 explicit handling)."""
     items = [rec("Ike", lst(rec("Ik2", i32(tip, base)), rec("Ctr", i32(ctr)))) for tip, base, ctr in elements]
     # "Var": bit 0 active, bit 6 explicit handling (CIkGroup::serialize); "Va2" bit 0: joint-limit correction
-    return rec("IKO", lst(rec("Nme", string(name)), rec("Var", bytes([0x41 if explicit else 0x01])),
-                          rec("Va2", b"\x01"), *items))
+    var = (0x40 if explicit else 0) | (0x01 if enabled else 0)
+    return rec("IKO", lst(rec("Nme", string(name)), rec("Var", bytes([var])), rec("Va2", b"\x01"), *items))
 
 
 def colour_object(diffuse=(0.7, 0.7, 0.7), specular=(0.25, 0.25, 0.25), emission=(0.0, 0.0, 0.0),
