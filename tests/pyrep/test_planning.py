@@ -93,3 +93,38 @@ def test_a_bad_algorithm_gives_pyreps_errors(panda):
     Other = Enum("Other", {"Foo": "Foo"})  # noqa: N806
     with pytest.raises(RuntimeError, match="no algorithm 'Foo'"):
         arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Other.Foo)
+
+
+def test_a_pyrep_connected_over_zmq_plans_on_the_server(pyrep_scene):
+    from pyrep import PyRep
+    from pyrep.robots.arms.panda import Panda
+
+    try:
+        from conftest import ServerProcess, free_port
+    except ImportError:
+        from tests.conftest import ServerProcess, free_port
+
+    pytest.importorskip("coppeliasim_zmqremoteapi_client")
+    model = require_shared(MODELS / "arms" / "Panda.ttm")
+    port = free_port()
+    server = ServerProcess(str(pyrep_scene), "--stopped", "--zmq-port", str(port), "--scene-path", str(model.parent))
+    pr = PyRep()
+    try:
+        pr.connect("127.0.0.1", port)
+        pr.import_model(str(model))
+        pr.start()
+        arm = Panda()
+        start = np.array(arm.get_joint_positions())
+        goal = start.copy()
+        goal[0] += 0.5
+        arm.set_joint_positions(goal.tolist())
+        pose = arm.get_tip().get_position(), arm.get_tip().get_quaternion()
+        arm.set_joint_positions(start.tolist())
+        path = arm.get_nonlinear_path(pose[0], quaternion=pose[1], algorithm=Algos.RRTConnect)
+        configs = path._path_points.reshape(-1, 7)
+        assert len(configs) > 2 and np.allclose(configs[0], start, atol=1e-6)
+        path.set_to_end()
+        assert np.linalg.norm(arm.get_tip().get_position() - pose[0]) < 0.01
+    finally:
+        pr.shutdown()
+        server.stop()
