@@ -135,12 +135,12 @@ class LuaScript(LuaStyles, ChildScript):
         """``sim.NAME(...)`` from Lua: (True, results...) or (False, message); never raises."""
         fname = name.decode()
         try:
-            target = self._sim
+            target, callbacks = self._sim, False
             if fname.startswith("simIK."):  # simIK's functions over this script's context
                 target, fname = self._sim.context.simik, fname[6:]
-            elif fname.startswith("simOMPL."):  # and simOMPL's
-                target, fname = self._sim.context.simompl, fname[8:]
-            result = target.call(fname, *[self._from_lua(a) for a in args])
+            elif fname.startswith("simOMPL."):  # and simOMPL's, which take Lua functions as callbacks
+                target, fname, callbacks = self._sim.context.simompl, fname[8:], True
+            result = target.call(fname, *[self._from_lua(a, callbacks=callbacks) for a in args])
             if isinstance(result, tuple):
                 return (True, *[self._to_lua(v) for v in result])
             return True, self._to_lua(result)
@@ -152,13 +152,14 @@ class LuaScript(LuaStyles, ChildScript):
             log.exception("sim.%s called by %s", fname, self.label)
             return False, f"internal error: {type(exc).__name__}: {exc}".encode()
 
-    def _from_lua(self, value: Any, depth: int = 0) -> Any:
+    def _from_lua(self, value: Any, depth: int = 0, callbacks: bool = False) -> Any:
         """A Lua value as Python: tables with keys 1..n as lists, other tables as dicts,
-        strings as bytes."""
+        strings as bytes; with ``callbacks`` an argument that is a function as a Python callable
+        (simOMPL's validation callback, which the script's own later simOMPL calls run)."""
         kind = _lupa.lua_type(value)
         if kind is None:
             return value
-        if kind == "function" and depth == 0:  # a callback (simOMPL.setStateValidationCallback)
+        if kind == "function" and callbacks and depth == 0:
             return self._callback(value)
         if kind != "table":
             raise TypeError(f"a Lua {kind} cannot be passed to sim functions")
