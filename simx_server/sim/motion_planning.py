@@ -35,6 +35,9 @@ except ImportError as exc:  # pragma: no cover - the test environment has ompl
     ob = og = ou = None
     IMPORT_ERROR = f"motion planning needs OMPL's Python bindings: pip install ompl ({exc})"
 
+#: s one solve or simplification may take at most (the caller's thread waits for it: a script's,
+#: or the simulation thread for a ZMQ client), as simIK's searches.
+MAX_SECONDS = 10.0
 #: simOMPL's ``Algorithm`` enum (callbacks.xml, from 30001, in this order; the plug-in leaves out
 #: the parallel pRRT and pSBL).
 ALGORITHMS: tuple[str, ...] = (
@@ -181,13 +184,13 @@ class Problem:
         """Runs the planner (it goes on from what it built in earlier solves).
 
         Args:
-            max_time: s at most.
+            max_time: s at most (and at most :data:`MAX_SECONDS`).
 
         Returns:
             True when it found a path, exact or approximate (as OMPL's ``PlannerStatus``
             converts to a bool).
         """
-        solved = bool(self.planner.solve(float(max_time)))
+        solved = bool(self.planner.solve(min(float(max_time), MAX_SECONDS)))
         self.path = og.PathGeometric(self.pdef.getSolutionPath()) if self.pdef.hasSolution() else None
         return solved
 
@@ -195,13 +198,12 @@ class Problem:
         """OMPL's ``PathSimplifier`` on the path (simOMPL's ``simplifyPath``).
 
         Args:
-            max_time: < 0: ``simplifyMax``; else ``simplify`` for at most that many s.
+            max_time: < 0: as ``simplifyMax`` (until nothing improves, which is ``simplify``
+                without a time limit), but within :data:`MAX_SECONDS`; else ``simplify`` for at
+                most that many s (and at most :data:`MAX_SECONDS`).
         """
         simplifier = og.PathSimplifier(self.si, self.goal)
-        if max_time < 0:
-            simplifier.simplifyMax(self.path)
-        else:
-            simplifier.simplify(self.path, float(max_time))
+        simplifier.simplify(self.path, MAX_SECONDS if max_time < 0 else min(float(max_time), MAX_SECONDS))
 
     def interpolate(self, count: int = 0) -> None:
         """``PathGeometric.interpolate`` of the path.

@@ -61,7 +61,8 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
 
 @simompl_function()
 def solve(ctx: CallContext, taskHandle: Any, maxTime: Any) -> bool:  # noqa: N803
-    """Runs the planner for at most ``maxTime`` s; True when it found a path (exact or approximate)."""
+    """Runs the planner for at most ``maxTime`` s (and at most 10 s: the caller waits for it); True
+    when it found a path (exact or approximate)."""
     task = task_of(ctx, taskHandle, True)
     t = _num(maxTime, "maxTime")
     if t <= 0:
@@ -89,7 +90,7 @@ def _solved(ctx: CallContext, taskHandle: Any) -> mp.Problem:
 @simompl_function()
 def simplifyPath(ctx: CallContext, taskHandle: Any, maxSimplificationTime: Any = -1.0) -> None:  # noqa: N802, N803
     """OMPL's path simplifier on the solution: as much as it can when ``maxSimplificationTime``
-    < 0, else for at most that many s."""
+    < 0, else for at most that many s (10 s at most either way)."""
     _solved(ctx, taskHandle).simplify(_num(maxSimplificationTime, "maxSimplificationTime"))
 
 
