@@ -2,7 +2,8 @@
 client (``coppeliasim-zmqremoteapi-client``) instead of the in-process table.
 
 :class:`RemoteContext` offers what :mod:`pyrep.backend.sim` needs of a context (``sim``,
-``simik``, ``state``), its namespaces calling the server's ``sim``/``simIK`` by name. The
+``simik``, ``simompl``, ``state``), its namespaces calling the server's ``sim``/``simIK``/``simOMPL``
+by name. The
 simulation then runs in the server's process; ``PyRep.step()`` is the client's ``sim.step()``
 in stepping mode, as a ZMQ program steps. Server-side paths: ``import_model`` and
 ``export_scene`` name files the server may read or write (its scene folders).
@@ -54,6 +55,14 @@ class RemoteContext:
         self.sim = _RemoteNamespace(self.client.require("sim"), "sim")
         self.simik = _RemoteNamespace(self.client.require("simIK"), "simIK")
         self.state = types.SimpleNamespace()
+        self._simompl: _RemoteNamespace | None = None
+
+    @property
+    def simompl(self) -> _RemoteNamespace:
+        """The server's ``simOMPL`` (required at first use)."""
+        if self._simompl is None:
+            self._simompl = _RemoteNamespace(self.client.require("simOMPL"), "simOMPL")
+        return self._simompl
 
     def simulation(self, what: str) -> Any:
         raise PyRepError(f"{what}: the simulation runs in the server's process (PyRep connected over ZMQ)")

@@ -2,7 +2,7 @@
 
 PyRep talks to CoppeliaSim through one process-wide C library; here every call goes to the
 ``sim``/``simIK`` table of :mod:`simx_server.api` (the functions Lua, Python scripts and ZMQ
-clients call), bound to the simulation of the current :class:`pyrep.PyRep` (the last launched
+clients call; ``simOMPL`` too), bound to the simulation of the current :class:`pyrep.PyRep` (the last launched
 one still running, or the one made current with :meth:`pyrep.PyRep.make_current`).
 
 Constants: every ``sim_*`` constant of V-REP/CoppeliaSim that simx knows, plus the few PyRep
@@ -87,6 +87,22 @@ def ik_call(name: str, *args: Any) -> Any:
         return context().simik.call(name, *args)
     except (SimxError, AttributeError) as exc:
         raise CoppeliaSimError(f"simIK.{name}: {exc}") from exc
+
+
+def ompl_call(name: str, *args: Any) -> Any:
+    """``simOMPL.<name>(*args)`` on the current PyRep's simulation (errors as :func:`call`)."""
+    try:
+        return context().simompl.call(name, *args)
+    except (SimxError, AttributeError) as exc:
+        raise CoppeliaSimError(f"simOMPL.{name}: {exc}") from exc
+
+
+def ompl_constants(group: str) -> dict[str, int]:
+    """``simOMPL.<group>`` (``Algorithm``, ``StateSpaceType``) of the current PyRep: name -> value."""
+    table = getattr(context().simompl, group)
+    if isinstance(table, dict):
+        return {str(k): int(v) for k, v in table.items()}
+    return {k: int(v) for k, v in vars(table).items() if not k.startswith("_")}  # the official client's object
 
 
 def simulation() -> Any:

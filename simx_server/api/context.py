@@ -15,7 +15,7 @@ import random
 from collections.abc import Callable
 from typing import Any
 
-from simx_server.api.registry import SIM, SIMIK, ApiFunction, ApiTable, Callers
+from simx_server.api.registry import SIM, SIMIK, SIMOMPL, ApiFunction, ApiTable, Callers
 from simx_server.api.signals import Signals
 from simx_server.base.arguments import as_integer
 from simx_server.sim.state import SimulationView
@@ -54,6 +54,8 @@ class CallerState:
     ik_environments: dict[int, Any] | None = None
     ik_scratch: Any = None
     ik_scratch_model: Any = None
+    #: simOMPL state spaces and tasks by handle (:mod:`simx_server.api.simompl`).
+    ompl: dict[str, Any] | None = None
     #: ``sim.setAutoYieldDelay``'s delay in ms (CoppeliaSim's default: 2 ms).
     auto_yield_delay_ms: int = 2
 
@@ -100,6 +102,7 @@ class CallContext:
         self.label = label
         self._sim: ApiNamespace | None = None
         self._simik: ApiNamespace | None = None
+        self._simompl: ApiNamespace | None = None
 
     # ------------------------------------------------------------- what it acts on
     @property
@@ -157,6 +160,13 @@ class CallContext:
         if self._simik is None:
             self._simik = ApiNamespace(SIMIK, self)
         return self._simik
+
+    @property
+    def simompl(self) -> ApiNamespace:
+        """``simOMPL`` bound to this context."""
+        if self._simompl is None:
+            self._simompl = ApiNamespace(SIMOMPL, self)
+        return self._simompl
 
     def simulation(self, what: str) -> SimulationView:
         """The simulation, for the call ``what``; UnsupportedError naming it without one."""

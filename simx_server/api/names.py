@@ -28,10 +28,10 @@ from typing import Any
 
 from simx_wire.protocol import ArgumentError, RemoteError
 from simx_server.base.arguments import quote
-from simx_server.api.registry import SIM
+from simx_server.api.registry import SIM, SIMOMPL
 
 #: The namespaces ``zmqRemoteApi.require`` accepts.
-NAMESPACES = ("sim", "simIK")
+NAMESPACES = ("sim", "simIK", "simOMPL")
 
 
 #: Functions CoppeliaSim 4.x keeps for programs of 4.0-4.2 (its ``sim`` table still answers them,
@@ -81,18 +81,21 @@ def coppeliasim_functions(namespace: str) -> frozenset[str]:
     return current_functions(namespace) | frozenset(DEPRECATED.get(namespace, ()))
 
 
-def constants(namespace: str) -> dict[str, int]:
+def constants(namespace: str) -> dict[str, Any]:
     """The constants ``zmqRemoteApi.info`` lists for ``namespace``."""
     theirs = dict(coppeliasim_api()["constants"].get(namespace, {}))
     if namespace == "sim":
         theirs.update(SIM.constants)
+    if namespace == "simOMPL":  # not in the generated table: simOMPL's enums, name -> {item: value}
+        theirs.update(SIMOMPL.constants)
     return theirs
 
 
 def info(namespace: str, implemented: set[str] | frozenset[str]) -> dict[str, dict]:
     """The answer of ``zmqRemoteApi.info(namespace)``: functions, then constants (a name that is
     both stays a function)."""
-    out: dict[str, dict] = {name: {"const": value} for name, value in constants(namespace).items()}
+    out: dict[str, dict] = {name: ({k: {"const": v} for k, v in value.items()} if isinstance(value, dict)
+                                   else {"const": value}) for name, value in constants(namespace).items()}
     for name in sorted(set(implemented) | coppeliasim_functions(namespace)):
         out[name] = {"func": {}}
     return out

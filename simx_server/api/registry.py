@@ -1,4 +1,4 @@
-"""The one table of CoppeliaSim's API: every ``sim.NAME`` and ``simIK.NAME`` simx serves, found by name.
+"""The one table of CoppeliaSim's API: every ``sim.NAME``, ``simIK.NAME`` and ``simOMPL.NAME`` simx serves, found by name.
 
 Each function is a plain module-level function of :mod:`simx_server.api.sim` (or
 :mod:`simx_server.api.simik`), registered once under its CoppeliaSim name with
@@ -38,7 +38,7 @@ class ApiFunction:
     """One entry of the table.
 
     Attributes:
-        library: ``"sim"`` or ``"simIK"``.
+        library: ``"sim"``, ``"simIK"`` or ``"simOMPL"``.
         name: CoppeliaSim's name (without the library prefix).
         function: the implementation, ``function(ctx, *args)``.
         callers: who may call it (the others get an UnsupportedError naming the restriction).
@@ -112,6 +112,8 @@ class ApiTable:
 SIM = ApiTable("sim")
 #: ``simIK.NAME`` of CoppeliaSim 4.x.
 SIMIK = ApiTable("simIK")
+#: ``simOMPL.NAME`` of CoppeliaSim 4.x's OMPL plug-in (:mod:`simx_server.api.simompl`).
+SIMOMPL = ApiTable("simOMPL")
 
 
 def _decorator(table: ApiTable, names: tuple[str, ...], callers: Callers) -> Callable[[F], F]:
@@ -139,3 +141,8 @@ def sim_function(*names: str, callers: Callers = Callers.ALL) -> Callable[[F], F
 def simik_function(*names: str, callers: Callers = Callers.ALL) -> Callable[[F], F]:
     """Register the decorated function as ``simIK.NAME`` (as :func:`sim_function`)."""
     return _decorator(SIMIK, names, callers)
+
+
+def simompl_function(*names: str, callers: Callers = Callers.ALL) -> Callable[[F], F]:
+    """Register the decorated function as ``simOMPL.NAME`` (as :func:`sim_function`)."""
+    return _decorator(SIMOMPL, names, callers)

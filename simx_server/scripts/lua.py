@@ -45,7 +45,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scripts.call_arguments import script_argument_bytes
 from simx_server.scripts.child import LIFE_CYCLE_CALLS, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
-from simx_server.api import SIM, SIMIK
+from simx_server.api import SIM, SIMIK, SIMOMPL
 from simx_server.scripts.lua_bounds import BOUNDS_LUA, CHECK_WORK, PIECE, SORT_IN_C
 from simx_server.scripts.lua_prelude import PRELUDE
 from simx_server.scripts.rewrites import lua_file_text, rewrite
@@ -135,10 +135,12 @@ class LuaScript(LuaStyles, ChildScript):
         """``sim.NAME(...)`` from Lua: (True, results...) or (False, message); never raises."""
         fname = name.decode()
         try:
-            target = self._sim
+            target, callbacks = self._sim, False
             if fname.startswith("simIK."):  # simIK's functions over this script's context
                 target, fname = self._sim.context.simik, fname[6:]
-            result = target.call(fname, *[self._from_lua(a) for a in args])
+            elif fname.startswith("simOMPL."):  # and simOMPL's, which take Lua functions as callbacks
+                target, fname, callbacks = self._sim.context.simompl, fname[8:], True
+            result = target.call(fname, *[self._from_lua(a, callbacks=callbacks) for a in args])
             if isinstance(result, tuple):
                 return (True, *[self._to_lua(v) for v in result])
             return True, self._to_lua(result)
@@ -150,12 +152,15 @@ class LuaScript(LuaStyles, ChildScript):
             log.exception("sim.%s called by %s", fname, self.label)
             return False, f"internal error: {type(exc).__name__}: {exc}".encode()
 
-    def _from_lua(self, value: Any, depth: int = 0) -> Any:
+    def _from_lua(self, value: Any, depth: int = 0, callbacks: bool = False) -> Any:
         """A Lua value as Python: tables with keys 1..n as lists, other tables as dicts,
-        strings as bytes."""
+        strings as bytes; with ``callbacks`` an argument that is a function as a Python callable
+        (simOMPL's validation callback, which the script's own later simOMPL calls run)."""
         kind = _lupa.lua_type(value)
         if kind is None:
             return value
+        if kind == "function" and callbacks and depth == 0:
+            return self._callback(value)
         if kind != "table":
             raise TypeError(f"a Lua {kind} cannot be passed to sim functions")
         if depth > _MAX_DEPTH:
@@ -165,6 +170,13 @@ class LuaScript(LuaStyles, ChildScript):
         if all(isinstance(k, int) for k in keys) and sorted(keys) == list(range(1, len(keys) + 1)):
             return [v for _, v in sorted(items, key=lambda kv: kv[0])]
         return {(k.decode("utf-8", errors="replace") if isinstance(k, bytes) else k): v for k, v in items}
+
+    def _callback(self, function: Any) -> Any:
+        """A Lua function as a Python callable: arguments to Lua, its first result back."""
+        def call(*args: Any) -> Any:
+            return self._from_lua(function(*[self._to_lua(a) for a in args]), 1)
+
+        return call
 
     def _to_lua(self, value: Any, depth: int = 0) -> Any:
         """A Python value as Lua: lists and tuples as tables, str as (UTF-8) strings."""
@@ -192,9 +204,11 @@ class LuaScript(LuaStyles, ChildScript):
         prelude = rt.compile(PRELUDE, name="=simx")
         self._lookup, snapshot = prelude(
             self._dispatch, self._expired, self._write_log,
-            rt.table_from([n.encode() for n in SIM] + [f"simIK.{n}".encode() for n in SIMIK]),
+            rt.table_from([n.encode() for n in SIM] + [f"simIK.{n}".encode() for n in SIMIK]
+                          + [f"simOMPL.{n}".encode() for n in SIMOMPL]),
             rt.table_from({**{k.encode(): v for k, v in SIM.constants.items()},
-                           **{f"simIK.{k}".encode(): v for k, v in SIMIK.constants.items()}}),
+                           **{f"simIK.{k}".encode(): v for k, v in SIMIK.constants.items()},
+                           **{f"simOMPL.{k}".encode(): self._to_lua(v) for k, v in SIMOMPL.constants.items()}}),
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(),
             rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY))

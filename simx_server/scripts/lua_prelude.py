@@ -94,28 +94,37 @@ local function bind(name)
   return function(...)
     local r = pack(dispatch(name, ...))
     if r[1] then return unpack(r, 2, r.n) end
-    error(where() .. "sim." .. name .. ": " .. tostring(r[2]), 0)
+    error(where() .. (name:find(".", 1, true) and "" or "sim.") .. name .. ": " .. tostring(r[2]), 0)
   end
 end
--- simIK.NAME functions and constants come in the same lists, under "simIK." names.
-local simIK = {}
+-- simIK.NAME and simOMPL.NAME functions and constants come in the same lists, under "simIK." and
+-- "simOMPL." names.
+local simIK, simOMPL = {}, {}
+local libraries = {simIK = simIK, simOMPL = simOMPL}
+local function library(name)
+  local lib, short = name:match("^(sim%w+)%.(.+)$")
+  if lib and libraries[lib] then return libraries[lib], short end
+  return sim, name
+end
 for i = 1, #names do
-  local ik = names[i]:match("^simIK%.(.+)$")
-  if ik then simIK[ik] = bind(names[i]) else sim[names[i]] = bind(names[i]) end
+  local lib, short = library(names[i])
+  lib[short] = bind(names[i])
 end
 for k, v in pairs(constants) do
-  local ik = k:match("^simIK%.(.+)$")
-  if ik then simIK[ik] = v else sim[k] = v end
+  local lib, short = library(k)
+  lib[short] = v
 end
 setmetatable(sim, {__index = function(_, key)
   error(where() .. "sim." .. tostring(key) .. " is not available in simx (docs/SCRIPTS.md lists what is)", 0)
 end})
 G.sim = sim
--- CoppeliaSim 4.x's simIK (simx_server/api/simik/), as for ZMQ clients.
-G.simIK = simIK
+-- CoppeliaSim 4.x's simIK (simx_server/api/simik/) and simOMPL (simx_server/api/simompl/), as
+-- for ZMQ clients.
+G.simIK, G.simOMPL = simIK, simOMPL
 -- CoppeliaSim 4.5+ scripts start with `sim = require('sim')`: the same tables as modules
--- (CoppeliaSim's lua/sim.lua and the simIK plugin's simIK.lua return them), 'sim-1'/'sim-2' too.
+-- (CoppeliaSim's lua/sim.lua and the plugins' simIK.lua, simOMPL.lua return them), 'sim-1'/'sim-2' too.
 package.loaded.sim, package.loaded["sim-1"], package.loaded["sim-2"], package.loaded.simIK = sim, sim, sim, simIK
+package.loaded.simOMPL = simOMPL
 -- CoppeliaSim's bundled model-customization modules (require('models.path_customization-2')...)
 -- draw and edit a model in the GUI: headless, they load and each of their functions does nothing,
 -- said once in the log (a script's own module of the same name in the scene's folder wins).

@@ -192,12 +192,13 @@ class Scripts:
         """Before a step: each child script's thread resumes, then its ``sysCall_actuation``;
         then the customization scripts' ``sysCall_actuation``."""
         self.shared["pass"] = self.shared.get("pass", 0) + 1  # simulation passes (wireless data: next pass)
-        with self.budget.pass_of("step") as step:
-            self._step = step  # the step's dynamics callbacks and sensing share this pass
-            for script in self.scripts.values():
-                script.resume_thread()
-                script.life_cycle("sysCall_actuation")
-            self._customization("sysCall_actuation")
+        if self.scripts or self.customization:  # no script: no pass to time (a PyRep scene's usual step)
+            with self.budget.pass_of("step") as step:
+                self._step = step  # the step's dynamics callbacks and sensing share this pass
+                for script in self.scripts.values():
+                    script.resume_thread()
+                    script.life_cycle("sysCall_actuation")
+                self._customization("sysCall_actuation")
         particles = self.shared.get("particles")
         if particles:  # particle objects: moved once a step, their pushes applied by this step
             particles.advance(self.world, self.forces, self.world.dt)
@@ -207,6 +208,8 @@ class Scripts:
         ``sysCall_sensing`` of every script."""
         self.forces.clear(self.world)
         step, self._step = self._step, None
+        if not (self.scripts or self.customization):
+            return
         with self.budget.pass_of("step", step):
             for script in self.scripts.values():
                 script.life_cycle("sysCall_sensing")

@@ -130,17 +130,19 @@ def _pairs(world: World, e1: int, e2: int, bit: int = properties.COLLIDABLE, ove
     return a[keep], b[keep]
 
 
-def _lower_bounds(world: World, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Lower bound of each pair's distance from bounding spheres (-inf with a plane)."""
-    m, d = world.model, world.data
+def _lower_bounds(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjData | None = None) -> np.ndarray:
+    """Lower bound of each pair's distance from bounding spheres (-inf with a plane), at the poses
+    of ``data`` (default: the world's)."""
+    m, d = world.model, world.data if data is None else data
     lb = np.linalg.norm(d.geom_xpos[a] - d.geom_xpos[b], axis=1) - m.geom_rbound[a] - m.geom_rbound[b]
     lb[(m.geom_type[a] == _PLANE) | (m.geom_type[b] == _PLANE)] = -np.inf
     return lb
 
 
-def _geom_distance(world: World, g1: int, g2: int, distmax: float) -> float:
+def _geom_distance(world: World, g1: int, g2: int, distmax: float, data: mujoco.MjData | None = None) -> float:
     try:
-        return float(mujoco.mj_geomDistance(world.model, world.data, int(g1), int(g2), distmax, None))
+        return float(mujoco.mj_geomDistance(world.model, world.data if data is None else data, int(g1), int(g2),
+                                            distmax, None))
     except Exception as exc:  # mju_error for a geom pair MuJoCo has no distance function for
         m = world.model
         names = [mujoco.mjtGeom(int(m.geom_type[g])).name for g in (g1, g2)]
@@ -172,9 +174,42 @@ def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> b
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
     """
     world = sim.world
-    a, b = _pairs(world, e1, e2, properties.COLLIDABLE, override)
-    close = _lower_bounds(world, a, b) <= COLLISION_TOLERANCE
-    return any(_geom_distance(world, g1, g2, 2 * COLLISION_TOLERANCE) <= COLLISION_TOLERANCE
+    return pairs_collide(world, *_pairs(world, e1, e2, properties.COLLIDABLE, override))
+
+
+def collision_pairs(world: World, e1: int, e2: int) -> tuple[np.ndarray, np.ndarray]:
+    """The geom pairs that :func:`collision` of ``e1`` and ``e2`` tests (the shapes' collidable
+    flags as they are now), for :func:`pairs_collide` at other poses.
+
+    Args:
+        world: the scene.
+        e1: handle of a shape or a collection.
+        e2: handle of another shape or collection, or ``sim_handle_all`` (-2).
+
+    Returns:
+        ``(a, b)``: geom ids, (k,) each.
+
+    Raises:
+        UnknownObjectError, ObjectTypeError, ArgumentError: as :func:`collision`.
+    """
+    return _pairs(world, e1, e2, properties.COLLIDABLE, True)
+
+
+def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjData | None = None) -> bool:
+    """Whether some geom pair touches or overlaps.
+
+    Args:
+        world: the scene (its model).
+        a: (k,) geom ids.
+        b: (k,) geom ids, ``b[i]`` paired with ``a[i]``.
+        data: whose poses (default: the world's; a scratch MjData after ``mj_kinematics`` tests
+            a configuration without touching the simulation).
+
+    Returns:
+        True when some pair is within COLLISION_TOLERANCE (m) of touching.
+    """
+    close = _lower_bounds(world, a, b, data) <= COLLISION_TOLERANCE
+    return any(_geom_distance(world, g1, g2, 2 * COLLISION_TOLERANCE, data) <= COLLISION_TOLERANCE
                for g1, g2 in zip(a[close], b[close]))
 
 

@@ -258,6 +258,15 @@ class Motors:
                      f" added, enabled by simx: texts: {', '.join(enabled)};" if enabled else "",
                      ", ".join(tendons) or "none")
         n = len(act)
+        # per model, for apply(): the gears squared, which motors keep their own kv, and a slice
+        # for the actuators when they are consecutive (basic indexing writes faster than fancy)
+        self._gear2 = self.gear ** 2
+        self._own_kv_set, self._no_own_kv = self.own_kv > 0, self.own_kv == 0
+        self._any_own_kv = bool(self._own_kv_set.any())
+        consecutive = n > 0 and np.array_equal(act, np.arange(act[0], act[0] + n))
+        self._act_index: slice | np.ndarray = slice(int(act[0]), int(act[0]) + n) if consecutive else act
+        self._no_force = np.zeros(n)
+        self._rows = np.arange(n)
         self._unit = np.zeros((n, m.nv))
         self._unit[np.arange(n), self.dadr] = 1.0
         self._minv = np.zeros((n, m.nv))
@@ -347,32 +356,43 @@ class Motors:
         """
         if not len(self.act):
             return
-        act, g = self.act, self.gear
+        act, g, g2 = self._act_index, self.gear, self._gear2
         q = d.qpos[self.qadr]
         inertia = self._inertia(m, d, dt)
-        kv = np.where(self.own_kv > 0, self.own_kv, self.kv_fraction * inertia / m.opt.timestep)
+        kv = self.kv_fraction * inertia / m.opt.timestep
+        if self._any_own_kv:
+            kv = np.where(self._own_kv_set, self.own_kv, kv)
         dof = self.dadr
         ff = d.qfrc_bias[dof] - d.qfrc_passive[dof]  # static load, joint springs and dampers
         kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
         err = self.target_position - q
         on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
-        position = on & self.loop
+        loop = self.loop
+        position = on & loop
         linear = position & (np.abs(err) * kp <= self.max_velocity)
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
-        velocity_mode = on & ~self.loop & (self.own_kv == 0) & ~self.scripted
+        velocity_mode = on & ~loop & self._no_own_kv & ~self.scripted
         ff = ff + self._stall_force(q, d.qvel[dof], v, velocity_mode, float(d.time))
         if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still
             kv = np.where(velocity_mode & (v == 0), HOLD_KV_FACTOR * kv, kv)
         target = self.target_position
         if self._locking:
-            target, kp, linear = self._lock(m, q, on & ~self.loop & (v == 0), dt, kp, linear)
+            target, kp, linear = self._lock(m, q, on & ~loop & (v == 0), dt, kp, linear)
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
-        gain = np.where(linear, kv * kp, kv) / g
-        m.actuator_gainprm[act, 0] = np.where(on, gain, 0.0)
-        m.actuator_biasprm[act, 0] = np.where(on, ff / g, 0.0)
-        m.actuator_biasprm[act, 1] = np.where(linear, -kv * kp / g ** 2, 0.0)
-        m.actuator_biasprm[act, 2] = np.where(on, -kv / g ** 2, 0.0)
-        d.ctrl[act] = np.where(linear, target, np.where(on, v, 0.0))
+        kv_kp = kv * kp
+        gain = np.where(linear, kv_kp, kv) / g
+        if on.all():  # every motor on (the usual case): no zeros to put in
+            m.actuator_gainprm[act, 0] = gain
+            m.actuator_biasprm[act, 0] = ff / g
+            m.actuator_biasprm[act, 2] = -kv / g2
+            moving = v
+        else:
+            m.actuator_gainprm[act, 0] = np.where(on, gain, 0.0)
+            m.actuator_biasprm[act, 0] = np.where(on, ff / g, 0.0)
+            m.actuator_biasprm[act, 2] = np.where(on, -kv / g2, 0.0)
+            moving = np.where(on, v, 0.0)
+        m.actuator_biasprm[act, 1] = np.where(linear, -kv_kp / g2, 0.0)
+        d.ctrl[act] = np.where(linear, target, moving)
 
     def _lock(self, m: mujoco.MjModel, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
               linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -417,7 +437,11 @@ class Motors:
         if len(cached) == len(self.act) and 0 <= elapsed < dt - 0.5 * m.opt.timestep:
             return cached
         mujoco.mj_solveM(m, d, self._minv, self._unit)
-        inertia = 1.0 / np.maximum(mechanisms.inverse_inertia(m, d, self._minv, self.dadr), 1e-12)
+        if m.neq:
+            inverse = mechanisms.inverse_inertia(m, d, self._minv, self.dadr)
+        else:  # no equality: the open chain's, (M^-1)_ii (mechanisms.inverse_inertia's first step)
+            inverse = self._minv[self._rows, self.dadr]
+        inertia = 1.0 / np.maximum(inverse, 1e-12)
         self._inertia_at = (float(d.time), inertia)
         return inertia
 
@@ -451,13 +475,18 @@ class Motors:
             return self._bias
         self._last = (q.copy(), np.where(velocity_law, v, np.nan), now)
         if len(last_q) != len(q) or not elapsed > 0:
-            blocked = np.zeros(len(q), dtype=bool)
-        else:
-            moved = (q - last_q) * np.sign(v)
-            blocked = (velocity_law & (v == last_v) & (v != 0) & (moved < STALLED * np.abs(v) * elapsed)
-                       & (qdot * np.sign(v) < STALLED * np.abs(v)))
+            self.stalled = False
+            self._bias = self._no_force
+            return self._bias
+        held = velocity_law & (v == last_v) & (v != 0)  # the motors that could be held back
+        if not held.any():
+            self.stalled = False
+            self._bias = self._no_force
+            return self._bias
+        sign, speed = np.sign(v), np.abs(v)
+        blocked = held & ((q - last_q) * sign < STALLED * speed * elapsed) & (qdot * sign < STALLED * speed)
         self.stalled = bool(blocked.any())
-        self._bias = np.where(blocked, np.sign(v) * self.max_force, 0.0)
+        self._bias = np.where(blocked, sign * self.max_force, 0.0) if self.stalled else self._no_force
         return self._bias
 
     def copy_state(self, src: int, dst: int) -> None:

@@ -22,8 +22,8 @@ server does. Clients are in the loop's registry (:mod:`simx_server.loop.clients`
 :class:`~simx_server.zmq.clients.ZmqClient` is its entry with what is the ZMQ door's own). A client is forgotten (it
 leaves the barrier) when its connection closes, when it sends ``_*end*_``, or when the loop's
 housekeeping finds it past its ``timeout`` (s, its first request's; 600 by default) without a
-request (:meth:`ZmqService.keeps`: not while its ``_*executed*_`` waits for a step). Every other ``sim.NAME`` and
-``simIK.NAME`` is the API table's (:mod:`simx_server.api`); those that
+request (:meth:`ZmqService.keeps`: not while its ``_*executed*_`` waits for a step). Every other ``sim.NAME``,
+``simIK.NAME`` and ``simOMPL.NAME`` is the API table's (:mod:`simx_server.api`); those that
 render (images, depth buffers, vision packets) are answered from the render thread once their
 frames are drawn (:mod:`simx_server.zmq.renders`), the simulation going on meanwhile.
 """
@@ -48,7 +48,7 @@ from simx_server.zmq import codec
 from simx_server.zmq.budgets import RENDERS, Connection, reply_estimate
 from simx_server.zmq.clients import ZmqClient
 from simx_server.zmq.frontend import Frontend, Incoming
-from simx_server.api import SIM, SIMIK, CallContext, Callers, client_context, names
+from simx_server.api import SIM, SIMIK, SIMOMPL, CallContext, Callers, client_context, names
 from simx_server.api.sim.stepped import CallbackCall, Stepped
 from simx_server.zmq.renders import RenderedReplies, Rendering, values as _values
 
@@ -90,7 +90,8 @@ class ZmqService(RenderedReplies):
         self.clients: dict[str, ZmqClient] = server.clients.of(self)
         self.connections: dict[bytes, Connection] = {}  # routing id -> its uuids and share
         self._remote: CallContext | None = None
-        self._functions = {n: SIM[n].function for n in SIM.names(Callers.CLIENTS)}
+        self._libraries = {t.library: {n: t[n].function for n in t.names(Callers.CLIENTS)} for t in (SIM, SIMIK, SIMOMPL)}
+        self._functions = self._libraries["sim"]
         self._signatures: dict[str, inspect.Signature] = {}
         self._held = 0  # clients with a held _*executed*_
         self._in_after_step = self._again = False
@@ -100,9 +101,8 @@ class ZmqService(RenderedReplies):
             "switchThread": self._step, "acquireLock": self._acquire_lock, "releaseLock": self._release_lock,
             "stopSimulation": self._stop_simulation,
         }
-        self._ik_functions = {n: SIMIK[n].function for n in SIMIK.names(Callers.CLIENTS)}
-        self._implemented = {"sim": frozenset(self._functions) | frozenset(STEPPING),
-                             "simIK": frozenset(self._ik_functions)}
+        self._implemented = {lib: frozenset(fns) | frozenset(STEPPING if lib == "sim" else ()) for lib, fns in
+                             self._libraries.items()}
 
     @property
     def sim(self):
@@ -247,8 +247,8 @@ class ZmqService(RenderedReplies):
                     if client.long is not None:  # another long call from inside a callback
                         self._end_long(client)
                     return self._start_long(client, func, values)
-            elif namespace == "simIK" and name in self._ik_functions:
-                values = self._call_table(name, args, ik=True)
+            elif name in self._libraries.get(namespace, ()):
+                values = self._call_table(name, args, namespace)
             elif name in names.coppeliasim_functions(namespace):
                 raise RemoteError(f"not implemented by simx (CoppeliaSim 4.x has {namespace}.{name}; "
                                   "docs/ZMQ.md lists what simx has)")
@@ -277,22 +277,22 @@ class ZmqService(RenderedReplies):
             log.warning("ZMQ client %s: %s", client.label, text)
         return codec.encode_error(text)
 
-    def _signature(self, name: str, ik: bool = False) -> inspect.Signature:
-        key = f"simIK.{name}" if ik else name
+    def _signature(self, name: str, library: str = "sim") -> inspect.Signature:
+        key = name if library == "sim" else f"{library}.{name}"
         signature = self._signatures.get(key)
         if signature is None:
-            signature = self._signatures[key] = inspect.signature((self._ik_functions if ik else self._functions)[name])
+            signature = self._signatures[key] = inspect.signature(self._libraries[library][name])
         return signature
 
-    def _call_table(self, name: str, args: list, ik: bool = False) -> list | Stepped | Deferred:
-        fn, signature, remote = (self._ik_functions if ik else self._functions)[name], self._signature(name, ik), self.remote
+    def _call_table(self, name: str, args: list, library: str = "sim") -> list | Stepped | Deferred:
+        fn, signature, remote = self._libraries[library][name], self._signature(name, library), self.remote
         try:
             result = fn(remote, *args)
         except TypeError as exc:  # the wrong number of arguments, or a bad one met deeper in
             try:
                 signature.bind(remote, *args)
             except TypeError as arity:
-                raise ArgumentError(f"{arity} ({'simIK' if ik else 'sim'}.{name}{names.shown(signature)})") from None
+                raise ArgumentError(f"{arity} ({library}.{name}{names.shown(signature)})") from None
             raise exc
         if isinstance(result, (Stepped, Deferred)):
             return result

@@ -4,19 +4,21 @@ Inverse kinematics is damped least squares on the geometric Jacobian (joint axes
 read from the scene through the API table), from the arm's current configuration; the scene is
 restored afterwards (PyRep's ``solve_ik_via_jacobian`` does not move the arm either). Paths:
 ``get_linear_path`` follows a straight line of the tip, ``get_nonlinear_path`` a joint-space
-path to an IK solution, straight when collision-free, else found by RRT-Connect
-(:mod:`pyrep.robots.arms.planning`), with collisions checked by MuJoCo through
-``sim.checkCollision`` of the arm's collection (``<name>_arm``) against the scene.
+path to IK solutions planned by OMPL through the table's ``simOMPL`` (as PyRep's add-on script
+plans with CoppeliaSim's simOMPL), collisions of the arm's collection (``<name>_arm``) against
+the scene checked by MuJoCo on a scratch copy of the state.
 """
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 import numpy as np
 
 from pyrep.backend import sim
-from pyrep.errors import ConfigurationError, ConfigurationPathError, IKError
+from pyrep.const import ConfigurationPathAlgorithms as Algos
+from pyrep.errors import CoppeliaSimError, ConfigurationError, ConfigurationPathError, IKError
 from pyrep.objects.dummy import Dummy
 from pyrep.objects.object import Object
 from pyrep.robots.arms import planning
@@ -236,35 +238,56 @@ class Arm(RobotComponent):
     def get_nonlinear_path(self, position: Any, euler: Any = None, quaternion: Any = None,
                            ignore_collisions: bool = False, trials: int = 300, max_configs: int = 1,
                            distance_threshold: float = 0.65, max_time_ms: int = 10, trials_per_goal: int = 1,
-                           algorithm: Any = None, relative_to: Object | None = None) -> ArmConfigurationPath:
-        """A collision-free joint-space path to a configuration reaching the pose.
+                           algorithm: Any = Algos.SBL, relative_to: Object | None = None) -> ArmConfigurationPath:
+        """A collision-free joint-space path to a configuration reaching the pose, planned by OMPL.
+
+        PyRep's add-on (``getNonlinearPath`` and ``_findPath`` of ``simAddOnScript_PyRep.lua``),
+        through the table's ``simOMPL``: goal configurations from :meth:`solve_ik_via_sampling`
+        (``max_configs`` of them, all goals of one task), one ``joint_position`` state space per
+        joint (the first three used for projections, bounds clipped to ±6.28 rad), collision pairs
+        ``{<arm collection>, sim.handle_all}`` unless ``ignore_collisions`` (checked by MuJoCo on a
+        scratch copy of the scene), ``algorithm``'s planner, 4 s per search, ``trials_per_goal``
+        searches, the shortest valid path kept. The path is simplified by OMPL and made of the
+        states OMPL checked, at most ``max_velocity`` times the simulation step apart (motions are
+        checked that finely; one configuration per ``step()`` of the path; PyRep interpolates
+        its path to 300 configurations and times it with the Reflexxes library).
+
+        Args:
+            algorithm: a :class:`pyrep.const.ConfigurationPathAlgorithms`. Those OMPL's Python
+                bindings lack (``ompl`` 2.0.1 has BITstar, BKPIECE1, FMT, KPIECE1, LBKPIECE1,
+                PRM, PRMstar, RRT, RRTConnect, RRTstar; PyRep's default SBL is not among them)
+                plan with RRTConnect, with a warning logged once per algorithm.
 
         Raises:
             ConfigurationPathError: no such path was found.
+            AttributeError: ``algorithm`` is not a ``ConfigurationPathAlgorithms`` (PyRep reads
+                ``algorithm.value``).
+            CoppeliaSimError: an algorithm that CoppeliaSim's simOMPL does not have (``pRRT``,
+                ``pSBL``: PyRep's script call fails on them), or OMPL is not installed.
         """
+        name = algorithm.value
+        if name not in sim.ompl_constants("Algorithm"):
+            raise CoppeliaSimError(f"The call failed on the V-REP side: simOMPL has no algorithm {name!r}")
         try:
             goals = self.solve_ik_via_sampling(position, euler, quaternion, ignore_collisions, trials,
                                                max(max_configs, 1), relative_to=relative_to)
         except ConfigurationError as exc:
             raise ConfigurationPathError("Could not create path.") from exc
-        start = np.array(self.get_joint_positions())
         lo, hi = self._limits()
-        check = (lambda q: False) if ignore_collisions else self._collides
-        try:
-            for goal in goals:
-                path = planning.rrt_connect(start, goal, check, np.maximum(lo, -np.pi), np.minimum(hi, np.pi),
-                                            step=0.1, max_nodes=2000)
-                if path is not None:
-                    return ArmConfigurationPath(self, planning.densify(path, self._step_size()))
-        finally:
-            self.set_joint_positions(start.tolist())
-        raise ConfigurationPathError("Could not create path.")
+        lo, hi = np.maximum(lo, -6.28), np.minimum(hi, 6.28)
+        start = np.clip(self.get_joint_positions(), lo, hi)
+        pairs = [] if ignore_collisions or self._collision_collection is None else \
+            [self._collision_collection, sim.sim_handle_all]  # type: ignore[attr-defined]
+        path = _plan(self, name, start, goals, lo, hi, pairs, trials_per_goal, self._step_size())
+        if path is None:
+            raise ConfigurationPathError("Could not create path.")
+        return ArmConfigurationPath(self, path)
 
     def get_path(self, position: Any, euler: Any = None, quaternion: Any = None, ignore_collisions: bool = False,
                  trials: int = 300, max_configs: int = 1, distance_threshold: float = 0.65,
-                 max_time_ms: int = 10, trials_per_goal: int = 1, algorithm: Any = None,
+                 max_time_ms: int = 10, trials_per_goal: int = 1, algorithm: Any = Algos.SBL,
                  relative_to: Object | None = None) -> ArmConfigurationPath:
-        """A linear path when one exists, else a nonlinear one.
+        """A linear path when one exists, else a nonlinear one (:meth:`get_nonlinear_path`).
 
         Raises:
             ConfigurationPathError: neither was found.
@@ -274,6 +297,7 @@ class Arm(RobotComponent):
                                         relative_to=relative_to)
         except ConfigurationPathError:
             return self.get_nonlinear_path(position, euler, quaternion, ignore_collisions, trials, max_configs,
+                                           trials_per_goal=trials_per_goal, algorithm=algorithm,
                                            relative_to=relative_to)
 
     def get_path_from_cartesian_path(self, path: Any) -> ArmConfigurationPath:
@@ -292,3 +316,54 @@ class Arm(RobotComponent):
         finally:
             self.set_joint_positions(start.tolist())
         return ArmConfigurationPath(self, planning.densify(np.array(configs), self._step_size()))
+
+
+#: The algorithms already reported as planned with RRTConnect (one warning each per process).
+_SUBSTITUTED: set[str] = set()
+_log = logging.getLogger("pyrep")
+
+
+def _plan(arm: Arm, algorithm: str, start: np.ndarray, goals: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+          pairs: list[int], searches: int, step: float) -> np.ndarray | None:
+    """PyRep's ``_findPath`` with ``simOMPL``: the shortest of ``searches`` valid paths, its
+    configurations at most ``step`` apart (rad or m, Euclidean; flat), or None."""
+    task = sim.ompl_call("createTask", "task")
+    spaces: list[str] = []
+    try:
+        sim.ompl_call("setVerboseLevel", task, 0)
+        try:
+            sim.ompl_call("setAlgorithm", task, sim.ompl_constants("Algorithm")[algorithm])
+        except CoppeliaSimError as exc:
+            sim.ompl_call("setAlgorithm", task, sim.ompl_constants("Algorithm")["RRTConnect"])
+            if algorithm not in _SUBSTITUTED:
+                _SUBSTITUTED.add(algorithm)
+                _log.warning("get_nonlinear_path: %s; planning with RRTConnect instead", exc)
+        joint_position = sim.ompl_constants("StateSpaceType")["joint_position"]
+        for i, joint in enumerate(arm.joints):
+            spaces.append(sim.ompl_call("createStateSpace", f"j_space{i + 1}", joint_position, joint.get_handle(),
+                                        [float(lo[i])], [float(hi[i])], i + 1 if i < 3 else 0))
+        sim.ompl_call("setStateSpace", task, spaces)
+        # motions checked every `step` (rad, Euclidean; simOMPL's default, 1% of the space's
+        # extent, is coarser): the path is made of the checked states, one per step()
+        sim.ompl_call("setStateValidityCheckingResolution", task, min(step / float(np.linalg.norm(hi - lo)), 0.01))
+        if pairs:
+            sim.ompl_call("setCollisionPairs", task, pairs)
+        sim.ompl_call("setStartState", task, start.tolist())
+        sim.ompl_call("setGoalStates", task, [g.tolist() for g in goals])
+        sim.ompl_call("setup", task)
+        best, best_length = None, np.inf
+        for _ in range(max(int(searches), 1)):
+            if not sim.ompl_call("solve", task, 4.0) or not sim.ompl_call("hasExactSolution", task):
+                continue
+            sim.ompl_call("simplifyPath", task, -1.0)
+            sim.ompl_call("interpolatePath", task, 0)  # the states OMPL checked: at most `step` apart
+            path = np.asarray(sim.ompl_call("getPath", task), dtype=float).reshape(-1, len(spaces))
+            length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+            # as PyRep: a simplified path can touch an invalid state; keep only valid ones
+            if length < best_length and all(sim.ompl_call("isStateValid", task, q.tolist()) for q in path[1:]):
+                best, best_length = path.reshape(-1), length
+        return best
+    finally:
+        sim.ompl_call("destroyTask", task)
+        for space in spaces:
+            sim.ompl_call("destroyStateSpace", space)

@@ -1,0 +1,25 @@
+"""CoppeliaSim's ``simOMPL`` (its OMPL plug-in) on MuJoCo and OMPL's Python bindings, for child
+scripts and ZMQ clients (``client.require('simOMPL')``), and the ``pyrep`` package's planner.
+
+Follows CoppeliaRobotics/simOMPL (``sourceCode/plugin.cpp``, ``lua/simOMPL.lua``): a **state
+space** (``createStateSpace``) is one joint's position (``simOMPL.StateSpaceType.joint_position``,
+with its bounds); a **task** (``createTask``) gets state spaces, an algorithm, collision pairs,
+a start state and goal states, is ``setup``, then ``solve``\\d (``simplifyPath``,
+``interpolatePath``, ``getPath``, or all in one ``compute``). Planning is OMPL's
+(:mod:`simx_server.sim.motion_planning`); a state is valid when the task's state validation
+callback says so, else when none of its collision pairs collide, tested by MuJoCo on a scratch
+copy of the scene's state (the simulation is not moved while planning; simOMPL moves the scene's
+joints and restores them).
+
+Not here: the other state space types (``position2d``, ``pose2d``, ``position3d``, ``pose3d``,
+``dubins``, ``cyclic_joint_position``) and weights other than 1 (the space is OMPL's
+``RealVectorStateSpace``, Euclidean). ``setGoal`` (a dummy pair goal), ``setGoalCallback``,
+``setProjectionEvaluationCallback``, ``setValidStateSamplerCallback``, ``setDubinsParams``,
+``getPlannerData``, ``projectStates`` and the drawing helpers are not in the table; the other
+state space types, and algorithms that OMPL's Python bindings lack
+(:func:`simx_server.sim.motion_planning.available`), raise UnsupportedError naming themselves.
+"""
+
+from __future__ import annotations
+
+from simx_server.api.simompl import planning, tasks  # noqa: F401 (each module registers its functions)

@@ -1,0 +1,218 @@
+"""simOMPL's planning calls on a task: ``setup`` (OMPL's problem, the scratch collision check),
+``solve``, ``simplifyPath``, ``interpolatePath``, ``getPath``, ``compute``, the solution's state,
+and the calls on single states and flat paths."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from simx_server.api.context import CallContext
+from simx_server.api.registry import simompl_function
+from simx_server.api.simompl.tasks import Task, as_state, as_states, spaces_of, task_of
+from simx_server.base.arguments import as_integer as _int, as_number as _num
+from simx_server.sim import motion_planning as mp
+from simx_wire.protocol import ArgumentError, UnsupportedError
+
+
+@simompl_function()
+def setup(ctx: CallContext, taskHandle: Any) -> None:
+    """Makes the planner of the task's state spaces, start, goals and algorithm; reads the
+    scene's state for the collision checks.
+
+    Raises:
+        ArgumentError: no state space, start state or goal state.
+        UnsupportedError: OMPL's Python bindings are not installed.
+    """
+    task = task_of(ctx, taskHandle)
+    spaces = spaces_of(ctx, task)
+    if not spaces:
+        raise ArgumentError("the task has no state space (simOMPL.setStateSpace)")
+    if task.start is None:
+        raise ArgumentError("Start state is empty.")
+    if not task.goals:
+        raise ArgumentError("No goal state specified.")
+    if mp.IMPORT_ERROR:
+        raise UnsupportedError(mp.IMPORT_ERROR)
+    w = ctx.world
+    task.checker = mp.ScratchCollisions(w, np.array([w.model.jnt_qposadr[w.get(s.joint).mj_id] for s in spaces]),
+                                        list(zip(task.pairs[::2], task.pairs[1::2])))
+    callback = task.callback
+    if callback is not None:
+        def valid(q: np.ndarray) -> bool:
+            try:
+                return bool(callback(q.tolist()))
+            except Exception as exc:  # the caller's code: its error, named, ends the planning call
+                raise ArgumentError(f"the state validation callback failed: {exc}") from exc
+    else:
+        checker = task.checker
+
+        def valid(q: np.ndarray) -> bool:
+            return not checker(q)
+    try:
+        task.problem = mp.Problem(np.array([s.low for s in spaces]), np.array([s.high for s in spaces]), valid,
+                                  task.resolution, [i for i, s in enumerate(spaces) if s.projection])
+        task.problem.setup(np.array(task.start), [np.array(g) for g in task.goals], task.algorithm)
+    except ValueError as exc:
+        task.problem = None
+        raise ArgumentError(str(exc)) from None
+
+
+@simompl_function()
+def solve(ctx: CallContext, taskHandle: Any, maxTime: Any) -> bool:  # noqa: N803
+    """Runs the planner for at most ``maxTime`` s (and at most 10 s: the caller waits for it); True
+    when it found a path (exact or approximate)."""
+    task = task_of(ctx, taskHandle, True)
+    t = _num(maxTime, "maxTime")
+    if t <= 0:
+        raise ArgumentError("maxTime must be positive (s)")
+    return _fresh(ctx, task).solve(t)
+
+
+def _fresh(ctx: CallContext, task: Task) -> mp.Problem:
+    """The task's problem, its collision checks on a copy of the scene's state now."""
+    assert task.problem is not None and task.checker is not None
+    if task.checker.model is not ctx.world.model:
+        raise ArgumentError("the scene's model changed since simOMPL.setup: call setup again")
+    task.checker.refresh()
+    return task.problem
+
+
+def _solved(ctx: CallContext, taskHandle: Any) -> mp.Problem:
+    task = task_of(ctx, taskHandle, True)
+    assert task.problem is not None
+    if task.problem.path is None:
+        raise ArgumentError("the task has no solution path (simOMPL.solve first)")
+    return task.problem
+
+
+@simompl_function()
+def simplifyPath(ctx: CallContext, taskHandle: Any, maxSimplificationTime: Any = -1.0) -> None:  # noqa: N802, N803
+    """OMPL's path simplifier on the solution: as much as it can when ``maxSimplificationTime``
+    < 0, else for at most that many s (10 s at most either way)."""
+    _solved(ctx, taskHandle).simplify(_num(maxSimplificationTime, "maxSimplificationTime"))
+
+
+@simompl_function()
+def interpolatePath(ctx: CallContext, taskHandle: Any, stateCnt: Any = 0) -> None:  # noqa: N802, N803
+    """Interpolates the solution to ``stateCnt`` states (0: at OMPL's checking resolution)."""
+    count = _int(stateCnt, "stateCnt")
+    if count < 0:
+        raise ArgumentError("stateCnt must be >= 0")
+    _solved(ctx, taskHandle).interpolate(count)
+
+
+@simompl_function()
+def hasSolution(ctx: CallContext, taskHandle: Any) -> bool:  # noqa: N802, N803
+    """Whether a path (exact or approximate) was found."""
+    p = task_of(ctx, taskHandle, True).problem
+    return p is not None and (p.exact() or p.approximate())
+
+
+@simompl_function()
+def hasExactSolution(ctx: CallContext, taskHandle: Any) -> bool:  # noqa: N802, N803
+    """Whether the path found reaches a goal."""
+    p = task_of(ctx, taskHandle, True).problem
+    return p is not None and p.exact()
+
+
+@simompl_function()
+def hasApproximateSolution(ctx: CallContext, taskHandle: Any) -> bool:  # noqa: N802, N803
+    """Whether the path found stops short of the goals."""
+    p = task_of(ctx, taskHandle, True).problem
+    return p is not None and p.approximate()
+
+
+@simompl_function()
+def getGoalDistance(ctx: CallContext, taskHandle: Any) -> float:  # noqa: N802, N803
+    """How far the path found ends from the goals (0: exact)."""
+    p = task_of(ctx, taskHandle, True).problem
+    assert p is not None
+    return p.goal_distance()
+
+
+@simompl_function()
+def getPath(ctx: CallContext, taskHandle: Any) -> list[float]:  # noqa: N802, N803
+    """The solution's states, flat (state count * dimension)."""
+    return _solved(ctx, taskHandle).path_values().reshape(-1).tolist()
+
+
+@simompl_function()
+def compute(ctx: CallContext, taskHandle: Any, maxTime: Any, maxSimplificationTime: Any = -1.0,  # noqa: N803
+            stateCnt: Any = 0) -> tuple[bool, list[float]]:
+    """:func:`solve`, then :func:`simplifyPath`, :func:`interpolatePath` and :func:`getPath`:
+    ``(solved, states)`` (``states`` empty when not solved)."""
+    if not solve(ctx, taskHandle, maxTime):
+        return False, []
+    simplifyPath(ctx, taskHandle, maxSimplificationTime)
+    interpolatePath(ctx, taskHandle, stateCnt)
+    return True, getPath(ctx, taskHandle)
+
+
+# ------------------------------------------------------------------ states
+@simompl_function()
+def readState(ctx: CallContext, taskHandle: Any) -> list[float]:  # noqa: N802, N803
+    """The scene's current values of the task's state spaces (joint positions)."""
+    return [float(ctx.sim.getJointPosition(s.joint)) for s in spaces_of(ctx, task_of(ctx, taskHandle))]
+
+
+@simompl_function()
+def writeState(ctx: CallContext, taskHandle: Any, state: Any) -> None:  # noqa: N802, N803
+    """Puts the scene's joints at ``state`` (``sim.setJointPosition``)."""
+    task = task_of(ctx, taskHandle)
+    for s, q in zip(spaces_of(ctx, task), as_state(task, state)):
+        ctx.sim.setJointPosition(s.joint, q)
+
+
+@simompl_function()
+def isStateValid(ctx: CallContext, taskHandle: Any, state: Any) -> bool:  # noqa: N802, N803
+    """The task's validity check of one state (the scene's current state otherwise)."""
+    task = task_of(ctx, taskHandle, True)
+    return _fresh(ctx, task).is_valid(as_state(task, state))
+
+
+@simompl_function()
+def isStateWithinBounds(ctx: CallContext, taskHandle: Any, state: Any) -> bool:  # noqa: N802, N803
+    """Whether every value lies within its state space's bounds."""
+    task = task_of(ctx, taskHandle)
+    q = np.array(as_state(task, state))
+    spaces = spaces_of(ctx, task)
+    return bool(np.all(q >= [s.low for s in spaces]) and np.all(q <= [s.high for s in spaces]))
+
+
+@simompl_function()
+def enforceBounds(ctx: CallContext, taskHandle: Any, state: Any) -> list[float]:  # noqa: N802, N803
+    """The state with each value clipped to its bounds."""
+    task = task_of(ctx, taskHandle)
+    spaces = spaces_of(ctx, task)
+    return np.clip(as_state(task, state), [s.low for s in spaces], [s.high for s in spaces]).tolist()
+
+
+@simompl_function()
+def stateDistance(ctx: CallContext, taskHandle: Any, a: Any, b: Any) -> float:  # noqa: N802
+    """The distance between two states (Euclidean, the space's metric)."""
+    task = task_of(ctx, taskHandle)
+    return float(np.linalg.norm(np.subtract(as_state(task, a, "a"), as_state(task, b, "b"))))
+
+
+@simompl_function()
+def getPathStateCount(ctx: CallContext, taskHandle: Any, path: Any) -> int:  # noqa: N802, N803
+    """simOMPL.lua's helper: the number of states in a flat path."""
+    return len(as_states(task_of(ctx, taskHandle), path, "path"))
+
+
+@simompl_function()
+def getPathState(ctx: CallContext, taskHandle: Any, path: Any, index: Any) -> list[float]:  # noqa: N802, N803
+    """simOMPL.lua's helper: the state at ``index`` (from 1; negative from the end) of a flat path."""
+    states = as_states(task_of(ctx, taskHandle), path, "path")
+    i = _int(index, "index")
+    if i == 0 or abs(i) > len(states):
+        raise ArgumentError("invalid index")
+    return states[i - 1 if i > 0 else i].tolist()
+
+
+@simompl_function()
+def getReversedPath(ctx: CallContext, taskHandle: Any, path: Any) -> list[float]:  # noqa: N802, N803
+    """simOMPL.lua's helper: the flat path's states in reverse order."""
+    return as_states(task_of(ctx, taskHandle), path, "path")[::-1].reshape(-1).tolist()

@@ -1,0 +1,272 @@
+"""Motion planning with OMPL (the ``ompl`` package's Python bindings) for ``simOMPL``.
+
+:class:`Problem` is one planning query in a real-vector space (joint positions, within bounds):
+OMPL's ``SpaceInformation`` with a Python state-validity checker, a start state, one goal state
+(``GoalState``) or several (``GoalStates``), and one of OMPL's planners by its ``simOMPL``
+name. After a solve, the solution path is simplified with OMPL's ``PathSimplifier``
+(``simplifyMax``, or ``simplify`` within a time) and interpolated with
+``PathGeometric.interpolate``, as the simOMPL plug-in's ``solve``, ``simplifyPath``,
+``interpolatePath`` and ``compute`` do (CoppeliaRobotics/simOMPL, ``sourceCode/plugin.cpp``).
+
+:class:`ScratchCollisions` is the default validity check of a simOMPL task (its collision
+pairs): a configuration is written into a scratch ``MjData`` (a copy of the world's state), its
+poses computed with ``mj_kinematics``, and the pairs' geoms measured there with
+``mj_geomDistance`` (:func:`simx_server.sim.collisions.pairs_collide`), so that planning never
+moves the simulation. simOMPL writes each state into the scene and reads CoppeliaSim's collision
+check instead.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import mujoco
+import numpy as np
+
+from simx_server.sim import collisions
+from simx_server.sim.world import World
+
+try:  # the pyrep extra installs it; without it every planning call says so
+    from ompl import base as ob, geometric as og, util as ou
+
+    ou.setLogLevel(ou.LOG_NONE)  # OMPL's own messages on stderr; the calls report what failed
+    IMPORT_ERROR: str | None = None
+except ImportError as exc:  # pragma: no cover - the test environment has ompl
+    ob = og = ou = None
+    IMPORT_ERROR = f"motion planning needs OMPL's Python bindings: pip install ompl ({exc})"
+
+#: s one solve or simplification may take at most (the caller's thread waits for it: a script's,
+#: or the simulation thread for a ZMQ client), as simIK's searches.
+MAX_SECONDS = 10.0
+#: simOMPL's ``Algorithm`` enum (callbacks.xml, from 30001, in this order; the plug-in leaves out
+#: the parallel pRRT and pSBL).
+ALGORITHMS: tuple[str, ...] = (
+    "BiTRRT", "BITstar", "BKPIECE1", "CForest", "EST", "FMT", "KPIECE1", "LazyPRM", "LazyPRMstar", "LazyRRT",
+    "LBKPIECE1", "LBTRRT", "PDST", "PRM", "PRMstar", "RRT", "RRTConnect", "RRTstar", "SBL", "SPARS", "SPARStwo",
+    "STRIDE", "TRRT")
+
+
+def available() -> tuple[str, ...]:
+    """The algorithms the installed OMPL bindings have a planner class for.
+
+    Returns:
+        Names of :data:`ALGORITHMS` (``ompl`` 2.0.1: BITstar, BKPIECE1, FMT, KPIECE1, LBKPIECE1,
+        PRM, PRMstar, RRT, RRTConnect, RRTstar); empty without the bindings.
+    """
+    if og is None:
+        return ()
+    return tuple(a for a in ALGORITHMS if hasattr(og, a))
+
+
+class ScratchCollisions:
+    """Whether a configuration of some joints collides, tested on a scratch copy of the state.
+
+    Args:
+        world: the scene (its model and current state are copied once, here).
+        qpos_addresses: ``qpos`` index of each configuration value (one per hinge or slide joint).
+        pairs: the entities to test, ``[(entity1, entity2), ...]`` (shapes, collections,
+            ``sim_handle_all`` as entity2), as ``sim.checkCollision`` takes them.
+
+    Raises:
+        UnknownObjectError, ObjectTypeError, ArgumentError: an entity as ``sim.checkCollision``.
+    """
+
+    def __init__(self, world: World, qpos_addresses: np.ndarray, pairs: list[tuple[int, int]]):
+        self.world = world
+        self.model = world.model
+        self.data = mujoco.MjData(world.model)
+        self.refresh()
+        self.addresses = np.asarray(qpos_addresses, dtype=np.intp)
+        found = [collisions.collision_pairs(world, e1, e2) for e1, e2 in pairs]
+        self.a = np.concatenate([a for a, _ in found]) if found else np.zeros(0, dtype=int)
+        self.b = np.concatenate([b for _, b in found]) if found else np.zeros(0, dtype=int)
+
+    def refresh(self) -> None:
+        """Copies the world's state again (the scene may have moved since)."""
+        self.data.qpos[:] = self.world.data.qpos
+        self.data.mocap_pos[:], self.data.mocap_quat[:] = self.world.data.mocap_pos, self.world.data.mocap_quat
+
+    def __call__(self, q: np.ndarray) -> bool:
+        """True when the configuration ``q`` (rad or m, one per address) collides."""
+        if self.a.size == 0:
+            return False
+        self.data.qpos[self.addresses] = q
+        mujoco.mj_kinematics(self.model, self.data)
+        return collisions.pairs_collide(self.world, self.a, self.b, self.data)
+
+
+class Problem:
+    """One query of OMPL in the box ``[low, high]`` (n values).
+
+    Args:
+        low, high: the bounds (n,), each value's unit (rad, m).
+        valid: ``valid(q) -> bool`` for a configuration (n,); called from inside OMPL's planner.
+        resolution: the state validity checking resolution, a fraction of the space's extent
+            (simOMPL's default 0.01).
+        projection: the values OMPL's projection-based planners (KPIECE, SBL, EST...) project
+            onto (simOMPL's ``useForProjection``); empty: OMPL's default projection.
+
+    Raises:
+        RuntimeError: OMPL's bindings are not installed (:data:`IMPORT_ERROR`).
+        ValueError: bounds of another size, or a low bound not below its high one.
+    """
+
+    def __init__(self, low: np.ndarray, high: np.ndarray, valid: Callable[[np.ndarray], bool],
+                 resolution: float = 0.01, projection: list[int] | None = None):
+        if ob is None:
+            raise RuntimeError(IMPORT_ERROR)
+        low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+        if low.shape != high.shape or low.ndim != 1 or low.size == 0:
+            raise ValueError("the low and high bounds must be two lists of the same, non-zero length")
+        if not np.all(low < high):
+            raise ValueError(f"every low bound must be below its high one (low {low.tolist()}, high {high.tolist()})")
+        self.dim = n = low.size
+        self.space = ob.RealVectorStateSpace(n)
+        bounds = ob.RealVectorBounds(n)
+        bounds.low, bounds.high = low.tolist(), high.tolist()
+        self.space.setBounds(bounds)
+        if projection:
+            self.space.registerDefaultProjection(ob.RealVectorOrthogonalProjectionEvaluator(self.space, projection))
+        self.si = ob.SpaceInformation(self.space)
+        self.si.setStateValidityChecker(lambda s: bool(valid(np.array(s[0:n]))))
+        self.si.setStateValidityCheckingResolution(float(resolution))
+        self.si.setup()
+        self.pdef: Any = None
+        self.planner: Any = None
+        self.path: Any = None  # the solution path, simplified and interpolated in place
+
+    def state(self, values: Any) -> Any:
+        """An OMPL state.
+
+        Args:
+            values: (n,) its values.
+
+        Returns:
+            The state (OMPL's, for this problem's space).
+        """
+        s = self.si.allocState()
+        s[0:self.dim] = [float(v) for v in values]
+        return s
+
+    def setup(self, start: np.ndarray, goals: list[np.ndarray], algorithm: str) -> None:
+        """The query: from ``start`` to any of ``goals``, with the planner ``algorithm``.
+
+        Args:
+            start: (n,) the start configuration.
+            goals: the goal configurations, (n,) each (several: OMPL's ``GoalStates``).
+            algorithm: a name of :func:`available`.
+
+        Raises:
+            ValueError: an algorithm that the installed bindings lack, or no goal.
+        """
+        if algorithm not in available():
+            raise ValueError(f"OMPL's Python bindings (ompl {_version()}) have no planner {algorithm}; "
+                             f"they have {', '.join(available())}")
+        if not goals:
+            raise ValueError("no goal state")
+        self.pdef = ob.ProblemDefinition(self.si)
+        self.pdef.addStartState(self.state(start))
+        if len(goals) == 1:
+            goal = ob.GoalState(self.si)
+            goal.setState(self.state(goals[0]))
+        else:
+            goal = ob.GoalStates(self.si)
+            for g in goals:
+                goal.addState(self.state(g))
+        self.pdef.setGoal(goal)
+        self.goal = goal
+        self.planner = getattr(og, algorithm)(self.si)
+        self.planner.setProblemDefinition(self.pdef)
+        self.planner.setup()
+        self.path = None
+
+    def solve(self, max_time: float) -> bool:
+        """Runs the planner (it goes on from what it built in earlier solves).
+
+        Args:
+            max_time: s at most (and at most :data:`MAX_SECONDS`).
+
+        Returns:
+            True when it found a path, exact or approximate (as OMPL's ``PlannerStatus``
+            converts to a bool).
+        """
+        solved = bool(self.planner.solve(min(float(max_time), MAX_SECONDS)))
+        self.path = og.PathGeometric(self.pdef.getSolutionPath()) if self.pdef.hasSolution() else None
+        return solved
+
+    def simplify(self, max_time: float = -1.0) -> None:
+        """OMPL's ``PathSimplifier`` on the path (simOMPL's ``simplifyPath``).
+
+        Args:
+            max_time: < 0: as ``simplifyMax`` (until nothing improves, which is ``simplify``
+                without a time limit), but within :data:`MAX_SECONDS`; else ``simplify`` for at
+                most that many s (and at most :data:`MAX_SECONDS`).
+        """
+        simplifier = og.PathSimplifier(self.si, self.goal)
+        simplifier.simplify(self.path, MAX_SECONDS if max_time < 0 else min(float(max_time), MAX_SECONDS))
+
+    def interpolate(self, count: int = 0) -> None:
+        """``PathGeometric.interpolate`` of the path.
+
+        Args:
+            count: the states along the path; 0: at the validity checking resolution (the
+                states the motion checks tested).
+        """
+        if count > 0:
+            self.path.interpolate(int(count))
+        else:
+            self.path.interpolate()
+
+    def path_values(self) -> np.ndarray:
+        """The path's states.
+
+        Returns:
+            (m, n); (0, n) without a path.
+        """
+        if self.path is None:
+            return np.zeros((0, self.dim))
+        return np.array([s[0:self.dim] for s in self.path.getStates()], dtype=float).reshape(-1, self.dim)
+
+    def exact(self) -> bool:
+        """Whether the solution reaches a goal.
+
+        Returns:
+            True for an exact solution.
+        """
+        return self.pdef is not None and bool(self.pdef.hasExactSolution())
+
+    def approximate(self) -> bool:
+        """Whether the solution stops short of the goals.
+
+        Returns:
+            True for an approximate solution.
+        """
+        return self.pdef is not None and bool(self.pdef.hasApproximateSolution())
+
+    def goal_distance(self) -> float:
+        """How far the solution ends from the goals.
+
+        Returns:
+            OMPL's solution difference (0 for an exact solution, -1 before a query).
+        """
+        return float(self.pdef.getSolutionDifference()) if self.pdef is not None else -1.0
+
+    def is_valid(self, values: Any) -> bool:
+        """The validity check of one configuration.
+
+        Args:
+            values: (n,) the configuration.
+
+        Returns:
+            What the problem's ``valid`` says of it.
+        """
+        return bool(self.si.isValid(self.state(values)))
+
+
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("ompl")
+    except metadata.PackageNotFoundError:  # pragma: no cover
+        return "?"

@@ -1,0 +1,130 @@
+"""``Arm.get_nonlinear_path`` plans with OMPL through the table's simOMPL (PyRep's add-on does so
+with CoppeliaSim's simOMPL): PyRep's Panda (../shared/pyrep/robot_ttms, skipped without it,
+failing under CI) turning its base by 90 degrees past a pillar that the straight joint-space
+line hits."""
+
+from __future__ import annotations
+
+import logging
+from enum import Enum
+
+import numpy as np
+import pytest
+
+from pyrep.const import ConfigurationPathAlgorithms as Algos, PrimitiveShape
+from pyrep.objects import Shape
+
+try:
+    from conftest import SHARED, require_shared
+except ImportError:
+    from tests.conftest import SHARED, require_shared
+
+pytest.importorskip("ompl")
+MODELS = SHARED / "pyrep" / "robot_ttms"
+
+
+@pytest.fixture
+def panda(pr):
+    """The Panda, a goal pose 90 degrees round its base, and a pillar half way there."""
+    from pyrep.robots.arms.panda import Panda
+
+    pr.stop()
+    pr.import_model(str(require_shared(MODELS / "arms" / "Panda.ttm")))
+    pr.start()
+    arm = Panda()
+    tip = arm.get_tip()
+    start = np.array(arm.get_joint_positions())
+    turned = start.copy()
+    turned[0] += np.pi / 4
+    arm.set_joint_positions(turned.tolist())
+    half_way = tip.get_position()
+    turned[0] += np.pi / 4
+    arm.set_joint_positions(turned.tolist())
+    goal, orientation = tip.get_position(), tip.get_quaternion()
+    arm.set_joint_positions(start.tolist())
+    pillar = Shape.create(PrimitiveShape.CUBOID, [0.1, 0.1, 0.3], position=half_way.tolist(), static=True)
+    return arm, start, goal, orientation, pillar
+
+
+def _hits(arm, configs, pillar) -> list[bool]:
+    hits = []
+    for q in configs:
+        arm.set_joint_positions(list(q))
+        hits.append(arm.check_arm_collision(pillar))
+    return hits
+
+
+def test_the_path_goes_round_the_pillar_that_the_straight_line_hits(panda):
+    arm, start, goal, orientation, pillar = panda
+    path = arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.RRTConnect)
+    assert np.allclose(arm.get_joint_positions(), start)  # planning did not move the arm
+    configs = path._path_points.reshape(-1, 7)
+    assert np.allclose(configs[0], start, atol=1e-6)
+    # consecutive configurations at most max_velocity * dt apart (one per step of the path)
+    assert np.max(np.linalg.norm(np.diff(configs, axis=0), axis=1)) <= arm.max_velocity * 0.05 + 1e-9
+    straight = [start + f * (configs[-1] - start) for f in np.linspace(0, 1, 60)]
+    assert any(_hits(arm, straight, pillar))
+    assert not any(_hits(arm, configs, pillar))
+    path.set_to_end()
+    assert np.linalg.norm(arm.get_tip().get_position() - goal) < 0.01
+
+
+def test_an_algorithm_the_bindings_lack_plans_with_rrt_connect_and_says_so(panda, caplog, monkeypatch):
+    from pyrep.robots.arms import arm as arm_module
+
+    arm, _, goal, orientation, pillar = panda
+    monkeypatch.setattr(arm_module, "_SUBSTITUTED", set())  # as in a new process
+    with caplog.at_level(logging.WARNING, logger="pyrep"):
+        path = arm.get_nonlinear_path(goal, quaternion=orientation)  # PyRep's default: SBL
+        arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.SBL)
+    warned = [r.getMessage() for r in caplog.records if "SBL" in r.getMessage()]
+    assert len(warned) == 1 and "planning with RRTConnect instead" in warned[0]  # once per process
+    assert not any(_hits(arm, path._path_points.reshape(-1, 7), pillar))
+    path = arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.PRM)
+    assert not any(_hits(arm, path._path_points.reshape(-1, 7), pillar))
+
+
+def test_a_bad_algorithm_gives_pyreps_errors(panda):
+    arm, _, goal, orientation, _ = panda
+    with pytest.raises(AttributeError, match="value"):  # PyRep reads algorithm.value
+        arm.get_nonlinear_path(goal, quaternion=orientation, algorithm="RRTConnect")
+    with pytest.raises(RuntimeError, match="pRRT"):  # CoppeliaSim's simOMPL has no parallel planner
+        arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.pRRT)
+    Other = Enum("Other", {"Foo": "Foo"})  # noqa: N806
+    with pytest.raises(RuntimeError, match="no algorithm 'Foo'"):
+        arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Other.Foo)
+
+
+def test_a_pyrep_connected_over_zmq_plans_on_the_server(pyrep_scene):
+    from pyrep import PyRep
+    from pyrep.robots.arms.panda import Panda
+
+    try:
+        from conftest import ServerProcess, free_port
+    except ImportError:
+        from tests.conftest import ServerProcess, free_port
+
+    pytest.importorskip("coppeliasim_zmqremoteapi_client")
+    model = require_shared(MODELS / "arms" / "Panda.ttm")
+    port = free_port()
+    server = ServerProcess(str(pyrep_scene), "--stopped", "--zmq-port", str(port), "--scene-path", str(model.parent))
+    pr = PyRep()
+    try:
+        pr.connect("127.0.0.1", port)
+        pr.import_model(str(model))
+        pr.start()
+        arm = Panda()
+        start = np.array(arm.get_joint_positions())
+        goal = start.copy()
+        goal[0] += 0.5
+        arm.set_joint_positions(goal.tolist())
+        pose = arm.get_tip().get_position(), arm.get_tip().get_quaternion()
+        arm.set_joint_positions(start.tolist())
+        path = arm.get_nonlinear_path(pose[0], quaternion=pose[1], algorithm=Algos.RRTConnect)
+        configs = path._path_points.reshape(-1, 7)
+        assert len(configs) > 2 and np.allclose(configs[0], start, atol=1e-6)
+        path.set_to_end()
+        assert np.linalg.norm(arm.get_tip().get_position() - pose[0]) < 0.01
+    finally:
+        pr.shutdown()
+        server.stop()
