@@ -399,17 +399,9 @@ class Motors:
         """The locked motors (``sim_jointintparam_velocity_lock`` on, velocity mode, target 0):
         each holds the position where it stopped by the position law at gain 1/dt, with no force
         limit (CoppeliaSim's ``CJoint::handleDynJoint`` returns bit 1, "motor locked", for them).
-
-        Args:
-            m: the model (the locked actuators' force ranges are written).
-            q: (n,) the joints' positions now.
-            stopped: (n,) motors in velocity mode with target 0.
-            dt: the step, s.
-            kp: (n,) the position loops' gains, 1/s.
-            linear: (n,) the motors under the linear position law.
-
-        Returns:
-            ``(target, kp, linear)`` with the locked motors' entries changed.
+        ``q`` (n,) positions now, ``stopped`` (n,) velocity motors with target 0, ``kp`` (n,) 1/s
+        and ``linear`` (n,) as :meth:`apply` has them; the locked actuators' force ranges are
+        written into ``m``. Returns ``(target, kp, linear)`` with the locked motors' entries changed.
         """
         lock = self.locked & stopped
         self._lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
