@@ -292,7 +292,8 @@ class LuaScript(LuaStyles, ChildScript):
         if cap != MAX_MEMORY:
             rt.set_max_memory(cap)
         try:
-            result = fn(*args)
+            with self._calling(seconds):
+                result = fn(*args)
         except _lupa.LuaMemoryError as exc:
             bound = (f"{MAX_MEMORY >> 20} MiB per script" if cap == MAX_MEMORY else
                      f"the scene's Lua scripts hold at most {self.budget.memory >> 20} MiB together, "

@@ -229,3 +229,52 @@ end""")
     assert any(re.search(r"sysCall_actuation: (box\.lua:\d+: )?interrupted: did not return within 0\.2 s", r.getMessage())
                for r in caplog.records), caplog.text
 
+
+# A script calling another's function (sim.callScriptFunction): the callee had a bound of its own
+# from the moment it was called, so a caller near its deadline bought a fresh one; and a Python
+# callee disarmed the one watchdog, after which the Python caller ran without any bound.
+NESTED_XML = """<mujoco model="nested">
+  <worldbody><body name="A"><geom type="box" size="0.1 0.1 0.1"/></body>
+    <body name="B" pos="1 0 0"><geom type="box" size="0.1 0.1 0.1"/></body></worldbody>
+  <custom><text name="simx:A" data="child_script=a.{0} script_timeout=0.3"/>
+    <text name="simx:B" data="child_script=b.{0} script_timeout=0.3"/></custom>
+</mujoco>
+"""
+
+
+def test_a_script_called_by_another_ends_within_the_callers_bound(tmp_path):
+    (tmp_path / "a.lua").write_text("""function outer()
+  local t = os.clock() while os.clock() - t < 0.25 do end
+  local ok, e = pcall(sim.callScriptFunction, "inner@/B", sim.scripttype_childscript)
+  return {ok and 1 or 0}, {}, {tostring(e)}, ""
+end""")
+    (tmp_path / "b.lua").write_text("function inner() while true do end end")
+    (tmp_path / "scene.xml").write_text(NESTED_XML.format("lua"))
+    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False)
+    s.start()
+    try:
+        ints, _, (why,), _ = s.scripts.call("A", CHILD, "outer", [], [], [], b"")
+        # the callee was cut at the caller's deadline (before: after 0.3 s of its own)
+        assert ints == [0] and "the call into the script that called it reached its time bound" in why, why
+    finally:
+        s.close()
+
+
+def test_a_python_script_keeps_its_bound_after_calling_another(tmp_path):
+    (tmp_path / "a.py").write_text("""import time
+def outer(*args):
+    sim.callScriptFunction("inner@/B", sim.scripttype_childscript)
+    t = time.thread_time()
+    while time.thread_time() - t < 5:
+        pass
+    return [1]
+""")
+    (tmp_path / "b.py").write_text("def inner(*args):\n    return [2]\n")
+    (tmp_path / "scene.xml").write_text(NESTED_XML.format("py"))
+    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False, allow_python_scripts=True)
+    s.start()
+    try:
+        with pytest.raises(ScriptTimeoutError, match=r"a.py:5: interrupted: did not return within 0.3 s"):
+            s.scripts.call("A", CHILD, "outer", [], [], [], b"")  # before: [1] after 5 s
+    finally:
+        s.close()
