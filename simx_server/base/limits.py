@@ -34,7 +34,11 @@ MAX_RENDERERS = 8
 #: the protocol's value, which the client's outbox splits its batches by.
 MAX_COMMANDS_PER_REQUEST = P.MAX_COMMANDS_PER_REQUEST
 #: Largest request payload in bytes (a simxTransferFile of a mesh or a scene included).
-MAX_REQUEST_BYTES = 64 * 1024 * 1024
+MAX_REQUEST_BYTES = P.MAX_REQUEST_BYTES
+#: Largest Zenoh message the server's session reassembles (Zenoh's
+#: ``transport/link/rx/max_message_size``, 1 GiB by default): a request and its framing. Zenoh
+#: reassembled a 900 MiB query before the server could refuse it (106 -> 1,910 MB, 1,010 MB kept).
+MAX_ZENOH_MESSAGE_BYTES = MAX_REQUEST_BYTES + 2 * 1024 * 1024
 #: Most values (at any depth) and most memory once decoded of one request, measured on its bytes
 #: before it is decoded (simx_wire.decoded_size): a byte of msgpack can become 60-90 bytes of
 #: Python objects (62.9 M empty arrays in 60 MiB took a server to 4.7 GB).
@@ -203,6 +207,15 @@ MAX_QUEUED_REQUESTS = 1024
 MAX_QUEUED_BYTES = MAX_REQUEST_DECODED_BYTES + 1024 * 1024
 #: Bytes (decoded requests, likewise) all clients together may have waiting.
 MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
+#: Requests of this many bytes or more are read (copied out of Zenoh, decoded, proven) on a thread
+#: of their own, round robin by client, not on Zenoh's few receiving threads (simx_server/legacy/
+#: intake.py): sixteen clients' 32 MiB files kept them busy 10 s, another client's p99 1.1-1.5 s.
+LARGE_REQUEST_BYTES = 1024 * 1024
+#: Payload bytes of one client's requests waiting for that thread (one largest request and small
+#: ones behind it; more is answered "server busy"), and of all clients (beyond, a large request of a
+#: client with none waiting is read on Zenoh's thread, which leaves the rest waiting in the network).
+MAX_INTAKE_BYTES = MAX_REQUEST_BYTES + 1024 * 1024
+MAX_INTAKE_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
