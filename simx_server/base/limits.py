@@ -105,16 +105,20 @@ MAX_CLIENT_FILES_BYTES = 64 * 1024 * 1024
 MAX_TRANSFER_FOLDER_BYTES = 1024 * 1024 * 1024
 #: Shares of that total (issue 48: 16 clients x 64 MiB filled it in 9 s and every other client's
 #: 1 kB file was refused for as long as they stayed): each client may always hold this many bytes
-#: ("its minimum", room for RESERVED / MIN clients kept free for them) ...
-MIN_CLIENT_FILES_BYTES = 1024 * 1024
-RESERVED_CLIENT_FILES_BYTES = 256 * 1024 * 1024
+#: ("its minimum": RESERVED_CLIENT_FILES_BYTES, after MAX_CLIENTS below, keeps room for the
+#: minimum of every client the server can hold at once), and above it draws on the rest of the
+#: total (MAX_TRANSFER_FOLDER_BYTES - RESERVED: the pool), at most the pool divided by the number
+#: of clients holding files: a share that shrinks as clients come (files already written stay;
+#: its next write waits until it erases some). A minimum of 1 MiB with room for 256 of them let a
+#: group of 268 clients (12 at 64 MiB, the others at their minimum) fill the total: a newcomer's
+#: 1 kB file was refused.
+MIN_CLIENT_FILES_BYTES = 128 * 1024
 #: Bytes of simxTransferFile taken from the requests and not written yet (the files' thread
-#: writes them), of one client and of all: beyond, "server busy" (the client sends it again).
+#: writes them), of one client and of all: beyond, "server busy" (the client sends it again); a
+#: client with none may always hand over one file of at most MIN_CLIENT_FILES_BYTES (at most
+#: MAX_FILE_HOLDERS x 128 KiB more in all).
 MAX_UNWRITTEN_BYTES = 64 * 1024 * 1024
 MAX_UNWRITTEN_BYTES_TOTAL = 256 * 1024 * 1024
-#: ... and above it draws on the rest of the total (MAX_TRANSFER_FOLDER_BYTES - RESERVED: the
-#: pool), at most the pool divided by the number of clients holding files: a share that shrinks
-#: as clients come (files already written stay; its next write waits until it erases some).
 #: Most files and folders one client's folder may hold.
 MAX_TRANSFER_FILES = 1000
 #: Longest file name a client may give, in UTF-8 bytes, and longest part of it between two ``/``
@@ -219,6 +223,11 @@ MAX_INTAKE_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
+#: Clients that may hold files in the transfer folder at once: the legacy door's and the ZMQ
+#: door's (MAX_CLIENTS each), the in-process caller, and a client gone whose folder holds the
+#: loaded scene; and the room kept for each one's MIN_CLIENT_FILES_BYTES (256.25 MiB).
+MAX_FILE_HOLDERS = 2 * MAX_CLIENTS + 2
+RESERVED_CLIENT_FILES_BYTES = MAX_FILE_HOLDERS * MIN_CLIENT_FILES_BYTES
 #: Simulation-thread time one request may take (s; the thread's CPU time): commands after that
 #: point answer an error naming this bound, not executed (else a request of 100 LoadScene
 #: commands would hold every client for over a minute). CPU time, because on a loaded machine

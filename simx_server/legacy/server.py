@@ -218,6 +218,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         """Serve a ready session's next request (``step``: the step its blocking call sees)."""
         request = self.sessions.take(ready)
         if request is not None:
+            if self.sessions.evicted:  # their folders go before a newcomer's files count (MAX_FILE_HOLDERS)
+                self.housekeeping(0.0)
             if step is not None:
                 ready.step = step  # legacy pacing: the step its blocking call saw
             self._answer(ready, request[0], request[1])

@@ -33,7 +33,7 @@ import shutil
 import threading
 import weakref
 from collections.abc import Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
 
@@ -41,6 +41,7 @@ from simx_wire.protocol import BUSY, ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
+from simx_server.scene.file_writer import FileWriter
 from simx_server.scene.ttt import cache as ttt_cache
 
 log = logging.getLogger("simx.editing")
@@ -73,10 +74,11 @@ class ClientFiles:
         self._usage: dict[str, tuple[int, int]] = {}  # client key ("" the in-process one) -> (entries, bytes)
         self._scene_key: str | None = None  # the client whose folder holds the loaded scene
         self._gone: set[str] = set()  # clients gone whose folder holds the loaded scene
-        # simxTransferFile's writes, off the simulation thread (one at a time, in order):
+        # simxTransferFile's writes, off the simulation thread (one at a time, each client's in order,
+        # the clients in turn):
         self._lock = threading.Lock()  # _usage and _pending: the writing thread updates them too
         self._pending: dict[str, list[Any]] = {}  # key -> [entries, bytes, writes] not written yet
-        self._writer: ThreadPoolExecutor | None = None
+        self._writer = FileWriter()
         self._unwritten: dict[str, int] = {}  # key -> bytes handed to the files' thread, not written yet
 
     # ------------------------------------------------------------- who calls
@@ -313,7 +315,8 @@ class ClientFiles:
         """``simxTransferFile``: store ``data`` as ``name`` in the calling client's folder.
 
         ``later``: the file is counted against the budgets now and written by a thread of its own
-        (one write at a time, in order), off the simulation thread (sixteen 32 MiB writes on it
+        (:class:`~simx_server.scene.file_writer.FileWriter`: one write at a time, the clients in
+        turn), off the simulation thread (sixteen 32 MiB writes on it
         pushed other clients' p99 from 5 ms to 1.7 s); returns the write's Future (its result
         None, or the RemoteError). The client's file calls meanwhile are busy (:meth:`settle`).
 
@@ -349,9 +352,7 @@ class ClientFiles:
             return None
         with self._lock:  # the write cannot end (it takes this lock) before it is listed
             self._unwritten[key] = self._unwritten.get(key, 0) + size
-            if self._writer is None:
-                self._writer = ThreadPoolExecutor(1, thread_name_prefix="simx-files")
-            future = self._writer.submit(write)
+            future = self._writer.submit(key, write)
             writes = self._pending[key][2]
             writes.append(future)
 
@@ -364,9 +365,12 @@ class ClientFiles:
 
     def _unwritten_room(self, key: str, size: int, name: str) -> None:
         """Raises RemoteError (``server busy``) when ``size`` more bytes for the files' thread
-        would pass ``MAX_UNWRITTEN_BYTES`` of this client or ``MAX_UNWRITTEN_BYTES_TOTAL``."""
+        would pass ``MAX_UNWRITTEN_BYTES`` of this client or ``MAX_UNWRITTEN_BYTES_TOTAL``; a
+        file of at most ``MIN_CLIENT_FILES_BYTES`` of a client with none being written passes."""
         with self._lock:
             mine, total = self._unwritten.get(key, 0), sum(self._unwritten.values())
+        if not mine and size <= limits.MIN_CLIENT_FILES_BYTES:
+            return  # a small file of a client with none being written: never kept out by the others'
         if mine + size > limits.MAX_UNWRITTEN_BYTES:
             raise RemoteError(f"{BUSY}: file {quote(name)}: {mine:,} bytes of this client's files are being written "
                               f"(limits.MAX_UNWRITTEN_BYTES = {limits.MAX_UNWRITTEN_BYTES:,}); send it again")
