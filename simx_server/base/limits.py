@@ -147,11 +147,13 @@ MAX_SCENE_HFIELD_CELLS = 2 * MAX_HFIELD_CELLS
 MAX_MESH_VERTICES = 200_000
 MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
 #: Most faces (triangles, a polygon counting as its fan) of one mesh, and of all meshes of a
-#: scene: the compile's time and memory grow with faces (a 199,000-vertex, 397,000-face OBJ:
-#: 1.5 s of CPU and +347 MB at its peak); two in-bounds 199,000-vertex meshes of 470,000 faces
-#: each froze every client 9.4 s and took a server from 230 MB to 1,349 MB.
+#: scene (a client's, and any scene a client's edit adds meshes to): the compile's time and memory
+#: grow with faces (a 199,000-vertex, 396,000-face OBJ: 0.8 s of CPU, +396 MB at the compile's
+#: peak, 272 MB of it kept in MuJoCo's mesh cache); two in-bounds 199,000-vertex meshes of 470,000
+#: faces each froze every client 9.4 s and took a server from 230 MB to 1,349 MB, and two of
+#: 396,000 faces, within the 800,000 then allowed a scene, still took it to 1,288 MB at its peak.
 MAX_MESH_FACES = 400_000
-MAX_SCENE_MESH_FACES = 2 * MAX_MESH_FACES
+MAX_SCENE_MESH_FACES = MAX_MESH_FACES
 #: Most bytes of MuJoCo's data arena (contacts, constraints and the solver's scratch memory)
 #: of a client's scene or of a scene after a client's edit: its <size memory>, and the compiled
 #: model's ``narena``, which MuJoCo sizes itself when the MJCF does not (100 free spheres: 57
