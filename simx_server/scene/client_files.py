@@ -50,6 +50,19 @@ log = logging.getLogger("simx.editing")
 CLIENTS = ".simx-clients"
 
 
+def _bounded(name: str) -> PurePosixPath:
+    """``name`` as a path, once its length is within the bounds (before any file system call: a
+    5,000-character name made the server's own stat raise ENAMETOOLONG, whose message named the
+    server's folder to the client). Raises ArgumentError."""
+    pure = PurePosixPath(name)
+    if len(name.encode("utf-8", "surrogatepass")) > limits.MAX_FILE_NAME_BYTES or any(
+            len(part.encode("utf-8", "surrogatepass")) > limits.MAX_FILE_NAME_PART_BYTES for part in pure.parts):
+        raise ArgumentError(f"file name {quote(name)} refused: at most {limits.MAX_FILE_NAME_BYTES} bytes "
+                            f"(limits.MAX_FILE_NAME_BYTES), {limits.MAX_FILE_NAME_PART_BYTES} between two '/' "
+                            "(limits.MAX_FILE_NAME_PART_BYTES)")
+    return pure
+
+
 class ClientFiles:
     """The transfer folder of one server process, its clients' folders, and the trusted folders.
 
@@ -198,13 +211,7 @@ class ClientFiles:
         names outside its folder and the server's own names (``.simx*``)."""
         if not isinstance(name, str) or not name or "\x00" in name:
             raise ArgumentError("file name must be a non-empty string")
-        pure = PurePosixPath(name)
-        size = len(name.encode("utf-8", "surrogatepass"))
-        if size > limits.MAX_FILE_NAME_BYTES or any(len(part.encode("utf-8", "surrogatepass"))
-                                                    > limits.MAX_FILE_NAME_PART_BYTES for part in pure.parts):
-            raise ArgumentError(f"file name {quote(name)} refused: at most {limits.MAX_FILE_NAME_BYTES} bytes "
-                                f"(limits.MAX_FILE_NAME_BYTES), {limits.MAX_FILE_NAME_PART_BYTES} between two '/' "
-                                "(limits.MAX_FILE_NAME_PART_BYTES)")
+        pure = _bounded(name)
         folder = self.folder(self.caller if key is None else key)
         path = (folder / pure).resolve()
         if pure.is_absolute() or ".." in pure.parts or folder not in path.parents:
@@ -406,6 +413,7 @@ class ClientFiles:
             self.settle(key)
             file = self.transfer_path(name, key)
         else:
+            _bounded(name)
             file = Path(name)
             if not file.is_absolute():
                 file = self.roots[0] / file
@@ -436,6 +444,7 @@ class ClientFiles:
         """
         self.settle(key)
         own = self.folder(key)  # the operator: the in-process caller's (the transfer folder itself)
+        _bounded(name)
         file = Path(name)
         if not file.is_absolute():
             mine = Path(os.path.realpath(own / file))
@@ -483,6 +492,7 @@ class ClientFiles:
             if not file.is_file():
                 raise RemoteError(f"no transferred file {quote(path)}")
             return file
+        _bounded(path)
         file = Path(path)
         if not file.is_absolute():
             here = Path(scene).parent
@@ -492,6 +502,10 @@ class ClientFiles:
             raise RemoteError(f"server-side file {quote(path)} refused: server-side scenes and models are "
                               "loaded only from the server's scene folder and its --scene-path folders "
                               "(a client's own file: options bit 0)")
-        if not file.is_file():
+        try:
+            found = file.is_file()
+        except OSError:  # a folder it may not read: its text would name the path
+            found = False
+        if not found:
             raise RemoteError(f"no server-side file {quote(path)}")
         return file

@@ -93,14 +93,21 @@ def test_who_writes_a_scripts_file(files, tmp_path):
                                   "/".join(["c" * 200] * 6), "é" * 126])
 def test_a_name_too_long_is_refused_naming_the_bound_never_the_folder(files, name):
     """A 5,000-character name made simxEraseFile raise ENAMETOOLONG, an internal error whose
-    message named the server's folder (issue 48): every file call refuses it with the bound."""
+    message named the server's folder (issue 48): every file call refuses it with the bound, a
+    server-side path too (simxLoadScene/simxLoadModel with options 0, sim.loadScene, sim.loadImage:
+    the same error then named the scene's folder), and the operator's own writes."""
     with files.acting("legacy:a"):
         for call in (lambda: files.erase_file(name), lambda: files.transfer_file(name, b"x"),
                      lambda: files.resolve(name, 1, files.roots[0] / "scene.xml"),
+                     lambda: files.resolve(name, 0, files.roots[0] / "scene.xml"),
+                     lambda: files.source(name, "legacy:a", "sim.loadImage"),
+                     lambda: files.source(name, None, "sim.loadImage"),
+                     lambda: files.target(name, None, "sim.saveScene"),
                      lambda: files.target(name, "legacy:a", "sim.saveScene")):
             with pytest.raises(ArgumentError, match="MAX_FILE_NAME") as refused:
                 call()
-            assert str(files.files_dir) not in str(refused.value) and len(str(refused.value)) < 400
+            text = str(refused.value)
+            assert str(files.files_dir) not in text and str(files.roots[0]) not in text and len(text) < 400
         files.transfer_file("é" * 125, b"x")  # 250 bytes: in bounds
         files.erase_file("é" * 125)
 
