@@ -52,6 +52,7 @@ DEFAULT_BLOCKING_TIMEOUT = 5.0  # s, _REPLY_WAIT_TIMEOUT_IN_MS
 STREAM_BACKLOG = 4096  # stream updates kept unread; beyond, the oldest are dropped
 _NO_VALUE = (C.simx_return_novalue_flag, None)
 _TIMED_OUT = (C.simx_return_timeout_flag | C.simx_return_novalue_flag, None)  # blocking, no reply
+_REQUEST_FRAMING = 4096  # a request's bytes besides its commands' (version, client id, arrays)
 _RESUME_PAUSE = 0.2  # s between two handshakes of a client that reconnects
 _NO_RESPONSE = [P.PROTOCOL_VERSION, 0, 0, 0, 0, []]  # "the last response" before there is one
 _connection_ids = itertools.count(1)
@@ -236,6 +237,9 @@ class Connection(OutboxSender):
                 payload = self._encoder.encode(commands)
             except (TypeError, ValueError, OverflowError):
                 payload = self._encode(commands)  # raises the LocalError
+        if len(payload) > P.MAX_REQUEST_BYTES:
+            raise P.LocalError(f"a request of {len(payload):,} bytes cannot be sent: the server takes at most "
+                               f"{P.MAX_REQUEST_BYTES:,} (protocol.MAX_REQUEST_BYTES)")
         header = self._out = (next(self._messages), time.monotonic())
         return payload, header
 
@@ -451,6 +455,9 @@ class Connection(OutboxSender):
             packed = P.pack(command)
         except (TypeError, ValueError, OverflowError) as exc:  # UnicodeEncodeError is a ValueError
             return C.simx_return_local_error_flag, f"arguments that cannot be sent: {type(exc).__name__}: {exc}"
+        if len(packed) > P.MAX_REQUEST_BYTES - _REQUEST_FRAMING:
+            return C.simx_return_local_error_flag, (f"a command of {len(packed):,} bytes cannot be sent: the server "
+                                                    f"takes requests of at most {P.MAX_REQUEST_BYTES:,} bytes")
         with self._lock:
             if base in _SPLIT and (ident in self._in_flight or ident in self._outbox):
                 rc, value = self._read_locked(ident)

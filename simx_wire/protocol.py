@@ -124,6 +124,9 @@ DO_NOT_OVERWRITE = frozenset({
 #: Most commands in one request: the server refuses more (simx_server.base.limits), and the
 #: client's outbox sends larger batches in several requests.
 MAX_COMMANDS_PER_REQUEST = 1024
+#: Most bytes of one request: the server's Zenoh session does not even reassemble a larger
+#: message (simx_server.base.limits.MAX_ZENOH_MESSAGE_BYTES), so the client refuses to send one.
+MAX_REQUEST_BYTES = 64 * 1024 * 1024
 #: Most commands waiting in a client's outbox that a blocking ``SynchronousTrigger`` takes along
 #: in its request (sent before it, in the same request, as V-REP's client did): such a request
 #: is served as the trigger alone would be (in place when the server waits for work).

@@ -34,7 +34,11 @@ MAX_RENDERERS = 8
 #: the protocol's value, which the client's outbox splits its batches by.
 MAX_COMMANDS_PER_REQUEST = P.MAX_COMMANDS_PER_REQUEST
 #: Largest request payload in bytes (a simxTransferFile of a mesh or a scene included).
-MAX_REQUEST_BYTES = 64 * 1024 * 1024
+MAX_REQUEST_BYTES = P.MAX_REQUEST_BYTES
+#: Largest Zenoh message the server's session reassembles (Zenoh's
+#: ``transport/link/rx/max_message_size``, 1 GiB by default): a request and its framing. Zenoh
+#: reassembled a 900 MiB query before the server could refuse it (106 -> 1,910 MB, 1,010 MB kept).
+MAX_ZENOH_MESSAGE_BYTES = MAX_REQUEST_BYTES + 2 * 1024 * 1024
 #: Most values (at any depth) and most memory once decoded of one request, measured on its bytes
 #: before it is decoded (simx_wire.decoded_size): a byte of msgpack can become 60-90 bytes of
 #: Python objects (62.9 M empty arrays in 60 MiB took a server to 4.7 GB).
@@ -101,16 +105,20 @@ MAX_CLIENT_FILES_BYTES = 64 * 1024 * 1024
 MAX_TRANSFER_FOLDER_BYTES = 1024 * 1024 * 1024
 #: Shares of that total (issue 48: 16 clients x 64 MiB filled it in 9 s and every other client's
 #: 1 kB file was refused for as long as they stayed): each client may always hold this many bytes
-#: ("its minimum", room for RESERVED / MIN clients kept free for them) ...
-MIN_CLIENT_FILES_BYTES = 1024 * 1024
-RESERVED_CLIENT_FILES_BYTES = 256 * 1024 * 1024
+#: ("its minimum": RESERVED_CLIENT_FILES_BYTES, after MAX_CLIENTS below, keeps room for the
+#: minimum of every client the server can hold at once), and above it draws on the rest of the
+#: total (MAX_TRANSFER_FOLDER_BYTES - RESERVED: the pool), at most the pool divided by the number
+#: of clients holding files: a share that shrinks as clients come (files already written stay;
+#: its next write waits until it erases some). A minimum of 1 MiB with room for 256 of them let a
+#: group of 268 clients (12 at 64 MiB, the others at their minimum) fill the total: a newcomer's
+#: 1 kB file was refused.
+MIN_CLIENT_FILES_BYTES = 128 * 1024
 #: Bytes of simxTransferFile taken from the requests and not written yet (the files' thread
-#: writes them), of one client and of all: beyond, "server busy" (the client sends it again).
+#: writes them), of one client and of all: beyond, "server busy" (the client sends it again); a
+#: client with none may always hand over one file of at most MIN_CLIENT_FILES_BYTES (at most
+#: MAX_FILE_HOLDERS x 128 KiB more in all).
 MAX_UNWRITTEN_BYTES = 64 * 1024 * 1024
 MAX_UNWRITTEN_BYTES_TOTAL = 256 * 1024 * 1024
-#: ... and above it draws on the rest of the total (MAX_TRANSFER_FOLDER_BYTES - RESERVED: the
-#: pool), at most the pool divided by the number of clients holding files: a share that shrinks
-#: as clients come (files already written stay; its next write waits until it erases some).
 #: Most files and folders one client's folder may hold.
 MAX_TRANSFER_FILES = 1000
 #: Longest file name a client may give, in UTF-8 bytes, and longest part of it between two ``/``
@@ -139,11 +147,13 @@ MAX_SCENE_HFIELD_CELLS = 2 * MAX_HFIELD_CELLS
 MAX_MESH_VERTICES = 200_000
 MAX_SCENE_MESH_VERTICES = 2 * MAX_MESH_VERTICES
 #: Most faces (triangles, a polygon counting as its fan) of one mesh, and of all meshes of a
-#: scene: the compile's time and memory grow with faces (a 199,000-vertex, 397,000-face OBJ:
-#: 1.5 s of CPU and +347 MB at its peak); two in-bounds 199,000-vertex meshes of 470,000 faces
-#: each froze every client 9.4 s and took a server from 230 MB to 1,349 MB.
+#: scene (a client's, and any scene a client's edit adds meshes to): the compile's time and memory
+#: grow with faces (a 199,000-vertex, 396,000-face OBJ: 0.8 s of CPU, +396 MB at the compile's
+#: peak, 272 MB of it kept in MuJoCo's mesh cache); two in-bounds 199,000-vertex meshes of 470,000
+#: faces each froze every client 9.4 s and took a server from 230 MB to 1,349 MB, and two of
+#: 396,000 faces, within the 800,000 then allowed a scene, still took it to 1,288 MB at its peak.
 MAX_MESH_FACES = 400_000
-MAX_SCENE_MESH_FACES = 2 * MAX_MESH_FACES
+MAX_SCENE_MESH_FACES = MAX_MESH_FACES
 #: Most bytes of MuJoCo's data arena (contacts, constraints and the solver's scratch memory)
 #: of a client's scene or of a scene after a client's edit: its <size memory>, and the compiled
 #: model's ``narena``, which MuJoCo sizes itself when the MJCF does not (100 free spheres: 57
@@ -203,9 +213,23 @@ MAX_QUEUED_REQUESTS = 1024
 MAX_QUEUED_BYTES = MAX_REQUEST_DECODED_BYTES + 1024 * 1024
 #: Bytes (decoded requests, likewise) all clients together may have waiting.
 MAX_QUEUED_BYTES_TOTAL = 256 * 1024 * 1024
+#: Requests of this many bytes or more are read (copied out of Zenoh, decoded, proven) on a thread
+#: of their own, round robin by client, not on Zenoh's few receiving threads (simx_server/legacy/
+#: intake.py): sixteen clients' 32 MiB files kept them busy 10 s, another client's p99 1.1-1.5 s.
+LARGE_REQUEST_BYTES = 1024 * 1024
+#: Payload bytes of one client's requests waiting for that thread (one largest request and small
+#: ones behind it; more is answered "server busy"), and of all clients (beyond, a large request of a
+#: client with none waiting is read on Zenoh's thread, which leaves the rest waiting in the network).
+MAX_INTAKE_BYTES = MAX_REQUEST_BYTES + 1024 * 1024
+MAX_INTAKE_BYTES_TOTAL = 256 * 1024 * 1024
 #: Clients the server keeps state for (queue, streams, errors). A new client beyond takes the
 #: place of the oldest client that holds no liveliness token and has nothing pending, or is refused.
 MAX_CLIENTS = 1024
+#: Clients that may hold files in the transfer folder at once: the legacy door's and the ZMQ
+#: door's (MAX_CLIENTS each), the in-process caller, and a client gone whose folder holds the
+#: loaded scene; and the room kept for each one's MIN_CLIENT_FILES_BYTES (256.25 MiB).
+MAX_FILE_HOLDERS = 2 * MAX_CLIENTS + 2
+RESERVED_CLIENT_FILES_BYTES = MAX_FILE_HOLDERS * MIN_CLIENT_FILES_BYTES
 #: Simulation-thread time one request may take (s; the thread's CPU time): commands after that
 #: point answer an error naming this bound, not executed (else a request of 100 LoadScene
 #: commands would hold every client for over a minute). CPU time, because on a loaded machine

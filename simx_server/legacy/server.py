@@ -28,7 +28,6 @@ from typing import Any
 
 import zenoh
 
-from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
@@ -41,10 +40,11 @@ from simx_server.loop.budgets import cut as _cut
 from simx_server.loop.clients import Client
 from simx_server.loop.core import PACINGS, Loop
 from simx_server.loop.front_door import FrontDoor, LoopAccess
+from simx_server.legacy.intake import Intake
 from simx_server.legacy.peers import PeerCheck
 from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
                                            resolve, send_refusal, tell_secret)
-from simx_server.legacy.sessions import Session, Sessions, keep_thread_state, zenoh_thread
+from simx_server.legacy.sessions import Session, Sessions
 from simx_server.legacy.streams import StreamPublisher, _Stream
 from simx_server.legacy.viewer_feed import ViewerFeed
 
@@ -153,6 +153,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self._trigger_reply: threading.Event | None = None  # a trigger's step waits for its reply
         self.session: zenoh.Session | None = None
         self.viewers = ViewerFeed(prefix, loop.deliver, self.courier.send)  # simx-viewer's model and state
+        self.intake = Intake(self)  # reads requests: on Zenoh's threads, large ones on a thread of their own
 
     # ------------------------------------------------------------ zenoh side
     def open(self) -> None:
@@ -161,7 +162,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self._call_prefix = len(P.call_key(self.prefix, ""))  # a query's key minus this is its client
         # Direct callbacks: Zenoh's thread reads the request and queues it (or refuses it).
         self._queryable = self.session.declare_queryable(
-            P.call_keys(self.prefix), zenoh.handlers.Callback(self._on_query, indirect=False))
+            P.call_keys(self.prefix), zenoh.handlers.Callback(self.intake.on_query, indirect=False))
         self._legacy_queryable = self.session.declare_queryable(
             P.legacy_call_key(self.prefix), zenoh.handlers.Callback(self._refuse_old, indirect=False))
         self.peers.open(self.session)
@@ -179,43 +180,6 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             "requests to <prefix>/call/<client>; install the same simx version on client and server")
         self.courier.send(key, lambda: send_refusal(query, key, reply))
 
-    def _on_query(self, query: zenoh.Query) -> None:
-        """Zenoh's thread: read a request and queue it in its client's queue, or answer at once
-        what cannot be queued. Every query gets a reply."""
-        if not getattr(zenoh_thread, "kept", False):
-            keep_thread_state()
-        key = str(query.key_expr)
-        try:
-            payload = query.payload
-            data = payload.to_bytes() if payload is not None else b""
-            if len(data) > limits.MAX_REQUEST_BYTES:
-                raise P.ProtocolError(f"request of {len(data)} bytes refused: at most "
-                                      f"{limits.MAX_REQUEST_BYTES} (limits.MAX_REQUEST_BYTES)")
-            client, commands, size = P.read_request(data, limits.MAX_COMMANDS_PER_REQUEST)  # size: decoded
-            if client != key[self._call_prefix:]:
-                raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
-            if self.sessions.get(client) is None and not P.valid_client_id(client):  # once per client
-                raise P.ProtocolError("invalid client id: 1 to 128 characters without / * $ ? #")
-            attachment = query.attachment  # the proof that the id is the sender's (simx_wire.proof)
-            refused = self.sessions.admit(client, (query, commands), size, data,
-                                          attachment.to_bytes() if attachment is not None else None,
-                                          any(c[0] == "Hello" for c in commands))
-            if refused is None:
-                return  # the simulation thread replies
-            if refused.startswith((PR.UNKNOWN, PR.NOT_YOURS)):
-                raise P.ProtocolError(refused)
-            t, state, scene = self.sim.stamp()
-            reply = P.response(t, state, [[False, refused]] * len(commands),
-                               int((time.monotonic() - self.loop.started) * 1000), scene)
-            log.warning("client %s: request of %d command(s) not queued: %s", client, len(commands), refused)
-        except P.ProtocolError as exc:
-            log.warning("malformed request on %s refused: %s", quote(key), exc)
-            reply = P.error_response(str(exc))
-        except Exception as exc:  # the server never dies from a client, and always answers
-            log.exception("reading a request on %s", quote(key))
-            reply = P.error_response(f"internal error while reading the request: {type(exc).__name__}")
-        self.courier.send(key, lambda: send_refusal(query, key, reply))  # Zenoh's thread never waits on a link
-
     def _on_client_token(self, sample: zenoh.Sample) -> None:
         client = str(sample.key_expr).rsplit("/", 1)[-1]
         gone = sample.kind == zenoh.SampleKind.DELETE
@@ -226,6 +190,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
     def close(self) -> None:
         """Close the Zenoh session (the loop has finished pending renders and their replies);
         idempotent."""
+        self.intake.close()
         if self.session is not None:
             session, self.session = self.session, None
             # Zenoh's close waits for every link: one to a client that stopped reading held it
@@ -253,6 +218,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         """Serve a ready session's next request (``step``: the step its blocking call sees)."""
         request = self.sessions.take(ready)
         if request is not None:
+            if self.sessions.evicted:  # their folders go before a newcomer's files count (MAX_FILE_HOLDERS)
+                self.housekeeping(0.0)
             if step is not None:
                 ready.step = step  # legacy pacing: the step its blocking call saw
             self._answer(ready, request[0], request[1])

@@ -17,6 +17,7 @@ from simx_server.base import limits
 log = logging.getLogger("simx.server")
 
 _BLOCK_WAIT = "transport/link/tx/queue/congestion_control/block/wait_before_close"
+_MAX_MESSAGE = "transport/link/rx/max_message_size"
 _SHM_KEY = "shared_memory"  # the operator's file names Zenoh's transport/shared_memory section
 
 
@@ -26,7 +27,9 @@ def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) ->
     blocked on a client's full link given up after limits.MAX_BLOCKED_REPLY_SECONDS (unless the
     file sets ``transport/link/tx/queue/congestion_control/block/wait_before_close``), and
     Zenoh's shared-memory transport off (unless the file has a ``shared_memory`` section): it
-    kept every client process's 16 MiB pool mapped after the client left.
+    kept every client process's 16 MiB pool mapped after the client left. Messages larger than
+    limits.MAX_ZENOH_MESSAGE_BYTES are not reassembled (unless the file sets
+    ``transport/link/rx/max_message_size``).
 
     A file without ``listen/endpoints`` listens on ``endpoints`` (``--host``/``--port``), not on
     Zenoh's default (every interface). Listening beyond loopback without access control logs a
@@ -50,6 +53,10 @@ def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) ->
     # default 5 s (limits.MAX_BLOCKED_REPLY_SECONDS), unless the operator's file sets its own.
     if config.get_json(_BLOCK_WAIT) == zenoh.Config().get_json(_BLOCK_WAIT):
         config.insert_json5(_BLOCK_WAIT, str(int(limits.MAX_BLOCKED_REPLY_SECONDS * 1e6)))
+    # A message is reassembled whole before the server sees it: a request past MAX_REQUEST_BYTES
+    # is refused, but Zenoh's default (1 GiB) let a 900 MiB one take 1.8 GB first.
+    if config.get_json(_MAX_MESSAGE) == zenoh.Config().get_json(_MAX_MESSAGE):
+        config.insert_json5(_MAX_MESSAGE, str(limits.MAX_ZENOH_MESSAGE_BYTES))
     if not json.loads(config.get_json("access_control/enabled") or "false"):
         flat = [e for v in listen.values() for e in v] if isinstance(listen, dict) else listen
         exposed = [e for e in flat if not _loopback(e)]

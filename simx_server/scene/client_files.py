@@ -33,7 +33,7 @@ import shutil
 import threading
 import weakref
 from collections.abc import Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
 
@@ -41,12 +41,26 @@ from simx_wire.protocol import BUSY, ArgumentError, RemoteError
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
+from simx_server.scene.file_writer import FileWriter
 from simx_server.scene.ttt import cache as ttt_cache
 
 log = logging.getLogger("simx.editing")
 
 #: The transfer folder's subfolder that holds one folder per client (a reserved ``.simx`` name).
 CLIENTS = ".simx-clients"
+
+
+def _bounded(name: str) -> PurePosixPath:
+    """``name`` as a path, once its length is within the bounds (before any file system call: a
+    5,000-character name made the server's own stat raise ENAMETOOLONG, whose message named the
+    server's folder to the client). Raises ArgumentError."""
+    pure = PurePosixPath(name)
+    if len(name.encode("utf-8", "surrogatepass")) > limits.MAX_FILE_NAME_BYTES or any(
+            len(part.encode("utf-8", "surrogatepass")) > limits.MAX_FILE_NAME_PART_BYTES for part in pure.parts):
+        raise ArgumentError(f"file name {quote(name)} refused: at most {limits.MAX_FILE_NAME_BYTES} bytes "
+                            f"(limits.MAX_FILE_NAME_BYTES), {limits.MAX_FILE_NAME_PART_BYTES} between two '/' "
+                            "(limits.MAX_FILE_NAME_PART_BYTES)")
+    return pure
 
 
 class ClientFiles:
@@ -73,10 +87,11 @@ class ClientFiles:
         self._usage: dict[str, tuple[int, int]] = {}  # client key ("" the in-process one) -> (entries, bytes)
         self._scene_key: str | None = None  # the client whose folder holds the loaded scene
         self._gone: set[str] = set()  # clients gone whose folder holds the loaded scene
-        # simxTransferFile's writes, off the simulation thread (one at a time, in order):
+        # simxTransferFile's writes, off the simulation thread (one at a time, each client's in order,
+        # the clients in turn):
         self._lock = threading.Lock()  # _usage and _pending: the writing thread updates them too
         self._pending: dict[str, list[Any]] = {}  # key -> [entries, bytes, writes] not written yet
-        self._writer: ThreadPoolExecutor | None = None
+        self._writer = FileWriter()
         self._unwritten: dict[str, int] = {}  # key -> bytes handed to the files' thread, not written yet
 
     # ------------------------------------------------------------- who calls
@@ -196,13 +211,7 @@ class ClientFiles:
         names outside its folder and the server's own names (``.simx*``)."""
         if not isinstance(name, str) or not name or "\x00" in name:
             raise ArgumentError("file name must be a non-empty string")
-        pure = PurePosixPath(name)
-        size = len(name.encode("utf-8", "surrogatepass"))
-        if size > limits.MAX_FILE_NAME_BYTES or any(len(part.encode("utf-8", "surrogatepass"))
-                                                    > limits.MAX_FILE_NAME_PART_BYTES for part in pure.parts):
-            raise ArgumentError(f"file name {quote(name)} refused: at most {limits.MAX_FILE_NAME_BYTES} bytes "
-                                f"(limits.MAX_FILE_NAME_BYTES), {limits.MAX_FILE_NAME_PART_BYTES} between two '/' "
-                                "(limits.MAX_FILE_NAME_PART_BYTES)")
+        pure = _bounded(name)
         folder = self.folder(self.caller if key is None else key)
         path = (folder / pure).resolve()
         if pure.is_absolute() or ".." in pure.parts or folder not in path.parents:
@@ -313,7 +322,8 @@ class ClientFiles:
         """``simxTransferFile``: store ``data`` as ``name`` in the calling client's folder.
 
         ``later``: the file is counted against the budgets now and written by a thread of its own
-        (one write at a time, in order), off the simulation thread (sixteen 32 MiB writes on it
+        (:class:`~simx_server.scene.file_writer.FileWriter`: one write at a time, the clients in
+        turn), off the simulation thread (sixteen 32 MiB writes on it
         pushed other clients' p99 from 5 ms to 1.7 s); returns the write's Future (its result
         None, or the RemoteError). The client's file calls meanwhile are busy (:meth:`settle`).
 
@@ -349,9 +359,7 @@ class ClientFiles:
             return None
         with self._lock:  # the write cannot end (it takes this lock) before it is listed
             self._unwritten[key] = self._unwritten.get(key, 0) + size
-            if self._writer is None:
-                self._writer = ThreadPoolExecutor(1, thread_name_prefix="simx-files")
-            future = self._writer.submit(write)
+            future = self._writer.submit(key, write)
             writes = self._pending[key][2]
             writes.append(future)
 
@@ -364,9 +372,12 @@ class ClientFiles:
 
     def _unwritten_room(self, key: str, size: int, name: str) -> None:
         """Raises RemoteError (``server busy``) when ``size`` more bytes for the files' thread
-        would pass ``MAX_UNWRITTEN_BYTES`` of this client or ``MAX_UNWRITTEN_BYTES_TOTAL``."""
+        would pass ``MAX_UNWRITTEN_BYTES`` of this client or ``MAX_UNWRITTEN_BYTES_TOTAL``; a
+        file of at most ``MIN_CLIENT_FILES_BYTES`` of a client with none being written passes."""
         with self._lock:
             mine, total = self._unwritten.get(key, 0), sum(self._unwritten.values())
+        if not mine and size <= limits.MIN_CLIENT_FILES_BYTES:
+            return  # a small file of a client with none being written: never kept out by the others'
         if mine + size > limits.MAX_UNWRITTEN_BYTES:
             raise RemoteError(f"{BUSY}: file {quote(name)}: {mine:,} bytes of this client's files are being written "
                               f"(limits.MAX_UNWRITTEN_BYTES = {limits.MAX_UNWRITTEN_BYTES:,}); send it again")
@@ -402,6 +413,7 @@ class ClientFiles:
             self.settle(key)
             file = self.transfer_path(name, key)
         else:
+            _bounded(name)
             file = Path(name)
             if not file.is_absolute():
                 file = self.roots[0] / file
@@ -432,6 +444,7 @@ class ClientFiles:
         """
         self.settle(key)
         own = self.folder(key)  # the operator: the in-process caller's (the transfer folder itself)
+        _bounded(name)
         file = Path(name)
         if not file.is_absolute():
             mine = Path(os.path.realpath(own / file))
@@ -479,6 +492,7 @@ class ClientFiles:
             if not file.is_file():
                 raise RemoteError(f"no transferred file {quote(path)}")
             return file
+        _bounded(path)
         file = Path(path)
         if not file.is_absolute():
             here = Path(scene).parent
@@ -488,6 +502,10 @@ class ClientFiles:
             raise RemoteError(f"server-side file {quote(path)} refused: server-side scenes and models are "
                               "loaded only from the server's scene folder and its --scene-path folders "
                               "(a client's own file: options bit 0)")
-        if not file.is_file():
+        try:
+            found = file.is_file()
+        except OSError:  # a folder it may not read: its text would name the path
+            found = False
+        if not found:
             raise RemoteError(f"no server-side file {quote(path)}")
         return file

@@ -32,7 +32,8 @@ Rules, in V-REP's terms (docs/API.md lists them per command):
   files must lie in the transfer folder, its size is bounded before MuJoCo parses it, its child
   scripts run only with ``--allow-remote-code``. Server-side paths (options 0) are loaded only
   from the operator's scene folder and ``--scene-path`` folders, never from a transfer folder
-  of any server. Edits may not grow the scene past ``MAX_SCENE_BODIES``/``MAX_SCENE_ELEMENTS``.
+  of any server. Edits may not grow the scene past ``MAX_SCENE_BODIES``/``MAX_SCENE_ELEMENTS``
+  nor add meshes past ``MAX_SCENE_MESH_VERTICES``/``MAX_SCENE_MESH_FACES``.
 
 The MjSpec tools (pose maths, names, references, cloning) are in :mod:`simx_server.sim.spec_tools`,
 the command handlers (``EDITING_HANDLERS``) in :mod:`simx_server.commands.editing`.
@@ -254,6 +255,7 @@ class Editor(ObjectEdits):
             except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
                 raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
             guard.check_growth(before, spec)
+            guard.check_mesh_growth(world.model, live, spec)
             try:
                 model = motors.compile_spec(spec)  # joints without an actuator get a motor
             except ValueError as exc:

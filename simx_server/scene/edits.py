@@ -17,6 +17,8 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base.arguments import quote
+from simx_server.base import scene_guard as guard
+from simx_server.base.mesh_counts import spec_mesh_counts
 from simx_server.scene import conversions, grasping
 from simx_server.sim.spec_tools import (
     _KIND,
@@ -77,23 +79,26 @@ class ObjectEdits:
         wait in MuJoCo's cache under the names the scene's compile looks up), and the load
         completes later (:mod:`simx_server.scene.conversions`): returns the Deferred of the
         handle."""
+        model = self.sim.world.model
+        meshes = (model.nmeshvert, model.nmeshface)  # the scene's now, read here (its thread)
         if defer:
             label = quote(path)
             root = self.files.folder(self.files.caller) if options & 1 else None  # the sender's folder
             pending = conversions.later(self.sim, self.files, path, options, self._finish_model,
-                                        lambda xml: self.prepare_model(xml, label, root))
+                                        lambda xml: self.prepare_model(xml, label, root, meshes=meshes))
             if pending is not None:
                 return pending
         file = self.resolve(path, options)
         root = self.files.root_of(file) if options & 1 else None
-        return self._attach_model(self.prepare_model(file, quote(path), root, warm=False))
+        return self._attach_model(self.prepare_model(file, quote(path), root, warm=False, meshes=meshes))
 
     def _finish_model(self, ready) -> int:
         if isinstance(ready, BaseException):
             raise ready
         return self._attach_model(ready)
 
-    def prepare_model(self, file, label: str, root=None, warm: bool = True) -> PreparedModel:
+    def prepare_model(self, file, label: str, root=None, warm: bool = True,
+                      meshes: tuple[int, int] | None = None) -> PreparedModel:
         """The part of a model load that touches nothing of the live scene, on any thread: the
         model's ``MjSpec`` parsed (a client's file measured first: ``root``, the sender's
         folder, as :meth:`_client_spec`), its files read into memory under names of their own
@@ -109,6 +114,9 @@ class ObjectEdits:
             label: the path as the client gave it, quoted, for messages.
             root: the client's folder for a client's file; None for a server-side file.
             warm: compile the model alone once (off the simulation thread only).
+            meshes: the scene's mesh vertices and faces when the load was asked for: a model
+                that would put it past ``MAX_SCENE_MESH_*`` is refused here, before any compile
+                (the attach checks again, :func:`scene_guard.check_mesh_growth`).
 
         Raises:
             RemoteError: ``cannot load model <label>: ...`` (MuJoCo's parse message or a bound).
@@ -122,6 +130,13 @@ class ObjectEdits:
                 raise RemoteError(f"cannot load model {label}: {_one_line(exc)}") from None
         child_assets = _embed_assets(child, self._asset_counter)
         child.assets = {**(child.assets or {}), **child_assets}
+        counts = [spec_mesh_counts(mesh, child.assets) for mesh in child.meshes]  # kept for the attach's check
+        if meshes is not None:
+            try:
+                guard.check_mesh_totals(meshes, (sum(c[0] for c in counts), sum(c[1] for c in counts)),
+                                        "the scene with it")
+            except RemoteError as exc:
+                raise RemoteError(f"cannot load model {label}: {exc}") from None
         for t in list(child.texts):  # child scripts of loaded models are not run
             if t.name.startswith("simx:") and ("child_script=" in t.data or "customization_script=" in t.data):
                 log.warning("model %s: scripts of %r ignored", file.name, t.name[5:])

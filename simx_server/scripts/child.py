@@ -25,9 +25,11 @@ import builtins
 import contextlib
 import inspect
 import logging
+import threading
+import time
 import traceback
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 from simx_wire.protocol import ScriptError
 from simx_server.api import ApiNamespace, script_sim
@@ -62,6 +64,11 @@ UNSAFE_LUA_FLAG = "--allow-unsafe-lua"
 #: (files, processes, network), which only the operator can give.
 PYTHON_SCRIPTS_FLAG = "--allow-python-scripts"
 _STEP_FUNCTIONS = ("sysCall_actuation", "sysCall_sensing")
+#: Why a call's bound is shorter than its own: the call into the script that called it ends first.
+CALLER = "caller"
+#: (thread id, deadline in that thread's CPU time) of the script calls under way, outermost first: a
+#: script calling another's function (sim.callScriptFunction) gives it no more than it has left.
+_UNDER_WAY: list[tuple[int, float]] = []
 
 
 class ScriptTimeoutError(ScriptError):
@@ -210,9 +217,22 @@ class ChildScript:
     def _call_bound(self) -> tuple[float, str | None]:
         """``(seconds, why)``: the next call's time bound, the script's ``script_timeout`` or what
         is left of the pass or of the scripts' share if less (``why``: budget.PASS or SHARE)."""
-        if self.budget is None:
-            return self.timeout, None
-        return self.budget.bound(self.timeout)
+        seconds, why = (self.timeout, None) if self.budget is None else self.budget.bound(self.timeout)
+        if _UNDER_WAY and _UNDER_WAY[-1][0] == threading.get_ident():
+            left = _UNDER_WAY[-1][1] - time.thread_time()
+            if left < seconds:
+                return max(left, 0.0), CALLER
+        return seconds, why
+
+    @contextlib.contextmanager
+    def _calling(self, seconds: float) -> Iterator[None]:
+        """A call of at most ``seconds`` into this script is under way inside the block: calls
+        it makes into other scripts end no later (:meth:`_call_bound`)."""
+        _UNDER_WAY.append((threading.get_ident(), time.thread_time() + seconds))
+        try:
+            yield
+        finally:
+            _UNDER_WAY.pop()
 
     def _overrun(self, why: str | None) -> str:
         """The end of an overrun's message: which bound it passed."""
@@ -220,6 +240,8 @@ class ChildScript:
         if why == PASS and budget is not None:
             return (f"interrupted: the scene's scripts used up their {budget.seconds:g} s of this pass "
                     "(limits.MAX_SCRIPTS_STEP_TIME)")
+        if why == CALLER:
+            return "interrupted: the call into the script that called it reached its time bound"
         if why == SHARE and budget is not None:
             return (f"interrupted: the scene's scripts took their share of the server's time, "
                     f"{budget.share:.0%} of {budget.window:g} s beyond {budget.allowance:g} s a pass "
@@ -474,7 +496,8 @@ class PythonScript(ChildScript):
     def _bounded(self, what: str, fn: Callable[[], Any]) -> Any:
         seconds, why = self._call_bound()
         try:
-            result, interrupted_at = WATCHDOG.bounded(fn, seconds)
+            with self._calling(seconds):
+                result, interrupted_at = WATCHDOG.bounded(fn, seconds)
         except Exception as exc:
             stack = traceback.extract_tb(exc.__traceback__)
             raise self._traced(self._fault(what, f"{self._where(stack)}{type(exc).__name__}: {exc}"),

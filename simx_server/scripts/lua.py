@@ -17,7 +17,9 @@ Each script gets its own Lua state, made afresh at every simulation start, prepa
   instruction so that no ``pcall`` can swallow it. Lua runs code in an error's wake with hooks
   off, so none of the script's runs there: an ``xpcall`` message handler is skipped once the
   deadline has passed, and ``coroutine.close`` does not run the ``__close`` metamethods of a
-  coroutine the timeout killed (``__gc`` is refused outright). Coroutines get the hook too, and it also
+  coroutine the timeout killed (``__gc`` is refused outright). Coroutines get the hook too (a
+  timeout inside one is raised again in its resumer), a call that returns once its deadline was
+  found passed is an overrun all the same (``return pcall(f)``), and the hook also
   runs after each garbage-collection cycle (one ``..`` of long strings copies much memory in one
   instruction; ``collectgarbage("stop")`` is a no-op). The library functions that loop in C
   (patterns, ``string.rep``, ``table.sort``...) are bounded by
@@ -304,7 +306,8 @@ class LuaScript(LuaStyles, ChildScript):
         if cap != MAX_MEMORY:
             rt.set_max_memory(cap)
         try:
-            return fn(*args)
+            with self._calling(seconds):
+                result = fn(*args)
         except _lupa.LuaMemoryError as exc:
             bound = (f"{MAX_MEMORY >> 20} MiB per script" if cap == MAX_MEMORY else
                      f"the scene's Lua scripts hold at most {self.budget.memory >> 20} MiB together, "
@@ -324,3 +327,6 @@ class LuaScript(LuaStyles, ChildScript):
             self._deadline = math.inf
             if cap != MAX_MEMORY and self._runtime is rt:
                 rt.set_max_memory(MAX_MEMORY)
+        if self._timed_out:  # the deadline passed and the script caught the error (a load's reader...)
+            raise self._fault(what, self._overrun(why), timeout=True, bound=why)
+        return result

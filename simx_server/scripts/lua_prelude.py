@@ -48,7 +48,9 @@ end
 -- script code may run in the error's wake: an xpcall message handler is not called once the
 -- deadline has passed (it would run with hooks off, forever if it loops), and a coroutine that
 -- died of the timeout keeps hooks off for good (lua_resume leaves them so), so its pending
--- __close metamethods are not run by coroutine.close.
+-- __close metamethods are not run by coroutine.close. A timeout inside a coroutine is raised
+-- again in its resumer: coroutine.resume returning false would let the call go on and return as
+-- if it had kept its bound.
 local lua_xpcall, coclose = xpcall, coroutine.close
 local timed_out = setmetatable({}, {__mode = "k"})
 G.xpcall = function(f, handler, ...)
@@ -60,7 +62,10 @@ G.xpcall = function(f, handler, ...)
 end
 local function resume(co, ...)
   local r = pack(coresume(co, ...))
-  if not r[1] and expired() then timed_out[co] = true end
+  if not r[1] and expired() then
+    timed_out[co] = true
+    error(r[2], 0)  -- the coroutine's message (where in it the bound was reached); the resumer's hook does the rest
+  end
   return unpack(r, 1, r.n)
 end
 coroutine.resume = resume

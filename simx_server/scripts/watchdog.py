@@ -77,17 +77,19 @@ class Watchdog:
                 self._fired = True
                 self._cond.wait(self.REPEAT)
 
-    def _disarm(self) -> bool:
+    def _disarm(self, outer: tuple[int | None, float, float, int] | None) -> bool:
         with self._cond:
-            self._armed = None
-            if self._fired:  # an interruption may still be pending: drop it
+            self._armed = outer
+            fired, self._fired = self._fired, False
+            if fired:  # an interruption may still be pending: drop it
                 self._raise_in(threading.get_ident(), None)
-            return self._fired
+            self._cond.notify()
+            return fired
 
-    def _disarm_until_done(self) -> bool:
+    def _disarm_until_done(self, outer: tuple[int | None, float, float, int] | None) -> bool:
         while True:  # an interruption may arrive while disarming: disarm again
             try:
-                return self._disarm()
+                return self._disarm(outer)
             except _Interrupt:
                 continue
 
@@ -96,6 +98,9 @@ class Watchdog:
         WALL_FACTOR times as much wall time); returns ``(result, None)``, or
         ``(None, where)`` when it overran, ``where`` being the stack it was interrupted in
         (empty when the script swallowed the interruption). Exceptions of ``fn`` propagate.
+        Called inside a bounded call of the same thread (a script calling another script's
+        function), it ends no later than that call, whose bound holds again once it returns
+        (before, the inner call disarmed it: the outer call ran unbounded).
 
         No exception is kept in a local of this frame: that would be a reference cycle
         (exception -> traceback -> frame -> exception) keeping every caller's frame alive, and
@@ -107,10 +112,18 @@ class Watchdog:
             thread_id = threading.get_ident()
             clock = _cpu_clock(thread_id)
             if clock is None:  # no per-thread CPU clock here: wall time
-                self._armed = (None, 0.0, time.monotonic() + seconds, thread_id)
+                armed = (None, 0.0, time.monotonic() + seconds, thread_id)
             else:
-                self._armed = (clock, _cpu(clock) + seconds, time.monotonic() + self.WALL_FACTOR * seconds,
-                               thread_id)
+                armed = (clock, _cpu(clock) + seconds, time.monotonic() + self.WALL_FACTOR * seconds, thread_id)
+            # A call made inside a bounded call (a script calling another's function) ends no
+            # later than the call it is part of, which is armed again once it returns.
+            outer = self._armed
+            if outer is not None and outer[3] == thread_id:
+                armed = (armed[0], min(armed[1], outer[1]) if outer[0] == armed[0] else armed[1],
+                         min(armed[2], outer[2]), thread_id)
+            else:
+                outer = None
+            self._armed = armed
             self._fired = False
             self._cond.notify()
         result, fired, where = None, False, None
@@ -118,7 +131,7 @@ class Watchdog:
             try:
                 result = fn()
             finally:
-                fired = self._disarm_until_done()
+                fired = self._disarm_until_done(outer)
         except _Interrupt as exc:  # arrived before disarming; none can arrive after
             fired, where = True, traceback.extract_tb(exc.__traceback__)
         except Exception:

@@ -40,6 +40,10 @@ MAX_ITEMS = 1 << 20
 #: script, a Lua table: limits.MAX_SCRIPT_CALL_TABLES), so a 1 MiB request of a million empty
 #: arrays is refused on its item heads instead of being built (13 s of the simulation thread).
 MAX_CONTAINERS = (1 << 16) + 64
+#: The uuid of a version-1 client (which sends none) is this and its connection's routing id in
+#: hex (frontend): a version-2 request may not name one, or it would act as that client (libzmq's
+#: routing ids count up from a random start, one per connection).
+VERSION_1_UUID_PREFIX = "zmq43-"
 #: Longest function name and client id (uuid) in characters.
 MAX_NAME = 200
 #: Bounds of the client's ``timeout`` (s): how long its state is kept without a request.
@@ -210,6 +214,8 @@ def _request(msg: dict) -> Request:
                             "(coppeliasim-zmqremoteapi-client 2.x)")
     if not isinstance(uuid, str) or not 0 < len(uuid) <= MAX_NAME:
         raise ProtocolError(f"uuid must be a string of 1 to {MAX_NAME} characters")
+    if uuid.startswith(VERSION_1_UUID_PREFIX):  # a version-1 client's: its connection's, no one else's
+        raise ProtocolError(f"uuids starting with {VERSION_1_UUID_PREFIX!r} are the server's own (version-1 clients')")
     func, args = _func_args(msg)
     lang = msg.get("lang")
     timeout = msg.get("timeout")

@@ -63,7 +63,7 @@ ZMQ_QUEUED_MESSAGES = 16
 TRACKED_BYTES = 64 * 1024
 _ZAP_ENDPOINT = "inproc://zeromq.zap.01"
 #: The uuid of a version-1 client (which sends none) is this and its connection's routing id in hex.
-VERSION_1_PREFIX = "zmq43-"
+VERSION_1_PREFIX = codec.VERSION_1_UUID_PREFIX
 #: Where clients connect unless told otherwise (CoppeliaSim's default port).
 DEFAULT_PORT = 23000
 _POLL_MS = 200  # the thread checks for close() at least this often

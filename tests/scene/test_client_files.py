@@ -93,14 +93,21 @@ def test_who_writes_a_scripts_file(files, tmp_path):
                                   "/".join(["c" * 200] * 6), "é" * 126])
 def test_a_name_too_long_is_refused_naming_the_bound_never_the_folder(files, name):
     """A 5,000-character name made simxEraseFile raise ENAMETOOLONG, an internal error whose
-    message named the server's folder (issue 48): every file call refuses it with the bound."""
+    message named the server's folder (issue 48): every file call refuses it with the bound, a
+    server-side path too (simxLoadScene/simxLoadModel with options 0, sim.loadScene, sim.loadImage:
+    the same error then named the scene's folder), and the operator's own writes."""
     with files.acting("legacy:a"):
         for call in (lambda: files.erase_file(name), lambda: files.transfer_file(name, b"x"),
                      lambda: files.resolve(name, 1, files.roots[0] / "scene.xml"),
+                     lambda: files.resolve(name, 0, files.roots[0] / "scene.xml"),
+                     lambda: files.source(name, "legacy:a", "sim.loadImage"),
+                     lambda: files.source(name, None, "sim.loadImage"),
+                     lambda: files.target(name, None, "sim.saveScene"),
                      lambda: files.target(name, "legacy:a", "sim.saveScene")):
             with pytest.raises(ArgumentError, match="MAX_FILE_NAME") as refused:
                 call()
-            assert str(files.files_dir) not in str(refused.value) and len(str(refused.value)) < 400
+            text = str(refused.value)
+            assert str(files.files_dir) not in text and str(files.roots[0]) not in text and len(text) < 400
         files.transfer_file("é" * 125, b"x")  # 250 bytes: in bounds
         files.erase_file("é" * 125)
 
@@ -172,6 +179,7 @@ def test_bytes_not_written_yet_are_bounded_per_client_and_in_all(files, monkeypa
     import threading
     monkeypatch.setattr(limits, "MAX_UNWRITTEN_BYTES", 250)
     monkeypatch.setattr(limits, "MAX_UNWRITTEN_BYTES_TOTAL", 400)
+    monkeypatch.setattr(limits, "MIN_CLIENT_FILES_BYTES", 10)
     gate, real = threading.Event(), files._write
     files._write = lambda *args: (gate.wait(30), real(*args))[1]
     writes = []
@@ -182,8 +190,49 @@ def test_bytes_not_written_yet_are_bounded_per_client_and_in_all(files, monkeypa
     with files.acting("legacy:b"):
         writes.append(files.transfer_file("b.bin", b"b" * 200, later=True))
     with files.acting("legacy:c"), pytest.raises(RemoteError, match="MAX_UNWRITTEN_BYTES_TOTAL = 400"):
-        files.transfer_file("c.bin", b"c", later=True)
+        files.transfer_file("c.bin", b"c" * 11, later=True)
+    with files.acting("legacy:d"):  # a file of its minimum, none of its own being written: taken
+        writes.append(files.transfer_file("d.bin", b"d" * 10, later=True))
+        with pytest.raises(RemoteError, match="MAX_UNWRITTEN_BYTES_TOTAL = 400"):
+            files.transfer_file("d2.bin", b"d", later=True)  # one at a time
     gate.set()
-    assert [w.result(timeout=30) for w in writes] == [None] * 3
+    assert [w.result(timeout=30) for w in writes] == [None] * 4
     with files.acting("legacy:c"):
         files.transfer_file("c.bin", b"c", later=True).result(timeout=30)
+
+
+def test_the_files_thread_takes_the_clients_in_turn_each_clients_writes_in_order():
+    """A client's file waits behind at most one write of each other client, not behind all they
+    handed over (up to limits.MAX_UNWRITTEN_BYTES_TOTAL)."""
+    import threading
+
+    from simx_server.scene.file_writer import FileWriter
+
+    writer, gate, order = FileWriter(), threading.Event(), []
+    first = writer.submit("x", lambda: (order.append("x1"), gate.wait(30)))
+    while order != ["x1"]:  # the thread holds x1 at the gate
+        threading.Event().wait(0.01)
+    jobs = [writer.submit(key, lambda name=name: order.append(name))
+            for key, name in (("a", "a1"), ("a", "a2"), ("a", "a3"), ("b", "b1"), ("c", "c1"))]
+    failing = writer.submit("b", lambda: 1 / 0)
+    gate.set()
+    assert first.result(timeout=30) is not None and [j.result(timeout=30) for j in jobs] == [None] * 5
+    with pytest.raises(ZeroDivisionError):
+        failing.result(timeout=30)  # its own Future says why; the thread goes on
+    assert order == ["x1", "a1", "b1", "c1", "a2", "a3"]
+    assert writer.submit("a", lambda: "next").result(timeout=30) == "next"
+
+
+def test_every_client_the_doors_can_hold_has_room_for_its_minimum():
+    """A minimum of 1 MiB with room for 256 of them let a group of 268 clients (12 at 64 MiB, the
+    others at their minimum) fill the total and refuse a newcomer's 1 kB file (issue 48's next
+    attack); the room kept is every client's the two doors can hold at once."""
+    import queue
+
+    from simx_server.legacy.sessions import Sessions
+
+    assert limits.RESERVED_CLIENT_FILES_BYTES >= limits.MAX_FILE_HOLDERS * limits.MIN_CLIENT_FILES_BYTES
+    assert Sessions(queue.SimpleQueue()).max_clients == limits.MAX_CLIENTS  # the legacy door's clients; the ZMQ door's likewise
+    assert limits.MAX_FILE_HOLDERS == 2 * limits.MAX_CLIENTS + 2  # both doors, the in-process caller, a gone scene's
+    pool = limits.MAX_TRANSFER_FOLDER_BYTES - limits.RESERVED_CLIENT_FILES_BYTES
+    assert pool >= limits.MAX_TRANSFER_FOLDER_BYTES // 2 and 1024 <= limits.MIN_CLIENT_FILES_BYTES

@@ -105,3 +105,27 @@ def test_a_clients_mjcf_is_compiled_off_the_simulation_thread(sim, monkeypatch):
     assert len(threads) == 2 and threading.main_thread() not in threads
     # an operator's own MJCF (options 0) is loaded at once, as before
     assert H["LoadScene"](sim, [str(SCENE), 0]) is None
+
+
+def test_models_loaded_again_and_again_stop_at_the_scenes_mesh_bounds_before_compiling(sim, monkeypatch):
+    """Each model in bounds, the scene they grew was not: a client loading a 396,000-face model
+    five times took a server from 542 to 1,961 MB and a compile of the scene on the simulation
+    thread to 5 s. Scaled down: 200 faces a model, 500 more in the scene; the third load is refused
+    by the scene's count, when the model is prepared (before its compile and the attach's), and
+    an edit that adds meshes otherwise is checked at the attach."""
+    start = sim.world.model.nmeshface  # the UR5 scene's own
+    monkeypatch.setattr(L, "MAX_MESH_FACES", 200)
+    monkeypatch.setattr(L, "MAX_SCENE_MESH_FACES", start + 500)
+    H["TransferFile"](sim, ["grid.obj", grid_obj(11)])
+    H["TransferFile"](sim, ["one.xml", scene(1)])
+    for _ in range(2):
+        H["LoadModel"](sim, ["one.xml", 1])
+    assert sim.world.model.nmeshface == start + 400
+    with pytest.raises(RemoteError, match=rf"model 'one.xml': the scene with it would hold {start + 600:,} mesh "
+                                          rf"faces, more than MAX_SCENE_MESH_FACES = {start + 500:,}"):
+        H["LoadModel"](sim, ["one.xml", 1])
+    editor = sim.editor
+    prepared = editor.prepare_model(editor.resolve("one.xml", 1), "'one.xml'", None, warm=False)  # no scene count
+    with pytest.raises(RemoteError, match=r"edit refused: the scene would hold .* MAX_SCENE_MESH_FACES"):
+        editor._attach_model(prepared)
+    assert sim.world.model.nmeshface == start + 400

@@ -6,6 +6,8 @@ shapes of the issue run against a real server."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 import vrep
@@ -150,6 +152,13 @@ function doom_coroutine()
 end
 function close_doomed() local ok, err = coroutine.close(co) return {ok and 1 or 0}, {}, {tostring(err)}, "" end
 function close_in_timeout() local x <close> = setmetatable({}, {__close = spin}); spin() end
+function swallowed_by_resume() coroutine.resume(coroutine.create(spin)) return {7}, {}, {}, "" end
+function swallowed_by_wrap() pcall(coroutine.wrap(spin)) return {7}, {}, {}, "" end
+function swallowed_in_nested_coroutines()
+  coroutine.resume(coroutine.create(function() coroutine.resume(coroutine.create(spin)) end))
+  return {7}, {}, {}, ""
+end
+function swallowed_by_a_tail_pcall() return pcall(spin) end
 function handlers_still_work()
   local _, handled = xpcall(function() error("plain", 0) end, function(m) return "handled " .. m end)
   local co = coroutine.create(function()
@@ -182,8 +191,90 @@ def test_message_handlers_and_closers_stay_inside_the_time_bound(handler_sim, fu
 
 
 def test_a_coroutine_killed_by_the_time_bound_does_not_run_its_closers(handler_sim):
-    assert call(handler_sim, "doom_coroutine")[0] == [0]  # resume reports the timeout as an error
+    with pytest.raises(ScriptTimeoutError):  # the timeout goes on in the resumer
+        call(handler_sim, "doom_coroutine")
     ints, _, strings, _ = call(handler_sim, "close_doomed")  # its closers would run with hooks off
     assert ints == [0] and "time bound" in strings[0]
     ints, _, strings, _ = call(handler_sim, "handlers_still_work")
     assert ints == [1, 1] and strings == ["handled plain"]
+
+
+# Issue 48, what an attacker tries next: the time bound's error caught where no later instruction
+# of the script runs to raise it again (a coroutine's resume returning false to its resumer, a
+# tail call of pcall returning to the server), so that the call returned as if it had kept its
+# bound and a step function spent its whole bound every pass without being cut.
+@pytest.mark.parametrize("function", ["swallowed_by_resume", "swallowed_by_wrap", "swallowed_in_nested_coroutines",
+                                      "swallowed_by_a_tail_pcall"])
+def test_a_timeout_caught_by_the_script_is_still_an_overrun(handler_sim, function):
+    with pytest.raises(ScriptTimeoutError, match=r"within 0.2 s \(script_timeout\)"):
+        call(handler_sim, function)
+    assert call(handler_sim, "handlers_still_work")[0] == [1, 1]
+
+
+def test_a_step_function_that_swallows_its_timeout_is_skipped_from_then_on(tmp_path, caplog):
+    (tmp_path / "box.lua").write_text("""function sysCall_actuation()
+  sim.setInt32Signal("runs", (sim.getInt32Signal("runs") or 0) + 1)
+  coroutine.resume(coroutine.create(function() while true do end end))
+end""")
+    (tmp_path / "scene.xml").write_text(SCENE_XML.replace("child_script=box.lua", "child_script=box.lua script_timeout=0.2"))
+    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False)
+    try:
+        with caplog.at_level("ERROR", "simx.scripts"):
+            s.start()
+            for _ in range(3):
+                s.step()
+        assert s.signals.get_int("runs") == 1  # before: every step ran it, 0.2 s each
+    finally:
+        s.close()
+    assert any(re.search(r"sysCall_actuation: (box\.lua:\d+: )?interrupted: did not return within 0\.2 s", r.getMessage())
+               for r in caplog.records), caplog.text
+
+
+# A script calling another's function (sim.callScriptFunction): the callee had a bound of its own
+# from the moment it was called, so a caller near its deadline bought a fresh one; and a Python
+# callee disarmed the one watchdog, after which the Python caller ran without any bound.
+NESTED_XML = """<mujoco model="nested">
+  <worldbody><body name="A"><geom type="box" size="0.1 0.1 0.1"/></body>
+    <body name="B" pos="1 0 0"><geom type="box" size="0.1 0.1 0.1"/></body></worldbody>
+  <custom><text name="simx:A" data="child_script=a.{0} script_timeout=0.3"/>
+    <text name="simx:B" data="child_script=b.{0} script_timeout=0.3"/></custom>
+</mujoco>
+"""
+
+
+def test_a_script_called_by_another_ends_within_the_callers_bound(tmp_path):
+    (tmp_path / "a.lua").write_text("""function outer()
+  local t = os.clock() while os.clock() - t < 0.25 do end
+  local ok, e = pcall(sim.callScriptFunction, "inner@/B", sim.scripttype_childscript)
+  return {ok and 1 or 0}, {}, {tostring(e)}, ""
+end""")
+    (tmp_path / "b.lua").write_text("function inner() while true do end end")
+    (tmp_path / "scene.xml").write_text(NESTED_XML.format("lua"))
+    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False)
+    s.start()
+    try:
+        ints, _, (why,), _ = s.scripts.call("A", CHILD, "outer", [], [], [], b"")
+        # the callee was cut at the caller's deadline (before: after 0.3 s of its own)
+        assert ints == [0] and "the call into the script that called it reached its time bound" in why, why
+    finally:
+        s.close()
+
+
+def test_a_python_script_keeps_its_bound_after_calling_another(tmp_path):
+    (tmp_path / "a.py").write_text("""import time
+def outer(*args):
+    sim.callScriptFunction("inner@/B", sim.scripttype_childscript)
+    t = time.thread_time()
+    while time.thread_time() - t < 5:
+        pass
+    return [1]
+""")
+    (tmp_path / "b.py").write_text("def inner(*args):\n    return [2]\n")
+    (tmp_path / "scene.xml").write_text(NESTED_XML.format("py"))
+    s = Simulation(tmp_path / "scene.xml", dt=0.05, realtime=False, allow_python_scripts=True)
+    s.start()
+    try:
+        with pytest.raises(ScriptTimeoutError, match=r"a.py:5: interrupted: did not return within 0.3 s"):
+            s.scripts.call("A", CHILD, "outer", [], [], [], b"")  # before: [1] after 5 s
+    finally:
+        s.close()

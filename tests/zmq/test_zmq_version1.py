@@ -170,6 +170,14 @@ def test_codec_reads_version_1_and_answers_in_its_shape():
     assert refused.value.version == codec.VERSION_1
 
 
+def test_no_version_2_request_names_a_version_1_clients_uuid():
+    """A version-1 client's uuid is its connection's routing id (``zmq43-`` and libzmq's counter,
+    one per connection): a version-2 request naming one would have acted as that client."""
+    with pytest.raises(codec.RequestError, match="zmq43-"):
+        codec.read_request(codec.encode_request("sim.getObject", ["/A"], "zmq43-0080000001", first=True))
+    assert codec.read_request(codec.encode_request("sim.getObject", ["/A"], "zmq-43", first=True)).uuid == "zmq-43"
+
+
 def test_a_taken_counter_port_is_told():
     """With the port after the ZMQ port in use, the server logs it and serves on; a 4.3/4.4 client's
     setStepping(True) then answers an error that names the step counter, instead of a step() that
