@@ -365,9 +365,10 @@ def test_uuids_per_connection_are_capped(zmq_server):
 
 # ------------------------------------------------------------ 9: minor
 def test_a_path_too_long_answers_a_clear_error(zmq_server, client):
-    """sim.loadScene of a 5,000-character path: "internal error" and a traceback before."""
+    """sim.loadScene of a 5,000-character path: "internal error" and a traceback before; now the
+    name's bound, before any file system call or stand-in search."""
     reply = client.call("sim.loadScene", "a" * 5000 + ".ttt")
-    assert "err" in reply and "internal error" not in reply["err"] and "too long" in reply["err"], reply
+    assert "err" in reply and "internal error" not in reply["err"] and "MAX_FILE_NAME_BYTES" in reply["err"], reply
     _alive(client)
 
 

@@ -119,6 +119,8 @@ def _stand_in(ctx: CallContext, filename: str, kinds: tuple[str, ...]) -> str:
     try:  # the real file, where one exists (converted to MJCF as it is loaded)
         editor.files.locate(filename, 0, editor.scene_origin())
         return filename
+    except ArgumentError:  # a name refused as it is (its length): no other file stands in
+        raise
     except RemoteError:
         pass
     candidates = [str(path.with_suffix(".xml"))] + [str(root / f"{path.stem}.xml") for root in editor.files.roots]
