@@ -142,6 +142,8 @@ def test_example_scene_objects_and_ik_as_the_guide_says(tmp_path):
         wrist = world.model.body_mass[world.resolve("Wrist").mj_id]
         assert wrist == pytest.approx(0.216, abs=0.001)
         assert np.linalg.norm(force) == pytest.approx(2.12, abs=0.01)
+        down = world.data.site_xmat[world.resolve("Wrist_force").mj_id].reshape(3, 3).T @ [0.0, 0.0, -1.0]
+        assert np.dot(force, down) == pytest.approx(2.12, abs=0.01)  # along gravity, in the sensor's frame
     finally:
         sim.close()
 
