@@ -175,11 +175,9 @@ def site_sensor(m: mujoco.MjModel, site: int, kind: mujoco.mjtSensor) -> int | N
     Returns:
         The sensor's id, or None.
     """
-    for k in range(m.nsensor):
-        if (m.sensor_type[k] == kind and m.sensor_objtype[k] == mujoco.mjtObj.mjOBJ_SITE
-                and m.sensor_objid[k] == site):
-            return k
-    return None
+    found = np.flatnonzero((m.sensor_type == kind) & (m.sensor_objtype == mujoco.mjtObj.mjOBJ_SITE)
+                           & (m.sensor_objid == site))
+    return int(found[0]) if found.size else None
 
 
 def stamp(sim: SimulationView) -> tuple[int, float]:
