@@ -52,7 +52,7 @@ from simx_server.sim import grasps, kept_objects
 from simx_server.sim.objects import without_scripts
 from simx_server.sim.urdf import load_spec
 from simx_server.sim.vision_results import Deferred
-from simx_server.sim.world import JOINT, SHAPE, WORLD
+from simx_server.sim.world import FORCE_SENSOR, JOINT, SHAPE, WORLD
 
 log = logging.getLogger("simx.editing")
 
@@ -362,7 +362,9 @@ class ObjectEdits:
         As in CoppeliaSim (``CSceneObject::setParent``), any object may be a parent: a shape is
         its body; a dummy, sensor, camera, light or joint is carried by a body in MuJoCo, and
         the child goes into that body (for a joint: the body it moves), at the parent object's
-        frame, with ``vrep_parent=`` recording V-REP's parent for ``sim.getObjectParent``.
+        frame, with ``vrep_parent=`` recording V-REP's parent for ``sim.getObjectParent``. A
+        force sensor always gets that setting: it then measures what hangs below it in V-REP's
+        tree, not its site's body (:mod:`simx_server.sim.force_sensors`).
 
         Raises:
             ArgumentError: the world, or a parent inside the child's subtree.
@@ -389,6 +391,8 @@ class ObjectEdits:
         if old_body == parent_body and obj.parent == parent:
             return  # already there: both poses unchanged
         vrep_parent = None if new_parent is None or new_parent.type == SHAPE else new_parent.name
+        if obj.type == FORCE_SENSOR:  # always: its child side is then V-REP's (sim/force_sensors.py)
+            vrep_parent = "-1" if new_parent is None else new_parent.name
         kind = _KIND[obj.type]
         if kind == "light":
             local = (m.light_pos[obj.mj_id].copy(), m.light_dir[obj.mj_id].copy())

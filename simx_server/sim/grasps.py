@@ -5,8 +5,9 @@
 ``Gripper.release`` gives the part back to its old parent, often a task's static dummy).
 
 Which parents hold: an object carried by a body that can move (a joint above it, or a mocap
-body: ``body_weldid`` not 0). Under the world or an object fixed to it the part stays free, only
-its logical parent changes, as a dynamic shape under a static object in CoppeliaSim.
+body: ``body_weldid`` not 0), and a force sensor wherever it is (CoppeliaSim joins a dynamic
+shape to its force-sensor parent). Under the world or another object fixed to it the part stays
+free, only its logical parent changes, as a dynamic shape under a static object in CoppeliaSim.
 
 MuJoCo allows free joints only in children of the world, so the part's body stays where it is
 and a weld equality named ``simx_grasp:PART`` (added to the model once per part, inactive, by

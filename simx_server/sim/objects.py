@@ -89,23 +89,29 @@ def apply_vrep_parents(objects: dict[int, SceneObject], by_name: dict[str, Scene
     dummy, a joint, a sensor or a light is carried by that object's body in MuJoCo, but
     ``sim.getObjectParent`` answers the object (coppeliaSimLib ``CSceneObject::getParent``).
     A setting that names no object, or that would close a cycle, is left out (the MuJoCo
-    parent stays).
+    parent stays). The settings are applied until none changes, so that their order does not
+    matter: a force sensor's child shape carries the sensor's site in MuJoCo, and hangs from
+    the sensor only once the sensor hangs from its own parent.
 
     Args:
         objects: handle -> object, parents as MuJoCo's tree gives them (changed in place).
         by_name: name -> object.
     """
+    wanted = {}
     for obj in objects.values():
         name = obj.settings.get("vrep_parent")
-        if name is None:
-            continue
-        other = None if name == "-1" else by_name.get(name)
-        if name != "-1" and (other is None or other is obj):
-            continue
-        new = WORLD if other is None else other.handle
-        h, seen = new, set()
-        while h != WORLD and h not in seen and h != obj.handle:
-            seen.add(h)
-            h = objects[h].parent
-        if h == WORLD:
-            obj.parent = new
+        other = None if name in (None, "-1") else by_name.get(name)
+        if name == "-1" or (other is not None and other is not obj):
+            wanted[obj.handle] = WORLD if other is None else other.handle
+    changed = True
+    while changed:  # each object takes its one wanted parent at most once
+        changed = False
+        for handle, new in wanted.items():
+            obj = objects[handle]
+            h, seen = new, set()
+            while h != WORLD and h not in seen and h != handle:
+                seen.add(h)
+                h = objects[h].parent
+            if h == WORLD and obj.parent != new:
+                obj.parent = new
+                changed = True

@@ -9,8 +9,9 @@ have modules of their own: :mod:`simx_server.sim.collisions` (collision and dist
 :mod:`simx_server.sim.kinematics` (joint matrices, velocities), :mod:`simx_server.sim.group_data`
 and :mod:`simx_server.sim.object_params`.
 
-A force sensor is a site carrying a ``force`` sensor (and optionally a ``torque`` sensor): the
-interaction force/torque between the site's body and its parent, in the site frame. Derived
+A force sensor is a site carrying a ``force`` sensor (and optionally a ``torque`` sensor); it
+reads the force and torque that what hangs below it exerts on its parent, in the site frame, as
+CoppeliaSim reads them (:mod:`simx_server.sim.force_sensors`). Derived
 quantities (positions of bodies, sensor data) are those of the world's last ``mj_forward``,
 which ``World.step`` and every state change run.
 """
@@ -24,8 +25,9 @@ import mujoco
 import numpy as np
 
 from simx_wire.protocol import ArgumentError, ObjectTypeError
+from simx_server.sim import force_sensors
 from simx_server.sim.state import SimulationView
-from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR, World
+from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR
 
 if TYPE_CHECKING:
     from simx_server.sim.collisions import Probe
@@ -173,23 +175,9 @@ def site_sensor(m: mujoco.MjModel, site: int, kind: mujoco.mjtSensor) -> int | N
     Returns:
         The sensor's id, or None.
     """
-    for k in range(m.nsensor):
-        if (m.sensor_type[k] == kind and m.sensor_objtype[k] == mujoco.mjtObj.mjOBJ_SITE
-                and m.sensor_objid[k] == site):
-            return k
-    return None
-
-
-def _site_wrench(world: World, site: int) -> tuple[np.ndarray, np.ndarray]:
-    """Force and torque between the site's body and its parent, in the site frame (as
-    MuJoCo's force/torque sensors compute them, from ``cfrc_int``)."""
-    m, d = world.model, world.data
-    body = int(m.site_bodyid[site])
-    conv = np.empty(6)
-    mujoco.mju_transformSpatial(conv, d.cfrc_int[body], 1, d.site_xpos[site],
-                                d.subtree_com[m.body_rootid[body]], np.eye(3).reshape(9))
-    rot = d.site_xmat[site].reshape(3, 3)
-    return rot.T @ conv[3:], rot.T @ conv[:3]
+    found = np.flatnonzero((m.sensor_type == kind) & (m.sensor_objtype == mujoco.mjtObj.mjOBJ_SITE)
+                           & (m.sensor_objid == site))
+    return int(found[0]) if found.size else None
 
 
 def stamp(sim: SimulationView) -> tuple[int, float]:
@@ -218,17 +206,22 @@ def _broken(sim: SimulationView, handle: int) -> bool:
 
 
 def force_sensor_reading(sim: SimulationView, handle: int) -> tuple[int, list[float], list[float]]:
-    """(state, force (3,) N, torque (3,) N·m) of force sensor ``handle``; see read_force_sensor.
+    """(state, force (3,) N, torque (3,) N·m) of force sensor ``handle``: the force and torque
+    that what hangs below it exerts on its parent, in the sensor's frame, the torque about its
+    origin (:func:`simx_server.sim.force_sensors.child_wrench`); a hanging mass reads its weight
+    along gravity. A ``<force>`` or ``<torque>`` sensor on the site with a ``cutoff`` clips it.
 
-    Implements ``simxReadForceSensor`` / ``sim.readForceSensor``.
+    Implements ``simxReadForceSensor`` / ``sim.readForceSensor`` (coppeliaSimLib
+    ``simReadForceSensor_internal``: bit 0 when the dynamics gave the sensor values).
 
     Args:
         sim: the simulation.
         handle: a force sensor's handle.
 
     Returns:
-        ``(state, [fx, fy, fz], [tx, ty, tz])``: state bit 0 data available, bit 1 broken (then
-        both vectors are zero); force in N, torque in N·m, in the sensor (site) frame.
+        ``(state, [fx, fy, fz], [tx, ty, tz])``: state bit 0 data available (something hangs
+        below the sensor; else both vectors are zero), bit 1 broken (then both vectors are
+        zero); force in N, torque in N·m, in the sensor (site) frame.
 
     Raises:
         UnknownObjectError: no such object.
@@ -237,14 +230,15 @@ def force_sensor_reading(sim: SimulationView, handle: int) -> tuple[int, list[fl
     obj = sim.world.get(handle, FORCE_SENSOR)
     if _broken(sim, handle):
         return FORCE_STATE_BROKEN, [0.0] * 3, [0.0] * 3
-    m, d = sim.world.model, sim.world.data
-    kf = site_sensor(m, obj.mj_id, mujoco.mjtSensor.mjSENS_FORCE)
-    kt = site_sensor(m, obj.mj_id, mujoco.mjtSensor.mjSENS_TORQUE)
-    force, torque = _site_wrench(sim.world, obj.mj_id)
-    if kf is not None:  # the sensor's own output (with the model's noise/cutoff settings)
-        force = d.sensordata[m.sensor_adr[kf]:m.sensor_adr[kf] + 3]
-    if kt is not None:
-        torque = d.sensordata[m.sensor_adr[kt]:m.sensor_adr[kt] + 3]
+    wrench = force_sensors.child_wrench(sim.world, obj)
+    if wrench is None:
+        return 0, [0.0] * 3, [0.0] * 3
+    m = sim.world.model
+    force, torque = wrench
+    for kind, vec in ((mujoco.mjtSensor.mjSENS_FORCE, force), (mujoco.mjtSensor.mjSENS_TORQUE, torque)):
+        k = site_sensor(m, obj.mj_id, kind)
+        if k is not None and m.sensor_cutoff[k] > 0:
+            np.clip(vec, -m.sensor_cutoff[k], m.sensor_cutoff[k], out=vec)
     return FORCE_STATE_DATA, [float(x) for x in force], [float(x) for x in torque]
 
 

@@ -85,11 +85,13 @@ def test_force_sensor_reads_the_hanging_weight_and_its_moment(sim):
         sim.step()
     state, force, torque = cmd_sensors.read_force_sensor(sim, [ft])
     assert state & S.FORCE_STATE_DATA and not state & S.FORCE_STATE_BROKEN
-    assert force == pytest.approx([0.0, 0.0, 2.0 * G], abs=1e-6)  # 2 kg payload
-    assert torque == pytest.approx([0.0, -2.0 * G * 0.1, 0.0], abs=1e-6)  # its COM 0.1 m along +x
-    # the fallback used when a site has no torque sensor computes the same thing
-    f, t = S._site_wrench(sim.world, sim.world.resolve("ft").mj_id)
-    assert np.allclose(f, force) and np.allclose(t, torque)
+    # CoppeliaSim's sign: what the payload does to the mount, its weight, along gravity (-z here)
+    assert force == pytest.approx([0.0, 0.0, -2.0 * G], abs=1e-6)  # 2 kg payload
+    assert torque == pytest.approx([0.0, 2.0 * G * 0.1, 0.0], abs=1e-6)  # its COM 0.1 m along +x
+    # MuJoCo's own force and torque sensors on the site read the reverse (the mount on the payload)
+    d = sim.world.data
+    assert np.allclose(d.sensor("ft_force").data, -np.array(force))
+    assert np.allclose(d.sensor("ft_torque").data, -np.array(torque))
 
     cmd_sensors.break_force_sensor(sim, [ft])
     assert cmd_sensors.read_force_sensor(sim, [ft]) == [S.FORCE_STATE_BROKEN, [0.0] * 3, [0.0] * 3]
@@ -109,7 +111,7 @@ def test_mass_parameter_changes_the_measured_weight(sim):
     cmd_parameters.set_object_float_parameter(sim, [payload, 3005, 4.0])
     assert np.array_equal(sim.world.data.qpos, q0)  # mj_setConst must not move anything
     assert cmd_parameters.get_object_float_parameter(sim, [payload, 3005]) == pytest.approx(4.0)
-    assert cmd_sensors.read_force_sensor(sim, [ft])[1][2] == pytest.approx(4.0 * G, abs=1e-6)
+    assert cmd_sensors.read_force_sensor(sim, [ft])[1][2] == pytest.approx(-4.0 * G, abs=1e-6)
     with pytest.raises(ArgumentError):
         cmd_parameters.set_object_float_parameter(sim, [payload, 3005, -1.0])
     with pytest.raises(ObjectTypeError):

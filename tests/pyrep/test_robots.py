@@ -132,6 +132,45 @@ def test_panda_gripper_grasps_lifts_and_releases_a_cube(panda_scene):
     assert tip.get_position()[2] > start[2] + 0.15  # and the hand stayed up
 
 
+def test_panda_wrist_sensor_weighs_a_grasped_cube(panda_scene):
+    """PyRep's Panda has a force sensor between its flange and its hand (``Panda_attachment``)
+    and one for the grasped part (``Panda_gripper_attachPoint``): with the cube grasped and
+    lifted, the wrist reads the hand's weight plus the cube's (as CoppeliaSim's sensor, the
+    weight along gravity in the sensor's frame); the attach point reads the cube's share that
+    the fingers' friction does not carry."""
+    from pyrep.objects import ForceSensor
+
+    pr, arm, gripper, cube = panda_scene
+    wrist, attach = ForceSensor("Panda_attachment"), ForceSensor("Panda_gripper_attachPoint")
+    tip = arm.get_tip()
+    down = tip.get_quaternion()
+    start = cube.get_position()
+    weight = 0.05 * 9.81
+
+    def settled_wrist():
+        for _ in range(60):
+            pr.step()
+        return np.array(wrist.read()[0])
+
+    _move_tip(pr, arm, start + [0.0, 0.0, 0.2], down)
+    hand = settled_wrist()
+    assert attach.read() == ([0.0] * 3, [0.0] * 3)  # nothing hangs from it yet
+    gravity = wrist.get_matrix()[:3, :3].T @ [0.0, 0.0, -1.0]  # in the sensor's frame
+    assert hand @ gravity == pytest.approx(np.linalg.norm(hand), rel=1e-3)  # the hand's weight, along gravity
+    _move_tip(pr, arm, start, down)
+    steps = 0
+    while not gripper.actuate(0.0, 0.1):
+        pr.step()
+        steps += 1
+        assert steps < 200
+    assert gripper.grasp(cube)
+    _move_tip(pr, arm, start + [0.0, 0.0, 0.2], down)
+    extra = settled_wrist() - hand
+    assert extra @ gravity == pytest.approx(weight, rel=0.03)  # the cube's weight, along gravity
+    assert np.linalg.norm(extra) == pytest.approx(weight, rel=0.03)
+    assert 0.0 < np.array(attach.read()[0]) @ gravity <= weight * 1.03
+
+
 def test_panda_reaches_a_dummy_through_get_path_and_step(panda_scene):
     """RLBench's waypoints are dummies: the tip goes to one's position and orientation."""
     from pyrep.objects import Dummy

@@ -109,7 +109,7 @@ def test_renamed_sensors_camera_and_script_object_keep_working(sim):
         facade.setObjectAlias(h, new)
         assert handle(sim, new) == h
     sim.step()
-    assert facade.readForceSensor(handle(sim, "FT2"))[1][2] == pytest.approx(PAYLOAD_KG * G, rel=0.01)
+    assert facade.readForceSensor(handle(sim, "FT2"))[1][2] == pytest.approx(-PAYLOAD_KG * G, rel=0.01)  # its weight, along gravity
     assert facade.readProximitySensor(handle(sim, "Prox2"))[1] == pytest.approx(WALL_DISTANCE)
     assert facade.getVisionSensorImg(handle(sim, "Cam2"))[1] == list(CAMERA)
     assert call(sim, "Api2", "state")[0][0] == 0x11  # the renamed object's script runs on

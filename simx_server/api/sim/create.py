@@ -156,13 +156,13 @@ def createProximitySensor(ctx: CallContext, sensorType: Any, subType: Any, optio
 
 @sim_function("createForceSensor")
 def createForceSensor(ctx: CallContext, options: Any, intParams: Any, floatParams: Any, color: Any = None) -> int:  # noqa: N802, N803
-    """A new force sensor at the world origin: a site with MuJoCo force and torque sensors (as
-    simx reads a scene's force sensors); its handle. ``floatParams[0]`` is its size (m);
-    CoppeliaSim's filter and breaking thresholds (``intParams``, the other ``floatParams``)
-    have no MuJoCo counterpart and are checked only. Made on the world body, it reads what
-    MuJoCo's force and torque sensors read at a site of the world body (the world's reaction on
-    what rests on it); attached below a body (``sim.setObjectParent``) it measures that body's
-    interaction.
+    """A new force sensor at the world origin: a site with MuJoCo force and torque sensors, the
+    ``vrep_parent=-1`` setting (V-REP's tree decides what it measures); its handle.
+    ``floatParams[0]`` is its size (m); CoppeliaSim's filter and breaking thresholds
+    (``intParams``, the other ``floatParams``) are checked only. As CoppeliaSim's, it reads what
+    hangs below it: nothing (result 0) until an object is hung from it (``sim.setObjectParent(obj,
+    sensor)``, a dynamic shape held by a weld), then the force and torque that object exerts on
+    the sensor's parent, in the sensor's frame (:mod:`simx_server.sim.force_sensors`).
 
     ``sim.createForceSensor``.
 
@@ -189,5 +189,6 @@ def createForceSensor(ctx: CallContext, options: Any, intParams: Any, floatParam
         spec.worldbody.add_site(name=name, size=[size / 2, size / 2, size / 2], type=mujoco.mjtGeom.mjGEOM_CYLINDER)
         for kind, suffix in ((mujoco.mjtSensor.mjSENS_FORCE, "force"), (mujoco.mjtSensor.mjSENS_TORQUE, "torque")):
             spec.add_sensor(name=f"{name}_{suffix}", type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=name)
+        spec.add_text(name=f"simx:{name}", data="vrep_parent=-1")
 
     return _create(ctx, "createForceSensor", "Force_sensor", build)

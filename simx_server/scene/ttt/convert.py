@@ -294,7 +294,9 @@ class Converter:
 
     def _force_sensor(self, obj: TttObject, body, frame: Pose, model: int) -> None:
         """A force sensor welds its child shape to its parent and measures between them: the
-        site goes in the child's body (docs/PORTING.md)."""
+        site goes in the child's body, as CoppeliaSim's MuJoCo plugin puts it there
+        (``CRigidBodyContainerDyn::_addObjectBranch``); it reads what hangs below it in V-REP's
+        tree (``vrep_parent=``, :mod:`simx_server.sim.force_sensors`; docs/PORTING.md)."""
         shapes = [c for c in obj.children if c.kind == "shape"]
         host, site_pose = body, frame
         for child in obj.children:
@@ -317,10 +319,10 @@ class Converter:
                     self._emit(grandchild, b, Pose(), model)
                 host, site_pose = b, inverse(child.pose)
                 self.vrep_parent(child)  # the shape's body carries the sensor's site: V-REP's tree
-                self.vrep_parent(obj)    # has the sensor above the shape
-            else:
+            else:                        # has the sensor above the shape
                 self._emit(child, body, frame, model)
                 self.vrep_parent(child)
+        self.vrep_parent(obj)  # always: the sensor measures what hangs below it in V-REP's tree
         site = host.add_site()
         site.name = obj.name
         site.pos, site.quat = site_pose.pos, site_pose.quat

@@ -74,8 +74,9 @@ def object_parameters(parameters: tuple[tuple[str, str, str], ...]) -> bytes:
     return rec("Lsp", lst(rec("Par", par)))
 
 
-def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: bytes = b"") -> bytes:
-    return rec("FSE", common(handle, parent, name, pos, extra=extra) + lst(rec("Siz", f32(0.02))))
+def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: bytes = b"", quat=(1, 0, 0, 0)) -> bytes:
+    """A force sensor; ``quat``: its orientation in its parent's frame (w, x, y, z)."""
+    return rec("FSE", common(handle, parent, name, pos, quat, extra=extra) + lst(rec("Siz", f32(0.02))))
 
 
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,

@@ -1,0 +1,177 @@
+"""Force sensors as CoppeliaSim reads them: the force and torque that the sensor's child side
+exerts on its parent side, in the sensor's frame, the torque about the sensor's origin.
+
+In CoppeliaSim a force sensor is a rigid link between its parent (object 1) and what hangs below
+it in the object tree (object 2 and everything carried by it). Its dynamics plugins report the
+link's reaction on the parent: CoppeliaSim's MuJoCo plugin (simMujoco,
+``CRigidBodyContainerDyn::_addObjectBranch`` puts a site at the sensor in the child shape's body,
+``handleDynamics`` reports ``-sensordata`` of MuJoCo's force and torque sensors on it: MuJoCo's
+read what the parent does to the child), its ODE plugin (``CConstraintDyn`` reports
+``-f2``, the force on the child body, moved to the sensor's origin) and
+``CForceSensor::addCumulativeForcesAndTorques`` stores them. A mass ``m`` hanging below the
+sensor reads ``m·g`` along gravity, in the sensor's frame: ``+m·g`` on z for a sensor whose z
+points down (an arm's flange with the gripper pointing down).
+
+The child side in simx's MuJoCo model (:func:`child_bodies`): the bodies of the shapes and
+joints below the sensor in V-REP's tree (``SceneObject.parent``), with every MuJoCo body below
+them; for a sensor of an MJCF scene (a site with no ``vrep_parent=`` setting: docs/SCENES.md)
+also the body of its site, MuJoCo's own convention (the site in the child body). What links the
+two sides (:func:`child_wrench`): each child-side body whose MuJoCo parent is on the parent side
+transmits ``cfrc_int`` (the interaction force MuJoCo's ``mj_rnePostConstraint`` computes, with
+the contacts and applied forces on the bodies below it), and each grasped part
+(:mod:`simx_server.sim.grasps`: a dynamic shape held by a weld after ``sim.setObjectParent``)
+held on or by the child side transmits what holds it rigidly to its holder. So a cube grasped
+under PyRep's gripper weighs on the arm's wrist sensor and on the gripper's attach point, and
+the gripper's own mass not on the latter.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from simx_server.sim import grasps
+from simx_server.sim.objects import JOINT, SHAPE, SceneObject
+
+_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+_EQUALITY = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+
+
+def in_mjcf_convention(sensor: SceneObject) -> bool:
+    """Whether ``sensor`` follows MJCF's convention (its site's body is its child side): a
+    site in a body other than the world, with no ``vrep_parent=`` setting. A converted ``.ttt``
+    file, ``sim.createForceSensor`` and ``sim.setObjectParent`` give their sensors that setting:
+    their child side is what hangs below them in V-REP's tree.
+
+    Args:
+        sensor: a force sensor.
+
+    Returns:
+        True for a sensor of an MJCF scene that sits in a body.
+    """
+    return "vrep_parent" not in sensor.settings and sensor.body != 0
+
+
+def child_bodies(world, sensor: SceneObject) -> np.ndarray:
+    """The MuJoCo bodies on ``sensor``'s child side (see the module's docstring).
+
+    Args:
+        world: the :class:`~simx_server.sim.world.World`.
+        sensor: a force sensor.
+
+    Returns:
+        (nbody,) bool: True for a body on the child side.
+    """
+    m = world.model
+    kids: dict[int, list[SceneObject]] = {}
+    for o in world.objects.values():
+        kids.setdefault(o.parent, []).append(o)
+    seeds = [sensor.body] if in_mjcf_convention(sensor) else []
+    stack, seen = list(kids.get(sensor.handle, ())), {sensor.handle}
+    while stack:
+        o = stack.pop()
+        if o.handle in seen:
+            continue
+        seen.add(o.handle)
+        if o.type == SHAPE:
+            seeds.append(o.mj_id)
+        elif o.type == JOINT:
+            seeds.append(o.body)  # the body it moves
+        stack.extend(kids.get(o.handle, ()))
+    mask = np.zeros(m.nbody, bool)
+    mask[seeds] = True
+    mask[0] = False
+    parent = m.body_parentid
+    for b in range(1, m.nbody):  # MuJoCo orders bodies parents first
+        if mask[parent[b]]:
+            mask[b] = True
+    return mask
+
+
+def _cross(a, b) -> np.ndarray:
+    """a x b for two 3-vectors (``np.cross`` costs 30 times more on one pair)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _at(vec: np.ndarray, old: np.ndarray, new: np.ndarray, force: bool = True) -> np.ndarray:
+    """A spatial vector (6,) moved from point ``old`` to point ``new`` (m), as
+    ``mju_transformSpatial`` moves it without rotation: a force (torque:force) gains the force's
+    moment, a motion (angular:linear) the angular part's."""
+    shift = _cross(new - old, vec[3:] if force else vec[:3])
+    return np.concatenate([vec[:3] - shift, vec[3:]]) if force else np.concatenate([vec[:3], vec[3:] - shift])
+
+
+def _rigid_hold(m: mujoco.MjModel, d: mujoco.MjData, part: int, holder: int) -> np.ndarray:
+    """The spatial force (6,) torque:force at the part's reference point (``subtree_com`` of its
+    own tree) that holds free body ``part`` rigidly to body ``holder`` (one in MuJoCo's tree):
+    its inertial force moving as the holder's frame moves (MuJoCo's ``cinert * cacc + cvel x* cinert * cvel``, gravity in
+    ``cacc``), less the other forces on it (``cfrc_ext``, computed without the grasp welds).
+    V-REP's link is rigid; the weld is soft (MuJoCo's constraints are), and reading its force
+    would miss the part's sag at each step (1 % at MuJoCo's 0.99 impedance)."""
+    ref, href = d.subtree_com[m.body_rootid[part]], d.subtree_com[m.body_rootid[holder]]
+    acc, vel = _at(d.cacc[holder], href, ref, force=False), _at(d.cvel[holder], href, ref, force=False)
+    momentum = _inert_times(d.cinert[part], vel)
+    spin = np.concatenate([_cross(vel[:3], momentum[:3]) + _cross(vel[3:], momentum[3:]),
+                           _cross(vel[:3], momentum[3:])])  # mju_crossForce
+    return _inert_times(d.cinert[part], acc) + spin - d.cfrc_ext[part]
+
+
+def _inert_times(i: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """MuJoCo's ``mju_mulInertVec``: a com-based inertia (10,) (the 3x3 inertia about the
+    reference point, mass x the centre of mass's offset, mass) times a motion (6,)."""
+    inertia = np.array([[i[0], i[3], i[4]], [i[3], i[1], i[5]], [i[4], i[5], i[2]]])
+    mc = i[6:9]
+    return np.concatenate([inertia @ v[:3] + _cross(mc, v[3:]), i[9] * v[3:] + _cross(v[:3], mc)])
+
+
+def child_wrench(world, sensor: SceneObject) -> tuple[np.ndarray, np.ndarray] | None:
+    """The force (3,) N and torque (3,) N·m that ``sensor``'s child side exerts on its parent
+    side, in the sensor's frame, the torque about the sensor's origin: what CoppeliaSim's
+    ``sim.readForceSensor`` reads (see the module's docstring). Includes the child side's inertial
+    forces (the accelerations of the world's last ``mj_forward``).
+
+    The bodies of the child side joined to the parent side in MuJoCo's tree transmit their
+    ``cfrc_int``; a grasped part (a weld of :mod:`simx_server.sim.grasps`) held on or by the
+    child side transmits what holds it rigidly (:func:`_rigid_hold`), as V-REP's link holds it.
+    Both are computed by ``mj_rnePostConstraint`` with the grasp welds' forces left out (and put
+    back after), so that each load counts once, through its rigid hold.
+
+    Args:
+        world: the :class:`~simx_server.sim.world.World`, after ``mj_forward``.
+        sensor: a force sensor.
+
+    Returns:
+        ``(force, torque)``, or None when nothing hangs below the sensor (no body on its child
+        side).
+    """
+    m, d = world.model, world.data
+    mask = child_bodies(world, sensor)
+    if not mask.any():
+        return None
+    welds = [e for e in (grasps.weld_of(m, name) for name, g in world.grasps.items() if g.held)
+             if e >= 0 and d.eq_active[e]]
+    rows = np.flatnonzero((d.efc_type[:d.ne] == _EQUALITY) & np.isin(d.efc_id[:d.ne], welds))
+    kept = d.efc_force[rows].copy()
+    d.efc_force[rows] = 0.0
+    try:
+        mujoco.mj_rnePostConstraint(m, d)  # cacc, cfrc_int, cfrc_ext without the grasp welds
+        site = d.site_xpos[sensor.mj_id]
+        free = (m.body_jntnum == 1) & (m.jnt_type[np.maximum(m.body_jntadr, 0)] == _FREE)
+        roots = np.flatnonzero(mask & ~mask[m.body_parentid] & ~free)  # joined to the parent side
+        com = d.subtree_com[m.body_rootid[roots]]
+        cfrc = d.cfrc_int[roots]  # what the parent side does to each, at its tree's reference point
+        total = np.concatenate([(cfrc[:, :3] + np.cross(com - site, cfrc[:, 3:])).sum(axis=0),
+                                cfrc[:, 3:].sum(axis=0)])
+        holders = {int(m.eq_obj1id[e]): int(m.eq_obj2id[e]) for e in welds}
+        for part, holder in holders.items():  # parts held on the child side or by it
+            if mask[part] or mask[holder]:
+                moving = holder
+                for _ in range(len(holders)):  # a part held by a held part moves with the first holder
+                    moving = holders.get(moving, moving)
+                total += _at(_rigid_hold(m, d, part, moving), d.subtree_com[m.body_rootid[part]], site)
+    finally:
+        if rows.size:
+            d.efc_force[rows] = kept
+            mujoco.mj_rnePostConstraint(m, d)
+    rot = d.site_xmat[sensor.mj_id].reshape(3, 3)
+    return -(rot.T @ total[3:]), -(rot.T @ total[:3])  # the parent side's force on the child, reversed
