@@ -11,6 +11,7 @@ uses that only CoppeliaSim 4.x has (``sim_handle_scene``, ``sim_object_octree_ty
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from simx_server.api import ApiNamespace, CallContext
@@ -103,6 +104,31 @@ def ompl_constants(group: str) -> dict[str, int]:
     if isinstance(table, dict):
         return {str(k): int(v) for k, v in table.items()}
     return {k: int(v) for k, v in vars(table).items() if not k.startswith("_")}  # the official client's object
+
+
+#: The algorithms already reported as planned with RRTConnect (one warning each per process).
+_SUBSTITUTED: set[str] = set()
+
+
+def ompl_set_algorithm(task: Any, name: str, caller: str) -> None:
+    """``simOMPL.setAlgorithm`` of the planner named ``name`` (a ``ConfigurationPathAlgorithms``
+    value), as PyRep's add-on's ``_getAlgorithm``; one that OMPL's Python bindings lack plans
+    with RRTConnect, with a warning logged once per algorithm naming ``caller``.
+
+    Raises:
+        CoppeliaSimError: an algorithm that CoppeliaSim's simOMPL does not have (``pRRT``,
+            ``pSBL``: PyRep's script call fails on them), or OMPL is not installed.
+    """
+    algorithms = ompl_constants("Algorithm")
+    if name not in algorithms:
+        raise CoppeliaSimError(f"The call failed on the V-REP side: simOMPL has no algorithm {name!r}")
+    try:
+        ompl_call("setAlgorithm", task, algorithms[name])
+    except CoppeliaSimError as exc:
+        ompl_call("setAlgorithm", task, algorithms["RRTConnect"])
+        if name not in _SUBSTITUTED:
+            _SUBSTITUTED.add(name)
+            logging.getLogger("pyrep").warning("%s: %s; planning with RRTConnect instead", caller, exc)
 
 
 def simulation() -> Any:

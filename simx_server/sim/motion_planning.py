@@ -1,19 +1,20 @@
 """Motion planning with OMPL (the ``ompl`` package's Python bindings) for ``simOMPL``.
 
-:class:`Problem` is one planning query in a real-vector space (joint positions, within bounds):
-OMPL's ``SpaceInformation`` with a Python state-validity checker, a start state, one goal state
-(``GoalState``) or several (``GoalStates``), and one of OMPL's planners by its ``simOMPL``
-name. After a solve, the solution path is simplified with OMPL's ``PathSimplifier``
-(``simplifyMax``, or ``simplify`` within a time) and interpolated with
-``PathGeometric.interpolate``, as the simOMPL plug-in's ``solve``, ``simplifyPath``,
-``interpolatePath`` and ``compute`` do (CoppeliaRobotics/simOMPL, ``sourceCode/plugin.cpp``).
+:class:`Problem` is one planning query in a task's state space (joint positions, object
+positions and poses: :mod:`simx_server.sim.ompl_spaces`): OMPL's ``SpaceInformation`` with a
+Python state-validity checker, a start state, one goal state (``GoalState``) or several
+(``GoalStates``), and one of OMPL's planners by its ``simOMPL`` name. After a solve, the
+solution path is simplified with OMPL's ``PathSimplifier`` (``simplifyMax``, or ``simplify``
+within a time) and interpolated with ``PathGeometric.interpolate``, as the simOMPL plug-in's
+``solve``, ``simplifyPath``, ``interpolatePath`` and ``compute`` do (CoppeliaRobotics/simOMPL,
+``sourceCode/plugin.cpp``).
 
 :class:`ScratchCollisions` is the default validity check of a simOMPL task (its collision
-pairs): a configuration is written into a scratch ``MjData`` (a copy of the world's state), its
-poses computed with ``mj_kinematics``, and the pairs' geoms measured there with
-``mj_geomDistance`` (:func:`simx_server.sim.collisions.pairs_collide`), so that planning never
-moves the simulation. simOMPL writes each state into the scene and reads CoppeliaSim's collision
-check instead.
+pairs): a state is written into a scratch ``MjData`` (a copy of the world's state: joint
+positions, free bodies' poses), its poses computed with ``mj_kinematics``, and the pairs' geoms
+measured there with ``mj_geomDistance`` (:func:`simx_server.sim.collisions.pairs_collide`), so
+that planning never moves the simulation. simOMPL writes each state into the scene and reads
+CoppeliaSim's collision check instead.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import mujoco
 import numpy as np
 
 from simx_server.sim import collisions
+from simx_server.sim.ompl_spaces import Placement, Space
 from simx_server.sim.world import World
 
 try:  # the pyrep extra installs it; without it every planning call says so
@@ -59,11 +61,12 @@ def available() -> tuple[str, ...]:
 
 
 class ScratchCollisions:
-    """Whether a configuration of some joints collides, tested on a scratch copy of the state.
+    """Whether a state collides, tested on a scratch copy of the scene's state.
 
     Args:
         world: the scene (its model and current state are copied once, here).
-        qpos_addresses: ``qpos`` index of each configuration value (one per hinge or slide joint).
+        placements: what each state space's values move (:class:`~simx_server.sim.ompl_spaces.Placement`:
+            a joint's ``qpos``, a free body's pose), in the state's order.
         pairs: the entities to test, ``[(entity1, entity2), ...]`` (shapes, collections,
             ``sim_handle_all`` as entity2), as ``sim.checkCollision`` takes them.
 
@@ -71,64 +74,57 @@ class ScratchCollisions:
         UnknownObjectError, ObjectTypeError, ArgumentError: an entity as ``sim.checkCollision``.
     """
 
-    def __init__(self, world: World, qpos_addresses: np.ndarray, pairs: list[tuple[int, int]]):
+    def __init__(self, world: World, placements: list[Placement], pairs: list[tuple[int, int]]):
         self.world = world
         self.model = world.model
         self.data = mujoco.MjData(world.model)
+        self.placements = placements
+        self.offsets = np.cumsum([0] + [p.width for p in placements]).tolist()
         self.refresh()
-        self.addresses = np.asarray(qpos_addresses, dtype=np.intp)
         found = [collisions.collision_pairs(world, e1, e2) for e1, e2 in pairs]
         self.a = np.concatenate([a for a, _ in found]) if found else np.zeros(0, dtype=int)
         self.b = np.concatenate([b for _, b in found]) if found else np.zeros(0, dtype=int)
 
     def refresh(self) -> None:
-        """Copies the world's state again (the scene may have moved since)."""
+        """Copies the world's state again (the scene may have moved since), and the poses that
+        states leave unchanged (a base's height...)."""
         self.data.qpos[:] = self.world.data.qpos
         self.data.mocap_pos[:], self.data.mocap_quat[:] = self.world.data.mocap_pos, self.world.data.mocap_quat
+        for p in self.placements:
+            p.refresh(self.world)
 
     def __call__(self, q: np.ndarray) -> bool:
-        """True when the configuration ``q`` (rad or m, one per address) collides."""
+        """True when the state ``q`` (its values, the placements' in order) collides."""
         if self.a.size == 0:
             return False
-        self.data.qpos[self.addresses] = q
+        for p, start, end in zip(self.placements, self.offsets, self.offsets[1:]):
+            p.write(self.data, q[start:end])
         mujoco.mj_kinematics(self.model, self.data)
         return collisions.pairs_collide(self.world, self.a, self.b, self.data)
 
 
 class Problem:
-    """One query of OMPL in the box ``[low, high]`` (n values).
+    """One query of OMPL in a task's state space.
 
     Args:
-        low, high: the bounds (n,), each value's unit (rad, m).
-        valid: ``valid(q) -> bool`` for a configuration (n,); called from inside OMPL's planner.
+        space: the task's state space (:class:`~simx_server.sim.ompl_spaces.Space`: its
+            values, bounds, projection).
+        valid: ``valid(q) -> bool`` for a state's values (``space.dim``,); called from inside
+            OMPL's planner.
         resolution: the state validity checking resolution, a fraction of the space's extent
             (simOMPL's default 0.01).
-        projection: the values OMPL's projection-based planners (KPIECE, SBL, EST...) project
-            onto (simOMPL's ``useForProjection``); empty: OMPL's default projection.
 
     Raises:
         RuntimeError: OMPL's bindings are not installed (:data:`IMPORT_ERROR`).
-        ValueError: bounds of another size, or a low bound not below its high one.
     """
 
-    def __init__(self, low: np.ndarray, high: np.ndarray, valid: Callable[[np.ndarray], bool],
-                 resolution: float = 0.01, projection: list[int] | None = None):
+    def __init__(self, space: Space, valid: Callable[[np.ndarray], bool], resolution: float = 0.01):
         if ob is None:
             raise RuntimeError(IMPORT_ERROR)
-        low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
-        if low.shape != high.shape or low.ndim != 1 or low.size == 0:
-            raise ValueError("the low and high bounds must be two lists of the same, non-zero length")
-        if not np.all(low < high):
-            raise ValueError(f"every low bound must be below its high one (low {low.tolist()}, high {high.tolist()})")
-        self.dim = n = low.size
-        self.space = ob.RealVectorStateSpace(n)
-        bounds = ob.RealVectorBounds(n)
-        bounds.low, bounds.high = low.tolist(), high.tolist()
-        self.space.setBounds(bounds)
-        if projection:
-            self.space.registerDefaultProjection(ob.RealVectorOrthogonalProjectionEvaluator(self.space, projection))
+        self.dim = space.dim
+        self.codec, self.space = space, space.space
         self.si = ob.SpaceInformation(self.space)
-        self.si.setStateValidityChecker(lambda s: bool(valid(np.array(s[0:n]))))
+        self.si.setStateValidityChecker(lambda s: bool(valid(space.values(s))))
         self.si.setStateValidityCheckingResolution(float(resolution))
         self.si.setup()
         self.pdef: Any = None
@@ -145,7 +141,7 @@ class Problem:
             The state (OMPL's, for this problem's space).
         """
         s = self.si.allocState()
-        s[0:self.dim] = [float(v) for v in values]
+        self.codec.write(s, values)
         return s
 
     def setup(self, start: np.ndarray, goals: list[np.ndarray], algorithm: str) -> None:
@@ -225,7 +221,7 @@ class Problem:
         """
         if self.path is None:
             return np.zeros((0, self.dim))
-        return np.array([s[0:self.dim] for s in self.path.getStates()], dtype=float).reshape(-1, self.dim)
+        return np.array([self.codec.values(s) for s in self.path.getStates()], dtype=float).reshape(-1, self.dim)
 
     def exact(self) -> bool:
         """Whether the solution reaches a goal.

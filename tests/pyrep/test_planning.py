@@ -70,10 +70,10 @@ def test_the_path_goes_round_the_pillar_that_the_straight_line_hits(panda):
 
 
 def test_an_algorithm_the_bindings_lack_plans_with_rrt_connect_and_says_so(panda, caplog, monkeypatch):
-    from pyrep.robots.arms import arm as arm_module
+    from pyrep.backend import sim
 
     arm, _, goal, orientation, pillar = panda
-    monkeypatch.setattr(arm_module, "_SUBSTITUTED", set())  # as in a new process
+    monkeypatch.setattr(sim, "_SUBSTITUTED", set())  # as in a new process
     with caplog.at_level(logging.WARNING, logger="pyrep"):
         path = arm.get_nonlinear_path(goal, quaternion=orientation)  # PyRep's default: SBL
         arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.SBL)

@@ -1,7 +1,8 @@
 """simOMPL on OMPL's Python bindings: a planar two-link arm must fold past a pillar that the
 straight joint-space line hits. Planned from Python (the table in-process), from a Lua child
 script (collision pairs and a Lua validation callback), and from the official ZMQ client
-against a real server; the simulation's state is not moved by planning."""
+against a real server; the simulation's state is not moved by planning. A free box (a mobile
+base's kind) plans its 2-D pose around a wall (``pose2d``, ``dubins``), from Python and Lua."""
 
 from __future__ import annotations
 
@@ -164,8 +165,10 @@ def test_errors_name_what_is_wrong(rig):
         ompl.setAlgorithm(task, 7)
     with pytest.raises(ArgumentError, match="Expected 2, got 3"):
         ompl.setStartState(task, [0, 0, 0])
-    with pytest.raises(UnsupportedError, match="type pose2d is not supported"):
+    with pytest.raises(ArgumentError, match="'Joint1' does not move freely"):
         ompl.createStateSpace("p", ompl.StateSpaceType["pose2d"], joints[0], [0, 0], [1, 1], 0)
+    with pytest.raises(ArgumentError, match="no simOMPL.StateSpaceType 7"):
+        ompl.createStateSpace("p", 7, joints[0], [0], [1], 0)
     with pytest.raises(ArgumentError, match="must be below"):
         ompl.createStateSpace("j", JOINT_POSITION, joints[0], [1], [-1], 0)
     with pytest.raises(ArgumentError, match="setup"):
@@ -217,3 +220,132 @@ def test_a_zmq_client_plans_with_the_official_client(tmp_path, official):
             simOMPL.setStateValidationCallback(task, "valid")
     finally:
         srv.stop()
+
+
+# A free box (0.3 x 0.2 m, 0.05 m above the floor) left of a wall that spans y in [-0.6, 0.6] at
+# x = 0: from x = -1 to x = 1 it must go round the wall's ends.
+ROVER = """<mujoco model="rover">
+  <worldbody>
+    <geom name="Floor" type="plane" size="3 3 0.1"/>
+    <body name="Rover" pos="-1 0 0.15"><freejoint/><geom type="box" size="0.15 0.1 0.1"/></body>
+    <body name="Wall" pos="0 0 0.3"><geom type="box" size="0.05 0.6 0.3"/></body>
+    <body name="Peg" pos="1.5 1.5 0.3"><geom type="box" size="0.02 0.02 0.02"/></body>
+  </worldbody>
+  <custom>{script}</custom>
+</mujoco>
+"""
+ROVER_LUA = """
+function sysCall_init()
+    local rover = sim.getObject('/Rover')
+    local task = simOMPL.createTask('t')
+    simOMPL.setAlgorithm(task, simOMPL.Algorithm.RRTConnect)
+    local ss = simOMPL.createStateSpace('2d', simOMPL.StateSpaceType.dubins, rover, {-2, -2}, {2, 2}, 1)
+    simOMPL.setDubinsParams(ss, 0.1, true)
+    simOMPL.setStateSpace(task, {ss})
+    simOMPL.setCollisionPairs(task, {rover, sim.handle_all})
+    simOMPL.setStateValidityCheckingResolution(task, 0.001)
+    simOMPL.setStartState(task, simOMPL.readState(task))
+    simOMPL.setGoalState(task, {1, 0, 0})
+    simOMPL.setup(task)
+    local solved, path = simOMPL.compute(task, 10, -1, 200)
+    sim.setInt32Signal('solved', solved and 1 or 0)
+    sim.setInt32Signal('dim', simOMPL.getStateSpaceDimension(task))
+    sim.setStringSignal('path', sim.packDoubleTable(path))
+    simOMPL.destroyTask(task)
+end
+"""
+
+
+@pytest.fixture
+def rover(tmp_path):
+    (tmp_path / "rover.xml").write_text(ROVER.format(script=""))
+    s = Simulation(tmp_path / "rover.xml", realtime=False)
+    sim = script_sim(s.world, s.world.resolve("Wall").handle, s.signals, simulation=s)
+    yield s, sim, sim.context.simompl
+    s.close()
+
+
+def _rover_hits_something(sim, pose) -> bool:
+    rover = sim.getObject("/Rover")
+    sim.setObjectPosition(rover, -1, [pose[0], pose[1], 0.15])
+    sim.setObjectOrientation(rover, -1, [0.0, 0.0, pose[2]])
+    return bool(sim.checkCollision(rover, sim.handle_all)[0])
+
+
+@pytest.mark.parametrize("kind", ["pose2d", "dubins"])
+def test_a_free_body_plans_its_2d_pose_round_a_wall(rover, kind):
+    s, sim, ompl = rover
+    body = sim.getObject("/Rover")
+    task = ompl.createTask("rover")
+    ompl.setAlgorithm(task, ompl.Algorithm["RRTConnect"])
+    space = ompl.createStateSpace("2d", ompl.StateSpaceType[kind], body, [-2, -2], [2, 2], 1)
+    if kind == "dubins":
+        ompl.setDubinsParams(space, 0.1, True)
+    ompl.setStateSpace(task, [space])
+    assert ompl.getStateSpaceDimension(task) == 3
+    ompl.setCollisionPairs(task, [body, sim.handle_all])
+    ompl.setStateValidityCheckingResolution(task, 0.001)  # motions checked every ~1 cm: the path's states too
+    start = ompl.readState(task)
+    assert start == pytest.approx([-1.0, 0.0, 0.0])
+    ompl.setStartState(task, start)
+    ompl.setGoalState(task, [1.0, 0.0, 0.5])
+    ompl.setup(task)
+    qpos = s.world.data.qpos.copy()
+    solved, states = ompl.compute(task, 10.0, -1.0, 300)
+    assert np.array_equal(s.world.data.qpos, qpos)  # planning left the simulation as it was
+    path = np.array(states).reshape(-1, 3)
+    assert solved and ompl.hasExactSolution(task) and len(path) == 300
+    assert path[0] == pytest.approx(start) and path[-1] == pytest.approx([1.0, 0.0, 0.5])
+    assert max(abs(path[:, 1])) > 0.6  # round an end of the wall
+    straight = [np.add(start, f * np.subtract([1.0, 0.0, 0.5], start)) for f in np.linspace(0, 1, 40)]
+    assert any(_rover_hits_something(sim, p) for p in straight)
+    assert not any(_rover_hits_something(sim, p) for p in path)
+    assert not ompl.isStateValid(task, [0.0, 0.0, 0.0]) and ompl.isStateValid(task, [0.0, 1.0, 0.0])
+    if kind == "dubins":  # a car: no step turns the heading faster than the curve allows
+        steps = np.linalg.norm(np.diff(path[:, :2], axis=0), axis=1)
+        turns = np.abs(np.remainder(np.diff(path[:, 2]) + np.pi, 2 * np.pi) - np.pi)
+        assert np.all(turns <= 1.01 * steps / 0.1 + 1e-6)  # (a step is a chord of the arc)
+    ompl.writeState(task, [0.5, 1.0, 1.0])  # the scene's base moved there, its height kept
+    assert sim.getObjectPosition(body, -1) == pytest.approx([0.5, 1.0, 0.15])
+    assert sim.getObjectOrientation(body, -1)[2] == pytest.approx(1.0)
+    assert ompl.readState(task) == pytest.approx([0.5, 1.0, 1.0])
+    assert ompl.isStateWithinBounds(task, [1.9, -1.9, 3.0]) and not ompl.isStateWithinBounds(task, [2.1, 0, 0])
+    assert ompl.enforceBounds(task, [2.5, 0.0, 0.0]) == pytest.approx([2.0, 0.0, 0.0])
+    ompl.destroyTask(task)
+
+
+def test_positions_relative_to_a_reference_and_their_errors(rover):
+    _, sim, ompl = rover
+    body, peg = sim.getObject("/Rover"), sim.getObject("/Peg")
+    task = ompl.createTask("rover")
+    space = ompl.createStateSpace("xy", ompl.StateSpaceType["position2d"], body, [-4, -4], [4, 4], 1, 1.0, peg)
+    ompl.setStateSpace(task, [space])
+    assert ompl.readState(task) == pytest.approx([-2.5, -1.5])  # seen from the peg
+    ompl.setCollisionPairs(task, [body, sim.handle_all])
+    ompl.setStartState(task, [-2.5, -1.5])
+    ompl.setGoalState(task, [-0.5, -1.5])
+    ompl.setup(task)
+    assert not ompl.isStateValid(task, [-1.5, -1.5]) and ompl.isStateValid(task, [-1.5, 0.0])
+    solved, states = ompl.compute(task, 10.0, -1.0, 100)
+    assert solved and max(abs(np.array(states).reshape(-1, 2)[:, 1] + 1.5)) > 0.6  # round an end of the wall
+    with pytest.raises(ArgumentError, match="2 lower and 2 upper bound"):
+        ompl.createStateSpace("p", ompl.StateSpaceType["pose2d"], body, [-1], [1], 0)
+    with pytest.raises(ArgumentError, match="'Wall' does not move freely"):
+        ompl.createStateSpace("p", ompl.StateSpaceType["pose2d"], sim.getObject("/Wall"), [-1, -1], [1, 1], 0)
+    with pytest.raises(ArgumentError, match="turningRadius must be positive"):
+        ompl.setDubinsParams(space, 0.0, True)
+
+
+def test_a_lua_script_plans_a_dubins_path(tmp_path):
+    (tmp_path / "plan.lua").write_text(ROVER_LUA)
+    (tmp_path / "rover.xml").write_text(ROVER.format(script='<text name="simx:Wall" data="child_script=plan.lua"/>'))
+    s = Simulation(tmp_path / "rover.xml", realtime=False)
+    try:
+        s.start()
+        sim = script_sim(s.world, s.world.resolve("Wall").handle, s.signals, simulation=s)
+        assert s.signals.get_int("solved") == 1 and s.signals.get_int("dim") == 3
+        path = np.array(sim.unpackDoubleTable(sim.getStringSignal("path"))).reshape(-1, 3)
+        assert len(path) == 200 and path[-1] == pytest.approx([1.0, 0.0, 0.0])
+        assert not any(_rover_hits_something(sim, p) for p in path)
+    finally:
+        s.close()

@@ -11,7 +11,6 @@ the scene checked by MuJoCo on a scratch copy of the state.
 
 from __future__ import annotations
 
-import logging
 from typing import Any
 
 import numpy as np
@@ -266,7 +265,7 @@ class Arm(RobotComponent):
                 ``pSBL``: PyRep's script call fails on them), or OMPL is not installed.
         """
         name = algorithm.value
-        if name not in sim.ompl_constants("Algorithm"):
+        if name not in sim.ompl_constants("Algorithm"):  # before the IK search, as PyRep's add-on fails
             raise CoppeliaSimError(f"The call failed on the V-REP side: simOMPL has no algorithm {name!r}")
         try:
             goals = self.solve_ik_via_sampling(position, euler, quaternion, ignore_collisions, trials,
@@ -318,11 +317,6 @@ class Arm(RobotComponent):
         return ArmConfigurationPath(self, planning.densify(np.array(configs), self._step_size()))
 
 
-#: The algorithms already reported as planned with RRTConnect (one warning each per process).
-_SUBSTITUTED: set[str] = set()
-_log = logging.getLogger("pyrep")
-
-
 def _plan(arm: Arm, algorithm: str, start: np.ndarray, goals: np.ndarray, lo: np.ndarray, hi: np.ndarray,
           pairs: list[int], searches: int, step: float) -> np.ndarray | None:
     """PyRep's ``_findPath`` with ``simOMPL``: the shortest of ``searches`` valid paths, its
@@ -331,13 +325,7 @@ def _plan(arm: Arm, algorithm: str, start: np.ndarray, goals: np.ndarray, lo: np
     spaces: list[str] = []
     try:
         sim.ompl_call("setVerboseLevel", task, 0)
-        try:
-            sim.ompl_call("setAlgorithm", task, sim.ompl_constants("Algorithm")[algorithm])
-        except CoppeliaSimError as exc:
-            sim.ompl_call("setAlgorithm", task, sim.ompl_constants("Algorithm")["RRTConnect"])
-            if algorithm not in _SUBSTITUTED:
-                _SUBSTITUTED.add(algorithm)
-                _log.warning("get_nonlinear_path: %s; planning with RRTConnect instead", exc)
+        sim.ompl_set_algorithm(task, algorithm, "get_nonlinear_path")
         joint_position = sim.ompl_constants("StateSpaceType")["joint_position"]
         for i, joint in enumerate(arm.joints):
             spaces.append(sim.ompl_call("createStateSpace", f"j_space{i + 1}", joint_position, joint.get_handle(),

@@ -12,7 +12,7 @@ from simx_server.api.context import CallContext
 from simx_server.api.registry import simompl_function
 from simx_server.api.simompl.tasks import Task, as_state, as_states, spaces_of, task_of
 from simx_server.base.arguments import as_integer as _int, as_number as _num
-from simx_server.sim import motion_planning as mp
+from simx_server.sim import motion_planning as mp, ompl_spaces
 from simx_wire.protocol import ArgumentError, UnsupportedError
 
 
@@ -35,9 +35,11 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
         raise ArgumentError("No goal state specified.")
     if mp.IMPORT_ERROR:
         raise UnsupportedError(mp.IMPORT_ERROR)
-    w = ctx.world
-    task.checker = mp.ScratchCollisions(w, np.array([w.model.jnt_qposadr[w.get(s.joint).mj_id] for s in spaces]),
-                                        list(zip(task.pairs[::2], task.pairs[1::2])))
+    try:
+        placements = [ompl_spaces.Placement(ctx.world, s.kind, s.object, s.ref) for s in spaces]
+    except ValueError as exc:
+        raise ArgumentError(str(exc)) from None
+    task.checker = mp.ScratchCollisions(ctx.world, placements, list(zip(task.pairs[::2], task.pairs[1::2])))
     callback = task.callback
     if callback is not None:
         def valid(q: np.ndarray) -> bool:
@@ -51,8 +53,7 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
         def valid(q: np.ndarray) -> bool:
             return not checker(q)
     try:
-        task.problem = mp.Problem(np.array([s.low for s in spaces]), np.array([s.high for s in spaces]), valid,
-                                  task.resolution, [i for i, s in enumerate(spaces) if s.projection])
+        task.problem = mp.Problem(ompl_spaces.Space([s.subspace() for s in spaces]), valid, task.resolution)
         task.problem.setup(np.array(task.start), [np.array(g) for g in task.goals], task.algorithm)
     except ValueError as exc:
         task.problem = None
@@ -153,16 +154,58 @@ def compute(ctx: CallContext, taskHandle: Any, maxTime: Any, maxSimplificationTi
 # ------------------------------------------------------------------ states
 @simompl_function()
 def readState(ctx: CallContext, taskHandle: Any) -> list[float]:  # noqa: N802, N803
-    """The scene's current values of the task's state spaces (joint positions)."""
-    return [float(ctx.sim.getJointPosition(s.joint)) for s in spaces_of(ctx, task_of(ctx, taskHandle))]
+    """The scene's current values of the task's state spaces: joint positions, objects'
+    positions, yaws (V-REP's third Euler angle) and quaternions relative to each space's
+    reference (the plug-in's ``readState``)."""
+    state: list[float] = []
+    for s in spaces_of(ctx, task_of(ctx, taskHandle)):
+        if s.kind in ompl_spaces.JOINT_TYPES:
+            state.append(float(ctx.sim.getJointPosition(s.object)))
+            continue
+        pos = [float(v) for v in ctx.sim.getObjectPosition(s.object, s.ref)]
+        if s.kind in ("pose2d", "dubins"):
+            state += [*pos[:2], float(ctx.sim.getObjectOrientation(s.object, s.ref)[2])]
+        elif s.kind == "pose3d":
+            state += [*pos, *(float(v) for v in ctx.sim.getObjectQuaternion(s.object, s.ref))]
+        else:
+            state += pos[:ompl_spaces.DIMENSION[s.kind]]
+    return state
 
 
 @simompl_function()
 def writeState(ctx: CallContext, taskHandle: Any, state: Any) -> None:  # noqa: N802, N803
-    """Puts the scene's joints at ``state`` (``sim.setJointPosition``)."""
+    """Moves the scene to ``state`` (the plug-in's ``writeState``): joints with
+    ``sim.setJointPosition``, objects with ``sim.setObjectPosition`` (a 2-D position keeps the
+    object's z) and ``sim.setObjectOrientation`` (a yaw keeps the first two Euler angles) or
+    ``sim.setObjectQuaternion``."""
     task = task_of(ctx, taskHandle)
-    for s, q in zip(spaces_of(ctx, task), as_state(task, state)):
-        ctx.sim.setJointPosition(s.joint, q)
+    values = as_state(task, state)
+    i = 0
+    for s in spaces_of(ctx, task):
+        v = values[i:i + ompl_spaces.DIMENSION[s.kind]]
+        i += len(v)
+        if s.kind in ompl_spaces.JOINT_TYPES:
+            ctx.sim.setJointPosition(s.object, v[0])
+            continue
+        pos = [float(c) for c in ctx.sim.getObjectPosition(s.object, s.ref)]
+        n = ompl_spaces.BOUNDS[s.kind]  # the position's values
+        pos[:n] = v[:n]
+        if s.kind in ("pose2d", "dubins"):
+            euler = [float(c) for c in ctx.sim.getObjectOrientation(s.object, s.ref)]
+            ctx.sim.setObjectOrientation(s.object, s.ref, [euler[0], euler[1], v[2]])
+        elif s.kind == "pose3d":
+            ctx.sim.setObjectQuaternion(s.object, s.ref, v[3:7])
+        ctx.sim.setObjectPosition(s.object, s.ref, pos)
+
+
+def _space(ctx: CallContext, task: Task) -> ompl_spaces.Space:
+    """OMPL's space of the task (bounds, angles, metric), without a setup."""
+    found = spaces_of(ctx, task)
+    if not found:
+        raise ArgumentError("the task has no state space (simOMPL.setStateSpace)")
+    if mp.IMPORT_ERROR:
+        raise UnsupportedError(mp.IMPORT_ERROR)
+    return ompl_spaces.Space([s.subspace() for s in found])
 
 
 @simompl_function()
@@ -174,26 +217,25 @@ def isStateValid(ctx: CallContext, taskHandle: Any, state: Any) -> bool:  # noqa
 
 @simompl_function()
 def isStateWithinBounds(ctx: CallContext, taskHandle: Any, state: Any) -> bool:  # noqa: N802, N803
-    """Whether every value lies within its state space's bounds."""
+    """Whether the state lies within its state spaces' bounds (OMPL's ``satisfiesBounds``)."""
     task = task_of(ctx, taskHandle)
-    q = np.array(as_state(task, state))
-    spaces = spaces_of(ctx, task)
-    return bool(np.all(q >= [s.low for s in spaces]) and np.all(q <= [s.high for s in spaces]))
+    return _space(ctx, task).within_bounds(as_state(task, state))
 
 
 @simompl_function()
 def enforceBounds(ctx: CallContext, taskHandle: Any, state: Any) -> list[float]:  # noqa: N802, N803
-    """The state with each value clipped to its bounds."""
+    """The state brought within its bounds (OMPL's ``enforceBounds``: positions and joint values
+    clipped, angles wrapped to [-pi, pi])."""
     task = task_of(ctx, taskHandle)
-    spaces = spaces_of(ctx, task)
-    return np.clip(as_state(task, state), [s.low for s in spaces], [s.high for s in spaces]).tolist()
+    return _space(ctx, task).enforce_bounds(as_state(task, state)).tolist()
 
 
 @simompl_function()
 def stateDistance(ctx: CallContext, taskHandle: Any, a: Any, b: Any) -> float:  # noqa: N802
-    """The distance between two states (Euclidean, the space's metric)."""
+    """The distance between two states in the task's space (OMPL's: Euclidean for joints, a
+    pose's position and angle distances summed, a dubins space's shortest Dubins curve)."""
     task = task_of(ctx, taskHandle)
-    return float(np.linalg.norm(np.subtract(as_state(task, a, "a"), as_state(task, b, "b"))))
+    return _space(ctx, task).distance(as_state(task, a, "a"), as_state(task, b, "b"))
 
 
 @simompl_function()

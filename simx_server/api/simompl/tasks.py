@@ -1,6 +1,7 @@
 """simOMPL's state spaces and tasks: what a task is made of before ``setup`` (its state spaces,
 algorithm, collision pairs, start and goal states, validation callback), and the handles that
-name them (strings, as the plug-in's)."""
+name them (strings, as the plug-in's). The state space types are
+:mod:`simx_server.sim.ompl_spaces`'s."""
 
 from __future__ import annotations
 
@@ -13,16 +14,14 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import SIMOMPL, simompl_function
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
-from simx_server.sim import motion_planning as mp
+from simx_server.sim import motion_planning as mp, ompl_spaces as spaces
 from simx_server.sim.objects import JOINT
 from simx_wire.protocol import ArgumentError, UnsupportedError
 
 #: ``simOMPL.Algorithm`` (the plug-in's enum, from 30001) and ``simOMPL.StateSpaceType`` (from 50001).
 ALGORITHM = {name: 30001 + i for i, name in enumerate(mp.ALGORITHMS)}
-STATE_SPACE_TYPES = ("position2d", "pose2d", "position3d", "pose3d", "joint_position", "dubins",
-                     "cyclic_joint_position")
-STATE_SPACE_TYPE = {name: 50001 + i for i, name in enumerate(STATE_SPACE_TYPES)}
-JOINT_POSITION = STATE_SPACE_TYPE["joint_position"]
+STATE_SPACE_TYPE = {name: 50001 + i for i, name in enumerate(spaces.TYPES)}
+JOINT_POSITION, CYCLIC = STATE_SPACE_TYPE["joint_position"], STATE_SPACE_TYPE["cyclic_joint_position"]
 SIMOMPL.constants.update({"Algorithm": ALGORITHM, "StateSpaceType": STATE_SPACE_TYPE})
 #: The most tasks and state spaces one caller may hold at once.
 MAX_OBJECTS = 1024
@@ -31,16 +30,24 @@ MAX_OBJECTS = 1024
 @dataclasses.dataclass
 class StateSpace:
     name: str
-    joint: int
-    low: float
-    high: float
+    kind: str  #: a name of ompl_spaces.TYPES
+    object: int  #: the joint, or the shape that a pose or position moves
+    low: tuple[float, ...]
+    high: tuple[float, ...]
     projection: bool
+    ref: int = -1  #: the reference frame's object of positions and angles (-1: the world)
+    turning_radius: float = 0.05  #: a dubins space's (simOMPL's default)
+    symmetric: bool = False  #: a dubins space's (simOMPL's default)
+
+    def subspace(self) -> spaces.Subspace:
+        return spaces.Subspace(self.kind, self.low, self.high, self.projection, self.turning_radius, self.symmetric)
 
 
 @dataclasses.dataclass
 class Task:
     name: str
     spaces: list[str] = dataclasses.field(default_factory=list)
+    dim: int = 0  #: the values of a state: its spaces' together
     algorithm: str = "KPIECE1"  # the plug-in's default
     pairs: list[int] = dataclasses.field(default_factory=list)
     start: list[float] | None = None
@@ -85,7 +92,7 @@ def task_of(ctx: CallContext, handle: Any, set_up: bool = False) -> Task:
 
 def as_state(task: Task, value: Any, what: str = "state") -> list[float]:
     """A state of the task's dimension (simOMPL's ``validateStateSize``)."""
-    dim = len(task.spaces)
+    dim = task.dim
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if not isinstance(value, (list, tuple)) or not value:
@@ -98,7 +105,7 @@ def as_state(task: Task, value: Any, what: str = "state") -> list[float]:
 
 def as_states(task: Task, value: Any, what: str = "states") -> np.ndarray:
     """A flat table of states (k * dim) as (k, dim)."""
-    dim = max(len(task.spaces), 1)
+    dim = max(task.dim, 1)
     if not isinstance(value, (list, tuple, np.ndarray)) or len(value) % dim:
         raise ArgumentError(f"{what} must be a flat table of states of {dim} values each")
     return np.asarray([_num(v, f"{what}[{i + 1}]") for i, v in enumerate(value)], dtype=float).reshape(-1, dim)
@@ -112,54 +119,88 @@ def spaces_of(ctx: CallContext, task: Task) -> list[StateSpace]:
 @simompl_function()
 def createStateSpace(ctx: CallContext, name: Any, type: Any, objectHandle: Any, boundsLow: Any, boundsHigh: Any,  # noqa: N802, N803
                      useForProjection: Any, weight: Any = 1.0, refObjectHandle: Any = -1) -> str:
-    """A state space of one joint's position: ``type`` = ``simOMPL.StateSpaceType.joint_position``,
-    ``objectHandle`` a revolute or prismatic joint, bounds one value each (rad or m);
-    ``useForProjection`` non-zero: projection-based planners (KPIECE...) project onto it.
+    """A state space (``simOMPL.StateSpaceType``): ``joint_position`` a revolute or prismatic
+    joint's position (one bound each, rad or m), ``cyclic_joint_position`` a cyclic revolute
+    joint's (no bounds), ``position2d`` / ``position3d`` a shape's position (2 or 3 bounds, m),
+    ``pose2d`` / ``dubins`` its position and yaw (bounds of x and y; ``dubins`` turns no tighter
+    than :func:`setDubinsParams`'s radius), ``pose3d`` its position and quaternion (bounds of x,
+    y, z). Positions and angles are relative to ``refObjectHandle`` (-1: the world); the shape
+    must move freely (a dynamic shape, a model's base): simx places it in a scratch copy of the
+    state to check collisions. ``useForProjection`` non-zero: projection-based planners
+    (KPIECE...) project onto it (a pose: onto its position).
 
     Returns:
         the state space's handle (a string).
 
     Raises:
-        ArgumentError: bounds of another length, a low bound not below the high one, a weight
-            not positive, not a joint.
-        UnsupportedError: another type, or a weight other than 1.
+        ArgumentError: an unknown type, bounds of another length, a low bound not below the high
+            one, a weight not positive, an object of the wrong kind.
+        UnsupportedError: a weight other than 1.
     """
     text, kind = _text(name, "name"), _int(type, "type")
-    if kind != JOINT_POSITION:
-        names = {v: k for k, v in STATE_SPACE_TYPE.items()}
-        raise UnsupportedError(f"type {names.get(kind, kind)} is not supported by simx "
-                               "(joint_position only)")
+    names = {v: k for k, v in STATE_SPACE_TYPE.items()}
+    if kind not in names:
+        raise ArgumentError(f"type: no simOMPL.StateSpaceType {kind}")
+    kind_name = names[kind]
     if not isinstance(boundsLow, (list, tuple)) or not isinstance(boundsHigh, (list, tuple)) \
             or len(boundsLow) != len(boundsHigh):
         raise ArgumentError("Lower and upper bounds must have the same length.")
-    if len(boundsLow) != 1:
-        raise ArgumentError("a joint_position state space has one lower and one upper bound")
-    low, high = _num(boundsLow[0], "boundsLow[1]"), _num(boundsHigh[0], "boundsHigh[1]")
-    if not low < high:
-        raise ArgumentError(f"boundsLow ({low}) must be below boundsHigh ({high})")
+    count = spaces.BOUNDS[kind_name]
+    if kind_name == "cyclic_joint_position":
+        boundsLow = boundsHigh = ()  # the plug-in warns and ignores them: a cyclic joint has none
+    elif len(boundsLow) != count:
+        what = "of its position " if kind_name in ("pose2d", "dubins", "pose3d") else ""
+        raise ArgumentError(f"a {kind_name} state space has {count} lower and {count} upper bound(s) {what}"
+                            f"(got {len(boundsLow)})")
+    low = tuple(_num(v, f"boundsLow[{i + 1}]") for i, v in enumerate(boundsLow))
+    high = tuple(_num(v, f"boundsHigh[{i + 1}]") for i, v in enumerate(boundsHigh))
+    for lo, hi in zip(low, high):
+        if not lo < hi:
+            raise ArgumentError(f"boundsLow ({lo}) must be below boundsHigh ({hi})")
     w = _num(weight, "weight")
     if w <= 0:
         raise ArgumentError("State component weight must be positive.")
     if w != 1.0:
-        raise UnsupportedError("weights other than 1 are not supported by simx "
-                               "(the joint space is Euclidean)")
-    if _int(refObjectHandle, "refObjectHandle") != -1:
-        ctx.world.get(ctx.h(refObjectHandle, "refObjectHandle"))
-    obj = ctx.world.get(ctx.h(objectHandle, "objectHandle"), JOINT)
-    if int(ctx.world.model.jnt_type[obj.mj_id]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
-        raise ArgumentError(f"objectHandle: joint {obj.name!r} is not revolute nor prismatic")
-    return _add(ctx, "stateSpace", StateSpace(text, obj.handle, low, high, _int(useForProjection, "useForProjection") > 0))
+        raise UnsupportedError("weights other than 1 are not supported by simx")
+    ref = _int(refObjectHandle, "refObjectHandle")
+    if ref != -1:
+        ref = ctx.world.get(ctx.h(refObjectHandle, "refObjectHandle")).handle
+    handle = ctx.h(objectHandle, "objectHandle")
+    if kind_name in spaces.JOINT_TYPES:
+        obj = ctx.world.get(handle, JOINT)
+        types = {"joint_position": (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE),
+                 "cyclic_joint_position": (mujoco.mjtJoint.mjJNT_HINGE,)}[kind_name]
+        if int(ctx.world.model.jnt_type[obj.mj_id]) not in [int(t) for t in types]:
+            raise ArgumentError(f"objectHandle: joint {obj.name!r} is not "
+                                f"{'revolute nor prismatic' if len(types) == 2 else 'revolute'}")
+    else:
+        try:  # what setup will place: checked now
+            spaces.Placement(ctx.world, kind_name, handle, ref)
+        except ValueError as exc:
+            raise ArgumentError(f"objectHandle: {exc}") from None
+    space = StateSpace(text, kind_name, handle, low, high, _int(useForProjection, "useForProjection") > 0, ref)
+    return _add(ctx, "stateSpace", space)
+
+
+@simompl_function()
+def setDubinsParams(ctx: CallContext, stateSpaceHandle: Any, turningRadius: Any, isSymmetric: Any) -> None:  # noqa: N802, N803
+    """A ``dubins`` state space's turning radius (m, > 0) and whether its distance is symmetric
+    (OMPL's ``DubinsStateSpace``); the other types keep them unused, as the plug-in does."""
+    space: StateSpace = _get(ctx, stateSpaceHandle, StateSpace, "stateSpaceHandle")
+    radius = _num(turningRadius, "turningRadius")
+    if not radius > 0:
+        raise ArgumentError(f"turningRadius must be positive (m), got {radius}")
+    space.turning_radius, space.symmetric = radius, bool(isSymmetric)
 
 
 @simompl_function()
 def createStateSpaceForJoint(ctx: CallContext, name: Any, jointHandle: Any, useForProjection: Any = 0,  # noqa: N802, N803
                              weight: Any = 1.0) -> str:
     """simOMPL.lua's helper: :func:`createStateSpace` of a joint within its interval
-    (``sim.getJointInterval``)."""
+    (``sim.getJointInterval``), a ``cyclic_joint_position`` space for a cyclic joint."""
     cyclic, interval = ctx.sim.getJointInterval(jointHandle)
     if cyclic:
-        raise UnsupportedError("a cyclic joint needs a cyclic_joint_position "
-                               "state space, which simx does not support")
+        return createStateSpace(ctx, name, CYCLIC, jointHandle, [], [], useForProjection, weight)
     return createStateSpace(ctx, name, JOINT_POSITION, jointHandle, [interval[0]], [interval[0] + interval[1]],
                             useForProjection, weight)
 
@@ -216,9 +257,9 @@ def setStateSpace(ctx: CallContext, taskHandle: Any, stateSpaceHandles: Any) -> 
     task = task_of(ctx, taskHandle)
     if not isinstance(stateSpaceHandles, (list, tuple)):
         raise ArgumentError("stateSpaceHandles must be a table of state space handles")
-    for h in stateSpaceHandles:
-        _get(ctx, h, StateSpace, "stateSpaceHandles")
+    found = [_get(ctx, h, StateSpace, "stateSpaceHandles") for h in stateSpaceHandles]
     task.spaces = [_text(h, "stateSpaceHandles") for h in stateSpaceHandles]
+    task.dim = sum(spaces.DIMENSION[s.kind] for s in found)
 
 
 @simompl_function()
@@ -235,8 +276,8 @@ def setStateSpaceForJoints(ctx: CallContext, taskHandle: Any, jointHandles: Any,
 
 @simompl_function()
 def getStateSpaceDimension(ctx: CallContext, taskHandle: Any) -> int:  # noqa: N802, N803
-    """The number of values of the task's state."""
-    return len(task_of(ctx, taskHandle).spaces)
+    """The number of values of the task's state (a ``pose2d`` has 3, a ``pose3d`` 7...)."""
+    return task_of(ctx, taskHandle).dim
 
 
 @simompl_function()
