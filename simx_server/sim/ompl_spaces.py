@@ -150,7 +150,14 @@ class Space:
             self.space.registerDefaultProjection(ob.SubspaceProjectionEvaluator(self.space, (flagged or [0])[0]))
 
     def values(self, state: Any) -> np.ndarray:
-        """A state's values (:attr:`dim`,), the spaces' in order."""
+        """A state's values, the spaces' in order.
+
+        Args:
+            state: an OMPL state of :attr:`space`.
+
+        Returns:
+            (:attr:`dim`,) floats (m, rad, quaternion components as the space has them).
+        """
         if self.flat:
             return np.array(state[0:self.dim], dtype=float)
         if len(self.subspaces) == 1:
@@ -158,7 +165,12 @@ class Space:
         return np.array([v for i, s in enumerate(self.subspaces) for v in _get(s.kind, state[i])], dtype=float)
 
     def write(self, state: Any, values: Any) -> None:
-        """Sets a state (an OMPL state of :attr:`space`) to ``values`` (:attr:`dim`,)."""
+        """Set a state to values.
+
+        Args:
+            state: an OMPL state of :attr:`space`, written in place.
+            values: (:attr:`dim`,) floats, the spaces' in order.
+        """
         if self.flat:
             state[0:self.dim] = [float(v) for v in values]
         elif len(self.subspaces) == 1:
@@ -168,24 +180,53 @@ class Space:
                 _set(s.kind, state[i], values[self._offsets[i]:self._offsets[i + 1]])
 
     def state(self, values: Any) -> Any:
-        """A new OMPL state of these values."""
+        """A new OMPL state of these values.
+
+        Args:
+            values: (:attr:`dim`,) floats, the spaces' in order.
+
+        Returns:
+            The state, allocated by :attr:`space`.
+        """
         s = self.space.allocState()
         self.write(s, values)
         return s
 
     def within_bounds(self, values: Any) -> bool:
-        """Whether the values lie within the spaces' bounds (OMPL's ``satisfiesBounds``)."""
+        """Whether the values lie within the spaces' bounds (OMPL's ``satisfiesBounds``).
+
+        Args:
+            values: (:attr:`dim`,) floats.
+
+        Returns:
+            True when every value is within its bounds.
+        """
         return bool(self.space.satisfiesBounds(self.state(values)))
 
     def enforce_bounds(self, values: Any) -> np.ndarray:
         """The values brought within the bounds (OMPL's ``enforceBounds``: positions clipped,
-        angles wrapped)."""
+        angles wrapped).
+
+        Args:
+            values: (:attr:`dim`,) floats.
+
+        Returns:
+            (:attr:`dim`,) the values within the bounds.
+        """
         s = self.state(values)
         self.space.enforceBounds(s)
         return self.values(s)
 
     def distance(self, a: Any, b: Any) -> float:
-        """OMPL's distance of the space between two states' values."""
+        """OMPL's distance of the space between two states' values.
+
+        Args:
+            a: (:attr:`dim`,) floats.
+            b: (:attr:`dim`,) floats.
+
+        Returns:
+            The space's distance (m and rad as the space weighs them).
+        """
         return float(self.space.distance(self.state(a), self.state(b)))
 
 
@@ -223,7 +264,11 @@ class Placement:
         self.refresh(world)
 
     def refresh(self, world: World) -> None:
-        """Reads the object's and the reference's poses now (what a state leaves unchanged)."""
+        """Read the object's and the reference's poses now (what a state leaves unchanged).
+
+        Args:
+            world: the scene.
+        """
         if self.kind in JOINT_TYPES:
             return
         self.p0, self.r0 = world.frame(self.ref)
@@ -232,7 +277,12 @@ class Placement:
         self.euler = euler_from_matrix(self.rel_r)
 
     def write(self, data: mujoco.MjData, v: np.ndarray) -> None:
-        """Puts the values ``v`` (:attr:`width`,) into ``data`` (its ``qpos`` or mocap pose)."""
+        """Put a state's values into a copy of the state.
+
+        Args:
+            data: the scratch ``MjData`` (its ``qpos`` or mocap pose is written).
+            v: (:attr:`width`,) the values (m, rad, quaternion x, y, z, w).
+        """
         if self.kind in JOINT_TYPES:
             data.qpos[self.address] = v[0]
             return
