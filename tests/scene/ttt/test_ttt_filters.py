@@ -109,9 +109,9 @@ def test_blob_detection_finds_the_tower_with_v_reps_packet(load):
 
 def test_a_component_simx_cannot_apply_is_reported_and_the_image_stays_rendered(load):
     sim, texts, report = load(V.scene(
-        V.vision_sensor(10, "rot", [V.component(1), V.component(33, floats=(0.3,)), V.component(4)]),
+        V.vision_sensor(10, "rot", [V.component(1), V.component(35, bytes_=(0,), ints=(32, 32)), V.component(4)]),
         V.vision_sensor(11, "plain", [V.component(1), V.component(4)])))
-    assert "vision sensor filters: colour segmentation (the sensor shows its unfiltered image)" in report.counts
+    assert "vision sensor filters: image to coordinates (the sensor shows its unfiltered image)" in report.counts
     assert "filters=" not in texts["simx:rot"] and "filters=" not in texts["simx:plain"]
     assert np.array_equal(sim.vision.image(_h(sim, "rot"), False), sim.vision.image(_h(sim, "plain"), False))
 
