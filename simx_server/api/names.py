@@ -31,7 +31,7 @@ from simx_server.base.arguments import quote
 from simx_server.api.registry import SIM, SIMOMPL
 
 #: The namespaces ``zmqRemoteApi.require`` accepts.
-NAMESPACES = ("sim", "simIK", "simOMPL")
+NAMESPACES = ("sim", "simIK", "simOMPL", "simVision")
 
 
 #: Functions CoppeliaSim 4.x keeps for programs of 4.0-4.2 (its ``sim`` table still answers them,

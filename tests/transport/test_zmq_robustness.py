@@ -100,7 +100,7 @@ def test_bad_requests_are_answered_with_err_and_change_nothing(req, name):
     ("sim.getObject", [{"deep": [[[[1]]]]}], "must be a string"),
     ("sim.loadScene", ["../../../../etc/passwd"], "refused"),
     ("sim.callScriptFunction", ["x@/Nowhere", 1], "does not exist"),
-    ("zmqRemoteApi.require", ["simOMPL"], "not available in simx"),
+    ("zmqRemoteApi.require", ["simROS2"], "not available in simx"),
     ("zmqRemoteApi.info", [["sim"]], "no module"),
     ("_*executed*_", [], "nothing waits for it"),
 ])
