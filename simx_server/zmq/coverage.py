@@ -1,5 +1,5 @@
 """What simx implements of CoppeliaSim 4.x's ``sim`` (442 functions), ``simIK`` (76) and its vision
-plug-in's ``simVision`` (:data:`SIMVISION_FUNCTIONS`), from the code: a function is
+plug-in's ``simVision`` (46), from the code: a function is
 **implemented** when the API table (:data:`simx_server.api.registry.SIM` /
 :data:`~simx_server.api.registry.SIMIK` / ``SIMVISION``, which child scripts and ZMQ clients share) or the ZMQ
 service's stepping calls have it; **headless** when it is one of the window functions answered as
@@ -62,20 +62,6 @@ IK_NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
 }
 
 
-#: CoppeliaSim's ``simVision`` functions (names of CoppeliaRobotics/simVision ``lua/simVision-ce.lua``
-#: at ff48ae0, the plug-in's 4.6+ version); the coppeliasim_api.json table has no plug-ins.
-SIMVISION_FUNCTIONS = (
-    "addBuffer1ToWorkImg", "addWorkImgToBuffer1", "binaryWorkImg", "blobDetectionOnWorkImg", "buffer1ToWorkImg",
-    "buffer2ToWorkImg", "changedPixelsOnWorkImg", "circularCutWorkImg", "colorSegmentationOnWorkImg",
-    "coordinatesFromWorkImg", "createVelodyneHDL64E", "createVelodyneVPL16", "destroyVelodyneHDL64E",
-    "destroyVelodyneVPL16", "distort", "edgeDetectionOnWorkImg", "handleAnaglyphStereo", "handleSpherical",
-    "handleVelodyneHDL64E", "handleVelodyneVPL16", "horizontalFlipWorkImg", "intensityScaleOnWorkImg",
-    "matrix3x3OnWorkImg", "matrix5x5OnWorkImg", "multiplyWorkImgWithBuffer1", "normalizeWorkImg",
-    "rectangularCutWorkImg", "resizeWorkImg", "rotateWorkImg", "scaleAndOffsetWorkImg", "selectiveColorOnWorkImg",
-    "sensorDepthMapToWorkImg", "sensorImgToWorkImg", "sharpenWorkImg", "shiftWorkImg", "subtractBuffer1FromWorkImg",
-    "subtractWorkImgFromBuffer1", "swapBuffers", "swapWorkImgWithBuffer1", "uniformImgToWorkImg",
-    "velodyneDataFromWorkImg", "verticalFlipWorkImg", "workImgToBuffer1", "workImgToBuffer2",
-    "workImgToSensorDepthMap", "workImgToSensorImg")
 _VELODYNE = ("a rotating scanner the plug-in assembles from 4 sensors it handles itself: not done yet "
              "(a script's velodyneDataFromWorkImg is)")
 #: simVision functions simx does not implement: (status, why).
@@ -103,7 +89,7 @@ def table() -> dict[str, list[tuple[str, str, str]]]:
            "simIK": [(n, *_status(n, set(SIMIK.names(Callers.CLIENTS)), IK_NOT_IMPLEMENTED, set()))
                      for n in sorted(names.current_functions("simIK"))],
            "simVision": [(n, *_status(n, set(SIMVISION.names(Callers.CLIENTS)), VISION_NOT_IMPLEMENTED, set()))
-                         for n in SIMVISION_FUNCTIONS]}
+                         for n in sorted(names.current_functions("simVision"))]}
     return out
 
 
