@@ -96,15 +96,16 @@ class VisionCallbacks:
         (a simulation pass, after the step)."""
         sim = self._scripts.simulation
         for h in list(self._attached):
-            if h in sim.vision.explicit or sensors.is_passive(sim, h):
-                continue
             try:
+                if h in sim.vision.explicit or sensors.is_passive(sim, h):
+                    continue
                 sim.vision.handle(h, self)
                 self._failed.discard(h)
-            except RemoteError as exc:  # the sensor's frame could not be made: said once, the pass goes on
+            except Exception as exc:  # no frame (a renderer's failure), an edit removed it: said once
                 if h not in self._failed:
                     self._failed.add(h)
-                    log.error("vision sensor %r not handled: %s", sim.world.get(h).name, exc)
+                    log.error("vision sensor %d not handled with its vision callbacks: %s: %s", h,
+                              type(exc).__name__, exc, exc_info=not isinstance(exc, RemoteError))
 
     def vision(self, handle: int, record: Handled) -> None:
         """The ``sysCall_vision`` callbacks of the sensor's scripts, on ``record``."""

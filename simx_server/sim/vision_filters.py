@@ -192,7 +192,17 @@ def _convolve(img: np.ndarray, kernel: np.ndarray) -> np.ndarray:
 
 
 def _intensity(img: np.ndarray) -> np.ndarray:
-    return img.sum(axis=2, dtype=_F32) / _F32(3.0)
+    return vision_blobs.intensity(img)
+
+
+def _outside(c: np.ndarray, lo: np.ndarray, hi: np.ndarray, channels: range) -> np.ndarray:
+    """Pixels of ``c`` (h, w, 3) outside ``lo..hi`` in any of ``channels`` (a channel at a time:
+    5x faster than a reduction over the last axis)."""
+    out = np.zeros(c.shape[:2], bool)
+    for k in channels:
+        out |= c[..., k] > hi[k]
+        out |= c[..., k] < lo[k]
+    return out
 
 
 def _colour_map(i: np.ndarray) -> np.ndarray:
@@ -222,10 +232,10 @@ def _selective(st: FilterState, a: tuple[float, ...]) -> None:
     rgb, keep, to_b1 = bool(a[6]), bool(a[7]), bool(a[8])
     lo, hi = col - tol, col + tol
     if rgb:
-        out = np.any((work > hi) | (work < lo), axis=2)
+        out = _outside(work, lo, hi, range(3))
     else:
         c = _to_hsl(work)
-        out = np.any((c[..., 1:] > hi[1:]) | (c[..., 1:] < lo[1:]), axis=2)
+        out = _outside(c, lo, hi, range(1, 3))
         if hi[0] - lo[0] < 1.0:  # hue wraps around
             h = c[..., 0]
             out |= ((h > hi[0]) & (h < 1 + lo[0])) | ((h < lo[0]) & (h > hi[0] - 1))
