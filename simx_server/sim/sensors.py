@@ -189,8 +189,12 @@ def set_passive_image(sim: SimulationView, handle: int, image: bytes, grey: bool
         rgb = img.reshape(spec.height, spec.width, 3).copy()
     sim.sensors.passive.set(handle, rgb)
     sim.world.version += 1
+    rec = sim.vision.in_callback(handle)
+    if rec is not None:  # written by the sensor's own callback: the image it is handling
+        rec.rgb = rgb
+        return
     hooks = vision_hooks(sim, handle)
-    if hooks is not None and sim.vision.in_callback(handle) is None:
+    if hooks is not None:
         sim.vision.handle(handle, hooks, rgb)
 
 
