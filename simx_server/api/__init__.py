@@ -1,21 +1,23 @@
 """CoppeliaSim's API as one table of plain functions (:mod:`.registry`), served alike to Lua and
 Python child scripts and ZMQ clients: ``sim`` in :mod:`.sim`, ``simIK`` in :mod:`.simik`,
-``simOMPL`` in :mod:`.simompl`, the context every call takes in :mod:`.context`."""
+``simOMPL`` in :mod:`.simompl`, ``simVision`` in :mod:`.simvision`, the context every call takes in
+:mod:`.context`."""
 
 from __future__ import annotations
 
 from typing import Any
 
 from simx_server.api import sim as _sim, simik as _simik, simompl as _simompl  # noqa: F401 (importing them fills the tables)
+from simx_server.api import simvision as _simvision  # noqa: F401
 from simx_server.api.context import ApiNamespace, CallContext
-from simx_server.api.registry import SIM, SIMIK, SIMOMPL, Callers
+from simx_server.api.registry import SIM, SIMIK, SIMOMPL, SIMVISION, Callers
 from simx_server.api.signals import Signals
 from simx_server.api.sim.forces import AppliedForces
 from simx_server.sim.objects import WORLD
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import World
 
-__all__ = ["SIM", "SIMIK", "SIMOMPL", "ApiNamespace", "CallContext", "Callers", "client_context", "script_sim"]
+__all__ = ["SIM", "SIMIK", "SIMOMPL", "SIMVISION", "ApiNamespace", "CallContext", "Callers", "client_context", "script_sim"]
 
 
 def script_sim(world: World, owner: int, signals: Signals | None = None, label: str = "",

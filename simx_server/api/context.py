@@ -15,7 +15,7 @@ import random
 from collections.abc import Callable
 from typing import Any
 
-from simx_server.api.registry import SIM, SIMIK, SIMOMPL, ApiFunction, ApiTable, Callers
+from simx_server.api.registry import SIM, SIMIK, SIMOMPL, SIMVISION, ApiFunction, ApiTable, Callers
 from simx_server.api.signals import Signals
 from simx_server.base.arguments import as_integer
 from simx_server.sim.state import SimulationView
@@ -103,6 +103,7 @@ class CallContext:
         self._sim: ApiNamespace | None = None
         self._simik: ApiNamespace | None = None
         self._simompl: ApiNamespace | None = None
+        self._simvision: ApiNamespace | None = None
 
     # ------------------------------------------------------------- what it acts on
     @property
@@ -167,6 +168,13 @@ class CallContext:
         if self._simompl is None:
             self._simompl = ApiNamespace(SIMOMPL, self)
         return self._simompl
+
+    @property
+    def simvision(self) -> ApiNamespace:
+        """``simVision`` bound to this context."""
+        if self._simvision is None:
+            self._simvision = ApiNamespace(SIMVISION, self)
+        return self._simvision
 
     def simulation(self, what: str) -> SimulationView:
         """The simulation, for the call ``what``; UnsupportedError naming it without one."""

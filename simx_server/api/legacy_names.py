@@ -238,7 +238,7 @@ def status(name: str, functions: frozenset[str] | set[str] | tuple[str, ...]) ->
 
 #: Plugin namespaces of V-REP / CoppeliaSim that simx does not have: ``simROS`` & co. are nil, as
 #: in a CoppeliaSim without that plugin (scripts test ``if simROS then``).
-_PLUGINS = ("simVision", "simSurfRec", "simQHull", "simAssimp", "simOpenMesh", "simSkeleton", "simCam", "simJoy",
+_PLUGINS = ("simSurfRec", "simQHull", "simAssimp", "simOpenMesh", "simSkeleton", "simCam", "simJoy",
             "simWii", "simK3", "simMTB", "simBubble", "simICP", "simSDF", "simLuaCmd", "simGeom", "simZMQ", "simWS",
             "simSubprocess", "simEigen", "simGLTF", "simOMPL", "simURDF", "simBWF", "simROS", "simROS2", "simRRS1")
 
@@ -296,21 +296,6 @@ for name in pairs(plugins) do
   package.preload[name] = function()
     error(name .. " is a CoppeliaSim plugin that simx does not have (docs/SCRIPTS.md)", 0)
   end
-end
--- simVision (simVision = require('simVision')) works on a vision sensor's image in the sensor's
--- vision callback, which simx does not call (a sensor's filter steps are its filters= setting):
--- the module loads, so that the rest of a script that requires it runs, and each of its
--- functions raises an error naming it.
-package.preload.simVision = function()
-  return setmetatable({}, {__index = function(t, key)
-    if type(key) ~= "string" then return nil end
-    local f = function()
-      error("simVision." .. key .. ": simx does not call vision callbacks (sysCall_vision); a vision sensor's "
-            .. "filter steps are its filters= setting (docs/PORTING.md)", 2)
-    end
-    rawset(t, key, f)
-    return f
-  end})
 end
 G.simRemoteApi = {
   start = function(...) return sim.remoteApiStart(...) end,

@@ -31,7 +31,7 @@ from simx_server.base.arguments import quote
 from simx_server.api.registry import SIM, SIMOMPL
 
 #: The namespaces ``zmqRemoteApi.require`` accepts.
-NAMESPACES = ("sim", "simIK", "simOMPL")
+NAMESPACES = ("sim", "simIK", "simOMPL", "simVision")
 
 
 #: Functions CoppeliaSim 4.x keeps for programs of 4.0-4.2 (its ``sim`` table still answers them,
@@ -62,6 +62,23 @@ DEPRECATED: dict[str, tuple[str, ...]] = {
 }
 
 
+#: The functions of CoppeliaSim's plug-ins simx serves, which the generated table (the ZMQ client's
+#: headers) does not list: ``simVision``'s, the names of CoppeliaRobotics/simVision
+#: ``lua/simVision-ce.lua`` at ff48ae0 (the plug-in's 4.6+ version).
+PLUGIN_FUNCTIONS: dict[str, tuple[str, ...]] = {"simVision": (
+    "addBuffer1ToWorkImg", "addWorkImgToBuffer1", "binaryWorkImg", "blobDetectionOnWorkImg", "buffer1ToWorkImg",
+    "buffer2ToWorkImg", "changedPixelsOnWorkImg", "circularCutWorkImg", "colorSegmentationOnWorkImg",
+    "coordinatesFromWorkImg", "createVelodyneHDL64E", "createVelodyneVPL16", "destroyVelodyneHDL64E",
+    "destroyVelodyneVPL16", "distort", "edgeDetectionOnWorkImg", "handleAnaglyphStereo", "handleSpherical",
+    "handleVelodyneHDL64E", "handleVelodyneVPL16", "horizontalFlipWorkImg", "intensityScaleOnWorkImg",
+    "matrix3x3OnWorkImg", "matrix5x5OnWorkImg", "multiplyWorkImgWithBuffer1", "normalizeWorkImg",
+    "rectangularCutWorkImg", "resizeWorkImg", "rotateWorkImg", "scaleAndOffsetWorkImg", "selectiveColorOnWorkImg",
+    "sensorDepthMapToWorkImg", "sensorImgToWorkImg", "sharpenWorkImg", "shiftWorkImg", "subtractBuffer1FromWorkImg",
+    "subtractWorkImgFromBuffer1", "swapBuffers", "swapWorkImgWithBuffer1", "uniformImgToWorkImg",
+    "velodyneDataFromWorkImg", "verticalFlipWorkImg", "workImgToBuffer1", "workImgToBuffer2",
+    "workImgToSensorDepthMap", "workImgToSensorImg")}
+
+
 @lru_cache(maxsize=1)
 def coppeliasim_api() -> dict[str, Any]:
     """The generated table: ``{"functions": {ns: [names]}, "constants": {ns: {name: value}}}``."""
@@ -72,7 +89,7 @@ def coppeliasim_api() -> dict[str, Any]:
 def current_functions(namespace: str) -> frozenset[str]:
     """CoppeliaSim 4.x's function names of ``namespace`` in its headers (442 of ``sim``, 76 of
     ``simIK``; empty for an unknown namespace): what docs/COVERAGE.md counts."""
-    return frozenset(coppeliasim_api()["functions"].get(namespace, ()))
+    return frozenset(coppeliasim_api()["functions"].get(namespace, PLUGIN_FUNCTIONS.get(namespace, ())))
 
 
 def coppeliasim_functions(namespace: str) -> frozenset[str]:

@@ -1,4 +1,5 @@
-"""The one table of CoppeliaSim's API: every ``sim.NAME``, ``simIK.NAME`` and ``simOMPL.NAME`` simx serves, found by name.
+"""The one table of CoppeliaSim's API: every ``sim.NAME``, ``simIK.NAME``, ``simOMPL.NAME`` and
+``simVision.NAME`` simx serves, found by name.
 
 Each function is a plain module-level function of :mod:`simx_server.api.sim` (or
 :mod:`simx_server.api.simik`), registered once under its CoppeliaSim name with
@@ -38,7 +39,7 @@ class ApiFunction:
     """One entry of the table.
 
     Attributes:
-        library: ``"sim"``, ``"simIK"`` or ``"simOMPL"``.
+        library: ``"sim"``, ``"simIK"``, ``"simOMPL"`` or ``"simVision"``.
         name: CoppeliaSim's name (without the library prefix).
         function: the implementation, ``function(ctx, *args)``.
         callers: who may call it (the others get an UnsupportedError naming the restriction).
@@ -114,6 +115,8 @@ SIM = ApiTable("sim")
 SIMIK = ApiTable("simIK")
 #: ``simOMPL.NAME`` of CoppeliaSim 4.x's OMPL plug-in (:mod:`simx_server.api.simompl`).
 SIMOMPL = ApiTable("simOMPL")
+#: ``simVision.NAME`` of CoppeliaSim 4.x's vision plug-in (:mod:`simx_server.api.simvision`).
+SIMVISION = ApiTable("simVision")
 
 
 def _decorator(table: ApiTable, names: tuple[str, ...], callers: Callers) -> Callable[[F], F]:
@@ -146,3 +149,8 @@ def simik_function(*names: str, callers: Callers = Callers.ALL) -> Callable[[F],
 def simompl_function(*names: str, callers: Callers = Callers.ALL) -> Callable[[F], F]:
     """Register the decorated function as ``simOMPL.NAME`` (as :func:`sim_function`)."""
     return _decorator(SIMOMPL, names, callers)
+
+
+def simvision_function(*names: str, callers: Callers = Callers.ALL) -> Callable[[F], F]:
+    """Register the decorated function as ``simVision.NAME`` (as :func:`sim_function`)."""
+    return _decorator(SIMVISION, names, callers)

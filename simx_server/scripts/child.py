@@ -404,7 +404,8 @@ def _script_builtins(allow_remote_code: bool) -> dict[str, Any]:
 
 
 class PythonScript(ChildScript):
-    """A Python child script: globals ``sim``, ``simIK`` and ``simOMPL`` (:class:`~simx_server.api.context.ApiNamespace`) and ``print`` (to the log)."""
+    """A Python child script: globals ``sim``, ``simIK``, ``simOMPL`` and ``simVision``
+    (:class:`~simx_server.api.context.ApiNamespace`) and ``print`` (to the log)."""
 
     language = "Python"
 
@@ -432,6 +433,7 @@ class PythonScript(ChildScript):
         }
         self.namespace["simIK"] = self.namespace["sim"].context.simik  # CoppeliaSim 4.x's simIK
         self.namespace["simOMPL"] = self.namespace["sim"].context.simompl  # and its OMPL plug-in
+        self.namespace["simVision"] = self.namespace["sim"].context.simvision  # and its vision plug-in
         self._initial_globals = frozenset(self.namespace)
         self._bounded("top level", lambda: exec(self._code, self.namespace))
 

@@ -114,7 +114,7 @@ class DynamicsCallbacks:
         self._dyn(self._pass, total, step, False)
         changed = False
         for script, handle in self.joints:
-            out = self._call(script, JOINT_CALLBACK, self._joint_data(m, d, handle, self._pass, total, step))
+            out = call_back(script, JOINT_CALLBACK, self._joint_data(m, d, handle, self._pass, total, step))
             if isinstance(out, dict) and ("force" in out or "velocity" in out):
                 i = w.motor_index[handle]
                 motors = w.motors
@@ -151,7 +151,7 @@ class DynamicsCallbacks:
         for g1, g2 in sorted(self._filter.candidates(m)):
             data = {"handle1": int(shape_of[g1]), "handle2": int(shape_of[g2]), "engine": PHYSICS_MUJOCO}
             for script in self.contact:
-                out = self._call(script, CONTACT_CALLBACK, data)
+                out = call_back(script, CONTACT_CALLBACK, data)
                 if not isinstance(out, dict) or out.get("ignoreContact", False):
                     continue
                 if script.label not in self._told and any(k in out for k in _ENGINE_TABLES):
@@ -165,7 +165,7 @@ class DynamicsCallbacks:
 
     def _dyn(self, n: int, total: int, step: float, after: bool) -> None:
         for script in self.dyn:
-            self._call(script, DYN_CALLBACK, {"passCnt": n, "totalPasses": total, "dynStepSize": step,
+            call_back(script, DYN_CALLBACK, {"passCnt": n, "totalPasses": total, "dynStepSize": step,
                                                "afterStep": after})
 
     def _joint_data(self, m: mujoco.MjModel, d: mujoco.MjData, handle: int, n: int, total: int,
@@ -188,12 +188,22 @@ class DynamicsCallbacks:
                 "maxVel": float(motors.max_velocity[i]), "velUpperLimit": float(motors.max_velocity[i]),
                 "maxForce": float(motors.max_force[i]), "first": n == 1, "last": n == total}
 
-    @staticmethod
-    def _call(script: Any, function: str, data: dict) -> Any:
-        """``function(data)`` of ``script``, its first result; None when it is skipped (the
-        script cut, the pass's time spent) or fails."""
-        if not script._may_run(function) or script._pass_spent(function):
-            return None
-        result: list = []
-        script._guarded(function, lambda: result.extend(script._run_values(function, (data,))))
-        return result[0] if result else None
+
+def call_back(script: Any, function: str, data: dict) -> Any:
+    """A system callback ``function(data)`` of ``script`` in the current pass, charged and bounded
+    as every callback (:mod:`simx_server.scripts.budget`): its first result; None when it is
+    skipped (the script cut, the pass's time spent) or fails (logged).
+
+    Args:
+        script: a :class:`~simx_server.scripts.child.ChildScript`.
+        function: the callback's name.
+        data: its ``inData``.
+
+    Returns:
+        Its first result (Lua tables as lists or dicts, strings as bytes), or None.
+    """
+    if not script._may_run(function) or script._pass_spent(function):
+        return None
+    result: list = []
+    script._guarded(function, lambda: result.extend(script._run_values(function, (data,))))
+    return result[0] if result else None

@@ -47,7 +47,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, ScriptError
 from simx_server.base import limits as L
 from simx_server.scripts.call_arguments import script_argument_bytes
 from simx_server.scripts.child import LIFE_CYCLE_CALLS, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG, ChildScript, legacy_outputs
-from simx_server.api import SIM, SIMIK, SIMOMPL
+from simx_server.api import SIM, SIMIK, SIMOMPL, SIMVISION
 from simx_server.scripts.lua_bounds import BOUNDS_LUA, CHECK_WORK, PIECE, SORT_IN_C
 from simx_server.scripts.lua_prelude import PRELUDE
 from simx_server.scripts.rewrites import lua_file_text, rewrite
@@ -142,6 +142,8 @@ class LuaScript(LuaStyles, ChildScript):
                 target, fname = self._sim.context.simik, fname[6:]
             elif fname.startswith("simOMPL."):  # and simOMPL's, which take Lua functions as callbacks
                 target, fname, callbacks = self._sim.context.simompl, fname[8:], True
+            elif fname.startswith("simVision."):  # and simVision's
+                target, fname = self._sim.context.simvision, fname[10:]
             result = target.call(fname, *[self._from_lua(a, callbacks=callbacks) for a in args])
             if isinstance(result, tuple):
                 return (True, *[self._to_lua(v) for v in result])
@@ -207,7 +209,7 @@ class LuaScript(LuaStyles, ChildScript):
         self._lookup, snapshot = prelude(
             self._dispatch, self._expired, self._write_log,
             rt.table_from([n.encode() for n in SIM] + [f"simIK.{n}".encode() for n in SIMIK]
-                          + [f"simOMPL.{n}".encode() for n in SIMOMPL]),
+                          + [f"simOMPL.{n}".encode() for n in SIMOMPL] + [f"simVision.{n}".encode() for n in SIMVISION]),
             rt.table_from({**{k.encode(): v for k, v in SIM.constants.items()},
                            **{f"simIK.{k}".encode(): v for k, v in SIMIK.constants.items()},
                            **{f"simOMPL.{k}".encode(): self._to_lua(v) for k, v in SIMOMPL.constants.items()}}),

@@ -102,10 +102,10 @@ local function bind(name)
     error(where() .. (name:find(".", 1, true) and "" or "sim.") .. name .. ": " .. tostring(r[2]), 0)
   end
 end
--- simIK.NAME and simOMPL.NAME functions and constants come in the same lists, under "simIK." and
--- "simOMPL." names.
-local simIK, simOMPL = {}, {}
-local libraries = {simIK = simIK, simOMPL = simOMPL}
+-- simIK.NAME, simOMPL.NAME and simVision.NAME functions and constants come in the same lists, under
+-- "simIK.", "simOMPL." and "simVision." names.
+local simIK, simOMPL, simVision = {}, {}, {}
+local libraries = {simIK = simIK, simOMPL = simOMPL, simVision = simVision}
 local function library(name)
   local lib, short = name:match("^(sim%w+)%.(.+)$")
   if lib and libraries[lib] then return libraries[lib], short end
@@ -123,13 +123,16 @@ setmetatable(sim, {__index = function(_, key)
   error(where() .. "sim." .. tostring(key) .. " is not available in simx (docs/SCRIPTS.md lists what is)", 0)
 end})
 G.sim = sim
--- CoppeliaSim 4.x's simIK (simx_server/api/simik/) and simOMPL (simx_server/api/simompl/), as
--- for ZMQ clients.
-G.simIK, G.simOMPL = simIK, simOMPL
+setmetatable(simVision, {__index = function(_, key)
+  error(where() .. "simVision." .. tostring(key) .. " is not available in simx (docs/SCRIPTS.md lists what is)", 0)
+end})
+-- CoppeliaSim 4.x's simIK (simx_server/api/simik/), simOMPL (simx_server/api/simompl/) and
+-- simVision (simx_server/api/simvision/), as for ZMQ clients.
+G.simIK, G.simOMPL, G.simVision = simIK, simOMPL, simVision
 -- CoppeliaSim 4.5+ scripts start with `sim = require('sim')`: the same tables as modules
 -- (CoppeliaSim's lua/sim.lua and the plugins' simIK.lua, simOMPL.lua return them), 'sim-1'/'sim-2' too.
 package.loaded.sim, package.loaded["sim-1"], package.loaded["sim-2"], package.loaded.simIK = sim, sim, sim, simIK
-package.loaded.simOMPL = simOMPL
+package.loaded.simOMPL, package.loaded.simVision = simOMPL, simVision
 -- CoppeliaSim's bundled model-customization modules (require('models.path_customization-2')...)
 -- draw and edit a model in the GUI: headless, they load and each of their functions does nothing,
 -- said once in the log (a script's own module of the same name in the scene's folder wins).

@@ -20,6 +20,7 @@ from simx_server.scripts.child import (DEFAULT_TIMEOUT, PYTHON_SCRIPTS_FLAG, REM
                                       ChildScript, PythonScript, RefusedScript)
 from simx_server.scripts.budget import ScriptBudget, ScriptPass
 from simx_server.scripts.dynamics import DynamicsCallbacks
+from simx_server.scripts.vision_callbacks import VisionCallbacks
 from simx_server.api.signals import Signals
 from simx_server.api.sim.forces import AppliedForces
 from simx_server.scripts.lua import LuaScript
@@ -99,6 +100,7 @@ class Scripts:
                  timeout: float = DEFAULT_TIMEOUT, untrusted: Iterable[Path] = (),
                  allow_unsafe_lua: bool = False, simulation: Any = None, allow_python_scripts: bool = False):
         self.world = world
+        self.simulation = simulation
         self.signals = signals if signals is not None else Signals()
         self.forces = AppliedForces()  # sim.addForce & co., for the next step
         self.stopping = False  # True while the scripts' sysCall_cleanup run
@@ -114,6 +116,8 @@ class Scripts:
         self.opened = False
         # sysCall_jointCallback / sysCall_dynCallback / sysCall_contactCallback at each substep, in the step's pass
         self.dynamics = DynamicsCallbacks(world, lambda: self.budget.pass_of("step", self._step))
+        #: Vision sensors handled with their scripts' sysCall_vision (scripts/vision_callbacks.py).
+        self.vision = VisionCallbacks(self)
         for obj in world.objects.values():
             for key, table in (("child_script", self.scripts), ("customization_script", self.customization)):
                 file = obj.settings.get(key)
@@ -187,6 +191,7 @@ class Scripts:
             self._customization("sysCall_beforeSimulation")
             self._start_all(self.scripts.values(), "at start")
         self.dynamics.install([*self.scripts.values(), *self.customization.values()])
+        self.vision.install()
 
     def actuation(self) -> None:
         """Before a step: each child script's thread resumes, then its ``sysCall_actuation``;
@@ -204,13 +209,14 @@ class Scripts:
             particles.advance(self.world, self.forces, self.world.dt)
 
     def sensing(self) -> None:
-        """After a step: forces scripts added are reset (the step applied them), then
-        ``sysCall_sensing`` of every script."""
+        """After a step: forces scripts added are reset (the step applied them), the vision
+        sensors with callbacks are handled, then ``sysCall_sensing`` of every script."""
         self.forces.clear(self.world)
         step, self._step = self._step, None
         if not (self.scripts or self.customization):
             return
         with self.budget.pass_of("step", step):
+            self.vision.handle_pass()
             for script in self.scripts.values():
                 script.life_cycle("sysCall_sensing")
             self._customization("sysCall_sensing")
@@ -219,6 +225,7 @@ class Scripts:
         """Simulation stops: ``sysCall_cleanup`` of every script; signals set by scripts go."""
         self.stopping = True  # sim.getSimulationState in sysCall_cleanup: the last pass before the stop
         self.dynamics.remove()
+        self.vision.remove()
         try:
             with self.budget.pass_of("stop"):
                 for script in self.scripts.values():

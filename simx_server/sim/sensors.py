@@ -117,7 +117,7 @@ def override_image(sim: SimulationView, handle: int, grey: bool) -> np.ndarray |
     Returns:
         The image, or None.
     """
-    if not is_passive(sim, handle):
+    if not is_passive(sim, handle) or sim.vision.record(handle) is not None:  # handled: its record
         return None
     rgb = sim.sensors.passive.get(handle)
     spec = sim.vision.spec(handle)
@@ -128,9 +128,39 @@ def override_image(sim: SimulationView, handle: int, grey: bool) -> np.ndarray |
     return rgb
 
 
+def vision_hooks(sim: SimulationView, handle: int) -> Any:
+    """The vision callbacks of the scripts attached to sensor ``handle``
+    (:meth:`simx_server.scripts.vision_callbacks.VisionCallbacks.hook`), or None.
+
+    Args:
+        sim: the simulation.
+        handle: a vision sensor's handle.
+
+    Returns:
+        A :class:`~simx_server.sim.vision_handled.VisionHooks`, or None.
+    """
+    callbacks = getattr(sim.scripts, "vision", None)
+    return None if callbacks is None else callbacks.hook(handle)
+
+
+def handle_with_callbacks(sim: SimulationView, handle: int) -> None:
+    """Handle vision sensor ``handle`` now with its scripts' vision callbacks, if it has any and is
+    not passive (``sim.handleVisionSensor``; :mod:`simx_server.sim.vision_handled`).
+
+    Args:
+        sim: the simulation.
+        handle: a vision sensor's handle.
+    """
+    hooks = vision_hooks(sim, handle)
+    if hooks is not None and not is_passive(sim, handle):
+        sim.vision.handle(handle, hooks)
+
+
 def set_passive_image(sim: SimulationView, handle: int, image: bytes, grey: bool) -> None:
     """Write the image of a passive vision sensor (``simxSetVisionSensorImage``,
-    ``sim.setVisionSensorImg``); the sensor's image reads return it from then on.
+    ``sim.setVisionSensorImg``); the sensor's image reads return it from then on. When the
+    sensor's scripts have a vision callback, it is handled with that image as CoppeliaSim does
+    (``CVisionSensor::setVisionSensorImg``): reads then return what the callbacks made of it.
 
     Args:
         sim: the simulation.
@@ -161,6 +191,13 @@ def set_passive_image(sim: SimulationView, handle: int, image: bytes, grey: bool
         rgb = img.reshape(spec.height, spec.width, 3).copy()
     sim.sensors.passive.set(handle, rgb)
     sim.world.version += 1
+    rec = sim.vision.in_callback(handle)
+    if rec is not None:  # written by the sensor's own callback: the image it is handling
+        rec.rgb = rgb
+        return
+    hooks = vision_hooks(sim, handle)
+    if hooks is not None:
+        sim.vision.handle(handle, hooks, rgb)
 
 
 # ------------------------------------------------------------------ force sensors

@@ -10,7 +10,9 @@ in all three channels (near dark, far bright), as a V-REP depth sensor with a
 to 2) makes the image V-REP's colour-coded handles (simx_server.sim.handle_render). A sensor
 with a ``background=`` colour (every sensor of a ``.ttt``) is drawn as V-REP drew it: no sky
 box, that colour where no object is, nothing outside its near and far planes; its filter chain
-and options ("ignore RGB", ...) are :mod:`simx_server.sim.vision_chain`.
+and options ("ignore RGB", ...) are :mod:`simx_server.sim.vision_chain`, and a sensor whose
+scripts have a vision callback (``sysCall_vision``) is handled each simulation pass as
+CoppeliaSim handles it (:mod:`simx_server.sim.vision_handled`).
 
 Like V-REP's default vision-sensor renderer (plain OpenGL), sensors draw neither shadows nor
 reflections, whatever the scene's lights and materials say; ``shadows=true`` and
@@ -71,12 +73,13 @@ from simx_server.sim.depth_frames import flat_planes
 from simx_server.sim.render_thread import RenderThread, render_bands
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
 from simx_server.sim.vision_chain import VisionChain, clip_planes
+from simx_server.sim.vision_handled import VisionHandling
 from simx_server.sim.vision_results import Deferred, VisionResults
 from simx_server.sim.world import VISION_SENSOR, World
 
 log = logging.getLogger("simx.vision")
 
-class VisionSensors(VisionChain, VisionResults):
+class VisionSensors(VisionHandling, VisionChain, VisionResults):
     """The scene's vision sensors.
 
     Methods are called on the simulation thread; rendering happens on render threads (each a
@@ -110,7 +113,8 @@ class VisionSensors(VisionChain, VisionResults):
         self.for_streams = False
         self._cache: dict[tuple[int, str], tuple[int, Future, RenderThread]] = {}
         self._colours: np.ndarray | None = None  # geom id -> packed handle colour (handle_render)
-        self._filter_states: dict = {}  # handle -> its filter chain's images (vision_filters.FilterState)
+        self._filter_states: dict = {}  # handle -> its work image and buffers (vision_filters.FilterState)
+        self._init_handling()  # records of sensors handled with callbacks (vision_handled)
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
         self._ready = self._prepare(self._thread)
@@ -124,11 +128,14 @@ class VisionSensors(VisionChain, VisionResults):
         self._cache.clear()
         self._colours = None
         self._filter_states.clear()
+        self._reset_handling()
         m = world.model
         vision_look.scene_look(m)  # a look it cannot give refuses the scene (ValueError)
         for obj in world.objects.values():
             if obj.type == VISION_SENSOR:
                 self.specs[obj.handle] = sensor_spec(m, obj)
+                if obj.settings.get("explicit") == "true":  # saved with explicit handling (vision_handled)
+                    self.explicit.add(obj.handle)
         if self.specs:
             m.vis.global_.offwidth = max(m.vis.global_.offwidth, *(s.width for s in self.specs.values()))
             m.vis.global_.offheight = max(m.vis.global_.offheight, *(s.height for s in self.specs.values()))

@@ -24,6 +24,7 @@ from simx_server.sim.handle_render import BACKGROUND, COLOR_CODED
 
 if TYPE_CHECKING:
     from simx_server.sim.render_thread import RenderThread
+    from simx_server.sim.vision_handled import Handled
     from simx_server.sim.sensor_spec import SensorSpec
     from simx_server.sim.world import World
 
@@ -125,7 +126,10 @@ class VisionChain:
             UnknownObjectError: no such object.
             ObjectTypeError: not a vision sensor.
         """
-        spec = self.spec(handle)
+        spec, rec = self.spec(handle), self.record(handle)
+        if rec is not None:  # handled: its callbacks' and chain's depth
+            depth = rec.depth
+            return lambda: depth
         if spec.filters and VF.writes_depth(spec.filters):
             filtered = self._filtered(handle)
             return lambda: filtered.result().depth
@@ -178,7 +182,10 @@ class VisionChain:
         Returns:
             The job.
         """
-        spec = self.spec(handle)
+        spec, rec = self.spec(handle), self.record(handle)
+        if rec is not None:  # handled: its callbacks' and chain's image
+            rgb = rec.rgb
+            return (lambda: grey_of(rgb)) if grey else (lambda: rgb)
         image = self.raw_image_job(handle)
         if spec.filters and VF.writes_image(spec.filters):
             filtered = self._filtered(handle)
@@ -223,25 +230,42 @@ class VisionChain:
         Returns:
             The job, giving ``(triggered, [packet, ...])``.
         """
+        rec = self.record(handle)
+        if rec is not None:  # handled: the trigger and packets of its callbacks and chain
+            trigger, packets = rec.trigger, [list(p) for p in rec.packets]
+            return lambda: (trigger, packets)
         spec = self.spec(handle)
         raw = (lambda: image) if image is not None else self.raw_image_job(handle)
         depth = self._raw_depth_job(handle)
         filtered = self._filtered(handle) if spec.filters and image is None else None
 
-        coded = spec.render_mode == COLOR_CODED
-
         def read() -> tuple[bool, list[list[float]]]:
-            if coded:  # V-REP 3.x: the handles seen, each + 0.5 (whatever the statistics setting)
-                seen = np.unique(handles_of(raw()))
-                packets = [[float(h) + 0.5 for h in seen[seen < BACKGROUND]]]
-            else:
-                packets = [default_packet(raw(), depth()) if spec.basic_stats else []]
+            packets = [self.default_packet_of(spec, raw(), depth())]
             if filtered is None:
                 return False, packets
             result = filtered.result()
             return result.trigger, packets + [list(p) for p in result.packets]
 
         return read
+
+    @staticmethod
+    def default_packet_of(spec: SensorSpec, rgb: np.ndarray, depth: np.ndarray) -> list[float]:
+        """The first packet of a sensor's reading: V-REP's default packet (:func:`default_packet`,
+        empty when the sensor's "compute basic statistics" is off); for a sensor rendering
+        colour-coded handles, the handles it sees, each + 0.5, as V-REP 3.x.
+
+        Args:
+            spec: the sensor's properties.
+            rgb: its image, (h, w, 3) uint8.
+            depth: its depth, (h, w) float32 in 0..1.
+
+        Returns:
+            The packet.
+        """
+        if spec.render_mode == COLOR_CODED:  # whatever the statistics setting
+            seen = np.unique(handles_of(rgb))
+            return [float(h) + 0.5 for h in seen[seen < BACKGROUND]]
+        return default_packet(rgb, depth) if spec.basic_stats else []
 
     if TYPE_CHECKING:  # provided by VisionSensors
         world: World
@@ -259,3 +283,5 @@ class VisionChain:
         def _rendered_image_job(self, handle: int) -> Callable[[], np.ndarray]: ...
 
         def _frame(self, handle: int, kind: str) -> Future: ...
+
+        def record(self, handle: int) -> Handled | None: ...

@@ -152,3 +152,34 @@ def set_float(sim: SimulationView, handle: int, pid: int, value: float) -> None:
         sim.world.version += 1
     else:
         spec.ortho_size = float(value)
+
+
+#: CoppeliaSim's values for a sensor never given them (``CVisionSensor``): 60 degrees, 0.1 m.
+DEFAULT_ANGLE, DEFAULT_ORTHO_SIZE = math.radians(60.0), 0.1
+
+
+def view(sim: SimulationView, handle: int) -> tuple[bool, float, float]:
+    """A vision sensor's projection as CoppeliaSim keeps it (a vision callback's ``inData``,
+    ``simVision``'s points): ``(perspective, angle, ortho size)``, the angle (rad) and size (m)
+    along the image's larger side, both kept whatever the projection (one never given is
+    CoppeliaSim's default, :data:`DEFAULT_ANGLE`, :data:`DEFAULT_ORTHO_SIZE`).
+
+    Args:
+        sim: the simulation.
+        handle: a vision sensor's handle.
+
+    Returns:
+        ``(perspective, angle, ortho_size)``.
+    """
+    spec = _spec(sim, handle)
+    fovy = float(sim.world.model.cam_fovy[spec.camera])
+    if _ortho(sim, spec):
+        size = fovy * _larger_side(spec)
+        fovy = spec.persp_fovy if spec.persp_fovy is not None else None
+    else:
+        size = spec.ortho_size if spec.ortho_size is not None else DEFAULT_ORTHO_SIZE
+    if fovy is None:
+        return False, DEFAULT_ANGLE, size
+    half = math.radians(fovy) / 2  # MuJoCo's fovy is vertical; V-REP's angle spans the larger side
+    angle = 2 * math.atan(math.tan(half) * spec.width / spec.height) if spec.width > spec.height else 2 * half
+    return not _ortho(sim, spec), angle, size

@@ -1,6 +1,7 @@
-"""What simx implements of CoppeliaSim 4.x's ``sim`` (442 functions) and ``simIK`` (76), from
-the code: a function is **implemented** when the API table (:data:`simx_server.api.registry.SIM` /
-:data:`~simx_server.api.registry.SIMIK`, which child scripts and ZMQ clients share) or the ZMQ
+"""What simx implements of CoppeliaSim 4.x's ``sim`` (442 functions), ``simIK`` (76) and its vision
+plug-in's ``simVision`` (46), from the code: a function is
+**implemented** when the API table (:data:`simx_server.api.registry.SIM` /
+:data:`~simx_server.api.registry.SIMIK` / ``SIMVISION``, which child scripts and ZMQ clients share) or the ZMQ
 service's stepping calls have it; **headless** when it is one of the window functions answered as
 a headless CoppeliaSim does (the functions of :mod:`simx_server.api.sim.gui`).
 Every other function has an entry in :data:`NOT_IMPLEMENTED`: ``("n/a", why)`` where it has no
@@ -14,7 +15,7 @@ checks the file is current and every function has its status.
 
 from __future__ import annotations
 
-from simx_server.api import SIM, SIMIK, Callers, names
+from simx_server.api import SIM, SIMIK, SIMVISION, Callers, names
 from simx_server.zmq.service import STEPPING
 
 _MAIN = "the main script's own step: simx's loop runs it (sensing, dynamics, scripts) every step"
@@ -61,6 +62,19 @@ IK_NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
 }
 
 
+_VELODYNE = ("a rotating scanner the plug-in assembles from 4 sensors it handles itself: not done yet "
+             "(a script's velodyneDataFromWorkImg is)")
+#: simVision functions simx does not implement: (status, why).
+VISION_NOT_IMPLEMENTED: dict[str, tuple[str, str]] = {
+    **{n: ("missing", _VELODYNE) for n in ("createVelodyneHDL64E", "createVelodyneVPL16", "destroyVelodyneHDL64E",
+                                           "destroyVelodyneVPL16", "handleVelodyneHDL64E", "handleVelodyneVPL16")},
+    "distort": ("missing", "a lens distortion of the image by a pixel map: not done yet"),
+    "handleSpherical": ("missing", "a spherical image assembled from 6 sensors: not done yet (the pyrep package's "
+                                   "spherical sensor assembles its own)"),
+    "handleAnaglyphStereo": ("missing", "a red-cyan image of 2 sensors: not done yet"),
+}
+
+
 def _status(name: str, implemented: set[str], missing: dict[str, tuple[str, str]], gui: set[str]) -> tuple[str, str]:
     if name in implemented:
         return ("headless", "answered as a headless CoppeliaSim (no window)") if name in gui else ("implemented", "")
@@ -73,7 +87,9 @@ def table() -> dict[str, list[tuple[str, str, str]]]:
     sim_impl = set(SIM.names(Callers.CLIENTS)) | set(STEPPING)
     out = {"sim": [(n, *_status(n, sim_impl, NOT_IMPLEMENTED, gui)) for n in sorted(names.current_functions("sim"))],
            "simIK": [(n, *_status(n, set(SIMIK.names(Callers.CLIENTS)), IK_NOT_IMPLEMENTED, set()))
-                     for n in sorted(names.current_functions("simIK"))]}
+                     for n in sorted(names.current_functions("simIK"))],
+           "simVision": [(n, *_status(n, set(SIMVISION.names(Callers.CLIENTS)), VISION_NOT_IMPLEMENTED, set()))
+                         for n in sorted(names.current_functions("simVision"))]}
     return out
 
 

@@ -23,7 +23,7 @@ server does. Clients are in the loop's registry (:mod:`simx_server.loop.clients`
 leaves the barrier) when its connection closes, when it sends ``_*end*_``, or when the loop's
 housekeeping finds it past its ``timeout`` (s, its first request's; 600 by default) without a
 request (:meth:`ZmqService.keeps`: not while its ``_*executed*_`` waits for a step). Every other ``sim.NAME``,
-``simIK.NAME`` and ``simOMPL.NAME`` is the API table's (:mod:`simx_server.api`); those that
+``simIK.NAME``, ``simOMPL.NAME`` and ``simVision.NAME`` is the API table's (:mod:`simx_server.api`); those that
 render (images, depth buffers, vision packets) are answered from the render thread once their
 frames are drawn (:mod:`simx_server.zmq.renders`), the simulation going on meanwhile.
 """
@@ -48,7 +48,7 @@ from simx_server.zmq import codec
 from simx_server.zmq.budgets import RENDERS, Connection, reply_estimate
 from simx_server.zmq.clients import ZmqClient
 from simx_server.zmq.frontend import Frontend, Incoming
-from simx_server.api import SIM, SIMIK, SIMOMPL, CallContext, Callers, client_context, names
+from simx_server.api import SIM, SIMIK, SIMOMPL, SIMVISION, CallContext, Callers, client_context, names
 from simx_server.api.sim.stepped import CallbackCall, Stepped
 from simx_server.zmq.renders import RenderedReplies, Rendering, values as _values
 
@@ -90,7 +90,7 @@ class ZmqService(RenderedReplies):
         self.clients: dict[str, ZmqClient] = server.clients.of(self)
         self.connections: dict[bytes, Connection] = {}  # routing id -> its uuids and share
         self._remote: CallContext | None = None
-        self._libraries = {t.library: {n: t[n].function for n in t.names(Callers.CLIENTS)} for t in (SIM, SIMIK, SIMOMPL)}
+        self._libraries = {t.library: {n: t[n].function for n in t.names(Callers.CLIENTS)} for t in (SIM, SIMIK, SIMOMPL, SIMVISION)}
         self._functions = self._libraries["sim"]
         self._signatures: dict[str, inspect.Signature] = {}
         self._held = 0  # clients with a held _*executed*_

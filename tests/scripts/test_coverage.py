@@ -25,6 +25,11 @@ def test_every_function_has_a_status_and_each_gap_a_reason():
     implemented = {n for n, s, _ in t["sim"] if s in ("implemented", "headless")}
     stale = implemented & set(coverage.NOT_IMPLEMENTED)
     assert not stale, f"implemented, still listed in coverage.NOT_IMPLEMENTED: {sorted(stale)}"
+    # simVision: the plug-in's list names every function of the table, and no implemented one is a gap
+    from simx_server.api import SIMVISION
+
+    assert set(SIMVISION) <= names.current_functions("simVision")
+    assert not set(SIMVISION) & set(coverage.VISION_NOT_IMPLEMENTED)
 
 
 def test_deprecated_names_are_listed_for_the_client():

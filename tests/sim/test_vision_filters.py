@@ -32,8 +32,8 @@ def rgb():
 def test_parse_chain_names_what_is_wrong():
     assert VF.parse_chain("sensorImgToWorkImg;edgeDetectionOnWorkImg(0.2);workImgToSensorImg", "cam") == (
         VF.Step("sensorImgToWorkImg"), VF.Step("edgeDetectionOnWorkImg", (0.2,)), VF.Step("workImgToSensorImg"))
-    with pytest.raises(ValueError, match="'cam': unknown filter step 'colorSegmentationOnWorkImg"):
-        VF.parse_chain("colorSegmentationOnWorkImg(0.3)", "cam")
+    with pytest.raises(ValueError, match="'cam': unknown filter step 'coordinatesFromWorkImg"):
+        VF.parse_chain("coordinatesFromWorkImg(32,32,1)", "cam")
     with pytest.raises(ValueError, match="takes 1 finite numbers"):
         VF.parse_chain("edgeDetectionOnWorkImg", "cam")
     with pytest.raises(ValueError, match="takes 1 finite"):

@@ -3,9 +3,9 @@
 * ``checkCollision`` / ``checkDistance`` / ``getContactInfo``: MuJoCo's narrow phase
   (``mj_geomDistance``, :mod:`simx_server.sim.collisions`) between the shapes' collidable geoms,
   and the contacts of the last step (``data.contact``).
-* Vision and proximity sensors are rendered / cast when read, so "explicit handling" changes
-  nothing: ``handleVisionSensor`` and ``readVisionSensor`` give V-REP's 15-value packet of the
-  current image, ``handleProximitySensor`` and ``readProximitySensor`` cast the ray now.
+* Sensors are rendered / cast when read: ``handleVisionSensor`` and ``readVisionSensor`` give
+  V-REP's 15-value packet of the current image (a sensor with vision callbacks: of its last
+  handling, :mod:`simx_server.scripts.vision_callbacks`), the proximity calls cast the ray now.
 * Joints: :mod:`simx_server.api.sim.joint_modes`.
 """
 
@@ -184,8 +184,10 @@ def vision_of(ctx: CallContext, handle: Any) -> int:
 def handleVisionSensor(ctx: CallContext, sensorHandle: Any) -> tuple:  # noqa: N802, N803
     """Render the sensor now: ``detectionCount, auxPacket1, auxPacket2...``: how many sensors
     their filters triggered, V-REP's 15 values (min, max, average of intensity, red, green,
-    blue, depth, 0..1) and the filters' packets (see :func:`readVisionSensor`).
-    ``sim.handle_all``: each sensor; returns the last's packets.
+    blue, depth, 0..1) and the filters' packets (see :func:`readVisionSensor`); a sensor with
+    vision callbacks is handled with them now (:mod:`simx_server.scripts.vision_callbacks`).
+    ``sim.handle_all``: each sensor (``_except_explicit``: but those with explicit handling);
+    returns the last's packets.
 
     Args:
         sensorHandle: a vision sensor, or ``sim.handle_all``.
@@ -201,6 +203,10 @@ def handleVisionSensor(ctx: CallContext, sensorHandle: Any) -> tuple:  # noqa: N
     sim = ctx.simulation("handleVisionSensor")
     handles = (ctx.world.objects_of_type(VISION_SENSOR)
                if h in (C.sim_handle_all, C.sim_handle_all_except_explicit) else [vision_of(ctx, h)])
+    if h == C.sim_handle_all_except_explicit:
+        handles = [one for one in handles if one not in sim.vision.explicit]
+    for one in handles:  # a sensor whose scripts have vision callbacks: handled with them now
+        sensors.handle_with_callbacks(sim, one)
     jobs = [sensors.vision_read_job(sim, one) for one in handles]  # each rendered now
 
     def finish() -> tuple:
@@ -398,7 +404,9 @@ def getExplicitHandling(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N8
 
 @sim_function("setExplicitHandling")
 def setExplicitHandling(ctx: CallContext, objectHandle: Any, explicitHandlingFlags: Any) -> None:  # noqa: N802, N803
-    """Stored (``getExplicitHandling`` reads it); simx renders and casts on demand either way.
+    """Stored (``getExplicitHandling`` reads it); simx renders and casts on demand either way, but a
+    vision sensor with explicit handling (bit 0) is not handled each simulation pass with its
+    scripts' vision callbacks (only by ``sim.handleVisionSensor``), until the simulation stops.
 
     ``sim.setExplicitHandling``.
 
@@ -413,7 +421,10 @@ def setExplicitHandling(ctx: CallContext, objectHandle: Any, explicitHandlingFla
     explicit = ctx.state.explicit
     if explicit is None:
         explicit = ctx.state.explicit = {}
-    explicit[ctx.world.get(ctx.h(objectHandle)).handle] = _int(explicitHandlingFlags, "flags")
+    obj = ctx.world.get(ctx.h(objectHandle))
+    flags = explicit[obj.handle] = _int(explicitHandlingFlags, "flags")
+    if obj.type == VISION_SENSOR and ctx.view is not None:  # not handled each pass (vision callbacks)
+        (ctx.view.vision.explicit.add if flags & 1 else ctx.view.vision.explicit.discard)(obj.handle)
 
 
 @sim_function("getVelocity")

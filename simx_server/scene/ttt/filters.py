@@ -22,8 +22,7 @@ import numpy as np
 from simx_server.scene.ttt.records import Records
 
 #: V-REP's component type ids (simConst ``sim_filtercomponent_*``) that simx cannot apply.
-UNSUPPORTED = {32: "correlation with buffer 1", 33: "colour segmentation",
-               35: "image to coordinates", 36: "pixel change", 37: "velodyne", -1: "plugin filter"}
+UNSUPPORTED = {32: "correlation with buffer 1", 35: "image to coordinates", 37: "velodyne", -1: "plugin filter"}
 #: Components without parameters: type id -> simVision function.
 _PLAIN = {1: "sensorImgToWorkImg", 2: "sensorDepthMapToWorkImg", 4: "workImgToSensorImg",
           38: "workImgToSensorDepthMap", 5: "workImgToBuffer1", 6: "workImgToBuffer2", 7: "buffer1ToWorkImg",
@@ -68,7 +67,9 @@ def _defaults(t: int) -> tuple[list[int], list[int], list[float]]:
         26: ([3], [], [0.5, 0.5, 0.5, 0.25, 0.25, 0.25]),
         27: ([2], [], [0.0, 0.0, 0.0, 1.2, 1.2, 1.2, 0.0, 0.0, 0.0]),
         28: ([12], [], [0.1, 0.0, 0.0, 0.0, 0.5, 0.25, 0.5, 0.25, 0.5, 0.25, 0.0, math.radians(90.01), 0.9]),
+        33: ([], [], [0.3]),
         34: ([1], [], [0.1, 0.0]),
+        36: ([], [], [0.1]),
     }
     b, i, f = table.get(t, ([], [], []))
     return list(b), list(i), list(f)
@@ -147,7 +148,9 @@ def _step(c: FilterComponent) -> str | None:
         26: lambda: _call("selectiveColorOnWorkImg", *f[:6], bit(2), bit(1), bit(4)),
         27: lambda: _call("scaleAndOffsetWorkImg", *f[:9], bit(2)),
         28: lambda: _call("binaryWorkImg", f[0], *f[4:13], bit(4)),
+        33: lambda: _call("colorSegmentationOnWorkImg", f[0]),
         34: lambda: _call("blobDetectionOnWorkImg", f[0], f[1], bit(1)),
+        36: lambda: _call("changedPixelsOnWorkImg", f[0]),
     }
     make = calls.get(t)
     if make is None or not all(math.isfinite(v) for v in f):
@@ -207,6 +210,8 @@ def vision_settings(conv, v, name: str) -> list[str]:
         items.append("ignore_depth=true")
     if not v.basic_stats:
         items.append("basic_stats=false")
+    if v.explicit:  # handled by sim.handleVisionSensor only (its vision callbacks)
+        items.append("explicit=true")
     background = v.background
     if v.same_background:  # the environment's fog background colour (Fbg, default black)
         fog = conv.scene.fog_background

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import ttt_vision as V
+import tttwriter as W
 from simx_server.commands import sensors as cmd_sensors
 from simx_server.scene.ttt import convert, reader
 
@@ -109,9 +110,9 @@ def test_blob_detection_finds_the_tower_with_v_reps_packet(load):
 
 def test_a_component_simx_cannot_apply_is_reported_and_the_image_stays_rendered(load):
     sim, texts, report = load(V.scene(
-        V.vision_sensor(10, "rot", [V.component(1), V.component(33, floats=(0.3,)), V.component(4)]),
+        V.vision_sensor(10, "rot", [V.component(1), V.component(35, bytes_=(0,), ints=(32, 32)), V.component(4)]),
         V.vision_sensor(11, "plain", [V.component(1), V.component(4)])))
-    assert "vision sensor filters: colour segmentation (the sensor shows its unfiltered image)" in report.counts
+    assert "vision sensor filters: image to coordinates (the sensor shows its unfiltered image)" in report.counts
     assert "filters=" not in texts["simx:rot"] and "filters=" not in texts["simx:plain"]
     assert np.array_equal(sim.vision.image(_h(sim, "rot"), False), sim.vision.image(_h(sim, "plain"), False))
 
@@ -184,3 +185,50 @@ def test_the_tutorials_kinect_depth_outputs_grey_depth(load):
     depth = sim.vision.depth(depth_h)
     assert np.array_equal(img[..., 0], (depth * np.float32(255.1)).astype(np.uint8))
     assert img.std() > 5 and abs(float(img.mean()) - float(rgb.mean())) > 1  # not the colour photo
+
+
+VISION_SCRIPT = """function sysCall_init() calls = 0 end
+function sysCall_vision(inData)
+    calls = calls + 1
+    sim.setInt32Signal('calls_' .. sim.getObjectAlias(inData.handle), calls)
+    simVision.sensorDepthMapToWorkImg(inData.handle)
+    local trig, packet = simVision.binaryWorkImg(inData.handle, 0.6, 0, 0, 0, 0, 0, 0, 0, 0, 0, false)
+    simVision.workImgToSensorImg(inData.handle)
+    return {packedPackets = {packet}}
+end
+"""
+
+
+def test_a_sensors_own_script_processes_its_image_and_explicit_ones_wait(tmp_path, monkeypatch):
+    """A .ttt sensor's child script with a vision callback (CoppeliaSim 4.2+): each pass, the
+    image clients read is the callback's (here the depth made binary: the tower near, black;
+    the floor white); a sensor saved with explicit handling (``Va3`` bit 1) is handled only by
+    ``sim.handleVisionSensor``."""
+    from simx_server.api import script_sim
+    from simx_server.scene.simulation import Simulation
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    f = tmp_path / "scene.ttt"
+    f.write_bytes(V.scene(V.vision_sensor(10, "seen"), V.vision_sensor(11, "later", va3=2),
+                          W.script(100, 10, VISION_SCRIPT), W.script(101, 11, VISION_SCRIPT)))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "scene")
+    texts = {t.name: t.data for t in mujoco.MjSpec.from_file(str(xml)).texts}
+    assert "explicit=true" in texts["simx:later"].split() and "explicit=true" not in texts["simx:seen"].split()
+    sim = Simulation(f, realtime=False)
+    try:
+        api = script_sim(sim.world, _h(sim, "seen"), sim.signals, simulation=sim)
+        sim.start()
+        sim.step()
+        sim.step()
+        h = _h(sim, "seen")
+        depth, img = sim.vision.depth(h), sim.vision.image(h, False)
+        _save("synthetic_vision_callback.png", img)
+        assert np.array_equal(img[..., 0], np.where(depth >= np.float32(0.6), 255, 0).astype(np.uint8))
+        assert 0 < (img[..., 0] == 0).sum() < img[..., 0].size / 2  # the tower
+        result, default, binary = api.readVisionSensor(h)
+        assert binary[0] == pytest.approx((img[..., 0] > 0).mean())
+        assert sim.signals.get_int("calls_seen") == 2 and sim.signals.get_int("calls_later") is None
+        api.handleVisionSensor(_h(sim, "later"))
+        assert sim.signals.get_int("calls_later") == 1
+    finally:
+        sim.close()

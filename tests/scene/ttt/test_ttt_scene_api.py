@@ -389,8 +389,8 @@ end
 def test_plugin_modules_as_a_headless_coppeliasim_has_them(tmp_path):
     """``require('simUI')`` is the headless simUI table (its calls logged no-ops, ``create`` -1);
     a plugin simx lacks (``simOpenMesh``) fails to load, saying so; ``simVision`` loads (a 4.5+
-    vision sensor's script requires it at its top) and each of its functions says that simx
-    calls no vision callback: the script's other callbacks run."""
+    vision sensor's script requires it at its top) and its functions work on vision sensors only
+    (tests/scripts/test_vision_callbacks.py has the rest): the script's other callbacks run."""
     sim = _load(tmp_path, W.dummy(1, -1, "Holder") + W.script_object(2, 1, "Script", PLUGINS, kind=1), program=40600)
     try:
         sim.start()
@@ -398,7 +398,8 @@ def test_plugin_modules_as_a_headless_coppeliasim_has_them(tmp_path):
         assert sim.signals.get_int("ui") == -1
         assert sim.signals.get_string("mesh").startswith(b"false simOpenMesh is a CoppeliaSim plugin")
         assert sim.signals.get_string("vision").startswith(b"false")
-        assert b"simVision.sensorImgToWorkImg: simx does not call vision callbacks" in sim.signals.get_string("vision")
+        assert b"simVision.sensorImgToWorkImg: object 'Holder' (handle 1) is a dummy, not a vision sensor" in \
+            sim.signals.get_string("vision")
     finally:
         sim.close()
 

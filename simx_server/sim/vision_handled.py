@@ -1,0 +1,237 @@
+"""Vision sensors handled as CoppeliaSim 4.2+ handles them (a mixin of
+:class:`simx_server.sim.vision.VisionSensors`): rendered, measured (V-REP's default packet), then
+processed by the ``sysCall_vision`` callbacks of the scripts attached to the sensor
+(:mod:`simx_server.scripts.vision_callbacks`), which work with ``simVision`` on the sensor's work
+image and may write its image and depth buffer back, and return a trigger and packets
+(``CVisionSensor::handleSensor`` -> ``detectEntity`` -> ``_computeDefaultReturnValuesAndApplyFilters``
+in coppeliaSimLib).
+
+What a handling leaves is a :class:`Handled` record: the sensor's image, depth buffer, trigger and
+packets, which every read returns (``simxGetVisionSensorImage``, ``sim.getVisionSensorImg``,
+``sim.readVisionSensor`` ..., :mod:`simx_server.sim.vision_chain`) until the sensor is handled
+again (each simulation pass, a ``sim.handleVisionSensor``, a passive sensor's new image), as
+CoppeliaSim's sensor buffers keep the last handling's result. Sensors without a vision callback
+have no record and stay rendered when read (nothing is done for them each pass). A record that
+a ``simVision.workImgToSensorImg`` made outside any callback shows that image while the world's
+state stays the same (the sensor is rendered anew after a change). Records go when the
+simulation stops (:meth:`VisionSensors.reset`).
+
+A sensor's ``filters=`` chain (:mod:`simx_server.sim.vision_filters`; CoppeliaSim turns a 3.x
+chain into a customization script's ``sysCall_vision``) runs after the scripts' callbacks, on
+what they wrote. Then, if triggered, the scripts' ``sysCall_trigger`` callbacks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING, Any, Callable, Protocol
+
+import numpy as np
+
+from simx_server.sim import vision_filters as VF
+
+if TYPE_CHECKING:
+    from concurrent.futures import Future
+
+    from simx_server.sim.sensor_spec import SensorSpec
+    from simx_server.sim.world import World
+
+
+@dataclasses.dataclass
+class Handled:
+    """A sensor's buffers after a handling.
+
+    Attributes:
+        rgb: (h, w, 3) uint8, rows bottom-up (replaced, never changed in place: render
+            threads may be reading the previous one).
+        depth: (h, w) float32 in 0..1 between the clipping planes, rows bottom-up.
+        packets: V-REP's default packet, then each packet the callbacks and the chain returned.
+        trigger: whether the sensor triggered.
+        version: the world's state it shows; None: until the sensor is handled again.
+    """
+
+    rgb: np.ndarray
+    depth: np.ndarray
+    packets: list[list[float]]
+    trigger: bool = False
+    version: int | None = None
+
+
+class VisionHooks(Protocol):
+    """The scripts' callbacks of one sensor's handling (:mod:`simx_server.scripts.vision_callbacks`)."""
+
+    def vision(self, handle: int, record: Handled) -> None:
+        """Run the ``sysCall_vision`` callbacks: they may write ``record``'s image and depth
+        (through ``simVision``), and set its trigger and add packets."""
+
+    def trigger(self, handle: int, record: Handled) -> None:
+        """Run the ``sysCall_trigger`` callbacks of a triggered sensor (they may clear its trigger)."""
+
+
+class VisionHandling:
+    """The records of handled sensors (a VisionSensors mixin; :meth:`_init_handling` in its
+    constructor)."""
+
+    def _init_handling(self) -> None:
+        self.handled: dict[int, Handled] = {}
+        #: Sensors with explicit handling (``sim.setExplicitHandling``): not handled each pass.
+        self.explicit: set[int] = set()
+        self._busy: dict[int, Handled] = {}  # sensors whose callbacks run now, and their record
+
+    def _reset_handling(self) -> None:
+        self.handled.clear()
+        self.explicit.clear()
+        self._busy.clear()
+
+    def record(self, handle: int) -> Handled | None:
+        """The record reads of ``handle`` return now, or None (the sensor is rendered).
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Returns:
+            Its :class:`Handled`, or None.
+        """
+        busy = self._busy.get(handle)
+        if busy is not None:
+            return busy
+        rec = self.handled.get(handle)
+        if rec is None or (rec.version is not None and rec.version != self.world.version):
+            return None
+        return rec
+
+    def work_state(self, handle: int, create: bool = False) -> VF.FilterState | None:
+        """The sensor's work image and buffers (``simVision``'s, shared with its ``filters=``
+        chain), made when ``create``; None when it has none.
+
+        Args:
+            handle: a vision sensor's handle.
+            create: make an empty one if it has none.
+
+        Returns:
+            Its :class:`~simx_server.sim.vision_filters.FilterState`, or None.
+        """
+        if create:
+            return self._filter_states.setdefault(handle, VF.FilterState())
+        return self._filter_states.get(handle)
+
+    def drop_work_state(self, handle: int) -> None:
+        """Forget the sensor's work image and buffers (``workImgToSensorImg`` with ``removeBuffer``)."""
+        self._filter_states.pop(handle, None)
+
+    def in_callback(self, handle: int) -> Handled | None:
+        """The record being made when ``handle``'s vision callbacks run now, else None."""
+        return self._busy.get(handle)
+
+    def handle(self, handle: int, hooks: VisionHooks | None = None, image: np.ndarray | None = None) -> Handled:
+        """Handle the sensor now (simulation thread; it waits for the frames): its image (the
+        rendering, or ``image``), depth buffer and default packet, then ``hooks``' vision
+        callbacks, the ``filters=`` chain, and the trigger callbacks if it triggered.
+
+        A sensor whose callbacks are running (a callback that handles its own sensor) is not
+        handled again: its record so far is returned (CoppeliaSim's ``_inApplyFilterRoutine``).
+
+        Args:
+            handle: a vision sensor's handle.
+            hooks: the scripts' callbacks (None: none; the record then lasts while the world's
+                state does).
+            image: the image to handle instead of a rendering, (h, w, 3) uint8, rows bottom-up
+                (a passive sensor's, or one a script wrote).
+
+        Returns:
+            The new record (kept: reads return it).
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError: not a vision sensor.
+        """
+        busy = self._busy.get(handle)
+        if busy is not None:
+            return busy
+        spec = self.spec(handle)
+        rec = self._fresh(handle, image)
+        self._busy[handle] = rec
+        try:
+            if hooks is not None:
+                hooks.vision(handle, rec)
+            if spec.filters:
+                self._chain(handle, spec, rec)
+            if rec.trigger and hooks is not None:
+                hooks.trigger(handle, rec)
+        finally:
+            del self._busy[handle]
+        rec.version = None if hooks is not None else self.world.version
+        self.handled[handle] = rec
+        self._forget(handle)
+        return rec
+
+    def _fresh(self, handle: int, image: np.ndarray | None) -> Handled:
+        """A record of the sensor's image (rendered now, or ``image``), depth and default packet."""
+        spec = self.spec(handle)
+        raw = (lambda: image) if image is not None else self.raw_image_job(handle)
+        depth = self._raw_depth_job(handle)
+
+        def job() -> tuple[np.ndarray, np.ndarray, list[float]]:
+            img = np.ascontiguousarray(raw())
+            d = depth()
+            return img, d, self.default_packet_of(spec, img, d)
+
+        img, d, packet = self.after(job).result()
+        return Handled(img, d, [packet])
+
+    def _chain(self, handle: int, spec: SensorSpec, rec: Handled) -> None:
+        """The sensor's ``filters=`` chain on the record (after the callbacks)."""
+        state = self._filter_states.setdefault(handle, VF.FilterState())
+        res = VF.apply_chain(spec.filters, rec.rgb, rec.depth, state)
+        if res.image is not None:
+            rec.rgb = res.image
+        if res.depth is not None:
+            rec.depth = res.depth
+        rec.trigger = rec.trigger or res.trigger
+        rec.packets += [list(p) for p in res.packets]
+
+    def write(self, handle: int, rgb: np.ndarray | None = None, depth: np.ndarray | None = None,
+              hooks: VisionHooks | None = None) -> None:
+        """A script writes the sensor's image or depth buffer (``simVision.workImgToSensorImg`` /
+        ``workImgToSensorDepthMap``) outside the sensor's callbacks: as CoppeliaSim's
+        ``simSetVisionSensorImg``, the image is handled (default packet, ``hooks``' callbacks,
+        chain), and without callbacks reads return it while the world's state stays; a depth
+        buffer replaces the current record's.
+
+        Args:
+            handle: a vision sensor's handle.
+            rgb: (h, w, 3) uint8, rows bottom-up, or None.
+            depth: (h, w) float32 in 0..1, rows bottom-up, or None.
+            hooks: the sensor's scripts' callbacks, or None.
+        """
+        if rgb is not None:
+            self.handle(handle, hooks, rgb)
+        if depth is not None:
+            rec = self.record(handle)
+            if rec is None:
+                rec = self._fresh(handle, None)
+                rec.version = self.world.version
+                self.handled[handle] = rec
+            rec.depth = depth
+            self._forget(handle)
+
+    def _forget(self, handle: int) -> None:
+        """Drop the cached payloads and chain results of ``handle`` (its record replaced them);
+        its rendered frames stay."""
+        for key in [k for k in self._cache if k[0] == handle and k[1] not in ("rgb", "depth", "handles")]:
+            del self._cache[key]
+
+    if TYPE_CHECKING:  # provided by VisionSensors
+        world: World
+        _cache: dict
+        _filter_states: dict
+
+        def spec(self, handle: int) -> SensorSpec: ...
+
+        def after(self, job: Callable[[], Any]) -> Future: ...
+
+        def raw_image_job(self, handle: int) -> Callable[[], np.ndarray]: ...
+
+        def _raw_depth_job(self, handle: int) -> Callable[[], np.ndarray]: ...
+
+        def default_packet_of(self, spec: SensorSpec, img: np.ndarray, depth: np.ndarray) -> list[float]: ...
