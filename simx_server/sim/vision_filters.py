@@ -174,7 +174,14 @@ class FilterState:
             self.buffers = [None if b is None else np.zeros(full, _F32) for b in self.buffers]
 
     def buffer(self, k: int) -> np.ndarray:
-        """Buffer ``k + 1``, made black (the work image's size) on first use."""
+        """Buffer ``k + 1``, made black (the work image's size) on first use.
+
+        Args:
+            k: 0 for buffer 1, 1 for buffer 2.
+
+        Returns:
+            (h, w, 3) float32 RGB in 0..1, the buffer itself.
+        """
         b = self.buffers[k]
         if b is None or b.shape != self.work.shape:
             b = self.buffers[k] = np.zeros(self.work.shape, _F32)

@@ -62,10 +62,20 @@ class VisionHooks(Protocol):
 
     def vision(self, handle: int, record: Handled) -> None:
         """Run the ``sysCall_vision`` callbacks: they may write ``record``'s image and depth
-        (through ``simVision``), and set its trigger and add packets."""
+        (through ``simVision``), and set its trigger and add packets.
+
+        Args:
+            handle: the vision sensor's handle.
+            record: what the handling made so far, written by the callbacks.
+        """
 
     def trigger(self, handle: int, record: Handled) -> None:
-        """Run the ``sysCall_trigger`` callbacks of a triggered sensor (they may clear its trigger)."""
+        """Run the ``sysCall_trigger`` callbacks of a triggered sensor (they may clear its trigger).
+
+        Args:
+            handle: the vision sensor's handle.
+            record: its handling's result, whose trigger the callbacks may clear.
+        """
 
 
 class VisionHandling:
@@ -116,11 +126,22 @@ class VisionHandling:
         return self._filter_states.get(handle)
 
     def drop_work_state(self, handle: int) -> None:
-        """Forget the sensor's work image and buffers (``workImgToSensorImg`` with ``removeBuffer``)."""
+        """Forget the sensor's work image and buffers (``workImgToSensorImg`` with ``removeBuffer``).
+
+        Args:
+            handle: a vision sensor's handle.
+        """
         self._filter_states.pop(handle, None)
 
     def in_callback(self, handle: int) -> Handled | None:
-        """The record being made when ``handle``'s vision callbacks run now, else None."""
+        """The record being made while ``handle``'s vision callbacks run.
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Returns:
+            That :class:`Handled`, or None when its callbacks are not running.
+        """
         return self._busy.get(handle)
 
     def handle(self, handle: int, hooks: VisionHooks | None = None, image: np.ndarray | None = None) -> Handled:
