@@ -164,8 +164,9 @@ def test_youbot_plans_round_an_obstacle_that_the_straight_path_hits(youbot):
 
 
 def test_turtlebot_follows_a_linear_path_and_plans_round_a_box(empty):
-    """The TurtleBot turns little on simx (its casters roll only forward and carry most of its
-    weight: docs/PYREP.md), so its linear path starts about facing the goal."""
+    """The TurtleBot turns little on simx (its casters roll only forward, and MuJoCo's soft
+    contacts put most of its weight on them where CoppeliaSim's rigid ones leave it on the
+    wheels: docs/PYREP.md), so its linear path starts about facing the goal."""
     from pyrep.robots.mobiles.turtlebot import TurtleBot
 
     pr = empty
