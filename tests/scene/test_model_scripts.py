@@ -176,3 +176,24 @@ def test_a_model_script_outside_its_folder_refuses_the_model(tmp_path):
         assert len(sim.world.objects) == count
     finally:
         sim.close()
+
+
+def test_a_trusted_models_python_script_runs_only_with_the_operators_consent(tmp_path, caplog):
+    """Its Python script is refused with one log line without ``--allow-python-scripts``; its
+    Lua script runs, within the scene's scripts' budget."""
+    model = _write_model(tmp_path / "models")
+    model.write_text(CRATE.replace("child_script=crate.lua", "child_script=crate.py"))
+    (model.parent / "crate.py").write_text("def sysCall_init():\n    sim.setInt32Signal('python_init', 1)\n")
+    for allowed in (False, True):
+        sim = Simulation(SCENE, dt=0.05, realtime=False, scene_paths=[model.parent], allow_python_scripts=allowed)
+        try:
+            with caplog.at_level(logging.ERROR, logger="simx.scripts"):
+                base = H["LoadModel"](sim, [str(model), 0])
+            script = sim.scripts.scripts[base]
+            assert script.refused is not allowed and script.budget is sim.scripts.budget
+            assert _int(sim, "custom_inits") == 1  # the Lua customization script runs either way
+            sim.start()
+            assert _int(sim, "python_init") == (1 if allowed else None)
+        finally:
+            sim.close()
+    assert sum("--allow-python-scripts" in r.getMessage() for r in caplog.records) == 1
