@@ -14,7 +14,8 @@ it holds the loaded scene, when that scene is replaced. In-process use (tests, n
 None) has the transfer folder itself as its folder.
 
 The ``sim`` file calls ask :meth:`ClientFiles.writer` who writes: a script whose file lies in a
-client's folder (a scene that client sent) always acts as that client; a script of the operator's
+client's folder (a scene or model that client sent) always acts as that client, and once that
+client has left (its folder gone) it may no longer read or write files; a script of the operator's
 scene acts as the client that called it (``simxCallScriptFunction``, ``sim.callScriptFunction``:
 :meth:`ClientFiles.on_behalf`) and as the operator otherwise; a door's own calls (the ZMQ ``sim``)
 act as the door's caller. The operator (None) writes as V-REP did: relative names in the first
@@ -122,10 +123,16 @@ class ClientFiles:
 
         Args:
             script_path: the calling script's file, None for a door's own calls (a ZMQ client's ``sim``).
+
+        Raises:
+            RemoteError: the script was sent by a client that has left (its folder went): it
+                acts as nobody, never as the operator.
         """
         if script_path is None:
             return self.caller
         key = self.key_of(Path(script_path))
+        if key is None and guard.inside(Path(os.path.realpath(script_path)), self.files_dir):
+            raise RemoteError("this script was sent by a client that has left: its files went with it")
         return key if key is not None else self._script_caller
 
     # ------------------------------------------------------------- folders

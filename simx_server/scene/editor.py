@@ -23,14 +23,17 @@ Rules, in V-REP's terms (docs/API.md lists them per command):
   re-parenting a shape acts on its whole body subtree (with the joints, geoms, sites, cameras
   and lights inside, and the actuators, sensors, constraints and ``simx:`` settings that
   refer to them).
-* Child scripts are not copied with objects, nor run for loaded models (their object
-  lookups would address the original objects); a removed object's script is cleaned up.
+* Scripts come with objects, as in CoppeliaSim: a loaded model's and a copy's run as the
+  scene's own (their V-REP 3.x lookups find their own objects by the name suffix,
+  ``sim.getObjectHandle``; :mod:`simx_server.scene.model_scripts`), and a removed object's end
+  (``sysCall_cleanup``).
 * Files sent with ``simxTransferFile`` go to a transfer folder private to this server
   process (``scene_guard.make_transfer_folder``: 0700, removed by :meth:`Editor.close` or at
   exit, never named in replies); names that leave it are refused, and its size is bounded.
 * Trust: a scene or model loaded from the transfer folder (options bit 0) is a client's: its
-  files must lie in the transfer folder, its size is bounded before MuJoCo parses it, its child
-  scripts run only with ``--allow-remote-code``. Server-side paths (options 0) are loaded only
+  files must lie in the transfer folder, its size is bounded before MuJoCo parses it, its
+  scripts run only with ``--allow-remote-code`` (a client's scene is refused without it, a
+  client's model loads without them). Server-side paths (options 0) are loaded only
   from the operator's scene folder and ``--scene-path`` folders, never from a transfer folder
   of any server. Edits may not grow the scene past ``MAX_SCENE_BODIES``/``MAX_SCENE_ELEMENTS``
   nor add meshes past ``MAX_SCENE_MESH_VERTICES``/``MAX_SCENE_MESH_FACES``.
@@ -52,7 +55,7 @@ from typing import Any, Callable, NamedTuple
 import mujoco
 import numpy as np
 
-from simx_wire.protocol import ArgumentError, RemoteError, ScriptError, UnsupportedError
+from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
@@ -271,19 +274,9 @@ class Editor(ObjectEdits):
             kept_state.settle(world)
         world.changed()
         refresh_vision(self.sim)
-        self._drop_orphan_scripts()
+        self.sim.scripts.drop_removed()  # a removed object's scripts end (sysCall_cleanup)
         self.sim.selection = [h for h in self.sim.selection if h in world.objects]  # removed ones leave it
         return after() if callable(after) else after
-
-    def _drop_orphan_scripts(self) -> None:
-        scripts, world = self.sim.scripts, self.sim.world
-        for handle in [h for h in scripts.scripts if h not in world.objects]:
-            script = scripts.scripts.pop(handle)
-            try:
-                script.stop()  # sysCall_cleanup if it runs, then its state goes
-            except ScriptError as exc:
-                log.error("%s", exc)
-            log.info("child script of removed object %r dropped", script.object_name)
 
     def _taken(self, spec: mujoco.MjSpec) -> set[str]:
         """Names a new element may not have: the spec's and the V-REP names, which differ for

@@ -19,7 +19,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.base import scene_guard as guard
 from simx_server.base.mesh_counts import spec_mesh_counts
-from simx_server.scene import conversions, grasping
+from simx_server.scene import conversions, grasping, model_scripts
 from simx_server.sim.spec_tools import (
     _KIND,
     _MARK,
@@ -49,7 +49,6 @@ from simx_server.sim.spec_tools import (
     vrep_suffix,
 )
 from simx_server.sim import grasps, kept_objects
-from simx_server.sim.objects import without_scripts
 from simx_server.sim.urdf import load_spec
 from simx_server.sim.vision_results import Deferred
 from simx_server.sim.world import FORCE_SENSOR, JOINT, SHAPE, WORLD
@@ -63,8 +62,10 @@ class PreparedModel(NamedTuple):
 
     file: Path  #: the MJCF file read
     label: str  #: the path the client gave, quoted
-    spec: mujoco.MjSpec  #: the model's spec, its files in memory, its scripts dropped
+    spec: mujoco.MjSpec  #: the model's spec, its files in memory, its script settings taken out
     assets: dict[str, bytes]  #: those files, by the names the spec gives them
+    scripts: tuple = ()  #: its scripts (:func:`model_scripts.take`), attached with it
+    client: bool = False  #: a client's file (its scripts run only with ``--allow-remote-code``)
 
 
 class ObjectEdits:
@@ -137,32 +138,26 @@ class ObjectEdits:
                                         "the scene with it")
             except RemoteError as exc:
                 raise RemoteError(f"cannot load model {label}: {exc}") from None
-        for t in list(child.texts):  # child scripts of loaded models are not run
-            if t.name.startswith("simx:") and ("child_script=" in t.data or "customization_script=" in t.data):
-                log.warning("model %s: scripts of %r ignored", file.name, t.name[5:])
-                rest = without_scripts(t.data)
-                if rest:
-                    t.data = rest
-                else:
-                    child.delete(t)
+        scripts = model_scripts.take(child, Path(file).parent, label, self._scrub)  # attached with the model
         if warm and (child.meshes or child.textures):
             try:  # MuJoCo releases the GIL while it compiles; the attach's compile reports errors
                 child.copy().compile()
             except Exception as exc:
                 log.debug("warming MuJoCo's cache with model %s: %s", label, exc)
-        return PreparedModel(file, label, child, child_assets)
+        return PreparedModel(file, label, child, child_assets, tuple(scripts), root is not None)
 
     def _attach_model(self, prepared: PreparedModel) -> int:
         """Attach a prepared model (:meth:`prepare_model`) to the scene, on the simulation
         thread (one compile of the scene with it, :meth:`_edit`); its base's handle."""
-        file, path, child, child_assets = prepared
+        file, path, child, child_assets = prepared[:4]
         base = child.worldbody.first_body()
         if base is not None and not base.name:
             base.name = child.modelname or file.stem
+        given = [""]  # the suffix the model's names get
 
         def change(spec: mujoco.MjSpec):
             taken = self._taken(spec)
-            suffix = vrep_suffix(_names(child), taken, trigger=_names(child, _TREE_LISTS + _OTHER_LISTS))
+            suffix = given[0] = vrep_suffix(_names(child), taken, trigger=_names(child, _TREE_LISTS + _OTHER_LISTS))
             if not suffix:
                 _rename_assets(child, taken)
             spec.attach(child, frame=spec.worldbody.add_frame(), prefix="", suffix=suffix)
@@ -175,6 +170,7 @@ class ObjectEdits:
             return lambda: self.sim.world.resolve(first).handle
 
         handle = self._edit(change)
+        model_scripts.attach(self.sim, prepared.scripts, given[0], prepared.client, path)
         self.sim.selection = [handle]  # V-REP selects the loaded model's base
         log.info("loaded model %s: base %r (handle %d)", file.name, self.sim.world.get(handle).name, handle)
         return handle
@@ -269,6 +265,8 @@ class ObjectEdits:
                     self._copy_state(src, dst)
                 copies = [world.resolve(new_name[o.name]).handle for o in objs]
                 kept_objects.copied(world, [(o.handle, h) for o, h in zip(objs, copies)])  # paths, cameras
+                model_scripts.copy(self.sim, [(world.by_name[a].handle, world.by_name[b].handle)
+                                              for a, b in new_name.items() if a in world.by_name and b in world.by_name])
                 return copies
             return after
 

@@ -122,7 +122,8 @@ def describe(scene: str | Path, dt: float | None = None, name: str | None = None
                 else "spotlight"
         script = scripts.scripts.get(obj.handle)
         if script is not None:
-            entry["child_script"] = {"file": obj.settings["child_script"], "language": script.language}
+            entry["child_script"] = {"file": obj.settings.get("child_script", script.path.name),
+                                     "language": script.language}
             if script.load_error:
                 entry["child_script"]["error"] = script.load_error
         objects.append(entry)

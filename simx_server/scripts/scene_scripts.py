@@ -1,8 +1,9 @@
 """The scene's child scripts as one collection: :func:`load_script` reads an object's script
-(Python or Lua, confined to the scene's folder, never from a client's transfer folder unless
-``--allow-remote-code``), :class:`Scripts` drives every script through V-REP's life cycle
-(``sysCall_init`` at start, actuation and sensing each step, cleanup at stop) and serves
-``simxCallScriptFunction``.
+(Python or Lua, confined to the scene's folder or to a loaded model's, never from a client's
+transfer folder unless ``--allow-remote-code``), :class:`Scripts` drives every script through
+V-REP's life cycle (``sysCall_init`` at start, actuation and sensing each step, cleanup at stop),
+takes in the scripts of objects that arrive later (a loaded model's, copies': :meth:`Scripts.attach`),
+ends those of removed objects (:meth:`Scripts.drop_removed`) and serves ``simxCallScriptFunction``.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 import logging
 import math
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator, NamedTuple
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ScriptError, UnknownObjectError
@@ -31,24 +32,23 @@ log = logging.getLogger("simx.scripts")
 
 # ---------------------------------------------------------------- the manager
 def load_script(world: World, owner: int, file: str, *, untrusted: Iterable[Path] = (),
-                allow_python_scripts: bool = False, **options: Any) -> ChildScript:
-    """The child script ``file`` (relative to the scene's folder) of object ``owner``.
+                allow_python_scripts: bool = False, folder: Path | None = None, **options: Any) -> ChildScript:
+    """The child script ``file`` (relative to ``folder``, by default the scene's) of object ``owner``.
 
     ``untrusted`` are folders that clients can write to (the ``simxTransferFile`` folder): a
     script there is code sent by a client, refused unless ``allow_remote_code``. A Python
     script (``.py``, also a .ttt's script with CoppeliaSim's python marker, converted to one)
     runs only with ``allow_python_scripts`` (the server's ``--allow-python-scripts``): without
     it, a :class:`~simx_server.scripts.child.RefusedScript` stands in its place, logged once.
+    ``folder``: a loaded model's folder (its MJCF's, or its ``.ttm``'s conversion's), where
+    its scripts lie.
 
     Raises:
-        ValueError: the file lies outside the scene's folder or in an untrusted one, does not
-            exist, or is neither ``.lua`` nor ``.py`` (a scene error: the scene is refused).
+        ValueError: the file lies outside the folder or in an untrusted one, does not exist,
+            or is neither ``.lua`` nor ``.py`` (a scene error: the scene is refused).
     """
-    folder = world.scene_path.parent
     name = world.get(owner).name
-    path = (folder / file).resolve()
-    if folder not in path.parents:
-        raise ValueError(f"child script {file!r} of {name!r} lies outside the scene folder {folder}")
+    path = script_file(world.scene_path.parent if folder is None else folder, file, name)
     if not options.get("allow_remote_code"):
         for place in untrusted:
             place = Path(place).resolve()
@@ -56,14 +56,65 @@ def load_script(world: World, owner: int, file: str, *, untrusted: Iterable[Path
                 raise ValueError(f"child script {file!r} of {name!r} was sent by a client ({place}): simx "
                                  f"runs code sent by clients only when the server is started with "
                                  f"{REMOTE_CODE_FLAG}")
-    if not path.is_file():
-        raise ValueError(f"child script {file!r} of {name!r} not found in {folder}")
     if path.suffix == ".py":
         return PythonScript(world, owner, path, **options) if allow_python_scripts else RefusedScript(
             world, owner, path, **options)
     if path.suffix == ".lua":
         return LuaScript(world, owner, path, **options)
     raise ValueError(f"child script {file!r} of {name!r}: unknown language (use .lua or .py)")
+
+
+def script_file(folder: Path, file: str, name: str) -> Path:
+    """The script file ``file`` of object ``name``, resolved inside ``folder``.
+
+    Raises:
+        ValueError: it lies outside ``folder`` (links followed) or does not exist.
+    """
+    path = (folder / file).resolve()
+    if folder.resolve() not in path.parents:
+        raise ValueError(f"child script {file!r} of {name!r} lies outside the scene folder {folder}")
+    if not path.is_file():
+        raise ValueError(f"child script {file!r} of {name!r} not found in {folder}")
+    return path
+
+
+class ScriptSource(NamedTuple):
+    """A script that arrives with objects after the scene loaded (a loaded model's, a copy's):
+    what :meth:`Scripts.attach` loads for the object's handle."""
+
+    name: str  #: the object's name where the script was read (in the model, before any suffix)
+    kind: str  #: ``"child"`` or ``"customization"``
+    path: Path  #: its file, resolved
+    options: dict  #: :func:`load_script`'s options (``timeout`` None: the scripts' default)
+    disabled: bool  #: saved disabled (``script_disabled=1``): loaded, not run until enabled
+
+
+def model_scripts(settings: dict[str, dict[str, str]], folder: Path) -> list[ScriptSource]:
+    """The scripts that a model's ``simx:`` settings name (``child_script=FILE``,
+    ``customization_script=FILE`` and their options, as a scene's), their files in ``folder``
+    (the model file's own folder: a ``.ttm``'s conversion writes them there). Run on any
+    thread: reads only the model's files.
+
+    Args:
+        settings: object name -> its settings (the model's ``simx:NAME`` texts, parsed).
+        folder: the model file's folder.
+
+    Raises:
+        ValueError: a script file outside ``folder`` or missing, a bad ``script_timeout``,
+            ``threaded`` or ``vrep_version``, a bad ``script_parameters`` file.
+    """
+    out = []
+    for name, items in settings.items():
+        for key, kind in (("child_script", "child"), ("customization_script", "customization")):
+            file = items.get(key)
+            if not file:
+                continue
+            path = script_file(folder, file, name)
+            options = script_options(items, name, DEFAULT_TIMEOUT, folder)
+            if "script_timeout" not in items:
+                options["timeout"] = None  # the server's default, known where the script is attached
+            out.append(ScriptSource(name, kind, path, options, items.get("script_disabled") == "1"))
+    return out
 
 
 class Scripts:
@@ -107,8 +158,12 @@ class Scripts:
         self.allow_remote_code = allow_remote_code
         self.allow_unsafe_lua = allow_unsafe_lua
         self.allow_python_scripts = allow_python_scripts
+        self.timeout = timeout
+        self.simulation = simulation
         self.scripts: dict[int, ChildScript] = {}
         self.customization: dict[int, ChildScript] = {}  # customization scripts, by object
+        #: Child scripts attached while the simulation runs: they begin in its next pass (attach).
+        self._pending: list[ChildScript] = []
         #: All scripts' time per pass, share over time and memory together (simx_server/scripts/budget.py).
         self.budget = ScriptBudget(states=self._all)
         self._step: ScriptPass | None = None  # the pass of the step whose actuation ran (the rest shares it)
@@ -123,14 +178,9 @@ class Scripts:
                 file = obj.settings.get(key)
                 if not file:
                     continue
-                options = script_options(world, obj, timeout)
-                table[obj.handle] = load_script(world, obj.handle, file, untrusted=untrusted, signals=self.signals,
-                                                allow_remote_code=allow_remote_code,
-                                                allow_python_scripts=allow_python_scripts,
-                                                allow_unsafe_lua=allow_unsafe_lua, simulation=simulation,
-                                                forces=self.forces, shared=self.shared,
-                                                kind="child" if key == "child_script" else "customization",
-                                                **options)
+                options = script_options(obj.settings, obj.name, timeout, world.scene_path.parent)
+                table[obj.handle] = self._load(obj.handle, file, None, untrusted,
+                                               "child" if key == "child_script" else "customization", options)
                 table[obj.handle].disabled = obj.settings.get("script_disabled") == "1"  # saved disabled
         if allow_remote_code and self.scripts:
             log.warning("child scripts may run code sent by clients (%s)", REMOTE_CODE_FLAG)
@@ -139,8 +189,91 @@ class Scripts:
         if allow_python_scripts and any(isinstance(s, PythonScript) for s in self._all()):
             log.warning("the scene's Python scripts run with the server's rights (%s)", PYTHON_SCRIPTS_FLAG)
 
+    def _load(self, owner: int, file: str, folder: Path | None, untrusted: Iterable[Path], kind: str,
+              options: dict) -> ChildScript:
+        return load_script(self.world, owner, file, folder=folder, untrusted=untrusted, signals=self.signals,
+                           allow_remote_code=self.allow_remote_code, allow_python_scripts=self.allow_python_scripts,
+                           allow_unsafe_lua=self.allow_unsafe_lua, simulation=self.simulation, forces=self.forces,
+                           shared=self.shared, kind=kind, **options)
+
     def _all(self) -> list[ChildScript]:
         return [*self.scripts.values(), *self.customization.values()]
+
+    def attach(self, sources: Iterable[tuple[int, ScriptSource]], running: bool,
+               untrusted: Iterable[Path] = ()) -> list[ChildScript]:
+        """The scripts of objects that arrived after the scene loaded: a loaded model's
+        (``sim.loadModel``, ``simxLoadModel``) or copies' (``sim.copyPasteObjects``). As in
+        CoppeliaSim, where a model's scripts come with it and run as the scene's own
+        (``CDetachedScript::initScript``: a customization script's ``sysCall_init`` at once;
+        ``CDetachedScript::systemCallScript``: a child script that was not initialised runs
+        ``sysCall_init`` before its first call of a simulation pass), a customization script
+        runs its top level and ``sysCall_init`` now, and a child script begins with the next
+        simulation start, or, while the simulation runs (``running``), in its next pass:
+        ``sysCall_init``, then that pass's ``sysCall_actuation``. They share the scene's
+        scripts' budget.
+
+        Args:
+            sources: (object handle, script) pairs; an object's script of the same kind
+                already there is ended first.
+            running: the simulation runs or is paused.
+            untrusted: folders clients write to (scripts there need ``allow_remote_code``).
+
+        Returns:
+            The scripts attached.
+
+        Raises:
+            ValueError: a script file refused (as :func:`load_script`); those before it stay.
+        """
+        added: list[ChildScript] = []
+        for owner, source in sources:
+            options = dict(source.options)
+            if options.get("timeout") is None:
+                options["timeout"] = self.timeout
+            script = self._load(owner, source.path.name, source.path.parent, untrusted, source.kind, options)
+            script.disabled = source.disabled
+            table = self.customization if source.kind == "customization" else self.scripts
+            old = table.pop(owner, None)
+            if old is not None:
+                self._end(old)
+            table[owner] = script
+            added.append(script)
+        customization = [s for s in added if s.kind == "customization"]
+        if customization and self.opened:
+            with self.budget.pass_of("open"):
+                self._start_all(customization, "at load")
+        if running:
+            self._pending.extend(s for s in added if s.kind == "child")
+        return added
+
+    def source_of(self, owner: int) -> list[ScriptSource]:
+        """The scripts of object ``owner`` as :meth:`attach` takes them (a copy's scripts)."""
+        return [ScriptSource(s.object_name, s.kind, s.path,
+                             {"timeout": s.timeout, "threaded": s.threaded, "version": s.version,
+                              "parameters": list(s.parameters)}, s.disabled)
+                for s in (self.scripts.get(owner), self.customization.get(owner)) if s is not None]
+
+    def drop_removed(self) -> None:
+        """End the scripts of objects no longer in the scene (``sim.removeModel``,
+        ``sim.removeObject``): ``sysCall_cleanup`` of a running one, then its state goes, as
+        CoppeliaSim's ``CSceneObjectContainer::eraseObject`` ends an erased object's scripts."""
+        gone = [(t, h) for t in (self.scripts, self.customization) for h in t if h not in self.world.objects]
+        if not gone:
+            return
+        for table, handle in gone:
+            script = table.pop(handle)
+            if script in self._pending:
+                self._pending.remove(script)
+            self._end(script)
+            log.info("%s script of removed object %r dropped", script.kind, script.object_name)
+        if self.dynamics.joints or self.dynamics.dyn or self.dynamics.contact:  # installed: the simulation runs
+            self.dynamics.install(self._all())  # the removed scripts' substep callbacks go
+
+    def _end(self, script: ChildScript) -> None:
+        with self.budget.pass_of("stop"):
+            try:
+                script.stop()  # sysCall_cleanup if it runs, then its state goes
+            except ScriptError as exc:
+                log.error("%s", exc)
 
     def open(self) -> None:
         """The scene is loaded: customization scripts run their top level and ``sysCall_init``
@@ -178,8 +311,16 @@ class Scripts:
             self._customization("sysCall_suspended" if paused else "sysCall_nonSimulation")
 
     def _customization(self, function: str) -> None:
-        for script in self.customization.values():
+        for script in self._present(self.customization):
             script.life_cycle(function)
+
+    def _present(self, table: dict[int, ChildScript]) -> Iterator[ChildScript]:
+        """The scripts of ``table`` in turn, as a pass calls them: a script that an earlier
+        one's edit removed is skipped (its object went), one attached meanwhile waits for the
+        next pass."""
+        for owner, script in list(table.items()):
+            if table.get(owner) is script:
+                yield script
 
     def start(self) -> None:
         """Simulation starts: customization scripts' ``sysCall_beforeSimulation``, then every
@@ -187,10 +328,11 @@ class Scripts:
         self.open()
         for script in self.customization.values():  # skipped for an overrun until this start
             script.rearm()
+        self._pending.clear()  # every child script starts now
         with self.budget.pass_of("start"):
             self._customization("sysCall_beforeSimulation")
-            self._start_all(self.scripts.values(), "at start")
-        self.dynamics.install([*self.scripts.values(), *self.customization.values()])
+            self._start_all(list(self.scripts.values()), "at start")
+        self.dynamics.install(self._all())
         self.vision.install()
 
     def actuation(self) -> None:
@@ -200,7 +342,11 @@ class Scripts:
         if self.scripts or self.customization:  # no script: no pass to time (a PyRep scene's usual step)
             with self.budget.pass_of("step") as step:
                 self._step = step  # the step's dynamics callbacks and sensing share this pass
-                for script in self.scripts.values():
+                if self._pending:  # attached while running: sysCall_init first, in this pass
+                    pending, self._pending = self._pending, []
+                    self._start_all(pending, "in the simulation")
+                    self.dynamics.install(self._all())
+                for script in self._present(self.scripts):
                     script.resume_thread()
                     script.life_cycle("sysCall_actuation")
                 self._customization("sysCall_actuation")
@@ -217,7 +363,7 @@ class Scripts:
             return
         with self.budget.pass_of("step", step):
             self.vision.handle_pass()
-            for script in self.scripts.values():
+            for script in self._present(self.scripts):
                 script.life_cycle("sysCall_sensing")
             self._customization("sysCall_sensing")
 
@@ -227,8 +373,9 @@ class Scripts:
         self.dynamics.remove()
         self.vision.remove()
         try:
+            self._pending.clear()
             with self.budget.pass_of("stop"):
-                for script in self.scripts.values():
+                for script in self._present(self.scripts):
                     script.stop()
                 self._customization("sysCall_afterSimulation")
         finally:
@@ -271,36 +418,29 @@ class Scripts:
         return script
 
 
-def script_options(world: World, obj: Any, timeout: float) -> dict:
-    """The script settings of ``obj`` (``script_timeout=S``, ``threaded=1``, ``vrep_version=N``,
-    ``script_parameters=FILE.json``) as ``load_script`` options; ValueError for a bad value."""
-    settings = obj.settings
+def script_options(settings: dict[str, str], name: str, timeout: float, folder: Path) -> dict:
+    """The script settings of object ``name`` (``script_timeout=S``, ``threaded=1``,
+    ``vrep_version=N``, ``script_parameters=FILE.json`` in ``folder``) as ``load_script``
+    options; ValueError for a bad value."""
     bound = settings.get("script_timeout", timeout)
     try:
         bound = float(bound)
         if not (bound > 0 and math.isfinite(bound)):
             raise ValueError
     except ValueError:
-        raise ValueError(f"script_timeout of {obj.name!r} must be a positive number of seconds, "
+        raise ValueError(f"script_timeout of {name!r} must be a positive number of seconds, "
                          f"got {settings.get('script_timeout')!r}") from None
     threaded = settings.get("threaded", "0")
     if threaded not in ("0", "1"):
-        raise ValueError(f"threaded of {obj.name!r} must be 0 or 1, got {threaded!r}")
+        raise ValueError(f"threaded of {name!r} must be 0 or 1, got {threaded!r}")
     version = settings.get("vrep_version")
     if version is not None:
         if not version.isdigit():
-            raise ValueError(f"vrep_version of {obj.name!r} must be V-REP's version number (30600 for 3.6.0), "
+            raise ValueError(f"vrep_version of {name!r} must be V-REP's version number (30600 for 3.6.0), "
                              f"got {version!r}")
         version = int(version)
     return {"timeout": bound, "threaded": threaded == "1", "version": version,
-            "parameters": read_parameters(world, obj.name, settings.get("script_parameters"))}
-
-
-def read_parameters(world: World, name: str, file: str | None) -> list[dict]:
-    """The script simulation parameters of ``file`` next to the scene
-    (:func:`simx_server.api.script_parameters.load`); [] without a file. ValueError for a file
-    outside the scene's folder, missing, too large or not such a list."""
-    return script_parameters.load(world.scene_path.parent, name, file)
+            "parameters": script_parameters.load(folder, name, settings.get("script_parameters"))}
 
 
 _WRONG_TYPES = "script arguments must be lists of ints, floats and strings, and bytes"

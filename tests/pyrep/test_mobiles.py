@@ -3,13 +3,12 @@
 CI), driven by their wheels and along linear and planned paths (simOMPL's ``dubins`` state
 space, collisions checked by MuJoCo on a scratch copy of the state).
 
-The youBot is the scene itself (``launch`` of its ``.ttm``): its omni-wheels work through the
-model's scripts, which simx runs for a scene's models only; a floor that is neither collidable
-nor measurable is added under it, as CoppeliaSim's default floor."""
+The youBot is the scene itself (``launch`` of its ``.ttm``), and once added to an empty scene
+with ``import_model``: its omni-wheels work through the model's scripts, which come with it
+either way; a floor that is neither collidable nor measurable is added under it, as
+CoppeliaSim's default floor."""
 
 from __future__ import annotations
-
-import logging
 
 import numpy as np
 import pytest
@@ -165,8 +164,9 @@ def test_youbot_plans_round_an_obstacle_that_the_straight_path_hits(youbot):
 
 
 def test_turtlebot_follows_a_linear_path_and_plans_round_a_box(empty):
-    """The TurtleBot turns little on simx (its casters roll only forward and carry most of its
-    weight: docs/PYREP.md), so its linear path starts about facing the goal."""
+    """The TurtleBot turns little on simx (its casters roll only forward, and MuJoCo's soft
+    contacts put most of its weight on them where CoppeliaSim's rigid ones leave it on the
+    wheels: docs/PYREP.md), so its linear path starts about facing the goal."""
     from pyrep.robots.mobiles.turtlebot import TurtleBot
 
     pr = empty
@@ -233,11 +233,18 @@ def test_planning_errors_are_pyreps(empty):
     assert copy != bot and LineTracer(1) == copy
 
 
-def test_a_youbot_loaded_as_a_model_warns_that_its_wheels_do_not_slide(empty, caplog):
+def test_a_youbot_imported_as_a_model_slides_sideways(empty):
+    """``import_model`` brings the model's scripts, which keep its mecanum wheels' rollers at
+    45 degrees: it slides sideways as the scene that holds it does (CoppeliaSim's ``loadModel``)."""
     from pyrep.robots.mobiles.youbot import YouBot
 
     pr = empty
     pr.import_model(str(require_shared(MOBILES / "youBot.ttm")))
-    with caplog.at_level(logging.WARNING, logger="pyrep"):
-        YouBot()
-    assert any("will not slide it sideways" in r.getMessage() for r in caplog.records)
+    bot = _start(pr, YouBot, [0.0, 0.0, np.pi / 2])
+    x0, y0, yaw0 = bot.get_2d_pose()
+    bot.set_base_angular_velocites([0, 5, 0])
+    for _ in range(40):  # 2 s
+        pr.step()
+    x, y, yaw = bot.get_2d_pose()
+    ahead, aside = -(x - x0), y - y0
+    assert aside > 0.2 and abs(ahead) < 0.1 and abs(yaw - yaw0) < 0.2

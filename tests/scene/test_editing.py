@@ -140,10 +140,13 @@ def test_copy_paste_keeps_pose_joints_and_motors(sim):
     assert w.joint_position(j2c) == w.joint_position(j2)
     assert w.target_position[w.motor_index[j2c]] == 0.4
     assert w.resolve("UR5_joint2#0").settings["mode"] == "position"
-    assert "RG2#0" not in {w.objects[h].name for h in sim.scripts.scripts}  # scripts are not copied
+    rg2c = w.resolve("RG2#0").handle
+    assert rg2c in sim.scripts.scripts and not sim.scripts.scripts[rg2c].running  # copied: its init in the next pass
     for _ in range(10):
         sim.step()
     assert w.joint_position(j2c) == pytest.approx(0.4, abs=0.01)
+    copied = sim.scripts.scripts[rg2c]
+    assert copied.running and copied.load_error is None and copied.start_error is None
     (third,) = H["CopyPasteObjects"](sim, [[sphere]])
     assert w.get(third).name == "Sphere#1"
 

@@ -3,18 +3,14 @@ and round together; its front is its y axis."""
 
 from __future__ import annotations
 
-import logging
 import math
 from typing import Any
 
-from pyrep.backend import sim
 from pyrep.const import ConfigurationPathAlgorithms as Algos
 from pyrep.errors import ConfigurationPathError
 from pyrep.objects.joint import Joint
 from pyrep.robots.configuration_paths.holonomic_configuration_path import HolonomicConfigurationPath
 from pyrep.robots.mobiles.mobile_base import MobileBase, box_adjusted_matrix_and_facing_angle
-
-_log = logging.getLogger("pyrep")
 
 
 class HolonomicBase(MobileBase):
@@ -24,8 +20,8 @@ class HolonomicBase(MobileBase):
     of those bounds), as PyRep's controller.
 
     The wheels are omni-wheels only while the model's scripts run (they put each roller joint
-    back at 45 degrees every step): a scene that holds the model runs them; simx runs no script of
-    a model added with ``import_model``, and such a base does not slide sideways.
+    back at 45 degrees every step): they come with the model, in a scene that holds it or added
+    with ``import_model``.
     """
 
     def __init__(self, count: int, num_wheels: int, distance_from_target: float, name: str,
@@ -42,11 +38,6 @@ class HolonomicBase(MobileBase):
         self.max_v_rot = max_velocity_rotation
         self.dist1 = distance_from_target
         self.joints_slipping = [Joint(f"{name}_slipping_m_joint{i + 1}{suffix}") for i in range(self.num_wheels)]
-        if not any(int(sim.call("getScript", sim.sim_scripttype_childscript, j.get_handle())) >= 0  # type: ignore[attr-defined]
-                   for j in self.joints):
-            _log.warning("%s: no script runs on its wheel joints (simx runs none of a model added with "
-                         "import_model): its omni-wheels will not slide it sideways; load a scene that holds "
-                         "the model", self.get_name())
 
     def set_base_angular_velocites(self, velocity: Any) -> None:
         """The wheels' target velocities (rad/s) for ``[forward, sideways, rotation]`` (rad/s of

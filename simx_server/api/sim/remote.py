@@ -147,14 +147,30 @@ def loadScene(ctx: CallContext, filename: Any) -> None:  # noqa: N802
     return ctx.simulation("loadScene").editor.load_scene(name, 0, defer=True)  # a .ttt: converted off this thread
 
 
-@sim_function("loadModel", callers=Callers.CLIENTS)
+@sim_function("loadModel")
 def loadModel(ctx: CallContext, filename: Any) -> int:  # noqa: N802
-    """Add a server-side model file (``simxLoadModel`` with options 0; a ``.ttm`` path loads
-    the MJCF model of the same stem); returns its base's handle."""
+    """Add a server-side model file (``simxLoadModel`` with options 0: the scene's folder and
+    ``--scene-path`` folders; a ``.ttm`` path loads the file through its conversion, else the
+    MJCF model of the same stem) with its scripts (:mod:`simx_server.scene.model_scripts`);
+    returns its base's handle. A client's ``.ttm`` is converted off the simulation thread
+    (the reply waits for it); a script's call converts it at once and returns the handle, as
+    CoppeliaSim's ``sim.loadModel`` (``CFileOperations::loadModel``).
+
+    Args:
+        filename: a path, absolute or relative to the scene's folder.
+
+    Returns:
+        The model base's handle.
+
+    Raises:
+        UnsupportedError: a buffer instead of a file name, or no simulation behind the call.
+        RemoteError: the file is refused (outside the trusted folders) or cannot be loaded.
+    """
     if isinstance(filename, (bytes, bytearray)):
         raise UnsupportedError("sim.loadModel of a serialized model (a buffer) is not supported; give a file name")
-    return ctx.simulation("loadModel").editor.load_model(_stand_in(ctx, _text(filename, "filename"), COPPELIASIM_MODELS), 0,
-                                               defer=True)  # a .ttm: converted off this thread
+    name = _stand_in(ctx, _text(filename, "filename"), COPPELIASIM_MODELS)
+    # a client's .ttm: converted off this thread; a script waits for its handle
+    return ctx.simulation("loadModel").editor.load_model(name, 0, defer=ctx.caller is Callers.CLIENTS)
 
 
 @sim_function("getObjectSel")
