@@ -241,10 +241,12 @@ class Editor(ObjectEdits):
         if placements or mocap:
             mujoco.mj_forward(m, d)
 
-    def _edit(self, change: Callable[[mujoco.MjSpec], Any]) -> Any:
+    def _edit(self, change: Callable[[mujoco.MjSpec], Any], bounded: bool | None = None) -> Any:
         """Apply ``change`` to a copy of the spec, compile, swap the model in; all or nothing.
 
-        ``change`` returns an optional callable run after the swap (on the new world).
+        ``change`` returns an optional callable run after the swap (on the new world). ``bounded``
+        (default: a client's request is being served) checks the scene's growth against
+        ``MAX_SCENE_*`` first; the operator's own edits (in process, its scripts) are not bounded.
         """
         world = self.sim.world
         with _quiet_mujoco():
@@ -257,8 +259,9 @@ class Editor(ObjectEdits):
                 after = change(spec)
             except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
                 raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
-            guard.check_growth(before, spec)
-            guard.check_mesh_growth(world.model, live, spec)
+            if self.files.caller if bounded is None else bounded:
+                guard.check_growth(before, spec)
+                guard.check_mesh_growth(world.model, live, spec)
             try:
                 model = motors.compile_spec(spec)  # joints without an actuator get a motor
             except ValueError as exc:

@@ -81,7 +81,9 @@ class ObjectEdits:
         completes later (:mod:`simx_server.scene.conversions`): returns the Deferred of the
         handle."""
         model = self.sim.world.model
-        meshes = (model.nmeshvert, model.nmeshface)  # the scene's now, read here (its thread)
+        # the scene's meshes now, read here (its thread), to bound a client's load: one a client
+        # asks for or of a client's file; the operator's own loads are not bounded
+        meshes = (model.nmeshvert, model.nmeshface) if self.files.caller or options & 1 else None
         if defer:
             label = quote(path)
             root = self.files.folder(self.files.caller) if options & 1 else None  # the sender's folder
@@ -169,7 +171,7 @@ class ObjectEdits:
                 raise ArgumentError(f"model {path} has no body nor named site, camera or light")
             return lambda: self.sim.world.resolve(first).handle
 
-        handle = self._edit(change)
+        handle = self._edit(change, bounded=bool(self.files.caller) or prepared.client)
         model_scripts.attach(self.sim, prepared.scripts, given[0], prepared.client, path)
         self.sim.selection = [handle]  # V-REP selects the loaded model's base
         log.info("loaded model %s: base %r (handle %d)", file.name, self.sim.world.get(handle).name, handle)

@@ -126,6 +126,28 @@ def test_models_loaded_again_and_again_stop_at_the_scenes_mesh_bounds_before_com
         H["LoadModel"](sim, ["one.xml", 1])
     editor = sim.editor
     prepared = editor.prepare_model(editor.resolve("one.xml", 1), "'one.xml'", None, warm=False)  # no scene count
-    with pytest.raises(RemoteError, match=r"edit refused: the scene would hold .* MAX_SCENE_MESH_FACES"):
+    with editor.files.acting("a-client"), pytest.raises(
+            RemoteError, match=r"edit refused: the scene would hold .* MAX_SCENE_MESH_FACES"):
         editor._attach_model(prepared)
     assert sim.world.model.nmeshface == start + 400
+
+
+def test_the_operators_own_models_are_not_held_to_the_clients_scene_bounds(monkeypatch, tmp_path):
+    """The scene bounds stop clients (a client's file, or a load a client asks for); the operator's
+    own loads of its server-side files (in process: PyRep's import_model, RLBench's task models of
+    400,000 faces and more; its scene scripts) are not bounded by them, as before those bounds."""
+    (tmp_path / "grid.obj").write_bytes(grid_obj(11))
+    (tmp_path / "one.xml").write_bytes(scene(1))
+    s = Simulation(SCENE, dt=0.05, realtime=False, renderers_at_load=False, scene_paths=[tmp_path])
+    try:
+        start = s.world.model.nmeshface
+        monkeypatch.setattr(L, "MAX_SCENE_MESH_FACES", start + 300)
+        monkeypatch.setattr(L, "MAX_SCENE_BODIES", len(s.world.model.body_pos))
+        for _ in range(3):
+            H["LoadModel"](s, [str(tmp_path / "one.xml"), 0])
+        assert s.world.model.nmeshface == start + 600
+        with s.editor.files.acting("a-client"), pytest.raises(RemoteError, match="MAX_SCENE_MESH_FACES"):
+            H["LoadModel"](s, [str(tmp_path / "one.xml"), 0])  # the same file, asked for by a client
+        assert s.world.model.nmeshface == start + 600
+    finally:
+        s.close()
