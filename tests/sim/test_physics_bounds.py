@@ -75,7 +75,7 @@ def _scene(tmp_path: Path, option: str = "", camera: str = "") -> Path:
 
 @pytest.fixture(scope="module")
 def sim():
-    s = Simulation(SCENE)
+    s = Simulation(SCENE, renderers_at_load=False)  # module-scoped: the marker does not reach it
     yield s
     s.close()
 
