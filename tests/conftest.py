@@ -369,8 +369,11 @@ def server():
     blocking calls at once (``--pacing immediate``): the modules that use it test the API's
     semantics, and legacy pacing (the default, one step per blocking call) would make each of
     their calls wait up to 50 ms; tests/transport/test_pacing.py, the legacy programs' end-to-end tests
-    and the VPG-style program run servers with the default."""
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port(), free_port()])
+    and the VPG-style program run servers with the default. Its renderers are made on demand: most
+    of the modules that use it read no image (the renderers made at load, 0.25 s of CPU, went
+    unused), the others make them at their first image; tests/transport/test_first_frame.py
+    tests the renderers made at load."""
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port(), free_port()], renderers="on-demand")
     yield srv
     srv.stop()
 
