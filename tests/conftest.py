@@ -22,12 +22,12 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering for in-process t
 ROOT = Path(__file__).resolve().parents[1]
 
 #: Seconds the test files of 3 s or more take (setup, calls and teardown, from pytest's junit
-#: report of a whole-suite run on 2 cores with the suite's 4 workers, nothing else running,
-#: 2026-11-23: 240 s in all, without the train and ray extras; test_zmq_hardening.py's figure
-#: without the 30 s a test of it spent failing in that run). pytest-xdist's --dist loadfile
-#: hands files out in the order of its queue; by default it sorts that queue by test count, so
-#: one-test files such as the Ray cluster test (32 s) came last and a worker ended the run alone
-#: with them (about 20 s of the suite's 141 s).
+#: reports of two whole-suite runs on 2 cores with the suite's 4 workers, 2026-11-25, without
+#: the train and ray extras: 1,070 s in all, each run about 280 s, beside other work on the
+#: machine (load 2-8), which stretches them all; their order is what counts). pytest-xdist's
+#: --dist loadfile hands files out in the order of its queue; by default it sorts that queue by
+#: test count, so one-test files such as the Ray cluster test (32 s) came last and a worker ended
+#: the run alone with them (about 20 s of the suite's 141 s).
 #: scripts/test.sh passes --no-loadscope-reorder and the hook below queues files longest first
 #: (these; the others, mostly unit tests, by their test count at 0.05 s each).
 SLOW_FILES = {
@@ -36,33 +36,35 @@ SLOW_FILES = {
     # process of a fresh clone compiling its modules, its env servers timed out a trigger).
     # The DDPG smoke test's figure is from a run with the train extra (2026-11-22).
     "e2e/test_ray_cluster.py": 9, "e2e/test_train_ddpg.py": 30,
-    "zmq/test_zmq_hardening.py": 24, "e2e/test_zmq_programs.py": 38, "e2e/test_viewer.py": 36,
-    "scripts/test_script_census.py": 35, "scene/ttt/test_ttt_corpus.py": 35,
-    "transport/test_memory_budgets.py": 32, "transport/test_pool.py": 32,
-    "client/test_envs.py": 31, "e2e/test_robotcontrol_e2e.py": 29,
-    "client/test_envs_local_servers.py": 27, "client/test_client_robustness.py": 25,
-    "zmq/test_zmq_images.py": 25, "client/test_outbox.py": 24, "client/test_dataset.py": 23,
-    "e2e/test_pioneer.py": 22, "transport/test_server_core.py": 20, "transport/test_netns.py": 19,
-    "scripts/test_vpg_style.py": 17, "transport/test_pacing.py": 17,
-    "transport/test_big_streams.py": 16, "sim/test_render_threads.py": 15,
-    "transport/test_memory_kept.py": 14, "client/test_pool_gym.py": 13,
-    "transport/test_first_frame.py": 13, "scripts/test_scripts.py": 12,
-    "scripts/test_facade4.py": 12, "transport/test_cli.py": 12, "transport/test_budgets.py": 11,
-    "client/test_api_objects.py": 11, "commands/test_small_fidelity.py": 10,
-    "client/test_api_sensors.py": 10, "scene/test_confinement.py": 10,
-    "e2e/test_integration.py": 10, "scene/test_inspect_scene.py": 9,
-    "scripts/test_script_hardening.py": 9, "scene/test_editing.py": 9,
-    "scripts/test_facade_services.py": 9, "transport/test_first_run.py": 8,
-    "transport/test_fuzz.py": 7, "transport/test_stepped.py": 7, "zmq/test_zmq_security.py": 6,
-    "client/test_client_faults.py": 6, "transport/test_security.py": 6,
-    "transport/test_slow_consumer.py": 6, "test_layers.py": 6, "scene/ttt/test_ttt_server.py": 6,
-    "commands/test_sensors.py": 6, "sim/test_tutorial_pose.py": 6,
-    "transport/test_client_slots.py": 5, "sim/test_physics_bounds.py": 5,
-    "transport/test_zmq_api.py": 5, "transport/test_idle.py": 5,
-    "scripts/test_legacy_remote.py": 5, "scene/test_urdf.py": 4, "sim/test_handle_render.py": 4,
-    "sim/test_ik.py": 4, "transport/test_zmq_robustness.py": 4, "scripts/test_facade_groups.py": 3,
-    "scene/test_scene_budgets.py": 3, "e2e/test_api32_zmq.py": 3,
-    "transport/test_streamed_setters.py": 3, "client/test_image_lists.py": 3,
+    "scripts/test_script_census.py": 135, "scene/ttt/test_gripper_drives.py": 65,
+    "scripts/test_script_budget.py": 53, "e2e/test_robotcontrol_e2e.py": 42, "e2e/test_viewer.py": 28,
+    "zmq/test_zmq_hardening.py": 24, "client/test_envs.py": 23, "scene/ttt/test_ttt_worker.py": 23,
+    "scene/ttt/test_ttt_corpus.py": 22, "zmq/test_zmq_images.py": 22, "client/test_outbox.py": 21,
+    "transport/test_pool.py": 19, "transport/test_netns.py": 18, "scripts/test_lua_c_bounds.py": 17,
+    "e2e/test_zmq_programs.py": 16, "scene/ttt/test_ttt_tutorial_rg2_cube.py": 16,
+    "client/test_client_robustness.py": 14, "e2e/test_pioneer.py": 14, "transport/test_memory_budgets.py": 14,
+    "transport/test_memory_kept.py": 13, "client/test_dataset.py": 12, "client/test_envs_local_servers.py": 12,
+    "scene/ttt/test_ttt_tutorial_rg2.py": 12, "transport/test_big_streams.py": 12,
+    "transport/test_server_core.py": 12, "scene/ttt/test_ttt_filters.py": 11, "sim/test_render_threads.py": 11,
+    "scene/ttt/test_ttt_reader.py": 10, "scripts/test_vpg_style.py": 10, "transport/test_budgets.py": 10,
+    "transport/test_cli.py": 10, "transport/test_stream_order.py": 10, "client/test_env_determinism.py": 9,
+    "client/test_pool_gym.py": 9, "scripts/test_script_hardening.py": 9, "transport/test_first_frame.py": 9,
+    "transport/test_first_run.py": 9, "client/test_api_objects.py": 8, "e2e/test_integration.py": 8,
+    "scene/test_confinement.py": 8, "scene/ttt/test_ttt_looks.py": 8, "scripts/test_scripts.py": 8,
+    "scene/ttt/test_ttt_bounds.py": 7, "commands/test_small_fidelity.py": 6, "pyrep/test_objects.py": 6,
+    "scene/ttt/test_ttt_deferred.py": 6, "scripts/test_facade_services.py": 6, "transport/test_fuzz.py": 6,
+    "transport/test_pacing.py": 6, "pyrep/test_robots.py": 5, "scene/test_editing.py": 5,
+    "scene/test_inspect_scene.py": 5, "scene/ttt/test_load_off_thread.py": 5, "scene/ttt/test_ttt_kinds.py": 5,
+    "scripts/test_facade4.py": 5, "sim/test_table_for_pyrep.py": 5, "sim/test_tutorial_pose.py": 5,
+    "transport/test_cli_messages.py": 5, "transport/test_flood_order.py": 5, "transport/test_slow_consumer.py": 5,
+    "transport/test_stepped_overlap.py": 5, "zmq/test_zmq_security.py": 5, "client/test_api_sensors.py": 4,
+    "commands/test_sensors.py": 4, "e2e/test_xdisplay.py": 4, "loop/test_pass_window.py": 4,
+    "pyrep/test_more_objects.py": 4, "scene/ttt/test_ttt_server.py": 4, "scripts/test_api32_scripts.py": 4,
+    "sim/test_depth_frames.py": 4, "transport/test_client_folders.py": 4, "transport/test_stepped.py": 4,
+    "client/test_client_faults.py": 3, "scene/test_scene_budgets.py": 3, "scene/ttt/test_ttt_custom.py": 3,
+    "scene/ttt/test_ttt_settings.py": 3, "scripts/test_legacy_scripts.py": 3, "scripts/test_sim_ik_chains.py": 3,
+    "test_layers.py": 3, "transport/test_client_slots.py": 3, "transport/test_idle.py": 3,
+    "transport/test_security.py": 3, "transport/test_zmq_api.py": 3,
 }
 
 
@@ -369,8 +371,11 @@ def server():
     blocking calls at once (``--pacing immediate``): the modules that use it test the API's
     semantics, and legacy pacing (the default, one step per blocking call) would make each of
     their calls wait up to 50 ms; tests/transport/test_pacing.py, the legacy programs' end-to-end tests
-    and the VPG-style program run servers with the default."""
-    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port(), free_port()])
+    and the VPG-style program run servers with the default. Its renderers are made on demand: most
+    of the modules that use it read no image (the renderers made at load, 0.25 s of CPU, went
+    unused), the others make them at their first image; tests/transport/test_first_frame.py
+    tests the renderers made at load."""
+    srv = ServerProcess(str(SCENE), "--pacing", "immediate", ports=[free_port(), free_port()], renderers="on-demand")
     yield srv
     srv.stop()
 

@@ -32,6 +32,7 @@ PRELOAD = [
     "numpy", "mujoco", "zenoh", "cv2", "msgpack",
     "simx_server.cli", "simx_server.scene.simulation", "simx_server.legacy.server",
     "simx_server.zmq.frontend", "simx_server.zmq.remote_api", "simx_server.loop.tasks",
+    "server_fork_frozen",  # last: gc.freeze() of all the above
 ]
 
 _context: Any = None

@@ -20,6 +20,18 @@ ROOT = REPO / "simx_server"
 LAYERS = ["base", "sim", "api", "scripts", "scene", "commands", "loop", "legacy", "zmq", "(top)"]
 
 
+def nodes(path: Path) -> tuple[ast.AST, ...]:
+    """Every node of the module at ``path`` (``ast.walk`` of its parse), parsed once per version
+    of the file: most checks here walk every module of the tree (0.5 s of CPU each)."""
+    stat = path.stat()
+    return _nodes(path, stat.st_mtime_ns, stat.st_size)
+
+
+@functools.cache
+def _nodes(path: Path, _mtime: int, _size: int) -> tuple[ast.AST, ...]:
+    return tuple(ast.walk(ast.parse(path.read_text(), str(path))))
+
+
 def module_name(path: Path) -> str:
     parts = path.relative_to(ROOT.parent).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
@@ -33,7 +45,7 @@ def layer(module: str) -> int:
 def imports(path: Path, modules: set[str]) -> set[str]:
     """The ``simx_server`` modules that ``path`` imports (``from pkg import module`` included)."""
     found = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in nodes(path):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
@@ -61,7 +73,7 @@ def _graph(root: Path) -> dict[str, frozenset[str]]:
 def imported_packages(path: Path) -> dict[str, int]:
     """Top-level package -> first line, of every absolute import in ``path``."""
     found: dict[str, int] = {}
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in nodes(path):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
@@ -159,7 +171,7 @@ def test_pyrep_is_a_client_of_the_api_table():
     allowed = {"simx_server", "simx_server.api", "simx_server.scene.simulation", "simx_server.sim.state"}
     used = set()
     for f in sorted((REPO / "pyrep").rglob("*.py")):
-        for node in ast.walk(ast.parse(f.read_text())):
+        for node in nodes(f):
             if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("simx_server"):
                 used.add(node.module)
     assert used <= allowed, f"pyrep imports server modules beyond the table: {sorted(used - allowed)}"
@@ -213,7 +225,7 @@ def registry_imports(package: str) -> list[str]:
     their own names are no registry."""
     found = []
     for f in sorted((REPO / package).rglob("*.py")):
-        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+        for node in nodes(f):
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names if a.name == "simx_server.commands"]
             elif isinstance(node, ast.ImportFrom) and node.module:
@@ -252,7 +264,7 @@ def test_no_front_door_subclasses_the_loop():
     its policies (pacing, stepping, the barrier, expiry)."""
     found = []
     for path in ROOT.rglob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text())):
+        for node in nodes(path):
             if isinstance(node, ast.ClassDef):
                 bases = {b.id if isinstance(b, ast.Name) else b.attr if isinstance(b, ast.Attribute) else ""
                          for b in node.bases}
@@ -274,7 +286,7 @@ def test_no_class_has_more_than_three_bases():
     """No class of the server is assembled from many mixins (the ``sim`` API once was one class
     of 32 mixin bases, whose shadowed names went unnoticed): at most 3 bases each."""
     wide = [f"{f.relative_to(REPO)}:{n.lineno} {n.name} ({len(n.bases)} bases)"
-            for f in sorted(ROOT.rglob("*.py")) for n in ast.walk(ast.parse(f.read_text(), str(f)))
+            for f in sorted(ROOT.rglob("*.py")) for n in nodes(f)
             if isinstance(n, ast.ClassDef) and len(n.bases) > 3]
     assert not wide, wide
 
@@ -286,7 +298,7 @@ def test_every_api_name_is_registered_once_by_one_decorator():
 
     seen: dict[tuple[str, str], list[str]] = {}
     for f in sorted((ROOT / "api").rglob("*.py")):
-        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+        for node in nodes(f):
             if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
                     and node.func.id in ("sim_function", "simik_function")):
                 for arg in node.args:

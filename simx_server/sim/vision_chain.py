@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from simx_server.sim.world import World
 
 _THIRD = (np.arange(3 * 255 + 1) // 3).astype(np.uint8)  # (R + G + B) -> (R + G + B) // 3
+_LEVELS = np.arange(256, dtype=np.int64)  # a byte's value, for sums from histograms
 
 
 def grey_of(img: np.ndarray) -> np.ndarray:
@@ -93,12 +94,16 @@ def default_packet(rgb: np.ndarray, depth: np.ndarray) -> list[float]:
     Returns:
         15 floats: the 5 minima, 5 maxima, 5 averages (intensity, red, green, blue, depth).
     """
-    px = rgb.reshape(-1, 3)
-    intensity = grey_of(rgb).ravel()
-    n = px.shape[0]
-    mins = [int(intensity.min()), *(int(v) for v in px.min(axis=0))]
-    maxs = [int(intensity.max()), *(int(v) for v in px.max(axis=0))]
-    avgs = [int(intensity.sum(dtype=np.uint64)) // n, *(int(v) // n for v in px.sum(axis=0, dtype=np.uint64))]
+    # The four planes (intensity, R, G, B) contiguous, one per row: numpy's reductions along a
+    # strided axis of the (n, 3) pixels took 9 ms at 256x256, more than the frame's render; the
+    # sums from each plane's histogram (exact integers, no 64-bit cast of every pixel).
+    n = rgb.shape[0] * rgb.shape[1]
+    planes = np.empty((4, n), np.uint8)
+    planes[0] = grey_of(rgb).ravel()
+    planes[1:] = rgb.reshape(-1, 3).T
+    mins = [int(v) for v in planes.min(axis=1)]
+    maxs = [int(v) for v in planes.max(axis=1)]
+    avgs = [int(np.bincount(p, minlength=256) @ _LEVELS) // n for p in planes]
     d = depth.ravel()
     depths = float(d.min()), float(d.max()), float(np.float32(d.mean(dtype=np.float64)))
     out = []

@@ -59,7 +59,7 @@ def _alive(pid):
 def test_make_vec_async_each_env_its_own_server_and_close_stops_them():
     if ENV_ID not in gym.registry:
         gym.register(ENV_ID, entry_point=JointEnv)
-    pool = ServerPool(2, SCENE, "--stopped", "--pacing", "immediate")
+    pool = ServerPool(2, SCENE, "--stopped", "--pacing", "immediate", "--renderers", "on-demand")  # no image read
     pids = pool.pids
     envs = pool.close_with(gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="async",
                                          vector_kwargs={"context": "spawn"}, servers=pool.claims))

@@ -282,3 +282,47 @@ def test_scene_edits_keep_motor_state_and_add_motors_once(tmp_path):
         assert (w.target_velocity[i], w.target_position[i]) == (0.7, -0.4)
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize("scene", ["ur5_rg2_kinect.xml", "ur5_ik.xml", "pendulum", "tendon"])
+def test_motors_read_from_the_spec_give_the_twice_compiled_model(scene, tmp_path):
+    """compile_spec reads the joints that need a motor from the spec and compiles once; the
+    model is byte for byte the one of compiling, adding the motors of the joints the compiled
+    model shows undriven (in joint order) and compiling again; a joint driven through a tendon
+    gets none."""
+    from simx_server.sim import motors, urdf
+
+    if scene == "pendulum":  # a nested joint listed before its parent's in no particular order
+        path = tmp_path / "p.xml"
+        path.write_text("""<mujoco><worldbody><body name="a"><joint name="j2" type="slide"/>
+          <geom size="0.1"/><body name="b"><joint name="j1"/><geom size="0.1"/></body></body>
+          <body name="c"><joint name="j0" type="hinge"/><geom size="0.1"/></body></worldbody>
+          <actuator><motor joint="j1"/></actuator></mujoco>""")
+    elif scene == "tendon":
+        path = tmp_path / "t.xml"
+        path.write_text("""<mujoco><worldbody><body><joint name="p"/><geom size="0.1"/>
+          <body><joint name="q"/><geom size="0.1"/></body></body></worldbody>
+          <tendon><fixed name="t"><joint joint="p" coef="1"/></fixed></tendon>
+          <actuator><motor tendon="t"/></actuator></mujoco>""")
+    else:
+        path = Path(motors.__file__).resolve().parents[2] / "scenes" / scene
+
+    def blob(m):
+        out = np.empty(mujoco.mj_sizeModel(m), np.uint8)
+        mujoco.mj_saveModel(m, None, out)
+        return out.tobytes()
+
+    spec = urdf.load_spec(path)
+    twice = spec.compile()
+    undriven = [mujoco.mj_id2name(twice, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(twice.njnt)
+                if int(twice.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+                and j not in {int(twice.actuator_trnid[a, 0]) for a in range(twice.nu)
+                              if int(twice.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)}]
+    if scene == "tendon":
+        undriven.remove("p")  # through the tendon
+    for name in undriven:
+        spec.add_actuator(name=motors.ADDED_PREFIX + name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                          gear=[1, 0, 0, 0, 0, 0], ctrllimited=0, forcelimited=0)
+    twice = spec.compile()
+    once = motors.compile_spec(urdf.load_spec(path))
+    assert undriven and blob(once) == blob(twice)

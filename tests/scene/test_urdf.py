@@ -18,6 +18,7 @@ import vrep
 from conftest import ROOT, ServerProcess, free_port, wait_until
 from simx_server.scene.listing import describe
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 SOURCE = ROOT / "tests" / "scenes" / "urdf"
 WAIT = vrep.simx_opmode_blocking
 OK, REMOTE = vrep.simx_return_ok, vrep.simx_return_remote_error_flag

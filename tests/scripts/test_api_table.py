@@ -15,6 +15,7 @@ from simx_wire.protocol import UnknownObjectError, UnsupportedError
 from test_scripts import small_scene
 
 #: Every entry as programs write it: ``sim.NAME`` and ``simIK.NAME``.
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 EVERY = [f"sim.{n}" for n in SIM] + [f"simIK.{n}" for n in SIMIK]
 
 LUA_WALK = """

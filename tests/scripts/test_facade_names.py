@@ -18,6 +18,7 @@ from simx_server.scene.simulation import Simulation
 from simx_server.api import client_context, script_sim
 from simx_server.api.registry import ApiTable, DuplicateApiNameError
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 MODEL_COPIES = """
 <mujoco model="copies">
   <worldbody>

@@ -24,6 +24,7 @@ try:
 except ImportError:  # tests/ imported as a package
     from tests.conftest import ROOT, ServerProcess, free_port
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 IK_SCENE = ROOT / "scenes" / "ur5_ik.xml"
 PROGRAM = ROOT / "tests" / "scripts" / "vpg_style_program.py"
 BLOCK = vrep.simx_opmode_blocking

@@ -26,6 +26,7 @@ from simx_server.sim.world import World
 
 import vrep
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 B = vrep.simx_opmode_blocking
 DT = vrep.sim_floatparam_simulation_time_step
 MASS = 3005  # sim_shapefloatparam_mass
@@ -74,7 +75,7 @@ def _scene(tmp_path: Path, option: str = "", camera: str = "") -> Path:
 
 @pytest.fixture(scope="module")
 def sim():
-    s = Simulation(SCENE)
+    s = Simulation(SCENE, renderers_at_load=False)  # module-scoped: the marker does not reach it
     yield s
     s.close()
 

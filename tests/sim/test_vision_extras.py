@@ -115,3 +115,22 @@ def test_grey_images_are_v_reps_integer_mean():
     img = np.random.default_rng(3).integers(0, 256, (64, 48, 3), dtype=np.uint8)
     expected = (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)
     assert _grey(img).dtype == np.uint8 and np.array_equal(_grey(img), expected)
+
+
+@pytest.mark.parametrize("shape, low, high", [((64, 48, 3), 0, 256), ((1, 1, 3), 0, 256), ((3, 7, 3), 250, 256),
+                                              ((32, 32, 3), 9, 10)])
+def test_the_default_packet_is_v_reps_per_pixel_statistics(shape, low, high):
+    """V-REP's default vision packet (``sensorResult``): min, max and truncated average of the
+    intensity ((R + G + B) // 3) and of each channel, / 255, then the depth's; computed from
+    planes and histograms, it equals the plain per-pixel definition (a strided view too)."""
+    from simx_server.sim.vision_chain import default_packet
+
+    rng = np.random.default_rng(shape[0])
+    img = rng.integers(low, high, (shape[0], 2 * shape[1], 3), dtype=np.uint8)[:, ::2]  # not contiguous
+    depth = rng.random(shape[:2], dtype=np.float32)
+    px = img.reshape(-1, 3).astype(np.int64)
+    values = np.column_stack([px.sum(axis=1) // 3, px])  # intensity, R, G, B of each pixel
+    stats = [values.min(axis=0), values.max(axis=0), values.sum(axis=0) // len(px)]
+    depths = [depth.min(), depth.max(), np.float32(depth.astype(np.float64).mean())]
+    expected = [v for k in range(3) for v in [float(np.float32(x / 255.0)) for x in stats[k]] + [float(depths[k])]]
+    assert default_packet(img, depth) == expected

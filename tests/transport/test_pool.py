@@ -16,6 +16,8 @@ from conftest import ROOT, SCENE, ready_line, wait_until
 from simx_server.pool import PoolError, ServerPool
 
 ENV = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
+#: These servers serve no image: no GL renderer at load (0.25 s of CPU a server).
+NO_IMAGES = ("--renderers", "on-demand")
 
 
 def _alive(pid: int) -> bool:
@@ -35,7 +37,7 @@ def _connect(host: str, port: int) -> int:
 
 def test_pool_of_two_serves_separate_simulations_and_close_stops_them():
     lines: list[str] = []
-    pool = ServerPool(2, SCENE, "--pacing", "immediate", "--stopped", progress=lines.append)
+    pool = ServerPool(2, SCENE, "--pacing", "immediate", "--stopped", *NO_IMAGES, progress=lines.append)
     try:
         ports = sorted(port for _, port in pool.addresses)
         assert [line.split(" ready")[0] for line in lines] == ["simx-server 1 of 2", "simx-server 2 of 2"]
@@ -67,7 +69,7 @@ def test_pool_of_two_serves_separate_simulations_and_close_stops_them():
 
 
 def test_pool_context_manager_and_kept_log_dir(tmp_path):
-    with ServerPool(1, None, "--pacing", "immediate", log_dir=tmp_path) as pool:
+    with ServerPool(1, None, "--pacing", "immediate", *NO_IMAGES, log_dir=tmp_path) as pool:
         (host, port), = pool.addresses
         cid = _connect(host, port)
         assert vrep.simxGetObjectHandle(cid, "UR5", vrep.simx_opmode_blocking)[0] == 0
@@ -90,7 +92,7 @@ def test_pool_takes_another_port_when_one_is_taken(monkeypatch):
     answers = iter([taken])
     monkeypatch.setattr(pool_module, "free_port", lambda host="127.0.0.1": next(answers, None) or real(host))
     try:
-        with ServerPool(1, None, "--pacing", "immediate") as pool:
+        with ServerPool(1, None, "--pacing", "immediate", *NO_IMAGES) as pool:
             (_, port), = pool.addresses
             assert port != taken
             cid = _connect("127.0.0.1", port)
@@ -140,7 +142,7 @@ def _start_instances(*args: str) -> tuple[subprocess.Popen, str]:
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_instances_end_to_end(sig):
-    proc, line = _start_instances(str(SCENE), "--instances", "2", "--pacing", "immediate")
+    proc, line = _start_instances(str(SCENE), "--instances", "2", "--pacing", "immediate", *NO_IMAGES)
     try:
         ports = [int(p) for p in re.findall(r"tcp/127\.0\.0\.1:(\d+)", line)]
         assert len(ports) == 2 and ports[0] != ports[1], line
@@ -178,7 +180,7 @@ def _free_run(n: int) -> int:
 
 def test_instances_with_port_uses_consecutive_ports():
     first = _free_run(3)
-    proc, line = _start_instances("--instances", "3", "--port", str(first), "--pacing", "immediate")
+    proc, line = _start_instances("--instances", "3", "--port", str(first), "--pacing", "immediate", *NO_IMAGES)
     try:
         assert re.findall(r"tcp/127\.0\.0\.1:(\d+)", line) == [str(first + i) for i in range(3)]
         cid = _connect("127.0.0.1", first + 2)
@@ -203,7 +205,7 @@ def test_instances_refusals(args):
 
 def test_instances_one_failing_stops_the_other(tmp_path):
     """A server that exits after the pool started takes the others down with it (status 1)."""
-    proc, line = _start_instances("--instances", "2", "--pacing", "immediate", "--log-dir", str(tmp_path))
+    proc, line = _start_instances("--instances", "2", "--pacing", "immediate", *NO_IMAGES, "--log-dir", str(tmp_path))
     try:
         children = _children(proc.pid)
         assert len(children) == 2
@@ -220,7 +222,7 @@ def test_instances_one_failing_stops_the_other(tmp_path):
 def test_servers_stop_when_the_pool_owner_is_killed(tmp_path):
     """PR_SET_PDEATHSIG: a training script killed with SIGKILL leaves no server behind."""
     code = ("import sys; from simx_server.pool import ServerPool\n"
-            "p = ServerPool(2, None, '--pacing', 'immediate', log_dir=sys.argv[1])\n"
+            "p = ServerPool(2, None, '--pacing', 'immediate', '--renderers', 'on-demand', log_dir=sys.argv[1])\n"
             "print(*p.pids, flush=True)\n"
             "sys.stdin.read()\n")
     owner = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,

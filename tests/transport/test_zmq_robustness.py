@@ -14,6 +14,7 @@ from conftest import ServerProcess, free_port
 from simx_client.protocol import ProtocolError
 from simx_server.zmq import codec
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 SCENES = Path(__file__).resolve().parents[1] / "scenes" / "zmq"
 UUID = "robustness-test"
 

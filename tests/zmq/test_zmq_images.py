@@ -39,7 +39,8 @@ def zmq_server(tmp_path_factory):
     folder = tmp_path_factory.mktemp("images")
     (folder / "scene.xml").write_text(SCENE)
     port = free_port()
-    srv = ServerProcess(str(folder / "scene.xml"), "--zmq-port", str(port), "--pacing", "immediate")
+    srv = ServerProcess(str(folder / "scene.xml"), "--zmq-port", str(port), "--pacing", "immediate",
+                        renderers="on-demand")
     srv.zmq_port = port
     yield srv
     log = srv.stop()

@@ -15,6 +15,9 @@ from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import convert, reader
 
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
+
 def _scene() -> bytes:
     return W.ttt_file(
         W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False) +

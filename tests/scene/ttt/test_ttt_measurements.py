@@ -19,6 +19,7 @@ import vrep
 from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import convert, reader
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 B = vrep.simx_opmode_blocking
 
 SCRIPT = """

@@ -12,6 +12,9 @@ from simx_server.scene import listing
 from simx_server.scene.simulation import Simulation
 
 
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
+
+
 @pytest.fixture()
 def cell(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))

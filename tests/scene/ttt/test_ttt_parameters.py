@@ -14,6 +14,7 @@ from simx_server.scene.simulation import Simulation
 from simx_server.api import script_parameters as SP
 
 #: A recorded trajectory: 5,000 float32 joint angles, bytes that are not UTF-8 (zeros included).
+pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 TRAJECTORY = np.linspace(-3.1, 3.1, 5000, dtype="<f4").tobytes()
 
 PARENT = """
