@@ -64,7 +64,7 @@ from simx_server.scene.client_files import ClientFiles
 from simx_server.scene.edits import ObjectEdits
 from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.scripts.scene_scripts import Scripts
-from simx_server.sim import motors
+from simx_server.sim import motor_spec
 from simx_server.sim.spec_tools import (
     _FRAMES,
     _KIND,
@@ -263,7 +263,7 @@ class Editor(ObjectEdits):
                 guard.check_growth(before, spec)
                 guard.check_mesh_growth(world.model, live, spec)
             try:
-                model = motors.compile_spec(spec)  # joints without an actuator get a motor
+                model = motor_spec.compile_spec(spec)  # joints without an actuator get a motor
             except ValueError as exc:
                 raise UnsupportedError("MuJoCo cannot compile the edited scene: "
                                        f"{self._scrub(_one_line(exc))}") from None

@@ -26,7 +26,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import grasps, kinematic, motors, naming, physics, properties, scene_settings, urdf
+from simx_server.sim import grasps, kinematic, motor_spec, motors, naming, physics, properties, scene_settings, urdf
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     CAMERA,
@@ -106,7 +106,7 @@ class World(Poses, Joints):
         except ArgumentError as exc:
             raise ValueError(str(exc)) from None
         try:  # through MjSpec: joints without an actuator get a (disabled) motor
-            model = motors.compile_spec(urdf.load_spec(self.scene_path))  # MJCF, or URDF (simx_server.sim.urdf)
+            model = motor_spec.compile_spec(urdf.load_spec(self.scene_path))  # MJCF, or URDF (simx_server.sim.urdf)
         except Exception as exc:
             raise ValueError(f"cannot load scene {name or self.scene_path}: {exc}") from exc
         #: The step and real-time mode the scene declares (a .ttt's saved ones), used where the

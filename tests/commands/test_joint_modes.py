@@ -290,7 +290,7 @@ def test_motors_read_from_the_spec_give_the_twice_compiled_model(scene, tmp_path
     model is byte for byte the one of compiling, adding the motors of the joints the compiled
     model shows undriven (in joint order) and compiling again; a joint driven through a tendon
     gets none."""
-    from simx_server.sim import motors, urdf
+    from simx_server.sim import motor_spec, motors, urdf
 
     if scene == "pendulum":  # a nested joint listed before its parent's in no particular order
         path = tmp_path / "p.xml"
@@ -321,8 +321,8 @@ def test_motors_read_from_the_spec_give_the_twice_compiled_model(scene, tmp_path
     if scene == "tendon":
         undriven.remove("p")  # through the tendon
     for name in undriven:
-        spec.add_actuator(name=motors.ADDED_PREFIX + name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+        spec.add_actuator(name=motor_spec.ADDED_PREFIX + name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
                           gear=[1, 0, 0, 0, 0, 0], ctrllimited=0, forcelimited=0)
     twice = spec.compile()
-    once = motors.compile_spec(urdf.load_spec(path))
+    once = motor_spec.compile_spec(urdf.load_spec(path))
     assert undriven and blob(once) == blob(twice)

@@ -1,0 +1,100 @@
+"""The motors simx gives a scene's joints when it compiles: each named hinge or slide joint
+without an actuator (and not driven through a tendon) gets one of its own, ``simx_motor:<joint>``
+(:data:`ADDED_PREFIX`), disabled until a program enables it (:mod:`simx_server.sim.motors`)."""
+
+from __future__ import annotations
+
+import mujoco
+
+#: Prefix of the actuators simx adds to joints that have none (their motor starts disabled).
+ADDED_PREFIX = "simx_motor:"
+
+JOINT_TRNS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+TENDON_TRN = int(mujoco.mjtTrn.mjTRN_TENDON)
+SCALAR = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def tendon_driven(m: mujoco.MjModel) -> dict[int, str]:
+    """The joints moved only through a tendon an actuator drives.
+
+    Args:
+        m: the model.
+
+    Returns:
+        Joint id -> the name of a tendon that an actuator drives and that wraps the joint.
+    """
+    out = {}
+    for a in range(m.nu):
+        if m.actuator_trntype[a] == TENDON_TRN:
+            t = int(m.actuator_trnid[a, 0])
+            for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+                if m.wrap_type[w] == mujoco.mjtWrap.mjWRAP_JOINT:
+                    out.setdefault(int(m.wrap_objid[w]), mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TENDON, t) or f"#{t}")
+    return out
+
+
+def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """Compile ``spec`` after giving each named hinge/slide joint without an actuator (and not
+    driven through a tendon) a motor of its own, ``simx_motor:<joint>`` (added to ``spec``).
+
+    Raises ValueError: MuJoCo cannot compile the spec.
+
+    Args:
+        spec: the scene's spec (actuators are added to it).
+
+    Returns:
+        The compiled model.
+    """
+    model = _compile_predicted(spec)
+    if model is not None:
+        return model
+    model = spec.compile()
+    missing = _missing(model, model.nu)
+    if not missing:
+        return model
+    taken = {a.name for a in spec.actuators}
+    for name in missing:
+        if ADDED_PREFIX + name not in taken:
+            _add_motor(spec, name)
+    return spec.compile()
+
+
+def _add_motor(spec: mujoco.MjSpec, joint: str) -> mujoco.MjsActuator:
+    return spec.add_actuator(name=ADDED_PREFIX + joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                             gear=[1, 0, 0, 0, 0, 0], ctrllimited=0, forcelimited=0)
+
+
+def _missing(model: mujoco.MjModel, nu: int) -> list[str]:
+    """Names of the named hinge/slide joints that none of the model's first ``nu`` actuators
+    drives, directly or through a tendon, in joint order."""
+    driven = {int(model.actuator_trnid[a, 0]) for a in range(nu) if model.actuator_trntype[a] in JOINT_TRNS}
+    tendons = tendon_driven(model)
+    return [name for j in range(model.njnt)
+            if int(model.jnt_type[j]) in SCALAR and j not in driven and j not in tendons
+            and (name := mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j))]
+
+
+def _compile_predicted(spec: mujoco.MjSpec) -> mujoco.MjModel | None:
+    """:func:`compile_spec`'s model in one compile, its motors read from the spec beforehand
+    (a scene that needs motors was compiled twice: the UR5 scene's compile is 20 ms, nearly all
+    of it generating its textures). None, with ``spec`` as it was, where the spec has tendons,
+    needs no motor, or the compiled model shows another set or order of joints without an
+    actuator than the spec read: :func:`compile_spec` then compiles, adds, compiles again."""
+    if len(spec.tendons):
+        return None
+    driven = {a.target for a in spec.actuators if int(a.trntype) in JOINT_TRNS}
+    taken = {a.name for a in spec.actuators}
+    names = [j.name for j in spec.joints if int(j.type) in SCALAR and j.name and j.name not in driven]
+    if not names or any(ADDED_PREFIX + n in taken for n in names):
+        return None
+    added = [_add_motor(spec, n) for n in names]
+    try:
+        model = spec.compile()
+    except Exception:  # the compile without the motors says what is wrong
+        model = None
+    # the joints none of the scene's own actuators drives, in joint order: what the spec said
+    if model is not None and _missing(model, model.nu - len(added)) == names:
+        return model
+    for actuator in added:
+        spec.delete(actuator)
+    return None
