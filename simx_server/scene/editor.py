@@ -246,7 +246,8 @@ class Editor(ObjectEdits):
 
         ``change`` returns an optional callable run after the swap (on the new world). ``bounded``
         (default: a client's request is being served) checks the scene's growth against
-        ``MAX_SCENE_*`` first; the operator's own edits (in process, its scripts) are not bounded.
+        ``MAX_SCENE_*`` first, and the edited model's cost (``World.replace_model``); the
+        operator's own edits (in process, its scripts) are not bounded.
         """
         world = self.sim.world
         with _quiet_mujoco():
@@ -259,7 +260,8 @@ class Editor(ObjectEdits):
                 after = change(spec)
             except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
                 raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
-            if self.files.caller if bounded is None else bounded:
+            bounded = bool(self.files.caller) if bounded is None else bounded
+            if bounded:
                 guard.check_growth(before, spec)
                 guard.check_mesh_growth(world.model, live, spec)
             try:
@@ -270,7 +272,7 @@ class Editor(ObjectEdits):
         placements, mocap = self._runtime_placements(), self._mocap_poses()
         kept = kept_state.changes(world.model, self._baseline_state)
         baseline, baseline_state = _poses(model), kept_state.snapshot(model)
-        world.replace_model(model)
+        world.replace_model(model, bounded=bounded)
         self._spec, self._baseline, self._baseline_state = spec, baseline, baseline_state
         self._restore_placements(placements, mocap, self._placed)
         if kept_state.restore(world.model, kept, {name for _, name in self._placed}):
