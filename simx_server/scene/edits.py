@@ -170,7 +170,10 @@ class ObjectEdits:
                 model_tree.suffix_settings(child, suffix)
             else:
                 _rename_assets(child, taken)
+            had = set(spec.assets or ())
             spec.attach(child, frame=spec.worldbody.add_frame(), prefix="", suffix=suffix)
+            for key in set(spec.assets or ()) - had:  # MuJoCo's copies of the child's files, their
+                spec.assets.pop(key)                  # keys suffixed: the elements read child_assets'
             spec.assets = {**(spec.assets or {}), **child_assets}
             if not is_base:  # a loaded model's root is a model base in CoppeliaSim
                 _set_setting(spec, root + suffix, "model_base", "1")

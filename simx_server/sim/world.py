@@ -182,7 +182,22 @@ class World(Poses, Joints):
                 checked (:func:`physics.check_cost`, no worse than the model it replaces);
                 the operator's own edits of its own scene are not (docs/SECURITY.md). A
                 client's scene is always checked.
+
+        Raises:
+            ArgumentError: a bound; or MuJoCo cannot compute the edited scene's state (its data
+                arena overflows: two robots loaded at one place, thousands of contacts). The
+                world is then as it was.
         """
+        saved = {k: dict(v) if isinstance(v, dict) else v for k, v in vars(self).items()}
+        try:
+            self._replace(model, bounded)
+        except mujoco.FatalError as exc:  # raised by mj_forward: nothing of the new model is kept
+            vars(self).clear()
+            vars(self).update(saved)
+            text = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+            raise ArgumentError(f"MuJoCo cannot compute the edited scene's state: {text}") from None
+
+    def _replace(self, model: mujoco.MjModel, bounded: bool) -> None:
         old_model, old_data = self.model, self.data
         held = dict(self.grasps)
         joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
