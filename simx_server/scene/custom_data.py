@@ -14,6 +14,7 @@ import base64
 import binascii
 import json
 import logging
+from pathlib import Path
 
 from simx_server.sim.world import World
 
@@ -31,25 +32,45 @@ def load(world: World) -> dict[int, dict[str, bytes]]:
     """
     store: dict[int, dict[str, bytes]] = {}
     folder = world.scene_path.parent
-    total = 0
+    total = [0]
     for obj in world.objects.values():
         file = obj.settings.get("custom_data")
-        if not file:
-            continue
-        path = (folder / file).resolve()
-        if folder.resolve() not in path.parents or not path.is_file():
-            raise ValueError(f"custom_data {file!r} of {obj.name!r} not found in {folder}")
-        total += path.stat().st_size
-        if total > MAX_SCENE_CUSTOM_BYTES * 2:  # base64: 4 characters per 3 bytes, plus JSON
-            raise ValueError(f"custom_data of the scene: more than {MAX_SCENE_CUSTOM_BYTES} bytes in all")
-        try:
-            items = json.loads(path.read_text(encoding="utf-8"))
-            if not isinstance(items, dict) or not all(isinstance(v, str) for v in items.values()):
-                raise ValueError("must be a JSON object of tag -> base64 text")
-            store[obj.handle] = {str(tag): base64.b64decode(v, validate=True) for tag, v in items.items()}
-        except (ValueError, UnicodeDecodeError, binascii.Error) as exc:
-            raise ValueError(f"custom_data {file!r} of {obj.name!r}: {exc}") from None
+        if file:
+            store[obj.handle] = read(folder, file, obj.name, total)
     return store
+
+
+def read(folder: Path, file: str, name: str, total: list[int] | None = None) -> dict[str, bytes]:
+    """The blocks of one object's ``custom_data=FILE`` (a scene's, or a loaded model's in its
+    own folder, :mod:`simx_server.scene.model_files`).
+
+    Args:
+        folder: the folder the file must lie in.
+        file: the setting's value.
+        name: the object's name, for messages.
+        total: the bytes read so far (added to; more than twice ``MAX_SCENE_CUSTOM_BYTES`` of
+            JSON, base64 and all, is refused).
+
+    Returns:
+        Tag -> data.
+
+    Raises:
+        ValueError: a file outside ``folder``, missing, not such a JSON object, or too large.
+    """
+    total = total if total is not None else [0]
+    path = (folder / file).resolve()
+    if folder.resolve() not in path.parents or not path.is_file():
+        raise ValueError(f"custom_data {file!r} of {name!r} not found in {folder}")
+    total[0] += path.stat().st_size
+    if total[0] > MAX_SCENE_CUSTOM_BYTES * 2:  # base64: 4 characters per 3 bytes, plus JSON
+        raise ValueError(f"custom_data of the scene: more than {MAX_SCENE_CUSTOM_BYTES} bytes in all")
+    try:
+        items = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(items, dict) or not all(isinstance(v, str) for v in items.values()):
+            raise ValueError("must be a JSON object of tag -> base64 text")
+        return {str(tag): base64.b64decode(v, validate=True) for tag, v in items.items()}
+    except (ValueError, UnicodeDecodeError, binascii.Error) as exc:
+        raise ValueError(f"custom_data {file!r} of {name!r}: {exc}") from None
 
 
 def install(sim, store: dict[int, dict[str, bytes]]) -> None:

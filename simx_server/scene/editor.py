@@ -22,7 +22,10 @@ Rules, in V-REP's terms (docs/API.md lists them per command):
 * A shape is a MuJoCo body, and a body carries its child bodies: removing, copying or
   re-parenting a shape acts on its whole body subtree (with the joints, geoms, sites, cameras
   and lights inside, and the actuators, sensors, constraints and ``simx:`` settings that
-  refer to them).
+  refer to them). A model load returns the model's root, a model base; removing a model takes
+  every object below its base in V-REP's tree, also those MuJoCo hangs elsewhere
+  (``vrep_parent=``), and every removal takes the meshes, textures and materials that only the
+  removed elements used (:mod:`simx_server.scene.model_tree`).
 * Scripts come with objects, as in CoppeliaSim: a loaded model's and a copy's run as the
   scene's own (their V-REP 3.x lookups find their own objects by the name suffix,
   ``sim.getObjectHandle``; :mod:`simx_server.scene.model_scripts`), and a removed object's end
@@ -35,8 +38,9 @@ Rules, in V-REP's terms (docs/API.md lists them per command):
   scripts run only with ``--allow-remote-code`` (a client's scene is refused without it, a
   client's model loads without them). Server-side paths (options 0) are loaded only
   from the operator's scene folder and ``--scene-path`` folders, never from a transfer folder
-  of any server. Edits may not grow the scene past ``MAX_SCENE_BODIES``/``MAX_SCENE_ELEMENTS``
-  nor add meshes past ``MAX_SCENE_MESH_VERTICES``/``MAX_SCENE_MESH_FACES``.
+  of any server. A client's edits may not grow the scene past ``MAX_SCENE_BODIES``/``MAX_SCENE_ELEMENTS``
+  nor add meshes past ``MAX_SCENE_MESH_VERTICES``/``MAX_SCENE_MESH_FACES``, nor its cost past
+  ``MAX_ARENA_BYTES``/``MAX_STEP_WORK``/``MAX_SCENE_CONTACTS``; the operator's own are not bounded.
 
 The MjSpec tools (pose maths, names, references, cloning) are in :mod:`simx_server.sim.spec_tools`,
 the command handlers (``EDITING_HANDLERS``) in :mod:`simx_server.commands.editing`.
@@ -246,7 +250,8 @@ class Editor(ObjectEdits):
 
         ``change`` returns an optional callable run after the swap (on the new world). ``bounded``
         (default: a client's request is being served) checks the scene's growth against
-        ``MAX_SCENE_*`` first; the operator's own edits (in process, its scripts) are not bounded.
+        ``MAX_SCENE_*`` first, and the edited model's cost (``World.replace_model``); the
+        operator's own edits (in process, its scripts) are not bounded.
         """
         world = self.sim.world
         with _quiet_mujoco():
@@ -259,7 +264,8 @@ class Editor(ObjectEdits):
                 after = change(spec)
             except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
                 raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
-            if self.files.caller if bounded is None else bounded:
+            bounded = bool(self.files.caller) if bounded is None else bounded
+            if bounded:
                 guard.check_growth(before, spec)
                 guard.check_mesh_growth(world.model, live, spec)
             try:
@@ -270,7 +276,7 @@ class Editor(ObjectEdits):
         placements, mocap = self._runtime_placements(), self._mocap_poses()
         kept = kept_state.changes(world.model, self._baseline_state)
         baseline, baseline_state = _poses(model), kept_state.snapshot(model)
-        world.replace_model(model)
+        world.replace_model(model, bounded=bounded)
         self._spec, self._baseline, self._baseline_state = spec, baseline, baseline_state
         self._restore_placements(placements, mocap, self._placed)
         if kept_state.restore(world.model, kept, {name for _, name in self._placed}):

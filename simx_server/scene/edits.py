@@ -15,11 +15,11 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
+from simx_wire.protocol import ArgumentError, ObjectTypeError, RemoteError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.base import scene_guard as guard
 from simx_server.base.mesh_counts import spec_mesh_counts
-from simx_server.scene import conversions, grasping, model_scripts
+from simx_server.scene import conversions, grasping, model_files, model_scripts, model_tree
 from simx_server.sim.spec_tools import (
     _KIND,
     _MARK,
@@ -33,7 +33,6 @@ from simx_server.sim.spec_tools import (
     _copy_settings,
     _delete_references,
     _delete_settings,
-    _elements,
     _embed_assets,
     _free_name,
     _inverse,
@@ -48,7 +47,7 @@ from simx_server.sim.spec_tools import (
     _subtree_objects,
     vrep_suffix,
 )
-from simx_server.sim import grasps, kept_objects
+from simx_server.sim import grasps, kept_objects, properties
 from simx_server.sim.urdf import load_spec
 from simx_server.sim.vision_results import Deferred
 from simx_server.sim.world import FORCE_SENSOR, JOINT, SHAPE, WORLD
@@ -66,6 +65,7 @@ class PreparedModel(NamedTuple):
     assets: dict[str, bytes]  #: those files, by the names the spec gives them
     scripts: tuple = ()  #: its scripts (:func:`model_scripts.take`), attached with it
     client: bool = False  #: a client's file (its scripts run only with ``--allow-remote-code``)
+    files: tuple = ()  #: its objects' path and custom data (:func:`model_files.take`)
 
 
 class ObjectEdits:
@@ -141,54 +141,62 @@ class ObjectEdits:
             except RemoteError as exc:
                 raise RemoteError(f"cannot load model {label}: {exc}") from None
         scripts = model_scripts.take(child, Path(file).parent, label, self._scrub)  # attached with the model
+        files = model_files.take(child, Path(file).parent, label, self._scrub)  # its paths', custom data
         if warm and (child.meshes or child.textures):
             try:  # MuJoCo releases the GIL while it compiles; the attach's compile reports errors
                 child.copy().compile()
             except Exception as exc:
                 log.debug("warming MuJoCo's cache with model %s: %s", label, exc)
-        return PreparedModel(file, label, child, child_assets, tuple(scripts), root is not None)
+        return PreparedModel(file, label, child, child_assets, tuple(scripts), root is not None, tuple(files))
 
     def _attach_model(self, prepared: PreparedModel) -> int:
         """Attach a prepared model (:meth:`prepare_model`) to the scene, on the simulation
-        thread (one compile of the scene with it, :meth:`_edit`); its base's handle."""
+        thread (one compile of the scene with it, :meth:`_edit`); the handle of its root, V-REP's
+        model base (:func:`model_tree.root_name`: a ``.ttm``'s root object, an MJCF model's
+        first top-level object, which becomes a model base), as ``simLoadModel`` returns it."""
         file, path, child, child_assets = prepared[:4]
-        base = child.worldbody.first_body()
-        if base is not None and not base.name:
-            base.name = child.modelname or file.stem
+        first = child.worldbody.first_body()
+        if first is not None and not first.name:
+            first.name = child.modelname or file.stem
+        root, is_base = model_tree.root_name(child)
+        if root is None:
+            raise ArgumentError(f"model {path} has no body nor named site, camera or light")
         given = [""]  # the suffix the model's names get
 
         def change(spec: mujoco.MjSpec):
             taken = self._taken(spec)
             suffix = given[0] = vrep_suffix(_names(child), taken, trigger=_names(child, _TREE_LISTS + _OTHER_LISTS))
-            if not suffix:
+            if suffix:
+                model_tree.suffix_settings(child, suffix)
+            else:
                 _rename_assets(child, taken)
+            had = set(spec.assets or ())
             spec.attach(child, frame=spec.worldbody.add_frame(), prefix="", suffix=suffix)
+            for key in set(spec.assets or ()) - had:  # MuJoCo's copies of the child's files, their
+                spec.assets.pop(key)                  # keys suffixed: the elements read child_assets'
             spec.assets = {**(spec.assets or {}), **child_assets}
-            if base is not None:
-                return lambda: self.sim.world.resolve(base.name + suffix).handle
-            first = next((e.name + suffix for e in _elements(child, ("sites", "cameras", "lights")) if e.name), None)
-            if first is None:
-                raise ArgumentError(f"model {path} has no body nor named site, camera or light")
-            return lambda: self.sim.world.resolve(first).handle
+            if not is_base:  # a loaded model's root is a model base in CoppeliaSim
+                _set_setting(spec, root + suffix, "model_base", "1")
+            return lambda: self.sim.world.resolve(root + suffix).handle
 
         handle = self._edit(change, bounded=bool(self.files.caller) or prepared.client)
+        model_files.attach(self.sim, prepared.files, given[0])
         model_scripts.attach(self.sim, prepared.scripts, given[0], prepared.client, path)
         self.sim.selection = [handle]  # V-REP selects the loaded model's base
         log.info("loaded model %s: base %r (handle %d)", file.name, self.sim.world.get(handle).name, handle)
         return handle
 
     def remove_object(self, handle: int) -> None:
-        """``simxRemoveObject``: a shape goes with its body subtree; a joint's body stays in place."""
+        """``simxRemoveObject``: a shape goes with its body subtree; a joint's body stays in place;
+        the assets only they used go too (:func:`model_tree.remove`)."""
         def change(spec: mujoco.MjSpec):
             kind, el, obj = self._spec_element(spec, handle)
-            before = _object_names(spec)
             if kind == "joint":
+                before = _object_names(spec)
                 self._remove_joint(spec, el, obj)
+                _delete_settings(spec, before - _object_names(spec))
             else:
-                if kind != "body":
-                    _delete_references(spec, kind, obj.name)
-                spec.delete(el)
-            _delete_settings(spec, before - _object_names(spec))
+                model_tree.remove(spec, self.sim.world, [obj])
 
         self._edit(change)
 
@@ -205,12 +213,31 @@ class ObjectEdits:
             _set_local_pose(spec, body, here, (m.body_pos[obj.body], m.body_quat[obj.body]))
             self._placed.add(("body", body.name))
 
-    def remove_model(self, handle: int) -> None:
-        """``simxRemoveModel``: remove the body subtree rooted at a shape."""
+    def remove_model(self, handle: int) -> int:
+        """``simxRemoveModel`` / ``sim.removeModel``: remove a model, its base and every object
+        below it in V-REP's tree (:func:`model_tree.tree`: objects hung by ``vrep_parent=``
+        too), with the unnamed bodies that carried only them, their settings, the assets only
+        they used, and their scripts (``sysCall_cleanup``), as ``simRemoveModel_internal``
+        (``addModelObjects``, ``eraseObjects``). A shape that is no model base is accepted as
+        the base of its tree (simx's earlier rule: an MJCF scene's bodies carry no model flag).
+
+        Returns:
+            The number of objects removed.
+
+        Raises:
+            ArgumentError: the world.
+            ObjectTypeError: an object other than a shape that is no model base.
+            UnknownObjectError: no such object.
+        """
         if handle == WORLD:
             raise ArgumentError("the world (-1) cannot be removed")
-        self.sim.world.get(handle, SHAPE)
-        self.remove_object(handle)
+        world = self.sim.world
+        obj = world.get(handle)
+        if obj.type != SHAPE and properties.model_property(world, handle) & properties.NOT_MODEL == properties.NOT_MODEL:
+            raise ObjectTypeError(f"{obj.name!r} is not a model base (sim.removeModel removes a model from its base)")
+        objects = model_tree.tree(world, handle)
+        self._edit(lambda spec: model_tree.remove(spec, world, objects, carriers=True))
+        return len(objects)
 
     def create_dummy(self, size: float, colors: list[int] | None) -> int:
         """``simxCreateDummy``: a sphere site of diameter ``size`` at the world origin."""

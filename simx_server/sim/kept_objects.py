@@ -177,16 +177,45 @@ def _load_path(world, obj) -> OldPath:
     file = obj.settings.get("path_data")
     if not file:
         return OldPath()
-    folder = world.scene_path.parent.resolve()
-    path = (folder / file).resolve()
     try:
-        if folder not in path.parents or not path.is_file() or path.stat().st_size > MAX_PATH_FILE_BYTES:
-            raise ValueError("not a file of the scene's folder within MAX_PATH_FILE_BYTES")
-        data = json.loads(path.read_text(encoding="utf-8"))
-        if not isinstance(data, dict):
-            raise ValueError("not a JSON object")
-        return OldPath(data)
+        return OldPath(read_path_file(world.scene_path.parent, file))
     except (OSError, ValueError, TypeError) as exc:
         log.warning("scene %s: path %r: its data %r cannot be read (%s); the path is empty",
                     world.scene_name, obj.name, file, exc)
         return OldPath()
+
+
+def read_path_file(folder, file: str) -> dict:
+    """An old path's data file (:mod:`simx_server.scene.ttt.kinds` writes it): a scene's, or a
+    loaded model's in its own folder (:mod:`simx_server.scene.model_files`).
+
+    Args:
+        folder: the folder (``pathlib.Path``) the file must lie in.
+        file: the ``path_data=`` setting's value.
+
+    Returns:
+        The JSON object (:class:`OldPath`'s ``data``).
+
+    Raises:
+        ValueError: a file outside ``folder``, larger than ``MAX_PATH_FILE_BYTES``, or not a
+            JSON object. OSError: it cannot be read.
+    """
+    folder = folder.resolve()
+    path = (folder / file).resolve()
+    if folder not in path.parents or not path.is_file() or path.stat().st_size > MAX_PATH_FILE_BYTES:
+        raise ValueError("not a file of the scene's folder within MAX_PATH_FILE_BYTES")
+    data = json.loads(path.read_text(encoding="utf-8"))
+    if not isinstance(data, dict):
+        raise ValueError("not a JSON object")
+    return data
+
+
+def given(world, handle: int, data: dict) -> None:
+    """Give old path ``handle`` its data (a loaded model's, read when it was prepared).
+
+    Args:
+        world: the world.
+        handle: the path's handle.
+        data: :func:`read_path_file`'s object.
+    """
+    store(world).paths[handle] = OldPath(data)

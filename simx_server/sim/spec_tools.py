@@ -247,12 +247,17 @@ def _quiet_mujoco():
     """Route MuJoCo's warnings to the log while editing (not to stdout and MUJOCO_LOG.TXT).
 
     Attaching with an empty prefix (names kept as they are) always warns that the spec may
-    not save back to XML; simx never saves it, so that warning is dropped.
+    not save back to XML; simx never saves it, so that warning is dropped. A loaded model whose
+    options (integrator, cone, clipping planes ...) differ from the scene's takes the scene's, as
+    a model loaded into a V-REP scene does: MuJoCo's "attach conflict" warnings say so for every
+    converted ``.ttm``, and go to the debug log.
     """
     previous = mujoco.get_mju_user_warning()
 
     def handler(message: str) -> None:
-        if "empty prefix" not in message:
+        if "Attach conflict" in message:
+            log.debug("MuJoCo: %s", message.strip())
+        elif "empty prefix" not in message:
             log.warning("MuJoCo: %s", message.strip())
 
     mujoco.set_mju_user_warning(handler)
@@ -260,6 +265,7 @@ def _quiet_mujoco():
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*empty prefix.*")
             warnings.filterwarnings("ignore", message=".*without asset dict.*")
+            warnings.filterwarnings("ignore", message="(?s).*Attach conflict.*")
             yield
     finally:
         mujoco.set_mju_user_warning(previous)

@@ -81,8 +81,8 @@ class World(Poses, Joints):
         bounded: a client's scene: the compiled model's data arena, step work and contacts as
             loaded must stay within MAX_ARENA_BYTES, MAX_STEP_WORK and MAX_SCENE_CONTACTS
             (:func:`physics.check_cost`), checked before its MjData is made, and each step
-            within MAX_STEP_SECONDS (:func:`physics.timed_step`). Edits
-            (:meth:`replace_model`) are always checked.
+            within MAX_STEP_SECONDS (:func:`physics.timed_step`). Its edits, and a
+            client's edits of any scene (:meth:`replace_model`), are checked too.
 
     Raises:
         ValueError: the scene cannot be loaded (MuJoCo's message, with the file name), or
@@ -134,15 +134,16 @@ class World(Poses, Joints):
             raise ValueError(f"scene {self.scene_name}: {exc}") from None
         self.reset()
 
-    def _install(self, model: mujoco.MjModel) -> None:
+    def _install(self, model: mujoco.MjModel, bounded: bool = False) -> None:
         """Adopt ``model``: fresh data, registry (keeping known names' handles), motors.
 
         Raises ArgumentError (before changing anything) when the model's per-step work exceeds
-        a bound: substeps of the current dt, camera resolutions.
+        a bound: substeps of the current dt, camera resolutions; for a client's scene or edit
+        (``bounded``), its cost (:func:`physics.check_cost`).
         """
         substeps = physics.check_scene(model, self.requested_dt)
         previous = getattr(self, "model", None)  # an edit: bounded, unless no worse than before
-        if self.bounded or previous is not None:
+        if self.bounded or bounded:
             physics.check_cost(model, substeps, previous, getattr(self, "substeps", 1))
         self.model = model
         self.data = mujoco.MjData(model)
@@ -167,7 +168,7 @@ class World(Poses, Joints):
         self._init_motors()
         self._initial_fields = {f: getattr(model, f).copy() for f in _RESTORED_FIELDS}
 
-    def replace_model(self, model: mujoco.MjModel) -> None:
+    def replace_model(self, model: mujoco.MjModel, bounded: bool = True) -> None:
         """Swap in an edited model (scene editing) while the simulation goes on.
 
         Objects keep their handles (matched by name); joints keep their positions and
@@ -177,7 +178,26 @@ class World(Poses, Joints):
 
         Args:
             model: the edited scene, compiled.
+            bounded: a client's edit: its data arena, step work and contacts as loaded are
+                checked (:func:`physics.check_cost`, no worse than the model it replaces);
+                the operator's own edits of its own scene are not (docs/SECURITY.md). A
+                client's scene is always checked.
+
+        Raises:
+            ArgumentError: a bound; or MuJoCo cannot compute the edited scene's state (its data
+                arena overflows: two robots loaded at one place, thousands of contacts). The
+                world is then as it was.
         """
+        saved = {k: dict(v) if isinstance(v, dict) else v for k, v in vars(self).items()}
+        try:
+            self._replace(model, bounded)
+        except mujoco.FatalError as exc:  # raised by mj_forward: nothing of the new model is kept
+            vars(self).clear()
+            vars(self).update(saved)
+            text = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+            raise ArgumentError(f"MuJoCo cannot compute the edited scene's state: {text}") from None
+
+    def _replace(self, model: mujoco.MjModel, bounded: bool) -> None:
         old_model, old_data = self.model, self.data
         held = dict(self.grasps)
         joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
@@ -185,7 +205,7 @@ class World(Poses, Joints):
         free = {o.name: int(old_model.body_jntadr[o.mj_id]) for o in self.objects.values()
                 if o.type == SHAPE and old_model.body_jntnum[o.mj_id] == 1
                 and old_model.jnt_type[old_model.body_jntadr[o.mj_id]] == mujoco.mjtJoint.mjJNT_FREE}
-        self._install(model)
+        self._install(model, bounded)
         self.reset()
         m, d = self.model, self.data
         copies = [(old_model.jnt_qposadr[j], old_model.jnt_dofadr[j], self.by_name[n].mj_id)

@@ -299,19 +299,21 @@ def test_edits_by_clients_respect_the_body_bound(sim, monkeypatch):
     w = sim.world
     monkeypatch.setattr(limits, "MAX_SCENE_BODIES", w.model.nbody - 1 + 2)  # the world body not counted
     sphere = w.resolve("Sphere").handle
-    H["CopyPasteObjects"](sim, [[sphere]])
-    H["CopyPasteObjects"](sim, [[sphere]])  # now at the bound
-    model = w.model
-    with pytest.raises(RemoteError, match="MAX_SCENE_BODIES"):
+    with sim.editor.files.acting("a-client"):  # a client's edits (the operator's are not bounded)
         H["CopyPasteObjects"](sim, [[sphere]])
-    H["TransferFile"](sim, ["box.xml", (Path(__file__).resolve().parents[1] / "scenes" / "model_box.xml").read_bytes()])
-    with pytest.raises(RemoteError, match="MAX_SCENE_BODIES"):
-        H["LoadModel"](sim, ["box.xml", 1])
-    assert sim.world.model is model  # refused edits change nothing
-    H["RemoveObject"](sim, [sphere])  # shrinking is always allowed
-    monkeypatch.setattr(limits, "MAX_SCENE_ELEMENTS", 0)
-    with pytest.raises(RemoteError, match="MAX_SCENE_ELEMENTS"):
-        H["CreateDummy"](sim, [0.1, None])
+        H["CopyPasteObjects"](sim, [[sphere]])  # now at the bound
+        model = w.model
+        with pytest.raises(RemoteError, match="MAX_SCENE_BODIES"):
+            H["CopyPasteObjects"](sim, [[sphere]])
+        box = (Path(__file__).resolve().parents[1] / "scenes" / "model_box.xml").read_bytes()
+        H["TransferFile"](sim, ["box.xml", box])
+        with pytest.raises(RemoteError, match="MAX_SCENE_BODIES"):
+            H["LoadModel"](sim, ["box.xml", 1])
+        assert sim.world.model is model  # refused edits change nothing
+        H["RemoveObject"](sim, [sphere])  # shrinking is always allowed
+        monkeypatch.setattr(limits, "MAX_SCENE_ELEMENTS", 0)
+        with pytest.raises(RemoteError, match="MAX_SCENE_ELEMENTS"):
+            H["CreateDummy"](sim, [0.1, None])
 
 
 def test_transfer_folder_bounds(sim, monkeypatch):

@@ -83,7 +83,7 @@ def test_a_trusted_model_runs_its_scripts_as_the_scenes_own(trusted):
     assert w.get(base).name == "Crate"
     assert _int(sim, "custom_inits") == 1  # a customization script: at once
     assert _int(sim, "inits") is None  # a child script: with the simulation
-    assert w.get(base).settings == {"note": "kept"}  # its script settings left the scene's spec
+    assert w.get(base).settings == {"note": "kept", "model_base": "1"}  # a loaded root: a model base
     sim.start()
     assert _int(sim, "inits") == 1
     assert _int(sim, f"joint_of_{base}") == w.resolve("Crate_joint").handle

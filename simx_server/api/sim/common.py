@@ -62,12 +62,14 @@ def removeObjects(ctx: CallContext, objectHandles: Any, delayedRemoval: Any = Fa
 
 @sim_function("removeModel")
 def removeModel(ctx: CallContext, objectHandle: Any, delayedRemoval: Any = False) -> int:  # noqa: N802, N803
-    """Remove a model (the body subtree of a shape); returns how many objects went.
+    """Remove a model: its base and every object below it in V-REP's tree, with their scripts
+    and the assets only they used (``Editor.remove_model``); returns how many objects went.
 
-    ``sim.removeModel``.
+    ``sim.removeModel`` (``simRemoveModel_internal``).
 
     Args:
-        objectHandle: the model's base object, or ``sim.handle_self``.
+        objectHandle: the model's base object (a shape that is no model base: its own tree), or
+            ``sim.handle_self``.
         delayedRemoval: ignored.
 
     Returns:
@@ -75,6 +77,7 @@ def removeModel(ctx: CallContext, objectHandle: Any, delayedRemoval: Any = False
 
     Raises:
         UnknownObjectError: no such object.
+        ObjectTypeError: an object other than a shape that is no model base.
         UnsupportedError: an object simx cannot remove, or no simulation behind the script.
     """
     before = len(ctx.world.objects)

@@ -1,0 +1,78 @@
+"""PyRep's ``import_model`` and ``Object.remove`` as RLBench uses them (issue 51): each task's
+model (``.ttm``) is imported, simulated and removed with ``task.get_base().remove()``, then the
+next is imported. ``import_model`` returns the model's root, a model base (``is_model``), so that
+``remove`` removes the whole model (``sim.removeModel``); every cycle leaves the scene's bodies,
+meshes, textures and materials as they were. Models written by the test: a ``.ttm`` whose root
+is a dummy with a free shape and a meshed static shape below it, and an MJCF model."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from pyrep.objects import Dummy, Object, Shape
+
+sys.path.insert(0, str(ROOT / "tests" / "scene" / "ttt"))
+import tttwriter as W  # noqa: E402
+
+TETRA = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]], "<f4")
+
+MJCF = b"""<mujoco model="bin">
+  <asset><texture name="bin_tex" type="2d" builtin="checker" width="8" height="8"/>
+    <material name="bin_mat" texture="bin_tex"/></asset>
+  <worldbody>
+    <body name="bin" pos="0 0.5 0.1"><geom type="box" size="0.1 0.1 0.05" material="bin_mat"/>
+      <body name="bin_lid" pos="0 0 0.06"><joint name="bin_hinge" axis="1 0 0"/>
+        <geom type="box" size="0.1 0.1 0.005" material="bin_mat"/></body></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _task() -> bytes:
+    return W.ttt_file(
+        W.mesh_pool(TETRA, [0, 1, 2, 0, 1, 3, 0, 2, 3, 1, 2, 3]) +
+        W.dummy(1, -1, "reach_task", (0, 0, 0.2), extra=W.model_base()) +
+        W.cuboid_shape(2, 1, "target_block", (0.04, 0.04, 0.04), (0.1, 0, 0.1)) +
+        W.pool_shape(3, 1, "task_stand", pos=(0, 0, -0.2)) +
+        W.dummy(4, 2, "waypoint0", (0, 0, 0.05)), serialization=24, program=40100)
+
+
+def _counts(pr) -> tuple:
+    from pyrep.backend import sim
+
+    m = sim.context().world.model
+    return (m.nbody, m.njnt, m.ngeom, m.nsite, m.nmesh, m.nmeshface, m.ntex, m.nmat, m.ntext,
+            len(pr.simulation.editor._live_spec().assets or {}))
+
+
+@pytest.fixture
+def models(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    (tmp_path / "reach_task.ttm").write_bytes(_task())
+    (tmp_path / "bin.xml").write_bytes(MJCF)
+    return tmp_path
+
+
+def test_import_model_returns_the_model_base_and_remove_takes_the_whole_model(pr, models):
+    pr.stop()
+    empty = _counts(pr)
+    for _ in range(3):  # RLBench's cycle: import, simulate, remove, import the next
+        for file, name, kind in (("reach_task.ttm", "reach_task", Dummy), ("bin.xml", "bin", Shape)):
+            base = pr.import_model(str(models / file))
+            assert isinstance(base, kind) and base.get_name() == name  # no #n: nothing was left
+            assert base.is_model()
+            loaded = _counts(pr)
+            assert loaded[4] > empty[4] if kind is Dummy else loaded[6] > empty[6]  # a mesh / a texture
+            tree = {o.get_name() for o in base.get_objects_in_tree()}
+            assert tree >= ({"target_block", "task_stand", "waypoint0"} if kind is Dummy else {"bin_lid", "bin_hinge"})
+            pr.start()
+            for _ in range(5):
+                pr.step()
+            pr.stop()
+            base.remove()
+            assert _counts(pr) == empty
+            assert not Object.exists(name) and not Object.exists("target_block")
