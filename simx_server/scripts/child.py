@@ -1,9 +1,8 @@
 """Child scripts attached to scene objects, and the ``sim`` namespace each one calls.
 
-A scene attaches a script to an object with ``<custom><text name="simx:OBJECT"
-data="child_script=FILE"/></custom>``; FILE (``.lua`` or ``.py``) lies in the scene's folder:
-scripts come only from the server's disk. An optional ``script_timeout=SECONDS`` in the same
-text bounds every call into that script (default :data:`DEFAULT_TIMEOUT`).
+A scene attaches a script (``.lua`` or ``.py``, from the server's disk: the scene's folder) to an
+object with ``<custom><text name="simx:OBJECT" data="child_script=FILE"/></custom>``;
+``script_timeout=SECONDS`` there bounds every call into it (default :data:`DEFAULT_TIMEOUT`).
 
 Both languages see the one table of :mod:`simx_server.api` as ``sim`` (V-REP's names and units) and follow
 V-REP's non-threaded life cycle: the file's top level and ``sysCall_init`` when the simulation
@@ -16,8 +15,7 @@ it receives ``(inInts, inFloats, inStrings, inBuffer)`` and returns up to four v
 Faults never stop the simulation: an error (at load, at run time, or a call that overruns its
 time bound and is interrupted) is a :class:`~simx_wire.protocol.ScriptError` naming the file,
 the line and the message; the remote caller gets it as a remote error, and errors of life-cycle
-functions go to the log. See docs/SCRIPTS.md.
-"""
+functions go to the log. See docs/SCRIPTS.md."""
 
 from __future__ import annotations
 
@@ -192,14 +190,14 @@ class ChildScript:
             return
         if self._defines(function) and not self._pass_spent(function):
             self.executions += 1
-            self._guarded(function, lambda: self._run_function(function, ()))
+            if not self._empty(function):  # a template's empty callback would do nothing
+                self._guarded(function, lambda: self._run_function(function, ()))
 
     def _may_run(self, function: str) -> bool:
         """Whether callback ``function`` may run now: the script runs, enabled, loaded, and neither the
         function (an overrun of its step functions) nor the script (:attr:`cut`) is skipped."""
-        if not self.running or self.disabled or self.load_error or function in self._skipped:
-            return False
-        return not self.cut or function == "sysCall_cleanup"
+        skipped = not self.running or self.disabled or self.load_error or function in self._skipped
+        return not skipped and (not self.cut or function == "sysCall_cleanup")
 
     def _pass_spent(self, function: str) -> bool:
         """True (and a debug line) when the scene's scripts have used up the current pass's
@@ -337,6 +335,9 @@ class ChildScript:
 
     def _callable(self, function: str) -> bool:
         raise NotImplementedError
+
+    def _empty(self, function: str) -> bool:  # a function without code: calling it changes nothing
+        return False
 
     def _run_function(self, function: str, args: tuple) -> Any:
         raise NotImplementedError

@@ -65,6 +65,30 @@ HOOK_COUNT = 10_000
 #: Memory cap of one script's Lua state (bytes).
 MAX_MEMORY = L.MAX_SCRIPT_MEMORY
 _MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
+#: ``shape(lookup, chunk)``: a function of a global's name that gives, for a Lua function of
+#: several lines of chunk ``chunk`` whose only instruction lies on its last line (the implicit
+#: return of an empty body, as V-REP's script templates leave sysCall_actuation), that line;
+#: false otherwise. Kept per function value (weakly); compiled before the prelude hides ``debug``.
+_SHAPE_LUA = r"""
+local getinfo, pairs, type, setmetatable = debug.getinfo, pairs, type, setmetatable
+return function(lookup, chunk)
+  local seen = setmetatable({}, {__mode = "k"})
+  return function(name)
+    local f = lookup(name)
+    if type(f) ~= "function" then return false end
+    local line = seen[f]
+    if line == nil then
+      local i = getinfo(f, "SL")
+      line = i.what == "Lua" and i.source == chunk and i.linedefined < i.lastlinedefined and i.lastlinedefined
+      if line then
+        for l in pairs(i.activelines) do if l ~= line then line = false break end end
+      end
+      seen[f] = line
+    end
+    return line
+  end
+end
+"""
 
 
 
@@ -205,6 +229,7 @@ class LuaScript(LuaStyles, ChildScript):
     def _create(self) -> None:
         self._sim = self.sim_namespace()
         rt = self._runtime = self._new_runtime()
+        shape = rt.compile(_SHAPE_LUA, name="=simx")()
         prelude = rt.compile(PRELUDE, name="=simx")
         self._lookup, snapshot = prelude(
             self._dispatch, self._expired, self._write_log,
@@ -217,6 +242,7 @@ class LuaScript(LuaStyles, ChildScript):
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(),
             rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY))
         self._prepare_styles(rt)
+        self._shape, self._ends = shape(self._lookup, f"@{self.path.name}".encode()), {}
         snapshot()  # sim.getUserVariables: the globals from here on are the script's
         self._run_top_level(rt.compile(self._source, name=f"@{self.path.name}", mode="t"))
 
@@ -227,6 +253,20 @@ class LuaScript(LuaStyles, ChildScript):
 
     def _callable(self, function: str) -> bool:
         return self._defines(function)
+
+    def _empty(self, function: str) -> bool:
+        """Whether life-cycle ``function`` is the script's own and has no code: its lines before
+        ``end`` are blank or comments (:data:`_SHAPE_LUA`), so a call would change nothing. Such
+        callbacks (V-REP's templates) are not called: each call costs the budget's bookkeeping."""
+        if self.old_style or self._lookup is None:
+            return False
+        line = self._shape(function.encode())
+        if not line:
+            return False
+        if line not in self._ends:  # the line holds ``end`` alone, comments aside
+            lines = self._source.splitlines()
+            self._ends[line] = line <= len(lines) and lines[line - 1].split(b"--", 1)[0].strip() == b"end"
+        return bool(self._ends[line])
 
     def _run_function(self, function: str, args: tuple) -> Any:
         if self.old_style and function in LIFE_CYCLE_CALLS:
