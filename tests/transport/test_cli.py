@@ -84,10 +84,11 @@ def test_the_built_wheel_installs_a_server_and_client_that_work(tmp_path):
     (wheel,) = tmp_path.glob("simx-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
     for required in ("simx_server/scenes/ur5_rg2_kinect.xml", "simx_server/scenes/rg2.lua", "vrep.py", "sim.py",
-                     "simx_server/zmq/coppeliasim_api.json"):
+                     "simx_server/zmq/coppeliasim_api.json", "pyrep/assets/empty.xml"):
         assert required in names, f"{required} missing from the wheel"
     # Every package of the checkout is in the wheel: a package missing from it is what broke.
-    packages = {p.parent.relative_to(ROOT).as_posix() for top in ("simx_wire", "simx_client", "simx_server", "simx_viewer")
+    packages = {p.parent.relative_to(ROOT).as_posix() for top in ("simx_wire", "simx_client", "simx_server", "simx_viewer",
+                                                                       "pyrep")
                 for p in (ROOT / top).rglob("__init__.py")}
     assert {p for p in packages if f"{p}/__init__.py" not in names} == set()
 
@@ -106,6 +107,14 @@ def test_the_built_wheel_installs_a_server_and_client_that_work(tmp_path):
     where = subprocess.run([str(python), "-c", "import simx_server; print(simx_server.__file__)"],
                            capture_output=True, text=True, cwd=tmp_path, check=True).stdout
     assert where.startswith(site), where  # the wheel's copy, not the checkout
+    # PyRep's interface from the wheel: its empty scene (package data) launches and steps
+    pyrep = subprocess.run([str(python), "-c", "import pyrep; p = pyrep.PyRep(); p.launch(''); p.start(); p.step(); "
+                            "print(p.get_simulation_timestep() > 0, pyrep.__file__); p.shutdown()"],
+                           capture_output=True, text=True, cwd=tmp_path, env=dict(os.environ, MUJOCO_GL="egl"),
+                           timeout=120)
+    assert pyrep.returncode == 0, pyrep.stderr[-3000:]
+    stepped, module = pyrep.stdout.split()
+    assert stepped == "True" and module.startswith(site)
 
     port = free_port()
     env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
