@@ -186,11 +186,10 @@ class ChildScript:
         skipped until the simulation restarts, so that the simulation keeps its pace; one
         interrupted by the scene's scripts' time (the pass's end, their share) has all its
         callbacks but ``sysCall_cleanup`` skipped until then (:attr:`cut`)."""
-        if not self._may_run(function):
-            return
-        if self._defines(function) and not self._pass_spent(function):
+        body = self._body(function) if self._may_run(function) else 0
+        if body and not self._pass_spent(function):
             self.executions += 1
-            if not self._empty(function):  # a template's empty callback would do nothing
+            if body == 2:  # an empty callback (a V-REP template's) would do nothing
                 self._guarded(function, lambda: self._run_function(function, ()))
 
     def _may_run(self, function: str) -> bool:
@@ -336,8 +335,9 @@ class ChildScript:
     def _callable(self, function: str) -> bool:
         raise NotImplementedError
 
-    def _empty(self, function: str) -> bool:  # a function without code: calling it changes nothing
-        return False
+    def _body(self, function: str) -> int:
+        """0: ``function`` undefined; 1: defined without code (a call, not made, would change nothing); 2: with code."""
+        return 2 if self._defines(function) else 0
 
     def _run_function(self, function: str, args: tuple) -> Any:
         raise NotImplementedError

@@ -65,16 +65,18 @@ HOOK_COUNT = 10_000
 #: Memory cap of one script's Lua state (bytes).
 MAX_MEMORY = L.MAX_SCRIPT_MEMORY
 _MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
-#: ``shape(lookup, chunk)``: a function of a global's name that gives, for a Lua function of
-#: several lines of chunk ``chunk`` whose only instruction lies on its last line (the implicit
-#: return of an empty body, as V-REP's script templates leave sysCall_actuation), that line;
-#: false otherwise. Kept per function value (weakly); compiled before the prelude hides ``debug``.
+#: ``shape(lookup, chunk)``: a function of a global's name that gives nil for an undefined name;
+#: for a Lua function of several lines of chunk ``chunk`` whose only instruction lies on its last
+#: line (the implicit return of an empty body, as V-REP's script templates leave
+#: sysCall_actuation), that line; false otherwise. Kept per function value (weakly); compiled
+#: before the prelude hides ``debug``.
 _SHAPE_LUA = r"""
 local getinfo, pairs, type, setmetatable = debug.getinfo, pairs, type, setmetatable
 return function(lookup, chunk)
   local seen = setmetatable({}, {__mode = "k"})
   return function(name)
     local f = lookup(name)
+    if f == nil then return nil end
     if type(f) ~= "function" then return false end
     local line = seen[f]
     if line == nil then
@@ -254,19 +256,18 @@ class LuaScript(LuaStyles, ChildScript):
     def _callable(self, function: str) -> bool:
         return self._defines(function)
 
-    def _empty(self, function: str) -> bool:
-        """Whether life-cycle ``function`` is the script's own and has no code: its lines before
-        ``end`` are blank or comments (:data:`_SHAPE_LUA`), so a call would change nothing. Such
-        callbacks (V-REP's templates) are not called: each call costs the budget's bookkeeping."""
+    def _body(self, function: str) -> int:
+        """:meth:`ChildScript._body`, in one Lua call: a function whose lines before ``end`` are
+        blank or comments (:data:`_SHAPE_LUA`) is empty, as V-REP's templates leave some."""
         if self.old_style or self._lookup is None:
-            return False
+            return super()._body(function)
         line = self._shape(function.encode())
-        if not line:
-            return False
+        if line is None or line is False:
+            return 0 if line is None else 2
         if line not in self._ends:  # the line holds ``end`` alone, comments aside
             lines = self._source.splitlines()
             self._ends[line] = line <= len(lines) and lines[line - 1].split(b"--", 1)[0].strip() == b"end"
-        return bool(self._ends[line])
+        return 1 if self._ends[line] else 2
 
     def _run_function(self, function: str, args: tuple) -> Any:
         if self.old_style and function in LIFE_CYCLE_CALLS:

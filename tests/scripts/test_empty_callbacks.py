@@ -58,8 +58,8 @@ def _call(sim, function):
 
 def test_an_empty_callback_is_not_called_and_one_with_code_on_its_last_line_is(sim):
     script = sim.scripts.scripts[sim.world.resolve("Box").handle]
-    assert script._empty("sysCall_actuation") and not script._empty("sysCall_sensing")
-    assert not script._empty("sysCall_init")
+    assert script._body("sysCall_actuation") == 1 and script._body("sysCall_sensing") == 2
+    assert script._body("sysCall_init") == 2 and script._body("sysCall_nothing") == 0
     before = script.executions
     for _ in range(3):
         sim.step()
