@@ -27,13 +27,9 @@ new connection id; one that may not stays disconnected: its Zenoh session is clo
 from __future__ import annotations
 
 import itertools
-import json
 import logging
-import os
-import re
 import threading
 import time
-import uuid
 from typing import Any
 
 import zenoh
@@ -43,7 +39,8 @@ from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_client.client_config import CONFIG_ENV, PREFIX_ENV, client_config, config_in_play  # noqa: F401 (re-exported)
 from simx_client.outbox import MAX_BATCH_COMMANDS
-from simx_client.refusal import open_session
+from simx_client.identity import USER_ENV, answer_peer_check, client_id  # noqa: F401 (re-exported)
+from simx_client.refusal import open_session, unanswered_handshake
 from simx_client.sender import DEFAULT_CYCLE, OutboxSender, direct
 
 log = logging.getLogger("simx.client")
@@ -61,49 +58,6 @@ _SPLIT = (P.MODE_ONESHOT_SPLIT, P.MODE_STREAMING_SPLIT)
 
 
 _direct = direct
-
-
-def _answer_peer_check(query: zenoh.Query) -> None:
-    """The server's peer check (protocol.peer_key): an empty reply, which Zenoh stamps with
-    this session's id."""
-    try:
-        query.reply(query.key_expr, b"")
-    finally:
-        query.drop()
-
-
-#: Environment variable with the user name that starts the client id (default: the config's
-#: ``transport/auth/usrpwd/user``); needed with mTLS, where the user is the certificate's name.
-USER_ENV = "SIMX_USER"
-_USER_SEPARATOR = "-"  # client id = <user>-<uuid4 hex>: never in a user name
-_USER_NAME = re.compile(r"[A-Za-z0-9_.]{1,95}")  # 95 + 1 + 32 = 128, the longest client id
-
-
-def client_id(config: zenoh.Config) -> str:
-    """A new client id: ``<user>-<uuid4 hex>`` when a user is known, else ``<uuid4 hex>``.
-
-    The user is ``$SIMX_USER``, else the config's ``transport/auth/usrpwd/user``. With the
-    user in its id, Zenoh access control can let an authenticated user act under its own ids
-    only (``simx/call/<user>-$*``...; docs/SECURITY.md).
-
-    Raises:
-        LocalError: the user name is not 1 to 95 letters, digits, ``_`` or ``.`` (no ``-``:
-            ``alice-$*`` must not match the ids of a user ``alice-x``).
-
-    Args:
-        config: the client's Zenoh config (for its user).
-
-    Returns:
-        The id.
-    """
-    user = os.environ.get(USER_ENV) or json.loads(config.get_json("transport/auth/usrpwd/user") or "null")
-    ident = uuid.uuid4().hex
-    if not user:
-        return ident
-    if not (isinstance(user, str) and _USER_NAME.fullmatch(user)):
-        raise P.LocalError(f"user name {str(user)[:60]!r} cannot start a client id: use 1 to 95 letters, "
-                           "digits, '_' or '.'")
-    return f"{user}{_USER_SEPARATOR}{ident}"
 
 
 class Connection(OutboxSender):
@@ -165,31 +119,20 @@ class Connection(OutboxSender):
             # Answers the server's question "which session holds this id?" (one empty reply):
             # Zenoh stamps the reply with this session's id, so the server can bound ids per session.
             self._peer = self.session.declare_queryable(
-                P.peer_key(prefix, self.client), _direct(_answer_peer_check))
+                P.peer_key(prefix, self.client), _direct(answer_peer_check))
             self._token = self.session.liveliness().declare_token(P.client_token_key(prefix, self.client))
             self._watch = self.session.liveliness().declare_subscriber(
                 P.server_token_key(prefix), _direct(self._on_server_token), history=True)
             self._start_sender()
         except TimeoutError:
-            seen = self._server_token_seen()
+            refused = unanswered_handshake(self.session, prefix, self.client, address, port)
             self.session.close()
-            if seen:  # the server is there and does not answer this client: access control
-                user = self.client.rpartition(_USER_SEPARATOR)[0] or "(none)"
-                raise P.RefusedError(
-                    f"the server at {address}:{port} is there (its liveliness token is seen) but did not answer "
-                    f"this client's handshake: its access control does not let user {user} call under its ids, or "
-                    f"it is overloaded (docs/SECURITY.md); Zenoh config: {config_in_play()}") from None
+            if refused is not None:
+                raise refused from None
             raise
         except BaseException:
             self.session.close()
             raise
-
-    def _server_token_seen(self) -> bool:
-        """Whether the server's liveliness token answers a liveliness query (the server is there)."""
-        try:
-            return any(True for _ in self.session.liveliness().get(P.server_token_key(self.prefix), timeout=0.5))
-        except zenoh.ZError:
-            return False
 
     # --------------------------------------------------------------- transport
     def _hello(self, timeout: float | None = None) -> Any:

@@ -17,6 +17,8 @@ import ssl
 
 import zenoh
 
+from simx_client.client_config import config_in_play
+from simx_client.identity import user_of
 from simx_wire import protocol as P
 
 PROBE_TIMEOUT = 1.0  # s for the probe's TCP connection and TLS handshake
@@ -137,3 +139,28 @@ def open_session(config: zenoh.Config, config_file: str) -> zenoh.Session:
         if reason is None:
             raise
     raise P.RefusedError(f"{reason}; Zenoh config: {config_file}")
+
+
+def unanswered_handshake(session: zenoh.Session, prefix: str, client: str, address: str,
+                         port: int) -> P.RefusedError | None:
+    """After a handshake that timed out: the refusal to raise when the server is there (its
+    liveliness token answers a liveliness query) and did not answer this client, which its access
+    control does when user ``client``'s ids are not the user's to call under; None when the server
+    is not there (the timeout stands).
+
+    Args:
+        session: the client's open Zenoh session.
+        prefix: the server's key-expression prefix.
+        client: the client id that asked.
+        address, port: where the server listens (for the message).
+    """
+    try:
+        seen = any(True for _ in session.liveliness().get(P.server_token_key(prefix), timeout=0.5))
+    except zenoh.ZError:
+        seen = False
+    if not seen:
+        return None
+    return P.RefusedError(
+        f"the server at {address}:{port} is there (its liveliness token is seen) but did not answer this "
+        f"client's handshake: its access control does not let user {user_of(client)} call under its ids, or "
+        f"it is overloaded (docs/SECURITY.md); Zenoh config: {config_in_play()}")
