@@ -22,7 +22,11 @@ _USER_NAME = re.compile(r"[A-Za-z0-9_.]{1,95}")  # 95 + 1 + 32 = 128, the longes
 
 def answer_peer_check(query: zenoh.Query) -> None:
     """The server's peer check (protocol.peer_key): an empty reply, which Zenoh stamps with
-    this session's id."""
+    this session's id.
+
+    Args:
+        query: the server's query on this client's peer key.
+    """
     try:
         query.reply(query.key_expr, b"")
     finally:
@@ -57,5 +61,12 @@ def client_id(config: zenoh.Config) -> str:
 
 
 def user_of(client: str) -> str:
-    """The user that starts client id ``client``, or ``"(none)"``."""
+    """The user of a client id.
+
+    Args:
+        client: a client id (:func:`client_id`).
+
+    Returns:
+        The user that starts it, or ``"(none)"``.
+    """
     return client.rpartition(USER_SEPARATOR)[0] or "(none)"

@@ -153,6 +153,9 @@ def unanswered_handshake(session: zenoh.Session, prefix: str, client: str, addre
         prefix: the server's key-expression prefix.
         client: the client id that asked.
         address, port: where the server listens (for the message).
+
+    Returns:
+        The refusal, or None.
     """
     try:
         seen = any(True for _ in session.liveliness().get(P.server_token_key(prefix), timeout=0.5))
