@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 
 import numpy as np
 import pytest
@@ -248,7 +247,6 @@ def test_legacy_and_zmq_clients_read_the_processed_image_and_packets(tmp_path, o
         with pytest.raises(Exception, match="not implemented by simx .CoppeliaSim 4.x has simVision.distort"):
             simVision.distort(h)
         vrep.simxStopSimulation(cid, vrep.simx_opmode_blocking)
-        time.sleep(0.2)
     finally:
         if cid >= 0:
             vrep.simxFinish(cid)
