@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 
 from simx_server.sim import collisions
-from simx_server.sim.ompl_spaces import Placement, Space
+from simx_server.sim.ompl_spaces import JOINT_TYPES, Placement, Space
 from simx_server.sim.world import World
 
 try:  # the pyrep extra installs it; without it every planning call says so
@@ -79,7 +79,12 @@ class ScratchCollisions:
         self.model = world.model
         self.data = mujoco.MjData(world.model)
         self.placements = placements
-        self.offsets = np.cumsum([0] + [p.width for p in placements]).tolist()
+        offsets = np.cumsum([0] + [p.width for p in placements]).tolist()
+        spans = list(zip(placements, offsets, offsets[1:]))
+        # joints are written in one store per state; poses (a base's, a free body's) one by one
+        self.joint_qpos = np.array([p.address for p, _, _ in spans if p.kind in JOINT_TYPES], dtype=int)
+        self.joint_values = np.array([start for p, start, _ in spans if p.kind in JOINT_TYPES], dtype=int)
+        self.poses = [(p, start, end) for p, start, end in spans if p.kind not in JOINT_TYPES]
         self.refresh()
         found = [collisions.collision_pairs(world, e1, e2) for e1, e2 in pairs]
         self.a = np.concatenate([a for a, _ in found]) if found else np.zeros(0, dtype=int)
@@ -97,7 +102,9 @@ class ScratchCollisions:
         """True when the state ``q`` (its values, the placements' in order) collides."""
         if self.a.size == 0:
             return False
-        for p, start, end in zip(self.placements, self.offsets, self.offsets[1:]):
+        if self.joint_qpos.size:
+            self.data.qpos[self.joint_qpos] = q[self.joint_values]
+        for p, start, end in self.poses:
             p.write(self.data, q[start:end])
         mujoco.mj_kinematics(self.model, self.data)
         return collisions.pairs_collide(self.world, self.a, self.b, self.data)

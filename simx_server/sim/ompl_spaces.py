@@ -26,6 +26,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from simx_server.sim import grasps
 from simx_server.sim.objects import JOINT, SHAPE
 from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matrix_from_quaternion
 from simx_server.sim.world import World
@@ -256,15 +257,15 @@ class Placement:
         obj = world.get(handle)
         b = obj.mj_id if obj.type == SHAPE else -1
         self.mocap = int(m.body_mocapid[b]) if b >= 0 else -1
-        free = b >= 0 and m.body_jntnum[b] == 1 and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE
+        free = b >= 0 and grasps.is_free(m, b)
         if self.mocap < 0 and not free:
             raise ValueError(f"{obj.name!r} does not move freely (a dynamic shape or a model base with a free "
                              f"joint): simx cannot place it for a {kind} state space")
         self.address = int(m.jnt_qposadr[m.body_jntadr[b]]) if free else -1
-        self.refresh(world)
 
     def refresh(self, world: World) -> None:
-        """Read the object's and the reference's poses now (what a state leaves unchanged).
+        """Read the object's and the reference's poses now (what a state leaves unchanged); before
+        the first :meth:`write` (:class:`~simx_server.sim.motion_planning.ScratchCollisions` does).
 
         Args:
             world: the scene.
