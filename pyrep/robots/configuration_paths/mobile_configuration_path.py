@@ -9,6 +9,7 @@ The points are ``[x (m), y (m), yaw (rad)]`` (two for a linear path: the start a
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from pyrep.backend import sim
@@ -26,14 +27,41 @@ class MobileConfigurationPath(ConfigurationPath):
         self._path_done = False
         self.i_path = -1
         self.inter_done = True
-        self._num_joints = mobile.get_joint_count()
         self.set_to_start()
         if len(self._path_points) > 2:
             self._set_inter_target(0)
 
     def step(self) -> bool:
-        """Sets the wheels' velocities towards the path's next point; True once done."""
-        raise NotImplementedError()
+        """One step of the base along the path: sets the wheels' velocities for one simulation
+        step; True once done (a planned path: once its last point is the target, the base then
+        still on its way to it).
+
+        Raises:
+            RuntimeError: the path was completed already (``set_to_start`` runs it again).
+        """
+        if self._path_done:
+            raise RuntimeError("This path has already been completed. If you want to re-run, then call set_to_start.")
+        mobile = self._mobile
+        if len(self._path_points) <= 2:  # a linear path: the base's controller to the goal
+            actuation, self._path_done = mobile.get_base_actuation()
+        else:  # a planned path
+            pos_inter = mobile.intermediate_target_base.get_position(relative_to=mobile)
+            if self.inter_done:
+                self._next_i_path()
+                self._set_inter_target(self.i_path)
+                self._turn_inter_target()
+            self.inter_done = math.hypot(pos_inter[0], pos_inter[1]) < 0.1
+            actuation = self._inter_actuation(self.inter_done)
+            self._path_done = self.i_path == len(self._path_points) - 1
+        mobile.set_base_angular_velocites(actuation)
+        return self._path_done
+
+    def _turn_inter_target(self) -> None:
+        """The intermediate target just moved to a new point (a subclass may turn it)."""
+
+    def _inter_actuation(self, reached: bool) -> list[float]:
+        """The wheels' velocities towards the intermediate target (``reached``: within 0.1 m)."""
+        return self._mobile.get_base_actuation()[0]
 
     def set_to_start(self) -> None:
         """Places the base at the path's first pose (``set_2d_pose``)."""
