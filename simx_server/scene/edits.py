@@ -133,8 +133,8 @@ class ObjectEdits:
                 raise RemoteError(f"cannot load model {label}: {_one_line(exc)}") from None
         child_assets = _embed_assets(child, self._asset_counter)
         child.assets = {**(child.assets or {}), **child_assets}
-        counts = [spec_mesh_counts(mesh, child.assets) for mesh in child.meshes]  # kept for the attach's check
-        if meshes is not None:
+        if meshes is not None:  # the scene's mesh totals bound it (a client's scene)
+            counts = [spec_mesh_counts(mesh, child.assets) for mesh in child.meshes]
             try:
                 guard.check_mesh_totals(meshes, (sum(c[0] for c in counts), sum(c[1] for c in counts)),
                                         "the scene with it")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import mujoco
 
+from simx_server.sim import collisions, ik, scene_collections
 from simx_server.sim.objects import SHAPE, SceneObject, parse_settings
 from simx_server.sim.spec_tools import _KIND, _MJ_OBJ, _delete_references, _delete_settings, _object_names
 
@@ -23,7 +24,13 @@ _ASSET_REFS = {"geoms": (("meshname", "meshes"), ("hfieldname", "hfields"), ("ma
                "sites": (("material", "materials"),), "tendons": (("material", "materials"),),
                "skins": (("material", "materials"),), "flexes": (("material", "materials"),)}
 _ASSETS = ("meshes", "hfields", "materials", "textures")
-_IK, _COLLECTION, _MEASURES = "simx:ik:", "simx:collection:", ("simx.collision:", "simx.distance:")
+_IK, _COLLECTION = "simx:" + ik.PREFIX, "simx:" + scene_collections.PREFIX
+_MEASURES = tuple(collisions.PROBE_PREFIX.values())
+
+
+def _ik_object_key(key: str) -> bool:
+    """Whether an IK group's setting ``key`` names an object (``tip``, ``target2``, ``base``...)."""
+    return key.rstrip("0123456789") in ("tip", "target", "base")
 
 
 def _settings(spec: mujoco.MjSpec) -> dict[str, dict[str, str]]:
@@ -66,7 +73,7 @@ def root_name(child: mujoco.MjSpec) -> tuple[str | None, bool]:
 
 def _names_in(text: str, key: str, value: str, rename) -> str:
     """``value`` of setting ``key`` in text ``text`` with each object name it holds renamed."""
-    if key == "vrep_parent" or (text.startswith(_IK) and key.rstrip("0123456789") in ("tip", "target", "base")):
+    if key == "vrep_parent" or (text.startswith(_IK) and _ik_object_key(key)):
         return rename(value)
     if key == "refs" or key.startswith("refs."):
         return ",".join(rename(n) for n in value.split(","))
@@ -238,7 +245,7 @@ def _drop_mentions(spec: mujoco.MjSpec, gone: set[str]) -> None:
             else:
                 t.data = " ".join(kept)
         elif t.name.startswith(_IK) and any(
-                i.partition("=")[0].rstrip("0123456789") in ("tip", "target", "base") and i.partition("=")[2] in gone
+                _ik_object_key(i.partition("=")[0]) and i.partition("=")[2] in gone
                 for i in items):
             spec.delete(t)
     for t in list(spec.texts):
