@@ -96,7 +96,7 @@ def _colours(buffer1: np.ndarray | None, rows: np.ndarray, cols: np.ndarray) -> 
 
 
 def coordinates(work: np.ndarray, buffer1: np.ndarray | None, counts: tuple[int, int], angular: bool,
-                view: View) -> tuple[list[float], bytes]:
+                view: View) -> tuple[np.ndarray, bytes]:
     """``simVision.coordinatesFromWorkImg(handle, {xCount, yCount}, evenlySpacedInAngularSpace,
     returnColorData)``: a grid of ``xCount`` x ``yCount`` points across the view, rows from the
     bottom.
@@ -110,7 +110,7 @@ def coordinates(work: np.ndarray, buffer1: np.ndarray | None, counts: tuple[int,
 
     Returns:
         ``(packet, colours)``: ``[xCount, yCount, then x, y, z, distance per point]`` (m; an
-        orthographic point's 4th value is its depth), float32 values; the RGB bytes of each
+        orthographic point's 4th value is its depth), a float32 array; the RGB bytes of each
         point taken from buffer 1 (empty without it).
     """
     h, w = work.shape[:2]
@@ -136,12 +136,12 @@ def coordinates(work: np.ndarray, buffer1: np.ndarray | None, counts: tuple[int,
         X, Y = np.meshgrid(_steps(nx, xs), _steps(ny, ys))
         cols, rows = _index((1.0 - (X + xs * 0.5) / xs) * (w - 0.5), w), _index((Y + ys * 0.5) / ys * (h - 0.5), h)
         pts = _points(work, rows.ravel(), cols.ravel(), view, None, (X.ravel(), Y.ravel()))
-    packet = np.r_[nx, ny, pts.ravel()].astype(np.float32).tolist()
+    packet = np.r_[nx, ny, pts.ravel()].astype(np.float32)
     return packet, _colours(buffer1, rows.ravel(), cols.ravel())
 
 
 def velodyne(work: np.ndarray, buffer1: np.ndarray | None, counts: tuple[int, int], vertical: float,
-             view: View) -> tuple[list[float], bytes]:
+             view: View) -> tuple[np.ndarray, bytes]:
     """``simVision.velodyneDataFromWorkImg(handle, {xCount, yCount}, verticalAngle,
     returnColorData)``: ``xCount`` columns of ``yCount`` rays each, spread over the sensor's
     horizontal angle and ``vertical`` rad, read off a perspective depth map (as a rotating
@@ -156,7 +156,7 @@ def velodyne(work: np.ndarray, buffer1: np.ndarray | None, counts: tuple[int, in
 
     Returns:
         ``(packet, colours)``: ``[xCount, yCount, then x, y, z, distance per point]``, column
-        after column; the RGB bytes of each point from buffer 1 (empty without it).
+        after column, a float32 array; the RGB bytes of each point from buffer 1 (empty without it).
     """
     h, w = work.shape[:2]
     nx, ny = counts
@@ -169,5 +169,5 @@ def velodyne(work: np.ndarray, buffer1: np.ndarray | None, counts: tuple[int, in
     cols, rows = _index((0.5 - tx) * (w - 0.5), w), _index((ty + 0.5) * (h - 0.5), h)
     dirs = (tx.ravel() * 2.0 * math.tan(xa * 0.5), ty.ravel() * 2.0 * math.tan(ya * 0.5))
     pts = _points(work, rows.ravel(), cols.ravel(), view, dirs, None)
-    packet = np.r_[nx, ny, pts.ravel()].astype(np.float32).tolist()
+    packet = np.r_[nx, ny, pts.ravel()].astype(np.float32)
     return packet, _colours(buffer1, rows.ravel(), cols.ravel())

@@ -10,6 +10,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simvision_function
+from simx_server.api.sim.core import HANDLE_MASK
 from simx_server.api.simvision.work import as_count, colour, flag, packed, sensor, simulation, state, step
 from simx_server.base.arguments import as_integer, as_number
 from simx_server.sim import vision_params, vision_points
@@ -67,7 +68,7 @@ def _view(ctx: CallContext, raw: Any, what: str, counts: Any) -> tuple[int, visi
     point counts."""
     h = as_integer(raw, "visionSensorHandle")
     absolute = h >= 0 and bool(h & ABS_COORDS)
-    h = sensor(ctx, h & 0x000FFFFF if h >= 0 else h)
+    h = sensor(ctx, h & HANDLE_MASK if h >= 0 else h)
     if not isinstance(counts, (list, tuple)) or len(counts) != 2:
         raise ArgumentError(f"{what}: the point counts must be a table of 2 integers, got {counts!r}")
     nx, ny = as_count(counts[0], "xPointCount"), as_count(counts[1], "yPointCount")

@@ -60,8 +60,8 @@ def step(ctx: CallContext, handle: Any, what: str, *args: float) -> tuple[int, V
         raise ArgumentError(NO_WORK_IMAGE) from None
 
 
-def packed(values: list[float]) -> bytes:
-    """Float32 values packed as ``sim.packFloatTable`` packs them."""
+def packed(values: list[float] | np.ndarray) -> bytes:
+    """Float32 values (a list or an array) packed as ``sim.packFloatTable`` packs them."""
     return np.asarray(values, "<f4").tobytes()
 
 
