@@ -50,6 +50,7 @@ from simx_server.sim.spec_tools import (
 from simx_server.sim import grasps, kept_objects, properties
 from simx_server.sim.urdf import load_spec
 from simx_server.sim.vision_results import Deferred
+from simx_server.sim.objects import subtree
 from simx_server.sim.world import FORCE_SENSOR, JOINT, SHAPE, WORLD
 
 log = logging.getLogger("simx.editing")
@@ -215,7 +216,7 @@ class ObjectEdits:
 
     def remove_model(self, handle: int) -> int:
         """``simxRemoveModel`` / ``sim.removeModel``: remove a model, its base and every object
-        below it in V-REP's tree (:func:`model_tree.tree`: objects hung by ``vrep_parent=``
+        below it in V-REP's tree (:func:`~simx_server.sim.objects.subtree`: objects hung by ``vrep_parent=``
         too), with the unnamed bodies that carried only them, their settings, the assets only
         they used, and their scripts (``sysCall_cleanup``), as ``simRemoveModel_internal``
         (``addModelObjects``, ``eraseObjects``). A shape that is no model base is accepted as
@@ -235,7 +236,7 @@ class ObjectEdits:
         obj = world.get(handle)
         if obj.type != SHAPE and properties.model_property(world, handle) & properties.NOT_MODEL == properties.NOT_MODEL:
             raise ObjectTypeError(f"{obj.name!r} is not a model base (sim.removeModel removes a model from its base)")
-        objects = model_tree.tree(world, handle)
+        objects = subtree(world, handle)
         self._edit(lambda spec: model_tree.remove(spec, world, objects, carriers=True))
         return len(objects)
 

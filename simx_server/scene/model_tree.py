@@ -1,6 +1,6 @@
 """A model's tree in V-REP's terms, on the scene's ``MjSpec``: the root object that a model load
 returns (:func:`root_name`), the names its ``simx:`` settings give when the model's names get a
-copy suffix (:func:`suffix_settings`), the objects of a model (:func:`tree`), and their removal
+copy suffix (:func:`suffix_settings`), the objects of a model (:func:`simx_server.sim.objects.subtree`), and their removal
 with the settings that name them and the assets that only they used (:func:`remove`).
 
 V-REP's tree and MuJoCo's differ: a converted ``.ttm``'s root is often a dummy (a MuJoCo site),
@@ -114,29 +114,6 @@ def suffix_settings(child: mujoco.MjSpec, suffix: str) -> None:
             key, sep, value = item.partition("=")
             items.append(f"{key}={_names_in(t.name, key, value, rename)}" if sep else item)
         t.data = " ".join(items)
-
-
-def tree(world, handle: int) -> list[SceneObject]:
-    """Object ``handle`` and every object below it in V-REP's tree (its ``parent`` handles,
-    ``vrep_parent=`` settings applied), parents before children.
-
-    Args:
-        world: the :class:`~simx_server.sim.world.World`.
-        handle: the model base's handle.
-
-    Returns:
-        The objects.
-
-    Raises:
-        UnknownObjectError: no such object.
-    """
-    children: dict[int, list[SceneObject]] = {}
-    for o in world.objects.values():
-        children.setdefault(o.parent, []).append(o)
-    out = [world.get(handle)]
-    for o in out:  # grows while walking
-        out.extend(children.get(o.handle, ()))
-    return out
 
 
 def remove(spec: mujoco.MjSpec, world, objects: list[SceneObject], carriers: bool = False) -> None:

@@ -159,7 +159,6 @@ class Scripts:
         self.allow_unsafe_lua = allow_unsafe_lua
         self.allow_python_scripts = allow_python_scripts
         self.timeout = timeout
-        self.simulation = simulation
         self.scripts: dict[int, ChildScript] = {}
         self.customization: dict[int, ChildScript] = {}  # customization scripts, by object
         #: Child scripts attached while the simulation runs: they begin in its next pass (attach).

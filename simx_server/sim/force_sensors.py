@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from simx_server.sim import grasps
-from simx_server.sim.objects import JOINT, SHAPE, SceneObject
+from simx_server.sim.objects import JOINT, SHAPE, SceneObject, subtree
 
 _FREE = int(mujoco.mjtJoint.mjJNT_FREE)
 _EQUALITY = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
@@ -52,6 +52,9 @@ def in_mjcf_convention(sensor: SceneObject) -> bool:
     return "vrep_parent" not in sensor.settings and sensor.body != 0
 
 
+_NO_ROTATION = np.eye(3).reshape(9)  # mju_transformSpatial's rotation: none
+
+
 def child_bodies(world, sensor: SceneObject) -> np.ndarray:
     """The MuJoCo bodies on ``sensor``'s child side (see the module's docstring).
 
@@ -63,21 +66,12 @@ def child_bodies(world, sensor: SceneObject) -> np.ndarray:
         (nbody,) bool: True for a body on the child side.
     """
     m = world.model
-    kids: dict[int, list[SceneObject]] = {}
-    for o in world.objects.values():
-        kids.setdefault(o.parent, []).append(o)
     seeds = [sensor.body] if in_mjcf_convention(sensor) else []
-    stack, seen = list(kids.get(sensor.handle, ())), {sensor.handle}
-    while stack:
-        o = stack.pop()
-        if o.handle in seen:
-            continue
-        seen.add(o.handle)
+    for o in subtree(world, sensor.handle)[1:]:
         if o.type == SHAPE:
             seeds.append(o.mj_id)
         elif o.type == JOINT:
             seeds.append(o.body)  # the body it moves
-        stack.extend(kids.get(o.handle, ()))
     mask = np.zeros(m.nbody, bool)
     mask[seeds] = True
     mask[0] = False
@@ -94,11 +88,12 @@ def _cross(a, b) -> np.ndarray:
 
 
 def _at(vec: np.ndarray, old: np.ndarray, new: np.ndarray, force: bool = True) -> np.ndarray:
-    """A spatial vector (6,) moved from point ``old`` to point ``new`` (m), as
-    ``mju_transformSpatial`` moves it without rotation: a force (torque:force) gains the force's
-    moment, a motion (angular:linear) the angular part's."""
-    shift = _cross(new - old, vec[3:] if force else vec[:3])
-    return np.concatenate([vec[:3] - shift, vec[3:]]) if force else np.concatenate([vec[:3], vec[3:] - shift])
+    """A spatial vector (6,) moved from point ``old`` to point ``new`` (m) without rotation,
+    MuJoCo's ``mju_transformSpatial``: a force (torque:force) gains the force's moment, a motion
+    (angular:linear) the angular part's."""
+    out = np.empty(6)
+    mujoco.mju_transformSpatial(out, vec, int(force), new, old, _NO_ROTATION)
+    return out
 
 
 def _rigid_hold(m: mujoco.MjModel, d: mujoco.MjData, part: int, holder: int) -> np.ndarray:

@@ -359,7 +359,7 @@ class Motors:
         """
         lock = self.locked & stopped
         self._lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
-        self._locking = bool(self.locked.any()) or bool(lock.any())
+        self._locking = bool(self.locked.any())  # lock is a part of locked
         force = np.where(lock, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
         m.actuator_forcerange[self.act, 0], m.actuator_forcerange[self.act, 1] = -force, force
         return (np.where(lock, self._lock_q, self.target_position), np.where(lock, 1.0 / dt, kp), linear | lock)

@@ -8,6 +8,7 @@ elements (:func:`parse_settings`).
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 from simx_wire import constants as C
 
@@ -115,3 +116,27 @@ def apply_vrep_parents(objects: dict[int, SceneObject], by_name: dict[str, Scene
             if h == WORLD and obj.parent != new:
                 obj.parent = new
                 changed = True
+
+
+def subtree(world: Any, handle: int) -> list[SceneObject]:
+    """Object ``handle`` and every object below it in V-REP's tree (their ``parent`` handles,
+    ``vrep_parent=`` settings applied, which never close a cycle), parents before children.
+
+    Args:
+        world: the :class:`~simx_server.sim.world.World`.
+        handle: the top object's handle.
+
+    Returns:
+        The objects, ``handle``'s first.
+
+    Raises:
+        UnknownObjectError: no such object.
+    """
+    children: dict[int, list[SceneObject]] = {}
+    for o in world.objects.values():
+        children.setdefault(o.parent, []).append(o)
+    out = [world.get(handle)]
+    for o in out:  # grows while walking
+        out.extend(children.get(o.handle, ()))
+    return out
+
