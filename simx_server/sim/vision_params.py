@@ -12,6 +12,9 @@ and its angle while orthographic; a sensor that turns orthographic with no size 
 1 m what it saw in perspective (CoppeliaSim's ``CVisionSensor::setPerspectiveOperation`` keeps
 both values on the sensor). Run-time changes are undone when the simulation stops, as the
 clipping planes (the model is reloaded).
+
+:func:`gaussian_kernel` is the default kernel of the 3x3 and 5x5 matrix filters, which a
+``.ttt`` sensor's filter and simVision's matrix calls both start from.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from __future__ import annotations
 import math
 
 import mujoco
+import numpy as np
 
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.sim.state import SimulationView
@@ -183,3 +187,18 @@ def view(sim: SimulationView, handle: int) -> tuple[bool, float, float]:
     half = math.radians(fovy) / 2  # MuJoCo's fovy is vertical; V-REP's angle spans the larger side
     angle = 2 * math.atan(math.tan(half) * spec.width / spec.height) if spec.width > spec.height else 2 * half
     return not _ortho(sim, spec), angle, size
+
+
+def gaussian_kernel(n: int) -> np.ndarray:
+    """CoppeliaSim's default n x n blur of its 3x3 and 5x5 matrix filters (``setFilterType``,
+    simVision's ``matrix3x3OnWorkImg``/``matrix5x5OnWorkImg``): a Gaussian of sigma 2 pixels.
+
+    Args:
+        n: 3 or 5.
+
+    Returns:
+        (n * n,) row after row, summing to 1.
+    """
+    r = np.arange(n) - n // 2
+    v = np.exp(-(r[None, :] ** 2 + r[:, None] ** 2) / 8.0)
+    return (v / v.sum()).ravel()

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simvision_function
 from simx_server.api.simvision.work import flag, step
 from simx_server.base.arguments import as_integer, as_number, as_vector
+from simx_server.sim.vision_params import gaussian_kernel
 from simx_wire.protocol import ArgumentError
 
 #: The most passes of a convolution (each is a pass over the whole image).
@@ -49,14 +49,6 @@ def resizeWorkImg(ctx: CallContext, visionSensorHandle: Any, scaling: Any) -> bo
     return False
 
 
-def gaussian(n: int) -> np.ndarray:
-    """simVision's default kernel of ``matrix3x3OnWorkImg``/``matrix5x5OnWorkImg``: a Gaussian
-    of sigma 2 pixels, n x n, summing to 1."""
-    r = np.arange(n) - n // 2
-    v = np.exp(-(r[None, :] ** 2 + r[:, None] ** 2) / 8.0)
-    return (v / v.sum()).ravel()
-
-
 def _matrix(ctx: CallContext, handle: Any, n: int, passes: Any, multiplier: Any, matrix: Any) -> bool:
     count = as_integer(passes, "passes")
     if count > MAX_PASSES:
@@ -65,7 +57,7 @@ def _matrix(ctx: CallContext, handle: Any, n: int, passes: Any, multiplier: Any,
     if isinstance(matrix, (list, tuple)) and len(matrix) >= n * n:
         kernel = as_vector(list(matrix)[:n * n], n * n, "matrix")
     else:  # the plug-in's default (no matrix, or a short one)
-        kernel = gaussian(n).tolist()
+        kernel = gaussian_kernel(n).tolist()
     step(ctx, handle, f"matrix{n}x{n}OnWorkImg", count, mult, *kernel)
     return False
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simx_server.scene.ttt.records import Records
+from simx_server.sim.vision_params import gaussian_kernel
 
 #: V-REP's component type ids (simConst ``sim_filtercomponent_*``) that simx cannot apply.
 UNSUPPORTED = {32: "correlation with buffer 1", 35: "image to coordinates", 37: "velodyne", -1: "plugin filter"}
@@ -45,10 +46,8 @@ class FilterComponent:
 
 
 def _gaussian(n: int) -> list[float]:
-    """``setFilterType``'s default n x n blur (sigma 2, normalised) plus the multiplier 1."""
-    r = np.arange(n) - n // 2
-    v = np.exp(-(r[None, :] ** 2 + r[:, None] ** 2) / 8.0)
-    return [*(v / v.sum()).ravel().tolist(), 1.0]
+    """``setFilterType``'s default n x n blur plus the multiplier 1."""
+    return [*gaussian_kernel(n).tolist(), 1.0]
 
 
 def _defaults(t: int) -> tuple[list[int], list[int], list[float]]:
