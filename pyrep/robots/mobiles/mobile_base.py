@@ -115,7 +115,7 @@ class MobileBase(RobotComponent):
         if self._collision_collection is None:
             return False
         start, end = np.asarray(path[0], dtype=float), np.asarray(path[1], dtype=float)
-        poses = [np.r_[start[:2] + (k + 1) / LINEAR_CHECKS * (end[:2] - start[:2]), start[2] if k < 46 else end[2]]
+        poses = [np.r_[start[:2] + (k + 1) / LINEAR_CHECKS * (end[:2] - start[:2]), start[2] if k < LINEAR_CHECKS - 4 else end[2]]
                  for k in range(LINEAR_CHECKS)]
         task, space = self._task("pose2d", 2.0 * max(np.max(np.abs(np.r_[start[:2], end[:2]])), 1.0), False)
         try:
