@@ -241,9 +241,13 @@ def test_legacy_and_zmq_clients_read_the_processed_image_and_packets(tmp_path, o
         calls = sim.getInt32Signal("calls")
         count, *handled = sim.handleVisionSensor(h)
         assert count == 1 and sim.getInt32Signal("calls") > calls and same(handled, packets)
+        # the scene's callback ends with workImgToSensorImg, which drops the work image at each
+        # pass: in stepping mode no pass comes between the client's two calls
+        sim.setStepping(True)
         assert simVision.sensorImgToWorkImg(h) is False
         trig, blob = simVision.blobDetectionOnWorkImg(h, 0.5, 0.0, False)
         assert trig is False and np.frombuffer(blob, "<f4").tolist() == pytest.approx(packets[2])
+        sim.setStepping(False)
         with pytest.raises(Exception, match="not implemented by simx .CoppeliaSim 4.x has simVision.distort"):
             simVision.distort(h)
         vrep.simxStopSimulation(cid, vrep.simx_opmode_blocking)
