@@ -30,7 +30,8 @@ Each script gets its own Lua state, made afresh at every simulation start, prepa
   ``io.popen``, no standard streams), no ``os.execute``/``remove``/``rename``/``tmpname``/
   ``getenv``/``setlocale``, no ``package.loadlib``/``searchpath``, and ``require`` loads Lua
   modules from the scene's folder only whatever a script does to ``package.path``,
-  ``package.cpath`` or ``package.searchers``. ``load``/``loadstring`` work only when the server
+  ``package.cpath`` or ``package.searchers``: the file is read by the host
+  (:meth:`LuaScript._read_module`) and compiled as text; Lua's searchers are not in the state. ``load``/``loadstring`` work only when the server
   runs with ``--allow-remote-code`` (they are how a script would run code that a client sends).
   Memory is capped at :data:`MAX_MEMORY` bytes per script.
 """
@@ -64,6 +65,9 @@ log = logging.getLogger("simx.scripts")
 HOOK_COUNT = 10_000
 #: Memory cap of one script's Lua state (bytes).
 MAX_MEMORY = L.MAX_SCRIPT_MEMORY
+#: Bytes of one module ``require`` reads (a quarter of a script's memory cap).
+MAX_MODULE_BYTES = MAX_MEMORY // 4
+_MODULE_NAME = re.compile(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*")
 _MAX_DEPTH = 32  # nesting of tables converted between Lua and Python
 #: ``shape(lookup, chunk)``: a function of a global's name that gives nil for an undefined name;
 #: for a Lua function of several lines of chunk ``chunk`` whose only instruction lies on its last
@@ -156,6 +160,40 @@ class LuaScript(LuaStyles, ChildScript):
             return True
         return False
 
+    def _read_module(self, name: Any, probe: Any = None) -> Any:
+        """``require(name)``'s file, read for the script (its Lua side compiles it as text):
+        ``(text, "a/b.lua")`` for the module ``a.b`` of the scene's own folder, else
+        ``(None, "no file '<scene folder>/a/b.lua'")``; with ``probe``, whether it exists.
+
+        Only a name of letters, digits, ``_`` and ``-`` parts joined by dots is looked for, and
+        only a regular file that lies inside the scene's folder once links are resolved, of at
+        most :data:`MAX_MODULE_BYTES`: no script reads a file outside its scene's folder, whatever
+        it does to ``package.path`` or ``package.searchers`` (Lua's searchers are not in the
+        script's state: :data:`~simx_server.scripts.lua_prelude.PRELUDE`)."""
+        text = name.decode("utf-8", errors="replace") if isinstance(name, bytes) else str(name)
+        shown = f"<scene folder>/{text.replace('.', '/')[:200]}.lua"
+        if not _MODULE_NAME.fullmatch(text):
+            return False if probe else (None, f"no file '{shown}' (a module name is parts of letters, digits, "
+                                              "'_' and '-' joined by dots)".encode())
+        relative = text.replace(".", "/") + ".lua"
+        folder = self.path.parent.resolve()
+        try:
+            file = (folder / relative).resolve()
+            found = file.is_relative_to(folder) and file.is_file()
+            size = file.stat().st_size if found else 0
+        except OSError:
+            found, size = False, 0
+        if probe:
+            return found
+        if not found:
+            return None, f"no file '{shown}'".encode()
+        if size > MAX_MODULE_BYTES:
+            return None, f"'{shown}' is {size} bytes, more than {MAX_MODULE_BYTES} (lua.MAX_MODULE_BYTES)".encode()
+        try:
+            return lua_file_text(file.read_bytes()), relative.encode()
+        except OSError as exc:
+            return None, f"cannot read '{shown}': {exc.strerror}".encode()
+
     def _write_log(self, text: bytes) -> None:
         log.info("[%s] %s", self.path.name, text.decode("utf-8", errors="replace"))
 
@@ -242,7 +280,8 @@ class LuaScript(LuaStyles, ChildScript):
                            **{f"simOMPL.{k}".encode(): self._to_lua(v) for k, v in SIMOMPL.constants.items()}}),
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(),
-            rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY))
+            rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY),
+            self._read_module)
         self._prepare_styles(rt)
         self._shape, self._ends = shape(self._lookup, f"@{self.path.name}".encode()), {}
         snapshot()  # sim.getUserVariables: the globals from here on are the script's

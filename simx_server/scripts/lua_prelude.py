@@ -8,7 +8,7 @@ the snapshot that ``sim.getUserVariables`` compares against.
 """
 
 PRELUDE = r"""
-local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, BOUNDS = ...
+local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, BOUNDS, read_module = ...
 local G = _G
 local sethook, gethook, getinfo, traceback = debug.sethook, debug.gethook, debug.getinfo, debug.traceback
 local error, select, type, tostring, pairs, rawget, setmetatable = error, select, type, tostring, pairs, rawget, setmetatable
@@ -136,9 +136,8 @@ package.loaded.simOMPL, package.loaded.simVision = simOMPL, simVision
 -- CoppeliaSim's bundled model-customization modules (require('models.path_customization-2')...)
 -- draw and edit a model in the GUI: headless, they load and each of their functions does nothing,
 -- said once in the log (a script's own module of the same name in the scene's folder wins).
-local own_module = package.searchpath
 setmetatable(package.preload, {__index = function(_, name)
-  if type(name) ~= "string" or not name:match("^models%.") or own_module(name, scene_dir .. "/?.lua") then
+  if type(name) ~= "string" or not name:match("^models%.") or read_module(name, true) then
     return nil
   end
   return function()
@@ -233,32 +232,39 @@ else
   end
   package.loadlib = refuse("package.loadlib", UNSAFE)
   package.searchpath = refuse("package.searchpath", UNSAFE)
-  -- require finds Lua modules in the scene's folder only, whatever a script does to package.path,
-  -- package.cpath or package.searchers: the loader reads them from this table, reset at each call.
-  -- The searchers are kept here, out of the script's reach (called directly they would read a
-  -- package.path the script set), and lent to the loader for the time of one require.
-  local pkg, lua_require, searchers = package, require, {package.searchers[1], package.searchers[2]}
-  local pcall = pcall
-  -- A client's scene runs from the server's transfer folder: its errors say "<scene folder>".
-  local function hide_folder(message)
-    message = tostring(message)
-    local out, i = {}, 1
-    while true do
-      local a, b = message:find(scene_dir, i, true)
-      if not a then break end
-      out[#out + 1] = message:sub(i, a - 1) .. "<scene folder>"
-      i = b + 1
-    end
-    out[#out + 1] = message:sub(i)
-    return concat(out)
-  end
-  pkg.searchers = {}
+  -- require, without Lua's searchers: no script-visible table holds a function that reads files
+  -- (package.searchers and package.loaders are empty, and the real ones are gone from this state),
+  -- and no script code runs while anything that reads files is lent out (a preload loader once
+  -- ran inside Lua's require with the real searchers in package.searchers: it took the file
+  -- searcher, set package.path to any file and read /etc/passwd). The module's text is read by
+  -- the host (read_module: a name of the scene's own folder, nothing else), then compiled here as
+  -- text; package.path, cpath, searchers and preload are read from nowhere but the tables below.
+  local LOADED, PRELOAD = package.loaded, package.preload
+  package.searchers, package.loaders = {}, nil
   G.require = function(name)
-    pkg.path, pkg.cpath, pkg.searchers = scene_dir .. "/?.lua", "", {searchers[1], searchers[2]}
-    local r = pack(pcall(lua_require, name))
-    pkg.path, pkg.searchers = scene_dir .. "/?.lua", {}
-    if not r[1] then error(hide_folder(r[2]), 0) end  -- the message says where, not the server's folder
-    return unpack(r, 2, r.n)
+    local kind = type(name)
+    if kind == "number" then name = tostring(name)
+    elseif kind ~= "string" then
+      error("bad argument #1 to 'require' (string expected, got " .. (kind == "nil" and "no value" or kind) .. ")", 2)
+    end
+    local value = LOADED[name]
+    if value then return value end
+    local loader, extra = PRELOAD[name], ":preload:"
+    if type(loader) ~= "function" then
+      local text, where = read_module(name)
+      if text == nil then
+        error("module '" .. name .. "' not found:\n\tno field package.preload['" .. name .. "']\n\t" .. where, 2)
+      end
+      local chunk, err = lua_load(text, "@" .. where, "t")
+      if not chunk then
+        error(("error loading module '%s' from file '%s':\n\t%s"):format(name, where, err), 2)
+      end
+      loader, extra = chunk, where
+    end
+    value = loader(name, extra)
+    if value ~= nil then LOADED[name] = value end
+    if LOADED[name] == nil then LOADED[name] = true end
+    return LOADED[name], extra
   end
 end
 os.exit = refuse("os.exit", " (it would end the server; simxStopSimulation stops the simulation)")

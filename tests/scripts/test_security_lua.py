@@ -134,3 +134,121 @@ def test_allow_unsafe_lua_flag_gives_them_back(tmp_path):
             vrep.simxFinish(cid)
         log = server.stop()
     assert "Lua child scripts may use files, processes and the environment (--allow-unsafe-lua)" in log
+
+
+# Issue 57: with --allow-remote-code, a client scene's script took Lua's file searcher while
+# require ran (it sat in package.searchers, and a package.preload loader is script code run in
+# that window), set package.path to any file and read it. Each attack reports "stolen" when it
+# got a file's text from outside the scene's folder, or a function that reads files.
+REQUIRE_ATTACKS = r"""
+local OUT = OUTSIDE
+local stolen = {}
+local function reads(f)  -- whether f, a searcher or a loader, reads a file outside the folder
+  if type(f) ~= "function" or debug.getinfo(f, "S").source == "@sandbox.lua" then return false end
+  package.path = OUT .. "/?.lua"
+  local ok, loader, file = pcall(f, "evil")
+  if ok and type(loader) == "function" then
+    local ok2, v = pcall(loader, "evil", file)
+    if ok2 and v == "evil" then return true end
+  end
+  return ok and loader == "evil"
+end
+local function note(name, got) stolen[#stolen + 1] = name .. "=" .. (got and "stolen" or "safe") end
+local attacks = {
+  preload_window = function()
+    local grabbed = {}
+    package.preload.grab = function()
+      for _, t in ipairs({package.searchers or {}, package.loaders or {}}) do
+        for _, f in pairs(t) do grabbed[#grabbed + 1] = f end
+      end
+      for level = 1, 12 do
+        local info = debug.getinfo(level, "f")
+        if info then grabbed[#grabbed + 1] = info.func end
+      end
+      return {}
+    end
+    require("grab")
+    for _, f in ipairs(grabbed) do if reads(f) then return true end end
+    return false
+  end,
+  searchers_now = function()
+    for _, t in ipairs({package.searchers or {}, package.loaders or {}}) do
+      for _, f in pairs(t) do if reads(f) then return true end end
+    end
+    return false
+  end,
+  package_newindex = function()
+    local grabbed
+    package.searchers, package.loaders = nil, nil
+    setmetatable(package, {__newindex = function(t, k, v) rawset(t, k, v) grabbed = grabbed or v end})
+    pcall(require, "helper")
+    setmetatable(package, nil)
+    if type(grabbed) == "table" then for _, f in pairs(grabbed) do if reads(f) then return true end end end
+    return false
+  end,
+  path_then_require = function()
+    package.path = OUT .. "/?.lua"
+    local ok, v = pcall(require, "evil")
+    return ok and v == "evil"
+  end,
+  traversal = function()
+    for _, name in ipairs({"../outside/evil", "..outside.evil", "/" .. OUT .. "/evil"}) do
+      local ok, v = pcall(require, name)
+      if ok and v == "evil" then return true end
+    end
+    return false
+  end,
+  symlink = function() local ok, v = pcall(require, "link") return ok and v == "evil" end,
+  searchpath = function() local ok, v = pcall(package.searchpath, "evil", OUT .. "/?.lua") return ok and v ~= nil end,
+  loadfile = function() local ok, f = pcall(loadfile, OUT .. "/evil.lua") return ok and f ~= nil end,
+  dofile = function() local ok, v = pcall(dofile, OUT .. "/evil.lua") return ok and v == "evil" end,
+  io_open = function() local ok, f = pcall(io.open, OUT .. "/secret.txt") return ok and f ~= nil end,
+  getupvalue = function()
+    if not debug.getupvalue then return false end
+    for i = 1, 40 do local _, v = debug.getupvalue(require, i) if reads(v) then return true end end
+    return false
+  end,
+  getinfo = function()
+    local info = debug.getinfo(require, "fu")
+    return reads(info.func) and false  -- require itself: it must not read outside either
+  end,
+  dump = function()
+    local ok, code = pcall(string.dump, require)
+    if not ok then return false end
+    local f = load(code, "=dump", "b")
+    return f ~= nil
+  end,
+}
+for name, attack in pairs(attacks) do
+  local ok, got = pcall(attack)
+  note(name, ok and got)
+end
+table.sort(stolen)
+sim.setStringSignal("require", table.concat(stolen, " "))
+-- the scene's own modules, and a subfolder's, still load (as Lua's require returns them)
+local helper = require("helper")
+local sub, where = require("sub.mod")
+function ownModules() return {helper.value, sub.value}, {}, {where} end
+"""
+
+
+def test_require_keeps_its_searchers_out_of_a_scripts_reach(tmp_path):
+    scene_dir, outside = tmp_path / "scene", tmp_path / "outside"
+    scene_dir.mkdir()
+    outside.mkdir()
+    (outside / "secret.txt").write_text("secret")
+    (outside / "evil.lua").write_text('return "evil"\n')
+    (scene_dir / "helper.lua").write_text("return {value = 42}\n")
+    (scene_dir / "sub").mkdir()
+    (scene_dir / "sub" / "mod.lua").write_text("return {value = 7}\n")
+    (scene_dir / "link.lua").symlink_to(outside / "evil.lua")
+    (scene_dir / "sandbox.lua").write_text(REQUIRE_ATTACKS.replace("OUTSIDE", json.dumps(str(outside)), 1))
+    (scene_dir / "scene.xml").write_text(SCENE)
+    sim = Simulation(scene_dir / "scene.xml", realtime=False, allow_remote_code=True)
+    try:
+        sim.start()
+        got = report(sim.signals.get_string("require"))
+        assert len(got) == 13 and set(got.values()) == {"safe"}, got
+        assert sim.scripts.call("Box", 1, "ownModules", [], [], [], b"") == [[42, 7], [], ["sub/mod.lua"], b""]
+    finally:
+        sim.close()
