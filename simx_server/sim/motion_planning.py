@@ -27,6 +27,7 @@ import numpy as np
 from simx_server.sim import collisions
 from simx_server.sim.ompl_spaces import JOINT_TYPES, Placement, Space
 from simx_server.sim.world import World
+from simx_wire.protocol import MAX_REQUEST_ITEMS
 
 try:  # the pyrep extra installs it; without it every planning call says so
     from ompl import base as ob, geometric as og, util as ou
@@ -37,9 +38,13 @@ except ImportError as exc:  # pragma: no cover - the test environment has ompl
     ob = og = ou = None
     IMPORT_ERROR = f"motion planning needs OMPL's Python bindings: pip install ompl ({exc})"
 
-#: s one solve or simplification may take at most (the caller's thread waits for it: a script's,
-#: or the simulation thread for a ZMQ client), as simIK's searches.
+#: s one solve or simplification may take at most (the caller's thread waits for it: a script's;
+#: a ZMQ client's runs off the simulation thread, :mod:`simx_server.api.long_calls`).
 MAX_SECONDS = 10.0
+#: The most values (states x the state's dimension) a path may hold once interpolated: a reply's
+#: most values (``protocol.MAX_REQUEST_ITEMS``). ``simOMPL.compute(task, 1e9, 1e9, 1e7)`` made
+#: 10^7 states and grew the server from 240 MB to 7 GB; such a count is refused before it is made.
+MAX_PATH_VALUES = MAX_REQUEST_ITEMS
 #: simOMPL's ``Algorithm`` enum (callbacks.xml, from 30001, in this order; the plug-in leaves out
 #: the parallel pRRT and pSBL).
 ALGORITHMS: tuple[str, ...] = (
@@ -77,6 +82,7 @@ class ScratchCollisions:
     def __init__(self, world: World, placements: list[Placement], pairs: list[tuple[int, int]]):
         self.world = world
         self.model = world.model
+        self._model_only = _ModelOnly(self.model)  # what the checks read of the scene: its model then
         self.data = mujoco.MjData(world.model)
         self.placements = placements
         offsets = np.cumsum([0] + [p.width for p in placements]).tolist()
@@ -107,7 +113,19 @@ class ScratchCollisions:
         for p, start, end in self.poses:
             p.write(self.data, q[start:end])
         mujoco.mj_kinematics(self.model, self.data)
-        return collisions.pairs_collide(self.world, self.a, self.b, self.data)
+        # the model of setup, not world.model: a check may run off the simulation thread while
+        # an edit recompiles the scene (its new model would not fit this MjData)
+        return collisions.pairs_collide(self._model_only, self.a, self.b, self.data)
+
+
+class _ModelOnly:
+    """A world as :func:`simx_server.sim.collisions.pairs_collide` reads it with a scratch MjData:
+    its model only."""
+
+    __slots__ = ("model",)
+
+    def __init__(self, model: mujoco.MjModel):
+        self.model = model
 
 
 class Problem:
@@ -208,13 +226,40 @@ class Problem:
         simplifier = og.PathSimplifier(self.si, self.goal)
         simplifier.simplify(self.path, MAX_SECONDS if max_time < 0 else min(float(max_time), MAX_SECONDS))
 
+    def interpolated_count(self, count: int = 0) -> int:
+        """The states the path would hold after :meth:`interpolate` with ``count`` (OMPL's
+        ``PathGeometric::interpolate``: ``count`` when above the path's states; 0: each segment's
+        ``validSegmentCount`` states), without making them.
+
+        Args:
+            count: as :meth:`interpolate`'s.
+
+        Returns:
+            The count; 0 without a path.
+        """
+        if self.path is None:
+            return 0
+        states = list(self.path.getStates())
+        if count > 0:
+            return max(count, len(states))
+        return 1 + sum(max(1, int(self.space.validSegmentCount(a, b))) for a, b in zip(states, states[1:]))
+
     def interpolate(self, count: int = 0) -> None:
         """``PathGeometric.interpolate`` of the path.
 
         Args:
             count: the states along the path; 0: at the validity checking resolution (the
                 states the motion checks tested).
+
+        Raises:
+            ValueError: the path would hold more than :data:`MAX_PATH_VALUES` values (the
+                count is worked out first; nothing is made).
         """
+        states = self.interpolated_count(count)
+        if states * self.dim > MAX_PATH_VALUES:
+            raise ValueError(f"the path would hold {states} states of {self.dim} values, more than {MAX_PATH_VALUES} "
+                             "values (motion_planning.MAX_PATH_VALUES, a reply's most); ask for fewer states"
+                             + ("" if count > 0 else " (stateCnt, or a coarser setStateValidityCheckingResolution)"))
         if count > 0:
             self.path.interpolate(int(count))
         else:

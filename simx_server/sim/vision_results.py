@@ -20,13 +20,15 @@ if TYPE_CHECKING:
 
 
 class Deferred:
-    """A command result that a render thread completes (the server replies once it is done);
-    ``thread`` is that render thread (None: unknown)."""
+    """A command result that another thread completes (the server replies once it is done);
+    ``thread`` is the render thread that does (None: unknown, or another kind of thread), and
+    ``seconds`` the time its work took, once done (:mod:`simx_server.api.long_calls`)."""
 
-    __slots__ = ("future", "thread")
+    __slots__ = ("future", "thread", "seconds")
 
     def __init__(self, future: Future, thread: RenderThread | None = None):
         self.future, self.thread = future, thread
+        self.seconds = 0.0
 
 class VisionResults:
     """Deferred results, images and depth buffers of the vision sensors (a VisionSensors mixin)."""

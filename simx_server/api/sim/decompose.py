@@ -14,6 +14,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from simx_server.api import long_calls
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.api.sim import shapes as _shapes
@@ -110,7 +111,9 @@ def convexDecompose(ctx: CallContext, shapeHandle: Any, options: Any, intParams:
     else (HACD's parameters) V-HACD runs at CoppeliaSim's defaults with ``intParams[2]`` (HACD's
     vertices per hull). HACD's other parameters have no V-HACD counterpart.
 
-    ``sim.convexDecompose``.
+    ``sim.convexDecompose``. A ZMQ client's V-HACD runs off the simulation thread
+    (:mod:`simx_server.api.long_calls`): the simulation goes on, its reply leaves once the shape
+    is made.
 
     Args:
         shapeHandle: a shape of mesh and box geoms.
@@ -139,9 +142,7 @@ def convexDecompose(ctx: CallContext, shapeHandle: Any, options: Any, intParams:
     resolution = min(max(_last["resolution"], 10_000), MAX_RESOLUTION)
     per_hull = min(max(_last["vertices"], 4), 1024)
     verts, idx, _ = _shapes.getShapeMesh(ctx, obj.handle)
-    hulls = _hulls(np.asarray(verts).reshape(-1, 3), np.asarray(idx).reshape(-1, 3), resolution, per_hull)
-    if not hulls:
-        raise UnsupportedError(f"convexDecompose: V-HACD found no hull in {obj.name!r}'s mesh")
+    v, f = np.asarray(verts, float).reshape(-1, 3), np.asarray(idx).reshape(-1, 3)
     sim = ctx.simulation("convexDecompose")
     world = sim.world
     m, d, b = world.model, world.data, obj.mj_id
@@ -151,7 +152,18 @@ def convexDecompose(ctx: CallContext, shapeHandle: Any, options: Any, intParams:
     inertial = (float(m.body_mass[b]), m.body_ipos[b].tolist(), m.body_iquat[b].tolist(), m.body_inertia[b].tolist())
     pose = (d.xpos[b].tolist(), d.xquat[b].tolist())
 
-    def change(spec: mujoco.MjSpec):
+    def work() -> list[tuple[np.ndarray, np.ndarray]]:  # reads only the mesh copied above
+        return _hulls(v, f, resolution, per_hull)
+
+    def finish(hulls: list[tuple[np.ndarray, np.ndarray]]) -> int:  # the simulation thread
+        if not hulls:
+            raise UnsupportedError(f"convexDecompose: V-HACD found no hull in {obj.name!r}'s mesh")
+        same = world.by_name.get(obj.name)
+        if sim.world is not world or same is None or same.handle != obj.handle:
+            raise ArgumentError(f"convexDecompose: {obj.name!r} or its scene changed while V-HACD ran")
+        return int(sim.editor._edit(lambda spec: change(spec, hulls)))
+
+    def change(spec: mujoco.MjSpec, hulls: list[tuple[np.ndarray, np.ndarray]]):
         taken = _names(spec) | set(world.by_name)
         if opts & 1:
             _, body, _ = sim.editor._spec_element(spec, obj.handle)
@@ -172,4 +184,5 @@ def convexDecompose(ctx: CallContext, shapeHandle: Any, options: Any, intParams:
                           contype=contact[0], conaffinity=contact[1])
         return lambda: world.resolve(name).handle
 
-    return int(sim.editor._edit(change))
+    # a ZMQ client's decomposition runs off the simulation thread, its shape made on it once done
+    return long_calls.later(ctx, work, finish)  # type: ignore[no-any-return]

@@ -9,7 +9,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from simx_server.api import long_calls
 from simx_server.api.context import CallContext
+from simx_server.base import limits as L
 from simx_server.api.registry import simik_function
 from simx_server.api.simik import dummies as _dummies, environments as _environments
 from simx_wire.protocol import ArgumentError, UnsupportedError
@@ -141,14 +143,20 @@ def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jo
                 configs: Any = None) -> list[list[float]]:
     """Configurations of ``jointHandles`` that put the group's tips on their targets: random
     restarts within the joints' ranges (unlimited hinges: ±pi), each solved by damped least
-    squares. ``params``: ``maxTime`` (s, default 0.5, at most 10), ``findMultiple`` (default
+    squares. ``params``: ``maxTime`` (s, default 0.5, at most 10 for a script; for a remote
+    client at most ``limits.MAX_REQUEST_SECONDS``, the search holding the simulation thread),
+    ``findMultiple`` (default
     false: the first found), ``maxDist`` (keep configs closer than this to the current one,
     ``pMetric`` weighting it). Sorted by distance to the current configuration; empty when none."""
     env = _environments.env_of(ctx, environmentHandle)
     g = _environments.group_of(ctx, env, ikGroupHandle)
     joints = _check_joints(ctx, env, g, jointHandles)
     p = _options(params)
-    max_time = min(_num(p.get("maxTime", 0.5), "maxTime"), MAX_SEARCH_SECONDS)
+    # a script's (the scene's own) and pyrep's up to MAX_SEARCH_SECONDS; a ZMQ client's within a
+    # request's budget: the search reads the live scene on the simulation thread (maxTime 1e9
+    # held every other client 10 s)
+    max_time = min(_num(p.get("maxTime", 0.5), "maxTime"),
+                   L.MAX_REQUEST_SECONDS if long_calls.off_thread(ctx) else MAX_SEARCH_SECONDS)
     multiple = bool(p.get("findMultiple", False))
     max_dist = p.get("maxDist")
     metric = np.ones(len(joints)) if p.get("pMetric") is None else np.array(_vector(p["pMetric"], len(joints), "pMetric"))

@@ -4,10 +4,11 @@ and the calls on single states and flat paths."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
+from simx_server.api import long_calls
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simompl_function
 from simx_server.api.simompl.tasks import Task, as_state, as_states, spaces_of, task_of
@@ -60,15 +61,41 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
         raise ArgumentError(str(exc)) from None
 
 
+def _max_time(value: Any) -> float:
+    t = _num(value, "maxTime")
+    if not t > 0:
+        raise ArgumentError("maxTime must be positive (s)")
+    return t
+
+
+def _planned(ctx: CallContext, task: Task, work: Callable[[mp.Problem], Any]) -> Any:
+    """``work(problem)`` on the task's problem, its collision checks on a copy of the scene's
+    state now; for a ZMQ client off the simulation thread (:func:`long_calls.later`: a
+    Deferred), the task refusing other calls meanwhile (``Task.busy``). ValueError (a bound of
+    the path) is an ArgumentError."""
+    problem = _fresh(ctx, task)
+
+    def run() -> Any:
+        try:
+            return work(problem)
+        except ValueError as exc:
+            raise ArgumentError(str(exc)) from None
+
+    def done() -> None:
+        task.busy = False
+
+    task.busy = True
+    return long_calls.later(ctx, run, done=done)
+
+
 @simompl_function()
 def solve(ctx: CallContext, taskHandle: Any, maxTime: Any) -> bool:  # noqa: N803
-    """Runs the planner for at most ``maxTime`` s (and at most 10 s: the caller waits for it); True
-    when it found a path (exact or approximate)."""
+    """Runs the planner for at most ``maxTime`` s (and at most
+    :data:`~simx_server.sim.motion_planning.MAX_SECONDS`); True when it found a path (exact or
+    approximate). A ZMQ client's runs off the simulation thread (:mod:`simx_server.api.long_calls`)."""
     task = task_of(ctx, taskHandle, True)
-    t = _num(maxTime, "maxTime")
-    if t <= 0:
-        raise ArgumentError("maxTime must be positive (s)")
-    return _fresh(ctx, task).solve(t)
+    t = _max_time(maxTime)
+    return _planned(ctx, task, lambda problem: problem.solve(t))
 
 
 def _fresh(ctx: CallContext, task: Task) -> mp.Problem:
@@ -91,17 +118,38 @@ def _solved(ctx: CallContext, taskHandle: Any) -> mp.Problem:
 @simompl_function()
 def simplifyPath(ctx: CallContext, taskHandle: Any, maxSimplificationTime: Any = -1.0) -> None:  # noqa: N802, N803
     """OMPL's path simplifier on the solution: as much as it can when ``maxSimplificationTime``
-    < 0, else for at most that many s (10 s at most either way)."""
-    _solved(ctx, taskHandle).simplify(_num(maxSimplificationTime, "maxSimplificationTime"))
+    < 0, else for at most that many s (10 s at most either way). A ZMQ client's runs off the
+    simulation thread (:mod:`simx_server.api.long_calls`)."""
+    _solved(ctx, taskHandle)
+    seconds = _num(maxSimplificationTime, "maxSimplificationTime")
+    _planned(ctx, task_of(ctx, taskHandle), lambda problem: problem.simplify(seconds))
 
 
 @simompl_function()
 def interpolatePath(ctx: CallContext, taskHandle: Any, stateCnt: Any = 0) -> None:  # noqa: N802, N803
-    """Interpolates the solution to ``stateCnt`` states (0: at OMPL's checking resolution)."""
+    """Interpolates the solution to ``stateCnt`` states (0: at OMPL's checking resolution).
+
+    Raises:
+        ArgumentError: the path would hold more than
+            :data:`~simx_server.sim.motion_planning.MAX_PATH_VALUES` values (checked first).
+    """
+    count = _state_count(ctx, taskHandle, stateCnt)
+    try:
+        _solved(ctx, taskHandle).interpolate(count)
+    except ValueError as exc:
+        raise ArgumentError(str(exc)) from None
+
+
+def _state_count(ctx: CallContext, taskHandle: Any, stateCnt: Any) -> int:  # noqa: N803
+    """``stateCnt`` checked: >= 0, and its states within MAX_PATH_VALUES values."""
     count = _int(stateCnt, "stateCnt")
     if count < 0:
         raise ArgumentError("stateCnt must be >= 0")
-    _solved(ctx, taskHandle).interpolate(count)
+    dim = max(task_of(ctx, taskHandle).dim, 1)
+    if count * dim > mp.MAX_PATH_VALUES:
+        raise ArgumentError(f"stateCnt {count}: {count} states of {dim} values would pass {mp.MAX_PATH_VALUES} "
+                            "values (motion_planning.MAX_PATH_VALUES, a reply's most); ask for fewer states")
+    return count
 
 
 @simompl_function()
@@ -143,12 +191,27 @@ def getPath(ctx: CallContext, taskHandle: Any) -> list[float]:  # noqa: N802, N8
 def compute(ctx: CallContext, taskHandle: Any, maxTime: Any, maxSimplificationTime: Any = -1.0,  # noqa: N803
             stateCnt: Any = 0) -> tuple[bool, list[float]]:
     """:func:`solve`, then :func:`simplifyPath`, :func:`interpolatePath` and :func:`getPath`:
-    ``(solved, states)`` (``states`` empty when not solved)."""
-    if not solve(ctx, taskHandle, maxTime):
-        return False, []
-    simplifyPath(ctx, taskHandle, maxSimplificationTime)
-    interpolatePath(ctx, taskHandle, stateCnt)
-    return True, getPath(ctx, taskHandle)
+    ``(solved, states)`` (``states`` empty when not solved). A ZMQ client's runs off the
+    simulation thread, in one job (:mod:`simx_server.api.long_calls`).
+
+    Raises:
+        ArgumentError: ``stateCnt`` (or, with 0, the checking resolution) would make a path of
+            more than :data:`~simx_server.sim.motion_planning.MAX_PATH_VALUES` values: before
+            planning, or once the path is found (then nothing is interpolated).
+    """
+    task = task_of(ctx, taskHandle, True)
+    t = _max_time(maxTime)
+    seconds = _num(maxSimplificationTime, "maxSimplificationTime")
+    count = _state_count(ctx, taskHandle, stateCnt)
+
+    def work(problem: mp.Problem) -> tuple[bool, list[float]]:
+        if not problem.solve(t):
+            return False, []
+        problem.simplify(seconds)
+        problem.interpolate(count)
+        return True, problem.path_values().reshape(-1).tolist()
+
+    return _planned(ctx, task, work)
 
 
 # ------------------------------------------------------------------ states

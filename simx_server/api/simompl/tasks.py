@@ -25,6 +25,9 @@ JOINT_POSITION, CYCLIC = STATE_SPACE_TYPE["joint_position"], STATE_SPACE_TYPE["c
 SIMOMPL.constants.update({"Algorithm": ALGORITHM, "StateSpaceType": STATE_SPACE_TYPE})
 #: The most tasks and state spaces one caller may hold at once.
 MAX_OBJECTS = 1024
+#: The finest state validity checking resolution (a fraction of the space's extent): OMPL checks a
+#: motion state by state without looking at the planning time, 1/resolution states at most.
+MIN_RESOLUTION = 1e-4
 
 
 @dataclasses.dataclass
@@ -57,6 +60,7 @@ class Task:
     callback: Callable[[list[float]], Any] | None = None
     problem: mp.Problem | None = None
     checker: mp.ScratchCollisions | None = None
+    busy: bool = False  #: a solve, simplification or compute runs off the simulation thread (long_calls)
 
 
 def _store(ctx: CallContext) -> dict[str, Any]:
@@ -84,7 +88,16 @@ def _get(ctx: CallContext, handle: Any, kind: type, what: str) -> Any:
 
 
 def task_of(ctx: CallContext, handle: Any, set_up: bool = False) -> Task:
+    """The task ``handle`` names.
+
+    Raises:
+        ArgumentError: no such task; not set up (``set_up``); its planning runs now (off the
+            simulation thread, :mod:`simx_server.api.long_calls`: OMPL's objects are not shared).
+    """
     task: Task = _get(ctx, handle, Task, "taskHandle")
+    if task.busy:
+        raise ArgumentError("the task is busy: its planning (simOMPL.solve, simplifyPath or compute) runs now; "
+                            "call again once that call has answered")
     if set_up and task.problem is None:
         raise ArgumentError("simOMPL.setup(taskHandle) has not been called")
     return task
@@ -246,8 +259,10 @@ def setVerboseLevel(ctx: CallContext, taskHandle: Any, verboseLevel: Any) -> Non
 def setStateValidityCheckingResolution(ctx: CallContext, taskHandle: Any, resolution: Any) -> None:  # noqa: N802, N803
     """How finely motions are checked: a fraction of the space's extent (default 0.01)."""
     r = _num(resolution, "resolution")
-    if not 0 < r <= 1:
-        raise ArgumentError("resolution must be in (0, 1]: a fraction of the state space's extent")
+    if not MIN_RESOLUTION <= r <= 1:
+        raise ArgumentError(f"resolution must be in [{MIN_RESOLUTION:g}, 1]: a fraction of the state space's extent "
+                            "(finer, one motion's check would run for minutes inside OMPL, out of the planning "
+                            "time's reach; tasks.MIN_RESOLUTION)")
     task_of(ctx, taskHandle).resolution = r
 
 

@@ -1,0 +1,186 @@
+"""Remote clients' long API calls, run off the simulation thread: motion planning
+(``simOMPL.solve``, ``simplifyPath``, ``compute``) and convex decomposition
+(``sim.convexDecompose``).
+
+These calls run for seconds by design (a planner's ``maxTime``, V-HACD's voxels): on the
+simulation thread, a ZMQ client's ``simOMPL.solve(task, 1e9)`` kept every other client waiting
+10 s, ``simOMPL.compute`` 185 s, ``sim.convexDecompose`` at 400,000 voxels 21-32 s. For a caller
+whose door replies once a :class:`~simx_server.sim.vision_results.Deferred` is done (the ZMQ
+service's context: :attr:`CallContext.defer_renders
+<simx_server.api.context.CallContext.defer_renders>`), :func:`later` takes what the call needs
+(its arguments checked, a snapshot of the state it reads, made on the simulation thread), runs
+the work on one background thread and answers a Deferred at once; what must change the scene
+(the decomposed shape) is handed back to the simulation thread (``sim.post``, as
+:mod:`simx_server.scene.conversions` installs a converted scene). The simulation keeps stepping
+and every other client keeps being served meanwhile.
+
+One job runs at a time, taken round robin by client (the door's caller key, ``"zmq:<uuid>"``),
+so that a client's job waits behind at most one job of each other client; a client has at most
+:data:`MAX_WAITING_PER_CLIENT` jobs running or waiting (more: ``server busy``). The work's
+seconds are kept on the Deferred (``seconds``) for the door to charge to the caller's share.
+Scripts (the scene's own, trusted, and their Lua callbacks run on the simulation thread) and
+in-process callers (``pyrep``) run the work at once, as before.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import Future
+from typing import Any
+
+from simx_server.api.context import CallContext
+from simx_server.sim.vision_results import Deferred
+from simx_wire.protocol import BUSY, RemoteError
+
+log = logging.getLogger("simx.api")
+
+#: Jobs of one client running or waiting at once.
+MAX_WAITING_PER_CLIENT = 2
+
+
+class LongCalls:
+    """The long calls waiting for the one background thread, served round robin by client
+    (the thread is started when a job comes and ends when none waits)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._jobs: dict[str | None, collections.deque] = {}  # client -> its jobs not started
+        self._ring: collections.deque = collections.deque()  # clients with jobs waiting, in turn
+        self._pending: dict[str | None, int] = {}  # client -> its jobs waiting or running
+        self._running = False
+
+    def pending(self, client: Any = ...) -> int:
+        """Jobs waiting or running, of ``client`` (default: of all clients); any thread."""
+        with self._lock:
+            return sum(self._pending.values()) if client is ... else self._pending.get(client, 0)
+
+    def add(self, client: str | None, job: Callable[[], None]) -> None:
+        """Queue ``job`` of ``client``.
+
+        Raises:
+            RemoteError: ``server busy``: :data:`MAX_WAITING_PER_CLIENT` jobs of ``client``
+                run or wait already.
+        """
+        with self._lock:
+            mine = self._pending.get(client, 0)
+            if mine >= MAX_WAITING_PER_CLIENT:
+                raise RemoteError(f"{BUSY}: {mine} long call(s) of this client (planning, convex decomposition) run "
+                                  f"or wait already (long_calls.MAX_WAITING_PER_CLIENT = {MAX_WAITING_PER_CLIENT})")
+            self._pending[client] = mine + 1
+            jobs = self._jobs.setdefault(client, collections.deque())
+            if not jobs:
+                self._ring.append(client)
+            jobs.append(job)
+            if self._running:
+                return
+            self._running = True
+        threading.Thread(target=self._serve, name="simx-long-calls", daemon=True).start()
+
+    def _serve(self) -> None:
+        while True:
+            with self._lock:
+                if not self._ring:
+                    self._running = False
+                    return
+                client = self._ring.popleft()
+                jobs = self._jobs[client]
+                job = jobs.popleft()
+                if jobs:
+                    self._ring.append(client)  # its next job after every other client's
+                else:
+                    del self._jobs[client]
+            try:
+                job()
+            except Exception:  # a job reports its own errors; the queue must outlive it
+                log.exception("a long call")
+            finally:
+                with self._lock:
+                    left = self._pending[client] - 1
+                    if left:
+                        self._pending[client] = left
+                    else:
+                        del self._pending[client]
+
+
+waiting = LongCalls()
+
+
+def off_thread(ctx: CallContext) -> bool:
+    """Whether ``ctx``'s calls run their long work off the simulation thread: a remote client's
+    door that replies once a Deferred is done (the ZMQ service), not a script, not ``pyrep``."""
+    return ctx.remote and ctx.defer_renders and ctx.view is not None
+
+
+def later(ctx: CallContext, work: Callable[[], Any], finish: Callable[[Any], Any] | None = None,
+          done: Callable[[], None] | None = None) -> Any:
+    """``work()`` (then ``finish(its value)`` on the simulation thread), off the simulation
+    thread for a remote client (:func:`off_thread`), at once otherwise.
+
+    Args:
+        ctx: the caller's context.
+        work: what runs off the simulation thread: it reads only the snapshot it closes over
+            (taken by the caller, on the simulation thread), never the live scene.
+        finish: what must run on the simulation thread with ``work``'s value (a scene edit);
+            its return value is the call's. None: ``work``'s value is the call's.
+        done: run after ``work`` (in its thread, whatever happened): releases what the call
+            holds (a task marked busy).
+
+    Returns:
+        The call's value, or for a remote client a Deferred of it (``seconds``: the work's).
+
+    Raises:
+        RemoteError: ``server busy`` (:data:`MAX_WAITING_PER_CLIENT`); at once: what ``work``
+            or ``finish`` raise.
+    """
+    view = ctx.view
+    post = getattr(view, "post", None)
+    if not off_thread(ctx) or (finish is not None and post is None):
+        try:
+            value = work()
+        finally:
+            if done is not None:
+                done()
+        return finish(value) if finish is not None else value
+    files = getattr(getattr(view, "editor", None), "files", None)
+    caller = getattr(files, "caller", None)
+    future: Future = Future()
+    deferred = Deferred(future)
+
+    def install(value: Any) -> None:  # the simulation thread
+        try:
+            if files is not None:
+                with files.acting(caller):
+                    future.set_result(finish(value))  # type: ignore[misc]
+            else:
+                future.set_result(finish(value))  # type: ignore[misc]
+        except Exception as exc:
+            future.set_exception(exc)
+
+    def job() -> None:  # the background thread
+        start = time.monotonic()
+        try:
+            value = work()
+        except BaseException as exc:
+            deferred.seconds = time.monotonic() - start
+            future.set_exception(exc)
+            return
+        finally:
+            if done is not None:
+                done()
+        deferred.seconds = time.monotonic() - start
+        if finish is None:
+            future.set_result(value)
+        else:
+            post(lambda: install(value))
+
+    try:
+        waiting.add(caller, job)
+    except RemoteError:
+        if done is not None:
+            done()
+        raise
+    return deferred

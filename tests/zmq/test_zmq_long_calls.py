@@ -1,0 +1,231 @@
+"""ZMQ clients' long calls off the simulation thread (issue 57): ``simOMPL.solve`` with a huge
+``maxTime`` held every other client 10 s, ``simOMPL.compute(task, 1e9, 1e9, 1e7)`` 185 s (and
+grew the server to 7 GB), ``sim.convexDecompose`` 21-32 s, ``simIK.findConfig`` 10 s. Bounded
+forms on a real server with raw sockets: another client's call is answered while the long call
+runs (ordering: its reply is there before the long call's), the task refuses other calls
+meanwhile, sizes past the reply's bound are refused before any work, and the work's time is
+charged to its caller; the queue of long calls itself in-process."""
+
+from __future__ import annotations
+
+import threading
+
+import cbor2
+import pytest
+import zmq
+
+from conftest import ServerProcess, free_port
+from simx_server.api import long_calls
+from simx_server.sim import motion_planning as mp
+from simx_server.zmq import codec
+from simx_wire.protocol import BUSY, RemoteError
+
+pytest.importorskip("ompl")
+pytestmark = pytest.mark.renderers_on_demand
+
+#: A one-link arm that a post blocks: Joint1 cannot turn from 0 to 2.5 rad (the link hits the post
+#: at pi/2), so a planner searches until its time is up. A box shape to decompose.
+SCENE = """<mujoco model="long calls">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="Link1" pos="0 0 0.3">
+      <joint name="Joint1" type="hinge" axis="0 0 1" range="-3 3" limited="true"/>
+      <geom type="capsule" fromto="0.03 0 0 0.4 0 0" size="0.03"/>
+    </body>
+    <body name="Post" pos="0 0.25 0.3"><geom type="box" size="0.03 0.03 0.2"/></body>
+    <body name="Block" pos="1 1 0.1"><geom type="box" size="0.1 0.05 0.02"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+class Client:
+    """A raw REQ socket speaking the protocol."""
+
+    def __init__(self, port: int, uuid: str):
+        self.ctx = zmq.Context()
+        self.sock = self.ctx.socket(zmq.REQ)
+        self.sock.setsockopt(zmq.RCVTIMEO, 60000)
+        self.sock.setsockopt(zmq.LINGER, 0)
+        self.sock.connect(f"tcp://127.0.0.1:{port}")
+        self.uuid = uuid
+
+    def send(self, func: str, *args) -> None:
+        self.sock.send(codec.encode_request(func, list(args), self.uuid))
+
+    def receive(self) -> dict:
+        return cbor2.loads(self.sock.recv())
+
+    def answered(self) -> bool:
+        """Whether the reply to the request sent is there now (it is not read)."""
+        return bool(self.sock.poll(0))
+
+    def call(self, func: str, *args) -> dict:
+        self.send(func, *args)
+        return self.receive()
+
+    def close(self) -> None:
+        self.sock.close(0)
+        self.ctx.term()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("long_calls")
+    (folder / "scene.xml").write_text(SCENE)
+    port = free_port()
+    srv = ServerProcess(str(folder / "scene.xml"), "--zmq-port", str(port), renderers="on-demand")
+    srv.zmq_port = port
+    yield srv
+    log = srv.stop()
+    assert "Traceback" not in log, log[-3000:]
+
+
+@pytest.fixture
+def clients(server):
+    made = [Client(server.zmq_port, "planner"), Client(server.zmq_port, "other")]
+    yield made
+    for c in made:
+        c.close()
+
+
+def _blocked_task(c: Client) -> str:
+    """A set-up task whose goal no path reaches (the post is in the way)."""
+    joint = c.call("sim.getObject", "/Joint1")["ret"][0]
+    task = c.call("simOMPL.createTask", "blocked")["ret"][0]
+    assert "ret" in c.call("simOMPL.setAlgorithm", task, 30017)  # RRTConnect
+    assert "ret" in c.call("simOMPL.setStateSpaceForJoints", task, [joint], [1])
+    link, post = (c.call("sim.getObject", p)["ret"][0] for p in ("/Link1", "/Post"))
+    assert "ret" in c.call("simOMPL.setCollisionPairs", task, [link, post])
+    assert "ret" in c.call("simOMPL.setStartState", task, [0.0])
+    assert "ret" in c.call("simOMPL.setGoalState", task, [2.5])
+    assert "ret" in c.call("simOMPL.setup", task)
+    return task
+
+
+def test_planning_runs_off_the_simulation_thread(clients):
+    """While one client's solve searches (2 s), another client's calls are answered, and the task
+    refuses every other call until the solve has answered."""
+    planner, other = clients
+    task = _blocked_task(planner)
+    planner.send("simOMPL.solve", task, 2.0)
+    assert other.call("sim.getSimulationTime")["ret"][0] >= 0
+    busy = other.call("simOMPL.getPath", task)
+    assert "the task is busy" in busy.get("err", ""), busy
+    assert not planner.answered()  # the others were served while it searched
+    assert "ret" in planner.receive()  # an approximate path at best: the post is in the way
+    assert other.call("simOMPL.hasExactSolution", task) == {"ret": [False]}
+    assert "ret" in other.call("simOMPL.destroyTask", task)
+
+
+def test_compute_refuses_a_path_past_the_replys_bound_before_planning(clients):
+    """compute(task, 1e9, 1e9, 1e7) made 10^7 states (7 GB): refused before any planning."""
+    planner, _ = clients
+    task = _blocked_task(planner)
+    reply = planner.call("simOMPL.compute", task, 1e9, 1e9, 10 ** 7)
+    assert "MAX_PATH_VALUES" in reply.get("err", ""), reply
+    reply = planner.call("simOMPL.interpolatePath", task, 10 ** 7)
+    assert "MAX_PATH_VALUES" in reply.get("err", ""), reply
+    reply = planner.call("simOMPL.setStateValidityCheckingResolution", task, 1e-9)
+    assert "MIN_RESOLUTION" in reply.get("err", ""), reply
+    assert "ret" in planner.call("simOMPL.destroyTask", task)
+
+
+def test_convex_decomposition_runs_off_the_simulation_thread(clients):
+    """V-HACD in its worker process, waited for off the simulation thread: another client is
+    answered first; the shape is made once it is done."""
+    pytest.importorskip("vhacdx")
+    planner, other = clients
+    block = planner.call("sim.getObject", "/Block")["ret"][0]
+    planner.send("sim.convexDecompose", block, 0, [0] * 10, [0.0] * 10)
+    assert other.call("sim.getSimulationTime")["ret"][0] >= 0
+    assert not planner.answered()
+    reply = planner.receive()
+    assert "ret" in reply, reply
+    assert other.call("sim.getObjectType", reply["ret"][0])["ret"] == [0]  # sim.sceneobject_shape
+
+
+def test_find_config_is_bounded_by_a_requests_budget(tmp_path, monkeypatch):
+    """simIK.findConfig with maxTime 1e9 searched 10 s on the simulation thread: a ZMQ client's
+    search ends within limits.MAX_REQUEST_SECONDS, a script's keeps its maxTime (up to 10 s).
+    In-process, each restart made to take 0.25 s of a stand-in clock: counted, not timed."""
+    from simx_server.api import client_context, script_sim
+    from simx_server.api.simik import calls, environments
+    from simx_server.base import limits
+    from simx_server.scene.simulation import Simulation
+
+    (tmp_path / "scene.xml").write_text(SCENE)
+    simulation = Simulation(tmp_path / "scene.xml", realtime=False)
+    clock, restarts = [0.0], []
+    solve = environments.solve
+
+    def counted(*args, **kwargs):
+        restarts.append(1)
+        clock[0] += 0.25
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(calls.time, "monotonic", lambda: clock[0])
+    monkeypatch.setattr(environments, "solve", counted)
+    try:
+        for ctx, seconds in ((client_context(simulation), limits.MAX_REQUEST_SECONDS),
+                             (script_sim(simulation.world, simulation.world.resolve("Post").handle, simulation.signals,
+                                         simulation=simulation).context,
+                              calls.MAX_SEARCH_SECONDS)):
+            sim, ik = ctx.sim, ctx.simik
+            joint, link = sim.getObject("/Joint1"), sim.getObject("/Link1")
+            env = ik.createEnvironment()
+            group = ik.createGroup(env)
+            tip, target = sim.createDummy(0.01), sim.createDummy(0.01)
+            sim.setObjectParent(tip, link, False)
+            sim.setObjectPosition(tip, -1, [0.4, 0.0, 0.3])
+            sim.setObjectPosition(target, -1, [5.0, 5.0, 5.0])  # out of reach: it searches until its time is up
+            ik.addElementFromScene(env, group, -1, tip, target, 1)
+            restarts.clear()
+            assert ik.findConfig(env, group, [joint], 0.1, 1e9) is None
+            assert len(restarts) == pytest.approx(seconds / 0.25, abs=1)
+            sim.removeObjects([tip, target])
+    finally:
+        simulation.close()
+
+
+# ------------------------------------------------------------------ in-process: the queue
+def test_long_calls_are_served_round_robin_and_bounded_per_client():
+    """One job at a time, round robin by client; a client's third job is refused "server busy"."""
+    queue = long_calls.LongCalls()
+    gate, order, finished = threading.Event(), [], threading.Event()
+
+    def job(name: str):
+        def run():
+            gate.wait(30)
+            order.append(name)
+            if len(order) == 4:
+                finished.set()
+        return run
+
+    queue.add("a", job("a1"))
+    queue.add("b", job("b1"))
+    queue.add("b", job("b2"))
+    with pytest.raises(RemoteError, match=BUSY):
+        queue.add("b", job("b3"))
+    queue.add("c", job("c1"))
+    assert queue.pending("b") == 2 and queue.pending() == 4
+    gate.set()
+    assert finished.wait(30)
+    assert order == ["a1", "b1", "c1", "b2"]  # c's job before b's second
+
+
+def test_an_interpolated_paths_count_is_known_before_it_is_made():
+    """interpolatePath(0) at a fine resolution: the states are counted first (validSegmentCount
+    per segment) and refused past MAX_PATH_VALUES, nothing made."""
+    from simx_server.sim import ompl_spaces
+
+    space = ompl_spaces.Space([ompl_spaces.Subspace("joint_position", (-3.0,), (3.0,), True)])
+    problem = mp.Problem(space, lambda q: True, resolution=1e-4)
+    problem.setup([0.0], [[2.5]], "RRTConnect")
+    assert problem.solve(1.0)
+    counted = problem.interpolated_count(0)
+    assert counted > 1000
+    problem.interpolate(0)
+    assert len(problem.path_values()) == counted
+    with pytest.raises(ValueError, match="MAX_PATH_VALUES"):
+        problem.interpolate(mp.MAX_PATH_VALUES + 1)
