@@ -162,17 +162,17 @@ def later(ctx: CallContext, work: Callable[[], Any], finish: Callable[[Any], Any
 
     def job() -> None:  # the background thread
         start = time.monotonic()
+        value = error = None
         try:
             value = work()
         except BaseException as exc:
-            deferred.seconds = time.monotonic() - start
-            future.set_exception(exc)
-            return
-        finally:
-            if done is not None:
-                done()
+            error = exc
+        if done is not None:  # before the reply can leave: the caller's next call finds the task free
+            done()
         deferred.seconds = time.monotonic() - start
-        if finish is None:
+        if error is not None:
+            future.set_exception(error)
+        elif finish is None:
             future.set_result(value)
         else:
             post(lambda: install(value))

@@ -41,10 +41,12 @@ except ImportError as exc:  # pragma: no cover - the test environment has ompl
 #: s one solve or simplification may take at most (the caller's thread waits for it: a script's;
 #: a ZMQ client's runs off the simulation thread, :mod:`simx_server.api.long_calls`).
 MAX_SECONDS = 10.0
-#: The most values (states x the state's dimension) a path may hold once interpolated: a reply's
-#: most values (``protocol.MAX_REQUEST_ITEMS``). ``simOMPL.compute(task, 1e9, 1e9, 1e7)`` made
-#: 10^7 states and grew the server from 240 MB to 7 GB; such a count is refused before it is made.
-MAX_PATH_VALUES = MAX_REQUEST_ITEMS
+#: The most values (states x the state's dimension) a path may hold once interpolated (37,449
+#: states of a 7-joint arm; a reply of 2.4 MiB). ``simOMPL.compute(task, 1e9, 1e9, 1e7)`` made
+#: 10^7 states and grew the server from 240 MB to 7 GB; a count past this is refused before it is
+#: made. Bound tighter than a reply's values (``protocol.MAX_REQUEST_ITEMS``): OMPL's bindings
+#: hold the GIL while they list a path's states (2 million: 5 s, every other thread waiting).
+MAX_PATH_VALUES = MAX_REQUEST_ITEMS // 8
 #: simOMPL's ``Algorithm`` enum (callbacks.xml, from 30001, in this order; the plug-in leaves out
 #: the parallel pRRT and pSBL).
 ALGORITHMS: tuple[str, ...] = (
@@ -258,7 +260,7 @@ class Problem:
         states = self.interpolated_count(count)
         if states * self.dim > MAX_PATH_VALUES:
             raise ValueError(f"the path would hold {states} states of {self.dim} values, more than {MAX_PATH_VALUES} "
-                             "values (motion_planning.MAX_PATH_VALUES, a reply's most); ask for fewer states"
+                             "values (motion_planning.MAX_PATH_VALUES); ask for fewer states"
                              + ("" if count > 0 else " (stateCnt, or a coarser setStateValidityCheckingResolution)"))
         if count > 0:
             self.path.interpolate(int(count))

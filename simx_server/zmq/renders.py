@@ -20,6 +20,7 @@ rendered. A connection closed while its image renders is sent nothing; its bytes
 
 from __future__ import annotations
 
+import time
 from concurrent.futures import Future
 from typing import Any
 
@@ -49,7 +50,8 @@ def values(result: Any, returns_none: bool) -> list:
 
 class RenderedReplies:
     """The ZMQ service's calls that render (mixin of :class:`~simx_server.zmq.service.ZmqService`;
-    needs its ``frontend``, ``sim``, ``_call_table``, ``_signature``, ``_error`` and ``_call_error``)."""
+    needs its ``frontend``, ``sim``, ``connections``, ``_call_table``, ``_signature``, ``_error``
+    and ``_call_error``), and those whose work another thread does (a .ttt conversion, a long call)."""
 
     def _render(self, client: Any, func: str, name: str, args: list) -> bytes | Rendering:
         """Start a call that waits for a render (budgets.RENDERS): its frames and the job making
@@ -75,6 +77,8 @@ class RenderedReplies:
         is done; the simulation thread goes on meanwhile. A connection closed meanwhile is sent
         nothing and its bytes are given back."""
         identity, held, returns_none = envelope[0], rendering.held, rendering.returns_none
+        if rendering.deferred.thread is None:  # a long call's work (api.long_calls): charged once done
+            self._charge_when_done(client, rendering.deferred)
 
         # ``done`` holds nothing that holds the future: the future keeps its callbacks, and a
         # cycle through them would keep each reply (48 MiB at 4096x4096) until the cyclic
@@ -90,6 +94,23 @@ class RenderedReplies:
             self.frontend.send(envelope, payload, held)
 
         rendering.deferred.future.add_done_callback(done)
+
+    def _charge_when_done(self, client: Any, deferred: Deferred) -> None:
+        """Charge the work of a call done off the simulation thread (``deferred.seconds``,
+        :mod:`simx_server.api.long_calls`) once done, as a call on that thread is charged: its
+        time past limits.MAX_REQUEST_SECONDS, to its connection's share and to its client's
+        (``Client.share``: the uuid keeps it on a new connection), before its reply leaves, so
+        that its next calls wait their turn (``ZmqService._serve``)."""
+        identity = client.connection
+
+        def charge(_future: Future) -> None:  # the long call's thread
+            seconds, now = deferred.seconds, time.monotonic()
+            connection = self.connections.get(identity)
+            if connection is not None:
+                connection.charge_call(seconds, now, edit=False)
+            client.share.charge(max(0.0, seconds - limits.MAX_REQUEST_SECONDS), now)
+
+        deferred.future.add_done_callback(charge)
 
     def _encoded(self, client: Any, func: str, items: list) -> bytes:
         """``{ret: items}``, or the error of a reply past limits.MAX_REPLY_BYTES (any thread)."""

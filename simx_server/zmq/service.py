@@ -211,27 +211,9 @@ class ZmqService(RenderedReplies):
         if connection is not None:
             connection.charge_call(done - start, done, func.startswith("sim.") and func[4:] in EDITS)
         if type(payload) is Rendering:
-            if payload.deferred.thread is None:  # a long call's work (api.long_calls) charged once done
-                self._charge_when_done(client, payload.deferred)
             self._reply_rendered(client, envelope, func, payload)
         else:
             self.frontend.send(envelope, payload)
-
-    def _charge_when_done(self, client: ZmqClient, deferred: Deferred) -> None:
-        """Charge a long call's work off this thread (``deferred.seconds``, :mod:`simx_server.api.long_calls`)
-        once done, as a call on this thread: its time past limits.MAX_REQUEST_SECONDS, to its
-        connection's share and to its client's (``Client.share``, kept when the uuid comes back
-        on a new connection), so that its next calls wait their turn."""
-        identity = client.connection
-
-        def charge(_future: Any) -> None:  # the long call's thread
-            seconds, now = deferred.seconds, time.monotonic()
-            connection = self.connections.get(identity)
-            if connection is not None:
-                connection.charge_call(seconds, now, edit=False)
-            client.share.charge(max(0.0, seconds - limits.MAX_REQUEST_SECONDS), now)
-
-        deferred.future.add_done_callback(charge)
 
     def _call(self, client: ZmqClient, func: str, args: list) -> bytes | Rendering:
         """The encoded reply to ``func(*args)``: ``{ret}``, ``{err}`` or ``{func: _*wait*_}``; for
@@ -254,8 +236,6 @@ class ZmqService(RenderedReplies):
                 if name in RENDERS:
                     return self._render(client, func, name, args)
                 values = self._call_table(name, args)
-                if type(values) is Deferred:  # a .ttt/.ttm converted off this thread: replied once loaded
-                    return Rendering(values, 0, self._signature(name).return_annotation in ("None", None))
                 if isinstance(values, Stepped):
                     if client.version == codec.VERSION_1:
                         values.generator.close()
@@ -267,13 +247,13 @@ class ZmqService(RenderedReplies):
                     return self._start_long(client, func, values)
             elif name in self._libraries.get(namespace, ()):
                 values = self._call_table(name, args, namespace)
-                if type(values) is Deferred:  # planning off this thread (api.long_calls): replied once done
-                    return Rendering(values, 0, self._signature(name, namespace).return_annotation in ("None", None))
             elif name in names.coppeliasim_functions(namespace):
                 raise RemoteError(f"not implemented by simx (CoppeliaSim 4.x has {namespace}.{name}; "
                                   "docs/ZMQ.md lists what simx has)")
             else:
                 raise RemoteError("no such function")
+            if type(values) is Deferred:  # a .ttt converted, a long call (api.long_calls) run off this thread
+                return Rendering(values, 0, self._signature(name, namespace).return_annotation in ("None", None))
             return self._encoded(client, func, values)
         except Exception as exc:
             return self._call_error(client, func, exc)

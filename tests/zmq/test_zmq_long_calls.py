@@ -115,6 +115,9 @@ def test_planning_runs_off_the_simulation_thread(clients):
     assert not planner.answered()  # the others were served while it searched
     assert "ret" in planner.receive()  # an approximate path at best: the post is in the way
     assert other.call("simOMPL.hasExactSolution", task) == {"ret": [False]}
+    # a simplification answers once done: the next call finds the task free
+    assert planner.call("simOMPL.simplifyPath", task, 0.2) == {"ret": []}
+    assert "ret" in planner.call("simOMPL.interpolatePath", task, 10)
     assert "ret" in other.call("simOMPL.destroyTask", task)
 
 
@@ -229,3 +232,57 @@ def test_an_interpolated_paths_count_is_known_before_it_is_made():
     assert len(problem.path_values()) == counted
     with pytest.raises(ValueError, match="MAX_PATH_VALUES"):
         problem.interpolate(mp.MAX_PATH_VALUES + 1)
+
+
+def test_a_long_calls_work_is_charged_to_its_uuid_on_any_connection(tmp_path, monkeypatch):
+    """The seconds a solve took off the simulation thread are charged to its connection and to
+    its uuid before its reply leaves: that uuid's next call, from a new connection too, waits its
+    turn, another client's does not. In-process, with a real simulation."""
+    from simx_server.base import limits
+    from simx_server.loop.clients import Clients
+    from simx_server.scene.simulation import Simulation
+    from simx_server.zmq.frontend import Incoming
+    from simx_server.zmq.service import ZmqService
+
+    (tmp_path / "scene.xml").write_text(SCENE)
+    sim = Simulation(tmp_path / "scene.xml")
+    sent, replied = [], threading.Event()
+
+    class Frontend:
+        def send(self, envelope, payload, held=0, **_):
+            sent.append((envelope[0], cbor2.loads(payload)))
+            replied.set()
+
+        def expects(self, identity):
+            return True
+
+    server = type("Server", (), {"sim": sim, "clients": Clients(), "hold_pass": lambda self, client, seconds: None})
+    service = ZmqService(server(), Frontend())
+
+    def call(connection: bytes, uuid: str, func: str, *args):
+        replied.clear()
+        service.handle("zmq", Incoming([connection], codec.read_request(codec.encode_request(func, list(args), uuid)),
+                                       len(connection), 10))
+        assert replied.wait(30)
+        return sent[-1][1]
+
+    try:
+        joint, link, post = (call(b"first", "planner", "sim.getObject", p)["ret"][0]
+                             for p in ("/Joint1", "/Link1", "/Post"))
+        task = call(b"first", "planner", "simOMPL.createTask", "t")["ret"][0]
+        call(b"first", "planner", "simOMPL.setStateSpaceForJoints", task, [joint], [1])
+        call(b"first", "planner", "simOMPL.setCollisionPairs", task, [link, post])
+        call(b"first", "planner", "simOMPL.setStartState", task, [0.0])
+        call(b"first", "planner", "simOMPL.setGoalState", task, [2.5])
+        assert "ret" in call(b"first", "planner", "simOMPL.setup", task)
+        monkeypatch.setattr(limits, "MAX_REQUEST_SECONDS", 0.0)  # every second of work counts
+        monkeypatch.setattr(limits, "EDIT_DEBT_SECONDS", 0.0)  # any debt: the next call waits
+        assert "ret" in call(b"first", "planner", "simOMPL.solve", task, 0.3)  # off this thread, 0.3 s
+        assert service.connections[b"first"].debt > 0 and service.clients["planner"].share.debt > 0
+        replied.clear()
+        service.handle("zmq", Incoming([b"second"], codec.read_request(codec.encode_request(
+            "sim.getSimulationTime", [], "planner")), 6, 10))
+        assert not replied.is_set() and [d[1].uuid for d in service._deferred] == ["planner"]
+        assert "ret" in call(b"third", "other", "sim.getSimulationTime")
+    finally:
+        sim.close()

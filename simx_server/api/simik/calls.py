@@ -143,20 +143,16 @@ def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jo
                 configs: Any = None) -> list[list[float]]:
     """Configurations of ``jointHandles`` that put the group's tips on their targets: random
     restarts within the joints' ranges (unlimited hinges: ±pi), each solved by damped least
-    squares. ``params``: ``maxTime`` (s, default 0.5, at most 10 for a script; for a remote
-    client at most ``limits.MAX_REQUEST_SECONDS``, the search holding the simulation thread),
-    ``findMultiple`` (default
+    squares. ``params``: ``maxTime`` (s, default 0.5, at most 10; a ZMQ client's at most
+    ``limits.MAX_REQUEST_SECONDS``: it holds the simulation thread), ``findMultiple`` (default
     false: the first found), ``maxDist`` (keep configs closer than this to the current one,
     ``pMetric`` weighting it). Sorted by distance to the current configuration; empty when none."""
     env = _environments.env_of(ctx, environmentHandle)
     g = _environments.group_of(ctx, env, ikGroupHandle)
     joints = _check_joints(ctx, env, g, jointHandles)
     p = _options(params)
-    # a script's (the scene's own) and pyrep's up to MAX_SEARCH_SECONDS; a ZMQ client's within a
-    # request's budget: the search reads the live scene on the simulation thread (maxTime 1e9
-    # held every other client 10 s)
-    max_time = min(_num(p.get("maxTime", 0.5), "maxTime"),
-                   L.MAX_REQUEST_SECONDS if long_calls.off_thread(ctx) else MAX_SEARCH_SECONDS)
+    bound = L.MAX_REQUEST_SECONDS if long_calls.off_thread(ctx) else MAX_SEARCH_SECONDS  # maxTime 1e9 held all 10 s
+    max_time = min(_num(p.get("maxTime", 0.5), "maxTime"), bound)
     multiple = bool(p.get("findMultiple", False))
     max_dist = p.get("maxDist")
     metric = np.ones(len(joints)) if p.get("pMetric") is None else np.array(_vector(p["pMetric"], len(joints), "pMetric"))

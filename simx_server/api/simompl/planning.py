@@ -122,7 +122,7 @@ def simplifyPath(ctx: CallContext, taskHandle: Any, maxSimplificationTime: Any =
     simulation thread (:mod:`simx_server.api.long_calls`)."""
     _solved(ctx, taskHandle)
     seconds = _num(maxSimplificationTime, "maxSimplificationTime")
-    _planned(ctx, task_of(ctx, taskHandle), lambda problem: problem.simplify(seconds))
+    return _planned(ctx, task_of(ctx, taskHandle), lambda problem: problem.simplify(seconds))  # type: ignore[no-any-return]
 
 
 @simompl_function()
@@ -148,7 +148,7 @@ def _state_count(ctx: CallContext, taskHandle: Any, stateCnt: Any) -> int:  # no
     dim = max(task_of(ctx, taskHandle).dim, 1)
     if count * dim > mp.MAX_PATH_VALUES:
         raise ArgumentError(f"stateCnt {count}: {count} states of {dim} values would pass {mp.MAX_PATH_VALUES} "
-                            "values (motion_planning.MAX_PATH_VALUES, a reply's most); ask for fewer states")
+                            "values (motion_planning.MAX_PATH_VALUES); ask for fewer states")
     return count
 
 

@@ -27,7 +27,7 @@ SIMOMPL.constants.update({"Algorithm": ALGORITHM, "StateSpaceType": STATE_SPACE_
 MAX_OBJECTS = 1024
 #: The finest state validity checking resolution (a fraction of the space's extent): OMPL checks a
 #: motion state by state without looking at the planning time, 1/resolution states at most.
-MIN_RESOLUTION = 1e-4
+MIN_RESOLUTION = 1e-5
 
 
 @dataclasses.dataclass
