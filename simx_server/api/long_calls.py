@@ -48,8 +48,8 @@ class LongCalls:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._jobs: dict[str | None, collections.deque] = {}  # client -> its jobs not started
-        self._ring: collections.deque = collections.deque()  # clients with jobs waiting, in turn
+        self._jobs: dict[str | None, collections.deque[Callable[[], None]]] = {}  # client -> its jobs not started
+        self._ring: collections.deque[str | None] = collections.deque()  # clients with jobs waiting, in turn
         self._pending: dict[str | None, int] = {}  # client -> its jobs waiting or running
         self._running = False
 
@@ -147,7 +147,7 @@ def later(ctx: CallContext, work: Callable[[], Any], finish: Callable[[Any], Any
         return finish(value) if finish is not None else value
     files = getattr(getattr(view, "editor", None), "files", None)
     caller = getattr(files, "caller", None)
-    future: Future = Future()
+    future: Future[Any] = Future()
     deferred = Deferred(future)
 
     def install(value: Any) -> None:  # the simulation thread
@@ -175,7 +175,7 @@ def later(ctx: CallContext, work: Callable[[], Any], finish: Callable[[Any], Any
         elif finish is None:
             future.set_result(value)
         else:
-            post(lambda: install(value))
+            post(lambda: install(value))  # type: ignore[misc]  # not None: off_thread with a finish needs it
 
     try:
         waiting.add(caller, job)

@@ -95,7 +95,7 @@ def solve(ctx: CallContext, taskHandle: Any, maxTime: Any) -> bool:  # noqa: N80
     approximate). A ZMQ client's runs off the simulation thread (:mod:`simx_server.api.long_calls`)."""
     task = task_of(ctx, taskHandle, True)
     t = _max_time(maxTime)
-    return _planned(ctx, task, lambda problem: problem.solve(t))
+    return _planned(ctx, task, lambda problem: problem.solve(t))  # type: ignore[no-any-return]
 
 
 def _fresh(ctx: CallContext, task: Task) -> mp.Problem:
@@ -211,7 +211,7 @@ def compute(ctx: CallContext, taskHandle: Any, maxTime: Any, maxSimplificationTi
         problem.interpolate(count)
         return True, problem.path_values().reshape(-1).tolist()
 
-    return _planned(ctx, task, work)
+    return _planned(ctx, task, work)  # type: ignore[no-any-return]
 
 
 # ------------------------------------------------------------------ states
