@@ -219,12 +219,39 @@ def _settings(sim, spec: mujoco.MjSpec, prefix: str, files: dict[str, bytes]) ->
                 file = prefix + _safe(obj.name) + "_path.json"
                 files[file] = json.dumps(_path_data(kept_objects._load_path(world, obj))).encode()
                 items.setdefault(obj.name, []).append(f"path_data={file}")
+    _sensors(sim, spec, items)
     for text in list(spec.texts):
         if text.name.startswith("simx:") and text.name[5:] in items:
             spec.delete(text)
     for name, values in items.items():
         if values:
             spec.add_text(name=f"simx:{name}", data=" ".join(values))
+
+
+#: A vision sensor's render modes as its ``render_mode=`` setting writes them.
+_RENDER_MODES = {0: "opengl", 2: "handles", 7: "opengl3", 8: "opengl3_windowed"}
+
+
+def _sensors(sim, spec: mujoco.MjSpec, items: dict[str, list[str]]) -> None:
+    """Each vision sensor's properties as they are now (``sim.setObjectInt32Param`` & co. change
+    them after the scene loaded: RLBench's mask cameras are made colour-coded so) in its
+    settings, its resolution on its camera."""
+    vision = getattr(sim, "vision", None)
+    for handle, s in (getattr(vision, "specs", None) or {}).items():
+        obj = sim.world.objects.get(handle)
+        cam = spec.camera(obj.name) if obj is not None else None
+        if cam is None:
+            continue
+        cam.resolution = [int(s.width), int(s.height)]
+        now = {"near": repr(float(s.near)), "far": repr(float(s.far)),
+               "render_mode": _RENDER_MODES.get(int(s.render_mode), "opengl"),
+               "image": "depth" if s.depth_image else "rgb", "shadows": str(bool(s.shadows)).lower(),
+               "reflections": str(bool(s.reflections)).lower(), "ignore_rgb": str(bool(s.ignore_rgb)).lower(),
+               "ignore_depth": str(bool(s.ignore_depth)).lower(), "basic_stats": str(bool(s.basic_stats)).lower()}
+        if s.background is not None:
+            now["background"] = ",".join(repr(min(1.0, (c + 0.5) / 255.1)) for c in s.background)  # bytes kept
+        mine = [i for i in items.get(obj.name, []) if i.partition("=")[0] not in now and i.partition("=")[0] != "background"]
+        items[obj.name] = mine + [f"{k}={v}" for k, v in now.items()]
 
 
 def _parameter(p: dict) -> dict:

@@ -50,15 +50,15 @@ def _state():
 
     w = sim.context().world
     poses = {n: np.round(Object.get_object(n).get_position(), 6) for n in ("task", "block", "stand", "mine",
-                                                                            "arm_base", "arm_link")}
+                                                                            "arm_base", "arm_link", "mask_cam")}
     return set(w.by_name), poses, (w.model.nmesh, w.model.nmeshvert, w.model.nmeshface)
 
 
 def test_a_saved_scene_reopens_with_its_objects_poses_meshes_scripts_and_data(tmp_path, monkeypatch):
     from pyrep import PyRep
     from pyrep.backend import sim
-    from pyrep.const import PrimitiveShape
-    from pyrep.objects import Dummy, Joint, Object, Shape
+    from pyrep.const import PrimitiveShape, RenderMode
+    from pyrep.objects import Dummy, Joint, Object, Shape, VisionSensor
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     (tmp_path / "task.ttm").write_bytes(_task())
@@ -74,6 +74,10 @@ def test_a_saved_scene_reopens_with_its_objects_poses_meshes_scripts_and_data(tm
         mine.set_name("mine")
         Dummy("task").set_position([0.3, 0.1, 0.25])
         Joint("arm_joint").set_joint_position(0.5)
+        mask = VisionSensor.create([64, 48], explicit_handling=True, render_mode=RenderMode.OPENGL_COLOR_CODED,
+                                   near_clipping_plane=0.02, far_clipping_plane=3.0, position=[1, 0, 1])
+        mask.set_name("mask_cam")  # an edit: the sensors are made again, what was set on them stays
+        assert mask.get_render_mode() == RenderMode.OPENGL_COLOR_CODED
         before = _state()
         rgba = sim.context().world.model.geom_rgba.copy()
         pr.export_scene(str(out))
@@ -93,6 +97,9 @@ def test_a_saved_scene_reopens_with_its_objects_poses_meshes_scripts_and_data(tm
             assert after[1][name] == pytest.approx(pos, abs=1e-5), name
         assert after[2] == before[2]
         assert Joint("arm_joint").get_joint_position() == pytest.approx(0.5, abs=1e-6)
+        mask = VisionSensor("mask_cam")  # set after it was made: kept
+        assert mask.get_render_mode() == RenderMode.OPENGL_COLOR_CODED and mask.get_resolution() == [64, 48]
+        assert mask.get_near_clipping_plane() == pytest.approx(0.02) and mask.get_position()[0] == pytest.approx(1)
         w = sim.context().world
         assert np.allclose(w.model.geom_rgba, rgba)  # the arm's classes: red box, blue capsule
         assert sim.call("readCustomDataBlockEx", Object.get_object("task").get_handle(), "tag") == b"hello"
