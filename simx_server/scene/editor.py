@@ -63,7 +63,7 @@ from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
-from simx_server.scene import conversions, custom_data, kept_state
+from simx_server.scene import conversions, custom_data, kept_state, scene_file
 from simx_server.scene.client_files import ClientFiles
 from simx_server.scene.edits import ObjectEdits
 from simx_server.scene.ttt import cache as ttt_cache
@@ -196,6 +196,16 @@ class Editor(ObjectEdits):
             self._spec, self._spec_world, self._baseline = spec, world, baseline
             self._baseline_state = kept_state.snapshot(compiled)
         return self._spec
+
+    def scene_files(self, stem: str) -> tuple[str, dict[str, bytes]]:
+        """The scene as it is now, to save (``sim.saveScene``): its MJCF text and the files it
+        names, by name, to write next to it (:func:`scene_file.scene_files`; ``stem``: the saved
+        file's name without ``.xml``).
+
+        Raises:
+            UnsupportedError: MuJoCo cannot write the scene, or a script's file cannot be read.
+        """
+        return scene_file.scene_files(self.sim, stem)
 
     def _runtime_placements(self) -> list[tuple]:
         """Objects that commands placed in the live model (``World.set_pose`` changes

@@ -39,7 +39,8 @@ OPENGL3, OPENGL3_WINDOWED = 7, 8
 SUPPORTED = (OPENGL, COLOR_CODED, OPENGL3, OPENGL3_WINDOWED)
 #: ``render_mode=`` values of a sensor's ``simx:`` custom text.
 TEXT_VALUES = {"opengl": OPENGL, "0": OPENGL, "handles": COLOR_CODED, "colorcoded": COLOR_CODED,
-               "2": COLOR_CODED}
+               "2": COLOR_CODED, "opengl3": OPENGL3, "7": OPENGL3, "opengl3_windowed": OPENGL3_WINDOWED,
+               "8": OPENGL3_WINDOWED}
 BACKGROUND = 0xFFFFFF  # V-REP's clear colour in colour-coded mode: white
 _GEOM = int(mujoco.mjtObj.mjOBJ_GEOM)  # an int: comparing an array with the enum is per element Python
 

@@ -117,6 +117,8 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         self._init_handling()  # records of sensors handled with callbacks (vision_handled)
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
+        if previous is not None and previous.world is world:  # an edit: run-time settings stay
+            self._keep(previous)
         self._ready = self._prepare(self._thread)
         if self._streaming is not None:
             self._streaming_ready = self._prepare(self._streaming)
@@ -139,6 +141,22 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         if self.specs:
             m.vis.global_.offwidth = max(m.vis.global_.offwidth, *(s.width for s in self.specs.values()))
             m.vis.global_.offheight = max(m.vis.global_.offheight, *(s.height for s in self.specs.values()))
+
+    def _keep(self, previous: VisionSensors) -> None:
+        """Keep what commands set on the sensors that an edit left in the scene (render mode,
+        resolution, clipping, explicit handling...), as CoppeliaSim keeps an object's properties
+        when other objects are added or removed; the camera's index is the new model's. An
+        edit used to reread them from the scene file: RLBench's mask cameras, made
+        colour-coded, turned back to RGB at the next object created or renamed."""
+        for handle, spec in previous.specs.items():
+            now = self.specs.get(handle)
+            if now is not None:
+                self.specs[handle] = dataclasses.replace(spec, camera=now.camera)
+        self.explicit |= {h for h in previous.explicit if h in self.specs}
+        if self.specs:
+            g = self.world.model.vis.global_
+            g.offwidth = max(g.offwidth, *(s.width for s in self.specs.values()))
+            g.offheight = max(g.offheight, *(s.height for s in self.specs.values()))
 
     def set_resolution(self, handle: int, width: int | None = None, height: int | None = None) -> None:
         """``sim_visionintparam_resolution_x``/``_y`` (1002/1003) set at run time, as V-REP

@@ -241,11 +241,14 @@ class VisionChain:
             return lambda: (trigger, packets)
         spec = self.spec(handle)
         raw = (lambda: image) if image is not None else self.raw_image_job(handle)
-        depth = self._raw_depth_job(handle)
+        # the default packet reads the depth only for V-REP's statistics: a colour-coded sensor's
+        # (RLBench's masks) lists handles, and one without statistics has none: no depth frame
+        needs_depth = spec.basic_stats and spec.render_mode != COLOR_CODED
+        depth = self._raw_depth_job(handle) if needs_depth else None
         filtered = self._filtered(handle) if spec.filters and image is None else None
 
         def read() -> tuple[bool, list[list[float]]]:
-            packets = [self.default_packet_of(spec, raw(), depth())]
+            packets = [self.default_packet_of(spec, raw(), depth() if depth is not None else None)]
             if filtered is None:
                 return False, packets
             result = filtered.result()
@@ -254,7 +257,7 @@ class VisionChain:
         return read
 
     @staticmethod
-    def default_packet_of(spec: SensorSpec, rgb: np.ndarray, depth: np.ndarray) -> list[float]:
+    def default_packet_of(spec: SensorSpec, rgb: np.ndarray, depth: np.ndarray | None) -> list[float]:
         """The first packet of a sensor's reading: V-REP's default packet (:func:`default_packet`,
         empty when the sensor's "compute basic statistics" is off); for a sensor rendering
         colour-coded handles, the handles it sees, each + 0.5, as V-REP 3.x.
@@ -262,7 +265,8 @@ class VisionChain:
         Args:
             spec: the sensor's properties.
             rgb: its image, (h, w, 3) uint8.
-            depth: its depth, (h, w) float32 in 0..1.
+            depth: its depth, (h, w) float32 in 0..1 (None: a colour-coded sensor's, or one
+                without statistics: not read).
 
         Returns:
             The packet.
@@ -270,7 +274,7 @@ class VisionChain:
         if spec.render_mode == COLOR_CODED:  # whatever the statistics setting
             seen = np.unique(handles_of(rgb))
             return [float(h) + 0.5 for h in seen[seen < BACKGROUND]]
-        return default_packet(rgb, depth) if spec.basic_stats else []
+        return default_packet(rgb, depth) if spec.basic_stats and depth is not None else []
 
     if TYPE_CHECKING:  # provided by VisionSensors
         world: World

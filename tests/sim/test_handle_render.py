@@ -171,6 +171,24 @@ def test_mjcf_setting_unnamed_bodies_and_world_geoms(tmp_path):
         Simulation(bad, dt=0.05, realtime=False)
 
 
+def test_reading_a_colour_coded_sensor_draws_no_depth_frame(tmp_path):
+    """Its packet lists the handles it sees and reads no depth: RLBench handles five such mask
+    cameras every step, and each drew a depth frame nobody read (issue 58)."""
+    from simx_server.sim import sensors
+
+    scene = tmp_path / "handles.xml"
+    scene.write_text(SMALL)
+    sim = Simulation(scene, dt=0.05, realtime=False)
+    try:
+        cam, box = sim.world.resolve("top").handle, sim.world.resolve("box").handle
+        before = sim.vision.renders
+        triggered, packets = sensors.vision_read_job(sim, cam)()  # sim.handleVisionSensor's frames
+        assert not triggered and packets == [[box + 0.5]]
+        assert sim.vision.renders == before + 1  # the handles' frame alone
+    finally:
+        sim.close()
+
+
 def test_encoding_round_trip():
     handles = np.array([[0, 1, 255, 256], [65535, 65536, 123456, HR.BACKGROUND]])
     colours = np.append(handles.ravel().astype(np.uint32), np.uint32(HR.BACKGROUND))

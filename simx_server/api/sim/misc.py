@@ -6,8 +6,9 @@ Images are uint8 RGB buffers, rows bottom-up, as ``getVisionSensorImg`` returns 
 OpenCV's. ``saveScene`` / ``saveModel`` write MJCF (``MjSpec.to_xml``): a client (and a script it
 calls, and a scene it sent) writes a ``.xml`` file by a relative name into its own folder, within
 its budget; the operator's scripts write in the server's scene folder or a ``--scene-path``
-folder, never in a transfer folder (:mod:`simx_server.scene.client_files`); meshes held in
-memory cannot be written as MJCF (an error says so).
+folder, never in a transfer folder (:mod:`simx_server.scene.client_files`). ``saveScene`` writes
+the files the scene names next to it (meshes and textures held in memory, scripts, custom data:
+:mod:`simx_server.scene.scene_file`), so that the saved scene loads back.
 """
 
 from __future__ import annotations
@@ -401,8 +402,10 @@ def script_path(ctx: CallContext) -> Path | None:
 
 @sim_function("saveScene")
 def saveScene(ctx: CallContext, filename: Any) -> None:  # noqa: N802
-    """Write the scene as it is now (its MjSpec with the edits) as MJCF: a client's into its
-    own folder, the operator's scripts' into the scene folders (see the module's text).
+    """Write the scene as it is now (its MjSpec with the edits, its objects where they are) as
+    MJCF, with the files it names next to it (``<stem>_...``: meshes, textures, scripts, custom
+    data; :mod:`simx_server.scene.scene_file`): a client's into its own folder, the operator's
+    scripts' into the scene folders (see the module's text). The file loads back as the scene.
 
     ``sim.saveScene``.
 
@@ -416,12 +419,13 @@ def saveScene(ctx: CallContext, filename: Any) -> None:  # noqa: N802
         UnsupportedError: MuJoCo cannot write the scene, or no simulation behind the script.
     """
     file, key = target_file(ctx, filename)
-    spec = ctx.simulation("saveScene").editor._live_spec()
-    try:
-        text = spec.to_xml()
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot write this scene as MJCF: {exc}") from None
-    ctx.simulation("saveScene").editor.files.write(file, text.encode("utf-8"), key, str(filename))
+    sim = ctx.simulation("saveScene")
+    text, extra = sim.editor.scene_files(file.stem)
+    name = str(filename)
+    for sibling, data in extra.items():  # meshes, scripts, data: next to the scene, within the same bounds
+        other = str(Path(name).with_name(sibling))
+        sim.editor.files.write(sim.editor.files.target(other, key, "sim.saveScene"), data, key, other)
+    sim.editor.files.write(file, text.encode("utf-8"), key, name)
 
 
 @sim_function("saveModel")

@@ -335,13 +335,25 @@ class Converter:
             sensor.objname = obj.name
 
     def _excludes(self) -> None:
-        """V-REP's local respondable masks: two respondable shapes of one model whose local
-        masks share no bit do not collide."""
-        shapes = [self.scene.objects[h] for h in self.bodies if self.scene.objects[h].data.respondable]
+        """V-REP's local respondable masks: two respondable shapes of one tree whose local
+        masks share no bit do not collide. "One tree" as CoppeliaSim decides it: the same
+        topmost ancestor (coppeliaSimLib ``CShape::getLastParentForLocalGlobalRespondable``
+        walks up to the root, through model bases), so a gripper's touch sensors, model bases
+        of their own, keep their pads' local masks with the fingers (the Panda's two pads, whose
+        local masks share no bit, jammed the closed fingers together)."""
+        objects = self.scene.objects
+        shapes = [objects[h] for h in self.bodies if objects[h].data.respondable]
+        roots: dict[int, int] = {}
+        for shape in shapes:
+            h, seen = shape.handle, set()
+            while objects.get(h) is not None and objects[h].parent in objects and h not in seen:
+                seen.add(h)
+                h = objects[h].parent
+            roots[shape.handle] = h
         n = 0
         for i, a in enumerate(shapes):
             for b in shapes[i + 1:]:
-                if self.model_of.get(a.handle, -1) < 0 or self.model_of.get(a.handle) != self.model_of.get(b.handle):
+                if roots[a.handle] != roots[b.handle]:
                     continue
                 if (a.data.respondable_mask & b.data.respondable_mask & 0xFF) == 0:
                     if n >= _MAX_EXCLUDES:
