@@ -22,8 +22,10 @@ connection with unsent replies while all together pass ``MAX_ZMQ_UNSENT_BYTES_TO
 "server busy" for its next request instead of another large reply (a reply still rendering
 counts from its call on: :meth:`Frontend.reserve`); libzmq queues at most
 ``ZMQ_QUEUED_MESSAGES`` messages each way per connection. Every new connection passes the ZAP
-handler (:class:`Gate`) on this thread: beyond ``max_connections`` it is refused (its
-descriptor closed at once), and with CURVE keys only the authorised clients' public keys pass.
+handler (:class:`Gate`) on this thread: beyond ``max_connections`` connections whose handshake
+succeeded it is refused (its descriptor closed at once), and with CURVE keys only the authorised
+clients' public keys pass. A connection that does not finish its handshake within
+``limits.ZMQ_HANDSHAKE_SECONDS`` is closed by libzmq and never held a slot.
 
 Protocol version 1 (CoppeliaSim 4.3-4.5's client, issue 43) is served beside version 2: the
 frontend tells each request's version (:func:`~simx_server.zmq.codec.read_request`), names a
@@ -62,6 +64,10 @@ ZMQ_QUEUED_MESSAGES = 16
 #: kernel has them; smaller ones are bounded by ZMQ_QUEUED_MESSAGES.
 TRACKED_BYTES = 64 * 1024
 _ZAP_ENDPOINT = "inproc://zeromq.zap.01"
+#: What the socket monitors report: a connection counts toward the gate's bound once its handshake
+#: succeeded (a TCP connection that never starts ZMTP's handshake holds no slot; libzmq closes it
+#: after limits.ZMQ_HANDSHAKE_SECONDS), and stops counting when it closes.
+_COUNTED_EVENTS = zmq.EVENT_HANDSHAKE_SUCCEEDED | zmq.EVENT_DISCONNECTED
 #: The uuid of a version-1 client (which sends none) is this and its connection's routing id in hex.
 VERSION_1_PREFIX = codec.VERSION_1_UUID_PREFIX
 #: Where clients connect unless told otherwise (CoppeliaSim's default port).
@@ -165,9 +171,10 @@ class Frontend:
         router.setsockopt(zmq.MAXMSGSIZE, MAX_MESSAGE_BYTES)
         router.setsockopt(zmq.SNDHWM, ZMQ_QUEUED_MESSAGES)
         router.setsockopt(zmq.RCVHWM, ZMQ_QUEUED_MESSAGES)
+        router.setsockopt(zmq.HANDSHAKE_IVL, int(limits.ZMQ_HANDSHAKE_SECONDS * 1000))
         router.setsockopt(zmq.ZAP_DOMAIN, b"simx")
         self.gate.configure(router)
-        monitor = router.get_monitor_socket(zmq.EVENT_ACCEPTED | zmq.EVENT_DISCONNECTED)
+        monitor = router.get_monitor_socket(_COUNTED_EVENTS)
         try:
             for endpoint in self.endpoints:
                 router.bind(endpoint)
@@ -191,9 +198,10 @@ class Frontend:
         pub = self._counter = ctx.socket(zmq.PUB)
         pub.setsockopt(zmq.LINGER, 0)
         pub.setsockopt(zmq.CONFLATE, 1)
+        pub.setsockopt(zmq.HANDSHAKE_IVL, int(limits.ZMQ_HANDSHAKE_SECONDS * 1000))
         pub.setsockopt(zmq.ZAP_DOMAIN, b"simx")
         self.gate.configure(pub)
-        self._counter_monitor = pub.get_monitor_socket(zmq.EVENT_ACCEPTED | zmq.EVENT_DISCONNECTED)
+        self._counter_monitor = pub.get_monitor_socket(_COUNTED_EVENTS)
         for endpoint in self.counter_endpoints:
             try:
                 pub.bind(endpoint)
@@ -315,15 +323,15 @@ class Frontend:
                     sock.close(0)
 
     def _on_monitor(self, monitor: zmq.Socket, counter: bool = False) -> None:
-        """Count the connections accepted and closed (``counter``: the step counter's), and tell
-        the simulation thread which request connection closed."""
+        """Count the connections whose handshake succeeded and those closed (``counter``: the step
+        counter's), and tell the simulation thread which request connection closed."""
         while True:
             try:
                 event = zmq.utils.monitor.recv_monitor_message(monitor, zmq.NOBLOCK)
             except zmq.Again:
                 return
-            if event["event"] == zmq.EVENT_ACCEPTED:
-                self.gate.connections.add(int(event["value"]))
+            if event["event"] == zmq.EVENT_HANDSHAKE_SUCCEEDED:
+                self.gate.admitted(int(event["value"]))
             elif event["event"] == zmq.EVENT_DISCONNECTED:
                 fd = int(event["value"])
                 self.gate.connections.discard(fd)
