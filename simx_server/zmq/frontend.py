@@ -57,9 +57,14 @@ log = logging.getLogger("simx.zmq")
 #: Messages libzmq reads at all; a larger one closes its connection unanswered before any of
 #: it is buffered (room for a request just over codec.MAX_REQUEST_BYTES, answered with an error).
 MAX_MESSAGE_BYTES = codec.MAX_REQUEST_BYTES + (2 << 20)
-#: Messages libzmq queues per connection each way (ZMQ_SNDHWM, ZMQ_RCVHWM): a REQ client has one
-#: request and one reply in flight; beyond, replies to a peer that does not read are dropped.
+#: Replies libzmq queues per connection (ZMQ_SNDHWM): a REQ client has one reply in flight; beyond,
+#: replies to a peer that does not read are dropped.
 ZMQ_QUEUED_MESSAGES = 16
+#: Requests libzmq queues per connection for the socket thread (ZMQ_RCVHWM), besides the one it is
+#: receiving: a REQ client has one in flight; while the queue is full libzmq reads no more of that
+#: connection (its kernel buffers fill, then its sender waits). With 16, 8 connections pipelining
+#: 60 MiB requests took the server to 3.7 GB.
+ZMQ_QUEUED_REQUESTS = 1
 #: Replies of at least this many bytes are sent with a tracker, so their bytes count until the
 #: kernel has them; smaller ones are bounded by ZMQ_QUEUED_MESSAGES.
 TRACKED_BYTES = 64 * 1024
@@ -152,6 +157,9 @@ class Frontend:
         self._wake_r, self._wake_w = os.pipe()
         os.set_blocking(self._wake_r, False)
         os.set_blocking(self._wake_w, False)
+        # large requests the intake thread decodes (envelope, frame, fd, size); None: stop
+        self._intake: queue.SimpleQueue = queue.SimpleQueue()
+        self._intake_thread: threading.Thread | None = None
         self._pending: dict[bytes, tuple[int, int]] = {}  # identity -> (fd, bytes) of its request in work
         self._pending_bytes = 0
         # True while the socket thread waits on the reply queue (see _await_reply): replies then
@@ -170,7 +178,7 @@ class Frontend:
         router.setsockopt(zmq.LINGER, 0)
         router.setsockopt(zmq.MAXMSGSIZE, MAX_MESSAGE_BYTES)
         router.setsockopt(zmq.SNDHWM, ZMQ_QUEUED_MESSAGES)
-        router.setsockopt(zmq.RCVHWM, ZMQ_QUEUED_MESSAGES)
+        router.setsockopt(zmq.RCVHWM, ZMQ_QUEUED_REQUESTS)
         router.setsockopt(zmq.HANDSHAKE_IVL, int(limits.ZMQ_HANDSHAKE_SECONDS * 1000))
         router.setsockopt(zmq.ZAP_DOMAIN, b"simx")
         self.gate.configure(router)
@@ -265,6 +273,7 @@ class Frontend:
         """Stop the thread and close the socket (replies not yet sent are dropped); idempotent."""
         self._stop.set()
         self.send([], b"")  # wake the thread
+        self._intake.put(None)
         if self._thread is not None:
             self._thread.join(5)
             self._thread = None
@@ -339,8 +348,8 @@ class Frontend:
                     continue
                 for identity in [i for i, (f, _) in self._pending.items() if f == fd]:
                     self._done(identity)
-                for identity in [i for i, (f, _) in self._versions.items() if f == fd]:
-                    del self._versions[identity]
+                for identity in [i for i, (f, _) in list(self._versions.items()) if f == fd]:  # (the intake thread adds)
+                    self._versions.pop(identity, None)
                 self._deliver(("zmq-gone", fd))
 
     def _await_reply(self, router: zmq.Socket) -> None:
@@ -459,6 +468,11 @@ class Frontend:
             if self._pending_bytes + size > limits.MAX_QUEUED_BYTES_TOTAL:
                 raise ProtocolError(f"server busy: {self._pending_bytes} bytes of requests are waiting "
                                     "(limits.MAX_QUEUED_BYTES_TOTAL); try again later")
+            if size >= limits.LARGE_REQUEST_BYTES:  # decoded on the intake thread: this one keeps reading
+                self._pending[identity] = (fd, size)
+                self._pending_bytes += size
+                self._take_large(envelope, frames[-1], fd, size)
+                return
             request = codec.read_request(bytes(data) if size <= 4096 else data)
         except ProtocolError as exc:  # in the shape of its version, else its connection's last one
             log.warning("ZMQ request refused: %s", exc)
@@ -487,3 +501,40 @@ class Frontend:
             self._awaiting = False
         if not self._replies.empty():
             self._send_replies(router)
+
+    def _take_large(self, envelope: list, frame: zmq.Frame, fd: int, size: int) -> None:
+        """Hand a request of limits.LARGE_REQUEST_BYTES or more (already counted as pending) to the
+        intake thread (made on the first): decoding 60 MiB takes 0.1-0.5 s, during which this thread
+        would read no other connection's request."""
+        if self._intake_thread is None:
+            self._intake_thread = threading.Thread(target=self._run_intake, name="simx-zmq-intake", daemon=True)
+            self._intake_thread.start()
+        self._intake.put((envelope, frame, fd, size))
+
+    def _run_intake(self) -> None:
+        """The intake thread: decode each large request and hand it to the simulation thread (a
+        refusal goes back through :meth:`send`, which the socket thread sends)."""
+        while True:
+            item = self._intake.get()
+            if item is None or self._stop.is_set():
+                return
+            envelope, frame, fd, size = item
+            identity = envelope[0]
+            try:
+                request = codec.read_request(frame.buffer)
+            except ProtocolError as exc:
+                log.warning("ZMQ request refused: %s", exc)
+                version = getattr(exc, "version", None) or self._versions.get(identity, (0, None))[1]
+                self.send(envelope, codec.encode_error(str(exc), version))
+                continue
+            except Exception as exc:  # the server never dies from a client
+                log.exception("reading a ZMQ request")
+                self.send(envelope, codec.encode_error(f"internal error while reading the request: "
+                                                       f"{type(exc).__name__}", self._versions.get(identity, (0, None))[1]))
+                continue
+            finally:
+                del frame, item  # the message's buffer goes back to libzmq (and the system) now
+            self._versions[identity] = (fd, request.version)
+            if request.version == codec.VERSION_1:
+                request.uuid = f"{VERSION_1_PREFIX}{identity.hex()}"
+            self._deliver(("zmq", Incoming(envelope, request, fd, size)))
