@@ -107,66 +107,71 @@ class Target:
                 self.proc.wait()
 
 
-class Probe(threading.Thread):
-    """Another client's calls while an attack runs: the slowest answer (s) and the calls that got
-    none within ``timeout`` s. ``kind``: "zmq" or "legacy"."""
-
-    def __init__(self, t: Target, ctx: zmq.Context, kind: str, timeout: float = 10.0):
-        super().__init__(daemon=True)
-        self.t, self.ctx, self.kind, self.timeout = t, ctx, kind, timeout
-        self.times: list[float] = []
-        self.failed = 0
-        self.stop = threading.Event()
-
-    def run(self) -> None:
-        if self.kind == "zmq":
-            self._zmq()
-        else:
-            self._legacy()
-
-    def _zmq(self) -> None:
-        sock = self.t.socket(self.ctx, timeout_ms=int(self.timeout * 1000))
-        while not self.stop.wait(0.05):
-            start = time.monotonic()
-            try:
-                sock.send(codec.encode_request("sim.getSimulationTime", [], "probe"))
-                sock.recv()
-                self.times.append(time.monotonic() - start)
-            except zmq.Again:
-                self.failed += 1
-                sock.close(0)
-                sock = self.t.socket(self.ctx, timeout_ms=int(self.timeout * 1000))
-        sock.close(0)
-
-    def _legacy(self) -> None:
-        from simx_client import api
-
-        cid = api.simxStart("127.0.0.1", self.t.port, True, True, int(self.timeout * 1000), 5)
-        if cid < 0:
-            self.failed += 1
-            return
+_PROBE = r"""
+import json, sys, threading, time
+import cbor2, zmq
+from simx_client import api
+from simx_server.zmq import codec
+kind, port, timeout = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+stop = threading.Event()
+threading.Thread(target=lambda: (sys.stdin.read(), stop.set()), daemon=True).start()
+times, failed = [], 0
+if kind == "zmq":
+    ctx = zmq.Context()
+    def sock():
+        s = ctx.socket(zmq.REQ); s.setsockopt(zmq.LINGER, 0); s.setsockopt(zmq.RCVTIMEO, int(timeout * 1000))
+        s.connect(f"tcp://127.0.0.1:{port}"); return s
+    s = sock()
+    for _ in range(100_000):
+        if stop.wait(0.05):
+            break
+        start = time.monotonic()
         try:
-            while not self.stop.wait(0.05):
-                start = time.monotonic()
-                rc, _ = api.simxGetObjectHandle(cid, "Keeper", P.MODE_BLOCKING)
-                if rc == 0:
-                    self.times.append(time.monotonic() - start)
-                else:
-                    self.failed += 1
-        finally:
-            api.simxFinish(cid)
+            s.send(codec.encode_request("sim.getSimulationTime", [], "probe")); s.recv()
+            times.append(time.monotonic() - start)
+        except zmq.Again:
+            failed += 1; s.close(0); s = sock()
+    s.close(0)
+else:
+    cid = api.simxStart("127.0.0.1", port, True, True, int(timeout * 1000), 5)
+    failed += cid < 0
+    for _ in range(100_000 if cid >= 0 else 0):
+        if stop.wait(0.05):
+            break
+        start = time.monotonic()
+        if api.simxGetObjectHandle(cid, "Keeper", 0x010000)[0] == 0:
+            times.append(time.monotonic() - start)
+        else:
+            failed += 1
+    if cid >= 0:
+        api.simxFinish(cid)
+print(json.dumps([times, failed]))
+"""
+
+
+class Probe:
+    """Another client's calls while an attack runs, in a process of its own (the attacker's
+    threads here hold this process's GIL): the slowest answer and the calls without one within
+    ``timeout`` s. ``kind``: "zmq" or "legacy"."""
+
+    def __init__(self, t: Target, kind: str, timeout: float = 10.0):
+        port = t.zmq_port if kind == "zmq" else t.port
+        self.proc = subprocess.Popen([sys.executable, "-c", _PROBE, kind, str(port), str(timeout)],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=str(ROOT))
 
     def result(self) -> str:
-        self.stop.set()
-        self.join(60)
-        worst = max(self.times) if self.times else float("nan")
-        return f"probe: {len(self.times)} calls, slowest {worst * 1000:.0f} ms, {self.failed} unanswered"
+        import json
+
+        out, _ = self.proc.communicate("", timeout=120)
+        times, failed = json.loads(out.strip().splitlines()[-1])
+        worst = max(times) if times else float("nan")
+        return f"probe: {len(times)} calls, slowest {worst * 1000:.0f} ms, {failed} unanswered"
 
 
 def zmq_pipelined(t: Target, ctx: zmq.Context) -> str:
     """8 DEALER connections x 16 pipelined 60 MiB requests."""
-    probe = Probe(t, ctx, "zmq")
-    probe.start()
+    probe = Probe(t, "zmq")
+    time.sleep(1.0)
     request = codec.encode_request("sim.setStringSignal", ["big", b"\1" * BIG], "attacker")
     dealers = []
     replies = [0]
@@ -204,8 +209,7 @@ def legacy_large(t: Target, ctx: zmq.Context) -> str:
 
     from simx_client.client_config import client_config
 
-    probe = Probe(t, ctx, "legacy")
-    probe.start()
+    probe = Probe(t, "legacy")
     time.sleep(1.0)
     got = [0, 0]  # replies, of which errors
     lock = threading.Lock()

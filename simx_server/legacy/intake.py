@@ -38,6 +38,7 @@ from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
+from simx_server.base.resources import trim_soon
 from simx_server.legacy.replies import send_refusal
 from simx_server.legacy.sessions import keep_thread_state, zenoh_thread
 
@@ -112,9 +113,19 @@ class Intake:
     def read(self, query: zenoh.Query, key: str, busy: str | None = None) -> None:
         """Read a request and queue it in its client's queue, or answer at once what cannot be
         queued (``busy``: each command is answered with it). Every query gets a reply."""
-        door = self.door
         if not getattr(zenoh_thread, "kept", False):
             keep_thread_state()
+        payload = query.payload
+        large = payload is not None and len(payload) >= self.large
+        del payload
+        try:
+            self._read(query, key, busy)
+        finally:
+            if large:
+                trim_soon()  # its buffers, Zenoh's included, given back once it is answered
+
+    def _read(self, query: zenoh.Query, key: str, busy: str | None) -> None:
+        door = self.door
         try:
             payload = query.payload
             size = len(payload) if payload is not None else 0
@@ -122,6 +133,17 @@ class Intake:
                 raise P.ProtocolError(f"request of {size} bytes refused: at most "
                                       f"{limits.MAX_REQUEST_BYTES} (limits.MAX_REQUEST_BYTES)")
             data = payload.to_bytes() if payload is not None else b""
+            if busy and len(data) >= self.large:  # refused unread: its headers give the reply's shape
+                client, count = P.request_head(data)
+                del data, payload  # nothing of it is kept
+                if client != key[door._call_prefix:]:
+                    raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
+                t, state, scene = door.sim.stamp()
+                reply = P.response(t, state, [[False, busy]] * min(count, limits.MAX_COMMANDS_PER_REQUEST),
+                                   int((time.monotonic() - door.loop.started) * 1000), scene)
+                log.warning("client %s: request of %d command(s) not queued: %s", client, count, busy)
+                door.courier.send(key, lambda: send_refusal(query, key, reply))
+                return
             client, commands, size = P.read_request(data, limits.MAX_COMMANDS_PER_REQUEST)  # size: decoded
             if client != key[door._call_prefix:]:
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")

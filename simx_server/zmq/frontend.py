@@ -49,6 +49,7 @@ import zmq.utils.monitor
 
 from simx_wire.protocol import ProtocolError
 from simx_server.base import limits
+from simx_server.base.resources import trim_soon
 from simx_server.zmq import codec
 from simx_server.zmq.gate import Gate
 
@@ -534,6 +535,7 @@ class Frontend:
                 continue
             finally:
                 del frame, item  # the message's buffer goes back to libzmq (and the system) now
+                trim_soon()
             self._versions[identity] = (fd, request.version)
             if request.version == codec.VERSION_1:
                 request.uuid = f"{VERSION_1_PREFIX}{identity.hex()}"
