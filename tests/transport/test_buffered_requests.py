@@ -107,3 +107,44 @@ def test_pipelined_zmq_requests_are_bounded_answered_and_given_back(server):
     assert _status_mb(pid, "VmRSS") - before < 60, (before, _status_mb(pid, "VmRSS"))
     probe.close(0)
     ctx.destroy(0)
+
+
+def test_large_legacy_requests_are_all_answered_and_their_memory_given_back(server):
+    """8 raw Zenoh sessions x 3 queries of 40 MiB at once (960 MiB): every query is answered (the
+    excess "server busy" without being decoded), another client's calls go on, and the memory
+    Zenoh and the server took is given back once they are answered (resources.trim_soon)."""
+    import zenoh
+
+    import vrep
+    from simx_client.client_config import client_config
+    from simx_wire import protocol as P
+
+    pid = server.proc.pid
+    cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)
+    assert cid >= 0
+    before = _status_mb(pid, "VmRSS")
+    _reset_peak(pid)
+    sessions = [zenoh.open(client_config("127.0.0.1", server.port)) for _ in range(8)]
+    replies: list = []
+    try:
+        handlers = []
+        for k, session in enumerate(sessions):
+            client = f"attacker-{k}"
+            payload = P.request(client, [["SetStringSignal", P.MODE_BLOCKING, ["big", b"\1" * (40 * MIB)]]])
+            handlers += [session.get(P.call_key("simx", client), payload=payload, timeout=60.0) for _ in range(3)]
+        for _ in range(3):  # another client meanwhile
+            assert vrep.simxGetObjectHandle(cid, "Keeper", vrep.simx_opmode_blocking)[0] == vrep.simx_return_ok
+        replies = [r for h in handlers for r in h]
+    finally:
+        for session in sessions:
+            session.close()
+        vrep.simxFinish(cid)
+    assert len(replies) == 24, len(replies)  # every query got its reply
+    results = [P.unpack_response(r.ok.payload.to_bytes())[5][0] for r in replies]
+    assert all(ok is False for ok, _ in results), results  # refused: too large a signal, or server busy
+    peak = _status_mb(pid, "VmHWM")
+    for _ in range(100):  # before: +97 MB kept for good
+        if _status_mb(pid, "VmRSS") - before < 40:
+            break
+        time.sleep(0.1)
+    assert _status_mb(pid, "VmRSS") - before < 40, (before, peak, _status_mb(pid, "VmRSS"))
