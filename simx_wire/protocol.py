@@ -407,32 +407,6 @@ def read_request(payload: bytes, max_commands: int | None = None) -> tuple[str, 
     return client, cmds, decoded
 
 
-def request_head(payload: bytes) -> tuple[str, int]:
-    """``(client, number of commands)`` of a request, read from its first bytes only (msgpack's
-    headers: no command is decoded), for a request refused unread ("server busy": its reply needs
-    one result per command).
-
-    Raises:
-        ProtocolError: not a request of this version.
-    """
-    unpacker = msgpack.Unpacker(max_buffer_size=0)
-    unpacker.feed(memoryview(payload)[:MAX_HEAD_BYTES])
-    try:
-        if unpacker.read_array_header() != 3 or unpacker.unpack() != PROTOCOL_VERSION:
-            raise ProtocolError(f"not a simx request of version {PROTOCOL_VERSION}")
-        client = unpacker.unpack()
-        count = unpacker.read_array_header()
-    except (ValueError, msgpack.OutOfData, msgpack.ExtraData, msgpack.FormatError, msgpack.StackError) as exc:
-        raise ProtocolError(f"not a simx request: {type(exc).__name__}") from None
-    if type(client) is not str:
-        raise ProtocolError("request needs a client id (str)")
-    return client, count
-
-
-#: Bytes of a request's start that :func:`request_head` reads (its headers and a client id).
-MAX_HEAD_BYTES = 4096
-
-
 def _shape(value: Any) -> str:
     """A short description of a value's type and size (never its content)."""
     if type(value) is list:

@@ -32,6 +32,7 @@ import time
 from collections import OrderedDict, deque
 from typing import Any
 
+import msgpack
 import zenoh
 
 from simx_wire import proof as PR
@@ -134,7 +135,7 @@ class Intake:
                                       f"{limits.MAX_REQUEST_BYTES} (limits.MAX_REQUEST_BYTES)")
             data = payload.to_bytes() if payload is not None else b""
             if busy and len(data) >= self.large:  # refused unread: its headers give the reply's shape
-                client, count = P.request_head(data)
+                client, count = request_head(data)
                 del data, payload  # nothing of it is kept
                 if client != key[door._call_prefix:]:
                     raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
@@ -207,3 +208,29 @@ class Intake:
         with self._cond:
             self._closed = True
             self._cond.notify_all()
+
+
+#: Bytes of a request's start that :func:`request_head` reads (its headers and a client id).
+MAX_HEAD_BYTES = 4096
+
+
+def request_head(payload: bytes) -> tuple[str, int]:
+    """``(client, number of commands)`` of a legacy request (docs/PROTOCOL.md), read from its
+    first bytes only (msgpack's headers: no command is decoded), for a request refused unread
+    ("server busy": its reply needs one result per command).
+
+    Raises:
+        ProtocolError: not a request of this protocol version.
+    """
+    unpacker = msgpack.Unpacker()
+    unpacker.feed(memoryview(payload)[:MAX_HEAD_BYTES])
+    try:
+        if unpacker.read_array_header() != 3 or unpacker.unpack() != P.PROTOCOL_VERSION:
+            raise P.ProtocolError(f"not a simx request of version {P.PROTOCOL_VERSION}")
+        client = unpacker.unpack()
+        count = unpacker.read_array_header()
+    except (ValueError, msgpack.OutOfData, msgpack.ExtraData, msgpack.FormatError, msgpack.StackError) as exc:
+        raise P.ProtocolError(f"not a simx request: {type(exc).__name__}") from None
+    if type(client) is not str:
+        raise P.ProtocolError("request needs a client id (str)")
+    return client, count

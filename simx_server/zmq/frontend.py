@@ -21,7 +21,8 @@ Per connection (issue 29): replies not yet taken by the kernel are counted by th
 connection with unsent replies while all together pass ``MAX_ZMQ_UNSENT_BYTES_TOTAL``) gets
 "server busy" for its next request instead of another large reply (a reply still rendering
 counts from its call on: :meth:`Frontend.reserve`); libzmq queues at most
-``ZMQ_QUEUED_MESSAGES`` messages each way per connection. Every new connection passes the ZAP
+``ZMQ_QUEUED_MESSAGES`` replies and ``ZMQ_QUEUED_REQUESTS`` request per connection, and large
+requests are decoded on a thread of their own (:mod:`simx_server.zmq.intake`). Every new connection passes the ZAP
 handler (:class:`Gate`) on this thread: beyond ``max_connections`` connections whose handshake
 succeeded it is refused (its descriptor closed at once), and with CURVE keys only the authorised
 clients' public keys pass. A connection that does not finish its handshake within
@@ -49,9 +50,9 @@ import zmq.utils.monitor
 
 from simx_wire.protocol import ProtocolError
 from simx_server.base import limits
-from simx_server.base.resources import trim_soon
 from simx_server.zmq import codec
 from simx_server.zmq.gate import Gate
+from simx_server.zmq.intake import LargeRequests
 
 log = logging.getLogger("simx.zmq")
 
@@ -158,9 +159,7 @@ class Frontend:
         self._wake_r, self._wake_w = os.pipe()
         os.set_blocking(self._wake_r, False)
         os.set_blocking(self._wake_w, False)
-        # large requests the intake thread decodes (envelope, frame, fd, size); None: stop
-        self._intake: queue.SimpleQueue = queue.SimpleQueue()
-        self._intake_thread: threading.Thread | None = None
+        self._large = LargeRequests(self._decoded, self._refuse_large)  # decoded on a thread of its own
         self._pending: dict[bytes, tuple[int, int]] = {}  # identity -> (fd, bytes) of its request in work
         self._pending_bytes = 0
         # True while the socket thread waits on the reply queue (see _await_reply): replies then
@@ -274,7 +273,7 @@ class Frontend:
         """Stop the thread and close the socket (replies not yet sent are dropped); idempotent."""
         self._stop.set()
         self.send([], b"")  # wake the thread
-        self._intake.put(None)
+        self._large.close()
         if self._thread is not None:
             self._thread.join(5)
             self._thread = None
@@ -472,7 +471,7 @@ class Frontend:
             if size >= limits.LARGE_REQUEST_BYTES:  # decoded on the intake thread: this one keeps reading
                 self._pending[identity] = (fd, size)
                 self._pending_bytes += size
-                self._take_large(envelope, frames[-1], fd, size)
+                self._large.take(envelope, frames[-1], fd, size)
                 return
             request = codec.read_request(bytes(data) if size <= 4096 else data)
         except ProtocolError as exc:  # in the shape of its version, else its connection's last one
@@ -503,40 +502,16 @@ class Frontend:
         if not self._replies.empty():
             self._send_replies(router)
 
-    def _take_large(self, envelope: list, frame: zmq.Frame, fd: int, size: int) -> None:
-        """Hand a request of limits.LARGE_REQUEST_BYTES or more (already counted as pending) to the
-        intake thread (made on the first): decoding 60 MiB takes 0.1-0.5 s, during which this thread
-        would read no other connection's request."""
-        if self._intake_thread is None:
-            self._intake_thread = threading.Thread(target=self._run_intake, name="simx-zmq-intake", daemon=True)
-            self._intake_thread.start()
-        self._intake.put((envelope, frame, fd, size))
+    # ----------------------------------------------------------------- intake thread
+    def _decoded(self, envelope: list, request: codec.Request, fd: int, size: int) -> None:
+        """A large request decoded (:class:`LargeRequests`' thread): hand it to the simulation thread."""
+        identity = envelope[0]
+        self._versions[identity] = (fd, request.version)
+        if request.version == codec.VERSION_1:
+            request.uuid = f"{VERSION_1_PREFIX}{identity.hex()}"
+        self._deliver(("zmq", Incoming(envelope, request, fd, size)))
 
-    def _run_intake(self) -> None:
-        """The intake thread: decode each large request and hand it to the simulation thread (a
-        refusal goes back through :meth:`send`, which the socket thread sends)."""
-        while True:
-            item = self._intake.get()
-            if item is None or self._stop.is_set():
-                return
-            envelope, frame, fd, size = item
-            identity = envelope[0]
-            try:
-                request = codec.read_request(frame.buffer)
-            except ProtocolError as exc:
-                log.warning("ZMQ request refused: %s", exc)
-                version = getattr(exc, "version", None) or self._versions.get(identity, (0, None))[1]
-                self.send(envelope, codec.encode_error(str(exc), version))
-                continue
-            except Exception as exc:  # the server never dies from a client
-                log.exception("reading a ZMQ request")
-                self.send(envelope, codec.encode_error(f"internal error while reading the request: "
-                                                       f"{type(exc).__name__}", self._versions.get(identity, (0, None))[1]))
-                continue
-            finally:
-                del frame, item  # the message's buffer goes back to libzmq (and the system) now
-                trim_soon()
-            self._versions[identity] = (fd, request.version)
-            if request.version == codec.VERSION_1:
-                request.uuid = f"{VERSION_1_PREFIX}{identity.hex()}"
-            self._deliver(("zmq", Incoming(envelope, request, fd, size)))
+    def _refuse_large(self, envelope: list, message: str, version: int | None) -> None:
+        """A large request refused (:class:`LargeRequests`' thread): the socket thread sends it."""
+        version = version or self._versions.get(envelope[0], (0, None))[1]
+        self.send(envelope, codec.encode_error(message, version))
