@@ -177,12 +177,12 @@ def zmq_pipelined(t: Target, ctx: zmq.Context) -> str:
     replies = [0]
 
     def attack(k: int) -> None:
-        d = t.socket(ctx, zmq.DEALER, timeout_ms=30000)
+        d = t.socket(ctx, zmq.DEALER, timeout_ms=60000)
         d.setsockopt(zmq.SNDHWM, 0)
         dealers.append(d)
         for _ in range(16):
             d.send_multipart([b"", request], copy=False)
-        end = time.monotonic() + 30
+        end = time.monotonic() + 120
         while time.monotonic() < end and replies[0] < 8 * 16:
             try:
                 d.recv_multipart()
@@ -194,7 +194,7 @@ def zmq_pipelined(t: Target, ctx: zmq.Context) -> str:
     for th in threads:
         th.start()
     for th in threads:
-        th.join(60)
+        th.join(180)
     peak = t.peak
     for d in dealers:
         d.close(0)
