@@ -53,6 +53,8 @@ SCENE = """<mujoco model="attack">
 """
 MIB = 1 << 20
 BIG = 60 * MIB
+#: s a legacy attacker waits for each query's reply (Zenoh's default is 10 s)
+QUERY_TIMEOUT = float(os.environ.get("SIMX_ATTACK_QUERY_TIMEOUT", "30"))
 
 
 class Target:
@@ -218,7 +220,7 @@ def legacy_large(t: Target, ctx: zmq.Context) -> str:
     def attack(k: int) -> None:
         client = f"attacker-{k}"
         payload = P.request(client, [["SetStringSignal", P.MODE_BLOCKING, ["big", b"\1" * BIG]]])
-        handlers = [sessions[k].get(P.call_key("simx", client), payload=payload, timeout=30.0) for _ in range(3)]
+        handlers = [sessions[k].get(P.call_key("simx", client), payload=payload, timeout=QUERY_TIMEOUT) for _ in range(3)]
         for h in handlers:
             for r in h:
                 with lock:
