@@ -453,6 +453,22 @@ MAX_ZMQ_UNSENT_BYTES_TOTAL = 256 * 1024 * 1024
 #: open-files limit (raised to the hard limit at start), so that Zenoh's clients always find
 #: descriptors: 986 idle ZMQ connections made a new legacy client fail (limit 1,024).
 MAX_ZMQ_CONNECTIONS = 1000
+#: s a new ZMQ connection has to finish ZMTP's handshake (libzmq's ``ZMQ_HANDSHAKE_IVL``, 30 s by
+#: default) before it is closed. Only connections that finished it count toward
+#: MAX_ZMQ_CONNECTIONS: 1,100 TCP connections that never started it (each holding a slot for
+#: libzmq's 30 s) left 1 of 8 new ZMQ clients served. A handshake on loopback takes about a
+#: millisecond, CURVE's a few more round trips, but each waits for the ZAP handler, which runs on
+#: the socket thread (Python): 3 s let 200 handshakes at once time out again and again on a
+#: loaded machine while the server started.
+ZMQ_HANDSHAKE_SECONDS = 10.0
+#: s a new Zenoh connection to the legacy door has to finish Zenoh's handshake (its
+#: ``transport/unicast/accept_timeout``, 10 s by default), and handshakes under way at once
+#: (``transport/unicast/accept_pending``, 100 by default; at most a quarter of the open-files
+#: limit): a connection beyond is closed at once. 110 idle TCP connections, reopened as Zenoh
+#: closed them, locked every new legacy client out with Zenoh's defaults. An operator's Zenoh
+#: config file that sets either key keeps its own value.
+ZENOH_ACCEPT_SECONDS = 5.0
+ZENOH_ACCEPT_PENDING = 4096
 #: s a running simulation's pass keeps serving ZMQ requests, per client served in it, before its
 #: step (CoppeliaSim's ZMQ remote API add-on: ``msgQueueTimeout_running``; Loop.hold_pass).
 ZMQ_PASS_WINDOW = 0.002

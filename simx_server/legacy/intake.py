@@ -32,12 +32,14 @@ import time
 from collections import OrderedDict, deque
 from typing import Any
 
+import msgpack
 import zenoh
 
 from simx_wire import proof as PR
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
+from simx_server.base.resources import trim_soon
 from simx_server.legacy.replies import send_refusal
 from simx_server.legacy.sessions import keep_thread_state, zenoh_thread
 
@@ -112,9 +114,19 @@ class Intake:
     def read(self, query: zenoh.Query, key: str, busy: str | None = None) -> None:
         """Read a request and queue it in its client's queue, or answer at once what cannot be
         queued (``busy``: each command is answered with it). Every query gets a reply."""
-        door = self.door
         if not getattr(zenoh_thread, "kept", False):
             keep_thread_state()
+        payload = query.payload
+        large = payload is not None and len(payload) >= self.large
+        del payload
+        try:
+            self._read(query, key, busy)
+        finally:
+            if large:
+                trim_soon()  # its buffers, Zenoh's included, given back once it is answered
+
+    def _read(self, query: zenoh.Query, key: str, busy: str | None) -> None:
+        door = self.door
         try:
             payload = query.payload
             size = len(payload) if payload is not None else 0
@@ -122,6 +134,17 @@ class Intake:
                 raise P.ProtocolError(f"request of {size} bytes refused: at most "
                                       f"{limits.MAX_REQUEST_BYTES} (limits.MAX_REQUEST_BYTES)")
             data = payload.to_bytes() if payload is not None else b""
+            if busy and len(data) >= self.large:  # refused unread: its headers give the reply's shape
+                client, count = request_head(data)
+                del data, payload  # nothing of it is kept
+                if client != key[door._call_prefix:]:
+                    raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
+                t, state, scene = door.sim.stamp()
+                reply = P.response(t, state, [[False, busy]] * min(count, limits.MAX_COMMANDS_PER_REQUEST),
+                                   int((time.monotonic() - door.loop.started) * 1000), scene)
+                log.warning("client %s: request of %d command(s) not queued: %s", client, count, busy)
+                door.courier.send(key, lambda: send_refusal(query, key, reply))
+                return
             client, commands, size = P.read_request(data, limits.MAX_COMMANDS_PER_REQUEST)  # size: decoded
             if client != key[door._call_prefix:]:
                 raise P.ProtocolError("the request's client id is not the one of its key (<prefix>/call/<client>)")
@@ -185,3 +208,29 @@ class Intake:
         with self._cond:
             self._closed = True
             self._cond.notify_all()
+
+
+#: Bytes of a request's start that :func:`request_head` reads (its headers and a client id).
+MAX_HEAD_BYTES = 4096
+
+
+def request_head(payload: bytes) -> tuple[str, int]:
+    """``(client, number of commands)`` of a legacy request (docs/PROTOCOL.md), read from its
+    first bytes only (msgpack's headers: no command is decoded), for a request refused unread
+    ("server busy": its reply needs one result per command).
+
+    Raises:
+        ProtocolError: not a request of this protocol version.
+    """
+    unpacker = msgpack.Unpacker()
+    unpacker.feed(memoryview(payload)[:MAX_HEAD_BYTES])
+    try:
+        if unpacker.read_array_header() != 3 or unpacker.unpack() != P.PROTOCOL_VERSION:
+            raise P.ProtocolError(f"not a simx request of version {P.PROTOCOL_VERSION}")
+        client = unpacker.unpack()
+        count = unpacker.read_array_header()
+    except (ValueError, msgpack.OutOfData, msgpack.ExtraData, msgpack.FormatError, msgpack.StackError) as exc:
+        raise P.ProtocolError(f"not a simx request: {type(exc).__name__}") from None
+    if type(client) is not str:
+        raise P.ProtocolError("request needs a client id (str)")
+    return client, count

@@ -13,11 +13,14 @@ from pathlib import Path
 import zenoh
 
 from simx_server.base import limits
+from simx_server.base.resources import raise_open_files_limit
 
 log = logging.getLogger("simx.server")
 
 _BLOCK_WAIT = "transport/link/tx/queue/congestion_control/block/wait_before_close"
 _MAX_MESSAGE = "transport/link/rx/max_message_size"
+_ACCEPT_TIMEOUT = "transport/unicast/accept_timeout"
+_ACCEPT_PENDING = "transport/unicast/accept_pending"
 _SHM_KEY = "shared_memory"  # the operator's file names Zenoh's transport/shared_memory section
 
 
@@ -29,7 +32,10 @@ def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) ->
     Zenoh's shared-memory transport off (unless the file has a ``shared_memory`` section): it
     kept every client process's 16 MiB pool mapped after the client left. Messages larger than
     limits.MAX_ZENOH_MESSAGE_BYTES are not reassembled (unless the file sets
-    ``transport/link/rx/max_message_size``).
+    ``transport/link/rx/max_message_size``). A new connection has limits.ZENOH_ACCEPT_SECONDS to
+    finish Zenoh's handshake, and up to limits.ZENOH_ACCEPT_PENDING of them (at most a quarter of
+    the open-files limit) may be under way at once (unless the file sets
+    ``transport/unicast/accept_timeout`` or ``accept_pending``).
 
     A file without ``listen/endpoints`` listens on ``endpoints`` (``--host``/``--port``), not on
     Zenoh's default (every interface). Listening beyond loopback without access control logs a
@@ -57,6 +63,14 @@ def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) ->
     # is refused, but Zenoh's default (1 GiB) let a 900 MiB one take 1.8 GB first.
     if config.get_json(_MAX_MESSAGE) == zenoh.Config().get_json(_MAX_MESSAGE):
         config.insert_json5(_MAX_MESSAGE, str(limits.MAX_ZENOH_MESSAGE_BYTES))
+    # Connections that never finish Zenoh's handshake hold a handshake slot each for accept_timeout:
+    # with Zenoh's 100 slots and 10 s, 110 idle TCP connections locked every new client out.
+    default = zenoh.Config()
+    if config.get_json(_ACCEPT_TIMEOUT) == default.get_json(_ACCEPT_TIMEOUT):
+        config.insert_json5(_ACCEPT_TIMEOUT, str(int(limits.ZENOH_ACCEPT_SECONDS * 1000)))
+    if config.get_json(_ACCEPT_PENDING) == default.get_json(_ACCEPT_PENDING):
+        pending = max(100, min(limits.ZENOH_ACCEPT_PENDING, raise_open_files_limit() // 4))
+        config.insert_json5(_ACCEPT_PENDING, str(pending))
     if not json.loads(config.get_json("access_control/enabled") or "false"):
         flat = [e for v in listen.values() for e in v] if isinstance(listen, dict) else listen
         exposed = [e for e in flat if not _loopback(e)]

@@ -21,9 +21,12 @@ Per connection (issue 29): replies not yet taken by the kernel are counted by th
 connection with unsent replies while all together pass ``MAX_ZMQ_UNSENT_BYTES_TOTAL``) gets
 "server busy" for its next request instead of another large reply (a reply still rendering
 counts from its call on: :meth:`Frontend.reserve`); libzmq queues at most
-``ZMQ_QUEUED_MESSAGES`` messages each way per connection. Every new connection passes the ZAP
-handler (:class:`Gate`) on this thread: beyond ``max_connections`` it is refused (its
-descriptor closed at once), and with CURVE keys only the authorised clients' public keys pass.
+``ZMQ_QUEUED_MESSAGES`` replies and ``ZMQ_QUEUED_REQUESTS`` request per connection, and large
+requests are decoded on a thread of their own (:mod:`simx_server.zmq.intake`). Every new connection passes the ZAP
+handler (:class:`Gate`) on this thread: beyond ``max_connections`` connections whose handshake
+succeeded it is refused (its descriptor closed at once), and with CURVE keys only the authorised
+clients' public keys pass. A connection that does not finish its handshake within
+``limits.ZMQ_HANDSHAKE_SECONDS`` is closed by libzmq and never held a slot.
 
 Protocol version 1 (CoppeliaSim 4.3-4.5's client, issue 43) is served beside version 2: the
 frontend tells each request's version (:func:`~simx_server.zmq.codec.read_request`), names a
@@ -49,19 +52,29 @@ from simx_wire.protocol import ProtocolError
 from simx_server.base import limits
 from simx_server.zmq import codec
 from simx_server.zmq.gate import Gate
+from simx_server.zmq.intake import LargeRequests
 
 log = logging.getLogger("simx.zmq")
 
 #: Messages libzmq reads at all; a larger one closes its connection unanswered before any of
 #: it is buffered (room for a request just over codec.MAX_REQUEST_BYTES, answered with an error).
 MAX_MESSAGE_BYTES = codec.MAX_REQUEST_BYTES + (2 << 20)
-#: Messages libzmq queues per connection each way (ZMQ_SNDHWM, ZMQ_RCVHWM): a REQ client has one
-#: request and one reply in flight; beyond, replies to a peer that does not read are dropped.
+#: Replies libzmq queues per connection (ZMQ_SNDHWM): a REQ client has one reply in flight; beyond,
+#: replies to a peer that does not read are dropped.
 ZMQ_QUEUED_MESSAGES = 16
+#: Requests libzmq queues per connection for the socket thread (ZMQ_RCVHWM), besides the one it is
+#: receiving: a REQ client has one in flight; while the queue is full libzmq reads no more of that
+#: connection (its kernel buffers fill, then its sender waits). With 16, 8 connections pipelining
+#: 60 MiB requests took the server to 3.7 GB.
+ZMQ_QUEUED_REQUESTS = 1
 #: Replies of at least this many bytes are sent with a tracker, so their bytes count until the
 #: kernel has them; smaller ones are bounded by ZMQ_QUEUED_MESSAGES.
 TRACKED_BYTES = 64 * 1024
 _ZAP_ENDPOINT = "inproc://zeromq.zap.01"
+#: What the socket monitors report: a connection counts toward the gate's bound once its handshake
+#: succeeded (a TCP connection that never starts ZMTP's handshake holds no slot; libzmq closes it
+#: after limits.ZMQ_HANDSHAKE_SECONDS), and stops counting when it closes.
+_COUNTED_EVENTS = zmq.EVENT_HANDSHAKE_SUCCEEDED | zmq.EVENT_DISCONNECTED
 #: The uuid of a version-1 client (which sends none) is this and its connection's routing id in hex.
 VERSION_1_PREFIX = codec.VERSION_1_UUID_PREFIX
 #: Where clients connect unless told otherwise (CoppeliaSim's default port).
@@ -146,6 +159,7 @@ class Frontend:
         self._wake_r, self._wake_w = os.pipe()
         os.set_blocking(self._wake_r, False)
         os.set_blocking(self._wake_w, False)
+        self._large = LargeRequests(self._decoded, self._refuse_large)  # decoded on a thread of its own
         self._pending: dict[bytes, tuple[int, int]] = {}  # identity -> (fd, bytes) of its request in work
         self._pending_bytes = 0
         # True while the socket thread waits on the reply queue (see _await_reply): replies then
@@ -164,10 +178,11 @@ class Frontend:
         router.setsockopt(zmq.LINGER, 0)
         router.setsockopt(zmq.MAXMSGSIZE, MAX_MESSAGE_BYTES)
         router.setsockopt(zmq.SNDHWM, ZMQ_QUEUED_MESSAGES)
-        router.setsockopt(zmq.RCVHWM, ZMQ_QUEUED_MESSAGES)
+        router.setsockopt(zmq.RCVHWM, ZMQ_QUEUED_REQUESTS)
+        router.setsockopt(zmq.HANDSHAKE_IVL, int(limits.ZMQ_HANDSHAKE_SECONDS * 1000))
         router.setsockopt(zmq.ZAP_DOMAIN, b"simx")
         self.gate.configure(router)
-        monitor = router.get_monitor_socket(zmq.EVENT_ACCEPTED | zmq.EVENT_DISCONNECTED)
+        monitor = router.get_monitor_socket(_COUNTED_EVENTS)
         try:
             for endpoint in self.endpoints:
                 router.bind(endpoint)
@@ -191,9 +206,10 @@ class Frontend:
         pub = self._counter = ctx.socket(zmq.PUB)
         pub.setsockopt(zmq.LINGER, 0)
         pub.setsockopt(zmq.CONFLATE, 1)
+        pub.setsockopt(zmq.HANDSHAKE_IVL, int(limits.ZMQ_HANDSHAKE_SECONDS * 1000))
         pub.setsockopt(zmq.ZAP_DOMAIN, b"simx")
         self.gate.configure(pub)
-        self._counter_monitor = pub.get_monitor_socket(zmq.EVENT_ACCEPTED | zmq.EVENT_DISCONNECTED)
+        self._counter_monitor = pub.get_monitor_socket(_COUNTED_EVENTS)
         for endpoint in self.counter_endpoints:
             try:
                 pub.bind(endpoint)
@@ -257,6 +273,7 @@ class Frontend:
         """Stop the thread and close the socket (replies not yet sent are dropped); idempotent."""
         self._stop.set()
         self.send([], b"")  # wake the thread
+        self._large.close()
         if self._thread is not None:
             self._thread.join(5)
             self._thread = None
@@ -315,15 +332,15 @@ class Frontend:
                     sock.close(0)
 
     def _on_monitor(self, monitor: zmq.Socket, counter: bool = False) -> None:
-        """Count the connections accepted and closed (``counter``: the step counter's), and tell
-        the simulation thread which request connection closed."""
+        """Count the connections whose handshake succeeded and those closed (``counter``: the step
+        counter's), and tell the simulation thread which request connection closed."""
         while True:
             try:
                 event = zmq.utils.monitor.recv_monitor_message(monitor, zmq.NOBLOCK)
             except zmq.Again:
                 return
-            if event["event"] == zmq.EVENT_ACCEPTED:
-                self.gate.connections.add(int(event["value"]))
+            if event["event"] == zmq.EVENT_HANDSHAKE_SUCCEEDED:
+                self.gate.admitted(int(event["value"]))
             elif event["event"] == zmq.EVENT_DISCONNECTED:
                 fd = int(event["value"])
                 self.gate.connections.discard(fd)
@@ -331,8 +348,8 @@ class Frontend:
                     continue
                 for identity in [i for i, (f, _) in self._pending.items() if f == fd]:
                     self._done(identity)
-                for identity in [i for i, (f, _) in self._versions.items() if f == fd]:
-                    del self._versions[identity]
+                for identity in [i for i, (f, _) in list(self._versions.items()) if f == fd]:  # (the intake thread adds)
+                    self._versions.pop(identity, None)
                 self._deliver(("zmq-gone", fd))
 
     def _await_reply(self, router: zmq.Socket) -> None:
@@ -451,6 +468,11 @@ class Frontend:
             if self._pending_bytes + size > limits.MAX_QUEUED_BYTES_TOTAL:
                 raise ProtocolError(f"server busy: {self._pending_bytes} bytes of requests are waiting "
                                     "(limits.MAX_QUEUED_BYTES_TOTAL); try again later")
+            if size >= limits.LARGE_REQUEST_BYTES:  # decoded on the intake thread: this one keeps reading
+                self._pending[identity] = (fd, size)
+                self._pending_bytes += size
+                self._large.take(envelope, frames[-1], fd, size)
+                return
             request = codec.read_request(bytes(data) if size <= 4096 else data)
         except ProtocolError as exc:  # in the shape of its version, else its connection's last one
             log.warning("ZMQ request refused: %s", exc)
@@ -479,3 +501,17 @@ class Frontend:
             self._awaiting = False
         if not self._replies.empty():
             self._send_replies(router)
+
+    # ----------------------------------------------------------------- intake thread
+    def _decoded(self, envelope: list, request: codec.Request, fd: int, size: int) -> None:
+        """A large request decoded (:class:`LargeRequests`' thread): hand it to the simulation thread."""
+        identity = envelope[0]
+        self._versions[identity] = (fd, request.version)
+        if request.version == codec.VERSION_1:
+            request.uuid = f"{VERSION_1_PREFIX}{identity.hex()}"
+        self._deliver(("zmq", Incoming(envelope, request, fd, size)))
+
+    def _refuse_large(self, envelope: list, message: str, version: int | None) -> None:
+        """A large request refused (:class:`LargeRequests`' thread): the socket thread sends it."""
+        version = version or self._versions.get(envelope[0], (0, None))[1]
+        self.send(envelope, codec.encode_error(message, version))

@@ -5,6 +5,8 @@ number; CURVE keys when the server has them)."""
 from __future__ import annotations
 
 import logging
+import time
+from collections import deque
 
 import zmq
 import zmq.utils.z85
@@ -22,16 +24,37 @@ class Gate:
         curve: ``(server_secret_key, server_public_key, client_public_keys)`` (Z85 bytes) to
             require CURVE (encryption and client authentication: a connection passes only with
             one of ``client_public_keys``), or None (no authentication: ZMQ's NULL mechanism).
-        max_connections: connections served at once; a new one beyond is refused (ZAP status
-            400; its descriptor is closed at once and the refusal logged).
+        max_connections: connections served at once (those whose handshake succeeded: the
+            frontend's socket monitor calls :meth:`admitted`); a new one beyond is refused (ZAP
+            status 400; its descriptor is closed at once and the refusal logged). Connections
+            still in their handshake hold no slot (libzmq closes them after
+            ``limits.ZMQ_HANDSHAKE_SECONDS``).
     """
 
     def __init__(self, curve: tuple[bytes, bytes, frozenset] | None = None,
                  max_connections: int = limits.MAX_ZMQ_CONNECTIONS):
         self.curve = curve
         self.max_connections = max_connections
-        self.connections: set[int] = set()  # descriptors of the accepted connections
+        self.connections: set[int] = set()  # descriptors of the connections whose handshake succeeded
+        # when the handler let through connections whose handshake has not succeeded yet: each
+        # holds a slot until it does, or for limits.ZMQ_HANDSHAKE_SECONDS (libzmq then closed it)
+        self._passed: deque[float] = deque()
         self.refused = 0
+
+    @property
+    def passed(self) -> int:
+        """Connections let through whose handshake has not succeeded yet (nor run out of time)."""
+        end = time.monotonic() - limits.ZMQ_HANDSHAKE_SECONDS
+        while self._passed and self._passed[0] < end:
+            self._passed.popleft()
+        return len(self._passed)
+
+    def admitted(self, fd: int) -> None:
+        """A connection's handshake succeeded (the socket monitor's event): it holds a slot until it
+        closes (``connections.discard``)."""
+        self.connections.add(fd)
+        if self._passed:
+            self._passed.popleft()
 
     def configure(self, router: zmq.Socket) -> None:
         if self.curve is not None:
@@ -49,16 +72,19 @@ class Gate:
                 return
             version, request_id = (frames + [b"", b""])[:2]
             status, text = self._decide(frames)
+            if status == b"200":
+                self._passed.append(time.monotonic())
             zap.send_multipart([version, request_id, status, text, b"", b""])
 
     def _decide(self, frames: list[bytes]) -> tuple[bytes, bytes]:
         if len(frames) < 6 or frames[0] != b"1.0":
             return b"500", b"bad ZAP request"
         address, mechanism = frames[3].decode(errors="replace"), frames[5]
-        if len(self.connections) > self.max_connections:
+        # those let through whose handshake is not over yet count too (their success comes later)
+        if len(self.connections) + self.passed >= self.max_connections:
             self.refused += 1
             log.warning("ZMQ connection from %s refused: %d connections already (limits.MAX_ZMQ_CONNECTIONS, "
-                        "at most %d here; the open-files limit)", address, len(self.connections) - 1,
+                        "at most %d here; the open-files limit)", address, len(self.connections) + self.passed,
                         self.max_connections)
             return b"400", b"server busy: too many ZMQ connections"
         if self.curve is None:

@@ -1,0 +1,170 @@
+"""Handshake slots (issue 57): TCP connections that never start their door's handshake must not
+lock new clients out. Before: 110 idle connections to the legacy port (reopened as Zenoh closed
+them) filled Zenoh's 100 handshake slots (``accept_pending``, each held 10 s), and every new legacy
+client was refused; 1,100 stalled ZMQ connections counted toward ``limits.MAX_ZMQ_CONNECTIONS``
+(the gate counted accepted connections), and 1 of 8 new ZMQ clients was served. Now Zenoh's
+handshakes have limits.ZENOH_ACCEPT_SECONDS and limits.ZENOH_ACCEPT_PENDING slots, and ZMQ's slots
+are held only by connections whose handshake succeeded (limits.ZMQ_HANDSHAKE_SECONDS for the rest).
+
+The attacks are the issue's in a bounded form: 110 connections to the legacy door, and 140 to a
+ZMQ door whose bound is 128 (a server started with an open-files limit of 256)."""
+
+from __future__ import annotations
+
+import resource
+import selectors
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import cbor2
+import pytest
+import zmq
+
+import vrep
+from conftest import ServerProcess, free_port, ready_line
+from simx_server.zmq import codec
+
+pytestmark = pytest.mark.renderers_on_demand
+
+SCENE = """<mujoco model="slots">
+  <worldbody><body name="Keeper" pos="0 0 0.1"><geom type="box" size="0.05 0.05 0.05"/></body></worldbody>
+</mujoco>
+"""
+
+
+class Holder:
+    """``n`` TCP connections to ``port`` that never send a byte, each reopened when the server
+    closes it, until :meth:`close` (at most 10^6 reopenings, 120 s)."""
+
+    def __init__(self, port: int, n: int):
+        self.port, self.sel = port, selectors.DefaultSelector()
+        self.reopened = 0
+        for _ in range(n):
+            self._open()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _open(self) -> None:
+        s = socket.create_connection(("127.0.0.1", self.port), timeout=5)
+        s.setblocking(False)
+        self.sel.register(s, selectors.EVENT_READ)
+
+    def _run(self) -> None:
+        end = time.monotonic() + 120
+        while not self._stop.is_set() and time.monotonic() < end and self.reopened < 1_000_000:
+            for key, _ in self.sel.select(0.05):
+                try:
+                    data = key.fileobj.recv(4096)
+                except OSError:
+                    data = b""
+                if not data:  # closed by the server: taken again at once
+                    self.sel.unregister(key.fileobj)
+                    key.fileobj.close()
+                    try:
+                        self._open()
+                    except OSError:
+                        pass
+                    self.reopened += 1
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(10)
+        for key in list(self.sel.get_map().values()):
+            key.fileobj.close()
+        self.sel.close()
+
+
+def _descriptors(pid: int) -> int:
+    return len(list(Path(f"/proc/{pid}/fd").iterdir()))
+
+
+def _until(condition, polls: int = 400) -> None:
+    for _ in range(polls):
+        if condition():
+            return
+        threading.Event().wait(0.05)
+    assert condition()
+
+
+def test_idle_tcp_connections_do_not_lock_legacy_clients_out(tmp_path):
+    (tmp_path / "scene.xml").write_text(SCENE)
+    server = ServerProcess(str(tmp_path / "scene.xml"), renderers="on-demand")
+    try:
+        before = _descriptors(server.proc.pid)
+        holder = Holder(server.port, 110)
+        try:
+            _until(lambda: _descriptors(server.proc.pid) >= before + 100)  # Zenoh took them (pending handshakes)
+            for _ in range(3):
+                cid = vrep.simxStart("127.0.0.1", server.port, True, True, 5000, 5)
+                assert cid >= 0, server.log_so_far()[-2000:]
+                try:
+                    rc, _ = vrep.simxGetObjectHandle(cid, "Keeper", vrep.simx_opmode_blocking)
+                    assert rc == vrep.simx_return_ok
+                finally:
+                    vrep.simxFinish(cid)
+        finally:
+            holder.close()
+    finally:
+        server.stop()
+
+
+def test_stalled_zmq_connections_hold_no_slot(tmp_path):
+    (tmp_path / "scene.xml").write_text(SCENE)
+    port = free_port()
+
+    def low_limit():  # the gate's bound is then half of it: 128 connections
+        resource.setrlimit(resource.RLIMIT_NOFILE, (256, 256))
+
+    proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(tmp_path / "scene.xml"), "--stopped",
+                             "--renderers", "on-demand", "--port", str(free_port()), "--zmq-port", str(port)],
+                            preexec_fn=low_limit, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log: list[str] = []
+    reader = threading.Thread(target=lambda: log.extend(proc.stderr), daemon=True)
+    reader.start()
+    ctx = zmq.Context()
+    try:
+        assert ready_line(proc, 60) is not None
+        before = _descriptors(proc.pid)
+        holder = Holder(port, 140)
+        try:
+            _until(lambda: _descriptors(proc.pid) >= before + 130)  # libzmq accepted them
+            for k in range(8):
+                sock = ctx.socket(zmq.REQ)
+                sock.setsockopt(zmq.LINGER, 0)
+                sock.setsockopt(zmq.RCVTIMEO, 5000)
+                sock.connect(f"tcp://127.0.0.1:{port}")
+                try:
+                    sock.send(codec.encode_request("sim.getSimulationState", [], f"new{k}"))
+                    assert "ret" in cbor2.loads(sock.recv()), k
+                finally:
+                    sock.close(0)
+        finally:
+            holder.close()
+        assert not any("MAX_ZMQ_CONNECTIONS" in line for line in log), "".join(log)[-2000:]
+    finally:
+        ctx.destroy(0)
+        proc.terminate()
+        try:
+            proc.wait(20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def test_zenoh_handshake_bounds_in_the_config_unless_the_operator_sets_them(tmp_path):
+    from simx_server.base import limits
+    from simx_server.legacy.zenoh_config import zenoh_config
+
+    config = zenoh_config(["tcp/127.0.0.1:19997"])
+    assert config.get_json("transport/unicast/accept_timeout") == str(int(limits.ZENOH_ACCEPT_SECONDS * 1000))
+    assert 100 <= int(config.get_json("transport/unicast/accept_pending")) <= limits.ZENOH_ACCEPT_PENDING
+    own = tmp_path / "zenoh.json5"
+    own.write_text('{transport: {unicast: {accept_timeout: 20000, accept_pending: 7}}}')
+    config = zenoh_config(["tcp/127.0.0.1:19997"], own)
+    assert (config.get_json("transport/unicast/accept_timeout"), config.get_json("transport/unicast/accept_pending")) \
+        == ("20000", "7")
