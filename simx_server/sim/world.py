@@ -26,8 +26,8 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import (grasps, kinematic, motor_spec, motors, naming, physics, properties, scene_settings,
-                             surfaces, urdf)
+from simx_server.sim import (dummy_links, grasps, kinematic, motor_spec, motors, naming, physics, properties,
+                             scene_settings, surfaces, urdf)
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     CAMERA,
@@ -132,6 +132,8 @@ class World(Poses, Joints):
         #: Shapes' initial velocities set at run time, (6,) linear and angular, world axes, by name
         #: (:mod:`simx_server.sim.surfaces`: a static shape's moves its contacts' surface).
         self.init_velocities: dict[str, np.ndarray] = {}
+        #: Dummy links made at run time: pool weld name -> the two sites (:mod:`simx_server.sim.dummy_links`).
+        self.dummy_links: dict[str, tuple[str, str]] = {}
         try:
             self._install(model)
         except ArgumentError as exc:
@@ -204,7 +206,7 @@ class World(Poses, Joints):
     def _replace(self, model: mujoco.MjModel, bounded: bool) -> None:
         old_model, old_data = self.model, self.data
         held = dict(self.grasps)
-        velocities = dict(self.init_velocities)
+        velocities, links = dict(self.init_velocities), dict(self.dummy_links)
         joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
         kept = {h: self.motors.state(i) for h, i in self.motor_index.items()}
         free = {o.name: int(old_model.body_jntadr[o.mj_id]) for o in self.objects.values()
@@ -229,6 +231,7 @@ class World(Poses, Joints):
         self.motors.write_force_limits(m)
         d.time = old_data.time
         grasps.reapply(self, held)
+        dummy_links.reapply(self, links)
         self.changed()
 
     # ----------------------------------------------------------------- registry
@@ -429,6 +432,7 @@ class World(Poses, Joints):
         grasps.let_all_go(self)
         self.joint_frames.clear()
         self.init_velocities.clear()
+        self.dummy_links.clear()
         self.changed()
 
     # -------------------------------------------------------------------- time

@@ -80,3 +80,102 @@ def test_a_conveyor_carries_a_box_at_its_velocity_and_not_what_lies_beside_it(tm
         sim.stop()
         sim.close()
     assert world.init_velocities == {}  # forgotten at the stop, as CoppeliaSim restores them
+
+
+# ---------------------------------------------------------------- suction cup
+CUP_SCENE = """<mujoco model="cup">
+  <option timestep="0.005"/>
+  <worldbody>
+    <geom name="Floor" type="plane" size="3 3 0.1"/>
+    <body name="Cup" mocap="true" pos="0 0 0.2">
+      <geom type="cylinder" size="0.02 0.02" rgba="0.2 0.2 0.8 1"/>
+      <site name="Cup_sensor" pos="0 0 -0.02" euler="180 0 0" size="0.005"/>
+      <site name="Cup_loopClosureDummy1" pos="0 0 -0.02" size="0.005"/>
+      <site name="Cup_loopClosureDummy2" pos="0 0 -0.02" size="0.005"/>
+    </body>
+    <body name="Part" pos="0 0 0.03"><freejoint/><geom type="box" size="0.03 0.03 0.03" mass="0.1"/></body>
+    <body name="Other" pos="0.5 0 0.03"><freejoint/><geom type="box" size="0.03 0.03 0.03" mass="0.1"/></body>
+  </worldbody>
+  <sensor><rangefinder name="Cup_range" site="Cup_sensor" cutoff="0.03"/></sensor>
+  <custom><text name="simx:Cup" data="child_script=cup.lua script_parameters=cup.json"/></custom>
+</mujoco>
+"""
+# V-REP's suction pad script pattern (its model library's suction pad and Baxter vacuum cup): the
+# cup's loop-closure dummy sits on the cup's other dummy; active, it moves onto the respondable
+# shape the sensor detects and is linked to the other dummy; inactive, it comes back.
+CUP_LUA = """function sysCall_init()
+    s=sim.getObjectHandle('Cup_sensor')
+    l=sim.getObjectHandle('Cup_loopClosureDummy1')
+    l2=sim.getObjectHandle('Cup_loopClosureDummy2')
+    b=sim.getObjectHandle('Cup')
+    sim.setLinkDummy(l,-1)
+    sim.setObjectParent(l,b,true)
+    sim.setObjectMatrix(l,-1,sim.getObjectMatrix(l2,-1))
+end
+function sysCall_sensing()
+    local parent=sim.getObjectParent(l)
+    if sim.getScriptSimulationParameter(sim.handle_self,'active')==false then
+        if parent~=b then
+            sim.setLinkDummy(l,-1)
+            sim.setObjectParent(l,b,true)
+            sim.setObjectMatrix(l,-1,sim.getObjectMatrix(l2,-1))
+        end
+    elseif parent==b then
+        local index=0
+        while true do
+            local shape=sim.getObjects(index,sim.object_shape_type)
+            if shape==-1 then break end
+            if shape~=b and sim.getObjectInt32Param(shape,sim.shapeintparam_respondable)~=0
+               and sim.checkProximitySensor(s,shape)==1 then
+                sim.setObjectParent(l,shape,true)
+                sim.setLinkDummy(l,l2)
+                break
+            end
+            index=index+1
+        end
+    end
+end
+function setActive(ints, floats, strings, buffer)
+    sim.setScriptSimulationParameter(sim.handle_self,'active',ints[1]==1 and 'true' or 'false')
+    return {sim.getLinkDummy(l), sim.getObjectParent(l)}
+end
+"""
+
+
+def _move(sim: Simulation, cup: int, to: tuple, steps: int) -> None:
+    start = np.asarray(sim.world.position(cup, -1))
+    for i in range(1, steps + 1):
+        sim.world.set_pose(cup, -1, list(start + (np.asarray(to) - start) * i / steps))
+        sim.step()
+
+
+def test_a_suction_cup_picks_carries_and_releases_a_part(tmp_path, caplog):
+    (tmp_path / "cup.lua").write_text(CUP_LUA)
+    (tmp_path / "cup.json").write_text('[{"name": "active", "value": "false", "unit": ""}]')
+    (tmp_path / "scene.xml").write_text(CUP_SCENE)
+    sim = Simulation(tmp_path / "scene.xml", realtime=False)
+    world = sim.world
+    cup, part, other = (world.resolve(n).handle for n in ("Cup", "Part", "Other"))
+    l1, l2 = (world.resolve(n).handle for n in ("Cup_loopClosureDummy1", "Cup_loopClosureDummy2"))
+    try:
+        with caplog.at_level(logging.ERROR, "simx.scripts"):
+            sim.start()
+            _move(sim, cup, (0, 0, 0.081), 10)  # down onto the part
+            assert sim.scripts.call("Cup", 1, "setActive", [1], [], [], b"")[0] == [-1, cup]
+            sim.step()  # the sensing pass links the dummy, moved onto the part
+            assert sim.scripts.call("Cup", 1, "setActive", [1], [], [], b"")[0] == [l2, part]
+            _move(sim, cup, (0, 0, 0.4), 20)  # up
+            _move(sim, cup, (0.3, 0.2, 0.4), 20)  # across
+            held = np.asarray(world.position(part, -1))
+            assert held == pytest.approx([0.3, 0.2, 0.4 - 0.051], abs=0.005)  # hanging under the cup
+            assert sim.scripts.call("Cup", 1, "setActive", [0], [], [], b"")[0] == [l2, part]
+            for _ in range(20):  # let go: it falls onto the floor below
+                sim.step()
+            assert sim.scripts.call("Cup", 1, "setActive", [0], [], [], b"")[0] == [-1, cup]
+            dropped = np.asarray(world.position(part, -1))
+        assert not caplog.records, [r.getMessage() for r in caplog.records]
+        assert dropped == pytest.approx([0.3, 0.2, 0.03], abs=0.01)
+        assert world.position(other, -1) == pytest.approx([0.5, 0, 0.03], abs=1e-3)  # never touched
+    finally:
+        sim.stop()
+        sim.close()
