@@ -107,14 +107,18 @@ def start_free(world, bodies: np.ndarray) -> None:
 
 
 class MovingSurfaces:
-    """The bodies whose contacts see a moving surface now: ``bodies`` (k,) body ids and
-    ``velocities`` (k, 6) linear and angular velocity (world axes)."""
+    """The bodies whose contacts see a moving surface now: ``bodies`` (k,) body ids,
+    ``velocities`` (k, 6) linear and angular velocity (world axes), and ``index`` (nbody,) each
+    body's row in them (-1: none)."""
 
-    __slots__ = ("bodies", "velocities")
+    __slots__ = ("bodies", "index", "turning", "velocities")
 
-    def __init__(self, bodies: np.ndarray, velocities: np.ndarray):
+    def __init__(self, bodies: np.ndarray, velocities: np.ndarray, nbody: int):
         self.bodies = bodies
         self.velocities = velocities
+        self.turning = bool(velocities[:, 3:].any())
+        self.index = np.full(nbody, -1)
+        self.index[bodies] = np.arange(len(bodies))
 
 
 def moving(world) -> MovingSurfaces | None:
@@ -138,7 +142,7 @@ def moving(world) -> MovingSurfaces | None:
             velocities.append(v)
     if not bodies:
         return None
-    return MovingSurfaces(np.array(bodies), np.array(velocities))
+    return MovingSurfaces(np.array(bodies), np.array(velocities), m.nbody)
 
 
 def substep(m: mujoco.MjModel, d: mujoco.MjData, surfaces: MovingSurfaces) -> None:
@@ -157,28 +161,38 @@ def substep(m: mujoco.MjModel, d: mujoco.MjData, surfaces: MovingSurfaces) -> No
 
 
 def _move(m: mujoco.MjModel, d: mujoco.MjData, surfaces: MovingSurfaces) -> None:
-    contact = d.contact
-    sides = m.geom_bodyid[contact.geom]  # (ncon, 2) bodies of each contact's geoms
-    elliptic = int(m.opt.cone) == _ELLIPTIC
-    for body, vel in zip(surfaces.bodies.tolist(), surfaces.velocities):
-        for i in np.flatnonzero((sides == body).any(axis=1)).tolist():
-            adr, dim = int(contact.efc_address[i]), int(contact.dim[i])
-            if adr < 0:
-                continue  # excluded (a gap, or no constraint made)
-            # the surface's velocity at the contact point; relative velocity is geom2's minus geom1's
-            vs = vel[:3] + np.cross(vel[3:], contact.pos[i] - d.xipos[body])
-            sign = 1.0 if sides[i, 0] == body else -1.0
-            frame = contact.frame[i].reshape(3, 3)  # rows: normal, first and second tangent
-            along = frame @ vs  # the surface's velocity along the contact's axes
-            if dim == 1:
-                u = along[:1]
-            elif elliptic:  # normal, the two tangents, then torsion and rolling (none)
-                u = np.zeros(dim)
-                u[:3] = along
-            else:  # pyramidal: two edges per friction direction, n + mu_j t_j and n - mu_j t_j
-                u = np.empty(2 * (dim - 1))
-                for j in range(1, dim):
-                    t = along[j] * contact.friction[i][j - 1] if j < 3 else 0.0  # torsion, rolling: none
-                    u[2 * (j - 1)], u[2 * (j - 1) + 1] = along[0] + t, along[0] - t
-            rows = slice(adr, adr + len(u))
-            d.efc_aref[rows] += sign * d.efc_KBIP[rows, 1] * u
+    """Each contact row of a moving surface gets ``+B x`` (the surface's velocity along the row's
+    direction, signed for the side it is on) in ``efc_aref``, all contacts at once."""
+    c = d.contact
+    sides = m.geom_bodyid[c.geom]  # (ncon, 2): relative velocities are geom2's minus geom1's
+    k0, k1 = surfaces.index[sides[:, 0]], surfaces.index[sides[:, 1]]
+    i = np.flatnonzero(((k0 >= 0) | (k1 >= 0)) & (c.efc_address >= 0))  # address -1: no constraint
+    if not len(i):
+        return
+    first = k0[i] >= 0
+    k = np.where(first, k0[i], k1[i])
+    vel = surfaces.velocities[k]
+    vs = vel[:, :3]
+    if surfaces.turning:  # at the contact point: v + w x (p - c)
+        vs = vs + np.cross(vel[:, 3:], c.pos[i] - d.xipos[surfaces.bodies[k]])
+    # the surface's velocity along the contact's axes (normal, tangents), + for geom1, - for geom2
+    along = (c.frame[i].reshape(-1, 3, 3) @ vs[:, :, None])[:, :, 0] * np.where(first, 1.0, -1.0)[:, None]
+    adr, dim = c.efc_address[i], c.dim[i]
+    aref, gain = d.efc_aref, d.efc_KBIP[:, 1]
+    if int(m.opt.cone) == _ELLIPTIC:  # rows: normal, the two tangents, then torsion and rolling (none)
+        for r in range(3):
+            sel = dim > r
+            rows = adr[sel] + r
+            aref[rows] += gain[rows] * along[sel, r]
+        return
+    rows = adr[dim == 1]  # frictionless: the normal row
+    aref[rows] += gain[rows] * along[dim == 1, 0]
+    mu = c.friction[i]
+    for j in range(1, 6):  # pyramidal: per friction direction two edges, n + mu_j t_j and n - mu_j t_j
+        sel = dim > j
+        if not sel.any():
+            break
+        t = along[sel, j] * mu[sel, j - 1] if j < 3 else 0.0  # torsion and rolling: no surface motion
+        for edge, sgn in ((0, 1.0), (1, -1.0)):
+            rows = adr[sel] + 2 * (j - 1) + edge
+            aref[rows] += gain[rows] * (along[sel, 0] + sgn * t)
