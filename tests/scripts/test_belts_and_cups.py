@@ -21,7 +21,7 @@ pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-proc
 
 # ---------------------------------------------------------------- conveyor
 BELT_SCENE = """<mujoco model="belt">
-  <option timestep="0.005"/>
+  <option timestep="0.005" cone="{cone}"/>
   <worldbody>
     <geom name="Floor" type="plane" size="3 3 0.1"/>
     <body name="Belt" pos="0 0 0.1">
@@ -54,10 +54,11 @@ end
 """
 
 
-def test_a_conveyor_carries_a_box_at_its_velocity_and_not_what_lies_beside_it(tmp_path, caplog):
+@pytest.mark.parametrize("cone", ["pyramidal", "elliptic"])  # MJCF's default, and a converted .ttt's
+def test_a_conveyor_carries_a_box_at_its_velocity_and_not_what_lies_beside_it(tmp_path, caplog, cone):
     (tmp_path / "belt.lua").write_text(BELT_LUA)
     (tmp_path / "belt.json").write_text('[{"name": "beltVelocity", "value": "0.1", "unit": "m/s"}]')
-    (tmp_path / "scene.xml").write_text(BELT_SCENE)
+    (tmp_path / "scene.xml").write_text(BELT_SCENE.replace("{cone}", cone))
     sim = Simulation(tmp_path / "scene.xml", realtime=False)
     world = sim.world
     carried, beside = world.resolve("Carried").handle, world.resolve("Beside").handle
