@@ -271,7 +271,7 @@ class LuaScript(LuaStyles, ChildScript):
         rt = self._runtime = self._new_runtime()
         shape = rt.compile(_SHAPE_LUA, name="=simx")()
         prelude = rt.compile(PRELUDE, name="=simx")
-        self._lookup, snapshot = prelude(
+        self._lookup, snapshot, on_count = prelude(
             self._dispatch, self._expired, self._write_log,
             rt.table_from([n.encode() for n in SIM] + [f"simIK.{n}".encode() for n in SIMIK]
                           + [f"simOMPL.{n}".encode() for n in SIMOMPL] + [f"simVision.{n}".encode() for n in SIMVISION]),
@@ -282,7 +282,7 @@ class LuaScript(LuaStyles, ChildScript):
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(),
             rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY),
             self._read_module)
-        self._prepare_styles(rt)
+        self._prepare_styles(rt, on_count)
         self._shape, self._ends = shape(self._lookup, f"@{self.path.name}".encode()), {}
         snapshot()  # sim.getUserVariables: the globals from here on are the script's
         self._run_top_level(rt.compile(self._source, name=f"@{self.path.name}", mode="t"))

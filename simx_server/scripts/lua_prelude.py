@@ -4,7 +4,8 @@
 check, log writer, the table's names and constants, the safety flags and the C-loop bounds of
 :mod:`simx_server.scripts.lua_bounds`; it builds ``sim``/``simIK``, installs the count hook,
 removes what the safety defaults forbid, and returns the lookup of the script's own functions and
-the snapshot that ``sim.getUserVariables`` compares against.
+the snapshot that ``sim.getUserVariables`` compares against, and the setter of a function the
+count hook also calls (the threads' automatic switching, :mod:`simx_server.scripts.threads`).
 """
 
 PRELUDE = r"""
@@ -18,7 +19,7 @@ local lua_load, cocreate, coresume = load, coroutine.create, coroutine.resume
 -- Time bound: the hook runs every COUNT instructions; past the deadline it raises, and from then
 -- on it runs (and raises) at every instruction, so that a pcall cannot swallow the interruption.
 local TIMEOUT = "interrupted: the script did not return within its time bound (script_timeout)"
-local hook
+local hook, on_count
 local function interrupt(level)
   sethook(hook, "", 1)
   error(TIMEOUT, level)
@@ -27,6 +28,7 @@ hook = function()
   if expired() then interrupt(3) end
   local _, _, count = gethook()
   if count ~= COUNT then sethook(hook, "", COUNT) end
+  if on_count then on_count() end  -- last: threads' automatic switching may change the hook (threads.py)
 end
 sethook(hook, "", COUNT)
 -- One instruction (a `..` of long strings) may copy much memory: the hook also runs at the next
@@ -295,5 +297,5 @@ return function(name)
   local f = rawget(G, name)
   if type(f) == "function" and f ~= base[name] and getinfo(f, "S").what ~= "C" then return f end
   return nil
-end, snapshot
+end, snapshot, function(f) on_count = f end
 """

@@ -161,6 +161,7 @@ class Scripts:
         self.timeout = timeout
         self.scripts: dict[int, ChildScript] = {}
         self.customization: dict[int, ChildScript] = {}  # customization scripts, by object
+        self.user_parameters: dict[int, list] = {}  # sim.setUserParameter of objects without a script
         #: Child scripts attached while the simulation runs: they begin in its next pass (attach).
         self._pending: list[ChildScript] = []
         #: All scripts' time per pass, share over time and memory together (simx_server/scripts/budget.py).

@@ -13,16 +13,20 @@ script's ``sysCall_cleanup`` still runs). It yields in:
   of wall time) have passed; ``sim.moveToConfig`` / ``sim.moveToPose``: once per increment of
   the motion (:mod:`simx_server.api.sim.motion`), whose 4.3-4.5 callback runs in Lua; ``sim.waitForSignal(name)`` / ``simWaitForSignal``: until an
   integer, float or string signal ``name`` exists (returns its value);
-* any ``sim`` call, once the thread has run longer than its time slice since it was resumed
-  (``sim.setThreadSwitchTiming(ms)``, default 2 ms) while automatic switching is on. The slice
-  is counted in the simulation thread's CPU time (CoppeliaSim counts wall time): a loaded
-  machine that deschedules the server does not move a thread's switches
+* anywhere, once the thread has run longer than its time slice since it was resumed
+  (``sim.setThreadSwitchTiming(ms)``, default 2 ms) while automatic switching is on: at its next
+  ``sim`` call, or, in code that calls none (a V-REP 3.x thread that loops without a switch),
+  at the count hook's next check (every :data:`~simx_server.scripts.lua.HOOK_COUNT`
+  instructions), from a hook in C as CoppeliaSim's ``CDetachedScript::_hookFunction_lua`` yields
+  (:mod:`simx_server.scripts.auto_switch`; not inside a C function's Lua callback, where Lua
+  cannot yield). The slice is counted in the simulation thread's CPU time (CoppeliaSim counts
+  wall time): a loaded machine that deschedules the server does not move a thread's switches
   (``sim.setThreadAutomaticSwitch(false)`` forbids it, ``true`` allows it again; levels nest as
   in CoppeliaSim 4.x).
 
 Each resume is one call into the script, under its time bound (``script_timeout``) and the Lua
-count hook: a loop that never yields is interrupted, the error logged and the thread ended,
-while the simulation goes on.
+count hook: a loop that never yields (automatic switching forbidden) is interrupted, the error
+logged and the thread ended, while the simulation goes on.
 
 Old style: a script whose text tests ``sim_call_type`` and that defines no ``sysCall_*``
 function runs its whole text at every call, with ``sim_call_type`` set to the call's type
@@ -41,6 +45,7 @@ from simx_wire.protocol import RemoteError
 from simx_server.api import SIM, Callers
 from simx_server.api.sim import motion
 from simx_server.api.sim.stepped import CallbackCall
+from simx_server.scripts import auto_switch
 from simx_server.api.legacy_names import (CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS,
                                               doc_table)
 
@@ -64,7 +69,8 @@ def script_functions() -> frozenset[str]:
 #: ``launch(f)``, ``resume()`` (true while the thread lives; raises the thread's error),
 #: ``wrap()`` (automatic switching at every ``sim`` call, for threaded scripts only) and ``alive()``.
 THREADS_LUA = r"""
-local sim, now, motion, slice_clock = ...
+local sim, now, motion, slice_clock, on_count, arm, disarm = ...
+local fmt = string.format
 local co_create, co_resume = coroutine.create, coroutine.resume
 local co_running, co_yield = coroutine.running, coroutine.yield
 local co_status, yieldable = coroutine.status, coroutine.isyieldable
@@ -182,11 +188,13 @@ local function launch(f, whole)  -- coroutine.create of the prelude: hooked
   end
   T.co = co_create(f)
 end
+local armed = false
 local function resume()
   local co = T.co
   if co == nil then return false end
   T.resumed = slice_clock()
   local ok, err = co_resume(co)
+  if armed then armed = false disarm(fmt("%p", co)) end
   if not ok then T.co = nil error(err, 0) end
   if co_status(co) == "dead" then T.co = nil return false end
   return true
@@ -204,6 +212,17 @@ local function wrap()
   end
 end
 local function alive() return T.co ~= nil end
+-- The count hook's check, in the thread only: its slice used up and switching allowed, the next
+-- instruction yields if Lua can yield there (auto_switch.py: a hook in C).
+if arm then
+  on_count(function()
+    local co = T.co
+    if co ~= nil and T.level == 0 and co_running() == co and slice_clock() - T.resumed > T.slice then
+      armed = true
+      arm(fmt("%p", co))
+    end
+  end)
+end
 return launch, resume, wrap, alive
 """
 
@@ -220,16 +239,18 @@ class LuaStyles:
 
     old_style = False
 
-    def _prepare_styles(self, rt: Any) -> None:
-        """After the prelude: 3.x globals and thread functions in the new state."""
+    def _prepare_styles(self, rt: Any, on_count: Any) -> None:
+        """After the prelude: 3.x globals and thread functions in the new state (``on_count``:
+        the prelude's setter of what its count hook also calls)."""
         g = rt.globals()
         aliases = rt.table_from({k.encode(): v.encode() for k, v in FUNCTION_ALIASES.items()})
         uis = rt.table_from({k.encode(): (rt.table_from(v) if isinstance(v, list) else
                                           v.encode() if isinstance(v, str) else v) for k, v in UI_FUNCTIONS.items()})
         rt.compile(LEGACY_LUA, name="=simx")(g.sim, aliases, uis, self._write_log)
         threads = rt.compile(THREADS_LUA, name="=simx")
+        hooks = (auto_switch.arm, auto_switch.disarm) if auto_switch.available() else (None, None)
         self._launch, self._resume, self._wrap, self._alive = threads(g.sim, time.monotonic, self._motion_call,
-                                                                     time.thread_time)
+                                                                     time.thread_time, on_count, *hooks)
         self.old_style = False
 
     def _motion_call(self, op: bytes, *args: Any) -> tuple:

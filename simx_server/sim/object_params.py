@@ -18,7 +18,7 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.sim import (camera_params, handle_render, joint_params, light_params, physics, shape_dynamics,
-                             vision_params)
+                             surfaces, vision_params)
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, LIGHT, SHAPE, VISION_SENSOR, World
@@ -122,6 +122,8 @@ def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
         return vision_params.get_float(sim, handle, pid)
     if pid in light_params.FLOAT_IDS and world.get(handle).type == LIGHT:
         return light_params.get_float(sim, handle, pid)
+    if pid in surfaces.IDS:  # a shape's initial velocity (sim/surfaces.py)
+        return surfaces.get(world, _need(world, handle, SHAPE, pid).name, pid)
     if pid not in _FLOAT_GET:
         world.get(handle)
         raise _unsupported(pid, "float", False)
@@ -170,7 +172,9 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
         sim: the simulation.
         handle: the object's handle.
         pid: 1000/1001 clipping (m), 1004 perspective angle (rad), 2002/2017 joint motor,
-            3005 mass (kg); 3006-3013 (a shape's texture position, orientation, scaling):
+            3000-3002 and 3020-3022 a shape's initial velocity (m/s, rad/s, world axes: a static
+            shape's surface moves in its contacts, a dynamic one starts with it when reset;
+            :mod:`simx_server.sim.surfaces`), 3005 mass (kg); 3006-3013 (a shape's texture position, orientation, scaling):
             accepted and not carried out (one log line per parameter).
         value: the new value.
 
@@ -196,6 +200,13 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
         return
     if pid in light_params.FLOAT_IDS and world.get(handle).type == LIGHT:
         light_params.set_float(sim, handle, pid, value)
+        return
+    if pid in surfaces.IDS:  # a static shape's moving surface, a dynamic one's velocity at reset
+        obj = _need(world, handle, SHAPE, pid)
+        try:
+            surfaces.set_value(world, obj.name, pid, value)
+        except ArgumentError as exc:
+            raise ArgumentError(f"{_pname(pid)}: {exc}") from None
         return
     if pid not in _FLOAT_SET:
         world.get(handle)

@@ -23,7 +23,7 @@ import logging
 import math
 import re
 import time
-from typing import Any
+from typing import Any, Callable
 
 import mujoco
 import numpy as np
@@ -213,7 +213,8 @@ class StepTimeError(PhysicsError):
     """A step of a client's scene took more than limits.MAX_STEP_SECONDS of the simulation thread."""
 
 
-def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, seconds: float) -> None:
+def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, seconds: float,
+               one: Callable[[mujoco.MjModel, mujoco.MjData], None] = mujoco.mj_step) -> None:
     """``substeps`` MuJoCo steps, one at a time, stopping after the first that ends more than
     ``seconds`` after the start (a substep itself cannot be interrupted).
 
@@ -226,11 +227,13 @@ def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, second
         data: its data, stepped.
         substeps: MuJoCo steps to make.
         seconds: the time allowed, s (limits.MAX_STEP_SECONDS for a client's scene).
+        one: makes one MuJoCo step (``mj_step``; :func:`simx_server.sim.surfaces.substep` while
+            a surface moves).
     """
     start = time.perf_counter()
     deadline = start + seconds
     for done in range(1, substeps + 1):
-        mujoco.mj_step(model, data)
+        one(model, data)
         if time.perf_counter() > deadline:
             raise StepTimeError(
                 f"a step of the client's scene took more than MAX_STEP_SECONDS = {seconds:g} s of the "

@@ -26,7 +26,8 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import grasps, kinematic, motor_spec, motors, naming, physics, properties, scene_settings, urdf
+from simx_server.sim import (dummy_links, grasps, kinematic, motor_spec, motors, naming, physics, properties,
+                             scene_settings, surfaces, urdf)
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     CAMERA,
@@ -128,6 +129,11 @@ class World(Poses, Joints):
         self.respondable_bits: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         #: Joints' frames in their bodies (3, 3) changed at run time, by name (:mod:`simx_server.sim.poses`).
         self.joint_frames: dict[str, np.ndarray] = {}
+        #: Shapes' initial velocities set at run time, (6,) linear and angular, world axes, by name
+        #: (:mod:`simx_server.sim.surfaces`: a static shape's moves its contacts' surface).
+        self.init_velocities: dict[str, np.ndarray] = {}
+        #: Dummy links made at run time: pool weld name -> the two sites (:mod:`simx_server.sim.dummy_links`).
+        self.dummy_links: dict[str, tuple[str, str]] = {}
         try:
             self._install(model)
         except ArgumentError as exc:
@@ -200,6 +206,7 @@ class World(Poses, Joints):
     def _replace(self, model: mujoco.MjModel, bounded: bool) -> None:
         old_model, old_data = self.model, self.data
         held = dict(self.grasps)
+        velocities, links = dict(self.init_velocities), dict(self.dummy_links)
         joints = {o.name: o.mj_id for o in self.objects.values() if o.type in (JOINT,)}
         kept = {h: self.motors.state(i) for h, i in self.motor_index.items()}
         free = {o.name: int(old_model.body_jntadr[o.mj_id]) for o in self.objects.values()
@@ -207,6 +214,7 @@ class World(Poses, Joints):
                 and old_model.jnt_type[old_model.body_jntadr[o.mj_id]] == mujoco.mjtJoint.mjJNT_FREE}
         self._install(model, bounded)
         self.reset()
+        self.init_velocities.update(velocities)
         m, d = self.model, self.data
         copies = [(old_model.jnt_qposadr[j], old_model.jnt_dofadr[j], self.by_name[n].mj_id)
                   for n, j in joints.items() if n in self.by_name and self.by_name[n].type == JOINT]
@@ -223,6 +231,7 @@ class World(Poses, Joints):
         self.motors.write_force_limits(m)
         d.time = old_data.time
         grasps.reapply(self, held)
+        dummy_links.reapply(self, links)
         self.changed()
 
     # ----------------------------------------------------------------- registry
@@ -422,6 +431,8 @@ class World(Poses, Joints):
         self.data.ctrl[:] = 0.0
         grasps.let_all_go(self)
         self.joint_frames.clear()
+        self.init_velocities.clear()
+        self.dummy_links.clear()
         self.changed()
 
     # -------------------------------------------------------------------- time
@@ -459,16 +470,21 @@ class World(Poses, Joints):
         m, d = self.model, self.data
         held = kinematic.hold(self) if self.motors.kinematic else None  # joints in a kinematic mode
         self.motors.apply(m, d, self.dt)
+        belts = surfaces.moving(self) if self.init_velocities else None  # static shapes' moving surfaces
+        one = mujoco.mj_step if belts is None else lambda m_, d_: surfaces.substep(m_, d_, belts)
         if self.substep_hook is not None:  # scripts' joint and dynamics callbacks: at each substep
             for _ in range(self.substeps):
                 self.substep_hook(m, d)
-                mujoco.mj_step(m, d)
+                one(m, d)
         elif self.motors.stalled and not self.bounded:  # a motor held back: judged at every substep
             for _ in range(self.substeps):
-                mujoco.mj_step(m, d)
+                one(m, d)
                 self.motors.apply(m, d, self.dt)
         elif self.bounded:  # a client's scene: at most MAX_STEP_SECONDS of the simulation thread
-            physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS)
+            physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS, one)
+        elif belts is not None:
+            for _ in range(self.substeps):
+                one(m, d)
         else:
             mujoco.mj_step(m, d, nstep=self.substeps)
         if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)

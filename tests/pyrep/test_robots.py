@@ -222,3 +222,29 @@ def test_panda_in_the_empty_scene_follows_joint_velocities():
         assert np.allclose(arm.get_joint_velocities(), 0.1, atol=0.01)
     finally:
         pr.shutdown()
+
+
+def test_baxter_suction_cup_grasps_carries_and_releases(pr):
+    from pyrep.objects.proximity_sensor import ProximitySensor
+    from pyrep.robots.end_effectors.baxter_suction_cup import BaxterSuctionCup
+
+    pr.stop()
+    pr.import_model(str(require_shared(MODELS / "end_effectors" / "BaxterSuctionCup.ttm")))
+    cup = BaxterSuctionCup()
+    cup.set_dynamic(False)  # held in the air, as on an arm
+    cup.set_position([0.5, 0.5, 0.5])
+    tip = ProximitySensor("BaxterSuctionCup_sensor").get_position()  # it looks up, along +z
+    part = Shape.create(PrimitiveShape.CUBOID, [0.04, 0.04, 0.04], position=[tip[0], tip[1], tip[2] + 0.025],
+                        static=True)
+    far = Shape.create(PrimitiveShape.CUBOID, [0.04, 0.04, 0.04], position=[0, 0, 0.02], static=True)
+    pr.start()
+    pr.step()
+    part.set_dynamic(True)
+    assert not cup.grasp(far) and cup.grasp(part) and cup.get_grasped_objects() == [part]
+    start = part.get_position()
+    for _ in range(10):  # the cup moves 0.1 m along x: the part with it
+        cup.set_position(cup.get_position() + np.array([0.01, 0.0, 0.0]))
+        pr.step()
+    assert np.allclose(part.get_position(), start + [0.1, 0.0, 0.0], atol=2e-3)
+    cup.release()
+    assert cup.get_grasped_objects() == [] and part.get_parent() is None

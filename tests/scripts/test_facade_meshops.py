@@ -167,8 +167,10 @@ def test_dummy_links_and_vision_check_image(tmp_path):
         tip, anchor, f1, f2 = (api.getObject("/" + n) for n in ("arm/tipA", "anchor", "free1", "free2"))
         assert api.getLinkDummy(tip) == anchor and api.getLinkDummy(anchor) == tip  # the MJCF weld
         assert api.getLinkDummy(f1) == -1
-        with pytest.raises(UnsupportedError, match="no equality between"):  # simx adds no constraint
-            api.setLinkDummy(f1, f2)
+        api.setLinkDummy(f1, f2)  # two dummies the scene never linked: a weld made at run time
+        assert api.getLinkDummy(f1) == f2 and api.getLinkDummy(f2) == f1
+        api.setLinkDummy(f2, -1)
+        assert api.getLinkDummy(f1) == -1 and api.getLinkDummy(f2) == -1
         api.setLinkDummy(tip, -1)  # the weld switched off, then on again
         assert api.getLinkDummy(tip) == -1 and api.getLinkDummy(anchor) == -1
         api.setLinkDummy(anchor, tip)

@@ -253,6 +253,33 @@ def test_automatic_switching_yields_a_busy_loop_at_sim_calls(tmp_path):
         sim.close()
 
 
+def test_a_3x_thread_looping_without_a_switch_call_is_switched_and_other_scripts_run(tmp_path, caplog):
+    # V-REP switches a threaded script when its slice ends, wherever it is (a C count hook that
+    # yields): a loop that calls no sim function is not cut by the time bound but resumed each step.
+    busy = "function count(a, b, c, d) return {n} end\nn=0\nwhile true do n=n+1 end\n"
+    other = "function sysCall_actuation() k=(k or 0)+1 sim.setIntegerSignal('k', k) end\n"
+    scene = small_scene(tmp_path, {"Busy": ("busy.lua", busy)}, settings="threaded=1 vrep_version=30200")
+    (tmp_path / "other.lua").write_text(other)
+    text = scene.read_text().replace(
+        "</custom>", '<text name="simx:Other" data="child_script=other.lua"/></custom>').replace(
+        "</worldbody>", '<body name="Other" pos="2 0 0"><geom type="box" size="0.01 0.01 0.01" '
+        'contype="0" conaffinity="0"/></body></worldbody>')
+    scene.write_text(text)
+    sim = Simulation(scene, realtime=False)
+    try:
+        sim.start()
+        counts = [call(sim, "Busy", "count")[0][0]]
+        for _ in range(3):
+            steps(sim, 1)
+            counts.append(call(sim, "Busy", "count")[0][0])
+        assert counts[0] > 0 and counts == sorted(set(counts))  # it runs again at every step
+        assert sim.signals.get_int("k") == 3  # and the other script runs at every step too
+        assert "interrupted" not in caplog.text
+    finally:
+        sim.stop()
+        sim.close()
+
+
 def test_script_simulation_parameters(tmp_path):
     (tmp_path / "params.json").write_text(
         '[{"name": "speed", "value": "0.25", "unit": "m/s"}, {"name": "mode", "value": "fast", "unit": ""}]')
@@ -266,6 +293,33 @@ def test_script_simulation_parameters(tmp_path):
     try:
         sim.start()
         assert call(sim, "Box", "f") == [[], [0.25], ["fast", "0.25", "nil"], b""]
+    finally:
+        sim.stop()
+        sim.close()
+
+
+def test_user_parameters_are_the_objects_script_parameters(tmp_path, caplog):
+    # V-REP 3.x customization scripts call simSetUserParameter(sim_handle_self, '@enable', '') at
+    # init; the values are the object's, which its scripts read as simulation parameters.
+    custom = ("if (sim_call_type==sim_customizationscriptcall_initialization) then\n"
+              "  simSetUserParameter(sim_handle_self, '@enable', '')\nend\n")
+    child = ("function f(a, b, c, d)\n  simSetUserParameter(sim_handle_self, 'speed', 0.5)\n"
+             "  local other = sim.getObjectHandle('Base')\n  sim.setUserParameter(other, 'tag', 'x')\n"
+             "  return {}, {simGetScriptSimulationParameter(sim_handle_self, 'speed')},\n"
+             "    {sim.getUserParameter(sim_handle_self, 'speed', true), sim.getUserParameter(other, 'tag'),\n"
+             "     tostring(sim.getUserParameter(other, 'none')), sim.getUserParameter(sim_handle_self, 'exampleParameter')}\n"
+             "end\n")
+    scene = small_scene(tmp_path, {"Box": ("child.lua", child)})
+    (tmp_path / "custom.lua").write_text(custom)
+    scene.write_text(scene.read_text().replace("child_script=child.lua", "child_script=child.lua "
+                                               "customization_script=custom.lua"))
+    sim = Simulation(scene, realtime=False)
+    try:
+        with caplog.at_level(logging.ERROR, "simx.scripts"):
+            sim.scripts.open()  # the customization script's init
+            sim.start()
+        assert not caplog.records, [r.getMessage() for r in caplog.records]
+        assert call(sim, "Box", "f") == [[], [0.5], ["0.5", "x", "nil", "Hello World!"], b""]
     finally:
         sim.stop()
         sim.close()

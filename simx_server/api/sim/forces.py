@@ -19,6 +19,7 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.base import limits as L
 from simx_server.api.sim.core import _vector
+from simx_server.sim import surfaces
 from simx_server.sim.world import SHAPE, World
 
 class AppliedForces:
@@ -76,8 +77,9 @@ def resetDynamicObject(ctx: CallContext, handle: Any) -> None:  # noqa: N802
     """CoppeliaSim's ``sim.resetDynamicObject`` (V-REP 3.x ``simResetDynamicObject``), called
     before a script teleports a robot: the object's tree (its body and every body below it;
     ``sim.handle_all``: the whole scene) stops, every degree of freedom of those bodies'
-    joints, free joints included, at zero velocity, and the contacts are rebuilt for the
-    current poses (``mj_forward``). Errors: an unknown handle.
+    joints, free joints included, at zero velocity (a dynamic shape given an initial velocity,
+    ``sim.shapefloatparam_init_velocity_x`` ...: at that velocity, :mod:`simx_server.sim.surfaces`),
+    and the contacts are rebuilt for the current poses (``mj_forward``). Errors: an unknown handle.
 
     Args:
         handle: the object's handle, or ``sim.handle_all``.
@@ -91,6 +93,7 @@ def resetDynamicObject(ctx: CallContext, handle: Any) -> None:  # noqa: N802
     if h == C.sim_handle_all:
         d.qvel[:] = 0
         d.qacc_warmstart[:] = 0
+        tree = np.ones(m.nbody, bool)
     else:
         root = world.get(ctx.h(h)).body
         bodies = np.arange(m.nbody)
@@ -101,6 +104,8 @@ def resetDynamicObject(ctx: CallContext, handle: Any) -> None:  # noqa: N802
         dofs = tree[m.dof_bodyid]
         d.qvel[dofs] = 0
         d.qacc_warmstart[dofs] = 0
+    if world.init_velocities:  # a dynamic shape starts again with its initial velocity
+        surfaces.start_free(world, tree)
     mujoco.mj_forward(m, d)
     world.changed()
 

@@ -212,6 +212,98 @@ def setScriptSimulationParameter(ctx: CallContext, scriptHandle: Any, parameterN
     return 1
 
 
+def _user_lists(ctx: CallContext, objectHandle: Any) -> list[list]:
+    """The parameter lists of an object's user parameters: those of its scripts (child, then
+    customization: V-REP keeps one set per object, which its scripts read), or, for an object
+    without a script, a list the scene's scripts keep for it."""
+    h = _int(objectHandle, "objectHandle")
+    h = ctx.owner if h == C.sim_handle_self else h
+    ctx.world.get(h)
+    me = ctx.script
+    manager = me.shared.get("manager") if me is not None else None
+    if manager is None:
+        if me is not None and me.owner == h:
+            return [me.parameters]
+        raise ArgumentError("sim.getUserParameter / sim.setUserParameter need a scene's scripts")
+    lists = [s.parameters for s in (manager.scripts.get(h), manager.customization.get(h)) if s is not None]
+    if not lists:
+        lists = [manager.user_parameters.setdefault(h, [])]
+    return lists
+
+
+@sim_function("getUserParameter")
+def getUserParameter(ctx: CallContext, objectHandle: Any, parameterName: Any,  # noqa: N802, N803
+                     forceStringReturn: Any = False) -> Any:
+    """An object's user parameter (the parameters its scripts read with
+    ``getScriptSimulationParameter``), typed as :func:`getScriptSimulationParameter` types them;
+    None when it has none of that name.
+
+    ``simGetUserParameter`` / ``sim.getUserParameter`` (deprecated in CoppeliaSim 4.1:
+    coppeliaSimLib ``_simGetUserParameter``, ``simGetUserParameter_internal``).
+
+    Args:
+        objectHandle: the object's handle, or ``sim.handle_self``.
+        parameterName: the parameter's name.
+        forceStringReturn: answer the value as a string.
+
+    Returns:
+        The value (None, bool, int, float, str or bytes), None when absent.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ArgumentError: a bad argument.
+    """
+    name = _text(parameterName, "parameterName")
+    for params in _user_lists(ctx, objectHandle):
+        found, value = _parameter(_Params(params), name, bool(forceStringReturn))
+        if found:
+            return value
+    return None
+
+
+@sim_function("setUserParameter")
+def setUserParameter(ctx: CallContext, objectHandle: Any, parameterName: Any,  # noqa: N802, N803
+                     parameterValue: Any) -> int:  # noqa: N803
+    """Set (or add) an object's user parameter; returns 0. ``"@enable"`` adds
+    ``exampleParameter`` = ``"Hello World!"`` (what V-REP's customization scripts call to show the
+    parameters' dialog; there is no dialog here).
+
+    ``simSetUserParameter`` / ``sim.setUserParameter`` (deprecated in CoppeliaSim 4.1:
+    coppeliaSimLib ``_simSetUserParameter``, ``simSetUserParameter_internal``).
+
+    Args:
+        objectHandle: the object's handle, or ``sim.handle_self``.
+        parameterName: the parameter's name.
+        parameterValue: the new value (string, bytes or number).
+
+    Returns:
+        0.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ArgumentError: a bad argument.
+    """
+    name = _text(parameterName, "parameterName")
+    if parameterValue is None or isinstance(parameterValue, (dict, list, tuple)):
+        raise ArgumentError(f"parameterValue must be a string or a number, got {type(parameterValue).__name__}")
+    if name == "@enable":
+        name, value = "exampleParameter", b"Hello World!"
+    else:
+        value = script_parameters.as_bytes(parameterValue)
+    for params in _user_lists(ctx, objectHandle):
+        _store(_Params(params), name, value)
+    return 0
+
+
+class _Params:
+    """A parameter list seen as a script's ``parameters`` (for :func:`_parameter` / :func:`_store`)."""
+
+    __slots__ = ("parameters",)
+
+    def __init__(self, parameters: list):
+        self.parameters = parameters
+
+
 @sim_function("getScriptExecutionCount")
 def getScriptExecutionCount(ctx: CallContext) -> int:  # noqa: N802
     """How many times the script's life-cycle functions (or old-style passes) have run since

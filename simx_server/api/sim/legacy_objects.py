@@ -8,9 +8,10 @@ physical contact (respondable, MuJoCo's ``contype``/``conaffinity``): see
 :mod:`simx_server.sim.properties` for who reads them. Every object has them, as in V-REP;
 simx has no mills and no path planning, so the last two bits are kept and change nothing.
 
-A dummy link is a MuJoCo equality between the two dummies' sites (a ``.ttt`` scene's dynamic
-loop closures are converted to ``weld`` equalities): ``setLinkDummy(a, b)`` activates the
-equality that joins them, ``setLinkDummy(a, -1)`` deactivates every equality of ``a``.
+A dummy link is a MuJoCo weld between the two dummies' sites: the scene's own (a ``.ttt``'s dynamic
+loop closures are converted to ``weld`` equalities), or one made at run time
+(:mod:`simx_server.sim.dummy_links`); ``setLinkDummy(a, b)`` activates the one that joins them,
+``setLinkDummy(a, -1)`` deactivates every equality of ``a``.
 """
 
 from __future__ import annotations
@@ -23,9 +24,9 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_wire import constants as C
-from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import ArgumentError
 from simx_server.base.arguments import as_integer as _int
-from simx_server.sim import properties
+from simx_server.sim import dummy_links, properties
 
 
 
@@ -106,25 +107,47 @@ def getLinkDummy(ctx: CallContext, dummyHandle: Any) -> int:  # noqa: N802, N803
 
 @sim_function("setLinkDummy")
 def setLinkDummy(ctx: CallContext, dummyHandle: Any, linkedDummyHandle: Any) -> int:  # noqa: N802, N803
-    """Link two dummies (``-1``: unlink ``dummyHandle`` from every dummy); returns 1.
-    Unlinking deactivates the equalities of the dummy's site; linking activates the equality
-    between the two sites. Raises UnsupportedError when the scene has no equality between
-    them: simx does not add constraints to the model at run time."""
+    """Link two dummies (``-1``: unlink ``dummyHandle``); returns 1. A dummy is linked to one
+    dummy at most: linking unlinks both dummies from any other. Two dummies the scene file links
+    (a ``.ttt``'s dynamic loop closure: a weld between their sites) get that equality back; any
+    other two get a weld made at run time (:mod:`simx_server.sim.dummy_links`: their sites'
+    frames held together, V-REP's dynamic loop closure), as V-REP's suction cups link their dummy,
+    moved onto the shape they grasp, to the cup's.
+
+    ``sim.setLinkDummy`` / ``simSetLinkDummy`` (coppeliaSimLib ``CDummy::setLinkedDummyHandle``,
+    loop-closure link type).
+
+    Args:
+        dummyHandle: a dummy's handle.
+        linkedDummyHandle: another dummy's handle, or -1.
+
+    Returns:
+        1.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ArgumentError: not a dummy, or a dummy linked to itself.
+        UnsupportedError: the scene cannot be edited to add the run-time welds (first link).
+    """
     site = _dummy_site(ctx, dummyHandle, "dummyHandle")
-    d = ctx.world.data
     links = _site_links(ctx, site)
     if ctx.h(linkedDummyHandle, "linkedDummyHandle") == -1:
-        d.eq_active[links] = 0
+        dummy_links.unlink(ctx.world, links)
         return 1
     other = _dummy_site(ctx, linkedDummyHandle, "linkedDummyHandle")
+    if other == site:
+        raise ArgumentError("sim.setLinkDummy: a dummy cannot be linked to itself")
     m = ctx.world.model
-    pair = [e for e in links.tolist() if {int(m.eq_obj1id[e]), int(m.eq_obj2id[e])} == {site, other}]
-    if not pair:
-        raise UnsupportedError("sim.setLinkDummy: the scene has no equality between these two dummies' sites: "
-                               "simx links dummies only where the scene file links them (no constraints are "
-                               "added to the MuJoCo model at run time)")
-    d.eq_active[links] = 0
-    d.eq_active[pair] = 1
+    pair = [e for e in links.tolist() if {int(m.eq_obj1id[e]), int(m.eq_obj2id[e])} == {site, other}
+            and not (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or "").startswith(dummy_links.PREFIX)]
+    dummy_links.unlink(ctx.world, np.union1d(links, _site_links(ctx, other)))
+    if pair:
+        ctx.world.data.eq_active[pair] = 1
+        return 1
+    if dummy_links.free(ctx.world) < 0:  # a pool of welds, added once (one recompile), grown when all are in use
+        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SITE, s) for s in (site, other)]
+        ctx.simulation("setLinkDummy").editor._edit(lambda spec: dummy_links.add_pool(spec, *names))
+        site, other = (mujoco.mj_name2id(ctx.world.model, mujoco.mjtObj.mjOBJ_SITE, n) for n in names)
+    dummy_links.link(ctx.world, dummy_links.free(ctx.world), site, other)
+    ctx.world.changed()
     return 1
-
-

@@ -243,8 +243,9 @@ class Converter:
         elif not d.static and body is self.spec.worldbody:
             b.add_freejoint()
         contype, conaffinity = G.collision_bits(d)
+        ground = d.static and not moving and self._static_chain(obj)  # fixed to the world: stiff contacts
         self.geoms.add(b, np.zeros(3), [1, 0, 0, 0], obj.name, d, contype, conaffinity,
-                       visible=bool(obj.layers & 0xFF))
+                       visible=bool(obj.layers & 0xFF), ground=ground)
         for child in obj.children:
             self._emit(child, b, Pose(), model)
 

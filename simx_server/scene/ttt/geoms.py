@@ -11,11 +11,15 @@ import numpy as np
 from simx_server.scene.ttt.geometry import compose
 from simx_server.scene.ttt.looks import Look, Materials, texture_colour
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
+from simx_server.sim.mechanisms import stiff_solref
 from simx_server.sim.spec_tools import solid_mesh
 
 # V-REP primitive type -> how it becomes a geom (the others are meshes)
 PLANE, DISC, CUBOID, SPHEROID, CYLINDER, CONE, HEIGHTFIELD, CAPSULE = 1, 2, 3, 4, 5, 6, 7, 8
 _THIN = 0.0005  # half-thickness of a plane or disc, m
+#: ``solmix`` of the geoms of the static shapes fixed to the world (the ground, tables, walls): their
+#: stiff ``solref`` decides their contacts (MuJoCo averages two geoms' ``solref`` weighted by it).
+GROUND_SOLMIX = 1000.0
 
 
 def write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
@@ -71,10 +75,11 @@ class GeomMaker:
             (out / "meshes").mkdir(parents=True, exist_ok=True)
 
     def add(self, body, frame_pos, frame_quat, name: str, shape: ShapeData, contype: int, conaffinity: int,
-            visible: bool = True):
+            visible: bool = True, ground: bool = False):
         """Geoms of ``shape`` in ``body``; the shape's frame is (frame_pos, frame_quat) in it.
         A shape in no shown layer (V-REP's hidden collision shapes) goes to geom group 3, which
-        neither the viewer nor the vision sensors draw by default."""
+        neither the viewer nor the vision sensors draw by default. ``ground``: a static shape
+        fixed to the world, whose contacts get the stiffest ``solref`` (:data:`GROUND_SOLMIX`)."""
         base = Pose(np.asarray(frame_pos, float), np.asarray(frame_quat, float))
         for i, mesh in enumerate(shape.meshes):
             if mesh.wireframe and contype == 0:  # V-REP draws it as lines: MuJoCo cannot
@@ -88,6 +93,13 @@ class GeomMaker:
             look = mesh.look or Look(diffuse=tuple(mesh.color))
             g.rgba = [*mesh.color, look.opacity]
             g.contype, g.conaffinity = contype, conaffinity
+            if ground and (contype or conaffinity):
+                # A static shape fixed to the world is as hard as V-REP's engines make it (Bullet's
+                # static bodies: rigid contacts). MuJoCo's default contact (a 20 ms time constant)
+                # lets what falls or is pressed on it sink by its speed x 20 ms: past the middle of
+                # V-REP's 4 cm floor box the contact's normal turns and it falls for ever. The
+                # stiffest time constant MuJoCo takes (two timesteps) rules its contacts.
+                g.solref, g.solmix = stiff_solref(self.spec.option.timestep), GROUND_SOLMIX
             if not visible:
                 g.group = 3
             g.density = 0.0  # bodies get the file's mass and inertia, not the geoms'
