@@ -43,6 +43,7 @@ def panda(pr):
     goal, orientation = tip.get_position(), tip.get_quaternion()
     arm.set_joint_positions(start.tolist())
     pillar = Shape.create(PrimitiveShape.CUBOID, [0.1, 0.1, 0.3], position=half_way.tolist(), static=True)
+    pillar.set_collidable(True)  # CoppeliaSim 4.1 creates it not collidable
     return arm, start, goal, orientation, pillar
 
 
