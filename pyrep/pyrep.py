@@ -18,9 +18,10 @@ from typing import Any
 from simx_server.api import CallContext, Callers
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.state import RunState
+from simx_wire.protocol import SimxError
 
 from pyrep.backend import sim
-from pyrep.errors import PyRepError
+from pyrep.errors import CoppeliaSimError, PyRepError
 from pyrep.objects import vision_sensor
 from pyrep.objects.object import Object
 from pyrep.objects.shape import Shape
@@ -38,6 +39,14 @@ class _InProcessContext(CallContext):
     @property
     def defer_renders(self) -> bool:
         return False
+
+
+def _pyreps_error(exc: SimxError) -> CoppeliaSimError:
+    """PyRep's error for one of simx's own (a physics blow-up, a script's error...) raised by
+    the simulation's start, step or stop: a ``CoppeliaSimError``, the ``RuntimeError`` PyRep's
+    backend raises when CoppeliaSim refuses a call, so that a program's ``except`` clauses
+    catch it as on CoppeliaSim."""
+    return CoppeliaSimError(f"simx: {exc}")
 
 
 class PyRep:
@@ -135,7 +144,10 @@ class PyRep:
             self.running = True
             return
         s = self.simulation
-        s.start()
+        try:
+            s.start()
+        except SimxError as exc:
+            raise _pyreps_error(exc) from exc
         self.running = True
 
     def stop(self) -> None:
@@ -146,13 +158,22 @@ class PyRep:
             self.running = False
             return
         s = self.simulation
-        if s.state is not RunState.STOPPED:
-            s.stop()
         self.running = False
+        if s.state is not RunState.STOPPED:
+            try:
+                s.stop()
+            except SimxError as exc:
+                raise _pyreps_error(exc) from exc
 
     def step(self) -> None:
         """One simulation step (scripts, IK groups, physics, sensors) while started; nothing
-        while stopped (as PyRep, whose step only refreshes the UI then)."""
+        while stopped (as PyRep, whose step only refreshes the UI then).
+
+        Raises:
+            CoppeliaSimError: (a RuntimeError) simx could not step: the physics blew up (MuJoCo
+                found NaN or huge values; the simulation is then stopped and reset to the
+                scene's initial state), or a script failed.
+        """
         if self._remote is not None:
             self._require()
             if self.running:
@@ -160,7 +181,11 @@ class PyRep:
             return
         s = self.simulation
         if s.state is RunState.RUNNING:
-            s.step()
+            try:
+                s.step()
+            except SimxError as exc:  # a physics blow-up stops and resets the simulation
+                self.running = s.state is not RunState.STOPPED
+                raise _pyreps_error(exc) from exc
             pending = vision_sensor.unhandled()
             if pending:  # the step handled the sensors made since that are not explicitly handled
                 pending -= {h for h in pending if not sim.call("getExplicitHandling", h)}

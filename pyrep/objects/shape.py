@@ -34,7 +34,9 @@ class Shape(Object):
                visible_edges: bool = False, smooth: bool = False, respondable: bool = True,
                static: bool = False, renderable: bool = True, position: Any = None, orientation: Any = None,
                color: Any = None) -> Shape:
-        """A new primitive (``size`` x, y, z in m, ``mass`` kg), dynamic unless ``static``.
+        """A new primitive (``size`` x, y, z in m, ``mass`` kg), dynamic unless ``static``;
+        neither collidable, measurable nor detectable (CoppeliaSim 4.1's ``simCreatePureShape``
+        clears them: ``set_collidable`` and the like give them back).
 
         Raises:
             RuntimeError: a cone (MuJoCo has none), a bad size or mass.
@@ -42,10 +44,7 @@ class Shape(Object):
         options = (1 if backface_culling else 0) | (2 if visible_edges else 0) | (4 if smooth else 0) \
             | (8 if respondable else 0) | (16 if static else 0)
         shape = Shape(int(sim.call("createPureShape", type.value, options, [float(s) for s in size], float(mass))))
-        if not respondable:
-            shape.set_respondable(False)
-        if not renderable:
-            shape.set_renderable(False)
+        shape.set_renderable(renderable)  # as PyRep: CoppeliaSim 4.1's new pure shape is not renderable
         if position is not None:
             shape.set_position(position)
         if orientation is not None:

@@ -2,7 +2,9 @@
 distance objects (simxGetCollisionHandle, simxReadCollision, simxGetDistanceHandle,
 simxReadDistance), as V-REP's legacy remote API has them.
 
-* collision / distance = ``mj_geomDistance`` between the geoms of shapes (bodies), independent
+* collision / distance between the geoms of shapes (bodies): on the triangles of a mesh geom
+  with coal (:mod:`simx_server.sim.mesh_geometry`; V-REP and CoppeliaSim test the meshes, not
+  their convex hulls), ``mj_geomDistance`` between two primitives; independent
   of MuJoCo's contact filtering, so static bodies and excluded pairs are measured too. Which
   shapes take part follows V-REP's collidable / measurable flags, not physical contact
   (:mod:`simx_server.sim.properties`): a shape named explicitly is always tested, the members of
@@ -33,7 +35,7 @@ import numpy as np
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
-from simx_server.sim import properties, scene_collections
+from simx_server.sim import mesh_geometry, properties, scene_collections
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, SHAPE, World, parse_settings
 
@@ -139,22 +141,37 @@ def _lower_bounds(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjDat
     return lb
 
 
-def _geom_distance(world: World, g1: int, g2: int, distmax: float, data: mujoco.MjData | None = None) -> float:
+def _geom_distance(world: World, g1: int, g2: int, distmax: float, data: mujoco.MjData | None = None,
+                   fromto: np.ndarray | None = None) -> float:
+    """Distance (m, negative when they overlap) between two geoms at the poses of ``data``
+    (default: the world's): on the triangles with coal when one is a mesh
+    (:mod:`simx_server.sim.mesh_geometry`), else ``mj_geomDistance`` (``distmax`` caps it)."""
+    m, d = world.model, world.data if data is None else data
+    if mesh_geometry.handles(m, g1, g2):
+        return mesh_geometry.distance(m, d, int(g1), int(g2), fromto)
     try:
-        return float(mujoco.mj_geomDistance(world.model, world.data if data is None else data, int(g1), int(g2),
-                                            distmax, None))
+        return float(mujoco.mj_geomDistance(m, d, int(g1), int(g2), distmax, fromto))
     except Exception as exc:  # mju_error for a geom pair MuJoCo has no distance function for
-        m = world.model
         names = [mujoco.mjtGeom(int(m.geom_type[g])).name for g in (g1, g2)]
         raise UnsupportedError(f"MuJoCo cannot measure the distance between a {names[0]} and a "
                                f"{names[1]} geom: {exc}") from None
+
+
+def _geoms_collide(world: World, g1: int, g2: int, data: mujoco.MjData | None = None) -> bool:
+    """Whether two geoms come within COLLISION_TOLERANCE of touching (as :func:`_geom_distance`);
+    a mesh's triangles when they touch or intersect (coal)."""
+    m = world.model
+    if mesh_geometry.handles(m, g1, g2):  # triangles intersect or not: no tolerance (it costs 40 %)
+        return mesh_geometry.collide(m, world.data if data is None else data, int(g1), int(g2), 0.0)
+    return _geom_distance(world, g1, g2, 2 * COLLISION_TOLERANCE, data) <= COLLISION_TOLERANCE
 
 
 def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> bool:
     """Whether shape ``e1`` touches or overlaps shape ``e2`` (or anything else, ``e2`` = -2).
 
     Implements ``simxReadCollision`` (V-REP's ``simCheckCollision``): geom pairs whose bounding
-    spheres come within COLLISION_TOLERANCE are measured with ``mj_geomDistance``.
+    spheres come within COLLISION_TOLERANCE are tested on their triangles (a mesh, with coal) or
+    with ``mj_geomDistance`` (two primitives).
 
     Args:
         sim: the simulation.
@@ -208,16 +225,18 @@ def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjDat
     Returns:
         True when some pair is within COLLISION_TOLERANCE (m) of touching.
     """
-    close = _lower_bounds(world, a, b, data) <= COLLISION_TOLERANCE
-    return any(_geom_distance(world, g1, g2, 2 * COLLISION_TOLERANCE, data) <= COLLISION_TOLERANCE
-               for g1, g2 in zip(a[close], b[close]))
+    lb = _lower_bounds(world, a, b, data)
+    close = np.flatnonzero(lb <= COLLISION_TOLERANCE)
+    close = close[np.argsort(lb[close], kind="stable")]  # the deepest overlaps of spheres first
+    return any(_geoms_collide(world, g1, g2, data) for g1, g2 in zip(a[close], b[close]))
 
 
 def distance(sim: SimulationView, e1: int, e2: int, override: bool = True) -> float:
     """Smallest distance (m, >= 0, at most DISTANCE_MAX) between shape ``e1`` and ``e2``.
 
-    Implements ``simxReadDistance`` (V-REP's ``simCheckDistance``): ``mj_geomDistance`` over the
-    geom pairs, nearest bounding spheres first.
+    Implements ``simxReadDistance`` (V-REP's ``simCheckDistance``): the geom pairs' distances
+    (a mesh's triangles with coal, ``mj_geomDistance`` between primitives), nearest bounding
+    spheres first.
 
     Args:
         sim: the simulation.
@@ -235,18 +254,38 @@ def distance(sim: SimulationView, e1: int, e2: int, override: bool = True) -> fl
         ArgumentError: ``e1`` and ``e2`` are the same, or no measurable shape to measure to.
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
     """
-    world = sim.world
-    a, b = _pairs(world, e1, e2, properties.MEASURABLE, override)
+    a, b = _pairs(sim.world, e1, e2, properties.MEASURABLE, override)
     if a.size == 0:
         raise ArgumentError("there is no measurable shape to measure the distance to (V-REP's measurable "
                             "flag, sim.setObjectSpecialProperty)")
+    return closest(sim.world, a, b)[0]
+
+
+def closest(world: World, a: np.ndarray, b: np.ndarray) -> tuple[float, int, np.ndarray]:
+    """The nearest of the geom pairs at the world's poses (``sim.checkDistance``'s search).
+
+    Args:
+        world: the scene.
+        a: (k,) geom ids, k >= 1.
+        b: (k,) geom ids, ``b[i]`` paired with ``a[i]``.
+
+    Returns:
+        ``(distance, i, fromto)``: the distance (m, >= 0, at most DISTANCE_MAX), the index of
+        the nearest pair (0 when none is nearer than DISTANCE_MAX), and its nearest points
+        (6,) (m, world; zeros when none).
+
+    Raises:
+        UnsupportedError: MuJoCo has no distance function for a pair of geom types.
+    """
     lb = _lower_bounds(world, a, b)
-    best = DISTANCE_MAX
+    best, nearest, fromto, scratch = DISTANCE_MAX, 0, np.zeros(6), np.zeros(6)
     for i in np.argsort(lb, kind="stable"):
         if lb[i] >= best:
             break
-        best = min(best, _geom_distance(world, a[i], b[i], best))
-    return max(0.0, best)
+        d = _geom_distance(world, a[i], b[i], best, fromto=scratch)
+        if d < best:
+            best, nearest, fromto = d, int(i), scratch.copy()
+    return max(0.0, best), nearest, fromto
 
 
 PROBE_PREFIX = {"collision": "simx.collision:", "distance": "simx.distance:"}

@@ -12,8 +12,8 @@ within a time) and interpolated with ``PathGeometric.interpolate``, as the simOM
 :class:`ScratchCollisions` is the default validity check of a simOMPL task (its collision
 pairs): a state is written into a scratch ``MjData`` (a copy of the world's state: joint
 positions, free bodies' poses), its poses computed with ``mj_kinematics``, and the pairs' geoms
-measured there with ``mj_geomDistance`` (:func:`simx_server.sim.collisions.pairs_collide`), so
-that planning never moves the simulation. simOMPL writes each state into the scene and reads
+tested there (:func:`simx_server.sim.collisions.pairs_collide`: a mesh on its triangles, with
+coal), so that planning never moves the simulation. simOMPL writes each state into the scene and reads
 CoppeliaSim's collision check instead.
 """
 

@@ -36,7 +36,9 @@ def _floor() -> Shape:
 
 def _box(x: float, y: float, size: float) -> Shape:
     """A static obstacle of ``size`` m standing on the floor at (x, y)."""
-    return Shape.create(PrimitiveShape.CUBOID, [size] * 3, position=[x, y, size / 2], static=True, respondable=True)
+    box = Shape.create(PrimitiveShape.CUBOID, [size] * 3, position=[x, y, size / 2], static=True, respondable=True)
+    box.set_collidable(True)  # CoppeliaSim 4.1 creates it not collidable
+    return box
 
 
 @pytest.fixture

@@ -24,6 +24,26 @@ def test_launch_step_stop_moves_and_resets_the_world(pr):
     assert np.allclose(cube.get_position(), start)
 
 
+def test_a_physics_blow_up_reaches_the_program_as_pyreps_error(tmp_path):
+    """simx's PhysicsError is not one of PyRep's: a program catching RuntimeError (what PyRep's
+    backend raises) catches it; the simulation is stopped and reset."""
+    from pyrep.errors import CoppeliaSimError
+
+    scene = tmp_path / "blow_up.xml"
+    scene.write_text('<mujoco><option gravity="0 0 -1e20"/><worldbody><body name="ball" pos="0 0 1">'
+                     '<freejoint/><geom type="sphere" size="0.1"/></body></worldbody></mujoco>')
+    pr = PyRep()
+    pr.launch(str(scene), headless=True)
+    try:
+        pr.start()
+        with pytest.raises(CoppeliaSimError, match="physics became unstable") as caught:
+            pr.step()
+        assert type(caught.value).__module__ == "pyrep.errors" and isinstance(caught.value, RuntimeError)
+        assert not pr.running and np.allclose(Shape("ball").get_position(), [0, 0, 1])
+    finally:
+        pr.shutdown()
+
+
 def test_object_lookup_types_and_errors(pr):
     assert isinstance(Object.get_object("hinge"), Joint)
     assert Object.get_object_type("tip") == ObjectType.DUMMY

@@ -43,6 +43,7 @@ def panda(pr):
     goal, orientation = tip.get_position(), tip.get_quaternion()
     arm.set_joint_positions(start.tolist())
     pillar = Shape.create(PrimitiveShape.CUBOID, [0.1, 0.1, 0.3], position=half_way.tolist(), static=True)
+    pillar.set_collidable(True)  # CoppeliaSim 4.1 creates it not collidable
     return arm, start, goal, orientation, pillar
 
 
@@ -128,3 +129,45 @@ def test_a_pyrep_connected_over_zmq_plans_on_the_server(pyrep_scene):
     finally:
         pr.shutdown()
         server.stop()
+
+
+class _Calls:
+    """Counts the table's ``simIK`` and ``simOMPL`` calls by name (``pyrep.backend.sim``)."""
+
+    def __init__(self, monkeypatch):
+        from pyrep.backend import sim
+
+        self.count: dict[str, int] = {}
+        for wrapper in ("ik_call", "ompl_call"):
+            real = getattr(sim, wrapper)
+
+            def call(name, *args, real=real):
+                self.count[name] = self.count.get(name, 0) + 1
+                return real(name, *args)
+
+            monkeypatch.setattr(sim, wrapper, call)
+
+
+def test_a_pose_out_of_reach_ends_after_trials_tries_of_max_time_ms(panda, monkeypatch):
+    """PyRep's bound: ``trials`` searches of ``max_time_ms`` each (sim.getConfigForTipPose's),
+    IK solved only from configurations within ``distance_threshold`` of the target, no planning
+    without a goal."""
+    from pyrep.errors import ConfigurationError, ConfigurationPathError
+    from pyrep.robots.arms import sampling
+
+    arm, start, *_ = panda
+    calls = _Calls(monkeypatch)
+    with pytest.raises(ConfigurationError):
+        arm.solve_ik_via_sampling([9.0, 9.0, 9.0], euler=[0.0, 0.0, 0.0], trials=4, max_time_ms=20)
+    # IK solved once, from the current configuration (the first try); random ones are never near
+    assert calls.count["findConfig"] == 1
+    assert np.allclose(arm.get_joint_positions(), start)
+    # a clock that moves 0.5 s per reading: the search ends at 3 s (300 x 10 ms), after the first
+    # try's IK and two tries of one random configuration each (1.0 -> 1.5, 2.0 -> 2.5)
+    clock = iter(np.arange(0.0, 1000.0, 0.5))
+    monkeypatch.setattr(sampling, "monotonic", lambda: float(next(clock)))
+    calls.count.clear()
+    with pytest.raises(ConfigurationPathError):
+        arm.get_nonlinear_path([9.0, 9.0, 9.0], euler=[0.0, 0.0, 0.0], trials=300, max_time_ms=10)
+    assert calls.count["getObjectMatrix"] == 2 and calls.count["findConfig"] == 1
+    assert "createTask" not in calls.count

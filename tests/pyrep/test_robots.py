@@ -1,4 +1,4 @@
-"""PyRep's robots on simx: PyRep's own Panda and PandaGripper models (../shared/pyrep/robot_ttms,
+"""PyRep's robots on simx: PyRep's own Panda, PandaGripper and Baxter models (../shared/pyrep/robot_ttms,
 skipped without it, failing under CI) imported into the small scene."""
 
 from __future__ import annotations
@@ -47,6 +47,18 @@ def _gripper(pr):
     pr.stop()
     pr.import_model(str(require_shared(MODELS / "end_effectors" / "PandaGripper.ttm")))
     return PandaGripper()
+
+
+def test_baxters_arms_do_not_collide_with_its_torso_in_their_start_pose(pr):
+    """Baxter's upper arm links lie 1.4 mm from its torso: their convex hulls overlap, their
+    triangles do not (CoppeliaSim tests the triangles), so its arms start collision-free."""
+    from pyrep.robots.arms.baxter import BaxterLeft, BaxterRight
+
+    pr.stop()
+    pr.import_model(str(require_shared(MODELS / "arms" / "Baxter.ttm")))
+    pr.start()
+    for arm in (BaxterLeft(), BaxterRight()):
+        assert not arm.check_arm_collision()
 
 
 def test_panda_gripper_closes_and_opens(pr):

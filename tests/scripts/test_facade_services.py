@@ -60,6 +60,15 @@ def test_alias_relative_model_bb_and_pure_shapes(api):
     assert api.getModelBB(mount) == pytest.approx([0.2, 0.1, 0.3])
     s = api.createPureShape(0, 16, [0.1, 0.2, 0.3], 2.5)
     assert api.getShapeBB(s) == pytest.approx([0.1, 0.2, 0.3]) and api.getShapeMass(s) == pytest.approx(2.5)
+    # CoppeliaSim 4.1's addPrimitiveShape clears collidable, measurable, detectable and renderable;
+    # options bit 3 (8) respondable: off here
+    assert api.getObjectSpecialProperty(s) == 0 and api.getObjectInt32Param(s, 3004) == 0
+    api.setObjectPosition(s, -1, api.getObjectPosition(mount, -1))  # in the mount
+    assert api.checkCollision(mount, api.handle_all)[0] == 0
+    r = api.createPureShape(1, 8 | 16, [0.1, 0.1, 0.1], 1.0)
+    assert api.getObjectInt32Param(r, 3004) == 1
+    api.setObjectSpecialProperty(s, 1)
+    assert api.checkCollision(mount, api.handle_all) == (1, [mount, s])
     with pytest.raises(ArgumentError, match="primitiveType"):
         api.createPureShape(9, 0, [0.1, 0.1, 0.1], 1)
 

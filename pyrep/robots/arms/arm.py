@@ -20,7 +20,7 @@ from pyrep.const import ConfigurationPathAlgorithms as Algos
 from pyrep.errors import CoppeliaSimError, ConfigurationError, ConfigurationPathError, IKError
 from pyrep.objects.dummy import Dummy
 from pyrep.objects.object import Object
-from pyrep.robots.arms import planning
+from pyrep.robots.arms import planning, sampling
 from pyrep.robots.configuration_paths.arm_configuration_path import ArmConfigurationPath
 from pyrep.robots.robot_component import RobotComponent
 
@@ -164,26 +164,21 @@ class Arm(RobotComponent):
         """Up to ``max_configs`` configurations (m, n) reaching the pose, from random starts,
         collision-free unless ``ignore_collisions``, nearest to the current one first.
 
+        As PyRep's (``trials`` calls of ``sim.getConfigForTipPose``, ``max_time_ms`` each): at
+        most ``trials`` tries of ``max_time_ms`` ms each, so a pose out of reach fails after
+        ``trials * max_time_ms`` (:mod:`pyrep.robots.arms.sampling`).
+
         Raises:
             ConfigurationError: none found in ``trials`` tries.
         """
-        goal = self._target_matrix(position, euler, quaternion, relative_to)
-        start = np.array(self.get_joint_positions())
+        self._target_matrix(position, euler, quaternion, relative_to)  # IK pulls the tip onto the target dummy
         lo, hi = self._limits()
-        rng = np.random.default_rng(0)
-        found: list[np.ndarray] = []
-        try:
-            for trial in range(max(int(trials), 1)):
-                seed = start if trial == 0 else rng.uniform(np.maximum(lo, -np.pi), np.minimum(hi, np.pi))
-                q = self._solve(goal, seed, lo, hi)
-                if q is not None and (ignore_collisions or not self._collides(q)):
-                    found.append(q)
-                    if len(found) >= max_configs:
-                        break
-        finally:
-            self.set_joint_positions(start.tolist())
+        lo, hi = np.maximum(lo, -2 * np.pi), np.minimum(hi, 2 * np.pi)  # as PyRep: huge intervals limited
+        found = sampling.sample_configs(self, lo, hi, trials, max_configs, distance_threshold, max_time_ms,
+                                        ignore_collisions)
         if not found:
             raise ConfigurationError("Could not find a valid joint configuration for desired end effector pose.")
+        start = np.array(self.get_joint_positions())
         found.sort(key=lambda q: float(np.linalg.norm(q - start)))
         return np.array(found)
 
@@ -246,7 +241,8 @@ class Arm(RobotComponent):
         joint (the first three used for projections, bounds clipped to ±6.28 rad), collision pairs
         ``{<arm collection>, sim.handle_all}`` unless ``ignore_collisions`` (checked by MuJoCo on a
         scratch copy of the scene), ``algorithm``'s planner, 4 s per search, ``trials_per_goal``
-        searches, the shortest valid path kept. The path is simplified by OMPL and made of the
+        searches, the shortest valid path kept. A failing call ends within PyRep's bounds: the
+        goals' search ``trials * max_time_ms`` ms, then ``trials_per_goal`` searches of 4 s. The path is simplified by OMPL and made of the
         states OMPL checked, at most ``max_velocity`` times the simulation step apart (motions are
         checked that finely; one configuration per ``step()`` of the path; PyRep interpolates
         its path to 300 configurations and times it with the Reflexxes library).
@@ -269,7 +265,8 @@ class Arm(RobotComponent):
             raise CoppeliaSimError(f"The call failed on the V-REP side: simOMPL has no algorithm {name!r}")
         try:
             goals = self.solve_ik_via_sampling(position, euler, quaternion, ignore_collisions, trials,
-                                               max(max_configs, 1), relative_to=relative_to)
+                                               max(max_configs, 1), distance_threshold, max_time_ms,
+                                               relative_to=relative_to)
         except ConfigurationError as exc:
             raise ConfigurationPathError("Could not create path.") from exc
         lo, hi = self._limits()
@@ -296,8 +293,8 @@ class Arm(RobotComponent):
                                         relative_to=relative_to)
         except ConfigurationPathError:
             return self.get_nonlinear_path(position, euler, quaternion, ignore_collisions, trials, max_configs,
-                                           trials_per_goal=trials_per_goal, algorithm=algorithm,
-                                           relative_to=relative_to)
+                                           distance_threshold, max_time_ms, trials_per_goal, algorithm,
+                                           relative_to)
 
     def get_path_from_cartesian_path(self, path: Any) -> ArmConfigurationPath:
         """A path through the poses of a ``CartesianPath`` (50 along it)."""

@@ -1,8 +1,9 @@
 """CoppeliaSim 4.x's collision, distance and sensor-handling functions of ``sim`` on MuJoCo.
 
-* ``checkCollision`` / ``checkDistance`` / ``getContactInfo``: MuJoCo's narrow phase
-  (``mj_geomDistance``, :mod:`simx_server.sim.collisions`) between the shapes' collidable geoms,
-  and the contacts of the last step (``data.contact``).
+* ``checkCollision`` / ``checkDistance``: between the shapes' collidable geoms, on a mesh's
+  triangles (coal) and with ``mj_geomDistance`` between primitives
+  (:mod:`simx_server.sim.collisions`); ``getContactInfo``: the contacts of the last step
+  (``data.contact``).
 * Sensors are rendered / cast when read: ``handleVisionSensor`` and ``readVisionSensor`` give
   V-REP's 15-value packet of the current image (a sensor with vision callbacks: of its last
   handling, :mod:`simx_server.scripts.vision_callbacks`), the proximity calls cast the ray now.
@@ -92,15 +93,8 @@ def _closest(ctx: CallContext, e1: int, e2: int) -> tuple[list[float], float, li
     a, b = collisions._pairs(world, e1, e2)
     if a.size == 0:
         raise ArgumentError("there is no collidable geom to measure the distance to")
-    lb = collisions._lower_bounds(world, a, b)
-    best, pair, fromto = collisions.DISTANCE_MAX, (int(a[0]), int(b[0])), np.zeros(6)
-    scratch = np.zeros(6)
-    for i in np.argsort(lb, kind="stable"):
-        if lb[i] >= best:
-            break
-        d = float(mujoco.mj_geomDistance(world.model, world.data, int(a[i]), int(b[i]), best, scratch))
-        if d < best:
-            best, pair, fromto = d, (int(a[i]), int(b[i])), scratch.copy()
+    best, i, fromto = collisions.closest(world, a, b)
+    pair = (int(a[i]), int(b[i]))
     shape_of = {o.mj_id: o.handle for o in world.objects.values() if o.type == SHAPE}
     bodies = world.model.geom_bodyid
     return fromto.tolist(), best, [shape_of.get(int(bodies[g]), WORLD) for g in pair]

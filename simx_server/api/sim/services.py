@@ -35,6 +35,10 @@ _IMAGE_FORMATS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 MAX_IMAGE_SIDE = 8192
 #: ``sim.createPureShape``'s primitive types (0 cuboid, 1 sphere, 2 cylinder, 3 cone) -> ``sim.primitiveshape_*``.
 _PURE = {0: 3, 1: 4, 2: 5, 3: 6}
+#: The special properties a new pure shape goes without (collidable 1, measurable 2, detectable
+#: 496, renderable 512: ``addPrimitiveShape``'s ``propToRemove``).
+_PURE_CLEARED = 1 | 2 | 496 | 512
+_SHAPE_RESPONDABLE = 3004  # sim.shapeintparam_respondable
 
 
 def _channels(options: int) -> int:
@@ -400,12 +404,19 @@ def removeReferencedObjects(ctx: CallContext, objectHandle: Any, tag: Any = "") 
 def createPureShape(ctx: CallContext, primitiveType: Any, options: Any, sizes: Any, mass: Any,  # noqa: N802, N803
                     precision: Any = None) -> int:
     """V-REP's ``simCreatePureShape``: ``primitiveType`` 0 cuboid, 1 sphere, 2 cylinder, 3 cone
-    (refused: MuJoCo has no cone); ``options`` bit 4 (16): static; ``sizes`` x, y, z (m);
-    ``mass`` (kg); ``precision`` (tessellation) has no meaning for MuJoCo's exact primitives.
+    (refused: MuJoCo has no cone); ``options`` bit 3 (8): respondable, bit 4 (16): static;
+    ``sizes`` x, y, z (m); ``mass`` (kg); ``precision`` (tessellation) has no meaning for
+    MuJoCo's exact primitives.
+
+    As CoppeliaSim 4.1's (``simCreatePureShape_internal`` -> ``CAddOperations::addPrimitiveShape``
+    with ``dynamic`` set, coppeliaSimLib ``menusAndSimilar/addOperations.cpp``), the new shape is
+    neither collidable, measurable, detectable nor renderable (its special properties cleared:
+    ``sim.setObjectSpecialProperty`` gives them back); PyRep's ``Shape.create`` then sets
+    renderable as asked.
 
     Args:
         primitiveType: 0-3.
-        options: bit 4 (16): static.
+        options: bit 3 (8): respondable; bit 4 (16): static.
         sizes: 3 numbers, m.
         mass: kg.
         precision: ignored.
@@ -422,6 +433,9 @@ def createPureShape(ctx: CallContext, primitiveType: Any, options: Any, sizes: A
         raise ArgumentError("primitiveType must be 0 (cuboid), 1 (sphere), 2 (cylinder) or 3 (cone)")
     h = ctx.sim.createPrimitiveShape(_PURE[kind], sizes, 2 if opts & 16 else 0)
     ctx.sim.setShapeMass(h, mass)
+    if not opts & 8:
+        ctx.sim.setObjectInt32Param(h, _SHAPE_RESPONDABLE, 0)
+    ctx.sim.setObjectSpecialProperty(h, int(ctx.sim.getObjectSpecialProperty(h)) & ~_PURE_CLEARED)
     return h
 
 
