@@ -102,6 +102,8 @@ class IkGroup:
     method: int = ik_solver.METHOD_DLS
     #: scale each step down to the joints' largest steps (False: V-REP's "ignore max step sizes")
     bound_steps: bool = True
+    #: every element as :class:`simx_server.sim.ik_solver.Element` (also for the plain groups)
+    parts: list = dataclasses.field(default_factory=list)
 
 
 def _setting(settings: dict[str, str], key: str, default: str) -> str:
@@ -215,6 +217,8 @@ def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> Ik
     ids = np.array([j for _, j in chain])
     limited = m.jnt_limited[ids].astype(bool)
     tip, target, _, _, bits = elements[0]
+    parts = [ik_solver.Element(i, t.handle, g.handle, constraints=c, precision=tolerances[i], weights=weights[i])
+             for i, (t, g, _, _, c) in enumerate(elements)]
     # the general solver (ik_solver): several elements, partial constraints, or the settings of a
     # V-REP group (method, precision, weights, max steps) beyond the plain pose / position group
     several = len(elements) > 1 or bits not in (7, 31) or \
@@ -228,8 +232,7 @@ def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> Ik
         low=np.where(limited, m.jnt_range[ids, 0], -np.inf), high=np.where(limited, m.jnt_range[ids, 1], np.inf),
         method=METHODS[method],
         bound_steps=_setting(settings, "max_steps", "true").lower() in ("true", "1", "yes"),
-        elements=[ik_solver.Element(i, t.handle, g.handle, constraints=c, precision=tolerances[i], weights=weights[i])
-                  for i, (t, g, _, _, c) in enumerate(elements)] if several else [])
+        elements=parts if several else [], parts=parts)
 
 
 class IkGroups:
@@ -353,6 +356,37 @@ class IkGroups:
         self._set_targets(g, q)
         return IK_SUCCESS if ok else IK_FAIL
 
+    def check(self, g: IkGroup, joints: list[int]) -> tuple[int, list[float]]:
+        """Solve ``g`` from the joints' current positions moving only ``joints`` (the chain's
+        others stay where they are), and leave the scene as it was: coppeliaSimLib
+        ``CIkGroup_old::checkIkGroup`` (``sim.checkIkGroup``), with the group's own method,
+        damping, iterations, precision and weights.
+
+        Args:
+            g: the group.
+            joints: handles of the joints the solver may move (any of the chain's).
+
+        Returns:
+            ``(result, values)``: IK_SUCCESS (1), IK_FAIL (2) or IK_NOT_PERFORMED (0, a group
+            saved inactive), and the joints' positions reached (rad or m), in ``joints``' order.
+
+        Raises:
+            ArgumentError: a joint that is not in the group's chain.
+        """
+        w, s = self.world, self._scratch
+        for h in joints:
+            if h not in g.joints:
+                raise ArgumentError(f"joint {quote(h)} is not in the chain of IK group {g.name!r}")
+        q0 = [w.joint_position(h) for h in joints]
+        if not g.enabled or not joints:
+            return IK_NOT_PERFORMED, q0
+        s.qpos[:] = w.data.qpos
+        s.mocap_pos[:], s.mocap_quat[:] = w.data.mocap_pos, w.data.mocap_quat
+        hinge = self.model.jnt_type[[w.get(h).mj_id for h in joints]] == mujoco.mjtJoint.mjJNT_HINGE
+        ok, q, _ = ik_solver.solve(w, s, joints, np.array(q0, float), g.parts, g.method, g.damping, g.iterations,
+                                   np.where(hinge, MAX_STEP_RAD, MAX_STEP_M), bound_steps=g.bound_steps)
+        return (IK_SUCCESS if ok else IK_FAIL), [float(v) for v in q]
+
     def _set_targets(self, g: IkGroup, q: np.ndarray) -> None:
         for h, value in zip(g.joints, q):
             try:
@@ -393,6 +427,30 @@ def step(world: World) -> None:
             g.solve_automatic()
         except Exception:  # never a step fault: the arm keeps its last targets
             log.exception("IK groups of %s not solved this step", world.scene_name)
+
+
+def set_properties(world: World, g: IkGroup, **changes: str) -> None:
+    """Change a group's ``simx:ik:NAME`` settings (``method``, ``iterations``, ``damping``,
+    ``constraintsN``...) and re-read the groups: ``sim.setIkGroupProperties`` /
+    ``sim.setIkElementProperties``. The settings are checked as the scene's are.
+
+    Args:
+        world: the world.
+        g: the group.
+        changes: setting -> value (text).
+
+    Raises:
+        ArgumentError: a value the group cannot take (the group is left as it was).
+    """
+    key = PREFIX + g.name
+    settings = world.settings[key]
+    updated = {**settings, **changes}
+    try:
+        _parse(world, g.name, updated, g.handle)
+    except ValueError as exc:
+        raise ArgumentError(f"IK group {g.name!r}: {exc}") from None
+    settings.update(changes)
+    _GROUPS.pop(world, None)
 
 
 # ------------------------------------------------------------ for sim.handleIkGroup & co.
