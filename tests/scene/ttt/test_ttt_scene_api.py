@@ -508,3 +508,28 @@ def test_ik_group_is_solved_with_its_own_settings(tmp_path):
         finally:
             sim.close()
     assert outcomes == [2, 1, 1, 1]  # sim.ikresult_fail, then success
+
+
+def test_check_ik_group_and_its_properties(tmp_path):
+    """``sim.checkIkGroup`` solves from the joints' positions and moves nothing;
+    ``sim.setIkGroupProperties`` / ``setIkElementProperties`` change what the next solve uses."""
+    sim = _load(tmp_path, _arm(explicit=True))  # damped least squares (0.05), 10 iterations
+    try:
+        api = client_context(sim).sim
+        arm, j1, j2 = api.getIkGroupHandle("Arm"), api.getObject("/J1"), api.getObject("/J2")
+        sim.start()
+        api.setObjectPosition(api.getObject("/Target"), -1, [0.1, 0.0, 0.78])
+        before = [api.getJointPosition(j) for j in (j1, j2)], [api.getJointTargetPosition(j) for j in (j1, j2)]
+        result, values = api.checkIkGroup(arm, [j1, j2])
+        assert result == 1 and len(values) == 2
+        assert ([api.getJointPosition(j) for j in (j1, j2)], [api.getJointTargetPosition(j) for j in (j1, j2)]) == before
+        held, only_j2 = api.checkIkGroup(arm, [j1, j2], [1, 0])  # J1 held: J2 alone cannot reach it
+        assert held == 2 and only_j2[0] == before[0][0]
+        api.setIkGroupProperties(arm, 1, 1, 0.05)  # one step is not enough
+        assert api.checkIkGroup(arm, [j1, j2])[0] == 2
+        api.setIkElementProperties(arm, api.getObject("/Tip"), 7, [0.2, 0.1])  # but 0.2 m is near enough
+        assert api.checkIkGroup(arm, [j1, j2])[0] == 1
+        with pytest.raises(Exception, match="resolutionMethod"):
+            api.setIkGroupProperties(arm, 7, 1, 0.05)
+    finally:
+        sim.close()
