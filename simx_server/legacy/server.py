@@ -351,14 +351,24 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
     def _run(self, client: str, commands: list) -> list:
         """Each command's ``[ok, value]``; commands past the reply budget (limits.MAX_REPLY_BYTES)
         or the request's time budget (limits.MAX_REQUEST_SECONDS), and scene loads and edits past
-        the client's share (limits.EDIT_SHARE), get an error result instead of their value."""
+        the client's share (limits.EDIT_SHARE), get an error result instead of their value.
+
+        The commands run in order, as V-REP's server ran a message's (simExtRemoteApi
+        ``CSimxSocket::_executeCommands``): a command after a ``simxTransferFile`` of the same
+        message (written off this thread) runs once that file is written, so that a
+        ``simxLoadScene`` sent with it finds it (the wait is for this client's own writes, at most
+        limits.MAX_UNWRITTEN_BYTES)."""
         execute, budget = self._execute, limits.MAX_REPLY_BYTES
         results = []
+        writing = False  # a transfer of this message is being written
         # The thread's own time (CPU): on a loaded machine a descheduled thread is not busy, and
         # a Ray env runner's batch of five reads was cut after 0.5 s of wall time. Waiting (for
         # renders, in scripts) counts past MAX_REQUEST_WALL_SECONDS.
         cpu, wall = time.thread_time(), time.monotonic()
         for name, mode, args in commands:
+            if writing:
+                self.sim.editor.files.settle(f"legacy:{client}", wait=True)
+                writing = False
             if name in IMAGES and budget < image_size(self.sim, name, args):
                 results.append(self._over_budget(client, name))
                 continue
@@ -373,6 +383,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                 result = self._edit(client, name, mode, args)
                 if type(result[1]) is Deferred:  # a load or transfer done off this thread
                     self._keep_later(client, name, result[1])
+                    writing = name == "TransferFile"
                 results.append(result)
                 continue
             result = execute(client, name, mode, args)

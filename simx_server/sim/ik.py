@@ -19,6 +19,17 @@ A scene declares an IK group with a custom text (one per group)::
 * ``damping``: λ of the damped least squares (m or rad; default 0.05).
 * ``iterations``: most solver iterations per resolution (default 10, at most
   :data:`simx_server.base.limits.MAX_IK_ITERATIONS`).
+* ``method``: ``damped_least_squares`` (default), ``pseudo_inverse`` (λ 1e-6, as
+  coppeliaKinematicsRoutines ``CikGroup::computeDq``), ``jacobian_transpose`` or ``undamped``
+  (V-REP's ``sim_ik_*_method`` of the group).
+* ``precision``, ``precision2`` ...: ``linear,angular`` (m, rad) within which an element counts as
+  reached (V-REP's element precision; default 1e-5,1e-4); ``weights``, ``weights2`` ...:
+  ``position,orientation`` weights of the element's rows (default 1,1).
+* ``max_steps``: ``false`` lets one iteration's step be as large as the solver computes it (V-REP's
+  "ignore max step sizes", a group's default); ``true`` (default) scales it down to 0.2 rad /
+  0.05 m. A group with any of ``method``, ``precision``, ``weights``, ``max_steps`` is solved by
+  :func:`simx_server.sim.ik_solver.solve` (as one of several elements), from the file's
+  settings: a ``.ttt``'s old IK groups carry all of them (:mod:`simx_server.scene.ttt.parts`).
 * ``explicit``: ``true`` leaves the group to scripts (``sim.handleIkGroup``), as V-REP's
   "explicit handling" flag; otherwise it is solved every simulation step.
 * ``enabled``: ``false`` for a group V-REP's dialog left inactive: never solved, neither every
@@ -87,6 +98,12 @@ class IkGroup:
     elements: list = dataclasses.field(default_factory=list)
     #: False: never solved (V-REP's inactive group)
     enabled: bool = True
+    #: the general solver's method (ik_solver.METHOD_*)
+    method: int = ik_solver.METHOD_DLS
+    #: scale each step down to the joints' largest steps (False: V-REP's "ignore max step sizes")
+    bound_steps: bool = True
+    #: every element as :class:`simx_server.sim.ik_solver.Element` (also for the plain groups)
+    parts: list = dataclasses.field(default_factory=list)
 
 
 def _setting(settings: dict[str, str], key: str, default: str) -> str:
@@ -95,7 +112,10 @@ def _setting(settings: dict[str, str], key: str, default: str) -> str:
 
 #: ``constraints=`` words and V-REP's constraint bits (x 1, y 2, z 4, alpha-beta 8, gamma 16).
 _CONSTRAINTS = {"pose": 31, "position": 7, "orientation": 24}
-_ELEMENT_KEYS = ("tip", "target", "base", "constraints")
+_ELEMENT_KEYS = ("tip", "target", "base", "constraints", "precision", "weights")
+#: ``method=`` words (``sim_ik_*_method``; :data:`simx_server.sim.ik_solver.METHOD_DLS` ...).
+METHODS = {"pseudo_inverse": ik_solver.METHOD_PSEUDO_INVERSE, "damped_least_squares": ik_solver.METHOD_DLS,
+           "jacobian_transpose": ik_solver.METHOD_TRANSPOSE, "undamped": ik_solver.METHOD_UNDAMPED}
 MAX_ELEMENTS = 8
 
 
@@ -109,6 +129,19 @@ def _bits(text: str) -> int:
     if not 1 <= bits <= 31:
         raise ValueError(f"constraints must be pose, position, orientation or V-REP's bits (1-31), got {text!r}")
     return bits
+
+
+def _pair(settings: dict[str, str], key: str, default: tuple[float, float]) -> tuple[float, float]:
+    """``key=a,b``: two positive numbers (a weight may be 0)."""
+    if key not in settings:
+        return default
+    try:
+        a, b = (float(v) for v in settings[key].split(","))
+    except ValueError:
+        raise ValueError(f"{key} must be two numbers a,b, got {settings[key]!r}") from None
+    if not (a >= 0 and b >= 0 and np.isfinite(a + b)) or (key.startswith("precision") and not (a > 0 and b > 0)):
+        raise ValueError(f"{key} must be two positive numbers, got {settings[key]!r}")
+    return a, b
 
 
 def _element(world: World, settings: dict[str, str], n: str) -> tuple[Any, Any, int, str | None, int]:
@@ -154,12 +187,18 @@ def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> Ik
     """Build a group from its ``simx:ik:NAME`` settings; raises ValueError naming the problem."""
     m = world.model
     numbered = [str(k) for k in range(2, MAX_ELEMENTS + 1)]
-    allowed = {"damping", "iterations", "explicit", "enabled"} | {key + n for key in _ELEMENT_KEYS for n in ["", *numbered]}
+    allowed = {"damping", "iterations", "explicit", "enabled", "method", "max_steps"} | \
+        {key + n for key in _ELEMENT_KEYS for n in ["", *numbered]}
     unknown = set(settings) - allowed
     if unknown:
         raise ValueError(f"unknown key(s) {sorted(unknown)}")
-    elements = [_element(world, settings, "")]
-    elements += [_element(world, settings, n) for n in numbered if "tip" + n in settings or "target" + n in settings]
+    names = ["", *(n for n in numbered if "tip" + n in settings or "target" + n in settings)]
+    elements = [_element(world, settings, n) for n in names]
+    tolerances = [_pair(settings, "precision" + n, (_POSITION_TOLERANCE, _ORIENTATION_TOLERANCE)) for n in names]
+    weights = [_pair(settings, "weights" + n, (1.0, 1.0)) for n in names]
+    method = settings.get("method", "damped_least_squares")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}")
     try:
         damping = float(_setting(settings, "damping", "0.05"))
         iterations = int(_setting(settings, "iterations", "10"))
@@ -178,7 +217,12 @@ def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> Ik
     ids = np.array([j for _, j in chain])
     limited = m.jnt_limited[ids].astype(bool)
     tip, target, _, _, bits = elements[0]
-    several = len(elements) > 1 or bits not in (7, 31)  # the general solver (ik_solver)
+    parts = [ik_solver.Element(i, t.handle, g.handle, constraints=c, precision=tolerances[i], weights=weights[i])
+             for i, (t, g, _, _, c) in enumerate(elements)]
+    # the general solver (ik_solver): several elements, partial constraints, or the settings of a
+    # V-REP group (method, precision, weights, max steps) beyond the plain pose / position group
+    several = len(elements) > 1 or bits not in (7, 31) or \
+        any(k.startswith(("precision", "weights")) or k in ("method", "max_steps") for k in settings)
     return IkGroup(
         name=name, handle=handle, tip=tip.mj_id, target=target.mj_id,
         pose=bits == 31, damping=damping, iterations=iterations,
@@ -186,9 +230,9 @@ def _parse(world: World, name: str, settings: dict[str, str], handle: int) -> Ik
         enabled=_setting(settings, "enabled", "true").lower() in ("true", "1", "yes"),
         joints=[h for h, _ in chain], qadr=m.jnt_qposadr[ids].copy(), dadr=m.jnt_dofadr[ids].copy(),
         low=np.where(limited, m.jnt_range[ids, 0], -np.inf), high=np.where(limited, m.jnt_range[ids, 1], np.inf),
-        elements=[ik_solver.Element(i, t.handle, g.handle, constraints=c,
-                                    precision=(_POSITION_TOLERANCE, _ORIENTATION_TOLERANCE))
-                  for i, (t, g, _, _, c) in enumerate(elements)] if several else [])
+        method=METHODS[method],
+        bound_steps=_setting(settings, "max_steps", "true").lower() in ("true", "1", "yes"),
+        elements=parts if several else [], parts=parts)
 
 
 class IkGroups:
@@ -288,8 +332,8 @@ class IkGroups:
         q = np.clip(q, g.low, g.high)
         if g.elements:  # several elements, or constraints other than pose and position
             hinge = m.jnt_type[[w.get(h).mj_id for h in g.joints]] == mujoco.mjtJoint.mjJNT_HINGE
-            ok, q, _ = ik_solver.solve(w, s, g.joints, q, g.elements, ik_solver.METHOD_DLS, g.damping, g.iterations,
-                                       np.where(hinge, MAX_STEP_RAD, MAX_STEP_M))
+            ok, q, _ = ik_solver.solve(w, s, g.joints, q, g.elements, g.method, g.damping, g.iterations,
+                                       np.where(hinge, MAX_STEP_RAD, MAX_STEP_M), bound_steps=g.bound_steps)
             self._set_targets(g, q)
             return IK_SUCCESS if ok else IK_FAIL
         lam2 = g.damping * g.damping
@@ -311,6 +355,37 @@ class IkGroups:
             q = np.clip(q + dq, g.low, g.high)
         self._set_targets(g, q)
         return IK_SUCCESS if ok else IK_FAIL
+
+    def check(self, g: IkGroup, joints: list[int]) -> tuple[int, list[float]]:
+        """Solve ``g`` from the joints' current positions moving only ``joints`` (the chain's
+        others stay where they are), and leave the scene as it was: coppeliaSimLib
+        ``CIkGroup_old::checkIkGroup`` (``sim.checkIkGroup``), with the group's own method,
+        damping, iterations, precision and weights.
+
+        Args:
+            g: the group.
+            joints: handles of the joints the solver may move (any of the chain's).
+
+        Returns:
+            ``(result, values)``: IK_SUCCESS (1), IK_FAIL (2) or IK_NOT_PERFORMED (0, a group
+            saved inactive), and the joints' positions reached (rad or m), in ``joints``' order.
+
+        Raises:
+            ArgumentError: a joint that is not in the group's chain.
+        """
+        w, s = self.world, self._scratch
+        for h in joints:
+            if h not in g.joints:
+                raise ArgumentError(f"joint {quote(h)} is not in the chain of IK group {g.name!r}")
+        q0 = [w.joint_position(h) for h in joints]
+        if not g.enabled or not joints:
+            return IK_NOT_PERFORMED, q0
+        s.qpos[:] = w.data.qpos
+        s.mocap_pos[:], s.mocap_quat[:] = w.data.mocap_pos, w.data.mocap_quat
+        hinge = self.model.jnt_type[[w.get(h).mj_id for h in joints]] == mujoco.mjtJoint.mjJNT_HINGE
+        ok, q, _ = ik_solver.solve(w, s, joints, np.array(q0, float), g.parts, g.method, g.damping, g.iterations,
+                                   np.where(hinge, MAX_STEP_RAD, MAX_STEP_M), bound_steps=g.bound_steps)
+        return (IK_SUCCESS if ok else IK_FAIL), [float(v) for v in q]
 
     def _set_targets(self, g: IkGroup, q: np.ndarray) -> None:
         for h, value in zip(g.joints, q):
@@ -352,6 +427,30 @@ def step(world: World) -> None:
             g.solve_automatic()
         except Exception:  # never a step fault: the arm keeps its last targets
             log.exception("IK groups of %s not solved this step", world.scene_name)
+
+
+def set_properties(world: World, g: IkGroup, **changes: str) -> None:
+    """Change a group's ``simx:ik:NAME`` settings (``method``, ``iterations``, ``damping``,
+    ``constraintsN``...) and re-read the groups: ``sim.setIkGroupProperties`` /
+    ``sim.setIkElementProperties``. The settings are checked as the scene's are.
+
+    Args:
+        world: the world.
+        g: the group.
+        changes: setting -> value (text).
+
+    Raises:
+        ArgumentError: a value the group cannot take (the group is left as it was).
+    """
+    key = PREFIX + g.name
+    settings = world.settings[key]
+    updated = {**settings, **changes}
+    try:
+        _parse(world, g.name, updated, g.handle)
+    except ValueError as exc:
+        raise ArgumentError(f"IK group {g.name!r}: {exc}") from None
+    settings.update(changes)
+    _GROUPS.pop(world, None)
 
 
 # ------------------------------------------------------------ for sim.handleIkGroup & co.

@@ -260,3 +260,23 @@ def test_baxter_suction_cup_grasps_carries_and_releases(pr):
     assert np.allclose(part.get_position(), start + [0.1, 0.0, 0.0], atol=2e-3)
     cup.release()
     assert cup.get_grasped_objects() == [] and part.get_parent() is None
+
+
+def test_panda_ik_via_jacobian_is_its_groups_own(pr):
+    """PyRep's ``solve_ik_via_jacobian`` is ``simCheckIkGroup`` on the model's ``Panda_ik`` group:
+    6 pseudo-inverse iterations to 0.5 mm, as the model saved it. A tip 0.1 m lower is found
+    (the arm and its target's solution stay apart: the arm is not moved); 0.4 m is too far for
+    those 6 steps, the IKError PyRep's example_panda_ik falls back on."""
+    from pyrep.errors import IKError
+    from pyrep.robots.arms.panda import Panda
+
+    pr.stop()
+    pr.import_model(str(require_shared(MODELS / "arms" / "Panda.ttm")))
+    pr.start()
+    arm = Panda()
+    start = arm.get_joint_positions()
+    (x, y, z), q = arm.get_tip().get_position(), arm.get_tip().get_quaternion()
+    near = arm.solve_ik_via_jacobian([x, y, z - 0.1], quaternion=q)
+    assert np.allclose(arm.get_joint_positions(), start) and not np.allclose(near, start, atol=0.05)
+    with pytest.raises(IKError):
+        arm.solve_ik_via_jacobian([x, y, z - 0.4], quaternion=q)

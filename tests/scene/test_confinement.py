@@ -98,6 +98,39 @@ def client_b(server_b):
     vrep.simxFinish(cid)
 
 
+def test_a_load_after_a_oneshot_transfer_of_the_same_message_sees_the_file(server_b):
+    """V-REP runs a message's commands in order (simExtRemoteApi ``CSimxSocket::_executeCommands``):
+    a scene sent by a oneshot ``simxTransferFile`` exists when the ``simxLoadScene`` of the same
+    message runs, which then loads it (it was refused "busy, send it again": the write was still
+    on the files' thread)."""
+    import msgpack
+    import zenoh
+
+    from simx_client import protocol as P
+    from simx_client.connection import client_config
+
+    xml = ('<mujoco><worldbody><body name="SameMessage" pos="0 0 1"><geom type="box" size=".1 .1 .1"/>'
+           '</body></worldbody></mujoco>').encode() + b" " * 3_000_000  # big enough to take a while
+    session = zenoh.open(client_config("127.0.0.1", server_b.port))
+    try:
+        client = uuid.uuid4().hex
+
+        def call(commands: list) -> list:
+            for reply in session.get(P.call_key("simx", client), payload=P.request(client, commands), timeout=60):
+                if reply.ok is not None:
+                    return msgpack.unpackb(reply.ok.payload.to_bytes(), raw=False)[5]
+            raise AssertionError("no reply")
+
+        assert call([["StopSimulation", WAIT, []]])[0][0] is True
+        results = call([["TransferFile", vrep.simx_opmode_oneshot, ["same.xml", xml]],
+                        ["LoadScene", WAIT, ["same.xml", 1]]])
+        assert [ok for ok, _ in results] == [True, True], results
+        assert call([["GetObjectHandle", WAIT, ["SameMessage"]]])[0][0] is True  # the scene it sent
+        assert call([["LoadScene", WAIT, [SCENE.name, 0]], ["StartSimulation", WAIT, []]]) == [[True, None]] * 2
+    finally:
+        session.close()
+
+
 # ------------------------------------------------------------------ defect 3
 def test_transfer_folder_is_private_to_one_server_and_swept_after_kill(server_b, client_b, tmp_path, monkeypatch):
     token = uuid.uuid4().hex[:8]

@@ -45,25 +45,40 @@ class Arm(RobotComponent):
         self._constraints = np.ones(6, dtype=bool)  # x y z, alpha-beta (2), gamma
         self._max_iterations = 200
         self._damping = 0.05
+        # the model's own IK group (PyRep's arms carry "<name>_ik"): solve_ik_via_jacobian is
+        # CoppeliaSim's simCheckIkGroup on it, with the group's method, iterations and precision
+        try:
+            self._ik_group: int | None = int(sim.call("getIkGroupHandle", f"{name}_ik{suffix}"))
+        except RuntimeError:
+            self._ik_group = None
 
     # ------------------------------------------------------ IK settings
     def set_ik_element_properties(self, constraint_x: bool = True, constraint_y: bool = True,
                                   constraint_z: bool = True, constraint_alpha_beta: bool = True,
                                   constraint_gamma: bool = True) -> None:
-        """Which of the tip's coordinates IK must reach."""
+        """Which of the tip's coordinates IK must reach (the arm's IK group's element: PyRep's
+        ``simSetIkElementProperties``)."""
+        if self._ik_group is not None:
+            bits = sum(b for b, on in zip((1, 2, 4, 8, 16), (constraint_x, constraint_y, constraint_z,
+                                                              constraint_alpha_beta, constraint_gamma)) if on)
+            sim.call("setIkElementProperties", self._ik_group, self._ik_tip.get_handle(), bits)
         self._constraints = np.array([constraint_x, constraint_y, constraint_z, constraint_alpha_beta,
                                       constraint_alpha_beta, constraint_gamma])
 
     def set_ik_group_properties(self, resolution_method: str = "pseudo_inverse", max_iterations: int = 6,
                                 dls_damping: float = 0.1) -> None:
         """IK's method (``pseudo_inverse``, ``damped_least_squares``, ``jacobian_transpose``),
-        iterations and damping.
+        iterations and damping (the arm's IK group's: PyRep's ``simSetIkGroupProperties``).
 
         Raises:
             Exception: an unknown method.
         """
-        if resolution_method not in ("pseudo_inverse", "damped_least_squares", "jacobian_transpose"):
+        methods = ("pseudo_inverse", "damped_least_squares", "jacobian_transpose")
+        if resolution_method not in methods:
             raise Exception(f"Invalid resolution method: {resolution_method}")
+        if self._ik_group is not None:
+            sim.call("setIkGroupProperties", self._ik_group, methods.index(resolution_method), int(max_iterations),
+                     float(dls_damping))
         self._max_iterations = max(int(max_iterations), 50)
         self._damping = 0.01 if resolution_method == "pseudo_inverse" else float(dls_damping)
 
@@ -134,14 +149,26 @@ class Arm(RobotComponent):
         return None
 
     def solve_ik_via_jacobian(self, position: Any, euler: Any = None, quaternion: Any = None,
-                              relative_to: Object | None = None) -> np.ndarray:
+                              relative_to: Object | None = None, locked_joints: list[int] | None = None) -> np.ndarray:
         """Joint values (n,) that put the tip at the pose, from the current configuration (the arm
-        is not moved).
+        is not moved; the target dummy is). With the arm's IK group (``<name>_ik``) this is
+        PyRep's ``simCheckIkGroup`` on it: its own method, iterations, damping and precision
+        decide, so a pose too far for them fails as on CoppeliaSim; ``locked_joints`` (indices)
+        are held. Without one, damped least squares of :meth:`set_ik_group_properties`.
 
         Raises:
             IKError: no solution from here.
         """
         goal = self._target_matrix(position, euler, quaternion, relative_to)
+        if self._ik_group is not None:
+            locked = set(locked_joints or [])
+            joints = [j for i, j in enumerate(self.joints) if i not in locked]
+            result, values = sim.call("checkIkGroup", self._ik_group, [j.get_handle() for j in joints])
+            if int(result) == 2:  # sim_ikresult_fail
+                raise IKError("IK failed. Perhaps the distance was between the tip  and target was too large.")
+            if int(result) == 0:
+                raise IKError("IK not performed.")
+            return np.array(values, float)
         start = np.array(self.get_joint_positions())
         lo, hi = self._limits()
         try:

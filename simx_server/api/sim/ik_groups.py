@@ -1,5 +1,6 @@
 """The scene's IK groups (``simx:ik:NAME``, :mod:`simx_server.sim.ik`) as V-REP 3.x's ``sim``
-calls: ``sim.handleIkGroup`` and ``sim.getIkGroupHandle``."""
+calls: ``sim.handleIkGroup``, ``sim.getIkGroupHandle``, ``sim.checkIkGroup`` (PyRep's
+``solve_ik_via_jacobian``), ``sim.setIkGroupProperties`` and ``sim.setIkElementProperties``."""
 
 from __future__ import annotations
 
@@ -7,7 +8,9 @@ from typing import Any
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
+from simx_server.base.arguments import as_integer, as_number, as_vector
 from simx_server.sim import ik
+from simx_server.sim.world import JOINT
 from simx_wire.protocol import ArgumentError
 
 
@@ -57,3 +60,91 @@ def getIkGroupHandle(ctx: CallContext, name: Any) -> int:  # noqa: N802
         UnknownObjectError: no such group.
     """
     return ik.groups(ctx.world).group(str(ik.group_arg(name))).handle
+
+
+@sim_function("checkIkGroup")
+def checkIkGroup(ctx: CallContext, group: Any, jointHandles: Any, jointOptions: Any = None) -> tuple[int, list[float]]:  # noqa: N802, N803
+    """``sim.checkIkGroup(ikGroupHandle, jointHandles, jointOptions=nil)`` as coppeliaSimLib
+    ``CIkGroup_old::checkIkGroup``: solve an explicit group from the joints' current positions
+    with the group's own method, damping, iterations and precision, moving only the joints named
+    (the chain's others held), and leave the scene as it was.
+
+    Args:
+        group: an IK group's handle or name (tagged for explicit handling).
+        jointHandles: the joints to solve for (some of the chain's).
+        jointOptions: per joint, bit 0 set: held (as left out); nil: none held.
+
+    Returns:
+        ``(result, jointValues)``: ``sim.ikresult_success`` (1), ``fail`` (2) or ``not_performed``
+        (0, a group saved inactive), and the joints' positions reached (rad or m).
+
+    Raises:
+        UnknownObjectError: no such group or joint.
+        ArgumentError: a group not tagged for explicit handling, a joint outside its chain.
+    """
+    gs = ik.groups(ctx.world)
+    g = gs.group(ik.group_arg(group))
+    if not g.explicit:
+        raise ArgumentError(f"IK group {g.name!r} is not tagged for explicit handling")
+    if not isinstance(jointHandles, (list, tuple)):
+        raise ArgumentError("jointHandles must be a table of joint handles")
+    joints = [ctx.h(j, "jointHandles[i]") for j in jointHandles]
+    for j in joints:
+        ctx.world.get(j, JOINT)
+    options = list(jointOptions) if isinstance(jointOptions, (list, tuple)) else [0] * len(joints)
+    if len(options) != len(joints):
+        raise ArgumentError("jointOptions must have one entry per joint")
+    free = [j for j, o in zip(joints, options) if not int(o) & 1]
+    result, values = gs.check(g, free)
+    by_joint = dict(zip(free, values))
+    return result, [by_joint.get(j, ctx.world.joint_position(j)) for j in joints]
+
+
+_METHOD_WORDS = {v: k for k, v in ik.METHODS.items()}
+
+
+@sim_function("setIkGroupProperties")
+def setIkGroupProperties(ctx: CallContext, group: Any, resolutionMethod: Any, maxIterations: Any,  # noqa: N802, N803
+                         damping: Any) -> None:
+    """``sim.setIkGroupProperties(ikGroupHandle, resolutionMethod, maxIterations, damping)``:
+    ``sim.ik_pseudo_inverse_method`` (0), ``damped_least_squares_method`` (1) or
+    ``jacobian_transpose_method`` (2), iterations (1..MAX_IK_ITERATIONS), damping λ.
+
+    Raises:
+        UnknownObjectError: no such group.
+        ArgumentError: an unknown method, iterations out of range, a negative damping.
+    """
+    g = ik.groups(ctx.world).group(ik.group_arg(group))
+    method, iterations, lam = as_integer(resolutionMethod, "resolutionMethod"), \
+        as_integer(maxIterations, "maxIterations"), as_number(damping, "damping")
+    if method not in _METHOD_WORDS:
+        raise ArgumentError(f"resolutionMethod must be 0, 1, 2 or 3, got {method}")
+    ik.set_properties(ctx.world, g, method=_METHOD_WORDS[method], iterations=str(iterations), damping=repr(lam))
+
+
+@sim_function("setIkElementProperties")
+def setIkElementProperties(ctx: CallContext, group: Any, tipDummyHandle: Any, constraints: Any,  # noqa: N802, N803
+                           precision: Any = None, weight: Any = None) -> None:
+    """``sim.setIkElementProperties(ikGroupHandle, tipDummyHandle, constraints, precision=nil,
+    weight=nil)``: the element of that tip's constraint bits (x 1, y 2, z 4, alpha-beta 8,
+    gamma 16), precision ``{linear m, angular rad}`` and weights ``{position, orientation}``.
+
+    Raises:
+        UnknownObjectError: no such group.
+        ArgumentError: no element with that tip, bad constraints, precision or weights.
+    """
+    g = ik.groups(ctx.world).group(ik.group_arg(group))
+    tip = ctx.h(tipDummyHandle, "tipDummyHandle")
+    index = next((i for i, el in enumerate(g.parts) if el.tip == tip), None)
+    if index is None:
+        raise ArgumentError(f"IK group {g.name!r} has no element with tip {tip}")
+    n = "" if index == 0 else str(index + 1)
+    c = as_integer(constraints, "constraints")
+    if not 1 <= c <= 31:
+        raise ArgumentError(f"constraints must be V-REP's bits 1-31, got {c}")
+    changes = {f"constraints{n}": str(c)}
+    for key, value in ((f"precision{n}", precision), (f"weights{n}", weight)):
+        if value is not None:
+            a, b = as_vector(value, 2, key)
+            changes[key] = f"{a!r},{b!r}"
+    ik.set_properties(ctx.world, g, **changes)

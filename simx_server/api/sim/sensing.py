@@ -380,7 +380,11 @@ def resetProximitySensor(ctx: CallContext, sensorHandle: Any) -> None:  # noqa: 
 
 @sim_function("getExplicitHandling")
 def getExplicitHandling(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N802, N803
-    """Sensors are read when asked in simx: 0, or what :func:`setExplicitHandling` stored.
+    """An object's explicit-handling flags: for a vision sensor bit 0 is whether it has explicit
+    handling now (saved so in the scene, or set by :func:`setExplicitHandling`: the set the
+    simulation's vision handling reads, :attr:`simx_server.sim.vision_handled.VisionHandling.explicit`);
+    for other objects what :func:`setExplicitHandling` stored (0 by default: sensors are read
+    when asked in simx).
 
     ``sim.getExplicitHandling``.
 
@@ -393,7 +397,10 @@ def getExplicitHandling(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N8
     Raises:
         UnknownObjectError: no such object.
     """
-    return int((ctx.state.explicit or {}).get(ctx.world.get(ctx.h(objectHandle)).handle, 0))
+    obj = ctx.world.get(ctx.h(objectHandle))
+    if obj.type == VISION_SENSOR and ctx.view is not None:
+        return int(obj.handle in ctx.view.vision.explicit)
+    return int((ctx.state.explicit or {}).get(obj.handle, 0))
 
 
 @sim_function("setExplicitHandling")
@@ -412,13 +419,15 @@ def setExplicitHandling(ctx: CallContext, objectHandle: Any, explicitHandlingFla
         UnknownObjectError: no such object.
         ArgumentError: not an integer.
     """
+    obj = ctx.world.get(ctx.h(objectHandle))
+    flags = _int(explicitHandlingFlags, "flags")
+    if obj.type == VISION_SENSOR and ctx.view is not None:  # not handled each pass (vision callbacks)
+        (ctx.view.vision.explicit.add if flags & 1 else ctx.view.vision.explicit.discard)(obj.handle)
+        return  # that set is the one truth of a vision sensor's flag (getExplicitHandling reads it)
     explicit = ctx.state.explicit
     if explicit is None:
         explicit = ctx.state.explicit = {}
-    obj = ctx.world.get(ctx.h(objectHandle))
-    flags = explicit[obj.handle] = _int(explicitHandlingFlags, "flags")
-    if obj.type == VISION_SENSOR and ctx.view is not None:  # not handled each pass (vision callbacks)
-        (ctx.view.vision.explicit.add if flags & 1 else ctx.view.vision.explicit.discard)(obj.handle)
+    explicit[obj.handle] = flags
 
 
 @sim_function("getVelocity")

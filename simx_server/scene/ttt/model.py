@@ -190,13 +190,30 @@ class Collection:
 
 
 @dataclass
+class IkElement:
+    """One element of an old IK group (coppeliaSimLib ``CIkElement_old``)."""
+
+    tip: int  # the tip dummy's handle (its linked dummy is the target)
+    base: int  # the chain's base (-1: the world)
+    constraints: int = 7  # V-REP's bits: x 1, y 2, z 4, alpha-beta 8, gamma 16
+    precision: tuple[float, float] = (0.0005, 0.1 * np.pi / 180)  # linear m, angular rad
+    weights: tuple[float, float] = (1.0, 1.0)  # position, orientation
+    enabled: bool = True
+
+
+@dataclass
 class IkGroup:
-    """An old (V-REP 3.x) IK group: each element a tip dummy, its base, and constraints bits."""
+    """An old (V-REP 3.x) IK group (coppeliaSimLib ``CIkGroup_old``): its elements and how it is
+    solved (defaults: ``_CIkGroup_old``'s)."""
 
     name: str
-    elements: list[tuple[int, int, int]]  # (tip handle, base handle, constraints)
+    elements: list[IkElement]
     explicit: bool = False
     enabled: bool = True
+    iterations: int = 3
+    damping: float = 0.1
+    method: int = 0  # sim_ik_pseudo_inverse_method 0, damped_least_squares 1, jacobian_transpose 2
+    max_steps: bool = False  # False: the joints' max step sizes are ignored (Var bit 5 clear)
 
 
 @dataclass

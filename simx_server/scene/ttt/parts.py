@@ -12,6 +12,7 @@ import numpy as np
 from simx_server.scene.ttt import kinds, looks, mechanisms
 from simx_server.scene.ttt.filters import vision_settings
 from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
+from simx_server.base.limits import MAX_IK_ITERATIONS
 from simx_server.sim.ik import MAX_ELEMENTS as MAX_IK_ELEMENTS
 from simx_server.sim.motors import DEFAULT_PID_P
 from simx_server.scene.ttt.model import Pose, TttObject
@@ -211,43 +212,58 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         conv.report.add(f"{kind.replace('_', ' ')} objects (kept as dummies)")
 
 
+#: ``sim_ik_*_method`` of an old group's ``Cmt`` by the words of ``simx:ik:NAME method=``.
+_IK_METHODS = {0: "pseudo_inverse", 1: "damped_least_squares", 2: "jacobian_transpose", 3: "undamped"}
+
+
+def _ik_element(conv, element, n: str) -> list[str] | None:
+    """The settings of one element (``n``: "" for the first, "2"... for the others), or None."""
+    tip = conv.scene.objects.get(element.tip)
+    target = conv.scene.objects.get(tip.data.linked) if tip is not None and tip.kind == "dummy" else None
+    if target is None or not 1 <= element.constraints <= 31:
+        return None
+    words = {31: "pose", 7: "position"}
+    items = [f"tip{n}={tip.name}", f"target{n}={target.name}",
+             f"constraints{n}={words.get(element.constraints, element.constraints)}"]
+    base = conv.scene.objects.get(element.base)
+    if base is not None and base.handle in conv.bodies:
+        items.append(f"base{n}={base.name}")
+    items.append(f"precision{n}={element.precision[0]:.9g},{element.precision[1]:.9g}")
+    if tuple(element.weights) != (1.0, 1.0):
+        items.append(f"weights{n}={element.weights[0]:.9g},{element.weights[1]:.9g}")
+    return items
+
+
 def add_ik_groups(conv) -> None:
-    """Old IK groups (``IKO``): each element's tip dummy, its linked target and its base as a
-    ``simx:ik:NAME`` setting (the first: position constraints unless orientation is constrained
-    too; the others ``tipN= targetN= baseN= constraintsN=`` with V-REP's constraint bits)."""
+    """Old IK groups (``IKO``) as ``simx:ik:NAME`` settings (:mod:`simx_server.sim.ik`): each
+    element's tip dummy, its linked target, its base, constraint bits, precision and weights
+    (the first as ``tip= target= ...``, the others ``tipN= targetN= ...``), and the group's
+    method, damping, iterations and max-step flag as the file has them (``CIkGroup_old``)."""
     taken = set()
     for group in conv.scene.ik_groups:
-        if not group.elements:
+        elements = [e for e in group.elements if e.enabled]
+        if not elements:
             continue
-        tip_h, base_h, ctr = group.elements[0]
-        tip = conv.scene.objects.get(tip_h)
-        if tip is None or tip.kind != "dummy" or tip.data.linked < 0:
+        first = _ik_element(conv, elements[0], "")
+        if first is None:
             conv.report.add("IK groups without a linked tip dummy")
-            continue
-        target = conv.scene.objects.get(tip.data.linked)
-        if target is None:
             continue
         name = group.name
         while name in taken:
             name += "_"
         taken.add(name)
-        items = [f"tip={tip.name}", f"target={target.name}",
-                 f"constraints={'pose' if ctr & 24 else 'position'}"]
-        base = conv.scene.objects.get(base_h)
-        if base is not None and base.handle in conv.bodies:
-            items.append(f"base={base.name}")
-        for n, (tip_h, base_h, ctr) in enumerate(group.elements[1:MAX_IK_ELEMENTS], start=2):
-            tip = conv.scene.objects.get(tip_h)
-            target = conv.scene.objects.get(tip.data.linked) if tip is not None and tip.kind == "dummy" else None
-            if target is None or not 1 <= ctr <= 31:
+        items = first
+        for n, element in enumerate(elements[1:MAX_IK_ELEMENTS], start=2):
+            more = _ik_element(conv, element, str(n))
+            if more is None:
                 conv.report.add("IK group elements without a linked tip dummy")
                 continue
-            items += [f"tip{n}={tip.name}", f"target{n}={target.name}", f"constraints{n}={ctr}"]
-            base = conv.scene.objects.get(base_h)
-            if base is not None and base.handle in conv.bodies:
-                items.append(f"base{n}={base.name}")
-        if len(group.elements) > MAX_IK_ELEMENTS:
+            items += more
+        if len(elements) > MAX_IK_ELEMENTS:
             conv.report.add(f"IK group elements beyond the {MAX_IK_ELEMENTS}th")
+        items += [f"method={_IK_METHODS.get(group.method, 'pseudo_inverse')}", f"damping={group.damping:.9g}",
+                  f"iterations={max(1, min(group.iterations, MAX_IK_ITERATIONS))}",
+                  f"max_steps={'true' if group.max_steps else 'false'}"]
         if group.explicit:
             items.append("explicit=true")
         if not group.enabled:

@@ -16,7 +16,7 @@ from simx_server.scene.ttt import custom, filters, kinds, looks, measurements, s
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.errors import SceneFileError
 from simx_server.scene.ttt.geometry import pose7
-from simx_server.scene.ttt.model import (Collection, DummyData, ForceSensorData, IkGroup, JointData,
+from simx_server.scene.ttt.model import (Collection, DummyData, ForceSensorData, IkElement, IkGroup, JointData,
                                          ProximityData, Script, Texture, TttObject, TttScene, VisionData)
 from simx_server.scene.ttt.records import Records, light_decode, read_body
 
@@ -313,22 +313,49 @@ def _read_collection(r: Records) -> Collection:
     return Collection(r.string("Grn") or r.string("Nme"), elements, r.int("Gix", -1))
 
 
+def _pair(r: Records, new: str, *old: str) -> tuple[float, float] | None:
+    """Two numbers from ``new`` (doubles) or the first present of ``old`` (floats), or None."""
+    v = r.floats(new, None, 2)
+    for tag in old:
+        if v is None:
+            v = r.floats(None, tag, 2)
+    return None if v is None else (float(v[0]), float(v[1]))
+
+
 def _read_ik_group(r: Records) -> IkGroup:
+    """An ``IKO`` record (coppeliaSimLib ``CIkGroup_old::serialize``, its elements
+    ``CIkElement_old::serialize``): ``Mit`` iterations, ``_pg`` (``Dpg`` float) damping, ``Cmt``
+    method; each ``Ike``: ``Ik2`` tip and base, ``Ctr`` constraints, ``_r2`` (``Pr2`` float;
+    ``Prc`` float, degrees) angular then linear precision, ``_gt`` (``Wgt`` float) position and
+    orientation weights, ``Var`` bit 0 enabled."""
     elements = []
     for tag, payload in r:
         if tag == "Ike":
             sub = r.sub(tag, payload)
             ik2 = sub.ints("Ik2", 2)
             ctr = sub.int("Ctr", 7)
-            if ik2 is not None:
-                elements.append((int(ik2[0]), int(ik2[1]), ctr))
-    # "Var" (coppeliaSimLib CIkGroup_old::serialize): bit 0 enabled, bit 6 explicit handling ("Va2"
-    # holds the joint-limit correction). Files before "Var" carried the explicit flag as Va2 bit 1
-    # (kept for those files).
+            if ik2 is None:
+                continue
+            prec = _pair(sub, "_r2", "Pr2")
+            if prec is None and (old := sub.floats(None, "Prc", 2)) is not None:  # degrees
+                prec = (float(np.radians(old[0])), float(old[1]))
+            angular, linear = prec if prec is not None else (np.radians(0.1), 0.0005)
+            weights = _pair(sub, "_gt", "Wgt") or (1.0, 1.0)
+            enabled = bool(sub.byte("Var", 1) & 1)
+            elements.append(IkElement(int(ik2[0]), int(ik2[1]), ctr, (float(linear), float(angular)), weights,
+                                      enabled))
+    damping = r.floats("_pg", "Dpg", 1)
+    settings = dict(iterations=r.int("Mit", 3), damping=0.1 if damping is None else float(damping[0]),
+                    method=r.int("Cmt", 0))
+    # "Var" (coppeliaSimLib CIkGroup_old::serialize): bit 0 enabled, bit 5 max step sizes honoured,
+    # bit 6 explicit handling ("Va2" holds the joint-limit correction). Files before "Var" carried
+    # the explicit flag as Va2 bit 1 (kept for those files).
+    name = r.string("Nme") or "IK_Group"
     if r.get("Var") is not None:
         var = r.byte("Var")
-        return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=bool(var & 0x40), enabled=bool(var & 1))
-    return IkGroup(r.string("Nme") or "IK_Group", elements, explicit=bool(r.byte("Va2") & 2))
+        return IkGroup(name, elements, explicit=bool(var & 0x40), enabled=bool(var & 1),
+                       max_steps=bool(var & 0x20), **settings)
+    return IkGroup(name, elements, explicit=bool(r.byte("Va2") & 2), **settings)
 
 
 def _read_dynamics(r: Records, scene: TttScene) -> None:

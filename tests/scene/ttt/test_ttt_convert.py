@@ -183,8 +183,12 @@ def test_old_ik_groups_keep_every_element(tmp_path):
     f = tmp_path / "ik.ttt"
     f.write_bytes(W.ttt_file(body))
     xml, report = convert.convert(reader.read(f), tmp_path / "out", "ik")
+    # CIkElement_old's and _CIkGroup_old's defaults where the file has none
     assert _settings(xml)["simx:ik:Arm"] == ("tip=Tip target=Target constraints=position base=Base "
-                                             "tip2=TipO target2=TargetO constraints2=16 base2=Base")
+                                             "precision=0.0005,0.00174532925 "
+                                             "tip2=TipO target2=TargetO constraints2=16 base2=Base "
+                                             "precision2=0.0005,0.00174532925 "
+                                             "method=pseudo_inverse damping=0.1 iterations=3 max_steps=false")
     assert not any("IK group" in line for line in report.lines())
     from simx_server.scene.simulation import Simulation
     from simx_server.sim import ik

@@ -230,5 +230,11 @@ def test_a_sensors_own_script_processes_its_image_and_explicit_ones_wait(tmp_pat
         assert sim.signals.get_int("calls_seen") == 2 and sim.signals.get_int("calls_later") is None
         api.handleVisionSensor(_h(sim, "later"))
         assert sim.signals.get_int("calls_later") == 1
+        # one truth: what the file saved is what sim.getExplicitHandling reads, and a change shows
+        assert (api.getExplicitHandling(_h(sim, "later")), api.getExplicitHandling(h)) == (1, 0)
+        api.setExplicitHandling(_h(sim, "later"), 0)
+        api.setExplicitHandling(h, 1)
+        assert (api.getExplicitHandling(_h(sim, "later")), api.getExplicitHandling(h)) == (0, 1)
+        assert sim.vision.explicit == {h}
     finally:
         sim.close()

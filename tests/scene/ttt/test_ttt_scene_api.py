@@ -20,7 +20,8 @@ pytestmark = pytest.mark.renderers_on_demand  # no image is read
 
 def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False, enabled: bool = True) -> bytes:
     """Two hinge arm (the first unlimited with ``cyclic``), its tip linked to a target at the
-    tip, one old IK group."""
+    tip, one old IK group: damped least squares (0.05), 10 iterations (from its straight, singular
+    start the pseudo-inverse of ``_CIkGroup_old``'s defaults jumps about, as it would on V-REP)."""
     return (W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
             + W.joint(2, 1, "J1", (0, 0, 0.15), quat=(0.7071068, 0.7071068, 0, 0), limits=(-3.0, 6.0), cyclic=cyclic)
             + W.cuboid_shape(3, 2, "L1", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
@@ -28,7 +29,8 @@ def _arm(explicit: bool, extra: bytes = b"", cyclic: bool = False, enabled: bool
             + W.cuboid_shape(5, 4, "L2", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
             + W.dummy(6, 5, "Tip", (0, 0.15, 0), linked=7, link_type=5)
             + W.dummy(7, -1, "Target", (0, 0, 0.85), linked=6, link_type=5)
-            + extra + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit, enabled=enabled))
+            + extra + W.ik_group("Arm", [(6, 1, 7)], explicit=explicit, enabled=enabled,
+                                         solver=(10, 0.05, 1)))
 
 
 def _load(tmp_path, body: bytes, program: int = 40100) -> Simulation:
@@ -471,5 +473,63 @@ def test_extension_strings_are_read(tmp_path):
         assert api.getExtensionString(plain, -1) is None
         with pytest.raises(Exception, match="scene's"):
             api.getExtensionString(-1, -1)
+    finally:
+        sim.close()
+
+
+def test_ik_group_is_solved_with_its_own_settings(tmp_path):
+    """An old group's iterations (``Mit``), damping (``_pg``), method (``Cmt``) and element
+    precision (``_r2``) are the file's (coppeliaKinematicsRoutines ``CIkGroupContainer::computeIk``
+    stops after that many steps; within precision it succeeds): a target 1.3 cm away is not reached
+    within 0.5 mm by 3 damped steps (λ 0.1) and is by 6, or by 3 with λ 0.01; a 2 cm precision
+    accepts 3 damped steps."""
+    def arm(solver, precision=None):
+        return (W.cuboid_shape(1, -1, "Base", (0.2, 0.2, 0.2), (0, 0, 0.1), dynamic=False)
+                + W.joint(2, 1, "J1", (0, 0, 0.15), quat=(0.7071068, 0.7071068, 0, 0), limits=(-3.0, 6.0))
+                + W.cuboid_shape(3, 2, "L1", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
+                + W.joint(4, 3, "J2", (0, 0.15, 0), limits=(-3.0, 6.0), position=0.6)
+                + W.cuboid_shape(5, 4, "L2", (0.05, 0.3, 0.05), (0, 0.15, 0), mass=0.2)
+                + W.dummy(6, 5, "Tip", (0, 0.15, 0), linked=7, link_type=5)
+                + W.dummy(7, -1, "Target", (0, 0, 0.85), linked=6, link_type=5)
+                + W.ik_group("Arm", [(6, 1, 7)], explicit=True, solver=solver, precision=precision))
+
+    outcomes = []
+    for n, (solver, precision) in enumerate((((3, 0.1, 1), None), ((6, 0.1, 1), None), ((3, 0.01, 1), None),
+                                             ((3, 0.1, 1), (0.02, 0.1)))):
+        folder = tmp_path / str(n)
+        folder.mkdir()
+        sim = _load(folder, arm(solver, precision))
+        try:
+            api = client_context(sim).sim
+            sim.start()
+            tip = api.getObjectPosition(api.getObject("/Tip"), -1)
+            api.setObjectPosition(api.getObject("/Target"), -1, [tip[0] + 0.01, tip[1], tip[2] - 0.008])
+            outcomes.append(api.handleIkGroup(api.getIkGroupHandle("Arm")))
+        finally:
+            sim.close()
+    assert outcomes == [2, 1, 1, 1]  # sim.ikresult_fail, then success
+
+
+def test_check_ik_group_and_its_properties(tmp_path):
+    """``sim.checkIkGroup`` solves from the joints' positions and moves nothing;
+    ``sim.setIkGroupProperties`` / ``setIkElementProperties`` change what the next solve uses."""
+    sim = _load(tmp_path, _arm(explicit=True))  # damped least squares (0.05), 10 iterations
+    try:
+        api = client_context(sim).sim
+        arm, j1, j2 = api.getIkGroupHandle("Arm"), api.getObject("/J1"), api.getObject("/J2")
+        sim.start()
+        api.setObjectPosition(api.getObject("/Target"), -1, [0.1, 0.0, 0.78])
+        before = [api.getJointPosition(j) for j in (j1, j2)], [api.getJointTargetPosition(j) for j in (j1, j2)]
+        result, values = api.checkIkGroup(arm, [j1, j2])
+        assert result == 1 and len(values) == 2
+        assert ([api.getJointPosition(j) for j in (j1, j2)], [api.getJointTargetPosition(j) for j in (j1, j2)]) == before
+        held, only_j2 = api.checkIkGroup(arm, [j1, j2], [1, 0])  # J1 held: J2 alone cannot reach it
+        assert held == 2 and only_j2[0] == before[0][0]
+        api.setIkGroupProperties(arm, 1, 1, 0.05)  # one step is not enough
+        assert api.checkIkGroup(arm, [j1, j2])[0] == 2
+        api.setIkElementProperties(arm, api.getObject("/Tip"), 7, [0.2, 0.1])  # but 0.2 m is near enough
+        assert api.checkIkGroup(arm, [j1, j2])[0] == 1
+        with pytest.raises(Exception, match="resolutionMethod"):
+            api.setIkGroupProperties(arm, 7, 1, 0.05)
     finally:
         sim.close()

@@ -267,12 +267,23 @@ def texture_link(tid: int, mode: int = 0, scale=(1.0, 1.0), frame=(1, 0, 0, 0, 0
                           rec("Ftc", b""), rec("Apm", i32(apply))))
 
 
-def ik_group(name: str, elements, explicit: bool = False, enabled: bool = True) -> bytes:
+def ik_group(name: str, elements, explicit: bool = False, enabled: bool = True, solver=None,
+             precision=None, weights=None, max_steps: bool = False) -> bytes:
     """An old IK group (``IKO``): ``elements`` of (tip dummy, base, V-REP's constraint bits);
-    ``Var`` as CoppeliaSim writes it (bit 0 enabled, bit 6 explicit handling)."""
-    items = [rec("Ike", lst(rec("Ik2", i32(tip, base)), rec("Ctr", i32(ctr)))) for tip, base, ctr in elements]
+    ``Var`` as CoppeliaSim writes it (bit 0 enabled, bit 5 max step sizes, bit 6 explicit
+    handling); ``solver`` (iterations, damping, method) as ``Mit``, ``_pg``, ``Cmt``; each
+    element's ``precision`` (linear m, angular rad) as ``_r2`` (angular first) and ``weights``
+    as ``_gt`` (CIkGroup_old / CIkElement_old::serialize)."""
+    def element(tip, base, ctr):
+        extra = [] if precision is None else [rec("_r2", struct.pack("<2d", precision[1], precision[0]))]
+        extra += [] if weights is None else [rec("_gt", struct.pack("<2d", *weights))]
+        return rec("Ike", lst(rec("Ik2", i32(tip, base)), rec("Ctr", i32(ctr)), *extra))
+    items = [element(*e) for e in elements]
+    if solver is not None:
+        items = [rec("Mit", i32(solver[0])), rec("_pg", struct.pack("<d", solver[1])), rec("Cmt", i32(solver[2])),
+                 *items]
     # "Var": bit 0 active, bit 6 explicit handling (CIkGroup::serialize); "Va2" bit 0: joint-limit correction
-    var = (0x40 if explicit else 0) | (0x01 if enabled else 0)
+    var = (0x40 if explicit else 0) | (0x01 if enabled else 0) | (0x20 if max_steps else 0)
     return rec("IKO", lst(rec("Nme", string(name)), rec("Var", bytes([var])), rec("Va2", b"\x01"), *items))
 
 
