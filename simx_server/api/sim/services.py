@@ -400,7 +400,8 @@ def removeReferencedObjects(ctx: CallContext, objectHandle: Any, tag: Any = "") 
 def createPureShape(ctx: CallContext, primitiveType: Any, options: Any, sizes: Any, mass: Any,  # noqa: N802, N803
                     precision: Any = None) -> int:
     """V-REP's ``simCreatePureShape``: ``primitiveType`` 0 cuboid, 1 sphere, 2 cylinder, 3 cone
-    (refused: MuJoCo has no cone); ``options`` bit 4 (16): static; ``sizes`` x, y, z (m);
+    (refused: MuJoCo has no cone); ``options`` bit 4 (16): static; ``sizes`` x, y, z (m; a
+    cuboid of z 0 is a plane, see ``createPrimitiveShape``);
     ``mass`` (kg); ``precision`` (tessellation) has no meaning for MuJoCo's exact primitives.
 
     Args:
