@@ -139,3 +139,34 @@ def test_joint_sizes_are_read(tmp_path):
     f = tmp_path / "j.ttt"
     f.write_bytes(W.ttt_file(W.joint(1, -1, "j", extra=W.rec("Arg", struct.pack("<2f", 0.3, 0.05)))))
     assert reader.read(f).objects[1].data.size == pytest.approx((0.3, 0.05))
+
+
+def test_moving_a_dummy_moves_its_whole_subtree(tmp_path):
+    """CoppeliaSim moves a subtree with its top: RLBench places a task by its base dummy, whose
+    children (sites, static and dynamic shapes, a joint) MuJoCo keeps beside the base's site."""
+    f = tmp_path / "t.ttm"
+    f.write_bytes(W.ttt_file(
+        W.dummy(1, -1, "base", BASE, extra=W.model_base())
+        + W.proximity_sensor(2, 1, "sensor", pos=(0.1, 0.0, 0.0))
+        + W.cuboid_shape(3, 2, "cup", (0.04, 0.04, 0.06), (0.0, 0.0, 0.03), mass=0.05)
+        + W.plane_shape(4, 1, "area", (0.4, 0.6), (0.0, 0.0, 0.0))
+        + W.joint(5, 1, "hinge", (0.0, 0.2, 0.1))
+        + W.cuboid_shape(6, 5, "door", (0.05, 0.05, 0.05), (0.0, 0.0, 0.0), mass=0.1)
+        + W.dummy(7, 1, "tip", (0.0, -0.1, 0.05))))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "t")
+    sim = Simulation(xml, realtime=False)
+    try:
+        api = script_sim(sim.world, sim.world.resolve("base").handle, sim.signals, simulation=sim)
+        names = ("sensor", "cup", "area", "hinge", "door", "tip")
+        h = {n: api.getObject("/base/" + n if n not in ("cup", "door") else
+                              {"cup": "/base/sensor/cup", "door": "/base/hinge/door"}[n]) for n in names}
+        base = api.getObject("/base")
+        before = {n: api.getObjectPosition(h[n], base) for n in names}
+        api.setObjectPosition(base, -1, [0.5, -0.2, 0.8])
+        api.setObjectOrientation(base, -1, [0.0, 0.0, 0.7])
+        for n in names:
+            assert api.getObjectPosition(h[n], base) == pytest.approx(before[n], abs=1e-9), n
+        assert api.getObjectPosition(h["tip"], -1) == pytest.approx(
+            [0.5 + 0.1 * np.sin(0.7), -0.2 - 0.1 * np.cos(0.7), 0.85], abs=1e-9)
+    finally:
+        sim.close()
