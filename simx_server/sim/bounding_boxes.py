@@ -193,6 +193,16 @@ def model_box(world, handle: int, what: str = "model bounding box") -> tuple[np.
     Raises:
         UnknownObjectError: no such object.
     """
+    cache = getattr(world, "_model_boxes", None)  # the six parameters are asked one by one
+    key = (world.model, world.version)
+    if cache is None or cache[0] != key:
+        cache = world._model_boxes = (key, {})
+    if handle not in cache[1]:
+        cache[1][handle] = _model_box(world, handle, what)
+    return cache[1][handle]
+
+
+def _model_box(world, handle: int, what: str) -> tuple[np.ndarray, np.ndarray] | None:
     base_pos, base_rot = world.frame(handle)
     objects = subtree(world, handle)
     skipped: set[int] = set()
