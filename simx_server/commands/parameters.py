@@ -73,8 +73,9 @@ def get_object_float_parameter(sim: Simulation, args: list) -> float:
     """``simxGetObjectFloatParameter`` [h, id] -> float.
 
     Supported ids: 11/12/13 absolute x/y/z velocity (m/s) and 14 absolute rotation speed
-    (|w|, rad/s) of any object; 15-20 bounding box min/max x/y/z of a shape's geoms in its own
-    frame (m); vision sensors: 1000 near and 1001 far clipping (m), 1004 perspective angle
+    (|w|, rad/s) of any object; 15-20 bounding box min/max x/y/z of an object in its own frame
+    (m; a shape's geoms, a dummy's size, a sensor's volume: simx_server.sim.bounding_boxes), 21-26
+    its model's (the object and every object below it, in its frame); vision sensors: 1000 near and 1001 far clipping (m), 1004 perspective angle
     (rad, the larger of the horizontal and vertical view angles, from the camera's fovy);
     joints: 2005-2007 intrinsic translation, 2008-2011 intrinsic quaternion (x, y, z, w),
     2012 velocity (rad/s or m/s), 2013-2016 spherical joint quaternion, 2002-2004 PID gains and

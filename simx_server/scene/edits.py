@@ -416,8 +416,18 @@ class ObjectEdits:
         if obj.type == SHAPE and grasps.is_free(m, obj.mj_id) and (new_parent is not None or obj.name in world.grasps):
             return grasping.hold(self, obj, new_parent, keep_in_place)  # a dynamic shape: held by a weld
         old_body = int(m.body_parentid[obj.mj_id]) if obj.type == SHAPE else obj.body
-        if old_body == parent_body and obj.parent == parent:
-            return  # already there: both poses unchanged
+        if obj.parent == parent:
+            return  # V-REP's parent already: nothing moves (CoppeliaSim's setParent does nothing)
+        if obj.type == SHAPE and parent_body in (old_body, obj.mj_id) and (
+                keep_in_place or _same_pose(self._parent_in_body(parent, parent_body),
+                                            self._parent_in_body(obj.parent, old_body))):
+            # MuJoCo's tree holds it as it is: hung from another object of the same body (a
+            # joint's other child, a force sensor), or from a force sensor whose site it carries
+            # (the sensor's child side is this shape). Only V-REP's tree changes; its pose stays.
+            tree_only = None if new_parent is not None and new_parent.type == SHAPE and \
+                parent_body == old_body else (new_parent.name if new_parent is not None else "-1")
+            self._edit(lambda spec: _set_setting(spec, obj.name, "vrep_parent", tree_only))
+            return
         vrep_parent = None if new_parent is None or new_parent.type == SHAPE else new_parent.name
         if obj.type == FORCE_SENSOR:  # always: its child side is then V-REP's (sim/force_sensors.py)
             vrep_parent = "-1" if new_parent is None else new_parent.name
@@ -470,6 +480,11 @@ class ObjectEdits:
                 raise UnsupportedError(f"{obj.name!r} has a free joint, and MuJoCo allows free joints "
                                        "only in children of the world") from None
             raise
+
+
+def _same_pose(a: tuple, b: tuple) -> bool:
+    """Whether two ``(pos, quat)`` frames are one (within 1e-9 m, 1e-9 rad)."""
+    return bool(np.allclose(a[0], b[0], atol=1e-9) and abs(abs(float(np.dot(a[1], b[1]))) - 1) < 1e-12)
 
 
 def _set_setting(spec: mujoco.MjSpec, name: str, key: str, value: str | None) -> None:

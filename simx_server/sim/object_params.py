@@ -17,18 +17,17 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
-from simx_server.sim import (camera_params, handle_render, joint_params, light_params, physics, shape_dynamics,
-                             surfaces, vision_params)
+from simx_server.sim import (bounding_boxes, camera_params, handle_render, joint_params, light_params, physics,
+                             shape_dynamics, surfaces, vision_params)
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, LIGHT, SHAPE, VISION_SENSOR, World
 
-_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
 
 # ---------------------------------------------------------------- object params
 #: Legacy names of the object parameter ids (vrepConst.py's first name of each id), for messages.
 PARAM_NAMES = {v: n for n, v in reversed(C.VREP_CONSTANTS.items()) if n.startswith(C.OBJECT_PARAM_PREFIXES)}
-_FLOAT_GET = {11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 1000, 1001, 1004, *range(2002, 2018), 3005}
+_FLOAT_GET = {11, 12, 13, 14, *range(15, 27), 1000, 1001, 1004, *range(2002, 2018), 3005}
 _FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
 #: ``sim.shapefloatparam_texture_x`` ... ``_texture_scaling_y``: where a shape's texture lies on it.
 _TEXTURE_FLOATS = range(3006, 3014)
@@ -80,20 +79,14 @@ def _camera_check(world: World, obj, pid: int) -> None:
 
 
 def _bbox(world: World, handle: int, pid: int) -> tuple[np.ndarray, np.ndarray]:
-    obj = _need(world, handle, SHAPE, pid)
-    m = world.model
-    geoms = [g for g in np.flatnonzero(m.geom_bodyid == obj.mj_id) if m.geom_type[g] != _PLANE]
-    if not geoms:
-        raise ObjectTypeError(f"{_pname(pid)}: shape {obj.name!r} has no bounded geometry")
-    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-    pts = []
-    for g in geoms:
-        c, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-        rot = np.empty(9)
-        mujoco.mju_quat2Mat(rot, m.geom_quat[g])
-        pts.append((c + corners * half) @ rot.reshape(3, 3).T + m.geom_pos[g])
-    allp = np.vstack(pts)
-    return allp.min(axis=0), allp.max(axis=0)
+    """The object's box (15-20) or its model's (21-26): :mod:`simx_server.sim.bounding_boxes`."""
+    if pid <= 20:
+        return bounding_boxes.object_box(world, handle, _pname(pid))
+    box = bounding_boxes.model_box(world, handle, _pname(pid))
+    if box is None:
+        raise ObjectTypeError(f"{_pname(pid)}: object {world.get(handle).name!r} and the objects below it have "
+                              "no bounding box")
+    return box
 
 
 def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
@@ -130,9 +123,9 @@ def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
     if pid in (11, 12, 13, 14):
         v, w = object_velocity(sim, handle)
         return float(np.linalg.norm(w)) if pid == 14 else float(v[pid - 11])
-    if 15 <= pid <= 20:
+    if 15 <= pid <= 26:  # objbbox_min_x ... max_z, modelbbox_min_x ... max_z
         lo, hi = _bbox(world, handle, pid)
-        return float((lo if pid < 18 else hi)[(pid - 15) % 3])
+        return float((lo if (pid - 15) % 6 < 3 else hi)[(pid - 15) % 3])
     if pid in (1000, 1001, 1004):
         obj = _need(world, handle, VISION_SENSOR, pid)
         spec = sim.vision.spec(handle)

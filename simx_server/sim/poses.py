@@ -245,6 +245,7 @@ class Poses:
         p = p_now if position is None else p0 + r0 @ np.asarray(position, dtype=float)
         r = r_now if rotation is None else r0 @ rotation
         m, d = self.model, self.data
+        move = (p.copy(), r.copy(), p_now, r_now)  # world -> world: x -> r r_now^T (x - p_now) + p
         if obj.type == VISION_SENSOR:
             r = r @ np.diag([-1.0, 1.0, -1.0])  # back to MuJoCo's camera frame
         quat = np.empty(4)
@@ -278,9 +279,65 @@ class Poses:
         else:
             raise ObjectTypeError(f"{obj.name!r} is a {_TYPE_NAMES[obj.type]}: it cannot be placed; "
                                   "move the body it belongs to")
+        self._carry_subtree(obj, *move)
         if obj.name in self.grasps:  # a grasped part keeps its new pose relative to what holds it
             grasps.placed(self, obj)
         self.changed()
+
+    def _carry_subtree(self, obj: SceneObject, p: np.ndarray, r: np.ndarray, p_now: np.ndarray,
+                       r_now: np.ndarray) -> None:
+        """Move what hangs below ``obj`` in V-REP's tree and MuJoCo's tree does not carry, by the
+        move ``obj`` made (its frame from ``p_now``, ``r_now`` to ``p``, ``r``): CoppeliaSim
+        moves a whole subtree with its top. The children of a dummy or sensor (a site, so its
+        V-REP children are elements of the body beside it), dynamic shapes under any object
+        (free bodies of the world), bodies hung from a site. Poses are read from the data as it
+        was before the move (MuJoCo's forward pass comes after)."""
+        kids: dict[int, list[SceneObject]] = {}
+        for o in self.objects.values():
+            kids.setdefault(o.parent, []).append(o)
+        if not kids.get(obj.handle):
+            return
+        m, d = self.model, self.data
+        moved = np.zeros(m.nbody, dtype=bool)
+        if obj.type == SHAPE:
+            moved[obj.mj_id] = True
+        elif obj.type == JOINT:
+            moved[obj.body] = True
+        _spread(m, moved)
+        rt = r @ r_now.T
+        todo = list(kids[obj.handle])
+        while todo:
+            o = todo.pop(0)
+            todo.extend(kids.get(o.handle, ()))
+            b = o.mj_id if o.type == SHAPE else o.body
+            if moved[b]:
+                continue
+            if o.type in (SHAPE, JOINT):
+                jnum = m.body_jntnum[b]
+                if jnum == 1 and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE:
+                    a = m.jnt_qposadr[m.body_jntadr[b]]
+                    d.qpos[a:a + 3] = rt @ (d.qpos[a:a + 3] - p_now) + p
+                    q = np.empty(4)
+                    mujoco.mju_mat2Quat(q, np.ascontiguousarray(rt @ _mat(d.qpos[a + 3:a + 7])).reshape(9))
+                    d.qpos[a + 3:a + 7] = q
+                    d.qvel[m.jnt_dofadr[m.body_jntadr[b]]:m.jnt_dofadr[m.body_jntadr[b]] + 6] = 0.0
+                elif m.body_mocapid[b] < 0:
+                    self._place_joint(b, p, r, p_now, r_now)  # the body and what it carries, rigidly
+                moved[b] = True
+                _spread(m, moved)
+                continue
+            q = np.empty(4)
+            if o.type in SITES:
+                mujoco.mju_mat2Quat(q, np.ascontiguousarray(rt @ d.site_xmat[o.mj_id].reshape(3, 3)).reshape(9))
+                m.site_pos[o.mj_id], m.site_quat[o.mj_id] = self._in_parent(b, rt @ (d.site_xpos[o.mj_id] - p_now) + p, q)
+                m.site_sameframe[o.mj_id] = 0
+            elif o.type == VISION_SENSOR:
+                mujoco.mju_mat2Quat(q, np.ascontiguousarray(rt @ d.cam_xmat[o.mj_id].reshape(3, 3)).reshape(9))
+                m.cam_pos[o.mj_id], m.cam_quat[o.mj_id] = self._in_parent(b, rt @ (d.cam_xpos[o.mj_id] - p_now) + p, q)
+            elif o.type == LIGHT:
+                rb = d.xmat[b].reshape(3, 3)
+                m.light_pos[o.mj_id] = rb.T @ (rt @ (d.light_xpos[o.mj_id] - p_now) + p - d.xpos[b])
+                m.light_dir[o.mj_id] = rb.T @ (rt @ d.light_xdir[o.mj_id])
 
     def _place_joint(self, b: int, p: np.ndarray, r: np.ndarray, p_now: np.ndarray, r_now: np.ndarray) -> None:
         """V-REP places a joint with what hangs from it: the joint's body moves rigidly by the
@@ -331,6 +388,14 @@ class Poses:
         mujoco.mju_negQuat(qinv, qb)
         mujoco.mju_mulQuat(q, qinv, quat)
         return rb.T @ (p - d.xpos[body]), q
+
+
+def _spread(m: mujoco.MjModel, moved: np.ndarray) -> None:
+    """Mark (in place) every body below a marked one: MuJoCo's bodies come parents first."""
+    parent = m.body_parentid
+    for i in range(1, m.nbody):
+        if not moved[i] and moved[parent[i]]:
+            moved[i] = True
 
 
 #: Joints that V-REP lets a script place, and under which a shape can be placed: hinge, slide.

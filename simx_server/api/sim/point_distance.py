@@ -1,5 +1,6 @@
 """``sim.checkDistance`` with a dummy: the distance from its origin (a point) to a shape or to
-another dummy, as CoppeliaSim measures a dummy (``CDistanceRoutine``: a dummy is a point).
+another dummy, as CoppeliaSim measures a dummy (``CDistanceRoutine``: a dummy is a point); and
+``sim.checkCollision`` with an object that is not a shape (:func:`not_shapes`).
 
 The distance to a shape is the signed distance field of the shape's geoms
 (:func:`simx_server.api.cloud_geometry.shape_sdf`, 0 inside), and the witness point on the
@@ -8,14 +9,42 @@ shape the point moved onto the surface along the field's gradient.
 
 from __future__ import annotations
 
-from typing import Any
+import functools
+from typing import Any, Callable
 
 import numpy as np
 
 from simx_server.api import cloud_geometry as geo
 from simx_server.api.context import CallContext
 from simx_server.api.sim import core as _core
+from simx_server.sim import scene_collections
 from simx_server.sim.objects import DUMMY, SHAPE
+from simx_wire import constants as C
+
+
+def nothing_for_non_shapes(answer: tuple) -> Callable:
+    """A decorator of ``sim.checkCollision`` and ``checkCollisionEx``: ``answer`` (no collision)
+    when either entity is a scene object that is not a shape (a dummy, a sensor, a joint), as
+    CoppeliaSim 4.1 answers (coppeliaSimLib ``CCollisionRoutine::_doesObjectCollideWithObject``
+    tests shapes, octrees and point clouds; a dummy collides with octrees alone, which simx
+    keeps as data). Unknown handles still raise UnknownObjectError.
+
+    Args:
+        answer: what the function returns then.
+
+    Returns:
+        The decorator.
+    """
+    def wrap(fn: Callable) -> Callable:
+        @functools.wraps(fn)
+        def call(ctx: CallContext, entity1Handle: Any, entity2Handle: Any) -> Any:  # noqa: N803
+            for value, what in ((entity1Handle, "entity1Handle"), (entity2Handle, "entity2Handle")):
+                h = ctx.h(value, what)
+                if h != C.sim_handle_all and not scene_collections.is_collection(h) and ctx.world.get(h).type != SHAPE:
+                    return answer
+            return fn(ctx, entity1Handle, entity2Handle)
+        return call
+    return wrap
 
 
 def _kind(ctx: CallContext, handle: Any) -> int | None:

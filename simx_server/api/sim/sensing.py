@@ -37,14 +37,15 @@ def _entity(ctx: CallContext, handle: Any, what: str) -> int:
 
 
 @sim_function("checkCollision")
+@point_distance.nothing_for_non_shapes((0, [-1, -1]))
 def checkCollision(ctx: CallContext, entity1Handle: Any, entity2Handle: Any) -> tuple[int, list[int]]:  # noqa: N802, N803
     """``result, collidingObjects``: 1 and the two shapes' handles when shape or collection
     ``entity1`` touches or overlaps ``entity2`` (``sim.handle_all``: any other collidable geom,
-    a shape's parent and children excepted as MuJoCo filters them), else 0 and ``[-1, -1]``.
+    a shape's parent and children excepted as MuJoCo filters them), else (a non-shape too) 0.
 
     Args:
-        entity1Handle: a shape, dummy (a point) or collection.
-        entity2Handle: another shape, dummy or collection, or ``sim.handle_all``.
+        entity1Handle: a shape, another object or a collection.
+        entity2Handle: another shape, object or collection, or ``sim.handle_all``.
 
     Returns:
         ``(result, [h1, h2])``.
@@ -64,6 +65,7 @@ def checkCollision(ctx: CallContext, entity1Handle: Any, entity2Handle: Any) -> 
 
 
 @sim_function("checkCollisionEx")
+@point_distance.nothing_for_non_shapes((0, []))
 def checkCollisionEx(ctx: CallContext, entity1Handle: Any, entity2Handle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
     """``segmentCount, segmentData``: 1 and the two witness points (6 numbers, m, world) of the
     deepest touch when the shapes collide, else 0 and ``[]`` (MuJoCo gives one contact

@@ -405,8 +405,8 @@ def createPureShape(ctx: CallContext, primitiveType: Any, options: Any, sizes: A
                     precision: Any = None) -> int:
     """V-REP's ``simCreatePureShape``: ``primitiveType`` 0 cuboid, 1 sphere, 2 cylinder, 3 cone
     (refused: MuJoCo has no cone); ``options`` bit 3 (8): respondable, bit 4 (16): static;
-    ``sizes`` x, y, z (m); ``mass`` (kg); ``precision`` (tessellation) has no meaning for
-    MuJoCo's exact primitives.
+    ``sizes`` x, y, z (m; a cuboid of z 0 is a plane, see ``createPrimitiveShape``); ``mass``
+    (kg); ``precision`` (tessellation) has no meaning for MuJoCo's exact primitives.
 
     As CoppeliaSim 4.1's (``simCreatePureShape_internal`` -> ``CAddOperations::addPrimitiveShape``
     with ``dynamic`` set, coppeliaSimLib ``menusAndSimilar/addOperations.cpp``), the new shape is

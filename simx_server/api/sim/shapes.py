@@ -448,7 +448,9 @@ def copyPasteObjects(ctx: CallContext, objectHandles: Any, options: Any = 0) -> 
 def createPrimitiveShape(ctx: CallContext, primitiveType: Any, sizes: Any, options: Any = 0) -> int:  # noqa: N802, N803
     """A new shape at the world origin: ``sim.primitiveshape_plane`` (1), ``disc`` (2),
     ``cuboid`` (3), ``spheroid`` (4), ``cylinder`` (5), ``capsule`` (8); ``sizes`` x, y, z (m,
-    full extents). The shape is a dynamic, respondable free body of 1,000 kg/m³ (call
+    full extents; a cuboid of z 0 is a plane). A plane or disc is a box or cylinder 1 mm thick
+    for MuJoCo, with a bounding box of no height (``flat=1``,
+    :mod:`simx_server.sim.bounding_boxes`), as CoppeliaSim's. The shape is a dynamic, respondable free body of 1,000 kg/m³ (call
     ``sim.setShapeMass``); ``options`` bit 1 (value 2) makes it static. Cones and
     heightfields: UnsupportedError (MuJoCo has no cone geom). Returns its handle.
 
@@ -456,7 +458,7 @@ def createPrimitiveShape(ctx: CallContext, primitiveType: Any, sizes: Any, optio
 
     Args:
         primitiveType: a ``sim.primitiveshape_*`` value.
-        sizes: 3 numbers, m, each in (0, 1000].
+        sizes: 3 numbers, m, each in (0, 1000] (a plane's z, a disc's y and z: anything).
         options: bit 1 (2): static.
 
     Returns:
@@ -471,8 +473,11 @@ def createPrimitiveShape(ctx: CallContext, primitiveType: Any, sizes: Any, optio
         raise UnsupportedError(f"createPrimitiveShape type {kind}: simx makes planes, discs, cuboids, "
                                "spheroids, cylinders and capsules (MuJoCo has no cone geom)")
     x, y, z = _vector(sizes, 3, "sizes")
-    if not all(0 < v <= 1000 for v in (x, y, z)):
-        raise ArgumentError("sizes must lie in (0, 1000] m")
+    if kind == 3 and z == 0:
+        kind = 1  # a cuboid of no height is a plane
+    flat = kind in (1, 2)  # a plane or a disc: no thickness, so no height in its bounding box
+    if not all(0 < v <= 1000 for v in {1: (x, y), 2: (x,)}.get(kind, (x, y, z))):
+        raise ArgumentError("sizes must lie in (0, 1000] m (a plane's z, a disc's y and z: any)")
     opts = _int(options, "options")
     base, gtype = PRIMITIVES[kind]
     size = {1: [x / 2, y / 2, _THIN], 2: [x / 2, _THIN, 0], 3: [x / 2, y / 2, z / 2], 4: [x / 2, y / 2, z / 2],
@@ -487,6 +492,8 @@ def createPrimitiveShape(ctx: CallContext, primitiveType: Any, sizes: Any, optio
         if not opts & 2:
             body.add_freejoint()
         body.add_geom(type=gtype, size=size, density=1000.0, rgba=[0.85, 0.85, 0.85, 1.0])
+        if flat:  # its bounding box has no height (simx_server.sim.bounding_boxes)
+            spec.add_text(name=f"simx:{name}", data="flat=1")
         return lambda: sim.world.resolve(name).handle
 
     return sim.editor._edit(change)

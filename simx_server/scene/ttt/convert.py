@@ -186,6 +186,14 @@ class Converter:
                 self.setting(obj.name, f"special={obj.special}")
             if obj.model_base and obj.model_property & 0xF000 != 0xF000 and obj.model_property != 0:
                 self.setting(obj.name, f"model_property={obj.model_property}")
+            if obj.object_property & 256:  # sim.objectproperty_dontshowasinsidemodel (model boxes)
+                self.setting(obj.name, f"object_property={obj.object_property}")
+            if obj.kind == "joint" and obj.data.size is not None:  # its bounding box (sim.bounding_boxes)
+                length, diameter = obj.data.size
+                if 0 <= length < 1e3 and 0 <= diameter < 1e3:
+                    self.setting(obj.name, f"length={length:.6g}", f"diameter={diameter:.6g}")
+            if obj.kind == "shape" and any(m.primitive in (G.PLANE, G.DISC) for m in obj.data.meshes):
+                self.setting(obj.name, "flat=1")  # a plane's bounding box has no height
 
     # ---------------------------------------------------------------- tree
     def _world_poses(self, obj: TttObject, parent: Pose) -> None:
@@ -218,8 +226,9 @@ class Converter:
 
     def _shape(self, obj: TttObject, body, local: Pose, model: int, joint=None) -> None:
         d = obj.data
-        if not d.static and joint is None and body is not self.spec.worldbody and not self._carried(obj):
-            # V-REP simulates a dynamic shape that hangs from no joint or force sensor freely
+        if not d.static and joint is None and body is not self.spec.worldbody:
+            # V-REP simulates a dynamic shape that hangs from no joint or force sensor freely, under
+            # a static shape too (CoppeliaSim links shapes only through joints and force sensors)
             self.moved.add(obj.handle)
             self.report.add("dynamic shapes free of their parent (a top-level free body, as V-REP simulates them)", approximated=True)
             body, local = self.spec.worldbody, self.world_pose[obj.handle]
@@ -248,21 +257,6 @@ class Converter:
                        visible=bool(obj.layers & 0xFF), ground=ground)
         for child in obj.children:
             self._emit(child, b, Pose(), model)
-
-    def _carried(self, obj: TttObject) -> bool:
-        """Whether a dynamic shape moves with its parent in V-REP: its parent is a joint or
-        a force sensor (those are handled before getting here), or a static shape."""
-        parent = self.scene.objects.get(obj.parent)
-        return parent is not None and parent.kind == "shape" and parent.data.static and \
-            parent.handle not in self.moved and self._static_chain(parent)
-
-    def _static_chain(self, obj: TttObject) -> bool:
-        """A static shape not moved by anything above it (welded to the world)."""
-        while obj is not None:
-            if obj.kind == "joint" or obj.kind == "force_sensor" or (obj.kind == "shape" and not obj.data.static):
-                return False
-            obj = self.scene.objects.get(obj.parent)
-        return True
 
     def _joint(self, obj: TttObject, body, frame: Pose, model: int) -> None:
         j = obj.data

@@ -77,14 +77,16 @@ class GeomMaker:
     def add(self, body, frame_pos, frame_quat, name: str, shape: ShapeData, contype: int, conaffinity: int,
             visible: bool = True, ground: bool = False):
         """Geoms of ``shape`` in ``body``; the shape's frame is (frame_pos, frame_quat) in it.
-        A shape in no shown layer (V-REP's hidden collision shapes) goes to geom group 3, which
-        neither the viewer nor the vision sensors draw by default. ``ground``: a static shape
-        fixed to the world, whose contacts get the stiffest ``solref`` (:data:`GROUND_SOLMIX`)."""
+        A shape in no shown layer (V-REP's hidden collision shapes) and the wireframe meshes of a
+        shape that is not respondable (V-REP draws their edges; RLBench's spawn boundaries) go
+        to geom group 3, which neither the viewer nor the vision sensors draw by default.
+        ``ground``: a static shape fixed to the world, whose contacts get the stiffest ``solref``
+        (:data:`GROUND_SOLMIX`)."""
         base = Pose(np.asarray(frame_pos, float), np.asarray(frame_quat, float))
         for i, mesh in enumerate(shape.meshes):
-            if mesh.wireframe and contype == 0:  # V-REP draws it as lines: MuJoCo cannot
-                self.report.add("wireframe meshes (left out)")
-                continue
+            lines = mesh.wireframe and contype == 0  # V-REP draws it as lines: MuJoCo cannot
+            if lines:  # kept, not drawn, for its pose, bounding box and collision checks
+                self.report.add("wireframe meshes (not drawn: MuJoCo draws no lines)", approximated=True)
             pose = compose(base, mesh.frame)
             g = self._geom(body, mesh, name, i)
             if g is None:
@@ -100,7 +102,7 @@ class GeomMaker:
                 # V-REP's 4 cm floor box the contact's normal turns and it falls for ever. The
                 # stiffest time constant MuJoCo takes (two timesteps) rules its contacts.
                 g.solref, g.solmix = stiff_solref(self.spec.option.timestep), GROUND_SOLMIX
-            if not visible:
+            if not visible or lines:
                 g.group = 3
             g.density = 0.0  # bodies get the file's mass and inertia, not the geoms'
             if shape.friction is not None:
@@ -109,7 +111,8 @@ class GeomMaker:
                 g.friction = [shape.friction ** 2, 0.005, 0.0001]
             if g.material:  # the texture over the shape's colour as V-REP applies it (looks.py)
                 g.rgba = texture_colour(look, mesh.texture_mode)
-            elif mesh.texture >= 0 and visible and g.type != mujoco.mjtGeom.mjGEOM_MESH and self._skin(body, mesh, pose):
+            elif mesh.texture >= 0 and visible and not lines and g.type != mujoco.mjtGeom.mjGEOM_MESH and \
+                    self._skin(body, mesh, pose):
                 g.group = 3  # the primitive collides; its textured mesh (the skin) is what is seen
             elif mesh.texture >= 0:
                 self.report.add("textures without their coordinates (shown as the shape's colour)", approximated=True)

@@ -87,6 +87,7 @@ class JointData:
     max_velocity: float | None = None
     spherical_quat: np.ndarray | None = None
     control_mode: int | None = None  # 4.4+: 0 free, 1 force, 4 velocity, 8 position, 12 spring
+    size: tuple[float, float] | None = None  # length, diameter as drawn (``Arg`` / ``_rg``), m
 
 
 @dataclass
@@ -156,6 +157,7 @@ class TttObject:
     extension: str = ""  # sim.getExtensionString's text (``Rst``)
     special: int | None = None  # V-REP's object special property bits (``Omp``), None: not in the file
     model_property: int = 0xF000  # ``Mpo``: a model base's override bits (sim.modelproperty_not_*)
+    object_property: int = 0  # ``Op2``: sim.objectproperty_* bits (dontshowasinsidemodel 256 ...)
 
 
 @dataclass

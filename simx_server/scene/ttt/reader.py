@@ -183,6 +183,7 @@ def _read_object(top: Records, tag: str, payload: memoryview, pool) -> TttObject
     if common.get("Omp") is not None:  # CSceneObject::serialize: _localObjectSpecialProperty
         obj.special = common.int("Omp")
     obj.model_property = common.int("Mpo", 0xF000)
+    obj.object_property = common.int("Op2", 0)  # CSceneObject::serialize: _localObjectProperty
     if kind == "shape":
         obj.data = shapes.read_shape(typed, pool)
     elif kind == "joint":
@@ -250,6 +251,9 @@ def _read_joint(r: Records) -> JointData:
                                    np.frombuffer(payload[:4], "<f4")[0])
         elif tag == "Ulv" and len(payload) >= 4 and (j.mode == 5 or va9 & 64):  # <= 4.3, dynamic or hybrid
             j.max_velocity = float(np.frombuffer(payload[:4], "<f4")[0])
+    size = r.floats("_rg", "Arg", 2)  # CJoint::serialize: _length, _diameter
+    if size is not None and all(np.isfinite(size)):
+        j.size = (float(size[0]), float(size[1]))
     if r.get("Dcm") is not None:
         j.control_mode = r.int("Dcm")
         j.motor = j.control_mode != 0

@@ -102,6 +102,28 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
     return rec("SHP", common(handle, parent, name, pos, quat, extra=extra) + typed)
 
 
+def plane_shape(handle: int, parent: int, name: str, size=(0.4, 0.6), pos=(0, 0, 0), wireframe: bool = True,
+                respondable: bool = False, extra: bytes = b"") -> bytes:
+    """A static V-REP plane (primitive 1: 4 vertices at z 0, 2 triangles, sizes x, y and V-REP's
+    1e-4 z), drawn as lines (``Var`` bit 2) when ``wireframe``: RLBench's spawn boundaries."""
+    hx, hy = size[0] / 2, size[1] / 2
+    v = np.array([[-hx, -hy, 0], [hx, -hy, 0], [hx, hy, 0], [-hx, hy, 0]], "<f4")
+    faces = np.array([[0, 1, 2], [0, 2, 3]], "<i4")
+    info = lst(rec("Nme", string(name)), rec("Mas", f32(1.0)), rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, 0.01, 0.01, 0.01)))
+    mesh = lst(rec("Cl0", lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))),
+               rec("Ver", v.tobytes()), rec("Ind", faces.tobytes()),
+               rec("Ppr", struct.pack("<ifff", 1, size[0], size[1], 1e-4)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)),
+               rec("Var", bytes([4 if wireframe else 0])))
+    typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))), rec("Sss", bytes([0])),
+                rec("Ss3", bytes([1 if respondable else 0])), rec("Dc2", struct.pack("<H", 0xFFFF)))
+    return rec("SHP", common(handle, parent, name, pos, extra=extra) + typed)
+
+
+def object_property(bits: int) -> bytes:
+    """A common record: the object's ``sim.objectproperty_*`` bits (``Op2``)."""
+    return rec("Op2", i32(bits))
+
+
 def joint(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0), kind=10, position=0.0,
           motor=True, loop=True, max_force=10.0, target_velocity=0.0, extra: bytes = b"", mode: int = 5,
           limits=(-1.5, 3.0), cyclic: bool = False, common_extra: bytes = b"") -> bytes:
