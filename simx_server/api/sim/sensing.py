@@ -426,9 +426,7 @@ def setExplicitHandling(ctx: CallContext, objectHandle: Any, explicitHandlingFla
     if obj.type == VISION_SENSOR and ctx.view is not None:  # not handled each pass (vision callbacks)
         (ctx.view.vision.explicit.add if flags & 1 else ctx.view.vision.explicit.discard)(obj.handle)
         return  # that set is the one truth of a vision sensor's flag (getExplicitHandling reads it)
-    if ctx.state.explicit is None:
-        ctx.state.explicit = {}
-    ctx.state.explicit[obj.handle] = flags
+    ctx.state.explicit = {**(ctx.state.explicit or {}), obj.handle: flags}
 
 
 @sim_function("getVelocity")
