@@ -258,6 +258,14 @@ class Converter:
         for child in obj.children:
             self._emit(child, b, Pose(), model)
 
+    def _static_chain(self, obj: TttObject) -> bool:
+        """A static shape not moved by anything above it (welded to the world)."""
+        while obj is not None:
+            if obj.kind == "joint" or obj.kind == "force_sensor" or (obj.kind == "shape" and not obj.data.static):
+                return False
+            obj = self.scene.objects.get(obj.parent)
+        return True
+
     def _joint(self, obj: TttObject, body, frame: Pose, model: int) -> None:
         j = obj.data
         displaced = compose(frame, joint_displacement(j.type, j.position))
