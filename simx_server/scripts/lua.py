@@ -120,10 +120,18 @@ def _stack_traceback(exc: BaseException) -> str:
     return f"stack traceback:{rest}" if found else ""
 
 
+#: :attr:`LuaScript._bodies` when nothing is known: ``(Lua state's shape function, {callback: body})``,
+#: what :meth:`LuaScript._body` found since Lua last ran in the script (any call may redefine its
+#: callbacks, so every bounded call and thread launch forgets it).
+_NO_BODIES: tuple[Any, dict[str, int]] = (None, {})
+_ALIVE = "\0thread alive"  # the key of :meth:`LuaScript._thread_alive` in the same cache
+
+
 class LuaScript(LuaStyles, ChildScript):
     """A Lua child script (the V-REP kind), in a lupa Lua 5.4 state of its own."""
 
     language = "Lua"
+    _bodies = _NO_BODIES
 
     def _load(self) -> None:
         self._runtime = None
@@ -300,6 +308,35 @@ class LuaScript(LuaStyles, ChildScript):
         blank or comments (:data:`_SHAPE_LUA`) is empty, as V-REP's templates leave some."""
         if self.old_style or self._lookup is None:
             return super()._body(function)
+        shape, known = self._bodies
+        if shape is not self._shape:  # a new Lua state
+            shape, known = self._bodies = (self._shape, {})
+        body = known.get(function)
+        if body is None:
+            known[function] = body = self._body_now(function)
+        return body
+
+    def _thread_alive(self) -> bool:
+        """Whether the script's thread lives, cached as :meth:`_body` (asked before every step)."""
+        if self._runtime is None:
+            return False
+        shape, known = self._bodies
+        if shape is not self._shape:
+            shape, known = self._bodies = (self._shape, {})
+        alive = known.get(_ALIVE)
+        if alive is None:
+            known[_ALIVE] = alive = super()._thread_alive()
+        return bool(alive)
+
+    def _launch_thread(self) -> None:
+        self._bodies = _NO_BODIES  # Lua runs outside a bounded call: nothing known before holds
+        try:
+            super()._launch_thread()
+        finally:
+            self._bodies = _NO_BODIES
+
+    def _body_now(self, function: str) -> int:
+        """:meth:`_body` asked of the Lua state (uncached)."""
         line = self._shape(function.encode())
         if line is None or line is False:
             return 0 if line is None else 2
@@ -380,6 +417,7 @@ class LuaScript(LuaStyles, ChildScript):
         """``fn(*args)`` under the call's time bound (the script's or what is left of the pass,
         :meth:`_call_bound`) and memory cap (its own, or what the scene's other Lua scripts leave
         of limits.MAX_SCRIPTS_MEMORY); raises ScriptError / ScriptTimeoutError naming the bound."""
+        self._bodies = _NO_BODIES  # the call may define, redefine or remove its callbacks
         self._timed_out = False
         seconds, why = self._call_bound()
         self._deadline = time.thread_time() + seconds
@@ -406,6 +444,7 @@ class LuaScript(LuaStyles, ChildScript):
         except Exception as exc:  # a Python error crossing Lua (a bug in simx): still the script's fault line
             raise self._fault(what, f"internal error: {type(exc).__name__}: {exc}") from None
         finally:
+            self._bodies = _NO_BODIES
             self._deadline = math.inf
             if cap != MAX_MEMORY and self._runtime is rt:
                 rt.set_max_memory(MAX_MEMORY)

@@ -74,3 +74,39 @@ def test_a_callback_given_code_at_run_time_is_called_from_then_on(sim):
     for _ in range(2):
         sim.step()
     assert _call(sim, "countActuation") == 2
+
+
+def test_what_a_script_defines_is_looked_up_again_after_any_of_its_code_ran(tmp_path):
+    """Which callbacks have code is asked of Lua once and kept (no Lua call per script and step)
+    until code of the script runs: its own thread or callback may give a callback code, empty
+    it, or end the thread, and the next step follows."""
+    (tmp_path / "scene.xml").write_text(SCENE)
+    (tmp_path / "box.lua").write_text("""function sysCall_init() n, a, t = 0, 0, 0 end
+function sysCall_thread()
+    for i = 1, 2 do t = t + 1; sim.switchThread() end
+end
+function sysCall_actuation()
+end
+function sysCall_sensing()
+    n = n + 1
+    if n == 2 then sysCall_actuation = function() a = a + 1 end end
+    if n == 4 then sysCall_actuation = nil end
+end
+function counts() return {n, a, t} end
+""")
+    s = Simulation(tmp_path / "scene.xml", realtime=False)
+    try:
+        s.start()
+        script = s.scripts.scripts[s.world.resolve("Box").handle]
+        alive = []
+        for _ in range(6):
+            s.step()
+            alive.append(script._thread_alive())
+        ints, _, _, _ = s.scripts.call("Box", 1, "counts", [], [], [], b"")
+        # actuation had code in steps 3 and 4 (given in step 2's sensing, removed in step 4's)
+        assert ints == [6, 2, 2]
+        assert alive == [True, False, False, False, False, False]
+        assert script._body("sysCall_actuation") == 0
+    finally:
+        s.stop()
+        s.close()
