@@ -228,7 +228,7 @@ print(n)
 def reconnect_soak(s: Settings) -> list[Figure]:
     """h. 4 processes connect, make ~30 mixed calls (streams, an image, signals, oneshot
     targets) and disconnect, over and over for 180 s (30 s quick): server RSS every 5 s."""
-    seconds, count, every = s.t(180.0, 30.0), s.pick(4, 4, smoke=2), s.t(5.0, 5.0, smoke=1.0)
+    seconds, count, every = s.t(180.0, 30.0, smoke=2.0), s.pick(4, 4, smoke=2), s.t(5.0, 5.0, smoke=0.5)
     with Server(s.log_dir, name="robustness-reconnect") as srv:
         until = time.time() + seconds
         workers = [subprocess.Popen([sys.executable, "-c", _RECONNECT, str(srv.port), repr(until)],

@@ -31,6 +31,7 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from benchmarks.common import Settings, loadavg  # noqa: E402
+from benchmarks import procs  # noqa: E402
 from benchmarks.procs import ROOT  # noqa: E402
 from benchmarks.stats import Figure, skipped, unavailable  # noqa: E402
 
@@ -144,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.baseline is not None and not (args.baseline / "simx_server" / "cli.py").is_file():
         p.error(f"--baseline {args.baseline}: not a simx source tree (no simx_server/cli.py)")
     settings = Settings(quick=args.quick or args.smoke, log_dir=log_dir, baseline=args.baseline, smoke=args.smoke)
+    if args.smoke:
+        procs.SERVER_ARGS[:] = ["--renderers", "on-demand"]
     meta = {
         "started": _dt.datetime.now().isoformat(timespec="seconds"),
         "mode": "smoke" if args.smoke else "quick" if args.quick else "full",
@@ -162,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in names:
         module, title = SUITES[name]
         print(f"== {title} ...", file=sys.stderr, flush=True)
-        t0 = time.monotonic()
+        t0, cpu0 = time.monotonic(), _cpu_s()
         try:
             got = importlib.import_module(module).run(settings)
             status = "ok"
@@ -177,15 +180,17 @@ def main(argv: list[str] | None = None) -> int:
                 got = [skipped(f"{name}.error", title, f"{type(exc).__name__}: {exc}")]
                 status = f"error: {exc}"
         figures.extend(got)
-        meta["suites"][name] = {"seconds": round(time.monotonic() - t0, 1), "status": status,
-                                "loadavg_after": loadavg()}
-        print(f"   {name}: {time.monotonic() - t0:.1f} s", file=sys.stderr, flush=True)
+        cpu = _cpu_s() - cpu0
+        meta["suites"][name] = {"seconds": round(time.monotonic() - t0, 1), "cpu_s": round(cpu, 1),
+                                "status": status, "loadavg_after": loadavg()}
+        print(f"   {name}: {time.monotonic() - t0:.1f} s ({cpu:.1f} s of CPU)", file=sys.stderr, flush=True)
     meta["seconds"] = round(time.monotonic() - t_start, 1)
+    meta["cpu_s"] = round(sum(x["cpu_s"] for x in meta["suites"].values()), 1)
     meta["loadavg_end"] = loadavg()
 
     text = table(figures)
     print(text)
-    print(f"\n{meta['mode']} run, {meta['seconds']} s, commit {meta['commit']}, "
+    print(f"\n{meta['mode']} run, {meta['seconds']} s ({meta['cpu_s']} s of CPU), commit {meta['commit']}, "
           f"load average {meta['loadavg_start']} -> {meta['loadavg_end']}")
     for f in figures:
         if f.note and not f.note.startswith("SKIPPED"):
@@ -217,6 +222,15 @@ def _verdict(meta: dict, figures: list[Figure]) -> int:
     if failed:
         print(f"benchmarks.run: {len(failed)} suite(s) or figure(s) could not run (see above)", file=sys.stderr)
     return 1 if failed else 0
+
+
+def _cpu_s() -> float:
+    """CPU seconds (user + system) of this process and of its children that have ended (every
+    server, echo and worker a suite starts is waited for by the suite)."""
+    import resource
+
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 def _clean(value):

@@ -12,6 +12,9 @@ export MUJOCO_GL="${MUJOCO_GL:-egl}"
 # One BLAS and one OpenMP thread per process, as for the tests (scripts/test.sh).
 export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}"
 cd "$ROOT"
+# Bytecode caches written (gitignored __pycache__), as for the tests (scripts/test.sh): the run starts
+# about 60 Python processes, each of which would compile the modules it imports again.
+unset PYTHONDONTWRITEBYTECODE
 start=$SECONDS
 status=0
 "$VENV/bin/python" -m benchmarks.run --smoke "$@" || status=$?
