@@ -53,6 +53,7 @@ SUITES = {
     "idle": ("benchmarks.idle", "idle servers cost nothing: an env beside 3 idle servers (issue 20)"),
     "outbox": ("benchmarks.outbox", "command batching: a loop of oneshot calls on the wire (issue 19)"),
     "zmq": ("benchmarks.zmq_api", "CoppeliaSim's ZMQ remote API: against bare REQ/REP and the legacy API (issue 22)"),
+    "startup": ("benchmarks.startup", "start-up refusals: a taken port said at once (issue 60)"),
 }
 #: A suite that cannot import one of these is broken; any other missing module is a package this
 #: machine lacks (the suite's row says which).

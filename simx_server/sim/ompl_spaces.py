@@ -65,7 +65,11 @@ def load() -> tuple[Any, Any, Any]:
 
 
 def import_error() -> str | None:
-    """Why OMPL's bindings cannot be imported (the import tried now if not yet), or None."""
+    """Whether OMPL's bindings can be imported (the import tried now if not yet).
+
+    Returns:
+        Why not (a line for the caller's error), or None when they are there.
+    """
     try:
         load()
     except RuntimeError as exc:
