@@ -32,6 +32,7 @@ def fake_suites(tmp_path, monkeypatch):
     monkeypatch.setattr(run, "SUITES", {name: (f"fake_suites_60.{name}", name) for name in SUITES})
     monkeypatch.setattr(run, "OPT_IN", set())
     monkeypatch.setattr(run, "RESULTS", tmp_path / "results")
+    monkeypatch.setattr(run.procs, "SERVER_ARGS", [])  # --smoke sets it for the run's servers
     yield tmp_path
     for name in list(sys.modules):
         if name.startswith("fake_suites_60"):
