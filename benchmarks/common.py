@@ -29,11 +29,29 @@ class Settings:
     #: ``git worktree``) whose server the suites that support it (``sync``, ``envstep``) time
     #: side by side with this tree's, in the same run; None: not measured.
     baseline: Path | None = None
+    #: ``--smoke``: every suite in its tiniest form (CI runs it: ``scripts/bench-smoke.sh``), to
+    #: show that it runs; none of its figures means anything. Implies ``quick``.
+    smoke: bool = False
 
-    def n(self, full: int, quick: int) -> int:
+    def n(self, full: int, quick: int, smoke: int | None = None) -> int:
+        """A count: ``full``, ``quick`` with ``--quick``, ``smoke`` (default a tenth of
+        ``quick``, at least 1) with ``--smoke``."""
+        if self.smoke:
+            return smoke if smoke is not None else max(1, quick // 10)
         return quick if self.quick else full
 
-    def t(self, full: float, quick: float) -> float:
+    def t(self, full: float, quick: float, smoke: float | None = None) -> float:
+        """A duration in s: ``full``, ``quick`` with ``--quick``, ``smoke`` (default a fifth of
+        ``quick``) with ``--smoke``."""
+        if self.smoke:
+            return smoke if smoke is not None else quick / 5
+        return quick if self.quick else full
+
+    def pick(self, full, quick, smoke=None):
+        """Any setting (e.g. which client counts): ``full``, ``quick``, or ``smoke`` (default
+        ``quick``) with ``--smoke``."""
+        if self.smoke and smoke is not None:
+            return smoke
         return quick if self.quick else full
 
 

@@ -66,7 +66,7 @@ def _measure(cases: dict, rounds: int, block: int, warmup: int, budget_s: float)
 def run(s: Settings) -> list[Figure]:
     rounds, block, warmup, budget = s.n(20, 5), 10, s.n(5, 2), s.t(90.0, 25.0)
     figures: list[Figure] = []
-    for width, height in SIZES:
+    for width, height in s.pick(SIZES, SIZES, smoke=SIZES[:1]):
         size = f"{width}x{height}"
         load0 = loadavg()
         servers, envs = [], []

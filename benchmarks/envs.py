@@ -168,12 +168,13 @@ def _remote(s: Settings, n: int, vector: bool, width: int, height: int, steps: i
 def run(s: Settings) -> list[Figure]:
     steps, warmup, budget = s.n(100, 20), s.n(5, 2), s.t(60.0, 20.0)
     figures: list[Figure] = []
-    for width, height in SIZES:
+    combos = ((1, False), (1, True), (2, True), (4, True))
+    for width, height in s.pick(SIZES, SIZES, smoke=SIZES[:1]):
         size = f"{width}x{height}"
         load0 = loadavg()
         inproc, inproc_wall = _in_process(width, height, steps, warmup, budget)
         cases = {}
-        for n, vector in ((1, False), (1, True), (2, True), (4, True)):
+        for n, vector in s.pick(combos, combos, smoke=((1, False), (1, True))):
             t, wall = _remote(s, n, vector, width, height, steps, warmup, budget)
             cases[(n, vector)] = (t, wall)
         load1 = loadavg()

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import collections
 import functools
+import inspect
 import json
 import os
 import sys
@@ -41,30 +42,53 @@ _frames: collections.deque = collections.deque(maxlen=_MAX_RECORDS)
 _requests: collections.deque = collections.deque(maxlen=_MAX_RECORDS)
 
 
+def _argument(original, name: str):
+    """``get(args, kwargs)``: the argument ``name`` of a call to ``original``, read from the
+    function's own signature, so that a wrapper passes every argument through unchanged and
+    names only the one it records (a probe that copied the signature went stale when
+    ``Sessions.admit`` gained arguments, and the image suites stopped running; a parameter
+    renamed now fails here, at the server's start)."""
+    names = list(inspect.signature(original).parameters)
+    if name not in names:
+        raise TypeError(f"benchmarks.instrumented_server: {original.__qualname__} has no parameter {name!r} "
+                        f"(its parameters: {names}); update the probe")
+    at = names.index(name)
+
+    def get(args: tuple, kwargs: dict):
+        return kwargs[name] if name in kwargs else args[at]
+    return get
+
+
 def _wrap_step(original):
     @functools.wraps(original)
-    def step(self: Simulation) -> None:
-        original(self)
+    def step(self: Simulation, *args, **kwargs):
+        out = original(self, *args, **kwargs)
         _steps.append((self.sim_time_ms, time.monotonic()))
+        return out
     return step
 
 
 def _wrap_render(original):
+    kind_of = _argument(original, "kind")
+
     @functools.wraps(original)
-    def render(self, thread, model, data, spec, kind):
+    def render(*args, **kwargs):
         t0 = time.monotonic()
         try:
-            return original(self, thread, model, data, spec, kind)
+            return original(*args, **kwargs)
         finally:
-            _frames.append(("image" if kind == "rgb" else "depth", t0, time.monotonic() - t0))
+            _frames.append(("image" if kind_of(args, kwargs) == "rgb" else "depth", t0, time.monotonic() - t0))
     return render
 
 
 def _wrap_admit(original):
+    request_of = _argument(original, "request")
+
     @functools.wraps(original)
-    def admit(self: Sessions, client: str, request, size: int):
-        refused = original(self, client, request, size)
-        _requests.append((time.monotonic(), len(request[1]), refused is None))  # deque.append: thread-safe
+    def admit(*args, **kwargs):
+        refused = original(*args, **kwargs)
+        commands = request_of(args, kwargs)[1]
+        _requests.append((time.monotonic(), len(commands), refused is None))  # deque.append: thread-safe
         return refused
     return admit
 

@@ -19,6 +19,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "scenes" / "ur5_rg2_kinect.xml"
 LOOPBACK = "127.0.0.1"
+#: More arguments for every simx server the suites start, before the suite's own (``--smoke``:
+#: ``--renderers on-demand``, a server's GL renderers made at its first image: half the CPU of a
+#: start, and most of the smoke run's servers read no image).
+SERVER_ARGS: list[str] = []
 
 
 def free_port() -> int:
@@ -136,7 +140,7 @@ class Server(Proc):
         module = "benchmarks.instrumented_server" if probe_log else "simx_server.cli"
         zmq = [] if "--zmq-port" in args else ["--no-zmq"]  # the ZMQ remote API only where a suite asks
         cmd = [sys.executable, "-m", module, str(SCENE), "--port", str(self.port),
-               "--log-level", "WARNING", *zmq, *args]
+               "--log-level", "WARNING", *zmq, *SERVER_ARGS, *args]
         env = child_env(**({"SIMX_BENCH_PROBE_LOG": str(probe_log)} if probe_log else {}))
         if root is not None:  # another source tree's server (--baseline): its code, this scene
             env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), os.environ.get("PYTHONPATH", "")) if p)

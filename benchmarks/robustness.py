@@ -159,7 +159,7 @@ def _malformed(s: Settings) -> list[Figure]:
 
 # ------------------------------------------------------------------ b. mixed load
 def _mixed(s: Settings) -> list[Figure]:
-    count, calls = 16, s.n(2000, 500)
+    count, calls = s.pick(16, 16, smoke=2), s.n(2000, 500)
     with Server(s.log_dir, "--pacing", "immediate", name="robustness-mixed") as srv:
         cid = connect(srv.port)
         try:
@@ -323,7 +323,7 @@ def _flood(s: Settings, kind: str = "flood") -> list[Figure]:
 
 # ------------------------------------------------------------------ d. image soak
 def _soak(s: Settings) -> list[Figure]:
-    seconds, every = s.t(180.0, 30.0), s.t(10.0, 5.0)
+    seconds, every = s.t(180.0, 30.0, smoke=2.0), s.t(10.0, 5.0, smoke=0.5)
     samples: list[dict] = []
     frames = depth_frames = 0
     with Server(s.log_dir, "--pacing", "immediate", name="robustness-soak") as srv:
@@ -386,9 +386,11 @@ def run(s: Settings) -> list[Figure]:
              ("big-streams", peers.big_image_streams), ("reconnect", peers.reconnect_soak)]
     for name, part in parts:  # one failing part must not hide the others
         print(f"   robustness: {name} ...", file=sys.stderr, flush=True)
+        t0 = time.monotonic()
         try:
             figures += part(s)
         except Exception as exc:
             traceback.print_exc()
             figures.append(skipped(f"robustness.{name}.error", f"robustness {name}", f"{type(exc).__name__}: {exc}"))
+        print(f"   robustness: {name}: {time.monotonic() - t0:.1f} s", file=sys.stderr, flush=True)
     return figures

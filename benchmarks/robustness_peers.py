@@ -124,6 +124,7 @@ def big_image_streams(s: Settings) -> list[Figure]:
     4096x4096 (sim_visionintparam_resolution_x/_y set at run time) for 20 s (8 s quick) while
     another client asks, blocking, for kinect_depth's 640x480 depth buffer."""
     seconds = s.t(20.0, 8.0)
+    side = s.pick(4096, 4096, smoke=256)  # --smoke: that the part runs, not what 4096x4096 costs
     with Server(s.log_dir, "--pacing", "immediate", name="robustness-big-streams") as srv:
         other = connect(srv.port)
         depth = api.simxGetObjectHandle(other, "kinect_depth", B)[1]
@@ -140,8 +141,8 @@ def big_image_streams(s: Settings) -> list[Figure]:
         unloaded = depth_calls(s.t(5.0, 3.0))
         rss_before = proc_status(srv.pid)["rss_mb"]
         rgb = api.simxGetObjectHandle(other, "kinect_rgb", B)[1]
-        assert api.simxSetObjectIntParameter(other, rgb, 1002, 4096, B) == 0
-        assert api.simxSetObjectIntParameter(other, rgb, 1003, 4096, B) == 0
+        assert api.simxSetObjectIntParameter(other, rgb, 1002, side, B) == 0
+        assert api.simxSetObjectIntParameter(other, rgb, 1003, side, B) == 0
         # ten streaming clients in a process of their own, each reading its updates (raw ids of
         # one session: one process cannot simxStart twice)
         streamer = subprocess.Popen([sys.executable, "-c", _STREAMER, str(srv.port), str(rgb)], stdin=subprocess.PIPE,
@@ -158,7 +159,7 @@ def big_image_streams(s: Settings) -> list[Figure]:
         api.simxFinish(other)
     lat = [x * 1e3 for x, _ in loaded]
     failed = sum(rc != 0 for _, rc in loaded)
-    return [Figure("robustness.big_streams.depth", "g. 10 streams of a 4096x4096 sensor: another client's "
+    return [Figure("robustness.big_streams.depth", f"g. 10 streams of a {side}x{side} sensor: another client's "
                    "640x480 depth call", "ms", summary(lat),
                    floor={"label": "the same calls unloaded", **summary(x * 1e3 for x, _ in unloaded)},
                    note=(f"p99 {np.percentile(lat, 99):.0f} ms, max {max(lat):.0f} ms over {len(lat)} calls "
@@ -227,19 +228,19 @@ print(n)
 def reconnect_soak(s: Settings) -> list[Figure]:
     """h. 4 processes connect, make ~30 mixed calls (streams, an image, signals, oneshot
     targets) and disconnect, over and over for 180 s (30 s quick): server RSS every 5 s."""
-    seconds = s.t(180.0, 30.0)
+    seconds, count, every = s.t(180.0, 30.0, smoke=2.0), s.pick(4, 4, smoke=2), s.t(5.0, 5.0, smoke=0.5)
     with Server(s.log_dir, name="robustness-reconnect") as srv:
         until = time.time() + seconds
         workers = [subprocess.Popen([sys.executable, "-c", _RECONNECT, str(srv.port), repr(until)],
-                                    stdout=subprocess.PIPE, text=True, env=child_env()) for _ in range(4)]
+                                    stdout=subprocess.PIPE, text=True, env=child_env()) for _ in range(count)]
         t0, samples = time.monotonic(), []
         while any(w.poll() is None for w in workers):
             samples.append((time.monotonic() - t0, proc_status(srv.pid)["rss_mb"]))
-            time.sleep(5)
+            time.sleep(every)
         connections = sum(int(w.stdout.read().strip() or 0) for w in workers)
     t, rss = zip(*samples)
     slope = float(np.polyfit(t, rss, 1)[0]) * 60 if len(t) > 2 else float("nan")
-    return [Figure("robustness.reconnect.rss", f"h. {seconds:.0f} s of 4 reconnecting clients: server RSS",
+    return [Figure("robustness.reconnect.rss", f"h. {seconds:.0f} s of {count} reconnecting clients: server RSS",
                    "MB", summary(rss), floor={"label": "RSS at the start", **summary([rss[0]])},
                    note=f"{connections} connections; slope {slope:+.1f} MB/min; last {rss[-1]:.0f} MB",
                    extra={"connections": connections, "slope_mb_per_min": slope})]

@@ -4,11 +4,13 @@
     python -m benchmarks.run --quick    # smoke run, under a minute
     python -m benchmarks.run --only calls,images --tag gpu
     python -m benchmarks.run --only robustness [--quick]   # opt-in: floods and soaks a server
+    python -m benchmarks.run --smoke    # every suite, tiny: that each runs (CI), no figure meant
 
 Every figure is a median over many repetitions with its p10/p90 (and min/max in the JSON);
 every comparison is a ratio to a floor measured side by side in the same run.
-Results: benchmarks/results/latest.json (and a timestamped copy), server logs in
-benchmarks/results/logs/.
+Results: benchmarks/results/latest.json (and a timestamped copy; --smoke: smoke.json only), server
+logs in benchmarks/results/logs/. Exit status 1 when a suite failed (its row says SKIPPED and why),
+or skipped a figure for another reason than something optional this machine lacks.
 """
 
 from __future__ import annotations
@@ -29,8 +31,9 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from benchmarks.common import Settings, loadavg  # noqa: E402
+from benchmarks import procs  # noqa: E402
 from benchmarks.procs import ROOT  # noqa: E402
-from benchmarks.stats import Figure, skipped  # noqa: E402
+from benchmarks.stats import Figure, skipped, unavailable  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 #: suite name -> (module, what it measures), in the order they run.
@@ -50,7 +53,11 @@ SUITES = {
     "idle": ("benchmarks.idle", "idle servers cost nothing: an env beside 3 idle servers (issue 20)"),
     "outbox": ("benchmarks.outbox", "command batching: a loop of oneshot calls on the wire (issue 19)"),
     "zmq": ("benchmarks.zmq_api", "CoppeliaSim's ZMQ remote API: against bare REQ/REP and the legacy API (issue 22)"),
+    "startup": ("benchmarks.startup", "start-up refusals: a taken port said at once (issue 60)"),
 }
+#: A suite that cannot import one of these is broken; any other missing module is a package this
+#: machine lacks (the suite's row says which).
+OWN_PACKAGES = {"benchmarks", "simx_wire", "simx_client", "simx_server", "simx_viewer", "pyrep", "tests"}
 #: Suites run only when named in --only: the robustness suite floods a server on purpose and
 #: soaks it for 3 minutes (about 5 minutes in all), which the everyday run should not do; the
 #: envs suite starts up to 4 servers at once and takes a few minutes of 640x480 renders.
@@ -114,7 +121,10 @@ def _git_commit() -> str:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.run", description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true", help="short smoke run (fewer repetitions)")
+    p.add_argument("--quick", action="store_true", help="short run (fewer repetitions)")
+    p.add_argument("--smoke", action="store_true",
+                   help="every suite (the opt-in ones too, unless --only or --skip) in its tiniest form, to show that "
+                        "each runs (CI: scripts/bench-smoke.sh); none of its figures means anything")
     p.add_argument("--only", help=f"comma-separated suites to run: {','.join(SUITES)}")
     p.add_argument("--skip", help="comma-separated suites to leave out")
     p.add_argument("--tag", default="", help="label stored in the JSON and its file name (e.g. gpu)")
@@ -129,16 +139,18 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [x for x in [*only, *skip] if x not in SUITES]
     if unknown:
         p.error(f"unknown suite(s) {unknown}; choose from {list(SUITES)}")
-    names = [n for n in (only or [n for n in SUITES if n not in OPT_IN]) if n not in skip]
+    names = [n for n in (only or [n for n in SUITES if args.smoke or n not in OPT_IN]) if n not in skip]
 
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     log_dir = RESULTS / "logs" / stamp
     if args.baseline is not None and not (args.baseline / "simx_server" / "cli.py").is_file():
         p.error(f"--baseline {args.baseline}: not a simx source tree (no simx_server/cli.py)")
-    settings = Settings(quick=args.quick, log_dir=log_dir, baseline=args.baseline)
+    settings = Settings(quick=args.quick or args.smoke, log_dir=log_dir, baseline=args.baseline, smoke=args.smoke)
+    if args.smoke:
+        procs.SERVER_ARGS[:] = ["--renderers", "on-demand"]
     meta = {
         "started": _dt.datetime.now().isoformat(timespec="seconds"),
-        "mode": "quick" if args.quick else "full",
+        "mode": "smoke" if args.smoke else "quick" if args.quick else "full",
         "tag": args.tag,
         "commit": _git_commit(),
         "baseline": str(args.baseline) if args.baseline else None,
@@ -154,37 +166,72 @@ def main(argv: list[str] | None = None) -> int:
     for name in names:
         module, title = SUITES[name]
         print(f"== {title} ...", file=sys.stderr, flush=True)
-        t0 = time.monotonic()
+        t0, cpu0 = time.monotonic(), _cpu_s()
         try:
             got = importlib.import_module(module).run(settings)
             status = "ok"
         except Exception as exc:  # one broken suite must not hide the others' figures
-            traceback.print_exc()
-            got = [skipped(f"{name}.error", title, f"{type(exc).__name__}: {exc}")]
-            status = f"error: {exc}"
+            missing = exc.name if isinstance(exc, ModuleNotFoundError) else None
+            if missing and missing.split(".")[0] not in OWN_PACKAGES:  # a package this machine lacks
+                got = [unavailable(f"{name}.error", title,
+                                   f"needs the {missing} package, not installed here (pip install -e '.[test,bench]')")]
+                status = f"not available: no {missing} package"
+            else:
+                traceback.print_exc()
+                got = [skipped(f"{name}.error", title, f"{type(exc).__name__}: {exc}")]
+                status = f"error: {exc}"
         figures.extend(got)
-        meta["suites"][name] = {"seconds": round(time.monotonic() - t0, 1), "status": status,
-                                "loadavg_after": loadavg()}
-        print(f"   {name}: {time.monotonic() - t0:.1f} s", file=sys.stderr, flush=True)
+        cpu = _cpu_s() - cpu0
+        meta["suites"][name] = {"seconds": round(time.monotonic() - t0, 1), "cpu_s": round(cpu, 1),
+                                "status": status, "loadavg_after": loadavg()}
+        print(f"   {name}: {time.monotonic() - t0:.1f} s ({cpu:.1f} s of CPU)", file=sys.stderr, flush=True)
     meta["seconds"] = round(time.monotonic() - t_start, 1)
+    meta["cpu_s"] = round(sum(x["cpu_s"] for x in meta["suites"].values()), 1)
     meta["loadavg_end"] = loadavg()
 
     text = table(figures)
     print(text)
-    print(f"\n{meta['mode']} run, {meta['seconds']} s, commit {meta['commit']}, "
+    print(f"\n{meta['mode']} run, {meta['seconds']} s ({meta['cpu_s']} s of CPU), commit {meta['commit']}, "
           f"load average {meta['loadavg_start']} -> {meta['loadavg_end']}")
     for f in figures:
         if f.note and not f.note.startswith("SKIPPED"):
             print(f"  {f.key}: {f.note}")
     doc = _clean({"meta": meta, "figures": [f.as_dict() for f in figures], "table": text})
     RESULTS.mkdir(parents=True, exist_ok=True)
-    out = args.out or RESULTS / "latest.json"
+    out = args.out or RESULTS / ("smoke.json" if args.smoke else "latest.json")
     body = json.dumps(doc, indent=1, allow_nan=False)
     out.write_text(body)
-    (RESULTS / f"run-{stamp}{'-' + args.tag if args.tag else ''}.json").write_text(body)
+    if not args.smoke:
+        (RESULTS / f"run-{stamp}{'-' + args.tag if args.tag else ''}.json").write_text(body)
     _prune(RESULTS / "logs", keep=5)
     print(f"\nwritten: {out}")
-    return 0
+    return _verdict(meta, figures)
+
+
+def _verdict(meta: dict, figures: list[Figure]) -> int:
+    """The exit status: 1 when a suite failed or a figure was skipped for another reason than
+    something optional this machine lacks (each named on stderr), else 0."""
+    missing = [f for f in figures if f.unavailable]
+    for f in missing:
+        print(f"not available here: {f.key}: {f.note}", file=sys.stderr)
+    broken = [name for name, info in meta["suites"].items() if info["status"].startswith("error")]
+    failed = [f"{name}: {meta['suites'][name]['status']}" for name in broken]
+    failed += [f"{f.key}: {f.note}" for f in figures  # a suite's own SKIPPED row is its status, said above
+               if f.note.startswith("SKIPPED") and not f.unavailable and f.key not in {f"{n}.error" for n in broken}]
+    for line in failed:
+        print(f"FAILED: {line}", file=sys.stderr)
+    if failed:
+        print(f"benchmarks.run: {len(failed)} suite(s) or figure(s) could not run (see above)", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def _cpu_s() -> float:
+    """CPU seconds (user + system) of this process and of its children that have ended (every
+    server, echo and worker a suite starts is waited for by the suite)."""
+    import resource
+
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 def _clean(value):

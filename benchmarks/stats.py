@@ -67,6 +67,10 @@ class Figure:
     extra: dict[str, Any] = dataclasses.field(default_factory=dict)
     ratio: float | None = None
     met: bool | None = None
+    #: Skipped because something optional is not on this machine (a package, Xvfb, the tutorial's
+    #: files, a port another program holds), which the note names: not an error (``--smoke``
+    #: fails on any other skip).
+    unavailable: bool = False
 
     def __post_init__(self) -> None:
         if self.floor is not None and self.floor.get("median"):
@@ -83,5 +87,11 @@ class Figure:
 
 
 def skipped(key: str, label: str, why: str) -> Figure:
-    """A row for a figure that could not be measured in this run."""
+    """A row for a figure that could not be measured in this run: an error (``--smoke`` fails)."""
     return Figure(key, label, "", summary([]), note=f"SKIPPED: {why}")
+
+
+def unavailable(key: str, label: str, what: str) -> Figure:
+    """A row for a figure this machine cannot measure: ``what`` optional is missing (a package, a
+    program, a file); said in the table, not an error."""
+    return Figure(key, label, "", summary([]), note=f"SKIPPED (not available here): {what}", unavailable=True)

@@ -20,7 +20,7 @@ import time
 
 from benchmarks.common import Settings
 from benchmarks.procs import ROOT, Server, child_env, port_in_use
-from benchmarks.stats import Figure, rate_summary, skipped
+from benchmarks.stats import Figure, rate_summary, skipped, unavailable
 
 PROGRAM = ROOT.parent / "shared" / "legacy" / "robotControl.py"
 PORT = 19999
@@ -31,20 +31,20 @@ KEY, LABEL = "tutorial.fps", "robotControl.py loop under Xvfb: frames/s"
 def run(s: Settings) -> list[Figure]:
     missing = [m for m in ("pygame", "cv2") if importlib.util.find_spec(m) is None]
     if missing:
-        return [skipped(KEY, LABEL, f"robotControl.py needs {', '.join(missing)}")]
+        return [unavailable(KEY, LABEL, f"robotControl.py needs {', '.join(missing)}")]
     if not PROGRAM.is_file():
-        return [skipped(KEY, LABEL, f"{PROGRAM} not found")]
+        return [unavailable(KEY, LABEL, f"{PROGRAM} not found (the tutorial's files, ../shared beside the checkout)")]
     sys.path.insert(0, str(ROOT))
     try:
-        from tests.xdisplay import VirtualDisplay, have_x_tools
+        from tests.e2e.xdisplay import VirtualDisplay, have_x_tools
     except ImportError as exc:
         return [skipped(KEY, LABEL, f"tests/e2e/xdisplay.py not importable: {exc}")]
     if not have_x_tools():
-        return [skipped(KEY, LABEL, "Xvfb/xdotool not installed (scripts/system-deps.sh --with-x)")]
+        return [unavailable(KEY, LABEL, "Xvfb/xdotool not installed (scripts/system-deps.sh --with-x)")]
     deadline = time.monotonic() + s.t(45.0, 5.0)  # e.g. a test run holding it for a while
     while port_in_use(PORT):
         if time.monotonic() > deadline:
-            return [skipped(KEY, LABEL, f"port {PORT} (hard-coded in robotControl.py) is in use")]
+            return [unavailable(KEY, LABEL, f"port {PORT} (hard-coded in robotControl.py) is in use")]
         time.sleep(1.0)
     try:
         srv = Server(s.log_dir, port=PORT, name="tutorial")

@@ -11,11 +11,9 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
-import errno
 import faulthandler
 import json
 import logging
-import re
 import signal
 import sys
 import threading
@@ -23,10 +21,10 @@ import warnings
 from importlib import resources
 from pathlib import Path
 
-from simx_wire.protocol import zenoh_reason
 from simx_server import __version__
 from simx_server.base import limits
 from simx_server.loop import logs, tasks
+from simx_server.listen_checks import listen_failure, port_in_use, zmq_port_in_use
 from simx_server.scene.formats import SCENE_FILES_TEXT
 
 DEFAULT_SCENE = "ur5_rg2_kinect.xml"
@@ -65,60 +63,6 @@ class _VersionAction(argparse.Action):
     def __call__(self, parser, namespace, values, option_string=None):
         print(version_text())
         parser.exit(0)
-
-
-#: Where a Zenoh error names an endpoint it could not listen on.
-_ENDPOINT_IN_ERROR = re.compile(r"bound to (\S+):\s")
-
-
-def listen_failure(endpoints: list[str], exc: BaseException) -> str:
-    """The one line ``simx-server`` prints when Zenoh cannot listen (status 2): for a port already
-    in use or an address not of this machine it names the endpoint and the way out (``--port``,
-    ``--host``), otherwise Zenoh's reason without the library's source paths. Always starts
-    ``simx-server: cannot listen on `` (ServerPool retries another port on that)."""
-    text = str(exc)
-    found = _ENDPOINT_IN_ERROR.search(text)
-    where = found.group(1) if found else ", ".join(endpoints)
-    if "Address already in use" in text or "os error 98" in text:
-        return _in_use(where)
-    if "Cannot assign requested address" in text or "os error 99" in text:
-        return (f"simx-server: cannot listen on {where}: that address is not one of this machine's; give "
-                "--host one of its own addresses (default 127.0.0.1)")
-    return f"simx-server: cannot listen on {where}: {zenoh_reason(text)}"
-
-
-def _in_use(where: str) -> str:
-    return (f"simx-server: cannot listen on {where}: the port is already in use (another simx-server, "
-            "or another program, listens there); stop it, or choose a free port with --port N "
-            "(the client's simxStart must use the same port)")
-
-
-def port_in_use(endpoints: list[str]) -> str | None:
-    """The refusal line of :func:`listen_failure` for the first TCP-based endpoint (``tcp``,
-    ``tls``, ``ws``) whose port something already listens on, or None. Checked before the scene
-    loads (2-10 s), so that a taken port is said at once: a probe socket binds the address with
-    ``SO_REUSEADDR`` (a port a stopped server left in TIME_WAIT counts as free, as it does for
-    Zenoh's listener, which sets the option too) and closes at once."""
-    import socket
-
-    for endpoint in endpoints:
-        protocol, _, address = endpoint.partition("/")
-        if protocol not in ("tcp", "tls", "ws"):
-            continue
-        host, _, port = address.split("#", 1)[0].split("?", 1)[0].rpartition(":")
-        try:
-            infos = socket.getaddrinfo(host.strip("[]"), int(port), type=socket.SOCK_STREAM)
-        except (OSError, ValueError):
-            continue  # Zenoh names what it cannot parse or resolve when it tries
-        for family, kind, proto, _, sockaddr in infos:
-            with socket.socket(family, kind, proto) as probe:
-                probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-                try:
-                    probe.bind(sockaddr)
-                except OSError as exc:
-                    if exc.errno == errno.EADDRINUSE:
-                        return _in_use(endpoint)
-    return None
 
 
 def missing_scene(args: argparse.Namespace) -> str | None:
@@ -281,15 +225,12 @@ def main(argv: list[str] | None = None) -> int:
 
     tune_malloc()  # freed memory goes back to the system (before Zenoh's and the render threads start)
     os.environ.setdefault("MUJOCO_GL", "egl")
-    # Imported here so that --help works without a GL stack.
+    # Zenoh's config and the ports first (Zenoh and the config module: about 0.05 s), so that a
+    # taken port is said at once, before MuJoCo, OpenCV and the API table load (1-1.5 s).
     import zenoh
 
-    from simx_server.scene.simulation import Simulation
-    from simx_server.legacy.script_hooks import ScriptHooks
-    from simx_server.legacy.server import DEFAULT_HOSTS, DEFAULT_PORTS, Server
-    from simx_server.legacy.zenoh_config import zenoh_config
+    from simx_server.legacy.zenoh_config import DEFAULT_HOSTS, DEFAULT_PORTS, zenoh_config
 
-    scene = Path(args.scene) if args.scene else default_scene()
     for folder in args.scene_path:
         if not Path(folder).is_dir():
             print(f"simx-server: --scene-path {folder}: not a folder", file=sys.stderr)
@@ -301,10 +242,16 @@ def main(argv: list[str] | None = None) -> int:
     except (zenoh.ZError, ValueError, OSError) as exc:
         print(listen_failure(endpoints, exc), file=sys.stderr)
         return 2
-    taken = port_in_use(endpoints)  # said now, not after the scene has loaded
+    taken = port_in_use(endpoints) or zmq_port_in_use(args)  # said now, not after the scene has loaded
     if taken:
         print(taken, file=sys.stderr)
         return 2
+    # Imported here so that --help and the refusals above work without a GL stack, at once.
+    from simx_server.scene.simulation import Simulation
+    from simx_server.legacy.script_hooks import ScriptHooks
+    from simx_server.legacy.server import Server
+
+    scene = Path(args.scene) if args.scene else default_scene()
     try:
         sim = Simulation(scene, dt=args.dt, realtime=None if args.speed is None else args.speed > 0,
                          allow_remote_code=args.allow_remote_code, allow_unsafe_lua=args.allow_unsafe_lua,

@@ -47,11 +47,10 @@ from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, 
 from simx_server.legacy.sessions import Session, Sessions
 from simx_server.legacy.streams import StreamPublisher, _Stream
 from simx_server.legacy.viewer_feed import ViewerFeed
+from simx_server.legacy.zenoh_config import DEFAULT_HOSTS, DEFAULT_PORTS
 
 log = logging.getLogger("simx.server")
 
-DEFAULT_HOSTS = ("127.0.0.1",)
-DEFAULT_PORTS = (19997, 19999)
 _STREAMING = (P.MODE_STREAMING, P.MODE_STREAMING_SPLIT)
 __all__ = ["DEFAULT_HOSTS", "DEFAULT_PORTS", "PACINGS", "LegacyClient", "LegacyDoor", "Server"]
 

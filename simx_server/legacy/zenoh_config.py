@@ -17,6 +17,13 @@ from simx_server.base.resources import raise_open_files_limit
 
 log = logging.getLogger("simx.server")
 
+#: Where ``simx-server`` listens without ``--host``/``--port``: V-REP's remote API ports (19997, the
+#: port of remoteApiConnections.txt, and 19999, the one V-REP's tutorials start from a script) on
+#: loopback. Here, not in :mod:`simx_server.legacy.server`, so that the command line checks them
+#: before it loads MuJoCo and the API table.
+DEFAULT_HOSTS = ("127.0.0.1",)
+DEFAULT_PORTS = (19997, 19999)
+
 _BLOCK_WAIT = "transport/link/tx/queue/congestion_control/block/wait_before_close"
 _MAX_MESSAGE = "transport/link/rx/max_message_size"
 _ACCEPT_TIMEOUT = "transport/unicast/accept_timeout"

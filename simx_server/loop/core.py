@@ -257,6 +257,11 @@ class Loop:
     def close(self) -> None:
         """Close the simulation (its pending renders), the sending thread (the sends handed over
         leave first), then the doors."""
+        # What :meth:`serve` froze is collectable again: frozen objects are never collected, even
+        # by the collections at interpreter exit, so the scene's cycles would outlive the server and
+        # extensions that count what is left at exit (nanobind's: OMPL's bindings, once a planning
+        # call imported them) would print a wall of "leaked" lines at every exit.
+        gc.unfreeze()
         try:
             self.sim.close()
             self.courier.close()

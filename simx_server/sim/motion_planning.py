@@ -24,19 +24,32 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 
-from simx_server.sim import collisions
+from simx_server.sim import collisions, ompl_spaces
 from simx_server.sim.ompl_spaces import JOINT_TYPES, Placement, Space
 from simx_server.sim.world import World
 from simx_wire.protocol import MAX_REQUEST_ITEMS
 
-try:  # the pyrep extra installs it; without it every planning call says so
-    from ompl import base as ob, geometric as og, util as ou
+# OMPL's modules, imported when a planning call first needs them (:func:`_load`); without the
+# bindings every planning call says so (``IMPORT_ERROR``).
+ob: Any = None
+og: Any = None
 
-    ou.setLogLevel(ou.LOG_NONE)  # OMPL's own messages on stderr; the calls report what failed
-    IMPORT_ERROR: str | None = None
-except ImportError as exc:  # pragma: no cover - the test environment has ompl
-    ob = og = ou = None
-    IMPORT_ERROR = f"motion planning needs OMPL's Python bindings: pip install ompl ({exc})"
+
+def _load() -> None:
+    """Imports OMPL's bindings on first use (:func:`~simx_server.sim.ompl_spaces.load`).
+
+    Raises:
+        RuntimeError: they are not installed.
+    """
+    global ob, og
+    ob, og, _ = ompl_spaces.load()
+
+
+def __getattr__(name: str) -> Any:
+    """``IMPORT_ERROR``: why OMPL's bindings cannot be imported (imported now if not yet), or None."""
+    if name == "IMPORT_ERROR":
+        return ompl_spaces.import_error()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 #: s one solve or simplification may take at most (the caller's thread waits for it: a script's;
 #: a ZMQ client's runs off the simulation thread, :mod:`simx_server.api.long_calls`).
@@ -62,7 +75,9 @@ def available() -> tuple[str, ...]:
         Names of :data:`ALGORITHMS` (``ompl`` 2.0.1: BITstar, BKPIECE1, FMT, KPIECE1, LBKPIECE1,
         PRM, PRMstar, RRT, RRTConnect, RRTstar); empty without the bindings.
     """
-    if og is None:
+    try:
+        _load()
+    except RuntimeError:
         return ()
     return tuple(a for a in ALGORITHMS if hasattr(og, a))
 
@@ -146,8 +161,7 @@ class Problem:
     """
 
     def __init__(self, space: Space, valid: Callable[[np.ndarray], bool], resolution: float = 0.01):
-        if ob is None:
-            raise RuntimeError(IMPORT_ERROR)
+        _load()
         self.dim = space.dim
         self.codec, self.space = space, space.space
         self.si = ob.SpaceInformation(self.space)

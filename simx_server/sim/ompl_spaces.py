@@ -31,10 +31,50 @@ from simx_server.sim.objects import JOINT, SHAPE
 from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matrix_from_quaternion
 from simx_server.sim.world import World
 
-try:  # the pyrep extra installs it (motion_planning reports its absence)
-    from ompl import base as ob
-except ImportError:  # pragma: no cover - the test environment has ompl
-    ob = None
+#: OMPL's ``ompl.base`` once :func:`load` has imported it; None before.
+ob: Any = None
+#: OMPL's modules ``(base, geometric, util)``, or why they cannot be imported; None: not tried yet.
+_loaded: tuple[Any, Any, Any] | str | None = None
+
+
+def load() -> tuple[Any, Any, Any]:
+    """OMPL's Python bindings, imported when a planning call first needs them (the pyrep extra
+    installs them): a server that never plans neither pays their import (0.1-0.2 s) nor holds
+    their types.
+
+    Returns:
+        The modules ``(ompl.base, ompl.geometric, ompl.util)``; OMPL's own log is silenced (the
+        calls report what failed).
+
+    Raises:
+        RuntimeError: the bindings are not installed (:func:`import_error` says so).
+    """
+    global ob, _loaded
+    if _loaded is None:
+        try:
+            from ompl import base, geometric, util
+
+            util.setLogLevel(util.LOG_NONE)
+            _loaded = (base, geometric, util)
+        except ImportError as exc:  # pragma: no cover - the test environment has ompl
+            _loaded = f"motion planning needs OMPL's Python bindings: pip install ompl ({exc})"
+    if isinstance(_loaded, str):
+        raise RuntimeError(_loaded)
+    ob = _loaded[0]
+    return _loaded
+
+
+def import_error() -> str | None:
+    """Whether OMPL's bindings can be imported (the import tried now if not yet).
+
+    Returns:
+        Why not (a line for the caller's error), or None when they are there.
+    """
+    try:
+        load()
+    except RuntimeError as exc:
+        return str(exc)
+    return None
 
 #: simOMPL's ``StateSpaceType`` names (callbacks.xml, from 50001, in this order).
 TYPES = ("position2d", "pose2d", "position3d", "pose3d", "joint_position", "dubins", "cyclic_joint_position")
@@ -130,8 +170,7 @@ class Space:
     """
 
     def __init__(self, subspaces: list[Subspace]):
-        if ob is None:
-            raise RuntimeError("motion planning needs OMPL's Python bindings: pip install ompl")
+        load()
         self.subspaces = subspaces
         self.dim = sum(DIMENSION[s.kind] for s in subspaces)
         self.flat = all(s.kind == "joint_position" for s in subspaces)

@@ -23,9 +23,12 @@ SCENE = """<mujoco model="hardening">
     <body name="Keeper" pos="0 0 0.1"><geom type="box" size="0.05 0.05 0.05"/></body>
     <body name="Camera" pos="0 0 1"><camera name="cam" fovy="45" resolution="32 24"/></body>
   </worldbody>
-  <custom><text name="simx:Keeper" data="child_script=keeper.lua"/></custom>
+  <custom><text name="simx:Keeper" data="child_script=keeper.lua script_timeout=60"/></custom>
 </mujoco>
 """
+# script_timeout=60: filling 248 MiB took more than the default 1 s of CPU on a busy 2-core machine,
+# which then answered "interrupted" instead of the memory refusal under test (issue 60): the tests
+# here assert the memory bounds, not which bound a slow machine reaches first.
 KEEPER = """-- keeps what it gets, as an operator's five-line store(x)
 kept = {}
 function store(...) kept[#kept + 1] = {...} return #kept end
@@ -51,7 +54,7 @@ def zmq_server(tmp_path_factory):
 class Client:
     """A raw REQ socket speaking the protocol (the official client's requests, by codec)."""
 
-    def __init__(self, port: int, uuid: str = "hardening", timeout_ms: int = 20000):
+    def __init__(self, port: int, uuid: str = "hardening", timeout_ms: int = 120_000):  # a hang fails
         self.ctx = zmq.Context()
         self.sock = self.ctx.socket(zmq.REQ)
         self.sock.setsockopt(zmq.RCVTIMEO, timeout_ms)
@@ -93,7 +96,7 @@ def test_arguments_that_do_not_fit_the_scripts_lua_state_are_refused_not_fatal(z
     assert script(client, "forget")["ret"] == [0]
     try:
         filled = script(client, "fill", (limits.MAX_SCRIPT_MEMORY >> 20) - 8)
-        assert "ret" in filled, filled
+        assert "ret" in filled, (filled, zmq_server.log_so_far()[-3000:])
         reply = script(client, "store", big)
         assert "MiB free" in reply.get("err", ""), reply
         reply = script(client, "fill", 16)  # out of memory inside the call
@@ -144,6 +147,17 @@ def test_requests_are_refused_by_their_decoded_size():
 
 
 # ------------------------------------------------------------ 3: replies a peer does not read
+def _pace(client: Client) -> float:
+    """Seconds between two requests of a connection that does not read its replies, so that the
+    server has served the first before the second comes (else the second is refused "one request
+    at a time", and the unread replies under test do not pile up): 4x a reading client's round
+    trip for the same 16 MiB reply on this machine now, at least 0.3 s. A fixed 0.3 s was too
+    short on a busy 2-core machine (issue 60)."""
+    t0 = time.monotonic()
+    assert "ret" in client.call("sim.getStringSignal", "big")
+    return max(0.3, 4 * (time.monotonic() - t0))
+
+
 def test_replies_a_connection_does_not_read_are_bounded(zmq_server, client):
     """A DEALER asking for a 16 MiB signal again and again without reading: once
     limits.MAX_ZMQ_UNSENT_BYTES of its replies wait for it, its requests answer "server busy"
@@ -152,16 +166,17 @@ def test_replies_a_connection_does_not_read_are_bounded(zmq_server, client):
     ctx = zmq.Context()
     dealer = ctx.socket(zmq.DEALER)
     dealer.setsockopt(zmq.LINGER, 0)
-    dealer.setsockopt(zmq.RCVTIMEO, 20000)
+    dealer.setsockopt(zmq.RCVTIMEO, 120_000)
     dealer.setsockopt(zmq.RCVBUF, 64 * 1024)  # the kernel takes little of what the peer does not read,
     dealer.setsockopt(zmq.RCVHWM, 1)  # and libzmq stops reading after one message (a peer that does not read)
     dealer.connect(f"tcp://127.0.0.1:{zmq_server.zmq_port}")
     sent = limits.MAX_ZMQ_UNSENT_BYTES // (16 << 20) + 4
+    pace = _pace(client)
     try:
         request = codec.encode_request("sim.getStringSignal", ["big"], "never-reads")
         for _ in range(sent):
             dealer.send_multipart([b"", request])
-            time.sleep(0.3)  # served meanwhile (a second request in work would be refused for that)
+            time.sleep(pace)  # served meanwhile (a second request in work would be refused for that)
         replies = [cbor2.loads(dealer.recv_multipart()[-1]) for _ in range(sent)]
     finally:
         dealer.close(0)
@@ -182,6 +197,7 @@ def test_replies_no_connection_reads_are_bounded_in_total(zmq_server, client):
     dealers = -(-limits.MAX_ZMQ_UNSENT_BYTES_TOTAL // (per * (16 << 20))) + 1  # together past the total
     assert client.call("sim.setStringSignal", "big", b"\1" * (16 << 20)) == {"ret": []}
     before, peak = _rss_mb(zmq_server.proc.pid), 0.0
+    pace = _pace(client)
     ctx = zmq.Context()
     socks = []
     try:
@@ -189,14 +205,14 @@ def test_replies_no_connection_reads_are_bounded_in_total(zmq_server, client):
         for _ in range(dealers):
             d = ctx.socket(zmq.DEALER)
             d.setsockopt(zmq.LINGER, 0)
-            d.setsockopt(zmq.RCVTIMEO, 20000)
+            d.setsockopt(zmq.RCVTIMEO, 120_000)
             d.setsockopt(zmq.RCVBUF, 64 * 1024)
             d.setsockopt(zmq.RCVHWM, 1)
             d.connect(f"tcp://127.0.0.1:{zmq_server.zmq_port}")
             socks.append(d)
             for _ in range(per):
                 d.send_multipart([b"", request])
-                time.sleep(0.3)
+                time.sleep(pace)
                 peak = max(peak, _rss_mb(zmq_server.proc.pid))
         replies = [cbor2.loads(d.recv_multipart()[-1]) for d in socks for _ in range(per)]
     finally:

@@ -30,7 +30,12 @@ except ImportError:
 import vrep
 
 B = vrep.simx_opmode_blocking
-_MANY = 40_000  # dummies: about 3.5 s of one core to convert, so past a 1 s CPU bound
+#: The worker's CPU bound (s) in the tests of a file past it, and files far past it on any machine:
+#: about 3x it for a small file on a busy 2-core machine (a 1 s bound refused a one-box model there,
+#: issue 60), and the files past it need 3x it on this project's machines, so that a machine three
+#: times as fast still passes it.
+BOUND = 3
+_MANY = 120_000  # dummies: about 10 s of one core to convert
 
 
 @functools.cache  # the same bytes for every test: made once (0.2 s)
@@ -40,13 +45,13 @@ def _many_dummies() -> bytes:
 
 @functools.cache  # the same bytes for every test: made once
 def _heavy_meshes() -> bytes:
-    """Eight shapes of 199,000 random triangles over one pool array of 100,000 vertices (20 MB):
-    about 4.6 s of one core to convert (MuJoCo's convex hulls), within every reader bound."""
+    """Sixteen shapes of 199,000 random triangles over one pool array of 100,000 vertices (40 MB):
+    about 9 s of one core to convert (MuJoCo's convex hulls), within every reader bound."""
     rng = np.random.default_rng(40)
     pool = W.mesh_pool(rng.random((100_000, 3)), rng.integers(0, 100_000, 3 * 199_000))
     more = b"".join(W.rec("VIN", W.lst(W.rec("Ind", rng.integers(0, 100_000, 3 * 199_000).astype("<i4").tobytes())))
-                    for _ in range(7))
-    shapes = b"".join(W.pool_shape(k + 1, -1, f"S{k}", 0, k) for k in range(8))
+                    for _ in range(15))
+    shapes = b"".join(W.pool_shape(k + 1, -1, f"S{k}", 0, k) for k in range(16))
     return W.ttt_file(pool + more + shapes, compress=False)
 
 
@@ -91,11 +96,11 @@ def test_the_worker_stops_at_its_cpu_bound(tmp_path, monkeypatch):
 
 @pytest.fixture()
 def bounded(tmp_path, monkeypatch):
-    """A scene folder with a plain start scene, a file that takes more than 1 s of CPU to
-    convert as a scene and as a model, the conversion cache in the test's folder, the worker's
-    CPU bound at 1 s."""
+    """A scene folder with a plain start scene, a file that takes far more than BOUND s of CPU
+    to convert as a scene and as a model, the conversion cache in the test's folder, the
+    worker's CPU bound at BOUND s."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    monkeypatch.setenv("SIMX_TTT_WORKER_CPU_S", "1")
+    monkeypatch.setenv("SIMX_TTT_WORKER_CPU_S", str(BOUND))
     folder = tmp_path / "scenes"
     folder.mkdir()
     (folder / "start.ttt").write_bytes(W.ttt_file(W.cuboid_shape(1, -1, "Floor", (2, 2, 0.1), dynamic=False)))
@@ -137,7 +142,7 @@ def test_a_file_past_its_cpu_bound_leaves_the_server_serving_and_its_memory_as_i
         else:
             rc, answered = _load_while_another_client_calls(srv, lambda c: vrep.simxLoadModel(c, "many.ttm", 0, B)[0])
         assert rc == vrep.simx_return_remote_error_flag
-        # the conversion took at least its 1 s of CPU in the worker; the other client's calls
+        # the conversion took at least its BOUND s of CPU in the worker; the other client's calls
         # (one every 10 ms or so) went on meanwhile: the simulation thread was not held
         assert answered >= 10
         assert _rss_mb(srv.proc.pid) - before < 100
@@ -148,10 +153,14 @@ def test_a_file_past_its_cpu_bound_leaves_the_server_serving_and_its_memory_as_i
         log = srv.stop()
     name = "many.ttt" if kind == "scene" else "many.ttm"
     assert (f"cannot load '{name}': {name}: record worker: conversion took more than its "
-            "CPU-time bound (RLIMIT_CPU = 1 s, SIMX_TTT_WORKER_CPU_S)") in log, log[-2000:]
+            f"CPU-time bound (RLIMIT_CPU = {BOUND} s, SIMX_TTT_WORKER_CPU_S)") in log, log[-2000:]
 
 
-def test_a_clients_file_and_a_good_scene_file_load_through_the_worker(bounded, tmp_path):
+def test_a_clients_file_and_a_good_scene_file_load_through_the_worker(bounded, tmp_path, monkeypatch):
+    # The reader's bounds are under test here, not the worker's CPU bound: a busy machine took more
+    # than 1 s of CPU to read dummies.ttt's first 10,000 objects and answered with that bound
+    # instead (issue 60). The worker gets the default's 60 s, which no machine reaches first.
+    monkeypatch.setenv("SIMX_TTT_WORKER_CPU_S", "60")
     chain = W.ttt_file(W.dummy(1, -1, "D1") + b"".join(W.dummy(k, k - 1, f"D{k}") for k in range(2, 5001)))
     (tmp_path / "chain.ttt").write_bytes(chain)
     (tmp_path / "box.ttt").write_bytes(W.ttt_file(W.cuboid_shape(1, -1, "Box", (0.1, 0.1, 0.1), (0, 0, 1))))
@@ -179,7 +188,7 @@ def test_zmq_loads_of_vrep_files_answer_once_loaded(bounded, official):
     srv = ServerProcess(str(bounded / "start.ttt"), "--stopped", "--zmq-port", str(port), renderers="on-demand")
     try:
         sim = official(port).require("sim")
-        with pytest.raises(Exception, match="RLIMIT_CPU = 1 s"):
+        with pytest.raises(Exception, match=f"RLIMIT_CPU = {BOUND} s"):
             sim.loadScene(str(bounded / "many.ttt"))
         (bounded / "crate.ttm").write_bytes(W.ttt_file(W.cuboid_shape(1, -1, "Crate", (0.2, 0.2, 0.2), (0, 0, 0.5))))
         base = sim.loadModel(str(bounded / "crate.ttm"))
@@ -192,5 +201,5 @@ def test_zmq_loads_of_vrep_files_answer_once_loaded(bounded, official):
 
 def test_the_command_line_file_is_converted_in_the_bounded_worker(bounded):
     with pytest.raises(RuntimeError, match=r"simx-server: dummies.ttt: record worker: conversion took more than its "
-                                           r"CPU-time bound \(RLIMIT_CPU = 1 s"):
+                                           rf"CPU-time bound \(RLIMIT_CPU = {BOUND} s"):
         ServerProcess(str(bounded / "dummies.ttt"), "--stopped", renderers="on-demand")
