@@ -219,6 +219,7 @@ def _settings(sim, spec: mujoco.MjSpec, prefix: str, files: dict[str, bytes]) ->
                 file = prefix + _safe(obj.name) + "_path.json"
                 files[file] = json.dumps(_path_data(kept_objects._load_path(world, obj))).encode()
                 items.setdefault(obj.name, []).append(f"path_data={file}")
+    _properties(world, items)
     _sensors(sim, spec, items)
     for text in list(spec.texts):
         if text.name.startswith("simx:") and text.name[5:] in items:
@@ -226,6 +227,20 @@ def _settings(sim, spec: mujoco.MjSpec, prefix: str, files: dict[str, bytes]) ->
     for name, values in items.items():
         if values:
             spec.add_text(name=f"simx:{name}", data=" ".join(values))
+
+
+def _properties(world, items: dict[str, list[str]]) -> None:
+    """The special and model property bits set at run time (``sim.setObjectSpecialProperty``,
+    ``sim.setModelProperty``; a new pure shape's cleared ones) as the ``special=`` and
+    ``model_property=`` settings the scene is read with (:mod:`simx_server.sim.properties`), as
+    CoppeliaSim saves each object's ``Omp`` and ``Mpo`` records."""
+    props = world.properties
+    for store, key in ((props.special, "special"), (props.model, "model_property")):
+        for handle, bits in store.items():
+            obj = world.objects.get(handle)
+            if obj is not None:
+                mine = [i for i in items.get(obj.name, []) if i.partition("=")[0] != key]
+                items[obj.name] = [*mine, f"{key}={int(bits)}"]
 
 
 #: A vision sensor's render modes as its ``render_mode=`` setting writes them.

@@ -71,7 +71,8 @@ def test_a_saved_scene_reopens_with_its_objects_poses_meshes_scripts_and_data(tm
         pr.import_model(str(tmp_path / "task.ttm"))
         pr.import_model(str(tmp_path / "arm.xml"))
         mine = Shape.create(PrimitiveShape.CUBOID, [0.1, 0.2, 0.3], position=[0.5, 0.5, 0.5])
-        mine.set_name("mine")
+        mine.set_name("mine")  # a new pure shape: neither collidable, measurable nor detectable
+        Shape("block").set_collidable(False)
         Dummy("task").set_position([0.3, 0.1, 0.25])
         Joint("arm_joint").set_joint_position(0.5)
         mask = VisionSensor.create([64, 48], explicit_handling=True, render_mode=RenderMode.OPENGL_COLOR_CODED,
@@ -100,6 +101,8 @@ def test_a_saved_scene_reopens_with_its_objects_poses_meshes_scripts_and_data(tm
         mask = VisionSensor("mask_cam")  # set after it was made: kept
         assert mask.get_render_mode() == RenderMode.OPENGL_COLOR_CODED and mask.get_resolution() == [64, 48]
         assert mask.get_near_clipping_plane() == pytest.approx(0.02) and mask.get_position()[0] == pytest.approx(1)
+        assert not Shape("mine").is_collidable() and not Shape("mine").is_measurable()
+        assert not Shape("block").is_collidable() and Shape("block").is_measurable()  # flags as saved
         w = sim.context().world
         assert np.allclose(w.model.geom_rgba, rgba)  # the arm's classes: red box, blue capsule
         assert sim.call("readCustomDataBlockEx", Object.get_object("task").get_handle(), "tag") == b"hello"
