@@ -78,8 +78,7 @@ def test_collision_and_distance(api):
     assert np.linalg.norm(np.array(data[:3]) - data[3:6]) == pytest.approx(0.05, abs=1e-6)
     assert api.checkDistance(a, b, 0.01)[0] == 0  # beyond the threshold
     assert api.checkDistance(h(api, "ball_above"), api.handle_all)[1][6] == pytest.approx(0.2002, abs=1e-4)
-    with pytest.raises(Exception, match="shape"):
-        api.checkCollision(h(api, "prox"), a)
+    assert api.checkCollision(h(api, "prox"), a) == (0, [-1, -1])  # a non-shape collides with nothing (4.1)
 
 
 def test_sensors_handled_explicitly(api, sim):

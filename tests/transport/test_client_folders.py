@@ -128,7 +128,9 @@ def test_zmq_save_scene_goes_into_the_clients_folder_not_over_the_operators_scen
     before = (server.folder / "adv.xml").read_bytes()
     assert "ret" in a.call("sim.saveScene", "adv.xml"), "saveScene into its own folder"
     assert (server.folder / "adv.xml").read_bytes() == before
-    assert any(files == ["adv.xml"] for files in client_files(server).values()), client_files(server)
+    # the scene and its script beside it, as a saved scene names it (simx_server/scene/scene_file.py)
+    assert any(files == ["adv.xml", "adv_Keeper_child.lua"] for files in client_files(server).values()), \
+        client_files(server)
     for bad in (str(server.folder / "adv.xml"), "../adv.xml", "../../x.xml", ".simx-clients/x.xml"):
         reply = a.call("sim.saveScene", bad)
         assert "refused" in reply.get("err", ""), (bad, reply)
@@ -252,7 +254,8 @@ def test_a_client_scenes_script_is_confined_to_that_clients_folder(server, tmp_p
         assert rc == vrep.simx_return_ok and strings == ["ok"], strings
         vrep.simxStopSimulation(cid, B)
         (folder,) = [k for k in client_files(server) if k not in before]
-        assert client_files(server)[folder] == ["at_init.xml", "mine.xml", "sent.lua", "sent.xml"]
+        assert client_files(server)[folder] == ["at_init.xml", "at_init_Sent_child.lua", "mine.xml",
+                                                "mine_Sent_child.lua", "sent.lua", "sent.xml"]
         assert not (server.folder / "adv_from_script.xml").exists() and not (server.folder / "mine.xml").exists()
     finally:
         vrep.simxFinish(cid)
