@@ -93,14 +93,17 @@ def test_the_built_wheel_installs_a_server_and_client_that_work(tmp_path):
     assert {p for p in packages if f"{p}/__init__.py" not in names} == set()
 
     # A fresh environment with the wheel alone; its dependencies come from the test environment's
-    # site-packages through a .pth line (a plain path: the editable install's finder there is not run).
+    # site-packages through .pth lines (plain paths: the editable install's finder there is not run).
     env_dir = tmp_path / "fresh"
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True, timeout=120)
     python = env_dir / "bin" / "python"
     site = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
                           capture_output=True, text=True, check=True).stdout.strip()
     deps = next(p for p in map(Path, sys.path) if p.name == "site-packages" and (p / "mujoco").is_dir())
-    (Path(site) / "simx-test-deps.pth").write_text(f"{deps}\n")
+    # coal (exact collision queries) is a cmeel package: its modules live in a prefix of their own
+    # that its cmeel.pth adds; a plain path line runs no .pth of that folder, so it is named too
+    cmeel = sorted(deps.glob("cmeel.prefix/lib/python*/site-packages"))
+    (Path(site) / "simx-test-deps.pth").write_text("".join(f"{p}\n" for p in (deps, *cmeel)))
     out = subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index",
                           "-q", str(wheel)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
