@@ -43,12 +43,13 @@ ensure_venv() {
     fi
     # Sizes of a fresh environment, measured with pip's cache off (2026-11-24, a fast connection):
     # simx alone 413 MB in 28 s, with the test extra 559 MB in 19-28 s, with the train extra and
-    # PyTorch's CPU build 1,386 MB in about 60 s; the ray extra adds Ray and RLlib to that.
-    local size="about 410 MB; 20-30 s"
+    # PyTorch's CPU build 1,386 MB in about 60 s; the ray extra adds Ray and RLlib to that. coal (exact
+    # collision queries, a base dependency since) adds 320 MB: simx alone 731 MB (2026-11-25).
+    local size="about 730 MB; 20-40 s"
     case "$*" in
-    *ray*) size="about 1.4 GB with PyTorch's CPU build, more with Ray; a minute or two" ;;
-    *train*) size="about 1.4 GB with PyTorch's CPU build; about a minute" ;;
-    *test*) size="about 560 MB; 20-30 s" ;;
+    *ray*) size="about 1.7 GB with PyTorch's CPU build, more with Ray; a minute or two" ;;
+    *train*) size="about 1.7 GB with PyTorch's CPU build; about a minute" ;;
+    *test*) size="about 880 MB; 20-40 s" ;;
     esac
     echo "simx: installing the Python packages ($*) into $VENV: the first time this downloads" \
          "MuJoCo, Zenoh, OpenCV and the rest ($size on a fast connection, minutes on a slow one);" \
