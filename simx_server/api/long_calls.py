@@ -24,15 +24,14 @@ in-process callers (``pyrep``) run the work at once, as before.
 
 from __future__ import annotations
 
-import collections
 import logging
-import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from typing import Any
 
 from simx_server.api.context import CallContext
+from simx_server.base.job_ring import JobRing
 from simx_server.sim.vision_results import Deferred
 from simx_wire.protocol import BUSY, RemoteError
 
@@ -42,68 +41,16 @@ log = logging.getLogger("simx.api")
 MAX_WAITING_PER_CLIENT = 2
 
 
-class LongCalls:
+class LongCalls(JobRing):
     """The long calls waiting for the one background thread, served round robin by client
     (the thread is started when a job comes and ends when none waits)."""
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._jobs: dict[str | None, collections.deque[Callable[[], None]]] = {}  # client -> its jobs not started
-        self._ring: collections.deque[str | None] = collections.deque()  # clients with jobs waiting, in turn
-        self._pending: dict[str | None, int] = {}  # client -> its jobs waiting or running
-        self._running = False
+        super().__init__(MAX_WAITING_PER_CLIENT, "simx-long-calls", log, "long call")
 
-    def pending(self, client: Any = ...) -> int:
-        """Jobs waiting or running, of ``client`` (default: of all clients); any thread."""
-        with self._lock:
-            return sum(self._pending.values()) if client is ... else self._pending.get(client, 0)
-
-    def add(self, client: str | None, job: Callable[[], None]) -> None:
-        """Queue ``job`` of ``client``.
-
-        Raises:
-            RemoteError: ``server busy``: :data:`MAX_WAITING_PER_CLIENT` jobs of ``client``
-                run or wait already.
-        """
-        with self._lock:
-            mine = self._pending.get(client, 0)
-            if mine >= MAX_WAITING_PER_CLIENT:
-                raise RemoteError(f"{BUSY}: {mine} long call(s) of this client (planning, convex decomposition) run "
-                                  f"or wait already (long_calls.MAX_WAITING_PER_CLIENT = {MAX_WAITING_PER_CLIENT})")
-            self._pending[client] = mine + 1
-            jobs = self._jobs.setdefault(client, collections.deque())
-            if not jobs:
-                self._ring.append(client)
-            jobs.append(job)
-            if self._running:
-                return
-            self._running = True
-        threading.Thread(target=self._serve, name="simx-long-calls", daemon=True).start()
-
-    def _serve(self) -> None:
-        while True:
-            with self._lock:
-                if not self._ring:
-                    self._running = False
-                    return
-                client = self._ring.popleft()
-                jobs = self._jobs[client]
-                job = jobs.popleft()
-                if jobs:
-                    self._ring.append(client)  # its next job after every other client's
-                else:
-                    del self._jobs[client]
-            try:
-                job()
-            except Exception:  # a job reports its own errors; the queue must outlive it
-                log.exception("a long call")
-            finally:
-                with self._lock:
-                    left = self._pending[client] - 1
-                    if left:
-                        self._pending[client] = left
-                    else:
-                        del self._pending[client]
+    def busy(self, mine: int) -> str:
+        return (f"{BUSY}: {mine} long call(s) of this client (planning, convex decomposition) run "
+                f"or wait already (long_calls.MAX_WAITING_PER_CLIENT = {MAX_WAITING_PER_CLIENT})")
 
 
 waiting = LongCalls()

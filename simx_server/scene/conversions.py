@@ -28,9 +28,7 @@ Commands of the same request after the load run before it completes (against the
 
 from __future__ import annotations
 
-import collections
 import logging
-import threading
 from collections.abc import Callable
 from concurrent.futures import Future
 from pathlib import Path
@@ -41,6 +39,7 @@ import mujoco
 from simx_wire.protocol import BUSY, RemoteError
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
+from simx_server.base.job_ring import JobRing
 from simx_server.scene.ttt import cache as ttt_cache
 from simx_server.sim.vision_results import Deferred
 
@@ -52,64 +51,16 @@ log = logging.getLogger("simx.editing")
 MAX_WAITING_PER_CLIENT = 4
 
 
-class Conversions:
+class Conversions(JobRing):
     """The conversions waiting for the one worker, served round robin by client on one thread
     (started when a job comes, ended when none waits): each may take the worker's memory bound."""
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._jobs: dict[str | None, collections.deque] = {}  # client -> its jobs not started
-        self._ring: collections.deque = collections.deque()  # clients with jobs waiting, in turn
-        self._pending: dict[str | None, int] = {}  # client -> its jobs waiting or running
-        self._running = False
+        super().__init__(MAX_WAITING_PER_CLIENT, "simx-ttt-convert", log, "scene conversion")
 
-    def pending(self, client: Any = ...) -> int:
-        """Jobs waiting or running, of ``client`` (default: of all clients)."""
-        with self._lock:
-            return sum(self._pending.values()) if client is ... else self._pending.get(client, 0)
-
-    def add(self, client: str | None, job: Callable[[], None]) -> None:
-        """Queue ``job`` of ``client``; raises RemoteError (``server busy``) past its share."""
-        with self._lock:
-            mine = self._pending.get(client, 0)
-            if mine >= MAX_WAITING_PER_CLIENT:
-                raise RemoteError(f"{BUSY}: {mine} scene file(s) of this client are being converted or wait for it "
-                                  f"(scene.conversions.MAX_WAITING_PER_CLIENT = {MAX_WAITING_PER_CLIENT}); "
-                                  "try again once loaded")
-            self._pending[client] = mine + 1
-            jobs = self._jobs.setdefault(client, collections.deque())
-            if not jobs:
-                self._ring.append(client)
-            jobs.append(job)
-            if self._running:
-                return
-            self._running = True
-        threading.Thread(target=self._serve, name="simx-ttt-convert", daemon=True).start()
-
-    def _serve(self) -> None:
-        while True:
-            with self._lock:
-                if not self._ring:
-                    self._running = False
-                    return
-                client = self._ring.popleft()
-                jobs = self._jobs[client]
-                job = jobs.popleft()
-                if jobs:
-                    self._ring.append(client)  # its next job after every other client's
-                else:
-                    del self._jobs[client]
-            try:
-                job()
-            except Exception:  # a job reports its own errors; the queue must outlive it
-                log.exception("a scene conversion")
-            finally:
-                with self._lock:
-                    left = self._pending[client] - 1
-                    if left:
-                        self._pending[client] = left
-                    else:
-                        del self._pending[client]
+    def busy(self, mine: int) -> str:
+        return (f"{BUSY}: {mine} scene file(s) of this client are being converted or wait for it "
+                f"(scene.conversions.MAX_WAITING_PER_CLIENT = {MAX_WAITING_PER_CLIENT}); try again once loaded")
 
 
 waiting = Conversions()
