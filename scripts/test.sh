@@ -26,7 +26,7 @@ workers="${SIMX_TEST_WORKERS:-4}"
 dist=()
 # --no-loadscope-reorder: files are queued longest first (tests/conftest.py, SLOW_FILES), not by test count.
 [ "$workers" != 0 ] && dist=(-n "$workers" --dist loadfile --no-loadscope-reorder)
-echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 3 minutes on 2 quiet cores: 345-370 s of CPU) ..."
+echo "simx: running the tests: pytest -ra ${dist[*]}${*:+ $*} (the whole suite takes about 7 minutes on 2 quiet cores: about 545 s of CPU) ..."
 start=$SECONDS
 status=0
 if [ $# -eq 0 ] && [ "$workers" != 0 ]; then
