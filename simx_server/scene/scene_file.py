@@ -35,14 +35,13 @@ import numpy as np
 from simx_wire.protocol import UnsupportedError
 from simx_server.sim import kept_objects
 from simx_server.sim.objects import parse_settings, without_scripts
-from simx_server.sim.spec_tools import _compose, _inverse, _one_line, _quiet_mujoco, _set_local_pose
+from simx_server.sim.spec_tools import _compose, _inverse, _one_line, _quiet_mujoco, _set_local_pose, copy_attributes
 
 #: Settings that name a file of the scene's folder, written afresh for the saved scene.
 _FILE_SETTINGS = ("custom_data", "path_data")
 #: Default class members that hold an element kind's defaults.
 _DEFAULT_KINDS = ("actuator", "camera", "equality", "flex", "geom", "joint", "light", "material", "mesh",
                   "pair", "site", "tendon", "texture")
-_SKIP = {"name", "classname", "info", "id", "signature", "parent", "frame", "compiler", "alt"}
 _HINGE_SLIDE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
@@ -331,14 +330,7 @@ def _flatten_defaults(spec: mujoco.MjSpec) -> None:
             src, dst = getattr(main, kind, None), getattr(cls, kind, None)
             if src is None or dst is None:
                 continue
-            for a in dir(src):
-                if a.startswith("_") or a in _SKIP:
-                    continue
-                value = getattr(src, a)
-                if callable(value):
-                    continue
-                with contextlib.suppress(Exception):  # read-only or derived attributes
-                    setattr(dst, a, value)
+            copy_attributes(src, dst)
         if not cls.name or cls.name == own_name:  # an attached model's main class
             n += 1
             while spec.find_default(f"simx_default_{n}") is not None:

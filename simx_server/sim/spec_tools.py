@@ -230,6 +230,19 @@ def _clone(kind: str, src, body, name: str):
     """A copy of a site, camera or light, attribute by attribute, in ``body``."""
     add = {"site": body.add_site, "camera": body.add_camera, "light": body.add_light}[kind]
     dst = add(default=src.classname)
+    copy_attributes(src, dst)
+    dst.name = name
+    return dst
+
+
+def copy_attributes(src, dst) -> None:
+    """Every plain attribute of the ``MjSpec`` element (or default's element) ``src`` onto
+    ``dst``: not its identity (name, id, class, parent, frame) nor what is read-only or derived.
+
+    Args:
+        src: the element copied from.
+        dst: an element of the same kind, changed in place.
+    """
     for a in dir(src):
         if a.startswith("_") or a in _CLONE_SKIP:
             continue
@@ -238,8 +251,6 @@ def _clone(kind: str, src, body, name: str):
             continue
         with contextlib.suppress(Exception):  # read-only or derived attributes
             setattr(dst, a, value)
-    dst.name = name
-    return dst
 
 
 @contextlib.contextmanager
