@@ -417,6 +417,9 @@ VISION_READY_TIMEOUT = 10.0
 #: Most solver iterations an IK group may declare (``simx:ik:NAME ... iterations=N``): each is
 #: one mj_kinematics + mj_jacSite on the chain, solved every simulation step.
 MAX_IK_ITERATIONS = 100
+#: Most configurations one ``sim.generateIkPath`` computes: each is one resolution of the group
+#: (at most MAX_IK_ITERATIONS iterations) on the simulation thread.
+MAX_IK_PATH_POINTS = 1000
 #: Largest mesh file ``sim.importShape`` reads (bytes): a scene script imports what a client
 #: names, and MuJoCo reads the whole file.
 MAX_IMPORT_BYTES = 16 * 1024 * 1024

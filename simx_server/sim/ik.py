@@ -51,6 +51,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import weakref
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
@@ -373,19 +374,48 @@ class IkGroups:
         Raises:
             ArgumentError: a joint that is not in the group's chain.
         """
+        q0, steps = self._start(g, joints)
+        if not g.enabled or not joints:
+            return IK_NOT_PERFORMED, q0.tolist()
+        ok, q, _ = ik_solver.solve(self.world, self._scratch, joints, q0, g.parts, g.method, g.damping,
+                                   g.iterations, steps, bound_steps=g.bound_steps)
+        return (IK_SUCCESS if ok else IK_FAIL), [float(v) for v in q]
+
+    def path(self, g: IkGroup, joints: list[int], count: int,
+             collides: Callable[[np.ndarray], bool] | None = None) -> np.ndarray | None:
+        """``count`` configurations of ``joints`` that carry each tip of ``g`` from where it is
+        to its target in equal steps (positions on the line, orientations by spherical
+        interpolation), each solved from the one before with the group's own settings; None
+        when a step fails its precision or ``collides``. The scene is left as it was.
+        coppeliaSimLib ``simGenerateIkPath_internal`` (``sim.generateIkPath``): an inactive
+        group is solved too, the chain's joints not in ``joints`` are held.
+
+        Args:
+            g: the group.
+            joints: handles of the joints the solver may move (any of the chain's).
+            count: the number of configurations (>= 2).
+            collides: ``collides(q)``: whether a configuration collides (None: not checked).
+
+        Returns:
+            Array (count, len(joints)) of joint positions (rad or m), or None.
+
+        Raises:
+            ArgumentError: a joint that is not in the group's chain.
+        """
+        q, steps = self._start(g, joints)
+        return ik_solver.path(self.world, self._scratch, joints, q, g.parts, g.method, g.damping, g.iterations,
+                              steps, count, collides, bound_steps=g.bound_steps)
+
+    def _start(self, g: IkGroup, joints: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """The joints' positions now and their largest steps; the scratch data set to the scene's state."""
         w, s = self.world, self._scratch
         for h in joints:
             if h not in g.joints:
                 raise ArgumentError(f"joint {quote(h)} is not in the chain of IK group {g.name!r}")
-        q0 = [w.joint_position(h) for h in joints]
-        if not g.enabled or not joints:
-            return IK_NOT_PERFORMED, q0
         s.qpos[:] = w.data.qpos
         s.mocap_pos[:], s.mocap_quat[:] = w.data.mocap_pos, w.data.mocap_quat
         hinge = self.model.jnt_type[[w.get(h).mj_id for h in joints]] == mujoco.mjtJoint.mjJNT_HINGE
-        ok, q, _ = ik_solver.solve(w, s, joints, np.array(q0, float), g.parts, g.method, g.damping, g.iterations,
-                                   np.where(hinge, MAX_STEP_RAD, MAX_STEP_M), bound_steps=g.bound_steps)
-        return (IK_SUCCESS if ok else IK_FAIL), [float(v) for v in q]
+        return np.array([w.joint_position(h) for h in joints], float), np.where(hinge, MAX_STEP_RAD, MAX_STEP_M)
 
     def _set_targets(self, g: IkGroup, q: np.ndarray) -> None:
         for h, value in zip(g.joints, q):

@@ -21,6 +21,7 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
+from simx_server.sim import old_paths
 from simx_server.sim.ik_chain import coupling_matrix
 from simx_server.sim.objects import JOINT, SITES
 
@@ -263,3 +264,49 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         dq = np.where(hinge, np.arctan2(np.sin(dq), np.cos(dq)), dq)
         q = np.clip(q + dq, low, high)
     return False, q, e
+
+
+def path(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, elements: list[Element], method: int,
+         damping: float, iterations: int, max_step: np.ndarray, count: int,
+         collides: Callable[[np.ndarray], bool] | None = None, bound_steps: bool = True) -> np.ndarray | None:
+    """``count`` configurations that carry each element's tip from where it is in ``scratch`` to
+    its target in equal steps (positions on the line, orientations by ``C4Vector``'s spherical
+    interpolation), each solved by :func:`solve` from the one before; None when one is not
+    within precision or ``collides`` (coppeliaSimLib ``simGenerateIkPath_internal``).
+
+    Args:
+        world, scratch, joints, q, elements, method, damping, iterations, max_step, bound_steps:
+            as :func:`solve` (``scratch`` holds the scene's state).
+        count: the number of configurations (>= 2).
+        collides: ``collides(q)``: whether a configuration collides (None: not checked).
+
+    Returns:
+        Array (count, len(joints)) of joint positions (rad or m), or None.
+    """
+    mujoco.mj_kinematics(world.model, scratch)
+    ends = {}
+    for el in elements:
+        (p0, r0), (p1, r1) = frame(world, scratch, el.tip)[:2], frame(world, scratch, el.target)[:2]
+        ends[el.handle] = (p0, _quat(r0), p1, _quat(r1))
+    out = np.empty((count, len(joints)))
+    for i in range(count):
+        t = i / (count - 1)
+        targets = {h: (p0 + t * (p1 - p0), _matrix(old_paths.slerp(a, b, t))) for h, (p0, a, p1, b) in ends.items()}
+        ok, q, _ = solve(world, scratch, joints, q, elements, method, damping, iterations, max_step,
+                         targets=targets, bound_steps=bound_steps)
+        if not ok or (collides is not None and collides(q)):
+            return None
+        out[i] = q
+    return out
+
+
+def _quat(r: np.ndarray) -> np.ndarray:
+    out = np.empty(4)
+    mujoco.mju_mat2Quat(out, r.reshape(9).copy())
+    return out
+
+
+def _matrix(quat: np.ndarray) -> np.ndarray:
+    out = np.empty(9)
+    mujoco.mju_quat2Mat(out, quat)
+    return out.reshape(3, 3)

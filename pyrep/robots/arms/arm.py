@@ -237,10 +237,25 @@ class Arm(RobotComponent):
     def get_linear_path(self, position: Any, euler: Any = None, quaternion: Any = None, steps: int = 50,
                         ignore_collisions: bool = False, relative_to: Object | None = None) -> ArmConfigurationPath:
         """A path moving the tip along the straight line to the pose (``steps`` poses on it).
+        With the arm's IK group this is PyRep's: ``sim.generateIkPath`` on it (the group's own
+        method, iterations, damping and precision; collisions of the arm's collection with
+        the scene unless ``ignore_collisions``); without one, damped least squares.
 
         Raises:
             ConfigurationPathError: a pose of the line cannot be reached, or collides.
         """
+        if self._ik_group is not None:
+            prev = self._ik_target.get_pose()
+            self._target_matrix(position, euler, quaternion, relative_to)
+            pairs = [] if ignore_collisions or self._collision_collection is None else \
+                [self._collision_collection, sim.sim_handle_all]  # type: ignore[attr-defined]
+            try:
+                flat = sim.call("generateIkPath", self._ik_group, self._handles(), max(int(steps), 2), pairs)
+            finally:
+                self._ik_target.set_pose(prev)
+            if not flat:
+                raise ConfigurationPathError("Could not create path.")
+            return self._path(np.reshape(flat, (-1, len(self.joints))))
         goal = self._target_matrix(position, euler, quaternion, relative_to)
         start = np.array(self.get_joint_positions())
         lo, hi = self._limits()
@@ -324,21 +339,51 @@ class Arm(RobotComponent):
                                            relative_to)
 
     def get_path_from_cartesian_path(self, path: Any) -> ArmConfigurationPath:
-        """A path through the poses of a ``CartesianPath`` (50 along it)."""
+        """A path through the poses of a ``CartesianPath``. With the arm's IK group as PyRep's
+        add-on (``getPathFromCartesianPath`` of ``simAddOnScript_PyRep.lua``): from the current
+        configuration, for relative distances 0.05, 0.10, ... while <= 1.0 (summed in floating
+        point, as Lua does: the last is 0.95) the target is put at the path's pose and
+        ``sim.generateIkPath`` gives 20 configurations to it, without collision checks; the
+        scene and the target are left as they were. Without an IK group, damped least squares
+        to 50 poses along it.
+
+        Raises:
+            ConfigurationPathError: a pose of the path cannot be reached.
+        """
         start = np.array(self.get_joint_positions())
+        configs = [start[None, :]]
+        prev = self._ik_target.get_pose()
         lo, hi = self._limits()
-        configs = [start]
         try:
-            for t in np.linspace(0.0, 1.0, 50):
-                pos, ori = path.get_pose_on_path(float(t))
-                goal = self._target_matrix(pos, ori, None, None)
-                q = self._solve(goal, configs[-1], lo, hi)
-                if q is None:
-                    raise ConfigurationPathError("Could not create a path from cartesian path.")
-                configs.append(q)
+            if self._ik_group is not None:
+                t = 0.05
+                while t <= 1.0:
+                    pos, ori = path.get_pose_on_path(t)
+                    self._target_matrix(pos, ori, None, None)
+                    flat = sim.call("generateIkPath", self._ik_group, self._handles(), 20, [])
+                    if not flat:
+                        raise ConfigurationPathError("Could not create a path from cartesian path.")
+                    configs.append(np.reshape(flat, (-1, len(self.joints))))
+                    self.set_joint_positions(configs[-1][-1].tolist())
+                    t += 0.05
+            else:
+                for t in np.linspace(0.0, 1.0, 50):
+                    pos, ori = path.get_pose_on_path(float(t))
+                    q = self._solve(self._target_matrix(pos, ori, None, None), configs[-1][-1], lo, hi)
+                    if q is None:
+                        raise ConfigurationPathError("Could not create a path from cartesian path.")
+                    configs.append(q[None, :])
         finally:
             self.set_joint_positions(start.tolist())
-        return ArmConfigurationPath(self, planning.densify(np.array(configs), self._step_size()))
+            self._ik_target.set_pose(prev)
+        return self._path(np.vstack(configs))
+
+    def _handles(self) -> list[int]:
+        return [j.get_handle() for j in self.joints]
+
+    def _path(self, configs: np.ndarray) -> ArmConfigurationPath:
+        """The path through ``configs`` (m, n), no joint moving more than one step's worth between two."""
+        return ArmConfigurationPath(self, planning.densify(configs, self._step_size()))
 
 
 def _plan(arm: Arm, algorithm: str, start: np.ndarray, goals: np.ndarray, lo: np.ndarray, hi: np.ndarray,

@@ -1,15 +1,19 @@
 """The scene's IK groups (``simx:ik:NAME``, :mod:`simx_server.sim.ik`) as V-REP 3.x's ``sim``
 calls: ``sim.handleIkGroup``, ``sim.getIkGroupHandle``, ``sim.checkIkGroup`` (PyRep's
-``solve_ik_via_jacobian``), ``sim.setIkGroupProperties`` and ``sim.setIkElementProperties``."""
+``solve_ik_via_jacobian``), ``sim.generateIkPath`` (PyRep's linear paths),
+``sim.setIkGroupProperties`` and ``sim.setIkElementProperties``."""
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
+from simx_server.base import limits as L
 from simx_server.base.arguments import as_integer, as_number, as_vector
-from simx_server.sim import ik
+from simx_server.sim import ik, motion_planning, ompl_spaces
 from simx_server.sim.world import JOINT
 from simx_wire.protocol import ArgumentError
 
@@ -98,6 +102,63 @@ def checkIkGroup(ctx: CallContext, group: Any, jointHandles: Any, jointOptions: 
     result, values = gs.check(g, free)
     by_joint = dict(zip(free, values))
     return result, [by_joint.get(j, ctx.world.joint_position(j)) for j in joints]
+
+
+@sim_function("generateIkPath")
+def generateIkPath(ctx: CallContext, ikGroupHandle: Any, jointHandles: Any, ptCnt: Any,  # noqa: N802, N803
+                   collisionPairs: Any = None, jointOptions: Any = None) -> list[float] | None:
+    """``sim.generateIkPath(ikGroupHandle, jointHandles, ptCnt, collisionPairs=nil, jointOptions=nil)``
+    as coppeliaSimLib ``simGenerateIkPath_internal``: ``ptCnt`` configurations that carry the
+    group's tips from where they are to their targets in equal steps, each solved from the one
+    before with the group's own method, damping, iterations and precision (an inactive group
+    too); a step that misses its precision, or whose configuration makes a pair of
+    ``collisionPairs`` collide, fails the whole path. The scene is left as it was. PyRep's
+    ``Arm.get_linear_path`` and ``get_path_from_cartesian_path`` are made of it.
+
+    Args:
+        ikGroupHandle: an IK group's handle or name.
+        jointHandles: the joints that move (some of the chain's; its others are held).
+        ptCnt: the number of configurations, 2..``limits.MAX_IK_PATH_POINTS``.
+        collisionPairs: ``{entity1, entity2, ...}`` as ``sim.checkCollision`` takes them (a pair
+            whose first entry is -1 is skipped; ``sim.handle_all`` as the second), or nil.
+        jointOptions: per joint, bit 0 set: held; nil: none held.
+
+    Returns:
+        The configurations, flat (ptCnt * len(jointHandles), rad or m), or None (nil) when no
+        such path exists.
+
+    Raises:
+        UnknownObjectError: no such group, joint or entity.
+        ArgumentError: a joint outside the group's chain, ``ptCnt`` out of range, a pair list of
+            odd length, options not one per joint.
+    """
+    g = ik.groups(ctx.world).group(ik.group_arg(ikGroupHandle))
+    count = as_integer(ptCnt, "ptCnt")
+    if not 2 <= count <= L.MAX_IK_PATH_POINTS:
+        raise ArgumentError(f"ptCnt must be in [2, {L.MAX_IK_PATH_POINTS}] "
+                            f"(simx_server.base.limits.MAX_IK_PATH_POINTS), got {count}")
+    if not isinstance(jointHandles, (list, tuple)) or not jointHandles:
+        raise ArgumentError("jointHandles must be a table of joint handles")
+    joints = [ctx.world.get(ctx.h(j, "jointHandles[i]"), JOINT).handle for j in jointHandles]
+    options = list(jointOptions) if isinstance(jointOptions, (list, tuple)) else [0] * len(joints)
+    if len(options) != len(joints):
+        raise ArgumentError("jointOptions must have one entry per joint")
+    free = [j for j, o in zip(joints, options) if not int(o) & 1]
+    raw = list(collisionPairs) if isinstance(collisionPairs, (list, tuple)) else []
+    if len(raw) % 2:
+        raise ArgumentError("collisionPairs must hold pairs of entities")
+    pairs = [(ctx.h(a, "collisionPairs[i]"), ctx.h(b, "collisionPairs[i]")) for a, b in zip(raw[::2], raw[1::2])
+             if ctx.h(a, "collisionPairs[i]") != -1]
+    collides = None
+    if pairs:
+        placements = [ompl_spaces.Placement(ctx.world, "joint_position", j) for j in free]
+        collides = motion_planning.ScratchCollisions(ctx.world, placements, pairs)
+    path = ik.groups(ctx.world).path(g, free, count, collides)
+    if path is None:
+        return None
+    by_joint = {j: path[:, i] for i, j in enumerate(free)}
+    held = {j: np.full(count, ctx.world.joint_position(j)) for j in joints if j not in by_joint}
+    return np.column_stack([by_joint.get(j, held.get(j)) for j in joints]).reshape(-1).tolist()
 
 
 _METHOD_WORDS = {v: k for k, v in ik.METHODS.items()}

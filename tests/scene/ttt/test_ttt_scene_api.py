@@ -510,6 +510,39 @@ def test_ik_group_is_solved_with_its_own_settings(tmp_path):
     assert outcomes == [2, 1, 1, 1]  # sim.ikresult_fail, then success
 
 
+def test_generate_ik_path_is_the_groups_own_straight_line(tmp_path):
+    """``sim.generateIkPath`` (coppeliaSimLib ``simGenerateIkPath_internal``): ``ptCnt``
+    configurations from the joints' positions to ones that put the tip on the target, solved
+    with the group's settings, the scene left as it was; a held joint that makes the target
+    unreachable, or a configuration that collides with a pair given, fails the path (nil)."""
+    wall = W.cuboid_shape(8, -1, "Wall", (0.04, 0.04, 0.04), (0.1, 0.0, 0.78), dynamic=False)
+    sim = _load(tmp_path, _arm(explicit=True, extra=wall))
+    try:
+        api = client_context(sim).sim
+        arm, j1, j2 = api.getIkGroupHandle("Arm"), api.getObject("/J1"), api.getObject("/J2")
+        tip, target = api.getObject("/Tip"), api.getObject("/Target")
+        sim.start()
+        api.setJointPosition(j2, 0.6)  # away from the straight, singular start
+        api.setObjectPosition(target, -1, [0.1, 0.0, 0.78])
+        before = [api.getJointPosition(j) for j in (j1, j2)]
+        path = api.generateIkPath(arm, [j1, j2], 5)
+        assert len(path) == 10 and path[:2] == pytest.approx(before)
+        assert [api.getJointPosition(j) for j in (j1, j2)] == before
+        assert api.getObjectPosition(target, -1) == pytest.approx([0.1, 0.0, 0.78])
+        for j, q in zip((j1, j2), path[-2:]):
+            api.setJointPosition(j, q)
+        assert api.getObjectPosition(tip, -1) == pytest.approx([0.1, 0.0, 0.78], abs=2e-3)
+        for j, q in zip((j1, j2), before):
+            api.setJointPosition(j, q)
+        assert api.generateIkPath(arm, [j1, j2], 5, None, [1, 0]) is None  # J2 alone cannot get there
+        assert api.generateIkPath(arm, [j1, j2], 5, [api.getObject("/L2"), api.getObject("/Wall")]) is None
+        assert len(api.generateIkPath(arm, [j1, j2], 5, [-1, api.getObject("/Wall")])) == 10  # pair skipped
+        with pytest.raises(Exception, match="ptCnt"):
+            api.generateIkPath(arm, [j1, j2], 1)
+    finally:
+        sim.close()
+
+
 def test_check_ik_group_and_its_properties(tmp_path):
     """``sim.checkIkGroup`` solves from the joints' positions and moves nothing;
     ``sim.setIkGroupProperties`` / ``setIkElementProperties`` change what the next solve uses."""
