@@ -1,9 +1,11 @@
 """PyRep's ``CartesianPath``: poses along control points (m, rad).
 
-simx keeps a path as CoppeliaSim 4.3+ does, a dummy carrying its control poses as custom data
-``PATHCTRLPT`` (``sim.createPath``); a CoppeliaSim 4.1 path of a ``.ttt`` arrives as such a
-dummy. The pose at a relative distance is interpolated linearly between control points
-(CoppeliaSim 4.1 uses Bezier curves between them).
+A path of a ``.ttt`` / ``.ttm`` saved by CoppeliaSim 4.1 (PyRep's) is V-REP's old path object:
+poses along it are ``sim.getPositionOnPath`` / ``sim.getOrientationOnPath`` on its Bezier curve,
+as PyRep reads them, and control points are inserted with ``sim.insertPathCtrlPoints`` as
+PyRep's add-on script does. A path :meth:`CartesianPath.create` makes is kept as CoppeliaSim
+4.3+ keeps one, a dummy carrying its control poses as custom data ``PATHCTRLPT``; the pose at a
+relative distance is then interpolated linearly between control points.
 """
 
 from __future__ import annotations
@@ -57,7 +59,11 @@ class CartesianPath(Object):
 
     def get_pose_on_path(self, relative_distance: float) -> tuple[list[float], list[float]]:
         """Position (m) and Euler angles (rad), world frame, at ``relative_distance`` (0..1)
-        along the path (its own pose when it has no control point)."""
+        along the path (its own pose when it has no control point). An old path (4.1's): PyRep's
+        ``simGetPositionOnPath`` and ``simGetOrientationOnPath``."""
+        if self._is_old_path():
+            return ([float(v) for v in sim.call("getPositionOnPath", self._handle, float(relative_distance))],
+                    [float(v) for v in sim.call("getOrientationOnPath", self._handle, float(relative_distance))])
         pts = self._control_points()
         if len(pts) == 0:
             return self.get_position().tolist(), self.get_orientation().tolist()
@@ -74,11 +80,19 @@ class CartesianPath(Object):
         return [float(v) for v in world[:3]], [float(v) for v in sim.call("getEulerAnglesFromMatrix", m)]
 
     def insert_control_points(self, poses: list[list[float]]) -> None:
-        """Appends control points: each ``[x, y, z, alpha, beta, gamma]`` (m, rad), path frame."""
+        """Appends control points: each ``[x, y, z, alpha, beta, gamma]`` (m, rad), path frame
+        (an old path: at its start, with PyRep's Bezier settings, as its ``insertPathControlPoint``)."""
+        if self._is_old_path():
+            data = [v for p in poses for v in (*[float(x) for x in p[:6]], 0.0, 0.0, 20, 0.99, 0.99)]
+            sim.call("insertPathCtrlPoints", self._handle, 0, 0, len(poses), data)
+            return
         new = [list(p[:3]) + _euler_to_quat(*p[3:6]) for p in poses]
         pts = np.vstack([self._control_points(), np.array(new, dtype=np.float64).reshape(-1, 7)])
         sim.call("writeCustomDataBlockEx", self._handle, _PATHCTRLPT,
                  struct.pack(f"<{pts.size}d", *pts.reshape(-1)))
+
+    def _is_old_path(self) -> bool:
+        return int(sim.call("getObjectType", self._handle)) == int(ObjectType.PATH.value)
 
     def _script_call(self, func: str, ints: Any = (), floats: Any = (), strings: Any = (), bytes: str = "") -> Any:
         raise NotImplementedError("simx has no PyRep add-on script")

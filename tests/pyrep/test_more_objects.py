@@ -63,6 +63,22 @@ def test_cartesian_path_interpolates_control_points(pr):
     assert np.allclose(ori, [0.0, 0.0, 0.25], atol=1e-6)
 
 
+def test_an_old_path_is_read_as_pyrep_reads_it(pr):
+    """A CoppeliaSim 4.1 path (V-REP's old path object, as RLBench's task models hold them):
+    poses along it are ``simGetPositionOnPath`` / ``simGetOrientationOnPath`` on its curve, and
+    control points go in as PyRep's add-on inserts them."""
+    from pyrep.backend import sim
+    path = CartesianPath(int(sim.call("createPath", -1)))
+    path.set_position([0.0, 0.0, 0.5])
+    path.insert_control_points([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 0.0, 0.5]])
+    for t in (0.0, 0.3, 1.0):
+        pos, ori = path.get_pose_on_path(t)
+        assert np.allclose(pos, sim.call("getPositionOnPath", path.get_handle(), t))
+        assert np.allclose(ori, sim.call("getOrientationOnPath", path.get_handle(), t))
+    assert np.allclose(path.get_pose_on_path(0.0)[0], [0.0, 0.0, 0.5], atol=1e-6)
+    assert np.allclose(path.get_pose_on_path(1.0)[0], [1.0, 0.0, 0.5], atol=1e-6)
+
+
 def test_signals_and_dummy_creation(pr):
     for cls, value in ((IntegerSignal, 7), (FloatSignal, 2.5), (StringSignal, "hello")):
         signal = cls("s")
