@@ -35,6 +35,7 @@ from simx_server.sim.sensors import site_sensor
 _PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
 _BOX = int(mujoco.mjtGeom.mjGEOM_BOX)
 _CYLINDER = int(mujoco.mjtGeom.mjGEOM_CYLINDER)
+_MESH = int(mujoco.mjtGeom.mjGEOM_MESH)
 #: Half-thickness (m) of the box or cylinder that stands for a V-REP plane or disc.
 THIN = 0.0005
 #: ``sim.objectproperty_dontshowasinsidemodel``, ``sim.modelproperty_not_showasinsidemodel``.
@@ -49,8 +50,10 @@ def _is_flat(obj) -> bool:
 
 
 def shape_box(world, obj) -> tuple[np.ndarray, np.ndarray] | None:
-    """The box around a shape's geoms in its frame (MuJoCo's ``geom_aabb``, planes left out:
-    they are unbounded); a ``flat=1`` shape's thin geoms count as of no thickness.
+    """The box around a shape's geoms in its frame, planes left out (they are unbounded): a mesh's
+    vertices (CoppeliaSim's box around a shape's vertices; MuJoCo's ``geom_aabb`` of a mesh is
+    in the frame of its principal axes, so its corners would make a larger box), another
+    geom's ``geom_aabb``; a ``flat=1`` shape's thin geoms count as of no thickness.
 
     Args:
         world: the world.
@@ -72,7 +75,13 @@ def shape_box(world, obj) -> tuple[np.ndarray, np.ndarray] | None:
             half[2] = 0.0
         rot = np.empty(9)
         mujoco.mju_quat2Mat(rot, m.geom_quat[g])
-        pts.append((c + _CORNERS * half) @ rot.reshape(3, 3).T + m.geom_pos[g])
+        mesh = int(m.geom_dataid[g]) if t == _MESH else -1
+        if mesh >= 0:
+            adr, n = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
+            local = m.mesh_vert[adr:adr + n]
+        else:
+            local = c + _CORNERS * half
+        pts.append(local @ rot.reshape(3, 3).T + m.geom_pos[g])
     allp = np.vstack(pts)
     return allp.min(axis=0), allp.max(axis=0)
 
