@@ -259,14 +259,9 @@ class PyRep:
         return Object.get_object(int(handle))
 
     def _trust(self, folder: Path) -> None:
-        """Let the scene load files of ``folder``: a PyRep program owns its process, so every
-        folder it names is its own (a server trusts only its scene's and --scene-path folders)."""
-        if self._remote is not None:  # the server decides what it reads
-            return
-        roots = self.simulation.editor.files.roots
-        real = Path(os.path.realpath(folder))
-        if real not in roots:
-            roots.append(real)
+        """Let the scene load files of ``folder`` (:func:`pyrep.backend.sim.trust_folder`)."""
+        if self._remote is None:
+            sim.trust_folder(folder)
 
     def create_texture(self, filename: str, interpolate: bool = True, decal_mode: bool = False,
                        repeat_along_u: bool = False, repeat_along_v: bool = False) -> tuple[Shape, Texture]:
@@ -274,6 +269,7 @@ class PyRep:
         self._require()
         options = (0 if interpolate else 1) | (2 if decal_mode else 0) | (4 if repeat_along_u else 0) \
             | (8 if repeat_along_v else 0)
+        self._trust(Path(filename).resolve().parent)
         shape, texture_id, _ = sim.call("createTexture", str(filename), options)
         return Shape(int(shape)), Texture(int(texture_id))
 

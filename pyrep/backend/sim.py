@@ -11,6 +11,9 @@ uses that only CoppeliaSim 4.x has (``sim_handle_scene``, ``sim_object_octree_ty
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import logging
 from typing import Any
 
@@ -129,6 +132,24 @@ def ompl_set_algorithm(task: Any, name: str, caller: str) -> None:
         if name not in _SUBSTITUTED:
             _SUBSTITUTED.add(name)
             logging.getLogger("pyrep").warning("%s: %s; planning with RRTConnect instead", caller, exc)
+
+
+def trust_folder(folder: Any) -> None:
+    """Let the in-process scene read files of ``folder`` (``sim.loadModel``, ``importShape``,
+    ``importMesh``...): a PyRep program owns its process, so every folder it names is its own
+    (a server trusts only its scene's and ``--scene-path`` folders). Connected to a simx-server
+    (a remote context has no simulation here), the server decides what it reads.
+
+    Args:
+        folder: a folder (str or Path).
+    """
+    view = getattr(context(), "view", None)
+    if view is None:
+        return
+    roots = view.editor.files.roots
+    real = Path(os.path.realpath(folder))
+    if real not in roots:
+        roots.append(real)
 
 
 def simulation() -> Any:

@@ -96,3 +96,26 @@ def test_reorient_bounding_box_turns_the_frame_not_the_mesh(pr):
     assert np.prod(size()) > np.prod(before)
     box.reorient_bounding_box(relative_to=box)  # its own smallest box again
     assert sorted(size()) == pytest.approx([0.05, 0.1, 0.4], abs=1e-6)
+
+
+
+_TET = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+
+
+def test_meshes_of_the_programs_own_folders_import(pr, tmp_path_factory):
+    """A PyRep program owns its process: ``Shape.import_mesh`` / ``import_shape`` read its files
+    wherever they are (RLBench imports its procedural objects from its package folder), as
+    ``PyRep.import_model`` does; a server's own trust rules are for remote clients."""
+    obj = tmp_path_factory.mktemp("elsewhere") / "tet.obj"
+    obj.write_text(_TET)
+    assert Shape.import_mesh(str(obj)).get_handle() != Shape.import_shape(str(obj)).get_handle()
+
+
+def test_a_mesh_bounding_box_is_its_vertices_box(pr):
+    """CoppeliaSim's bounding box of a shape is the box of its vertices in its frame: a
+    tetrahedron's corner at the origin and its three edges of 0.1 m give [0, 0.1] on each axis
+    (MuJoCo keeps a mesh in its principal axes, whose box would be larger)."""
+    verts = [0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1]
+    tet = Shape.create_mesh(verts, [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3])
+    box = np.array(tet.get_bounding_box()).reshape(3, 2) + np.array(tet.get_position())[:, None]
+    assert np.allclose(box, [[0, 0.1]] * 3, atol=1e-6)
