@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import math
+import types
 from typing import Any
 
 import mujoco
@@ -257,11 +258,22 @@ def volume_rays(obj: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.nda
         cutoff: the rangefinder's range, m (``math.inf``: unlimited).
 
     Returns:
-        ``(origins, directions, lengths)``, or None.
+        ``(origins, directions, lengths)`` (read-only, shared by calls of the same settings), or None.
     """
-    kind = obj.settings.get("volume", "ray")
-    if kind in ("ray", "cone"):
+    if obj.settings.get("volume", "ray") in ("ray", "cone"):
         return None
+    return _volume_rays(obj.name, tuple(sorted(obj.settings.items())), float(cutoff))
+
+
+@functools.lru_cache(maxsize=256)
+def _volume_rays(name: str, settings: tuple, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    out = _make_volume_rays(types.SimpleNamespace(name=name, settings=dict(settings)), cutoff)
+    [a.setflags(write=False) for a in out]
+    return out
+
+
+def _make_volume_rays(obj: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    kind = obj.settings.get("volume", "ray")
     (offset,) = _floats(obj, "offset", 1, (0.0,))
     far = cutoff if math.isfinite(cutoff) else offset + 1.0
     if far <= offset:
@@ -302,16 +314,23 @@ def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np
     (its distance from the origin m, geom, point (3,) in the sensor frame, surface normal (3,)
     in the world frame), or None."""
     starts, dirs, lengths = rays
-    best = None
-    for o, u, length in zip(starts, dirs, lengths):
-        dist, geom, normal = _ray(m, d, origin + rot @ o, rot @ u, exclude, seen)
-        if dist < 0 or dist > length or geom < 0:
-            continue
-        point = o + u * dist
-        reach = float(np.linalg.norm(point))
-        if best is None or reach < best[0]:
-            best = (reach, geom, point, normal)
-    return best
+    n = len(starts)
+    origins, world_dirs = origin + starts @ rot.T, dirs @ rot.T
+    dists, geoms, normals = np.full(n, -1.0), np.full(n, -1, np.int32), np.zeros((n, 3))
+    gid, normal = np.array([-1], dtype=np.int32), np.zeros(3)
+    for i in range(n):  # one cast per ray (their origins differ); a ray that meets an undetectable geom goes on
+        dist = mujoco.mj_ray(m, d, origins[i], world_dirs[i], None, 1, exclude, gid, normal)
+        geom = int(gid[0])
+        if dist >= 0 and geom >= 0 and not seen[geom]:
+            dist, geom, normal = _ray(m, d, origins[i], world_dirs[i], exclude, seen, (dist, geom, normal))
+        dists[i], geoms[i], normals[i] = dist, geom, normal
+    found = np.flatnonzero((dists >= 0) & (geoms >= 0) & (dists <= lengths))
+    if found.size == 0:
+        return None
+    points = starts[found] + dirs[found] * dists[found, None]
+    k = int(np.argmin(np.linalg.norm(points, axis=1)))
+    i = int(found[k])
+    return float(np.linalg.norm(points[k])), int(geoms[i]), points[k], normals[i].copy()
 
 
 def _pyramid_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, origin: np.ndarray,
