@@ -18,10 +18,8 @@ from __future__ import annotations
 
 import logging
 import math
-import threading
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import ContextManager
 
 import mujoco
 import numpy as np
@@ -29,8 +27,8 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import (dummy_links, grasps, kinematic, motor_spec, motors, naming, physics, properties,
-                             scene_settings, surfaces, urdf)
+from simx_server.sim import (change_batch, dummy_links, grasps, kinematic, motor_spec, motors, naming, physics,
+                             properties, scene_settings, surfaces, urdf)
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     CAMERA,
@@ -122,8 +120,7 @@ class World(Poses, Joints):
             except ArgumentError as exc:
                 raise ValueError(f"scene {self.scene_name}: saved time step: {exc}") from None
         self.version = 0  # bumped whenever the state changes (cache key for renders)
-        #: (thread id, depth, a change pending) while :meth:`one_change` holds changed() back
-        self._batch: list | None = None
+        self._batch = change_batch.ChangeBatch()  # one_change's block
         self.time = 0.0  # s, simulation time as of the last changed()
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
         self._next_handle = 1  # handles are never given twice
@@ -504,11 +501,8 @@ class World(Poses, Joints):
         """After any change of state: recompute derived quantities, invalidate cached renders,
         and note the simulation time (``time``, s: every reply reads it, and a plain attribute
         costs no call into MuJoCo's bindings). Grasped parts are put back on what holds
-        them first (:func:`simx_server.sim.grasps.follow`). Inside :meth:`one_change` (on its
-        thread) this is done once, when the batch ends."""
-        batch = self._batch
-        if batch is not None and batch[0] == threading.get_ident():
-            batch[2] = True
+        them first (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`."""
+        if self._batch.holds():
             return
         if self.grasps:
             grasps.follow(self)
@@ -516,33 +510,10 @@ class World(Poses, Joints):
         self.version += 1
         self.time = self.data.time
 
-    @contextmanager
-    def one_change(self) -> Iterator[None]:
-        """Writes of state that need no derived quantity in between (several joints placed at
-        once: PyRep's ``set_joint_positions``) with one :meth:`changed` at the end instead of
-        one per write: ``mj_forward`` is a function of the state alone, so the state after is
-        the same; only ``version`` grows by one instead of one per write. Changes from other
-        threads meanwhile are not held back. Nests; ``changed`` runs at the end even when the
-        block raises (after what it wrote).
+    def one_change(self) -> ContextManager[None]:
+        """A block of writes reading nothing derived between them (PyRep's ``set_joint_positions``)
+        with one :meth:`changed` at its end (:mod:`simx_server.sim.change_batch`): the same state.
 
-        Yields:
-            None, while changes are held back.
-        """
-        me = threading.get_ident()
-        if self._batch is not None:
-            if self._batch[0] != me:  # another thread's batch: this one's changes go through
-                yield
-                return
-            self._batch[1] += 1
-            try:
-                yield
-            finally:
-                self._batch[1] -= 1
-            return
-        self._batch = [me, 1, False]
-        try:
-            yield
-        finally:
-            pending, self._batch = self._batch[2], None
-            if pending:
-                self.changed()
+        Returns:
+            The context manager."""
+        return self._batch.block(self.changed)
