@@ -11,11 +11,11 @@ uses that only CoppeliaSim 4.x has (``sim_handle_scene``, ``sim_object_octree_ty
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 from pathlib import Path
-
-import logging
-from typing import Any
+from typing import Any, ContextManager
 
 from simx_server.api import ApiNamespace, CallContext
 from simx_wire.constants import VREP_CONSTANTS
@@ -83,6 +83,19 @@ def call(name: str, *args: Any) -> Any:
         return api().call(name, *args)
     except (SimxError, AttributeError) as exc:
         raise CoppeliaSimError(f"sim.{name}: {exc}") from exc
+
+
+def one_change() -> ContextManager[Any]:
+    """A block of state writes (joints placed one by one) whose derived quantities (poses,
+    contacts) are recomputed once at its end instead of after each write: the same state after
+    (``simx_server.sim.world.World.one_change``). Calls in the block must not read poses.
+    Against a remote server: no effect (each call is the server's).
+
+    Returns:
+        The context manager.
+    """
+    world = getattr(context(), "world", None)
+    return world.one_change() if world is not None else contextlib.nullcontext()
 
 
 def ik_call(name: str, *args: Any) -> Any:

@@ -50,8 +50,9 @@ class RobotComponent(Object):
     def set_joint_positions(self, positions: list[float], disable_dynamics: bool = False) -> None:
         """Places every joint at once (rad or m); their motors' targets follow."""
         self._assert_len(positions)
-        for joint, p in zip(self.joints, positions):
-            joint.set_joint_position(float(p), disable_dynamics)
+        with sim.one_change():  # one mj_forward for the arm, not one per joint
+            for joint, p in zip(self.joints, positions):
+                joint.set_joint_position(float(p), disable_dynamics)
 
     def get_joint_target_positions(self) -> list[float]:
         return [j.get_joint_target_position() for j in self.joints]

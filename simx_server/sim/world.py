@@ -19,6 +19,7 @@ from __future__ import annotations
 import logging
 import math
 from pathlib import Path
+from typing import ContextManager
 
 import mujoco
 import numpy as np
@@ -26,8 +27,8 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import (dummy_links, grasps, kinematic, motor_spec, motors, naming, physics, properties,
-                             scene_settings, surfaces, urdf)
+from simx_server.sim import (change_batch, dummy_links, grasps, kinematic, motor_spec, motors, naming, physics,
+                             properties, scene_settings, surfaces, urdf)
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     CAMERA,
@@ -119,6 +120,7 @@ class World(Poses, Joints):
             except ArgumentError as exc:
                 raise ValueError(f"scene {self.scene_name}: saved time step: {exc}") from None
         self.version = 0  # bumped whenever the state changes (cache key for renders)
+        self._batch = change_batch.ChangeBatch()  # one_change's block
         self.time = 0.0  # s, simulation time as of the last changed()
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
         self._next_handle = 1  # handles are never given twice
@@ -499,9 +501,19 @@ class World(Poses, Joints):
         """After any change of state: recompute derived quantities, invalidate cached renders,
         and note the simulation time (``time``, s: every reply reads it, and a plain attribute
         costs no call into MuJoCo's bindings). Grasped parts are put back on what holds
-        them first (:func:`simx_server.sim.grasps.follow`)."""
+        them first (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`."""
+        if self._batch.holds():
+            return
         if self.grasps:
             grasps.follow(self)
         mujoco.mj_forward(self.model, self.data)
         self.version += 1
         self.time = self.data.time
+
+    def one_change(self) -> ContextManager[None]:
+        """A block of writes reading nothing derived between them (PyRep's ``set_joint_positions``)
+        with one :meth:`changed` at its end (:mod:`simx_server.sim.change_batch`): the same state.
+
+        Returns:
+            The context manager."""
+        return self._batch.block(self.changed)

@@ -112,3 +112,53 @@ def test_reply_stamp_follows_the_run_state():
         assert sim.stamp()[1] == 0
     finally:
         sim.close()
+
+
+def _state(data) -> dict:
+    """Every array of an MjData, copied."""
+    return {k: np.array(getattr(data, k)) for k in dir(data)
+            if not k.startswith("_") and isinstance(getattr(data, k, None), np.ndarray)}
+
+
+def test_one_change_leaves_the_state_of_one_change_per_write(world):
+    """Joints placed inside World.one_change get one mj_forward at the end (PyRep's
+    set_joint_positions): every array of MjData is what a forward after each write leaves."""
+    import mujoco
+    import threading
+
+    for _ in range(3):  # moving, with contacts and constraint forces
+        world.step()
+    saved = mujoco.MjData(world.model)
+    mujoco.mj_copyData(saved, world.model, world.data)
+    joints = [world.resolve(f"UR5_joint{i}").handle for i in range(1, 7)]
+    values = [0.3, -0.4, 0.5, -0.2, 0.1, 0.7]
+    v0 = world.version
+    for h, q in zip(joints, values):
+        world.set_joint_position(h, q)
+    each, each_version = _state(world.data), world.version - v0
+    mujoco.mj_copyData(world.data, world.model, saved)
+    v0 = world.version
+    with world.one_change():
+        with world.one_change():  # nests
+            for h, q in zip(joints[:3], values[:3]):
+                world.set_joint_position(h, q)
+        assert world.version == v0  # held back until the outer block ends
+        for h, q in zip(joints[3:], values[3:]):
+            world.set_joint_position(h, q)
+        other = threading.Thread(target=world.changed)  # another thread's change is not held back
+        other.start()
+        other.join()
+        assert world.version == v0 + 1
+    assert world.version == v0 + 2 and each_version == 6
+    once = _state(world.data)
+    assert sorted(once) == sorted(each)
+    for k in each:
+        assert np.array_equal(once[k], each[k], equal_nan=True), k
+    with pytest.raises(ArgumentError):  # a block that raises still recomputes what it wrote
+        with world.one_change():
+            world.set_joint_position(joints[0], 0.0)
+            world.set_joint_position(joints[1], float("inf"))
+    assert world.version == v0 + 3 and world.joint_position(joints[0]) == 0.0
+    poses = world.data.xpos.copy()
+    mujoco.mj_forward(world.model, world.data)
+    np.testing.assert_array_equal(world.data.xpos, poses)
