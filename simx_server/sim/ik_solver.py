@@ -183,7 +183,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
           margins: np.ndarray | None = None,
           slaves: list[tuple[int, int, int, float, float]] | None = None,
           frame_of: Callable[[mujoco.MjData, int], tuple] | None = None,
-          bound_steps: bool = True) -> tuple[bool, np.ndarray, np.ndarray]:
+          bound_steps: bool = True, numeric: bool = False) -> tuple[bool, np.ndarray, np.ndarray]:
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
     ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
     make a joint move more (a larger weight) or less in the weighted least-norm step
@@ -193,11 +193,18 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     its column of the Jacobian (CoppeliaSim's linear joint dependencies). A hinge's step is
     wrapped into (-pi, pi] (``CikGroup::computeDq``); with ``bound_steps`` a step larger than a
     joint's ``max_step`` is scaled down whole, as ``CIkGroupContainer::computeIk`` interpolates
-    the target unless the group has ``simIK.group_ignoremaxsteps``. A limited joint within
-    ``FD_STEP`` of its upper limit moves the tip less in the Jacobian, not at all at the limit:
-    CoppeliaSim differentiates by moving each joint ``FD_STEP`` up through ``CJoint::setPosition``,
-    which clamps it to its range (``CikElement::_getNakedJacobian``), so that such a joint
-    stays at its upper limit.
+    the target unless the group has ``simIK.group_ignoremaxsteps``. Each step is clamped into
+    the joints' ranges (``CikGroup::applyDq`` through ``CJoint::setPosition``), so a joint at a
+    limit whose step points outwards stays there and the step the others were given assumes it
+    moved: the group can stop short of a target its other joints alone would get closer to.
+
+    With ``numeric`` (``simIK``, CoppeliaSim 4.2+), a limited joint within ``FD_STEP`` of its
+    upper limit also moves the tip less in the Jacobian, not at all at the limit: coppelia-
+    KinematicsRoutines differentiates by moving each joint ``FD_STEP`` *up* through the clamping
+    ``CJoint::setPosition`` (``CikElement::_getNakedJacobian``), so such a joint stays at its
+    upper limit, while one at its lower limit keeps its whole column. V-REP 4.1's old IK groups
+    (``sim.handleIkGroup``, ``sim.checkIkGroup``) differentiate analytically
+    (coppeliaSimLib 4.1 ``CIkRoutine::getJacobian``): no column depends on the limits.
 
     Args:
         world: the world.
@@ -216,6 +223,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         frame_of: see :func:`errors`.
         bound_steps: scale steps down to ``max_step`` (False: the group ignores max step sizes,
             CoppeliaSim's default for ``simIK.createGroup``).
+        numeric: the Jacobian is ``simIK``'s numeric one, clamped at the upper limits (see above).
 
     Returns:
         ``(ok, q, error)``: whether every element is within precision, the positions reached
@@ -251,7 +259,9 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         e, rows, ok = errors(world, scratch, elements, targets, frame_of)
         if ok or it == iterations or not len(joints):
             return ok, q, e
-        jac = jacobian(world, scratch, rows, dadr, columns) * np.clip((top - q) / FD_STEP, 0.0, 1.0)
+        jac = jacobian(world, scratch, rows, dadr, columns)
+        if numeric:
+            jac = jac * np.clip((top - q) / FD_STEP, 0.0, 1.0)
         if method == METHOD_TRANSPOSE:
             dq = w * (jac.T @ e)
         else:
