@@ -6,8 +6,8 @@ An IK environment keeps its own joint positions; a group's elements each pull a 
 shape) onto a target (a dummy, or an explicit pose) under constraints (CoppeliaSim's
 ``simIK.constraint_x`` ... ``constraint_gamma`` bits). :func:`solve` iterates on a scratch
 ``MjData`` (``mj_kinematics`` + ``mj_comPos``, as :mod:`simx_server.sim.ik` does for the scene's
-groups): the stacked, weighted error of the elements' constrained rows, the Jacobian of the
-group's joints (``mj_jacSite`` / ``mj_jacBody``), and a step by the group's method (damped least
+groups): the stacked error of the elements' constrained rows, each scaled by its element's
+weight, the Jacobian of the group's joints (``mj_jacSite`` / ``mj_jacBody``), and a step by the group's method (damped least
 squares ``Jᵀ(JJᵀ + λ²I)⁻¹e``, pseudo-inverse, Jacobian transpose), each joint's step bounded
 by its maximum step size (unless the group ignores them, as ``simIK``'s do by default) and its
 position clamped to its range, as coppeliaKinematicsRoutines' ``CIkGroupContainer::computeIk``.
@@ -105,7 +105,8 @@ def chain(world, tip: int, base: int, tip_body: int | None = None) -> list[int]:
 
 
 def errors(world, data, elements: list[Element], targets: dict[int, tuple],
-           frame_of: Callable[[mujoco.MjData, int], tuple] | None = None) -> tuple[np.ndarray, list, bool]:
+           frame_of: Callable[[mujoco.MjData, int], tuple] | None = None,
+           weighted: bool = True) -> tuple[np.ndarray, list, bool]:
     """Stacked weighted error, the rows' (element, kind, rows) and whether each element is within
     its precision.
 
@@ -118,6 +119,9 @@ def errors(world, data, elements: list[Element], targets: dict[int, tuple],
         frame_of: ``frame_of(data, handle)`` as :func:`frame` (default), for objects that are no
             scene objects (a ``simIK`` environment's own dummies: kind ``"point"``, the id the
             body that carries them).
+        weighted: scale each element's rows by its linear / angular weight (as
+            ``CikGroup::computeDq`` does to the error vector only; False: the plain error, as
+            ``simIK.computeGroupJacobian`` answers it).
 
     Returns:
         ``(error, rows, ok)``: the weighted error (m and rad, flat), what each block of rows is
@@ -138,14 +142,19 @@ def errors(world, data, elements: list[Element], targets: dict[int, tuple],
                    ([2] if el.constraints & CONSTRAINT_GAMMA else [])
         if np.linalg.norm(lin[pick_lin]) > el.precision[0] or np.linalg.norm(ang_local[pick_ang]) > el.precision[1]:
             ok = False
-        parts.append(el.weights[0] * lin[pick_lin])
-        parts.append(el.weights[1] * ang_local[pick_ang])
+        wl, wa = el.weights if weighted else (1.0, 1.0)
+        parts.append(wl * lin[pick_lin])
+        parts.append(wa * ang_local[pick_ang])
         rows.append((el, kind, mid, pick_lin, pick_ang, tr, p))
     return (np.concatenate(parts) if parts else np.zeros(0)), rows, ok
 
 
 def jacobian(world, data, rows: list, dadr: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
-    """The weighted Jacobian of the rows :func:`errors` chose, over the chain's joints.
+    """The Jacobian of the rows :func:`errors` chose, over the chain's joints. The elements'
+    weights scale only the error, not these rows: coppeliaKinematicsRoutines ``CikGroup::computeDq``
+    multiplies the error vector's rows by them and leaves the Jacobian as ``CikElement`` built it,
+    as V-REP 4.1's ``CIkElement::prepareIkEquations`` did (a smaller weight is a shorter step
+    towards that part of the target, not a lesser row of the least squares).
 
     Args:
         world: the world.
@@ -172,8 +181,8 @@ def jacobian(world, data, rows: list, dadr: np.ndarray, columns: np.ndarray | No
             lin, ang = lin[:, dadr], ang[:, dadr]
         else:
             lin, ang = lin @ columns, ang @ columns
-        blocks.append(el.weights[0] * lin)
-        blocks.append(el.weights[1] * ang)
+        blocks.append(lin)
+        blocks.append(ang)
     return np.vstack(blocks) if blocks else np.zeros((0, len(dadr)))
 
 
