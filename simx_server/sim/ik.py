@@ -24,7 +24,8 @@ A scene declares an IK group with a custom text (one per group)::
   (V-REP's ``sim_ik_*_method`` of the group).
 * ``precision``, ``precision2`` ...: ``linear,angular`` (m, rad) within which an element counts as
   reached (V-REP's element precision; default 1e-5,1e-4); ``weights``, ``weights2`` ...:
-  ``position,orientation`` weights of the element's rows (default 1,1).
+  ``position,orientation`` weights of the element's error rows (default 1,1; the error only, not
+  the Jacobian, as V-REP's ``CIkElement::prepareIkEquations``).
 * ``max_steps``: ``false`` lets one iteration's step be as large as the solver computes it (V-REP's
   "ignore max step sizes", a group's default); ``true`` (default) scales it down to 0.2 rad /
   0.05 m. A group with any of ``method``, ``precision``, ``weights``, ``max_steps`` is solved by

@@ -6,8 +6,8 @@ An IK environment keeps its own joint positions; a group's elements each pull a 
 shape) onto a target (a dummy, or an explicit pose) under constraints (CoppeliaSim's
 ``simIK.constraint_x`` ... ``constraint_gamma`` bits). :func:`solve` iterates on a scratch
 ``MjData`` (``mj_kinematics`` + ``mj_comPos``, as :mod:`simx_server.sim.ik` does for the scene's
-groups): the stacked, weighted error of the elements' constrained rows, the Jacobian of the
-group's joints (``mj_jacSite`` / ``mj_jacBody``), and a step by the group's method (damped least
+groups): the stacked error of the elements' constrained rows, each scaled by its element's
+weight, the Jacobian of the group's joints (``mj_jacSite`` / ``mj_jacBody``), and a step by the group's method (damped least
 squares ``Jᵀ(JJᵀ + λ²I)⁻¹e``, pseudo-inverse, Jacobian transpose), each joint's step bounded
 by its maximum step size (unless the group ignores them, as ``simIK``'s do by default) and its
 position clamped to its range, as coppeliaKinematicsRoutines' ``CIkGroupContainer::computeIk``.
@@ -106,7 +106,8 @@ def chain(world, tip: int, base: int, tip_body: int | None = None) -> list[int]:
 
 
 def errors(world, data, elements: list[Element], targets: dict[int, tuple],
-           frame_of: Callable[[mujoco.MjData, int], tuple] | None = None) -> tuple[np.ndarray, list, bool]:
+           frame_of: Callable[[mujoco.MjData, int], tuple] | None = None,
+           weighted: bool = True) -> tuple[np.ndarray, list, bool]:
     """Stacked weighted error, the rows' (element, kind, rows) and whether each element is within
     its precision.
 
@@ -119,6 +120,9 @@ def errors(world, data, elements: list[Element], targets: dict[int, tuple],
         frame_of: ``frame_of(data, handle)`` as :func:`frame` (default), for objects that are no
             scene objects (a ``simIK`` environment's own dummies: kind ``"point"``, the id the
             body that carries them).
+        weighted: scale each element's rows by its linear / angular weight (as
+            ``CikGroup::computeDq`` does to the error vector only; False: the plain error, as
+            ``simIK.computeGroupJacobian`` answers it).
 
     Returns:
         ``(error, rows, ok)``: the weighted error (m and rad, flat), what each block of rows is
@@ -139,14 +143,19 @@ def errors(world, data, elements: list[Element], targets: dict[int, tuple],
                    ([2] if el.constraints & CONSTRAINT_GAMMA else [])
         if np.linalg.norm(lin[pick_lin]) > el.precision[0] or np.linalg.norm(ang_local[pick_ang]) > el.precision[1]:
             ok = False
-        parts.append(el.weights[0] * lin[pick_lin])
-        parts.append(el.weights[1] * ang_local[pick_ang])
+        wl, wa = el.weights if weighted else (1.0, 1.0)
+        parts.append(wl * lin[pick_lin])
+        parts.append(wa * ang_local[pick_ang])
         rows.append((el, kind, mid, pick_lin, pick_ang, tr, p))
     return (np.concatenate(parts) if parts else np.zeros(0)), rows, ok
 
 
 def jacobian(world, data, rows: list, dadr: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
-    """The weighted Jacobian of the rows :func:`errors` chose, over the chain's joints.
+    """The Jacobian of the rows :func:`errors` chose, over the chain's joints. The elements'
+    weights scale only the error, not these rows: coppeliaKinematicsRoutines ``CikGroup::computeDq``
+    multiplies the error vector's rows by them and leaves the Jacobian as ``CikElement`` built it,
+    as V-REP 4.1's ``CIkElement::prepareIkEquations`` did (a smaller weight is a shorter step
+    towards that part of the target, not a lesser row of the least squares).
 
     Args:
         world: the world.
@@ -173,8 +182,8 @@ def jacobian(world, data, rows: list, dadr: np.ndarray, columns: np.ndarray | No
             lin, ang = lin[:, dadr], ang[:, dadr]
         else:
             lin, ang = lin @ columns, ang @ columns
-        blocks.append(el.weights[0] * lin)
-        blocks.append(el.weights[1] * ang)
+        blocks.append(lin)
+        blocks.append(ang)
     return np.vstack(blocks) if blocks else np.zeros((0, len(dadr)))
 
 
@@ -184,7 +193,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
           margins: np.ndarray | None = None,
           slaves: list[tuple[int, int, int, float, float]] | None = None,
           frame_of: Callable[[mujoco.MjData, int], tuple] | None = None,
-          bound_steps: bool = True) -> tuple[bool, np.ndarray, np.ndarray]:
+          bound_steps: bool = True, numeric: bool = False) -> tuple[bool, np.ndarray, np.ndarray]:
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
     ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
     make a joint move more (a larger weight) or less in the weighted least-norm step
@@ -194,11 +203,18 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     its column of the Jacobian (CoppeliaSim's linear joint dependencies). A hinge's step is
     wrapped into (-pi, pi] (``CikGroup::computeDq``); with ``bound_steps`` a step larger than a
     joint's ``max_step`` is scaled down whole, as ``CIkGroupContainer::computeIk`` interpolates
-    the target unless the group has ``simIK.group_ignoremaxsteps``. A limited joint within
-    ``FD_STEP`` of its upper limit moves the tip less in the Jacobian, not at all at the limit:
-    CoppeliaSim differentiates by moving each joint ``FD_STEP`` up through ``CJoint::setPosition``,
-    which clamps it to its range (``CikElement::_getNakedJacobian``), so that such a joint
-    stays at its upper limit.
+    the target unless the group has ``simIK.group_ignoremaxsteps``. Each step is clamped into
+    the joints' ranges (``CikGroup::applyDq`` through ``CJoint::setPosition``), so a joint at a
+    limit whose step points outwards stays there and the step the others were given assumes it
+    moved: the group can stop short of a target its other joints alone would get closer to.
+
+    With ``numeric`` (``simIK``, CoppeliaSim 4.2+), a limited joint within ``FD_STEP`` of its
+    upper limit also moves the tip less in the Jacobian, not at all at the limit: coppelia-
+    KinematicsRoutines differentiates by moving each joint ``FD_STEP`` *up* through the clamping
+    ``CJoint::setPosition`` (``CikElement::_getNakedJacobian``), so such a joint stays at its
+    upper limit, while one at its lower limit keeps its whole column. V-REP 4.1's old IK groups
+    (``sim.handleIkGroup``, ``sim.checkIkGroup``) differentiate analytically
+    (coppeliaSimLib 4.1 ``CIkRoutine::getJacobian``): no column depends on the limits.
 
     Args:
         world: the world.
@@ -217,6 +233,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         frame_of: see :func:`errors`.
         bound_steps: scale steps down to ``max_step`` (False: the group ignores max step sizes,
             CoppeliaSim's default for ``simIK.createGroup``).
+        numeric: the Jacobian is ``simIK``'s numeric one, clamped at the upper limits (see above).
 
     Returns:
         ``(ok, q, error)``: whether every element is within precision, the positions reached
@@ -252,7 +269,9 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         e, rows, ok = errors(world, scratch, elements, targets, frame_of)
         if ok or it == iterations or not len(joints):
             return ok, q, e
-        jac = jacobian(world, scratch, rows, dadr, columns) * np.clip((top - q) / FD_STEP, 0.0, 1.0)
+        jac = jacobian(world, scratch, rows, dadr, columns)
+        if numeric:
+            jac = jac * np.clip((top - q) / FD_STEP, 0.0, 1.0)
         if method == METHOD_TRANSPOSE:
             dq = w * (jac.T @ e)
         else:

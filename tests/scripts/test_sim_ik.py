@@ -187,3 +187,24 @@ def test_synced_group_sets_positions_while_stopped_and_targets_once_the_physics_
     for _ in range(40):
         s.step()
     assert [sim.getJointPosition(j) for j in joints] == pytest.approx(solution, abs=0.01)
+
+
+def test_element_weights_scale_the_error_not_the_jacobian(rig):
+    """coppeliaKinematicsRoutines ``CikGroup::computeDq`` multiplies the error vector's rows by the
+    element's weights and leaves the Jacobian as it is: with a position weight of 0.5 one undamped
+    iteration goes half-way to a target 1 cm off (weighting both would solve the same system,
+    a whole step). ``computeGroupJacobian`` answers the plain error."""
+    _, sim, ik = rig
+    env, g, el = _group(sim, ik, 7)
+    ik.setGroupCalculation(env, g, 3, 0.0, 1)  # simIK.method_undamped_pseudo_inverse, one iteration
+    ik.setElementWeights(env, g, el, [0.5, 1.0])
+    for j, q in zip(ik.getGroupJoints(env, g), [0.3, -0.8, 1.2, -0.6, 0.5, 0.2]):  # away from the straight arm
+        ik.setJointPosition(env, j, q)
+    tip, target = sim.getObject("/UR5_tip"), sim.getObject("/UR5_target")
+    goal = [a + b for a, b in zip(ik.getObjectPose(env, tip)[:3], [0.006, -0.005, 0.0055])]
+    sim.setObjectPosition(target, -1, goal)
+    _, error = ik.computeGroupJacobian(env, g)
+    assert error == pytest.approx([0.006, -0.005, 0.0055], abs=1e-9)
+    before = math.dist(ik.getObjectPose(env, tip)[:3], goal)
+    ik.handleGroup(env, g)
+    assert math.dist(ik.getObjectPose(env, tip)[:3], goal) == pytest.approx(0.5 * before, rel=0.1)

@@ -147,6 +147,26 @@ def test_joint_limits_and_maximum_velocity_hold(tmp_path):
     sim.close()
 
 
+@pytest.mark.parametrize("extra", ["", "method=damped_least_squares"], ids=["plain", "general solver"])
+def test_old_group_moves_a_joint_off_its_upper_limit(tmp_path, extra):
+    """V-REP 4.1's old IK differentiates analytically (coppeliaSimLib 4.1 ``CIkRoutine::getJacobian``):
+    a joint at its upper limit keeps its Jacobian column, and ``sim.checkIkGroup`` brings it back
+    inside for a target that needs it there (simIK's numeric Jacobian would leave it at the limit),
+    with the plain solver and the general one alike."""
+    sim = _arm(tmp_path, high=0.5, extra=extra)
+    w = sim.world
+    j1, j2 = w.resolve("j1").handle, w.resolve("j2").handle
+    goal = [0.3 * math.sin(0.2) + 0.3 * math.sin(0.8), 0.0, 0.3 * math.cos(0.2) + 0.3 * math.cos(0.8)]
+    w.set_pose(w.resolve("target").handle, -1, goal)  # the tip with j1 = 0.2, j2 = 0.6
+    w.set_joint_position(j1, 0.5)  # j1 at its upper limit
+    w.set_joint_position(j2, 0.3)
+    groups = ik.groups(w)
+    result, (q1, q2) = groups.check(groups.group("arm"), [j1, j2])
+    assert result == ik.IK_SUCCESS
+    assert q1 < 0.45 and (q1, q2) == pytest.approx((0.2, 0.6), abs=0.01)
+    sim.close()
+
+
 def test_reachable_target_position_only(tmp_path):
     """constraints=position: the tip reaches a reachable point (orientation free)."""
     sim = _arm(tmp_path)

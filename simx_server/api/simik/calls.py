@@ -262,15 +262,16 @@ def getAlternateConfigs(ctx: CallContext, environmentHandle: Any, jointHandles: 
 
 @simik_function("computeGroupJacobian")
 def computeGroupJacobian(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any) -> tuple[list[float], list[float]]:  # noqa: N802, N803
-    """``jacobian, errorVector`` of the group in the environment's configuration: the weighted,
+    """``jacobian, errorVector`` of the group in the environment's configuration: the
     constrained rows (world axes for positions, the target's axes for rotations) by the
-    group's joints (row after row)."""
+    group's joints (row after row), unweighted (``CikGroup::computeGroupIk`` returns them before
+    ``computeDq`` weights the error)."""
     env = _environments.env_of(ctx, environmentHandle)
     g = _environments.group_of(ctx, env, ikGroupHandle)
     joints = _environments.joints_of(ctx, env, g)
     d = _environments.env_data(ctx, env)
     e, rows, _ = S.errors(ctx.world, d, [el for el in g.elements if el.target != -1], {},
-                          lambda data, h: _environments.frame(ctx, env, data, h))
+                          lambda data, h: _environments.frame(ctx, env, data, h), weighted=False)
     dadr = np.array([ctx.world.model.jnt_dofadr[ctx.world.get(j).mj_id] for j in joints], int)
     slaves = _environments.slaves_of(ctx, env, joints)
     columns = coupling_matrix(ctx.world.model.nv, dadr, [(dof, col, k) for _, dof, col, _, k in slaves]) if slaves else None

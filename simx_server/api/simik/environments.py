@@ -233,7 +233,7 @@ def solve(ctx: CallContext, env: Environment, g: Group, targets: dict | None = N
     ok, q, _ = S.solve(ctx.world, d, joints, q, g.elements, g.method, g.damping,
                        g.iterations if iterations is None else iterations, steps, targets, weights, margins,
                        slaves_of(ctx, env, joints), lambda data, h: frame(ctx, env, data, h),
-                       bound_steps=not g.flags & GROUP_IGNOREMAXSTEPS)
+                       bound_steps=not g.flags & GROUP_IGNOREMAXSTEPS, numeric=True)
     return ok, joints, q
 
 

@@ -7,6 +7,7 @@ non-cyclic joint into ``[min, min + range]``, which is how a joint gets saved ex
 The joint converts as a limited hinge with its position at that limit, and simIK keeps it inside
 (coppeliaKinematicsRoutines ``CJoint::setPosition`` clamps each step of ``CikGroup::applyDq``)
 and, at its upper limit, where it is: the numeric Jacobian moves each joint up through that clamp.
+At its lower limit it keeps its column, so a target that pushes it outwards stalls the chain.
 """
 
 from __future__ import annotations
@@ -97,3 +98,39 @@ def test_simik_keeps_a_joint_at_its_upper_limit_and_lets_one_leave_its_lower(arm
         assert api.getJointPosition(j1) == start and gap > 0.02
     else:
         assert gap < 0.01 and api.getJointPosition(j1) > LOW + 0.1
+
+
+def test_simik_stalls_a_chain_whose_joint_at_its_lower_limit_is_pushed_outwards(arm):
+    """J1 at its lower limit, the target where the tip is with J1 0.2 rad further down (J2 at 0.8).
+    From the lower limit the numeric Jacobian's +0.01 nudge is inside the interval, so J1 keeps
+    its whole column (coppeliaKinematicsRoutines ``CikElement::_getNakedJacobian``); the damped
+    step puts the motion on J1, ``CikGroup::applyDq`` clamps it away, and J2 gets only the share
+    that assumed J1 moved: the group stalls, the tip no closer than it started. Made passive
+    (no column), J1 would leave J2 to get within 0.035 m: the stall is the column's, not the
+    geometry's (the UR3 of Libro-CoppeliaSim's pick_place.ttt was saved in such a stall)."""
+    api, ik = client_context(arm).sim, client_context(arm).simik
+    base, tip, target = api.getObject("/Base"), api.getObject("/Tip"), api.getObject("/Target")
+    j1, j2 = api.getObject("/J1"), api.getObject("/J2")
+    goal = _tip_at(api, j1, j2, tip, LOW - 0.2, 0.8)
+    api.setObjectPosition(target, -1, goal)
+
+    def solve(passive: bool) -> tuple[float, list[float]]:
+        start = _tip_at(api, j1, j2, tip, LOW, 0.8)
+        env = ik.createEnvironment()
+        group = ik.createGroup(env)
+        ik.setGroupCalculation(env, group, ik.method_damped_least_squares, 0.1, 10)
+        ik.addElementFromScene(env, group, base, tip, target, ik.constraint_position)
+        if passive:
+            ik.setJointMode(env, j1, ik.jointmode_passive)
+        q2 = []
+        for _ in range(20):
+            ik.handleGroup(env, group, {"syncWorlds": True, "allowError": True})
+            q2.append(api.getJointPosition(j2))
+        gap = float(np.linalg.norm(np.subtract(api.getObjectPosition(tip, -1), goal)))
+        return gap / float(np.linalg.norm(np.subtract(start, goal))), q2
+
+    kept, q2 = solve(passive=False)
+    assert api.getJointPosition(j1) == LOW
+    assert kept > 0.9 and abs(q2[-1] - q2[-2]) < 1e-9  # no closer, and at rest there
+    without, _ = solve(passive=True)
+    assert without < 0.4
