@@ -70,6 +70,21 @@ def test_the_path_goes_round_the_pillar_that_the_straight_line_hits(panda):
     assert np.linalg.norm(arm.get_tip().get_position() - goal) < 0.01
 
 
+def test_planning_puts_the_target_dummy_back(panda):
+    """PyRep's get_linear_path and solve_ik_via_sampling (so get_nonlinear_path) move the IK
+    target to the goal for CoppeliaSim's IK and put it back where it was."""
+    from pyrep.objects.dummy import Dummy
+
+    arm, start, goal, orientation, pillar = panda
+    target = Dummy("Panda_target")
+    before = target.get_pose()
+    near = arm.get_tip().get_position() + np.array([0.0, 0.0, -0.05])
+    arm.get_linear_path(near, quaternion=arm.get_tip().get_quaternion())
+    assert np.allclose(target.get_pose(), before)
+    arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.RRTConnect)
+    assert np.allclose(target.get_pose(), before)
+
+
 def test_an_algorithm_the_bindings_lack_plans_with_rrt_connect_and_says_so(panda, caplog, monkeypatch):
     from pyrep.backend import sim
 

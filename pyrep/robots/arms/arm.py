@@ -207,11 +207,15 @@ class Arm(RobotComponent):
         Raises:
             ConfigurationError: none found in ``trials`` tries.
         """
-        self._target_matrix(position, euler, quaternion, relative_to)  # IK pulls the tip onto the target dummy
-        lo, hi = self._limits()
-        lo, hi = np.maximum(lo, -2 * np.pi), np.minimum(hi, 2 * np.pi)  # as PyRep: huge intervals limited
-        found = sampling.sample_configs(self, lo, hi, trials, max_configs, distance_threshold, max_time_ms,
-                                        ignore_collisions)
+        prev_pose = self._ik_target.get_pose()  # as PyRep: the target dummy is put back afterwards
+        try:
+            self._target_matrix(position, euler, quaternion, relative_to)  # IK pulls the tip onto the target
+            lo, hi = self._limits()
+            lo, hi = np.maximum(lo, -2 * np.pi), np.minimum(hi, 2 * np.pi)  # as PyRep: huge intervals limited
+            found = sampling.sample_configs(self, lo, hi, trials, max_configs, distance_threshold, max_time_ms,
+                                            ignore_collisions)
+        finally:
+            self._ik_target.set_pose(prev_pose)
         if not found:
             raise ConfigurationError("Could not find a valid joint configuration for desired end effector pose.")
         start = np.array(self.get_joint_positions())
@@ -265,7 +269,9 @@ class Arm(RobotComponent):
             if not flat:
                 raise ConfigurationPathError("Could not create path.")
             return self._path(np.reshape(flat, (-1, len(self.joints))))
+        prev_pose = self._ik_target.get_pose()  # as PyRep: the target dummy is put back afterwards
         goal = self._target_matrix(position, euler, quaternion, relative_to)
+        self._ik_target.set_pose(prev_pose)
         start = np.array(self.get_joint_positions())
         lo, hi = self._limits()
         poses = planning.interpolate_poses(self._ik_tip.get_matrix(), goal, max(int(steps), 1))

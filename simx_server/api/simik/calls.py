@@ -262,10 +262,9 @@ def getAlternateConfigs(ctx: CallContext, environmentHandle: Any, jointHandles: 
 
 @simik_function("computeGroupJacobian")
 def computeGroupJacobian(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any) -> tuple[list[float], list[float]]:  # noqa: N802, N803
-    """``jacobian, errorVector`` of the group in the environment's configuration: the
-    constrained rows (world axes for positions, the target's axes for rotations) by the
-    group's joints (row after row), unweighted (``CikGroup::computeGroupIk`` returns them before
-    ``computeDq`` weights the error)."""
+    """``jacobian, errorVector`` of the group in the environment's configuration: the constrained
+    rows (world axes for positions, the target's axes for rotations) by the group's joints (row
+    after row), unweighted (``CikGroup::computeGroupIk`` returns them before ``computeDq`` weights)."""
     env = _environments.env_of(ctx, environmentHandle)
     g = _environments.group_of(ctx, env, ikGroupHandle)
     joints = _environments.joints_of(ctx, env, g)
