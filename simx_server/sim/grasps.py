@@ -203,6 +203,54 @@ def placed(world, part: SceneObject) -> None:
     m.eq_data[e][3:10] = g.relpose
 
 
+def held_parts(world) -> list[tuple[int, int, np.ndarray]]:
+    """The grasped parts that follow their holder now, as :func:`place_held` takes them.
+
+    Args:
+        world: the World.
+
+    Returns:
+        ``(part body, holder body, relpose (7,))`` of each held part, in grasp order.
+    """
+    m = world.model
+    out = []
+    for name, g in world.grasps.items():
+        if not g.held:
+            continue
+        obj = world.by_name.get(name)
+        body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, g.body) if g.body != "world" else 0
+        if obj is None or body < 0 or not is_free(m, obj.mj_id):
+            continue
+        out.append((int(obj.mj_id), int(body), np.array(g.relpose, float)))
+    return out
+
+
+def place_held(m: mujoco.MjModel, d: mujoco.MjData, held: list[tuple[int, int, np.ndarray]]) -> None:
+    """Put each held part exactly at its pose relative to its holder's body in ``d`` (its free
+    joint's position; velocity kept), from the holders' poses by ``mj_kinematics``; the caller
+    computes ``d``'s poses again afterwards (``mj_kinematics`` or ``mj_forward``).
+
+    Args:
+        m: the model.
+        d: its data (the world's, or a scratch copy).
+        held: ``(part body, holder body, relpose (7,))`` (:func:`held_parts`).
+    """
+    if not held:
+        return
+    mujoco.mj_kinematics(m, d)
+    qinv, q, p = np.empty(4), np.empty(4), np.empty(3)
+    for part, body, relpose in held:
+        # the part's pose: the holder's pose composed with the inverse of relpose
+        mujoco.mju_negQuat(qinv, relpose[3:])
+        mujoco.mju_mulQuat(q, d.xquat[body], qinv)
+        mujoco.mju_rotVecQuat(p, relpose[:3], q)
+        a = int(m.jnt_qposadr[m.body_jntadr[part]])
+        d.qpos[a:a + 3] = d.xpos[body] - p
+        d.qpos[a + 3:a + 7] = q
+        if len(held) > 1:  # a part held by another grasped part follows it
+            mujoco.mj_kinematics(m, d)
+
+
 def follow(world) -> None:
     """Put every grasped part exactly at its pose relative to the body that holds it (its
     free joint's position; velocity kept). Runs before ``mj_forward`` in ``World.changed``.
@@ -210,26 +258,7 @@ def follow(world) -> None:
     Args:
         world: the World.
     """
-    m, d = world.model, world.data
-    held = [(name, g) for name, g in world.grasps.items() if g.held]
-    if not held:
-        return
-    mujoco.mj_kinematics(m, d)
-    for name, g in held:
-        obj = world.by_name.get(name)
-        body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, g.body) if g.body != "world" else 0
-        if obj is None or body < 0 or not is_free(m, obj.mj_id):
-            continue
-        # the part's pose: the holder's pose composed with the inverse of relpose
-        qinv, q, p = np.empty(4), np.empty(4), np.empty(3)
-        mujoco.mju_negQuat(qinv, g.relpose[3:])
-        mujoco.mju_mulQuat(q, d.xquat[body], qinv)
-        mujoco.mju_rotVecQuat(p, g.relpose[:3], q)
-        a = int(m.jnt_qposadr[m.body_jntadr[obj.mj_id]])
-        d.qpos[a:a + 3] = d.xpos[body] - p
-        d.qpos[a + 3:a + 7] = q
-        if len(held) > 1:  # a part held by another grasped part follows it
-            mujoco.mj_kinematics(m, d)
+    place_held(world.model, world.data, held_parts(world))
 
 
 def let_all_go(world) -> None:

@@ -11,7 +11,8 @@ within a time) and interpolated with ``PathGeometric.interpolate``, as the simOM
 
 :class:`ScratchCollisions` is the default validity check of a simOMPL task (its collision
 pairs): a state is written into a scratch ``MjData`` (a copy of the world's state: joint
-positions, free bodies' poses), its poses computed with ``mj_kinematics``, and the pairs' geoms
+positions, free bodies' poses; a grasped part put where its holder carries it, as a child object
+moves with its parent in CoppeliaSim), its poses computed with ``mj_kinematics``, and the pairs' geoms
 tested there (:func:`simx_server.sim.collisions.pairs_collide`: a mesh on its triangles, with
 coal), so that planning never moves the simulation. simOMPL writes each state into the scene and reads
 CoppeliaSim's collision check instead.
@@ -24,7 +25,7 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 
-from simx_server.sim import collisions, ompl_spaces
+from simx_server.sim import collisions, grasps, ompl_spaces
 from simx_server.sim.ompl_spaces import JOINT_TYPES, Placement, Space
 from simx_server.sim.world import World
 from simx_wire.protocol import MAX_REQUEST_ITEMS
@@ -114,8 +115,13 @@ class ScratchCollisions:
         self.b = np.concatenate([b for _, b in found]) if found else np.zeros(0, dtype=int)
 
     def refresh(self) -> None:
-        """Copies the world's state again (the scene may have moved since), and the poses that
-        states leave unchanged (a base's height...)."""
+        """Copies the world's state again (the scene may have moved since), the poses that
+        states leave unchanged (a base's height...), and the grasped parts held now (they move
+        with their holder in each state, as a child object does in CoppeliaSim)."""
+        m = self.model
+        placed = {p.address for p in self.placements if p.kind not in JOINT_TYPES and p.address >= 0}
+        self.held = [h for h in grasps.held_parts(self.world)  # a part a state places is the state's
+                     if int(m.jnt_qposadr[m.body_jntadr[h[0]]]) not in placed]
         self.data.qpos[:] = self.world.data.qpos
         self.data.mocap_pos[:], self.data.mocap_quat[:] = self.world.data.mocap_pos, self.world.data.mocap_quat
         for p in self.placements:
@@ -129,6 +135,8 @@ class ScratchCollisions:
             self.data.qpos[self.joint_qpos] = q[self.joint_values]
         for p, start, end in self.poses:
             p.write(self.data, q[start:end])
+        if self.held:  # grasped parts where their holders put them
+            grasps.place_held(self.model, self.data, self.held)
         mujoco.mj_kinematics(self.model, self.data)
         # the model of setup, not world.model: a check may run off the simulation thread while
         # an edit recompiles the scene (its new model would not fit this MjData)

@@ -16,9 +16,14 @@ from a ``.ttt`` file's ``GRP`` records)::
 * ``all``: every object of the scene.
 
 Elements apply in order: an additive one adds its objects, a subtractive one removes them, as
-V-REP resolved a collection. The members are computed when the scene loads (and again after an
-edit, from the same declaration). Collection handles start at 2,000,000, as V-REP's (declared
-collections first, in name order; ``sim.createCollection`` continues from there).
+V-REP resolved a collection. A collection keeps its elements, not their objects: the members are
+worked out from the scene's tree as it is when they are asked for, as CoppeliaSim actualizes
+every collection whenever the tree changes (``CSceneObjectContainer::actualizeObjectInformation``
+after ``setObjectParent``, an added or a removed object; ``CCollection::actualizeCollection``). So
+a part re-parented under a robot (PyRep's ``Gripper.grasp``) joins the robot's ``tree``
+collection until it is let go, and an element whose object was removed stands for nothing
+(CoppeliaSim drops it). Collection handles start at 2,000,000, as V-REP's (declared collections
+first, in name order; ``sim.createCollection`` continues from there).
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ import weakref
 
 from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import quote
-from simx_server.sim.objects import WORLD
+from simx_server.sim.objects import WORLD, subtree
 from simx_server.sim.world import World
 
 log = logging.getLogger("simx.scene")
@@ -42,18 +47,18 @@ MAX_COLLECTIONS = 1000
 ELEMENT_TYPES = {"single": 0, "tree": 1, "tree_without_base": 2, "chain": 3, "chain_without_tip": 4, "all": 5}
 
 
-def _below(world: World, h: int, base: int) -> bool:
-    p = world.objects[h].parent
-    while p != WORLD:
-        if p == base:
-            return True
-        p = world.objects[p].parent
-    return False
+#: Most elements of one collection (``sim.addItemToCollection`` adds one per call).
+MAX_ELEMENTS = 10_000
+
+#: One element: (additive, kind of :data:`ELEMENT_TYPES`, its object's handle or None for ``all``).
+Element = tuple[bool, str, "int | None"]
 
 
 def element_members(world: World, kind: str, handle: int | None) -> list[int]:
-    """The objects one element stands for (``kind`` as in :data:`ELEMENT_TYPES`; ``handle`` its
-    object, None for ``all``). Raises ArgumentError for an unknown kind.
+    """The objects one element stands for in the scene's tree now (``kind`` as in
+    :data:`ELEMENT_TYPES`; ``handle`` its object, None for ``all``): CoppeliaSim's
+    ``CCollectionElement::addOrRemoveYourObjects``. An object no longer in the scene stands for
+    nothing.
 
     Args:
         world: the world.
@@ -61,28 +66,60 @@ def element_members(world: World, kind: str, handle: int | None) -> list[int]:
         handle: the element's object, or None for ``all``.
 
     Returns:
-        Handles.
+        Handles (a tree's parents before children, a chain's from its tip).
+
+    Raises:
+        ArgumentError: an unknown kind, or no object for a kind that needs one.
     """
     if kind == "all":
         return list(world.objects)
+    if kind not in ELEMENT_TYPES:
+        raise ArgumentError(f"collection element type {kind!r} is not one of {', '.join(ELEMENT_TYPES)}")
     if handle is None:
         raise ArgumentError(f"collection element {kind!r} needs an object")
-    if kind in ("single",):
+    if handle not in world.objects:
+        return []
+    if kind == "single":
         return [handle]
     if kind in ("tree", "tree_without_base"):
-        below = [h for h in world.objects if _below(world, h, handle)]
-        return below if kind == "tree_without_base" else [handle, *below]
-    if kind in ("chain", "chain_without_tip"):
-        chain, h = [], handle
-        while h != WORLD:
-            chain.append(h)
-            h = world.objects[h].parent
-        return chain[1:] if kind == "chain_without_tip" else chain
-    raise ArgumentError(f"collection element type {kind!r} is not one of {', '.join(ELEMENT_TYPES)}")
+        below = [o.handle for o in subtree(world, handle)]
+        return below[1:] if kind == "tree_without_base" else below
+    chain, h = [], handle
+    while h != WORLD and h in world.objects:
+        chain.append(h)
+        h = world.objects[h].parent
+    return chain[1:] if kind == "chain_without_tip" else chain
 
 
-def parse_items(world: World, text: str) -> list[int]:
-    """The members of a declared collection, from its ``items`` setting (see the module).
+def resolve(world: World, elements: list[Element]) -> list[int]:
+    """The objects of a collection's elements applied in order (an additive element adds those
+    not in yet, a subtractive one removes its own), in the scene's tree now.
+
+    Args:
+        world: the world.
+        elements: the collection's elements.
+
+    Returns:
+        Handles, in the order they were added.
+    """
+    members: list[int] = []
+    seen: set[int] = set()
+    for additive, kind, handle in elements:
+        chosen = element_members(world, kind, handle)
+        if additive:
+            for h in chosen:
+                if h not in seen:
+                    seen.add(h)
+                    members.append(h)
+        else:
+            gone = set(chosen)
+            members = [h for h in members if h not in gone]
+            seen -= gone
+    return members
+
+
+def parse_elements(world: World, text: str) -> list[Element]:
+    """The elements of a declared collection, from its ``items`` setting (see the module).
     Raises ValueError naming the element that is wrong or names no object.
 
     Args:
@@ -90,9 +127,9 @@ def parse_items(world: World, text: str) -> list[int]:
         text: ``+kind:name,-kind:name,...``.
 
     Returns:
-        Handles, in the order they were added.
+        The elements, in order.
     """
-    members: list[int] = []
+    elements: list[Element] = []
     for item in filter(None, text.split(",")):
         sign, body = item[:1], item[1:]
         if sign not in "+-" or not body:
@@ -106,38 +143,48 @@ def parse_items(world: World, text: str) -> list[int]:
             if obj is None:
                 raise ValueError(f"element {item!r}: no object {name!r} in the scene")
             handle = obj.handle
-        chosen = element_members(world, kind, handle)
-        if sign == "+":
-            members.extend(h for h in chosen if h not in members)
-        else:
-            gone = set(chosen)
-            members = [h for h in members if h not in gone]
-    return members
+        elements.append((sign == "+", kind, handle))
+    return elements
+
+
+def parse_items(world: World, text: str) -> list[int]:
+    """The members now of a declared collection, from its ``items`` setting (see the module).
+    Raises ValueError naming the element that is wrong or names no object.
+
+    Args:
+        world: the world.
+        text: ``+kind:name,-kind:name,...``.
+
+    Returns:
+        Handles, in the order they were added.
+    """
+    return resolve(world, parse_elements(world, text))
 
 
 class Collections:
-    """The collections of one world: handle -> member object handles, and names.
+    """The collections of one world: handle -> elements (:data:`Element`), and names.
 
     Declared collections are read from the world's ``simx:collection:NAME`` settings; a
     declaration with an element that names no object of the scene is logged (one line naming
-    the collection and the element) and left out, as a wrong IK group is."""
+    the collection and the element) and left out, as a wrong IK group is. Members are worked
+    out from the elements in the tree as it is when asked (:meth:`present`)."""
 
     def __init__(self, world: World):
         self.world = world
         self.model = world.model
-        self.members: dict[int, list[int]] = {}
+        self.elements: dict[int, list[Element]] = {}
         self.names: dict[str, int] = {}
         for key, settings in sorted(world.settings.items()):
             if not key.startswith(PREFIX):
                 continue
             name = key[len(PREFIX):]
             try:
-                members = parse_items(world, settings.get("items", ""))
+                elements = parse_elements(world, settings.get("items", ""))
             except ValueError as exc:
                 log.error("collection %r (custom text simx:%s) ignored: %s", name, key, exc)
                 continue
-            handle = FIRST_HANDLE + len(self.members)
-            self.members[handle], self.names[name] = members, handle
+            handle = FIRST_HANDLE + len(self.elements)
+            self.elements[handle], self.names[name] = elements, handle
 
     def create(self) -> int:
         """A new empty collection (``sim.createCollection``); its handle.
@@ -148,14 +195,44 @@ class Collections:
         Raises:
             ArgumentError: MAX_COLLECTIONS exist already.
         """
-        if len(self.members) >= MAX_COLLECTIONS:
+        if len(self.elements) >= MAX_COLLECTIONS:
             raise ArgumentError(f"at most {MAX_COLLECTIONS} collections")
-        handle = max(self.members, default=FIRST_HANDLE - 1) + 1
-        self.members[handle] = []
+        handle = max(self.elements, default=FIRST_HANDLE - 1) + 1
+        self.elements[handle] = []
         return handle
 
+    def _elements(self, handle: int) -> list[Element]:
+        elements = self.elements.get(handle) if isinstance(handle, int) else None
+        if elements is None:
+            raise UnknownObjectError(f"no collection with handle {quote(handle)}")
+        return elements
+
+    def add(self, handle: int, kind: str, obj: int | None, additive: bool = True) -> None:
+        """Add one element to collection ``handle`` (``sim.addItemToCollection``: CoppeliaSim
+        keeps the element, and an element the collection has already is not added again).
+
+        Args:
+            handle: a collection's handle.
+            kind: one of :data:`ELEMENT_TYPES`.
+            obj: the element's object (None for ``all``).
+            additive: False: the element removes its objects.
+
+        Raises:
+            UnknownObjectError: no such collection.
+            ArgumentError: an unknown kind, or the collection has MAX_ELEMENTS elements.
+        """
+        elements = self._elements(handle)
+        if kind not in ELEMENT_TYPES:
+            raise ArgumentError(f"collection element type {kind!r} is not one of {', '.join(ELEMENT_TYPES)}")
+        element = (bool(additive), kind, None if kind == "all" else obj)
+        if element in elements:
+            return
+        if len(elements) >= MAX_ELEMENTS:
+            raise ArgumentError(f"collection {handle}: at most {MAX_ELEMENTS} elements")
+        elements.append(element)
+
     def get(self, handle: int) -> list[int]:
-        """The members of collection ``handle`` (the list itself). Raises UnknownObjectError.
+        """The members of collection ``handle`` in the scene's tree now. Raises UnknownObjectError.
 
         Args:
             handle: a collection's handle.
@@ -163,10 +240,7 @@ class Collections:
         Returns:
             Object handles.
         """
-        members = self.members.get(handle) if isinstance(handle, int) else None
-        if members is None:
-            raise UnknownObjectError(f"no collection with handle {quote(handle)}")
-        return members
+        return resolve(self.world, self._elements(handle))
 
     def handle(self, name: str) -> int:
         """The handle of the collection named ``name`` (a trailing ``#`` ignored, as object names).
@@ -197,7 +271,7 @@ class Collections:
         Raises:
             UnknownObjectError: no such collection.
         """
-        self.get(handle)
+        self._elements(handle)
         return next((n for n, h in self.names.items() if h == handle), "")
 
     def remove(self, handle: int) -> None:
@@ -209,12 +283,13 @@ class Collections:
         Raises:
             UnknownObjectError: no such collection.
         """
-        self.get(handle)
-        del self.members[handle]
+        self._elements(handle)
+        del self.elements[handle]
         self.names = {n: h for n, h in self.names.items() if h != handle}
 
     def present(self, handle: int) -> list[int]:
-        """The members of collection ``handle`` that are still in the scene.
+        """The members of collection ``handle`` now (its elements in the scene's tree as it is:
+        a part grasped under a ``tree`` element's object is one of them).
 
         Args:
             handle: a collection's handle.
@@ -225,7 +300,7 @@ class Collections:
         Raises:
             UnknownObjectError: no such collection.
         """
-        return [h for h in self.get(handle) if h in self.world.objects]
+        return self.get(handle)
 
 
 _COLLECTIONS: "weakref.WeakKeyDictionary[World, Collections]" = weakref.WeakKeyDictionary()
@@ -246,9 +321,9 @@ def of(world: World) -> Collections:
         c = _COLLECTIONS[world] = Collections(world)
     elif c.model is not world.model:
         fresh = Collections(world)
-        for h, members in c.members.items():
-            if h not in fresh.members:
-                fresh.members[h] = members
+        for h, elements in c.elements.items():
+            if h not in fresh.elements:
+                fresh.elements[h] = elements
         c = _COLLECTIONS[world] = fresh
     return c
 

@@ -244,15 +244,13 @@ def createCollection(ctx: CallContext, options: Any = 0) -> int:  # noqa: N802
     return scene_collections.of(ctx.world).create()
 
 
-def _collection(ctx: CallContext, handle: Any) -> list:
-    return scene_collections.of(ctx.world).get(_int(handle, "collectionHandle"))
-
-
 @sim_function("addItemToCollection")
 def addItemToCollection(ctx: CallContext, collectionHandle: Any, what: Any, objectHandle: Any, options: Any = 0) -> None:  # noqa: N802, N803
     """Add (``options`` bit 0: remove) ``sim.handle_single`` one object, ``handle_tree`` it and
     everything below it (bit 1: without it), ``handle_chain`` it and its ancestors (bit 1:
-    without it), ``handle_all`` every object.
+    without it), ``handle_all`` every object. As CoppeliaSim's ``sim.addItemToCollection``, the
+    collection keeps the element, not the objects it stands for now: its members follow the
+    scene's tree (an object later put under a ``handle_tree`` object is one of them).
 
     Args:
         collectionHandle: a collection's handle.
@@ -264,28 +262,24 @@ def addItemToCollection(ctx: CallContext, collectionHandle: Any, what: Any, obje
         UnknownObjectError: no such collection or object.
         ArgumentError: another ``what``.
     """
-    items, kind, opts = _collection(ctx, collectionHandle), _int(what, "what"), _int(options, "options")
-    w = ctx.world
+    collections = scene_collections.of(ctx.world)
+    handle, kind, opts = _int(collectionHandle, "collectionHandle"), _int(what, "what"), _int(options, "options")
+    collections.get(handle)  # no such collection: that error first
     if kind == HANDLE_ALL:
-        chosen = scene_collections.element_members(w, "all", None)
-    else:
-        h = w.get(ctx.h(objectHandle)).handle
-        element = {HANDLE_SINGLE: "single", HANDLE_TREE: "tree", HANDLE_CHAIN: "chain"}.get(kind)
-        if element is None:
-            raise ArgumentError("what: sim.handle_single, handle_tree, handle_chain or handle_all")
-        if opts & 2 and kind != HANDLE_SINGLE:
-            element += "_without_base" if kind == HANDLE_TREE else "_without_tip"
-        chosen = scene_collections.element_members(w, element, h)
-    if opts & 1:
-        gone = set(chosen)
-        items[:] = [h for h in items if h not in gone]
-    else:
-        items.extend(h for h in chosen if h not in items)
+        collections.add(handle, "all", None, additive=not opts & 1)
+        return
+    h = ctx.world.get(ctx.h(objectHandle)).handle
+    element = {HANDLE_SINGLE: "single", HANDLE_TREE: "tree", HANDLE_CHAIN: "chain"}.get(kind)
+    if element is None:
+        raise ArgumentError("what: sim.handle_single, handle_tree, handle_chain or handle_all")
+    if opts & 2 and kind != HANDLE_SINGLE:
+        element += "_without_base" if kind == HANDLE_TREE else "_without_tip"
+    collections.add(handle, element, h, additive=not opts & 1)
 
 
 @sim_function("getCollectionObjects")
 def getCollectionObjects(ctx: CallContext, collectionHandle: Any) -> list[int]:  # noqa: N802, N803
-    """The collection's objects (those still in the scene).
+    """The collection's objects: its elements in the scene's tree as it is now.
 
     Args:
         collectionHandle: a collection's handle.
