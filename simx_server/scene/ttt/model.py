@@ -52,7 +52,9 @@ class Mesh:
 @dataclass
 class ShapeData:
     """A shape: meshes, mass (kg), inertia (principal moments, kg·m², already times the mass)
-    at ``inertia_frame``; V-REP's dynamic flags; material friction."""
+    at ``inertia_frame``; V-REP's dynamic flags; material friction: ``bullet_friction`` the
+    material's two Bullet coefficients (Bullet 2.78's, 2.83's), ``friction`` the one the scene's
+    engine uses (:func:`simx_server.scene.ttt.reader.read` picks it)."""
 
     meshes: list[Mesh]
     compound: bool
@@ -63,6 +65,7 @@ class ShapeData:
     respondable: bool = False
     respondable_mask: int = 0xFFFF
     friction: float | None = None
+    bullet_friction: tuple[float | None, float | None] = (None, None)
 
 
 @dataclass
@@ -242,6 +245,7 @@ class TttScene:
     ik_groups: list[IkGroup]
     textures: dict[int, Texture]
     engine: int = 0          # 0 Bullet, 1 ODE, 2 Vortex, 3 Newton, 4 MuJoCo
+    engine_version: int = 0  # Bullet's: 0 for 2.78 (CoppeliaSim 4.1's default), 283 for 2.83 (``DYN``/``Ver``)
     gravity: np.ndarray = field(default_factory=lambda: np.array([0, 0, -9.81]))
     time_step: float = 0.05  # s
     background: tuple[np.ndarray, np.ndarray] | None = None  # environment colours: up, down (RGB 0-1)

@@ -17,7 +17,8 @@ from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.errors import SceneFileError
 from simx_server.scene.ttt.geometry import pose7
 from simx_server.scene.ttt.model import (Collection, DummyData, ForceSensorData, IkElement, IkGroup, JointData,
-                                         ProximityData, Script, Texture, TttObject, TttScene, VisionData)
+                                         ProximityData, Script, ShapeData, Texture, TttObject, TttScene,
+                                         VisionData)
 from simx_server.scene.ttt.records import Records, light_decode, read_body
 
 OBJECT_KINDS = {
@@ -104,7 +105,21 @@ def read(path: str | Path, data: bytes | None = None) -> TttScene:
         except (struct.error, ValueError, IndexError) as exc:
             raise SceneFileError(file, tag, f"malformed: {exc}") from None
     _build_tree(scene)
+    _pick_friction(scene)
     return scene
+
+
+def _pick_friction(scene: TttScene) -> None:
+    """Each shape's friction: its material's Bullet coefficient for the scene's Bullet version
+    (``DYN``/``Ver``: 283 is Bullet 2.83, else 2.78, the default of CoppeliaSim 4.1 and of a
+    model file, which has no ``DYN``), as ``CDynamicsContainer`` hands it to the engine; the
+    other when the material lacks it."""
+    pick = 1 if scene.engine == 0 and scene.engine_version == 283 else 0
+    for obj in scene.objects.values():
+        data = obj.data
+        if isinstance(data, ShapeData):
+            first, second = data.bullet_friction[pick], data.bullet_friction[1 - pick]
+            data.friction = first if first is not None else second
 
 
 def _check_script_bytes(top: Records, tag: str, total: int) -> None:
@@ -372,6 +387,9 @@ def _read_dynamics(r: Records, scene: TttScene) -> None:
                 scene.gravity = g
                 scene.saved_settings.gravity_saved = True
             break
+    version = r.ints("Ver", 1)  # CDynamicsContainer::serialize: _dynamicEngineVersionToUse
+    if version is not None:
+        scene.engine_version = int(version[0])
     settings.read_dynamics(r, scene.engine, scene.saved_settings)
 
 

@@ -151,25 +151,44 @@ def read_shape(typed: Records, pool: MeshPool) -> ShapeData:
     mask = typed.ints("Dc2", 1, "<u2")
     if mask is not None:
         shape.respondable_mask = int(mask[0])
-    shape.friction = _friction(typed)
+    shape.bullet_friction = _friction(typed)
+    shape.friction = shape.bullet_friction[0] if shape.bullet_friction[0] is not None else shape.bullet_friction[1]
     return shape
 
 
-def _friction(typed: Records) -> float | None:
-    """Bullet's friction coefficient of the shape's material (``Mat`` -> ``BuN``/``_uN``, the
-    third float), the engine V-REP scenes default to."""
+def _friction(typed: Records) -> tuple[float | None, float | None]:
+    """Bullet's friction coefficients of the shape's material (``Mat``): ``(2.78's, 2.83's)``.
+
+    CoppeliaSim keeps two Bullet coefficients per material (coppeliaSimLib
+    ``CDynMaterialObject``: ``simi_bullet_body_oldfriction``, the second float of ``_uN``/``BuN``
+    and of the older ``Bul``, and ``simi_bullet_body_friction``, the third float of ``_uN``/
+    ``BuN``). Bullet 2.78, V-REP's and CoppeliaSim 4.1's default engine, is given the first
+    (``_simGetFriction_internal`` returns ``sim_bullet_body_oldfriction``; simDyn's Bullet 2.78
+    ``CRigidBodyDyn`` calls it), Bullet 2.83 the second. A file with only ``Bul`` (before
+    2016) has one: CoppeliaSim copies it into the second on load. A value that is not a
+    number in [0, 100] is left out (None)."""
     mat = typed.sub("Mat")
+    old = new = None
     for tag, dtype in (("_uN", "<f8"), ("BuN", "<f4")):
         payload = mat.get(tag)
         if payload is None or len(payload) < 8:
             continue
-        nf, ni = struct.unpack_from("<ii", payload, 0)
+        nf, _ = struct.unpack_from("<ii", payload, 0)
         size = np.dtype(dtype).itemsize
         if nf >= 3 and len(payload) >= 8 + 3 * size:
-            value = float(np.frombuffer(payload[8:8 + 3 * size], dtype)[2])
-            if np.isfinite(value) and 0 <= value <= 100:
-                return value
-    return None
+            values = np.frombuffer(payload[8:8 + 3 * size], dtype)
+            old, new = _coefficient(values[1]), _coefficient(values[2])
+            break
+    if old is None and new is None:
+        payload = mat.get("Bul")  # restitution, old friction, damping... (f32)
+        if payload is not None and len(payload) >= 8:
+            old = new = _coefficient(np.frombuffer(payload[4:8], "<f4")[0])
+    return old, new
+
+
+def _coefficient(value: float) -> float | None:
+    value = float(value)
+    return value if np.isfinite(value) and 0 <= value <= 100 else None
 
 
 def _collect(wrapper: Records, pool: MeshPool, out: list[Mesh]) -> None:

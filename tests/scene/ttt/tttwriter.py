@@ -81,8 +81,10 @@ def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: byte
 
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
                  dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"",
-                 colour: bytes | None = None, moments=(0.01, 0.01, 0.01), quat=(1, 0, 0, 0)) -> bytes:
+                 colour: bytes | None = None, moments=(0.01, 0.01, 0.01), quat=(1, 0, 0, 0),
+                 material: bytes = b"") -> bytes:
     """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`;
+    ``material``: its dynamic material (:func:`bullet_material`);
     ``colour``: its colour object (:func:`colour_object`; default an old ``Cl2`` of (0.2, 0.4, 0.6));
     ``moments``: its principal moments of inertia as V-REP stores them (divided by the mass);
     ``quat``: its orientation in its parent's frame (w, x, y, z)."""
@@ -98,8 +100,19 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
                rec("Ppr", struct.pack("<ifff", 3, *size)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)), texture)
     typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
                 rec("Sss", bytes([0x80 if dynamic else 0])), rec("Ss3", bytes([1 if respondable else 0])),
-                rec("Dc2", struct.pack("<H", 0xFFFF)))
+                rec("Dc2", struct.pack("<H", 0xFFFF)), material)
     return rec("SHP", common(handle, parent, name, pos, quat, extra=extra) + typed)
+
+
+def bullet_material(old: float, new: float | None = None) -> bytes:
+    """A shape's dynamic material (``Mat``) with Bullet's two friction coefficients as
+    ``CDynMaterialObject::serialize`` writes them: ``Bul`` (restitution, old friction, damping...)
+    and, unless ``new`` is None (a file from before 2016), ``BuN`` (8 floats: restitution, old
+    friction, friction, ...; 2 ints)."""
+    items = [rec("Bul", f32(0.0, old, 0.0, 0.0, 0.1, 0.002))]
+    if new is not None:
+        items.append(rec("BuN", i32(8, 2) + f32(0.0, old, new, 0.0, 0.0, 0.1, 0.002, 0.0) + i32(4, 0)))
+    return rec("Mat", lst(*items))
 
 
 def plane_shape(handle: int, parent: int, name: str, size=(0.4, 0.6), pos=(0, 0, 0), wireframe: bool = True,
@@ -364,10 +377,12 @@ def simulation(time_step: float, preset: int = 5, real_time: bool | None = None,
     return rec("SIM", lst(*items))
 
 
-def dynamics(gravity=(0, 0, -9.81), engine: int = 0, step: float | None = None) -> bytes:
-    """The engine record (``En2``: engine, gravity, settings mode) and, with ``step``, the 4.5
-    physics step ``_tp``."""
+def dynamics(gravity=(0, 0, -9.81), engine: int = 0, step: float | None = None, version: int | None = None) -> bytes:
+    """The engine record (``En2``: engine, gravity, settings mode), with ``step`` the 4.5
+    physics step ``_tp``, with ``version`` the engine version ``Ver`` (Bullet: 0 2.78, 283 2.83)."""
     items = [rec("En2", i32(engine) + f32(*gravity) + i32(4))]
+    if version is not None:
+        items.append(rec("Ver", i32(version)))
     if step is not None:
         items.append(rec("_tp", struct.pack("<d", step)))
     return rec("DYN", lst(*items))

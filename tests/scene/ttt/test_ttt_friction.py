@@ -1,0 +1,36 @@
+"""A shape's friction is its material's Bullet coefficient for the scene's Bullet version, as
+CoppeliaSim hands it to the engine: Bullet 2.78 (V-REP's and CoppeliaSim 4.1's default) gets the
+material's "old" friction, Bullet 2.83 the newer one (coppeliaSimLib ``_simGetFriction_internal``,
+simDyn's Bullet 2.78 ``CRigidBodyDyn``). PyRep's TurtleBot wheels keep 0.71 and 0.25: simx read
+0.25, which Bullet 2.78 never used."""
+
+from __future__ import annotations
+
+import mujoco
+import pytest
+
+import tttwriter as W
+from simx_server.scene.ttt import convert, reader
+
+
+def _friction(tmp_path, version, material):
+    body = (W.rec("SIM", W.lst(W.rec("Sts", W.f32(0.05)))) + W.dynamics(version=version)
+            + W.cuboid_shape(1, -1, "Wheel", (0.07, 0.07, 0.02), (0, 0, 0.5), mass=0.05, material=material))
+    f = tmp_path / f"friction_{version}.ttt"
+    f.write_bytes(W.ttt_file(body))
+    scene = reader.read(f)
+    xml, _ = convert.convert(scene, tmp_path / f"out{version}", "friction")
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    body_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "Wheel")
+    return [float(m.geom_friction[g, 0]) for g in range(m.ngeom) if m.geom_bodyid[g] == body_id]
+
+
+@pytest.mark.parametrize("version, expected", [(None, 0.71), (0, 0.71), (283, 0.25)])
+def test_the_scenes_bullet_version_picks_the_coefficient(tmp_path, version, expected):
+    # MuJoCo's friction is mu^2: Bullet's product for two shapes of the same material
+    assert _friction(tmp_path, version, W.bullet_material(0.71, 0.25)) == [pytest.approx(expected ** 2, rel=1e-5)]
+
+
+def test_a_material_from_before_2016_has_one_coefficient_for_both(tmp_path):
+    assert _friction(tmp_path, 283, W.bullet_material(0.4)) == [pytest.approx(0.16, rel=1e-5)]
+    assert _friction(tmp_path, None, W.bullet_material(0.4)) == [pytest.approx(0.16, rel=1e-5)]
