@@ -35,7 +35,7 @@ step so that the substeps run in C:
   so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
   constraint-based motors do; everything is clipped to the maximum force;
 * "lock motor when target velocity is zero" (``sim_jointintparam_velocity_lock``, 2030, off by
-  default; ``simx:`` ``velocity_lock=1``: what V-REP saved with the joint): a velocity motor told to stop holds the position where it stopped with no force
+  default): a velocity motor told to stop holds the position where it stopped with no force
   limit (the position law at gain 1/dt, force range limits.MAX_JOINT_FORCE), as CoppeliaSim's
   ``CJoint::handleDynJoint`` asks its engine to lock a joint whose ``_motorLock`` is set and
   whose target velocity is 0;
@@ -193,9 +193,6 @@ class Motors:
                                                  for _, j, s in mine])
         self.initial_target_velocity = np.array([_setting(s, "target_velocity", 0.0, _name(m, j), signed=True)
                                                  for _, j, s in mine])
-        # "lock motor when target velocity is zero" as the scene saved it (simx: velocity_lock=1)
-        self.initial_locked = np.array([_setting(s, "velocity_lock", 0.0, _name(m, j)) != 0 for _, j, s in mine],
-                                       dtype=bool)
         self.names = {h: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for (h, _, _), a in zip(mine, act)}
         for a in act:  # one actuator realises both laws; ctrl is a velocity or a position
             m.actuator_gaintype[a] = mujoco.mjtGain.mjGAIN_FIXED
@@ -265,7 +262,7 @@ class Motors:
         #: CoppeliaSim's joint mode per motor (JOINTMODE_FORCE, or a kinematic mode: 0 or 2).
         self.joint_mode = np.full(len(self.act), JOINTMODE_FORCE, dtype=int)
         #: ``sim_jointintparam_velocity_lock`` per motor; where each locked motor stopped (NaN: not now).
-        self.locked = self.initial_locked.copy()
+        self.locked = np.zeros(len(self.act), dtype=bool)
         self._lock_q = np.full(len(self.act), np.nan)
         self._refresh_flags()
         self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
