@@ -242,7 +242,7 @@ class PyRep:
         ``.ttt`` name gets MJCF too; simx writes no CoppeliaSim file)."""
         self._require()
         target = Path(filename).resolve()
-        self._trust(target.parent)
+        sim.trust_folder(target.parent)
         if target.suffix.lower() == ".xml":
             sim.call("saveScene", str(target))
             return
@@ -254,14 +254,9 @@ class PyRep:
         """Adds a model file (``.ttm`` or MJCF) to the scene; returns its base object."""
         self._require()
         path = Path(filename).resolve()
-        self._trust(path.parent)
+        sim.trust_folder(path.parent)
         handle = sim.call("loadModel", str(path))
         return Object.get_object(int(handle))
-
-    def _trust(self, folder: Path) -> None:
-        """Let the scene load files of ``folder`` (:func:`pyrep.backend.sim.trust_folder`)."""
-        if self._remote is None:
-            sim.trust_folder(folder)
 
     def create_texture(self, filename: str, interpolate: bool = True, decal_mode: bool = False,
                        repeat_along_u: bool = False, repeat_along_v: bool = False) -> tuple[Shape, Texture]:
@@ -269,7 +264,7 @@ class PyRep:
         self._require()
         options = (0 if interpolate else 1) | (2 if decal_mode else 0) | (4 if repeat_along_u else 0) \
             | (8 if repeat_along_v else 0)
-        self._trust(Path(filename).resolve().parent)
+        sim.trust_folder(Path(filename).resolve().parent)
         shape, texture_id, _ = sim.call("createTexture", str(filename), options)
         return Shape(int(shape)), Texture(int(texture_id))
 

@@ -260,15 +260,15 @@ def volume_rays(obj: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.nda
     Returns:
         ``(origins, directions, lengths)`` (read-only, shared by calls of the same settings), or None.
     """
-    if obj.settings.get("volume", "ray") in ("ray", "cone"):
-        return None
-    return _volume_rays(obj.name, tuple(sorted(obj.settings.items())), float(cutoff))
+    kind = obj.settings.get("volume", "ray")
+    return None if kind in ("ray", "cone") else _volume_rays(obj.name, tuple(sorted(obj.settings.items())), float(cutoff))
 
 
 @functools.lru_cache(maxsize=256)
 def _volume_rays(name: str, settings: tuple, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     out = _make_volume_rays(types.SimpleNamespace(name=name, settings=dict(settings)), cutoff)
-    [a.setflags(write=False) for a in out]
+    for a in out:
+        a.setflags(write=False)
     return out
 
 

@@ -257,21 +257,18 @@ class Arm(RobotComponent):
         Raises:
             ConfigurationPathError: a pose of the line cannot be reached, or collides.
         """
-        if self._ik_group is not None:
-            prev = self._ik_target.get_pose()
-            self._target_matrix(position, euler, quaternion, relative_to)
-            pairs = [] if ignore_collisions or self._collision_collection is None else \
-                [self._collision_collection, sim.sim_handle_all]  # type: ignore[attr-defined]
-            try:
+        prev = self._ik_target.get_pose()  # as PyRep: the target dummy is put back afterwards
+        try:
+            goal = self._target_matrix(position, euler, quaternion, relative_to)
+            if self._ik_group is not None:
+                pairs = [] if ignore_collisions or self._collision_collection is None else \
+                    [self._collision_collection, sim.sim_handle_all]  # type: ignore[attr-defined]
                 flat = sim.call("generateIkPath", self._ik_group, self._handles(), max(int(steps), 2), pairs)
-            finally:
-                self._ik_target.set_pose(prev)
-            if not flat:
-                raise ConfigurationPathError("Could not create path.")
-            return self._path(np.reshape(flat, (-1, len(self.joints))))
-        prev_pose = self._ik_target.get_pose()  # as PyRep: the target dummy is put back afterwards
-        goal = self._target_matrix(position, euler, quaternion, relative_to)
-        self._ik_target.set_pose(prev_pose)
+                if not flat:
+                    raise ConfigurationPathError("Could not create path.")
+                return self._path(np.reshape(flat, (-1, len(self.joints))))
+        finally:
+            self._ik_target.set_pose(prev)
         start = np.array(self.get_joint_positions())
         lo, hi = self._limits()
         poses = planning.interpolate_poses(self._ik_tip.get_matrix(), goal, max(int(steps), 1))
@@ -284,7 +281,7 @@ class Arm(RobotComponent):
                 configs.append(q)
         finally:
             self.set_joint_positions(start.tolist())
-        return ArmConfigurationPath(self, planning.densify(np.array(configs), self._step_size()))
+        return self._path(np.array(configs))
 
     def get_nonlinear_path(self, position: Any, euler: Any = None, quaternion: Any = None,
                            ignore_collisions: bool = False, trials: int = 300, max_configs: int = 1,

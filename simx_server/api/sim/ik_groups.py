@@ -147,8 +147,8 @@ def generateIkPath(ctx: CallContext, ikGroupHandle: Any, jointHandles: Any, ptCn
     raw = list(collisionPairs) if isinstance(collisionPairs, (list, tuple)) else []
     if len(raw) % 2:
         raise ArgumentError("collisionPairs must hold pairs of entities")
-    pairs = [(ctx.h(a, "collisionPairs[i]"), ctx.h(b, "collisionPairs[i]")) for a, b in zip(raw[::2], raw[1::2])
-             if ctx.h(a, "collisionPairs[i]") != -1]
+    entities = [ctx.h(v, "collisionPairs[i]") for v in raw]
+    pairs = [(a, b) for a, b in zip(entities[::2], entities[1::2]) if a != -1]
     collides = None
     if pairs:
         placements = [ompl_spaces.Placement(ctx.world, "joint_position", j) for j in free]
