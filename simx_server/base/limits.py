@@ -457,8 +457,8 @@ MAX_ZMQ_UNSENT_BYTES_TOTAL = 256 * 1024 * 1024
 #: descriptors: 986 idle ZMQ connections made a new legacy client fail (limit 1,024).
 MAX_ZMQ_CONNECTIONS = 1000
 #: s a new ZMQ connection has to finish ZMTP's handshake (libzmq's ``ZMQ_HANDSHAKE_IVL``, 30 s by
-#: default) before it is closed. Only connections that finished it count toward
-#: MAX_ZMQ_CONNECTIONS: 1,100 TCP connections that never started it (each holding a slot for
+#: default) before it is closed. Only connections let through by the ZAP handler (or open longer
+#: than this) count toward MAX_ZMQ_CONNECTIONS: 1,100 TCP connections that never started it (each holding a slot for
 #: libzmq's 30 s) left 1 of 8 new ZMQ clients served. A handshake on loopback takes about a
 #: millisecond, CURVE's a few more round trips, but each waits for the ZAP handler, which runs on
 #: the socket thread (Python): 3 s let 200 handshakes at once time out again and again on a

@@ -23,10 +23,10 @@ connection with unsent replies while all together pass ``MAX_ZMQ_UNSENT_BYTES_TO
 counts from its call on: :meth:`Frontend.reserve`); libzmq queues at most
 ``ZMQ_QUEUED_MESSAGES`` replies and ``ZMQ_QUEUED_REQUESTS`` request per connection, and large
 requests are decoded on a thread of their own (:mod:`simx_server.zmq.intake`). Every new connection passes the ZAP
-handler (:class:`Gate`) on this thread: beyond ``max_connections`` connections whose handshake
-succeeded it is refused (its descriptor closed at once), and with CURVE keys only the authorised
-clients' public keys pass. A connection that does not finish its handshake within
-``limits.ZMQ_HANDSHAKE_SECONDS`` is closed by libzmq and never held a slot.
+handler (:class:`Gate`) on this thread: beyond ``max_connections`` connections let through (or
+open longer than a handshake lasts) it is refused (its descriptor closed at once), and with CURVE
+keys only the authorised clients' public keys pass. A connection that does not finish its
+handshake within ``limits.ZMQ_HANDSHAKE_SECONDS`` is closed by libzmq and never held a slot.
 
 Protocol version 1 (CoppeliaSim 4.3-4.5's client, issue 43) is served beside version 2: the
 frontend tells each request's version (:func:`~simx_server.zmq.codec.read_request`), names a
@@ -71,10 +71,10 @@ ZMQ_QUEUED_REQUESTS = 1
 #: kernel has them; smaller ones are bounded by ZMQ_QUEUED_MESSAGES.
 TRACKED_BYTES = 64 * 1024
 _ZAP_ENDPOINT = "inproc://zeromq.zap.01"
-#: What the socket monitors report: a connection counts toward the gate's bound once its handshake
-#: succeeded (a TCP connection that never starts ZMTP's handshake holds no slot; libzmq closes it
-#: after limits.ZMQ_HANDSHAKE_SECONDS), and stops counting when it closes.
-_COUNTED_EVENTS = zmq.EVENT_HANDSHAKE_SUCCEEDED | zmq.EVENT_DISCONNECTED
+#: What the socket monitors report: which connections are open (their descriptors), for the
+#: gate's bound (Gate.held) and to forget the clients of a closed one. libzmq's HANDSHAKE_SUCCEEDED
+#: carries no descriptor (its value is 0), so it cannot say which connection succeeded.
+_COUNTED_EVENTS = zmq.EVENT_ACCEPTED | zmq.EVENT_DISCONNECTED
 #: The uuid of a version-1 client (which sends none) is this and its connection's routing id in hex.
 VERSION_1_PREFIX = codec.VERSION_1_UUID_PREFIX
 #: Where clients connect unless told otherwise (CoppeliaSim's default port).
@@ -305,7 +305,7 @@ class Frontend:
                 if counted is not None and counted in events:
                     self._on_monitor(counted, counter=True)
                 if zap in events:
-                    self.gate.answer(zap)
+                    self.gate.answer(zap, lambda: self._on_monitors(monitor, counted))
                 if self._trackers:
                     self._count_sent()
                 if self._wake_r in events:
@@ -331,19 +331,24 @@ class Frontend:
                 if sock is not None:
                     sock.close(0)
 
+    def _on_monitors(self, monitor: zmq.Socket, counted: zmq.Socket | None) -> None:
+        self._on_monitor(monitor)
+        if counted is not None:
+            self._on_monitor(counted, counter=True)
+
     def _on_monitor(self, monitor: zmq.Socket, counter: bool = False) -> None:
-        """Count the connections whose handshake succeeded and those closed (``counter``: the step
-        counter's), and tell the simulation thread which request connection closed."""
+        """Tell the gate which connections opened and closed (``counter``: the step counter's),
+        and the simulation thread which request connection closed."""
         while True:
             try:
                 event = zmq.utils.monitor.recv_monitor_message(monitor, zmq.NOBLOCK)
             except zmq.Again:
                 return
-            if event["event"] == zmq.EVENT_HANDSHAKE_SUCCEEDED:
-                self.gate.admitted(int(event["value"]))
+            if event["event"] == zmq.EVENT_ACCEPTED:
+                self.gate.accepted(int(event["value"]))
             elif event["event"] == zmq.EVENT_DISCONNECTED:
                 fd = int(event["value"])
-                self.gate.connections.discard(fd)
+                self.gate.closed(fd)
                 if counter:  # a subscriber of the step counter: no request, no client
                     continue
                 for identity in [i for i, (f, _) in self._pending.items() if f == fd]:

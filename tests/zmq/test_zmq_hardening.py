@@ -425,3 +425,32 @@ def test_the_edit_share_is_counted_per_connection_not_per_uuid(monkeypatch, tmp_
         assert len(service._deferred) == 1 and service._deferred[0][1].uuid == "fresh-2"
     finally:
         sim.close()
+
+
+def test_the_gate_counts_connections_let_through_and_those_open_past_a_handshake(monkeypatch):
+    """Gate.held: libzmq's HANDSHAKE_SUCCEEDED names no descriptor (value 0), so the gate counts
+    the open connections that were let through within the last handshake window, and every one
+    open longer than a handshake may last; a TCP connection that never asks holds no slot."""
+    from simx_server.base import limits
+    from simx_server.zmq import gate as gate_module
+
+    now = [1000.0]
+    monkeypatch.setattr(gate_module.time, "monotonic", lambda: now[0])
+    gate = gate_module.Gate(max_connections=4)
+    request = [b"1.0", b"1", b"simx", b"127.0.0.1", b"", b"NULL"]
+    for fd in range(10, 20):  # ten TCP connections that never start their handshake
+        gate.accepted(fd)
+    assert gate.held() == 0
+    for fd in range(20, 24):  # four that pass
+        gate.accepted(fd)
+        assert gate._decide(request)[0] == b"200"
+    assert gate.held() == 4
+    gate.accepted(24)
+    assert gate._decide(request)[0] == b"400" and gate.refused == 1
+    gate.closed(24)
+    for fd in range(10, 20):  # libzmq closes the stalled ones after the handshake interval
+        gate.closed(fd)
+    now[0] += limits.ZMQ_HANDSHAKE_SECONDS + 2
+    assert gate.held() == 4  # the four are older than any handshake: they succeeded
+    gate.closed(21)
+    assert gate.held() == 3 and gate._decide(request)[0] == b"200"
