@@ -43,6 +43,7 @@ SCENE = """<mujoco model="movers">
 LUA = """
 done = 0
 function sysCall_thread()
+    sim.setThreadAutomaticSwitch(false)  -- no switch at a getObject when the machine is slow: see the test
     local j, marker = sim.getObject('/LuaJoint'), sim.getObject('/LuaMarker')
     calls, times = 0, {}
     local pos, vel, accel, left = sim.moveToConfig(-1, {0}, nil, nil, {1}, {2}, {20}, {0.6}, nil,
@@ -79,6 +80,7 @@ end_pos = span = pose_x = map_end = 0.0
 
 def sysCall_thread():
     global calls, poses, end_pos, span, pose_x, map_end, done
+    sim.setThreadAutomaticSwitch(False)
     j, marker = sim.getObject('/PyJoint'), sim.getObject('/PyMarker')
 
     def follow(q, v, a, handles):
@@ -139,7 +141,9 @@ def test_positional_motions_with_a_callback_in_a_thread(sim, script, joint):
     assert done == 1
     assert end_pos == pytest.approx(0.6) and map_end == pytest.approx(-0.3)
     # one callback per resume of the thread, one step apart; the thread's first two resumes (at the
-    # start, then before the first step) both come at t = 0
+    # start, then before the first step) both come at t = 0. The threads forbid automatic switches:
+    # with them, a first resume that used its 2 ms slice before the motion began (a loaded machine)
+    # switched at a getObject, and the motion's first callback came only at the second resume.
     assert calls >= 20 and span == pytest.approx((calls - 2) * dt)
     assert poses >= 10 and pose_x == pytest.approx(0.3)
     marker = sim.world.resolve(script.replace("Mover", "Marker")).handle
