@@ -120,15 +120,16 @@ def _pairs(world: World, e1: int, e2: int, bit: int = properties.COLLIDABLE, ove
     g1, bodies = _entity_geoms(world, e1, "entity1", bit, override)
     if e2 == C.sim_handle_all:
         g2 = _others(world, bodies, bit)
+    elif e2 == e1:  # a shape never collides with itself; a collection's members with one another
+        g2 = g1
     else:
         g2, _ = _entity_geoms(world, e2, "entity2", bit, override)
-        if e2 == e1:
-            raise ArgumentError("entity1 and entity2 are the same; pass sim_handle_all (-2) "
-                                "as entity2 to test it against everything else")
     a, b = np.meshgrid(g1, g2, indexing="ij")
     a, b = a.ravel(), b.ravel()
     m = world.model
     keep = ~((m.geom_type[a] == _PLANE) & (m.geom_type[b] == _PLANE)) & (a != b)
+    if e2 == e1:  # each pair of two different shapes once (CCollisionRoutine::_doesGroupCollideWithItself)
+        keep &= (a < b) & (m.geom_bodyid[a] != m.geom_bodyid[b])
     return a[keep], b[keep]
 
 
@@ -177,7 +178,9 @@ def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> b
         sim: the simulation.
         e1: handle of a shape or a collection.
         e2: handle of another shape or collection, or ``sim_handle_all`` (-2): every collidable
-            shape but ``e1`` (and, for a single body, its parent and children).
+            shape but ``e1`` (and, for a single body, its parent and children). ``e1`` itself:
+            a shape never collides with itself (False), a collection's shapes are tested against
+            one another (coppeliaSimLib 4.1 ``CCollisionRoutine::doEntitiesCollide``).
         override: test the shapes named explicitly whatever their collidable flag (V-REP's
             ``simCheckCollision``); False for a declared collision object.
 
@@ -187,7 +190,6 @@ def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> b
     Raises:
         UnknownObjectError: no such object.
         ObjectTypeError: not a shape or collection, or a shape without geoms.
-        ArgumentError: ``e1`` and ``e2`` are the same.
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
     """
     world = sim.world
@@ -251,7 +253,7 @@ def distance(sim: SimulationView, e1: int, e2: int, override: bool = True) -> fl
     Raises:
         UnknownObjectError: no such object.
         ObjectTypeError: not a shape or collection, or a shape without geoms.
-        ArgumentError: ``e1`` and ``e2`` are the same, or no measurable shape to measure to.
+        ArgumentError: no measurable shape to measure to (``e1`` and ``e2`` the same shape too).
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
     """
     a, b = _pairs(sim.world, e1, e2, properties.MEASURABLE, override)

@@ -89,3 +89,21 @@ def test_facade_names_objects_and_collision_with_collections(sim):
     api.destroyCollection(mine)
     with pytest.raises(UnknownObjectError):
         api.getCollectionObjects(mine)
+
+
+def test_an_entity_against_itself(sim):
+    """coppeliaSimLib 4.1 ``CCollisionRoutine::doEntitiesCollide``: a shape never collides with
+    itself; a collection against itself tests its shapes against one another (RLBench's spawn
+    boundaries ask an object against itself)."""
+    sim.start()
+    api = script_sim(sim.world, sim.world.resolve("Base").handle, sim.signals, simulation=sim)
+    cube, ball = api.getObject("/Cube"), api.getObject("/Ball")
+    pair = api.createCollection()
+    api.addItemToCollection(pair, api.handle_single, cube, 0)
+    api.addItemToCollection(pair, api.handle_single, ball, 0)
+    assert api.checkCollision(cube, cube) == (0, [-1, -1])
+    assert api.checkCollision(pair, pair)[0] == 0  # the ball floats 0.35 m above the cube
+    api.setObjectPosition(ball, -1, [0.5, 0, 0.14])  # into the cube's top face
+    assert api.checkCollision(ball, ball)[0] == 0
+    result, objects = api.checkCollision(pair, pair)
+    assert result == 1 and sorted(objects) == sorted([cube, ball])
