@@ -7,6 +7,7 @@ from typing import Union
 
 from pyrep.backend import sim
 from pyrep.const import JointMode, JointType, ObjectType
+from pyrep.errors import CoppeliaSimError
 from pyrep.objects.object import Object, object_type_to_class
 
 _UPPER_VELOCITY = 2017  # sim_jointfloatparam_upper_limit
@@ -29,8 +30,16 @@ class Joint(Object):
         return JointType(sim.call("getJointType", self._handle))
 
     def get_joint_position(self) -> float:
-        """Position: rad or m."""
-        return float(sim.call("getJointPosition", self._handle))
+        """Position: rad or m; 0.0 for a spherical joint, as PyRep gives on CoppeliaSim 4.1 (its
+        ``simGetJointPosition`` refuses a spherical joint, and PyRep's binding does not check the
+        return code: the zeroed buffer comes back; RLBench's low-dimensional state reads ropes'
+        spherical joints so)."""
+        try:
+            return float(sim.call("getJointPosition", self._handle))
+        except CoppeliaSimError:
+            if self.get_joint_type() == JointType.SPHERICAL:
+                return 0.0
+            raise
 
     def set_joint_position(self, position: float, disable_dynamics: bool = False) -> None:
         """Sets the position (rad or m) at once; the motor's target follows, so that a joint in

@@ -142,3 +142,22 @@ def test_two_instances_have_their_own_worlds(pyrep_scene):
         b.shutdown()
     with pytest.raises(PyRepError):
         Shape("cube")
+
+
+def test_a_spherical_joints_position_reads_zero_as_pyrep_gives_it(tmp_path):
+    """CoppeliaSim 4.1 refuses simGetJointPosition on a spherical joint and PyRep's binding does
+    not check the code: get_joint_position gives its zeroed buffer, 0.0 (RLBench's state vector of a
+    rope); a revolute joint's refusal (none here) would still raise."""
+    scene = tmp_path / "rope.xml"
+    scene.write_text('<mujoco><worldbody><body name="link" pos="0 0 1"><joint name="ball_joint" type="ball"/>'
+                     '<geom type="capsule" size="0.01 0.05" pos="0 0 -0.05"/></body></worldbody></mujoco>')
+    pr = PyRep()
+    pr.launch(str(scene), headless=True)
+    try:
+        pr.start()
+        pr.step()
+        joint = Joint("ball_joint")
+        assert joint.get_joint_type() == JointType.SPHERICAL
+        assert joint.get_joint_position() == 0.0
+    finally:
+        pr.shutdown()

@@ -18,7 +18,8 @@ from simx_server.base.arguments import as_integer as _int, as_number as _num, as
 from simx_server.sim import object_params
 from simx_server.sim.objects import JOINT, WORLD
 
-_JOINT_TYPES = {0: None, 1: None, 2: 11, 3: 10}  # mjtJoint free, ball -> (none); slide -> prismatic, hinge -> revolute
+# mjtJoint free -> (none: no V-REP joint); ball -> spherical, slide -> prismatic, hinge -> revolute
+_JOINT_TYPES = {0: None, 1: 12, 2: 11, 3: 10}
 
 
 @sim_function("removeObject")
@@ -128,7 +129,8 @@ def getObjectChild(ctx: CallContext, objectHandle: Any, index: Any) -> int:  # n
 
 @sim_function("getJointType")
 def getJointType(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N802, N803
-    """``sim.joint_revolute_subtype`` (10) or ``sim.joint_prismatic_subtype`` (11).
+    """``sim.joint_revolute_subtype`` (10), ``sim.joint_prismatic_subtype`` (11) or
+    ``sim.joint_spherical_subtype`` (12: a MuJoCo ball joint).
 
     ``sim.getJointType``.
 
@@ -136,18 +138,18 @@ def getJointType(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N802, N80
         objectHandle: a joint's handle, or ``sim.handle_self``.
 
     Returns:
-        10 or 11.
+        10, 11 or 12.
 
     Raises:
         UnknownObjectError: no such object.
         ObjectTypeError: not a joint.
-        UnsupportedError: a MuJoCo free or ball joint.
+        UnsupportedError: a MuJoCo free joint.
     """
     obj = ctx.world.get(ctx.h(objectHandle), JOINT)
     kind = _JOINT_TYPES.get(int(ctx.world.model.jnt_type[obj.mj_id]))
     if kind is None:
-        raise UnsupportedError(f"joint {obj.name!r} is a MuJoCo free or ball joint, which V-REP's joint "
-                               "types do not describe")
+        raise UnsupportedError(f"joint {obj.name!r} is a MuJoCo free joint, which V-REP's joint types do "
+                               "not describe")
     return kind
 
 
