@@ -6,8 +6,12 @@ from __future__ import annotations
 
 import mujoco
 
+from simx_server.sim.mechanisms import LIMIT_SOLIMP, stiff_solref
+
 #: Prefix of the actuators simx adds to joints that have none (their motor starts disabled).
 ADDED_PREFIX = "simx_motor:"
+#: Prefix of the joint equalities that lock a stopped velocity motor (:func:`add_locks`).
+LOCK_PREFIX = "simx_lock:"
 
 JOINT_TRNS = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
 TENDON_TRN = int(mujoco.mjtTrn.mjTRN_TENDON)
@@ -35,7 +39,8 @@ def tendon_driven(m: mujoco.MjModel) -> dict[int, str]:
 
 def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
     """Compile ``spec`` after giving each named hinge/slide joint without an actuator (and not
-    driven through a tendon) a motor of its own, ``simx_motor:<joint>`` (added to ``spec``).
+    driven through a tendon) a motor of its own, ``simx_motor:<joint>`` (added to ``spec``), and
+    each joint whose ``simx:`` settings say ``velocity_lock=1`` its lock (:func:`add_locks`).
 
     Raises ValueError: MuJoCo cannot compile the spec.
 
@@ -45,6 +50,7 @@ def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
     Returns:
         The compiled model.
     """
+    add_locks(spec)
     model = _compile_predicted(spec)
     if model is not None:
         return model
@@ -57,6 +63,41 @@ def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
         if ADDED_PREFIX + name not in taken:
             _add_motor(spec, name)
     return spec.compile()
+
+
+def lock_name(joint: str) -> str:
+    """The name of the joint equality that locks ``joint`` (:data:`LOCK_PREFIX` + its name)."""
+    return LOCK_PREFIX + joint
+
+
+def add_locks(spec: mujoco.MjSpec) -> None:
+    """Give each hinge/slide joint whose ``simx:`` text says ``velocity_lock=1`` ("lock motor when
+    target velocity is zero", what a ``.ttt`` saved) an inactive joint equality ``simx_lock:<joint>``
+    that :class:`~simx_server.sim.motors.Motors` switches on, pinned where the motor stopped, while
+    its target velocity is 0: a rigid hold with no force bound, as CoppeliaSim's Bullet 2.78 plugin
+    sets the hinge's or slider's two limits to where it stopped
+    (``CConstraintDyn_bullet278::_handleRevoluteMotor_controllerDisabled``). Stiff as a limit: two
+    timesteps, 99 % impedance. Joints that have one keep it.
+
+    Args:
+        spec: the scene's spec (equalities are added to it).
+    """
+    settings = {t.name[len("simx:"):]: t.data for t in spec.texts if t.name.startswith("simx:")}
+    locked = [name for name, data in settings.items() if "velocity_lock=1" in data.split()]
+    if not locked:
+        return
+    taken = {e.name for e in spec.equalities}
+    joints = {j.name for j in spec.joints if int(j.type) in SCALAR}
+    for name in locked:
+        if name in joints and lock_name(name) not in taken:
+            eq = spec.add_equality()
+            eq.name = lock_name(name)
+            eq.type = mujoco.mjtEq.mjEQ_JOINT
+            eq.objtype = mujoco.mjtObj.mjOBJ_JOINT
+            eq.name1 = name
+            eq.active = False
+            eq.data[:5] = 0.0
+            eq.solref, eq.solimp = stiff_solref(spec.option.timestep), list(LIMIT_SOLIMP)
 
 
 def _add_motor(spec: mujoco.MjSpec, joint: str) -> mujoco.MjsActuator:

@@ -35,10 +35,13 @@ step so that the substeps run in C:
   so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
   constraint-based motors do; everything is clipped to the maximum force;
 * "lock motor when target velocity is zero" (``sim_jointintparam_velocity_lock``, 2030, off by
-  default): a velocity motor told to stop holds the position where it stopped with no force
-  limit (the position law at gain 1/dt, force range limits.MAX_JOINT_FORCE), as CoppeliaSim's
-  ``CJoint::handleDynJoint`` asks its engine to lock a joint whose ``_motorLock`` is set and
-  whose target velocity is 0;
+  default; ``simx:`` ``velocity_lock=1``: what V-REP saved with the joint): a velocity motor told
+  to stop holds the position where it stopped with no force limit, as CoppeliaSim's
+  ``CJoint::handleDynJoint`` asks its engine to lock a joint whose ``_motorLock`` is set and whose
+  target velocity is 0: pinned by a joint equality (``simx_lock:<joint>``, added at compile for
+  joints saved with the flag, :func:`~simx_server.sim.motor_spec.add_locks`), as Bullet 2.78 sets
+  both limits there; a joint locked at run time without one, by the position law at gain 1/dt
+  with force range limits.MAX_JOINT_FORCE;
 * a joint in a kinematic mode (:attr:`Motors.joint_mode` ``sim_jointmode_passive`` 0 or
   ``sim_jointmode_ik`` 2, :mod:`simx_server.sim.kinematic`) has no motor force: it is held
   where it is put.
@@ -72,7 +75,7 @@ import numpy as np
 
 from simx_server.base import limits as L
 from simx_server.sim import mechanisms
-from simx_server.sim.motor_spec import ADDED_PREFIX, JOINT_TRNS, SCALAR, tendon_driven
+from simx_server.sim.motor_spec import lock_name, ADDED_PREFIX, JOINT_TRNS, SCALAR, tendon_driven
 
 log = logging.getLogger("simx.world")
 
@@ -193,7 +196,14 @@ class Motors:
                                                  for _, j, s in mine])
         self.initial_target_velocity = np.array([_setting(s, "target_velocity", 0.0, _name(m, j), signed=True)
                                                  for _, j, s in mine])
+        # "lock motor when target velocity is zero" as the scene saved it (simx: velocity_lock=1)
+        self.initial_locked = np.array([_setting(s, "velocity_lock", 0.0, _name(m, j)) != 0 for _, j, s in mine],
+                                       dtype=bool)
         self.names = {h: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for (h, _, _), a in zip(mine, act)}
+        # each motor's lock (motor_spec.add_locks: a joint equality, -1 where the joint has none)
+        self.lock_eq = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, lock_name(_name(m, j)))
+                                 for _, j, _ in mine], dtype=int)
+        self._lock_qpos0 = np.array([m.qpos0[m.jnt_qposadr[j]] for _, j, _ in mine])
         for a in act:  # one actuator realises both laws; ctrl is a velocity or a position
             m.actuator_gaintype[a] = mujoco.mjtGain.mjGAIN_FIXED
             m.actuator_biastype[a] = mujoco.mjtBias.mjBIAS_AFFINE
@@ -262,7 +272,7 @@ class Motors:
         #: CoppeliaSim's joint mode per motor (JOINTMODE_FORCE, or a kinematic mode: 0 or 2).
         self.joint_mode = np.full(len(self.act), JOINTMODE_FORCE, dtype=int)
         #: ``sim_jointintparam_velocity_lock`` per motor; where each locked motor stopped (NaN: not now).
-        self.locked = np.zeros(len(self.act), dtype=bool)
+        self.locked = self.initial_locked.copy()
         self._lock_q = np.full(len(self.act), np.nan)
         self._refresh_flags()
         self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
@@ -349,7 +359,7 @@ class Motors:
             kv = np.where(velocity_mode & (v == 0), HOLD_KV_FACTOR * kv, kv)
         target = self.target_position
         if self._locking:
-            target, kp, linear = self._lock(m, q, on & ~loop & (v == 0), dt, kp, linear)
+            target, kp, linear = self._lock(m, d, q, on & ~loop & (v == 0), dt, kp, linear)
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         kv_kp = kv * kp
         gain = np.where(linear, kv_kp, kv) / g
@@ -367,18 +377,28 @@ class Motors:
         biases[act, 1] = np.where(linear, -kv_kp / g2, 0.0)
         views.ctrl[act] = np.where(linear, target, moving)
 
-    def _lock(self, m: mujoco.MjModel, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
-              linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The locked motors (``sim_jointintparam_velocity_lock`` on, velocity mode, target 0):
-        each holds the position where it stopped by the position law at gain 1/dt, with no force
-        limit (CoppeliaSim's ``CJoint::handleDynJoint`` returns bit 1, "motor locked", for them).
-        ``q`` (n,) positions now, ``stopped`` (n,) velocity motors with target 0, ``kp`` (n,) 1/s
-        and ``linear`` (n,) as :meth:`apply` has them; the locked actuators' force ranges are
-        written into ``m``. Returns ``(target, kp, linear)`` with the locked motors' entries changed.
+    def _lock(self, m: mujoco.MjModel, d: mujoco.MjData, q: np.ndarray, stopped: np.ndarray, dt: float,
+              kp: np.ndarray, linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The locked motors (``sim_jointintparam_velocity_lock`` on, velocity mode, target 0) hold
+        the position where they stopped with no force limit (CoppeliaSim's ``CJoint::handleDynJoint``
+        returns bit 1, "motor locked", for them). A joint with a lock equality
+        (:func:`~simx_server.sim.motor_spec.add_locks`) is pinned there by it, switched on
+        (``eq_active``) with its constant (``eq_data``) set, as Bullet 2.78's equal limits pin it; one
+        locked at run time without one (``sim.setObjectInt32Param``) by the position law at gain 1/dt
+        (the actuator's force range is written into ``m``). ``q`` (n,) positions now, ``stopped`` (n,)
+        velocity motors with target 0, ``kp`` (n,) 1/s and ``linear`` (n,) as :meth:`apply` has
+        them. Returns ``(target, kp, linear)`` with the law-locked motors' entries changed.
         """
         lock = self.locked & stopped
         self._lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
         self._locking = bool(self.locked.any())  # lock is a part of locked
+        pinned = self.lock_eq >= 0
+        if pinned.any():
+            eqs = self.lock_eq[pinned]
+            on = lock[pinned]
+            d.eq_active[eqs] = on
+            m.eq_data[eqs[on], 0] = (self._lock_q - self._lock_qpos0)[pinned][on]
+            lock = lock & ~pinned
         force = np.where(lock, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
         m.actuator_forcerange[self.act, 0], m.actuator_forcerange[self.act, 1] = -force, force
         return (np.where(lock, self._lock_q, self.target_position), np.where(lock, 1.0 / dt, kp), linear | lock)

@@ -91,6 +91,7 @@ class JointData:
     spherical_quat: np.ndarray | None = None
     control_mode: int | None = None  # 4.4+: 0 free, 1 force, 4 velocity, 8 position, 12 spring
     size: tuple[float, float] | None = None  # length, diameter as drawn (``Arg`` / ``_rg``), m
+    velocity_lock: bool = False  # ``Vaa`` bit 1: lock the motor when its target velocity is 0
 
 
 @dataclass

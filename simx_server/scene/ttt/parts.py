@@ -89,6 +89,8 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
         items.append(f"target_position={target:.9g}")
     if math.isfinite(j.target_velocity) and j.target_velocity != 0:
         items.append(f"target_velocity={j.target_velocity:.9g}")
+    if j.velocity_lock:  # "lock motor when target velocity is zero" (sim_jointintparam_velocity_lock)
+        items.append("velocity_lock=1")
     conv.setting(obj.name, *items)
 
 

@@ -240,7 +240,8 @@ def _read_joint(r: Records) -> JointData:
     va9 = r.byte("Va9")
     j = JointData(type=r.int("Jtt", 10), mode=r.int("Jmd", 0), minimum=minimum, range=rng,
                   position=float(pos[0]) if pos is not None else 0.0, cyclic=bool(va9 & 1),
-                  motor=bool(va9 & 16), control_loop=bool(va9 & 32))
+                  motor=bool(va9 & 16), control_loop=bool(va9 & 32),
+                  velocity_lock=bool(r.byte("Vaa") & 2))  # CJoint::serialize: _dynamicLockModeWhenInVelocityControl
     mp = r.floats("_mp", "Dmp", 2)
     if mp is not None:
         j.target_velocity, j.max_force = float(mp[0]), float(mp[1])

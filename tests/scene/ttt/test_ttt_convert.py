@@ -105,7 +105,7 @@ def test_joint_targets_pid_and_spring_mode(tmp_path):
                 + W.joint(h + 1, h, name, (0, 0, 0.1), **kw)
                 + W.cuboid_shape(h + 2, h + 1, f"{name}_link", (0.3, 0.05, 0.05), (0.15, 0, 0), mass=0.2))
 
-    body = (arm(1, "Wheel", 0.0, loop=False, target_velocity=2.0)
+    body = (arm(1, "Wheel", 0.0, loop=False, target_velocity=2.0, extra=W.rec("Vaa", bytes([2])))
             + arm(4, "Servo", 1.0, extra=W.rec("Dpc", W.f32(0.5, 0, 0)) + W.rec("Dtp", W.f32(0.4)))
             + arm(7, "Spring", 2.0, extra=W.rec("Dcm", W.i32(12)) + W.rec("Spp", W.f32(5.0, 0.5))
                   + W.rec("Dtp", W.f32(0.3))))
@@ -114,7 +114,8 @@ def test_joint_targets_pid_and_spring_mode(tmp_path):
     f.write_bytes(W.ttt_file(no_gravity + body))
     xml, report = convert.convert(reader.read(f), tmp_path / "out", "joints")
     texts = _settings(xml)
-    assert texts["simx:Wheel"] == "mode=velocity max_velocity=2 target_velocity=2"
+    # Vaa bit 1: "lock motor when target velocity is zero" (RLBench's Panda fingers have it)
+    assert texts["simx:Wheel"] == "mode=velocity max_velocity=2 target_velocity=2 velocity_lock=1"
     assert texts["simx:Servo"] == "mode=position max_velocity=2 pid_p=0.5 target_position=0.400000006"
     assert texts["simx:Spring"] == "mode=passive"
     m = mujoco.MjModel.from_xml_path(str(xml))
@@ -128,6 +129,9 @@ def test_joint_targets_pid_and_spring_mode(tmp_path):
     sim = Simulation(xml, realtime=False)
     try:
         assert sim.world.motors.pid_p[sim.world.motor_index[sim.world.resolve("Servo").handle]] == 0.5
+        locked = sim.world.motors.locked
+        assert locked[sim.world.motor_index[sim.world.resolve("Wheel").handle]]
+        assert not locked[sim.world.motor_index[sim.world.resolve("Servo").handle]]
         sim.start()
         for _ in range(10):  # 0.5 s (the wheel's range ends at 1.5 rad)
             sim.step()

@@ -1,0 +1,90 @@
+"""A gripper whose finger motors "lock when the target velocity is zero" (``simx:``
+``velocity_lock=1``, what a ``.ttt`` saved; RLBench's Panda fingers have it) keeps squeezing what
+it closed on once told to stop, as CoppeliaSim's Bullet 2.78 plugin holds such a joint with equal
+limits where it stopped (``_handlePrismaticMotor_controllerDisabled``); without it the stopped
+motor only resists motion and the grip relaxes. PyRep's ``Gripper.actuate`` closes this way:
+velocity towards closed until the fingers stop moving, then target velocity 0."""
+
+from __future__ import annotations
+
+import mujoco
+import pytest
+
+from simx_server.api import client_context
+from simx_server.scene.simulation import Simulation
+
+SCENE = """<mujoco model="grip">
+  <compiler angle="radian"/>
+  <option timestep="0.005"/>
+  <worldbody>
+    <geom name="table" type="box" pos="0 0 0.1" size="0.2 0.2 0.1"/>
+    <body name="box" pos="0 0 0.24">
+      <freejoint/>
+      <geom type="box" size="0.02 0.02 0.04" mass="0.5" friction="0.5"/>
+    </body>
+    <body name="hand" pos="0 0 0.25">
+      <joint name="lift" type="slide" axis="0 0 1" range="-0.1 0.3"/>
+      <geom type="box" size="0.08 0.02 0.005" pos="0 0 0.06" mass="0.5"/>
+      <body name="left" pos="-0.05 0 0">
+        <joint name="finger_left" type="slide" axis="1 0 0" range="0 0.04"/>
+        <geom type="box" size="0.005 0.015 0.03" pos="0 0 0.025" mass="1" friction="0.5"/>
+      </body>
+      <body name="right" pos="0.05 0 0">
+        <joint name="finger_right" type="slide" axis="-1 0 0" range="0 0.04"/>
+        <geom type="box" size="0.005 0.015 0.03" pos="0 0 0.025" mass="1" friction="0.5"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <motor joint="lift" forcerange="-200 200" forcelimited="true"/>
+    <motor joint="finger_left" forcerange="-10 10" forcelimited="true"/>
+    <motor joint="finger_right" forcerange="-10 10" forcelimited="true"/>
+  </actuator>
+  <custom>
+    <text name="simx:finger_left" data="mode=velocity LOCK"/>
+    <text name="simx:finger_right" data="mode=velocity LOCK"/>
+  </custom>
+</mujoco>
+"""
+
+
+def lifted(tmp_path, lock: bool) -> float:
+    """Close the fingers on the box until they press on it, stop them as PyRep's
+    ``Gripper.actuate`` does (target velocity 0), lift the hand 0.1 m; the box's rise (m)."""
+    path = tmp_path / "grip.xml"
+    path.write_text(SCENE.replace("LOCK", "velocity_lock=1" if lock else ""))
+    simulation = Simulation(path, realtime=False)
+    try:
+        simulation.start()
+        api = client_context(simulation, "test").sim
+        fingers = [api.getObject("/finger_left"), api.getObject("/finger_right")]
+        assert [api.getObjectInt32Param(f, api.jointintparam_velocity_lock) for f in fingers] == [int(lock)] * 2
+        lift, box = api.getObject("/lift"), api.getObject("/box")
+        z0 = api.getObjectPosition(box, -1)[2]
+        for f in fingers:  # closing, until they press on the box with their whole force
+            api.setJointTargetVelocity(f, 0.04)
+        for _ in range(20):
+            simulation.step()
+        for f in fingers:  # PyRep's Gripper.actuate: the fingers stopped moving, target velocity 0
+            api.setJointTargetVelocity(f, 0.0)
+        simulation.step()
+        assert api.getJointPosition(fingers[0]) == pytest.approx(0.025, abs=0.002)  # on the box
+        # a lock is a joint equality pinned where the finger stopped, on while the target is 0
+        w = simulation.world
+        locks = [mujoco.mj_name2id(w.model, mujoco.mjtObj.mjOBJ_EQUALITY, f"simx_lock:finger_{s}")
+                 for s in ("left", "right")]
+        assert [e >= 0 and bool(w.data.eq_active[e]) for e in locks] == [lock] * 2
+        api.setJointTargetPosition(lift, 0.1)
+        for _ in range(30):
+            simulation.step()
+        return api.getObjectPosition(box, -1)[2] - z0
+    finally:
+        simulation.close()
+
+
+def test_a_locked_stopped_gripper_keeps_its_grip(tmp_path):
+    assert lifted(tmp_path, lock=True) > 0.06  # the hand rose 0.1 m; the box slips a little
+
+
+def test_without_the_lock_the_stopped_grip_relaxes(tmp_path):
+    assert lifted(tmp_path, lock=False) < 0.02  # the box slid out
