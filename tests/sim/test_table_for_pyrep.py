@@ -24,6 +24,14 @@ SCENE = """<mujoco model="table_for_pyrep">
       <geom type="box" size="0.05 0.05 0.05" mass="0.5" friction="0.4 0.005 0.0001"/>
     </body>
     <site name="marker" pos="0.5 0 1.0"/>
+    <body name="anchor" pos="-0.5 0 1">
+      <body name="link1"><joint name="ball1" type="ball" damping="0.01"/>
+        <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.01" mass="0.05"/>
+        <body name="link2" pos="0.2 0 0"><joint name="ball2" type="ball" damping="0.01"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.01" mass="0.05"/>
+        </body>
+      </body>
+    </body>
     <camera name="cam" pos="0 -1.5 0.8" xyaxes="1 0 0 0 0.5 1" resolution="64 32" fovy="30"/>
   </worldbody>
 </mujoco>
@@ -51,6 +59,21 @@ def test_configuration_tree_restores_poses(sim):
     assert np.allclose(api.getObjectPosition(cube, -1), pos)
     with pytest.raises(ArgumentError):
         api.setConfigurationTree(b"not a tree")
+
+
+def test_configuration_tree_restores_spherical_joints(sim):
+    """A rope of spherical joints (RLBench's straighten_rope restores one each reset): the tree
+    keeps each spherical joint's rotation (coppeliaSimLib ``CMemorizedConf_old``), and its links,
+    moved by those joints, come back with them."""
+    simulation, api = sim
+    anchor, tip = api.getObject("/anchor"), api.getObject("/link2")
+    saved, pos = api.getConfigurationTree(anchor), api.getObjectPosition(tip, -1)
+    simulation.start()
+    for _ in range(30):  # the horizontal rope falls
+        simulation.step()
+    assert api.getObjectPosition(tip, -1)[2] < pos[2] - 0.05
+    assert api.setConfigurationTree(saved) == 1
+    assert np.allclose(api.getObjectPosition(tip, -1), pos, atol=1e-9)
 
 
 def test_create_force_sensor_reads(sim):

@@ -3,14 +3,16 @@
 
 As coppeliaSimLib ``simGetConfigurationTree_internal`` / ``simSetConfigurationTree_internal``
 and ``CMemorizedConf_old``: each object of the tree (``sim.handle_all``: the scene) is kept with
-its parent and its pose relative to that parent, a joint also with its position; restoring goes
-parents first, sets each object still under the same parent back to its local pose (an object
-whose pose follows from its joints is already there once they are) and each joint to its
-position, and stops the moved objects (``resetDynamicObject``).
+its parent and its pose relative to that parent, a joint also with its position (a spherical
+joint with its rotation, as ``CMemorizedConf_old`` keeps ``getSphericalTransformation``);
+restoring goes parents first, sets each object still under the same parent back to its local
+pose (an object whose pose follows from its joints is already there once they are) and each
+joint to its position, and stops the moved objects (``resetDynamicObject``).
 
-The buffer is simx's own (a client only hands back what it got): ``SIMXCT1``, then per object
-i32 handle, i32 parent handle (-1: the world), 7 f64 (x y z qx qy qz qw, m) and f64 joint
-position (NaN for other objects).
+The buffer is simx's own (a client only hands back what it got): ``SIMXCT2``, then per object
+i32 handle, i32 parent handle (-1: the world), 7 f64 (x y z qx qy qz qw, m), f64 joint position
+(NaN for other objects) and 4 f64, a spherical joint's quaternion (w x y z, MuJoCo's; NaN for
+other objects).
 """
 
 from __future__ import annotations
@@ -24,11 +26,13 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_wire import constants as C
-from simx_wire.protocol import ArgumentError
+from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.sim.objects import JOINT, WORLD
 
-_MAGIC = b"SIMXCT1"
-_ITEM = struct.Struct("<ii7dd")
+_MAGIC = b"SIMXCT2"
+_ITEM = struct.Struct("<ii7dd4d")
+_BALL = 1  # mjtJoint.mjJNT_BALL
+_NO_QUAT = (math.nan,) * 4
 
 
 def _tree(ctx: CallContext, root: int) -> list[int]:
@@ -63,8 +67,13 @@ def getConfigurationTree(ctx: CallContext, objectHandle: Any) -> bytes:  # noqa:
     for h in _tree(ctx, ctx.h(objectHandle, "objectHandle")):
         obj = w.objects[h]
         pose = ctx.sim.getObjectPose(h, obj.parent)
-        q = w.joint_position(h) if obj.type == JOINT and w.model.jnt_type[obj.mj_id] in (2, 3) else math.nan
-        parts.append(_ITEM.pack(h, obj.parent, *pose, q))
+        jtype = int(w.model.jnt_type[obj.mj_id]) if obj.type == JOINT else -1
+        q = w.joint_position(h) if jtype in (2, 3) else math.nan
+        quat = _NO_QUAT
+        if jtype == _BALL:
+            a = int(w.model.jnt_qposadr[obj.mj_id])
+            quat = tuple(float(x) for x in w.data.qpos[a:a + 4])
+        parts.append(_ITEM.pack(h, obj.parent, *pose, q, *quat))
     return b"".join(parts)
 
 
@@ -101,13 +110,23 @@ def setConfigurationTree(ctx: CallContext, rawBufferHandle: Any) -> int:  # noqa
         obj = w.objects.get(h)
         if obj is None or obj.parent != parent:
             continue
-        pose, q = rest[:7], rest[7]
+        pose, q, quat = rest[:7], rest[7], rest[8:12]
         if obj.type == JOINT:
             if not math.isnan(q) and abs(w.joint_position(h) - q) > 1e-12:
                 ctx.sim.setJointPosition(h, q)
                 moved.append(h)
+            elif not math.isnan(quat[0]) and int(w.model.jnt_type[obj.mj_id]) == _BALL:
+                a, v = int(w.model.jnt_qposadr[obj.mj_id]), int(w.model.jnt_dofadr[obj.mj_id])
+                if not np.allclose(w.data.qpos[a:a + 4], quat, atol=1e-12):
+                    w.data.qpos[a:a + 4] = quat
+                    w.data.qvel[v:v + 3] = 0.0
+                    w.changed()
+                    moved.append(h)
         elif not np.allclose(ctx.sim.getObjectPose(h, parent), pose, atol=1e-9):
-            ctx.sim.setObjectPose(h, parent, list(pose))
+            try:
+                ctx.sim.setObjectPose(h, parent, list(pose))
+            except ObjectTypeError:  # moved by its joints (a spherical one): there once they are
+                continue
             moved.append(h)
     for h in moved:
         ctx.sim.resetDynamicObject(h)
