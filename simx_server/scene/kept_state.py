@@ -16,6 +16,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from simx_server.sim import shape_dynamics
+
 #: Named elements' fields that commands change at run time (element kind -> model fields).
 FIELDS = {
     mujoco.mjtObj.mjOBJ_BODY: ("body_mass", "body_inertia", "body_ipos", "body_iquat"),
@@ -124,6 +126,8 @@ def restore(model: mujoco.MjModel, kept: list[tuple], skip: set[str] = frozenset
                 continue
         getattr(model, f)[i] = value
         inertial |= f.startswith("body_")
+    if any(f in ("geom_contype", "geom_conaffinity") for f, _, _ in kept):
+        shape_dynamics.body_contact_bits(model)
     return inertial
 
 

@@ -81,7 +81,22 @@ def set_respondable(world, obj: SceneObject, value: bool) -> None:
             m.geom_contype[geoms], m.geom_conaffinity[geoms] = kept
         else:
             m.geom_contype[geoms] = m.geom_conaffinity[geoms] = 1
+    body_contact_bits(m)  # MuJoCo's broad phase tests the body's bits first
     world.changed()
+
+
+def body_contact_bits(model: mujoco.MjModel) -> None:
+    """Recompute each body's ``body_contype`` / ``body_conaffinity`` (the OR of its geoms', which
+    MuJoCo's broad phase tests before any geom: a body compiled with none never collides) after
+    geoms' contact bits were written at run time.
+
+    Args:
+        model: the model (its body fields are written).
+    """
+    model.body_contype[:] = 0
+    model.body_conaffinity[:] = 0
+    np.bitwise_or.at(model.body_contype, model.geom_bodyid, model.geom_contype)
+    np.bitwise_or.at(model.body_conaffinity, model.geom_bodyid, model.geom_conaffinity)
 
 
 def set_static(sim, obj: SceneObject, static: bool) -> None:

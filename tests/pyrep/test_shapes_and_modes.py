@@ -119,3 +119,25 @@ def test_a_mesh_bounding_box_is_its_vertices_box(pr):
     tet = Shape.create_mesh(verts, [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3])
     box = np.array(tet.get_bounding_box()).reshape(3, 2) + np.array(tet.get_position())[:, None]
     assert np.allclose(box, [[0, 0.1]] * 3, atol=1e-6)
+
+
+def test_a_new_mesh_is_static_and_a_procedural_object_falls_whole(pr, tmp_path):
+    """CoppeliaSim's new mesh shape is static and not respondable (coppeliaSimLib 4.1 ``CShape``);
+    RLBench's ``sample_procedural_objects`` hangs the visual mesh from the collision mesh, keeps
+    it static, then makes the collision mesh dynamic: the two fall together."""
+    obj = tmp_path / "tet.obj"
+    obj.write_text(_TET)
+    resp, vis = Shape.import_mesh(str(obj)), Shape.import_mesh(str(obj))
+    assert not resp.is_dynamic() and not resp.is_respondable()
+    resp.set_position([0.0, 0.5, 0.15])
+    vis.set_position([0.0, 0.5, 0.15])
+    vis.set_parent(resp)
+    vis.set_dynamic(False)
+    vis.set_respondable(False)
+    resp.set_dynamic(True)
+    resp.set_respondable(True)
+    resp.set_parent(Shape("base"))  # a static parent: it stays free
+    for _ in range(30):
+        pr.step()
+    assert resp.get_position()[2] == pytest.approx(0.0, abs=0.01)  # on the floor (a corner at its origin)
+    assert np.allclose(vis.get_position(), resp.get_position(), atol=1e-6)  # carried with it

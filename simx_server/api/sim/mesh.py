@@ -129,8 +129,11 @@ def exportMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options:
 @sim_function("createShape")
 def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any, indices: Any, normals: Any = None,  # noqa: N802, N803
                 textureCoordinates: Any = None, texture: Any = None, textureResolution: Any = None) -> int:  # noqa: N803
-    """A dynamic, respondable mesh shape at the world origin from ``vertices`` (m) and
-    ``indices`` (MuJoCo uses the convex hull for contacts); its handle. Textures: refused. A
+    """A static, non-respondable mesh shape at the world origin from ``vertices`` (m) and
+    ``indices``, as CoppeliaSim's new shapes are (coppeliaSimLib 4.1 ``CShape``'s constructor:
+    ``_shapeIsDynamicallyStatic`` true, ``_shapeIsDynamicallyRespondable`` false; PyRep's
+    ``import_mesh`` and RLBench's procedural objects then set what they need); its handle. Made
+    dynamic and respondable, MuJoCo uses the mesh's convex hull for contacts. Textures: refused. A
     flat mesh (one triangle and up: CoppeliaSim's ``simCreateMeshShape_internal`` takes 3
     vertices, MuJoCo needs a volume) gets a back face 0.1 mm behind it
     (:func:`simx_server.sim.spec_tools.solid_mesh`), its mass and inertia those of a shell, as
@@ -172,8 +175,8 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
         if flat:
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         body = spec.worldbody.add_body(name=f"Shape{suffix}")
-        body.add_freejoint()
-        body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1])
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1],
+                      contype=0, conaffinity=0)
         return lambda: sim.world.resolve(f"Shape{suffix}").handle
 
     return sim.editor._edit(change)

@@ -100,8 +100,9 @@ def relocateShapeFrame(ctx: CallContext, shapeHandle: Any, pose: Any) -> int:  #
         body.pos, body.quat = local_p.tolist(), _quat(local_r).tolist()
 
     sim.editor._edit(change)
-    if free or m.body_mocapid[b] >= 0:  # the compiled pose is the start; the state keeps the old place
-        _core.set_pose(ctx, obj.handle, WORLD, position=p_new.tolist(), rotation=r_new)
+    # the compiled pose is the start; an edit keeps where a free, mocap or static body is now (the
+    # state, or a static body's pose set at run time): put the new frame there
+    _core.set_pose(ctx, obj.handle, WORLD, position=p_new.tolist(), rotation=r_new)
     return 1
 
 
