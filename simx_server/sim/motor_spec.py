@@ -66,7 +66,14 @@ def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
 
 
 def lock_name(joint: str) -> str:
-    """The name of the joint equality that locks ``joint`` (:data:`LOCK_PREFIX` + its name)."""
+    """The name of the joint equality that locks a joint.
+
+    Args:
+        joint: the joint's name.
+
+    Returns:
+        :data:`LOCK_PREFIX` + ``joint``.
+    """
     return LOCK_PREFIX + joint
 
 

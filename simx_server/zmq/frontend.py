@@ -305,7 +305,7 @@ class Frontend:
                 if counted is not None and counted in events:
                     self._on_monitor(counted, counter=True)
                 if zap in events:
-                    self.gate.answer(zap, lambda: self._on_monitors(monitor, counted))
+                    self.gate.answer(zap, lambda: self._on_monitor(monitor, others=counted))
                 if self._trackers:
                     self._count_sent()
                 if self._wake_r in events:
@@ -331,14 +331,12 @@ class Frontend:
                 if sock is not None:
                     sock.close(0)
 
-    def _on_monitors(self, monitor: zmq.Socket, counted: zmq.Socket | None) -> None:
-        self._on_monitor(monitor)
-        if counted is not None:
-            self._on_monitor(counted, counter=True)
-
-    def _on_monitor(self, monitor: zmq.Socket, counter: bool = False) -> None:
-        """Tell the gate which connections opened and closed (``counter``: the step counter's),
-        and the simulation thread which request connection closed."""
+    def _on_monitor(self, monitor: zmq.Socket, counter: bool = False, others: zmq.Socket | None = None) -> None:
+        """Tell the gate which connections opened and closed (``counter``: the step counter's;
+        ``others``: the step counter's monitor, read first), and the simulation thread which
+        request connection closed."""
+        if others is not None:
+            self._on_monitor(others, counter=True)
         while True:
             try:
                 event = zmq.utils.monitor.recv_monitor_message(monitor, zmq.NOBLOCK)
