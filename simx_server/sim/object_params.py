@@ -236,9 +236,7 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
     except ArgumentError as exc:
         raise ArgumentError(f"{_pname(pid)}: {exc}") from None
     m.body_mass[body] = value
-    saved = (d.qpos.copy(), d.qvel.copy(), d.act.copy(), d.qacc_warmstart.copy(), d.time)
-    mujoco.mj_setConst(m, d)  # subtree masses and other mass-dependent constants; clobbers qpos
-    d.qpos[:], d.qvel[:], d.act[:], d.qacc_warmstart[:], d.time = saved
+    physics.mass_constants(m, d)
     sim.world.changed()
 
 

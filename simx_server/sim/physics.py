@@ -266,6 +266,21 @@ def check_gravity(values: Any) -> list[float]:
     return g
 
 
+def mass_constants(m: mujoco.MjModel, d: mujoco.MjData) -> None:
+    """Recompute what MuJoCo derives from masses and inertias at compile (``mj_setConst``: subtree
+    masses, the bodies' and DOFs' inverse weights that scale every constraint), after a mass or an
+    inertia was written at run time; the state (positions, velocities, activations, warm start,
+    time), which ``mj_setConst`` clobbers, is kept.
+
+    Args:
+        m: the model (its derived constants are written).
+        d: its data.
+    """
+    saved = (d.qpos.copy(), d.qvel.copy(), d.act.copy(), d.qacc_warmstart.copy(), d.time)
+    mujoco.mj_setConst(m, d)
+    d.qpos[:], d.qvel[:], d.act[:], d.qacc_warmstart[:], d.time = saved
+
+
 def scaled_inertia(mass: float, old_mass: float, inertia: np.ndarray) -> np.ndarray:
     """The principal inertia (3,) in kg·m² of a body given ``mass`` (kg): its ``inertia`` at
     ``old_mass`` scaled by the ratio (same shape, new density, as V-REP keeps it).

@@ -46,6 +46,11 @@ def test_shape_mass_inertia_colour_and_bounding_box(api, sim):
     api.setShapeMass(a, 2 * mass)
     assert api.getShapeMass(a) == pytest.approx(2 * mass)
     assert api.getShapeInertia(a)[0] == pytest.approx([2 * v for v in inertia])  # scales with the mass
+    # MuJoCo's constants derived from masses follow (a stale subtree mass and constraint weights
+    # made RLBench's procedural objects, given 0.1 kg, blow up on landing)
+    m, body = sim.world.model, sim.world.objects[a].mj_id
+    assert m.body_subtreemass[body] == pytest.approx(2 * mass + sum(
+        m.body_mass[c] for c in range(m.nbody) if c != body and m.body_rootid[c] == body))
     assert len(frame) == 12
     size = api.getShapeBB(a)
     assert len(size) == 3 and all(s > 0 for s in size)

@@ -18,6 +18,7 @@ from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.base.arguments import as_number as _num, as_vector as _vector
 from simx_server.api.sim.shapes import _geoms
+from simx_server.sim import physics
 
 
 # Mass and inertia of shapes (``_shape`` comes from :mod:`simx_server.api.sim.shapes`).
@@ -129,7 +130,8 @@ def setShapeInertia(ctx: CallContext, shapeHandle: Any, inertiaMatrix: Any, tran
 
 
 def _spec_inertial(ctx: CallContext, obj: Any) -> None:
-    """Write the body's inertial values into the scene's MjSpec (they survive later edits)."""
+    """Write the body's inertial values into the scene's MjSpec (they survive later edits) and
+    recompute MuJoCo's constants derived from them."""
     sim = ctx.view
     try:
         body = sim.editor._live_spec().body(obj.name) if sim is not None else None
@@ -140,6 +142,7 @@ def _spec_inertial(ctx: CallContext, obj: Any) -> None:
         body.explicitinertial = True
         body.mass, body.ipos = float(m.body_mass[obj.mj_id]), m.body_ipos[obj.mj_id].copy()
         body.iquat, body.inertia = m.body_iquat[obj.mj_id].copy(), m.body_inertia[obj.mj_id].copy()
+    physics.mass_constants(m, ctx.world.data)  # subtree masses, constraint weights: stale otherwise
     ctx.world.changed()
 
 
