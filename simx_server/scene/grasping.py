@@ -14,9 +14,9 @@ CoppeliaSim (``CSceneObject::setParent``) keeps a re-parented object's absolute 
 ``keepInPlace`` false its local pose, now relative to the new parent; its dynamics engine
 (simExtDynamics' ``CRigidBodyContainerDyn::reportRigidBodyConfigurationsAndVelocities``) moves a
 non-static shape hung from a non-joint parent by itself. simx holds it to a new parent that
-moves instead (what pick-and-place programs and PyRep's ``Gripper.grasp`` expect of a
-re-parented part: that it follows the gripper), and leaves it free under the world or an
-object fixed to it. A force sensor always holds its dynamic child, fixed to the world or not:
+moves on joints (or is itself held) instead (what pick-and-place programs and PyRep's
+``Gripper.grasp`` expect of a re-parented part: that it follows the gripper), and leaves it
+free under the world, an object fixed to it, or another dynamic shape (``grasps.holds``). A force sensor always holds its dynamic child, fixed to the world or not:
 CoppeliaSim's dynamics plugins join a dynamic shape to its force-sensor parent rigidly
 (simMujoco's ``CRigidBodyContainerDyn::_addObjectBranch``: "dyn. shape attached to force
 sensor"), and the sensor reads what the weld carries (:mod:`simx_server.sim.force_sensors`).
@@ -33,8 +33,8 @@ from simx_server.sim.objects import FORCE_SENSOR, SHAPE, WORLD, SceneObject
 
 def hold(editor, part: SceneObject, parent: SceneObject | None, keep_in_place: bool) -> None:
     """Hang the free body ``part`` from ``parent``: held when ``parent``'s body can move (a
-    grasp) or ``parent`` is a force sensor, free under the world (None) or another object fixed
-    to it (a release).
+    grasp) or ``parent`` is a force sensor, free under the world (None), another object fixed
+    to it or a free dynamic shape (a release; ``grasps.holds``).
 
     Args:
         editor: the scene's :class:`~simx_server.scene.editor.Editor`.
@@ -48,7 +48,7 @@ def hold(editor, part: SceneObject, parent: SceneObject | None, keep_in_place: b
     """
     world = editor.sim.world
     rel = None if keep_in_place else world.relative_frame(part.handle, part.parent)
-    if parent is None or (parent.type != FORCE_SENSOR and not grasps.moves(world.model, grasps.carrier(parent))):
+    if parent is None or (parent.type != FORCE_SENSOR and not grasps.holds(world, parent)):
         grasps.release(world, part, parent)
         if rel is not None:
             world.set_pose(part.handle, WORLD if parent is None else parent.handle, list(rel[0]), rel[1])

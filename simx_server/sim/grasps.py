@@ -4,10 +4,11 @@
 ``sim.setObjectParent(part, -1, true)``, or to an object that does not move (PyRep's
 ``Gripper.release`` gives the part back to its old parent, often a task's static dummy).
 
-Which parents hold: an object carried by a body that can move (a joint above it, or a mocap
-body: ``body_weldid`` not 0), and a force sensor wherever it is (CoppeliaSim joins a dynamic
-shape to its force-sensor parent). Under the world or another object fixed to it the part stays
-free, only its logical parent changes, as a dynamic shape under a static object in CoppeliaSim.
+Which parents hold (:func:`holds`): an object carried by a body that moves on joints or as a
+mocap body, or by a free body that is itself held, and a force sensor wherever it is
+(CoppeliaSim joins a dynamic shape to its force-sensor parent). Under the world, another object
+fixed to it, or another dynamic shape the part stays free, only its logical parent changes, as
+CoppeliaSim's engines simulate a dynamic shape under a static or a dynamic one by itself.
 
 MuJoCo allows free joints only in children of the world, so the part's body stays where it is
 and a weld equality named ``simx_grasp:PART`` (added to the model once per part, inactive, by
@@ -102,6 +103,32 @@ def moves(m: mujoco.MjModel, body: int) -> bool:
         False for the world and the bodies welded to it (``body_weldid`` 0).
     """
     return int(m.body_weldid[body]) != 0
+
+
+def holds(world, parent: SceneObject) -> bool:
+    """Whether re-parenting a dynamic shape under ``parent`` holds it there: ``parent``'s body
+    moves on joints or as a mocap body, or it is a free body held itself (a grasped part, a part
+    under a force sensor). A free body that is not held (another dynamic shape) does not hold:
+    CoppeliaSim's engines simulate a dynamic shape under a dynamic shape by itself
+    (simExtDynamics ``CRigidBodyContainerDyn::reportRigidBodyConfigurationsAndVelocities``), as
+    a dynamic shape under a static object.
+
+    Args:
+        world: the World.
+        parent: the new parent.
+
+    Returns:
+        True when the part is to be held.
+    """
+    m = world.model
+    body = carrier(parent)
+    if not moves(m, body):
+        return False
+    root = int(m.body_weldid[body])  # the body that moves, with those welded to it
+    if not is_free(m, root):
+        return True
+    names = [o.name for o in world.objects.values() if o.type == SHAPE and o.mj_id == root]
+    return any(n in world.grasps and world.grasps[n].held for n in names)
 
 
 def carrier(obj: SceneObject) -> int:

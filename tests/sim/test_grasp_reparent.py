@@ -222,3 +222,22 @@ def test_the_first_grasp_makes_every_part_graspable_without_recompile(scene):
     model = w.model
     api.setObjectParent(api.getObject("/other"), api.getObject("/attach"), True)  # another part
     assert w.model is model and api.getObjectParent(api.getObject("/other")) == api.getObject("/attach")
+
+
+def test_a_dynamic_shape_under_a_free_one_stays_free_unless_that_one_is_held(scene):
+    """CoppeliaSim's engines simulate a dynamic shape hung from another dynamic shape by itself
+    (RLBench's pour_from_cup_to_cup hangs 20 drops from its cup); a free body that is itself
+    held (grasped) carries what is hung from it."""
+    sim, api = scene
+    cube, other, attach, lift = (api.getObject(p) for p in ("/cube", "/other", "/attach", "/lift"))
+    _run(sim, 0.2)
+    api.setObjectPosition(other, -1, [0.5, 0, 0.3])
+    api.setObjectParent(other, cube, True)                 # the cube is free and not held
+    assert api.getObjectParent(other) == cube
+    _run(sim, 0.5)
+    assert api.getObjectPosition(other, -1)[2] == pytest.approx(0.025, abs=2e-3)  # it fell by itself
+    api.setObjectParent(cube, attach, True)                # now the cube is held
+    api.setObjectParent(other, cube, True)
+    api.setJointTargetPosition(lift, 0.3)
+    _run(sim, 2.0)
+    assert api.getObjectPosition(other, -1)[2] > 0.25  # carried up with it (0.5 m out on two welds: it sags)
