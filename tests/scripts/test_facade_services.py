@@ -71,6 +71,10 @@ def test_alias_relative_model_bb_and_pure_shapes(api):
     assert api.checkCollision(mount, api.handle_all) == (1, [mount, s])
     with pytest.raises(ArgumentError, match="primitiveType"):
         api.createPureShape(9, 0, [0.1, 0.1, 0.1], 1)
+    # 4.1 clamps the mass to [1e-6, 1e4] kg (RLBench's wipe_desk makes its dirt with mass 0)
+    dirt = api.createPureShape(0, 16, [0.005, 0.005, 0.001], 0)
+    assert api.getShapeMass(dirt) == pytest.approx(1e-6)
+    assert api.getShapeMass(api.createPureShape(1, 0, [0.1, 0.1, 0.1], 1e9)) == pytest.approx(1e4)
 
 
 @pytest.mark.renderers_on_demand  # no image read
