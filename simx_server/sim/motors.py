@@ -203,7 +203,8 @@ class Motors:
         # each motor's lock (motor_spec.add_locks: a joint equality, -1 where the joint has none)
         self.lock_eq = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, lock_name(_name(m, j)))
                                  for _, j, _ in mine], dtype=int)
-        self._lock_qpos0 = np.array([m.qpos0[m.jnt_qposadr[j]] for _, j, _ in mine])
+        self._pinned = self.lock_eq >= 0
+        self._lock_eqs = self.lock_eq[self._pinned]
         for a in act:  # one actuator realises both laws; ctrl is a velocity or a position
             m.actuator_gaintype[a] = mujoco.mjtGain.mjGAIN_FIXED
             m.actuator_biastype[a] = mujoco.mjtBias.mjBIAS_AFFINE
@@ -392,12 +393,12 @@ class Motors:
         lock = self.locked & stopped
         self._lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
         self._locking = bool(self.locked.any())  # lock is a part of locked
-        pinned = self.lock_eq >= 0
-        if pinned.any():
-            eqs = self.lock_eq[pinned]
+        pinned = self._pinned
+        if len(self._lock_eqs):
             on = lock[pinned]
-            d.eq_active[eqs] = on
-            m.eq_data[eqs[on], 0] = (self._lock_q - self._lock_qpos0)[pinned][on]
+            d.eq_active[self._lock_eqs] = on
+            # MuJoCo's joint equality with one joint: q - qpos0 = eq_data[0]
+            m.eq_data[self._lock_eqs[on], 0] = (self._lock_q - m.qpos0[self.qadr])[pinned][on]
             lock = lock & ~pinned
         force = np.where(lock, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
         m.actuator_forcerange[self.act, 0], m.actuator_forcerange[self.act, 1] = -force, force

@@ -21,6 +21,7 @@ import math
 import struct
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from simx_server.api.context import CallContext
@@ -31,7 +32,7 @@ from simx_server.sim.objects import JOINT, WORLD
 
 _MAGIC = b"SIMXCT2"
 _ITEM = struct.Struct("<ii7dd4d")
-_BALL = 1  # mjtJoint.mjJNT_BALL
+_BALL = int(mujoco.mjtJoint.mjJNT_BALL)
 _NO_QUAT = (math.nan,) * 4
 
 
