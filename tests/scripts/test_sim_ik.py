@@ -90,6 +90,35 @@ def test_find_configs_and_generate_path(rig):
     assert len(jac) == 6 * len(err) and len(err) == 6
 
 
+def test_a_search_over_some_of_the_groups_joints_holds_the_others(rig):
+    """CoppeliaSim 4.1's simGetConfigForTipPose / simGenerateIkPath set the group's joints
+    passive and only the given ones to IK mode (PyRep's Baxter arm passes its 7 joints to a group
+    that also holds the torso's): the others keep their positions; a joint outside the group is
+    refused."""
+    _, sim, ik = rig
+    env, g, _ = _group(sim, ik, 7)  # position only: five joints can reach it
+    joints = ik.getGroupJoints(env, g)
+    tip, target = sim.getObject("/UR5_tip"), sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.06, pos[2]])
+    held = joints[-1]
+    before = ik.getJointPosition(env, held)
+    moving = list(reversed(joints[:-1]))  # any order: the result follows it
+    configs = ik.findConfigs(env, g, moving, {"maxTime": 2})
+    assert len(configs) == 1 and len(configs[0]) == 5
+    for j, q in zip(moving, configs[0]):
+        ik.setJointPosition(env, j, q)
+    assert ik.getJointPosition(env, held) == before
+    assert ik.getObjectPose(env, tip)[:3] == pytest.approx(sim.getObjectPosition(target, -1), abs=1e-3)
+    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.1, pos[2]])
+    path = ik.generatePath(env, g, moving, tip, 4)
+    assert len(path) == 4 * 5 and ik.getJointPosition(env, held) == before
+    for bad in ([*moving, moving[0]], [*moving, sim.getObject("/UR5_target")], []):
+        with pytest.raises(ArgumentError, match="joints of the group"):
+            ik.findConfigs(env, g, bad)
+    assert ik.getGroupJoints(env, g) == joints  # the held joint is in the group again
+
+
 def test_every_simik_function_has_coppeliasim_s_name():
     from simx_server.api import names
     listed = names.coppeliasim_functions("simIK")

@@ -13,7 +13,7 @@ from simx_server.api import long_calls
 from simx_server.api.context import CallContext
 from simx_server.base import limits as L
 from simx_server.api.registry import simik_function
-from simx_server.api.simik import dummies as _dummies, environments as _environments
+from simx_server.api.simik import chains as _chains, dummies as _dummies, environments as _environments
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.api.sim.misc import alternate_configs
 from simx_server.sim import ik_solver as S
@@ -128,16 +128,6 @@ def syncToSim(ctx: CallContext, environmentHandle: Any, ikGroups: Any = None) ->
                                                                   [_environments.q_of(ctx, env, j) for j in joints]))
 
 
-def _check_joints(ctx: CallContext, env, g, jointHandles: Any) -> list[int]:
-    group_joints = _environments.joints_of(ctx, env, g)
-    if jointHandles is None:
-        return group_joints
-    joints = [_int(j, "jointHandles[i]") for j in jointHandles]
-    if sorted(joints) != sorted(group_joints):
-        raise ArgumentError(f"jointHandles must be the group's joints {group_joints} (in any order)")
-    return joints
-
-
 @simik_function("findConfigs")
 def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, params: Any = None,  # noqa: N802, N803
                 configs: Any = None) -> list[list[float]]:
@@ -149,40 +139,40 @@ def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jo
     ``pMetric`` weighting it). Sorted by distance to the current configuration; empty when none."""
     env = _environments.env_of(ctx, environmentHandle)
     g = _environments.group_of(ctx, env, ikGroupHandle)
-    joints = _check_joints(ctx, env, g, jointHandles)
-    p = _options(params)
-    bound = L.MAX_REQUEST_SECONDS if long_calls.off_thread(ctx) else MAX_SEARCH_SECONDS  # maxTime 1e9 held all 10 s
-    max_time = min(_num(p.get("maxTime", 0.5), "maxTime"), bound)
-    multiple = bool(p.get("findMultiple", False))
-    max_dist = p.get("maxDist")
-    metric = np.ones(len(joints)) if p.get("pMetric") is None else np.array(_vector(p["pMetric"], len(joints), "pMetric"))
-    order = _environments.joints_of(ctx, env, g)
-    m = ctx.world.model
-    jid = [ctx.world.get(j).mj_id for j in order]
-    low = np.array([m.jnt_range[j][0] if m.jnt_limited[j] else -np.pi for j in jid])
-    high = np.array([m.jnt_range[j][1] if m.jnt_limited[j] else np.pi for j in jid])
-    current = np.array([_environments.q_of(ctx, env, j) for j in order])
-    rng = np.random.default_rng(int(p.get("seed", 0)) if "seed" in p else None)
-    method, damping = g.method, g.damping
-    g.method, g.damping = S.METHOD_DLS, max(g.damping, 0.05)
-    found: list[np.ndarray] = []
-    deadline = time.monotonic() + max_time
-    try:
-        start = current
-        while time.monotonic() < deadline:
-            ok, _, q = _environments.solve(ctx, env, g, q0=start.copy(), iterations=max(g.iterations, 100))
-            if ok and not any(np.allclose(q, f, atol=1e-3) for f in found):
-                d = float(np.sqrt(np.sum((metric * (q - current)) ** 2)))
-                if max_dist is None or d <= _num(max_dist, "maxDist"):
-                    found.append(q)
-                    if not multiple:
-                        break
-            start = rng.uniform(low, high)
-    finally:
-        g.method, g.damping = method, damping
-    found.sort(key=lambda q: float(np.sqrt(np.sum((metric * (q - current)) ** 2))))
-    index = [order.index(j) for j in joints]
-    return [[float(q[i]) for i in index] for q in found]
+    with _chains.only_joints(ctx, env, g, jointHandles) as joints:
+        p = _options(params)
+        bound = L.MAX_REQUEST_SECONDS if long_calls.off_thread(ctx) else MAX_SEARCH_SECONDS  # maxTime 1e9 held all 10 s
+        max_time = min(_num(p.get("maxTime", 0.5), "maxTime"), bound)
+        multiple = bool(p.get("findMultiple", False))
+        max_dist = p.get("maxDist")
+        metric = np.ones(len(joints)) if p.get("pMetric") is None else np.array(_vector(p["pMetric"], len(joints), "pMetric"))
+        order = _environments.joints_of(ctx, env, g)
+        m = ctx.world.model
+        jid = [ctx.world.get(j).mj_id for j in order]
+        low = np.array([m.jnt_range[j][0] if m.jnt_limited[j] else -np.pi for j in jid])
+        high = np.array([m.jnt_range[j][1] if m.jnt_limited[j] else np.pi for j in jid])
+        current = np.array([_environments.q_of(ctx, env, j) for j in order])
+        rng = np.random.default_rng(int(p.get("seed", 0)) if "seed" in p else None)
+        method, damping = g.method, g.damping
+        g.method, g.damping = S.METHOD_DLS, max(g.damping, 0.05)
+        found: list[np.ndarray] = []
+        deadline = time.monotonic() + max_time
+        try:
+            start = current
+            while time.monotonic() < deadline:
+                ok, _, q = _environments.solve(ctx, env, g, q0=start.copy(), iterations=max(g.iterations, 100))
+                if ok and not any(np.allclose(q, f, atol=1e-3) for f in found):
+                    d = float(np.sqrt(np.sum((metric * (q - current)) ** 2)))
+                    if max_dist is None or d <= _num(max_dist, "maxDist"):
+                        found.append(q)
+                        if not multiple:
+                            break
+                start = rng.uniform(low, high)
+        finally:
+            g.method, g.damping = method, damping
+        found.sort(key=lambda q: float(np.sqrt(np.sum((metric * (q - current)) ** 2))))
+        index = [order.index(j) for j in joints]
+        return [[float(q[i]) for i in index] for q in found]
 
 
 @simik_function("findConfig", "getConfigForTipPose")
@@ -207,45 +197,45 @@ def generatePath(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, j
     The environment's joint positions are unchanged afterwards."""
     env = _environments.env_of(ctx, environmentHandle)
     g = _environments.group_of(ctx, env, ikGroupHandle)
-    joints = _check_joints(ctx, env, g, jointHandles)
-    if validationCallback is not None:
-        raise UnsupportedError("simIK.generatePath with a callback: simx cannot call a client's function")
-    n = _int(pathPointCount, "pathPointCount")
-    if not 2 <= n <= MAX_PATH_POINTS:
-        raise ArgumentError(f"pathPointCount must lie in 2..{MAX_PATH_POINTS}")
-    tip = _environments.object_of(ctx, env, tipHandle, "tipHandle")
-    el = next((e for e in g.elements if e.tip == tip), None)
-    if el is None:
-        raise ArgumentError(f"no element of the group has tip {tip}")
-    order = _environments.joints_of(ctx, env, g)
-    saved = {j: _environments.q_of(ctx, env, j) for j in order}
-    d = _environments.env_data(ctx, env)
-    p0, r0, _, _ = _environments.frame(ctx, env, d, el.tip)
-    p1, r1, _, _ = _environments.frame(ctx, env, d, el.target)
-    q0, q1, qt = np.empty(4), np.empty(4), np.empty(4)
-    mujoco.mju_mat2Quat(q0, r0.reshape(9).copy())
-    mujoco.mju_mat2Quat(q1, r1.reshape(9).copy())
-    index = [order.index(j) for j in joints]
-    q = np.array([saved[j] for j in order])
-    out: list[float] = []
-    try:
-        for k in range(n):
-            t = k / (n - 1)
-            dq = np.empty(3)
-            mujoco.mju_subQuat(dq, q1, q0)
-            qt[:] = q0
-            mujoco.mju_quatIntegrate(qt, dq, t)
-            rot = np.empty(9)
-            mujoco.mju_quat2Mat(rot, qt)
-            ok, _, q = _environments.solve(ctx, env, g, targets={el.handle: (p0 + t * (p1 - p0), rot.reshape(3, 3))}, q0=q,
-                                   iterations=max(g.iterations, 50))
-            if not ok:
-                return []
-            env.q.update(zip(order, (float(v) for v in q)))
-            out += [float(q[i]) for i in index]
-    finally:
-        env.q.update(saved)
-    return out
+    with _chains.only_joints(ctx, env, g, jointHandles) as joints:
+        if validationCallback is not None:
+            raise UnsupportedError("simIK.generatePath with a callback: simx cannot call a client's function")
+        n = _int(pathPointCount, "pathPointCount")
+        if not 2 <= n <= MAX_PATH_POINTS:
+            raise ArgumentError(f"pathPointCount must lie in 2..{MAX_PATH_POINTS}")
+        tip = _environments.object_of(ctx, env, tipHandle, "tipHandle")
+        el = next((e for e in g.elements if e.tip == tip), None)
+        if el is None:
+            raise ArgumentError(f"no element of the group has tip {tip}")
+        order = _environments.joints_of(ctx, env, g)
+        saved = {j: _environments.q_of(ctx, env, j) for j in order}
+        d = _environments.env_data(ctx, env)
+        p0, r0, _, _ = _environments.frame(ctx, env, d, el.tip)
+        p1, r1, _, _ = _environments.frame(ctx, env, d, el.target)
+        q0, q1, qt = np.empty(4), np.empty(4), np.empty(4)
+        mujoco.mju_mat2Quat(q0, r0.reshape(9).copy())
+        mujoco.mju_mat2Quat(q1, r1.reshape(9).copy())
+        index = [order.index(j) for j in joints]
+        q = np.array([saved[j] for j in order])
+        out: list[float] = []
+        try:
+            for k in range(n):
+                t = k / (n - 1)
+                dq = np.empty(3)
+                mujoco.mju_subQuat(dq, q1, q0)
+                qt[:] = q0
+                mujoco.mju_quatIntegrate(qt, dq, t)
+                rot = np.empty(9)
+                mujoco.mju_quat2Mat(rot, qt)
+                ok, _, q = _environments.solve(ctx, env, g, targets={el.handle: (p0 + t * (p1 - p0), rot.reshape(3, 3))}, q0=q,
+                                       iterations=max(g.iterations, 50))
+                if not ok:
+                    return []
+                env.q.update(zip(order, (float(v) for v in q)))
+                out += [float(q[i]) for i in index]
+        finally:
+            env.q.update(saved)
+        return out
 
 
 @simik_function("getAlternateConfigs")

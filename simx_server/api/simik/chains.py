@@ -19,6 +19,8 @@ the joint's own x, y, z, as CoppeliaSim's).
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from typing import Any
 
 import mujoco
@@ -260,3 +262,41 @@ def computeJacobian(ctx: CallContext, environmentHandle: Any, baseObject: Any, l
 
 def _frame_rotation(ctx: CallContext, data: mujoco.MjData, handle: int) -> np.ndarray:
     return ik_solver.frame(ctx.world, data, handle)[1]
+
+
+@contextlib.contextmanager
+def only_joints(ctx: CallContext, env, g, jointHandles: Any) -> Iterator[list[int]]:  # noqa: N803
+    """The joints a search may move: ``jointHandles`` (any subset of the group's joints, in any
+    order; None: all), the group's other joints held where they are while it runs, as
+    CoppeliaSim 4.1's ``simGetConfigForTipPose`` / ``simGenerateIkPath`` set the group's joints
+    passive, then the given ones to IK mode (a Baxter arm's group also holds its torso's joints).
+
+    Args:
+        ctx: the call's context.
+        env: the IK environment.
+        g: its group.
+        jointHandles: joint handles, or None.
+
+    Yields:
+        The joints' handles, in ``jointHandles``' order (None: the group's, base first).
+
+    Raises:
+        ArgumentError: a handle twice, none, or one that is not the group's.
+    """
+    group_joints = _environments.joints_of(ctx, env, g)
+    if jointHandles is None:
+        yield group_joints
+        return
+    joints = [_int(j, "jointHandles[i]") for j in jointHandles]
+    if not joints or len(set(joints)) != len(joints) or not set(joints) <= set(group_joints):
+        raise ArgumentError(f"jointHandles must be joints of the group {group_joints}, each once")
+    held = {j: env.mode.get(j) for j in group_joints if j not in joints}
+    env.mode.update(dict.fromkeys(held, _environments.JOINTMODE_PASSIVE))
+    try:
+        yield joints
+    finally:
+        for j, mode in held.items():
+            if mode is None:
+                env.mode.pop(j, None)
+            else:
+                env.mode[j] = mode
