@@ -47,12 +47,14 @@ LOOP_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 MIN_FRACTION = 1e-6
 
 
-def equality_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+def equality_jacobian(m: mujoco.MjModel, d: mujoco.MjData,
+                      ignore: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The active equality constraints' Jacobian rows and regularisation.
 
     Args:
         m: the model.
         d: its data after ``mj_forward`` (its ``efc_*`` arrays are read).
+        ignore: equality ids left out (None: none).
 
     Returns:
         ``(J, R)``: J (k, nv) dense, R (k,) MuJoCo's ``efc_R`` of those rows; k = 0 when the
@@ -60,7 +62,10 @@ def equality_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> tuple[np.ndarray, 
     """
     if m.neq == 0 or d.nefc == 0:
         return np.zeros((0, m.nv)), np.zeros(0)
-    rows = np.flatnonzero(d.efc_type[:d.nefc] == _EQUALITY)
+    kept = d.efc_type[:d.nefc] == _EQUALITY
+    if ignore is not None and len(ignore):
+        kept &= ~np.isin(d.efc_id[:d.nefc], ignore)
+    rows = np.flatnonzero(kept)
     if not rows.size:
         return np.zeros((0, m.nv)), np.zeros(0)
     if mujoco.mj_isSparse(m):
@@ -71,7 +76,8 @@ def equality_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> tuple[np.ndarray, 
     return dense[rows].copy(), d.efc_R[rows].copy()
 
 
-def inverse_inertia(m: mujoco.MjModel, d: mujoco.MjData, minv_rows: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+def inverse_inertia(m: mujoco.MjModel, d: mujoco.MjData, minv_rows: np.ndarray, dofs: np.ndarray,
+                    ignore: np.ndarray | None = None) -> np.ndarray:
     """The inverse inertia of each of ``dofs`` with the equality constraints held.
 
     Args:
@@ -79,6 +85,7 @@ def inverse_inertia(m: mujoco.MjModel, d: mujoco.MjData, minv_rows: np.ndarray, 
         d: its data after ``mj_forward``.
         minv_rows: (n, nv) rows ``dofs`` of ``M^-1`` (``mj_solveM`` of unit rows).
         dofs: (n,) dof indices.
+        ignore: equality ids not held (None: all are).
 
     Returns:
         (n,) inverse inertias (1/kg or 1/(kg m^2)), each at most the open chain's
@@ -86,7 +93,7 @@ def inverse_inertia(m: mujoco.MjModel, d: mujoco.MjData, minv_rows: np.ndarray, 
     """
     n = len(dofs)
     open_chain = minv_rows[np.arange(n), dofs]
-    J, R = equality_jacobian(m, d)
+    J, R = equality_jacobian(m, d, ignore)
     if not J.shape[0] or not n:
         return open_chain
     minv_jt = np.zeros_like(J)

@@ -424,8 +424,8 @@ class Motors:
         if len(cached) == len(self.act) and 0 <= elapsed < dt - 0.5 * m.opt.timestep:
             return cached
         mujoco.mj_solveM(m, d, self._minv, self._unit)
-        if m.neq:
-            inverse = mechanisms.inverse_inertia(m, d, self._minv, self.dadr)
+        if m.neq:  # a motor's own lock pins its joint: not a part of the mechanism it drives
+            inverse = mechanisms.inverse_inertia(m, d, self._minv, self.dadr, self._lock_eqs)
         else:  # no equality: the open chain's, (M^-1)_ii (mechanisms.inverse_inertia's first step)
             inverse = self._minv.take(self._diagonal)
         inertia = 1.0 / np.maximum(inverse, 1e-12)

@@ -88,3 +88,38 @@ def test_a_locked_stopped_gripper_keeps_its_grip(tmp_path):
 
 def test_without_the_lock_the_stopped_grip_relaxes(tmp_path):
     assert lifted(tmp_path, lock=False) < 0.02  # the box slid out
+
+
+def test_a_locked_finger_told_to_move_moves_from_its_first_step(tmp_path):
+    """Unlocked by a new target velocity, a finger moves at it from the first step: the lock's
+    equality pins the joint, but it is no part of the mechanism the motor drives, so the motor's
+    gain is the free finger's. With the lock counted as a linkage the gain was a million times too
+    high for that step and the motor's force chattered between its limits: on RLBench's Panda one
+    finger moved less than PyRep's ``Gripper.actuate`` takes for moving, which then stopped it and
+    left that finger open."""
+    path = tmp_path / "grip.xml"
+    path.write_text(SCENE.replace("LOCK", "velocity_lock=1"))
+    simulation = Simulation(path, realtime=False)
+    try:
+        simulation.start()
+        api = client_context(simulation, "test").sim
+        fingers = [api.getObject("/finger_left"), api.getObject("/finger_right")]
+        for _ in range(3):  # target velocity 0 from the start: locked where they are
+            simulation.step()
+        w = simulation.world
+        locks = [mujoco.mj_name2id(w.model, mujoco.mjtObj.mjOBJ_EQUALITY, f"simx_lock:finger_{s}")
+                 for s in ("left", "right")]
+        assert all(w.data.eq_active[e] for e in locks)
+        before = [api.getJointPosition(f) for f in fingers]
+        for f in fingers:
+            api.setJointTargetVelocity(f, 0.04)
+        simulation.step()
+        moved = [api.getJointPosition(f) - b for f, b in zip(fingers, before)]
+        speeds = [api.getJointVelocity(f) for f in fingers]
+        forces = [abs(api.getJointForce(f)) for f in fingers]
+        assert not any(w.data.eq_active[e] for e in locks)
+        assert all(x > 0.5 * 0.04 * w.dt for x in moved), moved
+        # at the target velocity by the step's end, the motor's force well inside its 10 N
+        assert speeds == pytest.approx([0.04, 0.04], rel=0.1) and max(forces) < 5, (speeds, forces)
+    finally:
+        simulation.close()
