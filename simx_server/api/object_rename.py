@@ -104,6 +104,7 @@ def rename(sim: SimulationView, handle: int, name: str) -> None:
     def change(spec: mujoco.MjSpec) -> None:
         kind_, el, _ = editor._spec_element(spec, handle)
         el.name = name
+        editor._renamed[old] = name  # what commands changed in it at run time follows the name
         _retarget(spec, kind_, old, name)
         names[name] = handle
 

@@ -118,6 +118,7 @@ class Editor(ObjectEdits):
         self._baseline: dict[str, np.ndarray] | None = None  # poses as last compiled
         self._baseline_state: dict[str, np.ndarray] | None = None  # other kept fields as last compiled
         self._placed: set[tuple[str, str]] = set()
+        self._renamed: dict[str, str] = {}
         self._asset_counter = [0]  # numbers in-memory asset names
         self._parse_now()
 
@@ -270,6 +271,7 @@ class Editor(ObjectEdits):
             spec = live.copy()
             spec.copy_during_attach = True
             self._placed: set[tuple[str, str]] = set()  # (kind, name) the change placed itself
+            self._renamed: dict[str, str] = {}  # old name -> new, of what the change renamed
             try:
                 after = change(spec)
             except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
@@ -284,7 +286,7 @@ class Editor(ObjectEdits):
                 raise UnsupportedError("MuJoCo cannot compile the edited scene: "
                                        f"{self._scrub(_one_line(exc))}") from None
         placements, mocap = self._runtime_placements(), self._mocap_poses()
-        kept = kept_state.changes(world.model, self._baseline_state)
+        kept = kept_state.renamed(kept_state.changes(world.model, self._baseline_state), self._renamed)
         baseline, baseline_state = _poses(model), kept_state.snapshot(model)
         world.replace_model(model, bounded=bounded)
         self._spec, self._baseline, self._baseline_state = spec, baseline, baseline_state

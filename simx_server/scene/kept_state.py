@@ -97,6 +97,23 @@ def changes(model: mujoco.MjModel, baseline: dict[str, np.ndarray] | None) -> li
     return out
 
 
+def renamed(kept: list[tuple], names: dict[str, str]) -> list[tuple]:
+    """:func:`changes` with the elements an edit renamed under their new names (a geom's key
+    follows its body's).
+
+    Args:
+        kept: the changes taken from the old model.
+        names: old name -> new name.
+
+    Returns:
+        The changes, keyed by the new names.
+    """
+    if not names:
+        return kept
+    return [(f, (names.get(key[0], key[0]), key[1]) if isinstance(key, tuple) else names.get(key, key), value)
+            for f, key, value in kept]
+
+
 def restore(model: mujoco.MjModel, kept: list[tuple], skip: set[str] = frozenset()) -> bool:
     """Write :func:`changes` into a new model where the element is still there (same name; a
     geom: same body and rank, same type), except for elements named in ``skip`` (those the edit
@@ -143,3 +160,49 @@ def settle(world: Any) -> None:
     d.qpos[:], d.qvel[:], d.act[:] = saved[:3]
     d.time = saved[3]
     mujoco.mj_forward(m, d)
+
+
+#: How a kept field is written into an MjSpec element (``sim.saveScene``): field -> attribute.
+_SPEC_ATTRIBUTES = {
+    "body_mass": "mass", "body_inertia": "inertia", "body_ipos": "ipos", "body_iquat": "iquat",
+    "site_size": "size", "site_rgba": "rgba", "cam_fovy": "fovy",
+    "light_diffuse": "diffuse", "light_specular": "specular", "light_ambient": "ambient", "light_active": "active",
+    "jnt_range": "range", "jnt_pos": "pos", "jnt_axis": "axis", "jnt_stiffness": "stiffness",
+    "geom_rgba": "rgba", "geom_size": "size", "geom_friction": "friction",
+    "geom_contype": "contype", "geom_conaffinity": "conaffinity",
+}
+_SPEC_FINDERS = {"body": "body", "site": "site", "cam": "camera", "light": "light", "jnt": "joint"}
+
+
+def write(spec: mujoco.MjSpec, kept: list[tuple]) -> None:
+    """Write :func:`changes` into ``spec``, so that a saved scene (``sim.saveScene``, PyRep's
+    ``export_scene``) has the colours, sizes, masses, contact flags... that commands gave its
+    objects at run time, as CoppeliaSim saves its scene as it is. A mesh geom's size is its
+    mesh's (not written); a geom that lost its material (``geom_matid`` -1) is written without.
+
+    Args:
+        spec: the spec to save (a copy of the live one).
+        kept: the live model's changes.
+    """
+    for f, key, value in kept:
+        if isinstance(key, tuple):
+            body = spec.body(key[0])
+            geoms = list(body.geoms) if body is not None else []
+            if key[1] >= len(geoms):
+                continue
+            el = geoms[key[1]]
+            if f == "geom_matid":
+                el.material = ""
+                continue
+            if f == "geom_size" and el.type == mujoco.mjtGeom.mjGEOM_MESH:
+                continue
+        else:
+            el = getattr(spec, _SPEC_FINDERS[f.split("_", 1)[0]])(key)
+            if el is None:
+                continue
+            if f.startswith("body_"):
+                el.explicitinertial = True
+        attribute = _SPEC_ATTRIBUTES.get(f)
+        if attribute is not None:
+            current = getattr(el, attribute)
+            setattr(el, attribute, type(current)(value) if np.ndim(value) == 0 else np.asarray(value, dtype=float))

@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 
 from simx_wire.protocol import UnsupportedError
+from simx_server.scene import kept_state
 from simx_server.sim import kept_objects
 from simx_server.sim.objects import parse_settings, without_scripts
 from simx_server.sim.spec_tools import _compose, _inverse, _one_line, _quiet_mujoco, _set_local_pose, copy_attributes
@@ -71,6 +72,7 @@ def scene_files(sim, stem: str) -> tuple[str, dict[str, bytes]]:
         spec = live.copy()
         files: dict[str, bytes] = {}
         _place_as_now(sim.editor, spec, world)
+        kept_state.write(spec, kept_state.changes(world.model, sim.editor._baseline_state))
         _assets(spec, live, prefix, files)
         _settings(sim, spec, prefix, files)
         _flatten_defaults(spec)

@@ -2,7 +2,8 @@
 the meshes it names are written next to it, an attached model's default class is no empty
 nested ``<default>`` (MuJoCo refuses it) and its elements keep their values, the compiler's
 ``balanceinertia`` is kept, the objects are where they are now (a shape placed after it was
-made, a dummy moved, a joint turned), and the scripts, custom data and ``simx:`` settings that a
+made, a dummy moved, a joint turned), what commands set at run time (a colour, a contact flag, a
+mass: also kept when a rename recompiles the model), and the scripts, custom data and ``simx:`` settings that a
 loaded model brought come along. Scene built by the test: an empty PyRep scene, a ``.ttm``
 written by the test (a mesh, a child script, custom data, a dynamic cuboid whose moments break
 A + B >= C) and an MJCF model with default classes of its own."""
@@ -70,8 +71,12 @@ def test_a_saved_scene_reopens_with_its_objects_poses_meshes_scripts_and_data(tm
     try:
         pr.import_model(str(tmp_path / "task.ttm"))
         pr.import_model(str(tmp_path / "arm.xml"))
-        mine = Shape.create(PrimitiveShape.CUBOID, [0.1, 0.2, 0.3], position=[0.5, 0.5, 0.5])
+        mine = Shape.create(PrimitiveShape.CUBOID, [0.1, 0.2, 0.3], position=[0.5, 0.5, 0.5], respondable=False,
+                            color=[0.2, 0.6, 0.3])
         mine.set_name("mine")  # a new pure shape: neither collidable, measurable nor detectable
+        # a rename recompiles the model: what was set at run time stays (it is the same object)
+        assert not mine.is_respondable() and mine.get_color() == pytest.approx([0.2, 0.6, 0.3])
+        Shape("block").set_mass(0.3)
         Shape("block").set_collidable(False)
         Dummy("task").set_position([0.3, 0.1, 0.25])
         Joint("arm_joint").set_joint_position(0.5)
@@ -103,6 +108,9 @@ def test_a_saved_scene_reopens_with_its_objects_poses_meshes_scripts_and_data(tm
         assert mask.get_near_clipping_plane() == pytest.approx(0.02) and mask.get_position()[0] == pytest.approx(1)
         assert not Shape("mine").is_collidable() and not Shape("mine").is_measurable()
         assert not Shape("block").is_collidable() and Shape("block").is_measurable()  # flags as saved
+        # what commands set at run time is saved with the scene, as CoppeliaSim saves it as it is
+        assert not Shape("mine").is_respondable() and Shape("mine").get_color() == pytest.approx([0.2, 0.6, 0.3])
+        assert Shape("block").get_mass() == pytest.approx(0.3)
         w = sim.context().world
         assert np.allclose(w.model.geom_rgba, rgba)  # the arm's classes: red box, blue capsule
         assert sim.call("readCustomDataBlockEx", Object.get_object("task").get_handle(), "tag") == b"hello"
