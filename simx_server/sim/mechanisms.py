@@ -63,7 +63,7 @@ def equality_jacobian(m: mujoco.MjModel, d: mujoco.MjData,
     if m.neq == 0 or d.nefc == 0:
         return np.zeros((0, m.nv)), np.zeros(0)
     kept = d.efc_type[:d.nefc] == _EQUALITY
-    if ignore is not None and len(ignore):
+    if ignore is not None and len(ignore) and d.eq_active[ignore].any():  # inactive ones have no rows
         kept &= ~np.isin(d.efc_id[:d.nefc], ignore)
     rows = np.flatnonzero(kept)
     if not rows.size:
