@@ -89,7 +89,7 @@ class JointData:
     dependency: tuple[int, float, float] | None = None  # master handle, multiplier, offset
     max_velocity: float | None = None
     spherical_quat: np.ndarray | None = None
-    control_mode: int | None = None  # 4.4+: 0 free, 1 force, 4 velocity, 8 position, 12 spring
+    control_mode: int | None = None  # 4.4+'s Dcm: 0 free, 1 force, 4 velocity, 8 position, 12 spring (<= 4.3: 12 or None)
     size: tuple[float, float] | None = None  # length, diameter as drawn (``Arg`` / ``_rg``), m
     velocity_lock: bool = False  # ``Vaa`` bit 1: lock the motor when its target velocity is 0
 

@@ -95,10 +95,11 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
 
 
 def _spring(jt, j) -> bool:
-    """V-REP 4.4's spring mode (control mode 12) as the MuJoCo joint's own spring and damper:
-    stiffness K and damping C from the file, at rest at the target position (the joint's position
-    where the file gives none). False (and nothing
-    set) where the file's values are not usable."""
+    """V-REP's spring mode (4.4's control mode 12; ``Va9`` bit 7 before) as the MuJoCo joint's
+    own spring and damper: stiffness K and damping C from the file (``CJoint::handleDynJointControl``:
+    force K e + C de/dt; its cap at the motor's maximum force is not kept), at rest at the target
+    position (the joint's position where the file gives none). False (and nothing set) where the
+    file's values are not usable."""
     k, c = j.spring
     rest = j.position if j.target_position is None else j.target_position
     if not (math.isfinite(k) and math.isfinite(c) and k >= 0 and c >= 0 and math.isfinite(rest)):

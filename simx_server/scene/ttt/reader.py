@@ -274,6 +274,10 @@ def _read_joint(r: Records) -> JointData:
         j.control_mode = r.int("Dcm")
         j.motor = j.control_mode != 0
         j.control_loop = j.control_mode in (8, 12, 16)
+    elif va9 & 128 and j.motor and j.control_loop:
+        # <= 4.3: Va9 bit 7, _dynamicMotorPositionControl_torqueModulation, is the spring-damper
+        # mode of a motor with its control loop (CJoint::handleDynJointControl: force K e + C de/dt)
+        j.control_mode = 12
     return j
 
 

@@ -108,7 +108,8 @@ def test_joint_targets_pid_and_spring_mode(tmp_path):
     body = (arm(1, "Wheel", 0.0, loop=False, target_velocity=2.0, extra=W.rec("Vaa", bytes([2])))
             + arm(4, "Servo", 1.0, extra=W.rec("Dpc", W.f32(0.5, 0, 0)) + W.rec("Dtp", W.f32(0.4)))
             + arm(7, "Spring", 2.0, extra=W.rec("Dcm", W.i32(12)) + W.rec("Spp", W.f32(5.0, 0.5))
-                  + W.rec("Dtp", W.f32(0.3))))
+                  + W.rec("Dtp", W.f32(0.3)))
+            + arm(10, "OldSpring", 3.0, spring=True, extra=W.rec("Spp", W.f32(5.0, 0.5)) + W.rec("Dtp", W.f32(0.3))))
     f = tmp_path / "joints.ttt"
     no_gravity = W.rec("DYN", W.lst(W.rec("En2", W.i32(0) + W.f32(0, 0, 0))))
     f.write_bytes(W.ttt_file(no_gravity + body))
@@ -117,11 +118,13 @@ def test_joint_targets_pid_and_spring_mode(tmp_path):
     # Vaa bit 1: "lock motor when target velocity is zero" (RLBench's Panda fingers have it)
     assert texts["simx:Wheel"] == "mode=velocity max_velocity=2 target_velocity=2 velocity_lock=1"
     assert texts["simx:Servo"] == "mode=position max_velocity=2 pid_p=0.5 target_position=0.400000006"
-    assert texts["simx:Spring"] == "mode=passive"
+    # a <= 4.3 file marks spring mode by Va9 bit 7 (RLBench's weighing scales' tray)
+    assert texts["simx:Spring"] == texts["simx:OldSpring"] == "mode=passive"
     m = mujoco.MjModel.from_xml_path(str(xml))
-    j = m.joint("Spring")
-    assert m.jnt_stiffness[j.id] == pytest.approx(5.0) and m.dof_damping[j.dofadr[0]] == pytest.approx(0.5)
-    assert m.qpos_spring[j.qposadr[0]] == pytest.approx(0.3)
+    for name in ("Spring", "OldSpring"):
+        j = m.joint(name)
+        assert m.jnt_stiffness[j.id] == pytest.approx(5.0) and m.dof_damping[j.dofadr[0]] == pytest.approx(0.5)
+        assert m.qpos_spring[j.qposadr[0]] == pytest.approx(0.3)
     assert "spring" not in " ".join(report.lines())
     # the scene runs as V-REP ran it: the wheel turns at its target velocity, the servo reaches
     # its target, the spring holds the link at its rest position
@@ -141,6 +144,7 @@ def test_joint_targets_pid_and_spring_mode(tmp_path):
             sim.step()
         assert d.joint("Servo").qpos[0] == pytest.approx(0.4, abs=0.01)
         assert d.joint("Spring").qpos[0] == pytest.approx(0.3, abs=0.01)
+        assert d.joint("OldSpring").qpos[0] == pytest.approx(0.3, abs=0.01)
     finally:
         sim.close()
 

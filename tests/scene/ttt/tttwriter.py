@@ -139,12 +139,13 @@ def object_property(bits: int) -> bytes:
 
 def joint(handle: int, parent: int, name: str, pos=(0, 0, 0), quat=(1, 0, 0, 0), kind=10, position=0.0,
           motor=True, loop=True, max_force=10.0, target_velocity=0.0, extra: bytes = b"", mode: int = 5,
-          limits=(-1.5, 3.0), cyclic: bool = False, common_extra: bytes = b"") -> bytes:
+          limits=(-1.5, 3.0), cyclic: bool = False, common_extra: bytes = b"", spring: bool = False) -> bytes:
     """A joint in force/torque mode (``mode`` 5; 4: dependent, with a :func:`dependency` in
     ``extra``); ``limits``: V-REP's minimum and range; ``extra``: more typed records (``Dpc`` PID,
     ``Dtp`` target position, ``Spp`` spring K and C, ``Dcm`` 4.4 control mode); ``cyclic``: an
-    unlimited revolute joint (``Va9`` bit 0); ``common_extra``: more common records (:func:`alias`)."""
-    va9 = (16 if motor else 0) | (32 if loop else 0) | (1 if cyclic else 0)
+    unlimited revolute joint (``Va9`` bit 0); ``common_extra``: more common records (:func:`alias`);
+    ``spring``: a <= 4.3 file's spring-damper mode (``Va9`` bit 7)."""
+    va9 = (16 if motor else 0) | (32 if loop else 0) | (1 if cyclic else 0) | (128 if spring else 0)
     typed = lst(rec("Jtt", i32(kind)), rec("Jmd", i32(mode)), rec("Pmr", f32(*limits)), rec("Prt", f32(position)),
                 rec("Va9", bytes([va9])), rec("Dmp", f32(target_velocity, max_force)), rec("Ulv", f32(2.0)), extra)
     return rec("JNT", common(handle, parent, name, pos, quat, extra=common_extra) + typed)
