@@ -76,3 +76,38 @@ def test_import_model_returns_the_model_base_and_remove_takes_the_whole_model(pr
             base.remove()
             assert _counts(pr) == empty
             assert not Object.exists(name) and not Object.exists("target_block")
+
+
+def _chair_task() -> bytes:
+    """A table (static box) and a 1.3 kg block on four 2 mm legs (static shapes: part of its body) of RLBench's chairs' material
+    (Bullet friction 100, capped at 10 with any other)."""
+    legs = b"".join(W.cuboid_shape(3 + i, 2, f"leg{i}", (0.004, 0.004, 0.06), (x, y, -0.05), dynamic=False,
+                                   material=W.bullet_material(100.0, 100.0))
+                    for i, (x, y) in enumerate([(-0.04, -0.04), (-0.04, 0.04), (0.04, -0.04), (0.04, 0.04)]))
+    return W.ttt_file(
+        W.dummy(1, -1, "chair_task", (0, 0, 0), extra=W.model_base()) +
+        W.cuboid_shape(7, 1, "table", (0.6, 0.6, 0.04), (0, 0, 0.73), dynamic=False) +
+        W.cuboid_shape(2, 1, "chair", (0.1, 0.1, 0.02), (0, 0, 0.83), mass=1.26,
+                       material=W.bullet_material(100.0, 100.0)) + legs, serialization=24, program=40100)
+
+
+def test_a_high_friction_model_rests_on_a_table_in_pyreps_empty_scene(tmp_path, monkeypatch):
+    """PyRep's empty scene has the engine settings of a converted .ttt (elliptic friction cone,
+    implicitfast): under MuJoCo's pyramidal cone a contact's normal softens with mu^2, and RLBench's
+    chairs (friction 10) on their thin legs fell through the table of a scene built from models."""
+    from pyrep import PyRep
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    (tmp_path / "chair_task.ttm").write_bytes(_chair_task())
+    pr = PyRep()
+    pr.launch("", headless=True)
+    try:
+        pr.import_model(str(tmp_path / "chair_task.ttm"))
+        chair = Shape("chair")
+        start = chair.get_position()[2]
+        pr.start()
+        for _ in range(40):  # 2 s
+            pr.step()
+        assert chair.get_position()[2] == pytest.approx(start, abs=0.003)
+    finally:
+        pr.shutdown()

@@ -26,6 +26,9 @@ GROUND_SOLMIX = 1000.0
 #: Critically damped (1), bodies that overlap at load were pushed apart at depth / (2 * time
 #: constant): a wall overlapping another by 6 mm left at 8 m/s and through the floor.
 GROUND_DAMPING_RATIO = 2.0
+#: Bullet's cap on two shapes' combined friction (btManifoldResult.cpp, MAX_FRICTION): a material
+#: of 100 (RLBench's chairs, Robotiq fingers, wheels) on any other meets it at 10.
+BULLET_MAX_FRICTION = 10.0
 
 
 def write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
@@ -115,8 +118,9 @@ class GeomMaker:
             g.density = 0.0  # bodies get the file's mass and inertia, not the geoms'
             if shape.friction is not None:
                 # Bullet multiplies the two shapes' coefficients, MuJoCo takes the larger:
-                # mu^2 gives Bullet's value for two equal materials
-                g.friction = [shape.friction ** 2, 0.005, 0.0001]
+                # mu^2 gives Bullet's value for two equal materials; Bullet caps the product
+                # (btManifoldResult::calculateCombinedFriction, MAX_FRICTION)
+                g.friction = [min(shape.friction ** 2, BULLET_MAX_FRICTION), 0.005, 0.0001]
             if g.material:  # the texture over the shape's colour as V-REP applies it (looks.py)
                 g.rgba = texture_colour(look, mesh.texture_mode)
             elif mesh.texture >= 0 and visible and not lines and g.type != mujoco.mjtGeom.mjGEOM_MESH and \

@@ -34,3 +34,8 @@ def test_the_scenes_bullet_version_picks_the_coefficient(tmp_path, version, expe
 def test_a_material_from_before_2016_has_one_coefficient_for_both(tmp_path):
     assert _friction(tmp_path, 283, W.bullet_material(0.4)) == [pytest.approx(0.16, rel=1e-5)]
     assert _friction(tmp_path, None, W.bullet_material(0.4)) == [pytest.approx(0.16, rel=1e-5)]
+
+
+def test_a_combined_friction_is_capped_as_bullets(tmp_path):
+    # btManifoldResult::calculateCombinedFriction caps the product at 10: RLBench's chairs (100)
+    assert _friction(tmp_path, None, W.bullet_material(100.0, 100.0)) == [pytest.approx(10.0)]
