@@ -33,6 +33,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError
 from simx_server.sim import properties, proximity_volume
+from simx_server.sim.proximity_volume import axis_offset, volume_span
 from simx_server.sim.sensors import site_sensor
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import PROXIMITY_SENSOR, SHAPE, World
@@ -64,34 +65,6 @@ def sensable(obj: Any) -> int:
     if value not in names.values():
         raise ArgumentError(f"proximity sensor {obj.name!r}: sensable={raw!r} in its simx: settings is not "
                             f"one of {sorted(names.values())} or {sorted(names)}")
-    return value
-
-
-def axis_offset(obj: Any) -> float:
-    """Where a ray-type proximity sensor's ray starts along its +z, or where a cone-type one's
-    apex lies (its ``simx:`` setting ``offset=``, m, may be negative; 0 when not set), as
-    CoppeliaSim's: the ray runs from ``(0, 0, offset)`` for ``range`` m (coppeliaSimLib
-    ``CProxSensorRoutine::_detectShape``, ray branch, with ``geom_raySensorDetectMeshIfSmaller``),
-    the cone volume is translated by it (``CConvexVolume``), and distances are measured from
-    the sensor's origin. Raises ArgumentError for a value that is not a
-    number within 1000 m (``CConvexVolume::setOffset``'s bounds).
-
-    Args:
-        obj: a proximity sensor's scene object.
-
-    Returns:
-        The offset, m.
-    """
-    raw = obj.settings.get("offset")
-    if raw is None:
-        return 0.0
-    try:
-        value = float(raw)
-    except ValueError:
-        value = math.nan
-    if not -1000 <= value <= 1000:
-        raise ArgumentError(f"proximity sensor {obj.name!r}: offset={raw!r} in its simx: settings is not "
-                            "a distance in m within 1000")
     return value
 
 
@@ -243,7 +216,8 @@ def _floats(obj: Any, key: str, count: int, default: tuple[float, ...]) -> tuple
 def volume_rays(obj: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The rays of a ``volume=pyramid|cylinder|disc`` proximity sensor, in its frame: origins
     (n, 3) m, unit directions (n, 3), lengths (n,) m; None for ray and cone types. The volume
-    lies between ``offset=`` (m, default 0) and the rangefinder's ``cutoff`` along +z, as V-REP's:
+    lies along +z between ``offset=`` (m, default 0, may be negative) and the rangefinder's
+    ``cutoff`` or the ``far=`` setting (:func:`volume_span`), as V-REP's:
 
     * ``pyramid``: a frustum from an ``size=X,Y`` rectangle at the offset to ``size_far=X,Y`` at
       the cutoff (m); a VOLUME_GRID x VOLUME_GRID grid of rays joining the two faces;
@@ -274,8 +248,7 @@ def _volume_rays(name: str, settings: tuple, cutoff: float) -> tuple[np.ndarray,
 
 def _make_volume_rays(obj: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     kind = obj.settings.get("volume", "ray")
-    (offset,) = _floats(obj, "offset", 1, (0.0,))
-    far = cutoff if math.isfinite(cutoff) else offset + 1.0
+    offset, far = volume_span(obj, cutoff)
     if far <= offset:
         raise ArgumentError(f"proximity sensor {obj.name!r}: its range ends (cutoff {far} m) before offset={offset}")
     if kind == "pyramid":
@@ -338,8 +311,7 @@ def _pyramid_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray,
     """A pyramid volume's exact detection among triangle geoms
     (:func:`simx_server.sim.proximity_volume.nearest_inside`), its frustum from :func:`volume_rays`'
     settings."""
-    (offset,) = _floats(obj, "offset", 1, (0.0,))
-    far = cutoff if math.isfinite(cutoff) else offset + 1.0
+    offset, far = volume_span(obj, cutoff)
     x, y = _floats(obj, "size", 2, (0.1, 0.1))
     planes = proximity_volume.pyramid(offset, far, (x, y), _floats(obj, "size_far", 2, (x, y)))
     return proximity_volume.nearest_inside(m, d, rot, origin, exclude, seen, planes, max_angle(obj))
@@ -506,8 +478,7 @@ def dummy_reading(world: World, handle: int, dummy: int) -> tuple[bool, list[flo
         inside = (reach > 0 and near <= reach <= far - axis_offset(obj)
                   and math.acos(max(-1.0, min(1.0, q[2] / reach))) <= cone_angle(obj) / 2)
     else:
-        (offset,) = _floats(obj, "offset", 1, (0.0,))
-        end = far if math.isfinite(far) else offset + 1.0
+        offset, end = volume_span(obj, far)
         f = (p[2] - offset) / (end - offset) if end > offset else -1.0
         if kind == "pyramid":
             x, y = _floats(obj, "size", 2, (0.1, 0.1))

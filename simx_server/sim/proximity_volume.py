@@ -12,21 +12,84 @@ nearest to the origin is found; the nearest of all is the detection. No triangle
 CoppeliaSim's volume sensors see through everything. Triangles come from mesh geoms (MuJoCo's
 ``mesh_vert``/``mesh_face``), boxes (12) and planes (2, an infinite plane cut to the volume's
 reach); geoms of other types have no triangles in MuJoCo and are left to the rays
-(:mod:`simx_server.sim.proximity`).
+(:mod:`simx_server.sim.proximity`). Where a sensor's volume lies along its axis (its offset,
+which may be negative, and its far end) is read here too (:func:`axis_offset`,
+:func:`volume_span`).
 """
 
 from __future__ import annotations
 
 import math
 
+from typing import Any
+
 import mujoco
 import numpy as np
+
+from simx_wire.protocol import ArgumentError
 
 _MESH, _BOX, _PLANE = (int(mujoco.mjtGeom.mjGEOM_MESH), int(mujoco.mjtGeom.mjGEOM_BOX),
                        int(mujoco.mjtGeom.mjGEOM_PLANE))
 _BOX_FACES = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
                        [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]])
 _BOX_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+
+
+def axis_offset(obj: Any) -> float:
+    """Where a ray-type proximity sensor's ray starts along its +z, or where a cone-type one's
+    apex lies (its ``simx:`` setting ``offset=``, m, may be negative; 0 when not set), as
+    CoppeliaSim's: the ray runs from ``(0, 0, offset)`` for ``range`` m (coppeliaSimLib
+    ``CProxSensorRoutine::_detectShape``, ray branch, with ``geom_raySensorDetectMeshIfSmaller``),
+    the cone volume is translated by it (``CConvexVolume``), and distances are measured from
+    the sensor's origin. Raises ArgumentError for a value that is not a
+    number within 1000 m (``CConvexVolume::setOffset``'s bounds).
+
+    Args:
+        obj: a proximity sensor's scene object.
+
+    Returns:
+        The offset, m.
+    """
+    raw = obj.settings.get("offset")
+    if raw is None:
+        return 0.0
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not -1000 <= value <= 1000:
+        raise ArgumentError(f"proximity sensor {obj.name!r}: offset={raw!r} in its simx: settings is not "
+                            "a distance in m within 1000")
+    return value
+
+
+def volume_span(obj: Any, cutoff: float) -> tuple[float, float]:
+    """Where a volume-type sensor's volume starts and ends along its +z (m): from its
+    :func:`axis_offset` (``CConvexVolume``'s offset, which may be negative) to its ``far=``
+    setting where it has one (a volume that ends at or behind the sensor's origin, which a
+    rangefinder's cutoff cannot hold: RLBench's light_bulb_out's ``success`` sensor, offset
+    -0.015 m, range 0.01 m), else to the rangefinder's ``cutoff`` (1 m past the offset when
+    unlimited). Raises ArgumentError for a bad ``offset=`` or ``far=``.
+
+    Args:
+        obj: a proximity sensor's scene object.
+        cutoff: its rangefinder's cutoff, m (``math.inf``: unlimited).
+
+    Returns:
+        ``(offset, far)``, m.
+    """
+    offset = axis_offset(obj)
+    raw = obj.settings.get("far")
+    if raw is not None:
+        try:
+            far = float(raw)
+        except ValueError:
+            far = math.nan
+        if not -1000 <= far <= 1000:
+            raise ArgumentError(f"proximity sensor {obj.name!r}: far={raw!r} in its simx: settings is not "
+                                "a distance in m within 1000")
+        return offset, far
+    return offset, cutoff if math.isfinite(cutoff) else offset + 1.0
 
 
 def triangle_geoms(m: mujoco.MjModel) -> np.ndarray:

@@ -116,7 +116,10 @@ def _volume_settings(p) -> list[str] | None:
     """The ``simx:`` settings of a pyramid, cylinder or disc volume, None where the file's sizes
     are not usable (not finite, negative)."""
     kind = _VOLUMES[p.type]
-    items = [f"volume={kind}", f"offset={max(p.offset, 0.0):.6g}"]
+    start = min(max(p.offset, -1000.0), 1000.0) if math.isfinite(p.offset) else 0.0
+    items = [f"volume={kind}", f"offset={start:.6g}"]
+    if start + p.range < 1e-3 and kind != "disc":  # ends at or behind the origin: past what a cutoff holds
+        items.append(f"far={start + p.range:.6g}")
     sizes = p.sizes
     if kind == "pyramid" and len(sizes) >= 4:
         values = sizes[:4]

@@ -159,3 +159,33 @@ def test_check_proximity_sensor_ex2_rays_start_at_the_offset(tmp_path):
         assert api.checkProximitySensorEx2(eye, square(1.2), 2, 2, 3, 0.15, 0)[0] == 0  # beyond the threshold
     finally:
         sim.close()
+
+
+def test_a_pyramid_volume_behind_its_origin_sees_there(tmp_path):
+    """RLBench's light_bulb_out ``success`` sensor: a pyramid with offset -0.015 m and range
+    0.01 m sees only between 0.015 and 0.005 m below its origin (``CConvexVolume::setOffset``
+    takes -1000..1000 m); simx clamped the offset to 0 and the far end to its 1 mm cutoff."""
+    no_gravity = W.rec("DYN", W.lst(W.rec("En2", W.i32(0) + W.f32(0, 0, 0))))
+    body = (no_gravity
+            + W.cuboid_shape(1, -1, "Bulb", (0.02, 0.02, 0.02), (0.5, 0, 0.99), dynamic=False)
+            + W.proximity_sensor(2, -1, "Success", kind=30, offset=-0.015, reach=0.01,
+                                 sizes=(0.02, 0.02, 0.02, 0.02, 0.1, 0.2), pos=(0, 0, 1)))
+    f = tmp_path / "holder.ttt"
+    f.write_bytes(W.ttt_file(body, serialization=25, program=40700))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "holder")
+    sim = Simulation(xml, realtime=False)
+    try:
+        assert sim.world.resolve("Success").settings.get("far") == "-0.005"
+        api = client_context(sim).sim
+        sensor, bulb = api.getObject("/Success"), api.getObject("/Bulb")
+        assert api.checkProximitySensor(sensor, bulb)[0] == 0  # beside the volume
+        api.setObjectPosition(bulb, -1, [0, 0, 0.98])  # top face 0.01 m below the origin: inside
+        res, dist, point, hit, _ = api.readProximitySensor(sensor)
+        assert (res, hit) == (1, bulb) and dist == pytest.approx(0.01, abs=1e-3)
+        assert point[2] == pytest.approx(-0.01, abs=1e-3)
+        api.setObjectPosition(bulb, -1, [0, 0, 1.005])  # straddling the origin: its bottom 5 mm below
+        assert api.checkProximitySensor(sensor, bulb)[0] == 1
+        api.setObjectPosition(bulb, -1, [0, 0, 1.02])  # above the origin: out of the volume
+        assert api.checkProximitySensor(sensor, bulb)[0] == 0
+    finally:
+        sim.close()
