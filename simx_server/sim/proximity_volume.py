@@ -50,15 +50,22 @@ def axis_offset(obj: Any) -> float:
     Returns:
         The offset, m.
     """
-    raw = obj.settings.get("offset")
+    value = _distance(obj, "offset")
+    return 0.0 if value is None else value
+
+
+def _distance(obj: Any, key: str) -> float | None:
+    """The sensor's ``simx:`` setting ``key`` as a distance along its axis (m, within 1000 as
+    ``CConvexVolume::setOffset`` takes), None where it has none; ArgumentError for another value."""
+    raw = obj.settings.get(key)
     if raw is None:
-        return 0.0
+        return None
     try:
         value = float(raw)
     except ValueError:
         value = math.nan
     if not -1000 <= value <= 1000:
-        raise ArgumentError(f"proximity sensor {obj.name!r}: offset={raw!r} in its simx: settings is not "
+        raise ArgumentError(f"proximity sensor {obj.name!r}: {key}={raw!r} in its simx: settings is not "
                             "a distance in m within 1000")
     return value
 
@@ -78,16 +85,8 @@ def volume_span(obj: Any, cutoff: float) -> tuple[float, float]:
     Returns:
         ``(offset, far)``, m.
     """
-    offset = axis_offset(obj)
-    raw = obj.settings.get("far")
-    if raw is not None:
-        try:
-            far = float(raw)
-        except ValueError:
-            far = math.nan
-        if not -1000 <= far <= 1000:
-            raise ArgumentError(f"proximity sensor {obj.name!r}: far={raw!r} in its simx: settings is not "
-                                "a distance in m within 1000")
+    offset, far = axis_offset(obj), _distance(obj, "far")
+    if far is not None:
         return offset, far
     return offset, cutoff if math.isfinite(cutoff) else offset + 1.0
 
