@@ -20,7 +20,6 @@ which may be negative, and its far end) is read here too (:func:`axis_offset`,
 from __future__ import annotations
 
 import math
-
 from typing import Any
 
 import mujoco

@@ -108,17 +108,18 @@ def _spring(jt, j) -> bool:
     return True
 
 
+#: The least rangefinder cutoff a proximity sensor gets (m): MuJoCo's cutoff 0 means none.
+_MIN_CUTOFF = 1e-3
 #: V-REP's proximity volume types (``Snt``) that simx casts as sets of rays (sim/proximity.py).
 _VOLUMES = {30: "pyramid", 31: "cylinder", 32: "disc"}
 
 
-def _volume_settings(p) -> list[str] | None:
-    """The ``simx:`` settings of a pyramid, cylinder or disc volume, None where the file's sizes
-    are not usable (not finite, negative)."""
+def _volume_settings(p, start: float) -> list[str] | None:
+    """The ``simx:`` settings of a pyramid, cylinder or disc volume starting at ``start`` m
+    (:func:`_near_part`), None where the file's sizes are not usable (not finite, negative)."""
     kind = _VOLUMES[p.type]
-    start = min(max(p.offset, -1000.0), 1000.0) if math.isfinite(p.offset) else 0.0
     items = [f"volume={kind}", f"offset={start:.6g}"]
-    if start + p.range < 1e-3 and kind != "disc":  # ends at or behind the origin: past what a cutoff holds
+    if start + p.range < _MIN_CUTOFF and kind != "disc":  # ends at or behind the origin: past what a cutoff holds
         items.append(f"far={start + p.range:.6g}")
     sizes = p.sizes
     if kind == "pyramid" and len(sizes) >= 4:
@@ -198,12 +199,12 @@ def add_sensor(conv, obj: TttObject, body, local: Pose) -> None:
         sensor.objname = obj.name
         cone = p.type == _PROXIMITY_CONE and p.angle > 1e-3
         start, near = _near_part(p, cone)
-        sensor.cutoff = max(start + near + p.range, 1e-3)
+        sensor.cutoff = max(start + near + p.range, _MIN_CUTOFF)
         sensor.intprm[0] = 1  # the distance (what MJCF's parser sets by default)
         if cone:
             conv.setting(obj.name, f"angle={math.degrees(p.angle):.6g}", *_start_settings(start, near))
-        elif p.type in _VOLUMES and _volume_settings(p) is not None:
-            conv.setting(obj.name, *_volume_settings(p))
+        elif p.type in _VOLUMES and (volume := _volume_settings(p, start)) is not None:
+            conv.setting(obj.name, *volume)
         elif p.type == 34:
             if start != 0:
                 conv.setting(obj.name, *_start_settings(start, 0.0))
