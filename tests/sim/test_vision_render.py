@@ -68,3 +68,35 @@ def test_a_bad_flag_names_the_sensor(tmp_path):
     path.write_text(SCENE.replace('data="shadows=true"', 'data="shadows=maybe"'))
     with pytest.raises(ValueError, match="shadowed.*shadows"):
         Simulation(path, dt=0.05, realtime=False)
+
+
+# A white square seen at an angle on black, lit by ambient light only (every pixel of a face
+# the same colour), in a scene that keeps MuJoCo's default 4 samples per pixel.
+EDGES = """
+<mujoco>
+  <visual><headlight ambient="1 1 1" diffuse="0 0 0" specular="0 0 0"/></visual>
+  <worldbody>
+    <body pos="0 0 0" euler="0 0 0.3"><geom type="box" size="0.3 0.3 0.01" rgba="1 1 1 1"/></body>
+    <camera name="cam" pos="0 0 2" resolution="64 64" fovy="45"/>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_sensor_images_are_not_anti_aliased(tmp_path):
+    """V-REP's sensors draw into a framebuffer without samples (CFrameBufferObject): a
+    slanted edge is a staircase of the face's colour and the background's, nothing between."""
+    path = tmp_path / "edges.xml"
+    path.write_text(EDGES)
+    s = Simulation(path, dt=0.05, realtime=False)
+    try:
+        assert s.world.model.vis.quality.offsamples == 4  # the scene asks for multisampling
+        img = image(s, "cam")
+        assert s.world.model.vis.quality.offsamples == 4  # and keeps it (the viewer's)
+    finally:
+        s.close()
+    grey = img.sum(axis=2)
+    lit, dark = grey.max(), grey.min()
+    assert set(np.unique(grey)) == {lit, dark}  # no blended pixel on its slanted edges
+    assert lit > 600 and (grey == lit).sum() > 500  # the square
+    assert dark < 60 and (grey == dark).sum() > 500  # the background
