@@ -40,6 +40,10 @@ PARENT_FRICTION = 0.01
 ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
 
 
+#: MuJoCo's ``impratio`` of a converted scene (and PyRep's empty one, ``pyrep/assets/empty.xml``).
+STATIC_FRICTION_IMPRATIO = 10.0
+
+
 class Report:
     """What did not carry over as V-REP had it, by kind: ``counts`` ``{kind: count}`` of every
     kind; the kinds in ``approximated`` were carried over in the closest form MuJoCo has (the
@@ -101,6 +105,10 @@ class Converter:
         settings.apply(self)  # time step, gravity, real-time mode (simx:scene:simulation)
         self.spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         self.spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        # Bullet's, ODE's and Vortex's friction is static: a held or resting load does not move.
+        # MuJoCo's is a soft constraint that creeps at a speed proportional to the load over
+        # impratio; 10 makes it ten times stiffer than the normal (MuJoCo's advice for grasping)
+        self.spec.option.impratio = STATIC_FRICTION_IMPRATIO
         looks.headlight(self.spec, s.ambient)  # V-REP's ambient light, no camera headlight
         if s.background is not None:  # V-REP's background gradient as a sky box
             sky = self.spec.add_texture()

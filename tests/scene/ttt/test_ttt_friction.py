@@ -6,7 +6,10 @@ simDyn's Bullet 2.78 ``CRigidBodyDyn``). PyRep's TurtleBot wheels keep 0.71 and 
 
 from __future__ import annotations
 
+import math
+
 import mujoco
+import numpy as np
 import pytest
 
 import tttwriter as W
@@ -39,3 +42,31 @@ def test_a_material_from_before_2016_has_one_coefficient_for_both(tmp_path):
 def test_a_combined_friction_is_capped_as_bullets(tmp_path):
     # btManifoldResult::calculateCombinedFriction caps the product at 10: RLBench's chairs (100)
     assert _friction(tmp_path, None, W.bullet_material(100.0, 100.0)) == [pytest.approx(10.0)]
+
+
+def test_a_block_on_a_slope_does_not_creep(tmp_path):
+    """Bullet's friction is static: a 0.1 kg block on a 20 degree slope (tan 20 = 0.36 < its
+    friction 0.5) stays where it is. MuJoCo's soft friction creeps at a speed proportional to
+    the load over ``impratio``: 0.9 mm in 5 s at 1; a converted scene's 10 gives a tenth."""
+    tilt = math.radians(20)
+    normal = np.array([math.sin(tilt), 0.0, math.cos(tilt)])  # the slope's +z, turned about y
+    quat = (math.cos(tilt / 2), 0.0, math.sin(tilt / 2), 0.0)
+    block_at = np.array([0.0, 0.0, 0.3]) + normal * 0.0355
+    body = (W.rec("SIM", W.lst(W.rec("Sts", W.f32(0.05)))) + W.dynamics()
+            + W.cuboid_shape(1, -1, "slope", (0.6, 0.3, 0.02), (0, 0, 0.3), dynamic=False, quat=quat)
+            + W.cuboid_shape(2, -1, "block", (0.05, 0.05, 0.05), tuple(block_at), mass=0.1, quat=quat,
+                             moments=(0.05 ** 2 / 6,) * 3))
+    f = tmp_path / "slope.ttt"
+    f.write_bytes(W.ttt_file(body))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "slope")
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(m)
+    block = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "block")
+    second = round(1 / m.opt.timestep)
+    for _ in range(second):  # settled
+        mujoco.mj_step(m, d)
+    start = d.xpos[block].copy()
+    for _ in range(5 * second):
+        mujoco.mj_step(m, d)
+    assert np.linalg.norm(d.xpos[block] - start) < 3e-4  # 0.9 mm at impratio 1
+    assert m.opt.impratio == 10.0
