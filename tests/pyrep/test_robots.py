@@ -280,3 +280,41 @@ def test_panda_ik_via_jacobian_is_its_groups_own(pr):
     assert np.allclose(arm.get_joint_positions(), start) and not np.allclose(near, start, atol=0.05)
     with pytest.raises(IKError):
         arm.solve_ik_via_jacobian([x, y, z - 0.4], quaternion=q)
+
+
+@pytest.mark.parametrize("max_velocity", [1.0, 8.0])
+def test_a_path_is_timed_by_its_length_as_pyreps_reflexxes_motion(pr, max_velocity):
+    """PyRep moves along a path by its length in joint space, at the arm's ``max_velocity``
+    (rad/s) and ``max_acceleration`` (4 rad/s2), slowed where a joint would exceed its own
+    velocity limit, one simulation step per ``step()`` (``_get_rml_handle``, ``_step_motion``):
+    a 0.8 rad move of one joint at 1 rad/s is done in 1.05 s of motion (0.8 / 1 + 1 / 4)
+    whatever the number of its points, not one point per step; asked 8 rad/s, the Panda's
+    joint limit (2.175 rad/s) bounds it."""
+    from pyrep.robots.arms.panda import Panda
+    from pyrep.robots.configuration_paths.arm_configuration_path import ArmConfigurationPath
+
+    pr.stop()
+    pr.import_model(str(require_shared(MODELS / "arms" / "Panda.ttm")))
+    pr.start()
+    arm = Panda(max_velocity=max_velocity)
+    start = np.array(arm.get_joint_positions())
+    end = start.copy()
+    end[3] += 0.8
+    dt = 0.05
+    for points in (2, 200):
+        path = ArmConfigurationPath(arm, np.linspace(start, end, points))
+        targets = [start]
+        while True:
+            done = path.step()
+            targets.append(np.array(arm.get_joint_target_positions()))
+            if done:
+                break
+        speeds = np.abs(np.diff(targets, axis=0)).max(axis=1) / dt
+        limit = min(max_velocity, arm.joints[3].get_joint_upper_velocity_limit())
+        assert np.allclose(targets[-1], end)
+        assert speeds.max() <= limit * 1.002
+        # 0.8 / v + v / a where the top speed is reached (0.8 > v^2 / a), else 2 sqrt(0.8 / a);
+        # the jerk limit (1000 rad/s3) adds 4 ms
+        duration = 0.8 / limit + limit / 4.0 if 0.8 > limit ** 2 / 4.0 else 2 * np.sqrt(0.8 / 4.0)
+        assert len(targets) - 1 in (int(np.ceil(duration / dt)), int(np.ceil(duration / dt)) + 1)
+        path.set_to_start()

@@ -298,8 +298,9 @@ class Arm(RobotComponent):
         searches, the shortest valid path kept. A failing call ends within PyRep's bounds: the
         goals' search ``trials * max_time_ms`` ms, then ``trials_per_goal`` searches of 4 s. The path is simplified by OMPL and made of the
         states OMPL checked, at most ``max_velocity`` times the simulation step apart (motions are
-        checked that finely; one configuration per ``step()`` of the path; PyRep interpolates
-        its path to 300 configurations and times it with the Reflexxes library).
+        checked that finely; PyRep interpolates its path to 300 configurations). Either way
+        ``step()`` moves along it by its length in joint space, timed as PyRep's Reflexxes
+        motion (:class:`~pyrep.robots.configuration_paths.arm_configuration_path.ArmConfigurationPath`).
 
         Args:
             algorithm: a :class:`pyrep.const.ConfigurationPathAlgorithms`. Those OMPL's Python
