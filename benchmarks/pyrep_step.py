@@ -31,6 +31,17 @@ import numpy as np
 MODELS = Path(__file__).resolve().parents[1].parent / "shared" / "pyrep" / "robot_ttms"
 
 
+def sensor_floor_renderer(m: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """A ``mujoco.Renderer`` whose offscreen buffer is not multisampled, as simx's sensors
+    draw (V-REP's framebuffer objects have no samples): the floor draws what simx draws."""
+    saved = m.vis.quality.offsamples
+    m.vis.quality.offsamples = 0
+    try:
+        return mujoco.Renderer(m, width, height)
+    finally:
+        m.vis.quality.offsamples = saved
+
+
 def _setup(camera: bool):
     from pyrep import PyRep
     from pyrep.objects import VisionSensor
@@ -81,7 +92,7 @@ def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple
         d = mujoco.MjData(m)
         mujoco.mj_copyData(d, m, world.data)
         substeps = world.substeps
-        renderer = mujoco.Renderer(m, 128, 128) if sensor is not None else None
+        renderer = sensor_floor_renderer(m, 128, 128) if sensor is not None else None
         cam = int(np.argmax([m.camera(i).name.startswith("Vision_sensor") for i in range(m.ncam)])) if renderer else -1
 
         def floor() -> None:

@@ -10,7 +10,8 @@ code), not measured here.
 
 The floor runs the same compiled ``MjModel`` on its own ``MjData``: ``mj_step`` as many times as
 simx's step has substeps, and per camera a ``mujoco.Renderer`` RGB image, depth image and
-segmentation image of the same camera (no shadows, no reflections, as simx's sensors). Reports
+segmentation image of the same camera (no shadows, no reflections, no multisampling, as
+simx's sensors). Reports
 ms per step (median of rounds) and the ratio to the floor. Nothing is asserted.
 
 Scenes: the project's own ``scenes/ur5_rg2_kinect.xml`` (UR5 + RG2, the RG2's scripts run) with
@@ -37,6 +38,8 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+
+from benchmarks.pyrep_step import sensor_floor_renderer
 
 OWN_SCENE = Path(__file__).resolve().parents[1] / "scenes" / "ur5_rg2_kinect.xml"
 RLBENCH_CAMERAS = ("cam_front", "cam_overhead", "cam_over_shoulder_left", "cam_over_shoulder_right", "cam_wrist")
@@ -144,7 +147,7 @@ def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", pr
         d = mujoco.MjData(m)
         mujoco.mj_copyData(d, m, world.data)
         substeps = world.substeps
-        renderer = mujoco.Renderer(m, SIZE, SIZE)
+        renderer = sensor_floor_renderer(m, SIZE, SIZE)
         ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, cam.get_name()) for cam, _ in cams]
 
         def floor_physics() -> None:
