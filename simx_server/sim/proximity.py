@@ -10,11 +10,12 @@ site carrying a ``rangefinder``.
   filling the cone of that opening angle around +z, from its apex ``offset=`` m up the axis,
   seeing from ``radius=`` m (default 0) from the apex to the cutoff; the hit nearest to the
   site is the detection.
-* ``volume=pyramid``: the nearest point of the detectable triangles inside the frustum, exactly
-  as CoppeliaSim's volume sensors find it (:mod:`simx_server.sim.proximity_volume`; geoms with
-  no triangles in MuJoCo, spheres, capsules..., by rays);
-* ``volume=cylinder`` or ``disc``: V-REP's other volume types, each a set of rays filling the
-  volume (:func:`volume_rays`).
+* ``volume=pyramid`` or ``cylinder``: the nearest point of the detectable triangles inside the
+  frustum or the ``faces=``-sided prism, exactly as CoppeliaSim's volume sensors find it
+  (:mod:`simx_server.sim.proximity_volume`; geoms with no triangles in MuJoCo, spheres,
+  capsules..., by rays);
+* ``volume=disc``: V-REP's other volume type, a set of rays filling the volume
+  (:func:`volume_rays`).
 * what is seen: shapes that are detectable by the sensor's type (``sensable=``, V-REP's
   detectable flags, :mod:`simx_server.sim.properties`; coppeliaSimLib
   ``CProxSensorRoutine::detectEntity`` with ``getAllDetectableObjectsFromSceneExcept``), and the
@@ -306,14 +307,22 @@ def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np
     return float(np.linalg.norm(points[k])), int(geoms[i]), points[k], normals[i].copy()
 
 
-def _pyramid_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, origin: np.ndarray,
-                 exclude: int, seen: np.ndarray, cutoff: float) -> tuple[float, int, np.ndarray, np.ndarray] | None:
-    """A pyramid volume's exact detection among triangle geoms
-    (:func:`simx_server.sim.proximity_volume.nearest_inside`), its frustum from :func:`volume_rays`'
-    settings."""
+def _exact_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, origin: np.ndarray,
+               exclude: int, seen: np.ndarray, cutoff: float) -> tuple[float, int, np.ndarray, np.ndarray] | None:
+    """A pyramid or cylinder volume's exact detection among triangle geoms
+    (:func:`simx_server.sim.proximity_volume.nearest_inside`), its planes from :func:`volume_rays`'
+    settings (a cylinder's ``faces=``, default 32, CoppeliaSim's)."""
     offset, far = volume_span(obj, cutoff)
-    x, y = _floats(obj, "size", 2, (0.1, 0.1))
-    planes = proximity_volume.pyramid(offset, far, (x, y), _floats(obj, "size_far", 2, (x, y)))
+    if obj.settings.get("volume") == "cylinder":
+        (r,) = _floats(obj, "radius", 1, (0.05,))
+        (rf,) = _floats(obj, "radius_far", 1, (r,))
+        faces = int(_floats(obj, "faces", 1, (32,))[0])
+        if not 3 <= faces <= 1024:
+            raise ArgumentError(f"proximity sensor {obj.name!r}: faces={faces} must lie in 3..1024")
+        planes = proximity_volume.cylinder(offset, far, r, rf, faces)
+    else:
+        x, y = _floats(obj, "size", 2, (0.1, 0.1))
+        planes = proximity_volume.pyramid(offset, far, (x, y), _floats(obj, "size_far", 2, (x, y)))
     return proximity_volume.nearest_inside(m, d, rot, origin, exclude, seen, planes, max_angle(obj))
 
 
@@ -407,10 +416,10 @@ def proximity_reading(sim: SimulationView, handle: int,
         seen = np.zeros(m.ngeom, dtype=bool)
         seen[properties.shape_geoms(m, world.get(entity, SHAPE).mj_id)] = True
     if rays is not None:
-        pyramid = obj.settings.get("volume") == "pyramid"
-        exact = _pyramid_hit(m, d, obj, rot, origin, exclude, seen, cutoff) if pyramid else None
+        planar = obj.settings.get("volume") in ("pyramid", "cylinder")
+        exact = _exact_hit(m, d, obj, rot, origin, exclude, seen, cutoff) if planar else None
         found = _volume_hit(m, d, rot, origin, exclude, rays,
-                            seen & ~proximity_volume.triangle_geoms(m) if pyramid else seen)
+                            seen & ~proximity_volume.triangle_geoms(m) if planar else seen)
         if exact is not None and (found is None or exact[0] < found[0]):
             found = exact
         if found is None:

@@ -1,8 +1,9 @@
-"""The exact detection of a pyramid-type proximity sensor: the point nearest to the sensor's
-origin of the detectable triangles inside its volume, as CoppeliaSim computes it for its volume
-sensors (coppeliaSimLib ``CProxSensorRoutine::_detectShape``, non-ray branch:
+"""The exact detection of a pyramid- or cylinder-type proximity sensor: the point nearest to the
+sensor's origin of the detectable triangles inside its volume, as CoppeliaSim computes it for its
+volume sensors (coppeliaSimLib ``CProxSensorRoutine::_detectShape``, non-ray branch:
 ``geomPlugin_volumeSensorDetectMeshIfSmaller`` with the volume's ``planesInside``, built by
-``CConvexVolume::computeVolumes``: six planes for a pyramid). Casting rays through the volume
+``CConvexVolume::computeVolumes``: six planes for a pyramid, two caps and ``faceNumber`` sides
+for a cylinder). Casting rays through the volume
 misses what crosses it between the rays, and sees nothing of a surface the rays start on or
 behind (a floor through the sensor's near face: CoppeliaSim reports the near face's centre).
 
@@ -128,6 +129,36 @@ def pyramid(offset: float, far: float, size: tuple[float, float],
     return normals, offsets, corners
 
 
+def cylinder(offset: float, far: float, radius: float, radius_far: float,
+             faces: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A cylinder volume's planes and corners in the sensor frame, as CoppeliaSim builds it
+    (``CConvexVolume::computeVolumes``, CYLINDER_TYPE_CONVEX_VOLUME): a prism (a frustum where
+    the radii differ) of ``faces`` sides inscribed in circles of ``radius`` at ``offset`` and
+    ``radius_far`` at ``far`` along +z, the first side's normal along +x.
+
+    Args:
+        offset: m.
+        far: m, more than ``offset``.
+        radius: m, at ``offset``.
+        radius_far: m, at ``far``.
+        faces: sides, 3 to 1024.
+
+    Returns:
+        ``(normals (faces + 2, 3), offsets (faces + 2,), corners (2 faces, 3))``, as
+        :func:`pyramid`.
+    """
+    alpha = math.pi / faces
+    k = math.cos(alpha) * (radius_far - radius) / (far - offset)  # the apothem's growth along z
+    phi = 2 * alpha * np.arange(faces)
+    sides = np.column_stack([np.cos(phi), np.sin(phi), np.full(faces, -k)])
+    normals = np.vstack([[[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]], sides])
+    offsets = np.concatenate([[-offset, far], np.full(faces, math.cos(alpha) * radius - k * offset)])
+    corner = phi + alpha
+    corners = np.vstack([np.column_stack([r * np.cos(corner), r * np.sin(corner), np.full(faces, z)])
+                         for z, r in ((offset, radius), (far, radius_far))])
+    return normals, offsets, corners
+
+
 def _geom_triangles(m: mujoco.MjModel, d: mujoco.MjData, g: int, centre: np.ndarray, reach: float) -> np.ndarray:
     """Triangles (t, 3, 3) of geom ``g`` in the world frame; an infinite plane cut to a square of
     ``reach`` around ``centre``'s foot."""
@@ -202,7 +233,7 @@ def nearest_inside(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin:
         origin: the sensor's origin (3,), world.
         exclude: the sensor's own body.
         seen: (ngeom,) the geoms that may be detected.
-        planes: what :func:`pyramid` returned (sensor frame).
+        planes: what :func:`pyramid` or :func:`cylinder` returned (sensor frame).
         max_angle: rad; a triangle is seen only where the line from the origin meets it at most
             this far from its normal (V-REP's "limited angle detection"); pi/2: every triangle.
 

@@ -1,8 +1,8 @@
 """V-REP's pyramid, cylinder and disc proximity volumes (``volume=`` in a sensor's ``simx:``
-settings, what ``simx-convert`` writes from a ``.ttt`` file's sensors): the pyramid exact on
-triangles (simx_server/sim/proximity_volume.py), the others a set of rays filling the volume
-(simx_server/sim/proximity.py ``volume_rays``); the reading is the detection nearest to the
-sensor's origin, as V-REP's."""
+settings, what ``simx-convert`` writes from a ``.ttt`` file's sensors): the pyramid and the
+cylinder exact on triangles (simx_server/sim/proximity_volume.py), the disc a set of rays filling
+the volume (simx_server/sim/proximity.py ``volume_rays``); the reading is the detection nearest
+to the sensor's origin, as V-REP's."""
 
 from __future__ import annotations
 
@@ -99,5 +99,39 @@ def test_pyramid_finds_the_nearest_point_inside_exactly(tmp_path):
         assert detected and handle == rod
         assert point == pytest.approx([0.03, 0.01, 0.249], abs=1e-9)  # its corner nearest the sensor
         assert normal[2] == pytest.approx(-1.0)  # its face towards the sensor
+    finally:
+        sim.close()
+
+
+BAR = """<mujoco model="bar">
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <site name="Sensor" pos="0 0 0" zaxis="1 0 0"/>
+    <body name="bar" pos="0.1 0 {z}"><geom type="box" size="0.27 0.014 0.014"/></body>
+  </worldbody>
+  <sensor><rangefinder site="Sensor" cutoff="0.2"/></sensor>
+  <custom><text name="simx:Sensor" data="volume=cylinder radius=0.02 radius_far=0.02 faces={faces}"/></custom>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("z, faces, seen", [(-0.021, 32, True), (-0.021, 4, True), (-0.031, 32, True),
+                                             (-0.031, 4, False), (-0.04, 32, False)])
+def test_cylinder_sees_a_bar_along_its_axis_that_its_rays_start_inside(tmp_path, z, faces, seen):
+    """RLBench's open_oven: the open door's handle, a bar 0.54 m long, lies along the success
+    sensor's cylinder (radius 0.02 m, range 0.2 m) 7 mm below its axis and beyond both its ends.
+    CoppeliaSim sees its top face in the volume (a prism of ``faceNumber`` sides inscribed in the
+    circle, CConvexVolume); rays along the axis start inside the bar and saw nothing. A face
+    17 mm below the axis lies inside 32 sides (apothem 19.95 mm), outside 4 (14.1 mm)."""
+    path = tmp_path / "scene.xml"
+    path.write_text(BAR.format(z=z, faces=faces))
+    sim = Simulation(path, realtime=False)
+    try:
+        detected, point, handle, normal = proximity.proximity_reading(sim, sim.world.resolve("Sensor").handle)
+        assert detected is seen
+        if seen:
+            assert handle == sim.world.resolve("bar").handle
+            # on the near cap, the face's distance below the axis along the sensor's x (world -z)
+            assert point == pytest.approx([-(z + 0.014), 0.0, 0.0], abs=1e-9)
     finally:
         sim.close()

@@ -112,6 +112,7 @@ class ProximityData:
     #: far), m (``Ss3`` / ``_s3`` values 2-7)
     sizes: tuple[float, ...] = ()
     sensable: int = 16  # ``Sst``: the detectable bit it senses (16 ultrasonic ... 256 capacitive)
+    faces: int = 32     # ``Ssi`` faceNumber: the sides of a cylinder volume (CConvexVolume's default 32)
 
 
 @dataclass

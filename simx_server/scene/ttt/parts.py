@@ -128,6 +128,8 @@ def _volume_settings(p, start: float) -> list[str] | None:
     elif kind == "cylinder" and len(sizes) >= 6:
         values = sizes[4:6]
         items += [f"radius={values[0]:.6g}", f"radius_far={values[1]:.6g}"]
+        if 3 <= p.faces <= 1024:  # CConvexVolume::setFaceNumber's bounds for a cylinder
+            items.append(f"faces={p.faces}")
     elif kind == "disc" and 1e-3 < p.angle < math.pi:
         values = ()
         items.append(f"angle={math.degrees(p.angle):.6g}")

@@ -286,9 +286,10 @@ def _read_proximity(r: Records) -> ProximityData:
     ss3 = vol.floats("_s3", "Ss3", 9) if len(vol.get("_s3") or vol.get("Ss3") or b"") >= 36 else None
     offset, rng, angle = (float(ss3[0]), float(ss3[1]), float(ss3[8])) if ss3 is not None else (0.0, 0.1, 0.0)
     sizes = tuple(float(v) for v in ss3[2:8]) if ss3 is not None else ()
+    ssi = vol.ints("Ssi", 1) if len(vol.get("Ssi") or b"") >= 4 else None  # faceNumber, ...
     return ProximityData(type=r.int("Snt", 34), offset=offset, range=rng,
                          angle=angle if np.isfinite(angle) and 0 < angle < 2 * np.pi else 0.0, max_angle=None,
-                         sizes=sizes, sensable=r.int("Sst", 16))
+                         sizes=sizes, sensable=r.int("Sst", 16), faces=int(ssi[0]) if ssi is not None else 32)
 
 
 def _read_vision(r: Records) -> VisionData:

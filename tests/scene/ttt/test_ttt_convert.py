@@ -84,6 +84,7 @@ def test_proximity_volumes_become_settings(tmp_path):
     body = (W.cuboid_shape(1, -1, "Floor", (2, 2, 0.1), (0, 0, -0.05), dynamic=False)
             + W.proximity_sensor(2, -1, "Door", 30, 0.0, 0.2, (0.5, 1.3, 0.6, 1.4, 0, 0))
             + W.proximity_sensor(3, -1, "Tube", 31, 0.01, 0.3, (0, 0, 0, 0, 0.05, 0.08))
+            + W.proximity_sensor(7, -1, "Octagon", 31, 0.0, 0.2, (0, 0, 0, 0, 0.02, 0.02), faces=8)
             + W.proximity_sensor(4, -1, "Fan", 32, 0.0, 0.4, angle=1.0)
             + W.proximity_sensor(5, -1, "Sonar", 33, 0.0, 0.4, angle=0.5)
             + W.proximity_sensor(6, -1, "Beam", 34, 0.0, 0.4))
@@ -92,7 +93,9 @@ def test_proximity_volumes_become_settings(tmp_path):
     xml, report = convert.convert(reader.read(f), tmp_path / "out", "sensors")
     texts = _settings(xml)
     assert texts["simx:Door"] == "volume=pyramid offset=0 size=0.5,1.3 size_far=0.6,1.4"
-    assert texts["simx:Tube"] == "volume=cylinder offset=0.01 radius=0.05 radius_far=0.08"
+    # a cylinder's sides: the file's faceNumber (Ssi), else CConvexVolume's default 32
+    assert texts["simx:Tube"] == "volume=cylinder offset=0.01 radius=0.05 radius_far=0.08 faces=32"
+    assert texts["simx:Octagon"] == "volume=cylinder offset=0 radius=0.02 radius_far=0.02 faces=8"
     assert texts["simx:Fan"] == "volume=disc offset=0 angle=57.2958"
     assert texts["simx:Sonar"] == "angle=28.6479"
     assert "simx:Beam" not in texts

@@ -281,11 +281,13 @@ def simple_scene(port: int = 19999, **kw) -> bytes:
 
 
 def proximity_sensor(handle: int, parent: int, name: str, kind: int = 34, offset: float = 0.0, reach: float = 0.5,
-                     sizes=(0.0,) * 6, angle: float = 0.0, pos=(0, 0, 0)) -> bytes:
+                     sizes=(0.0,) * 6, angle: float = 0.0, pos=(0, 0, 0), faces: int | None = None) -> bytes:
     """A proximity sensor (``SNR``): V-REP's volume type ``Snt`` (30 pyramid, 31 cylinder, 32 disc,
-    33 cone, 34 ray) and its ``Ss3`` values (offset, range, x, y, x far, y far, radius, radius
-    far, angle)."""
-    typed = lst(rec("Snt", i32(kind)), rec("Vod", lst(rec("Ss3", f32(offset, reach, *sizes, angle)))))
+    33 cone, 34 ray), its ``Ss3`` values (offset, range, x, y, x far, y far, radius, radius
+    far, angle) and, given ``faces``, its ``Ssi`` (faceNumber, faceNumberFar, subdivisions,
+    subdivisionsFar)."""
+    volume = rec("Ss3", f32(offset, reach, *sizes, angle)) + (b"" if faces is None else rec("Ssi", i32(faces, 32, 0, 0)))
+    typed = lst(rec("Snt", i32(kind)), rec("Vod", lst(volume)))
     return rec("SNR", common(handle, parent, name, pos) + typed)
 
 
