@@ -41,6 +41,7 @@ class ArmConfigurationPath(ConfigurationPath):
         self._joint_position_action: np.ndarray | None = None
         self._motion: Any = None  # ruckig's Trajectory, made at the first step
         self._time = 0.0          # s into the motion
+        self._cumulative = np.zeros(0)  # each point's distance along the path, made with the motion
 
     def __len__(self) -> int:
         return len(self._path_points) // self._num_joints
@@ -110,6 +111,7 @@ class ArmConfigurationPath(ConfigurationPath):
         dt = float(sim.call("getSimulationTimeStep"))
         if self._motion is None:
             self._motion = self._plan_motion(dt) if len(self) > 1 else None
+            self._cumulative = self._lengths()
             self._time = 0.0
         self._time += dt
         if self._motion is None or self._time >= self._motion.duration - 1e-9:
@@ -117,7 +119,7 @@ class ArmConfigurationPath(ConfigurationPath):
             self._path_done = True
         else:
             reached = self._motion.at_time(self._time)[0][0]
-            config = self._at(np.array([reached]), self._lengths())[0]
+            config = self._at(np.array([reached]), self._cumulative)[0]
         self._joint_position_action = config.copy()
         self._arm.set_joint_target_positions(config.tolist())
         return self._path_done
