@@ -310,20 +310,31 @@ def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np
 def _exact_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, origin: np.ndarray,
                exclude: int, seen: np.ndarray, cutoff: float) -> tuple[float, int, np.ndarray, np.ndarray] | None:
     """A pyramid or cylinder volume's exact detection among triangle geoms
-    (:func:`simx_server.sim.proximity_volume.nearest_inside`), its planes from :func:`volume_rays`'
-    settings (a cylinder's ``faces=``, default 32, CoppeliaSim's)."""
+    (:func:`simx_server.sim.proximity_volume.nearest_inside`), its planes from the same settings
+    as :func:`volume_rays` (a cylinder's ``faces=``, default 32, CoppeliaSim's), made once per
+    settings as the rays are."""
+    planes = _volume_planes(obj.name, tuple(sorted(obj.settings.items())), float(cutoff))
+    return proximity_volume.nearest_inside(m, d, rot, origin, exclude, seen, planes, max_angle(obj))
+
+
+@functools.lru_cache(maxsize=256)
+def _volume_planes(name: str, settings: tuple, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    obj = types.SimpleNamespace(name=name, settings=dict(settings))
     offset, far = volume_span(obj, cutoff)
     if obj.settings.get("volume") == "cylinder":
         (r,) = _floats(obj, "radius", 1, (0.05,))
         (rf,) = _floats(obj, "radius_far", 1, (r,))
         faces = int(_floats(obj, "faces", 1, (32,))[0])
-        if not 3 <= faces <= 1024:
-            raise ArgumentError(f"proximity sensor {obj.name!r}: faces={faces} must lie in 3..1024")
-        planes = proximity_volume.cylinder(offset, far, r, rf, faces)
+        low, high = proximity_volume.CYLINDER_FACES
+        if not low <= faces <= high:
+            raise ArgumentError(f"proximity sensor {name!r}: faces={faces} must lie in {low}..{high}")
+        out = proximity_volume.cylinder(offset, far, r, rf, faces)
     else:
         x, y = _floats(obj, "size", 2, (0.1, 0.1))
-        planes = proximity_volume.pyramid(offset, far, (x, y), _floats(obj, "size_far", 2, (x, y)))
-    return proximity_volume.nearest_inside(m, d, rot, origin, exclude, seen, planes, max_angle(obj))
+        out = proximity_volume.pyramid(offset, far, (x, y), _floats(obj, "size_far", 2, (x, y)))
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 def _cone_hit(m: mujoco.MjModel, d: mujoco.MjData, obj: Any, rot: np.ndarray, origin: np.ndarray, exclude: int,

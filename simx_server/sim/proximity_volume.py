@@ -129,6 +129,10 @@ def pyramid(offset: float, far: float, size: tuple[float, float],
     return normals, offsets, corners
 
 
+#: The sides a cylinder volume may have (``CConvexVolume::setFaceNumber``'s bounds for a cylinder).
+CYLINDER_FACES = (3, 1024)
+
+
 def cylinder(offset: float, far: float, radius: float, radius_far: float,
              faces: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A cylinder volume's planes and corners in the sensor frame, as CoppeliaSim builds it

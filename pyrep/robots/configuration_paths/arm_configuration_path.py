@@ -67,12 +67,12 @@ class ArmConfigurationPath(ConfigurationPath):
         t = np.where(span > 0, (distances - lengths[i]) / np.where(span > 0, span, 1.0), 1.0)
         return points[i] + (points[i + 1] - points[i]) * t[:, None]
 
-    def _plan_motion(self, dt: float) -> Any:
-        """The motion along the path (a ruckig ``Trajectory`` of one degree of freedom), its
-        velocity corrected so that no joint exceeds its upper velocity limit between two steps."""
+    def _plan_motion(self, dt: float, lengths: np.ndarray) -> Any:
+        """The motion along the path (a ruckig ``Trajectory`` of one degree of freedom) whose
+        points lie at ``lengths`` along it, its velocity corrected so that no joint exceeds its
+        upper velocity limit between two steps."""
         from ruckig import InputParameter, Result, Ruckig, Trajectory
 
-        lengths = self._lengths()
         limits = np.asarray(self._arm.get_joint_upper_velocity_limits(), dtype=np.float64)
         limits = np.where(limits > 0, limits, np.inf)
         correction = 1.0
@@ -110,8 +110,8 @@ class ArmConfigurationPath(ConfigurationPath):
             return True
         dt = float(sim.call("getSimulationTimeStep"))
         if self._motion is None:
-            self._motion = self._plan_motion(dt) if len(self) > 1 else None
             self._cumulative = self._lengths()
+            self._motion = self._plan_motion(dt, self._cumulative) if len(self) > 1 else None
             self._time = 0.0
         self._time += dt
         if self._motion is None or self._time >= self._motion.duration - 1e-9:

@@ -15,6 +15,7 @@ from simx_server.scene.ttt.geometry import camera_quat, quat_to_mat
 from simx_server.base.limits import MAX_IK_ITERATIONS
 from simx_server.sim.ik import MAX_ELEMENTS as MAX_IK_ELEMENTS
 from simx_server.sim.motors import DEFAULT_PID_P
+from simx_server.sim.proximity_volume import CYLINDER_FACES
 from simx_server.scene.ttt.model import Pose, TttObject
 
 REVOLUTE, PRISMATIC, SPHERICAL = 10, 11, 12
@@ -128,7 +129,7 @@ def _volume_settings(p, start: float) -> list[str] | None:
     elif kind == "cylinder" and len(sizes) >= 6:
         values = sizes[4:6]
         items += [f"radius={values[0]:.6g}", f"radius_far={values[1]:.6g}"]
-        if 3 <= p.faces <= 1024:  # CConvexVolume::setFaceNumber's bounds for a cylinder
+        if CYLINDER_FACES[0] <= p.faces <= CYLINDER_FACES[1]:
             items.append(f"faces={p.faces}")
     elif kind == "disc" and 1e-3 < p.angle < math.pi:
         values = ()
