@@ -19,7 +19,7 @@ from simx_wire.protocol import ArgumentError, ObjectTypeError, RemoteError, Unsu
 from simx_server.base.arguments import quote
 from simx_server.base import scene_guard as guard
 from simx_server.base.mesh_counts import spec_mesh_counts
-from simx_server.scene import conversions, grasping, model_files, model_scripts, model_tree
+from simx_server.scene import conversions, grasping, loose_links, model_files, model_scripts, model_tree
 from simx_server.sim.spec_tools import (
     _KIND,
     _MARK,
@@ -45,6 +45,7 @@ from simx_server.sim.spec_tools import (
     _strip_mark,
     _subtree_names,
     _subtree_objects,
+    set_setting,
     vrep_suffix,
 )
 from simx_server.sim import grasps, kept_objects, properties
@@ -177,7 +178,7 @@ class ObjectEdits:
                 spec.assets.pop(key)                  # keys suffixed: the elements read child_assets'
             spec.assets = {**(spec.assets or {}), **child_assets}
             if not is_base:  # a loaded model's root is a model base in CoppeliaSim
-                _set_setting(spec, root + suffix, "model_base", "1")
+                set_setting(spec, root + suffix, "model_base", "1")
             return lambda: self.sim.world.resolve(root + suffix).handle
 
         handle = self._edit(change, bounded=bool(self.files.caller) or prepared.client)
@@ -387,6 +388,8 @@ class ObjectEdits:
 
         A dynamic shape (a free body) stays a child of the world in MuJoCo, held to its new
         parent by a weld (:mod:`simx_server.scene.grasping`: grasping, and releasing to -1).
+        A moving shape put under a joint or force sensor that has a child already becomes a
+        free body (:mod:`simx_server.scene.loose_links`: such a parent links nothing).
         As in CoppeliaSim (``CSceneObject::setParent``), any object may be a parent: a shape is
         its body; a dummy, sensor, camera, light or joint is carried by a body in MuJoCo, and
         the child goes into that body (for a joint: the body it moves), at the parent object's
@@ -413,6 +416,10 @@ class ObjectEdits:
         else:
             parent_body = 0
         m = world.model
+        if obj.type == SHAPE and obj.parent != parent and grasps.moves(m, obj.mj_id) and \
+                loose_links.links_nothing(world, new_parent, handle):
+            loose_links.let_go_of_others(world, new_parent, handle)  # a second child: no link at all
+            return loose_links.free(self, obj, new_parent, keep_in_place)
         if obj.type == SHAPE and grasps.is_free(m, obj.mj_id) and (new_parent is not None or obj.name in world.grasps):
             return grasping.hold(self, obj, new_parent, keep_in_place)  # a dynamic shape: held by a weld
         old_body = int(m.body_parentid[obj.mj_id]) if obj.type == SHAPE else obj.body
@@ -426,7 +433,7 @@ class ObjectEdits:
             # (the sensor's child side is this shape). Only V-REP's tree changes; its pose stays.
             tree_only = None if new_parent is not None and new_parent.type == SHAPE and \
                 parent_body == old_body else (new_parent.name if new_parent is not None else "-1")
-            self._edit(lambda spec: _set_setting(spec, obj.name, "vrep_parent", tree_only))
+            self._edit(lambda spec: set_setting(spec, obj.name, "vrep_parent", tree_only))
             return
         vrep_parent = None if new_parent is None or new_parent.type == SHAPE else new_parent.name
         if obj.type == FORCE_SENSOR:  # always: its child side is then V-REP's (sim/force_sensors.py)
@@ -463,7 +470,7 @@ class ObjectEdits:
                 raise UnsupportedError(f"moving {obj.name!r} would lose {', '.join(lost)} that link it "
                                        "to the rest of the scene")
             self._placed.add((kind_, obj.name))
-            _set_setting(spec, obj.name, "vrep_parent", vrep_parent)
+            set_setting(spec, obj.name, "vrep_parent", vrep_parent)
             if kind_ == "light":
                 moved.pos, moved.dir = local
             else:
@@ -485,17 +492,3 @@ class ObjectEdits:
 def _same_pose(a: tuple, b: tuple) -> bool:
     """Whether two ``(pos, quat)`` frames are one (within 1e-9 m, 1e-9 rad)."""
     return bool(np.allclose(a[0], b[0], atol=1e-9) and abs(abs(float(np.dot(a[1], b[1]))) - 1) < 1e-12)
-
-
-def _set_setting(spec: mujoco.MjSpec, name: str, key: str, value: str | None) -> None:
-    """Set ``key=value`` in the ``simx:NAME`` text of the spec (None: remove the key)."""
-    t = spec.text(f"simx:{name}")
-    items = [i for i in (t.data.split() if t is not None else []) if i.partition("=")[0] != key]
-    if value is not None:
-        items.append(f"{key}={value}")
-    if t is None and items:
-        spec.add_text(name=f"simx:{name}", data=" ".join(items))
-    elif t is not None and items:
-        t.data = " ".join(items)
-    elif t is not None:
-        spec.delete(t)

@@ -367,3 +367,24 @@ def solid_mesh(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.
         return v, f
     normal = vt[-1] if len(vt) > 2 else np.cross(vt[0], vt[1])
     return np.vstack([v, v - FLAT_MESH_BACK * normal]), np.vstack([f, f[:, ::-1] + len(v)])
+
+
+def set_setting(spec: mujoco.MjSpec, name: str, key: str, value: str | None) -> None:
+    """Set ``key=value`` in the ``simx:NAME`` settings text of the spec (None: remove the key).
+
+    Args:
+        spec: the scene's spec.
+        name: the object's name.
+        key: the setting (``vrep_parent``, ...).
+        value: its value, or None to remove it.
+    """
+    t = spec.text(f"simx:{name}")
+    items = [i for i in (t.data.split() if t is not None else []) if i.partition("=")[0] != key]
+    if value is not None:
+        items.append(f"{key}={value}")
+    if t is None and items:
+        spec.add_text(name=f"simx:{name}", data=" ".join(items))
+    elif t is not None and items:
+        t.data = " ".join(items)
+    elif t is not None:
+        spec.delete(t)
