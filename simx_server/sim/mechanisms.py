@@ -122,6 +122,42 @@ def stiff_solref(timestep: float) -> list[float]:
     return [2.0 * float(timestep), 1.0]
 
 
+#: ``solmix`` of the geoms of static shapes fixed to the world (the ground, tables, walls): their
+#: stiff ``solref`` decides their contacts (MuJoCo averages two geoms' ``solref`` weighted by it).
+GROUND_SOLMIX = 1000.0
+#: Their damping ratio. MuJoCo's spring is 1 / (dmax * time constant * ratio)^2 and its damping
+#: 2 / (dmax * time constant): at 2 the spring at V-REP's 5 ms substep is MuJoCo's default one (a
+#: resting body sinks as much), stiffer at shorter steps, and the damping is the stiffest one's.
+#: Critically damped (1), bodies that overlap at load were pushed apart at depth / (2 * time
+#: constant): a wall overlapping another by 6 mm left at 8 m/s and through the floor.
+GROUND_DAMPING_RATIO = 2.0
+#: MuJoCo's default ``solref`` and ``solmix`` of a geom: a dynamic shape's contact.
+DEFAULT_SOLREF, DEFAULT_SOLMIX = (0.02, 1.0), 1.0
+
+
+def ground_contact(geom, timestep: float, ground: bool = True) -> None:
+    """Give a geom of a static shape fixed to the world V-REP's rigid contact (or, with
+    ``ground`` False, MuJoCo's default one back, a dynamic shape's).
+
+    Bullet's static bodies are rigid; MuJoCo's default contact (a 20 ms time constant) lets what
+    falls or is pressed on a body sink by its speed x 20 ms: past the middle of a 4 cm table top
+    the contact's normal turns and it falls for ever. The stiffest time constant MuJoCo takes
+    (two timesteps) rules the contacts of such a geom (:data:`GROUND_SOLMIX`), damped twice
+    critically (:data:`GROUND_DAMPING_RATIO`). The ``.ttt`` converter gives it to the static
+    shapes of a file, and ``sim.createPureShape`` / ``sim.createPrimitiveShape`` /
+    ``sim.createMeshShape`` and ``sim_shapeintparam_static`` to those made at run time.
+
+    Args:
+        geom: an ``MjsGeom`` of the spec.
+        timestep: the model's timestep (s).
+        ground: rigid (True) or MuJoCo's default contact (False).
+    """
+    if ground:
+        geom.solref, geom.solmix = [stiff_solref(timestep)[0], GROUND_DAMPING_RATIO], GROUND_SOLMIX
+    else:
+        geom.solref, geom.solmix = list(DEFAULT_SOLREF), DEFAULT_SOLMIX
+
+
 def dependency_polycoef(qpos0_joint: float, qpos0_master: float, offset: float, mult: float) -> list[float]:
     """MuJoCo's joint-equality coefficients for V-REP's dependency ``q = offset + mult * q_master``.
 

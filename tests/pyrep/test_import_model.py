@@ -138,3 +138,30 @@ def test_a_block_on_a_slope_in_pyreps_empty_scene_does_not_creep():
         assert np.linalg.norm(np.array(block.get_position()) - start) < 1.5e-3
     finally:
         pr.shutdown()
+
+
+def test_a_static_shape_made_at_run_time_is_as_rigid_as_a_files():
+    """``Shape.create(static=True)`` (``sim.createPureShape``) gives the new table a converted
+    ``.ttt``'s rigid static contact: a 1 cm cube dropped 0.5 m on it sinks less than 8 mm (with
+    MuJoCo's default contact 14 mm; RLBench's dropped objects passed a thin container bottom and
+    the stand-in's table top), and made dynamic it has MuJoCo's default contact again."""
+    from pyrep import PyRep
+    from pyrep.backend import sim
+    from pyrep.const import PrimitiveShape
+
+    pr = PyRep()
+    pr.launch("", headless=True)
+    try:
+        table = Shape.create(PrimitiveShape.CUBOID, [0.6, 0.6, 0.04], static=True, respondable=True,
+                             position=[0, 0, 0.73])
+        cube = Shape.create(PrimitiveShape.CUBOID, [0.01] * 3, mass=0.1, respondable=True,
+                            position=[0, 0, 0.755 + 0.5])
+        pr.start()
+        low = min(cube.get_position()[2] for _ in range(40) if pr.step() is None)
+        assert 0.755 - low < 0.008
+        pr.stop()
+        table.set_dynamic(True)
+        m = sim.context().view.world.model
+        assert m.geom_solref[m.body(table.get_name()).geomadr[0]] == pytest.approx([0.02, 1.0])
+    finally:
+        pr.shutdown()

@@ -175,8 +175,9 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
         if flat:
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         body = spec.worldbody.add_body(name=f"Shape{suffix}")
-        body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1],
-                      contype=0, conaffinity=0)
+        geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1],
+                             contype=0, conaffinity=0)
+        mechanisms.ground_contact(geom, spec.option.timestep)  # static: V-REP's rigid contact once respondable
         return lambda: sim.world.resolve(f"Shape{suffix}").handle
 
     return sim.editor._edit(change)

@@ -11,21 +11,12 @@ import numpy as np
 from simx_server.scene.ttt.geometry import compose
 from simx_server.scene.ttt.looks import Look, Materials, texture_colour
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
-from simx_server.sim.mechanisms import stiff_solref
+from simx_server.sim.mechanisms import ground_contact
 from simx_server.sim.spec_tools import solid_mesh
 
 # V-REP primitive type -> how it becomes a geom (the others are meshes)
 PLANE, DISC, CUBOID, SPHEROID, CYLINDER, CONE, HEIGHTFIELD, CAPSULE = 1, 2, 3, 4, 5, 6, 7, 8
 _THIN = 0.0005  # half-thickness of a plane or disc, m
-#: ``solmix`` of the geoms of the static shapes fixed to the world (the ground, tables, walls): their
-#: stiff ``solref`` decides their contacts (MuJoCo averages two geoms' ``solref`` weighted by it).
-GROUND_SOLMIX = 1000.0
-#: Their damping ratio. MuJoCo's spring is 1 / (dmax * time constant * ratio)^2 and its damping
-#: 2 / (dmax * time constant): at 2 the spring at V-REP's 5 ms substep is MuJoCo's default one (a
-#: resting body sinks as much), stiffer at shorter steps, and the damping is the stiffest one's.
-#: Critically damped (1), bodies that overlap at load were pushed apart at depth / (2 * time
-#: constant): a wall overlapping another by 6 mm left at 8 m/s and through the floor.
-GROUND_DAMPING_RATIO = 2.0
 #: Bullet's cap on two shapes' combined friction (btManifoldResult.cpp, MAX_FRICTION): a material
 #: of 100 (RLBench's chairs, Robotiq fingers, wheels) on any other meets it at 10.
 BULLET_MAX_FRICTION = 10.0
@@ -90,7 +81,7 @@ class GeomMaker:
         shape that is not respondable (V-REP draws their edges; RLBench's spawn boundaries) go
         to geom group 3, which neither the viewer nor the vision sensors draw by default.
         ``ground``: a static shape fixed to the world, whose contacts get the stiffest ``solref``
-        (:data:`GROUND_SOLMIX`)."""
+        (:func:`simx_server.sim.mechanisms.ground_contact`)."""
         base = Pose(np.asarray(frame_pos, float), np.asarray(frame_quat, float))
         for i, mesh in enumerate(shape.meshes):
             lines = mesh.wireframe and contype == 0  # V-REP draws it as lines: MuJoCo cannot
@@ -104,15 +95,8 @@ class GeomMaker:
             look = mesh.look or Look(diffuse=tuple(mesh.color))
             g.rgba = [*mesh.color, look.opacity]
             g.contype, g.conaffinity = contype, conaffinity
-            if ground and (contype or conaffinity):
-                # A static shape fixed to the world is as hard as V-REP's engines make it (Bullet's
-                # static bodies: rigid contacts). MuJoCo's default contact (a 20 ms time constant)
-                # lets what falls or is pressed on it sink by its speed x 20 ms: past the middle of
-                # V-REP's 4 cm floor box the contact's normal turns and it falls for ever. The
-                # stiffest time constant MuJoCo takes (two timesteps) rules its contacts, damped
-                # twice critically (GROUND_DAMPING_RATIO).
-                tau = stiff_solref(self.spec.option.timestep)[0]
-                g.solref, g.solmix = [tau, GROUND_DAMPING_RATIO], GROUND_SOLMIX
+            if ground and (contype or conaffinity):  # V-REP's rigid static bodies (mechanisms.py)
+                ground_contact(g, self.spec.option.timestep)
             if not visible or lines:
                 g.group = 3
             g.density = 0.0  # bodies get the file's mass and inertia, not the geoms'
