@@ -212,7 +212,11 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     upper limit also moves the tip less in the Jacobian, not at all at the limit: coppelia-
     KinematicsRoutines differentiates by moving each joint ``FD_STEP`` *up* through the clamping
     ``CJoint::setPosition`` (``CikElement::_getNakedJacobian``), so such a joint stays at its
-    upper limit, while one at its lower limit keeps its whole column. V-REP 4.1's old IK groups
+    upper limit, while one at its lower limit keeps its whole column, and a target that pushes
+    it outwards stalls the chain (a fixed point short of the target). CoppeliaSim 4.10's own
+    files show it: a scene saved with ``simIK`` running while stopped sits at that stall (a
+    replica of ``CikElement::getJacobian`` and ``CIkGroupContainer::computeIk`` moves its
+    joints < 5e-6 rad from there; without the column they would move 0.27 rad). V-REP 4.1's old IK groups
     (``sim.handleIkGroup``, ``sim.checkIkGroup``) differentiate analytically
     (coppeliaSimLib 4.1 ``CIkRoutine::getJacobian``): no column depends on the limits.
 
