@@ -9,13 +9,22 @@ Euclidean projection onto ``A + B = C``, which keeps their sum, the trace; with 
 MARGIN so that the MJCF's rounding keeps it valid), and each repaired shape is named in the load
 report. MuJoCo's own ``balanceinertia`` (all three set to their mean) stays on in the written
 MJCF as the compiler's last resort.
+
+Small moments stay as the file has them: CoppeliaSim keeps any moment >= 0 (coppeliaSimLib
+``CMeshWrapper::setPrincipalMomentsOfInertia``) and Bullet 2.78 is given the file's moments times
+the mass (simExtDynamics ``CRigidBodyDyn_bullet278``: ``localInertia = im * mass``). Only what
+MuJoCo refuses for a moving body (a moment at or below ``mjMINVAL``, 1e-15) is raised, to
+FLOOR. (A floor of 1e-9 kg m2 once made a 0.5 mg, 1 cm cube 120 times too hard to turn: pushed,
+it tumbled on like a flywheel where V-REP's stops within a millimetre.)
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-_FLOOR = 1e-9  # kg·m², the smallest moment a moving body gets
+#: kg·m², the smallest moment a moving body gets: ten times MuJoCo's ``mjMINVAL`` (1e-15), which
+#: it refuses, so that the MJCF's six significant digits keep it above.
+FLOOR = 1e-14
 #: Relative margin kept above ``A + B = C``: the MJCF keeps 6 significant digits, and moments on
 #: the boundary (a flat plate's) must not break it once rounded.
 MARGIN = 1e-4
@@ -23,9 +32,9 @@ _MAX_NAMED = 20  # shapes named in the report line; the count covers all
 
 
 def repaired(conv, name: str, moments: np.ndarray) -> np.ndarray:
-    """The principal moments (kg·m², 3) of shape ``name``, each at least 1e-9, made valid where
+    """The principal moments (kg·m², 3) of shape ``name``, each at least FLOOR, made valid where
     they break ``A + B >= C``; records ``name`` in ``conv.repaired_inertias``."""
-    m = np.maximum(np.asarray(moments, dtype=np.float64), _FLOOR)
+    m = np.maximum(np.asarray(moments, dtype=np.float64), FLOOR)
     if not np.all(np.isfinite(m)):
         return m
     big = int(np.argmax(m))

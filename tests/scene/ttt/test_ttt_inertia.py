@@ -58,3 +58,38 @@ def test_the_server_loads_it_and_says_so(tmp_path, monkeypatch, caplog):
         sim.close()
     assert "rod.ttt: repaired: 1 x shape inertias that break A + B >= C, set to the nearest valid " \
            "ones: Rod" in caplog.text
+
+
+def _crumb_scene() -> bytes:
+    """A static floor and a 1 cm cube of 0.5 mg (a crumb of dirt) with its own moments, a^2/6
+    of its mass each, as V-REP stores them (divided by the mass)."""
+    return W.ttt_file(
+        W.cuboid_shape(1, -1, "Floor", (1.0, 1.0, 0.02), (0, 0, -0.01), dynamic=False) +
+        W.cuboid_shape(2, -1, "Crumb", (0.01, 0.01, 0.01), (0, 0, 0.005), mass=4.88e-7,
+                       moments=(1e-4 / 6,) * 3))
+
+
+def test_a_light_shape_keeps_its_small_moments_and_stops_as_pushed(tmp_path):
+    """Bullet 2.78 gets the file's moments times the mass (simExtDynamics ``CRigidBodyDyn``):
+    8.1e-12 kg m2 here, not a floor 120 times that; a crumb flicked along the floor with a spin
+    stops within a millimetre, where with 1e-9 it tumbled on like a flywheel for 5 cm."""
+    f = tmp_path / "crumb.ttt"
+    f.write_bytes(_crumb_scene())
+    xml, report = convert.convert(reader.read(f), tmp_path / "out", "scene")
+    assert report.repaired == []
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "Crumb")
+    assert m.body_inertia[b] == pytest.approx([4.88e-7 * 1e-4 / 6] * 3, rel=1e-4)
+    d = mujoco.MjData(m)
+    m.opt.timestep = 0.005
+    for _ in range(40):  # settle on the floor
+        mujoco.mj_step(m, d)
+    dof = m.jnt_dofadr[m.body_jntadr[b]]
+    d.qvel[dof + 1], d.qvel[dof + 3] = 0.15, -19.0  # 0.15 m/s along y, rolling about -x
+    y0 = float(d.xpos[b][1])
+    for _ in range(100):  # 0.5 s
+        mujoco.mj_step(m, d)
+    assert abs(float(d.xpos[b][1]) - y0) < 0.002
+    assert np.linalg.norm(d.qvel[dof:dof + 3]) < 0.01
