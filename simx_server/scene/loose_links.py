@@ -1,9 +1,10 @@
 """A joint or force sensor links its parent shape to its child only while it has exactly one
 child: CoppeliaSim's dynamics plugins make a joint's (or force sensor's) constraint, and keep
 it, only when the object has one child (simExtDynamics 4.1
-``CRigidBodyContainerDyn::_createDynamicJointConstraint`` and
-``_createDynamicForceSensorConstraint``: ``childrenCount==1``; the constraints' check at each
-step removes one whose joint or sensor no longer has exactly one child). A dynamic shape
+``CRigidBodyContainerDyn::_addOrUpdateJointConstraint`` and
+``_addOrUpdateForceSensorConstraint``: a child count of 1; ``_updateConstraintsFromSceneJoints``
+and ``_updateConstraintsFromSceneForceSensors``, at each step, remove one whose joint or sensor
+no longer has exactly one child). A dynamic shape
 re-parented at run time under a joint or force sensor that already has a child is therefore
 linked by nothing: its engine simulates it as a free body.
 
