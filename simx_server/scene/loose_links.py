@@ -108,8 +108,9 @@ def _take_out(editor, part: SceneObject, parent: SceneObject) -> None:
     here = (d.xpos[b].copy(), d.xquat[b].copy())
     vel = np.empty(6)
     mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, b, vel, 0)  # [rot, lin], world axes
-    spin = np.empty(3)
-    mujoco.mju_rotVecQuat(spin, vel[:3], _inverse((np.zeros(3), here[1]))[1])  # free joint: body axes
+    spin, back = np.empty(3), np.empty(4)
+    mujoco.mju_negQuat(back, here[1])
+    mujoco.mju_rotVecQuat(spin, vel[:3], back)  # a free joint's angular velocity is in body axes
     sites = [o for o in world.objects.values() if o.type == FORCE_SENSOR and o.body == b
              and o.parent != part.handle and o.parent != WORLD]
     site_poses = {o.name: _site_world(world, o) for o in sites}
