@@ -22,7 +22,7 @@ from importlib import resources
 from pathlib import Path
 
 from simx_server import __version__
-from simx_server.base import limits
+from simx_server.base import job_ring, limits
 from simx_server.loop import logs, tasks
 from simx_server.listen_checks import listen_failure, port_in_use, zmq_port_in_use
 from simx_server.scene.formats import SCENE_FILES_TEXT
@@ -296,6 +296,9 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         served.set()
         server.close()
+        # A planner's job thread that is ending still holds its OMPL objects: let it end first
+        # (a daemon thread alive at exit keeps them, and OMPL's bindings print "leaked" lines).
+        job_ring.settle_all(limits.JOBS_SETTLE_TIMEOUT)
         logging.getLogger("simx.server").info("stopped")
     return 0
 

@@ -13,6 +13,8 @@ from __future__ import annotations
 import collections
 import logging
 import threading
+import time
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -37,6 +39,8 @@ class JobRing:
         self._ring: collections.deque[Any] = collections.deque()  # clients with jobs waiting, in turn
         self._pending: dict[Any, int] = {}  # client -> its jobs waiting or running
         self._running = False
+        self._thread: threading.Thread | None = None
+        _rings.add(self)
 
     def busy(self, mine: int) -> str:
         """The refusal of a client that has ``mine`` jobs running or waiting already."""
@@ -66,7 +70,23 @@ class JobRing:
             if self._running:
                 return
             self._running = True
-        threading.Thread(target=self._serve, name=self._thread_name, daemon=True).start()
+            self._thread = threading.Thread(target=self._serve, name=self._thread_name, daemon=True)
+            self._thread.start()
+
+    def settle(self, timeout: float) -> bool:
+        """Wait (at most ``timeout`` s) until the serving thread has ended; any thread but it.
+
+        A daemon thread still alive at interpreter exit keeps what its frame holds (a planner's
+        OMPL objects) forever, and OMPL's bindings print "leaked" lines for them.
+
+        Returns:
+            Whether no thread serves this ring now.
+        """
+        with self._lock:
+            thread = self._thread
+        if thread is not None:
+            thread.join(timeout)
+        return thread is None or not thread.is_alive()
 
     def _serve(self) -> None:
         while True:
@@ -86,9 +106,24 @@ class JobRing:
             except Exception:  # a job reports its own errors; the queue must outlive it
                 self._log.exception("a %s", self._what)
             finally:
+                job = None  # type: ignore[assignment]  # what it closes over goes now
                 with self._lock:
                     left = self._pending[client] - 1
                     if left:
                         self._pending[client] = left
                     else:
                         del self._pending[client]
+
+
+#: Every ring made (the module-level ones: scene conversions, long API calls).
+_rings: weakref.WeakSet[JobRing] = weakref.WeakSet()
+
+
+def settle_all(timeout: float) -> bool:
+    """:meth:`JobRing.settle` every ring, ``timeout`` s at most in all (a server that closes).
+
+    Returns:
+        Whether no ring's thread serves now (False: a job still runs, e.g. a planner's maxTime).
+    """
+    end = time.monotonic() + timeout
+    return all([ring.settle(max(0.0, end - time.monotonic())) for ring in list(_rings)])

@@ -409,6 +409,9 @@ MAX_PID_P = 1.0
 #: changes while the simulation is stopped; past it the simulation goes on and the first images
 #: come later. A software renderer needs about 0.2-0.5 s for the bundled scene.
 VISION_READY_TIMEOUT = 10.0
+#: s a stopping server waits for the background job threads (planning, convex decomposition,
+#: scene conversions) to end before the interpreter exits; a job still running past it is left.
+JOBS_SETTLE_TIMEOUT = 2.0
 
 # ---------------------------------------------------------------------------------------------
 # Inverse kinematics and imported shapes (simx_server/sim/ik.py, simx_server/scripts/shapes.py)
