@@ -90,6 +90,9 @@ def test_sensor_images_are_not_anti_aliased(tmp_path):
     path.write_text(EDGES)
     s = Simulation(path, dt=0.05, realtime=False)
     try:
+        # the render thread sets the model's offsamples to 0 while it makes a renderer (under
+        # GL_LOCK, as the server waits for before it serves): read the scene's value after that
+        assert s.vision.wait_ready(60)
         assert s.world.model.vis.quality.offsamples == 4  # the scene asks for multisampling
         img = image(s, "cam")
         assert s.world.model.vis.quality.offsamples == 4  # and keeps it (the viewer's)
