@@ -104,6 +104,23 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
     return rec("SHP", common(handle, parent, name, pos, quat, extra=extra) + typed)
 
 
+def mesh_shape(handle: int, parent: int, name: str, vertices, faces, pos=(0, 0, 0), mass=1.0,
+               dynamic=True, moments=(0.01, 0.01, 0.01), material: bytes = b"") -> bytes:
+    """A respondable convex mesh shape (``Va2`` bit 0) of ``vertices`` (N, 3, m) and ``faces``
+    (M, 3) inline; ``moments`` as V-REP stores them (divided by the mass); ``material`` its
+    dynamic material (:func:`bullet_material`)."""
+    info = lst(rec("Nme", string(name)), rec("Mas", f32(mass)),
+               rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, *moments)))
+    mesh = lst(rec("Cl0", lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))),
+               rec("Ver", np.asarray(vertices, "<f4").tobytes()), rec("Ind", np.asarray(faces, "<i4").tobytes()),
+               rec("Ppr", struct.pack("<ifff", 0, 1, 1, 1)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)),
+               rec("Va2", bytes([1])))
+    typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
+                rec("Sss", bytes([0x80 if dynamic else 0])), rec("Ss3", bytes([1])),
+                rec("Dc2", struct.pack("<H", 0xFFFF)), material)
+    return rec("SHP", common(handle, parent, name, pos) + typed)
+
+
 def bullet_material(old: float, new: float | None = None) -> bytes:
     """A shape's dynamic material (``Mat``) with Bullet's two friction coefficients as
     ``CDynMaterialObject::serialize`` writes them: ``Bul`` (restitution, old friction, damping...)
