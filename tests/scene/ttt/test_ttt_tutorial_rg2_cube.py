@@ -13,10 +13,7 @@ pushes with its whole force only from the step after it is held back (motors.py,
 force), where Bullet's constraint motor does at once.
 
 A fast move (each move one target, the joints at the file's 180 degrees/s: the UR5's 160 N·m
-motors reach that speed within a millisecond) still loses a 0.2 kg cube: it turns in the grip,
-wedges against ``RG2_leftLink2`` (held by the finger's loop-closure weld), the contact forces
-climb past 100 N and it is squeezed out at hundreds of m/s (with stiffer contacts MuJoCo
-reports a NaN instead). The xfail below reproduces it.
+motors reach that speed within a millisecond) keeps a 0.2 kg cube in the grip too.
 
 Skips with a reason where ``../shared`` is absent; fails when ``CI`` is set
 (conftest.require_shared).
@@ -36,7 +33,6 @@ except ImportError:  # tests/ imported as a package
     from tests.conftest import SHARED, require_shared
 from simx_server.scene.simulation import Simulation
 from simx_server.api import script_sim
-from simx_server.sim.physics import PhysicsError
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read here
 
@@ -163,9 +159,6 @@ def test_the_rg2_grips_lifts_carries_and_releases_a_cube(tutorial_scene):
         g.close()
 
 
-@pytest.mark.xfail(raises=(PhysicsError, AssertionError), strict=False,
-                   reason="issue 41: a jump of every joint at 180 deg/s squeezes the cube out of the "
-                          "RG2's grip against RG2_leftLink2 (thrown, or a NaN)")
 def test_a_fast_move_keeps_the_cube(tutorial_scene):
     g = Gripping(tutorial_scene, mass=0.2)
     try:
