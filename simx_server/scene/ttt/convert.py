@@ -43,10 +43,6 @@ ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
 #: MuJoCo's ``impratio`` of a converted scene (and PyRep's empty one, ``pyrep/assets/empty.xml``).
 STATIC_FRICTION_IMPRATIO = 10.0
 
-#: MuJoCo's ``disableflags`` bit of a converted scene (and PyRep's empty one): libccd's convex
-#: collision, not the native one (see ``Converter.build``).
-NATIVE_CCD_DISABLED = int(mujoco.mjtDisableBit.mjDSBL_NATIVECCD)
-
 
 class Report:
     """What did not carry over as V-REP had it, by kind: ``counts`` ``{kind: count}`` of every
@@ -116,13 +112,6 @@ class Converter:
         # MuJoCo's is a soft constraint that creeps at a speed proportional to the load over
         # impratio; 10 makes it ten times stiffer than the normal (MuJoCo's advice for grasping)
         self.spec.option.impratio = STATIC_FRICTION_IMPRATIO
-        # libccd's multi-contact for two convex meshes face to face, not MuJoCo 3.x's native CCD:
-        # on hulls of many near-coplanar facets (a convex decomposition's) the native one keeps
-        # the points of one facet, on one side of the face, on alternate sides from substep to
-        # substep, and a light body rocks and sinks through (RLBench's jar lid, 1 kg with
-        # inertia 6.9e-5 kg m2, went through the jar's 7 mm neck at reset); libccd's spans the
-        # face as Bullet's persistent four-point manifold does (``NATIVE_CCD_DISABLED``)
-        self.spec.option.disableflags |= NATIVE_CCD_DISABLED
         looks.headlight(self.spec, s.ambient)  # V-REP's ambient light, no camera headlight
         if s.background is not None:  # V-REP's background gradient as a sky box
             sky = self.spec.add_texture()

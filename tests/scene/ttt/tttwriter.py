@@ -82,12 +82,14 @@ def force_sensor(handle: int, parent: int, name: str, pos=(0, 0, 0), extra: byte
 def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=(0, 0, 0), mass=1.0,
                  dynamic=True, respondable=True, extra: bytes = b"", texture: bytes = b"",
                  colour: bytes | None = None, moments=(0.01, 0.01, 0.01), quat=(1, 0, 0, 0),
-                 material: bytes = b"") -> bytes:
+                 material: bytes = b"", primitive: int = 3) -> bytes:
     """A pure-cuboid shape (8 vertices inline, 12 triangles); ``texture``: its :func:`texture_link`;
     ``material``: its dynamic material (:func:`bullet_material`);
     ``colour``: its colour object (:func:`colour_object`; default an old ``Cl2`` of (0.2, 0.4, 0.6));
     ``moments``: its principal moments of inertia as V-REP stores them (divided by the mass);
-    ``quat``: its orientation in its parent's frame (w, x, y, z)."""
+    ``quat``: its orientation in its parent's frame (w, x, y, z); ``primitive``: the pure type
+    the file names (3 cuboid, 5 cylinder: ``size`` x and z its diameter and height), its
+    vertices staying the box's."""
     hx, hy, hz = (s / 2 for s in size)
     v = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)], "<f4")
     faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
@@ -97,28 +99,11 @@ def cuboid_shape(handle: int, parent: int, name: str, size=(0.1, 0.1, 0.1), pos=
     cl0 = colour if colour is not None else lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))
     mesh = lst(rec("Cl0", cl0),
                rec("Ver", v.tobytes()), rec("Ind", faces.tobytes()),
-               rec("Ppr", struct.pack("<ifff", 3, *size)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)), texture)
+               rec("Ppr", struct.pack("<ifff", primitive, *size)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)), texture)
     typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
                 rec("Sss", bytes([0x80 if dynamic else 0])), rec("Ss3", bytes([1 if respondable else 0])),
                 rec("Dc2", struct.pack("<H", 0xFFFF)), material)
     return rec("SHP", common(handle, parent, name, pos, quat, extra=extra) + typed)
-
-
-def mesh_shape(handle: int, parent: int, name: str, vertices, faces, pos=(0, 0, 0), mass=1.0,
-               dynamic=True, moments=(0.01, 0.01, 0.01), material: bytes = b"") -> bytes:
-    """A respondable convex mesh shape (``Va2`` bit 0) of ``vertices`` (N, 3, m) and ``faces``
-    (M, 3) inline; ``moments`` as V-REP stores them (divided by the mass); ``material`` its
-    dynamic material (:func:`bullet_material`)."""
-    info = lst(rec("Nme", string(name)), rec("Mas", f32(mass)),
-               rec("Ine", f32(0, 0, 0, 1, 0, 0, 0, *moments)))
-    mesh = lst(rec("Cl0", lst(rec("Cl2", f32(0.2, 0.4, 0.6, *([0.0] * 12))))),
-               rec("Ver", np.asarray(vertices, "<f4").tobytes()), rec("Ind", np.asarray(faces, "<i4").tobytes()),
-               rec("Ppr", struct.pack("<ifff", 0, 1, 1, 1)), rec("Ppf", f32(0, 0, 0, 1, 0, 0, 0)),
-               rec("Va2", bytes([1])))
-    typed = lst(rec("Ge2", lst(rec("Gst", info + mesh))),
-                rec("Sss", bytes([0x80 if dynamic else 0])), rec("Ss3", bytes([1])),
-                rec("Dc2", struct.pack("<H", 0xFFFF)), material)
-    return rec("SHP", common(handle, parent, name, pos) + typed)
 
 
 def bullet_material(old: float, new: float | None = None) -> bytes:
