@@ -21,13 +21,13 @@ class Planner:
     """Stands for a planner's objects, which the job closes over."""
 
 
-def test_settle_waits_for_the_thread_and_drops_the_job():
+def test_settle_waits_for_the_thread_and_drops_the_job() -> None:
     ring = Ring(2, "test-ring", logging.getLogger("test"), "job")
     planner = Planner()
     gone = weakref.ref(planner)
     answered = threading.Event()
 
-    def job(planner=planner):
+    def job(planner: Planner = planner) -> None:
         answered.set()  # the reply leaves here; the thread returns after
         time.sleep(0.3)
         assert planner is not None
@@ -41,10 +41,14 @@ def test_settle_waits_for_the_thread_and_drops_the_job():
     assert ring.pending() == 0
 
 
-def test_settle_all_reports_a_job_that_outlasts_the_timeout():
+def test_settle_all_reports_a_job_that_outlasts_the_timeout() -> None:
     ring = Ring(2, "test-ring", logging.getLogger("test"), "job")
     release = threading.Event()
-    ring.add(None, lambda: release.wait(10))
+
+    def job() -> None:
+        release.wait(10)
+
+    ring.add(None, job)
     try:
         assert not job_ring.settle_all(0.05)
     finally:
