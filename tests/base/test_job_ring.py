@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import logging
 import threading
-import time
 import weakref
 
 from simx_server.base import job_ring
@@ -25,17 +24,18 @@ def test_settle_waits_for_the_thread_and_drops_the_job() -> None:
     ring = Ring(2, "test-ring", logging.getLogger("test"), "job")
     planner = Planner()
     gone = weakref.ref(planner)
-    answered = threading.Event()
+    answered, returning = threading.Event(), threading.Event()
 
     def job(planner: Planner = planner) -> None:
         answered.set()  # the reply leaves here; the thread returns after
-        time.sleep(0.3)
+        returning.wait(10)
         assert planner is not None
 
     ring.add("zmq:a", job)
     del job, planner
     assert answered.wait(10)
     assert gone() is not None  # the job's thread still holds it
+    returning.set()
     assert ring.settle(10)
     assert gone() is None
     assert ring.pending() == 0
