@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import mujoco
 
+from simx_server.sim import friction
 from simx_server.sim.objects import parse_settings
 
 TEXT_NAME = "simx:scene:simulation"
@@ -62,8 +63,13 @@ def read(model: mujoco.MjModel, where: str) -> SceneSettings:
 
     Raises:
         ValueError: an unknown key, or a value that is not a positive finite number (``dt``,
-            ``real_time_factor``) or 0/1 (``real_time``).
+            ``real_time_factor``) or 0/1 (``real_time``); or a friction rule simx cannot give
+            (:func:`simx_server.sim.friction.declared`).
     """
+    try:  # the scene's friction rule (sim/friction.py): one it cannot give refuses the scene
+        friction.declared(model)
+    except ValueError as exc:
+        raise ValueError(f"scene {where}: {exc}") from None
     i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, TEXT_NAME)
     if i < 0:
         return SceneSettings()

@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 
 from simx_wire.protocol import ArgumentError
+from simx_server.sim import friction
 from simx_server.sim.objects import SHAPE
 
 __all__ = ["IDS", "MovingSurfaces", "get", "moving", "set_value", "start_free", "substep"]
@@ -145,18 +146,23 @@ def moving(world) -> MovingSurfaces | None:
     return MovingSurfaces(np.array(bodies), np.array(velocities), m.nbody)
 
 
-def substep(m: mujoco.MjModel, d: mujoco.MjData, surfaces: MovingSurfaces) -> None:
-    """One MuJoCo step whose contacts with ``surfaces`` see them move (module docstring):
-    ``mj_step1``, the moving surfaces' reference accelerations, ``mj_step2``.
+def substep(m: mujoco.MjModel, d: mujoco.MjData, surfaces: MovingSurfaces | None, product: bool = False) -> None:
+    """One MuJoCo step whose contacts with ``surfaces`` see them move (module docstring) and,
+    with ``product``, have Bullet's combined friction (:mod:`simx_server.sim.friction`):
+    ``mj_step1``, the contacts changed, ``mj_step2``.
 
     Args:
         m: the model.
         d: its data, stepped.
-        surfaces: from :func:`moving`.
+        surfaces: from :func:`moving` (None: no surface moves).
+        product: apply :func:`simx_server.sim.friction.combine`.
     """
     mujoco.mj_step1(m, d)
     if d.ncon:
-        _move(m, d, surfaces)
+        if surfaces is not None:
+            _move(m, d, surfaces)
+        if product:
+            friction.combine(m, d)
     mujoco.mj_step2(m, d)
 
 

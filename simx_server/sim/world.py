@@ -27,8 +27,8 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import (change_batch, dummy_links, grasps, kinematic, motor_spec, motors, naming, physics,
-                             properties, scene_settings, surfaces, urdf)
+from simx_server.sim import (change_batch, dummy_links, friction, grasps, kinematic, motor_spec, motors, naming,
+                             physics, properties, scene_settings, surfaces, urdf)
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES,
     CAMERA,
@@ -473,7 +473,8 @@ class World(Poses, Joints):
         held = kinematic.hold(self) if self.motors.kinematic else None  # joints in a kinematic mode
         self.motors.apply(m, d, self.dt)
         belts = surfaces.moving(self) if self.init_velocities else None  # static shapes' moving surfaces
-        one = mujoco.mj_step if belts is None else lambda m_, d_: surfaces.substep(m_, d_, belts)
+        product = friction.applies(m)  # Bullet's combined friction (sim/friction.py)
+        one = mujoco.mj_step if belts is None and not product else lambda m_, d_: surfaces.substep(m_, d_, belts, product)
         if self.substep_hook is not None:  # scripts' joint and dynamics callbacks: at each substep
             for _ in range(self.substeps):
                 self.substep_hook(m, d)
@@ -484,7 +485,7 @@ class World(Poses, Joints):
                 self.motors.apply(m, d, self.dt)
         elif self.bounded:  # a client's scene: at most MAX_STEP_SECONDS of the simulation thread
             physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS, one)
-        elif belts is not None:
+        elif belts is not None or product:
             for _ in range(self.substeps):
                 one(m, d)
         else:
@@ -506,7 +507,7 @@ class World(Poses, Joints):
             return
         if self.grasps:
             grasps.follow(self)
-        mujoco.mj_forward(self.model, self.data)
+        (friction.forward if friction.applies(self.model) else mujoco.mj_forward)(self.model, self.data)
         self.version += 1
         self.time = self.data.time
 

@@ -7,11 +7,13 @@ Engine parameters: CoppeliaSim's ``sim.mujoco_global_*`` ids map onto the model'
 ``cone``, the multi-CCD flag); the Bullet, ODE, Vortex and Newton ids answer an error naming
 them, except the per-shape friction coefficients (Bullet's ``bullet_body_friction``, ODE's
 ``ode_body_friction``, Newton's static and kinetic friction), which map onto MuJoCo's sliding
-friction of the shape's geoms (``geom_friction[:, 0]``). Set values are written to the model and to the scene's MjSpec (kept by later edits).
+friction of the shape's geoms (``geom_friction[:, 0]``; in a scene with Bullet's rule, every
+converted ``.ttt``, the coefficient squared: :mod:`simx_server.sim.friction`). Set values are written to the model and to the scene's MjSpec (kept by later edits).
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import mujoco
@@ -20,6 +22,7 @@ from simx_server.api.context import CallContext
 from simx_server.api.registry import SIM, sim_function
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
+from simx_server.sim import friction
 from simx_server.sim.objects import JOINT, SHAPE
 from simx_server.sim.state import RunState
 from simx_wire.protocol import ObjectTypeError
@@ -111,7 +114,8 @@ def getEngineFloatParam(ctx: CallContext, paramId: Any, objectHandle: Any) -> fl
     """
     if isinstance(paramId, int) and paramId in BODY_FRICTION:
         geoms = _friction_geoms(ctx, "getEngineFloatParam", paramId, objectHandle)
-        return float(ctx.world.model.geom_friction[geoms[0], 0])
+        value = float(ctx.world.model.geom_friction[geoms[0], 0])
+        return math.sqrt(value) if friction.declared(ctx.world.model) else value  # stored squared there
     return float(_opt(ctx, *_engine(ctx, "getEngineFloatParam", paramId, objectHandle, "float")))
 
 
@@ -133,6 +137,8 @@ def setEngineFloatParam(ctx: CallContext, paramId: Any, objectHandle: Any, float
         value = _num(floatParam, "floatParam")
         if not 0.0 <= value <= 1e3:
             raise ArgumentError(f"{BODY_FRICTION[paramId]} must lie in [0, 1000]")
+        if friction.declared(ctx.world.model):  # Bullet's rule: the coefficient squared (sim/friction.py)
+            value = min(value * value, friction.BULLET_MAX_FRICTION)
         for g in _friction_geoms(ctx, "setEngineFloatParam", paramId, objectHandle):
             ctx.world.model.geom_friction[g, 0] = value
         return

@@ -21,7 +21,7 @@ from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.api.sim import shape_import as shapes
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
-from simx_server.sim import mechanisms
+from simx_server.sim import friction, mechanisms
 from simx_server.sim.objects import JOINT
 from simx_server.sim.spec_tools import _names, solid_mesh, vrep_suffix
 
@@ -178,6 +178,7 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
         geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1],
                              contype=0, conaffinity=0)
         mechanisms.ground_contact(geom, spec.option.timestep)  # static: V-REP's rigid contact once respondable
+        friction.new_shape(spec, geom)  # CoppeliaSim's default material in a V-REP scene
         return lambda: sim.world.resolve(f"Shape{suffix}").handle
 
     return sim.editor._edit(change)

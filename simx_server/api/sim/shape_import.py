@@ -26,6 +26,7 @@ from simx_server.base import limits as L
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
+from simx_server.sim import friction
 from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import SHAPE, World
@@ -126,8 +127,9 @@ def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float
         mesh.scale = [scaling] * 3
         body = spec.worldbody.add_body(name=name)
         body.add_freejoint()
-        body.add_geom(name=f"Shape_geom{suffix}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name,
-                      condim=4, friction=_FRICTION, rgba=[0.8, 0.8, 0.8, 1.0])
+        geom = body.add_geom(name=f"Shape_geom{suffix}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name,
+                             condim=4, friction=_FRICTION, rgba=[0.8, 0.8, 0.8, 1.0])
+        friction.new_shape(spec, geom)  # CoppeliaSim's default material in a V-REP scene
         return lambda: sim.world.resolve(name).handle
 
     handle = editor._edit(change)

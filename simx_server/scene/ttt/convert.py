@@ -149,8 +149,10 @@ class Converter:
         far = max([v.far for v in sensors] + [50.0])
         self.spec.visual.map.znear = max(near, 1e-4) / 2.0
         self.spec.visual.map.zfar = far / 2.0
-        if not s.is_model:  # sensors render with V-REP's lighting (sim/vision_look.py); a model
-            self.setting("scene:vision", "look=vrep")  # loaded into a scene takes that scene's look
+        if not s.is_model:  # sensors render with V-REP's lighting (sim/vision_look.py), contacts
+            # have Bullet's friction (sim/friction.py); a model loaded into a scene takes the scene's
+            self.setting("scene:vision", "look=vrep")
+            self.setting("scene:friction", "combine=product")
         for name, items in self.settings.items():
             t = self.spec.add_text()
             t.name = f"simx:{name}"

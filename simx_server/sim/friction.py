@@ -1,0 +1,191 @@
+"""Bullet's friction between two shapes: the product of their coefficients.
+
+V-REP and CoppeliaSim 4.1 step their scenes with Bullet 2.78 by default, which gives a contact
+between two bodies the product of their friction coefficients, at most 10
+(``btManifoldResult::calculateCombinedFriction``, ``MAX_FRICTION``; simExtDynamics hands each
+shape its material's coefficient). MuJoCo gives a contact the larger of its two geoms' values.
+The ``.ttt`` converter stores a shape's coefficient squared as its geoms' sliding friction
+(:mod:`simx_server.scene.ttt.geoms`), so two shapes of one material get Bullet's value either way;
+two different materials do not: a ball of coefficient 0.1 on a table of 0.71 (RLBench's
+hit_ball_with_queue) slides on Bullet's 0.071 and on MuJoCo's 0.5041.
+
+A scene that declares Bullet's rule (``<custom><text name="simx:scene:friction"
+data="combine=product"/></custom>``: every converted ``.ttt`` scene, PyRep's empty scene) gets it
+for every contact between two geoms of different sliding friction (and equal ``priority``, a
+MuJoCo setting V-REP has not): between ``mj_step1`` and ``mj_step2`` of each substep, the
+contact's sliding friction becomes ``sqrt(f1 * f2)`` (= the product of the two coefficients) and
+its regularised cone's ``mu`` scales with it (MuJoCo's ``mj_makeImpedance`` sets ``mu =
+friction[0] * sqrt(R1 / R0)``); with the elliptic cone the rows' Jacobian does not depend on the
+friction and, for ``condim`` 3, nor does their regularisation ``R``; the torsional and rolling
+rows' ``R`` (``condim`` 4 and 6) are set again as ``mj_makeImpedance`` sets them. The state a
+client reads after a step (:func:`forward`) is computed the same way. A scene whose geoms share
+one friction value, and one with MuJoCo's pyramidal cone (whose rows are built from the
+friction), step inside MuJoCo as before.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from simx_server.sim.objects import parse_settings
+
+__all__ = ["BULLET_MAX_FRICTION", "DEFAULT_COEFFICIENT", "TEXT", "applies", "combine", "declared", "forward", "mixed",
+           "new_shape"]
+
+TEXT = "simx:scene:friction"
+#: Bullet 2.78's cap on a combined friction coefficient (``MAX_FRICTION``).
+BULLET_MAX_FRICTION = 10.0
+#: The friction coefficient of a shape made at run time in CoppeliaSim 4.1: its default material's
+#: Bullet 2.78 value (coppeliaSimLib ``CDynMaterialObject::setDefaultValues``).
+DEFAULT_COEFFICIENT = 0.71
+_ELLIPTIC = int(mujoco.mjtCone.mjCONE_ELLIPTIC)
+_ENERGY = int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+
+
+def declared(model: mujoco.MjModel) -> bool:
+    """Whether the scene asks for Bullet's product of coefficients (``simx:scene:friction``,
+    ``combine=product``; ``combine=max``, or no such text, keeps MuJoCo's larger value) and has
+    the elliptic cone it needs.
+
+    Args:
+        model: the compiled scene.
+
+    Returns:
+        True when :func:`combine` applies to the scene's contacts.
+
+    Raises:
+        ValueError: a ``combine`` other than ``product`` or ``max`` (the scene is refused when it
+            loads).
+    """
+    return _text(model) == "product" and int(model.opt.cone) == _ELLIPTIC
+
+
+def _text(model: mujoco.MjModel) -> str:
+    """The scene's ``combine=`` (``max`` without the text); ValueError for another value."""
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, TEXT)
+    if i < 0:
+        return "max"
+    adr, size = model.text_adr[i], model.text_size[i]
+    raw = bytes(model.text_data[adr:adr + size - 1]).decode(errors="replace")
+    combine_as = parse_settings(raw).get("combine", "max")
+    if combine_as not in ("product", "max"):
+        raise ValueError(f"custom text {TEXT!r}: combine={combine_as[:40]!r} is not 'product' or 'max'")
+    return combine_as
+
+
+_declared: dict[int, tuple[mujoco.MjModel, bool]] = {}  # id(model) -> (model, declared)
+
+
+def applies(model: mujoco.MjModel) -> bool:
+    """Whether a step of ``model`` goes through :func:`combine`: the scene declares Bullet's rule
+    (:func:`declared`, kept per compiled model), its cone is elliptic and its geoms' friction
+    values differ (:func:`mixed`; both read now: ``sim.setEngineInt32Param`` and
+    ``sim.setEngineFloatParam`` change them at run time).
+
+    Args:
+        model: the compiled scene.
+
+    Returns:
+        True or False; a malformed text counts as no rule (the scene's load reports it).
+    """
+    hit = _declared.get(id(model))
+    if hit is None or hit[0] is not model:
+        if len(_declared) >= 8:  # models of the worlds alive (a server's, PyRep's scratch copies)
+            _declared.clear()
+        try:
+            rule = _text(model) == "product"
+        except ValueError:
+            rule = False
+        hit = _declared[id(model)] = (model, rule)
+    return hit[1] and int(model.opt.cone) == _ELLIPTIC and mixed(model)
+
+
+def new_shape(spec: mujoco.MjSpec, geom) -> None:
+    """Give a geom of a shape made at run time (``sim.createPrimitiveShape``, ``createMeshShape``,
+    ``importShape``, a heightfield) CoppeliaSim's default material when the scene has Bullet's
+    rule: a sliding friction of :data:`DEFAULT_COEFFICIENT` squared, as the ``.ttt`` converter
+    stores a coefficient; in another scene the geom keeps MuJoCo's default.
+
+    Args:
+        spec: the scene's MjSpec.
+        geom: the new ``MjsGeom``.
+    """
+    for text in spec.texts:
+        if text.name == TEXT:
+            try:
+                if parse_settings(text.data).get("combine") == "product":
+                    geom.friction[0] = DEFAULT_COEFFICIENT ** 2
+            except ValueError:
+                pass
+            return
+
+
+def mixed(model: mujoco.MjModel) -> bool:
+    """Whether the model's geoms have more than one sliding friction value (else MuJoCo's larger
+    value is the product's square root of equal values: nothing to change)."""
+    f = model.geom_friction[:, 0]
+    return bool(f.size) and float(f.min()) != float(f.max())
+
+
+def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
+    """Give the contacts ``mj_step1`` (or ``mj_fwdPosition``) made Bullet's combined friction
+    (module docstring), all contacts at once.
+
+    Args:
+        m: the model.
+        d: its data, after the position stage and before the acceleration stage.
+    """
+    n = d.ncon
+    if not n:
+        return
+    c = d.contact
+    g = c.geom
+    g1, g2 = g[:, 0], g[:, 1]
+    f = m.geom_friction[:, 0]
+    rigid = (g1 >= 0) & (g2 >= 0)  # flex contacts keep MuJoCo's rule
+    f1, f2 = f[np.where(rigid, g1, 0)], f[np.where(rigid, g2, 0)]
+    pick = rigid & (f1 != f2) & (c.dim > 1) & (m.geom_priority[g1] == m.geom_priority[g2])
+    if m.npair:  # an explicit <pair> sets its own friction
+        keys = np.minimum(g1, g2) * m.ngeom + np.maximum(g1, g2)
+        pairs = np.minimum(m.pair_geom1, m.pair_geom2) * m.ngeom + np.maximum(m.pair_geom1, m.pair_geom2)
+        pick &= ~np.isin(keys, pairs)
+    i = np.flatnonzero(pick)
+    if not i.size:
+        return
+    friction = c.friction
+    new = np.minimum(np.sqrt(f1[i] * f2[i]), BULLET_MAX_FRICTION)
+    old = friction[i, 0]
+    friction[i, 0] = friction[i, 1] = new
+    mu = c.mu
+    mu[i] = mu[i] * np.divide(new, old, out=np.ones_like(new), where=old > 0)
+    dim, adr = c.dim[i], c.efc_address[i]
+    wide = (dim > 3) & (adr >= 0)
+    if wide.any():  # torsion and rolling rows: R[j + 1] = R[1] * friction[0]^2 / friction[j]^2
+        R, D = d.efc_R, d.efc_D
+        for k in np.flatnonzero(wide):
+            row, fk = int(adr[k]), friction[i[k]]
+            for j in range(2, int(dim[k]) - 1):
+                R[row + j + 1] = R[row + 1] * fk[0] * fk[0] / max(fk[j] * fk[j], 1e-15)
+                D[row + j + 1] = 1.0 / R[row + j + 1]
+
+
+def forward(m: mujoco.MjModel, d: mujoco.MjData) -> None:
+    """``mj_forward`` with Bullet's combined friction (:func:`combine` between the velocity and
+    the acceleration stages).
+
+    Args:
+        m: the model.
+        d: its data.
+    """
+    mujoco.mj_fwdPosition(m, d)
+    mujoco.mj_sensorPos(m, d)
+    energy = bool(m.opt.enableflags & _ENERGY)
+    if energy:
+        mujoco.mj_energyPos(m, d)
+    mujoco.mj_fwdVelocity(m, d)
+    mujoco.mj_sensorVel(m, d)
+    if energy:
+        mujoco.mj_energyVel(m, d)
+    combine(m, d)
+    mujoco.mj_forwardSkip(m, d, int(mujoco.mjtStage.mjSTAGE_VEL), 0)

@@ -1,0 +1,112 @@
+"""Two shapes in contact have Bullet 2.78's friction, the product of their coefficients (capped at
+10: ``btManifoldResult::calculateCombinedFriction``), as V-REP and CoppeliaSim 4.1 give it; MuJoCo
+takes the larger of two geoms' values. A block of coefficient 0.2 slid on a floor of 1.0 on
+MuJoCo's 1.0 (RLBench's hit_ball_with_queue: its ball of 0.1 stopped on a table of 0.71 where
+Bullet lets it roll on 0.071). simx_server/sim/friction.py."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import pytest
+
+import tttwriter as W
+from simx_server.api import client_context
+from simx_server.scene.simulation import Simulation
+from simx_server.scene.ttt import convert, reader
+
+pytestmark = pytest.mark.renderers_on_demand  # no image is read
+
+_G = 9.81
+_SPEED = 1.0  # m/s, the block's push
+
+
+def _scene(tmp_path, block: float, floor: float, name: str = "slide"):
+    body = (W.rec("SIM", W.lst(W.rec("Sts", W.f32(0.05)))) + W.dynamics()
+            + W.cuboid_shape(1, -1, "floor", (2.0, 1.0, 0.02), (0, 0, 0), dynamic=False,
+                             material=W.bullet_material(floor, floor))
+            + W.cuboid_shape(2, -1, "block", (0.05, 0.05, 0.05), (-0.5, 0, 0.035), mass=0.1,
+                             moments=(0.05 ** 2 / 6,) * 3, material=W.bullet_material(block, block)))
+    f = tmp_path / f"{name}.ttt"
+    f.write_bytes(W.ttt_file(body))
+    xml, _ = convert.convert(reader.read(f), tmp_path / f"out_{name}", name)
+    return xml
+
+
+def _slide(sim: Simulation) -> tuple[float, float]:
+    """(m the pushed block slid before it stopped, the friction of its contact with the floor)."""
+    w = sim.world
+    m, d = w.model, w.data
+    block = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "block")
+    dof = int(m.jnt_dofadr[m.body_jntadr[block]])
+    for _ in range(4):  # settled on the floor
+        w.step()
+    start = float(d.xpos[block][0])
+    d.qvel[dof] = _SPEED
+    for _ in range(round(2.0 / w.dt)):
+        w.step()
+    floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "floor")
+    mus = [float(d.contact.friction[i, 0]) for i in range(d.ncon)
+           if {int(m.geom_bodyid[g]) for g in d.contact.geom[i]} == {block, floor}]
+    assert mus, "the block rests on the floor"
+    return float(d.xpos[block][0]) - start, mus[0]
+
+
+def test_a_block_slides_on_the_product_of_the_two_coefficients(tmp_path):
+    sim = Simulation(_scene(tmp_path, 0.2, 1.0), realtime=False)
+    try:
+        sim.start()
+        distance, mu = _slide(sim)
+    finally:
+        sim.stop()
+        sim.close()
+    assert mu == pytest.approx(0.2)  # MuJoCo's own: 1.0
+    # v^2 / (2 mu g): 0.255 m on 0.2 (0.051 m on MuJoCo's 1.0)
+    assert distance == pytest.approx(_SPEED ** 2 / (2 * 0.2 * _G), rel=0.12)
+
+
+def test_a_scene_without_the_rule_keeps_mujocos_larger_value(tmp_path):
+    xml = _scene(tmp_path, 0.2, 1.0)
+    text = xml.read_text()
+    assert '<text name="simx:scene:friction" data="combine=product"/>' in text
+    xml.write_text(text.replace('data="combine=product"', 'data="combine=max"'))
+    sim = Simulation(xml, realtime=False)
+    try:
+        sim.start()
+        distance, mu = _slide(sim)
+    finally:
+        sim.stop()
+        sim.close()
+    assert mu == pytest.approx(1.0)
+    assert distance == pytest.approx(_SPEED ** 2 / (2 * 1.0 * _G), rel=0.25)
+
+
+def test_an_unknown_rule_refuses_the_scene(tmp_path):
+    xml = _scene(tmp_path, 0.2, 1.0)
+    xml.write_text(xml.read_text().replace('data="combine=product"', 'data="combine=mean"'))
+    with pytest.raises(ValueError, match="combine='mean'"):
+        Simulation(xml, realtime=False)
+
+
+def test_coefficients_read_and_set_as_v_rep_gives_them(tmp_path):
+    """``sim.getEngineFloatParam(sim.bullet_body_friction)`` reads a shape's coefficient (stored
+    squared), a set one slides as Bullet's product, and a shape made at run time has
+    CoppeliaSim's default material (0.71)."""
+    sim = Simulation(_scene(tmp_path, 0.2, 1.0), realtime=False)
+    try:
+        api = client_context(sim, "test").sim
+        block = api.getObject("/block")
+        assert api.getEngineFloatParam(6003, block) == pytest.approx(0.2)
+        api.setEngineFloatParam(6003, block, 0.5)
+        assert api.getEngineFloatParam(6003, block) == pytest.approx(0.5)
+        cube = api.createPrimitiveShape(3, [0.05, 0.05, 0.05])  # a cuboid
+        assert api.getEngineFloatParam(6003, cube) == pytest.approx(0.71)
+        sim.start()
+        distance, mu = _slide(sim)
+    finally:
+        sim.stop()
+        sim.close()
+    assert mu == pytest.approx(0.5)
+    assert distance == pytest.approx(_SPEED ** 2 / (2 * 0.5 * _G), rel=0.2)
+    assert math.isfinite(distance)
