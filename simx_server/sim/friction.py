@@ -122,52 +122,65 @@ def new_shape(spec: mujoco.MjSpec, geom) -> None:
 
 
 def mixed(model: mujoco.MjModel) -> bool:
-    """Whether the model's geoms have more than one sliding friction value (else MuJoCo's larger
-    value is the product's square root of equal values: nothing to change)."""
-    f = model.geom_friction[:, 0]
+    """Whether the model's collidable geoms (``contype`` or ``conaffinity`` set) have more than
+    one sliding friction value (else MuJoCo's larger value is the product's square root of equal
+    values: nothing to change)."""
+    f = model.geom_friction[(model.geom_contype | model.geom_conaffinity) != 0, 0]
     return bool(f.size) and float(f.min()) != float(f.max())
 
 
 def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
     """Give the contacts ``mj_step1`` (or ``mj_fwdPosition``) made Bullet's combined friction
-    (module docstring), all contacts at once.
+    (module docstring), all contacts at once: a handful of numpy operations per substep, more
+    only for contacts of two different values.
 
     Args:
         m: the model.
         d: its data, after the position stage and before the acceleration stage.
     """
-    n = d.ncon
-    if not n:
+    if not d.ncon:
         return
     c = d.contact
     g = c.geom
-    g1, g2 = g[:, 0], g[:, 1]
-    f = m.geom_friction[:, 0]
-    rigid = (g1 >= 0) & (g2 >= 0)  # flex contacts keep MuJoCo's rule
-    f1, f2 = f[np.where(rigid, g1, 0)], f[np.where(rigid, g2, 0)]
-    pick = rigid & (f1 != f2) & (c.dim > 1) & (m.geom_priority[g1] == m.geom_priority[g2])
-    if m.npair:  # an explicit <pair> sets its own friction
-        keys = np.minimum(g1, g2) * m.ngeom + np.maximum(g1, g2)
-        pairs = np.minimum(m.pair_geom1, m.pair_geom2) * m.ngeom + np.maximum(m.pair_geom1, m.pair_geom2)
-        pick &= ~np.isin(keys, pairs)
-    i = np.flatnonzero(pick)
+    fg = m.geom_friction[:, 0][g]  # (ncon, 2); a flex contact's -1 reads the last geom: left out below
+    i = np.flatnonzero(fg[:, 0] != fg[:, 1])
     if not i.size:
         return
-    friction = c.friction
-    new = np.minimum(np.sqrt(f1[i] * f2[i]), BULLET_MAX_FRICTION)
-    old = friction[i, 0]
-    friction[i, 0] = friction[i, 1] = new
-    mu = c.mu
-    mu[i] = mu[i] * np.divide(new, old, out=np.ones_like(new), where=old > 0)
-    dim, adr = c.dim[i], c.efc_address[i]
-    wide = (dim > 3) & (adr >= 0)
-    if wide.any():  # torsion and rolling rows: R[j + 1] = R[1] * friction[0]^2 / friction[j]^2
-        R, D = d.efc_R, d.efc_D
-        for k in np.flatnonzero(wide):
+    if _special(m):  # flex contacts, explicit <pair>s and priorities keep MuJoCo's rule
+        i = _mujocos_own(m, g, i)
+        if not i.size:
+            return
+    new = np.minimum(np.sqrt(fg[i, 0] * fg[i, 1]), BULLET_MAX_FRICTION)
+    friction, mu = c.friction, c.mu
+    mu[i] *= new / friction[i, 0]  # the regularised cone's mu = friction[0] * sqrt(R1 / R0)
+    friction[i, 0] = new
+    friction[i, 1] = new
+    dim = c.dim[i]
+    if dim.max() > 3:  # torsion and rolling rows: R[j + 1] = R[1] * friction[0]^2 / friction[j]^2
+        R, D, adr = d.efc_R, d.efc_D, c.efc_address[i]
+        for k in np.flatnonzero((dim > 3) & (adr >= 0)):
             row, fk = int(adr[k]), friction[i[k]]
             for j in range(2, int(dim[k]) - 1):
                 R[row + j + 1] = R[row + 1] * fk[0] * fk[0] / max(fk[j] * fk[j], 1e-15)
                 D[row + j + 1] = 1.0 / R[row + j + 1]
+
+
+def _special(m: mujoco.MjModel) -> bool:
+    """Whether ``m`` has flexes, explicit pairs or geom priorities (:func:`_mujocos_own`)."""
+    return bool(m.nflex or m.npair) or bool(m.geom_priority.any())
+
+
+def _mujocos_own(m: mujoco.MjModel, g: np.ndarray, i: np.ndarray) -> np.ndarray:
+    """``i`` less the contacts MuJoCo's own rule decides: a flex's, an explicit ``<pair>``'s
+    (its own friction) and those of two geoms of different ``priority``."""
+    g1, g2 = g[i, 0], g[i, 1]
+    keep = (g1 >= 0) & (g2 >= 0)
+    keep &= m.geom_priority[np.maximum(g1, 0)] == m.geom_priority[np.maximum(g2, 0)]
+    if m.npair:
+        keys = np.minimum(g1, g2) * m.ngeom + np.maximum(g1, g2)
+        pairs = np.minimum(m.pair_geom1, m.pair_geom2) * m.ngeom + np.maximum(m.pair_geom1, m.pair_geom2)
+        keep &= ~np.isin(keys, pairs)
+    return i[keep]
 
 
 def forward(m: mujoco.MjModel, d: mujoco.MjData) -> None:
