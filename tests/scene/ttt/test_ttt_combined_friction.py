@@ -6,8 +6,6 @@ Bullet lets it roll on 0.071). simx_server/sim/friction.py."""
 
 from __future__ import annotations
 
-import math
-
 import mujoco
 import pytest
 
@@ -53,14 +51,21 @@ def _slide(sim: Simulation) -> tuple[float, float]:
     return float(d.xpos[block][0]) - start, mus[0]
 
 
-def test_a_block_slides_on_the_product_of_the_two_coefficients(tmp_path):
-    sim = Simulation(_scene(tmp_path, 0.2, 1.0), realtime=False)
+def _run(xml, setup=None) -> tuple[float, float]:
+    """:func:`_slide` in a new simulation of ``xml``; ``setup(api)`` first, before it starts."""
+    sim = Simulation(xml, realtime=False)
     try:
+        if setup is not None:
+            setup(client_context(sim, "test").sim)
         sim.start()
-        distance, mu = _slide(sim)
+        return _slide(sim)
     finally:
         sim.stop()
         sim.close()
+
+
+def test_a_block_slides_on_the_product_of_the_two_coefficients(tmp_path):
+    distance, mu = _run(_scene(tmp_path, 0.2, 1.0))
     assert mu == pytest.approx(0.2)  # MuJoCo's own: 1.0
     # v^2 / (2 mu g): 0.255 m on 0.2 (0.051 m on MuJoCo's 1.0)
     assert distance == pytest.approx(_SPEED ** 2 / (2 * 0.2 * _G), rel=0.12)
@@ -71,13 +76,7 @@ def test_a_scene_without_the_rule_keeps_mujocos_larger_value(tmp_path):
     text = xml.read_text()
     assert '<text name="simx:scene:friction" data="combine=product"/>' in text
     xml.write_text(text.replace('data="combine=product"', 'data="combine=max"'))
-    sim = Simulation(xml, realtime=False)
-    try:
-        sim.start()
-        distance, mu = _slide(sim)
-    finally:
-        sim.stop()
-        sim.close()
+    distance, mu = _run(xml)
     assert mu == pytest.approx(1.0)
     assert distance == pytest.approx(_SPEED ** 2 / (2 * 1.0 * _G), rel=0.25)
 
@@ -93,20 +92,14 @@ def test_coefficients_read_and_set_as_v_rep_gives_them(tmp_path):
     """``sim.getEngineFloatParam(sim.bullet_body_friction)`` reads a shape's coefficient (stored
     squared), a set one slides as Bullet's product, and a shape made at run time has
     CoppeliaSim's default material (0.71)."""
-    sim = Simulation(_scene(tmp_path, 0.2, 1.0), realtime=False)
-    try:
-        api = client_context(sim, "test").sim
+    def setup(api) -> None:
         block = api.getObject("/block")
         assert api.getEngineFloatParam(6003, block) == pytest.approx(0.2)
         api.setEngineFloatParam(6003, block, 0.5)
         assert api.getEngineFloatParam(6003, block) == pytest.approx(0.5)
         cube = api.createPrimitiveShape(3, [0.05, 0.05, 0.05])  # a cuboid
         assert api.getEngineFloatParam(6003, cube) == pytest.approx(0.71)
-        sim.start()
-        distance, mu = _slide(sim)
-    finally:
-        sim.stop()
-        sim.close()
+
+    distance, mu = _run(_scene(tmp_path, 0.2, 1.0), setup)
     assert mu == pytest.approx(0.5)
     assert distance == pytest.approx(_SPEED ** 2 / (2 * 0.5 * _G), rel=0.2)
-    assert math.isfinite(distance)
