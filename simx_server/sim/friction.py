@@ -150,7 +150,9 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
         i = _mujocos_own(m, g, i)
         if not i.size:
             return
-    new = np.minimum(np.sqrt(fg[i, 0] * fg[i, 1]), BULLET_MAX_FRICTION)
+    # at least MuJoCo's own floor (mjMINMU, its mj_assignFriction): its elliptic cone scales the
+    # normal by mu, and a mu of 0 (a frictionless slider on a floor) drops the contact's normal force
+    new = np.clip(np.sqrt(fg[i, 0] * fg[i, 1]), mujoco.mjMINMU, BULLET_MAX_FRICTION)
     friction, mu = c.friction, c.mu
     mu[i] *= new / friction[i, 0]  # the regularised cone's mu = friction[0] * sqrt(R1 / R0)
     friction[i, 0] = new

@@ -20,9 +20,9 @@ _G = 9.81
 _SPEED = 1.0  # m/s, the block's push
 
 
-def _scene(tmp_path, block: float, floor: float, name: str = "slide"):
+def _scene(tmp_path, block: float, floor: float, name: str = "slide", length: float = 2.0):
     body = (W.rec("SIM", W.lst(W.rec("Sts", W.f32(0.05)))) + W.dynamics()
-            + W.cuboid_shape(1, -1, "floor", (2.0, 1.0, 0.02), (0, 0, 0), dynamic=False,
+            + W.cuboid_shape(1, -1, "floor", (length, 1.0, 0.02), (0, 0, 0), dynamic=False,
                              material=W.bullet_material(floor, floor))
             + W.cuboid_shape(2, -1, "block", (0.05, 0.05, 0.05), (-0.5, 0, 0.035), mass=0.1,
                              moments=(0.05 ** 2 / 6,) * 3, material=W.bullet_material(block, block)))
@@ -103,3 +103,22 @@ def test_coefficients_read_and_set_as_v_rep_gives_them(tmp_path):
     distance, mu = _run(_scene(tmp_path, 0.2, 1.0), setup)
     assert mu == pytest.approx(0.5)
     assert distance == pytest.approx(_SPEED ** 2 / (2 * 0.5 * _G), rel=0.2)
+
+
+def test_a_frictionless_shape_rests_on_the_floor_and_slides(tmp_path):
+    """A coefficient of 0 (V-REP's BubbleRob slider) gives Bullet's product 0 against any floor:
+    the contact keeps its normal force (MuJoCo's elliptic cone scales it by mu: at exactly 0 the
+    block fell through) and the pushed block slides on at its speed."""
+    sim = Simulation(_scene(tmp_path, 0.0, 1.0, length=6.0), realtime=False)
+    try:
+        sim.start()
+        w = sim.world
+        block = mujoco.mj_name2id(w.model, mujoco.mjtObj.mjOBJ_BODY, "block")
+        height = float(w.data.xpos[block][2])
+        distance, mu = _slide(sim)
+        assert float(w.data.xpos[block][2]) == pytest.approx(height, abs=2e-3)
+    finally:
+        sim.stop()
+        sim.close()
+    assert mu == pytest.approx(mujoco.mjMINMU)
+    assert distance == pytest.approx(_SPEED * 2.0, rel=0.05)  # 2 s at 1 m/s, nothing brakes it
