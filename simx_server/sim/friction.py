@@ -124,7 +124,14 @@ def new_shape(spec: mujoco.MjSpec, geom) -> None:
 def mixed(model: mujoco.MjModel) -> bool:
     """Whether the model's collidable geoms (``contype`` or ``conaffinity`` set) have more than
     one sliding friction value (else MuJoCo's larger value is the product's square root of equal
-    values: nothing to change)."""
+    values: nothing to change).
+
+    Args:
+        model: the compiled scene.
+
+    Returns:
+        True when two collidable geoms differ in sliding friction.
+    """
     f = model.geom_friction[(model.geom_contype | model.geom_conaffinity) != 0, 0]
     return bool(f.size) and float(f.min()) != float(f.max())
 
