@@ -25,6 +25,8 @@ friction), step inside MuJoCo as before.
 
 from __future__ import annotations
 
+import weakref
+
 import mujoco
 import numpy as np
 
@@ -74,7 +76,9 @@ def _text(model: mujoco.MjModel) -> str:
     return combine_as
 
 
-_declared: dict[int, tuple[mujoco.MjModel, bool]] = {}  # id(model) -> (model, declared)
+#: Each compiled model's rule (:func:`declared`'s text), read once per model; a model that is
+#: gone (a scene replaced, a rebuild) drops out by itself.
+_declared: "weakref.WeakKeyDictionary[mujoco.MjModel, bool]" = weakref.WeakKeyDictionary()
 
 
 def applies(model: mujoco.MjModel) -> bool:
@@ -89,16 +93,14 @@ def applies(model: mujoco.MjModel) -> bool:
     Returns:
         True or False; a malformed text counts as no rule (the scene's load reports it).
     """
-    hit = _declared.get(id(model))
-    if hit is None or hit[0] is not model:
-        if len(_declared) >= 8:  # models of the worlds alive (a server's, PyRep's scratch copies)
-            _declared.clear()
+    rule = _declared.get(model)
+    if rule is None:
         try:
             rule = _text(model) == "product"
         except ValueError:
             rule = False
-        hit = _declared[id(model)] = (model, rule)
-    return hit[1] and int(model.opt.cone) == _ELLIPTIC and mixed(model)
+        _declared[model] = rule
+    return rule and int(model.opt.cone) == _ELLIPTIC and mixed(model)
 
 
 def new_shape(spec: mujoco.MjSpec, geom) -> None:
