@@ -76,9 +76,10 @@ def _text(model: mujoco.MjModel) -> str:
     return combine_as
 
 
-#: Each compiled model's rule (:func:`declared`'s text), read once per model; a model that is
-#: gone (a scene replaced, a rebuild) drops out by itself.
-_declared: "weakref.WeakKeyDictionary[mujoco.MjModel, bool]" = weakref.WeakKeyDictionary()
+#: Per compiled model, read once: (its rule is the product (:func:`declared`'s text), it has
+#: flexes, explicit pairs or geom priorities (:func:`_mujocos_own`), a geom of ``condim`` > 3);
+#: a model that is gone (a scene replaced, a rebuild) drops out by itself.
+_facts: "weakref.WeakKeyDictionary[mujoco.MjModel, tuple[bool, bool, bool]]" = weakref.WeakKeyDictionary()
 
 
 def applies(model: mujoco.MjModel) -> bool:
@@ -93,14 +94,19 @@ def applies(model: mujoco.MjModel) -> bool:
     Returns:
         True or False; a malformed text counts as no rule (the scene's load reports it).
     """
-    rule = _declared.get(model)
-    if rule is None:
+    return _facts_of(model)[0] and int(model.opt.cone) == _ELLIPTIC and mixed(model)
+
+
+def _facts_of(model: mujoco.MjModel) -> tuple[bool, bool, bool]:
+    facts = _facts.get(model)
+    if facts is None:
         try:
             rule = _text(model) == "product"
         except ValueError:
             rule = False
-        _declared[model] = rule
-    return rule and int(model.opt.cone) == _ELLIPTIC and mixed(model)
+        special = bool(model.nflex or model.npair) or bool(model.geom_priority.any())
+        facts = _facts[model] = (rule, special, bool(model.ngeom) and int(model.geom_condim.max()) > 3)
+    return facts
 
 
 def new_shape(spec: mujoco.MjSpec, geom) -> None:
@@ -155,30 +161,26 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
     i = np.flatnonzero(fg[:, 0] != fg[:, 1])
     if not i.size:
         return
-    if _special(m):  # flex contacts, explicit <pair>s and priorities keep MuJoCo's rule
+    _, special, wide = _facts_of(m)
+    if special:  # flex contacts, explicit <pair>s and priorities keep MuJoCo's rule
         i = _mujocos_own(m, g, i)
         if not i.size:
             return
+    pair = fg[i]
     # at least MuJoCo's own floor (mjMINMU, its mj_assignFriction): its elliptic cone scales the
     # normal by mu, and a mu of 0 (a frictionless slider on a floor) drops the contact's normal force
-    new = np.clip(np.sqrt(fg[i, 0] * fg[i, 1]), mujoco.mjMINMU, BULLET_MAX_FRICTION)
+    new = np.sqrt(pair[:, 0] * pair[:, 1])
+    np.clip(new, mujoco.mjMINMU, BULLET_MAX_FRICTION, out=new)
     friction, mu = c.friction, c.mu
     mu[i] *= new / friction[i, 0]  # the regularised cone's mu = friction[0] * sqrt(R1 / R0)
-    friction[i, 0] = new
-    friction[i, 1] = new
-    dim = c.dim[i]
-    if dim.max() > 3:  # torsion and rolling rows: R[j + 1] = R[1] * friction[0]^2 / friction[j]^2
-        R, D, adr = d.efc_R, d.efc_D, c.efc_address[i]
+    friction[i, :2] = new[:, None]
+    if wide:  # torsion and rolling rows: R[j + 1] = R[1] * friction[0]^2 / friction[j]^2
+        dim, R, D, adr = c.dim[i], d.efc_R, d.efc_D, c.efc_address[i]
         for k in np.flatnonzero((dim > 3) & (adr >= 0)):
             row, fk = int(adr[k]), friction[i[k]]
             for j in range(2, int(dim[k]) - 1):
                 R[row + j + 1] = R[row + 1] * fk[0] * fk[0] / max(fk[j] * fk[j], 1e-15)
                 D[row + j + 1] = 1.0 / R[row + j + 1]
-
-
-def _special(m: mujoco.MjModel) -> bool:
-    """Whether ``m`` has flexes, explicit pairs or geom priorities (:func:`_mujocos_own`)."""
-    return bool(m.nflex or m.npair) or bool(m.geom_priority.any())
 
 
 def _mujocos_own(m: mujoco.MjModel, g: np.ndarray, i: np.ndarray) -> np.ndarray:
