@@ -7,12 +7,14 @@ Bullet lets it roll on 0.071). simx_server/sim/friction.py."""
 from __future__ import annotations
 
 import mujoco
+import numpy as np
 import pytest
 
 import tttwriter as W
 from simx_server.api import client_context
 from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import convert, reader
+from simx_server.sim import friction
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read
 
@@ -122,3 +124,27 @@ def test_a_frictionless_shape_rests_on_the_floor_and_slides(tmp_path):
         sim.close()
     assert mu == pytest.approx(mujoco.mjMINMU)
     assert distance == pytest.approx(_SPEED * 2.0, rel=0.05)  # 2 s at 1 m/s, nothing brakes it
+
+
+@pytest.mark.parametrize("condim", [3, 4, 6])
+def test_combined_contacts_are_mujocos_own_for_that_friction(condim):
+    """After :func:`friction.combine`, a contact of two values (1.0 and 0.25) has exactly the
+    friction, cone ``mu`` and regularisation MuJoCo itself gives a contact of two geoms of the
+    product (0.5): ``mj_makeImpedance``'s rules, torsion and rolling rows included."""
+    def model(f1: float, f2: float) -> mujoco.MjModel:
+        return mujoco.MjModel.from_xml_string(f"""
+<mujoco><option cone="elliptic" impratio="10"/><worldbody>
+  <geom type="plane" size="1 1 0.1" friction="{f1} 0.02 0.001" condim="{condim}"/>
+  <body pos="0 0 0.049"><freejoint/>
+    <geom type="box" size="0.05 0.05 0.05" friction="{f2} 0.02 0.001" condim="{condim}"/></body>
+</worldbody></mujoco>""")
+    mixed_m, own_m = model(1.0, 0.25), model(0.5, 0.5)
+    mixed_d, own_d = mujoco.MjData(mixed_m), mujoco.MjData(own_m)
+    mujoco.mj_step1(mixed_m, mixed_d)
+    friction.combine(mixed_m, mixed_d)
+    mujoco.mj_step1(own_m, own_d)
+    assert mixed_d.ncon == own_d.ncon == 4
+    np.testing.assert_allclose(mixed_d.contact.friction, own_d.contact.friction)
+    np.testing.assert_allclose(mixed_d.contact.mu, own_d.contact.mu)
+    np.testing.assert_allclose(mixed_d.efc_R[:mixed_d.nefc], own_d.efc_R[:own_d.nefc], rtol=1e-12)
+    np.testing.assert_allclose(mixed_d.efc_D[:mixed_d.nefc], own_d.efc_D[:own_d.nefc], rtol=1e-12)
