@@ -36,6 +36,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
 from simx_server.sim import mesh_geometry, properties, scene_collections
+from simx_server.sim.objects import text_at
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, SHAPE, World, parse_settings
 
@@ -375,8 +376,7 @@ def probes(sim: SimulationView, kind: str) -> dict[str, Probe]:
                 if not tname.startswith(prefix) or not tname[len(prefix):]:
                     continue
                 name = tname[len(prefix):]
-                adr, size = m.text_adr[i], m.text_size[i]
-                raw = bytes(m.text_data[adr:adr + size - 1]).decode()
+                raw = text_at(m, i)
                 handles = st.probe_handles[k]
                 handle = handles.setdefault(name, len(handles) + 1)
                 e1 = e2 = error = None

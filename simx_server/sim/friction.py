@@ -30,7 +30,7 @@ import weakref
 import mujoco
 import numpy as np
 
-from simx_server.sim.objects import parse_settings
+from simx_server.sim.objects import parse_settings, text_of
 
 __all__ = ["BULLET_MAX_FRICTION", "DEFAULT_COEFFICIENT", "TEXT", "applies", "combine", "declared", "forward", "mixed",
            "new_shape"]
@@ -65,11 +65,13 @@ def declared(model: mujoco.MjModel) -> bool:
 
 def _text(model: mujoco.MjModel) -> str:
     """The scene's ``combine=`` (``max`` without the text); ValueError for another value."""
-    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, TEXT)
-    if i < 0:
-        return "max"
-    adr, size = model.text_adr[i], model.text_size[i]
-    raw = bytes(model.text_data[adr:adr + size - 1]).decode(errors="replace")
+    raw = text_of(model, TEXT)
+    return "max" if raw is None else _combine(raw)
+
+
+def _combine(raw: str) -> str:
+    """The ``combine=`` of the text's data ``raw`` (``max`` by default); ValueError for another
+    value or an item that is not ``key=value``."""
     combine_as = parse_settings(raw).get("combine", "max")
     if combine_as not in ("product", "max"):
         raise ValueError(f"custom text {TEXT!r}: combine={combine_as[:40]!r} is not 'product' or 'max'")
@@ -122,9 +124,9 @@ def new_shape(spec: mujoco.MjSpec, geom) -> None:
     for text in spec.texts:
         if text.name == TEXT:
             try:
-                if parse_settings(text.data).get("combine") == "product":
+                if _combine(text.data) == "product":
                     geom.friction[0] = DEFAULT_COEFFICIENT ** 2
-            except ValueError:
+            except ValueError:  # the scene's load refused such a text
                 pass
             return
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+import mujoco
+
 from simx_wire import constants as C
 
 SHAPE = C.sim_object_shape_type
@@ -82,6 +84,34 @@ def parse_settings(text: str) -> dict[str, str]:
             raise ValueError(f"setting {item!r} is not key=value")
         settings[key] = value
     return settings
+
+
+def text_at(model: mujoco.MjModel, i: int) -> str:
+    """The data of custom text ``i`` of ``model`` (its ``<text data=...>``).
+
+    Args:
+        model: the compiled model.
+        i: a text id, 0 <= i < ``model.ntext``.
+
+    Returns:
+        The text, without MuJoCo's terminating NUL.
+    """
+    adr, size = model.text_adr[i], model.text_size[i]
+    return bytes(model.text_data[adr:adr + size - 1]).decode()
+
+
+def text_of(model: mujoco.MjModel, name: str) -> str | None:
+    """The data of the custom text named ``name`` (a scene's ``simx:scene:*`` declarations).
+
+    Args:
+        model: the compiled model.
+        name: the text's name.
+
+    Returns:
+        The text, or None when the model has none of that name.
+    """
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, name)
+    return None if i < 0 else text_at(model, i)
 
 
 def apply_vrep_parents(objects: dict[int, SceneObject], by_name: dict[str, SceneObject]) -> None:

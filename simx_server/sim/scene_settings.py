@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import mujoco
 
 from simx_server.sim import friction
-from simx_server.sim.objects import parse_settings
+from simx_server.sim.objects import parse_settings, text_of
 
 TEXT_NAME = "simx:scene:simulation"
 DEFAULT_DT = 0.05  # s, V-REP's default simulation step
@@ -70,11 +70,9 @@ def read(model: mujoco.MjModel, where: str) -> SceneSettings:
         friction.declared(model)
     except ValueError as exc:
         raise ValueError(f"scene {where}: {exc}") from None
-    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, TEXT_NAME)
-    if i < 0:
+    raw = text_of(model, TEXT_NAME)
+    if raw is None:
         return SceneSettings()
-    adr, size = model.text_adr[i], model.text_size[i]
-    raw = bytes(model.text_data[adr:adr + size - 1]).decode()
     try:
         items = parse_settings(raw)
         unknown = set(items) - {"dt", "real_time", "real_time_factor"}

@@ -30,6 +30,8 @@ import logging
 
 import mujoco
 
+from simx_server.sim.objects import text_of
+
 log = logging.getLogger("simx.vision")
 
 #: The custom text a scene's look is read from, and its values.
@@ -55,12 +57,10 @@ def scene_look(model: mujoco.MjModel) -> str:
     Raises:
         ValueError: another value (the scene is refused when it loads).
     """
-    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, TEXT)
-    if i < 0:
+    raw = text_of(model, TEXT)
+    if raw is None:
         return "mujoco"
-    adr, size = model.text_adr[i], model.text_size[i]
-    items = dict(item.split("=", 1) for item in bytes(model.text_data[adr:adr + size - 1]).decode().split()
-                 if "=" in item)
+    items = dict(item.split("=", 1) for item in raw.split() if "=" in item)
     look = items.get("look", "mujoco")
     if look not in LOOKS:
         raise ValueError(f"custom text {TEXT!r}: look={look[:40]!r} is not one of {', '.join(LOOKS)}")

@@ -45,6 +45,7 @@ from simx_server.sim.objects import (  # noqa: F401 (importers of the world use 
     SceneObject,
     apply_vrep_parents,
     parse_settings,
+    text_at,
 )
 from simx_server.sim.joints import Joints
 from simx_server.sim.poses import Poses
@@ -243,8 +244,7 @@ class World(Poses, Joints):
         for i in range(m.ntext):
             name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TEXT, i) or ""
             if name.startswith("simx:"):
-                adr, size = m.text_adr[i], m.text_size[i]
-                raw = bytes(m.text_data[adr : adr + size - 1]).decode()
+                raw = text_at(m, i)
                 try:
                     out[name[5:]] = parse_settings(raw)
                 except ValueError as exc:
