@@ -10,11 +10,12 @@ position and a target velocity, whatever the mode; two flags decide which acts:
   ``sim_jointfloatparam_pid_p`` (2002, ``simx:`` ``pid_p``, default 0.1: a velocity of P/5 ms
   per unit of error);
 * motor on, loop off: velocity control at the target velocity with at most the maximum force
-  (so ``simxSetJointForce`` + a large target velocity is torque control).
+  (so ``simxSetJointForce`` + a large target velocity is torque control);
+* motor and loop on in the spring-damper mode (``simx:`` ``mode=spring``): the velocity motor
+  :mod:`simx_server.sim.joint_springs` gives.
 
 The targets start at the joint's rest position and 0, or where the scene says (``simx:``
-``target_position``, ``target_velocity``: what V-REP saved with the joint), and return there when
-the simulation stops.
+``target_position``, ``target_velocity``), and return there when the simulation stops.
 
 A joint's motor is the first actuator whose transmission is that joint, whatever its type
 (``<velocity>``, ``<position>``, ``<motor>`` with ``gear``, ``<general>``). At load
@@ -35,34 +36,29 @@ step so that the substeps run in C:
   so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
   constraint-based motors do; everything is clipped to the maximum force;
 * "lock motor when target velocity is zero" (``sim_jointintparam_velocity_lock``, 2030, off by
-  default; ``simx:`` ``velocity_lock=1``: what V-REP saved with the joint): a velocity motor told
-  to stop holds the position where it stopped with no force limit, as CoppeliaSim's
-  ``CJoint::handleDynJoint`` asks its engine to lock a joint whose ``_motorLock`` is set and whose
-  target velocity is 0: pinned by a joint equality (``simx_lock:<joint>``, added at compile for
-  joints saved with the flag, :func:`~simx_server.sim.motor_spec.add_locks`), as Bullet 2.78 sets
-  both limits there; a joint locked at run time without one, by the position law at gain 1/dt
-  with force range limits.MAX_JOINT_FORCE;
-* a joint in a kinematic mode (:attr:`Motors.joint_mode` ``sim_jointmode_passive`` 0 or
-  ``sim_jointmode_ik`` 2, :mod:`simx_server.sim.kinematic`) has no motor force: it is held
-  where it is put.
+  default; ``simx:`` ``velocity_lock=1``): a velocity motor told to stop holds the position where
+  it stopped with no force limit (CoppeliaSim's ``CJoint::handleDynJoint``, ``_motorLock``):
+  pinned by a joint equality (``simx_lock:<joint>``, :func:`~simx_server.sim.motor_spec.add_locks`)
+  as Bullet 2.78 sets both limits there; one locked at run time without one, by the position law
+  at gain 1/dt with force range limits.MAX_JOINT_FORCE;
+* a joint in a kinematic mode (:attr:`Motors.joint_mode` 0 passive or 2 IK,
+  :mod:`simx_server.sim.kinematic`) has no motor force: it is held where it is put.
 
 ``kv`` is the servo gain: a ``<velocity>`` actuator keeps its own ``kv`` (the author's choice);
 any other gets ``f * M / h`` with ``M`` the joint's effective inertia now, with the scene's
 equality constraints held (:mod:`simx_server.sim.mechanisms`: a motor that closes a linkage moves
-all of it; without equalities ``M = 1 / (M^-1)_ii``; it changes with the configuration, so it is
-recomputed each step), ``h`` the model's timestep and
-``f`` IMPLICIT_KV_FRACTION, the velocity term being integrated implicitly: a model using the
-Euler integrator is switched to ``implicitfast`` (which differs from Euler only in treating
-actuators' and fluid forces' velocity terms implicitly too); under RK4 ``f`` is KV_FRACTION,
-which keeps the explicit servo stable. The force limit (joint
+all of it; without equalities ``M = 1 / (M^-1)_ii``; recomputed each step), ``h`` the model's
+timestep and ``f`` IMPLICIT_KV_FRACTION, the velocity term being integrated implicitly: a model
+using the Euler integrator is switched to ``implicitfast`` (which differs from Euler only in
+treating actuators' and fluid forces' velocity terms implicitly too); under RK4 ``f`` is
+KV_FRACTION, which keeps the explicit servo stable. The force limit (joint
 units) comes from the actuator's ``forcerange`` (if ``forcelimited``) x |gear|, else from its
 ``ctrlrange`` x gain x |gear| when the control is a force (``<motor>``-like), else from the
 joint's ``actuatorfrcrange``, else it is unlimited (limits.MAX_JOINT_FORCE).
 
-A hinge or slide joint without an actuator gets one (named ``simx_motor:<joint>``) through
-``MjSpec`` at load, with its motor disabled: physics are unchanged until a program enables it.
-A joint moved only through a tendon that an actuator drives gets none: it has no motor of its
-own, and motor calls answer an error naming the tendon.
+A hinge or slide joint without an actuator gets one (``simx_motor:<joint>``) through ``MjSpec``
+at load, disabled: physics are unchanged until a program enables it. A joint moved only through
+a tendon that an actuator drives gets none, and motor calls answer an error naming the tendon.
 """
 
 from __future__ import annotations
@@ -75,6 +71,7 @@ import numpy as np
 
 from simx_server.base import limits as L
 from simx_server.sim import mechanisms
+from simx_server.sim.joint_springs import Springs
 from simx_server.sim.motor_spec import lock_name, ADDED_PREFIX, JOINT_TRNS, SCALAR, tendon_driven
 
 log = logging.getLogger("simx.world")
@@ -189,6 +186,7 @@ class Motors:
         modes = [s.get("mode", "passive" if new else "position") for (_, _, s), new in zip(mine, added)]
         self.initial_enabled = np.array([mode != "passive" for mode in modes], dtype=bool)
         self.initial_loop = np.array([mode != "velocity" for mode in modes], dtype=bool)
+        self.springs = Springs.read([(s, _name(m, j)) for _, j, s in mine], _setting)  # None: no spring-damper
         self.initial_max_velocity = np.array([_setting(s, "max_velocity", np.pi, _name(m, j)) for _, j, s in mine])
         self.initial_pid_p = np.array([_setting(s, "pid_p", DEFAULT_PID_P, _name(m, j)) for _, j, s in mine])
         # targets the scene starts with (V-REP saves them with the joint): NaN = the joint's rest
@@ -283,6 +281,8 @@ class Motors:
         self.stalled = False
         #: Motors a script's joint callback drives (scripts/dynamics.py): its own law, no stall force.
         self.scripted = np.zeros(len(self.act), dtype=bool)
+        if self.springs is not None:
+            self.springs.reset()
         self.write_force_limits(m)
 
     def _refresh_flags(self) -> None:
@@ -350,14 +350,18 @@ class Motors:
         kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
         err = self.target_position - q
         on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
-        loop = self.loop
-        position = on & loop
+        loop, springs, spring = self.loop, self.springs, self._no_force != 0
+        if springs is not None:  # spring-damper motors are velocity motors (joint_springs.py)
+            spring, spring_v = springs.law(err, float(d.time), loop, self.target_velocity, self.max_force)
+        position = on & loop & ~spring
         linear = position & (np.abs(err) * kp <= self.max_velocity)
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
-        velocity_mode = on & ~loop & self._no_own_kv & ~self.scripted
+        v = v if springs is None else np.where(spring, spring_v, v)
+        velocity_mode = on & (~loop | spring) & self._no_own_kv & ~self.scripted
         ff = ff + self._stall_force(q, views.qvel[dof], v, velocity_mode, float(d.time))
-        if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still
-            kv = np.where(velocity_mode & (v == 0), HOLD_KV_FACTOR * kv, kv)
+        self.stalled = self.stalled or bool((spring & on).any())  # a spring's force follows it at every substep
+        if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still (a spring: its force)
+            kv = np.where(velocity_mode & (v == 0) & ~spring, HOLD_KV_FACTOR * kv, kv)
         target = self.target_position
         if self._locking:
             target, kp, linear = self._lock(m, d, q, on & ~loop & (v == 0), dt, kp, linear)
@@ -377,6 +381,8 @@ class Motors:
             moving = np.where(on, v, 0.0)
         biases[act, 1] = np.where(linear, -kv_kp / g2, 0.0)
         views.ctrl[act] = np.where(linear, target, moving)
+        if springs is not None:  # after _lock, which writes every motor's force range
+            springs.write_limits(m, self.act, g, self.max_force)
 
     def _lock(self, m: mujoco.MjModel, d: mujoco.MjData, q: np.ndarray, stopped: np.ndarray, dt: float,
               kp: np.ndarray, linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -56,10 +56,13 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
         conv.setting(obj.name, "mode=passive")
         return
     if j.mode == FORCE:
-        if j.spring is not None and j.control_mode == 12 and _spring(jt, j):
+        spring = j.spring is not None and j.control_mode == 12
+        if spring and not _slow_spring(j) and _spring(jt, j):
             conv.setting(obj.name, "mode=passive")  # the joint's own spring-damper instead of a motor
             return
-        if not j.motor:
+        if spring and _slow_spring(j):
+            mode = "spring"  # a velocity motor at the target velocity (sim/joint_springs.py)
+        elif not j.motor:
             mode = "passive"
         else:
             mode = "position" if j.control_loop else "velocity"
@@ -79,6 +82,8 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     act.forcerange = [-force, force]
     act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
     items = [f"mode={mode}"]
+    if mode == "spring" and j.spring is not None:
+        items.append(f"spring_k={j.spring[0]:.9g} spring_c={j.spring[1]:.9g}")
     if j.max_velocity is not None and math.isfinite(j.max_velocity) and j.max_velocity > 0:
         items.append(f"max_velocity={j.max_velocity:.9g}")
     if j.pid is not None and math.isfinite(j.pid[0]) and j.pid[0] > 0 and abs(j.pid[0] - DEFAULT_PID_P) > 1e-9:
@@ -86,13 +91,27 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     if j.pid is not None and mode == "position" and any(v != 0 for v in j.pid[1:]):
         conv.report.add("position loops' I and D terms (simx's position law is V-REP's P loop)", approximated=True)
     target = j.target_position
-    if mode == "position" and target is not None and math.isfinite(target) and abs(target - j.position) > 1e-9:
+    if mode in ("position", "spring") and target is not None and math.isfinite(target) \
+            and abs(target - j.position) > 1e-9:
         items.append(f"target_position={target:.9g}")
     if math.isfinite(j.target_velocity) and j.target_velocity != 0:
         items.append(f"target_velocity={j.target_velocity:.9g}")
     if j.velocity_lock:  # "lock motor when target velocity is zero" (sim_jointintparam_velocity_lock)
         items.append("velocity_lock=1")
     conv.setting(obj.name, *items)
+
+
+def _slow_spring(j) -> bool:
+    """Whether the spring-damper joint ``j``'s target velocity binds: below its upper velocity
+    limit (a button's spring at 100 m/s never reaches it, a door handle's at 0 is a brake).
+    CoppeliaSim drives the mode as a velocity motor at that speed (``CJoint::
+    handleDynJointControl``); where it binds, so does simx (:mod:`simx_server.sim.joint_springs`),
+    and where it does not, the joint's own MuJoCo spring-damper (:func:`_spring`) is the same force,
+    integrated at every substep. Its K and C must be usable (finite, not negative)."""
+    k, c = j.spring
+    fast = j.max_velocity if j.max_velocity is not None and math.isfinite(j.max_velocity) else math.inf
+    usable = math.isfinite(k) and math.isfinite(c) and k >= 0 and c >= 0
+    return usable and math.isfinite(j.target_velocity) and abs(j.target_velocity) < fast
 
 
 def _spring(jt, j) -> bool:

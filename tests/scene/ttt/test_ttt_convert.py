@@ -110,9 +110,12 @@ def test_joint_targets_pid_and_spring_mode(tmp_path):
 
     body = (arm(1, "Wheel", 0.0, loop=False, target_velocity=2.0, extra=W.rec("Vaa", bytes([2])))
             + arm(4, "Servo", 1.0, extra=W.rec("Dpc", W.f32(0.5, 0, 0)) + W.rec("Dtp", W.f32(0.4)))
-            + arm(7, "Spring", 2.0, extra=W.rec("Dcm", W.i32(12)) + W.rec("Spp", W.f32(5.0, 0.5))
+            # springs faster than their joints (target velocity 5 above the upper velocity 2):
+            # the joints' own spring-dampers (tests/scene/ttt/test_ttt_spring_motor.py: slower ones)
+            + arm(7, "Spring", 2.0, target_velocity=5.0, extra=W.rec("Dcm", W.i32(12)) + W.rec("Spp", W.f32(5.0, 0.5))
                   + W.rec("Dtp", W.f32(0.3)))
-            + arm(10, "OldSpring", 3.0, spring=True, extra=W.rec("Spp", W.f32(5.0, 0.5)) + W.rec("Dtp", W.f32(0.3))))
+            + arm(10, "OldSpring", 3.0, spring=True, target_velocity=5.0,
+                  extra=W.rec("Spp", W.f32(5.0, 0.5)) + W.rec("Dtp", W.f32(0.3))))
     f = tmp_path / "joints.ttt"
     no_gravity = W.rec("DYN", W.lst(W.rec("En2", W.i32(0) + W.f32(0, 0, 0))))
     f.write_bytes(W.ttt_file(no_gravity + body))

@@ -1,0 +1,119 @@
+"""CoppeliaSim's spring-damper joint mode as the velocity motor it is.
+
+A joint in force/torque mode with its motor and control loop on and "spring-damper" chosen (the
+``.ttt``'s control mode 12, or ``Va9`` bit 7 before 4.4) is not a free spring in CoppeliaSim:
+``CJoint::handleDynJointControl`` (coppeliaSimLib 4.1) computes the control value
+``ctrl = K e + C de/dt`` (``e`` the target position minus the position, N or N·m) and hands the
+engine a *velocity* motor of target velocity ``sign(ctrl) * |target velocity|`` whose force is at
+most ``min(|ctrl|, maximum force)``. Where the joint's target velocity is far above the speeds it
+reaches, that is a spring-damper (the converter then gives the MuJoCo joint its own stiffness and
+damping, which MuJoCo integrates at every substep). Where it is not, the target velocity binds:
+with a target velocity of 0 (RLBench's door handles) the motor is a brake that holds the joint
+against up to ``|K e|`` and never pushes it back, so a handle that gravity pulls down sinks until
+``K e`` holds it and stays there; a free spring would swing about that point without end.
+
+The converter marks such joints ``mode=spring`` with ``spring_k`` and ``spring_c`` (their ``simx:``
+settings); :class:`~simx_server.sim.motors.Motors` drives them with its velocity law at the
+velocity and force limit :meth:`Springs.law` gives, recomputed once per simulation step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+
+
+class Springs:
+    """The spring-damper settings of a model's motors (per motor, indexed as the motors).
+
+    Args:
+        mask: (n,) which motors are in spring-damper mode.
+        k: (n,) the spring constants K (N/m or N·m/rad; 0 where not in the mode).
+        c: (n,) the damping coefficients C (N·s/m or N·m·s/rad).
+    """
+
+    def __init__(self, mask: np.ndarray, k: np.ndarray, c: np.ndarray) -> None:
+        self.mask = np.asarray(mask, bool)
+        self.k = np.asarray(k, float)
+        self.c = np.asarray(c, float)
+        self.reset()
+
+    @classmethod
+    def read(cls, settings: list[tuple[dict[str, str], str]], number: Callable[..., float]) -> Springs | None:
+        """The spring-damper motors among a model's motors, from their ``simx:`` settings
+        (``mode=spring``, ``spring_k``, ``spring_c``); None where none is in that mode.
+
+        Args:
+            settings: per motor, its joint's settings and the joint's name.
+            number: reads a setting as a non-negative number, ``number(settings, key, default,
+                joint)`` (:func:`simx_server.sim.motors._setting`: raises ValueError naming the
+                joint and the setting for a bad value).
+
+        Returns:
+            The springs, or None.
+        """
+        mask = np.array([s.get("mode") == "spring" for s, _ in settings], dtype=bool)
+        if not mask.any():
+            return None
+        k, c = ([number(s, key, 0.0, name) if on else 0.0 for (s, name), on in zip(settings, mask)]
+                for key in ("spring_k", "spring_c"))
+        return cls(mask, np.array(k), np.array(c))
+
+    def reset(self) -> None:
+        """Forget the last error (``simxStopSimulation``): the next law has no damping term, as
+        CoppeliaSim's first control pass after a start (``init``) has none."""
+        self._last_error = np.full(len(self.mask), np.nan)
+        self._last_time = np.nan
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
+        self._active = np.zeros(len(self.mask), bool)
+
+    def law(self, error: np.ndarray, now: float, loop: np.ndarray, target_velocity: np.ndarray,
+            max_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The velocity motor of the spring-damper motors for the next step
+        (``CJoint::handleDynJointControl``, spring branch).
+
+        Args:
+            error: (n,) target position minus position (rad or m).
+            now: the simulation time (s); the damping term uses the error's change since the
+                last call at an earlier time.
+            loop: (n,) the motors' control loop flags: the mode acts only where it is on
+                (CoppeliaSim's spring-damper is a kind of position control).
+            target_velocity: (n,) the joints' target velocities (rad/s or m/s): only their
+                magnitude counts.
+            max_force: (n,) the joints' maximum forces (N or N·m).
+
+        Returns:
+            ``(active, velocity)``: (n,) the motors the mode drives now and their target
+            velocities; their force limits (the spring-damper's force, at most the maximum
+            force) go into the model at :meth:`write_limits`.
+        """
+        self._active = self.mask & loop
+        elapsed = now - self._last_time
+        if elapsed == 0 and self._last is not None:  # applied again at the same instant
+            return self._active, self._last[0]
+        ctrl = self.k * error
+        if elapsed > 0:
+            ctrl = ctrl + np.where(np.isnan(self._last_error), 0.0, self.c * (error - self._last_error) / elapsed)
+        self._last_error, self._last_time = np.where(self.mask, error, np.nan), now
+        velocity = np.where(ctrl < 0, -np.abs(target_velocity), np.abs(target_velocity))
+        self._last = (velocity, np.minimum(np.abs(ctrl), max_force))
+        return self._active, velocity
+
+    def write_limits(self, m: mujoco.MjModel, act: np.ndarray, gear: np.ndarray, max_force: np.ndarray) -> None:
+        """Write the spring-damper motors' force ranges into ``m`` (actuator units): the force of
+        the last :meth:`law` where the mode is active, else the maximum force.
+
+        Args:
+            m: the model.
+            act: (n,) the motors' actuator ids.
+            gear: (n,) their gears.
+            max_force: (n,) the maximum forces (N or N·m).
+        """
+        if self._last is None:
+            return
+        mask = self.mask
+        force = np.where(self._active, self._last[1], max_force)[mask] / np.abs(gear[mask])
+        m.actuator_forcerange[act[mask], 0] = -force
+        m.actuator_forcerange[act[mask], 1] = force
