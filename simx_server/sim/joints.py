@@ -60,6 +60,7 @@ class Joints:
         self.data.qvel[dadr] = 0.0
         if handle in self.motor_index:
             self.target_position[self.motor_index[handle]] = position
+            self.motors.teleported(self.motor_index[handle], position)  # a lock holds it here now
         self.changed()
 
     def set_joint_target_position(self, handle: int, position: float) -> None:

@@ -5,7 +5,9 @@ without an actuator (and not driven through a tendon) gets one of its own, ``sim
 from __future__ import annotations
 
 import mujoco
+import numpy as np
 
+from simx_server.base import limits as L
 from simx_server.sim.mechanisms import LIMIT_SOLIMP, stiff_solref
 
 #: Prefix of the actuators simx adds to joints that have none (their motor starts disabled).
@@ -146,3 +148,47 @@ def _compile_predicted(spec: mujoco.MjSpec) -> mujoco.MjModel | None:
     for actuator in added:
         spec.delete(actuator)
     return None
+
+
+def max_force(m: mujoco.MjModel, a: int, j: int) -> float:
+    """Maximum force/torque on joint ``j`` (N or N·m) from actuator ``a``'s or the joint's limits
+    (:mod:`simx_server.sim.motors`).
+
+    Args:
+        m: the model.
+        a: the actuator's id.
+        j: the joint's id.
+
+    Returns:
+        The force (limits.MAX_JOINT_FORCE where nothing limits it).
+    """
+    g = abs(float(m.actuator_gear[a, 0])) or 1.0
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or ""
+    if not name.startswith(ADDED_PREFIX):
+        if m.actuator_forcelimited[a]:
+            return float(np.max(np.abs(m.actuator_forcerange[a]))) * g
+        force_control = (m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
+                         and m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE)
+        if force_control and m.actuator_ctrllimited[a]:
+            return float(np.max(np.abs(m.actuator_ctrlrange[a]))) * abs(float(m.actuator_gainprm[a, 0])) * g
+    if m.jnt_actfrclimited[j]:
+        return float(np.max(np.abs(m.jnt_actfrcrange[j])))
+    return float(L.MAX_JOINT_FORCE)
+
+
+def own_kv(m: mujoco.MjModel, a: int) -> float:
+    """The ``kv`` of a ``<velocity>`` actuator (joint units), or 0 for any other type.
+
+    Args:
+        m: the model.
+        a: the actuator's id.
+
+    Returns:
+        kv (N·s/m or N·m·s/rad), or 0.
+    """
+    gain, bias = m.actuator_gainprm[a], m.actuator_biasprm[a]
+    if (m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
+            and bias[0] == 0 and bias[1] == 0 and gain[0] > 0 and bias[2] == -gain[0]
+            and m.actuator_dyntype[a] == mujoco.mjtDyn.mjDYN_NONE):
+        return float(gain[0]) * float(m.actuator_gear[a, 0]) ** 2
+    return 0.0

@@ -72,7 +72,7 @@ import numpy as np
 from simx_server.base import limits as L
 from simx_server.sim import mechanisms
 from simx_server.sim.joint_springs import Springs
-from simx_server.sim.motor_spec import lock_name, ADDED_PREFIX, JOINT_TRNS, SCALAR, tendon_driven
+from simx_server.sim.motor_spec import lock_name, max_force, own_kv, ADDED_PREFIX, JOINT_TRNS, SCALAR, tendon_driven
 
 log = logging.getLogger("simx.world")
 
@@ -96,32 +96,6 @@ HOLD_KV_FACTOR = 300.0
 STALLED = 0.1
 #: CoppeliaSim's ``sim_jointmode_force`` (4.3+: ``sim.jointmode_dynamic``): a joint driven by physics.
 JOINTMODE_FORCE = 5
-
-def _max_force(m: mujoco.MjModel, a: int, j: int) -> float:
-    """Maximum force/torque on the joint (N or N·m) from the actuator's or joint's limits."""
-    g = abs(float(m.actuator_gear[a, 0])) or 1.0
-    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or ""
-    if not name.startswith(ADDED_PREFIX):
-        if m.actuator_forcelimited[a]:
-            return float(np.max(np.abs(m.actuator_forcerange[a]))) * g
-        force_control = (m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED
-                         and m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE)
-        if force_control and m.actuator_ctrllimited[a]:
-            return float(np.max(np.abs(m.actuator_ctrlrange[a]))) * abs(float(m.actuator_gainprm[a, 0])) * g
-    if m.jnt_actfrclimited[j]:
-        return float(np.max(np.abs(m.jnt_actfrcrange[j])))
-    return float(L.MAX_JOINT_FORCE)
-
-
-def _own_kv(m: mujoco.MjModel, a: int) -> float:
-    """The ``kv`` of a ``<velocity>`` actuator (joint units), or 0 for any other type."""
-    gain, bias = m.actuator_gainprm[a], m.actuator_biasprm[a]
-    if (m.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
-            and bias[0] == 0 and bias[1] == 0 and gain[0] > 0 and bias[2] == -gain[0]
-            and m.actuator_dyntype[a] == mujoco.mjtDyn.mjDYN_NONE):
-        return float(gain[0]) * float(m.actuator_gear[a, 0]) ** 2
-    return 0.0
-
 
 def _name(m: mujoco.MjModel, joint: int) -> str:
     return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, joint) or f"#{joint}"
@@ -180,8 +154,8 @@ class Motors:
         self.qadr = np.array([m.jnt_qposadr[j] for _, j, _ in mine], dtype=int)
         self.dadr = np.array([m.jnt_dofadr[j] for _, j, _ in mine], dtype=int)
         self.gear = np.array([float(m.actuator_gear[a, 0]) or 1.0 for a in act])
-        self.own_kv = np.array([_own_kv(m, a) for a in act])
-        self.initial_max_force = np.array([_max_force(m, a, j) for a, (_, j, _) in zip(act, mine)])
+        self.own_kv = np.array([own_kv(m, a) for a in act])
+        self.initial_max_force = np.array([max_force(m, a, j) for a, (_, j, _) in zip(act, mine)])
         added = [(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or "").startswith(ADDED_PREFIX) for a in act]
         modes = [s.get("mode", "passive" if new else "position") for (_, _, s), new in zip(mine, added)]
         self.initial_enabled = np.array([mode != "passive" for mode in modes], dtype=bool)
@@ -386,16 +360,13 @@ class Motors:
 
     def _lock(self, m: mujoco.MjModel, d: mujoco.MjData, q: np.ndarray, stopped: np.ndarray, dt: float,
               kp: np.ndarray, linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The locked motors (``sim_jointintparam_velocity_lock`` on, velocity mode, target 0) hold
-        the position where they stopped with no force limit (CoppeliaSim's ``CJoint::handleDynJoint``
-        returns bit 1, "motor locked", for them). A joint with a lock equality
-        (:func:`~simx_server.sim.motor_spec.add_locks`) is pinned there by it, switched on
-        (``eq_active``) with its constant (``eq_data``) set, as Bullet 2.78's equal limits pin it; one
-        locked at run time without one (``sim.setObjectInt32Param``) by the position law at gain 1/dt
-        (the actuator's force range is written into ``m``). ``q`` (n,) positions now, ``stopped`` (n,)
-        velocity motors with target 0, ``kp`` (n,) 1/s and ``linear`` (n,) as :meth:`apply` has
-        them. Returns ``(target, kp, linear)`` with the law-locked motors' entries changed.
-        """
+        """The locked motors (velocity lock on, velocity mode, target 0) hold where they stopped (or
+        were put, :meth:`teleported`) with no force limit (``CJoint::handleDynJoint``: "motor locked"):
+        pinned by their lock equality (:func:`~simx_server.sim.motor_spec.add_locks`; ``eq_active``,
+        ``eq_data``) as Bullet 2.78's equal limits pin them; one locked at run time without one by the
+        position law at gain 1/dt (force range written into ``m``). ``q`` (n,) positions, ``stopped``
+        (n,) velocity motors with target 0, ``kp`` and ``linear`` as :meth:`apply` has them. Returns
+        ``(target, kp, linear)`` with the law-locked motors' entries changed."""
         lock = self.locked & stopped
         self._lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
         self._locking = bool(self.locked.any())  # lock is a part of locked
@@ -481,6 +452,18 @@ class Motors:
         self.stalled = bool(blocked.any())
         self._bias = np.where(blocked, sign * self.max_force, 0.0) if self.stalled else self._no_force
         return self._bias
+
+    def teleported(self, i: int, position: float) -> None:
+        """Motor ``i``'s joint was put at ``position`` (rad or m): a lock holds it there from now on,
+        as CoppeliaSim's engine locks the joint it re-creates where it was put (PyRep's
+        ``set_joint_positions``, ``sim.setConfigurationTree``: RLBench's reset reopens its gripper).
+
+        Args:
+            i: the motor's index.
+            position: rad or m.
+        """
+        if not np.isnan(self._lock_q[i]):
+            self._lock_q[i] = position
 
     def copy_state(self, src: int, dst: int) -> None:
         """Motor ``dst`` takes the flags, targets and limits of motor ``src`` (model copies).

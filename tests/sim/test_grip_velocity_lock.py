@@ -123,3 +123,41 @@ def test_a_locked_finger_told_to_move_moves_from_its_first_step(tmp_path):
         assert speeds == pytest.approx([0.04, 0.04], rel=0.1) and max(forces) < 5, (speeds, forces)
     finally:
         simulation.close()
+
+
+@pytest.mark.parametrize("how", ["setJointPosition", "setConfigurationTree"])
+def test_a_locked_finger_put_elsewhere_stays_there(tmp_path, how):
+    """A stopped, locked finger placed somewhere else (PyRep's ``set_joint_positions``, RLBench's
+    reset through a configuration tree) is held where it was put, as CoppeliaSim's engine
+    re-creates the joint there: the lock was kept at the old place, so RLBench's Panda reopened
+    after a demo closed back on the next step and every later demo attempt found no path to the
+    first grasp (its closed fingers hit what they were to grasp)."""
+    path = tmp_path / "grip.xml"
+    path.write_text(SCENE.replace("LOCK", "velocity_lock=1"))
+    simulation = Simulation(path, realtime=False)
+    try:
+        simulation.start()
+        api = client_context(simulation, "test").sim
+        fingers = [api.getObject("/finger_left"), api.getObject("/finger_right")]
+        tree = api.getConfigurationTree(api.getObject("/hand"))  # the fingers open, at 0
+        for f in fingers:  # closed a little, then stopped: locked there
+            api.setJointTargetVelocity(f, 0.04)
+        for _ in range(5):
+            simulation.step()
+        for f in fingers:
+            api.setJointTargetVelocity(f, 0.0)
+        for _ in range(3):
+            simulation.step()
+        closed = [api.getJointPosition(f) for f in fingers]
+        assert min(closed) > 0.005
+        if how == "setJointPosition":
+            for f in fingers:
+                api.setJointPosition(f, 0.002)
+        else:
+            api.setConfigurationTree(tree)
+        for _ in range(10):
+            simulation.step()
+        expected = 0.002 if how == "setJointPosition" else 0.0
+        assert [api.getJointPosition(f) for f in fingers] == pytest.approx([expected] * 2, abs=2e-4)
+    finally:
+        simulation.close()
