@@ -7,6 +7,8 @@ velocity towards closed until the fingers stop moving, then target velocity 0.""
 
 from __future__ import annotations
 
+import contextlib
+
 import mujoco
 import pytest
 
@@ -46,6 +48,20 @@ SCENE = """<mujoco model="grip">
   </custom>
 </mujoco>
 """
+
+
+@contextlib.contextmanager
+def _locked_gripper(tmp_path):
+    """The scene with locking fingers, started: ``(simulation, sim API, finger handles)``."""
+    path = tmp_path / "grip.xml"
+    path.write_text(SCENE.replace("LOCK", "velocity_lock=1"))
+    simulation = Simulation(path, realtime=False)
+    try:
+        simulation.start()
+        api = client_context(simulation, "test").sim
+        yield simulation, api, [api.getObject("/finger_left"), api.getObject("/finger_right")]
+    finally:
+        simulation.close()
 
 
 def lifted(tmp_path, lock: bool) -> float:
@@ -97,13 +113,7 @@ def test_a_locked_finger_told_to_move_moves_from_its_first_step(tmp_path):
     high for that step and the motor's force chattered between its limits: on RLBench's Panda one
     finger moved less than PyRep's ``Gripper.actuate`` takes for moving, which then stopped it and
     left that finger open."""
-    path = tmp_path / "grip.xml"
-    path.write_text(SCENE.replace("LOCK", "velocity_lock=1"))
-    simulation = Simulation(path, realtime=False)
-    try:
-        simulation.start()
-        api = client_context(simulation, "test").sim
-        fingers = [api.getObject("/finger_left"), api.getObject("/finger_right")]
+    with _locked_gripper(tmp_path) as (simulation, api, fingers):
         for _ in range(3):  # target velocity 0 from the start: locked where they are
             simulation.step()
         w = simulation.world
@@ -121,8 +131,6 @@ def test_a_locked_finger_told_to_move_moves_from_its_first_step(tmp_path):
         assert all(x > 0.5 * 0.04 * w.dt for x in moved), moved
         # at the target velocity by the step's end, the motor's force well inside its 10 N
         assert speeds == pytest.approx([0.04, 0.04], rel=0.1) and max(forces) < 5, (speeds, forces)
-    finally:
-        simulation.close()
 
 
 @pytest.mark.parametrize("how", ["setJointPosition", "setConfigurationTree"])
@@ -132,13 +140,7 @@ def test_a_locked_finger_put_elsewhere_stays_there(tmp_path, how):
     re-creates the joint there: the lock was kept at the old place, so RLBench's Panda reopened
     after a demo closed back on the next step and every later demo attempt found no path to the
     first grasp (its closed fingers hit what they were to grasp)."""
-    path = tmp_path / "grip.xml"
-    path.write_text(SCENE.replace("LOCK", "velocity_lock=1"))
-    simulation = Simulation(path, realtime=False)
-    try:
-        simulation.start()
-        api = client_context(simulation, "test").sim
-        fingers = [api.getObject("/finger_left"), api.getObject("/finger_right")]
+    with _locked_gripper(tmp_path) as (simulation, api, fingers):
         tree = api.getConfigurationTree(api.getObject("/hand"))  # the fingers open, at 0
         for f in fingers:  # closed a little, then stopped: locked there
             api.setJointTargetVelocity(f, 0.04)
@@ -159,5 +161,3 @@ def test_a_locked_finger_put_elsewhere_stays_there(tmp_path, how):
             simulation.step()
         expected = 0.002 if how == "setJointPosition" else 0.0
         assert [api.getJointPosition(f) for f in fingers] == pytest.approx([expected] * 2, abs=2e-4)
-    finally:
-        simulation.close()
