@@ -14,7 +14,8 @@ against up to ``|K e|`` and never pushes it back, so a handle that gravity pulls
 
 The converter marks such joints ``mode=spring`` with ``spring_k`` and ``spring_c`` (their ``simx:``
 settings); :class:`~simx_server.sim.motors.Motors` drives them with its velocity law at the
-velocity and force limit :meth:`Springs.law` gives, recomputed once per simulation step.
+velocity and force limit :meth:`Springs.law` gives, recomputed at every substep (as CoppeliaSim's
+control runs at every dynamics pass: the spring's force follows its joint).
 """
 
 from __future__ import annotations

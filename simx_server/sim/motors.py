@@ -216,6 +216,7 @@ class Motors:
         consecutive = n > 0 and np.array_equal(act, np.arange(act[0], act[0] + n))
         self._act_index: slice | np.ndarray = slice(int(act[0]), int(act[0]) + n) if consecutive else act
         self._no_force = np.zeros(n)
+        self._no_spring = np.zeros(n, dtype=bool)  # apply()'s spring mask without spring motors
         self._rows = np.arange(n)
         self._unit = np.zeros((n, m.nv))
         self._unit[np.arange(n), self.dadr] = 1.0
@@ -324,7 +325,7 @@ class Motors:
         kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
         err = self.target_position - q
         on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
-        loop, springs, spring = self.loop, self.springs, self._no_force != 0
+        loop, springs, spring = self.loop, self.springs, self._no_spring
         if springs is not None:  # spring-damper motors are velocity motors (joint_springs.py)
             spring, spring_v = springs.law(err, float(d.time), loop, self.target_velocity, self.max_force)
         position = on & loop & ~spring

@@ -57,10 +57,11 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
         return
     if j.mode == FORCE:
         spring = j.spring is not None and j.control_mode == 12
-        if spring and not _slow_spring(j) and _spring(jt, j):
+        slow = spring and _slow_spring(j)
+        if spring and not slow and _spring(jt, j):
             conv.setting(obj.name, "mode=passive")  # the joint's own spring-damper instead of a motor
             return
-        if spring and _slow_spring(j):
+        if slow:
             mode = "spring"  # a velocity motor at the target velocity (sim/joint_springs.py)
         elif not j.motor:
             mode = "passive"
