@@ -9,6 +9,7 @@ charged to its caller; the queue of long calls itself in-process."""
 from __future__ import annotations
 
 import threading
+import time
 
 import cbor2
 import pytest
@@ -110,7 +111,13 @@ def test_planning_runs_off_the_simulation_thread(clients):
     task = _blocked_task(planner)
     planner.send("simOMPL.solve", task, 2.0)
     assert other.call("sim.getSimulationTime")["ret"][0] >= 0
-    busy = other.call("simOMPL.getPath", task)
+    # The two sockets are queued fairly, not in the order sent: the solve may be read after the
+    # other client's first calls. Ask until the task reports busy (the solve is then running).
+    for _ in range(200):
+        busy = other.call("simOMPL.getPath", task)
+        if "the task is busy" in busy.get("err", "") or planner.answered():
+            break
+        time.sleep(0.005)
     assert "the task is busy" in busy.get("err", ""), busy
     assert not planner.answered()  # the others were served while it searched
     assert "ret" in planner.receive()  # an approximate path at best: the post is in the way
