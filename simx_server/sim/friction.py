@@ -33,7 +33,7 @@ import numpy as np
 from simx_server.sim.objects import parse_settings, text_of
 
 __all__ = ["BULLET_MAX_FRICTION", "DEFAULT_COEFFICIENT", "TEXT", "applies", "combine", "declared", "forward", "mixed",
-           "new_shape"]
+           "new_shape", "steps"]
 
 TEXT = "simx:scene:friction"
 #: Bullet 2.78's cap on a combined friction coefficient (``MAX_FRICTION``).
@@ -148,8 +148,10 @@ def mixed(model: mujoco.MjModel) -> bool:
 
 def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
     """Give the contacts ``mj_step1`` (or ``mj_fwdPosition``) made Bullet's combined friction
-    (module docstring), all contacts at once: a handful of numpy operations per substep, more
-    only for contacts of two different values.
+    (module docstring), all contacts at once. Which contacts change and their new friction depend
+    only on the contacts' geoms and those geoms' friction: they are kept from the last call while
+    both are the same (consecutive substeps mostly find the same contacts), so a substep costs a
+    few numpy operations.
 
     Args:
         m: the model.
@@ -159,23 +161,26 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
         return
     c = d.contact
     g = c.geom
-    fg = m.geom_friction[:, 0][g]  # (ncon, 2); a flex contact's -1 reads the last geom: left out below
-    i = np.flatnonzero(fg[:, 0] != fg[:, 1])
+    fg = m.geom_friction[:, 0].take(g)  # (ncon, 2); a flex contact's -1 reads the last geom: left out below
+    key = g.tobytes() + fg.tobytes()
+    friction, mu = c.friction, c.mu
+    global _last
+    last = _last
+    if last[1] == key and last[0]() is m:
+        i, pair, ratio, wide = last[2], last[3], last[4], last[5]
+    else:
+        i, new, wide = _changed(m, g, fg)
+        # MuJoCo's own value (the larger of the two, at least mjMINMU) follows from the same key
+        ratio, pair = new / friction[i, 0], np.repeat(new[:, None], 2, axis=1)
+        _last = (weakref.ref(m), key, i, pair, ratio, wide)  # one assignment: a thread reads it whole
     if not i.size:
         return
-    _, special, wide = _facts_of(m)
-    if special:  # flex contacts, explicit <pair>s and priorities keep MuJoCo's rule
-        i = _mujocos_own(m, g, i)
-        if not i.size:
-            return
-    pair = fg[i]
-    # at least MuJoCo's own floor (mjMINMU, its mj_assignFriction): its elliptic cone scales the
-    # normal by mu, and a mu of 0 (a frictionless slider on a floor) drops the contact's normal force
-    new = np.sqrt(pair[:, 0] * pair[:, 1])
-    np.clip(new, mujoco.mjMINMU, BULLET_MAX_FRICTION, out=new)
-    friction, mu = c.friction, c.mu
-    mu[i] *= new / friction[i, 0]  # the regularised cone's mu = friction[0] * sqrt(R1 / R0)
-    friction[i, :2] = new[:, None]
+    if i.size == len(mu):  # every contact (i is then 0..ncon-1): slices, not index arrays
+        mu *= ratio  # the regularised cone's mu = friction[0] * sqrt(R1 / R0)
+        friction[:, :2] = pair
+    else:
+        mu[i] *= ratio
+        friction[i, :2] = pair
     if wide:  # torsion and rolling rows: R[j + 1] = R[1] * friction[0]^2 / friction[j]^2
         dim, R, D, adr = c.dim[i], d.efc_R, d.efc_D, c.efc_address[i]
         for k in np.flatnonzero((dim > 3) & (adr >= 0)):
@@ -183,6 +188,27 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
             for j in range(2, int(dim[k]) - 1):
                 R[row + j + 1] = R[row + 1] * fk[0] * fk[0] / max(fk[j] * fk[j], 1e-15)
                 D[row + j + 1] = 1.0 / R[row + j + 1]
+
+
+#: :func:`combine`'s last answer: [a weak reference to the model, the key (the contacts' geoms
+#: and their frictions), the contacts to change, their new sliding friction (n, 2: both
+#: tangents), its ratio to MuJoCo's, the model has a geom of condim > 3]. A new model's first call computes it.
+_last: tuple = (lambda: None, b"", None, None, None, False)
+
+
+def _changed(m: mujoco.MjModel, g: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """``(contacts to change, their combined friction, the model has wide contacts)`` for the
+    contacts of geoms ``g`` (ncon, 2) whose sliding frictions are ``fg``."""
+    _, special, wide = _facts_of(m)
+    i = np.flatnonzero(fg[:, 0] != fg[:, 1])
+    if special and i.size:  # flex contacts, explicit <pair>s and priorities keep MuJoCo's rule
+        i = _mujocos_own(m, g, i)
+    pair = fg[i]
+    # at least MuJoCo's own floor (mjMINMU, its mj_assignFriction): its elliptic cone scales the
+    # normal by mu, and a mu of 0 (a frictionless slider on a floor) drops the contact's normal force
+    new = np.sqrt(pair[:, 0] * pair[:, 1])
+    np.clip(new, mujoco.mjMINMU, BULLET_MAX_FRICTION, out=new)
+    return i, new, wide
 
 
 def _mujocos_own(m: mujoco.MjModel, g: np.ndarray, i: np.ndarray) -> np.ndarray:
@@ -196,6 +222,23 @@ def _mujocos_own(m: mujoco.MjModel, g: np.ndarray, i: np.ndarray) -> np.ndarray:
         pairs = np.minimum(m.pair_geom1, m.pair_geom2) * m.ngeom + np.maximum(m.pair_geom1, m.pair_geom2)
         keep &= ~np.isin(keys, pairs)
     return i[keep]
+
+
+def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> None:
+    """``n`` MuJoCo steps with Bullet's combined friction: ``mj_step1``, :func:`combine`,
+    ``mj_step2`` (``mj_step``'s two halves; a scene with moving surfaces steps through
+    :func:`simx_server.sim.surfaces.substep` instead).
+
+    Args:
+        m: the model.
+        d: its data, stepped.
+        n: the number of steps.
+    """
+    step1, step2 = mujoco.mj_step1, mujoco.mj_step2
+    for _ in range(n):
+        step1(m, d)
+        combine(m, d)
+        step2(m, d)
 
 
 def forward(m: mujoco.MjModel, d: mujoco.MjData) -> None:

@@ -485,11 +485,11 @@ class World(Poses, Joints):
                 self.motors.apply(m, d, self.dt)
         elif self.bounded:  # a client's scene: at most MAX_STEP_SECONDS of the simulation thread
             physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS, one)
-        elif belts is not None or product:
+        elif belts is not None:
             for _ in range(self.substeps):
                 one(m, d)
-        else:
-            mujoco.mj_step(m, d, nstep=self.substeps)
+        else:  # Bullet's friction (sim/friction.py), or all in MuJoCo
+            (friction.steps if product else mujoco.mj_step)(m, d, self.substeps)
         if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)
             raise physics.blow_up(m, d, self.time)
         if held is not None:

@@ -126,19 +126,22 @@ def test_a_frictionless_shape_rests_on_the_floor_and_slides(tmp_path):
     assert distance == pytest.approx(_SPEED * 2.0, rel=0.05)  # 2 s at 1 m/s, nothing brakes it
 
 
-@pytest.mark.parametrize("condim", [3, 4, 6])
-def test_combined_contacts_are_mujocos_own_for_that_friction(condim):
-    """After :func:`friction.combine`, a contact of two values (1.0 and 0.25) has exactly the
-    friction, cone ``mu`` and regularisation MuJoCo itself gives a contact of two geoms of the
-    product (0.5): ``mj_makeImpedance``'s rules, torsion and rolling rows included."""
-    def model(f1: float, f2: float) -> mujoco.MjModel:
-        return mujoco.MjModel.from_xml_string(f"""
+def _pair_model(f1: float, f2: float, condim: int = 3) -> mujoco.MjModel:
+    """A box resting on a plane, of sliding frictions ``f1`` (plane) and ``f2`` (box)."""
+    return mujoco.MjModel.from_xml_string(f"""
 <mujoco><option cone="elliptic" impratio="10"/><worldbody>
   <geom type="plane" size="1 1 0.1" friction="{f1} 0.02 0.001" condim="{condim}"/>
   <body pos="0 0 0.049"><freejoint/>
     <geom type="box" size="0.05 0.05 0.05" friction="{f2} 0.02 0.001" condim="{condim}"/></body>
 </worldbody></mujoco>""")
-    mixed_m, own_m = model(1.0, 0.25), model(0.5, 0.5)
+
+
+@pytest.mark.parametrize("condim", [3, 4, 6])
+def test_combined_contacts_are_mujocos_own_for_that_friction(condim):
+    """After :func:`friction.combine`, a contact of two values (1.0 and 0.25) has exactly the
+    friction, cone ``mu`` and regularisation MuJoCo itself gives a contact of two geoms of the
+    product (0.5): ``mj_makeImpedance``'s rules, torsion and rolling rows included."""
+    mixed_m, own_m = _pair_model(1.0, 0.25, condim), _pair_model(0.5, 0.5, condim)
     mixed_d, own_d = mujoco.MjData(mixed_m), mujoco.MjData(own_m)
     mujoco.mj_step1(mixed_m, mixed_d)
     friction.combine(mixed_m, mixed_d)
@@ -148,3 +151,34 @@ def test_combined_contacts_are_mujocos_own_for_that_friction(condim):
     np.testing.assert_allclose(mixed_d.contact.mu, own_d.contact.mu)
     np.testing.assert_allclose(mixed_d.efc_R[:mixed_d.nefc], own_d.efc_R[:own_d.nefc], rtol=1e-12)
     np.testing.assert_allclose(mixed_d.efc_D[:mixed_d.nefc], own_d.efc_D[:own_d.nefc], rtol=1e-12)
+
+
+def test_combine_follows_frictions_and_models_changed_between_substeps():
+    """:func:`friction.combine` keeps its last answer while the contacts' geoms and frictions are
+    the same: a friction set between two substeps (``sim.setEngineFloatParam``), or another
+    model's substep in between, gives that substep the product of the values it has now."""
+    m, other = _pair_model(1.0, 0.25), _pair_model(0.09, 1.0)
+    d, other_d = mujoco.MjData(m), mujoco.MjData(other)
+
+    def substep(model, data) -> float:
+        mujoco.mj_step1(model, data)
+        friction.combine(model, data)
+        mu = data.contact.friction[:, 0].copy()
+        mujoco.mj_step2(model, data)
+        assert len(mu) == 4
+        assert np.all(mu == mu[0])
+        return float(mu[0])
+
+    assert substep(m, d) == pytest.approx(0.5)
+    assert substep(m, d) == pytest.approx(0.5)  # the same contacts: the kept answer
+    assert substep(other, other_d) == pytest.approx(0.3)
+    assert substep(m, d) == pytest.approx(0.5)
+    m.geom_friction[1, 0] = 0.04
+    assert substep(m, d) == pytest.approx(0.2)
+    own = _pair_model(0.2, 0.2)
+    own_d = mujoco.MjData(own)
+    own_d.qpos[:], own_d.qvel[:] = d.qpos, d.qvel
+    mujoco.mj_step1(m, d)
+    friction.combine(m, d)
+    mujoco.mj_step1(own, own_d)
+    np.testing.assert_allclose(d.contact.mu, own_d.contact.mu)
