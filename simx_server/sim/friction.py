@@ -151,7 +151,7 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
     (module docstring), all contacts at once. Which contacts change and their new friction depend
     only on the contacts' geoms and those geoms' friction: they are kept from the last call while
     both are the same (consecutive substeps mostly find the same contacts), so a substep costs a
-    few numpy operations.
+    few numpy operations. Once per position stage: a second call would scale ``mu`` again.
 
     Args:
         m: the model.
@@ -192,7 +192,8 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
 
 #: :func:`combine`'s last answer: [a weak reference to the model, the key (the contacts' geoms
 #: and their frictions), the contacts to change, their new sliding friction (n, 2: both
-#: tangents), its ratio to MuJoCo's, the model has a geom of condim > 3]. A new model's first call computes it.
+#: tangents), its ratio to MuJoCo's, the model has a geom of condim > 3]. A new model's first
+#: call computes it.
 _last: tuple = (lambda: None, b"", None, None, None, False)
 
 
