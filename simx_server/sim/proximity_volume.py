@@ -224,6 +224,49 @@ def _nearest(poly: np.ndarray, count: np.ndarray, normal: np.ndarray) -> np.ndar
     return np.where(inside[:, None], foot, best)
 
 
+def within_reach(m: mujoco.MjModel, d: mujoco.MjData, geoms: np.ndarray, centre: np.ndarray,
+                 reach: float) -> np.ndarray:
+    """Of ``geoms`` (indices), those whose bounding sphere (MuJoCo's ``geom_rbound`` about
+    ``geom_xpos``) comes within ``reach`` (m) of ``centre`` (3,) world, and every plane (unbounded):
+    what a sensor volume inside that sphere can meet at all.
+
+    Args:
+        m: the model.
+        d: its data (after kinematics).
+        geoms: geom indices (k,).
+        centre: the centre of a sphere holding the volume, world (3,), m.
+        reach: that sphere's radius, m.
+
+    Returns:
+        The geoms that may meet the sphere, indices (<= k,).
+    """
+    gaps = np.linalg.norm(d.geom_xpos[geoms] - centre, axis=1) - m.geom_rbound[geoms]
+    return geoms[(gaps <= reach) | (m.geom_type[geoms] == _PLANE)]
+
+
+def may_meet(m: mujoco.MjModel, d: mujoco.MjData, seen: np.ndarray, rot: np.ndarray, origin: np.ndarray,
+              points: np.ndarray) -> bool:
+    """Whether any ``seen`` geom may meet the convex hull of ``points`` (k, 3) in the sensor frame:
+    False when every seen geom's bounding sphere lies beyond the sphere round those points, so
+    that no ray among them can reach a seen geom (a cheap test before casting them; a geom
+    checked alone, ``simCheckProximitySensor``, is usually far from the volume).
+
+    Args:
+        m: the model.
+        d: its data (after kinematics).
+        seen: (ngeom,) the geoms that may be detected.
+        rot: the sensor's frame (3, 3), world.
+        origin: the sensor's origin (3,), world.
+        points: (k, 3) points in the sensor frame whose hull holds the volume, m.
+
+    Returns:
+        False where no seen geom can meet the volume.
+    """
+    centre = points.mean(axis=0)
+    reach = float(np.linalg.norm(points - centre, axis=1).max()) + 1e-9
+    return bool(within_reach(m, d, np.flatnonzero(seen), origin + rot @ centre, reach).size)
+
+
 def nearest_inside(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np.ndarray, exclude: int,
                    seen: np.ndarray, planes: tuple[np.ndarray, np.ndarray, np.ndarray],
                    max_angle: float = math.pi / 2) -> tuple[float, int, np.ndarray, np.ndarray] | None:
@@ -249,9 +292,8 @@ def nearest_inside(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin:
     centre_local = corners.mean(axis=0)
     reach = float(np.linalg.norm(corners - centre_local, axis=1).max())
     centre = origin + rot @ centre_local
-    candidates = np.flatnonzero(seen & triangle_geoms(m) & (m.geom_bodyid != exclude))
-    gaps = np.linalg.norm(d.geom_xpos[candidates] - centre, axis=1) - m.geom_rbound[candidates]
-    candidates = candidates[(gaps <= reach) | (m.geom_type[candidates] == _PLANE)]
+    candidates = within_reach(m, d, np.flatnonzero(seen & triangle_geoms(m) & (m.geom_bodyid != exclude)),
+                              centre, reach)
     if not candidates.size:
         return None
     tris, owner = [], []

@@ -135,3 +135,38 @@ def test_cylinder_sees_a_bar_along_its_axis_that_its_rays_start_inside(tmp_path,
             assert point == pytest.approx([-(z + 0.014), 0.0, 0.0], abs=1e-9)
     finally:
         sim.close()
+
+
+LONG = """<mujoco model="long">
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <site name="Sensor" pos="0 0 0"/>
+    <body name="Bar"><geom type="capsule" fromto="{x0} 0 0.3 1.2 0 0.3" size="0.01"/></body>
+    <body name="Far" pos="0 0 2"><geom type="sphere" size="0.05"/></body>
+  </worldbody>
+  <sensor><rangefinder site="Sensor" cutoff="0.5"/></sensor>
+  <custom><text name="simx:Sensor" data="{settings}"/></custom>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("settings, x0", [
+    ("volume=pyramid size=0.2,0.2", 0.02), ("volume=disc angle=60", 0.1), ("volume=ray", -0.005),
+    ("angle=30", 0.02),
+])
+def test_a_shape_looked_for_alone_is_seen_where_it_reaches_in_from_far(tmp_path, settings, x0):
+    # The bar's centre lies 0.6 m off the sensor's axis, well outside the sphere round the
+    # volume; only its end reaches in. The quick test that skips casting for shapes out of
+    # reach must bound each shape by its whole extent, not its centre.
+    path = tmp_path / "scene.xml"
+    path.write_text(LONG.format(x0=x0, settings=settings))
+    sim = Simulation(path, realtime=False)
+    try:
+        sensor = sim.world.resolve("Sensor").handle
+        bar, far = sim.world.resolve("Bar").handle, sim.world.resolve("Far").handle
+        detected, point, handle, _ = proximity.proximity_reading(sim, sensor, bar)
+        assert detected and handle == bar and point[2] == pytest.approx(0.29, abs=0.02)
+        assert proximity.proximity_reading(sim, sensor, far)[0] is False  # beyond the range
+        assert proximity.proximity_reading(sim, sensor)[0] is True
+    finally:
+        sim.close()
