@@ -100,7 +100,8 @@ def triangle_geoms(m: mujoco.MjModel) -> np.ndarray:
     Returns:
         Boolean array.
     """
-    return np.isin(m.geom_type, (_MESH, _BOX, _PLANE))
+    t = m.geom_type
+    return (t == _MESH) | (t == _BOX) | (t == _PLANE)  # three compares: np.isin costs ten times more
 
 
 def pyramid(offset: float, far: float, size: tuple[float, float],
