@@ -334,8 +334,9 @@ class Object:
         sim.call("resetDynamicObject", self._handle)
 
     def _reset_tree_dynamics(self) -> None:
-        for h in sim.call("getObjectsInTree", self._handle, sim.sim_handle_all, 0):  # type: ignore[attr-defined]
-            sim.call("resetDynamicObject", h)
+        with sim.one_change():  # one mj_forward for the tree, not one per object
+            for h in sim.call("getObjectsInTree", self._handle, sim.sim_handle_all, 0):  # type: ignore[attr-defined]
+                sim.call("resetDynamicObject", h)
 
     # ------------------------------------------------------- geometry
     def get_bounding_box(self) -> list[float]:

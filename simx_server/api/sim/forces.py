@@ -105,8 +105,7 @@ def resetDynamicObject(ctx: CallContext, handle: Any) -> None:  # noqa: N802
         d.qvel[dofs] = 0
         d.qacc_warmstart[dofs] = 0
     if world.init_velocities:  # a dynamic shape starts again with its initial velocity
-        surfaces.start_free(world, tree)
-    mujoco.mj_forward(m, d)
+        surfaces.start_free(world, tree)  # (reads body orientations: the poses did not change)
     world.changed()
 
 
