@@ -117,9 +117,10 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         self._init_handling()  # records of sensors handled with callbacks (vision_handled)
         self.renders = 0  # number of frames actually rendered (for tests and benchmarks)
         self.reset()
-        if previous is not None and previous.world is world:  # an edit: run-time settings stay
+        edit = previous is not None and previous.world is world
+        if edit:  # run-time settings stay
             self._keep(previous)
-        self._ready = self._prepare(self._thread)
+        self._ready = self._prepare(self._thread, warm=not edit)
         if self._streaming is not None:
             self._streaming_ready = self._prepare(self._streaming)
 
@@ -335,13 +336,16 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         s = self._streaming
         return s is not None and s.debt(L.STREAM_RENDER_SHARE) > L.STREAM_RENDER_DEBT_SECONDS
 
-    def _prepare(self, thread: RenderThread) -> Future:
+    def _prepare(self, thread: RenderThread, warm: bool = True) -> Future:
         """Make the renderers of this scene's sensors on ``thread`` and draw one frame of each
         (the first frame of a renderer costs several later ones); a failure is logged once and
-        the renderers are then made on the first request."""
+        the renderers are then made on the first request. ``warm`` False (an edit of the scene:
+        PyRep's ``Shape.create``, an imported model; a program makes tens in a row, each a new
+        model): only the old model's contexts are freed, the new ones are made on the first
+        request, once for the whole series."""
         model = self.world.model
         thread.newest = model
-        if not self.specs or not self.at_load:
+        if not self.specs or not self.at_load or not warm:
             return thread.executor.submit(thread.free)  # the old scene's contexts are not needed
         data, specs = copy.copy(self.world.data), list(self.specs.values())
 
