@@ -246,7 +246,7 @@ def within_reach(m: mujoco.MjModel, d: mujoco.MjData, geoms: np.ndarray, centre:
 
 
 def may_meet(m: mujoco.MjModel, d: mujoco.MjData, seen: np.ndarray, rot: np.ndarray, origin: np.ndarray,
-              points: np.ndarray) -> bool:
+             points: np.ndarray) -> bool:
     """Whether any ``seen`` geom may meet the convex hull of ``points`` (k, 3) in the sensor frame:
     False when every seen geom's bounding sphere lies beyond the sphere round those points, so
     that no ray among them can reach a seen geom (a cheap test before casting them; a geom
