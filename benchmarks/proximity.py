@@ -3,7 +3,8 @@
 
 Scene (made here, MJCF): a table, a V-REP pyramid volume sensor (``volume=pyramid``, 10 x 10 cm,
 5 cm deep, as RLBench's ``success`` sensors) and 30 small shapes: boxes (triangle geoms, the
-exact test) and capsules (the volume's rays). Rows, µs per call (median of rounds):
+exact test) and capsules (the volume's rays). Rows, µs per call (median; the cases interleaved
+in shuffled blocks, ``benchmarks.common.interleaved``):
 
 * ``far``: a shape 40 cm from the volume (most of RLBench's asks);
 * ``inside``: a shape in the volume (detected);
@@ -21,7 +22,6 @@ from __future__ import annotations
 import argparse
 import statistics
 import tempfile
-import time
 from pathlib import Path
 
 SHAPES = 30
@@ -46,21 +46,12 @@ def scene() -> str:
 </mujoco>"""
 
 
-def _median_us(call, rounds: int, per_round: int) -> float:
-    times = []
-    for _ in range(rounds):
-        t = time.perf_counter()
-        for _ in range(per_round):
-            call()
-        times.append((time.perf_counter() - t) / per_round * 1e6)
-    return statistics.median(times)
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=15)
     ap.add_argument("--per-round", type=int, default=40)
     args = ap.parse_args()
+    from benchmarks.common import interleaved
     from simx_server.scene.simulation import Simulation
     from simx_server.sim import proximity
 
@@ -79,8 +70,8 @@ def main() -> None:
                 "inside": lambda: proximity.proximity_reading(sim, sensor, inside),
                 "all": lambda: proximity.proximity_reading(sim, sensor),
             }
-            for name, call in rows.items():
-                print(f"{name:8s} {_median_us(call, args.rounds, args.per_round):9.1f} us per call")
+            for name, times in interleaved(args.rounds, args.per_round, rows).items():
+                print(f"{name:8s} {statistics.median(times) * 1e6:9.1f} us per call")
         finally:
             sim.close()
 

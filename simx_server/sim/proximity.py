@@ -288,7 +288,8 @@ def _volume_hit(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np
     (its distance from the origin m, geom, point (3,) in the sensor frame, surface normal (3,)
     in the world frame), or None."""
     starts, dirs, lengths = rays
-    if not proximity_volume.may_meet(m, d, seen, rot, origin, np.vstack([starts, starts + dirs * lengths[:, None]])):
+    centre, reach = proximity_volume.ball(np.vstack([starts, starts + dirs * lengths[:, None]]))
+    if not proximity_volume.may_meet(m, d, seen, rot, origin, centre, reach):
         return None
     n = len(starts)
     origins, world_dirs = origin + starts @ rot.T, dirs @ rot.T
@@ -428,11 +429,10 @@ def proximity_reading(sim: SimulationView, handle: int,
     else:
         seen = np.zeros(m.ngeom, dtype=bool)
         seen[properties.shape_geoms(m, world.get(entity, SHAPE).mj_id)] = True
-    if rays is None and math.isfinite(cutoff):  # the ray's segment or the cone's ball, from the sensor's origin
+    if rays is None and math.isfinite(cutoff):  # round the ray's segment, or the cone's ball about its apex
         start = axis_offset(obj)
-        ball = np.array([[0.0, 0.0, start], [0.0, 0.0, cutoff]]) if angle <= 0 else \
-            np.array([[0.0, 0.0, start]]) + (cutoff - start) * np.vstack([np.eye(3), -np.eye(3)])
-        if not proximity_volume.may_meet(m, d, seen, rot, origin, ball):
+        mid, reach = ((start + cutoff) / 2, abs(cutoff - start) / 2) if angle <= 0 else (start, abs(cutoff - start))
+        if not proximity_volume.may_meet(m, d, seen, rot, origin, np.array([0.0, 0.0, mid]), reach):
             return False, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]
     if rays is not None:
         planar = obj.settings.get("volume") in ("pyramid", "cylinder")

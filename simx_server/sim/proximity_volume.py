@@ -245,12 +245,25 @@ def within_reach(m: mujoco.MjModel, d: mujoco.MjData, geoms: np.ndarray, centre:
     return geoms[(gaps <= reach) | (m.geom_type[geoms] == _PLANE)]
 
 
+def ball(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """A sphere holding ``points`` (k, 3) and so their convex hull: (centre (3,), radius m).
+
+    Args:
+        points: (k, 3) points, m.
+
+    Returns:
+        ``(centre, radius)``: their mean and the largest distance from it.
+    """
+    centre = points.mean(axis=0)
+    return centre, float(np.linalg.norm(points - centre, axis=1).max())
+
+
 def may_meet(m: mujoco.MjModel, d: mujoco.MjData, seen: np.ndarray, rot: np.ndarray, origin: np.ndarray,
-             points: np.ndarray) -> bool:
-    """Whether any ``seen`` geom may meet the convex hull of ``points`` (k, 3) in the sensor frame:
-    False when every seen geom's bounding sphere lies beyond the sphere round those points, so
-    that no ray among them can reach a seen geom (a cheap test before casting them; a geom
-    checked alone, ``simCheckProximitySensor``, is usually far from the volume).
+             centre: np.ndarray, reach: float) -> bool:
+    """Whether any ``seen`` geom may meet a sensor volume held by the sphere of ``centre`` (3,)
+    in the sensor frame and radius ``reach``: False when every seen geom's bounding sphere lies
+    beyond it, so that no ray inside it can reach a seen geom (a cheap test before casting them;
+    a geom checked alone, ``simCheckProximitySensor``, is usually far from the volume).
 
     Args:
         m: the model.
@@ -258,14 +271,13 @@ def may_meet(m: mujoco.MjModel, d: mujoco.MjData, seen: np.ndarray, rot: np.ndar
         seen: (ngeom,) the geoms that may be detected.
         rot: the sensor's frame (3, 3), world.
         origin: the sensor's origin (3,), world.
-        points: (k, 3) points in the sensor frame whose hull holds the volume, m.
+        centre: the sphere's centre in the sensor frame (3,), m (:func:`ball` of the volume's points).
+        reach: its radius, m.
 
     Returns:
         False where no seen geom can meet the volume.
     """
-    centre = points.mean(axis=0)
-    reach = float(np.linalg.norm(points - centre, axis=1).max()) + 1e-9
-    return bool(within_reach(m, d, np.flatnonzero(seen), origin + rot @ centre, reach).size)
+    return bool(within_reach(m, d, np.flatnonzero(seen), origin + rot @ centre, reach + 1e-9).size)
 
 
 def nearest_inside(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin: np.ndarray, exclude: int,
@@ -290,8 +302,7 @@ def nearest_inside(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin:
         sensor)``, or None.
     """
     normals, offsets, corners = planes
-    centre_local = corners.mean(axis=0)
-    reach = float(np.linalg.norm(corners - centre_local, axis=1).max())
+    centre_local, reach = ball(corners)
     centre = origin + rot @ centre_local
     candidates = within_reach(m, d, np.flatnonzero(seen & triangle_geoms(m) & (m.geom_bodyid != exclude)),
                               centre, reach)
