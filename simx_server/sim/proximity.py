@@ -12,8 +12,8 @@ site carrying a ``rangefinder``.
   site is the detection.
 * ``volume=pyramid`` or ``cylinder``: the nearest point of the detectable triangles inside the
   frustum or the ``faces=``-sided prism, exactly as CoppeliaSim's volume sensors find it
-  (:mod:`simx_server.sim.proximity_volume`; geoms with no triangles in MuJoCo, spheres,
-  capsules..., by rays);
+  (:mod:`simx_server.sim.proximity_volume`; primitives on CoppeliaSim's tessellation of them,
+  height fields and SDF geoms by rays);
 * ``volume=disc``: V-REP's other volume type, a set of rays filling the volume
   (:func:`volume_rays`).
 * what is seen: shapes that are detectable by the sensor's type (``sensable=``, V-REP's

@@ -11,8 +11,10 @@ Each candidate triangle (in the sensor's frame) is clipped by the volume's plane
 (Sutherland-Hodgman, all triangles at once in numpy) and the point of the clipped polygon
 nearest to the origin is found; the nearest of all is the detection. No triangle hides another:
 CoppeliaSim's volume sensors see through everything. Triangles come from mesh geoms (MuJoCo's
-``mesh_vert``/``mesh_face``), boxes (12) and planes (2, an infinite plane cut to the volume's
-reach); geoms of other types have no triangles in MuJoCo and are left to the rays
+``mesh_vert``/``mesh_face``), boxes (12), planes (2, an infinite plane cut to the volume's
+reach) and spheres, ellipsoids, capsules and cylinders tessellated as CoppeliaSim meshes its pure
+shapes (:func:`primitive_mesh`): a small sphere between the rays of a volume is seen, as RLBench's
+pour_from_cup_to_cup needs of its 5 mm drops. Height fields and SDF geoms are left to the rays
 (:mod:`simx_server.sim.proximity`). Where a sensor's volume lies along its axis (its offset,
 which may be negative, and its far end) is read here too (:func:`axis_offset`,
 :func:`volume_span`).
@@ -20,6 +22,7 @@ which may be negative, and its far end) is read here too (:func:`axis_offset`,
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -30,6 +33,13 @@ from simx_wire.protocol import ArgumentError
 
 _MESH, _BOX, _PLANE = (int(mujoco.mjtGeom.mjGEOM_MESH), int(mujoco.mjtGeom.mjGEOM_BOX),
                        int(mujoco.mjtGeom.mjGEOM_PLANE))
+_SPHERE, _CAPSULE, _ELLIPSOID, _CYLINDER = (int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE),
+                                            int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
+                                            int(mujoco.mjtGeom.mjGEOM_CYLINDER))
+_HFIELD, _SDF = int(mujoco.mjtGeom.mjGEOM_HFIELD), int(mujoco.mjtGeom.mjGEOM_SDF)
+#: a pure shape's subdivisions in CoppeliaSim 4.1 (``simCreatePureShape_internal``: 32 sides, and
+#: 16 faces from pole to pole for a sphere, ``CMeshRoutines::createSphere``)
+_SIDES, _SPHERE_FACES = 32, 16
 _BOX_FACES = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
                        [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]])
 _BOX_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
@@ -92,7 +102,9 @@ def volume_span(obj: Any, cutoff: float) -> tuple[float, float]:
 
 
 def triangle_geoms(m: mujoco.MjModel) -> np.ndarray:
-    """Mask (ngeom,) of the geoms whose triangles this module reads (mesh, box, plane).
+    """Mask (ngeom,) of the geoms whose triangles this module reads: every type but height
+    fields and SDF geoms (a mesh's own, a box's 12, a plane's 2, and the tessellation of
+    :func:`primitive_mesh` for spheres, capsules, ellipsoids and cylinders).
 
     Args:
         m: the model.
@@ -101,7 +113,62 @@ def triangle_geoms(m: mujoco.MjModel) -> np.ndarray:
         Boolean array.
     """
     t = m.geom_type
-    return (t == _MESH) | (t == _BOX) | (t == _PLANE)  # three compares: np.isin costs ten times more
+    return (t != _HFIELD) & (t != _SDF)  # two compares: np.isin costs ten times more
+
+
+def _lathe(profile: np.ndarray, sides: int) -> tuple[np.ndarray, np.ndarray]:
+    """The surface of revolution about z of ``profile`` (k, 2) of (radius, z) points, from a
+    pole (radius 0) at the top to one at the bottom, with ``sides`` sides: vertices (v, 3) and
+    triangles (t, 3) of vertex indices, each facing outwards."""
+    angle = 2.0 * np.pi * np.arange(sides) / sides
+    rings = profile[1:-1]
+    ring_v = np.stack([rings[:, :1] * np.cos(angle), rings[:, :1] * np.sin(angle),
+                       np.repeat(rings[:, 1:], sides, axis=1)], axis=-1).reshape(-1, 3)
+    v = np.vstack([[0.0, 0.0, profile[0, 1]], ring_v, [0.0, 0.0, profile[-1, 1]]])
+    i = np.arange(sides)
+    j = (i + 1) % sides
+    faces = [np.column_stack([np.zeros(sides, int), 1 + i, 1 + j])]
+    for r in range(len(rings) - 1):
+        a, b = 1 + r * sides, 1 + (r + 1) * sides
+        faces += [np.column_stack([a + i, b + i, b + j]), np.column_stack([a + i, b + j, a + j])]
+    last = 1 + (len(rings) - 1) * sides
+    faces.append(np.column_stack([last + i, np.full(sides, len(v) - 1), last + j]))
+    return v, np.vstack(faces)
+
+
+@functools.lru_cache(maxsize=1024)
+def primitive_mesh(kind: int, size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The triangle mesh CoppeliaSim gives a pure shape of MuJoCo geom type ``kind`` and
+    ``geom_size`` ``size`` (m), in the geom's frame: a sphere or an ellipsoid of 32 sides and 16
+    faces (``CMeshRoutines::createSphere``: vertices on the surface), a cylinder of 32 sides
+    with its caps, a capsule as a sphere's halves joined by a cylinder (MuJoCo's own type).
+
+    Args:
+        kind: ``mjGEOM_SPHERE``, ``_ELLIPSOID``, ``_CAPSULE`` or ``_CYLINDER``.
+        size: the geom's ``geom_size`` (3,), m.
+
+    Returns:
+        Vertices (v, 3) m and triangles (t, 3) of vertex indices, read-only.
+
+    Raises:
+        ValueError: another type.
+    """
+    theta = np.pi * np.arange(_SPHERE_FACES + 1) / _SPHERE_FACES
+    arc = np.column_stack([np.sin(theta), np.cos(theta)])
+    r, h = size[0], size[1]
+    if kind in (_SPHERE, _ELLIPSOID):
+        v, f = _lathe(arc, _SIDES)
+        v = v * (np.array(size) if kind == _ELLIPSOID else r)
+    elif kind == _CAPSULE:
+        half = _SPHERE_FACES // 2
+        v, f = _lathe(np.vstack([arc[:half + 1] * r + [0.0, h], arc[half:] * r - [0.0, h]]), _SIDES)
+    elif kind == _CYLINDER:
+        v, f = _lathe(np.array([[0.0, h], [r, h], [r, -h], [0.0, -h]]), _SIDES)
+    else:
+        raise ValueError(f"geom type {kind} is not a primitive with a tessellation")
+    v.setflags(write=False)
+    f.setflags(write=False)
+    return v, f
 
 
 def pyramid(offset: float, far: float, size: tuple[float, float],
@@ -174,6 +241,8 @@ def _geom_triangles(m: mujoco.MjModel, d: mujoco.MjData, g: int, centre: np.ndar
         f = m.mesh_face[m.mesh_faceadr[mid]:m.mesh_faceadr[mid] + m.mesh_facenum[mid]]
     elif kind == _BOX:
         v, f = _BOX_CORNERS * m.geom_size[g], _BOX_FACES
+    elif kind != _PLANE:
+        v, f = primitive_mesh(kind, tuple(float(x) for x in m.geom_size[g]))
     else:
         rot = d.geom_xmat[g].reshape(3, 3)
         foot = rot.T @ (centre - d.geom_xpos[g])

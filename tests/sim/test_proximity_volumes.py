@@ -6,6 +6,7 @@ to the sensor's origin, as V-REP's."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from simx_wire.protocol import ArgumentError
@@ -168,5 +169,40 @@ def test_a_shape_looked_for_alone_is_seen_where_it_reaches_in_from_far(tmp_path,
         assert detected and handle == bar and point[2] == pytest.approx(0.29, abs=0.02)
         assert proximity.proximity_reading(sim, sensor, far)[0] is False  # beyond the range
         assert proximity.proximity_reading(sim, sensor)[0] is True
+    finally:
+        sim.close()
+
+
+DROP = """<mujoco model="drop">
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <site name="Sensor" pos="0 0 0"/>
+    <body name="Drop" pos="0.009 0.009 0.015"><geom type="{kind}" size="{size}"/></body>
+  </worldbody>
+  <sensor><rangefinder site="Sensor" cutoff="0.03"/></sensor>
+  <custom><text name="simx:Sensor" data="volume=cylinder radius=0.025 faces=8"/></custom>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("kind, size", [("sphere", "0.0025"), ("ellipsoid", "0.002 0.0025 0.003"),
+                                        ("capsule", "0.002 0.001"), ("cylinder", "0.0025 0.002")])
+def test_a_small_primitive_between_the_volume_rays_is_seen(tmp_path, kind, size):
+    """RLBench's pour_from_cup_to_cup: its success sensor, a cylinder 5 cm across, looks for
+    twenty drops, spheres 5 mm across, at the bottom of the target cup; CoppeliaSim meshes its
+    pure shapes and sees every one. Here the drop lies 5 mm from the nearest of the rays that
+    would fill the volume: it is found on its tessellation."""
+    path = tmp_path / "scene.xml"
+    path.write_text(DROP.format(kind=kind, size=size))
+    sim = Simulation(path, realtime=False)
+    try:
+        sensor, drop = sim.world.resolve("Sensor").handle, sim.world.resolve("Drop").handle
+        for entity in (None, drop):
+            detected, point, handle, normal = proximity.proximity_reading(sim, sensor, entity)
+            assert detected and handle == drop
+            assert 0.012 < float(np.linalg.norm(point)) < 0.0195  # on the near side of the drop
+        if kind == "sphere":  # the centre's distance less the radius, give or take the facets
+            assert float(np.linalg.norm(point)) == pytest.approx(float(np.linalg.norm([0.009, 0.009, 0.015])) - 0.0025,
+                                                                 abs=2e-5)
     finally:
         sim.close()
