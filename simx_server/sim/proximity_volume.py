@@ -231,9 +231,10 @@ def cylinder(offset: float, far: float, radius: float, radius_far: float,
     return normals, offsets, corners
 
 
-def _geom_triangles(m: mujoco.MjModel, d: mujoco.MjData, g: int, centre: np.ndarray, reach: float) -> np.ndarray:
-    """Triangles (t, 3, 3) of geom ``g`` in the world frame; an infinite plane cut to a square of
-    ``reach`` around ``centre``'s foot."""
+def _geom_mesh(m: mujoco.MjModel, d: mujoco.MjData, g: int, centre: np.ndarray,
+               reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (v, 3) of geom ``g`` in the world frame and its triangles (t, 3) of vertex
+    indices; an infinite plane cut to a square of ``reach`` around ``centre``'s foot."""
     kind = int(m.geom_type[g])
     if kind == _MESH:
         mid = int(m.geom_dataid[g])
@@ -255,7 +256,7 @@ def _geom_triangles(m: mujoco.MjModel, d: mujoco.MjData, g: int, centre: np.ndar
         y0, y1 = max(-hy, cy - ly), min(hy, cy + ly)
         v = np.array([[x0, y0, 0], [x1, y0, 0], [x1, y1, 0], [x0, y1, 0]], dtype=float)
         f = np.array([[0, 1, 2], [0, 2, 3]])
-    return (v @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g])[f]
+    return v @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g], f
 
 
 def _clip(poly: np.ndarray, count: np.ndarray, normal: np.ndarray, offset: float) -> tuple[np.ndarray, np.ndarray]:
@@ -377,31 +378,52 @@ def nearest_inside(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin:
                               centre, reach)
     if not candidates.size:
         return None
-    tris, owner = [], []
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    tris, owner, crossings = [], [], []
+    above = math.inf  # the distance of a vertex inside the volume: the answer is no farther
     for g in candidates:
-        t = (_geom_triangles(m, d, int(g), centre, reach) - origin) @ rot  # sensor frame
-        near = np.all(t.max(axis=1) >= lo - 1e-12, axis=1) & np.all(t.min(axis=1) <= hi + 1e-12, axis=1)
-        if near.any():
-            tris.append(t[near])
-            owner.append(np.full(int(near.sum()), g))
+        v, f = _geom_mesh(m, d, int(g), centre, reach)
+        v = (v - origin) @ rot  # sensor frame
+        side = v @ normals.T - offsets  # (v, planes): > 0 beyond that plane
+        out = side > 0
+        corner_out = out[f]  # (t, 3, planes)
+        # a triangle whose three corners lie beyond one plane is outside
+        keep = ~np.any(corner_out[:, 0] & corner_out[:, 1] & corner_out[:, 2], axis=1)
+        if not keep.any():
+            continue
+        f = f[keep]
+        inside = ~np.any(out, axis=1)[f]  # (t, 3) corners inside the volume
+        if inside.any():
+            above = min(above, float(np.linalg.norm(v, axis=1)[f][inside].min()))
+        tris.append(v[f])
+        crossings.append(np.any(corner_out[keep].reshape(len(f), -1), axis=1))
+        owner.append(np.full(len(f), g))
     if not tris:
         return None
-    tri, geom = np.concatenate(tris), np.concatenate(owner)
+    tri, geom, crossing = np.concatenate(tris), np.concatenate(owner), np.concatenate(crossings)
+    if max_angle >= math.pi / 2 and math.isfinite(above):
+        # a triangle's points lie within its longest edge of each corner: leave those that cannot
+        # come nearer than a vertex inside (most of a mesh or a tessellated sphere wholly inside)
+        edge = np.linalg.norm(tri - tri[:, [1, 2, 0]], axis=2).max(axis=1)
+        near = np.linalg.norm(tri, axis=2).max(axis=1) - edge <= above + 1e-9
+        tri, geom, crossing = tri[near], geom[near], crossing[near]
     normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     area = np.linalg.norm(normal, axis=1)
     keep = area > 1e-18
-    tri, geom, normal = tri[keep], geom[keep], normal[keep] / area[keep, None]
+    tri, geom, crossing, normal = tri[keep], geom[keep], crossing[keep], normal[keep] / area[keep, None]
     poly = np.zeros((len(tri), 3 + len(offsets), 3))
     poly[:, :3] = tri
     count = np.full(len(tri), 3)
-    for n, off in zip(normals, offsets):
-        poly, count = _clip(poly, count, n, float(off))
+    cut = np.flatnonzero(crossing)  # only the triangles with a corner beyond a plane are clipped
+    if cut.size:
+        part, part_count = poly[cut], count[cut]
+        for n, off in zip(normals, offsets):
+            part, part_count = _clip(part, part_count, n, float(off))
+        poly[cut], count[cut] = part, part_count
     hit = count > 0
     if not hit.any():
         return None
     poly, count, normal, geom = poly[hit], count[hit], normal[hit], geom[hit]
-    point = _nearest(poly, count, normal)
+    point = _nearest(poly[:, :int(count.max())], count, normal)  # no wider than the largest polygon
     dist = np.linalg.norm(point, axis=1)
     if max_angle < math.pi / 2:
         facing = np.abs(np.einsum("nj,nj->n", point, normal)) / np.maximum(dist, 1e-300)
