@@ -83,7 +83,13 @@ def test_reorient_bounding_box_turns_the_frame_not_the_mesh(pr):
                              0.4, 0.1, 0.05],
                             [0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6,
                              1, 3, 5, 3, 7, 5])
-    box.set_orientation([0.0, 0.0, 0.7])
+    # its frame: x along the 0.05 m side, z along the 0.4 m one (a new mesh's main axes); lay the
+    # long side level, turned 0.7 rad about the world's z
+    c, s = np.cos(0.7), np.sin(0.7)
+    turned = np.eye(4)
+    turned[:3, :3] = np.column_stack([[0.0, 0.0, 1.0], [s, -c, 0.0], [c, s, 0.0]])
+    box.set_matrix(turned)
+
     def size():
         bb = np.array(box.get_bounding_box())
         return bb[1::2] - bb[::2]
@@ -111,14 +117,24 @@ def test_meshes_of_the_programs_own_folders_import(pr, tmp_path_factory):
     assert Shape.import_mesh(str(obj)).get_handle() != Shape.import_shape(str(obj)).get_handle()
 
 
-def test_a_mesh_bounding_box_is_its_vertices_box(pr):
-    """CoppeliaSim's bounding box of a shape is the box of its vertices in its frame: a
-    tetrahedron's corner at the origin and its three edges of 0.1 m give [0, 0.1] on each axis
-    (MuJoCo keeps a mesh in its principal axes, whose box would be larger)."""
-    verts = [0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1]
-    tet = Shape.create_mesh(verts, [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3])
-    box = np.array(tet.get_bounding_box()).reshape(3, 2) + np.array(tet.get_position())[:, None]
-    assert np.allclose(box, [[0, 0.1]] * 3, atol=1e-6)
+def test_a_new_mesh_frame_lies_along_its_main_axes_at_its_box_centre(pr):
+    """CoppeliaSim puts a new mesh shape's frame along the mesh's main axes, x the smallest
+    extent and z the largest, at the centre of its box (``CShape::_acceptNewGeometry``): RLBench
+    picks its procedural objects at their frame. A 0.3 x 0.2 x 0.1 m box turned 0.5 rad about z,
+    its corner at (0.4, 0.1, 0.2): the frame sits at its centre, its z along the long side."""
+    c, s = np.cos(0.5), np.sin(0.5)
+    corners = np.array([[x, y, z] for x in (0, 0.3) for y in (0, 0.2) for z in (0, 0.1)])
+    world = corners @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]).T + [0.4, 0.1, 0.2]
+    faces = [0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3]
+    box = Shape.create_mesh(world.reshape(-1).tolist(), faces)
+    assert np.allclose(box.get_position(), world.mean(axis=0), atol=1e-6)
+    assert np.allclose(box.get_bounding_box(), [-0.05, 0.05, -0.1, 0.1, -0.15, 0.15], atol=1e-6)
+    z_axis = box.get_matrix()[:3, 2]
+    assert abs(float(z_axis @ [c, s, 0])) == pytest.approx(1.0, abs=1e-6)  # the 0.3 m side
+    vertices, _, _ = box.get_mesh_data()  # in the shape's frame, the same box
+    m = box.get_matrix()
+    back = np.asarray(vertices) @ m[:3, :3].T + m[:3, 3]
+    assert np.sort(back, axis=0) == pytest.approx(np.sort(world, axis=0), abs=1e-6)
 
 
 def test_a_new_mesh_is_static_and_a_procedural_object_falls_whole(pr, tmp_path):
@@ -139,5 +155,8 @@ def test_a_new_mesh_is_static_and_a_procedural_object_falls_whole(pr, tmp_path):
     resp.set_parent(Shape("base"))  # a static parent: it stays free
     for _ in range(30):
         pr.step()
-    assert resp.get_position()[2] == pytest.approx(0.0, abs=0.01)  # on the floor (a corner at its origin)
+    vertices, _, _ = resp.get_mesh_data()
+    m = resp.get_matrix()
+    lowest = float((np.asarray(vertices) @ m[:3, :3].T + m[:3, 3])[:, 2].min())
+    assert lowest == pytest.approx(0.0, abs=0.01)  # on the floor
     assert np.allclose(vis.get_position(), resp.get_position(), atol=1e-6)  # carried with it

@@ -114,8 +114,9 @@ def test_create_shape_of_one_triangle(sim):
     simulation, api = sim
     h = api.createShape(0, 0.35, [-0.1, -0.1, 0, -0.1, 0.1, 0, 0.1, 0, 0], [0, 1, 2])
     assert api.getObjectType(h) == api.object_shape_type
-    assert api.getShapeBB(h)[:2] == pytest.approx([0.2, 0.2], abs=1e-6)  # float32 mesh vertices
-    assert api.getShapeBB(h)[2] < 1e-3  # the back face 0.1 mm behind
+    size = api.getShapeBB(h)  # along the mesh's main axes, x the smallest (CoppeliaSim's frame)
+    assert size[0] < 1e-3  # the back face 0.1 mm behind
+    assert size[1] * size[2] == pytest.approx(0.04, abs=1e-6)  # the triangle's smallest rectangles
     assert api.getShapeMass(h) > 0
     with pytest.raises(ArgumentError, match="line"):
         api.createShape(0, 0.35, [0, 0, 0, 1, 0, 0, 2, 0, 0], [0, 1, 2])

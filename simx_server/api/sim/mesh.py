@@ -20,6 +20,7 @@ from simx_server.api.sim import misc as _misc
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.api.sim import shape_import as shapes
+from simx_server.api.sim.meshops import box_axes
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim import friction, mechanisms
 from simx_server.sim.objects import JOINT
@@ -129,8 +130,10 @@ def exportMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options:
 @sim_function("createShape")
 def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any, indices: Any, normals: Any = None,  # noqa: N802, N803
                 textureCoordinates: Any = None, texture: Any = None, textureResolution: Any = None) -> int:  # noqa: N803
-    """A static, non-respondable mesh shape at the world origin from ``vertices`` (m) and
-    ``indices``, as CoppeliaSim's new shapes are (coppeliaSimLib 4.1 ``CShape``'s constructor:
+    """A static, non-respondable mesh shape from ``vertices`` (m, world) and ``indices``, its
+    frame along the mesh's main axes (:func:`simx_server.api.sim.meshops.box_axes`: x the
+    smallest extent, z the largest) at the centre of its box in those axes (CoppeliaSim's
+    ``CShape::_acceptNewGeometry``), as CoppeliaSim's new shapes are (coppeliaSimLib 4.1 ``CShape``'s constructor:
     ``_shapeIsDynamicallyStatic`` true, ``_shapeIsDynamicallyRespondable`` false; PyRep's
     ``import_mesh`` and RLBench's procedural objects then set what they need); its handle. Made
     dynamic and respondable, MuJoCo uses the mesh's convex hull for contacts. Textures: refused. A
@@ -165,7 +168,14 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
     if solid is None:
         raise ArgumentError("createShape: the vertices lie on a line")
     flat = len(solid[0]) != len(v)
-    v, f = solid
+    # the shape's frame along the mesh's main axes at their box's centre, as CoppeliaSim's
+    # CShape::_acceptNewGeometry (alignAndCenterGeometryAndGetTransformation) puts it
+    axes = box_axes(v)
+    local = v @ axes
+    centre = axes @ ((local.min(axis=0) + local.max(axis=0)) / 2)
+    v, f = (solid[0] - centre) @ axes, solid[1]
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, axes.reshape(-1))
     sim = ctx.simulation("createShape")
 
     def change(spec: mujoco.MjSpec):
@@ -174,7 +184,7 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
         mesh.uservert, mesh.userface = v.reshape(-1).tolist(), f.reshape(-1).tolist()
         if flat:
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
-        body = spec.worldbody.add_body(name=f"Shape{suffix}")
+        body = spec.worldbody.add_body(name=f"Shape{suffix}", pos=centre.tolist(), quat=quat.tolist())
         geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1],
                              contype=0, conaffinity=0)
         mechanisms.ground_contact(geom, spec.option.timestep)  # static: V-REP's rigid contact once respondable
