@@ -19,7 +19,7 @@ SCENE = """<mujoco model="volumes">
   <option gravity="0 0 0"/>
   <worldbody>
     <site name="Sensor" pos="0 0 0"/>
-    <body name="Target" pos="{x} {y} {z}"><geom type="box" size="0.02 0.02 0.02"/></body>
+    <body name="Target" pos="{x} {y} {z}"><geom type="{kind}" size="{size}"/></body>
   </worldbody>
   <sensor><rangefinder site="Sensor" cutoff="{cutoff}"/></sensor>
   <custom><text name="simx:Sensor" data="{settings}"/></custom>
@@ -29,7 +29,7 @@ SCENE = """<mujoco model="volumes">
 
 def read(tmp_path, settings: str, x: float, y: float = 0.0, z: float = 0.3, cutoff: float = 0.5):
     path = tmp_path / "scene.xml"
-    path.write_text(SCENE.format(x=x, y=y, z=z, cutoff=cutoff, settings=settings))
+    path.write_text(SCENE.format(x=x, y=y, z=z, cutoff=cutoff, settings=settings, kind="box", size="0.02 0.02 0.02"))
     sim = Simulation(path, realtime=False)
     try:
         return proximity.proximity_reading(sim, sim.world.resolve("Sensor").handle)
@@ -173,18 +173,6 @@ def test_a_shape_looked_for_alone_is_seen_where_it_reaches_in_from_far(tmp_path,
         sim.close()
 
 
-DROP = """<mujoco model="drop">
-  <option gravity="0 0 0"/>
-  <worldbody>
-    <site name="Sensor" pos="0 0 0"/>
-    <body name="Drop" pos="0.009 0.009 0.015"><geom type="{kind}" size="{size}"/></body>
-  </worldbody>
-  <sensor><rangefinder site="Sensor" cutoff="0.03"/></sensor>
-  <custom><text name="simx:Sensor" data="volume=cylinder radius=0.025 faces=8"/></custom>
-</mujoco>
-"""
-
-
 @pytest.mark.parametrize("kind, size", [("sphere", "0.0025"), ("ellipsoid", "0.002 0.0025 0.003"),
                                         ("capsule", "0.002 0.001"), ("cylinder", "0.0025 0.002")])
 def test_a_small_primitive_between_the_volume_rays_is_seen(tmp_path, kind, size):
@@ -193,10 +181,11 @@ def test_a_small_primitive_between_the_volume_rays_is_seen(tmp_path, kind, size)
     pure shapes and sees every one. Here the drop lies 5 mm from the nearest of the rays that
     would fill the volume: it is found on its tessellation."""
     path = tmp_path / "scene.xml"
-    path.write_text(DROP.format(kind=kind, size=size))
+    path.write_text(SCENE.format(x=0.009, y=0.009, z=0.015, cutoff=0.03, settings="volume=cylinder radius=0.025 faces=8",
+                                 kind=kind, size=size))
     sim = Simulation(path, realtime=False)
     try:
-        sensor, drop = sim.world.resolve("Sensor").handle, sim.world.resolve("Drop").handle
+        sensor, drop = sim.world.resolve("Sensor").handle, sim.world.resolve("Target").handle
         for entity in (None, drop):
             detected, point, handle, normal = proximity.proximity_reading(sim, sensor, entity)
             assert detected and handle == drop
