@@ -354,7 +354,7 @@ def nearest_inside(m: mujoco.MjModel, d: mujoco.MjData, rot: np.ndarray, origin:
                    seen: np.ndarray, planes: tuple[np.ndarray, np.ndarray, np.ndarray],
                    max_angle: float = math.pi / 2) -> tuple[float, int, np.ndarray, np.ndarray] | None:
     """The detection of a convex volume: the point nearest to the sensor's origin of the
-    triangles of the ``seen`` geoms (mesh, box, plane; not of body ``exclude``) inside it.
+    triangles of the ``seen`` geoms (:func:`triangle_geoms`; not of body ``exclude``) inside it.
 
     Args:
         m: the model.
