@@ -2,8 +2,8 @@
 ``ProximitySensor.is_detected``), as RLBench's success conditions ask at every step.
 
 Scene (made here, MJCF): a table, a V-REP pyramid volume sensor (``volume=pyramid``, 10 x 10 cm,
-5 cm deep, as RLBench's ``success`` sensors) and 30 small shapes: boxes (triangle geoms, the
-exact test) and capsules (the volume's rays). Rows, µs per call (median; the cases interleaved
+5 cm deep, as RLBench's ``success`` sensors) and 30 small shapes: boxes and capsules (both on
+the exact triangle test; the capsules on their tessellation). Rows, µs per call (median; the cases interleaved
 in shuffled blocks, ``benchmarks.common.interleaved``):
 
 * ``far``: a shape 40 cm from the volume (most of RLBench's asks);

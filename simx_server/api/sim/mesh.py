@@ -20,7 +20,7 @@ from simx_server.api.sim import misc as _misc
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.api.sim import shape_import as shapes
-from simx_server.api.sim.meshops import box_axes
+from simx_server.api.sim.meshops import box_axes, rotation_quat
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim import friction, mechanisms
 from simx_server.sim.objects import JOINT
@@ -174,8 +174,7 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
     local = v @ axes
     centre = axes @ ((local.min(axis=0) + local.max(axis=0)) / 2)
     v, f = (solid[0] - centre) @ axes, solid[1]
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, axes.reshape(-1))
+    quat = rotation_quat(axes)
     sim = ctx.simulation("createShape")
 
     def change(spec: mujoco.MjSpec):

@@ -22,7 +22,8 @@ from simx_server.sim.objects import SHAPE, WORLD
 from simx_server.sim.rotations import matrix_from_quaternion, quaternion_from_matrix
 
 
-def _quat(rot: np.ndarray) -> np.ndarray:
+def rotation_quat(rot: np.ndarray) -> np.ndarray:
+    """MuJoCo's quaternion (w, x, y, z) of a rotation matrix (3, 3)."""
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, np.ascontiguousarray(rot).reshape(9))
     return q
@@ -31,7 +32,7 @@ def _quat(rot: np.ndarray) -> np.ndarray:
 def _moved(pos: Any, quat: Any, rd: np.ndarray, pd: np.ndarray) -> tuple[list[float], list[float]]:
     """A local pose (MuJoCo pos, quat w-first) re-expressed after the frame change (rd, pd)."""
     q = np.empty(4)
-    mujoco.mju_mulQuat(q, _quat(rd), np.asarray(quat, float) / np.linalg.norm(quat))
+    mujoco.mju_mulQuat(q, rotation_quat(rd), np.asarray(quat, float) / np.linalg.norm(quat))
     return (rd @ np.asarray(pos, float) + pd).tolist(), q.tolist()
 
 
@@ -97,7 +98,7 @@ def relocateShapeFrame(ctx: CallContext, shapeHandle: Any, pose: Any) -> int:  #
                     el.pos, el.quat = _moved(el.pos, el.quat, rd, pd)
         if body.explicitinertial:
             body.ipos, body.iquat = _moved(body.ipos, body.iquat, rd, pd)
-        body.pos, body.quat = local_p.tolist(), _quat(local_r).tolist()
+        body.pos, body.quat = local_p.tolist(), rotation_quat(local_r).tolist()
 
     sim.editor._edit(change)
     # the compiled pose is the start; an edit keeps where a free, mocap or static body is now (the
