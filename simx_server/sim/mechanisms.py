@@ -60,20 +60,26 @@ def equality_jacobian(m: mujoco.MjModel, d: mujoco.MjData,
         ``(J, R)``: J (k, nv) dense, R (k,) MuJoCo's ``efc_R`` of those rows; k = 0 when the
         model has no active equality.
     """
+    empty = np.zeros((0, m.nv)), np.zeros(0)
     if m.neq == 0 or d.nefc == 0:
-        return np.zeros((0, m.nv)), np.zeros(0)
-    kept = d.efc_type[:d.nefc] == _EQUALITY
-    if ignore is not None and len(ignore) and d.eq_active[ignore].any():  # inactive ones have no rows
-        kept &= ~np.isin(d.efc_id[:d.nefc], ignore)
-    rows = np.flatnonzero(kept)
+        return empty
+    held = d.eq_active.astype(bool)
+    if ignore is not None and len(ignore):
+        held[ignore] = False
+    if not held.any():  # every active equality is ignored (a gripper's own locks): no rows to read
+        return empty
+    rows = np.flatnonzero(d.efc_type[:d.nefc] == _EQUALITY)
+    rows = rows[held[d.efc_id[rows]]]
     if not rows.size:
-        return np.zeros((0, m.nv)), np.zeros(0)
-    if mujoco.mj_isSparse(m):
-        dense = np.zeros((d.nefc, m.nv))
-        mujoco.mju_sparse2dense(dense, d.efc_J, d.efc_J_rownnz, d.efc_J_rowadr, d.efc_J_colind)
-    else:
-        dense = d.efc_J[:d.nefc * m.nv].reshape(d.nefc, m.nv)
-    return dense[rows].copy(), d.efc_R[rows].copy()
+        return empty
+    if mujoco.mj_isSparse(m):  # only the kept rows, from MuJoCo's compressed rows
+        dense = np.zeros((rows.size, m.nv))
+        nnz, adr, col = d.efc_J_rownnz[rows], d.efc_J_rowadr[rows], d.efc_J_colind
+        for k in range(rows.size):
+            a, n = int(adr[k]), int(nnz[k])
+            dense[k, col[a:a + n]] = d.efc_J[a:a + n]
+        return dense, d.efc_R[rows].copy()
+    return d.efc_J[:d.nefc * m.nv].reshape(d.nefc, m.nv)[rows].copy(), d.efc_R[rows].copy()
 
 
 def inverse_inertia(m: mujoco.MjModel, d: mujoco.MjData, minv_rows: np.ndarray, dofs: np.ndarray,
