@@ -230,11 +230,21 @@ class GeomMaker:
         return g
 
 
+#: The ``contype`` of a respondable shape whose two respondable masks are empty: a bit no geom's
+#: ``conaffinity`` has (V-REP's masks use the low eight), so it meets nothing, as in V-REP.
+NO_PARTNER_BIT = 1 << 30
+
+
 def collision_bits(shape: ShapeData) -> tuple[int, int]:
     """contype/conaffinity of a shape's geoms: V-REP's global respondable mask (high byte of
     ``Dc2``) for a respondable shape, 0/0 (visual only) otherwise. The local mask (low byte,
-    shapes of one model) becomes ``<exclude>`` pairs (see :mod:`.convert`)."""
+    shapes of one model) becomes ``<exclude>`` pairs (see :mod:`.convert`). A respondable shape
+    with both masks empty collides with nothing in V-REP (its engines pair two shapes only when
+    their masks share a bit: the TurtleBot's wheel-drop bodies): ``(NO_PARTNER_BIT, 0)``, which
+    MuJoCo pairs with no geom while the shape stays respondable (it has contact bits)."""
     if not shape.respondable:
         return 0, 0
+    if not shape.respondable_mask & 0xFFFF:
+        return NO_PARTNER_BIT, 0
     bits = (shape.respondable_mask >> 8) & 0xFF or 1
     return bits, bits

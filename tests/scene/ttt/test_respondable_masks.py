@@ -11,6 +11,7 @@ from __future__ import annotations
 import struct
 
 import mujoco
+import pytest
 
 import tttwriter as W
 from simx_server.scene.ttt import convert, reader
@@ -46,3 +47,34 @@ def test_local_masks_hold_across_model_bases_within_one_tree(tmp_path):
     assert frozenset(("left_pad", "right_finger")) not in excluded  # 0xf0 & 0xf0: they collide
     assert frozenset(("right_pad", "left_finger")) not in excluded
     assert not any("table" in pair for pair in excluded)  # another tree: the global masks decide
+
+
+@pytest.mark.renderers_on_demand  # no image is read
+def test_a_shape_with_both_masks_empty_meets_nothing_and_stays_respondable(tmp_path):
+    """V-REP pairs two respondable shapes only when their masks share a bit: a dynamic cube whose
+    masks are both 0 (the TurtleBot's wheel-drop bodies) falls through the table another cube,
+    of the default masks, rests on; sim.getObjectInt32Param still reads it respondable."""
+    from simx_server.api import script_sim
+    from simx_server.scene.simulation import Simulation
+
+    def cube(handle: int, name: str, mask: int, x: float) -> bytes:
+        plain = W.cuboid_shape(handle, -1, name, (0.05, 0.05, 0.05), (x, 0, 0.2), mass=0.1)
+        return plain.replace(W.rec("Dc2", struct.pack("<H", 0xFFFF)), W.rec("Dc2", struct.pack("<H", mask)))
+
+    f = tmp_path / "masks.ttt"
+    f.write_bytes(W.ttt_file(W.rec("SIM", W.lst(W.rec("Sts", W.f32(0.05))))
+                             + W.cuboid_shape(1, -1, "table", (1.0, 1.0, 0.1), (0, 0, 0), dynamic=False)
+                             + cube(2, "kept", 0xFFFF, -0.2) + cube(3, "unmasked", 0x0000, 0.2)))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "masks")
+    sim = Simulation(xml, realtime=False)
+    try:
+        sim.start()
+        api = script_sim(sim.world, sim.world.resolve("table").handle, sim.signals, simulation=sim)
+        for _ in range(20):  # 1 s
+            sim.step()
+        kept, unmasked = api.getObject("/kept"), api.getObject("/unmasked")
+        assert abs(api.getObjectPosition(kept, -1)[2] - 0.075) < 0.005  # on the table's top (0.05)
+        assert api.getObjectPosition(unmasked, -1)[2] < -1.0  # through it, falling
+        assert api.getObjectInt32Param(unmasked, 3004) == 1  # sim.shapeintparam_respondable
+    finally:
+        sim.close()
