@@ -310,7 +310,7 @@ def path(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, elemen
     ends = {}
     for el in elements:
         (p0, r0), (p1, r1) = frame(world, scratch, el.tip)[:2], frame(world, scratch, el.target)[:2]
-        ends[el.handle] = (p0, _quat(r0), p1, _quat(r1))
+        ends[el.handle] = (p0, old_paths.matrix_to_quat(r0), p1, old_paths.matrix_to_quat(r1))
     out = np.empty((count, len(joints)))
     for i in range(count):
         t = i / (count - 1)
@@ -320,12 +320,6 @@ def path(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, elemen
         if not ok or (collides is not None and collides(q)):
             return None
         out[i] = q
-    return out
-
-
-def _quat(r: np.ndarray) -> np.ndarray:
-    out = np.empty(4)
-    mujoco.mju_mat2Quat(out, r.reshape(9).copy())
     return out
 
 

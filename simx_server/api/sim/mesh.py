@@ -20,10 +20,11 @@ from simx_server.api.sim import misc as _misc
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.api.sim import shape_import as shapes
-from simx_server.api.sim.meshops import box_axes, rotation_quat
+from simx_server.api.sim.meshops import box_axes
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim import friction, mechanisms
 from simx_server.sim.objects import JOINT
+from simx_server.sim.old_paths import matrix_to_quat
 from simx_server.sim.spec_tools import _names, solid_mesh, vrep_suffix
 
 _SUFFIX = {0: ".obj", 4: ".stl"}
@@ -174,7 +175,7 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
     local = v @ axes
     centre = axes @ ((local.min(axis=0) + local.max(axis=0)) / 2)
     v, f = (solid[0] - centre) @ axes, solid[1]
-    quat = rotation_quat(axes)
+    quat = matrix_to_quat(axes)
     sim = ctx.simulation("createShape")
 
     def change(spec: mujoco.MjSpec):

@@ -19,20 +19,14 @@ from simx_server.api.sim import shapes as _shapes
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
 from simx_server.sim.objects import SHAPE, WORLD
+from simx_server.sim.old_paths import matrix_to_quat
 from simx_server.sim.rotations import matrix_from_quaternion, quaternion_from_matrix
-
-
-def rotation_quat(rot: np.ndarray) -> np.ndarray:
-    """MuJoCo's quaternion (w, x, y, z) of a rotation matrix (3, 3)."""
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(rot).reshape(9))
-    return q
 
 
 def _moved(pos: Any, quat: Any, rd: np.ndarray, pd: np.ndarray) -> tuple[list[float], list[float]]:
     """A local pose (MuJoCo pos, quat w-first) re-expressed after the frame change (rd, pd)."""
     q = np.empty(4)
-    mujoco.mju_mulQuat(q, rotation_quat(rd), np.asarray(quat, float) / np.linalg.norm(quat))
+    mujoco.mju_mulQuat(q, matrix_to_quat(rd), np.asarray(quat, float) / np.linalg.norm(quat))
     return (rd @ np.asarray(pos, float) + pd).tolist(), q.tolist()
 
 
@@ -98,7 +92,7 @@ def relocateShapeFrame(ctx: CallContext, shapeHandle: Any, pose: Any) -> int:  #
                     el.pos, el.quat = _moved(el.pos, el.quat, rd, pd)
         if body.explicitinertial:
             body.ipos, body.iquat = _moved(body.ipos, body.iquat, rd, pd)
-        body.pos, body.quat = local_p.tolist(), rotation_quat(local_r).tolist()
+        body.pos, body.quat = local_p.tolist(), matrix_to_quat(local_r).tolist()
 
     sim.editor._edit(change)
     # the compiled pose is the start; an edit keeps where a free, mocap or static body is now (the
