@@ -60,18 +60,17 @@ def equality_jacobian(m: mujoco.MjModel, d: mujoco.MjData,
         ``(J, R)``: J (k, nv) dense, R (k,) MuJoCo's ``efc_R`` of those rows; k = 0 when the
         model has no active equality.
     """
-    empty = np.zeros((0, m.nv)), np.zeros(0)
     if m.neq == 0 or d.nefc == 0:
-        return empty
+        return _no_rows(m.nv)
     held = d.eq_active.astype(bool)
     if ignore is not None and len(ignore):
         held[ignore] = False
     if not held.any():  # every active equality is ignored (a gripper's own locks): no rows to read
-        return empty
+        return _no_rows(m.nv)
     rows = np.flatnonzero(d.efc_type[:d.nefc] == _EQUALITY)
     rows = rows[held[d.efc_id[rows]]]
     if not rows.size:
-        return empty
+        return _no_rows(m.nv)
     if mujoco.mj_isSparse(m):  # only the kept rows, from MuJoCo's compressed rows
         dense = np.zeros((rows.size, m.nv))
         nnz, adr, col = d.efc_J_rownnz[rows], d.efc_J_rowadr[rows], d.efc_J_colind
@@ -80,6 +79,10 @@ def equality_jacobian(m: mujoco.MjModel, d: mujoco.MjData,
             dense[k, col[a:a + n]] = d.efc_J[a:a + n]
         return dense, d.efc_R[rows].copy()
     return d.efc_J[:d.nefc * m.nv].reshape(d.nefc, m.nv)[rows].copy(), d.efc_R[rows].copy()
+
+
+def _no_rows(nv: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.zeros((0, nv)), np.zeros(0)
 
 
 def inverse_inertia(m: mujoco.MjModel, d: mujoco.MjData, minv_rows: np.ndarray, dofs: np.ndarray,
