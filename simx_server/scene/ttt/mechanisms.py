@@ -13,6 +13,11 @@ under the motors' forces (:mod:`simx_server.sim.mechanisms` says why they are st
   only) leaves a parallel gripper's fingers free to turn: V-REP's RG2 then swings both fingers
   one way instead of mirroring them.
 * **Joint limits** are hard in V-REP's engines: every limited joint gets the stiff limit.
+* **Armature**: V-REP's engines give no joint a rotor inertia. MuJoCo needs one where a motor or a
+  spring acts on a light link, and in a closed mechanism, whose light links the stiff loop and
+  joint equalities couple to the motor that drives them (without it a gripper's linkage of a
+  few grams stops short of its stroke or keeps oscillating): those joints get
+  :data:`DRIVEN_ARMATURE`, every other joint none.
 """
 
 from __future__ import annotations
@@ -23,6 +28,9 @@ from simx_server.scene.ttt.model import TttObject
 from simx_server.sim.mechanisms import LIMIT_SOLIMP, LOOP_SOLIMP, dependency_polycoef, stiff_solref
 
 LOOP_CLOSURE = 0  # sim_dummy_linktype_dynamics_loop_closure
+#: The rotor inertia (kg m^2, or kg for a prismatic joint) simx gives a driven joint and the
+#: joints of a closed mechanism (see the module).
+DRIVEN_ARMATURE = 0.01
 
 
 def stiff_limit(conv, jt) -> None:
@@ -71,9 +79,32 @@ def add_loop_closures(conv) -> None:
         eq.name1, eq.name2 = obj.name, other.name
         eq.data[10] = 1.0  # torquescale: CoppeliaSim's default (mujoco.overlapConstrTorquescale)
         eq.solref, eq.solimp = solref, list(LOOP_SOLIMP)
+        _driven(_loop_joints(conv.spec, obj.name, other.name))
     for dep, master, off, mult, q0, q0_master in conv.deferred_equalities:
         eq = conv.spec.add_equality()
         eq.type = mujoco.mjtEq.mjEQ_JOINT
         eq.name1, eq.name2 = dep, master
         eq.data[:5] = dependency_polycoef(q0, q0_master, off, mult)
         eq.solref, eq.solimp = solref, list(LOOP_SOLIMP)
+        _driven([conv.spec.joint(dep), conv.spec.joint(master)])
+
+
+def _loop_joints(spec: mujoco.MjSpec, site1: str, site2: str) -> list:
+    """The joints on the tree path between the bodies that carry two sites (a closed loop's
+    joints: from each body up to, not including, their deepest common ancestor)."""
+    def chain(site: str) -> list:
+        out, body = [], spec.site(site).parent
+        while body is not None and body.name != "world":
+            out.append(body)
+            body = body.parent
+        return out
+    one, two = chain(site1), chain(site2)
+    shared = {b.name for b in one} & {b.name for b in two}
+    return [j for b in one + two if b.name not in shared for j in b.joints]
+
+
+def _driven(joints: list) -> None:
+    """Give joints that have none :data:`DRIVEN_ARMATURE` (a joint MjSpec could not find is None)."""
+    for j in joints:
+        if j is not None and j.armature == 0:
+            j.armature = DRIVEN_ARMATURE

@@ -31,13 +31,18 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     """The joint ``obj`` in ``body`` at ``pos`` along ``axis`` (body frame), its motor as simx
     models it: an actuator with V-REP's maximum force, ``mode`` and ``max_velocity`` in its
     ``simx:`` setting; a dependent joint an MJCF joint equality; a limit that holds
-    (:mod:`simx_server.scene.ttt.mechanisms`)."""
+    (:mod:`simx_server.scene.ttt.mechanisms`). A driven joint (a motor, its own spring) gets
+    ``mechanisms.DRIVEN_ARMATURE``, as do the joints of a closed mechanism
+    (:func:`simx_server.scene.ttt.mechanisms.add_loop_closures`); any other (no motor, a
+    spherical joint) none, as in V-REP, where a free joint moves its child with the child's
+    inertia alone: a caster, a rope's link or a screw turned by a screwdriver carries no
+    flywheel."""
     j = obj.data
     jt = body.add_joint()
     jt.name = obj.name
     jt.pos = pos
     jt.axis = axis / max(np.linalg.norm(axis), 1e-12)
-    jt.armature = 0.01
+    jt.armature = 0.0
     if j.type == SPHERICAL:
         jt.type = mujoco.mjtJoint.mjJNT_BALL
         conv.report.add("spherical joint positions (start at the file's pose, zero there)", approximated=True)
@@ -59,6 +64,7 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
         spring = j.spring is not None and j.control_mode == 12
         slow = spring and _slow_spring(j)
         if spring and not slow and _spring(jt, j):
+            jt.armature = mechanisms.DRIVEN_ARMATURE
             conv.setting(obj.name, "mode=passive")  # the joint's own spring-damper instead of a motor
             return
         if slow:
@@ -74,6 +80,8 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
     else:  # passive: moved only by what pushes it (no motor)
         conv.setting(obj.name, "mode=passive")
         return
+    if mode != "passive":
+        jt.armature = mechanisms.DRIVEN_ARMATURE
     act = conv.spec.add_actuator()
     act.name = f"{obj.name}_motor"
     act.target = obj.name
