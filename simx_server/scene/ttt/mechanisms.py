@@ -93,7 +93,8 @@ def _loop_joints(spec: mujoco.MjSpec, site1: str, site2: str) -> list:
     """The joints on the tree path between the bodies that carry two sites (a closed loop's
     joints: from each body up to, not including, their deepest common ancestor)."""
     def chain(site: str) -> list:
-        out, body = [], spec.site(site).parent
+        found = spec.site(site)
+        out, body = [], found.parent if found is not None else None
         while body is not None and body.name != "world":
             out.append(body)
             body = body.parent
