@@ -28,7 +28,7 @@ from simx_server.scene.ttt import inertia, looks, measurements, settings
 from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement, quat_to_mat
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.sim.properties import SHAPE_DEFAULT
-from simx_server.scene.ttt.mechanisms import add_loop_closures
+from simx_server.scene.ttt.mechanisms import add_loop_closures, bodies_up
 from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_sensor
 
 _MAX_EXCLUDES = 20_000
@@ -451,11 +451,7 @@ def _parent_friction(body, parent, gravity: float) -> None:
 
 def _welded_to_world(body) -> bool:
     """Whether the MjSpec body ``body`` moves with the world (no joint on it or above it)."""
-    while body is not None and body.name != "world":
-        if body.joints:
-            return False
-        body = body.parent
-    return True
+    return not any(b.joints for b in bodies_up(body))
 
 
 def _setting_safe(value: str) -> bool:

@@ -89,17 +89,20 @@ def add_loop_closures(conv) -> None:
         _driven([conv.spec.joint(dep), conv.spec.joint(master)])
 
 
+def bodies_up(body) -> list:
+    """The MjSpec body ``body`` and its ancestors below the world, nearest first (none for the
+    world or None)."""
+    out = []
+    while body is not None and body.name != "world":
+        out.append(body)
+        body = body.parent
+    return out
+
+
 def _loop_joints(spec: mujoco.MjSpec, site1: str, site2: str) -> list:
     """The joints on the tree path between the bodies that carry two sites (a closed loop's
     joints: from each body up to, not including, their deepest common ancestor)."""
-    def chain(site: str) -> list:
-        found = spec.site(site)
-        out, body = [], found.parent if found is not None else None
-        while body is not None and body.name != "world":
-            out.append(body)
-            body = body.parent
-        return out
-    one, two = chain(site1), chain(site2)
+    one, two = ([] if s is None else bodies_up(s.parent) for s in (spec.site(site1), spec.site(site2)))
     shared = {b.name for b in one} & {b.name for b in two}
     return [j for b in one + two if b.name not in shared for j in b.joints]
 

@@ -58,7 +58,7 @@ def test_free_joints_carry_no_armature_driven_and_looped_ones_do(tmp_path):
     assert armature("LoopA") == armature("LoopB") == DRIVEN_ARMATURE  # a closed mechanism's joints
 
 
-@pytest.mark.parametrize("motor", [False, True], ids=["free", "motor-disabled-later"])
+@pytest.mark.parametrize("motor", [False, True], ids=["free", "motor-on"])
 def test_a_free_pendulum_swings_with_its_own_inertia(tmp_path, motor):
     """Released level, a 10 g bob on a 5 cm arm reaches the bottom in about 0.1 s (a free
     pendulum's quarter swing from 90 degrees, 1.18 sqrt(L/g)); with 0.01 kg m^2 on its hinge it
