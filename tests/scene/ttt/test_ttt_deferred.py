@@ -83,11 +83,12 @@ def test_each_client_has_its_share_of_the_conversion_queue_served_round_robin(si
     MAX_WAITING_PER_CLIENT loads converted or waiting: its next is busy, naming the share, and a
     newcomer's load is taken; the worker takes them round robin, one per client in turn, so the
     newcomer's comes before any client's third."""
-    real, gate, order = conversions.ttt_cache.mjcf_for, threading.Event(), []
+    real, gate, started, order = conversions.ttt_cache.mjcf_for, threading.Event(), threading.Event(), []
 
     def held(file, root, client=False):  # the first conversion takes as long as the test wants
         order.append(file.name)
         if len(order) == 1:
+            started.set()
             assert gate.wait(60)
         return real(file, root, client=client)
 
@@ -101,6 +102,8 @@ def test_each_client_has_its_share_of_the_conversion_queue_served_round_robin(si
             for j in range(share):
                 (files.roots[0] / f"{c}{j}.ttm").write_bytes(crate)
                 deferred.append(H["LoadModel"](sim, [f"{c}{j}.ttm", 0]))
+                if len(deferred) == 1:  # a0 under way before the others wait (a loaded machine's worker
+                    assert started.wait(60)  # could take b0 first: a's next turn comes after e)
             with pytest.raises(RemoteError, match=f"server busy: .*MAX_WAITING_PER_CLIENT = {share}"):
                 H["LoadModel"](sim, ["box.ttt", 0])  # one more, while its share waits
     assert conversions.pending() == 5 * share
