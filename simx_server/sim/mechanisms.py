@@ -132,39 +132,49 @@ def stiff_solref(timestep: float) -> list[float]:
 
 
 #: ``solmix`` of the geoms of static shapes fixed to the world (the ground, tables, walls): their
-#: stiff ``solref`` decides their contacts (MuJoCo averages two geoms' ``solref`` weighted by it).
+#: ``solref`` decides their contacts with geoms that have another (MuJoCo averages two geoms'
+#: ``solref`` weighted by it).
 GROUND_SOLMIX = 1000.0
-#: Their damping ratio. MuJoCo's spring is 1 / (dmax * time constant * ratio)^2 and its damping
-#: 2 / (dmax * time constant): at 2 the spring at V-REP's 5 ms substep is MuJoCo's default one (a
-#: resting body sinks as much), stiffer at shorter steps, and the damping is the stiffest one's.
-#: Critically damped (1), bodies that overlap at load were pushed apart at depth / (2 * time
-#: constant): a wall overlapping another by 6 mm left at 8 m/s and through the floor.
-GROUND_DAMPING_RATIO = 2.0
-#: MuJoCo's default ``solref`` and ``solmix`` of a geom: a dynamic shape's contact.
+#: The damping ratio of V-REP's rigid contact. MuJoCo's spring is 1 / (dmax * time constant *
+#: ratio)^2 and its damping 2 / (dmax * time constant): at 2 the spring at V-REP's 5 ms substep is
+#: MuJoCo's default one (a resting body sinks as much), stiffer at shorter steps (six times at
+#: 2 ms), and the damping is the stiffest one's. Critically damped (1), bodies that overlap at
+#: load were pushed apart at depth / (2 * time constant): a wall overlapping another by 6 mm left
+#: at 8 m/s and through the floor.
+RIGID_DAMPING_RATIO = 2.0
+#: MuJoCo's default ``solref`` and ``solmix`` of a geom.
 DEFAULT_SOLREF, DEFAULT_SOLMIX = (0.02, 1.0), 1.0
 
 
-def ground_contact(geom, timestep: float, ground: bool = True) -> None:
-    """Give a geom of a static shape fixed to the world V-REP's rigid contact (or, with
-    ``ground`` False, MuJoCo's default one back, a dynamic shape's).
+def rigid_contact(geom, timestep: float, static: bool = True) -> None:
+    """Give a geom of a V-REP shape V-REP's rigid contact: the stiffest time constant MuJoCo
+    takes (two timesteps, :func:`stiff_solref`), damped twice critically
+    (:data:`RIGID_DAMPING_RATIO`); a static shape's (fixed to the world) also rules the contacts
+    of geoms that have another (:data:`GROUND_SOLMIX`).
 
-    Bullet's static bodies are rigid; MuJoCo's default contact (a 20 ms time constant) lets what
-    falls or is pressed on a body sink by its speed x 20 ms: past the middle of a 4 cm table top
-    the contact's normal turns and it falls for ever. The stiffest time constant MuJoCo takes
-    (two timesteps) rules the contacts of such a geom (:data:`GROUND_SOLMIX`), damped twice
-    critically (:data:`GROUND_DAMPING_RATIO`). The ``.ttt`` converter gives it to the static
-    shapes of a file, and ``sim.createPureShape`` / ``sim.createPrimitiveShape`` /
-    ``sim.createMeshShape`` and ``sim_shapeintparam_static`` to those made at run time.
+    Bullet's contacts are rigid, between two dynamic bodies as against a static one: it corrects
+    an overlap within a few steps whatever the bodies' masses. MuJoCo's default contact (a 20 ms
+    time constant) is a soft spring: what fell or was pressed on V-REP's 4 cm floor box sank by
+    its speed x 20 ms, passed the box's middle and fell for ever; a Panda finger pressed on a
+    fridge's door (a dynamic shape on its hinge) sank 7 mm into it, and the friction of that
+    overlap held the closing finger before it reached the handle (RLBench's open_fridge). The
+    ``.ttt`` converter gives it to every shape of a file, ``sim.createPureShape`` /
+    ``sim.createPrimitiveShape`` / ``sim.createMeshShape`` to those made at run time, and
+    ``sim_shapeintparam_static`` switches between the static and the dynamic form. At a timestep
+    over 5 ms (an MJCF scene's own) two timesteps damped twice critically would be softer than
+    MuJoCo's default contact, which the geom then keeps.
 
     Args:
         geom: an ``MjsGeom`` of the spec.
         timestep: the model's timestep (s).
-        ground: rigid (True) or MuJoCo's default contact (False).
+        static: a static shape fixed to the world (True) or a dynamic one (False).
     """
-    if ground:
-        geom.solref, geom.solmix = [stiff_solref(timestep)[0], GROUND_DAMPING_RATIO], GROUND_SOLMIX
+    stiff = stiff_solref(timestep)[0]
+    if stiff * RIGID_DAMPING_RATIO <= DEFAULT_SOLREF[0] * DEFAULT_SOLREF[1]:  # MuJoCo's spring: 1 / (tc r)^2
+        geom.solref = [stiff, RIGID_DAMPING_RATIO]
     else:
-        geom.solref, geom.solmix = list(DEFAULT_SOLREF), DEFAULT_SOLMIX
+        geom.solref = list(DEFAULT_SOLREF)
+    geom.solmix = GROUND_SOLMIX if static else DEFAULT_SOLMIX
 
 
 def dependency_polycoef(qpos0_joint: float, qpos0_master: float, offset: float, mult: float) -> list[float]:

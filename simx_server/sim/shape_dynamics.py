@@ -15,8 +15,8 @@ CoppeliaSim's, the flags keep their value when the simulation stops.
   kept, ``Editor._edit``): a dynamic shape made static loses its free joint and stays where it
   is now (its compiled pose stays the one at the start, so stopping the simulation puts it
   back); a static shape at the world's root made dynamic gets a free joint, at rest where it
-  is. The geoms' contact follows (:func:`simx_server.sim.mechanisms.ground_contact`): rigid
-  for a static shape, as Bullet's static bodies, MuJoCo's default for a dynamic one. A shape carried by joints, or one grasped (held by a weld, :mod:`simx_server.sim.grasps`),
+  is. The geoms' contact follows (:func:`simx_server.sim.mechanisms.rigid_contact`): V-REP's
+  rigid contact in its static or dynamic form. A shape carried by joints, or one grasped (held by a weld, :mod:`simx_server.sim.grasps`),
   cannot be switched: UnsupportedError.
 """
 
@@ -28,7 +28,7 @@ import numpy as np
 from simx_wire.protocol import UnsupportedError
 from simx_server.sim import grasps
 from simx_server.sim.collisions import collidable
-from simx_server.sim.mechanisms import ground_contact
+from simx_server.sim.mechanisms import rigid_contact
 from simx_server.sim.objects import SceneObject
 
 #: ``sim_shapeintparam_static``, ``sim_shapeintparam_respondable``.
@@ -137,8 +137,8 @@ def set_static(sim, obj: SceneObject, static: bool) -> None:
                 spec.delete(joint)
         else:
             body.add_freejoint()
-        for geom in body.geoms:  # a static shape's contact is rigid, a dynamic one's MuJoCo's default
-            ground_contact(geom, spec.option.timestep, static)
+        for geom in body.geoms:  # a static shape's contact rules its pairs, a dynamic one's does not
+            rigid_contact(geom, spec.option.timestep, static)
         return lambda: _place(world, name, pos, quat, static)
 
     sim.editor._edit(change)

@@ -16,7 +16,7 @@ from simx_server.api.registry import sim_function
 from simx_server.api.sim import core as _core
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num
-from simx_server.sim import friction
+from simx_server.sim import friction, mechanisms
 from simx_server.sim.objects import SHAPE
 from simx_server.sim.spec_tools import _names, vrep_suffix
 
@@ -102,6 +102,7 @@ def createHeightfieldShape(ctx: CallContext, options: Any, shadingAngle: Any, xP
         body = spec.worldbody.add_body(name=f"Heightfield{suffix}")
         geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname=field.name, pos=[0, 0, low],
                              rgba=[0.8, 0.8, 0.8, 1])
+        mechanisms.rigid_contact(geom, spec.option.timestep)  # static: V-REP's rigid contact
         friction.new_shape(spec, geom)  # CoppeliaSim's default material in a V-REP scene
         return lambda: sim.world.resolve(f"Heightfield{suffix}").handle
 

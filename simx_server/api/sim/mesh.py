@@ -187,7 +187,7 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
         body = spec.worldbody.add_body(name=f"Shape{suffix}", pos=centre.tolist(), quat=quat.tolist())
         geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=[0.8, 0.8, 0.8, 1],
                              contype=0, conaffinity=0)
-        mechanisms.ground_contact(geom, spec.option.timestep)  # static: V-REP's rigid contact once respondable
+        mechanisms.rigid_contact(geom, spec.option.timestep)  # static: V-REP's rigid contact once respondable
         friction.new_shape(spec, geom)  # CoppeliaSim's default material in a V-REP scene
         return lambda: sim.world.resolve(f"Shape{suffix}").handle
 

@@ -26,7 +26,7 @@ from simx_server.base import limits as L
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
-from simx_server.sim import friction
+from simx_server.sim import friction, mechanisms
 from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import SHAPE, World
@@ -129,6 +129,7 @@ def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float
         body.add_freejoint()
         geom = body.add_geom(name=f"Shape_geom{suffix}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name,
                              condim=4, friction=_FRICTION, rgba=[0.8, 0.8, 0.8, 1.0])
+        mechanisms.rigid_contact(geom, spec.option.timestep, static=False)  # V-REP's, a dynamic shape's
         friction.new_shape(spec, geom)  # CoppeliaSim's default material in a V-REP scene
         return lambda: sim.world.resolve(name).handle
 

@@ -20,7 +20,7 @@ from simx_server.api.sim import shape_texture
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_text as _text, as_vector as _vector
 from simx_server.sim import friction
-from simx_server.sim.mechanisms import ground_contact
+from simx_server.sim.mechanisms import rigid_contact
 from simx_server.sim.objects import DUMMY, LIGHT, SHAPE
 from simx_server.sim.spec_tools import _names, vrep_suffix
 
@@ -495,8 +495,7 @@ def createPrimitiveShape(ctx: CallContext, primitiveType: Any, sizes: Any, optio
             body.add_freejoint()
         geom = body.add_geom(type=gtype, size=size, density=1000.0, rgba=[0.85, 0.85, 0.85, 1.0])
         friction.new_shape(spec, geom)  # CoppeliaSim's default material in a V-REP scene
-        if opts & 2:  # static: V-REP's rigid contact, as a static shape of a .ttt
-            ground_contact(geom, spec.option.timestep)
+        rigid_contact(geom, spec.option.timestep, bool(opts & 2))  # V-REP's, as a shape of a .ttt
         if flat:  # its bounding box has no height (simx_server.sim.bounding_boxes)
             spec.add_text(name=f"simx:{name}", data="flat=1")
         return lambda: sim.world.resolve(name).handle

@@ -11,7 +11,7 @@ import numpy as np
 from simx_server.scene.ttt.geometry import compose
 from simx_server.scene.ttt.looks import Look, Materials, texture_colour
 from simx_server.scene.ttt.model import Mesh, Pose, ShapeData
-from simx_server.sim.mechanisms import ground_contact
+from simx_server.sim.mechanisms import rigid_contact
 from simx_server.sim.spec_tools import solid_mesh
 
 # V-REP primitive type -> how it becomes a geom (the others are meshes)
@@ -80,8 +80,8 @@ class GeomMaker:
         A shape in no shown layer (V-REP's hidden collision shapes) and the wireframe meshes of a
         shape that is not respondable (V-REP draws their edges; RLBench's spawn boundaries) go
         to geom group 3, which neither the viewer nor the vision sensors draw by default.
-        ``ground``: a static shape fixed to the world, whose contacts get the stiffest ``solref``
-        (:func:`simx_server.sim.mechanisms.ground_contact`)."""
+        Every geom gets V-REP's rigid contact (:func:`simx_server.sim.mechanisms.rigid_contact`),
+        in its static form where ``ground``: a static shape fixed to the world."""
         base = Pose(np.asarray(frame_pos, float), np.asarray(frame_quat, float))
         for i, mesh in enumerate(shape.meshes):
             lines = mesh.wireframe and contype == 0  # V-REP draws it as lines: MuJoCo cannot
@@ -95,8 +95,7 @@ class GeomMaker:
             look = mesh.look or Look(diffuse=tuple(mesh.color))
             g.rgba = [*mesh.color, look.opacity]
             g.contype, g.conaffinity = contype, conaffinity
-            if ground and (contype or conaffinity):  # V-REP's rigid static bodies (mechanisms.py)
-                ground_contact(g, self.spec.option.timestep)
+            rigid_contact(g, self.spec.option.timestep, ground)  # Bullet's rigid contacts (mechanisms.py)
             if not visible or lines:
                 g.group = 3
             g.density = 0.0  # bodies get the file's mass and inertia, not the geoms'

@@ -1,0 +1,48 @@
+"""V-REP's rigid contacts between two dynamic shapes (simx_server/sim/mechanisms.py,
+``rigid_contact``). Bullet corrects an overlap between two dynamic bodies as it does against a
+static one; with MuJoCo's default contact (a 20 ms time constant) a body pressed on a dynamic
+shape sank into it: a Panda finger sank 7 mm into RLBench's fridge door, and that overlap's
+friction held the closing finger before it reached the handle."""
+
+from __future__ import annotations
+
+import mujoco
+import pytest
+
+import tttwriter as W
+from simx_server.scene.ttt import convert, reader
+
+pytestmark = pytest.mark.renderers_on_demand  # no image is read here
+
+FLOOR_TOP, PLATE, CUBE = 0.05, 0.02, 0.05  # the floor's top (m), the plate's and the cube's height (m)
+
+
+def _stack() -> bytes:
+    """A static floor, a 0.5 kg dynamic plate on it and a 2 kg dynamic cube on the plate."""
+    return W.ttt_file(
+        W.rec("SIM", W.lst(W.rec("Sts", W.f32(0.05)))) + W.rec("DYN", W.lst(W.rec("En2", W.i32(0) + W.f32(0, 0, -9.81)))) +
+        W.cuboid_shape(1, -1, "Floor", (2.0, 2.0, 0.1), (0, 0, FLOOR_TOP - 0.05), dynamic=False) +
+        W.cuboid_shape(2, -1, "Plate", (0.3, 0.3, PLATE), (0, 0, FLOOR_TOP + PLATE / 2), mass=0.5,
+                       moments=(0.0075, 0.0075, 0.015)) +
+        W.cuboid_shape(3, -1, "Cube", (CUBE, CUBE, CUBE), (0, 0, FLOOR_TOP + PLATE + CUBE / 2), mass=2.0,
+                       moments=(4.2e-4, 4.2e-4, 4.2e-4)))
+
+
+def test_a_cube_on_a_dynamic_plate_sinks_as_little_as_the_plate_on_the_floor(tmp_path):
+    (tmp_path / "stack.ttt").write_bytes(_stack())
+    xml, _ = convert.convert(reader.read(str(tmp_path / "stack.ttt")), tmp_path / "out")
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(m)
+    for _ in range(round(1.0 / m.opt.timestep)):
+        mujoco.mj_step(m, d)
+    plate, cube = d.body("Plate").xpos[2], d.body("Cube").xpos[2]
+    plate_sink = FLOOR_TOP - (plate - PLATE / 2)  # the plate's bottom below the floor's top
+    cube_sink = (plate + PLATE / 2) - (cube - CUBE / 2)  # the cube's bottom below the plate's top
+    # 2.5 kg on the floor, 2 kg on the plate: as deep, 0.08 mm (MuJoCo's default contact between
+    # the cube and the plate: 0.43 mm, five times the plate's on the floor)
+    assert 0.0 < cube_sink < 2e-4, cube_sink
+    assert cube_sink < 1.5 * plate_sink, (cube_sink, plate_sink)
+    # every geom of the file has the rigid contact; the static floor's rules its pairs
+    floor, plate_geom = m.body("Floor").geomadr[0], m.body("Plate").geomadr[0]
+    assert list(m.geom_solref[plate_geom]) == pytest.approx(list(m.geom_solref[floor]))
+    assert m.geom_solmix[floor] > m.geom_solmix[plate_geom]
