@@ -23,11 +23,14 @@ SUFFIXES = (".ttt", ".ttm")
 
 
 def _converter_version() -> str:
-    """A digest of this package's source: part of the cache key, so that a changed reader or
-    converter converts again."""
+    """A digest of the converter's source: part of the cache key, so that a changed reader or
+    converter converts again. The converter takes constants and helpers from ``simx_server.sim``
+    and ``simx_server.base`` too (contacts, motors, limits): their modules count as well."""
     h = hashlib.sha256()
-    for f in sorted(Path(__file__).parent.glob("*.py")):
-        h.update(f.name.encode() + f.read_bytes())
+    package = Path(__file__).parents[2]
+    for folder in (Path(__file__).parent, package / "sim", package / "base"):
+        for f in sorted(folder.glob("*.py")):
+            h.update(f"{folder.name}/{f.name}".encode() + f.read_bytes())
     return h.hexdigest()[:16]
 
 

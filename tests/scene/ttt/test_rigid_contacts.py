@@ -46,3 +46,21 @@ def test_a_cube_on_a_dynamic_plate_sinks_as_little_as_the_plate_on_the_floor(tmp
     floor, plate_geom = m.body("Floor").geomadr[0], m.body("Plate").geomadr[0]
     assert list(m.geom_solref[plate_geom]) == pytest.approx(list(m.geom_solref[floor]))
     assert m.geom_solmix[floor] > m.geom_solmix[plate_geom]
+
+
+def test_a_changed_contact_rule_converts_cached_files_again(monkeypatch):
+    """The converter takes its contact from ``simx_server/sim/mechanisms.py``: a change there
+    is part of the conversion cache's key, as a change of the converter's own modules is (a
+    cached conversion of the old rule would otherwise be loaded)."""
+    from pathlib import Path
+
+    from simx_server.scene.ttt import cache
+
+    before, read = cache._converter_version(), Path.read_bytes
+
+    def changed(self: Path) -> bytes:
+        data = read(self)
+        return data + b"# changed" if self.name == "mechanisms.py" and self.parent.name == "sim" else data
+
+    monkeypatch.setattr(Path, "read_bytes", changed)
+    assert cache._converter_version() != before
