@@ -157,7 +157,7 @@ def rigid_contact(geom, timestep: float, static: bool = True) -> None:
     time constant) is a soft spring: what fell or was pressed on V-REP's 4 cm floor box sank by
     its speed x 20 ms, passed the box's middle and fell for ever; a Panda finger pressed on a
     fridge's door (a dynamic shape on its hinge) sank 7 mm into it, and the friction of that
-    overlap held the closing finger before it reached the handle (RLBench's open_fridge). The
+    overlap held the closing finger before it reached the handle (RLBench's fridge tasks). The
     ``.ttt`` converter gives it to every shape of a file, ``sim.createPureShape`` /
     ``sim.createPrimitiveShape`` / ``sim.createMeshShape`` to those made at run time, and
     ``sim_shapeintparam_static`` switches between the static and the dynamic form. At a timestep

@@ -145,7 +145,7 @@ def test_a_static_shape_made_at_run_time_is_as_rigid_as_a_files():
     ``.ttt``'s rigid static contact: a 1 cm cube dropped 0.5 m on it sinks less than 8 mm (with
     MuJoCo's default contact 14 mm; RLBench's dropped objects passed a thin container bottom and
     the stand-in's table top), and made dynamic it keeps the rigid contact, which then no longer
-    rules the contacts of geoms that have another."""
+    rules the contacts of geoms that have another, as the dynamic cube's."""
     from pyrep import PyRep
     from pyrep.backend import sim
     from pyrep.const import PrimitiveShape
@@ -165,5 +165,7 @@ def test_a_static_shape_made_at_run_time_is_as_rigid_as_a_files():
         m = sim.context().view.world.model
         g = m.body(table.get_name()).geomadr[0]
         assert m.geom_solref[g] == pytest.approx([2 * m.opt.timestep, 2.0]) and m.geom_solmix[g] == 1.0
+        c = m.body(cube.get_name()).geomadr[0]  # a dynamic shape made at run time: the same contact
+        assert m.geom_solref[c] == pytest.approx([2 * m.opt.timestep, 2.0]) and m.geom_solmix[c] == 1.0
     finally:
         pr.shutdown()
