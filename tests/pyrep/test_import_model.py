@@ -165,6 +165,8 @@ def test_a_static_shape_made_at_run_time_is_as_rigid_as_a_files():
         m = sim.context().view.world.model
         g = m.body(table.get_name()).geomadr[0]
         assert m.geom_solref[g] == pytest.approx([2 * m.opt.timestep, 2.0]) and m.geom_solmix[g] == 1.0
+        floor = m.geom("Floor").id  # empty.xml writes the static form out: it must stay what simx gives
+        assert m.geom_solref[floor] == pytest.approx([2 * m.opt.timestep, 2.0]) and m.geom_solmix[floor] == 1000.0
         c = m.body(cube.get_name()).geomadr[0]  # a dynamic shape made at run time: the same contact
         assert m.geom_solref[c] == pytest.approx([2 * m.opt.timestep, 2.0]) and m.geom_solmix[c] == 1.0
     finally:
