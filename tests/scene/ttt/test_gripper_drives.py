@@ -124,9 +124,11 @@ def test_the_rg2_opens_and_closes_by_its_open_close_joint(pose, style):
             return float(w.data.joint(name).qpos[0])
 
         sim.start()
-        for i, angle in enumerate(pose):
-            api.setJointTargetPosition(w.resolve(f"UR5_joint{i + 1}").handle, math.radians(angle))
-        for _ in range(80):
+        for i, angle in enumerate(pose):  # the arm put in its pose, its motors holding it there
+            joint = w.resolve(f"UR5_joint{i + 1}").handle
+            api.setJointPosition(joint, math.radians(angle))
+            api.setJointTargetPosition(joint, math.radians(angle))
+        for _ in range(10):
             sim.step()
         oc = w.resolve("RG2_openCloseJoint").handle
         api.setObjectInt32Param(oc, CTRL_ENABLED, 1 if style == "position" else 0)
