@@ -342,7 +342,8 @@ class ChildScript:
     def _run_function(self, function: str, args: tuple) -> Any:
         raise NotImplementedError
 
-    def _run_values(self, function: str, args: tuple) -> list:
+    def _run_values(self, function: str, args: tuple, own: bool = False) -> list:
+        """``function(*args)``'s results (``own``: simx's own flat callback data, no bound to check)."""
         raise NotImplementedError
 
     def _drop(self) -> None:
@@ -462,7 +463,7 @@ class PythonScript(ChildScript):
         except ScriptError as exc:
             raise self._fault(function, str(exc)) from None
 
-    def _run_values(self, function: str, args: tuple) -> list:
+    def _run_values(self, function: str, args: tuple, own: bool = False) -> list:
         fn = self.namespace[function]
         out = self._bounded(function, lambda: fn(*args))
         return [] if out is None else list(out) if isinstance(out, tuple) else [out]

@@ -114,7 +114,7 @@ class DynamicsCallbacks:
         self._dyn(self._pass, total, step, False)
         changed = False
         for script, handle in self.joints:
-            out = call_back(script, JOINT_CALLBACK, self._joint_data(m, d, handle, self._pass, total, step))
+            out = call_back(script, JOINT_CALLBACK, self._joint_data(m, d, handle, self._pass, total, step), True)
             if isinstance(out, dict) and ("force" in out or "velocity" in out):
                 i = w.motor_index[handle]
                 motors = w.motors
@@ -151,7 +151,7 @@ class DynamicsCallbacks:
         for g1, g2 in sorted(self._filter.candidates(m)):
             data = {"handle1": int(shape_of[g1]), "handle2": int(shape_of[g2]), "engine": PHYSICS_MUJOCO}
             for script in self.contact:
-                out = call_back(script, CONTACT_CALLBACK, data)
+                out = call_back(script, CONTACT_CALLBACK, data, True)
                 if not isinstance(out, dict) or out.get("ignoreContact", False):
                     continue
                 if script.label not in self._told and any(k in out for k in _ENGINE_TABLES):
@@ -166,7 +166,7 @@ class DynamicsCallbacks:
     def _dyn(self, n: int, total: int, step: float, after: bool) -> None:
         for script in self.dyn:
             call_back(script, DYN_CALLBACK, {"passCnt": n, "totalPasses": total, "dynStepSize": step,
-                                               "afterStep": after})
+                                               "afterStep": after}, True)
 
     def _joint_data(self, m: mujoco.MjModel, d: mujoco.MjData, handle: int, n: int, total: int,
                     step: float) -> dict:
@@ -189,7 +189,7 @@ class DynamicsCallbacks:
                 "maxForce": float(motors.max_force[i]), "first": n == 1, "last": n == total}
 
 
-def call_back(script: Any, function: str, data: dict) -> Any:
+def call_back(script: Any, function: str, data: dict, flat: bool = False) -> Any:
     """A system callback ``function(data)`` of ``script`` in the current pass, charged and bounded
     as every callback (:mod:`simx_server.scripts.budget`): its first result; None when it is
     skipped (the script cut, the pass's time spent) or fails (logged).
@@ -198,6 +198,8 @@ def call_back(script: Any, function: str, data: dict) -> Any:
         script: a :class:`~simx_server.scripts.child.ChildScript`.
         function: the callback's name.
         data: its ``inData``.
+        flat: ``data`` is simx's own flat table (str keys, numbers and booleans): converted
+            without the bound on a client's arguments (a joint callback's, at every substep).
 
     Returns:
         Its first result (Lua tables as lists or dicts, strings as bytes), or None.
@@ -205,5 +207,5 @@ def call_back(script: Any, function: str, data: dict) -> Any:
     if not script._may_run(function) or script._pass_spent(function):
         return None
     result: list = []
-    script._guarded(function, lambda: result.extend(script._run_values(function, (data,))))
+    script._guarded(function, lambda: result.extend(script._run_values(function, (data,), own=flat)))
     return result[0] if result else None
