@@ -496,16 +496,16 @@ class World(Poses, Joints):
             kinematic.settle(self, held)
         if physics.SINK.count:
             physics.SINK.report()  # other warnings (contact buffer full...): once per kind
-        self.changed()  # mj_step leaves positions and sensors one substep behind the state
+        self.changed(follow=held is not None)  # grasped parts: their welds held them (sim/grasps.py)
 
-    def changed(self) -> None:
+    def changed(self, follow: bool = True) -> None:
         """After any change of state: recompute derived quantities, invalidate cached renders,
         and note the simulation time (``time``, s: every reply reads it, and a plain attribute
-        costs no call into MuJoCo's bindings). Grasped parts are put back on what holds
-        them first (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`."""
+        costs no call into MuJoCo's bindings). Grasped parts are put back on what holds them first
+        (:func:`~simx_server.sim.grasps.follow`) unless ``follow`` is False; once per :meth:`one_change`."""
         if self._batch.holds():
             return
-        if self.grasps:
+        if self.grasps and follow:
             grasps.follow(self)
         (friction.forward if friction.applies(self.model) else mujoco.mj_forward)(self.model, self.data)
         self.version += 1

@@ -76,7 +76,8 @@ def test_a_grasped_cube_is_lifted_and_falls_when_released(scene):
     _run(sim, 2.0)
     assert api.getJointPosition(lift) == pytest.approx(0.3, abs=1e-3)
     assert api.getObjectPosition(cube, -1)[2] == pytest.approx(z0 + 0.3, abs=2e-3)
-    assert api.getObjectPosition(cube, attach) == pytest.approx(rel, abs=1e-6)  # held rigidly
+    # held by its weld through the steps (not put back after each): its 0.1 kg sinks 12 um in it
+    assert api.getObjectPosition(cube, attach) == pytest.approx(rel, abs=5e-5)
     api.setObjectParent(cube, -1, True)                                    # release
     assert api.getObjectParent(cube) == -1
     assert cube not in api.getObjectsInTree(attach)
@@ -120,7 +121,7 @@ def test_an_edit_keeps_the_grasp_and_a_teleport_carries_the_part(scene):
     assert api.getObjectPosition(cube, attach) == pytest.approx(rel, abs=1e-9)
     api.setObjectPosition(cube, attach, [0.01, 0, -0.02])                  # placed in its parent's frame
     _run(sim, 0.5)
-    assert api.getObjectPosition(cube, attach) == pytest.approx([0.01, 0, -0.02], abs=1e-6)
+    assert api.getObjectPosition(cube, attach) == pytest.approx([0.01, 0, -0.02], abs=5e-5)  # its weld's give
 
 
 def test_without_keep_in_place_the_pose_relative_to_the_parent_is_kept(scene):
