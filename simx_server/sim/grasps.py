@@ -15,7 +15,7 @@ and a weld equality named ``simx_grasp:PART`` (added to the model once per part,
 :mod:`simx_server.scene.grasping`) holds it to the body that carries the new parent: at grasp
 time the weld's other body (``eq_obj2id``) and its relative pose (``eq_data``) are written from
 the current poses and the weld is switched on (``eq_active``); no recompile. The weld joins the
-part's origin (:func:`_write_weld`) with the stiff settings of a joint limit: through the
+part at its parent's origin (:func:`_write_weld`) with the stiff settings of a joint limit: through the
 simulation's steps it alone holds the part, as CoppeliaSim's engine holds a dynamic shape to its
 force-sensor parent by a constraint solved with the contacts (a part pulled against an obstacle
 is stopped there, and the gripper with it; 0.1 kg sinks about 12 um in it). After a command
@@ -160,30 +160,38 @@ def _relative(a: tuple, b: tuple) -> np.ndarray:
     return np.concatenate([p, q])
 
 
-def _write_weld(m: mujoco.MjModel, e: int, relpose: np.ndarray) -> None:
+def _write_weld(m: mujoco.MjModel, e: int, relpose: np.ndarray, anchor: np.ndarray) -> None:
     """Write weld ``e``'s data so that it holds its part (``eq_obj1id``) at ``relpose`` (the
-    holder's pose in the part's frame) with the held point at the part's origin.
+    holder's pose in the part's frame), joined at ``anchor``.
 
     MuJoCo's weld (``mj_instantiateEquality``) joins the point ``eq_data[3:6]`` of body 1 to the
-    point ``eq_data[0:3]`` (the anchor) of body 2 and turns body 1 to ``eq_data[6:10]``. With
-    the anchor at the holder's origin the joined point lay there, as far from the part as its
-    holder's origin (the world's: metres): the part then swung about it, its small rotational
-    inertia barely resisting. So the joined point is the part's origin: 0 in the part's frame,
-    and in the holder's the inverse of ``relpose``'s translation.
+    point ``eq_data[0:3]`` of body 2 and turns body 1 to ``eq_data[6:10]``. The joined point is
+    where the part hangs from its parent, the parent object's origin (an attach point, a force
+    sensor), as CoppeliaSim's engine joins a dynamic shape to its force-sensor parent there. At
+    the holder body's origin (MuJoCo's default anchor) it lay as far from the part as that origin:
+    the world's for a force sensor fixed to it, metres away, about which the part swung.
 
     Args:
         m: the model.
         e: the weld's equality id.
         relpose: (7,) the holder's pose in the part's frame (m, quaternion w x y z).
+        anchor: (3,) the joined point in the holder body's frame (m).
     """
-    qinv, anchor = np.empty(4), np.empty(3)
-    mujoco.mju_negQuat(qinv, relpose[3:7])
-    mujoco.mju_rotVecQuat(anchor, -np.asarray(relpose[:3], float), qinv)
+    in_part = np.empty(3)
+    mujoco.mju_rotVecQuat(in_part, np.asarray(anchor, float), relpose[3:7])
     data = m.eq_data[e]
-    data[:3] = anchor  # the part's origin in the holder's frame
-    data[3:6] = 0.0  # ... and in its own
+    data[:3] = anchor
+    data[3:6] = in_part + relpose[:3]  # the same point in the part's frame
     data[6:10] = relpose[3:7]
     data[10] = 1.0  # torquescale: orientation held as firmly as position
+
+
+def _anchor(world, parent: SceneObject, body: int) -> np.ndarray:
+    """The parent object's origin in the frame of ``body``, which carries it (poses of the
+    last ``mj_kinematics``)."""
+    d = world.data
+    p = world.frame(parent.handle)[0] if parent.handle != WORLD else np.zeros(3)
+    return d.xmat[body].reshape(3, 3).T @ (np.asarray(p, float) - d.xpos[body])
 
 
 def attach(world, part: SceneObject, parent: SceneObject, relpose: np.ndarray | None = None) -> None:
@@ -210,7 +218,7 @@ def attach(world, part: SceneObject, parent: SceneObject, relpose: np.ndarray | 
     if relpose is None:
         relpose = _relative(_pose(d, part.mj_id), _pose(d, body))
     m.eq_obj1id[e], m.eq_obj2id[e] = part.mj_id, body
-    _write_weld(m, e, relpose)
+    _write_weld(m, e, relpose, _anchor(world, parent, body))
     d.eq_active[e] = 1
     old = world.grasps.get(part.name)
     home = old.home if old is not None else part.parent
@@ -254,8 +262,10 @@ def placed(world, part: SceneObject) -> None:
         return
     m, d = world.model, world.data
     mujoco.mj_kinematics(m, d)
-    g.relpose = _relative(_pose(d, part.mj_id), _pose(d, int(m.eq_obj2id[e])))
-    _write_weld(m, e, g.relpose)
+    body = int(m.eq_obj2id[e])
+    g.relpose = _relative(_pose(d, part.mj_id), _pose(d, body))
+    parent = world.by_name.get(g.parent)
+    _write_weld(m, e, g.relpose, m.eq_data[e][:3].copy() if parent is None else _anchor(world, parent, body))
 
 
 def held_parts(world) -> list[tuple[int, int, np.ndarray]]:

@@ -229,7 +229,7 @@ def test_created_sensor_reads_only_what_hangs_below_it(palm):
 def test_created_sensor_on_the_world_holds_and_weighs_a_cube(palm):
     """A force sensor fixed to the world holds its dynamic child, as CoppeliaSim's (a dynamic
     shape hangs from a force sensor rigidly): the cube stays, the sensor reads its weight. Its
-    weld holds it at the cube's own origin: joined at the world's origin, 1.35 m away, the cube
+    weld joins it at the sensor's origin: joined at the world's origin, 1.35 m away, the cube
     swung 2 cm about it within the steps."""
     sim, api = palm
     spare = api.getObject("/spare")
