@@ -342,8 +342,7 @@ class ChildScript:
     def _run_function(self, function: str, args: tuple) -> Any:
         raise NotImplementedError
 
-    def _run_values(self, function: str, args: tuple, own: bool = False) -> list:
-        """``function(*args)``'s results (``own``: simx's own flat callback data, no bound to check)."""
+    def _run_values(self, function: str, args: tuple, own: bool = False) -> list:  # own: simx's flat data
         raise NotImplementedError
 
     def _drop(self) -> None:
