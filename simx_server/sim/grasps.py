@@ -14,15 +14,11 @@ MuJoCo allows free joints only in children of the world, so the part's body stay
 and a weld equality named ``simx_grasp:PART`` (added to the model once per part, inactive, by
 :mod:`simx_server.scene.grasping`) holds it to the body that carries the new parent: at grasp
 time the weld's other body (``eq_obj2id``) and its relative pose (``eq_data``) are written from
-the current poses and the weld is switched on (``eq_active``); no recompile. The weld joins the
-part at its parent's origin (:func:`_write_weld`) with the stiff settings of a joint limit: through the
-simulation's steps it alone holds the part, as CoppeliaSim's engine holds a dynamic shape to its
-force-sensor parent by a constraint solved with the contacts (a part pulled against an obstacle
-is stopped there, and the gripper with it; 0.1 kg sinks about 12 um in it). After a command
-that moves the parent (a joint set, a pose set), and after a step whose kinematic joints were
-put back, the part is put back exactly at its pose relative to that body (:func:`follow`), as a
-CoppeliaSim child moves with its parent; its weight loads the gripper. Release switches the
-weld off: the part falls from its current pose with its current velocity (the gripper's).
+the current poses and the weld is switched on (``eq_active``); no recompile. Between steps,
+and after any command that moves the parent (a joint set, a pose set), the part is put back
+exactly at its pose relative to that body (:func:`follow`): it moves with the parent as a
+CoppeliaSim child does, and its weight loads the gripper. Release switches the weld off: the
+part falls from its current pose with its current velocity (the gripper's).
 
 The logical tree (``sim.getObjectParent``, poses relative to the parent, ``getObjectsInTree``)
 shows the new parent. Stopping the simulation (``World.reset``) lets every part go and gives it
@@ -160,40 +156,6 @@ def _relative(a: tuple, b: tuple) -> np.ndarray:
     return np.concatenate([p, q])
 
 
-def _write_weld(m: mujoco.MjModel, e: int, relpose: np.ndarray, anchor: np.ndarray) -> None:
-    """Write weld ``e``'s data so that it holds its part (``eq_obj1id``) at ``relpose`` (the
-    holder's pose in the part's frame), joined at ``anchor``.
-
-    MuJoCo's weld (``mj_instantiateEquality``) joins the point ``eq_data[3:6]`` of body 1 to the
-    point ``eq_data[0:3]`` of body 2 and turns body 1 to ``eq_data[6:10]``. The joined point is
-    where the part hangs from its parent, the parent object's origin (an attach point, a force
-    sensor), as CoppeliaSim's engine joins a dynamic shape to its force-sensor parent there. At
-    the holder body's origin (MuJoCo's default anchor) it lay as far from the part as that origin:
-    the world's for a force sensor fixed to it, metres away, about which the part swung.
-
-    Args:
-        m: the model.
-        e: the weld's equality id.
-        relpose: (7,) the holder's pose in the part's frame (m, quaternion w x y z).
-        anchor: (3,) the joined point in the holder body's frame (m).
-    """
-    in_part = np.empty(3)
-    mujoco.mju_rotVecQuat(in_part, np.asarray(anchor, float), relpose[3:7])
-    data = m.eq_data[e]
-    data[:3] = anchor
-    data[3:6] = in_part + relpose[:3]  # the same point in the part's frame
-    data[6:10] = relpose[3:7]
-    data[10] = 1.0  # torquescale: orientation held as firmly as position
-
-
-def _anchor(world, parent: SceneObject, body: int) -> np.ndarray:
-    """The parent object's origin in the frame of ``body``, which carries it (poses of the
-    last ``mj_kinematics``)."""
-    d = world.data
-    p = world.frame(parent.handle)[0] if parent.handle != WORLD else np.zeros(3)
-    return d.xmat[body].reshape(3, 3).T @ (np.asarray(p, float) - d.xpos[body])
-
-
 def attach(world, part: SceneObject, parent: SceneObject, relpose: np.ndarray | None = None) -> None:
     """Hold free body ``part`` to the body carrying ``parent`` by its weld, at their current
     relative pose (or ``relpose``); ``part``'s V-REP parent becomes ``parent``. The model must
@@ -218,7 +180,9 @@ def attach(world, part: SceneObject, parent: SceneObject, relpose: np.ndarray | 
     if relpose is None:
         relpose = _relative(_pose(d, part.mj_id), _pose(d, body))
     m.eq_obj1id[e], m.eq_obj2id[e] = part.mj_id, body
-    _write_weld(m, e, relpose, _anchor(world, parent, body))
+    m.eq_data[e][:3] = 0.0  # anchor: the part's origin
+    m.eq_data[e][3:10] = relpose
+    m.eq_data[e][10] = 1.0  # torquescale: orientation held as firmly as position
     d.eq_active[e] = 1
     old = world.grasps.get(part.name)
     home = old.home if old is not None else part.parent
@@ -262,10 +226,8 @@ def placed(world, part: SceneObject) -> None:
         return
     m, d = world.model, world.data
     mujoco.mj_kinematics(m, d)
-    body = int(m.eq_obj2id[e])
-    g.relpose = _relative(_pose(d, part.mj_id), _pose(d, body))
-    parent = world.by_name.get(g.parent)
-    _write_weld(m, e, g.relpose, m.eq_data[e][:3].copy() if parent is None else _anchor(world, parent, body))
+    g.relpose = _relative(_pose(d, part.mj_id), _pose(d, int(m.eq_obj2id[e])))
+    m.eq_data[e][3:10] = g.relpose
 
 
 def held_parts(world) -> list[tuple[int, int, np.ndarray]]:
@@ -318,8 +280,7 @@ def place_held(m: mujoco.MjModel, d: mujoco.MjData, held: list[tuple[int, int, n
 
 def follow(world) -> None:
     """Put every grasped part exactly at its pose relative to the body that holds it (its
-    free joint's position; velocity kept). Runs before ``mj_forward`` in ``World.changed``
-    after a command (not after a physics step, whose welds held the parts).
+    free joint's position; velocity kept). Runs before ``mj_forward`` in ``World.changed``.
 
     Args:
         world: the World.

@@ -99,7 +99,8 @@ class World(Poses, Joints):
         self.scene_name = name or self.scene_path.name
         #: A client's scene: its compiled model's arena and step work are bounded (check_cost).
         self.bounded = bounded
-        #: ``hook(model, data)`` before each MuJoCo substep (scripts' dynamics callbacks, scripts/dynamics.py), or None.
+        #: ``hook(model, data)`` run before each MuJoCo substep (scripts' sysCall_jointCallback
+        #: and sysCall_dynCallback, set by simx_server.scripts.dynamics), or None.
         self.substep_hook = None
         physics.install_warning_handler()  # MuJoCo's warnings go to the log, not to stdout
         try:
@@ -147,14 +148,17 @@ class World(Poses, Joints):
 
         Raises ArgumentError (before changing anything) when the model's per-step work exceeds
         a bound: substeps of the current dt, camera resolutions; for a client's scene or edit
-        (``bounded``), its cost (:func:`physics.check_cost`)."""
+        (``bounded``), its cost (:func:`physics.check_cost`).
+        """
         substeps = physics.check_scene(model, self.requested_dt)
         previous = getattr(self, "model", None)  # an edit: bounded, unless no worse than before
         if self.bounded or bounded:
             physics.check_cost(model, substeps, previous, getattr(self, "substeps", 1))
         self.model = model
         self.data = mujoco.MjData(model)
-        # the hottest read's view (``data.qpos`` builds an ndarray each time; every MjData comes here)
+        # A view kept for the hottest read: each ``data.qpos`` builds a new ndarray, which costs
+        # microseconds in a server thread that has just woken up. MjData's buffers live as long
+        # as the MjData, and every new MjData comes through here.
         self._qpos = self.data.qpos
         self._bad_state = physics.bad_state_view(self.data)  # nonzero after a blow-up
         self.substeps = substeps
@@ -492,20 +496,16 @@ class World(Poses, Joints):
             kinematic.settle(self, held)
         if physics.SINK.count:
             physics.SINK.report()  # other warnings (contact buffer full...): once per kind
-        self._update(follow=held is not None)  # grasped parts: their welds held them (sim/grasps.py)
+        self.changed()  # mj_step leaves positions and sensors one substep behind the state
 
     def changed(self) -> None:
         """After any change of state: recompute derived quantities, invalidate cached renders,
         and note the simulation time (``time``, s: every reply reads it, and a plain attribute
         costs no call into MuJoCo's bindings). Grasped parts are put back on what holds
         them first (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`."""
-        self._update(follow=True)
-
-    def _update(self, follow: bool) -> None:
-        """:meth:`changed`; after a physics step grasped parts are put back only when ``follow``."""
         if self._batch.holds():
             return
-        if self.grasps and follow:
+        if self.grasps:
             grasps.follow(self)
         (friction.forward if friction.applies(self.model) else mujoco.mj_forward)(self.model, self.data)
         self.version += 1
