@@ -342,7 +342,7 @@ class ChildScript:
     def _run_function(self, function: str, args: tuple) -> Any:
         raise NotImplementedError
 
-    def _run_values(self, function: str, args: tuple, own: bool = False) -> list:  # own: simx's flat data
+    def _run_values(self, function: str, args: tuple, flat: bool = False) -> list:  # flat: simx's own flat data
         raise NotImplementedError
 
     def _drop(self) -> None:
@@ -462,7 +462,7 @@ class PythonScript(ChildScript):
         except ScriptError as exc:
             raise self._fault(function, str(exc)) from None
 
-    def _run_values(self, function: str, args: tuple, own: bool = False) -> list:
+    def _run_values(self, function: str, args: tuple, flat: bool = False) -> list:
         fn = self.namespace[function]
         out = self._bounded(function, lambda: fn(*args))
         return [] if out is None else list(out) if isinstance(out, tuple) else [out]

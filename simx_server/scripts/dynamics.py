@@ -207,5 +207,5 @@ def call_back(script: Any, function: str, data: dict, flat: bool = False) -> Any
     if not script._may_run(function) or script._pass_spent(function):
         return None
     result: list = []
-    script._guarded(function, lambda: result.extend(script._run_values(function, (data,), own=flat)))
+    script._guarded(function, lambda: result.extend(script._run_values(function, (data,), flat=flat)))
     return result[0] if result else None

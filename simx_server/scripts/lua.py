@@ -64,8 +64,8 @@ log = logging.getLogger("simx.scripts")
 #: Instructions between two checks of the deadline.
 HOOK_COUNT = 10_000
 #: What simx's own callback data take in a Lua state at most (:meth:`LuaScript._call_with` with
-#: ``own``): a joint callback's 19 values, about 1.2 KiB by call_arguments' estimate.
-_OWN_BYTES = 4096
+#: ``flat``): a joint callback's 19 values, about 1.2 KiB by call_arguments' estimate.
+_FLAT_BYTES = 4096
 #: Memory cap of one script's Lua state (bytes).
 MAX_MEMORY = L.MAX_SCRIPT_MEMORY
 #: Bytes of one module ``require`` reads (a quarter of a script's memory cap).
@@ -372,21 +372,21 @@ class LuaScript(LuaStyles, ChildScript):
         except ScriptError as exc:
             raise self._fault(function, str(exc)) from None
 
-    def _run_values(self, function: str, args: tuple, own: bool = False) -> list:
+    def _run_values(self, function: str, args: tuple, flat: bool = False) -> list:
         fn = self._lookup(function.encode())
         if fn is None:
             raise self._fault(function, "no such function")
-        out = self._call_with(function, fn, args, own)
+        out = self._call_with(function, fn, args, flat)
         values = list(out) if isinstance(out, tuple) else ([] if out is None else [out])
         try:
             return [self._from_lua(v) for v in values]
         except (TypeError, ValueError) as exc:
             raise self._fault(function, f"returned values that cannot be sent: {exc}") from None
 
-    def _call_with(self, function: str, fn: Any, args: tuple, own: bool = False) -> Any:
+    def _call_with(self, function: str, fn: Any, args: tuple, flat: bool = False) -> Any:
         """``fn(*args)`` in the script's protected, time-bounded call (both doors: the legacy
         simxCallScriptFunction's four lists and buffer, the ZMQ sim.callScriptFunction's values;
-        ``own``: simx's own callback data, a few flat tables of numbers and booleans that simx
+        ``flat``: simx's own callback data, a few flat tables of numbers and booleans that simx
         made, :mod:`simx_server.scripts.dynamics`, which skip the estimate below).
 
         Bounds first, before any conversion (:func:`script_argument_bytes`: limits.MAX_SCRIPT_CALL_VALUES,
@@ -396,7 +396,7 @@ class LuaScript(LuaStyles, ChildScript):
         bounded size), and the cap is back before the call: a script that keeps what it gets runs
         out of memory inside the call, a Lua error. Raises ArgumentError or ScriptError."""
         rt = self._runtime
-        need = _OWN_BYTES if own else script_argument_bytes(args)
+        need = _FLAT_BYTES if flat else script_argument_bytes(args)
         free = MAX_MEMORY - rt.get_memory_used()
         if need > free // 2:
             raise ArgumentError(f"{self.label}: the arguments of {function!r} need about {need >> 20} MiB in the "
@@ -404,7 +404,7 @@ class LuaScript(LuaStyles, ChildScript):
                                 "(limits.MAX_SCRIPT_MEMORY); send less")
         rt.set_max_memory(0)
         try:
-            packed = rt.table_from([self._flat_table(a) if own else self._to_lua(a) for a in args])
+            packed = rt.table_from([self._flat_table(a) if flat else self._to_lua(a) for a in args])
             apply = getattr(self, "_apply", None)
             if apply is None or apply[0] is not rt:
                 apply = self._apply = (rt, rt.eval("function(f, t, n) return f(table.unpack(t, 1, n)) end"))
