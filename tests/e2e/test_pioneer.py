@@ -1,7 +1,7 @@
 """The bundled Pioneer P3-DX scene driven by a Braitenberg program in the style of V-REP's
 mobile-robot tutorials (tests/e2e/pioneer_braitenberg.py: sonars streamed and read from the
 buffer, wheel velocities streamed in a loop, no sleep), as a subprocess against a real server
-running ten times faster than real time: 60 s of simulated time without touching the room."""
+running ten times faster than real time: 40 s of simulated time without touching the room."""
 
 from __future__ import annotations
 
@@ -17,11 +17,11 @@ from conftest import ROOT, ServerProcess
 PROGRAM = Path(__file__).resolve().parent / "pioneer_braitenberg.py"
 
 
-def test_braitenberg_program_drives_60_s_without_touching_a_wall():
+def test_braitenberg_program_drives_40_s_without_touching_a_wall():
     server = ServerProcess(str(ROOT / "scenes" / "pioneer_p3dx.xml"), "--speed", "10", renderers="on-demand")
     try:
         try:
-            run = subprocess.run([sys.executable, str(PROGRAM), str(server.port), "60"],
+            run = subprocess.run([sys.executable, str(PROGRAM), str(server.port), "40"],
                                  capture_output=True, text=True, timeout=240, check=False)
         except subprocess.TimeoutExpired as exc:  # the server stopped answering: show where it is
             err = exc.stderr.decode(errors="replace") if isinstance(exc.stderr, bytes) else exc.stderr or ""
@@ -31,10 +31,10 @@ def test_braitenberg_program_drives_60_s_without_touching_a_wall():
         result = json.loads(run.stdout.strip().splitlines()[-1])
     finally:
         log = server.stop()
-    assert result["simulated_s"] >= 60
+    assert result["simulated_s"] >= 40
     assert result["steps_touching"] == 0, result  # simxReadCollision: the robot's parts against the room
     # it roams (a robot stopped in front of a wall touches nothing either) ...
-    assert result["travelled_m"] > 5, result
+    assert result["travelled_m"] > 4, result  # 4.4 m in 30 s, 8.7 m in 60 s on an idle machine
     # ... and the sonars steered it: obstacles heard inside noDetectionDist
     assert result["loops_with_obstacle"] > 0 and result["closest_m"] < 0.5, result
     assert "Traceback" not in log

@@ -8,8 +8,8 @@ test process:
 
 * Q x10 turns ``UR5_joint1`` to +10 degrees;
 * T closes the RG2 (``RG2_openCloseJoint`` falls), Y opens it again (rises); on the tutorial's
-  own ``scene.ttt`` also in the DDPG part's pose ``[90, -45, 90, 0, -100, 0]`` and in a bent one
-  (joint 2 at 31, joint 3 at 30 degrees), set from the test's client, opening to its limit;
+  own ``scene.ttt`` also in a bent pose (joint 2 at 31, joint 3 at 30 degrees: issue 41's), set
+  from the test's client, opening to its limit;
 * SPACE saves ``saveImg\\rgbImg\\<8 chars>_rgb.jpg`` and ``saveImg\\depthImg\\<8 chars>_depth.jpg``
   (Windows-style paths: on Linux plain file names with backslashes, in the program's cwd);
   the RGB one is a real picture, the depth one kinect_depth's grey depth image inverted by the
@@ -43,7 +43,6 @@ PROGRAM = LEGACY / "robotControl.py"
 # the tutorial's own V-REP scene file, served through its MJCF conversion (simx_server.scene.ttt)
 TUTORIAL_TTT = SHARED / "ttt-corpus" / "Ianlande+Vrep_yolov3_ddpg_pytorch__scenes_scene.ttt"
 PORT = 19999  # hard-coded in robotControl.py
-TUTORIAL_POSE = [90, -45, 90, 0, -100, 0]  # degrees: the DDPG part's pose
 BENT_POSE = [0, 31, 30, 0, 0, 0]  # joint 2 at 31, joint 3 at 30 degrees (issue 41)
 PNGS = Path(os.environ.get("SIMX_TEST_PNGS", "/nonexistent"))  # where to keep the saved images, to look at
 TITLE = "Vrep yolov3 ddpg pytorch"
@@ -258,9 +257,10 @@ def test_robotcontrol_keyboard_session(server19999, tmp_path):
             # --- T closes the RG2, Y opens it again.
             close_and_open("joint 1 at 10 degrees")
             if server19999.kind == "ttt":
-                # On the tutorial's own scene.ttt, in the DDPG part's pose and in a bent one (set by
-                # this test's client: the program sends joint targets only when a key moves one).
-                for where, pose in (("the tutorial pose", TUTORIAL_POSE), ("a bent pose", BENT_POSE)):
+                # On the tutorial's own scene.ttt, also in a bent pose (set by this test's client:
+                # the program sends joint targets only when a key moves one); the DDPG part's pose
+                # and three others are test_ttt_tutorial_rg2's and test_gripper_drives'.
+                for where, pose in (("a bent pose", BENT_POSE),):
                     handles = [vrep.simxGetObjectHandle(cid, f"UR5_joint{i + 1}", B)[1] for i in range(6)]
                     for h, angle in zip(handles, pose):
                         assert vrep.simxSetJointTargetPosition(cid, h, math.radians(angle), B) == 0
