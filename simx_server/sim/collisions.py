@@ -159,15 +159,6 @@ def _geom_distance(world: World, g1: int, g2: int, distmax: float, data: mujoco.
                                f"{names[1]} geom: {exc}") from None
 
 
-def _geoms_collide(world: World, g1: int, g2: int, data: mujoco.MjData | None = None) -> bool:
-    """Whether two geoms come within COLLISION_TOLERANCE of touching (as :func:`_geom_distance`);
-    a mesh's triangles when they touch or intersect (coal)."""
-    m = world.model
-    if mesh_geometry.handles(m, g1, g2):  # triangles intersect or not: no tolerance (it costs 40 %)
-        return mesh_geometry.collide(m, world.data if data is None else data, int(g1), int(g2), 0.0)
-    return _geom_distance(world, g1, g2, 2 * COLLISION_TOLERANCE, data) <= COLLISION_TOLERANCE
-
-
 def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> bool:
     """Whether shape ``e1`` touches or overlaps shape ``e2`` (or anything else, ``e2`` = -2).
 
@@ -231,7 +222,21 @@ def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjDat
     lb = _lower_bounds(world, a, b, data)
     close = np.flatnonzero(lb <= COLLISION_TOLERANCE)
     close = close[np.argsort(lb[close], kind="stable")]  # the deepest overlaps of spheres first
-    return any(_geoms_collide(world, g1, g2, data) for g1, g2 in zip(a[close], b[close]))
+    if not close.size:
+        return False
+    # a pair with a mesh: its triangles touch or intersect (coal; no tolerance: it costs 40 %),
+    # each geom's coal transform made once for all its pairs (a planner's state check tests some
+    # fifty pairs of a few geoms); two primitives: within COLLISION_TOLERANCE (_geom_distance)
+    m = world.model
+    ga, gb = a[close], b[close]
+    touching = mesh_geometry.Touching(m, world.data if data is None else data, 0.0)
+    for g1, g2, by_coal in zip(ga.tolist(), gb.tolist(), mesh_geometry.handled(m, ga, gb).tolist()):
+        if by_coal:
+            if touching(g1, g2):
+                return True
+        elif _geom_distance(world, g1, g2, 2 * COLLISION_TOLERANCE, data) <= COLLISION_TOLERANCE:
+            return True
+    return False
 
 
 def distance(sim: SimulationView, e1: int, e2: int, override: bool = True) -> float:

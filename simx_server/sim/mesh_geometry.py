@@ -111,6 +111,22 @@ def handles(m: mujoco.MjModel, g1: int, g2: int) -> bool:
     return (t1 == _MESH or t2 == _MESH) and t1 in _COAL_TYPES and t2 in _COAL_TYPES
 
 
+def handled(m: mujoco.MjModel, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`handles` for many pairs at once.
+
+    Args:
+        m: the model.
+        a: (k,) geom ids.
+        b: (k,) geom ids, ``b[i]`` paired with ``a[i]``.
+
+    Returns:
+        (k,) bool: the pairs coal answers for.
+    """
+    t1, t2 = m.geom_type[a], m.geom_type[b]
+    kinds = np.fromiter(_COAL_TYPES, dtype=t1.dtype)
+    return ((t1 == _MESH) | (t2 == _MESH)) & np.isin(t1, kinds) & np.isin(t2, kinds)
+
+
 def collide(m: mujoco.MjModel, d: mujoco.MjData, g1: int, g2: int, margin: float) -> bool:
     """Whether two geoms (a pair :func:`handles` takes) come within ``margin`` of touching.
 
@@ -124,11 +140,39 @@ def collide(m: mujoco.MjModel, d: mujoco.MjData, g1: int, g2: int, margin: float
     Returns:
         True when some triangle (or the primitive) is closer than ``margin``.
     """
-    shapes = _shapes(m)
-    request = coal.CollisionRequest()
-    request.security_margin = float(margin)
-    return bool(coal.collide(shapes.shape(m, g1), _pose(d, g1), shapes.shape(m, g2), _pose(d, g2),
-                             request, coal.CollisionResult()))
+    return Touching(m, d, margin)(g1, g2)
+
+
+class Touching:
+    """:func:`collide` for many pairs at one set of poses: the model's shapes, the request and
+    each geom's coal transform made once for all the pairs asked (a planner's state check asks
+    some fifty pairs of a few geoms), a result per pair.
+
+    Args:
+        m: the model.
+        d: whose poses; not to change while this is used.
+        margin: m, as :func:`collide`'s.
+    """
+
+    __slots__ = ("m", "d", "shapes", "request", "poses")
+
+    def __init__(self, m: mujoco.MjModel, d: mujoco.MjData, margin: float) -> None:
+        self.m, self.d, self.shapes = m, d, _shapes(m)
+        self.request = coal.CollisionRequest()
+        self.request.security_margin = float(margin)
+        self.poses: dict[int, coal.Transform3s] = {}
+
+    def _pose(self, g: int) -> coal.Transform3s:
+        found = self.poses.get(g)
+        if found is None:
+            found = self.poses[g] = _pose(self.d, g)
+        return found
+
+    def __call__(self, g1: int, g2: int) -> bool:
+        """Whether geoms ``g1`` and ``g2`` (a pair :func:`handles` takes) come within the margin."""
+        shape = self.shapes.shape
+        return bool(coal.collide(shape(self.m, g1), self._pose(g1), shape(self.m, g2), self._pose(g2),
+                                 self.request, coal.CollisionResult()))
 
 
 def distance(m: mujoco.MjModel, d: mujoco.MjData, g1: int, g2: int, fromto: np.ndarray | None = None) -> float:
