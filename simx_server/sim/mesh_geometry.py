@@ -37,6 +37,7 @@ _CYLINDER = int(mujoco.mjtGeom.mjGEOM_CYLINDER)
 _BOX = int(mujoco.mjtGeom.mjGEOM_BOX)
 #: geom types coal answers for when the pair has a mesh (a plane, a height field, an SDF: MuJoCo)
 _COAL_TYPES = frozenset({_MESH, _SPHERE, _CAPSULE, _ELLIPSOID, _CYLINDER, _BOX})
+_COAL_KINDS = np.array(sorted(_COAL_TYPES))  # the same, for :func:`handled`
 
 
 class _ModelShapes:
@@ -105,7 +106,7 @@ def handles(m: mujoco.MjModel, g1: int, g2: int) -> bool:
         g2: another geom id.
 
     Returns:
-        True when :func:`collide` and :func:`distance` take the pair.
+        True when :class:`Touching` and :func:`distance` take the pair.
     """
     t1, t2 = int(m.geom_type[g1]), int(m.geom_type[g2])
     return (t1 == _MESH or t2 == _MESH) and t1 in _COAL_TYPES and t2 in _COAL_TYPES
@@ -123,35 +124,19 @@ def handled(m: mujoco.MjModel, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         (k,) bool: the pairs coal answers for.
     """
     t1, t2 = m.geom_type[a], m.geom_type[b]
-    kinds = np.fromiter(_COAL_TYPES, dtype=t1.dtype)
-    return ((t1 == _MESH) | (t2 == _MESH)) & np.isin(t1, kinds) & np.isin(t2, kinds)
-
-
-def collide(m: mujoco.MjModel, d: mujoco.MjData, g1: int, g2: int, margin: float) -> bool:
-    """Whether two geoms (a pair :func:`handles` takes) come within ``margin`` of touching.
-
-    Args:
-        m: the model.
-        d: whose poses (``geom_xpos``, ``geom_xmat``).
-        g1: a geom id.
-        g2: another geom id.
-        margin: m; touching or overlapping counts whatever it is.
-
-    Returns:
-        True when some triangle (or the primitive) is closer than ``margin``.
-    """
-    return Touching(m, d, margin)(g1, g2)
+    return ((t1 == _MESH) | (t2 == _MESH)) & np.isin(t1, _COAL_KINDS) & np.isin(t2, _COAL_KINDS)
 
 
 class Touching:
-    """:func:`collide` for many pairs at one set of poses: the model's shapes, the request and
-    each geom's coal transform made once for all the pairs asked (a planner's state check asks
-    some fifty pairs of a few geoms), a result per pair.
+    """Whether geom pairs (pairs :func:`handles` takes) come within ``margin`` of touching, at one
+    set of poses: the model's shapes, the request and each geom's coal transform made once for
+    all the pairs asked (a planner's state check asks some fifty pairs of a few geoms), a result
+    per pair.
 
     Args:
         m: the model.
-        d: whose poses; not to change while this is used.
-        margin: m, as :func:`collide`'s.
+        d: whose poses (``geom_xpos``, ``geom_xmat``); not to change while this is used.
+        margin: m; touching or overlapping counts whatever it is.
     """
 
     __slots__ = ("m", "d", "shapes", "request", "poses")
@@ -169,7 +154,8 @@ class Touching:
         return found
 
     def __call__(self, g1: int, g2: int) -> bool:
-        """Whether geoms ``g1`` and ``g2`` (a pair :func:`handles` takes) come within the margin."""
+        """True when some triangle of geom ``g1`` or ``g2`` (or the primitive) is closer than the
+        margin to the other."""
         shape = self.shapes.shape
         return bool(coal.collide(shape(self.m, g1), self._pose(g1), shape(self.m, g2), self._pose(g2),
                                  self.request, coal.CollisionResult()))
