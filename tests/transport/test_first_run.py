@@ -90,7 +90,7 @@ def test_python_m_serves_and_a_scene_with_shared_names_logs_one_warning():
     elements renamed NAME#N give one WARNING line (count, the first three) and one DEBUG line each."""
     port = free_port()
     proc = subprocess.Popen([sys.executable, "-m", "simx_server", str(DUPLICATES), "--port", str(port),
-                             "--zmq-port", str(free_port()),  # not 23000, which another test may hold
+                             "--no-zmq",  # its ports (23000, or a free one and the next) may be held by another test
                              "--log-level", "DEBUG"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, env=dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1"))
     try:
