@@ -11,10 +11,13 @@ and angles relative to the space's reference object (-1: the world). Writing a s
 objects as the plug-in's ``writeState`` does: a 2-D position keeps the object's z, a 2-D pose its
 z and its first two Euler angles (V-REP's, R = Rx(a) Ry(b) Rz(g)), the yaw replacing the third.
 
-:class:`Space` is OMPL's space of a task: one ``RealVectorStateSpace`` of all joints when the
-task has only ``joint_position`` spaces (the planner's native, Euclidean space), the space itself
-when the task has one other space, else a compound of them, as the plug-in's (its default
-projection the first space marked for projection, OMPL's ``SubspaceProjectionEvaluator``).
+:class:`Space` is OMPL's space of a task: the space itself when the task has one, else a
+``CompoundStateSpace`` of them, each of weight 1, as the plug-in's ``StateSpace`` (so a distance is
+the sum of the spaces' distances: for an arm's joints the L1 norm, in rad or m, and the space's
+extent the sum of the joints' ranges; OMPL's checking resolution and its planners' ranges are
+fractions of that extent); its default projection the first space marked for projection, OMPL's
+``SubspaceProjectionEvaluator`` (the plug-in's ``ProjectionEvaluator`` also has the first marked
+space's dimension).
 """
 
 from __future__ import annotations
@@ -173,15 +176,11 @@ class Space:
         load()
         self.subspaces = subspaces
         self.dim = sum(DIMENSION[s.kind] for s in subspaces)
-        self.flat = all(s.kind == "joint_position" for s in subspaces)
+        # joints alone: each its RealVectorStateSpace(1) in the compound, values read one by one
+        self.joints = len(subspaces) > 1 and all(s.kind == "joint_position" for s in subspaces)
         self._offsets = np.cumsum([0] + [DIMENSION[s.kind] for s in subspaces]).tolist()
         flagged = [i for i, s in enumerate(subspaces) if s.projection]
-        if self.flat:  # the joints together: one real-vector space, Euclidean
-            self.space = ob.RealVectorStateSpace(self.dim)
-            self.space.setBounds(_bounds(tuple(s.low[0] for s in subspaces), tuple(s.high[0] for s in subspaces)))
-            if flagged:
-                self.space.registerDefaultProjection(ob.RealVectorOrthogonalProjectionEvaluator(self.space, flagged))
-        elif len(subspaces) == 1:  # its own space, with its own default projection (SE2's: x, y)
+        if len(subspaces) == 1:  # its own space, with its own default projection (SE2's: x, y)
             self.space = _make(subspaces[0])
         else:
             self.space = ob.CompoundStateSpace()
@@ -198,8 +197,8 @@ class Space:
         Returns:
             (:attr:`dim`,) floats (m, rad, quaternion components as the space has them).
         """
-        if self.flat:
-            return np.array(state[0:self.dim], dtype=float)
+        if self.joints:
+            return np.array([state[i][0] for i in range(self.dim)], dtype=float)
         if len(self.subspaces) == 1:
             return np.array(_get(self.subspaces[0].kind, state), dtype=float)
         return np.array([v for i, s in enumerate(self.subspaces) for v in _get(s.kind, state[i])], dtype=float)
@@ -211,8 +210,9 @@ class Space:
             state: an OMPL state of :attr:`space`, written in place.
             values: (:attr:`dim`,) floats, the spaces' in order.
         """
-        if self.flat:
-            state[0:self.dim] = [float(v) for v in values]
+        if self.joints:
+            for i in range(self.dim):
+                state[i][0] = float(values[i])
         elif len(self.subspaces) == 1:
             _set(self.subspaces[0].kind, state, values)
         else:

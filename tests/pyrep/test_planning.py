@@ -57,12 +57,13 @@ def _hits(arm, configs, pillar) -> list[bool]:
 
 def test_the_path_goes_round_the_pillar_that_the_straight_line_hits(panda):
     arm, start, goal, orientation, pillar = panda
-    path = arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.RRTConnect)
+    # RLBench's ten searches: PyRep keeps a search's path only when every one of its 300
+    # states is valid, and one that hugs the pillar can touch it between the checked states
+    path = arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.RRTConnect, trials_per_goal=10)
     assert np.allclose(arm.get_joint_positions(), start)  # planning did not move the arm
     configs = path._path_points.reshape(-1, 7)
     assert np.allclose(configs[0], start, atol=1e-6)
-    # consecutive configurations at most max_velocity * dt apart (one per step of the path)
-    assert np.max(np.linalg.norm(np.diff(configs, axis=0), axis=1)) <= arm.max_velocity * 0.05 + 1e-9
+    assert len(configs) == 300  # simOMPL.compute(task, 4, -1, 300), as PyRep's _findPath
     straight = [start + f * (configs[-1] - start) for f in np.linspace(0, 1, 60)]
     assert any(_hits(arm, straight, pillar))
     assert not any(_hits(arm, configs, pillar))
@@ -81,7 +82,7 @@ def test_planning_puts_the_target_dummy_back(panda):
     near = arm.get_tip().get_position() + np.array([0.0, 0.0, -0.05])
     arm.get_linear_path(near, quaternion=arm.get_tip().get_quaternion())
     assert np.allclose(target.get_pose(), before)
-    arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.RRTConnect)
+    arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.RRTConnect, trials_per_goal=10)
     assert np.allclose(target.get_pose(), before)
 
 
@@ -91,12 +92,12 @@ def test_an_algorithm_the_bindings_lack_plans_with_rrt_connect_and_says_so(panda
     arm, _, goal, orientation, pillar = panda
     monkeypatch.setattr(sim, "_SUBSTITUTED", set())  # as in a new process
     with caplog.at_level(logging.WARNING, logger="pyrep"):
-        path = arm.get_nonlinear_path(goal, quaternion=orientation)  # PyRep's default: SBL
-        arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.SBL)
+        path = arm.get_nonlinear_path(goal, quaternion=orientation, trials_per_goal=10)  # PyRep's default: SBL
+        arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.SBL, trials_per_goal=10)
     warned = [r.getMessage() for r in caplog.records if "SBL" in r.getMessage()]
     assert len(warned) == 1 and "planning with RRTConnect instead" in warned[0]  # once per process
     assert not any(_hits(arm, path._path_points.reshape(-1, 7), pillar))
-    path = arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.PRM)
+    path = arm.get_nonlinear_path(goal, quaternion=orientation, algorithm=Algos.PRM, trials_per_goal=10)
     assert not any(_hits(arm, path._path_points.reshape(-1, 7), pillar))
 
 

@@ -129,6 +129,21 @@ def test_a_path_folds_past_the_pillar_that_the_straight_line_hits(rig):
         ompl.solve(task, 1.0)
 
 
+def test_joint_spaces_measure_as_the_plugins_compound_space(rig):
+    """simOMPL's ``StateSpace`` is a compound of one ``RealVectorStateSpace(1)`` per joint (weight
+    1): a motion is checked in as many segments as the joint that moves most needs at 1% of its
+    own range (OMPL's ``CompoundStateSpace::validSegmentCount``), not by the Euclidean length."""
+    s, sim, ompl = rig
+    task, _ = _task(sim, ompl, pairs=False)
+    ompl.setGoalState(task, [2.5, 1.0])
+    ompl.setup(task)
+    solved, states = ompl.compute(task, 10.0, -1.0, 0)  # nothing in the way: one straight segment
+    assert solved
+    # Joint1: 2.5 rad in segments of 0.06 (1% of 6 rad) -> 42; Joint2 1.0 in 0.056 -> 18
+    # (the Euclidean form: 2.69 rad in 1% of the 8.2 rad diagonal -> 33)
+    assert len(states) == 2 * (1 + 42)
+
+
 def test_each_of_the_bound_planners_solves_it(rig):
     _, sim, ompl = rig
     task, joints = _task(sim, ompl)

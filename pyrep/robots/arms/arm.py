@@ -296,11 +296,11 @@ class Arm(RobotComponent):
         ``{<arm collection>, sim.handle_all}`` unless ``ignore_collisions`` (checked by MuJoCo on a
         scratch copy of the scene), ``algorithm``'s planner, 4 s per search, ``trials_per_goal``
         searches, the shortest valid path kept. A failing call ends within PyRep's bounds: the
-        goals' search ``trials * max_time_ms`` ms, then ``trials_per_goal`` searches of 4 s. The path is simplified by OMPL and made of the
-        states OMPL checked, at most ``max_velocity`` times the simulation step apart (motions are
-        checked that finely; PyRep interpolates its path to 300 configurations). Either way
-        ``step()`` moves along it by its length in joint space, timed as PyRep's Reflexxes
-        motion (:class:`~pyrep.robots.configuration_paths.arm_configuration_path.ArmConfigurationPath`).
+        goals' search ``trials * max_time_ms`` ms, then ``trials_per_goal`` searches of 4 s, each
+        a new planner (``simOMPL.compute(task, 4, -1, 300)``: solved, simplified, interpolated to
+        300 configurations), motions checked at simOMPL's default resolution (1% of the joints'
+        summed ranges), a path that reaches no goal exactly left out. ``step()`` moves along it
+        by its length in joint space, timed as PyRep's Reflexxes motion (:class:`~pyrep.robots.configuration_paths.arm_configuration_path.ArmConfigurationPath`).
 
         Args:
             algorithm: a :class:`pyrep.const.ConfigurationPathAlgorithms`. Those OMPL's Python
@@ -329,7 +329,7 @@ class Arm(RobotComponent):
         start = np.clip(self.get_joint_positions(), lo, hi)
         pairs = [] if ignore_collisions or self._collision_collection is None else \
             [self._collision_collection, sim.sim_handle_all]  # type: ignore[attr-defined]
-        path = _plan(self, name, start, goals, lo, hi, pairs, trials_per_goal, self._step_size())
+        path = _plan(self, name, start, goals, lo, hi, pairs, trials_per_goal)
         if path is None:
             raise ConfigurationPathError("Could not create path.")
         return ArmConfigurationPath(self, path)
@@ -400,9 +400,12 @@ class Arm(RobotComponent):
 
 
 def _plan(arm: Arm, algorithm: str, start: np.ndarray, goals: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-          pairs: list[int], searches: int, step: float) -> np.ndarray | None:
-    """PyRep's ``_findPath`` with ``simOMPL``: the shortest of ``searches`` valid paths, its
-    configurations at most ``step`` apart (rad or m, Euclidean; flat), or None."""
+          pairs: list[int], searches: int) -> np.ndarray | None:
+    """PyRep's ``_findPath`` (``simAddOnScript_PyRep.lua``) with ``simOMPL``: ``searches`` times
+    ``simOMPL.compute(task, 4, -1, 300)`` (CoppeliaSim 4.1's ``compute`` sets the task up
+    afresh first: each search is a new planner), at simOMPL's default checking resolution (1% of
+    the joints' summed ranges); of the paths whose states are all valid, the shortest (Euclidean
+    in joint space), flat (300 configurations), or None."""
     task = sim.ompl_call("createTask", "task")
     spaces: list[str] = []
     try:
@@ -413,24 +416,23 @@ def _plan(arm: Arm, algorithm: str, start: np.ndarray, goals: np.ndarray, lo: np
             spaces.append(sim.ompl_call("createStateSpace", f"j_space{i + 1}", joint_position, joint.get_handle(),
                                         [float(lo[i])], [float(hi[i])], i + 1 if i < 3 else 0))
         sim.ompl_call("setStateSpace", task, spaces)
-        # motions checked every `step` (rad, Euclidean; simOMPL's default, 1% of the space's
-        # extent, is coarser): the path is made of the checked states, one per step()
-        sim.ompl_call("setStateValidityCheckingResolution", task, min(step / float(np.linalg.norm(hi - lo)), 0.01))
         if pairs:
             sim.ompl_call("setCollisionPairs", task, pairs)
         sim.ompl_call("setStartState", task, start.tolist())
         sim.ompl_call("setGoalStates", task, [g.tolist() for g in goals])
-        sim.ompl_call("setup", task)
         best, best_length = None, np.inf
         for _ in range(max(int(searches), 1)):
-            if not sim.ompl_call("solve", task, 4.0) or not sim.ompl_call("hasExactSolution", task):
+            sim.ompl_call("setup", task)
+            solved, flat = sim.ompl_call("compute", task, 4.0, -1.0, 300)
+            # OMPL 2's RRTConnect also reports a path that stops short of every goal (approximate)
+            if not solved or not flat or not sim.ompl_call("hasExactSolution", task):
                 continue
-            sim.ompl_call("simplifyPath", task, -1.0)
-            sim.ompl_call("interpolatePath", task, 0)  # the states OMPL checked: at most `step` apart
-            path = np.asarray(sim.ompl_call("getPath", task), dtype=float).reshape(-1, len(spaces))
-            length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+            path = np.asarray(flat, dtype=float).reshape(-1, len(spaces))
             # as PyRep: a simplified path can touch an invalid state; keep only valid ones
-            if length < best_length and all(sim.ompl_call("isStateValid", task, q.tolist()) for q in path[1:]):
+            if not all(sim.ompl_call("isStateValid", task, q.tolist()) for q in path[:-1]):
+                continue
+            length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+            if length < best_length:
                 best, best_length = path.reshape(-1), length
         return best
     finally:
