@@ -142,6 +142,7 @@ def test_joint_spaces_measure_as_the_plugins_compound_space(rig):
     # Joint1: 2.5 rad in segments of 0.06 (1% of 6 rad) -> 42; Joint2 1.0 in 0.056 -> 18
     # (the Euclidean form: 2.69 rad in 1% of the 8.2 rad diagonal -> 33)
     assert len(states) == 2 * (1 + 42)
+    assert ompl.stateDistance(task, [0.0, 0.0], [2.5, -1.0]) == pytest.approx(3.5)  # summed, not 2.69
 
 
 def test_each_of_the_bound_planners_solves_it(rig):

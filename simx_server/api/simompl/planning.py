@@ -295,8 +295,9 @@ def enforceBounds(ctx: CallContext, taskHandle: Any, state: Any) -> list[float]:
 
 @simompl_function()
 def stateDistance(ctx: CallContext, taskHandle: Any, a: Any, b: Any) -> float:  # noqa: N802
-    """The distance between two states in the task's space (OMPL's: Euclidean for joints, a
-    pose's position and angle distances summed, a dubins space's shortest Dubins curve)."""
+    """The distance between two states in the task's space (OMPL's: the spaces' distances
+    summed, as the plug-in's compound space, so several joints' absolute differences; a pose's
+    position and angle distances summed, a dubins space's shortest Dubins curve)."""
     task = task_of(ctx, taskHandle)
     return _space(ctx, task).distance(as_state(task, a, "a"), as_state(task, b, "b"))
 
