@@ -90,6 +90,34 @@ def test_find_configs_and_generate_path(rig):
     assert len(jac) == 6 * len(err) and len(err) == 6
 
 
+def test_find_config_gates_its_restarts_by_the_tips_distance(rig, monkeypatch):
+    """CoppeliaSim 4.1's simIK.findConfig (coppeliaKinematicsRoutines ``ikGetConfigForTipPose``)
+    runs IK only from random configurations whose tip lies within ``thresholdDist`` of the
+    target, measured with ``metric`` {x, y, z, angle}: a 4-value metric on a 6-joint arm is
+    valid (simx had read it as a joint metric and refused it)."""
+    from simx_server.api.simik import environments
+
+    s, sim, ik = rig
+    env, g, _ = _group(sim, ik)
+    joints = ik.getGroupJoints(env, g)
+    target = sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.06, pos[2]])
+    config = ik.findConfig(env, g, joints, 0.65, 0.5, [1, 1, 1, 0.1])
+    assert config is not None and len(config) == 6
+    solves = []
+    real = environments.solve
+    monkeypatch.setattr(environments, "solve", lambda *a, **k: solves.append(1) or real(*a, **k))
+    sim.setObjectPosition(target, -1, [pos[0] + 3.0, pos[1], pos[2]])  # out of reach: every solve fails
+    assert ik.findConfig(env, g, joints, 0.0, 0.2) is None
+    assert len(solves) == 1  # the first, from the current configuration; no random one is near
+    solves.clear()
+    assert ik.findConfig(env, g, joints, 0.0, 0.2, [0, 0, 0, 0]) is None  # every distance weighs 0
+    assert len(solves) > 1
+    with pytest.raises(ArgumentError, match="metric"):
+        ik.findConfig(env, g, joints, 0.1, 0.1, [1, 1, -1, 0.1])
+
+
 def test_a_search_over_some_of_the_groups_joints_holds_the_others(rig):
     """CoppeliaSim 4.1's simGetConfigForTipPose / simGenerateIkPath set the group's joints
     passive and only the given ones to IK mode (PyRep's Baxter arm passes its 7 joints to a group

@@ -157,9 +157,11 @@ def test_convex_decomposition_runs_off_the_simulation_thread(clients):
 def test_find_config_is_bounded_by_a_requests_budget(tmp_path, monkeypatch):
     """simIK.findConfig with maxTime 1e9 searched 10 s on the simulation thread: a ZMQ client's
     search ends within limits.MAX_REQUEST_SECONDS, a script's keeps its maxTime (up to 10 s).
-    In-process, each restart made to take 0.25 s of a stand-in clock: counted, not timed."""
+    In-process, each restart and each random configuration's distance check (CoppeliaSim 4.1's
+    gate: none lies within 0.1 m of a target out of reach) made to take 0.25 s of a stand-in
+    clock: counted, not timed."""
     from simx_server.api import client_context, script_sim
-    from simx_server.api.simik import calls, environments
+    from simx_server.api.simik import calls, config_gate, environments
     from simx_server.base import limits
     from simx_server.scene.simulation import Simulation
 
@@ -173,8 +175,16 @@ def test_find_config_is_bounded_by_a_requests_budget(tmp_path, monkeypatch):
         clock[0] += 0.25
         return solve(*args, **kwargs)
 
+    far = config_gate.far
+
+    def counted_far(*args):
+        restarts.append(1)
+        clock[0] += 0.25
+        return far(*args)
+
     monkeypatch.setattr(calls.time, "monotonic", lambda: clock[0])
     monkeypatch.setattr(environments, "solve", counted)
+    monkeypatch.setattr(config_gate, "far", counted_far)
     try:
         for ctx, seconds in ((client_context(simulation), limits.MAX_REQUEST_SECONDS),
                              (script_sim(simulation.world, simulation.world.resolve("Post").handle, simulation.signals,

@@ -13,7 +13,7 @@ from simx_server.api import long_calls
 from simx_server.api.context import CallContext
 from simx_server.base import limits as L
 from simx_server.api.registry import simik_function
-from simx_server.api.simik import chains as _chains, dummies as _dummies, environments as _environments
+from simx_server.api.simik import chains as _chains, config_gate as _gate, dummies as _dummies, environments as _environments
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.api.sim.misc import alternate_configs
 from simx_server.sim import ik_solver as S
@@ -137,6 +137,12 @@ def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jo
     ``limits.MAX_REQUEST_SECONDS``: it holds the simulation thread), ``findMultiple`` (default
     false: the first found), ``maxDist`` (keep configs closer than this to the current one,
     ``pMetric`` weighting it). Sorted by distance to the current configuration; empty when none."""
+    return _find(ctx, environmentHandle, ikGroupHandle, jointHandles, params)
+
+
+def _find(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, params: Any,  # noqa: N803
+          gate: tuple[float, np.ndarray] | None = None) -> list[list[float]]:
+    """:func:`findConfigs`; ``gate`` ``(thresholdDist, metric)``: restarts gated (``config_gate``)."""
     env = _environments.env_of(ctx, environmentHandle)
     g = _environments.group_of(ctx, env, ikGroupHandle)
     with _chains.only_joints(ctx, env, g, jointHandles) as joints:
@@ -168,6 +174,8 @@ def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jo
                         if not multiple:
                             break
                 start = rng.uniform(low, high)
+                while gate and _gate.far(ctx, env, g, order, start, gate) and time.monotonic() < deadline:
+                    start = rng.uniform(low, high)
         finally:
             g.method, g.damping = method, damping
         found.sort(key=lambda q: float(np.sqrt(np.sum((metric * (q - current)) ** 2))))
@@ -179,13 +187,15 @@ def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jo
 def findConfig(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, thresholdDist: Any = 0.1,  # noqa: N802, N803
                maxTime: Any = 0.5, metric: Any = None, callback: Any = None, auxData: Any = None) -> list[float] | None:  # noqa: N803
     """CoppeliaSim 4.0-4.2: the first configuration :func:`findConfigs` finds, nil when none
-    (``maxTime`` in s; a ``callback`` is refused: simx cannot call back a client)."""
+    (``maxTime`` in s; a ``callback`` is refused: simx cannot call back a client). After the first
+    solve, from the current configuration, IK starts only from random configurations whose tips
+    lie within ``thresholdDist`` of their targets in ``metric`` ({x, y, z, angle} weights, default
+    {1, 1, 1, 0.1}), as coppeliaKinematicsRoutines 4.1's ``ikGetConfigForTipPose``."""
     if callback is not None:
         raise UnsupportedError("simIK.findConfig with a callback: simx cannot call a client's function")
-    found = findConfigs(ctx, environmentHandle, ikGroupHandle, jointHandles, {"maxTime": maxTime, "pMetric": metric})
+    gate = (_num(thresholdDist, "thresholdDist"), _gate.metric_of(metric))
+    found = _find(ctx, environmentHandle, ikGroupHandle, jointHandles, {"maxTime": maxTime}, gate)
     return found[0] if found else None
-
-
 
 
 @simik_function("generatePath")
