@@ -176,8 +176,6 @@ class Space:
         load()
         self.subspaces = subspaces
         self.dim = sum(DIMENSION[s.kind] for s in subspaces)
-        # joints alone: each its RealVectorStateSpace(1) in the compound, values read one by one
-        self.joints = len(subspaces) > 1 and all(s.kind == "joint_position" for s in subspaces)
         self._offsets = np.cumsum([0] + [DIMENSION[s.kind] for s in subspaces]).tolist()
         flagged = [i for i, s in enumerate(subspaces) if s.projection]
         if len(subspaces) == 1:  # its own space, with its own default projection (SE2's: x, y)
@@ -197,8 +195,6 @@ class Space:
         Returns:
             (:attr:`dim`,) floats (m, rad, quaternion components as the space has them).
         """
-        if self.joints:
-            return np.array([state[i][0] for i in range(self.dim)], dtype=float)
         if len(self.subspaces) == 1:
             return np.array(_get(self.subspaces[0].kind, state), dtype=float)
         return np.array([v for i, s in enumerate(self.subspaces) for v in _get(s.kind, state[i])], dtype=float)
@@ -210,10 +206,7 @@ class Space:
             state: an OMPL state of :attr:`space`, written in place.
             values: (:attr:`dim`,) floats, the spaces' in order.
         """
-        if self.joints:
-            for i in range(self.dim):
-                state[i][0] = float(values[i])
-        elif len(self.subspaces) == 1:
+        if len(self.subspaces) == 1:
             _set(self.subspaces[0].kind, state, values)
         else:
             for i, s in enumerate(self.subspaces):

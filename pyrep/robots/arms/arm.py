@@ -300,7 +300,8 @@ class Arm(RobotComponent):
         a new planner (``simOMPL.compute(task, 4, -1, 300)``: solved, simplified, interpolated to
         300 configurations), motions checked at simOMPL's default resolution (1% of the joints'
         summed ranges), a path that reaches no goal exactly left out. ``step()`` moves along it
-        by its length in joint space, timed as PyRep's Reflexxes motion (:class:`~pyrep.robots.configuration_paths.arm_configuration_path.ArmConfigurationPath`).
+        by its length in joint space, timed as PyRep's Reflexxes motion
+        (:class:`~pyrep.robots.configuration_paths.arm_configuration_path.ArmConfigurationPath`).
 
         Args:
             algorithm: a :class:`pyrep.const.ConfigurationPathAlgorithms`. Those OMPL's Python

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from simx_server.api.context import CallContext
@@ -52,11 +51,16 @@ def tip_distance(ctx: CallContext, env: Any, g: Any, joints: list[int], q: np.nd
     Returns:
         The distance (m, with the angle weighed).
     """
-    w = ctx.world
-    d = _environments.env_data(ctx, env)
-    for j, v in zip(joints, q):
-        d.qpos[w.model.jnt_qposadr[w.get(j).mj_id]] = v
-    mujoco.mj_kinematics(w.model, d)
+    kept = {j: env.q[j] for j in joints if j in env.q}
+    env.q.update(zip(joints, (float(v) for v in q)))  # env_data places them, and their dependent joints
+    try:
+        d = _environments.env_data(ctx, env)
+    finally:
+        for j in joints:
+            if j in kept:
+                env.q[j] = kept[j]
+            else:
+                env.q.pop(j, None)
     total = 0.0
     for el in g.elements:
         if not el.flags & 1 or el.target < 0:
