@@ -43,6 +43,7 @@ BULLET_MAX_FRICTION = 10.0
 DEFAULT_COEFFICIENT = 0.71
 _ELLIPTIC = int(mujoco.mjtCone.mjCONE_ELLIPTIC)
 _ENERGY = int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+_OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
 
 
 def declared(model: mujoco.MjModel) -> bool:
@@ -142,46 +143,66 @@ def mixed(model: mujoco.MjModel) -> bool:
     Returns:
         True when two collidable geoms differ in sliding friction.
     """
+    global _mixed_kept
+    key = model.geom_friction[:, 0].tobytes() + model.geom_contype.tobytes() + model.geom_conaffinity.tobytes()
+    kept = _mixed_kept
+    if kept[0]() is model and kept[1] == key:  # a step asks twice (its substeps, its forward)
+        return kept[2]
     f = model.geom_friction[(model.geom_contype | model.geom_conaffinity) != 0, 0]
-    return bool(f.size) and float(f.min()) != float(f.max())
+    answer = bool(f.size) and float(f.min()) != float(f.max())
+    _mixed_kept = (weakref.ref(model), key, answer)  # one assignment: a thread reads it whole
+    return answer
 
 
-def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
+#: :func:`mixed`'s last answer: (a weak reference to the model, its geoms' sliding frictions and
+#: contact bits as bytes, the answer).
+_mixed_kept: tuple = (lambda: None, b"", False)
+
+
+def combine(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes | None = None) -> None:
     """Give the contacts ``mj_step1`` (or ``mj_fwdPosition``) made Bullet's combined friction
     (module docstring), all contacts at once. Which contacts change and their new friction depend
-    only on the contacts' geoms and those geoms' friction: they are kept from the last call while
-    both are the same (consecutive substeps mostly find the same contacts), so a substep costs a
-    few numpy operations. Once per position stage: a second call would scale ``mu`` again.
+    only on the contacts' geoms and the geoms' friction: the answers are kept per set of contact
+    geoms while the model and its frictions are the same (consecutive substeps mostly find the
+    same contacts), so a substep costs a dictionary lookup and two writes. Once per position
+    stage: a second call would scale ``mu`` again.
 
     Args:
         m: the model.
         d: its data, after the position stage and before the acceleration stage.
+        frictions: :func:`_frictions` of ``m`` when the caller read it since the last change
+            of a friction (:func:`steps`: once for all its substeps); None reads it now.
     """
     if not d.ncon:
         return
     c = d.contact
     g = c.geom
-    fg = m.geom_friction[:, 0].take(g)  # (ncon, 2); a flex contact's -1 reads the last geom: left out below
-    key = g.tobytes() + fg.tobytes()
-    friction, mu = c.friction, c.mu
-    global _last
-    last = _last
-    if last[1] == key and last[0]() is m:
-        i, pair, ratio, wide = last[2], last[3], last[4], last[5]
-    else:
-        i, new, wide = _changed(m, g, fg)
-        # MuJoCo's own value (the larger of the two, at least mjMINMU) follows from the same key
-        ratio, pair = new / friction[i, 0], np.repeat(new[:, None], 2, axis=1)
-        _last = (weakref.ref(m), key, i, pair, ratio, wide)  # one assignment: a thread reads it whole
-    if not i.size:
-        return
-    if i.size == len(mu):  # every contact (i is then 0..ncon-1): slices, not index arrays
+    if frictions is None:
+        frictions = _frictions(m)
+    global _kept
+    kept = _kept
+    if kept[0]() is not m or kept[1] != frictions:
+        kept = _kept = (weakref.ref(m), frictions, {})  # one assignment: a thread reads it whole
+    answers = kept[2]
+    key = g.tobytes()
+    answer = answers.get(key)
+    if answer is None:
+        answer = _answer(m, g, c.friction)
+        if len(answers) >= _KEPT_ANSWERS:
+            answers.clear()
+        answers[key] = answer
+    whole, i, pair, ratio, wide = answer
+    if whole:  # every contact written (those MuJoCo's rule decides keep its value): no index arrays
+        mu = c.mu
         mu *= ratio  # the regularised cone's mu = friction[0] * sqrt(R1 / R0)
-        friction[:, :2] = pair
+        c.friction[:, :2] = pair
+    elif i.size:
+        c.mu[i] *= ratio
+        c.friction[i, :2] = pair
     else:
-        mu[i] *= ratio
-        friction[i, :2] = pair
+        return
     if wide:  # torsion and rolling rows: R[j + 1] = R[1] * friction[0]^2 / friction[j]^2
+        friction = c.friction
         dim, R, D, adr = c.dim[i], d.efc_R, d.efc_D, c.efc_address[i]
         for k in np.flatnonzero((dim > 3) & (adr >= 0)):
             row, fk = int(adr[k]), friction[i[k]]
@@ -190,11 +211,41 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData) -> None:
                 D[row + j + 1] = 1.0 / R[row + j + 1]
 
 
-#: :func:`combine`'s last answer: [a weak reference to the model, the key (the contacts' geoms
-#: and their frictions), the contacts to change, their new sliding friction (n, 2: both
-#: tangents), its ratio to MuJoCo's, the model has a geom of condim > 3]. A new model's first
-#: call computes it.
-_last: tuple = (lambda: None, b"", None, None, None, False)
+def _frictions(m: mujoco.MjModel) -> bytes:
+    """What MuJoCo's friction of a contact depends on besides its geoms, as bytes: the geoms'
+    sliding frictions, and the override of every contact's (``mjENBL_OVERRIDE``, ``o_friction``)."""
+    override = m.opt.o_friction.tobytes() if m.opt.enableflags & _OVERRIDE else b""
+    return m.geom_friction[:, 0].tobytes() + override
+
+
+#: How many sets of contact geoms :func:`combine` keeps answers for (per model and frictions).
+_KEPT_ANSWERS = 512
+
+#: :func:`combine`'s kept answers: (a weak reference to the model, its geoms' sliding frictions
+#: as bytes, {the contacts' geoms as bytes: :func:`_answer`'s answer}). A new model or a friction
+#: changed starts a new dictionary.
+_kept: tuple = (lambda: None, b"", {})
+
+
+def _answer(m: mujoco.MjModel, g: np.ndarray, contact_friction: np.ndarray) -> tuple:
+    """:func:`combine`'s answer for contacts of geoms ``g`` (ncon, 2) whose friction MuJoCo set
+    to ``contact_friction`` (ncon, 5): (write every contact, the contacts to change, their
+    sliding friction (n, 2: both tangents), its ratio to MuJoCo's, the model has a geom of
+    condim > 3). In a model without MuJoCo's own rules (explicit pairs, flexes, priorities),
+    MuJoCo gives two geoms the same value at every substep: the answer then covers every contact
+    (ratio 1 and MuJoCo's value where Bullet's is the same), written with slices."""
+    fg = m.geom_friction[:, 0].take(g)  # (ncon, 2); a flex contact's -1 reads the last geom: left out below
+    i, new, wide = _changed(m, g, fg)
+    special = _facts_of(m)[1]
+    # MuJoCo's own value (the larger of the two, at least mjMINMU) follows from the same geoms
+    ratio = new / contact_friction[i, 0]
+    if special or not i.size:
+        return False, i, np.repeat(new[:, None], 2, axis=1), ratio, wide
+    pair = contact_friction[:, :2].copy()
+    pair[i] = new[:, None]
+    whole = np.ones(len(g))
+    whole[i] = ratio
+    return True, i, pair, whole, wide
 
 
 def _changed(m: mujoco.MjModel, g: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -236,9 +287,11 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> None:
         n: the number of steps.
     """
     step1, step2 = mujoco.mj_step1, mujoco.mj_step2
+    frictions = _frictions(m)  # nothing changes a friction between substeps
     for _ in range(n):
         step1(m, d)
-        combine(m, d)
+        if d.ncon:
+            combine(m, d, frictions)
         step2(m, d)
 
 

@@ -182,3 +182,33 @@ def test_combine_follows_frictions_and_models_changed_between_substeps():
     friction.combine(m, d)
     mujoco.mj_step1(own, own_d)
     np.testing.assert_allclose(d.contact.mu, own_d.contact.mu)
+
+
+def test_combine_keeps_mujocos_value_beside_the_changed_contacts():
+    """Contacts of equal values keep MuJoCo's friction beside those :func:`friction.combine`
+    changes, at every substep of :func:`friction.steps` (its kept answer writes every contact),
+    and once MuJoCo's override sets every contact's friction the kept answer is not reused: the
+    override's value stays where both geoms agree."""
+    m = mujoco.MjModel.from_xml_string("""
+<mujoco><option cone="elliptic" o_friction="0.7 0.7 0.02 0.001 0.001"/><worldbody>
+  <geom type="plane" size="1 1 0.1" friction="1.0 0.02 0.001"/>
+  <body pos="0 0 0.049"><freejoint/><geom type="box" size="0.05 0.05 0.05" friction="0.25 0.02 0.001"/></body>
+  <body pos="0.3 0 0.049"><freejoint/><geom type="box" size="0.05 0.05 0.05" friction="1.0 0.02 0.001"/></body>
+</worldbody></mujoco>""")
+    d = mujoco.MjData(m)
+
+    def frictions() -> dict[int, set[float]]:
+        mujoco.mj_step1(m, d)
+        friction.combine(m, d)
+        out: dict[int, set[float]] = {}
+        for g, f in zip(d.contact.geom[:, 1], d.contact.friction[:, :2]):
+            out.setdefault(int(g), set()).update(np.round(f, 12).tolist())
+        mujoco.mj_step2(m, d)
+        return out
+
+    for _ in range(3):
+        assert frictions() == {1: {0.5}, 2: {1.0}}
+    friction.steps(m, d, 5)
+    assert frictions() == {1: {0.5}, 2: {1.0}}
+    m.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_OVERRIDE
+    assert frictions() == {1: {0.5}, 2: {0.7}}
