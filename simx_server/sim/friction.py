@@ -18,9 +18,11 @@ its regularised cone's ``mu`` scales with it (MuJoCo's ``mj_makeImpedance`` sets
 friction[0] * sqrt(R1 / R0)``); with the elliptic cone the rows' Jacobian does not depend on the
 friction and, for ``condim`` 3, nor does their regularisation ``R``; the torsional and rolling
 rows' ``R`` (``condim`` 4 and 6) are set again as ``mj_makeImpedance`` sets them. The state a
-client reads after a step (:func:`forward`) is computed the same way. A scene whose geoms share
-one friction value, and one with MuJoCo's pyramidal cone (whose rows are built from the
-friction), step inside MuJoCo as before.
+client reads after a step (:func:`forward`) is computed the same way. For the substeps of a
+step (:func:`steps`), the geoms on the larger side of the contacts it starts with carry those
+contacts' product as their sliding friction, so that MuJoCo gives them Bullet's value itself and
+only the other contacts are changed. A scene whose geoms share one friction value, and one with
+MuJoCo's pyramidal cone (whose rows are built from the friction), step inside MuJoCo as before.
 """
 
 from __future__ import annotations
@@ -159,35 +161,33 @@ def mixed(model: mujoco.MjModel) -> bool:
 _mixed_kept: tuple = (lambda: None, b"", False)
 
 
-def combine(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes | None = None) -> None:
+def combine(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes | None = None,
+            sliding: np.ndarray | None = None) -> None:
     """Give the contacts ``mj_step1`` (or ``mj_fwdPosition``) made Bullet's combined friction
     (module docstring), all contacts at once. Which contacts change and their new friction depend
-    only on the contacts' geoms and the geoms' friction: the answers are kept per set of contact
-    geoms while the model and its frictions are the same (consecutive substeps mostly find the
-    same contacts), so a substep costs a dictionary lookup and two writes. Once per position
-    stage: a second call would scale ``mu`` again.
+    only on the contacts' geoms and the frictions MuJoCo read: the answers are kept per set of
+    contact geoms while the model and those frictions are the same (consecutive substeps mostly
+    find the same contacts), so a substep costs a dictionary lookup and at most two writes. Once
+    per position stage: a second call would scale ``mu`` again.
 
     Args:
         m: the model.
         d: its data, after the position stage and before the acceleration stage.
-        frictions: :func:`_frictions` of ``m`` when the caller read it since the last change
-            of a friction (:func:`steps`: once for all its substeps); None reads it now.
+        frictions: the key of the frictions MuJoCo gave these contacts: :func:`_frictions` of
+            ``m``, followed by the lowered values when :func:`steps` lowered some; None reads
+            it now.
+        sliding: (ngeom,) the geoms' own sliding frictions while :func:`steps` has lowered some
+            of the model's; None: the model's are their own.
     """
     if not d.ncon:
         return
     c = d.contact
     g = c.geom
-    if frictions is None:
-        frictions = _frictions(m)
-    global _kept
-    kept = _kept
-    if kept[0]() is not m or kept[1] != frictions:
-        kept = _kept = (weakref.ref(m), frictions, {})  # one assignment: a thread reads it whole
-    answers = kept[2]
+    answers = _answers(m, _frictions(m) if frictions is None else frictions)
     key = g.tobytes()
     answer = answers.get(key)
     if answer is None:
-        answer = _answer(m, g, c.friction)
+        answer = _answer(m, g, c.friction, sliding)
         if len(answers) >= _KEPT_ANSWERS:
             answers.clear()
         answers[key] = answer
@@ -218,34 +218,111 @@ def _frictions(m: mujoco.MjModel) -> bytes:
     return m.geom_friction[:, 0].tobytes() + override
 
 
-#: How many sets of contact geoms :func:`combine` keeps answers for (per model and frictions).
+#: How many sets of contact geoms :func:`combine` keeps answers for, per frictions, and how many
+#: frictions (a step's lowered ones among them) it keeps answers for, per model.
 _KEPT_ANSWERS = 512
+_KEPT_FRICTIONS = 16
 
-#: :func:`combine`'s kept answers: (a weak reference to the model, its geoms' sliding frictions
-#: as bytes, {the contacts' geoms as bytes: :func:`_answer`'s answer}). A new model or a friction
-#: changed starts a new dictionary.
-_kept: tuple = (lambda: None, b"", {})
+#: :func:`combine`'s kept answers: (a weak reference to the model, {the key of the frictions
+#: MuJoCo read: {the contacts' geoms as bytes: :func:`_answer`'s answer}}). A new model starts
+#: a new table.
+_kept: tuple = (lambda: None, {})
 
 
-def _answer(m: mujoco.MjModel, g: np.ndarray, contact_friction: np.ndarray) -> tuple:
+def _answers(m: mujoco.MjModel, frictions: bytes) -> dict:
+    """:func:`combine`'s kept answers for ``m`` under ``frictions``."""
+    global _kept
+    kept = _kept
+    if kept[0]() is not m:
+        kept = _kept = (weakref.ref(m), {})  # one assignment: a thread reads it whole
+    table = kept[1]
+    answers = table.get(frictions)
+    if answers is None:
+        if len(table) >= _KEPT_FRICTIONS:
+            table.clear()
+        answers = table[frictions] = {}
+    return answers
+
+
+def _answer(m: mujoco.MjModel, g: np.ndarray, contact_friction: np.ndarray, sliding: np.ndarray | None) -> tuple:
     """:func:`combine`'s answer for contacts of geoms ``g`` (ncon, 2) whose friction MuJoCo set
-    to ``contact_friction`` (ncon, 5): (write every contact, the contacts to change, their
-    sliding friction (n, 2: both tangents), its ratio to MuJoCo's, the model has a geom of
-    condim > 3). In a model without MuJoCo's own rules (explicit pairs, flexes, priorities),
-    MuJoCo gives two geoms the same value at every substep: the answer then covers every contact
-    (ratio 1 and MuJoCo's value where Bullet's is the same), written with slices."""
-    fg = m.geom_friction[:, 0].take(g)  # (ncon, 2); a flex contact's -1 reads the last geom: left out below
+    to ``contact_friction`` (ncon, 5), the geoms' own sliding frictions being ``sliding`` (None:
+    the model's): (write every contact, the contacts to change, their sliding friction (n, 2:
+    both tangents), its ratio to MuJoCo's, the model has a geom of condim > 3). In a model
+    without MuJoCo's own rules (explicit pairs, flexes, priorities), MuJoCo gives two geoms the
+    same value at every substep: the answer then covers every contact (ratio 1 and MuJoCo's
+    value where Bullet's is the same), written with slices."""
+    fg = (m.geom_friction[:, 0] if sliding is None else sliding).take(g)  # (ncon, 2); a flex's -1: left out below
     i, new, wide = _changed(m, g, fg)
-    special = _facts_of(m)[1]
+    if sliding is not None:  # lowered frictions (steps): MuJoCo gave some contacts Bullet's value
+        got = contact_friction[:, 0]  # already, and two geoms of one value may have met a lowered one
+        wrong = got[i] != new
+        own = np.maximum(fg[:, 0], mujoco.mjMINMU)  # MuJoCo's value of two geoms of one value
+        equal = np.flatnonzero((fg[:, 0] == fg[:, 1]) & (got != own))
+        i, new = np.concatenate([i[wrong], equal]), np.concatenate([new[wrong], own[equal]])
     # MuJoCo's own value (the larger of the two, at least mjMINMU) follows from the same geoms
     ratio = new / contact_friction[i, 0]
-    if special or not i.size:
+    if _facts_of(m)[1] or not i.size:
         return False, i, np.repeat(new[:, None], 2, axis=1), ratio, wide
     pair = contact_friction[:, :2].copy()
     pair[i] = new[:, None]
     whole = np.ones(len(g))
     whole[i] = ratio
     return True, i, pair, whole, wide
+
+
+def _lowered(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes) -> tuple[np.ndarray, bytes] | None:
+    """Sliding frictions for the model's geoms under which MuJoCo's own rule (the larger of two
+    geoms' values) gives the contacts ``d`` has now Bullet's product: each geom that is the
+    larger side of such a contact lowered to the contact's product (to the smallest of them
+    where it has several), every other geom its own value; with the key of those frictions for
+    :func:`combine` (``frictions``, :func:`_frictions` of ``m``, followed by the lowered
+    values). Contacts that are all of one value each (a part rocking on another of its
+    material between steps) keep the last lowered frictions: :func:`combine` checks every
+    contact whatever they are. None when nothing was lowered, in a model with MuJoCo's own
+    rules (explicit pairs, flexes, priorities), and under MuJoCo's override of every contact's
+    friction. Kept per set of contact geoms while the model and its frictions are the same."""
+    if not d.ncon or _facts_of(m)[1] or m.opt.enableflags & _OVERRIDE:
+        return None
+    global _lowered_kept
+    kept = _lowered_kept
+    if kept[0]() is not m or kept[1] != frictions:
+        kept = _lowered_kept = (weakref.ref(m), frictions, {}, [None])  # one assignment: read whole
+    answers, last = kept[2], kept[3]
+    g = d.contact.geom
+    key = g.tobytes()
+    if key not in answers:
+        if len(answers) >= _KEPT_ANSWERS:
+            answers.clear()
+        answers[key] = _lower(m, g, frictions)
+    answer = answers[key]
+    if answer is None:
+        return last[0]  # type: ignore[no-any-return]
+    last[0] = answer
+    return answer  # type: ignore[no-any-return]
+
+
+def _lower(m: mujoco.MjModel, g: np.ndarray, frictions: bytes) -> tuple[np.ndarray, bytes] | None:
+    """:func:`_lowered`'s frictions for contacts of geoms ``g`` (ncon, 2); None when no contact
+    has two values."""
+    sliding = m.geom_friction[:, 0]
+    fg = sliding.take(g)
+    i, new, _ = _changed(m, g, fg)
+    if not i.size:
+        return None
+    larger = np.where(fg[i, 0] > fg[i, 1], g[i, 0], g[i, 1])
+    low = np.full(len(sliding), np.inf)
+    np.minimum.at(low, larger, new)
+    lowered = low < sliding
+    if not lowered.any():
+        return None
+    values = np.where(lowered, low, sliding)
+    return values, frictions + values.tobytes()
+
+
+#: :func:`_lowered`'s kept answers: (a weak reference to the model, its frictions' key, {the
+#: contacts' geoms as bytes: :func:`_lower`'s answer}, [the last answer that was not None]).
+_lowered_kept: tuple = (lambda: None, b"", {}, [None])
 
 
 def _changed(m: mujoco.MjModel, g: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -279,7 +356,11 @@ def _mujocos_own(m: mujoco.MjModel, g: np.ndarray, i: np.ndarray) -> np.ndarray:
 def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> None:
     """``n`` MuJoCo steps with Bullet's combined friction: ``mj_step1``, :func:`combine`,
     ``mj_step2`` (``mj_step``'s two halves; a scene with moving surfaces steps through
-    :func:`simx_server.sim.surfaces.substep` instead).
+    :func:`simx_server.sim.surfaces.substep` instead). For the substeps, the geoms on the larger
+    side of the contacts found at the start get the contacts' product as their sliding friction
+    (:func:`_lowered`), so that MuJoCo itself gives those contacts Bullet's value while they
+    last and :func:`combine` corrects only the others; the model's own values are back when the
+    steps end.
 
     Args:
         m: the model.
@@ -288,11 +369,26 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> None:
     """
     step1, step2 = mujoco.mj_step1, mujoco.mj_step2
     frictions = _frictions(m)  # nothing changes a friction between substeps
-    for _ in range(n):
-        step1(m, d)
-        if d.ncon:
-            combine(m, d, frictions)
-        step2(m, d)
+    lowered = _lowered(m, d, frictions)
+    if lowered is None:
+        for _ in range(n):
+            step1(m, d)
+            if d.ncon:
+                combine(m, d, frictions)
+            step2(m, d)
+        return
+    values, key = lowered
+    column = m.geom_friction[:, 0]
+    own = column.copy()
+    column[:] = values
+    try:
+        for _ in range(n):
+            step1(m, d)
+            if d.ncon:
+                combine(m, d, key, own)
+            step2(m, d)
+    finally:
+        column[:] = own
 
 
 def forward(m: mujoco.MjModel, d: mujoco.MjData) -> None:

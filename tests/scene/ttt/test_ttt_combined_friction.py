@@ -212,3 +212,45 @@ def test_combine_keeps_mujocos_value_beside_the_changed_contacts():
     assert frictions() == {1: {0.5}, 2: {1.0}}
     m.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_OVERRIDE
     assert frictions() == {1: {0.5}, 2: {0.7}}
+
+
+def test_steps_lowered_frictions_give_the_contacts_what_combine_gives():
+    """:func:`friction.steps` lowers, for its substeps, the larger side of the contacts it
+    starts with to their product, so that MuJoCo gives them Bullet's value itself; every other
+    contact (one the lowering made wrong, one that appears during the step) is corrected by
+    :func:`friction.combine`. Boxes of four materials pushed on a floor move as they do when
+    every substep's contacts are combined from MuJoCo's own values (a box of 1.0 under a box of
+    0.49, both lowered, keeps the floor's 1.0 and holds against a push its 0.7 would not), and
+    the model's frictions are its own again after each call."""
+    xml = """
+<mujoco><option cone="elliptic" impratio="10"/><worldbody>
+  <geom type="plane" size="2 2 0.1" friction="1.0 0.02 0.001"/>
+  <body pos="0 0 0.049"><freejoint/><geom type="box" size="0.05 0.05 0.05" friction="0.25 0.02 0.001"/></body>
+  <body pos="0.3 0 0.049"><freejoint/><geom type="box" size="0.05 0.05 0.05" friction="1.0 0.02 0.001"/></body>
+  <body pos="0.6 0 0.08"><freejoint/><geom type="box" size="0.05 0.05 0.05" friction="0.0625 0.02 0.001"/></body>
+  <body pos="0.3 0 0.1395"><freejoint/><geom type="box" size="0.04 0.04 0.04" friction="0.49 0.02 0.001"/></body>
+</worldbody></mujoco>"""
+    ours, ref = mujoco.MjModel.from_xml_string(xml), mujoco.MjModel.from_xml_string(xml)
+    d, d_ref = mujoco.MjData(ours), mujoco.MjData(ref)
+    own = ours.geom_friction.copy()
+    for data in (d, d_ref):
+        data.qvel[[0, 12]] = 0.6  # the boxes of 0.25 and 0.0625 pushed along x
+        data.xfrc_applied[2, 0] = 12.0  # N: the box of 1.0 (1 kg, 0.51 kg on it) pushed, held at 14.8
+        mujoco.mj_forward(ours, data)
+    lowered_seen = False
+    for _ in range(40):
+        friction.steps(ours, d, 5)
+        np.testing.assert_array_equal(ours.geom_friction, own)
+        lowered_seen |= friction._lowered(ours, d, friction._frictions(ours)) is not None
+        for _ in range(5):  # the reference: MuJoCo's own values at every substep, then combined
+            mujoco.mj_step1(ref, d_ref)
+            fg = ref.geom_friction[:, 0].take(d_ref.contact.geom)
+            want = np.where(fg[:, 0] == fg[:, 1], fg[:, 0], np.sqrt(fg[:, 0] * fg[:, 1]))
+            friction.combine(ref, d_ref)
+            np.testing.assert_allclose(d_ref.contact.friction[:, 0], want, rtol=1e-12)
+            mujoco.mj_step2(ref, d_ref)
+    assert lowered_seen
+    np.testing.assert_allclose(d.qpos, d_ref.qpos, atol=1e-6)
+    np.testing.assert_allclose(d.qvel, d_ref.qvel, atol=1e-5)
+    assert d.qpos[14] > 0.65  # the box of 0.0625 slid on 0.25 (MuJoCo's larger value, 1, stops it in 2 cm)
+    assert abs(d.qpos[7] - 0.3) < 1e-3  # the pushed box of 1.0 held
