@@ -28,6 +28,7 @@ MuJoCo's pyramidal cone (whose rows are built from the friction), step inside Mu
 from __future__ import annotations
 
 import weakref
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -353,7 +354,7 @@ def _mujocos_own(m: mujoco.MjModel, g: np.ndarray, i: np.ndarray) -> np.ndarray:
     return i[keep]
 
 
-def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> None:
+def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] | None = None) -> None:
     """``n`` MuJoCo steps with Bullet's combined friction: ``mj_step1``, :func:`combine`,
     ``mj_step2`` (``mj_step``'s two halves; a scene with moving surfaces steps through
     :func:`simx_server.sim.surfaces.substep` instead). For the substeps, the geoms on the larger
@@ -366,6 +367,8 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> None:
         m: the model.
         d: its data, stepped.
         n: the number of steps.
+        each: called after each step (:func:`simx_server.sim.physics.timed_step`'s clock, which
+            may raise: the model's frictions are back before the exception leaves).
     """
     step1, step2 = mujoco.mj_step1, mujoco.mj_step2
     frictions = _frictions(m)  # nothing changes a friction between substeps
@@ -376,6 +379,8 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> None:
             if d.ncon:
                 combine(m, d, frictions)
             step2(m, d)
+            if each is not None:
+                each()
         return
     values, key = lowered
     column = m.geom_friction[:, 0]
@@ -387,6 +392,8 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> None:
             if d.ncon:
                 combine(m, d, key, own)
             step2(m, d)
+            if each is not None:
+                each()
     finally:
         column[:] = own
 

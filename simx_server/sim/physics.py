@@ -214,7 +214,8 @@ class StepTimeError(PhysicsError):
 
 
 def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, seconds: float,
-               one: Callable[[mujoco.MjModel, mujoco.MjData], None] = mujoco.mj_step) -> None:
+               one: Callable[[mujoco.MjModel, mujoco.MjData], None] = mujoco.mj_step,
+               many: Callable[[mujoco.MjModel, mujoco.MjData, int, Callable[[], None]], None] | None = None) -> None:
     """``substeps`` MuJoCo steps, one at a time, stopping after the first that ends more than
     ``seconds`` after the start (a substep itself cannot be interrupted).
 
@@ -229,11 +230,16 @@ def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, second
         seconds: the time allowed, s (limits.MAX_STEP_SECONDS for a client's scene).
         one: makes one MuJoCo step (``mj_step``; :func:`simx_server.sim.surfaces.substep` while
             a surface moves).
+        many: instead of ``one``, makes them all, calling its last argument after each
+            (:func:`simx_server.sim.friction.steps`), which raises StepTimeError when late.
     """
     start = time.perf_counter()
     deadline = start + seconds
-    for done in range(1, substeps + 1):
-        one(model, data)
+    done = 0
+
+    def check() -> None:
+        nonlocal done
+        done += 1
         if time.perf_counter() > deadline:
             raise StepTimeError(
                 f"a step of the client's scene took more than MAX_STEP_SECONDS = {seconds:g} s of the "
@@ -241,6 +247,13 @@ def timed_step(model: mujoco.MjModel, data: mujoco.MjData, substeps: int, second
                 f"at t = {data.time:.3f} s: {data.ncon:,} contacts, {data.nefc:,} constraint rows, solver "
                 f"iterations up to {int(model.opt.iterations)}); make the scene lighter (fewer touching bodies, "
                 "a larger timestep, fewer iterations)")
+
+    if many is not None:
+        many(model, data, substeps, check)
+        return
+    for _ in range(substeps):
+        one(model, data)
+        check()
 
 
 def check_gravity(values: Any) -> list[float]:

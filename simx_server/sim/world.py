@@ -455,13 +455,12 @@ class World(Poses, Joints):
         self.dt = self.substeps * self.model.opt.timestep
 
     def step(self) -> None:
-        """Advance one simulation step of ``dt`` s (all substeps inside MuJoCo).
-
-        Before the substeps, each joint motor's actuator gets the gain and bias of V-REP's law
-        for its mode (free joint, position control toward the target no faster than the upper
-        velocity, or velocity control; force limited), see :mod:`simx_server.sim.motors`; the
-        substeps then run in C. Joints in a kinematic mode are held where the step finds them and
-        put back there after it (:mod:`simx_server.sim.kinematic`).
+        """Advance one simulation step of ``dt`` s (its substeps in MuJoCo; Bullet's friction
+        between them, :func:`friction.steps`). Before the substeps, each joint motor's actuator
+        gets the gain and bias of V-REP's law for its mode (free joint, position control toward
+        the target no faster than the upper velocity, or velocity control; force limited), see
+        :mod:`simx_server.sim.motors`. Joints in a kinematic mode are held where the step finds
+        them and put back there after it (:mod:`simx_server.sim.kinematic`).
 
         Raises:
             physics.PhysicsError: MuJoCo found a NaN, infinite or huge position, velocity or
@@ -475,6 +474,7 @@ class World(Poses, Joints):
         belts = surfaces.moving(self) if self.init_velocities else None  # static shapes' moving surfaces
         product = friction.applies(m)  # Bullet's combined friction (sim/friction.py)
         one = mujoco.mj_step if belts is None and not product else lambda m_, d_: surfaces.substep(m_, d_, belts, product)
+        many = friction.steps if product and belts is None else None  # Bullet's rule, all substeps at once
         if self.substep_hook is not None:  # scripts' joint and dynamics callbacks: at each substep
             for _ in range(self.substeps):
                 self.substep_hook(m, d)
@@ -484,12 +484,12 @@ class World(Poses, Joints):
                 one(m, d)
                 self.motors.apply(m, d, self.dt)
         elif self.bounded:  # a client's scene: at most MAX_STEP_SECONDS of the simulation thread
-            physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS, one)
+            physics.timed_step(m, d, self.substeps, L.MAX_STEP_SECONDS, one, many)
         elif belts is not None:
             for _ in range(self.substeps):
                 one(m, d)
         else:  # Bullet's friction (sim/friction.py), or all in MuJoCo
-            (friction.steps if product else mujoco.mj_step)(m, d, self.substeps)
+            (many or mujoco.mj_step)(m, d, self.substeps)
         if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)
             raise physics.blow_up(m, d, self.time)
         if held is not None:

@@ -115,6 +115,36 @@ def test_a_client_scene_step_past_its_time_budget_stops_the_simulation(sim, H, m
     assert sim.state is RunState.RUNNING and sim.world.time == pytest.approx(0.05)
 
 
+def test_a_client_scene_of_bullets_friction_keeps_its_budget_and_its_frictions(sim, H, monkeypatch):
+    """A client's scene with Bullet's friction (its substeps through ``friction.steps``, the
+    larger side of its contacts lowered for them) is cut after the substep that ends past
+    MAX_STEP_SECONDS, with its geoms' own frictions back; within the budget its contact has the
+    product of the two coefficients."""
+    from simx_server.sim.physics import StepTimeError
+
+    scene = (b'<mujoco><option cone="elliptic"/><custom><text name="simx:scene:friction" data="combine=product"/>'
+             b'</custom><worldbody><geom name="floor" type="plane" size="1 1 .1" friction="1 0.005 0.0001"/>'
+             b'<body name="box" pos="0 0 0.0495"><freejoint/>'
+             b'<geom type="box" size="0.05 0.05 0.05" friction="0.25 0.005 0.0001"/></body></worldbody></mujoco>')
+    H["TransferFile"](sim, ["bullet.xml", scene])
+    H["LoadScene"](sim, ["bullet.xml", 1])
+    own = sim.world.model.geom_friction.copy()
+    sim.start()
+    sim.step()  # the box rests on the floor: the next step lowers the floor's value for its substeps
+    monkeypatch.setattr(L, "MAX_STEP_SECONDS", 0.0)
+    with pytest.raises(StepTimeError):
+        sim.step()
+    assert "1 of its 25 substeps" in sim.stop_reason
+    np.testing.assert_array_equal(sim.world.model.geom_friction, own)
+    monkeypatch.setattr(L, "MAX_STEP_SECONDS", 10.0)
+    sim.start()
+    for _ in range(2):
+        sim.step()
+    np.testing.assert_array_equal(sim.world.model.geom_friction, own)
+    d = sim.world.data
+    assert d.ncon and np.allclose(d.contact.friction[:, :2], 0.5)
+
+
 def boxes(n: int) -> bytes:
     """``n`` boxes resting on a plane, solved by PGS for all of its 1,000 iterations (tolerance
     0): within every bound at load (600 contacts, substeps x iterations x geoms 3.8e6), and
