@@ -163,7 +163,7 @@ _mixed_kept: tuple = (lambda: None, b"", False)
 
 
 def combine(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes | None = None,
-            sliding: np.ndarray | None = None) -> None:
+            sliding: np.ndarray | None = None, answers: dict | None = None) -> None:
     """Give the contacts ``mj_step1`` (or ``mj_fwdPosition``) made Bullet's combined friction
     (module docstring), all contacts at once. Which contacts change and their new friction depend
     only on the contacts' geoms and the frictions MuJoCo read: the answers are kept per set of
@@ -179,12 +179,15 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes | None = None,
             it now.
         sliding: (ngeom,) the geoms' own sliding frictions while :func:`steps` has lowered some
             of the model's; None: the model's are their own.
+        answers: the kept answers for ``frictions`` (:func:`steps` reads them once for its
+            substeps); None reads them now.
     """
     if not d.ncon:
         return
     c = d.contact
     g = c.geom
-    answers = _answers(m, _frictions(m) if frictions is None else frictions)
+    if answers is None:
+        answers = _answers(m, _frictions(m) if frictions is None else frictions)
     key = g.tobytes()
     answer = answers.get(key)
     if answer is None:
@@ -192,6 +195,8 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes | None = None,
         if len(answers) >= _KEPT_ANSWERS:
             answers.clear()
         answers[key] = answer
+    if answer is _UNCHANGED:
+        return
     whole, i, pair, ratio, wide = answer
     if whole:  # every contact written (those MuJoCo's rule decides keep its value): no index arrays
         mu = c.mu
@@ -223,6 +228,9 @@ def _frictions(m: mujoco.MjModel) -> bytes:
 #: frictions (a step's lowered ones among them) it keeps answers for, per model.
 _KEPT_ANSWERS = 512
 _KEPT_FRICTIONS = 16
+
+#: :func:`_answer` for contacts that keep MuJoCo's values.
+_UNCHANGED = (False, np.zeros(0, dtype=int), None, None, False)
 
 #: :func:`combine`'s kept answers: (a weak reference to the model, {the key of the frictions
 #: MuJoCo read: {the contacts' geoms as bytes: :func:`_answer`'s answer}}). A new model starts
@@ -261,9 +269,11 @@ def _answer(m: mujoco.MjModel, g: np.ndarray, contact_friction: np.ndarray, slid
         own = np.maximum(fg[:, 0], mujoco.mjMINMU)  # MuJoCo's value of two geoms of one value
         equal = np.flatnonzero((fg[:, 0] == fg[:, 1]) & (got != own))
         i, new = np.concatenate([i[wrong], equal]), np.concatenate([new[wrong], own[equal]])
+    if not i.size:
+        return _UNCHANGED
     # MuJoCo's own value (the larger of the two, at least mjMINMU) follows from the same geoms
     ratio = new / contact_friction[i, 0]
-    if _facts_of(m)[1] or not i.size:
+    if _facts_of(m)[1]:
         return False, i, np.repeat(new[:, None], 2, axis=1), ratio, wide
     pair = contact_friction[:, :2].copy()
     pair[i] = new[:, None]
@@ -374,10 +384,11 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] 
     frictions = _frictions(m)  # nothing changes a friction between substeps
     lowered = _lowered(m, d, frictions)
     if lowered is None:
+        answers = _answers(m, frictions)
         for _ in range(n):
             step1(m, d)
-            if d.ncon:
-                combine(m, d, frictions)
+            if d.ncon and answers.get(d.contact.geom.tobytes()) is not _UNCHANGED:
+                combine(m, d, frictions, None, answers)
             step2(m, d)
             if each is not None:
                 each()
@@ -386,11 +397,12 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] 
     column = m.geom_friction[:, 0]
     own = column.copy()
     column[:] = values
+    answers = _answers(m, key)
     try:
         for _ in range(n):
             step1(m, d)
-            if d.ncon:
-                combine(m, d, key, own)
+            if d.ncon and answers.get(d.contact.geom.tobytes()) is not _UNCHANGED:
+                combine(m, d, key, own, answers)
             step2(m, d)
             if each is not None:
                 each()
