@@ -411,21 +411,21 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] 
 
 
 def forward(m: mujoco.MjModel, d: mujoco.MjData) -> None:
-    """``mj_forward`` with Bullet's combined friction (:func:`combine` between the velocity and
-    the acceleration stages).
+    """``mj_forward`` with Bullet's combined friction: :func:`combine` after the position stage
+    (which makes the contacts and their constraint rows), then the rest of ``mj_forward`` from
+    the position stage's sensors on; the velocity stage reads none of what :func:`combine`
+    writes (the rows' reference accelerations come from their stiffness and damping).
 
     Args:
         m: the model.
         d: its data.
     """
     mujoco.mj_fwdPosition(m, d)
-    mujoco.mj_sensorPos(m, d)
-    energy = bool(m.opt.enableflags & _ENERGY)
-    if energy:
-        mujoco.mj_energyPos(m, d)
-    mujoco.mj_fwdVelocity(m, d)
-    mujoco.mj_sensorVel(m, d)
-    if energy:
-        mujoco.mj_energyVel(m, d)
     combine(m, d)
-    mujoco.mj_forwardSkip(m, d, int(mujoco.mjtStage.mjSTAGE_VEL), 0)
+    mujoco.mj_sensorPos(m, d)
+    if m.opt.enableflags & _ENERGY:
+        mujoco.mj_energyPos(m, d)
+    mujoco.mj_forwardSkip(m, d, _POSITION_STAGE, 0)
+
+
+_POSITION_STAGE = int(mujoco.mjtStage.mjSTAGE_POS)

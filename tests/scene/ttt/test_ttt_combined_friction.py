@@ -254,3 +254,36 @@ def test_steps_lowered_frictions_give_the_contacts_what_combine_gives():
     np.testing.assert_allclose(d.qvel, d_ref.qvel, atol=1e-5)
     assert d.qpos[14] > 0.65  # the box of 0.0625 slid on 0.25 (MuJoCo's larger value, 1, stops it in 2 cm)
     assert abs(d.qpos[7] - 0.3) < 1e-3  # the pushed box of 1.0 held
+
+
+@pytest.mark.parametrize("condim", [3, 4, 6])
+def test_forward_is_mj_forward_with_the_contacts_combined_before_the_acceleration_stage(condim):
+    """:func:`friction.forward` combines the contacts right after the position stage and runs
+    the rest of ``mj_forward`` from there: the same accelerations, forces, sensors and energy,
+    bit for bit, as MuJoCo's stages run one by one with the contacts combined just before the
+    acceleration stage (the velocity stage reads nothing the rule writes)."""
+    m = mujoco.MjModel.from_xml_string(f"""
+<mujoco><option cone="elliptic" impratio="10"><flag energy="enable"/></option><worldbody>
+  <geom type="plane" size="1 1 0.1" friction="1 0.02 0.001" condim="{condim}"/>
+  <body pos="0 0 0.045"><freejoint/><geom type="box" size="0.05 0.05 0.05" friction="0.25 0.02 0.001"
+    condim="{condim}"/><site name="s" type="box" size="0.06 0.06 0.06"/></body>
+</worldbody><sensor><touch site="s"/><framepos objtype="site" objname="s"/></sensor></mujoco>""")
+    ours, stages = mujoco.MjData(m), mujoco.MjData(m)
+    ours.qvel[0] = 0.3
+    for _ in range(20):
+        friction.steps(m, ours, 3)
+        mujoco.mj_copyData(stages, m, ours)
+        friction.forward(m, ours)
+        mujoco.mj_fwdPosition(m, stages)
+        mujoco.mj_sensorPos(m, stages)
+        mujoco.mj_energyPos(m, stages)
+        mujoco.mj_fwdVelocity(m, stages)
+        mujoco.mj_sensorVel(m, stages)
+        mujoco.mj_energyVel(m, stages)
+        friction.combine(m, stages)
+        mujoco.mj_forwardSkip(m, stages, int(mujoco.mjtStage.mjSTAGE_VEL), 0)
+        assert ours.ncon == stages.ncon > 0
+        for name in ("qacc", "efc_force", "efc_aref", "efc_R", "sensordata", "energy"):
+            np.testing.assert_array_equal(getattr(ours, name), getattr(stages, name), err_msg=name)
+        np.testing.assert_array_equal(ours.contact.mu, stages.contact.mu)
+    assert ours.sensordata[0] > 0  # the touch sensor reads the box's weight
