@@ -383,20 +383,11 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] 
     step1, step2 = mujoco.mj_step1, mujoco.mj_step2
     frictions = _frictions(m)  # nothing changes a friction between substeps
     lowered = _lowered(m, d, frictions)
-    if lowered is None:
-        answers = _answers(m, frictions)
-        for _ in range(n):
-            step1(m, d)
-            if d.ncon and answers.get(d.contact.geom.tobytes()) is not _UNCHANGED:
-                combine(m, d, frictions, None, answers)
-            step2(m, d)
-            if each is not None:
-                each()
-        return
-    values, key = lowered
-    column = m.geom_friction[:, 0]
-    own = column.copy()
-    column[:] = values
+    key, own, column = frictions, None, m.geom_friction[:, 0]
+    if lowered is not None:
+        values, key = lowered
+        own = column.copy()
+        column[:] = values
     answers = _answers(m, key)
     try:
         for _ in range(n):
@@ -407,7 +398,8 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] 
             if each is not None:
                 each()
     finally:
-        column[:] = own
+        if own is not None:
+            column[:] = own
 
 
 def forward(m: mujoco.MjModel, d: mujoco.MjData) -> None:
