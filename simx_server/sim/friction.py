@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import weakref
 from collections.abc import Callable
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -47,6 +48,7 @@ DEFAULT_COEFFICIENT = 0.71
 _ELLIPTIC = int(mujoco.mjtCone.mjCONE_ELLIPTIC)
 _ENERGY = int(mujoco.mjtEnableBit.mjENBL_ENERGY)
 _OVERRIDE = int(mujoco.mjtEnableBit.mjENBL_OVERRIDE)
+_POSITION_STAGE = int(mujoco.mjtStage.mjSTAGE_POS)
 
 
 def declared(model: mujoco.MjModel) -> bool:
@@ -82,10 +84,64 @@ def _combine(raw: str) -> str:
     return combine_as
 
 
-#: Per compiled model, read once: (its rule is the product (:func:`declared`'s text), it has
-#: flexes, explicit pairs or geom priorities (:func:`_mujocos_own`), a geom of ``condim`` > 3);
-#: a model that is gone (a scene replaced, a rebuild) drops out by itself.
-_facts: "weakref.WeakKeyDictionary[mujoco.MjModel, tuple[bool, bool, bool]]" = weakref.WeakKeyDictionary()
+class _Kept:
+    """What this module keeps per compiled model: read once, its facts; kept while the model's
+    frictions are the same, the answers of :func:`mixed`, :func:`combine` and :func:`_lowered`.
+    A model that is gone (a scene replaced, a rebuild) drops out with its own."""
+
+    __slots__ = ("rule", "special", "wide", "mixed", "answers", "lowered")
+
+    def __init__(self, model: mujoco.MjModel):
+        try:
+            rule = _text(model) == "product"
+        except ValueError:  # the scene's load reports it
+            rule = False
+        #: The scene declares Bullet's rule (:func:`declared`'s text).
+        self.rule = rule
+        #: It has flexes, explicit pairs or geom priorities (:func:`_mujocos_own`).
+        self.special = bool(model.nflex or model.npair) or bool(model.geom_priority.any())
+        #: It has a geom of ``condim`` > 3 (torsional and rolling rows).
+        self.wide = bool(model.ngeom) and int(model.geom_condim.max()) > 3
+        #: :func:`mixed`'s last answer: (the frictions and contact bits it read, as bytes, the answer).
+        self.mixed: tuple[bytes, bool] = (b"", False)
+        #: {the key of the frictions MuJoCo read (:func:`_frictions`, the lowered values after
+        #: it): {the contacts' geoms as bytes: :func:`_answer`'s answer}}.
+        self.answers: dict[bytes, dict[bytes, tuple]] = {}
+        #: {:func:`_frictions`: ({the contacts' geoms as bytes: :func:`_lower`'s answer},
+        #: [the last answer that was not None])}.
+        self.lowered: dict[bytes, tuple[dict[bytes, tuple | None], list]] = {}
+
+
+_per_model: "weakref.WeakKeyDictionary[mujoco.MjModel, _Kept]" = weakref.WeakKeyDictionary()
+#: The model asked for last and its :class:`_Kept` (a step asks several times).
+_last: tuple = (lambda: None, None)
+
+
+def _kept(model: mujoco.MjModel) -> _Kept:
+    """``model``'s :class:`_Kept`, made at the first call."""
+    global _last
+    last = _last
+    if last[0]() is model:
+        return last[1]  # type: ignore[no-any-return]
+    kept = _per_model.get(model)
+    if kept is None:
+        kept = _per_model[model] = _Kept(model)
+    _last = (weakref.ref(model), kept)  # one assignment: a thread reads it whole
+    return kept
+
+
+_MISSING = object()
+
+
+def _entry(table: dict, key: object, make: Callable[[], object], limit: int) -> Any:
+    """``table[key]``, made by ``make()`` when missing (the table emptied first when it holds
+    ``limit`` entries: a bound on what a scene of ever-changing contacts keeps)."""
+    value = table.get(key, _MISSING)
+    if value is _MISSING:
+        if len(table) >= limit:
+            table.clear()
+        value = table[key] = make()
+    return value
 
 
 def applies(model: mujoco.MjModel) -> bool:
@@ -100,19 +156,7 @@ def applies(model: mujoco.MjModel) -> bool:
     Returns:
         True or False; a malformed text counts as no rule (the scene's load reports it).
     """
-    return _facts_of(model)[0] and int(model.opt.cone) == _ELLIPTIC and mixed(model)
-
-
-def _facts_of(model: mujoco.MjModel) -> tuple[bool, bool, bool]:
-    facts = _facts.get(model)
-    if facts is None:
-        try:
-            rule = _text(model) == "product"
-        except ValueError:
-            rule = False
-        special = bool(model.nflex or model.npair) or bool(model.geom_priority.any())
-        facts = _facts[model] = (rule, special, bool(model.ngeom) and int(model.geom_condim.max()) > 3)
-    return facts
+    return _kept(model).rule and int(model.opt.cone) == _ELLIPTIC and mixed(model)
 
 
 def new_shape(spec: mujoco.MjSpec, geom) -> None:
@@ -146,24 +190,17 @@ def mixed(model: mujoco.MjModel) -> bool:
     Returns:
         True when two collidable geoms differ in sliding friction.
     """
-    global _mixed_kept
+    kept = _kept(model)
     key = model.geom_friction[:, 0].tobytes() + model.geom_contype.tobytes() + model.geom_conaffinity.tobytes()
-    kept = _mixed_kept
-    if kept[0]() is model and kept[1] == key:  # a step asks twice (its substeps, its forward)
-        return kept[2]
+    if kept.mixed[0] == key:  # a step asks twice (its substeps, its forward)
+        return kept.mixed[1]
     f = model.geom_friction[(model.geom_contype | model.geom_conaffinity) != 0, 0]
     answer = bool(f.size) and float(f.min()) != float(f.max())
-    _mixed_kept = (weakref.ref(model), key, answer)  # one assignment: a thread reads it whole
+    kept.mixed = (key, answer)  # one assignment: a thread reads it whole
     return answer
 
 
-#: :func:`mixed`'s last answer: (a weak reference to the model, its geoms' sliding frictions and
-#: contact bits as bytes, the answer).
-_mixed_kept: tuple = (lambda: None, b"", False)
-
-
-def combine(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes | None = None,
-            sliding: np.ndarray | None = None, answers: dict | None = None) -> None:
+def combine(m: mujoco.MjModel, d: mujoco.MjData, answers: dict | None = None, sliding: np.ndarray | None = None) -> None:
     """Give the contacts ``mj_step1`` (or ``mj_fwdPosition``) made Bullet's combined friction
     (module docstring), all contacts at once. Which contacts change and their new friction depend
     only on the contacts' geoms and the frictions MuJoCo read: the answers are kept per set of
@@ -174,27 +211,18 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes | None = None,
     Args:
         m: the model.
         d: its data, after the position stage and before the acceleration stage.
-        frictions: the key of the frictions MuJoCo gave these contacts: :func:`_frictions` of
-            ``m``, followed by the lowered values when :func:`steps` lowered some; None reads
-            it now.
+        answers: the kept answers for the frictions MuJoCo read (:func:`steps` reads them once
+            for its substeps, for the frictions it lowered); None: those of the model's own.
         sliding: (ngeom,) the geoms' own sliding frictions while :func:`steps` has lowered some
             of the model's; None: the model's are their own.
-        answers: the kept answers for ``frictions`` (:func:`steps` reads them once for its
-            substeps); None reads them now.
     """
     if not d.ncon:
         return
     c = d.contact
     g = c.geom
     if answers is None:
-        answers = _answers(m, _frictions(m) if frictions is None else frictions)
-    key = g.tobytes()
-    answer = answers.get(key)
-    if answer is None:
-        answer = _answer(m, g, c.friction, sliding)
-        if len(answers) >= _KEPT_ANSWERS:
-            answers.clear()
-        answers[key] = answer
+        answers = _answers(m, _frictions(m))
+    answer = _entry(answers, g.tobytes(), lambda: _answer(m, g, c.friction, sliding), _KEPT_ANSWERS)
     if answer is _UNCHANGED:
         return
     whole, i, pair, ratio, wide = answer
@@ -232,25 +260,10 @@ _KEPT_FRICTIONS = 16
 #: :func:`_answer` for contacts that keep MuJoCo's values.
 _UNCHANGED = (False, np.zeros(0, dtype=int), None, None, False)
 
-#: :func:`combine`'s kept answers: (a weak reference to the model, {the key of the frictions
-#: MuJoCo read: {the contacts' geoms as bytes: :func:`_answer`'s answer}}). A new model starts
-#: a new table.
-_kept: tuple = (lambda: None, {})
 
-
-def _answers(m: mujoco.MjModel, frictions: bytes) -> dict:
+def _answers(m: mujoco.MjModel, frictions: bytes) -> dict[bytes, tuple]:
     """:func:`combine`'s kept answers for ``m`` under ``frictions``."""
-    global _kept
-    kept = _kept
-    if kept[0]() is not m:
-        kept = _kept = (weakref.ref(m), {})  # one assignment: a thread reads it whole
-    table = kept[1]
-    answers = table.get(frictions)
-    if answers is None:
-        if len(table) >= _KEPT_FRICTIONS:
-            table.clear()
-        answers = table[frictions] = {}
-    return answers
+    return _entry(_kept(m).answers, frictions, dict, _KEPT_FRICTIONS)  # type: ignore[no-any-return]
 
 
 def _answer(m: mujoco.MjModel, g: np.ndarray, contact_friction: np.ndarray, sliding: np.ndarray | None) -> tuple:
@@ -273,7 +286,7 @@ def _answer(m: mujoco.MjModel, g: np.ndarray, contact_friction: np.ndarray, slid
         return _UNCHANGED
     # MuJoCo's own value (the larger of the two, at least mjMINMU) follows from the same geoms
     ratio = new / contact_friction[i, 0]
-    if _facts_of(m)[1]:
+    if _kept(m).special:
         return False, i, np.repeat(new[:, None], 2, axis=1), ratio, wide
     pair = contact_friction[:, :2].copy()
     pair[i] = new[:, None]
@@ -293,20 +306,12 @@ def _lowered(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes) -> tuple[np.
     contact whatever they are. None when nothing was lowered, in a model with MuJoCo's own
     rules (explicit pairs, flexes, priorities), and under MuJoCo's override of every contact's
     friction. Kept per set of contact geoms while the model and its frictions are the same."""
-    if not d.ncon or _facts_of(m)[1] or m.opt.enableflags & _OVERRIDE:
+    kept = _kept(m)
+    if not d.ncon or kept.special or m.opt.enableflags & _OVERRIDE:
         return None
-    global _lowered_kept
-    kept = _lowered_kept
-    if kept[0]() is not m or kept[1] != frictions:
-        kept = _lowered_kept = (weakref.ref(m), frictions, {}, [None])  # one assignment: read whole
-    answers, last = kept[2], kept[3]
+    answers, last = _entry(kept.lowered, frictions, lambda: ({}, [None]), _KEPT_FRICTIONS)
     g = d.contact.geom
-    key = g.tobytes()
-    if key not in answers:
-        if len(answers) >= _KEPT_ANSWERS:
-            answers.clear()
-        answers[key] = _lower(m, g, frictions)
-    answer = answers[key]
+    answer = _entry(answers, g.tobytes(), lambda: _lower(m, g, frictions), _KEPT_ANSWERS)
     if answer is None:
         return last[0]  # type: ignore[no-any-return]
     last[0] = answer
@@ -331,15 +336,11 @@ def _lower(m: mujoco.MjModel, g: np.ndarray, frictions: bytes) -> tuple[np.ndarr
     return values, frictions + values.tobytes()
 
 
-#: :func:`_lowered`'s kept answers: (a weak reference to the model, its frictions' key, {the
-#: contacts' geoms as bytes: :func:`_lower`'s answer}, [the last answer that was not None]).
-_lowered_kept: tuple = (lambda: None, b"", {}, [None])
-
-
 def _changed(m: mujoco.MjModel, g: np.ndarray, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     """``(contacts to change, their combined friction, the model has wide contacts)`` for the
     contacts of geoms ``g`` (ncon, 2) whose sliding frictions are ``fg``."""
-    _, special, wide = _facts_of(m)
+    kept = _kept(m)
+    special, wide = kept.special, kept.wide
     i = np.flatnonzero(fg[:, 0] != fg[:, 1])
     if special and i.size:  # flex contacts, explicit <pair>s and priorities keep MuJoCo's rule
         i = _mujocos_own(m, g, i)
@@ -393,7 +394,7 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] 
         for _ in range(n):
             step1(m, d)
             if d.ncon and answers.get(d.contact.geom.tobytes()) is not _UNCHANGED:
-                combine(m, d, key, own, answers)
+                combine(m, d, answers, own)
             step2(m, d)
             if each is not None:
                 each()
@@ -419,5 +420,3 @@ def forward(m: mujoco.MjModel, d: mujoco.MjData) -> None:
         mujoco.mj_energyPos(m, d)
     mujoco.mj_forwardSkip(m, d, _POSITION_STAGE, 0)
 
-
-_POSITION_STAGE = int(mujoco.mjtStage.mjSTAGE_POS)
