@@ -89,6 +89,19 @@ def quaternion_from_matrix(r: np.ndarray) -> list[float]:
     return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]
 
 
+def rotation_angle(r: np.ndarray) -> float:
+    """The angle of rotation ``r`` (3, 3) about its axis, rad in [0, pi]: ``acos((tr r - 1) / 2)``,
+    the cosine clipped to [-1, 1] against rounding.
+
+    Args:
+        r: rotation matrix (3, 3).
+
+    Returns:
+        The angle, rad.
+    """
+    return math.acos(max(-1.0, min(1.0, (float(np.trace(r)) - 1.0) / 2.0)))
+
+
 def _frame_with_z(z_axis: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """A rotation whose z column is ``z_axis``, turned from ``reference`` by the least rotation."""
     z = np.asarray(z_axis, dtype=float)

@@ -32,7 +32,7 @@ from simx_server.api.sim.stepped import MAX_MOTION_STEPS, CallbackCall, Stepped,
 from simx_wire.protocol import ArgumentError, RemoteError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
 from simx_server.sim.objects import JOINT
-from simx_server.sim.rotations import matrix_from_quaternion, quaternion_from_matrix
+from simx_server.sim.rotations import matrix_from_quaternion, quaternion_from_matrix, rotation_angle
 
 #: CoppeliaSim's sim.ruckig_* flags used here.
 RUCKIG_PHASESYNC, RUCKIG_TIMESYNC, RUCKIG_NOSYNC = 0, 1, 3
@@ -276,7 +276,7 @@ def pose_motion(ctx: CallContext, params: Any, legacy: tuple, accept: Accept) ->
     p0, r0 = np.array(start[:3]), matrix_from_quaternion(*start[3:])
     p1, r1 = np.array(goal[:3]), matrix_from_quaternion(*goal[3:])
     rot = r1 @ r0.T  # the turn from start to goal, about one axis
-    angle = math.acos(max(-1.0, min(1.0, (np.trace(rot) - 1) / 2)))
+    angle = rotation_angle(rot)
     axis = _rotation_axis(rot, angle)
     metric = p.get("metric")
     dt = _num(p.get("timeStep", 0), "timeStep") or ctx.world.dt

@@ -14,7 +14,7 @@ from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.base.arguments import as_number as _num, as_vector as _vector
 from simx_wire.protocol import ArgumentError
-from simx_server.sim.rotations import matrix_from_euler
+from simx_server.sim.rotations import matrix_from_euler, rotation_angle
 
 
 # Rotation axes, interpolation, Euler angle conversions, configuration distance.
@@ -38,7 +38,7 @@ def getRotationAxis(ctx: CallContext, matrixStart: Any, matrixGoal: Any) -> tupl
     """
     ra, rb = (_rotation(v, n) for v, n in ((matrixStart, "matrixStart"), (matrixGoal, "matrixGoal")))
     r = rb @ ra.T
-    angle = math.acos(max(-1.0, min(1.0, (np.trace(r) - 1) / 2)))
+    angle = rotation_angle(r)
     axis = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
     n = np.linalg.norm(axis)
     if n < 1e-9:  # 0 or pi: the axis from the symmetric part

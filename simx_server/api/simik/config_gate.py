@@ -18,6 +18,7 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.simik import environments as _environments
 from simx_server.base.arguments import as_vector as _vector
+from simx_server.sim.rotations import rotation_angle
 from simx_wire.protocol import ArgumentError
 
 #: coppeliaKinematicsRoutines' default metric: x, y, z (m) and the angle (rad) weighed 0.1.
@@ -69,8 +70,7 @@ def tip_distance(ctx: CallContext, env: Any, g: Any, joints: list[int], q: np.nd
         gp, gr, _, _ = _environments.frame(ctx, env, d, el.target)
         base_r = _environments.frame(ctx, env, d, el.base)[1] if el.base >= 0 else np.eye(3)
         dx = base_r.T @ (tp - gp) * metric[:3]
-        cos = (np.trace(gr.T @ tr) - 1.0) / 2.0
-        angle = float(np.arccos(np.clip(cos, -1.0, 1.0))) * metric[3]
+        angle = rotation_angle(gr.T @ tr) * metric[3]
         total += float(np.sqrt(dx @ dx + angle * angle))
     return total
 
