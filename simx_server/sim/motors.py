@@ -119,16 +119,20 @@ def _setting(settings: dict, key: str, default: float, joint: str, signed: bool 
 
 
 class _Views:
-    """The arrays :meth:`Motors.apply` reads and writes, taken once per ``(model, data)``: each
-    attribute of MuJoCo's bindings builds a new ndarray, microseconds per step that buy nothing."""
+    """The arrays :meth:`Motors.apply` reads and writes, taken once per ``(model, data)`` (each
+    attribute of MuJoCo's bindings builds a new ndarray), and ``others``: the equalities that are
+    not the motors' locks (those a motor's inertia is computed through)."""
 
-    __slots__ = ("biasprm", "ctrl", "data", "gainprm", "model", "qfrc_bias", "qfrc_passive", "qpos", "qvel")
+    __slots__ = ("biasprm", "ctrl", "data", "eq_active", "eq_data", "forcerange", "gainprm", "model", "others",
+                 "qfrc_bias", "qfrc_passive", "qpos", "qpos0", "qvel")
 
-    def __init__(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+    def __init__(self, m: mujoco.MjModel, d: mujoco.MjData, locks: np.ndarray) -> None:
         self.model, self.data = m, d
         self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
         self.qfrc_bias, self.qfrc_passive = d.qfrc_bias, d.qfrc_passive
         self.gainprm, self.biasprm = m.actuator_gainprm, m.actuator_biasprm
+        self.eq_active, self.eq_data, self.qpos0, self.forcerange = d.eq_active, m.eq_data, m.qpos0, m.actuator_forcerange
+        self.others = np.setdiff1d(np.arange(m.neq), locks)
 
 
 class Motors:
@@ -223,6 +227,8 @@ class Motors:
         self._minv = np.zeros((n, m.nv))
         self._diagonal = self._rows * m.nv + self.dadr  # (M^-1)_ii's places in _minv, flat
         self._views: _Views | None = None
+        self._limits_key: bytes | None = None  # what _lock last wrote into the force ranges (None: unknown)
+        self._law_locked = True  # some motor locked by the position law (_lock, with _limits_key)
         self.reset(m, None)
 
     def __len__(self) -> int:
@@ -292,6 +298,7 @@ class Motors:
         Args:
             m: the MuJoCo model written to.
         """
+        self._limits_key = None  # _lock writes its own again
         if len(self.act):
             f = self.max_force / np.abs(self.gear)
             m.actuator_forcerange[self.act, 0] = -f
@@ -313,10 +320,11 @@ class Motors:
             return
         views = self._views
         if views is None or views.model is not m or views.data is not d:
-            views = self._views = _Views(m, d)
+            views = self._views = _Views(m, d, self._lock_eqs)
+            self._limits_key = None
         act, g, g2 = self._act_index, self.gear, self._gear2
         q = views.qpos[self.qadr]
-        inertia = self._inertia(m, d, dt)
+        inertia = self._inertia(views, dt)
         kv = self.kv_fraction * inertia / m.opt.timestep
         if self._any_own_kv:
             kv = np.where(self._own_kv_set, self.own_kv, kv)
@@ -328,18 +336,21 @@ class Motors:
         loop, springs, spring = self.loop, self.springs, self._no_spring
         if springs is not None:  # spring-damper motors are velocity motors (joint_springs.py)
             spring, spring_v = springs.law(err, float(d.time), loop, self.target_velocity, self.max_force)
-        position = on & loop & ~spring
+        position = on & loop if springs is None else on & loop & ~spring
         linear = position & (np.abs(err) * kp <= self.max_velocity)
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
-        v = v if springs is None else np.where(spring, spring_v, v)
-        velocity_mode = on & (~loop | spring) & self._no_own_kv & ~self.scripted
+        velocity_mode = on & ~loop if springs is None else on & (~loop | spring)
+        velocity_mode &= self._no_own_kv & ~self.scripted
+        if springs is not None:
+            v = np.where(spring, spring_v, v)
+            self.stalled = self.stalled or bool((spring & on).any())  # a spring's force follows it at every substep
         ff = ff + self._stall_force(q, views.qvel[dof], v, velocity_mode, float(d.time))
-        self.stalled = self.stalled or bool((spring & on).any())  # a spring's force follows it at every substep
         if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still (a spring: its force)
-            kv = np.where(velocity_mode & (v == 0) & ~spring, HOLD_KV_FACTOR * kv, kv)
+            hold = velocity_mode & (v == 0) if springs is None else velocity_mode & (v == 0) & ~spring
+            kv = np.where(hold, HOLD_KV_FACTOR * kv, kv)
         target = self.target_position
         if self._locking:
-            target, kp, linear = self._lock(m, d, q, on & ~loop & (v == 0), dt, kp, linear)
+            target, kp, linear = self._lock(views, q, on & ~loop & (v == 0), dt, kp, linear)
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         kv_kp = kv * kp
         gain = np.where(linear, kv_kp, kv) / g
@@ -359,52 +370,57 @@ class Motors:
         if springs is not None:  # after _lock, which writes every motor's force range
             springs.write_limits(m, self.act, g, self.max_force)
 
-    def _lock(self, m: mujoco.MjModel, d: mujoco.MjData, q: np.ndarray, stopped: np.ndarray, dt: float,
-              kp: np.ndarray, linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _lock(self, views: _Views, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
+              linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The locked motors (velocity lock on, velocity mode, target 0) hold where they stopped (or
         were put, :meth:`teleported`) with no force limit (``CJoint::handleDynJoint``: "motor locked"):
         pinned by their lock equality (:func:`~simx_server.sim.motor_spec.add_locks`; ``eq_active``,
         ``eq_data``) as Bullet 2.78's equal limits pin them; one locked at run time without one by the
-        position law at gain 1/dt (force range written into ``m``). ``q`` (n,) positions, ``stopped``
+        position law at gain 1/dt (force range written into the model). ``q`` (n,) positions, ``stopped``
         (n,) velocity motors with target 0, ``kp`` and ``linear`` as :meth:`apply` has them. Returns
         ``(target, kp, linear)`` with the law-locked motors' entries changed."""
         lock = self.locked & stopped
-        self._lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
+        self._lock_q = lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
         self._locking = bool(self.locked.any())  # lock is a part of locked
         pinned = self._pinned
         if len(self._lock_eqs):
             on = lock[pinned]
-            d.eq_active[self._lock_eqs] = on
+            views.eq_active[self._lock_eqs] = on
             # MuJoCo's joint equality with one joint: q - qpos0 = eq_data[0]
-            m.eq_data[self._lock_eqs[on], 0] = (self._lock_q - m.qpos0[self.qadr])[pinned][on]
+            views.eq_data[self._lock_eqs[on], 0] = (lock_q - views.qpos0[self.qadr])[pinned][on]
             lock = lock & ~pinned
-        force = np.where(lock, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
-        m.actuator_forcerange[self.act, 0], m.actuator_forcerange[self.act, 1] = -force, force
-        return (np.where(lock, self._lock_q, self.target_position), np.where(lock, 1.0 / dt, kp), linear | lock)
+        key = lock.tobytes() + self.max_force.tobytes()
+        if key != self._limits_key:  # written once per change: write_force_limits forgets the key
+            force = np.where(lock, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
+            views.forcerange[self.act, 0], views.forcerange[self.act, 1] = -force, force
+            self._limits_key, self._law_locked = key, bool(lock.any())
+        if not self._law_locked:  # every lock an equality's: the laws as apply() has them
+            return self.target_position, kp, linear
+        return (np.where(lock, lock_q, self.target_position), np.where(lock, 1.0 / dt, kp), linear | lock)
 
-    def _inertia(self, m: mujoco.MjModel, d: mujoco.MjData, dt: float) -> np.ndarray:
+    def _inertia(self, views: _Views, dt: float) -> np.ndarray:
         """The joints' effective inertia through the scene's equalities (a motor closing a loop
         drives the whole linkage: :func:`simx_server.sim.mechanisms.inverse_inertia`), computed
         once per step: scripts' joint callbacks apply the motors at every substep, and the
         configuration changes little within a step.
 
         Args:
-            m: the model.
-            d: its data.
+            views: the model's and data's arrays (:class:`_Views`).
             dt: the step (s).
 
         Returns:
             (n,) kg or kg·m².
         """
+        m, d = views.model, views.data
         at, cached = self._inertia_at
         now = float(d.time)
         elapsed = now - at
         if len(cached) == len(self.act) and 0 <= elapsed < dt - 0.5 * m.opt.timestep:
             return cached
         mujoco.mj_solveM(m, d, self._minv, self._unit)
-        if m.neq:  # a motor's own lock pins its joint: not a part of the mechanism it drives
+        if views.others.size and views.eq_active[views.others].any():  # a motor's own lock: not a part of the mechanism it drives
             inverse = mechanisms.inverse_inertia(m, d, self._minv, self.dadr, self._lock_eqs)
-        else:  # no equality: the open chain's, (M^-1)_ii (mechanisms.inverse_inertia's first step)
+        else:  # no equality but locks: the open chain's, (M^-1)_ii (mechanisms.inverse_inertia's first step)
             inverse = self._minv.take(self._diagonal)
         inertia = 1.0 / np.maximum(inverse, 1e-12)
         self._inertia_at = (now, inertia)

@@ -76,9 +76,8 @@ class World(Poses, Joints):
 
     Args:
         scene: path of an MJCF file, or of a URDF file (:mod:`simx_server.sim.urdf`).
-        dt: simulation step in s, made of MuJoCo substeps of the model's own timestep; None:
-            the step the scene declares (:mod:`simx_server.sim.scene_settings`), else V-REP's
-            default 0.05.
+        dt: simulation step in s, made of MuJoCo substeps of the model's own timestep; None: the
+            step the scene declares (:mod:`simx_server.sim.scene_settings`), else V-REP's 0.05.
         name: the file the user gave, when ``scene`` is its conversion (a .ttt's MJCF): what
             messages name (default: ``scene``'s file name).
         bounded: a client's scene: the compiled model's data arena, step work and contacts as
@@ -156,9 +155,8 @@ class World(Poses, Joints):
             physics.check_cost(model, substeps, previous, getattr(self, "substeps", 1))
         self.model = model
         self.data = mujoco.MjData(model)
-        # A view kept for the hottest read: each ``data.qpos`` builds a new ndarray, which costs
-        # microseconds in a server thread that has just woken up. MjData's buffers live as long
-        # as the MjData, and every new MjData comes through here.
+        # A view kept for the hottest read (each ``data.qpos`` builds a new ndarray): MjData's
+        # buffers live as long as the MjData, and every new MjData comes through here.
         self._qpos = self.data.qpos
         self._bad_state = physics.bad_state_view(self.data)  # nonzero after a blow-up
         self.substeps = substeps
@@ -496,18 +494,20 @@ class World(Poses, Joints):
             kinematic.settle(self, held)
         if physics.SINK.count:
             physics.SINK.report()  # other warnings (contact buffer full...): once per kind
-        self.changed()  # mj_step leaves positions and sensors one substep behind the state
+        self.changed(product)  # mj_step leaves positions and sensors one substep behind the state
 
-    def changed(self) -> None:
+    def changed(self, product: bool | None = None) -> None:
         """After any change of state: recompute derived quantities, invalidate cached renders,
-        and note the simulation time (``time``, s: every reply reads it, and a plain attribute
-        costs no call into MuJoCo's bindings). Grasped parts are put back on what holds
-        them first (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`."""
+        and note the simulation time (``time``, s: every reply reads it, and a plain attribute costs
+        no call into MuJoCo's bindings). Grasped parts are put back on what holds them first
+        (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`. ``product``:
+        whether Bullet's friction rule applies (a step knows it; None: asked here)."""
         if self._batch.holds():
             return
         if self.grasps:
             grasps.follow(self)
-        (friction.forward if friction.applies(self.model) else mujoco.mj_forward)(self.model, self.data)
+        product = friction.applies(self.model) if product is None else product
+        (friction.forward if product else mujoco.mj_forward)(self.model, self.data)
         self.version += 1
         self.time = self.data.time
 
