@@ -338,13 +338,13 @@ class Motors:
             spring, spring_v = springs.law(err, float(d.time), loop, self.target_velocity, self.max_force)
         position = on & loop if springs is None else on & loop & ~spring
         linear = position & (np.abs(err) * kp <= self.max_velocity)
-        v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
+        v = np.where(position, np.sign(err) * self.max_velocity,
+                     self.target_velocity if springs is None else np.where(spring, spring_v, self.target_velocity))
         velocity_mode = on & ~loop if springs is None else on & (~loop | spring)
         velocity_mode &= self._no_own_kv & ~self.scripted
-        if springs is not None:
-            v = np.where(spring, spring_v, v)
-            self.stalled = self.stalled or bool((spring & on).any())  # a spring's force follows it at every substep
         ff = ff + self._stall_force(q, views.qvel[dof], v, velocity_mode, float(d.time))
+        if springs is not None:  # a spring's force follows it at every substep
+            self.stalled = self.stalled or bool((spring & on).any())
         if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still (a spring: its force)
             hold = velocity_mode & (v == 0) if springs is None else velocity_mode & (v == 0) & ~spring
             kv = np.where(hold, HOLD_KV_FACTOR * kv, kv)

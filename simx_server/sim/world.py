@@ -494,7 +494,7 @@ class World(Poses, Joints):
             kinematic.settle(self, held)
         if physics.SINK.count:
             physics.SINK.report()  # other warnings (contact buffer full...): once per kind
-        self.changed(product)  # mj_step leaves positions and sensors one substep behind the state
+        self.changed(product if self.substep_hook is None else None)  # positions one substep behind the state
 
     def changed(self, product: bool | None = None) -> None:
         """After any change of state: recompute derived quantities, invalidate cached renders,
