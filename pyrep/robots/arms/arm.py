@@ -130,7 +130,7 @@ class Arm(RobotComponent):
         m = self._ik_tip.get_matrix()
         dp = goal[:3, 3] - m[:3, 3]
         r = goal[:3, :3] @ m[:3, :3].T
-        angle = np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0))
+        angle = planning.rotation_angle(r)
         if angle < 1e-9:
             dw = np.zeros(3)
         else:

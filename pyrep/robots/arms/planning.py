@@ -6,11 +6,17 @@ from __future__ import annotations
 import numpy as np
 
 
+def rotation_angle(r: np.ndarray) -> float:
+    """The angle of rotation ``r`` (3, 3) about its axis, rad in [0, pi]: ``acos((tr r - 1) / 2)``,
+    the cosine clipped to [-1, 1] against rounding."""
+    return float(np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)))
+
+
 def interpolate_poses(start: np.ndarray, goal: np.ndarray, steps: int) -> list[np.ndarray]:
     """``steps`` poses (4, 4) from just after ``start`` to ``goal``: positions on the line,
     rotations on the geodesic."""
     r = goal[:3, :3] @ start[:3, :3].T
-    angle = np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0))
+    angle = rotation_angle(r)
     axis = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
     axis = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 1e-9 else np.array([0.0, 0.0, 1.0])
     k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from pyrep.backend import sim
+from pyrep.robots.arms import planning
 
 #: simIK's constraint bits in the order of ``Arm._constraints`` (x, y, z, alpha-beta, alpha-beta, gamma)
 _CONSTRAINT_BITS = (1, 2, 4, 8, 8, 16)
@@ -49,7 +50,7 @@ def _tip_distance(env: Any, tip: int, target: np.ndarray) -> float:
     target (4, 4), with its default metric {1, 1, 1, 0.1}: position (m) and 0.1 x angle (rad)."""
     m = np.array(sim.ik_call("getObjectMatrix", env, tip, -1), dtype=float).reshape(3, 4)
     r = target[:3, :3] @ m[:, :3].T
-    angle = float(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0)))
+    angle = planning.rotation_angle(r)
     return float(np.sqrt(np.sum((target[:3, 3] - m[:, 3]) ** 2) + (0.1 * angle) ** 2))
 
 
