@@ -173,10 +173,23 @@ def test_youbot_plans_round_an_obstacle_that_the_straight_path_hits(youbot):
     assert not bot.assess_collision()
 
 
+def test_turtlebot_turns_in_place_on_its_wheels(empty):
+    """At -2 and 2 rad/s on its wheels the TurtleBot turns at 0.61 rad/s where they roll without
+    slip, on CoppeliaSim's rigid contacts; its casters roll only forward and are dragged
+    sideways. It turned at 0.0003 rad/s while MuJoCo's soft contacts put half its weight on
+    them (docs/PYREP.md); its wheels' contact margin (docs/PORTING.md) leaves it on its wheels."""
+    from pyrep.robots.mobiles.turtlebot import TurtleBot
+
+    pr = empty
+    pr.import_model(str(require_shared(MOBILES / "turtlebot.ttm")))
+    bot = _start(pr, TurtleBot, [0.0, 0.0, 0.0])
+    bot.set_joint_target_velocities([-2.0, 2.0])
+    for _ in range(20):  # 1 s
+        pr.step()
+    assert bot.get_2d_pose()[2] > 0.5
+
+
 def test_turtlebot_follows_a_linear_path_and_plans_round_a_box(empty):
-    """The TurtleBot turns little on simx (its casters roll only forward, and MuJoCo's soft
-    contacts put most of its weight on them where CoppeliaSim's rigid ones leave it on the
-    wheels: docs/PYREP.md), so its linear path starts about facing the goal."""
     from pyrep.robots.mobiles.turtlebot import TurtleBot
 
     pr = empty

@@ -29,7 +29,7 @@ from simx_server.scene.ttt.geometry import compose, inverse, joint_displacement,
 from simx_server.scene.ttt.model import Pose, TttObject, TttScene
 from simx_server.sim.properties import SHAPE_DEFAULT
 from simx_server.scene.ttt.mechanisms import add_loop_closures, bodies_up
-from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_sensor
+from simx_server.scene.ttt.parts import add_collections, add_ik_groups, add_joint, add_sensor, wheel_contacts
 
 _MAX_EXCLUDES = 20_000
 #: The dry friction of a passive joint whose contacts with its static parent are left out, as a
@@ -299,6 +299,7 @@ class Converter:
                 self.setting(obj.name, "frame=" + ",".join(f"{v:.9g}" for v in rel.quat))
             self._shape(child, body, compose(displaced, child.pose), model,
                         joint=lambda b: add_joint(self, obj, b, rel.pos, axis))
+            wheel_contacts(self, obj, self.bodies[child.handle], axis)  # a motored wheel carries its robot
             for script in scripts:  # in the child's body, which the joint moves
                 self._emit(script, self.bodies[child.handle], rel, model)
                 self.vrep_parent(script)

@@ -23,6 +23,41 @@ PASSIVE, MOTION_OLD, IK_OLD, IK_DEPENDENT_OLD, DEPENDENT, FORCE = 0, 1, 2, 3, 4,
 _PROXIMITY_CONE = 33
 
 
+#: The contact margin of a motored wheel's round shape (m): :func:`wheel_contacts`.
+WHEEL_MARGIN = 5e-4
+
+
+def wheel_contacts(conv, obj: TttObject, body, axis: np.ndarray) -> None:
+    """Let a motored wheel carry its robot as Bullet's rigid contacts do. Bullet (V-REP's and
+    CoppeliaSim 4.1's default engine) rests a wheeled robot on its wheels where its casters or
+    skids stand even a fraction of a millimetre higher; MuJoCo's soft contacts share the weight
+    among all supports (a TurtleBot's two casters, 0.036 mm higher than its wheels' line, took
+    half of it, and their sideways drag stopped it turning: 0.0003 rad/s where Bullet's statics
+    give 0.61). The round shapes (cylinders about the joint's axis, spheres) that a joint in
+    velocity mode turns about a horizontal axis (within 10 degrees, as the file places it) touch
+    from :data:`WHEEL_MARGIN` away (MuJoCo's ``margin``): the robot rides that much higher on its
+    wheels and its casters take what its pitch puts on them (the TurtleBot's back caster 1.3% of
+    its weight; Bullet's statics 1.5%).
+
+    Args:
+        conv: the converter (its joint settings and world poses are read).
+        obj: the joint (its one child shape is in ``body``).
+        body: the child shape's ``MjsBody``.
+        axis: the joint's axis in ``body``'s frame.
+    """
+    child = next(c for c in obj.children if c.kind == "shape")
+    world = quat_to_mat(conv.world_pose[child.handle].quat) @ axis
+    if "mode=velocity" not in conv.settings.get(obj.name, ()) or abs(world[2]) > math.sin(math.radians(10)):
+        return
+    axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
+    for g in body.geoms:
+        along = quat_to_mat(np.asarray(g.quat, float)) @ np.array([0.0, 0, 1])
+        round_ = g.type == mujoco.mjtGeom.mjGEOM_SPHERE or (
+            g.type == mujoco.mjtGeom.mjGEOM_CYLINDER and abs(float(along @ axis)) > 0.999)
+        if round_ and (g.contype or g.conaffinity):
+            g.margin = WHEEL_MARGIN
+
+
 def settings_text(items: dict[str, str]) -> str:
     return " ".join(f"{k}={v}" for k, v in items.items())
 
