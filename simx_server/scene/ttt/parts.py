@@ -25,37 +25,60 @@ _PROXIMITY_CONE = 33
 
 #: The contact margin of a motored wheel's round shape (m): :func:`wheel_contacts`.
 WHEEL_MARGIN = 5e-4
+#: How much higher than its model's lowest respondable point a wheel's lowest point may lie (m).
+WHEEL_SUPPORT = 1e-3
 
 
-def wheel_contacts(conv, obj: TttObject, body, axis: np.ndarray) -> None:
-    """Let a motored wheel carry its robot as Bullet's rigid contacts do. Bullet (V-REP's and
+def wheel_contacts(conv, wheels: list[tuple[TttObject, np.ndarray, np.ndarray]]) -> None:
+    """Let motored wheels carry their robot as Bullet's rigid contacts do. Bullet (V-REP's and
     CoppeliaSim 4.1's default engine) rests a wheeled robot on its wheels where its casters or
     skids stand even a fraction of a millimetre higher; MuJoCo's soft contacts share the weight
     among all supports (a TurtleBot's two casters, 0.036 mm higher than its wheels' line, took
     half of it, and their sideways drag stopped it turning: 0.0003 rad/s where Bullet's statics
-    give 0.61). The round shapes (cylinders about the joint's axis, spheres) that a joint in
-    velocity mode turns about a horizontal axis (within 10 degrees, as the file places it) touch
-    from :data:`WHEEL_MARGIN` away (MuJoCo's ``margin``): the robot rides that much higher on its
-    wheels and its casters take what its pitch puts on them (the TurtleBot's back caster 1.3% of
-    its weight; Bullet's statics 1.5%).
+    give 0.61). A wheel here is a round shape (a cylinder about the joint's axis, or a sphere)
+    centred on the axis of a joint in velocity mode, the axis horizontal (within 10 degrees, as
+    the file places it), whose lowest point is among its model's lowest (within
+    :data:`WHEEL_SUPPORT` of every respondable shape's): its geoms touch from
+    :data:`WHEEL_MARGIN` away (MuJoCo's ``margin``), so the robot rides that much higher on its
+    wheels and its casters take what its pitch puts there (the TurtleBot's back caster 1.3% of
+    its weight; Bullet's statics 1.5%). A handle or a knob on a motored hinge is not a wheel.
 
     Args:
-        conv: the converter (its joint settings and world poses are read).
-        obj: the joint (its one child shape is in ``body``).
-        body: the child shape's ``MjsBody``.
-        axis: the joint's axis in ``body``'s frame.
+        conv: the converter, after every object is emitted (its joint settings, world poses,
+            bodies and models are read).
+        wheels: ``(joint, axis, pos)`` of each joint with one child shape: the axis and the
+            joint's position in the child's body frame.
     """
-    child = next(c for c in obj.children if c.kind == "shape")
-    world = quat_to_mat(conv.world_pose[child.handle].quat) @ axis
-    if "mode=velocity" not in conv.settings.get(obj.name, ()) or abs(world[2]) > math.sin(math.radians(10)):
-        return
-    axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
-    for g in body.geoms:
-        along = quat_to_mat(np.asarray(g.quat, float)) @ np.array([0.0, 0, 1])
-        round_ = g.type == mujoco.mjtGeom.mjGEOM_SPHERE or (
-            g.type == mujoco.mjtGeom.mjGEOM_CYLINDER and abs(float(along @ axis)) > 0.999)
-        if round_ and (g.contype or g.conaffinity):
-            g.margin = WHEEL_MARGIN
+    lowest: dict[int, float] = {}  # model base -> lowest respondable point (m, world z)
+    for obj in conv.scene.objects.values():
+        if obj.kind == "shape" and obj.data.respondable:
+            model = conv.model_of.get(obj.handle, -1)
+            lowest[model] = min(lowest.get(model, math.inf), _lowest(conv, obj))
+    for joint, axis, pos in wheels:
+        child = next(c for c in joint.children if c.kind == "shape")
+        world = quat_to_mat(conv.world_pose[child.handle].quat) @ axis
+        if ("mode=velocity" not in conv.settings.get(joint.name, ()) or abs(world[2]) > math.sin(math.radians(10))
+                or not child.data.respondable
+                or _lowest(conv, child) > lowest.get(conv.model_of.get(child.handle, -1), -math.inf) + WHEEL_SUPPORT):
+            continue
+        axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
+        for g in conv.bodies[child.handle].geoms:
+            along = quat_to_mat(np.asarray(g.quat, float)) @ np.array([0.0, 0, 1])
+            off = np.asarray(g.pos, float) - pos
+            centred = float(np.linalg.norm(off - (off @ axis) * axis)) < 1e-3
+            round_ = g.type == mujoco.mjtGeom.mjGEOM_SPHERE or (
+                g.type == mujoco.mjtGeom.mjGEOM_CYLINDER and abs(float(along @ axis)) > 0.999)
+            if round_ and centred and (g.contype or g.conaffinity):
+                g.margin = WHEEL_MARGIN
+
+
+def _lowest(conv, obj: TttObject) -> float:
+    """The lowest point (world z, m) of shape ``obj``'s meshes as the file places it."""
+    pose = conv.world_pose[obj.handle]
+    r = quat_to_mat(pose.quat)
+    return min((float(np.min((np.asarray(mesh.vertices) @ (r @ quat_to_mat(mesh.frame.quat)).T)[:, 2]))
+                + float((r @ mesh.frame.pos + pose.pos)[2]) for mesh in obj.data.meshes if len(mesh.vertices)),
+               default=math.inf)
 
 
 def settings_text(items: dict[str, str]) -> str:

@@ -29,11 +29,11 @@ RAISED = 4e-5  # how much higher the casters' lowest points stand than the wheel
 def _scene() -> bytes:
     """A 2 kg chassis (its centre of mass 2 mm behind the wheels' axle) on two motored wheels
     in velocity mode, each hanging on a free drop joint held at its upper limit (as PyRep's
-    TurtleBot), and two casters on free hinges, on a static floor."""
+    TurtleBot), two casters on free hinges and a motored knob on top, on a static floor."""
     diameter = 2 * RADIUS
     parts = W.cuboid_shape(1, -1, "Floor", (4.0, 4.0, 0.1), (0, 0, -0.05), dynamic=False)
     parts += W.cuboid_shape(2, -1, "Chassis", (0.2, 0.16, 0.04), (-0.002, 0, 0.06), mass=2.0,
-                            moments=(0.005, 0.007, 0.011))
+                            moments=(0.005, 0.007, 0.011), extra=W.model_base())  # the robot is a model
     for k, (name, y) in enumerate((("Left", TRACK / 2), ("Right", -TRACK / 2))):  # each on a drop joint
         h = 10 + 4 * k
         parts += W.joint(h, 2, f"{name}Drop", (0.002, y, RADIUS - 0.06), kind=11, motor=False, limits=(-0.01, 0.01))
@@ -48,6 +48,9 @@ def _scene() -> bytes:
                          motor=False, cyclic=True)
         parts += W.cuboid_shape(21 + 2 * k, 20 + 2 * k, f"{name}Caster", (2 * CASTER, 2 * CASTER, 0.01), mass=0.01,
                                 moments=(3.3e-5, 3.3e-5, 5e-5), primitive=5)
+    parts += W.joint(30, 2, "KnobMotor", (0, 0, 0.03), _ALONG_Y, motor=True, loop=False, cyclic=True)
+    parts += W.cuboid_shape(31, 30, "Knob", (0.02, 0.02, 0.01), mass=0.01, moments=(1e-6, 1e-6, 1e-6),
+                            primitive=5)  # round, motored, horizontal, but on top: no wheel
     return W.ttt_file(parts)
 
 
@@ -73,6 +76,7 @@ def test_a_wheeled_robot_rests_on_its_wheels_and_turns_in_place(tmp_path):
                for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]}
     assert margins["LeftWheel"] == margins["RightWheel"] == WHEEL_MARGIN  # motored, round, horizontal
     assert margins["FrontCaster"] == margins["BackCaster"] == margins["Chassis"] == 0.0  # free hinges, a box
+    assert margins["Knob"] == 0.0  # not among the robot's lowest points
     sim = Simulation(xml, realtime=False)
     try:
         w = sim.world
