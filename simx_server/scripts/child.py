@@ -187,11 +187,10 @@ class ChildScript:
         interrupted by the scene's scripts' time (the pass's end, their share) has all its
         callbacks but ``sysCall_cleanup`` skipped until then (:attr:`cut`)."""
         body = self._body(function) if self._may_run(function) else 0
-        if body == 1:  # an empty callback (a V-REP template's) does nothing: counted, no time to check
+        if body == 1 or (body and not self._pass_spent(function)):  # an empty one: counted, no clock read
             self.executions += 1
-        elif body and not self._pass_spent(function):
-            self.executions += 1
-            self._guarded(function, lambda: self._run_function(function, ()))
+            if body == 2:  # an empty callback (a V-REP template's) would do nothing
+                self._guarded(function, lambda: self._run_function(function, ()))
 
     def _may_run(self, function: str) -> bool:
         """Whether callback ``function`` may run now: the script runs, enabled, loaded, and neither the

@@ -494,20 +494,18 @@ class World(Poses, Joints):
             kinematic.settle(self, held)
         if physics.SINK.count:
             physics.SINK.report()  # other warnings (contact buffer full...): once per kind
-        self.changed(product if self.substep_hook is None else None)  # positions one substep behind the state
+        self.changed()  # mj_step leaves positions and sensors one substep behind the state
 
-    def changed(self, product: bool | None = None) -> None:
+    def changed(self) -> None:
         """After any change of state: recompute derived quantities, invalidate cached renders,
         and note the simulation time (``time``, s: every reply reads it, and a plain attribute costs
         no call into MuJoCo's bindings). Grasped parts are put back on what holds them first
-        (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`. ``product``:
-        whether Bullet's friction rule applies (a step knows it; None: asked here)."""
+        (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`."""
         if self._batch.holds():
             return
         if self.grasps:
             grasps.follow(self)
-        product = friction.applies(self.model) if product is None else product
-        (friction.forward if product else mujoco.mj_forward)(self.model, self.data)
+        (friction.forward if friction.applies(self.model) else mujoco.mj_forward)(self.model, self.data)
         self.version += 1
         self.time = self.data.time
 
