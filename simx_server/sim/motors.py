@@ -336,18 +336,16 @@ class Motors:
         loop, springs, spring = self.loop, self.springs, self._no_spring
         if springs is not None:  # spring-damper motors are velocity motors (joint_springs.py)
             spring, spring_v = springs.law(err, float(d.time), loop, self.target_velocity, self.max_force)
-        position = on & loop if springs is None else on & loop & ~spring
+        position = on & loop & ~spring
         linear = position & (np.abs(err) * kp <= self.max_velocity)
-        v = np.where(position, np.sign(err) * self.max_velocity,
-                     self.target_velocity if springs is None else np.where(spring, spring_v, self.target_velocity))
-        velocity_mode = on & ~loop if springs is None else on & (~loop | spring)
-        velocity_mode &= self._no_own_kv & ~self.scripted
+        v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
+        v = v if springs is None else np.where(spring, spring_v, v)
+        velocity_mode = on & (~loop | spring) & self._no_own_kv & ~self.scripted
         ff = ff + self._stall_force(q, views.qvel[dof], v, velocity_mode, float(d.time))
         if springs is not None:  # a spring's force follows it at every substep
             self.stalled = self.stalled or bool((spring & on).any())
         if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still (a spring: its force)
-            hold = velocity_mode & (v == 0) if springs is None else velocity_mode & (v == 0) & ~spring
-            kv = np.where(hold, HOLD_KV_FACTOR * kv, kv)
+            kv = np.where(velocity_mode & (v == 0) & ~spring, HOLD_KV_FACTOR * kv, kv)
         target = self.target_position
         if self._locking:
             target, kp, linear = self._lock(views, q, on & ~loop & (v == 0), dt, kp, linear)
