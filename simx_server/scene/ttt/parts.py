@@ -49,17 +49,16 @@ def wheel_contacts(conv, wheels: list[tuple[TttObject, np.ndarray, np.ndarray]])
         wheels: ``(joint, axis, pos)`` of each joint with one child shape: the axis and the
             joint's position in the child's body frame.
     """
+    low = {o.handle: _lowest(conv, o) for o in conv.scene.objects.values() if o.kind == "shape" and o.data.respondable}
     lowest: dict[int, float] = {}  # model base -> lowest respondable point (m, world z)
-    for obj in conv.scene.objects.values():
-        if obj.kind == "shape" and obj.data.respondable:
-            model = conv.model_of.get(obj.handle, -1)
-            lowest[model] = min(lowest.get(model, math.inf), _lowest(conv, obj))
+    for handle, z in low.items():
+        model = conv.model_of.get(handle, -1)
+        lowest[model] = min(lowest.get(model, math.inf), z)
     for joint, axis, pos in wheels:
         child = next(c for c in joint.children if c.kind == "shape")
-        world = quat_to_mat(conv.world_pose[child.handle].quat) @ axis
-        if ("mode=velocity" not in conv.settings.get(joint.name, ()) or abs(world[2]) > math.sin(math.radians(10))
-                or not child.data.respondable
-                or _lowest(conv, child) > lowest.get(conv.model_of.get(child.handle, -1), -math.inf) + WHEEL_SUPPORT):
+        horizontal = abs((quat_to_mat(conv.world_pose[child.handle].quat) @ axis)[2]) <= math.sin(math.radians(10))
+        support = child.handle in low and low[child.handle] <= lowest[conv.model_of.get(child.handle, -1)] + WHEEL_SUPPORT
+        if not (horizontal and support and "mode=velocity" in conv.settings.get(joint.name, ())):
             continue
         axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
         for g in conv.bodies[child.handle].geoms:
