@@ -63,19 +63,18 @@ def _setup(camera: bool):
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
-def _time(fn, steps: int, rounds: int, clock=time.perf_counter) -> float:
-    """Median over ``rounds`` of the mean ms per call of ``fn`` over ``steps`` calls."""
-    results = []
-    for _ in range(rounds):
-        start = clock()
-        for _ in range(steps):
-            fn()
-        results.append((clock() - start) / steps * 1e3)
-    return statistics.median(results)
+def _round(fn, steps: int, clock) -> float:
+    """Mean ms per call of ``fn`` over ``steps`` calls."""
+    start = clock()
+    for _ in range(steps):
+        fn()
+    return (clock() - start) / steps * 1e3
 
 
-def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple[float, float]:
-    """``(pyrep ms per step, floor ms per step)`` by ``clock`` (a key of :data:`CLOCKS`)."""
+def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple[float, float, float]:
+    """``(pyrep ms per step, floor ms per step, ratio)``: the medians over ``rounds`` by ``clock``
+    (a key of :data:`CLOCKS`), simx's and the floor's rounds alternated, the ratio the median of
+    each round pair's (a machine whose speed drifts moves both sides of a pair alike)."""
     pr, sensor = _setup(camera)
     try:
         world = pr.simulation.world
@@ -87,7 +86,6 @@ def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple
             pyrep_step = pr.step
         for _ in range(20):
             pyrep_step()
-        ours = _time(pyrep_step, steps, rounds, CLOCKS[clock])
         m = world.model
         d = mujoco.MjData(m)
         mujoco.mj_copyData(d, m, world.data)
@@ -106,10 +104,14 @@ def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple
 
         for _ in range(20):
             floor()
-        base = _time(floor, steps, rounds, CLOCKS[clock])
+        ours, base = [], []
+        for _ in range(rounds):
+            ours.append(_round(pyrep_step, steps, CLOCKS[clock]))
+            base.append(_round(floor, steps, CLOCKS[clock]))
         if renderer is not None:
             renderer.close()
-        return ours, base
+        ratio = statistics.median(a / b for a, b in zip(ours, base))
+        return statistics.median(ours), statistics.median(base), ratio
     finally:
         pr.shutdown()
 
@@ -123,9 +125,9 @@ def main() -> None:
     os.environ.setdefault("MUJOCO_GL", "egl")
     print("case                       pyrep step (ms)   mj_step floor (ms)   ratio")
     for camera in (False, True):
-        ours, base = measure(camera, args.steps, args.rounds, args.clock)
+        ours, base, ratio = measure(camera, args.steps, args.rounds, args.clock)
         label = "Panda + gripper, 128x128 RGB" if camera else "Panda + gripper"
-        print(f"{label:<28} {ours:>12.3f}   {base:>16.3f}   {ours / base:>8.2f}x")
+        print(f"{label:<28} {ours:>12.3f}   {base:>16.3f}   {ratio:>8.2f}x")
 
 
 if __name__ == "__main__":
