@@ -130,6 +130,39 @@ def _kept(model: mujoco.MjModel) -> _Kept:
     return kept
 
 
+#: {MjData: (its contact buffer's geom pairs, (capacity, 2) int32)}; an MjData that is gone drops
+#: out with its view (the view does not keep it alive: it must not outlive it).
+_per_data: "weakref.WeakKeyDictionary[mujoco.MjData, np.ndarray]" = weakref.WeakKeyDictionary()
+#: The MjData asked for last and its view.
+_last_data: tuple = (lambda: None, None)
+
+
+def contact_geoms(d: mujoco.MjData) -> np.ndarray:
+    """The geom pairs of ``d``'s whole contact buffer, (capacity, 2) int32, a view whose first
+    ``d.ncon`` rows are ``d.contact.geom``: MuJoCo keeps the contacts at the start of the arena
+    (``d->contact = d->arena`` for the life of the MjData), so one view serves every substep
+    without building ``d.contact`` (a few microseconds each). Rows past ``d.ncon`` hold whatever
+    the arena holds; read only the first ``d.ncon``.
+
+    Args:
+        d: the data.
+
+    Returns:
+        The view (kept per MjData).
+    """
+    global _last_data
+    last = _last_data
+    if last[0]() is d:
+        return last[1]  # type: ignore[no-any-return]
+    view = _per_data.get(d)
+    if view is None:
+        start = d.contact.geom  # (ncon, 2), rows a contact's size apart; its data is the arena's start
+        capacity = max(int(d.narena) // start.strides[0], 1)
+        view = _per_data[d] = np.lib.stride_tricks.as_strided(start, (capacity, 2), start.strides, writeable=False)
+    _last_data = (weakref.ref(d), view)  # one assignment: a thread reads it whole
+    return view
+
+
 _MISSING = object()
 
 
@@ -216,15 +249,16 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData, answers: dict | None = None, sl
         sliding: (ngeom,) the geoms' own sliding frictions while :func:`steps` has lowered some
             of the model's; None: the model's are their own.
     """
-    if not d.ncon:
+    ncon = d.ncon
+    if not ncon:
         return
-    c = d.contact
-    g = c.geom
+    g = contact_geoms(d)[:ncon]
     if answers is None:
         answers = _answers(m, _frictions(m))
-    answer = _entry(answers, g.tobytes(), lambda: _answer(m, g, c.friction, sliding), _KEPT_ANSWERS)
+    answer = _entry(answers, g.tobytes(), lambda: _answer(m, g, d.contact.friction, sliding), _KEPT_ANSWERS)
     if answer is _UNCHANGED:
         return
+    c = d.contact
     whole, i, pair, ratio, wide = answer
     if whole:  # every contact written (those MuJoCo's rule decides keep its value): no index arrays
         mu = c.mu
@@ -310,7 +344,7 @@ def _lowered(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes) -> tuple[np.
     if not d.ncon or kept.special or m.opt.enableflags & _OVERRIDE:
         return None
     answers, last = _entry(kept.lowered, frictions, lambda: ({}, [None]), _KEPT_FRICTIONS)
-    g = d.contact.geom
+    g = contact_geoms(d)[:d.ncon]
     answer = _entry(answers, g.tobytes(), lambda: _lower(m, g, frictions), _KEPT_ANSWERS)
     if answer is None:
         return last[0]  # type: ignore[no-any-return]
@@ -390,10 +424,12 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] 
         own = column.copy()
         column[:] = values
     answers = _answers(m, key)
+    geoms = memoryview(contact_geoms(d))  # its slices' bytes are numpy's, for less work between the halves
     try:
         for _ in range(n):
             step1(m, d)
-            if d.ncon and answers.get(d.contact.geom.tobytes()) is not _UNCHANGED:
+            ncon = d.ncon
+            if ncon and answers.get(geoms[:ncon].tobytes()) is not _UNCHANGED:
                 combine(m, d, answers, own)
             step2(m, d)
             if each is not None:

@@ -287,3 +287,35 @@ def test_forward_is_mj_forward_with_the_contacts_combined_before_the_acceleratio
             np.testing.assert_array_equal(getattr(ours, name), getattr(stages, name), err_msg=name)
         np.testing.assert_array_equal(ours.contact.mu, stages.contact.mu)
     assert ours.sensordata[0] > 0  # the touch sensor reads the box's weight
+
+
+def test_contact_geoms_reads_each_substeps_contacts_without_building_the_list():
+    """:func:`friction.contact_geoms` is a view of the MjData's contact buffer: its first
+    ``ncon`` rows are ``d.contact.geom`` at every substep, as contacts come and go and after a
+    reset; another MjData of the model has its own view; the view does not keep its MjData."""
+    import gc
+    import weakref
+
+    m = mujoco.MjModel.from_xml_string("""
+<mujoco><worldbody><geom type="plane" size="2 2 0.1"/>
+  <body pos="0 0 0.3"><freejoint/><geom type="sphere" size="0.05"/></body>
+  <body pos="0.3 0 0.6"><freejoint/><geom type="box" size="0.05 0.05 0.05"/></body>
+</worldbody></mujoco>""")
+    d, other = mujoco.MjData(m), mujoco.MjData(m)
+    view = friction.contact_geoms(d)
+    seen = set()
+    for step in range(400):
+        if step == 200:
+            mujoco.mj_resetData(m, d)
+        mujoco.mj_step1(m, d)
+        assert friction.contact_geoms(d) is view
+        np.testing.assert_array_equal(view[:d.ncon], d.contact.geom)
+        seen.add(d.ncon)
+        mujoco.mj_step2(m, d)
+    assert {0, 1, 5} <= seen  # nothing, the ball on the floor, the box resting beside it too
+    mujoco.mj_step1(m, other)
+    assert friction.contact_geoms(other) is not view
+    gone = weakref.ref(d)
+    del d, view
+    gc.collect()
+    assert gone() is None
