@@ -353,7 +353,7 @@ class Motors:
         kv_kp = kv * kp
         gain = np.where(linear, kv_kp, kv) / g
         gains, biases = views.gainprm, views.biasprm
-        if on.all():  # every motor on (the usual case): no zeros to put in
+        if np.count_nonzero(on) == len(on):  # every motor on (the usual case); count_nonzero: a third of all()'s cost
             gains[act, 0] = gain
             biases[act, 0] = ff / g
             biases[act, 2] = -kv / g2
@@ -379,7 +379,7 @@ class Motors:
         ``(target, kp, linear)`` with the law-locked motors' entries changed."""
         lock = self.locked & stopped
         self._lock_q = lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
-        self._locking = bool(self.locked.any())  # lock is a part of locked
+        self._locking = np.count_nonzero(self.locked) > 0  # lock is a part of locked
         pinned = self._pinned
         if len(self._lock_eqs):
             on = lock[pinned]
@@ -416,7 +416,7 @@ class Motors:
         if len(cached) == len(self.act) and 0 <= elapsed < dt - 0.5 * m.opt.timestep:
             return cached
         mujoco.mj_solveM(m, d, self._minv, self._unit)
-        if views.others.size and views.eq_active[views.others].any():  # a motor's own lock: not a part of the mechanism it drives
+        if views.others.size and np.count_nonzero(views.eq_active[views.others]):  # a motor's own lock: not a part of the mechanism it drives
             inverse = mechanisms.inverse_inertia(m, d, self._minv, self.dadr, self._lock_eqs)
         else:  # no equality but locks: the open chain's, (M^-1)_ii (mechanisms.inverse_inertia's first step)
             inverse = self._minv.take(self._diagonal)
@@ -458,13 +458,13 @@ class Motors:
             self._bias = self._no_force
             return self._bias
         held = velocity_law & (v == last_v) & (v != 0)  # the motors that could be held back
-        if not held.any():
+        if not np.count_nonzero(held):
             self.stalled = False
             self._bias = self._no_force
             return self._bias
         sign, speed = np.sign(v), np.abs(v)
         blocked = held & ((q - last_q) * sign < STALLED * speed * elapsed) & (qdot * sign < STALLED * speed)
-        self.stalled = bool(blocked.any())
+        self.stalled = np.count_nonzero(blocked) > 0
         self._bias = np.where(blocked, sign * self.max_force, 0.0) if self.stalled else self._no_force
         return self._bias
 

@@ -30,23 +30,8 @@ from simx_server.base import limits as L
 from simx_server.sim import (change_batch, dummy_links, friction, grasps, kinematic, motor_spec, motors, naming,
                              physics, properties, scene_settings, surfaces, urdf)
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
-    _TYPE_NAMES,
-    CAMERA,
-    DUMMY,
-    FORCE_SENSOR,
-    JOINT,
-    KEPT_TYPES,
-    LIGHT,
-    PATH,
-    PROXIMITY_SENSOR,
-    SHAPE,
-    VISION_SENSOR,
-    WORLD,
-    SceneObject,
-    apply_vrep_parents,
-    parse_settings,
-    text_at,
-)
+    _TYPE_NAMES, CAMERA, DUMMY, FORCE_SENSOR, JOINT, KEPT_TYPES, LIGHT, PATH, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR,
+    WORLD, SceneObject, apply_vrep_parents, parse_settings, text_at)
 from simx_server.sim.joints import Joints
 from simx_server.sim.poses import Poses
 from simx_server.sim.rotations import (  # noqa: F401
@@ -121,6 +106,7 @@ class World(Poses, Joints):
                 raise ValueError(f"scene {self.scene_name}: saved time step: {exc}") from None
         self.version = 0  # bumped whenever the state changes (cache key for renders)
         self._batch = change_batch.ChangeBatch()  # one_change's block
+        self._product: bool | None = None  # step()'s friction.applies, for the changed() that ends it
         self.time = 0.0  # s, simulation time as of the last changed()
         self._handle_of_name: dict[str, int] = {}  # names present now -> their handles
         self._next_handle = 1  # handles are never given twice
@@ -488,12 +474,13 @@ class World(Poses, Joints):
                 one(m, d)
         else:  # Bullet's friction (sim/friction.py), or all in MuJoCo
             (many or mujoco.mj_step)(m, d, self.substeps)
-        if self._bad_state.any():  # MuJoCo reset the state (and would warn at every step)
+        if np.count_nonzero(self._bad_state):  # MuJoCo reset the state (and would warn at every step)
             raise physics.blow_up(m, d, self.time)
         if held is not None:
             kinematic.settle(self, held)
         if physics.SINK.count:
             physics.SINK.report()  # other warnings (contact buffer full...): once per kind
+        self._product = product  # nothing changes the rule between: changed() need not ask again
         self.changed()  # mj_step leaves positions and sensors one substep behind the state
 
     def changed(self) -> None:
@@ -501,11 +488,14 @@ class World(Poses, Joints):
         and note the simulation time (``time``, s: every reply reads it, and a plain attribute costs
         no call into MuJoCo's bindings). Grasped parts are put back on what holds them first
         (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`."""
+        product, self._product = self._product, None  # step()'s answer (once), else asked now
         if self._batch.holds():
             return
         if self.grasps:
             grasps.follow(self)
-        (friction.forward if friction.applies(self.model) else mujoco.mj_forward)(self.model, self.data)
+        if product is None:
+            product = friction.applies(self.model)
+        (friction.forward if product else mujoco.mj_forward)(self.model, self.data)
         self.version += 1
         self.time = self.data.time
 
