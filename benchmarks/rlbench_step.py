@@ -12,7 +12,8 @@ The floor runs the same compiled ``MjModel`` on its own ``MjData``: ``mj_step`` 
 simx's step has substeps, and per camera a ``mujoco.Renderer`` RGB image, depth image and
 segmentation image of the same camera (no shadows, no reflections, no multisampling, as
 simx's sensors). Reports
-ms per step (median of rounds) and the ratio to the floor. Nothing is asserted.
+ms per step (median of rounds, simx's and the floor's alternated) and the median of the
+round pairs' ratios. Nothing is asserted.
 
 Scenes: the project's own ``scenes/ur5_rg2_kinect.xml`` (UR5 + RG2, the RG2's scripts run) with
 five 128x128 cameras and their mask twins (``RenderMode.OPENGL_COLOR_CODED``) created around it
@@ -39,7 +40,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from benchmarks.pyrep_step import sensor_floor_renderer
+from benchmarks.pyrep_step import _round, sensor_floor_renderer
 
 OWN_SCENE = Path(__file__).resolve().parents[1] / "scenes" / "ur5_rg2_kinect.xml"
 RLBENCH_CAMERAS = ("cam_front", "cam_overhead", "cam_over_shoulder_left", "cam_over_shoulder_right", "cam_wrist")
@@ -99,20 +100,11 @@ def _look_at(pos: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.array([q[1], q[2], q[3], q[0]])
 
 
-def _time(fn, steps: int, rounds: int, clock=time.perf_counter) -> float:
-    """Median over ``rounds`` of the mean ms per call of ``fn`` over ``steps`` calls."""
-    results = []
-    for _ in range(rounds):
-        start = clock()
-        for _ in range(steps):
-            fn()
-        results.append((clock() - start) / steps * 1e3)
-    return statistics.median(results)
-
-
 def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", profile: bool = False) -> dict:
-    """Per step, ms by ``clock``: ``physics`` (action + ``PyRep.step()``) and ``observed`` (with the
-    five cameras' images) for simx, ``floor_physics`` and ``floor_observed`` for MuJoCo alone."""
+    """Per step, ms by ``clock`` (medians of ``rounds``, each of simx's rounds followed by the
+    floor's): ``physics`` (action + ``PyRep.step()``) and ``observed`` (with the five cameras'
+    images) for simx, ``floor_physics`` and ``floor_observed`` for MuJoCo alone, and each case's
+    ``*_ratio``, the median of its round pairs' ratios."""
     pr, arm, cams = _setup(scene)
     rng = np.random.default_rng(0)
     n = len(arm.joints)
@@ -134,8 +126,6 @@ def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", pr
 
         for _ in range(10):
             observe()
-        out = {"physics": _time(act, steps, rounds, CLOCKS[clock]),
-               "observed": _time(observe, steps, rounds, CLOCKS[clock])}
         if profile:
             import cProfile
             import pstats
@@ -170,9 +160,15 @@ def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", pr
 
         for _ in range(10):
             floor_observed()
-        out["floor_physics"] = _time(floor_physics, steps, rounds, CLOCKS[clock])
-        out["floor_observed"] = _time(floor_observed, steps, rounds, CLOCKS[clock])
+        times: dict[str, list[float]] = {k: [] for k in ("physics", "floor_physics", "observed", "floor_observed")}
+        for _ in range(rounds):  # each side's round beside the floor's: a drift of the machine moves both
+            for key, fn in (("physics", act), ("floor_physics", floor_physics), ("observed", observe),
+                            ("floor_observed", floor_observed)):
+                times[key].append(_round(fn, steps, CLOCKS[clock]))
         renderer.close()
+        out = {k: statistics.median(v) for k, v in times.items()}
+        for case in ("physics", "observed"):
+            out[case + "_ratio"] = statistics.median(a / b for a, b in zip(times[case], times["floor_" + case]))
         return out
     finally:
         pr.shutdown()
@@ -192,9 +188,9 @@ def main() -> None:
     print(f"scene: {label}, 5 cameras x (RGB + depth + mask) {SIZE}x{SIZE}, clock {args.clock}")
     print("case                          simx (ms)   floor (ms)   ratio")
     print(f"{'arm step (physics)':<28} {r['physics']:>9.3f}   {r['floor_physics']:>10.3f}   "
-          f"{r['physics'] / r['floor_physics']:>5.2f}x")
+          f"{r['physics_ratio']:>5.2f}x")
     print(f"{'step + 5 cameras':<28} {r['observed']:>9.3f}   {r['floor_observed']:>10.3f}   "
-          f"{r['observed'] / r['floor_observed']:>5.2f}x")
+          f"{r['observed_ratio']:>5.2f}x")
 
 
 if __name__ == "__main__":
