@@ -112,29 +112,42 @@ class _Kept:
         self.lowered: dict[bytes, tuple[dict[bytes, tuple | None], list]] = {}
 
 
-_per_model: "weakref.WeakKeyDictionary[mujoco.MjModel, _Kept]" = weakref.WeakKeyDictionary()
-#: The model asked for last and its :class:`_Kept` (a step asks several times).
-_last: tuple = (lambda: None, None)
+class _PerObject:
+    """Values kept per object, made by ``make(obj)`` at its first call and kept weakly (an object
+    that is gone drops out with its value); the one asked for last is answered first (a step
+    asks several times)."""
+
+    __slots__ = ("last", "make", "table")
+
+    def __init__(self, make: Callable[[Any], Any]):
+        self.make = make
+        self.table: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+        self.last: tuple = (lambda: None, None)
+
+    def __call__(self, obj: Any) -> Any:
+        last = self.last
+        if last[0]() is obj:
+            return last[1]
+        value = self.table.get(obj)
+        if value is None:
+            value = self.table[obj] = self.make(obj)
+        self.last = (weakref.ref(obj), value)  # one assignment: a thread reads it whole
+        return value
 
 
-def _kept(model: mujoco.MjModel) -> _Kept:
-    """``model``'s :class:`_Kept`, made at the first call."""
-    global _last
-    last = _last
-    if last[0]() is model:
-        return last[1]  # type: ignore[no-any-return]
-    kept = _per_model.get(model)
-    if kept is None:
-        kept = _per_model[model] = _Kept(model)
-    _last = (weakref.ref(model), kept)  # one assignment: a thread reads it whole
-    return kept
+#: ``model``'s :class:`_Kept`.
+_kept: Callable[[mujoco.MjModel], _Kept] = _PerObject(_Kept)
 
 
-#: {MjData: (its contact buffer's geom pairs, (capacity, 2) int32)}; an MjData that is gone drops
-#: out with its view (the view does not keep it alive: it must not outlive it).
-_per_data: "weakref.WeakKeyDictionary[mujoco.MjData, np.ndarray]" = weakref.WeakKeyDictionary()
-#: The MjData asked for last and its view.
-_last_data: tuple = (lambda: None, None)
+def _contact_view(d: mujoco.MjData) -> np.ndarray:
+    start = d.contact.geom  # (ncon, 2), rows a contact's size apart; its data is the arena's start
+    capacity = max(int(d.narena) // start.strides[0], 1)
+    return np.lib.stride_tricks.as_strided(start, (capacity, 2), start.strides, writeable=False)
+
+
+#: Per MjData, :func:`contact_geoms`'s view (which does not keep its MjData alive: it must not
+#: outlive it, and drops out with it).
+_contact_views: Callable[[mujoco.MjData], np.ndarray] = _PerObject(_contact_view)
 
 
 def contact_geoms(d: mujoco.MjData) -> np.ndarray:
@@ -150,17 +163,7 @@ def contact_geoms(d: mujoco.MjData) -> np.ndarray:
     Returns:
         The view (kept per MjData).
     """
-    global _last_data
-    last = _last_data
-    if last[0]() is d:
-        return last[1]  # type: ignore[no-any-return]
-    view = _per_data.get(d)
-    if view is None:
-        start = d.contact.geom  # (ncon, 2), rows a contact's size apart; its data is the arena's start
-        capacity = max(int(d.narena) // start.strides[0], 1)
-        view = _per_data[d] = np.lib.stride_tricks.as_strided(start, (capacity, 2), start.strides, writeable=False)
-    _last_data = (weakref.ref(d), view)  # one assignment: a thread reads it whole
-    return view
+    return _contact_views(d)
 
 
 _MISSING = object()
