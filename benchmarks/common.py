@@ -135,25 +135,26 @@ class Floor:
         self.session.close()
 
 
-def time_calls(fn: Callable[[], object], n: int) -> list[float]:
-    """Durations in s of ``n`` calls of ``fn``. A ``fn`` that returns a float has timed itself
-    (to leave out its untimed set-up) and that value is used."""
+def time_calls(fn: Callable[[], object], n: int, clock: Callable[[], float] = perf) -> list[float]:
+    """Durations in s of ``n`` calls of ``fn`` by ``clock`` (the wall clock by default). A ``fn``
+    that returns a float has timed itself (to leave out its untimed set-up) and that value is used."""
     out = []
     for _ in range(n):
-        t0 = perf()
+        t0 = clock()
         got = fn()
-        dt = perf() - t0
+        dt = clock() - t0
         out.append(got if isinstance(got, float) else dt)
     return out
 
 
 def interleaved(rounds: int, block: int, cases: dict[str, Callable[[], object]],
-                warmup: int = 5, budget_s: float = 120.0) -> dict[str, list[float]]:
+                warmup: int = 5, budget_s: float = 120.0, clock: Callable[[], float] = perf) -> dict[str, list[float]]:
     """Time every case side by side: ``rounds`` rounds, each running ``block`` calls of every
     case in turn, so that the machine's load changes hit all cases alike. The order is shuffled
     every round (seeded): a rotation would keep each case behind the same neighbour, and the
     case before leaves the processes and caches in a state of its own (seen as a 5 % bias of
-    one floor). Stops early (keeping what it has) if ``budget_s`` runs out."""
+    one floor). Stops early (keeping what it has) if ``budget_s`` runs out. ``clock`` times the
+    calls (:func:`time_calls`)."""
     names = list(cases)
     for name in names:
         for _ in range(warmup):
@@ -165,7 +166,7 @@ def interleaved(rounds: int, block: int, cases: dict[str, Callable[[], object]],
         order = names[:]
         shuffle(order)
         for name in order:
-            times[name].extend(time_calls(cases[name], block))
+            times[name].extend(time_calls(cases[name], block, clock))
         if time.monotonic() > deadline:
             break
     return times

@@ -20,13 +20,17 @@ Run: ``MUJOCO_GL=egl python -m benchmarks.pyrep_step [--steps N] [--rounds R] [-
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import statistics
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
 import numpy as np
+
+from benchmarks.common import interleaved
 
 MODELS = Path(__file__).resolve().parents[1].parent / "shared" / "pyrep" / "robot_ttms"
 
@@ -63,18 +67,21 @@ def _setup(camera: bool):
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
-def _round(fn, steps: int, clock) -> float:
-    """Mean ms per call of ``fn`` over ``steps`` calls."""
-    start = clock()
-    for _ in range(steps):
-        fn()
-    return (clock() - start) / steps * 1e3
+def paired(rounds: int, steps: int, ours: Callable[[], object], floor: Callable[[], object],
+           clock: Callable[[], float]) -> tuple[float, float, float]:
+    """``(ours, floor, ratio)``: ms per call of each (medians over ``rounds``) and the median of the
+    rounds' ratios, the two timed side by side in rounds of ``steps`` calls
+    (:func:`benchmarks.common.interleaved`): a drift of the machine's speed moves both sides of a
+    round alike."""
+    times = interleaved(rounds, steps, {"ours": ours, "floor": floor}, warmup=0, budget_s=math.inf, clock=clock)
+    per = {k: [statistics.fmean(v[i:i + steps]) * 1e3 for i in range(0, len(v), steps)] for k, v in times.items()}
+    ratio = statistics.median(a / b for a, b in zip(per["ours"], per["floor"]))
+    return statistics.median(per["ours"]), statistics.median(per["floor"]), ratio
 
 
 def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple[float, float, float]:
-    """``(pyrep ms per step, floor ms per step, ratio)``: the medians over ``rounds`` by ``clock``
-    (a key of :data:`CLOCKS`), simx's and the floor's rounds alternated, the ratio the median of
-    each round pair's (a machine whose speed drifts moves both sides of a pair alike)."""
+    """``(pyrep ms per step, floor ms per step, ratio)`` by ``clock`` (a key of :data:`CLOCKS`):
+    :func:`paired` over ``rounds`` rounds of ``steps`` steps."""
     pr, sensor = _setup(camera)
     try:
         world = pr.simulation.world
@@ -104,14 +111,10 @@ def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple
 
         for _ in range(20):
             floor()
-        ours, base = [], []
-        for _ in range(rounds):
-            ours.append(_round(pyrep_step, steps, CLOCKS[clock]))
-            base.append(_round(floor, steps, CLOCKS[clock]))
+        out = paired(rounds, steps, pyrep_step, floor, CLOCKS[clock])
         if renderer is not None:
             renderer.close()
-        ratio = statistics.median(a / b for a, b in zip(ours, base))
-        return statistics.median(ours), statistics.median(base), ratio
+        return out
     finally:
         pr.shutdown()
 

@@ -12,8 +12,8 @@ The floor runs the same compiled ``MjModel`` on its own ``MjData``: ``mj_step`` 
 simx's step has substeps, and per camera a ``mujoco.Renderer`` RGB image, depth image and
 segmentation image of the same camera (no shadows, no reflections, no multisampling, as
 simx's sensors). Reports
-ms per step (median of rounds, simx's and the floor's alternated) and the median of the
-round pairs' ratios. Nothing is asserted.
+ms per step (median of rounds, simx's and the floor's side by side in each round:
+``benchmarks.pyrep_step.paired``) and the median of the rounds' ratios. Nothing is asserted.
 
 Scenes: the project's own ``scenes/ur5_rg2_kinect.xml`` (UR5 + RG2, the RG2's scripts run) with
 five 128x128 cameras and their mask twins (``RenderMode.OPENGL_COLOR_CODED``) created around it
@@ -33,19 +33,16 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
-import time
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from benchmarks.pyrep_step import _round, sensor_floor_renderer
+from benchmarks.pyrep_step import CLOCKS, paired, sensor_floor_renderer
 
 OWN_SCENE = Path(__file__).resolve().parents[1] / "scenes" / "ur5_rg2_kinect.xml"
 RLBENCH_CAMERAS = ("cam_front", "cam_overhead", "cam_over_shoulder_left", "cam_over_shoulder_right", "cam_wrist")
 SIZE = 128
-CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
 def _setup(scene: Path | None):
@@ -101,10 +98,9 @@ def _look_at(pos: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 
 def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", profile: bool = False) -> dict:
-    """Per step, ms by ``clock`` (medians of ``rounds``, each of simx's rounds followed by the
-    floor's): ``physics`` (action + ``PyRep.step()``) and ``observed`` (with the five cameras'
-    images) for simx, ``floor_physics`` and ``floor_observed`` for MuJoCo alone, and each case's
-    ``*_ratio``, the median of its round pairs' ratios."""
+    """Per step, ms by ``clock`` (:func:`benchmarks.pyrep_step.paired` over ``rounds``):
+    ``physics`` (action + ``PyRep.step()``) and ``observed`` (with the five cameras' images) for
+    simx, ``floor_physics`` and ``floor_observed`` for MuJoCo alone, and each case's ``*_ratio``."""
     pr, arm, cams = _setup(scene)
     rng = np.random.default_rng(0)
     n = len(arm.joints)
@@ -160,15 +156,10 @@ def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", pr
 
         for _ in range(10):
             floor_observed()
-        times: dict[str, list[float]] = {k: [] for k in ("physics", "floor_physics", "observed", "floor_observed")}
-        for _ in range(rounds):  # each side's round beside the floor's: a drift of the machine moves both
-            for key, fn in (("physics", act), ("floor_physics", floor_physics), ("observed", observe),
-                            ("floor_observed", floor_observed)):
-                times[key].append(_round(fn, steps, CLOCKS[clock]))
+        out = {}
+        for case, ours, floor in (("physics", act, floor_physics), ("observed", observe, floor_observed)):
+            out[case], out["floor_" + case], out[case + "_ratio"] = paired(rounds, steps, ours, floor, CLOCKS[clock])
         renderer.close()
-        out = {k: statistics.median(v) for k, v in times.items()}
-        for case in ("physics", "observed"):
-            out[case + "_ratio"] = statistics.median(a / b for a, b in zip(times[case], times["floor_" + case]))
         return out
     finally:
         pr.shutdown()
