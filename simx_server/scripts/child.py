@@ -189,7 +189,7 @@ class ChildScript:
         body = self._body(function) if self._may_run(function) else 0
         if body == 1 or (body and not self._pass_spent(function)):  # an empty one: counted, no clock read
             self.executions += 1
-            if body == 2:  # an empty callback (a V-REP template's) would do nothing
+            if body == 2:  # with code: run it (an empty one, a V-REP template's, would do nothing)
                 self._guarded(function, lambda: self._run_function(function, ()))
 
     def _may_run(self, function: str) -> bool:

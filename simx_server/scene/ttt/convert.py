@@ -90,7 +90,7 @@ class Converter:
             self.spec.compiler.texturedir = str(out / "textures")
         self.geoms = G.GeomMaker(self.spec, out, self.report, scene.textures)
         self.settings: dict[str, list[str]] = {}  # simx:NAME -> key=value items
-        self.wheels: list[tuple[TttObject, np.ndarray, np.ndarray]] = []  # joints with one shape: wheel_contacts
+        self.wheels: list[tuple[TttObject, TttObject, np.ndarray, np.ndarray]] = []  # joints with one shape: wheel_contacts
         self.names: dict[int, str] = {}           # handle -> element name
         self.bodies: dict[int, object] = {}       # shape handle -> mjsBody
         self.model_of: dict[int, int] = {}        # shape handle -> its model base's handle (-1 none)
@@ -301,7 +301,7 @@ class Converter:
                 self.setting(obj.name, "frame=" + ",".join(f"{v:.9g}" for v in rel.quat))
             self._shape(child, body, compose(displaced, child.pose), model,
                         joint=lambda b: add_joint(self, obj, b, rel.pos, axis))
-            self.wheels.append((obj, axis, rel.pos))  # a motored wheel carries its robot (wheel_contacts)
+            self.wheels.append((obj, child, axis, rel.pos))  # a motored wheel carries its robot (wheel_contacts)
             for script in scripts:  # in the child's body, which the joint moves
                 self._emit(script, self.bodies[child.handle], rel, model)
                 self.vrep_parent(script)

@@ -29,7 +29,7 @@ WHEEL_MARGIN = 5e-4
 WHEEL_SUPPORT = 1e-3
 
 
-def wheel_contacts(conv, wheels: list[tuple[TttObject, np.ndarray, np.ndarray]]) -> None:
+def wheel_contacts(conv, wheels: list[tuple[TttObject, TttObject, np.ndarray, np.ndarray]]) -> None:
     """Let motored wheels carry their robot as Bullet's rigid contacts do. Bullet (V-REP's and
     CoppeliaSim 4.1's default engine) rests a wheeled robot on its wheels where its casters or
     skids stand even a fraction of a millimetre higher; MuJoCo's soft contacts share the weight
@@ -46,19 +46,21 @@ def wheel_contacts(conv, wheels: list[tuple[TttObject, np.ndarray, np.ndarray]])
     Args:
         conv: the converter, after every object is emitted (its joint settings, world poses,
             bodies and models are read).
-        wheels: ``(joint, axis, pos)`` of each joint with one child shape: the axis and the
-            joint's position in the child's body frame.
+        wheels: ``(joint, shape, axis, pos)`` of each joint with one child shape: the shape, the
+            axis and the joint's position in the shape's body frame.
     """
-    low = {o.handle: _lowest(conv, o) for o in conv.scene.objects.values() if o.kind == "shape" and o.data.respondable}
+    level = math.sin(math.radians(10))
+    wheels = [w for w in wheels if "mode=velocity" in conv.settings.get(w[0].name, ())
+              and abs((quat_to_mat(conv.world_pose[w[1].handle].quat) @ w[2])[2]) <= level]
+    models = {conv.model_of.get(shape.handle, -1) for _, shape, _, _ in wheels}
+    low = {o.handle: _lowest(conv, o) for o in conv.scene.objects.values()  # only the models with wheels
+           if o.kind == "shape" and o.data.respondable and conv.model_of.get(o.handle, -1) in models}
     lowest: dict[int, float] = {}  # model base -> lowest respondable point (m, world z)
     for handle, z in low.items():
         model = conv.model_of.get(handle, -1)
         lowest[model] = min(lowest.get(model, math.inf), z)
-    for joint, axis, pos in wheels:
-        child = next(c for c in joint.children if c.kind == "shape")
-        horizontal = abs((quat_to_mat(conv.world_pose[child.handle].quat) @ axis)[2]) <= math.sin(math.radians(10))
-        support = child.handle in low and low[child.handle] <= lowest[conv.model_of.get(child.handle, -1)] + WHEEL_SUPPORT
-        if not (horizontal and support and "mode=velocity" in conv.settings.get(joint.name, ())):
+    for _, child, axis, pos in wheels:
+        if not (child.handle in low and low[child.handle] <= lowest[conv.model_of.get(child.handle, -1)] + WHEEL_SUPPORT):
             continue
         axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
         for g in conv.bodies[child.handle].geoms:
