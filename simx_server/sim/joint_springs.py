@@ -49,7 +49,7 @@ class Springs:
         Args:
             settings: per motor, its joint's settings and the joint's name.
             number: reads a setting as a non-negative number, ``number(settings, key, default,
-                joint)`` (:func:`simx_server.sim.motors._setting`: raises ValueError naming the
+                joint)`` (:func:`simx_server.sim.motor_spec.joint_setting`: raises ValueError naming the
                 joint and the setting for a bad value).
 
         Returns:

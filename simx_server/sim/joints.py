@@ -154,8 +154,9 @@ class Joints:
             handle: a hinge or slide joint's handle.
 
         Returns:
-            N or N·m: its motor's actuator force times the gear, or for a joint without a motor the
-            constraint force on its dof.
+            N or N·m: its motor's actuator force times the gear (a stopped velocity motor: the
+            force of the velocity constraint that holds it, :mod:`simx_server.sim.motor_hold`), or
+            for a joint without a motor the constraint force on its dof.
 
         Raises:
             UnknownObjectError: no such object.
@@ -164,5 +165,7 @@ class Joints:
         _, dadr = self._scalar_joint(handle)
         i = self.motors.index.get(handle)
         if i is not None:
+            if self.motors.holds.held[i]:  # a stopped velocity motor: its joint's friction row
+                return self.motors.holds.force(self.data, i)
             return float(self.data.actuator_force[self.motors.act[i]]) * float(self.motors.gear[i])
         return float(self.data.qfrc_constraint[dadr])

@@ -4,6 +4,8 @@ without an actuator (and not driven through a tendon) gets one of its own, ``sim
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -192,3 +194,33 @@ def own_kv(m: mujoco.MjModel, a: int) -> float:
             and m.actuator_dyntype[a] == mujoco.mjtDyn.mjDYN_NONE):
         return float(gain[0]) * float(m.actuator_gear[a, 0]) ** 2
     return 0.0
+
+
+def joint_setting(settings: dict, key: str, default: float, joint: str, signed: bool = False) -> float:
+    """A joint's number setting (``simx:`` ``key=``), ``default`` when absent.
+
+    Args:
+        settings: the joint's ``simx:`` settings.
+        key: the setting's name.
+        default: its value when absent.
+        joint: the joint's name, for the error.
+        signed: negative values are allowed.
+
+    Returns:
+        The value.
+
+    Raises:
+        ValueError: naming the joint and the setting, for a value that is not a finite number (or
+            is negative where ``signed`` is false).
+    """
+    raw = settings.get(key)
+    if raw is None:
+        return default
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or (value < 0 and not signed):
+        raise ValueError(f"joint {joint!r}: {key}={raw!r} in its simx: settings is not a "
+                         f"{'finite' if signed else 'non-negative'} number")
+    return value

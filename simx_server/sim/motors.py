@@ -27,10 +27,10 @@ step so that the substeps run in C:
 * position law: far from the target (more than vmax / Kp away) ``v = +-vmax`` for the whole
   step; near it the linear law ``tau = ff + kv * (Kp * (target - q) - qdot)``, which never asks
   more than vmax from there on;
-* a velocity motor told to stop (target 0) keeps its joint still: under the implicit
-  integrators its servo gain is HOLD_KV_FACTOR times the usual (V-REP's velocity motor is a
-  velocity constraint, which holds a stopped joint against any load up to the maximum force;
-  a damper of the usual gain let a gripper's linkage creep its stopped joints open);
+* a velocity motor told to stop (target 0) is V-REP's velocity constraint bounded by the maximum
+  force (:mod:`simx_server.sim.motor_hold`: its joint's friction loss, no actuator force), which
+  holds the joint against any load up to that force and brakes it without reversing it; a locked
+  one (below) keeps its servo at HOLD_KV_FACTOR times the usual gain beside its lock;
 * ``ff`` is the joint's load at the start of the step (MuJoCo's ``qfrc_bias``: gravity and
   Coriolis forces, minus ``qfrc_passive``: the joint's spring, damper and gravity compensation),
   so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
@@ -64,7 +64,6 @@ a tendon that an actuator drives gets none, and motor calls answer an error nami
 from __future__ import annotations
 
 import logging
-import math
 
 import mujoco
 import numpy as np
@@ -72,7 +71,9 @@ import numpy as np
 from simx_server.base import limits as L
 from simx_server.sim import mechanisms
 from simx_server.sim.joint_springs import Springs
-from simx_server.sim.motor_spec import lock_name, max_force, own_kv, ADDED_PREFIX, JOINT_TRNS, SCALAR, tendon_driven
+from simx_server.sim.motor_hold import Holds
+from simx_server.sim.motor_spec import (joint_setting, lock_name, max_force, own_kv, ADDED_PREFIX, JOINT_TRNS,
+                                        SCALAR, tendon_driven)
 
 log = logging.getLogger("simx.world")
 
@@ -86,10 +87,8 @@ KV_FRACTION = 0.5
 #: The same under the implicit integrators, which integrate the servo's velocity term
 #: implicitly and coupled through the mass matrix (stable at any gain): stiff tracking.
 IMPLICIT_KV_FRACTION = 0.9
-#: Servo gain of a velocity-mode motor told to stop (target 0), as a multiple of the usual one,
-#: under the implicit integrators: V-REP's velocity motor is a velocity constraint bounded by the
-#: maximum force, which keeps a stopped joint still against anything up to that force (a gripper
-#: stopped against its stop neither springs back nor creeps open under its linkage's load).
+#: Servo gain of a locked velocity-mode motor told to stop (target 0), as a multiple of the usual
+#: one, under the implicit integrators, beside its lock (the others are held by motor_hold).
 HOLD_KV_FACTOR = 300.0
 #: A velocity-mode motor is held back (it gets its whole force, :meth:`Motors._stall_force`) when
 #: it moved, and moves, at less than this fraction of its target velocity: stopped, not slow.
@@ -99,23 +98,6 @@ JOINTMODE_FORCE = 5
 
 def _name(m: mujoco.MjModel, joint: int) -> str:
     return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, joint) or f"#{joint}"
-
-
-def _setting(settings: dict, key: str, default: float, joint: str, signed: bool = False) -> float:
-    """A joint's number setting (``simx:`` ``key=``), ``default`` when absent. Raises ValueError
-    naming the joint and the setting for a value that is not a finite number (or is
-    negative where ``signed`` is false)."""
-    raw = settings.get(key)
-    if raw is None:
-        return default
-    try:
-        value = float(raw)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value) or (value < 0 and not signed):
-        raise ValueError(f"joint {joint!r}: {key}={raw!r} in its simx: settings is not a "
-                         f"{'finite' if signed else 'non-negative'} number")
-    return value
 
 
 class _Views:
@@ -164,16 +146,16 @@ class Motors:
         modes = [s.get("mode", "passive" if new else "position") for (_, _, s), new in zip(mine, added)]
         self.initial_enabled = np.array([mode != "passive" for mode in modes], dtype=bool)
         self.initial_loop = np.array([mode != "velocity" for mode in modes], dtype=bool)
-        self.springs = Springs.read([(s, _name(m, j)) for _, j, s in mine], _setting)  # None: no spring-damper
-        self.initial_max_velocity = np.array([_setting(s, "max_velocity", np.pi, _name(m, j)) for _, j, s in mine])
-        self.initial_pid_p = np.array([_setting(s, "pid_p", DEFAULT_PID_P, _name(m, j)) for _, j, s in mine])
+        self.springs = Springs.read([(s, _name(m, j)) for _, j, s in mine], joint_setting)  # None: no spring-damper
+        self.initial_max_velocity = np.array([joint_setting(s, "max_velocity", np.pi, _name(m, j)) for _, j, s in mine])
+        self.initial_pid_p = np.array([joint_setting(s, "pid_p", DEFAULT_PID_P, _name(m, j)) for _, j, s in mine])
         # targets the scene starts with (V-REP saves them with the joint): NaN = the joint's rest
-        self.initial_target_position = np.array([_setting(s, "target_position", np.nan, _name(m, j), signed=True)
+        self.initial_target_position = np.array([joint_setting(s, "target_position", np.nan, _name(m, j), signed=True)
                                                  for _, j, s in mine])
-        self.initial_target_velocity = np.array([_setting(s, "target_velocity", 0.0, _name(m, j), signed=True)
+        self.initial_target_velocity = np.array([joint_setting(s, "target_velocity", 0.0, _name(m, j), signed=True)
                                                  for _, j, s in mine])
         # "lock motor when target velocity is zero" as the scene saved it (simx: velocity_lock=1)
-        self.initial_locked = np.array([_setting(s, "velocity_lock", 0.0, _name(m, j)) != 0 for _, j, s in mine],
+        self.initial_locked = np.array([joint_setting(s, "velocity_lock", 0.0, _name(m, j)) != 0 for _, j, s in mine],
                                        dtype=bool)
         self.names = {h: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for (h, _, _), a in zip(mine, act)}
         # each motor's lock (motor_spec.add_locks: a joint equality, -1 where the joint has none)
@@ -227,6 +209,7 @@ class Motors:
         self._minv = np.zeros((n, m.nv))
         self._diagonal = self._rows * m.nv + self.dadr  # (M^-1)_ii's places in _minv, flat
         self._views: _Views | None = None
+        self.holds = Holds(m, self.dadr)  # stopped velocity motors (motor_hold)
         self._limits_key: bytes | None = None  # what _lock last wrote into the force ranges (None: unknown)
         self._law_locked = True  # some motor locked by the position law (_lock, with _limits_key)
         self.reset(m, None)
@@ -264,6 +247,7 @@ class Motors:
         self.scripted = np.zeros(len(self.act), dtype=bool)
         if self.springs is not None:
             self.springs.reset()
+        self.holds.write(m, self._no_spring, self.max_force)
         self.write_force_limits(m)
 
     def _refresh_flags(self) -> None:
@@ -322,6 +306,7 @@ class Motors:
         if views is None or views.model is not m or views.data is not d:
             views = self._views = _Views(m, d, self._lock_eqs)
             self._limits_key = None
+            self.holds.forget()
         act, g, g2 = self._act_index, self.gear, self._gear2
         q = views.qpos[self.qadr]
         inertia = self._inertia(views, dt)
@@ -344,8 +329,13 @@ class Motors:
         ff = ff + self._stall_force(q, views.qvel[dof], v, velocity_mode, float(d.time))
         if springs is not None:  # a spring's force follows it at every substep
             self.stalled = self.stalled or bool((spring & on).any())
-        if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a motor told to stop holds its joint still (a spring: its force)
-            kv = np.where(velocity_mode & (v == 0) & ~spring, HOLD_KV_FACTOR * kv, kv)
+        stopped = velocity_mode & (v == 0) & ~spring  # told to stop (a spring: its force)
+        hold = stopped & ~self.locked if self.holds.usable else self._no_spring
+        self.holds.write(m, hold, self.max_force)
+        if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a locked motor: a stiff servo beside its lock
+            kv = np.where(stopped & ~hold, HOLD_KV_FACTOR * kv, kv)
+        if np.count_nonzero(hold):  # held by its joint's friction row, no actuator force
+            on = on & ~hold
         target = self.target_position
         if self._locking:
             target, kp, linear = self._lock(views, q, on & ~loop & (v == 0), dt, kp, linear)

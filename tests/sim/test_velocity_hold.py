@@ -55,3 +55,46 @@ def test_a_stopped_velocity_motor_holds_against_a_load(tmp_path, load):
         assert api.getJointPosition(slide) - before > 0.01  # it gives way
     finally:
         sim.close()
+
+
+LIGHT = """<mujoco model="light">
+  <option timestep="0.002"/>
+  <custom><text name="simx:slide" data="mode=velocity max_velocity=1"/></custom>
+  <worldbody>
+    <body name="finger">
+      <joint name="slide" type="slide" axis="1 0 0" range="-1 1"/>
+      <geom type="box" size="0.01 0.01 0.01" mass="0.05"/>
+    </body>
+  </worldbody>
+  <actuator><general name="m" joint="slide" forcelimited="true" forcerange="-50 50"/></actuator>
+</mujoco>
+"""
+
+
+def test_a_light_joint_told_to_stop_brakes_without_reversing(tmp_path):
+    """A 0.05 kg finger with a 50 N motor, moving at 0.5 m/s, told to stop: V-REP's velocity
+    motor is a constraint bounded by the maximum force, so it brakes the joint to rest (at most
+    50 N, here within a millisecond) and never drives it the other way. A servo whose force is
+    clipped to the maximum is explicit in MuJoCo: 50 N over a 2 ms substep changes the finger's
+    velocity by 2 m/s, four times what it had, and the joint ran backwards at 0.5 m/s for ever."""
+    (tmp_path / "light.xml").write_text(LIGHT)
+    sim = Simulation(tmp_path / "light.xml", dt=0.05, realtime=False)
+    try:
+        w = sim.world
+        api = script_sim(w, w.resolve("finger").handle, sim.signals, simulation=sim)
+        slide = api.getObject("/slide")
+        sim.start()
+        api.setJointTargetVelocity(slide, 0.5)
+        for _ in range(3):
+            sim.step()
+        assert w.data.qvel[0] == pytest.approx(0.5, abs=1e-3)
+        api.setJointTargetVelocity(slide, 0.0)
+        stopped_at = api.getJointPosition(slide)
+        for _ in range(6):
+            sim.step()
+            assert abs(float(w.data.qvel[0])) < 1e-3, float(w.data.qvel[0])
+            assert abs(api.getJointForce(slide)) <= 50.0 + 1e-6
+        # 0.5 m/s braked at 1000 m/s^2 covers 0.125 mm; no step backwards
+        assert 0.0 <= api.getJointPosition(slide) - stopped_at < 1e-3
+    finally:
+        sim.close()
