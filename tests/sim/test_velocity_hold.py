@@ -48,11 +48,13 @@ def test_a_stopped_velocity_motor_holds_against_a_load(tmp_path, load):
             sim.step()
             moves.append(abs(api.getJointPosition(slide) - before))
         assert max(moves) < 1e-5, moves  # still, as PyRep's Gripper.actuate judges it (0.01 mm)
+        assert api.getJointForce(slide) == pytest.approx(-load, rel=0.01)  # the motor bears the load
         w.data.xfrc_applied[w.model.body("carriage").id, 0] = 15.0  # more than the motor's force
         before = api.getJointPosition(slide)
         for _ in range(5):
             sim.step()
         assert api.getJointPosition(slide) - before > 0.01  # it gives way
+        assert api.getJointForce(slide) == pytest.approx(-10.0, rel=0.01)  # with its whole force
     finally:
         sim.close()
 
