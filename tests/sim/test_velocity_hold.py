@@ -14,28 +14,35 @@ from simx_server.scene.simulation import Simulation
 pytestmark = pytest.mark.renderers_on_demand  # no image is read
 
 SCENE = """<mujoco model="hold">
-  <option timestep="0.005"/>
+  <option timestep="{timestep}"/>
   <custom><text name="simx:slide" data="mode=velocity max_velocity=1"/></custom>
   <worldbody>
     <body name="carriage">
       <joint name="slide" type="slide" axis="1 0 0" range="-1 1"/>
-      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+      <geom type="box" size="{half} {half} {half}" mass="{mass}"/>
     </body>
   </worldbody>
-  <actuator><general name="m" joint="slide" forcelimited="true" forcerange="-10 10"/></actuator>
+  <actuator><general name="m" joint="slide" forcelimited="true" forcerange="-{force} {force}"/></actuator>
 </mujoco>
 """
 
 
+def _carriage(tmp_path, timestep: float = 0.005, half: float = 0.05, mass: float = 1.0, force: float = 10.0):
+    """A slide joint with a velocity motor of ``force`` N on a ``mass`` kg box: (simulation,
+    world, script API, the joint's handle), the simulation started."""
+    (tmp_path / "hold.xml").write_text(SCENE.format(timestep=timestep, half=half, mass=mass, force=force))
+    sim = Simulation(tmp_path / "hold.xml", dt=0.05, realtime=False)
+    w = sim.world
+    api = script_sim(w, w.resolve("carriage").handle, sim.signals, simulation=sim)
+    slide = api.getObject("/slide")
+    sim.start()
+    return sim, w, api, slide
+
+
 @pytest.mark.parametrize("load", [2.0, 8.0])  # N along the slide, below the motor's 10 N
 def test_a_stopped_velocity_motor_holds_against_a_load(tmp_path, load):
-    (tmp_path / "hold.xml").write_text(SCENE)
-    sim = Simulation(tmp_path / "hold.xml", dt=0.05, realtime=False)
+    sim, w, api, slide = _carriage(tmp_path)
     try:
-        w = sim.world
-        api = script_sim(w, w.resolve("carriage").handle, sim.signals, simulation=sim)
-        slide = api.getObject("/slide")
-        sim.start()
         api.setJointTargetVelocity(slide, 0.1)
         for _ in range(5):
             sim.step()
@@ -59,33 +66,14 @@ def test_a_stopped_velocity_motor_holds_against_a_load(tmp_path, load):
         sim.close()
 
 
-LIGHT = """<mujoco model="light">
-  <option timestep="0.002"/>
-  <custom><text name="simx:slide" data="mode=velocity max_velocity=1"/></custom>
-  <worldbody>
-    <body name="finger">
-      <joint name="slide" type="slide" axis="1 0 0" range="-1 1"/>
-      <geom type="box" size="0.01 0.01 0.01" mass="0.05"/>
-    </body>
-  </worldbody>
-  <actuator><general name="m" joint="slide" forcelimited="true" forcerange="-50 50"/></actuator>
-</mujoco>
-"""
-
-
 def test_a_light_joint_told_to_stop_brakes_without_reversing(tmp_path):
     """A 0.05 kg finger with a 50 N motor, moving at 0.5 m/s, told to stop: V-REP's velocity
     motor is a constraint bounded by the maximum force, so it brakes the joint to rest (at most
     50 N, here within a millisecond) and never drives it the other way. A servo whose force is
     clipped to the maximum is explicit in MuJoCo: 50 N over a 2 ms substep changes the finger's
     velocity by 2 m/s, four times what it had, and the joint ran backwards at 0.5 m/s for ever."""
-    (tmp_path / "light.xml").write_text(LIGHT)
-    sim = Simulation(tmp_path / "light.xml", dt=0.05, realtime=False)
+    sim, w, api, slide = _carriage(tmp_path, timestep=0.002, half=0.01, mass=0.05, force=50.0)
     try:
-        w = sim.world
-        api = script_sim(w, w.resolve("finger").handle, sim.signals, simulation=sim)
-        slide = api.getObject("/slide")
-        sim.start()
         api.setJointTargetVelocity(slide, 0.5)
         for _ in range(3):
             sim.step()
