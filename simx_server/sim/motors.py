@@ -202,7 +202,7 @@ class Motors:
         consecutive = n > 0 and np.array_equal(act, np.arange(act[0], act[0] + n))
         self._act_index: slice | np.ndarray = slice(int(act[0]), int(act[0]) + n) if consecutive else act
         self._no_force = np.zeros(n)
-        self._no_spring = np.zeros(n, dtype=bool)  # apply()'s spring mask without spring motors
+        self._none = np.zeros(n, dtype=bool)  # no motor: the spring and hold masks when none applies
         self._rows = np.arange(n)
         self._unit = np.zeros((n, m.nv))
         self._unit[np.arange(n), self.dadr] = 1.0
@@ -247,7 +247,7 @@ class Motors:
         self.scripted = np.zeros(len(self.act), dtype=bool)
         if self.springs is not None:
             self.springs.reset()
-        self.holds.write(m, self._no_spring, self.max_force)
+        self.holds.write(m, self._none, self.max_force)
         self.write_force_limits(m)
 
     def _refresh_flags(self) -> None:
@@ -318,7 +318,7 @@ class Motors:
         kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
         err = self.target_position - q
         on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
-        loop, springs, spring = self.loop, self.springs, self._no_spring
+        loop, springs, spring = self.loop, self.springs, self._none
         if springs is not None:  # spring-damper motors are velocity motors (joint_springs.py)
             spring, spring_v = springs.law(err, float(d.time), loop, self.target_velocity, self.max_force)
         position = on & loop & ~spring
@@ -330,9 +330,9 @@ class Motors:
         if springs is not None:  # a spring's force follows it at every substep
             self.stalled = self.stalled or bool((spring & on).any())
         stopped = velocity_mode & (v == 0) & ~spring  # told to stop (a spring: its force)
-        hold = stopped & ~self.locked if self.holds.usable else self._no_spring
+        hold = stopped & ~self.locked if self.holds.usable else self._none
         self.holds.write(m, hold, self.max_force)
-        if self.kv_fraction == IMPLICIT_KV_FRACTION:  # a locked motor: a stiff servo beside its lock
+        if self.kv_fraction == IMPLICIT_KV_FRACTION:  # locked (or no friction rows): a stiff servo
             kv = np.where(stopped & ~hold, HOLD_KV_FACTOR * kv, kv)
         if np.count_nonzero(hold):  # held by its joint's friction row, no actuator force
             on = on & ~hold
