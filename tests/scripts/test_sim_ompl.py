@@ -145,13 +145,23 @@ def test_joint_spaces_measure_as_the_plugins_compound_space(rig):
     assert ompl.stateDistance(task, [0.0, 0.0], [2.5, -1.0]) == pytest.approx(3.5)  # summed, not 2.69
 
 
+def _solved_within(ompl, task, tries: int, seconds: float) -> bool:
+    """An exact solution in one of ``tries`` fresh searches of ``seconds`` each. The time a
+    sampling planner needs is heavy-tailed (KPIECE1 with its projection on Joint1 alone: 0.06 s
+    to 6 s here over 40 runs), so a slow or loaded machine restarts rather than waits."""
+    for _ in range(tries):
+        ompl.setup(task)  # a new planner: its own samples
+        if ompl.solve(task, seconds) and ompl.hasExactSolution(task):
+            return True
+    return False
+
+
 def test_each_of_the_bound_planners_solves_it(rig):
     _, sim, ompl = rig
     task, joints = _task(sim, ompl)
     for name in ("BKPIECE1", "KPIECE1", "LBKPIECE1", "PRM", "RRT"):
         ompl.setAlgorithm(task, ompl.Algorithm[name])
-        ompl.setup(task)
-        assert ompl.solve(task, 10.0) and ompl.hasExactSolution(task), name
+        assert _solved_within(ompl, task, 6, 5.0), name
         ompl.simplifyPath(task)
         ompl.interpolatePath(task)
         assert not any(_collides(sim, joints, q) for q in np.array(ompl.getPath(task)).reshape(-1, 2)), name
