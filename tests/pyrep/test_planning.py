@@ -187,3 +187,19 @@ def test_a_pose_out_of_reach_ends_after_trials_tries_of_max_time_ms(panda, monke
         arm.get_nonlinear_path([9.0, 9.0, 9.0], euler=[0.0, 0.0, 0.0], trials=300, max_time_ms=10)
     assert calls.count["getObjectMatrix"] == 2 and calls.count["findConfig"] == 1
     assert "createTask" not in calls.count
+
+
+def test_a_linear_path_turns_about_the_axis_of_a_half_turn(pr):
+    """The poses of ``get_linear_path`` without an IK group (``planning.interpolate_poses``) turn
+    about the rotation's own axis, a half turn included (sim.interpolateMatrices): the axis of a
+    half turn is not in the antisymmetric part of its matrix, which is zero."""
+    from pyrep.robots.arms import planning
+
+    start, goal = np.eye(4), np.eye(4)
+    goal[:3, :3] = [[1, 0, 0], [0, -1, 0], [0, 0, -1]]  # pi about x
+    goal[:3, 3] = [0.2, 0.0, 0.4]
+    poses = planning.interpolate_poses(start, goal, 4)
+    assert len(poses) == 4 and np.allclose(poses[-1], goal, atol=1e-9)
+    half = poses[1][:3, :3]  # half way: a quarter turn about x, either way round
+    assert np.allclose(half[:, 0], [1, 0, 0], atol=1e-9) and abs(half[2, 1]) == pytest.approx(1.0)
+    assert np.allclose(poses[1][:3, 3], [0.1, 0.0, 0.2])

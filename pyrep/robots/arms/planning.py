@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrep.backend import sim
+
 
 def rotation_angle(r: np.ndarray) -> float:
     """The angle of rotation ``r`` (3, 3) about its axis, rad in [0, pi]: ``acos((tr r - 1) / 2)``,
@@ -14,19 +16,13 @@ def rotation_angle(r: np.ndarray) -> float:
 
 def interpolate_poses(start: np.ndarray, goal: np.ndarray, steps: int) -> list[np.ndarray]:
     """``steps`` poses (4, 4) from just after ``start`` to ``goal``: positions on the line,
-    rotations on the geodesic."""
-    r = goal[:3, :3] @ start[:3, :3].T
-    angle = rotation_angle(r)
-    axis = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    axis = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 1e-9 else np.array([0.0, 0.0, 1.0])
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    rotations on the shortest arc about the rotation's own axis, a half turn included (the
+    table's ``sim.interpolateMatrices``)."""
+    a, b = (np.asarray(m, dtype=float)[:3, :4].reshape(12).tolist() for m in (start, goal))
     poses = []
     for i in range(1, steps + 1):
-        f = i / steps
-        rot = np.eye(3) + np.sin(f * angle) * k + (1 - np.cos(f * angle)) * k @ k
         m = np.eye(4)
-        m[:3, :3] = rot @ start[:3, :3]
-        m[:3, 3] = start[:3, 3] + f * (goal[:3, 3] - start[:3, 3])
+        m[:3, :4] = np.reshape(sim.call("interpolateMatrices", a, b, i / steps), (3, 4))
         poses.append(m)
     return poses
 
