@@ -203,3 +203,18 @@ def test_a_linear_path_turns_about_the_axis_of_a_half_turn(pr):
     half = poses[1][:3, :3]  # half way: a quarter turn about x, either way round
     assert np.allclose(half[:, 0], [1, 0, 0], atol=1e-9) and abs(half[2, 1]) == pytest.approx(1.0)
     assert np.allclose(poses[1][:3, 3], [0.1, 0.0, 0.2])
+
+
+def test_the_ik_error_of_a_half_turn_is_the_turn_about_its_axis(panda):
+    """The damped least squares of an arm without an IK group steps along the tip's error: its
+    angular part, the rotation vector to the goal (rad), is pi about the axis of a half turn (the
+    table's sim.getRotationAxis), where dividing by sin(pi) gave noise."""
+    arm = panda[0]
+    tip = arm.get_tip().get_matrix()
+    goal = tip.copy()
+    goal[:3, :3] = tip[:3, :3] @ np.diag([1.0, -1.0, -1.0])  # pi about the tip's own x axis
+    goal[:3, 3] += [0.01, 0.0, 0.0]
+    err = arm._error(goal)
+    assert np.allclose(err[:3], [0.01, 0.0, 0.0], atol=1e-9)
+    axis = tip[:3, 0]  # the tip's x in the world, either way round
+    assert np.allclose(np.abs(err[3:]), np.abs(np.pi * axis), atol=1e-6)

@@ -129,13 +129,9 @@ class Arm(RobotComponent):
     def _error(self, goal: np.ndarray) -> np.ndarray:
         m = self._ik_tip.get_matrix()
         dp = goal[:3, 3] - m[:3, 3]
-        r = goal[:3, :3] @ m[:3, :3].T
-        angle = planning.rotation_angle(r)
-        if angle < 1e-9:
-            dw = np.zeros(3)
-        else:
-            dw = angle / (2 * np.sin(angle)) * np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-        err = np.concatenate([dp, dw])
+        # the rotation vector from the tip to the goal (world frame, rad), a half turn's included
+        axis, angle = sim.call("getRotationAxis", m[:3, :4].reshape(12).tolist(), goal[:3, :4].reshape(12).tolist())
+        err = np.concatenate([dp, float(angle) * np.asarray(axis, dtype=float)])
         err[~self._constraints] = 0.0
         return err
 
