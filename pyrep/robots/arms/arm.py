@@ -130,7 +130,7 @@ class Arm(RobotComponent):
         m = self._ik_tip.get_matrix()
         dp = goal[:3, 3] - m[:3, 3]
         # the rotation vector from the tip to the goal (world frame, rad), a half turn's included
-        axis, angle = sim.call("getRotationAxis", m[:3, :4].reshape(12).tolist(), goal[:3, :4].reshape(12).tolist())
+        axis, angle = sim.call("getRotationAxis", planning.table_matrix(m), planning.table_matrix(goal))
         err = np.concatenate([dp, float(angle) * np.asarray(axis, dtype=float)])
         err[~self._constraints] = 0.0
         return err

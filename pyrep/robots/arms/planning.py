@@ -14,11 +14,16 @@ def rotation_angle(r: np.ndarray) -> float:
     return float(np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)))
 
 
+def table_matrix(pose: np.ndarray) -> list[float]:
+    """A pose (4, 4) as the table's matrices take it: 12 numbers, its first three rows."""
+    return [float(v) for v in np.asarray(pose, dtype=float)[:3, :4].reshape(12)]
+
+
 def interpolate_poses(start: np.ndarray, goal: np.ndarray, steps: int) -> list[np.ndarray]:
     """``steps`` poses (4, 4) from just after ``start`` to ``goal``: positions on the line,
     rotations on the shortest arc about the rotation's own axis, a half turn included (the
     table's ``sim.interpolateMatrices``)."""
-    a, b = (np.asarray(m, dtype=float)[:3, :4].reshape(12).tolist() for m in (start, goal))
+    a, b = table_matrix(start), table_matrix(goal)
     poses = []
     for i in range(1, steps + 1):
         m = np.eye(4)
