@@ -33,8 +33,7 @@ from simx_server.sim.spec_tools import (
     _clone,
     _compose,
     _inverse,
-    _strip_mark,
-    set_setting,
+    free_at_root,
 )
 from simx_wire.protocol import UnsupportedError
 
@@ -128,17 +127,10 @@ def _take_out(editor, part: SceneObject, parent: SceneObject) -> None:
             moved.pos, moved.quat = _compose(_inverse((d.xpos[host_body], d.xquat[host_body])), site_poses[o.name])
             moved.alt.type = _QUAT
             editor._placed.add(("site", o.name))
-        body = spec.body(name)
-        moved_body = spec.worldbody.add_frame().attach_body(body, "", _MARK)
-        spec.delete(body)
-        _strip_mark(spec)
         lost = [n for n in _REFERRING_LISTS if len(getattr(spec, n)) < counts[n]]
         if lost:
             raise UnsupportedError(f"freeing {name!r} from {parent.name!r} would lose {', '.join(lost)}")
-        moved_body.pos, moved_body.quat = here
-        moved_body.alt.type = _QUAT
-        moved_body.add_freejoint()
-        set_setting(spec, name, "vrep_parent", parent.name)
+        free_at_root(spec, name, here, parent.name)
         editor._placed.add(("body", name))
         return lambda: _start(world, name, here, vel[3:], spin)
 

@@ -14,8 +14,15 @@ CoppeliaSim's, the flags keep their value when the simulation stops.
   through its spec, as the scene editor does for every edit (the state of everything else
   kept, ``Editor._edit``): a dynamic shape made static loses its free joint and stays where it
   is now (its compiled pose stays the one at the start, so stopping the simulation puts it
-  back); a static shape at the world's root made dynamic gets a free joint, at rest where it
-  is. The geoms' contact follows (:func:`simx_server.sim.mechanisms.rigid_contact`): V-REP's
+  back); a static shape made dynamic gets a free joint, at rest where it is: at the world's
+  root, or, hanging from a static shape (a spawner's copy hung under it), taken out of that
+  body to the root with V-REP's parent kept in its ``vrep_parent=`` setting, since V-REP
+  simulates a dynamic shape that no joint or force sensor links to its parent as a free body
+  (simDyn ``CRigidBodyContainerDyn_base::_getShapesToConsiderAsRigidBodies``: every non-static
+  shape is a rigid body of its own; ``_updateRigidBodiesFromShapes``: one whose static flag
+  changed is made again at the next step; constraints come only from joints, force sensors and
+  dummy links, ``_updateConstraintsFromJointsAndForceSensors``). A ``.ttt``'s such shapes load
+  the same way (:mod:`simx_server.scene.ttt.convert`). The geoms' contact follows (:func:`simx_server.sim.mechanisms.rigid_contact`): V-REP's
   rigid contact in its static or dynamic form. A shape carried by joints, or one grasped (held by a weld, :mod:`simx_server.sim.grasps`),
   cannot be switched: UnsupportedError.
 """
@@ -30,6 +37,7 @@ from simx_server.sim import grasps
 from simx_server.sim.collisions import collidable
 from simx_server.sim.mechanisms import rigid_contact
 from simx_server.sim.objects import SceneObject
+from simx_server.sim.spec_tools import free_at_root
 
 #: ``sim_shapeintparam_static``, ``sim_shapeintparam_respondable``.
 STATIC, RESPONDABLE = 3003, 3004
@@ -111,8 +119,8 @@ def set_static(sim, obj: SceneObject, static: bool) -> None:
         static: the new flag.
 
     Raises:
-        UnsupportedError: a shape carried by joints or grasped, a static shape that is not at
-            the world's root, or a scene that cannot be edited.
+        UnsupportedError: a shape carried by joints or grasped, a mocap body, or a scene that
+            cannot be edited.
     """
     world = sim.world
     if is_static(world, obj) == static:
@@ -126,15 +134,19 @@ def set_static(sim, obj: SceneObject, static: bool) -> None:
     held = world.grasps.get(name)
     if held is not None and held.held:
         raise UnsupportedError(f"shape {name!r} is held by {held.parent!r} (a grasp): release it first")
-    if not static and (int(m.body_parentid[b]) != 0 or int(m.body_jntnum[b]) or m.body_mocapid[b] >= 0):
-        raise UnsupportedError(f"shape {name!r} hangs from another body of the scene: MuJoCo gives free joints "
-                               "only to the world's children")
+    if not static and (int(m.body_jntnum[b]) or m.body_mocapid[b] >= 0):
+        raise UnsupportedError(f"shape {name!r} is a mocap body or moves on joints of the scene")
+    hanging = not static and int(m.body_parentid[b]) != 0  # under a static shape: freed to the root
+    vrep_parent = world.objects[obj.parent].name if obj.parent in world.objects else "-1"
 
     def change(spec: mujoco.MjSpec):
         _, body, _ = sim.editor._spec_element(spec, obj.handle)
         if static:
             for joint in list(body.joints):
                 spec.delete(joint)
+        elif hanging:
+            body = free_at_root(spec, name, (pos, quat), vrep_parent)
+            sim.editor._placed.add(("body", name))
         else:
             body.add_freejoint()
         for geom in body.geoms:  # a static shape's contact rules its pairs, a dynamic one's does not

@@ -18,6 +18,7 @@ import numpy as np
 from simx_server.sim.objects import without_scripts
 from simx_server.sim.world import JOINT, LIGHT, SHAPE, VISION_SENSOR, World
 from simx_server.sim.objects import SITES
+from simx_wire.protocol import UnsupportedError
 
 log = logging.getLogger("simx.editing")  # the editor's log: MuJoCo's warnings while editing
 
@@ -388,3 +389,36 @@ def set_setting(spec: mujoco.MjSpec, name: str, key: str, value: str | None) -> 
         t.data = " ".join(items)
     elif t is not None:
         spec.delete(t)
+
+
+def free_at_root(spec: mujoco.MjSpec, name: str, pose: tuple, vrep_parent: str) -> mujoco.MjsBody:
+    """Move body ``name`` (with its subtree) from where it hangs to the world's root with a free
+    joint, at ``pose``, keeping V-REP's parent in its ``vrep_parent=`` setting: how V-REP
+    simulates a dynamic shape that no joint or force sensor links to its parent (a free body).
+
+    Args:
+        spec: the scene's spec.
+        name: the body's name.
+        pose: (pos (3,), quat (4,)) in the world, m.
+        vrep_parent: the name of its parent in V-REP's tree (``-1``: the world).
+
+    Returns:
+        The moved body.
+
+    Raises:
+        UnsupportedError: the move would lose actuators, sensors, equalities... that refer to
+            elements of the subtree.
+    """
+    counts = {n: len(getattr(spec, n)) for n in _REFERRING_LISTS}
+    body = spec.body(name)
+    moved = spec.worldbody.add_frame().attach_body(body, "", _MARK)
+    spec.delete(body)
+    _strip_mark(spec)
+    lost = [n for n in _REFERRING_LISTS if len(getattr(spec, n)) < counts[n]]
+    if lost:
+        raise UnsupportedError(f"freeing {name!r} from {vrep_parent!r} would lose {', '.join(lost)}")
+    moved.pos, moved.quat = pose
+    moved.alt.type = _QUAT
+    moved.add_freejoint()
+    set_setting(spec, name, "vrep_parent", vrep_parent)
+    return moved
