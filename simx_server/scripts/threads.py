@@ -10,7 +10,11 @@ script's ``sysCall_cleanup`` still runs). It yields in:
 
 * ``sim.switchThread()`` / ``simSwitchThread()``, ``sim.yield()``, ``sim.step()`` (4.6);
 * ``sim.wait(dt [, simulationTime=true])`` / ``simWait``: until ``dt`` s of simulation time (or
-  of wall time) have passed; ``sim.moveToConfig`` / ``sim.moveToPose``: once per increment of
+  of wall time) have passed (its value: the simulation time waited past ``dt``, as
+  CoppeliaSim's ``sim-1.lua`` ``sim.wait``); like ``sim.waitForSignal``, it also waits in any
+  coroutine a non-threaded script resumes (4.x's ``coroutineMain`` pattern, where CoppeliaSim's
+  ``sim.wait`` loops on ``sim.switchThread``, a yield of the running coroutine), and raises an
+  error on a main line, where it could never end; ``sim.moveToConfig`` / ``sim.moveToPose``: once per increment of
   the motion (:mod:`simx_server.api.sim.motion`), whose 4.3-4.5 callback runs in Lua; ``sim.waitForSignal(name)`` / ``simWaitForSignal``: until an
   integer, float or string signal ``name`` exists (returns its value);
 * anywhere, once the thread has run longer than its time slice since it was resumed
@@ -89,24 +93,35 @@ local function threaded_only(name)
     error(name .. " can only be called in a threaded script (sysCall_thread, sysCall_threadmain, threaded=1)", 3)
   end
 end
+-- sim.wait and sim.waitForSignal wait in the thread or in any coroutine a script resumes (the
+-- coroutineMain of CoppeliaSim 4.x's non-threaded scripts: its sim.wait loops on sim.switchThread
+-- / sim.yield, which yield the running coroutine); on a script's main line they would never end
+local function waiting_allowed(name)
+  local _, main = co_running()
+  if not in_thread() and (main or not yieldable()) then
+    error(name .. " can only be called in a threaded script or in a coroutine the script resumes "
+      .. "(here it would wait forever: the simulation does not advance inside a callback)", 3)
+  end
+end
 sim.switchThread = function() switch() return 1 end
 sim.yield = function() switch() end
 sim.step = function(...) if in_thread() then switch() elseif step then return step(...) else
   error("sim.step can only be called in a threaded script here", 2) end end
 sim.wait = function(dt, simulationTime)
-  threaded_only("sim.wait")
+  waiting_allowed("sim.wait")
   if type(dt) ~= "number" then error("sim.wait: dt must be a number of seconds", 2) end
   if simulationTime == false then
     local t_end = now() + dt
     while now() < t_end do co_yield() end
-  else
-    local t_end = get_time() + dt
-    while get_time() < t_end - 1e-9 do co_yield() end
+    return 0
   end
-  return 0
+  local start = get_time()
+  while get_time() - start < dt - 1e-9 do co_yield() end
+  local over = get_time() - start - dt  -- the time waited past dt (sim-1.lua's return value)
+  return over > 1e-9 and over or 0
 end
 sim.waitForSignal = function(name)
-  threaded_only("sim.waitForSignal")
+  waiting_allowed("sim.waitForSignal")
   while true do
     local v = get_int(name)
     if v == nil then v = get_float(name) end
