@@ -4,8 +4,9 @@ them (rotation arithmetic: :mod:`simx_server.api.sim.rotations`).
 
 * ``packTable`` / ``unpackTable`` use CBOR (RFC 8949, the ``cbor2`` library): CoppeliaSim 4.x's
   ``packTable(t, 1)`` format, which its ``unpackTable`` reads back; a buffer packed by simx is
-  unpacked by simx and by CoppeliaSim (its own older scheme-0 buffers are not read: an error
-  says so).
+  unpacked by simx and by CoppeliaSim, and ``unpackTable`` also reads CoppeliaSim's own binary
+  format (scheme 0, its default: the custom data of the scenes it saved,
+  :mod:`simx_server.api.stack_tables`).
 * Custom data (``writeCustomDataBlockEx`` and the typed ``writeCustom*Data``) is kept per object
   (``sim.handle_scene`` for the scene) for the server's lifetime, bounded like signals.
 * Properties: ``customData.NAME`` and ``signal.NAME`` on any handle map onto the two stores,
@@ -25,6 +26,7 @@ from simx_server.api.registry import sim_function
 from simx_wire.protocol import ArgumentError, UnknownObjectError
 from simx_server.base.arguments import quote
 from simx_server.api.signals import Signals
+from simx_server.api.stack_tables import is_stack_buffer, unpack_stack_table
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_text as _text
 from simx_server.sim import properties
 from simx_server.sim.objects import SHAPE
@@ -80,23 +82,27 @@ def packTable(ctx: CallContext, aTable: Any, scheme: Any = 0) -> bytes:  # noqa:
 
 @sim_function("unpackTable")
 def unpackTable(ctx: CallContext, buffer: Any) -> Any:  # noqa: N802
-    """The table of a buffer :func:`packTable` wrote (CBOR).
+    """The table of a buffer :func:`packTable` wrote (CBOR), or of one CoppeliaSim's
+    ``sim.packTable`` wrote in its own binary format (scheme 0: custom data of the scenes it
+    saved, :mod:`simx_server.api.stack_tables`).
 
     ``sim.unpackTable``.
 
     Args:
-        buffer: bytes of a CBOR array or map (or CBOR null).
+        buffer: bytes of a CBOR array or map (or CBOR null), or of a binary packed table.
 
     Returns:
         The list or dict.
 
     Raises:
-        ArgumentError: not a CBOR table (CoppeliaSim's scheme-0 buffers included).
+        ArgumentError: neither, or a malformed one.
     """
     raw = _bytes(buffer, "buffer")
+    if is_stack_buffer(raw):  # CoppeliaSim's own scheme-0 format, as scenes it saved keep
+        return unpack_stack_table(raw)
     if not raw or raw[0] not in _CBOR_FIRST:
-        raise ArgumentError("unpackTable reads CBOR buffers (packTable's); CoppeliaSim's scheme-0 "
-                            "binary format is not supported")
+        raise ArgumentError("unpackTable reads CBOR buffers (packTable's) and CoppeliaSim's binary packed "
+                            "tables; this buffer is neither")
     try:
         return cbor2.loads(raw, max_depth=65, allow_indefinite=False)
     except (cbor2.CBORDecodeError, ValueError, RecursionError) as exc:
