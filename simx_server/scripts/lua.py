@@ -51,6 +51,7 @@ from simx_server.scripts.child import LIFE_CYCLE_CALLS, REMOTE_CODE_FLAG, UNSAFE
 from simx_server.api import SIM, SIMIK, SIMOMPL, SIMVISION
 from simx_server.scripts.lua_bounds import BOUNDS_LUA, CHECK_WORK, PIECE, SORT_IN_C
 from simx_server.scripts.lua_prelude import PRELUDE
+from simx_server.scripts.model_library import module_text
 from simx_server.scripts.rewrites import lua_file_text, rewrite
 from simx_server.scripts.threads import LuaStyles
 
@@ -205,6 +206,36 @@ class LuaScript(LuaStyles, ChildScript):
         except OSError as exc:
             return None, f"cannot read '{shown}': {exc.strerror}".encode()
 
+    def _model_module(self, name: Any) -> Any:
+        """The Lua text of simx's module for CoppeliaSim model-library module ``name``
+        (:mod:`simx_server.scripts.model_library`), or None; the prelude loads it when the
+        scene's folder has no module of that name."""
+        text = name.decode("utf-8", errors="replace") if isinstance(name, bytes) else str(name)
+        found = module_text(text)
+        return None if found is None else found.encode()
+
+    def _model_host(self, op: Any, *args: Any) -> tuple:
+        """What simx's model-library modules ask of the host besides ``sim`` calls (never
+        raises: ``(True,)`` or ``(False, message)``): ``"poses", handles, poses, relativeTo,
+        moving, velocities`` sets each object's pose (7 numbers each, in ``relativeTo``'s frame)
+        with one update of the scene for all (a conveyor's pads, every step), then the initial
+        velocity of each of ``moving`` (3 numbers each, world axes, m/s: its surface's motion)."""
+        try:
+            if op != b"poses":
+                raise ValueError(f"no host operation {op!r}")
+            handles, poses, rel, moving, velocities = (self._from_lua(a) for a in args)
+            world = self._sim.context.world
+            with world.one_change():
+                world.set_poses(handles, poses, rel)
+            for i, h in enumerate(moving):
+                for k in range(3):
+                    self._sim.call("setObjectFloatParam", h, 3000 + k, velocities[3 * i + k])
+            return (True,)
+        except RemoteError as exc:
+            return False, str(exc).encode()
+        except (TypeError, ValueError, IndexError) as exc:
+            return False, f"bad arguments: {exc}".encode()
+
     def _write_log(self, text: bytes) -> None:
         log.info("[%s] %s", self.path.name, text.decode("utf-8", errors="replace"))
 
@@ -297,7 +328,7 @@ class LuaScript(LuaStyles, ChildScript):
             self.allow_remote_code, str(self.path.parent).encode(), HOOK_COUNT, REMOTE_CODE_FLAG.encode(),
             self.allow_unsafe_lua, UNSAFE_LUA_FLAG.encode(),
             rt.compile(BOUNDS_LUA, name="=simx")(L.MAX_PATTERN_WORK, CHECK_WORK, PIECE, SORT_IN_C, MAX_MEMORY),
-            self._read_module)
+            self._read_module, self._model_module, self._model_host)
         self._prepare_styles(rt, on_count)
         self._shape, self._ends = shape(self._lookup, f"@{self.path.name}".encode()), {}
         snapshot()  # sim.getUserVariables: the globals from here on are the script's

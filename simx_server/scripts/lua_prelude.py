@@ -9,7 +9,7 @@ count hook also calls (the threads' automatic switching, :mod:`simx_server.scrip
 """
 
 PRELUDE = r"""
-local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, BOUNDS, read_module = ...
+local dispatch, expired, write_log, names, constants, allow_code, scene_dir, COUNT, FLAG, allow_unsafe, UNSAFE_FLAG, BOUNDS, read_module, model_module, model_host = ...
 local G = _G
 local sethook, gethook, getinfo, traceback = debug.sethook, debug.gethook, debug.getinfo, debug.traceback
 local error, select, type, tostring, pairs, rawget, setmetatable = error, select, type, tostring, pairs, rawget, setmetatable
@@ -137,9 +137,19 @@ package.loaded.sim, package.loaded["sim-1"], package.loaded["sim-2"], package.lo
 package.loaded.simOMPL, package.loaded.simVision = simOMPL, simVision
 -- CoppeliaSim's bundled model-customization modules (require('models.path_customization-2')...)
 -- draw and edit a model in the GUI: headless, they load and each of their functions does nothing,
--- said once in the log (a script's own module of the same name in the scene's folder wins).
+-- said once in the log; those that drive a model at run time (the conveyors) are simx's own
+-- (simx_server/scripts/model_library.py), their chunk given the host's helpers. A script's own
+-- module of the same name in the scene's folder wins.
 setmetatable(package.preload, {__index = function(_, name)
-  if type(name) ~= "string" or not name:match("^models%.") or read_module(name, true) then
+  if type(name) ~= "string" or read_module(name, true) then
+    return nil
+  end
+  local text = model_module(name)
+  if text then
+    local chunk = lua_load(text, "=simx:" .. name, "t")
+    return function() return chunk(model_host) end
+  end
+  if not name:match("^models%.") then
     return nil
   end
   return function()

@@ -284,6 +284,40 @@ class Poses:
             grasps.placed(self, obj)
         self.changed()
 
+    def set_poses(self, handles: list[int], poses: np.ndarray, relative_to: int) -> None:
+        """Place several objects, each as :meth:`set_pose` does, with one forward pass: a shape
+        that is a body of its own without joints, carries nothing and is not grasped (a
+        conveyor's pad) gets its new placement directly, any other object goes through
+        :meth:`set_pose`. Call it inside :meth:`one_change` for one forward pass in all.
+
+        Args:
+            handles: the objects' handles.
+            poses: (n, 7) positions (m) and quaternions (x, y, z, w), in ``relative_to``'s frame.
+            relative_to: a handle, or -1.
+
+        Raises:
+            UnknownObjectError: no such object.
+            ObjectTypeError, ArgumentError: as :meth:`set_pose`.
+        """
+        poses = np.asarray(poses, dtype=float).reshape(len(handles), 7)
+        m = self.model
+        p0, r0 = self.frame(relative_to)
+        parents = {o.parent for o in self.objects.values()}
+        for h, pose in zip(handles, poses):
+            physics.check_position(list(pose[:3]))
+            obj = self.get(h)
+            rot = np.empty(9)
+            mujoco.mju_quat2Mat(rot, np.array([pose[6], pose[3], pose[4], pose[5]]))
+            b = obj.mj_id
+            if obj.type != SHAPE or m.body_jntnum[b] or m.body_mocapid[b] >= 0 or h in parents or obj.name in self.grasps:
+                self.set_pose(h, relative_to, list(pose[:3]), rot.reshape(3, 3))
+                continue
+            r = r0 @ rot.reshape(3, 3)
+            quat = np.empty(4)
+            mujoco.mju_mat2Quat(quat, np.ascontiguousarray(r).reshape(9))
+            m.body_pos[b], m.body_quat[b] = self._in_parent(int(m.body_parentid[b]), p0 + r0 @ pose[:3], quat)
+        self.changed()
+
     def _carry_subtree(self, obj: SceneObject, p: np.ndarray, r: np.ndarray, p_now: np.ndarray,
                        r_now: np.ndarray) -> None:
         """Move what hangs below ``obj`` in V-REP's tree and MuJoCo's tree does not carry, by the
