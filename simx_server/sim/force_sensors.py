@@ -22,7 +22,9 @@ the contacts and applied forces on the bodies below it), and each grasped part
 (:mod:`simx_server.sim.grasps`: a dynamic shape held by a weld after ``sim.setObjectParent``)
 held on or by the child side transmits what holds it rigidly to its holder. So a cube grasped
 under PyRep's gripper weighs on the arm's wrist sensor and on the gripper's attach point, and
-the gripper's own mass not on the latter.
+the gripper's own mass not on the latter. A shape linked to a dummy that hangs from the sensor
+(a loop closure, V-REP's suction pads: ``force sensor --> dummy -- dummy <-- part``) is held
+through the sensor too, as CoppeliaSim's engines make that link the sensor's constraint.
 """
 
 from __future__ import annotations
@@ -31,10 +33,11 @@ import mujoco
 import numpy as np
 
 from simx_server.sim import grasps
-from simx_server.sim.objects import JOINT, SHAPE, SceneObject, subtree
+from simx_server.sim.objects import DUMMY, JOINT, SHAPE, SceneObject, subtree
 
 _FREE = int(mujoco.mjtJoint.mjJNT_FREE)
 _EQUALITY = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+_WELD, _SITE = int(mujoco.mjtEq.mjEQ_WELD), int(mujoco.mjtObj.mjOBJ_SITE)
 
 
 def in_mjcf_convention(sensor: SceneObject) -> bool:
@@ -119,6 +122,32 @@ def _inert_times(i: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.concatenate([inertia @ v[:3] + _cross(mc, v[3:]), i[9] * v[3:] + _cross(v[:3], mc)])
 
 
+def _linked_parts(world, sensor: SceneObject) -> list[tuple[int, int, int]]:
+    """The shapes a force sensor holds through a dummy link: ``(equality, part body, holder
+    body)`` for each active site weld (a loop closure of the scene or one made at run time,
+    :mod:`simx_server.sim.dummy_links`) from a dummy hanging from ``sensor`` to a dummy on a free
+    body, as CoppeliaSim links ``shape --> force sensor --> dummy -- dummy <-- shape`` through
+    the sensor (simDyn ``CRigidBodyContainerDyn_base::_addConstraintFromJointOrForceSensor``, its
+    second case: the force sensor's constraint joins its parent shape to the linked dummy's
+    shape, and the sensor measures it): a suction pad's link sensor and the part it holds."""
+    m, d = world.model, world.data
+    dummies = {o.mj_id for o in world.objects.values() if o.parent == sensor.handle and o.type == DUMMY}
+    if not dummies:
+        return []
+    out = []
+    for e in np.flatnonzero((m.eq_type == _WELD) & (m.eq_objtype == _SITE) & (d.eq_active != 0)):
+        a, b = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        for mine, other in ((a, b), (b, a)):
+            part = int(m.site_bodyid[other])
+            if mine in dummies and other not in dummies and _is_free(m, part):
+                out.append((int(e), part, int(m.site_bodyid[mine])))
+    return out
+
+
+def _is_free(m: mujoco.MjModel, body: int) -> bool:
+    return body > 0 and int(m.body_jntnum[body]) == 1 and int(m.jnt_type[m.body_jntadr[body]]) == _FREE
+
+
 def child_wrench(world, sensor: SceneObject) -> tuple[np.ndarray, np.ndarray] | None:
     """The force (3,) N and torque (3,) N·m that ``sensor``'s child side exerts on its parent
     side, in the sensor's frame, the torque about the sensor's origin: what CoppeliaSim's
@@ -141,10 +170,11 @@ def child_wrench(world, sensor: SceneObject) -> tuple[np.ndarray, np.ndarray] | 
     """
     m, d = world.model, world.data
     mask = child_bodies(world, sensor)
-    if not mask.any():
+    linked = _linked_parts(world, sensor)
+    if not mask.any() and not linked:
         return None
     welds = [e for e in (grasps.weld_of(m, name) for name, g in world.grasps.items() if g.held)
-             if e >= 0 and d.eq_active[e]]
+             if e >= 0 and d.eq_active[e]] + [e for e, _, _ in linked]
     rows = np.flatnonzero((d.efc_type[:d.ne] == _EQUALITY) & np.isin(d.efc_id[:d.ne], welds))
     kept = d.efc_force[rows].copy()
     d.efc_force[rows] = 0.0
@@ -164,6 +194,8 @@ def child_wrench(world, sensor: SceneObject) -> tuple[np.ndarray, np.ndarray] | 
                 for _ in range(len(holders)):  # a part held by a held part moves with the first holder
                     moving = holders.get(moving, moving)
                 total += _at(_rigid_hold(m, d, part, moving), d.subtree_com[m.body_rootid[part]], site)
+        for _, part, holder in linked:  # shapes linked to a dummy below the sensor
+            total += _at(_rigid_hold(m, d, part, holder), d.subtree_com[m.body_rootid[part]], site)
     finally:
         if rows.size:
             d.efc_force[rows] = kept
