@@ -8,7 +8,6 @@ other plain-value functions here serve them, the script facade and in-process ca
 
 from __future__ import annotations
 
-import logging
 import math
 
 import mujoco
@@ -18,7 +17,7 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnsupportedError
 from simx_server.base.arguments import quote
 from simx_server.sim import (bounding_boxes, camera_params, handle_render, joint_params, light_params, physics,
-                             shape_dynamics, surfaces, vision_params)
+                             shape_dynamics, surfaces, texture_motion, vision_params)
 from simx_server.sim.kinematics import _BALL, _HINGE, _SLIDE, joint_matrix, object_velocity
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, LIGHT, SHAPE, VISION_SENSOR, World
@@ -29,10 +28,7 @@ from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, LIGHT, SHAPE, VISI
 PARAM_NAMES = {v: n for n, v in reversed(C.VREP_CONSTANTS.items()) if n.startswith(C.OBJECT_PARAM_PREFIXES)}
 _FLOAT_GET = {11, 12, 13, 14, *range(15, 27), 1000, 1001, 1004, *range(2002, 2018), 3005}
 _FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
-#: ``sim.shapefloatparam_texture_x`` ... ``_texture_scaling_y``: where a shape's texture lies on it.
-_TEXTURE_FLOATS = range(3006, 3014)
-_told: set[int] = set()  # texture parameters already logged as not carried out
-log = logging.getLogger("simx.sim")
+
 _INT_GET = {1002, 1003, 1017, 2000, 2001, 2030, 3003, 3004}
 _INT_SET = {1002, 1003, 1017, 2000, 2001, 2030}
 
@@ -117,6 +113,13 @@ def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
         return light_params.get_float(sim, handle, pid)
     if pid in surfaces.IDS:  # a shape's initial velocity (sim/surfaces.py)
         return surfaces.get(world, _need(world, handle, SHAPE, pid).name, pid)
+    if pid in texture_motion.IDS:
+        obj = _need(world, handle, SHAPE, pid)
+        value = texture_motion.get(world, obj, pid)
+        if value is None:
+            raise UnsupportedError(f"{_pname(pid)}: shape {obj.name!r} has no texture whose placement simx keeps "
+                                   "(a texture mapped by projection, of a converted .ttt)")
+        return value
     if pid not in _FLOAT_GET:
         world.get(handle)
         raise _unsupported(pid, "float", False)
@@ -167,8 +170,9 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
         pid: 1000/1001 clipping (m), 1004 perspective angle (rad), 2002/2017 joint motor,
             3000-3002 and 3020-3022 a shape's initial velocity (m/s, rad/s, world axes: a static
             shape's surface moves in its contacts, a dynamic one starts with it when reset;
-            :mod:`simx_server.sim.surfaces`), 3005 mass (kg); 3006-3013 (a shape's texture position, orientation, scaling):
-            accepted and not carried out (one log line per parameter).
+            :mod:`simx_server.sim.surfaces`), 3005 mass (kg); 3006-3013 a shape's texture position, orientation,
+            scaling (a projected texture's coordinates follow its position and scaling,
+            :mod:`simx_server.sim.texture_motion`).
         value: the new value.
 
     Raises:
@@ -178,12 +182,10 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
         UnsupportedError: a read-only or unknown id.
     """
     world = sim.world
-    if pid in _TEXTURE_FLOATS and math.isfinite(value):  # old scene scripts slide a belt's texture
-        world.get(handle, SHAPE)
-        if pid not in _told:
-            _told.add(pid)
-            log.info("%s of a shape is not carried out in simx (MuJoCo's textures do not move on their "
-                     "geoms): the call is accepted, the texture stays", _pname(pid))
+    if pid in texture_motion.IDS:  # V-REP's belts slide their texture (sim/texture_motion.py)
+        if not math.isfinite(value) or abs(value) > 1e6:
+            raise ArgumentError(f"{_pname(pid)}: {value!r} is not a finite value within 1e6")
+        texture_motion.set_value(world, _need(world, handle, SHAPE, pid), pid, value)
         return
     if pid in camera_params.FLOAT_IDS and world.get(handle).type == CAMERA:
         camera_params.set_float(world, handle, pid, value)

@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from simx_server.base import limits as L
-from simx_server.sim import depth_frames, vision_look
+from simx_server.sim import depth_frames, texture_motion, vision_look
 
 
 #: MuJoCo's visualisation flags a sensor keeps on (everything else, rays, contacts, joints...,
@@ -169,6 +169,7 @@ class SensorRenderer(mujoco.Renderer):
             g.offwidth, g.offheight, q.offsamples = saved
         self._mjr_context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         self._gl_context = context
+        self.mesh_version = texture_motion.uploads(model)[0]  # the texture coordinates it was made with
         # V-REP's look: geoms drawn with OpenGL's distant viewer, as V-REP's sensors draw them
         self._viewer_lists = vision_look.distant_viewer(self._mjr_context) if vision_look.asks_vrep(model) else []
 
@@ -230,7 +231,8 @@ class RenderThread:
         self._copies: list[list] = []  # simulation thread: [MjData, the last job that reads it]
 
     def renderer(self, model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-        """The renderer of this size for ``model``, made now if needed (render thread).
+        """The renderer of this size for ``model``, made now if needed (render thread), with the
+        meshes whose texture coordinates moved since its last frame uploaded again.
 
         Raises RuntimeError once a renderer could not be made (no usable GL platform): a
         second attempt after a failed one can abort the process (GLFW without a display).
@@ -263,6 +265,11 @@ class RenderThread:
             self.renderers[(width, height)] = r
         else:
             self.renderers.move_to_end((width, height))
+        version, meshes = texture_motion.uploads(model)
+        if getattr(r, "mesh_version", version) < version and r._mjr_context is not None:
+            for mesh in meshes:  # texture coordinates moved since its last frame (sim/texture_motion.py)
+                mujoco.mjr_uploadMesh(model, r._mjr_context, mesh)
+        r.mesh_version = version
         if self.option is None:
             self.option = sensor_option()
         return r

@@ -155,6 +155,8 @@ class Converter:
             # have Bullet's friction (sim/friction.py); a model loaded into a scene takes the scene's
             self.setting("scene:vision", "look=vrep")
             self.setting("scene:friction", "combine=product")
+        for name, value in self.geoms.texture_maps.items():  # texture parameters at run time
+            self.setting(name, f"texture_map={value}")
         for name, items in self.settings.items():
             t = self.spec.add_text()
             t.name = f"simx:{name}"

@@ -71,6 +71,10 @@ class GeomMaker:
         self.looks = Materials(spec, report)
         self.count = 0
         self._shared: dict[tuple, str] = {}  # (vertices, faces) ids -> mesh asset name
+        # shape name -> how V-REP computes the coordinates of its first textured mesh (a
+        # ``texture_map=`` setting: MODE,SX,SY,PX,PY,PZ,QW,QX,QY,QZ; sim/texture_motion.py)
+        self.texture_maps: dict[str, str] = {}
+        self._textured = False  # whether the last geom made is a textured mesh
         if out is not None:
             (out / "meshes").mkdir(parents=True, exist_ok=True)
 
@@ -88,6 +92,7 @@ class GeomMaker:
             if lines:  # kept, not drawn, for its pose, bounding box and collision checks
                 self.report.add("wireframe meshes (not drawn: MuJoCo draws no lines)", approximated=True)
             pose = compose(base, mesh.frame)
+            self._textured = False
             g = self._geom(body, mesh, name, i)
             if g is None:
                 continue
@@ -113,6 +118,9 @@ class GeomMaker:
                 self.report.add("textures without their coordinates (shown as the shape's colour)", approximated=True)
             if not g.material and g.group != 3:  # V-REP's specular, shininess, emission (looks.py)
                 g.material = self.looks.material(look, owner=body.name) or ""
+            if self._textured and mesh.texture_map is not None and name not in self.texture_maps:
+                mode, (sx, sy), tf = mesh.texture_map
+                self.texture_maps[name] = ",".join([str(mode)] + [repr(float(v)) for v in (sx, sy, *tf.pos, *tf.quat)])
 
     def _skin(self, body, mesh: Mesh, pose: Pose) -> bool:
         """A textured primitive's look: MuJoCo's primitives take no texture coordinates, so the
@@ -172,6 +180,7 @@ class GeomMaker:
             mname = self._mesh_asset(mesh, *usable, material)
             if key is not None:
                 self._shared[key] = mname
+            self._textured = material is not None
         if not mesh.convex and not visual:
             self.report.add("non-convex meshes (collide as their convex hull)", approximated=True)
         g = body.add_geom()

@@ -47,6 +47,8 @@ class Mesh:
     wireframe: bool = False  # drawn as edges only in V-REP
     look: Look | None = None  # the colour object (specular, emission, shininess, opacity)
     texture_mode: int = 0  # how the texture meets the colour: 0 modulate, 1 decal, 2 add, 3 blend
+    # where V-REP computes the coordinates from (``uv`` made so): mapping, scale (m), texture frame
+    texture_map: tuple[int, tuple[float, float], Pose] | None = None
 
 
 @dataclass

@@ -235,7 +235,7 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
     frame = pose7(r.floats("_pf", "Ppf", 7), quat_first=False)
     look = read_colour(r.sub("Cl0")) or Look()
     color = np.array(look.diffuse)
-    texture, uv, texture_mode = -1, None, 0
+    texture, uv, texture_mode, texture_map = -1, None, 0, None
     if r.get("Toj") is not None:
         toj = r.sub("Toj")
         mapping = None
@@ -256,6 +256,9 @@ def _mesh(parent: Records, payload: memoryview, pool: MeshPool) -> Mesh:
         elif mapping is not None:  # coordinates V-REP computes from the texture's mapping
             texture_frame = pose7(toj.floats("_rc", "Trc", 7), quat_first=True)
             uv = projected_uv(vertices, faces, frame, texture_frame, *mapping)
+            if uv is not None:
+                texture_map = (mapping[0], mapping[1], texture_frame)
     convex = bool(r.byte("Va2") & 1) or bool(info.byte("Var") & 4)
     wireframe = bool(r.byte("Var") & 4)
-    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe, look, texture_mode)
+    return Mesh(name, vertices, faces, frame, primitive, sizes, color, texture, uv, convex, wireframe, look, texture_mode,
+                texture_map)

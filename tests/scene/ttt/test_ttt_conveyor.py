@@ -162,3 +162,51 @@ def test_model_library_conveyors_run_and_take_their_velocity_from_ctrl(cell, cap
         assert api.readCustomTableData(conveyor, "__state__") == {"pos": 0, "vel": 0}
     assert not [r for r in caplog.records if r.levelno >= logging.WARNING], [r.getMessage() for r in caplog.records]
     assert np.isfinite(world.data.qpos).all()
+
+
+# V-REP 3.x's conveyor belt script (its model library's pattern): the belt's texture slides at the
+# belt's velocity, texture_x = t * v.
+SLIDE_LUA = """function sysCall_init()
+    belt=sim.getObjectHandle('Belt')
+end
+function sysCall_actuation()
+    sim.setObjectFloatParameter(belt,sim.shapefloatparam_texture_x,sim.getSimulationTime()*0.1)
+end
+"""
+
+
+def test_a_belts_texture_slides_with_texture_x(tmp_path):
+    stripes = np.full((16, 16, 3), 255, np.uint8)
+    stripes[:, :4] = 0  # a black band a quarter of the texture wide, across its u
+    res = 64
+    body = (W.texture(7, "stripes", stripes)
+            + W.camera_sensor(1, -1, "Top", (res, res), 0.4, pos=(0, 0, 1), quat=(0, 1, 0, 0))
+            + W.cuboid_shape(2, -1, "Belt", (0.4, 0.4, 0.02), (0, 0, -0.01), dynamic=False,
+                             texture=W.texture_link(7, 0, (0.4, 0.4), apply=1)))  # once across, unlit
+    body += W.script(100, 2, SLIDE_LUA)
+    f = tmp_path / "belt.ttt"
+    f.write_bytes(W.ttt_file(W.rec("SIM", W.lst(W.rec("Sts", W.f32(0.05)))) + body))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "belt")
+    sim = Simulation(xml, realtime=False)
+    api = client_context(sim, "test").sim
+    top, belt = api.getObject("/Top"), api.getObject("/Belt")
+
+    def band() -> float:
+        (w, h), data = sim.vision.image_bytes(top, 0)
+        row = np.frombuffer(data, np.uint8).reshape(h, w, 3)[h // 2, :, 0].astype(float)
+        dark = np.flatnonzero(row < 128)
+        assert 0 < len(dark) < w // 2, row
+        return float(np.angle(np.exp(2j * np.pi * dark / w).mean()) / (2 * np.pi) * w % w)  # the band's centre, px
+
+    try:
+        before = band()
+        sim.start()
+        for _ in range(21):  # t = 1 s at the last actuation: texture_x 0.1 m
+            sim.step()
+        assert api.getObjectFloatParam(belt, api.shapefloatparam_texture_x) == pytest.approx(0.1, abs=1e-5)
+        moved = (before - band()) % res  # the image's columns run along the world's -x
+        sim.stop()
+    finally:
+        sim.close()
+    # the texture's frame moved 0.1 m along +x: its band, a quarter of the view
+    assert moved == pytest.approx(0.1 / 0.4 * res, abs=1.5)

@@ -343,8 +343,8 @@ def test_bundled_model_modules_load_headless(tmp_path, caplog):
 def test_selection_and_texture_calls_of_old_scripts(tmp_path, caplog):
     """``sim.addObjectToSelection`` / ``removeObjectFromSelection`` / ``isObjectInSelection``
     (coppeliaSimLib ``simAddObjectToSelection_internal``...): single, tree, chain, all; a
-    shape's texture parameters (``sim.shapefloatparam_texture_x``...) are accepted and said, once,
-    not to be carried out."""
+    shape's texture parameters (``sim.shapefloatparam_texture_x``...) on a shape whose texture
+    simx cannot move are accepted and said, once, to leave it where it is."""
     sim = _load(tmp_path, _gripper())
     try:
         api, w = client_context(sim).sim, sim.world
@@ -360,12 +360,12 @@ def test_selection_and_texture_calls_of_old_scripts(tmp_path, caplog):
         assert api.getObjectSelection() == []
         with pytest.raises(Exception, match="what must be"):
             api.addObjectToSelection(5, joint)
-        from simx_server.sim import object_params
-        object_params._told.discard(api.shapefloatparam_texture_x)  # said once per server
+        from simx_server.sim import texture_motion
+        texture_motion._told.discard("Robot_base")  # said once per shape and server
         with caplog.at_level("INFO"):
             for v in (0.1, 0.2):
                 assert api.setObjectFloatParameter(base, api.shapefloatparam_texture_x, v) == 1
-        assert len([r for r in caplog.records if "not carried out" in r.getMessage()]) == 1
+        assert len([r for r in caplog.records if "stay where they are" in r.getMessage()]) == 1
         with pytest.raises(Exception):
             api.setObjectFloatParameter(joint, api.shapefloatparam_texture_x, 0.1)  # not a shape
     finally:
