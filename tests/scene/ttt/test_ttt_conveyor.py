@@ -144,7 +144,7 @@ def test_model_library_conveyors_run_and_take_their_velocity_from_ctrl(cell, cap
         assert api.getJointPosition(api.getObject("/rollers/jrol0")) == pytest.approx(state["pos"] / 0.03, abs=1e-9)
         # pad 0 moved along the path by the belt's position
         assert api.getObjectPosition(pad0, -1)[2] < Z - THICK  # round the +x end, going down
-        api.writeCustomTableData(conveyor, "__ctrl__", {"vel": -0.05})
+        api.setProperty(conveyor, "customData.__ctrl__", {"vel": -0.05})  # 4.8's property, the same block
         _steps(sim, 10)
         x2 = api.getObjectPosition(part, -1)
         _steps(sim, 20)
