@@ -62,12 +62,14 @@ class PyRep:
     def launch(self, scene_file: str = "", headless: bool = False, responsive_ui: bool = False,
                blocking: bool = False, write_coppeliasim_stdout_to_file: bool = False,
                verbosity: Any = None) -> None:
-        """Loads ``scene_file`` (``.ttt`` or MJCF ``.xml``; ``""``: an empty scene) into a new
+        """Loads ``scene_file`` (a ``.ttt``, MJCF or URDF, told by its content whatever its name:
+        ``export_scene("x.ttt")``'s MJCF launches again; ``""``: an empty scene) into a new
         in-process simulation, stopped. ``headless`` and the UI options are accepted and ignored:
         simx has no window.
 
         Raises:
-            PyRepError: the file does not exist, is not a scene, or this instance runs one already.
+            PyRepError: the file does not exist, its content is no scene (the message says what it
+                begins with), or this instance runs one already.
         """
         if self._simulation is not None:
             raise PyRepError("This PyRep instance has launched a scene already: shutdown() first")
@@ -251,7 +253,12 @@ class PyRep:
         os.replace(staging, target)
 
     def import_model(self, filename: str) -> Object:
-        """Adds a model file (``.ttm`` or MJCF) to the scene; returns its base object."""
+        """Adds a model file (a ``.ttm``, MJCF or URDF, told by its content whatever its name) to
+        the scene; returns its base object.
+
+        Raises:
+            CoppeliaSimError: the file cannot be loaded, or its content is no model.
+        """
         self._require()
         path = Path(filename).resolve()
         sim.trust_folder(path.parent)
