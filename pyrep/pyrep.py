@@ -243,14 +243,13 @@ class PyRep:
         """Saves the scene as it is now: MJCF (``sim.saveScene``), whatever the extension (a
         ``.ttt`` name gets MJCF too; simx writes no CoppeliaSim file)."""
         self._require()
-        target = Path(filename).resolve()
-        sim.trust_folder(target.parent)
-        if target.suffix.lower() == ".xml":
-            sim.call("saveScene", str(target))
+        target = sim.program_file(filename)
+        if target.lower().endswith(".xml"):
+            sim.call("saveScene", target)
             return
-        staging = target.with_name(target.name + ".xml")
-        sim.call("saveScene", str(staging))
-        os.replace(staging, target)
+        # saved beside it as <name>.xml, so the files it names (<name>_...) lie beside it too
+        sim.call("saveScene", target + ".xml")
+        os.replace(target + ".xml", target)
 
     def import_model(self, filename: str) -> Object:
         """Adds a model file (a ``.ttm``, MJCF or URDF, told by its content whatever its name) to
@@ -260,19 +259,18 @@ class PyRep:
             CoppeliaSimError: the file cannot be loaded, or its content is no model.
         """
         self._require()
-        path = Path(filename).resolve()
-        sim.trust_folder(path.parent)
-        handle = sim.call("loadModel", str(path))
+        handle = sim.call("loadModel", sim.program_file(filename))
         return Object.get_object(int(handle))
 
     def create_texture(self, filename: str, interpolate: bool = True, decal_mode: bool = False,
                        repeat_along_u: bool = False, repeat_along_v: bool = False) -> tuple[Shape, Texture]:
-        """Loads an image as a texture, on a new plane shape; returns the plane and the texture."""
+        """Loads an image as a texture, on a new plane shape; returns the plane and the texture.
+        A relative ``filename`` is the program's working folder's, as in CoppeliaSim
+        (:func:`pyrep.backend.sim.program_file`)."""
         self._require()
         options = (0 if interpolate else 1) | (2 if decal_mode else 0) | (4 if repeat_along_u else 0) \
             | (8 if repeat_along_v else 0)
-        sim.trust_folder(Path(filename).resolve().parent)
-        shape, texture_id, _ = sim.call("createTexture", str(filename), options)
+        shape, texture_id, _ = sim.call("createTexture", sim.program_file(filename), options)
         return Shape(int(shape)), Texture(int(texture_id))
 
     def get_objects_in_tree(self, root_object: Any = None, *args: Any, **kwargs: Any) -> list[Object]:

@@ -165,6 +165,28 @@ def trust_folder(folder: Any) -> None:
         roots.append(real)
 
 
+def program_file(filename: Any) -> str:
+    """The name to give the ``sim`` table for a file the program names (``create_texture``,
+    ``import_shape``, ``import_model``, ``export_scene``...). In process: its absolute path, a
+    relative name taken from the program's working folder, as CoppeliaSim, which runs in PyRep's
+    process, opens it, and its folder trusted (:func:`trust_folder`). Connected to a simx-server:
+    the name as given, which the server resolves in its own folders and confines
+    (docs/SECURITY.md).
+
+    Args:
+        filename: a path (str or path-like).
+
+    Returns:
+        The name.
+    """
+    name = os.fspath(filename)
+    if getattr(context(), "view", None) is None:
+        return name
+    path = os.path.abspath(name)
+    trust_folder(os.path.dirname(path))
+    return path
+
+
 def simulation() -> Any:
     """The current PyRep's :class:`~simx_server.scene.simulation.Simulation`."""
     return context().simulation("pyrep")
