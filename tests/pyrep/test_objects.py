@@ -120,6 +120,12 @@ def test_vision_sensor_images_top_down(pr):
     assert made.capture_rgb().sum() == 0  # not handled yet, as in CoppeliaSim
     pr.step()
     assert made.capture_rgb().shape == (8, 8, 3)
+    # RLBench's gym render: a sensor made at run time, not explicit, placed at a dummy's pose,
+    # shows the scene once a step has handled it (here the red cube below it, along its +z)
+    above = VisionSensor.create([16, 16], view_angle=20.0, position=[0.5, 0.0, 0.9], orientation=[np.pi, 0, 0])
+    pr.step()
+    r, g, b = above.capture_rgb()[8, 8]
+    assert r > 0.6 and g < r / 2 and b < r / 2
 
 
 def test_two_instances_have_their_own_worlds(pyrep_scene):
