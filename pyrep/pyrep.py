@@ -5,8 +5,10 @@ PyRep starts CoppeliaSim inside the Python process; here :meth:`PyRep.launch` ma
 MJCF ``.xml``) in this process, with no server, port or display (vision sensors render with
 EGL or OSMesa, ``MUJOCO_GL``). Every PyRep call goes through simx's API table
 (:mod:`pyrep.backend.sim`), as the ZMQ door's do. Several ``PyRep`` instances may live in one
-process, each with its own world: the objects made after a call of an instance's method act
-on that instance's world (``make_current`` switches explicitly).
+process, each with its own world: an object acts on the world of the instance current when it
+was made (:class:`pyrep.backend.sim.OnItsWorld`); lookups and ``create`` calls act on the
+instance whose method, or whose object's, was called last (``make_current`` switches
+explicitly).
 """
 
 from __future__ import annotations
