@@ -5,17 +5,11 @@ elsewhere, so a name taken relative to it would miss. Files written by the test.
 
 from __future__ import annotations
 
-import struct
-
 import numpy as np
 
 
-def _stl() -> bytes:
-    v = [(0, 0, 0), (0.1, 0, 0), (0, 0.1, 0), (0, 0, 0.1)]
-    out = bytearray(80) + struct.pack("<I", 4)
-    for face in ((0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)):
-        out += struct.pack("<3f", 0, 0, 0) + b"".join(struct.pack("<3f", *v[i]) for i in face) + b"\0\0"
-    return bytes(out)
+#: A tetrahedron as an OBJ file.
+TETRA_OBJ = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
 
 
 def test_relative_names_are_the_programs_working_folders(pr, tmp_path, monkeypatch):
@@ -30,10 +24,10 @@ def test_relative_names_are_the_programs_working_folders(pr, tmp_path, monkeypat
     picture = np.zeros((2, 4, 3), np.uint8)
     picture[0] = [0, 0, 255]  # BGR: the top row red
     cv2.imwrite(str(tmp_path / "program" / "assets" / "0.png"), picture)
-    (tmp_path / "program" / "assets" / "tetra.stl").write_bytes(_stl())
+    (tmp_path / "program" / "assets" / "tetra.obj").write_text(TETRA_OBJ)
     monkeypatch.chdir(work)
     plane, texture = pr.create_texture("../assets/0.png")  # refused before: "files are read only from..."
     top = np.frombuffer(sim.call("readTexture", texture.get_texture_id()), np.uint8).reshape(2, 4, 3)[1]
     assert top.tolist() == [[255, 0, 0]] * 4
-    tetra = Shape.import_shape("../assets/tetra.stl")
+    tetra = Shape.import_shape("../assets/tetra.obj")
     assert len(tetra.get_mesh_data()[1]) == 4  # its 4 triangles
