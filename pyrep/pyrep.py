@@ -5,8 +5,10 @@ PyRep starts CoppeliaSim inside the Python process; here :meth:`PyRep.launch` ma
 MJCF ``.xml``) in this process, with no server, port or display (vision sensors render with
 EGL or OSMesa, ``MUJOCO_GL``). Every PyRep call goes through simx's API table
 (:mod:`pyrep.backend.sim`), as the ZMQ door's do. Several ``PyRep`` instances may live in one
-process, each with its own world: the objects made after a call of an instance's method act
-on that instance's world (``make_current`` switches explicitly).
+process, each with its own world: an object acts on the world of the instance current when it
+was made (:class:`pyrep.backend.sim.OnItsWorld`); lookups and ``create`` calls act on the
+instance whose method, or whose object's, was called last (``make_current`` switches
+explicitly).
 """
 
 from __future__ import annotations
@@ -62,12 +64,14 @@ class PyRep:
     def launch(self, scene_file: str = "", headless: bool = False, responsive_ui: bool = False,
                blocking: bool = False, write_coppeliasim_stdout_to_file: bool = False,
                verbosity: Any = None) -> None:
-        """Loads ``scene_file`` (``.ttt`` or MJCF ``.xml``; ``""``: an empty scene) into a new
+        """Loads ``scene_file`` (a ``.ttt``, MJCF or URDF, told by its content whatever its name:
+        ``export_scene("x.ttt")``'s MJCF launches again; ``""``: an empty scene) into a new
         in-process simulation, stopped. ``headless`` and the UI options are accepted and ignored:
         simx has no window.
 
         Raises:
-            PyRepError: the file does not exist, is not a scene, or this instance runs one already.
+            PyRepError: the file does not exist, its content is no scene (the message says what it
+                begins with), or this instance runs one already.
         """
         if self._simulation is not None:
             raise PyRepError("This PyRep instance has launched a scene already: shutdown() first")
@@ -241,31 +245,34 @@ class PyRep:
         """Saves the scene as it is now: MJCF (``sim.saveScene``), whatever the extension (a
         ``.ttt`` name gets MJCF too; simx writes no CoppeliaSim file)."""
         self._require()
-        target = Path(filename).resolve()
-        sim.trust_folder(target.parent)
-        if target.suffix.lower() == ".xml":
-            sim.call("saveScene", str(target))
+        target = sim.program_file(filename)
+        if target.lower().endswith(".xml"):
+            sim.call("saveScene", target)
             return
-        staging = target.with_name(target.name + ".xml")
-        sim.call("saveScene", str(staging))
-        os.replace(staging, target)
+        # saved beside it as <name>.xml, so the files it names (<name>_...) lie beside it too
+        sim.call("saveScene", target + ".xml")
+        os.replace(target + ".xml", target)
 
     def import_model(self, filename: str) -> Object:
-        """Adds a model file (``.ttm`` or MJCF) to the scene; returns its base object."""
+        """Adds a model file (a ``.ttm``, MJCF or URDF, told by its content whatever its name) to
+        the scene; returns its base object.
+
+        Raises:
+            CoppeliaSimError: the file cannot be loaded, or its content is no model.
+        """
         self._require()
-        path = Path(filename).resolve()
-        sim.trust_folder(path.parent)
-        handle = sim.call("loadModel", str(path))
+        handle = sim.call("loadModel", sim.program_file(filename))
         return Object.get_object(int(handle))
 
     def create_texture(self, filename: str, interpolate: bool = True, decal_mode: bool = False,
                        repeat_along_u: bool = False, repeat_along_v: bool = False) -> tuple[Shape, Texture]:
-        """Loads an image as a texture, on a new plane shape; returns the plane and the texture."""
+        """Loads an image as a texture, on a new plane shape; returns the plane and the texture.
+        A relative ``filename`` is the program's working folder's, as in CoppeliaSim
+        (:func:`pyrep.backend.sim.program_file`)."""
         self._require()
         options = (0 if interpolate else 1) | (2 if decal_mode else 0) | (4 if repeat_along_u else 0) \
             | (8 if repeat_along_v else 0)
-        sim.trust_folder(Path(filename).resolve().parent)
-        shape, texture_id, _ = sim.call("createTexture", str(filename), options)
+        shape, texture_id, _ = sim.call("createTexture", sim.program_file(filename), options)
         return Shape(int(shape)), Texture(int(texture_id))
 
     def get_objects_in_tree(self, root_object: Any = None, *args: Any, **kwargs: Any) -> list[Object]:

@@ -12,6 +12,8 @@ uses that only CoppeliaSim 4.x has (``sim_handle_scene``, ``sim_object_octree_ty
 from __future__ import annotations
 
 import contextlib
+import functools
+import inspect
 import logging
 import os
 from pathlib import Path
@@ -54,6 +56,48 @@ def pop(ctx: CallContext) -> None:
     """Forget ``ctx`` (its PyRep shut down); the previous one becomes current."""
     if ctx in _contexts:
         _contexts.remove(ctx)
+
+
+def use(ctx: CallContext | None) -> None:
+    """Make ``ctx`` current if it is a launched PyRep's and not current already (None, or the
+    context of a PyRep shut down since: nothing changes)."""
+    if ctx is not None and _contexts and _contexts[-1] is not ctx and ctx in _contexts:
+        _contexts.remove(ctx)
+        _contexts.append(ctx)
+
+
+def _on_its_world(method: Any) -> Any:
+    @functools.wraps(method)
+    def on_its_world(self: Any, *args: Any, **kwargs: Any) -> Any:
+        use(self.__dict__.get("_ctx"))
+        return method(self, *args, **kwargs)
+
+    return on_its_world
+
+
+class OnItsWorld:
+    """A mixin for PyRep's objects: each method of the class and its subclasses (not the dunder
+    ones, not static or class methods) acts on the world of the PyRep the object was made in
+    (:meth:`_bind_world`, called by ``__init__``), making that PyRep current first. With one
+    PyRep per process, as on CoppeliaSim, nothing changes; with several (a Gymnasium
+    ``SyncVectorEnv`` of RLBench environments, one PyRep each), an environment's arm no longer
+    moves the arm of the environment stepped last. Objects made without a method of an object
+    (``Dummy.create`` in a program's own code) go to the current PyRep, as before.
+    """
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        for name, value in list(vars(cls).items()):
+            if inspect.isfunction(value) and not name.startswith("__"):
+                setattr(cls, name, _on_its_world(value))
+
+    def _bind_world(self) -> None:
+        """Bind this object to the current PyRep's world.
+
+        Raises:
+            PyRepError: no PyRep is launched.
+        """
+        self.__dict__["_ctx"] = context()
 
 
 def context() -> CallContext:
@@ -163,6 +207,28 @@ def trust_folder(folder: Any) -> None:
     real = Path(os.path.realpath(folder))
     if real not in roots:
         roots.append(real)
+
+
+def program_file(filename: Any) -> str:
+    """The name to give the ``sim`` table for a file the program names (``create_texture``,
+    ``import_shape``, ``import_model``, ``export_scene``...). In process: its absolute path, a
+    relative name taken from the program's working folder, as CoppeliaSim, which runs in PyRep's
+    process, opens it, and its folder trusted (:func:`trust_folder`). Connected to a simx-server:
+    the name as given, which the server resolves in its own folders and confines
+    (docs/SECURITY.md).
+
+    Args:
+        filename: a path (str or path-like).
+
+    Returns:
+        The name.
+    """
+    name = os.fspath(filename)
+    if getattr(context(), "view", None) is None:
+        return name
+    path = os.path.abspath(name)
+    trust_folder(os.path.dirname(path))
+    return path
 
 
 def simulation() -> Any:

@@ -8,10 +8,12 @@ from pyrep.backend import sim
 from pyrep.errors import PyRepError
 
 
-class Distance:
-    """A distance object, by name or handle."""
+class Distance(sim.OnItsWorld):
+    """A distance object, by name or handle, of the PyRep current when it is made
+    (:class:`pyrep.backend.sim.OnItsWorld`)."""
 
     def __init__(self, name_or_handle: Union[str, int]):
+        self._bind_world()
         self._handle = name_or_handle if isinstance(name_or_handle, int) else \
             int(sim.call("getDistanceHandle", name_or_handle))
 

@@ -35,8 +35,9 @@ def _handle_of(name: str) -> int:
     return int(sim.call("getObjectHandle", name))
 
 
-class Object:
-    """An object of the scene, by name or handle.
+class Object(sim.OnItsWorld):
+    """An object of the scene, by name or handle, in the world of the PyRep current when it is
+    made: its methods act on that world (:class:`pyrep.backend.sim.OnItsWorld`).
 
     Raises:
         RuntimeError: no object of that name.
@@ -44,6 +45,7 @@ class Object:
     """
 
     def __init__(self, name_or_handle: Union[str, int]):
+        self._bind_world()
         self._handle = int(name_or_handle) if isinstance(name_or_handle, int) else _handle_of(name_or_handle)
         wanted = self._get_requested_type()
         actual = ObjectType(sim.call("getObjectType", self._handle))

@@ -66,8 +66,8 @@ class Shape(Object):
             raise ValueError(f"Filename does not exist: {filename}")
         options = (1 if keep_identical_vertices else 0) | (8 if ignore_color else 0) \
             | (16 if ignore_texture else 0) | (128 if ignore_up_vector else 0)
-        sim.trust_folder(Path(filename).resolve().parent)  # the program's own file, as PyRep.import_model
-        handle = sim.call("importShape", _file_format(filename), str(filename), options, 0.0, float(scaling_factor))
+        handle = sim.call("importShape", _file_format(filename), sim.program_file(filename), options, 0.0,
+                          float(scaling_factor))
         return cls(int(handle))
 
     @staticmethod
@@ -80,8 +80,7 @@ class Shape(Object):
         """
         if not Path(filename).is_file():
             raise ValueError(f"Filename does not exist: {filename}")
-        sim.trust_folder(Path(filename).resolve().parent)
-        vertices, indices = sim.call("importMesh", _file_format(filename), str(filename), 0, 0.0,
+        vertices, indices = sim.call("importMesh", _file_format(filename), sim.program_file(filename), 0, 0.0,
                                      float(scaling_factor))
         if vertices and isinstance(vertices[0], (list, tuple)):  # one list per mesh of the file
             shapes = [Shape.create_mesh(v, i) for v, i in zip(vertices, indices)]

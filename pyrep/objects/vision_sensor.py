@@ -3,6 +3,11 @@
 RGB as float32 (h, w, 3) in 0..1, depth as float32 (h, w) in 0..1 between the clipping planes
 (or m), as PyRep returns them. As in CoppeliaSim, a sensor made by :meth:`VisionSensor.create`
 shows a blank image until it is handled (the next ``step()``, or ``handle_explicitly()``).
+CoppeliaSim's main script handles every sensor not tagged for explicit handling at each step
+(coppeliaSimLib ``simHandleVisionSensor_internal`` with ``sim_handle_all_except_explicit``, the
+sensing phase), and ``capture_rgb`` reads the image of that handling: simx renders a handled
+sensor when it is read, the same image while nothing has moved since the step (RLBench's gym
+``render()`` after ``step()``).
 """
 
 from __future__ import annotations

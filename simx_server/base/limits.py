@@ -409,6 +409,12 @@ MAX_PID_P = 1.0
 #: changes while the simulation is stopped; past it the simulation goes on and the first images
 #: come later. A software renderer needs about 0.2-0.5 s for the bundled scene.
 VISION_READY_TIMEOUT = 10.0
+#: s any caller waits for a frame of a render thread (an image call, a sensor's handling, a
+#: PyRep capture) and a closing simulation for its render threads to end; past it the call
+#: raises ``RenderError`` instead of waiting for ever on a render thread that does not answer (a
+#: GL driver that never returns). A 4096x4096 frame takes 1.5 s on llvmpipe, ten times that on a
+#: loaded machine.
+RENDER_WAIT_SECONDS = 120.0
 #: s a stopping server waits for the background job threads (planning, convex decomposition,
 #: scene conversions) to end before the interpreter exits; a job still running past it is left.
 JOBS_SETTLE_TIMEOUT = 2.0

@@ -5,7 +5,8 @@ here, read by the command line's messages, and checked against README.md and doc
 
 from __future__ import annotations
 
-#: File suffix -> what it is, in the order the docs list them.
+#: File suffix -> what it is, in the order the docs list them. (The suffix names a kind; a file
+#: is loaded as what its content is, whatever its name: simx_server.base.file_kinds.)
 SCENE_FORMATS: dict[str, str] = {
     ".xml": "MJCF (MuJoCo's scene format)",
     ".urdf": "URDF",

@@ -14,13 +14,47 @@ import time
 from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
 import mujoco
 import numpy as np
 
 from simx_server.base import limits as L
 from simx_server.sim import depth_frames, texture_motion, vision_look
+from simx_wire.protocol import RemoteError, SimxError
+
+
+class RenderError(RemoteError):
+    """A frame that could not be had: its render failed (no GL context could be made, the
+    driver failed: the message names the error), or its render thread did not answer within
+    ``limits.RENDER_WAIT_SECONDS``."""
+
+
+def wait_for(future: Future, what: str = "vision sensor") -> Any:
+    """``future.result()`` of a render thread's job, waited for at most
+    ``limits.RENDER_WAIT_SECONDS``: no caller waits for ever on a render thread.
+
+    Args:
+        future: the job's future.
+        what: names the call in errors.
+
+    Returns:
+        The job's value.
+
+    Raises:
+        RenderError: the job raised something else than simx's own errors (a GL or driver
+            error: its type and message kept), or no answer within the bound.
+        SimxError: the job's own (an argument, an object), unchanged.
+    """
+    try:
+        return future.result(L.RENDER_WAIT_SECONDS)
+    except SimxError:
+        raise
+    except Exception as exc:
+        if not future.done():  # (the wait's TimeoutError, not a job's)
+            raise RenderError(f"{what}: no frame within RENDER_WAIT_SECONDS = {L.RENDER_WAIT_SECONDS:g} s: "
+                              "the render thread does not answer") from None
+        raise RenderError(f"{what}: the render failed: {type(exc).__name__}: {exc}") from exc
 
 
 #: MuJoCo's visualisation flags a sensor keeps on (everything else, rays, contacts, joints...,

@@ -26,6 +26,7 @@ import numpy as np
 
 from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.sim import force_sensors
+from simx_server.sim.render_thread import wait_for
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR
 
@@ -303,7 +304,7 @@ def vision_packet(sim: SimulationView, handle: int) -> list[float]:
         UnknownObjectError: no such object.
         ObjectTypeError: not a vision sensor.
     """
-    return sim.vision.after(vision_read_job(sim, handle)).result()[1][0]
+    return wait_for(sim.vision.after(vision_read_job(sim, handle)), "readVisionSensor")[1][0]
 
 
 def vision_read_job(sim: SimulationView, handle: int) -> Callable[[], tuple[bool, list[list[float]]]]:

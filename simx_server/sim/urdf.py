@@ -1,9 +1,11 @@
 """Scenes from URDF files: MuJoCo's URDF compiler with the V-REP conventions of simx.
 
 Every place that reads a scene or model file (:class:`~simx_server.sim.world.World`, the scene
-editor, ``simxLoadScene``/``simxLoadModel``) parses it with :func:`load_spec`. An MJCF file is
-``mujoco.MjSpec.from_file`` unchanged. A URDF file (root element ``<robot>``, whatever its
-name) is compiled by MuJoCo too, then made to map onto V-REP objects as a URDF import into
+editor, ``simxLoadScene``/``simxLoadModel``) parses it with :func:`load_spec`, as what its content
+is (:func:`simx_server.base.file_kinds.kind_of`), whatever its name. An MJCF file is
+``mujoco.MjSpec.from_file`` unchanged (under a name MuJoCo's decoders do not take, such as
+``x.ttt``: its text, with its folder and its ``<include>``\\ d files). A URDF file (root element
+``<robot>``, whatever its name) is compiled by MuJoCo too, then made to map onto V-REP objects as a URDF import into
 V-REP would:
 
 * every link stays a body, so every link is a shape named as in the URDF: MuJoCo's URDF
@@ -47,6 +49,7 @@ import mujoco
 
 from simx_wire.protocol import RemoteError
 from simx_server.base.arguments import quote
+from simx_server.base.file_kinds import FileKind, kind_of
 from simx_server.base.scene_guard import inside
 
 log = logging.getLogger("simx.world")
@@ -58,6 +61,11 @@ warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix
 #: URDF joint types that become V-REP joints with a motor.
 _MOVING = ("revolute", "continuous", "prismatic")
 PACKAGE = "package://"
+#: The suffixes MuJoCo's ``MjSpec.from_file`` takes (it picks its decoder by the name, case-sensitive).
+_MUJOCO_SUFFIXES = (".xml", ".urdf")
+#: ``<include>`` files read for a scene parsed from its text, at most (a file that includes
+#: itself ends here too).
+_MAX_INCLUDES = 1000
 
 
 def is_urdf(path: str | Path) -> bool:
@@ -79,11 +87,11 @@ def is_urdf(path: str | Path) -> bool:
 
 
 def load_spec(path: str | Path, root: Path | None = None) -> mujoco.MjSpec:
-    """Parse a scene or model file: MJCF as MuJoCo does, URDF with simx's conventions (module
-    docstring).
+    """Parse a scene or model file, as what its content is whatever its name: MJCF as MuJoCo
+    does, URDF with simx's conventions (module docstring).
 
     Args:
-        path: the MJCF or URDF file.
+        path: the MJCF or URDF file (any name: ``scene.ttt`` holding MJCF is MJCF).
         root: for a file sent by a client, its transfer folder: every URDF mesh, ``package://``
             mapped, must lie inside it, checked before anything is looked up (None: not checked;
             :func:`simx_server.base.scene_guard.check_spec` checks MJCF files and the rest).
@@ -92,15 +100,64 @@ def load_spec(path: str | Path, root: Path | None = None) -> mujoco.MjSpec:
         The spec, not compiled.
 
     Raises:
-        ValueError: MuJoCo's message, or a URDF mesh that cannot be found (naming its link).
+        ValueError: MuJoCo's message, a URDF mesh that cannot be found (naming its link), a file
+            that cannot be read, a V-REP / CoppeliaSim file (its MJCF conversion is loaded
+            instead: :mod:`simx_server.scene.ttt`), or content that is no scene
+            (:class:`~simx_server.base.file_kinds.NotASceneFileError`).
         RemoteError: with ``root``, a URDF mesh outside it (the text never says whether such a
             server file exists).
     """
     path = Path(path)
-    spec = mujoco.MjSpec.from_file(str(path))
-    if is_urdf(path):
+    try:
+        kind = kind_of(path)
+    except OSError as exc:
+        raise ValueError(f"{path.name}: cannot read it: {exc.strerror or exc}") from None
+    if kind is FileKind.VREP:
+        raise ValueError(f"{path.name}: a V-REP / CoppeliaSim file: load it through its MJCF conversion")
+    spec = mujoco.MjSpec.from_file(str(path)) if path.suffix in _MUJOCO_SUFFIXES else _spec_from_text(path)
+    if kind is FileKind.URDF:
         _adapt(spec, path, root)
     return spec
+
+
+def _spec_from_text(path: Path) -> mujoco.MjSpec:
+    """MJCF or URDF under a name MuJoCo's decoders refuse (``could not find decoder``): parsed
+    from its text, with the files its ``<include>``\\ s name given by name (each looked up
+    relative to the including file's folder, then the main file's, as MuJoCo looks them up) and
+    its folder as the model's (meshes, textures and ``meshdir`` relative to it, as from the
+    file itself)."""
+    folder = path.absolute().parent
+    try:
+        text = path.read_bytes()
+        includes: dict[str, bytes] = {}
+        todo = [(text, "")]
+        while todo:
+            data, here = todo.pop()
+            for name in _include_names(data):
+                found = [rel for rel in (posixpath.normpath(posixpath.join(here, name)), posixpath.normpath(name))
+                         if (folder / rel).is_file()]
+                if not found or found[0] in includes:
+                    continue  # missing: MuJoCo's parse names it
+                if len(includes) >= _MAX_INCLUDES:
+                    raise ValueError(f"{path.name}: more than {_MAX_INCLUDES} <include>d files")
+                includes[found[0]] = (folder / found[0]).read_bytes()
+                todo.append((includes[found[0]], posixpath.dirname(found[0])))
+        spec = mujoco.MjSpec.from_string(text.decode("utf-8"), include=includes or None)
+    except OSError as exc:
+        raise ValueError(f"{path.name}: cannot read it: {exc.strerror or exc}") from None
+    spec.modelfiledir = str(folder) + os.sep
+    return spec
+
+
+def _include_names(data: bytes) -> list[str]:
+    """The ``file`` of every ``<include>`` of an XML text (none when it is not well-formed:
+    MuJoCo's parse then says what is wrong)."""
+    try:
+        tree = ET.fromstring(data)
+    except (ET.ParseError, LookupError, ValueError):
+        return []
+    return [el.get("file", "") for el in tree.iter()
+            if isinstance(el.tag, str) and el.tag.rsplit("}", 1)[-1] == "include" and el.get("file")]
 
 
 def _adapt(spec: mujoco.MjSpec, path: Path, root: Path | None) -> None:

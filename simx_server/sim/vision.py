@@ -70,7 +70,7 @@ from simx_server.base import limits as L
 from simx_server.sim import handle_render, vision_look
 from simx_server.sim.physics import check_resolution
 from simx_server.sim.depth_frames import flat_planes
-from simx_server.sim.render_thread import RenderThread, render_bands
+from simx_server.sim.render_thread import RenderThread, render_bands, wait_for
 from simx_server.sim.sensor_spec import SensorSpec, sensor_spec
 from simx_server.sim.vision_chain import VisionChain, clip_planes
 from simx_server.sim.vision_handled import VisionHandling
@@ -427,7 +427,7 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         def normalised() -> np.ndarray:
             # The frame's top-down rows are a view of bottom-up ones (depth_frames.draw_depth):
             # flipped back, they are contiguous, and so is the buffer made from them.
-            norm = raw.result()[::-1] - near
+            norm = wait_for(raw, "vision sensor depth")[::-1] - near
             norm /= far - near
             return np.clip(norm, 0.0, 1.0, out=norm).astype(np.float32, copy=False)
 
@@ -455,7 +455,7 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
             if self._colours is None:
                 self._colours = handle_render.geom_colours(self.world)
             seg, colours = self._frame(handle, "handles"), self._colours
-            return lambda: handle_render.coded_image(seg.result(), colours)[::-1]
+            return lambda: handle_render.coded_image(wait_for(seg, "vision sensor image"), colours)[::-1]
         if kind == "depth":
             depth = self._raw_depth_job(handle)
 
@@ -465,17 +465,24 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
 
             return from_depth
         raw = self._frame(handle, "rgb")
-        return lambda: raw.result()[::-1]
+        return lambda: wait_for(raw, "vision sensor image")[::-1]
 
     def close(self) -> None:
-        """Finish pending jobs, free every GL context (on its thread) and stop; idempotent.
-        A VisionSensors whose render thread was handed over has nothing to close."""
+        """Finish pending jobs, free every GL context (on its thread) and stop, waiting at most
+        ``limits.RENDER_WAIT_SECONDS`` for each render thread; idempotent. A VisionSensors whose
+        render thread was handed over has nothing to close."""
         owner, self._owner = self._owner, False
         self._cache.clear()
         if owner:
             threads = [t for t in (self._thread, self._streaming) if t is not None]
+            closing = []
             for thread in threads:
                 thread.newest = None  # a preparation not started yet is skipped
-                thread.executor.submit(thread.close)
-            for thread in threads:
-                thread.executor.shutdown(wait=True)
+                closing.append(thread.executor.submit(thread.close))
+            for thread, closed in zip(threads, closing):
+                try:  # its pending jobs, then its contexts freed; bounded: a stuck thread is left
+                    closed.result(L.RENDER_WAIT_SECONDS)
+                except Exception as exc:
+                    log.warning("vision sensors: the render thread did not end within RENDER_WAIT_SECONDS = %g s "
+                                "(%s): left running", L.RENDER_WAIT_SECONDS, type(exc).__name__)
+                thread.executor.shutdown(wait=False)

@@ -21,6 +21,7 @@ import numpy as np
 
 from simx_server.sim import vision_filters as VF
 from simx_server.sim.handle_render import BACKGROUND, COLOR_CODED
+from simx_server.sim.render_thread import wait_for
 
 if TYPE_CHECKING:
     from simx_server.sim.render_thread import RenderThread
@@ -137,7 +138,7 @@ class VisionChain:
             return lambda: depth
         if spec.filters and VF.writes_depth(spec.filters):
             filtered = self._filtered(handle)
-            return lambda: filtered.result().depth
+            return lambda: wait_for(filtered, "vision sensor depth").depth
         return self._raw_depth_job(handle)
 
     def _raw_depth_job(self, handle: int) -> Callable[[], np.ndarray]:
@@ -170,7 +171,7 @@ class VisionChain:
 
         def on_background() -> np.ndarray:
             img = image().copy()
-            img[depth.result()[::-1] >= far] = colour
+            img[wait_for(depth, "vision sensor depth")[::-1] >= far] = colour
             return img
 
         return on_background
@@ -196,7 +197,7 @@ class VisionChain:
             filtered = self._filtered(handle)
 
             def from_chain() -> np.ndarray:
-                out = filtered.result().image
+                out = wait_for(filtered, "vision sensor image").image
                 return out if out is not None else image()
 
             job = from_chain
@@ -251,7 +252,7 @@ class VisionChain:
             packets = [self.default_packet_of(spec, raw(), depth() if depth is not None else None)]
             if filtered is None:
                 return False, packets
-            result = filtered.result()
+            result = wait_for(filtered, "readVisionSensor")
             return result.trigger, packets + [list(p) for p in result.packets]
 
         return read

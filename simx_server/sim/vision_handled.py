@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any, Callable, Protocol
 import numpy as np
 
 from simx_server.sim import vision_filters as VF
+from simx_server.sim.render_thread import wait_for
 
 if TYPE_CHECKING:
     from concurrent.futures import Future
@@ -197,7 +198,7 @@ class VisionHandling:
             d = depth()
             return img, d, self.default_packet_of(spec, img, d)
 
-        img, d, packet = self.after(job).result()
+        img, d, packet = wait_for(self.after(job), "handleVisionSensor")
         return Handled(img, d, [packet])
 
     def _chain(self, handle: int, spec: SensorSpec, rec: Handled) -> None:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from simx_wire.protocol import ArgumentError
-from simx_server.sim.render_thread import RenderThread
+from simx_server.sim.render_thread import RenderThread, wait_for
 
 if TYPE_CHECKING:
     from simx_server.sim.sensor_spec import SensorSpec
@@ -74,7 +74,7 @@ class VisionResults:
         Returns:
             Array (h, w) float32.
         """
-        return self.after(self.depth_job(handle)).result()
+        return wait_for(self.after(self.depth_job(handle)), "vision sensor depth")
 
     def image(self, handle: int, grey: bool) -> np.ndarray:
         """The sensor's image, rows bottom-up: (h, w, 3) uint8 RGB, or (h, w) uint8 when ``grey``.
@@ -88,7 +88,7 @@ class VisionResults:
         Returns:
             Array (h, w, 3) or (h, w) uint8.
         """
-        return self.after(self.image_job(handle, grey)).result()
+        return wait_for(self.after(self.image_job(handle, grey)), "vision sensor image")
 
     def _payload(self, handle: int, kind: str, job: Callable[[], Callable[[], np.ndarray]]) -> Deferred:
         """``[[resX, resY], bytes]`` of a frame, made once per state and shared (see :meth:`_cached`)."""
@@ -145,7 +145,7 @@ class VisionResults:
             UnknownObjectError: no such object.
             ObjectTypeError: not a vision sensor.
         """
-        return tuple(self.image_deferred(handle, options).future.result())
+        return tuple(wait_for(self.image_deferred(handle, options).future, "vision sensor image"))
 
     def depth_bytes(self, handle: int) -> tuple[list[int], bytes]:
         """:meth:`depth_deferred`, waited for: ``([resX, resY], float32 bytes)``.
@@ -160,7 +160,7 @@ class VisionResults:
             UnknownObjectError: no such object.
             ObjectTypeError: not a vision sensor.
         """
-        return tuple(self.depth_deferred(handle).future.result())
+        return tuple(wait_for(self.depth_deferred(handle).future, "vision sensor depth"))
 
     if TYPE_CHECKING:  # provided by VisionSensors
         world: World

@@ -120,28 +120,61 @@ def test_vision_sensor_images_top_down(pr):
     assert made.capture_rgb().sum() == 0  # not handled yet, as in CoppeliaSim
     pr.step()
     assert made.capture_rgb().shape == (8, 8, 3)
+    # RLBench's gym render: a sensor made at run time, not explicit, placed at a dummy's pose,
+    # shows the scene once a step has handled it (here the red cube below it, along its +z)
+    above = VisionSensor.create([16, 16], view_angle=20.0, position=[0.5, 0.0, 0.9], orientation=[np.pi, 0, 0])
+    pr.step()
+    r, g, b = above.capture_rgb()[8, 8]
+    assert r > 0.6 and g < r / 2 and b < r / 2
 
 
-def test_two_instances_have_their_own_worlds(pyrep_scene):
+@pytest.fixture
+def two(pyrep_scene):
+    """Two PyRep instances of the small scene, launched and started; shut down after the test."""
     a, b = PyRep(), PyRep()
     a.launch(str(pyrep_scene), headless=True)
     b.launch(str(pyrep_scene), headless=True)
     try:
         a.start()
         b.start()
-        b.make_current()
-        Shape("cube").set_position([0.0, 0.0, 1.0])
-        a.make_current()
-        assert Shape("cube").get_position()[2] == pytest.approx(0.3)
-        for _ in range(5):
-            a.step()
-        b.make_current()
-        assert Shape("cube").get_position()[2] == pytest.approx(1.0)  # b did not step
+        yield a, b
     finally:
         a.shutdown()
         b.shutdown()
+
+
+def test_two_instances_have_their_own_worlds(two):
+    a, b = two
+    b.make_current()
+    Shape("cube").set_position([0.0, 0.0, 1.0])
+    a.make_current()
+    assert Shape("cube").get_position()[2] == pytest.approx(0.3)
+    for _ in range(5):
+        a.step()
+    b.make_current()
+    assert Shape("cube").get_position()[2] == pytest.approx(1.0)  # b did not step
+    a.shutdown()
+    b.shutdown()
     with pytest.raises(PyRepError):
         Shape("cube")
+
+
+def test_objects_act_on_the_world_of_the_pyrep_they_were_made_in(two):
+    """A Gymnasium SyncVectorEnv of RLBench environments: each environment's objects were made
+    while its PyRep was current, and its action reaches them after another environment stepped
+    (before, it moved the other environment's arm: the PyRep whose method was called last)."""
+    a, b = two
+    a.make_current()
+    cube_a, hinge_a = Shape("cube"), Joint("hinge")
+    b.make_current()
+    cube_b, hinge_b = Shape("cube"), Joint("hinge")
+    b.step()  # b is current
+    cube_a.set_position([0.0, 0.0, 1.0])
+    hinge_a.set_joint_position(0.7)
+    assert cube_b.get_position()[2] < 0.31 and hinge_b.get_joint_position() == pytest.approx(0.0, abs=1e-6)
+    assert cube_a.get_position()[2] == pytest.approx(1.0) and hinge_a.get_joint_position() == pytest.approx(0.7)
+    looked_up = Shape("cube")  # a lookup goes to the current PyRep: a, whose object acted last
+    assert looked_up.get_position()[2] == pytest.approx(1.0)
 
 
 def test_a_spherical_joints_position_reads_zero_as_pyrep_gives_it(tmp_path):

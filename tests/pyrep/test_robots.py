@@ -287,6 +287,32 @@ def test_panda_ik_via_jacobian_is_its_groups_own(pr):
         arm.solve_ik_via_jacobian([x, y, z - 0.4], quaternion=q)
 
 
+def test_a_joint_set_by_its_narrowed_interval_leads_the_ik_as_in_rlbenchs_erjointviaik(pr):
+    """RLBench's ``ERJointViaIK``: joint 0 is commanded to an angle by narrowing its interval
+    around it (CoppeliaSim moves a joint outside a new interval into it), the IK then holds it
+    (``locked_joints``: left out of ``simCheckIkGroup``) and solves the others for a tip 5 cm
+    further along its z; once every joint has reached its target the tip is there. Held where
+    it was, joint 0 turning afterwards swept the tip 0.14 m away."""
+    from pyrep.robots.arms.panda import Panda
+
+    pr.stop()
+    pr.import_model(str(require_shared(MODELS / "arms" / "Panda.ttm")))
+    pr.start()
+    arm = Panda()
+    tip, j0 = arm.get_tip(), arm.joints[0]
+    goal = tip.get_position() + tip.get_matrix()[:3, 2] * 0.05
+    angle, eps = j0.get_joint_position() + 0.5, 1e-3
+    cyclic, interval = j0.get_joint_interval()
+    j0.set_joint_interval(cyclic, [angle - eps, 2 * eps])
+    assert j0.get_joint_position() == pytest.approx(angle - eps)
+    others = arm.solve_ik_via_jacobian(goal, quaternion=tip.get_quaternion(), locked_joints=[0])
+    j0.set_joint_interval(cyclic, interval)
+    arm.set_joint_target_positions([angle, *others])
+    for _ in range(50):
+        pr.step()
+    assert np.linalg.norm(tip.get_position() - goal) < 0.01
+
+
 @pytest.mark.parametrize("max_velocity", [1.0, 8.0])
 def test_a_path_is_timed_by_its_length_as_pyreps_reflexxes_motion(pr, max_velocity):
     """PyRep moves along a path by its length in joint space, at the arm's ``max_velocity``

@@ -109,6 +109,14 @@ def test_joints_interval_mode_and_dependency(api):
     cyclic, interval = api.getJointInterval(j)
     api.setJointInterval(j, False, [-0.5, 1.0])
     assert api.getJointInterval(j) == (False, pytest.approx([-0.5, 1.0]))
+    # a joint outside its new interval is put at its nearest end (simSetJointInterval_internal),
+    # its motor's target left as it was
+    api.setJointPosition(j, 0.0)
+    api.setJointTargetPosition(j, 0.2)
+    api.setJointInterval(j, False, [0.3, 0.1])
+    assert api.getJointPosition(j) == pytest.approx(0.3) and api.getJointTargetPosition(j) == pytest.approx(0.2)
+    api.setJointInterval(j, False, [-0.5, 1.0])
+    assert api.getJointPosition(j) == pytest.approx(0.3)  # inside: stays
     api.setJointInterval(j, cyclic, interval)
     mode, _ = api.getJointMode(j)
     assert mode in (0, 5)

@@ -34,6 +34,7 @@ class ArmConfigurationPath(ConfigurationPath):
     """``path_points``: the configurations, flat (n * joints), rad (m for prismatic joints)."""
 
     def __init__(self, arm: Any, path_points: Any):
+        self._bind_world()
         self._arm = arm
         self._num_joints = arm.get_joint_count()
         self._path_points = np.asarray(path_points, dtype=np.float64).reshape(-1)

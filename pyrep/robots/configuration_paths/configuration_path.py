@@ -1,8 +1,11 @@
 """PyRep's ``ConfigurationPath``: the base of the paths robots follow."""
 
+from pyrep.backend import sim
 
-class ConfigurationPath:
-    """A path in a robot's joint space."""
+
+class ConfigurationPath(sim.OnItsWorld):
+    """A path in a robot's joint space, followed in the world of the PyRep current when it is
+    made (:class:`pyrep.backend.sim.OnItsWorld`)."""
 
     def step(self) -> bool:
         raise NotImplementedError()

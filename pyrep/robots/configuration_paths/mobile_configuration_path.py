@@ -21,6 +21,7 @@ class MobileConfigurationPath(ConfigurationPath):
     it puts the base at its start (``set_to_start``) as PyRep's does."""
 
     def __init__(self, mobile: Any, path_points: list[list[float]]):
+        self._bind_world()
         self._mobile = mobile
         self._path_points = path_points
         self._drawing_handle: int | None = None

@@ -52,7 +52,12 @@ def getJointInterval(ctx: CallContext, objectHandle: Any) -> tuple[bool, list[fl
 @sim_function("setJointInterval")
 def setJointInterval(ctx: CallContext, objectHandle: Any, cyclic: Any, interval: Any) -> None:  # noqa: N802, N803
     """Set the joint's limits ``[min, range]`` (rad or m); ``cyclic`` true removes them (a
-    hinge). Written to the model and the scene's MjSpec (kept by later edits).
+    hinge). Written to the model and the scene's MjSpec (kept by later edits). A hinge or slide
+    outside its new limits is put at the nearest one, as coppeliaSimLib's
+    ``simSetJointInterval_internal`` puts the joint back at its position through
+    ``CJoint::setPosition``, which clamps it to the interval: RLBench's ``ERJointViaIK`` narrows
+    a joint's interval around the angle it commands, so that the IK that follows
+    (``sim.checkIkGroup``, which holds that joint) solves the other joints around it.
 
     Args:
         objectHandle: a joint's handle.
@@ -77,6 +82,15 @@ def setJointInterval(ctx: CallContext, objectHandle: Any, cyclic: Any, interval:
     if el is not None:
         el.range = [lo, lo + span]
         el.limited = mujoco.mjtLimited.mjLIMITED_FALSE if cyclic else mujoco.mjtLimited.mjLIMITED_TRUE
+    if not cyclic and int(m.jnt_type[obj.mj_id]) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+        q = ctx.world.joint_position(obj.handle)
+        if not lo <= q <= lo + span:
+            i = ctx.world.motor_index.get(obj.handle)
+            target = None if i is None else float(ctx.world.motors.target_position[i])
+            ctx.world.set_joint_position(obj.handle, min(max(q, lo), lo + span))  # (calls changed())
+            if target is not None:  # CJoint::setPosition leaves the motor's target as it was
+                ctx.world.motors.target_position[i] = target
+            return
     ctx.world.changed()
 
 

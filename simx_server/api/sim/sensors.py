@@ -25,6 +25,7 @@ from simx_server.base.arguments import quote
 from simx_server.api.sim.core import _int, _num, _text
 from simx_server.api.signals import Signals
 from simx_server.sim import object_params, proximity, sensors
+from simx_server.sim.render_thread import wait_for
 from simx_server.sim.state import RunState
 
 #: CoppeliaSim's simulation states (``sim.getSimulationState``), as ``sim.NAME`` constants.
@@ -158,7 +159,7 @@ def rendered(ctx: CallContext, what: str, job: Callable[[], Any]) -> Any:
     vision = ctx.simulation(what).vision
     if ctx.defer_renders:
         return vision.rendered(job)
-    return vision.after(job).result()
+    return wait_for(vision.after(job), f"sim.{what}")
 
 
 def crop(img: np.ndarray, x: Any, y: Any, w: Any, h: Any) -> np.ndarray:

@@ -14,6 +14,7 @@ from simx_server.api.sim import sensors as _sensors
 from simx_server.base.arguments import as_integer, as_number, as_vector
 from simx_server.sim import sensors, vision_filters as VF
 from simx_server.sim.objects import VISION_SENSOR
+from simx_server.sim.render_thread import wait_for
 from simx_server.sim.state import SimulationView
 from simx_wire.protocol import ArgumentError, UnsupportedError
 
@@ -80,9 +81,9 @@ def _read(ctx: CallContext, handle: Any, what: str, depth: bool) -> None:
     if rec is not None:
         rgb, dmap = rec.rgb, rec.depth
     elif depth:
-        rgb, dmap = None, sim.vision.after(_sensors.depth_job(ctx, what, h, False)).result()
+        rgb, dmap = None, wait_for(sim.vision.after(_sensors.depth_job(ctx, what, h, False)), f"simVision.{what}")
     else:
-        rgb, dmap = sim.vision.after(_sensors.image_job(ctx, what, h, False)).result(), None
+        rgb, dmap = wait_for(sim.vision.after(_sensors.image_job(ctx, what, h, False)), f"simVision.{what}"), None
     VF.run_step(sim.vision.work_state(h, create=True), VF.Step(what), rgb, dmap)
 
 

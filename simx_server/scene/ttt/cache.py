@@ -14,12 +14,11 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from simx_server.base import file_kinds
 from simx_server.scene.ttt import errors as E
 from simx_server.scene.ttt.errors import SceneFileError
 
 log = logging.getLogger("simx.ttt")
-
-SUFFIXES = (".ttt", ".ttm")
 
 
 def _converter_version() -> str:
@@ -39,7 +38,9 @@ _origins: dict[Path, Path] = {}  # converted MJCF -> the .ttt/.ttm it came from
 
 
 def is_vrep_file(path: str | Path) -> bool:
-    return Path(path).suffix.lower() in SUFFIXES
+    """Whether ``path`` holds a V-REP / CoppeliaSim scene or model, by its content whatever its
+    name (:func:`simx_server.base.file_kinds.is_vrep`: MJCF saved as ``x.ttt`` is MJCF)."""
+    return file_kinds.is_vrep(path)
 
 
 def origin(path: str | Path) -> Path:
