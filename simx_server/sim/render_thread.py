@@ -268,7 +268,7 @@ class RenderThread:
         """The renderer of this size for ``model``, made now if needed (render thread), with the
         meshes whose texture coordinates moved since its last frame uploaded again.
 
-        Raises RuntimeError once a renderer could not be made (no usable GL platform): a
+        Raises RenderError once a renderer could not be made (no usable GL platform): a
         second attempt after a failed one can abort the process (GLFW without a display).
 
         Args:
@@ -280,7 +280,7 @@ class RenderThread:
             The renderer.
         """
         if self.failure is not None:
-            raise RuntimeError(f"vision sensors cannot render here: {self.failure}")
+            raise RenderError(f"vision sensors cannot render here: {self.failure}")
         if model is not self.model:
             self.free()
             self.model = model

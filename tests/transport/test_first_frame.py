@@ -138,13 +138,14 @@ def test_without_a_gl_platform_images_fail_cleanly(tmp_path):
 import logging
 logging.basicConfig(level=logging.WARNING)
 from simx_server.scene.simulation import Simulation
+from simx_server.sim.render_thread import RenderError
 sim = Simulation({str(SCENE)!r})
 assert sim.vision.wait_ready(30)
 handle = sorted(sim.vision.specs)[0]
 for _ in range(2):
     try:
         sim.vision.image_bytes(handle, 0)
-    except RuntimeError as exc:
+    except RenderError as exc:
         print("refused:", exc)
 sim.close()
 """)
