@@ -25,7 +25,7 @@ from simx_server.base.arguments import as_integer as _int, as_number as _num, as
 from simx_server.sim import friction, mechanisms
 from simx_server.sim.objects import JOINT
 from simx_server.sim.old_paths import matrix_to_quat
-from simx_server.sim.spec_tools import _names, solid_mesh, vrep_suffix
+from simx_server.sim.spec_tools import _names, set_mesh_data, solid_mesh, vrep_suffix
 
 _SUFFIX = {0: ".obj", 4: ".stl"}
 
@@ -181,7 +181,7 @@ def createShape(ctx: CallContext, options: Any, shadingAngle: Any, vertices: Any
     def change(spec: mujoco.MjSpec):
         suffix = vrep_suffix({"Shape", "Shape_mesh"}, _names(spec) | set(sim.world.by_name))
         mesh = spec.add_mesh(name=f"Shape_mesh{suffix}")
-        mesh.uservert, mesh.userface = v.reshape(-1).tolist(), f.reshape(-1).tolist()
+        set_mesh_data(spec, mesh, v, f)  # a file of MuJoCo's cache: later compiles reuse it
         if flat:
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         body = spec.worldbody.add_body(name=f"Shape{suffix}", pos=centre.tolist(), quat=quat.tolist())
