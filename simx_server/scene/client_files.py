@@ -33,7 +33,7 @@ import os
 import shutil
 import threading
 import weakref
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
@@ -438,6 +438,32 @@ class ClientFiles:
             self.store(file, data, key, name)
             return
         file.write_bytes(data)
+
+    def write_later(self, key: str, files: Callable[[], list[tuple[Path, bytes, str]]]) -> Future:
+        """Make and write files of client ``key`` on the files' thread (``sim.saveScene``,
+        ``sim.exportMesh``... of a door that replies once a Future is done): ``files()`` is run
+        there, its ``(file, data, name)`` written as :meth:`write` would (files :meth:`target`
+        gave, within the client's budgets), so that serialising a large scene or mesh never holds
+        the simulation thread. Until it is done the client's file calls are busy (:meth:`settle`).
+
+        Returns:
+            The Future of the writes (None, or what ``files`` or a write raised).
+        """
+        def job() -> None:
+            for file, data, name in files():
+                self.store(file, data, key, name)
+
+        with self._lock:
+            writes = self._pending.setdefault(key, [0, 0, []])[2]
+            future = self._writer.submit(key, job)
+            writes.append(future)
+
+        def done(_: Future) -> None:
+            with self._lock:
+                writes.remove(future)
+
+        future.add_done_callback(done)
+        return future
 
     def source(self, name: str, key: str | None, what: str, here: Path | None = None) -> Path:
         """The file a ``sim`` call acting as ``key`` reads (``sim.loadImage``,

@@ -211,6 +211,16 @@ class Editor(ObjectEdits):
         """
         return scene_file.scene_files(self.sim, stem)
 
+    def prepare_save(self, stem: str) -> tuple[dict[str, bytes], Callable[[], str]]:
+        """:meth:`scene_files` with the MJCF text left to make, by any thread
+        (:func:`scene_file.prepare`): ``(files, text)``."""
+        return scene_file.prepare(self.sim, stem)
+
+    def prepare_model_save(self, body: str, stem: str) -> tuple[dict[str, bytes], Callable[[], str]]:
+        """The files of the model of shape ``body`` (``sim.saveModel``), its text left to make
+        (:func:`scene_file.prepare_model`): ``(files, text)``."""
+        return scene_file.prepare_model(self.sim, body, stem)
+
     def _runtime_placements(self) -> list[tuple]:
         """Objects that commands placed in the live model (``World.set_pose`` changes
         ``body_pos``, ``site_pos``... until the simulation stops): ``(kind, name, parent, pos, rot)``."""

@@ -119,13 +119,17 @@ def exportMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options:
                                   "exportMesh")
     file = file.with_suffix(".obj")
     scale = _num(scalingFactor, "scalingFactor") or 1.0
-    lines, base = [], 0
-    for vs, fs in zip(vertices, indices):
-        v, f = _mesh(vs, fs)
-        lines += [f"v {x * scale:.9g} {y * scale:.9g} {z * scale:.9g}" for x, y, z in v]
-        lines += [f"f {a + base + 1} {b + base + 1} {c + base + 1}" for a, b, c in f]
-        base += len(v)
-    ctx.simulation("exportMesh").editor.files.write(file, ("\n".join(lines) + "\n").encode("utf-8"), key, name)
+    meshes = [_mesh(vs, fs) for vs, fs in zip(vertices, indices)]
+
+    def text() -> bytes:  # OBJ's lines: on the files' thread for a ZMQ client (_misc.write_files)
+        lines, base = [], 0
+        for v, f in meshes:
+            lines += [f"v {x * scale:.9g} {y * scale:.9g} {z * scale:.9g}" for x, y, z in v.tolist()]
+            lines += [f"f {a + base + 1} {b + base + 1} {c + base + 1}" for a, b, c in f.tolist()]
+            base += len(v)
+        return ("\n".join(lines) + "\n").encode("utf-8")
+
+    return _misc.write_files(ctx, key, lambda: [(file, text(), name)])  # type: ignore[no-any-return]
 
 
 @sim_function("createShape")

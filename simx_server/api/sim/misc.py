@@ -15,13 +15,15 @@ from __future__ import annotations
 
 import base64
 import itertools
+from concurrent.futures import Future
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import cv2
 import mujoco
 import numpy as np
 
+from simx_server.api import long_calls
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.api.sim import sensors as _sensors
@@ -29,6 +31,7 @@ from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim.objects import JOINT
+from simx_server.sim.vision_results import Deferred
 
 _BUFFER = {0: np.uint8, 1: np.int8, 2: np.uint16, 3: np.int16, 4: np.uint32, 5: np.int32, 6: np.float32, 7: np.float64}
 MAX_IMAGE_SIDE = 8192
@@ -419,13 +422,41 @@ def saveScene(ctx: CallContext, filename: Any) -> None:  # noqa: N802
         UnsupportedError: MuJoCo cannot write the scene, or no simulation behind the script.
     """
     file, key = target_file(ctx, filename)
-    sim = ctx.simulation("saveScene")
-    text, extra = sim.editor.scene_files(file.stem)
+    files = ctx.simulation("saveScene").editor.files
+    extra, text = ctx.simulation("saveScene").editor.prepare_save(file.stem)
     name = str(filename)
+    writes = []
     for sibling, data in extra.items():  # meshes, scripts, data: next to the scene, within the same bounds
         other = str(Path(name).with_name(sibling))
-        sim.editor.files.write(sim.editor.files.target(other, key, "sim.saveScene"), data, key, other)
-    sim.editor.files.write(file, text.encode("utf-8"), key, name)
+        writes.append((files.target(other, key, "sim.saveScene"), data, other))
+    return write_files(ctx, key, lambda: [*writes, (file, text().encode("utf-8"), name)])
+
+
+def write_files(ctx: CallContext, key: str | None, made: Callable[[], list[tuple[Path, bytes, str]]],
+                value: Any = None) -> Any:
+    """Write the files ``made()`` gives (``(file, data, name)``, each where :func:`target_file`
+    said): for a remote client of a door that replies once a Deferred is done (ZMQ), ``made``
+    runs and the files are written on the files' thread (:meth:`ClientFiles.write_later
+    <simx_server.scene.client_files.ClientFiles.write_later>`: serialising a scene of a
+    200,000-triangle mesh held every other client 6.5 s on the simulation thread); for
+    everyone else at once.
+
+    Returns:
+        ``value``, or a Deferred of it.
+    """
+    files = ctx.simulation("write").editor.files
+    if key is not None and long_calls.off_thread(ctx):
+        written, out = files.write_later(key, made), Future()
+
+        def done(_: Future) -> None:
+            error = written.exception()
+            out.set_exception(error) if error is not None else out.set_result(value)
+
+        written.add_done_callback(done)
+        return Deferred(out)
+    for path, data, name in made():
+        files.write(path, data, key, name)
+    return value
 
 
 @sim_function("saveModel")
@@ -446,21 +477,14 @@ def saveModel(ctx: CallContext, modelBaseHandle: Any, filename: Any) -> None:  #
     """
     file, key = target_file(ctx, filename, "saveModel")
     obj = ctx.world.get(ctx.h(modelBaseHandle))
-    # a copy: attaching the live spec's body would tie the scene's spec to the model's
-    # (every later saveScene and edit then failed: "attached by reference to a parent spec")
-    spec = ctx.simulation("saveModel").editor._live_spec().copy()
-    body = spec.body(obj.name) if obj.type == 0 else None
-    if body is None:
+    if obj.type != 0:
         raise ArgumentError(f"{obj.name!r} is not a shape (a body) to save as a model")
-    model = mujoco.MjSpec()
-    model.assets = dict(spec.assets or {})
-    frame = model.worldbody.add_frame()
-    try:
-        frame.attach_body(body, "", "")
-        text = model.to_xml()
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot write this model as MJCF: {exc}") from None
-    ctx.simulation("saveModel").editor.files.write(file, text.encode("utf-8"), key, str(filename))
+    extra, text = ctx.simulation("saveModel").editor.prepare_model_save(obj.name, file.stem)
+    name = str(filename)
+    files = ctx.simulation("saveModel").editor.files
+    writes = [(files.target(other, key, "sim.saveModel"), data, other)
+              for other, data in ((str(Path(name).with_name(n)), d) for n, d in extra.items())]
+    return write_files(ctx, key, lambda: [*writes, (file, text().encode("utf-8"), name)])
 
 
 
