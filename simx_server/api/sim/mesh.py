@@ -16,7 +16,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
-from simx_server.api.sim import misc as _misc
+from simx_server.api.sim import file_writes, misc as _misc
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base import limits as L
 from simx_server.api.sim import shape_import as shapes
@@ -129,7 +129,7 @@ def exportMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options:
             base += len(v)
         return ("\n".join(lines) + "\n").encode("utf-8")
 
-    return _misc.write_files(ctx, key, lambda: [(file, text(), name)])  # type: ignore[no-any-return]
+    return file_writes.write_files(ctx, key, lambda: [(file, text(), name)])  # type: ignore[no-any-return]
 
 
 @sim_function("createShape")

@@ -15,23 +15,20 @@ from __future__ import annotations
 
 import base64
 import itertools
-from concurrent.futures import Future
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import cv2
 import mujoco
 import numpy as np
 
-from simx_server.api import long_calls
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
-from simx_server.api.sim import sensors as _sensors
+from simx_server.api.sim import file_writes, sensors as _sensors
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
 from simx_server.sim.objects import JOINT
-from simx_server.sim.vision_results import Deferred
 
 _BUFFER = {0: np.uint8, 1: np.int8, 2: np.uint16, 3: np.int16, 4: np.uint32, 5: np.int32, 6: np.float32, 7: np.float64}
 MAX_IMAGE_SIDE = 8192
@@ -429,34 +426,7 @@ def saveScene(ctx: CallContext, filename: Any) -> None:  # noqa: N802
     for sibling, data in extra.items():  # meshes, scripts, data: next to the scene, within the same bounds
         other = str(Path(name).with_name(sibling))
         writes.append((files.target(other, key, "sim.saveScene"), data, other))
-    return write_files(ctx, key, lambda: [*writes, (file, text().encode("utf-8"), name)])
-
-
-def write_files(ctx: CallContext, key: str | None, made: Callable[[], list[tuple[Path, bytes, str]]],
-                value: Any = None) -> Any:
-    """Write the files ``made()`` gives (``(file, data, name)``, each where :func:`target_file`
-    said): for a remote client of a door that replies once a Deferred is done (ZMQ), ``made``
-    runs and the files are written on the files' thread (:meth:`ClientFiles.write_later
-    <simx_server.scene.client_files.ClientFiles.write_later>`: serialising a scene of a
-    200,000-triangle mesh held every other client 6.5 s on the simulation thread); for
-    everyone else at once.
-
-    Returns:
-        ``value``, or a Deferred of it.
-    """
-    files = ctx.simulation("write").editor.files
-    if key is not None and long_calls.off_thread(ctx):
-        written, out = files.write_later(key, made), Future()
-
-        def done(_: Future) -> None:
-            error = written.exception()
-            out.set_exception(error) if error is not None else out.set_result(value)
-
-        written.add_done_callback(done)
-        return Deferred(out)
-    for path, data, name in made():
-        files.write(path, data, key, name)
-    return value
+    return file_writes.write_files(ctx, key, lambda: [*writes, (file, text().encode("utf-8"), name)])
 
 
 @sim_function("saveModel")
@@ -484,7 +454,7 @@ def saveModel(ctx: CallContext, modelBaseHandle: Any, filename: Any) -> None:  #
     files = ctx.simulation("saveModel").editor.files
     writes = [(files.target(other, key, "sim.saveModel"), data, other)
               for other, data in ((str(Path(name).with_name(n)), d) for n, d in extra.items())]
-    return write_files(ctx, key, lambda: [*writes, (file, text().encode("utf-8"), name)])
+    return file_writes.write_files(ctx, key, lambda: [*writes, (file, text().encode("utf-8"), name)])
 
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.api.sim import core as _core
-from simx_server.api.sim import misc as _misc
+from simx_server.api.sim import file_writes, misc as _misc
 from simx_server.api.sim import objects as _objects
 from simx_server.api.sim import shapes as _shapes
 from simx_wire.protocol import ArgumentError, UnsupportedError
@@ -111,7 +111,7 @@ def saveImage(ctx: CallContext, image: Any, resolution: Any, options: Any, filen
     if name.startswith("."):
         return encoded()
     file, files = image_file(ctx, name, True), ctx.simulation("saveImage").editor.files
-    return _misc.write_files(ctx, files.writer(_misc.script_path(ctx)), lambda: [(file, encoded(), name)], b"")  # type: ignore[no-any-return]
+    return file_writes.write_files(ctx, files.writer(_misc.script_path(ctx)), lambda: [(file, encoded(), name)], b"")  # type: ignore[no-any-return]
 
 
 @sim_function("loadImage")
