@@ -31,6 +31,7 @@ import zenoh
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
+from simx_server.api.mesh_waits import answered
 from simx_server.commands import HANDLERS, NOT_STREAMABLE
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.vision import Deferred
@@ -464,7 +465,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             elif streams and name not in P.DO_NOT_OVERWRITE:
                 streams.pop(P.identity(name, args), None)  # a new non-streamed call replaces the stream
             with self.sim.editor.files.acting(f"legacy:{client}"):  # its file calls use its own folder
-                return [True, handler(self.sim, args)]
+                return [True, answered(self.sim, lambda: handler(self.sim, args))]  # a mesh's tree built meanwhile
         except P.RemoteError as exc:
             label = name if name in P.COMMANDS else quote(name)
             message = _cut(f"simx{label}: {exc}")

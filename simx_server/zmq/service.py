@@ -49,6 +49,7 @@ from simx_server.zmq.budgets import RENDERS, Connection, reply_estimate
 from simx_server.zmq.clients import ZmqClient
 from simx_server.zmq.frontend import Frontend, Incoming
 from simx_server.api import SIM, SIMIK, SIMOMPL, SIMVISION, CallContext, Callers, client_context, names
+from simx_server.api.mesh_waits import answered
 from simx_server.api.sim.stepped import CallbackCall, Stepped
 from simx_server.zmq.renders import RenderedReplies, Rendering, values as _values
 
@@ -286,7 +287,7 @@ class ZmqService(RenderedReplies):
     def _call_table(self, name: str, args: list, library: str = "sim") -> list | Stepped | Deferred:
         fn, signature, remote = self._libraries[library][name], self._signature(name, library), self.remote
         try:
-            result = fn(remote, *args)
+            result = answered(self.sim, lambda: fn(remote, *args))  # a mesh's tree built off this thread meanwhile
         except TypeError as exc:  # the wrong number of arguments, or a bad one met deeper in
             try:
                 signature.bind(remote, *args)
