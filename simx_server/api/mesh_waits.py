@@ -23,16 +23,20 @@ def answered(sim: Any, call: Callable[[], Any]) -> Any:
     simulation thread once the builds are done, as often as it meets another (its error, or a
     build's, is the Deferred's).
 
-    Raises:
-        TreesPending: without a simulation thread to post to (its text: ``server busy``).
+    Without a loop to post to (``sim.post`` None: a simulation served in process), the builds
+    are waited for here and the call made again at once.
     """
     try:
         return call()
     except TreesPending as pending:
         post = getattr(sim, "post", None)
-        if post is None:
-            raise
         first = pending.future
+    while post is None:
+        first.result()
+        try:
+            return call()
+        except TreesPending as more:
+            first = more.future
     out: Future = Future()
     files = sim.editor.files
     key = files.caller

@@ -107,3 +107,24 @@ def test_a_planning_tasks_checks_are_bounded_and_its_copies_budgeted(service, mo
     monkeypatch.setattr(tasks, "MAX_KEPT_BYTES", 1)
     reply = service.call("simOMPL.setup", task)
     assert "server busy" in reply.get("err", "") and "MAX_KEPT_BYTES" in reply["err"], reply
+
+
+def test_without_a_loop_the_builds_are_waited_for_in_place():
+    """A simulation served in process (no ``sim.post``): the call is made again once built."""
+    from concurrent.futures import Future
+    from types import SimpleNamespace
+
+    from simx_server.api.mesh_waits import answered
+    from simx_server.sim.mesh_geometry import TreesPending
+
+    built: Future = Future()
+    built.set_result(None)
+    calls = []
+
+    def call():
+        calls.append(1)
+        if len(calls) == 1:
+            raise TreesPending(built, 10)
+        return "answer"
+
+    assert answered(SimpleNamespace(post=None), call) == "answer" and len(calls) == 2
