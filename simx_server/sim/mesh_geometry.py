@@ -46,8 +46,8 @@ none of its triangles, does not collide with it.
 from __future__ import annotations
 
 import collections
-import concurrent.futures
 import hashlib
+import queue
 import threading
 import weakref
 from concurrent.futures import Future
@@ -199,7 +199,8 @@ class _Trees:
         self._kept: collections.OrderedDict[bytes, Tree] = collections.OrderedDict()
         self._bytes = 0
         self._building: dict[bytes, Future] = {}
-        self._builder: concurrent.futures.ThreadPoolExecutor | None = None
+        self._waiting: queue.SimpleQueue[tuple[bytes, np.ndarray, np.ndarray, Future]] = queue.SimpleQueue()
+        self._builder: threading.Thread | None = None
 
     def get(self, key: bytes) -> Tree | None:
         with self._lock:
@@ -237,24 +238,36 @@ class _Trees:
         return tree
 
     def later(self, key: bytes, vertices: np.ndarray, faces: np.ndarray) -> Future:
-        """The future of ``key``'s tree, built by the builder thread (once per key at a time)."""
+        """The future of ``key``'s tree, built by the builder thread (once per key at a time; a
+        daemon thread, started at the first build: a server that exits does not wait for it)."""
         with self._lock:
             running = self._building.get(key)
             if running is not None:
                 return running
+            future: Future = Future()
+            self._building[key] = future
+            self._waiting.put((key, vertices, faces, future))
             if self._builder is None:
-                self._builder = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="simx-mesh-trees")
-            future = self._building[key] = self._builder.submit(self._make, key, vertices, faces)
+                self._builder = threading.Thread(target=self._build_all, name="simx-mesh-trees", daemon=True)
+                self._builder.start()
             return future
 
-    def _make(self, key: bytes, vertices: np.ndarray, faces: np.ndarray) -> Tree:
-        try:
-            tree = Tree(vertices, faces)
-            self.put(key, tree)
-            return tree
-        finally:
-            with self._lock:
-                self._building.pop(key, None)
+    def _build_all(self) -> None:
+        while True:
+            key, vertices, faces, future = self._waiting.get()
+            try:
+                tree = Tree(vertices, faces)
+                self.put(key, tree)
+            except BaseException as exc:  # the queries waiting for it are told
+                future.set_exception(exc)
+            else:
+                future.set_result(tree)
+            finally:
+                with self._lock:
+                    self._building.pop(key, None)
+                # what the waiting thread's frame would keep till the next build: the future's
+                # callbacks hold the queries waiting for it (and their callers' contexts)
+                key = vertices = faces = future = tree = None  # type: ignore[assignment]
 
 
 TREES = _Trees()

@@ -149,4 +149,4 @@ def test_a_deferring_query_never_builds_a_tree_on_its_thread(sim, trees):
             break
         except TreesPending as more:
             more.future.result(timeout=60)
-    assert trees == ["simx-mesh-trees_0"] * 2  # both on the builders' thread
+    assert trees == ["simx-mesh-trees"] * 2  # both on the builders' thread
