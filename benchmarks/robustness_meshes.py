@@ -11,7 +11,7 @@ tests/zmq/test_zmq_edit_charges.py and tests/zmq/test_zmq_file_calls.py have the
 The scene: two spheres of 200,000 triangles (MuJoCo binary meshes next to it), one 0.1 % smaller
 inside the other (a near miss of every triangle), the inner one free (no gravity, no contacts) for
 a planner to move; the attacks that create a 200,000-triangle shape of their own have a scene
-of one box. Each attack prints the attackers' time, the other client's slowest call while
+of one box (the shape made before the other client starts). Each attack prints the attackers' time, the other client's slowest call while
 they ran (the "gap", and how many it made), the server's RSS before, at its peak (sampled every
 50 ms) and 10 s after, and the first attacker's reply. Every wait is bounded (240 s a reply).
 """
@@ -116,8 +116,7 @@ def _created(sock: zmq.Socket, uuid: str) -> int:
 
 
 def _links(sock: zmq.Socket, uuid: str) -> str:
-    """Beside such a shape: 10 times two new dummies linked (setLinkDummy's weld pool)."""
-    _created(sock, uuid)
+    """Beside such a shape (made before): 10 times two new dummies linked (setLinkDummy's weld pool)."""
     reply: dict = {}
     for _ in range(10):
         a, b = (call(sock, "sim.createDummy", 0.01, uuid=uuid)["ret"][0] for _ in range(2))
@@ -153,11 +152,11 @@ def main(argv: list[str] | None = None) -> None:
         "simOMPL.solve(task, 10) of the inner sphere inside the outer": (1, once(
             _set_up, lambda task: ("simOMPL.solve", task, 10))),
         "25 simOMPL tasks set up, the scene edited between": (1, _kept_tasks),
-        "setLinkDummy of new dummies beside a 200,000-triangle createShape": (1, _links, "plain"),
+        "setLinkDummy of new dummies beside a 200,000-triangle createShape": (1, _links, _created),
         "sim.saveScene with a 200,000-triangle createShape": (
-            1, once(_created, lambda _: ("sim.saveScene", "s.xml")), "plain"),
+            1, once(lambda s, u: None, lambda _: ("sim.saveScene", "s.xml")), _created),
         "sim.exportMesh of 200,000 triangles": (1, once(lambda s, u: sphere(200_000, 0.3), lambda m: (
-            "sim.exportMesh", 0, "mesh.obj", 0, 1.0, [m[0].ravel().tolist()], [m[1].ravel().tolist()])), "plain"),
+            "sim.exportMesh", 0, "mesh.obj", 0, 1.0, [m[0].ravel().tolist()], [m[1].ravel().tolist()])), None),
         "sim.checkProximitySensorEx2, 9,000 triangles x a 90-degree cone's 440 rays": (1, once(
             lambda s, u: call(s, "sim.getObject", "/Sensor", uuid=u)["ret"][0],
             lambda h: ("sim.checkProximitySensorEx2", h, triangles, 2, 9_000, 3, 100.0, 1.0))),
@@ -171,15 +170,15 @@ def main(argv: list[str] | None = None) -> None:
     (plain / "scene.xml").write_text(PLAIN)
     ctx = zmq.Context()
     print(f"code: {args.code}; load average {os.getloadavg()[0]:.1f}")
-    print("| attack | attackers' time | other client's slowest call | server RSS before -> peak -> 10 s after | reply |")
+    print("| attack | attackers' time | other client's slowest call (p99, calls) | server RSS before -> peak -> 10 s after | reply |")
     print("|---|---|---|---|---|")
-    for name, (count, attack, *scene) in attacks.items():
+    for name, (count, attack, *before) in attacks.items():
         if args.only and not any(w in name for w in args.only):
             continue
-        t = Target(args.code, plain if scene else folder)
+        t = Target(args.code, plain if before else folder)  # a shape of its own: the box's scene
         try:
             start = time.monotonic()
-            other, reply = during(t, ctx, count, attack or (lambda s, u: _streamed(t)))
+            other, reply = during(t, ctx, count, attack or (lambda s, u: _streamed(t)), *before)
             took = time.monotonic() - start
             time.sleep(10)
             print(f"| {name} | {took:.1f} s | {other} | {t.before:.0f} -> {t.peak:.0f} -> {t.rss():.0f} MB | "

@@ -12,10 +12,15 @@ import zmq
 from benchmarks.robustness_zmq import Target, _short, call
 
 
-def during(t: Target, ctx: zmq.Context, attackers: int, attack) -> tuple[str, str]:
+def during(t: Target, ctx: zmq.Context, attackers: int, attack, before=None) -> tuple[str, str]:
     """``attackers`` connections (uuids a0, a1...) each run ``attack(socket, uuid)`` at once while
-    another client loops ``sim.getSimulationTime``: its slowest call, the first attacker's reply."""
+    another client loops ``sim.getSimulationTime``: its slowest call (and its p99, with the count
+    of its calls), the first attacker's reply. ``before(socket, uuid)``: each connection's
+    preparation, made before the other client starts."""
     socks = [t.socket(ctx, timeout_ms=240_000) for _ in range(attackers)]
+    for k, sock in enumerate(socks):
+        if before is not None:
+            before(sock, f"a{k}")
     stop, latencies, replies = threading.Event(), [], []
 
     def victim() -> None:
@@ -49,7 +54,8 @@ def during(t: Target, ctx: zmq.Context, attackers: int, attack) -> tuple[str, st
     v.join(300)
     for sock in socks:
         sock.close(0)
-    return f"{max(latencies):.2f} s ({len(latencies)} calls)", replies[0] if replies else "-"
+    p99 = sorted(latencies)[int(0.99 * (len(latencies) - 1))]
+    return f"{max(latencies):.2f} s (p99 {p99:.2f} s, {len(latencies)} calls)", replies[0] if replies else "-"
 
 
 def once(prepare, request):
