@@ -64,10 +64,17 @@ def answered(sim: Any, call: Callable[[], Any]) -> Any:
     return Deferred(out)
 
 
+def door_client(ctx: CallContext) -> bool:
+    """Whether ``ctx`` is a door's remote client (ZMQ: a client whose replies may wait), whose
+    mesh queries and planning tasks are bounded; not a script, nor ``pyrep`` in process (the
+    operator's, as its scene edits are)."""
+    return ctx.remote and ctx.defer_renders
+
+
 def query_work(ctx: CallContext) -> Work:
     """The bound of a mesh query ``ctx`` makes (:class:`~simx_server.sim.mesh_geometry.Work`): a
-    remote client's is bounded (``mesh_geometry.MAX_QUERY_WORK``) and, where its door answers
-    once a Deferred is done (ZMQ), never builds a mesh's tree on the simulation thread (the door
-    asks again once built: :class:`~simx_server.sim.mesh_geometry.TreesPending`); a script's and
-    an in-process caller's are not bounded."""
-    return Work.client(defer=ctx.defer_renders) if ctx.remote else UNBOUNDED
+    door's client's (:func:`door_client`) is bounded (``mesh_geometry.MAX_QUERY_SECONDS``) and
+    never builds a mesh's tree on the simulation thread (the door asks again once built:
+    :class:`~simx_server.sim.mesh_geometry.TreesPending`); a script's and an in-process caller's
+    are not bounded."""
+    return Work.client() if door_client(ctx) else UNBOUNDED

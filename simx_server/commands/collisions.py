@@ -1,7 +1,7 @@
 """Collision and distance commands: ``simxCheckCollision``, ``simxCheckDistance``, and the
 collision / distance objects a scene declares (``simxGetCollisionHandle``, ``simxReadCollision``,
 ...). Every handler is ``(simulation, args) -> result``; the geometry is :mod:`simx_server.sim.collisions`.
-Every query is a client's: bounded (``mesh_geometry.MAX_QUERY_WORK``), and a mesh's tree not
+Every query is a client's: bounded (``mesh_geometry.MAX_QUERY_SECONDS``), and a mesh's tree not
 built yet is built off the simulation thread while the door waits
 (:class:`~simx_server.sim.mesh_geometry.TreesPending`)."""
 

@@ -186,7 +186,7 @@ def collision(sim: SimulationView, e1: int, e2: int, override: bool = True, work
         UnknownObjectError: no such object.
         ObjectTypeError: not a shape or collection, or a shape without geoms.
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
-        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_WORK``).
+        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_SECONDS``).
         TreesPending: a mesh's tree is being built (a client's query, ``work.defer``).
     """
     world = sim.world
@@ -227,7 +227,7 @@ def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjDat
         True when some pair is within COLLISION_TOLERANCE (m) of touching.
 
     Raises:
-        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_WORK``).
+        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_SECONDS``).
         TreesPending: a mesh's tree is being built (``work.defer``).
     """
     lb = _lower_bounds(world, a, b, data)
@@ -272,7 +272,7 @@ def distance(sim: SimulationView, e1: int, e2: int, override: bool = True, work:
         UnknownObjectError: no such object.
         ObjectTypeError: not a shape or collection, or a shape without geoms.
         ArgumentError: no measurable shape to measure to (``e1`` and ``e2`` the same shape
-            too); past the work's bound (``mesh_geometry.MAX_QUERY_WORK``).
+            too); past the work's bound (``mesh_geometry.MAX_QUERY_SECONDS``).
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
         TreesPending: a mesh's tree is being built (``work.defer``).
     """
@@ -299,7 +299,7 @@ def closest(world: World, a: np.ndarray, b: np.ndarray, work: Work = UNBOUNDED) 
 
     Raises:
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
-        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_WORK``).
+        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_SECONDS``).
         TreesPending: a mesh's tree is being built (``work.defer``).
     """
     lb = _lower_bounds(world, a, b)

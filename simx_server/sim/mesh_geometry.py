@@ -27,10 +27,14 @@ query on the simulation thread never builds; it raises :class:`TreesPending` wit
 the builds, which a thread of their own makes (piece by piece, the interpreter let go between
 pieces), and the door answers once they are done (:mod:`simx_server.api.mesh_queries`).
 
-**Each query's work is bounded** (:class:`Work`): a client's query adds, before each call to
-coal, the call's worst case (the pieces' triangles multiplied, a primitive counting
-:data:`PRIMITIVE_FACES`) and stops past :data:`MAX_QUERY_WORK` with an error naming it; the
-operator's own queries (scripts, ``pyrep``) are not bounded.
+**Each query's work is bounded** (:class:`Work`): one call to coal takes at most two pieces (at
+worst :data:`PIECE_FACES` squared pairs of triangles, by construction, before the call), and a
+client's query checks, before each call, the CPU time its thread has spent on it since its first
+call: past :data:`MAX_QUERY_SECONDS` it stops with an error naming the bound. A bound on the
+worst case of the calls (triangles multiplied) refused a robot arm's ordinary check against the
+scene (a few pairs of 2,500-triangle links within each other's spheres), which coal answers in
+milliseconds; the time a query really takes is what holds the others. The operator's own queries
+(scripts, ``pyrep`` in process) are not bounded.
 
 Pairs of two primitives stay with ``mj_geomDistance`` (exact for primitives), and so does a mesh
 against a plane: MuJoCo's plane is the half-space below it, and a half-space is nearest to (or
@@ -49,6 +53,7 @@ import collections
 import hashlib
 import queue
 import threading
+import time
 import weakref
 from concurrent.futures import Future
 from typing import Any
@@ -73,29 +78,26 @@ _COAL_KINDS = np.array(sorted(_COAL_TYPES))  # the same, for :func:`handled`
 #: triangles (about 20-50 ns a pair: 0.3-0.8 s at worst, for triangles made to defeat the
 #: bounding volumes; a near miss of two real surfaces tests some per triangle: milliseconds).
 PIECE_FACES = 4096
-#: What a primitive geom counts in a query's work: coal tests it against each triangle with GJK,
-#: some ten times a triangle pair's cost.
-PRIMITIVE_FACES = 16
-#: Triangle pairs one client's query may test (the worst case of its calls to coal, counted before
-#: each): one call on two full pieces, 0.3-0.8 s at worst.
-MAX_QUERY_WORK = 1 << 24
+#: CPU time (s) of its thread one client's query may take, checked before each call to coal
+#: (as a request's ``limits.MAX_REQUEST_SECONDS``): past it, the query stops with an error.
+MAX_QUERY_SECONDS = 0.5
 #: Bytes of meshes' trees kept (coal's ``memUsage``; about 500 bytes a triangle).
 MAX_TREE_BYTES = 512 << 20
 
 
 class Work:
-    """A query's bound: the worst case of the calls to coal it made, and what it may make.
+    """A query's bound: the CPU time its thread spent on it, checked before each call to coal.
 
     Args:
-        limit: triangle pairs at most (None: not bounded, the operator's queries).
+        limit: s at most (None: not bounded, the operator's queries).
         defer: a tree not built yet raises :class:`TreesPending` (a client's query on the
             simulation thread) instead of being built by the caller's thread.
     """
 
-    __slots__ = ("limit", "spent", "defer")
+    __slots__ = ("limit", "began", "calls", "defer")
 
-    def __init__(self, limit: int | None = None, defer: bool = False) -> None:
-        self.limit, self.spent, self.defer = limit, 0, defer
+    def __init__(self, limit: float | None = None, defer: bool = False) -> None:
+        self.limit, self.began, self.calls, self.defer = limit, 0.0, 0, defer
 
     @classmethod
     def client(cls, defer: bool = True) -> Work:
@@ -105,25 +107,29 @@ class Work:
             defer: see the class's.
 
         Returns:
-            A Work bounded by :data:`MAX_QUERY_WORK` (read now).
+            A Work bounded by :data:`MAX_QUERY_SECONDS` (read now).
         """
-        return cls(MAX_QUERY_WORK, defer)
+        return cls(MAX_QUERY_SECONDS, defer)
 
-    def spend(self, pairs: int, faces: tuple[int, int]) -> None:
-        """Count a call to coal before it is made.
+    def spend(self, faces: tuple[int, int]) -> None:
+        """Check the bound before a call to coal (the query's first call starts its clock).
 
         Args:
-            pairs: the triangle pairs it may test at worst.
-            faces: the two geoms' triangles (a primitive: :data:`PRIMITIVE_FACES`), for the message.
+            faces: the two geoms' triangles (a primitive: 0), for the message.
 
         Raises:
-            ArgumentError: past the limit; nothing of the call is made.
+            ArgumentError: past the limit; the call is not made.
         """
-        self.spent += pairs
-        if self.limit is not None and self.spent > self.limit:
-            raise ArgumentError(f"the query would test more than {self.limit:,} pairs of triangles "
-                                f"(mesh_geometry.MAX_QUERY_WORK) between meshes of {faces[0]:,} and {faces[1]:,} "
-                                "triangles lying within each other's bounds; ask about smaller or farther shapes")
+        self.calls += 1
+        if self.limit is None:
+            return
+        now = time.thread_time()
+        if self.calls == 1:
+            self.began = now
+        elif now - self.began > self.limit:
+            raise ArgumentError(f"the query took more than {self.limit:g} s (mesh_geometry.MAX_QUERY_SECONDS) "
+                                f"after {self.calls - 1:,} calls on meshes of {faces[0]:,} and {faces[1]:,} triangles "
+                                "lying within each other's bounds; ask about smaller or farther shapes")
 
 
 UNBOUNDED = Work()
@@ -379,7 +385,7 @@ def handled(m: mujoco.MjModel, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 class _Side:
     """One geom of a pair as coal sees it: its pieces (a primitive: one), their triangle counts
-    (a primitive: :data:`PRIMITIVE_FACES`) and bounding spheres in the world (m)."""
+    (a primitive: 0) and bounding spheres in the world (m)."""
 
     __slots__ = ("shapes", "faces", "total", "pose", "radii", "_d", "_g", "_local", "_centres")
 
@@ -391,7 +397,7 @@ class _Side:
             self.shapes, self.faces, self.total, self.radii = tree.pieces, tree.faces, tree.total, tree.radii
             self._local: np.ndarray | None = tree.centres
         else:
-            self.shapes, self.faces, self.total = [shapes.primitive(m, g)], _ONE_PRIMITIVE, PRIMITIVE_FACES
+            self.shapes, self.faces, self.total = [shapes.primitive(m, g)], _ONE_PRIMITIVE, 0
             self.radii, self._local = np.array([float(m.geom_rbound[g])]), None
 
     @property
@@ -405,7 +411,7 @@ class _Side:
         return self._centres
 
 
-_ONE_PRIMITIVE = [PRIMITIVE_FACES]
+_ONE_PRIMITIVE = [0]
 _FIRST = ([0], [0], [0.0])
 
 
@@ -459,10 +465,10 @@ class Touching:
         s1, s2 = self._side(g1), self._side(g2)
         work, request = self.work, self.request
         if len(s1.shapes) == 1 and len(s2.shapes) == 1:  # the geoms' own spheres were tested
-            work.spend(s1.total * s2.total, (s1.total, s2.total))
+            work.spend((s1.total, s2.total))
             return bool(coal.collide(s1.shapes[0], s1.pose, s2.shapes[0], s2.pose, request, coal.CollisionResult()))
         for i, j, _ in zip(*_candidates(s1, s2, self.margin + 1e-9)):
-            work.spend(s1.faces[i] * s2.faces[j], (s1.total, s2.total))
+            work.spend((s1.total, s2.total))
             if coal.collide(s1.shapes[i], s1.pose, s2.shapes[j], s2.pose, request, coal.CollisionResult()):
                 return True
         return False
@@ -499,7 +505,7 @@ def distance(m: mujoco.MjModel, d: mujoco.MjData, g1: int, g2: int, fromto: np.n
     for i, j, gap in zip(*_candidates(s1, s2, np.inf)):
         if gap >= best:
             break
-        work.spend(s1.faces[i] * s2.faces[j], (s1.total, s2.total))
+        work.spend((s1.total, s2.total))
         result = coal.DistanceResult()
         dist = float(coal.distance(s1.shapes[i], s1.pose, s2.shapes[j], s2.pose, request, result))
         if dist < best:

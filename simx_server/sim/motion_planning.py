@@ -94,8 +94,8 @@ class ScratchCollisions:
             a joint's ``qpos``, a free body's pose), in the state's order.
         pairs: the entities to test, ``[(entity1, entity2), ...]`` (shapes, collections,
             ``sim_handle_all`` as entity2), as ``sim.checkCollision`` takes them.
-        bounded: a remote client's task: each check is a client's query, bounded
-            (``mesh_geometry.MAX_QUERY_WORK``); while :attr:`defer` (a check on the simulation
+        bounded: a door's client's task: each check is a client's query, bounded
+            (``mesh_geometry.MAX_QUERY_SECONDS``); while :attr:`defer` (a check on the simulation
             thread) a mesh's tree is not built there (``TreesPending``), on a planner's thread it is.
 
     Raises:

@@ -1,8 +1,8 @@
 """Exact mesh queries bounded (issue 84, item 1): two nested 200,000-triangle spheres held the
 simulation thread 15.4 s in one ``sim.checkCollision`` (coal holds the interpreter for a whole
 call), their trees were built on that thread for every new model, and kept once per model.
-Scaled down here: spheres of some 2,000 triangles, pieces of 64 and a small work bound, set
-through ``mesh_geometry``'s constants; what is asserted is the work counted and refused, where
+Scaled down here: spheres of some 2,000 triangles, pieces of 64 and a bound of no time, set
+through ``mesh_geometry``'s constants; what is asserted is the calls made and refused, where
 trees are built and how many are kept, never a time."""
 
 from __future__ import annotations
@@ -83,24 +83,23 @@ def _shapes(sim) -> tuple[int, int]:
     return sim.world.resolve("Outer").handle, sim.world.resolve("Inner").handle
 
 
-def test_a_client_query_is_refused_past_its_work_bound_before_the_call_that_would_pass_it(sim, monkeypatch):
+def test_a_client_query_stops_at_its_bound_before_its_next_call_to_coal(sim, monkeypatch):
     outer, inner = _shapes(sim)
     assert collisions.collision(sim, outer, inner) is False  # the operator's query: answered, unbounded
     assert collisions.distance(sim, outer, inner) == pytest.approx(0.002, abs=2e-4)
+    # a client's, within its bound (the pieces' worst cases multiplied would pass any small bound):
+    assert collisions.collision(sim, outer, inner, work=Work.client()) is False
     calls: list[int] = []
-    collide = mesh_geometry.coal.collide
-
-    def counted(s1, t1, s2, t2, request, result):
-        calls.append(s1.num_tris * s2.num_tris)
-        return collide(s1, t1, s2, t2, request, result)
-
-    monkeypatch.setattr(mesh_geometry.coal, "collide", counted)
-    monkeypatch.setattr(mesh_geometry, "MAX_QUERY_WORK", 40 * 64 * 64)
-    with pytest.raises(ArgumentError, match="MAX_QUERY_WORK"):
+    collide, distance = mesh_geometry.coal.collide, mesh_geometry.coal.distance
+    monkeypatch.setattr(mesh_geometry.coal, "collide", lambda *a: calls.append(1) or collide(*a))
+    monkeypatch.setattr(mesh_geometry.coal, "distance", lambda *a: calls.append(1) or distance(*a))
+    monkeypatch.setattr(mesh_geometry, "MAX_QUERY_SECONDS", 0.0)  # spent by the first call
+    with pytest.raises(ArgumentError, match="MAX_QUERY_SECONDS"):
         collisions.collision(sim, outer, inner, work=Work.client())
-    assert calls and sum(calls) <= 40 * 64 * 64  # never a call past the bound
-    with pytest.raises(ArgumentError, match="MAX_QUERY_WORK"):
+    assert calls == [1]  # no call once the bound is passed
+    with pytest.raises(ArgumentError, match="MAX_QUERY_SECONDS"):
         collisions.distance(sim, outer, inner, work=Work.client())
+    assert calls == [1, 1]
 
 
 def test_each_call_to_coal_takes_one_piece_of_each_mesh(sim, monkeypatch):

@@ -81,12 +81,12 @@ def test_a_query_is_answered_once_its_trees_are_built_off_the_simulation_thread(
     assert d == pytest.approx(0.002, abs=2e-4)
 
 
-def test_a_query_past_its_work_bound_is_refused(service, monkeypatch):
+def test_a_query_past_its_bound_is_refused(service, monkeypatch):
     outer, inner = _handles(service)
     service.call("sim.checkDistance", outer, inner)  # the trees built
-    monkeypatch.setattr(mesh_geometry, "MAX_QUERY_WORK", 64 * 64)
+    monkeypatch.setattr(mesh_geometry, "MAX_QUERY_SECONDS", 0.0)
     reply = service.call("sim.checkDistance", outer, inner)
-    assert "MAX_QUERY_WORK" in reply.get("err", ""), reply
+    assert "MAX_QUERY_SECONDS" in reply.get("err", ""), reply
 
 
 def test_a_planning_tasks_checks_are_bounded_and_its_copies_budgeted(service, monkeypatch):
@@ -99,11 +99,11 @@ def test_a_planning_tasks_checks_are_bounded_and_its_copies_budgeted(service, mo
                         ("setStartState", [0, 0, 1]), ("setGoalState", [0.1, 0, 1]), ("setup",)):
         assert "ret" in service.call(f"simOMPL.{func}", task, *args), func
     assert service.call("simOMPL.isStateValid", task, [0, 0, 1]) == {"ret": [True]}
-    monkeypatch.setattr(mesh_geometry, "MAX_QUERY_WORK", 64 * 64)
+    monkeypatch.setattr(mesh_geometry, "MAX_QUERY_SECONDS", 0.0)
     reply = service.call("simOMPL.isStateValid", task, [0, 0, 1])
-    assert "MAX_QUERY_WORK" in reply.get("err", ""), reply
+    assert "MAX_QUERY_SECONDS" in reply.get("err", ""), reply
     reply = service.call("simOMPL.solve", task, 5.0)  # off the simulation thread: its checks bounded too
-    assert "MAX_QUERY_WORK" in reply.get("err", ""), reply
+    assert "MAX_QUERY_SECONDS" in reply.get("err", ""), reply
     monkeypatch.setattr(tasks, "MAX_KEPT_BYTES", 1)
     reply = service.call("simOMPL.setup", task)
     assert "server busy" in reply.get("err", "") and "MAX_KEPT_BYTES" in reply["err"], reply
@@ -128,3 +128,18 @@ def test_without_a_loop_the_builds_are_waited_for_in_place():
         return "answer"
 
     assert answered(SimpleNamespace(post=None), call) == "answer" and len(calls) == 2
+
+
+def test_only_a_doors_clients_queries_are_bounded(service):
+    """A ZMQ client's context is bounded; a script's and PyRep's in process (the operator's) not."""
+    from simx_server.api import CallContext, Callers
+    from simx_server.api.mesh_waits import query_work
+    from simx_server.sim.mesh_geometry import UNBOUNDED
+
+    from pyrep.pyrep import _InProcessContext
+
+    sim = service.sim
+    assert query_work(service.remote).limit == mesh_geometry.MAX_QUERY_SECONDS
+    assert query_work(_InProcessContext(None, -1, sim.signals, "pyrep", caller=Callers.CLIENTS,
+                                        live=lambda: sim)) is UNBOUNDED
+    assert query_work(CallContext(sim.world, -1, sim.signals, "script", view=sim)) is UNBOUNDED

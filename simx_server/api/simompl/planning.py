@@ -9,6 +9,7 @@ from typing import Any, Callable
 import numpy as np
 
 from simx_server.api import long_calls
+from simx_server.api.mesh_waits import door_client
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simompl_function
 from simx_server.api.simompl import tasks
@@ -41,7 +42,7 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
         placements = [ompl_spaces.Placement(ctx.world, s.kind, s.object, s.ref) for s in spaces]
     except ValueError as exc:
         raise ArgumentError(str(exc)) from None
-    if ctx.remote:  # what the tasks keep, this one's new copy of the scene's data with them
+    if door_client(ctx):  # what the tasks keep, this one's new copy of the scene's data with them
         data = ctx.world.data
         kept = mp.kept_bytes(ctx.world.model, task.checker) + int(data.nbuffer) + int(data.narena)
         if kept > tasks.MAX_KEPT_BYTES:
@@ -49,7 +50,7 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
                               f"more than {tasks.MAX_KEPT_BYTES:,} (tasks.MAX_KEPT_BYTES); destroy some tasks "
                               "(simOMPL.destroyTask)")
     task.checker = mp.ScratchCollisions(ctx.world, placements, list(zip(task.pairs[::2], task.pairs[1::2])),
-                                        bounded=ctx.remote)
+                                        bounded=door_client(ctx))
     callback = task.callback
     if callback is not None:
         def valid(q: np.ndarray) -> bool:
