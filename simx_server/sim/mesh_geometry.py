@@ -79,8 +79,10 @@ _COAL_KINDS = np.array(sorted(_COAL_TYPES))  # the same, for :func:`handled`
 #: bounding volumes; a near miss of two real surfaces tests some per triangle: milliseconds).
 PIECE_FACES = 4096
 #: CPU time (s) of its thread one client's query may take, checked before each call to coal
-#: (as a request's ``limits.MAX_REQUEST_SECONDS``): past it, the query stops with an error.
-MAX_QUERY_SECONDS = 0.5
+#: (half a request's ``limits.MAX_REQUEST_SECONDS``: three connections' queries at once hold the
+#: others about three times as long): past it, the query stops with an error. A real scene's
+#: query takes milliseconds.
+MAX_QUERY_SECONDS = 0.25
 #: Bytes of meshes' trees kept (coal's ``memUsage``; about 500 bytes a triangle).
 MAX_TREE_BYTES = 512 << 20
 
