@@ -17,13 +17,13 @@ import argparse
 import math
 import os
 import tempfile
-import threading
 import time
 from pathlib import Path
 
 import zmq
 
-from benchmarks.robustness_zmq import ROOT, Target, _short, call
+from benchmarks.robustness_zmq import ROOT, Target, call
+from benchmarks.victims import during, once
 
 #: A one-link arm that a post blocks (no path: planners search until their time is up), and a
 #: torus (a non-convex mesh) to decompose.
@@ -81,43 +81,8 @@ def _ik(sock: zmq.Socket, uuid: str) -> tuple[int, int, int]:
 def _attack(t: Target, ctx: zmq.Context, attackers: int, prepare, request) -> str:
     """``attackers`` connections (uuids a0, a1...) each send ``request(prepared)`` once, at once,
     while another client loops sim.getSimulationTime: its slowest call, the attackers' replies."""
-    socks = [t.socket(ctx, timeout_ms=240_000) for _ in range(attackers)]
-    prepared = [prepare(s, f"a{k}") for k, s in enumerate(socks)]
-    stop, latencies, replies = threading.Event(), [], []
-
-    def victim() -> None:
-        sock = t.socket(ctx, timeout_ms=240_000)
-        while not stop.is_set():
-            start = time.perf_counter()
-            try:
-                call(sock, "sim.getSimulationTime", uuid="victim")
-            except zmq.Again:
-                latencies.append(math.inf)
-                break
-            latencies.append(time.perf_counter() - start)
-            time.sleep(0.02)
-        sock.close(0)
-
-    def attacker(k: int) -> None:
-        func, *args = request(prepared[k])
-        try:
-            replies.append(_short(call(socks[k], func, *args, uuid=f"a{k}")))
-        except zmq.Again:
-            replies.append("no reply in 240 s")
-
-    v = threading.Thread(target=victim, daemon=True)
-    v.start()
-    time.sleep(0.5)
-    threads = [threading.Thread(target=attacker, args=(k,), daemon=True) for k in range(attackers)]
-    for th in threads:
-        th.start()
-    for th in threads:
-        th.join(300)
-    stop.set()
-    v.join(300)
-    for s in socks:
-        s.close(0)
-    return f"other client's slowest call {max(latencies):.2f} s ({len(latencies)} calls) | {replies[0]}"
+    other, reply = during(t, ctx, attackers, once(prepare, request))
+    return f"other client's slowest call {other} | {reply}"
 
 
 def main(argv: list[str] | None = None) -> None:

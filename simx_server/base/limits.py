@@ -237,6 +237,10 @@ RESERVED_CLIENT_FILES_BYTES = MAX_FILE_HOLDERS * MIN_CLIENT_FILES_BYTES
 MAX_REQUEST_SECONDS = 0.5
 #: Wall time one request may take (s), waits included (renders a script waits for): the same.
 MAX_REQUEST_WALL_SECONDS = 2.0
+#: Simulation-thread time (CPU, s) every client's streamed commands together may take after one
+#: step: the streams not run by then skip that step, the clients taken in turn from one step to
+#: the next (one streamed simxCheckCollision of two 200,000-triangle meshes held it 32.9 s).
+MAX_STREAMS_STEP_SECONDS = 0.5
 #: Share of the simulation thread a client's scene loads and edits (commands.NOT_STREAMABLE)
 #: may take on average: each costs its own duration, the debt falls by this many s per s, and
 #: while a client's debt exceeds EDIT_DEBT_SECONDS its loads and edits answer "busy".

@@ -1,6 +1,9 @@
 """Collision and distance commands: ``simxCheckCollision``, ``simxCheckDistance``, and the
 collision / distance objects a scene declares (``simxGetCollisionHandle``, ``simxReadCollision``,
-...). Every handler is ``(simulation, args) -> result``; the geometry is :mod:`simx_server.sim.collisions`."""
+...). Every handler is ``(simulation, args) -> result``; the geometry is :mod:`simx_server.sim.collisions`.
+Every query is a client's: bounded (``mesh_geometry.MAX_QUERY_SECONDS``), and a mesh's tree not
+built yet is built off the simulation thread while the door waits
+(:class:`~simx_server.sim.mesh_geometry.TreesPending`)."""
 
 from __future__ import annotations
 
@@ -11,6 +14,7 @@ from simx_wire.protocol import ArgumentError
 from simx_server.base.arguments import check_args as _args
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.collisions import collision, distance, probe_entities, probe_named
+from simx_server.sim.mesh_geometry import Work
 
 
 def _entity_args(sim: Simulation, args: list) -> tuple[int, int]:
@@ -31,7 +35,7 @@ def check_collision(sim: Simulation, args: list) -> bool:
     poses: unlike ``data.contact`` this sees pairs that MuJoCo's contype/conaffinity, weld and
     exclude filters skip, such as two static bodies.
     """
-    return collision(sim, *_entity_args(sim, args))
+    return collision(sim, *_entity_args(sim, args), work=Work.client())
 
 
 def check_distance(sim: Simulation, args: list) -> float:
@@ -39,7 +43,7 @@ def check_distance(sim: Simulation, args: list) -> float:
     geoms of two shapes (entity2 may be -2: every measurable shape, as in simxCheckCollision), by
     ``mj_geomDistance``; 0 when they touch or overlap (V-REP reports no penetration depth), at
     most DISTANCE_MAX."""
-    return distance(sim, *_entity_args(sim, args))
+    return distance(sim, *_entity_args(sim, args), work=Work.client())
 
 
 def _probe_handle(sim: Simulation, args: list, kind: str) -> int:
@@ -63,7 +67,7 @@ def read_collision(sim: Simulation, args: list) -> bool:
     """``simxReadCollision`` [h] -> bool: the collision object's state now (see
     simxCheckCollision; computed on demand from the current poses). Only collidable shapes take
     part, as in V-REP's collision objects (``CCollisionObject_old::handleCollision``)."""
-    return collision(sim, *_probe_entities(sim, args, "collision"), override=False)
+    return collision(sim, *_probe_entities(sim, args, "collision"), override=False, work=Work.client())
 
 
 def get_distance_handle(sim: Simulation, args: list) -> int:
@@ -75,7 +79,7 @@ def get_distance_handle(sim: Simulation, args: list) -> int:
 def read_distance(sim: Simulation, args: list) -> float:
     """``simxReadDistance`` [h] -> float: the distance object's smallest distance now (m; see
     simxCheckDistance). Only measurable shapes take part, as in V-REP's distance objects."""
-    return distance(sim, *_probe_entities(sim, args, "distance"), override=False)
+    return distance(sim, *_probe_entities(sim, args, "distance"), override=False, work=Work.client())
 
 
 #: Command name -> handler, merged into simx_server.commands.HANDLERS.

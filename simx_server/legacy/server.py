@@ -31,6 +31,7 @@ import zenoh
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.base.arguments import quote
+from simx_server.api.mesh_waits import answered
 from simx_server.commands import HANDLERS, NOT_STREAMABLE
 from simx_server.scene.simulation import Simulation
 from simx_server.sim.vision import Deferred
@@ -350,14 +351,16 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
     def _run(self, client: str, commands: list) -> list:
         """Each command's ``[ok, value]``; commands past the reply budget (limits.MAX_REPLY_BYTES)
         or the request's time budget (limits.MAX_REQUEST_SECONDS), and scene loads and edits past
-        the client's share (limits.EDIT_SHARE), get an error result instead of their value.
+        the client's share (limits.EDIT_SHARE), get an error result instead of their value. Any
+        other command that reached the scene's editor (``Editor.edits``: a script function that
+        edits) is charged to that share as an edit too.
 
         The commands run in order, as V-REP's server ran a message's (simExtRemoteApi
         ``CSimxSocket::_executeCommands``): a command after a ``simxTransferFile`` of the same
         message (written off this thread) runs once that file is written, so that a
         ``simxLoadScene`` sent with it finds it (the wait is for this client's own writes, at most
         limits.MAX_UNWRITTEN_BYTES)."""
-        execute, budget = self._execute, limits.MAX_REPLY_BYTES
+        execute, budget, editor = self._execute, limits.MAX_REPLY_BYTES, self.sim.editor
         results = []
         writing = False  # a transfer of this message is being written
         # The thread's own time (CPU): on a loaded machine a descheduled thread is not busy, and
@@ -385,7 +388,11 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
                     writing = name == "TransferFile"
                 results.append(result)
                 continue
+            edits, began = editor.edits, time.monotonic()
             result = execute(client, name, mode, args)
+            if editor.edits != edits:  # it reached the editor (a script's function that edits...): an edit
+                done = time.monotonic()
+                self._join(client).share.add(done - began, done)
             value = result[1]
             t = type(value)
             if t is Deferred:
@@ -458,7 +465,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             elif streams and name not in P.DO_NOT_OVERWRITE:
                 streams.pop(P.identity(name, args), None)  # a new non-streamed call replaces the stream
             with self.sim.editor.files.acting(f"legacy:{client}"):  # its file calls use its own folder
-                return [True, handler(self.sim, args)]
+                return [True, answered(self.sim, lambda: handler(self.sim, args))]  # a mesh's tree built meanwhile
         except P.RemoteError as exc:
             label = name if name in P.COMMANDS else quote(name)
             message = _cut(f"simx{label}: {exc}")

@@ -18,6 +18,7 @@ import zenoh
 from simx_wire import protocol as P
 from simx_server.base import limits
 from simx_server.commands import HANDLERS
+from simx_server.sim.mesh_geometry import TreesPending
 from simx_server.sim.state import RunState
 from simx_server.sim.vision import Deferred
 from simx_server.legacy.replies import IMAGES, SMALL, image_pixels, image_size, pack_large, reply_size
@@ -95,7 +96,11 @@ class StreamPublisher:
         # (_RENDER_HANDOFF) so that the frame renders meanwhile (MuJoCo's rendering runs without
         # the interpreter).
         handed_off = False
-        for client, streams in self._streams.items():
+        # every client's streams within limits.MAX_STREAMS_STEP_SECONDS of this thread's time a
+        # step; the clients taken in turn (each step starts with the next), the rest skip the step
+        began, clients = time.thread_time(), list(self._streams.items())
+        turn = self._stream_turn = (getattr(self, "_stream_turn", -1) + 1) % max(1, len(clients))
+        for client, streams in clients[turn:] + clients[:turn]:
             if not streams:
                 continue
             session = self.sessions.get(client)
@@ -113,6 +118,8 @@ class StreamPublisher:
             for ident, s in streams.items():
                 if s.delay and now - s.last < s.delay:
                     continue
+                if time.thread_time() - began > limits.MAX_STREAMS_STEP_SECONDS:
+                    break  # this step's time for streams is spent: the rest skip it
                 name = s.name
                 if name in IMAGES:
                     if not images or (big and image_pixels(sim, s.args) >= big):
@@ -139,6 +146,8 @@ class StreamPublisher:
                             raise P.RemoteError(f"not sent: the update would exceed {limits.MAX_REPLY_BYTES} "
                                                 "bytes (limits.MAX_REPLY_BYTES)")
                     entries.append([name, list(ident[1:]), True, value])
+                except TreesPending:  # a mesh's tree is being built off this thread: the next steps have it
+                    continue
                 except P.RemoteError as exc:
                     entries.append([name, list(ident[1:]), False, str(exc)[:limits.MAX_ERROR_CHARS]])
                 except Exception as exc:

@@ -34,7 +34,6 @@ import shutil
 import threading
 import weakref
 from collections.abc import Iterator
-from concurrent.futures import Future
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
 
@@ -43,6 +42,7 @@ from simx_server.base import limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
 from simx_server.scene.file_writer import FileWriter
+from simx_server.scene.later_writes import LaterWrites
 from simx_server.scene.ttt import cache as ttt_cache
 
 log = logging.getLogger("simx.editing")
@@ -64,7 +64,7 @@ def _bounded(name: str) -> PurePosixPath:
     return pure
 
 
-class ClientFiles:
+class ClientFiles(LaterWrites):
     """The transfer folder of one server process, its clients' folders, and the trusted folders.
 
     Args:
@@ -324,73 +324,6 @@ class ClientFiles:
                 if pending is not None:
                     pending[0] -= reserved[0]
                     pending[1] -= reserved[1]
-
-    def transfer_file(self, name: str, data: Any, later: bool = False) -> Future | None:
-        """``simxTransferFile``: store ``data`` as ``name`` in the calling client's folder.
-
-        ``later``: the file is counted against the budgets now and written by a thread of its own
-        (:class:`~simx_server.scene.file_writer.FileWriter`: one write at a time, the clients in
-        turn), off the simulation thread (sixteen 32 MiB writes on it
-        pushed other clients' p99 from 5 ms to 1.7 s); returns the write's Future (its result
-        None, or the RemoteError). The client's file calls meanwhile are busy (:meth:`settle`).
-
-        Raises:
-            ArgumentError: a name outside the folder or reserved, data not bytes or larger than
-                ``MAX_TRANSFER_FILE_BYTES``.
-            RemoteError: past a budget of :meth:`_reserve`; the file cannot be written.
-        """
-        if not isinstance(data, (bytes, bytearray, memoryview)):
-            raise ArgumentError(f"file data must be bytes, got {type(data).__name__}")
-        path = self.transfer_path(name)
-        size = len(data)
-        if size > limits.MAX_TRANSFER_FILE_BYTES:
-            raise ArgumentError(f"file {quote(name)} refused: {size:,} bytes, more than "
-                                f"MAX_TRANSFER_FILE_BYTES = {limits.MAX_TRANSFER_FILE_BYTES:,}")
-        key = self.caller or ""
-        if later:
-            self._unwritten_room(key, size, name)
-        reserved = self._reserve(path, size, key, name)
-        data = data if type(data) is bytes else bytes(data)
-
-        def write() -> None:
-            try:
-                self._write(path, data, key, name, reserved)
-            finally:
-                if later:
-                    with self._lock:
-                        self._unwritten[key] -= size
-            log.info("received file %s (%d bytes)", quote(name), size)
-
-        if not later:
-            write()
-            return None
-        with self._lock:  # the write cannot end (it takes this lock) before it is listed
-            self._unwritten[key] = self._unwritten.get(key, 0) + size
-            future = self._writer.submit(key, write)
-            writes = self._pending[key][2]
-            writes.append(future)
-
-        def done(_: Future) -> None:
-            with self._lock:
-                writes.remove(future)
-
-        future.add_done_callback(done)
-        return future
-
-    def _unwritten_room(self, key: str, size: int, name: str) -> None:
-        """Raises RemoteError (``server busy``) when ``size`` more bytes for the files' thread
-        would pass ``MAX_UNWRITTEN_BYTES`` of this client or ``MAX_UNWRITTEN_BYTES_TOTAL``; a
-        file of at most ``MIN_CLIENT_FILES_BYTES`` of a client with none being written passes."""
-        with self._lock:
-            mine, total = self._unwritten.get(key, 0), sum(self._unwritten.values())
-        if not mine and size <= limits.MIN_CLIENT_FILES_BYTES:
-            return  # a small file of a client with none being written: never kept out by the others'
-        if mine + size > limits.MAX_UNWRITTEN_BYTES:
-            raise RemoteError(f"{BUSY}: file {quote(name)}: {mine:,} bytes of this client's files are being written "
-                              f"(limits.MAX_UNWRITTEN_BYTES = {limits.MAX_UNWRITTEN_BYTES:,}); send it again")
-        if total + size > limits.MAX_UNWRITTEN_BYTES_TOTAL:
-            raise RemoteError(f"{BUSY}: file {quote(name)}: {total:,} bytes of files are being written "
-                              f"(limits.MAX_UNWRITTEN_BYTES_TOTAL = {limits.MAX_UNWRITTEN_BYTES_TOTAL:,}); send it again")
 
     def erase_file(self, name: str) -> None:
         """``simxEraseFile``: delete a file of the calling client's folder."""

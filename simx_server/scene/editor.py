@@ -120,6 +120,9 @@ class Editor(ObjectEdits):
         self._placed: set[tuple[str, str]] = set()
         self._renamed: dict[str, str] = {}
         self._asset_counter = [0]  # numbers in-memory asset names
+        #: Calls that reached the editor (an edit, a scene load or close), counted as they come:
+        #: a door charges a call that moved it as a scene edit (``EDIT_SHARE``), whatever its name.
+        self.edits = 0
         self._parse_now()
 
     def _parse_now(self) -> None:
@@ -208,6 +211,16 @@ class Editor(ObjectEdits):
         """
         return scene_file.scene_files(self.sim, stem)
 
+    def prepare_save(self, stem: str) -> tuple[dict[str, bytes], Callable[[], str]]:
+        """:meth:`scene_files` with the MJCF text left to make, by any thread
+        (:func:`scene_file.prepare`): ``(files, text)``."""
+        return scene_file.prepare(self.sim, stem)
+
+    def prepare_model_save(self, body: str, stem: str) -> tuple[dict[str, bytes], Callable[[], str]]:
+        """The files of the model of shape ``body`` (``sim.saveModel``), its text left to make
+        (:func:`scene_file.prepare_model`): ``(files, text)``."""
+        return scene_file.prepare_model(self.sim, body, stem)
+
     def _runtime_placements(self) -> list[tuple]:
         """Objects that commands placed in the live model (``World.set_pose`` changes
         ``body_pos``, ``site_pos``... until the simulation stops): ``(kind, name, parent, pos, rot)``."""
@@ -264,6 +277,7 @@ class Editor(ObjectEdits):
         ``MAX_SCENE_*`` first, and the edited model's cost (``World.replace_model``); the
         operator's own edits (in process, its scripts) are not bounded.
         """
+        self.edits += 1
         world = self.sim.world
         with _quiet_mujoco():
             live = self._live_spec()
@@ -326,6 +340,7 @@ class Editor(ObjectEdits):
         (:meth:`_swap_scene`) and the load completes (:mod:`simx_server.scene.conversions`):
         returns its Deferred (None when loaded at once)."""
 
+        self.edits += 1
         self._check_stopped()
         if defer:
             label, dt, now = quote(path), self._load_dt(), self.sim.world.requested_dt
@@ -364,6 +379,7 @@ class Editor(ObjectEdits):
 
     def close_scene(self) -> None:
         """``simxCloseScene``: stop the simulation and replace the scene with an empty one."""
+        self.edits += 1
         self.sim.stop()
         empty = self.files_dir / ".simx" / "empty.xml"
         empty.parent.mkdir(exist_ok=True)

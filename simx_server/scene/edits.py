@@ -73,6 +73,8 @@ class PreparedModel(NamedTuple):
 class ObjectEdits:
     """The object commands of the :class:`~simx_server.scene.editor.Editor` (which provides ``sim``, ``files``, ``_edit``, ``_taken``, ``_spec_element``, ``resolve``, ``_client_spec``)."""
 
+    edits: int  #: the editor's count of the calls that reached it
+
     # --------------------------------------------------------------- commands
     def load_model(self, path: str, options: int, defer: bool = False) -> int | Deferred:
         """``simxLoadModel``: attach an MJCF model's world children; returns its base handle.
@@ -82,6 +84,7 @@ class ObjectEdits:
         wait in MuJoCo's cache under the names the scene's compile looks up), and the load
         completes later (:mod:`simx_server.scene.conversions`): returns the Deferred of the
         handle."""
+        self.edits += 1
         model = self.sim.world.model
         # the scene's meshes now, read here (its thread), to bound a client's load: one a client
         # asks for or of a client's file; the operator's own loads are not bounded

@@ -28,15 +28,22 @@ import base64
 import contextlib
 import json
 import re
+import warnings
+from typing import Callable
 
 import mujoco
 import numpy as np
 
-from simx_wire.protocol import UnsupportedError
+from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.scene import kept_state
 from simx_server.sim import kept_objects
 from simx_server.sim.objects import parse_settings, without_scripts
 from simx_server.sim.spec_tools import _compose, _inverse, _one_line, _quiet_mujoco, _set_local_pose, copy_attributes
+
+# MjSpec.to_xml warns of every model attached with an empty prefix (simx attaches so: names kept),
+# which the files here put right (see above); on the files' thread no catch_warnings (not
+# thread-safe) can drop it, so it is dropped for good.
+warnings.filterwarnings("ignore", message=".*empty prefix.*")
 
 #: Settings that name a file of the scene's folder, written afresh for the saved scene.
 _FILE_SETTINGS = ("custom_data", "path_data")
@@ -65,6 +72,24 @@ def scene_files(sim, stem: str) -> tuple[str, dict[str, bytes]]:
     Raises:
         UnsupportedError: MuJoCo cannot write the scene, or a script's file can no longer be read.
     """
+    files, text = prepare(sim, stem)
+    with _quiet_mujoco():
+        return text(), files
+
+
+def prepare(sim, stem: str) -> tuple[dict[str, bytes], Callable[[], str]]:
+    """:func:`scene_files` in two parts: what reads the scene, now (a copy of its spec placed as
+    the scene is, the files it names), and its MJCF text, a function that reads only that copy:
+    any thread may call it (``MjSpec.to_xml`` compiles the copy; the files' thread does for a
+    client, ``sim.saveScene``).
+
+    Returns:
+        ``(files, text)``: file name -> bytes, and the function that makes the MJCF text.
+
+    Raises:
+        UnsupportedError: a script's file can no longer be read; ``text()``: MuJoCo cannot
+            write the scene.
+    """
     world = sim.world
     prefix = _safe(stem) + "_"
     with _quiet_mujoco():
@@ -76,16 +101,54 @@ def scene_files(sim, stem: str) -> tuple[str, dict[str, bytes]]:
         _assets(spec, live, prefix, files)
         _settings(sim, spec, prefix, files)
         _flatten_defaults(spec)
+    return files, lambda: mjcf_text(spec)
+
+
+def prepare_model(sim, body: str, stem: str) -> tuple[dict[str, bytes], Callable[[], str]]:
+    """A model's files (``sim.saveModel``), as :func:`prepare`'s: the body subtree of shape
+    ``body`` in an MJCF of its own, and the files its meshes and textures hold in memory
+    (``<stem>_<asset>``, as a saved scene's), its text made by ``text()`` on any thread.
+
+    Raises:
+        ArgumentError: no such body in the scene's spec.
+        UnsupportedError: MuJoCo cannot make the model; ``text()``: MuJoCo cannot write it.
+    """
+    with _quiet_mujoco():
+        # a copy: attaching the live spec's body would tie the scene's spec to the model's
+        # (every later saveScene and edit then failed: "attached by reference to a parent spec")
+        live = sim.editor._live_spec()
+        spec = live.copy()
+        found = spec.body(body)
+        if found is None:
+            raise ArgumentError(f"{body!r} is not a shape (a body) to save as a model")
+        model = mujoco.MjSpec()
+        model.assets = dict(spec.assets or {})
         try:
-            text = spec.to_xml()
+            model.worldbody.add_frame().attach_body(found, "", "")
         except ValueError as exc:
-            raise UnsupportedError(f"MuJoCo cannot write this scene as MJCF: {_one_line(exc)}") from None
+            raise UnsupportedError(f"MuJoCo cannot write this model as MJCF: {_one_line(exc)}") from None
+        files: dict[str, bytes] = {}
+        _assets(model, live, _safe(stem) + "_", files)
+    return files, lambda: mjcf_text(model)
+
+
+def mjcf_text(spec: mujoco.MjSpec) -> str:
+    """``spec``'s MJCF (``MjSpec.to_xml``) with what MuJoCo's writer loses put back (the default
+    classes' names, ``balanceinertia``: see the module's text).
+
+    Raises:
+        UnsupportedError: MuJoCo cannot write it.
+    """
+    try:  # MuJoCo's warnings go to the process's handler (simx's log): set by one thread only
+        text = spec.to_xml()
+    except ValueError as exc:
+        raise UnsupportedError(f"MuJoCo cannot write this scene as MJCF: {_one_line(exc)}") from None
     text = _name_defaults(text)
     if "balanceinertia" not in text:
         text = re.sub(r"<compiler\b", '<compiler balanceinertia="true"', text, count=1)
         if "balanceinertia" not in text:
             text = re.sub(r"(<mujoco\b[^>]*>)", r'\1\n  <compiler balanceinertia="true"/>', text, count=1)
-    return text, files
+    return text
 
 
 # ------------------------------------------------------------------------------------ poses

@@ -36,6 +36,7 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError, UnsupportedError
 from simx_server.sim import mesh_geometry, properties, scene_collections
+from simx_server.sim.mesh_geometry import UNBOUNDED, Work
 from simx_server.sim.objects import text_at
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import _TYPE_NAMES, SHAPE, World, parse_settings
@@ -144,13 +145,14 @@ def _lower_bounds(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjDat
 
 
 def _geom_distance(world: World, g1: int, g2: int, distmax: float, data: mujoco.MjData | None = None,
-                   fromto: np.ndarray | None = None) -> float:
+                   fromto: np.ndarray | None = None, work: Work = UNBOUNDED) -> float:
     """Distance (m, negative when they overlap) between two geoms at the poses of ``data``
     (default: the world's): on the triangles with coal when one is a mesh
-    (:mod:`simx_server.sim.mesh_geometry`), else ``mj_geomDistance`` (``distmax`` caps it)."""
+    (:mod:`simx_server.sim.mesh_geometry`: what lies beyond ``distmax`` is not measured), else
+    ``mj_geomDistance`` (``distmax`` caps it)."""
     m, d = world.model, world.data if data is None else data
     if mesh_geometry.handles(m, g1, g2):
-        return mesh_geometry.distance(m, d, int(g1), int(g2), fromto)
+        return mesh_geometry.distance(m, d, int(g1), int(g2), fromto, work, distmax)
     try:
         return float(mujoco.mj_geomDistance(m, d, int(g1), int(g2), distmax, fromto))
     except Exception as exc:  # mju_error for a geom pair MuJoCo has no distance function for
@@ -159,7 +161,7 @@ def _geom_distance(world: World, g1: int, g2: int, distmax: float, data: mujoco.
                                f"{names[1]} geom: {exc}") from None
 
 
-def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> bool:
+def collision(sim: SimulationView, e1: int, e2: int, override: bool = True, work: Work = UNBOUNDED) -> bool:
     """Whether shape ``e1`` touches or overlaps shape ``e2`` (or anything else, ``e2`` = -2).
 
     Implements ``simxReadCollision`` (V-REP's ``simCheckCollision``): geom pairs whose bounding
@@ -175,6 +177,7 @@ def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> b
             one another (coppeliaSimLib 4.1 ``CCollisionRoutine::doEntitiesCollide``).
         override: test the shapes named explicitly whatever their collidable flag (V-REP's
             ``simCheckCollision``); False for a declared collision object.
+        work: the query's bound (:class:`~simx_server.sim.mesh_geometry.Work`; default none).
 
     Returns:
         True when some geom pair is within COLLISION_TOLERANCE (m) of touching.
@@ -183,9 +186,11 @@ def collision(sim: SimulationView, e1: int, e2: int, override: bool = True) -> b
         UnknownObjectError: no such object.
         ObjectTypeError: not a shape or collection, or a shape without geoms.
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
+        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_SECONDS``).
+        TreesPending: a mesh's tree is being built (a client's query, ``work.defer``).
     """
     world = sim.world
-    return pairs_collide(world, *_pairs(world, e1, e2, properties.COLLIDABLE, override))
+    return pairs_collide(world, *_pairs(world, e1, e2, properties.COLLIDABLE, override), work=work)
 
 
 def collision_pairs(world: World, e1: int, e2: int) -> tuple[np.ndarray, np.ndarray]:
@@ -206,7 +211,8 @@ def collision_pairs(world: World, e1: int, e2: int) -> tuple[np.ndarray, np.ndar
     return _pairs(world, e1, e2, properties.COLLIDABLE, True)
 
 
-def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjData | None = None) -> bool:
+def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjData | None = None,
+                  work: Work = UNBOUNDED) -> bool:
     """Whether some geom pair touches or overlaps.
 
     Args:
@@ -215,9 +221,14 @@ def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjDat
         b: (k,) geom ids, ``b[i]`` paired with ``a[i]``.
         data: whose poses (default: the world's; a scratch MjData after ``mj_kinematics`` tests
             a configuration without touching the simulation).
+        work: the query's bound (:class:`~simx_server.sim.mesh_geometry.Work`; default none).
 
     Returns:
         True when some pair is within COLLISION_TOLERANCE (m) of touching.
+
+    Raises:
+        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_SECONDS``).
+        TreesPending: a mesh's tree is being built (``work.defer``).
     """
     lb = _lower_bounds(world, a, b, data)
     close = np.flatnonzero(lb <= COLLISION_TOLERANCE)
@@ -229,7 +240,7 @@ def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjDat
     # fifty pairs of a few geoms); two primitives: within COLLISION_TOLERANCE (_geom_distance)
     m = world.model
     ga, gb = a[close], b[close]
-    touching = mesh_geometry.Touching(m, world.data if data is None else data, 0.0)
+    touching = mesh_geometry.Touching(m, world.data if data is None else data, 0.0, work)
     for g1, g2, by_coal in zip(ga.tolist(), gb.tolist(), mesh_geometry.handled(m, ga, gb).tolist()):
         if by_coal:
             if touching(g1, g2):
@@ -239,7 +250,7 @@ def pairs_collide(world: World, a: np.ndarray, b: np.ndarray, data: mujoco.MjDat
     return False
 
 
-def distance(sim: SimulationView, e1: int, e2: int, override: bool = True) -> float:
+def distance(sim: SimulationView, e1: int, e2: int, override: bool = True, work: Work = UNBOUNDED) -> float:
     """Smallest distance (m, >= 0, at most DISTANCE_MAX) between shape ``e1`` and ``e2``.
 
     Implements ``simxReadDistance`` (V-REP's ``simCheckDistance``): the geom pairs' distances
@@ -252,6 +263,7 @@ def distance(sim: SimulationView, e1: int, e2: int, override: bool = True) -> fl
         e2: handle of another shape or collection, or ``sim_handle_all`` (-2).
         override: measure the shapes named explicitly whatever their measurable flag (V-REP's
             ``simCheckDistance``); False for a declared distance object.
+        work: the query's bound (:class:`~simx_server.sim.mesh_geometry.Work`; default none).
 
     Returns:
         The distance in m (0 when they touch or overlap).
@@ -259,23 +271,26 @@ def distance(sim: SimulationView, e1: int, e2: int, override: bool = True) -> fl
     Raises:
         UnknownObjectError: no such object.
         ObjectTypeError: not a shape or collection, or a shape without geoms.
-        ArgumentError: no measurable shape to measure to (``e1`` and ``e2`` the same shape too).
+        ArgumentError: no measurable shape to measure to (``e1`` and ``e2`` the same shape
+            too); past the work's bound (``mesh_geometry.MAX_QUERY_SECONDS``).
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
+        TreesPending: a mesh's tree is being built (``work.defer``).
     """
     a, b = _pairs(sim.world, e1, e2, properties.MEASURABLE, override)
     if a.size == 0:
         raise ArgumentError("there is no measurable shape to measure the distance to (V-REP's measurable "
                             "flag, sim.setObjectSpecialProperty)")
-    return closest(sim.world, a, b)[0]
+    return closest(sim.world, a, b, work)[0]
 
 
-def closest(world: World, a: np.ndarray, b: np.ndarray) -> tuple[float, int, np.ndarray]:
+def closest(world: World, a: np.ndarray, b: np.ndarray, work: Work = UNBOUNDED) -> tuple[float, int, np.ndarray]:
     """The nearest of the geom pairs at the world's poses (``sim.checkDistance``'s search).
 
     Args:
         world: the scene.
         a: (k,) geom ids, k >= 1.
         b: (k,) geom ids, ``b[i]`` paired with ``a[i]``.
+        work: the query's bound (:class:`~simx_server.sim.mesh_geometry.Work`; default none).
 
     Returns:
         ``(distance, i, fromto)``: the distance (m, >= 0, at most DISTANCE_MAX), the index of
@@ -284,13 +299,15 @@ def closest(world: World, a: np.ndarray, b: np.ndarray) -> tuple[float, int, np.
 
     Raises:
         UnsupportedError: MuJoCo has no distance function for a pair of geom types.
+        ArgumentError: past the work's bound (``mesh_geometry.MAX_QUERY_SECONDS``).
+        TreesPending: a mesh's tree is being built (``work.defer``).
     """
     lb = _lower_bounds(world, a, b)
     best, nearest, fromto, scratch = DISTANCE_MAX, 0, np.zeros(6), np.zeros(6)
     for i in np.argsort(lb, kind="stable"):
         if lb[i] >= best:
             break
-        d = _geom_distance(world, a[i], b[i], best, fromto=scratch)
+        d = _geom_distance(world, a[i], b[i], best, fromto=scratch, work=work)
         if d < best:
             best, nearest, fromto = d, int(i), scratch.copy()
     return max(0.0, best), nearest, fromto

@@ -20,12 +20,14 @@ CoppeliaSim's collision check instead.
 
 from __future__ import annotations
 
+import weakref
 from typing import Any, Callable
 
 import mujoco
 import numpy as np
 
 from simx_server.sim import collisions, grasps, ompl_spaces
+from simx_server.sim.mesh_geometry import UNBOUNDED, Work
 from simx_server.sim.ompl_spaces import JOINT_TYPES, Placement, Space
 from simx_server.sim.world import World
 from simx_wire.protocol import MAX_REQUEST_ITEMS
@@ -92,13 +94,18 @@ class ScratchCollisions:
             a joint's ``qpos``, a free body's pose), in the state's order.
         pairs: the entities to test, ``[(entity1, entity2), ...]`` (shapes, collections,
             ``sim_handle_all`` as entity2), as ``sim.checkCollision`` takes them.
+        bounded: a door's client's task: each check is a client's query, bounded
+            (``mesh_geometry.MAX_QUERY_SECONDS``); while :attr:`defer` (a check on the simulation
+            thread) a mesh's tree is not built there (``TreesPending``), on a planner's thread it is.
 
     Raises:
         UnknownObjectError, ObjectTypeError, ArgumentError: an entity as ``sim.checkCollision``.
     """
 
-    def __init__(self, world: World, placements: list[Placement], pairs: list[tuple[int, int]]):
+    def __init__(self, world: World, placements: list[Placement], pairs: list[tuple[int, int]],
+                 bounded: bool = False):
         self.world = world
+        self.bounded, self.defer = bounded, True
         self.model = world.model
         self._model_only = _ModelOnly(self.model)  # what the checks read of the scene: its model then
         self.data = mujoco.MjData(world.model)
@@ -113,6 +120,7 @@ class ScratchCollisions:
         found = [collisions.collision_pairs(world, e1, e2) for e1, e2 in pairs]
         self.a = np.concatenate([a for a, _ in found]) if found else np.zeros(0, dtype=int)
         self.b = np.concatenate([b for _, b in found]) if found else np.zeros(0, dtype=int)
+        _CHECKERS.add(self)
 
     def refresh(self) -> None:
         """Copies the world's state again (the scene may have moved since), the poses that
@@ -140,7 +148,34 @@ class ScratchCollisions:
         mujoco.mj_kinematics(self.model, self.data)
         # the model of setup, not world.model: a check may run off the simulation thread while
         # an edit recompiles the scene (its new model would not fit this MjData)
-        return collisions.pairs_collide(self._model_only, self.a, self.b, self.data)
+        work = Work.client(self.defer) if self.bounded else UNBOUNDED
+        return collisions.pairs_collide(self._model_only, self.a, self.b, self.data, work)
+
+
+_CHECKERS: weakref.WeakSet[ScratchCollisions] = weakref.WeakSet()  # every one alive (kept by a task)
+
+
+def kept_bytes(live: mujoco.MjModel, besides: ScratchCollisions | None = None) -> int:
+    """Bytes the collision checks alive keep beyond the scene (the planning tasks' copies):
+    each one's scratch ``MjData`` (its buffer and arena), and each model other than ``live``
+    once (a task set up before an edit keeps the scene's model of then). The meshes' trees are
+    :data:`~simx_server.sim.mesh_geometry.TREES`' (bounded there).
+
+    Args:
+        live: the scene's model now.
+        besides: a check not to count (one about to be replaced).
+
+    Returns:
+        Bytes.
+    """
+    total, models = 0, {}
+    for checker in list(_CHECKERS):
+        if checker is besides:
+            continue
+        total += int(checker.data.nbuffer) + int(checker.data.narena)
+        if checker.model is not live:
+            models[id(checker.model)] = int(checker.model.nbuffer)
+    return total + sum(models.values())
 
 
 class _ModelOnly:

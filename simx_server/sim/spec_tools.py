@@ -8,7 +8,9 @@ These work on a ``mujoco.MjSpec`` (or a compiled model) alone, never on the live
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import logging
+import struct
 import warnings
 from pathlib import Path
 
@@ -368,6 +370,30 @@ def solid_mesh(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.
         return v, f
     normal = vt[-1] if len(vt) > 2 else np.cross(vt[0], vt[1])
     return np.vstack([v, v - FLAT_MESH_BACK * normal]), np.vstack([f, f[:, ::-1] + len(v)])
+
+
+def set_mesh_data(spec: mujoco.MjSpec, mesh: mujoco.MjsMesh, vertices: np.ndarray, faces: np.ndarray) -> None:
+    """Give ``mesh`` these vertices and triangles as an in-memory MuJoCo binary mesh file
+    (``.msh``: four int32 counts, float32 vertices, int32 faces; ``spec.assets``, named after its
+    content), not as ``uservert``/``userface``: MuJoCo's mesh cache keeps a processed file mesh,
+    so each later compile of the scene (every edit) finds it there (a 200,000-triangle mesh: 0.1
+    s instead of 1.9 s of each compile), and ``MjSpec.to_xml`` (``sim.saveScene``) writes a file
+    name instead of formatting the numbers with the interpreter held. The compiled mesh is the
+    same: ``uservert`` is float32 too.
+
+    Args:
+        spec: the spec that holds ``mesh``.
+        mesh: its mesh element.
+        vertices: (n, 3) m.
+        faces: (t, 3) vertex indices.
+    """
+    v = np.ascontiguousarray(vertices, dtype="<f4").reshape(-1, 3)
+    f = np.ascontiguousarray(faces, dtype="<i4").reshape(-1, 3)
+    data = struct.pack("<4i", len(v), 0, 0, len(f)) + v.tobytes() + f.tobytes()
+    key = f"simx-mesh-{hashlib.blake2b(data, digest_size=12).hexdigest()}.msh"
+    if key not in (spec.assets or {}):
+        spec.assets = {**(spec.assets or {}), key: data}
+    mesh.file = key
 
 
 def set_setting(spec: mujoco.MjSpec, name: str, key: str, value: str | None) -> None:

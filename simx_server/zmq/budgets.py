@@ -8,8 +8,9 @@
   ``sim.getVisionSensorImage`` of a 4096x4096 sensor (50 M values) holds the simulation thread
   for seconds and takes gigabytes, as does ``sim.unpackUInt8Table`` of a 60 MiB buffer.
 * **The simulation thread's share per connection** (:class:`Connection`, the loop's
-  :class:`~simx_server.loop.budgets.Share`): a connection's scene loads and edits cost their
-  duration, and any other call its time past ``limits.MAX_REQUEST_SECONDS`` (a request's budget
+  :class:`~simx_server.loop.budgets.Share`): a connection's calls that reached the scene's
+  editor (loads, edits, recompiles, whatever their names: the editor counts them,
+  ``Editor.edits``) cost their duration, and any other call its time past ``limits.MAX_REQUEST_SECONDS`` (a request's budget
   on the legacy door); the debt falls by ``limits.EDIT_SHARE`` s per s, and while it exceeds
   ``limits.EDIT_DEBT_SECONDS`` the connection's calls wait (deferred: other connections are served meanwhile). Counted per
   connection (its ROUTER routing id), not per uuid: a client may use a new uuid for every call.

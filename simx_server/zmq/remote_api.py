@@ -14,7 +14,7 @@ from simx_server.loop.front_door import FrontDoor, LoopAccess
 from simx_server.zmq.frontend import DEFAULT_PORT, Frontend
 from simx_server.zmq.gate import Gate
 from simx_server.zmq.codec import Request
-from simx_server.zmq.service import EDITS, ZmqService
+from simx_server.zmq.service import ZmqService
 
 log = logging.getLogger("simx.zmq")
 
@@ -79,7 +79,7 @@ class ZmqRemoteApi(FrontDoor):
     def __init__(self, server: LoopAccess, endpoints: list[str], curve: tuple[bytes, bytes, frozenset] | None = None):
         files = raise_open_files_limit()
         gate = Gate(curve, max(16, min(limits.MAX_ZMQ_CONNECTIONS, files // 2)))
-        self.frontend = Frontend(endpoints, server.deliver, gate, server.serve_or_deliver, _quick,
+        self.frontend = Frontend(endpoints, server.deliver, gate, server.serve_or_deliver, self._quick,
                                  counter_endpoints(endpoints))
         self.service = ZmqService(server, self.frontend)
 
@@ -112,7 +112,8 @@ class ZmqRemoteApi(FrontDoor):
     def close(self) -> None:
         self.frontend.close()
 
+    def _quick(self, request: Request) -> bool:
+        """Whether a request may be served on the socket thread: not a call seen loading or
+        editing the scene (:attr:`ZmqService.edit_calls`), which would hold that thread."""
+        return request.func not in self.service.edit_calls
 
-def _quick(request: Request) -> bool:
-    """Whether a request may be served on the socket thread: not a scene load or edit."""
-    return request.func.rpartition(".")[2] not in EDITS

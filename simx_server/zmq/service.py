@@ -49,6 +49,7 @@ from simx_server.zmq.budgets import RENDERS, Connection, reply_estimate
 from simx_server.zmq.clients import ZmqClient
 from simx_server.zmq.frontend import Frontend, Incoming
 from simx_server.api import SIM, SIMIK, SIMOMPL, SIMVISION, CallContext, Callers, client_context, names
+from simx_server.api.mesh_waits import answered
 from simx_server.api.sim.stepped import CallbackCall, Stepped
 from simx_server.zmq.renders import RenderedReplies, Rendering, values as _values
 
@@ -56,12 +57,6 @@ log = logging.getLogger("simx.zmq")
 
 #: ``sim.NAME`` answered by the service itself (a client's state, not the scene's).
 STEPPING = ("setStepping", "step", "yield", "switchThread", "acquireLock", "releaseLock")
-#: Calls that load or edit the scene (each recompiles it): they cost their whole duration against
-#: their connection's share of the simulation thread (zmq.budgets.Connection), other calls their
-#: time past limits.MAX_REQUEST_SECONDS. Past its share a connection's calls wait (its program
-#: is slowed, not failed: the official client does not retry).
-EDITS = frozenset({"loadScene", "loadModel", "removeObject", "removeObjects", "removeModel", "createDummy",
-                   "setObjectParent", "setObjectAlias", "setObjectName", "importShape"})
 _EMPTY = cbor2.dumps({})
 #: Requests that end a long call suspended in its callback (the client gave the callback up, or
 #: the callback asks for a step of its own); any other request is the callback's own, served as usual.
@@ -103,6 +98,7 @@ class ZmqService(RenderedReplies):
         }
         self._implemented = {lib: frozenset(fns) | frozenset(STEPPING if lib == "sim" else ()) for lib, fns in
                              self._libraries.items()}
+        self.edit_calls: set[str] = set()  # seen reaching the editor: never served in place (remote_api)
 
     @property
     def sim(self):
@@ -203,13 +199,17 @@ class ZmqService(RenderedReplies):
             self._step(client, [])
             self._executed(client, envelope)
             return
-        start = time.monotonic()
-        with self.sim.editor.files.acting(client.files_key):  # its file calls use its own folder
+        editor = self.sim.editor
+        start, edits = time.monotonic(), getattr(editor, "edits", 0)
+        with editor.files.acting(client.files_key):  # its file calls use its own folder
             payload = self._call(client, func, args)
         done = time.monotonic()
+        edited = getattr(editor, "edits", 0) != edits  # it reached the editor: an edit (zmq.budgets.Connection)
+        if edited:
+            self.edit_calls.add(func)
         connection = self.connections.get(client.connection)
         if connection is not None:
-            connection.charge_call(done - start, done, func.startswith("sim.") and func[4:] in EDITS)
+            connection.charge_call(done - start, done, edited)
         if type(payload) is Rendering:
             self._reply_rendered(client, envelope, func, payload)
         else:
@@ -287,7 +287,7 @@ class ZmqService(RenderedReplies):
     def _call_table(self, name: str, args: list, library: str = "sim") -> list | Stepped | Deferred:
         fn, signature, remote = self._libraries[library][name], self._signature(name, library), self.remote
         try:
-            result = fn(remote, *args)
+            result = answered(self.sim, lambda: fn(remote, *args))  # a mesh's tree built off this thread meanwhile
         except TypeError as exc:  # the wrong number of arguments, or a bad one met deeper in
             try:
                 signature.bind(remote, *args)

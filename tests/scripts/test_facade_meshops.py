@@ -206,3 +206,25 @@ def test_proximity_check_against_given_triangles(api):
     assert api.checkProximitySensorEx2(prox, [5, 5, 1], 0, 1, 3, 5.0, 0)[0] == 0  # a point: no area
     with pytest.raises(ArgumentError, match="itemCount"):
         api.checkProximitySensorEx2(prox, down, 2, 2, 1, 5.0, 0)
+
+
+def test_proximity_check_tests_are_bounded_and_made_in_pieces(api, monkeypatch):
+    """``checkProximitySensorEx2``'s rays x triangles are bounded before any test
+    (``links.MAX_TESTS``; 4,000,000 held the simulation thread 7.1 s and took 450 MB, issue 84),
+    and made a piece of the triangles at a time: the nearest hit is found across the pieces."""
+    from simx_server.api.sim import links
+
+    prox = api.createProximitySensor(api.proximitysensor_ray, 0, 0, [0] * 8, [0, 2] + [0] * 13)
+    api.setObjectPosition(prox, -1, [5, 5, 0])  # one ray, up, 2 m
+    layers = [[4, 4, z, 5, 6, z, 6, 4, z] for z in (1.5, 1.25, 0.75, 1.0)]  # the nearest third
+    pieces = []
+    nearest = links._nearest_hit
+    monkeypatch.setattr(links, "_nearest_hit", lambda local, *a: pieces.append(len(local)) or nearest(local, *a))
+    monkeypatch.setattr(links, "_PIECE_TESTS", 1)  # one triangle a piece
+    res, dist, point, _ = api.checkProximitySensorEx2(prox, sum(layers, []), 2, 4, 1, 5.0, 0)
+    assert pieces == [1, 1, 1, 1] and res == 1 and dist == pytest.approx(0.75)
+    monkeypatch.setattr(links, "MAX_TESTS", 3)
+    pieces.clear()
+    with pytest.raises(ArgumentError, match="MAX_TESTS"):
+        api.checkProximitySensorEx2(prox, sum(layers, []), 2, 4, 1, 5.0, 0)
+    assert not pieces  # refused before any test

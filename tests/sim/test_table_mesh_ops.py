@@ -122,6 +122,35 @@ def test_create_shape_of_one_triangle(sim):
         api.createShape(0, 0.35, [0, 0, 0, 1, 0, 0, 2, 0, 0], [0, 1, 2])
 
 
+def test_a_created_shapes_mesh_is_a_file_of_mujocos_cache(sim, tmp_path):
+    """``sim.createShape``'s mesh is an in-memory ``.msh`` file, not ``uservert`` (issue 84): MuJoCo
+    keeps a processed file mesh in its cache, so the recompile of every later edit reuses it, and
+    ``sim.saveScene`` writes it as a file next to the scene, which loads back the same mesh."""
+    simulation, api = sim
+    v, f = grid(11)
+    h = api.createShape(0, 0.35, v.ravel().tolist(), f.ravel().tolist())
+    name = simulation.world.get(h).name
+    spec = simulation.editor._live_spec()
+    mesh = spec.mesh(spec.body(name).first_geom().meshname)
+    assert mesh.file.endswith(".msh") and mesh.file in spec.assets and len(mesh.uservert) == 0
+    api.createDummy(0.01)  # an edit: the mesh comes from the file again
+    m = simulation.world.model
+    g = int(np.flatnonzero(m.geom_bodyid == simulation.world.get(h).mj_id)[0])
+    k = int(m.geom_dataid[g])
+    kept = m.mesh_vert[m.mesh_vertadr[k]:m.mesh_vertadr[k] + m.mesh_vertnum[k]].copy()
+    api.saveScene(str(tmp_path / "saved.xml"))
+    saved = list(tmp_path.glob("saved_*.msh"))
+    assert len(saved) == 1 and saved[0].name in (tmp_path / "saved.xml").read_text()
+    back = Simulation(tmp_path / "saved.xml")
+    try:
+        bm = back.world.model
+        bg = int(np.flatnonzero(bm.geom_bodyid == back.world.by_name[name].mj_id)[0])
+        bk = int(bm.geom_dataid[bg])
+        assert bm.mesh_vert[bm.mesh_vertadr[bk]:bm.mesh_vertadr[bk] + bm.mesh_vertnum[bk]] == pytest.approx(kept)
+    finally:
+        back.close()
+
+
 def test_align_shape_bb(sim):
     _, api = sim
     ell = api.getObject("/ell")

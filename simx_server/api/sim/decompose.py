@@ -20,7 +20,7 @@ from simx_server.api.registry import sim_function
 from simx_server.api.sim import shapes as _shapes
 from simx_server.base import limits as L, vhacd_worker
 from simx_server.base.arguments import as_integer as _int, as_number as _num
-from simx_server.sim.spec_tools import _names, solid_mesh, vrep_suffix
+from simx_server.sim.spec_tools import _names, set_mesh_data, solid_mesh, vrep_suffix
 from simx_wire.protocol import ArgumentError, UnsupportedError
 
 #: CoppeliaSim's V-HACD defaults (``CSceneObjectOperations::convexDecompose``'s statics): voxel
@@ -178,7 +178,7 @@ def convexDecompose(ctx: CallContext, shapeHandle: Any, options: Any, intParams:
             contact = (0, 0)
         for k, (hv, hf) in enumerate(hulls):
             mesh = spec.add_mesh(name=f"{name}_hull{k}" + vrep_suffix({f"{name}_hull{k}"}, taken))
-            mesh.uservert, mesh.userface = hv.reshape(-1).tolist(), hf.reshape(-1).tolist()
+            set_mesh_data(spec, mesh, hv, hf)
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL  # thin hulls too (the mass is the shape's)
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name, rgba=rgba,
                           contype=contact[0], conaffinity=contact[1])

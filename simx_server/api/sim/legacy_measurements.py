@@ -14,6 +14,7 @@ from typing import Any
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
+from simx_server.api.mesh_waits import query_work
 from simx_wire import constants as C
 from simx_server.base.arguments import as_integer as _int, as_text as _text
 from simx_server.sim import collisions
@@ -92,7 +93,7 @@ def handleCollision(ctx: CallContext, collisionObjectHandle: Any) -> Any:  # noq
     results = []
     for h in handles:  # a collision object tests collidable shapes only (override off, as V-REP's)
         e1, e2 = collisions.probe_entities(sim, "collision", h)
-        results.append(ctx.sim.checkCollision(e1, e2) if collisions.collision(sim, e1, e2, override=False)
+        results.append(ctx.sim.checkCollision(e1, e2) if collisions.collision(sim, e1, e2, False, query_work(ctx))
                        else (0, [-1, -1]))
     if _int(collisionObjectHandle, "collisionObjectHandle") in _ALL:
         return sum(1 for r, _ in results if r)
@@ -138,7 +139,7 @@ def handleDistance(ctx: CallContext, distanceObjectHandle: Any) -> Any:  # noqa:
     """
     handles = _measured(ctx, "distance", "handleDistance", distanceObjectHandle)
     sim = ctx.simulation("handleDistance")
-    values = [collisions.distance(sim, *collisions.probe_entities(sim, "distance", h), override=False)
+    values = [collisions.distance(sim, *collisions.probe_entities(sim, "distance", h), False, query_work(ctx))
               for h in handles]  # measurable shapes only, as V-REP's distance objects
     if _int(distanceObjectHandle, "distanceObjectHandle") in _ALL:
         return len(values)

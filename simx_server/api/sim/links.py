@@ -20,6 +20,12 @@ from simx_server.sim import proximity
 from simx_server.sim.objects import PROXIMITY_SENSOR
 
 HANDLE_ALL, MAX_ITEMS = -2, 100_000
+#: Ray-triangle tests of one ``checkProximitySensorEx2`` (rays x triangles): beyond, refused
+#: before any; 4,000,000 held the simulation thread 7.1 s and took 450 MB (issue 84).
+MAX_TESTS = 1 << 20
+#: Tests made at once (a piece of the triangles against every ray): the working arrays stay
+#: within some 10 MB whatever the call.
+_PIECE_TESTS = 1 << 16
 
 
 # Vision and proximity sensor checks of CoppeliaSim 4.x.
@@ -101,20 +107,37 @@ def checkProximitySensorEx2(ctx: CallContext, sensorHandle: Any, vertices: Any, 
     none = (0, 0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
     if kind != 2 or not count or not opts & 3:
         return none
+    obj = ctx.world.objects[h]
+    cone = proximity.cone_angle(obj)
+    dirs = proximity.cone_directions(cone) if cone > 0 else np.array([[0.0, 0.0, 1.0]])
+    if len(dirs) * count > MAX_TESTS:
+        raise ArgumentError(f"{count} triangles against the sensor's {len(dirs)} rays: {len(dirs) * count:,} tests, "
+                            f"more than {MAX_TESTS:,} (links.MAX_TESTS); give fewer triangles")
     tri = np.array([_num(v, "vertices[i]") for v in vertices[:9 * count]], dtype=float).reshape(count, 3, 3)
     m, d = ctx.world.model, ctx.world.data
-    obj = ctx.world.objects[h]
     rot, origin = d.site_xmat[obj.mj_id].reshape(3, 3), d.site_xpos[obj.mj_id]
-    cone = proximity.cone_angle(obj)
     start = proximity.axis_offset(obj)  # the ray's start, the cone's apex, up the axis
     near = proximity.cone_radius(obj) if cone > 0 else 0.0
     local = (tri - origin) @ rot - np.array([0.0, 0.0, start])  # into the sensor frame, from the start
-    dirs = proximity.cone_directions(cone) if cone > 0 else np.array([[0.0, 0.0, 1.0]])
-    if len(dirs) * count > 4_000_000:
-        raise ArgumentError(f"{count} triangles against {len(dirs)} rays: over 4,000,000 tests, give fewer")
     k = next((i for i in range(m.nsensor) if m.sensor_type[i] == mujoco.mjtSensor.mjSENS_RANGEFINDER
               and m.sensor_objtype[i] == mujoco.mjtObj.mjOBJ_SITE and m.sensor_objid[i] == obj.mj_id), None)
     reach = (float(m.sensor_cutoff[k]) if k is not None and m.sensor_cutoff[k] > 0 else np.inf) - start
+    best = None
+    step = max(1, _PIECE_TESTS // len(dirs))
+    for first in range(0, count, step):  # a piece of the triangles at a time: bounded working arrays
+        found = _nearest_hit(local[first:first + step], dirs, near, reach, start, limit, opts, angle)
+        if found is not None and (best is None or found[0] < best[0]):
+            best = found
+    if best is None:
+        return none
+    return 1, best[0], best[1], best[2]
+
+
+def _nearest_hit(local: np.ndarray, dirs: np.ndarray, near: float, reach: float, start: float, limit: float,
+                 opts: int, angle: float) -> tuple[float, list[float], list[float]] | None:
+    """:func:`checkProximitySensorEx2`'s nearest detection among triangles ``local`` (t, 3, 3:
+    the sensor frame, from the rays' start) by rays ``dirs`` (r, 3): ``(distance, point,
+    normal)``, or None."""
     e1, e2 = local[:, 1] - local[:, 0], local[:, 2] - local[:, 0]  # Moller-Trumbore, rays x triangles
     p = np.cross(dirs[:, None, :], e2[None])
     det = np.einsum("tk,rtk->rt", e1, p)
@@ -135,11 +158,11 @@ def checkProximitySensorEx2(ctx: CallContext, sensorHandle: Any, vertices: Any, 
         cosine = np.abs(np.einsum("rk,tk->rt", dirs, normal))
         hit &= np.arccos(np.clip(cosine, -1.0, 1.0)) <= angle
     if not hit.any():
-        return none
+        return None
     points = dirs[:, None, :] * dist[..., None] + [0.0, 0.0, start]  # from the origin, as CoppeliaSim's
     reaches = np.linalg.norm(points, axis=2)
     r, t = np.unravel_index(np.argmin(np.where(hit, reaches, np.inf)), hit.shape)
     n = normal[t] if front[r, t] else -normal[t]  # towards the sensor
-    return 1, float(reaches[r, t]), points[r, t].tolist(), n.tolist()
+    return float(reaches[r, t]), points[r, t].tolist(), n.tolist()
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
-from simx_server.api.sim import sensors as _sensors
+from simx_server.api.sim import file_writes, sensors as _sensors
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_bytes as _bytes, as_integer as _int, as_number as _num, as_text as _text
@@ -419,13 +419,14 @@ def saveScene(ctx: CallContext, filename: Any) -> None:  # noqa: N802
         UnsupportedError: MuJoCo cannot write the scene, or no simulation behind the script.
     """
     file, key = target_file(ctx, filename)
-    sim = ctx.simulation("saveScene")
-    text, extra = sim.editor.scene_files(file.stem)
+    files = ctx.simulation("saveScene").editor.files
+    extra, text = ctx.simulation("saveScene").editor.prepare_save(file.stem)
     name = str(filename)
+    writes = []
     for sibling, data in extra.items():  # meshes, scripts, data: next to the scene, within the same bounds
         other = str(Path(name).with_name(sibling))
-        sim.editor.files.write(sim.editor.files.target(other, key, "sim.saveScene"), data, key, other)
-    sim.editor.files.write(file, text.encode("utf-8"), key, name)
+        writes.append((files.target(other, key, "sim.saveScene"), data, other))
+    return file_writes.write_files(ctx, key, lambda: [*writes, (file, text().encode("utf-8"), name)])
 
 
 @sim_function("saveModel")
@@ -446,21 +447,14 @@ def saveModel(ctx: CallContext, modelBaseHandle: Any, filename: Any) -> None:  #
     """
     file, key = target_file(ctx, filename, "saveModel")
     obj = ctx.world.get(ctx.h(modelBaseHandle))
-    # a copy: attaching the live spec's body would tie the scene's spec to the model's
-    # (every later saveScene and edit then failed: "attached by reference to a parent spec")
-    spec = ctx.simulation("saveModel").editor._live_spec().copy()
-    body = spec.body(obj.name) if obj.type == 0 else None
-    if body is None:
+    if obj.type != 0:
         raise ArgumentError(f"{obj.name!r} is not a shape (a body) to save as a model")
-    model = mujoco.MjSpec()
-    model.assets = dict(spec.assets or {})
-    frame = model.worldbody.add_frame()
-    try:
-        frame.attach_body(body, "", "")
-        text = model.to_xml()
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot write this model as MJCF: {exc}") from None
-    ctx.simulation("saveModel").editor.files.write(file, text.encode("utf-8"), key, str(filename))
+    extra, text = ctx.simulation("saveModel").editor.prepare_model_save(obj.name, file.stem)
+    name = str(filename)
+    files = ctx.simulation("saveModel").editor.files
+    writes = [(files.target(other, key, "sim.saveModel"), data, other)
+              for other, data in ((str(Path(name).with_name(n)), d) for n, d in extra.items())]
+    return file_writes.write_files(ctx, key, lambda: [*writes, (file, text().encode("utf-8"), name)])
 
 
 

@@ -1,9 +1,9 @@
 """CoppeliaSim 4.x's collision, distance and sensor-handling functions of ``sim`` on MuJoCo.
 
 * ``checkCollision`` / ``checkDistance``: between the shapes' collidable geoms, on a mesh's
-  triangles (coal) and with ``mj_geomDistance`` between primitives
-  (:mod:`simx_server.sim.collisions`); ``getContactInfo``: the contacts of the last step
-  (``data.contact``).
+  triangles (coal; a client's bounded: :mod:`simx_server.api.mesh_waits`) and with
+  ``mj_geomDistance`` between primitives (:mod:`simx_server.sim.collisions`);
+  ``getContactInfo``: the contacts of the last step (``data.contact``).
 * Sensors are rendered / cast when read: ``handleVisionSensor`` and ``readVisionSensor`` give
   V-REP's 15-value packet of the current image (a sensor with vision callbacks: of its last
   handling, :mod:`simx_server.scripts.vision_callbacks`), the proximity calls cast the ray now.
@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 
 from simx_server.api.context import CallContext
+from simx_server.api.mesh_waits import query_work
 from simx_server.api.registry import sim_function
 from simx_server.api.sim import point_distance, sensors as _sensors
 from simx_wire import constants as C
@@ -56,12 +57,11 @@ def checkCollision(ctx: CallContext, entity1Handle: Any, entity2Handle: Any) -> 
     """
     sim = ctx.simulation("checkCollision")
     e1, e2 = _entity(ctx, entity1Handle, "entity1Handle"), _entity(ctx, entity2Handle, "entity2Handle")
-    if not collisions.collision(sim, e1, e2):
+    if not collisions.collision(sim, e1, e2, work=query_work(ctx)):
         return 0, [-1, -1]
     if e2 != C.sim_handle_all and not (scene_collections.is_collection(e1) or scene_collections.is_collection(e2)):
         return 1, [e1, e2]
-    _, dist, pair = _closest(ctx, e1, e2)
-    return 1, pair
+    return 1, _closest(ctx, e1, e2)[2]
 
 
 @sim_function("checkCollisionEx")
@@ -83,7 +83,7 @@ def checkCollisionEx(ctx: CallContext, entity1Handle: Any, entity2Handle: Any) -
         ObjectTypeError: not a shape or collection, or a shape without geoms.
     """
     e1, e2 = _entity(ctx, entity1Handle, "entity1Handle"), _entity(ctx, entity2Handle, "entity2Handle")
-    if not collisions.collision(ctx.simulation("checkCollisionEx"), e1, e2):
+    if not collisions.collision(ctx.simulation("checkCollisionEx"), e1, e2, work=query_work(ctx)):
         return 0, []
     points, _, _ = _closest(ctx, e1, e2)
     return 1, points
@@ -95,7 +95,7 @@ def _closest(ctx: CallContext, e1: int, e2: int) -> tuple[list[float], float, li
     a, b = collisions._pairs(world, e1, e2)
     if a.size == 0:
         raise ArgumentError("there is no collidable geom to measure the distance to")
-    best, i, fromto = collisions.closest(world, a, b)
+    best, i, fromto = collisions.closest(world, a, b, query_work(ctx))
     pair = (int(a[i]), int(b[i]))
     shape_of = {o.mj_id: o.handle for o in world.objects.values() if o.type == SHAPE}
     bodies = world.model.geom_bodyid

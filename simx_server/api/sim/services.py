@@ -22,7 +22,7 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.api.sim import core as _core
-from simx_server.api.sim import misc as _misc
+from simx_server.api.sim import file_writes, misc as _misc
 from simx_server.api.sim import objects as _objects
 from simx_server.api.sim import shapes as _shapes
 from simx_wire.protocol import ArgumentError, UnsupportedError
@@ -101,14 +101,17 @@ def saveImage(ctx: CallContext, image: Any, resolution: Any, options: Any, filen
     if ext not in _IMAGE_FORMATS:
         raise ArgumentError(f"give an image file name ending in one of {', '.join(_IMAGE_FORMATS)}")
     params = [cv2.IMWRITE_JPEG_QUALITY, max(0, min(100, q))] if ext in (".jpg", ".jpeg") and q >= 0 else []
-    ok, data = cv2.imencode(ext, img, params)
-    if not ok:
-        raise UnsupportedError(f"OpenCV cannot encode {ext} images")
+
+    def encoded() -> bytes:
+        ok, data = cv2.imencode(ext, img, params)
+        if not ok:
+            raise UnsupportedError(f"OpenCV cannot encode {ext} images")
+        return bytes(data.tobytes())
+
     if name.startswith("."):
-        return data.tobytes()
-    files = ctx.simulation("saveImage").editor.files
-    files.write(image_file(ctx, name, True), data.tobytes(), files.writer(_misc.script_path(ctx)), name)
-    return b""
+        return encoded()
+    file, files = image_file(ctx, name, True), ctx.simulation("saveImage").editor.files
+    return file_writes.write_files(ctx, files.writer(_misc.script_path(ctx)), lambda: [(file, encoded(), name)], b"")  # type: ignore[no-any-return]
 
 
 @sim_function("loadImage")

@@ -9,12 +9,14 @@ from typing import Any, Callable
 import numpy as np
 
 from simx_server.api import long_calls
+from simx_server.api.mesh_waits import door_client
 from simx_server.api.context import CallContext
 from simx_server.api.registry import simompl_function
+from simx_server.api.simompl import tasks
 from simx_server.api.simompl.tasks import Task, as_state, as_states, spaces_of, task_of
 from simx_server.base.arguments import as_integer as _int, as_number as _num
 from simx_server.sim import motion_planning as mp, ompl_spaces
-from simx_wire.protocol import ArgumentError, UnsupportedError
+from simx_wire.protocol import BUSY, ArgumentError, RemoteError, UnsupportedError
 
 
 @simompl_function()
@@ -40,7 +42,15 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
         placements = [ompl_spaces.Placement(ctx.world, s.kind, s.object, s.ref) for s in spaces]
     except ValueError as exc:
         raise ArgumentError(str(exc)) from None
-    task.checker = mp.ScratchCollisions(ctx.world, placements, list(zip(task.pairs[::2], task.pairs[1::2])))
+    if door_client(ctx):  # what the tasks keep, this one's new copy of the scene's data with them
+        data = ctx.world.data
+        kept = mp.kept_bytes(ctx.world.model, task.checker) + int(data.nbuffer) + int(data.narena)
+        if kept > tasks.MAX_KEPT_BYTES:
+            raise RemoteError(f"{BUSY}: the simOMPL tasks set up would keep {kept:,} bytes of copies of the scene, "
+                              f"more than {tasks.MAX_KEPT_BYTES:,} (tasks.MAX_KEPT_BYTES); destroy some tasks "
+                              "(simOMPL.destroyTask)")
+    task.checker = mp.ScratchCollisions(ctx.world, placements, list(zip(task.pairs[::2], task.pairs[1::2])),
+                                        bounded=door_client(ctx))
     callback = task.callback
     if callback is not None:
         def valid(q: np.ndarray) -> bool:
@@ -74,14 +84,18 @@ def _planned(ctx: CallContext, task: Task, work: Callable[[mp.Problem], Any]) ->
     Deferred), the task refusing other calls meanwhile (``Task.busy``). ValueError (a bound of
     the path) is an ArgumentError."""
     problem = _fresh(ctx, task)
+    checker = task.checker
+    assert checker is not None
 
     def run() -> Any:
+        checker.defer = False  # a planner's thread builds the trees its checks need
         try:
             return work(problem)
         except ValueError as exc:
             raise ArgumentError(str(exc)) from None
 
     def done() -> None:
+        checker.defer = True
         task.busy = False
 
     task.busy = True
@@ -275,7 +289,12 @@ def _space(ctx: CallContext, task: Task) -> ompl_spaces.Space:
 def isStateValid(ctx: CallContext, taskHandle: Any, state: Any) -> bool:  # noqa: N802, N803
     """The task's validity check of one state (the scene's current state otherwise)."""
     task = task_of(ctx, taskHandle, True)
-    return _fresh(ctx, task).is_valid(as_state(task, state))
+    problem, q = _fresh(ctx, task), as_state(task, state)
+    if task.callback is None and task.checker is not None:
+        # OMPL's check is the collision check alone (of the state as OMPL holds it), called here
+        # so that its errors (a mesh's tree being built for a client) reach the door unchanged
+        return not task.checker(problem.codec.values(problem.state(q)))
+    return problem.is_valid(q)
 
 
 @simompl_function()
