@@ -14,10 +14,15 @@ the work on one background thread and answers a Deferred at once; what must chan
 :mod:`simx_server.scene.conversions` installs a converted scene). The simulation keeps stepping
 and every other client keeps being served meanwhile.
 
-One job runs at a time, taken round robin by client (the door's caller key, ``"zmq:<uuid>"``),
-so that a client's job waits behind at most one job of each other client; a client has at most
-:data:`MAX_WAITING_PER_CLIENT` jobs running or waiting (more: ``server busy``). The work's
-seconds are kept on the Deferred (``seconds``) for the door to charge to the caller's share.
+One job runs at a time, taken round robin by connection (the ZMQ door names the connection a
+request came on, :func:`simx_server.base.job_ring.serving`: a client may claim a new uuid at
+every call, not a new connection), so that a client's job waits behind at most one job of each
+other connection; a connection has at most :data:`MAX_WAITING_PER_CLIENT` jobs running or
+waiting (more: ``server busy``). When a client leaves (its connection closes, ``_*end*_``,
+expiry) its jobs not started are dropped, their callers answered "not run", and its job running
+is asked to stop (:func:`stoppable`: a planner's validity check raises; V-HACD's worker is
+killed). The work's seconds are kept on the Deferred (``seconds``) for the door to charge to
+the caller's share.
 Scripts (the scene's own, trusted, and their Lua callbacks run on the simulation thread) and
 in-process callers (``pyrep``) run the work at once, as before.
 """
@@ -31,14 +36,33 @@ from concurrent.futures import Future
 from typing import Any
 
 from simx_server.api.context import CallContext
-from simx_server.base.job_ring import JobRing
+from simx_server.base.job_ring import JobRing, stop_requested
 from simx_server.sim.vision_results import Deferred
 from simx_wire.protocol import BUSY, RemoteError
 
 log = logging.getLogger("simx.api")
 
-#: Jobs of one client running or waiting at once.
+#: Jobs of one client (its connection, for a ZMQ client) running or waiting at once.
 MAX_WAITING_PER_CLIENT = 2
+#: Why a long call's job ended unanswered: its client left.
+LEFT = "not run: its client left (its connection closed, it ended, or it expired)"
+
+
+class Stopped(RemoteError):
+    """A long call's work stopped because its client left (:func:`stoppable`)."""
+
+
+def stoppable(valid: Callable[[Any], bool]) -> Callable[[Any], bool]:
+    """``valid`` (a planner's state validity check) that raises :class:`Stopped` once the long
+    call running it is asked to stop (its client left): OMPL ends the solve at the next state it
+    checks (:func:`simx_server.base.job_ring.stop_requested`)."""
+
+    def check(q: Any) -> bool:
+        if stop_requested():
+            raise Stopped(LEFT)
+        return valid(q)
+
+    return check
 
 
 class LongCalls(JobRing):
@@ -124,8 +148,13 @@ def later(ctx: CallContext, work: Callable[[], Any], finish: Callable[[Any], Any
         else:
             post(lambda: install(value))  # type: ignore[misc]  # not None: off_thread with a finish needs it
 
+    def cancelled() -> None:  # dropped before it ran: its client left
+        if done is not None:
+            done()
+        future.set_exception(RemoteError(LEFT))
+
     try:
-        waiting.add(caller, job)
+        waiting.add(caller, job, cancelled)
     except RemoteError:
         if done is not None:
             done()

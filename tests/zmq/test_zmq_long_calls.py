@@ -302,3 +302,106 @@ def test_a_long_calls_work_is_charged_to_its_uuid_on_any_connection(tmp_path, mo
         assert "ret" in call(b"third", "other", "sim.getSimulationTime")
     finally:
         sim.close()
+
+
+def test_long_calls_take_turns_by_connection_and_go_with_their_client(tmp_path):
+    """Issue 84: a victim's 0.3 s solve waited 119 s behind 12 fresh uuids' solves and 120 s
+    behind 12 clients that had left. Now one connection holds at most MAX_WAITING_PER_CLIENT long
+    calls whatever uuids it claims, and when it closes its queued call is answered "not run"
+    without running and its running one stops: the victim's call is served next. In-process, a
+    real simulation and the ZMQ service."""
+    from simx_server.loop.clients import Clients
+    from simx_server.scene.simulation import Simulation
+    from simx_server.zmq.frontend import Incoming
+    from simx_server.zmq.service import ZmqService
+
+    (tmp_path / "scene.xml").write_text(SCENE)
+    sim = Simulation(tmp_path / "scene.xml")
+    replies: dict[str, list] = {}
+    arrived = threading.Condition()
+
+    class Frontend:
+        def send(self, envelope, payload, held=0, **_):
+            with arrived:
+                replies.setdefault(envelope[1].decode(), []).append(cbor2.loads(payload))
+                arrived.notify_all()
+
+        def expects(self, identity):
+            return True
+
+    server = type("Server", (), {"sim": sim, "clients": Clients(), "hold_pass": lambda self, client, seconds: None})
+    service = ZmqService(server(), Frontend())
+    fds = {b"attacker": 7, b"victim": 8}
+
+    def send(tag: str, connection: bytes, uuid: str, func: str, *args) -> None:
+        service.handle("zmq", Incoming([connection, tag.encode()], codec.read_request(
+            codec.encode_request(func, list(args), uuid)), fds[connection], 10))
+
+    def reply(tag: str) -> dict:
+        with arrived:
+            assert arrived.wait_for(lambda: tag in replies, 60), tag
+            return replies[tag][0]
+
+    try:
+        def call(func: str, *args):
+            tag = f"setup{len(replies)}"
+            send(tag, b"victim", "v", func, *args)
+            return reply(tag)["ret"]
+
+        joint, link, post = (call("sim.getObject", p)[0] for p in ("/Joint1", "/Link1", "/Post"))
+        tasks = []
+        for k in range(4):
+            task = call("simOMPL.createTask", f"t{k}")[0]
+            call("simOMPL.setStateSpaceForJoints", task, [joint], [1])
+            call("simOMPL.setCollisionPairs", task, [link, post])
+            call("simOMPL.setStartState", task, [0.0])
+            call("simOMPL.setGoalState", task, [2.5])
+            call("simOMPL.setup", task)
+            tasks.append(task)
+        send("a0", b"attacker", "a0", "simOMPL.solve", tasks[0], 9.0)  # runs
+        send("a1", b"attacker", "a1", "simOMPL.solve", tasks[1], 9.0)  # waits
+        send("a2", b"attacker", "a2", "simOMPL.solve", tasks[2], 9.0)  # a fresh uuid, the same connection
+        assert BUSY in reply("a2").get("err", ""), replies["a2"]
+        send("v", b"victim", "v", "simOMPL.solve", tasks[3], 0.2)  # waits behind a0 only
+        assert "v" not in replies and "a0" not in replies
+        service.handle("zmq-gone", fds[b"attacker"])  # the attacker's connection closes
+        assert long_calls.LEFT in reply("a1").get("err", "")  # answered without running
+        assert long_calls.LEFT in reply("a0").get("err", "")  # stopped while it searched
+        assert "ret" in reply("v")
+        assert long_calls.waiting.settle(30) and long_calls.waiting.pending() == 0
+        send("free", b"victim", "v", "simOMPL.getPath", tasks[1])  # the dropped call left its task free
+        assert "busy" not in reply("free").get("err", ""), replies["free"]
+    finally:
+        sim.close()
+
+
+def test_a_decomposition_whose_client_left_stops_its_worker():
+    """Issue 84: six convexDecompose calls of clients that had left held the ring 234 s. The
+    running one's V-HACD worker is killed once its job is asked to stop (job_ring.cancel_all)."""
+    pytest.importorskip("vhacdx")
+    import numpy as np
+
+    from simx_server.base import vhacd_worker
+
+    n, m = 48, 24  # a torus: non-convex, slow to decompose at a high resolution
+    a, b = np.meshgrid(2 * np.pi * np.arange(n) / n, 2 * np.pi * np.arange(m) / m, indexing="ij")
+    r = 0.2 + 0.06 * np.cos(b)
+    vertices = np.stack([r * np.cos(a), r * np.sin(a), 0.06 * np.sin(b)], -1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n), np.arange(m), indexing="ij")
+    p, q, s, t = i * m + j, (i + 1) % n * m + j, (i + 1) % n * m + (j + 1) % m, i * m + (j + 1) % m
+    faces = np.stack([np.stack([p, q, s], -1), np.stack([p, s, t], -1)], -2).reshape(-1, 3)
+    outcome, started = [], threading.Event()
+
+    def job() -> None:
+        started.set()
+        try:
+            outcome.append(vhacd_worker.decompose(vertices, faces, 400_000, 64, 64))
+        except vhacd_worker.DecompositionError as exc:
+            outcome.append(exc)
+
+    ring = long_calls.LongCalls()
+    ring.add("zmq:gone", job)
+    assert started.wait(30)
+    ring.cancel("zmq:gone")
+    assert ring.settle(60)
+    assert isinstance(outcome[0], vhacd_worker.DecompositionError) and "client left" in str(outcome[0])

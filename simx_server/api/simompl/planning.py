@@ -54,7 +54,8 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
         def valid(q: np.ndarray) -> bool:
             return not checker(q)
     try:
-        task.problem = mp.Problem(ompl_spaces.Space([s.subspace() for s in spaces]), valid, task.resolution)
+        task.problem = mp.Problem(ompl_spaces.Space([s.subspace() for s in spaces]), long_calls.stoppable(valid),
+                                  task.resolution)
         task.problem.setup(np.array(task.start), [np.array(g) for g in task.goals], task.algorithm)
     except ValueError as exc:
         task.problem = None
