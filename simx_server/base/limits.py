@@ -467,6 +467,18 @@ MAX_ZMQ_CONNECTIONS = 1000
 #: the socket thread (Python): 3 s let 200 handshakes at once time out again and again on a
 #: loaded machine while the server started.
 ZMQ_HANDSHAKE_SECONDS = 10.0
+#: s between the ZMTP heartbeat's PINGs the server sends every ZMQ connection, and s after a PING
+#: within which a whole message (a PONG, a request) must come from it, else it is closed and its
+#: half-received message freed (libzmq's ``ZMQ_HEARTBEAT_IVL``, ``ZMQ_HEARTBEAT_TIMEOUT``): 40
+#: connections each stalled inside a 60 MiB frame held 2.4 GB for as long as they liked. A
+#: client's libzmq answers PINGs by itself; a message must arrive within the timeout (the
+#: largest, sockets.MAX_MESSAGE_BYTES, at about 8 Mbit/s).
+ZMQ_HEARTBEAT_SECONDS = 5.0
+ZMQ_HEARTBEAT_TIMEOUT_SECONDS = 20.0
+#: The share of the machine's memory (or its cgroup's limit) that ZMQ messages still being
+#: received may hold, each up to the largest message: it bounds the connections served at once
+#: (zmq/sockets.py: 1,000 connections x 66 MiB allowed 66 GB).
+ZMQ_RECEIVING_MEMORY_SHARE = 0.25
 #: s a new Zenoh connection to the legacy door has to finish Zenoh's handshake (its
 #: ``transport/unicast/accept_timeout``, 10 s by default), and handshakes under way at once
 #: (``transport/unicast/accept_pending``, 100 by default; at most a quarter of the open-files
