@@ -481,12 +481,17 @@ ZMQ_HEARTBEAT_TIMEOUT_SECONDS = 20.0
 ZMQ_RECEIVING_MEMORY_SHARE = 0.25
 #: s a new Zenoh connection to the legacy door has to finish Zenoh's handshake (its
 #: ``transport/unicast/accept_timeout``, 10 s by default), and handshakes under way at once
-#: (``transport/unicast/accept_pending``, 100 by default; at most a quarter of the open-files
-#: limit): a connection beyond is closed at once. 110 idle TCP connections, reopened as Zenoh
-#: closed them, locked every new legacy client out with Zenoh's defaults. An operator's Zenoh
-#: config file that sets either key keeps its own value.
+#: (``transport/unicast/accept_pending``, 100 by default; at most a third of the open-files
+#: limit): Zenoh closes a connection beyond at once, the newest. 110 idle TCP connections,
+#: reopened as Zenoh closed them, locked every new legacy client out with Zenoh's defaults, 5,000
+#: with 4,096 slots. An operator's Zenoh config file that sets either key keeps its own value.
 ZENOH_ACCEPT_SECONDS = 5.0
-ZENOH_ACCEPT_PENDING = 4096
+ZENOH_ACCEPT_PENDING = 16384
+#: s between two sweeps of the legacy port's connections that are not a Zenoh session yet:
+#: beyond a quarter of accept_pending of them, simx closes the oldest (legacy/handshakes.py), so
+#: that a slot stays free for a new client's handshake while one process holds more idle
+#: connections than that (Zenoh itself would refuse the newest once its slots are full).
+ZENOH_SWEEP_SECONDS = 0.2
 #: s a running simulation's pass keeps serving ZMQ requests, per client served in it, before its
 #: step (CoppeliaSim's ZMQ remote API add-on: ``msgQueueTimeout_running``; Loop.hold_pass).
 ZMQ_PASS_WINDOW = 0.002
