@@ -80,6 +80,14 @@ MAX_SIGNAL_BYTES = 16 * 1024 * 1024
 MAX_SIGNAL_STORE_BYTES = 64 * 1024 * 1024
 #: Longest signal name in characters.
 MAX_SIGNAL_NAME = 1024
+#: Script simulation parameters and user parameters (``sim.setScriptSimulationParameter``,
+#: ``sim.setUserParameter``) of all the scene's scripts and objects, bounded as signals: most
+#: entries, largest value in bytes, largest total (names and values). The total also counts
+#: toward MAX_SCRIPTS_MEMORY, beside the Lua states: a client scene's script set 40 user
+#: parameters of 100 MiB and took the server from 259 to 4,455 MB for good.
+MAX_PARAMETERS = MAX_SIGNALS
+MAX_PARAMETER_BYTES = MAX_SIGNAL_BYTES
+MAX_PARAMETER_STORE_BYTES = MAX_SIGNAL_STORE_BYTES
 
 # ----------------------------------------------------------------- scenes and files
 # Files sent with simxTransferFile, and what a scene or model sent by a client may hold. A

@@ -164,8 +164,10 @@ class Scripts:
         self.user_parameters: dict[int, list] = {}  # sim.setUserParameter of objects without a script
         #: Child scripts attached while the simulation runs: they begin in its next pass (attach).
         self._pending: list[ChildScript] = []
-        #: All scripts' time per pass, share over time and memory together (simx_server/scripts/budget.py).
-        self.budget = ScriptBudget(states=self._all)
+        self._parameter_bytes: int | None = None  # of every parameter list (parameter_lists), once counted
+        #: All scripts' time per pass, share over time and memory together (simx_server/scripts/budget.py):
+        #: their Lua states and their parameters (memory_used).
+        self.budget = ScriptBudget(states=lambda: [*self._all(), self])
         self._step: ScriptPass | None = None  # the pass of the step whose actuation ran (the rest shares it)
         self.shared: dict = {"manager": self, "budget": self.budget}  # custom data, the scripts' view of each other
         self.opened = False
@@ -198,6 +200,21 @@ class Scripts:
 
     def _all(self) -> list[ChildScript]:
         return [*self.scripts.values(), *self.customization.values()]
+
+    def parameter_lists(self) -> list[list]:
+        """Every parameter list of the scene: its scripts' and the other objects' user parameters."""
+        return [s.parameters for s in self._all()] + list(self.user_parameters.values())
+
+    def parameters_changed(self) -> None:
+        """A parameter was set: :meth:`memory_used` counts them again."""
+        self._parameter_bytes = None
+
+    def memory_used(self) -> int:
+        """Bytes of the scene's parameters (:meth:`parameter_lists`): they count toward
+        limits.MAX_SCRIPTS_MEMORY with the Lua states (the budget's ``holders``)."""
+        if self._parameter_bytes is None:
+            self._parameter_bytes = script_parameters.stored(self.parameter_lists())[1]
+        return self._parameter_bytes
 
     def attach(self, sources: Iterable[tuple[int, ScriptSource]], running: bool,
                untrusted: Iterable[Path] = ()) -> list[ChildScript]:
@@ -237,6 +254,7 @@ class Scripts:
                 self._end(old)
             table[owner] = script
             added.append(script)
+        self.parameters_changed()  # the new scripts' parameters count too
         customization = [s for s in added if s.kind == "customization"]
         if customization and self.opened:
             with self.budget.pass_of("open"):
@@ -256,6 +274,7 @@ class Scripts:
         """End the scripts of objects no longer in the scene (``sim.removeModel``,
         ``sim.removeObject``): ``sysCall_cleanup`` of a running one, then its state goes, as
         CoppeliaSim's ``CSceneObjectContainer::eraseObject`` ends an erased object's scripts."""
+        self.parameters_changed()
         gone = [(t, h) for t in (self.scripts, self.customization) for h in t if h not in self.world.objects]
         if not gone:
             return
