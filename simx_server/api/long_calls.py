@@ -23,19 +23,28 @@ expiry) its jobs not started are dropped, their callers answered "not run", and 
 is asked to stop (:func:`stoppable`: a planner's validity check raises; V-HACD's worker is
 killed). The work's seconds are kept on the Deferred (``seconds``) for the door to charge to
 the caller's share.
-Scripts (the scene's own, trusted, and their Lua callbacks run on the simulation thread) and
-in-process callers (``pyrep``) run the work at once, as before.
+A script that acts for a client (a client's scene's, with ``--allow-remote-code``, or one a
+client calls into; :func:`for_client`) is held to the same: in a Lua thread, its long call runs
+off the simulation thread and the thread yields until it is done (:func:`deferring`, as
+``sim.wait`` yields: :mod:`simx_server.scripts.threads`); elsewhere (a non-threaded callback,
+which cannot yield) the work runs at once but stops once it has taken what the scripts' pass
+has left (:func:`time_left`: ``limits.MAX_SCRIPTS_STEP_TIME``, ``SCRIPTS_SHARE``), an error
+naming the bound. The operator's scripts (trusted) and in-process callers (``pyrep``) run the
+work at once, as CoppeliaSim's do, with their time.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import math
 import time
-from collections.abc import Callable
-from concurrent.futures import Future
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, InvalidStateError
 from typing import Any
 
 from simx_server.api.context import CallContext
+from simx_server.base import job_ring
 from simx_server.base.job_ring import JobRing, stop_requested
 from simx_server.sim.vision_results import Deferred
 from simx_wire.protocol import BUSY, RemoteError
@@ -59,7 +68,8 @@ def stoppable(valid: Callable[[Any], bool]) -> Callable[[Any], bool]:
 
     def check(q: Any) -> bool:
         if stop_requested():
-            raise Stopped(LEFT)
+            reason = job_ring.stop_reason()
+            raise Stopped(LEFT if reason == "its client left" else f"stopped: {reason}")
         return valid(q)
 
     return check
@@ -80,10 +90,53 @@ class LongCalls(JobRing):
 waiting = LongCalls()
 
 
+_deferring: list[CallContext | None] = [None]  # the script context whose Lua thread waits for a Deferred
+
+
+@contextlib.contextmanager
+def deferring(ctx: CallContext) -> Iterator[None]:
+    """A script's call from a thread that can yield until a Deferred is done (simulation thread):
+    a long call of ``ctx`` inside the block runs off the simulation thread when the script acts
+    for a client (:func:`for_client`)."""
+    previous, _deferring[0] = _deferring[0], ctx
+    try:
+        yield
+    finally:
+        _deferring[0] = previous
+
+
+def for_client(ctx: CallContext) -> bool:
+    """Whether a script's call acts for a client: the script was sent by one (its file lies in a
+    client's folder, or its client left), or a client's call into it runs now. False for the
+    operator's scripts on their own and for a door's calls."""
+    script, files = ctx.script, getattr(getattr(ctx.view, "editor", None), "files", None)
+    if script is None or files is None:
+        return False
+    try:
+        return files.writer(getattr(script, "path", None)) is not None
+    except RemoteError:  # sent by a client that has left
+        return True
+
+
 def off_thread(ctx: CallContext) -> bool:
     """Whether ``ctx``'s calls run their long work off the simulation thread: a remote client's
-    door that replies once a Deferred is done (the ZMQ service), not a script, not ``pyrep``."""
-    return ctx.remote and ctx.defer_renders and ctx.view is not None
+    door that replies once a Deferred is done (the ZMQ service), or a Lua thread of a script
+    that acts for a client (:func:`deferring`); not another script, not ``pyrep``."""
+    if ctx.remote:
+        return ctx.defer_renders and ctx.view is not None
+    return _deferring[0] is ctx and ctx.view is not None and for_client(ctx)
+
+
+def time_left(ctx: CallContext) -> float:
+    """s a long call run at once may take: for a script that acts for a client, what the
+    scene's scripts' pass and share have left (its own ``script_timeout`` at most; CPU time of
+    the simulation thread, taken as wall time); unbounded for everyone else."""
+    script = ctx.script
+    if script is None or not for_client(ctx):
+        return math.inf
+    budget = getattr(script, "budget", None)
+    own = float(getattr(script, "timeout", 1.0))
+    return max(0.0, budget.bound(own)[0]) if budget is not None else own
 
 
 def later(ctx: CallContext, work: Callable[[], Any], finish: Callable[[Any], Any] | None = None,
@@ -110,18 +163,28 @@ def later(ctx: CallContext, work: Callable[[], Any], finish: Callable[[Any], Any
     view = ctx.view
     post = getattr(view, "post", None)
     if not off_thread(ctx) or (finish is not None and post is None):
+        seconds = time_left(ctx)
+        bound = (job_ring.bounded(seconds, f"it reached what the scripts' pass had left ({seconds:.2g} s; "
+                                           "limits.MAX_SCRIPTS_STEP_TIME, SCRIPTS_SHARE: in a threaded script it "
+                                           "runs off the simulation thread)")
+                 if seconds < math.inf else contextlib.nullcontext())
         try:
-            value = work()
+            with bound:
+                value = work()
         finally:
             if done is not None:
                 done()
         return finish(value) if finish is not None else value
     files = getattr(getattr(view, "editor", None), "files", None)
     caller = getattr(files, "caller", None)
+    if ctx.script is not None and files is not None:  # a client's script: its jobs are its client's
+        caller = files.writer(getattr(ctx.script, "path", None))
     future: Future[Any] = Future()
     deferred = Deferred(future)
 
     def install(value: Any) -> None:  # the simulation thread
+        if future.cancelled():  # its script's thread ended meanwhile: nothing is made
+            return
         try:
             if files is not None:
                 with files.acting(caller):
@@ -141,17 +204,21 @@ def later(ctx: CallContext, work: Callable[[], Any], finish: Callable[[Any], Any
         if done is not None:  # before the reply can leave: the caller's next call finds the task free
             done()
         deferred.seconds = time.monotonic() - start
-        if error is not None:
-            future.set_exception(error)
-        elif finish is None:
-            future.set_result(value)
-        else:
-            post(lambda: install(value))  # type: ignore[misc]  # not None: off_thread with a finish needs it
+        try:
+            if error is not None:
+                future.set_exception(error)
+            elif finish is None:
+                future.set_result(value)
+            elif not future.cancelled():
+                post(lambda: install(value))  # type: ignore[misc]  # not None: off_thread with a finish needs it
+        except InvalidStateError:  # cancelled meanwhile: its script's thread ended
+            pass
 
     def cancelled() -> None:  # dropped before it ran: its client left
         if done is not None:
             done()
-        future.set_exception(RemoteError(LEFT))
+        if not future.cancelled():
+            future.set_exception(RemoteError(LEFT))
 
     try:
         waiting.add(caller, job, cancelled)

@@ -47,10 +47,28 @@ def serving(turn: Any, owner: Any) -> Iterator[None]:
 
 
 def stop_requested() -> bool:
-    """Whether the job running on this thread was asked to stop (its client left); False on
-    any other thread."""
+    """Whether the job running on this thread was asked to stop (its client left), or the work
+    of :func:`bounded` on this thread is past its time; False otherwise."""
+    stop, until = getattr(_local, "stop", None), getattr(_local, "until", None)
+    return (stop is not None and stop.is_set()) or (until is not None and time.monotonic() > until)
+
+
+def stop_reason() -> str:
+    """Why :func:`stop_requested` is true: "its client left", or the reason given to :func:`bounded`."""
     stop = getattr(_local, "stop", None)
-    return stop is not None and stop.is_set()
+    return "its client left" if stop is not None and stop.is_set() else getattr(_local, "reason", "")
+
+
+@contextlib.contextmanager
+def bounded(seconds: float, reason: str) -> Iterator[None]:
+    """Work done at once on this thread that stops (:func:`stop_requested`) after ``seconds``
+    (s of wall time), ``reason`` saying why (a script's call: what its pass has left)."""
+    previous = getattr(_local, "until", None), getattr(_local, "reason", "")
+    _local.until, _local.reason = time.monotonic() + seconds, reason
+    try:
+        yield
+    finally:
+        _local.until, _local.reason = previous
 
 
 class _Job:

@@ -79,7 +79,7 @@ def decompose(vertices: np.ndarray, faces: np.ndarray, resolution: int, vertices
             proc.kill()
             proc.communicate()
             if job_ring.stop_requested():
-                raise DecompositionError("stopped: its client left") from None
+                raise DecompositionError(f"stopped: {job_ring.stop_reason()}") from None
             raise DecompositionError(f"V-HACD took more than {WALL_SECONDS} s") from None
     if proc.returncode == _MISSING:
         raise MissingPackageError("the vhacdx package is not installed")
