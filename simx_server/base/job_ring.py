@@ -6,6 +6,9 @@ One job runs at a time; the thread is started when a job comes and ends when non
 clients with jobs waiting take turns, so a client's job waits behind at most one job of each
 other client, however many each has queued; a client has at most ``limit`` jobs running or
 waiting (one more is refused ``server busy`` with the subclass's message, :meth:`JobRing.busy`).
+A job may do its work in slices: one that returns True has more to do, and goes on in its
+client's next turn, after every other client's job (or slice): a client's short job then waits
+behind one slice of each other client's, not their whole work.
 
 A turn belongs to what the client cannot multiply at will: a front door that knows the
 connection a request came on names it while it serves the request (:func:`serving`), and the
@@ -74,7 +77,7 @@ def bounded(seconds: float, reason: str) -> Iterator[None]:
 class _Job:
     __slots__ = ("cancelled", "owner", "run", "stop", "turn")
 
-    def __init__(self, run: Callable[[], None], turn: Any, owner: Any,
+    def __init__(self, run: Callable[[], bool | None], turn: Any, owner: Any,
                  cancelled: Callable[[], None] | None) -> None:
         self.run, self.turn, self.owner, self.cancelled = run, turn, owner, cancelled
         self.stop = threading.Event()
@@ -114,13 +117,14 @@ class JobRing:
         with self._lock:
             return sum(self._pending.values()) if client is ... else self._pending.get(client, 0)
 
-    def add(self, client: Any, job: Callable[[], None], cancelled: Callable[[], None] | None = None) -> None:
+    def add(self, client: Any, job: Callable[[], bool | None], cancelled: Callable[[], None] | None = None) -> None:
         """Queue ``job`` of ``client`` (its owner), in the turn of the connection a door serves it
         on (:func:`serving`), else in ``client``'s own.
 
         Args:
             client: the caller key the job works for.
-            job: the work; it reports its own errors.
+            job: the work; it reports its own errors, and returns True when it has more to do
+                (run again in the client's next turn).
             cancelled: called instead of ``job`` when the job is dropped before it ran
                 (:meth:`cancel`: its client left), on the thread that cancels it.
 
@@ -211,19 +215,26 @@ class JobRing:
                 else:
                     del self._jobs[turn]
             _local.stop = job.stop
+            again = False
             try:
-                job.run()
+                again = job.run() is True
             except Exception:  # a job reports its own errors; the queue must outlive it
                 self._log.exception("a %s", self._what)
             finally:
                 _local.stop = None
                 with self._lock:
                     self._current = None
-                    left = self._pending[turn] - 1
-                    if left:
-                        self._pending[turn] = left
+                    if again:  # its next slice in its next turn (one asked to stop sees it there)
+                        waiting = self._jobs.setdefault(turn, collections.deque())
+                        if not waiting:
+                            self._ring.append(turn)
+                        waiting.appendleft(job)
                     else:
-                        del self._pending[turn]
+                        left = self._pending[turn] - 1
+                        if left:
+                            self._pending[turn] = left
+                        else:
+                            del self._pending[turn]
                 job = None  # type: ignore[assignment]  # what it closes over goes now
 
 

@@ -304,53 +304,61 @@ def test_a_long_calls_work_is_charged_to_its_uuid_on_any_connection(tmp_path, mo
         sim.close()
 
 
-def test_long_calls_take_turns_by_connection_and_go_with_their_client(tmp_path):
-    """Issue 84: a victim's 0.3 s solve waited 119 s behind 12 fresh uuids' solves and 120 s
-    behind 12 clients that had left. Now one connection holds at most MAX_WAITING_PER_CLIENT long
-    calls whatever uuids it claims, and when it closes its queued call is answered "not run"
-    without running and its running one stops: the victim's call is served next. In-process, a
-    real simulation and the ZMQ service."""
-    from simx_server.loop.clients import Clients
-    from simx_server.scene.simulation import Simulation
-    from simx_server.zmq.frontend import Incoming
-    from simx_server.zmq.service import ZmqService
+class InProcess:
+    """The ZMQ service on a real simulation, without sockets: requests by connection, tag and
+    uuid; their replies by tag, as the frontend would send them (from any thread)."""
 
-    (tmp_path / "scene.xml").write_text(SCENE)
-    sim = Simulation(tmp_path / "scene.xml")
-    replies: dict[str, list] = {}
-    arrived = threading.Condition()
+    def __init__(self, folder):
+        from simx_server.loop.clients import Clients
+        from simx_server.scene.simulation import Simulation
+        from simx_server.zmq.service import ZmqService
 
-    class Frontend:
-        def send(self, envelope, payload, held=0, **_):
-            with arrived:
-                replies.setdefault(envelope[1].decode(), []).append(cbor2.loads(payload))
-                arrived.notify_all()
+        (folder / "scene.xml").write_text(SCENE)
+        self.sim = Simulation(folder / "scene.xml")
+        self.replies: dict[str, list] = {}
+        self.arrived = threading.Condition()
+        outer = self
 
-        def expects(self, identity):
-            return True
+        class Frontend:
+            def send(self, envelope, payload, held=0, **_):
+                with outer.arrived:
+                    outer.replies.setdefault(envelope[1].decode(), []).append(cbor2.loads(payload))
+                    outer.arrived.notify_all()
 
-    server = type("Server", (), {"sim": sim, "clients": Clients(), "hold_pass": lambda self, client, seconds: None})
-    service = ZmqService(server(), Frontend())
-    fds = {b"attacker": 7, b"victim": 8}
+            def expects(self, identity):
+                return True
 
-    def send(tag: str, connection: bytes, uuid: str, func: str, *args) -> None:
-        service.handle("zmq", Incoming([connection, tag.encode()], codec.read_request(
-            codec.encode_request(func, list(args), uuid)), fds[connection], 10))
+        server = type("Server", (), {"sim": self.sim, "clients": Clients(),
+                                     "hold_pass": lambda self, client, seconds: None})
+        self.service = ZmqService(server(), Frontend())
+        self.fds: dict[bytes, int] = {}  # connection -> its descriptor
 
-    def reply(tag: str) -> dict:
-        with arrived:
-            assert arrived.wait_for(lambda: tag in replies, 60), tag
-            return replies[tag][0]
+    def send(self, tag: str, connection: bytes, uuid: str, func: str, *args) -> None:
+        from simx_server.zmq.frontend import Incoming
 
-    try:
+        fd = self.fds.setdefault(connection, 10 + len(self.fds))
+        self.service.handle("zmq", Incoming([connection, tag.encode()], codec.read_request(
+            codec.encode_request(func, list(args), uuid)), fd, 10))
+
+    def gone(self, connection: bytes) -> None:
+        """The connection closes (the frontend's socket monitor)."""
+        self.service.handle("zmq-gone", self.fds[connection])
+
+    def reply(self, tag: str) -> dict:
+        with self.arrived:
+            assert self.arrived.wait_for(lambda: tag in self.replies, 60), tag
+            return self.replies[tag][0]
+
+    def blocked_tasks(self, n: int) -> list[int]:
+        """``n`` set-up tasks whose goal no path reaches (a solve searches until its time is up)."""
         def call(func: str, *args):
-            tag = f"setup{len(replies)}"
-            send(tag, b"victim", "v", func, *args)
-            return reply(tag)["ret"]
+            tag = f"setup{len(self.replies)}"
+            self.send(tag, b"setup", "setup", func, *args)
+            return self.reply(tag)["ret"]
 
         joint, link, post = (call("sim.getObject", p)[0] for p in ("/Joint1", "/Link1", "/Post"))
         tasks = []
-        for k in range(4):
+        for k in range(n):
             task = call("simOMPL.createTask", f"t{k}")[0]
             call("simOMPL.setStateSpaceForJoints", task, [joint], [1])
             call("simOMPL.setCollisionPairs", task, [link, post])
@@ -358,21 +366,54 @@ def test_long_calls_take_turns_by_connection_and_go_with_their_client(tmp_path):
             call("simOMPL.setGoalState", task, [2.5])
             call("simOMPL.setup", task)
             tasks.append(task)
-        send("a0", b"attacker", "a0", "simOMPL.solve", tasks[0], 9.0)  # runs
-        send("a1", b"attacker", "a1", "simOMPL.solve", tasks[1], 9.0)  # waits
-        send("a2", b"attacker", "a2", "simOMPL.solve", tasks[2], 9.0)  # a fresh uuid, the same connection
-        assert BUSY in reply("a2").get("err", ""), replies["a2"]
-        send("v", b"victim", "v", "simOMPL.solve", tasks[3], 0.2)  # waits behind a0 only
-        assert "v" not in replies and "a0" not in replies
-        service.handle("zmq-gone", fds[b"attacker"])  # the attacker's connection closes
-        assert long_calls.LEFT in reply("a1").get("err", "")  # answered without running
-        assert long_calls.LEFT in reply("a0").get("err", "")  # stopped while it searched
-        assert "ret" in reply("v")
-        assert long_calls.waiting.settle(30) and long_calls.waiting.pending() == 0
-        send("free", b"victim", "v", "simOMPL.getPath", tasks[1])  # the dropped call left its task free
-        assert "busy" not in reply("free").get("err", ""), replies["free"]
-    finally:
-        sim.close()
+        return tasks
+
+
+@pytest.fixture
+def in_process(tmp_path):
+    made = InProcess(tmp_path)
+    yield made
+    made.sim.close()
+
+
+def test_long_calls_take_turns_by_connection_and_go_with_their_client(in_process):
+    """Issue 84: a victim's 0.3 s solve waited 120 s behind 12 clients that had left, and a
+    client's turn and bound went by the uuid it claimed. Now one connection holds at most
+    MAX_WAITING_PER_CLIENT long calls whatever uuids it claims, and when it closes its queued
+    call is answered "not run" without running and its running one stops."""
+    z = in_process
+    tasks = z.blocked_tasks(4)
+    z.send("a0", b"attacker", "a0", "simOMPL.solve", tasks[0], 9.0)  # runs
+    z.send("a1", b"attacker", "a1", "simOMPL.solve", tasks[1], 9.0)  # waits
+    z.send("a2", b"attacker", "a2", "simOMPL.solve", tasks[2], 9.0)  # a fresh uuid, the same connection
+    assert BUSY in z.reply("a2").get("err", ""), z.replies["a2"]
+    z.send("v", b"victim", "v", "simOMPL.solve", tasks[3], 0.2)
+    assert "a0" not in z.replies
+    z.gone(b"attacker")  # the attacker's connection closes
+    assert long_calls.LEFT in z.reply("a1").get("err", "")  # answered without running
+    assert long_calls.LEFT in z.reply("a0").get("err", "")  # stopped while it searched
+    assert "ret" in z.reply("v")
+    assert long_calls.waiting.settle(30) and long_calls.waiting.pending() == 0
+    z.send("free", b"victim", "v", "simOMPL.getPath", tasks[1])  # the dropped call left its task free
+    assert "busy" not in z.reply("free").get("err", ""), z.replies["free"]
+
+
+def test_a_short_solve_waits_behind_slices_not_whole_solves(in_process):
+    """Issue 84: 12 connections solving for 10 s each held a victim's 0.3 s solve 119 s. A
+    solve off the simulation thread now runs in slices (long_calls.SLICE_SECONDS), the
+    connections in turn: three 3 s solves started first, the victim's 0.3 s solve is answered
+    while all three still search."""
+    z = in_process
+    tasks = z.blocked_tasks(4)
+    for k in range(3):
+        z.send(f"a{k}", f"attacker{k}".encode(), f"a{k}", "simOMPL.solve", tasks[k], 3.0)
+    z.send("v", b"victim", "v", "simOMPL.solve", tasks[3], 0.3)
+    assert "ret" in z.reply("v")
+    with z.arrived:
+        assert not any(f"a{k}" in z.replies for k in range(3)), z.replies
+    for k in range(3):  # they go: their solves stop
+        z.gone(f"attacker{k}".encode())
+    assert long_calls.waiting.settle(30)
 
 
 def test_a_decomposition_whose_client_left_stops_its_worker():
