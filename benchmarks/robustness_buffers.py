@@ -283,27 +283,38 @@ def _hold_tcp(port: int, n: int, stop: threading.Event) -> list[int]:
     return counts
 
 
-def legacy_idle_tcp(t: Target, ctx: zmq.Context) -> str:
-    """110 idle TCP connections to the legacy port, then a new legacy client."""
+def _idle_then_clients(t: Target, idle: int, clients: int, settle: float) -> str:
+    """``idle`` idle TCP connections to the legacy port (this process's open-files limit raised to
+    its hard limit meanwhile), then ``clients`` new legacy clients, one every 3 s."""
     from simx_client import api
 
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
     stop = threading.Event()
     counts: list[int] = []
-    holder = threading.Thread(target=lambda: counts.extend(_hold_tcp(t.port, 110, stop)), daemon=True)
+    holder = threading.Thread(target=lambda: counts.extend(_hold_tcp(t.port, idle, stop)), daemon=True)
     holder.start()
-    time.sleep(2.0)
+    time.sleep(settle)
     results = []
-    for _ in range(3):
-        start = time.monotonic()
-        cid = api.simxStart("127.0.0.1", t.port, True, True, 5000, 5)
-        ok = cid >= 0 and api.simxGetObjectHandle(cid, "Keeper", P.MODE_BLOCKING)[0] == 0
-        results.append(f"{'served' if ok else 'refused'} in {time.monotonic() - start:.1f} s")
-        if cid >= 0:
-            api.simxFinish(cid)
-        time.sleep(3.0)
-    stop.set()
-    holder.join(30)
+    try:
+        for _ in range(clients):
+            start = time.monotonic()
+            cid = api.simxStart("127.0.0.1", t.port, True, True, 5000, 5)
+            ok = cid >= 0 and api.simxGetObjectHandle(cid, "Keeper", P.MODE_BLOCKING)[0] == 0
+            results.append(f"{'served' if ok else 'refused'} in {time.monotonic() - start:.2f} s")
+            if cid >= 0:
+                api.simxFinish(cid)
+            time.sleep(3.0)
+    finally:
+        stop.set()
+        holder.join(60)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
     return f"new legacy clients: {', '.join(results)}; attacker opened {counts[0]}, reopened {counts[1]}"
+
+
+def legacy_idle_tcp(t: Target, ctx: zmq.Context) -> str:
+    """110 idle TCP connections to the legacy port, then 3 new legacy clients."""
+    return _idle_then_clients(t, 110, 3, 2.0)
 
 
 def _zmtp_half_frame(port: int, declared: int, sent: int) -> socket.socket:
@@ -362,30 +373,7 @@ def zmq_half_frames(t: Target, ctx: zmq.Context) -> str:
 
 def legacy_idle_5000(t: Target, ctx: zmq.Context) -> str:
     """5,000 idle TCP connections to the legacy port, then 4 new legacy clients."""
-    from simx_client import api
-
-    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
-    resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
-    stop = threading.Event()
-    counts: list[int] = []
-    holder = threading.Thread(target=lambda: counts.extend(_hold_tcp(t.port, 5000, stop)), daemon=True)
-    holder.start()
-    time.sleep(5.0)
-    results = []
-    try:
-        for _ in range(4):
-            start = time.monotonic()
-            cid = api.simxStart("127.0.0.1", t.port, True, True, 5000, 5)
-            ok = cid >= 0 and api.simxGetObjectHandle(cid, "Keeper", P.MODE_BLOCKING)[0] == 0
-            results.append(f"{'served' if ok else 'refused'} in {time.monotonic() - start:.2f} s")
-            if cid >= 0:
-                api.simxFinish(cid)
-            time.sleep(3.0)
-    finally:
-        stop.set()
-        holder.join(60)
-        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
-    return f"new legacy clients: {', '.join(results)}; attacker opened {counts[0]}, reopened {counts[1]}"
+    return _idle_then_clients(t, 5000, 4, 5.0)
 
 
 legacy_idle_5000.nofile = 20000  # type: ignore[attr-defined]

@@ -113,19 +113,34 @@ def test_idle_tcp_connections_do_not_lock_legacy_clients_out(tmp_path):
         server.stop()
 
 
-def test_stalled_zmq_connections_hold_no_slot(tmp_path):
-    (tmp_path / "scene.xml").write_text(SCENE)
-    port = free_port()
+def _limited_server(folder: Path, nofile: int, *args: str) -> tuple[subprocess.Popen, list[str]]:
+    """A server of SCENE started with an open-files limit of ``nofile`` (soft and hard), and its
+    log as it comes."""
+    (folder / "scene.xml").write_text(SCENE)
 
-    def low_limit():  # the gate's bound is then half of it: 128 connections
-        resource.setrlimit(resource.RLIMIT_NOFILE, (256, 256))
+    def low_limit():
+        resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))
 
-    proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(tmp_path / "scene.xml"), "--stopped",
-                             "--renderers", "on-demand", "--port", str(free_port()), "--zmq-port", str(port)],
-                            preexec_fn=low_limit, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(folder / "scene.xml"), "--stopped",
+                             "--renderers", "on-demand", *args], preexec_fn=low_limit, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
     log: list[str] = []
-    reader = threading.Thread(target=lambda: log.extend(proc.stderr), daemon=True)
-    reader.start()
+    threading.Thread(target=lambda: log.extend(proc.stderr), daemon=True).start()
+    return proc, log
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    proc.terminate()
+    try:
+        proc.wait(20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def test_stalled_zmq_connections_hold_no_slot(tmp_path):
+    port = free_port()  # the gate's bound is half the open-files limit: 128 connections
+    proc, log = _limited_server(tmp_path, 256, "--port", str(free_port()), "--zmq-port", str(port))
     ctx = zmq.Context()
     try:
         assert ready_line(proc, 60) is not None
@@ -148,12 +163,7 @@ def test_stalled_zmq_connections_hold_no_slot(tmp_path):
         assert not any("MAX_ZMQ_CONNECTIONS" in line for line in log), "".join(log)[-2000:]
     finally:
         ctx.destroy(0)
-        proc.terminate()
-        try:
-            proc.wait(20)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        _stop(proc)
 
 
 def test_zenoh_handshake_bounds_in_the_config_unless_the_operator_sets_them(tmp_path):
@@ -176,18 +186,8 @@ def test_more_idle_connections_than_zenohs_slots_do_not_lock_legacy_clients_out(
     refused (0 of 4 in 30 s). Bounded: a server whose open-files limit is 1,024 (Zenoh's slots were
     a quarter of it, 256; a third now, 341), 300 idle connections, reopened as they are closed:
     3 new clients must each be served."""
-    (tmp_path / "scene.xml").write_text(SCENE)
     port = free_port()
-
-    def low_limit():
-        resource.setrlimit(resource.RLIMIT_NOFILE, (1024, 1024))
-
-    proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(tmp_path / "scene.xml"), "--stopped",
-                             "--renderers", "on-demand", "--no-zmq", "--port", str(port)],
-                            preexec_fn=low_limit, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    log: list[str] = []
-    reader = threading.Thread(target=lambda: log.extend(proc.stderr), daemon=True)
-    reader.start()
+    proc, log = _limited_server(tmp_path, 1024, "--no-zmq", "--port", str(port))
     try:
         assert ready_line(proc, 60) is not None
         before = _descriptors(proc.pid)
@@ -206,12 +206,7 @@ def test_more_idle_connections_than_zenohs_slots_do_not_lock_legacy_clients_out(
         finally:
             holder.close()
     finally:
-        proc.terminate()
-        try:
-            proc.wait(20)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        _stop(proc)
 
 
 def test_the_guard_closes_the_oldest_connections_that_are_not_sessions():
