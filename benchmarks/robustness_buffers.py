@@ -65,7 +65,7 @@ QUERY_TIMEOUT = float(os.environ.get("SIMX_ATTACK_QUERY_TIMEOUT", "30"))
 class Target:
     """A simx-server process of ``code`` (legacy and ZMQ doors) and its RSS sampled meanwhile."""
 
-    def __init__(self, code: Path, folder: Path, nofile: int = 4096):
+    def __init__(self, code: Path, folder: Path, nofile: int = 4096, extra: tuple[str, ...] = ()):
         self.zmq_port, self.port = free_port(), free_port()
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONPATH=str(code))
 
@@ -74,7 +74,7 @@ class Target:
 
         self.proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(folder / "scene.xml"),
                                       "--renderers", "on-demand", "--port", str(self.port),
-                                      "--zmq-port", str(self.zmq_port)], env=env, cwd=str(code),
+                                      "--zmq-port", str(self.zmq_port), *extra], env=env, cwd=str(code),
                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, preexec_fn=limit)
         if ready_line(self.proc, 90) is None:
             raise RuntimeError("the server did not start")
@@ -172,7 +172,8 @@ class Probe:
         out, _ = self.proc.communicate("", timeout=120)
         times, failed = json.loads(out.strip().splitlines()[-1])
         worst = max(times) if times else float("nan")
-        return f"probe: {len(times)} calls, slowest {worst * 1000:.0f} ms, {failed} unanswered"
+        p99 = sorted(times)[int(0.99 * (len(times) - 1))] if times else float("nan")
+        return f"probe: {len(times)} calls, p99 {p99 * 1000:.0f} ms, slowest {worst * 1000:.0f} ms, {failed} unanswered"
 
 
 def zmq_pipelined(t: Target, ctx: zmq.Context) -> str:
