@@ -16,6 +16,11 @@ Attacks (the issue's sizes):
   Zenoh's handshake (reopened when the server closes them); then a new legacy client connects.
 * **zmq stalled**: 1,100 TCP connections to the ZMQ port that never start ZMTP's handshake; then
   8 new ZMQ clients each make one call.
+* **zmq half frames** (issue 84): 40 connections finish ZMTP's handshake, declare a 17 MiB frame,
+  send 16 MiB of it and stop; how long until the server has closed them, and its memory.
+* **legacy 5,000 idle TCP** (issue 84): one process holds 5,000 TCP connections to the legacy port
+  (server and attacker at an open-files limit of 20,000), reopened as they are closed; then 4 new
+  legacy clients, one every 3 s.
 
 Each prints: the server's RSS before, at its peak (sampled every 50 ms from /proc) and 10 s after
 the attack ended; the probe's slowest answer; what the attacker got.
@@ -60,7 +65,7 @@ QUERY_TIMEOUT = float(os.environ.get("SIMX_ATTACK_QUERY_TIMEOUT", "30"))
 class Target:
     """A simx-server process of ``code`` (legacy and ZMQ doors) and its RSS sampled meanwhile."""
 
-    def __init__(self, code: Path, folder: Path, nofile: int = 4096):
+    def __init__(self, code: Path, folder: Path, nofile: int = 4096, extra: tuple[str, ...] = ()):
         self.zmq_port, self.port = free_port(), free_port()
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONPATH=str(code))
 
@@ -69,7 +74,7 @@ class Target:
 
         self.proc = subprocess.Popen([sys.executable, "-m", "simx_server.cli", str(folder / "scene.xml"),
                                       "--renderers", "on-demand", "--port", str(self.port),
-                                      "--zmq-port", str(self.zmq_port)], env=env, cwd=str(code),
+                                      "--zmq-port", str(self.zmq_port), *extra], env=env, cwd=str(code),
                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, preexec_fn=limit)
         if ready_line(self.proc, 90) is None:
             raise RuntimeError("the server did not start")
@@ -167,7 +172,8 @@ class Probe:
         out, _ = self.proc.communicate("", timeout=120)
         times, failed = json.loads(out.strip().splitlines()[-1])
         worst = max(times) if times else float("nan")
-        return f"probe: {len(times)} calls, slowest {worst * 1000:.0f} ms, {failed} unanswered"
+        p99 = sorted(times)[int(0.99 * (len(times) - 1))] if times else float("nan")
+        return f"probe: {len(times)} calls, p99 {p99 * 1000:.0f} ms, slowest {worst * 1000:.0f} ms, {failed} unanswered"
 
 
 def zmq_pipelined(t: Target, ctx: zmq.Context) -> str:
@@ -268,34 +274,110 @@ def _hold_tcp(port: int, n: int, stop: threading.Event) -> list[int]:
             if not data:  # closed by the server: reopen it
                 sel.unregister(s)
                 s.close()
-                open_one()
+                try:
+                    open_one()
+                except OSError:  # the listener's backlog is full: the next round tries again
+                    continue
                 counts[1] += 1
     for key in list(sel.get_map().values()):
         key.fileobj.close()
     return counts
 
 
-def legacy_idle_tcp(t: Target, ctx: zmq.Context) -> str:
-    """110 idle TCP connections to the legacy port, then a new legacy client."""
+def _idle_then_clients(t: Target, idle: int, clients: int, settle: float) -> str:
+    """``idle`` idle TCP connections to the legacy port (this process's open-files limit raised to
+    its hard limit meanwhile), then ``clients`` new legacy clients, one every 3 s."""
     from simx_client import api
 
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
     stop = threading.Event()
     counts: list[int] = []
-    holder = threading.Thread(target=lambda: counts.extend(_hold_tcp(t.port, 110, stop)), daemon=True)
+    holder = threading.Thread(target=lambda: counts.extend(_hold_tcp(t.port, idle, stop)), daemon=True)
     holder.start()
-    time.sleep(2.0)
+    time.sleep(settle)
     results = []
-    for _ in range(3):
-        start = time.monotonic()
-        cid = api.simxStart("127.0.0.1", t.port, True, True, 5000, 5)
-        ok = cid >= 0 and api.simxGetObjectHandle(cid, "Keeper", P.MODE_BLOCKING)[0] == 0
-        results.append(f"{'served' if ok else 'refused'} in {time.monotonic() - start:.1f} s")
-        if cid >= 0:
-            api.simxFinish(cid)
-        time.sleep(3.0)
-    stop.set()
-    holder.join(30)
+    try:
+        for _ in range(clients):
+            start = time.monotonic()
+            cid = api.simxStart("127.0.0.1", t.port, True, True, 5000, 5)
+            ok = cid >= 0 and api.simxGetObjectHandle(cid, "Keeper", P.MODE_BLOCKING)[0] == 0
+            results.append(f"{'served' if ok else 'refused'} in {time.monotonic() - start:.2f} s")
+            if cid >= 0:
+                api.simxFinish(cid)
+            time.sleep(3.0)
+    finally:
+        stop.set()
+        holder.join(60)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
     return f"new legacy clients: {', '.join(results)}; attacker opened {counts[0]}, reopened {counts[1]}"
+
+
+def legacy_idle_tcp(t: Target, ctx: zmq.Context) -> str:
+    """110 idle TCP connections to the legacy port, then 3 new legacy clients."""
+    return _idle_then_clients(t, 110, 3, 2.0)
+
+
+def _zmtp_half_frame(port: int, declared: int, sent: int) -> socket.socket:
+    """A connection that speaks ZMTP 3.0 by hand (RFC 23: greeting, NULL, READY as a DEALER),
+    then declares a frame of ``declared`` bytes, sends ``sent`` of them and stops."""
+    import struct
+
+    sock = socket.create_connection(("127.0.0.1", port), timeout=30)
+    body = b"\x05READY\x0bSocket-Type" + struct.pack(">I", 6) + b"DEALER"
+    sock.sendall(b"\xff" + b"\0" * 8 + b"\x7f\x03\x00" + b"NULL".ljust(20, b"\0") + b"\0" * 32
+                 + bytes([0x04, len(body)]) + body)
+    got = b""
+    while len(got) < 66 or len(got) < 66 + got[65]:  # the server's greeting and READY
+        data = sock.recv(4096)
+        if not data:
+            return sock
+        got += data
+    try:
+        sock.sendall(b"\x01\x00\x02" + struct.pack(">Q", declared))
+        sock.sendall(b"\0" * sent)
+    except OSError:  # closed by the server meanwhile
+        pass
+    return sock
+
+
+def zmq_half_frames(t: Target, ctx: zmq.Context) -> str:
+    """40 connections stalled inside a 17 MiB frame (16 MiB sent)."""
+    import selectors
+
+    probe = Probe(t, "zmq")
+    start = time.monotonic()
+    socks = [_zmtp_half_frame(t.zmq_port, 17 * MIB, 16 * MIB) for _ in range(40)]
+    sent = time.monotonic()
+    sel = selectors.DefaultSelector()
+    for s in socks:
+        s.setblocking(False)
+        sel.register(s, selectors.EVENT_READ)
+    closed_at: list[float] = []
+    while sel.get_map() and time.monotonic() - sent < 60:
+        for key, _ in sel.select(0.5):
+            try:
+                data = key.fileobj.recv(65536)
+            except OSError:
+                data = b""
+            if not data:
+                sel.unregister(key.fileobj)
+                closed_at.append(time.monotonic() - sent)
+    open_left = len(sel.get_map())
+    for s in socks:
+        s.close()
+    time.sleep(10)
+    last = f"the last {max(closed_at):.1f} s after" if closed_at else "none"
+    return (f"sent in {sent - start:.1f} s; {len(closed_at)} of 40 closed by the server ({last}), {open_left} "
+            f"still open after 60 s; {probe.result()}")
+
+
+def legacy_idle_5000(t: Target, ctx: zmq.Context) -> str:
+    """5,000 idle TCP connections to the legacy port, then 4 new legacy clients."""
+    return _idle_then_clients(t, 5000, 4, 5.0)
+
+
+legacy_idle_5000.nofile = 20000  # type: ignore[attr-defined]
 
 
 def zmq_stalled(t: Target, ctx: zmq.Context) -> str:
@@ -332,7 +414,9 @@ def zmq_stalled(t: Target, ctx: zmq.Context) -> str:
 ATTACKS = {"zmq pipelined: 8 connections x 16 x 60 MiB": zmq_pipelined,
            "legacy large: 16 sessions x 3 x 60 MiB": legacy_large,
            "legacy idle TCP: 110 connections, then simxStart": legacy_idle_tcp,
-           "zmq stalled: 1,100 connections, then 8 clients": zmq_stalled}
+           "zmq stalled: 1,100 connections, then 8 clients": zmq_stalled,
+           "zmq half frames: 40 connections stalled inside a 17 MiB frame": zmq_half_frames,
+           "legacy 5,000 idle TCP, then 4 x simxStart": legacy_idle_5000}
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -349,7 +433,7 @@ def main(argv: list[str] | None = None) -> None:
     for name, attack in ATTACKS.items():
         if args.only and not any(w in name for w in args.only):
             continue
-        t = Target(args.code, folder)
+        t = Target(args.code, folder, getattr(attack, "nofile", 4096))
         try:
             start = time.monotonic()
             result = attack(t, ctx)

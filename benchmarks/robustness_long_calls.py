@@ -9,6 +9,11 @@ figures, not pass/fail (tests/zmq/test_zmq_long_calls.py has the pass/fail side)
 Each attack prints: the attackers' time, the other client's slowest ``sim.getSimulationTime``
 while they ran (and how many it made), the server's RSS before, at its peak (sampled every 50 ms)
 and 10 s after, and the attackers' first reply. Every wait is bounded (240 s a reply).
+
+The ring's attacks (issue 84) measure instead how long another client's own 0.3 s
+``simOMPL.solve`` takes when it comes just after the attackers' long calls: behind 12 connections
+each solving for 10 s, behind 12 that sent such a solve and closed, behind 6 that sent a
+400,000-voxel ``sim.convexDecompose`` and closed.
 """
 
 from __future__ import annotations
@@ -22,8 +27,9 @@ from pathlib import Path
 
 import zmq
 
-from benchmarks.robustness_zmq import ROOT, Target, call
+from benchmarks.robustness_zmq import ROOT, Target, _short, call
 from benchmarks.victims import during, once
+from simx_server.zmq import codec
 
 #: A one-link arm that a post blocks (no path: planners search until their time is up), and a
 #: torus (a non-convex mesh) to decompose.
@@ -85,6 +91,33 @@ def _attack(t: Target, ctx: zmq.Context, attackers: int, prepare, request) -> st
     return f"other client's slowest call {other} | {reply}"
 
 
+def _behind(t: Target, ctx: zmq.Context, attackers: int, prepare, request, leave: bool) -> str:
+    """``attackers`` connections each send ``request(prepared)`` (and close at once when
+    ``leave``); then another client's 0.3 s solve: how long it took to be answered."""
+    socks = [t.socket(ctx, timeout_ms=300_000) for _ in range(attackers)]
+    prepared = [prepare(s, f"a{k}") for k, s in enumerate(socks)]
+    victim = t.socket(ctx, timeout_ms=300_000)
+    task = _task(victim, "victim")
+    for k, sock in enumerate(socks):
+        func, *args = request(prepared[k])
+        sock.send(codec.encode_request(func, list(args), f"a{k}"))
+    time.sleep(1.0)  # every attacker's call is in
+    if leave:
+        for sock in socks:
+            sock.close(0)
+    start = time.monotonic()
+    try:
+        reply = _short(call(victim, "simOMPL.solve", task, 0.3, uuid="victim"))
+    except zmq.Again:
+        reply = "no reply in 300 s"
+    took = time.monotonic() - start
+    victim.close(0)
+    if not leave:
+        for sock in socks:
+            sock.close(0)
+    return f"the other client's 0.3 s solve answered in {took:.1f} s | {reply}"
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--code", type=Path, default=ROOT, help="checkout whose simx_server runs (default: this one)")
@@ -102,6 +135,14 @@ def main(argv: list[str] | None = None) -> None:
         "simIK.findConfig(maxTime 1e9), 3 connections at once":
             (3, _ik, lambda e: ("simIK.findConfig", e[0], e[1], [e[2]], 0.1, 1e9)),
     }
+    decompose = (lambda s, u: call(s, "sim.getObject", "/Torus", uuid=u)["ret"][0],
+                 lambda shape: ("sim.convexDecompose", shape, 128, [0, 0, 0, 0, 0, 400_000, 0, 0, 0, 64], [0.0] * 10))
+    ring = {
+        "ring: behind 12 connections solving 10 s each": (12, _task, lambda task: ("simOMPL.solve", task, 10.0), False),
+        "ring: behind 12 clients that sent a 10 s solve and left":
+            (12, _task, lambda task: ("simOMPL.solve", task, 10.0), True),
+        "ring: behind 6 clients that sent a convexDecompose and left": (6, *decompose, True),
+    }
     folder = Path(tempfile.mkdtemp(prefix="simx-long-calls-"))
     vertex, face = _torus()
     (folder / "scene.xml").write_text(SCENE.format(vertex=vertex, face=face))
@@ -109,13 +150,15 @@ def main(argv: list[str] | None = None) -> None:
     print(f"code: {args.code}; load average {os.getloadavg()[0]:.1f}")
     print("| attack | attackers' time | other client | server RSS before -> peak -> 10 s after | reply |")
     print("|---|---|---|---|---|")
-    for name, (count, prepare, request) in attacks.items():
+    runs = {**{name: (lambda t, a=a: _attack(t, ctx, *a)) for name, a in attacks.items()},
+            **{name: (lambda t, a=a: _behind(t, ctx, *a)) for name, a in ring.items()}}
+    for name, run in runs.items():
         if args.only and not any(w in name for w in args.only):
             continue
         t = Target(args.code, folder)
         try:
             start = time.monotonic()
-            other, _, reply = _attack(t, ctx, count, prepare, request).partition(" | ")
+            other, _, reply = run(t).partition(" | ")
             took = time.monotonic() - start
             time.sleep(10)
             print(f"| {name} | {took:.1f} s | {other} | {t.before:.0f} -> {t.peak:.0f} -> {t.rss():.0f} MB | "

@@ -20,9 +20,10 @@ import binascii
 import json
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 from simx_server.base import limits as L
+from simx_wire.protocol import ArgumentError
 
 #: boost::lexical_cast<double>'s accepted text (what V-REP pushes as a number).
 _NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)", re.IGNORECASE)
@@ -138,3 +139,45 @@ def chain(world: Any, owner: int) -> list[int]:
         out.append(p)
         p = world.objects[p].parent
     return out
+
+
+def stored(lists: Iterable[list]) -> tuple[int, int]:
+    """``(entries, bytes)`` of parameter lists (names and values)."""
+    entries = size = 0
+    for params in lists:
+        entries += len(params)
+        size += sum(len(p.get("name", "")) + len(as_bytes(p.get("value") or b"")) for p in params)
+    return entries, size
+
+
+def admit(lists: Iterable[list], params: list, name: str, value: bytes, room: int | None = None) -> None:
+    """Check that setting ``name`` to ``value`` in ``params`` keeps the parameters of ``lists``
+    (every list of the scene's scripts and objects, ``params`` among them) within their bounds.
+
+    Args:
+        room: bytes the scripts' memory has left (limits.MAX_SCRIPTS_MEMORY less what the Lua
+            states and the parameters hold), or None.
+
+    Raises:
+        ArgumentError: past limits.MAX_SIGNAL_NAME, MAX_PARAMETER_BYTES, MAX_PARAMETERS,
+            MAX_PARAMETER_STORE_BYTES or the scripts' memory; nothing is set.
+    """
+    if len(name) > L.MAX_SIGNAL_NAME:
+        raise ArgumentError(f"parameter name of {len(name)} characters: at most {L.MAX_SIGNAL_NAME} "
+                            "(limits.MAX_SIGNAL_NAME)")
+    if len(value) > L.MAX_PARAMETER_BYTES:
+        raise ArgumentError(f"parameter {name[:100]!r}: a value of {len(value)} bytes, at most "
+                            f"{L.MAX_PARAMETER_BYTES} (limits.MAX_PARAMETER_BYTES)")
+    entries, size = stored(lists)
+    old = next((p for p in params if p.get("name") == name), None)
+    grow = len(value) - (len(as_bytes(old.get("value") or b"")) if old is not None else -len(name))
+    if old is None and entries >= L.MAX_PARAMETERS:
+        raise ArgumentError(f"parameter {name[:100]!r} not added: the scene's scripts and objects have "
+                            f"{entries} parameters already (limits.MAX_PARAMETERS)")
+    if size + grow > L.MAX_PARAMETER_STORE_BYTES:
+        raise ArgumentError(f"parameter {name[:100]!r} not set: the scene's parameters would hold {size + grow} "
+                            f"bytes, more than {L.MAX_PARAMETER_STORE_BYTES} (limits.MAX_PARAMETER_STORE_BYTES)")
+    if room is not None and grow > room:
+        raise ArgumentError(f"parameter {name[:100]!r} not set: {grow} more bytes would pass the memory of the "
+                            f"scene's scripts ({room} left; limits.MAX_SCRIPTS_MEMORY, their Lua states and "
+                            "parameters together)")

@@ -80,6 +80,14 @@ MAX_SIGNAL_BYTES = 16 * 1024 * 1024
 MAX_SIGNAL_STORE_BYTES = 64 * 1024 * 1024
 #: Longest signal name in characters.
 MAX_SIGNAL_NAME = 1024
+#: Script simulation parameters and user parameters (``sim.setScriptSimulationParameter``,
+#: ``sim.setUserParameter``) of all the scene's scripts and objects, bounded as signals: most
+#: entries, largest value in bytes, largest total (names and values). The total also counts
+#: toward MAX_SCRIPTS_MEMORY, beside the Lua states: a client scene's script set 40 user
+#: parameters of 100 MiB and took the server from 259 to 4,455 MB for good.
+MAX_PARAMETERS = MAX_SIGNALS
+MAX_PARAMETER_BYTES = MAX_SIGNAL_BYTES
+MAX_PARAMETER_STORE_BYTES = MAX_SIGNAL_STORE_BYTES
 
 # ----------------------------------------------------------------- scenes and files
 # Files sent with simxTransferFile, and what a scene or model sent by a client may hold. A
@@ -477,14 +485,31 @@ MAX_ZMQ_CONNECTIONS = 1000
 #: the socket thread (Python): 3 s let 200 handshakes at once time out again and again on a
 #: loaded machine while the server started.
 ZMQ_HANDSHAKE_SECONDS = 10.0
+#: s between the ZMTP heartbeat's PINGs the server sends every ZMQ connection, and s after a PING
+#: within which a whole message (a PONG, a request) must come from it, else it is closed and its
+#: half-received message freed (libzmq's ``ZMQ_HEARTBEAT_IVL``, ``ZMQ_HEARTBEAT_TIMEOUT``): 40
+#: connections each stalled inside a 60 MiB frame held 2.4 GB for as long as they liked. A
+#: client's libzmq answers PINGs by itself; a message must arrive within the timeout (the
+#: largest, sockets.MAX_MESSAGE_BYTES, at about 8 Mbit/s).
+ZMQ_HEARTBEAT_SECONDS = 5.0
+ZMQ_HEARTBEAT_TIMEOUT_SECONDS = 20.0
+#: The share of the machine's memory (or its cgroup's limit) that ZMQ messages still being
+#: received may hold, each up to the largest message: it bounds the connections served at once
+#: (zmq/sockets.py: 1,000 connections x 66 MiB allowed 66 GB).
+ZMQ_RECEIVING_MEMORY_SHARE = 0.25
 #: s a new Zenoh connection to the legacy door has to finish Zenoh's handshake (its
 #: ``transport/unicast/accept_timeout``, 10 s by default), and handshakes under way at once
-#: (``transport/unicast/accept_pending``, 100 by default; at most a quarter of the open-files
-#: limit): a connection beyond is closed at once. 110 idle TCP connections, reopened as Zenoh
-#: closed them, locked every new legacy client out with Zenoh's defaults. An operator's Zenoh
-#: config file that sets either key keeps its own value.
+#: (``transport/unicast/accept_pending``, 100 by default; at most a third of the open-files
+#: limit): Zenoh closes a connection beyond at once, the newest. 110 idle TCP connections,
+#: reopened as Zenoh closed them, locked every new legacy client out with Zenoh's defaults, 5,000
+#: with 4,096 slots. An operator's Zenoh config file that sets either key keeps its own value.
 ZENOH_ACCEPT_SECONDS = 5.0
-ZENOH_ACCEPT_PENDING = 4096
+ZENOH_ACCEPT_PENDING = 16384
+#: s between two sweeps of the legacy port's connections that are not a Zenoh session yet:
+#: beyond a quarter of accept_pending of them, simx closes the oldest (legacy/handshakes.py), so
+#: that a slot stays free for a new client's handshake while one process holds more idle
+#: connections than that (Zenoh itself would refuse the newest once its slots are full).
+ZENOH_SWEEP_SECONDS = 0.2
 #: s a running simulation's pass keeps serving ZMQ requests, per client served in it, before its
 #: step (CoppeliaSim's ZMQ remote API add-on: ``msgQueueTimeout_running``; Loop.hold_pass).
 ZMQ_PASS_WINDOW = 0.002

@@ -17,15 +17,19 @@ import os
 import resource
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
+
+from simx_server.base import job_ring
 
 #: Address-space bound of a worker, bytes; CPU-time bound, s; wall time the caller waits, s.
 MEMORY_BYTES = 2 * 1024 * 1024 * 1024
 CPU_SECONDS = 60
 WALL_SECONDS = 180
 _MISSING = 3  # exit code: vhacdx is not installed
+_SLICE_SECONDS = 0.25  # how often the wait looks whether its job was asked to stop
 
 
 class DecompositionError(RuntimeError):
@@ -63,12 +67,20 @@ def decompose(vertices: np.ndarray, faces: np.ndarray, resolution: int, vertices
     proc = subprocess.Popen([sys.executable, "-m", "simx_server.base.vhacd_worker"], stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, close_fds=True,
                             start_new_session=True)
-    try:
-        out, err = proc.communicate(buffer.getvalue(), timeout=WALL_SECONDS)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.communicate()
-        raise DecompositionError(f"V-HACD took more than {WALL_SECONDS} s") from None
+    end, data = time.monotonic() + WALL_SECONDS, buffer.getvalue()
+    while True:  # in slices: a job whose client left stops here (job_ring.stop_requested)
+        try:
+            out, err = proc.communicate(data, timeout=_SLICE_SECONDS)
+            break
+        except subprocess.TimeoutExpired:
+            data = None  # sent already; communicate goes on reading
+            if time.monotonic() < end and not job_ring.stop_requested():
+                continue
+            proc.kill()
+            proc.communicate()
+            if job_ring.stop_requested():
+                raise DecompositionError(f"stopped: {job_ring.stop_reason()}") from None
+            raise DecompositionError(f"V-HACD took more than {WALL_SECONDS} s") from None
     if proc.returncode == _MISSING:
         raise MissingPackageError("the vhacdx package is not installed")
     if proc.returncode != 0:

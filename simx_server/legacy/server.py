@@ -41,6 +41,7 @@ from simx_server.loop.budgets import cut as _cut
 from simx_server.loop.clients import Client
 from simx_server.loop.core import PACINGS, Loop
 from simx_server.loop.front_door import FrontDoor, LoopAccess
+from simx_server.legacy.handshakes import HandshakeGuard
 from simx_server.legacy.intake import Intake
 from simx_server.legacy.peers import PeerCheck
 from simx_server.legacy.replies import (IMAGES, SMALL, answer, encode_response, image_size, reply_size,
@@ -152,6 +153,7 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         self.consoles = Consoles()  # simxAddStatusbarMessage, simxAuxiliaryConsole*
         self._trigger_reply: threading.Event | None = None  # a trigger's step waits for its reply
         self.session: zenoh.Session | None = None
+        self.handshakes: HandshakeGuard | None = None
         self.viewers = ViewerFeed(prefix, loop.deliver, self.courier.send)  # simx-viewer's model and state
         self.intake = Intake(self)  # reads requests: on Zenoh's threads, large ones on a thread of their own
 
@@ -171,6 +173,9 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
             P.client_token_prefix(self.prefix), zenoh.handlers.Callback(self._on_client_token, indirect=False),
             history=True)
         self.viewers.open(self.session)
+        self.handshakes = HandshakeGuard.of(self.session, self._config)  # slots kept free for new clients
+        if self.handshakes is not None:
+            self.handshakes.start()
 
     def _refuse_old(self, query: zenoh.Query) -> None:
         """A client of protocol version 1 or 2 (one call key for all): refuse with the reason."""
@@ -191,6 +196,8 @@ class LegacyDoor(ClientCommands, StreamPublisher, FrontDoor):
         """Close the Zenoh session (the loop has finished pending renders and their replies);
         idempotent."""
         self.intake.close()
+        if self.handshakes is not None:
+            self.handshakes.close()
         if self.session is not None:
             session, self.session = self.session, None
             # Zenoh's close waits for every link: one to a client that stopped reading held it

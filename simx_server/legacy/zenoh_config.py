@@ -29,6 +29,7 @@ _MAX_MESSAGE = "transport/link/rx/max_message_size"
 _ACCEPT_TIMEOUT = "transport/unicast/accept_timeout"
 _ACCEPT_PENDING = "transport/unicast/accept_pending"
 _SHM_KEY = "shared_memory"  # the operator's file names Zenoh's transport/shared_memory section
+_ADMIN_KEY = "adminspace"  # the operator's file names Zenoh's admin space
 
 
 def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) -> zenoh.Config:
@@ -40,9 +41,11 @@ def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) ->
     kept every client process's 16 MiB pool mapped after the client left. Messages larger than
     limits.MAX_ZENOH_MESSAGE_BYTES are not reassembled (unless the file sets
     ``transport/link/rx/max_message_size``). A new connection has limits.ZENOH_ACCEPT_SECONDS to
-    finish Zenoh's handshake, and up to limits.ZENOH_ACCEPT_PENDING of them (at most a quarter of
+    finish Zenoh's handshake, and up to limits.ZENOH_ACCEPT_PENDING of them (at most a third of
     the open-files limit) may be under way at once (unless the file sets
-    ``transport/unicast/accept_timeout`` or ``accept_pending``).
+    ``transport/unicast/accept_timeout`` or ``accept_pending``). The admin space is on for the
+    server's own session and closed to peers (unless the file has an ``adminspace`` section): the
+    handshakes' guard reads the session's links there (:mod:`simx_server.legacy.handshakes`).
 
     A file without ``listen/endpoints`` listens on ``endpoints`` (``--host``/``--port``), not on
     Zenoh's default (every interface). Listening beyond loopback without access control logs a
@@ -76,8 +79,12 @@ def zenoh_config(endpoints: list[str], config_file: str | Path | None = None) ->
     if config.get_json(_ACCEPT_TIMEOUT) == default.get_json(_ACCEPT_TIMEOUT):
         config.insert_json5(_ACCEPT_TIMEOUT, str(int(limits.ZENOH_ACCEPT_SECONDS * 1000)))
     if config.get_json(_ACCEPT_PENDING) == default.get_json(_ACCEPT_PENDING):
-        pending = max(100, min(limits.ZENOH_ACCEPT_PENDING, raise_open_files_limit() // 4))
+        pending = max(100, min(limits.ZENOH_ACCEPT_PENDING, raise_open_files_limit() // 3))
         config.insert_json5(_ACCEPT_PENDING, str(pending))
+    # The handshakes' guard (legacy/handshakes.py) reads which connections are sessions from the
+    # session's own admin space: on, and closed to every peer, unless the operator's file says.
+    if not (config_file and _ADMIN_KEY in Path(config_file).read_text(errors="replace")):
+        config.insert_json5("adminspace", '{enabled: true, permissions: {read: false, write: false}}')
     if not json.loads(config.get_json("access_control/enabled") or "false"):
         flat = [e for v in listen.values() for e in v] if isinstance(listen, dict) else listen
         exposed = [e for e in flat if not _loopback(e)]

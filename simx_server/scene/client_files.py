@@ -38,7 +38,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any, Iterable
 
 from simx_wire.protocol import BUSY, ArgumentError, RemoteError
-from simx_server.base import limits
+from simx_server.base import job_ring, limits
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
 from simx_server.scene.file_writer import FileWriter
@@ -160,8 +160,10 @@ class ClientFiles(LaterWrites):
         return None
 
     def release(self, key: str) -> None:
-        """Client ``key`` left: its folder goes, and its budget with it (kept while the loaded
-        scene lies in it: then it goes when that scene is replaced)."""
+        """Client ``key`` left: its jobs not started go (long calls, conversions that would write
+        here: ``job_ring.cancel_all``), then its folder, and its budget with it (kept while the
+        loaded scene lies in it: then it goes when that scene is replaced)."""
+        job_ring.cancel_all(key)
         self.settle(key, wait=True)
         if key == self._scene_key:
             self._gone.add(key)

@@ -45,9 +45,10 @@ from simx_server.sim.vision_results import Deferred
 
 log = logging.getLogger("simx.editing")
 
-#: Loads of one client (a door's caller key; None: the operator's, in-process) converted or
-#: waiting for it at once. Taken round robin, a client's load waits behind at most one load of
-#: each other client, however many each has waiting.
+#: Loads of one client (its connection where the door names it, else its caller key; None: the
+#: operator's, in-process) converted or waiting for it at once. Taken round robin, a client's
+#: load waits behind at most one load of each other client, however many each has waiting; a
+#: client's loads not converted yet are dropped when it leaves (:mod:`simx_server.base.job_ring`).
 MAX_WAITING_PER_CLIENT = 4
 
 
@@ -141,7 +142,10 @@ def later(sim: Any, files: Any, path: Any, options: int, finish: Callable[[Any],
             return
         post(lambda: install(ready))
 
-    waiting.add(caller, convert)  # RemoteError (busy) past the client's share
+    def cancelled() -> None:  # dropped before it ran: its client left
+        future.set_exception(RemoteError(f"cannot load {label}: not converted, its client left"))
+
+    waiting.add(caller, convert, cancelled)  # RemoteError (busy) past the client's share
     return Deferred(future)
 
 

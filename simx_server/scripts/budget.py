@@ -195,6 +195,11 @@ class ScriptBudget:
             return max(left, 0.0), why
         return own, None
 
+    def holders(self) -> list[Any]:
+        """What holds the scripts' memory (objects with ``memory_used()``, bytes): the Lua states
+        and the scene's parameters."""
+        return list(self._states())
+
     def memory_cap(self, script: Any, own_cap: int) -> int:
         """The memory cap (bytes) of ``script``'s Lua state for its next call: at most
         ``own_cap``, and no more than the others leave of :attr:`memory`."""

@@ -446,6 +446,7 @@ class LuaScript(LuaStyles, ChildScript):
         return self._bounded(function, apply[1], (fn, packed, len(args)))
 
     def _drop(self) -> None:
+        self._drop_long_calls()
         self._lookup = None
         self._runtime = None
         self._sim = None

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from pathlib import Path
 from typing import Any, Iterable, Iterator, NamedTuple
 
@@ -164,9 +165,13 @@ class Scripts:
         self.user_parameters: dict[int, list] = {}  # sim.setUserParameter of objects without a script
         #: Child scripts attached while the simulation runs: they begin in its next pass (attach).
         self._pending: list[ChildScript] = []
-        #: All scripts' time per pass, share over time and memory together (simx_server/scripts/budget.py).
-        self.budget = ScriptBudget(states=self._all)
+        self._parameter_bytes: int | None = None  # of every parameter list (parameter_lists), once counted
+        #: All scripts' time per pass, share over time and memory together (simx_server/scripts/budget.py):
+        #: their Lua states and their parameters (memory_used).
+        self.budget = ScriptBudget(states=lambda: [*self._all(), self])
         self._step: ScriptPass | None = None  # the pass of the step whose actuation ran (the rest shares it)
+        self._thread_cost: dict[ChildScript, float] = {}  # s of CPU each thread's last resume took
+        self._thread_next = 0  # where the next pass's threads' turn begins (_threads_in_turn)
         self.shared: dict = {"manager": self, "budget": self.budget}  # custom data, the scripts' view of each other
         self.opened = False
         # sysCall_jointCallback / sysCall_dynCallback / sysCall_contactCallback at each substep, in the step's pass
@@ -198,6 +203,21 @@ class Scripts:
 
     def _all(self) -> list[ChildScript]:
         return [*self.scripts.values(), *self.customization.values()]
+
+    def parameter_lists(self) -> list[list]:
+        """Every parameter list of the scene: its scripts' and the other objects' user parameters."""
+        return [s.parameters for s in self._all()] + list(self.user_parameters.values())
+
+    def parameters_changed(self) -> None:
+        """A parameter was set: :meth:`memory_used` counts them again."""
+        self._parameter_bytes = None
+
+    def memory_used(self) -> int:
+        """Bytes of the scene's parameters (:meth:`parameter_lists`): they count toward
+        limits.MAX_SCRIPTS_MEMORY with the Lua states (the budget's ``holders``)."""
+        if self._parameter_bytes is None:
+            self._parameter_bytes = script_parameters.stored(self.parameter_lists())[1]
+        return self._parameter_bytes
 
     def attach(self, sources: Iterable[tuple[int, ScriptSource]], running: bool,
                untrusted: Iterable[Path] = ()) -> list[ChildScript]:
@@ -237,6 +257,7 @@ class Scripts:
                 self._end(old)
             table[owner] = script
             added.append(script)
+        self.parameters_changed()  # the new scripts' parameters count too
         customization = [s for s in added if s.kind == "customization"]
         if customization and self.opened:
             with self.budget.pass_of("open"):
@@ -256,6 +277,7 @@ class Scripts:
         """End the scripts of objects no longer in the scene (``sim.removeModel``,
         ``sim.removeObject``): ``sysCall_cleanup`` of a running one, then its state goes, as
         CoppeliaSim's ``CSceneObjectContainer::eraseObject`` ends an erased object's scripts."""
+        self.parameters_changed()
         gone = [(t, h) for t in (self.scripts, self.customization) for h in t if h not in self.world.objects]
         if not gone:
             return
@@ -314,6 +336,27 @@ class Scripts:
         for script in self._present(self.customization):
             script.life_cycle(function)
 
+    def _threads_in_turn(self) -> set[ChildScript] | None:
+        """The threads a step's pass resumes: all (None) while their last resumes took no more
+        than the pass's allowance together (``budget.allowance``, limits.SCRIPTS_PASS_ALLOWANCE);
+        else as many as fit in it by those costs, in turn from where the last pass stopped (the
+        others wait a pass or more; none is cut), so that threads alone keep a pass within its
+        allowance: 200 auto-switched threads made every pass 200 slices long."""
+        threads = list(self.scripts.values())  # a script without a thread: a resume of no cost
+        costs = [self._thread_cost.get(s, 0.0) for s in threads]
+        self._thread_cost = {s: c for s, c in zip(threads, costs)}
+        if sum(costs) <= self.budget.allowance:
+            return None
+        start, used, turn = self._thread_next % len(threads), 0.0, set()
+        for k in range(len(threads)):
+            script, cost = threads[(start + k) % len(threads)], costs[(start + k) % len(threads)]
+            if turn and used + cost > self.budget.allowance:
+                break
+            turn.add(script)
+            used += cost
+        self._thread_next = start + len(turn)
+        return turn
+
     def _present(self, table: dict[int, ChildScript]) -> Iterator[ChildScript]:
         """The scripts of ``table`` in turn, as a pass calls them: a script that an earlier
         one's edit removed is skipped (its object went), one attached meanwhile waits for the
@@ -346,8 +389,12 @@ class Scripts:
                     pending, self._pending = self._pending, []
                     self._start_all(pending, "in the simulation")
                     self.dynamics.install(self._all())
+                turn = self._threads_in_turn()
                 for script in self._present(self.scripts):
-                    script.resume_thread()
+                    if turn is None or script in turn:
+                        began = time.thread_time()
+                        script.resume_thread()
+                        self._thread_cost[script] = time.thread_time() - began
                     script.life_cycle("sysCall_actuation")
                 self._customization("sysCall_actuation")
         particles = self.shared.get("particles")

@@ -47,8 +47,10 @@ from typing import Any
 
 from simx_wire.protocol import RemoteError
 from simx_server.api import SIM, Callers
+from simx_server.api import long_calls
 from simx_server.api.sim import motion
 from simx_server.api.sim.stepped import CallbackCall
+from simx_server.sim.vision_results import Deferred
 from simx_server.scripts import auto_switch
 from simx_server.api.legacy_names import (CALL_TYPES, CONSTANTS, FUNCTION_ALIASES, LEGACY_LUA, UI_FUNCTIONS,
                                               doc_table)
@@ -73,7 +75,7 @@ def script_functions() -> frozenset[str]:
 #: ``launch(f)``, ``resume()`` (true while the thread lives; raises the thread's error),
 #: ``wrap()`` (automatic switching at every ``sim`` call, for threaded scripts only) and ``alive()``.
 THREADS_LUA = r"""
-local sim, now, motion, slice_clock, on_count, arm, disarm = ...
+local sim, now, motion, slice_clock, on_count, arm, disarm, long, ompl = ...
 local fmt = string.format
 local co_create, co_resume = coroutine.create, coroutine.resume
 local co_running, co_yield = coroutine.running, coroutine.yield
@@ -192,6 +194,23 @@ if motion then
   sim.moveToPose = mover("moveToPose", 7)
 end
 
+-- sim.convexDecompose, simOMPL.solve / simplifyPath / compute in a thread: long("begin") makes the
+-- call, off the simulation thread for a script that acts for a client ("wait": the thread yields
+-- until long("poll") says it is done, as sim.wait yields); elsewhere at once, as before.
+local function deferred(lib, prefix, name)
+  local f = lib and rawget(lib, name)
+  if not (long and f) then return end
+  lib[name] = function(...)
+    if not (in_thread() and yieldable()) then return f(...) end
+    local r = pack(long("begin", prefix .. name, ...))
+    while r[1] and r[2] == "wait" do co_yield() r = pack(long("poll", r[3])) end
+    if not r[1] then error(prefix .. name .. ": " .. tostring(r[2]), 2) end
+    return unpack(r[3], 1, r[4])
+  end
+end
+deferred(sim, "sim.", "convexDecompose")
+for _, name in ipairs({"solve", "simplifyPath", "compute"}) do deferred(ompl, "simOMPL.", name) end
+
 local function launch(f, whole)  -- coroutine.create of the prelude: hooked
   if whole then  -- a threaded script's text; a V-REP 3.6 one then runs its sysCall_threadmain
     local chunk = f
@@ -265,8 +284,53 @@ class LuaStyles:
         threads = rt.compile(THREADS_LUA, name="=simx")
         hooks = (auto_switch.arm, auto_switch.disarm) if auto_switch.available() else (None, None)
         self._launch, self._resume, self._wrap, self._alive = threads(g.sim, time.monotonic, self._motion_call,
-                                                                     time.thread_time, on_count, *hooks)
+                                                                     time.thread_time, on_count, *hooks,
+                                                                     self._long_call, g.simOMPL)
+        self._long_calls: list[Deferred] = []  # the thread's long calls under way (off the simulation thread)
         self.old_style = False
+
+    def _long_call(self, op: bytes, *args: Any) -> tuple:
+        """``sim.convexDecompose`` and simOMPL's ``solve``, ``simplifyPath``, ``compute`` of a
+        Lua thread (:data:`THREADS_LUA`): ``("begin", name, args...)`` makes the call, off the
+        simulation thread for a script that acts for a client
+        (:func:`simx_server.api.long_calls.deferring`): ``(True, "wait", deferred)``, which
+        ``("poll", deferred)`` answers again until it is done; done: ``(True, "done", {values},
+        n)``; ``(False, message)`` on an error. Never raises."""
+        try:
+            if op == b"begin":
+                library, _, name = args[0].decode().rpartition(".")
+                ctx = self._sim.context
+                with long_calls.deferring(ctx):
+                    result = (ctx.simompl if library == "simOMPL" else self._sim).call(
+                        name, *[self._from_lua(a, callbacks=library == "simOMPL") for a in args[1:]])
+                if type(result) is not Deferred:
+                    return self._long_done(result)
+                self._long_calls.append(result)
+            else:
+                result = args[0]
+            if not result.future.done():
+                return True, b"wait", result
+            if result in self._long_calls:
+                self._long_calls.remove(result)
+            return self._long_done(result.future.result())
+        except RemoteError as exc:
+            return False, str(exc).encode()
+        except (TypeError, ValueError, OverflowError) as exc:
+            return False, f"bad arguments: {exc}".encode()
+        except Exception as exc:  # a bug in simx, not in the script: say so
+            log.exception("a long call of %s", getattr(self, "label", "a Lua script"))
+            return False, f"internal error: {type(exc).__name__}: {exc}".encode()
+
+    def _long_done(self, result: Any) -> tuple:
+        values = list(result) if isinstance(result, tuple) else [result]
+        return True, b"done", self._to_lua(values), len(values)
+
+    def _drop_long_calls(self) -> None:
+        """The thread ends (the simulation stops): its long calls under way are dropped, and what
+        they would have made (a decomposed shape) is not made."""
+        for deferred in getattr(self, "_long_calls", ()):
+            deferred.future.cancel()
+        self._long_calls = []
 
     def _motion_call(self, op: bytes, *args: Any) -> tuple:
         """``sim.moveToConfig`` / ``sim.moveToPose`` of a Lua thread (:data:`THREADS_LUA`):

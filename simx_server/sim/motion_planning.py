@@ -20,7 +20,9 @@ CoppeliaSim's collision check instead.
 
 from __future__ import annotations
 
+import time
 import weakref
+from collections.abc import Iterator
 from typing import Any, Callable
 
 import mujoco
@@ -271,6 +273,33 @@ class Problem:
             converts to a bool).
         """
         solved = bool(self.planner.solve(min(float(max_time), MAX_SECONDS)))
+        self.path = og.PathGeometric(self.pdef.getSolutionPath()) if self.pdef.hasSolution() else None
+        return solved
+
+    def solve_in_steps(self, max_time: float, step: float) -> Iterator[None]:
+        """:meth:`solve` as a generator: the planner runs ``step`` s at a time (it goes on from
+        what it built: OMPL's planners keep their trees and roadmaps between solves), yielding
+        between, until it returns before its step is spent (a solution found, for a planner that
+        then stops) or ``max_time`` (at most :data:`MAX_SECONDS`) is spent; the generator returns
+        :meth:`solve`'s value. With ``step`` >= ``max_time`` it is :meth:`solve`. What
+        :mod:`simx_server.api.long_calls` runs in slices, in turns.
+
+        Args:
+            max_time: s in all (at most :data:`MAX_SECONDS`).
+            step: s of one run of the planner.
+
+        Returns:
+            A generator whose value is True when it found a path, exact or approximate.
+        """
+        left = min(float(max_time), MAX_SECONDS)
+        while True:
+            spent, began = min(left, step), time.monotonic()
+            solved = bool(self.planner.solve(spent))
+            took = time.monotonic() - began
+            left -= took
+            if left <= 0 or took < 0.9 * spent:  # out of time, or it stopped by itself
+                break
+            yield
         self.path = og.PathGeometric(self.pdef.getSolutionPath()) if self.pdef.hasSolution() else None
         return solved
 

@@ -32,8 +32,11 @@ PROTOCOL_VERSION = 2
 #: The version before it (CoppeliaSim 4.3-4.5's client: requests without uuid, ``{success}`` replies),
 #: served beside version 2 on the same port.
 VERSION_1 = 1
-#: Largest request in bytes (an image sent with sim.setVisionSensorImg fits: 4096² RGB is 48 MiB).
-MAX_REQUEST_BYTES = 64 * 1024 * 1024
+#: Largest request in bytes: a 16 MiB string signal or script argument (limits.MAX_SIGNAL_BYTES,
+#: MAX_SCRIPT_CALL_BYTES) and the rest of its request; a 200,000-face sim.createShape (about 5 MiB);
+#: a 2048x2048 RGB image for sim.setVisionSensorImg (12 MiB). libzmq holds a message whole before
+#: the server sees it, so this bounds what each connection can make it hold (zmq/sockets.py).
+MAX_REQUEST_BYTES = 17 * 1024 * 1024
 #: Deepest nesting of containers in a request (the request map is level 1, its args level 2).
 MAX_DEPTH = 32
 #: Most CBOR items in one request (each number, string, array or map counts one).

@@ -9,8 +9,10 @@ through the server's ready ring, as Zenoh's threads do (docs/ARCHITECTURE.md). R
 from the simulation thread through :meth:`Frontend.send`: a queue and a wake-up pipe, so that any
 thread may reply without touching the socket.
 
-Bounds (clients are untrusted): messages over :data:`MAX_MESSAGE_BYTES` are dropped by libzmq
-with their connection; requests over ``codec.MAX_REQUEST_BYTES`` are answered with an error;
+Bounds (clients are untrusted): messages over ``sockets.MAX_MESSAGE_BYTES`` are dropped by libzmq
+with their connection, and a connection that sends no whole message within the ZMTP heartbeat's
+timeout is closed (:mod:`simx_server.zmq.sockets`); requests over ``codec.MAX_REQUEST_BYTES`` are
+answered with an error;
 one request at a time per connection (a REQ socket never sends two); at most
 ``limits.MAX_CLIENTS`` requests and ``limits.MAX_QUEUED_BYTES_TOTAL`` bytes waiting for the
 simulation thread, beyond which a request is answered "server busy". A socket monitor tells
@@ -49,24 +51,15 @@ import zmq
 import zmq.utils.monitor
 
 from simx_wire.protocol import ProtocolError
-from simx_server.base import limits
+from simx_server.base import job_ring, limits
 from simx_server.zmq import codec
 from simx_server.zmq.gate import Gate
 from simx_server.zmq.intake import LargeRequests
+from simx_server.zmq.sockets import (MAX_COUNTER_MESSAGE_BYTES, MAX_MESSAGE_BYTES, ZMQ_QUEUED_MESSAGES,
+                                     ZMQ_QUEUED_REQUESTS, bound)
 
 log = logging.getLogger("simx.zmq")
 
-#: Messages libzmq reads at all; a larger one closes its connection unanswered before any of
-#: it is buffered (room for a request just over codec.MAX_REQUEST_BYTES, answered with an error).
-MAX_MESSAGE_BYTES = codec.MAX_REQUEST_BYTES + (2 << 20)
-#: Replies libzmq queues per connection (ZMQ_SNDHWM): a REQ client has one reply in flight; beyond,
-#: replies to a peer that does not read are dropped.
-ZMQ_QUEUED_MESSAGES = 16
-#: Requests libzmq queues per connection for the socket thread (ZMQ_RCVHWM), besides the one it is
-#: receiving: a REQ client has one in flight; while the queue is full libzmq reads no more of that
-#: connection (its kernel buffers fill, then its sender waits). With 16, 8 connections pipelining
-#: 60 MiB requests took the server to 3.7 GB.
-ZMQ_QUEUED_REQUESTS = 1
 #: Replies of at least this many bytes are sent with a tracker, so their bytes count until the
 #: kernel has them; smaller ones are bounded by ZMQ_QUEUED_MESSAGES.
 TRACKED_BYTES = 64 * 1024
@@ -175,12 +168,9 @@ class Frontend:
         zap.setsockopt(zmq.LINGER, 0)
         zap.bind(_ZAP_ENDPOINT)
         router = ctx.socket(zmq.ROUTER)
-        router.setsockopt(zmq.LINGER, 0)
-        router.setsockopt(zmq.MAXMSGSIZE, MAX_MESSAGE_BYTES)
+        bound(router, MAX_MESSAGE_BYTES)  # heartbeats, the handshake's time, the largest message
         router.setsockopt(zmq.SNDHWM, ZMQ_QUEUED_MESSAGES)
         router.setsockopt(zmq.RCVHWM, ZMQ_QUEUED_REQUESTS)
-        router.setsockopt(zmq.HANDSHAKE_IVL, int(limits.ZMQ_HANDSHAKE_SECONDS * 1000))
-        router.setsockopt(zmq.ZAP_DOMAIN, b"simx")
         self.gate.configure(router)
         monitor = router.get_monitor_socket(_COUNTED_EVENTS)
         try:
@@ -204,10 +194,8 @@ class Frontend:
         if not self.counter_endpoints:
             return
         pub = self._counter = ctx.socket(zmq.PUB)
-        pub.setsockopt(zmq.LINGER, 0)
+        bound(pub, MAX_COUNTER_MESSAGE_BYTES)  # it reads only subscriptions
         pub.setsockopt(zmq.CONFLATE, 1)
-        pub.setsockopt(zmq.HANDSHAKE_IVL, int(limits.ZMQ_HANDSHAKE_SECONDS * 1000))
-        pub.setsockopt(zmq.ZAP_DOMAIN, b"simx")
         self.gate.configure(pub)
         self._counter_monitor = pub.get_monitor_socket(_COUNTED_EVENTS)
         for endpoint in self.counter_endpoints:
@@ -353,6 +341,7 @@ class Frontend:
                     self._done(identity)
                 for identity in [i for i, (f, _) in list(self._versions.items()) if f == fd]:  # (the intake thread adds)
                     self._versions.pop(identity, None)
+                    job_ring.cancel_all(identity)  # its long calls not started: nobody reads their replies
                 self._deliver(("zmq-gone", fd))
 
     def _await_reply(self, router: zmq.Socket) -> None:

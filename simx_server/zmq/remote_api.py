@@ -8,11 +8,11 @@ from typing import Any
 
 from pathlib import Path
 
-from simx_server.base import limits
 from simx_server.base.resources import raise_open_files_limit
 from simx_server.loop.front_door import FrontDoor, LoopAccess
 from simx_server.zmq.frontend import DEFAULT_PORT, Frontend
 from simx_server.zmq.gate import Gate
+from simx_server.zmq.sockets import max_connections
 from simx_server.zmq.codec import Request
 from simx_server.zmq.service import ZmqService
 
@@ -78,7 +78,7 @@ class ZmqRemoteApi(FrontDoor):
 
     def __init__(self, server: LoopAccess, endpoints: list[str], curve: tuple[bytes, bytes, frozenset] | None = None):
         files = raise_open_files_limit()
-        gate = Gate(curve, max(16, min(limits.MAX_ZMQ_CONNECTIONS, files // 2)))
+        gate = Gate(curve, max_connections(files))
         self.frontend = Frontend(endpoints, server.deliver, gate, server.serve_or_deliver, self._quick,
                                  counter_endpoints(endpoints))
         self.service = ZmqService(server, self.frontend)

@@ -38,7 +38,7 @@ from typing import Any, Callable
 import cbor2
 
 from simx_wire.protocol import ArgumentError, RemoteError
-from simx_server.base import limits
+from simx_server.base import job_ring, limits
 from simx_server.base.arguments import quote
 from simx_server.loop.budgets import cut
 from simx_server.loop.front_door import LoopAccess
@@ -201,7 +201,7 @@ class ZmqService(RenderedReplies):
             return
         editor = self.sim.editor
         start, edits = time.monotonic(), getattr(editor, "edits", 0)
-        with editor.files.acting(client.files_key):  # its file calls use its own folder
+        with editor.files.acting(client.files_key), job_ring.serving(client.connection, client.files_key):
             payload = self._call(client, func, args)
         done = time.monotonic()
         edited = getattr(editor, "edits", 0) != edits  # it reached the editor: an edit (zmq.budgets.Connection)

@@ -235,8 +235,8 @@ def _rss_mb(pid: int) -> float:
 
 def test_a_message_past_the_bound_is_not_buffered(zmq_server, client):
     """28 connections each sending 120 MiB minus one byte grew the server 3.4 GB (libzmq read
-    each whole, up to its 128 MiB bound): now frontend.MAX_MESSAGE_BYTES is the request bound plus
-    2 MiB, and such a message closes its connection on its header, before any of it is kept."""
+    each whole, up to its 128 MiB bound): now sockets.MAX_MESSAGE_BYTES is the request bound plus
+    1 MiB, and such a message closes its connection on its header, before any of it is kept."""
     _alive(client)
     before = _rss_mb(zmq_server.proc.pid)
     ctx = zmq.Context()

@@ -302,3 +302,147 @@ def test_a_long_calls_work_is_charged_to_its_uuid_on_any_connection(tmp_path, mo
         assert "ret" in call(b"third", "other", "sim.getSimulationTime")
     finally:
         sim.close()
+
+
+class InProcess:
+    """The ZMQ service on a real simulation, without sockets: requests by connection, tag and
+    uuid; their replies by tag, as the frontend would send them (from any thread)."""
+
+    def __init__(self, folder):
+        from simx_server.loop.clients import Clients
+        from simx_server.scene.simulation import Simulation
+        from simx_server.zmq.service import ZmqService
+
+        (folder / "scene.xml").write_text(SCENE)
+        self.sim = Simulation(folder / "scene.xml")
+        self.replies: dict[str, list] = {}
+        self.arrived = threading.Condition()
+        outer = self
+
+        class Frontend:
+            def send(self, envelope, payload, held=0, **_):
+                with outer.arrived:
+                    outer.replies.setdefault(envelope[1].decode(), []).append(cbor2.loads(payload))
+                    outer.arrived.notify_all()
+
+            def expects(self, identity):
+                return True
+
+        server = type("Server", (), {"sim": self.sim, "clients": Clients(),
+                                     "hold_pass": lambda self, client, seconds: None})
+        self.service = ZmqService(server(), Frontend())
+        self.fds: dict[bytes, int] = {}  # connection -> its descriptor
+
+    def send(self, tag: str, connection: bytes, uuid: str, func: str, *args) -> None:
+        from simx_server.zmq.frontend import Incoming
+
+        fd = self.fds.setdefault(connection, 10 + len(self.fds))
+        self.service.handle("zmq", Incoming([connection, tag.encode()], codec.read_request(
+            codec.encode_request(func, list(args), uuid)), fd, 10))
+
+    def gone(self, connection: bytes) -> None:
+        """The connection closes (the frontend's socket monitor)."""
+        self.service.handle("zmq-gone", self.fds[connection])
+
+    def reply(self, tag: str) -> dict:
+        with self.arrived:
+            assert self.arrived.wait_for(lambda: tag in self.replies, 60), tag
+            return self.replies[tag][0]
+
+    def blocked_tasks(self, n: int) -> list[int]:
+        """``n`` set-up tasks whose goal no path reaches (a solve searches until its time is up)."""
+        def call(func: str, *args):
+            tag = f"setup{len(self.replies)}"
+            self.send(tag, b"setup", "setup", func, *args)
+            return self.reply(tag)["ret"]
+
+        joint, link, post = (call("sim.getObject", p)[0] for p in ("/Joint1", "/Link1", "/Post"))
+        tasks = []
+        for k in range(n):
+            task = call("simOMPL.createTask", f"t{k}")[0]
+            call("simOMPL.setStateSpaceForJoints", task, [joint], [1])
+            call("simOMPL.setCollisionPairs", task, [link, post])
+            call("simOMPL.setStartState", task, [0.0])
+            call("simOMPL.setGoalState", task, [2.5])
+            call("simOMPL.setup", task)
+            tasks.append(task)
+        return tasks
+
+
+@pytest.fixture
+def in_process(tmp_path):
+    made = InProcess(tmp_path)
+    yield made
+    made.sim.close()
+
+
+def test_long_calls_take_turns_by_connection_and_go_with_their_client(in_process):
+    """Issue 84: a victim's 0.3 s solve waited 120 s behind 12 clients that had left, and a
+    client's turn and bound went by the uuid it claimed. Now one connection holds at most
+    MAX_WAITING_PER_CLIENT long calls whatever uuids it claims, and when it closes its queued
+    call is answered "not run" without running and its running one stops."""
+    z = in_process
+    tasks = z.blocked_tasks(4)
+    z.send("a0", b"attacker", "a0", "simOMPL.solve", tasks[0], 9.0)  # runs
+    z.send("a1", b"attacker", "a1", "simOMPL.solve", tasks[1], 9.0)  # waits
+    z.send("a2", b"attacker", "a2", "simOMPL.solve", tasks[2], 9.0)  # a fresh uuid, the same connection
+    assert BUSY in z.reply("a2").get("err", ""), z.replies["a2"]
+    z.send("v", b"victim", "v", "simOMPL.solve", tasks[3], 0.2)
+    assert "a0" not in z.replies
+    z.gone(b"attacker")  # the attacker's connection closes
+    assert long_calls.LEFT in z.reply("a1").get("err", "")  # answered without running
+    assert long_calls.LEFT in z.reply("a0").get("err", "")  # stopped while it searched
+    assert "ret" in z.reply("v")
+    assert long_calls.waiting.settle(30) and long_calls.waiting.pending() == 0
+    z.send("free", b"victim", "v", "simOMPL.getPath", tasks[1])  # the dropped call left its task free
+    assert "busy" not in z.reply("free").get("err", ""), z.replies["free"]
+
+
+def test_a_short_solve_waits_behind_slices_not_whole_solves(in_process):
+    """Issue 84: 12 connections solving for 10 s each held a victim's 0.3 s solve 119 s. A
+    solve off the simulation thread now runs in slices (long_calls.SLICE_SECONDS), the
+    connections in turn: three 3 s solves started first, the victim's 0.3 s solve is answered
+    while all three still search."""
+    z = in_process
+    tasks = z.blocked_tasks(4)
+    for k in range(3):
+        z.send(f"a{k}", f"attacker{k}".encode(), f"a{k}", "simOMPL.solve", tasks[k], 3.0)
+    z.send("v", b"victim", "v", "simOMPL.solve", tasks[3], 0.3)
+    assert "ret" in z.reply("v")
+    with z.arrived:
+        assert not any(f"a{k}" in z.replies for k in range(3)), z.replies
+    for k in range(3):  # they go: their solves stop
+        z.gone(f"attacker{k}".encode())
+    assert long_calls.waiting.settle(30)
+
+
+def test_a_decomposition_whose_client_left_stops_its_worker():
+    """Issue 84: six convexDecompose calls of clients that had left held the ring 234 s. The
+    running one's V-HACD worker is killed once its job is asked to stop (job_ring.cancel_all)."""
+    pytest.importorskip("vhacdx")
+    import numpy as np
+
+    from simx_server.base import vhacd_worker
+
+    n, m = 48, 24  # a torus: non-convex, slow to decompose at a high resolution
+    a, b = np.meshgrid(2 * np.pi * np.arange(n) / n, 2 * np.pi * np.arange(m) / m, indexing="ij")
+    r = 0.2 + 0.06 * np.cos(b)
+    vertices = np.stack([r * np.cos(a), r * np.sin(a), 0.06 * np.sin(b)], -1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n), np.arange(m), indexing="ij")
+    p, q, s, t = i * m + j, (i + 1) % n * m + j, (i + 1) % n * m + (j + 1) % m, i * m + (j + 1) % m
+    faces = np.stack([np.stack([p, q, s], -1), np.stack([p, s, t], -1)], -2).reshape(-1, 3)
+    outcome, started = [], threading.Event()
+
+    def job() -> None:
+        started.set()
+        try:
+            outcome.append(vhacd_worker.decompose(vertices, faces, 400_000, 64, 64))
+        except vhacd_worker.DecompositionError as exc:
+            outcome.append(exc)
+
+    ring = long_calls.LongCalls()
+    ring.add("zmq:gone", job)
+    assert started.wait(30)
+    ring.cancel("zmq:gone")
+    assert ring.settle(60)
+    assert isinstance(outcome[0], vhacd_worker.DecompositionError) and "client left" in str(outcome[0])

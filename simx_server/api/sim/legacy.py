@@ -206,9 +206,9 @@ def setScriptSimulationParameter(ctx: CallContext, scriptHandle: Any, parameterN
         pick = script_parameters.tree if h == C.sim_handle_tree else script_parameters.chain
         targets = [manager.scripts[o] for o in pick(ctx.world, me.owner) if o in manager.scripts]
         for script in targets:
-            _store(script, name, value)
+            _store(ctx, script.parameters, name, value)
         return len(targets)
-    _store(_own(ctx, h, "scriptHandle"), name, value)
+    _store(ctx, _own(ctx, h, "scriptHandle").parameters, name, value)
     return 1
 
 
@@ -291,7 +291,7 @@ def setUserParameter(ctx: CallContext, objectHandle: Any, parameterName: Any,  #
     else:
         value = script_parameters.as_bytes(parameterValue)
     for params in _user_lists(ctx, objectHandle):
-        _store(_Params(params), name, value)
+        _store(ctx, params, name, value)
     return 0
 
 
@@ -489,9 +489,22 @@ def _parameter(script: Any, name: str, as_string: bool) -> tuple[bool, Any]:
     return False, None
 
 
-def _store(script: Any, name: str, value: bytes) -> None:
-    for p in script.parameters:
+def _store(ctx: CallContext, params: list, name: str, value: bytes) -> None:
+    """Set ``name`` to ``value`` in ``params``, within the bounds of all the scene's parameters
+    (:func:`script_parameters.admit`: as signals, and in the scripts' memory)."""
+    me = ctx.script
+    manager = me.shared.get("manager") if me is not None else None
+    if manager is not None:
+        lists, budget = manager.parameter_lists(), manager.budget
+        room = budget.memory - sum(s.memory_used() for s in budget.holders())
+    else:
+        lists, room = [params], None
+    script_parameters.admit(lists, params, name, value, room)
+    for p in params:
         if p.get("name") == name:
             p["value"] = value
-            return
-    script.parameters.append({"name": name, "value": value, "unit": ""})
+            break
+    else:
+        params.append({"name": name, "value": value, "unit": ""})
+    if manager is not None:
+        manager.parameters_changed()

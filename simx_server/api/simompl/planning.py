@@ -4,7 +4,8 @@ and the calls on single states and flat paths."""
 
 from __future__ import annotations
 
-from typing import Any, Callable
+import inspect
+from typing import Any, Callable, Generator
 
 import numpy as np
 
@@ -64,7 +65,8 @@ def setup(ctx: CallContext, taskHandle: Any) -> None:
         def valid(q: np.ndarray) -> bool:
             return not checker(q)
     try:
-        task.problem = mp.Problem(ompl_spaces.Space([s.subspace() for s in spaces]), valid, task.resolution)
+        task.problem = mp.Problem(ompl_spaces.Space([s.subspace() for s in spaces]), long_calls.stoppable(valid),
+                                  task.resolution)
         task.problem.setup(np.array(task.start), [np.array(g) for g in task.goals], task.algorithm)
     except ValueError as exc:
         task.problem = None
@@ -87,10 +89,13 @@ def _planned(ctx: CallContext, task: Task, work: Callable[[mp.Problem], Any]) ->
     checker = task.checker
     assert checker is not None
 
-    def run() -> Any:
+    def run() -> Generator[None, None, Any]:  # a solve's steps run in slices off the thread
         checker.defer = False  # a planner's thread builds the trees its checks need
         try:
-            return work(problem)
+            result = work(problem)
+            if inspect.isgenerator(result):
+                result = yield from result
+            return result
         except ValueError as exc:
             raise ArgumentError(str(exc)) from None
 
@@ -109,7 +114,14 @@ def solve(ctx: CallContext, taskHandle: Any, maxTime: Any) -> bool:  # noqa: N80
     approximate). A ZMQ client's runs off the simulation thread (:mod:`simx_server.api.long_calls`)."""
     task = task_of(ctx, taskHandle, True)
     t = _max_time(maxTime)
-    return _planned(ctx, task, lambda problem: problem.solve(t))  # type: ignore[no-any-return]
+    step = _step(ctx, t)
+    return _planned(ctx, task, lambda problem: problem.solve_in_steps(t, step))  # type: ignore[no-any-return]
+
+
+def _step(ctx: CallContext, max_time: float) -> float:
+    """s a solve runs between two yields: off the simulation thread a slice of the long calls'
+    turns (long_calls.SLICE_SECONDS: others are served between), at once all of it."""
+    return long_calls.SLICE_SECONDS if long_calls.off_thread(ctx) else max_time
 
 
 def _fresh(ctx: CallContext, task: Task) -> mp.Problem:
@@ -218,8 +230,10 @@ def compute(ctx: CallContext, taskHandle: Any, maxTime: Any, maxSimplificationTi
     seconds = _num(maxSimplificationTime, "maxSimplificationTime")
     count = _state_count(ctx, taskHandle, stateCnt)
 
-    def work(problem: mp.Problem) -> tuple[bool, list[float]]:
-        if not problem.solve(t):
+    step = _step(ctx, t)
+
+    def work(problem: mp.Problem) -> Generator[None, None, tuple[bool, list[float]]]:
+        if not (yield from problem.solve_in_steps(t, step)):  # in slices off the simulation thread
             return False, []
         problem.simplify(seconds)
         problem.interpolate(count)
