@@ -129,7 +129,8 @@ def test_huge_arguments(req, zmq_server):
 def test_one_request_at_a_time_per_connection(zmq_server):
     """A raw DEALER that sends a second request before the first's reply gets an error for it.
     The first is a scene edit (a rename: the scene is compiled again, milliseconds), served by
-    the simulation thread; a quick call would be served and answered by the socket thread
+    the simulation thread once the door has seen the call edit (``ZmqService.edit_calls``: one
+    rename and back first); a quick call would be served and answered by the socket thread
     before it reads the second."""
     ctx = zmq.Context()
     dealer = ctx.socket(zmq.DEALER)
@@ -138,6 +139,9 @@ def test_one_request_at_a_time_per_connection(zmq_server):
     try:
         dealer.send_multipart([b"", codec.encode_request("sim.getObject", ["/ArmJoint"], UUID)])
         joint = cbor2.loads(dealer.recv_multipart()[-1])["ret"][0]
+        for alias in ("ArmJointRenamed", "ArmJoint"):  # the door learns that the call edits
+            dealer.send_multipart([b"", codec.encode_request("sim.setObjectAlias", [joint, alias], UUID)])
+            assert "ret" in cbor2.loads(dealer.recv_multipart()[-1])
         first = codec.encode_request("sim.setObjectAlias", [joint, "ArmJointRenamed"], UUID)
         for _ in range(2):
             dealer.send_multipart([b"", first])
