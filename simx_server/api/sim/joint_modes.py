@@ -77,6 +77,7 @@ def setJointInterval(ctx: CallContext, objectHandle: Any, cyclic: Any, interval:
     if el is not None:
         el.range = [lo, lo + span]
         el.limited = mujoco.mjtLimited.mjLIMITED_FALSE if cyclic else mujoco.mjtLimited.mjLIMITED_TRUE
+    ctx.world.refresh_cyclic()
     ctx.world.changed()
 
 
