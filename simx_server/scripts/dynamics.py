@@ -45,10 +45,9 @@ named and its callbacks are skipped until the next start.
 from __future__ import annotations
 
 import logging
+import math
 from contextlib import AbstractContextManager
 from typing import Any, Callable
-
-import math
 
 import mujoco
 import numpy as np
