@@ -16,7 +16,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from simx_server.sim import shape_dynamics
+from simx_server.sim import shape_dynamics, shape_looks
 
 #: Named elements' fields that commands change at run time (element kind -> model fields).
 FIELDS = {
@@ -28,6 +28,9 @@ FIELDS = {
 }
 #: Geoms' fields (``geom_matid`` only where a command dropped the material: -1).
 GEOM_FIELDS = ("geom_rgba", "geom_size", "geom_friction", "geom_contype", "geom_conaffinity", "geom_matid")
+#: A geom's specular and emission colours and shininess that commands set (not model fields:
+#: :mod:`simx_server.sim.shape_looks`), kept as if they were one.
+LOOKS = "shape_looks"
 
 
 def _fields(model: mujoco.MjModel) -> list[str]:
@@ -94,6 +97,11 @@ def changes(model: mujoco.MjModel, baseline: dict[str, np.ndarray] | None) -> li
             key = _geom_key(model, int(g))
             if key is not None:
                 out.append((f, key, now[g].copy()))
+    looks = shape_looks.of(model)
+    for g in np.flatnonzero(looks.kept()) if looks is not None else ():
+        key = _geom_key(model, int(g))
+        if key is not None:
+            out.append((LOOKS, key, shape_looks.entry(looks, int(g))))
     return out
 
 
@@ -135,6 +143,9 @@ def restore(model: mujoco.MjModel, kept: list[tuple], skip: set[str] = frozenset
             if body < 0 or key[0] in skip or key[1] >= model.body_geomnum[body]:
                 continue
             i = int(model.body_geomadr[body]) + key[1]
+            if f == LOOKS:
+                shape_looks.put(model, i, value)
+                continue
         else:
             if key in skip:
                 continue

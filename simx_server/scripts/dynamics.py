@@ -10,7 +10,18 @@ them at every step of its physics engine.
   ``maxVel``, ``maxForce``, ``velUpperLimit``, ``first`` / ``last`` (first / last substep). It
   returns ``{force=f, velocity=v}`` (the motor drives the joint toward velocity ``v`` with at most
   ``|f|``, as CoppeliaSim applies it), or nil to leave the motor as it is. The values it sets
-  stay the motor's (a client reads them back) until something sets others.
+  stay the motor's (a client reads them back) until something sets others. A cyclic joint's
+  ``currentPos`` is in [-pi, pi] and its ``errorValue`` the shortest way to the target
+  (``CJoint::handleDynJoint``, simDyn's ``getAngleMinusAlpha``).
+* A joint in CoppeliaSim 4.x's callback mode (``sim.jointdynctrl_callback``,
+  :mod:`simx_server.sim.dyn_ctrl`) is driven at each substep by the first answer of: its own
+  script's ``sysCall_jointCallback``, then ``sysCall_joint(inData)`` of the scripts of the joint
+  and of its ancestors, nearest first (``CJoint::handleDynJoint``, ``CSceneObjectContainer::
+  _callScripts`` with the joint as branch). ``inData`` has 4.x's keys too (``mode``, ``joint``,
+  ``pos``, ``vel``, ``accel``, ``targetPos``, ``error``, ``dt``, ``force``: the signed target
+  force). An answer ``{force=f}`` applies ``f``; ``{vel=v}`` (or ``velocity``) drives toward ``v``
+  with at most 10000 N or N·m; both, toward ``v`` with at most ``|f|`` (``ctrl`` is a name of
+  ``force``). No answer: no force. The motor's targets are left as they are.
 * ``sysCall_dynCallback(inData)`` of any script is called before and after each substep with
   ``passCnt``, ``totalPasses``, ``dynStepSize`` and ``afterStep`` (false, then true).
 * ``sysCall_contactCallback(inData)`` of any script decides, before each substep, how each pair
@@ -34,18 +45,27 @@ named and its callbacks are skipped until the next start.
 from __future__ import annotations
 
 import logging
+import math
 from contextlib import AbstractContextManager
 from typing import Any, Callable
 
 import mujoco
 import numpy as np
 
+from simx_server.sim import dyn_ctrl
 from simx_server.sim.contact_filter import ContactFilter
 from simx_server.sim.objects import JOINT, SHAPE, WORLD
 
 log = logging.getLogger("simx.scripts")
 
 JOINT_CALLBACK, DYN_CALLBACK = "sysCall_jointCallback", "sysCall_dynCallback"
+#: CoppeliaSim 4.x's joint callback (joints in callback mode).
+JOINT_4X = "sysCall_joint"
+#: The force of a callback's velocity with no force, and the velocity of a force alone
+#: (``CJoint::handleDynJoint``: "unlimited" force, a velocity the force never reaches).
+CALLBACK_FORCE = 10000.0
+#: CoppeliaSim's ``sim.jointmode_dynamic``: the ``mode`` a joint callback is told.
+JOINTMODE_DYNAMIC = 5
 CONTACT_CALLBACK = "sysCall_contactCallback"
 #: CoppeliaSim's ``sim.physics_mujoco``: the engine a contact callback is told about.
 PHYSICS_MUJOCO = 4
@@ -60,6 +80,7 @@ class DynamicsCallbacks:
         self.world = world
         self._step_pass = step_pass  # the scripts' pass of the current step (budget.ScriptBudget.pass_of)
         self.joints: list[tuple[Any, int]] = []  # (script, joint handle)
+        self.joint_4x: dict[int, Any] = {}  # owner handle -> its script with sysCall_joint
         self.dyn: list[Any] = []
         self.contact: list[Any] = []
         self._filter: ContactFilter | None = None
@@ -80,15 +101,17 @@ class DynamicsCallbacks:
                 else:
                     log.error("%s: %s runs only in a script attached to a joint with a motor; %r is not",
                               script.label, JOINT_CALLBACK, obj.name)
+            if script._defines(JOINT_4X):
+                self.joint_4x[script.owner] = script
             if script._defines(DYN_CALLBACK):
                 self.dyn.append(script)
             if script._defines(CONTACT_CALLBACK):
                 self.contact.append(script)
-        w.substep_hook = self._substep if (self.joints or self.dyn or self.contact) else None
+        w.substep_hook = self._substep if (self.joints or self.joint_4x or self.dyn or self.contact) else None
 
     def remove(self) -> None:
         self.world.substep_hook = None
-        self.joints, self.dyn, self.contact = [], [], []
+        self.joints, self.dyn, self.contact, self.joint_4x = [], [], [], {}
         if self._filter is not None:
             self._filter.close()
             self._filter = None
@@ -113,11 +136,18 @@ class DynamicsCallbacks:
             self._dyn(self._pass - 1, total, step, True)
         self._dyn(self._pass, total, step, False)
         changed = False
+        motors = w.motors
+        answered: set[int] = set()  # callback-mode motors whose own jointCallback answered
         for script, handle in self.joints:
+            i = w.motor_index[handle]
+            if motors.force_mode[i]:  # CoppeliaSim's force mode calls no joint callback
+                continue
             out = call_back(script, JOINT_CALLBACK, self._joint_data(m, d, handle, self._pass, total, step), True)
+            if motors.callback_mode[i]:
+                if isinstance(out, dict) and _callback_answer(motors, i, out):
+                    answered.add(i)
+                continue
             if isinstance(out, dict) and ("force" in out or "velocity" in out):
-                i = w.motor_index[handle]
-                motors = w.motors
                 if "velocity" in out:
                     motors.target_velocity[i] = float(out["velocity"])
                 if "force" in out:
@@ -125,6 +155,9 @@ class DynamicsCallbacks:
                 motors.enabled[i], motors.loop[i] = True, False
                 motors.scripted[i] = True  # the script's own law: no stall force (sim/motors.py)
                 changed = True
+        if motors.forcing and np.count_nonzero(motors.callback_mode):
+            self._callback_mode(m, d, answered, total, step)
+            changed = True
         if changed:
             w.motors.write_force_limits(m)
             w.motors.apply(m, d, w.dt)
@@ -132,6 +165,33 @@ class DynamicsCallbacks:
             self._contacts(m, d)
         if self._pass == total:
             self._dyn(total, total, step, True)
+
+    def _callback_mode(self, m: mujoco.MjModel, d: mujoco.MjData, answered: set[int], total: int,
+                       step: float) -> None:
+        """The motors in callback mode that their own ``sysCall_jointCallback`` did not drive: the
+        first ``sysCall_joint`` answer of the scripts of the joint and its ancestors, nearest
+        first; none: no force (``CJoint::handleDynJoint``'s defaults, 0 and 0)."""
+        w, motors = self.world, self.world.motors
+        handle_of = {i: h for h, i in motors.index.items()}
+        for i in np.flatnonzero(motors.callback_mode):
+            i = int(i)
+            if i in answered:
+                continue
+            motors.callback_velocity[i] = motors.callback_force[i] = 0.0
+            motors.callback_pure[i] = False
+            if not self.joint_4x:
+                continue
+            handle = handle_of[i]
+            data = None
+            owner = handle
+            while owner >= 0:
+                script = self.joint_4x.get(owner)
+                if script is not None:
+                    data = data or self._joint_data(m, d, handle, self._pass, total, step)
+                    out = call_back(script, JOINT_4X, data, True)
+                    if isinstance(out, dict) and _callback_answer(motors, i, out):
+                        break
+                owner = w.get(owner).parent
 
     def _contacts(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
         """Ask the contact callbacks about each pair MuJoCo's broad phase lets through now, and
@@ -180,13 +240,46 @@ class DynamicsCallbacks:
         limited = bool(m.jnt_limited[j])
         lo, hi = (float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])) if limited else (-np.inf, np.inf)
         target = float(motors.target_position[i])
-        return {"handle": handle, "revolute": revolute, "cyclic": revolute and not limited,
+        error = target - q
+        if revolute and not limited:  # a cyclic joint: in [-pi, pi], the shortest way round
+            q, error = math.remainder(q, math.tau), math.remainder(error, math.tau)
+        effort = float(d.actuator_force[motors.act[i]] * motors.gear[i])
+        return {"handle": handle, "joint": handle, "mode": JOINTMODE_DYNAMIC, "revolute": revolute,
+                "cyclic": revolute and not limited,
                 "lowLimit": lo if limited else -1e30, "highLimit": hi if limited else 1e30,
-                "passCnt": n, "totalPasses": total, "currentPos": q, "currentVel": v,
-                "targetPos": target, "targetVel": float(motors.target_velocity[i]), "errorValue": target - q,
-                "effort": float(d.actuator_force[motors.act[i]] * motors.gear[i]), "dynStepSize": step,
+                "passCnt": n, "totalPasses": total, "currentPos": q, "pos": q, "currentVel": v, "vel": v,
+                "accel": float(d.qacc[m.jnt_dofadr[j]]), "targetPos": target,
+                "targetVel": float(motors.target_velocity[i]), "errorValue": error, "error": error,
+                "effort": effort, "dynStepSize": step, "dt": step,
                 "maxVel": float(motors.max_velocity[i]), "velUpperLimit": float(motors.max_velocity[i]),
-                "maxForce": float(motors.max_force[i]), "first": n == 1, "last": n == total}
+                "maxForce": float(motors.max_force[i]), "force": dyn_ctrl.target_force(motors, i),
+                "first": n == 1, "last": n == total}
+
+
+def _callback_answer(motors: Any, i: int, out: dict) -> bool:
+    """Take a callback-mode joint callback's answer for motor ``i`` (``CJoint::handleDynJoint``):
+    ``force`` (or ``ctrl``) alone, a force applied; ``vel`` (or ``velocity``) alone, that velocity
+    with at most CALLBACK_FORCE; both, the velocity with at most ``|force|``.
+
+    Args:
+        motors: the world's Motors.
+        i: a motor number.
+        out: the callback's table.
+
+    Returns:
+        Whether it answered (a force or a velocity).
+    """
+    def number(*keys: str) -> float | None:
+        value = next((out[k] for k in keys if isinstance(out.get(k), (int, float))), None)
+        return float(value) if value is not None and math.isfinite(value) else None
+
+    force, velocity = number("force", "ctrl"), number("vel", "velocity")
+    if force is None and velocity is None:
+        return False
+    motors.callback_pure[i] = velocity is None
+    motors.callback_force[i] = force if force is not None else CALLBACK_FORCE
+    motors.callback_velocity[i] = velocity if velocity is not None else 0.0
+    return True
 
 
 def call_back(script: Any, function: str, data: dict, flat: bool = False) -> Any:

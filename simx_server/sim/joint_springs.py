@@ -15,7 +15,10 @@ against up to ``|K e|`` and never pushes it back, so a handle that gravity pulls
 The converter marks such joints ``mode=spring`` with ``spring_k`` and ``spring_c`` (their ``simx:``
 settings); :class:`~simx_server.sim.motors.Motors` drives them with its velocity law at the
 velocity and force limit :meth:`Springs.law` gives, recomputed at every substep (as CoppeliaSim's
-control runs at every dynamics pass: the spring's force follows its joint).
+control runs at every dynamics pass: the spring's force follows its joint). A program puts a joint
+in the mode at run time with ``sim.jointintparam_dynctrlmode`` (:mod:`simx_server.sim.dyn_ctrl`) and
+sets K and C with ``sim.jointfloatparam_kc_k`` / ``_kc_c`` (CoppeliaSim's defaults: 0.1 and 0,
+``CJoint::_commonInit``); a stop gives every joint the mode, K and C it started with.
 """
 
 from __future__ import annotations
@@ -24,6 +27,9 @@ from collections.abc import Callable
 
 import mujoco
 import numpy as np
+
+#: CoppeliaSim's spring constant K and damping C of a new joint (``CJoint::_commonInit``: ``_dynCtrl_kc``).
+DEFAULT_K, DEFAULT_C = 0.1, 0.0
 
 
 class Springs:
@@ -36,15 +42,15 @@ class Springs:
     """
 
     def __init__(self, mask: np.ndarray, k: np.ndarray, c: np.ndarray) -> None:
-        self.mask = np.asarray(mask, bool)
-        self.k = np.asarray(k, float)
-        self.c = np.asarray(c, float)
+        self.initial = (np.array(mask, bool), np.array(k, float), np.array(c, float))
         self.reset()
 
     @classmethod
-    def read(cls, settings: list[tuple[dict[str, str], str]], number: Callable[..., float]) -> Springs | None:
+    def read(cls, settings: list[tuple[dict[str, str], str]], number: Callable[..., float]
+             ) -> tuple[Springs | None, tuple[np.ndarray, np.ndarray]]:
         """The spring-damper motors among a model's motors, from their ``simx:`` settings
-        (``mode=spring``, ``spring_k``, ``spring_c``); None where none is in that mode.
+        (``mode=spring``, ``spring_k``, ``spring_c``), None where none is in that mode; and every
+        motor's K and C (:meth:`parameters`).
 
         Args:
             settings: per motor, its joint's settings and the joint's name.
@@ -53,18 +59,34 @@ class Springs:
                 joint and the setting for a bad value).
 
         Returns:
-            The springs, or None.
+            ``(springs or None, (k, c))``.
         """
         mask = np.array([s.get("mode") == "spring" for s, _ in settings], dtype=bool)
-        if not mask.any():
-            return None
-        k, c = ([number(s, key, 0.0, name) if on else 0.0 for (s, name), on in zip(settings, mask)]
-                for key in ("spring_k", "spring_c"))
-        return cls(mask, np.array(k), np.array(c))
+        k, c = cls.parameters(settings, number)
+        return (cls(mask, k, c) if mask.any() else None), (k, c)
+
+    @staticmethod
+    def parameters(settings: list[tuple[dict[str, str], str]], number: Callable[..., float]
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """Every motor's K and C from its ``simx:`` settings (``spring_k``, ``spring_c``),
+        CoppeliaSim's defaults (DEFAULT_K, DEFAULT_C) where absent.
+
+        Args:
+            settings: as :meth:`read` takes them.
+            number: as :meth:`read` takes it.
+
+        Returns:
+            ``(k, c)``, each (n,).
+        """
+        k, c = (np.array([number(s, key, default, name) for s, name in settings], dtype=float)
+                for key, default in (("spring_k", DEFAULT_K), ("spring_c", DEFAULT_C)))
+        return k, c
 
     def reset(self) -> None:
-        """Forget the last error (``simxStopSimulation``): the next law has no damping term, as
-        CoppeliaSim's first control pass after a start (``init``) has none."""
+        """The mode, K and C every motor started with, and no last error (``simxStopSimulation``):
+        the next law has no damping term, as CoppeliaSim's first control pass after a start
+        (``init``) has none."""
+        self.mask, self.k, self.c = (a.copy() for a in self.initial)
         self._last_error = np.full(len(self.mask), np.nan)
         self._last_time = np.nan
         self._last: tuple[np.ndarray, np.ndarray] | None = None

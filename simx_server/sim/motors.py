@@ -69,7 +69,7 @@ import mujoco
 import numpy as np
 
 from simx_server.base import limits as L
-from simx_server.sim import mechanisms
+from simx_server.sim import dyn_ctrl, mechanisms
 from simx_server.sim.joint_springs import Springs
 from simx_server.sim.motor_hold import Holds
 from simx_server.sim.motor_spec import (joint_setting, lock_name, max_force, own_kv, ADDED_PREFIX, JOINT_TRNS,
@@ -105,8 +105,8 @@ class _Views:
     attribute of MuJoCo's bindings builds a new ndarray), and ``others``: the equalities that are
     not the motors' locks (those a motor's inertia is computed through)."""
 
-    __slots__ = ("biasprm", "ctrl", "data", "eq_active", "eq_data", "forcerange", "gainprm", "model", "others",
-                 "qfrc_bias", "qfrc_passive", "qpos", "qpos0", "qvel")
+    __slots__ = ("biasprm", "ctrl", "data", "eq_active", "eq_data", "forcerange", "gainprm", "jnt_limited", "model",
+                 "others", "qfrc_bias", "qfrc_passive", "qpos", "qpos0", "qvel")
 
     def __init__(self, m: mujoco.MjModel, d: mujoco.MjData, locks: np.ndarray) -> None:
         self.model, self.data = m, d
@@ -114,6 +114,7 @@ class _Views:
         self.qfrc_bias, self.qfrc_passive = d.qfrc_bias, d.qfrc_passive
         self.gainprm, self.biasprm = m.actuator_gainprm, m.actuator_biasprm
         self.eq_active, self.eq_data, self.qpos0, self.forcerange = d.eq_active, m.eq_data, m.qpos0, m.actuator_forcerange
+        self.jnt_limited = m.jnt_limited
         self.others = np.setdiff1d(np.arange(m.neq), locks)
 
 
@@ -139,14 +140,17 @@ class Motors:
         self.act = act
         self.qadr = np.array([m.jnt_qposadr[j] for _, j, _ in mine], dtype=int)
         self.dadr = np.array([m.jnt_dofadr[j] for _, j, _ in mine], dtype=int)
+        self.jnt, self._hinge = dyn_ctrl.joints(m, [j for _, j, _ in mine])  # joint ids, hinges
         self.gear = np.array([float(m.actuator_gear[a, 0]) or 1.0 for a in act])
         self.own_kv = np.array([own_kv(m, a) for a in act])
         self.initial_max_force = np.array([max_force(m, a, j) for a, (_, j, _) in zip(act, mine)])
         added = [(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a) or "").startswith(ADDED_PREFIX) for a in act]
         modes = [s.get("mode", "passive" if new else "position") for (_, _, s), new in zip(mine, added)]
         self.initial_enabled = np.array([mode != "passive" for mode in modes], dtype=bool)
-        self.initial_loop = np.array([mode != "velocity" for mode in modes], dtype=bool)
-        self.springs = Springs.read([(s, _name(m, j)) for _, j, s in mine], joint_setting)  # None: no spring-damper
+        self.initial_loop = np.array([mode not in ("velocity", "force") for mode in modes], dtype=bool)
+        self.initial_force_mode, self.initial_callback_mode = (np.array(modes) == "force", np.array(modes) == "callback")
+        # None: no spring-damper; every motor's K and C
+        self.springs, self._spring_parameters = Springs.read([(s, _name(m, j)) for _, j, s in mine], joint_setting)
         self.initial_max_velocity = np.array([joint_setting(s, "max_velocity", np.pi, _name(m, j)) for _, j, s in mine])
         self.initial_pid_p = np.array([joint_setting(s, "pid_p", DEFAULT_PID_P, _name(m, j)) for _, j, s in mine])
         # targets the scene starts with (V-REP saves them with the joint): NaN = the joint's rest
@@ -232,12 +236,13 @@ class Motors:
         rest = np.zeros(len(self.act)) if qpos is None else qpos[self.qadr]
         self.target_position = np.where(np.isnan(self.initial_target_position), rest, self.initial_target_position)
         self.target_velocity = self.initial_target_velocity.copy()
+        dyn_ctrl.reset(self)  # the target force's sign, force and callback modes, the callbacks' answers
         #: CoppeliaSim's joint mode per motor (JOINTMODE_FORCE, or a kinematic mode: 0 or 2).
         self.joint_mode = np.full(len(self.act), JOINTMODE_FORCE, dtype=int)
         #: ``sim_jointintparam_velocity_lock`` per motor; where each locked motor stopped (NaN: not now).
         self.locked = self.initial_locked.copy()
         self._lock_q = np.full(len(self.act), np.nan)
-        self._refresh_flags()
+        self.refresh_flags()
         self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
         self._bias = np.zeros(len(self.act))
         self._inertia_at: tuple[float, np.ndarray] = (0.0, np.zeros(0))  # (time, inertia) of this step
@@ -250,10 +255,12 @@ class Motors:
         self.holds.write(m, self._none, self.max_force)
         self.write_force_limits(m)
 
-    def _refresh_flags(self) -> None:
-        """Note whether any motor is kinematic or locked (read at every step: plain attributes)."""
+    def refresh_flags(self) -> None:
+        """Note whether any motor is kinematic, locked or forcing (read at every step: plain attributes)."""
         #: Some joint is in a kinematic mode (:mod:`simx_server.sim.kinematic`).
         self.kinematic = bool((self.joint_mode != JOINTMODE_FORCE).any())
+        #: Some motor is in CoppeliaSim 4.x's force or callback mode (read at every step).
+        self.forcing = bool(self.force_mode.any() or self.callback_mode.any())
         self._locking = bool(self.locked.any()) or not bool(np.isnan(self._lock_q).all())
 
     def set_joint_mode(self, i: int, mode: int) -> None:
@@ -264,7 +271,7 @@ class Motors:
             mode: the mode.
         """
         self.joint_mode[i] = mode
-        self._refresh_flags()
+        self.refresh_flags()
 
     def set_locked(self, i: int, locked: bool) -> None:
         """``sim_jointintparam_velocity_lock`` of motor ``i``.
@@ -274,7 +281,7 @@ class Motors:
             locked: lock a stopped velocity motor where it stopped.
         """
         self.locked[i] = locked
-        self._refresh_flags()
+        self.refresh_flags()
 
     def write_force_limits(self, m: mujoco.MjModel) -> None:
         """Maximum forces (joint units) into the actuators' forcerange (actuator units).
@@ -316,15 +323,17 @@ class Motors:
         dof = self.dadr
         ff = views.qfrc_bias[dof] - views.qfrc_passive[dof]  # static load, joint springs and dampers
         kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
-        err = self.target_position - q
+        goal, err = dyn_ctrl.position_error(self, views.jnt_limited, q)  # cyclic joints: the shortest way
         on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
+        on, forced, scripted = dyn_ctrl.split(self, on) if self.forcing else (on, self._none, self._none)
         loop, springs, spring = self.loop, self.springs, self._none
         if springs is not None:  # spring-damper motors are velocity motors (joint_springs.py)
             spring, spring_v = springs.law(err, float(d.time), loop, self.target_velocity, self.max_force)
-        position = on & loop & ~spring
+        position = on & loop & ~spring & ~scripted
         linear = position & (np.abs(err) * kp <= self.max_velocity)
         v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
         v = v if springs is None else np.where(spring, spring_v, v)
+        v = v if scripted is self._none else np.where(scripted, self.callback_velocity, v)
         velocity_mode = on & (~loop | spring) & self._no_own_kv & ~self.scripted
         ff = ff + self._stall_force(q, views.qvel[dof], v, velocity_mode, float(d.time))
         if springs is not None:  # a spring's force follows it at every substep
@@ -336,9 +345,9 @@ class Motors:
             kv = np.where(stopped & ~hold, HOLD_KV_FACTOR * kv, kv)
         if np.count_nonzero(hold):  # held by its joint's friction row, no actuator force
             on = on & ~hold
-        target = self.target_position
+        target = goal
         if self._locking:
-            target, kp, linear = self._lock(views, q, on & ~loop & (v == 0), dt, kp, linear)
+            target, kp, linear = self._lock(views, q, on & ~loop & (v == 0), dt, kp, linear, goal)
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         kv_kp = kv * kp
         gain = np.where(linear, kv_kp, kv) / g
@@ -357,16 +366,19 @@ class Motors:
         views.ctrl[act] = np.where(linear, target, moving)
         if springs is not None:  # after _lock, which writes every motor's force range
             springs.write_limits(m, self.act, g, self.max_force)
+        if self.forcing:
+            dyn_ctrl.apply_forced(self, views, forced, scripted)
 
     def _lock(self, views: _Views, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
-              linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              linear: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The locked motors (velocity lock on, velocity mode, target 0) hold where they stopped (or
         were put, :meth:`teleported`) with no force limit (``CJoint::handleDynJoint``: "motor locked"):
         pinned by their lock equality (:func:`~simx_server.sim.motor_spec.add_locks`; ``eq_active``,
         ``eq_data``) as Bullet 2.78's equal limits pin them; one locked at run time without one by the
         position law at gain 1/dt (force range written into the model). ``q`` (n,) positions, ``stopped``
-        (n,) velocity motors with target 0, ``kp`` and ``linear`` as :meth:`apply` has them. Returns
-        ``(target, kp, linear)`` with the law-locked motors' entries changed."""
+        (n,) velocity motors with target 0, ``kp``, ``linear`` and ``goal`` (the position law's targets)
+        as :meth:`apply` has them. Returns ``(target, kp, linear)`` with the law-locked motors' entries
+        changed."""
         lock = self.locked & stopped
         self._lock_q = lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
         self._locking = np.count_nonzero(self.locked) > 0  # lock is a part of locked
@@ -383,8 +395,8 @@ class Motors:
             views.forcerange[self.act, 0], views.forcerange[self.act, 1] = -force, force
             self._limits_key, self._law_locked = key, bool(lock.any())
         if not self._law_locked:  # every lock an equality's: the laws as apply() has them
-            return self.target_position, kp, linear
-        return (np.where(lock, lock_q, self.target_position), np.where(lock, 1.0 / dt, kp), linear | lock)
+            return goal, kp, linear
+        return (np.where(lock, lock_q, goal), np.where(lock, 1.0 / dt, kp), linear | lock)
 
     def _inertia(self, views: _Views, dt: float) -> np.ndarray:
         """The joints' effective inertia through the scene's equalities (a motor closing a loop
@@ -480,7 +492,7 @@ class Motors:
         for name in self._STATE:
             arr = getattr(self, name)
             arr[dst] = arr[src]
-        self._refresh_flags()
+        self.refresh_flags()
 
     def state(self, i: int) -> tuple:
         """Everything a program set on motor ``i`` (kept across scene edits).
@@ -502,7 +514,7 @@ class Motors:
         """
         for n, value in zip(self._STATE, state):
             getattr(self, n)[i] = value
-        self._refresh_flags()
+        self.refresh_flags()
 
     _STATE = ("enabled", "loop", "max_velocity", "max_force", "pid_p", "target_position", "target_velocity",
-              "joint_mode", "locked")
+              "joint_mode", "locked", "force_sign", "force_mode", "callback_mode")

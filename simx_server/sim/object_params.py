@@ -26,11 +26,11 @@ from simx_server.sim.world import _TYPE_NAMES, CAMERA, JOINT, LIGHT, SHAPE, VISI
 # ---------------------------------------------------------------- object params
 #: Legacy names of the object parameter ids (vrepConst.py's first name of each id), for messages.
 PARAM_NAMES = {v: n for n, v in reversed(C.VREP_CONSTANTS.items()) if n.startswith(C.OBJECT_PARAM_PREFIXES)}
-_FLOAT_GET = {11, 12, 13, 14, *range(15, 27), 1000, 1001, 1004, *range(2002, 2018), 3005}
-_FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 3005}
+_FLOAT_GET = {11, 12, 13, 14, *range(15, 27), 1000, 1001, 1004, *range(2002, 2020), 3005}
+_FLOAT_SET = {1000, 1001, 1004, 2002, 2003, 2004, 2017, 2018, 2019, 3005}
 
-_INT_GET = {1002, 1003, 1017, 2000, 2001, 2030, 3003, 3004}
-_INT_SET = {1002, 1003, 1017, 2000, 2001, 2030}
+_INT_GET = {1002, 1003, 1017, 2000, 2001, 2030, 2039, 3003, 3004}
+_INT_SET = {1002, 1003, 1017, 2000, 2001, 2030, 2039}
 
 
 def _pname(pid: int) -> str:
@@ -167,7 +167,8 @@ def set_float_param(sim: SimulationView, handle: int, pid: int, value: float) ->
     Args:
         sim: the simulation.
         handle: the object's handle.
-        pid: 1000/1001 clipping (m), 1004 perspective angle (rad), 2002/2017 joint motor,
+        pid: 1000/1001 clipping (m), 1004 perspective angle (rad), 2002/2017 joint motor, 2018/2019
+            the spring-damper mode's K and C,
             3000-3002 and 3020-3022 a shape's initial velocity (m/s, rad/s, world axes: a static
             shape's surface moves in its contacts, a dynamic one starts with it when reset;
             :mod:`simx_server.sim.surfaces`), 3005 mass (kg); 3006-3013 a shape's texture position, orientation,
@@ -251,7 +252,7 @@ def get_int_param(sim: SimulationView, handle: int, pid: int) -> int:
         sim: the simulation.
         handle: the object's handle.
         pid: 1002/1003 resolution (pixels), 1017 render mode, 2000/2001 joint motor flags,
-            3003 static, 3004 respondable.
+            2039 a joint's dynamic control mode, 3003 static, 3004 respondable.
 
     Returns:
         The value.
@@ -296,7 +297,8 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
         sim: the simulation.
         handle: the object's handle.
         pid: 1002/1003 resolution (pixels), 1017 render mode, 2000/2001/2030 joint motor flags,
-            3003 static, 3004 respondable (:mod:`simx_server.sim.shape_dynamics`).
+            2039 a joint's dynamic control mode (:mod:`simx_server.sim.dyn_ctrl`), 3003 static,
+            3004 respondable (:mod:`simx_server.sim.shape_dynamics`).
         value: the new value.
 
     Raises:
@@ -344,6 +346,6 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
             raise UnsupportedError(f"{_pname(pid)}: {exc}") from None
         world.version += 1  # the sensor's image changes
         return
-    # 2000 motor enabled, 2001 control loop enabled: simx_server.sim.motors
+    # 2000 motor enabled, 2001 control loop enabled, 2039 control mode: simx_server.sim.motors, dyn_ctrl
     _need(world, handle, JOINT, pid)
     joint_params.set_param(world, handle, pid, value, _pname(pid))

@@ -41,6 +41,9 @@ class SensorSpec:
     #: windowed size (pixels; no effect headless), the orthographic size kept while perspective
     #: (m), the perspective fovy kept while orthographic (deg): simx_server.sim.vision_params
     windowed: tuple[int, int] = (0, 0)
+    #: ``sim_visionintparam_disabled_light_components`` (1006): bit 1 the lights' diffuse, bit 2
+    #: their specular, left out of the sensor's images (coppeliaSimLib ``_activateNonAmbientLights``)
+    disabled_light_components: int = 0
     ortho_size: float | None = None
     persp_fovy: float | None = None
 

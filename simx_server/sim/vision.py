@@ -125,8 +125,10 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
             self._streaming_ready = self._prepare(self._streaming)
 
     def reset(self) -> None:
-        """(Re)read every sensor's properties from the scene (undoing run-time changes)."""
+        """(Re)read every sensor's properties from the scene (undoing run-time changes; the
+        disabled light components, not a scene value, stay: ``CViewableBase``)."""
         world = self.world
+        disabled = {h: s.disabled_light_components for h, s in getattr(self, "specs", {}).items()}
         self.specs: dict[int, SensorSpec] = {}
         self._cache.clear()
         self._colours = None
@@ -137,6 +139,7 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         for obj in world.objects.values():
             if obj.type == VISION_SENSOR:
                 self.specs[obj.handle] = sensor_spec(m, obj)
+                self.specs[obj.handle].disabled_light_components = disabled.get(obj.handle, 0)
                 if obj.settings.get("explicit") == "true":  # saved with explicit handling (vision_handled)
                     self.explicit.add(obj.handle)
         if self.specs:
@@ -304,7 +307,7 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
             if spec.background is not None and kind != "depth":
                 clip_planes(r.scene, spec.near, spec.far)  # and nothing outside its planes
             if kind == "rgb":  # (after the planes: it moves an orthographic camera back, planes too)
-                vision_look.apply(r.scene, model)  # V-REP's lighting where the scene asks for it
+                vision_look.apply(r.scene, model, spec.disabled_light_components)  # V-REP's lighting
             elif kind == "depth":
                 flat_planes(r.scene, model, data)  # unlit: a plane needs no grid (most of the frame's time)
             return render_bands(r, spec.height)

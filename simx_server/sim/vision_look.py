@@ -30,6 +30,7 @@ import logging
 
 import mujoco
 
+from simx_server.sim import shape_looks
 from simx_server.sim.objects import text_of
 
 log = logging.getLogger("simx.vision")
@@ -77,17 +78,35 @@ def _of(model: mujoco.MjModel) -> tuple[bool, bool]:
     return hit[1], hit[2]
 
 
-def apply(scene: mujoco.MjvScene, model: mujoco.MjModel) -> None:
+def apply(scene: mujoco.MjvScene, model: mujoco.MjModel, disabled: int = 0) -> None:
     """Set a sensor's scene (``update_scene`` done, an RGB frame) to V-REP's look where the model
-    asks for it; nothing otherwise.
+    asks for it; then, in either look, give the geoms the specular and emission colours and the
+    shininess that ``sim.setShapeColor`` set (:mod:`simx_server.sim.shape_looks`), and leave out
+    the light components the sensor disables (``sim_visionintparam_disabled_light_components``:
+    bit 1 the lights' diffuse, bit 2 their specular; ``_activateNonAmbientLights``).
 
     Args:
         scene: the renderer's scene, updated for the sensor's camera.
         model: the model drawn.
+        disabled: the sensor's disabled light components.
     """
     vrep, bare = _of(model)
-    if not vrep:
-        return
+    if vrep:
+        _vrep_look(scene, model, bare)
+    shape_looks.apply(scene, model)
+    if disabled & 6:
+        for i in range(scene.nlight):
+            light = scene.lights[i]
+            if not light.headlight:  # the headlight's ambient is V-REP's ambient light, left on
+                if disabled & 2:
+                    light.diffuse[:] = 0.0
+                if disabled & 4:
+                    light.specular[:] = 0.0
+
+
+def _vrep_look(scene: mujoco.MjvScene, model: mujoco.MjModel, bare: bool) -> None:
+    """V-REP's look (:func:`apply`): the headlight's ambient only, V-REP's default material on
+    geoms without one (``bare``: the model has some)."""
     for i in range(scene.nlight):
         light = scene.lights[i]
         if light.headlight:

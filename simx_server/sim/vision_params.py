@@ -4,7 +4,11 @@ entity to render, perspective or orthographic projection, orthographic size.
 ``sim_visionintparam_windowed_size_x``/``_y`` (1004/1005, int) are the size of the window a
 CoppeliaSim sensor can show its image in: kept, with no effect headless (0: full screen).
 ``sim_visionintparam_entity_to_render`` (1008): -1 (everything) only; MuJoCo renders the whole
-scene. ``sim_visionintparam_perspective_operation`` (1018): 1 perspective, 0 orthographic
+scene. ``sim_visionintparam_disabled_light_components`` (1006): bit 1 (2) leaves the lights'
+diffuse colours out of the sensor's images, bit 2 (4) their specular colours (coppeliaSimLib
+``_activateNonAmbientLights`` reads the sensor's ``getDisabledColorComponents``; not saved with the
+scene, kept when the simulation stops, as ``CViewableBase`` keeps it).
+``sim_visionintparam_perspective_operation`` (1018): 1 perspective, 0 orthographic
 (MuJoCo's ``cam_projection``). ``sim_visionfloatparam_ortho_size`` (1005, float): the view's
 size along its larger side (m), MuJoCo's orthographic ``fovy`` being the vertical extent. A
 perspective sensor keeps the orthographic size it is given for when it turns orthographic,
@@ -28,8 +32,8 @@ from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.sim.state import SimulationView
 
 WINDOWED_X, WINDOWED_Y, ENTITY, PERSPECTIVE = 1004, 1005, 1008, 1018
-ORTHO_SIZE = 1005
-INT_IDS = (WINDOWED_X, WINDOWED_Y, ENTITY, PERSPECTIVE)
+ORTHO_SIZE, DISABLED_LIGHT_COMPONENTS = 1005, 1006
+INT_IDS = (WINDOWED_X, WINDOWED_Y, ENTITY, PERSPECTIVE, DISABLED_LIGHT_COMPONENTS)
 FLOAT_IDS = (ORTHO_SIZE,)
 _ORTHO = int(mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC)
 _PERSP = int(mujoco.mjtProjection.mjPROJ_PERSPECTIVE)
@@ -62,13 +66,15 @@ def get_int(sim: SimulationView, handle: int, pid: int) -> int:
     spec = _spec(sim, handle)
     if pid in (WINDOWED_X, WINDOWED_Y):
         return int(spec.windowed[0 if pid == WINDOWED_X else 1])
+    if pid == DISABLED_LIGHT_COMPONENTS:
+        return int(spec.disabled_light_components)
     if pid == ENTITY:
         return -1
     return 0 if _ortho(sim, spec) else 1
 
 
 def set_int(sim: SimulationView, handle: int, pid: int, value: int) -> None:
-    """Set int parameter 1004, 1005, 1008 or 1018 of vision sensor ``handle``.
+    """Set int parameter 1004, 1005, 1006, 1008 or 1018 of vision sensor ``handle``.
 
     Args:
         sim: the simulation.
@@ -88,6 +94,10 @@ def set_int(sim: SimulationView, handle: int, pid: int, value: int) -> None:
         size = list(spec.windowed)
         size[0 if pid == WINDOWED_X else 1] = int(value)
         spec.windowed = (size[0], size[1])
+        return
+    if pid == DISABLED_LIGHT_COMPONENTS:
+        spec.disabled_light_components = int(value)
+        sim.world.version += 1  # the sensor's image changes
         return
     if pid == ENTITY:
         if value != -1:

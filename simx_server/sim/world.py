@@ -156,6 +156,7 @@ class World(Poses, Joints):
         self._scalar_joints = {o.handle: (int(model.jnt_qposadr[o.mj_id]), int(model.jnt_dofadr[o.mj_id]))
                                for o in self.objects.values()
                                if o.type == JOINT and int(model.jnt_type[o.mj_id]) in scalar}
+        self.refresh_cyclic()
         for gone in [n for n in self._handle_of_name if n not in self.by_name]:
             del self._handle_of_name[gone]  # its handle is never given again
         self._init_motors()

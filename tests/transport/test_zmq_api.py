@@ -184,6 +184,34 @@ def test_stop_ends_stepping_as_coppeliasim_does(sim):
     assert sim.setStepping(True) == 0  # the stop reset it
 
 
+def test_a_joints_control_mode_through_both_doors(sim, zmq_server):
+    """sim.jointintparam_dynctrlmode (2039, CoppeliaSim 4.x; simx_server/sim/dyn_ctrl.py) read and
+    written by a ZMQ client and by a legacy one (simxSetObjectIntParameter), the same joint."""
+    import vrep
+
+    joint = sim.getObject("/ArmJoint")
+    assert sim.getObjectInt32Param(joint, sim.jointintparam_dynctrlmode) == sim.jointdynctrl_position
+    force, velocity = sim.getJointTargetForce(joint), sim.getJointTargetVelocity(joint)
+    cid = vrep.simxStart("127.0.0.1", zmq_server.port, True, True, 5000, 5)
+    assert cid >= 0
+    B = vrep.simx_opmode_blocking
+    try:
+        sim.setObjectInt32Param(joint, sim.jointintparam_dynctrlmode, sim.jointdynctrl_force)
+        sim.setJointTargetForce(joint, -0.5)
+        assert vrep.simxGetObjectIntParameter(cid, joint, 2039, B) == (0, 1)
+        assert vrep.simxGetObjectIntParameter(cid, joint, vrep.sim_jointintparam_ctrl_enabled, B) == (0, 0)
+        assert sim.getJointTargetForce(joint) == -0.5
+        assert vrep.simxSetObjectIntParameter(cid, joint, 2039, 4, B) == 0  # velocity
+        assert sim.getObjectInt32Param(joint, sim.jointintparam_dynctrlmode) == sim.jointdynctrl_velocity
+        assert vrep.simxSetObjectIntParameter(cid, joint, 2039, 7, B) == vrep.simx_return_remote_error_flag
+    finally:  # the stopped scene's mode and targets back (a stop while stopped resets nothing)
+        vrep.simxSetObjectIntParameter(cid, joint, 2039, 8, B)
+        vrep.simxFinish(cid)
+        sim.setJointTargetVelocity(joint, velocity)
+        sim.setJointTargetForce(joint, force)
+    assert sim.getObjectInt32Param(joint, sim.jointintparam_dynctrlmode) == sim.jointdynctrl_position
+
+
 def test_step_while_stopped_returns_at_once(sim):
     sim.setStepping(True)
     sim.step()

@@ -15,7 +15,7 @@ from simx_server.api.sim import sensors as _sensors
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
-from simx_server.sim import object_params
+from simx_server.sim import dyn_ctrl, object_params
 from simx_server.sim.objects import JOINT, WORLD
 
 # mjtJoint free -> (none: no V-REP joint); ball -> spherical, slide -> prismatic, hinge -> revolute
@@ -175,27 +175,33 @@ def getJointVelocity(ctx: CallContext, jointHandle: Any) -> float:  # noqa: N802
 
 @sim_function("setJointTargetForce")
 def setJointTargetForce(ctx: CallContext, objectHandle: Any, forceOrTorque: Any, signedValue: Any = True) -> None:  # noqa: N802, N803
-    """The most force/torque the joint's motor applies (N or N·m), as ``simxSetJointForce``
-    (its magnitude; simx's motors have no separate force mode, see docs/API.md).
+    """The joint's target force/torque (N or N·m): what its motor applies in force mode, and its
+    magnitude the most it applies in the other modes (``sim.jointintparam_dynctrlmode``,
+    :mod:`simx_server.sim.dyn_ctrl`). ``signedValue`` true (the default): the value's sign is kept,
+    and a target velocity of the other sign turns round; false: a negative value is 0, and the
+    force takes the target velocity's sign (coppeliaSimLib ``CJoint::setTargetForce``).
 
     ``sim.setJointTargetForce``.
 
     Args:
         objectHandle: a joint's handle, or ``sim.handle_self``.
-        forceOrTorque: N or N·m (its magnitude is used).
-        signedValue: ignored.
+        forceOrTorque: N or N·m, within limits.MAX_JOINT_FORCE.
+        signedValue: keep the sign.
 
     Raises:
         UnknownObjectError: no such object.
-        ObjectTypeError: not a joint.
-        ArgumentError: not a number.
+        ObjectTypeError: not a joint with a motor of its own.
+        ArgumentError: not a number, or out of bounds.
     """
-    ctx.world.set_joint_force(ctx.h(objectHandle), abs(_num(forceOrTorque, "forceOrTorque")))
+    force = _num(forceOrTorque, "forceOrTorque")
+    signed = bool(signedValue) if signedValue is not None else True
+    ctx.world.set_joint_force(ctx.h(objectHandle), force if signed else max(force, 0.0), signed)
 
 
 @sim_function("getJointTargetForce")
 def getJointTargetForce(ctx: CallContext, jointHandle: Any) -> float:  # noqa: N802, N803
-    """The motor's force/torque limit (N or N·m).
+    """The joint's signed target force/torque (N or N·m; coppeliaSimLib ``CJoint::getTargetForce``):
+    what :func:`setJointTargetForce` set, its sign the target velocity's when both are nonzero.
 
     ``sim.getJointTargetForce``.
 
@@ -207,9 +213,10 @@ def getJointTargetForce(ctx: CallContext, jointHandle: Any) -> float:  # noqa: N
 
     Raises:
         UnknownObjectError: no such object.
-        ObjectTypeError: not a joint.
+        ObjectTypeError: not a joint with a motor of its own.
     """
-    return ctx.world.joint_max_force(ctx.h(jointHandle))
+    world = ctx.world
+    return dyn_ctrl.target_force(world.motors, world.motor(ctx.h(jointHandle)))
 
 
 @sim_function("getVisionSensorDepth")

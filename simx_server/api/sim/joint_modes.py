@@ -82,6 +82,7 @@ def setJointInterval(ctx: CallContext, objectHandle: Any, cyclic: Any, interval:
     if el is not None:
         el.range = [lo, lo + span]
         el.limited = mujoco.mjtLimited.mjLIMITED_FALSE if cyclic else mujoco.mjtLimited.mjLIMITED_TRUE
+    ctx.world.refresh_cyclic()
     if not cyclic and int(m.jnt_type[obj.mj_id]) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
         q = ctx.world.joint_position(obj.handle)
         if not lo <= q <= lo + span:

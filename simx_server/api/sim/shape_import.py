@@ -26,7 +26,7 @@ from simx_server.base import limits as L
 from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
-from simx_server.sim import friction, mechanisms
+from simx_server.sim import friction, mechanisms, shape_looks
 from simx_server.sim.spec_tools import _names, vrep_suffix
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import SHAPE, World
@@ -175,11 +175,13 @@ def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
 
     ``colorComponent`` 0 (``sim.colorcomponent_ambient_diffuse``) or 1 (diffuse) with
     ``rgbData`` = {r, g, b} in [0, 1] (the geom's material, if any, is dropped so that the
-    colour shows); 4 (``sim.colorcomponent_transparency``) with {t}, the opacity lost, as
-    V-REP's transparency (alpha = 1 - t). Components outside [0, 1] (old scripts pass 0-255)
-    are kept by CoppeliaSim (``CColorObject::setColor``) and clamped by OpenGL when drawn: simx
-    clamps them. Other components (specular, emission...) are accepted and ignored, as MuJoCo
-    renders no such per-geom colours. ``shapeHandle`` ``'@backCompatibility1:H'`` (the helper
+    colour shows; its specular, shininess and emission stay the geom's); 2
+    (``sim.colorcomponent_specular``) and 3 (``_emission``): the geom's specular and emission
+    colours, the others left as they are (``CColorObject::setColor``; drawn by the vision
+    sensors as :mod:`simx_server.sim.shape_looks` says); 4 (``sim.colorcomponent_transparency``)
+    with {t}, the opacity lost, as V-REP's transparency (alpha = 1 - t). Components outside
+    [0, 1] (old scripts pass 0-255) are kept by CoppeliaSim and clamped by OpenGL when drawn:
+    simx clamps them. Component 5 (auxiliary: temperature colours) is accepted and not drawn. ``shapeHandle`` ``'@backCompatibility1:H'`` (the helper
     V-REP 3.1.3 added to old scripts) is shape H with the ambient-diffuse colour corrected as
     coppeliaSimLib ``_simSetShapeColor`` does ((c + 0.25) / 0.85, scaled to a largest of 1).
     Returns 1. The colour lasts until the scene is reloaded (stopping the simulation keeps it).
@@ -194,7 +196,7 @@ def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
     obj = world.get(ctx.h(shapeHandle, "shapeHandle"), SHAPE)
     name = None if colorName is None else _text(colorName, "colorName")
     component = _int(colorComponent, "colorComponent")
-    values = _vector(rgbData, 1 if component == 4 else 3, "rgbData") if component in (0, 1, 4) else None
+    values = _vector(rgbData, 1 if component == 4 else 3, "rgbData") if component in (0, 1, 2, 3, 4) else None
     if values is not None and correct and component == 0 and not (name or "").startswith("@"):
         values = [(v + 0.25) / 0.85 for v in values]
         values = [v / max(values) for v in values] if max(values) > 1.0 else values
@@ -204,6 +206,11 @@ def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
     geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == obj.mj_id
              and (not name or mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) == name)]
     if values is None:
+        return 1
+    if component in (shape_looks.SPECULAR, shape_looks.EMISSION):
+        for g in geoms:
+            shape_looks.set_component(m, int(g), component, values)
+        world.version += 1  # cached renders are stale
         return 1
     try:
         spec = ctx.simulation("setShapeColor").editor._live_spec()
@@ -220,6 +227,7 @@ def setShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
             rgba[3] = 1.0 - values[0]
         else:
             rgba[:3] = values
+            shape_looks.keep_material(m, int(g))  # its specular, shininess and emission stay
             m.geom_matid[g] = -1
         m.geom_rgba[g] = rgba
         # the spec too, so that the colour survives later edits of the scene

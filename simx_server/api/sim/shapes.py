@@ -19,7 +19,7 @@ from simx_server.api.registry import sim_function
 from simx_server.api.sim import shape_texture
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_text as _text, as_vector as _vector
-from simx_server.sim import friction
+from simx_server.sim import friction, shape_looks, vision_look
 from simx_server.sim.mechanisms import rigid_contact
 from simx_server.sim.objects import DUMMY, LIGHT, SHAPE
 from simx_server.sim.spec_tools import _names, vrep_suffix
@@ -28,6 +28,8 @@ from simx_server.sim.spec_tools import _names, vrep_suffix
 PRIMITIVES = {1: ("Plane", mujoco.mjtGeom.mjGEOM_BOX), 2: ("Disc", mujoco.mjtGeom.mjGEOM_CYLINDER),
               3: ("Cuboid", mujoco.mjtGeom.mjGEOM_BOX), 4: ("Sphere", mujoco.mjtGeom.mjGEOM_ELLIPSOID),
               5: ("Cylinder", mujoco.mjtGeom.mjGEOM_CYLINDER), 8: ("Capsule", mujoco.mjtGeom.mjGEOM_CAPSULE)}
+#: MuJoCo's default material specular level (what a geom without material is drawn with in MuJoCo's look).
+MUJOCO_SPECULAR = 0.5
 _THIN = 0.0005  # m: half thickness of a plane or a disc (MuJoCo has no zero-thickness solid)
 
 
@@ -51,8 +53,9 @@ def shape_of(ctx: CallContext, handle: Any) -> Any:
 def getShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorComponent: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
     """``result, rgbData`` of the shape's first geom named ``colorName`` (any for nil or
     ``""``): component 0/1 ambient-diffuse/diffuse the RGB (its material's when it has one),
-    2 specular and 3 emission the material's scalar three times, 4 transparency {1 - alpha}.
-    result 0 when no geom matches.
+    2 specular and 3 emission the colours the vision sensors draw it with (those
+    ``sim.setShapeColor`` set, else its material's, else the look's default:
+    :mod:`simx_server.sim.shape_looks`), 4 transparency {1 - alpha}. result 0 when no geom matches.
 
     ``sim.getShapeColor``.
 
@@ -82,9 +85,9 @@ def getShapeColor(ctx: CallContext, shapeHandle: Any, colorName: Any, colorCompo
             return 1, [float(v) for v in rgba[:3]]
         if component == 4:
             return 1, [1.0 - float(rgba[3])]
-        if component in (2, 3):
-            v = float((m.mat_specular if component == 2 else m.mat_emission)[mat]) if mat >= 0 else 0.0
-            return 1, [v, v, v]
+        if component in (shape_looks.SPECULAR, shape_looks.EMISSION):  # as the sensors draw it
+            default = vision_look.DEFAULT_SPECULAR if vision_look.asks_vrep(m) else MUJOCO_SPECULAR
+            return 1, shape_looks.component(m, int(g), component, default)
         raise ArgumentError(f"colorComponent {component}: 0-4 (sim.colorcomponent_*)")
     return 0, [0.0, 0.0, 0.0]
 

@@ -154,19 +154,29 @@ def read_light(r: Records) -> LightData:
     return out
 
 
-def read_ambient(r: Records) -> np.ndarray | None:
+def read_ambient(r: Records, serialization: int = 22) -> np.ndarray | None:
     """The environment's ambient light (``CEnvironment::serialize``): ``Al2`` as it is; older
-    files only ``Alc``, which holds half of it (V-REP doubles it, capped at 0.4). None when the
-    file has neither."""
+    files only ``Alc``, which holds half of it (V-REP doubles it, capped at 0.4); a file written
+    before serialization 17 (V-REP's brighter default lights, before 3.0.5) has an ambient light
+    whose mean passes 0.21 scaled by 0.675 (``utils::scaleLightDown_``). None when the file has
+    neither record.
+
+    Args:
+        r: the environment's records.
+        serialization: the serialization version of the file.
+    """
     al2 = r.floats(None, "Al2", 3)
     if al2 is not None and np.all(np.isfinite(al2)):
-        return np.clip(al2, 0.0, 1.0)
-    alc = r.floats(None, "Alc", 3)
-    if alc is None or not np.all(np.isfinite(alc)):
-        return None
-    amb = np.clip(alc * 2.0, 0.0, None)
-    if amb.max() > 0.4:
-        amb *= 0.4 / amb.max()
+        amb = np.clip(al2, 0.0, 1.0)
+    else:
+        alc = r.floats(None, "Alc", 3)
+        if alc is None or not np.all(np.isfinite(alc)):
+            return None
+        amb = np.clip(alc * 2.0, 0.0, None)
+        if amb.max() > 0.4:
+            amb *= 0.4 / amb.max()
+    if serialization < 17 and float(np.mean(amb)) > 0.21:
+        amb = amb * 0.675
     return amb
 
 

@@ -130,6 +130,8 @@ def add_joint(conv, obj: TttObject, body, pos: np.ndarray, axis: np.ndarray) -> 
             mode = "spring"  # a velocity motor at the target velocity (sim/joint_springs.py)
         elif not j.motor:
             mode = "passive"
+        elif j.control_mode in (1, 16):  # 4.4+'s force and callback modes (sim/dyn_ctrl.py)
+            mode = "force" if j.control_mode == 1 else "callback"
         else:
             mode = "position" if j.control_loop else "velocity"
     elif j.mode in (IK_OLD, MOTION_OLD):

@@ -412,7 +412,7 @@ def _read_environment(r: Records, scene: TttScene) -> None:
     up, down = r.floats(None, "Clc", 3), r.floats(None, "Cld", 3)
     if up is not None and down is not None and np.all(np.isfinite(up)) and np.all(np.isfinite(down)):
         scene.background = (np.clip(up, 0, 1), np.clip(down, 0, 1))
-    scene.ambient = looks.read_ambient(r)
+    scene.ambient = looks.read_ambient(r, scene.serialization)
     if r.byte("Var") & 16:  # CEnvironment's fogEnabled: V-REP's sensors drew it
         scene.skipped["fog (vision sensors draw none)"] = 1
     fbg = r.floats(None, "Fbg", 3)  # what vision sensors clear to (CVisionSensor: glClearColor)

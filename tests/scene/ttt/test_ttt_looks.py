@@ -13,6 +13,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
+from simx_server.api import script_sim  # noqa: E402
 from simx_server.scene.simulation import Simulation  # noqa: E402
 from simx_server.scene.ttt.convert import convert  # noqa: E402
 from simx_server.scene.ttt import looks  # noqa: E402
@@ -223,3 +224,67 @@ def test_a_texture_meets_the_shapes_colour_as_vrep_applies_it(tmp_path, apply):
     got = np.frombuffer(data, np.uint8).reshape(h, w, 3)[h // 2 - 2:h // 2 + 3, w // 2 - 2:w // 2 + 3].reshape(-1, 3)
     want = fixed_function(diffuse, (0, 0, 0), 48, (0, 0, 0), (1, 1, 1), (0, 0, 0)) if apply == 0 else np.full(3, 255)
     assert np.abs(got.astype(int) - want).max() <= 6, (got.min(0), got.max(0), want)
+
+
+def test_set_shape_color_sets_one_component_and_keeps_the_others(tmp_path):
+    # CColorObject::setColor: a part recoloured yellow at run time keeps its glossy specular and
+    # its glow; its specular and emission colours are set on their own (programs threshold on
+    # the colours V-REP drew: a yellow part seen as (255, 255, 36), its blue the highlight)
+    specular, emission = (0.6, 0.6, 0.6), (0.1, 0.0, 0.05)
+    body = (W.light(1, -1, "Sun", 3, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5), pos=(0, 0, 2), quat=SUN_QUAT) +
+            W.camera_sensor(2, -1, "Top", (32, 32), SIZE, pos=(0, 0, 1), quat=(0, 1, 0, 0)) +
+            W.cuboid_shape(3, -1, "Part", (0.6, 0.6, 0.1), (0, 0, -0.05), dynamic=False,
+                           colour=W.colour_object((0.3, 0.3, 0.8), specular, (0.1, 0.1, 0.267), shininess=20)) +
+            W.cuboid_shape(4, -1, "Other", (0.1, 0.1, 0.1), (0.4, 0.4, -0.05), dynamic=False))
+    (tmp_path / "part.ttt").write_bytes(W.ttt_file(body))
+    xml, _ = convert(read(tmp_path / "part.ttt"), tmp_path / "out")
+    sim = Simulation(xml, realtime=False)
+    part = sim.world.resolve("Part").handle
+    api = script_sim(sim.world, part, sim.signals, simulation=sim)
+
+    def centre() -> np.ndarray:
+        (w, h), data = sim.vision.image_bytes(sim.world.resolve("Top").handle, 0)
+        return np.frombuffer(data, np.uint8).reshape(h, w, 3)[h // 2 - 1:h // 2 + 2, w // 2 - 1:w // 2 + 2].reshape(-1, 3)
+
+    try:
+        yellow = (1.0, 1.0, 0.0)
+        api.setShapeColor(part, None, 0, list(yellow))  # sim.colorcomponent_ambient_diffuse
+        want = fixed_function(yellow, specular, 20, (0.1, 0.1, 0.0), (0.5,) * 3, (0.5,) * 3)
+        # the emission kept as the multiple of the new colour closest to (0.1, 0.1, 0.267): 0.1
+        assert np.abs(centre().astype(int) - want).max() <= 4, (centre().min(0), want)
+        assert api.getShapeColor(part, None, 2)[1] == pytest.approx(list(specular), abs=1e-6)
+        api.setShapeColor(part, None, 2, [0.2, 0.2, 0.2])  # sim.colorcomponent_specular
+        api.setShapeColor(part, None, 3, list(emission))  # sim.colorcomponent_emission
+        glow = tuple(np.array(yellow) * (np.array(yellow) @ emission) / 2)  # MuJoCo: a multiple of the colour
+        want = fixed_function(yellow, (0.2,) * 3, 20, glow, (0.5,) * 3, (0.5,) * 3)
+        assert np.abs(centre().astype(int) - want).max() <= 4, (centre().min(0), want)
+        assert api.getShapeColor(part, None, 3)[1] == pytest.approx(list(emission), abs=1e-6)
+        assert api.getShapeColor(part, None, 0)[1] == pytest.approx(list(yellow))
+        # a scene edit (a copy of another shape: the scene recompiles) keeps them
+        api.copyPasteObjects([sim.world.resolve("Other").handle], 0)
+        assert np.abs(centre().astype(int) - want).max() <= 4
+        assert api.getShapeColor(part, None, 2)[1] == pytest.approx([0.2] * 3, abs=1e-6)
+        # the sensor's disabled light components (1006): 4 the lights' specular, 6 their diffuse too
+        top = sim.world.resolve("Top").handle
+        api.setObjectInt32Param(top, 1006, 4)
+        want = fixed_function(yellow, (0.2,) * 3, 20, glow, (0.5,) * 3, (0.0,) * 3)
+        assert np.abs(centre().astype(int) - want).max() <= 4, (centre().min(0), want)
+        api.setObjectInt32Param(top, 1006, 6)
+        sim.start()
+        sim.stop()  # not a scene value: a stop keeps it (CViewableBase)
+        assert api.getObjectInt32Param(top, 1006) == 6
+        want = fixed_function(yellow, (0.2,) * 3, 20, glow, (0.0,) * 3, (0.0,) * 3)
+        assert np.abs(centre().astype(int) - want).max() <= 4, (centre().min(0), want)
+    finally:
+        sim.close()
+
+
+def test_a_file_older_than_vrep_3_0_5_has_its_ambient_light_scaled_down():
+    # CEnvironment::serialize: files before serialization 17 had brighter default lights; V-REP
+    # scales an ambient light above 0.21 down by 0.675 (the default lights themselves changed
+    # only their unused ambient-diffuse part)
+    records = Records(W.lst(W.rec("Alc", W.f32(0.2, 0.2, 0.2))), "t")
+    assert read_ambient(records, serialization=16).tolist() == pytest.approx([0.4 * 0.675] * 3)
+    assert read_ambient(records, serialization=17).tolist() == pytest.approx([0.4] * 3)
+    dim = Records(W.lst(W.rec("Al2", W.f32(0.2, 0.2, 0.2))), "t")
+    assert read_ambient(dim, serialization=16).tolist() == pytest.approx([0.2] * 3)

@@ -13,6 +13,7 @@ import pytest
 import tttwriter as W
 from simx_server.scene.simulation import Simulation
 from simx_server.scene.ttt import convert, reader
+from simx_server.sim import object_params
 
 pytestmark = pytest.mark.renderers_on_demand  # no image is read from an in-process Simulation here
 
@@ -84,3 +85,20 @@ def test_a_spring_faster_than_its_joint_is_the_joints_own_spring(tmp_path):
     assert _texts(xml)["simx:Hinge"] == "mode=passive"
     m = mujoco.MjModel.from_xml_path(str(xml))
     assert m.jnt_stiffness[m.joint("Hinge").id] == pytest.approx(5.0)
+
+
+@pytest.mark.parametrize("mode, setting", [(1, "mode=force"), (16, "mode=callback")])
+def test_a_4x_files_force_and_callback_modes_load_as_such(tmp_path, mode, setting):
+    # CoppeliaSim 4.4+'s control mode (Dcm) 1 and 16: torque control, a script's joint callback
+    # (simx_server/sim/dyn_ctrl.py); before, both loaded as velocity or position control
+    f = tmp_path / "modes.ttt"
+    f.write_bytes(W.ttt_file(W.cuboid_shape(1, -1, "Post", (0.1, 0.1, 0.1), (0, 0, 0.5), dynamic=False)
+                             + W.joint(2, 1, "Hinge", (0, 0, 0.1), extra=W.rec("Dcm", W.i32(mode)))
+                             + W.cuboid_shape(3, 2, "Lever", (0.3, 0.05, 0.05), (0.15, 0, 0), mass=0.2)))
+    xml, _ = convert.convert(reader.read(f), tmp_path / "out", "modes")
+    assert _texts(xml)["simx:Hinge"].startswith(setting)
+    sim = Simulation(xml, realtime=False)
+    try:
+        assert object_params.get_int_param(sim, sim.world.resolve("Hinge").handle, 2039) == mode
+    finally:
+        sim.close()
