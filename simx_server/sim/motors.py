@@ -34,7 +34,13 @@ step so that the substeps run in C:
 * ``ff`` is the joint's load at the start of the step (MuJoCo's ``qfrc_bias``: gravity and
   Coriolis forces, minus ``qfrc_passive``: the joint's spring, damper and gravity compensation),
   so a joint holds its target under gravity, and its velocity against its damping, as V-REP's
-  constraint-based motors do; everything is clipped to the maximum force;
+  constraint-based motors do; everything is clipped to the maximum force. A motor in position
+  control also bears what the constraints put on its joint (``qfrc_constraint``: contacts, limits,
+  equalities, a grasped part's weld): V-REP's position loop is a velocity constraint towards
+  ``P e / 5 ms`` bounded by the maximum force (``CJoint::handleDynJointControl``, then the engine's
+  motor), so a joint pushed by a contact stays at its target until the push exceeds that force,
+  where a servo alone would yield by the push over its gain (an arm closed on a door handle gave
+  way, and the handle slipped out of the fingers);
 * "lock motor when target velocity is zero" (``sim_jointintparam_velocity_lock``, 2030, off by
   default; ``simx:`` ``velocity_lock=1``): a velocity motor told to stop holds the position where
   it stopped with no force limit (CoppeliaSim's ``CJoint::handleDynJoint``, ``_motorLock``):
@@ -106,12 +112,12 @@ class _Views:
     not the motors' locks (those a motor's inertia is computed through)."""
 
     __slots__ = ("biasprm", "ctrl", "data", "eq_active", "eq_data", "forcerange", "gainprm", "jnt_limited", "model",
-                 "others", "qfrc_bias", "qfrc_passive", "qpos", "qpos0", "qvel")
+                 "others", "qfrc_bias", "qfrc_constraint", "qfrc_passive", "qpos", "qpos0", "qvel")
 
     def __init__(self, m: mujoco.MjModel, d: mujoco.MjData, locks: np.ndarray) -> None:
         self.model, self.data = m, d
         self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
-        self.qfrc_bias, self.qfrc_passive = d.qfrc_bias, d.qfrc_passive
+        self.qfrc_bias, self.qfrc_passive, self.qfrc_constraint = d.qfrc_bias, d.qfrc_passive, d.qfrc_constraint
         self.gainprm, self.biasprm = m.actuator_gainprm, m.actuator_biasprm
         self.eq_active, self.eq_data, self.qpos0, self.forcerange = d.eq_active, m.eq_data, m.qpos0, m.actuator_forcerange
         self.jnt_limited = m.jnt_limited
@@ -336,6 +342,9 @@ class Motors:
         v = v if scripted is self._none else np.where(scripted, self.callback_velocity, v)
         velocity_mode = on & (~loop | spring) & self._no_own_kv & ~self.scripted
         ff = ff + self._stall_force(q, views.qvel[dof], v, velocity_mode, float(d.time))
+        loaded = position & ~self.scripted  # position control bears its joint's constraint load
+        if np.count_nonzero(loaded):
+            ff = ff - np.where(loaded, views.qfrc_constraint[dof], 0.0)
         if springs is not None:  # a spring's force follows it at every substep
             self.stalled = self.stalled or bool((spring & on).any())
         stopped = velocity_mode & (v == 0) & ~spring  # told to stop (a spring: its force)
