@@ -27,7 +27,7 @@ from __future__ import annotations
 import mujoco
 
 from simx_server.sim import grasps
-from simx_server.sim.mechanisms import LIMIT_SOLIMP, stiff_solref
+from simx_server.sim.mechanisms import GRASP_SOLIMP, stiff_solref
 from simx_server.sim.objects import FORCE_SENSOR, SHAPE, WORLD, SceneObject
 
 
@@ -69,7 +69,8 @@ def hold(editor, part: SceneObject, parent: SceneObject | None, keep_in_place: b
 
 def _add_weld(editor, spec: mujoco.MjSpec, part: SceneObject) -> None:
     """Add the inactive weld that will hold ``part`` (to the world; its other body is set at
-    each grasp). Stiff, as V-REP's rigid attachment: two timesteps, 99 % impedance."""
+    each grasp). Stiff, as V-REP's rigid attachment: two timesteps, MuJoCo's highest impedance
+    (:data:`~simx_server.sim.mechanisms.GRASP_SOLIMP`)."""
     _, body, _ = editor._spec_element(spec, part.handle)
     eq = spec.add_equality()
     eq.name = grasps.weld_name(part.name)
@@ -78,4 +79,4 @@ def _add_weld(editor, spec: mujoco.MjSpec, part: SceneObject) -> None:
     eq.name1, eq.name2 = body.name, "world"
     eq.active = False
     eq.data[10] = 1.0
-    eq.solref, eq.solimp = stiff_solref(spec.option.timestep), list(LIMIT_SOLIMP)
+    eq.solref, eq.solimp = stiff_solref(spec.option.timestep), list(GRASP_SOLIMP)

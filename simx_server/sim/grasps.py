@@ -14,11 +14,17 @@ MuJoCo allows free joints only in children of the world, so the part's body stay
 and a weld equality named ``simx_grasp:PART`` (added to the model once per part, inactive, by
 :mod:`simx_server.scene.grasping`) holds it to the body that carries the new parent: at grasp
 time the weld's other body (``eq_obj2id``) and its relative pose (``eq_data``) are written from
-the current poses and the weld is switched on (``eq_active``); no recompile. Between steps,
-and after any command that moves the parent (a joint set, a pose set), the part is put back
-exactly at its pose relative to that body (:func:`follow`): it moves with the parent as a
-CoppeliaSim child does, and its weight loads the gripper. Release switches the weld off: the
-part falls from its current pose with its current velocity (the gripper's).
+the current poses and the weld is switched on (``eq_active``); no recompile. After any command
+that moves the parent (a joint set, a pose set), the part is put back exactly at its pose
+relative to that body (:func:`follow`): it moves with the parent as a CoppeliaSim child does.
+A physics step leaves it where the engine put it: the weld holds it, its weight loads the
+gripper, and what it meets stops it (and the gripper through it). CoppeliaSim's dynamics plugins
+hold a dynamic shape to its force-sensor parent by a constraint the engine solves with the
+contacts (Bullet 2.78's ``CConstraintDyn::init`` for a force sensor: a locked
+``btGeneric6DofConstraint``) and report the shape's pose from the engine after each step, the
+link's deviation kept as the sensor's intrinsic error (``CRigidBodyDyn_base::
+reportConfigurationToShape``), never the pose its parent would give it. Release switches the
+weld off: the part falls from its current pose with its current velocity (the gripper's).
 
 The logical tree (``sim.getObjectParent``, poses relative to the parent, ``getObjectsInTree``)
 shows the new parent. Stopping the simulation (``World.reset``) lets every part go and gives it
@@ -156,6 +162,23 @@ def _relative(a: tuple, b: tuple) -> np.ndarray:
     return np.concatenate([p, q])
 
 
+def _weld_data(m: mujoco.MjModel, e: int, relpose: np.ndarray) -> None:
+    """Hold the part of weld ``e`` at ``relpose`` (the holder's pose in the part's frame, (7,)),
+    the weld's point at the part's origin. MuJoCo's body weld joins the point ``eq_data[3:6]`` of
+    its first body (the part) to the point ``eq_data[0:3]`` of its second (the holder) and turns
+    the first by ``eq_data[6:10]`` relative to the second: with the point at the holder's origin,
+    an error of the part's orientation moved the part by that angle times its distance from the
+    holder's origin (a part 1.35 m from the world's origin, held by a sensor fixed to the world,
+    swung 2 cm)."""
+    rel = np.asarray(relpose, float)
+    qinv, origin = np.empty(4), np.empty(3)
+    mujoco.mju_negQuat(qinv, rel[3:])
+    mujoco.mju_rotVecQuat(origin, -rel[:3], qinv)  # the part's origin in the holder's frame
+    m.eq_data[e][:3] = origin
+    m.eq_data[e][3:6] = 0.0
+    m.eq_data[e][6:10] = rel[3:]
+
+
 def attach(world, part: SceneObject, parent: SceneObject, relpose: np.ndarray | None = None) -> None:
     """Hold free body ``part`` to the body carrying ``parent`` by its weld, at their current
     relative pose (or ``relpose``); ``part``'s V-REP parent becomes ``parent``. The model must
@@ -180,8 +203,7 @@ def attach(world, part: SceneObject, parent: SceneObject, relpose: np.ndarray | 
     if relpose is None:
         relpose = _relative(_pose(d, part.mj_id), _pose(d, body))
     m.eq_obj1id[e], m.eq_obj2id[e] = part.mj_id, body
-    m.eq_data[e][:3] = 0.0  # anchor: the part's origin
-    m.eq_data[e][3:10] = relpose
+    _weld_data(m, e, relpose)
     m.eq_data[e][10] = 1.0  # torquescale: orientation held as firmly as position
     d.eq_active[e] = 1
     old = world.grasps.get(part.name)
@@ -227,7 +249,7 @@ def placed(world, part: SceneObject) -> None:
     m, d = world.model, world.data
     mujoco.mj_kinematics(m, d)
     g.relpose = _relative(_pose(d, part.mj_id), _pose(d, int(m.eq_obj2id[e])))
-    m.eq_data[e][3:10] = g.relpose
+    _weld_data(m, e, g.relpose)
 
 
 def held_parts(world) -> list[tuple[int, int, np.ndarray]]:
@@ -280,7 +302,8 @@ def place_held(m: mujoco.MjModel, d: mujoco.MjData, held: list[tuple[int, int, n
 
 def follow(world) -> None:
     """Put every grasped part exactly at its pose relative to the body that holds it (its
-    free joint's position; velocity kept). Runs before ``mj_forward`` in ``World.changed``.
+    free joint's position; velocity kept). Runs before ``mj_forward`` in ``World.changed`` after
+    a command, not after a physics step (the module's docstring).
 
     Args:
         world: the World.

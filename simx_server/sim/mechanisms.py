@@ -38,6 +38,12 @@ _EQUALITY = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
 #: Impedance of joint limits (dmin, dmax, width m, midpoint, power): 99 % from the first
 #: millimetre (MuJoCo's default 0.9-0.95 lets a light body's limit give way under its motor).
 LIMIT_SOLIMP = (0.99, 0.99, 0.001, 0.5, 2.0)
+#: Impedance of the weld that holds a grasped part (:mod:`simx_server.sim.grasps`): MuJoCo's
+#: highest (``mjMAXIMP``). MuJoCo's constraint softness is the impedance's ``(1 - d) / d`` times
+#: the inverse inertia of the bodies it joins, so a light part's weld gives way, in rotation most:
+#: a 1 kg bar 40 cm long, held at its middle, turned 62 degrees under 10 N m at 99 %, 1 degree at
+#: 99.99 %; CoppeliaSim's link (Bullet's locked ``btGeneric6DofConstraint``) is rigid.
+GRASP_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 #: Impedance of loop closures and dependencies: MuJoCo's default. A loop closure often
 #: over-constrains its mechanism (a parallel gripper's welds fix the finger's orientation twice);
 #: at 99 % such redundant rows leave the solver too little regularisation, and the RG2 chatters.

@@ -482,17 +482,22 @@ class World(Poses, Joints):
         if physics.SINK.count:
             physics.SINK.report()  # other warnings (contact buffer full...): once per kind
         self._product = product  # nothing changes the rule between: changed() need not ask again
-        self.changed()  # mj_step leaves positions and sensors one substep behind the state
+        self.changed(stepped=True)  # mj_step leaves positions and sensors one substep behind the state
 
-    def changed(self) -> None:
+    def changed(self, stepped: bool = False) -> None:
         """After any change of state: recompute derived quantities, invalidate cached renders,
         and note the simulation time (``time``, s: every reply reads it, and a plain attribute costs
         no call into MuJoCo's bindings). Grasped parts are put back on what holds them first
-        (:func:`simx_server.sim.grasps.follow`); once at the end of a :meth:`one_change`."""
+        (:func:`simx_server.sim.grasps.follow`), except after a physics step, which leaves them
+        where the engine put them; once at the end of a :meth:`one_change`.
+
+        Args:
+            stepped: the change is a physics step's (:meth:`step`).
+        """
         product, self._product = self._product, None  # step()'s answer (once), else asked now
         if self._batch.holds():
             return
-        if self.grasps:
+        if self.grasps and not stepped:
             grasps.follow(self)
         if product is None:
             product = friction.applies(self.model)
