@@ -166,8 +166,9 @@ class Object(sim.OnItsWorld):
         sim.call("setObjectQuaternion", self._handle, _rel(relative_to), q.tolist())
 
     def get_pose(self, relative_to: Any = None) -> np.ndarray:
-        """Pose (7,): position (m) and quaternion ``[x, y, z, w]``."""
-        return np.concatenate([self.get_position(relative_to), self.get_quaternion(relative_to)])
+        """Pose (7,): position (m) and quaternion ``[x, y, z, w]`` (``sim.getObjectPose``: the
+        object's frame read once)."""
+        return np.array(sim.call("getObjectPose", self._handle, _rel(relative_to)), dtype=np.float64)
 
     def set_pose(self, pose: Any, relative_to: Any = None, reset_dynamics: bool = True) -> None:
         """Sets the pose (7,): position (m) and quaternion ``[x, y, z, w]``."""

@@ -194,6 +194,8 @@ class CallContext:
             ArgumentError: not an integer, a path or such a map.
             UnknownObjectError: a path that names no object.
         """
+        if type(handle) is int:  # the usual case, first
+            return self.owner if handle == _HANDLE_SELF else handle
         if isinstance(handle, (str, bytes)):
             return int(self.sim.getObject(handle))
         if isinstance(handle, dict) and "path" in handle:
@@ -231,6 +233,7 @@ class ApiNamespace:
         self._table = table
         self._constants = table.constants
         self.context = ctx
+        self._allowed: dict[str, Callable[..., Any]] = {}  # names this caller may call: their functions
 
     def entry(self, name: str) -> ApiFunction:
         """The table entry of ``name`` that this caller may call.
@@ -252,7 +255,10 @@ class ApiNamespace:
 
     def call(self, name: str, *args: Any) -> Any:
         """Call ``name`` with ``args`` in this context (errors as :meth:`entry`, then the function's)."""
-        return self.entry(name).function(self.context, *args)
+        function = self._allowed.get(name)
+        if function is None:  # looked up and checked once per name (the table is filled at import)
+            function = self._allowed[name] = self.entry(name).function
+        return function(self.context, *args)
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("__"):

@@ -103,6 +103,8 @@ def as_bytes(value: Any, what: str, *, byte_values: bool = False) -> bytes:
 def as_integer(value: Any, what: str) -> int:
     """An int from a script or ZMQ value: an int, an integral float (Lua 5.3 and JSON numbers) or
     a numpy integer; not a bool. Else ArgumentError."""
+    if type(value) is int:  # the usual case, first
+        return value
     if isinstance(value, (np.integer, np.floating)):
         value = value.item()
     if isinstance(value, float) and value.is_integer():

@@ -355,6 +355,15 @@ class LuaScript(LuaStyles, ChildScript):
             known[function] = body = self._body_now(function)
         return body
 
+    def fixed_bodies(self) -> object | None:
+        """The answers :meth:`_body` and :meth:`_thread_alive` keep until Lua code runs again
+        (:meth:`_bounded`), or None while none are kept.
+
+        Returns:
+            An object the same while the answers are, or None."""
+        bodies = self._bodies
+        return None if self.old_style or self._lookup is None or bodies[0] is not self._shape else bodies
+
     def _thread_alive(self) -> bool:
         """Whether the script's thread lives, cached as :meth:`_body` (asked before every step)."""
         if self._runtime is None:

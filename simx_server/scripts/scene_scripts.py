@@ -30,6 +30,15 @@ from simx_server.sim.world import World
 
 log = logging.getLogger("simx.scripts")
 
+def _fixed_bodies(script: ChildScript) -> object | None:
+    """What a script's ``_body`` answers stay the same with (a Lua script's, :meth:`LuaScript.fixed_bodies`),
+    or None where they may change at any time (a Python script's namespace)."""
+    return script.fixed_bodies() if isinstance(script, LuaScript) else None
+
+
+#: The scripts' callbacks of a step's pass (child scripts also resume their threads).
+_STEP_CALLBACKS = ("sysCall_actuation", "sysCall_sensing")
+
 
 # ---------------------------------------------------------------- the manager
 def load_script(world: World, owner: int, file: str, *, untrusted: Iterable[Path] = (),
@@ -172,6 +181,9 @@ class Scripts:
         self._step: ScriptPass | None = None  # the pass of the step whose actuation ran (the rest shares it)
         self._thread_cost: dict[ChildScript, float] = {}  # s of CPU each thread's last resume took
         self._thread_next = 0  # where the next pass's threads' turn begins (_threads_in_turn)
+        self._quiet = True  # the step's pass runs no script code (_nothing_to_run, asked by its actuation)
+        #: (the scripts' fixed_bodies(), _nothing_to_run's answer for them)
+        self._bodies: tuple[tuple, bool] = ((None,), False)
         self.shared: dict = {"manager": self, "budget": self.budget}  # custom data, the scripts' view of each other
         self.opened = False
         # sysCall_jointCallback / sysCall_dynCallback / sysCall_contactCallback at each substep, in the step's pass
@@ -332,6 +344,13 @@ class Scripts:
         with self.budget.pass_of("idle"):
             self._customization("sysCall_suspended" if paused else "sysCall_nonSimulation")
 
+    def _count_empty(self, function: str) -> None:
+        """A pass of ``function`` in which no script has code for it (:meth:`_nothing_to_run`)."""
+        for table in (self.scripts, self.customization):
+            for script in self._present(table):
+                if script._may_run(function) and script._body(function):
+                    script.executions += 1  # ChildScript.life_cycle of an empty callback
+
     def _customization(self, function: str) -> None:
         for script in self._present(self.customization):
             script.life_cycle(function)
@@ -382,7 +401,10 @@ class Scripts:
         """Before a step: each child script's thread resumes, then its ``sysCall_actuation``;
         then the customization scripts' ``sysCall_actuation``."""
         self.shared["pass"] = self.shared.get("pass", 0) + 1  # simulation passes (wireless data: next pass)
-        if self.scripts or self.customization:  # no script: no pass to time (a PyRep scene's usual step)
+        self._quiet = self._nothing_to_run()
+        if self._quiet:  # no script code in this pass: the empty callbacks counted, nothing timed
+            self._count_empty("sysCall_actuation")
+        else:
             with self.budget.pass_of("step") as step:
                 self._step = step  # the step's dynamics callbacks and sensing share this pass
                 if self._pending:  # attached while running: sysCall_init first, in this pass
@@ -401,12 +423,33 @@ class Scripts:
         if particles:  # particle objects: moved once a step, their pushes applied by this step
             particles.advance(self.world, self.forces, self.world.dt)
 
+    def _nothing_to_run(self) -> bool:
+        """Whether a step's pass would run no script code: none attached meanwhile, no script's
+        dynamics or vision callbacks, no child script's thread alive, and no ``sysCall_actuation``
+        or ``sysCall_sensing`` with code (V-REP's templates, as PyRep's models have them, leave
+        them empty or out). Such a pass only counts the empty callbacks' executions
+        (:meth:`_count_empty`); its time is not taken (no code, no charge). The answer is kept
+        while every script's callbacks are known to be the same (:func:`_fixed_bodies`)."""
+        if self._pending or self.world.substep_hook is not None or self.vision.sensors:
+            return False
+        scripts = self._all()
+        key = tuple(map(_fixed_bodies, scripts))
+        if key == self._bodies[0]:
+            return self._bodies[1]
+        loaded = [script for script in scripts if not script.load_error]  # the others never run
+        answer = not any(script._body(f) == 2 for script in loaded for f in _STEP_CALLBACKS) and \
+            not any(script._thread_alive() for script in loaded if script.kind == "child")
+        key = tuple(map(_fixed_bodies, scripts))  # the answers just read are kept by then
+        self._bodies = (key if None not in key else (None,), answer)
+        return answer
+
     def sensing(self) -> None:
         """After a step: forces scripts added are reset (the step applied them), the vision
         sensors with callbacks are handled, then ``sysCall_sensing`` of every script."""
         self.forces.clear(self.world)
         step, self._step = self._step, None
-        if not (self.scripts or self.customization):
+        if self._quiet:
+            self._count_empty("sysCall_sensing")
             return
         with self.budget.pass_of("step", step):
             self.vision.handle_pass()

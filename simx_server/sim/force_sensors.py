@@ -29,13 +29,17 @@ through the sensor too, as CoppeliaSim's engines make that link the sensor's con
 
 from __future__ import annotations
 
+import operator
+
 import mujoco
 import numpy as np
 
 from simx_server.sim import grasps
+from simx_server.sim.kept import PerObject, entry
 from simx_server.sim.objects import DUMMY, JOINT, SHAPE, SceneObject, subtree
 
 _FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+_PARENT = operator.attrgetter("parent")
 _EQUALITY = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
 _WELD, _SITE = int(mujoco.mjtEq.mjEQ_WELD), int(mujoco.mjtObj.mjOBJ_SITE)
 
@@ -56,6 +60,7 @@ def in_mjcf_convention(sensor: SceneObject) -> bool:
 
 
 _NO_ROTATION = np.eye(3).reshape(9)  # mju_transformSpatial's rotation: none
+_NO_ROWS = np.zeros(0, dtype=np.int64)
 
 
 def child_bodies(world, sensor: SceneObject) -> np.ndarray:
@@ -66,8 +71,20 @@ def child_bodies(world, sensor: SceneObject) -> np.ndarray:
         sensor: a force sensor.
 
     Returns:
-        (nbody,) bool: True for a body on the child side.
+        (nbody,) bool: True for a body on the child side (read-only: kept per model).
     """
+    return _child_side(world, sensor)[0]
+
+
+def _child_side(world, sensor: SceneObject) -> tuple[np.ndarray, np.ndarray]:
+    """``(child_bodies(world, sensor), the child side's bodies joined to the parent side in
+    MuJoCo's tree)``, kept per model while V-REP's tree is the same (a grasp re-parents)."""
+    parents = tuple(map(_PARENT, world.objects.values()))
+    return entry(_sides(world.model), (sensor.handle, in_mjcf_convention(sensor), parents),  # type: ignore[no-any-return]
+                 lambda: _side_now(world, sensor), _KEPT_SIDES)
+
+
+def _side_now(world, sensor: SceneObject) -> tuple[np.ndarray, np.ndarray]:
     m = world.model
     seeds = [sensor.body] if in_mjcf_convention(sensor) else []
     for o in subtree(world, sensor.handle)[1:]:
@@ -82,7 +99,25 @@ def child_bodies(world, sensor: SceneObject) -> np.ndarray:
     for b in range(1, m.nbody):  # MuJoCo orders bodies parents first
         if mask[parent[b]]:
             mask[b] = True
-    return mask
+    free = (m.body_jntnum == 1) & (m.jnt_type[np.maximum(m.body_jntadr, 0)] == _FREE)
+    roots = np.flatnonzero(mask & ~mask[m.body_parentid] & ~free)
+    mask.flags.writeable = roots.flags.writeable = False  # kept and shared
+    return mask, roots
+
+
+#: The child sides kept per model ({(sensor, its convention, V-REP's parents): _side_now's}),
+#: at most _KEPT_SIDES.
+_sides = PerObject(lambda m: {})
+_KEPT_SIDES = 64
+
+
+def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b row by row for (k, 3) arrays, as ``np.cross`` computes it (ten times faster on a few rows)."""
+    out = np.empty_like(a)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
 
 
 def _cross(a, b) -> np.ndarray:
@@ -169,23 +204,21 @@ def child_wrench(world, sensor: SceneObject) -> tuple[np.ndarray, np.ndarray] | 
         side).
     """
     m, d = world.model, world.data
-    mask = child_bodies(world, sensor)
+    mask, roots = _child_side(world, sensor)  # roots: joined to the parent side
     linked = _linked_parts(world, sensor)
     if not mask.any() and not linked:
         return None
     welds = [e for e in (grasps.weld_of(m, name) for name, g in world.grasps.items() if g.held)
              if e >= 0 and d.eq_active[e]] + [e for e, _, _ in linked]
-    rows = np.flatnonzero((d.efc_type[:d.ne] == _EQUALITY) & np.isin(d.efc_id[:d.ne], welds))
+    rows = np.flatnonzero((d.efc_type[:d.ne] == _EQUALITY) & np.isin(d.efc_id[:d.ne], welds)) if welds else _NO_ROWS
     kept = d.efc_force[rows].copy()
     d.efc_force[rows] = 0.0
     try:
         mujoco.mj_rnePostConstraint(m, d)  # cacc, cfrc_int, cfrc_ext without the grasp welds
         site = d.site_xpos[sensor.mj_id]
-        free = (m.body_jntnum == 1) & (m.jnt_type[np.maximum(m.body_jntadr, 0)] == _FREE)
-        roots = np.flatnonzero(mask & ~mask[m.body_parentid] & ~free)  # joined to the parent side
         com = d.subtree_com[m.body_rootid[roots]]
         cfrc = d.cfrc_int[roots]  # what the parent side does to each, at its tree's reference point
-        total = np.concatenate([(cfrc[:, :3] + np.cross(com - site, cfrc[:, 3:])).sum(axis=0),
+        total = np.concatenate([(cfrc[:, :3] + _cross_rows(com - site, cfrc[:, 3:])).sum(axis=0),
                                 cfrc[:, 3:].sum(axis=0)])
         holders = {int(m.eq_obj1id[e]): int(m.eq_obj2id[e]) for e in welds}
         for part, holder in holders.items():  # parts held on the child side or by it

@@ -27,13 +27,12 @@ MuJoCo's pyramidal cone (whose rows are built from the friction), step inside Mu
 
 from __future__ import annotations
 
-import weakref
 from collections.abc import Callable
-from typing import Any
 
 import mujoco
 import numpy as np
 
+from simx_server.sim.kept import PerObject, entry
 from simx_server.sim.objects import parse_settings, text_of
 
 __all__ = ["BULLET_MAX_FRICTION", "DEFAULT_COEFFICIENT", "TEXT", "applies", "combine", "declared", "forward", "mixed",
@@ -112,31 +111,8 @@ class _Kept:
         self.lowered: dict[bytes, tuple[dict[bytes, tuple | None], list]] = {}
 
 
-class _PerObject:
-    """Values kept per object, made by ``make(obj)`` at its first call and kept weakly (an object
-    that is gone drops out with its value); the one asked for last is answered first (a step
-    asks several times)."""
-
-    __slots__ = ("last", "make", "table")
-
-    def __init__(self, make: Callable[[Any], Any]):
-        self.make = make
-        self.table: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-        self.last: tuple = (lambda: None, None)
-
-    def __call__(self, obj: Any) -> Any:
-        last = self.last
-        if last[0]() is obj:
-            return last[1]
-        value = self.table.get(obj)
-        if value is None:
-            value = self.table[obj] = self.make(obj)
-        self.last = (weakref.ref(obj), value)  # one assignment: a thread reads it whole
-        return value
-
-
 #: ``model``'s :class:`_Kept`.
-_kept: Callable[[mujoco.MjModel], _Kept] = _PerObject(_Kept)
+_kept: Callable[[mujoco.MjModel], _Kept] = PerObject(_Kept)
 
 
 def _contact_view(d: mujoco.MjData) -> np.ndarray:
@@ -147,7 +123,7 @@ def _contact_view(d: mujoco.MjData) -> np.ndarray:
 
 #: Per MjData, :func:`contact_geoms`'s view (which does not keep its MjData alive: it must not
 #: outlive it, and drops out with it).
-_contact_views: Callable[[mujoco.MjData], np.ndarray] = _PerObject(_contact_view)
+_contact_views: Callable[[mujoco.MjData], np.ndarray] = PerObject(_contact_view)
 
 
 def contact_geoms(d: mujoco.MjData) -> np.ndarray:
@@ -164,20 +140,6 @@ def contact_geoms(d: mujoco.MjData) -> np.ndarray:
         The view (kept per MjData).
     """
     return _contact_views(d)
-
-
-_MISSING = object()
-
-
-def _entry(table: dict, key: object, make: Callable[[], object], limit: int) -> Any:
-    """``table[key]``, made by ``make()`` when missing (the table emptied first when it holds
-    ``limit`` entries: a bound on what a scene of ever-changing contacts keeps)."""
-    value = table.get(key, _MISSING)
-    if value is _MISSING:
-        if len(table) >= limit:
-            table.clear()
-        value = table[key] = make()
-    return value
 
 
 def applies(model: mujoco.MjModel) -> bool:
@@ -258,7 +220,7 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData, answers: dict | None = None, sl
     g = contact_geoms(d)[:ncon]
     if answers is None:
         answers = _answers(m, _frictions(m))
-    answer = _entry(answers, g.tobytes(), lambda: _answer(m, g, d.contact.friction, sliding), _KEPT_ANSWERS)
+    answer = entry(answers, g.tobytes(), lambda: _answer(m, g, d.contact.friction, sliding), _KEPT_ANSWERS)
     if answer is _UNCHANGED:
         return
     c = d.contact
@@ -300,7 +262,7 @@ _UNCHANGED = (False, np.zeros(0, dtype=int), None, None, False)
 
 def _answers(m: mujoco.MjModel, frictions: bytes) -> dict[bytes, tuple]:
     """:func:`combine`'s kept answers for ``m`` under ``frictions``."""
-    return _entry(_kept(m).answers, frictions, dict, _KEPT_FRICTIONS)  # type: ignore[no-any-return]
+    return entry(_kept(m).answers, frictions, dict, _KEPT_FRICTIONS)  # type: ignore[no-any-return]
 
 
 def _answer(m: mujoco.MjModel, g: np.ndarray, contact_friction: np.ndarray, sliding: np.ndarray | None) -> tuple:
@@ -346,9 +308,9 @@ def _lowered(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes) -> tuple[np.
     kept = _kept(m)
     if not d.ncon or kept.special or m.opt.enableflags & _OVERRIDE:
         return None
-    answers, last = _entry(kept.lowered, frictions, lambda: ({}, [None]), _KEPT_FRICTIONS)
+    answers, last = entry(kept.lowered, frictions, lambda: ({}, [None]), _KEPT_FRICTIONS)
     g = contact_geoms(d)[:d.ncon]
-    answer = _entry(answers, g.tobytes(), lambda: _lower(m, g, frictions), _KEPT_ANSWERS)
+    answer = entry(answers, g.tobytes(), lambda: _lower(m, g, frictions), _KEPT_ANSWERS)
     if answer is None:
         return last[0]  # type: ignore[no-any-return]
     last[0] = answer

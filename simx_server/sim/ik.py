@@ -70,6 +70,7 @@ PREFIX = "ik:"  # simx:ik:NAME
 #: Errors below which an iteration stops early (m, rad).
 _POSITION_TOLERANCE = 1e-5
 _ORIENTATION_TOLERANCE = 1e-4
+_HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)  # an int: numpy compares an enum as an object
 #: Largest joint step of one iteration of the general solver (rad, m), as CoppeliaSim's IK
 #: bounds its joints' steps: near a singular pose (an arm stretched out) damped least squares
 #: otherwise jumps to a far solution, turns away from the current pose.
@@ -333,7 +334,7 @@ class IkGroups:
         q = w.target_position[motors].astype(float)
         q = np.clip(q, g.low, g.high)
         if g.elements:  # several elements, or constraints other than pose and position
-            hinge = m.jnt_type[[w.get(h).mj_id for h in g.joints]] == mujoco.mjtJoint.mjJNT_HINGE
+            hinge = m.jnt_type[[w.get(h).mj_id for h in g.joints]] == _HINGE
             ok, q, _ = ik_solver.solve(w, s, g.joints, q, g.elements, g.method, g.damping, g.iterations,
                                        np.where(hinge, MAX_STEP_RAD, MAX_STEP_M), bound_steps=g.bound_steps)
             self._set_targets(g, q)
@@ -415,7 +416,7 @@ class IkGroups:
                 raise ArgumentError(f"joint {quote(h)} is not in the chain of IK group {g.name!r}")
         s.qpos[:] = w.data.qpos
         s.mocap_pos[:], s.mocap_quat[:] = w.data.mocap_pos, w.data.mocap_quat
-        hinge = self.model.jnt_type[[w.get(h).mj_id for h in joints]] == mujoco.mjtJoint.mjJNT_HINGE
+        hinge = self.model.jnt_type[[w.get(h).mj_id for h in joints]] == _HINGE
         return np.array([w.joint_position(h) for h in joints], float), np.where(hinge, MAX_STEP_RAD, MAX_STEP_M)
 
     def _set_targets(self, g: IkGroup, q: np.ndarray) -> None:

@@ -28,6 +28,7 @@ from simx_server.sim.mechanisms import stiff_solref
 #: ``solimp`` of a held joint's friction row: impedance 0.9999 (MuJoCo's largest), so that the
 #: row's softness lets a 1 kg joint under 8 N move under a micrometre per 50 ms step.
 HOLD_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+_FRICTION_DOF = int(mujoco.mjtConstraint.mjCNSTR_FRICTION_DOF)  # an int: numpy compares an enum as an object
 
 
 class Holds:
@@ -82,5 +83,5 @@ class Holds:
             The row's force on the joint.
         """
         n = d.nefc
-        rows = (d.efc_type[:n] == mujoco.mjtConstraint.mjCNSTR_FRICTION_DOF) & (d.efc_id[:n] == self.dofs[i])
+        rows = (d.efc_type[:n] == _FRICTION_DOF) & (d.efc_id[:n] == self.dofs[i])
         return float(d.efc_force[:n][rows].sum())

@@ -78,6 +78,7 @@ from simx_server.base import limits as L
 from simx_server.sim import dyn_ctrl, mechanisms
 from simx_server.sim.joint_springs import Springs
 from simx_server.sim.motor_hold import Holds
+from simx_server.sim.motor_stall import Stalls
 from simx_server.sim.motor_spec import (joint_setting, lock_name, max_force, own_kv, ADDED_PREFIX, JOINT_TRNS,
                                         SCALAR, tendon_driven)
 
@@ -96,9 +97,6 @@ IMPLICIT_KV_FRACTION = 0.9
 #: Servo gain of a locked velocity-mode motor told to stop (target 0), as a multiple of the usual
 #: one, under the implicit integrators, beside its lock (the others are held by motor_hold).
 HOLD_KV_FACTOR = 300.0
-#: A velocity-mode motor is held back (it gets its whole force, :meth:`Motors._stall_force`) when
-#: it moved, and moves, at less than this fraction of its target velocity: stopped, not slow.
-STALLED = 0.1
 #: CoppeliaSim's ``sim_jointmode_force`` (4.3+: ``sim.jointmode_dynamic``): a joint driven by physics.
 JOINTMODE_FORCE = 5
 
@@ -106,16 +104,26 @@ def _name(m: mujoco.MjModel, joint: int) -> str:
     return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, joint) or f"#{joint}"
 
 
+def _slice_or(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` as a slice where its entries are consecutive, else itself."""
+    n = len(index)
+    if n and np.array_equal(index, np.arange(index[0], index[0] + n)):
+        return slice(int(index[0]), int(index[0]) + n)
+    return index
+
+
 class _Views:
     """The arrays :meth:`Motors.apply` reads and writes, taken once per ``(model, data)`` (each
     attribute of MuJoCo's bindings builds a new ndarray), and ``others``: the equalities that are
     not the motors' locks (those a motor's inertia is computed through)."""
 
-    __slots__ = ("biasprm", "ctrl", "data", "eq_active", "eq_data", "forcerange", "gainprm", "jnt_limited", "model",
-                 "others", "qfrc_bias", "qfrc_constraint", "qfrc_passive", "qpos", "qpos0", "qvel")
+    __slots__ = ("biasprm", "ctrl", "dadr", "data", "eq_active", "eq_data", "forcerange", "gainprm", "jnt_limited",
+                 "model", "others", "qadr", "qfrc_bias", "qfrc_constraint", "qfrc_passive", "qpos", "qpos0", "qvel")
 
-    def __init__(self, m: mujoco.MjModel, d: mujoco.MjData, locks: np.ndarray) -> None:
+    def __init__(self, m: mujoco.MjModel, d: mujoco.MjData, locks: np.ndarray, qadr: np.ndarray,
+                 dadr: np.ndarray) -> None:
         self.model, self.data = m, d
+        self.qadr, self.dadr = _slice_or(qadr), _slice_or(dadr)  # basic indexing reads faster than fancy
         self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
         self.qfrc_bias, self.qfrc_passive, self.qfrc_constraint = d.qfrc_bias, d.qfrc_passive, d.qfrc_constraint
         self.gainprm, self.biasprm = m.actuator_gainprm, m.actuator_biasprm
@@ -205,13 +213,12 @@ class Motors:
                      ", ".join(tendons) or "none")
         n = len(act)
         # per model, for apply(): the gears squared, which motors keep their own kv, and a slice
-        # for the actuators when they are consecutive (basic indexing writes faster than fancy)
+        # for the actuators when they are consecutive
         self._gear2 = self.gear ** 2
         self._own_kv_set, self._no_own_kv = self.own_kv > 0, self.own_kv == 0
         self._any_own_kv = bool(self._own_kv_set.any())
-        consecutive = n > 0 and np.array_equal(act, np.arange(act[0], act[0] + n))
-        self._act_index: slice | np.ndarray = slice(int(act[0]), int(act[0]) + n) if consecutive else act
-        self._no_force = np.zeros(n)
+        self._act_index = _slice_or(act)
+        self.stalls = Stalls(n)  # velocity motors held back (sim/motor_stall.py)
         self._none = np.zeros(n, dtype=bool)  # no motor: the spring and hold masks when none applies
         self._rows = np.arange(n)
         self._unit = np.zeros((n, m.nv))
@@ -219,10 +226,18 @@ class Motors:
         self._minv = np.zeros((n, m.nv))
         self._diagonal = self._rows * m.nv + self.dadr  # (M^-1)_ii's places in _minv, flat
         self._views: _Views | None = None
+        self._gain_kept: tuple[bytes | None, np.ndarray] = (None, np.zeros(0))  # _gain's
+        self._modes_kept: tuple[bytes | None, tuple] = (None, ())  # _modes'
         self.holds = Holds(m, self.dadr)  # stopped velocity motors (motor_hold)
         self._limits_key: bytes | None = None  # what _lock last wrote into the force ranges (None: unknown)
         self._law_locked = True  # some motor locked by the position law (_lock, with _limits_key)
         self.reset(m, None)
+
+    @property
+    def stalled(self) -> bool:
+        """Some motor is held back, or a spring acts (:mod:`simx_server.sim.motor_stall`): the world
+        applies the motors at every substep."""
+        return self.stalls.stalled
 
     def __len__(self) -> int:
         return len(self.act)
@@ -249,11 +264,8 @@ class Motors:
         self.locked = self.initial_locked.copy()
         self._lock_q = np.full(len(self.act), np.nan)
         self.refresh_flags()
-        self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last apply
-        self._bias = np.zeros(len(self.act))
+        self.stalls.reset(len(self.act))
         self._inertia_at: tuple[float, np.ndarray] = (0.0, np.zeros(0))  # (time, inertia) of this step
-        #: Some motor is held back (:meth:`_stall_force`): the world applies the motors at every substep.
-        self.stalled = False
         #: Motors a script's joint callback drives (scripts/dynamics.py): its own law, no stall force.
         self.scripted = np.zeros(len(self.act), dtype=bool)
         if self.springs is not None:
@@ -265,9 +277,9 @@ class Motors:
         """Note whether any motor is kinematic, locked or forcing (read at every step: plain attributes)."""
         #: Some joint is in a kinematic mode (:mod:`simx_server.sim.kinematic`).
         self.kinematic = bool((self.joint_mode != JOINTMODE_FORCE).any())
+        self._locking = bool(self.locked.any()) or not bool(np.isnan(self._lock_q).all())
         #: Some motor is in CoppeliaSim 4.x's force or callback mode (read at every step).
         self.forcing = bool(self.force_mode.any() or self.callback_mode.any())
-        self._locking = bool(self.locked.any()) or not bool(np.isnan(self._lock_q).all())
 
     def set_joint_mode(self, i: int, mode: int) -> None:
         """Motor ``i``'s joint in CoppeliaSim's mode ``mode`` (JOINTMODE_FORCE, 0 or 2).
@@ -317,46 +329,60 @@ class Motors:
             return
         views = self._views
         if views is None or views.model is not m or views.data is not d:
-            views = self._views = _Views(m, d, self._lock_eqs)
+            views = self._views = _Views(m, d, self._lock_eqs, self.qadr, self.dadr)
             self._limits_key = None
             self.holds.forget()
         act, g, g2 = self._act_index, self.gear, self._gear2
-        q = views.qpos[self.qadr]
+        q = views.qpos[views.qadr]
         inertia = self._inertia(views, dt)
         kv = self.kv_fraction * inertia / m.opt.timestep
         if self._any_own_kv:
             kv = np.where(self._own_kv_set, self.own_kv, kv)
-        dof = self.dadr
+        dof = views.dadr
         ff = views.qfrc_bias[dof] - views.qfrc_passive[dof]  # static load, joint springs and dampers
-        kp = np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt)  # 1/s; at most 1/dt: no overshoot in a step
+        kp = self._gain(dt)
         goal, err = dyn_ctrl.position_error(self, views.jnt_limited, q)  # cyclic joints: the shortest way
-        on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
-        on, forced, scripted = dyn_ctrl.split(self, on) if self.forcing else (on, self._none, self._none)
-        loop, springs, spring = self.loop, self.springs, self._none
+        on, position, velocity_mode, off_loop, positioned = self._modes()
+        forced = scripted = self._none
+        if self.forcing:  # CoppeliaSim 4.x's force and callback modes (dyn_ctrl.py)
+            on, forced, scripted = dyn_ctrl.split(self, on)
+            position, velocity_mode, off_loop = position & on & ~scripted, velocity_mode & on, off_loop & on
+            positioned = bool(position.any())
+        springs = self.springs
         if springs is not None:  # spring-damper motors are velocity motors (joint_springs.py)
-            spring, spring_v = springs.law(err, float(d.time), loop, self.target_velocity, self.max_force)
-        position = on & loop & ~spring & ~scripted
-        linear = position & (np.abs(err) * kp <= self.max_velocity)
-        v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
-        v = v if springs is None else np.where(spring, spring_v, v)
-        v = v if scripted is self._none else np.where(scripted, self.callback_velocity, v)
-        velocity_mode = on & (~loop | spring) & self._no_own_kv & ~self.scripted
-        ff = ff + self._stall_force(q, views.qvel[dof], v, velocity_mode, float(d.time))
-        loaded = position & ~self.scripted  # position control bears its joint's constraint load
-        if np.count_nonzero(loaded):
-            ff = ff - np.where(loaded, views.qfrc_constraint[dof], 0.0)
+            spring, spring_v = springs.law(err, float(d.time), self.loop, self.target_velocity, self.max_force)
+            position = position & ~spring
+            velocity_mode = velocity_mode | (on & spring & self._no_own_kv & ~self.scripted)
+            positioned = True
+        if positioned:
+            linear = position & (np.abs(err) * kp <= self.max_velocity)
+            v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
+        else:  # no motor in position control: every law a velocity
+            linear, v = self._none, self.target_velocity
+        if springs is not None:
+            v = np.where(spring, spring_v, v)
+        if scripted is not self._none:
+            v = np.where(scripted, self.callback_velocity, v)
+        ff = ff + self.stalls.force(q, views.qvel[dof], v, velocity_mode, float(d.time), self.max_force)
+        if positioned:  # position control bears its joint's constraint load
+            loaded = position & ~self.scripted
+            if np.count_nonzero(loaded):
+                ff = ff - np.where(loaded, views.qfrc_constraint[dof], 0.0)
         if springs is not None:  # a spring's force follows it at every substep
-            self.stalled = self.stalled or bool((spring & on).any())
-        stopped = velocity_mode & (v == 0) & ~spring  # told to stop (a spring: its force)
+            self.stalls.stalled = self.stalls.stalled or bool((spring & on).any())
+            stopped = velocity_mode & (v == 0) & ~spring  # told to stop (a spring: its force)
+        else:
+            stopped = velocity_mode & (v == 0)
         hold = stopped & ~self.locked if self.holds.usable else self._none
         self.holds.write(m, hold, self.max_force)
         if self.kv_fraction == IMPLICIT_KV_FRACTION:  # locked (or no friction rows): a stiff servo
             kv = np.where(stopped & ~hold, HOLD_KV_FACTOR * kv, kv)
         if np.count_nonzero(hold):  # held by its joint's friction row, no actuator force
             on = on & ~hold
+            off_loop = off_loop & ~hold
         target = goal
         if self._locking:
-            target, kp, linear = self._lock(views, q, on & ~loop & (v == 0), dt, kp, linear, goal)
+            target, kp, linear = self._lock(views, q, off_loop & (v == 0), dt, kp, linear, goal)
         # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
         kv_kp = kv * kp
         gain = np.where(linear, kv_kp, kv) / g
@@ -377,6 +403,32 @@ class Motors:
             springs.write_limits(m, self.act, g, self.max_force)
         if self.forcing:
             dyn_ctrl.apply_forced(self, views, forced, scripted)
+
+    def _gain(self, dt: float) -> np.ndarray:
+        """The position loops' gain (n,) 1/s: V-REP's ``P / 5 ms``, at most ``1 / dt`` (no overshoot
+        in a step); kept while the gains and the step are the same."""
+        key = self.pid_p.tobytes() + np.float64(dt).tobytes()
+        if self._gain_kept[0] != key:
+            self._gain_kept = (key, np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt))
+        return self._gain_kept[1]
+
+    def _modes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+        """``(on, position, velocity, loop off, any position)`` (n,) each: the motors that act
+        (enabled, their joint not kinematic), those in position control (loop on), those in
+        V-REP's velocity law (loop off, not a ``<velocity>`` actuator's own gain, not driven by a
+        script's joint callback), those on with their loop off; and whether any is in position
+        control. Spring-damper motors are told apart per step (:meth:`apply`). Kept while the
+        flags are the same (a few byte copies per step instead of a dozen array operations)."""
+        key = (self.enabled.tobytes() + self.loop.tobytes() + self.scripted.tobytes()
+               + (self.joint_mode.tobytes() if self.kinematic else b""))
+        kept = self._modes_kept
+        if kept[0] != key:
+            on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
+            loop = self.loop
+            position = on & loop
+            velocity = on & ~loop & self._no_own_kv & ~self.scripted
+            kept = self._modes_kept = (key, (on, position, velocity, on & ~loop, bool(position.any())))
+        return kept[1]
 
     def _lock(self, views: _Views, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
               linear: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -434,50 +486,6 @@ class Motors:
         inertia = 1.0 / np.maximum(inverse, 1e-12)
         self._inertia_at = (now, inertia)
         return inertia
-
-    def _stall_force(self, q: np.ndarray, qdot: np.ndarray, v: np.ndarray, velocity_law: np.ndarray,
-                     now: float) -> np.ndarray:
-        """The extra force of the motors held back since the last call: V-REP's velocity motor is
-        a constraint that pushes with its whole maximum force when the target velocity cannot be
-        reached (a gripper closed on a cube grips with its 20 N), where the servo alone gives
-        ``kv * v`` (3 N on the RG2). A motor in velocity mode with the same target as at the last
-        call (once per step, or per substep while scripts' joint callbacks run) that covered less
-        than STALLED of ``v`` times the time since, and moves at less than STALLED of ``v`` now, gets
-        ``sign(v) * max_force`` more (the actuator's force range clips the sum to the maximum);
-        once it moves again, none. While a motor is held back, the world applies the motors at
-        every substep (:attr:`stalled`), so that one released in the middle of a step stops
-        pushing within a substep. Position control, and a script's joint callback (its own
-        control law, :attr:`scripted`), keep the servo alone.
-
-        Args:
-            q: (n,) the joints' positions now.
-            qdot: (n,) their velocities now.
-            v: (n,) their target velocities from now on.
-            velocity_law: (n,) which motors are in velocity mode from now on.
-            now: the simulation time (s).
-
-        Returns:
-            (n,) the extra force (N or N·m), 0 for the others.
-        """
-        last_q, last_v, last_t = self._last
-        elapsed = now - last_t
-        if len(last_q) == len(q) and elapsed == 0:  # applied again at the same instant
-            return self._bias
-        self._last = (q.copy(), np.where(velocity_law, v, np.nan), now)
-        if len(last_q) != len(q) or not elapsed > 0:
-            self.stalled = False
-            self._bias = self._no_force
-            return self._bias
-        held = velocity_law & (v == last_v) & (v != 0)  # the motors that could be held back
-        if not np.count_nonzero(held):
-            self.stalled = False
-            self._bias = self._no_force
-            return self._bias
-        sign, speed = np.sign(v), np.abs(v)
-        blocked = held & ((q - last_q) * sign < STALLED * speed * elapsed) & (qdot * sign < STALLED * speed)
-        self.stalled = np.count_nonzero(blocked) > 0
-        self._bias = np.where(blocked, sign * self.max_force, 0.0) if self.stalled else self._no_force
-        return self._bias
 
     def teleported(self, i: int, position: float) -> None:
         """Motor ``i``'s joint was put at ``position`` (rad or m): a lock holds it there from now on,

@@ -22,6 +22,13 @@ from simx_server.sim.rotations import (
 )
 
 
+#: The world's frame (read-only): :meth:`Poses.relative_frame`'s reference -1.
+_ORIGIN, _NO_TURN = np.zeros(3), np.eye(3)
+_ORIGIN.flags.writeable = _NO_TURN.flags.writeable = False
+#: MuJoCo's joint types as ints (a numpy value compared with MuJoCo's enum costs 4 us, with an int 0.3).
+_HINGE, _SLIDE, _BALL = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_BALL)
+
+
 class Poses:
     """Poses of the objects of a :class:`~simx_server.sim.world.World` (needs its model, data and registry)."""
 
@@ -41,14 +48,19 @@ class Poses:
         """
         if handle == WORLD:
             return np.zeros(3), np.eye(3)
-        obj = self.get(handle)
+        p, r = self._frame(self.get(handle))
+        return (p.copy() if p.base is not None else p), (r.copy() if r.base is not None else r)
+
+    def _frame(self, obj: SceneObject) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`frame` of ``obj`` (not the world), views of MuJoCo's data where they are them:
+        for reads that make new arrays of them."""
         d = self.data
         if obj.type == SHAPE:
-            return d.xpos[obj.mj_id].copy(), d.xmat[obj.mj_id].reshape(3, 3).copy()
+            return d.xpos[obj.mj_id], d.xmat[obj.mj_id].reshape(3, 3)
         if obj.type == JOINT:
             j, m = obj.mj_id, self.model
             anchor = d.xanchor[j].copy()
-            if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:  # MuJoCo's anchor is before the slide's travel
+            if m.jnt_type[j] == _SLIDE:  # MuJoCo's anchor is before the slide's travel
                 a = m.jnt_qposadr[j]
                 anchor += (d.qpos[a] - m.qpos0[a]) * d.xaxis[j]
             in_body = self.joint_frame_in_body(obj)
@@ -56,12 +68,12 @@ class Poses:
                 return anchor, d.xmat[obj.body].reshape(3, 3) @ in_body
             return anchor, _frame_with_z(d.xaxis[j], d.xmat[obj.body].reshape(3, 3))
         if obj.type in SITES:
-            return d.site_xpos[obj.mj_id].copy(), d.site_xmat[obj.mj_id].reshape(3, 3).copy()
+            return d.site_xpos[obj.mj_id], d.site_xmat[obj.mj_id].reshape(3, 3)
         if obj.type == VISION_SENSOR:
             # MuJoCo cameras look along -z with y up; V-REP sensors look along +z with y up.
             r = d.cam_xmat[obj.mj_id].reshape(3, 3) @ np.diag([-1.0, 1.0, -1.0])
-            return d.cam_xpos[obj.mj_id].copy(), r
-        return d.light_xpos[obj.mj_id].copy(), _frame_with_z(d.light_xdir[obj.mj_id], np.eye(3))
+            return d.cam_xpos[obj.mj_id], r
+        return d.light_xpos[obj.mj_id], _frame_with_z(d.light_xdir[obj.mj_id], np.eye(3))
 
     def joint_frame_in_body(self, obj: SceneObject) -> np.ndarray | None:
         """The rotation (3, 3) of joint ``obj``'s (moved) frame in its MuJoCo body, where simx
@@ -102,19 +114,26 @@ class Poses:
         Raises:
             UnknownObjectError: no such object.
         """
-        p, r = self.frame(handle)
-        if handle == WORLD or (obj := self.get(handle)).type != JOINT:
+        if handle == WORLD:
+            return self.frame(handle)
+        p, r = self._base_frame(self.get(handle))
+        return (p.copy() if p.base is not None else p), (r.copy() if r.base is not None else r)
+
+    def _base_frame(self, obj: SceneObject) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`base_frame` of ``obj`` (not the world), views where :meth:`_frame` gives them."""
+        p, r = self._frame(obj)
+        if obj.type != JOINT:
             return p, r
         m, d = self.model, self.data
         a, kind = int(m.jnt_qposadr[obj.mj_id]), int(m.jnt_type[obj.mj_id])
         # a .ttt joint's ``ref`` is the position it was saved at, where its body was placed: the
         # moved frame is the base turned (moved) by qpos itself, as V-REP's by its position
-        if kind == mujoco.mjtJoint.mjJNT_HINGE:
+        if kind == _HINGE:
             c, s = np.cos(d.qpos[a]), np.sin(d.qpos[a])
             r = r @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # r @ Rz(-q)
-        elif kind == mujoco.mjtJoint.mjJNT_SLIDE:
+        elif kind == _SLIDE:
             p = p - float(d.qpos[a]) * r[:, 2]
-        elif kind == mujoco.mjtJoint.mjJNT_BALL:
+        elif kind == _BALL:
             b = d.xmat[obj.body].reshape(3, 3)  # the body turned by the ball's rotation q
             turn = _mat(d.qpos[a:a + 4])
             r = b @ turn.T @ (b.T @ r)  # the frame's fixed place in its body, on the body unturned
@@ -138,11 +157,24 @@ class Poses:
         Raises:
             UnknownObjectError: no such object.
         """
-        if relative_to == C.sim_handle_parent:
-            relative_to = self.get(handle).parent
-        p, r = self.base_frame(handle)
-        p0, r0 = self.base_frame(relative_to) if reference_base else self.frame(relative_to)
-        return r0.T @ (p - p0), r0.T @ r
+        return self._relative(handle, relative_to, reference_base, True, True)  # type: ignore[return-value]
+
+    def _relative(self, handle: int, relative_to: int, reference_base: bool, position: bool,
+                  rotation: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """:meth:`relative_frame`'s position and rotation, each only if asked (None else)."""
+        if handle == WORLD and relative_to != C.sim_handle_parent:
+            p, r = _ORIGIN, _NO_TURN
+        else:
+            obj = self.get(handle)
+            if relative_to == C.sim_handle_parent:
+                relative_to = obj.parent
+            p, r = self._base_frame(obj)
+        if relative_to == WORLD:
+            p0, r0 = _ORIGIN, _NO_TURN
+        else:
+            other = self.get(relative_to)
+            p0, r0 = self._base_frame(other) if reference_base else self._frame(other)
+        return (r0.T @ (p - p0) if position else None), (r0.T @ r if rotation else None)
 
     def position(self, handle: int, relative_to: int, reference_base: bool = False) -> list[float]:
         """Position (m) of an object relative to another. ``simxGetObjectPosition``.
@@ -158,7 +190,7 @@ class Poses:
         Raises:
             UnknownObjectError: no such object.
         """
-        return self.relative_frame(handle, relative_to, reference_base)[0].tolist()
+        return self._relative(handle, relative_to, reference_base, True, False)[0].tolist()  # type: ignore[union-attr]
 
     def orientation(self, handle: int, relative_to: int, reference_base: bool = False) -> list[float]:
         """Euler angles alpha, beta, gamma (rad) with R = Rx(a) Ry(b) Rz(g). ``simxGetObjectOrientation``.
@@ -174,7 +206,24 @@ class Poses:
         Raises:
             UnknownObjectError: no such object.
         """
-        return euler_from_matrix(self.relative_frame(handle, relative_to, reference_base)[1])
+        return euler_from_matrix(self._relative(handle, relative_to, reference_base, False, True)[1])
+
+    def pose(self, handle: int, relative_to: int, reference_base: bool = False) -> tuple[list[float], list[float]]:
+        """:meth:`position` and :meth:`quaternion` of an object, its frame read once.
+
+        Args:
+            handle: an object's handle.
+            relative_to: another object's handle, -1 (world) or -11 (parent).
+            reference_base: a joint as ``relative_to`` counts by its base frame.
+
+        Returns:
+            ``([x, y, z] m, [x, y, z, w])``.
+
+        Raises:
+            UnknownObjectError: no such object.
+        """
+        p, r = self._relative(handle, relative_to, reference_base, True, True)
+        return p.tolist(), quaternion_from_matrix(r)  # type: ignore[union-attr]
 
     def quaternion(self, handle: int, relative_to: int, reference_base: bool = False) -> list[float]:
         """Orientation as a quaternion in V-REP's order (x, y, z, w). ``simxGetObjectQuaternion``.
@@ -190,7 +239,7 @@ class Poses:
         Raises:
             UnknownObjectError: no such object.
         """
-        return quaternion_from_matrix(self.relative_frame(handle, relative_to, reference_base)[1])
+        return quaternion_from_matrix(self._relative(handle, relative_to, reference_base, False, True)[1])
 
     def children(self, handle: int) -> list[int]:
         """Handles of the objects whose parent is ``handle`` (-1: the world), in tree order.

@@ -27,6 +27,7 @@ import numpy as np
 from simx_wire.protocol import ArgumentError, ObjectTypeError
 from simx_server.sim import force_sensors
 from simx_server.sim.render_thread import wait_for
+from simx_server.sim.kept import PerObject
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import FORCE_SENSOR, VISION_SENSOR
 
@@ -213,9 +214,17 @@ def site_sensor(m: mujoco.MjModel, site: int, kind: mujoco.mjtSensor) -> int | N
     Returns:
         The sensor's id, or None.
     """
-    found = np.flatnonzero((m.sensor_type == kind) & (m.sensor_objtype == mujoco.mjtObj.mjOBJ_SITE)
-                           & (m.sensor_objid == site))
-    return int(found[0]) if found.size else None
+    key = (site, int(kind))
+    table = _site_sensors(m)
+    if key not in table:  # kept per model: a force sensor's reading asks twice per call
+        found = np.flatnonzero((m.sensor_type == key[1]) & (m.sensor_objtype == _SITE) & (m.sensor_objid == site))
+        table[key] = int(found[0]) if found.size else None
+    return table[key]  # type: ignore[no-any-return]
+
+
+_SITE = int(mujoco.mjtObj.mjOBJ_SITE)
+#: ``site_sensor``'s answers per model: {(site, kind): sensor id or None}.
+_site_sensors = PerObject(lambda m: {})
 
 
 def stamp(sim: SimulationView) -> tuple[int, float]:

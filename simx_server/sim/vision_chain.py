@@ -30,7 +30,6 @@ if TYPE_CHECKING:
     from simx_server.sim.world import World
 
 _THIRD = (np.arange(3 * 255 + 1) // 3).astype(np.uint8)  # (R + G + B) -> (R + G + B) // 3
-_LEVELS = np.arange(256, dtype=np.int64)  # a byte's value, for sums from histograms
 
 
 def grey_of(img: np.ndarray) -> np.ndarray:
@@ -60,6 +59,25 @@ def handles_of(img: np.ndarray) -> np.ndarray:
     """
     c = img.astype(np.int64)
     return c[..., 0] + (c[..., 1] << 8) + (c[..., 2] << 16)
+
+
+def distinct(values: np.ndarray) -> np.ndarray:
+    """``np.unique`` of an image's values, sorted: a pixel equal to the one before it is left out
+    first (an image of a few objects holds long runs: a fifth of the time at 128x128).
+
+    Args:
+        values: (h, w) array.
+
+    Returns:
+        (k,) its distinct values, sorted.
+    """
+    flat = values.ravel()
+    if not flat.size:
+        return flat
+    first = np.empty(flat.shape, bool)
+    first[0] = True
+    np.not_equal(flat[1:], flat[:-1], out=first[1:])
+    return np.unique(flat[first])
 
 
 def clip_planes(scene: mujoco.MjvScene, near: float, far: float) -> None:
@@ -97,14 +115,14 @@ def default_packet(rgb: np.ndarray, depth: np.ndarray) -> list[float]:
     """
     # The four planes (intensity, R, G, B) contiguous, one per row: numpy's reductions along a
     # strided axis of the (n, 3) pixels took 9 ms at 256x256, more than the frame's render; the
-    # sums from each plane's histogram (exact integers, no 64-bit cast of every pixel).
+    # sums exact integers in a 64-bit accumulator (a fourth of four histograms' time).
     n = rgb.shape[0] * rgb.shape[1]
     planes = np.empty((4, n), np.uint8)
     planes[0] = grey_of(rgb).ravel()
     planes[1:] = rgb.reshape(-1, 3).T
     mins = [int(v) for v in planes.min(axis=1)]
     maxs = [int(v) for v in planes.max(axis=1)]
-    avgs = [int(np.bincount(p, minlength=256) @ _LEVELS) // n for p in planes]
+    avgs = [int(v) // n for v in planes.sum(axis=1, dtype=np.uint64)]
     d = depth.ravel()
     depths = float(d.min()), float(d.max()), float(np.float32(d.mean(dtype=np.float64)))
     out = []
@@ -273,7 +291,7 @@ class VisionChain:
             The packet.
         """
         if spec.render_mode == COLOR_CODED:  # whatever the statistics setting
-            seen = np.unique(handles_of(rgb))
+            seen = distinct(handles_of(rgb))
             return [float(h) + 0.5 for h in seen[seen < BACKGROUND]]
         return default_packet(rgb, depth) if spec.basic_stats and depth is not None else []
 

@@ -20,6 +20,7 @@ from simx_server.sim.objects import JOINT
 
 #: CoppeliaSim's ``sim.jointmode_kinematic`` (0), ``dependent`` (4), ``dynamic`` (5).
 JOINTMODE_KINEMATIC, JOINTMODE_DEPENDENT, JOINTMODE_DYNAMIC = 0, 4, 5
+_HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)  # an int: comparing with MuJoCo's enum costs 1.4 us
 
 
 # Joint intervals, modes and dependencies.
@@ -43,7 +44,7 @@ def getJointInterval(ctx: CallContext, objectHandle: Any) -> tuple[bool, list[fl
     m = ctx.world.model
     lo, hi = (float(v) for v in m.jnt_range[obj.mj_id])
     if not m.jnt_limited[obj.mj_id]:
-        if int(m.jnt_type[obj.mj_id]) == mujoco.mjtJoint.mjJNT_HINGE:
+        if int(m.jnt_type[obj.mj_id]) == _HINGE:
             return True, [-np.pi, 2 * np.pi]
         return False, [-1e6, 2e6]
     return False, [lo, hi - lo]

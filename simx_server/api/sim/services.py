@@ -237,8 +237,8 @@ def getObjectPose(ctx: CallContext, objectHandle: Any, relativeToObjectHandle: A
         UnknownObjectError: no such object.
     """
     h, rel, base, flags = _core.pose_handles(ctx, objectHandle, relativeToObjectHandle)
-    q = ctx.world.quaternion(h, rel, base)
-    return ctx.world.position(h, rel, base) + ([q[3], *q[:3]] if flags & _core.HANDLEFLAG_WXYZQUAT else q)
+    p, q = ctx.world.pose(h, rel, base)
+    return p + ([q[3], *q[:3]] if flags & _core.HANDLEFLAG_WXYZQUAT else q)
 
 
 @sim_function("setObjectPose")
