@@ -83,8 +83,7 @@ MAX_SIGNAL_NAME = 1024
 #: Script simulation parameters and user parameters (``sim.setScriptSimulationParameter``,
 #: ``sim.setUserParameter``) of all the scene's scripts and objects, bounded as signals: most
 #: entries, largest value in bytes, largest total (names and values). The total also counts
-#: toward MAX_SCRIPTS_MEMORY, beside the Lua states: a client scene's script set 40 user
-#: parameters of 100 MiB and took the server from 259 to 4,455 MB for good.
+#: toward MAX_SCRIPTS_MEMORY, beside the Lua states.
 MAX_PARAMETERS = MAX_SIGNALS
 MAX_PARAMETER_BYTES = MAX_SIGNAL_BYTES
 MAX_PARAMETER_STORE_BYTES = MAX_SIGNAL_STORE_BYTES
@@ -246,8 +245,7 @@ MAX_REQUEST_SECONDS = 0.5
 #: Wall time one request may take (s), waits included (renders a script waits for): the same.
 MAX_REQUEST_WALL_SECONDS = 2.0
 #: Simulation-thread time (CPU, s) every client's streamed commands together may take after one
-#: step: the streams not run by then skip that step, the clients taken in turn from one step to
-#: the next (one streamed simxCheckCollision of two 200,000-triangle meshes held it 32.9 s).
+#: step: the streams not run by then skip that step, the clients taken in turn step by step.
 MAX_STREAMS_STEP_SECONDS = 0.5
 #: Share of the simulation thread a client's scene loads and edits (commands.NOT_STREAMABLE)
 #: may take on average: each costs its own duration, the debt falls by this many s per s, and
@@ -423,9 +421,8 @@ MAX_PID_P = 1.0
 VISION_READY_TIMEOUT = 10.0
 #: s any caller waits for a frame of a render thread (an image call, a sensor's handling, a
 #: PyRep capture) and a closing simulation for its render threads to end; past it the call
-#: raises ``RenderError`` instead of waiting for ever on a render thread that does not answer (a
-#: GL driver that never returns). A 4096x4096 frame takes 1.5 s on llvmpipe, ten times that on a
-#: loaded machine.
+#: raises ``RenderError`` (a GL driver that never returns). A 4096x4096 frame takes 1.5 s on
+#: llvmpipe, ten times that on a loaded machine.
 RENDER_WAIT_SECONDS = 120.0
 #: s a stopping server waits for the background job threads (planning, convex decomposition,
 #: scene conversions) to end before the interpreter exits; a job still running past it is left.
@@ -487,8 +484,7 @@ MAX_ZMQ_CONNECTIONS = 1000
 ZMQ_HANDSHAKE_SECONDS = 10.0
 #: s between the ZMTP heartbeat's PINGs the server sends every ZMQ connection, and s after a PING
 #: within which a whole message (a PONG, a request) must come from it, else it is closed and its
-#: half-received message freed (libzmq's ``ZMQ_HEARTBEAT_IVL``, ``ZMQ_HEARTBEAT_TIMEOUT``): 40
-#: connections each stalled inside a 60 MiB frame held 2.4 GB for as long as they liked. A
+#: half-received message freed (libzmq's ``ZMQ_HEARTBEAT_IVL``, ``ZMQ_HEARTBEAT_TIMEOUT``). A
 #: client's libzmq answers PINGs by itself; a message must arrive within the timeout (the
 #: largest, sockets.MAX_MESSAGE_BYTES, at about 8 Mbit/s).
 ZMQ_HEARTBEAT_SECONDS = 5.0
@@ -500,9 +496,8 @@ ZMQ_RECEIVING_MEMORY_SHARE = 0.25
 #: s a new Zenoh connection to the legacy door has to finish Zenoh's handshake (its
 #: ``transport/unicast/accept_timeout``, 10 s by default), and handshakes under way at once
 #: (``transport/unicast/accept_pending``, 100 by default; at most a third of the open-files
-#: limit): Zenoh closes a connection beyond at once, the newest. 110 idle TCP connections,
-#: reopened as Zenoh closed them, locked every new legacy client out with Zenoh's defaults, 5,000
-#: with 4,096 slots. An operator's Zenoh config file that sets either key keeps its own value.
+#: limit): Zenoh closes a connection beyond at once, the newest. An operator's Zenoh config file
+#: that sets either key keeps its own value.
 ZENOH_ACCEPT_SECONDS = 5.0
 ZENOH_ACCEPT_PENDING = 16384
 #: s between two sweeps of the legacy port's connections that are not a Zenoh session yet:

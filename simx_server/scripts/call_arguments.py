@@ -118,3 +118,31 @@ def _as_str(v: Any) -> str:
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         return str(v)
     raise TypeError(f"strings must be strings, got {v!r}")
+
+
+_WRONG_TYPES = "script arguments must be lists of ints, floats and strings, and bytes"
+
+
+def check_call_arguments(ints: Any, floats: Any, strings: Any, buffer: Any) -> None:
+    """Types and bounds of simxCallScriptFunction's arguments, the bounds first (before any
+    per-value work): at most limits.MAX_SCRIPT_CALL_VALUES values and MAX_SCRIPT_CALL_BYTES
+    bytes of strings and buffer.
+
+    Raises:
+        ArgumentError: naming the bound that was passed, or the types expected.
+    """
+    if not (type(ints) is list and type(floats) is list and type(strings) is list
+            and isinstance(buffer, (bytes, bytearray))):
+        raise ArgumentError(_WRONG_TYPES)
+    count = len(ints) + len(floats) + len(strings)
+    if count > L.MAX_SCRIPT_CALL_VALUES:
+        raise ArgumentError(f"{count} values passed to a script function: at most {L.MAX_SCRIPT_CALL_VALUES} "
+                            "(limits.MAX_SCRIPT_CALL_VALUES)")
+    if not all(type(v) is str for v in strings):
+        raise ArgumentError(_WRONG_TYPES)
+    size = len(buffer) + sum(map(len, strings))
+    if size > L.MAX_SCRIPT_CALL_BYTES:
+        raise ArgumentError(f"{size} bytes of strings and buffer passed to a script function: at most "
+                            f"{L.MAX_SCRIPT_CALL_BYTES} (limits.MAX_SCRIPT_CALL_BYTES)")
+    if not (all(type(v) is int for v in ints) and all(type(v) in (int, float) for v in floats)):
+        raise ArgumentError(_WRONG_TYPES)

@@ -9,18 +9,18 @@ ends those of removed objects (:meth:`Scripts.drop_removed`) and serves ``simxCa
 from __future__ import annotations
 
 import logging
-import math
 import time
 from pathlib import Path
 from typing import Any, Iterable, Iterator, NamedTuple
 
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ScriptError, UnknownObjectError
-from simx_server.base import limits as L
 from simx_server.api import script_parameters
 from simx_server.scripts.child import (DEFAULT_TIMEOUT, PYTHON_SCRIPTS_FLAG, REMOTE_CODE_FLAG, UNSAFE_LUA_FLAG,
                                       ChildScript, PythonScript, RefusedScript)
 from simx_server.scripts.budget import ScriptBudget, ScriptPass
+from simx_server.scripts.call_arguments import check_call_arguments
+from simx_server.scripts.script_settings import script_options
 from simx_server.scripts.dynamics import DynamicsCallbacks
 from simx_server.scripts.vision_callbacks import VisionCallbacks
 from simx_server.api.signals import Signals
@@ -494,7 +494,7 @@ class Scripts:
         if script is None:
             kind = "child" if table is self.scripts else "customization"
             raise ScriptError(f"object {obj.name!r} has no {kind} script")
-        _check_call_arguments(ints, floats, strings, buffer)
+        check_call_arguments(ints, floats, strings, buffer)
         if not isinstance(function, str) or not function:
             raise ArgumentError("the function name must be a non-empty string")
         return script.call(function, list(ints), [float(v) for v in floats], list(strings), bytes(buffer))
@@ -506,56 +506,3 @@ class Scripts:
         if script is None:
             raise ScriptError(f"object {self.world.get(handle).name!r} has no script")
         return script
-
-
-def script_options(settings: dict[str, str], name: str, timeout: float, folder: Path) -> dict:
-    """The script settings of object ``name`` (``script_timeout=S``, ``threaded=1``,
-    ``vrep_version=N``, ``script_parameters=FILE.json`` in ``folder``) as ``load_script``
-    options; ValueError for a bad value."""
-    bound = settings.get("script_timeout", timeout)
-    try:
-        bound = float(bound)
-        if not (bound > 0 and math.isfinite(bound)):
-            raise ValueError
-    except ValueError:
-        raise ValueError(f"script_timeout of {name!r} must be a positive number of seconds, "
-                         f"got {settings.get('script_timeout')!r}") from None
-    threaded = settings.get("threaded", "0")
-    if threaded not in ("0", "1"):
-        raise ValueError(f"threaded of {name!r} must be 0 or 1, got {threaded!r}")
-    version = settings.get("vrep_version")
-    if version is not None:
-        if not version.isdigit():
-            raise ValueError(f"vrep_version of {name!r} must be V-REP's version number (30600 for 3.6.0), "
-                             f"got {version!r}")
-        version = int(version)
-    return {"timeout": bound, "threaded": threaded == "1", "version": version,
-            "parameters": script_parameters.load(folder, name, settings.get("script_parameters"))}
-
-
-_WRONG_TYPES = "script arguments must be lists of ints, floats and strings, and bytes"
-
-
-def _check_call_arguments(ints: Any, floats: Any, strings: Any, buffer: Any) -> None:
-    """Types and bounds of simxCallScriptFunction's arguments, the bounds first (before any
-    per-value work): at most limits.MAX_SCRIPT_CALL_VALUES values and MAX_SCRIPT_CALL_BYTES
-    bytes of strings and buffer.
-
-    Raises:
-        ArgumentError: naming the bound that was passed, or the types expected.
-    """
-    if not (type(ints) is list and type(floats) is list and type(strings) is list
-            and isinstance(buffer, (bytes, bytearray))):
-        raise ArgumentError(_WRONG_TYPES)
-    count = len(ints) + len(floats) + len(strings)
-    if count > L.MAX_SCRIPT_CALL_VALUES:
-        raise ArgumentError(f"{count} values passed to a script function: at most {L.MAX_SCRIPT_CALL_VALUES} "
-                            "(limits.MAX_SCRIPT_CALL_VALUES)")
-    if not all(type(v) is str for v in strings):
-        raise ArgumentError(_WRONG_TYPES)
-    size = len(buffer) + sum(map(len, strings))
-    if size > L.MAX_SCRIPT_CALL_BYTES:
-        raise ArgumentError(f"{size} bytes of strings and buffer passed to a script function: at most "
-                            f"{L.MAX_SCRIPT_CALL_BYTES} (limits.MAX_SCRIPT_CALL_BYTES)")
-    if not (all(type(v) is int for v in ints) and all(type(v) in (int, float) for v in floats)):
-        raise ArgumentError(_WRONG_TYPES)

@@ -152,7 +152,7 @@ def apply_forced(motors, views, forced: np.ndarray, scripted: np.ndarray) -> Non
 
     Args:
         motors: the Motors.
-        views: the model's and data's arrays (``motors._Views``).
+        views: the model's and data's arrays (``motor_views.Views``).
         forced: (n,) the motors that apply a force.
         scripted: (n,) the callback motors with a velocity.
     """

@@ -79,6 +79,7 @@ from simx_server.sim import dyn_ctrl, mechanisms
 from simx_server.sim.joint_springs import Springs
 from simx_server.sim.motor_hold import Holds
 from simx_server.sim.motor_stall import Stalls
+from simx_server.sim.motor_views import Views, slice_or
 from simx_server.sim.motor_spec import (joint_setting, lock_name, max_force, own_kv, ADDED_PREFIX, JOINT_TRNS,
                                         SCALAR, tendon_driven)
 
@@ -102,34 +103,6 @@ JOINTMODE_FORCE = 5
 
 def _name(m: mujoco.MjModel, joint: int) -> str:
     return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, joint) or f"#{joint}"
-
-
-def _slice_or(index: np.ndarray) -> slice | np.ndarray:
-    """``index`` as a slice where its entries are consecutive, else itself."""
-    n = len(index)
-    if n and np.array_equal(index, np.arange(index[0], index[0] + n)):
-        return slice(int(index[0]), int(index[0]) + n)
-    return index
-
-
-class _Views:
-    """The arrays :meth:`Motors.apply` reads and writes, taken once per ``(model, data)`` (each
-    attribute of MuJoCo's bindings builds a new ndarray), and ``others``: the equalities that are
-    not the motors' locks (those a motor's inertia is computed through)."""
-
-    __slots__ = ("biasprm", "ctrl", "dadr", "data", "eq_active", "eq_data", "forcerange", "gainprm", "jnt_limited",
-                 "model", "others", "qadr", "qfrc_bias", "qfrc_constraint", "qfrc_passive", "qpos", "qpos0", "qvel")
-
-    def __init__(self, m: mujoco.MjModel, d: mujoco.MjData, locks: np.ndarray, qadr: np.ndarray,
-                 dadr: np.ndarray) -> None:
-        self.model, self.data = m, d
-        self.qadr, self.dadr = _slice_or(qadr), _slice_or(dadr)  # basic indexing reads faster than fancy
-        self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
-        self.qfrc_bias, self.qfrc_passive, self.qfrc_constraint = d.qfrc_bias, d.qfrc_passive, d.qfrc_constraint
-        self.gainprm, self.biasprm = m.actuator_gainprm, m.actuator_biasprm
-        self.eq_active, self.eq_data, self.qpos0, self.forcerange = d.eq_active, m.eq_data, m.qpos0, m.actuator_forcerange
-        self.jnt_limited = m.jnt_limited
-        self.others = np.setdiff1d(np.arange(m.neq), locks)
 
 
 class Motors:
@@ -217,7 +190,7 @@ class Motors:
         self._gear2 = self.gear ** 2
         self._own_kv_set, self._no_own_kv = self.own_kv > 0, self.own_kv == 0
         self._any_own_kv = bool(self._own_kv_set.any())
-        self._act_index = _slice_or(act)
+        self._act_index = slice_or(act)
         self.stalls = Stalls(n)  # velocity motors held back (sim/motor_stall.py)
         self._none = np.zeros(n, dtype=bool)  # no motor: the spring and hold masks when none applies
         self._rows = np.arange(n)
@@ -225,7 +198,7 @@ class Motors:
         self._unit[np.arange(n), self.dadr] = 1.0
         self._minv = np.zeros((n, m.nv))
         self._diagonal = self._rows * m.nv + self.dadr  # (M^-1)_ii's places in _minv, flat
-        self._views: _Views | None = None
+        self._views: Views | None = None
         self._gain_kept: tuple[bytes | None, np.ndarray] = (None, np.zeros(0))  # _gain's
         self._modes_kept: tuple[bytes | None, tuple] = (None, ())  # _modes'
         self.holds = Holds(m, self.dadr)  # stopped velocity motors (motor_hold)
@@ -329,7 +302,7 @@ class Motors:
             return
         views = self._views
         if views is None or views.model is not m or views.data is not d:
-            views = self._views = _Views(m, d, self._lock_eqs, self.qadr, self.dadr)
+            views = self._views = Views(m, d, self._lock_eqs, self.qadr, self.dadr)
             self._limits_key = None
             self.holds.forget()
         act, g, g2 = self._act_index, self.gear, self._gear2
@@ -430,7 +403,7 @@ class Motors:
             kept = self._modes_kept = (key, (on, position, velocity, on & ~loop, bool(position.any())))
         return kept[1]
 
-    def _lock(self, views: _Views, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
+    def _lock(self, views: Views, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
               linear: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The locked motors (velocity lock on, velocity mode, target 0) hold where they stopped (or
         were put, :meth:`teleported`) with no force limit (``CJoint::handleDynJoint``: "motor locked"):
@@ -459,14 +432,14 @@ class Motors:
             return goal, kp, linear
         return (np.where(lock, lock_q, goal), np.where(lock, 1.0 / dt, kp), linear | lock)
 
-    def _inertia(self, views: _Views, dt: float) -> np.ndarray:
+    def _inertia(self, views: Views, dt: float) -> np.ndarray:
         """The joints' effective inertia through the scene's equalities (a motor closing a loop
         drives the whole linkage: :func:`simx_server.sim.mechanisms.inverse_inertia`), computed
         once per step: scripts' joint callbacks apply the motors at every substep, and the
         configuration changes little within a step.
 
         Args:
-            views: the model's and data's arrays (:class:`_Views`).
+            views: the model's and data's arrays (:class:`Views`).
             dt: the step (s).
 
         Returns:

@@ -206,8 +206,8 @@ def test_ids_simx_does_not_implement_answer_an_error_naming_them(vrep_client):
          "sim_intparam_platform (19) is read-only"),
         (vrep.simxGetObjectIntParameter(cid, joint, vrep.sim_objintparam_visibility_layer, B), (8, 0),
          "sim_objintparam_visibility_layer (10)"),
-        (vrep.simxGetObjectFloatParameter(cid, joint, vrep.sim_jointfloatparam_kc_k, B), (8, 0.0),
-         "sim_jointfloatparam_kc_k (2018)"),
+        (vrep.simxGetObjectFloatParameter(cid, joint, vrep.sim_jointfloatparam_vortex_dep_multiplication, B), (8, 0.0),
+         "sim_jointfloatparam_vortex_dep_multiplication (2032)"),
     ]
     rc, errors = vrep.simxGetLastErrors(cid, B)
     assert rc == 0 and len(errors) == len(calls), errors
