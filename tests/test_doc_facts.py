@@ -58,3 +58,48 @@ def test_the_readme_names_every_format_and_stays_a_front_page():
     assert all(suffix in readme for suffix in formats.SCENE_FORMATS)
     assert formats.VREP_RANGE in readme
     assert len(readme.splitlines()) <= 300, "README.md is the front page: reference belongs in docs/"
+
+
+# ------------------------------------------------------- reference, not run history (issue 83)
+#: A commit id: 7 to 40 lowercase hex digits, at least one letter and one digit, standing alone
+#: (not part of a longer word, a path, a URL fragment or a ``0x`` constant).
+COMMIT = re.compile(r"(?<![0-9A-Za-z_./#-])(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,40}(?![0-9A-Za-z_-])")
+#: A run date as the project writes them: 2026-11-28.
+DATE = re.compile(r"(?<![0-9])(?:19|20)\d\d-[01]\d-[0-3]\d(?![0-9])")
+#: A results table's header: a Markdown table whose header names a date or a commit column.
+RESULTS_HEADER = re.compile(r"^\|.*\|\s*(?:date|commit|simx commit)\s*\|", re.IGNORECASE)
+PAGES = [*DOCS, ROOT / "benchmarks" / "README.md"]
+
+
+def history_lines(text: str) -> list[tuple[int, str]]:
+    """``(line number, line)`` of each line of a Markdown page that holds a commit id or a run
+    date outside a results table (a table whose header row has a ``date`` or ``commit`` column:
+    the rows below it, up to the first line that is no table row, may hold both)."""
+    found, in_results = [], False
+    for number, line in enumerate(text.splitlines(), 1):
+        row = line.lstrip().startswith("|")
+        if not row:
+            in_results = False
+        elif RESULTS_HEADER.match(line.strip()):
+            in_results = True
+        if not in_results and (COMMIT.search(line) or DATE.search(line)):
+            found.append((number, line))
+    return found
+
+
+def test_the_history_detector_finds_ids_and_dates_and_spares_results_tables():
+    assert history_lines("measured on simx 6e35fc9 today") == [(1, "measured on simx 6e35fc9 today")]
+    assert history_lines("x\nOn 2026-11-25 the suite took 8 min") == [(2, "On 2026-11-25 the suite took 8 min")]
+    assert history_lines("| case | ratio |\n|---|---|\n| step (e9bb2ea) | 1.3x |")[0][0] == 3
+    results = "| date | commit | demos |\n|---|---|---|\n| 2026-11-28 | 6e35fc9 | 67/90 |\n\nafter 6e35fc9"
+    assert history_lines(results) == [(5, "after 6e35fc9")]  # the table's rows are spared, prose after it not
+    for innocent in ("0x7fffffff", "a handle 12345678", "`deadbeef`s", "sha256 in ORIGIN.md", "file_1234abc.png",
+                     "colour #ff00aa", "version 1.2.0", "port 23000", "12:30"):
+        assert history_lines(innocent) == [], innocent
+
+
+def test_no_page_carries_commit_ids_or_run_dates_outside_results_tables():
+    found = [f"{page.relative_to(ROOT)}:{n}: {line.strip()[:100]}" for page in PAGES
+             for n, line in history_lines(page.read_text())]
+    assert not found, ("commit ids or run dates in prose (history goes in commit bodies, dated figures in a "
+                       "results table or benchmarks/results/):\n" + "\n".join(found))
