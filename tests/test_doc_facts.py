@@ -66,8 +66,8 @@ def test_the_readme_names_every_format_and_stays_a_front_page():
 COMMIT = re.compile(r"(?<![0-9A-Za-z_./#-])(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,40}(?![0-9A-Za-z_-])")
 #: A run date as the project writes them: 2026-11-28.
 DATE = re.compile(r"(?<![0-9])(?:19|20)\d\d-[01]\d-[0-3]\d(?![0-9])")
-#: A results table's header: a Markdown table whose header names a date or a commit column.
-RESULTS_HEADER = re.compile(r"^\|.*\|\s*(?:date|commit|simx commit)\s*\|", re.IGNORECASE)
+#: A results table's header: a Markdown table with a column whose name says date or commit.
+RESULTS_HEADER = re.compile(r"^\|(?:[^|]*\|)*[^|]*\b(?:date|commit)\b[^|]*\|", re.IGNORECASE)
 PAGES = [*DOCS, ROOT / "benchmarks" / "README.md"]
 
 
@@ -91,7 +91,8 @@ def test_the_history_detector_finds_ids_and_dates_and_spares_results_tables():
     assert history_lines("measured on simx 6e35fc9 today") == [(1, "measured on simx 6e35fc9 today")]
     assert history_lines("x\nOn 2026-11-25 the suite took 8 min") == [(2, "On 2026-11-25 the suite took 8 min")]
     assert history_lines("| case | ratio |\n|---|---|\n| step (e9bb2ea) | 1.3x |")[0][0] == 3
-    results = "| date | commit | demos |\n|---|---|---|\n| 2026-11-28 | 6e35fc9 | 67/90 |\n\nafter 6e35fc9"
+    assert history_lines("| case | commits counted |\n|---|---|\n| x | 1 |") == []  # no id, nothing to find
+    results = "| demos | measured (commit, date) |\n|---|---|\n| 67/90 | 6e35fc9, 2026-11-28 |\n\nafter 6e35fc9"
     assert history_lines(results) == [(5, "after 6e35fc9")]  # the table's rows are spared, prose after it not
     for innocent in ("0x7fffffff", "a handle 12345678", "`deadbeef`s", "sha256 in ORIGIN.md", "file_1234abc.png",
                      "colour #ff00aa", "version 1.2.0", "port 23000", "12:30"):
@@ -103,3 +104,13 @@ def test_no_page_carries_commit_ids_or_run_dates_outside_results_tables():
              for n, line in history_lines(page.read_text())]
     assert not found, ("commit ids or run dates in prose (history goes in commit bodies, dated figures in a "
                        "results table or benchmarks/results/):\n" + "\n".join(found))
+
+
+def test_pyrep_page_states_the_rlbench_results_csv():
+    """docs/PYREP.md's RLBench table is what scripts/rlbench_table.py makes of
+    benchmarks/results/rlbench.csv (rerun the script after replacing the CSV)."""
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "rlbench_table.py"), "--check"], cwd=ROOT)
+    assert done.returncode == 0, "docs/PYREP.md differs from benchmarks/results/rlbench.csv: run scripts/rlbench_table.py"
