@@ -122,7 +122,7 @@ def mjcf_for(path: str | Path, root: Path | None = None, client: bool | None = N
     approximated = set(notes.get("approximated") or ())
     for kind, n in sorted(counts.items()):
         log.info("%s: %s: %d x %s", path.name, "approximated" if kind in approximated else "not carried over", n, kind)
-    for key, label in (("taken", "taken from the file"), ("repaired", "repaired")):
+    for key, label in (("taken", "taken from the file"), ("repaired", "repaired"), ("physics", "physics")):
         if notes.get(key):
             log.info("%s: %s: %s", path.name, label, "; ".join(map(str, notes[key])))
     _origins[Path(os.path.realpath(xml))] = Path(os.path.realpath(path))

@@ -50,13 +50,14 @@ class Report:
     kind's text says which), the others were left out. :meth:`lines` one line per kind left out,
     :meth:`approximations` one per kind approximated; ``taken``: the file's simulation settings
     that were applied (:mod:`.settings`), ``repaired``: what was changed so that MuJoCo accepts it
-    (:mod:`.inertia`), one line each."""
+    (:mod:`.inertia`), ``physics``: MuJoCo's timestep and why (:mod:`.settings`), one line each."""
 
     def __init__(self):
         self.counts: Counter[str] = Counter()
         self.approximated: set[str] = set()
         self.taken: list[str] = []  # the file's settings that were applied, one line each
         self.repaired: list[str] = []  # what was changed so that MuJoCo accepts it, one line each
+        self.physics: list[str] = []  # MuJoCo's timestep and why (settings.needs_fallback), one line
 
     def add(self, kind: str, n: int = 1, approximated: bool = False) -> None:
         """Count ``n`` items of ``kind``; ``approximated``: carried over in a close form, not left out."""
@@ -76,8 +77,9 @@ class Report:
 class Converter:
     """Builds the MjSpec of one scene. ``out``: the folder that receives meshes and scripts."""
 
-    def __init__(self, scene: TttScene, out: Path | None):
+    def __init__(self, scene: TttScene, out: Path | None, timestep_cap: float | None = None):
         self.scene, self.out = scene, out
+        self.timestep_cap = timestep_cap  # s: the largest MuJoCo timestep (settings.apply), None: the engine's step
         self.report = Report()
         self.spec = mujoco.MjSpec()
         self.spec.modelname = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(scene.file).stem) or "scene"
@@ -103,7 +105,7 @@ class Converter:
     # ---------------------------------------------------------------- entry
     def build(self) -> mujoco.MjSpec:
         s = self.scene
-        settings.apply(self)  # time step, gravity, real-time mode (simx:scene:simulation)
+        settings.apply(self, self.timestep_cap)  # time step, gravity, real-time mode (simx:scene:simulation)
         # implicit, not implicitfast: its gyroscopic derivatives keep a spinning body's spin (a
         # wheeled robot fallen off its floor wobbled ever faster until MuJoCo found a NaN and the
         # simulation stopped for every client); Bullet 2.78 applies no gyroscopic force at all
@@ -470,6 +472,14 @@ def _tiny_inertial(b) -> None:
     b.explicitinertial = True
 
 
+def _compiled(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """A compiled copy of ``spec`` (ValueError with MuJoCo's message when it cannot be)."""
+    try:
+        return spec.copy().compile()
+    except Exception as exc:  # MuJoCo's compile errors
+        raise ValueError(str(exc)) from exc
+
+
 def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, Report]:
     """Write ``out/<stem>.xml`` with ``meshes/`` and the scripts; returns its path and the
     report of what did not carry over.
@@ -480,10 +490,23 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
     from simx_server.scene.ttt.scripts import write_custom_data, write_scripts
 
     out.mkdir(parents=True, exist_ok=True)
-    conv = Converter(scene, out)
+    engine = settings.engine_timestep(scene)
+    reason = settings.needs_fallback(scene)
+    conv = Converter(scene, out, settings.FALLBACK_TIMESTEP if reason else None)
     write_scripts(conv)
     write_custom_data(conv)
     spec = conv.build()
+    if reason is None and spec.option.timestep > settings.FALLBACK_TIMESTEP:
+        reason = settings.stiff_spring(_compiled(spec))
+        if reason is not None:  # built again: every stiffness is made for the smaller step
+            conv = Converter(scene, out, settings.FALLBACK_TIMESTEP)
+            write_scripts(conv)
+            write_custom_data(conv)
+            spec = conv.build()
+    step = spec.option.timestep
+    conv.report.physics.append(f"MuJoCo substeps of {step * 1000:.4g} ms, not the engine step's {engine * 1000:.4g} "
+                               f"ms: {reason}" if step < engine else f"MuJoCo substeps of {step * 1000:.4g} ms, "
+                               "the engine step's")
     xml = out / f"{stem or conv.spec.modelname}.xml"
     text = spec.to_xml().replace(f'meshdir="{out / "meshes"}"', 'meshdir="meshes"', 1)
     text = text.replace(f'texturedir="{out / "textures"}"', 'texturedir="textures"', 1)
@@ -492,5 +515,6 @@ def convert(scene: TttScene, out: Path, stem: str | None = None) -> tuple[Path, 
     xml.write_text(text)
     (out / "report.json").write_text(json.dumps(dict(conv.report.counts), indent=1))
     (out / "notes.json").write_text(json.dumps({"taken": conv.report.taken, "repaired": conv.report.repaired,
+                                                "physics": conv.report.physics,
                                                 "approximated": sorted(conv.report.approximated)}, indent=1))
     return xml, conv.report

@@ -190,12 +190,37 @@ def _spring(jt, j) -> bool:
     force K e + C de/dt; its cap at the motor's maximum force is not kept), at rest at the target
     position (the joint's position where the file gives none). False (and nothing set) where the
     file's values are not usable."""
+    values = _spring_values(j)
+    if values is None:
+        return False
+    k, c, rest = values
+    jt.stiffness, jt.damping, jt.springref = [k, 0.0, 0.0], [c, 0.0, 0.0], rest
+    return True
+
+
+def _spring_values(j) -> tuple[float, float, float] | None:
+    """The spring-damper joint ``j``'s K, C and rest position, None where not usable."""
     k, c = j.spring
     rest = j.position if j.target_position is None else j.target_position
     if not (math.isfinite(k) and math.isfinite(c) and k >= 0 and c >= 0 and math.isfinite(rest)):
+        return None
+    return k, c, rest
+
+
+def motorised(j) -> bool:
+    """Whether :func:`joint` gives the joint data ``j`` a motor (an actuator): the old IK and
+    motion modes, and a force/torque-mode joint with its motor on or a spring of binding target
+    velocity, but for a spring that is the joint's own MuJoCo spring-damper."""
+    if j.type == SPHERICAL or j.mode == DEPENDENT or (j.dependency is not None and j.mode == IK_DEPENDENT_OLD):
         return False
-    jt.stiffness, jt.damping, jt.springref = [k, 0.0, 0.0], [c, 0.0, 0.0], rest
-    return True
+    if j.mode in (IK_OLD, MOTION_OLD):
+        return True
+    if j.mode != FORCE:
+        return False
+    spring = j.spring is not None and j.control_mode == 12
+    if spring and _slow_spring(j):
+        return True
+    return j.motor and not (spring and _spring_values(j) is not None)
 
 
 #: The least rangefinder cutoff a proximity sensor gets (m): MuJoCo's cutoff 0 means none.

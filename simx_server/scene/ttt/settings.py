@@ -13,10 +13,18 @@ Read (records of the top-level ``SIM`` and ``DYN`` lists):
   ``Ode`` ODE, ``_o5``/``Vo5`` Vortex, ``_w1``/``Nw1`` Newton, ``_j1``/``Mj1`` MuJoCo), else 5 ms.
 
 Applied (:func:`apply`): MuJoCo's ``timestep`` is the largest that divides the simulation step
-and is no larger than the engine's step or 2 ms (so that contacts stay stable in MuJoCo), and
-the ``simx:scene:simulation`` custom text tells the server the step (``dt=``) and the real-time
-mode (``real_time=0|1 real_time_factor=F``), which it uses unless ``--dt`` / ``--speed`` say
-otherwise (:mod:`simx_server.sim.scene_settings`).
+and is no larger than the engine's step (CoppeliaSim's 5 ms where the file says none), as
+CoppeliaSim steps its engine (``CPhysics::handleDynamics``: ``dt / engine step`` engine passes
+per simulation pass), where MuJoCo holds the scene as V-REP's engine does at that step; no
+larger than 2 ms (:data:`FALLBACK_TIMESTEP`) where it does not, with the reason in the report
+(``Report.physics``, logged at load): :func:`needs_fallback` (rigid contacts, joint limits,
+closed mechanisms, motors: MuJoCo makes the constraints two timesteps stiff, and at 5 ms a resting
+cube sinks twice as deep, a block on a slope creeps, a gripper's limits and loop closures give
+way, a held cube slips; RLBench's demos that stack, screw or push failed) and :func:`stiff_spring` (a joint's own
+spring that MuJoCo, integrating it explicitly, would make diverge). The ``simx:scene:simulation``
+custom text tells the server the step (``dt=``) and the real-time mode (``real_time=0|1
+real_time_factor=F``), which it uses unless ``--dt`` / ``--speed`` say otherwise
+(:mod:`simx_server.sim.scene_settings`).
 """
 
 from __future__ import annotations
@@ -25,6 +33,9 @@ import math
 import struct
 from dataclasses import dataclass, field
 
+import mujoco
+import numpy as np
+
 from simx_server.scene.ttt.records import Records
 
 #: V-REP's time-step presets (``Spi`` 0-4), s; 5 is "custom".
@@ -32,8 +43,13 @@ PRESETS = (0.2, 0.1, 0.05, 0.025, 0.01)
 CUSTOM = 5
 #: CoppeliaSim's default physics step when a file says none (``CDynamicsContainer``), s.
 DEFAULT_PHYSICS_STEP = 0.005
-#: The largest MuJoCo timestep a conversion uses, s (MuJoCo's contacts need small steps).
-MAX_MUJOCO_TIMESTEP = 0.002
+#: The largest MuJoCo timestep of a converted scene that MuJoCo cannot hold at its engine's step
+#: (:func:`needs_fallback`, :func:`stiff_spring`), s.
+FALLBACK_TIMESTEP = 0.002
+#: The most a joint's own spring may turn per MuJoCo step: ``omega * h`` (rad), ``omega`` its
+#: natural frequency on the joint's inertia. MuJoCo integrates a spring's force explicitly (only
+#: velocity terms are implicit), which diverges past 2; 1 keeps about six steps a period.
+MAX_SPRING_PHASE = 1.0
 #: The engines' parameter arrays, in the order of ``CDynamicsContainer::serialize``'s engines
 #: (0 Bullet, 1 ODE, 2 Vortex, 3 Newton, 4 MuJoCo): (f64 array, f32 array, older f32 pair).
 _ENGINE_ARRAYS = (("_uN", "BuN", "Bul"), ("_dN", "OdN", "Ode"), ("_o5", "Vo5", None), ("_w1", "Nw1", None),
@@ -120,12 +136,13 @@ def read_dynamics(r: Records, engine: int, saved: SavedSettings) -> None:
     saved.physics_step = DEFAULT_PHYSICS_STEP
 
 
-def mujoco_timestep(dt: float, physics_step: float | None) -> float:
+def mujoco_timestep(dt: float, physics_step: float | None, cap: float | None = None) -> float:
     """The MuJoCo timestep for a simulation step ``dt`` (s): the largest ``dt / n`` no larger
-    than ``physics_step`` and MAX_MUJOCO_TIMESTEP that the MJCF keeps exactly (6 significant
-    digits), so that ``dt`` is a whole number of substeps; else the largest such ``dt / n``."""
-    bound = min(MAX_MUJOCO_TIMESTEP, physics_step or MAX_MUJOCO_TIMESTEP)
-    first = max(1, math.ceil(dt / bound - 1e-9))
+    than ``physics_step`` (None: :data:`DEFAULT_PHYSICS_STEP`) and ``cap`` (s, None: none) that
+    the MJCF keeps exactly (6 significant digits), so that ``dt`` is a whole number of substeps;
+    else the largest such ``dt / n``."""
+    bound = min(physics_step or DEFAULT_PHYSICS_STEP, cap or math.inf)
+    first = max(1, math.ceil(dt / bound - 1e-6))  # a float32 5 ms (0.004999999888) is 5 ms
     for n in range(first, first + 64):
         step = float(f"{dt / n:.6g}")
         if abs(step * n - dt) <= 1e-12:
@@ -133,13 +150,84 @@ def mujoco_timestep(dt: float, physics_step: float | None) -> float:
     return dt / first
 
 
-def apply(conv) -> None:
-    """Set the converted scene's timestep and gravity, record ``simx:scene:simulation`` and the
-    report's "taken from the file" lines (``conv.report.taken``)."""
+def engine_timestep(scene) -> float:
+    """The MuJoCo timestep of the engine's step for a read ``TttScene`` (:func:`mujoco_timestep`
+    of its saved steps), s."""
+    saved: SavedSettings = scene.saved_settings or SavedSettings()
+    return mujoco_timestep(saved.time_step or 0.05, saved.physics_step)
+
+
+def needs_fallback(scene) -> str | None:
+    """Why MuJoCo cannot hold ``scene`` (a read ``TttScene``) as V-REP's engine does at the
+    engine's step, or None: a dynamic respondable shape (contacts), a limited joint (its limits),
+    a closed mechanism (loop closures, dependent joints) or a motor. MuJoCo makes these
+    constraints two timesteps stiff (:func:`simx_server.sim.mechanisms.stiff_solref`: the
+    stiffest it keeps stable), so their give under a load grows with the square of the timestep,
+    and simx's servo's gain is the joint's inertia over the timestep (:mod:`simx_server.sim.motors`:
+    a ROBOTIQ 85's position loop closed its fingers at a third of the speed at 5 ms); V-REP's
+    engines keep them rigid at any step.
+
+    Args:
+        scene: the file as read.
+
+    Returns:
+        One line naming the first such object and what it needs, or None.
+    """
+    from simx_server.scene.ttt import parts  # the joints' conversion (parts imports what imports this)
+
+    for obj in scene.objects.values():
+        d = obj.data
+        if obj.kind == "shape" and d is not None and not d.static and d.respondable:
+            return (f"shape {obj.name!r} is dynamic and respondable: MuJoCo's contacts, two timesteps "
+                    "stiff, hold V-REP's rigid ones (resting, stacked and held bodies) at 2 ms")
+        if obj.kind == "joint" and d is not None and d.type != 12 and not (d.type == 10 and d.cyclic) \
+                and math.isfinite(d.range) and d.range > 0:
+            return (f"joint {obj.name!r} has limits: MuJoCo's limits, two timesteps stiff, hold V-REP's "
+                    "hard ones under the motors at 2 ms")
+        if obj.kind == "joint" and d is not None and parts.motorised(d):
+            return (f"joint {obj.name!r} has a motor: simx's servo (sim/motors.py), its gain the joint's inertia "
+                    "over the timestep, follows V-REP's velocity constraint under a load at 2 ms")
+        if (obj.kind == "dummy" and d is not None and d.linked >= 0 and d.link_type == 0) \
+                or (obj.kind == "joint" and d is not None and d.dependency is not None):
+            return (f"{obj.kind} {obj.name!r} closes a mechanism: MuJoCo's loop closures and dependencies, "
+                    "two timesteps stiff, hold V-REP's rigid ones at 2 ms")
+    return None
+
+
+def stiff_spring(model: mujoco.MjModel) -> str | None:
+    """Why MuJoCo cannot step ``model`` stably at its ``opt.timestep``, or None: the first joint
+    whose own spring (``stiffness``, N/m or N·m/rad) turns more than :data:`MAX_SPRING_PHASE` per
+    step on the joint's inertia at the initial pose (``1 / dof_invweight0``).
+
+    Args:
+        model: the compiled conversion.
+
+    Returns:
+        One line naming the joint, its spring and the largest step it takes, or None.
+    """
+    h = float(model.opt.timestep)
+    for j in np.flatnonzero(model.jnt_stiffness > 0):
+        kind = int(model.jnt_type[j])
+        if kind not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            continue
+        k = float(model.jnt_stiffness[j])
+        omega = math.sqrt(k * float(model.dof_invweight0[model.jnt_dofadr[j]]))
+        if omega * h > MAX_SPRING_PHASE:
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, int(j)) or f"#{j}"
+            unit = "N·m/rad" if kind == int(mujoco.mjtJoint.mjJNT_HINGE) else "N/m"
+            return (f"joint {name!r}'s spring ({k:g} {unit}, {omega:.4g} rad/s on its inertia) needs MuJoCo "
+                    f"steps of at most {MAX_SPRING_PHASE / omega * 1000:.3g} ms")
+    return None
+
+
+def apply(conv, cap: float | None = None) -> None:
+    """Set the converted scene's timestep (no larger than ``cap`` s where given) and gravity,
+    record ``simx:scene:simulation`` and the report's "taken from the file" lines
+    (``conv.report.taken``)."""
     s = conv.scene
     saved: SavedSettings = s.saved_settings or SavedSettings()
     dt = saved.time_step or 0.05
-    conv.spec.option.timestep = mujoco_timestep(dt, saved.physics_step)
+    conv.spec.option.timestep = mujoco_timestep(dt, saved.physics_step, cap)
     conv.spec.option.gravity = s.gravity
     items, taken = [], conv.report.taken
     if saved.time_step is not None:

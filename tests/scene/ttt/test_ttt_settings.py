@@ -60,6 +60,48 @@ def test_gravity_real_time_and_physics_step_are_reported(tmp_path):
         assert part in text, text
 
 
+def _pendulum(respondable: bool = False, motor: bool = False, stiffness: float | None = None) -> bytes:
+    """A link on a free (cyclic) hinge from a static base, at the engine's saved 5 ms; the link
+    respondable (contacts), the hinge motorised, or the hinge in V-REP's spring mode faster
+    than its target velocity (the joint's own MuJoCo spring) of ``stiffness``."""
+    extra = b"" if stiffness is None else W.rec("Dcm", W.i32(12)) + W.rec("Spp", W.f32(stiffness, 0.5))
+    return W.ttt_file(W.dynamics(step=0.005) + W.cuboid_shape(1, -1, "Base", (0.1, 0.1, 0.1), (0, 0, 1), dynamic=False,
+                                                              respondable=False)
+                      + W.joint(2, 1, "Hinge", (0, 0, 0.1), cyclic=True, motor=motor or stiffness is not None,
+                                target_velocity=5.0, extra=extra)
+                      + W.cuboid_shape(3, 2, "Link", (0.3, 0.05, 0.05), (0.15, 0, 0), mass=0.2, respondable=respondable))
+
+
+@pytest.mark.parametrize("kind, expected, why", [
+    ("free", 0.005, None),
+    ("respondable", 0.002, "shape 'Link' is dynamic and respondable"),
+    ("motor", 0.002, "joint 'Hinge' has a motor"),
+    ("stiff spring", 0.002, "joint 'Hinge''s spring (50000 N·m/rad"),
+])
+def test_the_engines_step_where_mujoco_holds_the_scene_at_it(tmp_path, kind, expected, why):
+    """MuJoCo steps a converted scene at its engine's saved step (10 substeps of 5 ms), as
+    CoppeliaSim steps its engine, unless it cannot hold the scene there as V-REP does: contacts,
+    limits, closed mechanisms and motors (two timesteps stiff) and a joint's own spring too stiff
+    for it keep 2 ms, and the report says why."""
+    body = _pendulum(respondable=kind == "respondable", motor=kind == "motor",
+                     stiffness=5e4 if kind == "stiff spring" else None)
+    path = tmp_path / "p.ttt"
+    path.write_bytes(body)
+    xml, report = convert.convert(reader.read(path), tmp_path / "out", "scene")
+    world = World(xml, None)
+    assert world.model.opt.timestep == pytest.approx(expected)
+    assert world.substeps == round(0.05 / expected)
+    assert "physics step 5 ms (MuJoCo substeps of " in "; ".join(report.taken)
+    assert len(report.physics) == 1, report.physics
+    if why is None:
+        assert report.physics[0] == "MuJoCo substeps of 5 ms, the engine step's"
+    else:
+        assert report.physics[0].startswith(f"MuJoCo substeps of 2 ms, not the engine step's 5 ms: {why}"), \
+            report.physics
+    if kind == "stiff spring":  # built again for 2 ms: the limits' and contacts' stiffness is 2 ms's
+        assert world.model.opt.timestep * 2 == pytest.approx(0.004)
+
+
 def test_a_file_without_settings_keeps_simx_defaults(tmp_path):
     path = tmp_path / "s.ttt"
     path.write_bytes(_scene())
