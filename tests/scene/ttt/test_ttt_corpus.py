@@ -22,7 +22,7 @@ CORPUS = SHARED / "ttt-corpus"
 #: The corpus's file names; without the folder, one test that skips naming the folder.
 FILES = sorted(p.name for p in CORPUS.glob("*.tt[tm]")) if CORPUS.is_dir() else [""]
 CORPUS_WHAT = "the corpus of real V-REP / CoppeliaSim scene files"
-#: "not carried over" kinds per corpus file when issue 41 began (docs/PORTING.md's table).
+#: "not carried over" kinds per corpus file when issue 41 began: a report never names more.
 NOT_CARRIED_THEN = {
     'BTIRAI+youbot__youbot_simple_example.ttt': 4,
     'Ianlande+Vrep_yolov3_ddpg_pytorch__scenes_scene.ttt': 4,
@@ -43,10 +43,10 @@ NOT_CARRIED_THEN = {
     'salkhan23+ITCortex__vrep_scenes_vrep_IT.ttt': 2,
     'salkhan23+ITCortex__vrep_scenes_vrep_it_cortex.ttt': 7,
 }
-#: docs/PORTING.md's table of the corpus's reports: file -> its "now" columns (kinds not carried
-#: over, their count, kinds approximated), which each file's test checks against its report.
+#: docs/PORTING.md's table of the corpus's reports: file -> its columns (kinds not carried over,
+#: their count, kinds approximated), which each file's test checks against its report.
 DOC_NOW = {m[1]: (int(m[2]), int(m[3].replace(",", "")), int(m[4])) for m in re.finditer(
-    r"^\| `([^`]+\.tt[tm])` \| \d+ \| [\d,]+ \| (\d+) \| ([\d,]+) \| (\d+) \|$",
+    r"^\| `([^`]+\.tt[tm])` \| (\d+) \| ([\d,]+) \| (\d+) \|$",
     (ROOT / "docs" / "PORTING.md").read_text(), re.M)}
 _ELEMENT = {"shape": mujoco.mjtObj.mjOBJ_BODY, "dummy": mujoco.mjtObj.mjOBJ_SITE,
             "force_sensor": mujoco.mjtObj.mjOBJ_SITE, "proximity_sensor": mujoco.mjtObj.mjOBJ_SITE,
@@ -90,7 +90,7 @@ def test_corpus_file_converts_loads_and_steps(name, tmp_path):
     path = require_shared(CORPUS / name, CORPUS_WHAT if not name else "a file of the corpus of real scene files")
     scene = reader.read(path)
     xml, report = convert.convert(scene, tmp_path, "scene")
-    # the load report names no more kinds left out than when issue 41 began (docs/PORTING.md), and
+    # the load report names no more kinds left out than when issue 41 began, and
     # what was carried over in a close form (meshes colliding as their hull) as approximated
     assert len(report.lines()) <= NOT_CARRIED_THEN[name], report.lines()
     now = (len(report.lines()), sum(report.counts[k] for k in report.counts if k not in report.approximated),
