@@ -252,9 +252,25 @@ def official():
         client.context.term()
 
 
+#: Ports free_port() draws from: below the kernel's ephemeral range (32768-60999 by default), so
+#: that no client connection's local port takes one between the check and the server's bind (a
+#: server told --zmq-port had found its port taken by another worker's connection).
+_TEST_PORTS = (20000, 32000)
+
+
 def free_port() -> int:
-    """A TCP port nothing listens on now (loopback)."""
-    with socket.socket() as s:
+    """A TCP port nothing listens on now (loopback), drawn at random from ``_TEST_PORTS``
+    (``secrets``: a test's seeded ``random`` does not make two workers draw alike)."""
+    lo, hi = _TEST_PORTS
+    for _ in range(100):
+        port = lo + secrets.randbelow(hi - lo)
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return port
+    with socket.socket() as s:  # (every draw taken: any port the kernel gives)
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
 
