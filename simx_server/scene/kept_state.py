@@ -125,7 +125,9 @@ def renamed(kept: list[tuple], names: dict[str, str]) -> list[tuple]:
 def restore(model: mujoco.MjModel, kept: list[tuple], skip: set[str] = frozenset()) -> bool:
     """Write :func:`changes` into a new model where the element is still there (same name; a
     geom: same body and rank, same type), except for elements named in ``skip`` (those the edit
-    itself set).
+    itself set). A geom's fields are its shape's own, never set by an edit that places its
+    body (a re-parented shape keeps its contact bits, colour and friction), so ``skip`` leaves
+    them.
 
     Args:
         model: the newly compiled model.
@@ -140,7 +142,7 @@ def restore(model: mujoco.MjModel, kept: list[tuple], skip: set[str] = frozenset
     for f, key, value in kept:
         if isinstance(key, tuple):
             body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, key[0])
-            if body < 0 or key[0] in skip or key[1] >= model.body_geomnum[body]:
+            if body < 0 or key[1] >= model.body_geomnum[body]:
                 continue
             i = int(model.body_geomadr[body]) + key[1]
             if f == LOOKS:

@@ -111,3 +111,23 @@ def test_complex_command_test_keeps_the_dummy_where_it_was_put(tmp_path):
     finally:
         sim.stop()
         sim.close()
+
+
+def test_a_reparented_shape_keeps_what_scripts_set_on_it(placed):
+    """The shape an edit moves keeps its own run-time state: a non-respondable shape put under a
+    respondable one stays out of the contacts (RLBench's stand-in hangs the table's visual twin
+    under the table), with its colour and mass."""
+    sim, api, _ = placed
+    h = lambda n: sim.world.resolve(n).handle  # noqa: E731
+    api.setObjectInt32Param(h("blockC"), api.shapeintparam_respondable, 0)
+    api.setShapeMass(h("blockC"), 2.5)
+    api.setObjectParent(h("blockC"), h("blockB"), True)
+    assert api.getObjectParent(h("blockC")) == h("blockB")
+    m = sim.world.model
+    geoms = m.body("blockC").geomadr[0] + np.arange(m.body("blockC").geomnum[0])
+    assert not m.geom_contype[geoms].any() and not m.geom_conaffinity[geoms].any()
+    assert api.getObjectInt32Param(h("blockC"), api.shapeintparam_respondable) == 0
+    assert m.geom_rgba[geoms[0]][:3] == pytest.approx([0.1, 0.2, 0.3])
+    assert api.getShapeMass(h("blockC")) == pytest.approx(2.5)
+    api.setObjectInt32Param(h("blockC"), api.shapeintparam_respondable, 1)       # and back on
+    assert m.geom_contype[geoms].all()
