@@ -290,6 +290,10 @@ class Editor(ObjectEdits):
                 after = change(spec)
             except ValueError as exc:  # MjSpec refuses the operation (attach, delete)
                 raise UnsupportedError(f"MuJoCo cannot make this edit: {self._scrub(_one_line(exc))}") from None
+            kept = kept_state.renamed(kept_state.changes(world.model, self._baseline_state), self._renamed)
+            # contact bits switched at run time go into the spec: MuJoCo makes a mesh's convex hull
+            # (its collision polygons) only for a mesh a collidable geom uses when it compiles
+            kept_state.write(spec, [k for k in kept if k[0] in kept_state.CONTACT_FIELDS])
             bounded = bool(self.files.caller) if bounded is None else bounded
             if bounded:
                 guard.check_growth(before, spec)
@@ -300,7 +304,6 @@ class Editor(ObjectEdits):
                 raise UnsupportedError("MuJoCo cannot compile the edited scene: "
                                        f"{self._scrub(_one_line(exc))}") from None
         placements, mocap = self._runtime_placements(), self._mocap_poses()
-        kept = kept_state.renamed(kept_state.changes(world.model, self._baseline_state), self._renamed)
         baseline, baseline_state = _poses(model), kept_state.snapshot(model)
         world.replace_model(model, bounded=bounded)
         self._spec, self._baseline, self._baseline_state = spec, baseline, baseline_state

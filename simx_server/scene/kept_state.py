@@ -28,6 +28,9 @@ FIELDS = {
 }
 #: Geoms' fields (``geom_matid`` only where a command dropped the material: -1).
 GEOM_FIELDS = ("geom_rgba", "geom_size", "geom_friction", "geom_contype", "geom_conaffinity", "geom_matid")
+#: The geoms' contact bits (``sim_shapeintparam_respondable``), written into the spec an edit
+#: compiles (:meth:`simx_server.scene.editor.Editor._edit`).
+CONTACT_FIELDS = ("geom_contype", "geom_conaffinity")
 #: A geom's specular and emission colours and shininess that commands set (not model fields:
 #: :mod:`simx_server.sim.shape_looks`), kept as if they were one.
 LOOKS = "shape_looks"

@@ -314,7 +314,7 @@ def set_int_param(sim: SimulationView, handle: int, pid: int, value: int) -> Non
             if pid == shape_dynamics.STATIC:
                 shape_dynamics.set_static(sim, obj, value != 0)
             else:
-                shape_dynamics.set_respondable(world, obj, value != 0)
+                shape_dynamics.set_respondable(world, obj, value != 0, getattr(sim, "editor", None))
         except UnsupportedError as exc:
             raise UnsupportedError(f"{_pname(pid)}: {exc}") from None
         return

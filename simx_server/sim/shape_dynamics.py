@@ -70,13 +70,20 @@ def is_respondable(world, obj: SceneObject) -> bool:
     return bool(np.any(collidable(m)[m.geom_bodyid == obj.mj_id]))
 
 
-def set_respondable(world, obj: SceneObject, value: bool) -> None:
-    """Switch a shape's geoms in or out of MuJoCo's contacts (see the module).
+def set_respondable(world, obj: SceneObject, value: bool, editor=None) -> None:
+    """Switch a shape's geoms in or out of MuJoCo's contacts (see the module). A mesh compiled
+    while the shape was not respondable has no convex hull, and MuJoCo's convex collider then
+    finds one contact point per touching geom, from the vertices alone: an object resting on
+    a table rocks from one support point to the next and creeps. Switched on, such a shape's
+    scene is compiled again through ``editor`` (which writes the new contact bits into the
+    spec), so that its meshes get their hulls and face contacts (RLBench's procedural objects:
+    ``Shape.import_mesh``, made respondable after).
 
     Args:
         world: the World.
         obj: a shape.
         value: respondable or not.
+        editor: the scene editor (``Simulation.editor``), or None (no recompile).
     """
     if is_respondable(world, obj) == value:
         return
@@ -93,6 +100,14 @@ def set_respondable(world, obj: SceneObject, value: bool) -> None:
             m.geom_contype[geoms] = m.geom_conaffinity[geoms] = 1
     body_contact_bits(m)  # MuJoCo's broad phase tests the body's bits first
     world.changed()
+    if value and editor is not None and _hull_missing(m, geoms):
+        editor._edit(lambda spec: None)
+
+
+def _hull_missing(m: mujoco.MjModel, geoms: np.ndarray) -> bool:
+    """Whether a mesh geom among ``geoms`` has a mesh compiled without its convex hull."""
+    meshes = m.geom_dataid[geoms[m.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_MESH]]
+    return bool(meshes.size and np.any(m.mesh_graphadr[meshes] < 0))
 
 
 def body_contact_bits(model: mujoco.MjModel) -> None:
