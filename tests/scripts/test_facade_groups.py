@@ -343,6 +343,22 @@ def test_meshes_and_joint_dependency(api, sim):
         assert sorted(np.round(v, 6).tolist()) == sorted(np.round(verts, 6).tolist()) and len(f) == 12
     finally:
         out.unlink(missing_ok=True)
+    two = SENSORS.parent / "api32_two_parts.obj"  # two objects, as RLBench's procedural _coll.obj files
+    tetra = "\n".join(f"v {x} {y} {z}" for x, y, z in np.reshape(verts, (-1, 3)))
+    shifted = "\n".join(f"v {x + 1} {y} {z}" for x, y, z in np.reshape(verts, (-1, 3)))
+    tris = lambda base: "\n".join(f"f {a + base} {b + base} {c + base}" for a, b, c in np.reshape(faces, (-1, 3)))  # noqa: E731
+    two.write_text(f"{tetra}\n{shifted}\no first\n{tris(1)}\no second\n{tris(5)}\n")
+    try:
+        vs, fs = api.importMesh(0, str(two))  # one mesh per object, each with its own vertices
+        assert len(vs) == 2 and [len(f) for f in fs] == [12, 12]
+        assert sorted(np.round(vs[0], 6).tolist()) == sorted(np.round(verts, 6).tolist())
+        assert np.reshape(vs[1], (-1, 3))[:, 0].min() == pytest.approx(1.0)
+        shape = api.importShape(0, str(two), 0, 0.0, 1.0)  # one shape of two meshes
+        m = sim.world.model
+        geoms = np.flatnonzero(m.geom_bodyid == sim.world.objects[shape].mj_id)
+        assert [int(m.mesh_facenum[m.geom_dataid[g]]) for g in geoms] == [4, 4]
+    finally:
+        two.unlink(missing_ok=True)
     hinge, slide = h(api, "hinge"), h(api, "target_x")
     api.setJointDependency(slide, hinge, 0.1, 0.5)
     assert api.getJointDependency(slide) == (hinge, pytest.approx(0.1), pytest.approx(0.5))

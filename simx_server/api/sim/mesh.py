@@ -63,8 +63,10 @@ def _mesh(vertices: Any, indices: Any) -> tuple[np.ndarray, np.ndarray]:
 @sim_function("importMesh")
 def importMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options: Any = 0,  # noqa: N802, N803
                identicalVerticeTolerance: Any = 0.0, scalingFactor: Any = 1.0) -> tuple[list, list]:  # noqa: N803
-    """``vertices, indices`` of an OBJ (0) or binary STL (4) file: one table of each (one
-    mesh), as MuJoCo reads it (vertices in m, scaled by ``scalingFactor``).
+    """``vertices, indices`` of an OBJ (0) or binary STL (4) file: one table of each per mesh
+    (an OBJ file's objects and groups, as CoppeliaSim's importer gives them:
+    :func:`~simx_server.api.sim.shape_import.obj_parts`), as MuJoCo reads them (vertices in m,
+    scaled by ``scalingFactor``).
 
     ``sim.importMesh``.
 
@@ -76,7 +78,7 @@ def importMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options:
         scalingFactor: factor on the vertices.
 
     Returns:
-        ``([vertices], [indices])``: 3n floats (m) and 3t ints.
+        ``([vertices, ...], [indices, ...])``: per mesh, 3n floats (m) and 3t ints.
 
     Raises:
         UnsupportedError: another format, or no simulation behind the script.
@@ -93,18 +95,8 @@ def importMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options:
     if file.stat().st_size > L.MAX_IMPORT_BYTES:
         raise ArgumentError(f"importMesh: more than {L.MAX_IMPORT_BYTES} bytes")
     scale = _num(scalingFactor, "scalingFactor") or 1.0
-    spec = mujoco.MjSpec()
-    spec.assets = {"m" + file.suffix.lower(): file.read_bytes()}
-    spec.add_mesh(name="m", file="m" + file.suffix.lower()).scale = [scale] * 3
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="m", contype=0, conaffinity=0)
-    try:
-        m = spec.compile()
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot read this mesh: {exc}") from None
-    pos, rot = m.geom_pos[0], np.empty(9)
-    mujoco.mju_quat2Mat(rot, m.geom_quat[0])  # MuJoCo centres meshes: back to the file's frame
-    v = m.mesh_vert[:m.mesh_vertnum[0]] @ rot.reshape(3, 3).T + pos
-    return [v.reshape(-1).tolist()], [m.mesh_face[:m.mesh_facenum[0]].reshape(-1).astype(int).tolist()]
+    meshes = shapes.read_mesh(file.read_bytes(), file.suffix.lower(), scale)
+    return [v.reshape(-1).tolist() for v, _ in meshes], [f.reshape(-1).astype(int).tolist() for _, f in meshes]
 
 
 @sim_function("exportMesh")

@@ -27,7 +27,7 @@ from simx_server.base import scene_guard as guard
 from simx_server.base.arguments import quote
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_text as _text, as_vector as _vector
 from simx_server.sim import friction, mechanisms, shape_looks
-from simx_server.sim.spec_tools import _names, vrep_suffix
+from simx_server.sim.spec_tools import _names, set_mesh_data, vrep_suffix
 from simx_server.sim.state import SimulationView
 from simx_server.sim.world import SHAPE, World
 
@@ -40,6 +40,74 @@ _FORMATS = {0: (".obj",), 4: (".stl",)}
 #: Contact of imported shapes: elliptic-cone friction with torsion (condim 4), grippable.
 _FRICTION = [1.0, 0.02, 0.001]
 
+
+
+def obj_parts(data: bytes) -> list[bytes]:
+    """An OBJ file's objects and groups (``o`` / ``g`` lines) as OBJ files of their own, each
+    with every vertex line of the file and only its own faces. MuJoCo's reader takes the faces of
+    a file's first object alone, where CoppeliaSim's importers give one mesh per object
+    (RLBench's procedural objects: eight convex pieces in one ``_coll.obj``, of which MuJoCo
+    read the first). A file of one part is returned as it is.
+
+    Args:
+        data: the OBJ file's bytes.
+
+    Returns:
+        One OBJ file per part with faces, in the file's order.
+    """
+    common: list[bytes] = []
+    parts: list[list[bytes]] = [[]]
+    for line in data.splitlines():
+        word = line.split(None, 1)[0] if line.strip() else b""
+        if word in (b"o", b"g"):
+            if parts[-1]:
+                parts.append([])
+        elif word == b"f":
+            parts[-1].append(line)
+        else:
+            common.append(line)
+    parts = [p for p in parts if p]
+    if len(parts) <= 1:
+        return [data]
+    return [b"\n".join(common + p) + b"\n" for p in parts]
+
+
+def read_mesh(data: bytes, suffix: str, scale: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The meshes of an OBJ or binary STL file as MuJoCo reads them, one per OBJ part
+    (:func:`obj_parts`): vertices (n, 3) in the file's frame, times ``scale`` (m), and triangles
+    (t, 3) of indices into them, each part with only the vertices its faces use.
+
+    Args:
+        data: the file's bytes.
+        suffix: ``.obj`` or ``.stl``.
+        scale: factor on the vertices.
+
+    Returns:
+        ``[(vertices, faces), ...]``.
+
+    Raises:
+        UnsupportedError: MuJoCo cannot read a part.
+    """
+    out = []
+    pieces = obj_parts(data) if suffix == ".obj" else [data]
+    for piece in pieces:
+        spec = mujoco.MjSpec()
+        spec.assets = {"m" + suffix: piece}
+        spec.add_mesh(name="m", file="m" + suffix).scale = [scale] * 3
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="m", contype=0, conaffinity=0)
+        try:
+            m = spec.compile()
+        except ValueError as exc:
+            raise UnsupportedError(f"MuJoCo cannot read this mesh: {exc}") from None
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, m.geom_quat[0])  # MuJoCo centres meshes: back to the file's frame
+        v = m.mesh_vert[:m.mesh_vertnum[0]] @ rot.reshape(3, 3).T + m.geom_pos[0]
+        f = np.asarray(m.mesh_face[:m.mesh_facenum[0]], dtype=np.int64)
+        if len(pieces) > 1:  # every part holds the file's vertices: keep those its faces use
+            used, f = np.unique(f, return_inverse=True)
+            v, f = v[used], f.reshape(-1, 3)
+        out.append((v, f))
+    return out
 
 
 def imported_poses(world: World) -> list[tuple[int, Any, Any]]:
@@ -118,19 +186,29 @@ def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float
     editor = sim.editor
     editor._asset_counter[0] += 1
     key = f"simx-asset-{editor._asset_counter[0]}-import{file.suffix.lower()}"
+    # an OBJ file of several objects: one mesh each, as CoppeliaSim's importer makes them
+    parts = read_mesh(data, ".obj", scaling) if file.suffix.lower() == ".obj" and len(obj_parts(data)) > 1 else None
 
     def change(spec: mujoco.MjSpec):
         suffix = vrep_suffix({"Shape", "Shape_mesh", "Shape_geom"}, _names(spec))
         name = f"Shape{suffix}"
-        spec.assets = {**(spec.assets or {}), key: data}
-        mesh = spec.add_mesh(name=f"Shape_mesh{suffix}", file=key)
-        mesh.scale = [scaling] * 3
+        meshes = []
+        if parts is None:
+            spec.assets = {**(spec.assets or {}), key: data}
+            mesh = spec.add_mesh(name=f"Shape_mesh{suffix}", file=key)
+            mesh.scale = [scaling] * 3
+            meshes.append(mesh)
+        for k, (v, f) in enumerate(parts or ()):
+            mesh = spec.add_mesh(name=f"Shape_mesh{suffix}" + (f"_{k}" if k else ""))
+            set_mesh_data(spec, mesh, v, f)
+            meshes.append(mesh)
         body = spec.worldbody.add_body(name=name)
         body.add_freejoint()
-        geom = body.add_geom(name=f"Shape_geom{suffix}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh.name,
-                             condim=4, friction=_FRICTION, rgba=[0.8, 0.8, 0.8, 1.0])
-        mechanisms.rigid_contact(geom, spec.option.timestep, static=False)  # V-REP's, a dynamic shape's
-        friction.new_shape(spec, geom)  # CoppeliaSim's default material in a V-REP scene
+        for k, mesh in enumerate(meshes):
+            geom = body.add_geom(name=f"Shape_geom{suffix}" if k == 0 else "", type=mujoco.mjtGeom.mjGEOM_MESH,
+                                 meshname=mesh.name, condim=4, friction=_FRICTION, rgba=[0.8, 0.8, 0.8, 1.0])
+            mechanisms.rigid_contact(geom, spec.option.timestep, static=False)  # V-REP's, a dynamic shape's
+            friction.new_shape(spec, geom)  # CoppeliaSim's default material in a V-REP scene
         return lambda: sim.world.resolve(name).handle
 
     handle = editor._edit(change)
