@@ -95,7 +95,8 @@ def importMesh(ctx: CallContext, fileformat: Any, pathAndFilename: Any, options:
     if file.stat().st_size > L.MAX_IMPORT_BYTES:
         raise ArgumentError(f"importMesh: more than {L.MAX_IMPORT_BYTES} bytes")
     scale = _num(scalingFactor, "scalingFactor") or 1.0
-    meshes = shapes.read_mesh(file.read_bytes(), file.suffix.lower(), scale)
+    suffix = file.suffix.lower()
+    meshes = shapes.read_mesh(shapes.file_parts(file.read_bytes(), suffix), suffix, scale)
     return [v.reshape(-1).tolist() for v, _ in meshes], [f.reshape(-1).astype(int).tolist() for _, f in meshes]
 
 

@@ -72,13 +72,19 @@ def obj_parts(data: bytes) -> list[bytes]:
     return [b"\n".join(common + p) + b"\n" for p in parts]
 
 
-def read_mesh(data: bytes, suffix: str, scale: float) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The meshes of an OBJ or binary STL file as MuJoCo reads them, one per OBJ part
-    (:func:`obj_parts`): vertices (n, 3) in the file's frame, times ``scale`` (m), and triangles
-    (t, 3) of indices into them, each part with only the vertices its faces use.
+def file_parts(data: bytes, suffix: str) -> list[bytes]:
+    """The parts :func:`read_mesh` reads of a mesh file: an OBJ file's :func:`obj_parts`, or the
+    file itself (``suffix``: ``.obj`` or ``.stl``)."""
+    return obj_parts(data) if suffix == ".obj" else [data]
+
+
+def read_mesh(pieces: list[bytes], suffix: str, scale: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The meshes of a mesh file's parts (:func:`file_parts`) as MuJoCo reads them, one per part:
+    vertices (n, 3) in the file's frame, times ``scale`` (m), and triangles (t, 3) of indices
+    into them; of several parts, each with only the vertices its faces use.
 
     Args:
-        data: the file's bytes.
+        pieces: the file's parts.
         suffix: ``.obj`` or ``.stl``.
         scale: factor on the vertices.
 
@@ -89,7 +95,6 @@ def read_mesh(data: bytes, suffix: str, scale: float) -> list[tuple[np.ndarray, 
         UnsupportedError: MuJoCo cannot read a part.
     """
     out = []
-    pieces = obj_parts(data) if suffix == ".obj" else [data]
     for piece in pieces:
         spec = mujoco.MjSpec()
         spec.assets = {"m" + suffix: piece}
@@ -187,7 +192,8 @@ def import_shape(sim: SimulationView, fileformat: int, path: str, scaling: float
     editor._asset_counter[0] += 1
     key = f"simx-asset-{editor._asset_counter[0]}-import{file.suffix.lower()}"
     # an OBJ file of several objects: one mesh each, as CoppeliaSim's importer makes them
-    parts = read_mesh(data, ".obj", scaling) if file.suffix.lower() == ".obj" and len(obj_parts(data)) > 1 else None
+    pieces = file_parts(data, file.suffix.lower())
+    parts = read_mesh(pieces, ".obj", scaling) if len(pieces) > 1 else None
 
     def change(spec: mujoco.MjSpec):
         suffix = vrep_suffix({"Shape", "Shape_mesh", "Shape_geom"}, _names(spec))
