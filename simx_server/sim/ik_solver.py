@@ -105,10 +105,6 @@ def chain(world, tip: int, base: int, tip_body: int | None = None) -> list[int]:
     return out[::-1]
 
 
-#: A search's start stalls while its error stays above this fraction of its best (``solve``'s ``stall``).
-STALL_FACTOR = 0.9
-
-
 def errors(world, data, elements: list[Element], targets: dict[int, tuple],
            frame_of: Callable[[mujoco.MjData, int], tuple] | None = None,
            weighted: bool = True) -> tuple[np.ndarray, list, bool]:
@@ -197,7 +193,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
           margins: np.ndarray | None = None,
           slaves: list[tuple[int, int, int, float, float]] | None = None,
           frame_of: Callable[[mujoco.MjData, int], tuple] | None = None,
-          bound_steps: bool = True, numeric: bool = False, stall: int = 0) -> tuple[bool, np.ndarray, np.ndarray]:
+          bound_steps: bool = True, numeric: bool = False) -> tuple[bool, np.ndarray, np.ndarray]:
     """Iterate from ``q`` (the joints' positions); ``(within precision, q, final error)``.
     ``scratch`` must hold the scene's other positions already. ``weights`` (per joint, > 0)
     make a joint move more (a larger weight) or less in the weighted least-norm step
@@ -242,10 +238,6 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         bound_steps: scale steps down to ``max_step`` (False: the group ignores max step sizes,
             CoppeliaSim's default for ``simIK.createGroup``).
         numeric: the Jacobian is ``simIK``'s numeric one, clamped at the upper limits (see above).
-        stall: give up (not within precision) once the error's norm has not fallen below
-            STALL_FACTOR of its best for this many iterations (0: never): a search from random
-            starts (:func:`simx_server.api.simik.calls.findConfigs`) drops a start held at a
-            joint limit or in a local minimum and tries the next one.
 
     Returns:
         ``(ok, q, error)``: whether every element is within precision, the positions reached
@@ -272,7 +264,6 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     if slaves:
         columns = coupling_matrix(m.nv, dadr, [(dof, col, mult) for _, dof, col, _, mult in slaves])
     e = np.zeros(0)
-    best, since = np.inf, 0
     for it in range(iterations + 1):
         scratch.qpos[qadr] = q
         for sq, _, col, offset, mult in slaves:
@@ -282,14 +273,6 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
         e, rows, ok = errors(world, scratch, elements, targets, frame_of)
         if ok or it == iterations or not len(joints):
             return ok, q, e
-        if stall:
-            norm = float(np.linalg.norm(e))
-            if norm < STALL_FACTOR * best:
-                best, since = norm, 0
-            else:
-                since += 1
-                if since >= stall:
-                    return False, q, e
         jac = jacobian(world, scratch, rows, dadr, columns)
         if numeric:
             jac = jac * np.clip((top - q) / FD_STEP, 0.0, 1.0)

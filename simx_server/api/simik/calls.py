@@ -26,9 +26,6 @@ from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matr
 RESULT_NOT_PERFORMED, RESULT_SUCCESS, RESULT_FAIL = 0, 1, 2
 CALC_NOTPERFORMED, CALC_NOTWITHINTOLERANCE = 1, 16
 MAX_PATH_POINTS, MAX_SEARCH_SECONDS = 10_000, 10.0
-#: A random start of a configuration search is dropped after this many iterations without progress
-#: (:func:`simx_server.sim.ik_solver.solve`'s ``stall``).
-STALL_ITERATIONS = 8
 
 
 def _precision(ctx: CallContext, env, g) -> list[float]:
@@ -169,8 +166,7 @@ def _find(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHan
         try:
             start = current
             while time.monotonic() < deadline:
-                ok, _, q = _environments.solve(ctx, env, g, q0=start.copy(), iterations=max(g.iterations, 100),
-                                               stall=STALL_ITERATIONS)
+                ok, _, q = _environments.solve(ctx, env, g, q0=start.copy(), iterations=max(g.iterations, 100))
                 if ok and not any(np.allclose(q, f, atol=1e-3) for f in found):
                     d = float(np.sqrt(np.sum((metric * (q - current)) ** 2)))
                     if max_dist is None or d <= _num(max_dist, "maxDist"):

@@ -221,7 +221,7 @@ def env_data(ctx: CallContext, env: Environment) -> mujoco.MjData:
 
 
 def solve(ctx: CallContext, env: Environment, g: Group, targets: dict | None = None, q0: np.ndarray | None = None,
-           iterations: int | None = None, stall: int = 0) -> tuple[bool, list[int], np.ndarray]:
+           iterations: int | None = None) -> tuple[bool, list[int], np.ndarray]:
     joints = joints_of(ctx, env, g)
     env_data(ctx, env)
     d = ctx.state.ik_scratch
@@ -233,7 +233,7 @@ def solve(ctx: CallContext, env: Environment, g: Group, targets: dict | None = N
     ok, q, _ = S.solve(ctx.world, d, joints, q, g.elements, g.method, g.damping,
                        g.iterations if iterations is None else iterations, steps, targets, weights, margins,
                        slaves_of(ctx, env, joints), lambda data, h: frame(ctx, env, data, h),
-                       bound_steps=not g.flags & GROUP_IGNOREMAXSTEPS, numeric=True, stall=stall)
+                       bound_steps=not g.flags & GROUP_IGNOREMAXSTEPS, numeric=True)
     return ok, joints, q
 
 
