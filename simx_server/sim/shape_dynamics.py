@@ -7,7 +7,7 @@ CoppeliaSim's, the flags keep their value when the simulation stops.
 * respondable: whether the shape's geoms take part in MuJoCo's contacts (``contype`` /
   ``conaffinity`` not both 0), which MuJoCo reads at every step: switching it off zeroes them
   and keeps their values (:attr:`World.respondable_bits`), switching it on gives them back
-  (1/1, MuJoCo's default, for geoms that never had any). No recompile, but for a mesh compiled
+  (1/1, MuJoCo's default, for geoms that never had any). No recompile, except for a mesh compiled
   without its convex hull (:func:`set_respondable`); scene edits keep the values
   (``scene/kept_state.py``).
 * static: a static shape is a body welded to the world (``body_weldid`` 0), a dynamic one a
