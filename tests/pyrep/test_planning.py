@@ -179,13 +179,13 @@ def test_a_pose_out_of_reach_ends_after_trials_tries_of_max_time_ms(panda, monke
     assert calls.count["findConfig"] == 1
     assert np.allclose(arm.get_joint_positions(), start)
     # a clock that moves 0.5 s per reading: the search ends at 3 s (300 x 10 ms), after the first
-    # try's IK and two tries of one random configuration each (1.0 -> 1.5, 2.0 -> 2.5)
+    # try (IK from the current configuration) and five tries of random starts (at 0.5 ... 2.5)
     clock = iter(np.arange(0.0, 1000.0, 0.5))
     monkeypatch.setattr(sampling, "monotonic", lambda: float(next(clock)))
     calls.count.clear()
     with pytest.raises(ConfigurationPathError):
         arm.get_nonlinear_path([9.0, 9.0, 9.0], euler=[0.0, 0.0, 0.0], trials=300, max_time_ms=10)
-    assert calls.count["getObjectMatrix"] == 2 and calls.count["findConfig"] == 1
+    assert calls.count["findConfig"] == 1 and calls.count["findConfigs"] == 5
     assert "createTask" not in calls.count
 
 

@@ -96,6 +96,7 @@ def test_find_config_gates_its_restarts_by_the_tips_distance(rig, monkeypatch):
     target, measured with ``metric`` {x, y, z, angle}: a 4-value metric on a 6-joint arm is
     valid (simx had read it as a joint metric and refused it)."""
     from simx_server.api.simik import environments
+    from simx_server.sim import ik_batch
 
     s, sim, ik = rig
     env, g, _ = _group(sim, ik)
@@ -105,17 +106,50 @@ def test_find_config_gates_its_restarts_by_the_tips_distance(rig, monkeypatch):
     sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.06, pos[2]])
     config = ik.findConfig(env, g, joints, 0.65, 0.5, [1, 1, 1, 0.1])
     assert config is not None and len(config) == 6
-    solves = []
-    real = environments.solve
+    solves, batched = [], []
+    real, real_batch = environments.solve, ik_batch.Chain.solve
     monkeypatch.setattr(environments, "solve", lambda *a, **k: solves.append(1) or real(*a, **k))
+    monkeypatch.setattr(ik_batch.Chain, "solve", lambda self, q, *a, **k: batched.append(len(q)) or real_batch(self, q, *a, **k))
     sim.setObjectPosition(target, -1, [pos[0] + 3.0, pos[1], pos[2]])  # out of reach: every solve fails
     assert ik.findConfig(env, g, joints, 0.0, 0.2) is None
-    assert len(solves) == 1  # the first, from the current configuration; no random one is near
+    assert len(solves) == 1 and not batched  # the first, from the current configuration; no random one is near
     solves.clear()
     assert ik.findConfig(env, g, joints, 0.0, 0.2, [0, 0, 0, 0]) is None  # every distance weighs 0
-    assert len(solves) > 1
+    assert len(solves) == 1 and sum(batched) > 1  # random starts, solved together
     with pytest.raises(ArgumentError, match="metric"):
         ik.findConfig(env, g, joints, 0.1, 0.1, [1, 1, -1, 0.1])
+
+
+def test_find_configs_from_random_starts_only_finds_many(rig, monkeypatch):
+    """simx's own findConfigs parameters, PyRep's sampling search: ``fromCurrent = false`` solves
+    no IK from the current configuration, ``thresholdDist`` gates the random starts as
+    findConfig's; with ``findMultiple`` every distinct configuration found in ``maxTime``
+    comes back, each reaching the target, nearest the current configuration first."""
+    from simx_server.api.simik import environments
+
+    _, sim, ik = rig
+    env, g, _ = _group(sim, ik)
+    joints = ik.getGroupJoints(env, g)
+    tip, target = sim.getObject("/UR5_tip"), sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.06, pos[2]])
+    current = [ik.getJointPosition(env, j) for j in joints]
+    starts = []
+    real = environments.solve
+    monkeypatch.setattr(environments, "solve", lambda *a, **k: starts.append(list(k["q0"])) or real(*a, **k))
+    configs = ik.findConfigs(env, g, joints, {"maxTime": 0.5, "findMultiple": True, "fromCurrent": False,
+                                              "thresholdDist": 0.65, "seed": 3})
+    assert len(configs) >= 2
+    assert all(start != pytest.approx(current) for start in starts)  # every exact solve confirms a batch's find
+    distances = [math.dist(c, current) for c in configs]
+    assert distances == sorted(distances)
+    for config in configs:
+        for j, q in zip(joints, config):
+            ik.setJointPosition(env, j, q)
+        assert ik.getObjectPose(env, tip)[:3] == pytest.approx(sim.getObjectPosition(target, -1), abs=1e-3)
+    for j, q in zip(joints, current):
+        ik.setJointPosition(env, j, q)
+    assert ik.findConfigs(env, g, joints, {"maxTime": 0.1, "fromCurrent": False, "thresholdDist": 0.0}) == []
 
 
 def test_a_search_over_some_of_the_groups_joints_holds_the_others(rig):

@@ -157,13 +157,14 @@ def test_convex_decomposition_runs_off_the_simulation_thread(clients):
 def test_find_config_is_bounded_by_a_requests_budget(tmp_path, monkeypatch):
     """simIK.findConfig with maxTime 1e9 searched 10 s on the simulation thread: a ZMQ client's
     search ends within limits.MAX_REQUEST_SECONDS, a script's keeps its maxTime (up to 10 s).
-    In-process, each restart and each random configuration's distance check (CoppeliaSim 4.1's
-    gate: none lies within 0.1 m of a target out of reach) made to take 0.25 s of a stand-in
-    clock: counted, not timed."""
+    In-process, each solve and each batch of random configurations' distance checks (CoppeliaSim
+    4.1's gate: none lies within 0.1 m of a target out of reach) made to take 0.25 s of a
+    stand-in clock: counted, not timed."""
     from simx_server.api import client_context, script_sim
-    from simx_server.api.simik import calls, config_gate, environments
+    from simx_server.api.simik import config_gate, environments, search
     from simx_server.base import limits
     from simx_server.scene.simulation import Simulation
+    from simx_server.sim import ik_batch
 
     (tmp_path / "scene.xml").write_text(SCENE)
     simulation = Simulation(tmp_path / "scene.xml", realtime=False)
@@ -182,14 +183,22 @@ def test_find_config_is_bounded_by_a_requests_budget(tmp_path, monkeypatch):
         clock[0] += 0.25
         return far(*args)
 
-    monkeypatch.setattr(calls.time, "monotonic", lambda: clock[0])
+    gate = ik_batch.Chain.gate
+
+    def counted_gate(*args):
+        restarts.append(1)
+        clock[0] += 0.25
+        return gate(*args)
+
+    monkeypatch.setattr(search.time, "monotonic", lambda: clock[0])
     monkeypatch.setattr(environments, "solve", counted)
     monkeypatch.setattr(config_gate, "far", counted_far)
+    monkeypatch.setattr(ik_batch.Chain, "gate", counted_gate)
     try:
         for ctx, seconds in ((client_context(simulation), limits.MAX_REQUEST_SECONDS),
                              (script_sim(simulation.world, simulation.world.resolve("Post").handle, simulation.signals,
                                          simulation=simulation).context,
-                              calls.MAX_SEARCH_SECONDS)):
+                              search.MAX_SEARCH_SECONDS)):
             sim, ik = ctx.sim, ctx.simik
             joint, link = sim.getObject("/Joint1"), sim.getObject("/Link1")
             env = ik.createEnvironment()

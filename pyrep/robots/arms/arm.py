@@ -206,9 +206,7 @@ class Arm(RobotComponent):
         prev_pose = self._ik_target.get_pose()  # as PyRep: the target dummy is put back afterwards
         try:
             self._target_matrix(position, euler, quaternion, relative_to)  # IK pulls the tip onto the target
-            lo, hi = self._limits()
-            lo, hi = np.maximum(lo, -2 * np.pi), np.minimum(hi, 2 * np.pi)  # as PyRep: huge intervals limited
-            found = sampling.sample_configs(self, lo, hi, trials, max_configs, distance_threshold, max_time_ms,
+            found = sampling.sample_configs(self, trials, max_configs, distance_threshold, max_time_ms,
                                             ignore_collisions)
         finally:
             self._ik_target.set_pose(prev_pose)

@@ -3,12 +3,12 @@
 PyRep calls CoppeliaSim 4.1's ``sim.getConfigForTipPose`` ``trials`` times, each searching random
 configurations for at most ``max_time_ms`` (coppeliaSimLib ``CIkGroup::getConfigForTipPose``, the
 IK plug-in's ``ikGetConfigForTipPose``), and stops once it has ``max_configs``: a failing search
-gives up after ``trials * max_time_ms`` (3 s with PyRep's defaults). Here too: a try draws
-random configurations (set in a simIK environment of the table: the server's copy of the
-kinematics) until the tip comes within ``distance_threshold`` of the target, and only then
-solves IK (``simIK.findConfig``, the server's damped least squares); a configuration found is
-kept when it does not collide (``ignore_collisions`` off), as ``sim.getConfigForTipPose``
-checks its collision pairs.
+gives up after ``trials * max_time_ms`` (3 s with PyRep's defaults). Here too, in a simIK
+environment of the table (the server's copy of the kinematics): a try solves IK only from
+random configurations whose tip comes within ``distance_threshold`` of the target (the server's
+damped least squares, many starts at once: :mod:`simx_server.sim.ik_batch`); a configuration
+found is kept when it does not collide (``ignore_collisions`` off), as
+``sim.getConfigForTipPose`` checks its collision pairs.
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from pyrep.backend import sim
-from pyrep.robots.arms import planning
 
 #: simIK's constraint bits in the order of ``Arm._constraints`` (x, y, z, alpha-beta, alpha-beta, gamma)
 _CONSTRAINT_BITS = (1, 2, 4, 8, 8, 16)
@@ -45,36 +44,27 @@ def ik_environment(arm: Any) -> tuple[Any, Any, list[int]]:
     return made[0], made[1], made[2]
 
 
-def _tip_distance(env: Any, tip: int, target: np.ndarray) -> float:
-    """sim.getConfigForTipPose's distance of the tip (the environment's configuration) to the
-    target (4, 4), with its default metric {1, 1, 1, 0.1}: position (m) and 0.1 x angle (rad)."""
-    m = np.array(sim.ik_call("getObjectMatrix", env, tip, -1), dtype=float).reshape(3, 4)
-    r = target[:3, :3] @ m[:, :3].T
-    angle = planning.rotation_angle(r)
-    return float(np.sqrt(np.sum((target[:3, 3] - m[:, 3]) ** 2) + (0.1 * angle) ** 2))
-
-
-def sample_configs(arm: Any, lo: np.ndarray, hi: np.ndarray, trials: int, max_configs: int,
-                   distance_threshold: float, max_time_ms: int, ignore_collisions: bool) -> list[np.ndarray]:
+def sample_configs(arm: Any, trials: int, max_configs: int, distance_threshold: float, max_time_ms: int,
+                   ignore_collisions: bool) -> list[np.ndarray]:
     """Configurations (n,) each that put the tip on the target (its pose as the scene has it
     now), found in at most ``trials`` tries of ``max_time_ms`` ms.
 
     The first try solves IK from the arm's current configuration (``simIK.findConfig``: the
-    solution nearest to it, which CoppeliaSim's random search may or may not find). Every other
-    try draws random configurations within ``lo`` .. ``hi`` until one puts the tip within
-    ``distance_threshold`` of the target (the metric of sim.getConfigForTipPose: m, and 0.1 x
-    rad), then solves IK from it; a try with no configuration that near ends at ``max_time_ms``
-    without solving, as CoppeliaSim's.
+    solution nearest to it, which CoppeliaSim's random search may or may not find), then from
+    random configurations for the rest of its time. Every other try solves only from random
+    configurations within the joints' ranges whose tips lie within ``distance_threshold`` of the
+    target (the metric of sim.getConfigForTipPose: m, and 0.1 x rad), as CoppeliaSim's
+    ``ikGetConfigForTipPose`` (``simIK.findConfigs`` with ``fromCurrent`` off and that
+    ``thresholdDist``, batched: :mod:`simx_server.sim.ik_batch`), and keeps every configuration
+    it finds within ``max_time_ms``.
 
     Args:
         arm: the ``Arm``.
-        lo: (n,) lower joint limits (rad or m) the random configurations are drawn within.
-        hi: (n,) upper limits.
         trials: tries at most.
         max_configs: stop once this many are found.
         distance_threshold: m (with the metric above).
-        max_time_ms: ms per try (a try that solves IK may take one solve longer); the whole
-            search stops after ``trials * max_time_ms`` ms.
+        max_time_ms: ms per try (the first may take one solve longer); the whole search stops
+            after ``trials * max_time_ms`` ms.
         ignore_collisions: keep colliding configurations too.
 
     Returns:
@@ -87,37 +77,32 @@ def sample_configs(arm: Any, lo: np.ndarray, hi: np.ndarray, trials: int, max_co
     if wanted != arm._sampling_ik[3]:  # the element's constraints changed (set_ik_element_properties)
         arm._sampling_ik = None
         env, group, joints = ik_environment(arm)
-    tip, target = arm._ik_tip.get_handle(), arm._ik_target.get_matrix()
     start = np.array(arm.get_joint_positions(), dtype=float)
-    rng = np.random.default_rng()
     found: list[np.ndarray] = []
     per_try = max(int(max_time_ms), 1) / 1000.0
     deadline = monotonic() + max(int(trials), 1) * per_try  # PyRep's whole search at most
-    seed: np.ndarray | None = start
+    for j, v in zip(joints, start):
+        sim.ik_call("setJointPosition", env, j, float(v))
     try:
         for trial in range(max(int(trials), 1)):
-            now = monotonic()
-            if trial and now >= deadline:
+            if trial and monotonic() >= deadline:
                 break
-            end, config = now + per_try, None
-            while True:
-                q = rng.uniform(lo, hi) if seed is None else seed
-                for j, v in zip(joints, q):
-                    sim.ik_call("setJointPosition", env, j, float(v))
-                if seed is not None or _tip_distance(env, tip, target) <= distance_threshold:
-                    seed = None
-                    config = sim.ik_call("findConfig", env, group, joints, float(distance_threshold), per_try)
-                    break
-                if monotonic() >= end:
-                    break
-            if not config:
-                continue
-            q = np.array(config, dtype=float)
-            if not ignore_collisions and arm._collides(q):
-                continue
-            found.append(q)
-            if len(found) >= max_configs:
-                break
+            if trial == 0:  # from the arm's configuration first, then random restarts
+                config = sim.ik_call("findConfig", env, group, joints, float(distance_threshold), per_try)
+                configs = [config] if config else []
+            else:  # random restarts only, every one found within the try
+                configs = sim.ik_call("findConfigs", env, group, joints,
+                                      {"maxTime": per_try, "findMultiple": True, "fromCurrent": False,
+                                       "thresholdDist": float(distance_threshold)})
+            for config in configs:
+                q = np.array(config, dtype=float)
+                if any(np.allclose(q, f, atol=1e-3) for f in found):
+                    continue
+                if not ignore_collisions and arm._collides(q):
+                    continue
+                found.append(q)
+                if len(found) >= max_configs:
+                    return found
     finally:
         arm.set_joint_positions(start.tolist())
     return found

@@ -6,7 +6,7 @@ environment (:mod:`.storage`); importing this package registers every ``simIK.NA
 from __future__ import annotations
 
 from simx_server.api.registry import SIMIK
-from simx_server.api.simik import calls, chains, dummies, environments, storage  # noqa: F401 (each module registers its functions)
+from simx_server.api.simik import calls, chains, dummies, environments, search, storage  # noqa: F401 (each module registers its functions)
 from simx_server.api.simik.environments import CONSTANTS
 
 SIMIK.constants.update(CONSTANTS)

@@ -1,19 +1,17 @@
-"""``simIK``'s solving, configuration search, path, joint and object calls, over the environments
-of :mod:`simx_server.api.simik.environments` (apart from them to keep each module short)."""
+"""``simIK``'s solving, path, joint and object calls, over the environments of
+:mod:`simx_server.api.simik.environments` (apart from them to keep each module short; the
+configuration search is :mod:`simx_server.api.simik.search`)."""
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from simx_server.api import long_calls
 from simx_server.api.context import CallContext
-from simx_server.base import limits as L
 from simx_server.api.registry import simik_function
-from simx_server.api.simik import chains as _chains, config_gate as _gate, dummies as _dummies, environments as _environments
+from simx_server.api.simik import chains as _chains, dummies as _dummies, environments as _environments
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.api.sim.misc import alternate_configs
 from simx_server.sim import ik_solver as S
@@ -25,7 +23,7 @@ from simx_server.sim.rotations import euler_from_matrix, matrix_from_euler, matr
 
 RESULT_NOT_PERFORMED, RESULT_SUCCESS, RESULT_FAIL = 0, 1, 2
 CALC_NOTPERFORMED, CALC_NOTWITHINTOLERANCE = 1, 16
-MAX_PATH_POINTS, MAX_SEARCH_SECONDS = 10_000, 10.0
+MAX_PATH_POINTS = 10_000
 
 
 def _precision(ctx: CallContext, env, g) -> list[float]:
@@ -126,76 +124,6 @@ def syncToSim(ctx: CallContext, environmentHandle: Any, ikGroups: Any = None) ->
         joints = _environments.joints_of(ctx, env, g)
         _environments.write_scene(ctx, *_environments.with_slaves(ctx, env, joints,
                                                                   [_environments.q_of(ctx, env, j) for j in joints]))
-
-
-@simik_function("findConfigs")
-def findConfigs(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, params: Any = None,  # noqa: N802, N803
-                configs: Any = None) -> list[list[float]]:
-    """Configurations of ``jointHandles`` that put the group's tips on their targets: random
-    restarts within the joints' ranges (unlimited hinges: ±pi), each solved by damped least
-    squares. ``params``: ``maxTime`` (s, default 0.5, at most 10; a ZMQ client's at most
-    ``limits.MAX_REQUEST_SECONDS``: it holds the simulation thread), ``findMultiple`` (default
-    false: the first found), ``maxDist`` (keep configs closer than this to the current one,
-    ``pMetric`` weighting it). Sorted by distance to the current configuration; empty when none."""
-    return _find(ctx, environmentHandle, ikGroupHandle, jointHandles, params)
-
-
-def _find(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, params: Any,  # noqa: N803
-          gate: tuple[float, np.ndarray] | None = None) -> list[list[float]]:
-    """:func:`findConfigs`; ``gate`` ``(thresholdDist, metric)``: restarts gated (``config_gate``)."""
-    env = _environments.env_of(ctx, environmentHandle)
-    g = _environments.group_of(ctx, env, ikGroupHandle)
-    with _chains.only_joints(ctx, env, g, jointHandles) as joints:
-        p = _options(params)
-        bound = L.MAX_REQUEST_SECONDS if long_calls.off_thread(ctx) else MAX_SEARCH_SECONDS  # maxTime 1e9 held all 10 s
-        max_time = min(_num(p.get("maxTime", 0.5), "maxTime"), bound)
-        multiple = bool(p.get("findMultiple", False))
-        max_dist = p.get("maxDist")
-        metric = np.ones(len(joints)) if p.get("pMetric") is None else np.array(_vector(p["pMetric"], len(joints), "pMetric"))
-        order = _environments.joints_of(ctx, env, g)
-        m = ctx.world.model
-        jid = [ctx.world.get(j).mj_id for j in order]
-        low = np.array([m.jnt_range[j][0] if m.jnt_limited[j] else -np.pi for j in jid])
-        high = np.array([m.jnt_range[j][1] if m.jnt_limited[j] else np.pi for j in jid])
-        current = np.array([_environments.q_of(ctx, env, j) for j in order])
-        rng = np.random.default_rng(int(p.get("seed", 0)) if "seed" in p else None)
-        method, damping = g.method, g.damping
-        g.method, g.damping = S.METHOD_DLS, max(g.damping, 0.05)
-        found: list[np.ndarray] = []
-        deadline = time.monotonic() + max_time
-        try:
-            start = current
-            while time.monotonic() < deadline:
-                ok, _, q = _environments.solve(ctx, env, g, q0=start.copy(), iterations=max(g.iterations, 100))
-                if ok and not any(np.allclose(q, f, atol=1e-3) for f in found):
-                    d = float(np.sqrt(np.sum((metric * (q - current)) ** 2)))
-                    if max_dist is None or d <= _num(max_dist, "maxDist"):
-                        found.append(q)
-                        if not multiple:
-                            break
-                start = rng.uniform(low, high)
-                while gate and _gate.far(ctx, env, g, order, start, gate) and time.monotonic() < deadline:
-                    start = rng.uniform(low, high)
-        finally:
-            g.method, g.damping = method, damping
-        found.sort(key=lambda q: float(np.sqrt(np.sum((metric * (q - current)) ** 2))))
-        index = [order.index(j) for j in joints]
-        return [[float(q[i]) for i in index] for q in found]
-
-
-@simik_function("findConfig", "getConfigForTipPose")
-def findConfig(ctx: CallContext, environmentHandle: Any, ikGroupHandle: Any, jointHandles: Any, thresholdDist: Any = 0.1,  # noqa: N802, N803
-               maxTime: Any = 0.5, metric: Any = None, callback: Any = None, auxData: Any = None) -> list[float] | None:  # noqa: N803
-    """CoppeliaSim 4.0-4.2: the first configuration :func:`findConfigs` finds, nil when none
-    (``maxTime`` in s; a ``callback`` is refused: simx cannot call back a client). After the first
-    solve, from the current configuration, IK starts only from random configurations whose tips
-    lie within ``thresholdDist`` of their targets in ``metric`` ({x, y, z, angle} weights, default
-    {1, 1, 1, 0.1}), as coppeliaKinematicsRoutines 4.1's ``ikGetConfigForTipPose``."""
-    if callback is not None:
-        raise UnsupportedError("simIK.findConfig with a callback: simx cannot call a client's function")
-    gate = (_num(thresholdDist, "thresholdDist"), _gate.metric_of(metric))
-    found = _find(ctx, environmentHandle, ikGroupHandle, jointHandles, {"maxTime": maxTime}, gate)
-    return found[0] if found else None
 
 
 @simik_function("generatePath")
