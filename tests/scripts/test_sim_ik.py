@@ -37,6 +37,16 @@ def _group(sim, ik, constraints=31):
     return env, g, el
 
 
+def _target_moved(sim, ik):
+    """A full-pose group, its joints, the UR5's tip and target, and where the target was before
+    it moved 6 cm along y."""
+    env, g, _ = _group(sim, ik)
+    tip, target = sim.getObject("/UR5_tip"), sim.getObject("/UR5_target")
+    pos = sim.getObjectPosition(target, -1)
+    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.06, pos[2]])
+    return env, g, ik.getGroupJoints(env, g), tip, target, pos
+
+
 def test_handle_group_reaches_a_moved_target_and_syncs_the_scene(rig):
     s, sim, ik = rig
     env, g, el = _group(sim, ik)
@@ -71,11 +81,7 @@ def test_element_settings_round_trip_and_errors(rig):
 
 def test_find_configs_and_generate_path(rig):
     _, sim, ik = rig
-    env, g, _ = _group(sim, ik)
-    joints = ik.getGroupJoints(env, g)
-    tip, target = sim.getObject("/UR5_tip"), sim.getObject("/UR5_target")
-    pos = sim.getObjectPosition(target, -1)
-    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.06, pos[2]])
+    env, g, joints, tip, target, pos = _target_moved(sim, ik)
     configs = ik.findConfigs(env, g, joints, {"maxTime": 2, "findMultiple": False})
     assert len(configs) == 1 and len(configs[0]) == 6
     for j, q in zip(joints, configs[0]):
@@ -128,11 +134,7 @@ def test_find_configs_from_random_starts_only_finds_many(rig, monkeypatch):
     from simx_server.api.simik import environments
 
     _, sim, ik = rig
-    env, g, _ = _group(sim, ik)
-    joints = ik.getGroupJoints(env, g)
-    tip, target = sim.getObject("/UR5_tip"), sim.getObject("/UR5_target")
-    pos = sim.getObjectPosition(target, -1)
-    sim.setObjectPosition(target, -1, [pos[0], pos[1] + 0.06, pos[2]])
+    env, g, joints, tip, target, pos = _target_moved(sim, ik)
     current = [ik.getJointPosition(env, j) for j in joints]
     starts = []
     real = environments.solve
