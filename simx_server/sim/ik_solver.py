@@ -187,6 +187,31 @@ def jacobian(world, data, rows: list, dadr: np.ndarray, columns: np.ndarray | No
     return np.vstack(blocks) if blocks else np.zeros((0, len(dadr)))
 
 
+def bounds(model: mujoco.MjModel, jids: list[int], margins: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where :func:`solve` clamps each joint: its range, each limited joint ``margins`` inside it
+    (at most to its middle), an unlimited joint's bounds infinite.
+
+    Args:
+        model: the MuJoCo model.
+        jids: MuJoCo joint ids.
+        margins: (len(jids),) rad or m, or None.
+
+    Returns:
+        ``(low, high, top)``, (len(jids),) each: the bounds, and the ranges' upper ends before
+        the margins (where ``simIK``'s numeric Jacobian is clamped).
+    """
+    limited = np.array([bool(model.jnt_limited[j]) for j in jids])
+    low = np.where(limited, [model.jnt_range[j][0] for j in jids], -np.inf)
+    high = np.where(limited, [model.jnt_range[j][1] for j in jids], np.inf)
+    top = high.copy()
+    if margins is not None:  # an unlimited joint's bounds stay infinite (their middle is NaN)
+        mid = np.where(limited, (np.where(limited, low, 0) + np.where(limited, high, 0)) / 2, 0.0)
+        low = np.where(limited, np.minimum(low + margins, mid), low)
+        high = np.where(limited, np.maximum(high - margins, mid), high)
+    return low, high, top
+
+
 def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, elements: list[Element],
           method: int, damping: float, iterations: int, max_step: np.ndarray,
           targets: dict[int, tuple] | None = None, weights: np.ndarray | None = None,
@@ -248,14 +273,7 @@ def solve(world, scratch: mujoco.MjData, joints: list[int], q: np.ndarray, eleme
     dadr = np.array([world.model.jnt_dofadr[world.get(h).mj_id] for h in joints], int)
     jid = [world.get(h).mj_id for h in joints]
     hinge = np.array([int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE for j in jid], bool)
-    limited = np.array([bool(m.jnt_limited[j]) for j in jid])
-    low = np.where(limited, [m.jnt_range[j][0] for j in jid], -np.inf)
-    high = np.where(limited, [m.jnt_range[j][1] for j in jid], np.inf)
-    top = high.copy()  # the range's upper end, before margins: the Jacobian's clamp
-    if margins is not None:  # an unlimited joint's bounds stay infinite (their middle is NaN)
-        mid = np.where(limited, (np.where(limited, low, 0) + np.where(limited, high, 0)) / 2, 0.0)
-        low = np.where(limited, np.minimum(low + margins, mid), low)
-        high = np.where(limited, np.maximum(high - margins, mid), high)
+    low, high, top = bounds(m, jid, margins)
     w = np.ones(len(joints)) if weights is None else np.asarray(weights, float)
     targets = targets or {}
     q = np.clip(np.asarray(q, float), low, high)

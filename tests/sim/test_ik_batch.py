@@ -108,7 +108,7 @@ def test_solutions_reach_the_target_in_mujocos_kinematics(rig):
     low, high = model.jnt_range[:, 0], model.jnt_range[:, 1]
     q, ok, err = chain.solve(rng.uniform(low, high, (64, model.njnt)), low, high, high, 0.05, 100,
                              np.ones(model.njnt))
-    assert ok.sum() >= 3 and (err[ok] >= 0).all()
+    assert ok.sum() >= 3 and (err[ok] <= np.hypot(1e-4, 1e-3) + 1e-12).all()  # within the element's precision
     d = mujoco.MjData(model)
     for row in q[ok]:
         assert ((row >= low - 1e-12) & (row <= high + 1e-12)).all()

@@ -145,13 +145,7 @@ def _find_batched(ctx: CallContext, env: Any, g: Any, order: list[int], chain: i
     keeps it (True: the search ends)."""
     m = ctx.world.model
     jid = [ctx.world.get(j).mj_id for j in order]
-    limited = np.array([bool(m.jnt_limited[j]) for j in jid])
-    top = np.where(limited, [m.jnt_range[j][1] for j in jid], np.inf)
-    bottom = np.where(limited, [m.jnt_range[j][0] for j in jid], -np.inf)
-    margins = np.array([env.margin.get(j, 0.0) for j in order])
-    middle = np.where(limited, (np.where(limited, bottom, 0) + np.where(limited, top, 0)) / 2, 0.0)
-    lo = np.where(limited, np.minimum(bottom + margins, middle), bottom)
-    hi = np.where(limited, np.maximum(top - margins, middle), top)
+    lo, hi, top = S.bounds(m, jid, np.array([env.margin.get(j, 0.0) for j in order]))
     weights = np.array([env.weight.get(j, 1.0) for j in order])
     iterations = max(g.iterations, 100)
     while time.monotonic() < deadline:
