@@ -243,6 +243,13 @@ class SensorRenderer(mujoco.Renderer):
         self._mjr_context = None
         self._gl_context = None
 
+    def __del__(self) -> None:
+        """Nothing: GL objects are freed on the render thread, where its context is current
+        (:meth:`RenderThread.free`, :meth:`RenderThread.close`). ``mujoco.Renderer.__del__``
+        closes; the garbage collector runs it on any thread, and on a renderer still open when
+        the interpreter ends (a program that never called ``PyRep.shutdown``), after imports
+        have stopped: the process's end frees the context."""
+
 
 class RenderThread:
     """A render thread and the state only it touches: its GL context and the renderers in it
