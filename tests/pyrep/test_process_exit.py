@@ -1,9 +1,9 @@
 """A PyRep program that ends without ``shutdown()`` (its last line run, an uncaught error,
-``sys.exit``) exits quietly: PyRep's own example programs and RLBench scripts often do. Its
-renderers are still open then, and the garbage collector of the ending interpreter called
-``mujoco.Renderer.__del__`` on the main thread: ``close()`` freed GL objects with no current
-context and imported OpenGL after imports had stopped ("Exception ignored in ...
-Renderer.__del__ ... ImportError: sys.meta_path is None, Python is likely shutting down")."""
+``sys.exit``) exits quietly. Its renderers are still open then, and the garbage collector of
+the ending interpreter called ``mujoco.Renderer.__del__`` on the main thread: ``close()`` freed
+GL objects with no current context and imported OpenGL after imports had stopped ("Exception
+ignored in ... Renderer.__del__ ... ImportError: sys.meta_path is None, Python is likely
+shutting down")."""
 
 from __future__ import annotations
 
