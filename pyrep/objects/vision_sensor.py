@@ -75,9 +75,10 @@ class VisionSensor(Object):
         return ObjectType.VISION_SENSOR
 
     def handle_explicitly(self) -> None:
-        """Renders the sensor now (its images then show the scene as it is)."""
+        """Renders the sensor now (its images then show the scene as it is). PyRep reads none
+        of ``sim.handleVisionSensor``'s packets: none is computed (simx's ``packets`` false)."""
         unhandled().discard(self._handle)
-        sim.call("handleVisionSensor", self._handle)
+        sim.call("handleVisionSensor", self._handle, False)
 
     def capture_rgb(self) -> np.ndarray:
         """The RGB image, float32 (h, w, 3) in 0..1, top row first."""

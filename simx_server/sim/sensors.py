@@ -316,7 +316,8 @@ def vision_packet(sim: SimulationView, handle: int) -> list[float]:
     return wait_for(sim.vision.after(vision_read_job(sim, handle)), "readVisionSensor")[1][0]
 
 
-def vision_read_job(sim: SimulationView, handle: int) -> Callable[[], tuple[bool, list[list[float]]]]:
+def vision_read_job(sim: SimulationView, handle: int,
+                    packets: bool = True) -> Callable[[], tuple[bool, list[list[float]]]]:
     """``simxReadVisionSensor``'s frames submitted (simulation thread); the job returned gives
     ``(triggered, packets)`` from them, on the render thread after them: V-REP's default packet
     (:func:`vision_packet`), then one packet per filter step that makes one (blob detection,
@@ -326,6 +327,7 @@ def vision_read_job(sim: SimulationView, handle: int) -> Callable[[], tuple[bool
     Args:
         sim: the simulation.
         handle: a vision sensor's handle.
+        packets: False: the frames and the trigger only (``[]`` for the packets).
 
     Returns:
         A function of no argument that returns ``(triggered, [packet, ...])``.
@@ -334,4 +336,4 @@ def vision_read_job(sim: SimulationView, handle: int) -> Callable[[], tuple[bool
         UnknownObjectError: no such object.
         ObjectTypeError: not a vision sensor.
     """
-    return sim.vision.read_job(handle, override_image(sim, handle, False))
+    return sim.vision.read_job(handle, override_image(sim, handle, False), packets)

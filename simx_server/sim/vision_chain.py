@@ -239,7 +239,8 @@ class VisionChain:
         self._cache[(handle, "filtered")] = (self.world.version, future, thread)
         return future
 
-    def read_job(self, handle: int, image: np.ndarray | None = None) -> Callable[[], tuple[bool, list[list[float]]]]:
+    def read_job(self, handle: int, image: np.ndarray | None = None,
+                 packets: bool = True) -> Callable[[], tuple[bool, list[list[float]]]]:
         """``simxReadVisionSensor``'s result of the world's current state (frames submitted
         now; the job returned computes it on the render thread after them): whether a filter
         triggered, and the packets: V-REP's default packet (:func:`default_packet`, empty when
@@ -250,9 +251,11 @@ class VisionChain:
             handle: a vision sensor's handle.
             image: the image to measure instead of the rendering (a passive sensor's), (h, w, 3)
                 uint8 rows bottom-up; its filters are then not applied.
+            packets: False: the frames and the filters' trigger only, no packet computed (the
+                job still waits for the image, so that a failed render raises).
 
         Returns:
-            The job, giving ``(triggered, [packet, ...])``.
+            The job, giving ``(triggered, [packet, ...])`` (``[]`` without ``packets``).
         """
         rec = self.record(handle)
         if rec is not None:  # handled: the trigger and packets of its callbacks and chain
@@ -262,16 +265,20 @@ class VisionChain:
         raw = (lambda: image) if image is not None else self.raw_image_job(handle)
         # the default packet reads the depth only for V-REP's statistics: a colour-coded sensor's
         # (RLBench's masks) lists handles, and one without statistics has none: no depth frame
-        needs_depth = spec.basic_stats and spec.render_mode != COLOR_CODED
+        needs_depth = packets and spec.basic_stats and spec.render_mode != COLOR_CODED
         depth = self._raw_depth_job(handle) if needs_depth else None
         filtered = self._filtered(handle) if spec.filters and image is None else None
 
         def read() -> tuple[bool, list[list[float]]]:
-            packets = [self.default_packet_of(spec, raw(), depth() if depth is not None else None)]
+            if not packets:
+                raw()
+                trigger = wait_for(filtered, "readVisionSensor").trigger if filtered is not None else False
+                return trigger, []
+            out = [self.default_packet_of(spec, raw(), depth() if depth is not None else None)]
             if filtered is None:
-                return False, packets
+                return False, out
             result = wait_for(filtered, "readVisionSensor")
-            return result.trigger, packets + [list(p) for p in result.packets]
+            return result.trigger, out + [list(p) for p in result.packets]
 
         return read
 

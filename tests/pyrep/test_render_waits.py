@@ -9,6 +9,7 @@ from __future__ import annotations
 import threading
 import time
 
+import numpy as np
 import pytest
 
 from simx_server.base import limits
@@ -58,3 +59,26 @@ def test_a_render_thread_that_does_not_answer_is_given_up(pr, monkeypatch):
         assert time.monotonic() - started < 20  # bounded (0.5 s here), not pytest's timeout
     finally:
         release.set()
+
+
+def test_handle_explicitly_renders_without_computing_packets(pr, monkeypatch):
+    """PyRep's ``handle_explicitly`` reads none of ``sim.handleVisionSensor``'s packets (V-REP's
+    statistics, a mask's handles): it renders the sensor and computes none of them; the image
+    read next is the handled state's."""
+    from pyrep.objects import Shape, VisionSensor
+
+    from simx_server.sim.vision_chain import VisionChain
+
+    cam = VisionSensor("cam")
+    cam.set_explicit_handling(1)
+    computed = []
+    real = VisionChain.default_packet_of
+    monkeypatch.setattr(VisionChain, "default_packet_of",
+                        staticmethod(lambda *a: computed.append(1) or real(*a)))
+    Shape("cube").set_position([0.5, 0.0, 0.31])
+    cam.handle_explicitly()
+    before = cam.capture_rgb()
+    assert computed == [] and before.max() > 0
+    Shape("cube").set_position([5.0, 0.0, 0.31])  # out of view
+    cam.handle_explicitly()
+    assert not np.array_equal(cam.capture_rgb(), before) and computed == []

@@ -91,6 +91,9 @@ def test_sensors_handled_explicitly(api, sim):
     count, packet = api.handleVisionSensor(cam)
     assert count == 0 and len(packet) == 15 and all(0 <= v <= 1 for v in packet)
     assert api.readVisionSensor(cam) == (0, pytest.approx(packet))
+    assert api.handleVisionSensor(cam, False) == (0,)  # simx's own: rendered, no packets computed
+    with pytest.raises(ArgumentError, match="packets"):
+        api.handleVisionSensor(cam, "no")
     assert api.getVisionSensorResolution(cam) == [32, 24]
     img, w, hh = api.getVisionSensorCharImage(cam)
     assert (w, hh) == (32, 24) and len(img) == 32 * 24 * 3
