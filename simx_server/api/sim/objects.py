@@ -423,3 +423,43 @@ def createDummy(ctx: CallContext, size: Any = 0.005, color: Any = None) -> int: 
     return ctx.simulation("createDummy").editor.create_dummy(s, colors)
 
 
+@sim_function("getObjectUid")
+def getObjectUid(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N802, N803
+    """The object's unique id: simx's handles are never given twice, so the handle.
+
+    ``sim.getObjectUid``.
+
+    Args:
+        objectHandle: the object's handle, or ``sim.handle_self``.
+
+    Returns:
+        The handle.
+
+    Raises:
+        UnknownObjectError: no such object.
+    """
+    return ctx.world.get(ctx.h(objectHandle)).handle
+
+
+@sim_function("getObjectFromUid")
+def getObjectFromUid(ctx: CallContext, uid: Any, options: Any = None) -> int:  # noqa: N802
+    """The object of a unique id (its handle); -1 with ``{noError = true}``, else an error.
+
+    ``sim.getObjectFromUid``.
+
+    Args:
+        uid: the unique id.
+        options: ``{noError = true}``, or None.
+
+    Returns:
+        The handle, or -1.
+
+    Raises:
+        UnknownObjectError: no such object (without ``noError``).
+    """
+    h = _int(uid, "uid")
+    if h in ctx.world.objects:
+        return h
+    if isinstance(options, dict) and options.get("noError"):
+        return -1
+    return ctx.world.get(h).handle

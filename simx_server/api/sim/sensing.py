@@ -457,48 +457,6 @@ def getVelocity(ctx: CallContext, shapeHandle: Any) -> tuple[list[float], list[f
     return ctx.sim.getObjectVelocity(ctx.world.get(ctx.h(shapeHandle, "shapeHandle"), SHAPE).handle)
 
 
-@sim_function("getObjectUid")
-def getObjectUid(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N802, N803
-    """The object's unique id: simx's handles are never given twice, so the handle.
-
-    ``sim.getObjectUid``.
-
-    Args:
-        objectHandle: the object's handle, or ``sim.handle_self``.
-
-    Returns:
-        The handle.
-
-    Raises:
-        UnknownObjectError: no such object.
-    """
-    return ctx.world.get(ctx.h(objectHandle)).handle
-
-
-@sim_function("getObjectFromUid")
-def getObjectFromUid(ctx: CallContext, uid: Any, options: Any = None) -> int:  # noqa: N802
-    """The object of a unique id (its handle); -1 with ``{noError = true}``, else an error.
-
-    ``sim.getObjectFromUid``.
-
-    Args:
-        uid: the unique id.
-        options: ``{noError = true}``, or None.
-
-    Returns:
-        The handle, or -1.
-
-    Raises:
-        UnknownObjectError: no such object (without ``noError``).
-    """
-    h = _int(uid, "uid")
-    if h in ctx.world.objects:
-        return h
-    if isinstance(options, dict) and options.get("noError"):
-        return -1
-    return ctx.world.get(h).handle
-
-
 @sim_function("getScriptHandle")
 def getScriptHandle(ctx: CallContext, objectHandleOrName: Any = None) -> int:  # noqa: N802, N803
     """CoppeliaSim 4.0-4.2: the handle of an object's child script (in simx: the object's
@@ -524,6 +482,3 @@ def getScriptHandle(ctx: CallContext, objectHandleOrName: Any = None) -> int:  #
     sim = ctx.view
     scripts = getattr(getattr(sim, "scripts", None), "scripts", {})
     return h if h in scripts else -1
-
-
-
