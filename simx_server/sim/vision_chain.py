@@ -270,15 +270,12 @@ class VisionChain:
         filtered = self._filtered(handle) if spec.filters and image is None else None
 
         def read() -> tuple[bool, list[list[float]]]:
-            if not packets:
-                raw()
-                trigger = wait_for(filtered, "readVisionSensor").trigger if filtered is not None else False
-                return trigger, []
-            out = [self.default_packet_of(spec, raw(), depth() if depth is not None else None)]
+            img = raw()  # waited for without packets too: a failed render raises here
+            out = [self.default_packet_of(spec, img, depth() if depth is not None else None)] if packets else []
             if filtered is None:
                 return False, out
             result = wait_for(filtered, "readVisionSensor")
-            return result.trigger, out + [list(p) for p in result.packets]
+            return result.trigger, (out + [list(p) for p in result.packets]) if packets else out
 
         return read
 
