@@ -66,7 +66,9 @@ class Stalls:
             self.stalled = False
             self._bias = self._no_force
             return self._bias
-        held = velocity_law & (v == last_v) & (v != 0)  # the motors that could be held back
+        held = velocity_law & (v != 0)  # the motors that could be held back: moving, the same target
+        if np.count_nonzero(held):
+            held &= v == last_v
         if not np.count_nonzero(held):
             self.stalled = False
             self._bias = self._no_force

@@ -199,7 +199,7 @@ class Motors:
         self._minv = np.zeros((n, m.nv))
         self._diagonal = self._rows * m.nv + self.dadr  # (M^-1)_ii's places in _minv, flat
         self._views: Views | None = None
-        self._gain_kept: tuple[bytes | None, np.ndarray] = (None, np.zeros(0))  # _gain's
+        self._gain_kept: tuple[tuple | None, np.ndarray] = (None, np.zeros(0))  # _gain's
         self._modes_kept: tuple[bytes | None, tuple] = (None, ())  # _modes'
         self.holds = Holds(m, self.dadr)  # stopped velocity motors (motor_hold)
         self._limits_key: bytes | None = None  # what _lock last wrote into the force ranges (None: unknown)
@@ -236,6 +236,7 @@ class Motors:
         #: ``sim_jointintparam_velocity_lock`` per motor; where each locked motor stopped (NaN: not now).
         self.locked = self.initial_locked.copy()
         self._lock_q = np.full(len(self.act), np.nan)
+        self._lock_kept: tuple | None = None  # _lock's, for the motors locked last
         self.refresh_flags()
         self.stalls.reset(len(self.act))
         self._inertia_at: tuple[float, np.ndarray] = (0.0, np.zeros(0))  # (time, inertia) of this step
@@ -303,7 +304,7 @@ class Motors:
         views = self._views
         if views is None or views.model is not m or views.data is not d:
             views = self._views = Views(m, d, self._lock_eqs, self.qadr, self.dadr)
-            self._limits_key = None
+            self._limits_key = self._lock_kept = None
             self.holds.forget()
         act, g, g2 = self._act_index, self.gear, self._gear2
         q = views.qpos[views.qadr]
@@ -380,7 +381,7 @@ class Motors:
     def _gain(self, dt: float) -> np.ndarray:
         """The position loops' gain (n,) 1/s: V-REP's ``P / 5 ms``, at most ``1 / dt`` (no overshoot
         in a step); kept while the gains and the step are the same."""
-        key = self.pid_p.tobytes() + np.float64(dt).tobytes()
+        key = (self.pid_p.tobytes(), dt)
         if self._gain_kept[0] != key:
             self._gain_kept = (key, np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt))
         return self._gain_kept[1]
@@ -412,25 +413,29 @@ class Motors:
         position law at gain 1/dt (force range written into the model). ``q`` (n,) positions, ``stopped``
         (n,) velocity motors with target 0, ``kp``, ``linear`` and ``goal`` (the position law's targets)
         as :meth:`apply` has them. Returns ``(target, kp, linear)`` with the law-locked motors' entries
-        changed."""
+        changed. While the same motors stay locked (and none was put elsewhere), where they stopped
+        and what their equalities hold are those of the last call: kept, and only written again."""
         lock = self.locked & stopped
-        self._lock_q = lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
         self._locking = np.count_nonzero(self.locked) > 0  # lock is a part of locked
-        pinned = self._pinned
+        key, kept = lock.tobytes(), self._lock_kept
+        if kept is None or kept[0] != key:  # else lock_q would come out as it is (stopped where it was)
+            self._lock_q = lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
+            on = lock[self._pinned]  # MuJoCo's joint equality with one joint: q - qpos0 = eq_data[0]
+            values = (lock_q - views.qpos0[self.qadr])[self._pinned][on]
+            law = lock & ~self._pinned
+            kept = self._lock_kept = (key, on, self._lock_eqs[on], values, law, law.tobytes())
+        _, on, rows, values, law, law_key = kept
         if len(self._lock_eqs):
-            on = lock[pinned]
             views.eq_active[self._lock_eqs] = on
-            # MuJoCo's joint equality with one joint: q - qpos0 = eq_data[0]
-            views.eq_data[self._lock_eqs[on], 0] = (lock_q - views.qpos0[self.qadr])[pinned][on]
-            lock = lock & ~pinned
-        key = lock.tobytes() + self.max_force.tobytes()
-        if key != self._limits_key:  # written once per change: write_force_limits forgets the key
-            force = np.where(lock, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
+            views.eq_data[rows, 0] = values
+        limits = law_key + self.max_force.tobytes()
+        if limits != self._limits_key:  # written once per change: write_force_limits forgets the key
+            force = np.where(law, float(L.MAX_JOINT_FORCE), self.max_force) / np.abs(self.gear)
             views.forcerange[self.act, 0], views.forcerange[self.act, 1] = -force, force
-            self._limits_key, self._law_locked = key, bool(lock.any())
+            self._limits_key, self._law_locked = limits, bool(law.any())
         if not self._law_locked:  # every lock an equality's: the laws as apply() has them
             return goal, kp, linear
-        return (np.where(lock, lock_q, goal), np.where(lock, 1.0 / dt, kp), linear | lock)
+        return (np.where(law, self._lock_q, goal), np.where(law, 1.0 / dt, kp), linear | law)
 
     def _inertia(self, views: Views, dt: float) -> np.ndarray:
         """The joints' effective inertia through the scene's equalities (a motor closing a loop
@@ -471,6 +476,7 @@ class Motors:
         """
         if not np.isnan(self._lock_q[i]):
             self._lock_q[i] = position
+            self._lock_kept = None
 
     def copy_state(self, src: int, dst: int) -> None:
         """Motor ``dst`` takes the flags, targets and limits of motor ``src`` (model copies).
