@@ -43,7 +43,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from benchmarks.pyrep_step import CLOCKS, paired, sensor_floor_renderer
+from benchmarks.pyrep_step import CLOCKS, Follower, paired, sensor_floor_renderer
 
 CAMERAS = ("cam_front", "cam_overhead", "cam_over_shoulder_left", "cam_over_shoulder_right", "cam_wrist")
 TASK = "reach_target"
@@ -100,19 +100,19 @@ class Env:
 
 class Floor:
     """MuJoCo alone on the same compiled model: a step's substeps of ``mj_step`` on a copy of the
-    state, and with ``cameras`` an RGB, depth and segmentation image per RLBench camera."""
+    state (:class:`benchmarks.pyrep_step.Follower`: each round from the state simx's steps reached),
+    and with ``cameras`` an RGB, depth and segmentation image per RLBench camera."""
 
     def __init__(self, env: Env, cameras: bool):
         world = env.pyrep.simulation.world
         self.m = world.model
-        self.d = mujoco.MjData(self.m)
-        mujoco.mj_copyData(self.d, self.m, world.data)
+        self.follower = Follower(self.m, world.data)
         self.substeps = world.substeps
         self.renderer = sensor_floor_renderer(self.m, 128, 128) if cameras else None
         self.ids = [mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_CAMERA, n) for n in CAMERAS] if cameras else []
 
     def step(self) -> None:
-        m, d = self.m, self.d
+        m, d = self.m, self.follower.current()
         for _ in range(self.substeps):
             mujoco.mj_step(m, d)
         r = self.renderer
