@@ -8,7 +8,8 @@ explicitly, its RGB image and depth (m) read, its mask twin handled and read (a 
 image of object handles), 128x128. The point cloud is numpy on the depth image (RLBench's own
 code), not measured here.
 
-The floor runs the same compiled ``MjModel`` on its own ``MjData``: ``mj_step`` as many times as
+The floor runs the same compiled ``MjModel`` on its own ``MjData``, copied from simx's at the
+start of each round (``benchmarks.pyrep_step.Follower``): ``mj_step`` as many times as
 simx's step has substeps, and per camera a ``mujoco.Renderer`` RGB image, depth image and
 segmentation image of the same camera (no shadows, no reflections, no multisampling, as
 simx's sensors). Reports
@@ -38,7 +39,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from benchmarks.pyrep_step import CLOCKS, paired, sensor_floor_renderer
+from benchmarks.pyrep_step import CLOCKS, Follower, paired, sensor_floor_renderer
 
 OWN_SCENE = Path(__file__).resolve().parents[1] / "scenes" / "ur5_rg2_kinect.xml"
 RLBENCH_CAMERAS = ("cam_front", "cam_overhead", "cam_over_shoulder_left", "cam_over_shoulder_right", "cam_wrist")
@@ -130,18 +131,19 @@ def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", pr
             prof.runcall(lambda: [observe() for _ in range(steps)])
             pstats.Stats(prof).sort_stats("tottime").print_stats(25)
         m = world.model
-        d = mujoco.MjData(m)
-        mujoco.mj_copyData(d, m, world.data)
+        follower = Follower(m, world.data)  # each round from the state simx's round reached
         substeps = world.substeps
         renderer = sensor_floor_renderer(m, SIZE, SIZE)
         ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, cam.get_name()) for cam, _ in cams]
 
-        def floor_physics() -> None:
+        def floor_physics() -> mujoco.MjData:
+            d = follower.current()
             for _ in range(substeps):
                 mujoco.mj_step(m, d)
+            return d
 
         def floor_observed() -> None:
-            floor_physics()
+            d = floor_physics()
             for cam in ids:
                 renderer.update_scene(d, camera=cam)
                 flags = renderer.scene.flags  # as simx's sensors render: no shadows, no reflections
