@@ -281,12 +281,14 @@ def force_sensor_reading(sim: SimulationView, handle: int) -> tuple[int, list[fl
     if wrench is None:
         return 0, [0.0] * 3, [0.0] * 3
     m = sim.world.model
-    force, torque = wrench
+    force, torque = wrench  # read-only: child_wrench keeps them
+    out = []
     for kind, vec in ((mujoco.mjtSensor.mjSENS_FORCE, force), (mujoco.mjtSensor.mjSENS_TORQUE, torque)):
         k = site_sensor(m, obj.mj_id, kind)
         if k is not None and m.sensor_cutoff[k] > 0:
-            np.clip(vec, -m.sensor_cutoff[k], m.sensor_cutoff[k], out=vec)
-    return FORCE_STATE_DATA, [float(x) for x in force], [float(x) for x in torque]
+            vec = np.clip(vec, -m.sensor_cutoff[k], m.sensor_cutoff[k])
+        out.append(vec.tolist())
+    return FORCE_STATE_DATA, out[0], out[1]
 
 
 # ----------------------------------------------------------------- vision sensors

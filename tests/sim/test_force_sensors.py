@@ -266,3 +266,81 @@ def test_created_sensor_between_arm_and_hand_weighs_the_grasp(palm):
     _steps(sim, 2)
     a = _acceleration(sim, api.getObject("/lift"))
     assert api.readForceSensor(wrist)[1] == pytest.approx([0.0, 0.0, -0.4 * (G + a)], abs=1e-6)
+
+
+# A 0.2 kg bob 0.5 m out on an arm that turns about z: the sensor (in the bob's body) reads the
+# centripetal force m w^2 r as well as the weight.
+SPIN = """<mujoco model="spin">
+  <option timestep="0.002" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="turn" type="hinge" axis="0 0 1" damping="0"/>
+      <geom type="box" size="0.02 0.02 0.02" mass="1" contype="0" conaffinity="0"/>
+      <body name="bob" pos="0.5 0 0">
+        <site name="ft"/>
+        <geom type="sphere" size="0.02" mass="0.2" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+  <sensor><force name="ft_force" site="ft"/></sensor>
+</mujoco>
+"""
+
+
+def test_a_reading_is_kept_only_while_the_state_is_the_same(mjcf, tmp_path):
+    """child_wrench keeps its answer per state: a second read of the same state is the first,
+    every write that changes what the sensor reads (with or without a step or World.changed)
+    gives a new one, equal to one computed afresh."""
+    from simx_server.sim import force_sensors
+
+    sim, api = mjcf
+    ft, load = api.getObject("/ft"), api.getObject("/load")
+    _steps(sim, 4)
+    d = sim.world.data
+
+    def read_fresh():
+        force_sensors._wrenches(d).clear()
+        return api.readForceSensor(ft)
+
+    first = api.readForceSensor(ft)
+    assert api.readForceSensor(ft) == first == read_fresh()
+    api.setArrayParam(0, [0.0, 0.0, -5.0])  # sim.arrayparam_gravity: no step, no World.changed
+    lighter = api.readForceSensor(ft)
+    assert lighter[1][2] == pytest.approx(0.6 * 5.0, abs=1e-6)
+    assert lighter == read_fresh()
+    api.addForce(load, [0.0, 0.0, 0.0], [0.0, 0.0, 1.0])  # applied for the next step, read now
+    pushed = api.readForceSensor(ft)
+    assert pushed[1][2] == pytest.approx(0.6 * 5.0 - 1.0, abs=1e-6)
+    assert pushed == read_fresh()
+
+    f = tmp_path / "spin.xml"
+    f.write_text(SPIN)
+    spin, sapi = _sim(f)
+    try:
+        sensor, w = sapi.getObject("/ft"), spin.world
+        still = sapi.readForceSensor(sensor)[1]
+        w.data.qvel[w.model.jnt_dofadr[w.get(sapi.getObject("/turn")).mj_id]] = 2.0
+        w.changed()  # a write of the state: a new version
+        turning = sapi.readForceSensor(sensor)[1]
+        assert still[0] == pytest.approx(0.0, abs=1e-9)
+        assert turning[0] == pytest.approx(0.2 * 2.0**2 * 0.5, rel=1e-6)  # pulled in, towards -x
+    finally:
+        spin.close()
+
+
+def test_one_root_sums_as_numpy_sums():
+    """_transmitted's plain-float path for one root gives the bits of numpy's (signed zeros too:
+    numpy's sum of one row adds it to 0.0)."""
+    from simx_server.sim.force_sensors import _cross_rows, _Side, _transmitted
+
+    rng = np.random.default_rng(5)
+    one = _Side(np.ones(4, bool), np.array([1]), np.array([2]), frozenset())
+    for case in range(200):
+        cfrc, com, site = rng.normal(size=(4, 6)), rng.normal(size=(4, 3)), rng.normal(size=3)
+        if case % 3 == 0:
+            cfrc[1, rng.integers(0, 6, 3)] = -0.0
+            com[2], site[:] = 0.0, -0.0
+        rows = cfrc[[1]]
+        numpy_sum = np.concatenate([(rows[:, :3] + _cross_rows(com[[2]] - site, rows[:, 3:])).sum(axis=0),
+                                    rows[:, 3:].sum(axis=0)])
+        assert _transmitted(site, com, cfrc, one).tobytes() == numpy_sum.tobytes()
