@@ -85,6 +85,28 @@ def _bbox(world: World, handle: int, pid: int) -> tuple[np.ndarray, np.ndarray]:
     return box
 
 
+def joint_velocity(world: World, handle: int) -> float:
+    """The velocity (rad/s or m/s) of a hinge or slide joint: ``sim.jointfloatparam_velocity``,
+    ``sim.getJointVelocity`` (coppeliaSimLib ``CJoint::getMeasuredJointVelocity``: MuJoCo's ``qvel``).
+
+    Args:
+        world: the world.
+        handle: a joint's handle.
+
+    Returns:
+        rad/s or m/s.
+
+    Raises:
+        UnknownObjectError: no such object.
+        ObjectTypeError: not a joint, or a spherical one.
+    """
+    obj = _need(world, handle, JOINT, 2012)
+    m = world.model
+    if int(m.jnt_type[obj.mj_id]) not in (_HINGE, _SLIDE):
+        raise ObjectTypeError(f"{_pname(2012)}: joint {obj.name!r} is not revolute nor prismatic")
+    return float(world.data.qvel[m.jnt_dofadr[obj.mj_id]])
+
+
 def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
     """Value of float parameter ``pid`` of object ``handle``; see get_object_float_parameter.
 
@@ -141,13 +163,11 @@ def get_float_param(sim: SimulationView, handle: int, pid: int) -> float:
     if pid in joint_params.FLOAT_PARAMS:
         _need(world, handle, JOINT, pid)
         return joint_params.get_param(world, handle, pid)
-    obj = _need(world, handle, JOINT, pid)
-    m, d = world.model, world.data
-    jtype = int(m.jnt_type[obj.mj_id])
     if pid == 2012:
-        if jtype not in (_HINGE, _SLIDE):
-            raise ObjectTypeError(f"{_pname(pid)}: joint {obj.name!r} is not revolute nor prismatic")
-        return float(d.qvel[m.jnt_dofadr[obj.mj_id]])
+        return joint_velocity(world, handle)
+    obj = _need(world, handle, JOINT, pid)
+    m = world.model
+    jtype = int(m.jnt_type[obj.mj_id])
     if 2013 <= pid <= 2016 and jtype != _BALL:
         raise ObjectTypeError(f"{_pname(pid)}: joint {obj.name!r} is not a spherical (ball) joint")
     mat = joint_matrix(world, handle)

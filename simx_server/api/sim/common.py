@@ -12,7 +12,6 @@ import numpy as np
 from simx_server.api.context import CallContext
 from simx_server.api.registry import sim_function
 from simx_server.api.sim import sensors as _sensors
-from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, UnsupportedError
 from simx_server.base.arguments import as_integer as _int, as_number as _num, as_vector as _vector
 from simx_server.sim import dyn_ctrl, object_params
@@ -170,7 +169,7 @@ def getJointVelocity(ctx: CallContext, jointHandle: Any) -> float:  # noqa: N802
         ObjectTypeError: not a joint.
         UnsupportedError: no simulation behind the script.
     """
-    return object_params.get_float_param(ctx.simulation("getJointVelocity"), ctx.h(jointHandle), C.sim_jointfloatparam_velocity)
+    return object_params.joint_velocity(ctx.simulation("getJointVelocity").world, ctx.h(jointHandle))
 
 
 @sim_function("setJointTargetForce")
