@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import mujoco
@@ -371,10 +372,16 @@ def checkProximitySensor(ctx: CallContext, sensorHandle: Any, entityHandle: Any)
         return detected, dist, point
     if ctx.world.get(e).type == C.sim_object_dummy_type:  # a point (CProxSensorRoutine::_detectDummy)
         found, point = proximity.dummy_reading(ctx.world, _proximity(ctx, sensorHandle), e)
-        return int(found), float(np.linalg.norm(point)), point
+        return int(found), _length(point), point
     found, point, _, _ = proximity.proximity_reading(ctx.simulation("checkProximitySensor"),
                                                     _proximity(ctx, sensorHandle), ctx.world.get(e, SHAPE).handle)
-    return int(found), float(np.linalg.norm(point)), point
+    return int(found), _length(point), point
+
+
+def _length(point: list[float]) -> float:
+    """``float(np.linalg.norm(point))``: its sum (BLAS's dot) and root, without its checks."""
+    p = np.array(point)
+    return math.sqrt(p.dot(p))
 
 
 @sim_function("resetProximitySensor")
