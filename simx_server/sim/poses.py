@@ -129,7 +129,8 @@ class Poses:
         # a .ttt joint's ``ref`` is the position it was saved at, where its body was placed: the
         # moved frame is the base turned (moved) by qpos itself, as V-REP's by its position
         if kind == _HINGE:
-            c, s = np.cos(d.qpos[a]), np.sin(d.qpos[a])
+            q = d.qpos[a]
+            c, s = np.cos(q), np.sin(q)
             r = r @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # r @ Rz(-q)
         elif kind == _SLIDE:
             p = p - float(d.qpos[a]) * r[:, 2]

@@ -86,7 +86,8 @@ def quaternion_from_matrix(r: np.ndarray) -> list[float]:
     """
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, np.ascontiguousarray(r).reshape(9))
-    return [float(q[1]), float(q[2]), float(q[3]), float(q[0])]
+    w, x, y, z = q.tolist()
+    return [x, y, z, w]
 
 
 def rotation_angle(r: np.ndarray) -> float:

@@ -42,7 +42,7 @@ def getJointInterval(ctx: CallContext, objectHandle: Any) -> tuple[bool, list[fl
     """
     obj = _joint(ctx, objectHandle)
     m = ctx.world.model
-    lo, hi = (float(v) for v in m.jnt_range[obj.mj_id])
+    lo, hi = m.jnt_range[obj.mj_id].tolist()
     if not m.jnt_limited[obj.mj_id]:
         if int(m.jnt_type[obj.mj_id]) == _HINGE:
             return True, [-np.pi, 2 * np.pi]
