@@ -230,9 +230,13 @@ def child_wrench(world, sensor: SceneObject) -> tuple[np.ndarray, np.ndarray] | 
         world: the :class:`~simx_server.sim.world.World`, after ``mj_forward``.
         sensor: a force sensor.
 
+    The answer is kept while the state is the same (the world's ``version``, which every
+    ``World.changed`` moves on, and the writes that change the reading without it: a weld switched,
+    gravity, forces applied for the next step): a second read of one state computes nothing.
+
     Returns:
-        ``(force, torque)``, or None when nothing hangs below the sensor (no body on its child
-        side).
+        ``(force, torque)`` (read-only arrays), or None when nothing hangs below the sensor (no
+        body on its child side).
     """
     side = _child_side(world, sensor)
     # The state: its version (every World.changed), and what writes change without a new one
