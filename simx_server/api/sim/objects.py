@@ -351,7 +351,9 @@ def getObjectMatrix(ctx: CallContext, handle: Any, relative_to: Any = -1) -> lis
     """
     h, rel, base, _ = _core.pose_handles(ctx, handle, relative_to)
     p, r = ctx.world.relative_frame(h, rel, base)
-    return np.hstack([r, p.reshape(3, 1)]).reshape(12).tolist()
+    (xx, yx, zx), (xy, yy, zy), (xz, yz, zz) = r.tolist()
+    px, py, pz = p.tolist()
+    return [xx, yx, zx, px, xy, yy, zy, py, xz, yz, zz, pz]
 
 
 @sim_function("setObjectMatrix")
