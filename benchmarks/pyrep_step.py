@@ -5,10 +5,8 @@ The scene: PyRep's Panda arm and Panda gripper (``../shared/pyrep/robot_ttms``) 
 ``step()`` plus one 128x128 RGB image of a vision sensor (``capture_rgb()``, what an RLBench
 observation reads per camera). The floor runs the same compiled ``MjModel`` on its own
 ``MjData``: ``mj_step`` as many times as simx's step has substeps, plus, in the camera case, one
-``mujoco.Renderer`` image of the same camera. The floor's data starts each round from the state
-simx's steps have reached (:class:`Follower`): a copy left to run on its own drifts to other
-contacts and joint limits than simx's, and its cost with it (0.97-1.18 ms a step seen for the
-same scene). Reports ms per step (median of rounds) and the
+``mujoco.Renderer`` image of the same camera. The floor runs on its own ``MjData``, copied from
+simx's before each of simx's steps (:func:`replayed`): both step the same state. Reports ms per step (median of rounds) and the
 ratio to the floor; PyRep on CoppeliaSim 4.1 publishes about 120 ms per RLBench step
 (RLBench #247), for comparison.
 
@@ -23,7 +21,6 @@ Run: ``MUJOCO_GL=egl python -m benchmarks.pyrep_step [--steps N] [--rounds R] [-
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import statistics
 import time
@@ -33,7 +30,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from benchmarks.common import interleaved
 
 MODELS = Path(__file__).resolve().parents[1].parent / "shared" / "pyrep" / "robot_ttms"
 
@@ -70,40 +66,49 @@ def _setup(camera: bool):
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
-class Follower:
-    """The floor's ``MjData``: a copy of simx's (``source``) taken again whenever simx's time has
-    moved since the last copy, so that each round of the floor (:func:`paired`) steps from the
-    state simx's round reached: the same contacts, limits and motors' gains (the model is
-    shared). A copy costs one ``mj_copyData`` per round, not per step."""
-
-    def __init__(self, m: mujoco.MjModel, source: mujoco.MjData):
-        self.m, self.source = m, source
-        self.data = mujoco.MjData(m)
-        self._seen = math.nan
-
-    def current(self) -> mujoco.MjData:
-        """The floor's data, first copied from simx's where simx stepped since the last call."""
-        if self.source.time != self._seen:
-            mujoco.mj_copyData(self.data, self.m, self.source)
-            self._seen = self.source.time
-        return self.data
-
-
-def paired(rounds: int, steps: int, ours: Callable[[], object], floor: Callable[[], object],
-           clock: Callable[[], float]) -> tuple[float, float, float]:
+def replayed(rounds: int, steps: int, ours: Callable[[], object], floor: Callable[[mujoco.MjData], object],
+             m: mujoco.MjModel, source: Callable[[], mujoco.MjData],
+             clock: Callable[[], float]) -> tuple[float, float, float]:
     """``(ours, floor, ratio)``: ms per call of each (medians over ``rounds``) and the median of the
-    rounds' ratios, the two timed side by side in rounds of ``steps`` calls
-    (:func:`benchmarks.common.interleaved`): a drift of the machine's speed moves both sides of a
-    round alike."""
-    times = interleaved(rounds, steps, {"ours": ours, "floor": floor}, warmup=0, budget_s=math.inf, clock=clock)
-    per = {k: [statistics.fmean(v[i:i + steps]) * 1e3 for i in range(0, len(v), steps)] for k, v in times.items()}
-    ratio = statistics.median(a / b for a, b in zip(per["ours"], per["floor"]))
-    return statistics.median(per["ours"]), statistics.median(per["floor"]), ratio
+    rounds' ratios. Before each of simx's calls its data (``source()``) is copied, and right
+    after it the floor runs from that copy: each floor call steps the very state simx's call
+    started from, with the same contacts, joint limits and motors' gains (the model is
+    shared), and the two alternate call by call, so that a drift of a shared machine's speed
+    moves both alike. The copies are not timed. (A floor left to run on its own drifts to
+    other contacts and limits than simx's, and its cost with it: 0.97-1.18 ms a step were seen
+    for the same scene.)
+
+    Args:
+        rounds: rounds of ``steps`` calls each.
+        ours: simx's call.
+        floor: the floor's call, on the data it is given.
+        m: the model both step.
+        source: simx's data now.
+        clock: the timer.
+    """
+    snapshot, data = mujoco.MjData(m), mujoco.MjData(m)
+    per_ours: list[float] = []
+    per_floor: list[float] = []
+    for _ in range(rounds):
+        ours_s = floor_s = 0.0
+        for _ in range(steps):
+            mujoco.mj_copyData(snapshot, m, source())
+            began = clock()
+            ours()
+            ours_s += clock() - began
+            mujoco.mj_copyData(data, m, snapshot)
+            began = clock()
+            floor(data)
+            floor_s += clock() - began
+        per_ours.append(ours_s / steps * 1e3)
+        per_floor.append(floor_s / steps * 1e3)
+    ratio = statistics.median(a / b for a, b in zip(per_ours, per_floor))
+    return statistics.median(per_ours), statistics.median(per_floor), ratio
 
 
 def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple[float, float, float]:
     """``(pyrep ms per step, floor ms per step, ratio)`` by ``clock`` (a key of :data:`CLOCKS`):
-    :func:`paired` over ``rounds`` rounds of ``steps`` steps."""
+    :func:`replayed` over ``rounds`` rounds of ``steps`` steps."""
     pr, sensor = _setup(camera)
     try:
         world = pr.simulation.world
@@ -116,13 +121,11 @@ def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple
         for _ in range(20):
             pyrep_step()
         m = world.model
-        follower = Follower(m, world.data)
         substeps = world.substeps
         renderer = sensor_floor_renderer(m, 128, 128) if sensor is not None else None
         cam = int(np.argmax([m.camera(i).name.startswith("Vision_sensor") for i in range(m.ncam)])) if renderer else -1
 
-        def floor() -> None:
-            d = follower.current()
+        def floor(d: mujoco.MjData) -> None:
             for _ in range(substeps):
                 mujoco.mj_step(m, d)
             if renderer is not None:
@@ -131,9 +134,7 @@ def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple
                 flags[mujoco.mjtRndFlag.mjRND_SHADOW] = flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
                 renderer.render()
 
-        for _ in range(20):
-            floor()
-        out = paired(rounds, steps, pyrep_step, floor, CLOCKS[clock])
+        out = replayed(rounds, steps, pyrep_step, floor, m, lambda: world.data, CLOCKS[clock])
         if renderer is not None:
             renderer.close()
         return out

@@ -4,9 +4,10 @@ RLBench (unchanged: its ``Environment``, ``MoveArmThenGripper(JointVelocity(), D
 ``reach_target``) on an RLBench main scene (``--scene``: the stand-in that
 ``../shared/rlbench/build_task_design.py`` writes, or RLBench's own ``task_design.ttt``), one random
 joint-velocity action per step. Four figures, each the median of rounds in which simx's steps and
-the floor's alternate (:func:`benchmarks.pyrep_step.paired`: a drift of a shared machine's speed
-moves both sides of a round alike), timed by the process's CPU time (every thread's: the render
-thread's and the GL driver's included) unless ``--clock wall``:
+the floor's alternate step by step (:func:`benchmarks.pyrep_step.replayed`: the floor steps the
+state each of simx's steps started from, and a drift of a shared machine's speed moves both
+alike), timed by the process's CPU time (every thread's: the render thread's and the GL driver's
+included) unless ``--clock wall``:
 
 * **low-dim**: observations without cameras (``ObservationConfig.set_all_low_dim``); the floor is
   ``mj_step`` x the step's substeps on a copy of the same compiled model.
@@ -43,7 +44,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from benchmarks.pyrep_step import CLOCKS, Follower, paired, sensor_floor_renderer
+from benchmarks.pyrep_step import CLOCKS, replayed, sensor_floor_renderer
 
 CAMERAS = ("cam_front", "cam_overhead", "cam_over_shoulder_left", "cam_over_shoulder_right", "cam_wrist")
 TASK = "reach_target"
@@ -99,20 +100,20 @@ class Env:
 
 
 class Floor:
-    """MuJoCo alone on the same compiled model: a step's substeps of ``mj_step`` on a copy of the
-    state (:class:`benchmarks.pyrep_step.Follower`: each round from the state simx's steps reached),
+    """MuJoCo alone on the same compiled model: a step's substeps of ``mj_step`` on the data it is
+    given (a copy of the state simx's step started from: :func:`benchmarks.pyrep_step.replayed`),
     and with ``cameras`` an RGB, depth and segmentation image per RLBench camera."""
 
     def __init__(self, env: Env, cameras: bool):
         world = env.pyrep.simulation.world
         self.m = world.model
-        self.follower = Follower(self.m, world.data)
+        self.source = lambda: world.data
         self.substeps = world.substeps
         self.renderer = sensor_floor_renderer(self.m, 128, 128) if cameras else None
         self.ids = [mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_CAMERA, n) for n in CAMERAS] if cameras else []
 
-    def step(self) -> None:
-        m, d = self.m, self.follower.current()
+    def step(self, d: mujoco.MjData) -> None:
+        m = self.m
         for _ in range(self.substeps):
             mujoco.mj_step(m, d)
         r = self.renderer
@@ -141,7 +142,7 @@ def single(scene: Path, cameras: bool, steps: int, rounds: int, clock: str) -> d
             env.step()
         floor = Floor(env, cameras)
         try:
-            ms, floor_ms, ratio = paired(rounds, steps, env.step, floor.step, CLOCKS[clock])
+            ms, floor_ms, ratio = replayed(rounds, steps, env.step, floor.step, floor.m, floor.source, CLOCKS[clock])
             return {"ms": ms, "floor_ms": floor_ms, "ratio": ratio, "substeps": floor.substeps}
         finally:
             floor.close()
@@ -161,8 +162,9 @@ def in_one_process(scene: Path, n: int, steps: int, rounds: int, clock: str) -> 
         for _ in range(5):
             all_of_them()
         floor = Floor(envs[0], False)
-        ms, floor_ms, ratio = paired(rounds, steps, all_of_them, lambda: [floor.step() for _ in range(n)],
-                                     CLOCKS[clock])
+        # the floor steps the first environment's state n times (the envs are copies of one scene)
+        ms, floor_ms, ratio = replayed(rounds, steps, all_of_them, lambda d: [floor.step(d) for _ in range(n)],
+                                       floor.m, floor.source, CLOCKS[clock])
         return {"envs": n, "ms": ms / n, "floor_ms": floor_ms / n, "ratio": ratio}
     finally:
         for e in envs:

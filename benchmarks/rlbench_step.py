@@ -8,13 +8,13 @@ explicitly, its RGB image and depth (m) read, its mask twin handled and read (a 
 image of object handles), 128x128. The point cloud is numpy on the depth image (RLBench's own
 code), not measured here.
 
-The floor runs the same compiled ``MjModel`` on its own ``MjData``, copied from simx's at the
-start of each round (``benchmarks.pyrep_step.Follower``): ``mj_step`` as many times as
+The floor runs the same compiled ``MjModel`` on its own ``MjData``, copied from simx's before
+each of simx's steps (``benchmarks.pyrep_step.replayed``): ``mj_step`` as many times as
 simx's step has substeps, and per camera a ``mujoco.Renderer`` RGB image, depth image and
 segmentation image of the same camera (no shadows, no reflections, no multisampling, as
 simx's sensors). Reports
-ms per step (median of rounds, simx's and the floor's side by side in each round:
-``benchmarks.pyrep_step.paired``) and the median of the rounds' ratios. Nothing is asserted.
+ms per step (median of rounds, simx's and the floor's steps alternated:
+``benchmarks.pyrep_step.replayed``) and the median of the rounds' ratios. Nothing is asserted.
 
 Scenes: the project's own ``scenes/ur5_rg2_kinect.xml`` (UR5 + RG2, the RG2's scripts run) with
 five 128x128 cameras and their mask twins (``RenderMode.OPENGL_COLOR_CODED``) created around it
@@ -39,7 +39,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from benchmarks.pyrep_step import CLOCKS, Follower, paired, sensor_floor_renderer
+from benchmarks.pyrep_step import CLOCKS, replayed, sensor_floor_renderer
 
 OWN_SCENE = Path(__file__).resolve().parents[1] / "scenes" / "ur5_rg2_kinect.xml"
 RLBENCH_CAMERAS = ("cam_front", "cam_overhead", "cam_over_shoulder_left", "cam_over_shoulder_right", "cam_wrist")
@@ -99,7 +99,7 @@ def _look_at(pos: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 
 def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", profile: bool = False) -> dict:
-    """Per step, ms by ``clock`` (:func:`benchmarks.pyrep_step.paired` over ``rounds``):
+    """Per step, ms by ``clock`` (:func:`benchmarks.pyrep_step.replayed` over ``rounds``):
     ``physics`` (action + ``PyRep.step()``) and ``observed`` (with the five cameras' images) for
     simx, ``floor_physics`` and ``floor_observed`` for MuJoCo alone, and each case's ``*_ratio``."""
     pr, arm, cams = _setup(scene)
@@ -131,19 +131,16 @@ def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", pr
             prof.runcall(lambda: [observe() for _ in range(steps)])
             pstats.Stats(prof).sort_stats("tottime").print_stats(25)
         m = world.model
-        follower = Follower(m, world.data)  # each round from the state simx's round reached
         substeps = world.substeps
         renderer = sensor_floor_renderer(m, SIZE, SIZE)
         ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, cam.get_name()) for cam, _ in cams]
 
-        def floor_physics() -> mujoco.MjData:
-            d = follower.current()
+        def floor_physics(d: mujoco.MjData) -> None:
             for _ in range(substeps):
                 mujoco.mj_step(m, d)
-            return d
 
-        def floor_observed() -> None:
-            d = floor_physics()
+        def floor_observed(d: mujoco.MjData) -> None:
+            floor_physics(d)
             for cam in ids:
                 renderer.update_scene(d, camera=cam)
                 flags = renderer.scene.flags  # as simx's sensors render: no shadows, no reflections
@@ -156,11 +153,10 @@ def measure(scene: Path | None, steps: int, rounds: int, clock: str = "wall", pr
                 renderer.render()
                 renderer.disable_segmentation_rendering()
 
-        for _ in range(10):
-            floor_observed()
         out = {}
         for case, ours, floor in (("physics", act, floor_physics), ("observed", observe, floor_observed)):
-            out[case], out["floor_" + case], out[case + "_ratio"] = paired(rounds, steps, ours, floor, CLOCKS[clock])
+            out[case], out["floor_" + case], out[case + "_ratio"] = replayed(rounds, steps, ours, floor, m,
+                                                                             lambda: world.data, CLOCKS[clock])
         renderer.close()
         return out
     finally:
