@@ -190,8 +190,13 @@ def position_error(motors, jnt_limited: np.ndarray, q: np.ndarray) -> tuple[np.n
     """
     goal = motors.target_position
     err = goal - q
-    cyclic = motors._hinge & (jnt_limited[motors.jnt] == 0)
-    if np.count_nonzero(cyclic):
+    key, cyclic, any_cyclic = motors.cyclic_kept
+    limited = jnt_limited.tobytes()
+    if key != limited:  # the joints' limits changed (kept while they are the same)
+        cyclic = motors._hinge & (jnt_limited[motors.jnt] == 0)
+        any_cyclic = bool(np.count_nonzero(cyclic))
+        motors.cyclic_kept = (limited, cyclic, any_cyclic)
+    if any_cyclic:
         err = np.where(cyclic, np.remainder(err + np.pi, 2 * np.pi) - np.pi, err)
         goal = q + err
     return goal, err

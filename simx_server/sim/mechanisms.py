@@ -123,6 +123,36 @@ def inverse_inertia(m: mujoco.MjModel, d: mujoco.MjData, minv_rows: np.ndarray, 
     return np.clip(w, MIN_FRACTION * open_chain, open_chain)
 
 
+def effective_inertia(m: mujoco.MjModel, d: mujoco.MjData, minv_rows: np.ndarray, unit_rows: np.ndarray,
+                      diagonal: np.ndarray, dofs: np.ndarray, locks: np.ndarray, others: np.ndarray,
+                      eq_active: np.ndarray) -> np.ndarray:
+    """The effective inertia of each of ``dofs`` that a joint motor drives: through the scene's
+    equalities when one is active (a motor closing a loop drives the whole linkage,
+    :func:`inverse_inertia`; a motor's own lock is not a part of the mechanism it drives), else
+    the open chain's ``1 / (M^-1)_ii`` (:func:`inverse_inertia`'s first step).
+
+    Args:
+        m: the model.
+        d: its data after ``mj_forward``.
+        minv_rows: (n, nv), written: rows ``dofs`` of ``M^-1``.
+        unit_rows: (n, nv) the unit rows of ``dofs``.
+        diagonal: (n,) the places of ``(M^-1)_ii`` in ``minv_rows``, flat.
+        dofs: (n,) dof indices.
+        locks: the motors' lock equalities (ignored).
+        others: the other equalities.
+        eq_active: the data's ``eq_active``.
+
+    Returns:
+        (n,) kg or kg·m² (at most 1e12).
+    """
+    mujoco.mj_solveM(m, d, minv_rows, unit_rows)
+    if others.size and np.count_nonzero(eq_active[others]):
+        inverse = inverse_inertia(m, d, minv_rows, dofs, locks)
+    else:
+        inverse = minv_rows.take(diagonal)
+    return np.reciprocal(np.maximum(inverse, 1e-12))  # 1 / x
+
+
 def stiff_solref(timestep: float) -> list[float]:
     """The stiffest ``solref`` (time constant s, damping ratio) MuJoCo takes at ``timestep`` s
     without clamping it: two timesteps, critically damped. A larger timestep later (a changed

@@ -28,7 +28,8 @@ class Stalls:
     """
 
     def __init__(self, n: int) -> None:
-        self._no_force = np.zeros(n)
+        #: What :meth:`force` returns when no motor is held back (never written).
+        self.no_force = np.zeros(n)
         self.reset(n)
 
     def reset(self, n: int) -> None:
@@ -37,7 +38,9 @@ class Stalls:
         Args:
             n: the number of motors.
         """
-        self._last = (np.zeros(0), np.zeros(0), -1.0)  # positions, velocity targets, time at the last call
+        # positions, velocity targets, the velocity motors among them, time at the last call
+        self._last: tuple[np.ndarray, np.ndarray, np.ndarray, float] = (np.zeros(0), np.zeros(0), np.zeros(0, bool),
+                                                                        -1.0)
         self._bias = np.zeros(n)
         #: Some motor is held back: the world applies the motors at every substep.
         self.stalled = False
@@ -57,24 +60,24 @@ class Stalls:
         Returns:
             (n,) the extra force (N or N·m), 0 for the others.
         """
-        last_q, last_v, last_t = self._last
+        last_q, last_v, last_law, last_t = self._last
         elapsed = now - last_t
         if len(last_q) == len(q) and elapsed == 0:  # applied again at the same instant
             return self._bias
-        self._last = (q.copy(), np.where(velocity_law, v, np.nan), now)
+        self._last = (q.copy(), v.copy(), velocity_law, now)  # velocity_law is never written in place
         if len(last_q) != len(q) or not elapsed > 0:
             self.stalled = False
-            self._bias = self._no_force
+            self._bias = self.no_force
             return self._bias
         held = velocity_law & (v != 0)  # the motors that could be held back: moving, the same target
         if np.count_nonzero(held):
-            held &= v == last_v
+            held &= last_law & (v == last_v)
         if not np.count_nonzero(held):
             self.stalled = False
-            self._bias = self._no_force
+            self._bias = self.no_force
             return self._bias
         sign, speed = np.sign(v), np.abs(v)
         blocked = held & ((q - last_q) * sign < STALLED * speed * elapsed) & (qdot * sign < STALLED * speed)
         self.stalled = np.count_nonzero(blocked) > 0
-        self._bias = np.where(blocked, sign * max_force, 0.0) if self.stalled else self._no_force
+        self._bias = np.where(blocked, sign * max_force, 0.0) if self.stalled else self.no_force
         return self._bias

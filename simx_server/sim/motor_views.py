@@ -23,6 +23,23 @@ def slice_or(index: np.ndarray) -> slice | np.ndarray:
     return index
 
 
+def select(mask: np.ndarray, yes: np.ndarray, no: np.ndarray) -> np.ndarray:
+    """``np.where(mask, yes, no)`` for (n,) float arrays, the same values in about a third of its
+    time on a few motors: a copy of ``no`` with ``yes`` written where ``mask``.
+
+    Args:
+        mask: (n,) bool.
+        yes: (n,) or a scalar, taken where ``mask``.
+        no: (n,), taken elsewhere (not written).
+
+    Returns:
+        A new (n,) array.
+    """
+    out = no.copy()
+    np.copyto(out, yes, where=mask)
+    return out
+
+
 class Views:
     """The arrays :meth:`Motors.apply` reads and writes, taken once per ``(model, data)`` (each
     attribute of MuJoCo's bindings builds a new ndarray), and ``others``: the equalities that are

@@ -79,7 +79,7 @@ from simx_server.sim import dyn_ctrl, mechanisms
 from simx_server.sim.joint_springs import Springs
 from simx_server.sim.motor_hold import Holds
 from simx_server.sim.motor_stall import Stalls
-from simx_server.sim.motor_views import Views, slice_or
+from simx_server.sim.motor_views import Views, select as _select, slice_or
 from simx_server.sim.motor_spec import (joint_setting, lock_name, max_force, own_kv, ADDED_PREFIX, JOINT_TRNS,
                                         SCALAR, tendon_driven)
 
@@ -154,6 +154,7 @@ class Motors:
                                  for _, j, _ in mine], dtype=int)
         self._pinned = self.lock_eq >= 0
         self._lock_eqs = self.lock_eq[self._pinned]
+        self._lock_rows = slice_or(self._lock_eqs)  # a slice where they are consecutive (faster writes)
         for a in act:  # one actuator realises both laws; ctrl is a velocity or a position
             m.actuator_gaintype[a] = mujoco.mjtGain.mjGAIN_FIXED
             m.actuator_biastype[a] = mujoco.mjtBias.mjBIAS_AFFINE
@@ -190,15 +191,18 @@ class Motors:
         self._gear2 = self.gear ** 2
         self._own_kv_set, self._no_own_kv = self.own_kv > 0, self.own_kv == 0
         self._any_own_kv = bool(self._own_kv_set.any())
+        self._unit_gear = bool((self.gear == 1.0).all())  # apply() divides by no gear
         self._act_index = slice_or(act)
         self.stalls = Stalls(n)  # velocity motors held back (sim/motor_stall.py)
-        self._none = np.zeros(n, dtype=bool)  # no motor: the spring and hold masks when none applies
+        self._none, self._zeros = np.zeros(n, dtype=bool), np.zeros(n)  # no motor (spring, hold masks); 0.0s
         self._rows = np.arange(n)
         self._unit = np.zeros((n, m.nv))
         self._unit[np.arange(n), self.dadr] = 1.0
         self._minv = np.zeros((n, m.nv))
         self._diagonal = self._rows * m.nv + self.dadr  # (M^-1)_ii's places in _minv, flat
         self._views: Views | None = None
+        #: dyn_ctrl.position_error's cyclic joints: (the model's jnt_limited as bytes, mask, any).
+        self.cyclic_kept: tuple[bytes | None, np.ndarray, bool] = (None, self._none, False)
         self._gain_kept: tuple[tuple | None, np.ndarray] = (None, np.zeros(0))  # _gain's
         self._modes_kept: tuple[bytes | None, tuple] = (None, ())  # _modes'
         self.holds = Holds(m, self.dadr)  # stopped velocity motors (motor_hold)
@@ -305,18 +309,21 @@ class Motors:
         if views is None or views.model is not m or views.data is not d:
             views = self._views = Views(m, d, self._lock_eqs, self.qadr, self.dadr)
             self._limits_key = self._lock_kept = None
+            self.cyclic_kept = (None, self._none, False)  # dyn_ctrl.position_error's, per model
             self.holds.forget()
         act, g, g2 = self._act_index, self.gear, self._gear2
         q = views.qpos[views.qadr]
-        inertia = self._inertia(views, dt)
-        kv = self.kv_fraction * inertia / m.opt.timestep
+        timestep = m.opt.timestep
+        inertia = self._inertia(views, dt, timestep)
+        kv = self.kv_fraction * inertia / timestep
         if self._any_own_kv:
             kv = np.where(self._own_kv_set, self.own_kv, kv)
         dof = views.dadr
         ff = views.qfrc_bias[dof] - views.qfrc_passive[dof]  # static load, joint springs and dampers
         kp = self._gain(dt)
         goal, err = dyn_ctrl.position_error(self, views.jnt_limited, q)  # cyclic joints: the shortest way
-        on, position, velocity_mode, off_loop, positioned = self._modes()
+        kept_on, position, velocity_mode, off_loop, positioned, loaded, unlocked, locking, all_on = self._modes()
+        on = kept_on
         forced = scripted = self._none
         if self.forcing:  # CoppeliaSim 4.x's force and callback modes (dyn_ctrl.py)
             on, forced, scripted = dyn_ctrl.split(self, on)
@@ -330,49 +337,55 @@ class Motors:
             positioned = True
         if positioned:
             linear = position & (np.abs(err) * kp <= self.max_velocity)
-            v = np.where(position, np.sign(err) * self.max_velocity, self.target_velocity)
+            v = _select(position, np.sign(err) * self.max_velocity, self.target_velocity)
         else:  # no motor in position control: every law a velocity
             linear, v = self._none, self.target_velocity
         if springs is not None:
             v = np.where(spring, spring_v, v)
         if scripted is not self._none:
             v = np.where(scripted, self.callback_velocity, v)
-        ff = ff + self.stalls.force(q, views.qvel[dof], v, velocity_mode, float(d.time), self.max_force)
+        held_back = self.stalls.force(q, views.qvel[dof], v, velocity_mode, float(d.time), self.max_force)
+        if held_back is not self.stalls.no_force:  # (adding zeros changes nothing)
+            ff = ff + held_back
         if positioned:  # position control bears its joint's constraint load
-            loaded = position & ~self.scripted
+            if position is not kept_on:  # forcing or springs changed the position motors
+                loaded = position & ~self.scripted
             if np.count_nonzero(loaded):
-                ff = ff - np.where(loaded, views.qfrc_constraint[dof], 0.0)
+                np.subtract(ff, views.qfrc_constraint[dof], out=ff, where=loaded)  # ff is this step's own
         if springs is not None:  # a spring's force follows it at every substep
             self.stalls.stalled = self.stalls.stalled or bool((spring & on).any())
             stopped = velocity_mode & (v == 0) & ~spring  # told to stop (a spring: its force)
         else:
             stopped = velocity_mode & (v == 0)
-        hold = stopped & ~self.locked if self.holds.usable else self._none
+        hold = stopped & unlocked if self.holds.usable else self._none
         self.holds.write(m, hold, self.max_force)
         if self.kv_fraction == IMPLICIT_KV_FRACTION:  # locked (or no friction rows): a stiff servo
-            kv = np.where(stopped & ~hold, HOLD_KV_FACTOR * kv, kv)
+            np.multiply(kv, HOLD_KV_FACTOR, out=kv, where=stopped & ~hold)  # kv is this step's own
         if np.count_nonzero(hold):  # held by its joint's friction row, no actuator force
             on = on & ~hold
             off_loop = off_loop & ~hold
         target = goal
         if self._locking:
-            target, kp, linear = self._lock(views, q, off_loop & (v == 0), dt, kp, linear, goal)
-        # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot)
+            target, kp, linear = self._lock(views, q, off_loop & (v == 0), dt, kp, linear, goal, locking)
+        # tau = g * F, F = gain * ctrl + b0 + b1 * (g q) + b2 * (g qdot); a gear of 1 (the usual
+        # case) divides nothing: x / 1.0 is x
         kv_kp = kv * kp
-        gain = np.where(linear, kv_kp, kv) / g
+        gain, bias, damping, linear_kv = _select(linear, kv_kp, kv), ff, -kv, -kv_kp
+        if not self._unit_gear:
+            gain, bias, damping, linear_kv = gain / g, ff / g, damping / g2, linear_kv / g2
         gains, biases = views.gainprm, views.biasprm
-        if np.count_nonzero(on) == len(on):  # every motor on (the usual case); count_nonzero: a third of all()'s cost
+        if on is kept_on and all_on or on is not kept_on and np.count_nonzero(on) == len(on):  # every motor on
             gains[act, 0] = gain
-            biases[act, 0] = ff / g
-            biases[act, 2] = -kv / g2
+            biases[act, 0] = bias
+            biases[act, 2] = damping
             moving = v
         else:
             gains[act, 0] = np.where(on, gain, 0.0)
-            biases[act, 0] = np.where(on, ff / g, 0.0)
-            biases[act, 2] = np.where(on, -kv / g2, 0.0)
+            biases[act, 0] = np.where(on, bias, 0.0)
+            biases[act, 2] = np.where(on, damping, 0.0)
             moving = np.where(on, v, 0.0)
-        biases[act, 1] = np.where(linear, -kv_kp / g2, 0.0)
-        views.ctrl[act] = np.where(linear, target, moving)
+        biases[act, 1] = _select(linear, linear_kv, self._zeros)
+        views.ctrl[act] = _select(linear, target, moving)
         if springs is not None:  # after _lock, which writes every motor's force range
             springs.write_limits(m, self.act, g, self.max_force)
         if self.forcing:
@@ -386,26 +399,31 @@ class Motors:
             self._gain_kept = (key, np.minimum(self.pid_p / VREP_DYN_STEP, 1.0 / dt))
         return self._gain_kept[1]
 
-    def _modes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-        """``(on, position, velocity, loop off, any position)`` (n,) each: the motors that act
-        (enabled, their joint not kinematic), those in position control (loop on), those in
-        V-REP's velocity law (loop off, not a ``<velocity>`` actuator's own gain, not driven by a
-        script's joint callback), those on with their loop off; and whether any is in position
-        control. Spring-damper motors are told apart per step (:meth:`apply`). Kept while the
-        flags are the same (a few byte copies per step instead of a dozen array operations)."""
-        key = (self.enabled.tobytes() + self.loop.tobytes() + self.scripted.tobytes()
+    def _modes(self) -> tuple:
+        """``(on, position, velocity, loop off, any position, loaded, unlocked, any locked, all on)``:
+        the motors that act (enabled, their joint not kinematic), those in position control (loop
+        on), those in V-REP's velocity law (loop off, not a ``<velocity>`` actuator's own gain, not
+        driven by a script's joint callback), those on with their loop off; whether any is in
+        position control; those in it that bear their joint's constraint load (no script drives
+        them); those not locked; whether any is locked; whether all are on ((n,) bool arrays, bools).
+        Spring-damper motors are told apart per step (:meth:`apply`). Kept while the flags are the
+        same (byte copies instead of a dozen array operations); never written in place."""
+        key = (self.enabled.tobytes() + self.loop.tobytes() + self.scripted.tobytes() + self.locked.tobytes()
                + (self.joint_mode.tobytes() if self.kinematic else b""))
         kept = self._modes_kept
         if kept[0] != key:
             on = self.enabled if not self.kinematic else self.enabled & (self.joint_mode == JOINTMODE_FORCE)
+            on = on.copy()  # not the flags themselves, which calls write in place
             loop = self.loop
             position = on & loop
             velocity = on & ~loop & self._no_own_kv & ~self.scripted
-            kept = self._modes_kept = (key, (on, position, velocity, on & ~loop, bool(position.any())))
+            kept = self._modes_kept = (key, (on, position, velocity, on & ~loop, bool(position.any()),
+                                             position & ~self.scripted, ~self.locked, bool(self.locked.any()),
+                                             bool(on.all())))
         return kept[1]
 
     def _lock(self, views: Views, q: np.ndarray, stopped: np.ndarray, dt: float, kp: np.ndarray,
-              linear: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              linear: np.ndarray, goal: np.ndarray, locking: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The locked motors (velocity lock on, velocity mode, target 0) hold where they stopped (or
         were put, :meth:`teleported`) with no force limit (``CJoint::handleDynJoint``: "motor locked"):
         pinned by their lock equality (:func:`~simx_server.sim.motor_spec.add_locks`; ``eq_active``,
@@ -414,19 +432,20 @@ class Motors:
         (n,) velocity motors with target 0, ``kp``, ``linear`` and ``goal`` (the position law's targets)
         as :meth:`apply` has them. Returns ``(target, kp, linear)`` with the law-locked motors' entries
         changed. While the same motors stay locked (and none was put elsewhere), where they stopped
-        and what their equalities hold are those of the last call: kept, and only written again."""
+        and what their equalities hold are those of the last call: kept, and only written again.
+        ``locking``: some motor is locked (:meth:`_modes`)."""
         lock = self.locked & stopped
-        self._locking = np.count_nonzero(self.locked) > 0  # lock is a part of locked
+        self._locking = locking  # lock is a part of locked
         key, kept = lock.tobytes(), self._lock_kept
         if kept is None or kept[0] != key:  # else lock_q would come out as it is (stopped where it was)
             self._lock_q = lock_q = np.where(lock, np.where(np.isnan(self._lock_q), q, self._lock_q), np.nan)
             on = lock[self._pinned]  # MuJoCo's joint equality with one joint: q - qpos0 = eq_data[0]
             values = (lock_q - views.qpos0[self.qadr])[self._pinned][on]
             law = lock & ~self._pinned
-            kept = self._lock_kept = (key, on, self._lock_eqs[on], values, law, law.tobytes())
+            kept = self._lock_kept = (key, on, slice_or(self._lock_eqs[on]), values, law, law.tobytes())
         _, on, rows, values, law, law_key = kept
         if len(self._lock_eqs):
-            views.eq_active[self._lock_eqs] = on
+            views.eq_active[self._lock_rows] = on
             views.eq_data[rows, 0] = values
         limits = law_key + self.max_force.tobytes()
         if limits != self._limits_key:  # written once per change: write_force_limits forgets the key
@@ -437,31 +456,16 @@ class Motors:
             return goal, kp, linear
         return (np.where(law, self._lock_q, goal), np.where(law, 1.0 / dt, kp), linear | law)
 
-    def _inertia(self, views: Views, dt: float) -> np.ndarray:
-        """The joints' effective inertia through the scene's equalities (a motor closing a loop
-        drives the whole linkage: :func:`simx_server.sim.mechanisms.inverse_inertia`), computed
-        once per step: scripts' joint callbacks apply the motors at every substep, and the
-        configuration changes little within a step.
-
-        Args:
-            views: the model's and data's arrays (:class:`Views`).
-            dt: the step (s).
-
-        Returns:
-            (n,) kg or kg·m².
-        """
-        m, d = views.model, views.data
+    def _inertia(self, views: Views, dt: float, timestep: float) -> np.ndarray:
+        """The joints' effective inertia (n,) kg or kg·m² (:func:`mechanisms.effective_inertia`),
+        computed once per step of ``dt`` s (model ``timestep`` s): scripts' joint callbacks apply
+        the motors at every substep, and the configuration changes little within a step."""
         at, cached = self._inertia_at
-        now = float(d.time)
-        elapsed = now - at
-        if len(cached) == len(self.act) and 0 <= elapsed < dt - 0.5 * m.opt.timestep:
+        now = float(views.data.time)
+        if len(cached) == len(self.act) and 0 <= now - at < dt - 0.5 * timestep:
             return cached
-        mujoco.mj_solveM(m, d, self._minv, self._unit)
-        if views.others.size and np.count_nonzero(views.eq_active[views.others]):  # a motor's own lock: not a part of the mechanism it drives
-            inverse = mechanisms.inverse_inertia(m, d, self._minv, self.dadr, self._lock_eqs)
-        else:  # no equality but locks: the open chain's, (M^-1)_ii (mechanisms.inverse_inertia's first step)
-            inverse = self._minv.take(self._diagonal)
-        inertia = 1.0 / np.maximum(inverse, 1e-12)
+        inertia = mechanisms.effective_inertia(views.model, views.data, self._minv, self._unit, self._diagonal,
+                                               self.dadr, self._lock_eqs, views.others, views.eq_active)
         self._inertia_at = (now, inertia)
         return inertia
 
