@@ -345,9 +345,10 @@ class Scripts:
             self._customization("sysCall_suspended" if paused else "sysCall_nonSimulation")
 
     def _count_empty(self, function: str) -> None:
-        """A pass of ``function`` in which no script has code for it (:meth:`_nothing_to_run`)."""
+        """A pass of ``function`` in which no script has code for it (:meth:`_nothing_to_run`): no
+        code runs, so the tables stay as they are while they are walked."""
         for table in (self.scripts, self.customization):
-            for script in self._present(table):
+            for script in table.values():
                 if script._may_run(function) and script._body(function):
                     script.executions += 1  # ChildScript.life_cycle of an empty callback
 

@@ -88,9 +88,13 @@ class _Kept:
     frictions are the same, the answers of :func:`mixed`, :func:`combine` and :func:`_lowered`.
     A model that is gone (a scene replaced, a rebuild) drops out with its own."""
 
-    __slots__ = ("rule", "special", "wide", "mixed", "answers", "lowered")
+    __slots__ = ("rule", "special", "wide", "mixed", "answers", "lowered", "sliding", "contype", "conaffinity")
 
     def __init__(self, model: mujoco.MjModel):
+        #: The model's arrays read at every step (each attribute of MuJoCo's bindings builds a new
+        #: ndarray; these do not keep the model alive): the geoms' sliding frictions (a column
+        #: view of ``geom_friction``), ``geom_contype``, ``geom_conaffinity``.
+        self.sliding, self.contype, self.conaffinity = model.geom_friction[:, 0], model.geom_contype, model.geom_conaffinity
         try:
             rule = _text(model) == "product"
         except ValueError:  # the scene's load reports it
@@ -115,15 +119,27 @@ class _Kept:
 _kept: Callable[[mujoco.MjModel], _Kept] = PerObject(_Kept)
 
 
-def _contact_view(d: mujoco.MjData) -> np.ndarray:
-    start = d.contact.geom  # (ncon, 2), rows a contact's size apart; its data is the arena's start
+def _whole_buffer(start: np.ndarray, d: mujoco.MjData, writeable: bool) -> np.ndarray:
+    """``start`` (a field of ``d.contact``: rows a contact's size apart, from the arena's start)
+    over the whole contact buffer."""
     capacity = max(int(d.narena) // start.strides[0], 1)
-    return np.lib.stride_tricks.as_strided(start, (capacity, 2), start.strides, writeable=False)
+    return np.lib.stride_tricks.as_strided(start, (capacity, *start.shape[1:]), start.strides, writeable=writeable)
 
 
-#: Per MjData, :func:`contact_geoms`'s view (which does not keep its MjData alive: it must not
-#: outlive it, and drops out with it).
+def _contact_view(d: mujoco.MjData) -> np.ndarray:
+    return _whole_buffer(d.contact.geom, d, False)  # (ncon, 2); its data is the arena's start
+
+
+def _contact_rows(d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+    c = d.contact
+    return _whole_buffer(c.mu, d, True), _whole_buffer(c.friction, d, True)
+
+
+#: Per MjData, :func:`contact_geoms`'s view, and the ``mu`` (capacity,) and ``friction``
+#: (capacity, 5) of its whole contact buffer that :func:`combine` writes (views that do not keep
+#: their MjData alive: they must not outlive it, and drop out with it).
 _contact_views: Callable[[mujoco.MjData], np.ndarray] = PerObject(_contact_view)
+_contact_fields: Callable[[mujoco.MjData], tuple[np.ndarray, np.ndarray]] = PerObject(_contact_rows)
 
 
 def contact_geoms(d: mujoco.MjData) -> np.ndarray:
@@ -189,10 +205,10 @@ def mixed(model: mujoco.MjModel) -> bool:
         True when two collidable geoms differ in sliding friction.
     """
     kept = _kept(model)
-    key = model.geom_friction[:, 0].tobytes() + model.geom_contype.tobytes() + model.geom_conaffinity.tobytes()
+    key = kept.sliding.tobytes() + kept.contype.tobytes() + kept.conaffinity.tobytes()
     if kept.mixed[0] == key:  # a step asks twice (its substeps, its forward)
         return kept.mixed[1]
-    f = model.geom_friction[(model.geom_contype | model.geom_conaffinity) != 0, 0]
+    f = kept.sliding[(kept.contype | kept.conaffinity) != 0]
     answer = bool(f.size) and float(f.min()) != float(f.max())
     kept.mixed = (key, answer)  # one assignment: a thread reads it whole
     return answer
@@ -220,21 +236,22 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData, answers: dict | None = None, sl
     g = contact_geoms(d)[:ncon]
     if answers is None:
         answers = _answers(m, _frictions(m))
-    answer = entry(answers, g.tobytes(), lambda: _answer(m, g, d.contact.friction, sliding), _KEPT_ANSWERS)
+    answer = entry(answers, g.tobytes(), lambda: _answer(m, g, _contact_fields(d)[1][:ncon], sliding), _KEPT_ANSWERS)
     if answer is _UNCHANGED:
         return
-    c = d.contact
+    mus, frictions = _contact_fields(d)
     whole, i, pair, ratio, wide = answer
     if whole:  # every contact written (those MuJoCo's rule decides keep its value): no index arrays
-        mu = c.mu
+        mu = mus[:ncon]
         mu *= ratio  # the regularised cone's mu = friction[0] * sqrt(R1 / R0)
-        c.friction[:, :2] = pair
+        frictions[:ncon, :2] = pair
     elif i.size:
-        c.mu[i] *= ratio
-        c.friction[i, :2] = pair
+        mus[i] *= ratio
+        frictions[i, :2] = pair
     else:
         return
     if wide:  # torsion and rolling rows: R[j + 1] = R[1] * friction[0]^2 / friction[j]^2
+        c = d.contact
         friction = c.friction
         dim, R, D, adr = c.dim[i], d.efc_R, d.efc_D, c.efc_address[i]
         for k in np.flatnonzero((dim > 3) & (adr >= 0)):
@@ -247,8 +264,9 @@ def combine(m: mujoco.MjModel, d: mujoco.MjData, answers: dict | None = None, sl
 def _frictions(m: mujoco.MjModel) -> bytes:
     """What MuJoCo's friction of a contact depends on besides its geoms, as bytes: the geoms'
     sliding frictions, and the override of every contact's (``mjENBL_OVERRIDE``, ``o_friction``)."""
-    override = m.opt.o_friction.tobytes() if m.opt.enableflags & _OVERRIDE else b""
-    return m.geom_friction[:, 0].tobytes() + override
+    opt = m.opt
+    override = opt.o_friction.tobytes() if opt.enableflags & _OVERRIDE else b""
+    return _kept(m).sliding.tobytes() + override
 
 
 #: How many sets of contact geoms :func:`combine` keeps answers for, per frictions, and how many
@@ -273,7 +291,7 @@ def _answer(m: mujoco.MjModel, g: np.ndarray, contact_friction: np.ndarray, slid
     without MuJoCo's own rules (explicit pairs, flexes, priorities), MuJoCo gives two geoms the
     same value at every substep: the answer then covers every contact (ratio 1 and MuJoCo's
     value where Bullet's is the same), written with slices."""
-    fg = (m.geom_friction[:, 0] if sliding is None else sliding).take(g)  # (ncon, 2); a flex's -1: left out below
+    fg = (_kept(m).sliding if sliding is None else sliding).take(g)  # (ncon, 2); a flex's -1: left out below
     i, new, wide = _changed(m, g, fg)
     if sliding is not None:  # lowered frictions (steps): MuJoCo gave some contacts Bullet's value
         got = contact_friction[:, 0]  # already, and two geoms of one value may have met a lowered one
@@ -320,7 +338,7 @@ def _lowered(m: mujoco.MjModel, d: mujoco.MjData, frictions: bytes) -> tuple[np.
 def _lower(m: mujoco.MjModel, g: np.ndarray, frictions: bytes) -> tuple[np.ndarray, bytes] | None:
     """:func:`_lowered`'s frictions for contacts of geoms ``g`` (ncon, 2); None when no contact
     has two values."""
-    sliding = m.geom_friction[:, 0]
+    sliding = _kept(m).sliding
     fg = sliding.take(g)
     i, new, _ = _changed(m, g, fg)
     if not i.size:
@@ -383,7 +401,7 @@ def steps(m: mujoco.MjModel, d: mujoco.MjData, n: int, each: Callable[[], None] 
     step1, step2 = mujoco.mj_step1, mujoco.mj_step2
     frictions = _frictions(m)  # nothing changes a friction between substeps
     lowered = _lowered(m, d, frictions)
-    key, own, column = frictions, None, m.geom_friction[:, 0]
+    key, own, column = frictions, None, _kept(m).sliding
     if lowered is not None:
         values, key = lowered
         own = column.copy()
