@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import mujoco
 
-from simx_server.sim import friction
+from simx_server.sim import friction, integrator
 from simx_server.sim.objects import parse_settings, text_of
 
 TEXT_NAME = "simx:scene:simulation"
@@ -63,11 +63,13 @@ def read(model: mujoco.MjModel, where: str) -> SceneSettings:
 
     Raises:
         ValueError: an unknown key, or a value that is not a positive finite number (``dt``,
-            ``real_time_factor``) or 0/1 (``real_time``); or a friction rule simx cannot give
-            (:func:`simx_server.sim.friction.declared`).
+            ``real_time_factor``) or 0/1 (``real_time``); or a friction rule or integrator text
+            simx cannot give (:func:`simx_server.sim.friction.declared`,
+            :func:`simx_server.sim.integrator.declared`).
     """
-    try:  # the scene's friction rule (sim/friction.py): one it cannot give refuses the scene
+    try:  # the scene's friction rule (sim/friction.py) and integrator (sim/integrator.py)
         friction.declared(model)
+        integrator.declared(model)
     except ValueError as exc:
         raise ValueError(f"scene {where}: {exc}") from None
     raw = text_of(model, TEXT_NAME)

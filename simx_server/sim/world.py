@@ -27,8 +27,8 @@ import numpy as np
 from simx_wire import constants as C
 from simx_wire.protocol import ArgumentError, ObjectTypeError, UnknownObjectError
 from simx_server.base import limits as L
-from simx_server.sim import (change_batch, dummy_links, friction, grasps, kinematic, motor_spec, motors, naming,
-                             physics, properties, scene_settings, surfaces, urdf)
+from simx_server.sim import (change_batch, dummy_links, friction, grasps, integrator, kinematic, motor_spec, motors,
+                             naming, physics, properties, scene_settings, surfaces, urdf)
 from simx_server.sim.objects import (  # noqa: F401 (importers of the world use them)
     _TYPE_NAMES, CAMERA, DUMMY, FORCE_SENSOR, JOINT, KEPT_TYPES, LIGHT, PATH, PROXIMITY_SENSOR, SHAPE, VISION_SENSOR,
     WORLD, SceneObject, apply_vrep_parents, parse_settings, text_at)
@@ -454,6 +454,7 @@ class World(Poses, Joints):
                 limits.MAX_STEP_SECONDS (physics.StepTimeError, the rest of its substeps not run).
         """
         m, d = self.model, self.data
+        integrator.choose(m, d)  # implicit while a body spins, else implicitfast (sim/integrator.py)
         held = kinematic.hold(self) if self.motors.kinematic else None  # joints in a kinematic mode
         self.motors.apply(m, d, self.dt)
         belts = surfaces.moving(self) if self.init_velocities else None  # static shapes' moving surfaces

@@ -42,6 +42,7 @@ ENGINES = ("Bullet", "ODE", "Vortex", "Newton", "MuJoCo")
 
 #: MuJoCo's ``impratio`` of a converted scene (and PyRep's empty one, ``pyrep/assets/empty.xml``).
 STATIC_FRICTION_IMPRATIO = 10.0
+IMPLICITFAST_BELOW = 0.01  #: a converted scene's ``implicitfast_below``, rad per timestep (sim/integrator.py)
 
 
 class Report:
@@ -106,9 +107,7 @@ class Converter:
     def build(self) -> mujoco.MjSpec:
         s = self.scene
         settings.apply(self, self.timestep_cap)  # time step, gravity, real-time mode (simx:scene:simulation)
-        # implicit, not implicitfast: its gyroscopic derivatives keep a spinning body's spin (a
-        # wheeled robot fallen off its floor wobbled ever faster until MuJoCo found a NaN and the
-        # simulation stopped for every client); Bullet 2.78 applies no gyroscopic force at all
+        # implicit, a spinning body's spin kept; implicitfast while none spins (text below, sim/integrator.py)
         self.spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICIT
         self.spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
         # Bullet's, ODE's and Vortex's friction is static: a held or resting load does not move.
@@ -153,10 +152,11 @@ class Converter:
         far = max([v.far for v in sensors] + [50.0])
         self.spec.visual.map.znear = max(near, 1e-4) / 2.0
         self.spec.visual.map.zfar = far / 2.0
-        if not s.is_model:  # sensors render with V-REP's lighting (sim/vision_look.py), contacts
-            # have Bullet's friction (sim/friction.py); a model loaded into a scene takes the scene's
+        if not s.is_model:  # sensors render with V-REP's lighting (sim/vision_look.py), contacts have
+            # Bullet's friction (sim/friction.py); a model loaded into a scene takes the scene's
             self.setting("scene:vision", "look=vrep")
             self.setting("scene:friction", "combine=product")
+            self.setting("scene:integrator", f"implicitfast_below={IMPLICITFAST_BELOW}")
         for name, value in self.geoms.texture_maps.items():  # texture parameters at run time
             self.setting(name, f"texture_map={value}")
         for name, items in self.settings.items():
