@@ -35,8 +35,9 @@ background colour, depth 1), and a new resolution clears them again (``setResolu
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
-from typing import TYPE_CHECKING, Any, Callable, Protocol
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol
 
 import numpy as np
 
@@ -169,6 +170,28 @@ class VisionHandling:
         pin = self.pins.pop(handle, None)
         if pin is not None:
             pin.thread.hold(pin.data, -1)
+
+    @contextlib.contextmanager
+    def current(self, handle: int) -> Iterator[None]:
+        """Reads made inside show the world's state now, not the sensor's last explicit handling,
+        which stays for the reads after (``sim.checkVisionSensor``, ``checkVisionSensorEx``:
+        ``CVisionSensor::checkSensor`` renders, then puts the sensor's buffers back).
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Yields:
+            None, while reads show the current state.
+        """
+        pin, explicit = self.pins.pop(handle, None), handle in self.explicit
+        self.explicit.discard(handle)
+        try:
+            yield
+        finally:
+            if pin is not None:
+                self.pins[handle] = pin
+            if explicit:
+                self.explicit.add(handle)
 
     def shown(self, handle: int) -> int:
         """The world's version the sensor's reads show: its explicit handling's, else the current.

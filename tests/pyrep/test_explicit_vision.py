@@ -39,9 +39,13 @@ def test_reads_return_the_last_handling_until_handled_again(pr):
     Shape.create(type=PrimitiveShape.CUBOID, size=[0.1, 0.1, 0.1], position=[3.0, 3.0, 0.05])  # an edit of the scene
     assert np.array_equal(cam.capture_rgb(), rgb) and np.array_equal(cam.capture_depth(True), depth)
     assert backend.call("readVisionSensor", h) == packets and _legacy(pr, h) == legacy
+    now = backend.call("checkVisionSensorEx", h, -2, True)  # CVisionSensor::checkSensorEx: this state
+    assert backend.call("checkVisionSensor", h, -2) != packets
+    assert np.array_equal(cam.capture_rgb(), rgb)  # the handling stays
     cam.handle_explicitly()  # the new state
     moved = cam.capture_rgb()
     assert not np.array_equal(moved, rgb) and not np.array_equal(cam.capture_depth(True), depth)
+    assert np.array_equal(np.rint(np.flipud(np.reshape(now, moved.shape)) * 255), np.rint(moved * 255))
     cam.set_explicit_handling(0)  # handled each pass: the state now, which is the one just handled
     assert np.array_equal(cam.capture_rgb(), moved)
 

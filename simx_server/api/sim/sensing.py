@@ -257,8 +257,9 @@ def readVisionSensor(ctx: CallContext, sensorHandle: Any) -> tuple:  # noqa: N80
 
 @sim_function("checkVisionSensor")
 def checkVisionSensor(ctx: CallContext, sensorHandle: Any, entityHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
-    """As :func:`readVisionSensor` (simx renders the whole scene: ``entityHandle`` is checked
-    and must be ``sim.handle_all`` or an object).
+    """As :func:`readVisionSensor`, of the world's state now: a sensor with explicit handling
+    keeps its last handling for the reads after (``CVisionSensor::checkSensor``). simx renders
+    the whole scene: ``entityHandle`` is checked and must be ``sim.handle_all``.
 
     Args:
         sensorHandle: a vision sensor's handle.
@@ -275,7 +276,8 @@ def checkVisionSensor(ctx: CallContext, sensorHandle: Any, entityHandle: Any) ->
         ctx.world.get(e)
         raise UnsupportedError("checkVisionSensor of one entity: simx's sensors render the whole scene "
                                "(pass sim.handle_all)")
-    return readVisionSensor(ctx, sensorHandle)
+    with ctx.simulation("checkVisionSensor").vision.current(vision_of(ctx, sensorHandle)):
+        return readVisionSensor(ctx, sensorHandle)
 
 
 @sim_function("getVisionSensorResolution", "getVisionSensorRes")
