@@ -29,9 +29,10 @@ flexes, the skybox and haze stay as the scene's author set them.
 
 Frames are rendered on demand and cached until the world changes (one render per
 simulation step per sensor, however many clients ask); a sensor with explicit handling shows
-the state of its last handling until the next (:mod:`simx_server.sim.vision_handled`). Rendering runs on threads of their own,
-which own the GL contexts, from a copy of ``MjData`` taken on the simulation thread: a slow
-software renderer delays the image, not the physics nor the other clients. Requests render on
+the state of its last handling until the next (:mod:`simx_server.sim.vision_handled`).
+Rendering runs on threads of their own, which own the GL contexts, from a copy of ``MjData``
+taken on the simulation thread: a slow software renderer delays the image, not the physics nor
+the other clients. Requests render on
 the *request* render thread; large streamed images (``limits.STREAM_THREAD_PIXELS``, set by the
 stream publisher through :attr:`VisionSensors.for_streams`) on a *stream* render thread made on
 the first of them, once its renderers are warm: a client's streams of huge images (a 4096x4096
