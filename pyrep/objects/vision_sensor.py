@@ -7,7 +7,9 @@ CoppeliaSim's main script handles every sensor not tagged for explicit handling 
 (coppeliaSimLib ``simHandleVisionSensor_internal`` with ``sim_handle_all_except_explicit``, the
 sensing phase), and ``capture_rgb`` reads the image of that handling: simx renders a handled
 sensor when it is read, the same image while nothing has moved since the step (RLBench's gym
-``render()`` after ``step()``).
+``render()`` after ``step()``). A sensor with explicit handling (RLBench's cameras) shows the
+state of its last ``handle_explicitly()`` until the next, however the world moved since, as
+CoppeliaSim's sensor buffers (``simx_server.sim.vision_handled``).
 """
 
 from __future__ import annotations
@@ -75,8 +77,9 @@ class VisionSensor(Object):
         return ObjectType.VISION_SENSOR
 
     def handle_explicitly(self) -> None:
-        """Renders the sensor now (its images then show the scene as it is). PyRep reads none
-        of ``sim.handleVisionSensor``'s packets: none is computed (simx's ``packets`` false)."""
+        """Renders the sensor now: its images show the scene as it is now until it is handled
+        again. PyRep reads none of ``sim.handleVisionSensor``'s packets: none is computed
+        (simx's ``packets`` false)."""
         unhandled().discard(self._handle)
         sim.call("handleVisionSensor", self._handle, False)
 

@@ -64,14 +64,23 @@ class SphericalVisionSensor(Object):
         for sensor in self._six_sensors:
             sensor.handle_explicitly()
 
+    def _sensed(self) -> None:
+        """The six sub-sensors as the model's script leaves them each pass: its ``sysCall_sensing``
+        calls ``simVision.handleSpherical``, which handles them (explicit sensors) and composes
+        the image. simx has no such plug-in function: they are handled when read, so the image
+        is the state now (the last pass's while nothing moved since the step)."""
+        self.handle_explicitly()
+
     def capture_rgb(self) -> np.ndarray:
         """The 360° RGB image, float32 (h, w, 3) in 0..1."""
+        self._sensed()
         face, row, col, _ = self._lookup()
         images = np.stack([s.capture_rgb() for s in self._six_sensors])
         return images[face, row, col]
 
     def capture_depth(self, in_meters: bool = False) -> np.ndarray:
         """The 360° radial depth, float32 (h, w): 0..1 between the clipping planes, or m."""
+        self._sensed()
         face, row, col, cos = self._lookup()
         planar = np.stack([s.capture_depth(in_meters=True) for s in self._six_sensors])[face, row, col]
         radial = (planar / cos).astype(np.float32)

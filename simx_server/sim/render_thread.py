@@ -269,7 +269,8 @@ class RenderThread:
         self.context: mujoco.GLContext | None = None  # render thread: the renderers' one GL context
         # simulation thread: (version, model, the copy of the state frames of that version read)
         self.snapshot: tuple[int, mujoco.MjModel, mujoco.MjData] | None = None
-        self._copies: list[list] = []  # simulation thread: [MjData, the last job that reads it]
+        # simulation thread: [MjData, the last job that reads it, how many hold it (see hold)]
+        self._copies: list[list] = []
 
     def renderer(self, model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
         """The renderer of this size for ``model``, made now if needed (render thread), with the
@@ -340,16 +341,30 @@ class RenderThread:
         current = snap[2] if snap is not None and snap[1] is model else None
         if snap is not None and snap[1] is not model:
             self._copies = []  # copies of another model: their sizes differ
-        spare = next((c for c in self._copies if c[0] is not current and (c[1] is None or c[1].done())), None)
+        spare = next((c for c in self._copies
+                      if c[0] is not current and not c[2] and (c[1] is None or c[1].done())), None)
         if spare is None:
             copied = copy.copy(data)
             if len(self._copies) < STATE_COPIES:
-                self._copies.append([copied, None])
+                self._copies.append([copied, None, 0])
         else:
             copied, spare[1] = spare[0], None
             mujoco.mj_copyData(copied, model, data)
         self.snapshot = (version, model, copied)
         return copied
+
+    def hold(self, state: mujoco.MjData, holds: int = 1) -> None:
+        """Keep ``state``, a copy :meth:`state` gave, from being filled again while it is held
+        (simulation thread): an explicitly handled sensor's frames are drawn from the state of
+        its handling, however late they are read (:mod:`simx_server.sim.vision_handled`).
+
+        Args:
+            state: the copy.
+            holds: 1 to hold it, -1 to let it go (a copy no longer kept is left alone).
+        """
+        for c in self._copies:
+            if c[0] is state:
+                c[2] = max(0, c[2] + holds)
 
     def reading(self, state: mujoco.MjData, job: Future) -> None:
         """Note ``job`` (submitted to this thread) as the last that reads ``state``, a copy

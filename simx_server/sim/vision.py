@@ -28,9 +28,11 @@ do not see either). Geoms of groups 0-2 (MuJoCo's default visible groups), textu
 flexes, the skybox and haze stay as the scene's author set them.
 
 Frames are rendered on demand and cached until the world changes (one render per
-simulation step per sensor, however many clients ask). Rendering runs on threads of their own,
-which own the GL contexts, from a copy of ``MjData`` taken on the simulation thread: a slow
-software renderer delays the image, not the physics nor the other clients. Requests render on
+simulation step per sensor, however many clients ask); a sensor with explicit handling shows
+the state of its last handling until the next (:mod:`simx_server.sim.vision_handled`).
+Rendering runs on threads of their own, which own the GL contexts, from a copy of ``MjData``
+taken on the simulation thread: a slow software renderer delays the image, not the physics nor
+the other clients. Requests render on
 the *request* render thread; large streamed images (``limits.STREAM_THREAD_PIXELS``, set by the
 stream publisher through :attr:`VisionSensors.for_streams`) on a *stream* render thread made on
 the first of them, once its renderers are warm: a client's streams of huge images (a 4096x4096
@@ -103,9 +105,11 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         self.at_load = previous.at_load if previous is not None else at_load
         self._streaming: RenderThread | None = None  # the stream render thread, made on demand
         self._streaming_ready: Future | None = None  # its renderers are warm
+        carried = {}  # the frames of explicitly handled sensors' handlings (see _keep)
         if previous is not None and previous._owner:
             self._thread, previous._owner = previous._thread, False  # its pending jobs still run
             self._streaming = previous._streaming
+            carried = {k: v for k, v in previous._cache.items() if k[0] in previous.pins}
             previous._cache.clear()
         else:
             self._thread = RenderThread()
@@ -119,7 +123,7 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         self.reset()
         edit = previous is not None and previous.world is world
         if edit:  # run-time settings stay
-            self._keep(previous)
+            self._keep(previous, carried)
         self._ready = self._prepare(self._thread, warm=not edit)
         if self._streaming is not None:
             self._streaming_ready = self._prepare(self._streaming)
@@ -146,10 +150,11 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
             m.vis.global_.offwidth = max(m.vis.global_.offwidth, *(s.width for s in self.specs.values()))
             m.vis.global_.offheight = max(m.vis.global_.offheight, *(s.height for s in self.specs.values()))
 
-    def _keep(self, previous: VisionSensors) -> None:
+    def _keep(self, previous: VisionSensors, frames: dict) -> None:
         """Keep what commands set on the sensors that an edit left in the scene (render mode,
-        resolution, clipping, explicit handling...), as CoppeliaSim keeps an object's properties
-        when other objects are added or removed; the camera's index is the new model's. An
+        resolution, clipping, explicit handling and its last handling, with ``frames``, its
+        frames drawn...), as CoppeliaSim keeps an object's properties when other objects are
+        added or removed; the camera's index is the new model's. An
         edit used to reread them from the scene file: RLBench's mask cameras, made
         colour-coded, turned back to RGB at the next object created or renamed."""
         for handle, spec in previous.specs.items():
@@ -157,6 +162,8 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
             if now is not None:
                 self.specs[handle] = dataclasses.replace(spec, camera=now.camera)
         self.explicit |= {h for h in previous.explicit if h in self.specs}
+        self.pins.update((h, pin) for h, pin in previous.pins.items() if h in self.specs)
+        self._cache.update((k, v) for k, v in frames.items() if k[0] in self.pins)
         if self.specs:
             g = self.world.model.vis.global_
             g.offwidth = max(g.offwidth, *(s.width for s in self.specs.values()))
@@ -185,6 +192,8 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         g = self.world.model.vis.global_
         g.offwidth, g.offheight = max(g.offwidth, w), max(g.offheight, h)
         self.world.version += 1  # cached frames are of the old size
+        if handle in self.explicit:  # buffers made anew, cleared (CVisionSensor::setResolution)
+            self.unpin(handle)
         self._warm(w, h)
 
     def _warm(self, width: int, height: int) -> None:
@@ -390,7 +399,7 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         render thread (it renders its own: streams of huge images must not hold it up); a
         stream may share one."""
         cached = self._cache.get(key)
-        if cached is None or cached[0] != self.world.version:
+        if cached is None or cached[0] != self.shown(key[0]):
             return None
         _, future, thread = cached
         if not self.for_streams and thread is not self._thread and not future.done():
@@ -398,15 +407,19 @@ class VisionSensors(VisionHandling, VisionChain, VisionResults):
         return future, thread
 
     def _frame(self, handle: int, kind: str) -> Future:
-        """The frame of the world's current state (a future), rendered once per state."""
-        version = self.world.version
+        """The frame of the state the sensor shows (a future), rendered once per state: the
+        world's current state, or an explicitly handled sensor's last handling's (vision_handled)."""
+        version = self.shown(handle)
         cached = self._cached((handle, kind))
         if cached is not None:
             return cached[0]
-        spec = self.spec(handle)
+        spec, model, pin = self.spec(handle), self.world.model, self.pins.get(handle)
         thread = self._target(spec)
-        state = thread.state(version, self.world.model, self.world.data)  # one copy per thread: each reads its own
-        future = thread.executor.submit(self._render, thread, self.world.model, state, spec, kind)
+        if pin is not None and version != self.world.version:  # the world moved on: its handling's state
+            spec, model, state = pin.spec, pin.model, pin.data
+        else:
+            state = thread.state(version, model, self.world.data)  # one copy per thread: each reads its own
+        future = thread.executor.submit(self._render, thread, model, state, spec, kind)
         thread.reading(state, future)
         self._cache[(handle, kind)] = (version, future, thread)
         return future

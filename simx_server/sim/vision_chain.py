@@ -160,15 +160,18 @@ class VisionChain:
         return self._raw_depth_job(handle)
 
     def _raw_depth_job(self, handle: int) -> Callable[[], np.ndarray]:
-        """The depth before the filters: rendered, or all 1 (ignore depth)."""
+        """The depth before the filters: rendered, or all 1 (ignore depth; cleared: explicit
+        handling, not handled yet)."""
         spec = self.spec(handle)
-        if spec.ignore_depth:
+        if spec.ignore_depth or self.cleared(handle):
             return lambda: np.ones((spec.height, spec.width), np.float32)
         return self._rendered_depth_job(handle)
 
     def raw_image_job(self, handle: int) -> Callable[[], np.ndarray]:
         """As :meth:`depth_job`, for the image before the filters: the rendering, or for a
-        sensor that ignores RGB its background colour; (h, w, 3) uint8, rows bottom-up.
+        sensor that ignores RGB or shows its cleared buffers (explicit handling, not handled
+        yet: ``CVisionSensor::_clearBuffers``) its background colour; (h, w, 3) uint8, rows
+        bottom-up.
 
         Args:
             handle: a vision sensor's handle.
@@ -178,7 +181,7 @@ class VisionChain:
         """
         spec = self.spec(handle)
         colour = np.array(spec.background or (0, 0, 0), np.uint8)
-        if spec.ignore_rgb:
+        if spec.ignore_rgb or self.cleared(handle):
             return lambda: np.broadcast_to(colour, (spec.height, spec.width, 3))
         image = self._rendered_image_job(handle)
         if not colour.any() or spec.depth_image or spec.render_mode == COLOR_CODED:
@@ -236,7 +239,7 @@ class VisionChain:
         thread = self._target(spec)
         future = thread.executor.submit(
             lambda: VF.apply_chain(spec.filters, np.ascontiguousarray(image()), depth() if depth else None, state))
-        self._cache[(handle, "filtered")] = (self.world.version, future, thread)
+        self._cache[(handle, "filtered")] = (self.shown(handle), future, thread)
         return future
 
     def read_job(self, handle: int, image: np.ndarray | None = None,
@@ -317,3 +320,7 @@ class VisionChain:
         def _frame(self, handle: int, kind: str) -> Future: ...
 
         def record(self, handle: int) -> Handled | None: ...
+
+        def shown(self, handle: int) -> int: ...
+
+        def cleared(self, handle: int) -> bool: ...

@@ -19,12 +19,25 @@ simulation stops (:meth:`VisionSensors.reset`).
 A sensor's ``filters=`` chain (:mod:`simx_server.sim.vision_filters`; CoppeliaSim turns a 3.x
 chain into a customization script's ``sysCall_vision``) runs after the scripts' callbacks, on
 what they wrote. Then, if triggered, the scripts' ``sysCall_trigger`` callbacks.
+
+A sensor with explicit handling (``sim.setExplicitHandling``, a scene's ``explicit=true``) is
+handled only by ``sim.handleVisionSensor`` (``simHandleVisionSensor_internal``: the main script's
+``sim_handle_all_except_explicit`` leaves it out), and its reads show that handling until the
+next, however the world moved since: CoppeliaSim's ``CVisionSensor::handleSensor`` renders into
+the sensor's ``_rgbBuffer`` and ``_depthBuffer``, which ``simGetVisionSensorImg_internal``,
+``simGetVisionSensorDepth_internal`` and ``simReadVisionSensor_internal`` only read. Here the
+handling is a :class:`Pin`, the world's state it saw: frames are still drawn when first read,
+and from that state once the world moved on (kept, from the render thread's copies). Before its
+first handling the sensor shows its cleared buffers (``CVisionSensor::_clearBuffers``: its
+background colour, depth 1), and a new resolution clears them again (``setResolution`` ->
+``_reserveBuffers``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
-from typing import TYPE_CHECKING, Any, Callable, Protocol
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol
 
 import numpy as np
 
@@ -34,6 +47,9 @@ from simx_server.sim.render_thread import wait_for
 if TYPE_CHECKING:
     from concurrent.futures import Future
 
+    import mujoco
+
+    from simx_server.sim.render_thread import RenderThread
     from simx_server.sim.sensor_spec import SensorSpec
     from simx_server.sim.world import World
 
@@ -56,6 +72,25 @@ class Handled:
     packets: list[list[float]]
     trigger: bool = False
     version: int | None = None
+
+
+@dataclasses.dataclass
+class Pin:
+    """An explicitly handled sensor's last handling: the state its reads show.
+
+    Attributes:
+        version: the world's version handled (``World.version``).
+        model: the model of that state.
+        data: a copy of that state, held on ``thread`` (:meth:`RenderThread.hold`).
+        spec: the sensor's properties then.
+        thread: the render thread whose copy ``data`` is.
+    """
+
+    version: int
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    spec: SensorSpec
+    thread: RenderThread
 
 
 class VisionHooks(Protocol):
@@ -88,11 +123,98 @@ class VisionHandling:
         #: Sensors with explicit handling (``sim.setExplicitHandling``): not handled each pass.
         self.explicit: set[int] = set()
         self._busy: dict[int, Handled] = {}  # sensors whose callbacks run now, and their record
+        self.pins: dict[int, Pin] = {}  # explicitly handled sensors' last handling
 
     def _reset_handling(self) -> None:
         self.handled.clear()
         self.explicit.clear()
         self._busy.clear()
+        for handle in list(self.pins):
+            self.unpin(handle)
+
+    def set_explicit(self, handle: int, explicit: bool) -> None:
+        """``sim.setExplicitHandling`` of a vision sensor: with explicit handling it keeps what
+        it shows now (the last pass's handling) until ``sim.handleVisionSensor``; without, it
+        shows each pass's state again.
+
+        Args:
+            handle: a vision sensor's handle.
+            explicit: bit 0 of the flags.
+        """
+        if explicit and handle not in self.explicit:
+            self.explicit.add(handle)
+            self.pin(handle)
+        elif not explicit:
+            self.explicit.discard(handle)
+            self.unpin(handle)
+
+    def pin(self, handle: int) -> None:
+        """Handle an explicitly handled sensor's buffers (``sim.handleVisionSensor``): its reads
+        show the world's state now until it is handled again (see the module's text).
+
+        Args:
+            handle: a vision sensor's handle.
+        """
+        world, thread, spec = self.world, self._thread, self.spec(handle)
+        state = thread.state(world.version, world.model, world.data)  # the copy its frames read
+        self.unpin(handle)
+        thread.hold(state)
+        self.pins[handle] = Pin(world.version, world.model, state, spec, thread)
+
+    def unpin(self, handle: int) -> None:
+        """Forget the sensor's last explicit handling (its copy of the state let go).
+
+        Args:
+            handle: a vision sensor's handle.
+        """
+        pin = self.pins.pop(handle, None)
+        if pin is not None:
+            pin.thread.hold(pin.data, -1)
+
+    @contextlib.contextmanager
+    def current(self, handle: int) -> Iterator[None]:
+        """Reads made inside show the world's state now, not the sensor's last explicit handling,
+        which stays for the reads after (``sim.checkVisionSensor``, ``checkVisionSensorEx``:
+        ``CVisionSensor::checkSensor`` renders, then puts the sensor's buffers back).
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Yields:
+            None, while reads show the current state.
+        """
+        pin, explicit = self.pins.pop(handle, None), handle in self.explicit
+        self.explicit.discard(handle)
+        try:
+            yield
+        finally:
+            if pin is not None:
+                self.pins[handle] = pin
+            if explicit:
+                self.explicit.add(handle)
+
+    def shown(self, handle: int) -> int:
+        """The world's version the sensor's reads show: its explicit handling's, else the current.
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Returns:
+            A ``World.version``.
+        """
+        pin = self.pins.get(handle)
+        return self.world.version if pin is None else pin.version
+
+    def cleared(self, handle: int) -> bool:
+        """Whether the sensor shows its cleared buffers: explicit handling, not handled yet.
+
+        Args:
+            handle: a vision sensor's handle.
+
+        Returns:
+            True when cleared.
+        """
+        return handle in self.explicit and handle not in self.pins
 
     def record(self, handle: int) -> Handled | None:
         """The record reads of ``handle`` return now, or None (the sensor is rendered).
@@ -247,6 +369,7 @@ class VisionHandling:
         world: World
         _cache: dict
         _filter_states: dict
+        _thread: RenderThread
 
         def spec(self, handle: int) -> SensorSpec: ...
 

@@ -98,7 +98,7 @@ class VisionResults:
             thread = self._target(spec)
             cached = thread.executor.submit(
                 lambda: [[spec.width, spec.height], np.asarray(frame()).tobytes()]), thread  # one copy, flipped or not
-            self._cache[(handle, kind)] = (self.world.version, *cached)
+            self._cache[(handle, kind)] = (self.shown(handle), *cached)
         return Deferred(*cached)
 
     def image_deferred(self, handle: int, options: int) -> Deferred:
@@ -178,3 +178,5 @@ class VisionResults:
         def image_job(self, handle: int, grey: bool) -> Callable[[], np.ndarray]: ...
 
         def depth_job(self, handle: int) -> Callable[[], np.ndarray]: ...
+
+        def shown(self, handle: int) -> int: ...

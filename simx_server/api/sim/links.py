@@ -33,8 +33,9 @@ _PIECE_TESTS = 1 << 16
 @sim_function("checkVisionSensorEx")
 def checkVisionSensorEx(ctx: CallContext, sensorHandle: Any, entityHandle: Any, returnImage: Any) -> list[float]:  # noqa: N802, N803
     """The sensor's image now: RGB values 0..1 (``returnImage`` true) or its depth 0..1 (near
-    to far), rows bottom-up. simx renders the whole scene: ``entityHandle`` must be
-    ``sim.handle_all`` (an object alone: UnsupportedError).
+    to far), rows bottom-up, of the world's state now (a sensor with explicit handling keeps
+    its last handling for the reads after: ``CVisionSensor::checkSensorEx``). simx renders the
+    whole scene: ``entityHandle`` must be ``sim.handle_all`` (an object alone: UnsupportedError).
 
     ``sim.checkVisionSensorEx``.
 
@@ -57,11 +58,12 @@ def checkVisionSensorEx(ctx: CallContext, sensorHandle: Any, entityHandle: Any, 
         raise UnsupportedError("checkVisionSensorEx of one entity: simx's sensors render the whole scene "
                                "(pass sim.handle_all)")
     h = _sensing.vision_of(ctx, sensorHandle)
-    if returnImage:
-        image = _sensors.image_job(ctx, "checkVisionSensorEx", h, False)
-        return _sensors.rendered(ctx, "checkVisionSensorEx", lambda: (image().reshape(-1) / 255.0).tolist())
-    depth = _sensors.depth_job(ctx, "checkVisionSensorEx", h, False)
-    return _sensors.rendered(ctx, "checkVisionSensorEx", lambda: depth().astype(np.float64).reshape(-1).tolist())
+    with ctx.simulation("checkVisionSensorEx").vision.current(h):
+        if returnImage:
+            image = _sensors.image_job(ctx, "checkVisionSensorEx", h, False)
+            return _sensors.rendered(ctx, "checkVisionSensorEx", lambda: (image().reshape(-1) / 255.0).tolist())
+        depth = _sensors.depth_job(ctx, "checkVisionSensorEx", h, False)
+        return _sensors.rendered(ctx, "checkVisionSensorEx", lambda: depth().astype(np.float64).reshape(-1).tolist())
 
 
 @sim_function("checkProximitySensorEx2")

@@ -5,8 +5,9 @@
   ``mj_geomDistance`` between primitives (:mod:`simx_server.sim.collisions`);
   ``getContactInfo``: the contacts of the last step (``data.contact``).
 * Sensors are rendered / cast when read: ``handleVisionSensor`` and ``readVisionSensor`` give
-  V-REP's 15-value packet of the current image (a sensor with vision callbacks: of its last
-  handling, :mod:`simx_server.scripts.vision_callbacks`), the proximity calls cast the ray now.
+  V-REP's 15-value packet of the current image (a sensor with vision callbacks or explicit
+  handling: of its last handling, :mod:`simx_server.sim.vision_handled`), the proximity calls
+  cast the ray now.
 * Joints: :mod:`simx_server.api.sim.joint_modes`.
 """
 
@@ -182,7 +183,10 @@ def handleVisionSensor(ctx: CallContext, sensorHandle: Any, packets: Any = True)
     """Render the sensor now: ``detectionCount, auxPacket1, auxPacket2...``: how many sensors
     their filters triggered, V-REP's 15 values (min, max, average of intensity, red, green,
     blue, depth, 0..1) and the filters' packets (see :func:`readVisionSensor`); a sensor with
-    vision callbacks is handled with them now (:mod:`simx_server.scripts.vision_callbacks`).
+    vision callbacks is handled with them now (:mod:`simx_server.scripts.vision_callbacks`). A
+    sensor with explicit handling shows this state from now on, whatever the world does, until
+    it is handled again (``CVisionSensor::handleSensor`` into its buffers;
+    :meth:`simx_server.sim.vision_handled.VisionHandling.pin`).
     ``sim.handle_all``: each sensor (``_except_explicit``: but those with explicit handling);
     returns the last's packets.
 
@@ -210,8 +214,10 @@ def handleVisionSensor(ctx: CallContext, sensorHandle: Any, packets: Any = True)
                if h in (C.sim_handle_all, C.sim_handle_all_except_explicit) else [vision_of(ctx, h)])
     if h == C.sim_handle_all_except_explicit:
         handles = [one for one in handles if one not in sim.vision.explicit]
-    for one in handles:  # a sensor whose scripts have vision callbacks: handled with them now
-        sensors.handle_with_callbacks(sim, one)
+    for one in handles:
+        if one in sim.vision.explicit:  # its reads show this state until handled again
+            sim.vision.pin(one)
+        sensors.handle_with_callbacks(sim, one)  # a sensor whose scripts have vision callbacks: with them
     jobs = [sensors.vision_read_job(sim, one, packets) for one in handles]  # each rendered now
 
     def finish() -> tuple:
@@ -251,8 +257,9 @@ def readVisionSensor(ctx: CallContext, sensorHandle: Any) -> tuple:  # noqa: N80
 
 @sim_function("checkVisionSensor")
 def checkVisionSensor(ctx: CallContext, sensorHandle: Any, entityHandle: Any) -> tuple[int, list[float]]:  # noqa: N802, N803
-    """As :func:`readVisionSensor` (simx renders the whole scene: ``entityHandle`` is checked
-    and must be ``sim.handle_all`` or an object).
+    """As :func:`readVisionSensor`, of the world's state now: a sensor with explicit handling
+    keeps its last handling for the reads after (``CVisionSensor::checkSensor``). simx renders
+    the whole scene: ``entityHandle`` is checked and must be ``sim.handle_all``.
 
     Args:
         sensorHandle: a vision sensor's handle.
@@ -269,7 +276,8 @@ def checkVisionSensor(ctx: CallContext, sensorHandle: Any, entityHandle: Any) ->
         ctx.world.get(e)
         raise UnsupportedError("checkVisionSensor of one entity: simx's sensors render the whole scene "
                                "(pass sim.handle_all)")
-    return readVisionSensor(ctx, sensorHandle)
+    with ctx.simulation("checkVisionSensor").vision.current(vision_of(ctx, sensorHandle)):
+        return readVisionSensor(ctx, sensorHandle)
 
 
 @sim_function("getVisionSensorResolution", "getVisionSensorRes")
@@ -423,9 +431,12 @@ def getExplicitHandling(ctx: CallContext, objectHandle: Any) -> int:  # noqa: N8
 
 @sim_function("setExplicitHandling")
 def setExplicitHandling(ctx: CallContext, objectHandle: Any, explicitHandlingFlags: Any) -> None:  # noqa: N802, N803
-    """Stored (``getExplicitHandling`` reads it); simx renders and casts on demand either way, but a
-    vision sensor with explicit handling (bit 0) is not handled each simulation pass with its
-    scripts' vision callbacks (only by ``sim.handleVisionSensor``), until the simulation stops.
+    """Stored (``getExplicitHandling`` reads it), until the simulation stops. A vision sensor with
+    explicit handling (bit 0) is handled only by ``sim.handleVisionSensor`` (its scripts' vision
+    callbacks too, not each simulation pass), and its reads show its last handling (from now:
+    the state it shows now) until the next, as CoppeliaSim's sensor buffers
+    (:mod:`simx_server.sim.vision_handled`); set back to 0, it shows each pass's state again.
+    Proximity sensors and other objects are cast or read when asked either way.
 
     ``sim.setExplicitHandling``.
 
@@ -440,7 +451,7 @@ def setExplicitHandling(ctx: CallContext, objectHandle: Any, explicitHandlingFla
     obj = ctx.world.get(ctx.h(objectHandle))
     flags = _int(explicitHandlingFlags, "flags")
     if obj.type == VISION_SENSOR and ctx.view is not None:  # not handled each pass (vision callbacks)
-        (ctx.view.vision.explicit.add if flags & 1 else ctx.view.vision.explicit.discard)(obj.handle)
+        ctx.view.vision.set_explicit(obj.handle, bool(flags & 1))
         return  # that set is the one truth of a vision sensor's flag (getExplicitHandling reads it)
     ctx.state.explicit = {**(ctx.state.explicit or {}), obj.handle: flags}
 
