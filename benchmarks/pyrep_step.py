@@ -15,7 +15,13 @@ render thread's and the GL driver's included) instead of the wall clock: on a ma
 with other jobs the wall clock counts the time this process waited for a core, the CPU time
 does not.
 
-Run: ``MUJOCO_GL=egl python -m benchmarks.pyrep_step [--steps N] [--rounds R] [--clock wall|cpu]``.
+``--integrators`` instead compares, in one process, rounds of ``step()`` as simx runs it
+(``implicitfast`` while no body spins: :mod:`simx_server.sim.integrator`) with rounds of
+``step()`` held on MuJoCo's ``implicit`` integrator, alternated, and prints each one's ms per step
+and their ratio.
+
+Run: ``MUJOCO_GL=egl python -m benchmarks.pyrep_step [--steps N] [--rounds R] [--clock wall|cpu]
+[--integrators]``.
 """
 
 from __future__ import annotations
@@ -144,13 +150,51 @@ def measure(camera: bool, steps: int, rounds: int, clock: str = "wall") -> tuple
         pr.shutdown()
 
 
+def on_implicit(step: Callable[[], object], steps: int, rounds: int, clock: str = "cpu") -> tuple[float, float, float]:
+    """``(ms per step as simx runs it, ms per step held on implicit, their ratio)``: rounds of
+    ``steps`` calls of ``step`` with simx's integrator switch, alternated with rounds held on
+    MuJoCo's ``implicit`` (:mod:`simx_server.sim.integrator`), in this process; medians (the
+    ratio's: of the rounds')."""
+    from simx_server.sim import integrator
+
+    choose = integrator.choose
+
+    def implicit(m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        m.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICIT
+
+    timer, times = CLOCKS[clock], {choose: [], implicit: []}
+    try:
+        for _ in range(rounds):
+            for way, kept in times.items():
+                integrator.choose = way
+                began = timer()
+                for _ in range(steps):
+                    step()
+                kept.append((timer() - began) / steps * 1e3)
+    finally:
+        integrator.choose = choose
+    ours, held = times[choose], times[implicit]
+    return statistics.median(ours), statistics.median(held), statistics.median(a / b for a, b in zip(ours, held))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--clock", choices=sorted(CLOCKS), default="wall")
+    parser.add_argument("--integrators", action="store_true")
     args = parser.parse_args()
     os.environ.setdefault("MUJOCO_GL", "egl")
+    if args.integrators:
+        pr, _ = _setup(False)
+        try:
+            for _ in range(20):
+                pr.step()
+            ours, held, ratio = on_implicit(pr.step, args.steps, args.rounds, args.clock)
+        finally:
+            pr.shutdown()
+        print(f"PyRep.step(): {ours:.3f} ms as simx runs it, {held:.3f} ms on implicit: {ratio:.2f}x")
+        return
     print("case                       pyrep step (ms)   mj_step floor (ms)   ratio")
     for camera in (False, True):
         ours, base, ratio = measure(camera, args.steps, args.rounds, args.clock)

@@ -21,6 +21,9 @@ included) unless ``--clock wall``:
 * **N processes**: ``--envs`` processes, each one low-dim environment (``--worker``), started
   together: each one's CPU ms per step, and the steps per second of wall time of them all
   against one process's.
+* **on implicit**: the low-dim step as simx runs it (``implicitfast`` while no body spins)
+  against the same step held on MuJoCo's ``implicit`` integrator, rounds alternated in one
+  process (:func:`benchmarks.pyrep_step.on_implicit`).
 
 Without RLBench, or without ``--scene``, it prints ``SKIPPED (not available here): ...`` and exits
 0. Not a suite of ``benchmarks.run`` (nor of its ``--smoke``, which CI runs): RLBench is not on the
@@ -44,7 +47,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from benchmarks.pyrep_step import CLOCKS, replayed, sensor_floor_renderer
+from benchmarks.pyrep_step import CLOCKS, on_implicit, replayed, sensor_floor_renderer
 
 CAMERAS = ("cam_front", "cam_overhead", "cam_over_shoulder_left", "cam_over_shoulder_right", "cam_wrist")
 TASK = "reach_target"
@@ -228,6 +231,11 @@ def main() -> None:
     cams = single(args.scene, True, max(2, args.steps // 5), args.rounds, args.clock)
     many = in_one_process(args.scene, args.envs, max(2, args.steps // 2), args.rounds, args.clock)
     procs = processes(args.scene, args.envs, args.steps * args.rounds)
+    env = Env(args.scene, False)
+    try:
+        switched = on_implicit(env.step, args.steps, args.rounds, args.clock)
+    finally:
+        env.close()
     load = os.getloadavg()
     print(f"RLBench {TASK}, JointVelocity, {low['substeps']} substeps a step, clock {args.clock}, "
           f"load {load[0]:.1f}")
@@ -237,11 +245,14 @@ def main() -> None:
           f"{cams['ratio']:>5.2f}x")
     label = f"{many['envs']} envs in one process, per env"
     print(f"{label:<36} {many['ms']:>9.3f}   {many['floor_ms']:>10.3f}   {many['ratio']:>5.2f}x")
+    print(f"low-dim step as simx runs it {switched[0]:.3f} ms, held on implicit {switched[1]:.3f} ms: "
+          f"{switched[2]:.2f}x")
     print(f"{procs['processes']} processes: {procs['cpu_ms']:.3f} ms of CPU per step each (alone {procs['one_cpu_ms']:.3f}); "
           f"{procs['steps_per_s']:.0f} steps/s together, {procs['one_steps_per_s']:.0f} alone "
           f"({procs['steps_per_s'] / procs['one_steps_per_s']:.2f}x)")
     if args.json is not None:
         args.json.write_text(json.dumps({"low_dim": low, "cameras": cams, "one_process": many, "processes": procs,
+                                         "on_implicit": switched,
                                          "clock": args.clock, "load": list(load)}, indent=1))
 
 
