@@ -26,14 +26,13 @@ one where the text is not read. While a program has set another integrator
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import mujoco
 import numpy as np
 
 from simx_server.sim.kept import PerObject
-from simx_server.sim.objects import parse_settings, text_of
+from simx_server.sim.objects import parse_settings, positive_setting, text_of
 
 __all__ = ["TEXT", "choose", "declared"]
 
@@ -62,13 +61,9 @@ def declared(model: mujoco.MjModel) -> float | None:
     if set(items) != {"implicitfast_below"}:
         raise ValueError(f"custom text {TEXT!r} ({raw[:80]!r}): give implicitfast_below= alone")
     try:
-        value = float(items["implicitfast_below"])
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"custom text {TEXT!r}: implicitfast_below must be a positive number, "
-                         f"got {items['implicitfast_below'][:40]!r}")
-    return value
+        return positive_setting(items, "implicitfast_below")
+    except ValueError as exc:
+        raise ValueError(f"custom text {TEXT!r}: {exc}") from None
 
 
 def _bound(model: mujoco.MjModel) -> float | None:

@@ -322,8 +322,8 @@ class Motors:
         ff = views.qfrc_bias[dof] - views.qfrc_passive[dof]  # static load, joint springs and dampers
         kp = self._gain(dt)
         goal, err = dyn_ctrl.position_error(self, views.jnt_limited, q)  # cyclic joints: the shortest way
-        kept_on, position, velocity_mode, off_loop, positioned, loaded, unlocked, locking, all_on = self._modes()
-        on = kept_on
+        kept_on, kept_position, velocity_mode, off_loop, positioned, loaded, unlocked, locking, all_on = self._modes()
+        on, position = kept_on, kept_position
         forced = scripted = self._none
         if self.forcing:  # CoppeliaSim 4.x's force and callback modes (dyn_ctrl.py)
             on, forced, scripted = dyn_ctrl.split(self, on)
@@ -348,7 +348,7 @@ class Motors:
         if held_back is not self.stalls.no_force:  # (adding zeros changes nothing)
             ff = ff + held_back
         if positioned:  # position control bears its joint's constraint load
-            if position is not kept_on:  # forcing or springs changed the position motors
+            if position is not kept_position:  # forcing or springs changed the position motors
                 loaded = position & ~self.scripted
             if np.count_nonzero(loaded):
                 np.subtract(ff, views.qfrc_constraint[dof], out=ff, where=loaded)  # ff is this step's own

@@ -7,6 +7,8 @@ elements (:func:`parse_settings`).
 
 from __future__ import annotations
 
+import math
+
 import dataclasses
 from typing import Any
 
@@ -84,6 +86,31 @@ def parse_settings(text: str) -> dict[str, str]:
             raise ValueError(f"setting {item!r} is not key=value")
         settings[key] = value
     return settings
+
+
+def positive_setting(items: dict[str, str], key: str) -> float | None:
+    """The positive finite number ``items[key]`` (:func:`parse_settings`'s answer), or None
+    without ``key``.
+
+    Args:
+        items: a text's settings.
+        key: the setting.
+
+    Returns:
+        The number, or None.
+
+    Raises:
+        ValueError: a value that is not a positive finite number (the message names ``key``).
+    """
+    if key not in items:
+        return None
+    try:
+        value = float(items[key])
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{key} must be a positive number, got {items[key][:40]!r}")
+    return value
 
 
 def text_at(model: mujoco.MjModel, i: int) -> str:

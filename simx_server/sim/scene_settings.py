@@ -16,13 +16,12 @@ simx's real-time pacing.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import mujoco
 
 from simx_server.sim import friction, integrator
-from simx_server.sim.objects import parse_settings, text_of
+from simx_server.sim.objects import parse_settings, positive_setting, text_of
 
 TEXT_NAME = "simx:scene:simulation"
 DEFAULT_DT = 0.05  # s, V-REP's default simulation step
@@ -80,23 +79,11 @@ def read(model: mujoco.MjModel, where: str) -> SceneSettings:
         unknown = set(items) - {"dt", "real_time", "real_time_factor"}
         if unknown:
             raise ValueError(f"unknown keys {sorted(unknown)}; use dt=, real_time= and real_time_factor=")
-        dt = _positive(items, "dt")
-        factor = _positive(items, "real_time_factor")
+        dt = positive_setting(items, "dt")
+        factor = positive_setting(items, "real_time_factor")
         real_time = items.get("real_time")
         if real_time not in (None, "0", "1"):
             raise ValueError(f"real_time must be 0 or 1, got {real_time!r}")
     except ValueError as exc:
         raise ValueError(f"scene {where}: custom text {TEXT_NAME!r} ({raw!r}): {exc}") from None
     return SceneSettings(dt, None if real_time is None else real_time == "1", factor)
-
-
-def _positive(items: dict[str, str], key: str) -> float | None:
-    if key not in items:
-        return None
-    try:
-        value = float(items[key])
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{key} must be a positive number, got {items[key]!r}")
-    return value
